@@ -1,0 +1,1 @@
+"""Identification of sliding dynamic friction and adaptive friction feedforward (Ruderman's method)."""

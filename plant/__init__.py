@@ -1,0 +1,20 @@
+"""Physics of a robot joint with sliding dynamic friction: the bottom layer (imports nothing of the package).
+
+Ruderman's plant (eqs. 1-3): ``J*dw/dt = u - f``, ``tau*df/dt + f = F(w)``, with the
+Stribeck map ``F``; a fixed-step RK4 integrator at 1 kHz, a sampler with the
+paper's measurement defects, and excitation generators.
+"""
+
+from plant.errors import ExcitationError, FrictionError, ParameterError, SignalError
+from plant.excitation import Reference, bandlimited_noise, multisine_reference
+from plant.friction import PRESETS, JointParams, preset, stribeck, stribeck_shape
+from plant.joint import DT_DEFAULT, PlantResponse, make_rk4_step, simulate
+from plant.sampling import Measurement, irregular_sample_times, sample
+
+__all__ = [
+    "FrictionError", "ParameterError", "SignalError", "ExcitationError",
+    "JointParams", "PRESETS", "preset", "stribeck", "stribeck_shape",
+    "DT_DEFAULT", "PlantResponse", "make_rk4_step", "simulate",
+    "Measurement", "sample", "irregular_sample_times",
+    "Reference", "bandlimited_noise", "multisine_reference",
+]

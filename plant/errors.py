@@ -1,0 +1,135 @@
+"""Exception types shared by the whole package, and small input validators.
+
+The package's errors subclass the built-in ``ValueError`` / ``TypeError`` so
+callers can catch either the precise type or the built-in one. ``plant`` is the
+bottom layer of the package (``plant`` <- ``adaptive_ff`` <- ``controllers``),
+so the exceptions live here and are re-exported by :mod:`adaptive_ff`.
+"""
+
+from __future__ import annotations
+
+import math
+from numbers import Real
+
+import numpy as np
+
+__all__ = [
+    "FrictionError",
+    "ParameterError",
+    "SignalError",
+    "ExcitationError",
+    "check_positive",
+    "check_nonnegative",
+    "check_finite_scalar",
+    "check_signal",
+    "check_time",
+]
+
+
+class FrictionError(Exception):
+    """Base class of all errors raised by this package."""
+
+
+class ParameterError(FrictionError, ValueError):
+    """A hyperparameter or physical parameter is out of its valid range."""
+
+
+class SignalError(FrictionError, ValueError):
+    """A signal (time series) has the wrong shape, non-finite values, or bad time stamps."""
+
+
+class ExcitationError(FrictionError, ValueError):
+    """The data do not excite the model enough to identify its parameters."""
+
+
+def check_finite_scalar(name: str, value) -> float:
+    """Return ``value`` as a float, or raise if it is not a finite real scalar.
+
+    Raises
+    ------
+    TypeError
+        If ``value`` is not a real number (bool is rejected too).
+    ParameterError
+        If ``value`` is NaN or infinite.
+    """
+    if isinstance(value, bool) or not isinstance(value, (Real, np.floating, np.integer)):
+        raise TypeError(f"{name} must be a real number, got {value!r} ({type(value).__name__})")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ParameterError(f"{name} must be finite, got {value!r}")
+    return value
+
+
+def check_positive(name: str, value) -> float:
+    """Return ``value`` as a float, or raise :class:`ParameterError` unless it is finite and > 0."""
+    value = check_finite_scalar(name, value)
+    if value <= 0.0:
+        raise ParameterError(f"{name} must be > 0, got {value!r}")
+    return value
+
+
+def check_nonnegative(name: str, value) -> float:
+    """Return ``value`` as a float, or raise :class:`ParameterError` unless it is finite and >= 0."""
+    value = check_finite_scalar(name, value)
+    if value < 0.0:
+        raise ParameterError(f"{name} must be >= 0, got {value!r}")
+    return value
+
+
+def check_signal(name: str, x, *, n: int | None = None, min_len: int = 1) -> np.ndarray:
+    """Return ``x`` as a finite 1-D float array, or raise :class:`SignalError`.
+
+    Parameters
+    ----------
+    name : str
+        Argument name quoted in the error message.
+    x : array_like, shape (N,) or (N, 1)
+        The signal. A column vector is flattened.
+    n : int, optional
+        Required length.
+    min_len : int
+        Minimum length.
+
+    Raises
+    ------
+    SignalError
+        Wrong shape or length, or a NaN / infinite value (its index is named).
+    """
+    try:
+        arr = np.asarray(x, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise SignalError(f"{name} must be a numeric array: {exc}") from None
+    if arr.ndim == 2 and 1 in arr.shape:
+        arr = arr.reshape(-1)
+    if arr.ndim != 1:
+        raise SignalError(f"{name} must be one-dimensional, got shape {np.shape(x)}")
+    if n is not None and arr.shape[0] != n:
+        raise SignalError(f"{name} must have length {n}, got {arr.shape[0]}")
+    if arr.shape[0] < min_len:
+        raise SignalError(f"{name} needs at least {min_len} samples, got {arr.shape[0]}")
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise SignalError(f"{name} has a non-finite value {arr[i]!r} at index {i}")
+    return arr
+
+
+def check_time(name: str, t, *, n: int | None = None, min_len: int = 2) -> np.ndarray:
+    """Return time stamps ``t`` (s) as a 1-D array, or raise unless strictly increasing.
+
+    Raises
+    ------
+    SignalError
+        Shape/finite problems (see :func:`check_signal`) or a non-increasing
+        step; the message names the first offending index and both values.
+    """
+    arr = check_signal(name, t, n=n, min_len=min_len)
+    d = np.diff(arr)
+    bad = d <= 0
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise SignalError(
+            f"{name} must be strictly increasing; {name}[{i + 1}] = {arr[i + 1]!r} "
+            f"<= {name}[{i}] = {arr[i]!r}"
+        )
+    return arr

@@ -1,0 +1,159 @@
+"""Excitation signals: band-limited noise torque (Sec. IV-A) and a multi-sine velocity reference (Sec. V-B)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import signal
+
+from plant.errors import ParameterError, check_positive
+
+__all__ = ["bandlimited_noise", "Reference", "multisine_reference"]
+
+
+def _grid(duration: float, dt: float) -> np.ndarray:
+    duration = check_positive("duration", duration)
+    dt = check_positive("dt", dt)
+    n = int(round(duration / dt))
+    if n < 2:
+        raise ParameterError(f"duration = {duration!r} s is shorter than two steps of dt = {dt!r} s")
+    return np.arange(n) * dt
+
+
+def bandlimited_noise(duration: float, *, dt: float = 1e-3, cutoff: float = 2.0, std: float = 1.0,
+                      order: int = 2, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Low-pass filtered band-limited white noise, the paper's identification torque (Sec. IV-A).
+
+    Parameters
+    ----------
+    duration : float
+        Length (s).
+    dt : float, optional
+        Sample step (s), default 1 ms.
+    cutoff : float, optional
+        Butterworth low-pass cut-off (Hz), default 2 Hz; must be below the Nyquist
+        frequency ``0.5/dt``.
+    std : float, optional
+        Standard deviation of the result (N·m), default 1.
+    order : int, optional
+        Butterworth filter order, default 2.
+    rng : numpy.random.Generator
+        Noise source.
+
+    Returns
+    -------
+    t : ndarray, shape (N,)
+        Time (s).
+    u : ndarray, shape (N,)
+        Torque (N·m), zero mean, standard deviation ``std``.
+
+    Raises
+    ------
+    ParameterError
+        Non-positive sizes or ``cutoff`` at or above Nyquist.
+
+    Notes
+    -----
+    White Gaussian samples filtered forward by ``scipy.signal.butter`` in
+    second-order sections (causal, as an analogue filter would be), then
+    scaled to the requested standard deviation.
+    """
+    t = _grid(duration, dt)
+    cutoff = check_positive("cutoff", cutoff)
+    std = check_positive("std", std)
+    if cutoff >= 0.5 / dt:
+        raise ParameterError(f"cutoff = {cutoff!r} Hz must be below the Nyquist frequency {0.5 / dt!r} Hz")
+    sos = signal.butter(int(order), cutoff, fs=1.0 / dt, output="sos")
+    x = signal.sosfilt(sos, rng.standard_normal(t.shape[0]))
+    x -= x.mean()
+    return t, x * (std / x.std())
+
+
+@dataclass(frozen=True)
+class Reference:
+    """A velocity reference.
+
+    Attributes
+    ----------
+    t : ndarray, shape (N,)
+        Time (s).
+    w : ndarray, shape (N,)
+        Reference velocity (rad/s).
+    dw : ndarray, shape (N,)
+        Its time derivative (rad/s²), analytic.
+    """
+
+    t: np.ndarray
+    w: np.ndarray
+    dw: np.ndarray
+
+    def reversals(self) -> np.ndarray:
+        """Times (s) where the reference velocity changes sign."""
+        s = np.sign(self.w)
+        i = np.flatnonzero(s[1:] * s[:-1] < 0)
+        return self.t[i + 1]
+
+
+def multisine_reference(duration: float, *, dt: float = 1e-3, f_min: float = 0.01, f_max: float = 1.0,
+                        n_components: int = 8, peak: float = np.deg2rad(20.0), ramp: float = 1.0,
+                        rng: np.random.Generator) -> Reference:
+    """Smooth multi-sine velocity reference with frequent reversals (paper Sec. V-B).
+
+    Parameters
+    ----------
+    duration : float
+        Length (s).
+    dt : float, optional
+        Step (s), default 1 ms.
+    f_min, f_max : float, optional
+        Frequency band (Hz) of the components, default 0.01-1 Hz as in the paper;
+        the components are log-spaced.
+    n_components : int, optional
+        Number of sines, default 8.
+    peak : float, optional
+        Largest |velocity| (rad/s), default 20 deg/s.
+    ramp : float, optional
+        Raised-cosine fade-in (s) so the reference starts at rest, default 1 s.
+    rng : numpy.random.Generator
+        Draws the phases.
+
+    Returns
+    -------
+    Reference
+
+    Raises
+    ------
+    ParameterError
+        Bad band (``0 < f_min <= f_max < 0.5/dt``), ``n_components < 1``, or
+        non-positive sizes.
+
+    Notes
+    -----
+    ``w(t) = s(t) * A * sum_i sin(2*pi*f_i*t + phi_i)`` with random phases
+    ``phi_i``, equal component amplitudes (so the faster components produce
+    frequent reversals), the fade-in ``s(t)``, and ``A`` scaling ``max|w|``
+    to ``peak``. ``dw`` is the exact derivative.
+    """
+    t = _grid(duration, dt)
+    f_min = check_positive("f_min", f_min)
+    f_max = check_positive("f_max", f_max)
+    peak = check_positive("peak", peak)
+    if not f_min <= f_max < 0.5 / dt:
+        raise ParameterError(f"need 0 < f_min <= f_max < Nyquist; got f_min = {f_min!r}, f_max = {f_max!r} Hz")
+    if int(n_components) != n_components or n_components < 1:
+        raise ParameterError(f"n_components must be an integer >= 1, got {n_components!r}")
+    freqs = np.geomspace(f_min, f_max, int(n_components))
+    phases = rng.uniform(0.0, 2.0 * np.pi, size=freqs.shape)
+    arg = 2.0 * np.pi * freqs[:, None] * t[None, :] + phases[:, None]
+    x = np.sin(arg).sum(axis=0)
+    dx = (2.0 * np.pi * freqs[:, None] * np.cos(arg)).sum(axis=0)
+    if ramp > 0:
+        r = np.clip(t / ramp, 0.0, 1.0)
+        s = 0.5 - 0.5 * np.cos(np.pi * r)
+        ds = np.where(t < ramp, 0.5 * np.pi / ramp * np.sin(np.pi * r), 0.0)
+    else:
+        s, ds = np.ones_like(t), np.zeros_like(t)
+    w = s * x
+    scale = peak / np.max(np.abs(w))
+    return Reference(t=t, w=scale * w, dw=scale * (ds * x + s * dx))

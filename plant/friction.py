@@ -1,0 +1,237 @@
+"""Static Stribeck friction map (eq. 3) and the joint's physical parameters.
+
+Symbols (SI units, joint side; for a prismatic axis read N for N·m and m for rad):
+
+========  ==============  ================================================
+symbol    unit            meaning
+========  ==============  ================================================
+``J``     kg·m²           lumped inertia
+``Fc``    N·m             Coulomb friction level
+``Fs``    N·m             static (stiction / adhesion) friction level
+``Vs``    rad/s           Stribeck velocity
+``delta`` 1               Stribeck shape factor (positive or negative, not 0)
+``sigma`` N·m·s/rad       viscous friction coefficient
+``tau``   s               friction lag time constant (eq. 1), 0 = static map
+========  ==============  ================================================
+"""
+
+from __future__ import annotations
+
+import json
+
+from dataclasses import asdict, dataclass, fields, replace
+from pathlib import Path
+
+import numpy as np
+
+from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
+
+__all__ = ["JointParams", "stribeck_shape", "stribeck", "PRESETS", "preset"]
+
+
+def stribeck_shape(w, Vs: float, delta: float):
+    """Stribeck decay ``s(w) = exp(-|w/Vs|**delta)`` (the exponential of eq. 3).
+
+    Parameters
+    ----------
+    w : float or ndarray, any shape
+        Velocity (rad/s).
+    Vs : float
+        Stribeck velocity (rad/s), > 0.
+    delta : float
+        Shape factor, non-zero. For ``delta < 0`` the curve rises from ``Fc``
+        at standstill towards ``Fs`` at high speed (paper Sec. II-B allows both
+        signs).
+
+    Returns
+    -------
+    float or ndarray, same shape as ``w``
+        Values in [0, 1]. At ``w == 0`` the limit is returned (1 for
+        ``delta > 0``, 0 for ``delta < 0``) without NaN or warnings.
+
+    Notes
+    -----
+    Source: Ruderman, eq. 3.
+    """
+    x = np.abs(np.asarray(w, dtype=float)) / Vs
+    with np.errstate(divide="ignore", over="ignore"):
+        p = np.power(x, delta)  # x == 0, delta < 0 -> inf -> exp(-inf) = 0
+    out = np.exp(-p)
+    return float(out) if np.ndim(out) == 0 else out
+
+
+def stribeck(w, *, Fc: float, Fs: float, Vs: float, delta: float, sigma: float):
+    """Static Stribeck friction map F(w), eq. 3.
+
+    Parameters
+    ----------
+    w : float or ndarray, any shape
+        Velocity (rad/s).
+    Fc, Fs : float
+        Coulomb and static friction levels (N·m).
+    Vs : float
+        Stribeck velocity (rad/s).
+    delta : float
+        Stribeck shape factor (1).
+    sigma : float
+        Viscous coefficient (N·m·s/rad).
+
+    Returns
+    -------
+    float or ndarray, same shape as ``w``
+        Friction torque (N·m); ``F(0) = 0`` (``sgn(0) = 0``).
+
+    Notes
+    -----
+    ``F(w) = sgn(w)*(Fc + (Fs - Fc)*exp(-|w/Vs|**delta)) + sigma*w``
+    (Ruderman, eq. 3). Equivalently ``F = Fc*g(w) + Fs*h(w) + sigma*w`` with
+    the regressors g, h of eqs. 5-6.
+    """
+    w = np.asarray(w, dtype=float)
+    out = np.sign(w) * (Fc + (Fs - Fc) * stribeck_shape(w, Vs, delta)) + sigma * w
+    return float(out) if np.ndim(out) == 0 else out
+
+
+@dataclass(frozen=True)
+class JointParams:
+    """Physical parameters of the lumped-mass joint with lagged Stribeck friction.
+
+    Parameters
+    ----------
+    J : float
+        Inertia (kg·m²), > 0.
+    Fc : float
+        Coulomb friction (N·m), >= 0.
+    Fs : float
+        Static friction (N·m), >= 0.
+    Vs : float
+        Stribeck velocity (rad/s), > 0.
+    delta : float
+        Stribeck shape factor (1), finite and non-zero.
+    sigma : float
+        Viscous coefficient (N·m·s/rad), >= 0.
+    tau : float
+        Friction lag (s), >= 0; ``tau = 0`` makes friction the static map.
+
+    Raises
+    ------
+    ParameterError
+        A value is out of range; the message quotes it.
+    TypeError
+        A value is not a real number.
+
+    Notes
+    -----
+    Model (Ruderman, eqs. 1-3)::
+
+        J*dw/dt = u - f
+        tau*df/dt + f = F(w)
+        F(w) = sgn(w)*(Fc + (Fs - Fc)*exp(-|w/Vs|**delta)) + sigma*w
+    """
+
+    J: float
+    Fc: float
+    Fs: float
+    Vs: float
+    delta: float
+    sigma: float
+    tau: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "J", check_positive("J", self.J))
+        object.__setattr__(self, "Fc", check_nonnegative("Fc", self.Fc))
+        object.__setattr__(self, "Fs", check_nonnegative("Fs", self.Fs))
+        object.__setattr__(self, "Vs", check_positive("Vs", self.Vs))
+        delta = check_finite_scalar("delta", self.delta)
+        if delta == 0.0:
+            raise ParameterError("delta must be non-zero (|w/Vs|**0 is constant), got 0.0")
+        object.__setattr__(self, "delta", delta)
+        object.__setattr__(self, "sigma", check_nonnegative("sigma", self.sigma))
+        object.__setattr__(self, "tau", check_nonnegative("tau", self.tau))
+
+    def friction(self, w):
+        """Static friction ``F(w)`` (N·m) of these parameters, eq. 3; see :func:`stribeck`."""
+        return stribeck(w, Fc=self.Fc, Fs=self.Fs, Vs=self.Vs, delta=self.delta, sigma=self.sigma)
+
+    def frictionless(self) -> "JointParams":
+        """The same joint with ``Fc = Fs = sigma = 0`` (the compensation limit)."""
+        return replace(self, Fc=0.0, Fs=0.0, sigma=0.0)
+
+    def replace(self, **changes) -> "JointParams":
+        """Return a copy with some fields changed (validated again)."""
+        return replace(self, **changes)
+
+    def to_dict(self) -> dict:
+        """Parameters as a plain ``dict`` (SI units)."""
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "JointParams":
+        """Build from a mapping with exactly the keys ``J, Fc, Fs, Vs, delta, sigma, tau``.
+
+        Raises
+        ------
+        ParameterError
+            A key is missing or unknown, or a value out of range.
+        """
+        names = [f.name for f in fields(cls)]
+        missing = [k for k in names if k not in d]
+        unknown = [k for k in d if k not in names]
+        if missing:
+            raise ParameterError(f"plant parameters miss the key(s) {missing}; need {names}")
+        if unknown:
+            raise ParameterError(f"unknown plant parameter key(s) {unknown}; allowed {names}")
+        return cls(**{k: d[k] for k in names})
+
+    @classmethod
+    def from_json(cls, path) -> "JointParams":
+        """Read parameters (SI units) from a JSON object file, see :meth:`from_dict`.
+
+        Raises
+        ------
+        ParameterError
+            The file is not a JSON object, or keys/values are invalid.
+        FileNotFoundError
+            The file does not exist.
+        """
+        path = Path(path)
+        try:
+            d = json.loads(path.read_text())
+        except json.JSONDecodeError as exc:
+            raise ParameterError(f"{path}: not valid JSON ({exc})") from None
+        if not isinstance(d, dict):
+            raise ParameterError(f"{path}: expected a JSON object with plant parameters")
+        try:
+            return cls.from_dict(d)
+        except ParameterError as exc:
+            raise ParameterError(f"{path}: {exc}") from None
+
+
+#: Named parameter sets. ``paper``: the base joint of a medium industrial robot
+#: (about 10 kg payload, 1.5 m reach, arm in the vertical configuration of the
+#: paper's Sec. V-A), joint side. J = 4 kg·m²: about 2.5 kg·m² of arm about the
+#: vertical axis plus the reflected motor inertia (1e-4 kg·m² times a gear ratio of
+#: about 120 squared). Fc = 25 N·m is 5-8 % of the rated torque of such a joint,
+#: typical of a large reduction gear; Fs = 35 N·m (stiction 40 % above Coulomb);
+#: Vs = 0.02 rad/s (about 1.1 deg/s, the low end of the paper's 1-20 deg/s range);
+#: delta = 1; sigma = 40 N·m·s/rad adds 14 N·m at 20 deg/s; tau = 20 ms, of the
+#: order of the paper's sampling time, which is what makes the lag matter.
+PRESETS: dict[str, JointParams] = {
+    "paper": JointParams(J=4.0, Fc=25.0, Fs=35.0, Vs=0.02, delta=1.0, sigma=40.0, tau=0.02),
+}
+
+
+def preset(name: str) -> JointParams:
+    """Return the named parameter set from :data:`PRESETS`.
+
+    Raises
+    ------
+    ParameterError
+        Unknown name (the known names are listed).
+    """
+    try:
+        return PRESETS[name]
+    except KeyError:
+        raise ParameterError(f"unknown preset {name!r}; known: {sorted(PRESETS)}") from None
+
+
