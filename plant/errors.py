@@ -110,7 +110,7 @@ def check_signal(name: str, x, *, n: int | None = None, min_len: int = 1) -> np.
     bad = ~np.isfinite(arr)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
-        raise SignalError(f"{name} has a non-finite value {arr[i]!r} at index {i}")
+        raise SignalError(f"{name} has a non-finite value {float(arr[i])!r} at index {i}")
     return arr
 
 
@@ -129,7 +129,7 @@ def check_time(name: str, t, *, n: int | None = None, min_len: int = 2) -> np.nd
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         raise SignalError(
-            f"{name} must be strictly increasing; {name}[{i + 1}] = {arr[i + 1]!r} "
-            f"<= {name}[{i}] = {arr[i]!r}"
+            f"{name} must be strictly increasing; {name}[{i + 1}] = {float(arr[i + 1])!r} "
+            f"<= {name}[{i}] = {float(arr[i])!r}"
         )
     return arr
