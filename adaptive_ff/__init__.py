@@ -1,1 +1,26 @@
-"""Identification of sliding dynamic friction and adaptive friction feedforward (Ruderman's method)."""
+"""Identification of sliding dynamic friction and adaptive friction feedforward (Ruderman's method).
+
+The middle layer: imports :mod:`plant`, never :mod:`controllers`. The package
+exceptions are defined in :mod:`plant.errors` and re-exported here.
+"""
+
+from adaptive_ff.data import MeasuredData, is_uniform, load_csv, load_emps, load_measurements, to_uniform
+from adaptive_ff.feedforward import AdaptiveFrictionFeedforward, FrictionFeedforward, project_estimate
+from adaptive_ff.identify import IdentificationReport, identify
+from adaptive_ff.ls import LSResult, fit_ls
+from adaptive_ff.regression import (THETA_NAMES, FrictionEstimate, RegressionModel, g_regressor, h_regressor,
+                                    nrmse_fit, theta_from_physical, theta_from_physical_printed)
+from adaptive_ff.rls import RecursiveLeastSquares
+from adaptive_ff.stribeck_fit import StribeckFit, fit_stribeck, plot_stribeck_fit
+from plant.errors import ExcitationError, FrictionError, ParameterError, SignalError
+
+__all__ = [
+    "FrictionError", "ParameterError", "SignalError", "ExcitationError",
+    "g_regressor", "h_regressor", "RegressionModel", "FrictionEstimate", "THETA_NAMES",
+    "theta_from_physical", "theta_from_physical_printed", "nrmse_fit",
+    "LSResult", "fit_ls", "RecursiveLeastSquares",
+    "StribeckFit", "fit_stribeck", "plot_stribeck_fit",
+    "FrictionFeedforward", "AdaptiveFrictionFeedforward", "project_estimate",
+    "MeasuredData", "load_csv", "load_emps", "load_measurements", "is_uniform", "to_uniform",
+    "IdentificationReport", "identify",
+]

@@ -13,7 +13,8 @@ from plant.errors import ParameterError, check_finite_scalar, check_nonnegative,
 __all__ = ["FrictionFeedforward", "AdaptiveFrictionFeedforward", "project_estimate"]
 
 
-def project_estimate(est: FrictionEstimate, *, tau_max: float = 1.0) -> FrictionEstimate | None:
+def project_estimate(est: FrictionEstimate, *, tau_max: float = 1.0,
+                     F_max: float = math.inf) -> FrictionEstimate | None:
     """Project a raw estimate onto the physically admissible set, or reject it.
 
     Parameters
@@ -22,12 +23,16 @@ def project_estimate(est: FrictionEstimate, *, tau_max: float = 1.0) -> Friction
         Raw estimate from :meth:`RegressionModel.to_physical`.
     tau_max : float, keyword-only
         Largest admissible lag (s).
+    F_max : float, keyword-only
+        Largest admissible Coulomb or static friction level (N·m), e.g. the
+        feedforward bound; default inf.
 
     Returns
     -------
     FrictionEstimate or None
-        ``None`` if a value is non-finite or ``J <= 0`` (the input gain
-        ``b0 - b1`` has the wrong sign: nothing physical can be read from it);
+        ``None`` if a value is non-finite, ``J <= 0`` (the input gain
+        ``b0 - b1`` has the wrong sign: nothing physical can be read from it),
+        or ``Fc`` or ``Fs`` exceeds ``F_max`` (an unconverged estimate);
         otherwise a copy with ``Fc, Fs, sigma`` clipped to ``>= 0`` and ``tau``
         clipped to ``[0, tau_max]``.
 
@@ -38,7 +43,7 @@ def project_estimate(est: FrictionEstimate, *, tau_max: float = 1.0) -> Friction
     applied here to the physical parameters rather than to ``theta``.
     """
     vals = (est.J, est.tau, est.sigma, est.Fc, est.Fs, est.offset)
-    if not all(math.isfinite(v) for v in vals) or est.J <= 0:
+    if not all(math.isfinite(v) for v in vals) or est.J <= 0 or est.Fc > F_max or est.Fs > F_max:
         return None
     return FrictionEstimate(J=est.J, tau=min(max(est.tau, 0.0), tau_max), sigma=max(est.sigma, 0.0),
                             Fc=max(est.Fc, 0.0), Fs=max(est.Fs, 0.0), offset=est.offset, Vs=est.Vs,
@@ -127,7 +132,8 @@ class AdaptiveFrictionFeedforward(FrictionFeedforward):
     warmup : int, keyword-only
         Accepted samples before the feedforward is switched on, default 300
         (the paper's RLS transient lasts about 4 s).
-    lag, ff_max : see :class:`FrictionFeedforward`.
+    lag, ff_max : see :class:`FrictionFeedforward`; estimates with ``Fc`` or
+        ``Fs`` above ``ff_max`` are treated as implausible.
     tau_max : float, keyword-only
         Upper projection bound of ``tau`` (s), default 1.
 
@@ -201,7 +207,8 @@ class AdaptiveFrictionFeedforward(FrictionFeedforward):
         self.rls.update(self.model.phi(u, u1, w1, w2), w)
         self._past = [u, w, w1]
         if self.rls.n_updates >= self.warmup:
-            est = project_estimate(self.model.to_physical(self.rls.theta, self.Ts), tau_max=self.tau_max)
+            est = project_estimate(self.model.to_physical(self.rls.theta, self.Ts), tau_max=self.tau_max,
+                                   F_max=self.ff_max)
             if est is None:
                 self.n_implausible += 1
             else:

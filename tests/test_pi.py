@@ -1,0 +1,217 @@
+"""Tests of controllers.pi: discrete PI design (margins checked independently) and the runtime PI."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy import optimize, signal
+
+from controllers.pi import MAX_CROSSOVER_FRACTION, PIController, PIDesign, closed_loop_step, design_pi
+from plant.errors import ParameterError
+from plant.friction import preset
+from plant.joint import make_rk4_step
+
+# (J, sigma, crossover, phase_margin, Tc)
+CASES = [
+    (4.0, 0.0, 20.0, 60.0, 1e-3),
+    (4.0, 40.0, 100.0, 45.0, 1e-3),
+    (0.01, 0.0, 600.0, 30.0, 1e-3),
+    (0.5, 2.0, 50.0, 70.0, 2e-3),
+]
+
+
+def _loop_numpy(d: PIDesign, w):
+    """Independent L(exp(j w Tc)): hand-derived ZOH plant times the backward-Euler PI."""
+    z = np.exp(1j * np.asarray(w) * d.Tc)
+    if d.sigma == 0.0:
+        P = d.Tc / (d.J * (z - 1.0))
+    else:
+        a = math.exp(-d.sigma * d.Tc / d.J)
+        P = (1.0 - a) / (d.sigma * (z - a))
+    C = d.Kp + d.Ki * d.Tc * z / (z - 1.0)
+    return C * P
+
+
+@pytest.mark.parametrize("J, sigma, wc, pm, Tc", CASES)
+def test_margins_match_targets_and_independent_frequency_response(J, sigma, wc, pm, Tc):
+    d = design_pi(J, sigma=sigma, crossover=wc, phase_margin=pm, Tc=Tc)
+    w_nyq = math.pi / Tc
+    # gain crossover of the numpy loop, by bracketing |L| = 1
+    wgc = optimize.brentq(lambda w: abs(_loop_numpy(d, w)) - 1.0, wc / 20.0, 0.999 * w_nyq, xtol=1e-12)
+    pm_ind = 180.0 + math.degrees(np.angle(_loop_numpy(d, wgc)))
+    # targets (the brief's tolerances)
+    assert abs(wgc - wc) / wc < 0.01
+    assert abs(pm_ind - pm) < 0.5
+    # python-control's margins agree with the independent evaluation
+    assert d.crossover == pytest.approx(wgc, rel=1e-6)
+    assert d.phase_margin == pytest.approx(pm_ind, abs=1e-6)
+    # |L| decreasing and phase above -180 deg on (0, Nyquist): single crossover, GM at z = -1
+    w = np.linspace(1e-3 * wc, (1 - 1e-6) * w_nyq, 20001)
+    L = _loop_numpy(d, w)
+    assert np.all(np.diff(np.abs(L)) < 0)
+    assert np.all(np.angle(L) > -math.pi)
+    assert d.phase_crossover == pytest.approx(w_nyq, rel=1e-12)
+    assert d.gain_margin == pytest.approx(1.0 / abs(_loop_numpy(d, w_nyq)), rel=1e-9)
+    assert d.gain_margin > 1.0
+
+
+@pytest.mark.parametrize("J, sigma, wc, pm, Tc", CASES)
+def test_closed_loop_poles_inside_unit_circle(J, sigma, wc, pm, Tc):
+    d = design_pi(J, sigma=sigma, crossover=wc, phase_margin=pm, Tc=Tc)
+    a = math.exp(-sigma * Tc / J)
+    b = (1 - a) / sigma if sigma > 0 else Tc / J
+    # (z - 1)(z - a) + b((Kp + Ki Tc) z - Kp) = 0
+    char = np.polyadd(np.polymul([1, -1], [1, -a]), b * np.array([d.Kp + d.Ki * Tc, -d.Kp]))
+    assert np.all(np.abs(np.roots(char)) < 1.0)
+
+
+def test_gains_tend_to_continuous_time_formula_for_fast_sampling():
+    J, sigma, wc, pm = 4.0, 40.0, 30.0, 60.0
+    d = design_pi(J, sigma=sigma, crossover=wc, phase_margin=pm, Tc=1e-6)
+    phi_c = math.pi - math.radians(pm) - math.atan2(J * wc, sigma)
+    mag = math.hypot(J * wc, sigma)
+    assert d.Kp == pytest.approx(mag * math.cos(phi_c), rel=1e-3)
+    assert d.Ki == pytest.approx(wc * mag * math.sin(phi_c), rel=1e-3)
+
+
+def test_discrete_gains_differ_from_continuous_at_coarse_sampling():
+    # at Tc = 5 ms and 100 rad/s the hold costs ~14 deg: the continuous gains would miss the target
+    J, wc, pm, Tc = 1.0, 100.0, 60.0, 5e-3
+    d = design_pi(J, crossover=wc, phase_margin=pm, Tc=Tc)
+    phi_c = math.pi / 2 - math.radians(pm)
+    cont = PIDesign(Kp=J * wc * math.cos(phi_c), Ki=J * wc * wc * math.sin(phi_c), Tc=Tc, crossover=wc,
+                    phase_margin=pm, gain_margin=math.inf, phase_crossover=math.nan,
+                    stability_margin=math.nan, J=J, sigma=0.0, C=d.C, plant=d.plant, loop=d.loop)
+    pm_cont = 180.0 + math.degrees(np.angle(_loop_numpy(cont, wc)))
+    assert pm - pm_cont > 5.0  # naive design loses > 5 deg
+    assert 180.0 + math.degrees(np.angle(_loop_numpy(d, wc))) == pytest.approx(pm, abs=1e-6)
+
+
+def test_closed_loop_step_final_values():
+    d = design_pi(4.0, sigma=40.0, crossover=100.0, phase_margin=60.0, Tc=1e-3)
+    s = closed_loop_step(d, t_end=0.5)
+    assert s.t.shape == s.w.shape == s.u.shape == (501,)
+    assert s.t[-1] == pytest.approx(0.5)
+    assert s.w[0] == 0.0  # strictly proper loop: no direct feedthrough to w
+    assert s.u[0] == pytest.approx(d.Kp + d.Ki * d.Tc, rel=1e-9)  # first command
+    assert s.w[-1] == pytest.approx(1.0, abs=1e-6)  # integral action
+    assert s.u[-1] == pytest.approx(40.0, rel=1e-6)  # u = sigma * w in steady state
+
+
+def test_controller_equals_linear_filter_without_saturation():
+    d = design_pi(4.0, sigma=40.0, crossover=100.0, Tc=1e-3)
+    c = PIController.from_design(d)
+    e = np.random.default_rng(3).standard_normal(500)
+    u = np.array([c.step(ek) for ek in e.tolist()])
+    u_ref = signal.lfilter([d.Kp + d.Ki * d.Tc, -d.Kp], [1.0, -1.0], e)
+    np.testing.assert_allclose(u, u_ref, rtol=1e-11, atol=1e-11)
+    assert c.integral == pytest.approx(d.Ki * d.Tc * e.sum(), rel=1e-11)
+    assert not c.saturated
+
+
+def test_feedforward_is_added_before_saturation():
+    c = PIController(Kp=2.0, Ki=0.0, Tc=1e-3, u_max=10.0)
+    assert c.step(1.0, u_ff=3.0) == pytest.approx(5.0)
+    assert not c.saturated
+    assert c.step(1.0, u_ff=9.0) == 10.0
+    assert c.saturated
+    assert c.step(-1.0, u_ff=-9.5) == -10.0
+
+
+def test_integral_does_not_wind_up_under_saturation():
+    Kp, Ki, Tc, u_max, u_ff, e = 2.0, 70.0, 1e-2, 10.0, 3.0, 1.0
+    c = PIController(Kp=Kp, Ki=Ki, Tc=Tc, u_max=u_max)
+    n = 1000
+    for _ in range(n):
+        u = c.step(e, u_ff)
+    # clamped exactly where the command touches the limit; a plain integrator would hold n*Ki*Tc*e = 700
+    assert c.integral == pytest.approx(u_max - Kp * e - u_ff, abs=1e-12)
+    assert u == u_max and c.saturated
+    # error reverses: the command leaves the limit on the very first step
+    I0 = c.integral
+    u = c.step(-0.5, u_ff)
+    assert u == pytest.approx(Kp * -0.5 + I0 + Ki * Tc * -0.5 + u_ff, rel=1e-12)
+    assert u < u_max and not c.saturated
+
+
+def test_integral_held_when_proportional_part_alone_saturates():
+    c = PIController(Kp=2.0, Ki=70.0, Tc=1e-2, u_max=10.0)
+    c.reset(1.5)
+    for _ in range(100):
+        assert c.step(10.0) == 10.0  # Kp*e = 20 > u_max
+    assert c.integral == 1.5
+    for _ in range(100):
+        assert c.step(-10.0) == -10.0
+    # Kp*e = -20 alone saturates the other way: the headroom -u_max - Kp*e = 10 > 1.5, held again
+    assert c.integral == 1.5
+
+
+def test_negative_saturation_symmetric():
+    Kp, Ki, Tc, u_max = 2.0, 70.0, 1e-2, 10.0
+    c = PIController(Kp=Kp, Ki=Ki, Tc=Tc, u_max=u_max)
+    for _ in range(500):
+        u = c.step(-1.0, -3.0)
+    assert u == -u_max
+    assert c.integral == pytest.approx(-u_max + Kp + 3.0, abs=1e-12)
+
+
+def test_zero_steady_state_error_under_constant_disturbance_on_inertia():
+    p = preset("paper").frictionless()
+    d = design_pi(p.J, crossover=100.0, phase_margin=60.0, Tc=1e-3)
+    c = PIController.from_design(d)
+    step = make_rk4_step(p, d.Tc)
+    w_ref, dist = 0.5, 20.0  # rad/s, N·m load torque from t = 0.5 s
+    w = f = 0.0
+    err = []
+    for k in range(2000):
+        u = c.step(w_ref - w)
+        w, f = step(w, f, u - (dist if k >= 500 else 0.0))
+        err.append(w_ref - w)
+    assert max(err[500:600]) > 1e-3  # the disturbance did push the velocity
+    assert abs(err[-1]) < 1e-9
+    assert c.integral == pytest.approx(dist, rel=1e-8)  # the integrator carries the load
+
+
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        (dict(J=0.0), "J"),
+        (dict(J=-1.0), "J"),
+        (dict(J=1.0, sigma=-0.1), "sigma"),
+        (dict(J=1.0, crossover=0.0), "crossover"),
+        (dict(J=1.0, crossover=float("nan")), "crossover"),
+        (dict(J=1.0, Tc=1e-2, crossover=MAX_CROSSOVER_FRACTION * math.pi / 1e-2 * 1.01), "crossover"),
+        (dict(J=1.0, phase_margin=0.0), "phase_margin"),
+        (dict(J=1.0, phase_margin=90.0), "phase_margin"),
+        (dict(J=1.0, phase_margin=-10.0), "phase_margin"),
+        (dict(J=1.0, Tc=0.0), "Tc"),
+        (dict(J=1.0, sigma=1000.0, crossover=10.0, phase_margin=60.0), "phase_margin"),
+    ],
+)
+def test_design_bad_inputs(kwargs, name):
+    J = kwargs.pop("J")
+    with pytest.raises(ParameterError, match=name):
+        design_pi(J, **kwargs)
+
+
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        (dict(Kp=-1.0, Ki=1.0, Tc=1e-3), "Kp"),
+        (dict(Kp=1.0, Ki=-1.0, Tc=1e-3), "Ki"),
+        (dict(Kp=1.0, Ki=1.0, Tc=0.0), "Tc"),
+        (dict(Kp=1.0, Ki=1.0, Tc=1e-3, u_max=0.0), "u_max"),
+        (dict(Kp=1.0, Ki=1.0, Tc=1e-3, u_max=float("nan")), "u_max"),
+        (dict(Kp=float("inf"), Ki=1.0, Tc=1e-3), "Kp"),
+    ],
+)
+def test_controller_bad_inputs(kwargs, name):
+    with pytest.raises(ParameterError, match=name):
+        PIController(**kwargs)
+
+
+def test_controller_keyword_only_and_type_errors():
+    with pytest.raises(TypeError):
+        PIController(1.0, 1.0, 1e-3)  # noqa: keyword-only
+    with pytest.raises(TypeError, match="u_max"):
+        PIController(Kp=1.0, Ki=1.0, Tc=1e-3, u_max="10")
