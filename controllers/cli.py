@@ -49,7 +49,7 @@ def _cmd_identify(args) -> int:
     from adaptive_ff.identify import identify
 
     data = load_measurements(args.file)
-    report = identify(data, Vs=args.Vs, delta=args.delta, lag=not args.no_lag, offset=not args.no_offset,
+    report = identify(data, Vs=args.Vs, delta=args.delta, lag=args.lag, offset=not args.no_offset,
                       lam=args.lam)
     if args.json:
         print(json.dumps(report.to_json_dict(), indent=2))
@@ -92,7 +92,8 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("--Vs", type=float, default=None, help="Stribeck velocity (rad/s); with --delta selects the "
                                                           "Stribeck structure, else Coulomb + viscous")
     i.add_argument("--delta", type=float, default=None, help="Stribeck shape factor")
-    i.add_argument("--no-lag", action="store_true", help="fix the friction lag tau = 0")
+    i.add_argument("--lag", action="store_true", help="also estimate the friction lag tau (default: tau = 0; on "
+                                                      "EMPS the fitted tau follows the velocity filter, not the plant)")
     i.add_argument("--no-offset", action="store_true", help="no constant torque offset regressor")
     i.add_argument("--lam", type=float, default=1.0, help="RLS forgetting factor (default 1)")
     i.add_argument("--json", action="store_true", help="print the parameters as JSON")

@@ -11,12 +11,14 @@ from adaptive_ff.feedforward import project_estimate
 from adaptive_ff.ls import LSResult, fit_ls
 from adaptive_ff.regression import FrictionEstimate, RegressionModel
 from adaptive_ff.stribeck_fit import StribeckFit, fit_stribeck
-from controllers.closed_loop import MODES, ClosedLoopResult, run_closed_loop
+from controllers.closed_loop import MODES, run_closed_loop
 from controllers.pi import PIDesign, design_pi
 from controllers.quasi_static import bidirectional_velocities, quasi_static_runs
 from plant.errors import ParameterError, check_positive
-from plant.excitation import multisine_reference
+from plant.excitation import bandlimited_noise, multisine_reference
 from plant.friction import JointParams
+from plant.joint import simulate
+from plant.sampling import sample
 
 __all__ = ["Comparison", "compare", "eta"]
 
@@ -99,12 +101,6 @@ class Comparison:
         return out
 
 
-def _sampled(result: ClosedLoopResult, m: int) -> tuple[np.ndarray, np.ndarray]:
-    """(u, w_meas) at every m-th controller step, u being the torque applied just before the sample."""
-    idx = np.arange(m, result.t.shape[0], m)
-    return result.u[idx - 1], result.w_meas[idx]
-
-
 def compare(p: JointParams, *, duration: float = 120.0, seed: int = 0, modes=MODES, crossover: float = 20.0,
             phase_margin: float = 60.0, Tc: float = 1e-3, Ts: float = 0.01, u_max: float | None = None,
             noise_std: float = 1e-3, lam: float = 0.995, prefit: bool = True, lag: bool = True,
@@ -151,8 +147,10 @@ def compare(p: JointParams, *, duration: float = 120.0, seed: int = 0, modes=MOD
 
     Notes
     -----
-    ``fixed`` uses an offline LS fit (eq. 9) of a separate identification run
-    (mode ``none``, another multi-sine of the same length); ``adaptive`` runs
+    ``fixed`` uses an offline LS fit (eq. 9) of a separate identification run:
+    the paper's Sec. IV-A experiment (open loop, 1 Hz low-pass band-limited
+    white-noise torque of standard deviation ``1.2*(Fs + sigma*peak|w_ref|)``,
+    same length, sampled at ``Ts`` with the same noise); ``adaptive`` runs
     RLS (eqs. 10-13) on the loop's own data. Both use the regression model of
     eq. 4 at ``Ts`` with the pre-fitted Vs, delta. ``eta`` uses the RMS error
     over the second half of the run.
@@ -187,16 +185,19 @@ def compare(p: JointParams, *, duration: float = 120.0, seed: int = 0, modes=MOD
     # the feedforward may use at most half the actuator range; friction levels above it are implausible
     common = dict(Kp=design.Kp, Ki=design.Ki, u_max=u_max, ff_max=0.5 * u_max, Tc=Tc, Ts=Ts, noise_std=noise_std,
                   lag=lag)
-    m = int(round(Ts / Tc))
 
     offline = None
     estimate: FrictionEstimate | None = None
     if "fixed" in run_modes:
+        # Separate identification experiment as in the paper's Sec. IV-A: open loop, low-pass
+        # filtered band-limited white-noise torque, sampled at Ts with the same velocity noise.
         bar.set_postfix_str("identification run")
-        id_ref = multisine_reference(duration, dt=Tc, rng=np.random.default_rng(id_ss))
-        id_run = run_closed_loop(p, id_ref, mode="none", rng=np.random.default_rng(id_ss.spawn(1)[0]), **common)
-        u_s, w_s = _sampled(id_run, m)
-        offline = fit_ls(model, u_s, w_s, Ts=Ts)
+        id_rng = np.random.default_rng(id_ss)
+        peak_w = float(np.max(np.abs(ref.w)))
+        _, u_id = bandlimited_noise(duration, dt=Tc, cutoff=1.0, std=1.2 * (max(p.Fs, p.Fc) + p.sigma * peak_w),
+                                    rng=id_rng)
+        meas = sample(simulate(p, u_id, dt=Tc), Ts=Ts, noise_std=noise_std, rng=id_rng)
+        offline = fit_ls(model, meas.u, meas.w, Ts=Ts)
         estimate = project_estimate(offline.estimate, F_max=0.5 * u_max)
         bar.update()
 

@@ -1,0 +1,71 @@
+"""The ``adaptive-ff`` console script: compare and identify, JSON outputs, errors."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from adaptive_ff.regression import RegressionModel, theta_from_physical
+from controllers.cli import main
+from plant import bandlimited_noise, preset
+
+ROOT = Path(__file__).resolve().parents[1]
+EMPS = ROOT / "data" / "emps" / "DATA_EMPS.mat"
+
+
+def test_compare_json_and_figures(tmp_path, capsys):
+    plant_file = tmp_path / "plant.json"
+    plant_file.write_text(json.dumps(preset("paper").replace(Fc=20.0, Fs=30.0).to_dict()))
+    out = tmp_path / "figs"
+    assert main(["compare", "--plant", str(plant_file), "--duration", "15", "--seed", "2", "--out", str(out),
+                 "--json", "--quiet"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert set(d["modes"]) == {"none", "fixed", "adaptive", "oracle", "frictionless"}
+    for m in d["modes"].values():
+        assert {"rms", "max", "rms_reversal", "eta"} <= set(m)
+    assert d["modes"]["none"]["eta"] == 0.0 and d["modes"]["frictionless"]["eta"] == 1.0
+    assert d["plant"]["Fc"] == 20.0
+    for name in ("tracking", "error", "friction", "rls_convergence"):
+        png = out / f"{name}.png"
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_compare_table(tmp_path, capsys):
+    assert main(["compare", "--duration", "10", "--no-figures", "--quiet", "--out", str(tmp_path)]) == 0
+    text = capsys.readouterr().out
+    for mode in ("none", "fixed", "adaptive", "oracle", "frictionless"):
+        assert f"\n{mode} " in text
+    assert "eta" in text and "phase margin" in text
+
+
+def test_identify_emps_json_within_ten_percent(capsys):
+    assert main(["identify", str(EMPS), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert {"J", "sigma", "Fc", "Fs", "tau", "offset", "fit_percent"} <= set(d)
+    assert d["J"] == pytest.approx(95.1089, rel=0.10)
+    assert d["sigma"] == pytest.approx(203.5034, rel=0.10)
+    assert d["Fc"] == pytest.approx(20.3935, rel=0.10)
+
+
+def test_identify_csv_recovers_discrete_model(tmp_path, capsys):
+    p = preset("paper")
+    Ts = 0.01
+    model = RegressionModel(stribeck=False, offset=True, lag=True)
+    _, u = bandlimited_noise(40.0, dt=Ts, cutoff=1.0, std=50.0, rng=np.random.default_rng(5))
+    full = dict(zip(("a1", "a2", "b0", "b1", "c1", "d1", "o1"), theta_from_physical(p.replace(Fs=p.Fc), Ts, offset=2.0)))
+    w = model.simulate([full[k] for k in model.names], u, [0.0, 0.0])
+    csv = tmp_path / "log.csv"
+    np.savetxt(csv, np.column_stack([np.arange(u.size) * Ts, u, w]), delimiter=",", header="t,u,w", comments="")
+    assert main(["identify", str(csv), "--lag", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    for k, v in (("J", p.J), ("sigma", p.sigma), ("Fc", p.Fc), ("tau", p.tau), ("offset", 2.0)):
+        assert d[k] == pytest.approx(v, rel=1e-6), k
+
+
+def test_errors_are_reported_without_traceback(tmp_path, capsys):
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"J": -1, "Fc": 1, "Fs": 1, "Vs": 0.1, "delta": 1, "sigma": 0, "tau": 0}')
+    assert main(["compare", "--plant", str(bad), "--quiet"]) == 2
+    assert "J must be > 0, got -1.0" in capsys.readouterr().err
+    assert main(["identify", str(tmp_path / "missing.csv")]) == 2
