@@ -28,7 +28,7 @@ class LSResult:
     theta : ndarray, shape (p,)
         Regression parameters, names in ``model.names``.
     theta_std : ndarray, shape (p,)
-        Standard errors of ``theta`` (``s**2 * inv(X^T X)`` from the R factor; NaN for ridge fits).
+        Standard errors of ``theta`` (``s**2 * (X^T X)^-1`` from the SVD of X; NaN for ridge fits).
     estimate : FrictionEstimate
         Physical parameters (J, tau, sigma, Fc, Fs, offset).
     residual_rms : float
@@ -61,7 +61,7 @@ class LSResult:
 
 
 def fit_ls(model: RegressionModel, u, w, *, Ts: float, ridge: float = 0.0) -> LSResult:
-    """Fit the regression model of eq. 4 by linear least squares (eq. 9), with a QR-based solver.
+    """Fit the regression model of eq. 4 by linear least squares (eq. 9), with an SVD-based solver.
 
     Parameters
     ----------
