@@ -6,6 +6,10 @@ The top layer: imports :mod:`adaptive_ff` and :mod:`plant`.
 from controllers.closed_loop import MODES, ClosedLoopResult, LoopMetrics, loop_metrics, run_closed_loop
 from controllers.compare import Comparison, compare, eta
 from controllers.figures import plot_comparison
+from controllers.loop_analysis import LoopAnalysis, analyse_design
+from controllers.paper_figures import identification_figures, paper_figures
+from controllers.report import compare_report, identify_report, report_html, write_report
+from controllers.synthetic_logs import closed_loop_response, quasi_static_log
 from controllers.pi import PIController, PIDesign, closed_loop_step, design_pi
 from controllers.quasi_static import QuasiStaticData, bidirectional_velocities, quasi_static_runs
 
@@ -14,4 +18,7 @@ __all__ = [
     "QuasiStaticData", "quasi_static_runs", "bidirectional_velocities",
     "MODES", "LoopMetrics", "ClosedLoopResult", "run_closed_loop", "loop_metrics",
     "Comparison", "compare", "eta", "plot_comparison",
+    "LoopAnalysis", "analyse_design", "paper_figures", "identification_figures",
+    "report_html", "write_report", "identify_report", "compare_report",
+    "quasi_static_log", "closed_loop_response",
 ]

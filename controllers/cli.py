@@ -4,6 +4,9 @@ Subcommands
 -----------
 compare   run the closed loop in all friction-compensation modes and compare tracking
 identify  identify friction (offline LS and RLS) from a measured log (CSV t,u,w or the EMPS .mat)
+stribeck       fit the Stribeck curve (Vs, delta) from quasi-static data, Fig. 8
+design         discrete PI velocity controller: gains, margins, Bode, step
+paper-figures  regenerate the paper's Figs. 4, 5, 8-12 from simulation
 sweep     grid / Monte-Carlo study over plants, gains, modes and seeds (resumable; local cores or Dask)
 """
 
@@ -17,13 +20,13 @@ __all__ = ["main", "build_parser"]
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``adaptive-ff`` argument parser; each subcommand lives in its own ``cli_<name>`` module."""
-    from controllers import cli_compare, cli_identify, cli_sweep
+    from controllers import cli_compare, cli_design, cli_identify, cli_paper_figures, cli_stribeck, cli_sweep
 
     ap = argparse.ArgumentParser(prog="adaptive-ff", description=(
         "Identify sliding dynamic friction (Ruderman's discrete-time model: LS, RLS) and compare "
         "friction compensation modes in a PI velocity loop."))
     sub = ap.add_subparsers(dest="command", required=True)
-    for module in (cli_compare, cli_identify, cli_sweep):
+    for module in (cli_compare, cli_identify, cli_stribeck, cli_design, cli_paper_figures, cli_sweep):
         module.register(sub)
     return ap
 
