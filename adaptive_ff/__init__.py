@@ -5,13 +5,17 @@ exceptions are defined in :mod:`plant.errors` and re-exported here.
 """
 
 from adaptive_ff.data import MeasuredData, is_uniform, load_csv, load_emps, load_measurements, to_uniform
-from adaptive_ff.feedforward import AdaptiveFrictionFeedforward, FrictionFeedforward, project_estimate
+from adaptive_ff.feedforward import (AdaptiveFrictionFeedforward, FrictionFeedforward, RobustAdaptiveFeedforward,
+                                     project_estimate)
+from adaptive_ff.gate import OutlierGate
 from adaptive_ff.io import VelocityEstimate, load_log, parse_column_map, read_columns, velocity_from_position
 from adaptive_ff.identify import IdentificationReport, identify
 from adaptive_ff.ls import LSResult, fit_ls
 from adaptive_ff.regression import (THETA_NAMES, FrictionEstimate, RegressionModel, g_regressor, h_regressor,
                                     nrmse_fit, theta_from_physical, theta_from_physical_printed)
-from adaptive_ff.rls import RecursiveLeastSquares
+from adaptive_ff.rls import FORGETTING, RecursiveLeastSquares
+from adaptive_ff.sliding_estimator import (SLIDING_NAMES, SlidingFit, SlidingFrictionEstimator, fit_sliding,
+                                           sliding_regressors)
 from adaptive_ff.steady_state import SupportPoints, binned_steady_state, constant_velocity_segments, support_points
 from adaptive_ff.stribeck_fit import StribeckFit, fit_stribeck, plot_stribeck_fit
 from plant.errors import ExcitationError, FrictionError, ParameterError, SignalError
@@ -27,4 +31,6 @@ __all__ = [
     "IdentificationReport", "identify",
     "load_log", "read_columns", "parse_column_map", "velocity_from_position", "VelocityEstimate",
     "SupportPoints", "support_points", "constant_velocity_segments", "binned_steady_state",
+    "RobustAdaptiveFeedforward", "OutlierGate", "FORGETTING",
+    "SlidingFrictionEstimator", "SlidingFit", "fit_sliding", "sliding_regressors", "SLIDING_NAMES",
 ]

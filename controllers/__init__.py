@@ -3,8 +3,11 @@
 The top layer: imports :mod:`adaptive_ff` and :mod:`plant`.
 """
 
-from controllers.closed_loop import MODES, ClosedLoopResult, LoopMetrics, loop_metrics, run_closed_loop
-from controllers.compare import Comparison, compare, eta
+from controllers.canudas import CanudasCompensator
+from controllers.dob import DisturbanceObserver
+from controllers.testing import TrackingBoundError, assert_tracking_bound, velocity_faults
+from controllers.closed_loop import ESTIMATORS, MODES, ClosedLoopResult, LoopMetrics, loop_metrics, run_closed_loop
+from controllers.compare import FIXED_METHODS, Comparison, compare, eta, friction_scale, prefit_stribeck
 from controllers.figures import plot_comparison
 from controllers.loop_analysis import LoopAnalysis, analyse_design
 from controllers.paper_figures import identification_figures, paper_figures
@@ -21,4 +24,6 @@ __all__ = [
     "LoopAnalysis", "analyse_design", "paper_figures", "identification_figures",
     "report_html", "write_report", "identify_report", "compare_report",
     "quasi_static_log", "closed_loop_response",
+    "ESTIMATORS", "FIXED_METHODS", "friction_scale", "prefit_stribeck",
+    "CanudasCompensator", "DisturbanceObserver", "assert_tracking_bound", "TrackingBoundError", "velocity_faults",
 ]

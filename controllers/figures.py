@@ -56,10 +56,11 @@ def plot_friction(comp) -> Figure:
     ref = comp.results.get("adaptive") or comp.results["none"]
     s = slice(None, None, _STRIDE)
     ax.plot(ref.t[s], ref.f[s], "k", lw=1.0, label="true friction f (adaptive run)")
-    for mode, style in (("fixed", "C1"), ("adaptive", "C2")):
+    for mode, style in (("fixed", "C1"), ("adaptive", "C2"), ("canudas", "C3"), ("dob", "C4")):
         if mode in comp.results:
             r = comp.results[mode]
-            ax.plot(r.t[s], r.u_ff[s], style, lw=0.8, label=f"feedforward ({mode})")
+            what = "disturbance estimate" if mode == "dob" else "feedforward"
+            ax.plot(r.t[s], r.u_ff[s], style, lw=0.8, label=f"{what} ({mode})")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("torque [N·m]")
     ax.legend(fontsize=8, loc="upper right")
@@ -67,25 +68,57 @@ def plot_friction(comp) -> Figure:
     return fig
 
 
+def _true_sliding(plant, names, t):
+    """True values of the sliding estimator's parameters at times ``t`` (NaN where the plant has no such parameter)."""
+    out = np.full((len(t), len(names)), np.nan)
+    for j, ti in enumerate(t):
+        p = plant.at(ti) if hasattr(plant, "at") else plant
+        tau = getattr(p, "tau", None)
+        vals = {"J": p.J, "Fc": p.Fc, "Fs": p.Fs, "sigma": p.sigma, "offset": 0.0}
+        if tau is not None:
+            vals.update(tau=tau, J_tau=p.J * tau)
+        if hasattr(p, "Fc_pos"):  # asymmetric: the offset carries half the level difference
+            vals["offset"] = 0.5 * (p.Fc_pos - p.Fc_neg)
+        out[j] = [vals.get(n, np.nan) for n in names]
+    return out
+
+
 def plot_rls_convergence(comp) -> Figure | None:
-    """RLS parameter trajectories of the adaptive run (like paper Fig. 12), with the true values dashed."""
+    """Parameter trajectories of the adaptive run (like paper Fig. 12), with the true values dashed.
+
+    For the sliding estimator the parameters are physical (J in kg·m², J*tau
+    in kg·m²·s, tau in s, Fc, Fs, offset in N·m, sigma in N·m·s/rad); for the
+    eq. 4 estimator they are the regression coefficients of eq. 4.
+    """
     r = comp.results.get("adaptive")
     if r is None or r.theta.size == 0:
         return None
     names = r.info["names"]
-    true = comp.model.theta_from_physical(comp.plant, r.info["Ts"])
+    if r.info.get("estimator") == "sliding":
+        stride = max(len(r.t_theta) // 2000, 1)
+        tt, th = r.t_theta[::stride], r.theta[::stride]
+        true = _true_sliding(comp.plant, names, tt)
+        title = "sliding estimator: physical parameters (SI units)"
+    else:
+        tt, th = r.t_theta, r.theta
+        p0 = comp.plant.at(0.0) if hasattr(comp.plant, "at") else comp.plant
+        true = np.tile(comp.model.theta_from_physical(p0, r.info["Ts"]), (len(tt), 1))
+        title = "RLS parameter convergence, eq. 4 coefficients (units: rad/s per unit of regressor)"
     n = len(names)
     fig = Figure(figsize=(10, 1.6 * n), layout="constrained")
     axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
     for i, (ax, name) in enumerate(zip(axes, names)):
-        ax.plot(r.t_theta, r.theta[:, i], lw=0.8)
-        ax.axhline(true[i], color="k", ls="--", lw=0.8, label="true plant (corrected eq. 4 coefficients)")
+        ax.plot(tt, th[:, i], lw=0.8)
+        ax.plot(tt, true[:, i], color="k", ls="--", lw=0.8, label="true plant")
         ax.set_ylabel(name)
-        lo, hi = np.percentile(r.theta[len(r.theta) // 10:, i], [1, 99])
+        lo, hi = np.percentile(th[len(th) // 10:, i], [1, 99])
+        tv = true[:, i][np.isfinite(true[:, i])]
+        if tv.size:
+            lo, hi = min(lo, tv.min()), max(hi, tv.max())
         pad = 0.5 * (hi - lo) + 1e-12
-        ax.set_ylim(min(lo, true[i]) - pad, max(hi, true[i]) + pad)
+        ax.set_ylim(lo - pad, hi + pad)
     axes[0].legend(fontsize=8, loc="upper right")
-    axes[0].set_title("RLS parameter convergence (units: rad/s per unit of regressor)", fontsize=9, loc="left")
+    axes[0].set_title(title, fontsize=9, loc="left")
     axes[-1].set_xlabel("time [s]")
     return fig
 

@@ -21,6 +21,7 @@ import json
 
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
+from typing import Callable, ClassVar
 
 import numpy as np
 
@@ -127,7 +128,18 @@ class JointParams:
         J*dw/dt = u - f
         tau*df/dt + f = F(w)
         F(w) = sgn(w)*(Fc + (Fs - Fc)*exp(-|w/Vs|**delta)) + sigma*w
+
+    Plant protocol (shared with the variants in :mod:`plant.lugre`,
+    :mod:`plant.karnopp`, :mod:`plant.asymmetric`, :mod:`plant.drift`): ``J``,
+    ``friction(w)`` (steady-state map), ``make_step(dt)`` (one integration step
+    ``(w, s, u) -> (w, s)`` of velocity and the model's internal state ``s``,
+    here the friction torque ``f``), ``friction_torque(w, s)``,
+    ``initial_state(w)``, ``frictionless()`` and ``MODEL`` (the ``"model"`` key
+    of the plant JSON, see :func:`plant.models.plant_from_dict`).
     """
+
+    #: Name of this friction model in plant JSON files (``"model"`` key).
+    MODEL: ClassVar[str] = "lagged-stribeck"
 
     J: float
     Fc: float
@@ -153,6 +165,20 @@ class JointParams:
         """Static friction ``F(w)`` (N·m) of these parameters, eq. 3; see :func:`stribeck`."""
         return stribeck(w, Fc=self.Fc, Fs=self.Fs, Vs=self.Vs, delta=self.delta, sigma=self.sigma)
 
+    def make_step(self, dt: float) -> Callable[[float, float, float], tuple]:
+        """One RK4 step ``(w, f, u) -> (w, f)`` of this joint; see :func:`plant.joint.make_rk4_step`."""
+        from plant.joint import make_rk4_step  # local: plant.joint imports this module
+
+        return make_rk4_step(self, dt)
+
+    def friction_torque(self, w: float, s: float) -> float:
+        """Friction torque (N·m) in state ``(w, s)``: the lag state ``s = f`` itself (eq. 1)."""
+        return s
+
+    def initial_state(self, w: float) -> float:
+        """Internal state of steady motion at velocity ``w``: ``f = F(w)`` (0 at rest)."""
+        return float(self.friction(float(w)))
+
     def frictionless(self) -> "JointParams":
         """The same joint with ``Fc = Fs = sigma = 0`` (the compensation limit)."""
         return replace(self, Fc=0.0, Fs=0.0, sigma=0.0)
@@ -169,11 +195,20 @@ class JointParams:
     def from_dict(cls, d: dict) -> "JointParams":
         """Build from a mapping with exactly the keys ``J, Fc, Fs, Vs, delta, sigma, tau``.
 
+        An optional ``"model": "lagged-stribeck"`` entry is accepted (other
+        models: :func:`plant.models.plant_from_dict`).
+
         Raises
         ------
         ParameterError
-            A key is missing or unknown, or a value out of range.
+            A key is missing or unknown, a value out of range, or ``model``
+            names another friction model.
         """
+        if "model" in d:
+            if d["model"] != cls.MODEL:
+                raise ParameterError(f"model {d['model']!r} is not {cls.MODEL!r}; read such plants with "
+                                     "plant.models.plant_from_dict / load_plant")
+            d = {k: v for k, v in d.items() if k != "model"}
         names = [f.name for f in fields(cls)]
         missing = [k for k in names if k not in d]
         unknown = [k for k in d if k not in names]

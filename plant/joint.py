@@ -46,8 +46,11 @@ def make_rk4_step(p: JointParams, dt: float = DT_DEFAULT) -> Callable[[float, fl
 
     Parameters
     ----------
-    p : JointParams
-        Plant parameters.
+    p : JointParams or another plant model
+        Plant parameters. Any other object with a ``make_step(dt)`` method (the
+        variants in :mod:`plant.lugre`, :mod:`plant.karnopp`,
+        :mod:`plant.asymmetric`) is delegated to it; the second state slot is
+        then that model's internal state (e.g. the LuGre bristle deflection ``z``).
     dt : float
         Step (s), > 0.
 
@@ -68,6 +71,11 @@ def make_rk4_step(p: JointParams, dt: float = DT_DEFAULT) -> Callable[[float, fl
     ODEs I*, Sec. II.1). ``F`` is discontinuous at ``w = 0``; with ``tau > 0``
     the lag integrates it, so ``dw/dt`` stays continuous.
     """
+    if not isinstance(p, JointParams):
+        make = getattr(p, "make_step", None)
+        if make is None:
+            raise TypeError(f"p must be JointParams or a plant model with make_step(dt), got {type(p).__name__}")
+        return make(dt)
     dt = check_positive("dt", dt)
     F = _friction_scalar(p)
     J, tau = p.J, p.tau
@@ -134,14 +142,15 @@ def simulate(p: JointParams, u, *, dt: float = DT_DEFAULT, w0: float = 0.0, f0: 
 
     Parameters
     ----------
-    p : JointParams
+    p : JointParams or another plant model (see :func:`make_rk4_step`)
         Plant parameters.
     u : array_like, shape (N,)
         Input torque (N·m), ``u[k]`` held over step ``k``.
     dt : float, optional
         Integration step (s); default 1 ms (1 kHz, as in the paper).
     w0, f0 : float, optional
-        Initial velocity (rad/s) and friction state (N·m).
+        Initial velocity (rad/s) and friction state (N·m; for other plant
+        models their internal state, e.g. the LuGre deflection in rad).
 
     Returns
     -------
@@ -163,7 +172,7 @@ def simulate(p: JointParams, u, *, dt: float = DT_DEFAULT, w0: float = 0.0, f0: 
     w = check_finite_scalar("w0", w0)
     f = check_finite_scalar("f0", f0)
     step = make_rk4_step(p, dt)
-    if p.tau == 0.0:
+    if isinstance(p, JointParams) and p.tau == 0.0:
         f = float(p.friction(w))  # static friction: the state is algebraic
     n = u.shape[0]
     W = np.empty(n + 1)

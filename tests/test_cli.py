@@ -21,11 +21,11 @@ def test_compare_json_and_figures(tmp_path, capsys):
     assert main(["compare", "--plant", str(plant_file), "--duration", "15", "--seed", "2", "--out", str(out),
                  "--json", "--quiet"]) == 0
     d = json.loads(capsys.readouterr().out)
-    assert set(d["modes"]) == {"none", "fixed", "adaptive", "oracle", "frictionless"}
+    assert set(d["modes"]) == {"none", "fixed", "adaptive", "canudas", "dob", "oracle", "frictionless"}
     for m in d["modes"].values():
         assert {"rms", "max", "rms_reversal", "eta"} <= set(m)
     assert d["modes"]["none"]["eta"] == 0.0 and d["modes"]["frictionless"]["eta"] == 1.0
-    assert d["plant"]["Fc"] == 20.0
+    assert d["plant"]["Fc"] == 20.0 and d["plant"]["model"] == "lagged-stribeck"
     for name in ("tracking", "error", "friction", "rls_convergence"):
         png = out / f"{name}.png"
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -34,9 +34,37 @@ def test_compare_json_and_figures(tmp_path, capsys):
 def test_compare_table(tmp_path, capsys):
     assert main(["compare", "--duration", "10", "--no-figures", "--quiet", "--out", str(tmp_path)]) == 0
     text = capsys.readouterr().out
-    for mode in ("none", "fixed", "adaptive", "oracle", "frictionless"):
+    for mode in ("none", "fixed", "adaptive", "canudas", "dob", "oracle", "frictionless"):
         assert f"\n{mode} " in text
     assert "eta" in text and "phase margin" in text
+
+
+@pytest.mark.parametrize("model", ["lugre", "karnopp", "asymmetric"])
+def test_compare_accepts_plant_variants_by_model_key(tmp_path, capsys, model):
+    from plant.models import plant_to_dict
+    from plant.variants import variant
+
+    name = {"lugre": "lugre", "karnopp": "karnopp", "asymmetric": "asymmetric"}[model]
+    d_in = plant_to_dict(variant(name))
+    d_in["drift"] = {"Fc_change": 0.2, "t_end": 4.0}
+    plant_file = tmp_path / "plant.json"
+    plant_file.write_text(json.dumps(d_in))
+    assert main(["compare", "--plant", str(plant_file), "--duration", "8", "--modes", "adaptive,dob", "--json",
+                 "--quiet", "--no-figures"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert set(d["modes"]) == {"none", "adaptive", "dob", "frictionless"}
+    assert d["plant"]["model"] == model and d["plant"]["drift"]["Fc_change"] == 0.2
+    assert d["plant"]["J"] == d_in["J"]
+    assert all(np.isfinite(m["rms"]) and not m.get("diverged") for m in d["modes"].values())
+
+
+def test_compare_rejects_unknown_model_and_mode(tmp_path, capsys):
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"model": "dahl", "J": 1}')
+    assert main(["compare", "--plant", str(bad), "--quiet"]) == 2
+    assert "unknown friction model 'dahl'" in capsys.readouterr().err
+    assert main(["compare", "--modes", "adaptive,magic", "--quiet", "--no-figures"]) == 2
+    assert "unknown mode(s) ['magic']" in capsys.readouterr().err
 
 
 def test_identify_emps_json_within_ten_percent(capsys):

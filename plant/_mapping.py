@@ -1,0 +1,31 @@
+"""Strict construction of the plant-model dataclasses from mappings (private helper of the plant variants)."""
+
+from __future__ import annotations
+
+from dataclasses import fields
+
+from plant.errors import ParameterError
+
+__all__ = ["plant_from_mapping"]
+
+
+def plant_from_mapping(cls, d: dict):
+    """Build the plant dataclass ``cls`` from ``d``: exactly its fields, plus an optional ``"model"`` = ``cls.MODEL``.
+
+    Raises
+    ------
+    ParameterError
+        Wrong ``model``, missing or unknown keys (all named), or a value out of range.
+    """
+    d = dict(d)
+    model = d.pop("model", cls.MODEL)
+    if model != cls.MODEL:
+        raise ParameterError(f"model {model!r} is not {cls.MODEL!r}")
+    names = [f.name for f in fields(cls)]
+    missing = [k for k in names if k not in d]
+    unknown = [k for k in d if k not in names]
+    if missing:
+        raise ParameterError(f"{cls.MODEL!r} plant parameters miss the key(s) {missing}; need {names}")
+    if unknown:
+        raise ParameterError(f"unknown {cls.MODEL!r} plant parameter key(s) {unknown}; allowed {names}")
+    return cls(**d)

@@ -1,0 +1,139 @@
+"""Sliding-regime estimator, its batch twin, the closed-loop bias and its gate, the feedforward's safety features."""
+
+import copy
+import math
+
+import numpy as np
+import pytest
+
+from adaptive_ff.feedforward import FrictionFeedforward, RobustAdaptiveFeedforward
+from adaptive_ff.gate import OutlierGate
+from adaptive_ff.regression import FrictionEstimate
+from adaptive_ff.sliding_estimator import SlidingFrictionEstimator, fit_sliding, sliding_regressors
+from controllers.closed_loop import run_closed_loop
+from controllers.pi import design_pi
+from plant import ParameterError, bandlimited_noise, multisine_reference, preset, simulate
+
+P = preset("paper")
+DESIGN = design_pi(P.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
+
+
+@pytest.fixture(scope="module")
+def open_loop():
+    _, u = bandlimited_noise(30.0, cutoff=1.0, std=60.0, rng=np.random.default_rng(0))
+    return u, simulate(P, u).w[:-1]
+
+
+@pytest.fixture(scope="module")
+def closed_loop_none():
+    """The uncompensated loop with 1e-3 rad/s noise: the joint creeps at every reversal."""
+    ref = multisine_reference(60.0, rng=np.random.default_rng(1))
+    return run_closed_loop(P, ref, mode="none", Kp=DESIGN.Kp, Ki=DESIGN.Ki, noise_std=1e-3,
+                           rng=np.random.default_rng(2))
+
+
+def test_batch_fit_recovers_the_physical_parameters_from_noise_free_data(open_loop):
+    u, w = open_loop
+    e = fit_sliding(u, w, Tc=1e-3, Vs=P.Vs, delta=P.delta, Ts=0.01).estimate
+    assert e.Fc == pytest.approx(P.Fc, rel=0.005) and e.Fs == pytest.approx(P.Fs, rel=0.01)
+    assert e.sigma == pytest.approx(P.sigma, rel=0.005) and e.tau == pytest.approx(P.tau, rel=0.03)
+    assert e.J == pytest.approx(P.J, rel=0.03) and e.J_alt == pytest.approx(P.J, rel=0.1)
+
+
+def test_online_estimator_builds_exactly_the_batch_rows(open_loop):
+    u, w = open_loop
+    X, y, idx, n_gated, names = sliding_regressors(u, w, Tc=1e-3, Vs=P.Vs, delta=P.delta, Ts=0.01)
+    est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, Ts=0.01)
+    rows = []
+    est.rls.update = lambda phi, y_: rows.append((phi.copy(), y_)) or 0.0  # record instead of estimating
+    for uk, wk in zip(u.tolist(), w.tolist()):
+        est.observe(uk, wk)
+    assert len(rows) == X.shape[0] and est.n_gated == n_gated and names == est.names
+    np.testing.assert_allclose(np.array([r[0] for r in rows]), X, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose([r[1] for r in rows], y, rtol=1e-12)
+
+
+def test_closed_loop_noise_bias_and_the_sliding_regime_gate(closed_loop_none):
+    """Item 4: in closed loop the torque reacts to the noise that decides sgn(w_meas) near zero."""
+    r = closed_loop_none
+    kw = dict(Tc=1e-3, Vs=P.Vs, delta=P.delta, Ts=0.01)
+    ungated = fit_sliding(r.u, r.w_meas, dwell_max=1.0, **kw).estimate
+    gated = fit_sliding(r.u, r.w_meas, **kw).estimate
+    true_w = fit_sliding(r.u, r.w, dwell_max=1.0, **kw).estimate  # noise-free velocity: no bias source
+    assert abs(ungated.Fs / P.Fs - 1) > 0.3 and abs(ungated.sigma / P.sigma - 1) > 0.15  # biased
+    assert abs(true_w.Fs / P.Fs - 1) < 0.06
+    assert gated.Fc == pytest.approx(P.Fc, rel=0.01) and gated.Fs == pytest.approx(P.Fs, rel=0.02)
+    assert gated.sigma == pytest.approx(P.sigma, rel=0.01) and gated.tau == pytest.approx(P.tau, rel=0.05)
+
+
+def test_rejected_samples_leave_the_estimator_unchanged_and_are_counted(open_loop):
+    u, w = open_loop
+    est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, gate=OutlierGate(max_step=0.05))
+    for uk, wk in zip(u[:5000].tolist(), w[:5000].tolist()):
+        est.observe(uk, wk)
+    state = copy.deepcopy({k: v for k, v in est.__dict__.items() if k != "gate"})
+    rls_state = (est.rls.theta.copy(), est.rls.P.copy(), est.rls.n_updates)
+    bad = [(math.nan, w[5000]), (u[5000], w[4999] + 1.0), (u[5000], w[4999] - 0.3), (u[5000], math.nan),
+           (u[5000], math.inf), (u[5000], -math.inf), (math.inf, w[5000])]
+    for uk, wk in bad:
+        assert est.observe(uk, wk) is False
+    assert est.n_rejected == len(bad) and est.gate.n_outliers == 2 and est.gate.n_nonfinite == 3
+    after = {k: v for k, v in est.__dict__.items() if k != "gate"}
+    for k, v in state.items():
+        if k in ("n_rejected", "updated"):  # the counter, and the flag "this call updated the RLS"
+            continue
+        if isinstance(v, np.ndarray):
+            np.testing.assert_array_equal(after[k], v)
+        elif k != "rls":
+            assert after[k] == v, k
+    np.testing.assert_array_equal(est.rls.theta, rls_state[0])
+    np.testing.assert_array_equal(est.rls.P, rls_state[1])
+    assert est.rls.n_updates == rls_state[2]
+    assert est.observe(u[5000], w[5000]) is True  # a plausible sample is accepted again
+
+
+def test_feedforward_sign_treatments_and_stick_detection():
+    est = FrictionEstimate(J=4.0, tau=0.0, sigma=40.0, Fc=25.0, Fs=25.0, offset=0.0, Vs=None, delta=None, J_alt=4.0)
+    ff = FrictionFeedforward(est, dt=1e-3, sign_width=0.01)
+    assert ff.static(0.005) == pytest.approx(0.5 * 25.0 + 40.0 * 0.005)  # inside the ramp
+    assert ff.static(-0.02) == pytest.approx(-25.0 - 40.0 * 0.02)  # outside: the sign
+    ff = FrictionFeedforward(est, dt=1e-3, stick_band=0.003, stick_samples=3)
+    outs = [ff.step(0.001, -0.2) for _ in range(4)]  # measurement inside the band, reference negative
+    assert outs[:2] == pytest.approx([25.0 + 0.04] * 2)  # not yet declared stuck: the measurement
+    assert outs[2:] == pytest.approx([-25.0 - 8.0] * 2)  # stuck: the intended direction (reference)
+    assert ff.step(0.01, -0.2) == pytest.approx(25.0 + 0.4)  # moving again: the measurement
+
+
+def test_robust_feedforward_waits_fades_in_and_holds_the_last_plausible_estimate(open_loop):
+    u, w = open_loop
+    est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, Ts=0.01)
+    ff = RobustAdaptiveFeedforward(est, dt=1e-3, warmup=100, fade_in=0.5)
+    n_on = None
+    for k, (uk, wk) in enumerate(zip(u.tolist(), w.tolist())):
+        ff.observe(uk, wk)
+        if ff.active and n_on is None:
+            n_on = k
+            assert est.n_updates == 100  # switched on exactly at the warm-up count
+    full = ff.estimate
+    assert full.Fc == pytest.approx(P.Fc, rel=0.02)
+    ramp = [ff.step(0.3) for _ in range(600)]
+    assert ramp[0] < 0.01 * ramp[-1] and ramp[249] == pytest.approx(0.5 * ramp[-1], rel=0.05)
+    # an implausible estimate (the two lag estimates disagree) is not used
+    bad = FrictionEstimate(J=4.0, tau=0.05, sigma=40.0, Fc=25.0, Fs=35.0, offset=0.0, Vs=P.Vs, delta=P.delta,
+                           J_alt=12.0)
+    assert not ff.plausible(bad) and ff.plausible(full)
+    with pytest.raises(ParameterError, match="J_range"):
+        RobustAdaptiveFeedforward(est, dt=1e-3, J_range=(2.0, 1.0))
+
+
+def test_outlier_gate_rules():
+    g = OutlierGate(max_step=0.1, n_sigma=8.0)
+    assert g.check(0.0) and g.check(0.05) and not g.check(0.5) and not g.check(float("nan"))
+    # the bound grows with the samples held: two rejected samples later a 0.3 jump is plausible
+    assert g.check(0.05 + 0.3)
+    assert (g.n_rejected, g.n_outliers, g.n_nonfinite) == (2, 1, 1)
+    g2 = OutlierGate(max_step=0.0, n_sigma=1.0, max_consecutive=3)
+    g2.check(0.0)
+    assert [g2.check(5.0) for _ in range(4)] == [False, False, False, True]  # re-anchors after 3
+    with pytest.raises(ParameterError, match="alpha"):
+        OutlierGate(alpha=2.0)
