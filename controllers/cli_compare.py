@@ -36,9 +36,17 @@ def run(args) -> int:
                    lam=args.lam, crossover=args.crossover, phase_margin=args.phase_margin, progress=progress,
                    estimator=args.estimator, ff_input=args.ff_input, omega_q=args.omega_q)
     paths = [] if args.no_figures else plot_comparison(comp, args.out)
+    report = None
+    if args.report:
+        from controllers.cli_data import command_line
+        from controllers.report import compare_report
+
+        report = compare_report(args.report, comp, figures=paths, command=command_line())
     if args.json:
         d = comp.to_json_dict()
         d["figures"] = [str(x) for x in paths]
+        if report is not None:
+            d["report"] = str(report)
         print(json.dumps(d, indent=2))
         return 0
     src = args.plant if args.plant else (f"variant '{args.variant}'" if args.variant else f"preset '{args.preset}'")
@@ -56,6 +64,8 @@ def run(args) -> int:
     print(comp.table())
     if paths:
         print("\nfigures: " + ", ".join(str(x) for x in paths))
+    if report is not None:
+        print(f"report: {report}")
     return 0
 
 
@@ -95,5 +105,6 @@ def register(sub) -> None:
     c.add_argument("--json", action="store_true", help="print the metrics as JSON instead of the table")
     c.add_argument("--no-figures", action="store_true", help="do not write figures")
     c.add_argument("--quiet", action="store_true", help="no progress bar")
+    c.add_argument("--report", metavar="DIR", default=None, help="write a self-contained HTML report into DIR")
     c.set_defaults(func=run)
 

@@ -97,3 +97,14 @@ def test_errors_are_reported_without_traceback(tmp_path, capsys):
     assert main(["compare", "--plant", str(bad), "--quiet"]) == 2
     assert "J must be > 0, got -1.0" in capsys.readouterr().err
     assert main(["identify", str(tmp_path / "missing.csv")]) == 2
+
+
+def test_compare_and_identify_write_html_reports(tmp_path, capsys):
+    assert main(["compare", "--duration", "8", "--quiet", "--no-figures", "--report", str(tmp_path / "c"),
+                 "--out", str(tmp_path)]) == 0
+    html = (tmp_path / "c" / "report.html").read_text()
+    assert "Friction compensation comparison" in html and "adaptive" in html
+    assert main(["identify", str(EMPS), "--quiet", "--report", str(tmp_path / "i"), "--plot", str(tmp_path / "p")]) == 0
+    html = (tmp_path / "i" / "report.html").read_text()
+    assert "data:image/png;base64," in html and "95.5" in html  # J of EMPS in the parameter table
+    assert any(p.suffix == ".png" for p in (tmp_path / "p").iterdir())
