@@ -18,6 +18,7 @@ import numpy as np
 from plant._mapping import plant_from_mapping
 from plant.errors import check_nonnegative, check_positive
 from plant.friction import JointParams, stribeck_shape
+from plant.joint import lagged_rk4_step
 
 __all__ = ["AsymmetricParams"]
 
@@ -119,7 +120,6 @@ class AsymmetricParams:
         J, Vs, delta, tau = self.J, self.Vs, self.delta, self.tau
         cp, dp, sp = self.Fc_pos, self.Fs_pos - self.Fc_pos, self.sigma_pos
         cn, dn, sn = self.Fc_neg, self.Fs_neg - self.Fc_neg, self.sigma_neg
-        h2, h6 = dt / 2.0, dt / 6.0
         exp = math.exp
 
         def F(w: float) -> float:
@@ -129,33 +129,7 @@ class AsymmetricParams:
                 return -(cn + dn * exp(-((-w / Vs) ** delta))) + sn * w
             return 0.0
 
-        if tau == 0.0:
-            def step_static(w: float, f: float, u: float) -> tuple:
-                k1 = (u - F(w)) / J
-                k2 = (u - F(w + h2 * k1)) / J
-                k3 = (u - F(w + h2 * k2)) / J
-                k4 = (u - F(w + dt * k3)) / J
-                w = w + h6 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-                return w, F(w)
-
-            return step_static
-
-        def step(w: float, f: float, u: float) -> tuple:
-            k1w = (u - f) / J
-            k1f = (F(w) - f) / tau
-            w2, f2 = w + h2 * k1w, f + h2 * k1f
-            k2w = (u - f2) / J
-            k2f = (F(w2) - f2) / tau
-            w3, f3 = w + h2 * k2w, f + h2 * k2f
-            k3w = (u - f3) / J
-            k3f = (F(w3) - f3) / tau
-            w4, f4 = w + dt * k3w, f + dt * k3f
-            k4w = (u - f4) / J
-            k4f = (F(w4) - f4) / tau
-            return (w + h6 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w),
-                    f + h6 * (k1f + 2.0 * k2f + 2.0 * k3f + k4f))
-
-        return step
+        return lagged_rk4_step(F, J=J, tau=tau, dt=dt)
 
     def frictionless(self) -> JointParams:
         """The same inertia without friction (the compensation limit)."""

@@ -21,7 +21,7 @@ import numpy as np
 from plant.errors import check_finite_scalar, check_positive, check_signal
 from plant.friction import JointParams
 
-__all__ = ["make_rk4_step", "simulate", "PlantResponse", "DT_DEFAULT"]
+__all__ = ["make_rk4_step", "lagged_rk4_step", "simulate", "PlantResponse", "DT_DEFAULT"]
 
 #: Default integration step (s): the paper's 1 kHz fixed-step solver.
 DT_DEFAULT = 1e-3
@@ -77,8 +77,29 @@ def make_rk4_step(p: JointParams, dt: float = DT_DEFAULT) -> Callable[[float, fl
             raise TypeError(f"p must be JointParams or a plant model with make_step(dt), got {type(p).__name__}")
         return make(dt)
     dt = check_positive("dt", dt)
-    F = _friction_scalar(p)
-    J, tau = p.J, p.tau
+    return lagged_rk4_step(_friction_scalar(p), J=p.J, tau=p.tau, dt=dt)
+
+
+def lagged_rk4_step(F: Callable[[float], float], *, J: float, tau: float,
+                    dt: float) -> Callable[[float, float, float], tuple]:
+    """RK4 step ``(w, f, u) -> (w, f)`` of ``J*dw/dt = u - f``, ``tau*df/dt + f = F(w)`` for any scalar map ``F``.
+
+    Parameters
+    ----------
+    F : callable
+        Static friction map ``F(w)`` (N·m) on plain floats, e.g. eq. 3 or an asymmetric variant.
+    J : float, keyword-only
+        Inertia (kg·m²).
+    tau : float, keyword-only
+        Friction lag (s); 0 makes ``f = F(w)`` algebraic (RK4 on ``w`` alone).
+    dt : float, keyword-only
+        Step (s).
+
+    Returns
+    -------
+    callable
+        The step function used by :func:`make_rk4_step` (see its Notes).
+    """
     h2, h6 = dt / 2.0, dt / 6.0
 
     if tau == 0.0:
