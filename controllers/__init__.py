@@ -3,6 +3,7 @@
 The top layer: imports :mod:`adaptive_ff` and :mod:`plant`.
 """
 
+from controllers.batch import BATCH_MODES, BatchResult, run_batch
 from controllers.canudas import CanudasCompensator
 from controllers.dob import DisturbanceObserver
 from controllers.testing import TrackingBoundError, assert_tracking_bound, velocity_faults
@@ -25,5 +26,6 @@ __all__ = [
     "report_html", "write_report", "identify_report", "compare_report",
     "quasi_static_log", "closed_loop_response",
     "ESTIMATORS", "FIXED_METHODS", "friction_scale", "prefit_stribeck",
+    "BATCH_MODES", "BatchResult", "run_batch",
     "CanudasCompensator", "DisturbanceObserver", "assert_tracking_bound", "TrackingBoundError", "velocity_faults",
 ]
