@@ -72,7 +72,7 @@ from scipy import signal
 from adaptive_ff.gate import OutlierGate
 from adaptive_ff.regression import FrictionEstimate
 from adaptive_ff.rls import RecursiveLeastSquares
-from plant.errors import ExcitationError, ParameterError, check_finite_scalar, check_positive, check_signal
+from plant.errors import ExcitationError, ParameterError, check_finite_scalar, check_multiple, check_positive, check_signal
 
 __all__ = ["SlidingFrictionEstimator", "SlidingFit", "fit_sliding", "sliding_regressors", "SLIDING_NAMES"]
 
@@ -186,11 +186,7 @@ class SlidingFrictionEstimator:
         if self.delta == 0.0:
             raise ParameterError("delta must be non-zero, got 0.0")
         self.Tc = check_positive("Tc", Tc)
-        Ts = check_positive("Ts", Ts)
-        m = Ts / self.Tc
-        if abs(m - round(m)) > 1e-9 * max(1.0, m) or round(m) < 1:
-            raise ParameterError(f"Ts = {Ts!r} s must be a positive multiple of Tc = {self.Tc!r} s")
-        self.m = int(round(m))
+        self.m = check_multiple("Ts", Ts, "Tc", self.Tc)
         self.Ts = self.m * self.Tc
         self.T = check_positive("T_filter", T_filter)
         if self.T < 2 * self.Tc:

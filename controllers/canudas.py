@@ -23,7 +23,7 @@ import math
 import numpy as np
 
 from adaptive_ff.rls import RecursiveLeastSquares
-from plant.errors import ParameterError, check_nonnegative, check_positive
+from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive
 
 __all__ = ["CanudasCompensator"]
 
@@ -87,11 +87,7 @@ class CanudasCompensator:
                  P0: float = 1e4, J_guess: float = 1.0, w_dead: float = 5e-3, warmup: int = 300,
                  ff_max: float = math.inf, ff_input: str = "measured"):
         self.Tc = check_positive("Tc", Tc)
-        Ts = check_positive("Ts", Ts)
-        m = Ts / self.Tc
-        if abs(m - round(m)) > 1e-9 * max(1.0, m) or round(m) < 1:
-            raise ParameterError(f"Ts = {Ts!r} s must be a positive multiple of Tc = {self.Tc!r} s")
-        self.m = int(round(m))
+        self.m = check_multiple("Ts", Ts, "Tc", self.Tc)
         self.Ts = self.m * self.Tc
         self.w_dead = check_nonnegative("w_dead", w_dead)
         if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:

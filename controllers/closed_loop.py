@@ -14,7 +14,7 @@ from adaptive_ff.sliding_estimator import SlidingFrictionEstimator
 from controllers.canudas import CanudasCompensator
 from controllers.dob import DisturbanceObserver
 from controllers.pi import PIController
-from plant.errors import ParameterError, check_nonnegative, check_positive
+from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive
 from plant.excitation import Reference
 from plant.friction import JointParams
 
@@ -256,12 +256,8 @@ def run_closed_loop(p, reference: Reference, *, mode: str, Kp: float, Ki: float,
     if estimator not in ESTIMATORS:
         raise ParameterError(f"estimator must be one of {ESTIMATORS}, got {estimator!r}")
     Tc = check_positive("Tc", Tc)
-    Ts = check_positive("Ts", Ts)
+    m = check_multiple("Ts", Ts, "Tc", Tc)
     noise_std = check_nonnegative("noise_std", noise_std)
-    m = Ts / Tc
-    if abs(m - round(m)) > 1e-9 * max(m, 1.0):
-        raise ParameterError(f"Ts = {Ts!r} s must be a multiple of Tc = {Tc!r} s")
-    m = int(round(m))
     t = np.asarray(reference.t)
     if t.shape[0] > 1 and not math.isclose(t[1] - t[0], Tc, rel_tol=1e-9):
         raise ParameterError(f"reference step {t[1] - t[0]!r} s differs from Tc = {Tc!r} s")

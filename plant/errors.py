@@ -23,6 +23,7 @@ __all__ = [
     "check_finite_scalar",
     "check_signal",
     "check_time",
+    "check_multiple",
 ]
 
 
@@ -133,3 +134,21 @@ def check_time(name: str, t, *, n: int | None = None, min_len: int = 2) -> np.nd
             f"<= {name}[{i}] = {float(arr[i])!r}"
         )
     return arr
+
+
+def check_multiple(name: str, value: float, base_name: str, base: float) -> int:
+    """Return ``round(value/base)``, or raise unless ``value`` (s) is a positive integer multiple of ``base`` (s).
+
+    Used for sample times that must fall on a controller or integration grid
+    (e.g. ``Ts`` on ``Tc``); tolerance 1e-9 relative.
+
+    Raises
+    ------
+    ParameterError
+        ``value`` not > 0, or not a multiple of ``base``; the message quotes both.
+    """
+    value = check_positive(name, value)
+    m = value / base
+    if abs(m - round(m)) > 1e-9 * max(1.0, m) or round(m) < 1:
+        raise ParameterError(f"{name} = {value!r} s must be a positive multiple of {base_name} = {base!r} s")
+    return int(round(m))

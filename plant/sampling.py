@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plant.errors import ParameterError, SignalError, check_nonnegative, check_positive, check_time
+from plant.errors import ParameterError, SignalError, check_multiple, check_nonnegative, check_positive, check_time
 from plant.joint import PlantResponse
 
 __all__ = ["Measurement", "sample", "irregular_sample_times"]
@@ -139,11 +139,7 @@ def sample(resp: PlantResponse, *, Ts: float = 0.01, times=None, noise_std: floa
     if noise_std > 0 and rng is None:
         raise ParameterError("noise_std > 0 needs rng=np.random.default_rng(seed)")
     if times is None:
-        Ts = check_positive("Ts", Ts)
-        m = Ts / dt
-        if abs(m - round(m)) > 1e-9 * max(1.0, m):
-            raise ParameterError(f"Ts = {Ts!r} s must be a multiple of the integration step dt = {dt!r} s")
-        idx = np.arange(0, resp.t.shape[0], int(round(m)))
+        idx = np.arange(0, resp.t.shape[0], check_multiple("Ts", Ts, "the integration step dt", dt))
     else:
         times = check_time("times", times)
         idx = np.rint(times / dt).astype(np.int64)
