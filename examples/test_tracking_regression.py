@@ -22,10 +22,10 @@ from plant import multisine_reference, preset
 PLANT = preset("paper")  # or JointParams(J=..., Fc=..., Fs=..., Vs=..., delta=..., sigma=..., tau=...)
 DURATION = 30.0  # s of multi-sine tracking (0.01-1 Hz, up to 20 deg/s); metrics over the second half
 SEED = 0
-MAX_RMS_ADAPTIVE = math.radians(1.5)  # rad/s; measured 1.14 deg/s
-MAX_ERROR_ADAPTIVE = math.radians(6.0)  # rad/s, largest error; measured 3.6 deg/s
-MAX_RATIO_TO_NONE = 0.5  # adaptive RMS / uncompensated RMS; measured 0.33
-MIN_ETA = 0.6  # share of the friction-induced error removed; measured 0.82
+MAX_RMS_ADAPTIVE = math.radians(1.5)  # rad/s; measured 0.67 deg/s
+MAX_ERROR_ADAPTIVE = math.radians(6.0)  # rad/s, largest error; measured 2.4 deg/s
+MAX_RATIO_TO_NONE = 0.5  # adaptive RMS / uncompensated RMS; measured 0.20
+MIN_ETA = 0.6  # share of the friction-induced error removed; measured 0.99
 MAX_RMS_UNCOMPENSATED = math.radians(5.0)  # rad/s; guards the PI loop itself; measured 3.4 deg/s
 
 
