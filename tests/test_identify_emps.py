@@ -52,7 +52,7 @@ def test_emps_json_dict(report):
     assert "Vs" not in d and "delta" not in d  # Coulomb structure: nothing pre-estimated
 
     def floats(x):
-        return [v for v in x.values() if not isinstance(v, dict)]
+        return [v for v in x.values() if not isinstance(v, (dict, list))]
 
     assert all(type(v) is float for v in floats(d))
     assert all(type(v) is float for v in floats(d["rls"])) and all(type(v) is float for v in d["std"].values())
@@ -155,3 +155,33 @@ def test_identify_rejects_bad_arguments(emps):
     with pytest.raises(TypeError, match="MeasuredData"):
         identify((emps.t, emps.u, emps.w))
     assert isinstance(identify(emps, n_history=2), IdentificationReport)
+
+
+def test_emps_quality_figures(report):
+    # standard errors of every fitted parameter, relative ones in JSON; excitation summary; no warnings
+    d = report.to_json_dict()
+    assert set(d["std"]) == {"J", "sigma", "Fc", "offset"}
+    for k, s in d["std"].items():
+        assert d["rel_std"][k] == pytest.approx(100 * s / abs(d[k]), rel=1e-12)
+        assert 0 < d["rel_std"][k] < 1.0           # measured 0.05, 0.23, 0.20, 0.56 %
+    assert d["excitation"]["n_reversals"] == 7 and d["excitation"]["low_speed_fraction"] is None
+    assert d["warnings"] == []
+    assert "7 velocity reversals" in report.summary()
+    assert f"relative std errors: J {d['rel_std']['J']:.3g} %" in report.summary()
+    m = report.rigid_axis_model()
+    assert (m.J, m.sigma_pos, m.Fc_neg, m.offset) == (report.estimate.J, report.estimate.sigma, report.estimate.Fc,
+                                                      report.estimate.offset)
+
+
+def test_cross_validate_rejects_other_sample_time(report, emps):
+    from adaptive_ff.identify import cross_validate
+
+    slow = MeasuredData(emps.t[::2], emps.u[::2], emps.w[::2], source="every other sample")
+    with pytest.raises(ParameterError, match="sample time"):
+        cross_validate(report, slow)
+    with pytest.raises(TypeError, match="IdentificationReport"):
+        cross_validate(None, emps)
+    # on its own estimation record the cross-validation repeats the fit figures exactly
+    cv = cross_validate(report, emps)
+    assert cv.fit_one_step == pytest.approx(report.ls.fit_one_step, rel=1e-12)
+    assert cv.fit_free_run == pytest.approx(report.ls.fit_free_run, rel=1e-12)
