@@ -20,6 +20,31 @@ Golub & Pereyra 1973), then ``scipy.optimize.least_squares(method="lm")``
 (MINPACK's Levenberg-Marquardt, Moré 1978) refines all five parameters with
 an analytic Jacobian.
 
+Sign of the shape factor
+------------------------
+The paper allows ``delta`` of either sign ("the shape factor can be positive
+or negative", Sec. II-B). With ``p = |w/Vs|**delta``:
+
+* ``delta > 0``: ``p -> 0`` as ``w -> 0`` and ``p -> inf`` as ``|w| -> inf``, so
+  ``s -> 1`` at standstill and ``s -> 0`` at speed: the classic Stribeck curve,
+  ``|F| -> Fs`` for ``w -> 0±`` and ``F -> sgn(w)*Fc + sigma*w`` at speed
+  (falling from ``Fs`` to ``Fc`` when ``Fs > Fc``).
+* ``delta < 0``: the other way round, ``s -> 0`` at standstill and ``s -> 1``
+  at speed: ``|F| -> Fc`` for ``w -> 0±`` and ``F -> sgn(w)*Fs + sigma*w`` at
+  speed, a curve that *rises* from ``Fc`` towards ``Fs`` (with ``Fs > Fc``),
+  e.g. a lubricated contact without a stiction peak. ``Vs`` is still the speed
+  at which the excess reaches ``exp(-1)`` of ``Fs - Fc`` (measured from the
+  standstill end for ``delta < 0``: ``s(Vs) = exp(-1)`` either way).
+* ``(Fs, Fc, delta)`` and ``(Fc, Fs, -delta)`` are *not* the same curve
+  (``exp(-1/p) != 1 - exp(-p)``), so the sign is identifiable from data that
+  cover the transition.
+* ``w = 0``: ``sgn(0) = 0`` gives ``F(0) = 0`` for either sign; the limit of
+  ``s`` (1 or 0) is finite. This module, :func:`plant.friction.stribeck_shape`
+  (``0**delta = inf`` for ``delta < 0`` handled under ``np.errstate``) and the
+  online filter (:mod:`adaptive_ff.online_ukf`, log-domain exponent) evaluate
+  it without NaN or warnings. ``delta = 0`` is excluded (``s = exp(-1)``
+  constant: ``Fc``, ``Fs`` not separable).
+
 Points with ``w == 0`` are dropped: ``sgn(0) = 0`` makes ``F(0) = 0`` in the
 model, so a measured torque at standstill (stiction, anywhere in ``[-Fs, Fs]``)
 carries no information about eq. 3.
@@ -57,6 +82,8 @@ _COND_LIMIT = 1e10
 _GRID_PER_DECADE = 12
 # log(p) is clipped here so exp(log p) cannot overflow (exp(700) ~ 1e304).
 _LOGP_MAX = 700.0
+# Floor of the residual standard deviation in units of eps*max|F/F_std| (numerical resolution of the fit).
+_RES_FLOOR_EPS = 1e3
 
 
 @dataclass(frozen=True)
@@ -83,8 +110,10 @@ class StribeckFit:
         ``s**2 * inv(J^T J)`` with the weighted Jacobian ``J`` in
         ``(Fc, Fs, log Vs, delta, sigma)``, mapped to ``Vs`` by the delta method
         (``dVs/dlog Vs = Vs``). ``s**2`` is the weighted residual variance
-        (sum of squares / (n_points - 5)), so weights act as relative weights.
-        Read-only.
+        (sum of squares / (n_points - 5)), so weights act as relative weights;
+        it is floored at ``(1e3*eps*max|F/F_std|)**2`` (about 1e-11 relative),
+        the numerical resolution of the fit, so that noise-free data give
+        tiny intervals that still contain the truth. Read-only.
     residual_rms : float
         RMS of the unweighted residuals ``F(w_i) - F_i`` over the fitted points (N·m).
     n_points : int
@@ -435,7 +464,9 @@ def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0)) -> 
     Jw = jac(x)
     r = resid(x)
     dof = n - len(PARAM_NAMES)
-    s2 = float(r @ r) / dof
+    # numerical resolution floor: rounding in the residuals (a few eps*|F| per point) leaves exact data with
+    # parameter errors of ~1e-15 relative that a purely residual-based s**2 (~1e-30) would call significant
+    s2 = max(float(r @ r) / dof, (_RES_FLOOR_EPS * np.finfo(float).eps * float(np.max(np.abs(F * wt)))) ** 2)
     col = np.linalg.norm(Jw, axis=0)
     names_x = ("Fc", "Fs", "log Vs", "delta", "sigma")
     if np.any(col == 0.0) or delta == 0.0:

@@ -324,3 +324,70 @@ def test_plot_draws_curve_and_measurements_with_labelled_axes():
     assert plot_stribeck_fit(fit, w, F, ax=ax2) is ax2
     with pytest.raises(TypeError, match="StribeckFit"):
         plot_stribeck_fit(fit.to_dict(), w, F)
+
+
+# --------------------------------------------------------------------------- issue 3, item 3: simulated quasi-static runs,
+# both signs of delta, interval width vs noise, intervals on exact data
+
+
+@pytest.mark.parametrize("delta", [1.0, -1.0])
+def test_simulated_quasi_static_runs_recover_vs_and_delta_within_5_percent(delta):
+    # Sec. V-C experiment on the RK4 plant: bidirectional constant-velocity runs in a PI loop, velocity noise
+    # 1e-3 rad/s, mean torque of each run as the support point. delta = -1: friction rising from Fc to Fs.
+    from controllers.quasi_static import bidirectional_velocities, quasi_static_runs
+    from plant.friction import JointParams
+
+    p = JointParams(**dict(preset("paper").to_dict(), delta=delta))
+    qs = quasi_static_runs(p, bidirectional_velocities(0.002, 0.35, 10), noise_std=1e-3,
+                           rng=np.random.default_rng(1))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        fit = fit_stribeck(qs.w_mean, qs.u_mean)
+    assert np.sign(fit.delta) == np.sign(delta)
+    assert abs(fit.Vs / p.Vs - 1) < 0.05, fit.Vs
+    assert abs(fit.delta / delta - 1) < 0.05, fit.delta
+    for k in ("Fc", "Fs", "sigma"):
+        assert abs(getattr(fit, k) / getattr(p, k) - 1) < 0.05, (k, getattr(fit, k))
+    # the reported standard errors are non-zero and finite
+    assert all(0 < fit.stderr[k] < np.inf for k in PARAM_NAMES)
+
+
+@pytest.mark.parametrize("delta", [1.0, -1.0, 0.5, -2.0])
+def test_intervals_on_noise_free_data_contain_the_truth(delta):
+    true = dict(PAPER, delta=delta)
+    w = np.concatenate([[0.0], bidirectional()])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        fit = fit_stribeck(w, stribeck(w, **true))
+        ci = fit.confidence_intervals(0.95)
+    for k in PARAM_NAMES:
+        lo, hi = ci[k]
+        assert lo <= true[k] <= hi, (k, lo, true[k], hi)
+        assert hi - lo < 1e-8 * max(abs(true[k]), 1.0), (k, hi - lo)  # exact data: tiny intervals
+
+
+@pytest.mark.parametrize("delta", [1.0, -1.0])
+def test_interval_width_scales_linearly_with_noise_and_matches_linearisation(delta):
+    true = dict(PAPER, delta=delta)
+    w = bidirectional()
+    F0 = stribeck(w, **true)
+    z = np.random.default_rng(21).standard_normal(w.size)
+    tq = student_t.ppf(0.975, w.size - 5)
+    widths = {}
+    for s in (0.05, 0.1, 0.2):
+        fit = fit_stribeck(w, F0 + s * z)
+        ci = fit.confidence_intervals(0.95)
+        s_hat = np.sqrt(np.sum((fit.friction(w) - F0 - s * z) ** 2) / (w.size - 5))
+        Jf = fd_jacobian(w, fit.params())  # independent: finite differences of plant.friction.stribeck
+        g = np.sqrt(np.diag(np.linalg.inv(Jf.T @ Jf)))
+        for i, k in enumerate(PARAM_NAMES):
+            width = ci[k][1] - ci[k][0]
+            widths[(s, k)] = width
+            if k != "Vs":  # Vs: log-scale interval, checked below
+                # half-width = t * s_hat * sqrt(diag(inv(J^T J))) (Wald interval; FD Jacobian error ~1e-6)
+                np.testing.assert_allclose(width / 2, tq * s_hat * g[i], rtol=1e-4)
+        lo, hi = ci["Vs"]
+        np.testing.assert_allclose(np.log(hi / lo) / 2, tq * s_hat * g[2] / fit.Vs, rtol=1e-4)
+    for k in PARAM_NAMES:  # same noise shape, amplitude doubled -> interval width doubled (to linearisation error)
+        np.testing.assert_allclose(widths[(0.1, k)] / widths[(0.05, k)], 2.0, rtol=0.05)
+        np.testing.assert_allclose(widths[(0.2, k)] / widths[(0.1, k)], 2.0, rtol=0.05)
