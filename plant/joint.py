@@ -32,11 +32,15 @@ def _friction_scalar(p: JointParams) -> Callable[[float], float]:
     Fc, dF, Vs, delta, sigma = p.Fc, p.Fs - p.Fc, p.Vs, p.delta, p.sigma
 
     def F(w: float) -> float:
+        if w == 0.0:
+            return 0.0
+        try:
+            s = math.exp(-((abs(w) / Vs) ** delta))
+        except OverflowError:  # |w/Vs|**delta beyond the float range (delta < 0, w tiny): shape -> 0
+            s = 0.0
         if w > 0.0:
-            return Fc + dF * math.exp(-((w / Vs) ** delta)) + sigma * w
-        if w < 0.0:
-            return -(Fc + dF * math.exp(-((-w / Vs) ** delta))) + sigma * w
-        return 0.0
+            return Fc + dF * s + sigma * w
+        return -(Fc + dF * s) + sigma * w
 
     return F
 

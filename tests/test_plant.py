@@ -123,3 +123,24 @@ def test_joint_params_validation_and_json(tmp_path):
     f.write_text('{"J": 1}')
     with pytest.raises(ParameterError, match="miss"):
         JointParams.from_json(f)
+
+
+def test_rk4_step_negative_delta_tiny_velocity_is_finite_and_matches_eq3():
+    """delta < 0: (|w|/Vs)**delta overflows for |w| ~ 1e-310; the step must use the limit s -> 0."""
+    import dataclasses
+    import math
+    import warnings
+
+    from plant.friction import preset, stribeck
+    from plant.joint import make_rk4_step
+
+    p = dataclasses.replace(preset("paper"), delta=-1.0, tau=0.0)
+    step = make_rk4_step(p, 1e-3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for w0 in (1e-310, -1e-310, 1e-300, 0.0):
+            w1, f1 = step(w0, 0.0, 0.0)
+            assert math.isfinite(w1) and math.isfinite(f1)
+            # tau = 0: f is the algebraic eq. 3 at the end state, computed independently by numpy
+            F = float(stribeck(np.array([w1]), Fc=p.Fc, Fs=p.Fs, Vs=p.Vs, delta=p.delta, sigma=p.sigma)[0])
+            assert f1 == pytest.approx(F, rel=1e-12, abs=1e-12)
