@@ -9,10 +9,15 @@ from adaptive_ff.feedforward import (AdaptiveFrictionFeedforward, FrictionFeedfo
                                      project_estimate)
 from adaptive_ff.gate import OutlierGate
 from adaptive_ff.io import VelocityEstimate, load_log, parse_column_map, read_columns, velocity_from_position
-from adaptive_ff.identify import IdentificationReport, identify
+from adaptive_ff.diagnostics import ExcitationReport, excitation_report, velocity_noise_std
+from adaptive_ff.emps_validation import (EMPSRecord, EMPSValidation, exact_step, is_emps_record, read_emps_record,
+                                         simulate_emps_loop, validate_emps)
+from adaptive_ff.identify import CrossValidation, IdentificationReport, cross_validate, identify
+from adaptive_ff.idim import IDIMFit, RigidAxisModel, fit_idim, idim_force_error, relative_error
 from adaptive_ff.ls import LSResult, fit_ls
 from adaptive_ff.regression import (THETA_NAMES, FrictionEstimate, RegressionModel, g_regressor, h_regressor,
                                     nrmse_fit, theta_from_physical, theta_from_physical_printed)
+from adaptive_ff.online_ukf import FilterDivergedError, OnlineUKF, OnlineUKFResult, convergence_time, run_online_ukf
 from adaptive_ff.rls import FORGETTING, RecursiveLeastSquares
 from adaptive_ff.sliding_estimator import (SLIDING_NAMES, SlidingFit, SlidingFrictionEstimator, fit_sliding,
                                            sliding_regressors)
@@ -33,4 +38,10 @@ __all__ = [
     "SupportPoints", "support_points", "constant_velocity_segments", "binned_steady_state",
     "RobustAdaptiveFeedforward", "OutlierGate", "FORGETTING",
     "SlidingFrictionEstimator", "SlidingFit", "fit_sliding", "sliding_regressors", "SLIDING_NAMES",
+    "excitation_report", "ExcitationReport", "velocity_noise_std",
+    "CrossValidation", "cross_validate",
+    "fit_idim", "IDIMFit", "RigidAxisModel", "idim_force_error", "relative_error",
+    "validate_emps", "EMPSValidation", "simulate_emps_loop", "read_emps_record", "EMPSRecord", "exact_step",
+    "is_emps_record",
+    "OnlineUKF", "OnlineUKFResult", "run_online_ukf", "FilterDivergedError", "convergence_time",
 ]
