@@ -145,9 +145,14 @@ def multisine_reference(duration: float, *, dt: float = 1e-3, f_min: float = 0.0
         raise ParameterError(f"n_components must be an integer >= 1, got {n_components!r}")
     freqs = np.geomspace(f_min, f_max, int(n_components))
     phases = rng.uniform(0.0, 2.0 * np.pi, size=freqs.shape)
-    arg = 2.0 * np.pi * freqs[:, None] * t[None, :] + phases[:, None]
-    x = np.sin(arg).sum(axis=0)
-    dx = (2.0 * np.pi * freqs[:, None] * np.cos(arg)).sum(axis=0)
+    # One component at a time (memory O(N), not O(n_components*N)); the same
+    # additions in the same order as summing the (n_components, N) matrix over axis 0.
+    x = np.zeros_like(t)
+    dx = np.zeros_like(t)
+    for fk, pk in zip(freqs, phases):
+        arg = 2.0 * np.pi * fk * t + pk
+        x += np.sin(arg)
+        dx += 2.0 * np.pi * fk * np.cos(arg)
     if ramp > 0:
         r = np.clip(t / ramp, 0.0, 1.0)
         s = 0.5 - 0.5 * np.cos(np.pi * r)
