@@ -5,6 +5,17 @@ and no faults for the modes ``none``, ``frictionless``, ``oracle`` and ``fixed``
 (plant: :func:`plant.joint.make_rk4_step`; PI: :meth:`controllers.pi.PIController.step`;
 fixed feedforward: :class:`adaptive_ff.feedforward.FrictionFeedforward` with
 ``stick_band = 0``). Memory is O(B) apart from optional noise arrays.
+
+Speed (issue 5): the scenarios are cut into chunks (prange over chunks); a chunk
+is stepped time-major, i.e. at every step each scenario of the chunk advances
+once, so the CPU overlaps the independent, latency-bound RK4 chains of several
+scenarios. Eq. 3 skips ``pow`` for ``delta == 1`` and ``pow``/``exp`` where the
+Stribeck term is below half an ulp of ``Fc`` (:func:`_wcut`); both shortcuts are
+bit-exact, and the state update performs the same floating-point operations in
+the same order as the Python loop (only the metrics are summed differently), so
+the results equal ``run_closed_loop`` to rounding (tested to 1e-9). ``fastmath``
+is not used: it would reorder the operations, and round-off differences grow
+where the velocity chatters around zero.
 """
 
 from __future__ import annotations
@@ -12,6 +23,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -24,6 +36,10 @@ __all__ = ["BATCH_MODES", "BatchResult", "run_batch"]
 #: Modes supported by the batch kernel (no online estimator).
 BATCH_MODES = ("none", "frictionless", "oracle", "fixed")
 _MODE_CODE = {"none": 0, "frictionless": 0, "oracle": 1, "fixed": 2}
+#: Scenarios per chunk (at most; at least _CHUNK_MIN, else B / threads): a chunk is stepped
+#: time-major by one thread (see :func:`_chunk`).
+_CHUNK = 64
+_CHUNK_MIN = 8
 
 
 @dataclass(frozen=True)
@@ -53,44 +69,133 @@ class BatchResult:
 
 
 @njit(cache=True, inline="always")
-def _F(w, Fc, dF, Vs, delta, sigma):
+def _F(w, Fc, dF, Vs, delta, sigma, d1, wcut):
+    """Eq. 3, bit for bit as :func:`plant.joint._friction_scalar`, with two exact shortcuts.
+
+    ``d1``: ``delta == 1``, where ``x**1.0 == x`` exactly, so ``pow`` is skipped.
+    ``|w| > wcut``: ``|dF|*exp(-(|w|/Vs)**delta)`` is below half an ulp of ``Fc``
+    (or ``exp`` underflows to 0), so ``Fc + dF*exp(...)`` rounds to ``Fc`` and the
+    ``pow``/``exp`` are skipped (see :func:`_wcut`).
+    """
     if w > 0.0:
-        return Fc + dF * math.exp(-((w / Vs) ** delta)) + sigma * w
+        if w > wcut:
+            return Fc + sigma * w
+        x = w / Vs
+        if not d1:
+            x = x ** delta
+        return Fc + dF * math.exp(-x) + sigma * w
     if w < 0.0:
-        return -(Fc + dF * math.exp(-((-w / Vs) ** delta))) + sigma * w
+        if -w > wcut:
+            return -Fc + sigma * w
+        x = -w / Vs
+        if not d1:
+            x = x ** delta
+        return -(Fc + dF * math.exp(-x)) + sigma * w
     return 0.0
 
 
+def _wcut(Fc: float, dF: float, Vs: float, delta: float) -> float:
+    """Speed above which ``Fc + dF*exp(-(|w|/Vs)**delta)`` equals ``Fc`` exactly in float64.
+
+    ``Fc + d == Fc`` when ``|d| < ulp(Fc)/2``, and ``ulp(Fc)/2 >= Fc*2**-54``; so
+    ``(|w|/Vs)**delta > log(|dF|/Fc) + 54*log(2)`` suffices (plus a margin of 1).
+    With ``Fc == 0`` only an underflow of ``exp`` (argument > 745.2) is exact.
+    """
+    if not (Vs > 0.0 and 0.0 < delta < math.inf and math.isfinite(Fc) and math.isfinite(dF)):
+        return math.inf  # (an odd estimate) never take the shortcut
+    if dF == 0.0:
+        return 0.0
+    xcut = 746.0 if Fc == 0.0 else max(math.log(abs(dF) / abs(Fc)) + 54.0 * math.log(2.0) + 1.0, 0.0)
+    return Vs * xcut ** (1.0 / delta) * (1.0 + 1e-9)
+
+
 @njit(cache=True, parallel=True)
-def _kernel(P, G, E, wr, half, rev, noise, noise_rows, s0, mode, ff_ref, dt, w_limit, out):
+def _kernel(P, G, E, wr, half, rev, noise, noise_rows, s0, mode, ff_ref, dt, w_limit, out, chunk):
+    """Run all scenarios: prange over chunks of ``chunk`` scenarios (see :func:`_chunk`)."""
     B = P.shape[0]
+    nchunks = (B + chunk - 1) // chunk
+    for c in prange(nchunks):
+        b0 = c * chunk
+        _chunk(P, G, E, wr, half, rev, noise, noise_rows, s0, mode, ff_ref, dt, w_limit, out, b0,
+               min(B, b0 + chunk))
+
+
+@njit(cache=True)
+def _kernel_serial(P, G, E, wr, half, rev, noise, noise_rows, s0, mode, ff_ref, dt, w_limit, out, chunk):
+    """:func:`_kernel` on the calling thread (one chunk, or one numba thread: no parallel-region cost)."""
+    B = P.shape[0]
+    nchunks = (B + chunk - 1) // chunk
+    for c in range(nchunks):
+        b0 = c * chunk
+        _chunk(P, G, E, wr, half, rev, noise, noise_rows, s0, mode, ff_ref, dt, w_limit, out, b0,
+               min(B, b0 + chunk))
+
+
+@njit(cache=True)
+def _chunk(P, G, E, wr, half, rev, noise, noise_rows, s0, mode, ff_ref, dt, w_limit, out, b0, b1):
+    """Scenarios b0..b1-1, time-major: at each step every scenario of the chunk advances once.
+
+    One RK4 step is a long chain of dependent divisions, ``pow`` and ``exp`` (latency
+    bound); stepping the independent scenarios of a chunk one after the other lets
+    the CPU overlap their chains. The state of the chunk lives in small contiguous
+    arrays (scenario-major).
+    """
+    L = b1 - b0
     n = wr.shape[0]
     h2 = dt / 2.0
     h6 = dt / 6.0
-    for b in prange(B):
-        J, Fc, dF, Vs, delta, sigma, tau = P[b, 0], P[b, 1], P[b, 2], P[b, 3], P[b, 4], P[b, 5], P[b, 6]
-        Kp, KiTc, umax = G[b, 0], G[b, 1], G[b, 2]
-        eFc, edF, eVs, edelta, esig, alpha, ffmax, sw, has_vs = (E[b, 0], E[b, 1], E[b, 2], E[b, 3], E[b, 4],
-                                                                 E[b, 5], E[b, 6], E[b, 7], E[b, 8])
-        row = np.int64(0)
-        if noise_rows > 1:
-            row = np.int64(b)
-        w = wr[0]
-        f = s0[b]
-        I = 0.0
-        uff_state = 0.0
-        se = 0.0
-        se2 = 0.0
-        ser = 0.0
-        su = 0.0
-        me = 0.0
-        me2 = 0.0
-        nh = 0
-        nr = 0
-        div = False
-        for k in range(n):
-            wm = w + noise[row, k] if noise_rows > 0 else w
-            wrk = wr[k]
+    W = np.empty(L)
+    Fst = np.empty(L)
+    Ist = np.zeros(L)
+    U = np.zeros(L)  # feedforward filter state
+    FW = np.empty(L)  # F(w) at the current w (tau == 0: the f of the previous step)
+    SE = np.zeros(L)
+    SE2 = np.zeros(L)
+    SER = np.zeros(L)
+    SU = np.zeros(L)
+    ME = np.zeros(L)
+    ME2 = np.zeros(L)
+    alive = np.ones(L, dtype=np.bool_)
+    D1 = np.empty(L, dtype=np.bool_)
+    WC = np.empty(L)
+    ED1 = np.empty(L, dtype=np.bool_)
+    EWC = np.empty(L)
+    for l in range(L):
+        b = b0 + l
+        W[l] = wr[0]
+        Fst[l] = s0[b]
+        D1[l] = P[b, 4] == 1.0
+        WC[l] = P[b, 7]
+        ED1[l] = E[b, 3] == 1.0
+        EWC[l] = E[b, 9]
+    nh = 0
+    nr = 0
+    n_alive = L
+    for k in range(n):
+        if n_alive == 0:
+            break
+        wrk = wr[k]
+        hk = half[k]
+        rk = rev[k]
+        if hk:
+            nh += 1
+        if rk:
+            nr += 1
+        for l in range(L):
+            if not alive[l]:
+                continue
+            b = b0 + l
+            J, Fc, dF, Vs, delta, sigma, tau = P[b, 0], P[b, 1], P[b, 2], P[b, 3], P[b, 4], P[b, 5], P[b, 6]
+            d1 = D1[l]
+            wcut = WC[l]
+            w = W[l]
+            f = Fst[l]
+            if noise_rows > 1:
+                wm = w + noise[b, k]
+            elif noise_rows == 1:
+                wm = w + noise[0, k]
+            else:
+                wm = w
             if mode == 1:
                 uff = f
             elif mode == 2:
@@ -99,22 +204,32 @@ def _kernel(P, G, E, wr, half, rev, noise, noise_rows, s0, mode, ff_ref, dt, w_l
                     st = 0.0
                 else:
                     ax = abs(x)
-                    if has_vs > 0.0:
-                        mag = eFc + edF * math.exp(-((ax / eVs) ** edelta))
+                    eFc = E[b, 0]
+                    if E[b, 8] > 0.0 and ax <= EWC[l]:
+                        xx = ax / E[b, 2]
+                        if not ED1[l]:
+                            xx = xx ** E[b, 3]
+                        mag = eFc + E[b, 1] * math.exp(-xx)
                     else:
                         mag = eFc
+                    sw = E[b, 7]
                     if sw > 0.0 and ax < sw:
-                        st = mag * (x / sw) + esig * x
+                        st = mag * (x / sw) + E[b, 4] * x
                     else:
-                        st = math.copysign(mag, x) + esig * x
-                uff_state += alpha * (st - uff_state)
-                uff = min(max(uff_state, -ffmax), ffmax)
+                        st = math.copysign(mag, x) + E[b, 4] * x
+                us = U[l]
+                us += E[b, 5] * (st - us)
+                U[l] = us
+                ffmax = E[b, 6]
+                uff = min(max(us, -ffmax), ffmax)
             else:
                 uff = 0.0
             # PIController.step
+            Kp, KiTc, umax = G[b, 0], G[b, 1], G[b, 2]
             e = wrk - wm
             Kpe = Kp * e
             d = KiTc * e
+            I = Ist[l]
             In = I + d
             if d > 0.0:
                 lim = umax - Kpe - uff
@@ -124,7 +239,7 @@ def _kernel(P, G, E, wr, half, rev, noise, noise_rows, s0, mode, ff_ref, dt, w_l
                 lim = -umax - Kpe - uff
                 if In < lim:
                     In = lim if lim < I else I
-            I = In
+            Ist[l] = In
             v = Kpe + In + uff
             if v >= umax:
                 u = umax
@@ -135,60 +250,63 @@ def _kernel(P, G, E, wr, half, rev, noise, noise_rows, s0, mode, ff_ref, dt, w_l
             # metrics (true velocity)
             et = wrk - w
             e2 = et * et
-            se += e2
+            SE[l] += e2
             ae = abs(et)
-            if ae > me:
-                me = ae
-            if half[k]:
-                se2 += e2
-                nh += 1
-                if ae > me2:
-                    me2 = ae
-                if rev[k]:
-                    ser += e2
-            if rev[k]:
-                nr += 1
-            su += u * u
+            if ae > ME[l]:
+                ME[l] = ae
+            if hk:
+                SE2[l] += e2
+                if ae > ME2[l]:
+                    ME2[l] = ae
+                if rk:
+                    SER[l] += e2
+            SU[l] += u * u
             # RK4 (plant.joint.lagged_rk4_step)
             if tau == 0.0:
-                k1 = (u - _F(w, Fc, dF, Vs, delta, sigma)) / J
-                k2 = (u - _F(w + h2 * k1, Fc, dF, Vs, delta, sigma)) / J
-                k3 = (u - _F(w + h2 * k2, Fc, dF, Vs, delta, sigma)) / J
-                k4 = (u - _F(w + dt * k3, Fc, dF, Vs, delta, sigma)) / J
+                Fw = FW[l] if k > 0 else _F(w, Fc, dF, Vs, delta, sigma, d1, wcut)
+                k1 = (u - Fw) / J
+                k2 = (u - _F(w + h2 * k1, Fc, dF, Vs, delta, sigma, d1, wcut)) / J
+                k3 = (u - _F(w + h2 * k2, Fc, dF, Vs, delta, sigma, d1, wcut)) / J
+                k4 = (u - _F(w + dt * k3, Fc, dF, Vs, delta, sigma, d1, wcut)) / J
                 w = w + h6 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-                f = _F(w, Fc, dF, Vs, delta, sigma)
+                f = _F(w, Fc, dF, Vs, delta, sigma, d1, wcut)
+                FW[l] = f
             else:
                 k1w = (u - f) / J
-                k1f = (_F(w, Fc, dF, Vs, delta, sigma) - f) / tau
+                k1f = (_F(w, Fc, dF, Vs, delta, sigma, d1, wcut) - f) / tau
                 w2 = w + h2 * k1w
                 f2 = f + h2 * k1f
                 k2w = (u - f2) / J
-                k2f = (_F(w2, Fc, dF, Vs, delta, sigma) - f2) / tau
+                k2f = (_F(w2, Fc, dF, Vs, delta, sigma, d1, wcut) - f2) / tau
                 w3 = w + h2 * k2w
                 f3 = f + h2 * k2f
                 k3w = (u - f3) / J
-                k3f = (_F(w3, Fc, dF, Vs, delta, sigma) - f3) / tau
+                k3f = (_F(w3, Fc, dF, Vs, delta, sigma, d1, wcut) - f3) / tau
                 w4 = w + dt * k3w
                 f4 = f + dt * k3f
                 k4w = (u - f4) / J
-                k4f = (_F(w4, Fc, dF, Vs, delta, sigma) - f4) / tau
+                k4f = (_F(w4, Fc, dF, Vs, delta, sigma, d1, wcut) - f4) / tau
                 w, f = (w + h6 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w),
                         f + h6 * (k1f + 2.0 * k2f + 2.0 * k3f + k4f))
+            W[l] = w
+            Fst[l] = f
             if not (-w_limit < w < w_limit):
-                div = True
-                break
-        nan = np.nan
-        if div:
+                alive[l] = False
+                n_alive -= 1
+    nan = np.nan
+    for l in range(L):
+        b = b0 + l
+        if not alive[l]:
             for j in range(6):
                 out[b, j] = nan
             out[b, 6] = 1.0
         else:
-            out[b, 0] = math.sqrt(se / n)
-            out[b, 1] = me
-            out[b, 2] = math.sqrt(se2 / nh) if nh > 0 else nan
-            out[b, 3] = me2
-            out[b, 4] = math.sqrt(ser / nr) if nr > 0 else nan
-            out[b, 5] = math.sqrt(su / n)
+            out[b, 0] = math.sqrt(SE[l] / n)
+            out[b, 1] = ME[l]
+            out[b, 2] = math.sqrt(SE2[l] / nh) if nh > 0 else nan
+            out[b, 3] = ME2[l]
+            out[b, 4] = math.sqrt(SER[l] / nr) if nr > 0 else nan
+            out[b, 5] = math.sqrt(SU[l] / n)
             out[b, 6] = 0.0
 
 
@@ -252,6 +370,9 @@ def run_batch(plants, reference: Reference, *, mode: str, Kp, Ki, u_max=math.inf
     -----
     Equals ``run_closed_loop(p, reference, ..., sensor_gate=False)`` (no faults,
     no ``stick_band``) up to floating-point summation order of the metrics.
+    Scenarios run in chunks of at most 64 (``prange`` over chunks on all numba
+    threads; one chunk or one thread runs serially); each scenario's result does
+    not depend on B or the chunking (bit for bit).
     """
     if mode not in BATCH_MODES:
         raise ParameterError(f"mode must be one of {BATCH_MODES}, got {mode!r}")
@@ -284,11 +405,12 @@ def run_batch(plants, reference: Reference, *, mode: str, Kp, Ki, u_max=math.inf
 
     if mode == "frictionless":
         plants = [p.frictionless() for p in plants]
-    P = np.array([[p.J, p.Fc, p.Fs - p.Fc, p.Vs, p.delta, p.sigma, p.tau] for p in plants], dtype=float)
+    P = np.array([[p.J, p.Fc, p.Fs - p.Fc, p.Vs, p.delta, p.sigma, p.tau, _wcut(p.Fc, p.Fs - p.Fc, p.Vs, p.delta)]
+                  for p in plants], dtype=float)
     s0 = np.array([p.initial_state(float(wr[0])) for p in plants], dtype=float)
     G = np.column_stack([Kp, Ki * Tc, u_max])
 
-    E = np.zeros((B, 9))
+    E = np.zeros((B, 10))
     if mode == "fixed":
         if estimate is None:
             raise ParameterError("mode 'fixed' needs estimate=FrictionEstimate (or a sequence of B of them)")
@@ -299,7 +421,8 @@ def run_batch(plants, reference: Reference, *, mode: str, Kp, Ki, u_max=math.inf
             alpha = 1.0 - math.exp(-Tc / est.tau) if (lag and est.tau > 0) else 1.0
             has = est.Vs is not None
             E[b] = [est.Fc, est.Fs - est.Fc, est.Vs if has else 1.0, est.delta if has else 1.0, est.sigma,
-                    alpha, ffm[b], sign_width, 1.0 if has else 0.0]
+                    alpha, ffm[b], sign_width, 1.0 if has else 0.0,
+                    _wcut(est.Fc, est.Fs - est.Fc, est.Vs, est.delta) if has else 0.0]
 
     if noise is not None:
         nz = np.asarray(noise, dtype=float)
@@ -332,8 +455,11 @@ def run_batch(plants, reference: Reference, *, mode: str, Kp, Ki, u_max=math.inf
         mask = (np.minimum(lo, hi) <= reversal_window) & half
     out = np.empty((B, 7))
     # noise_rows: 0 none, 1 shared row, >1 per-scenario (B == 1 with own row also works as 1)
-    _kernel(P, G, E, wr, half, mask, nz, rows if rows <= 1 or B > 1 else 1, s0, _MODE_CODE[mode],
-            ff_input == "reference", Tc, w_limit, out)
+    threads = numba.get_num_threads()
+    chunk = max(_CHUNK_MIN, min(_CHUNK, -(-B // threads)))
+    kernel = _kernel_serial if (threads == 1 or B <= chunk) else _kernel
+    kernel(P, G, E, wr, half, mask, nz, rows if rows <= 1 or B > 1 else 1, s0, _MODE_CODE[mode],
+           ff_input == "reference", Tc, w_limit, out, chunk)
     return BatchResult(mode=mode, rms=out[:, 0].copy(), max=out[:, 1].copy(), rms_second_half=out[:, 2].copy(),
                        max_second_half=out[:, 3].copy(), rms_reversal=out[:, 4].copy(), u_rms=out[:, 5].copy(),
                        diverged=out[:, 6] > 0.5)

@@ -1,5 +1,8 @@
 """RLS (eqs. 10-13): batch equivalence, an independent Kalman-filter formulation, numerical health, input checks."""
 
+import copy
+import pickle
+
 import numpy as np
 import pytest
 from filterpy.kalman import KalmanFilter
@@ -8,6 +11,7 @@ from adaptive_ff.ls import fit_ls
 from adaptive_ff.regression import RegressionModel
 from adaptive_ff.rls import RecursiveLeastSquares
 from plant import JointParams, ParameterError, SignalError, bandlimited_noise, sample, simulate
+from rls_oracle import NumpyRLS  # the former numpy implementation (test oracle)
 
 P_TRUE = JointParams(J=4.0, Fc=25.0, Fs=35.0, Vs=0.02, delta=1.0, sigma=40.0, tau=0.02)
 
@@ -94,3 +98,100 @@ def test_default_initial_theta_is_zero_and_P0_validated():
         RecursiveLeastSquares(2, P0=np.diag([1.0, -1.0]))
     with pytest.raises(ParameterError, match="shape"):
         RecursiveLeastSquares(2, P0=np.eye(3))
+
+
+# ---- issue 5: compiled kernel, update_many, numpy oracle (tests/rls_oracle.py = the former implementation) ----
+
+CONFIGS = [
+    dict(lam=1.0),
+    dict(lam=0.97),
+    dict(lam=0.85, P_max=50.0),
+    dict(lam=0.9, forgetting="directional"),
+    dict(lam=[0.99, 0.95, 0.9, 0.999], P_max=300.0),
+    dict(lam=0.95, bounds=([-0.5, 0.0, -np.inf, -1.0], [0.5, np.inf, 2.0, 1.0])),
+]
+
+
+def _stream(rng, n=400, p=4):
+    phi = rng.normal(size=(n, p)) * np.array([1.0, 3.0, 0.3, 1.0])
+    phi[n // 2:n // 2 + 60] = phi[n // 2]  # a constant regressor: no excitation, the P_max / directional paths
+    y = phi @ np.array([0.4, 1.5, -2.0, 0.7]) + 0.05 * rng.normal(size=n)
+    return phi, y
+
+
+@pytest.mark.parametrize("cfg", CONFIGS, ids=lambda c: "-".join(f"{k}" for k in c) + f"-{c['lam']}")
+def test_update_equals_update_many_bitwise_and_numpy_oracle(cfg):
+    phi, y = _stream(np.random.default_rng(3))
+    a = RecursiveLeastSquares(4, P0=10.0, **cfg)
+    b = RecursiveLeastSquares(4, P0=10.0, **cfg)
+    o = NumpyRLS(4, P0=10.0, **cfg)
+    hist = b.update_many(phi, y)
+    for k in range(len(y)):
+        e = a.update(phi[k], y[k])
+        e_o = o.update(phi[k], y[k])
+        assert np.array_equal(a.theta, hist[k])
+        assert e == pytest.approx(e_o, rel=1e-12, abs=1e-12)
+        np.testing.assert_allclose(a.theta, o.theta, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(a.P, o.P, rtol=1e-12, atol=1e-12 * np.max(np.abs(o.P)))
+    assert np.array_equal(a.P, b.P) and np.array_equal(a.P, a.P.T)
+    assert a.n_updates == b.n_updates == o.n_updates == len(y)
+    assert a.n_projected == b.n_projected == o.n_projected
+
+
+def test_update_many_rejects_a_stream_with_a_bad_sample_and_keeps_the_state():
+    rls = RecursiveLeastSquares(3, lam=0.99)
+    rls.update_many(np.eye(3), [1.0, 2.0, 3.0])
+    theta, P, n = rls.theta.copy(), rls.P.copy(), rls.n_updates
+    phi = np.ones((5, 3))
+    y = np.ones(5)
+    y[3] = np.nan
+    with pytest.raises(SignalError, match=r"sample 3.*Y\[3\] = nan"):
+        rls.update_many(phi, y)
+    phi[1, 2] = np.inf
+    with pytest.raises(SignalError, match=r"sample 1"):
+        rls.update_many(phi, np.ones(5))
+    with pytest.raises(SignalError, match="Phi"):
+        rls.update_many(np.ones((5, 2)), np.ones(5))
+    with pytest.raises(SignalError, match="Y"):
+        rls.update_many(np.ones((5, 3)), np.ones(4))
+    assert np.array_equal(rls.theta, theta) and np.array_equal(rls.P, P) and rls.n_updates == n
+    assert rls.update_many(np.empty((0, 3)), np.empty(0)).shape == (0, 3)
+
+
+def test_update_accepts_lists_int_arrays_and_strided_rows_and_names_bad_values():
+    X = np.arange(12.0).reshape(3, 4)
+    ref = RecursiveLeastSquares(3, lam=0.98)
+    rls = RecursiveLeastSquares(3, lam=0.98)
+    for phi, y in (([1.0, 2.0, 3.0], 1), (np.array([1, 0, 2]), np.float32(0.5)), (X[:, 1], 2.0)):
+        e = rls.update(phi, y)
+        assert e == ref.update(np.array(phi, dtype=float), float(y))
+    np.testing.assert_array_equal(rls.theta, ref.theta)
+    ro = np.broadcast_to(np.array([0.5, 1.0, 0.0]), (2, 3))  # read-only views
+    assert rls.update(ro[0], 1.0) == ref.update(np.array([0.5, 1.0, 0.0]), 1.0)
+    np.testing.assert_array_equal(rls.update_many(ro, np.broadcast_to(2.0, (2,)))[-1],
+                                  ref.update_many(np.array(ro), np.full(2, 2.0))[-1])
+    with pytest.raises(SignalError, match="y must be finite, got nan"):
+        rls.update([1.0, 2.0, 3.0], float("nan"))
+    with pytest.raises(SignalError, match=r"phi has a non-finite entry.*inf"):
+        rls.update(np.array([1.0, np.inf, 0.0]), 1.0)
+    with pytest.raises(SignalError, match="shape"):
+        rls.update(np.ones((3, 1)), 1.0)
+    with pytest.raises(SignalError, match="y must be a number"):
+        rls.update(np.ones(3), "a")
+    np.testing.assert_array_equal(rls.theta, ref.theta)
+
+
+def test_state_survives_copy_and_pickle_and_theta_assignment():
+    rng = np.random.default_rng(0)
+    rls = RecursiveLeastSquares(3, lam=0.9, bounds=([-1.0] * 3, [1.0] * 3))
+    rls.update_many(rng.normal(size=(20, 3)), rng.normal(size=20))
+    for twin in (copy.deepcopy(rls), pickle.loads(pickle.dumps(rls))):
+        phi, y = rng.normal(size=3), 0.3
+        assert twin.update(phi, y) == copy.deepcopy(rls).update(phi, y)
+        assert twin.n_updates == 21 and twin.bounds is not None and twin.lam == 0.9
+        assert not np.shares_memory(twin.theta, rls.theta)
+    rls.theta = [0.5, 0.0, -0.5]
+    rls.update(np.zeros(3), 0.0)  # phi = 0: theta unchanged, P / lam
+    np.testing.assert_array_equal(rls.theta, [0.5, 0.0, -0.5])
+    with pytest.raises(ParameterError, match="theta"):
+        rls.theta = np.zeros(4)
