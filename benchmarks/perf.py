@@ -1,31 +1,39 @@
-"""Performance table: the closed loop against python-control's input_output_response, RLS update, compare.
+"""Performance table: the closed loop against python-control's input_output_response, RLS, batch, memory, compare.
 
-Run:  python benchmarks/perf.py [--seconds 20] [--repeat 3]
+Run:  python benchmarks/perf.py [--seconds 20] [--repeat 5] [--quick]
 
-Prints median timings (µs per 1 kHz step, µs per RLS update, s per compare),
-measured side by side in one process on one core. python-control simulates the
-same loop (RK4 lagged-Stribeck plant, discrete PI with saturation, no
-feedforward) as a discrete ``nlsys`` interconnection.
+Prints median timings measured side by side in one run (µs per 1 kHz step, µs
+per RLS update, µs per scenario-step of the batch kernel, s per compare), the
+peak memory of a simulated hour, and the speed-up over python-control.
+python-control simulates the same loop (RK4 lagged-Stribeck plant, discrete PI
+with saturation, no feedforward, no RLS) as a discrete ``nlsys``
+interconnection. Memory and compare timings run in fresh processes.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
+import resource
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 
 import control
 import numpy as np
 
-from adaptive_ff.regression import RegressionModel
 from adaptive_ff.rls import RecursiveLeastSquares
+from controllers.batch import run_batch
 from controllers.closed_loop import run_closed_loop
 from controllers.pi import design_pi
 from plant.excitation import multisine_reference
 from plant.friction import preset
 from plant.joint import make_rk4_step
+
+U_MAX = 150.0
 
 
 def python_control_loop(p, design, u_max):
@@ -51,72 +59,196 @@ def python_control_loop(p, design, u_max):
                                 connections=[["plant.u", "pi.u"], ["pi.w", "plant.w"]], dt=Tc)
 
 
-def median_time(fn, repeat):
+def timed(fn, repeat):
+    """Median and fastest wall time (s) of ``repeat`` calls of ``fn``."""
     out = []
     for _ in range(repeat):
         t0 = time.perf_counter()
         fn()
         out.append(time.perf_counter() - t0)
-    return statistics.median(out)
+    return statistics.median(out), min(out)
+
+
+# Runs in a fresh process: peak memory of one long adaptive run with streamed metrics.
+_MEMORY_SCRIPT = r"""
+import json, os, sys, time, tracemalloc
+import numpy as np
+from controllers.closed_loop import run_closed_loop
+from controllers.pi import design_pi
+from plant.excitation import multisine_reference
+from plant.friction import preset
+hours, decimate = float(sys.argv[1]), int(sys.argv[2])
+p = preset("paper")
+d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
+small = multisine_reference(1.0, rng=np.random.default_rng(0))
+run_closed_loop(p, small, mode="adaptive", Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta)  # load kernel
+def status(key):  # kB -> MB, Linux /proc
+    with open("/proc/self/status") as fh:
+        return next(int(l.split()[1]) for l in fh if l.startswith(key)) / 1024
+tracemalloc.start()
+ref = multisine_reference(3600.0 * hours, rng=np.random.default_rng(0))
+ref_bytes = tracemalloc.get_traced_memory()[0]
+tracemalloc.reset_peak()
+ref_hwm = status("VmHWM")
+with open("/proc/self/clear_refs", "w") as fh:  # reset the peak RSS (VmHWM) to the current RSS
+    fh.write("5")
+rss0 = status("VmRSS")
+t0 = time.perf_counter()
+r = run_closed_loop(p, ref, mode="adaptive", Kp=d.Kp, Ki=d.Ki, u_max=150.0, noise_std=1e-3,
+                    rng=np.random.default_rng(1), Vs=p.Vs, delta=p.delta, decimate=decimate)
+wall = time.perf_counter() - t0
+peak = tracemalloc.get_traced_memory()[1]
+tracemalloc.stop()
+hwm = status("VmHWM")
+print(json.dumps(dict(n=int(ref.t.size), ref_mb=ref_bytes / 1e6, run_peak_mb=(peak - ref_bytes) / 1e6,
+                      rss0_mb=rss0, hwm_mb=hwm, run_rss_mb=hwm - rss0, ref_hwm_mb=ref_hwm, wall=wall,
+                      us_step=wall / ref.t.size * 1e6, rms=r.metrics.rms_second_half, engine=r.info["engine"])))
+"""
+
+_COMPARE_SCRIPT = r"""
+import time; t0, c0 = time.perf_counter(), time.process_time()
+from controllers.compare import compare
+from plant import preset
+t1, c1 = time.perf_counter(), time.process_time(); compare(preset("paper"), progress=False)
+t2, c2 = time.perf_counter(), time.process_time(); compare(preset("paper"), progress=False)
+t3, c3 = time.perf_counter(), time.process_time()
+print(t1 - t0, t2 - t1, t3 - t2, c1 - c0, c2 - c1, c3 - c2)
+"""
+
+
+def _cli(args):
+    """Wall and CPU time (s) of one ``adaptive-ff`` command in a fresh process."""
+    exe = os.path.join(os.path.dirname(sys.executable), "adaptive-ff")
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory() as out:
+        subprocess.run([exe, "compare", *args, "--out", out], capture_output=True, text=True, check=True)
+    wall = time.perf_counter() - t0
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+
+
+def _py(script, *args, env=None):
+    out = subprocess.run([sys.executable, "-c", script, *map(str, args)], capture_output=True, text=True, check=True,
+                         env=env)
+    return out.stdout.strip().splitlines()[-1]
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=20.0, help="simulated time per closed-loop run (s)")
-    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--hours", type=float, default=1.0, help="simulated time of the memory run (h)")
+    ap.add_argument("--quick", action="store_true", help="short runs (5 s, 3 repeats, 0.1 h, B=200), no cold compile")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.seconds, args.repeat, args.hours = min(args.seconds, 5.0), min(args.repeat, 3), min(args.hours, 0.1)
+    B = 200 if args.quick else 1000
     p = preset("paper")
     design = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
-    u_max = 150.0
     ref = multisine_reference(args.seconds, rng=np.random.default_rng(0))
     n = ref.t.size
     rows = []
 
     pc_ref = multisine_reference(min(args.seconds, 2.0), rng=np.random.default_rng(0))
-    loop = python_control_loop(p, design, u_max)
-    t_pc = median_time(lambda: control.input_output_response(loop, pc_ref.t, pc_ref.w), args.repeat)
+    loop = python_control_loop(p, design, U_MAX)
+    t_pc, b_pc = timed(lambda: control.input_output_response(loop, pc_ref.t, pc_ref.w), max(1, args.repeat // 2))
     us_pc = t_pc / pc_ref.t.size * 1e6
-    rows.append(("python-control input_output_response, loop without RLS", us_pc, "µs/step"))
+    rows.append(("python-control input_output_response, loop without RLS", us_pc, "µs/step",
+                 b_pc / pc_ref.t.size * 1e6))
     res = control.input_output_response(loop, pc_ref.t, pc_ref.w)
-    ours = run_closed_loop(p, pc_ref, mode="none", Kp=design.Kp, Ki=design.Ki, u_max=u_max)
+    ours = run_closed_loop(p, pc_ref, mode="none", Kp=design.Kp, Ki=design.Ki, u_max=U_MAX)
     diff = np.abs(res.outputs[0] - ours.w)
-    agree_first = float(np.max(diff[:200]))
-    agree = float(np.max(diff))
+    agree_first, agree = float(np.max(diff[:200])), float(np.max(diff))
 
-    model = RegressionModel(p.Vs, p.delta)
-    for mode in ("none", "adaptive"):
-        t = median_time(lambda: run_closed_loop(p, ref, mode=mode, Kp=design.Kp, Ki=design.Ki, u_max=u_max,
-                                                model=model), args.repeat)
-        rows.append((f"run_closed_loop mode={mode}", t / n * 1e6, "µs/step"))
+    adaptive = dict(mode="adaptive", Vs=p.Vs, delta=p.delta, noise_std=1e-3)
+    us = {}
+    for label, kw in (("none", dict(mode="none")), ("adaptive", adaptive)):
+        for engine in ("numba", "python"):
+            def run(kw=kw, engine=engine):
+                return run_closed_loop(p, ref, Kp=design.Kp, Ki=design.Ki, u_max=U_MAX, engine=engine,
+                                       rng=np.random.default_rng(1), **kw)
+            run()  # load the compiled kernel (cache) before timing
+            reps = args.repeat if engine == "numba" else max(1, args.repeat // 2)
+            med, best = timed(run, reps)
+            us[label, engine] = med / n * 1e6
+            extra = " (noise 1e-3)" if label == "adaptive" else ""
+            what = f"run_closed_loop {label}{extra}" + (", compiled kernel" if engine == "numba"
+                                                               else ", engine='python' (twin)")
+            rows.append((what, us[label, engine], "µs/step", best / n * 1e6))
 
-    rls = RecursiveLeastSquares(6, lam=0.995)
+    rls = RecursiveLeastSquares(7, lam=0.995)
     rng = np.random.default_rng(1)
-    phis = rng.normal(size=(20000, 6))
-    ys = rng.normal(size=20000).tolist()
+    m = 20000
+    phis = rng.normal(size=(m, 7))
+    ys = rng.normal(size=m)
+    phi_list = list(phis)
+    y_list = ys.tolist()
 
     def rls_run():
-        for phi, y in zip(phis, ys):
-            rls.update(phi, y)
+        upd = rls.update
+        for phi, y in zip(phi_list, y_list):
+            upd(phi, y)
 
-    rows.append(("RecursiveLeastSquares.update", median_time(rls_run, args.repeat) / 20000 * 1e6, "µs/update"))
+    med, best = timed(rls_run, args.repeat)
+    rows.append(("RecursiveLeastSquares.update (p = 7), one call", med / m * 1e6, "µs/update", best / m * 1e6))
+    if hasattr(rls, "update_many"):
+        med, best = timed(lambda: rls.update_many(phis, ys), args.repeat)
+        rows.append(("RecursiveLeastSquares.update_many (p = 7), per sample", med / m * 1e6, "µs/update",
+                     best / m * 1e6))
 
-    cmd = [sys.executable, "-c", "from controllers.compare import compare; from plant import preset; "
-           "import time; t=time.perf_counter(); compare(preset('paper'), progress=False); "
-           "print(time.perf_counter()-t)"]
-    t0 = time.perf_counter()
-    inner = float(subprocess.run(cmd, capture_output=True, text=True, check=True).stdout.strip())
-    cold = time.perf_counter() - t0
-    rows.append(("compare, paper preset, 120 s, all modes (warm)", inner, "s"))
-    rows.append(("the same in a fresh process incl. imports (cold)", cold, "s"))
+    bref = multisine_reference(1.0 if args.quick else 2.0, rng=np.random.default_rng(0))
+    brng = np.random.default_rng(2)
+    plants = [p.replace(J=p.J * brng.uniform(0.7, 1.3), Fc=p.Fc * brng.uniform(0.7, 1.3),
+                        tau=p.tau * brng.uniform(0.5, 2.0)) for _ in range(B)]
+    run_batch(plants[:2], bref, mode="none", Kp=design.Kp, Ki=design.Ki, u_max=U_MAX)  # load kernel
+    t_b, b_b = timed(lambda: run_batch(plants, bref, mode="none", Kp=design.Kp, Ki=design.Ki, u_max=U_MAX),
+                     max(1, args.repeat // 2))
+    nb = B * bref.t.size
+    rows.append((f"run_batch mode=none, B={B}, per scenario-step", t_b / nb * 1e6, "µs", b_b / nb * 1e6))
 
-    print(f"{'what':<58}{'median':>12}  unit")
-    print("-" * 78)
-    for what, val, unit in rows:
-        print(f"{what:<58}{val:>12.3f}  {unit}")
-    best = min(v for w, v, u in rows if w.startswith("run_closed_loop mode=none"))
-    print(f"\nspeed-up of run_closed_loop (none) over python-control: {us_pc / best:.1f}x; "
-          f"max |w| difference: {agree_first:.1e} rad/s over the first 0.2 s, {agree:.1e} over the run "
-          "(round-off differences are amplified where the velocity chatters around zero)")
+    mem = json.loads(_py(_MEMORY_SCRIPT, args.hours, 0))
+    mem_dec = json.loads(_py(_MEMORY_SCRIPT, args.hours, 1000))
+    h = f"{args.hours:g} h"
+    rows.append((f"{h} adaptive (N={mem['n']}), metrics only: run peak, traced", mem["run_peak_mb"], "MB"))
+    rows.append(("  the same, peak RSS growth of the process during the run", mem["run_rss_mb"], "MB"))
+    rows.append(("  the same with signals every 1000th sample: run peak, traced", mem_dec["run_peak_mb"], "MB"))
+    rows.append(("  the reference given to it (t, w, dw arrays), traced", mem["ref_mb"], "MB"))
+    rows.append(("  process RSS before the run (interpreter, libs, reference)", mem["rss0_mb"], "MB"))
+    rows.append(("  process peak RSS while multisine_reference built it", mem["ref_hwm_mb"], "MB"))
+    rows.append(("  process peak RSS during the run", mem["hwm_mb"], "MB"))
+    rows.append(("  wall time of that run (incl. noise generation)", mem["wall"], "s"))
+
+    cold_t0 = time.perf_counter()
+    imp, first, warm, cimp, cfirst, cwarm = (float(x) for x in _py(_COMPARE_SCRIPT).split())
+    cold = time.perf_counter() - cold_t0 - warm
+    rows.append(("compare(), paper preset, 120 s, all modes (warm), wall | CPU", warm, "s", cwarm))
+    rows.append(("  first compare() in a fresh process (numba cache loaded)", first, "s", cfirst))
+    rows.append(("  imports of controllers.compare in that process", imp, "s", cimp))
+    rows.append(("  first compare() incl. interpreter start and imports (cold)", cold, "s"))
+    for label, cli in (("adaptive-ff compare --no-figures (fresh process, 2nd run)", ["--no-figures", "--quiet"]),
+                       ("adaptive-ff compare, with figures (fresh process, 2nd run)", ["--quiet"])):
+        _cli(cli)
+        wall, cpu = _cli(cli)
+        rows.append((label, wall, "s", cpu))
+    if not args.quick:
+        with tempfile.TemporaryDirectory() as cache:
+            env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+            _, first_nc, _, _, cfirst_nc, _ = (float(x) for x in _py(_COMPARE_SCRIPT, env=env).split())
+            rows.append(("  first compare() with an empty numba cache (compiles)", first_nc, "s", cfirst_nc))
+
+    print(f"{'what':<66}{'median':>10}{'fastest':>10}  unit   (compare rows: wall, CPU)")
+    print("-" * 96)
+    for what, val, unit, *best in rows:
+        b = f"{best[0]:>10.3f}" if best else " " * 10
+        print(f"{what:<66}{val:>10.3f}{b}  {unit}")
+    print(f"\nspeed-up over python-control: run_closed_loop none {us_pc / us['none', 'numba']:.0f}x, "
+          f"adaptive (with RLS, noise) {us_pc / us['adaptive', 'numba']:.0f}x; compiled kernel over the Python twin: "
+          f"none {us['none', 'python'] / us['none', 'numba']:.0f}x, adaptive "
+          f"{us['adaptive', 'python'] / us['adaptive', 'numba']:.0f}x")
+    print(f"max |w| difference to python-control: {agree_first:.1e} rad/s over the first 0.2 s, {agree:.1e} over the "
+          "run (the python-control model's PI has no anti-windup clamp; differences grow where the velocity "
+          "chatters around zero)")
     return 0
 
 
