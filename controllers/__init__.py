@@ -7,7 +7,8 @@ from controllers.batch import BATCH_MODES, BatchResult, run_batch
 from controllers.canudas import CanudasCompensator
 from controllers.dob import DisturbanceObserver
 from controllers.testing import TrackingBoundError, assert_tracking_bound, velocity_faults
-from controllers.closed_loop import ESTIMATORS, MODES, ClosedLoopResult, LoopMetrics, loop_metrics, run_closed_loop
+from controllers.closed_loop import (ENGINES, ESTIMATORS, MODES, ClosedLoopResult, LoopMetrics, kernel_supported,
+                                      loop_metrics, run_closed_loop)
 from controllers.compare import FIXED_METHODS, Comparison, compare, eta, friction_scale, prefit_stribeck
 from controllers.figures import plot_comparison
 from controllers.loop_analysis import LoopAnalysis, analyse_design
@@ -20,7 +21,7 @@ from controllers.quasi_static import QuasiStaticData, bidirectional_velocities, 
 __all__ = [
     "PIDesign", "design_pi", "PIController", "closed_loop_step",
     "QuasiStaticData", "quasi_static_runs", "bidirectional_velocities",
-    "MODES", "LoopMetrics", "ClosedLoopResult", "run_closed_loop", "loop_metrics",
+    "MODES", "LoopMetrics", "ClosedLoopResult", "run_closed_loop", "loop_metrics", "ENGINES", "kernel_supported",
     "Comparison", "compare", "eta", "plot_comparison",
     "LoopAnalysis", "analyse_design", "paper_figures", "identification_figures",
     "report_html", "write_report", "identify_report", "compare_report",
