@@ -94,6 +94,40 @@ def _F(w, Fc, dF, Vs, delta, sigma, d1, wcut):
     return 0.0
 
 
+@njit(cache=True, inline="always")
+def _rk4_step(w, f, Fw, u, J, tau, dt, h2, h6, Fc, dF, Vs, delta, sigma, d1, wcut):
+    """One classic RK4 step of ``J*dw/dt = u - f``, ``tau*df/dt + f = F(w)`` (eqs. 1-3), bit for bit as
+    :func:`plant.joint.lagged_rk4_step`; the one RK4 step of every compiled kernel.
+
+    ``Fw`` is ``F(w)`` (eq. 3, :func:`_F`) at the start of the step, passed in so a caller can reuse
+    the value from the previous step; ``h2 = dt/2``, ``h6 = dt/6``. With ``tau == 0`` the friction is
+    algebraic (RK4 on ``w`` alone) and the returned ``f`` is ``F`` at the new ``w``. Returns ``(w, f)``.
+    """
+    if tau == 0.0:
+        k1 = (u - Fw) / J
+        k2 = (u - _F(w + h2 * k1, Fc, dF, Vs, delta, sigma, d1, wcut)) / J
+        k3 = (u - _F(w + h2 * k2, Fc, dF, Vs, delta, sigma, d1, wcut)) / J
+        k4 = (u - _F(w + dt * k3, Fc, dF, Vs, delta, sigma, d1, wcut)) / J
+        w = w + h6 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        return w, _F(w, Fc, dF, Vs, delta, sigma, d1, wcut)
+    k1w = (u - f) / J
+    k1f = (Fw - f) / tau
+    wa = w + h2 * k1w
+    fa = f + h2 * k1f
+    k2w = (u - fa) / J
+    k2f = (_F(wa, Fc, dF, Vs, delta, sigma, d1, wcut) - fa) / tau
+    wb = w + h2 * k2w
+    fb = f + h2 * k2f
+    k3w = (u - fb) / J
+    k3f = (_F(wb, Fc, dF, Vs, delta, sigma, d1, wcut) - fb) / tau
+    wc = w + dt * k3w
+    fc = f + dt * k3f
+    k4w = (u - fc) / J
+    k4f = (_F(wc, Fc, dF, Vs, delta, sigma, d1, wcut) - fc) / tau
+    return (w + h6 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w),
+            f + h6 * (k1f + 2.0 * k2f + 2.0 * k3f + k4f))
+
+
 def _wcut(Fc: float, dF: float, Vs: float, delta: float) -> float:
     """Speed above which ``Fc + dF*exp(-(|w|/Vs)**delta)`` equals ``Fc`` exactly in float64.
 
@@ -261,33 +295,14 @@ def _chunk(P, G, E, wr, half, rev, noise, noise_rows, s0, mode, ff_ref, dt, w_li
                 if rk:
                     SER[l] += e2
             SU[l] += u * u
-            # RK4 (plant.joint.lagged_rk4_step)
-            if tau == 0.0:
-                Fw = FW[l] if k > 0 else _F(w, Fc, dF, Vs, delta, sigma, d1, wcut)
-                k1 = (u - Fw) / J
-                k2 = (u - _F(w + h2 * k1, Fc, dF, Vs, delta, sigma, d1, wcut)) / J
-                k3 = (u - _F(w + h2 * k2, Fc, dF, Vs, delta, sigma, d1, wcut)) / J
-                k4 = (u - _F(w + dt * k3, Fc, dF, Vs, delta, sigma, d1, wcut)) / J
-                w = w + h6 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-                f = _F(w, Fc, dF, Vs, delta, sigma, d1, wcut)
-                FW[l] = f
+            # RK4 (plant.joint.lagged_rk4_step); with tau = 0 F(w) is the friction of the previous step's end
+            if tau == 0.0 and k > 0:
+                Fw = FW[l]
             else:
-                k1w = (u - f) / J
-                k1f = (_F(w, Fc, dF, Vs, delta, sigma, d1, wcut) - f) / tau
-                w2 = w + h2 * k1w
-                f2 = f + h2 * k1f
-                k2w = (u - f2) / J
-                k2f = (_F(w2, Fc, dF, Vs, delta, sigma, d1, wcut) - f2) / tau
-                w3 = w + h2 * k2w
-                f3 = f + h2 * k2f
-                k3w = (u - f3) / J
-                k3f = (_F(w3, Fc, dF, Vs, delta, sigma, d1, wcut) - f3) / tau
-                w4 = w + dt * k3w
-                f4 = f + dt * k3f
-                k4w = (u - f4) / J
-                k4f = (_F(w4, Fc, dF, Vs, delta, sigma, d1, wcut) - f4) / tau
-                w, f = (w + h6 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w),
-                        f + h6 * (k1f + 2.0 * k2f + 2.0 * k3f + k4f))
+                Fw = _F(w, Fc, dF, Vs, delta, sigma, d1, wcut)
+            w, f = _rk4_step(w, f, Fw, u, J, tau, dt, h2, h6, Fc, dF, Vs, delta, sigma, d1, wcut)
+            if tau == 0.0:
+                FW[l] = f
             W[l] = w
             Fst[l] = f
             if not (-w_limit < w < w_limit):

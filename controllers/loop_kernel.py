@@ -36,7 +36,7 @@ import numpy as np
 from numba import njit
 
 from adaptive_ff.rls import _HDR, _NPROJ, _NUPD, _update
-from controllers.batch import _F, _wcut
+from controllers.batch import _F, _rk4_step, _wcut
 
 __all__ = ["ST", "run_loop_kernel"]
 
@@ -513,30 +513,8 @@ def _kernel(wr, noise, has_noise, fk, fv, PL, seg, s0, G, mode, ffp, fixed_est, 
         su_c += (su - q_) + u2 if abs(su) >= u2 else (u2 - q_) + su
         su = q_
         # ---- plant: RK4 (plant.joint.lagged_rk4_step)
-        if tau == 0.0:
-            k1 = (u - _F(w, Fc, dF, Vs, delta, sigma, d1, wcut)) / J
-            k2 = (u - _F(w + h2 * k1, Fc, dF, Vs, delta, sigma, d1, wcut)) / J
-            k3 = (u - _F(w + h2 * k2, Fc, dF, Vs, delta, sigma, d1, wcut)) / J
-            k4 = (u - _F(w + dt * k3, Fc, dF, Vs, delta, sigma, d1, wcut)) / J
-            w = w + h6 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-            f = _F(w, Fc, dF, Vs, delta, sigma, d1, wcut)
-        else:
-            k1w = (u - f) / J
-            k1f = (_F(w, Fc, dF, Vs, delta, sigma, d1, wcut) - f) / tau
-            wa = w + h2 * k1w
-            fa = f + h2 * k1f
-            k2w = (u - fa) / J
-            k2f = (_F(wa, Fc, dF, Vs, delta, sigma, d1, wcut) - fa) / tau
-            wb = w + h2 * k2w
-            fb = f + h2 * k2f
-            k3w = (u - fb) / J
-            k3f = (_F(wb, Fc, dF, Vs, delta, sigma, d1, wcut) - fb) / tau
-            wcc = w + dt * k3w
-            fcc = f + dt * k3f
-            k4w = (u - fcc) / J
-            k4f = (_F(wcc, Fc, dF, Vs, delta, sigma, d1, wcut) - fcc) / tau
-            w, f = (w + h6 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w),
-                    f + h6 * (k1f + 2.0 * k2f + 2.0 * k3f + k4f))
+        w, f = _rk4_step(w, f, _F(w, Fc, dF, Vs, delta, sigma, d1, wcut), u, J, tau, dt, h2, h6,
+                         Fc, dF, Vs, delta, sigma, d1, wcut)
         if not (-w_limit < w < w_limit):
             div = True
             k_end = k + 1
