@@ -128,6 +128,33 @@ def _rk4_step(w, f, Fw, u, J, tau, dt, h2, h6, Fc, dF, Vs, delta, sigma, d1, wcu
             f + h6 * (k1f + 2.0 * k2f + 2.0 * k3f + k4f))
 
 
+@njit(cache=True, inline="always")
+def _pi_step(I, e, Kp, KiTc, umax, uff):
+    """One step of :meth:`controllers.pi.PIController.step` (clamping anti-windup), bit for bit.
+
+    ``I``: integrator state (N·m); ``e``: velocity error (rad/s); ``KiTc = Ki*Tc``; ``uff``:
+    feedforward (N·m). The integrator moves only as far as keeps ``Kp*e + I + uff`` inside
+    ``±umax`` (never past its old value). Returns ``(I_new, u)`` with ``u`` saturated to ``±umax``.
+    """
+    Kpe = Kp * e
+    d = KiTc * e
+    In = I + d
+    if d > 0.0:
+        lim = umax - Kpe - uff
+        if In > lim:
+            In = lim if lim > I else I
+    elif d < 0.0:
+        lim = -umax - Kpe - uff
+        if In < lim:
+            In = lim if lim < I else I
+    v = Kpe + In + uff
+    if v >= umax:
+        return In, umax
+    if v <= -umax:
+        return In, -umax
+    return In, v
+
+
 def _wcut(Fc: float, dF: float, Vs: float, delta: float) -> float:
     """Speed above which ``Fc + dF*exp(-(|w|/Vs)**delta)`` equals ``Fc`` exactly in float64.
 
@@ -260,27 +287,7 @@ def _chunk(P, G, E, wr, half, rev, noise, noise_rows, s0, mode, ff_ref, dt, w_li
                 uff = 0.0
             # PIController.step
             Kp, KiTc, umax = G[b, 0], G[b, 1], G[b, 2]
-            e = wrk - wm
-            Kpe = Kp * e
-            d = KiTc * e
-            I = Ist[l]
-            In = I + d
-            if d > 0.0:
-                lim = umax - Kpe - uff
-                if In > lim:
-                    In = lim if lim > I else I
-            elif d < 0.0:
-                lim = -umax - Kpe - uff
-                if In < lim:
-                    In = lim if lim < I else I
-            Ist[l] = In
-            v = Kpe + In + uff
-            if v >= umax:
-                u = umax
-            elif v <= -umax:
-                u = -umax
-            else:
-                u = v
+            Ist[l], u = _pi_step(Ist[l], wrk - wm, Kp, KiTc, umax, uff)
             # metrics (true velocity)
             et = wrk - w
             e2 = et * et

@@ -36,7 +36,7 @@ import numpy as np
 from numba import njit
 
 from adaptive_ff.rls import _HDR, _NPROJ, _NUPD, _update
-from controllers.batch import _F, _rk4_step, _wcut
+from controllers.batch import _F, _pi_step, _rk4_step, _wcut
 
 __all__ = ["ST", "run_loop_kernel"]
 
@@ -270,26 +270,7 @@ def _kernel(wr, noise, has_noise, fk, fv, PL, seg, s0, G, mode, ffp, fixed_est, 
         else:
             uff = 0.0
         # ---- PIController.step
-        e = wrk - wc
-        Kpe = Kp * e
-        d = KiTc * e
-        In = I + d
-        if d > 0.0:
-            lim = umax - Kpe - uff
-            if In > lim:
-                In = lim if lim > I else I
-        elif d < 0.0:
-            lim = -umax - Kpe - uff
-            if In < lim:
-                In = lim if lim < I else I
-        I = In
-        v = Kpe + In + uff
-        if v >= umax:
-            u = umax
-        elif v <= -umax:
-            u = -umax
-        else:
-            u = v
+        I, u = _pi_step(I, wrk - wc, Kp, KiTc, umax, uff)
         # ---- estimator (SlidingFrictionEstimator.observe + RobustAdaptiveFeedforward.observe)
         if mode == 3:
             upd = False
