@@ -15,10 +15,12 @@ from adaptive_ff.emps_validation import (EMPSRecord, EMPSValidation, exact_step,
 from adaptive_ff.identify import CrossValidation, IdentificationReport, cross_validate, identify
 from adaptive_ff.idim import IDIMFit, RigidAxisModel, fit_idim, idim_force_error, relative_error
 from adaptive_ff.ls import LSResult, fit_ls
+from adaptive_ff.physical_id import METHODS, PHYSICAL_NAMES, PhysicalFit, fit_physical
 from adaptive_ff.regression import (THETA_NAMES, FrictionEstimate, RegressionModel, g_regressor, h_regressor,
                                     nrmse_fit, theta_from_physical, theta_from_physical_printed)
 from adaptive_ff.online_ukf import FilterDivergedError, OnlineUKF, OnlineUKFResult, convergence_time, run_online_ukf
 from adaptive_ff.rls import FORGETTING, RecursiveLeastSquares
+from adaptive_ff.simulator import simulate_sampled
 from adaptive_ff.sliding_estimator import (SLIDING_NAMES, SlidingFit, SlidingFrictionEstimator, fit_sliding,
                                            sliding_regressors)
 from adaptive_ff.steady_state import SupportPoints, binned_steady_state, constant_velocity_segments, support_points
@@ -43,5 +45,6 @@ __all__ = [
     "fit_idim", "IDIMFit", "RigidAxisModel", "idim_force_error", "relative_error",
     "validate_emps", "EMPSValidation", "simulate_emps_loop", "read_emps_record", "EMPSRecord", "exact_step",
     "is_emps_record",
+    "fit_physical", "PhysicalFit", "METHODS", "PHYSICAL_NAMES", "simulate_sampled",
     "OnlineUKF", "OnlineUKFResult", "run_online_ukf", "FilterDivergedError", "convergence_time",
 ]

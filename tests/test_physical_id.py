@@ -1,0 +1,142 @@
+"""Tests of adaptive_ff.physical_id.fit_physical: the paper's eq. 4 bias and the output-error method."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from adaptive_ff.physical_id import PhysicalFit, fit_physical
+from plant import bandlimited_noise, irregular_sample_times, preset, sample, simulate
+from plant.errors import ExcitationError, ParameterError, SignalError
+
+P = preset("paper")
+KEYS = ("J", "tau", "sigma", "Fc", "Fs")
+DT = 1e-3
+
+
+def _record(seed, *, noise=0.0, quant=0.0, irregular=False, duration=60.0):
+    """The Sec. IV-A experiment: band-limited torque (1 Hz, std 1.2*(Fs + sigma*20 deg/s)), sampled at 10 ms."""
+    rng = np.random.default_rng(seed)
+    _, u = bandlimited_noise(duration, dt=DT, cutoff=1.0, std=1.2 * (P.Fs + P.sigma * math.radians(20.0)), rng=rng)
+    resp = simulate(P, u, dt=DT)
+    times = (irregular_sample_times(duration - 0.1, base=0.01, outlier=0.02, jitter=DT, dt=DT, rng=rng)
+             if irregular else None)
+    return sample(resp, Ts=0.01, times=times, noise_std=noise * float(np.max(np.abs(resp.w))), quantization=quant,
+                  rng=rng)
+
+
+def _rel(fit):
+    return {k: 100.0 * (fit.params[k] / getattr(P, k) - 1.0) for k in KEYS}
+
+
+@pytest.fixture(scope="module")
+def clean():
+    return _record(0)
+
+
+def test_output_error_recovers_noise_free_parameters_at_10_ms(clean):
+    fit = fit_physical(clean.t, clean.u, clean.w, Vs=P.Vs, delta=P.delta, input_delay=0.5 * DT)
+    e = _rel(fit)
+    # issue targets: Fc, Fs, sigma within 2 %, J, tau within 5 % (measured: all within 0.6 %)
+    for k, tol in (("Fc", 2.0), ("Fs", 2.0), ("sigma", 2.0), ("J", 5.0), ("tau", 5.0)):
+        assert abs(e[k]) < tol, (k, e[k])
+    # noise-free data: the one-step predictor is chosen (module docstring); it reproduces the record
+    assert fit.info["predictor"] == "one-step" and fit.nrmse_kind == "one-step"
+    assert fit.nrmse > 99.5
+    assert abs(fit.params["offset"]) < 0.01 * P.Fc
+    assert all(math.isfinite(v) and v > 0 for v in fit.stderr.values())
+    assert fit.n_samples == clean.t.shape[0] and fit.method == "output_error"
+
+
+def test_paper_method_equals_independent_ls_and_underestimates_fs(clean):
+    fit = fit_physical(clean.t, clean.u, clean.w, Vs=P.Vs, delta=P.delta, method="paper", offset=False)
+    # independent eq. 4 LS: w(k) = a1 w(k-1) - a2 w(k-2) + b0 u(k) - b1 u(k-1) - c1 g(w(k-1)) - d1 h(w(k-1))
+    w, u, Ts = clean.w, clean.u, 0.01
+    e1 = np.exp(-np.abs(w[1:-1]) / P.Vs)
+    X = np.column_stack([w[1:-1], -w[:-2], u[2:], -u[1:-1], -np.sign(w[1:-1]) * (1 - e1), -np.sign(w[1:-1]) * e1])
+    a1, a2, b0, b1, c1, d1 = np.linalg.lstsq(X, w[2:], rcond=None)[0]
+    g = b0 - b1
+    ref = {"J": Ts * (a1 - 2 * a2) / g, "tau": Ts * b1 / g, "sigma": (1 - a1 + a2) / g, "Fc": c1 / g, "Fs": d1 / g}
+    for k in KEYS:
+        assert fit.params[k] == pytest.approx(ref[k], rel=1e-6), k
+    # the measured bias: Fs far too low (-63 % in the benchmark), Fc too high, tau too short
+    e = _rel(fit)
+    assert e["Fs"] < -30.0 and e["Fc"] > 2.0 and e["tau"] < -5.0
+    assert fit.nrmse_kind == "one-step" and fit.nrmse > 99.0  # ... although the one-step fit looks fine
+
+
+def test_paper_printed_map_gives_the_wrong_sign_of_sigma(clean):
+    fit = fit_physical(clean.t, clean.u, clean.w, Vs=P.Vs, delta=P.delta, method="paper", inverse="printed")
+    # printed a1 = (J*tau + J*Ts)/D gives sigma = (1 - a1)/(b0 - b1); with the true structure a1 = (2*J*tau + J*Ts)/D
+    # this is sigma - J*tau/Ts**2 (-760 N·m·s/rad for the preset): identity with the corrected fit's
+    # sigma, tau and redundant inertia J_alt = Ts*a2/b1
+    corr = fit_physical(clean.t, clean.u, clean.w, Vs=P.Vs, delta=P.delta, method="paper")
+    th = corr.info["theta"]
+    J_alt = 0.01 * th["a2"] / th["b1"]
+    expect = corr.params["sigma"] - J_alt * corr.params["tau"] / 0.01**2
+    assert fit.params["sigma"] == pytest.approx(expect, rel=1e-9)
+    assert fit.params["sigma"] < 0 < P.sigma
+
+
+def test_output_error_one_noisy_quantised_irregular_seed():
+    m = _record(4, noise=0.01, quant=0.6, irregular=True)
+    assert not m.uniform
+    fit = fit_physical(m.t, m.u, m.w, Vs=P.Vs, delta=P.delta, input_delay=0.5 * DT)
+    assert fit.info["predictor"] == "free-run"  # 1 % noise: output error, consistent under white noise
+    assert fit.info["noise_std"] == pytest.approx(0.01 * np.max(np.abs(m.w_true)), rel=0.1)
+    e = _rel(fit)
+    for k, tol in (("Fc", 5.0), ("Fs", 5.0), ("sigma", 5.0), ("J", 10.0), ("tau", 10.0)):
+        assert abs(e[k]) < tol, (k, e[k])
+
+
+def test_json_dict_is_plain_json(clean):
+    fit = fit_physical(clean.t[:1500], clean.u[:1500], clean.w[:1500], Vs=P.Vs, delta=P.delta, method="paper")
+    assert isinstance(fit, PhysicalFit)
+    d = json.loads(json.dumps(fit.to_json_dict()))
+    assert set(d["params"]) == {"J", "Fc", "Fs", "sigma", "tau", "offset"}
+    assert d["params"]["Fs"] == pytest.approx(fit.params["Fs"])
+    with pytest.raises(Exception):
+        fit.method = "x"  # frozen
+
+
+def test_invalid_input_raises_typed_errors_naming_the_argument(clean):
+    t, u, w = clean.t[:300], clean.u[:300], clean.w[:300]
+    kw = dict(Vs=P.Vs, delta=P.delta, method="paper")
+    w_nan = w.copy()
+    w_nan[7] = np.nan
+    with pytest.raises(SignalError, match="w has a non-finite value"):
+        fit_physical(t, u, w_nan, **kw)
+    with pytest.raises(SignalError, match="u must have length"):
+        fit_physical(t, u[:-1], w, **kw)
+    with pytest.raises(SignalError, match="t must be strictly increasing"):
+        fit_physical(t[::-1], u, w, **kw)
+    with pytest.raises(SignalError, match="at least 20"):
+        fit_physical(t[:10], u[:10], w[:10], **kw)
+    with pytest.raises(ParameterError, match="method"):
+        fit_physical(t, u, w, Vs=P.Vs, delta=P.delta, method="magic")
+    with pytest.raises(ParameterError, match="Vs"):
+        fit_physical(t, u, w, Vs=-1.0, delta=P.delta)
+    with pytest.raises(ParameterError, match="h_max"):
+        fit_physical(t, u, w, Vs=P.Vs, delta=P.delta, h_max=0.0)
+    with pytest.raises(ParameterError, match="predictor"):
+        fit_physical(t, u, w, Vs=P.Vs, delta=P.delta, predictor="two-step")
+    with pytest.raises(ParameterError, match="inverse"):
+        fit_physical(t, u, w, Vs=P.Vs, delta=P.delta, method="paper", inverse="guess")
+    with pytest.raises(ParameterError, match="unknown option"):
+        fit_physical(t, u, w, Vs=P.Vs, delta=P.delta, bogus=1)
+    # no reversal: Coulomb/stiction not excited
+    with pytest.raises(ExcitationError, match="Fc and Fs"):
+        fit_physical(t, u, np.abs(w) + 0.1, **kw)
+    with pytest.raises(ExcitationError, match="J"):
+        fit_physical(t, np.full_like(u, 3.0), w, **kw)
+
+
+def test_noise_estimate_ignores_irregular_sampling():
+    from adaptive_ff.physical_id import _noise_std
+
+    rng = np.random.default_rng(11)
+    t = np.cumsum(rng.choice([0.009, 0.01, 0.011, 0.02], size=3000))  # Fig. 10-like irregular intervals
+    w = 2.0 * np.sin(2.0 * np.pi * 0.5 * t)
+    assert _noise_std(t, w) < 1e-4  # a smooth signal reads (almost) no noise despite the jitter
+    assert _noise_std(t, w + rng.normal(0.0, 0.01, t.shape)) == pytest.approx(0.01, rel=0.1)
