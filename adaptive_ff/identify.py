@@ -39,6 +39,7 @@ from adaptive_ff.data import MeasuredData, to_uniform
 from adaptive_ff.diagnostics import ExcitationReport, excitation_report
 from adaptive_ff.idim import RigidAxisModel, idim_force_error
 from adaptive_ff.ls import LSResult, fit_ls
+from adaptive_ff.physical_id import METHODS, PhysicalFit, fit_physical
 from adaptive_ff.regression import FrictionEstimate, RegressionModel, nrmse_fit
 from adaptive_ff.rls import RecursiveLeastSquares
 from plant.errors import ExcitationError, ParameterError, check_positive
@@ -139,6 +140,11 @@ class IdentificationReport:
     excitation : ExcitationReport or None
         Noise level, velocity reversals and low-speed fraction of the record
         (None only for reports built by hand).
+    physical : PhysicalFit or None
+        The physical parameters by the method asked for
+        (:func:`adaptive_ff.physical_id.fit_physical`, e.g. ``"output_error"``:
+        unbiased where eq. 4 is not); None for ``method="paper"``, where the
+        eq. 4 LS (``ls``, ``estimate``) is the answer.
     """
 
     ls: LSResult
@@ -155,6 +161,7 @@ class IdentificationReport:
     notes: tuple[str, ...] = field(default_factory=tuple)
     warnings: tuple[str, ...] = field(default_factory=tuple)
     excitation: ExcitationReport | None = None
+    physical: PhysicalFit | None = None
 
     @property
     def model(self) -> RegressionModel:
@@ -221,6 +228,11 @@ class IdentificationReport:
             out["excitation"] = {"noise_std": _plain(x.noise_std), "n_reversals": int(x.n_reversals),
                                  "low_speed_fraction": _plain(x.low_speed_fraction)}
         out["warnings"] = list(self.warnings)
+        if self.physical is not None:
+            out["method"] = self.physical.method
+            out["physical"] = self.physical.to_json_dict()
+        else:
+            out["method"] = "paper"
         return out
 
     def summary(self) -> str:
@@ -245,6 +257,15 @@ class IdentificationReport:
                       f"{nm} {100 * self.std[nm] / abs(getattr(e, nm)):.3g} %" if getattr(e, nm) != 0 else f"{nm} n/a"
                       for nm in _parameter_names(m)),
                   "std errors assume white equation error (optimistic on real data)"]
+        if self.physical is not None:
+            ph = self.physical
+            lines += ["", f"physical parameters by method {ph.method!r} (adaptive_ff.physical_id.fit_physical; "
+                          f"the table above is the paper's eq. 4 LS/RLS)",
+                      f"{'parameter':<10}{'value':>14}{'std error':>13}  unit", "-" * 70]
+            for nm, v in ph.params.items():
+                lines.append(f"{nm:<10}{v:>14.6g}{ph.stderr.get(nm, float('nan')):>13.3g}  {PARAM_UNITS[nm]}")
+            lines += ["-" * 70, f"fit ({ph.nrmse_kind}) {ph.nrmse:.3f} %, cond {ph.cond:.3g}, "
+                                f"{ph.n_samples} samples"]
         lines += [f"note: {n}" for n in self.notes]
         lines += [f"WARNING: {w}" for w in self.warnings]
         return "\n".join(lines)
@@ -252,7 +273,7 @@ class IdentificationReport:
 
 def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None = None, lag: bool = False,
              offset: bool = True, lam: float = 1.0, P0: float = 1e4, n_history: int = 500,
-             ) -> IdentificationReport:
+             method: str = "paper", method_options: dict | None = None) -> IdentificationReport:
     """Identify the joint model of eq. 4 from a measured record, offline (LS) and online (RLS).
 
     Parameters
@@ -278,6 +299,15 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
         the paper). Default 1e4.
     n_history : int, keyword-only
         At most this many rows of RLS history are kept (>= 2). Default 500.
+    method : str, keyword-only
+        ``"paper"`` (default): the eq. 4 LS/RLS is the answer. Any other of
+        :data:`adaptive_ff.physical_id.METHODS` (``"output_error"``) also fits
+        the physical parameters of eqs. 1-3 by that method on the record as
+        measured (its own, possibly irregular, time stamps) and stores them in
+        ``report.physical``; it needs ``Vs`` and ``delta``. The eq. 4 LS/RLS
+        still runs (the paper's baseline and the online estimate).
+    method_options : dict, keyword-only, optional
+        Extra keyword options of :func:`adaptive_ff.physical_id.fit_physical`.
 
     Returns
     -------
@@ -289,7 +319,8 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
         ``data`` is not a :class:`MeasuredData`.
     ParameterError
         Only one of ``Vs``/``delta`` given, invalid ``Vs``/``delta``/``lam``/
-        ``P0``/``n_history``.
+        ``P0``/``n_history``, an unknown ``method``, or a ``method`` other than
+        ``"paper"`` without ``Vs``/``delta``.
     SignalError
         Too few samples for the structure.
     ExcitationError
@@ -318,6 +349,13 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
     if isinstance(n_history, bool) or not isinstance(n_history, (int, np.integer)) or n_history < 2:
         raise ParameterError(f"n_history must be an integer >= 2, got {n_history!r}")
     P0 = check_positive("P0", P0)
+    if method not in METHODS:
+        raise ParameterError(f"method must be one of {METHODS}, got {method!r}")
+    if method != "paper" and Vs is None:
+        raise ParameterError(f"method {method!r} fits the Stribeck model of eqs. 1-3: give Vs and delta "
+                             f"(pre-fit, Sec. V-C), got Vs = {Vs!r}, delta = {delta!r}")
+    if method_options is not None and not isinstance(method_options, dict):
+        raise ParameterError(f"method_options must be a dict, got {method_options!r}")
     stribeck = Vs is not None
     model = RegressionModel(Vs, delta, lag=lag, stribeck=stribeck, offset=offset)
     rls = RecursiveLeastSquares(model.n_params, lam=lam, P0=P0)
@@ -370,10 +408,19 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
            f", {100 * excitation.low_speed_fraction:.2f} % of the samples in the Stribeck transition |w| < 3*Vs")
     notes.append(f"excitation: {excitation.n_reversals} velocity reversals, velocity noise "
                  f"{excitation.noise_std:.3g} (robust, from third differences){low}")
+    physical = None
+    if method != "paper":
+        physical = fit_physical(data.t, data.u, data.w, Vs=Vs, delta=delta, method=method, offset=offset,
+                                **(method_options or {}))
+        notes.append(f"physical parameters by {method!r} on the record's own time stamps "
+                     f"({physical.n_samples} samples, fit {physical.nrmse_kind})")
+        if not (physical.params["J"] > 0 and physical.params["tau"] >= 0 and physical.params["Fc"] >= 0):
+            warn.append(f"{method} estimate is not physically plausible: {physical.params}")
     return IdentificationReport(
         ls=ls, rls_theta=rls_theta, rls_estimate=rls_est, rls_fit_percent=rls_fit,
         theta_time=uni.t[2:][keep].copy(), theta_history=hist, std=std, Ts=Ts, lam=rls.lam,
-        P0=P0, source=data.source, notes=tuple(notes), warnings=tuple(warn), excitation=excitation)
+        P0=P0, source=data.source, notes=tuple(notes), warnings=tuple(warn), excitation=excitation,
+        physical=physical)
 
 
 @dataclass(frozen=True)

@@ -50,9 +50,10 @@ def test_emps_json_dict(report):
     for key in ("J", "sigma", "Fc", "Fs", "tau", "offset", "fit_percent", "fit_free_run_percent", "cond", "rls"):
         assert key in d, key
     assert "Vs" not in d and "delta" not in d  # Coulomb structure: nothing pre-estimated
+    assert d["method"] == "paper"  # the eq. 4 LS is the answer; no physical fit
 
     def floats(x):
-        return [v for v in x.values() if not isinstance(v, (dict, list))]
+        return [v for v in x.values() if not isinstance(v, (dict, list, str))]
 
     assert all(type(v) is float for v in floats(d))
     assert all(type(v) is float for v in floats(d["rls"])) and all(type(v) is float for v in d["std"].values())

@@ -1,0 +1,82 @@
+"""identify(method=...): the physical-parameter fit wired into the report, the CLI and the JSON."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from adaptive_ff.data import MeasuredData
+from adaptive_ff.identify import identify
+from adaptive_ff.physical_id import METHODS, fit_physical
+from plant import bandlimited_noise, irregular_sample_times, preset, sample, simulate
+from plant.errors import ParameterError
+
+P = preset("paper")
+DT = 1e-3
+
+
+@pytest.fixture(scope="module")
+def record():
+    """Sec. IV-A experiment (band-limited torque), 30 s, Fig. 10-like irregular sampling around 10 ms."""
+    rng = np.random.default_rng(3)
+    duration = 30.0
+    _, u = bandlimited_noise(duration, dt=DT, cutoff=1.0, std=1.2 * (P.Fs + P.sigma * math.radians(20.0)), rng=rng)
+    resp = simulate(P, u, dt=DT)
+    times = irregular_sample_times(duration - 0.1, base=0.01, outlier=0.02, jitter=DT, dt=DT, rng=rng)
+    m = sample(resp, Ts=0.01, times=times, rng=rng)
+    return MeasuredData(t=m.t, u=m.u, w=m.w, source="simulated, irregular")
+
+
+@pytest.fixture(scope="module")
+def report(record):
+    return identify(record, Vs=P.Vs, delta=P.delta, lag=True, method="output_error",
+                    method_options={"input_delay": 0.5 * DT})
+
+
+def test_report_carries_the_physical_fit_equal_to_fit_physical(record, report):
+    # the same call directly: identify must pass the record's own (irregular) time stamps, not the resampled grid
+    ref = fit_physical(record.t, record.u, record.w, Vs=P.Vs, delta=P.delta, method="output_error",
+                       input_delay=0.5 * DT)
+    assert report.physical is not None and report.physical.method == "output_error"
+    assert report.physical.n_samples == record.t.shape[0]
+    for k, v in ref.params.items():
+        assert report.physical.params[k] == pytest.approx(v, rel=1e-12), k
+    # and it is right where eq. 4 is not (noise-free, irregular stamps): Fc, Fs, sigma within 2 %, J, tau 5 %
+    for k, tol in (("Fc", 0.02), ("Fs", 0.02), ("sigma", 0.02), ("J", 0.05), ("tau", 0.05)):
+        assert report.physical.params[k] == pytest.approx(getattr(P, k), rel=tol), k
+    assert abs(report.estimate.Fs / P.Fs - 1.0) > 0.10  # the eq. 4 LS on the resampled record is far off
+
+
+def test_json_and_summary_name_the_method(report):
+    out = json.loads(json.dumps(report.to_json_dict()))
+    assert out["method"] == "output_error"
+    assert out["physical"]["params"]["Fc"] == pytest.approx(report.physical.params["Fc"], rel=1e-12)
+    assert set(out["physical"]["stderr"]) == set(report.physical.params)
+    text = report.summary()
+    assert "physical parameters by method 'output_error'" in text
+    assert f"{report.physical.params['J']:.6g}" in text
+
+
+def test_paper_method_has_no_physical_fit(record):
+    rep = identify(record, Vs=P.Vs, delta=P.delta, lag=True)
+    assert rep.physical is None and rep.to_json_dict()["method"] == "paper"
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"method": "ols"}, "method must be one of"),
+    ({"method": "output_error", "Vs": None, "delta": None}, "give Vs and delta"),
+    ({"method": "output_error", "method_options": [1]}, "method_options must be a dict"),
+])
+def test_bad_method_arguments_raise_naming_them(record, kwargs, match):
+    args = {"Vs": P.Vs, "delta": P.delta, **kwargs}
+    with pytest.raises(ParameterError, match=match):
+        identify(record, **args)
+
+
+def test_cli_method_choices_are_the_library_methods():
+    from controllers.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    opt = next(a for a in sub.choices["identify"]._actions if a.dest == "method")
+    assert tuple(opt.choices) == METHODS
