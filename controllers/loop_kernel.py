@@ -35,10 +35,43 @@ import math
 import numpy as np
 from numba import njit
 
+import adaptive_ff.rls as _rls_module
+import controllers.batch as _batch_module
 from adaptive_ff.rls import _HDR, _NPROJ, _NUPD, _update
 from controllers.batch import _F, _pi_step, _rk4_step, _wcut
 
 __all__ = ["ST", "run_loop_kernel"]
+
+
+def _drop_stale_cache() -> None:
+    """Delete this module's numba cache when a module whose kernels it compiles in has changed.
+
+    numba keys a cached kernel on the time stamp of its own source file only, but the kernels
+    here inline ``_F``, ``_rk4_step``, ``_pi_step`` (:mod:`controllers.batch`) and the RLS update
+    (:mod:`adaptive_ff.rls`): after an edit of those files alone the cache would silently keep
+    the old code. A hash of both sources is kept beside the cache; a mismatch removes the cached
+    kernels so they are compiled afresh. A read-only install (no writable ``__pycache__``) is left
+    as it is (numba then does not cache either).
+    """
+    import hashlib
+    from pathlib import Path
+
+    deps = (Path(_batch_module.__file__), Path(_rls_module.__file__))
+    try:
+        digest = hashlib.sha256(b"".join(p.read_bytes() for p in deps)).hexdigest()
+        cache = Path(__file__).resolve().parent / "__pycache__"
+        stamp = cache / "loop_kernel.deps"
+        if stamp.exists() and stamp.read_text() == digest:
+            return
+        for f in cache.glob("loop_kernel.*.nb[ic]"):
+            f.unlink()
+        cache.mkdir(exist_ok=True)
+        stamp.write_text(digest)
+    except OSError:
+        return
+
+
+_drop_stale_cache()
 
 #: Slots of the kernel's state/result vector ``st`` (floats).
 ST = {name: i for i, name in enumerate((
