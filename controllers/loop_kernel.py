@@ -96,6 +96,20 @@ _NOISE_GAIN = math.sqrt(6.0) * math.sqrt(2.0 / math.pi)  # as adaptive_ff.slidin
 _BAND_SIGMAS = 4.0
 
 
+@njit(cache=True, inline="always")
+def _svf3(sf, o, a, x):
+    """Advance one chain of three first-order low-passes ``sf[o:o+3]`` (gain ``a``) by input ``x``.
+
+    The state-variable filter of :class:`adaptive_ff.sliding_estimator.SlidingFrictionEstimator`
+    (same operations in the same order as its unrolled Python stages).
+    """
+    x1 = sf[o] + a * (x - sf[o])
+    x2 = sf[o + 1] + a * (x1 - sf[o + 1])
+    sf[o + 2] += a * (x2 - sf[o + 2])
+    sf[o] = x1
+    sf[o + 1] = x2
+
+
 @njit(cache=True)
 def _gate_check(st, o, x, max_step, n_sigma, alpha, max_consec):
     """OutlierGate.check on state slots st[o:o+5] = last, has_last, scale, n_held, n_rejected."""
@@ -333,31 +347,11 @@ def _kernel(wr, noise, has_noise, fk, fv, PL, seg, s0, G, mode, ffp, fixed_est, 
                     gg = 0.0
                     hh = 0.0
                 dz = 1.0 if aw < band else 0.0
-                x1 = sf[0] + a * (wx - sf[0])
-                x2 = sf[1] + a * (x1 - sf[1])
-                sf[2] += a * (x2 - sf[2])
-                sf[0] = x1
-                sf[1] = x2
-                x1 = sf[3] + a * (u - sf[3])
-                x2 = sf[4] + a * (x1 - sf[4])
-                sf[5] += a * (x2 - sf[5])
-                sf[3] = x1
-                sf[4] = x2
-                x1 = sf[6] + a * (gg - sf[6])
-                x2 = sf[7] + a * (x1 - sf[7])
-                sf[8] += a * (x2 - sf[8])
-                sf[6] = x1
-                sf[7] = x2
-                x1 = sf[9] + a * (hh - sf[9])
-                x2 = sf[10] + a * (x1 - sf[10])
-                sf[11] += a * (x2 - sf[11])
-                sf[9] = x1
-                sf[10] = x2
-                x1 = sf[12] + a * (dz - sf[12])
-                x2 = sf[13] + a * (x1 - sf[13])
-                sf[14] += a * (x2 - sf[14])
-                sf[12] = x1
-                sf[13] = x2
+                _svf3(sf, 0, a, wx)  # SlidingFrictionEstimator's five third-order filter chains
+                _svf3(sf, 3, a, u)
+                _svf3(sf, 6, a, gg)
+                _svf3(sf, 9, a, hh)
+                _svf3(sf, 12, a, dz)
                 n_samples += 1
                 if n_samples % m == 0 and n_samples >= settle:
                     if sf[14] > dwell:
