@@ -154,7 +154,8 @@ def table_c(seeds, irregular: str, methods=("paper", "output_error")):
         for s in seeds:
             m = record(p, seed=s, noise=0.01, quant=QUANT, irregular=irregular)
             t0 = time.perf_counter()
-            E.append([errors(fit(m, p, method), p)[k] for k in KEYS])
+            e = errors(fit(m, p, method), p)
+            E.append([e[k] for k in KEYS])
             T.append(time.perf_counter() - t0)
         E = np.array(E)
         mean, worst = E.mean(axis=0), np.abs(E).max(axis=0)
