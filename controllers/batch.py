@@ -467,14 +467,10 @@ def run_batch(plants, reference: Reference, *, mode: str, Kp, Ki, u_max=math.inf
         rows = 1
     nz = np.ascontiguousarray(nz)
 
-    half = t >= 0.5 * (t[0] + t[-1])
-    revs = np.asarray(reference.reversals())
-    mask = np.zeros_like(half)
-    if len(revs):
-        idx = np.searchsorted(revs, t)
-        lo = np.abs(t - revs[np.clip(idx - 1, 0, len(revs) - 1)])
-        hi = np.abs(revs[np.clip(idx, 0, len(revs) - 1)] - t)
-        mask = (np.minimum(lo, hi) <= reversal_window) & half
+    # the masks of controllers.closed_loop.loop_metrics (imported here: closed_loop imports this module)
+    from controllers.closed_loop import _metric_masks
+
+    half, mask = _metric_masks(t, np.asarray(reference.reversals()), reversal_window)
     out = np.empty((B, 7))
     # noise_rows: 0 none, 1 shared row, >1 per-scenario (B == 1 with own row also works as 1)
     threads = numba.get_num_threads()
