@@ -4,27 +4,27 @@ The middle layer: imports :mod:`plant`, never :mod:`controllers`. The package
 exceptions are defined in :mod:`plant.errors` and re-exported here.
 """
 
-from adaptive_ff.data import MeasuredData, is_uniform, load_csv, load_emps, load_measurements, to_uniform
-from adaptive_ff.feedforward import (AdaptiveFrictionFeedforward, FrictionFeedforward, RobustAdaptiveFeedforward,
+from adaptive_ff.io.data import MeasuredData, is_uniform, load_csv, load_emps, load_measurements, to_uniform
+from adaptive_ff.compensation.feedforward import (AdaptiveFrictionFeedforward, FrictionFeedforward, RobustAdaptiveFeedforward,
                                      project_estimate)
-from adaptive_ff.gate import OutlierGate
-from adaptive_ff.io import VelocityEstimate, load_log, parse_column_map, read_columns, velocity_from_position
-from adaptive_ff.diagnostics import ExcitationReport, excitation_report, velocity_noise_std
-from adaptive_ff.emps_validation import (EMPSRecord, EMPSValidation, exact_step, is_emps_record, read_emps_record,
+from adaptive_ff.compensation.gate import OutlierGate
+from adaptive_ff.io.logs import VelocityEstimate, load_log, parse_column_map, read_columns, velocity_from_position
+from adaptive_ff.identification.diagnostics import ExcitationReport, excitation_report, velocity_noise_std
+from adaptive_ff.identification.emps_validation import (EMPSRecord, EMPSValidation, exact_step, is_emps_record, read_emps_record,
                                          simulate_emps_loop, validate_emps)
-from adaptive_ff.identify import CrossValidation, IdentificationReport, cross_validate, identify
-from adaptive_ff.idim import IDIMFit, RigidAxisModel, fit_idim, idim_force_error, relative_error
-from adaptive_ff.ls import LSResult, fit_ls
-from adaptive_ff.physical_id import METHODS, PHYSICAL_NAMES, PhysicalFit, fit_physical
-from adaptive_ff.regression import (THETA_NAMES, FrictionEstimate, RegressionModel, g_regressor, h_regressor,
+from adaptive_ff.identification.identify import CrossValidation, IdentificationReport, cross_validate, identify
+from adaptive_ff.identification.idim import IDIMFit, RigidAxisModel, fit_idim, idim_force_error, relative_error
+from adaptive_ff.identification.ls import LSResult, fit_ls
+from adaptive_ff.identification.physical_id import METHODS, PHYSICAL_NAMES, PhysicalFit, fit_physical
+from adaptive_ff.identification.regression import (THETA_NAMES, FrictionEstimate, RegressionModel, g_regressor, h_regressor,
                                     nrmse_fit, theta_from_physical, theta_from_physical_printed)
-from adaptive_ff.online_ukf import FilterDivergedError, OnlineUKF, OnlineUKFResult, convergence_time, run_online_ukf
-from adaptive_ff.rls import FORGETTING, RecursiveLeastSquares
-from adaptive_ff.simulator import simulate_sampled
-from adaptive_ff.sliding_estimator import (SLIDING_NAMES, SlidingFit, SlidingFrictionEstimator, fit_sliding,
+from adaptive_ff.identification.online_ukf import FilterDivergedError, OnlineUKF, OnlineUKFResult, convergence_time, run_online_ukf
+from adaptive_ff.identification.rls import FORGETTING, RecursiveLeastSquares
+from adaptive_ff.identification.simulator import simulate_sampled
+from adaptive_ff.compensation.sliding_estimator import (SLIDING_NAMES, SlidingFit, SlidingFrictionEstimator, fit_sliding,
                                            sliding_regressors)
-from adaptive_ff.steady_state import SupportPoints, binned_steady_state, constant_velocity_segments, support_points
-from adaptive_ff.stribeck_fit import StribeckFit, fit_stribeck, plot_stribeck_fit
+from adaptive_ff.identification.steady_state import SupportPoints, binned_steady_state, constant_velocity_segments, support_points
+from adaptive_ff.identification.stribeck_fit import StribeckFit, fit_stribeck, plot_stribeck_fit
 from plant.errors import ExcitationError, FrictionError, ParameterError, SignalError
 
 __all__ = [

@@ -1,4 +1,4 @@
-"""Benchmark of controllers.batch.run_batch: time per scenario-step (B = 1000 x 10 s) and single-run time per step.
+"""Benchmark of controllers.simulation.batch.run_batch: time per scenario-step (B = 1000 x 10 s) and single-run time per step.
 
 Run: ``python benchmarks/batch.py [--B 1000] [--repeats 3]``. Prints a table: for each case the
 median wall time of ``repeats`` calls (after warm-up calls that load the compiled kernel and start the
@@ -15,8 +15,8 @@ import time
 import numba
 import numpy as np
 
-from controllers.batch import run_batch
-from controllers.closed_loop import run_closed_loop
+from controllers.simulation.batch import run_batch
+from controllers.simulation.closed_loop import run_closed_loop
 from plant.excitation import multisine_reference
 from plant.friction import preset
 

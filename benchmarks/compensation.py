@@ -26,9 +26,9 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 import numpy as np
 from tqdm.auto import tqdm
 
-from adaptive_ff.sliding_estimator import fit_sliding
-from controllers.closed_loop import MODES
-from controllers.compare import compare
+from adaptive_ff.compensation.sliding_estimator import fit_sliding
+from controllers.simulation.closed_loop import MODES
+from controllers.experiments.compare import compare
 from plant.friction import preset
 from plant.variants import VARIANT_NAMES, drift_case, variant
 

@@ -10,7 +10,7 @@ Run ``python benchmarks/identification.py [--quick] [--fig10]``. Prints
     Ts = 10 ms;
 (c) both methods over 10 seeds with white velocity noise (1 % of the peak
     velocity), input quantisation (0.6 N·m, as the Fig. 7 simulation of
-    :func:`controllers.paper_figures.paper_figures`) and the non-uniform
+    :func:`controllers.experiments.paper_figures.paper_figures`) and the non-uniform
     sampling of Fig. 10 (:func:`plant.sampling.irregular_sample_times`), once
     with its pattern scaled to a 10 ms base (mean about 11 ms, outliers of
     20 ms = about twice the mean) -- the issue's target case -- and, with
@@ -22,7 +22,7 @@ Run ``python benchmarks/identification.py [--quick] [--fig10]``. Prints
 Data: the ``paper`` preset (J = 4, Fc = 25, Fs = 35, Vs = 0.02, delta = 1,
 sigma = 40, tau = 0.02 unless varied) driven open loop by 60 s of band-limited
 noise torque (1 Hz, std 1.2*(Fs + sigma*20 deg/s), the Sec. IV-A experiment of
-:func:`controllers.paper_figures.paper_figures`), simulated at 1 kHz (RK4) and
+:func:`controllers.experiments.paper_figures.paper_figures`), simulated at 1 kHz (RK4) and
 sampled by :func:`plant.sampling.sample`. Each logged input sample is the
 torque of the last 1 ms step before its time stamp, hence ``input_delay =
 0.5 ms`` for the output-error fit.
@@ -44,7 +44,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from adaptive_ff.physical_id import fit_physical  # noqa: E402
+from adaptive_ff.identification.physical_id import fit_physical  # noqa: E402
 from plant import bandlimited_noise, irregular_sample_times, preset, sample, simulate  # noqa: E402
 
 KEYS = ("J", "tau", "sigma", "Fc", "Fs")
@@ -52,7 +52,7 @@ TARGET_CLEAN = {"J": 5.0, "tau": 5.0, "sigma": 2.0, "Fc": 2.0, "Fs": 2.0}
 TARGET_NOISY = {"J": 10.0, "tau": 10.0, "sigma": 5.0, "Fc": 5.0, "Fs": 5.0}
 DT = 1e-3
 DURATION = 60.0
-QUANT = 0.6  # N·m, as the Fig. 7 simulation in controllers.paper_figures
+QUANT = 0.6  # N·m, as the Fig. 7 simulation in controllers.experiments.paper_figures
 INPUT_DELAY = 0.5 * DT
 
 

@@ -2,7 +2,7 @@
 
 The paper's online estimator (RLS on eq. 4, eqs. 10-13) needs the Stribeck
 factors ``Vs``, ``delta`` from a quasi-static pre-fit (Sec. V-C; its footnote
-leaves their online estimation out). :class:`adaptive_ff.online_ukf.OnlineUKF`
+leaves their online estimation out). :class:`adaptive_ff.identification.online_ukf.OnlineUKF`
 estimates ``(Fc, Fs, Vs, delta, sigma, tau)`` jointly online. Both run on the
 same sampled stream:
 
@@ -15,11 +15,11 @@ same sampled stream:
   slope, so the reversals show short stick-slip episodes, as on a real joint;
 * measurement: white velocity noise (default 1e-3 rad/s).
 
-RLS: :class:`adaptive_ff.rls.RecursiveLeastSquares` (``lam = 1``,
+RLS: :class:`adaptive_ff.identification.rls.RecursiveLeastSquares` (``lam = 1``,
 ``P0 = 1e4*I``, ``theta0 = 0``, as in the paper) on the eq. 4
-:class:`adaptive_ff.regression.RegressionModel` with ``Vs``, ``delta`` from
-:func:`adaptive_ff.stribeck_fit.fit_stribeck` on simulated bidirectional
-quasi-static runs (:func:`controllers.quasi_static.quasi_static_runs`, same
+:class:`adaptive_ff.identification.regression.RegressionModel` with ``Vs``, ``delta`` from
+:func:`adaptive_ff.identification.stribeck_fit.fit_stribeck` on simulated bidirectional
+quasi-static runs (:func:`controllers.experiments.quasi_static.quasi_static_runs`, same
 noise). UKF: ``J`` known, initial guess off by 25-100 % (``Vs`` twice the
 truth, ``delta = 1.5``).
 
@@ -41,11 +41,11 @@ from pathlib import Path
 
 import numpy as np
 
-from adaptive_ff.online_ukf import PARAM_NAMES, convergence_time, run_online_ukf
-from adaptive_ff.regression import RegressionModel
-from adaptive_ff.rls import RecursiveLeastSquares
-from adaptive_ff.stribeck_fit import fit_stribeck
-from controllers.quasi_static import bidirectional_velocities, quasi_static_runs
+from adaptive_ff.identification.online_ukf import PARAM_NAMES, convergence_time, run_online_ukf
+from adaptive_ff.identification.regression import RegressionModel
+from adaptive_ff.identification.rls import RecursiveLeastSquares
+from adaptive_ff.identification.stribeck_fit import fit_stribeck
+from controllers.experiments.quasi_static import bidirectional_velocities, quasi_static_runs
 from plant.errors import ParameterError, check_positive
 from plant.excitation import multisine_reference
 from plant.friction import JointParams, preset
@@ -140,7 +140,7 @@ class OnlineComparison:
         ``{method: {name: ndarray (N,)}}`` UKF 1-sigma (UKF methods only).
     theta0 : dict
         ``{method: initial guess}`` of the UKF methods.
-    prefit : adaptive_ff.stribeck_fit.StribeckFit
+    prefit : adaptive_ff.identification.stribeck_fit.StribeckFit
         The quasi-static pre-fit (Sec. V-C).
     J : float
         The true inertia (kg·m²), given to the UKF.
@@ -180,7 +180,7 @@ def compare_online(p: JointParams | None = None, *, duration: float = 60.0, seed
     seed : int, keyword-only
         Seed of ``np.random.default_rng`` (reference, noise, quasi-static runs).
     ukf_options : dict, optional, keyword-only
-        Further keyword arguments of :class:`adaptive_ff.online_ukf.OnlineUKF`.
+        Further keyword arguments of :class:`adaptive_ff.identification.online_ukf.OnlineUKF`.
 
     Returns
     -------

@@ -25,10 +25,10 @@ import time
 import control
 import numpy as np
 
-from adaptive_ff.rls import RecursiveLeastSquares
-from controllers.batch import run_batch
-from controllers.closed_loop import run_closed_loop
-from controllers.pi import design_pi
+from adaptive_ff.identification.rls import RecursiveLeastSquares
+from controllers.simulation.batch import run_batch
+from controllers.simulation.closed_loop import run_closed_loop
+from controllers.design.pi import design_pi
 from plant.excitation import multisine_reference
 from plant.friction import preset
 from plant.joint import make_rk4_step
@@ -73,8 +73,8 @@ def timed(fn, repeat):
 _MEMORY_SCRIPT = r"""
 import json, os, sys, time, tracemalloc
 import numpy as np
-from controllers.closed_loop import run_closed_loop
-from controllers.pi import design_pi
+from controllers.simulation.closed_loop import run_closed_loop
+from controllers.design.pi import design_pi
 from plant.excitation import multisine_reference
 from plant.friction import preset
 hours, decimate = float(sys.argv[1]), int(sys.argv[2])
@@ -107,7 +107,7 @@ print(json.dumps(dict(n=int(ref.t.size), ref_mb=ref_bytes / 1e6, run_peak_mb=(pe
 
 _COMPARE_SCRIPT = r"""
 import time; t0, c0 = time.perf_counter(), time.process_time()
-from controllers.compare import compare
+from controllers.experiments.compare import compare
 from plant import preset
 t1, c1 = time.perf_counter(), time.process_time(); compare(preset("paper"), progress=False)
 t2, c2 = time.perf_counter(), time.process_time(); compare(preset("paper"), progress=False)
@@ -224,7 +224,7 @@ def main(argv=None) -> int:
     cold = time.perf_counter() - cold_t0 - warm
     rows.append(("compare(), paper preset, 120 s, all modes (warm), wall | CPU", warm, "s", cwarm))
     rows.append(("  first compare() in a fresh process (numba cache loaded)", first, "s", cfirst))
-    rows.append(("  imports of controllers.compare in that process", imp, "s", cimp))
+    rows.append(("  imports of controllers.experiments.compare in that process", imp, "s", cimp))
     rows.append(("  first compare() incl. interpreter start and imports (cold)", cold, "s"))
     for label, cli in (("adaptive-ff compare --no-figures (fresh process, 2nd run)", ["--no-figures", "--quiet"]),
                        ("adaptive-ff compare, with figures (fresh process, 2nd run)", ["--quiet"])):

@@ -1,4 +1,4 @@
-"""Benchmark of adaptive_ff.rls.RecursiveLeastSquares: median µs per update (p = 6).
+"""Benchmark of adaptive_ff.identification.rls.RecursiveLeastSquares: median µs per update (p = 6).
 
 Run: ``python benchmarks/rls.py [--blocks 60] [--block 1000]``. Each case runs ``blocks``
 blocks of ``block`` updates on a random stream (``lam = 0.995``, as benchmarks/perf.py) and
@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from adaptive_ff.rls import RecursiveLeastSquares
+from adaptive_ff.identification.rls import RecursiveLeastSquares
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent / "tests"))
 from rls_oracle import NumpyRLS  # noqa: E402

@@ -16,8 +16,8 @@ import time
 import numpy as np
 from tqdm.auto import tqdm
 
-from controllers.closed_loop import MODES
-from controllers.compare import compare
+from controllers.simulation.closed_loop import MODES
+from controllers.experiments.compare import compare
 from plant.friction import preset
 
 

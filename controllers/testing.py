@@ -16,8 +16,8 @@ import math
 
 import numpy as np
 
-from controllers.closed_loop import MODES
-from controllers.compare import Comparison, compare
+from controllers.simulation.closed_loop import MODES
+from controllers.experiments.compare import Comparison, compare
 from plant.errors import ParameterError, check_nonnegative, check_positive
 
 __all__ = ["TrackingBoundError", "assert_tracking_bound", "velocity_faults"]
@@ -37,7 +37,7 @@ def assert_tracking_bound(plant, *, mode: str = "adaptive", max_rms: float | Non
     plant : JointParams or another plant model
         The joint to test (see :mod:`plant.models`).
     mode : str, keyword-only
-        Compensation mode to check, one of :data:`controllers.closed_loop.MODES`; default ``"adaptive"``.
+        Compensation mode to check, one of :data:`controllers.simulation.closed_loop.MODES`; default ``"adaptive"``.
     max_rms : float, keyword-only
         Bound on the RMS velocity error over the second half of the run (rad/s).
     min_eta : float, keyword-only
@@ -51,7 +51,7 @@ def assert_tracking_bound(plant, *, mode: str = "adaptive", max_rms: float | Non
         Seed of the reference, the noise and the identification run (fixed
         seed: the test is deterministic).
     **compare_options
-        Further keyword arguments of :func:`controllers.compare.compare`
+        Further keyword arguments of :func:`controllers.experiments.compare.compare`
         (``noise_std``, ``crossover``, ``Ts``, ...).
 
     Returns

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import control
 
-from controllers.loop_analysis import analyse_design, plot_bode, plot_step
-from controllers.pi import design_pi
+from controllers.design.loop_analysis import analyse_design, plot_bode, plot_step
+from controllers.design.pi import design_pi
 
 
 def phase_margin_with_inertia(design, J_true: float) -> float:

@@ -5,7 +5,7 @@ fail when a change (new gains, new estimator settings, a new package version) ma
 tracking worse. Put your joint's parameters in PLANT and your requirements in the bounds, run it
 once, and keep the bounds a margin above the measured values.
 
-Uses the public API only: :func:`controllers.compare` (all modes on one scenario) and
+Uses the public API only: :func:`controllers.experiments.compare` (all modes on one scenario) and
 :func:`controllers.run_closed_loop` (one mode). Run: ``python -m pytest test_tracking_regression.py``.
 The values noted below were measured for the ``paper`` preset, seed 0, 30 s.
 """

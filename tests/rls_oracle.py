@@ -1,6 +1,6 @@
 """Test oracle: the original numpy implementation of RLS (eqs. 10-13), kept only to check the compiled kernel.
 
-Verbatim the pure-numpy ``RecursiveLeastSquares`` that :mod:`adaptive_ff.rls` replaced (issue 5);
+Verbatim the pure-numpy ``RecursiveLeastSquares`` that :mod:`adaptive_ff.identification.rls` replaced (issue 5);
 used by tests/test_rls.py, tests/test_properties.py and benchmarks/rls.py. Not part of the package.
 """
 

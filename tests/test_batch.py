@@ -1,4 +1,4 @@
-"""Tests of controllers.batch: the compiled batch kernel equals run_closed_loop run one by one."""
+"""Tests of controllers.simulation.batch: the compiled batch kernel equals run_closed_loop run one by one."""
 
 import inspect
 import math
@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from adaptive_ff.regression import FrictionEstimate
-from controllers.batch import run_batch
-from controllers.closed_loop import run_closed_loop
+from adaptive_ff.identification.regression import FrictionEstimate
+from controllers.simulation.batch import run_batch
+from controllers.simulation.closed_loop import run_closed_loop
 from plant.errors import ParameterError
 from plant.excitation import multisine_reference
 from plant.friction import preset
@@ -96,7 +96,7 @@ def test_divergence_matches_run_closed_loop():
 
 def test_friction_shortcuts_are_bit_exact():
     """_F skips pow for delta == 1 and pow/exp above _wcut; both must give eq. 3 bit for bit."""
-    from controllers.batch import _F, _wcut
+    from controllers.simulation.batch import _F, _wcut
     from plant.joint import _friction_scalar
 
     rng = np.random.default_rng(9)

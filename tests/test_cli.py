@@ -6,8 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from adaptive_ff.regression import RegressionModel, theta_from_physical
-from controllers.cli import main
+from adaptive_ff.identification.regression import RegressionModel, theta_from_physical
+from controllers.cli.main import main
 from plant import bandlimited_noise, preset
 
 ROOT = Path(__file__).resolve().parents[1]

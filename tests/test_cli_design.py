@@ -8,9 +8,9 @@ import control
 import numpy as np
 import pytest
 
-from controllers import cli_design
-from controllers.loop_analysis import analyse_design
-from controllers.pi import design_pi
+from controllers.cli import design as cli_design
+from controllers.design.loop_analysis import analyse_design
+from controllers.design.pi import design_pi
 from plant.errors import ParameterError
 
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -88,7 +88,7 @@ def test_errors(tmp_path):
 
 
 def test_help_of_the_new_subcommands_is_complete():
-    from controllers import cli_paper_figures, cli_stribeck
+    from controllers.cli import paper_figures as cli_paper_figures, stribeck as cli_stribeck
 
     ap = argparse.ArgumentParser(prog="adaptive-ff")
     sub = ap.add_subparsers(dest="command", required=True)

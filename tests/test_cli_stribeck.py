@@ -6,9 +6,9 @@ import json
 import numpy as np
 import pytest
 
-from controllers import cli_stribeck
-from controllers.quasi_static import bidirectional_velocities
-from controllers.synthetic_logs import quasi_static_log, write_log_csv
+from controllers.cli import stribeck as cli_stribeck
+from controllers.experiments.quasi_static import bidirectional_velocities
+from controllers.experiments.synthetic_logs import quasi_static_log, write_log_csv
 from plant import preset
 from plant.errors import ExcitationError
 
@@ -76,15 +76,15 @@ def test_too_few_runs_is_an_excitation_error(tmp_path):
 
 
 def test_emps_mat_without_columns_keeps_the_benchmark_loader():
-    """controllers.cli_data: the EMPS .mat goes through adaptive_ff.data.load_measurements unless --columns is given."""
+    """controllers.cli.data: the EMPS .mat goes through adaptive_ff.io.data.load_measurements unless --columns is given."""
     from pathlib import Path
 
-    from adaptive_ff.data import load_measurements
-    from controllers.cli_data import load_data_from_args
+    from adaptive_ff.io.data import load_measurements
+    from controllers.cli.data import load_data_from_args
 
     emps = Path(__file__).resolve().parents[1] / "data" / "emps" / "DATA_EMPS.mat"
     ap = argparse.ArgumentParser()
-    from controllers.cli_data import add_data_arguments
+    from controllers.cli.data import add_data_arguments
 
     add_data_arguments(ap)
     ap.add_argument("file")

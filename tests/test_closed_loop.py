@@ -6,11 +6,11 @@ import control
 import numpy as np
 import pytest
 
-from adaptive_ff.feedforward import AdaptiveFrictionFeedforward, FrictionFeedforward, project_estimate
-from adaptive_ff.regression import FrictionEstimate, RegressionModel
-from controllers.closed_loop import loop_metrics, run_closed_loop
-from controllers.compare import compare, eta
-from controllers.pi import design_pi
+from adaptive_ff.compensation.feedforward import AdaptiveFrictionFeedforward, FrictionFeedforward, project_estimate
+from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
+from controllers.simulation.closed_loop import loop_metrics, run_closed_loop
+from controllers.experiments.compare import compare, eta
+from controllers.design.pi import design_pi
 from plant import ParameterError, multisine_reference, preset
 
 P = preset("paper")

@@ -6,12 +6,12 @@ import math
 import numpy as np
 import pytest
 
-from adaptive_ff.feedforward import FrictionFeedforward, RobustAdaptiveFeedforward
-from adaptive_ff.gate import OutlierGate
-from adaptive_ff.regression import FrictionEstimate
-from adaptive_ff.sliding_estimator import SlidingFrictionEstimator, fit_sliding, sliding_regressors
-from controllers.closed_loop import run_closed_loop
-from controllers.pi import design_pi
+from adaptive_ff.compensation.feedforward import FrictionFeedforward, RobustAdaptiveFeedforward
+from adaptive_ff.compensation.gate import OutlierGate
+from adaptive_ff.identification.regression import FrictionEstimate
+from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, fit_sliding, sliding_regressors
+from controllers.simulation.closed_loop import run_closed_loop
+from controllers.design.pi import design_pi
 from plant import ParameterError, bandlimited_noise, multisine_reference, preset, simulate
 
 P = preset("paper")

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from controllers.closed_loop import run_closed_loop
-from controllers.compare import friction_scale
-from controllers.pi import design_pi
+from controllers.simulation.closed_loop import run_closed_loop
+from controllers.experiments.compare import friction_scale
+from controllers.design.pi import design_pi
 from controllers.testing import velocity_faults
 from plant import multisine_reference, preset
 
@@ -53,8 +53,8 @@ def test_feedforward_stays_bounded_by_ff_max(runs):
     _, faulty, _, ff_max = runs
     assert np.max(np.abs(faulty.u_ff)) <= ff_max
     # and a feedforward whose estimate exceeds the bound is clipped to it
-    from adaptive_ff.feedforward import FrictionFeedforward
-    from adaptive_ff.regression import FrictionEstimate
+    from adaptive_ff.compensation.feedforward import FrictionFeedforward
+    from adaptive_ff.identification.regression import FrictionEstimate
 
     big = FrictionEstimate(J=4.0, tau=0.0, sigma=40.0, Fc=25.0, Fs=35.0, offset=0.0, Vs=0.02, delta=1.0, J_alt=4.0)
     ff = FrictionFeedforward(big, dt=1e-3, ff_max=10.0)

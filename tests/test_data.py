@@ -1,4 +1,4 @@
-"""Tests of adaptive_ff.data: CSV reader and its errors, uniform resampling, EMPS loader."""
+"""Tests of adaptive_ff.io.data: CSV reader and its errors, uniform resampling, EMPS loader."""
 
 from pathlib import Path
 
@@ -8,7 +8,7 @@ import scipy.io
 from scipy.integrate import cumulative_trapezoid
 from scipy.signal import butter, sosfiltfilt
 
-from adaptive_ff.data import (MIN_SAMPLES, MeasuredData, is_uniform, load_csv, load_emps, load_measurements,
+from adaptive_ff.io.data import (MIN_SAMPLES, MeasuredData, is_uniform, load_csv, load_emps, load_measurements,
                               to_uniform)
 from plant.errors import SignalError
 

@@ -5,10 +5,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from adaptive_ff.data import MeasuredData, load_emps
-from adaptive_ff.diagnostics import excitation_report, velocity_noise_std
-from adaptive_ff.identify import identify
-from adaptive_ff.regression import RegressionModel
+from adaptive_ff.io.data import MeasuredData, load_emps
+from adaptive_ff.identification.diagnostics import excitation_report, velocity_noise_std
+from adaptive_ff.identification.identify import identify
+from adaptive_ff.identification.regression import RegressionModel
 from plant.errors import ExcitationError, ParameterError, SignalError
 from plant.friction import JointParams
 

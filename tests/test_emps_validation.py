@@ -8,12 +8,12 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.io import savemat
 
-from adaptive_ff.data import load_emps
-from adaptive_ff.emps_validation import (EMPSRecord, exact_step, is_emps_record, read_emps_record,
+from adaptive_ff.io.data import load_emps
+from adaptive_ff.identification.emps_validation import (EMPSRecord, exact_step, is_emps_record, read_emps_record,
                                          simulate_emps_loop, validate_emps)
-from adaptive_ff.identify import cross_validate, identify
-from adaptive_ff.idim import RigidAxisModel, fit_idim, relative_error
-from controllers.cli import main
+from adaptive_ff.identification.identify import cross_validate, identify
+from adaptive_ff.identification.idim import RigidAxisModel, fit_idim, relative_error
+from controllers.cli.main import main
 from plant.errors import ParameterError, SignalError
 
 ROOT = Path(__file__).resolve().parents[1]

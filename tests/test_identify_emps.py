@@ -1,4 +1,4 @@
-"""Tests of adaptive_ff.identify on the EMPS benchmark data and on exact synthetic records."""
+"""Tests of adaptive_ff.identification.identify on the EMPS benchmark data and on exact synthetic records."""
 
 import json
 from pathlib import Path
@@ -6,10 +6,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from adaptive_ff.data import MeasuredData, load_emps
-from adaptive_ff.identify import IdentificationReport, identify
-from adaptive_ff.ls import fit_ls
-from adaptive_ff.regression import RegressionModel
+from adaptive_ff.io.data import MeasuredData, load_emps
+from adaptive_ff.identification.identify import IdentificationReport, identify
+from adaptive_ff.identification.ls import fit_ls
+from adaptive_ff.identification.regression import RegressionModel
 from plant.errors import ParameterError
 from plant.excitation import bandlimited_noise
 from plant.friction import JointParams
@@ -175,7 +175,7 @@ def test_emps_quality_figures(report):
 
 
 def test_cross_validate_rejects_other_sample_time(report, emps):
-    from adaptive_ff.identify import cross_validate
+    from adaptive_ff.identification.identify import cross_validate
 
     slow = MeasuredData(emps.t[::2], emps.u[::2], emps.w[::2], source="every other sample")
     with pytest.raises(ParameterError, match="sample time"):

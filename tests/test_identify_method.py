@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from adaptive_ff.data import MeasuredData
-from adaptive_ff.identify import identify
-from adaptive_ff.physical_id import METHODS, fit_physical
+from adaptive_ff.io.data import MeasuredData
+from adaptive_ff.identification.identify import identify
+from adaptive_ff.identification.physical_id import METHODS, fit_physical
 from plant import bandlimited_noise, irregular_sample_times, preset, sample, simulate
 from plant.errors import ParameterError
 
@@ -75,7 +75,7 @@ def test_bad_method_arguments_raise_naming_them(record, kwargs, match):
 
 
 def test_cli_method_choices_are_the_library_methods():
-    from controllers.cli import build_parser
+    from controllers.cli.main import build_parser
 
     sub = next(a for a in build_parser()._actions if a.dest == "command")
     opt = next(a for a in sub.choices["identify"]._actions if a.dest == "method")

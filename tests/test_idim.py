@@ -7,8 +7,8 @@ import pytest
 from scipy.io import loadmat
 from scipy.signal import butter, decimate, filtfilt
 
-from adaptive_ff.data import MeasuredData, load_emps
-from adaptive_ff.idim import RigidAxisModel, fit_idim, idim_force_error, relative_error
+from adaptive_ff.io.data import MeasuredData, load_emps
+from adaptive_ff.identification.idim import RigidAxisModel, fit_idim, idim_force_error, relative_error
 from plant.errors import ExcitationError, ParameterError, SignalError
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -1,4 +1,4 @@
-"""Reading drive logs (adaptive_ff.io): formats, column maps, units, Kalman velocity, and clear errors."""
+"""Reading drive logs (adaptive_ff.io.logs): formats, column maps, units, Kalman velocity, and clear errors."""
 
 import math
 
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.io import savemat
 
-from adaptive_ff.data import MeasuredData
-from adaptive_ff.io import (estimate_position_noise, load_log, parse_column_map, read_columns,
+from adaptive_ff.io.data import MeasuredData
+from adaptive_ff.io.logs import (estimate_position_noise, load_log, parse_column_map, read_columns,
                             velocity_from_position)
 from plant import irregular_sample_times, preset, simulate
 from plant.errors import ParameterError, SignalError

@@ -1,4 +1,4 @@
-"""The compiled closed-loop kernel (controllers.loop_kernel) equals its Python reference twin, and streams metrics."""
+"""The compiled closed-loop kernel (controllers.simulation.loop_kernel) equals its Python reference twin, and streams metrics."""
 
 import contextlib
 import math
@@ -8,10 +8,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from adaptive_ff.regression import FrictionEstimate, RegressionModel
-from controllers import closed_loop as cl
-from controllers.closed_loop import _reversals, kernel_supported, loop_metrics, run_closed_loop
-from controllers.pi import design_pi
+from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
+from controllers.simulation import closed_loop as cl
+from controllers.simulation.closed_loop import _reversals, kernel_supported, loop_metrics, run_closed_loop
+from controllers.design.pi import design_pi
 from plant.errors import ParameterError
 from plant.excitation import multisine_reference
 from plant.friction import preset
@@ -231,8 +231,8 @@ def test_kernel_equals_python_on_a_drifting_plant(ref, mode):
 
 
 def test_rls_state_layout_assumed_by_the_kernel():
-    # controllers.loop_kernel reads theta and P of adaptive_ff.rls.RecursiveLeastSquares from its state buffer
-    from adaptive_ff.rls import _HDR, _NUPD, RecursiveLeastSquares
+    # controllers.simulation.loop_kernel reads theta and P of adaptive_ff.identification.rls.RecursiveLeastSquares from its state buffer
+    from adaptive_ff.identification.rls import _HDR, _NUPD, RecursiveLeastSquares
 
     rls = RecursiveLeastSquares(3, lam=0.99, P0=[[2.0, 0.1, 0.0], [0.1, 3.0, 0.2], [0.0, 0.2, 4.0]],
                                 theta0=[1.0, 2.0, 3.0])
@@ -244,13 +244,13 @@ def test_rls_state_layout_assumed_by_the_kernel():
 
 
 def test_stale_numba_cache_is_dropped_when_an_inlined_module_changes(tmp_path, monkeypatch):
-    """The loop kernel inlines controllers.batch and adaptive_ff.rls code; numba only watches loop_kernel.py."""
+    """The loop kernel inlines controllers.simulation.batch and adaptive_ff.identification.rls code; numba only watches loop_kernel.py."""
     import hashlib
     from pathlib import Path
 
-    import adaptive_ff.rls as rls_mod
-    import controllers.batch as batch_mod
-    import controllers.loop_kernel as lk
+    import adaptive_ff.identification.rls as rls_mod
+    import controllers.simulation.batch as batch_mod
+    import controllers.simulation.loop_kernel as lk
 
     monkeypatch.setattr(lk, "__file__", str(tmp_path / "loop_kernel.py"))
     cache = tmp_path / "__pycache__"

@@ -1,4 +1,4 @@
-"""Tests of adaptive_ff.online_ukf: joint UKF estimation of (Fc, Fs, Vs, delta, sigma, tau), issue 3 item 4."""
+"""Tests of adaptive_ff.identification.online_ukf: joint UKF estimation of (Fc, Fs, Vs, delta, sigma, tau), issue 3 item 4."""
 
 import math
 import warnings
@@ -6,7 +6,7 @@ import warnings
 import numpy as np
 import pytest
 
-from adaptive_ff.online_ukf import (PARAM_NAMES, STATE_NAMES, FilterDivergedError, OnlineUKF, OnlineUKFResult,
+from adaptive_ff.identification.online_ukf import (PARAM_NAMES, STATE_NAMES, FilterDivergedError, OnlineUKF, OnlineUKFResult,
                                     convergence_time, run_online_ukf)
 from plant.errors import ParameterError, SignalError
 from plant.excitation import multisine_reference

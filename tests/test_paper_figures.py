@@ -6,12 +6,12 @@ import json
 import numpy as np
 import pytest
 
-from adaptive_ff.identify import identify
-from adaptive_ff.io import load_log
-from adaptive_ff.ls import fit_ls
-from adaptive_ff.regression import RegressionModel, theta_from_physical
-from controllers import cli_paper_figures
-from controllers.paper_figures import (DEMO_COUNTS_PER_REV, DEMO_CURRENT_TO_TORQUE, FIGURE_CAPTIONS,
+from adaptive_ff.identification.identify import identify
+from adaptive_ff.io.logs import load_log
+from adaptive_ff.identification.ls import fit_ls
+from adaptive_ff.identification.regression import RegressionModel, theta_from_physical
+from controllers.cli import paper_figures as cli_paper_figures
+from controllers.experiments.paper_figures import (DEMO_COUNTS_PER_REV, DEMO_CURRENT_TO_TORQUE, FIGURE_CAPTIONS,
                                        identification_figures, plot_parameter_convergence, plot_sample_times,
                                        plot_velocity_fit, rls_pass, save_figures)
 from plant import bandlimited_noise, preset

@@ -5,10 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from controllers.canudas import CanudasCompensator
-from controllers.closed_loop import run_closed_loop
-from controllers.dob import DisturbanceObserver
-from controllers.pi import design_pi
+from controllers.peers.canudas import CanudasCompensator
+from controllers.simulation.closed_loop import run_closed_loop
+from controllers.peers.dob import DisturbanceObserver
+from controllers.design.pi import design_pi
 from plant import ParameterError, multisine_reference
 from plant.asymmetric import AsymmetricParams
 

@@ -1,4 +1,4 @@
-"""Tests of adaptive_ff.physical_id.fit_physical: the paper's eq. 4 bias and the output-error method."""
+"""Tests of adaptive_ff.identification.physical_id.fit_physical: the paper's eq. 4 bias and the output-error method."""
 
 import json
 import math
@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from adaptive_ff.physical_id import PhysicalFit, fit_physical
+from adaptive_ff.identification.physical_id import PhysicalFit, fit_physical
 from plant import bandlimited_noise, irregular_sample_times, preset, sample, simulate
 from plant.errors import ExcitationError, ParameterError, SignalError
 
@@ -133,7 +133,7 @@ def test_invalid_input_raises_typed_errors_naming_the_argument(clean):
 
 
 def test_noise_estimate_ignores_irregular_sampling():
-    from adaptive_ff.physical_id import _noise_std
+    from adaptive_ff.identification.physical_id import _noise_std
 
     rng = np.random.default_rng(11)
     t = np.cumsum(rng.choice([0.009, 0.01, 0.011, 0.02], size=3000))  # Fig. 10-like irregular intervals

@@ -1,4 +1,4 @@
-"""Tests of controllers.pi: discrete PI design (margins checked independently) and the runtime PI."""
+"""Tests of controllers.design.pi: discrete PI design (margins checked independently) and the runtime PI."""
 
 import math
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import optimize, signal
 
-from controllers.pi import MAX_CROSSOVER_FRACTION, PIController, PIDesign, closed_loop_step, design_pi
+from controllers.design.pi import MAX_CROSSOVER_FRACTION, PIController, PIDesign, closed_loop_step, design_pi
 from plant.errors import ParameterError
 from plant.friction import preset
 from plant.joint import make_rk4_step

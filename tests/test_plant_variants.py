@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from controllers.quasi_static import quasi_static_runs
+from controllers.experiments.quasi_static import quasi_static_runs
 from plant import JointParams, ParameterError, preset, simulate
 from plant.asymmetric import AsymmetricParams
 from plant.drift import FrictionDrift

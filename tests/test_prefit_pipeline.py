@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from adaptive_ff.stribeck_fit import fit_stribeck
-from controllers.quasi_static import bidirectional_velocities, quasi_static_runs
+from adaptive_ff.identification.stribeck_fit import fit_stribeck
+from controllers.experiments.quasi_static import bidirectional_velocities, quasi_static_runs
 from plant import preset
 
 P = preset("paper")

@@ -1,9 +1,9 @@
 """Property tests (hypothesis) of the compiled kernels of issue 5.
 
-* :func:`controllers.batch.run_batch` equals :func:`controllers.closed_loop.run_closed_loop`
+* :func:`controllers.simulation.batch.run_batch` equals :func:`controllers.simulation.closed_loop.run_closed_loop`
   (its plain-Python engine) run one by one, to 1e-9, over random plants (eq. 3 with lag),
   gains, limits, noise seeds and modes.
-* :meth:`adaptive_ff.rls.RecursiveLeastSquares.update` equals ``update_many`` (bit for bit)
+* :meth:`adaptive_ff.identification.rls.RecursiveLeastSquares.update` equals ``update_many`` (bit for bit)
   and the former numpy implementation (tests/rls_oracle.py) to rounding (1e-10 relative to the
   largest entry of ``P``; BLAS sums ``P @ phi`` in another order) over random streams,
   forgetting schemes, covariance bounds and parameter boxes.
@@ -19,10 +19,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from adaptive_ff.regression import FrictionEstimate
-from adaptive_ff.rls import RecursiveLeastSquares
-from controllers.batch import run_batch
-from controllers.closed_loop import run_closed_loop
+from adaptive_ff.identification.regression import FrictionEstimate
+from adaptive_ff.identification.rls import RecursiveLeastSquares
+from controllers.simulation.batch import run_batch
+from controllers.simulation.closed_loop import run_closed_loop
 from plant.excitation import multisine_reference
 from plant.friction import JointParams
 from rls_oracle import NumpyRLS

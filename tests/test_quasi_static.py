@@ -1,4 +1,4 @@
-"""Tests of controllers.quasi_static: constant-velocity runs recover the Stribeck map (eq. 3)."""
+"""Tests of controllers.experiments.quasi_static: constant-velocity runs recover the Stribeck map (eq. 3)."""
 
 import math
 
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from controllers.pi import design_pi
-from controllers.quasi_static import QS_CROSSOVER, bidirectional_velocities, quasi_static_runs
+from controllers.design.pi import design_pi
+from controllers.experiments.quasi_static import QS_CROSSOVER, bidirectional_velocities, quasi_static_runs
 from plant.errors import ParameterError, SignalError
 from plant.friction import preset, stribeck
 

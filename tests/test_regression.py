@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from adaptive_ff.ls import fit_ls
-from adaptive_ff.regression import (RegressionModel, g_regressor, h_regressor, nrmse_fit, theta_from_physical,
+from adaptive_ff.identification.ls import fit_ls
+from adaptive_ff.identification.regression import (RegressionModel, g_regressor, h_regressor, nrmse_fit, theta_from_physical,
                                     theta_from_physical_printed)
 from plant import ExcitationError, JointParams, ParameterError, SignalError, bandlimited_noise, stribeck
 

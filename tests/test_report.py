@@ -1,4 +1,4 @@
-"""controllers.report: one self-contained HTML page from the pieces of a run."""
+"""controllers.report.html: one self-contained HTML page from the pieces of a run."""
 
 import base64
 import re
@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from adaptive_ff.data import MeasuredData
-from adaptive_ff.identify import identify
-from adaptive_ff.regression import RegressionModel, theta_from_physical
-from adaptive_ff.stribeck_fit import fit_stribeck
-from controllers.compare import compare
-from controllers.loop_analysis import analyse_design
-from controllers.pi import design_pi
-from controllers.report import compare_report, figure_png, identify_report, report_html, write_report
+from adaptive_ff.io.data import MeasuredData
+from adaptive_ff.identification.identify import identify
+from adaptive_ff.identification.regression import RegressionModel, theta_from_physical
+from adaptive_ff.identification.stribeck_fit import fit_stribeck
+from controllers.experiments.compare import compare
+from controllers.design.loop_analysis import analyse_design
+from controllers.design.pi import design_pi
+from controllers.report.html import compare_report, figure_png, identify_report, report_html, write_report
 from plant import bandlimited_noise, preset
 
 P = preset("paper")

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 from filterpy.kalman import KalmanFilter
 
-from adaptive_ff.ls import fit_ls
-from adaptive_ff.regression import RegressionModel
-from adaptive_ff.rls import RecursiveLeastSquares
+from adaptive_ff.identification.ls import fit_ls
+from adaptive_ff.identification.regression import RegressionModel
+from adaptive_ff.identification.rls import RecursiveLeastSquares
 from plant import JointParams, ParameterError, SignalError, bandlimited_noise, sample, simulate
 from rls_oracle import NumpyRLS  # the former numpy implementation (test oracle)
 

@@ -1,10 +1,10 @@
-"""Tests of adaptive_ff.simulator: RK4 of eqs. 1-3 on irregular sample times with first-order-hold input."""
+"""Tests of adaptive_ff.identification.simulator: RK4 of eqs. 1-3 on irregular sample times with first-order-hold input."""
 
 import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from adaptive_ff.simulator import input_grid, simulate_on_grid, simulate_sampled
+from adaptive_ff.identification.simulator import input_grid, simulate_on_grid, simulate_sampled
 from plant.errors import ParameterError, SignalError
 from plant.friction import JointParams
 

@@ -1,16 +1,16 @@
-"""Quasi-static support points from logs (adaptive_ff.steady_state) and the synthetic logs behind them."""
+"""Quasi-static support points from logs (adaptive_ff.identification.steady_state) and the synthetic logs behind them."""
 
 import math
 
 import numpy as np
 import pytest
 
-from adaptive_ff.data import MeasuredData
-from adaptive_ff.steady_state import (binned_steady_state, constant_velocity_segments, noise_std_estimate,
+from adaptive_ff.io.data import MeasuredData
+from adaptive_ff.identification.steady_state import (binned_steady_state, constant_velocity_segments, noise_std_estimate,
                                       support_points)
-from adaptive_ff.stribeck_fit import fit_stribeck
-from controllers.quasi_static import bidirectional_velocities
-from controllers.synthetic_logs import quasi_static_log
+from adaptive_ff.identification.stribeck_fit import fit_stribeck
+from controllers.experiments.quasi_static import bidirectional_velocities
+from controllers.experiments.synthetic_logs import quasi_static_log
 from plant import preset
 from plant.errors import ExcitationError, ParameterError
 

@@ -1,4 +1,4 @@
-"""Tests of adaptive_ff.stribeck_fit: Levenberg-Marquardt fit of the Stribeck map (eq. 3), paper Sec. V-C."""
+"""Tests of adaptive_ff.identification.stribeck_fit: Levenberg-Marquardt fit of the Stribeck map (eq. 3), paper Sec. V-C."""
 
 import json
 import warnings
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.stats import t as student_t
 
-from adaptive_ff.stribeck_fit import PARAM_NAMES, StribeckFit, fit_stribeck, plot_stribeck_fit
+from adaptive_ff.identification.stribeck_fit import PARAM_NAMES, StribeckFit, fit_stribeck, plot_stribeck_fit
 from plant.errors import ExcitationError, ParameterError, SignalError
 from plant.friction import preset, stribeck
 
@@ -334,7 +334,7 @@ def test_plot_draws_curve_and_measurements_with_labelled_axes():
 def test_simulated_quasi_static_runs_recover_vs_and_delta_within_5_percent(delta):
     # Sec. V-C experiment on the RK4 plant: bidirectional constant-velocity runs in a PI loop, velocity noise
     # 1e-3 rad/s, mean torque of each run as the support point. delta = -1: friction rising from Fc to Fs.
-    from controllers.quasi_static import bidirectional_velocities, quasi_static_runs
+    from controllers.experiments.quasi_static import bidirectional_velocities, quasi_static_runs
     from plant.friction import JointParams
 
     p = JointParams(**dict(preset("paper").to_dict(), delta=delta))

@@ -4,7 +4,7 @@ import csv
 
 import pytest
 
-from controllers.sweep import expand_cases, load_spec, run_sweep
+from controllers.experiments.sweep import expand_cases, load_spec, run_sweep
 
 SPEC = {"preset": "paper", "grid": {"Fc": [20.0, 30.0]}, "seeds": [0, 1], "modes": ["none", "adaptive"],
         "duration": 4.0, "options": {"prefit": False}}

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 
-from adaptive_ff.rls import RecursiveLeastSquares
+from adaptive_ff.identification.rls import RecursiveLeastSquares
 from plant import ParameterError
 
 # the sliding estimator's structure: theta = (J, J*tau, tau, Fc, Fs, sigma, offset)

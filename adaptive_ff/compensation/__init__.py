@@ -1,0 +1,1 @@
+"""Online friction compensation: the outlier gate, the sliding-regime estimator and the friction feedforward components."""

@@ -1,0 +1,159 @@
+"""Data-quality diagnostics for identification: noise level and excitation of every parameter.
+
+Used by :func:`adaptive_ff.identification.identify.identify`: its warnings name the parameter a
+record does not excite and why (no velocity reversals, too few low-speed
+samples, a single speed, no accelerations above the noise), and an
+``ExcitationError`` from the least squares is extended by these causes. Sources:
+persistence of excitation (Ljung, *System Identification*, 2nd ed., Sec. 13.2)
+and the robust noise scale of Hampel (1974).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from plant.errors import ParameterError, check_positive, check_signal
+
+__all__ = ["velocity_noise_std", "ExcitationReport", "excitation_report"]
+
+
+def velocity_noise_std(w) -> float:
+    """Robust estimate of the white measurement-noise standard deviation of a velocity record.
+
+    Parameters
+    ----------
+    w : array_like, shape (N,)
+        Velocity samples (rad/s, or m/s for a prismatic axis), N >= 8.
+
+    Returns
+    -------
+    float
+        ``1.4826 * MAD(diff(w, 3)) / sqrt(20)`` (unit of ``w``). On a
+        low-pass filtered record (such as :func:`adaptive_ff.io.data.load_emps`
+        returns) it measures what is left of the noise after the filter.
+
+    Raises
+    ------
+    SignalError
+        Fewer than 8 samples or non-finite values.
+
+    Notes
+    -----
+    For white noise of variance ``s**2`` the third difference has variance
+    ``20*s**2`` (binomial coefficients 1, 3, 3, 1), while a smooth signal
+    sampled fast enough contributes only ``w''' * Ts**3``; the median absolute
+    deviation (scaled by 1.4826 for Gaussian noise) ignores the few samples at
+    velocity reversals where the signal is not smooth (Hampel, 1974,
+    "The influence curve and its role in robust estimation").
+    """
+    w = check_signal("w", w, min_len=8)
+    d3 = np.diff(w, 3)
+    return float(1.4826 * np.median(np.abs(d3 - np.median(d3))) / np.sqrt(20.0))
+
+
+@dataclass(frozen=True)
+class ExcitationReport:
+    """How well a record excites the friction model (see :func:`excitation_report`).
+
+    Attributes
+    ----------
+    n_samples : int
+        Samples in the record.
+    n_reversals : int
+        Sign changes of the velocity among samples with ``|w|`` above the noise threshold.
+    low_speed_fraction : float
+        Fraction of samples with ``noise_threshold < |w| < 3*Vs`` (the Stribeck transition).
+    noise_std : float
+        Estimated velocity noise (rad/s), :func:`velocity_noise_std`.
+    warnings : tuple of str
+        One message per parameter that the record does not excite, naming the cause.
+    """
+
+    n_samples: int
+    n_reversals: int
+    low_speed_fraction: float
+    noise_std: float
+    warnings: tuple[str, ...]
+
+
+def excitation_report(u, w, *, Vs: float | None = None, min_reversals: int = 4,
+                      min_low_speed: float = 0.01) -> ExcitationReport:
+    """Check whether a record can identify the friction parameters, naming the cause when not.
+
+    Parameters
+    ----------
+    u : array_like, shape (N,)
+        Input torque (N·m) or force (N).
+    w : array_like, shape (N,)
+        Velocity (rad/s) or (m/s).
+    Vs : float, keyword-only, optional
+        Stribeck velocity (rad/s) of the structure to be fitted; if given, the
+        low-speed region ``|w| < 3*Vs`` must hold at least ``min_low_speed`` of
+        the samples for ``Fs`` (and ``Vs``) to be identifiable.
+    min_reversals : int, keyword-only
+        Fewest velocity reversals for ``Fc`` to be separable from a constant
+        torque offset (>= 1). Default 4.
+    min_low_speed : float, keyword-only
+        Smallest fraction of samples in the Stribeck transition, in (0, 1). Default 1 %.
+
+    Returns
+    -------
+    ExcitationReport
+
+    Raises
+    ------
+    SignalError
+        Bad shapes or values.
+    ParameterError
+        Bad ``Vs``, ``min_reversals`` or ``min_low_speed``.
+
+    Notes
+    -----
+    Persistence of excitation (Ljung, *System Identification*, 2nd ed.,
+    Sec. 13.2) for this model means: velocity reversals (the Coulomb
+    regressor ``sgn(w)`` changes sign, otherwise it is collinear with a
+    constant offset), samples in the Stribeck transition (otherwise
+    ``g ~ sgn(w)`` and ``h ~ 0`` and ``Fs`` multiplies a zero column), a
+    spread of speeds (``sigma``) and of accelerations (``J``), and an input that
+    varies (``u`` constant: nothing is excited). A speed counts as known only
+    above three times the estimated noise level.
+    """
+    u = check_signal("u", u, min_len=8)
+    w = check_signal("w", w, n=u.shape[0])
+    if Vs is not None:
+        Vs = check_positive("Vs", Vs)
+    if isinstance(min_reversals, bool) or not isinstance(min_reversals, (int, np.integer)) or min_reversals < 1:
+        raise ParameterError(f"min_reversals must be an integer >= 1, got {min_reversals!r}")
+    min_low_speed = check_positive("min_low_speed", min_low_speed)
+    if min_low_speed >= 1.0:
+        raise ParameterError(f"min_low_speed must be in (0, 1), got {min_low_speed!r}")
+    sn = velocity_noise_std(w)
+    thr = 3.0 * sn
+    moving = np.abs(w) > thr
+    s = np.sign(w[moving])
+    n_rev = int(np.sum(s[1:] != s[:-1])) if s.size > 1 else 0
+    low = float(np.mean(moving & (np.abs(w) < 3.0 * Vs))) if Vs is not None else float("nan")
+    warn = []
+    if np.ptp(u) == 0.0:
+        warn.append("the input u is constant: no parameter is excited")
+    if n_rev < min_reversals:
+        warn.append(f"only {n_rev} velocity reversal(s) above the noise level (need {min_reversals}): "
+                    "Fc is not separable from a constant torque offset; drive in both directions")
+    if Vs is not None and not low >= min_low_speed:
+        if 3.0 * Vs <= thr:
+            cause = (f"the Stribeck transition |w| < 3*Vs = {3 * Vs:.3g} rad/s lies below three times the "
+                     f"velocity noise ({thr:.3g} rad/s)")
+        else:
+            cause = (f"only {100 * low:.2f} % of the samples lie in the Stribeck transition "
+                     f"{thr:.3g} < |w| < 3*Vs = {3 * Vs:.3g} rad/s (need {100 * min_low_speed:g} %)")
+        warn.append(f"too few low-speed samples: Fs and Vs are not identifiable ({cause})")
+    if not moving.any() or np.ptp(np.abs(w[moving])) < 0.1 * np.max(np.abs(w)):
+        warn.append("the speed hardly varies: sigma is not separable from Fc; use several speed levels")
+    dw = np.diff(w)
+    if dw.size and np.std(dw) <= 3.0 * np.sqrt(2.0) * sn:
+        warn.append("the velocity changes no more than its noise from sample to sample: J (and tau) are "
+                    "not identifiable; excite accelerations")
+    return ExcitationReport(n_samples=int(w.shape[0]), n_reversals=n_rev, low_speed_fraction=low,
+                            noise_std=sn, warnings=tuple(warn))

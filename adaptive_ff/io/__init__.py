@@ -1,0 +1,1 @@
+"""Reading measured logs (CSV/TXT/.mat/.npz) and the EMPS benchmark data."""

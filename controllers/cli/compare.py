@@ -1,0 +1,110 @@
+"""``adaptive-ff compare``: all friction-compensation modes on one plant, table and figures."""
+
+from __future__ import annotations
+
+import json
+
+__all__ = ["register"]
+
+
+def run(args) -> int:
+    """Execute ``adaptive-ff compare`` with parsed ``args``; return the exit status."""
+    from controllers.simulation.closed_loop import MODES
+    from controllers.experiments.compare import compare
+    from controllers.report.figures import plot_comparison
+    from plant.errors import ParameterError
+    from plant.friction import preset
+    from plant.models import load_plant, plant_to_dict
+    from plant.variants import drift_case, variant
+
+    if args.plant:
+        p = load_plant(args.plant)
+    elif args.variant == "drift":
+        p = drift_case(args.duration)
+    elif args.variant:
+        p = variant(args.variant)
+    else:
+        p = preset(args.preset)
+    modes = MODES
+    if args.modes:
+        modes = tuple(m.strip() for m in args.modes.split(",") if m.strip())
+        unknown = [m for m in modes if m not in MODES]
+        if unknown:
+            raise ParameterError(f"--modes: unknown mode(s) {unknown}; known: {list(MODES)}")
+    progress = None if not args.quiet else False
+    comp = compare(p, duration=args.duration, seed=args.seed, modes=modes, Ts=args.Ts, noise_std=args.noise,
+                   lam=args.lam, crossover=args.crossover, phase_margin=args.phase_margin, progress=progress,
+                   estimator=args.estimator, ff_input=args.ff_input, omega_q=args.omega_q)
+    paths = [] if args.no_figures else plot_comparison(comp, args.out)
+    report = None
+    if args.report:
+        from controllers.cli.data import command_line
+        from controllers.report.html import compare_report
+
+        report = compare_report(args.report, comp, figures=paths, command=command_line())
+    if args.json:
+        d = comp.to_json_dict()
+        d["figures"] = [str(x) for x in paths]
+        if report is not None:
+            d["report"] = str(report)
+        print(json.dumps(d, indent=2))
+        return 0
+    src = args.plant if args.plant else (f"variant '{args.variant}'" if args.variant else f"preset '{args.preset}'")
+    d = comp.design
+    desc = ", ".join(f"{k}={v:g}" if isinstance(v, (int, float)) else f"{k}={v}"
+                     for k, v in plant_to_dict(p).items() if k != "drift")
+    print(f"plant: {src}: {desc}")
+    if hasattr(p, "at"):
+        print(f"drift: Fc {p.Fc_change:+.0%}, Fs {p.Fs_change:+.0%} from t = {p.t_start:g} s to {p.t_end:g} s")
+    print(f"PI: Kp={d.Kp:.4g} N·m·s/rad, Ki={d.Ki:.4g} N·m/rad, Tc={d.Tc:g} s; "
+          f"phase margin {d.phase_margin:.1f} deg, gain margin {d.gain_margin:.3g}")
+    if comp.prefit is not None:
+        print(f"Stribeck pre-fit (Sec. V-C): Vs={comp.prefit.Vs:.4g} rad/s, delta={comp.prefit.delta:.4g}")
+    print(f"run: {args.duration:g} s, seed {args.seed}; metrics over the second half\n")
+    print(comp.table())
+    if paths:
+        print("\nfigures: " + ", ".join(str(x) for x in paths))
+    if report is not None:
+        print(f"report: {report}")
+    return 0
+
+
+def register(sub) -> None:
+    """Add the ``compare`` subcommand to an argparse subparsers object."""
+    c = sub.add_parser("compare", help="run all compensation modes on a plant and compare tracking error",
+                       description="Simulate the 1 kHz plant in closed loop with the PI velocity controller in the "
+                                   "modes none, fixed, adaptive, canudas (Canudas de Wit et al. 1987), dob "
+                                   "(disturbance observer), oracle and frictionless; print the metrics table and "
+                                   "write PNG figures.")
+    c.add_argument("--preset", default="paper", help="named plant parameter set (default: paper)")
+    c.add_argument("--plant", metavar="FILE",
+                   help='JSON plant file (SI units): "model" = "lagged-stribeck" (default; J, Fc, Fs, Vs, delta, '
+                        'sigma, tau), "lugre" (J, Fc, Fs, Vs, delta, sigma0, sigma1, sigma2), "karnopp" (... tau, dv) '
+                        'or "asymmetric" (J, Fc_pos, Fc_neg, Fs_pos, Fs_neg, Vs, delta, sigma_pos, sigma_neg, tau); '
+                        'optional "drift": {"Fc_change", "Fs_change", "t_start", "t_end"}')
+    c.add_argument("--variant", choices=("lugre", "karnopp", "asymmetric", "small-inertia", "long-lag",
+                                         "negative-delta", "static", "drift"),
+                   help="a plant variant of the paper preset (drift: Fc, Fs +50%% over the first half)")
+    c.add_argument("--modes", help="comma-separated subset of none,fixed,adaptive,canudas,dob,oracle,frictionless "
+                                   "(default: all; none and frictionless always run)")
+    c.add_argument("--estimator", choices=("sliding", "eq4"), default="sliding",
+                   help="adaptive estimator: sliding-regime inverse-dynamics RLS (default) or the paper's eq. 4")
+    c.add_argument("--ff-input", choices=("measured", "reference"), default="measured",
+                   help="velocity the friction feedforward is evaluated at (default: measured)")
+    c.add_argument("--omega-q", type=float, default=500.0,
+                   help="Q-filter cut-off of the disturbance observer in rad/s (default 500)")
+    c.add_argument("--duration", type=float, default=120.0, help="run length in s (default 120)")
+    c.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    c.add_argument("--out", default="out", help="directory for the PNG figures (default ./out)")
+    c.add_argument("--Ts", type=float, default=0.01, help="estimator update period in s (default 0.01)")
+    c.add_argument("--noise", type=float, default=1e-3, help="velocity noise std in rad/s (default 1e-3)")
+    c.add_argument("--lam", type=float, default=None,
+                   help="RLS forgetting factor per update (default 0.995; 0.999 for canudas)")
+    c.add_argument("--crossover", type=float, default=20.0, help="PI crossover in rad/s (default 20)")
+    c.add_argument("--phase-margin", type=float, default=60.0, help="PI phase margin in deg (default 60)")
+    c.add_argument("--json", action="store_true", help="print the metrics as JSON instead of the table")
+    c.add_argument("--no-figures", action="store_true", help="do not write figures")
+    c.add_argument("--quiet", action="store_true", help="no progress bar")
+    c.add_argument("--report", metavar="DIR", default=None, help="write a self-contained HTML report into DIR")
+    c.set_defaults(func=run)
+

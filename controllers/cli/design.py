@@ -1,0 +1,142 @@
+"""``adaptive-ff design``: discrete PI velocity controller for a given or identified inertia (python-control)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+__all__ = ["register", "run", "plant_from_file"]
+
+_EPILOG = """\
+The plant is the joint's linear part P(s) = 1/(J s + sigma) (friction is what the feedforward removes),
+held by a zero-order hold at Tc. The PI C(z) = Kp + Ki*Tc*z/(z-1) places the gain crossover of the
+discrete loop at --crossover with --phase-margin (controllers.design.pi.design_pi); margins come from
+control.stability_margins. J and sigma can be read from a JSON file with --from: the output of
+'adaptive-ff identify --json', a plant file (J, Fc, ..., tau) or this command's own --json output.
+
+Output: gains, crossover, phase and gain margins, stability margin (1/Ms), closed-loop bandwidth, step
+metrics; OUT/bode.png (open loop with margins, |S|, |T|) and OUT/step.png (velocity and torque of a
+1 rad/s reference step, no friction, no saturation).
+
+examples:
+  adaptive-ff design --J 4 --crossover 20 --phase-margin 60 --Tc 0.001
+  adaptive-ff identify log.csv --json > id.json && adaptive-ff design --from id.json --crossover 30
+"""
+
+
+def plant_from_file(path) -> tuple[float, float]:
+    """``(J, sigma)`` from a JSON object with a ``J`` key and optionally ``sigma`` (0 if absent).
+
+    Raises
+    ------
+    ParameterError
+        Not JSON, not an object, or no numeric ``J``.
+    FileNotFoundError
+        No such file.
+    """
+    from plant.errors import ParameterError
+
+    path = Path(path)
+    try:
+        d = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise ParameterError(f"{path}: not valid JSON ({exc})") from None
+    if isinstance(d, dict) and "J" not in d and isinstance(d.get("plant"), dict):
+        d = d["plant"]
+    if not isinstance(d, dict) or not isinstance(d.get("J"), (int, float)) or isinstance(d.get("J"), bool):
+        raise ParameterError(f"{path}: expected a JSON object with a numeric 'J' (kg·m²) and optionally 'sigma'")
+    sigma = d.get("sigma", 0.0)
+    if sigma is None:
+        sigma = 0.0
+    return float(d["J"]), float(sigma)
+
+
+def run(args) -> int:
+    """Execute ``adaptive-ff design`` with parsed ``args``; return the exit status."""
+    from controllers.cli.data import command_line
+    from controllers.design.loop_analysis import analyse_design, plot_bode, plot_step
+    from controllers.design.pi import design_pi
+    from plant.errors import ParameterError
+
+    J, sigma = args.J, args.sigma
+    source = "command line"
+    if args.from_file:
+        Jf, sf = plant_from_file(args.from_file)
+        source = str(args.from_file)
+        J = Jf if J is None else J
+        sigma = sf if sigma is None else sigma
+    if J is None:
+        raise ParameterError("give the inertia with --J (kg·m²) or a JSON file with --from")
+    sigma = 0.0 if sigma is None else sigma
+    if sigma < 0:
+        if not args.from_file:
+            raise ParameterError(f"sigma must be >= 0, got {sigma!r}")
+        sigma = 0.0  # an identified negative viscous term: design for the inertia alone
+    design = design_pi(J, sigma=sigma, crossover=args.crossover, phase_margin=args.phase_margin, Tc=args.Tc)
+    analysis = analyse_design(design, t_end=args.step_duration)
+    paths = []
+    figs = None
+    if not args.no_figures or args.report:
+        figs = {"Bode plot of the open loop with gain and phase margins, |S| and |T|": plot_bode(design),
+                "closed-loop response to a 1 rad/s velocity step": plot_step(analysis)}
+    if not args.no_figures:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        for name, fig in zip(("bode.png", "step.png"), figs.values()):
+            fig.savefig(out / name, dpi=110)
+            paths.append(out / name)
+    report_path = None
+    if args.report:
+        from controllers.report.html import write_report
+
+        report_path = write_report(
+            args.report, title="PI velocity-loop design", design=analysis, figures=figs, command=command_line(),
+            summary={"source of J, sigma": source,
+                     "targets": {"crossover (rad/s)": args.crossover, "phase margin (deg)": args.phase_margin}})
+    if args.json:
+        d = analysis.to_json_dict()
+        d["targets"] = {"crossover": args.crossover, "phase_margin": args.phase_margin}
+        d["source"] = source
+        d["figures"] = [str(p) for p in paths]
+        d["report"] = str(report_path) if report_path else None
+        print(json.dumps(d, indent=2))
+        return 0
+    print(f"J, sigma from {source}")
+    print(analysis.summary())
+    print(f"targets: crossover {args.crossover:g} rad/s, phase margin {args.phase_margin:g} deg")
+    if math.isfinite(design.gain_margin) and design.gain_margin < 2.0:
+        print(f"warning: gain margin {design.gain_margin:.3g} < 2: little room for an inertia error")
+    if paths:
+        print("figures: " + ", ".join(str(p) for p in paths))
+    if report_path:
+        print(f"report: {report_path}")
+    return 0
+
+
+def register(sub) -> None:
+    """Add the ``design`` subcommand to an argparse subparsers object."""
+    d = sub.add_parser("design", help="design the discrete PI velocity controller (gains, margins, Bode, step)",
+                       description="Loop-shaping design of the discrete PI velocity controller for the joint "
+                                   "inertia J (and viscous sigma) at a target crossover and phase margin, with "
+                                   "python-control; prints gains and margins and plots Bode and step responses.",
+                       epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    d.add_argument("--J", type=float, default=None, metavar="KGM2", help="inertia in kg·m² (or kg)")
+    d.add_argument("--sigma", type=float, default=None, metavar="NMS",
+                   help="viscous coefficient in N·m·s/rad (default 0, or from --from)")
+    d.add_argument("--from", dest="from_file", metavar="FILE", default=None,
+                   help="JSON with J (and sigma): 'identify --json' output or a plant file; --J/--sigma override it")
+    d.add_argument("--crossover", type=float, default=20.0, metavar="RAD_S",
+                   help="target gain crossover in rad/s (default 20; at most 0.2*pi/Tc)")
+    d.add_argument("--phase-margin", type=float, default=60.0, metavar="DEG",
+                   help="target phase margin in degrees, in (0, 90) (default 60)")
+    d.add_argument("--Tc", type=float, default=1e-3, metavar="S", help="controller period in s (default 0.001)")
+    d.add_argument("--step-duration", type=float, default=None, metavar="S",
+                   help="length of the step response in s (default 15/crossover)")
+    d.add_argument("--out", default="out/design", help="directory for bode.png and step.png (default out/design)")
+    d.add_argument("--no-figures", action="store_true", help="write no figures")
+    d.add_argument("--report", metavar="DIR", default=None, help="write a self-contained HTML report to DIR")
+    d.add_argument("--json", action="store_true", help="print gains, margins and step metrics as JSON")
+    d.add_argument("--quiet", action="store_true", help="accepted for uniformity (the design is instantaneous)")
+    d.set_defaults(func=run)

@@ -1,0 +1,160 @@
+"""``adaptive-ff identify``: friction parameters from a measured log (offline LS and RLS).
+
+Besides the eq. 4 LS/RLS table: ``--asymmetric`` adds the direction-dependent
+friction fit of the EMPS benchmark (IDIM-LS, :func:`adaptive_ff.identification.idim.fit_idim`);
+an EMPS record (variables ``t, qm, qg, vir, gtau, kp, kv``) is re-simulated in
+its PD position loop (:func:`adaptive_ff.identification.emps_validation.validate_emps`);
+``--validate FILE`` judges the model(s) on a second record
+(:func:`adaptive_ff.identification.identify.cross_validate`, plus the closed loop for EMPS).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+__all__ = ["register"]
+
+#: Row labels of the asymmetric table: package symbol and the EMPS benchmark's name.
+_ASYM_LABELS = {"J": "J (M)", "sigma_pos": "sigma+ (Fv+)", "Fc_pos": "Fc+", "sigma_neg": "sigma- (Fv-)",
+                "Fc_neg": "Fc-", "offset": "offset"}
+_ASYM_UNITS = {"J": "J", "sigma_pos": "sigma", "Fc_pos": "Fc", "sigma_neg": "sigma", "Fc_neg": "Fc",
+               "offset": "offset"}
+
+
+def _asymmetric_lines(fit) -> list[str]:
+    from adaptive_ff.identification.identify import PARAM_UNITS
+
+    no_offset = "" if "offset" in fit.names else ", no offset"
+    lines = ["", f"asymmetric friction (inverse dynamic model, IDIM-LS{no_offset}; Janot et al. 2019), "
+                 f"decimated by {fit.decimate}: {fit.n_samples} rows",
+             f"{'parameter':<14}{'value':>12}{'std error':>12}{'rel. std':>10}  unit", "-" * 70]
+    rel = fit.rel_stderr
+    for n, v in fit.params.items():
+        unit = PARAM_UNITS[_ASYM_UNITS[n]]
+        lines.append(f"{_ASYM_LABELS[n]:<14}{v:>12.6g}{fit.stderr[n]:>12.3g}{rel[n]:>9.2f}%  {unit}")
+    lines += ["-" * 70, f"force error {fit.force_error:.3f} %, cond {fit.cond:.3g} (unscaled {fit.cond_raw:.3g})"]
+    return lines
+
+
+def _loop_line(label: str, v) -> str:
+    return (f"{label}: velocity error {v.velocity_error:.3f} %, force error {v.force_error:.3f} %, "
+            f"position error {v.position_error:.4f} %; inverse-model force error {v.idim_force_error:.3f} %")
+
+
+def run(args) -> int:
+    """Execute ``adaptive-ff identify`` with parsed ``args``; return the exit status."""
+    from adaptive_ff.identification.emps_validation import is_emps_record, validate_emps
+    from adaptive_ff.identification.identify import cross_validate, identify
+    from adaptive_ff.io.data import to_uniform
+    from adaptive_ff.identification.idim import fit_idim
+    from controllers.cli.data import command_line, load_data_from_args
+    from plant.errors import ParameterError
+
+    data = load_data_from_args(args)
+    report = identify(data, Vs=args.Vs, delta=args.delta, lag=args.lag, offset=not args.no_offset,
+                      lam=args.lam, method=args.method)
+    extra: dict = {}
+    lines: list[str] = []
+    asym = None
+    if args.asymmetric:
+        uni = to_uniform(data)
+        asym = fit_idim(uni, asymmetric=True, decimate=max(1, int(round(0.01 / uni.Ts))))
+    if asym is not None:
+        extra["asymmetric"] = asym.to_json_dict()
+        lines += _asymmetric_lines(asym)
+
+    try:
+        model = report.rigid_axis_model()
+    except ParameterError as exc:
+        model = None
+        lines.append(f"WARNING: no closed-loop re-simulation, the LS estimate is not physical ({exc})")
+    dropped = [n for n, on in (("Fs", report.model.stribeck), ("tau", report.model.lag)) if on]
+    emps_file = args.columns is None and is_emps_record(args.file)
+    if model is not None and emps_file:
+        loop = validate_emps(model, args.file)
+        extra["closed_loop"] = loop.to_json_dict()
+        lines += ["", _loop_line("closed loop (EMPS PD loop driven by the measured reference qg)", loop)]
+        if dropped:
+            lines.append(f"note: the re-simulated model is J, sigma, Fc, offset ({', '.join(dropped)} dropped)")
+        if asym is not None:
+            aloop = validate_emps(asym.model, args.file)
+            extra["asymmetric"]["closed_loop"] = aloop.to_json_dict()
+            lines.append(_loop_line("closed loop, asymmetric model", aloop))
+    if args.validate:
+        vdata = load_data_from_args(args, path=args.validate)
+        cv = cross_validate(report, vdata)
+        extra["validation"] = cv.to_json_dict()
+        ife = "n/a" if cv.idim_force_error is None else f"{cv.idim_force_error:.3f} %"
+        lines += ["", f"validation on {args.validate}: fit one-step {cv.fit_one_step:.3f} %, "
+                      f"free-run {cv.fit_free_run:.2f} %, inverse-model force error {ife}"]
+        if args.columns is None and is_emps_record(args.validate):
+            if model is not None:
+                vloop = validate_emps(model, args.validate)
+                extra["validation"]["closed_loop"] = vloop.to_json_dict()
+                lines.append(_loop_line("validation closed loop", vloop))
+            if asym is not None:
+                aval = validate_emps(asym.model, args.validate)
+                extra["asymmetric"]["validation"] = aval.to_json_dict()
+                lines.append(_loop_line("validation closed loop, asymmetric model", aval))
+
+    if args.plot or args.report:
+        from controllers.experiments.paper_figures import identification_figures, save_figures
+
+        figures = identification_figures(report, data)
+        if args.plot:
+            extra["figures"] = [str(x) for x in save_figures(figures, args.plot)]
+    if args.report:
+        from controllers.report.html import identify_report
+
+        extra["report"] = str(identify_report(args.report, report, data, command=command_line()))
+    if args.json:
+        print(json.dumps({**report.to_json_dict(), **extra}, indent=2))
+    else:
+        print(report.summary())
+        for line in lines:
+            print(line)
+        if "figures" in extra:
+            print("figures: " + ", ".join(extra["figures"]))
+        if "report" in extra:
+            print(f"report: {extra['report']}")
+    return 0
+
+
+def register(sub) -> None:
+    """Add the ``identify`` subcommand to an argparse subparsers object."""
+    from controllers.cli.data import DATA_EPILOG, add_data_arguments
+
+    i = sub.add_parser("identify", help="identify friction parameters from measured data", epilog=DATA_EPILOG,
+                       description="Offline LS (eq. 9) and RLS (eqs. 10-13) identification of the discrete-time "
+                                   "friction model from a measured log (CSV/TXT, .mat, .npz with columns t,u,w or mapped "
+                                   "by --columns; SI units unless told otherwise) or the EMPS benchmark .mat file. "
+                                   "Prints standard errors, the condition number and warnings naming what the data "
+                                   "do not excite; an EMPS record is also re-simulated in its PD position loop.")
+    i.add_argument("file", help="data file (CSV/TXT, .mat, .npz) or the EMPS benchmark .mat")
+    i.add_argument("--Vs", type=float, default=None, help="Stribeck velocity (rad/s); with --delta selects the "
+                                                          "Stribeck structure, else Coulomb + viscous")
+    i.add_argument("--delta", type=float, default=None, help="Stribeck shape factor")
+    i.add_argument("--lag", action="store_true", help="also estimate the friction lag tau (default: tau = 0; on "
+                                                      "EMPS the fitted tau follows the velocity filter, not the plant)")
+    i.add_argument("--no-offset", action="store_true", help="no constant torque offset regressor")
+    i.add_argument("--lam", type=float, default=1.0, help="RLS forgetting factor (default 1)")
+    i.add_argument("--method", choices=("paper", "output_error"), default="paper",
+                   help="paper (default): the eq. 4 LS/RLS as printed; output_error: also fit the physical J, tau, "
+                        "sigma, Fc, Fs of eqs. 1-3 by simulation-error minimisation on the record's own time "
+                        "stamps (unbiased at Ts ~ tau, robust to noise and irregular sampling; needs --Vs, --delta)")
+    i.add_argument("--asymmetric", action="store_true",
+                   help="also fit direction-dependent friction Fc+, Fc-, sigma+ (Fv+), sigma- (Fv-) by the inverse "
+                        "dynamic model (IDIM-LS, no offset), as the EMPS benchmark's asymmetric variant")
+    i.add_argument("--validate", metavar="FILE", default=None, type=Path,
+                   help="judge the identified model(s) on a second record (same format and options): one-step and "
+                        "free-run fit, inverse-model relative force error; EMPS records also closed-loop velocity "
+                        "and force errors")
+    i.add_argument("--json", action="store_true", help="print the parameters as JSON")
+    i.add_argument("--plot", metavar="DIR", default=None,
+                   help="write the paper's kinds of figures for these data (measured vs LS/RLS velocity, "
+                        "parameter convergence, sample-time histogram) as PNG into DIR")
+    i.add_argument("--report", metavar="DIR", default=None, help="write a self-contained HTML report into DIR")
+    i.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_data_arguments(i)
+    i.set_defaults(func=run)

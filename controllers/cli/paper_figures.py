@@ -1,0 +1,129 @@
+"""``adaptive-ff paper-figures``: regenerate the paper's Figs. 4, 5, 8-12 from the simulated joint."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+__all__ = ["register", "run", "report_tables"]
+
+_EPILOG = """\
+Experiments (see controllers.experiments.paper_figures): Sec. IV open-loop band-limited-noise run sampled at 10 ms
+(Fig. 4: LS model, Fig. 5: RLS prediction); Sec. V-C quasi-static runs and Levenberg-Marquardt Stribeck
+fit (Fig. 8); Sec. V closed-loop multi-sine tracking read out at irregular instants with noise and
+torque quantisation (Fig. 9: LS, Fig. 10: sample times, Fig. 11: RLS with lambda = 0.85, Fig. 12: RLS
+parameters). --save-data also writes the demonstration logs quasi_static_log.csv and robot_log.csv
+(current, encoder counts, irregular time in ms) for trying 'adaptive-ff stribeck' and 'identify'.
+
+example:
+  adaptive-ff paper-figures --out out/paper --save-data --report out/paper
+"""
+
+
+def report_tables(summary: dict) -> list:
+    """Tables for the HTML report of :func:`controllers.experiments.paper_figures.paper_figures`'s ``summary``.
+
+    Returns
+    -------
+    list
+        ``[(title, header, rows), ...]``: physical parameters (true plant,
+        Stribeck fit, LS and final RLS estimates of both experiments), fits
+        and sample times.
+    """
+    st, sim, ex, p = summary["stribeck"], summary["simulation"], summary["experiment"], summary["plant"]
+    keys = ("J", "tau", "sigma", "Fc", "Fs", "Vs", "delta")
+    units = ("kg·m²", "s", "N·m·s/rad", "N·m", "N·m", "rad/s", "1")
+    cols = [("true plant", p), ("Stribeck fit (Fig. 8)", st), ("LS, simulation (Fig. 4)", sim["ls_estimate"]),
+            ("RLS final, simulation (Fig. 5)", sim["rls_estimate"]), ("LS, experiment (Fig. 9)", ex["ls_estimate"]),
+            ("RLS final, experiment (Figs. 11-12)", ex["rls_estimate"])]
+    rows = [[k, u] + [c.get(k, "–") for _, c in cols] for k, u in zip(keys, units)]
+    params = ("physical parameters", ["parameter", "unit"] + [name for name, _ in cols], rows)
+    fits = ("fits (NRMSE, %)", ["experiment", "samples", "LS one-step", "LS free run", "RLS a-priori", "RLS λ"],
+            [["simulation, Ts = 10 ms", sim["n_samples"], sim["ls_fit_one_step"], sim["ls_fit_free_run"],
+              sim["rls_fit"], sim["rls_lam"]],
+             ["closed loop, irregular readout", ex["n_samples"], ex["ls_fit_one_step"], ex["ls_fit_free_run"],
+              ex["rls_fit"], ex["rls_lam"]]])
+    times = ("sample time of the experiment (Fig. 10)", ["mean (ms)", "min (ms)", "max (ms)", "noise (rad/s)",
+                                                          "torque quantum (N·m)"],
+             [[1e3 * ex["Ts_mean"], 1e3 * ex["Ts_min"], 1e3 * ex["Ts_max"], ex["noise_std"], ex["quantization"]]])
+    return [params, fits, times]
+
+
+def run(args) -> int:
+    """Execute ``adaptive-ff paper-figures`` with parsed ``args``; return the exit status."""
+    from controllers.cli.data import command_line, progress_from_args
+    from controllers.experiments.paper_figures import paper_figures
+    from plant.friction import JointParams, preset
+
+    p = JointParams.from_json(args.plant) if args.plant else preset(args.preset)
+    res = paper_figures(args.out, p=p, seed=args.seed, sim_duration=args.sim_duration,
+                        exp_duration=args.exp_duration, n_speeds=args.speeds, noise_std=args.noise,
+                        quantization=args.quantization, lam_sim=args.lam_sim, lam_exp=args.lam,
+                        save_data=args.save_data, progress=progress_from_args(args))
+    report_path = None
+    if args.report:
+        from controllers.report.html import write_report
+
+        report_path = write_report(
+            args.report, title="Figures of Ruderman's paper, regenerated from the simulation",
+            tables=report_tables(res.summary), figures={res.captions[k]: v for k, v in res.figures.items()},
+            command=command_line(), notes=["All numbers in SI units; the full set is in --json."])
+    if args.json:
+        d = res.to_json_dict()
+        d["report"] = str(report_path) if report_path else None
+        print(json.dumps(d, indent=2))
+        return 0
+    s = res.summary
+    st, sim, ex = s["stribeck"], s["simulation"], s["experiment"]
+    print(f"plant: {args.plant or 'preset ' + repr(args.preset)}: "
+          + ", ".join(f"{k}={v:g}" for k, v in s["plant"].items()))
+    print(f"Fig. 8  Stribeck fit: Fc={st['Fc']:.4g} N·m, Fs={st['Fs']:.4g} N·m, Vs={st['Vs']:.4g} rad/s, "
+          f"delta={st['delta']:.4g}, sigma={st['sigma']:.4g} N·m·s/rad ({st['n_points']} runs)")
+    print(f"Fig. 4  simulation, Ts = {sim['Ts'] * 1e3:g} ms, {sim['n_samples']} samples: LS fit one-step "
+          f"{sim['ls_fit_one_step']:.2f} %, free run {sim['ls_fit_free_run']:.2f} %")
+    print(f"Fig. 5  RLS (lambda = {sim['rls_lam']:g}) a-priori fit {sim['rls_fit']:.2f} %")
+    print(f"Fig. 10 irregular readout: mean {ex['Ts_mean'] * 1e3:.2f} ms, min {ex['Ts_min'] * 1e3:.2f} ms, "
+          f"max {ex['Ts_max'] * 1e3:.2f} ms, {ex['n_samples']} samples")
+    print(f"Fig. 9  experiment LS fit one-step {ex['ls_fit_one_step']:.2f} %, free run {ex['ls_fit_free_run']:.2f} %")
+    print(f"Fig. 11 RLS (lambda = {ex['rls_lam']:g}) a-priori fit {ex['rls_fit']:.2f} %")
+    print(f"{'':8}{'J':>10}{'tau':>10}{'sigma':>10}{'Fc':>10}{'Fs':>10}")
+    rows = [("true", s["plant"]), ("LS sim", sim["ls_estimate"]), ("LS exp", ex["ls_estimate"]),
+            ("RLS exp", ex["rls_estimate"])]
+    for name, e in rows:
+        print(f"{name:<8}" + "".join(f"{e[k]:>10.4g}" for k in ("J", "tau", "sigma", "Fc", "Fs")))
+    print("figures: " + ", ".join(str(v) for v in res.figures.values()))
+    if res.data_files:
+        print("data: " + ", ".join(str(v) for v in res.data_files.values()))
+    if report_path:
+        print(f"report: {report_path}")
+    return 0
+
+
+def register(sub) -> None:
+    """Add the ``paper-figures`` subcommand to an argparse subparsers object."""
+    f = sub.add_parser("paper-figures", help="regenerate the paper's Figs. 4, 5, 8, 9, 10, 11, 12 from simulation",
+                       description="Simulate the paper's experiments on the joint model (1 kHz RK4) and redraw its "
+                                   "figures: LS and RLS velocity fits, Stribeck curve, irregular sample times, RLS "
+                                   "parameter convergence. Axes in SI units.",
+                       epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    f.add_argument("--out", default="out/paper", help="output directory for the PNG files (default out/paper)")
+    f.add_argument("--preset", default="paper", help="named plant parameter set (default: paper)")
+    f.add_argument("--plant", metavar="FILE", help="JSON file with J, Fc, Fs, Vs, delta, sigma, tau (SI units)")
+    f.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    f.add_argument("--sim-duration", type=float, default=30.0, metavar="S",
+                   help="open-loop simulation length for Figs. 4-5 in s (default 30)")
+    f.add_argument("--exp-duration", type=float, default=60.0, metavar="S",
+                   help="closed-loop experiment length for Figs. 9-12 in s (default 60)")
+    f.add_argument("--speeds", type=int, default=10, help="quasi-static speeds per direction for Fig. 8 (default 10)")
+    f.add_argument("--noise", type=float, default=1e-3, metavar="RAD_S",
+                   help="velocity measurement noise std in rad/s (default 1e-3)")
+    f.add_argument("--quantization", type=float, default=0.6, metavar="NM",
+                   help="torque readout quantisation step in N·m (default 0.6 = 0.01 A at 60 N·m/A)")
+    f.add_argument("--lam-sim", type=float, default=0.995, help="RLS forgetting factor of Fig. 5 (default 0.995)")
+    f.add_argument("--lam", type=float, default=0.85, help="RLS forgetting factor of Figs. 11-12 (paper: 0.85)")
+    f.add_argument("--save-data", action="store_true",
+                   help="also write demonstration logs (quasi_static_log.csv, robot_log.csv, plant.json)")
+    f.add_argument("--report", metavar="DIR", default=None, help="write a self-contained HTML report to DIR")
+    f.add_argument("--json", action="store_true", help="print the numbers behind the figures as JSON")
+    f.add_argument("--quiet", action="store_true", help="no progress bar")
+    f.set_defaults(func=run)

@@ -1,0 +1,1 @@
+"""Velocity-loop design: discrete PI tuning and loop analysis with python-control."""

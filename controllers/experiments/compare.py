@@ -1,0 +1,337 @@
+"""The main job: run every friction-compensation mode on the same scenario and compare tracking."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from adaptive_ff.compensation.feedforward import project_estimate
+from adaptive_ff.identification.ls import LSResult, fit_ls
+from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
+from adaptive_ff.compensation.sliding_estimator import SlidingFit, fit_sliding
+from adaptive_ff.identification.stribeck_fit import StribeckFit, fit_stribeck
+from controllers.simulation.closed_loop import MODES, run_closed_loop
+from controllers.design.pi import PIDesign, design_pi
+from controllers.experiments.quasi_static import bidirectional_velocities, quasi_static_runs
+from plant.errors import ExcitationError, ParameterError, check_positive
+from plant.excitation import bandlimited_noise, multisine_reference
+from plant.joint import simulate
+from plant.models import plant_to_dict
+from plant.sampling import sample
+
+__all__ = ["Comparison", "compare", "eta", "FIXED_METHODS", "friction_scale", "prefit_stribeck"]
+
+#: Offline identification behind the ``fixed`` mode: the sliding-regime
+#: inverse-dynamics LS (:func:`adaptive_ff.compensation.sliding_estimator.fit_sliding`,
+#: default) or the paper's eq. 4 LS at Ts (:func:`adaptive_ff.fit_ls`).
+FIXED_METHODS = ("sliding", "eq4")
+
+
+def friction_scale(p, peak_w: float) -> float:
+    """Largest |steady-state friction| (N·m) of plant ``p`` for speeds up to ``peak_w`` (rad/s).
+
+    Evaluated on 400 speeds log-spaced from ``1e-4*peak_w`` to ``peak_w`` in both
+    directions (covers the stiction peak and the viscous end).
+    """
+    wg = np.geomspace(1e-4 * peak_w, peak_w, 400)
+    return float(np.max(np.abs(np.concatenate([p.friction(wg), p.friction(-wg)]))))
+
+
+def eta(rms_none: float, rms_mode: float, rms_frictionless: float) -> float:
+    """Compensation efficiency ``(RMS_none - RMS_mode) / (RMS_none - RMS_frictionless)``.
+
+    1 means the mode reaches the frictionless limit, 0 no improvement, < 0 worse
+    than no compensation. NaN if friction does not degrade the loop at all.
+    """
+    den = rms_none - rms_frictionless
+    return float((rms_none - rms_mode) / den) if den > 0 else float("nan")
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """All modes on one scenario.
+
+    Attributes
+    ----------
+    plant : JointParams or another plant model
+        True plant (see :mod:`plant.models`).
+    design : PIDesign
+        The PI design used in every mode.
+    results : dict[str, ClosedLoopResult]
+        One run per mode, same reference and noise.
+    eta : dict[str, float]
+        Compensation efficiency per mode (second half of the run).
+    prefit : StribeckFit or None
+        Stribeck pre-fit (Sec. V-C) that gave Vs, delta to the regression model.
+    offline : SlidingFit or LSResult or None
+        The offline identification behind the ``fixed`` mode.
+    model : RegressionModel
+        Regression structure of eq. 4 with the pre-fitted Vs, delta (used by
+        the ``eq4`` alternatives).
+    """
+
+    plant: object
+    design: PIDesign
+    results: dict
+    eta: dict
+    prefit: StribeckFit | None
+    offline: SlidingFit | LSResult | None
+    model: RegressionModel
+
+    def rows(self) -> list[dict]:
+        """One dict per mode: mode, rms, max, rms_reversal (second half, rad/s), u_rms, eta."""
+        out = []
+        for mode, r in self.results.items():
+            m = r.metrics
+            out.append({"mode": mode, "rms": m.rms_second_half, "max": m.max_second_half,
+                        "rms_reversal": m.rms_reversal, "u_rms": m.u_rms, "eta": self.eta[mode]})
+        return out
+
+    def table(self) -> str:
+        """The comparison as a fixed-width text table (velocities in deg/s)."""
+        head = f"{'mode':<13}{'RMS [deg/s]':>12}{'max [deg/s]':>13}{'reversal RMS':>14}{'u RMS [N·m]':>13}{'eta':>8}"
+        lines = [head, "-" * len(head)]
+        for row in self.rows():
+            d = np.rad2deg
+            lines.append(f"{row['mode']:<13}{d(row['rms']):>12.4f}{d(row['max']):>13.4f}"
+                         f"{d(row['rms_reversal']):>14.4f}{row['u_rms']:>13.2f}{row['eta']:>8.3f}")
+        return "\n".join(lines)
+
+    def to_json_dict(self) -> dict:
+        """``{"modes": {mode: {"rms", "max", "rms_reversal", "u_rms", "eta"}}, ...}`` in SI units (rad/s)."""
+        modes = {r["mode"]: {k: float(v) for k, v in r.items() if k != "mode"} for r in self.rows()}
+        out = {"modes": modes, "plant": plant_to_dict(self.plant),
+               "controller": {"Kp": self.design.Kp, "Ki": self.design.Ki, "Tc": self.design.Tc,
+                              "phase_margin_deg": self.design.phase_margin,
+                              "gain_margin": self.design.gain_margin}}
+        if self.prefit is not None:
+            out["prefit"] = {k: float(getattr(self.prefit, k)) for k in ("Fc", "Fs", "Vs", "delta", "sigma")}
+        if self.offline is not None:
+            e = self.offline.estimate
+            out["offline_ls"] = {k: float(getattr(e, k)) for k in ("J", "tau", "sigma", "Fc", "Fs")}
+        for mode, r in self.results.items():
+            if r.info.get("diverged"):
+                out["modes"][mode]["diverged"] = True
+        adaptive = self.results.get("adaptive")
+        if adaptive is not None and adaptive.estimate is not None:
+            e = adaptive.estimate
+            out["adaptive_final"] = {k: float(getattr(e, k)) for k in ("J", "tau", "sigma", "Fc", "Fs")}
+        return out
+
+
+def prefit_stribeck(qs) -> StribeckFit:
+    """Stribeck pre-fit (Sec. V-C) of quasi-static runs, robust to stick-slip runs and asymmetric friction.
+
+    Parameters
+    ----------
+    qs : controllers.experiments.quasi_static.QuasiStaticData
+        Bidirectional constant-velocity runs.
+
+    Returns
+    -------
+    StribeckFit
+        The joint fit of both directions; if that cannot resolve the Stribeck
+        effect (e.g. direction-dependent levels), the fit of the positive
+        direction with ``Vs`` and ``delta`` replaced by the geometric and
+        arithmetic means of the per-direction fits.
+
+    Raises
+    ------
+    ExcitationError
+        No fit succeeds.
+
+    Notes
+    -----
+    Runs whose velocity spread exceeds twice the median spread are dropped
+    first: at the lowest speeds a joint that really sticks (or a soft loop on
+    the negative Stribeck slope) ends in a stick-slip limit cycle, whose mean
+    torque is not a point of the curve (the ``quasi_static_runs`` Notes).
+    """
+    w, u, ws = np.asarray(qs.w_mean), np.asarray(qs.u_mean), np.asarray(qs.w_std)
+    keep = ws <= 2.0 * np.median(ws)
+    w, u = w[keep], u[keep]
+    try:
+        return fit_stribeck(w, u, F_std=None)
+    except ExcitationError as joint_error:
+        fits = []
+        for sgn in (1.0, -1.0):
+            sel = sgn * w > 0
+            try:
+                fits.append(fit_stribeck(sgn * w[sel], sgn * u[sel], F_std=None))
+            except ExcitationError:
+                continue
+        if not fits:
+            raise joint_error
+        Vs = float(np.exp(np.mean([np.log(f.Vs) for f in fits])))
+        delta = float(np.mean([f.delta for f in fits]))
+        return replace(fits[0], Vs=Vs, delta=delta)
+
+
+def compare(p, *, duration: float = 120.0, seed: int = 0, modes=MODES, crossover: float = 20.0,
+            phase_margin: float = 60.0, Tc: float = 1e-3, Ts: float = 0.01, u_max: float | None = None,
+            noise_std: float = 1e-3, lam: float | None = None, prefit: bool = True, lag: bool = True,
+            progress: bool | None = None, estimator: str = "sliding", fixed_method: str = "sliding",
+            ff_input: str = "measured", canudas_input: str = "reference", sign_width: float = 0.0,
+            stick_band: float | None = None, stick_samples: int = 5, T_filter: float = 0.02,
+            forgetting: str = "exponential", warmup: int = 200, omega_q: float = 500.0,
+            adaptive_initial: bool = True, faults=None, dwell_max: float = 0.01, offset: bool = True) -> Comparison:
+    """Run the closed loop in several friction-compensation modes on one scenario.
+
+    Parameters
+    ----------
+    p : JointParams or another plant model
+        True plant, any model of :mod:`plant.models`, possibly drifting
+        (:class:`plant.drift.FrictionDrift`; the pre-fit and the identification
+        experiment of ``fixed`` then see the plant at ``t = 0``).
+    duration : float, keyword-only
+        Length of each run (s), default 120.
+    seed : int, keyword-only
+        Seed of everything random (reference phases, noise, identification run).
+    modes : sequence of str, keyword-only
+        Subset of :data:`controllers.simulation.closed_loop.MODES`; ``none`` and
+        ``frictionless`` are always run (``eta`` needs them).
+    crossover, phase_margin : float, keyword-only
+        PI design targets (rad/s, deg) for :func:`controllers.design.pi.design_pi` on ``1/(J s)``.
+    Tc, Ts : float, keyword-only
+        Controller period and estimator sample time (s).
+    u_max : float, keyword-only
+        Torque saturation (N·m); default ``3*(F_peak + J*accel_peak)`` with
+        ``F_peak`` from :func:`friction_scale` (of the plant at the end of the
+        run when it drifts).
+    noise_std : float, keyword-only
+        Velocity measurement noise (rad/s), default 1e-3.
+    lam : float, keyword-only
+        Forgetting factor of the adaptive estimators (default: per estimator,
+        see :func:`controllers.run_closed_loop`).
+    prefit : bool, keyword-only
+        Estimate Vs, delta by the Stribeck pre-fit from simulated quasi-static
+        runs (paper Sec. V-C); False uses the true values.
+    lag : bool, keyword-only
+        Filter the feedforward through the estimated lag.
+    progress : bool, keyword-only
+        Show a progress bar; default: when stderr is a terminal.
+    estimator : {"sliding", "eq4"}, keyword-only
+        Estimator of the ``adaptive`` mode.
+    fixed_method : {"sliding", "eq4"}, keyword-only
+        Offline identification of the ``fixed`` mode (:data:`FIXED_METHODS`).
+    ff_input : {"measured", "reference"}, keyword-only
+        Velocity the ``fixed`` and ``adaptive`` feedforward is evaluated at.
+    canudas_input : {"reference", "measured"}, keyword-only
+        The same for the ``canudas`` peer; default reference (measured on the
+        ``paper`` preset it is the better of the two for that scheme).
+    sign_width, T_filter, forgetting, warmup, dwell_max, offset : keyword-only
+        Adaptive feedforward settings, see :func:`controllers.run_closed_loop`.
+    stick_band, stick_samples : keyword-only
+        Stick detection of the measured-velocity feedforward (``fixed``,
+        ``adaptive``): after ``stick_samples`` samples inside ``±stick_band``
+        the reference velocity is used. Default ``stick_band = 3*noise_std``.
+    omega_q : float, keyword-only
+        Q-filter cut-off of the ``dob`` peer (rad/s); default 500 (the best of
+        100-2000 rad/s on the ``paper`` preset at 1 kHz and 1e-3 rad/s noise,
+        see ``benchmarks/compensation.py``).
+    adaptive_initial : bool, keyword-only
+        Start the adaptive estimator from the pre-fit's Fc, Fs, sigma and the
+        design inertia (default) instead of zero friction. The quasi-static
+        runs that give Vs, delta measure these too; in the first seconds the
+        loop's own data can leave directions undetermined (e.g. Coulomb level
+        vs offset while the joint mostly sticks: measured on the
+        ``small-inertia`` variant, eta 0.0 and -0.12 from zero, 0.86 and 0.94
+        from the pre-fit, seeds 0 and 1, 60 s).
+    faults : mapping int -> float, keyword-only
+        Measurement faults injected in every mode (see :func:`controllers.run_closed_loop`).
+
+    Returns
+    -------
+    Comparison
+
+    Raises
+    ------
+    ParameterError
+        Unknown mode or invalid settings.
+
+    Notes
+    -----
+    ``fixed`` uses an offline fit of a separate identification run: the
+    paper's Sec. IV-A experiment (open loop, 1 Hz low-pass band-limited
+    white-noise torque of standard deviation ``1.2*F_peak``, same length, same
+    velocity noise), identified by ``fixed_method`` — the same sliding-regime
+    regression as the adaptive estimator (on the 1 kHz record) or the paper's
+    eq. 4 at ``Ts``. ``adaptive`` estimates online on the loop's own data.
+    ``eta`` uses the RMS error over the second half of the run.
+    """
+    duration = check_positive("duration", duration)
+    unknown = [m for m in modes if m not in MODES]
+    if unknown:
+        raise ParameterError(f"unknown mode(s) {unknown}; known: {MODES}")
+    if fixed_method not in FIXED_METHODS:
+        raise ParameterError(f"fixed_method must be one of {FIXED_METHODS}, got {fixed_method!r}")
+    run_modes = [m for m in MODES if m in set(modes) | {"none", "frictionless"}]
+    drifting = hasattr(p, "at")
+    p0 = p.at(0.0) if drifting else p
+    ss = np.random.SeedSequence(seed)
+    ref_ss, id_ss, noise_ss, qs_ss = ss.spawn(4)
+    ref = multisine_reference(duration, dt=Tc, rng=np.random.default_rng(ref_ss))
+    peak_w, peak_a = float(np.max(np.abs(ref.w))), float(np.max(np.abs(ref.dw)))
+    if u_max is None:
+        p_end = p.at(duration) if drifting else p
+        u_max = 3.0 * (max(friction_scale(p0, peak_w), friction_scale(p_end, peak_w)) + p0.J * peak_a)
+    design = design_pi(p0.J, crossover=crossover, phase_margin=phase_margin, Tc=Tc)
+    show = progress
+    steps = len(run_modes) + (1 if "fixed" in run_modes else 0) + (1 if prefit else 0)
+    bar = tqdm(total=steps, desc="compare", disable=(None if show is None else not show), leave=False)
+
+    fit = None
+    if prefit:
+        bar.set_postfix_str("Stribeck pre-fit")
+        vel = bidirectional_velocities(0.2 * p0.Vs, 1.2 * peak_w, 12)
+        qs = quasi_static_runs(p0, vel, Tc=Tc, noise_std=noise_std, rng=np.random.default_rng(qs_ss))
+        fit = prefit_stribeck(qs)
+        Vs, delta = fit.Vs, fit.delta
+        bar.update()
+    else:
+        Vs, delta = p0.Vs, p0.delta
+    model = RegressionModel(Vs, delta, lag=True)
+    # the feedforward may use at most half the actuator range; friction levels above it are implausible
+    common = dict(Kp=design.Kp, Ki=design.Ki, u_max=u_max, ff_max=0.5 * u_max, Tc=Tc, Ts=Ts, noise_std=noise_std,
+                  lag=lag, faults=faults)
+
+    offline = None
+    estimate: FrictionEstimate | None = None
+    if "fixed" in run_modes:
+        # Separate identification experiment as in the paper's Sec. IV-A: open loop, low-pass
+        # filtered band-limited white-noise torque, with the same velocity noise.
+        bar.set_postfix_str("identification run")
+        id_rng = np.random.default_rng(id_ss)
+        _, u_id = bandlimited_noise(duration, dt=Tc, cutoff=1.0, std=1.2 * friction_scale(p0, peak_w), rng=id_rng)
+        resp = simulate(p0, u_id, dt=Tc)
+        if fixed_method == "sliding":
+            w_id = resp.w[:-1] + id_rng.normal(0.0, noise_std, size=u_id.shape[0]) if noise_std > 0 else resp.w[:-1]
+            offline = fit_sliding(u_id, w_id, Tc=Tc, Vs=Vs, delta=delta, Ts=Ts, T_filter=T_filter, lag=lag)
+        else:
+            meas = sample(resp, Ts=Ts, noise_std=noise_std, rng=id_rng)
+            offline = fit_ls(model, meas.u, meas.w, Ts=Ts)
+        estimate = project_estimate(offline.estimate, F_max=0.5 * u_max)
+        bar.update()
+
+    initial = None
+    if adaptive_initial and fit is not None:
+        initial = FrictionEstimate(J=p0.J, tau=0.0, sigma=max(fit.sigma, 0.0), Fc=max(fit.Fc, 0.0),
+                                   Fs=max(fit.Fs, 0.0), offset=0.0, Vs=Vs, delta=delta, J_alt=float("nan"))
+    results = {}
+    for mode in run_modes:
+        bar.set_postfix_str(mode)
+        results[mode] = run_closed_loop(p, ref, mode=mode, rng=np.random.default_rng(noise_ss), model=model,
+                                        estimate=estimate, lam=lam, estimator=estimator, Vs=Vs, delta=delta,
+                                        ff_input=canudas_input if mode == "canudas" else ff_input,
+                                        sign_width=sign_width, T_filter=T_filter, forgetting=forgetting,
+                                        stick_band=3.0 * noise_std if stick_band is None else stick_band,
+                                        stick_samples=stick_samples, dwell_max=dwell_max, offset=offset,
+                                        warmup=warmup, omega_q=omega_q, initial=initial, **common)
+        bar.update()
+    bar.close()
+    rn = results["none"].metrics.rms_second_half
+    rf = results["frictionless"].metrics.rms_second_half
+    etas = {mode: eta(rn, r.metrics.rms_second_half, rf) for mode, r in results.items()}
+    return Comparison(plant=p, design=design, results=results, eta=etas, prefit=fit, offline=offline, model=model)

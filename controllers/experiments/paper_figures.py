@@ -1,0 +1,625 @@
+"""The paper's figures regenerated from the simulation (Figs. 4, 5, 8-12), and the same kinds of figures for any log.
+
+Experiments, following Ruderman's paper on the simulated joint (``paper`` preset by default):
+
+* **Sec. IV-A/B, Figs. 4, 5** — open loop, low-pass band-limited white-noise
+  torque, 1 kHz RK4 plant, sampled every 10 ms; offline LS fit of eq. 4 (Fig. 4:
+  simulated vs LS model velocity) and RLS from ``theta = 0`` on the same data
+  (Fig. 5: simulated vs RLS a-priori predicted velocity).
+* **Sec. V-C, Fig. 8** — bidirectional constant-velocity runs
+  (:func:`controllers.experiments.quasi_static.quasi_static_runs`) and the
+  Levenberg-Marquardt Stribeck fit (:func:`adaptive_ff.identification.stribeck_fit.fit_stribeck`);
+  its ``Vs``, ``delta`` fix the regression model of every other figure.
+* **Sec. V-B/D/E, Figs. 9-12** — the PI velocity loop tracks a 0.01-1 Hz
+  multi-sine reference (up to 20 deg/s, frequent reversals); torque and
+  velocity are read out at irregular instants (Fig. 10: about 22 ms mean,
+  outliers up to twice that), with velocity noise and torque quantisation
+  (Fig. 7). Offline LS on the irregular samples as they are, with
+  ``Ts`` = their mean (Fig. 9), and RLS with ``lam = 0.85`` as in the paper
+  (Fig. 11: velocity, Fig. 12: parameter convergence).
+
+Plotting functions take plain arrays, so :func:`identification_figures` draws
+the same figures for a measured log identified by :func:`adaptive_ff.identification.identify.identify`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from adaptive_ff.identification.ls import fit_ls
+from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
+from adaptive_ff.identification.rls import RecursiveLeastSquares
+from adaptive_ff.identification.stribeck_fit import fit_stribeck, plot_stribeck_fit
+from controllers.design.pi import design_pi
+from controllers.experiments.quasi_static import bidirectional_velocities, quasi_static_runs
+from controllers.experiments.synthetic_logs import closed_loop_response, encoder_counts, quasi_static_log, write_log_csv
+from plant.errors import ParameterError, check_nonnegative, check_positive, check_signal, check_time
+from plant.excitation import bandlimited_noise, multisine_reference
+from plant.friction import JointParams, preset
+from plant.joint import simulate
+from plant.sampling import irregular_sample_times, sample
+
+__all__ = [
+    "PaperFigures",
+    "paper_figures",
+    "rls_pass",
+    "plot_velocity_fit",
+    "plot_sample_times",
+    "plot_parameter_convergence",
+    "plot_stribeck_figure",
+    "identification_figures",
+    "save_figures",
+    "FIGURE_CAPTIONS",
+    "DEMO_CURRENT_TO_TORQUE",
+    "DEMO_COUNTS_PER_REV",
+]
+
+#: Captions of the regenerated figures (keys are the output file stems).
+FIGURE_CAPTIONS = {
+    "fig04_ls_simulation": "Fig. 4: simulated and offline (LS) estimated output velocity",
+    "fig05_rls_simulation": "Fig. 5: simulated and online (RLS) estimated output velocity",
+    "fig08_stribeck": "Fig. 8: Stribeck curve from bidirectional quasi-static drive experiments",
+    "fig09_ls_experiment": "Fig. 9: measured and offline identified joint velocity",
+    "fig10_sample_time": "Fig. 10: evaluated sample time of the identification experiment",
+    "fig11_rls_experiment": "Fig. 11: measured and online identified joint velocity",
+    "fig12_rls_parameters": "Fig. 12: parameter convergence of RLS identification",
+}
+
+#: Torque constant (N·m/A, joint side) of the demonstration log: 0.5 N·m/A motor constant times gear ratio 120.
+DEMO_CURRENT_TO_TORQUE = 60.0
+#: Encoder resolution (counts per joint revolution) of the demonstration log: 2**14 per motor turn times 120.
+DEMO_COUNTS_PER_REV = 2**14 * 120
+
+
+# --------------------------------------------------------------------------- plots
+
+
+def plot_velocity_fit(t, w, w_model, *, model_label: str, measured_label: str = "measured", title: str = "",
+                      w_model2=None, model2_label: str = "", fit_percent: float | None = None,
+                      fit2_percent: float | None = None) -> Figure:
+    """Measured (or simulated) velocity against a model's velocity over time (paper Figs. 4, 5, 9, 11).
+
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Time (s).
+    w : array_like, shape (N,)
+        Measured velocity (rad/s).
+    w_model : array_like, shape (N,)
+        Model velocity (rad/s), e.g. LS one-step or free-run, RLS a-priori prediction.
+    model_label, measured_label, title : str, keyword-only
+        Legend entries and title.
+    w_model2 : array_like, shape (N,), keyword-only, optional
+        A second model curve (dotted), with ``model2_label``.
+    fit_percent, fit2_percent : float, keyword-only, optional
+        NRMSE fits (%) appended to the legend entries.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Top: both velocities (rad/s) over time (s); bottom: the difference (rad/s).
+
+    Raises
+    ------
+    SignalError
+        Arrays of different lengths or non-finite ``t``/``w``.
+    """
+    t = check_signal("t", t)
+    w = check_signal("w", w, n=t.shape[0])
+    wm = np.asarray(w_model, dtype=float).reshape(-1)
+    if wm.shape != w.shape:
+        raise ParameterError(f"w_model must have shape {w.shape}, got {wm.shape}")
+    fig = Figure(figsize=(9.0, 5.0), layout="constrained")
+    ax, ax2 = fig.subplots(2, 1, sharex=True, height_ratios=[3, 1])
+    ax.plot(t, w, color="0.2", lw=1.0, label=measured_label)
+    lab = model_label + (f" (fit {fit_percent:.1f} %)" if fit_percent is not None else "")
+    ax.plot(t, wm, color="C1", lw=0.9, label=lab)
+    ax2.plot(t, wm - w, color="C1", lw=0.7)
+    if w_model2 is not None:
+        wm2 = np.asarray(w_model2, dtype=float).reshape(-1)
+        lab2 = model2_label + (f" (fit {fit2_percent:.1f} %)" if fit2_percent is not None else "")
+        ax.plot(t, wm2, color="C0", lw=0.8, ls=":", label=lab2)
+        ax2.plot(t, wm2 - w, color="C0", lw=0.6, ls=":")
+    ax.set_ylabel("velocity w (rad/s)")
+    ax.legend(loc="upper right", fontsize=8)
+    ax.grid(True, alpha=0.3)
+    if title:
+        ax.set_title(title, fontsize=10, loc="left")
+    lim = float(np.max(np.abs(w))) * 1.5 or 1.0
+    ax.set_ylim(-lim, lim)  # a diverging free run must not squash the measured curve
+    res = [wm - w] + ([np.asarray(w_model2, dtype=float).reshape(-1) - w] if w_model2 is not None else [])
+    res = np.abs(np.concatenate(res))
+    res = res[np.isfinite(res)]
+    rlim = min(float(np.percentile(res, 99.5)) * 1.5 if res.size else lim, lim) or lim
+    ax2.set_ylim(-rlim, rlim)
+    ax2.set_ylabel("model − measured\n(rad/s)")
+    ax2.set_xlabel("time t (s)")
+    ax2.grid(True, alpha=0.3)
+    return fig
+
+
+def plot_sample_times(t, *, title: str = "") -> Figure:
+    """Sample intervals ``Ts(i) = t(i) - t(i-1)`` over the sample index and their histogram (paper Fig. 10).
+
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Time stamps (s), strictly increasing, N >= 2.
+    title : str, keyword-only
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Left: ``Ts`` (ms) over the sample index; right: histogram of ``Ts`` (ms)
+        with the mean marked.
+
+    Raises
+    ------
+    SignalError
+        ``t`` not strictly increasing.
+    """
+    t = check_time("t", t)
+    d = np.diff(t) * 1e3
+    fig = Figure(figsize=(9.0, 3.6), layout="constrained")
+    ax, ax2 = fig.subplots(1, 2, width_ratios=[2, 1])
+    ax.plot(np.arange(1, t.shape[0]), d, ".", ms=2, color="C0")
+    ax.axhline(d.mean(), color="C3", lw=1.0, label=f"mean {d.mean():.2f} ms")
+    ax.set_xlabel("sample index i")
+    ax.set_ylabel("Ts = t(i) − t(i−1) (ms)")
+    ax.legend(loc="upper right", fontsize=8)
+    ax.grid(True, alpha=0.3)
+    vals = np.unique(np.round(d, 6))
+    step = float(np.min(np.diff(vals))) if vals.shape[0] > 1 else 1.0
+    if (vals[-1] - vals[0]) / step <= 200:  # time stamps on a grid: one bar per grid value
+        bins = np.arange(vals[0] - 0.5 * step, vals[-1] + step, step)
+    else:
+        bins = 60
+    ax2.hist(d, bins=bins, color="C0", alpha=0.8)
+    ax2.set_yscale("log")
+    ax2.axvline(d.mean(), color="C3", lw=1.0)
+    ax2.set_xlabel("Ts (ms)")
+    ax2.set_ylabel("number of samples (log)")
+    ax2.grid(True, alpha=0.3)
+    fig.suptitle(title or f"sample time: mean {d.mean():.2f} ms, min {d.min():.2f} ms, max {d.max():.2f} ms",
+                 fontsize=10)
+    return fig
+
+
+def plot_parameter_convergence(t, theta, names, *, true=None, title: str = "") -> Figure:
+    """RLS parameter trajectories over time, one panel per parameter (paper Fig. 12).
+
+    Parameters
+    ----------
+    t : array_like, shape (M,)
+        Time (s) of each estimate.
+    theta : array_like, shape (M, p)
+        Estimates (eq. 4 coefficients: a, c, d dimensionless per regressor
+        unit, b in (rad/s)/(N·m)).
+    names : sequence of str, length p
+        Parameter names (e.g. ``RegressionModel.names``).
+    true : array_like, shape (p,), keyword-only, optional
+        Reference values drawn dashed (e.g. the corrected coefficients of the true plant).
+    title : str, keyword-only
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Raises
+    ------
+    ParameterError
+        Shapes disagree.
+    """
+    t = np.asarray(t, dtype=float).reshape(-1)
+    th = np.asarray(theta, dtype=float)
+    names = list(names)
+    if th.ndim != 2 or th.shape != (t.shape[0], len(names)):
+        raise ParameterError(f"theta must have shape ({t.shape[0]}, {len(names)}), got {th.shape}")
+    units = {"a1": "1", "a2": "1", "b0": "(rad/s)/(N·m)", "b1": "(rad/s)/(N·m)", "c1": "rad/s", "d1": "rad/s",
+             "o1": "rad/s"}
+    ncol = 2 if len(names) > 3 else 1
+    nrow = math.ceil(len(names) / ncol)
+    fig = Figure(figsize=(9.0, 1.7 * nrow + 0.6), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(nrow, ncol, sharex=True, squeeze=False)).ravel()
+    for i, name in enumerate(names):
+        ax = axes[i]
+        ax.plot(t, th[:, i], lw=0.8, color="C0")
+        if true is not None:
+            ax.axhline(float(np.asarray(true)[i]), color="k", ls="--", lw=0.8)
+        ax.set_ylabel(f"{name} ({units.get(name, '-')})", fontsize=8)
+        tail = th[th.shape[0] // 5:, i]
+        tail = tail[np.isfinite(tail)]
+        if tail.size:
+            lo, hi = np.percentile(tail, [1, 99])
+            ref = [float(np.asarray(true)[i])] if true is not None else []
+            lo, hi = min([lo] + ref), max([hi] + ref)
+            pad = 0.3 * (hi - lo) + 1e-12 * max(1.0, abs(hi))
+            ax.set_ylim(lo - pad, hi + pad)
+        ax.grid(True, alpha=0.3)
+    for ax in axes[len(names):]:
+        ax.set_visible(False)
+    for ax in axes[max(len(names) - ncol, 0):len(names)]:
+        ax.set_xlabel("time t (s)")
+    fig.suptitle(title or "RLS parameter convergence" + (" (dashed: true plant)" if true is not None else ""),
+                 fontsize=10)
+    return fig
+
+
+def plot_stribeck_figure(fit, w, F, *, F_std=None, title: str = "") -> Figure:
+    """Stribeck fit over the support points (paper Fig. 8): linear axes, and a symlog zoom on low speeds.
+
+    Parameters
+    ----------
+    fit : adaptive_ff.identification.stribeck_fit.StribeckFit
+        The fit.
+    w, F : array_like, shape (n,)
+        Mean velocity (rad/s) and torque (N·m) of each run.
+    F_std : array_like, shape (n,), keyword-only, optional
+        Torque spread (N·m), drawn as error bars.
+    title : str, keyword-only
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Left: :func:`adaptive_ff.identification.stribeck_fit.plot_stribeck_fit`; right: the same
+        with a symmetric-log velocity axis (linear within ``±Vs/10``), so the
+        Stribeck dip near ``Vs`` is visible.
+
+    Raises
+    ------
+    TypeError, SignalError
+        See :func:`adaptive_ff.identification.stribeck_fit.plot_stribeck_fit`.
+    """
+    fig = Figure(figsize=(10.0, 4.2), layout="constrained")
+    ax1, ax2 = fig.subplots(1, 2)
+    plot_stribeck_fit(fit, w, F, F_std=F_std, ax=ax1)
+    plot_stribeck_fit(fit, w, F, F_std=F_std, ax=ax2)
+    ax1.set_title("")
+    ax2.set_title("")
+    ax2.set_xscale("symlog", linthresh=fit.Vs / 10.0)
+    ax2.get_legend().remove()
+    ax2.set_xlabel("velocity w (rad/s, symmetric log scale)")
+    fig.suptitle(title or "Stribeck curve from quasi-static runs", fontsize=10)
+    return fig
+
+
+# --------------------------------------------------------------------------- RLS pass
+
+
+def rls_pass(model: RegressionModel, u, w, *, lam: float = 1.0, P0: float = 1e4):
+    """Run RLS (eqs. 10-13) from ``theta = 0`` over a record and keep its a-priori predictions.
+
+    Parameters
+    ----------
+    model : RegressionModel
+        Regression structure (eq. 4).
+    u, w : array_like, shape (N,)
+        Input torque (N·m) and velocity (rad/s), sampled in order.
+    lam : float, keyword-only
+        Forgetting factor in (0, 1].
+    P0 : float, keyword-only
+        Initial covariance ``P0*I``, > 0 ("large", as in the paper).
+
+    Returns
+    -------
+    w_pred : ndarray, shape (N,)
+        A-priori prediction ``phi(k) @ theta(k-1)`` (rad/s); the first two
+        entries are the measured ``w[0], w[1]``.
+    theta : ndarray, shape (N - 2, p)
+        Estimate after each update.
+
+    Raises
+    ------
+    SignalError
+        Bad ``u``, ``w``.
+    ParameterError
+        Bad ``lam`` or ``P0``.
+
+    Notes
+    -----
+    :class:`adaptive_ff.identification.rls.RecursiveLeastSquares` over the rows of
+    ``model.regressors(u, w)``; Ruderman, Sec. IV-B.
+    """
+    X, y = model.regressors(u, w)
+    rls = RecursiveLeastSquares(model.n_params, lam=lam, P0=P0)
+    w_pred = np.asarray(w, dtype=float).reshape(-1).copy()
+    hist = np.empty((X.shape[0], model.n_params))
+    for i in range(X.shape[0]):
+        e = rls.update(X[i], y[i])
+        w_pred[i + 2] = y[i] - e
+        hist[i] = rls.theta
+    return w_pred, hist
+
+
+# --------------------------------------------------------------------------- the paper's figures
+
+
+@dataclass(frozen=True)
+class PaperFigures:
+    """Result of :func:`paper_figures`.
+
+    Attributes
+    ----------
+    out_dir : Path
+        Where the files are.
+    figures : dict
+        ``{stem: Path}`` of the PNG files (stems as in :data:`FIGURE_CAPTIONS`).
+    captions : dict
+        ``{stem: caption}``.
+    summary : dict
+        Numbers behind the figures (SI units): fits (%), estimates, Stribeck
+        parameters, sample-time statistics, settings.
+    data_files : dict
+        ``{name: Path}`` of the demonstration logs (with ``save_data=True``).
+    """
+
+    out_dir: Path
+    figures: dict
+    captions: dict
+    summary: dict
+    data_files: dict = field(default_factory=dict)
+
+    def to_json_dict(self) -> dict:
+        """Plain dict for JSON: ``summary`` plus ``figures`` and ``data_files`` as strings."""
+        return {"summary": self.summary, "figures": {k: str(v) for k, v in self.figures.items()},
+                "data_files": {k: str(v) for k, v in self.data_files.items()}}
+
+
+def _estimate_dict(est) -> dict:
+    return {k: float(getattr(est, k)) for k in ("J", "tau", "sigma", "Fc", "Fs")}
+
+
+def paper_figures(out_dir, *, p: JointParams | None = None, seed: int = 0, sim_duration: float = 30.0,
+                  exp_duration: float = 60.0, n_speeds: int = 10, noise_std: float = 1e-3,
+                  quantization: float = 0.6, lam_sim: float = 0.995, lam_exp: float = 0.85, P0: float = 1e4,
+                  save_data: bool = False, progress: bool | None = None, dpi: int = 110) -> PaperFigures:
+    """Regenerate the paper's Figs. 4, 5, 8, 9, 10, 11, 12 from the simulated joint and write them as PNG.
+
+    Parameters
+    ----------
+    out_dir : str or os.PathLike
+        Output directory (created).
+    p : JointParams, keyword-only
+        Plant; default the ``paper`` preset.
+    seed : int, keyword-only
+        Seed of all random draws (excitation, reference, sample times, noise).
+    sim_duration : float, keyword-only
+        Length (s) of the open-loop simulation experiment (Figs. 4, 5), >= 2.
+    exp_duration : float, keyword-only
+        Length (s) of the closed-loop "robot" experiment (Figs. 9-12), >= 2.
+    n_speeds : int, keyword-only
+        Quasi-static speeds per direction (Fig. 8), >= 3, log-spaced from
+        ``0.2*Vs`` to 0.4 rad/s.
+    noise_std : float, keyword-only
+        Velocity measurement noise (rad/s) of the quasi-static runs and the
+        closed-loop experiment (the open-loop simulation is noise-free, as in Sec. IV).
+    quantization : float, keyword-only
+        Torque quantisation step (N·m) of the closed-loop experiment's readout (Fig. 7).
+    lam_sim, lam_exp : float, keyword-only
+        RLS forgetting factors of Fig. 5 and of Figs. 11-12 (paper: 0.85).
+    P0 : float, keyword-only
+        RLS initial covariance scale.
+    save_data : bool, keyword-only
+        Also write demonstration logs: ``quasi_static_log.csv`` (``t, u, w``)
+        for ``adaptive-ff stribeck`` and ``robot_log.csv`` (``time_ms``,
+        ``current_A`` with ``u = 60 A·current``, ``velocity_deg_s``,
+        ``encoder_counts`` with :data:`DEMO_COUNTS_PER_REV`; irregular time
+        stamps) for ``adaptive-ff identify``, plus ``plant.json``.
+    progress : bool or None, keyword-only
+        tqdm progress bar over the stages (None: when stderr is a terminal).
+    dpi : int, keyword-only
+        PNG resolution.
+
+    Returns
+    -------
+    PaperFigures
+
+    Raises
+    ------
+    ParameterError
+        A setting out of range.
+    ExcitationError
+        A fit fails for lack of excitation (too short runs).
+    """
+    from tqdm.auto import tqdm
+
+    p = preset("paper") if p is None else p
+    if not isinstance(p, JointParams):
+        raise TypeError(f"p must be a JointParams, got {type(p).__name__}")
+    sim_duration = check_positive("sim_duration", sim_duration)
+    exp_duration = check_positive("exp_duration", exp_duration)
+    if sim_duration < 2.0 or exp_duration < 2.0:
+        raise ParameterError(f"sim_duration and exp_duration must be >= 2 s, got {sim_duration!r}, {exp_duration!r}")
+    if isinstance(n_speeds, bool) or not isinstance(n_speeds, (int, np.integer)) or n_speeds < 3:
+        raise ParameterError(f"n_speeds must be an integer >= 3, got {n_speeds!r}")
+    noise_std = check_nonnegative("noise_std", noise_std)
+    quantization = check_nonnegative("quantization", quantization)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    ss = np.random.SeedSequence(seed)
+    qs_ss, sim_ss, ref_ss, times_ss, meas_ss, loop_ss = ss.spawn(6)
+    Tc = 1e-3
+    Ts_sim = 0.01
+    peak = math.radians(20.0)
+    figs: dict = {}
+    summary: dict = {"plant": p.to_dict(), "seed": seed}
+    bar = tqdm(total=5, desc="paper-figures", disable=(None if progress is None else not progress), leave=False)
+
+    # Fig. 8: quasi-static runs and the LM Stribeck fit (Sec. V-C)
+    bar.set_postfix_str("quasi-static runs (Fig. 8)")
+    vel = bidirectional_velocities(0.2 * p.Vs, 0.4, int(n_speeds))
+    qs = quasi_static_runs(p, vel, noise_std=noise_std, rng=np.random.default_rng(qs_ss))
+    sfit = fit_stribeck(qs.w_mean, qs.u_mean)
+    figs["fig08_stribeck"] = plot_stribeck_figure(sfit, qs.w_mean, qs.u_mean, F_std=qs.u_std,
+                                                  title=FIGURE_CAPTIONS["fig08_stribeck"])
+    summary["stribeck"] = {**sfit.params(), "stderr": dict(sfit.stderr), "n_points": sfit.n_points}
+    model = RegressionModel(sfit.Vs, sfit.delta, lag=True)
+    bar.update()
+
+    # Figs. 4, 5: open-loop simulation, LS and RLS (Sec. IV)
+    bar.set_postfix_str("simulation LS/RLS (Figs. 4, 5)")
+    _, u_id = bandlimited_noise(sim_duration, dt=Tc, cutoff=1.0, std=1.2 * (max(p.Fs, p.Fc) + p.sigma * peak),
+                                rng=np.random.default_rng(sim_ss))
+    meas_sim = sample(simulate(p, u_id, dt=Tc), Ts=Ts_sim)
+    ls_sim = fit_ls(model, meas_sim.u, meas_sim.w, Ts=Ts_sim)
+    figs["fig04_ls_simulation"] = plot_velocity_fit(
+        meas_sim.t, meas_sim.w, ls_sim.w_free_run, model_label="LS model, free run", fit_percent=ls_sim.fit_free_run,
+        w_model2=ls_sim.w_one_step, model2_label="LS model, one-step prediction", fit2_percent=ls_sim.fit_one_step,
+        measured_label="simulated (1 kHz RK4, sampled at 10 ms)", title=FIGURE_CAPTIONS["fig04_ls_simulation"])
+    w_rls_sim, th_sim = rls_pass(model, meas_sim.u, meas_sim.w, lam=lam_sim, P0=P0)
+    fit_rls_sim = nrmse_fit(meas_sim.w[2:], w_rls_sim[2:])
+    figs["fig05_rls_simulation"] = plot_velocity_fit(
+        meas_sim.t, meas_sim.w, w_rls_sim, model_label=f"RLS a-priori prediction (λ = {lam_sim:g})",
+        fit_percent=fit_rls_sim, measured_label="simulated", title=FIGURE_CAPTIONS["fig05_rls_simulation"])
+    summary["simulation"] = {"duration": sim_duration, "Ts": Ts_sim, "n_samples": int(meas_sim.t.shape[0]),
+                             "ls_fit_one_step": ls_sim.fit_one_step, "ls_fit_free_run": ls_sim.fit_free_run,
+                             "ls_estimate": _estimate_dict(ls_sim.estimate), "rls_fit": fit_rls_sim,
+                             "rls_lam": lam_sim,
+                             "rls_estimate": _estimate_dict(model.to_physical(th_sim[-1], Ts_sim))}
+    bar.update()
+
+    # Figs. 9-12: closed-loop multi-sine experiment, irregular readout (Sec. V)
+    bar.set_postfix_str("closed-loop experiment (Figs. 9-12)")
+    ref = multisine_reference(exp_duration, dt=Tc, peak=peak, rng=np.random.default_rng(ref_ss))
+    design = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=Tc)
+    u_max = 3.0 * (max(p.Fs, p.Fc) + p.sigma * float(np.max(np.abs(ref.w))) + p.J * float(np.max(np.abs(ref.dw))))
+    resp = closed_loop_response(p, ref, design=design, u_max=u_max, noise_std=noise_std,
+                                rng=np.random.default_rng(loop_ss))
+    times = irregular_sample_times(float(resp.t[-1]), dt=Tc, rng=np.random.default_rng(times_ss))
+    meas = sample(resp, times=times, noise_std=noise_std, quantization=quantization,
+                  rng=np.random.default_rng(meas_ss))
+    Ts_exp = meas.Ts
+    bar.update()
+    bar.set_postfix_str("LS/RLS on the irregular samples")
+    ls_exp = fit_ls(model, meas.u, meas.w, Ts=Ts_exp)
+    figs["fig09_ls_experiment"] = plot_velocity_fit(
+        meas.t, meas.w, ls_exp.w_one_step, model_label="LS model, one-step prediction",
+        fit_percent=ls_exp.fit_one_step, w_model2=ls_exp.w_free_run, model2_label="LS model, free run",
+        fit2_percent=ls_exp.fit_free_run, measured_label="measured (irregular readout, noise, quantised torque)",
+        title=FIGURE_CAPTIONS["fig09_ls_experiment"])
+    figs["fig10_sample_time"] = plot_sample_times(meas.t)
+    w_rls, th = rls_pass(model, meas.u, meas.w, lam=lam_exp, P0=P0)
+    fit_rls = nrmse_fit(meas.w[2:], w_rls[2:])
+    figs["fig11_rls_experiment"] = plot_velocity_fit(
+        meas.t, meas.w, w_rls, model_label=f"RLS a-priori prediction (λ = {lam_exp:g})", fit_percent=fit_rls,
+        title=FIGURE_CAPTIONS["fig11_rls_experiment"])
+    true = model.theta_from_physical(p, Ts_exp)
+    figs["fig12_rls_parameters"] = plot_parameter_convergence(
+        meas.t[2:], th, model.names, true=true,
+        title=f"{FIGURE_CAPTIONS['fig12_rls_parameters']} (λ = {lam_exp:g}; dashed: true plant at mean Ts)")
+    d = np.diff(meas.t)
+    summary["experiment"] = {
+        "duration": exp_duration, "n_samples": int(meas.t.shape[0]), "Ts_mean": float(d.mean()),
+        "Ts_min": float(d.min()), "Ts_max": float(d.max()), "noise_std": noise_std, "quantization": quantization,
+        "controller": {"Kp": design.Kp, "Ki": design.Ki, "Tc": design.Tc, "phase_margin": design.phase_margin},
+        "ls_fit_one_step": ls_exp.fit_one_step, "ls_fit_free_run": ls_exp.fit_free_run,
+        "ls_estimate": _estimate_dict(ls_exp.estimate), "rls_fit": fit_rls, "rls_lam": lam_exp,
+        "rls_estimate": _estimate_dict(model.to_physical(th[-1], Ts_exp))}
+    bar.update()
+
+    bar.set_postfix_str("writing")
+    paths = {}
+    for stem in FIGURE_CAPTIONS:
+        path = out / f"{stem}.png"
+        figs[stem].savefig(path, dpi=dpi)
+        paths[stem] = path
+    data_files = {}
+    if save_data:
+        rng = np.random.default_rng(ss.spawn(1)[0])
+        qlog = quasi_static_log(p, vel, hold=1.5, settle=1.5, noise_std=noise_std, rng=rng)
+        data_files["quasi_static_log"] = write_log_csv(
+            out / "quasi_static_log.csv", {"t": qlog.t, "u": qlog.u, "w": qlog.w},
+            header_comment="simulated bidirectional constant-velocity runs: t (s), u (N·m), w (rad/s)")
+        counts = encoder_counts(resp, meas.t, counts_per_rev=DEMO_COUNTS_PER_REV)
+        data_files["robot_log"] = write_log_csv(
+            out / "robot_log.csv",
+            {"time_ms": np.round(meas.t * 1e3, 6), "current_A": meas.u / DEMO_CURRENT_TO_TORQUE,
+             "velocity_deg_s": np.rad2deg(meas.w), "encoder_counts": counts},
+            header_comment=(f"simulated robot-joint log: u = {DEMO_CURRENT_TO_TORQUE:g} N·m/A * current_A, "
+                            f"{DEMO_COUNTS_PER_REV} counts/rev, irregular readout"))
+        plant_json = out / "plant.json"
+        plant_json.write_text(json.dumps(p.to_dict(), indent=2) + "\n")
+        data_files["plant"] = plant_json
+    bar.update()
+    bar.close()
+    return PaperFigures(out_dir=out, figures=paths, captions=dict(FIGURE_CAPTIONS), summary=summary,
+                        data_files=data_files)
+
+
+# --------------------------------------------------------------------------- user data
+
+
+def identification_figures(report, data) -> dict:
+    """The paper's kinds of figures for an identified measured log (for ``identify --plot/--report``).
+
+    Parameters
+    ----------
+    report : adaptive_ff.identification.identify.IdentificationReport
+        Result of :func:`adaptive_ff.identification.identify.identify` on ``data``.
+    data : adaptive_ff.io.data.MeasuredData
+        The record as loaded (time stamps may be non-uniform).
+
+    Returns
+    -------
+    dict
+        ``{"ls_fit": Figure, "rls_fit": Figure, "rls_parameters": Figure,
+        "sample_time": Figure}``: measured vs LS (one-step and free-run)
+        velocity (Fig. 9 kind), measured vs RLS a-priori velocity (Fig. 11),
+        RLS parameter convergence (Fig. 12), sample-time plot (Fig. 10).
+
+    Notes
+    -----
+    :func:`adaptive_ff.identification.identify.identify` fits on a uniform grid
+    (:func:`adaptive_ff.io.data.to_uniform`); the model curves are drawn on that
+    grid, and the RLS pass is repeated with the report's ``lam`` and ``P0`` to
+    get its a-priori predictions.
+    """
+    from adaptive_ff.io.data import to_uniform
+
+    uni = to_uniform(data)
+    ls = report.ls
+    model = ls.model
+    figs = {"ls_fit": plot_velocity_fit(
+        uni.t, uni.w, ls.w_one_step, model_label="LS model, one-step prediction", fit_percent=ls.fit_one_step,
+        w_model2=ls.w_free_run, model2_label="LS model, free run", fit2_percent=ls.fit_free_run,
+        title=f"measured and offline (LS) identified velocity: {data.source}")}
+    w_rls, th = rls_pass(model, uni.u, uni.w, lam=report.lam, P0=report.P0)
+    figs["rls_fit"] = plot_velocity_fit(
+        uni.t, uni.w, w_rls, model_label=f"RLS a-priori prediction (λ = {report.lam:g})",
+        fit_percent=nrmse_fit(uni.w[2:], w_rls[2:]), title="measured and online (RLS) identified velocity")
+    figs["rls_parameters"] = plot_parameter_convergence(uni.t[2:], th, model.names)
+    figs["sample_time"] = plot_sample_times(data.t)
+    return figs
+
+
+def save_figures(figures: dict, out_dir, *, dpi: int = 110) -> list:
+    """Write ``{stem: Figure}`` as ``out_dir/<stem>.png`` (directory created), e.g. for ``identify --plot DIR``.
+
+    Parameters
+    ----------
+    figures : dict
+        ``{file stem: matplotlib.figure.Figure}``, e.g. from :func:`identification_figures`.
+    out_dir : str or os.PathLike
+        Directory.
+    dpi : int, keyword-only
+        Resolution.
+
+    Returns
+    -------
+    list of Path
+        The files written, in the order of ``figures``.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for stem, fig in figures.items():
+        path = out / f"{stem}.png"
+        fig.savefig(path, dpi=dpi)
+        paths.append(path)
+    return paths

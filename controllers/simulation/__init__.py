@@ -1,0 +1,1 @@
+"""The closed-loop simulation engine: single runs and batches over scenarios, with streamed metrics."""
