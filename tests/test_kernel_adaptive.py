@@ -241,29 +241,3 @@ def test_rls_state_layout_assumed_by_the_kernel():
     np.testing.assert_array_equal(buf[_HDR:_HDR + 3], rls.theta)
     np.testing.assert_array_equal(buf[_HDR + 3:_HDR + 12].reshape(3, 3), rls.P)
     assert buf[_NUPD] == rls.n_updates == 1
-
-
-def test_stale_numba_cache_is_dropped_when_an_inlined_module_changes(tmp_path, monkeypatch):
-    """The loop kernel inlines controllers.simulation.batch and adaptive_ff.identification.rls code; numba only watches loop_kernel.py."""
-    import hashlib
-    from pathlib import Path
-
-    import adaptive_ff.identification.rls as rls_mod
-    import controllers.simulation.batch as batch_mod
-    import controllers.simulation.loop_kernel as lk
-
-    monkeypatch.setattr(lk, "__file__", str(tmp_path / "loop_kernel.py"))
-    cache = tmp_path / "__pycache__"
-    cache.mkdir()
-    old = cache / "loop_kernel._kernel-92.py311.nbi"
-    old.write_text("stale")
-    (cache / "loop_kernel.deps").write_text("digest of older sources")
-    lk._drop_stale_cache()
-    digest = hashlib.sha256(Path(batch_mod.__file__).read_bytes() + Path(rls_mod.__file__).read_bytes()).hexdigest()
-    assert not old.exists()
-    assert (cache / "loop_kernel.deps").read_text() == digest
-    # unchanged sources: the cache is kept
-    kept = cache / "loop_kernel._kernel-92.py311.nbc"
-    kept.write_text("fresh")
-    lk._drop_stale_cache()
-    assert kept.exists()

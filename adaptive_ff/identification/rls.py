@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from plant.jit import kernel
 
 from plant.errors import ParameterError, SignalError, check_finite_scalar
 
@@ -34,7 +34,7 @@ def _buffer_size(p: int) -> int:
     return _HDR + 4 * p + 2 * p * p
 
 
-@njit(cache=True)
+@kernel
 def _violation(buf, p, th, lo, hi, i):
     t = buf[th + i]
     a = buf[lo + i] - t
@@ -42,7 +42,7 @@ def _violation(buf, p, th, lo, hi, i):
     return (a if a > 0.0 else 0.0) + (b if b > 0.0 else 0.0)
 
 
-@njit(cache=True)
+@kernel
 def _project(buf, p, th, P0, lo, hi):
     """Project theta onto the box in the metric of P^-1 (class Notes); count the projection."""
     any_viol = False
@@ -79,7 +79,7 @@ def _project(buf, p, th, P0, lo, hi):
             buf[th + i] = buf[hi + i]
 
 
-@njit("float64(float64[::1], float64[:], float64)", cache=True)
+@kernel("float64(float64[::1], float64[:], float64)")
 def _step(buf, phi, y):
     """One RLS update of the state in ``buf`` (see the class Notes), no input checks; return the a-priori error."""
     p = np.int64(buf[_NP])
@@ -175,7 +175,7 @@ def _step(buf, phi, y):
     return e
 
 
-@njit("float64(float64[::1], float64[:], float64)", cache=True)
+@kernel("float64(float64[::1], float64[:], float64)")
 def _update(buf, phi, y):
     """Checked single update: NaN (state untouched) for a wrong length or a non-finite sample, else the error."""
     p = np.int64(buf[_NP])
@@ -189,7 +189,7 @@ def _update(buf, phi, y):
     return _step(buf, phi, y)
 
 
-@njit("int64(float64[::1], float64[:, :], float64[:], float64[:, ::1])", cache=True)
+@kernel("int64(float64[::1], float64[:, :], float64[:], float64[:, ::1])")
 def _update_many(buf, Phi, Y, hist):
     """Validate the whole stream (return the first bad row, state untouched), then update row by row."""
     n, p = Phi.shape

@@ -40,7 +40,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from plant.jit import kernel
 from scipy.interpolate import CubicSpline
 
 from plant.errors import ParameterError, SignalError, check_finite_scalar, check_positive, check_signal, check_time
@@ -133,7 +133,7 @@ def input_grid(t, u, *, h_max: float = H_MAX_DEFAULT, input_delay: float = 0.0, 
     return InputGrid(tg=np.ascontiguousarray(tg), ug=np.ascontiguousarray(ug), idx=idx.astype(np.int64))
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _friction(x, Fc, dF, Vs, delta, sigma, offset):
     if x > 0.0:
         return Fc + dF * math.exp(-((x / Vs) ** delta)) + sigma * x + offset
@@ -142,7 +142,7 @@ def _friction(x, Fc, dF, Vs, delta, sigma, offset):
     return offset
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _rk4_kernel(tg, ug, idx, J, Fc, Fs, Vs, delta, sigma, tau, offset, w0, f0, Kw, Kf, w_meas, inject):
     n = idx.shape[0]
     out = np.empty(n)

@@ -25,7 +25,9 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-from numba import njit, prange
+from numba import prange
+
+from plant.jit import kernel
 
 from plant.errors import ParameterError, check_nonnegative, check_positive
 from plant.excitation import Reference
@@ -68,7 +70,7 @@ class BatchResult:
     diverged: np.ndarray
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _F(w, Fc, dF, Vs, delta, sigma, d1, wcut):
     """Eq. 3, bit for bit as :func:`plant.joint._friction_scalar`, with two exact shortcuts.
 
@@ -94,7 +96,7 @@ def _F(w, Fc, dF, Vs, delta, sigma, d1, wcut):
     return 0.0
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _rk4_step(w, f, Fw, u, J, tau, dt, h2, h6, Fc, dF, Vs, delta, sigma, d1, wcut):
     """One classic RK4 step of ``J*dw/dt = u - f``, ``tau*df/dt + f = F(w)`` (eqs. 1-3), bit for bit as
     :func:`plant.joint.lagged_rk4_step`; the one RK4 step of every compiled kernel.
@@ -128,7 +130,7 @@ def _rk4_step(w, f, Fw, u, J, tau, dt, h2, h6, Fc, dF, Vs, delta, sigma, d1, wcu
             f + h6 * (k1f + 2.0 * k2f + 2.0 * k3f + k4f))
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _pi_step(I, e, Kp, KiTc, umax, uff):
     """One step of :meth:`controllers.design.pi.PIController.step` (clamping anti-windup), bit for bit.
 
@@ -170,7 +172,7 @@ def _wcut(Fc: float, dF: float, Vs: float, delta: float) -> float:
     return Vs * xcut ** (1.0 / delta) * (1.0 + 1e-9)
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def _kernel(P, G, E, wr, half, rev, noise, noise_rows, s0, mode, ff_ref, dt, w_limit, out, chunk):
     """Run all scenarios: prange over chunks of ``chunk`` scenarios (see :func:`_chunk`)."""
     B = P.shape[0]
@@ -181,7 +183,7 @@ def _kernel(P, G, E, wr, half, rev, noise, noise_rows, s0, mode, ff_ref, dt, w_l
                min(B, b0 + chunk))
 
 
-@njit(cache=True)
+@kernel
 def _kernel_serial(P, G, E, wr, half, rev, noise, noise_rows, s0, mode, ff_ref, dt, w_limit, out, chunk):
     """:func:`_kernel` on the calling thread (one chunk, or one numba thread: no parallel-region cost)."""
     B = P.shape[0]
@@ -192,7 +194,7 @@ def _kernel_serial(P, G, E, wr, half, rev, noise, noise_rows, s0, mode, ff_ref, 
                min(B, b0 + chunk))
 
 
-@njit(cache=True)
+@kernel
 def _chunk(P, G, E, wr, half, rev, noise, noise_rows, s0, mode, ff_ref, dt, w_limit, out, b0, b1):
     """Scenarios b0..b1-1, time-major: at each step every scenario of the chunk advances once.
 

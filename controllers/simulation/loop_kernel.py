@@ -33,45 +33,14 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from plant.jit import kernel
 
-import adaptive_ff.identification.rls as _rls_module
-import controllers.simulation.batch as _batch_module
 from adaptive_ff.identification.rls import _HDR, _NPROJ, _NUPD, _update
 from controllers.simulation.batch import _F, _pi_step, _rk4_step, _wcut
 
 __all__ = ["ST", "run_loop_kernel"]
 
 
-def _drop_stale_cache() -> None:
-    """Delete this module's numba cache when a module whose kernels it compiles in has changed.
-
-    numba keys a cached kernel on the time stamp of its own source file only, but the kernels
-    here inline ``_F``, ``_rk4_step``, ``_pi_step`` (:mod:`controllers.simulation.batch`) and the RLS update
-    (:mod:`adaptive_ff.identification.rls`): after an edit of those files alone the cache would silently keep
-    the old code. A hash of both sources is kept beside the cache; a mismatch removes the cached
-    kernels so they are compiled afresh. A read-only install (no writable ``__pycache__``) is left
-    as it is (numba then does not cache either).
-    """
-    import hashlib
-    from pathlib import Path
-
-    deps = (Path(_batch_module.__file__), Path(_rls_module.__file__))
-    try:
-        digest = hashlib.sha256(b"".join(p.read_bytes() for p in deps)).hexdigest()
-        cache = Path(__file__).resolve().parent / "__pycache__"
-        stamp = cache / "loop_kernel.deps"
-        if stamp.exists() and stamp.read_text() == digest:
-            return
-        for f in cache.glob("loop_kernel.*.nb[ic]"):
-            f.unlink()
-        cache.mkdir(exist_ok=True)
-        stamp.write_text(digest)
-    except OSError:
-        return
-
-
-_drop_stale_cache()
 
 #: Slots of the kernel's state/result vector ``st`` (floats).
 ST = {name: i for i, name in enumerate((
@@ -96,7 +65,7 @@ _NOISE_GAIN = math.sqrt(6.0) * math.sqrt(2.0 / math.pi)  # as adaptive_ff.compen
 _BAND_SIGMAS = 4.0
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _svf3(sf, o, a, x):
     """Advance one chain of three first-order low-passes ``sf[o:o+3]`` (gain ``a``) by input ``x``.
 
@@ -110,7 +79,7 @@ def _svf3(sf, o, a, x):
     sf[o + 1] = x2
 
 
-@njit(cache=True)
+@kernel
 def _gate_check(st, o, x, max_step, n_sigma, alpha, max_consec):
     """OutlierGate.check on state slots st[o:o+5] = last, has_last, scale, n_held, n_rejected."""
     if not math.isfinite(x):
@@ -136,7 +105,7 @@ def _gate_check(st, o, x, max_step, n_sigma, alpha, max_consec):
     return True
 
 
-@njit(cache=True)
+@kernel
 def _kernel(wr, noise, has_noise, fk, fv, PL, seg, s0, G, mode, ffp, fixed_est, ep, pp, buf, npar, gp, use_gate, tt,
             revs, window, tmid, dec, w_limit, W, WM, U, UFF, FF, TH, TK, FTH, st):
     """One closed-loop run; arguments as prepared by :func:`run_loop_kernel` (outputs written in place).
