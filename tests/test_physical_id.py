@@ -133,10 +133,10 @@ def test_invalid_input_raises_typed_errors_naming_the_argument(clean):
 
 
 def test_noise_estimate_ignores_irregular_sampling():
-    from adaptive_ff.identification.physical_id import _noise_std
+    from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular as noise_std
 
     rng = np.random.default_rng(11)
     t = np.cumsum(rng.choice([0.009, 0.01, 0.011, 0.02], size=3000))  # Fig. 10-like irregular intervals
     w = 2.0 * np.sin(2.0 * np.pi * 0.5 * t)
-    assert _noise_std(t, w) < 1e-4  # a smooth signal reads (almost) no noise despite the jitter
-    assert _noise_std(t, w + rng.normal(0.0, 0.01, t.shape)) == pytest.approx(0.01, rel=0.1)
+    assert noise_std(t, w) < 1e-4  # a smooth signal reads (almost) no noise despite the jitter
+    assert noise_std(t, w + rng.normal(0.0, 0.01, t.shape)) == pytest.approx(0.01, rel=0.1)

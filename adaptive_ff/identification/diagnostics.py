@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plant.errors import ParameterError, check_positive, check_signal
+from plant.errors import ParameterError, check_positive, check_signal, check_time
 
-__all__ = ["velocity_noise_std", "ExcitationReport", "excitation_report"]
+__all__ = ["velocity_noise_std", "velocity_noise_std_irregular", "ExcitationReport", "excitation_report"]
 
 
 def velocity_noise_std(w) -> float:
@@ -51,6 +51,51 @@ def velocity_noise_std(w) -> float:
     w = check_signal("w", w, min_len=8)
     d3 = np.diff(w, 3)
     return float(1.4826 * np.median(np.abs(d3 - np.median(d3))) / np.sqrt(20.0))
+
+
+def velocity_noise_std_irregular(t, w) -> float:
+    """Robust white-noise standard deviation of a velocity record sampled at any times ``t``.
+
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Sample times (s), strictly increasing, any spacing; N >= 5.
+    w : array_like, shape (N,)
+        Velocity samples (rad/s) at ``t``.
+
+    Returns
+    -------
+    float
+        Noise standard deviation (unit of ``w``), >= 0.
+
+    Raises
+    ------
+    SignalError
+        Fewer than 5 samples, non-finite values, lengths differ, or ``t`` not
+        strictly increasing.
+
+    Notes
+    -----
+    Each sample is compared with the least-squares quadratic through its
+    5-point neighbourhood on its own time stamps (so irregular sampling does
+    not count as noise); the residual, divided by ``sqrt(1 - h)`` (``h`` the
+    leverage of the centre point, Cook & Weisberg, *Residuals and Influence in
+    Regression*, 1982, Sec. 2.1), has the noise variance; robust scale
+    ``1.4826*MAD`` (Hampel, 1974). A smooth signal leaves a residual of order
+    ``Ts**3`` times its third derivative: at 10 ms a noise-free record reads
+    1-2e-4 of its peak velocity.
+    """
+    t = check_time("t", t, min_len=5)
+    w = check_signal("w", w, n=t.shape[0])
+    n = t.shape[0]
+    idx = np.arange(2, n - 2)[:, None] + np.arange(-2, 3)[None, :]
+    dt = t[idx] - t[idx[:, 2:3]]
+    x = dt / np.abs(dt).max(axis=1, keepdims=True)
+    A = np.stack([np.ones_like(x), x, x * x], axis=2)  # (M, 5, 3)
+    H = A @ np.linalg.pinv(A)  # hat matrices (M, 5, 5)
+    r = w[idx[:, 2]] - np.einsum("mj,mj->m", H[:, 2, :], w[idx])
+    r = r / np.sqrt(np.maximum(1.0 - H[:, 2, 2], 1e-12))
+    return float(1.4826 * np.median(np.abs(r - np.median(r))))
 
 
 @dataclass(frozen=True)

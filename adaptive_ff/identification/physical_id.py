@@ -99,18 +99,20 @@ free-run fit (its errors are coloured by the input reconstruction).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 from scipy.optimize import least_squares
 
+from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
 from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
 from adaptive_ff.identification.simulator import H_MAX_DEFAULT, input_grid, simulate_on_grid
 from plant.errors import (ExcitationError, ParameterError, SignalError, check_finite_scalar, check_positive,
                           check_signal, check_time)
 
-__all__ = ["PhysicalFit", "fit_physical", "METHODS", "PHYSICAL_NAMES", "MIN_SAMPLES"]
+__all__ = ["PhysicalFit", "OutputErrorOptions", "fit_physical", "METHODS", "PHYSICAL_NAMES", "MIN_SAMPLES"]
 
 #: Identification methods of :func:`fit_physical`.
 METHODS = ("paper", "output_error")
@@ -125,27 +127,11 @@ MIN_SAMPLES = 20
 #: (measured: 0.05 % noise already biased its Fs by up to 8 %; noise-free records read 1-2e-4).
 _ONE_STEP_NOISE = 3e-4
 _TAU_MIN = 1e-4  # s; floor of the start value (the RK4 sub-step needs tau > 0.4*h)
-
-
-def _noise_std(t, w) -> float:
-    """White-noise std (rad/s) of a velocity record sampled at any times ``t``, from local quadratic fits.
-
-    Each sample is compared with the least-squares quadratic through its 5-point neighbourhood (its
-    own time stamps, so irregular sampling does not count as noise); the residual, divided by
-    ``sqrt(1 - h)`` (``h`` the leverage of the centre point), has the noise variance; robust scale
-    ``1.4826*MAD``. A smooth signal leaves a residual of order ``Ts**3`` times its third derivative:
-    on the benchmark data (10 ms) noise-free records read 1-2e-4 of the peak velocity, 0.05 % noise
-    reads 5.8e-4, 1 % noise 1.0e-2.
-    """
-    n = t.shape[0]
-    idx = np.arange(2, n - 2)[:, None] + np.arange(-2, 3)[None, :]
-    dt = t[idx] - t[idx[:, 2:3]]
-    x = dt / np.abs(dt).max(axis=1, keepdims=True)
-    A = np.stack([np.ones_like(x), x, x * x], axis=2)  # (M, 5, 3)
-    H = A @ np.linalg.pinv(A)  # hat matrices (M, 5, 5)
-    r = w[idx[:, 2]] - np.einsum("mj,mj->m", H[:, 2, :], w[idx])
-    r = r / np.sqrt(np.maximum(1.0 - H[:, 2, 2], 1e-12))
-    return float(1.4826 * np.median(np.abs(r - np.median(r))))
+# final-stage search of the output-error fit (module docstring): local Fs profile span (relative), rounds of
+# the coordinate search, and the Fs values (relative) of the profile likelihood
+_FS_SPAN = 0.1
+_N_POLISH = 3
+_FS_PROFILE = (-0.08, -0.06, -0.04, -0.02, 0.02, 0.04, 0.06, 0.08)
 
 
 @dataclass(frozen=True)
@@ -306,155 +292,327 @@ def _start_from_paper(t, u, w, Vs, delta, offset):
     return {"J": J, "Fc": Fc, "sigma": sigma, "tau": tau, "offset": off}
 
 
-def _fit_output_error(t, u, w, Vs, delta, offset, *, h_max, input_delay, burn, fs_grid, fs_max_ratio,
-                      diff_step, max_nfev, start, loss, f_scale, interp, predictor, fs_span=0.1, n_polish=3,
-                      fs_profile=(-0.08, -0.06, -0.04, -0.02, 0.02, 0.04, 0.06, 0.08)):
-    grid = input_grid(t, u, h_max=h_max, input_delay=input_delay, interp=interp)
-    i0 = int(np.searchsorted(t, t[0] + burn))
-    if t.shape[0] - i0 < MIN_SAMPLES:
-        raise SignalError(f"the record ({t[-1] - t[0]:.4g} s) is too short for burn = {burn!r} s; "
-                          f"need at least {MIN_SAMPLES} samples after it")
-    wm = w[i0:]
-    w0, f0 = float(w[0]), float(u[0])  # friction balances the input at the start (quasi-steady)
-    names = _names(offset)
-    n_sim = [0]
-    big = 10.0 * (np.max(np.abs(w)) + 1.0)
+@dataclass(frozen=True)
+class OutputErrorOptions:
+    """Settings of the output-error method of :func:`fit_physical` (validated on construction).
 
-    def unpack(x):
-        return math.exp(x[0]), x[1], x[2], x[3], math.exp(x[4]), (x[5] * torque if offset else 0.0)
+    Parameters
+    ----------
+    predictor : {"auto", "free-run", "one-step"}, keyword-only
+        Prediction used in the cost. ``"auto"`` (default): one-step below a
+        velocity noise of 0.03 % of the peak ``|w|``, else free-run (module docstring).
+    h_max : float, keyword-only
+        Largest RK4 sub-step (s), > 0. Default 1e-3 (the paper's simulation rate).
+    input_delay : float, keyword-only
+        Time (s) by which each input sample precedes its time stamp. Default 0;
+        0.5e-3 for :func:`plant.sampling.sample` at 1 kHz.
+    interp : {"linear", "cubic"}, keyword-only
+        Input reconstruction between the samples. Default ``"linear"``.
+    burn : float, keyword-only
+        Time (s) at the start excluded from the cost, >= 0. Default 0.5.
+    fs_grid : int, keyword-only
+        Points of the global ``Fs`` profile, >= 3. Default 31.
+    fs_max_ratio : float, keyword-only
+        Upper end of the global ``Fs`` profile as a multiple of ``Fc``, > 1. Default 2.5.
+    diff_step : float, keyword-only
+        Relative finite-difference step of the Jacobian, > 0. Default 1e-2.
+    max_nfev : int, keyword-only
+        Largest number of residual evaluations per trust-region fit, >= 1. Default 200.
+    loss : {"soft_l1", "linear"}, keyword-only
+        Loss of ``scipy.optimize.least_squares``. Default ``"soft_l1"``.
+    f_scale : float or None, keyword-only
+        Robust scale of the loss (rad/s), > 0. Default None:
+        ``max(3*noise, 1e-3*peak |w|)``.
+    start : mapping or None, keyword-only
+        Start values ``J`` (kg·m², > 0), ``Fc``, ``Fs`` (N·m), ``sigma``
+        (N·m·s/rad), ``tau`` (s, > 0) and optionally ``offset`` (N·m); skips
+        the eq. 4 start and the start profiles. Default None.
 
-    def res(x):
-        J, Fc, Fs, sigma, tau, off = unpack(x)
-        n_sim[0] += 1
-        if tau < 0.4 * h_max:
-            return np.full(wm.shape[0], big)
-        ws = simulate_on_grid(J, Fc, Fs, Vs, delta, sigma, tau, grid, w0=w0, f0=f0, offset=off, gain=gain,
-                              w_meas=w)[i0:]
-        r = ws - wm
-        return np.where(np.isfinite(r), r, big)
+    Raises
+    ------
+    ParameterError
+        A value out of range (the message names it).
+    TypeError
+        A number that is not a real number.
 
-    noise = _noise_std(t, w)
-    peak = float(np.max(np.abs(w)))
-    if predictor == "auto":
-        predictor = "one-step" if noise < _ONE_STEP_NOISE * peak else "free-run"
-    gain = (1.0, 0.0) if predictor == "one-step" else (0.0, 0.0)
-    if f_scale is None:
-        f_scale = max(3.0 * noise, 1e-3 * peak)
+    Notes
+    -----
+    The staging these settings control is described in the module docstring
+    (prediction-error method, Ljung, *System Identification*, 2nd ed., Sec. 7.2).
+    """
 
-    # continuation (graduated non-convexity): the global stage uses a wide robust scale, which smooths
-    # the cost over the breakaway jitter; the final stage the noise-level scale
-    f_wide = max(f_scale, 1e-2 * peak)
+    predictor: str = "auto"
+    h_max: float = H_MAX_DEFAULT
+    input_delay: float = 0.0
+    interp: str = "linear"
+    burn: float = 0.5
+    fs_grid: int = 31
+    fs_max_ratio: float = 2.5
+    diff_step: float = 1e-2
+    max_nfev: int = 200
+    loss: str = "soft_l1"
+    f_scale: float | None = None
+    start: dict | None = None
 
-    def cost(x, fsc=f_scale):
-        r = res(x)
-        if loss == "linear":
+    def __post_init__(self):
+        def put(name, value):
+            object.__setattr__(self, name, value)
+
+        put("h_max", check_positive("h_max", self.h_max))
+        put("input_delay", check_finite_scalar("input_delay", self.input_delay))
+        put("burn", check_finite_scalar("burn", self.burn))
+        if self.burn < 0:
+            raise ParameterError(f"burn must be >= 0, got {self.burn!r}")
+        put("fs_grid", _check_int("fs_grid", self.fs_grid, 3))
+        put("fs_max_ratio", check_finite_scalar("fs_max_ratio", self.fs_max_ratio))
+        if self.fs_max_ratio <= 1.0:
+            raise ParameterError(f"fs_max_ratio must be > 1, got {self.fs_max_ratio!r}")
+        put("diff_step", check_positive("diff_step", self.diff_step))
+        put("max_nfev", _check_int("max_nfev", self.max_nfev, 1))
+        put("start", _check_start(self.start))
+        for name, allowed in (("loss", ("linear", "soft_l1")), ("predictor", ("auto", "free-run", "one-step")),
+                              ("interp", ("linear", "cubic"))):
+            if getattr(self, name) not in allowed:
+                raise ParameterError(f"{name} must be one of {list(allowed)}, got {getattr(self, name)!r}")
+        if self.f_scale is not None:
+            put("f_scale", check_positive("f_scale", self.f_scale))
+
+    @classmethod
+    def from_options(cls, options: Mapping) -> "OutputErrorOptions":
+        """Build from a ``{name: value}`` mapping (the ``**options`` of :func:`fit_physical`).
+
+        Parameters
+        ----------
+        options : mapping
+            Keys among the fields of this class.
+
+        Returns
+        -------
+        OutputErrorOptions
+
+        Raises
+        ------
+        ParameterError
+            An unknown key, or a value out of range.
+        """
+        unknown = set(options) - {f.name for f in fields(cls)}
+        if unknown:
+            raise ParameterError(f"unknown option(s) for method 'output_error': {sorted(unknown)}")
+        return cls(**options)
+
+
+def _check_int(name: str, value, low: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+        raise ParameterError(f"{name} must be an integer >= {low}, got {value!r}")
+    return int(value)
+
+
+def _check_start(start) -> dict | None:
+    if start is None:
+        return None
+    if not isinstance(start, Mapping):
+        raise ParameterError(f"start must be a dict of J, Fc, Fs, sigma, tau, got {type(start).__name__}")
+    missing = {"J", "Fc", "Fs", "sigma", "tau"} - set(start)
+    if missing:
+        raise ParameterError(f"start is missing {sorted(missing)}")
+    start = {k: check_finite_scalar(f"start[{k!r}]", v) for k, v in start.items()}
+    check_positive("start['J']", start["J"])
+    check_positive("start['tau']", start["tau"])
+    return start
+
+
+class _OutputErrorProblem:
+    """The prediction errors of eqs. 1-3 on a record and the search tools over them (``fit_physical``).
+
+    Parameter vector ``x = (log J, Fc, Fs, sigma, log tau[, offset/torque])``.
+    """
+
+    def __init__(self, t, u, w, Vs, delta, offset, opts: OutputErrorOptions):
+        self.grid = input_grid(t, u, h_max=opts.h_max, input_delay=opts.input_delay, interp=opts.interp)
+        self.i0 = int(np.searchsorted(t, t[0] + opts.burn))
+        if t.shape[0] - self.i0 < MIN_SAMPLES:
+            raise SignalError(f"the record ({t[-1] - t[0]:.4g} s) is too short for burn = {opts.burn!r} s; "
+                              f"need at least {MIN_SAMPLES} samples after it")
+        self.t, self.u, self.w, self.Vs, self.delta, self.offset, self.opts = t, u, w, Vs, delta, offset, opts
+        self.wm = w[self.i0:]
+        self.w0, self.f0 = float(w[0]), float(u[0])  # friction balances the input at the start (quasi-steady)
+        self.n_sim = 0
+        self.big = 10.0 * (np.max(np.abs(w)) + 1.0)
+        self.noise = velocity_noise_std_irregular(t, w)
+        peak = float(np.max(np.abs(w)))
+        predictor = opts.predictor
+        if predictor == "auto":
+            predictor = "one-step" if self.noise < _ONE_STEP_NOISE * peak else "free-run"
+        self.predictor = predictor
+        self.gain = (1.0, 0.0) if predictor == "one-step" else (0.0, 0.0)
+        self.f_scale = max(3.0 * self.noise, 1e-3 * peak) if opts.f_scale is None else opts.f_scale
+        # continuation (graduated non-convexity): the global stage uses a wide robust scale, which smooths
+        # the cost over the breakaway jitter; the final stage the noise-level scale
+        self.f_wide = max(self.f_scale, 1e-2 * peak)
+        self.torque = 1.0  # offset scale, set by start_vector
+
+    def start_vector(self, s0: dict) -> np.ndarray:
+        """``x`` of the start values; fixes the offset scale ``torque``."""
+        # offset in units of a torque scale, so that scipy's relative difference step ds*max(1, |x|) is about
+        # ds*Fc (a step of 0.01 N·m would not be seen past the breakaway jitter of the free-run output)
+        self.torque = max(abs(s0["Fc"]), 1e-3 * float(np.std(self.u)))
+        return np.array([math.log(s0["J"]), s0["Fc"], s0.get("Fs", s0["Fc"]), s0["sigma"], math.log(s0["tau"])]
+                        + ([s0.get("offset", 0.0) / self.torque] if self.offset else []), dtype=float)
+
+    def unpack(self, x):
+        """``(J, Fc, Fs, sigma, tau, offset)`` of ``x``."""
+        return math.exp(x[0]), x[1], x[2], x[3], math.exp(x[4]), (x[5] * self.torque if self.offset else 0.0)
+
+    def simulate(self, x) -> np.ndarray:
+        """Predicted velocity at every sample (rad/s)."""
+        J, Fc, Fs, sigma, tau, off = self.unpack(x)
+        return simulate_on_grid(J, Fc, Fs, self.Vs, self.delta, sigma, tau, self.grid, w0=self.w0, f0=self.f0,
+                                offset=off, gain=self.gain, w_meas=self.w)
+
+    def res(self, x) -> np.ndarray:
+        """Prediction errors after the burn-in (rad/s); a large constant where the model is not admissible."""
+        self.n_sim += 1
+        if math.exp(x[4]) < 0.4 * self.opts.h_max:
+            return np.full(self.wm.shape[0], self.big)
+        r = self.simulate(x)[self.i0:] - self.wm
+        return np.where(np.isfinite(r), r, self.big)
+
+    def cost(self, x, fsc=None) -> float:
+        """Loss of ``x`` at robust scale ``fsc`` (default the noise-level scale)."""
+        fsc = self.f_scale if fsc is None else fsc
+        r = self.res(x)
+        if self.opts.loss == "linear":
             return float(r @ r)
         return float(np.sum(np.sqrt(1.0 + (r / fsc) ** 2) - 1.0))
 
-    def profile(x, lo, hi, n, j=2, fsc=f_scale):
+    def profile(self, x, lo, hi, n, j=2, fsc=None) -> np.ndarray:
+        """``x`` with coordinate ``j`` set to the best of ``n`` values on ``[lo, hi]`` (grid search)."""
         g = np.linspace(lo, hi, n)
         c = []
         for v in g:
             xx = x.copy()
             xx[j] = v
-            c.append(cost(xx, fsc))
+            c.append(self.cost(xx, fsc))
         x = x.copy()
         x[j] = g[int(np.argmin(c))]
         return x
 
-    def _typical(x):
+    def typical(self, x) -> np.ndarray:
+        """Typical changes of ``x``: 2 % of J, 1 % of the torques, 3 % of tau, offset 1 % of Fc."""
         return np.array([0.02, 0.01 * abs(x[1]) + 1e-9, 0.01 * abs(x[2]) + 1e-9, 0.01 * abs(x[3]) + 1e-9, 0.03]
-                        + ([0.01] if offset else []))
+                        + ([0.01] if self.offset else []))
 
-    def refine(x, ds, fsc=f_scale):
-        # explicit scales (typical changes: 1 % of the torques, 2 % of J, 3 % of tau, offset 1 % of Fc)
-        # instead of x_scale="jac": the offset column, large in norm, was otherwise held nearly fixed
-        return least_squares(res, x, diff_step=ds, x_scale=_typical(x), method="trf", xtol=1e-8, ftol=1e-10,
-                             max_nfev=max_nfev, loss=loss, f_scale=fsc)
+    def refine(self, x, ds, fsc=None, free=None):
+        """Trust-region fit from ``x`` (``free``: indices fitted, the others held; default all)."""
+        fsc = self.f_scale if fsc is None else fsc
+        # explicit scales (typical changes) instead of x_scale="jac": the offset column, large in norm, was
+        # otherwise held nearly fixed
+        if free is None:
+            fun, z0, scale = self.res, x, self.typical(x)
+        else:
+            def fun(z, xs=x):
+                xx = xs.copy()
+                xx[free] = z
+                return self.res(xx)
 
-    s0 = dict(start) if start is not None else _start_from_paper(t, u, w, Vs, delta, offset)
-    # offset in units of a torque scale, so that scipy's relative difference step ds*max(1, |x|) is about
-    # ds*Fc (a step of 0.01 N·m would not be seen past the breakaway jitter of the free-run output)
-    torque = max(abs(s0["Fc"]), 1e-3 * float(np.std(u)))
-    x = np.array([math.log(s0["J"]), s0["Fc"], s0.get("Fs", s0["Fc"]), s0["sigma"], math.log(s0["tau"])]
-                 + ([s0.get("offset", 0.0) / torque] if offset else []), dtype=float)
-    # global stage (wide scale): log-tau and Fs profiles from the start, local fit, a second wide Fs
-    # profile from the refined point (the cost is not convex in Fs), fit again; keep the better
-    if start is None:
-        Ts = float(np.median(np.diff(t)))
-        x = profile(x, math.log(max(0.5 * Ts, 1.2 * h_max)), math.log(20.0 * Ts), 13, j=4, fsc=f_wide)
-        x = profile(x, x[1], fs_max_ratio * x[1], fs_grid, fsc=f_wide)
-    sol = refine(x, diff_step, f_wide)
-    best = (cost(sol.x, f_wide), sol)
+            z0, scale = x[free], self.typical(x)[free]
+        return least_squares(fun, z0, diff_step=ds, x_scale=scale, method="trf", xtol=1e-8, ftol=1e-10,
+                             max_nfev=self.opts.max_nfev, loss=self.opts.loss, f_scale=fsc)
+
+
+def _oe_global_stage(pb: _OutputErrorProblem, x: np.ndarray, profiled: bool) -> np.ndarray:
+    """Wide-scale stage: log-tau and Fs profiles (``profiled``), fit, a second wide Fs profile and fit."""
+    o = pb.opts
+    if profiled:
+        Ts = float(np.median(np.diff(pb.t)))
+        x = pb.profile(x, math.log(max(0.5 * Ts, 1.2 * o.h_max)), math.log(20.0 * Ts), 13, j=4, fsc=pb.f_wide)
+        x = pb.profile(x, x[1], o.fs_max_ratio * x[1], o.fs_grid, fsc=pb.f_wide)
+    sol = pb.refine(x, o.diff_step, pb.f_wide)
+    best = (pb.cost(sol.x, pb.f_wide), sol)
     xb = best[1].x
-    sol = refine(profile(xb, xb[1], fs_max_ratio * xb[1], fs_grid, fsc=f_wide), diff_step, f_wide)
-    if cost(sol.x, f_wide) < best[0]:
-        best = (cost(sol.x, f_wide), sol)
-    # final stage (noise-level scale): fit, local Fs profile, fit; keep the better; then a coordinate
-    # search (each parameter on a grid of +-3 typical changes, best point kept) with a last fit, which
-    # frees parameters the trust region leaves stuck on the rough cost (seen for the offset)
-    sol = refine(best[1].x, diff_step / 3.0)
-    best = (cost(sol.x), sol.x)
+    sol = pb.refine(pb.profile(xb, xb[1], o.fs_max_ratio * xb[1], o.fs_grid, fsc=pb.f_wide), o.diff_step, pb.f_wide)
+    if pb.cost(sol.x, pb.f_wide) < best[0]:
+        best = (pb.cost(sol.x, pb.f_wide), sol)
+    return best[1].x
+
+
+def _oe_local_stage(pb: _OutputErrorProblem, x: np.ndarray) -> tuple[float, np.ndarray]:
+    """Noise-level stage: fit, local Fs profile (+-``_FS_SPAN``), fit; the better ``(cost, x)``."""
+    ds = pb.opts.diff_step / 3.0
+    sol = pb.refine(x, ds)
+    best = (pb.cost(sol.x), sol.x)
     xb = best[1]
-    sol = refine(profile(xb, (1.0 - fs_span) * xb[2], (1.0 + fs_span) * xb[2], max(fs_grid // 2, 5) | 1),
-                 diff_step / 3.0)
-    c = cost(sol.x)
+    sol = pb.refine(pb.profile(xb, (1.0 - _FS_SPAN) * xb[2], (1.0 + _FS_SPAN) * xb[2],
+                               max(pb.opts.fs_grid // 2, 5) | 1), ds)
+    c = pb.cost(sol.x)
     if c < best[0]:
         best = (c, sol.x)
-    for _ in range(n_polish):
+    return best
+
+
+def _oe_coordinate_search(pb: _OutputErrorProblem, best: tuple[float, np.ndarray]) -> tuple[float, np.ndarray]:
+    """Each parameter on a grid of +-3 typical changes, best point refitted, up to ``_N_POLISH`` rounds.
+
+    Frees parameters the trust region leaves stuck on the rough cost (seen for the offset).
+    """
+    ds = pb.opts.diff_step / 3.0
+    for _ in range(_N_POLISH):
         x, c0 = best[1].copy(), best[0]
         for j in range(x.shape[0]):
             for k in (-3, -2, -1, 1, 2, 3):
                 xx = x.copy()
-                xx[j] += k * _typical(x)[j]
-                c = cost(xx)
+                xx[j] += k * pb.typical(x)[j]
+                c = pb.cost(xx)
                 if c < c0:
                     x, c0 = xx, c
-        sol = refine(x, diff_step / 3.0)
-        c = cost(sol.x)
+        sol = pb.refine(x, ds)
+        c = pb.cost(sol.x)
         x, c0 = (sol.x, c) if c < c0 else (x, c0)
         if c0 >= best[0]:
             break
         best = (c0, x)
-    # profile likelihood over Fs: Fs held at -8 .. +8 % in 2 % steps and the others refitted (Fc and Fs
-    # trade against each other at breakaway, a direction single-coordinate moves miss); the point of
-    # lowest cost, if below the current one, refitted. The profile cost is rough at the 1-2 % level (the
-    # refits stop in different breakaway patterns): a 4 % grid missed a lower-cost valley 6 % away
-    # (Fig. 10 sampling as is, seed 6: cost 138.6 at Fs +5.3 %, Fc -3.7 %; 136.0 at Fs -1.0 %)
+    return best
+
+
+def _oe_fs_profile(pb: _OutputErrorProblem, best: tuple[float, np.ndarray]) -> tuple[float, np.ndarray]:
+    """Profile likelihood over Fs: Fs held at each of ``_FS_PROFILE`` (relative), the others refitted.
+
+    Fc and Fs trade against each other at breakaway, a direction single-coordinate moves miss; the point
+    of lowest cost, if below the current one, is refitted. The profile cost is rough at the 1-2 % level
+    (the refits stop in different breakaway patterns): a 4 % grid missed a lower-cost valley 6 % away
+    (Fig. 10 sampling as is, seed 6: cost 138.6 at Fs +5.3 %, Fc -3.7 %; 136.0 at Fs -1.0 %).
+    """
+    ds = pb.opts.diff_step / 3.0
     free = [j for j in range(best[1].shape[0]) if j != 2]
     xb, c0 = best[1], best[0]
-    for fac in fs_profile:
+    for fac in _FS_PROFILE:
         xs = xb.copy()
         xs[2] = xb[2] * (1.0 + fac)
-
-        def res_fixed(z, xs=xs):
-            xx = xs.copy()
-            xx[free] = z
-            return res(xx)
-
-        sol = least_squares(res_fixed, xs[free], diff_step=diff_step / 3.0, x_scale=_typical(xs)[free],
-                            method="trf", xtol=1e-8, ftol=1e-10, max_nfev=max_nfev, loss=loss, f_scale=f_scale)
+        sol = pb.refine(xs, ds, free=free)
         xs[free] = sol.x
-        c = cost(xs)
+        c = pb.cost(xs)
         if c < c0:
             xb, c0 = xs, c
     if c0 < best[0]:
-        sol = refine(xb, diff_step / 3.0)
-        c = cost(sol.x)
+        sol = pb.refine(xb, ds)
+        c = pb.cost(sol.x)
         best = (c, sol.x) if c < c0 else (c0, xb)
-    x = best[1]
-    J, Fc, Fs, sigma, tau, off = unpack(x)
-    vals = {"J": J, "Fc": Fc, "Fs": Fs, "sigma": sigma, "tau": tau, "offset": off}
-    params = {k: float(vals[k]) for k in names}
-    # Gauss-Newton covariance at the optimum (Ljung Sec. 9.3) from a forward-difference Jacobian of the
-    # raw residuals (steps as in the fit), chain rule for log J, log tau and the offset scale
-    r = res(x)
+    return best
+
+
+def _oe_stderr(pb: _OutputErrorProblem, x: np.ndarray, names: tuple) -> tuple[dict, float, np.ndarray]:
+    """Gauss-Newton standard errors (Ljung Sec. 9.3), the scaled-Jacobian condition number and the residuals.
+
+    Forward-difference Jacobian of the raw residuals (steps as in the fit), chain rule for log J, log tau
+    and the offset scale.
+    """
+    r = pb.res(x)
     G = np.empty((r.shape[0], x.shape[0]))
     for j in range(x.shape[0]):
-        hj = diff_step * max(1.0, abs(x[j]))
+        hj = pb.opts.diff_step * max(1.0, abs(x[j]))
         xx = x.copy()
         xx[j] += hj
-        G[:, j] = (res(xx) - r) / hj
+        G[:, j] = (pb.res(xx) - r) / hj
     dof = max(r.shape[0] - x.shape[0], 1)
     s2 = float(r @ r) / dof
     sc = np.linalg.norm(G, axis=0)
@@ -469,19 +627,34 @@ def _fit_output_error(t, u, w, Vs, delta, offset, *, h_max, input_delay, burn, f
         dx = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     except np.linalg.LinAlgError:
         dx = np.full(x.shape[0], np.nan)
-    chain = np.array([J, 1.0, 1.0, 1.0, tau] + ([torque] if offset else []))
-    stderr = {k: float(v) for k, v in zip(names, dx * chain)}
-    w_sim = simulate_on_grid(J, Fc, Fs, Vs, delta, sigma, tau, grid, w0=w0, f0=f0, offset=off, gain=gain, w_meas=w)
-    fit = nrmse_fit(wm, w_sim[i0:])
+    J, _, _, _, tau, _ = pb.unpack(x)
+    chain = np.array([J, 1.0, 1.0, 1.0, tau] + ([pb.torque] if pb.offset else []))
+    return {k: float(v) for k, v in zip(names, dx * chain)}, cond, r
+
+
+def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> PhysicalFit:
+    """The output-error fit of eqs. 1-3 (module docstring): staged search, then Gauss-Newton errors."""
+    pb = _OutputErrorProblem(t, u, w, Vs, delta, offset, opts)
+    names = _names(offset)
+    s0 = dict(opts.start) if opts.start is not None else _start_from_paper(t, u, w, Vs, delta, offset)
+    x = _oe_global_stage(pb, pb.start_vector(s0), profiled=opts.start is None)
+    best = _oe_fs_profile(pb, _oe_coordinate_search(pb, _oe_local_stage(pb, x)))
+    x = best[1]
+    J, Fc, Fs, sigma, tau, off = pb.unpack(x)
+    vals = {"J": J, "Fc": Fc, "Fs": Fs, "sigma": sigma, "tau": tau, "offset": off}
+    params = {k: float(vals[k]) for k in names}
+    stderr, cond, r = _oe_stderr(pb, x, names)
+    fit = nrmse_fit(pb.wm, pb.simulate(x)[pb.i0:])
     return PhysicalFit(method="output_error", params=params, stderr=stderr, cond=cond, nrmse=float(fit),
-                       n_samples=int(t.shape[0]), nrmse_kind=predictor,
-                       info={"predictor": predictor, "noise_std": noise,
+                       n_samples=int(t.shape[0]), nrmse_kind=pb.predictor,
+                       info={"predictor": pb.predictor, "noise_std": pb.noise,
                              "start": {k: float(v) for k, v in s0.items()}, "cost": float(best[0]),
                              "residual_rms": float(math.sqrt(float(r @ r) / r.shape[0])),
-                             "n_simulations": int(n_sim[0]), "burn_samples": i0, "loss": loss,
-                             "f_scale": float(f_scale), "f_scale_global": float(f_wide), "h_max": h_max,
-                             "input_delay": input_delay, "interp": interp,
+                             "n_simulations": int(pb.n_sim), "burn_samples": pb.i0, "loss": opts.loss,
+                             "f_scale": float(pb.f_scale), "f_scale_global": float(pb.f_wide),
+                             "h_max": opts.h_max, "input_delay": opts.input_delay, "interp": opts.interp,
                              "Ts_mean": float(np.mean(np.diff(t))), "Ts_max": float(np.max(np.diff(t)))})
+
 
 
 def fit_physical(t, u, w, *, Vs: float, delta: float, method: str = "output_error", offset: bool = True,
@@ -507,21 +680,11 @@ def fit_physical(t, u, w, *, Vs: float, delta: float, method: str = "output_erro
         Also fit a constant torque offset (N·m). Default True.
     **options
         ``"paper"``: ``inverse`` ({"corrected", "printed"}, default
-        "corrected"). ``"output_error"``: ``predictor`` ({"auto",
-        "free-run", "one-step"}, default "auto": one-step below a noise of
-        0.03 % of the peak velocity), ``h_max`` (RK4 sub-step, s, default
-        1e-3), ``input_delay`` (s by which each input sample precedes its time
-        stamp, default 0; 0.5e-3 for :func:`plant.sampling.sample` at 1 kHz),
-        ``interp`` ({"linear", "cubic"}, input reconstruction, default
-        "linear"), ``burn`` (s excluded from the cost at the start, default
-        0.5), ``fs_grid`` (points of the Fs profile, default 31),
-        ``fs_max_ratio`` (upper end of the Fs profile as a multiple of Fc,
-        default 2.5), ``diff_step`` (relative finite-difference step, default
-        1e-2), ``max_nfev`` (per trust-region fit, default 200), ``loss``
-        ({"soft_l1", "linear"}, default "soft_l1"), ``f_scale`` (robust scale,
-        rad/s; default max(3*noise, 1e-3*peak |w|)), ``start`` (dict of start
-        values J, Fc, Fs, sigma, tau[, offset]; skips the eq. 4 start and the
-        start profiles).
+        "corrected"). ``"output_error"``: the fields of
+        :class:`OutputErrorOptions` (``predictor``, ``h_max``,
+        ``input_delay``, ``interp``, ``burn``, ``fs_grid``, ``fs_max_ratio``,
+        ``diff_step``, ``max_nfev``, ``loss``, ``f_scale``, ``start``; units
+        and defaults there), validated by it.
 
     Returns
     -------
@@ -565,49 +728,4 @@ def fit_physical(t, u, w, *, Vs: float, delta: float, method: str = "output_erro
         if inverse not in ("corrected", "printed"):
             raise ParameterError(f"inverse must be 'corrected' or 'printed', got {inverse!r}")
         return _fit_paper(t, u, w, Vs, delta, offset, inverse)
-    allowed = {"h_max", "input_delay", "burn", "fs_grid", "fs_max_ratio", "diff_step", "max_nfev", "start",
-               "loss", "f_scale", "interp", "predictor"}
-    unknown = set(options) - allowed
-    if unknown:
-        raise ParameterError(f"unknown option(s) for method 'output_error': {sorted(unknown)}")
-    h_max = check_positive("h_max", options.get("h_max", H_MAX_DEFAULT))
-    input_delay = check_finite_scalar("input_delay", options.get("input_delay", 0.0))
-    burn = check_finite_scalar("burn", options.get("burn", 0.5))
-    if burn < 0:
-        raise ParameterError(f"burn must be >= 0, got {burn!r}")
-    fs_grid = options.get("fs_grid", 31)
-    if isinstance(fs_grid, bool) or not isinstance(fs_grid, (int, np.integer)) or fs_grid < 3:
-        raise ParameterError(f"fs_grid must be an integer >= 3, got {fs_grid!r}")
-    fs_max_ratio = check_finite_scalar("fs_max_ratio", options.get("fs_max_ratio", 2.5))
-    if fs_max_ratio <= 1.0:
-        raise ParameterError(f"fs_max_ratio must be > 1, got {fs_max_ratio!r}")
-    diff_step = check_positive("diff_step", options.get("diff_step", 1e-2))
-    max_nfev = options.get("max_nfev", 200)
-    if isinstance(max_nfev, bool) or not isinstance(max_nfev, (int, np.integer)) or max_nfev < 1:
-        raise ParameterError(f"max_nfev must be an integer >= 1, got {max_nfev!r}")
-    start = options.get("start")
-    if start is not None:
-        if not isinstance(start, dict):
-            raise ParameterError(f"start must be a dict of J, Fc, Fs, sigma, tau, got {type(start).__name__}")
-        missing = {"J", "Fc", "Fs", "sigma", "tau"} - set(start)
-        if missing:
-            raise ParameterError(f"start is missing {sorted(missing)}")
-        start = {k: check_finite_scalar(f"start[{k!r}]", v) for k, v in start.items()}
-        check_positive("start['J']", start["J"])
-        check_positive("start['tau']", start["tau"])
-    loss = options.get("loss", "soft_l1")
-    if loss not in ("linear", "soft_l1"):
-        raise ParameterError(f"loss must be 'linear' or 'soft_l1', got {loss!r}")
-    predictor = options.get("predictor", "auto")
-    if predictor not in ("auto", "free-run", "one-step"):
-        raise ParameterError(f"predictor must be 'auto', 'free-run' or 'one-step', got {predictor!r}")
-    interp = options.get("interp", "linear")
-    if interp not in ("linear", "cubic"):
-        raise ParameterError(f"interp must be 'linear' or 'cubic', got {interp!r}")
-    f_scale = options.get("f_scale")
-    if f_scale is not None:
-        f_scale = check_positive("f_scale", f_scale)
-    return _fit_output_error(t, u, w, Vs, delta, offset, h_max=h_max, input_delay=input_delay, burn=burn,
-                             fs_grid=int(fs_grid), fs_max_ratio=fs_max_ratio, diff_step=diff_step,
-                             max_nfev=int(max_nfev), start=start, loss=loss, f_scale=f_scale,
-                             interp=interp, predictor=predictor)
+    return _fit_output_error(t, u, w, Vs, delta, offset, OutputErrorOptions.from_options(options))
