@@ -412,32 +412,11 @@ def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0)) -> 
     Covariance: ``s**2 * inv(J^T J)`` at the solution (Bates & Watts 1988,
     Sec. 2.3; Seber & Wild 1989, Sec. 5.1), Vs by the delta method.
     """
-    w = check_signal("w", w, min_len=MIN_POINTS)
-    F = check_signal("F", F, n=w.shape[0])
-    if F_std is None:
-        std = np.ones_like(w)
-    else:
-        std = check_signal("F_std", F_std, n=w.shape[0])
-        bad = std <= 0.0
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            raise SignalError(f"F_std must be > 0 everywhere, got F_std[{i}] = {std[i]!r}")
+    w, F, std = _check_data(w, F, F_std)
     x0_user = None if p0 is None else _check_p0(p0)
     starts_delta = _check_delta_starts(delta_starts)
-
-    keep = w != 0.0
-    n = int(keep.sum())
-    if n < MIN_POINTS:
-        raise ExcitationError(
-            f"w has only {n} samples with w != 0 (of {w.shape[0]}); fit_stribeck needs at least "
-            f"{MIN_POINTS} for the 5 parameters (Fc, Fs, Vs, delta, sigma)")
-    w, F, wt = w[keep], F[keep], 1.0 / std[keep]
+    w, F, wt = _usable_points(w, F, std)
     sg, aw = np.sign(w), np.abs(w)
-    n_speeds = np.unique(aw).size
-    if n_speeds < len(PARAM_NAMES):
-        raise ExcitationError(
-            f"w has only {n_speeds} distinct speeds |w| > 0; the symmetric Stribeck map needs at "
-            f"least {len(PARAM_NAMES)} to identify (Fc, Fs, Vs, delta, sigma)")
     logaw = np.log(aw)
     args = (sg, w, logaw)
 
@@ -448,6 +427,59 @@ def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0)) -> 
         return _jacobian(x, *args) * wt[:, None]
 
     starts = [x0_user] if x0_user is not None else _initial_guesses(sg, w, aw, logaw, F, wt, starts_delta)
+    best = _best_lm_run(resid, jac, starts)
+    x = best.x
+    Fc, Fs, logVs, delta, sigma = (float(v) for v in x)
+    Vs = float(np.exp(logVs))
+    cov = _covariance(jac(x), resid(x), F * wt, x)
+    stderr = dict(zip(PARAM_NAMES, np.sqrt(np.clip(np.diag(cov), 0.0, None)).tolist()))
+    _check_transition(aw, Vs, delta)
+    _check_stribeck_effect(cov, Fc, Fs, F)
+    cov.setflags(write=False)
+    model_F = _model(x, *args)
+    return StribeckFit(
+        Fc=Fc, Fs=Fs, Vs=Vs, delta=delta, sigma=sigma,
+        stderr=stderr,
+        cov=cov,
+        residual_rms=float(np.sqrt(np.mean((model_F - F) ** 2))),
+        n_points=int(w.shape[0]),
+        converged=bool(best.status > 0),
+    )
+
+
+def _check_data(w, F, F_std):
+    """Validated ``w``, ``F`` and the spreads ``F_std`` (ones if None)."""
+    w = check_signal("w", w, min_len=MIN_POINTS)
+    F = check_signal("F", F, n=w.shape[0])
+    if F_std is None:
+        return w, F, np.ones_like(w)
+    std = check_signal("F_std", F_std, n=w.shape[0])
+    bad = std <= 0.0
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise SignalError(f"F_std must be > 0 everywhere, got F_std[{i}] = {std[i]!r}")
+    return w, F, std
+
+
+def _usable_points(w, F, std):
+    """The points with ``w != 0`` and their weights ``1/F_std``; raise if too few points or speeds."""
+    keep = w != 0.0
+    n = int(keep.sum())
+    if n < MIN_POINTS:
+        raise ExcitationError(
+            f"w has only {n} samples with w != 0 (of {w.shape[0]}); fit_stribeck needs at least "
+            f"{MIN_POINTS} for the 5 parameters (Fc, Fs, Vs, delta, sigma)")
+    w, F, wt = w[keep], F[keep], 1.0 / std[keep]
+    n_speeds = np.unique(np.abs(w)).size
+    if n_speeds < len(PARAM_NAMES):
+        raise ExcitationError(
+            f"w has only {n_speeds} distinct speeds |w| > 0; the symmetric Stribeck map needs at "
+            f"least {len(PARAM_NAMES)} to identify (Fc, Fs, Vs, delta, sigma)")
+    return w, F, wt
+
+
+def _best_lm_run(resid, jac, starts):
+    """MINPACK Levenberg-Marquardt from every start; the finite solution of lowest cost."""
     best = None
     for x0 in starts:
         res = least_squares(resid, x0, jac=jac, method="lm", x_scale="jac",
@@ -456,17 +488,21 @@ def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0)) -> 
             best = res
     if best is None:  # pragma: no cover - MINPACK keeps x finite from a finite start
         raise ExcitationError("the data cannot identify Fs/Vs: every Levenberg-Marquardt start diverged")
-    x = best.x
-    Fc, Fs, logVs, delta, sigma = (float(v) for v in x)
-    Vs = float(np.exp(logVs))
+    return best
 
-    # --- covariance (Bates & Watts 1988, Sec. 2.3) and identifiability checks
-    Jw = jac(x)
-    r = resid(x)
-    dof = n - len(PARAM_NAMES)
+
+def _covariance(Jw, r, Fw, x) -> np.ndarray:
+    """Covariance of ``(Fc, Fs, Vs, delta, sigma)`` (Bates & Watts 1988, Sec. 2.3); raise if singular.
+
+    ``Jw``: weighted Jacobian in ``(Fc, Fs, log Vs, delta, sigma)`` at ``x``, ``r``: weighted residuals,
+    ``Fw``: weighted data (for the numerical resolution floor of ``s**2``).
+    """
+    Fc, Fs, logVs, delta, _ = (float(v) for v in x)
+    Vs = float(np.exp(logVs))
+    dof = r.shape[0] - len(PARAM_NAMES)
     # numerical resolution floor: rounding in the residuals (a few eps*|F| per point) leaves exact data with
     # parameter errors of ~1e-15 relative that a purely residual-based s**2 (~1e-30) would call significant
-    s2 = max(float(r @ r) / dof, (_RES_FLOOR_EPS * np.finfo(float).eps * float(np.max(np.abs(F * wt)))) ** 2)
+    s2 = max(float(r @ r) / dof, (_RES_FLOOR_EPS * np.finfo(float).eps * float(np.max(np.abs(Fw)))) ** 2)
     col = np.linalg.norm(Jw, axis=0)
     names_x = ("Fc", "Fs", "log Vs", "delta", "sigma")
     if np.any(col == 0.0) or delta == 0.0:
@@ -486,10 +522,11 @@ def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0)) -> 
     cov_x = s2 * inv_scaled / np.outer(col, col)
     T = np.diag([1.0, 1.0, Vs, 1.0, 1.0])  # delta method: dVs/dlogVs = Vs
     cov = T @ cov_x @ T
-    cov = 0.5 * (cov + cov.T)
-    stderr = dict(zip(PARAM_NAMES, np.sqrt(np.clip(np.diag(cov), 0.0, None)).tolist()))
+    return 0.5 * (cov + cov.T)
 
-    # transition window: (Fs - Fc)*s(w) between 5 % and 95 % of its size
+
+def _check_transition(aw, Vs: float, delta: float) -> None:
+    """Raise unless 3 distinct speeds lie where ``(Fs - Fc)*s(w)`` is between 5 % and 95 % of its size."""
     a, b = sorted((_P_LOW ** (1.0 / delta), _P_HIGH ** (1.0 / delta)))
     w_lo, w_hi = Vs * a, Vs * b
     n_trans = np.unique(aw[(aw >= w_lo) & (aw <= w_hi)]).size
@@ -499,6 +536,10 @@ def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0)) -> 
             f"transition {w_lo:.3g} <= |w| <= {w_hi:.3g} rad/s of the fitted curve (Vs={Vs:.6g} rad/s, "
             f"delta={delta:.6g}), need at least {_MIN_TRANSITION_SPEEDS}; add quasi-static runs at "
             f"speeds around Vs (for delta > 0: |w| below about 3*Vs)")
+
+
+def _check_stribeck_effect(cov, Fc: float, Fs: float, F) -> None:
+    """Raise unless ``Fs - Fc`` is resolved from zero (two standard errors and the rounding floor)."""
     d = Fs - Fc
     se_d = float(np.sqrt(max(cov[0, 0] + cov[1, 1] - 2.0 * cov[0, 1], 0.0)))
     floor = np.sqrt(np.finfo(float).eps) * float(np.max(np.abs(F)))
@@ -507,17 +548,6 @@ def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0)) -> 
             f"the data cannot identify Fs/Vs: no resolvable Stribeck effect, Fs - Fc = {d:.3g} N·m "
             f"(standard error {se_d:.3g} N·m), so Vs and delta are undetermined; fit a Coulomb + "
             f"viscous model instead")
-
-    cov.setflags(write=False)
-    model_F = _model(x, *args)
-    return StribeckFit(
-        Fc=Fc, Fs=Fs, Vs=Vs, delta=delta, sigma=sigma,
-        stderr=stderr,
-        cov=cov,
-        residual_rms=float(np.sqrt(np.mean((model_F - F) ** 2))),
-        n_points=n,
-        converged=bool(best.status > 0),
-    )
 
 
 # --------------------------------------------------------------------------- figure
