@@ -283,22 +283,12 @@ def binned_steady_state(t, u, w, *, n_bins: int = 12, w_min: float | None = None
     paper's quasi-static experiments (Sec. V-C); binning a long log is the
     usual substitute when no such experiments exist.
     """
-    from scipy.signal import savgol_filter
-
     t, u, w = _check_log(t, u, w)
     if isinstance(n_bins, bool) or not isinstance(n_bins, (int, np.integer)) or n_bins < 1:
         raise ParameterError(f"n_bins must be an integer >= 1, got {n_bins!r}")
     if isinstance(min_count, bool) or not isinstance(min_count, (int, np.integer)) or min_count < 2:
         raise ParameterError(f"min_count must be an integer >= 2, got {min_count!r}")
-    T = float(np.median(np.diff(t)))
-    n = w.shape[0]
-    win = 21 if smooth_time is None else int(round(check_positive("smooth_time", smooth_time) / T))
-    win = max(win, 5)
-    win += 1 - win % 2  # odd
-    if win > n:
-        win = n if n % 2 else n - 1
-    ws = savgol_filter(w, win, 2) if win >= 5 else w
-    a = np.gradient(ws, t)
+    a = _smoothed_acceleration(t, w, smooth_time)
     F = u.copy()
     notes = []
     if J is not None:
@@ -321,20 +311,43 @@ def binned_steady_state(t, u, w, *, n_bins: int = 12, w_min: float | None = None
         raise ExcitationError(f"the log never moves faster than w_min = {w_min:.3g} rad/s (max |w| = {top:.3g})")
     keep = (np.abs(a) <= max_accel) & (aw >= w_min)
     edges = np.geomspace(w_min, top * (1 + 1e-12), n_bins + 1)
+    rows = _bin_rows(t, w, F, keep, edges, min_count)
+    notes.insert(0, f"velocity bins: {n_bins} per direction, log-spaced {w_min:.3g}..{top:.3g} rad/s; |dw/dt| <= "
+                    f"{max_accel:.3g} rad/s²; {int(keep.sum())} of {w.shape[0]} samples used; min {min_count} per bin")
+    return _points(rows, "bins", notes)
+
+
+def _smoothed_acceleration(t, w, smooth_time):
+    """``dw/dt`` (rad/s²): Savitzky-Golay smoothing (order 2, window ``smooth_time`` s, default 21 samples),
+    then ``numpy.gradient`` on the actual time stamps."""
+    from scipy.signal import savgol_filter
+
+    T = float(np.median(np.diff(t)))
+    n = w.shape[0]
+    win = 21 if smooth_time is None else int(round(check_positive("smooth_time", smooth_time) / T))
+    win = max(win, 5)
+    win += 1 - win % 2  # odd
+    if win > n:
+        win = n if n % 2 else n - 1
+    ws = savgol_filter(w, win, 2) if win >= 5 else w
+    return np.gradient(ws, t)
+
+
+def _bin_rows(t, w, F, keep, edges, min_count) -> list:
+    """One support-point row per direction and velocity bin (``edges`` on ``|w|``) with ``min_count`` samples."""
+    aw = np.abs(w)
     rows = []
     for sgn in (-1.0, 1.0):
         sel = keep & (np.sign(w) == sgn)
         idx = np.searchsorted(edges, aw[sel], side="right") - 1
         tt, ww, FF = t[sel], w[sel], F[sel]
-        for b in range(n_bins):
+        for b in range(edges.shape[0] - 1):
             m = idx == b
             c = int(m.sum())
             if c >= min_count:
                 rows.append((float(ww[m].mean()), float(ww[m].std()), float(FF[m].mean()), float(FF[m].std()), c,
                              float(tt[m].min()), float(tt[m].max())))
-    notes.insert(0, f"velocity bins: {n_bins} per direction, log-spaced {w_min:.3g}..{top:.3g} rad/s; |dw/dt| <= "
-                    f"{max_accel:.3g} rad/s²; {int(keep.sum())} of {w.shape[0]} samples used; min {min_count} per bin")
-    return _points(rows, "bins", notes)
+    return rows
 
 
 def support_points(data: MeasuredData, *, method: str = "auto", **options) -> SupportPoints:
