@@ -341,21 +341,7 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
     about -0.001 s (LS: 0.0175 s); ``P0`` of 1e8-1e10 brings RLS within 4 % of
     LS there, larger values lose accuracy to rounding.
     """
-    if not isinstance(data, MeasuredData):
-        raise TypeError(f"data must be a MeasuredData, got {type(data).__name__}")
-    if (Vs is None) != (delta is None):
-        raise ParameterError(f"give both Vs and delta for the Stribeck structure, or neither; "
-                             f"got Vs = {Vs!r}, delta = {delta!r}")
-    if isinstance(n_history, bool) or not isinstance(n_history, (int, np.integer)) or n_history < 2:
-        raise ParameterError(f"n_history must be an integer >= 2, got {n_history!r}")
-    P0 = check_positive("P0", P0)
-    if method not in METHODS:
-        raise ParameterError(f"method must be one of {METHODS}, got {method!r}")
-    if method != "paper" and Vs is None:
-        raise ParameterError(f"method {method!r} fits the Stribeck model of eqs. 1-3: give Vs and delta "
-                             f"(pre-fit, Sec. V-C), got Vs = {Vs!r}, delta = {delta!r}")
-    if method_options is not None and not isinstance(method_options, dict):
-        raise ParameterError(f"method_options must be a dict, got {method_options!r}")
+    P0 = _check_identify_args(data, Vs, delta, n_history, P0, method, method_options)
     stribeck = Vs is not None
     model = RegressionModel(Vs, delta, lag=lag, stribeck=stribeck, offset=offset)
     rls = RecursiveLeastSquares(model.n_params, lam=lam, P0=P0)
@@ -367,41 +353,14 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
     u, w = uni.u, uni.w
     # Excitation first (Ljung 1999, Sec. 13.2): its causes explain a failing or a poor fit.
     excitation = excitation_report(u, w, Vs=Vs if stribeck else None)
-
-    # Estimator (extension point for a ``method=`` keyword): the paper's eq. 4 LS (eq. 9).
-    try:
-        ls = fit_ls(model, u, w, Ts=Ts)
-    except ExcitationError as exc:
-        if not excitation.warnings:
-            raise
-        raise ExcitationError(f"{exc}; cause: {'; '.join(excitation.warnings)}") from None
+    ls = _fit_ls_with_causes(model, u, w, Ts, excitation)
     std = _physical_std(model, u, w, ls, _parameter_names(model))
-
     X, y = model.regressors(u, w)
-    n = X.shape[0]
-    keep = np.unique(np.linspace(0, n - 1, min(n, n_history)).round().astype(int))
-    hist = np.empty((keep.shape[0], model.n_params))
-    j = 0
-    for i in range(n):
-        rls.update(X[i], y[i])
-        if j < keep.shape[0] and i == keep[j]:
-            hist[j] = rls.theta
-            j += 1
+    keep, hist = _rls_pass(rls, X, y, n_history)
     rls_theta = rls.theta.copy()
     rls_est = model.to_physical(rls_theta, Ts)
     rls_fit = nrmse_fit(y, X @ rls_theta)
-
-    warn = list(excitation.warnings)
-    if not ls.estimate.is_plausible():
-        warn.append(f"LS estimate is not physically plausible (J > 0, tau, sigma, Fc, Fs >= 0): {ls.estimate}")
-    if not rls_est.is_plausible():
-        warn.append(f"final RLS estimate is not physically plausible: {rls_est}")
-    if ls.cond > _COND_WARN:
-        warn.append(f"regressor condition number {ls.cond:.3g} > {_COND_WARN:.0e}: weak excitation, "
-                    "estimates are sensitive to noise")
-    if lag and math.isfinite(ls.estimate.J_alt) and abs(ls.estimate.J_alt - ls.estimate.J) > 0.1 * abs(ls.estimate.J):
-        warn.append(f"redundant inertia Ts*a2/b1 = {ls.estimate.J_alt:.4g} differs from J = {ls.estimate.J:.4g} "
-                    "by more than 10 %: the data do not support the friction-lag structure well")
+    warn = list(excitation.warnings) + _estimate_warnings(ls, rls_est, lag)
     notes.append(f"structure: {'Stribeck' if stribeck else 'Coulomb + viscous (Fs = Fc)'}, "
                  f"lag={lag}, offset={offset}; RLS lam = {rls.lam:g}, P0 = {P0:g}")
     low = ("" if not stribeck else
@@ -421,6 +380,66 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
         theta_time=uni.t[2:][keep].copy(), theta_history=hist, std=std, Ts=Ts, lam=rls.lam,
         P0=P0, source=data.source, notes=tuple(notes), warnings=tuple(warn), excitation=excitation,
         physical=physical)
+
+
+def _check_identify_args(data, Vs, delta, n_history, P0, method, method_options) -> float:
+    """The argument checks of :func:`identify` that need no computation; returns ``P0`` as a float."""
+    if not isinstance(data, MeasuredData):
+        raise TypeError(f"data must be a MeasuredData, got {type(data).__name__}")
+    if (Vs is None) != (delta is None):
+        raise ParameterError(f"give both Vs and delta for the Stribeck structure, or neither; "
+                             f"got Vs = {Vs!r}, delta = {delta!r}")
+    if isinstance(n_history, bool) or not isinstance(n_history, (int, np.integer)) or n_history < 2:
+        raise ParameterError(f"n_history must be an integer >= 2, got {n_history!r}")
+    P0 = check_positive("P0", P0)
+    if method not in METHODS:
+        raise ParameterError(f"method must be one of {METHODS}, got {method!r}")
+    if method != "paper" and Vs is None:
+        raise ParameterError(f"method {method!r} fits the Stribeck model of eqs. 1-3: give Vs and delta "
+                             f"(pre-fit, Sec. V-C), got Vs = {Vs!r}, delta = {delta!r}")
+    if method_options is not None and not isinstance(method_options, dict):
+        raise ParameterError(f"method_options must be a dict, got {method_options!r}")
+    return P0
+
+
+def _fit_ls_with_causes(model, u, w, Ts, excitation) -> LSResult:
+    """The paper's eq. 4 LS (eq. 9); an ExcitationError is extended by the excitation warnings."""
+    try:
+        return fit_ls(model, u, w, Ts=Ts)
+    except ExcitationError as exc:
+        if not excitation.warnings:
+            raise
+        raise ExcitationError(f"{exc}; cause: {'; '.join(excitation.warnings)}") from None
+
+
+def _rls_pass(rls, X, y, n_history: int) -> tuple[np.ndarray, np.ndarray]:
+    """Run ``rls`` over the regressor rows ``X``, ``y`` (Sec. IV-B); kept row indices and the theta history there."""
+    n = X.shape[0]
+    keep = np.unique(np.linspace(0, n - 1, min(n, n_history)).round().astype(int))
+    hist = np.empty((keep.shape[0], X.shape[1]))
+    j = 0
+    for i in range(n):
+        rls.update(X[i], y[i])
+        if j < keep.shape[0] and i == keep[j]:
+            hist[j] = rls.theta
+            j += 1
+    return keep, hist
+
+
+def _estimate_warnings(ls: LSResult, rls_est: FrictionEstimate, lag: bool) -> list:
+    """Warnings about implausible estimates, weak excitation and an unsupported lag."""
+    warn = []
+    if not ls.estimate.is_plausible():
+        warn.append(f"LS estimate is not physically plausible (J > 0, tau, sigma, Fc, Fs >= 0): {ls.estimate}")
+    if not rls_est.is_plausible():
+        warn.append(f"final RLS estimate is not physically plausible: {rls_est}")
+    if ls.cond > _COND_WARN:
+        warn.append(f"regressor condition number {ls.cond:.3g} > {_COND_WARN:.0e}: weak excitation, "
+                    "estimates are sensitive to noise")
+    if lag and math.isfinite(ls.estimate.J_alt) and abs(ls.estimate.J_alt - ls.estimate.J) > 0.1 * abs(ls.estimate.J):
+        warn.append(f"redundant inertia Ts*a2/b1 = {ls.estimate.J_alt:.4g} differs from J = {ls.estimate.J:.4g} "
+                    "by more than 10 %: the data do not support the friction-lag structure well")
+    return warn
 
 
 @dataclass(frozen=True)
