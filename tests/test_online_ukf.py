@@ -2,12 +2,13 @@
 
 import math
 import warnings
+from dataclasses import fields
 
 import numpy as np
 import pytest
 
 from adaptive_ff.identification.online_ukf import (PARAM_NAMES, STATE_NAMES, FilterDivergedError, OnlineUKF, OnlineUKFResult,
-                                    convergence_time, run_online_ukf)
+                                                   UKFOptions, convergence_time, run_online_ukf)
 from plant.errors import ParameterError, SignalError
 from plant.excitation import multisine_reference
 from plant.friction import JointParams, preset
@@ -93,7 +94,8 @@ def test_prediction_equals_plant_rk4_over_the_interval():
     # process model: 10 RK4 steps of 1 ms of eqs. 1-2 with u held -- the plant's own integrator (independent)
     p = PAPER
     est = OnlineUKF(J=p.J, theta0=truth(p), noise_std=1e6, w0=0.05, f0=10.0,
-                    std0={k: 1e-9 for k in STATE_NAMES}, q={k: 0.0 for k in STATE_NAMES}, crossing_gate=False)
+                    options=UKFOptions(std0={k: 1e-9 for k in STATE_NAMES}, q={k: 0.0 for k in STATE_NAMES},
+                                       crossing_gate=False))
     step = make_rk4_step(p, 1e-3)
     w, f = 0.05, 10.0
     for _ in range(10):
@@ -189,6 +191,14 @@ def test_x_and_P_are_copies():
 # --------------------------------------------------------------------------- hyperparameter validation
 
 
+def _with_options(args):
+    """Constructor arguments with the tuning keys moved into ``options`` (a mapping, validated inside)."""
+    opt_keys = {f.name for f in fields(UKFOptions)}
+    out = {k: v for k, v in args.items() if k not in opt_keys}
+    out["options"] = {k: v for k, v in args.items() if k in opt_keys}
+    return out
+
+
 @pytest.mark.parametrize(
     "kwargs, exc, match",
     [
@@ -215,7 +225,7 @@ def test_bad_hyperparameters_raise_naming_them(kwargs, exc, match):
     args = dict(J=4.0, theta0=truth(PAPER), noise_std=NOISE)
     args.update(kwargs)
     with pytest.raises(exc, match=match):
-        OnlineUKF(**args)
+        OnlineUKF(**_with_options(args))
 
 
 def test_run_online_ukf_validates_the_signals():
@@ -231,8 +241,9 @@ def test_run_online_ukf_validates_the_signals():
 def test_irregular_sample_intervals_are_used():
     # the same smooth motion (no reversal) sampled at two different interval patterns ends in the same state
     p = PAPER
-    kw = dict(J=p.J, theta0=truth(p), noise_std=1e6, w0=0.1, f0=p.friction(0.1), std0={k: 1e-9 for k in STATE_NAMES},
-              q={k: 0.0 for k in STATE_NAMES}, crossing_gate=False)
+    kw = dict(J=p.J, theta0=truth(p), noise_std=1e6, w0=0.1, f0=p.friction(0.1),
+              options=UKFOptions(std0={k: 1e-9 for k in STATE_NAMES}, q={k: 0.0 for k in STATE_NAMES},
+                                 crossing_gate=False))
     a, b = OnlineUKF(**kw), OnlineUKF(**kw)
     a.update(50.0, 0.0, 0.02)
     b.update(50.0, 0.0, 0.005)
@@ -260,7 +271,7 @@ def test_crossing_gate_leaves_parameters_and_their_covariance_alone_at_a_reversa
     # w and f only. The parameters' own prediction is the identity, for which the unscented transform is exact,
     # so their mean stays and their covariance grows by exactly Q = diag(q**2)*dt.
     q = {"Fc": 0.1, "Fs": 0.2, "log_Vs": 0.01, "log_abs_delta": 0.02, "sigma": 0.3, "log_tau": 0.04}
-    est = OnlineUKF(J=4.0, theta0=truth(PAPER), noise_std=NOISE, q=q)
+    est = OnlineUKF(J=4.0, theta0=truth(PAPER), noise_std=NOISE, options=UKFOptions(q=q))
     x0, P0 = est.x, est.P
     est.update(10.0, 0.0, TS)
     assert est.n_gated == 1 and est.n_updates == 1

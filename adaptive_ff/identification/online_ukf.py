@@ -93,7 +93,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 import scipy.linalg
@@ -106,6 +106,7 @@ __all__ = [
     "STATE_NAMES",
     "PARAM_NAMES",
     "FilterDivergedError",
+    "UKFOptions",
     "OnlineUKF",
     "OnlineUKFResult",
     "run_online_ukf",
@@ -166,21 +167,43 @@ def _robust_sqrt(P: np.ndarray) -> np.ndarray:
         return (V * np.sqrt(np.clip(lam, floor, None))).T
 
 
-class OnlineUKF:
-    """Joint state and friction-parameter estimator: unscented Kalman filter on the augmented state.
+def _check_box(name: str, box) -> tuple[float, float]:
+    """``(low, high)`` as floats with ``0 < low < high``, or ParameterError naming ``name``."""
+    try:
+        lo, hi = box
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be a pair (low, high), got {box!r}") from None
+    lo = check_finite_scalar(f"{name}[0]", lo)
+    hi = check_finite_scalar(f"{name}[1]", hi)
+    if not lo < hi or lo <= 0.0:
+        raise ParameterError(f"{name} must satisfy 0 < low < high, got {box!r}")
+    return lo, hi
+
+
+def _check_per_state(name: str, values, *, positive: bool) -> dict:
+    """``{state name: float}`` of a partial per-state mapping, values > 0 (``positive``) or >= 0."""
+    values = {} if values is None else values
+    if not isinstance(values, Mapping):
+        raise TypeError(f"{name} must be a mapping keyed by {list(STATE_NAMES)}, got {values!r}")
+    unknown = [k for k in values if k not in STATE_NAMES]
+    if unknown:
+        raise ParameterError(f"{name} has unknown key(s) {unknown}; allowed {list(STATE_NAMES)}")
+    out = {}
+    for k in STATE_NAMES:
+        if k in values:
+            v = check_finite_scalar(f"{name}[{k!r}]", values[k])
+            if v < 0.0 or (positive and v == 0.0):
+                raise ParameterError(f"{name}[{k!r}] must be {'> 0' if positive else '>= 0'}, got {v!r}")
+            out[k] = v
+    return out
+
+
+@dataclass(frozen=True)
+class UKFOptions:
+    """Tuning of :class:`OnlineUKF` (validated on construction; every field keyword-only with a default).
 
     Parameters
     ----------
-    J : float, keyword-only
-        Known inertia (kg·m²), > 0 (see the module docstring for why it is not estimated).
-    theta0 : mapping, keyword-only
-        Initial guess ``{Fc, Fs, Vs, delta, sigma, tau}`` (N·m, N·m, rad/s, 1,
-        N·m·s/rad, s); ``Vs > 0``, ``tau > 0``, ``delta != 0``.
-    noise_std : float, keyword-only
-        Standard deviation of the velocity measurement noise (rad/s), > 0:
-        ``R = noise_std**2``.
-    w0, f0 : float, keyword-only
-        Initial velocity (rad/s) and friction torque (N·m); default 0.
     std0 : mapping, keyword-only
         Prior 1-sigma of any of :data:`STATE_NAMES` (state units; on the log
         scales a relative spread), > 0; ``P0 = diag(std0**2)``. Missing keys
@@ -210,7 +233,7 @@ class OnlineUKF:
         and ``tau`` by 10-40 % in our runs).
     alpha, beta, kappa : float, keyword-only
         Scaled sigma-point parameters (van der Merwe): ``0 < alpha <= 1``,
-        ``beta >= 0``, ``kappa`` with ``n + kappa > 0``. Default 1, 2, 0
+        ``beta >= 0``, ``kappa`` with ``n + kappa > 0`` (``n = 8``). Default 1, 2, 0
         (central weight 0: no negative weights, sigma points at
         ``sqrt(n)`` standard deviations).
     Vs_box, abs_delta_box : tuple of float, keyword-only
@@ -218,12 +241,12 @@ class OnlineUKF:
         default (1e-5, 100) and (0.25, 5). The sign of ``delta`` is that of
         ``theta0['delta']`` and is not estimated (module docstring).
     tau_max : float, keyword-only
-        Largest admissible lag (s), default 10.
+        Largest admissible lag (s), > 0, default 10.
     crossing_gate : bool, keyword-only
         Default True: samples whose sigma points straddle ``w = 0`` (a reversal
         within the interval, or a velocity within about ``sqrt(n)`` standard
         deviations of 0) update only ``w`` and ``f``, not the parameters
-        (a Schmidt-Kalman "consider" update, :meth:`update`). At a reversal
+        (a Schmidt-Kalman "consider" update, :meth:`OnlineUKF.update`). At a reversal
         the sign switch of eq. 3 makes the sigma points on either side of 0
         feel friction of opposite sign (``±Fc``): their mean and cross-
         covariance are no longer a usable approximation, and the spurious
@@ -234,6 +257,106 @@ class OnlineUKF:
         Measurement-noise annealing: ``R(t) = noise_std**2*(1 + factor*exp(-t/T))``
         (``factor >= 0``, ``T`` s > 0), slows the first updates. Default
         ``(0, 1)``: off (it did not make the filter more robust in our runs).
+
+    Raises
+    ------
+    ParameterError
+        A value out of range or an unknown key in ``std0``/``q`` (the message quotes it).
+    TypeError
+        A value is not a real number, or ``std0``/``q`` not a mapping.
+
+    Notes
+    -----
+    Sources: Wan & van der Merwe (2000) for the scaled sigma points; Simon,
+    *Optimal State Estimation* (2006), Sec. 13.4 for the random-walk parameters.
+    """
+
+    std0: Mapping | None = None
+    q: Mapping | None = None
+    n_substeps: int = 10
+    alpha: float = 1.0
+    beta: float = 2.0
+    kappa: float = 0.0
+    Vs_box: tuple = _VS_BOX
+    abs_delta_box: tuple = _ABS_DELTA_BOX
+    tau_max: float = _TAU_MAX
+    crossing_gate: bool = True
+    r_anneal: tuple = (0.0, 1.0)
+
+    def __post_init__(self):
+        def put(name, value):
+            object.__setattr__(self, name, value)
+
+        n = self.n_substeps
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+            raise ParameterError(f"n_substeps must be an integer >= 1, got {n!r}")
+        put("n_substeps", int(n))
+        put("alpha", check_finite_scalar("alpha", self.alpha))
+        if not 0.0 < self.alpha <= 1.0:
+            raise ParameterError(f"alpha must be in (0, 1], got {self.alpha!r}")
+        put("beta", check_finite_scalar("beta", self.beta))
+        if self.beta < 0.0:
+            raise ParameterError(f"beta must be >= 0, got {self.beta!r}")
+        put("kappa", check_finite_scalar("kappa", self.kappa))
+        if len(STATE_NAMES) + self.kappa <= 0.0:
+            raise ParameterError(f"kappa must be > -{len(STATE_NAMES)} (n + kappa > 0), got {self.kappa!r}")
+        put("Vs_box", _check_box("Vs_box", self.Vs_box))
+        put("abs_delta_box", _check_box("abs_delta_box", self.abs_delta_box))
+        put("tau_max", check_positive("tau_max", self.tau_max))
+        put("std0", _check_per_state("std0", self.std0, positive=True))
+        put("q", _check_per_state("q", self.q, positive=False))
+        put("crossing_gate", bool(self.crossing_gate))
+        try:
+            a_fac, a_T = self.r_anneal
+        except (TypeError, ValueError):
+            raise ParameterError(f"r_anneal must be a pair (factor, time constant), got {self.r_anneal!r}") from None
+        anneal = (check_finite_scalar("r_anneal[0]", a_fac), check_positive("r_anneal[1]", a_T))
+        if anneal[0] < 0.0:
+            raise ParameterError(f"r_anneal[0] must be >= 0, got {a_fac!r}")
+        put("r_anneal", anneal)
+
+    @classmethod
+    def coerce(cls, options) -> "UKFOptions":
+        """``options`` as UKFOptions: an instance as is, None as the defaults, a mapping by its keys.
+
+        Raises
+        ------
+        ParameterError
+            An unknown key or a bad value.
+        TypeError
+            ``options`` of another type.
+        """
+        if options is None:
+            return cls()
+        if isinstance(options, cls):
+            return options
+        if not isinstance(options, Mapping):
+            raise TypeError(f"options must be a UKFOptions or a mapping, got {type(options).__name__}")
+        unknown = sorted(set(options) - {f.name for f in fields(cls)})
+        if unknown:
+            raise ParameterError(f"unknown UKF option(s) {unknown}; allowed {[f.name for f in fields(cls)]}")
+        return cls(**options)
+
+
+class OnlineUKF:
+    """Joint state and friction-parameter estimator: unscented Kalman filter on the augmented state.
+
+    Parameters
+    ----------
+    J : float, keyword-only
+        Known inertia (kg·m²), > 0 (see the module docstring for why it is not estimated).
+    theta0 : mapping, keyword-only
+        Initial guess ``{Fc, Fs, Vs, delta, sigma, tau}`` (N·m, N·m, rad/s, 1,
+        N·m·s/rad, s); ``Vs > 0``, ``tau > 0``, ``delta != 0``.
+    noise_std : float, keyword-only
+        Standard deviation of the velocity measurement noise (rad/s), > 0:
+        ``R = noise_std**2``.
+    w0, f0 : float, keyword-only
+        Initial velocity (rad/s) and friction torque (N·m); default 0.
+    options : UKFOptions or mapping, keyword-only, optional
+        Prior, process noise, integration, sigma points, admissible boxes,
+        crossing gate and annealing (:class:`UKFOptions`; a mapping is passed
+        to it by keyword). Default: ``UKFOptions()``.
 
     Attributes
     ----------
@@ -254,7 +377,7 @@ class OnlineUKF:
     ------
     ParameterError
         A hyperparameter out of range (the message quotes it); unknown keys in
-        ``theta0``, ``std0`` or ``q``.
+        ``theta0`` or the options; ``theta0`` outside the boxes of the options.
     TypeError
         A value is not a real number.
 
@@ -267,50 +390,24 @@ class OnlineUKF:
     """
 
     def __init__(self, *, J: float, theta0: Mapping, noise_std: float, w0: float = 0.0, f0: float = 0.0,
-                 std0: Mapping | None = None, q: Mapping | None = None, n_substeps: int = 10,
-                 alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0,
-                 Vs_box: tuple = _VS_BOX, abs_delta_box: tuple = _ABS_DELTA_BOX, tau_max: float = _TAU_MAX,
-                 crossing_gate: bool = True, r_anneal: tuple = (0.0, 1.0)):
+                 options: UKFOptions | Mapping | None = None):
         self.J = check_positive("J", J)
         self.noise_std = check_positive("noise_std", noise_std)
-        if isinstance(n_substeps, bool) or not isinstance(n_substeps, (int, np.integer)) or n_substeps < 1:
-            raise ParameterError(f"n_substeps must be an integer >= 1, got {n_substeps!r}")
-        self.n_substeps = int(n_substeps)
-        alpha = check_finite_scalar("alpha", alpha)
-        if not 0.0 < alpha <= 1.0:
-            raise ParameterError(f"alpha must be in (0, 1], got {alpha!r}")
-        beta = check_finite_scalar("beta", beta)
-        if beta < 0.0:
-            raise ParameterError(f"beta must be >= 0, got {beta!r}")
-        kappa = check_finite_scalar("kappa", kappa)
-        n = len(STATE_NAMES)
-        if n + kappa <= 0.0:
-            raise ParameterError(f"kappa must be > -{n} (n + kappa > 0), got {kappa!r}")
-        self._logVs_box = self._box("Vs_box", Vs_box, positive=True)
-        self._logdelta_box = self._box("abs_delta_box", abs_delta_box, positive=True)
-        self.tau_max = check_positive("tau_max", tau_max)
-
-        th = self._check_theta0(theta0)
-        if not abs_delta_box[0] <= abs(th["delta"]) <= abs_delta_box[1]:
-            raise ParameterError(f"|theta0['delta']| = {abs(th['delta'])!r} is outside abs_delta_box {abs_delta_box!r}")
+        opts = UKFOptions.coerce(options)
+        self.options = opts
+        self.n_substeps = opts.n_substeps
+        self.tau_max = opts.tau_max
+        self._logVs_box = (math.log(opts.Vs_box[0]), math.log(opts.Vs_box[1]))
+        self._logdelta_box = (math.log(opts.abs_delta_box[0]), math.log(opts.abs_delta_box[1]))
+        th = self._check_theta0(theta0, opts)
         self.delta_sign = 1.0 if th["delta"] > 0 else -1.0
-        if not Vs_box[0] <= th["Vs"] <= Vs_box[1]:
-            raise ParameterError(f"theta0['Vs'] = {th['Vs']!r} is outside Vs_box {Vs_box!r}")
-        if th["tau"] > self.tau_max:
-            raise ParameterError(f"theta0['tau'] = {th['tau']!r} exceeds tau_max = {self.tau_max!r}")
         w0 = check_finite_scalar("w0", w0)
         f0 = check_finite_scalar("f0", f0)
-        scale = max(abs(th["Fc"]), abs(th["Fs"]))
-        floor = 1e-3 * max(scale, 1.0)
-        r = _DEFAULT_STD0_REL
-        defaults = {"w": r["w"] * self.noise_std, "f": max(r["f"] * scale, floor),
-                    "Fc": max(r["Fc"] * abs(th["Fc"]), floor), "Fs": max(r["Fs"] * abs(th["Fs"]), floor),
-                    "log_Vs": r["log_Vs"], "log_abs_delta": r["log_abs_delta"],
-                    "sigma": max(r["sigma"] * abs(th["sigma"]), floor), "log_tau": r["log_tau"]}
-        self._std0 = self._per_state("std0", std0, defaults, positive=True)
-        self._q = self._per_state("q", q, _DEFAULT_Q, positive=False)
-
-        points = MerweScaledSigmaPoints(n, alpha=alpha, beta=beta, kappa=kappa, sqrt_method=_robust_sqrt)
+        n = len(STATE_NAMES)
+        self._std0 = np.array([opts.std0.get(k, v) for k, v in self._default_std0(th).items()])
+        self._q = np.array([opts.q.get(k, _DEFAULT_Q[k]) for k in STATE_NAMES])
+        points = MerweScaledSigmaPoints(n, alpha=opts.alpha, beta=opts.beta, kappa=opts.kappa,
+                                        sqrt_method=_robust_sqrt)
         ukf = UnscentedKalmanFilter(dim_x=n, dim_z=1, dt=1.0, hx=self._hx, fx=self._fx, points=points,
                                     sqrt_fn=_robust_sqrt)
         ukf.x = np.array([w0, f0, th["Fc"], th["Fs"], math.log(th["Vs"]), math.log(abs(th["delta"])), th["sigma"],
@@ -318,15 +415,9 @@ class OnlineUKF:
         ukf.P = np.diag(self._std0**2)
         ukf.R = np.array([[self.noise_std**2]])
         self._ukf = ukf
-        self._spread = alpha * math.sqrt(n + kappa)  # sqrt(n + lambda), lambda = alpha**2*(n + kappa) - n
-        self.crossing_gate = bool(crossing_gate)
-        try:
-            a_fac, a_T = r_anneal
-        except (TypeError, ValueError):
-            raise ParameterError(f"r_anneal must be a pair (factor, time constant), got {r_anneal!r}") from None
-        self._anneal = (check_finite_scalar("r_anneal[0]", a_fac), check_positive("r_anneal[1]", a_T))
-        if self._anneal[0] < 0.0:
-            raise ParameterError(f"r_anneal[0] must be >= 0, got {a_fac!r}")
+        self._spread = opts.alpha * math.sqrt(n + opts.kappa)  # sqrt(n + lambda), lambda = alpha**2*(n + kappa) - n
+        self.crossing_gate = opts.crossing_gate
+        self._anneal = opts.r_anneal
         self.t_elapsed = 0.0
         self.n_gated = 0
         self.n_updates = 0
@@ -335,19 +426,7 @@ class OnlineUKF:
     # ------------------------------------------------------------------ validation helpers
 
     @staticmethod
-    def _box(name, box, *, positive):
-        try:
-            lo, hi = box
-        except (TypeError, ValueError):
-            raise ParameterError(f"{name} must be a pair (low, high), got {box!r}") from None
-        lo = check_finite_scalar(f"{name}[0]", lo)
-        hi = check_finite_scalar(f"{name}[1]", hi)
-        if not lo < hi or (positive and lo <= 0.0):
-            raise ParameterError(f"{name} must satisfy {'0 < ' if positive else ''}low < high, got {box!r}")
-        return (math.log(lo), math.log(hi)) if positive else (lo, hi)
-
-    @staticmethod
-    def _check_theta0(theta0) -> dict:
+    def _check_theta0(theta0, opts: UKFOptions) -> dict:
         if not isinstance(theta0, Mapping):
             raise TypeError(f"theta0 must be a mapping with keys {list(PARAM_NAMES)}, got {theta0!r}")
         if set(theta0) != set(PARAM_NAMES):
@@ -358,23 +437,24 @@ class OnlineUKF:
                 raise ParameterError(f"theta0[{k!r}] must be > 0, got {th[k]!r}")
         if th["delta"] == 0.0:
             raise ParameterError("theta0['delta'] must be non-zero (|w/Vs|**0 is constant), got 0.0")
+        if not opts.abs_delta_box[0] <= abs(th["delta"]) <= opts.abs_delta_box[1]:
+            raise ParameterError(f"|theta0['delta']| = {abs(th['delta'])!r} is outside abs_delta_box "
+                                 f"{opts.abs_delta_box!r}")
+        if not opts.Vs_box[0] <= th["Vs"] <= opts.Vs_box[1]:
+            raise ParameterError(f"theta0['Vs'] = {th['Vs']!r} is outside Vs_box {opts.Vs_box!r}")
+        if th["tau"] > opts.tau_max:
+            raise ParameterError(f"theta0['tau'] = {th['tau']!r} exceeds tau_max = {opts.tau_max!r}")
         return th
 
-    @staticmethod
-    def _per_state(name, values, defaults, *, positive) -> np.ndarray:
-        values = {} if values is None else values
-        if not isinstance(values, Mapping):
-            raise TypeError(f"{name} must be a mapping keyed by {list(STATE_NAMES)}, got {values!r}")
-        unknown = [k for k in values if k not in STATE_NAMES]
-        if unknown:
-            raise ParameterError(f"{name} has unknown key(s) {unknown}; allowed {list(STATE_NAMES)}")
-        out = []
-        for k in STATE_NAMES:
-            v = check_finite_scalar(f"{name}[{k!r}]", values.get(k, defaults[k]))
-            if v < 0.0 or (positive and v == 0.0):
-                raise ParameterError(f"{name}[{k!r}] must be {'> 0' if positive else '>= 0'}, got {v!r}")
-            out.append(v)
-        return np.array(out)
+    def _default_std0(self, th: dict) -> dict:
+        """Prior 1-sigma per state from ``theta0`` (:class:`UKFOptions`, ``std0``), in STATE_NAMES order."""
+        scale = max(abs(th["Fc"]), abs(th["Fs"]))
+        floor = 1e-3 * max(scale, 1.0)
+        r = _DEFAULT_STD0_REL
+        return {"w": r["w"] * self.noise_std, "f": max(r["f"] * scale, floor),
+                "Fc": max(r["Fc"] * abs(th["Fc"]), floor), "Fs": max(r["Fs"] * abs(th["Fs"]), floor),
+                "log_Vs": r["log_Vs"], "log_abs_delta": r["log_abs_delta"],
+                "sigma": max(r["sigma"] * abs(th["sigma"]), floor), "log_tau": r["log_tau"]}
 
     # ------------------------------------------------------------------ model
 
@@ -605,7 +685,7 @@ class OnlineUKFResult:
 
 
 def run_online_ukf(t, u, w, *, J: float, theta0: Mapping, noise_std: float, f0: float = 0.0,
-                   **options) -> OnlineUKFResult:
+                   options: UKFOptions | Mapping | None = None) -> OnlineUKFResult:
     """Run :class:`OnlineUKF` over a sampled ``(u, w)`` stream and return the parameter history.
 
     Parameters
@@ -625,9 +705,9 @@ def run_online_ukf(t, u, w, *, J: float, theta0: Mapping, noise_std: float, f0: 
         Velocity noise standard deviation (rad/s), > 0.
     f0 : float, keyword-only
         Initial friction torque (N·m); the initial velocity is ``w[0]``.
-    **options
-        Further keyword arguments of :class:`OnlineUKF` (``std0``, ``q``,
-        ``n_substeps``, ``alpha``, ``beta``, ``kappa``, boxes).
+    options : UKFOptions or mapping, keyword-only, optional
+        Tuning of the filter (:class:`UKFOptions`: ``std0``, ``q``,
+        ``n_substeps``, ``alpha``, ``beta``, ``kappa``, boxes, gate, annealing).
 
     Returns
     -------
@@ -650,7 +730,7 @@ def run_online_ukf(t, u, w, *, J: float, theta0: Mapping, noise_std: float, f0: 
     t = check_time("t", t)
     u = check_signal("u", u, n=t.shape[0])
     w = check_signal("w", w, n=t.shape[0])
-    est = OnlineUKF(J=J, theta0=theta0, noise_std=noise_std, w0=float(w[0]), f0=f0, **options)
+    est = OnlineUKF(J=J, theta0=theta0, noise_std=noise_std, w0=float(w[0]), f0=f0, options=options)
     n = t.shape[0]
     hist = np.empty((n, len(PARAM_NAMES)))
     hstd = np.empty((n, len(PARAM_NAMES)))
