@@ -45,12 +45,14 @@ regressor ``-1`` with parameter ``o1 = offset*Ts**2/D``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from plant.errors import ExcitationError, ParameterError, check_finite_scalar, check_positive, check_signal
 from plant.friction import JointParams, stribeck_shape
+from plant.jit import kernel
 
 __all__ = [
     "g_regressor",
@@ -61,6 +63,8 @@ __all__ = [
     "theta_from_physical_printed",
     "THETA_NAMES",
     "nrmse_fit",
+    "eq4_phi",
+    "eq4_to_physical",
 ]
 
 #: Canonical names of the regression parameters (eq. 4), plus the offset term.
@@ -428,3 +432,110 @@ def nrmse_fit(y, y_hat) -> float:
     with np.errstate(all="ignore"):
         num = np.linalg.norm(y - y_hat)
     return float(100.0 * (1.0 - num / den)) if np.isfinite(num) else float("-inf")
+
+
+@kernel(inline="always")
+def _sgn(w):
+    """``np.sign`` for one float: 1, -1, 0 (also for -0.0), NaN for NaN."""
+    return 1.0 if w > 0.0 else (-1.0 if w < 0.0 else (0.0 if w == 0.0 else w))
+
+
+@kernel(inline="always")
+def eq4_phi(phi, u_k, u_km1, w_km1, w_km2, Vs, delta, lag, stribeck, offset):
+    """Compiled regressor ``phi(k)`` of eq. 4, written into ``phi``: :meth:`RegressionModel.phi` for kernels.
+
+    Parameters
+    ----------
+    phi : ndarray, shape (p,), float64
+        Output, ``p`` as :attr:`RegressionModel.n_params` of the structure.
+    u_k, u_km1 : float
+        Torque ``u(k)``, ``u(k-1)`` (N·m).
+    w_km1, w_km2 : float
+        Velocity ``w(k-1)``, ``w(k-2)`` (rad/s).
+    Vs, delta : float
+        Stribeck velocity (rad/s) and shape factor (used when ``stribeck``).
+    lag, stribeck, offset : bool
+        The structure (see :class:`RegressionModel`).
+
+    Returns
+    -------
+    int
+        ``p``, the number of entries written.
+
+    Notes
+    -----
+    Ruderman eqs. 4-6: ``[w(k-1), -w(k-2), u(k), -u(k-1), -g(w(k-1)), -h(w(k-1)), -1]`` without the
+    absent columns; the same operations as :meth:`RegressionModel.phi`, with the C library's ``pow``
+    and ``exp`` (numpy's vectorised ones may differ in the last bit).
+    """
+    j = 0
+    phi[j] = w_km1
+    j += 1
+    if lag:
+        phi[j] = -w_km2
+        j += 1
+    phi[j] = u_k
+    j += 1
+    if lag:
+        phi[j] = -u_km1
+        j += 1
+    s = _sgn(w_km1)
+    if stribeck:
+        e = math.exp(-((abs(w_km1) / Vs) ** delta))
+        phi[j] = -(s * (1.0 - e))
+        phi[j + 1] = -(s * e)
+        j += 2
+    else:
+        phi[j] = -s
+        j += 1
+    if offset:
+        phi[j] = -1.0
+        j += 1
+    return j
+
+
+@kernel(inline="always")
+def eq4_to_physical(theta, Ts, lag, stribeck, offset):
+    """Compiled inverse map of eq. 4: :meth:`RegressionModel.to_physical` for kernels.
+
+    Parameters
+    ----------
+    theta : ndarray, shape (p,), float64
+        Regression parameters of the structure ``(lag, stribeck, offset)`` (order of
+        :attr:`RegressionModel.names`).
+    Ts : float
+        Sample time (s) of the model, > 0 (not checked).
+    lag, stribeck, offset : bool
+        The structure.
+
+    Returns
+    -------
+    tuple of 7 floats
+        ``(J, tau, sigma, Fc, Fs, offset, J_alt)`` by the inverse map of the module docstring (same
+        operations as :meth:`RegressionModel.to_physical`; ``±inf``/NaN where ``b0 == b1``, ``J_alt``
+        NaN where ``b1 == 0``).
+    """
+    j = 0
+    a1 = theta[j]
+    j += 1
+    a2 = 0.0
+    if lag:
+        a2 = theta[j]
+        j += 1
+    b0 = theta[j]
+    j += 1
+    b1 = 0.0
+    if lag:
+        b1 = theta[j]
+        j += 1
+    c1 = theta[j]
+    j += 1
+    d1 = c1
+    if stribeck:
+        d1 = theta[j]
+        j += 1
+    o1 = theta[j] if offset else 0.0
+    gain = b0 - b1
+    inv = 1.0 / gain if gain != 0.0 else math.copysign(math.inf, gain)
+    J_alt = Ts * a2 / b1 if b1 != 0.0 else math.nan
+    return (Ts * (a1 - 2.0 * a2) * inv, Ts * b1 * inv, (1.0 - a1 + a2) * inv, c1 * inv, d1 * inv, o1 * inv, J_alt)

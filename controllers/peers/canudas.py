@@ -14,6 +14,17 @@ Implemented here as the classic explicit scheme on the sampled motor model,
 with the same RLS machinery as the package's own estimator (directional
 forgetting, projection) so that the comparison is about the friction model and
 the regression, not about numerics.
+
+Compensator component (``KIND = 4``): the whole configuration is in the float64
+array ``params``, the whole mutable state (including the RLS buffer of
+:mod:`adaptive_ff.identification.rls`) in ``state``; the two compiled kernels
+:func:`canudas_compensate` and :func:`canudas_observe` are the one
+implementation, called by :class:`CanudasCompensator`'s methods and by the
+closed-loop engine. Layouts::
+
+    params: Tc, Ts, m, w_dead, warmup, ff_max, ff_measured (1.0/0.0)      (7)
+    state:  on, Fc_pos, Fc_neg, sigma_pos, sigma_neg, k, u_sum, w_prev,
+            has_prev, ok, n_rejected, k % m, phi[5] (scratch), RLS buffer (17 + rls_buffer_size(5))
 """
 
 from __future__ import annotations
@@ -22,13 +33,156 @@ import math
 
 import numpy as np
 
-from adaptive_ff.identification.rls import RecursiveLeastSquares
+from adaptive_ff.identification.rls import (RecursiveLeastSquares, rls_buffer_size, rls_n_updates, rls_theta,
+                                            rls_update)
+from plant.component import Component
 from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive
+from plant.jit import kernel
 
-__all__ = ["CanudasCompensator"]
+__all__ = ["CanudasCompensator", "canudas_compensate", "canudas_observe", "CANUDAS_KIND", "CANUDAS_N_THETA"]
+
+#: Compensator kind code of :class:`CanudasCompensator` (engine protocol).
+CANUDAS_KIND = 4
+#: Length of the reported parameter vector ``theta``.
+CANUDAS_N_THETA = 5
+
+# params slots
+_P_TC, _P_TS, _P_M, _P_WDEAD, _P_WARMUP, _P_FFMAX, _P_MEAS = range(7)
+_NPAR = 7
+# state slots
+_S_ON, _S_FCP, _S_FCN, _S_SP, _S_SN, _S_K, _S_USUM, _S_WPREV, _S_HASPREV, _S_OK, _S_NREJ, _S_PHASE = range(12)
+_S_PHI = 12
+_S_RLS = 17
 
 
-class CanudasCompensator:
+@kernel(inline="always")
+def _clip(x, lo, hi):
+    """``min(max(x, lo), hi)`` with Python's tie and signed-zero rules."""
+    y = lo if lo > x else x
+    return hi if hi < y else y
+
+
+@kernel(inline="always")
+def canudas_compensate(par, st, w_ctrl, w_meas, w_ref):
+    """Compensation torque for this period (N·m): the estimated direction-dependent friction map.
+
+    Parameters
+    ----------
+    par, st : ndarray, shape (7,) and (17 + rls_buffer_size(5),), float64
+        ``CanudasCompensator.params`` and ``.state`` (layout in the module docstring).
+    w_ctrl : float
+        Velocity the controller uses this period (rad/s); evaluated when ``ff_measured``.
+    w_meas : float
+        Raw measured velocity (rad/s), unused.
+    w_ref : float
+        Reference velocity (rad/s); evaluated unless ``ff_measured``.
+
+    Returns
+    -------
+    float
+        ``Fc_pos + sigma_pos*w`` (w > 0), ``-Fc_neg + sigma_neg*w`` (w < 0), 0 at w = 0, clipped to
+        ``±ff_max``; 0 before the warm-up is over (Canudas de Wit et al. 1987, eq. 2).
+    """
+    if st[_S_ON] == 0.0:
+        return 0.0
+    w = w_ctrl if par[_P_MEAS] != 0.0 else w_ref
+    if w > 0.0:
+        c = st[_S_FCP] + st[_S_SP] * w
+    elif w < 0.0:
+        c = -st[_S_FCN] + st[_S_SN] * w
+    else:
+        c = 0.0
+    return _clip(c, -par[_P_FFMAX], par[_P_FFMAX])
+
+
+@kernel(inline="always")
+def _canudas_update(par, st, w0, w1, ubar):
+    """One RLS update on the interval ``w0 -> w1`` if it lies beyond the dead zone; True when used."""
+    wd = par[_P_WDEAD]
+    phi = st[_S_PHI:_S_PHI + 5]
+    if w0 > wd and w1 > wd:
+        phi[0] = ubar
+        phi[1] = -w0
+        phi[2] = 0.0
+        phi[3] = -1.0
+        phi[4] = 0.0
+    elif w0 < -wd and w1 < -wd:
+        phi[0] = ubar
+        phi[1] = 0.0
+        phi[2] = -w0
+        phi[3] = 0.0
+        phi[4] = 1.0
+    else:
+        return False
+    buf = st[_S_RLS:]
+    n0 = rls_n_updates(buf)
+    rls_update(buf, phi, w1 - w0)
+    n1 = rls_n_updates(buf)
+    if n1 == n0:  # a non-finite row (overflow of finite samples) is refused and counted
+        st[_S_NREJ] += 1.0
+        return False
+    if n1 >= par[_P_WARMUP]:
+        b = rls_theta(buf, 0)
+        st[_S_FCP] = rls_theta(buf, 3) / b
+        st[_S_FCN] = rls_theta(buf, 4) / b
+        st[_S_SP] = rls_theta(buf, 1) / b
+        st[_S_SN] = rls_theta(buf, 2) / b
+        st[_S_ON] = 1.0
+    return True
+
+
+@kernel(inline="always")
+def canudas_observe(par, st, u, w_meas, theta_out):
+    """Record the torque applied in this period and the velocity measured at its start; update every ``m`` periods.
+
+    Parameters
+    ----------
+    par, st : ndarray, float64
+        ``CanudasCompensator.params`` and ``.state``.
+    u : float
+        Torque applied in this period (N·m).
+    w_meas : float
+        Velocity measured at the start of this period (rad/s).
+    theta_out : ndarray, shape (>= 5,), float64
+        Receives ``theta = (b, b*sigma_pos, b*sigma_neg, b*Fc_pos, b*Fc_neg)`` when the RLS was updated.
+
+    Returns
+    -------
+    bool
+        True when the RLS estimate was updated in this call.
+
+    Notes
+    -----
+    Every ``m``-th call closes a sample interval of ``Ts``: with the mean torque ``u_bar`` over it and the
+    velocities ``w0``, ``w1`` at its ends, the row ``(u_bar, -w0*1(w>0), -w0*1(w<0), -1(w>0), +1(w<0))``
+    with output ``w1 - w0`` updates the RLS (eqs. 10-13 with directional forgetting) when both velocities
+    lie beyond ``±w_dead`` with one sign. A non-finite ``u`` or ``w`` is counted and spoils the current
+    interval.
+    """
+    if not (math.isfinite(u) and math.isfinite(w_meas)):
+        st[_S_NREJ] += 1.0
+        st[_S_OK] = 0.0
+        return False
+    upd = False
+    if st[_S_PHASE] == 0.0:  # k % m == 0, kept as a counter (no integer division per period)
+        if st[_S_HASPREV] != 0.0 and st[_S_OK] != 0.0:
+            upd = _canudas_update(par, st, st[_S_WPREV], w_meas, st[_S_USUM] / par[_P_M])
+        st[_S_WPREV] = w_meas
+        st[_S_HASPREV] = 1.0
+        st[_S_USUM] = 0.0
+        st[_S_OK] = 1.0
+    st[_S_USUM] += u
+    st[_S_K] += 1.0
+    ph = st[_S_PHASE] + 1.0
+    st[_S_PHASE] = 0.0 if ph >= par[_P_M] else ph
+    if upd:
+        buf = st[_S_RLS:]
+        for i in range(5):
+            theta_out[i] = rls_theta(buf, i)
+    return upd
+
+
+class CanudasCompensator(Component):
     """Direction-dependent Coulomb + viscous friction, estimated by RLS, compensated at a velocity.
 
     Parameters
@@ -59,8 +213,18 @@ class CanudasCompensator:
 
     Attributes
     ----------
+    KIND : int
+        4 (compensator protocol of the closed-loop engine).
+    params, state : ndarray, float64
+        Configuration and state (layouts in the module docstring), advanced in place by
+        :func:`canudas_compensate` and :func:`canudas_observe` (:class:`plant.component.Component`).
+    n_theta : int
+        5.
     rls : RecursiveLeastSquares
-        ``theta = (b, b*sigma_pos, b*sigma_neg, b*Fc_pos, b*Fc_neg)``, ``b = Ts/J``.
+        ``theta = (b, b*sigma_pos, b*sigma_neg, b*Fc_pos, b*Fc_neg)``, ``b = Ts/J``; its buffer is the
+        tail of ``state``.
+    coef : tuple of 4 floats or None
+        ``(Fc_pos, Fc_neg, sigma_pos, sigma_neg)`` in use, None before warm-up (read/write).
     n_rejected : int
         Non-finite samples ignored.
 
@@ -83,80 +247,171 @@ class CanudasCompensator:
     to Ruderman's model that the comparison measures.
     """
 
+    KIND = CANUDAS_KIND
+    n_theta = CANUDAS_N_THETA
+
     def __init__(self, *, Tc: float, Ts: float = 0.01, lam: float = 0.999, forgetting: str = "directional",
                  P0: float = 1e4, J_guess: float = 1.0, w_dead: float = 5e-3, warmup: int = 300,
                  ff_max: float = math.inf, ff_input: str = "measured"):
-        self.Tc = check_positive("Tc", Tc)
-        self.m = check_multiple("Ts", Ts, "Tc", self.Tc)
-        self.Ts = self.m * self.Tc
-        self.w_dead = check_nonnegative("w_dead", w_dead)
+        Tc = check_positive("Tc", Tc)
+        m = check_multiple("Ts", Ts, "Tc", Tc)
+        w_dead = check_nonnegative("w_dead", w_dead)
         if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
             raise ParameterError(f"warmup must be an integer >= 0, got {warmup!r}")
-        self.warmup = int(warmup)
-        self.ff_max = math.inf if ff_max == math.inf else check_nonnegative("ff_max", ff_max)
+        ff_max = math.inf if ff_max == math.inf else check_nonnegative("ff_max", ff_max)
         if ff_input not in ("measured", "reference"):
             raise ParameterError(f"ff_input must be 'measured' or 'reference', got {ff_input!r}")
-        self.ff_measured = ff_input == "measured"
-        b0 = self.Ts / check_positive("J_guess", J_guess)
+        Ts = m * Tc
+        b0 = Ts / check_positive("J_guess", J_guess)
         inf = math.inf
-        self.rls = RecursiveLeastSquares(5, lam=lam, P0=P0, forgetting=forgetting, theta0=[b0, 0, 0, 0, 0],
-                                         bounds=([1e-12, 0, 0, 0, 0], [inf, inf, inf, inf, inf]))
-        self.coef = None  # (Fc_pos, Fc_neg, sigma_pos, sigma_neg) in use
-        self._k = 0
-        self._usum = 0.0
-        self._w_prev = None
-        self._ok = True
-        self.n_rejected = 0
+        rls = RecursiveLeastSquares(5, lam=lam, P0=P0, forgetting=forgetting, theta0=[b0, 0, 0, 0, 0],
+                                    bounds=([1e-12, 0, 0, 0, 0], [inf, inf, inf, inf, inf]))
+        self._init_arrays(_NPAR, _S_RLS + rls_buffer_size(5))
+        self.params[:] = (Tc, Ts, float(m), w_dead, float(warmup), ff_max, 1.0 if ff_input == "measured" else 0.0)
+        self.state[_S_OK] = 1.0
+        self.rls = rls
+        self._theta_out = np.empty(5)
+        self._attached()
+
+    def _attached(self) -> None:
+        self.rls.attach(self.state[_S_RLS:])
+
+    def __repr__(self) -> str:
+        return (f"CanudasCompensator(Tc={self.Tc!r}, Ts={self.Ts!r}, w_dead={self.w_dead!r}, "
+                f"warmup={self.warmup}, ff_max={self.ff_max!r}, n_updates={self.rls.n_updates})")
+
+    # ---- configuration (read-only views of params)
+    @property
+    def Tc(self) -> float:
+        """Controller period (s)."""
+        return float(self.params[_P_TC])
+
+    @property
+    def Ts(self) -> float:
+        """Estimator sample time ``m*Tc`` (s)."""
+        return float(self.params[_P_TS])
+
+    @property
+    def m(self) -> int:
+        """Controller periods per estimator sample."""
+        return int(self.params[_P_M])
+
+    @property
+    def w_dead(self) -> float:
+        """Estimation dead zone (rad/s)."""
+        return float(self.params[_P_WDEAD])
+
+    @property
+    def warmup(self) -> int:
+        """RLS updates before the compensation is switched on."""
+        return int(self.params[_P_WARMUP])
+
+    @property
+    def ff_max(self) -> float:
+        """Bound on |compensation| (N·m)."""
+        return float(self.params[_P_FFMAX])
+
+    @property
+    def ff_measured(self) -> bool:
+        """True: compensation at the controller's measured velocity; False: at the reference."""
+        return self.params[_P_MEAS] != 0.0
+
+    # ---- state (read/write views of state)
+    @property
+    def coef(self) -> tuple | None:
+        """``(Fc_pos, Fc_neg, sigma_pos, sigma_neg)`` in use (N·m, N·m·s/rad), or None before warm-up."""
+        st = self.state
+        if st[_S_ON] == 0.0:
+            return None
+        return (float(st[_S_FCP]), float(st[_S_FCN]), float(st[_S_SP]), float(st[_S_SN]))
+
+    @coef.setter
+    def coef(self, value) -> None:
+        st = self.state
+        if value is None:
+            st[_S_ON] = 0.0
+            return
+        try:
+            Fcp, Fcn, sp, sn = (float(v) for v in value)
+        except (TypeError, ValueError):
+            raise ParameterError(f"coef must be None or 4 numbers (Fc_pos, Fc_neg, sigma_pos, sigma_neg), "
+                                 f"got {value!r}") from None
+        st[_S_FCP], st[_S_FCN], st[_S_SP], st[_S_SN] = Fcp, Fcn, sp, sn
+        st[_S_ON] = 1.0
+
+    @property
+    def n_rejected(self) -> int:
+        """Non-finite samples ignored."""
+        return int(self.state[_S_NREJ])
+
+    @n_rejected.setter
+    def n_rejected(self, value: int) -> None:
+        self.state[_S_NREJ] = int(value)
+
+    @property
+    def _k(self) -> int:
+        return int(self.state[_S_K])
+
+    @_k.setter
+    def _k(self, value: int) -> None:
+        self.state[_S_K] = int(value)
+        self.state[_S_PHASE] = int(value) % self.m
+
+    @property
+    def _usum(self) -> float:
+        return float(self.state[_S_USUM])
+
+    @_usum.setter
+    def _usum(self, value: float) -> None:
+        self.state[_S_USUM] = value
+
+    @property
+    def _w_prev(self) -> float | None:
+        return float(self.state[_S_WPREV]) if self.state[_S_HASPREV] != 0.0 else None
+
+    @_w_prev.setter
+    def _w_prev(self, value: float | None) -> None:
+        self.state[_S_HASPREV] = 0.0 if value is None else 1.0
+        self.state[_S_WPREV] = 0.0 if value is None else value
+
+    @property
+    def _ok(self) -> bool:
+        return self.state[_S_OK] != 0.0
+
+    @_ok.setter
+    def _ok(self, value: bool) -> None:
+        self.state[_S_OK] = 1.0 if value else 0.0
 
     @property
     def estimate(self) -> dict | None:
         """``{"J", "Fc_pos", "Fc_neg", "sigma_pos", "sigma_neg"}`` in use (SI units), or None before warm-up."""
-        if self.coef is None:
+        coef = self.coef
+        if coef is None:
             return None
         b = float(self.rls.theta[0])
-        Fcp, Fcn, sp, sn = self.coef
+        Fcp, Fcn, sp, sn = coef
         return {"J": self.Ts / b, "Fc_pos": Fcp, "Fc_neg": Fcn, "sigma_pos": sp, "sigma_neg": sn}
 
     def compensate(self, w_meas: float, w_ref: float) -> float:
-        """Compensation torque (N·m) for this period, bounded by ``ff_max``."""
-        if self.coef is None:
-            return 0.0
-        w = w_meas if self.ff_measured else w_ref
-        Fcp, Fcn, sp, sn = self.coef
-        if w > 0.0:
-            c = Fcp + sp * w
-        elif w < 0.0:
-            c = -Fcn + sn * w
-        else:
-            c = 0.0
-        return min(max(c, -self.ff_max), self.ff_max)
+        """Compensation torque (N·m) for this period, bounded by ``ff_max`` (:func:`canudas_compensate`).
+
+        Parameters
+        ----------
+        w_meas : float
+            Measured velocity (rad/s).
+        w_ref : float
+            Reference velocity (rad/s).
+
+        Returns
+        -------
+        float
+        """
+        w_meas = float(w_meas)
+        return canudas_compensate(self.params, self.state, w_meas, w_meas, float(w_ref))
 
     def observe(self, u: float, w: float) -> None:
-        """Record the torque ``u`` applied in this period and the velocity ``w`` measured at its start."""
-        if not (math.isfinite(u) and math.isfinite(w)):
-            self.n_rejected += 1
-            self._ok = False  # the current interval is spoiled
-            return
-        k = self._k
-        if k % self.m == 0:
-            wp = self._w_prev
-            if wp is not None and self._ok:
-                self._update(wp, w, self._usum / self.m)
-            self._w_prev = w
-            self._usum = 0.0
-            self._ok = True
-        self._usum += u
-        self._k = k + 1
+        """Record the torque ``u`` (N·m) applied in this period and the velocity ``w`` (rad/s) measured at its start.
 
-    def _update(self, w0: float, w1: float, ubar: float) -> None:
-        wd = self.w_dead
-        if w0 > wd and w1 > wd:
-            phi = [ubar, -w0, 0.0, -1.0, 0.0]
-        elif w0 < -wd and w1 < -wd:
-            phi = [ubar, 0.0, -w0, 0.0, 1.0]
-        else:
-            return
-        self.rls.update(np.array(phi), w1 - w0)
-        if self.rls.n_updates >= self.warmup:
-            b, bsp, bsn, bfp, bfn = self.rls.theta.tolist()
-            self.coef = (bfp / b, bfn / b, bsp / b, bsn / b)
+        See :func:`canudas_observe`; non-finite values are counted in ``n_rejected``.
+        """
+        canudas_observe(self.params, self.state, float(u), float(w), self._theta_out)

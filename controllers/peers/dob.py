@@ -7,18 +7,102 @@ servomotors using modern two degrees-of-freedom controller design", IEEE
 Trans. Ind. Electron. 38(5), 1991. The observer needs no friction model: it
 estimates the lumped disturbance torque from the nominal inverse plant and
 cancels it within the Q-filter bandwidth.
+
+Compensator component (``KIND = 5``): configuration in the float64 array
+``params``, state in ``state``; the compiled kernels :func:`dob_compensate`
+and :func:`dob_observe` are the one implementation, called by
+:class:`DisturbanceObserver`'s methods and by the closed-loop engine. Layouts::
+
+    params: Tc, J_n, omega_q, order, a, d_max                              (6)
+    state:  d_hat, u_last, w_last, has_w_last, n_rejected, x[order]        (5 + order)
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
+
+from plant.component import Component
 from plant.errors import ParameterError, check_nonnegative, check_positive
+from plant.jit import kernel
 
-__all__ = ["DisturbanceObserver"]
+__all__ = ["DisturbanceObserver", "dob_compensate", "dob_observe", "DOB_KIND"]
+
+#: Compensator kind code of :class:`DisturbanceObserver` (engine protocol).
+DOB_KIND = 5
+
+_P_TC, _P_JN, _P_OMEGA, _P_ORDER, _P_A, _P_DMAX = range(6)
+_S_D, _S_ULAST, _S_WLAST, _S_HASW, _S_NREJ = range(5)
+_S_X = 5
 
 
-class DisturbanceObserver:
+@kernel(inline="always")
+def dob_compensate(par, st, w_ctrl, w_meas, w_ref):
+    """Advance the observer with the controller's velocity of this period; return the bounded ``d_hat`` (N·m).
+
+    Parameters
+    ----------
+    par, st : ndarray, shape (6,) and (5 + order,), float64
+        ``DisturbanceObserver.params`` and ``.state`` (layouts in the module docstring).
+    w_ctrl : float
+        Velocity the controller uses this period (rad/s); a non-finite value is counted and the
+        estimate held.
+    w_meas, w_ref : float
+        Raw measurement and reference (rad/s), unused.
+
+    Returns
+    -------
+    float
+        ``d_hat = Q[u(k-1) - J_n*(w(k) - w(k-1))/Tc]`` clipped to ``±d_max`` (Umeno & Hori 1991;
+        class Notes).
+    """
+    if not math.isfinite(w_ctrl):
+        st[_S_NREJ] += 1.0
+        return st[_S_D]
+    if st[_S_HASW] == 0.0:
+        st[_S_WLAST] = w_ctrl
+        st[_S_HASW] = 1.0
+        return st[_S_D]
+    v = st[_S_ULAST] - par[_P_JN] * (w_ctrl - st[_S_WLAST]) / par[_P_TC]
+    st[_S_WLAST] = w_ctrl
+    a = par[_P_A]
+    for i in range(np.int64(par[_P_ORDER])):
+        j = _S_X + i
+        st[j] += a * (v - st[j])
+        v = st[j]
+    dmax = par[_P_DMAX]
+    y = -dmax if -dmax > v else v
+    st[_S_D] = dmax if dmax < y else y
+    return st[_S_D]
+
+
+@kernel(inline="always")
+def dob_observe(par, st, u, w_meas, theta_out):
+    """Record the torque ``u`` (N·m) applied in this period (it drives the next velocity sample).
+
+    Parameters
+    ----------
+    par, st : ndarray, float64
+        ``DisturbanceObserver.params`` and ``.state``.
+    u : float
+        Applied torque (N·m); a non-finite value is ignored.
+    w_meas : float
+        Measured velocity (rad/s), unused.
+    theta_out : ndarray, float64
+        Unused (the observer reports no parameter vector).
+
+    Returns
+    -------
+    bool
+        Always False.
+    """
+    if math.isfinite(u):
+        st[_S_ULAST] = u
+    return False
+
+
+class DisturbanceObserver(Component):
     """Velocity-loop disturbance observer ``d_hat = Q*(u - J_n*dw/dt)``, added to the controller output.
 
     Parameters
@@ -40,6 +124,12 @@ class DisturbanceObserver:
 
     Attributes
     ----------
+    KIND : int
+        5 (compensator protocol of the closed-loop engine).
+    params, state : ndarray, float64
+        Configuration and state (layouts in the module docstring; :class:`plant.component.Component`).
+    n_theta : int
+        0 (no parameter vector).
     d_hat : float
         Current disturbance estimate (N·m).
     n_rejected : int
@@ -61,40 +151,96 @@ class DisturbanceObserver:
     compensated command is ``u = u_PI + d_hat``.
     """
 
+    KIND = DOB_KIND
+    n_theta = 0
+
     def __init__(self, *, J_n: float, omega_q: float = 500.0, Tc: float, order: int = 2, d_max: float = math.inf):
-        self.J_n = check_positive("J_n", J_n)
-        self.omega_q = check_positive("omega_q", omega_q)
-        self.Tc = check_positive("Tc", Tc)
+        J_n = check_positive("J_n", J_n)
+        omega_q = check_positive("omega_q", omega_q)
+        Tc = check_positive("Tc", Tc)
         if isinstance(order, bool) or not isinstance(order, int) or order < 1:
             raise ParameterError(f"order must be an integer >= 1, got {order!r}")
-        self.order = order
-        self.d_max = math.inf if d_max == math.inf else check_nonnegative("d_max", d_max)
-        self._a = 1.0 - math.exp(-self.Tc * self.omega_q)
-        self._x = [0.0] * order
-        self._w_last = None
-        self._u_last = 0.0
-        self.d_hat = 0.0
-        self.n_rejected = 0
+        d_max = math.inf if d_max == math.inf else check_nonnegative("d_max", d_max)
+        self._init_arrays(6, _S_X + order)
+        self.params[:] = (Tc, J_n, omega_q, float(order), 1.0 - math.exp(-Tc * omega_q), d_max)
+        self._theta_out = np.empty(0)
+
+    def __repr__(self) -> str:
+        return (f"DisturbanceObserver(J_n={self.J_n!r}, omega_q={self.omega_q!r}, Tc={self.Tc!r}, "
+                f"order={self.order}, d_max={self.d_max!r})")
+
+    @property
+    def J_n(self) -> float:
+        """Nominal inertia (kg·m²)."""
+        return float(self.params[_P_JN])
+
+    @property
+    def omega_q(self) -> float:
+        """Q-filter cut-off (rad/s)."""
+        return float(self.params[_P_OMEGA])
+
+    @property
+    def Tc(self) -> float:
+        """Controller period (s)."""
+        return float(self.params[_P_TC])
+
+    @property
+    def order(self) -> int:
+        """Order of the binomial Q-filter."""
+        return int(self.params[_P_ORDER])
+
+    @property
+    def d_max(self) -> float:
+        """Bound on |d_hat| (N·m)."""
+        return float(self.params[_P_DMAX])
+
+    @property
+    def _a(self) -> float:
+        return float(self.params[_P_A])
+
+    @property
+    def d_hat(self) -> float:
+        """Current disturbance estimate (N·m)."""
+        return float(self.state[_S_D])
+
+    @d_hat.setter
+    def d_hat(self, value: float) -> None:
+        self.state[_S_D] = value
+
+    @property
+    def n_rejected(self) -> int:
+        """Non-finite velocity samples (the estimate was held)."""
+        return int(self.state[_S_NREJ])
+
+    @n_rejected.setter
+    def n_rejected(self, value: int) -> None:
+        self.state[_S_NREJ] = int(value)
+
+    @property
+    def _u_last(self) -> float:
+        return float(self.state[_S_ULAST])
+
+    @_u_last.setter
+    def _u_last(self, value: float) -> None:
+        self.state[_S_ULAST] = value
+
+    @property
+    def _w_last(self) -> float | None:
+        return float(self.state[_S_WLAST]) if self.state[_S_HASW] != 0.0 else None
+
+    @_w_last.setter
+    def _w_last(self, value: float | None) -> None:
+        self.state[_S_HASW] = 0.0 if value is None else 1.0
+        self.state[_S_WLAST] = 0.0 if value is None else value
 
     def compensate(self, w_meas: float, w_ref: float) -> float:
-        """Advance the observer with the measured velocity of this period; return the bounded ``d_hat`` (N·m)."""
-        if not math.isfinite(w_meas):
-            self.n_rejected += 1
-            return self.d_hat
-        if self._w_last is None:
-            self._w_last = w_meas
-            return self.d_hat
-        v = self._u_last - self.J_n * (w_meas - self._w_last) / self.Tc
-        self._w_last = w_meas
-        a = self._a
-        x = self._x
-        for i in range(self.order):
-            x[i] += a * (v - x[i])
-            v = x[i]
-        self.d_hat = min(max(v, -self.d_max), self.d_max)
-        return self.d_hat
+        """Advance the observer with the measured velocity of this period; return the bounded ``d_hat`` (N·m).
+
+        See :func:`dob_compensate` (``w_ref`` is unused).
+        """
+        w_meas = float(w_meas)
+        return dob_compensate(self.params, self.state, w_meas, w_meas, float(w_ref))
 
     def observe(self, u: float, w: float) -> None:
-        """Record the torque ``u`` applied in this period (it drives the next velocity sample)."""
-        if math.isfinite(u):
-            self._u_last = u
+        """Record the torque ``u`` (N·m) applied in this period (it drives the next velocity sample)."""
+        dob_observe(self.params, self.state, float(u), float(w), self._theta_out)

@@ -1,0 +1,314 @@
+"""The eq. 4 adaptive feedforward as a compiled compensator component (issue 10) against the former Python class.
+
+``tests/peers_oracle.py`` holds the former ``AdaptiveFrictionFeedforward``
+(RLS with eq. 4's regressor from ``RegressionModel.phi``, the inverse map
+``RegressionModel.to_physical`` and ``project_estimate`` in numpy/Python).
+The component computes the same in compiled code. numpy's ``exp``/``power``
+may differ from the C library's in the last bit, so against the verbatim
+oracle the test is to 1e-12 relative; with the oracle's regressor evaluated by
+the C library's functions (``_LibmModel``) the whole run, theta history
+included, is bit-identical.
+"""
+
+import math
+import pickle
+
+import numba
+import numpy as np
+import pytest
+
+import peers_oracle as oracle
+from adaptive_ff.compensation.eq4_feedforward import (AdaptiveFrictionFeedforward, eq4_compensate, eq4_observe,
+                                                      eq4_project)
+from adaptive_ff.identification.regression import (FrictionEstimate, RegressionModel, eq4_phi, eq4_to_physical,
+                                                   theta_from_physical)
+from plant.errors import ParameterError
+from plant.friction import JointParams
+
+PLANT = JointParams(J=0.8, Fc=6.0, Fs=9.0, Vs=0.03, delta=1.2, sigma=4.0, tau=0.004)
+TC = 1e-3
+# Against the verbatim oracle (numpy's exp/power, which differ from the C library's in the last bit on about
+# 5 % of arguments): the RLS covariance of eq. 4 has a condition number near 1e8, which amplifies those 1-ulp
+# differences of the regressor over thousands of updates (measured: theta 8e-13, estimate 7e-12 relative to
+# each column's range for the default structure, 3e-11 and 8e-11 with the offset column). With the C library's
+# functions in the oracle (_LibmModel) the runs are identical, which shows that the arithmetic is the same.
+RTOL = 1e-9
+
+
+class _LibmModel(RegressionModel):
+    """RegressionModel whose g, h use math.exp and ``**`` (the C library, as compiled code does)."""
+
+    def friction_regressors(self, w):
+        w = float(w)
+        s = 1.0 if w > 0.0 else (-1.0 if w < 0.0 else 0.0)
+        if self.stribeck:
+            e = math.exp(-((abs(w) / self.Vs) ** self.delta))
+            return [-(s * (1.0 - e)), -(s * e)]
+        return [-s]
+
+
+def _close(a, b, rtol) -> bool:
+    """Equal (NaN = NaN), or within ``rtol`` times each column's largest magnitude (rows: time)."""
+    a = np.atleast_1d(np.asarray(a, dtype=float))
+    b = np.atleast_1d(np.asarray(b, dtype=float))
+    if a.shape != b.shape:
+        return False
+    same = (a == b) | (np.isnan(a) & np.isnan(b))
+    if rtol == 0.0 or same.all():
+        return bool(same.all())
+    fin = np.where(np.isfinite(b), np.abs(b), 0.0)
+    scale = fin.max(axis=0) if b.ndim > 1 else fin.max()
+    return bool(np.all(same | (np.abs(a - b) <= rtol * scale)))
+
+
+def _est_tuple(e):
+    return None if e is None else (e.J, e.tau, e.sigma, e.Fc, e.Fs, e.offset, e.J_alt)
+
+
+def _record(c):
+    e = _est_tuple(c.estimate)
+    return np.concatenate([c.theta, np.diag(c.rls.P), [math.nan] * 7 if e is None else e,
+                           [c.u_ff, c.n_rejected, c.n_implausible, c.rls.n_updates]])
+
+
+def _open_stream(seed, n):
+    """Samples (u, w) of a plant moving back and forth, with noise and non-finite entries."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * 0.01
+    w = 0.4 * np.sin(2 * np.pi * 0.3 * t) + 0.15 * np.sin(2 * np.pi * 1.3 * t) + rng.normal(0, 0.002, n)
+    u = 20.0 * np.tanh(w / 0.02) + 4.0 * w + 3.0 * np.gradient(w, t) + rng.normal(0, 0.5, n)
+    for arr in (u, w):
+        idx = rng.random(n) < 0.004
+        arr[idx] = rng.choice([math.nan, math.inf, -math.inf], idx.sum())
+    return u.tolist(), w.tolist()
+
+
+@pytest.mark.parametrize("struct", [dict(), dict(lag=False), dict(stribeck=False), dict(offset=True),
+                                    dict(lag=False, stribeck=False, offset=True)])
+@pytest.mark.parametrize("libm", [True, False])
+def test_standalone_observe_and_step_equal_the_python_class(struct, libm):
+    Vs, delta = (PLANT.Vs, PLANT.delta) if struct.get("stribeck", True) else (None, None)
+    kw = dict(Ts=0.01, dt=TC, lam=0.99, warmup=50, ff_max=60.0, tau_max=0.5)
+    c = AdaptiveFrictionFeedforward(RegressionModel(Vs, delta, **struct), **kw)
+    o = oracle.AdaptiveFrictionFeedforward((_LibmModel if libm else RegressionModel)(Vs, delta, **struct), **kw)
+    rtol = 0.0 if libm else RTOL
+    u, w = _open_stream(3, 3000)
+    rc, ro, sc, so = [], [], [], []
+    for k in range(len(u)):
+        assert c.observe(u[k], w[k]) == o.observe(u[k], w[k])
+        for j in range(3):
+            x = w[k] if math.isfinite(w[k]) else 0.1
+            sc.append(c.step(x, 0.3 if j else None))
+            so.append(o.step(x, 0.3 if j else None))
+        rc.append(_record(c))
+        ro.append(_record(o))
+    rc, ro = np.array(rc), np.array(ro)
+    assert np.array_equal(rc[:, -3:], ro[:, -3:])  # counters exactly
+    assert _close(rc, ro, rtol) and _close(sc, so, rtol) and _close(c.rls.P, o.rls.P, rtol)
+    assert o.n_rejected > 5 and o.rls.n_updates > 2900 and o.estimate is not None
+    assert (c.estimate.Vs, c.estimate.delta) == (o.estimate.Vs, o.estimate.delta)
+
+
+def _reference(n):
+    t = np.arange(n) * TC
+    return (0.5 * np.sin(2 * np.pi * 0.4 * t) + 0.2 * np.sin(2 * np.pi * 1.7 * t + 0.5)).tolist()
+
+
+def _closed_loop(n, seed, step_comp, observe_comp):
+    """The loop of run_closed_loop(engine="python") on PLANT: sensor noise and faults, held last good
+    measurement for the controller, PI with output limit, friction with lag (Euler, 10 substeps)."""
+    rng = np.random.default_rng(seed)
+    noise = rng.normal(0.0, 2e-4, n).tolist()
+    faults = set(rng.integers(100, n, 15).tolist()) | {1000, 2000, 2500, 3100}  # some on sample instants
+    wr = _reference(n)
+    J, Fc, Fs, Vs, dl, sg, tau = PLANT.J, PLANT.Fc, PLANT.Fs, PLANT.Vs, PLANT.delta, PLANT.sigma, PLANT.tau
+    Kp, KiTc, umax = 16.0, 16.0 * 5.0 * TC, 80.0
+    w = f = integ = 0.0
+    held = w
+    out = np.empty((n, 3))
+    for k in range(n):
+        wm = math.nan if k in faults else w + noise[k]
+        if math.isfinite(wm):
+            held = wm
+        wc = held
+        uff = step_comp(k, wc, wm, wr[k])
+        e = wr[k] - wc
+        integ += KiTc * e
+        u = min(max(Kp * e + integ + uff, -umax), umax)
+        observe_comp(k, u, wm)
+        out[k] = (w, u, uff)
+        h = TC / 10
+        for _ in range(10):
+            F = math.copysign(Fc + (Fs - Fc) * math.exp(-((abs(w) / Vs) ** dl)), w) + sg * w if w != 0.0 else 0.0
+            w, f = w + h * (u - f) / J, f + h * (F - f) / tau
+    return out
+
+
+def _oracle_loop(o, n, seed, m, measured):
+    hist = []
+    last = [0.0]
+
+    def comp(k, wc, wm, wr):
+        if k % m == 0 and k > 0:
+            o.observe(last[0], wm)
+            hist.append((k, o.theta.copy()))
+        return o.step(wc, wr) if measured else o.step(wr)
+
+    def obs(k, u, wm):
+        last[0] = u
+
+    return _closed_loop(n, seed, comp, obs), hist
+
+
+def _component_loop(c, n, seed):
+    hist = []
+    th = np.empty(c.n_theta)
+
+    def comp(k, wc, wm, wr):
+        return eq4_compensate(c.params, c.state, wc, wm, wr)
+
+    def obs(k, u, wm):
+        if eq4_observe(c.params, c.state, u, wm, th):
+            hist.append((k, th.copy()))
+
+    return _closed_loop(n, seed, comp, obs), hist
+
+
+@pytest.mark.parametrize("libm,measured,Ts,n", [(True, True, 0.01, 12000), (True, False, 0.005, 12000),
+                                                (False, True, 0.01, 3600)])
+def test_closed_loop_protocol_equals_the_python_loop_with_the_old_class(libm, measured, Ts, n):
+    """The component in the engine's calling sequence against the old class in run_closed_loop's Python loop.
+
+    With the verbatim oracle the closed loop amplifies the first 1-ulp difference of the regressor once the
+    feedforward is on (sample 3000: measured growth about 10x per 150 periods, 1e-12 relative reached near
+    period 3900), so that case stops 600 periods after switch-on and is compared to 1e-12.
+    """
+    model_kw = dict(Vs=PLANT.Vs, delta=PLANT.delta)
+    kw = dict(Ts=Ts, dt=TC, warmup=300, lag=True, ff_max=40.0, ff_input="measured" if measured else "reference")
+    c = AdaptiveFrictionFeedforward(RegressionModel(**model_kw), **kw)
+    kw.pop("ff_input")
+    o = oracle.AdaptiveFrictionFeedforward((_LibmModel if libm else RegressionModel)(**model_kw), **kw)
+    rtol = 0.0 if libm else 1e-12
+    m = int(round(Ts / TC))
+    ref, h_ref = _oracle_loop(o, n, 5, m, measured)
+    got, h_got = _component_loop(c, n, 5)
+    assert _close(got, ref, rtol)
+    assert [k for k, _ in h_got] == [k for k, _ in h_ref] == list(range(m, n, m))
+    assert _close(np.array([x for _, x in h_got]), np.array([x for _, x in h_ref]), rtol)
+    assert _close(_record(c), _record(o), rtol)
+    # the run exercised rejection, the estimate and the feedforward
+    assert o.n_rejected > 0 and o.estimate is not None and np.abs(ref[:, 2]).max() > 1.0
+    if libm:
+        assert np.array_equal(got, ref)
+
+
+@numba.njit
+def _drive(par, st, wc, wm, wr, u_in, out, upd, th):
+    for k in range(wc.shape[0]):
+        c = eq4_compensate(par, st, wc[k], wm[k], wr[k])
+        out[k] = c
+        upd[k] = eq4_observe(par, st, u_in[k] + c, wm[k], th[k])
+
+
+def test_protocol_in_a_compiled_loop_equals_python_calls():
+    n = 5000
+    rng = np.random.default_rng(2)
+    wm = 0.3 * np.sin(np.arange(n) * 2e-3) + rng.normal(0, 1e-3, n)
+    wm[rng.integers(0, n, 10)] = np.nan
+    wc = np.where(np.isfinite(wm), wm, 0.0)
+    wr = 0.3 * np.sin(np.arange(n) * 2e-3)
+    u = 10.0 * np.tanh(wm / 0.01) + rng.normal(0, 0.3, n)
+    model = RegressionModel(PLANT.Vs, PLANT.delta)
+    a = AdaptiveFrictionFeedforward(model, Ts=0.004, dt=TC, warmup=20)
+    b = AdaptiveFrictionFeedforward(model, Ts=0.004, dt=TC, warmup=20)
+    out, upd, th = np.empty(n), np.zeros(n, dtype=np.bool_), np.full((n, a.n_theta), np.nan)
+    _drive(a.params, a.state, wc, wm, wr, u, out, upd, th)
+    t2 = np.empty(b.n_theta)
+    for k in range(n):
+        assert eq4_compensate(b.params, b.state, wc[k], wm[k], wr[k]) == out[k]
+        assert eq4_observe(b.params, b.state, u[k] + out[k], wm[k], t2) == upd[k]
+        if upd[k]:
+            assert np.array_equal(t2, th[k])
+    assert np.array_equal(a.state, b.state) and upd.sum() == (n - 1) // 4
+    assert b.n_rejected > 0 and b.estimate is not None
+
+
+def test_compiled_phi_and_inverse_map_against_the_model_and_the_analytic_theta():
+    for struct in [dict(), dict(lag=False), dict(stribeck=False), dict(offset=True), dict(lag=False, offset=True)]:
+        strib = struct.get("stribeck", True)
+        model = RegressionModel(PLANT.Vs if strib else None, PLANT.delta if strib else None, **struct)
+        p = model.n_params
+        phi = np.empty(p)
+        for args in [(3.0, -1.0, 0.02, 0.01), (-2.0, 1.5, -0.5, 0.3), (0.0, 0.0, 0.0, -0.1)]:
+            n = eq4_phi(phi, *args, model.Vs or 1.0, model.delta or 1.0, model.lag, model.stribeck, model.offset)
+            assert n == p and _close(phi, model.phi(*args), 1e-15)
+        # the inverse map is RegressionModel.to_physical bit for bit and recovers the physical parameters
+        plant = PLANT.replace(tau=0.0) if not model.lag else PLANT
+        plant = plant.replace(Fs=plant.Fc) if not model.stribeck else plant
+        off = 0.3 if model.offset else 0.0
+        theta = model.theta_from_physical(plant, 0.01, offset=off)
+        got = eq4_to_physical(theta, 0.01, model.lag, model.stribeck, model.offset)
+        assert _close(got, _est_tuple(model.to_physical(theta, 0.01)), 0.0)
+        np.testing.assert_allclose(got[:6], [plant.J, plant.tau, plant.sigma, plant.Fc, plant.Fs, off], rtol=1e-12,
+                                   atol=1e-15)
+    # b0 == b1: no input gain -> non-finite, like numpy (1/0 = inf)
+    J, tau, *_ = eq4_to_physical(np.array([1.0, 0.5, 0.2, 0.2, 0.1, 0.1]), 0.01, True, True, False)
+    assert math.isinf(tau) or math.isnan(tau)
+    ref = RegressionModel(0.03, 1.0).to_physical([1.0, 0.5, 0.2, 0.2, 0.1, 0.1], 0.01)
+    assert _close((J, tau), (ref.J, ref.tau), 0.0)
+
+
+def test_projection_equals_project_estimate():
+    raw = dict(J=2.0, tau=-0.01, sigma=-3.0, Fc=-1.0, Fs=5.0, offset=0.0)
+    cases = [raw, {**raw, "tau": 3.0}, {**raw, "Fs": math.nan}, {**raw, "J": -1.0}, {**raw, "J": 0.0},
+             {**raw, "Fc": 9.0}, {**raw, "offset": math.inf}, {**raw, "tau": -0.0, "sigma": -0.0}]
+    for d in cases:
+        ref = oracle.project_estimate(FrictionEstimate(**d, Vs=None, delta=None, J_alt=1.0), tau_max=0.5, F_max=8.0)
+        ok, tau, sigma, Fc, Fs = eq4_project(d["J"], d["tau"], d["sigma"], d["Fc"], d["Fs"], d["offset"], 0.5, 8.0)
+        assert ok == (ref is not None)
+        if ok:
+            assert (tau, sigma, Fc, Fs) == (ref.tau, ref.sigma, ref.Fc, ref.Fs)
+            assert [math.copysign(1.0, x) for x in (tau, sigma)] == [math.copysign(1.0, x) for x in (ref.tau,
+                                                                                                     ref.sigma)]
+
+
+def test_layout_properties_pickle_and_validation():
+    model = RegressionModel(PLANT.Vs, PLANT.delta, offset=True)
+    c = AdaptiveFrictionFeedforward(model, Ts=0.01, dt=TC, warmup=5, ff_max=30.0)
+    assert c.KIND == 6 and c.n_theta == 7 and c.m == 10 and c.Ts == 0.01 and c.dt == TC and c.tau_max == 1.0
+    assert c.params.dtype == np.float64 and c.params.flags.c_contiguous and c.state.flags.c_contiguous
+    assert c.rls.buffer.base is c.state and c.ff_max == 30.0 and c.ff_input == "measured" and c.lag
+    assert c.estimate is None and c.static(0.3) == 0.0 and c.step(0.3) == 0.0
+    u, w = _open_stream(8, 400)
+    for k in range(200):
+        c.observe(u[k], w[k])
+    d = pickle.loads(pickle.dumps(c))
+    assert d.rls.buffer.base is d.state and np.array_equal(d.state, c.state, equal_nan=True)
+    for k in range(200, 400):
+        assert c.observe(u[k], w[k]) == d.observe(u[k], w[k])
+        assert c.step(0.2) == d.step(0.2)
+    assert np.array_equal(d.state, c.state, equal_nan=True) and d.estimate == c.estimate
+    with pytest.raises(ParameterError, match="multiple"):
+        AdaptiveFrictionFeedforward(model, Ts=0.0105, dt=TC)
+    with pytest.raises(ParameterError, match="warmup"):
+        AdaptiveFrictionFeedforward(model, Ts=0.01, dt=TC, warmup=-1)
+    with pytest.raises(ParameterError, match="tau_max"):
+        AdaptiveFrictionFeedforward(model, Ts=0.01, dt=TC, tau_max=0.0)
+    with pytest.raises(ParameterError, match="ff_input"):
+        AdaptiveFrictionFeedforward(model, Ts=0.01, dt=TC, ff_input="predicted")
+    with pytest.raises(ParameterError, match="lam"):
+        AdaptiveFrictionFeedforward(model, Ts=0.01, dt=TC, lam=1.5)
+    with pytest.raises(ParameterError, match="model"):
+        AdaptiveFrictionFeedforward("eq4", Ts=0.01, dt=TC)
+
+
+def test_rejected_samples_leave_the_state_unchanged():
+    ff = AdaptiveFrictionFeedforward(RegressionModel(PLANT.Vs, PLANT.delta), Ts=0.01, dt=TC, warmup=0)
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        ff.observe(rng.normal(30.0, 5.0), rng.normal(0.2, 0.05))
+    before = ff.state.copy()
+    assert ff.observe(math.nan, 0.1) is False and ff.observe(1.0, math.inf) is False
+    assert ff.n_rejected == 2
+    changed = np.flatnonzero(~((ff.state == before) | (np.isnan(ff.state) & np.isnan(before))))
+    assert changed.size == 1 and ff.state[changed[0]] == 2.0  # only the counter

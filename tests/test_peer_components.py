@@ -1,0 +1,241 @@
+"""The peers as compiled compensator components (issue 10): bit for bit against the former Python classes.
+
+``tests/peers_oracle.py`` holds verbatim copies of the Python
+``CanudasCompensator`` and ``DisturbanceObserver``. Here both the classes'
+methods and the compiled kernels driven from a compiled loop (as the
+closed-loop engine calls them) are run on long seeded random streams with
+direction changes, sticking (dead zone), non-finite samples, warm-up and
+saturation of the compensation, and every output and every state variable is
+compared with ``==`` (bit-identical).
+"""
+
+import math
+import pickle
+
+import numba
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as hst
+
+import peers_oracle as oracle
+from controllers.peers.canudas import CanudasCompensator, canudas_compensate, canudas_observe
+from controllers.peers.dob import DisturbanceObserver, dob_compensate, dob_observe
+from plant.errors import ParameterError
+
+SETTINGS = dict(deadline=None, derandomize=True, database=None, max_examples=12,
+                suppress_health_check=[HealthCheck.too_slow])
+
+
+def _stream(seed: int, n: int, *, bad: float = 0.003, stick: bool = True):
+    """Velocity (controller and raw), reference and torque streams with reversals, standstill and bad samples."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * 1e-3
+    w = 0.3 * np.sin(2 * np.pi * 0.7 * t) + 0.1 * np.sin(2 * np.pi * 3.1 * t + 1.0) + rng.normal(0, 0.004, n)
+    if stick:
+        for s in rng.integers(0, n - 200, 6):  # standstill phases (inside any dead zone)
+            w[s:s + int(rng.integers(20, 200))] = 0.0
+    w_ref = 0.3 * np.sin(2 * np.pi * 0.7 * t)
+    u = 20.0 * np.sign(w) + 8.0 * w + rng.normal(0, 2.0, n)
+    wc = w.copy()
+    wm = w + rng.normal(0, 1e-4, n)
+    for arr in (wc, wm, u):
+        idx = rng.random(n) < bad
+        arr[idx] = rng.choice([math.nan, math.inf, -math.inf], idx.sum())
+    return wc, wm, w_ref, u
+
+
+def _same(a, b) -> bool:
+    """Equal bit for bit (NaN equal to NaN)."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    return a.shape == b.shape and bool(np.all((a == b) | (np.isnan(a) & np.isnan(b))))
+
+
+def _canudas_pair(**kw):
+    return CanudasCompensator(**kw), oracle.CanudasCompensator(**kw)
+
+
+def _check_canudas_state(c, o):
+    assert c.coef == o.coef
+    assert c.n_rejected == o.n_rejected and c._k == o._k and c._usum == o._usum
+    assert c._w_prev == o._w_prev and c._ok == o._ok
+    assert _same(c.rls.theta, o.rls.theta) and _same(c.rls.P, o.rls.P)
+    assert c.rls.n_updates == o.rls.n_updates and c.rls.n_projected == o.rls.n_projected
+    assert c.estimate == o.estimate
+
+
+def _run_canudas(c, o, wc, wm, wr, u_in):
+    wc, wm, wr, u_in = wc.tolist(), wm.tolist(), wr.tolist(), u_in.tolist()  # Python floats, as the engine had
+    n_on = 0
+    for k in range(len(wc)):
+        a = c.compensate(wc[k], wr[k])
+        b = o.compensate(wc[k], wr[k])
+        assert _same(a, b), k
+        n_on += a != 0.0
+        u = u_in[k] + b
+        c.observe(u, wm[k])
+        o.observe(u, wm[k])
+        if k % 97 == 0:
+            _check_canudas_state(c, o)
+    _check_canudas_state(c, o)
+    return n_on
+
+
+@pytest.mark.parametrize("kw", [
+    dict(Tc=1e-3, Ts=1e-3, warmup=0, w_dead=0.0),
+    dict(Tc=1e-3, Ts=5e-3, warmup=40, w_dead=0.02, ff_max=21.0),
+    dict(Tc=1e-3, Ts=1e-2, warmup=10, forgetting="exponential", lam=0.99, ff_input="reference"),
+    dict(Tc=2e-4, Ts=6e-4, warmup=300, P0=1e3, J_guess=0.5, ff_max=0.0),
+])
+def test_canudas_methods_equal_the_python_class_bit_for_bit(kw):
+    c, o = _canudas_pair(**kw)
+    wc, wm, wr, u = _stream(1, 12000)
+    n_on = _run_canudas(c, o, wc, wm, wr, u)
+    assert o.n_rejected > 20 and o.rls.n_updates > 100  # the stream exercised rejection and updates
+    if kw["warmup"] < 300 and kw.get("ff_max", 1.0) > 0.0:
+        assert n_on > 1000 and o.coef is not None
+        if "ff_max" in kw:  # saturation was reached
+            assert max(abs(c.compensate(x, x)) for x in (-5.0, 5.0)) == kw["ff_max"]
+
+
+@given(seed=hst.integers(0, 10_000), m=hst.integers(1, 12), w_dead=hst.sampled_from([0.0, 1e-3, 0.05]),
+       warmup=hst.integers(0, 80), ff_max=hst.sampled_from([math.inf, 15.0, 3.0]),
+       meas=hst.booleans(), directional=hst.booleans())
+@settings(**SETTINGS)
+def test_canudas_property_equal_to_oracle(seed, m, w_dead, warmup, ff_max, meas, directional):
+    kw = dict(Tc=1e-3, Ts=m * 1e-3, w_dead=w_dead, warmup=warmup, ff_max=ff_max,
+              ff_input="measured" if meas else "reference",
+              forgetting="directional" if directional else "exponential", lam=0.999 if directional else 0.995)
+    c, o = _canudas_pair(**kw)
+    wc, wm, wr, u = _stream(seed, 3000, bad=0.01)
+    _run_canudas(c, o, wc, wm, wr, u)
+
+
+@numba.njit
+def _drive(comp, obs, par, st, wc, wm, wr, u_in, out, upd, th):
+    """The engine's calling sequence in a compiled loop: compensate, apply, observe; theta when updated."""
+    for k in range(wc.shape[0]):
+        c = comp(par, st, wc[k], wm[k], wr[k])
+        out[k] = c
+        upd[k] = obs(par, st, u_in[k] + c, wm[k], th[k])
+    return out
+
+
+def test_canudas_kernels_in_a_compiled_loop_equal_the_oracle_and_report_theta():
+    kw = dict(Tc=1e-3, Ts=4e-3, warmup=25, w_dead=0.01, ff_max=30.0)
+    c, o = _canudas_pair(**kw)
+    wc, wm, wr, u = _stream(7, 20000)
+    n = wc.shape[0]
+    out, upd, th = np.empty(n), np.zeros(n, dtype=np.bool_), np.full((n, 5), np.nan)
+    _drive(canudas_compensate, canudas_observe, c.params, c.state, wc, wm, wr, u, out, upd, th)
+    n0 = 0
+    wc, wm, wr, u = wc.tolist(), wm.tolist(), wr.tolist(), u.tolist()
+    for k in range(n):
+        b = o.compensate(wc[k], wr[k])
+        assert _same(out[k], b), k
+        o.observe(u[k] + b, wm[k])
+        assert upd[k] == (o.rls.n_updates > n0), k  # True exactly when the RLS was updated
+        if upd[k]:
+            assert _same(th[k], o.rls.theta), k
+        else:
+            assert np.isnan(th[k]).all()
+        n0 = o.rls.n_updates
+    _check_canudas_state(c, o)
+    assert upd.sum() == o.rls.n_updates > 500
+
+
+def test_canudas_state_layout_pickle_and_coef_setter():
+    c = CanudasCompensator(Tc=1e-3, Ts=2e-3, warmup=3, w_dead=0.0)
+    assert c.KIND == 4 and c.n_theta == 5 and c.params.flags.c_contiguous and c.state.flags.c_contiguous
+    assert c.params.dtype == np.float64 and c.state.dtype == np.float64
+    assert c.rls.buffer.base is c.state  # the RLS state is a slice of the component's state
+    wc, wm, wr, u = _stream(3, 2000, bad=0.0, stick=False)
+    for k in range(1000):
+        c.observe(u[k] + c.compensate(wc[k], wr[k]), wm[k])
+    d = pickle.loads(pickle.dumps(c))
+    assert d.rls.buffer.base is d.state and _same(d.state, c.state) and _same(d.params, c.params)
+    for k in range(1000, 2000):  # the copy continues exactly like the original
+        a, b = c.compensate(wc[k], wr[k]), d.compensate(wc[k], wr[k])
+        assert a == b
+        c.observe(u[k] + a, wm[k])
+        d.observe(u[k] + b, wm[k])
+    assert _same(d.state, c.state)
+    # attached to slices of a composite's arrays, it continues exactly like the copy
+    big_p, big_s = np.zeros(c.params.size + 3), np.zeros(c.state.size + 4)
+    c.attach(big_p[3:], big_s[4:])
+    assert c.rls.buffer.base is big_s and c.params.base is big_p
+    for k in range(1000, 1500):
+        a = c.compensate(wc[k], wr[k])
+        c.observe(u[k] + a, wm[k])
+    e = pickle.loads(pickle.dumps(d))
+    for k in range(1000, 1500):
+        e.observe(u[k] + e.compensate(wc[k], wr[k]), wm[k])
+    assert _same(big_s[4:], e.state) and c.coef == e.coef
+    c.coef = (10.0, 6.0, 8.0, 5.0)
+    assert c.coef == (10.0, 6.0, 8.0, 5.0) and c.compensate(-0.5, 0.0) == -6.0 - 2.5
+    c.coef = None
+    assert c.coef is None and c.estimate is None and c.compensate(1.0, 1.0) == 0.0
+    with pytest.raises(ParameterError, match="coef"):
+        c.coef = (1.0, 2.0)
+
+
+def test_canudas_refuses_an_overflowing_row_without_touching_the_rls():
+    """Finite samples whose torque sum overflows: the row is refused and counted, the RLS untouched.
+
+    (The former Python class raised SignalError from the RLS there.)
+    """
+    c = CanudasCompensator(Tc=1e-3, Ts=3e-3, warmup=0, w_dead=0.0)
+    for u_, w_ in [(0.0, 1.0), (1.7e308, 1.0), (1.7e308, 1.0)]:  # u_sum = inf over the interval
+        c.observe(u_, w_)
+    rls_before = c.rls.buffer.copy()
+    c.observe(0.0, 1.0)  # closes the interval: u_bar = inf
+    assert c.rls.n_updates == 0 and c.n_rejected == 1 and _same(c.rls.buffer, rls_before)
+    for u_, w_ in [(1.0, 1.0), (1.0, 1.0), (0.0, 1.0)]:  # the next interval is an ordinary row
+        c.observe(u_, w_)
+    assert c.rls.n_updates == 1 and c.coef is not None and np.all(np.isfinite(c.rls.theta))
+
+
+def _run_dob(c, o, wc, wm, wr, u_in):
+    wc, wm, wr, u_in = wc.tolist(), wm.tolist(), wr.tolist(), u_in.tolist()
+    for k in range(len(wc)):
+        a = c.compensate(wc[k], wr[k])
+        b = o.compensate(wc[k], wr[k])
+        assert _same(a, b), k
+        u = u_in[k] - b
+        c.observe(u, wm[k])
+        o.observe(u, wm[k])
+        assert c.d_hat == o.d_hat or (math.isnan(c.d_hat) and math.isnan(o.d_hat))
+    assert c.n_rejected == o.n_rejected and c._u_last == o._u_last and c._w_last == o._w_last
+    assert _same(c.state[5:], o._x)
+
+
+@pytest.mark.parametrize("order,omega_q,d_max", [(1, 300.0, math.inf), (2, 500.0, 25.0), (4, 2000.0, 5.0)])
+def test_dob_equals_the_python_class_bit_for_bit(order, omega_q, d_max):
+    kw = dict(J_n=1.7, omega_q=omega_q, Tc=1e-3, order=order, d_max=d_max)
+    c, o = DisturbanceObserver(**kw), oracle.DisturbanceObserver(**kw)
+    wc, wm, wr, u = _stream(11, 12000, bad=0.005)
+    _run_dob(c, o, wc, wm, wr, u)
+    assert o.n_rejected > 20
+    if math.isfinite(d_max):
+        assert abs(c.d_hat) <= d_max
+    c2, o2 = DisturbanceObserver(**kw), oracle.DisturbanceObserver(**kw)
+    out, upd, th = np.empty(12000), np.zeros(12000, dtype=np.bool_), np.zeros((12000, 0))
+    _drive(dob_compensate, dob_observe, c2.params, c2.state, wc, wm, wr, u, out, upd, th)
+    wc, wm, wr, u = wc.tolist(), wm.tolist(), wr.tolist(), u.tolist()
+    for k in range(12000):
+        b = o2.compensate(wc[k], wr[k])
+        assert _same(out[k], b), k
+        o2.observe(u[k] + b, wm[k])
+    assert not upd.any() and c2.d_hat == o2.d_hat and c2.n_rejected == o2.n_rejected
+
+
+def test_dob_layout_and_properties():
+    c = DisturbanceObserver(J_n=2.0, omega_q=400.0, Tc=1e-3, order=3, d_max=9.0)
+    assert c.KIND == 5 and c.n_theta == 0 and c.state.shape == (8,) and c.params.shape == (6,)
+    assert (c.J_n, c.omega_q, c.Tc, c.order, c.d_max) == (2.0, 400.0, 1e-3, 3, 9.0)
+    assert c._a == 1.0 - math.exp(-0.4) and c._w_last is None
+    c.d_hat = 1.5
+    c.n_rejected = 4
+    assert c.compensate(0.1, 0.0) == 1.5 and c._w_last == 0.1 and c.n_rejected == 4
+    assert c.compensate(math.nan, 0.0) == 1.5 and c.n_rejected == 5
