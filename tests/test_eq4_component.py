@@ -10,6 +10,7 @@ the C library's functions (``_LibmModel``) the whole run, theta history
 included, is bit-identical.
 """
 
+import json
 import math
 import pickle
 
@@ -288,6 +289,10 @@ def test_layout_properties_pickle_and_validation():
         assert c.observe(u[k], w[k]) == d.observe(u[k], w[k])
         assert c.step(0.2) == d.step(0.2)
     assert np.array_equal(d.state, c.state, equal_nan=True) and d.estimate == c.estimate
+    info = c.info()
+    assert info == {"estimator": "eq4", "n_rejected": c.n_rejected, "n_implausible": c.n_implausible,
+                    "n_updates": c.rls.n_updates, "lam": 0.995, "names": list(model.names)}
+    assert info["n_updates"] == 399 - c.n_rejected and json.dumps(info, allow_nan=False)
     with pytest.raises(ParameterError, match="multiple"):
         AdaptiveFrictionFeedforward(model, Ts=0.0105, dt=TC)
     with pytest.raises(ParameterError, match="warmup"):

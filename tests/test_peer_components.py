@@ -9,6 +9,7 @@ saturation of the compensation, and every output and every state variable is
 compared with ``==`` (bit-identical).
 """
 
+import json
 import math
 import pickle
 
@@ -178,6 +179,10 @@ def test_canudas_state_layout_pickle_and_coef_setter():
     assert c.coef is None and c.estimate is None and c.compensate(1.0, 1.0) == 0.0
     with pytest.raises(ParameterError, match="coef"):
         c.coef = (1.0, 2.0)
+    c.coef = (10.0, 6.0, 8.0, 5.0)
+    info = c.info()
+    assert info == {"n_rejected": 0, "n_updates": c.rls.n_updates, "lam": 0.999, "canudas_estimate": c.estimate}
+    assert info["canudas_estimate"]["J"] == c.Ts / c.rls.theta[0] and json.dumps(info, allow_nan=False)
 
 
 def test_canudas_refuses_an_overflowing_row_without_touching_the_rls():
@@ -239,3 +244,4 @@ def test_dob_layout_and_properties():
     c.n_rejected = 4
     assert c.compensate(0.1, 0.0) == 1.5 and c._w_last == 0.1 and c.n_rejected == 4
     assert c.compensate(math.nan, 0.0) == 1.5 and c.n_rejected == 5
+    assert c.info() == {"n_rejected": 5, "J_n": 2.0, "omega_q": 400.0}

@@ -365,6 +365,18 @@ class AdaptiveFrictionFeedforward(Component):
         return FrictionEstimate(J=J, tau=tau, sigma=sigma, Fc=Fc, Fs=Fs, offset=off, Vs=self.model.Vs,
                                 delta=self.model.delta, J_alt=J_alt)
 
+    def info(self) -> dict:
+        """Counters and settings for run reports (JSON-safe).
+
+        Returns
+        -------
+        dict
+            ``estimator`` ("eq4"), ``n_rejected``, ``n_implausible``, ``n_updates`` (RLS), ``lam``,
+            ``names`` (the regression parameters, :attr:`RegressionModel.names`).
+        """
+        return {"estimator": "eq4", "n_rejected": self.n_rejected, "n_implausible": self.n_implausible,
+                "n_updates": self.rls.n_updates, "lam": self.rls.lam, "names": list(self.model.names)}
+
     def static(self, w: float) -> float:
         """Static friction of the estimate in use ``F_hat(w)`` (N·m), eq. 3 (no offset); 0 without one."""
         return self._ff.static(w)

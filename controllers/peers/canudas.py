@@ -392,6 +392,17 @@ class CanudasCompensator(Component):
         Fcp, Fcn, sp, sn = coef
         return {"J": self.Ts / b, "Fc_pos": Fcp, "Fc_neg": Fcn, "sigma_pos": sp, "sigma_neg": sn}
 
+    def info(self) -> dict:
+        """Counters and the estimate in use, for run reports (JSON-safe).
+
+        Returns
+        -------
+        dict
+            ``n_rejected``, ``n_updates`` (RLS), ``lam``, ``canudas_estimate`` (:attr:`estimate`).
+        """
+        return {"n_rejected": self.n_rejected, "n_updates": self.rls.n_updates, "lam": self.rls.lam,
+                "canudas_estimate": self.estimate}
+
     def compensate(self, w_meas: float, w_ref: float) -> float:
         """Compensation torque (N·m) for this period, bounded by ``ff_max`` (:func:`canudas_compensate`).
 

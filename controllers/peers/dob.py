@@ -233,6 +233,15 @@ class DisturbanceObserver(Component):
         self.state[_S_HASW] = 0.0 if value is None else 1.0
         self.state[_S_WLAST] = 0.0 if value is None else value
 
+    def info(self) -> dict:
+        """Counter and settings for run reports: ``n_rejected``, ``J_n`` (kg·m²), ``omega_q`` (rad/s).
+
+        Returns
+        -------
+        dict
+        """
+        return {"n_rejected": self.n_rejected, "J_n": self.J_n, "omega_q": self.omega_q}
+
     def compensate(self, w_meas: float, w_ref: float) -> float:
         """Advance the observer with the measured velocity of this period; return the bounded ``d_hat`` (N·m).
 
