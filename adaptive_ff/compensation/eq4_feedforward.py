@@ -297,6 +297,7 @@ class AdaptiveFrictionFeedforward(Component):
     """
 
     KIND = EQ4_KIND
+    MODE = "adaptive"
 
     def __init__(self, model: RegressionModel, *, Ts: float, dt: float, lam: float = 0.995, P0: float = 1e4,
                  warmup: int = 300, lag: bool = True, ff_max: float = math.inf, tau_max: float = 1.0,
@@ -382,7 +383,20 @@ class AdaptiveFrictionFeedforward(Component):
         return self._ff.static(w)
 
     def step(self, w: float, w_ref: float | None = None) -> float:
-        """Advance the feedforward one period ``dt``; return it (N·m), see :meth:`FrictionFeedforward.step`."""
+        """Advance the feedforward one period ``dt`` (:meth:`FrictionFeedforward.step` on this component's slices).
+
+        Parameters
+        ----------
+        w : float
+            Velocity the friction map is evaluated at (rad/s).
+        w_ref : float, optional
+            Used instead of ``w`` while the joint is detected as stuck (never here: ``stick_band`` is 0).
+
+        Returns
+        -------
+        float
+            Feedforward torque (N·m), bounded by ``ff_max``; 0 before the first admissible estimate.
+        """
         return self._ff.step(w, w_ref)
 
     def observe(self, u: float, w: float) -> bool:

@@ -248,6 +248,7 @@ class CanudasCompensator(Component):
     """
 
     KIND = CANUDAS_KIND
+    MODE = "canudas"
     n_theta = CANUDAS_N_THETA
 
     def __init__(self, *, Tc: float, Ts: float = 0.01, lam: float = 0.999, forgetting: str = "directional",
@@ -421,8 +422,17 @@ class CanudasCompensator(Component):
         return canudas_compensate(self.params, self.state, w_meas, w_meas, float(w_ref))
 
     def observe(self, u: float, w: float) -> None:
-        """Record the torque ``u`` (N·m) applied in this period and the velocity ``w`` (rad/s) measured at its start.
+        """Record the torque applied in this period and the velocity measured at its start (:func:`canudas_observe`).
 
-        See :func:`canudas_observe`; non-finite values are counted in ``n_rejected``.
+        Parameters
+        ----------
+        u : float
+            Applied torque (N·m).
+        w : float
+            Measured velocity (rad/s).
+
+        Notes
+        -----
+        A non-finite value is counted in ``n_rejected`` and spoils the current sample interval.
         """
         canudas_observe(self.params, self.state, float(u), float(w), self._theta_out)

@@ -152,6 +152,7 @@ class DisturbanceObserver(Component):
     """
 
     KIND = DOB_KIND
+    MODE = "dob"
     n_theta = 0
 
     def __init__(self, *, J_n: float, omega_q: float = 500.0, Tc: float, order: int = 2, d_max: float = math.inf):
@@ -243,13 +244,31 @@ class DisturbanceObserver(Component):
         return {"n_rejected": self.n_rejected, "J_n": self.J_n, "omega_q": self.omega_q}
 
     def compensate(self, w_meas: float, w_ref: float) -> float:
-        """Advance the observer with the measured velocity of this period; return the bounded ``d_hat`` (N·m).
+        """Advance the observer with the measured velocity of this period (:func:`dob_compensate`).
 
-        See :func:`dob_compensate` (``w_ref`` is unused).
+        Parameters
+        ----------
+        w_meas : float
+            Measured velocity (rad/s); a non-finite value is counted and the estimate held.
+        w_ref : float
+            Reference velocity (rad/s), unused.
+
+        Returns
+        -------
+        float
+            The bounded disturbance estimate ``d_hat`` (N·m).
         """
         w_meas = float(w_meas)
         return dob_compensate(self.params, self.state, w_meas, w_meas, float(w_ref))
 
     def observe(self, u: float, w: float) -> None:
-        """Record the torque ``u`` (N·m) applied in this period (it drives the next velocity sample)."""
+        """Record the torque applied in this period (it drives the next velocity sample; :func:`dob_observe`).
+
+        Parameters
+        ----------
+        u : float
+            Applied torque (N·m); a non-finite value is ignored.
+        w : float
+            Measured velocity (rad/s), unused.
+        """
         dob_observe(self.params, self.state, float(u), float(w), self._theta_out)
