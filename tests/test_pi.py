@@ -215,3 +215,62 @@ def test_controller_keyword_only_and_type_errors():
         PIController(1.0, 1.0, 1e-3)  # noqa: keyword-only
     with pytest.raises(TypeError, match="u_max"):
         PIController(Kp=1.0, Ki=1.0, Tc=1e-3, u_max="10")
+
+
+# ---------------------------------------------------------------------------------------------------- pi_step
+def _random_pi_case(rng):
+    """Random gains, limit and a run of errors/feedforwards that saturate part of the time (both signs)."""
+    Kp = float(rng.choice([0.0, 10.0 ** rng.uniform(-2, 3)]))
+    Ki = float(rng.choice([0.0, 10.0 ** rng.uniform(-1, 4)]))
+    Tc = float(10.0 ** rng.uniform(-4, -2))
+    u_max = float(rng.choice([math.inf, 10.0 ** rng.uniform(-1, 2)]))
+    n = 400
+    scale = 10.0 ** rng.uniform(-3, 1)
+    e = scale * np.cumsum(rng.standard_normal(n)) / 4.0  # slowly varying: long stretches in saturation
+    e[rng.random(n) < 0.05] = 0.0  # d == 0 branch
+    u_ff = rng.choice([0.0, 1.0]) * 10.0 ** rng.uniform(-1, 2) * rng.standard_normal(n)
+    integral0 = float(rng.normal(0.0, 5.0))
+    return dict(Kp=Kp, Ki=Ki, Tc=Tc, u_max=u_max, integral0=integral0), e.tolist(), u_ff.tolist()
+
+
+def test_pi_step_equals_oracle_bit_for_bit():
+    from controllers.design.pi import pi_step
+    from pi_oracle import OraclePI
+
+    rng = np.random.default_rng(20240610)
+    n_sat = n_clamped = 0
+    for _ in range(60):
+        kw, e, u_ff = _random_pi_case(rng)
+        ref = OraclePI(**kw)
+        ctl = PIController(**kw)
+        par = np.array([kw["Kp"], kw["Ki"] * kw["Tc"], kw["u_max"]])
+        st = np.array([kw["integral0"], 0.0])
+        for ek, fk in zip(e, u_ff):
+            I_before = ref.integral
+            u_ref = ref.step(ek, fk)
+            u_cls = ctl.step(ek, fk)
+            u_raw = pi_step(par, st, ek, fk)
+            # bit for bit: same float64 (== would pass -0.0 vs 0.0; compare the bytes)
+            assert np.float64(u_cls).tobytes() == np.float64(u_ref).tobytes() == np.float64(u_raw).tobytes()
+            assert np.float64(ctl.integral).tobytes() == np.float64(ref.integral).tobytes()
+            assert st[0] == ref.integral and ctl.saturated == ref.saturated == bool(st[1])
+            n_sat += ref.saturated
+            n_clamped += ref.saturated and ref.integral != I_before + kw["Ki"] * kw["Tc"] * ek
+    assert n_sat > 1000 and n_clamped > 100  # the cases exercise saturation and the clamp
+
+
+def test_pi_step_buffers_and_properties():
+    c = PIController(Kp=2.0, Ki=70.0, Tc=1e-2, u_max=10.0, integral0=1.5)
+    assert c.params.dtype == np.float64 and c.params.tolist() == [2.0, 70.0 * 1e-2, 10.0]
+    assert c.state.tolist() == [1.5, 0.0]
+    assert (c.Kp, c.Ki, c.Tc, c.u_max, c.integral, c.saturated) == (2.0, 70.0, 1e-2, 10.0, 1.5, False)
+    with pytest.raises(ValueError):
+        c.params[0] = 3.0  # gains are fixed: the buffer is read-only
+    c.step(10.0)
+    assert c.saturated and c.state[1] == 1.0
+    c.integral = -2.0
+    assert c.state[0] == -2.0
+    with pytest.raises(ParameterError, match="integral"):
+        c.integral = float("nan")
+    c.reset()
+    assert c.state.tolist() == [0.0, 0.0]

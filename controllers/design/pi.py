@@ -11,7 +11,10 @@ over ``[t_k, t_k + Tc)``)::
 :func:`design_pi` places the gain crossover of the *discrete* ``L`` at a
 requested frequency with a requested phase margin; :class:`PIController`
 implements exactly this ``C(z)`` with a saturation, a feedforward input and
-anti-windup by conditional integration (integrator clamping).
+anti-windup by conditional integration (integrator clamping), as one compiled
+step :func:`pi_step` over a parameter and a state buffer (the closed-loop
+engine calls the same kernel). python-control and scipy are imported by the
+design functions when they run, not with this module.
 """
 
 from __future__ import annotations
@@ -20,11 +23,11 @@ import math
 import warnings
 from dataclasses import dataclass
 
-import control
 import numpy as np
-from scipy import optimize
 
 from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
+from plant.jit import kernel
+from plant.results import axes_or_new, json_safe
 
 __all__ = [
     "PIDesign",
@@ -32,6 +35,7 @@ __all__ = [
     "ClosedLoopStep",
     "closed_loop_step",
     "PIController",
+    "pi_step",
     "MAX_CROSSOVER_FRACTION",
 ]
 
@@ -92,13 +96,75 @@ class PIDesign:
     plant: control.TransferFunction
     loop: control.TransferFunction
 
+    def to_dict(self) -> dict:
+        """Gains, margins and design plant as strict JSON (SI units; gain margin also in dB; inf/NaN as None).
 
-def _pi_tf(Kp: float, Ki: float, Tc: float) -> control.TransferFunction:
+        The transfer functions are not included (rebuild them with :func:`design_pi`
+        from ``J``, ``sigma``, ``crossover``, ``phase_margin``, ``Tc``).
+        """
+        gm = self.gain_margin
+        return json_safe({
+            "Kp": self.Kp, "Ki": self.Ki, "Tc": self.Tc, "J": self.J, "sigma": self.sigma,
+            "crossover": self.crossover, "phase_margin": self.phase_margin, "gain_margin": gm,
+            "gain_margin_db": 20.0 * math.log10(gm) if gm > 0.0 else None,
+            "phase_crossover": self.phase_crossover, "stability_margin": self.stability_margin,
+        })
+
+    def summary(self) -> str:
+        """Two lines: the gains and the margins the discrete loop achieves."""
+        gm = self.gain_margin
+        gm_txt = (f"{gm:.4g} ({20.0 * math.log10(gm):.1f} dB) at {self.phase_crossover:.5g} rad/s"
+                  if math.isfinite(gm) else "inf (no phase crossover below Nyquist)")
+        return (f"PI for 1/(J s + sigma), J = {self.J:g} kg·m², sigma = {self.sigma:g} N·m·s/rad, "
+                f"Tc = {self.Tc:g} s: Kp = {self.Kp:.6g} N·m·s/rad, Ki = {self.Ki:.6g} N·m/rad\n"
+                f"crossover {self.crossover:.5g} rad/s, phase margin {self.phase_margin:.2f} deg, "
+                f"gain margin {gm_txt}, stability margin {self.stability_margin:.3f}")
+
+    def plot(self, ax=None):
+        """Magnitude (dB) of the open loop ``L``, of ``S = 1/(1+L)`` and ``T = L/(1+L)`` over frequency.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; default a new figure (:func:`plant.results.axes_or_new`).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            Frequency (rad/s, log axis) up to the Nyquist frequency ``pi/Tc``; the
+            gain crossover is marked. Responses by ``control.frequency_response``
+            on ``z = exp(j w Tc)``.
+        """
+        import control
+
+        ax = axes_or_new(ax)
+        w_nyq = math.pi / self.Tc
+        om = np.geomspace(min(self.crossover, self.Ki / max(self.Kp, 1e-300)) / 100.0, w_nyq * (1 - 1e-9), 1000)
+
+        def mag_db(sys):
+            return 20.0 * np.log10(np.abs(np.asarray(control.frequency_response(sys, om).complex).reshape(-1)))
+
+        ax.semilogx(om, mag_db(self.loop), color="C0", lw=1.5, label="|L| open loop")
+        ax.semilogx(om, mag_db(control.feedback(1, self.loop)), color="C2", lw=0.9, ls="--", label="|S|")
+        ax.semilogx(om, mag_db(control.feedback(self.loop, 1)), color="C3", lw=0.9, ls=":", label="|T|")
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.axvline(self.crossover, color="C1", lw=0.8,
+                   label=f"crossover {self.crossover:.4g} rad/s, PM {self.phase_margin:.1f}°")
+        ax.set_xlabel("frequency ω (rad/s)")
+        ax.set_ylabel("magnitude (dB)")
+        ax.legend(fontsize=8)
+        ax.grid(True, which="both", alpha=0.3)
+        return ax
+
+
+def _pi_tf(Kp: float, Ki: float, Tc: float):
     """``C(z) = Kp + Ki*Tc*z/(z-1) = ((Kp + Ki*Tc) z - Kp)/(z - 1)`` as a python-control TF."""
+    import control
+
     return control.tf([Kp + Ki * Tc, -Kp], [1.0, -1.0], Tc)
 
 
-def _upper_gain_margin(loop: control.TransferFunction, wgc: float, gm_all, wpc_all, Tc: float):
+def _upper_gain_margin(loop, wgc: float, gm_all, wpc_all, Tc: float):
     """Gain margin at the first phase crossover above ``wgc`` (factor, frequency in rad/s).
 
     ``control.stability_margins`` (0.10.2) reports, for a discrete loop with an
@@ -115,6 +181,81 @@ def _upper_gain_margin(loop: control.TransferFunction, wgc: float, gm_all, wpc_a
         return math.inf, math.nan
     w, g = min(cands)
     return g, w
+
+
+def _continuous_gains(J: float, sigma: float, wc: float, pm: float) -> tuple[float, float]:
+    """Step 1 of :func:`design_pi`: ``(Kp, Ki)`` of the continuous-time loop-shaping solution."""
+    pm_rad = math.radians(pm)
+    mag_inv = math.hypot(J * wc, sigma)
+    phi_p = math.atan2(J * wc, sigma)
+    phi_c = math.pi - pm_rad - phi_p
+    if not 0.0 < phi_c < math.pi / 2:
+        lo = math.degrees(math.pi / 2 - phi_p)
+        hi = math.degrees(math.pi - phi_p)
+        raise ParameterError(
+            f"phase_margin={pm!r} deg cannot be reached by a PI (Kp > 0, Ki > 0) at "
+            f"crossover={wc!r} rad/s: the plant lags {math.degrees(phi_p):.4g} deg there, so the "
+            f"phase margin must lie in ({lo:.4g}, {hi:.4g}) deg"
+        )
+    return mag_inv * math.cos(phi_c), wc * mag_inv * math.sin(phi_c)
+
+
+def _discrete_gains(plant, Kp0: float, Ki0: float, wc: float, pm: float, Tc: float) -> tuple[float, float]:
+    """Step 2 of :func:`design_pi`: solve ``L(exp(j wc Tc)) = -exp(j PM)`` for ``(Kp, Ki)``, from ``(Kp0, Ki0)``."""
+    from scipy import optimize
+
+    pm_rad = math.radians(pm)
+    zc = complex(math.cos(wc * Tc), math.sin(wc * Tc))
+    Pz = complex(plant(zc))
+    integ = Tc * zc / (zc - 1.0)
+    target = -complex(math.cos(pm_rad), math.sin(pm_rad))
+
+    def residual(x):
+        r = (x[0] * Kp0 + x[1] * Ki0 * integ) * Pz - target
+        return [r.real, r.imag]
+
+    sol = optimize.root(residual, [1.0, 1.0], method="hybr")
+    Kp, Ki = float(sol.x[0] * Kp0), float(sol.x[1] * Ki0)
+    if max(abs(v) for v in residual(sol.x)) > 1e-9:
+        raise ParameterError(
+            f"no discrete PI found for crossover={wc!r} rad/s, phase_margin={pm!r} deg, "
+            f"Tc={Tc!r} s ({sol.message})"
+        )
+    if Kp <= 0.0 or Ki <= 0.0:
+        raise ParameterError(
+            f"crossover={wc!r} rad/s with phase_margin={pm!r} deg needs Kp={Kp:.6g}, Ki={Ki:.6g} "
+            f"at Tc={Tc!r} s (sampling lag too large); lower crossover or phase_margin"
+        )
+    return Kp, Ki
+
+
+def _margins(loop, wc: float, pm: float, Tc: float) -> tuple[float, float, float, float, float]:
+    """Step 3 of :func:`design_pi`: ``(crossover, phase margin, gain margin, phase crossover, stability margin)``.
+
+    Raises ParameterError if the closed loop ``loop/(1 + loop)`` is unstable.
+    """
+    import control
+
+    poles = control.poles(control.feedback(loop, 1))
+    if np.any(np.abs(poles) >= 1.0):
+        raise ParameterError(
+            f"crossover={wc!r} rad/s, phase_margin={pm!r} deg give an unstable discrete closed loop "
+            f"(pole moduli {np.abs(poles).round(6).tolist()}) at Tc={Tc!r} s"
+        )
+    with warnings.catch_warnings():
+        # for poles close to z = 1 (crossover << 1/Tc) python-control switches from its
+        # polynomial to its frequency-grid method and says so; both are accurate here
+        warnings.filterwarnings("ignore", message="stability_margins: Falling back", category=UserWarning)
+        # its frequency-grid search probes points where the response is inf (z = 1) and scipy's
+        # finite differences warn about inf - inf; the margins it returns are unaffected
+        warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"scipy\.optimize\._numdiff")
+        gm_all, pm_all, sm_all, wpc_all, wgc_all, _ = control.stability_margins(loop, returnall=True)
+    i = int(np.argmin(np.abs(np.atleast_1d(wgc_all) - wc)))
+    wgc = float(np.atleast_1d(wgc_all)[i])
+    pm_ach = float(np.atleast_1d(pm_all)[i])
+    gm, wpc = _upper_gain_margin(loop, wgc, gm_all, wpc_all, Tc)
+    sm = float(np.min(sm_all)) if np.size(sm_all) else math.nan
+    return wgc, pm_ach, gm, wpc, sm
 
 
 def design_pi(
@@ -181,6 +322,8 @@ def design_pi(
        spurious crossover near ``w = 0`` for loops with an integrator (phase
        tends to -180 deg there) and misses ``z = -1``; both are corrected.
     """
+    import control
+
     J = check_positive("J", J)
     sigma = check_nonnegative("sigma", sigma)
     Tc = check_positive("Tc", Tc)
@@ -194,69 +337,13 @@ def design_pi(
     pm = check_finite_scalar("phase_margin", phase_margin)
     if not 0.0 < pm < 90.0:
         raise ParameterError(f"phase_margin must be in (0, 90) degrees, got {pm!r}")
-    pm_rad = math.radians(pm)
 
-    # 1. continuous-time analytic solution
-    mag_inv = math.hypot(J * wc, sigma)
-    phi_p = math.atan2(J * wc, sigma)
-    phi_c = math.pi - pm_rad - phi_p
-    if not 0.0 < phi_c < math.pi / 2:
-        lo = math.degrees(math.pi / 2 - phi_p)
-        hi = math.degrees(math.pi - phi_p)
-        raise ParameterError(
-            f"phase_margin={pm!r} deg cannot be reached by a PI (Kp > 0, Ki > 0) at "
-            f"crossover={wc!r} rad/s: the plant lags {math.degrees(phi_p):.4g} deg there, so the "
-            f"phase margin must lie in ({lo:.4g}, {hi:.4g}) deg"
-        )
-    Kp0 = mag_inv * math.cos(phi_c)
-    Ki0 = wc * mag_inv * math.sin(phi_c)
-
-    # 2. discrete refinement
+    Kp0, Ki0 = _continuous_gains(J, sigma, wc, pm)  # 1. continuous-time analytic solution
     plant = control.sample_system(control.tf([1.0], [J, sigma]), Tc, method="zoh")
-    zc = complex(math.cos(wc * Tc), math.sin(wc * Tc))
-    Pz = complex(plant(zc))
-    integ = Tc * zc / (zc - 1.0)
-    target = -complex(math.cos(pm_rad), math.sin(pm_rad))
-
-    def residual(x):
-        r = (x[0] * Kp0 + x[1] * Ki0 * integ) * Pz - target
-        return [r.real, r.imag]
-
-    sol = optimize.root(residual, [1.0, 1.0], method="hybr")
-    Kp, Ki = float(sol.x[0] * Kp0), float(sol.x[1] * Ki0)
-    if max(abs(v) for v in residual(sol.x)) > 1e-9:
-        raise ParameterError(
-            f"no discrete PI found for crossover={wc!r} rad/s, phase_margin={pm!r} deg, "
-            f"Tc={Tc!r} s ({sol.message})"
-        )
-    if Kp <= 0.0 or Ki <= 0.0:
-        raise ParameterError(
-            f"crossover={wc!r} rad/s with phase_margin={pm!r} deg needs Kp={Kp:.6g}, Ki={Ki:.6g} "
-            f"at Tc={Tc!r} s (sampling lag too large); lower crossover or phase_margin"
-        )
-
-    # 3. loop, stability, margins
+    Kp, Ki = _discrete_gains(plant, Kp0, Ki0, wc, pm, Tc)  # 2. discrete refinement
     C = _pi_tf(Kp, Ki, Tc)
     loop = control.series(C, plant)
-    poles = control.poles(control.feedback(loop, 1))
-    if np.any(np.abs(poles) >= 1.0):
-        raise ParameterError(
-            f"crossover={wc!r} rad/s, phase_margin={pm!r} deg give an unstable discrete closed loop "
-            f"(pole moduli {np.abs(poles).round(6).tolist()}) at Tc={Tc!r} s"
-        )
-    with warnings.catch_warnings():
-        # for poles close to z = 1 (crossover << 1/Tc) python-control switches from its
-        # polynomial to its frequency-grid method and says so; both are accurate here
-        warnings.filterwarnings("ignore", message="stability_margins: Falling back", category=UserWarning)
-        # its frequency-grid search probes points where the response is inf (z = 1) and scipy's
-        # finite differences warn about inf - inf; the margins it returns are unaffected
-        warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"scipy\.optimize\._numdiff")
-        gm_all, pm_all, sm_all, wpc_all, wgc_all, _ = control.stability_margins(loop, returnall=True)
-    i = int(np.argmin(np.abs(np.atleast_1d(wgc_all) - wc)))
-    wgc = float(np.atleast_1d(wgc_all)[i])
-    pm_ach = float(np.atleast_1d(pm_all)[i])
-    gm, wpc = _upper_gain_margin(loop, wgc, gm_all, wpc_all, Tc)
-    sm = float(np.min(sm_all)) if np.size(sm_all) else math.nan
+    wgc, pm_ach, gm, wpc, sm = _margins(loop, wc, pm, Tc)  # 3. stability, margins
     return PIDesign(Kp=Kp, Ki=Ki, Tc=Tc, crossover=wgc, phase_margin=pm_ach, gain_margin=gm,
                     phase_crossover=wpc, stability_margin=sm, J=J, sigma=sigma, C=C,
                     plant=plant, loop=loop)
@@ -279,6 +366,36 @@ class ClosedLoopStep:
     t: np.ndarray
     w: np.ndarray
     u: np.ndarray
+
+    def to_dict(self) -> dict:
+        """The three arrays as lists (s, rad/s, N·m per rad/s), strict JSON."""
+        return json_safe({"t": self.t, "w": self.w, "u": self.u})
+
+    def summary(self) -> str:
+        """One line: duration, final velocity and torque, largest torque."""
+        return (f"unit step over {self.t[-1]:.4g} s: w(end) = {self.w[-1]:.6g} rad/s, "
+                f"u(end) = {self.u[-1]:.6g} N·m, max |u| = {float(np.max(np.abs(self.u))):.6g} N·m")
+
+    def plot(self, ax=None):
+        """Velocity (rad/s) over time (s) as held samples, with the 1 rad/s reference.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; default a new figure.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+        """
+        ax = axes_or_new(ax)
+        ax.step(self.t, self.w, where="post", color="C0", lw=1.2, label="velocity w")
+        ax.axhline(1.0, color="k", lw=0.6, ls="--", label="reference (1 rad/s)")
+        ax.set_xlabel("time t (s)")
+        ax.set_ylabel("velocity w (rad/s)")
+        ax.legend(fontsize=8)
+        ax.grid(True, alpha=0.3)
+        return ax
 
 
 def closed_loop_step(design: PIDesign, *, t_end: float = 0.5) -> ClosedLoopStep:
@@ -307,6 +424,8 @@ def closed_loop_step(design: PIDesign, *, t_end: float = 0.5) -> ClosedLoopStep:
     ``control.step_response`` of ``control.feedback(loop, 1)`` and
     ``control.feedback(C, plant)``.
     """
+    import control
+
     t_end = check_positive("t_end", t_end)
     Tc = design.Tc
     n = int(round(t_end / Tc))
@@ -319,8 +438,69 @@ def closed_loop_step(design: PIDesign, *, t_end: float = 0.5) -> ClosedLoopStep:
                           u=np.asarray(u, dtype=float).reshape(-1))
 
 
+@kernel(inline="always")
+def pi_step(par, st, e, u_ff):
+    """One period of the discrete PI with saturation and clamping anti-windup; updates ``st`` in place.
+
+    Parameters
+    ----------
+    par : ndarray of float64, shape (3,)
+        ``(Kp, Ki*Tc, u_max)``: proportional gain (N·m·s/rad), integral gain
+        times the period (N·m/rad·s = N·m per rad/s of error per step), torque
+        limit (N·m, ``inf`` = none), as in :attr:`PIController.params`.
+    st : ndarray of float64, shape (2,)
+        ``(I, saturated)``: integrator state (N·m) and 1.0 if the last command
+        was clipped, else 0.0 (:attr:`PIController.state`); written.
+    e : float
+        Velocity error ``r - w`` (rad/s) at this sample.
+    u_ff : float
+        Feedforward torque (N·m), added before the saturation.
+
+    Returns
+    -------
+    float
+        Command torque ``sat(Kp*e + I' + u_ff, ±u_max)`` (N·m).
+
+    Notes
+    -----
+    Compiled (:func:`plant.jit.kernel`, inlined into the closed-loop kernels);
+    inputs are not validated. With ``d = Ki*Tc*e`` the backward-Euler
+    integrator ``I' = I + d`` (``C(z) = Kp + Ki*Tc*z/(z-1)``) is clamped: if
+    ``I'`` would drive ``v = Kp*e + I' + u_ff`` past the limit in the direction
+    of ``d``, it is cut to where ``v`` touches the limit, but never moved
+    against ``d`` (then ``I' = I``). Anti-windup by conditional integration:
+    Åström & Hägglund, *Advanced PID Control*, ISA 2006, Sec. 3.5. See
+    :class:`PIController` for its properties.
+    """
+    Kpe = par[0] * e
+    d = par[1] * e
+    I = st[0]  # noqa: E741
+    In = I + d
+    umax = par[2]
+    if d > 0.0:
+        lim = umax - Kpe - u_ff
+        if In > lim:
+            In = lim if lim > I else I
+    elif d < 0.0:
+        lim = -umax - Kpe - u_ff
+        if In < lim:
+            In = lim if lim < I else I
+    st[0] = In
+    v = Kpe + In + u_ff
+    if v >= umax:
+        st[1] = 1.0
+        return umax
+    if v <= -umax:
+        st[1] = 1.0
+        return -umax
+    st[1] = 0.0
+    return v
+
+
 class PIController:
     """Discrete PI controller with saturation, feedforward and anti-windup (integrator clamping).
+
+    A thin class over two float64 buffers and the compiled step :func:`pi_step`.
 
     Parameters
     ----------
@@ -337,10 +517,15 @@ class PIController:
 
     Attributes
     ----------
+    params : ndarray of float64, shape (3,), read-only
+        ``(Kp, Ki*Tc, u_max)``, the parameter buffer of :func:`pi_step`.
+    state : ndarray of float64, shape (2,)
+        ``(integral, saturated)``, the state buffer of :func:`pi_step`
+        (``saturated`` as 1.0/0.0); :meth:`step` updates it in place.
     integral : float
-        Integrator state ``I`` (N·m), public (read it, or set it to preload).
+        Integrator state ``I`` (N·m), ``state[0]`` (read it, or set it to preload).
     saturated : bool
-        Whether the last command was clipped to ``±u_max``.
+        Whether the last command was clipped to ``±u_max`` (``state[1]``).
 
     Raises
     ------
@@ -371,11 +556,11 @@ class PIController:
     designed by :func:`design_pi`.
     """
 
-    __slots__ = ("_Kp", "_Ki", "_Tc", "_KiTc", "_u_max", "integral", "saturated")
+    __slots__ = ("params", "state", "_Ki", "_Tc")
 
     def __init__(self, *, Kp: float, Ki: float, Tc: float, u_max: float = math.inf,
                  integral0: float = 0.0):
-        self._Kp = check_nonnegative("Kp", Kp)
+        Kp = check_nonnegative("Kp", Kp)
         self._Ki = check_nonnegative("Ki", Ki)
         self._Tc = check_positive("Tc", Tc)
         if isinstance(u_max, bool) or not isinstance(u_max, (int, float, np.integer, np.floating)):
@@ -383,10 +568,9 @@ class PIController:
         u_max = float(u_max)
         if not u_max > 0.0:  # also rejects NaN
             raise ParameterError(f"u_max must be > 0 (math.inf for no limit), got {u_max!r}")
-        self._u_max = u_max
-        self._KiTc = self._Ki * self._Tc
-        self.integral = check_finite_scalar("integral0", integral0)
-        self.saturated = False
+        self.params = np.array([Kp, self._Ki * self._Tc, u_max], dtype=np.float64)
+        self.params.flags.writeable = False
+        self.state = np.array([check_finite_scalar("integral0", integral0), 0.0], dtype=np.float64)
 
     @classmethod
     def from_design(cls, design: PIDesign, *, u_max: float = math.inf) -> "PIController":
@@ -402,7 +586,7 @@ class PIController:
     @property
     def Kp(self) -> float:
         """Proportional gain (N·m·s/rad)."""
-        return self._Kp
+        return float(self.params[0])
 
     @property
     def Ki(self) -> float:
@@ -417,12 +601,44 @@ class PIController:
     @property
     def u_max(self) -> float:
         """Torque limit (N·m), ``inf`` = none."""
-        return self._u_max
+        return float(self.params[2])
+
+    @property
+    def integral(self) -> float:
+        """Integrator state ``I`` (N·m); settable (finite) to preload it."""
+        return float(self.state[0])
+
+    @integral.setter
+    def integral(self, value: float) -> None:
+        self.state[0] = check_finite_scalar("integral", value)
+
+    @property
+    def saturated(self) -> bool:
+        """Whether the last command was clipped to ``±u_max``."""
+        return bool(self.state[1])
+
+    @saturated.setter
+    def saturated(self, value: bool) -> None:
+        self.state[1] = 1.0 if value else 0.0
+
+    # transitional read-only aliases for controllers.simulation.closed_loop, which still reads them;
+    # to be removed when the engine passes .params / .state to pi_step
+    @property
+    def _Kp(self) -> float:
+        return float(self.params[0])
+
+    @property
+    def _KiTc(self) -> float:
+        return float(self.params[1])
+
+    @property
+    def _u_max(self) -> float:
+        return float(self.params[2])
 
     def reset(self, integral: float = 0.0) -> None:
         """Set the integrator to ``integral`` (N·m, default 0) and clear ``saturated``."""
-        self.integral = check_finite_scalar("integral", integral)
-        self.saturated = False
+        self.state[0] = check_finite_scalar("integral", integral)
+        self.state[1] = 0.0
 
     def step(self, e: float, u_ff: float = 0.0) -> float:
         """Advance one period and return the saturated command ``sat(Kp*e + I + u_ff)`` (N·m).
@@ -441,29 +657,7 @@ class PIController:
 
         Notes
         -----
-        Plain-float arithmetic for speed; inputs are not validated here. See the
-        class Notes for the clamping rule.
+        :func:`pi_step` on :attr:`params` and :attr:`state`; inputs are not
+        validated here. See the class Notes for the clamping rule.
         """
-        Kpe = self._Kp * e
-        d = self._KiTc * e
-        I = self.integral
-        In = I + d
-        umax = self._u_max
-        if d > 0.0:
-            lim = umax - Kpe - u_ff
-            if In > lim:
-                In = lim if lim > I else I
-        elif d < 0.0:
-            lim = -umax - Kpe - u_ff
-            if In < lim:
-                In = lim if lim < I else I
-        self.integral = In
-        v = Kpe + In + u_ff
-        if v >= umax:
-            self.saturated = True
-            return umax
-        if v <= -umax:
-            self.saturated = True
-            return -umax
-        self.saturated = False
-        return v
+        return pi_step(self.params, self.state, e, u_ff)
