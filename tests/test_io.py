@@ -7,8 +7,8 @@ import pytest
 from scipy.io import savemat
 
 from adaptive_ff.io.data import MeasuredData
-from adaptive_ff.io.logs import (estimate_position_noise, load_log, parse_column_map, read_columns,
-                            velocity_from_position)
+from adaptive_ff.io.logs import (KalmanSettings, LogUnits, estimate_position_noise, load_log, parse_column_map,
+                                 read_columns, velocity_from_position)
 from plant import irregular_sample_times, preset, simulate
 from plant.errors import ParameterError, SignalError
 from plant.excitation import bandlimited_noise
@@ -48,8 +48,8 @@ def test_csv_with_column_map_and_units(tmp_path):
     t, i, w_deg = _log()
     path = _write_csv(tmp_path / "drive.csv", ["Time_ms", "current", "vel", "other"],
                       [(1e3 * a, b, c, "x") for a, b, c in zip(t, i, w_deg)])
-    d = load_log(path, columns="t=time_ms,u=current,w=vel", time_unit="ms", current_to_torque=2.5,
-                 velocity_unit="deg/s")
+    d = load_log(path, columns="t=time_ms,u=current,w=vel",
+                 units=LogUnits(time_unit="ms", current_to_torque=2.5, velocity_unit="deg/s"))
     assert isinstance(d, MeasuredData)
     np.testing.assert_allclose(d.t, t, rtol=0, atol=1e-12)
     np.testing.assert_allclose(d.u, 2.5 * i, rtol=1e-12, atol=1e-15)  # u = K*i (paper Sec. V-B)
@@ -80,7 +80,7 @@ def test_mat_generic_and_struct(tmp_path):
     t, i, w_deg = _log()
     path = tmp_path / "log.mat"
     savemat(path, {"time": t.reshape(-1, 1), "cur": i, "rpm": w_deg, "log": {"t": t, "u": i, "w": w_deg}})
-    d = load_log(path, columns="t=time,u=cur,w=rpm", velocity_unit="rpm")
+    d = load_log(path, columns="t=time,u=cur,w=rpm", units=LogUnits(velocity_unit="rpm"))
     np.testing.assert_allclose(d.w, w_deg * 2 * np.pi / 60, rtol=1e-12)
     d2 = load_log(path, columns="t=log.t,u=log.u,w=log.w")
     np.testing.assert_allclose(d2.u, i, rtol=1e-12)
@@ -185,11 +185,11 @@ def test_option_errors(tmp_path):
     with pytest.raises(ParameterError, match="either w .* or q"):
         load_log(path, columns={"w": "w", "q": "q"})
     with pytest.raises(ParameterError, match="counts_per_rev"):
-        load_log(path, columns="q=q", position_unit="counts")
+        load_log(path, columns="q=q", units=LogUnits(position_unit="counts"))
     with pytest.raises(ParameterError, match="velocity_unit must be one of"):
-        load_log(path, velocity_unit="m/min")
+        load_log(path, units=LogUnits(velocity_unit="m/min"))
     with pytest.raises(ParameterError, match="current_to_torque must be > 0, got -1.0"):
-        load_log(path, current_to_torque=-1)
+        load_log(path, units=LogUnits(current_to_torque=-1))
     assert read_columns(path, {"w": "w", "F": "f_missing"}, optional=("F",)).columns.keys() == {"w"}
 
 
@@ -216,8 +216,8 @@ def test_kalman_velocity_from_counts_matches_true_velocity(tmp_path, model):
     counts = np.floor(q / (2 * np.pi / cpr))
     path = tmp_path / "enc.csv"
     np.savetxt(path, np.column_stack([r.t, r.u, counts]), delimiter=",", header="time,torque,enc", comments="")
-    d = load_log(path, columns="t=time,u=torque,q=enc", position_unit="counts", counts_per_rev=cpr,
-                 kalman_model=model)
+    d = load_log(path, columns="t=time,u=torque,q=enc", units=LogUnits(position_unit="counts", counts_per_rev=cpr),
+                 kalman=KalmanSettings(model=model))
     e = d.w - r.w
     rms = math.sqrt(np.mean(e**2))
     assert rms < 1e-3, rms

@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from plant.errors import ParameterError, SignalError, check_positive, check_signal, check_time
+from plant.results import axes_or_new, json_safe
 
 __all__ = [
     "MeasuredData",
@@ -115,6 +116,52 @@ class MeasuredData:
     def Ts(self) -> float:
         """Median sample interval (s)."""
         return float(np.median(np.diff(self.t)))
+
+    def to_dict(self, *, arrays: bool = False) -> dict:
+        """Record description as strict JSON; with ``arrays=True`` also ``t`` (s), ``u`` (N·m), ``w`` (rad/s).
+
+        Keys: ``source``, ``notes``, ``n_samples``, ``duration`` (s), ``Ts``
+        (median interval, s), ``Ts_min``, ``Ts_max`` (s), ``uniform``
+        (:func:`is_uniform` at 1 %).
+        """
+        d = np.diff(self.t)
+        out = {"source": self.source, "notes": list(self.notes), "n_samples": self.n_samples,
+               "duration": float(self.t[-1] - self.t[0]), "Ts": self.Ts, "Ts_min": float(d.min()),
+               "Ts_max": float(d.max()), "uniform": is_uniform(self.t)}
+        if arrays:
+            out.update(t=self.t, u=self.u, w=self.w)
+        return json_safe(out)
+
+    def summary(self) -> str:
+        """One line: source, samples, duration and sample time."""
+        d = np.diff(self.t)
+        return (f"{self.source or 'data'}: {self.n_samples} samples over {float(self.t[-1] - self.t[0]):.4g} s, "
+                f"sample time median {1e3 * self.Ts:.4g} ms (min {1e3 * float(d.min()):.4g}, "
+                f"max {1e3 * float(d.max()):.4g})")
+
+    def plot(self, ax=None):
+        """Velocity (rad/s, left axis) and input torque (N·m, right axis) over time (s).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes for the velocity; default a new figure. The torque goes on ``ax.twinx()``.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The velocity axes.
+        """
+        ax = axes_or_new(ax)
+        ax.plot(self.t, self.w, color="C0", lw=0.8, label="velocity w")
+        ax.set_xlabel("time t (s)")
+        ax.set_ylabel("velocity w (rad/s)", color="C0")
+        ax2 = ax.twinx()
+        ax2.plot(self.t, self.u, color="C1", lw=0.6, alpha=0.8, label="input u")
+        ax2.set_ylabel("input u (N·m)", color="C1")
+        ax.grid(True, alpha=0.3)
+        ax.set_title(self.source, fontsize=9, loc="left")
+        return ax
 
 
 def is_uniform(t, *, rtol: float = 0.01) -> bool:

@@ -85,7 +85,9 @@ from pathlib import Path
 import numpy as np
 
 from adaptive_ff.io.data import MIN_SAMPLES, MeasuredData
+from adaptive_ff.io.units import KALMAN_MODELS, POSITION_UNITS, ROLES, TIME_UNITS, VELOCITY_UNITS
 from plant.errors import ParameterError, SignalError, check_positive, check_signal, check_time
+from plant.results import axes_or_new, json_safe
 
 __all__ = [
     "ROLES",
@@ -94,6 +96,8 @@ __all__ = [
     "POSITION_UNITS",
     "KALMAN_MODELS",
     "Table",
+    "LogUnits",
+    "KalmanSettings",
     "VelocityEstimate",
     "parse_column_map",
     "read_columns",
@@ -101,23 +105,6 @@ __all__ = [
     "estimate_position_noise",
     "load_log",
 ]
-
-#: Roles of the signals of a drive log and their meaning.
-ROLES = {
-    "t": "time stamps",
-    "u": "input torque (motor current with current_to_torque)",
-    "w": "velocity",
-    "q": "position",
-}
-
-#: Time units and their factor to s.
-TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
-#: Velocity units and their factor to rad/s ("rad/s" is also the unit for m/s: no conversion).
-VELOCITY_UNITS = {"rad/s": 1.0, "deg/s": math.pi / 180.0, "rpm": 2.0 * math.pi / 60.0}
-#: Position units and their factor to rad ("counts" needs counts_per_rev).
-POSITION_UNITS = ("rad", "deg", "counts")
-#: Kalman models for velocity from position: constant velocity, constant acceleration.
-KALMAN_MODELS = {"cv": 2, "ca": 3}
 
 _SUFFIXES = (".csv", ".txt", ".mat", ".npz")
 
@@ -461,6 +448,48 @@ class VelocityEstimate:
     process_noise: float
     smoothed: bool
 
+    def to_dict(self, *, arrays: bool = False) -> dict:
+        """Settings and velocity statistics as strict JSON; with ``arrays=True`` also ``t``, ``w``, ``w_std``, ``q``.
+
+        Keys: ``model``, ``bandwidth`` (Hz), ``position_noise`` (rad),
+        ``process_noise``, ``smoothed``, ``n_samples``, ``w_std_median`` (rad/s).
+        """
+        d = {"model": self.model, "bandwidth": self.bandwidth, "position_noise": self.position_noise,
+             "process_noise": self.process_noise, "smoothed": self.smoothed, "n_samples": int(self.t.shape[0]),
+             "w_std_median": float(np.median(self.w_std))}
+        if arrays:
+            d.update(t=self.t, w=self.w, w_std=self.w_std, q=self.q)
+        return json_safe(d)
+
+    def summary(self) -> str:
+        """One line: estimator, bandwidth, noise and the typical velocity uncertainty."""
+        kind = "filter + RTS smoother" if self.smoothed else "causal filter"
+        return (f"Kalman {kind} ({self.model}), {self.t.shape[0]} samples, bandwidth {self.bandwidth:.4g} Hz, "
+                f"position noise {self.position_noise:.3g} rad; velocity std median "
+                f"{float(np.median(self.w_std)):.3g} rad/s")
+
+    def plot(self, ax=None):
+        """Velocity estimate (rad/s) over time (s) with its ±2 std band.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; default a new figure.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+        """
+        ax = axes_or_new(ax)
+        ax.fill_between(self.t, self.w - 2 * self.w_std, self.w + 2 * self.w_std, color="C0", alpha=0.25, lw=0,
+                        label="±2 std")
+        ax.plot(self.t, self.w, color="C0", lw=0.9, label=f"Kalman velocity ({self.model}, {self.bandwidth:.3g} Hz)")
+        ax.set_xlabel("time t (s)")
+        ax.set_ylabel("velocity w (rad/s)")
+        ax.legend(fontsize=8)
+        ax.grid(True, alpha=0.3)
+        return ax
+
 
 def estimate_position_noise(q) -> float:
     """Measurement-noise standard deviation (rad) of a position record, for the Kalman filter's ``r``.
@@ -510,6 +539,44 @@ def _ca_matrices(h: float, S: float):
                       [h**4 / 8, h**3 / 3, h**2 / 2],
                       [h**3 / 6, h**2 / 2, h]])
     return F, Q
+
+
+def _kalman_pass(t: np.ndarray, q: np.ndarray, n: int, r: float, S: float, sd: float, smooth: bool, progress):
+    """Kalman filter (and RTS smoother) over ``q``; state means ``(N, n, 1)`` and covariances ``(N, n, n)``."""
+    from filterpy.kalman import KalmanFilter
+    from tqdm.auto import tqdm
+
+    T = float(np.median(np.diff(t)))
+    mats = _cv_matrices if n == 2 else _ca_matrices
+    kf = KalmanFilter(dim_x=n, dim_z=1)
+    kf.H = np.zeros((1, n))
+    kf.H[0, 0] = 1.0
+    kf.R = np.array([[r]])
+    v0 = (q[1] - q[0]) / (t[1] - t[0])
+    kf.x = np.zeros((n, 1))
+    kf.x[0, 0], kf.x[1, 0] = q[0], v0
+    vscale = max(float(np.max(np.abs(np.diff(q) / np.diff(t)))), sd / T)
+    kf.P = np.diag([r, vscale**2, (vscale / T) ** 2][:n])
+    N = t.shape[0]
+    xs = np.empty((N, n, 1))
+    Ps = np.empty((N, n, n))
+    Fs = [np.eye(n)] * N
+    Qs = [np.zeros((n, n))] * N
+    kf.update(q[0])
+    xs[0], Ps[0] = kf.x, kf.P
+    h_all = np.diff(t).tolist()
+    q_list = q.tolist()
+    for k in tqdm(range(1, N), desc="Kalman velocity", disable=(None if progress is None else not progress),
+                  leave=False, mininterval=0.5):
+        F, Q = mats(h_all[k - 1], S)
+        kf.predict(F=F, Q=Q)
+        kf.update(q_list[k])
+        xs[k], Ps[k] = kf.x, kf.P
+        Fs[k], Qs[k] = F, Q
+    if smooth:
+        # rts_smoother uses Fs[k+1], Qs[k+1] to go from k to k+1: the list is aligned that way
+        xs, Ps, _, _ = kf.rts_smoother(xs, Ps, Fs=Fs, Qs=Qs)
+    return xs, Ps
 
 
 def velocity_from_position(t, q, *, model: str = "cv", bandwidth: float | None = None,
@@ -565,9 +632,6 @@ def velocity_from_position(t, q, *, model: str = "cv", bandwidth: float | None =
     acceleration, with a covariance wide enough to be forgotten within a few
     samples.
     """
-    from filterpy.kalman import KalmanFilter
-    from tqdm.auto import tqdm
-
     if model not in KALMAN_MODELS:
         raise ParameterError(f"model must be one of {list(KALMAN_MODELS)}, got {model!r}")
     t = check_time("t", t, min_len=4)
@@ -581,36 +645,7 @@ def velocity_from_position(t, q, *, model: str = "cv", bandwidth: float | None =
     n = KALMAN_MODELS[model]
     r = sd * sd
     S = (2.0 * math.pi * fb) ** (2 * n) * r * T
-    mats = _cv_matrices if n == 2 else _ca_matrices
-
-    kf = KalmanFilter(dim_x=n, dim_z=1)
-    kf.H = np.zeros((1, n))
-    kf.H[0, 0] = 1.0
-    kf.R = np.array([[r]])
-    v0 = (q[1] - q[0]) / (t[1] - t[0])
-    kf.x = np.zeros((n, 1))
-    kf.x[0, 0], kf.x[1, 0] = q[0], v0
-    vscale = max(float(np.max(np.abs(np.diff(q) / np.diff(t)))), sd / T)
-    kf.P = np.diag([r, vscale**2, (vscale / T) ** 2][:n])
-    N = t.shape[0]
-    xs = np.empty((N, n, 1))
-    Ps = np.empty((N, n, n))
-    Fs = [np.eye(n)] * N
-    Qs = [np.zeros((n, n))] * N
-    kf.update(q[0])
-    xs[0], Ps[0] = kf.x, kf.P
-    h_all = np.diff(t).tolist()
-    q_list = q.tolist()
-    for k in tqdm(range(1, N), desc="Kalman velocity", disable=(None if progress is None else not progress),
-                  leave=False, mininterval=0.5):
-        F, Q = mats(h_all[k - 1], S)
-        kf.predict(F=F, Q=Q)
-        kf.update(q_list[k])
-        xs[k], Ps[k] = kf.x, kf.P
-        Fs[k], Qs[k] = F, Q
-    if smooth:
-        # rts_smoother uses Fs[k+1], Qs[k+1] to go from k to k+1: the list is aligned that way
-        xs, Ps, _, _ = kf.rts_smoother(xs, Ps, Fs=Fs, Qs=Qs)
+    xs, Ps = _kalman_pass(t, q, n, r, S, sd, smooth, progress)
     return VelocityEstimate(t=t.copy(), w=xs[:, 1, 0].copy(), w_std=np.sqrt(np.maximum(Ps[:, 1, 1], 0.0)),
                             q=xs[:, 0, 0].copy(), model=model, bandwidth=float(fb), position_noise=float(sd),
                             process_noise=float(S), smoothed=bool(smooth))
@@ -625,10 +660,158 @@ def _check_choice(name: str, value, choices) -> str:
     return value
 
 
-def load_log(path, *, columns: Mapping | str | None = None, current_to_torque: float | None = None,
-             time_unit: str = "s", velocity_unit: str = "rad/s", position_unit: str = "rad",
-             counts_per_rev: float | None = None, kalman_model: str = "cv", kalman_bandwidth: float | None = None,
-             position_noise: float | None = None, smooth: bool = True, min_samples: int = MIN_SAMPLES,
+def _optional_positive(name: str, value) -> float | None:
+    return None if value is None else check_positive(name, value)
+
+
+@dataclass(frozen=True, kw_only=True)
+class LogUnits:
+    """Units of a drive log's columns, for :func:`load_log` (keyword-only, validated).
+
+    Parameters
+    ----------
+    current_to_torque : float, optional
+        ``K`` (N·m/A), > 0: the ``u`` column holds motor current ``i`` (A) and
+        the torque is ``u = K*i`` (paper Sec. V-B). Default None: ``u`` is torque.
+    time_unit : {"s", "ms", "us"}
+        Unit of the time column (:data:`TIME_UNITS`).
+    velocity_unit : {"rad/s", "deg/s", "rpm"}
+        Unit of the velocity column (:data:`VELOCITY_UNITS`; ``rad/s``: not
+        converted, use it for m/s).
+    position_unit : {"rad", "deg", "counts"}
+        Unit of the position column (:data:`POSITION_UNITS`).
+    counts_per_rev : float, optional
+        Encoder counts per joint revolution (> 0), required for ``counts``
+        (for a motor-side encoder: counts per motor revolution times the gear ratio).
+
+    Raises
+    ------
+    ParameterError
+        Unknown unit, ``counts`` without ``counts_per_rev``, or a factor not > 0
+        (the message names the field and the value).
+    TypeError
+        A factor is not a real number.
+    """
+
+    current_to_torque: float | None = None
+    time_unit: str = "s"
+    velocity_unit: str = "rad/s"
+    position_unit: str = "rad"
+    counts_per_rev: float | None = None
+
+    def __post_init__(self):
+        _check_choice("time_unit", self.time_unit, TIME_UNITS)
+        _check_choice("velocity_unit", self.velocity_unit, VELOCITY_UNITS)
+        _check_choice("position_unit", self.position_unit, POSITION_UNITS)
+        object.__setattr__(self, "current_to_torque", _optional_positive("current_to_torque", self.current_to_torque))
+        object.__setattr__(self, "counts_per_rev", _optional_positive("counts_per_rev", self.counts_per_rev))
+        if self.position_unit == "counts" and self.counts_per_rev is None:
+            raise ParameterError("position_unit='counts' needs counts_per_rev (encoder counts per joint revolution)")
+
+
+@dataclass(frozen=True, kw_only=True)
+class KalmanSettings:
+    """Settings of the Kalman velocity estimate from position (:func:`velocity_from_position`), keyword-only.
+
+    Parameters
+    ----------
+    model : {"cv", "ca"}
+        Constant-velocity or constant-acceleration model (:data:`KALMAN_MODELS`).
+    bandwidth : float, optional
+        Estimator bandwidth (Hz), > 0; default a tenth of the sample rate.
+    position_noise : float, optional
+        Position noise standard deviation (rad), > 0; default the encoder
+        quantisation noise for counts, else estimated from the data.
+    smooth : bool
+        Filter + Rauch-Tung-Striebel smoother (default) or the causal filter only.
+
+    Raises
+    ------
+    ParameterError
+        Unknown model, or ``bandwidth``/``position_noise`` not > 0 (the message
+        names the field as the ``kalman_``-prefixed option of the command line).
+    TypeError
+        A value is not a real number.
+    """
+
+    model: str = "cv"
+    bandwidth: float | None = None
+    position_noise: float | None = None
+    smooth: bool = True
+
+    def __post_init__(self):
+        _check_choice("kalman_model", self.model, KALMAN_MODELS)
+        object.__setattr__(self, "bandwidth", _optional_positive("kalman_bandwidth", self.bandwidth))
+        object.__setattr__(self, "position_noise", _optional_positive("position_noise", self.position_noise))
+        object.__setattr__(self, "smooth", bool(self.smooth))
+
+
+def _column_names(columns) -> dict:
+    """``{role: file name}`` of the roles to read, from a column map (mapping, text or None)."""
+    if columns is None:
+        cmap: dict = {}
+    elif isinstance(columns, str):
+        cmap = parse_column_map(columns)
+    else:
+        cmap = {str(k): str(v) for k, v in dict(columns).items()}
+        unknown = [k for k in cmap if k not in ROLES]
+        if unknown:
+            raise ParameterError(f"unknown role(s) {unknown} in the column map; roles are {list(ROLES)}")
+    if "w" in cmap and "q" in cmap:
+        raise ParameterError(f"map either w (velocity, {cmap['w']!r}) or q (position, {cmap['q']!r}), not both")
+    names = {"t": cmap.get("t", "t"), "u": cmap.get("u", "u")}
+    if "q" in cmap:
+        names["q"] = cmap["q"]
+    else:
+        names["w"] = cmap.get("w", "w")
+    return names
+
+
+def _check_time_and_input(table: Table, t: np.ndarray, u: np.ndarray, min_samples: int) -> None:
+    """SignalError naming file, column and row for too few rows, time not increasing, or constant input."""
+    where = table.source
+    n = t.shape[0]
+    if n < min_samples:
+        raise SignalError(f"{where}: {n} samples, at least {min_samples} needed")
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if bad.size:
+        i = int(bad[0]) + 1
+        now, before = float(table.columns["t"][i]), float(table.columns["t"][i - 1])
+        raise SignalError(f"{where}: {table.column('t')} must be strictly increasing; {table.row(i)} has "
+                          f"{now!r} <= {before!r} at {table.row(i - 1)}")
+    if np.all(u == u[0]):
+        raise SignalError(f"{where}: {table.column('u')} is constant ({float(u[0])!r} in all {n} rows, "
+                          f"{table.row(0)} to {table.row(n - 1)}); the input does not excite the plant")
+
+
+def _velocity(table: Table, t: np.ndarray, units: LogUnits, kalman: KalmanSettings, progress, notes: list):
+    """Velocity (rad/s) from the ``w`` column, or from ``q`` by the Kalman estimate; appends to ``notes``."""
+    if "w" in table.columns:
+        w_scale = VELOCITY_UNITS[units.velocity_unit]
+        if w_scale != 1.0:
+            notes.append(f"velocity converted from {units.velocity_unit} to rad/s")
+        return table.columns["w"] * w_scale
+    q = table.columns["q"]
+    sd = kalman.position_noise
+    if units.position_unit == "counts":
+        cpr = units.counts_per_rev
+        step = 2.0 * math.pi / cpr
+        q = q * step
+        sd = sd if sd is not None else step / math.sqrt(12.0)
+        notes.append(f"position from counts: {cpr:g} counts/rev, step {step:.6g} rad")
+    elif units.position_unit == "deg":
+        q = q * (math.pi / 180.0)
+        notes.append("position converted from deg to rad")
+    est = velocity_from_position(t, q, model=kalman.model, bandwidth=kalman.bandwidth, position_noise=sd,
+                                 smooth=kalman.smooth, progress=progress)
+    notes.append(f"w from position by a Kalman {'filter + RTS smoother' if kalman.smooth else 'filter'} "
+                 f"({'constant-velocity' if kalman.model == 'cv' else 'constant-acceleration'} model, "
+                 f"bandwidth {est.bandwidth:.4g} Hz, position noise {est.position_noise:.3g} rad)")
+    return est.w
+
+
+def load_log(path, *, columns: Mapping | str | None = None, units: LogUnits | None = None,
+             kalman: KalmanSettings | None = None, min_samples: int = MIN_SAMPLES,
              progress: bool | None = False) -> MeasuredData:
     """Read a drive log (CSV, .mat, .npz) into a :class:`MeasuredData` record in SI units.
 
@@ -641,24 +824,16 @@ def load_log(path, *, columns: Mapping | str | None = None, current_to_torque: f
         (:func:`parse_column_map`). Roles ``t`` and ``u`` default to their own
         names; ``w`` defaults to ``"w"`` unless ``q`` (position) is mapped.
         Mapping both ``w`` and ``q`` is an error.
-    current_to_torque : float, keyword-only, optional
-        ``K`` (N·m/A), > 0: the ``u`` column holds motor current ``i`` (A) and
-        the torque is ``u = K*i`` (paper Sec. V-B). Default: ``u`` is torque.
-    time_unit : {"s", "ms", "us"}, keyword-only
-        Unit of the time column.
-    velocity_unit : {"rad/s", "deg/s", "rpm"}, keyword-only
-        Unit of the velocity column (``rad/s``: not converted; use it for m/s).
-    position_unit : {"rad", "deg", "counts"}, keyword-only
-        Unit of the position column.
-    counts_per_rev : float, keyword-only, optional
-        Encoder counts per joint revolution (> 0), required for ``counts``
-        (for a motor-side encoder: counts per motor revolution times the gear ratio).
-    kalman_model, kalman_bandwidth, position_noise, smooth : keyword-only
-        Settings of :func:`velocity_from_position` (model ``"cv"``/``"ca"``,
-        bandwidth in Hz, noise in rad). The default noise for counts is the
-        quantisation noise ``(2*pi/counts_per_rev)/sqrt(12)``.
+    units : LogUnits, keyword-only, optional
+        Units of the columns (current-to-torque factor, time, velocity and
+        position units, encoder counts per revolution); default ``LogUnits()``:
+        s, N·m, rad/s, rad.
+    kalman : KalmanSettings, keyword-only, optional
+        Settings of :func:`velocity_from_position` when ``q`` is mapped; default
+        ``KalmanSettings()``. The default noise for counts is the quantisation
+        noise ``(2*pi/counts_per_rev)/sqrt(12)``.
     min_samples : int, keyword-only
-        Fewest samples accepted (default :data:`adaptive_ff.io.data.MIN_SAMPLES`).
+        Fewest samples accepted (default :data:`adaptive_ff.io.data.MIN_SAMPLES`), >= 4.
     progress : bool or None, keyword-only
         Progress bar of the Kalman pass (None: when on a terminal; default off).
 
@@ -678,87 +853,38 @@ def load_log(path, *, columns: Mapping | str | None = None, current_to_torque: f
         stamps not strictly increasing, or constant input; each message names
         the file, the column and the row.
     ParameterError
-        Bad column map, unknown unit, ``counts`` without ``counts_per_rev``,
-        non-positive ``current_to_torque``, bad Kalman settings.
+        Bad column map, ``min_samples`` < 4, or a bad Kalman bandwidth for the
+        data (bad units and settings are rejected by :class:`LogUnits` and
+        :class:`KalmanSettings` themselves).
     TypeError
-        A numeric option is not a real number.
+        ``units`` or ``kalman`` of the wrong type.
+
+    Notes
+    -----
+    ``u = K*i`` with the motor torque constant times the gear ratio ``K``
+    (Ruderman, Sec. V-B); velocity from position as in the module docstring.
     """
-    if columns is None:
-        cmap: dict = {}
-    elif isinstance(columns, str):
-        cmap = parse_column_map(columns)
-    else:
-        cmap = {str(k): str(v) for k, v in dict(columns).items()}
-        unknown = [k for k in cmap if k not in ROLES]
-        if unknown:
-            raise ParameterError(f"unknown role(s) {unknown} in the column map; roles are {list(ROLES)}")
-    if "w" in cmap and "q" in cmap:
-        raise ParameterError(f"map either w (velocity, {cmap['w']!r}) or q (position, {cmap['q']!r}), not both")
-    names = {"t": cmap.get("t", "t"), "u": cmap.get("u", "u")}
-    if "q" in cmap:
-        names["q"] = cmap["q"]
-    else:
-        names["w"] = cmap.get("w", "w")
-    t_scale = TIME_UNITS[_check_choice("time_unit", time_unit, TIME_UNITS)]
-    w_scale = VELOCITY_UNITS[_check_choice("velocity_unit", velocity_unit, VELOCITY_UNITS)]
-    _check_choice("position_unit", position_unit, POSITION_UNITS)
-    _check_choice("kalman_model", kalman_model, KALMAN_MODELS)
-    K = None if current_to_torque is None else check_positive("current_to_torque", current_to_torque)
-    if "q" in names and position_unit == "counts":
-        if counts_per_rev is None:
-            raise ParameterError("position_unit='counts' needs counts_per_rev (encoder counts per joint revolution)")
-        cpr = check_positive("counts_per_rev", counts_per_rev)
-    elif counts_per_rev is not None:
-        cpr = check_positive("counts_per_rev", counts_per_rev)
+    units = LogUnits() if units is None else units
+    kalman = KalmanSettings() if kalman is None else kalman
+    if not isinstance(units, LogUnits):
+        raise TypeError(f"units must be a LogUnits, got {type(units).__name__}")
+    if not isinstance(kalman, KalmanSettings):
+        raise TypeError(f"kalman must be a KalmanSettings, got {type(kalman).__name__}")
     if isinstance(min_samples, bool) or not isinstance(min_samples, (int, np.integer)) or min_samples < 4:
         raise ParameterError(f"min_samples must be an integer >= 4, got {min_samples!r}")
-    if kalman_bandwidth is not None:
-        check_positive("kalman_bandwidth", kalman_bandwidth)
-    if position_noise is not None:
-        check_positive("position_noise", position_noise)
 
-    table = read_columns(path, names)
-    where = table.source
+    table = read_columns(path, _column_names(columns))
+    t_scale = TIME_UNITS[units.time_unit]
     t = table.columns["t"] * t_scale
     u = table.columns["u"]
-    n = t.shape[0]
-    if n < min_samples:
-        raise SignalError(f"{where}: {n} samples, at least {min_samples} needed")
-    bad = np.flatnonzero(np.diff(t) <= 0)
-    if bad.size:
-        i = int(bad[0]) + 1
-        now, before = float(table.columns["t"][i]), float(table.columns["t"][i - 1])
-        raise SignalError(f"{where}: {table.column('t')} must be strictly increasing; {table.row(i)} has "
-                          f"{now!r} <= {before!r} at {table.row(i - 1)}")
-    if np.all(u == u[0]):
-        raise SignalError(f"{where}: {table.column('u')} is constant ({float(u[0])!r} in all {n} rows, "
-                          f"{table.row(0)} to {table.row(n - 1)}); the input does not excite the plant")
-    notes = [f"read {n} rows of {table.kind.upper()}: " + ", ".join(f"{r}={nm!r}" for r, nm in table.names.items())]
+    _check_time_and_input(table, t, u, min_samples)
+    notes = [f"read {t.shape[0]} rows of {table.kind.upper()}: "
+             + ", ".join(f"{r}={nm!r}" for r, nm in table.names.items())]
     if t_scale != 1.0:
-        notes.append(f"time converted from {time_unit} to s")
+        notes.append(f"time converted from {units.time_unit} to s")
+    K = units.current_to_torque
     if K is not None:
         u = K * u
         notes.append(f"u = K*i with K = current_to_torque = {K:g} N·m/A (paper Sec. V-B)")
-    if "w" in table.columns:
-        w = table.columns["w"] * w_scale
-        if w_scale != 1.0:
-            notes.append(f"velocity converted from {velocity_unit} to rad/s")
-    else:
-        q = table.columns["q"]
-        if position_unit == "counts":
-            step = 2.0 * math.pi / cpr
-            q = q * step
-            sd = position_noise if position_noise is not None else step / math.sqrt(12.0)
-            notes.append(f"position from counts: {cpr:g} counts/rev, step {step:.6g} rad")
-        else:
-            if position_unit == "deg":
-                q = q * (math.pi / 180.0)
-                notes.append("position converted from deg to rad")
-            sd = position_noise
-        est = velocity_from_position(t, q, model=kalman_model, bandwidth=kalman_bandwidth, position_noise=sd,
-                                     smooth=smooth, progress=progress)
-        w = est.w
-        notes.append(f"w from position by a Kalman {'filter + RTS smoother' if smooth else 'filter'} "
-                     f"({'constant-velocity' if kalman_model == 'cv' else 'constant-acceleration'} model, "
-                     f"bandwidth {est.bandwidth:.4g} Hz, position noise {est.position_noise:.3g} rad)")
-    return MeasuredData(t, u, w, source=where, notes=tuple(notes))
+    w = _velocity(table, t, units, kalman, progress, notes)
+    return MeasuredData(t, u, w, source=table.source, notes=tuple(notes))

@@ -35,7 +35,7 @@ def add_data_arguments(parser, *, columns_help: str | None = None) -> None:
     ``--velocity-unit``, ``--position-unit``, ``--counts-per-rev``,
     ``--kalman-model``, ``--kalman-bandwidth``, ``--position-noise``, ``--causal``.
     """
-    from adaptive_ff.io.logs import KALMAN_MODELS, POSITION_UNITS, TIME_UNITS, VELOCITY_UNITS
+    from adaptive_ff.io.units import KALMAN_MODELS, POSITION_UNITS, TIME_UNITS, VELOCITY_UNITS
 
     g = parser.add_argument_group("data file (columns, units, velocity from position)")
     g.add_argument("--columns", metavar="MAP", default=None,
@@ -61,12 +61,26 @@ def add_data_arguments(parser, *, columns_help: str | None = None) -> None:
 
 
 def io_options_from_args(args) -> dict:
-    """Keyword options of :func:`adaptive_ff.io.logs.load_log` from parsed arguments (``columns`` excluded)."""
-    return dict(current_to_torque=args.current_to_torque, time_unit=args.time_unit,
-                velocity_unit=args.velocity_unit, position_unit=args.position_unit,
-                counts_per_rev=args.counts_per_rev, kalman_model=args.kalman_model,
-                kalman_bandwidth=args.kalman_bandwidth, position_noise=args.position_noise,
-                smooth=not args.causal)
+    """``units`` and ``kalman`` options of :func:`adaptive_ff.io.logs.load_log` from parsed arguments.
+
+    Returns
+    -------
+    dict
+        ``{"units": LogUnits, "kalman": KalmanSettings}``, to pass as ``load_log(path, **options)``.
+
+    Raises
+    ------
+    ParameterError
+        A unit or Kalman setting out of range (from :class:`adaptive_ff.io.logs.LogUnits`,
+        :class:`adaptive_ff.io.logs.KalmanSettings`).
+    """
+    from adaptive_ff.io.logs import KalmanSettings, LogUnits
+
+    return {"units": LogUnits(current_to_torque=args.current_to_torque, time_unit=args.time_unit,
+                              velocity_unit=args.velocity_unit, position_unit=args.position_unit,
+                              counts_per_rev=args.counts_per_rev),
+            "kalman": KalmanSettings(model=args.kalman_model, bandwidth=args.kalman_bandwidth,
+                                     position_noise=args.position_noise, smooth=not args.causal)}
 
 
 def progress_from_args(args):
