@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from adaptive_ff.identification.identify import identify
-from adaptive_ff.io.logs import load_log
+from adaptive_ff.io.logs import LogUnits, load_log
 from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.regression import RegressionModel, theta_from_physical
 from controllers.cli import paper_figures as cli_paper_figures
@@ -70,11 +70,11 @@ def test_demo_logs_load_with_units(result):
     out, d = result
     logs = d["data_files"]
     assert set(logs) == {"quasi_static_log", "robot_log", "plant"}
-    data = load_log(logs["robot_log"], columns="t=time_ms,u=current_A,q=encoder_counts", time_unit="ms",
-                    current_to_torque=DEMO_CURRENT_TO_TORQUE, position_unit="counts",
-                    counts_per_rev=DEMO_COUNTS_PER_REV)
-    ref = load_log(logs["robot_log"], columns="t=time_ms,u=current_A,w=velocity_deg_s", time_unit="ms",
-                   current_to_torque=DEMO_CURRENT_TO_TORQUE, velocity_unit="deg/s")
+    data = load_log(logs["robot_log"], columns="t=time_ms,u=current_A,q=encoder_counts",
+                    units=LogUnits(time_unit="ms", current_to_torque=DEMO_CURRENT_TO_TORQUE, position_unit="counts",
+                                   counts_per_rev=DEMO_COUNTS_PER_REV))
+    ref = load_log(logs["robot_log"], columns="t=time_ms,u=current_A,w=velocity_deg_s",
+                   units=LogUnits(time_unit="ms", current_to_torque=DEMO_CURRENT_TO_TORQUE, velocity_unit="deg/s"))
     np.testing.assert_allclose(data.u, ref.u, rtol=1e-12)
     np.testing.assert_allclose(np.diff(data.t).mean(), 0.022, atol=5e-4)
     # Kalman velocity from counts vs the logged (noisy, 1e-3 rad/s) velocity

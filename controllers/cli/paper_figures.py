@@ -21,7 +21,7 @@ example:
 
 
 def report_tables(summary: dict) -> list:
-    """Tables for the HTML report of :func:`controllers.experiments.paper_figures.paper_figures`'s ``summary``.
+    """Tables for the HTML report from the ``numbers`` of a :class:`controllers.experiments.paper_figures.PaperFigures`.
 
     Returns
     -------
@@ -52,28 +52,29 @@ def report_tables(summary: dict) -> list:
 def run(args) -> int:
     """Execute ``adaptive-ff paper-figures`` with parsed ``args``; return the exit status."""
     from controllers.cli.data import command_line, progress_from_args
-    from controllers.experiments.paper_figures import paper_figures
+    from controllers.experiments.paper_figures import PaperFigureOptions, paper_figures
     from plant.friction import JointParams, preset
 
     p = JointParams.from_json(args.plant) if args.plant else preset(args.preset)
-    res = paper_figures(args.out, p=p, seed=args.seed, sim_duration=args.sim_duration,
-                        exp_duration=args.exp_duration, n_speeds=args.speeds, noise_std=args.noise,
-                        quantization=args.quantization, lam_sim=args.lam_sim, lam_exp=args.lam,
-                        save_data=args.save_data, progress=progress_from_args(args))
+    options = PaperFigureOptions(seed=args.seed, sim_duration=args.sim_duration, exp_duration=args.exp_duration,
+                                 n_speeds=args.speeds, noise_std=args.noise, quantization=args.quantization,
+                                 lam_sim=args.lam_sim, lam_exp=args.lam)
+    res = paper_figures(args.out, p=p, options=options, save_data=args.save_data,
+                        progress=progress_from_args(args))
     report_path = None
     if args.report:
         from controllers.report.html import write_report
 
         report_path = write_report(
             args.report, title="Figures of Ruderman's paper, regenerated from the simulation",
-            tables=report_tables(res.summary), figures={res.captions[k]: v for k, v in res.figures.items()},
+            tables=report_tables(res.numbers), figures={res.captions[k]: v for k, v in res.figures.items()},
             command=command_line(), notes=["All numbers in SI units; the full set is in --json."])
     if args.json:
-        d = res.to_json_dict()
+        d = res.to_dict()
         d["report"] = str(report_path) if report_path else None
         print(json.dumps(d, indent=2))
         return 0
-    s = res.summary
+    s = res.numbers
     st, sim, ex = s["stribeck"], s["simulation"], s["experiment"]
     print(f"plant: {args.plant or 'preset ' + repr(args.preset)}: "
           + ", ".join(f"{k}={v:g}" for k, v in s["plant"].items()))

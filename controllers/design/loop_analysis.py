@@ -4,6 +4,7 @@ Builds on :func:`controllers.design.pi.design_pi` (gains and margins from
 ``control.stability_margins``) and :func:`controllers.design.pi.closed_loop_step`.
 Frequency responses are evaluated on the unit circle ``z = exp(j w Tc)`` by
 ``control.frequency_response``; step metrics by ``control.step_info``.
+python-control and matplotlib are imported by the functions that use them.
 """
 
 from __future__ import annotations
@@ -11,19 +12,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import control
 import numpy as np
-from matplotlib.figure import Figure
 
 from controllers.design.pi import ClosedLoopStep, PIDesign, closed_loop_step
 from plant.errors import check_positive
+from plant.results import axes_or_new, json_safe
 
 __all__ = ["LoopAnalysis", "analyse_design", "plot_bode", "plot_step", "default_step_duration"]
-
-
-def _plain(x) -> float | None:
-    x = float(x)
-    return x if math.isfinite(x) else None
 
 
 def default_step_duration(design: PIDesign) -> float:
@@ -67,21 +62,43 @@ class LoopAnalysis:
     overshoot: float
     peak_torque: float
 
-    def to_json_dict(self) -> dict:
-        """Plain dict (SI units; gain margin also in dB; non-finite values as None)."""
-        d = self.design
-        gm = d.gain_margin
-        return {
-            "J": d.J, "sigma": d.sigma, "Tc": d.Tc, "Kp": d.Kp, "Ki": d.Ki,
-            "crossover": _plain(d.crossover), "phase_margin": _plain(d.phase_margin),
-            "gain_margin": _plain(gm), "gain_margin_db": _plain(20 * math.log10(gm)) if gm > 0 else None,
-            "phase_crossover": _plain(d.phase_crossover), "stability_margin": _plain(d.stability_margin),
-            "sensitivity_peak": _plain(self.sensitivity_peak), "complementary_peak": _plain(self.complementary_peak),
-            "bandwidth": _plain(self.bandwidth),
-            "step": {"rise_time": _plain(self.rise_time), "settling_time": _plain(self.settling_time),
-                     "overshoot_percent": _plain(self.overshoot), "peak_torque_per_rad_s": _plain(self.peak_torque),
+    def to_dict(self) -> dict:
+        """Design and closed-loop figures as strict JSON (SI units; gain margin also in dB; inf/NaN as None).
+
+        Keys: those of :meth:`controllers.design.pi.PIDesign.to_dict`, plus
+        ``sensitivity_peak``, ``complementary_peak``, ``bandwidth`` and ``step``
+        (``rise_time``, ``settling_time``, ``overshoot_percent``,
+        ``peak_torque_per_rad_s``, ``duration``).
+        """
+        return json_safe({
+            **self.design.to_dict(),
+            "sensitivity_peak": self.sensitivity_peak, "complementary_peak": self.complementary_peak,
+            "bandwidth": self.bandwidth,
+            "step": {"rise_time": self.rise_time, "settling_time": self.settling_time,
+                     "overshoot_percent": self.overshoot, "peak_torque_per_rad_s": self.peak_torque,
                      "duration": float(self.step.t[-1])},
-        }
+        })
+
+    #: Same as :meth:`to_dict` (the older name).
+    to_json_dict = to_dict
+
+    def plot(self, ax=None):
+        """Velocity step response (rad/s over s) with the ±2 % band; see :func:`plot_step` for the full figure.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; default a new figure.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+        """
+        ax = self.step.plot(ax)
+        ax.axhspan(0.98, 1.02, color="0.85", alpha=0.6, label="±2 %")
+        ax.set_title(f"rise {self.rise_time * 1e3:.1f} ms, overshoot {self.overshoot:.1f} %, "
+                     f"settling {self.settling_time * 1e3:.1f} ms", fontsize=9, loc="left")
+        return ax
 
     def summary(self) -> str:
         """Human-readable lines: plant, gains, margins, closed loop."""
@@ -110,6 +127,8 @@ def _frequency_grid(design: PIDesign, n: int = 2000) -> np.ndarray:
 
 
 def _mag(sys, omega) -> np.ndarray:
+    import control
+
     return np.abs(np.asarray(control.frequency_response(sys, omega).complex).reshape(-1))
 
 
@@ -143,6 +162,7 @@ def analyse_design(design: PIDesign, *, t_end: float | None = None) -> LoopAnaly
     2 % settling). Definitions: Åström & Murray, *Feedback Systems*, 2nd ed.,
     Secs. 12.1 (Ms, Mt) and 5.3 (step metrics).
     """
+    import control
     from scipy.optimize import brentq
 
     if not isinstance(design, PIDesign):
@@ -168,7 +188,7 @@ def analyse_design(design: PIDesign, *, t_end: float | None = None) -> LoopAnaly
                         peak_torque=float(np.max(np.abs(step.u))))
 
 
-def plot_bode(design: PIDesign) -> Figure:
+def plot_bode(design: PIDesign):
     """Bode plot of the open loop ``L(z) = C(z) P(z)`` with its margins, and ``|S|``, ``|T|``.
 
     Parameters
@@ -184,6 +204,9 @@ def plot_bode(design: PIDesign) -> Figure:
         the design, i.e. ``control.stability_margins`` with the corrections of
         :func:`controllers.design.pi.design_pi`).
     """
+    import control
+    from matplotlib.figure import Figure
+
     d = design
     om = _frequency_grid(d)
     resp = np.asarray(control.frequency_response(d.loop, om).complex).reshape(-1)
@@ -224,7 +247,7 @@ def plot_bode(design: PIDesign) -> Figure:
     return fig
 
 
-def plot_step(analysis: LoopAnalysis) -> Figure:
+def plot_step(analysis: LoopAnalysis):
     """Closed-loop response to a 1 rad/s velocity-reference step: velocity and torque over time.
 
     Parameters
@@ -237,6 +260,8 @@ def plot_step(analysis: LoopAnalysis) -> Figure:
         Top: velocity (rad/s) with the ±2 % band and the metrics; bottom:
         controller torque (N·m) per 1 rad/s (steady state ``sigma``).
     """
+    from matplotlib.figure import Figure
+
     s = analysis.step
     fig = Figure(figsize=(9.0, 5.5), layout="constrained")
     ax1, ax2 = fig.subplots(2, 1, sharex=True)

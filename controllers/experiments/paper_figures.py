@@ -26,11 +26,11 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
@@ -43,10 +43,15 @@ from plant.errors import ParameterError, check_nonnegative, check_positive, chec
 from plant.excitation import bandlimited_noise, multisine_reference
 from plant.friction import JointParams, preset
 from plant.joint import simulate
+from plant.results import json_safe
 from plant.sampling import irregular_sample_times, sample
+
+if TYPE_CHECKING:  # annotations only: matplotlib is imported by the plotting functions when they run
+    from matplotlib.figure import Figure
 
 __all__ = [
     "PaperFigures",
+    "PaperFigureOptions",
     "paper_figures",
     "rls_pass",
     "plot_velocity_fit",
@@ -115,6 +120,8 @@ def plot_velocity_fit(t, w, w_model, *, model_label: str, measured_label: str = 
     wm = np.asarray(w_model, dtype=float).reshape(-1)
     if wm.shape != w.shape:
         raise ParameterError(f"w_model must have shape {w.shape}, got {wm.shape}")
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(9.0, 5.0), layout="constrained")
     ax, ax2 = fig.subplots(2, 1, sharex=True, height_ratios=[3, 1])
     ax.plot(t, w, color="0.2", lw=1.0, label=measured_label)
@@ -166,6 +173,8 @@ def plot_sample_times(t, *, title: str = "") -> Figure:
     """
     t = check_time("t", t)
     d = np.diff(t) * 1e3
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(9.0, 3.6), layout="constrained")
     ax, ax2 = fig.subplots(1, 2, width_ratios=[2, 1])
     ax.plot(np.arange(1, t.shape[0]), d, ".", ms=2, color="C0")
@@ -225,6 +234,8 @@ def plot_parameter_convergence(t, theta, names, *, true=None, title: str = "") -
              "o1": "rad/s"}
     ncol = 2 if len(names) > 3 else 1
     nrow = math.ceil(len(names) / ncol)
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(9.0, 1.7 * nrow + 0.6), layout="constrained")
     axes = np.atleast_1d(fig.subplots(nrow, ncol, sharex=True, squeeze=False)).ravel()
     for i, name in enumerate(names):
@@ -276,6 +287,8 @@ def plot_stribeck_figure(fit, w, F, *, F_std=None, title: str = "") -> Figure:
     TypeError, SignalError
         See :func:`adaptive_ff.identification.stribeck_fit.plot_stribeck_fit`.
     """
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(10.0, 4.2), layout="constrained")
     ax1, ax2 = fig.subplots(1, 2)
     plot_stribeck_fit(fit, w, F, F_std=F_std, ax=ax1)
@@ -340,6 +353,77 @@ def rls_pass(model: RegressionModel, u, w, *, lam: float = 1.0, P0: float = 1e4)
 # --------------------------------------------------------------------------- the paper's figures
 
 
+@dataclass(frozen=True, kw_only=True)
+class PaperFigureOptions:
+    """Settings of the experiments behind :func:`paper_figures` (keyword-only, validated).
+
+    Parameters
+    ----------
+    seed : int
+        Seed of all random draws (excitation, reference, sample times, noise), >= 0.
+    sim_duration : float
+        Length (s) of the open-loop simulation experiment (Figs. 4, 5), >= 2.
+    exp_duration : float
+        Length (s) of the closed-loop "robot" experiment (Figs. 9-12), >= 2.
+    n_speeds : int
+        Quasi-static speeds per direction (Fig. 8), >= 3, log-spaced from
+        ``0.2*Vs`` to 0.4 rad/s.
+    noise_std : float
+        Velocity measurement noise (rad/s), >= 0, of the quasi-static runs and the
+        closed-loop experiment (the open-loop simulation is noise-free, as in Sec. IV).
+    quantization : float
+        Torque quantisation step (N·m), >= 0, of the closed-loop experiment's readout (Fig. 7).
+    lam_sim, lam_exp : float
+        RLS forgetting factors in (0, 1] of Fig. 5 and of Figs. 11-12 (paper: 0.85).
+    P0 : float
+        RLS initial covariance scale, > 0.
+
+    Raises
+    ------
+    ParameterError
+        A setting out of range (the message names it).
+    TypeError
+        ``seed`` or ``n_speeds`` not an integer, another setting not a real number.
+    """
+
+    seed: int = 0
+    sim_duration: float = 30.0
+    exp_duration: float = 60.0
+    n_speeds: int = 10
+    noise_std: float = 1e-3
+    quantization: float = 0.6
+    lam_sim: float = 0.995
+    lam_exp: float = 0.85
+    P0: float = 1e4
+
+    def __post_init__(self):
+        for name in ("seed", "n_speeds"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+                raise TypeError(f"{name} must be an integer, got {v!r} ({type(v).__name__})")
+        if self.seed < 0:
+            raise ParameterError(f"seed must be >= 0, got {self.seed!r}")
+        if self.n_speeds < 3:
+            raise ParameterError(f"n_speeds must be an integer >= 3, got {self.n_speeds!r}")
+        for name in ("sim_duration", "exp_duration"):
+            if check_positive(name, getattr(self, name)) < 2.0:
+                raise ParameterError(f"{name} must be >= 2 s, got {getattr(self, name)!r}")
+        check_nonnegative("noise_std", self.noise_std)
+        check_nonnegative("quantization", self.quantization)
+        for name in ("lam_sim", "lam_exp"):
+            if not 0.0 < check_positive(name, getattr(self, name)) <= 1.0:
+                raise ParameterError(f"{name} must be in (0, 1], got {getattr(self, name)!r}")
+        check_positive("P0", self.P0)
+        for name in ("seed", "n_speeds"):
+            object.__setattr__(self, name, int(getattr(self, name)))
+        for name in ("sim_duration", "exp_duration", "noise_std", "quantization", "lam_sim", "lam_exp", "P0"):
+            object.__setattr__(self, name, float(getattr(self, name)))
+
+    def to_dict(self) -> dict:
+        """The settings as strict JSON (SI units)."""
+        return json_safe(asdict(self))
+
+
 @dataclass(frozen=True)
 class PaperFigures:
     """Result of :func:`paper_figures`.
@@ -352,7 +436,7 @@ class PaperFigures:
         ``{stem: Path}`` of the PNG files (stems as in :data:`FIGURE_CAPTIONS`).
     captions : dict
         ``{stem: caption}``.
-    summary : dict
+    numbers : dict
         Numbers behind the figures (SI units): fits (%), estimates, Stribeck
         parameters, sample-time statistics, settings.
     data_files : dict
@@ -362,22 +446,133 @@ class PaperFigures:
     out_dir: Path
     figures: dict
     captions: dict
-    summary: dict
+    numbers: dict
     data_files: dict = field(default_factory=dict)
 
-    def to_json_dict(self) -> dict:
-        """Plain dict for JSON: ``summary`` plus ``figures`` and ``data_files`` as strings."""
-        return {"summary": self.summary, "figures": {k: str(v) for k, v in self.figures.items()},
-                "data_files": {k: str(v) for k, v in self.data_files.items()}}
+    def to_dict(self) -> dict:
+        """Strict JSON: ``{"summary": numbers, "figures": {stem: path}, "data_files": {name: path}}``."""
+        return json_safe({"summary": self.numbers, "figures": self.figures, "data_files": self.data_files})
+
+    #: Same as :meth:`to_dict` (the older name).
+    to_json_dict = to_dict
+
+    def summary(self) -> str:
+        """A few lines: the Stribeck fit and the LS/RLS fits of both experiments, and where the files are."""
+        st, sim, ex = self.numbers["stribeck"], self.numbers["simulation"], self.numbers["experiment"]
+        return "\n".join([
+            f"Fig. 8  Stribeck fit: Fc={st['Fc']:.4g} N·m, Fs={st['Fs']:.4g} N·m, Vs={st['Vs']:.4g} rad/s, "
+            f"delta={st['delta']:.4g}, sigma={st['sigma']:.4g} N·m·s/rad ({st['n_points']} runs)",
+            f"Figs. 4, 5  simulation: LS fit one-step {sim['ls_fit_one_step']:.2f} %, free run "
+            f"{sim['ls_fit_free_run']:.2f} %; RLS a-priori {sim['rls_fit']:.2f} %",
+            f"Figs. 9-12  experiment (mean Ts {ex['Ts_mean'] * 1e3:.2f} ms): "
+            f"LS one-step {ex['ls_fit_one_step']:.2f} %, free run {ex['ls_fit_free_run']:.2f} %; RLS a-priori {ex['rls_fit']:.2f} %",
+            f"{len(self.figures)} figures in {self.out_dir}",
+        ])
 
 
 def _estimate_dict(est) -> dict:
     return {k: float(getattr(est, k)) for k in ("J", "tau", "sigma", "Fc", "Fs")}
 
 
-def paper_figures(out_dir, *, p: JointParams | None = None, seed: int = 0, sim_duration: float = 30.0,
-                  exp_duration: float = 60.0, n_speeds: int = 10, noise_std: float = 1e-3,
-                  quantization: float = 0.6, lam_sim: float = 0.995, lam_exp: float = 0.85, P0: float = 1e4,
+def _fig8_stribeck(p: JointParams, opt: PaperFigureOptions, qs_ss) -> tuple:
+    """Sec. V-C: quasi-static runs and the LM Stribeck fit; returns ``(velocities, model, figure, numbers)``."""
+    vel = bidirectional_velocities(0.2 * p.Vs, 0.4, opt.n_speeds)
+    qs = quasi_static_runs(p, vel, noise_std=opt.noise_std, rng=np.random.default_rng(qs_ss))
+    sfit = fit_stribeck(qs.w_mean, qs.u_mean)
+    fig = plot_stribeck_figure(sfit, qs.w_mean, qs.u_mean, F_std=qs.u_std, title=FIGURE_CAPTIONS["fig08_stribeck"])
+    numbers = {**sfit.params(), "stderr": dict(sfit.stderr), "n_points": sfit.n_points}
+    return vel, RegressionModel(sfit.Vs, sfit.delta, lag=True), fig, numbers
+
+
+def _figs45_simulation(p: JointParams, opt: PaperFigureOptions, model: RegressionModel, sim_ss, Tc: float,
+                       peak: float) -> tuple[dict, dict]:
+    """Sec. IV: open-loop band-limited-noise run sampled at 10 ms, LS and RLS; returns ``(figures, numbers)``."""
+    Ts_sim = 0.01
+    _, u_id = bandlimited_noise(opt.sim_duration, dt=Tc, cutoff=1.0,
+                                std=1.2 * (max(p.Fs, p.Fc) + p.sigma * peak), rng=np.random.default_rng(sim_ss))
+    meas_sim = sample(simulate(p, u_id, dt=Tc), Ts=Ts_sim)
+    ls_sim = fit_ls(model, meas_sim.u, meas_sim.w, Ts=Ts_sim)
+    figs = {"fig04_ls_simulation": plot_velocity_fit(
+        meas_sim.t, meas_sim.w, ls_sim.w_free_run, model_label="LS model, free run", fit_percent=ls_sim.fit_free_run,
+        w_model2=ls_sim.w_one_step, model2_label="LS model, one-step prediction", fit2_percent=ls_sim.fit_one_step,
+        measured_label="simulated (1 kHz RK4, sampled at 10 ms)", title=FIGURE_CAPTIONS["fig04_ls_simulation"])}
+    w_rls_sim, th_sim = rls_pass(model, meas_sim.u, meas_sim.w, lam=opt.lam_sim, P0=opt.P0)
+    fit_rls_sim = nrmse_fit(meas_sim.w[2:], w_rls_sim[2:])
+    figs["fig05_rls_simulation"] = plot_velocity_fit(
+        meas_sim.t, meas_sim.w, w_rls_sim, model_label=f"RLS a-priori prediction (λ = {opt.lam_sim:g})",
+        fit_percent=fit_rls_sim, measured_label="simulated", title=FIGURE_CAPTIONS["fig05_rls_simulation"])
+    numbers = {"duration": opt.sim_duration, "Ts": Ts_sim, "n_samples": int(meas_sim.t.shape[0]),
+               "ls_fit_one_step": ls_sim.fit_one_step, "ls_fit_free_run": ls_sim.fit_free_run,
+               "ls_estimate": _estimate_dict(ls_sim.estimate), "rls_fit": fit_rls_sim, "rls_lam": opt.lam_sim,
+               "rls_estimate": _estimate_dict(model.to_physical(th_sim[-1], Ts_sim))}
+    return figs, numbers
+
+
+def _closed_loop_readout(p: JointParams, opt: PaperFigureOptions, seeds, Tc: float, peak: float) -> tuple:
+    """Sec. V-B: the PI loop tracks a multi-sine, read out at irregular instants; returns ``(design, resp, meas)``."""
+    ref_ss, times_ss, meas_ss, loop_ss = seeds
+    ref = multisine_reference(opt.exp_duration, dt=Tc, peak=peak, rng=np.random.default_rng(ref_ss))
+    design = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=Tc)
+    u_max = 3.0 * (max(p.Fs, p.Fc) + p.sigma * float(np.max(np.abs(ref.w))) + p.J * float(np.max(np.abs(ref.dw))))
+    resp = closed_loop_response(p, ref, design=design, u_max=u_max, noise_std=opt.noise_std,
+                                rng=np.random.default_rng(loop_ss))
+    times = irregular_sample_times(float(resp.t[-1]), dt=Tc, rng=np.random.default_rng(times_ss))
+    meas = sample(resp, times=times, noise_std=opt.noise_std, quantization=opt.quantization,
+                  rng=np.random.default_rng(meas_ss))
+    return design, resp, meas
+
+
+def _figs9_12_experiment(p: JointParams, opt: PaperFigureOptions, model: RegressionModel, design, meas) -> tuple:
+    """Sec. V-D/E: LS and RLS on the irregular samples as they are; returns ``(figures, numbers)``."""
+    Ts_exp = meas.Ts
+    ls_exp = fit_ls(model, meas.u, meas.w, Ts=Ts_exp)
+    figs = {"fig09_ls_experiment": plot_velocity_fit(
+        meas.t, meas.w, ls_exp.w_one_step, model_label="LS model, one-step prediction",
+        fit_percent=ls_exp.fit_one_step, w_model2=ls_exp.w_free_run, model2_label="LS model, free run",
+        fit2_percent=ls_exp.fit_free_run, measured_label="measured (irregular readout, noise, quantised torque)",
+        title=FIGURE_CAPTIONS["fig09_ls_experiment"])}
+    figs["fig10_sample_time"] = plot_sample_times(meas.t)
+    w_rls, th = rls_pass(model, meas.u, meas.w, lam=opt.lam_exp, P0=opt.P0)
+    fit_rls = nrmse_fit(meas.w[2:], w_rls[2:])
+    figs["fig11_rls_experiment"] = plot_velocity_fit(
+        meas.t, meas.w, w_rls, model_label=f"RLS a-priori prediction (λ = {opt.lam_exp:g})", fit_percent=fit_rls,
+        title=FIGURE_CAPTIONS["fig11_rls_experiment"])
+    figs["fig12_rls_parameters"] = plot_parameter_convergence(
+        meas.t[2:], th, model.names, true=model.theta_from_physical(p, Ts_exp),
+        title=f"{FIGURE_CAPTIONS['fig12_rls_parameters']} (λ = {opt.lam_exp:g}; dashed: true plant at mean Ts)")
+    d = np.diff(meas.t)
+    numbers = {
+        "duration": opt.exp_duration, "n_samples": int(meas.t.shape[0]), "Ts_mean": float(d.mean()),
+        "Ts_min": float(d.min()), "Ts_max": float(d.max()), "noise_std": opt.noise_std,
+        "quantization": opt.quantization,
+        "controller": {"Kp": design.Kp, "Ki": design.Ki, "Tc": design.Tc, "phase_margin": design.phase_margin},
+        "ls_fit_one_step": ls_exp.fit_one_step, "ls_fit_free_run": ls_exp.fit_free_run,
+        "ls_estimate": _estimate_dict(ls_exp.estimate), "rls_fit": fit_rls, "rls_lam": opt.lam_exp,
+        "rls_estimate": _estimate_dict(model.to_physical(th[-1], Ts_exp))}
+    return figs, numbers
+
+
+def _write_demo_logs(out: Path, p: JointParams, vel, opt: PaperFigureOptions, resp, meas, rng) -> dict:
+    """``quasi_static_log.csv``, ``robot_log.csv`` and ``plant.json`` (see :func:`paper_figures`); ``{name: Path}``."""
+    data_files = {}
+    qlog = quasi_static_log(p, vel, hold=1.5, settle=1.5, noise_std=opt.noise_std, rng=rng)
+    data_files["quasi_static_log"] = write_log_csv(
+        out / "quasi_static_log.csv", {"t": qlog.t, "u": qlog.u, "w": qlog.w},
+        header_comment="simulated bidirectional constant-velocity runs: t (s), u (N·m), w (rad/s)")
+    counts = encoder_counts(resp, meas.t, counts_per_rev=DEMO_COUNTS_PER_REV)
+    data_files["robot_log"] = write_log_csv(
+        out / "robot_log.csv",
+        {"time_ms": np.round(meas.t * 1e3, 6), "current_A": meas.u / DEMO_CURRENT_TO_TORQUE,
+         "velocity_deg_s": np.rad2deg(meas.w), "encoder_counts": counts},
+        header_comment=(f"simulated robot-joint log: u = {DEMO_CURRENT_TO_TORQUE:g} N·m/A * current_A, "
+                        f"{DEMO_COUNTS_PER_REV} counts/rev, irregular readout"))
+    plant_json = out / "plant.json"
+    plant_json.write_text(json.dumps(p.to_dict(), indent=2) + "\n")
+    data_files["plant"] = plant_json
+    return data_files
+
+
+def paper_figures(out_dir, *, p: JointParams | None = None, options: PaperFigureOptions | None = None,
                   save_data: bool = False, progress: bool | None = None, dpi: int = 110) -> PaperFigures:
     """Regenerate the paper's Figs. 4, 5, 8, 9, 10, 11, 12 from the simulated joint and write them as PNG.
 
@@ -387,24 +582,10 @@ def paper_figures(out_dir, *, p: JointParams | None = None, seed: int = 0, sim_d
         Output directory (created).
     p : JointParams, keyword-only
         Plant; default the ``paper`` preset.
-    seed : int, keyword-only
-        Seed of all random draws (excitation, reference, sample times, noise).
-    sim_duration : float, keyword-only
-        Length (s) of the open-loop simulation experiment (Figs. 4, 5), >= 2.
-    exp_duration : float, keyword-only
-        Length (s) of the closed-loop "robot" experiment (Figs. 9-12), >= 2.
-    n_speeds : int, keyword-only
-        Quasi-static speeds per direction (Fig. 8), >= 3, log-spaced from
-        ``0.2*Vs`` to 0.4 rad/s.
-    noise_std : float, keyword-only
-        Velocity measurement noise (rad/s) of the quasi-static runs and the
-        closed-loop experiment (the open-loop simulation is noise-free, as in Sec. IV).
-    quantization : float, keyword-only
-        Torque quantisation step (N·m) of the closed-loop experiment's readout (Fig. 7).
-    lam_sim, lam_exp : float, keyword-only
-        RLS forgetting factors of Fig. 5 and of Figs. 11-12 (paper: 0.85).
-    P0 : float, keyword-only
-        RLS initial covariance scale.
+    options : PaperFigureOptions, keyword-only
+        Seed, run lengths, speeds, noise, quantisation and RLS settings; default
+        ``PaperFigureOptions()`` (30 s simulation, 60 s experiment, 10 speeds,
+        1e-3 rad/s noise, 0.6 N·m quantum, lambda 0.995 and 0.85, P0 = 1e4).
     save_data : bool, keyword-only
         Also write demonstration logs: ``quasi_static_log.csv`` (``t, u, w``)
         for ``adaptive-ff stribeck`` and ``robot_log.csv`` (``time_ms``,
@@ -422,134 +603,60 @@ def paper_figures(out_dir, *, p: JointParams | None = None, seed: int = 0, sim_d
 
     Raises
     ------
-    ParameterError
-        A setting out of range.
+    TypeError
+        ``p`` not a JointParams or ``options`` not a PaperFigureOptions.
     ExcitationError
         A fit fails for lack of excitation (too short runs).
+
+    Notes
+    -----
+    The experiments of the module docstring (Ruderman, Secs. IV and V), in the
+    order Fig. 8 (its ``Vs``, ``delta`` fix the regression model of the others),
+    Figs. 4-5, Figs. 9-12. One ``numpy.random.SeedSequence(options.seed)`` is
+    spawned into independent streams for the stages.
     """
     from tqdm.auto import tqdm
 
     p = preset("paper") if p is None else p
     if not isinstance(p, JointParams):
         raise TypeError(f"p must be a JointParams, got {type(p).__name__}")
-    sim_duration = check_positive("sim_duration", sim_duration)
-    exp_duration = check_positive("exp_duration", exp_duration)
-    if sim_duration < 2.0 or exp_duration < 2.0:
-        raise ParameterError(f"sim_duration and exp_duration must be >= 2 s, got {sim_duration!r}, {exp_duration!r}")
-    if isinstance(n_speeds, bool) or not isinstance(n_speeds, (int, np.integer)) or n_speeds < 3:
-        raise ParameterError(f"n_speeds must be an integer >= 3, got {n_speeds!r}")
-    noise_std = check_nonnegative("noise_std", noise_std)
-    quantization = check_nonnegative("quantization", quantization)
+    opt = PaperFigureOptions() if options is None else options
+    if not isinstance(opt, PaperFigureOptions):
+        raise TypeError(f"options must be a PaperFigureOptions, got {type(opt).__name__}")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    ss = np.random.SeedSequence(seed)
+    ss = np.random.SeedSequence(opt.seed)
     qs_ss, sim_ss, ref_ss, times_ss, meas_ss, loop_ss = ss.spawn(6)
     Tc = 1e-3
-    Ts_sim = 0.01
     peak = math.radians(20.0)
-    figs: dict = {}
-    summary: dict = {"plant": p.to_dict(), "seed": seed}
+    numbers: dict = {"plant": p.to_dict(), "seed": opt.seed}
     bar = tqdm(total=5, desc="paper-figures", disable=(None if progress is None else not progress), leave=False)
 
-    # Fig. 8: quasi-static runs and the LM Stribeck fit (Sec. V-C)
     bar.set_postfix_str("quasi-static runs (Fig. 8)")
-    vel = bidirectional_velocities(0.2 * p.Vs, 0.4, int(n_speeds))
-    qs = quasi_static_runs(p, vel, noise_std=noise_std, rng=np.random.default_rng(qs_ss))
-    sfit = fit_stribeck(qs.w_mean, qs.u_mean)
-    figs["fig08_stribeck"] = plot_stribeck_figure(sfit, qs.w_mean, qs.u_mean, F_std=qs.u_std,
-                                                  title=FIGURE_CAPTIONS["fig08_stribeck"])
-    summary["stribeck"] = {**sfit.params(), "stderr": dict(sfit.stderr), "n_points": sfit.n_points}
-    model = RegressionModel(sfit.Vs, sfit.delta, lag=True)
+    vel, model, fig8, numbers["stribeck"] = _fig8_stribeck(p, opt, qs_ss)
+    figs = {"fig08_stribeck": fig8}
     bar.update()
-
-    # Figs. 4, 5: open-loop simulation, LS and RLS (Sec. IV)
     bar.set_postfix_str("simulation LS/RLS (Figs. 4, 5)")
-    _, u_id = bandlimited_noise(sim_duration, dt=Tc, cutoff=1.0, std=1.2 * (max(p.Fs, p.Fc) + p.sigma * peak),
-                                rng=np.random.default_rng(sim_ss))
-    meas_sim = sample(simulate(p, u_id, dt=Tc), Ts=Ts_sim)
-    ls_sim = fit_ls(model, meas_sim.u, meas_sim.w, Ts=Ts_sim)
-    figs["fig04_ls_simulation"] = plot_velocity_fit(
-        meas_sim.t, meas_sim.w, ls_sim.w_free_run, model_label="LS model, free run", fit_percent=ls_sim.fit_free_run,
-        w_model2=ls_sim.w_one_step, model2_label="LS model, one-step prediction", fit2_percent=ls_sim.fit_one_step,
-        measured_label="simulated (1 kHz RK4, sampled at 10 ms)", title=FIGURE_CAPTIONS["fig04_ls_simulation"])
-    w_rls_sim, th_sim = rls_pass(model, meas_sim.u, meas_sim.w, lam=lam_sim, P0=P0)
-    fit_rls_sim = nrmse_fit(meas_sim.w[2:], w_rls_sim[2:])
-    figs["fig05_rls_simulation"] = plot_velocity_fit(
-        meas_sim.t, meas_sim.w, w_rls_sim, model_label=f"RLS a-priori prediction (λ = {lam_sim:g})",
-        fit_percent=fit_rls_sim, measured_label="simulated", title=FIGURE_CAPTIONS["fig05_rls_simulation"])
-    summary["simulation"] = {"duration": sim_duration, "Ts": Ts_sim, "n_samples": int(meas_sim.t.shape[0]),
-                             "ls_fit_one_step": ls_sim.fit_one_step, "ls_fit_free_run": ls_sim.fit_free_run,
-                             "ls_estimate": _estimate_dict(ls_sim.estimate), "rls_fit": fit_rls_sim,
-                             "rls_lam": lam_sim,
-                             "rls_estimate": _estimate_dict(model.to_physical(th_sim[-1], Ts_sim))}
+    sim_figs, numbers["simulation"] = _figs45_simulation(p, opt, model, sim_ss, Tc, peak)
+    figs.update(sim_figs)
     bar.update()
-
-    # Figs. 9-12: closed-loop multi-sine experiment, irregular readout (Sec. V)
     bar.set_postfix_str("closed-loop experiment (Figs. 9-12)")
-    ref = multisine_reference(exp_duration, dt=Tc, peak=peak, rng=np.random.default_rng(ref_ss))
-    design = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=Tc)
-    u_max = 3.0 * (max(p.Fs, p.Fc) + p.sigma * float(np.max(np.abs(ref.w))) + p.J * float(np.max(np.abs(ref.dw))))
-    resp = closed_loop_response(p, ref, design=design, u_max=u_max, noise_std=noise_std,
-                                rng=np.random.default_rng(loop_ss))
-    times = irregular_sample_times(float(resp.t[-1]), dt=Tc, rng=np.random.default_rng(times_ss))
-    meas = sample(resp, times=times, noise_std=noise_std, quantization=quantization,
-                  rng=np.random.default_rng(meas_ss))
-    Ts_exp = meas.Ts
+    design, resp, meas = _closed_loop_readout(p, opt, (ref_ss, times_ss, meas_ss, loop_ss), Tc, peak)
     bar.update()
     bar.set_postfix_str("LS/RLS on the irregular samples")
-    ls_exp = fit_ls(model, meas.u, meas.w, Ts=Ts_exp)
-    figs["fig09_ls_experiment"] = plot_velocity_fit(
-        meas.t, meas.w, ls_exp.w_one_step, model_label="LS model, one-step prediction",
-        fit_percent=ls_exp.fit_one_step, w_model2=ls_exp.w_free_run, model2_label="LS model, free run",
-        fit2_percent=ls_exp.fit_free_run, measured_label="measured (irregular readout, noise, quantised torque)",
-        title=FIGURE_CAPTIONS["fig09_ls_experiment"])
-    figs["fig10_sample_time"] = plot_sample_times(meas.t)
-    w_rls, th = rls_pass(model, meas.u, meas.w, lam=lam_exp, P0=P0)
-    fit_rls = nrmse_fit(meas.w[2:], w_rls[2:])
-    figs["fig11_rls_experiment"] = plot_velocity_fit(
-        meas.t, meas.w, w_rls, model_label=f"RLS a-priori prediction (λ = {lam_exp:g})", fit_percent=fit_rls,
-        title=FIGURE_CAPTIONS["fig11_rls_experiment"])
-    true = model.theta_from_physical(p, Ts_exp)
-    figs["fig12_rls_parameters"] = plot_parameter_convergence(
-        meas.t[2:], th, model.names, true=true,
-        title=f"{FIGURE_CAPTIONS['fig12_rls_parameters']} (λ = {lam_exp:g}; dashed: true plant at mean Ts)")
-    d = np.diff(meas.t)
-    summary["experiment"] = {
-        "duration": exp_duration, "n_samples": int(meas.t.shape[0]), "Ts_mean": float(d.mean()),
-        "Ts_min": float(d.min()), "Ts_max": float(d.max()), "noise_std": noise_std, "quantization": quantization,
-        "controller": {"Kp": design.Kp, "Ki": design.Ki, "Tc": design.Tc, "phase_margin": design.phase_margin},
-        "ls_fit_one_step": ls_exp.fit_one_step, "ls_fit_free_run": ls_exp.fit_free_run,
-        "ls_estimate": _estimate_dict(ls_exp.estimate), "rls_fit": fit_rls, "rls_lam": lam_exp,
-        "rls_estimate": _estimate_dict(model.to_physical(th[-1], Ts_exp))}
+    exp_figs, numbers["experiment"] = _figs9_12_experiment(p, opt, model, design, meas)
+    figs.update(exp_figs)
     bar.update()
 
     bar.set_postfix_str("writing")
-    paths = {}
-    for stem in FIGURE_CAPTIONS:
-        path = out / f"{stem}.png"
-        figs[stem].savefig(path, dpi=dpi)
-        paths[stem] = path
+    paths = save_figures({stem: figs[stem] for stem in FIGURE_CAPTIONS}, out, dpi=dpi)
     data_files = {}
     if save_data:
-        rng = np.random.default_rng(ss.spawn(1)[0])
-        qlog = quasi_static_log(p, vel, hold=1.5, settle=1.5, noise_std=noise_std, rng=rng)
-        data_files["quasi_static_log"] = write_log_csv(
-            out / "quasi_static_log.csv", {"t": qlog.t, "u": qlog.u, "w": qlog.w},
-            header_comment="simulated bidirectional constant-velocity runs: t (s), u (N·m), w (rad/s)")
-        counts = encoder_counts(resp, meas.t, counts_per_rev=DEMO_COUNTS_PER_REV)
-        data_files["robot_log"] = write_log_csv(
-            out / "robot_log.csv",
-            {"time_ms": np.round(meas.t * 1e3, 6), "current_A": meas.u / DEMO_CURRENT_TO_TORQUE,
-             "velocity_deg_s": np.rad2deg(meas.w), "encoder_counts": counts},
-            header_comment=(f"simulated robot-joint log: u = {DEMO_CURRENT_TO_TORQUE:g} N·m/A * current_A, "
-                            f"{DEMO_COUNTS_PER_REV} counts/rev, irregular readout"))
-        plant_json = out / "plant.json"
-        plant_json.write_text(json.dumps(p.to_dict(), indent=2) + "\n")
-        data_files["plant"] = plant_json
+        data_files = _write_demo_logs(out, p, vel, opt, resp, meas, np.random.default_rng(ss.spawn(1)[0]))
     bar.update()
     bar.close()
-    return PaperFigures(out_dir=out, figures=paths, captions=dict(FIGURE_CAPTIONS), summary=summary,
-                        data_files=data_files)
+    return PaperFigures(out_dir=out, figures=dict(zip(FIGURE_CAPTIONS, paths)), captions=dict(FIGURE_CAPTIONS),
+                        numbers=numbers, data_files=data_files)
 
 
 # --------------------------------------------------------------------------- user data

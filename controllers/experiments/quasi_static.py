@@ -15,9 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from controllers.design.pi import PIController, PIDesign, design_pi
-from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive, check_signal
+from plant.errors import ParameterError, check_nonnegative, check_positive, check_signal
 from plant.friction import JointParams
 from plant.joint import make_rk4_step
+from plant.results import axes_or_new, json_safe
 
 __all__ = ["QuasiStaticData", "quasi_static_runs", "bidirectional_velocities", "QS_CROSSOVER"]
 
@@ -65,6 +66,46 @@ class QuasiStaticData:
     noise_std: float
     design: PIDesign
 
+    def to_dict(self) -> dict:
+        """Arrays as lists (rad/s, N·m), window settings (s, rad/s) and the loop design, strict JSON."""
+        return json_safe({
+            "setpoints": self.setpoints, "w_mean": self.w_mean, "w_std": self.w_std, "u_mean": self.u_mean,
+            "u_std": self.u_std, "hold": self.hold, "settle": self.settle, "Tc": self.Tc,
+            "noise_std": self.noise_std, "design": self.design.to_dict(),
+        })
+
+    def summary(self) -> str:
+        """Two lines: the runs and the range of the measured support points."""
+        n = int(self.setpoints.shape[0])
+        return (f"{n} constant-velocity runs, |w_ref| {float(np.min(np.abs(self.setpoints))):.4g} to "
+                f"{float(np.max(np.abs(self.setpoints))):.4g} rad/s; settle {self.settle:g} s, hold {self.hold:g} s, "
+                f"Tc {self.Tc:g} s, noise {self.noise_std:g} rad/s\n"
+                f"mean torque {float(np.min(self.u_mean)):.4g} to {float(np.max(self.u_mean)):.4g} N·m, "
+                f"largest spread {float(np.max(self.u_std)):.3g} N·m")
+
+    def plot(self, ax=None):
+        """Mean torque over mean velocity with the torque spread as error bars (the points of paper Fig. 8).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; default a new figure.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            Velocity (rad/s) on a symmetric-log axis, torque (N·m).
+        """
+        ax = axes_or_new(ax)
+        ax.errorbar(self.w_mean, self.u_mean, yerr=self.u_std, fmt="o", ms=3, color="C0", lw=0.8,
+                    label="mean ± std over the hold window")
+        ax.set_xscale("symlog", linthresh=max(float(np.min(np.abs(self.w_mean))), 1e-12))
+        ax.set_xlabel("velocity w (rad/s)")
+        ax.set_ylabel("torque u (N·m)")
+        ax.legend(fontsize=8)
+        ax.grid(True, alpha=0.3)
+        return ax
+
 
 def bidirectional_velocities(w_min: float, w_max: float, n: int) -> np.ndarray:
     """Log-spaced velocity setpoints in both directions.
@@ -104,6 +145,22 @@ def bidirectional_velocities(w_min: float, w_max: float, n: int) -> np.ndarray:
         raise ParameterError(f"n must be >= 2, got {n!r}")
     s = np.geomspace(w_min, w_max, int(n))
     return np.concatenate([-s[::-1], s])
+
+
+def _one_run(ctrl: PIController, step, wr: float, noise: list, n_settle: int, W: np.ndarray, U: np.ndarray) -> None:
+    """One run from rest to ``wr``: settle, then record measured velocity ``W`` and torque ``U`` (filled in place)."""
+    ctrl.reset()
+    w, f = 0.0, 0.0
+    ctl = ctrl.step
+    for k in range(n_settle):
+        u = ctl(wr - (w + noise[k]))
+        w, f = step(w, f, u)
+    for k in range(W.shape[0]):
+        wm = w + noise[n_settle + k]
+        u = ctl(wr - wm)
+        W[k] = wm
+        U[k] = u
+        w, f = step(w, f, u)
 
 
 def quasi_static_runs(
@@ -222,22 +279,11 @@ def quasi_static_runs(
     W = np.empty(n_hold)
     U = np.empty(n_hold)
     for j, wr in enumerate(v.tolist()):
-        ctrl.reset()
-        w, f = 0.0, 0.0
         if noise_std > 0.0:
             noise = (noise_std * rng.standard_normal(n_tot)).tolist()
         else:
             noise = [0.0] * n_tot
-        ctl = ctrl.step
-        for k in range(n_settle):
-            u = ctl(wr - (w + noise[k]))
-            w, f = step(w, f, u)
-        for k in range(n_hold):
-            wm = w + noise[n_settle + k]
-            u = ctl(wr - wm)
-            W[k] = wm
-            U[k] = u
-            w, f = step(w, f, u)
+        _one_run(ctrl, step, wr, noise, n_settle, W, U)
         w_mean[j], w_std[j] = W.mean(), W.std()
         u_mean[j], u_std[j] = U.mean(), U.std()
     return QuasiStaticData(setpoints=v.copy(), w_mean=w_mean, w_std=w_std, u_mean=u_mean,
