@@ -38,9 +38,9 @@ def main(argv=None) -> int:
     Package errors (bad parameters, bad data) are printed as ``adaptive-ff: error: ...``
     with exit status 2, without a traceback.
     """
+    args = build_parser().parse_args(argv)  # --help and usage errors exit here, before numpy is imported
     from plant.errors import FrictionError
 
-    args = build_parser().parse_args(argv)
     try:
         return args.func(args)
     except (FrictionError, FileNotFoundError) as exc:

@@ -32,7 +32,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from plant.errors import ParameterError
 from plant.friction import JointParams, preset
@@ -265,6 +264,8 @@ def run_sweep(spec: SweepSpec, out_csv, *, workers: int | None = None, scheduler
     ImportError
         ``scheduler`` given without dask installed.
     """
+    from tqdm.auto import tqdm
+
     path = Path(out_csv)
     path.parent.mkdir(parents=True, exist_ok=True)
     cases = expand_cases(spec)

@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from matplotlib.figure import Figure
+
+if TYPE_CHECKING:  # annotations only: matplotlib is imported by the functions when they run
+    from matplotlib.figure import Figure
 
 __all__ = ["plot_comparison", "plot_tracking", "plot_error", "plot_friction", "plot_rls_convergence"]
 
@@ -15,6 +18,8 @@ _STRIDE = 10  # plot every 10th controller sample (100 Hz): lighter files, same 
 def plot_tracking(comp) -> Figure:
     """Reference vs actual velocity (deg/s) over time (s), one panel per mode."""
     modes = list(comp.results)
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(10, 1.9 * len(modes)), layout="constrained")
     axes = fig.subplots(len(modes), 1, sharex=True, squeeze=False)[:, 0]
     for ax, mode in zip(axes, modes):
@@ -32,6 +37,8 @@ def plot_tracking(comp) -> Figure:
 
 def plot_error(comp) -> Figure:
     """Tracking error (deg/s) over time (s), all modes overlaid, with a zoom on the second half."""
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(10, 6), layout="constrained")
     ax1, ax2 = fig.subplots(2, 1)
     for mode, r in comp.results.items():
@@ -51,6 +58,8 @@ def plot_error(comp) -> Figure:
 
 def plot_friction(comp) -> Figure:
     """True friction torque vs the feedforward of the fixed and adaptive modes (N·m) over time (s)."""
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(10, 4.5), layout="constrained")
     ax = fig.subplots()
     ref = comp.results.get("adaptive") or comp.results["none"]
@@ -105,6 +114,8 @@ def plot_rls_convergence(comp) -> Figure | None:
         true = np.tile(comp.model.theta_from_physical(p0, r.info["Ts"]), (len(tt), 1))
         title = "RLS parameter convergence, eq. 4 coefficients (units: rad/s per unit of regressor)"
     n = len(names)
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(10, 1.6 * n), layout="constrained")
     axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
     for i, (ax, name) in enumerate(zip(axes, names)):
