@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from plant.errors import ParameterError, check_positive, check_signal, check_time
+from plant.results import json_safe
 
 __all__ = ["velocity_noise_std", "velocity_noise_std_irregular", "ExcitationReport", "excitation_report"]
 
@@ -121,6 +122,21 @@ class ExcitationReport:
     low_speed_fraction: float
     noise_std: float
     warnings: tuple[str, ...]
+
+    def to_dict(self) -> dict:
+        """Strict-JSON dict of the fields (``low_speed_fraction`` None when no ``Vs`` was given)."""
+        return json_safe({"n_samples": self.n_samples, "n_reversals": self.n_reversals,
+                          "low_speed_fraction": self.low_speed_fraction, "noise_std": self.noise_std,
+                          "warnings": list(self.warnings)})
+
+    def summary(self) -> str:
+        """One line of figures, then one line per warning (or "every parameter excited")."""
+        low = ("" if not np.isfinite(self.low_speed_fraction)
+               else f", {100 * self.low_speed_fraction:.2f} % of the samples in the Stribeck transition")
+        lines = [f"excitation: {self.n_samples} samples, {self.n_reversals} velocity reversals, velocity noise "
+                 f"{self.noise_std:.3g}{low}"]
+        lines += [f"  WARNING: {w}" for w in self.warnings] or ["  every parameter excited"]
+        return "\n".join(lines)
 
 
 def excitation_report(u, w, *, Vs: float | None = None, min_reversals: int = 4,

@@ -47,6 +47,7 @@ import numpy as np
 from adaptive_ff.io.data import EMPS_CUTOFF, EMPS_SKIP, MeasuredData, load_emps
 from adaptive_ff.identification.idim import IDIM_DECIMATE, RigidAxisModel, idim_force_error, relative_error
 from plant.errors import ParameterError, SignalError, check_signal, check_time
+from plant.results import axes_or_new, json_safe
 
 __all__ = ["EMPSRecord", "read_emps_record", "is_emps_record", "EMPSSimulation", "simulate_emps_loop",
            "exact_step", "EMPSValidation", "validate_emps"]
@@ -95,6 +96,17 @@ class EMPSRecord:
     def force(self) -> np.ndarray:
         """Logged force ``gtau*vir`` (N), shape (N,)."""
         return self.gtau * self.vir
+
+    def to_dict(self) -> dict:
+        """Strict-JSON dict of every field (arrays as lists; NaN/inf as None)."""
+        return json_safe({"t": self.t, "qm": self.qm, "qg": self.qg, "vir": self.vir, "pulses": self.pulses,
+                          "gtau": self.gtau, "kp": self.kp, "kv": self.kv, "source": self.source})
+
+    def summary(self) -> str:
+        """One line: file, samples, duration and the loop gains."""
+        return (f"EMPS record {self.source or '(in memory)'}: {self.t.shape[0]} samples over "
+                f"{self.t[-1] - self.t[0]:.4g} s, gtau = {self.gtau:.6g} N/V, kp = {self.kp:.6g} 1/s, "
+                f"kv = {self.kv:.6g} V/(m/s), pulses {'yes' if np.any(self.pulses) else 'none'}")
 
 
 def is_emps_record(path) -> bool:
@@ -265,6 +277,35 @@ class EMPSSimulation:
     w: np.ndarray
     force: np.ndarray
 
+    def to_dict(self) -> dict:
+        """Strict-JSON dict: ``t, q, w, force`` as lists (SI units; NaN/inf as None)."""
+        return json_safe({"t": self.t, "q": self.q, "w": self.w, "force": self.force})
+
+    def summary(self) -> str:
+        """One line: samples, duration, peak velocity and force."""
+        return (f"EMPS closed-loop simulation: {self.t.shape[0]} samples over {self.t[-1] - self.t[0]:.4g} s, "
+                f"max |w| {np.max(np.abs(self.w)):.4g} m/s, max |force| {np.max(np.abs(self.force)):.4g} N")
+
+    def plot(self, ax=None):
+        """Simulated velocity over time.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw into; default a new figure.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+        """
+        ax = axes_or_new(ax)
+        ax.plot(self.t, self.w, lw=0.8, label="simulated velocity")
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("velocity (m/s)")
+        ax.legend(loc="best")
+        ax.grid(True, alpha=0.3)
+        return ax
+
 
 def simulate_emps_loop(model: RigidAxisModel, record: EMPSRecord, *, delay: int = 1) -> EMPSSimulation:
     """Simulate a rigid-axis model in the EMPS position loop driven by the measured reference.
@@ -357,14 +398,27 @@ class EMPSValidation:
     source: str
     simulation: EMPSSimulation
 
+    def to_dict(self) -> dict:
+        """Strict-JSON dict: ``velocity_error_percent, force_error_percent, position_error_percent,
+        idim_force_error_percent, n_samples, source`` (the simulated signals are left out)."""
+        return json_safe({"velocity_error_percent": self.velocity_error, "force_error_percent": self.force_error,
+                          "position_error_percent": self.position_error,
+                          "idim_force_error_percent": self.idim_force_error,
+                          "n_samples": int(self.n_samples), "source": self.source})
+
     def to_json_dict(self) -> dict:
-        """Plain floats: ``velocity_error_percent, force_error_percent, position_error_percent,
-        idim_force_error_percent, n_samples, source``."""
-        return {"velocity_error_percent": float(self.velocity_error),
-                "force_error_percent": float(self.force_error),
-                "position_error_percent": float(self.position_error),
-                "idim_force_error_percent": float(self.idim_force_error),
-                "n_samples": int(self.n_samples), "source": self.source}
+        """The same as :meth:`to_dict` (the name the CLI uses)."""
+        return self.to_dict()
+
+    def summary(self) -> str:
+        """One line: the four relative errors."""
+        return (f"EMPS validation on {self.source} ({self.n_samples} samples): velocity {self.velocity_error:.3f} %, "
+                f"force {self.force_error:.3f} %, position {self.position_error:.4f} %, inverse dynamics "
+                f"{self.idim_force_error:.3f} %")
+
+    def plot(self, ax=None):
+        """The simulated velocity (:meth:`EMPSSimulation.plot`)."""
+        return self.simulation.plot(ax)
 
 
 def validate_emps(model: RigidAxisModel, path, *, cutoff: float = EMPS_CUTOFF, skip: int = EMPS_SKIP,

@@ -43,6 +43,7 @@ from adaptive_ff.identification.physical_id import METHODS, PhysicalFit, fit_phy
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel, nrmse_fit
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from plant.errors import ExcitationError, ParameterError, check_positive
+from plant.results import axes_or_new, json_safe
 
 __all__ = ["IdentificationReport", "identify", "PARAM_UNITS", "CrossValidation", "cross_validate"]
 
@@ -94,12 +95,6 @@ def _physical_std(model: RegressionModel, u, w, ls: LSResult, names: tuple[str, 
         G[:, j] = (_physical_vector(model, tp, ls.Ts, names) - _physical_vector(model, tm, ls.Ts, names)) / (2 * h)
     var = np.einsum("ij,jk,ik->i", G, cov, G)
     return {nm: float(math.sqrt(v)) if v >= 0 else float("nan") for nm, v in zip(names, var)}
-
-
-def _plain(x) -> float | None:
-    """A plain float for JSON; None for NaN/inf (not representable in strict JSON)."""
-    x = float(x)
-    return x if math.isfinite(x) else None
 
 
 @dataclass(frozen=True)
@@ -190,8 +185,8 @@ class IdentificationReport:
         e = self.estimate
         return RigidAxisModel.symmetric(e.J, e.sigma, e.Fc, e.offset)
 
-    def to_json_dict(self) -> dict:
-        """Plain-float summary for JSON output.
+    def to_dict(self) -> dict:
+        """Strict-JSON summary of the identification (the CLI's JSON output).
 
         Returns
         -------
@@ -204,36 +199,69 @@ class IdentificationReport:
             parameters) and ``rls`` (the same parameters of the final RLS
             estimate, its ``fit_percent`` and ``lam``); ``rel_std`` (standard
             errors in % of the value); ``excitation`` (``noise_std``,
-            ``n_reversals``, ``low_speed_fraction``) and ``warnings`` (list of
-            str). Non-finite values become ``None``.
+            ``n_reversals``, ``low_speed_fraction``), ``warnings`` (list of
+            str), ``method`` and, for a method other than ``"paper"``,
+            ``physical`` (:meth:`PhysicalFit.to_dict`). Non-finite values become ``None``.
         """
         e = self.estimate
-        out = {k: _plain(getattr(e, k)) for k in ("J", "sigma", "Fc", "Fs", "tau", "offset")}
-        out["fit_percent"] = _plain(self.ls.fit_one_step)
-        out["fit_free_run_percent"] = _plain(self.ls.fit_free_run)
-        out["cond"] = _plain(self.ls.cond)
-        out["Ts"] = _plain(self.Ts)
+        keys = ("J", "sigma", "Fc", "Fs", "tau", "offset")
+        out = {k: getattr(e, k) for k in keys}
+        out["fit_percent"] = self.ls.fit_one_step
+        out["fit_free_run_percent"] = self.ls.fit_free_run
+        out["cond"] = self.ls.cond
+        out["Ts"] = self.Ts
         if self.model.stribeck:
-            out["Vs"] = _plain(self.model.Vs)
-            out["delta"] = _plain(self.model.delta)
-        out["std"] = {k: _plain(v) for k, v in self.std.items()}
+            out["Vs"] = self.model.Vs
+            out["delta"] = self.model.delta
+        out["std"] = dict(self.std)
         r = self.rls_estimate
-        out["rls"] = {k: _plain(getattr(r, k)) for k in ("J", "sigma", "Fc", "Fs", "tau", "offset")}
-        out["rls"]["fit_percent"] = _plain(self.rls_fit_percent)
-        out["rls"]["lam"] = _plain(self.lam)
-        out["rel_std"] = {k: _plain(100.0 * v / abs(getattr(e, k))) if getattr(e, k) != 0 else None
+        out["rls"] = {k: getattr(r, k) for k in keys}
+        out["rls"]["fit_percent"] = self.rls_fit_percent
+        out["rls"]["lam"] = self.lam
+        out["rel_std"] = {k: 100.0 * v / abs(getattr(e, k)) if getattr(e, k) != 0 else None
                           for k, v in self.std.items()}
         if self.excitation is not None:
             x = self.excitation
-            out["excitation"] = {"noise_std": _plain(x.noise_std), "n_reversals": int(x.n_reversals),
-                                 "low_speed_fraction": _plain(x.low_speed_fraction)}
+            out["excitation"] = {"noise_std": x.noise_std, "n_reversals": int(x.n_reversals),
+                                 "low_speed_fraction": x.low_speed_fraction}
         out["warnings"] = list(self.warnings)
         if self.physical is not None:
             out["method"] = self.physical.method
-            out["physical"] = self.physical.to_json_dict()
+            out["physical"] = self.physical.to_dict()
         else:
             out["method"] = "paper"
-        return out
+        return json_safe(out)
+
+    def to_json_dict(self) -> dict:
+        """The same as :meth:`to_dict` (the name the CLI uses)."""
+        return self.to_dict()
+
+    def plot(self, ax=None):
+        """Convergence of the RLS (paper Fig. 5): each parameter's history relative to its LS value.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw into; default a new figure.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            Time (s) against ``theta_RLS(t)/theta_LS`` per regression parameter (1 = the LS value);
+            parameters whose LS value is 0 are left out.
+        """
+        ax = axes_or_new(ax)
+        for i, name in enumerate(self.model.names):
+            ref = self.ls.theta[i]
+            if ref != 0.0:
+                ax.plot(self.theta_time, self.theta_history[:, i] / ref, lw=0.9, label=name)
+        ax.axhline(1.0, color="0.5", lw=0.6, ls="--")
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("RLS estimate / LS estimate")
+        ax.set_title(f"RLS convergence (lam = {self.lam:g}), {self.source or 'measured data'}")
+        ax.legend(loc="best", ncol=2)
+        ax.grid(True, alpha=0.3)
+        return ax
 
     def summary(self) -> str:
         """Human-readable multi-line table: parameter, LS value, std error, RLS value, unit."""
@@ -471,11 +499,23 @@ class CrossValidation:
     n_samples: int
     source: str
 
+    def to_dict(self) -> dict:
+        """Strict-JSON dict: ``fit_percent, fit_free_run_percent, idim_force_error_percent, decimate, n_samples,
+        source`` (NaN/inf as None)."""
+        return json_safe({"fit_percent": self.fit_one_step, "fit_free_run_percent": self.fit_free_run,
+                          "idim_force_error_percent": self.idim_force_error, "decimate": int(self.decimate),
+                          "n_samples": int(self.n_samples), "source": self.source})
+
     def to_json_dict(self) -> dict:
-        """Plain floats: ``fit_percent, fit_free_run_percent, idim_force_error_percent, decimate, n_samples, source``."""
-        return {"fit_percent": _plain(self.fit_one_step), "fit_free_run_percent": _plain(self.fit_free_run),
-                "idim_force_error_percent": None if self.idim_force_error is None else _plain(self.idim_force_error),
-                "decimate": int(self.decimate), "n_samples": int(self.n_samples), "source": self.source}
+        """The same as :meth:`to_dict` (the name the CLI uses)."""
+        return self.to_dict()
+
+    def summary(self) -> str:
+        """One line: the fits and the inverse-dynamics force error on the validation record."""
+        fe = "n/a" if self.idim_force_error is None else f"{self.idim_force_error:.3f} %"
+        return (f"cross-validation on {self.source or 'a record'} ({self.n_samples} samples): fit one-step "
+                f"{self.fit_one_step:.3f} %, free-run {self.fit_free_run:.2f} %, inverse-dynamics force error {fe} "
+                f"(decimation {self.decimate})")
 
 
 def cross_validate(report: IdentificationReport, data: MeasuredData, *, decimate: int | None = None

@@ -35,6 +35,8 @@ import numpy as np
 from adaptive_ff.io.data import MeasuredData
 from plant.errors import ExcitationError, ParameterError, SignalError, check_finite_scalar, check_nonnegative, \
     check_positive
+from plant.friction import stribeck
+from plant.results import json_safe
 
 __all__ = ["RigidAxisModel", "IDIMFit", "fit_idim", "idim_force_error", "relative_error", "IDIM_DECIMATE"]
 
@@ -168,10 +170,18 @@ class RigidAxisModel:
         ndarray, shape (N,)
             ``Fc_pos + sigma_pos*w`` where ``w > 0``, ``-Fc_neg + sigma_neg*w``
             where ``w < 0``, 0 where ``w == 0``.
+
+        Notes
+        -----
+        Eq. 3 of the Ruderman paper with ``Fs = Fc`` and the levels of each
+        direction, evaluated by :func:`plant.friction.stribeck` (with no
+        Stribeck excess the shape factor does not enter; ``Vs = delta = 1``
+        are placeholders).
         """
         w = np.asarray(w, dtype=float)
-        return np.where(w > 0, self.Fc_pos + self.sigma_pos * w,
-                        np.where(w < 0, -self.Fc_neg + self.sigma_neg * w, 0.0))
+        pos = stribeck(w, Fc=self.Fc_pos, Fs=self.Fc_pos, Vs=1.0, delta=1.0, sigma=self.sigma_pos)
+        neg = stribeck(w, Fc=self.Fc_neg, Fs=self.Fc_neg, Vs=1.0, delta=1.0, sigma=self.sigma_neg)
+        return np.where(w > 0, pos, np.where(w < 0, neg, 0.0))
 
     def force(self, acc, w) -> np.ndarray:
         """Torque/force of the inverse dynamic model ``J*acc + F(w) + offset`` (N·m or N).
@@ -190,8 +200,16 @@ class RigidAxisModel:
         return self.J * np.asarray(acc, dtype=float) + self.friction(w) + self.offset
 
     def to_dict(self) -> dict:
-        """Plain floats: ``J, Fc_pos, Fc_neg, sigma_pos, sigma_neg, offset`` (SI units)."""
+        """Plain floats: ``J, Fc_pos, Fc_neg, sigma_pos, sigma_neg, offset`` (SI units; all finite by validation)."""
         return {k: float(getattr(self, k)) for k in ("J", "Fc_pos", "Fc_neg", "sigma_pos", "sigma_neg", "offset")}
+
+    def summary(self) -> str:
+        """One line with the six values."""
+        if self.is_symmetric:
+            return (f"rigid axis: J = {self.J:.6g}, sigma = {self.sigma_pos:.6g}, Fc = {self.Fc_pos:.6g}, "
+                    f"offset = {self.offset:.6g}")
+        return (f"rigid axis: J = {self.J:.6g}, sigma+ = {self.sigma_pos:.6g}, Fc+ = {self.Fc_pos:.6g}, "
+                f"sigma- = {self.sigma_neg:.6g}, Fc- = {self.Fc_neg:.6g}, offset = {self.offset:.6g}")
 
 
 #: Column names of the IDIM regressor per structure (asymmetric, offset).
@@ -293,21 +311,37 @@ class IDIMFit:
         """Relative standard errors ``100*stderr/|value|`` (%), NaN for a zero value."""
         return {n: (100.0 * self.stderr[n] / abs(v) if v != 0 else float("nan")) for n, v in self.params.items()}
 
-    def to_json_dict(self) -> dict:
-        """Plain floats: parameters, ``std``, ``cond``, ``cond_raw``, ``force_error_percent``, ``n_samples``,
-        ``decimate``."""
-        def plain(x):
-            x = float(x)
-            return x if math.isfinite(x) else None
+    def to_dict(self) -> dict:
+        """Strict-JSON dict (NaN/inf as None).
 
-        out = {n: plain(v) for n, v in self.params.items()}
-        out["std"] = {n: plain(v) for n, v in self.stderr.items()}
-        out["cond"] = plain(self.cond)
-        out["cond_raw"] = plain(self.cond_raw)
-        out["force_error_percent"] = plain(self.force_error)
+        Returns
+        -------
+        dict
+            The parameters ``{name: value}``, ``std`` (standard errors), ``cond``,
+            ``cond_raw``, ``force_error_percent``, ``n_samples``, ``decimate``.
+        """
+        out = dict(self.params)
+        out["std"] = dict(self.stderr)
+        out["cond"] = self.cond
+        out["cond_raw"] = self.cond_raw
+        out["force_error_percent"] = self.force_error
         out["n_samples"] = int(self.n_samples)
         out["decimate"] = int(self.decimate)
-        return out
+        return json_safe(out)
+
+    def to_json_dict(self) -> dict:
+        """The same as :meth:`to_dict` (the name the CLI uses)."""
+        return self.to_dict()
+
+    def summary(self) -> str:
+        """A few lines: each parameter with its relative standard error, force error and condition numbers."""
+        rel = self.rel_stderr
+        lines = [f"IDIM-LS fit ({'asymmetric' if self.asymmetric else 'symmetric'} friction, {self.n_samples} rows, "
+                 f"decimation {self.decimate})"]
+        lines += [f"  {k:<10}{v:>14.6g} ± {self.stderr[k]:.3g} ({rel[k]:.3g} %)" for k, v in self.params.items()]
+        lines.append(f"  force error {self.force_error:.3f} %, cond {self.cond:.3g} (scaled), "
+                     f"{self.cond_raw:.3g} (raw)")
+        return "\n".join(lines)
 
 
 def fit_idim(data: MeasuredData, *, asymmetric: bool = False, offset: bool | None = None,

@@ -8,6 +8,7 @@ import numpy as np
 
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel, nrmse_fit
 from plant.errors import ExcitationError, check_nonnegative, check_positive, check_signal
+from plant.results import axes_or_new, json_safe
 
 __all__ = ["LSResult", "fit_ls", "COND_LIMIT"]
 
@@ -58,6 +59,55 @@ class LSResult:
     def theta_dict(self) -> dict:
         """``{name: value}`` of the regression parameters."""
         return dict(zip(self.model.names, self.theta.tolist()))
+
+    def to_dict(self) -> dict:
+        """Strict-JSON dict (NaN/inf as None) without the two output signals.
+
+        Returns
+        -------
+        dict
+            ``model`` (:meth:`RegressionModel.to_dict`), ``Ts``, ``theta`` and ``theta_std`` (``{name: value}``),
+            ``estimate`` (:meth:`FrictionEstimate.to_dict`), ``residual_rms``,
+            ``cond``, ``fit_one_step``, ``fit_free_run``, ``n_samples``.
+        """
+        m = self.model
+        return json_safe({
+            "model": m.to_dict(),
+            "Ts": self.Ts, "theta": self.theta_dict(), "theta_std": dict(zip(m.names, self.theta_std.tolist())),
+            "estimate": self.estimate.to_dict(), "residual_rms": self.residual_rms, "cond": self.cond,
+            "fit_one_step": self.fit_one_step, "fit_free_run": self.fit_free_run,
+            "n_samples": int(self.w_one_step.shape[0])})
+
+    def summary(self) -> str:
+        """A few lines: each regression parameter with its standard error, the fits and the condition number."""
+        lines = [f"LS fit of eq. 4 ({self.model!r}, Ts = {self.Ts:.6g} s, {self.w_one_step.shape[0]} samples)"]
+        lines += [f"  {k:<4}{v:>14.6g} ± {s:.3g}" for k, v, s in zip(self.model.names, self.theta, self.theta_std)]
+        lines.append(f"  fit one-step {self.fit_one_step:.3f} %, free-run {self.fit_free_run:.2f} %, "
+                     f"residual RMS {self.residual_rms:.3g} rad/s, cond {self.cond:.3g}")
+        return "\n".join(lines)
+
+    def plot(self, ax=None):
+        """The one-step prediction and the free-run simulation of the model over time (paper Figs. 4, 9).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw into; default a new figure.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            Time (s, ``k*Ts``) against velocity (rad/s).
+        """
+        ax = axes_or_new(ax)
+        t = np.arange(self.w_one_step.shape[0]) * self.Ts
+        ax.plot(t, self.w_one_step, lw=0.8, label=f"one-step prediction (fit {self.fit_one_step:.1f} %)")
+        ax.plot(t, self.w_free_run, lw=0.8, label=f"free run (fit {self.fit_free_run:.1f} %)")
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("velocity (rad/s)")
+        ax.legend(loc="best")
+        ax.grid(True, alpha=0.3)
+        return ax
 
 
 def fit_ls(model: RegressionModel, u, w, *, Ts: float, ridge: float = 0.0) -> LSResult:

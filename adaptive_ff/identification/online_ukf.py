@@ -101,6 +101,7 @@ from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
 from plant.errors import FrictionError, ParameterError, SignalError, check_finite_scalar, check_positive, \
     check_signal, check_time
+from plant.results import axes_or_new, json_safe
 
 __all__ = [
     "STATE_NAMES",
@@ -682,6 +683,54 @@ class OnlineUKFResult:
     final: dict
     x: np.ndarray
     P: np.ndarray
+
+    def to_dict(self) -> dict:
+        """Strict-JSON dict of the final estimate (the histories are left out; NaN/inf as None).
+
+        Returns
+        -------
+        dict
+            ``final`` and ``final_std`` (``{Fc, Fs, Vs, delta, sigma, tau}``),
+            ``n_samples``, ``t_start``, ``t_end`` (s), ``innovation_rms``
+            (rad/s, samples 1 on), ``x`` (8) and ``P`` (8 x 8 lists).
+        """
+        n = self.t.shape[0]
+        innov = self.innovation[1:]
+        return json_safe({"final": self.final, "final_std": {k: v[-1] for k, v in self.theta_std.items()},
+                          "n_samples": n, "t_start": self.t[0], "t_end": self.t[-1],
+                          "innovation_rms": float(np.sqrt(np.mean(innov**2))) if innov.size else None,
+                          "x": self.x, "P": self.P})
+
+    def summary(self) -> str:
+        """A few lines: the final parameters with their 1-sigma."""
+        units = {"Fc": "N·m", "Fs": "N·m", "Vs": "rad/s", "delta": "", "sigma": "N·m·s/rad", "tau": "s"}
+        lines = [f"online UKF estimate after {self.t.shape[0]} samples ({self.t[-1] - self.t[0]:.4g} s)"]
+        lines += [f"  {k:<6}{self.final[k]:>12.6g} ± {self.theta_std[k][-1]:<10.3g}{units[k]}" for k in PARAM_NAMES]
+        return "\n".join(lines)
+
+    def plot(self, ax=None):
+        """Convergence: each parameter's history relative to its final value.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw into; default a new figure.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            Time (s) against ``theta(t)/theta_final`` (parameters whose final value is 0 are left out).
+        """
+        ax = axes_or_new(ax)
+        for k in PARAM_NAMES:
+            if self.final[k] != 0.0:
+                ax.plot(self.t, self.theta[k] / self.final[k], lw=0.9, label=k)
+        ax.axhline(1.0, color="0.5", lw=0.6, ls="--")
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("estimate / final estimate")
+        ax.legend(loc="best", ncol=3)
+        ax.grid(True, alpha=0.3)
+        return ax
 
 
 def run_online_ukf(t, u, w, *, J: float, theta0: Mapping, noise_std: float, f0: float = 0.0,

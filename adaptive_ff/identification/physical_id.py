@@ -111,6 +111,7 @@ from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
 from adaptive_ff.identification.simulator import H_MAX_DEFAULT, input_grid, simulate_on_grid
 from plant.errors import (ExcitationError, ParameterError, SignalError, check_finite_scalar, check_positive,
                           check_signal, check_time)
+from plant.results import json_safe
 
 __all__ = ["PhysicalFit", "OutputErrorOptions", "fit_physical", "METHODS", "PHYSICAL_NAMES", "MIN_SAMPLES"]
 
@@ -178,23 +179,24 @@ class PhysicalFit:
     nrmse_kind: str = "free-run"
     info: dict = field(default_factory=dict)
 
+    def to_dict(self) -> dict:
+        """Strict-JSON dict: ``method, params, stderr, cond, nrmse, nrmse_kind, n_samples, info`` (NaN/inf as None)."""
+        return json_safe({"method": self.method, "params": self.params, "stderr": self.stderr, "cond": self.cond,
+                          "nrmse": self.nrmse, "nrmse_kind": self.nrmse_kind, "n_samples": self.n_samples,
+                          "info": self.info})
+
     def to_json_dict(self) -> dict:
-        """Plain-JSON dict (floats, NaN as None)."""
-        def plain(x):
-            if isinstance(x, dict):
-                return {str(k): plain(v) for k, v in x.items()}
-            if isinstance(x, (list, tuple)):
-                return [plain(v) for v in x]
-            if isinstance(x, (bool, str)) or x is None:
-                return x
-            if isinstance(x, (int, np.integer)):
-                return int(x)
-            if isinstance(x, (float, np.floating)):
-                return float(x) if math.isfinite(x) else None
-            return str(x)
-        return plain({"method": self.method, "params": self.params, "stderr": self.stderr, "cond": self.cond,
-                      "nrmse": self.nrmse, "nrmse_kind": self.nrmse_kind, "n_samples": self.n_samples,
-                      "info": self.info})
+        """The same as :meth:`to_dict` (the name the CLI uses)."""
+        return self.to_dict()
+
+    def summary(self) -> str:
+        """A few lines: method, each parameter with its standard error, fit and condition number."""
+        units = {"J": "kg·m²", "Fc": "N·m", "Fs": "N·m", "sigma": "N·m·s/rad", "tau": "s", "offset": "N·m"}
+        lines = [f"physical parameters by {self.method!r} ({self.n_samples} samples)"]
+        lines += [f"  {k:<7}{v:>13.6g} ± {self.stderr.get(k, float('nan')):<10.3g}{units.get(k, '')}"
+                  for k, v in self.params.items()]
+        lines.append(f"  fit ({self.nrmse_kind}) {self.nrmse:.3f} %, cond {self.cond:.3g}")
+        return "\n".join(lines)
 
 
 def _check_inputs(t, u, w, Vs, delta):

@@ -46,13 +46,14 @@ regressor ``-1`` with parameter ``o1 = offset*Ts**2/D``.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
 from plant.errors import ExcitationError, ParameterError, check_finite_scalar, check_positive, check_signal
-from plant.friction import JointParams, stribeck_shape
+from plant.friction import JointParams, stribeck, stribeck_shape
 from plant.jit import kernel
+from plant.results import axes_or_new, json_safe
 
 __all__ = [
     "g_regressor",
@@ -191,18 +192,99 @@ class FrictionEstimate:
                     and self.Fc >= 0 and self.Fs >= 0)
 
     def friction(self, w):
-        """Static friction ``F(w) + offset`` (N·m) of the estimate; eq. 3 plus the bias."""
-        w = np.asarray(w, dtype=float)
+        """Static friction ``F(w) + offset`` (N·m) of the estimate: eq. 3 plus the bias.
+
+        Parameters
+        ----------
+        w : float or ndarray, any shape
+            Velocity (rad/s).
+
+        Returns
+        -------
+        float or ndarray, same shape as ``w``
+            :func:`plant.friction.stribeck` with ``Fc, Fs, Vs, delta, sigma``,
+            plus ``offset``; for the Coulomb structure (``Vs`` None)
+            ``Fc*sgn(w) + sigma*w + offset`` (eq. 3 with ``Fs = Fc``).
+
+        Raises
+        ------
+        ParameterError
+            A level or coefficient of the estimate is not finite (nothing to evaluate).
+        """
         if self.Vs is None:
-            out = self.Fc * np.sign(w) + self.sigma * w + self.offset
+            F = stribeck(w, Fc=self.Fc, Fs=self.Fc, Vs=1.0, delta=1.0, sigma=self.sigma)  # no Stribeck excess
         else:
-            out = (self.Fc * g_regressor(w, self.Vs, self.delta) + self.Fs * h_regressor(w, self.Vs, self.delta)
-                   + self.sigma * w + self.offset)
-        return float(out) if np.ndim(out) == 0 else out
+            F = stribeck(w, Fc=self.Fc, Fs=self.Fs, Vs=self.Vs, delta=self.delta, sigma=self.sigma)
+        return F + self.offset
 
     def to_dict(self) -> dict:
-        """As a plain dict (SI units)."""
-        return asdict(self)
+        """Strict-JSON dict of the fields (SI units); NaN/inf become None (e.g. ``J_alt`` without a lag).
+
+        :meth:`from_dict` turns it back into an equal estimate.
+        """
+        return json_safe(asdict(self))
+
+    @classmethod
+    def from_dict(cls, d) -> "FrictionEstimate":
+        """The estimate of a :meth:`to_dict` dict: None becomes NaN, except ``Vs``/``delta`` (None = Coulomb).
+
+        Parameters
+        ----------
+        d : mapping
+            Keys ``J, tau, sigma, Fc, Fs, offset, Vs, delta, J_alt``.
+
+        Returns
+        -------
+        FrictionEstimate
+
+        Raises
+        ------
+        ParameterError
+            Missing or unknown keys.
+        """
+        names = [f.name for f in fields(cls)]
+        if set(d) != set(names):
+            raise ParameterError(f"a FrictionEstimate dict needs exactly the keys {names}, got {sorted(d)}")
+        return cls(**{k: (d[k] if d[k] is not None or k in ("Vs", "delta") else math.nan) for k in names})
+
+    def summary(self) -> str:
+        """One line with the physical parameters (and the fixed Stribeck factors)."""
+        txt = (f"J = {self.J:.6g}, tau = {self.tau:.6g}, sigma = {self.sigma:.6g}, Fc = {self.Fc:.6g}, "
+               f"Fs = {self.Fs:.6g}, offset = {self.offset:.6g}")
+        if self.Vs is not None:
+            txt += f" (Vs = {self.Vs:.6g}, delta = {self.delta:.6g} fixed)"
+        return txt + ("" if self.is_plausible() else "; NOT physically plausible")
+
+    def plot(self, ax=None, *, w_max: float | None = None):
+        """The static friction ``F(w) + offset`` of the estimate over ``-w_max <= w <= w_max``.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw into; default a new figure.
+        w_max : float, keyword-only, optional
+            Largest speed drawn (rad/s), > 0; default ``20*Vs`` (1 rad/s for the Coulomb structure).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+
+        Raises
+        ------
+        ParameterError
+            ``w_max`` not > 0, or a parameter of the estimate not finite.
+        """
+        w_max = (20.0 * self.Vs if self.Vs is not None else 1.0) if w_max is None else check_positive("w_max", w_max)
+        ax = axes_or_new(ax)
+        w = np.linspace(-w_max, w_max, 801)
+        ax.plot(w, self.friction(w), lw=1.0, label="F(w) + offset")
+        ax.axhline(0.0, color="0.7", lw=0.5)
+        ax.axvline(0.0, color="0.7", lw=0.5)
+        ax.set_xlabel("velocity w (rad/s)")
+        ax.set_ylabel("friction torque (N·m)")
+        ax.legend(loc="best")
+        ax.grid(True, alpha=0.3)
+        return ax
 
 
 class RegressionModel:
@@ -265,6 +347,11 @@ class RegressionModel:
     def __repr__(self) -> str:
         return (f"RegressionModel(Vs={self.Vs!r}, delta={self.delta!r}, lag={self.lag}, "
                 f"stribeck={self.stribeck}, offset={self.offset})")
+
+    def to_dict(self) -> dict:
+        """Strict-JSON dict: ``Vs, delta`` (None for the Coulomb structure), ``lag, stribeck, offset, names``."""
+        return json_safe({"Vs": self.Vs, "delta": self.delta, "lag": self.lag, "stribeck": self.stribeck,
+                          "offset": self.offset, "names": list(self.names)})
 
     @property
     def n_params(self) -> int:

@@ -29,6 +29,7 @@ import numpy as np
 
 from adaptive_ff.io.data import MeasuredData
 from plant.errors import ExcitationError, ParameterError, check_nonnegative, check_positive, check_signal, check_time
+from plant.results import axes_or_new, json_safe
 
 __all__ = [
     "SupportPoints",
@@ -86,11 +87,43 @@ class SupportPoints:
         return int(self.w_mean.shape[0])
 
     def to_dict(self) -> dict:
-        """Plain lists for JSON (SI units)."""
-        return {"w_mean": self.w_mean.tolist(), "w_std": self.w_std.tolist(), "u_mean": self.u_mean.tolist(),
-                "u_std": self.u_std.tolist(), "n_samples": self.n_samples.tolist(),
-                "t_start": self.t_start.tolist(), "t_end": self.t_end.tolist(), "method": self.method,
-                "notes": list(self.notes)}
+        """Strict-JSON dict: the arrays as lists (SI units), ``method``, ``notes``; NaN/inf as None."""
+        return json_safe({"w_mean": self.w_mean, "w_std": self.w_std, "u_mean": self.u_mean, "u_std": self.u_std,
+                          "n_samples": self.n_samples, "t_start": self.t_start, "t_end": self.t_end,
+                          "method": self.method, "notes": list(self.notes)})
+
+    def summary(self) -> str:
+        """A few lines: number of points, velocity and torque ranges, the notes."""
+        lines = [f"{self.n_points} support points of the Stribeck curve (method {self.method!r})"]
+        if self.n_points:
+            lines.append(f"  w from {self.w_mean.min():.4g} to {self.w_mean.max():.4g} rad/s, "
+                         f"u from {self.u_mean.min():.4g} to {self.u_mean.max():.4g} N·m, "
+                         f"{int(self.n_samples.sum())} samples")
+        lines += [f"  note: {n}" for n in self.notes]
+        return "\n".join(lines)
+
+    def plot(self, ax=None):
+        """Mean torque over mean velocity with the torque spread as error bars (paper Fig. 8).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw into; default a new figure.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+        """
+        ax = axes_or_new(ax, figsize=(6.0, 4.0))
+        ax.errorbar(self.w_mean, self.u_mean, xerr=self.w_std, yerr=self.u_std, fmt="o", ms=4, capsize=2,
+                    label=f"support points ({self.method})")
+        ax.axhline(0.0, color="0.7", lw=0.5)
+        ax.axvline(0.0, color="0.7", lw=0.5)
+        ax.set_xlabel("velocity w (rad/s)")
+        ax.set_ylabel("torque u (N·m)")
+        ax.legend(loc="best")
+        ax.grid(True, alpha=0.3)
+        return ax
 
 
 def _points(rows: list, method: str, notes: list) -> SupportPoints:

@@ -61,6 +61,7 @@ from scipy.stats import t as student_t
 
 from plant.errors import ExcitationError, ParameterError, SignalError, check_finite_scalar, check_signal
 from plant.friction import stribeck
+from plant.results import axes_or_new, json_safe
 
 __all__ = ["PARAM_NAMES", "MIN_POINTS", "StribeckFit", "fit_stribeck", "plot_stribeck_fit"]
 
@@ -208,16 +209,66 @@ class StribeckFit:
         return out
 
     def to_dict(self) -> dict:
-        """Plain, JSON-serialisable dict of the result (SI units; ``cov`` as nested lists)."""
+        """Strict-JSON dict of the result (SI units; ``cov`` as nested lists; NaN/inf as None).
+
+        Returns
+        -------
+        dict
+            ``Fc, Fs, Vs, delta, sigma``, ``stderr`` (dict), ``cov`` (5 x 5
+            lists, order :data:`PARAM_NAMES`), ``residual_rms``, ``n_points``,
+            ``converged``.
+        """
         d = self.params()
         d.update(
             stderr=dict(self.stderr),
-            cov=self.cov.tolist(),
+            cov=self.cov,
             residual_rms=self.residual_rms,
             n_points=self.n_points,
             converged=self.converged,
         )
-        return d
+        return json_safe(d)
+
+    def summary(self) -> str:
+        """A few lines: the five parameters with standard errors, residual RMS, points, convergence."""
+        units = {"Fc": "N·m", "Fs": "N·m", "Vs": "rad/s", "delta": "", "sigma": "N·m·s/rad"}
+        lines = [f"Stribeck fit of eq. 3 ({self.n_points} points, residual RMS {self.residual_rms:.4g} N·m"
+                 f"{'' if self.converged else ', NOT converged'})"]
+        lines += [f"  {k:<6}{getattr(self, k):>12.6g} ± {self.stderr[k]:<10.3g}{units[k]}" for k in PARAM_NAMES]
+        return "\n".join(lines)
+
+    def plot(self, ax=None, *, w=None, F=None, F_std=None):
+        """The fitted curve, over the support points if given (paper Fig. 8).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw into; default a new figure.
+        w, F : array_like, shape (N,), keyword-only, optional
+            Support points (rad/s, N·m) drawn with the curve, see
+            :func:`plot_stribeck_fit`. Without them the curve is drawn for
+            ``0 < |w| <= 20*Vs`` in both directions.
+        F_std : array_like, shape (N,), keyword-only, optional
+            Spread of ``F`` (N·m), drawn as error bars.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+
+        Raises
+        ------
+        ParameterError
+            Only one of ``w`` and ``F`` given.
+        SignalError
+            Bad ``w``, ``F`` or ``F_std``.
+        """
+        if (w is None) != (F is None):
+            raise ParameterError("give both w and F (the support points), or neither")
+        if w is not None:
+            return plot_stribeck_fit(self, w, F, F_std=F_std, ax=ax)
+        ax = axes_or_new(ax, figsize=(6.0, 4.0))
+        _draw_fitted_curve(ax, self, top=20.0 * self.Vs, bottom=self.Vs / 100.0, signs=(-1.0, 1.0))
+        _label_stribeck_axes(ax)
+        return ax
 
 
 # --------------------------------------------------------------------------- model
@@ -573,7 +624,8 @@ def plot_stribeck_fit(fit: StribeckFit, w, F, *, F_std=None, ax=None):
     Returns
     -------
     matplotlib.axes.Axes
-        The axes, x labelled in rad/s and y in N·m.
+        The axes, x labelled in rad/s and y in N·m (the same as
+        ``fit.plot(ax, w=w, F=F, F_std=F_std)``).
 
     Raises
     ------
@@ -591,21 +643,28 @@ def plot_stribeck_fit(fit: StribeckFit, w, F, *, F_std=None, ax=None):
     w = check_signal("w", w)
     F = check_signal("F", F, n=w.shape[0])
     yerr = None if F_std is None else check_signal("F_std", F_std, n=w.shape[0])
-    if ax is None:
-        from matplotlib.figure import Figure
-
-        ax = Figure(figsize=(6.0, 4.0)).add_subplot()
+    ax = axes_or_new(ax, figsize=(6.0, 4.0))
     ax.errorbar(w, F, yerr=yerr, fmt="o", ms=4, capsize=2, color="C0", label="measured (mean ± spread)")
     aw = np.abs(w[w != 0.0])
     top = float(aw.max()) if aw.size else 1.0
     bottom = float(aw.min()) if aw.size else top * 1e-3
+    signs = [s for s in (-1.0, 1.0) if np.any(np.sign(w) == s)] or [1.0]
+    _draw_fitted_curve(ax, fit, top=top, bottom=bottom, signs=signs)
+    _label_stribeck_axes(ax)
+    return ax
+
+
+def _draw_fitted_curve(ax, fit: StribeckFit, *, top: float, bottom: float, signs) -> None:
+    """One branch of the fitted curve per direction in ``signs``, dense near ``bottom`` and ``Vs``."""
     branch = np.unique(np.concatenate([np.linspace(0.0, top, 400)[1:],
                                        np.geomspace(min(bottom, fit.Vs) / 2.0, top, 400)]))
-    signs = [s for s in (-1.0, 1.0) if np.any(np.sign(w) == s)] or [1.0]
     for i, sgn in enumerate(signs):
         wb = sgn * branch
         ax.plot(wb, fit.friction(wb), "-", color="C1",
                 label=(f"Stribeck fit (Vs = {fit.Vs:.3g} rad/s, δ = {fit.delta:.3g})" if i == 0 else None))
+
+
+def _label_stribeck_axes(ax) -> None:
     ax.axhline(0.0, color="0.7", lw=0.5)
     ax.axvline(0.0, color="0.7", lw=0.5)
     ax.set_xlabel("velocity w (rad/s)")
@@ -613,4 +672,3 @@ def plot_stribeck_fit(fit: StribeckFit, w, F, *, F_std=None, ax=None):
     ax.set_title("Stribeck curve from quasi-static runs")
     ax.legend(loc="best")
     ax.grid(True, alpha=0.3)
-    return ax
