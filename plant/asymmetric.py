@@ -9,16 +9,15 @@ Stribeck map of eq. 3, with the lag of eq. 1.
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass, replace
 from typing import Callable, ClassVar
 
 import numpy as np
 
-from plant._mapping import plant_from_mapping
+from plant.dynamics import make_plant_step
 from plant.errors import check_nonnegative, check_positive
-from plant.friction import JointParams, stribeck_shape
-from plant.joint import lagged_rk4_step
+from plant.friction import JointParams, stribeck
+from plant.mapping import plant_from_mapping
 
 __all__ = ["AsymmetricParams"]
 
@@ -92,12 +91,11 @@ class AsymmetricParams:
         return 0.5 * (self.sigma_pos + self.sigma_neg)
 
     def friction(self, w):
-        """Static direction-dependent map ``F(w)`` (N·m), see the class Notes."""
+        """Static direction-dependent map ``F(w)`` (N·m), see the class Notes: eq. 3 with each direction's levels."""
         w = np.asarray(w, dtype=float)
-        s = stribeck_shape(w, self.Vs, self.delta)
-        pos = self.Fc_pos + (self.Fs_pos - self.Fc_pos) * s + self.sigma_pos * w
-        neg = -(self.Fc_neg + (self.Fs_neg - self.Fc_neg) * s) + self.sigma_neg * w
-        out = np.where(w > 0, pos, np.where(w < 0, neg, 0.0))
+        pos = stribeck(w, Fc=self.Fc_pos, Fs=self.Fs_pos, Vs=self.Vs, delta=self.delta, sigma=self.sigma_pos)
+        neg = stribeck(w, Fc=self.Fc_neg, Fs=self.Fs_neg, Vs=self.Vs, delta=self.delta, sigma=self.sigma_neg)
+        out = np.where(w > 0, pos, neg)  # F(0) = 0 in both
         return float(out) if np.ndim(out) == 0 else out
 
     def friction_torque(self, w: float, s: float) -> float:
@@ -111,25 +109,14 @@ class AsymmetricParams:
     def make_step(self, dt: float) -> Callable[[float, float, float], tuple]:
         """One classic RK4 step ``(w, f, u) -> (w, f)`` over ``dt`` (s) with ``u`` held.
 
+        The compiled :func:`plant.dynamics.plant_step` behind a Python call.
+
         Raises
         ------
         ParameterError
             ``dt`` not > 0.
         """
-        dt = check_positive("dt", dt)
-        J, Vs, delta, tau = self.J, self.Vs, self.delta, self.tau
-        cp, dp, sp = self.Fc_pos, self.Fs_pos - self.Fc_pos, self.sigma_pos
-        cn, dn, sn = self.Fc_neg, self.Fs_neg - self.Fc_neg, self.sigma_neg
-        exp = math.exp
-
-        def F(w: float) -> float:
-            if w > 0.0:
-                return cp + dp * exp(-((w / Vs) ** delta)) + sp * w
-            if w < 0.0:
-                return -(cn + dn * exp(-((-w / Vs) ** delta))) + sn * w
-            return 0.0
-
-        return lagged_rk4_step(F, J=J, tau=tau, dt=dt)
+        return make_plant_step(self, dt)
 
     def frictionless(self) -> JointParams:
         """The same inertia without friction (the compensation limit)."""

@@ -1,4 +1,4 @@
-"""Static Stribeck friction map (eq. 3) and the joint's physical parameters.
+"""The joint's physical parameters (eqs. 1-3); the Stribeck map of eq. 3 is re-exported from :mod:`plant.stribeck`.
 
 Symbols (SI units, joint side; for a prismatic axis read N for N·m and m for rad):
 
@@ -18,79 +18,15 @@ symbol    unit            meaning
 from __future__ import annotations
 
 import json
-
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Callable, ClassVar
 
-import numpy as np
-
+from plant.dynamics import make_plant_step
 from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
+from plant.stribeck import stribeck, stribeck_cutoff, stribeck_scalar, stribeck_shape
 
-__all__ = ["JointParams", "stribeck_shape", "stribeck", "PRESETS", "preset"]
-
-
-def stribeck_shape(w, Vs: float, delta: float):
-    """Stribeck decay ``s(w) = exp(-|w/Vs|**delta)`` (the exponential of eq. 3).
-
-    Parameters
-    ----------
-    w : float or ndarray, any shape
-        Velocity (rad/s).
-    Vs : float
-        Stribeck velocity (rad/s), > 0.
-    delta : float
-        Shape factor, non-zero. For ``delta < 0`` the curve rises from ``Fc``
-        at standstill towards ``Fs`` at high speed (paper Sec. II-B allows both
-        signs).
-
-    Returns
-    -------
-    float or ndarray, same shape as ``w``
-        Values in [0, 1]. At ``w == 0`` the limit is returned (1 for
-        ``delta > 0``, 0 for ``delta < 0``) without NaN or warnings.
-
-    Notes
-    -----
-    Source: Ruderman, eq. 3.
-    """
-    x = np.abs(np.asarray(w, dtype=float)) / Vs
-    with np.errstate(divide="ignore", over="ignore"):
-        p = np.power(x, delta)  # x == 0, delta < 0 -> inf -> exp(-inf) = 0
-    out = np.exp(-p)
-    return float(out) if np.ndim(out) == 0 else out
-
-
-def stribeck(w, *, Fc: float, Fs: float, Vs: float, delta: float, sigma: float):
-    """Static Stribeck friction map F(w), eq. 3.
-
-    Parameters
-    ----------
-    w : float or ndarray, any shape
-        Velocity (rad/s).
-    Fc, Fs : float
-        Coulomb and static friction levels (N·m).
-    Vs : float
-        Stribeck velocity (rad/s).
-    delta : float
-        Stribeck shape factor (1).
-    sigma : float
-        Viscous coefficient (N·m·s/rad).
-
-    Returns
-    -------
-    float or ndarray, same shape as ``w``
-        Friction torque (N·m); ``F(0) = 0`` (``sgn(0) = 0``).
-
-    Notes
-    -----
-    ``F(w) = sgn(w)*(Fc + (Fs - Fc)*exp(-|w/Vs|**delta)) + sigma*w``
-    (Ruderman, eq. 3). Equivalently ``F = Fc*g(w) + Fs*h(w) + sigma*w`` with
-    the regressors g, h of eqs. 5-6.
-    """
-    w = np.asarray(w, dtype=float)
-    out = np.sign(w) * (Fc + (Fs - Fc) * stribeck_shape(w, Vs, delta)) + sigma * w
-    return float(out) if np.ndim(out) == 0 else out
+__all__ = ["JointParams", "stribeck_shape", "stribeck", "stribeck_scalar", "stribeck_cutoff", "PRESETS", "preset"]
 
 
 @dataclass(frozen=True)
@@ -166,10 +102,17 @@ class JointParams:
         return stribeck(w, Fc=self.Fc, Fs=self.Fs, Vs=self.Vs, delta=self.delta, sigma=self.sigma)
 
     def make_step(self, dt: float) -> Callable[[float, float, float], tuple]:
-        """One RK4 step ``(w, f, u) -> (w, f)`` of this joint; see :func:`plant.joint.make_rk4_step`."""
-        from plant.joint import make_rk4_step  # local: plant.joint imports this module
+        """One RK4 step ``(w, f, u) -> (w, f)`` of this joint over ``dt`` (s), ``u`` held (eqs. 1-3).
 
-        return make_rk4_step(self, dt)
+        The compiled :func:`plant.dynamics.plant_step` behind a Python call; for
+        ``tau == 0`` the returned ``f`` is ``F(w)`` at the new velocity.
+
+        Raises
+        ------
+        ParameterError
+            ``dt`` not > 0.
+        """
+        return make_plant_step(self, dt)
 
     def friction_torque(self, w: float, s: float) -> float:
         """Friction torque (N·m) in state ``(w, s)``: the lag state ``s = f`` itself (eq. 1)."""

@@ -11,13 +11,13 @@ Control 107(1), 1985, pp. 100-103) treats every velocity inside a small band
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass, replace
 from typing import Callable, ClassVar
 
-from plant._mapping import plant_from_mapping
+from plant.dynamics import make_plant_step
 from plant.errors import check_positive
 from plant.friction import JointParams, stribeck
+from plant.mapping import plant_from_mapping
 
 __all__ = ["KarnoppParams"]
 
@@ -92,53 +92,14 @@ class KarnoppParams:
     def make_step(self, dt: float) -> Callable[[float, float, float], tuple]:
         """One step ``(w, f, u) -> (w, f)`` over ``dt`` (s) with ``u`` held; rules in the class Notes.
 
+        The compiled :func:`plant.dynamics.plant_step` behind a Python call.
+
         Raises
         ------
         ParameterError
             ``dt`` not > 0.
         """
-        dt = check_positive("dt", dt)
-        J, Fc, dF, Vs, delta, sigma, tau = self.J, self.Fc, self.Fs - self.Fc, self.Vs, self.delta, self.sigma, self.tau
-        Fs, dv = self.Fs, self.dv
-        h2, h6 = dt / 2.0, dt / 6.0
-        exp = math.exp
-
-        def target(w: float, sgn_u: float) -> float:
-            if -dv < w < dv:
-                return Fs * sgn_u
-            if w > 0.0:
-                return Fc + dF * exp(-((w / Vs) ** delta)) + sigma * w
-            return -(Fc + dF * exp(-((-w / Vs) ** delta))) + sigma * w
-
-        def step(w: float, f: float, u: float) -> tuple:
-            if -dv < w < dv:
-                if -Fs <= u <= Fs:
-                    return 0.0, u
-                sgn_u = 1.0 if u > 0.0 else -1.0
-            else:
-                sgn_u = 0.0
-            if tau == 0.0:
-                k1 = (u - target(w, sgn_u)) / J
-                k2 = (u - target(w + h2 * k1, sgn_u)) / J
-                k3 = (u - target(w + h2 * k2, sgn_u)) / J
-                k4 = (u - target(w + dt * k3, sgn_u)) / J
-                w = w + h6 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-                return w, target(w, sgn_u)
-            k1w = (u - f) / J
-            k1f = (target(w, sgn_u) - f) / tau
-            w2, f2 = w + h2 * k1w, f + h2 * k1f
-            k2w = (u - f2) / J
-            k2f = (target(w2, sgn_u) - f2) / tau
-            w3, f3 = w + h2 * k2w, f + h2 * k2f
-            k3w = (u - f3) / J
-            k3f = (target(w3, sgn_u) - f3) / tau
-            w4, f4 = w + dt * k3w, f + dt * k3f
-            k4w = (u - f4) / J
-            k4f = (target(w4, sgn_u) - f4) / tau
-            return (w + h6 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w),
-                    f + h6 * (k1f + 2.0 * k2f + 2.0 * k3f + k4f))
-
-        return step
+        return make_plant_step(self, dt)
 
     def frictionless(self) -> JointParams:
         """The same inertia without friction (the compensation limit)."""

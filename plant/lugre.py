@@ -13,13 +13,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, replace
+from functools import cached_property
 from typing import Callable, ClassVar
 
 import numpy as np
 
-from plant._mapping import plant_from_mapping
+from plant.dynamics import make_plant_step, plant_friction, plant_params
 from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
-from plant.friction import JointParams, stribeck_shape
+from plant.friction import JointParams, stribeck
+from plant.mapping import plant_from_mapping
 
 __all__ = ["LuGreParams"]
 
@@ -96,22 +98,25 @@ class LuGreParams:
         return self.sigma2
 
     def g(self, w):
-        """Stribeck level ``g(w) = Fc + (Fs - Fc)*exp(-|w/Vs|**delta)`` (N·m), > 0."""
-        return self.Fc + (self.Fs - self.Fc) * stribeck_shape(w, self.Vs, self.delta)
+        """Stribeck level ``g(w) = Fc + (Fs - Fc)*exp(-|w/Vs|**delta)`` (N·m), > 0; its limit at ``w = 0``.
+
+        ``g(w)`` is eq. 3 at ``|w|`` with ``sigma = 0`` (:func:`plant.stribeck.stribeck`).
+        """
+        aw = np.abs(np.asarray(w, dtype=float))
+        lim = self.Fs if self.delta > 0 else self.Fc
+        out = np.where(aw > 0, stribeck(aw, Fc=self.Fc, Fs=self.Fs, Vs=self.Vs, delta=self.delta, sigma=0.0), lim)
+        return float(out) if np.ndim(out) == 0 else out
 
     def friction(self, w):
         """Steady-sliding friction (N·m): ``sgn(w)*g(w) + sigma2*w`` (eq. 3 with ``sigma = sigma2``)."""
-        w = np.asarray(w, dtype=float)
-        out = np.sign(w) * self.g(w) + self.sigma2 * w
-        return float(out) if np.ndim(out) == 0 else out
+        return stribeck(w, Fc=self.Fc, Fs=self.Fs, Vs=self.Vs, delta=self.delta, sigma=self.sigma2)
 
     def friction_torque(self, w: float, z: float) -> float:
-        """Friction torque (N·m) in state ``(w, z)``: ``sigma0*z + sigma1*dz/dt + sigma2*w``."""
-        aw = abs(w)
-        g = self.Fc + (self.Fs - self.Fc) * math.exp(-((aw / self.Vs) ** self.delta)) if aw > 0.0 else (
-            self.Fs if self.delta > 0 else self.Fc)
-        zdot = w - self.sigma0 * aw / g * z
-        return self.sigma0 * z + self.sigma1 * zdot + self.sigma2 * w
+        """Friction torque (N·m) in state ``(w, z)``: ``sigma0*z + sigma1*dz/dt + sigma2*w``.
+
+        The compiled :func:`plant.dynamics.plant_friction`.
+        """
+        return plant_friction(self._packed, np.array([float(w), float(z), math.nan]))
 
     def initial_state(self, w: float) -> float:
         """Bristle deflection of steady motion at ``w``: ``sgn(w)*g(w)/sigma0`` (0 at rest), rad."""
@@ -124,43 +129,19 @@ class LuGreParams:
         Classic RK4 on ``(w, z)`` with ``n`` equal sub-steps, ``n`` chosen at each
         call from the current stiffness ``sigma0*|w|/g(w) + (sigma1 + sigma2)/J +
         sqrt(sigma0/J)`` so that each sub-step stays well inside RK4's stability
-        region (rate times sub-step <= 1; the region ends near 2.8).
+        region (rate times sub-step <= 1; the region ends near 2.8). The compiled
+        :func:`plant.dynamics.plant_step` behind a Python call.
 
         Raises
         ------
         ParameterError
             ``dt`` not > 0.
         """
-        dt = check_positive("dt", dt)
-        J, Fc, dF, Vs, delta = self.J, self.Fc, self.Fs - self.Fc, self.Vs, self.delta
-        s0, s1, s2 = self.sigma0, self.sigma1, self.sigma2
-        g_min, g_max = min(self.Fc, self.Fs), max(self.Fc, self.Fs)
-        base_rate = (s1 + s2) / J + math.sqrt(s0 / J)
-        exp = math.exp
+        return make_plant_step(self, dt)
 
-        def rhs(w, z, u):
-            aw = w if w >= 0.0 else -w
-            gw = Fc + dF * exp(-((aw / Vs) ** delta)) if aw > 0.0 else (Fc + dF if delta > 0 else Fc)
-            zdot = w - s0 * aw / gw * z
-            return (u - s0 * z - s1 * zdot - s2 * w) / J, zdot
-
-        def step(w: float, z: float, u: float) -> tuple:
-            aw = w if w >= 0.0 else -w
-            # bound |w| over the step by its start value plus the largest acceleration
-            rate = s0 * (aw + (abs(u) + g_max + s2 * aw) * dt / J) / g_min + base_rate
-            n = int(rate * dt) + 1
-            h = dt / n
-            h2, h6 = 0.5 * h, h / 6.0
-            for _ in range(n):
-                k1w, k1z = rhs(w, z, u)
-                k2w, k2z = rhs(w + h2 * k1w, z + h2 * k1z, u)
-                k3w, k3z = rhs(w + h2 * k2w, z + h2 * k2z, u)
-                k4w, k4z = rhs(w + h * k3w, z + h * k3z, u)
-                w = w + h6 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w)
-                z = z + h6 * (k1z + 2.0 * k2z + 2.0 * k3z + k4z)
-            return w, z
-
-        return step
+    @cached_property
+    def _packed(self) -> np.ndarray:
+        return plant_params(self)
 
     def frictionless(self) -> JointParams:
         """The same inertia without friction (the compensation limit)."""

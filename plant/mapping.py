@@ -1,4 +1,4 @@
-"""Strict construction of the plant-model dataclasses from mappings (private helper of the plant variants)."""
+"""Strict construction of the plant-model dataclasses from mappings (used by every plant model's ``from_dict``)."""
 
 from __future__ import annotations
 
@@ -11,6 +11,19 @@ __all__ = ["plant_from_mapping"]
 
 def plant_from_mapping(cls, d: dict):
     """Build the plant dataclass ``cls`` from ``d``: exactly its fields, plus an optional ``"model"`` = ``cls.MODEL``.
+
+    Parameters
+    ----------
+    cls : type
+        A plant-model dataclass with a ``MODEL`` class attribute (e.g.
+        :class:`plant.lugre.LuGreParams`).
+    d : dict
+        Parameters under the field names (SI units).
+
+    Returns
+    -------
+    cls
+        The validated model.
 
     Raises
     ------

@@ -1,0 +1,204 @@
+"""Ruderman's eq. 3, the static Stribeck friction map, implemented once (compiled) for every caller.
+
+``F(w) = sgn(w)*(Fc + (Fs - Fc)*exp(-|w/Vs|**delta)) + sigma*w``
+
+:func:`stribeck_scalar` is the one implementation: a numba kernel on scalars,
+inlined into the plant step (:mod:`plant.dynamics`), the identification
+simulator and the closed-loop engine, and looped over arrays by the vectorised
+:func:`stribeck`. :func:`stribeck_cutoff` gives the speed above which the
+Stribeck term no longer changes ``Fc`` in float64 (an exact shortcut).
+:func:`stribeck_shape` is the shape factor alone (numpy), used by the
+regressors of eqs. 5-6.
+
+The names are re-exported by :mod:`plant.friction` (the joint's parameters); eq. 3
+lives in its own leaf module so that the plant step can use it without an
+import cycle (:mod:`plant.friction` needs the step for ``JointParams.make_step``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from plant.errors import ParameterError, check_finite_scalar, check_positive
+from plant.jit import kernel
+
+__all__ = ["stribeck_scalar", "stribeck_cutoff", "stribeck", "stribeck_shape"]
+
+
+@kernel(inline="always")
+def stribeck_scalar(w, Fc, dF, Vs, delta, sigma, wcut):
+    """Eq. 3 at one velocity: ``sgn(w)*(Fc + dF*exp(-|w/Vs|**delta)) + sigma*w`` (N·m).
+
+    Parameters
+    ----------
+    w : float
+        Velocity (rad/s).
+    Fc : float
+        Coulomb level (N·m).
+    dF : float
+        ``Fs - Fc`` (N·m), the static minus the Coulomb level.
+    Vs : float
+        Stribeck velocity (rad/s), > 0.
+    delta : float
+        Shape factor, non-zero.
+    sigma : float
+        Viscous coefficient (N·m·s/rad).
+    wcut : float
+        Speed (rad/s) above which the Stribeck term is skipped, from
+        :func:`stribeck_cutoff`; ``math.inf`` disables the shortcut.
+
+    Returns
+    -------
+    float
+        Friction (N·m); ``F(0) = 0``; NaN for a NaN velocity.
+
+    Notes
+    -----
+    Ruderman, eq. 3. Two shortcuts, both exact in float64: ``delta == 1``
+    skips ``pow`` (``x**1 == x``); ``|w| > wcut`` skips ``pow`` and ``exp``
+    (there ``Fc + dF*exp(...)`` rounds to ``Fc``). Otherwise the operations are
+    those of the plain formula in this order, so the result equals a Python
+    evaluation with ``**`` and :func:`math.exp` bit for bit (both call libm;
+    for ``delta < 0`` and tiny ``|w|`` the power overflows to ``inf`` and the
+    shape factor is its limit 0). No ``fastmath``.
+    """
+    if w > 0.0:
+        if w > wcut:
+            return Fc + sigma * w
+        x = w / Vs
+        if delta != 1.0:
+            x = x ** delta
+        return Fc + dF * math.exp(-x) + sigma * w
+    if w == 0.0:
+        return 0.0
+    if -w > wcut:  # w < 0 (a NaN falls through to NaN)
+        return -Fc + sigma * w
+    x = -w / Vs
+    if delta != 1.0:
+        x = x ** delta
+    return -(Fc + dF * math.exp(-x)) + sigma * w
+
+
+def stribeck_cutoff(Fc: float, dF: float, Vs: float, delta: float) -> float:
+    """Speed above which ``Fc + dF*exp(-(|w|/Vs)**delta)`` equals ``Fc`` exactly in float64.
+
+    Parameters
+    ----------
+    Fc : float
+        Coulomb level (N·m).
+    dF : float
+        ``Fs - Fc`` (N·m).
+    Vs : float
+        Stribeck velocity (rad/s).
+    delta : float
+        Shape factor.
+
+    Returns
+    -------
+    float
+        Cut-off speed ``wcut`` (rad/s) for :func:`stribeck_scalar`; 0 when
+        ``dF == 0``; ``math.inf`` (never skip) for ``delta <= 0`` or
+        non-finite or invalid arguments.
+
+    Notes
+    -----
+    ``Fc + d == Fc`` when ``|d| < ulp(Fc)/2``, and ``ulp(Fc)/2 >= Fc*2**-54``
+    (IEEE 754 binary64); so ``(|w|/Vs)**delta > log(|dF|/Fc) + 54*log(2)``
+    suffices (plus a margin of 1). With ``Fc == 0`` only an underflow of
+    ``exp`` (argument beyond 745.2) is exact. The result carries a relative
+    margin of 1e-9 against the rounding of the power.
+    """
+    if not (Vs > 0.0 and 0.0 < delta < math.inf and math.isfinite(Fc) and math.isfinite(dF)):
+        return math.inf
+    if dF == 0.0:
+        return 0.0
+    xcut = 746.0 if Fc == 0.0 else max(math.log(abs(dF) / abs(Fc)) + 54.0 * math.log(2.0) + 1.0, 0.0)
+    return Vs * xcut ** (1.0 / delta) * (1.0 + 1e-9)
+
+
+@kernel
+def _stribeck_loop(w, out, Fc, dF, Vs, delta, sigma, wcut):
+    for i in range(w.shape[0]):
+        out[i] = stribeck_scalar(w[i], Fc, dF, Vs, delta, sigma, wcut)
+
+
+def stribeck(w, *, Fc: float, Fs: float, Vs: float, delta: float, sigma: float):
+    """Static Stribeck friction map F(w), eq. 3, on a scalar or an array.
+
+    Parameters
+    ----------
+    w : float or ndarray, any shape
+        Velocity (rad/s).
+    Fc, Fs : float
+        Coulomb and static friction levels (N·m).
+    Vs : float
+        Stribeck velocity (rad/s), > 0.
+    delta : float
+        Stribeck shape factor (1), non-zero.
+    sigma : float
+        Viscous coefficient (N·m·s/rad).
+
+    Returns
+    -------
+    float or ndarray, same shape as ``w``
+        Friction torque (N·m); ``F(0) = 0`` (``sgn(0) = 0``).
+
+    Raises
+    ------
+    ParameterError
+        ``Vs`` not > 0, ``delta`` zero, or a level not finite.
+    TypeError
+        A parameter is not a real number.
+
+    Notes
+    -----
+    ``F(w) = sgn(w)*(Fc + (Fs - Fc)*exp(-|w/Vs|**delta)) + sigma*w``
+    (Ruderman, eq. 3), evaluated element by element by :func:`stribeck_scalar`
+    (so equal bit for bit to the plant step's friction). Equivalently
+    ``F = Fc*g(w) + Fs*h(w) + sigma*w`` with the regressors g, h of eqs. 5-6.
+    """
+    wa = np.asarray(w, dtype=float)
+    flat = np.ascontiguousarray(wa.reshape(-1))
+    out = np.empty_like(flat)
+    Fc, Fs, sigma = check_finite_scalar("Fc", Fc), check_finite_scalar("Fs", Fs), check_finite_scalar("sigma", sigma)
+    Vs, delta = check_positive("Vs", Vs), check_finite_scalar("delta", delta)
+    if delta == 0.0:
+        raise ParameterError("delta must be non-zero (|w/Vs|**0 is constant), got 0.0")
+    dF = Fs - Fc
+    _stribeck_loop(flat, out, Fc, dF, Vs, delta, sigma, stribeck_cutoff(Fc, dF, Vs, delta))
+    if wa.ndim == 0:
+        return float(out[0])
+    return out.reshape(wa.shape)
+
+
+def stribeck_shape(w, Vs: float, delta: float):
+    """Stribeck decay ``s(w) = exp(-|w/Vs|**delta)`` (the exponential of eq. 3).
+
+    Parameters
+    ----------
+    w : float or ndarray, any shape
+        Velocity (rad/s).
+    Vs : float
+        Stribeck velocity (rad/s), > 0.
+    delta : float
+        Shape factor, non-zero. For ``delta < 0`` the curve rises from ``Fc``
+        at standstill towards ``Fs`` at high speed (paper Sec. II-B allows both
+        signs).
+
+    Returns
+    -------
+    float or ndarray, same shape as ``w``
+        Values in [0, 1]. At ``w == 0`` the limit is returned (1 for
+        ``delta > 0``, 0 for ``delta < 0``) without NaN or warnings.
+
+    Notes
+    -----
+    Source: Ruderman, eq. 3 (numpy; the regressors of eqs. 5-6 use it).
+    """
+    x = np.abs(np.asarray(w, dtype=float)) / Vs
+    with np.errstate(divide="ignore", over="ignore"):
+        p = np.power(x, delta)  # x == 0, delta < 0 -> inf -> exp(-inf) = 0
+    out = np.exp(-p)
+    return float(out) if np.ndim(out) == 0 else out
