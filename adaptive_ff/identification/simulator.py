@@ -40,11 +40,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from plant.jit import kernel
 from scipy.interpolate import CubicSpline
 
+from plant.dynamics import lagged_params, plant_rk4, plant_target
 from plant.errors import ParameterError, SignalError, check_finite_scalar, check_positive, check_signal, check_time
 from plant.friction import JointParams
+from plant.jit import kernel
 
 __all__ = ["InputGrid", "input_grid", "simulate_on_grid", "simulate_sampled", "H_MAX_DEFAULT"]
 
@@ -133,60 +134,35 @@ def input_grid(t, u, *, h_max: float = H_MAX_DEFAULT, input_delay: float = 0.0, 
     return InputGrid(tg=np.ascontiguousarray(tg), ug=np.ascontiguousarray(ug), idx=idx.astype(np.int64))
 
 
-@kernel(nogil=True)
-def _friction(x, Fc, dF, Vs, delta, sigma, offset):
-    if x > 0.0:
-        return Fc + dF * math.exp(-((x / Vs) ** delta)) + sigma * x + offset
-    if x < 0.0:
-        return -(Fc + dF * math.exp(-((-x / Vs) ** delta))) + sigma * x + offset
-    return offset
+@kernel(nogil=True, _nrt=False)
+def _grid_kernel(tg, ug, idx, par, offset, w0, f0, Kw, Kf, w_meas, inject, out):
+    """The joint on the grid: :func:`plant.dynamics.plant_rk4` per sub-step, first-order-hold input.
 
-
-@kernel(nogil=True)
-def _rk4_kernel(tg, ug, idx, J, Fc, Fs, Vs, delta, sigma, tau, offset, w0, f0, Kw, Kf, w_meas, inject):
+    The offset enters as ``u - offset`` and ``f - offset`` (the same dynamics, see
+    :func:`simulate_on_grid`). ``out[0] = w0``; ``out[s]`` the velocity at sample ``s``.
+    """
     n = idx.shape[0]
-    out = np.empty(n)
     out[0] = w0
-    iJ = 1.0 / J
-    itau = 1.0 / tau
-    dF = Fs - Fc
+    J = par[1]
     w = w0
-    f = f0
+    f = f0 - offset
     for s in range(1, n):
         a = idx[s - 1]
         b = idx[s]
         for j in range(a, b):
-            h = tg[j + 1] - tg[j]
-            u0 = ug[j]
-            u2 = ug[j + 1]
-            u1 = 0.5 * (u0 + u2)
-            hh = 0.5 * h
-            k1w = (u0 - f) * iJ
-            k1f = (_friction(w, Fc, dF, Vs, delta, sigma, offset) - f) * itau
-            w2 = w + hh * k1w
-            f2 = f + hh * k1f
-            k2w = (u1 - f2) * iJ
-            k2f = (_friction(w2, Fc, dF, Vs, delta, sigma, offset) - f2) * itau
-            w3 = w + hh * k2w
-            f3 = f + hh * k2f
-            k3w = (u1 - f3) * iJ
-            k3f = (_friction(w3, Fc, dF, Vs, delta, sigma, offset) - f3) * itau
-            w4 = w + h * k3w
-            f4 = f + h * k3f
-            k4w = (u2 - f4) * iJ
-            k4f = (_friction(w4, Fc, dF, Vs, delta, sigma, offset) - f4) * itau
-            w += h / 6.0 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w)
-            f += h / 6.0 * (k1f + 2.0 * k2f + 2.0 * k3f + k4f)
+            u0 = ug[j] - offset
+            u1 = ug[j + 1] - offset
+            w, f = plant_rk4(par, w, f, plant_target(par, w, 0.0), u0, 0.5 * (u0 + u1), u1, tg[j + 1] - tg[j],
+                             0.0)
         if not (math.isfinite(w) and math.isfinite(f)):
             for r in range(s, n):
                 out[r] = np.nan
-            return out
+            return
         out[s] = w
         if inject:
             e = w_meas[s] - w
             w += Kw * e
             f -= Kf * J / (tg[b] - tg[a]) * e
-    return out
 
 
 def simulate_on_grid(J: float, Fc: float, Fs: float, Vs: float, delta: float, sigma: float, tau: float,
@@ -194,19 +170,22 @@ def simulate_on_grid(J: float, Fc: float, Fs: float, Vs: float, delta: float, si
                      w_meas=None) -> np.ndarray:
     """Fast RK4 simulation of eqs. 1-3 on an :class:`InputGrid` (no validation: inner loop of the fits).
 
-    Compiled with numba (about 1 ms per 60 s of data at 1 ms sub-steps).
+    Compiled with numba: the plant's one RK4 step (:func:`plant.dynamics.plant_rk4`)
+    with the input at the start, middle and end of each sub-step.
 
     Parameters
     ----------
     J, Fc, Fs, Vs, delta, sigma, tau : float
         Model parameters (SI units); need ``J > 0``, ``Vs > 0``, ``delta != 0``,
-        ``tau > 0`` (for RK4 stability ``tau`` above about 0.4 times the sub-step).
+        ``tau > 0`` (for RK4 stability ``tau`` above about 0.4 times the sub-step;
+        ``tau = 0`` integrates the static map).
     grid : InputGrid
         From :func:`input_grid`.
     w0, f0 : float, keyword-only
         Initial velocity (rad/s) and friction state (N·m) at ``t[0]``.
     offset : float, keyword-only
-        Constant torque bias (N·m) added to ``F``.
+        Constant torque bias (N·m) added to ``F``; integrated exactly as the
+        plain model with input ``u - offset`` and friction state ``f - offset``.
     gain : (float, float), keyword-only
         Output-injection gains ``(Kw, Kf)`` (module docstring); ``(0, 0)`` = free simulation.
     w_meas : ndarray, shape (N,), keyword-only
@@ -221,8 +200,10 @@ def simulate_on_grid(J: float, Fc: float, Fs: float, Vs: float, delta: float, si
     Kw, Kf = float(gain[0]), float(gain[1])
     inject = Kw != 0.0 or Kf != 0.0
     wm = np.ascontiguousarray(w_meas, dtype=float) if inject else np.zeros(grid.idx.shape[0])
-    return _rk4_kernel(grid.tg, grid.ug, grid.idx, float(J), float(Fc), float(Fs), float(Vs), float(delta),
-                       float(sigma), float(tau), float(offset), float(w0), float(f0), Kw, Kf, wm, inject)
+    out = np.empty(grid.idx.shape[0])
+    _grid_kernel(grid.tg, grid.ug, grid.idx, lagged_params(J, Fc, Fs, Vs, delta, sigma, tau), float(offset),
+                 float(w0), float(f0), Kw, Kf, wm, inject, out)
+    return out
 
 
 def simulate_sampled(p: JointParams, t, u, *, w0: float = 0.0, f0: float | None = None, offset: float = 0.0,
