@@ -44,15 +44,19 @@ Process model: eqs. 1-2 (``J*dw/dt = u - f``, ``tau*df/dt + f = F(w)``,
 ``F`` of eq. 3) integrated over the sample interval ``dt`` with
 ``n_substeps`` classical RK4 steps, the input ``u`` held constant over the
 interval (the convention of :func:`plant.sampling.sample`: ``u[k]`` is the
-torque that drove the joint from ``t[k-1]`` to ``t[k]``). Parameters follow
+torque that drove the joint from ``t[k-1]`` to ``t[k]``). The step and eq. 3
+are the plant's own compiled ones (:func:`plant.dynamics.plant_rk4`,
+:func:`plant.friction.stribeck_scalar`), so the filter predicts with the
+arithmetic of the simulated joint; for sigma points with negative levels
+eq. 3 keeps its form ``sgn(w)*(Fc + (Fs - Fc)*s(w)) + sigma*w``. Parameters follow
 a random walk (small process noise). Measurement: the sampled velocity
 ``w[k]`` only; the friction torque is not measured in a robot joint (it is
 what the estimator infers from ``u`` and the motion).
 
 Guards (so that no sigma point gives NaN/inf): ``F(0) = 0`` exactly
-(``sgn(0) = 0``), the Stribeck exponent is formed in the log domain and
-clipped (``exp(-|w/Vs|**delta)`` is finite and in ``[0, 1]`` for any
-``delta``, also at ``w = 0`` with ``delta < 0``), ``log Vs``, ``log|delta|``
+(``sgn(0) = 0``), ``exp(-|w/Vs|**delta)`` is finite and in ``[0, 1]`` for
+any ``delta`` (for ``delta < 0`` and tiny ``|w|`` the power overflows to
+``inf`` and the factor is its limit 0), ``log Vs``, ``log|delta|``
 and ``log tau`` are clipped to admissible boxes inside the process model and
 after each update, and ``tau >= h/2`` (``h`` the RK4 sub-step) keeps the
 integration stable (``h/tau <= 2 < 2.78``, the RK4 stability limit on the
@@ -71,8 +75,8 @@ with a reversal inside the sigma-point span update only ``w`` and ``f``).
 Without (2) and (3) the filter left a start at the truth by 20-70 % in
 ``Vs``. With them, over 5 seeds × 60 s: ``Fc``, ``sigma``, ``tau`` within
 3 %, ``Fs`` within 4 %, ``Vs`` and ``delta`` within about 10-13 % from a
-coarse start (``Vs`` twice the truth) and within 2.6 %/1.7 % (median; worst
-10.5 %/7.3 %) from the quasi-static pre-fit. The two starts end on opposite
+coarse start (``Vs`` twice the truth) and within 2.8 %/2.2 % (median; worst
+9.3 %/6.6 %) from the quasi-static pre-fit. The two starts end on opposite
 sides of the truth along the ``Fs``-``Vs``-``delta`` ridge, and the filter's
 own ``theta_std`` for ``Vs``, ``delta`` (about 0.5 %) is then too small:
 read it as a lower bound, not a confidence interval. From a start within
@@ -101,6 +105,8 @@ from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
 from plant.errors import FrictionError, ParameterError, SignalError, check_finite_scalar, check_positive, \
     check_signal, check_time
+from plant.dynamics import lagged_params, plant_rk4, plant_target
+from plant.jit import kernel
 from plant.results import axes_or_new, json_safe
 
 __all__ = [
@@ -119,8 +125,6 @@ STATE_NAMES = ("w", "f", "Fc", "Fs", "log_Vs", "log_abs_delta", "sigma", "log_ta
 #: Physical friction parameters estimated online (keys of ``OnlineUKF.theta``).
 PARAM_NAMES = ("Fc", "Fs", "Vs", "delta", "sigma", "tau")
 
-# log-domain clip of the Stribeck exponent: exp(700) ~ 1e304 is finite
-_LOGP_MAX = 700.0
 # default admissible boxes (physical units)
 _VS_BOX = (1e-5, 1e2)  # rad/s
 _ABS_DELTA_BOX = (0.25, 5.0)
@@ -140,17 +144,17 @@ class FilterDivergedError(FrictionError, ArithmeticError):
     """The filter produced a non-finite state or covariance; the sample was rolled back."""
 
 
-def _friction(w: float, Fc: float, Fs: float, Vs: float, delta: float, sigma: float) -> float:
-    """Eq. 3 for a scalar, finite for every finite argument (``F(0) = 0``, log-domain exponent)."""
-    if w == 0.0:
-        return 0.0
-    aw = abs(w)
-    logp = delta * (math.log(aw) - math.log(Vs))
-    if logp > _LOGP_MAX:
-        s = 0.0
-    else:
-        s = math.exp(-math.exp(logp))
-    return math.copysign(Fc + (Fs - Fc) * s, w) + sigma * w
+@kernel
+def _propagate(par, w, f, u, h, n):
+    """Eqs. 1-2 with eq. 3 over ``n`` RK4 steps of ``h`` (s), ``u`` held: ``(w, f)`` at the end.
+
+    ``par``: the lagged-Stribeck parameter row of :func:`plant.dynamics.lagged_params`. The plant's own step
+    (:func:`plant.dynamics.plant_rk4`), so the filter predicts with exactly the arithmetic of the simulated
+    joint; any sign of ``Fc``, ``Fs``, ``sigma`` is allowed (sigma points may leave the physical set).
+    """
+    for _ in range(n):
+        w, f = plant_rk4(par, w, f, plant_target(par, w, 0.0), u, u, u, h, 0.0)
+    return w, f
 
 
 def _robust_sqrt(P: np.ndarray) -> np.ndarray:
@@ -475,22 +479,8 @@ class OnlineUKF:
         delta = self.delta_sign * math.exp(min(max(logdelta, self._logdelta_box[0]), self._logdelta_box[1]))
         tmin, tmax = self._tau_bounds(dt)
         tau = min(max(math.exp(min(logtau, 50.0)), tmin), tmax)
-        J = self.J
-        h = dt / self.n_substeps
-        for _ in range(self.n_substeps):
-            k1w = (u - f) / J
-            k1f = (_friction(w, Fc, Fs, Vs, delta, sigma) - f) / tau
-            w2, f2 = w + 0.5 * h * k1w, f + 0.5 * h * k1f
-            k2w = (u - f2) / J
-            k2f = (_friction(w2, Fc, Fs, Vs, delta, sigma) - f2) / tau
-            w3, f3 = w + 0.5 * h * k2w, f + 0.5 * h * k2f
-            k3w = (u - f3) / J
-            k3f = (_friction(w3, Fc, Fs, Vs, delta, sigma) - f3) / tau
-            w4, f4 = w + h * k3w, f + h * k3f
-            k4w = (u - f4) / J
-            k4f = (_friction(w4, Fc, Fs, Vs, delta, sigma) - f4) / tau
-            w += h / 6.0 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w)
-            f += h / 6.0 * (k1f + 2.0 * k2f + 2.0 * k3f + k4f)
+        par = lagged_params(self.J, Fc, Fs, Vs, delta, sigma, tau)
+        w, f = _propagate(par, w, f, float(u), dt / self.n_substeps, self.n_substeps)
         out = np.array(x, dtype=float)
         out[0], out[1] = w, f
         return out

@@ -39,10 +39,12 @@ or negative", Sec. II-B). With ``p = |w/Vs|**delta``:
   (``exp(-1/p) != 1 - exp(-p)``), so the sign is identifiable from data that
   cover the transition.
 * ``w = 0``: ``sgn(0) = 0`` gives ``F(0) = 0`` for either sign; the limit of
-  ``s`` (1 or 0) is finite. This module, :func:`plant.friction.stribeck_shape`
-  (``0**delta = inf`` for ``delta < 0`` handled under ``np.errstate``) and the
-  online filter (:mod:`adaptive_ff.identification.online_ukf`, log-domain exponent) evaluate
-  it without NaN or warnings. ``delta = 0`` is excluded (``s = exp(-1)``
+  ``s`` (1 or 0) is finite. Eq. 3 itself is evaluated by the package's one
+  implementation, :func:`plant.friction.stribeck_scalar` (the power overflows
+  to ``inf`` for ``delta < 0`` and tiny ``|w|``, and ``exp(-inf) = 0``), here and
+  in the online filter (:mod:`adaptive_ff.identification.online_ukf`); the
+  Jacobian and the start values use the log-domain shape terms of this module.
+  Neither gives NaN or warnings. ``delta = 0`` is excluded (``s = exp(-1)``
   constant: ``Fc``, ``Fs`` not separable).
 
 Points with ``w == 0`` are dropped: ``sgn(0) = 0`` makes ``F(0) = 0`` in the
@@ -52,6 +54,7 @@ carries no information about eq. 3.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -60,7 +63,8 @@ from scipy.optimize import least_squares
 from scipy.stats import t as student_t
 
 from plant.errors import ExcitationError, ParameterError, SignalError, check_finite_scalar, check_signal
-from plant.friction import stribeck
+from plant.friction import stribeck, stribeck_scalar
+from plant.jit import kernel
 from plant.results import axes_or_new, json_safe
 
 __all__ = ["PARAM_NAMES", "MIN_POINTS", "StribeckFit", "fit_stribeck", "plot_stribeck_fit"]
@@ -289,10 +293,22 @@ def _shape_terms(logaw: np.ndarray, logVs: float, delta: float):
     return s, sp, logx
 
 
-def _model(x, sg, w, logaw):
-    Fc, Fs, logVs, delta, sigma = x
-    s, _, _ = _shape_terms(logaw, logVs, delta)
-    return sg * (Fc + (Fs - Fc) * s) + sigma * w
+@kernel
+def _eq3_values(w, Fc, dF, Vs, delta, sigma, out):
+    """Eq. 3 at every ``w`` into ``out`` by the one implementation, :func:`plant.friction.stribeck_scalar`.
+
+    No argument checks (the optimiser may try any ``delta``) and no speed shortcut.
+    """
+    for i in range(w.shape[0]):
+        out[i] = stribeck_scalar(w[i], Fc, dF, Vs, delta, sigma, math.inf)
+    return out
+
+
+def _model(x, w):
+    """Eq. 3 with the optimiser's parameters ``x = (Fc, Fs, log Vs, delta, sigma)`` at the speeds ``w``."""
+    Fc, Fs, logVs, delta, sigma = (float(v) for v in x)
+    Vs = math.exp(min(max(logVs, -_LOGP_MAX), _LOGP_MAX))  # finite and > 0 whatever the optimiser tries
+    return _eq3_values(w, Fc, Fs - Fc, Vs, delta, sigma, np.empty_like(w))
 
 
 def _jacobian(x, sg, w, logaw):
@@ -472,7 +488,7 @@ def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0)) -> 
     args = (sg, w, logaw)
 
     def resid(x):
-        return (_model(x, *args) - F) * wt
+        return (_model(x, w) - F) * wt
 
     def jac(x):
         return _jacobian(x, *args) * wt[:, None]
@@ -487,7 +503,7 @@ def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0)) -> 
     _check_transition(aw, Vs, delta)
     _check_stribeck_effect(cov, Fc, Fs, F)
     cov.setflags(write=False)
-    model_F = _model(x, *args)
+    model_F = _model(x, w)
     return StribeckFit(
         Fc=Fc, Fs=Fs, Vs=Vs, delta=delta, sigma=sigma,
         stderr=stderr,
