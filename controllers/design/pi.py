@@ -621,20 +621,6 @@ class PIController:
     def saturated(self, value: bool) -> None:
         self.state[1] = 1.0 if value else 0.0
 
-    # transitional read-only aliases for controllers.simulation.closed_loop, which still reads them;
-    # to be removed when the engine passes .params / .state to pi_step
-    @property
-    def _Kp(self) -> float:
-        return float(self.params[0])
-
-    @property
-    def _KiTc(self) -> float:
-        return float(self.params[1])
-
-    @property
-    def _u_max(self) -> float:
-        return float(self.params[2])
-
     def reset(self, integral: float = 0.0) -> None:
         """Set the integrator to ``integral`` (N·m, default 0) and clear ``saturated``."""
         self.state[0] = check_finite_scalar("integral", integral)
