@@ -2,8 +2,9 @@
 
 Run:  python benchmarks/perf.py [--seconds 20] [--repeat 5] [--quick]
 
-Prints median timings measured side by side in one run (µs per 1 kHz step, µs
-per RLS update, µs per scenario-step of the batch kernel, s per compare), the
+Prints median timings measured side by side in one run (µs per 1 kHz step of
+the compiled engine, µs per RLS update, µs per scenario-step of the batch
+engine for every mode and plant model, s per compare and per ``--help``), the
 peak memory of a simulated hour, and the speed-up over python-control.
 python-control simulates the same loop (RK4 lagged-Stribeck plant, discrete PI
 with saturation, no feedforward, no RLS) as a discrete ``nlsys``
@@ -21,13 +22,14 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import replace
 
 import control
 import numpy as np
 
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from controllers.simulation.batch import run_batch
-from controllers.simulation.closed_loop import run_closed_loop
+from controllers.simulation.closed_loop import ModeOptions, run_mode
 from controllers.design.pi import design_pi
 from plant.excitation import multisine_reference
 from plant.friction import preset
@@ -73,7 +75,7 @@ def timed(fn, repeat):
 _MEMORY_SCRIPT = r"""
 import json, os, sys, time, tracemalloc
 import numpy as np
-from controllers.simulation.closed_loop import run_closed_loop
+from controllers.simulation.closed_loop import ModeOptions, run_mode
 from controllers.design.pi import design_pi
 from plant.excitation import multisine_reference
 from plant.friction import preset
@@ -81,7 +83,8 @@ hours, decimate = float(sys.argv[1]), int(sys.argv[2])
 p = preset("paper")
 d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
 small = multisine_reference(1.0, rng=np.random.default_rng(0))
-run_closed_loop(p, small, mode="adaptive", Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta)  # load kernel
+o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta)
+run_mode(p, small, "adaptive", o)  # load kernel
 def status(key):  # kB -> MB, Linux /proc
     with open("/proc/self/status") as fh:
         return next(int(l.split()[1]) for l in fh if l.startswith(key)) / 1024
@@ -94,15 +97,15 @@ with open("/proc/self/clear_refs", "w") as fh:  # reset the peak RSS (VmHWM) to 
     fh.write("5")
 rss0 = status("VmRSS")
 t0 = time.perf_counter()
-r = run_closed_loop(p, ref, mode="adaptive", Kp=d.Kp, Ki=d.Ki, u_max=150.0, noise_std=1e-3,
-                    rng=np.random.default_rng(1), Vs=p.Vs, delta=p.delta, decimate=decimate)
+from dataclasses import replace
+r = run_mode(p, ref, "adaptive", replace(o, noise_std=1e-3, decimate=decimate), rng=np.random.default_rng(1))
 wall = time.perf_counter() - t0
 peak = tracemalloc.get_traced_memory()[1]
 tracemalloc.stop()
 hwm = status("VmHWM")
 print(json.dumps(dict(n=int(ref.t.size), ref_mb=ref_bytes / 1e6, run_peak_mb=(peak - ref_bytes) / 1e6,
                       rss0_mb=rss0, hwm_mb=hwm, run_rss_mb=hwm - rss0, ref_hwm_mb=ref_hwm, wall=wall,
-                      us_step=wall / ref.t.size * 1e6, rms=r.metrics.rms_second_half, engine=r.info["engine"])))
+                      us_step=wall / ref.t.size * 1e6, rms=r.metrics.rms_second_half)))
 """
 
 _COMPARE_SCRIPT = r"""
@@ -126,6 +129,40 @@ def _cli(args):
     wall = time.perf_counter() - t0
     r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     return wall, (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+
+
+def _batch_rows(p, design, B, args):
+    """µs per scenario-step of run_batch: mode none (B plants), adaptive, and the plant models."""
+    from plant.variants import variant
+
+    bref = multisine_reference(1.0 if args.quick else 2.0, rng=np.random.default_rng(0))
+    brng = np.random.default_rng(2)
+    plants = [p.replace(J=p.J * brng.uniform(0.7, 1.3), Fc=p.Fc * brng.uniform(0.7, 1.3),
+                        tau=p.tau * brng.uniform(0.5, 2.0)) for _ in range(B)]
+    o = ModeOptions(Kp=design.Kp, Ki=design.Ki, u_max=U_MAX, Vs=p.Vs, delta=p.delta, sensor_gate=False)
+    nb = B * bref.t.size
+    rows = []
+    cases = [(f"run_batch none, B={B} (target <= 0.05)", plants, "none"),
+             (f"run_batch adaptive, B={B} (target <= 0.5)", plants, "adaptive")]
+    for name in ("lugre", "karnopp", "asymmetric"):
+        cases.append((f"run_batch none, B={B}, {name} plants", [variant(name)] * B, "none"))
+        cases.append((f"run_batch adaptive, B={B}, {name} plants", [variant(name)] * B, "adaptive"))
+    for label, ps, mode in cases:
+        run_batch(ps[:2], bref, mode, o)  # load the kernel
+        t_b, b_b = timed(lambda ps=ps, mode=mode: run_batch(ps, bref, mode, o), max(1, args.repeat // 2))
+        rows.append((label + ", per scenario-step", t_b / nb * 1e6, "µs", b_b / nb * 1e6))
+    return rows
+
+
+def _help_wall():
+    """Wall time (s) of ``adaptive-ff --help`` in a fresh process (second run)."""
+    exe = os.path.join(os.path.dirname(sys.executable), "adaptive-ff")
+    out = []
+    for _ in range(3):
+        t0 = time.perf_counter()
+        subprocess.run([exe, "--help"], capture_output=True, check=True)
+        out.append(time.perf_counter() - t0)
+    return statistics.median(out[1:])
 
 
 def _py(script, *args, env=None):
@@ -157,25 +194,22 @@ def main(argv=None) -> int:
     rows.append(("python-control input_output_response, loop without RLS", us_pc, "µs/step",
                  b_pc / pc_ref.t.size * 1e6))
     res = control.input_output_response(loop, pc_ref.t, pc_ref.w)
-    ours = run_closed_loop(p, pc_ref, mode="none", Kp=design.Kp, Ki=design.Ki, u_max=U_MAX)
+    base = ModeOptions(Kp=design.Kp, Ki=design.Ki, u_max=U_MAX)
+    ours = run_mode(p, pc_ref, "none", base)
     diff = np.abs(res.outputs[0] - ours.w)
     agree_first, agree = float(np.max(diff[:200])), float(np.max(diff))
 
-    adaptive = dict(mode="adaptive", Vs=p.Vs, delta=p.delta, noise_std=1e-3)
+    adaptive = replace(base, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
     us = {}
-    for label, kw in (("none", dict(mode="none")), ("adaptive", adaptive)):
-        for engine in ("numba", "python"):
-            def run(kw=kw, engine=engine):
-                return run_closed_loop(p, ref, Kp=design.Kp, Ki=design.Ki, u_max=U_MAX, engine=engine,
-                                       rng=np.random.default_rng(1), **kw)
-            run()  # load the compiled kernel (cache) before timing
-            reps = args.repeat if engine == "numba" else max(1, args.repeat // 2)
-            med, best = timed(run, reps)
-            us[label, engine] = med / n * 1e6
-            extra = " (noise 1e-3)" if label == "adaptive" else ""
-            what = f"run_closed_loop {label}{extra}" + (", compiled kernel" if engine == "numba"
-                                                               else ", engine='python' (twin)")
-            rows.append((what, us[label, engine], "µs/step", best / n * 1e6))
+    for label, mode, o in (("none", "none", base), ("adaptive", "adaptive", adaptive)):
+        def run(mode=mode, o=o):
+            return run_mode(p, ref, mode, o, rng=np.random.default_rng(1))
+        run()  # load the compiled kernel (cache) before timing
+        med, best = timed(run, args.repeat)
+        us[label] = med / n * 1e6
+        extra = " (noise 1e-3)" if label == "adaptive" else ""
+        rows.append((f"run_mode {label}{extra}, compiled engine (target <= {0.2 if label == 'none' else 0.3})",
+                     us[label], "µs/step", best / n * 1e6))
 
     rls = RecursiveLeastSquares(7, lam=0.995)
     rng = np.random.default_rng(1)
@@ -197,15 +231,7 @@ def main(argv=None) -> int:
         rows.append(("RecursiveLeastSquares.update_many (p = 7), per sample", med / m * 1e6, "µs/update",
                      best / m * 1e6))
 
-    bref = multisine_reference(1.0 if args.quick else 2.0, rng=np.random.default_rng(0))
-    brng = np.random.default_rng(2)
-    plants = [p.replace(J=p.J * brng.uniform(0.7, 1.3), Fc=p.Fc * brng.uniform(0.7, 1.3),
-                        tau=p.tau * brng.uniform(0.5, 2.0)) for _ in range(B)]
-    run_batch(plants[:2], bref, mode="none", Kp=design.Kp, Ki=design.Ki, u_max=U_MAX)  # load kernel
-    t_b, b_b = timed(lambda: run_batch(plants, bref, mode="none", Kp=design.Kp, Ki=design.Ki, u_max=U_MAX),
-                     max(1, args.repeat // 2))
-    nb = B * bref.t.size
-    rows.append((f"run_batch mode=none, B={B}, per scenario-step", t_b / nb * 1e6, "µs", b_b / nb * 1e6))
+    rows += _batch_rows(p, design, B, args)
 
     mem = json.loads(_py(_MEMORY_SCRIPT, args.hours, 0))
     mem_dec = json.loads(_py(_MEMORY_SCRIPT, args.hours, 1000))
@@ -226,6 +252,7 @@ def main(argv=None) -> int:
     rows.append(("  first compare() in a fresh process (numba cache loaded)", first, "s", cfirst))
     rows.append(("  imports of controllers.experiments.compare in that process", imp, "s", cimp))
     rows.append(("  first compare() incl. interpreter start and imports (cold)", cold, "s"))
+    rows.append(("adaptive-ff --help, fresh process (target <= 0.5)", _help_wall(), "s"))
     for label, cli in (("adaptive-ff compare --no-figures (fresh process, 2nd run)", ["--no-figures", "--quiet"]),
                        ("adaptive-ff compare, with figures (fresh process, 2nd run)", ["--quiet"])):
         _cli(cli)
@@ -242,10 +269,8 @@ def main(argv=None) -> int:
     for what, val, unit, *best in rows:
         b = f"{best[0]:>10.3f}" if best else " " * 10
         print(f"{what:<66}{val:>10.3f}{b}  {unit}")
-    print(f"\nspeed-up over python-control: run_closed_loop none {us_pc / us['none', 'numba']:.0f}x, "
-          f"adaptive (with RLS, noise) {us_pc / us['adaptive', 'numba']:.0f}x; compiled kernel over the Python twin: "
-          f"none {us['none', 'python'] / us['none', 'numba']:.0f}x, adaptive "
-          f"{us['adaptive', 'python'] / us['adaptive', 'numba']:.0f}x")
+    print(f"\nspeed-up over python-control: run_mode none {us_pc / us['none']:.0f}x, "
+          f"adaptive (with RLS, noise) {us_pc / us['adaptive']:.0f}x")
     print(f"max |w| difference to python-control: {agree_first:.1e} rad/s over the first 0.2 s, {agree:.1e} over the "
           "run (the python-control model's PI has no anti-windup clamp; differences grow where the velocity "
           "chatters around zero)")

@@ -6,7 +6,7 @@ tracking worse. Put your joint's parameters in PLANT and your requirements in th
 once, and keep the bounds a margin above the measured values.
 
 Uses the public API only: :func:`controllers.experiments.compare` (all modes on one scenario) and
-:func:`controllers.run_closed_loop` (one mode). Run: ``python -m pytest test_tracking_regression.py``.
+:func:`controllers.run_mode` (one mode). Run: ``python -m pytest test_tracking_regression.py``.
 The values noted below were measured for the ``paper`` preset, seed 0, 30 s.
 """
 
@@ -15,7 +15,7 @@ import math
 import numpy as np
 import pytest
 
-from controllers import compare, design_pi, run_closed_loop
+from controllers import ModeOptions, compare, design_pi, run_mode
 from plant import multisine_reference, preset
 
 # --- your joint and your requirements ------------------------------------------------------------
@@ -49,10 +49,10 @@ def test_adaptive_feedforward_removes_most_of_the_friction_error(comparison):
 
 
 def test_uncompensated_loop_is_sane():
-    """The PI loop alone (run_closed_loop, mode 'none') must track within its own bound."""
+    """The PI loop alone (run_mode, mode 'none') must track within its own bound."""
     ref = multisine_reference(DURATION, rng=np.random.default_rng(SEED))
     d = design_pi(PLANT.J, crossover=20.0, phase_margin=60.0)
     assert d.phase_margin == pytest.approx(60.0, abs=0.1)
-    r = run_closed_loop(PLANT, ref, mode="none", Kp=d.Kp, Ki=d.Ki, noise_std=1e-3, rng=np.random.default_rng(SEED))
+    r = run_mode(PLANT, ref, "none", ModeOptions(Kp=d.Kp, Ki=d.Ki, noise_std=1e-3), rng=np.random.default_rng(SEED))
     assert np.all(np.isfinite(r.w))
     assert r.metrics.rms_second_half < MAX_RMS_UNCOMPENSATED

@@ -1,6 +1,5 @@
-"""Tests of controllers.simulation.batch: the compiled batch kernel equals run_closed_loop run one by one."""
+"""Tests of controllers.simulation.batch: the batch engine equals the former Python loop run one by one."""
 
-import inspect
 import math
 
 import numpy as np
@@ -8,14 +7,22 @@ import pytest
 
 from adaptive_ff.identification.regression import FrictionEstimate
 from controllers.simulation.batch import run_batch
-from controllers.simulation.closed_loop import run_closed_loop
+from controllers.simulation.closed_loop import ModeOptions
+from loop_oracle import oracle_run
 from plant.errors import ParameterError
 from plant.excitation import multisine_reference
 from plant.friction import preset
 
 FIELDS = ("rms", "max", "rms_second_half", "max_second_half", "rms_reversal", "u_rms")
-# compare with the plain-Python engine of run_closed_loop (independent of any compiled kernel), where selectable
-_PY = {"engine": "python"} if "engine" in inspect.signature(run_closed_loop).parameters else {}
+
+
+def _opts(Kp, Ki, u_max=math.inf, estimate=None, **kw):
+    """One ModeOptions per scenario (sensor gate off, as the batch runs of issue 5 were defined)."""
+    B = len(np.atleast_1d(Kp))
+    per = lambda x, b: float(np.broadcast_to(np.asarray(x, dtype=float), (B,))[b])  # noqa: E731
+    ests = estimate if isinstance(estimate, list) else [estimate] * B
+    return [ModeOptions(Kp=per(Kp, b), Ki=per(Ki, b), u_max=per(u_max, b), estimate=ests[b], sensor_gate=False,
+                        **kw) for b in range(B)]
 
 
 def _plants(rng, n=3):
@@ -31,7 +38,7 @@ def _plants(rng, n=3):
 @pytest.mark.parametrize("ff_input", ["measured", "reference"])
 def test_batch_equals_one_by_one(mode, ff_input):
     if mode != "fixed" and ff_input == "reference":
-        pytest.skip("ff_input only matters for fixed")
+        pytest.skip("ff_input only matters for fixed")  # (3 skipped cases, by design)
     rng = np.random.default_rng(5)
     ref = multisine_reference(4.0, f_min=0.3, rng=rng)
     plants = _plants(rng)
@@ -43,21 +50,19 @@ def test_batch_equals_one_by_one(mode, ff_input):
     seeds = [11, 12, 13]
     est = [FrictionEstimate(J=p.J, tau=p.tau, sigma=p.sigma, Fc=p.Fc * 0.9, Fs=p.Fs, offset=0.0, Vs=p.Vs,
                             delta=p.delta, J_alt=p.J) for p in plants]
-    res = run_batch(plants, ref, mode=mode, Kp=Kp, Ki=Ki, u_max=u_max, noise_std=1e-3, seeds=seeds,
-                    estimate=est, ff_input=ff_input)
+    res = run_batch(plants, ref, mode, _opts(Kp, Ki, u_max, est, noise_std=1e-3, ff_input=ff_input), seeds=seeds)
     for b, p in enumerate(plants):
-        one = run_closed_loop(p, ref, mode=mode, Kp=float(Kp[b]), Ki=float(Ki[b]), u_max=float(u_max[b]),
-                              noise_std=1e-3, rng=np.random.default_rng(seeds[b]), estimate=est[b],
-                              ff_input=ff_input, sensor_gate=False, **_PY)
+        one = oracle_run(p, ref, mode=mode, Kp=float(Kp[b]), Ki=float(Ki[b]), u_max=float(u_max[b]),
+                         noise_std=1e-3, rng=np.random.default_rng(seeds[b]), estimate=est[b],
+                         ff_input=ff_input, sensor_gate=False)
         for name in FIELDS:
-            assert getattr(res, name)[b] == pytest.approx(getattr(one.metrics, name), rel=1e-9, abs=1e-15, nan_ok=True), name
+            assert getattr(res, name)[b] == pytest.approx(getattr(one["metrics"], name), rel=1e-9, abs=1e-15, nan_ok=True), name
         assert not res.diverged[b]
-    res2 = run_batch(plants, ref, mode=mode, Kp=Kp, Ki=Ki, u_max=u_max, noise=noise, estimate=est,
-                     ff_input=ff_input)
-    one = run_closed_loop(plants[1], ref, mode=mode, Kp=float(Kp[1]), Ki=float(Ki[1]), u_max=float(u_max[1]),
-                          estimate=est[1], ff_input=ff_input, sensor_gate=False, noise_std=0.0, **_PY)
-    res0 = run_batch(plants, ref, mode=mode, Kp=Kp, Ki=Ki, u_max=u_max, estimate=est, ff_input=ff_input)
-    assert res0.rms[1] == pytest.approx(one.metrics.rms, rel=1e-9)
+    res2 = run_batch(plants, ref, mode, _opts(Kp, Ki, u_max, est, ff_input=ff_input), noise=noise)
+    one = oracle_run(plants[1], ref, mode=mode, Kp=float(Kp[1]), Ki=float(Ki[1]), u_max=float(u_max[1]),
+                     estimate=est[1], ff_input=ff_input, sensor_gate=False, noise_std=0.0)
+    res0 = run_batch(plants, ref, mode, _opts(Kp, Ki, u_max, est, ff_input=ff_input))
+    assert res0.rms[1] == pytest.approx(one["metrics"].rms, rel=1e-9)
     assert np.all(np.isfinite(res2.rms))
 
 
@@ -65,22 +70,23 @@ def test_bad_inputs():
     rng = np.random.default_rng(1)
     ref = multisine_reference(0.5, rng=rng)
     p = [preset("paper")] * 2
+    o = ModeOptions(Kp=1.0, Ki=1.0)
     with pytest.raises(ParameterError, match="mode"):
-        run_batch(p, ref, mode="adaptive", Kp=1.0, Ki=1.0)
-    with pytest.raises(ParameterError, match="Kp"):
-        run_batch(p, ref, mode="none", Kp=[1.0, 2.0, 3.0], Ki=1.0)
+        run_batch(p, ref, "magic", o)
+    with pytest.raises(ParameterError, match="options"):
+        run_batch(p, ref, "none", [o, o, o])
     with pytest.raises(ParameterError, match="Ki"):
-        run_batch(p, ref, mode="none", Kp=1.0, Ki=-1.0)
+        run_batch(p, ref, "none", ModeOptions(Kp=1.0, Ki=-1.0))
     with pytest.raises(ParameterError, match="u_max"):
-        run_batch(p, ref, mode="none", Kp=1.0, Ki=1.0, u_max=0.0)
+        run_batch(p, ref, "none", ModeOptions(Kp=1.0, Ki=1.0, u_max=0.0))
     with pytest.raises(ParameterError, match="estimate"):
-        run_batch(p, ref, mode="fixed", Kp=1.0, Ki=1.0)
+        run_batch(p, ref, "fixed", o)
     with pytest.raises(ParameterError, match="seeds"):
-        run_batch(p, ref, mode="none", Kp=1.0, Ki=1.0, noise_std=0.1)
+        run_batch(p, ref, "none", ModeOptions(Kp=1.0, Ki=1.0, noise_std=0.1))
     with pytest.raises(ParameterError, match="noise"):
-        run_batch(p, ref, mode="none", Kp=1.0, Ki=1.0, noise=np.zeros(3))
+        run_batch(p, ref, "none", o, noise=np.zeros(3))
     with pytest.raises(ParameterError, match="plants"):
-        run_batch([], ref, mode="none", Kp=1.0, Ki=1.0)
+        run_batch([], ref, "none", o)
 
 
 def test_divergence_matches_run_closed_loop():
@@ -88,31 +94,13 @@ def test_divergence_matches_run_closed_loop():
     ref = multisine_reference(1.0, rng=rng)
     p = preset("paper")
     Kp = 5.0 * p.J / 1e-3  # Kp*Tc/J = 5 > 2: the discrete loop is unstable
-    res = run_batch([p, p], ref, mode="none", Kp=[Kp, 1.0], Ki=1.0)
-    one = run_closed_loop(p, ref, mode="none", Kp=Kp, Ki=1.0, sensor_gate=False, **_PY)
-    assert one.info["diverged"] and res.diverged[0] and not res.diverged[1]
-    assert math.isnan(res.rms[0]) and math.isnan(one.metrics.rms)
+    res = run_batch([p, p], ref, "none", _opts([Kp, 1.0], 1.0))
+    one = oracle_run(p, ref, mode="none", Kp=Kp, Ki=1.0, sensor_gate=False)
+    assert one["diverged"] and res.diverged[0] and not res.diverged[1]
+    assert math.isnan(res.rms[0]) and math.isnan(one["metrics"].rms)
 
 
-def test_friction_shortcuts_are_bit_exact():
-    """_F skips pow for delta == 1 and pow/exp above _wcut; both must give eq. 3 bit for bit."""
-    from controllers.simulation.batch import _F, _wcut
-    from plant.joint import _friction_scalar
-
-    rng = np.random.default_rng(9)
-    for Fc, Fs, Vs, delta, sigma in ((25.0, 35.0, 0.02, 1.0, 40.0), (3.0, 3.0, 0.1, 1.7, 0.0),
-                                     (0.0, 2.0, 0.01, 0.6, 1.0), (0.0, 0.0, 0.05, 2.0, 0.0),
-                                     (7.5, 20.0, 0.005, 2.3, 5.0)):
-        p = preset("paper").replace(Fc=Fc, Fs=Fs, Vs=Vs, delta=delta, sigma=sigma)
-        F = _friction_scalar(p)
-        wcut = _wcut(Fc, Fs - Fc, Vs, delta)
-        assert wcut < math.inf
-        w = np.concatenate([wcut * rng.uniform(0.5, 3.0, 2000), Vs * 10.0 ** rng.uniform(-3, 3, 2000), [0.0]])
-        for x in np.concatenate([w, -w]).tolist():
-            assert _F(x, Fc, Fs - Fc, Vs, delta, sigma, delta == 1.0, wcut) == F(x)
-
-
-@pytest.mark.parametrize("mode", ["none", "fixed"])
+@pytest.mark.parametrize("mode", ["none", "fixed", "adaptive", "dob"])
 def test_parallel_chunks_equal_single_runs_bit_for_bit(mode):
     """B = 21 spans several chunks (the prange kernel with >= 2 numba threads); each scenario equals its own run."""
     rng = np.random.default_rng(8)
@@ -123,9 +111,9 @@ def test_parallel_chunks_equal_single_runs_bit_for_bit(mode):
     seeds = list(range(100, 121))
     est = [FrictionEstimate(J=p.J, tau=p.tau, sigma=p.sigma, Fc=p.Fc * 0.9, Fs=p.Fs, offset=0.0, Vs=p.Vs,
                             delta=p.delta, J_alt=p.J) for p in plants]
-    res = run_batch(plants, ref, mode=mode, Kp=Kp, Ki=40.0, noise_std=1e-3, seeds=seeds, estimate=est)
+    kw = dict(noise_std=1e-3, Vs=0.02, delta=1.0, warmup=50)
+    res = run_batch(plants, ref, mode, _opts(Kp, 40.0, math.inf, est, **kw), seeds=seeds)
     for b in (0, 5, 9, 10, 20):
-        one = run_batch([plants[b]], ref, mode=mode, Kp=Kp[b], Ki=40.0, noise_std=1e-3, seeds=[seeds[b]],
-                        estimate=est[b])
+        one = run_batch([plants[b]], ref, mode, _opts([Kp[b]], 40.0, math.inf, [est[b]], **kw), seeds=[seeds[b]])
         for name in FIELDS:
             np.testing.assert_array_equal(getattr(res, name)[b], getattr(one, name)[0], err_msg=name)

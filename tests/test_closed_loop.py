@@ -6,9 +6,11 @@ import control
 import numpy as np
 import pytest
 
-from adaptive_ff.compensation.feedforward import AdaptiveFrictionFeedforward, FrictionFeedforward, project_estimate
+from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
+from adaptive_ff.compensation.feedforward import FrictionFeedforward, project_estimate
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
-from controllers.simulation.closed_loop import loop_metrics, run_closed_loop
+from controllers.simulation.closed_loop import loop_metrics
+from loop_helpers import run_named
 from controllers.experiments.compare import compare, eta
 from controllers.design.pi import design_pi
 from plant import ParameterError, multisine_reference, preset
@@ -24,7 +26,7 @@ def ref():
 
 
 def test_frictionless_loop_equals_python_control_linear_simulation(ref):
-    r = run_closed_loop(P, ref, mode="frictionless", **GAINS)
+    r = run_named(P, ref, mode="frictionless", **GAINS)
     Tc = 1e-3
     plant_d = control.sample_system(control.tf([1.0], [P.J, 0.0]), Tc, method="zoh")
     Kp, KiTc = DESIGN.Kp, DESIGN.Ki * Tc
@@ -35,7 +37,7 @@ def test_frictionless_loop_equals_python_control_linear_simulation(ref):
 
 
 def test_oracle_is_close_to_frictionless_and_none_is_far(ref):
-    runs = {m: run_closed_loop(P, ref, mode=m, **GAINS) for m in ("none", "oracle", "frictionless")}
+    runs = {m: run_named(P, ref, mode=m, **GAINS) for m in ("none", "oracle", "frictionless")}
     rms = {m: r.metrics.rms_second_half for m, r in runs.items()}
     assert rms["none"] > 3 * rms["frictionless"]
     assert eta(rms["none"], rms["oracle"], rms["frictionless"]) > 0.95
@@ -44,10 +46,10 @@ def test_oracle_is_close_to_frictionless_and_none_is_far(ref):
 def test_fixed_feedforward_with_true_parameters_and_lag_helps(ref):
     true = FrictionEstimate(J=P.J, tau=P.tau, sigma=P.sigma, Fc=P.Fc, Fs=P.Fs, offset=0.0, Vs=P.Vs,
                             delta=P.delta, J_alt=P.J)
-    none = run_closed_loop(P, ref, mode="none", **GAINS).metrics.rms_second_half
-    fixed = run_closed_loop(P, ref, mode="fixed", estimate=true, ff_input="reference", **GAINS).metrics.rms_second_half
-    meas = run_closed_loop(P, ref, mode="fixed", estimate=true, ff_input="measured", **GAINS).metrics.rms_second_half
-    free = run_closed_loop(P, ref, mode="frictionless", **GAINS).metrics.rms_second_half
+    none = run_named(P, ref, mode="none", **GAINS).metrics.rms_second_half
+    fixed = run_named(P, ref, mode="fixed", estimate=true, ff_input="reference", **GAINS).metrics.rms_second_half
+    meas = run_named(P, ref, mode="fixed", estimate=true, ff_input="measured", **GAINS).metrics.rms_second_half
+    free = run_named(P, ref, mode="frictionless", **GAINS).metrics.rms_second_half
     # at the reference velocity the true map is early at reversals (the joint lags the
     # reference), so it helps but cannot cancel; at the measured velocity it nearly cancels
     assert eta(none, fixed, free) > 0.5
@@ -57,8 +59,8 @@ def test_fixed_feedforward_with_true_parameters_and_lag_helps(ref):
 def test_eq4_adaptive_mode_improves_tracking_and_stays_plausible(ref):
     model = RegressionModel(P.Vs, P.delta)
     kw = dict(noise_std=1e-3, **GAINS)
-    none = run_closed_loop(P, ref, mode="none", rng=np.random.default_rng(1), **kw).metrics.rms_second_half
-    r = run_closed_loop(P, ref, mode="adaptive", estimator="eq4", ff_input="reference", model=model,
+    none = run_named(P, ref, mode="none", rng=np.random.default_rng(1), **kw).metrics.rms_second_half
+    r = run_named(P, ref, mode="adaptive", estimator="eq4", ff_input="reference", model=model,
                         rng=np.random.default_rng(1), **kw)
     assert r.metrics.rms_second_half < 0.6 * none
     est = r.estimate
@@ -106,7 +108,7 @@ def test_loop_metrics_analytic():
 
 def test_sliding_adaptive_mode_recovers_the_physical_parameters_in_closed_loop(ref):
     kw = dict(noise_std=1e-3, **GAINS)
-    r = run_closed_loop(P, ref, mode="adaptive", Vs=P.Vs, delta=P.delta, rng=np.random.default_rng(1), **kw)
+    r = run_named(P, ref, mode="adaptive", Vs=P.Vs, delta=P.delta, rng=np.random.default_rng(1), **kw)
     est = r.estimate
     # in closed loop, with noise: the sliding-regime gate removes the noise/feedback bias (module docstring)
     assert est.Fc == pytest.approx(P.Fc, rel=0.01) and est.Fs == pytest.approx(P.Fs, rel=0.02)
@@ -129,8 +131,8 @@ def test_compare_returns_all_modes_with_consistent_eta():
 
 def test_bad_mode_and_missing_inputs_raise(ref):
     with pytest.raises(ParameterError, match="mode must be one of"):
-        run_closed_loop(P, ref, mode="magic", **GAINS)
+        run_named(P, ref, mode="magic", **GAINS)
     with pytest.raises(ParameterError, match="estimate"):
-        run_closed_loop(P, ref, mode="fixed", **GAINS)
+        run_named(P, ref, mode="fixed", **GAINS)
     with pytest.raises(ParameterError, match="multiple"):
-        run_closed_loop(P, ref, mode="none", Ts=0.0105, **GAINS)
+        run_named(P, ref, mode="none", Ts=0.0105, **GAINS)

@@ -10,7 +10,7 @@ from adaptive_ff.compensation.feedforward import FrictionFeedforward, RobustAdap
 from adaptive_ff.compensation.gate import OutlierGate
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, fit_sliding, sliding_regressors
-from controllers.simulation.closed_loop import run_closed_loop
+from loop_helpers import run_named
 from controllers.design.pi import design_pi
 from plant import ParameterError, bandlimited_noise, multisine_reference, preset, simulate
 
@@ -28,7 +28,7 @@ def open_loop():
 def closed_loop_none():
     """The uncompensated loop with 1e-3 rad/s noise: the joint creeps at every reversal."""
     ref = multisine_reference(60.0, rng=np.random.default_rng(1))
-    return run_closed_loop(P, ref, mode="none", Kp=DESIGN.Kp, Ki=DESIGN.Ki, noise_std=1e-3,
+    return run_named(P, ref, mode="none", Kp=DESIGN.Kp, Ki=DESIGN.Ki, noise_std=1e-3,
                            rng=np.random.default_rng(2))
 
 
@@ -45,9 +45,10 @@ def test_online_estimator_builds_exactly_the_batch_rows(open_loop):
     X, y, idx, n_gated, names = sliding_regressors(u, w, Tc=1e-3, Vs=P.Vs, delta=P.delta, Ts=0.01)
     est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, Ts=0.01)
     rows = []
-    est.rls.update = lambda phi, y_: rows.append((phi.copy(), y_)) or 0.0  # record instead of estimating
     for uk, wk in zip(u.tolist(), w.tolist()):
         est.observe(uk, wk)
+        if est.updated:  # the row of this update (the compiled estimator's own regressor and output)
+            rows.append((est.phi.copy(), est.y))
     assert len(rows) == X.shape[0] and est.n_gated == n_gated and names == est.names
     np.testing.assert_allclose(np.array([r[0] for r in rows]), X, rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose([r[1] for r in rows], y, rtol=1e-12)
@@ -71,14 +72,18 @@ def test_rejected_samples_leave_the_estimator_unchanged_and_are_counted(open_loo
     est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, gate=OutlierGate(max_step=0.05))
     for uk, wk in zip(u[:5000].tolist(), w[:5000].tolist()):
         est.observe(uk, wk)
-    state = copy.deepcopy({k: v for k, v in est.__dict__.items() if k != "gate"})
+    public = lambda e: {"theta": e.theta.copy(), "P": e.rls.P.copy(), "n_samples": e.n_samples,  # noqa: E731
+                        "n_gated": e.n_gated, "noise_std": e.noise_std, "w_band": e.w_band,
+                        "theta_cov": e.theta_cov.copy(), "gate_last": e.gate.last, "gate_scale": e.gate.scale,
+                        "n_rejected": e.n_rejected, "updated": e.updated, "rls": e.rls}
+    state = copy.deepcopy(public(est))
     rls_state = (est.rls.theta.copy(), est.rls.P.copy(), est.rls.n_updates)
     bad = [(math.nan, w[5000]), (u[5000], w[4999] + 1.0), (u[5000], w[4999] - 0.3), (u[5000], math.nan),
            (u[5000], math.inf), (u[5000], -math.inf), (math.inf, w[5000])]
     for uk, wk in bad:
         assert est.observe(uk, wk) is False
     assert est.n_rejected == len(bad) and est.gate.n_outliers == 2 and est.gate.n_nonfinite == 3
-    after = {k: v for k, v in est.__dict__.items() if k != "gate"}
+    after = public(est)
     for k, v in state.items():
         if k in ("n_rejected", "updated"):  # the counter, and the flag "this call updated the RLS"
             continue

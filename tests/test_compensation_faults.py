@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from controllers.simulation.closed_loop import run_closed_loop
+from loop_helpers import run_named
 from controllers.experiments.compare import friction_scale
 from controllers.design.pi import design_pi
 from controllers.testing import velocity_faults
@@ -24,8 +24,8 @@ def runs():
     # 170 faults; spikes of +-2 rad/s (almost 6x the peak speed) in the whole run after the first second
     faults = velocity_faults(ref.t.size, rng=np.random.default_rng(5), n_nan=N_NAN, n_inf=N_INF,
                              n_spikes=N_SPIKES, spike=2.0, start=1000)
-    clean = run_closed_loop(P, ref, rng=np.random.default_rng(4), **kw)
-    faulty = run_closed_loop(P, ref, rng=np.random.default_rng(4), faults=faults, **kw)
+    clean = run_named(P, ref, rng=np.random.default_rng(4), **kw)
+    faulty = run_named(P, ref, rng=np.random.default_rng(4), faults=faults, **kw)
     return clean, faulty, faults, 0.5 * u_max
 
 

@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 import peers_oracle as oracle
-from adaptive_ff.compensation.eq4_feedforward import (AdaptiveFrictionFeedforward, eq4_compensate, eq4_observe,
-                                                      eq4_project)
+from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward, eq4_compensate, eq4_observe
+from adaptive_ff.compensation.feedforward import project_levels
 from adaptive_ff.identification.regression import (FrictionEstimate, RegressionModel, eq4_phi, eq4_to_physical,
                                                    theta_from_physical)
 from plant.errors import ParameterError
@@ -265,7 +265,7 @@ def test_projection_equals_project_estimate():
              {**raw, "Fc": 9.0}, {**raw, "offset": math.inf}, {**raw, "tau": -0.0, "sigma": -0.0}]
     for d in cases:
         ref = oracle.project_estimate(FrictionEstimate(**d, Vs=None, delta=None, J_alt=1.0), tau_max=0.5, F_max=8.0)
-        ok, tau, sigma, Fc, Fs = eq4_project(d["J"], d["tau"], d["sigma"], d["Fc"], d["Fs"], d["offset"], 0.5, 8.0)
+        ok, tau, sigma, Fc, Fs = project_levels(d["J"], d["tau"], d["sigma"], d["Fc"], d["Fs"], d["offset"], 0.5, 8.0)
         assert ok == (ref is not None)
         if ok:
             assert (tau, sigma, Fc, Fs) == (ref.tau, ref.sigma, ref.Fc, ref.Fs)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from controllers.peers.canudas import CanudasCompensator
-from controllers.simulation.closed_loop import run_closed_loop
+from loop_helpers import run_named
 from controllers.peers.dob import DisturbanceObserver
 from controllers.design.pi import design_pi
 from plant import ParameterError, multisine_reference
@@ -20,13 +20,13 @@ MATCHING = AsymmetricParams(J=2.0, Fc_pos=10.0, Fc_neg=6.0, Fs_pos=10.0, Fs_neg=
 def test_canudas_recovers_its_own_model_in_closed_loop():
     d = design_pi(MATCHING.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
     ref = multisine_reference(40.0, rng=np.random.default_rng(0))
-    r = run_closed_loop(MATCHING, ref, mode="canudas", Kp=d.Kp, Ki=d.Ki, Ts=0.005, ff_input="reference")
+    r = run_named(MATCHING, ref, mode="canudas", Kp=d.Kp, Ki=d.Ki, Ts=0.005, ff_input="reference")
     est = r.info["canudas_estimate"]
     assert est["Fc_pos"] == pytest.approx(10.0, rel=1e-3) and est["Fc_neg"] == pytest.approx(6.0, rel=1e-3)
     assert est["sigma_pos"] == pytest.approx(8.0, rel=1e-3) and est["sigma_neg"] == pytest.approx(5.0, rel=1e-3)
     # Euler discretisation of the motor model over Ts = 5 ms with the PI acting: J within 1 %
     assert est["J"] == pytest.approx(2.0, rel=0.01)
-    none = run_closed_loop(MATCHING, ref, mode="none", Kp=d.Kp, Ki=d.Ki).metrics.rms_second_half
+    none = run_named(MATCHING, ref, mode="none", Kp=d.Kp, Ki=d.Ki).metrics.rms_second_half
     assert r.metrics.rms_second_half < 0.3 * none
 
 
@@ -66,7 +66,7 @@ def test_dob_cancels_coulomb_friction_in_closed_loop():
     from plant.excitation import Reference
 
     ref = Reference(t=t, w=np.minimum(t, 1.0) * 0.2, dw=np.where(t < 1.0, 0.2, 0.0))
-    r = run_closed_loop(p, ref, mode="dob", Kp=d.Kp, Ki=d.Ki, omega_q=200.0)
+    r = run_named(p, ref, mode="dob", Kp=d.Kp, Ki=d.Ki, omega_q=200.0)
     assert r.u_ff[-1] == pytest.approx(p.Fc_pos, rel=1e-4)
     assert abs(r.w_ref[-1] - r.w[-1]) < 1e-6
 

@@ -1,7 +1,7 @@
 """Property tests (hypothesis) of the compiled kernels of issue 5.
 
-* :func:`controllers.simulation.batch.run_batch` equals :func:`controllers.simulation.closed_loop.run_closed_loop`
-  (its plain-Python engine) run one by one, to 1e-9, over random plants (eq. 3 with lag),
+* :func:`controllers.simulation.batch.run_batch` equals the former plain-Python loop (tests/loop_oracle.py)
+  run one by one, to 1e-9, over random plants (eq. 3 with lag),
   gains, limits, noise seeds and modes.
 * :meth:`adaptive_ff.identification.rls.RecursiveLeastSquares.update` equals ``update_many`` (bit for bit)
   and the former numpy implementation (tests/rls_oracle.py) to rounding (1e-10 relative to the
@@ -11,7 +11,6 @@
 Deterministic (``derandomize=True``) and small (``max_examples``), ``deadline=None``.
 """
 
-import inspect
 import math
 
 import numpy as np
@@ -22,15 +21,14 @@ from hypothesis import strategies as st
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from controllers.simulation.batch import run_batch
-from controllers.simulation.closed_loop import run_closed_loop
+from controllers.simulation.closed_loop import ModeOptions
+from loop_oracle import oracle_run
 from plant.excitation import multisine_reference
 from plant.friction import JointParams
 from rls_oracle import NumpyRLS
 
 SETTINGS = dict(deadline=None, derandomize=True, database=None, suppress_health_check=[HealthCheck.too_slow])
 FIELDS = ("rms", "max", "rms_second_half", "max_second_half", "rms_reversal", "u_rms")
-# the Python reference engine of run_closed_loop (independent of any compiled kernel), where selectable
-_PY = {"engine": "python"} if "engine" in inspect.signature(run_closed_loop).parameters else {}
 
 
 @st.composite
@@ -68,15 +66,16 @@ def test_batch_kernel_equals_run_closed_loop_one_by_one(case):
     ref = multisine_reference(1.5, f_min=0.5, peak=amp, rng=np.random.default_rng(ref_seed))
     est = [FrictionEstimate(J=p.J, tau=p.tau, sigma=p.sigma, Fc=p.Fc * err, Fs=p.Fs, offset=0.0, Vs=p.Vs,
                             delta=p.delta, J_alt=p.J) for p in ps]
-    res = run_batch(ps, ref, mode=mode, Kp=Kp, Ki=Ki, u_max=u_max, noise_std=noise_std, seeds=seeds,
-                    estimate=est, ff_input=ff_input)
+    opts = [ModeOptions(Kp=float(Kp[b]), Ki=float(Ki[b]), u_max=float(u_max[b]), noise_std=noise_std,
+                        estimate=est[b], ff_input=ff_input, sensor_gate=False) for b in range(len(ps))]
+    res = run_batch(ps, ref, mode, opts, seeds=seeds)
     for b, p in enumerate(ps):
-        one = run_closed_loop(p, ref, mode=mode, Kp=float(Kp[b]), Ki=float(Ki[b]), u_max=float(u_max[b]),
-                              noise_std=noise_std, rng=np.random.default_rng(seeds[b]), estimate=est[b],
-                              ff_input=ff_input, sensor_gate=False, **_PY)
-        assert bool(res.diverged[b]) == bool(one.info["diverged"])
+        one = oracle_run(p, ref, mode=mode, Kp=float(Kp[b]), Ki=float(Ki[b]), u_max=float(u_max[b]),
+                         noise_std=noise_std, rng=np.random.default_rng(seeds[b]), estimate=est[b],
+                         ff_input=ff_input, sensor_gate=False)
+        assert bool(res.diverged[b]) == bool(one["diverged"])
         for name in FIELDS:
-            assert getattr(res, name)[b] == pytest.approx(getattr(one.metrics, name), rel=1e-9, abs=1e-15,
+            assert getattr(res, name)[b] == pytest.approx(getattr(one["metrics"], name), rel=1e-9, abs=1e-15,
                                                           nan_ok=True), name
 
 

@@ -30,8 +30,8 @@ import math
 
 import numpy as np
 
-from adaptive_ff.compensation.feedforward import FF_NPAR, FF_NSTATE, FrictionFeedforward, ff_compensate, \
-    ff_set_estimate
+from adaptive_ff.compensation.feedforward import (FF_NPAR, FF_NSTATE, FrictionFeedforward, ff_compensate,
+                                                  ff_set_estimate, project_levels)
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel, eq4_phi, eq4_to_physical
 from adaptive_ff.identification.rls import (RecursiveLeastSquares, rls_buffer_size, rls_n_updates, rls_theta,
                                             rls_update)
@@ -39,7 +39,7 @@ from plant.component import Component
 from plant.errors import ParameterError, check_multiple, check_positive
 from plant.jit import kernel
 
-__all__ = ["AdaptiveFrictionFeedforward", "eq4_sample", "eq4_compensate", "eq4_observe", "eq4_project",
+__all__ = ["AdaptiveFrictionFeedforward", "eq4_sample", "eq4_compensate", "eq4_observe",
            "EQ4_KIND"]
 
 #: Compensator kind code of :class:`AdaptiveFrictionFeedforward` (engine protocol).
@@ -61,36 +61,6 @@ def _state_size(p: int) -> int:
 
 
 @kernel(inline="always")
-def eq4_project(J, tau, sigma, Fc, Fs, offset, tau_max, F_max):
-    """Compiled projection of a physical estimate onto the admissible set (``project_estimate`` for kernels).
-
-    Parameters
-    ----------
-    J, tau, sigma, Fc, Fs, offset : float
-        Raw estimate from the inverse map of eq. 4 (kg·m², s, N·m·s/rad, N·m, N·m, N·m).
-    tau_max : float
-        Largest admissible lag (s).
-    F_max : float
-        Largest admissible Coulomb or static level (N·m).
-
-    Returns
-    -------
-    tuple (bool, float, float, float, float)
-        ``(ok, tau, sigma, Fc, Fs)``: ``ok`` False if a value is non-finite, ``J <= 0`` or
-        ``Fc``/``Fs`` exceeds ``F_max``; otherwise ``tau`` clipped to ``[0, tau_max]`` and ``sigma``,
-        ``Fc``, ``Fs`` to ``>= 0`` (Ioannou & Sun, *Robust Adaptive Control*, 1996, Sec. 4.11.3;
-        the same comparisons as :func:`adaptive_ff.compensation.feedforward.project_estimate`).
-    """
-    fin = (math.isfinite(J) and math.isfinite(tau) and math.isfinite(sigma) and math.isfinite(Fc)
-           and math.isfinite(Fs) and math.isfinite(offset))
-    if not fin or J <= 0.0 or Fc > F_max or Fs > F_max:
-        return False, tau, sigma, Fc, Fs
-    t = 0.0 if 0.0 > tau else tau  # Python's max(tau, 0.0), then min(., tau_max)
-    t = tau_max if tau_max < t else t
-    return (True, t, 0.0 if 0.0 > sigma else sigma, 0.0 if 0.0 > Fc else Fc, 0.0 if 0.0 > Fs else Fs)
-
-
-@kernel(inline="always")
 def _use_estimate(par, st):
     """Map theta to physical parameters, project, and put an admissible estimate into use (else count it)."""
     p = np.int64(par[_P_NP])
@@ -100,7 +70,7 @@ def _use_estimate(par, st):
         th[i] = rls_theta(rls, i)
     lag, strib, off = par[_P_LAG] != 0.0, par[_P_STRIB] != 0.0, par[_P_OFF] != 0.0
     J, tau, sigma, Fc, Fs, o, J_alt = eq4_to_physical(th, par[_P_TS], lag, strib, off)
-    ok, tau, sigma, Fc, Fs = eq4_project(J, tau, sigma, Fc, Fs, o, par[_P_TAUMAX], par[_P_FMAX])
+    ok, tau, sigma, Fc, Fs = project_levels(J, tau, sigma, Fc, Fs, o, par[_P_TAUMAX], par[_P_FMAX])
     if not ok:
         st[_S_NIMPL] += 1.0
         return

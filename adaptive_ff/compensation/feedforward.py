@@ -1,11 +1,11 @@
 """Friction feedforward: fixed (from an offline estimate) and adaptive (online RLS, the paper's future work).
 
-Three classes: :class:`FrictionFeedforward` (a fixed estimate through the
-estimated lag), :class:`AdaptiveFrictionFeedforward` (the paper's eq. 4 RLS at
-Ts, the first prototype, kept as a baseline) and
-:class:`RobustAdaptiveFeedforward` (the recommended one: sliding-regime
+Two components: :class:`FrictionFeedforward` (a fixed estimate through the
+estimated lag) and :class:`RobustAdaptiveFeedforward` (the recommended one: sliding-regime
 inverse-dynamics RLS with directional forgetting, projection, outlier and
-plausibility gates, see :mod:`adaptive_ff.compensation.sliding_estimator`).
+plausibility gates, see :mod:`adaptive_ff.compensation.sliding_estimator`). The
+paper's eq. 4 RLS feedforward, kept as a baseline, composes the first in
+:mod:`adaptive_ff.compensation.eq4_feedforward`.
 """
 
 from __future__ import annotations
@@ -15,12 +15,48 @@ from dataclasses import replace
 
 import numpy as np
 
-from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
-from adaptive_ff.identification.rls import RecursiveLeastSquares
-from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
+from adaptive_ff.compensation.sliding_estimator import (SlidingFrictionEstimator, estimate_from_theta,
+                                                       sliding_config, sliding_mse, sliding_observe, sliding_rls,
+                                                       sliding_sizes, sliding_updated)
+from adaptive_ff.identification.regression import FrictionEstimate
+from adaptive_ff.identification.rls import rls_P, rls_n_updates, rls_theta
+from plant.component import Component
 from plant.errors import ParameterError, check_nonnegative, check_positive
+from plant.jit import kernel
 
-__all__ = ["FrictionFeedforward", "AdaptiveFrictionFeedforward", "RobustAdaptiveFeedforward", "project_estimate"]
+__all__ = ["FrictionFeedforward", "RobustAdaptiveFeedforward", "project_estimate", "project_levels",
+           "FF_NPAR", "FF_NSTATE", "ff_set_estimate", "ff_step", "ff_compensate", "robust_compensate",
+           "robust_observe"]
+
+
+@kernel(inline="always")
+def project_levels(J, tau, sigma, Fc, Fs, offset, tau_max, F_max):
+    """Compiled projection of a physical estimate onto the admissible set (the one implementation of :func:`project_estimate`).
+
+    Parameters
+    ----------
+    J, tau, sigma, Fc, Fs, offset : float
+        Raw estimate from the inverse map of eq. 4 (kg·m², s, N·m·s/rad, N·m, N·m, N·m).
+    tau_max : float
+        Largest admissible lag (s).
+    F_max : float
+        Largest admissible Coulomb or static level (N·m).
+
+    Returns
+    -------
+    tuple (bool, float, float, float, float)
+        ``(ok, tau, sigma, Fc, Fs)``: ``ok`` False if a value is non-finite, ``J <= 0`` or
+        ``Fc``/``Fs`` exceeds ``F_max``; otherwise ``tau`` clipped to ``[0, tau_max]`` and ``sigma``,
+        ``Fc``, ``Fs`` to ``>= 0`` (Ioannou & Sun, *Robust Adaptive Control*, 1996, Sec. 4.11.3;
+        used by :func:`project_estimate` and by the compiled eq. 4 feedforward).
+    """
+    fin = (math.isfinite(J) and math.isfinite(tau) and math.isfinite(sigma) and math.isfinite(Fc)
+           and math.isfinite(Fs) and math.isfinite(offset))
+    if not fin or J <= 0.0 or Fc > F_max or Fs > F_max:
+        return False, tau, sigma, Fc, Fs
+    t = 0.0 if 0.0 > tau else tau  # Python's max(tau, 0.0), then min(., tau_max)
+    t = tau_max if tau_max < t else t
+    return (True, t, 0.0 if 0.0 > sigma else sigma, 0.0 if 0.0 > Fc else Fc, 0.0 if 0.0 > Fs else Fs)
 
 
 def project_estimate(est: FrictionEstimate, *, tau_max: float = 1.0,
@@ -52,15 +88,92 @@ def project_estimate(est: FrictionEstimate, *, tau_max: float = 1.0,
     adaptive control (Ioannou & Sun, *Robust Adaptive Control*, 1996, Sec. 4.11.3),
     applied here to the physical parameters rather than to ``theta``.
     """
-    vals = (est.J, est.tau, est.sigma, est.Fc, est.Fs, est.offset)
-    if not all(math.isfinite(v) for v in vals) or est.J <= 0 or est.Fc > F_max or est.Fs > F_max:
+    ok, tau, sigma, Fc, Fs = project_levels(est.J, est.tau, est.sigma, est.Fc, est.Fs, est.offset, tau_max, F_max)
+    if not ok:
         return None
-    return FrictionEstimate(J=est.J, tau=min(max(est.tau, 0.0), tau_max), sigma=max(est.sigma, 0.0),
-                            Fc=max(est.Fc, 0.0), Fs=max(est.Fs, 0.0), offset=est.offset, Vs=est.Vs,
+    return FrictionEstimate(J=est.J, tau=tau, sigma=sigma, Fc=Fc, Fs=Fs, offset=est.offset, Vs=est.Vs,
                             delta=est.delta, J_alt=est.J_alt)
 
 
-class FrictionFeedforward:
+# FrictionFeedforward arrays. params: dt, lag, ff_max, sign_width, stick_band, stick_samples, reference input;
+# state: estimate in use (has, Fc, Fs - Fc, Vs, delta, sigma, lag filter gain, has Vs, tau), output filter, in-band count
+_DT, _LAG, _FFMAX, _SW, _SBAND, _SSAMP, _REF = range(7)
+_HAS, _FC, _DF, _VS, _DELTA, _SIGMA, _ALPHA, _HASVS, _TAU, _UFF, _NIB = range(11)
+#: Lengths of the fixed feedforward's parameter and state arrays.
+FF_NPAR, FF_NSTATE = 7, 11
+
+
+@kernel(inline="always")
+def ff_set_estimate(par, st, Fc, Fs, Vs, delta, sigma, tau, has_vs):
+    """Put a friction estimate into use (levels N·m, ``Vs`` rad/s, ``sigma`` N·m·s/rad, lag ``tau`` s).
+
+    The lag filter gain is ``1 - exp(-dt/tau)`` (exact discretisation of eq. 1 for a held input) when the
+    feedforward filters through the lag and ``tau > 0``, else 1 (no filter). ``has_vs`` 0 drops the Stribeck
+    term (Coulomb level only).
+    """
+    st[_HAS] = 1.0
+    st[_FC] = Fc
+    st[_DF] = Fs - Fc
+    st[_VS] = Vs
+    st[_DELTA] = delta
+    st[_SIGMA] = sigma
+    st[_TAU] = tau
+    st[_HASVS] = has_vs
+    st[_ALPHA] = 1.0 - math.exp(-par[_DT] / tau) if (par[_LAG] > 0.0 and tau > 0.0) else 1.0
+
+
+@kernel(inline="always")
+def ff_static(par, st, w):
+    """Static friction estimate ``F_hat(w)`` (N·m): eq. 3 with the estimate in use, sign ramp of width
+    ``sign_width`` near zero, no offset; 0 without an estimate."""
+    if w == 0.0 or st[_HAS] == 0.0:
+        return 0.0
+    aw = abs(w)
+    if st[_HASVS] > 0.0:
+        mag = st[_FC] + st[_DF] * math.exp(-((aw / st[_VS]) ** st[_DELTA]))
+    else:
+        mag = st[_FC]
+    sw = par[_SW]
+    if sw > 0.0 and aw < sw:
+        return mag * (w / sw) + st[_SIGMA] * w
+    return math.copysign(mag, w) + st[_SIGMA] * w
+
+
+@kernel(inline="always")
+def ff_step(par, st, w, w_ref, has_ref):
+    """One period: stick detection (with ``has_ref``), lag filter, clip; return the feedforward (N·m).
+
+    While the first velocity ``w`` stays inside ``±stick_band`` for ``stick_samples`` calls the
+    second, ``w_ref``, is used (see :class:`FrictionFeedforward`).
+    """
+    x = w
+    if has_ref:
+        if -par[_SBAND] < w < par[_SBAND]:
+            st[_NIB] += 1.0
+            if st[_NIB] >= par[_SSAMP]:
+                x = w_ref
+        else:
+            st[_NIB] = 0.0
+    st[_UFF] += st[_ALPHA] * (ff_static(par, st, x) - st[_UFF])
+    return min(max(st[_UFF], -par[_FFMAX]), par[_FFMAX])
+
+
+@kernel(inline="always")
+def ff_compensate(par, st, w_ctrl, w_meas, w_ref):
+    """Compensator protocol (``KIND`` 2): the fixed feedforward at the controller's measurement (with stick
+    detection against the reference) or at the reference."""
+    if par[_REF] > 0.0:
+        return ff_step(par, st, w_ref, w_ref, False)
+    return ff_step(par, st, w_ctrl, w_ref, True)
+
+
+@kernel(inline="always")
+def ff_observe(par, st, u, w_meas, theta_out):
+    """Compensator protocol: the fixed feedforward learns nothing."""
+    return False
+
+
+class FrictionFeedforward(Component):
     """Friction feedforward torque from a fixed estimate, with the estimated lag.
 
     Parameters
@@ -87,11 +200,22 @@ class FrictionFeedforward:
         nothing. Default 0 (off).
     stick_samples : int, keyword-only
         Consecutive in-band samples that declare sticking, >= 1; default 10.
+    ff_input : {"measured", "reference"}, keyword-only
+        Velocity the closed-loop engine evaluates the feedforward at (:meth:`compensate`): the
+        controller's measurement with stick detection against the reference (default), or the
+        reference itself.
+
+    Attributes
+    ----------
+    params, state : ndarray
+        The component's arrays (see :class:`plant.component.Component`); :func:`ff_step` and
+        :func:`ff_compensate` advance them.
 
     Raises
     ------
     ParameterError
-        ``dt <= 0``, ``ff_max < 0``, ``sign_width < 0``, ``stick_band < 0`` or ``stick_samples < 1``.
+        ``dt <= 0``, ``ff_max < 0``, ``sign_width < 0``, ``stick_band < 0``, ``stick_samples < 1`` or an
+        unknown ``ff_input``.
 
     Notes
     -----
@@ -101,44 +225,48 @@ class FrictionFeedforward:
     or drive bias, not friction; the PI integrator removes it).
     """
 
+    KIND = 2
+    MODE = "fixed"
+    n_theta = 0
+
     def __init__(self, estimate: FrictionEstimate | None, *, dt: float, lag: bool = True,
                  ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0,
-                 stick_samples: int = 10):
-        self.dt = check_positive("dt", dt)
-        self.ff_max = float(ff_max) if ff_max == math.inf else check_nonnegative("ff_max", ff_max)
-        self.lag = bool(lag)
-        self.sign_width = check_nonnegative("sign_width", sign_width)
-        self.stick_band = check_nonnegative("stick_band", stick_band)
+                 stick_samples: int = 10, ff_input: str = "measured"):
+        dt = check_positive("dt", dt)
+        ff_max = float(ff_max) if ff_max == math.inf else check_nonnegative("ff_max", ff_max)
+        sign_width = check_nonnegative("sign_width", sign_width)
+        stick_band = check_nonnegative("stick_band", stick_band)
         if isinstance(stick_samples, bool) or not isinstance(stick_samples, (int, np.integer)) or stick_samples < 1:
             raise ParameterError(f"stick_samples must be an integer >= 1, got {stick_samples!r}")
-        self.stick_samples = int(stick_samples)
-        self._n_in_band = 0
-        self.u_ff = 0.0
+        if ff_input not in ("measured", "reference"):
+            raise ParameterError(f"ff_input must be 'measured' or 'reference', got {ff_input!r}")
+        self._init_arrays(FF_NPAR, FF_NSTATE)
+        self.params[:] = (dt, float(bool(lag)), ff_max, sign_width, stick_band, float(stick_samples),
+                          float(ff_input == "reference"))
+        self.state[_ALPHA] = 1.0
+        self.estimate = None
         self._set(estimate)
+
+    dt = property(lambda self: float(self.params[_DT]), doc="Call period of :meth:`step` (s).")
+    lag = property(lambda self: bool(self.params[_LAG]), doc="Filter through the estimated lag.")
+    ff_max = property(lambda self: float(self.params[_FFMAX]), doc="Bound on |feedforward| (N·m).")
+    sign_width = property(lambda self: float(self.params[_SW]), doc="Sign ramp half-width (rad/s).")
+    stick_band = property(lambda self: float(self.params[_SBAND]), doc="Stick-detection band (rad/s).")
+    stick_samples = property(lambda self: int(self.params[_SSAMP]), doc="In-band samples that declare sticking.")
+    ff_input = property(lambda self: "reference" if self.params[_REF] else "measured",
+                        doc="Velocity the engine evaluates the feedforward at (``compensate``).")
+    u_ff = property(lambda self: float(self.state[_UFF]), doc="Feedforward before the clip (N·m).")
 
     def _set(self, est: FrictionEstimate | None) -> None:
         self.estimate = est
-        if est is None:
-            self._alpha = 1.0
-            return
-        self._alpha = 1.0 - math.exp(-self.dt / est.tau) if (self.lag and est.tau > 0) else 1.0
-        self._Fc, self._dF, self._sigma = est.Fc, est.Fs - est.Fc, est.sigma
-        self._Vs, self._delta = est.Vs, est.delta
+        if est is not None:
+            has = est.Vs is not None
+            ff_set_estimate(self.params, self.state, est.Fc, est.Fs, est.Vs if has else 1.0,
+                            est.delta if has else 1.0, est.sigma, est.tau, float(has))
 
     def static(self, w: float) -> float:
         """Static friction estimate ``F_hat(w)`` (N·m), eq. 3 with the estimate (no offset)."""
-        est = self.estimate
-        if est is None or w == 0.0:
-            return 0.0
-        aw = abs(w)
-        if self._Vs is None:
-            mag = self._Fc
-        else:
-            mag = self._Fc + self._dF * math.exp(-((aw / self._Vs) ** self._delta))
-        sw = self.sign_width
-        if sw > 0.0 and aw < sw:
-            return mag * (w / sw) + self._sigma * w
-        return math.copysign(mag, w) + self._sigma * w
+        return float(ff_static(self.params, self.state, float(w)))
 
     def step(self, w: float, w_ref: float | None = None) -> float:
         """Advance one period; return the bounded feedforward (N·m).
@@ -151,119 +279,124 @@ class FrictionFeedforward:
             Used instead of ``w`` while the joint is detected as stuck (see
             ``stick_band``), e.g. the reference velocity.
         """
-        if w_ref is not None:
-            if -self.stick_band < w < self.stick_band:
-                self._n_in_band += 1
-                if self._n_in_band >= self.stick_samples:
-                    w = w_ref
-            else:
-                self._n_in_band = 0
-        self.u_ff += self._alpha * (self.static(w) - self.u_ff)
-        return min(max(self.u_ff, -self.ff_max), self.ff_max)
+        has = w_ref is not None
+        return float(ff_step(self.params, self.state, float(w), float(w_ref) if has else 0.0, has))
 
-
-class AdaptiveFrictionFeedforward(FrictionFeedforward):
-    """Adaptive friction feedforward: RLS (eqs. 10-13) on the sampled (u, w) stream drives the feedforward.
-
-    Parameters
-    ----------
-    model : RegressionModel
-        Regression structure, with Vs, delta from the pre-fit (Sec. V-C).
-    Ts : float, keyword-only
-        Sample time of the (u, w) stream fed to :meth:`observe` (s).
-    dt : float, keyword-only
-        Call period of :meth:`step` (s).
-    lam : float, keyword-only
-        RLS forgetting factor in (0, 1]; default 0.995 (memory ``Ts/(1-lam)``,
-        2 s at Ts = 10 ms). The paper's 0.85 suits offline replay of noisy data,
-        not a loop that must hold its estimate through slow phases.
-    P0 : float, keyword-only
-        Initial RLS covariance scale, default 1e4.
-    warmup : int, keyword-only
-        Accepted samples before the feedforward is switched on, default 300
-        (the paper's RLS transient lasts about 4 s).
-    lag, ff_max : see :class:`FrictionFeedforward`; estimates with ``Fc`` or
-        ``Fs`` above ``ff_max`` are treated as implausible.
-    tau_max : float, keyword-only
-        Upper projection bound of ``tau`` (s), default 1.
-
-    Attributes
-    ----------
-    rls : RecursiveLeastSquares
-        The estimator (public ``theta``, ``P``).
-    n_rejected : int
-        Samples refused (non-finite ``u`` or ``w``); they leave the state unchanged.
-    n_implausible : int
-        RLS updates whose estimate could not be projected (held the previous one).
-
-    Raises
-    ------
-    ParameterError
-        Invalid hyperparameters (message quotes the value).
-
-    Notes
-    -----
-    At each sample ``k``: ``phi(k)`` from eq. 4 with the stored ``u(k-1)``,
-    ``w(k-1)``, ``w(k-2)``; RLS update; ``theta`` mapped to physical
-    parameters (inverse map in :mod:`adaptive_ff.identification.regression`), projected by
-    :func:`project_estimate`; the feedforward uses the last admissible estimate.
-    """
-
-    def __init__(self, model: RegressionModel, *, Ts: float, dt: float, lam: float = 0.995, P0: float = 1e4,
-                 warmup: int = 300, lag: bool = True, ff_max: float = math.inf, tau_max: float = 1.0):
-        super().__init__(None, dt=dt, lag=lag, ff_max=ff_max)
-        self.model = model
-        self.Ts = check_positive("Ts", Ts)
-        if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
-            raise ParameterError(f"warmup must be an integer >= 0, got {warmup!r}")
-        self.warmup = int(warmup)
-        self.tau_max = check_positive("tau_max", tau_max)
-        self.rls = RecursiveLeastSquares(model.n_params, lam=lam, P0=P0)
-        self._past: list[float] | None = None  # [u(k-1), w(k-1), w(k-2)]
-        self.n_rejected = 0
-        self.n_implausible = 0
-
-    @property
-    def theta(self) -> np.ndarray:
-        """Current RLS parameter vector, shape (p,)."""
-        return self.rls.theta
+    def compensate(self, w_meas: float, w_ref: float) -> float:
+        """Compensator protocol: the feedforward for this period at the measured velocity (with stick detection)
+        or at the reference, as ``ff_input`` says (N·m)."""
+        return float(ff_compensate(self.params, self.state, float(w_meas), float(w_meas), float(w_ref)))
 
     def observe(self, u: float, w: float) -> bool:
-        """Feed one sample ``(u(k), w(k))`` taken ``Ts`` after the previous one.
+        """Compensator protocol: nothing to learn (returns False)."""
+        return False
 
-        Parameters
-        ----------
-        u : float
-            Torque applied just before the sample (N·m).
-        w : float
-            Measured velocity (rad/s).
 
-        Returns
-        -------
-        bool
-            True if the sample was used, False if rejected (non-finite); a
-            rejected sample changes no state except ``n_rejected``.
-        """
-        u = float(u)
-        w = float(w)
-        if not (math.isfinite(u) and math.isfinite(w)):
-            self.n_rejected += 1
-            return False
-        past = self._past
-        if past is None:
-            self._past = [u, w, w]
-            return True
-        u1, w1, w2 = past
-        self.rls.update(self.model.phi(u, u1, w1, w2), w)
-        self._past = [u, w, w1]
-        if self.rls.n_updates >= self.warmup:
-            est = project_estimate(self.model.to_physical(self.rls.theta, self.Ts), tau_max=self.tau_max,
-                                   F_max=self.ff_max)
-            if est is None:
-                self.n_implausible += 1
-            else:
-                self._set(est)
+# RobustAdaptiveFeedforward arrays. params: the feedforward's, own settings, offsets, the estimator's;
+# state: the feedforward's, own slots, the parameter vector in use (p), the estimator's.
+_WARMUP, _FADE, _JLO, _JHI, _TAUMAX, _CONSIST, _P, _PO_EST, _SO_FTH, _SO_EST = range(FF_NPAR, FF_NPAR + 10)
+_GAIN, _NIMPL, _NLAG, _HELD = range(FF_NSTATE, FF_NSTATE + 4)
+_RB_NPAR, _RB_NSTATE = FF_NPAR + 10, FF_NSTATE + 4
+
+
+@kernel(inline="always")
+def robust_compensate(par, st, w_ctrl, w_meas, w_ref):
+    """Compensator protocol (``KIND`` 3): the feedforward of the estimate in use, faded in; 0 before switch-on."""
+    if st[_HAS] == 0.0:
+        return 0.0
+    out = ff_compensate(par, st, w_ctrl, w_meas, w_ref)
+    if st[_GAIN] < 1.0:
+        st[_GAIN] = min(st[_GAIN] + par[_FADE], 1.0)
+        out = out * st[_GAIN]
+    return out
+
+
+@kernel(inline="always")
+def _levels_plausible(par, eJ, etau, eFc, eFs, esig):
+    """Range checks of an estimate (class Notes, item 5)."""
+    ffmax = par[_FFMAX]
+    return (math.isfinite(eJ) and math.isfinite(etau) and math.isfinite(esig) and math.isfinite(eFc)
+            and math.isfinite(eFs) and par[_JLO] < eJ < par[_JHI] and 0.0 <= etau <= par[_TAUMAX]
+            and esig >= 0.0 and 0.0 <= eFc <= ffmax and 0.0 <= eFs <= ffmax)
+
+
+@kernel
+def robust_plausible(par, st, eJ, etau, eJalt, eFc, eFs, esig):
+    """The plausibility test of an estimate against the estimator in ``(par, st)``: ranges and lag consistency."""
+    if not _levels_plausible(par, eJ, etau, eFc, eFs, esig):
+        return False
+    ep = par[np.int64(par[_PO_EST]):]
+    es = st[np.int64(par[_SO_EST]):]
+    return _lag_consistent(par, sliding_rls(ep, es), eJ, etau, eJalt, sliding_mse(es), par[_DT],
+                           sliding_config(ep)[2])
+
+
+@kernel(inline="always")
+def _lag_consistent(par, rls, eJ, etau, eJalt, e2, dt, has_lag):
+    """The two lag estimates (``tau`` and the ``J*tau`` column) agree (see RobustAdaptiveFeedforward Notes)."""
+    if not (etau >= 2.0 * dt and math.isfinite(eJalt)):
         return True
+    diff = abs(eJalt * etau - eJ * etau)
+    if diff <= par[_CONSIST] * eJ * etau:
+        return True
+    if not has_lag:
+        return False
+    # delta method on theta_cov[:3, :3] = e2 * P[:3, :3] with the gradient (-tau, 1, -J)
+    g0 = -etau
+    g2 = -eJ
+    v0 = g0 * (e2 * rls_P(rls, 0, 0)) + 1.0 * (e2 * rls_P(rls, 1, 0)) + g2 * (e2 * rls_P(rls, 2, 0))
+    v1 = g0 * (e2 * rls_P(rls, 0, 1)) + 1.0 * (e2 * rls_P(rls, 1, 1)) + g2 * (e2 * rls_P(rls, 2, 1))
+    v2 = g0 * (e2 * rls_P(rls, 0, 2)) + 1.0 * (e2 * rls_P(rls, 1, 2)) + g2 * (e2 * rls_P(rls, 2, 2))
+    var = v0 * g0 + v1 * 1.0 + v2 * g2
+    return diff <= 3.0 * math.sqrt(max(var, 0.0))
+
+
+@kernel(inline="always")
+def robust_observe(par, st, u, w_meas, theta_out):
+    """Compensator protocol (``KIND`` 3): one sample into the estimator, then the plausibility tests and the
+    estimate in use (see :class:`RobustAdaptiveFeedforward`). Returns True after an RLS update (theta written
+    into ``theta_out``)."""
+    p = np.int64(par[_P])
+    ep = par[np.int64(par[_PO_EST]):]
+    es = st[np.int64(par[_SO_EST]):]
+    sliding_observe(ep, es, u, w_meas)
+    if not sliding_updated(es):
+        return False
+    rls = sliding_rls(ep, es)
+    for i in range(p):
+        theta_out[i] = rls_theta(rls, i)
+    if rls_n_updates(rls) < par[_WARMUP]:
+        return True
+    eVs, edelta, lag = sliding_config(ep)
+    eJ = rls_theta(rls, 0)
+    if lag:
+        etau = rls_theta(rls, 2)
+        eJalt = rls_theta(rls, 1) / etau if etau > 0.0 else np.nan
+        iFc = 3
+    else:
+        etau = 0.0
+        eJalt = np.nan
+        iFc = 1
+    eFc = rls_theta(rls, iFc)
+    eFs = rls_theta(rls, iFc + 1)
+    esig = rls_theta(rls, iFc + 2)
+    if not _levels_plausible(par, eJ, etau, eFc, eFs, esig):
+        st[_NIMPL] += 1.0
+        return True
+    if _lag_consistent(par, rls, eJ, etau, eJalt, sliding_mse(es), par[_DT], lag):
+        st[_HELD] = 0.0
+    elif st[_HAS] > 0.0:
+        st[_NLAG] += 1.0
+        etau = st[_TAU]
+        st[_HELD] = 1.0
+    else:
+        st[_NIMPL] += 1.0
+        return True
+    ff_set_estimate(par, st, eFc, eFs, eVs, edelta, esig, etau, 1.0)
+    o = np.int64(par[_SO_FTH])
+    for i in range(p):
+        st[o + i] = rls_theta(rls, i)
+    return True
 
 
 class RobustAdaptiveFeedforward(FrictionFeedforward):
@@ -346,50 +479,100 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     ``benchmarks/compensation.py``.
     """
 
+    KIND = 3
+    MODE = "adaptive"
+
     def __init__(self, estimator: SlidingFrictionEstimator, *, dt: float, lag: bool = True,
                  ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0, stick_samples: int = 10,
                  warmup: int = 200, fade_in: float = 1.0, J_range: tuple = (0.0, math.inf), tau_max: float = 1.0,
-                 consistency: float = 0.5):
-        super().__init__(None, dt=dt, lag=lag, ff_max=ff_max, sign_width=sign_width, stick_band=stick_band,
-                         stick_samples=stick_samples)
+                 consistency: float = 0.5, ff_input: str = "measured"):
         if not isinstance(estimator, SlidingFrictionEstimator):
             raise TypeError(f"estimator must be a SlidingFrictionEstimator, got {type(estimator).__name__}")
-        self.estimator = estimator
+        ff = FrictionFeedforward(None, dt=dt, lag=lag, ff_max=ff_max, sign_width=sign_width,
+                                 stick_band=stick_band, stick_samples=stick_samples, ff_input=ff_input)
         if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
             raise ParameterError(f"warmup must be an integer >= 0, got {warmup!r}")
-        self.warmup = int(warmup)
         try:
             J_lo, J_hi = (float(x) for x in J_range)
         except (TypeError, ValueError):
             raise ParameterError(f"J_range must be a pair (low, high), got {J_range!r}") from None
         if not (0.0 <= J_lo < J_hi):
             raise ParameterError(f"J_range must satisfy 0 <= low < high, got {J_range!r}")
-        self.J_range = (J_lo, J_hi)
-        self.tau_max = check_positive("tau_max", tau_max)
-        self.consistency = check_positive("consistency", consistency)
+        tau_max = check_positive("tau_max", tau_max)
+        consistency = check_positive("consistency", consistency)
         fade_in = check_nonnegative("fade_in", fade_in)
-        self._fade_step = 1.0 if fade_in == 0.0 else self.dt / fade_in
-        self._gain = 0.0
-        self.n_implausible = 0
-        self.n_lag_held = 0
+        self.estimator = estimator
+        p = len(estimator.names)
+        self.n_theta = p
+        enp, ens = sliding_sizes(p)
+        so_fth = _RB_NSTATE
+        so_est = so_fth + p
+        self.params = np.zeros(_RB_NPAR + enp)
+        self.state = np.zeros(so_est + ens)
+        self.params[:FF_NPAR] = ff.params
+        self.state[:FF_NSTATE] = ff.state
+        self.params[FF_NPAR:_RB_NPAR] = (float(warmup), 1.0 if fade_in == 0.0 else dt / fade_in, J_lo, J_hi,
+                                         tau_max, consistency, float(p), float(_RB_NPAR), float(so_fth),
+                                         float(so_est))
+        self.state[so_fth:so_est] = np.nan
+        self.estimate = None
+        self._attached()
+
+    def _attached(self) -> None:
+        po, so = int(self.params[_PO_EST]), int(self.params[_SO_EST])
+        self.estimator.attach(self.params[po:], self.state[so:])
+
+    warmup = property(lambda self: int(self.params[_WARMUP]), doc="RLS updates before switch-on.")
+    J_range = property(lambda self: (float(self.params[_JLO]), float(self.params[_JHI])),
+                       doc="Plausible inertia interval (kg·m²).")
+    tau_max = property(lambda self: float(self.params[_TAUMAX]), doc="Largest plausible lag (s).")
+    consistency = property(lambda self: float(self.params[_CONSIST]), doc="Relative lag-consistency tolerance.")
+    n_implausible = property(lambda self: int(self.state[_NIMPL]), doc="Estimates that failed the plausibility test.")
+    n_lag_held = property(lambda self: int(self.state[_NLAG]), doc="Estimates used with the previous lag.")
+
+    @property
+    def estimate(self) -> FrictionEstimate | None:
+        """The estimate in use (None before switch-on); with the previous lag where the lag estimates disagreed."""
+        if not self.state[_HAS]:
+            return None
+        o = int(self.params[_SO_FTH])
+        e = estimate_from_theta(self.estimator.names, self.state[o:o + self.n_theta], self.estimator.Vs,
+                                self.estimator.delta)
+        if self.state[_HELD]:
+            e = replace(e, tau=float(self.state[_TAU]), J_alt=float("nan"))
+        return e
+
+    @estimate.setter
+    def estimate(self, value) -> None:
+        if value is not None:
+            raise ParameterError("the estimate of a RobustAdaptiveFeedforward is set by its estimator only")
 
     def step(self, w: float, w_ref: float | None = None) -> float:
         """Advance one period; return the bounded feedforward (N·m), 0 before switch-on.
 
         See :meth:`FrictionFeedforward.step`; after switch-on the output fades in over ``fade_in``.
         """
-        if self.estimate is None:
+        if not self.state[_HAS]:
             return 0.0
         out = FrictionFeedforward.step(self, w, w_ref)
-        if self._gain < 1.0:
-            self._gain = min(self._gain + self._fade_step, 1.0)
-            return out * self._gain
+        if self.state[_GAIN] < 1.0:
+            self.state[_GAIN] = min(self.state[_GAIN] + self.params[_FADE], 1.0)
+            return out * float(self.state[_GAIN])
         return out
+
+    def compensate(self, w_meas: float, w_ref: float) -> float:
+        """Compensator protocol: the faded-in feedforward for this period (N·m), see :func:`robust_compensate`."""
+        return float(robust_compensate(self.params, self.state, float(w_meas), float(w_meas), float(w_ref)))
+
+    def plausible(self, est: FrictionEstimate) -> bool:
+        """The plausibility test of the class Notes, item (5): range checks and lag consistency."""
+        return bool(robust_plausible(self.params, self.state, est.J, est.tau, est.J_alt, est.Fc, est.Fs,
+                                     est.sigma))
 
     @property
     def active(self) -> bool:
         """True once a plausible estimate is in use."""
-        return self.estimate is not None
+        return bool(self.state[_HAS])
 
     @property
     def theta(self) -> np.ndarray:
@@ -401,31 +584,13 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         """Samples rejected by the estimator (non-finite or outliers)."""
         return self.estimator.n_rejected
 
-    def plausible(self, est: FrictionEstimate) -> bool:
-        """The plausibility test of the class Notes, item (5): range checks and lag consistency."""
-        return self._levels_plausible(est) and self._lag_consistent(est)
-
-    def _levels_plausible(self, est: FrictionEstimate) -> bool:
-        vals = (est.J, est.tau, est.sigma, est.Fc, est.Fs)
-        return (all(math.isfinite(v) for v in vals) and self.J_range[0] < est.J < self.J_range[1]
-                and 0.0 <= est.tau <= self.tau_max and est.sigma >= 0.0 and 0.0 <= est.Fc <= self.ff_max
-                and 0.0 <= est.Fs <= self.ff_max)
-
-    def _lag_consistent(self, est: FrictionEstimate) -> bool:
-        # The lag is identified twice, as tau and inside J*tau. They must agree within the larger of a
-        # relative tolerance and 3 standard deviations of J*tau - J*tau_hat (delta method on the estimator's
-        # covariance): a weakly excited J*tau column widens the test instead of vetoing every estimate.
-        if not (est.tau >= 2.0 * self.dt and math.isfinite(est.J_alt)):
-            return True
-        diff = abs(est.J_alt * est.tau - est.J * est.tau)  # |J*tau (column) - J*tau (product)|
-        if diff <= self.consistency * est.J * est.tau:
-            return True
+    def info(self) -> dict:
+        """Counters and settings of the estimator and the plausibility tests (for run reports)."""
         e = self.estimator
-        if e.lag and e.names[:3] == ("J", "J_tau", "tau"):
-            g = np.array([-est.tau, 1.0, -est.J])
-            var = float(g @ e.theta_cov[:3, :3] @ g)
-            return diff <= 3.0 * math.sqrt(max(var, 0.0))
-        return False
+        return {"estimator": "sliding", "n_rejected": e.n_rejected, "n_implausible": self.n_implausible,
+                "n_lag_held": self.n_lag_held, "n_updates": e.n_updates, "n_gated": e.n_gated,
+                "n_projected": e.rls.n_projected, "lam": e.rls.lam, "names": list(e.names),
+                "raw_estimate": e.estimate.to_dict(), "noise_estimate": e.noise_std}
 
     def observe(self, u: float, w: float) -> bool:
         """Feed one controller-period sample to the estimator; refresh the estimate in use.
@@ -449,16 +614,12 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         lag ``tau`` in use (counted in ``n_lag_held``); one that fails the range
         checks is not used at all (``n_implausible``).
         """
-        ok = self.estimator.observe(u, w)
-        if self.estimator.updated and self.estimator.n_updates >= self.warmup:
-            est = self.estimator.estimate
-            if not self._levels_plausible(est):
-                self.n_implausible += 1
-            elif self._lag_consistent(est):
-                self._set(est)
-            elif self.estimate is not None:
-                self.n_lag_held += 1
-                self._set(replace(est, tau=self.estimate.tau, J_alt=float("nan")))
-            else:
-                self.n_implausible += 1
-        return ok
+        n_rej = self.estimator.n_rejected
+        robust_observe(self.params, self.state, float(u), float(w), self._theta_scratch())
+        return self.estimator.n_rejected == n_rej
+
+    def _theta_scratch(self) -> np.ndarray:
+        t = getattr(self, "_scratch", None)
+        if t is None:
+            t = self._scratch = np.empty(self.n_theta)
+        return t

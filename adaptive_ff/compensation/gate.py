@@ -4,12 +4,53 @@ from __future__ import annotations
 
 import math
 
+from plant.component import Component
 from plant.errors import ParameterError, check_nonnegative, check_positive
+from plant.jit import kernel
 
-__all__ = ["OutlierGate"]
+__all__ = ["OutlierGate", "gate_check", "GATE_NPAR", "GATE_NSTATE"]
+
+# params: max_step, n_sigma, alpha, max_consecutive; state: last, has_last, scale, n_held, n_rejected,
+# n_nonfinite, n_outliers
+_MAX_STEP, _N_SIGMA, _ALPHA, _MAX_CONSEC = range(4)
+_LAST, _HAS, _SCALE, _HELD, _REJ, _NONFIN, _OUTL = range(7)
+#: Lengths of the gate's parameter and state arrays.
+GATE_NPAR, GATE_NSTATE = 4, 7
 
 
-class OutlierGate:
+@kernel(inline="always")
+def gate_check(par, st, x):
+    """Validate one sample ``x`` against the gate in ``(par, st)``; return acceptance (see :class:`OutlierGate`).
+
+    A rejected sample changes only the counters. The one implementation of the gate, called by
+    :meth:`OutlierGate.check` and by compiled components (estimator, closed-loop engine).
+    """
+    if not math.isfinite(x):
+        st[_REJ] += 1.0
+        st[_NONFIN] += 1.0
+        st[_HELD] += 1.0
+        return False
+    if st[_HAS] == 0.0:
+        st[_LAST] = x
+        st[_HAS] = 1.0
+        return True
+    last = st[_LAST]
+    d = x - last if x >= last else last - x
+    bound = (par[_MAX_STEP] + par[_N_SIGMA] * st[_SCALE]) * (1.0 + st[_HELD])
+    if d > bound:
+        if st[_HELD] < par[_MAX_CONSEC]:
+            st[_REJ] += 1.0
+            st[_OUTL] += 1.0
+            st[_HELD] += 1.0
+            return False
+    else:
+        st[_SCALE] += par[_ALPHA] * (d - st[_SCALE])
+    st[_LAST] = x
+    st[_HELD] = 0.0
+    return True
+
+
+class OutlierGate(Component):
     """Reject non-finite samples and outlier spikes of a sampled signal (e.g. the measured velocity).
 
     Parameters
@@ -55,32 +96,55 @@ class OutlierGate:
     accepted samples, so a burst of spikes cannot widen the gate).
     """
 
-    __slots__ = ("max_step", "n_sigma", "alpha", "max_consecutive", "last", "scale", "n_held",
-                 "n_rejected", "n_nonfinite", "n_outliers")
-
     def __init__(self, *, max_step: float = math.inf, n_sigma: float = 8.0, alpha: float = 0.01,
                  max_consecutive: int = 20):
         if max_step != math.inf:
             max_step = check_nonnegative("max_step", max_step)
-        self.max_step = float(max_step)
-        self.n_sigma = check_positive("n_sigma", n_sigma)
+        n_sigma = check_positive("n_sigma", n_sigma)
         alpha = check_positive("alpha", alpha)
         if alpha > 1.0:
             raise ParameterError(f"alpha must be in (0, 1], got {alpha!r}")
-        self.alpha = alpha
         if isinstance(max_consecutive, bool) or not isinstance(max_consecutive, int) or max_consecutive < 1:
             raise ParameterError(f"max_consecutive must be an integer >= 1, got {max_consecutive!r}")
-        self.max_consecutive = max_consecutive
-        self.last: float | None = None
-        self.scale = 0.0
-        self.n_held = 0
-        self.n_rejected = 0
-        self.n_nonfinite = 0
-        self.n_outliers = 0
+        self._init_arrays(GATE_NPAR, GATE_NSTATE)
+        self.params[:] = (float(max_step), n_sigma, alpha, float(max_consecutive))
 
     def __repr__(self) -> str:
         return (f"OutlierGate(max_step={self.max_step!r}, n_sigma={self.n_sigma!r}, "
                 f"n_rejected={self.n_rejected})")
+
+    max_step = property(lambda self: float(self.params[_MAX_STEP]), doc="Largest plausible step (signal unit).")
+    n_sigma = property(lambda self: float(self.params[_N_SIGMA]), doc="Noise allowance in running-scale units.")
+    alpha = property(lambda self: float(self.params[_ALPHA]), doc="Smoothing factor of the running scale.")
+    max_consecutive = property(lambda self: int(self.params[_MAX_CONSEC]),
+                               doc="Consecutive outlier rejections after which a sample is accepted again.")
+
+    @property
+    def last(self) -> float | None:
+        """Last accepted value, or None before the first."""
+        return float(self.state[_LAST]) if self.state[_HAS] else None
+
+    @last.setter
+    def last(self, value) -> None:
+        if value is None:
+            self.state[_HAS] = 0.0
+        else:
+            self.state[_LAST] = float(value)
+            self.state[_HAS] = 1.0
+
+    @property
+    def scale(self) -> float:
+        """Running mean of ``|x(k) - x(k-1)|`` over accepted samples."""
+        return float(self.state[_SCALE])
+
+    @scale.setter
+    def scale(self, value) -> None:
+        self.state[_SCALE] = float(value)
+
+    n_held = property(lambda self: int(self.state[_HELD]), doc="Samples rejected since the last accepted one.")
+    n_rejected = property(lambda self: int(self.state[_REJ]), doc="Rejections in total.")
+    n_nonfinite = property(lambda self: int(self.state[_NONFIN]), doc="Non-finite samples rejected.")
+    n_outliers = property(lambda self: int(self.state[_OUTL]), doc="Outlier spikes rejected.")
 
     def check(self, x: float) -> bool:
         """Return True and accept ``x`` if it is plausible; False (counted) if it is rejected.
@@ -95,26 +159,4 @@ class OutlierGate:
         bool
             Acceptance. A rejected sample changes only the counters.
         """
-        x = float(x)
-        if not math.isfinite(x):
-            self.n_rejected += 1
-            self.n_nonfinite += 1
-            self.n_held += 1
-            return False
-        last = self.last
-        if last is None:
-            self.last = x
-            return True
-        d = x - last if x >= last else last - x
-        bound = (self.max_step + self.n_sigma * self.scale) * (1 + self.n_held)
-        if d > bound:
-            if self.n_held < self.max_consecutive:
-                self.n_rejected += 1
-                self.n_outliers += 1
-                self.n_held += 1
-                return False
-        else:
-            self.scale += self.alpha * (d - self.scale)
-        self.last = x
-        self.n_held = 0
-        return True
+        return bool(gate_check(self.params, self.state, float(x)))

@@ -67,14 +67,18 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
-from adaptive_ff.compensation.gate import OutlierGate
+from adaptive_ff.compensation.gate import GATE_NPAR, GATE_NSTATE, OutlierGate, gate_check
 from adaptive_ff.identification.regression import FrictionEstimate
-from adaptive_ff.identification.rls import RecursiveLeastSquares
-from plant.errors import ExcitationError, ParameterError, check_finite_scalar, check_multiple, check_positive, check_signal
+from adaptive_ff.identification.rls import RecursiveLeastSquares, rls_buffer_size, rls_update
+from plant.component import Component
+from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, check_multiple, check_positive,
+                          check_signal)
+from plant.jit import kernel
 
-__all__ = ["SlidingFrictionEstimator", "SlidingFit", "fit_sliding", "sliding_regressors", "SLIDING_NAMES"]
+__all__ = ["SlidingFrictionEstimator", "SlidingFit", "fit_sliding", "sliding_regressors", "SLIDING_NAMES",
+           "sliding_observe", "sliding_sizes", "estimate_from_theta", "sliding_updated", "sliding_rls", "sliding_mse",
+           "sliding_config"]
 
 #: Parameter names of the full structure (lag and offset), in ``theta`` order.
 SLIDING_NAMES = ("J", "J_tau", "tau", "Fc", "Fs", "sigma", "offset")
@@ -93,7 +97,145 @@ def _check_int(name, v, lo):
     return int(v)
 
 
-def _to_estimate(names, theta, Vs, delta) -> FrictionEstimate:
+# Layout of the estimator's arrays. params: own settings, then the gate's; state: own slots, the regressor
+# scratch phi (p), the gate's state, the RLS buffer.
+_VS, _DELTA, _A, _T, _M, _SETTLE, _WBMIN, _DWELL, _E2RATE, _LAG, _OFFSET, _NP = range(12)
+_OWN_NPAR = 12
+_SF = 0  # 15 filter states: three stages each of w, u, g, h, d
+_W1, _W2, _NACC, _D2, _E2, _NSAMP, _NREJ, _NGATED, _UPDATED = range(15, 24)
+_OWN_NSTATE = 24
+
+
+def sliding_sizes(p: int) -> tuple:
+    """``(n_params, n_state)`` of a :class:`SlidingFrictionEstimator` with ``p`` parameters."""
+    return _OWN_NPAR + GATE_NPAR, _OWN_NSTATE + p + GATE_NSTATE + rls_buffer_size(p)
+
+
+@kernel(inline="always")
+def _svf3(st, o, a, x):
+    """Advance one chain of three first-order lags ``st[o:o+3]`` (gain ``a``) by input ``x`` (the filter ``L``)."""
+    x1 = st[o] + a * (x - st[o])
+    x2 = st[o + 1] + a * (x1 - st[o + 1])
+    st[o + 2] += a * (x2 - st[o + 2])
+    st[o] = x1
+    st[o + 1] = x2
+
+
+@kernel(inline="always")
+def sliding_observe(par, st, u, w):
+    """One controller-period sample ``(u, w)`` into the estimator in ``(par, st)``; return acceptance.
+
+    The one implementation of :meth:`SlidingFrictionEstimator.observe` (see the module docstring): gate,
+    noise scale, near-zero band, the five state-variable filter chains, the sliding-regime gate and the RLS
+    update (:func:`adaptive_ff.identification.rls.rls_update`) every ``m`` samples. ``st[_UPDATED]`` is 1
+    after an RLS update, else 0.
+    """
+    p = np.int64(par[_NP])
+    og = _OWN_NSTATE + p
+    orls = og + GATE_NSTATE
+    st[_UPDATED] = 0.0
+    if not math.isfinite(u):
+        st[_NREJ] += 1.0
+        return False
+    if not gate_check(par[_OWN_NPAR:], st[og:orls], w):
+        st[_NREJ] += 1.0
+        return False
+    if st[_NACC] >= 2.0:
+        dd = w - 2.0 * st[_W1] + st[_W2]
+        st[_D2] += 0.01 * ((dd if dd >= 0.0 else -dd) - st[_D2])
+    st[_W2] = st[_W1]
+    st[_W1] = w
+    st[_NACC] += 1.0
+    band = par[_WBMIN]
+    nb = _BAND_SIGMAS * st[_D2] / _NOISE_GAIN
+    if nb > band:
+        band = nb
+    aw = w if w >= 0.0 else -w
+    if aw > 0.0:
+        ee = math.exp(-((aw / par[_VS]) ** par[_DELTA]))
+        sg = 1.0 if w > 0.0 else -1.0
+        gg = sg * (1.0 - ee)
+        hh = sg * ee
+    else:
+        gg = 0.0
+        hh = 0.0
+    dz = 1.0 if aw < band else 0.0
+    a = par[_A]
+    _svf3(st, 0, a, w)
+    _svf3(st, 3, a, u)
+    _svf3(st, 6, a, gg)
+    _svf3(st, 9, a, hh)
+    _svf3(st, 12, a, dz)
+    st[_NSAMP] += 1.0
+    k = np.int64(st[_NSAMP])
+    if k % np.int64(par[_M]) != 0 or k < par[_SETTLE]:
+        return True
+    if st[14] > par[_DWELL]:
+        st[_NGATED] += 1.0
+        return True
+    phi = st[_OWN_NSTATE:og]
+    T = par[_T]
+    j = 0
+    phi[j] = (st[1] - st[2]) / T
+    j += 1
+    if par[_LAG] > 0.0:
+        phi[j] = (st[0] - 2.0 * st[1] + st[2]) / (T * T)
+        phi[j + 1] = -(st[4] - st[5]) / T
+        j += 2
+    phi[j] = st[8]
+    phi[j + 1] = st[11]
+    phi[j + 2] = st[2]
+    j += 3
+    if par[_OFFSET] > 0.0:
+        phi[j] = 1.0
+    err = rls_update(st[orls:], phi, st[5])
+    st[_E2] += par[_E2RATE] * (err * err - st[_E2])
+    st[_UPDATED] = 1.0
+    return True
+
+
+@kernel(inline="always")
+def sliding_updated(st):
+    """Whether the last :func:`sliding_observe` on state ``st`` updated the RLS."""
+    return st[_UPDATED] > 0.0
+
+
+@kernel(inline="always")
+def sliding_rls(par, st):
+    """The RLS state buffer inside the estimator state ``st`` (a view)."""
+    return st[_OWN_NSTATE + np.int64(par[_NP]) + GATE_NSTATE:]
+
+
+@kernel(inline="always")
+def sliding_mse(st):
+    """Running mean square a-priori error of the RLS (N·m²), the scale of :attr:`SlidingFrictionEstimator.theta_cov`."""
+    return st[_E2]
+
+
+@kernel(inline="always")
+def sliding_config(par):
+    """``(Vs, delta, lag)`` of the estimator parameters ``par``."""
+    return par[_VS], par[_DELTA], par[_LAG] > 0.0
+
+
+def estimate_from_theta(names, theta, Vs, delta) -> FrictionEstimate:
+    """Physical parameters from a parameter vector of the sliding-regime regression.
+
+    Parameters
+    ----------
+    names : sequence of str
+        Parameter names of ``theta`` (a subset of :data:`SLIDING_NAMES`).
+    theta : array_like, shape (p,)
+        Parameter values.
+    Vs, delta : float or None
+        Stribeck factors attached to the estimate.
+
+    Returns
+    -------
+    FrictionEstimate
+        With ``J_alt = J_tau/tau`` (NaN without the lag columns or for ``tau <= 0``) and ``offset`` 0
+        without the offset column.
+    """
     d = dict(zip(names, (float(x) for x in theta)))
     tau = d.get("tau", 0.0)
     J_alt = d["J_tau"] / tau if ("J_tau" in d and tau > 0) else float("nan")
@@ -101,7 +243,7 @@ def _to_estimate(names, theta, Vs, delta) -> FrictionEstimate:
                             Vs=Vs, delta=delta, J_alt=J_alt)
 
 
-class SlidingFrictionEstimator:
+class SlidingFrictionEstimator(Component):
     """Online estimate of ``J, tau, Fc, Fs, sigma`` (and a torque offset) from the controller's ``(u, w)`` stream.
 
     Parameters
@@ -215,32 +357,54 @@ class SlidingFrictionEstimator:
             if not all(math.isfinite(v) for v in start.values()):
                 raise ParameterError(f"initial estimate must be finite, got {initial!r}")
         P0 = check_positive("P0", P0)
-        self.rls = RecursiveLeastSquares(len(self.names), lam=lam, P0=P0, forgetting=forgetting,
-                                         P_max=len(self.names) * P0 if P_max is None else P_max,
-                                         theta0=[start[n] for n in self.names],
-                                         bounds=([lower[n] for n in self.names], [upper[n] for n in self.names]))
-        self.gate = OutlierGate() if gate is None else gate
-        self._a = 1.0 - math.exp(-self.Tc / self.T)
-        self._settle = int(math.ceil(8.0 * self.T / self.Tc))  # filter transients (Erlang-3 tail < 1.5 %)
-        self._s = [0.0] * 15  # three filter states for each of w, u, g, h, d
-        self._w1 = self._w2 = None
-        self._d2 = 0.0
-        self._e2 = 0.0
-        lam_min = float(np.min(self.rls.lam))
-        self._e2_rate = 1.0 - lam_min if lam_min < 1.0 else 0.01  # running mean square error, same memory
-        self.n_samples = 0
-        self.n_rejected = 0
-        self.n_gated = 0
-        self.updated = False
+        rls = RecursiveLeastSquares(len(self.names), lam=lam, P0=P0, forgetting=forgetting,
+                                    P_max=len(self.names) * P0 if P_max is None else P_max,
+                                    theta0=[start[n] for n in self.names],
+                                    bounds=([lower[n] for n in self.names], [upper[n] for n in self.names]))
+        gate = OutlierGate() if gate is None else gate
+        if not isinstance(gate, OutlierGate):
+            raise ParameterError(f"gate must be an OutlierGate, got {type(gate).__name__}")
+        p = len(self.names)
+        self._init_arrays(*sliding_sizes(p))
+        a = 1.0 - math.exp(-self.Tc / self.T)
+        settle = int(math.ceil(8.0 * self.T / self.Tc))  # filter transients (Erlang-3 tail < 1.5 %)
+        lam_min = float(np.min(rls.lam))
+        e2_rate = 1.0 - lam_min if lam_min < 1.0 else 0.01  # running mean square error, same memory
+        self.params[:_OWN_NPAR] = (self.Vs, self.delta, a, self.T, float(self.m), float(settle), self.w_band_min,
+                                   self.dwell_max, e2_rate, float(self.lag), float(self.offset), float(p))
+        self.gate = gate
+        self.rls = rls
+        self._attached()
+
+    def _attached(self) -> None:
+        p = len(self.names)
+        og = _OWN_NSTATE + p
+        self.gate.attach(self.params[_OWN_NPAR:], self.state[og:og + GATE_NSTATE])
+        self.rls.attach(self.state[og + GATE_NSTATE:])
 
     def __repr__(self) -> str:
         return (f"SlidingFrictionEstimator(Vs={self.Vs!r}, delta={self.delta!r}, Ts={self.Ts!r}, "
                 f"T_filter={self.T!r}, n_updates={self.rls.n_updates})")
 
+    n_samples = property(lambda self: int(self.state[_NSAMP]), doc="Samples accepted.")
+    n_rejected = property(lambda self: int(self.state[_NREJ]), doc="Samples rejected (non-finite or outliers).")
+    n_gated = property(lambda self: int(self.state[_NGATED]), doc="Update instants skipped by the sliding gate.")
+    updated = property(lambda self: bool(self.state[_UPDATED]), doc="Whether the last observe() updated the RLS.")
+
     @property
     def theta(self) -> np.ndarray:
         """Current parameter vector, shape (p,), names in :attr:`names`."""
         return self.rls.theta
+
+    @property
+    def phi(self) -> np.ndarray:
+        """Regressor of the last RLS update, shape (p,) (a view; valid while :attr:`updated` is True)."""
+        return self.state[_OWN_NSTATE:_OWN_NSTATE + len(self.names)]
+
+    @property
+    def y(self) -> float:
+        """Output of the last RLS update: the filtered torque ``L[u]`` (N·m)."""
+        return float(self.state[5])
 
     @property
     def n_updates(self) -> int:
@@ -250,12 +414,12 @@ class SlidingFrictionEstimator:
     @property
     def noise_std(self) -> float:
         """Running estimate of the velocity noise standard deviation (rad/s)."""
-        return self._d2 / _NOISE_GAIN
+        return float(self.state[_D2]) / _NOISE_GAIN
 
     @property
     def w_band(self) -> float:
         """Current near-zero band (rad/s): ``max(w_band_min, 4*noise_std)``."""
-        return max(self.w_band_min, _BAND_SIGMAS * self._d2 / _NOISE_GAIN)
+        return max(self.w_band_min, _BAND_SIGMAS * float(self.state[_D2]) / _NOISE_GAIN)
 
     @property
     def theta_cov(self) -> np.ndarray:
@@ -265,12 +429,12 @@ class SlidingFrictionEstimator:
         understates the true uncertainty (by a factor of a few); use it for
         relative comparisons.
         """
-        return self._e2 * self.rls.P
+        return float(self.state[_E2]) * self.rls.P
 
     @property
     def estimate(self) -> FrictionEstimate:
         """Physical parameters of the current ``theta`` (inside the projection bounds)."""
-        return _to_estimate(self.names, self.rls.theta, self.Vs, self.delta)
+        return estimate_from_theta(self.names, self.rls.theta, self.Vs, self.delta)
 
     def observe(self, u: float, w: float) -> bool:
         """Feed one controller-period sample.
@@ -289,80 +453,7 @@ class SlidingFrictionEstimator:
             ``u`` or ``w``, or a velocity outlier of :attr:`gate`): a rejected
             sample changes nothing but the counters.
         """
-        self.updated = False
-        u = float(u)
-        if not math.isfinite(u):
-            self.n_rejected += 1
-            return False
-        if not self.gate.check(w):
-            self.n_rejected += 1
-            return False
-        w = float(w)
-        # noise scale from the second difference of accepted samples
-        if self._w2 is not None:
-            d2 = w - 2.0 * self._w1 + self._w2
-            self._d2 += 0.01 * ((d2 if d2 >= 0.0 else -d2) - self._d2)
-        self._w2, self._w1 = self._w1, w
-        band = self.w_band_min
-        nb = _BAND_SIGMAS * self._d2 / _NOISE_GAIN
-        if nb > band:
-            band = nb
-        aw = w if w >= 0.0 else -w
-        if aw > 0.0:
-            e = math.exp(-((aw / self.Vs) ** self.delta))
-            sg = 1.0 if w > 0.0 else -1.0
-            g, h = sg * (1.0 - e), sg * e
-        else:
-            g = h = 0.0
-        d = 1.0 if aw < band else 0.0
-        s = self._s
-        a = self._a
-        x1 = s[0] + a * (w - s[0])  # filter stages of w
-        x2 = s[1] + a * (x1 - s[1])
-        s[2] += a * (x2 - s[2])
-        s[0] = x1
-        s[1] = x2
-        x1 = s[3] + a * (u - s[3])  # filter stages of u
-        x2 = s[4] + a * (x1 - s[4])
-        s[5] += a * (x2 - s[5])
-        s[3] = x1
-        s[4] = x2
-        x1 = s[6] + a * (g - s[6])  # filter stages of g
-        x2 = s[7] + a * (x1 - s[7])
-        s[8] += a * (x2 - s[8])
-        s[6] = x1
-        s[7] = x2
-        x1 = s[9] + a * (h - s[9])  # filter stages of h
-        x2 = s[10] + a * (x1 - s[10])
-        s[11] += a * (x2 - s[11])
-        s[9] = x1
-        s[10] = x2
-        x1 = s[12] + a * (d - s[12])  # filter stages of d
-        x2 = s[13] + a * (x1 - s[13])
-        s[14] += a * (x2 - s[14])
-        s[12] = x1
-        s[13] = x2
-        self.n_samples += 1
-        k = self.n_samples
-        if k % self.m or k < self._settle:
-            return True
-        if s[14] > self.dwell_max:
-            self.n_gated += 1
-            return True
-        e = self.rls.update(self._phi(), s[5])
-        self._e2 += self._e2_rate * (e * e - self._e2)
-        self.updated = True
-        return True
-
-    def _phi(self) -> np.ndarray:
-        s, T = self._s, self.T
-        cols = [(s[1] - s[2]) / T]
-        if self.lag:
-            cols += [(s[0] - 2.0 * s[1] + s[2]) / (T * T), -(s[4] - s[5]) / T]
-        cols += [s[8], s[11], s[2]]
-        if self.offset:
-            cols.append(1.0)
-        return np.array(cols)
+        return bool(sliding_observe(self.params, self.state, float(u), float(w)))
 
 
 @dataclass(frozen=True)
@@ -432,7 +523,9 @@ def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | 
     w = check_signal("w", w, n=u.shape[0])
     est = SlidingFrictionEstimator(Vs, delta, Tc=Tc, Ts=Tc if Ts is None else Ts, T_filter=T_filter, lag=lag,
                                    offset=offset, w_band_min=w_band_min, dwell_max=dwell_max)
-    a, T = est._a, est.T
+    from scipy import signal  # lazy: scipy.signal is heavy to import
+
+    a, T = float(est.params[_A]), est.T
     lf = lambda x: signal.lfilter([a], [1.0, -(1.0 - a)], x)  # noqa: E731  x_i += a*(x_{i-1} - x_i)
 
     def cascade(x):
@@ -460,7 +553,7 @@ def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | 
         cols.append(np.ones_like(w))
     X = np.column_stack(cols)
     k = np.arange(1, w.shape[0] + 1)
-    rows = (k % est.m == 0) & (k >= est._settle)
+    rows = (k % est.m == 0) & (k >= est.params[_SETTLE])
     keep = rows & (d3 <= est.dwell_max)
     return X[keep], u3[keep], np.flatnonzero(keep), int(np.count_nonzero(rows & ~keep)), est.names
 
@@ -524,5 +617,5 @@ def fit_sliding(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | None = 
     s2 = float(resid @ resid) / max(X.shape[0] - p, 1)
     theta_std = np.sqrt(s2 * np.sum((Vt.T / sv) ** 2, axis=1)) / scale
     return SlidingFit(names=names, theta=theta, theta_std=theta_std,
-                      estimate=_to_estimate(names, theta, float(Vs), float(delta)), n_rows=int(X.shape[0]),
+                      estimate=estimate_from_theta(names, theta, float(Vs), float(delta)), n_rows=int(X.shape[0]),
                       n_gated=n_gated, residual_rms=float(np.sqrt(np.mean(resid**2))))

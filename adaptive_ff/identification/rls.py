@@ -1,6 +1,6 @@
 """Recursive least squares with forgetting (eqs. 10-13), windup protection and projection onto parameter bounds.
 
-The arithmetic of one update is one compiled (numba) kernel, :func:`_step`, used by
+The arithmetic of one update is one compiled (numba) kernel, :func:`rls_step`, used by
 both :meth:`RecursiveLeastSquares.update` (one sample per call, about 0.6-0.7 µs for p = 6) and
 :meth:`RecursiveLeastSquares.update_many` (a whole stream in one call). The
 estimator state (``theta``, ``P``, counters, configuration) lives in one private
@@ -16,7 +16,8 @@ from plant.jit import kernel
 
 from plant.errors import ParameterError, SignalError, check_finite_scalar
 
-__all__ = ["RecursiveLeastSquares", "FORGETTING"]
+__all__ = ["RecursiveLeastSquares", "FORGETTING", "rls_buffer_size", "rls_step", "rls_update", "rls_theta", "rls_P",
+           "rls_n_updates"]
 
 #: Forgetting schemes of :class:`RecursiveLeastSquares`.
 FORGETTING = ("exponential", "directional")
@@ -30,8 +31,27 @@ _NDARRAY = np.ndarray
 _F8 = np.dtype(np.float64)
 
 
-def _buffer_size(p: int) -> int:
+def rls_buffer_size(p: int) -> int:
+    """Length of the state buffer of a :class:`RecursiveLeastSquares` with ``p`` parameters."""
     return _HDR + 4 * p + 2 * p * p
+
+
+@kernel(inline="always")
+def rls_theta(buf, i):
+    """Entry ``i`` of ``theta`` in the state buffer ``buf`` (for kernels that compose the RLS)."""
+    return buf[_HDR + i]
+
+
+@kernel(inline="always")
+def rls_P(buf, i, j):
+    """Entry ``(i, j)`` of ``P`` in the state buffer ``buf``."""
+    return buf[_HDR + np.int64(buf[_NP]) * (1 + i) + j]
+
+
+@kernel(inline="always")
+def rls_n_updates(buf):
+    """Number of accepted updates recorded in the state buffer ``buf`` (float)."""
+    return buf[_NUPD]
 
 
 @kernel
@@ -80,7 +100,7 @@ def _project(buf, p, th, P0, lo, hi):
 
 
 @kernel("float64(float64[::1], float64[:], float64)")
-def _step(buf, phi, y):
+def rls_step(buf, phi, y):
     """One RLS update of the state in ``buf`` (see the class Notes), no input checks; return the a-priori error."""
     p = np.int64(buf[_NP])
     th = _HDR
@@ -176,7 +196,7 @@ def _step(buf, phi, y):
 
 
 @kernel("float64(float64[::1], float64[:], float64)")
-def _update(buf, phi, y):
+def rls_update(buf, phi, y):
     """Checked single update: NaN (state untouched) for a wrong length or a non-finite sample, else the error."""
     p = np.int64(buf[_NP])
     if phi.shape[0] != p:
@@ -186,7 +206,7 @@ def _update(buf, phi, y):
         chk += phi[i] * 0.0
     if chk != 0.0:
         return np.nan
-    return _step(buf, phi, y)
+    return rls_step(buf, phi, y)
 
 
 @kernel("int64(float64[::1], float64[:, :], float64[:], float64[:, ::1])")
@@ -200,7 +220,7 @@ def _update_many(buf, Phi, Y, hist):
         if chk != 0.0:
             return k
     for k in range(n):
-        _step(buf, Phi[k], Y[k])
+        rls_step(buf, Phi[k], Y[k])
         for i in range(p):
             hist[k, i] = buf[_HDR + i]
     return -1
@@ -336,7 +356,7 @@ class RecursiveLeastSquares:
         if isinstance(n_params, bool) or not isinstance(n_params, (int, np.integer)) or n_params < 1:
             raise ParameterError(f"n_params must be an integer >= 1, got {n_params!r}")
         p = int(n_params)
-        buf = np.zeros(_buffer_size(p))
+        buf = np.zeros(rls_buffer_size(p))
         if forgetting not in FORGETTING:
             raise ParameterError(f"forgetting must be one of {FORGETTING}, got {forgetting!r}")
         if np.ndim(lam) == 0:
@@ -409,7 +429,7 @@ class RecursiveLeastSquares:
             self._D[:] = D
 
     def _bind(self, buf: np.ndarray) -> None:
-        """Attach the state buffer and the views into it (see :func:`_buffer_size` for the layout)."""
+        """Attach the state buffer and the views into it (see :func:`rls_buffer_size` for the layout)."""
         p = self.n_params
         self._buf = buf
         o = _HDR
@@ -421,6 +441,31 @@ class RecursiveLeastSquares:
         self._upper = buf[o + p:o + 2 * p]
         o += 2 * p
         self._D = buf[o:o + p * p].reshape(p, p)
+
+    @property
+    def buffer(self) -> np.ndarray:
+        """The whole state buffer (configuration, ``theta``, ``P``, counters), 1-D float64.
+
+        Compiled components that own an RLS pass this array (or the slice of their own state it was
+        attached to, see :meth:`attach`) to :func:`rls_update`.
+        """
+        return self._buf
+
+    def attach(self, buffer: np.ndarray) -> None:
+        """Move the state into ``buffer`` (a 1-D float64 C-contiguous array of :func:`rls_buffer_size` entries,
+        e.g. a slice of a compensator's state) and use it from now on.
+
+        Raises
+        ------
+        ParameterError
+            Wrong size, dtype or layout.
+        """
+        n = rls_buffer_size(self.n_params)
+        if (not isinstance(buffer, np.ndarray) or buffer.dtype != np.float64 or buffer.shape != (n,)
+                or not buffer.flags.c_contiguous):
+            raise ParameterError(f"buffer must be a C-contiguous float64 array of shape ({n},)")
+        buffer[:] = self._buf
+        self._bind(buffer)
 
     def __getstate__(self) -> dict:
         return {"n_params": self.n_params, "lam": self._lam, "forgetting": self._forgetting,
@@ -559,10 +604,10 @@ class RecursiveLeastSquares:
         if type(phi) is not _NDARRAY or phi.dtype is not _F8:  # list, int array, ...: convert and check first
             phi, y = self._check(phi, y)
         try:
-            e = _update(self._buf, phi, y)
+            e = rls_update(self._buf, phi, y)
         except TypeError:  # phi not a vector, read-only, or y not a number (no matching compiled signature)
             phi, y = self._check(phi, y)
-            e = _update(self._buf, np.array(phi), y)
+            e = rls_update(self._buf, np.array(phi), y)
         if e != e:
             self._check(phi, y)  # raises SignalError if the kernel rejected the sample
         return e

@@ -12,7 +12,8 @@ from adaptive_ff.identification.ls import LSResult, fit_ls
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from adaptive_ff.compensation.sliding_estimator import SlidingFit, fit_sliding
 from adaptive_ff.identification.stribeck_fit import StribeckFit, fit_stribeck
-from controllers.simulation.closed_loop import MODES, run_closed_loop
+from controllers.simulation.closed_loop import ModeOptions, run_mode
+from controllers.simulation.compensators import MODES
 from controllers.design.pi import PIDesign, design_pi
 from controllers.experiments.quasi_static import bidirectional_velocities, quasi_static_runs
 from plant.errors import ExcitationError, ParameterError, check_positive
@@ -21,7 +22,7 @@ from plant.joint import simulate
 from plant.models import plant_to_dict
 from plant.sampling import sample
 
-__all__ = ["Comparison", "compare", "eta", "FIXED_METHODS", "friction_scale", "prefit_stribeck"]
+__all__ = ["Comparison", "CompareOptions", "compare", "eta", "FIXED_METHODS", "friction_scale", "prefit_stribeck"]
 
 #: Offline identification behind the ``fixed`` mode: the sliding-regime
 #: inverse-dynamics LS (:func:`adaptive_ff.compensation.sliding_estimator.fit_sliding`,
@@ -169,14 +170,103 @@ def prefit_stribeck(qs) -> StribeckFit:
         return replace(fits[0], Vs=Vs, delta=delta)
 
 
-def compare(p, *, duration: float = 120.0, seed: int = 0, modes=MODES, crossover: float = 20.0,
-            phase_margin: float = 60.0, Tc: float = 1e-3, Ts: float = 0.01, u_max: float | None = None,
-            noise_std: float = 1e-3, lam: float | None = None, prefit: bool = True, lag: bool = True,
-            progress: bool | None = None, estimator: str = "sliding", fixed_method: str = "sliding",
-            ff_input: str = "measured", canudas_input: str = "reference", sign_width: float = 0.0,
-            stick_band: float | None = None, stick_samples: int = 5, T_filter: float = 0.02,
-            forgetting: str = "exponential", warmup: int = 200, omega_q: float = 500.0,
-            adaptive_initial: bool = True, faults=None, dwell_max: float = 0.01, offset: bool = True) -> Comparison:
+@dataclass(frozen=True)
+class CompareOptions:
+    """Settings of :func:`compare` (all keyword, validated; units SI).
+
+    Parameters
+    ----------
+    duration : float
+        Length of each run (s), default 120.
+    seed : int
+        Seed of everything random (reference phases, noise, identification run), >= 0.
+    modes : sequence of str
+        Subset of :data:`controllers.simulation.compensators.MODES`; ``none`` and ``frictionless`` are always
+        run (``eta`` needs them).
+    crossover, phase_margin : float
+        PI design targets (rad/s, deg) for :func:`controllers.design.pi.design_pi` on ``1/(J s)``.
+    Tc, Ts : float
+        Controller period and estimator sample time (s).
+    u_max : float or None
+        Torque saturation (N·m); default ``3*(F_peak + J*accel_peak)`` with ``F_peak`` from
+        :func:`friction_scale` (of the plant at the end of the run when it drifts).
+    noise_std : float
+        Velocity measurement noise (rad/s), default 1e-3.
+    lam : float or None
+        Forgetting factor of the adaptive estimators (default per estimator, see
+        :class:`controllers.simulation.compensators.ModeOptions`).
+    prefit : bool
+        Estimate Vs, delta by the Stribeck pre-fit from simulated quasi-static runs (paper Sec. V-C); False
+        uses the true values.
+    lag : bool
+        Filter the feedforward through the estimated lag.
+    estimator : {"sliding", "eq4"}
+        Estimator of the ``adaptive`` mode.
+    fixed_method : {"sliding", "eq4"}
+        Offline identification of the ``fixed`` mode (:data:`FIXED_METHODS`).
+    ff_input : {"measured", "reference"}
+        Velocity the ``fixed`` and ``adaptive`` feedforward is evaluated at.
+    canudas_input : {"reference", "measured"}
+        The same for the ``canudas`` peer; default reference (on the ``paper`` preset the better of the two
+        for that scheme, see the benchmark pages).
+    sign_width, T_filter, forgetting, warmup, dwell_max, offset
+        Adaptive feedforward settings (:class:`controllers.simulation.compensators.ModeOptions`).
+    stick_band, stick_samples : float or None, int
+        Stick detection of the measured-velocity feedforward (``fixed``, ``adaptive``): after
+        ``stick_samples`` samples inside ``±stick_band`` the reference velocity is used. Default
+        ``stick_band = 3*noise_std``.
+    omega_q : float
+        Q-filter cut-off of the ``dob`` peer (rad/s); default 500.
+    adaptive_initial : bool
+        Start the adaptive estimator from the pre-fit's Fc, Fs, sigma and the design inertia (default)
+        instead of zero friction.
+    faults : mapping int -> float or None
+        Measurement faults injected in every mode (see :func:`controllers.simulation.closed_loop.run_closed_loop`).
+
+    Raises
+    ------
+    ParameterError
+        Unknown mode or fixed method, duration not > 0.
+    """
+
+    duration: float = 120.0
+    seed: int = 0
+    modes: tuple = MODES
+    crossover: float = 20.0
+    phase_margin: float = 60.0
+    Tc: float = 1e-3
+    Ts: float = 0.01
+    u_max: float | None = None
+    noise_std: float = 1e-3
+    lam: float | None = None
+    prefit: bool = True
+    lag: bool = True
+    estimator: str = "sliding"
+    fixed_method: str = "sliding"
+    ff_input: str = "measured"
+    canudas_input: str = "reference"
+    sign_width: float = 0.0
+    stick_band: float | None = None
+    stick_samples: int = 5
+    T_filter: float = 0.02
+    forgetting: str = "exponential"
+    warmup: int = 200
+    omega_q: float = 500.0
+    adaptive_initial: bool = True
+    faults: dict | None = None
+    dwell_max: float = 0.01
+    offset: bool = True
+
+    def __post_init__(self):
+        check_positive("duration", self.duration)
+        unknown = [m for m in self.modes if m not in MODES]
+        if unknown:
+            raise ParameterError(f"unknown mode(s) {unknown}; known: {MODES}")
+        if self.fixed_method not in FIXED_METHODS:
+            raise ParameterError(f"fixed_method must be one of {FIXED_METHODS}, got {self.fixed_method!r}")
+
+
+def compare(p, options: CompareOptions | None = None, *, progress: bool | None = None, **changes) -> Comparison:
     """Run the closed loop in several friction-compensation modes on one scenario.
 
     Parameters
@@ -185,62 +275,12 @@ def compare(p, *, duration: float = 120.0, seed: int = 0, modes=MODES, crossover
         True plant, any model of :mod:`plant.models`, possibly drifting
         (:class:`plant.drift.FrictionDrift`; the pre-fit and the identification
         experiment of ``fixed`` then see the plant at ``t = 0``).
-    duration : float, keyword-only
-        Length of each run (s), default 120.
-    seed : int, keyword-only
-        Seed of everything random (reference phases, noise, identification run).
-    modes : sequence of str, keyword-only
-        Subset of :data:`controllers.simulation.closed_loop.MODES`; ``none`` and
-        ``frictionless`` are always run (``eta`` needs them).
-    crossover, phase_margin : float, keyword-only
-        PI design targets (rad/s, deg) for :func:`controllers.design.pi.design_pi` on ``1/(J s)``.
-    Tc, Ts : float, keyword-only
-        Controller period and estimator sample time (s).
-    u_max : float, keyword-only
-        Torque saturation (N·m); default ``3*(F_peak + J*accel_peak)`` with
-        ``F_peak`` from :func:`friction_scale` (of the plant at the end of the
-        run when it drifts).
-    noise_std : float, keyword-only
-        Velocity measurement noise (rad/s), default 1e-3.
-    lam : float, keyword-only
-        Forgetting factor of the adaptive estimators (default: per estimator,
-        see :func:`controllers.run_closed_loop`).
-    prefit : bool, keyword-only
-        Estimate Vs, delta by the Stribeck pre-fit from simulated quasi-static
-        runs (paper Sec. V-C); False uses the true values.
-    lag : bool, keyword-only
-        Filter the feedforward through the estimated lag.
+    options : CompareOptions, optional
+        Settings; default ``CompareOptions()``.
     progress : bool, keyword-only
         Show a progress bar; default: when stderr is a terminal.
-    estimator : {"sliding", "eq4"}, keyword-only
-        Estimator of the ``adaptive`` mode.
-    fixed_method : {"sliding", "eq4"}, keyword-only
-        Offline identification of the ``fixed`` mode (:data:`FIXED_METHODS`).
-    ff_input : {"measured", "reference"}, keyword-only
-        Velocity the ``fixed`` and ``adaptive`` feedforward is evaluated at.
-    canudas_input : {"reference", "measured"}, keyword-only
-        The same for the ``canudas`` peer; default reference (measured on the
-        ``paper`` preset it is the better of the two for that scheme).
-    sign_width, T_filter, forgetting, warmup, dwell_max, offset : keyword-only
-        Adaptive feedforward settings, see :func:`controllers.run_closed_loop`.
-    stick_band, stick_samples : keyword-only
-        Stick detection of the measured-velocity feedforward (``fixed``,
-        ``adaptive``): after ``stick_samples`` samples inside ``±stick_band``
-        the reference velocity is used. Default ``stick_band = 3*noise_std``.
-    omega_q : float, keyword-only
-        Q-filter cut-off of the ``dob`` peer (rad/s); default 500 (the best of
-        100-2000 rad/s on the ``paper`` preset at 1 kHz and 1e-3 rad/s noise,
-        see ``benchmarks/compensation.py``).
-    adaptive_initial : bool, keyword-only
-        Start the adaptive estimator from the pre-fit's Fc, Fs, sigma and the
-        design inertia (default) instead of zero friction. The quasi-static
-        runs that give Vs, delta measure these too; in the first seconds the
-        loop's own data can leave directions undetermined (e.g. Coulomb level
-        vs offset while the joint mostly sticks: measured on the
-        ``small-inertia`` variant, eta 0.0 and -0.12 from zero, 0.86 and 0.94
-        from the pre-fit, seeds 0 and 1, 60 s).
-    faults : mapping int -> float, keyword-only
-        Measurement faults injected in every mode (see :func:`controllers.run_closed_loop`).
+    **changes
+        Fields of :class:`CompareOptions` to change (e.g. ``duration=20.0, seed=3``).
 
     Returns
     -------
@@ -249,7 +289,7 @@ def compare(p, *, duration: float = 120.0, seed: int = 0, modes=MODES, crossover
     Raises
     ------
     ParameterError
-        Unknown mode or invalid settings.
+        Unknown mode, unknown option name or invalid settings.
 
     Notes
     -----
@@ -261,77 +301,72 @@ def compare(p, *, duration: float = 120.0, seed: int = 0, modes=MODES, crossover
     eq. 4 at ``Ts``. ``adaptive`` estimates online on the loop's own data.
     ``eta`` uses the RMS error over the second half of the run.
     """
-    duration = check_positive("duration", duration)
-    unknown = [m for m in modes if m not in MODES]
-    if unknown:
-        raise ParameterError(f"unknown mode(s) {unknown}; known: {MODES}")
-    if fixed_method not in FIXED_METHODS:
-        raise ParameterError(f"fixed_method must be one of {FIXED_METHODS}, got {fixed_method!r}")
-    run_modes = [m for m in MODES if m in set(modes) | {"none", "frictionless"}]
-    drifting = hasattr(p, "at")
-    p0 = p.at(0.0) if drifting else p
-    ss = np.random.SeedSequence(seed)
-    ref_ss, id_ss, noise_ss, qs_ss = ss.spawn(4)
-    ref = multisine_reference(duration, dt=Tc, rng=np.random.default_rng(ref_ss))
+    o = options if options is not None else CompareOptions()
+    if changes:
+        try:
+            o = replace(o, **changes)
+        except TypeError as exc:
+            raise ParameterError(f"compare: {exc}") from None
+    run_modes = [m for m in MODES if m in set(o.modes) | {"none", "frictionless"}]
+    p0 = p.at(0.0) if hasattr(p, "at") else p
+    ref_ss, id_ss, noise_ss, qs_ss = np.random.SeedSequence(o.seed).spawn(4)
+    ref = multisine_reference(o.duration, dt=o.Tc, rng=np.random.default_rng(ref_ss))
     peak_w, peak_a = float(np.max(np.abs(ref.w))), float(np.max(np.abs(ref.dw)))
+    u_max = o.u_max
     if u_max is None:
-        p_end = p.at(duration) if drifting else p
+        p_end = p.at(o.duration) if hasattr(p, "at") else p
         u_max = 3.0 * (max(friction_scale(p0, peak_w), friction_scale(p_end, peak_w)) + p0.J * peak_a)
-    design = design_pi(p0.J, crossover=crossover, phase_margin=phase_margin, Tc=Tc)
-    show = progress
-    steps = len(run_modes) + (1 if "fixed" in run_modes else 0) + (1 if prefit else 0)
-    bar = tqdm(total=steps, desc="compare", disable=(None if show is None else not show), leave=False)
-
+    design = design_pi(p0.J, crossover=o.crossover, phase_margin=o.phase_margin, Tc=o.Tc)
+    steps = len(run_modes) + (1 if "fixed" in run_modes else 0) + (1 if o.prefit else 0)
+    bar = tqdm(total=steps, desc="compare", disable=(None if progress is None else not progress), leave=False)
     fit = None
-    if prefit:
+    if o.prefit:
         bar.set_postfix_str("Stribeck pre-fit")
         vel = bidirectional_velocities(0.2 * p0.Vs, 1.2 * peak_w, 12)
-        qs = quasi_static_runs(p0, vel, Tc=Tc, noise_std=noise_std, rng=np.random.default_rng(qs_ss))
+        qs = quasi_static_runs(p0, vel, Tc=o.Tc, noise_std=o.noise_std, rng=np.random.default_rng(qs_ss))
         fit = prefit_stribeck(qs)
         Vs, delta = fit.Vs, fit.delta
         bar.update()
     else:
         Vs, delta = p0.Vs, p0.delta
     model = RegressionModel(Vs, delta, lag=True)
-    # the feedforward may use at most half the actuator range; friction levels above it are implausible
-    common = dict(Kp=design.Kp, Ki=design.Ki, u_max=u_max, ff_max=0.5 * u_max, Tc=Tc, Ts=Ts, noise_std=noise_std,
-                  lag=lag, faults=faults)
-
-    offline = None
-    estimate: FrictionEstimate | None = None
+    offline = estimate = None
     if "fixed" in run_modes:
-        # Separate identification experiment as in the paper's Sec. IV-A: open loop, low-pass
-        # filtered band-limited white-noise torque, with the same velocity noise.
         bar.set_postfix_str("identification run")
-        id_rng = np.random.default_rng(id_ss)
-        _, u_id = bandlimited_noise(duration, dt=Tc, cutoff=1.0, std=1.2 * friction_scale(p0, peak_w), rng=id_rng)
-        resp = simulate(p0, u_id, dt=Tc)
-        if fixed_method == "sliding":
-            w_id = resp.w[:-1] + id_rng.normal(0.0, noise_std, size=u_id.shape[0]) if noise_std > 0 else resp.w[:-1]
-            offline = fit_sliding(u_id, w_id, Tc=Tc, Vs=Vs, delta=delta, Ts=Ts, T_filter=T_filter, lag=lag)
-        else:
-            meas = sample(resp, Ts=Ts, noise_std=noise_std, rng=id_rng)
-            offline = fit_ls(model, meas.u, meas.w, Ts=Ts)
+        offline = _offline_fit(p0, o, model, peak_w, Vs, delta, np.random.default_rng(id_ss))
         estimate = project_estimate(offline.estimate, F_max=0.5 * u_max)
         bar.update()
-
     initial = None
-    if adaptive_initial and fit is not None:
+    if o.adaptive_initial and fit is not None:
         initial = FrictionEstimate(J=p0.J, tau=0.0, sigma=max(fit.sigma, 0.0), Fc=max(fit.Fc, 0.0),
                                    Fs=max(fit.Fs, 0.0), offset=0.0, Vs=Vs, delta=delta, J_alt=float("nan"))
+    # the feedforward may use at most half the actuator range; friction levels above it are implausible
+    mo = ModeOptions(Kp=design.Kp, Ki=design.Ki, u_max=u_max, ff_max=0.5 * u_max, Tc=o.Tc, Ts=o.Ts,
+                     noise_std=o.noise_std, lag=o.lag, model=model, estimate=estimate, lam=o.lam,
+                     estimator=o.estimator, Vs=Vs, delta=delta, sign_width=o.sign_width, T_filter=o.T_filter,
+                     forgetting=o.forgetting, stick_band=3.0 * o.noise_std if o.stick_band is None else o.stick_band,
+                     stick_samples=o.stick_samples, dwell_max=o.dwell_max, offset=o.offset, warmup=o.warmup,
+                     omega_q=o.omega_q, initial=initial)
     results = {}
     for mode in run_modes:
         bar.set_postfix_str(mode)
-        results[mode] = run_closed_loop(p, ref, mode=mode, rng=np.random.default_rng(noise_ss), model=model,
-                                        estimate=estimate, lam=lam, estimator=estimator, Vs=Vs, delta=delta,
-                                        ff_input=canudas_input if mode == "canudas" else ff_input,
-                                        sign_width=sign_width, T_filter=T_filter, forgetting=forgetting,
-                                        stick_band=3.0 * noise_std if stick_band is None else stick_band,
-                                        stick_samples=stick_samples, dwell_max=dwell_max, offset=offset,
-                                        warmup=warmup, omega_q=omega_q, initial=initial, **common)
+        mode_o = replace(mo, ff_input=o.canudas_input if mode == "canudas" else o.ff_input)
+        results[mode] = run_mode(p, ref, mode, mode_o, rng=np.random.default_rng(noise_ss), faults=o.faults)
         bar.update()
     bar.close()
     rn = results["none"].metrics.rms_second_half
     rf = results["frictionless"].metrics.rms_second_half
     etas = {mode: eta(rn, r.metrics.rms_second_half, rf) for mode, r in results.items()}
     return Comparison(plant=p, design=design, results=results, eta=etas, prefit=fit, offline=offline, model=model)
+
+
+def _offline_fit(p0, o: CompareOptions, model, peak_w, Vs, delta, id_rng):
+    """The paper's Sec. IV-A identification experiment (open loop, band-limited noise torque), fitted."""
+    _, u_id = bandlimited_noise(o.duration, dt=o.Tc, cutoff=1.0, std=1.2 * friction_scale(p0, peak_w), rng=id_rng)
+    resp = simulate(p0, u_id, dt=o.Tc)
+    if o.fixed_method == "sliding":
+        n = u_id.shape[0]
+        w_id = resp.w[:-1] + id_rng.normal(0.0, o.noise_std, size=n) if o.noise_std > 0 else resp.w[:-1]
+        return fit_sliding(u_id, w_id, Tc=o.Tc, Vs=Vs, delta=delta, Ts=o.Ts, T_filter=o.T_filter, lag=o.lag)
+    meas = sample(resp, Ts=o.Ts, noise_std=o.noise_std, rng=id_rng)
+    return fit_ls(model, meas.u, meas.w, Ts=o.Ts)

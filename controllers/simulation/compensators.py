@@ -1,0 +1,259 @@
+"""The compensation modes: one registry from a mode name to the plant, controller and compensator objects.
+
+================  ==========================================================================================
+mode              objects (:func:`build_mode`)
+================  ==========================================================================================
+``none``          no compensator
+``fixed``         :class:`adaptive_ff.FrictionFeedforward` of an offline estimate (``options.estimate``)
+``adaptive``      :class:`adaptive_ff.RobustAdaptiveFeedforward` on a
+                  :class:`adaptive_ff.SlidingFrictionEstimator` (``estimator="sliding"``), or the paper's eq. 4
+                  RLS feedforward (``estimator="eq4"``)
+``canudas``       :class:`controllers.peers.CanudasCompensator` (Canudas de Wit, Åström, Braun 1987)
+``dob``           :class:`controllers.peers.DisturbanceObserver`
+``oracle``        :class:`TrueFriction`: the plant's true friction torque (the upper bound)
+``frictionless``  no compensator, the plant without friction (the limit)
+================  ==========================================================================================
+
+A new compensator is a component class (:class:`plant.component.Component`
+with the compensator protocol, see :mod:`controllers.simulation.engine`) and
+one entry of :data:`REGISTRY`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
+from adaptive_ff.compensation.feedforward import FrictionFeedforward, RobustAdaptiveFeedforward
+from adaptive_ff.compensation.gate import OutlierGate
+from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
+from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
+from controllers.design.pi import PIController
+from controllers.peers.canudas import CanudasCompensator
+from controllers.peers.dob import DisturbanceObserver
+from plant.component import Component
+from plant.errors import ParameterError, check_multiple, check_positive
+
+__all__ = ["MODES", "ESTIMATORS", "ModeOptions", "TrueFriction", "build_mode", "REGISTRY"]
+
+#: Estimators of the ``adaptive`` mode: the sliding-regime inverse-dynamics RLS (default) or the paper's eq. 4
+#: RLS at Ts (baseline).
+ESTIMATORS = ("sliding", "eq4")
+
+
+class TrueFriction(Component):
+    """The oracle compensator: feeds the plant's true friction torque forward (the upper bound of compensation).
+
+    Not an estimator: it is the reference a compensator is measured against, and the only component that
+    reads the true plant (the engine hands it the friction torque of the plant state).
+    """
+
+    KIND = 1
+    MODE = "oracle"
+    n_theta = 0
+
+    def __init__(self):
+        self._init_arrays(1, 1)
+
+
+@dataclass(frozen=True)
+class ModeOptions:
+    """Settings of a closed-loop run in a named mode (:func:`controllers.simulation.closed_loop.run_mode`).
+
+    Parameters
+    ----------
+    Kp, Ki : float
+        PI gains (N·m·s/rad, N·m/rad), e.g. from :func:`controllers.design_pi`.
+    u_max : float
+        Torque saturation (N·m), default inf.
+    Tc : float
+        Controller period = integration step (s), default 1 ms.
+    Ts : float
+        Estimator sample time (s), a multiple of ``Tc``; default 10 ms (paper): the RLS update period of the
+        ``sliding`` estimator and of ``canudas``, the identification sample time of ``eq4``.
+    noise_std : float
+        White velocity-measurement noise (rad/s).
+    J_design : float or None
+        Design inertia (kg·m²) for the estimator start, the gates and the DOB's nominal inertia; default
+        None = the plant's J (a data-sheet value).
+    estimate : FrictionEstimate or None
+        Offline estimate for ``fixed``.
+    model : RegressionModel or None
+        Regression structure for ``estimator="eq4"``; for ``"sliding"`` its Vs, delta are used when
+        ``Vs``/``delta`` are not given.
+    estimator : {"sliding", "eq4"}
+        Estimator of the ``adaptive`` mode.
+    Vs, delta : float or None
+        Stribeck factors for the sliding estimator (pre-fit).
+    lam : float or None
+        Forgetting factor per update; default 0.995 (``sliding``, ``eq4``), 0.999 (``canudas``).
+    P0, warmup, lag, forgetting, T_filter, initial, dwell_max, offset
+        Estimator settings (see :class:`adaptive_ff.SlidingFrictionEstimator`,
+        :class:`adaptive_ff.RobustAdaptiveFeedforward`).
+    ff_max : float or None
+        Bound on |compensation| (N·m); default ``u_max``.
+    ff_input : {"measured", "reference"}
+        Velocity the friction feedforward (``fixed``, ``adaptive``, ``canudas``) is evaluated at.
+    sign_width, stick_band, stick_samples
+        Feedforward settings (see :class:`adaptive_ff.FrictionFeedforward`).
+    J_n, omega_q : float or None, float
+        Disturbance observer: nominal inertia (default ``J_design``) and Q-filter cut-off (rad/s).
+    sensor_gate : bool
+        Sensor plausibility gate of the controller's measurement (see ``run_closed_loop``).
+    w_limit : float or None
+        Divergence bound (rad/s).
+    decimate : int
+        Signal recording (see ``run_closed_loop``).
+    reversal_window : float
+        Half-width (s) of the reversal windows of the metrics.
+
+    Raises
+    ------
+    ParameterError
+        ``Kp``/``Ki`` missing or negative, ``Ts`` not a multiple of ``Tc``, unknown ``estimator`` or
+        ``ff_input``.
+    """
+
+    Kp: float
+    Ki: float
+    u_max: float = math.inf
+    Tc: float = 1e-3
+    Ts: float = 0.01
+    noise_std: float = 0.0
+    J_design: float | None = None
+    estimate: FrictionEstimate | None = None
+    model: RegressionModel | None = None
+    estimator: str = "sliding"
+    Vs: float | None = None
+    delta: float | None = None
+    lam: float | None = None
+    P0: float = 1e4
+    warmup: int = 200
+    lag: bool = True
+    forgetting: str = "exponential"
+    T_filter: float = 0.02
+    initial: FrictionEstimate | None = None
+    dwell_max: float = 0.01
+    offset: bool = True
+    ff_max: float | None = None
+    ff_input: str = "measured"
+    sign_width: float = 0.0
+    stick_band: float = 0.0
+    stick_samples: int = 10
+    J_n: float | None = None
+    omega_q: float = 500.0
+    sensor_gate: bool = True
+    w_limit: float | None = None
+    decimate: int = 1
+    reversal_window: float = 0.2
+
+    def __post_init__(self):
+        check_positive("Tc", self.Tc)
+        check_multiple("Ts", self.Ts, "Tc", self.Tc)
+        if self.estimator not in ESTIMATORS:
+            raise ParameterError(f"estimator must be one of {ESTIMATORS}, got {self.estimator!r}")
+        if self.ff_input not in ("reference", "measured"):
+            raise ParameterError(f"ff_input must be 'reference' or 'measured', got {self.ff_input!r}")
+
+
+def _ctx(plant, o: ModeOptions) -> tuple:
+    frozen = plant.at(0.0) if hasattr(plant, "at") else plant
+    J = float(frozen.J) if o.J_design is None else check_positive("J_design", o.J_design)
+    ff_max = o.u_max if o.ff_max is None else o.ff_max
+    return J, ff_max
+
+
+def _none(plant, o):
+    return plant, None
+
+
+def _frictionless(plant, o):
+    return plant.frictionless(), None
+
+
+def _oracle(plant, o):
+    return plant, TrueFriction()
+
+
+def _fixed(plant, o):
+    if o.estimate is None:
+        raise ParameterError("mode 'fixed' needs estimate=FrictionEstimate (an offline LS result)")
+    _, ff_max = _ctx(plant, o)
+    return plant, FrictionFeedforward(o.estimate, dt=o.Tc, lag=o.lag, ff_max=ff_max, sign_width=o.sign_width,
+                                      stick_band=o.stick_band, stick_samples=o.stick_samples, ff_input=o.ff_input)
+
+
+def _adaptive(plant, o):
+    J, ff_max = _ctx(plant, o)
+    lam = 0.995 if o.lam is None else o.lam
+    if o.estimator == "eq4":
+        if o.model is None:
+            raise ParameterError("mode 'adaptive' with estimator 'eq4' needs model=RegressionModel(Vs, delta, ...)")
+        return plant, AdaptiveFrictionFeedforward(o.model, Ts=o.Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup,
+                                                  lag=o.lag, ff_max=ff_max, ff_input=o.ff_input)
+    Vs = o.Vs if o.Vs is not None else (o.model.Vs if o.model is not None else None)
+    delta = o.delta if o.delta is not None else (o.model.delta if o.model is not None else None)
+    if Vs is None or delta is None:
+        raise ParameterError("mode 'adaptive' needs Vs and delta (from the Stribeck pre-fit) or model=")
+    gate_step = 2.0 * o.u_max * o.Tc / J if math.isfinite(o.u_max) else math.inf
+    est = SlidingFrictionEstimator(Vs, delta, Tc=o.Tc, Ts=o.Ts, T_filter=o.T_filter, lam=lam,
+                                   forgetting=o.forgetting, P0=o.P0, initial=o.initial, J_guess=J, lag=o.lag,
+                                   dwell_max=o.dwell_max, offset=o.offset, gate=OutlierGate(max_step=gate_step))
+    return plant, RobustAdaptiveFeedforward(est, dt=o.Tc, lag=o.lag, ff_max=ff_max, sign_width=o.sign_width,
+                                            stick_band=o.stick_band, stick_samples=o.stick_samples,
+                                            warmup=o.warmup, ff_input=o.ff_input)
+
+
+def _canudas(plant, o):
+    J, ff_max = _ctx(plant, o)
+    lam = 0.999 if o.lam is None else o.lam
+    return plant, CanudasCompensator(Tc=o.Tc, Ts=o.Ts, lam=lam, forgetting=o.forgetting, P0=o.P0, J_guess=J,
+                                     warmup=o.warmup, ff_max=ff_max, ff_input=o.ff_input)
+
+
+def _dob(plant, o):
+    J, ff_max = _ctx(plant, o)
+    return plant, DisturbanceObserver(J_n=J if o.J_n is None else o.J_n, omega_q=o.omega_q, Tc=o.Tc, d_max=ff_max)
+
+
+#: Mode name -> builder ``(plant, options) -> (plant to simulate, compensator or None)``.
+REGISTRY = {"none": _none, "fixed": _fixed, "adaptive": _adaptive, "canudas": _canudas, "dob": _dob,
+            "oracle": _oracle, "frictionless": _frictionless}
+
+#: Compensation modes, in table order.
+MODES = tuple(REGISTRY)
+
+
+def build_mode(plant, mode: str, options: ModeOptions) -> tuple:
+    """The objects of one compensation mode.
+
+    Parameters
+    ----------
+    plant : plant model
+        True plant (any model of :mod:`plant.models`, possibly drifting).
+    mode : str
+        One of :data:`MODES`.
+    options : ModeOptions
+        Settings.
+
+    Returns
+    -------
+    plant : plant model
+        The plant to simulate (the frictionless twin for ``frictionless``).
+    controller : PIController
+        The PI of ``options``.
+    compensator : component or None
+
+    Raises
+    ------
+    ParameterError
+        Unknown mode, or settings missing for it.
+    """
+    if mode not in REGISTRY:
+        raise ParameterError(f"mode must be one of {MODES}, got {mode!r}")
+    if not isinstance(options, ModeOptions):
+        raise ParameterError(f"options must be ModeOptions, got {type(options).__name__}")
+    controller = PIController(Kp=options.Kp, Ki=options.Ki, Tc=options.Tc, u_max=options.u_max)
+    run_plant, comp = REGISTRY[mode](plant, options)
+    return run_plant, controller, comp
