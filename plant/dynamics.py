@@ -354,6 +354,11 @@ def plant_step(par, st, u, dt):
     non-finite state or input gives NaN. Bit for bit the former Python steps
     of each model. One RK4 call site for all models (the lagged ones run one
     sub-step), which keeps the compiled step small and fast.
+
+    Inlined (numba IR) into the caller. numba adds an atomic reference-count
+    increment and decrement of ``par`` and ``st`` around each inlined call; a
+    calling loop that allocates nothing can be compiled with ``_nrt=False``
+    (as :func:`plant_simulate`), which removes them.
     """
     w = st[0]
     s = st[1]
