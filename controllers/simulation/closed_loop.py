@@ -267,7 +267,7 @@ def _result(x: EngineInputs, plant, compensator, t, wr, revs, gate, decimate, n_
                               u_rms=nan)
     W, WM, U, UFF, F = (x.rec[0, i] for i in range(5))
     ts, wrs = (t[::decimate], wr[::decimate]) if decimate else (t[:0], wr[:0])
-    if n_theta and decimate:
+    if n_theta and decimate and n_th:
         th = x.theta[0, :n_th].copy()
         t_th = t[x.theta_k[0, :n_th]]
     else:

@@ -18,19 +18,21 @@ class with the two compiled protocol functions plus one line in
 :func:`_compensate` and :func:`_observe`.
 
 A single run is a batch of one: :func:`run_engine` steps ``B`` scenarios in
-chunks (``prange`` over chunks, numba threads), each chunk time-major (every
-scenario of the chunk advances one period before the next period), which lets
-the CPU overlap the independent, latency-bound RK4 chains of the scenarios.
-Each scenario's numbers do not depend on ``B`` or the chunking.
+chunks, each chunk time-major (every scenario of the chunk advances one period
+before the next period), which lets the CPU overlap the independent,
+latency-bound RK4 chains of the scenarios. Chunks run in parallel on threads
+(the compiled chunk releases the GIL), so one compiled function serves every
+case. Each scenario's numbers do not depend on ``B`` or the chunking.
 """
 
 from __future__ import annotations
 
 from collections import namedtuple
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numba
 import numpy as np
-from numba import prange
 
 from adaptive_ff.compensation.eq4_feedforward import eq4_compensate, eq4_observe
 from adaptive_ff.compensation.feedforward import ff_compensate, ff_observe, robust_compensate, robust_observe
@@ -140,7 +142,8 @@ def _period(x, b, k, par):
     if _observe(x.kind, cp, cs, u, wm, x.theta_buf[b]) and x.theta.shape[1] > 0:
         j = np.int64(es[_NTH])
         if j < x.theta.shape[1]:
-            x.theta[b, j, :] = x.theta_buf[b]
+            for i in range(x.theta.shape[2]):
+                x.theta[b, j, i] = x.theta_buf[b, i]
             x.theta_k[b, j] = k
             es[_NTH] += 1.0
     if x.decimate > 0 and k % x.decimate == 0:
@@ -160,37 +163,23 @@ def _period(x, b, k, par):
     return True
 
 
-@kernel
+@kernel(nogil=True, _nrt=False)
 def _run_chunk(x, b0, b1):
-    """Scenarios ``b0..b1-1`` over all periods, time-major."""
+    """Scenarios ``b0..b1-1`` over all periods, time-major (allocates nothing: compiled without numba's
+    reference counting, which would otherwise wrap every inlined component call taking arrays)."""
     n = x.wr.shape[0]
-    L = b1 - b0
-    alive = np.ones(L, dtype=np.bool_)
-    n_alive = L
+    n_alive = 0
+    for b in range(b0, b1):
+        if x.eng_state[b, _DIV] == 0.0:
+            n_alive += 1
     for k in range(n):
         if n_alive == 0:
             break
-        for l in range(L):
-            if alive[l]:
-                b = b0 + l
+        for b in range(b0, b1):
+            if x.eng_state[b, _DIV] == 0.0:
                 par = x.plant_table[b, np.int64(x.eng_state[b, _ROW])]
                 if not _period(x, b, k, par):
-                    alive[l] = False
                     n_alive -= 1
-
-
-@kernel(parallel=True)
-def _run_parallel(x, chunk):
-    B = x.eng_state.shape[0]
-    for c in prange((B + chunk - 1) // chunk):
-        _run_chunk(x, c * chunk, min(B, c * chunk + chunk))
-
-
-@kernel
-def _run_serial(x, chunk):
-    B = x.eng_state.shape[0]
-    for c in range((B + chunk - 1) // chunk):
-        _run_chunk(x, c * chunk, min(B, c * chunk + chunk))
 
 
 #: Scenarios per chunk: at most this many, at least _CHUNK_MIN (else B / threads).
@@ -209,12 +198,15 @@ def run_engine(x: EngineInputs) -> None:
         :data:`EngineInputs`). The end sample (``k_end``) is set to ``N`` for runs that did not diverge.
     """
     B = x.eng_state.shape[0]
-    threads = numba.get_num_threads()
+    threads = numba.get_num_threads()  # NUMBA_NUM_THREADS, default: the cores
     chunk = max(_CHUNK_MIN, min(_CHUNK, -(-B // threads)))
-    if threads == 1 or B <= chunk:
-        _run_serial(x, chunk)
+    bounds = [(b0, min(B, b0 + chunk)) for b0 in range(0, B, chunk)]
+    if threads == 1 or len(bounds) == 1:
+        for b0, b1 in bounds:
+            _run_chunk(x, b0, b1)
     else:
-        _run_parallel(x, chunk)
+        with ThreadPoolExecutor(max_workers=min(threads, len(bounds))) as pool:
+            list(pool.map(lambda b: _run_chunk(x, *b), bounds))
     live = x.eng_state[:, _DIV] == 0.0
     x.eng_state[live, _KEND] = x.wr.shape[0]
 
