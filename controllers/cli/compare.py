@@ -43,7 +43,7 @@ def run(args) -> int:
 
         report = compare_report(args.report, comp, figures=paths, command=command_line())
     if args.json:
-        d = comp.to_json_dict()
+        d = comp.to_dict()
         d["figures"] = [str(x) for x in paths]
         if report is not None:
             d["report"] = str(report)

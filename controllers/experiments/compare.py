@@ -20,6 +20,7 @@ from plant.errors import ExcitationError, ParameterError, check_positive
 from plant.excitation import bandlimited_noise, multisine_reference
 from plant.joint import simulate
 from plant.models import plant_to_dict
+from plant.results import axes_or_new, json_safe
 from plant.sampling import sample
 
 __all__ = ["Comparison", "CompareOptions", "compare", "eta", "FIXED_METHODS", "friction_scale", "prefit_stribeck"]
@@ -99,6 +100,25 @@ class Comparison:
             lines.append(f"{row['mode']:<13}{d(row['rms']):>12.4f}{d(row['max']):>13.4f}"
                          f"{d(row['rms_reversal']):>14.4f}{row['u_rms']:>13.2f}{row['eta']:>8.3f}")
         return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        """:meth:`to_json_dict` as strict JSON (NaN, e.g. an undefined eta, becomes None)."""
+        return json_safe(self.to_json_dict())
+
+    def summary(self) -> str:
+        """The comparison table (:meth:`table`)."""
+        return self.table()
+
+    def plot(self, ax=None):
+        """Bar chart of eta per mode on ``ax`` (a new figure when None); returns the Axes."""
+        ax = axes_or_new(ax, figsize=(6.0, 3.0))
+        modes = list(self.eta)
+        vals = [self.eta[m] for m in modes]
+        ax.bar(modes, [v if v == v else 0.0 for v in vals], color="C0")
+        ax.axhline(1.0, color="k", lw=0.8, ls="--")
+        ax.set_ylabel("eta [-] (1 = frictionless)")
+        ax.set_xlabel("compensation mode")
+        return ax
 
     def to_json_dict(self) -> dict:
         """``{"modes": {mode: {"rms", "max", "rms_reversal", "u_rms", "eta"}}, ...}`` in SI units (rad/s)."""

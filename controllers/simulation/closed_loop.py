@@ -24,7 +24,7 @@ from controllers.simulation.metrics import LoopMetrics, loop_metrics, metrics_re
 from plant.errors import ParameterError, check_nonnegative, check_positive
 from plant.excitation import Reference
 from plant.dynamics import PLANT_NPAR, plant_params, plant_state
-from plant.results import json_safe
+from plant.results import axes_or_new, json_safe
 
 __all__ = ["MODES", "ESTIMATORS", "ModeOptions", "LoopMetrics", "ClosedLoopResult", "run_closed_loop", "run_mode",
            "loop_metrics", "plant_table"]
@@ -89,10 +89,7 @@ class ClosedLoopResult:
 
     def plot(self, ax=None):
         """Reference and velocity (deg/s) over time on ``ax`` (a new figure when None); returns the Axes."""
-        if ax is None:
-            import matplotlib.pyplot as plt
-
-            _, ax = plt.subplots(figsize=(8, 3))
+        ax = axes_or_new(ax, figsize=(8.0, 3.0))
         ax.plot(self.t, np.rad2deg(self.w_ref), "k--", lw=0.8, label="reference")
         ax.plot(self.t, np.rad2deg(self.w), lw=1.0, label=self.mode)
         ax.set_xlabel("time [s]")
