@@ -215,7 +215,7 @@ def compare_online(p: JointParams | None = None, *, duration: float = 60.0, seed
     starts[METHODS[1]] = dict(prefit.params(), tau=0.5 * p.tau)
     for name in METHODS[:2]:
         t0 = time.perf_counter()
-        res = run_online_ukf(t, u, w, J=p.J, theta0=starts[name], noise_std=noise_std, **(ukf_options or {}))
+        res = run_online_ukf(t, u, w, J=p.J, theta0=starts[name], noise_std=noise_std, options=ukf_options)
         wall[name] = time.perf_counter() - t0
         hist[name], std[name] = res.theta, res.theta_std
 

@@ -148,6 +148,13 @@ def _sensor_gate(sensor_gate, controller: PIController, J: float) -> OutlierGate
     raise ParameterError(f"sensor_gate must be True, False or an OutlierGate, got {sensor_gate!r}")
 
 
+def _update_period(compensator) -> int:
+    """Controller periods between two estimator updates of a compensator (sizes the theta history)."""
+    est = getattr(compensator, "estimator", None)
+    m = getattr(est, "m", None) if est is not None else getattr(compensator, "m", None)
+    return max(int(m), 1) if m else 1
+
+
 def _compensator_arrays(compensator) -> tuple:
     if compensator is None:
         return 0, np.zeros((1, 1)), np.zeros((1, 1)), 0
@@ -233,7 +240,7 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     kind, cp, cs, n_theta = _compensator_arrays(compensator)
     revs = reversal_times(t, wr)
     n_rec = (n + decimate - 1) // decimate if decimate > 0 else 0
-    m_theta = n + 1 if (decimate and n_theta) else 0
+    m_theta = n // _update_period(compensator) + 1 if (decimate and n_theta) else 0
     noise = rng.normal(0.0, noise_std, size=n)[None, :] if noise_std > 0 else np.zeros((1, 1))
     fk, fv = _faults(faults, n)
     x = EngineInputs(
