@@ -1,6 +1,7 @@
 """Test oracle: the pure-Python compensation components as they were before the compiled components (issue 10).
 
-OutlierGate, SlidingFrictionEstimator, FrictionFeedforward and RobustAdaptiveFeedforward, verbatim from the
+OutlierGate, SlidingFrictionEstimator and RobustAdaptiveFeedforward (on tests/peers_oracle.py's
+FrictionFeedforward), verbatim from the
 package before the refactor (their RLS is the package's RecursiveLeastSquares, tested on its own against
 tests/rls_oracle.py). tests/loop_oracle.py composes them into the former Python closed loop.
 """
@@ -12,6 +13,7 @@ import numpy as np
 
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RecursiveLeastSquares
+from peers_oracle import FrictionFeedforward  # the former fixed feedforward (one copy of the oracle)
 from plant.errors import ParameterError, check_finite_scalar, check_multiple, check_nonnegative, check_positive
 
 _NOISE_GAIN = math.sqrt(6.0) * math.sqrt(2.0 / math.pi)
@@ -410,110 +412,6 @@ class SlidingFrictionEstimator:
         if self.offset:
             cols.append(1.0)
         return np.array(cols)
-
-
-
-
-class FrictionFeedforward:
-    """Friction feedforward torque from a fixed estimate, with the estimated lag.
-
-    Parameters
-    ----------
-    estimate : FrictionEstimate or None
-        Friction parameters; ``None`` gives zero feedforward.
-    dt : float, keyword-only
-        Call period of :meth:`step` (s), e.g. the controller period.
-    lag : bool, keyword-only
-        Filter the static map through the estimated lag ``tau`` (eq. 1), default True.
-    ff_max : float, keyword-only
-        Bound on |feedforward| (N·m), default inf.
-    sign_width : float, keyword-only
-        Treatment of the sign near zero velocity (rad/s): 0 (default) uses
-        ``sgn(w)``; ``> 0`` the linear ramp ``clip(w/sign_width, -1, 1)``, which
-        stops measurement noise from flipping the full Coulomb torque.
-    stick_band : float, keyword-only
-        Velocity band (rad/s) for the stick detection: once the first velocity
-        given to :meth:`step` (the measurement) has stayed inside
-        ``±stick_band`` for ``stick_samples`` consecutive calls, the joint is
-        taken as stuck and the second velocity (the reference: the intended
-        direction of motion) is used instead, until the measurement leaves the
-        band. A stuck joint's measured velocity is noise; its sign says
-        nothing. Default 0 (off).
-    stick_samples : int, keyword-only
-        Consecutive in-band samples that declare sticking, >= 1; default 10.
-
-    Raises
-    ------
-    ParameterError
-        ``dt <= 0``, ``ff_max < 0``, ``sign_width < 0``, ``stick_band < 0`` or ``stick_samples < 1``.
-
-    Notes
-    -----
-    ``u_ff`` follows ``tau*du_ff/dt + u_ff = F_hat(w)`` (eq. 1 with the estimate),
-    discretised exactly for a held input: ``u_ff += (1 - exp(-dt/tau))*(F_hat(w) - u_ff)``.
-    The constant ``offset`` of the estimate is not fed forward (it is a sensor
-    or drive bias, not friction; the PI integrator removes it).
-    """
-
-    def __init__(self, estimate: FrictionEstimate | None, *, dt: float, lag: bool = True,
-                 ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0,
-                 stick_samples: int = 10):
-        self.dt = check_positive("dt", dt)
-        self.ff_max = float(ff_max) if ff_max == math.inf else check_nonnegative("ff_max", ff_max)
-        self.lag = bool(lag)
-        self.sign_width = check_nonnegative("sign_width", sign_width)
-        self.stick_band = check_nonnegative("stick_band", stick_band)
-        if isinstance(stick_samples, bool) or not isinstance(stick_samples, (int, np.integer)) or stick_samples < 1:
-            raise ParameterError(f"stick_samples must be an integer >= 1, got {stick_samples!r}")
-        self.stick_samples = int(stick_samples)
-        self._n_in_band = 0
-        self.u_ff = 0.0
-        self._set(estimate)
-
-    def _set(self, est: FrictionEstimate | None) -> None:
-        self.estimate = est
-        if est is None:
-            self._alpha = 1.0
-            return
-        self._alpha = 1.0 - math.exp(-self.dt / est.tau) if (self.lag and est.tau > 0) else 1.0
-        self._Fc, self._dF, self._sigma = est.Fc, est.Fs - est.Fc, est.sigma
-        self._Vs, self._delta = est.Vs, est.delta
-
-    def static(self, w: float) -> float:
-        """Static friction estimate ``F_hat(w)`` (N·m), eq. 3 with the estimate (no offset)."""
-        est = self.estimate
-        if est is None or w == 0.0:
-            return 0.0
-        aw = abs(w)
-        if self._Vs is None:
-            mag = self._Fc
-        else:
-            mag = self._Fc + self._dF * math.exp(-((aw / self._Vs) ** self._delta))
-        sw = self.sign_width
-        if sw > 0.0 and aw < sw:
-            return mag * (w / sw) + self._sigma * w
-        return math.copysign(mag, w) + self._sigma * w
-
-    def step(self, w: float, w_ref: float | None = None) -> float:
-        """Advance one period; return the bounded feedforward (N·m).
-
-        Parameters
-        ----------
-        w : float
-            Velocity the friction map is evaluated at (rad/s), e.g. the measurement.
-        w_ref : float, optional
-            Used instead of ``w`` while the joint is detected as stuck (see
-            ``stick_band``), e.g. the reference velocity.
-        """
-        if w_ref is not None:
-            if -self.stick_band < w < self.stick_band:
-                self._n_in_band += 1
-                if self._n_in_band >= self.stick_samples:
-                    w = w_ref
-            else:
-                self._n_in_band = 0
-        self.u_ff += self._alpha * (self.static(w) - self.u_ff)
-        return min(max(self.u_ff, -self.ff_max), self.ff_max)
 
 
 
