@@ -23,6 +23,7 @@ from adaptive_ff.identification.rls import rls_P, rls_n_updates, rls_theta
 from plant.component import Component
 from plant.errors import ParameterError, check_nonnegative, check_positive
 from plant.jit import kernel
+from plant.stribeck import stribeck_scalar
 
 __all__ = ["FrictionFeedforward", "RobustAdaptiveFeedforward", "project_estimate", "project_levels",
            "FF_NPAR", "FF_NSTATE", "ff_set_estimate", "ff_step", "ff_compensate", "robust_compensate",
@@ -129,8 +130,8 @@ def ff_static(par, st, w):
     if w == 0.0 or st[_HAS] == 0.0:
         return 0.0
     aw = abs(w)
-    if st[_HASVS] > 0.0:
-        mag = st[_FC] + st[_DF] * math.exp(-((aw / st[_VS]) ** st[_DELTA]))
+    if st[_HASVS] > 0.0:  # the Stribeck level: eq. 3 at |w| without the viscous term
+        mag = stribeck_scalar(aw, st[_FC], st[_DF], st[_VS], st[_DELTA], 0.0, math.inf)
     else:
         mag = st[_FC]
     sw = par[_SW]

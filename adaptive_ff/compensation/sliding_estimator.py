@@ -75,6 +75,7 @@ from plant.component import Component
 from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, check_multiple, check_positive,
                           check_signal)
 from plant.jit import kernel
+from plant.stribeck import stribeck_scalar, stribeck_shape
 
 __all__ = ["SlidingFrictionEstimator", "SlidingFit", "fit_sliding", "sliding_regressors", "SLIDING_NAMES",
            "sliding_observe", "sliding_sizes", "estimate_from_theta", "sliding_updated", "sliding_rls", "sliding_mse",
@@ -152,7 +153,7 @@ def sliding_observe(par, st, u, w):
         band = nb
     aw = w if w >= 0.0 else -w
     if aw > 0.0:
-        ee = math.exp(-((aw / par[_VS]) ** par[_DELTA]))
+        ee = stribeck_scalar(aw, 0.0, 1.0, par[_VS], par[_DELTA], 0.0, math.inf)  # exp(-|w/Vs|**delta), eq. 3's shape
         sg = 1.0 if w > 0.0 else -1.0
         gg = sg * (1.0 - ee)
         hh = sg * ee
@@ -538,7 +539,7 @@ def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | 
     nscale = signal.lfilter([0.01], [1.0, -0.99], d2)  # the estimator's running mean (it starts at sample 2)
     band = np.maximum(est.w_band_min, _BAND_SIGMAS * nscale / _NOISE_GAIN)
     aw = np.abs(w)
-    e = np.where(aw > 0, np.exp(-np.power(np.where(aw > 0, aw, 1.0) / est.Vs, est.delta)), 1.0)
+    e = np.where(aw > 0, stribeck_shape(np.where(aw > 0, aw, 1.0), est.Vs, est.delta), 1.0)
     sg = np.sign(w)
     w1, w2, w3 = cascade(w)
     u1, u2, u3 = cascade(u)
