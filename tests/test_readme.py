@@ -41,7 +41,7 @@ def run_main_job(args: list[str], cwd: Path) -> str:
     """Run ``adaptive-ff ARGS`` (this checkout's code) in ``cwd``; return its standard output."""
     code = "import sys; from controllers.cli import main; sys.exit(main(sys.argv[1:]))"
     r = subprocess.run([sys.executable, "-c", code, *args], cwd=cwd, capture_output=True, text=True,
-                       env=_env(), timeout=600)
+                       env=_env(), timeout=1800)
     if r.returncode != 0:
         raise AssertionError(f"adaptive-ff {' '.join(args)} failed ({r.returncode}):\n{r.stdout}\n{r.stderr}")
     return r.stdout
@@ -71,7 +71,7 @@ def test_python_example_runs(tmp_path):
     script = tmp_path / "example.py"
     script.write_text(code, encoding="utf-8")
     r = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True,
-                       env=_env(), timeout=600)
+                       env=_env(), timeout=1800)
     assert r.returncode == 0, r.stdout + r.stderr
     last = r.stdout.strip().splitlines()[-1]
     assert re.fullmatch(r"adaptive: RMS \d+\.\d{4} rad/s, eta -?\d+\.\d{2}", last), last
