@@ -41,7 +41,7 @@ def site(tmp_path_factory):
     shutil.copytree(DOCS, src, ignore=shutil.ignore_patterns("_build", "api", "auto_examples",
                                                              "sg_execution_times.rst", "__pycache__"))
     r = subprocess.run([sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html",
-                        str(src), str(out)], cwd=tmp, capture_output=True, text=True, timeout=900,
+                        str(src), str(out)], cwd=tmp, capture_output=True, text=True, timeout=1800,
                        env=_env(ADAPTIVE_FF_DOCS_ROOT=str(ROOT), ADAPTIVE_FF_DOCS_PLOT_GALLERY="0"))
     assert r.returncode == 0, f"Sphinx build failed or warned:\n{r.stderr[-6000:]}"
     assert "WARNING" not in r.stderr and "ERROR" not in r.stderr, r.stderr[-6000:]
@@ -87,7 +87,7 @@ def test_theory_page_has_the_erratum(site):
 def test_gallery_script_makes_the_readme_figure(tmp_path):
     png = tmp_path / "reversal.png"
     r = subprocess.run([sys.executable, str(ROOT / "examples" / "plot_compare_modes.py"), str(png)],
-                       cwd=tmp_path, capture_output=True, text=True, timeout=600, env=_env())
+                       cwd=tmp_path, capture_output=True, text=True, timeout=1800, env=_env())
     assert r.returncode == 0, r.stdout + r.stderr
     assert png.stat().st_size > 10_000
     rows = {ln.split()[0]: ln.split() for ln in r.stdout.splitlines() if ln.strip()}
