@@ -14,6 +14,7 @@ scripts in ``examples/`` (``ADAPTIVE_FF_DOCS_PLOT_GALLERY=0`` renders them witho
 from __future__ import annotations
 
 import importlib
+import inspect
 import logging
 import os
 import sys
@@ -92,20 +93,51 @@ def public_names(package: str) -> list[str]:
     return seen
 
 
+def data_home(package: str, name: str, obj) -> str | None:
+    """The module of ``package`` that defines the constant ``name`` with a ``#:`` doc comment, if any."""
+    from sphinx.pycode import ModuleAnalyzer
+
+    for modname in sorted(m for m in list(sys.modules) if m.startswith(package + ".")):
+        module = sys.modules[modname]
+        if getattr(module, "__dict__", {}).get(name) is not obj:
+            continue
+        try:
+            if ("", name) in ModuleAnalyzer.for_module(modname).find_attr_docs():
+                return modname
+        except Exception:  # no source: try the next module
+            continue
+    return None
+
+
+def api_entries(package: str) -> tuple[list[str], list[str], list[tuple[str, str]]]:
+    """Autosummary entries of ``package``: (names, fully qualified constants, re-exports (name, home))."""
+    mod = importlib.import_module(package)
+    names, constants, elsewhere = [], [], []
+    for name in public_names(package):
+        obj = getattr(mod, name)
+        home = getattr(obj, "__module__", None)
+        if home is None or not (inspect.isclass(obj) or callable(obj) or inspect.ismodule(obj)):
+            defining = data_home(package, name, obj)
+            (constants.append(f"{defining}.{name}") if defining else names.append(name))
+        elif home.split(".")[0] in PACKAGES and home.split(".")[0] != package:
+            elsewhere.append((name, home.split(".")[0]))
+        else:
+            names.append(name)
+    return names, constants, elsewhere
+
+
 def write_api_pages(outdir: Path = HERE / "api") -> None:
     """Write ``api/<package>.rst`` (an autosummary table of every public name) for each package."""
     outdir.mkdir(exist_ok=True)
+    table = [".. autosummary::", "   :toctree: generated", "   :nosignatures:", ""]
     for package, title in PACKAGES.items():
+        names, constants, elsewhere = api_entries(package)
         lines = [title, "=" * len(title), "", f".. automodule:: {package}", "   :no-members:", "",
-                 f".. currentmodule:: {package}", "", ".. autosummary::", "   :toctree: generated",
-                 "   :nosignatures:", ""]
-        mod = importlib.import_module(package)
-        own, elsewhere = [], []
-        for name in public_names(package):
-            home = getattr(getattr(mod, name), "__module__", None) or package
-            root = home.split(".")[0]
-            (elsewhere if root in PACKAGES and root != package else own).append((name, root))
-        lines += [f"   {name}" for name, _ in own]
+                 f".. currentmodule:: {package}", "", *table]
+        lines += [f"   {name}" for name in names]
+        if constants:
+            lines += ["", "Constants (documented in the module that defines them):", "", *table]
+            lines += [f"   {target[len(package) + 1:]}" for target in constants]  # relative to the package
         if elsewhere:
             lines += ["", "Also exported here, documented where they are defined: "
                       + ", ".join(f":obj:`{root}.{name}`" for name, root in elsewhere) + "."]

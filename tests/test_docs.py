@@ -60,21 +60,29 @@ def test_site_builds_without_warnings_with_every_page(site):
 
 
 def test_every_public_name_is_documented(site):
-    generated = site / "api" / "generated"
+    pages = {p.name for p in (site / "api" / "generated").glob("*.html")}
     missing = []
     for package in PACKAGES:
         mod = importlib.import_module(package)
-        page = (site / "api" / f"{package}.html").read_text(encoding="utf-8")
         for name in mod.__all__:
-            obj = getattr(mod, name)
-            home = (getattr(obj, "__module__", None) or package).split(".")[0]
-            if home in PACKAGES and home != package:  # a re-export, documented where it is defined
-                documented = (generated / f"{home}.{name}.html").exists() and f"{home}.{name}" in page
-            else:
-                documented = (generated / f"{package}.{name}.html").exists()
-            if not documented:
+            home = (getattr(getattr(mod, name), "__module__", None) or package).split(".")[0]
+            owner = home if home in PACKAGES else package  # a re-export is documented where it is defined
+            # a class or function gets <package>.<name>.html, a constant <defining module>.<name>.html
+            if not any(page.startswith(owner + ".") and page.endswith(f".{name}.html") for page in pages):
                 missing.append(f"{package}.{name}")
     assert not missing, f"public names without an API page: {missing}"
+
+
+def test_examples_have_gallery_titles():
+    """sphinx-gallery takes an example's title from its docstring: the first line, underlined."""
+    for script in sorted((ROOT / "examples").glob("*.py")):
+        if script.name.startswith("test_"):
+            continue
+        lines = script.read_text(encoding="utf-8").lstrip('r"\'\n').splitlines()
+        title, underline = lines[0].strip(), (lines[1].strip() if len(lines) > 1 else "")
+        assert underline and set(underline) == {"="} and len(underline) >= len(title), (
+            f"examples/{script.name}: the docstring must start with a title line underlined with '=' "
+            "(the gallery of the documentation needs it)")
 
 
 def test_theory_page_has_the_erratum(site):
