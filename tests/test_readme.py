@@ -78,6 +78,16 @@ def test_python_example_runs(tmp_path):
     assert "frictionless" in r.stdout and "adaptive" in r.stdout
 
 
+def test_your_drive_recipe_is_ten_lines():
+    text = README.read_text(encoding="utf-8")
+    m = re.search(r"## Your drive in ten lines\n\n```bash\n(?P<body>.*?)```", text, re.S)
+    assert m is not None, "README: no '## Your drive in ten lines' bash block"
+    lines = m.group("body").strip().splitlines()
+    assert 4 <= len(lines) <= 10, len(lines)
+    for step in ("adaptive-ff stribeck", "adaptive-ff identify", "adaptive-ff design", "adaptive-ff compare"):
+        assert any(ln.startswith(step) for ln in lines), step
+
+
 def test_links_and_figure_exist():
     text = README.read_text(encoding="utf-8")
     targets = re.findall(r"\]\(([^)#\s]+)\)", text)
