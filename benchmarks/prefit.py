@@ -44,7 +44,7 @@ def experiments(seed: int) -> None:
                                  options=StribeckDesign(w_max=0.6))
         dt = time.perf_counter() - t0
         f = ex.fit
-        stiff = int(np.sum(ex.crossover > StribeckDesign().crossover))
+        stiff = int(np.sum(ex.crossover > 1.5 * StribeckDesign().crossover))
         print(f"{name:<44}{ex.setpoints.size:>5}{int(ex.held.sum()):>5}{stiff:>6}{f.Vs / p.Vs:>13.3f}"
               f"{f.delta / p.delta:>16.3f}{f.Fs / p.Fs:>13.3f}  {str(f.fallback):<10}{dt:>8.1f}")
 

@@ -46,12 +46,12 @@ def test_deep_narrow_dip_is_measured_with_the_stiffer_loop_and_fitted_through_co
     f = comp.prefit
     assert f.fallback is None
     # stated tolerances (noise 1e-3 rad/s; the slowest held run is at 1.4 Vs, Fs is extrapolated): Vs 12 %,
-    # delta 15 %, Fs 15 %; the fitted map matches the true one within 1 % over the speeds it was measured on
+    # delta 15 %, Fs 15 %; the fitted map matches the true one within 2 % over the speeds it was measured on
     assert f.Vs == pytest.approx(DIP.Vs, rel=0.12)
     assert f.delta == pytest.approx(DIP.delta, rel=0.15)
     assert f.Fs == pytest.approx(DIP.Fs, rel=0.15)
     wg = np.geomspace(1.4 * DIP.Vs, 0.5, 50)
-    np.testing.assert_allclose(f.friction(wg), DIP.friction(wg), rtol=0.01)
+    np.testing.assert_allclose(f.friction(wg), DIP.friction(wg), rtol=0.02)
     assert f.Fc == pytest.approx(DIP.Fc, rel=0.02)
     ex = comp.experiment
     assert np.any(ex.crossover[ex.held] > 150.0)  # runs only the stiffer loop could hold were used
