@@ -17,6 +17,7 @@ import importlib
 import inspect
 import logging
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -48,7 +49,7 @@ extensions = [
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
-exclude_patterns = ["_build", "**/README.md", "auto_examples/*.ipynb", "auto_examples/*.py",
+exclude_patterns = ["_build", "_gallery_src", "**/README.md", "auto_examples/*.ipynb", "auto_examples/*.py",
                     "auto_examples/*.zip", "auto_examples/*.json", "auto_examples/*.md5"]
 templates_path = []
 html_theme = "alabaster"
@@ -150,9 +151,35 @@ def write_api_pages(outdir: Path = HERE / "api") -> None:
 write_api_pages()
 
 # --- the examples gallery ---------------------------------------------------------------------
+GALLERY_SRC = HERE / "_gallery_src"
+
+
+def copy_examples(src: Path = ROOT / "examples", dst: Path = GALLERY_SRC) -> None:
+    """Copy ``examples/`` for sphinx-gallery, underlining each script's first docstring line.
+
+    sphinx-gallery takes an example's title from a reStructuredText title at the top of its
+    docstring; the scripts start with a one-line summary, which this underlines where the script
+    does not already (the scripts themselves stay plain Python).
+    """
+    import shutil
+
+    shutil.rmtree(dst, ignore_errors=True)
+    shutil.copytree(src, dst, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "out"))
+    for script in dst.glob("*.py"):
+        text = script.read_text(encoding="utf-8")
+        m = re.match(r'(?P<pre>\s*[rRuU]?(?P<q>"""|\'\'\'))(?P<title>[^\n]+)\n(?P<next>[^\n]*)', text)
+        if m is None or set(m.group("next").strip()) == {"="}:
+            continue
+        title = m.group("title").strip()
+        head = f"{m.group('pre')}{title}\n{'=' * len(title)}\n"
+        script.write_text(head + ("\n" if m.group("next").strip() else "") + text[m.end("title") + 1:],
+                          encoding="utf-8")
+
+
+copy_examples()
 _plot_gallery = os.environ.get("ADAPTIVE_FF_DOCS_PLOT_GALLERY", "1") not in ("0", "false", "False")
 sphinx_gallery_conf = {
-    "examples_dirs": str(ROOT / "examples"),
+    "examples_dirs": "_gallery_src",
     "gallery_dirs": "auto_examples",
     "filename_pattern": r"/plot_",          # run the plot_*.py scripts; the others are shown as code
     "ignore_pattern": r"__init__\.py|test_[^/\\]*\.py$",  # pytest files are not gallery scripts
@@ -167,8 +194,6 @@ sphinx_gallery_conf = {
 
 
 # --- docstrings: plain-text |x| is an absolute value, not a substitution ------------------------
-import re  # noqa: E402
-
 _LITERAL = re.compile(r"(``.*?``|:[a-z]+:`[^`]*`|`[^`]*`_?)")
 _TABLE = re.compile(r"^\+[-=+]+\+$")
 _BARS = re.compile(r"(?<![\\|\w])\|(?=[^\s|])([^|]*?[^\s|\\])\|(?![\w|])")
