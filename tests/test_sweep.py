@@ -7,7 +7,7 @@ import pytest
 from controllers.experiments.sweep import expand_cases, load_spec, run_sweep
 
 SPEC = {"preset": "paper", "grid": {"Fc": [20.0, 30.0]}, "seeds": [0, 1], "modes": ["none", "adaptive"],
-        "duration": 4.0, "options": {"prefit": False}}
+        "duration": 4.0, "options": {"Vs": 0.02, "delta": 1.0}}
 
 
 def _rows(path):
@@ -74,7 +74,7 @@ from pathlib import Path  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SLOW = {"preset": "paper", "grid": {"Fc": [20.0, 22.0, 24.0, 26.0, 28.0, 30.0]}, "seeds": [0],
-        "modes": ["none", "adaptive"], "duration": 8.0, "options": {"prefit": False}}
+        "modes": ["none", "adaptive"], "duration": 8.0, "options": {"Vs": 0.02, "delta": 1.0}}
 CLI = "import sys; from controllers.cli import main; sys.exit(main())"
 
 

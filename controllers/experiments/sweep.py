@@ -11,7 +11,7 @@ A sweep is described by a small JSON or TOML spec (``examples/sweep_grid.json``,
       "modes": ["none", "adaptive", "frictionless"],
       "seeds": [0, 1, 2],
       "duration": 60,
-      "options": {"prefit": false}
+      "options": {"Vs": 0.02, "delta": 1}
     }
 
 ``preset`` (or ``plant``: ``{J, Fc, ...}`` overriding it) is the base plant;
@@ -19,7 +19,8 @@ A sweep is described by a small JSON or TOML spec (``examples/sweep_grid.json``,
 :func:`controllers.design_pi` targets; ``monte_carlo`` optional random plants
 (``uniform: [lo, hi]`` or ``normal: [mean, std]`` per parameter); ``seeds``
 closed-loop seeds (integers >= 0); ``duration`` the run length in s;
-``options`` further keyword arguments of ``compare()``. All values in SI units.
+``options`` further keyword arguments of ``compare()`` (e.g. known ``Vs``,
+``delta``: no Stribeck pre-fit). All values in SI units.
 
 Every combination of grid point x controller point x Monte-Carlo draw x seed is
 one *case*; its id is a hash of its content, so reruns recognise finished cases.
