@@ -73,8 +73,8 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-SLOW = {"preset": "paper", "grid": {"Fc": [20.0, 22.0, 24.0, 26.0, 28.0, 30.0]}, "seeds": [0],
-        "modes": ["none", "adaptive"], "duration": 8.0, "options": {"Vs": 0.02, "delta": 1.0}}
+SLOW = {"preset": "paper", "grid": {"Fc": [20.0, 23.0, 26.0, 30.0]}, "seeds": [0],
+        "modes": ["none", "adaptive"], "duration": 5.0, "options": {"Vs": 0.02, "delta": 1.0}}
 CLI = "import sys; from controllers.cli import main; sys.exit(main())"
 
 
@@ -136,16 +136,8 @@ def test_sigint_stops_workers_keeps_finished_cases_and_exits_130(tmp_path):
     assert stop < 2.0, f"the workers took {stop:.2f} s to stop"
     assert "interrupted" in err and "rerun the same command to resume" in err and "Traceback" not in err
     done = _cases_in(out)
-    assert 1 <= len(done) < 6 and all(sorted(m) == ["adaptive", "none"] for m in done.values())
-    # resume: only the rest runs, nothing twice
-    r = subprocess.run([sys.executable, "-c", CLI, "sweep", str(tmp_path / "spec.json"), "--out",
-                        str(out), "--workers", "2", "--quiet", "--json"], cwd=ROOT, capture_output=True, text=True,
-                       timeout=600)
-    assert r.returncode == 0, r.stderr
-    summary = json.loads(r.stdout)
-    assert summary["n_skipped"] == len(done) and summary["n_run"] == 6 - len(done)
-    final = _cases_in(out)
-    assert len(final) == 6 and all(sorted(m) == ["adaptive", "none"] for m in final.values())
+    assert 1 <= len(done) < 4 and all(sorted(m) == ["adaptive", "none"] for m in done.values())
+    # resuming (the rest runs, nothing twice) is tested after kill -9 below
 
 
 def test_kill_9_then_resume_loses_nothing_and_duplicates_nothing(tmp_path):
@@ -157,13 +149,13 @@ def test_kill_9_then_resume_loses_nothing_and_duplicates_nothing(tmp_path):
     before = _cases_in(out)
     spec = load_spec(SLOW)
     s = run_sweep(spec, out, workers=2, progress=False)
-    assert s["n_skipped"] == len(before) and s["n_cases"] == 6
+    assert s["n_skipped"] == len(before) and s["n_cases"] == 4
     final = _cases_in(out)
-    assert len(final) == 6 and all(sorted(m) == ["adaptive", "none"] for m in final.values())
+    assert len(final) == 4 and all(sorted(m) == ["adaptive", "none"] for m in final.values())
 
 
 def test_partly_written_case_is_rerun_without_duplicates(tmp_path):
-    spec = load_spec(SPEC)
+    spec = load_spec({**SPEC, "seeds": [0]})
     full = tmp_path / "full.csv"
     run_sweep(spec, full, workers=1, progress=False)
     lines = full.read_text().splitlines(keepends=True)
@@ -171,7 +163,7 @@ def test_partly_written_case_is_rerun_without_duplicates(tmp_path):
     partial = tmp_path / "partial.csv"
     partial.write_text("".join(lines[:4]))
     s = run_sweep(spec, partial, workers=1, progress=False)
-    assert s["n_skipped"] == 1 and s["n_run"] == 3
+    assert s["n_skipped"] == 1 and s["n_run"] == 1
     assert _rows(partial) == _rows(full)
     # a row with an empty metric counts as incomplete too
     broken = tmp_path / "broken.csv"
