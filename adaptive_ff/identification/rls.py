@@ -642,13 +642,17 @@ class RecursiveLeastSquares:
         and returns NaN for a rejected sample; only then is the sample inspected in
         Python to raise the error.
         """
-        if type(phi) is not _NDARRAY or phi.dtype is not _F8:  # list, int array, ...: convert and check first
-            phi, y = self._check(phi, y)
         try:
-            e = rls_update(self._buf, phi, y)
-        except TypeError:  # phi not a vector, read-only, or y not a number (no matching compiled signature)
-            phi, y = self._check(phi, y)
-            e = rls_update(self._buf, np.array(phi), y)
+            if type(phi) is not _NDARRAY or phi.dtype is not _F8:  # list, int array, ...: convert and check first
+                phi, y = self._check(phi, y)
+            try:
+                e = rls_update(self._buf, phi, y)
+            except TypeError:  # phi not a vector, read-only, or y not a number (no matching compiled signature)
+                phi, y = self._check(phi, y)
+                e = rls_update(self._buf, np.array(phi), y)
+        except SignalError:
+            self._buf[_NREJ] += 1.0  # refused in Python before the kernel: counted as the kernel would
+            raise
         if e != e:
             self._check(phi, y)  # raises SignalError if the kernel rejected a non-finite sample
             raise SignalError(f"sample refused: its update would overflow (phi = {np.asarray(phi).tolist()!r}, "
