@@ -34,12 +34,9 @@ examples:
 
 
 def _read_json(path: Path):
-    from plant.errors import ParameterError
+    from plant.models import read_json
 
-    try:
-        return json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise ParameterError(f"{path}: not valid JSON ({exc})") from None
+    return read_json(path, what="JSON file with J (and sigma)")
 
 
 def warnings_from_file(path) -> list:
@@ -93,8 +90,10 @@ def plant_from_file(path) -> tuple[float, float]:
     """
     from plant.errors import ParameterError
 
+    from plant.models import read_json
+
     path = Path(path)
-    d = _read_json(path)
+    d = read_json(path, what="JSON file with J (and sigma)")
     if isinstance(d, dict) and isinstance(d.get("physical"), dict) and isinstance(d["physical"].get("params"), dict):
         d = d["physical"]["params"]
     if isinstance(d, dict) and "J" not in d and isinstance(d.get("plant"), dict):
@@ -104,7 +103,26 @@ def plant_from_file(path) -> tuple[float, float]:
     sigma = d.get("sigma", 0.0)
     if sigma is None:
         sigma = 0.0
-    return float(d["J"]), float(sigma)
+    try:
+        return float(d["J"]), float(sigma)
+    except (TypeError, ValueError, OverflowError):
+        raise ParameterError(f"{path}: J = {d['J']!r} and sigma = {sigma!r} must be finite numbers") from None
+
+
+def _check_range(J: float, sigma: float, source: str) -> None:
+    """ParameterError unless J (kg·m²) and sigma (N·m·s/rad) lie in :data:`plant.models.PLAUSIBLE_RANGE`."""
+    import math
+
+    from plant.errors import ParameterError
+    from plant.models import PLAUSIBLE_RANGE
+
+    lo, hi = PLAUSIBLE_RANGE
+    if not (math.isfinite(J) and lo <= J <= hi):
+        raise ParameterError(f"J = {J!r} kg·m² (from {source}) is outside the plausible range {lo:g}..{hi:g}; "
+                             "check the units")
+    if not (math.isfinite(sigma) and sigma <= hi):
+        raise ParameterError(f"sigma = {sigma!r} N·m·s/rad (from {source}) is outside the plausible range "
+                             f"0..{hi:g}; check the units")
 
 
 def _method_of(path) -> str:
@@ -120,6 +138,13 @@ def run(args) -> int:
     from controllers.design.pi import design_pi
     from plant.errors import ParameterError
 
+    from controllers.cli.data import check_output_dir
+
+    out_dir = args.out if args.out is not None else (args.report or "out/design")
+    if not args.no_figures:
+        check_output_dir(out_dir, "--out")
+    if args.report:
+        check_output_dir(args.report, "--report")
     J, sigma = args.J, args.sigma
     source = "command line"
     if args.from_file:
@@ -141,6 +166,7 @@ def run(args) -> int:
         if not args.from_file:
             raise ParameterError(f"sigma must be >= 0, got {sigma!r}")
         sigma = 0.0  # an identified negative viscous term: design for the inertia alone
+    _check_range(J, sigma, source)
     design = design_pi(J, sigma=sigma, crossover=args.crossover, phase_margin=args.phase_margin, Tc=args.Tc)
     analysis = analyse_design(design, t_end=args.step_duration)
     paths = []
@@ -149,7 +175,7 @@ def run(args) -> int:
         figs = {"Bode plot of the open loop with gain and phase margins, |S| and |T|": plot_bode(design),
                 "closed-loop response to a 1 rad/s velocity step": plot_step(analysis)}
     if not args.no_figures:
-        out = Path(args.out)
+        out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         for name, fig in zip(("bode.png", "step.png"), figs.values()):
             fig.savefig(out / name, dpi=110)
@@ -204,7 +230,8 @@ def register(sub) -> None:
     d.add_argument("--Tc", type=float, default=1e-3, metavar="S", help="controller period in s (default 0.001)")
     d.add_argument("--step-duration", type=float, default=None, metavar="S",
                    help="length of the step response in s (default 15/crossover)")
-    d.add_argument("--out", default="out/design", help="directory for bode.png and step.png (default out/design)")
+    d.add_argument("--out", default=None, help="directory for bode.png and step.png (default: the --report "
+                                               "directory, else out/design)")
     d.add_argument("--no-figures", action="store_true", help="write no figures")
     d.add_argument("--report", metavar="DIR", default=None, help="write a self-contained HTML report to DIR")
     d.add_argument("--json", action="store_true", help="print gains, margins and step metrics as JSON")
