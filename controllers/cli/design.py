@@ -5,9 +5,13 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from pathlib import Path
 
-__all__ = ["register", "run", "plant_from_file"]
+__all__ = ["register", "run", "plant_from_file", "warnings_from_file", "EXIT_REFUSED"]
+
+#: Exit status of ``design --from`` refusing an identification with plausibility/identifiability warnings.
+EXIT_REFUSED = 3
 
 _EPILOG = """\
 The plant is the joint's linear part P(s) = 1/(J s + sigma) (friction is what the feedforward removes),
@@ -15,6 +19,9 @@ held by a zero-order hold at Tc. The PI C(z) = Kp + Ki*Tc*z/(z-1) places the gai
 discrete loop at --crossover with --phase-margin (controllers.design.pi.design_pi); margins come from
 control.stability_margins. J and sigma can be read from a JSON file with --from: the output of
 'adaptive-ff identify --json', a plant file (J, Fc, ..., tau) or this command's own --json output.
+An identification whose JSON carries a plausibility or identifiability warning (codes implausible,
+identifiability, conditioning) is refused with exit status 3 and the warnings echoed, unless
+--accept-warnings.
 
 Output: gains, crossover, phase and gain margins, stability margin (1/Ms), closed-loop bandwidth, step
 metrics; OUT/bode.png (open loop with margins, |S|, |T|) and OUT/step.png (velocity and torque of a
@@ -26,8 +33,53 @@ examples:
 """
 
 
+def _read_json(path: Path):
+    from plant.models import read_json
+
+    return read_json(path, what="JSON file with J (and sigma)")
+
+
+def warnings_from_file(path) -> list:
+    """The warnings of an ``identify --json`` output (empty for a plant file or a design output).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        JSON file.
+
+    Returns
+    -------
+    list of adaptive_ff.identification.plausibility.IdentificationWarning
+        From the top-level ``"warnings"`` list (``{"code", "parameter", "message"}`` objects; a bare
+        string of an older file counts as an identifiability warning).
+
+    Raises
+    ------
+    ParameterError
+        Not JSON, or ``"warnings"`` not a list of warning objects.
+    FileNotFoundError
+        No such file.
+    """
+    from adaptive_ff.identification.plausibility import warning_from_dict
+    from plant.errors import ParameterError
+
+    path = Path(path)
+    d = _read_json(path)
+    raw = d.get("warnings", []) if isinstance(d, dict) else []
+    if not isinstance(raw, list):
+        raise ParameterError(f"{path}: 'warnings' must be a list, got {type(raw).__name__}")
+    try:
+        return [warning_from_dict(w) for w in raw]
+    except ParameterError as exc:
+        raise ParameterError(f"{path}: {exc}") from None
+
+
 def plant_from_file(path) -> tuple[float, float]:
     """``(J, sigma)`` from a JSON object with a ``J`` key and optionally ``sigma`` (0 if absent).
+
+    An ``identify --json`` output whose method is not the paper's eq. 4 (``"physical"`` present, e.g.
+    ``"sliding"`` or ``"output_error"``) gives the J and sigma of that method (``physical.params``), the
+    answer of the identification; otherwise the top-level (eq. 4 LS) values are used.
 
     Raises
     ------
@@ -42,6 +94,8 @@ def plant_from_file(path) -> tuple[float, float]:
 
     path = Path(path)
     d = read_json(path, what="JSON file with J (and sigma)")
+    if isinstance(d, dict) and isinstance(d.get("physical"), dict) and isinstance(d["physical"].get("params"), dict):
+        d = d["physical"]["params"]
     if isinstance(d, dict) and "J" not in d and isinstance(d.get("plant"), dict):
         d = d["plant"]
     if not isinstance(d, dict) or not isinstance(d.get("J"), (int, float)) or isinstance(d.get("J"), bool):
@@ -71,6 +125,12 @@ def _check_range(J: float, sigma: float, source: str) -> None:
                              f"0..{hi:g}; check the units")
 
 
+def _method_of(path) -> str:
+    d = _read_json(Path(path))
+    m = d.get("method") if isinstance(d, dict) else None
+    return f" (method {m!r})" if isinstance(m, str) and isinstance(d.get("physical"), dict) else ""
+
+
 def run(args) -> int:
     """Execute ``adaptive-ff design`` with parsed ``args``; return the exit status."""
     from controllers.cli.data import command_line
@@ -88,8 +148,15 @@ def run(args) -> int:
     J, sigma = args.J, args.sigma
     source = "command line"
     if args.from_file:
+        refusing = [w for w in warnings_from_file(args.from_file) if w.refusing]
+        for w in refusing:
+            print(f"adaptive-ff: {args.from_file}: {w.code} warning on {w.parameter}: {w}", file=sys.stderr)
+        if refusing and not args.accept_warnings:
+            print(f"adaptive-ff: refused: {args.from_file} carries {len(refusing)} plausibility/identifiability "
+                  "warning(s); fix the identification, or design anyway with --accept-warnings", file=sys.stderr)
+            return EXIT_REFUSED
         Jf, sf = plant_from_file(args.from_file)
-        source = str(args.from_file)
+        source = str(args.from_file) + _method_of(args.from_file)
         J = Jf if J is None else J
         sigma = sf if sigma is None else sigma
     if J is None:
@@ -153,6 +220,9 @@ def register(sub) -> None:
                    help="viscous coefficient in N·m·s/rad (default 0, or from --from)")
     d.add_argument("--from", dest="from_file", metavar="FILE", default=None,
                    help="JSON with J (and sigma): 'identify --json' output or a plant file; --J/--sigma override it")
+    d.add_argument("--accept-warnings", action="store_true",
+                   help="design even if the --from identification carries plausibility or identifiability warnings "
+                        "(otherwise refused with exit status 3, the warnings echoed)")
     d.add_argument("--crossover", type=float, default=20.0, metavar="RAD_S",
                    help="target gain crossover in rad/s (default 20; at most 0.2*pi/Tc)")
     d.add_argument("--phase-margin", type=float, default=60.0, metavar="DEG",

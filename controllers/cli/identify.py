@@ -167,10 +167,13 @@ def register(sub) -> None:
                                                       "EMPS the fitted tau follows the velocity filter, not the plant)")
     i.add_argument("--no-offset", action="store_true", help="no constant torque offset regressor")
     i.add_argument("--lam", type=float, default=1.0, help="RLS forgetting factor (default 1)")
-    i.add_argument("--method", choices=("paper", "output_error"), default="paper",
-                   help="paper (default): the eq. 4 LS/RLS as printed; output_error: also fit the physical J, tau, "
-                        "sigma, Fc, Fs of eqs. 1-3 by simulation-error minimisation on the record's own time "
-                        "stamps (unbiased at Ts ~ tau, robust to noise and irregular sampling; needs --Vs, --delta)")
+    i.add_argument("--method", choices=("auto", "paper", "output_error", "sliding"), default="auto",
+                   help="auto (default): sliding for a uniform log at the controller rate (<= 2 ms) with --Vs, "
+                        "--delta, else paper; the choice is named in the notes. paper: the eq. 4 LS/RLS as "
+                        "printed; output_error: also fit the physical J, tau, sigma, Fc, Fs of eqs. 1-3 by "
+                        "simulation-error minimisation on the record's own time stamps (open-loop records; robust "
+                        "to noise and irregular sampling; needs --Vs, --delta); sliding: the sliding-regime "
+                        "inverse-dynamics regression on a controller-rate log (closed loop; needs --Vs, --delta)")
     i.add_argument("--asymmetric", action="store_true",
                    help="also fit direction-dependent friction Fc+, Fc-, sigma+ (Fv+), sigma- (Fv-) by the inverse "
                         "dynamic model (IDIM-LS, no offset), as the EMPS benchmark's asymmetric variant")
