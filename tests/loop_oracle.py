@@ -60,7 +60,7 @@ def _objects(p, mode, kw, J, Tc, u_max, ff_max, m):
                                               warmup=kw.get("warmup", 200), lag=lag, ff_max=ff_max), None
     if mode == "adaptive-dob":
         ff, _ = _objects(p, "adaptive", kw, J, Tc, u_max, ff_max, m)
-        _, dob = _objects(p, "dob", kw, J, Tc, u_max, ff_max, m)
+        _, dob = _objects(p, "dob", dict(kw, omega_q=kw.get("omega_r", 1000.0)), J, Tc, u_max, ff_max, m)
         return co.AdaptiveDOBCompensator(ff, dob, u_max=ff_max, measured=ff_input == "measured"), None
     if mode == "adaptive":
         model = kw.get("model")

@@ -38,17 +38,18 @@ def test_engine_equals_oracle_on_every_plant_model(ref, name, ff_input):
     faults = {500: float("nan"), 1200: 5.0, 3000: -3.0}
     a, b = _both(p, ref, mode="adaptive-dob", Kp=DESIGN.Kp, Ki=DESIGN.Ki, u_max=150.0, ff_max=75.0, noise_std=1e-3,
                  Vs=p.Vs, delta=p.delta, initial=_initial(P), warmup=50, stick_band=3e-3, stick_samples=5,
-                 faults=faults, ff_input=ff_input, J_n=0.9 * p.J, omega_q=400.0)
+                 faults=faults, ff_input=ff_input, J_n=0.9 * p.J, omega_q=300.0, omega_r=700.0)
     _assert_same(a, b)
     assert b.info["n_updates"] > 100 and b.theta.shape[0] == b.info["n_updates"]
     assert b.estimate is not None and b.info["dob_J_n"] == pytest.approx(0.9 * p.J)
+    assert b.info["dob_omega_q"] == 700.0
 
 
 def test_before_switch_on_it_is_the_observer_and_after_it_the_observer_sees_the_residual(ref):
     """With the feedforward never switched on the composite is the plain DOB (bit for bit); after switch-on
     the observer's recorded torque is ``u - u_ff``."""
     kw = dict(Kp=DESIGN.Kp, Ki=DESIGN.Ki, u_max=150.0, noise_std=1e-3, Vs=P.Vs, delta=P.delta)
-    off = run_named(P, ref, mode="adaptive-dob", rng=np.random.default_rng(5), warmup=10**6, **kw)
+    off = run_named(P, ref, mode="adaptive-dob", rng=np.random.default_rng(5), warmup=10**6, omega_r=500.0, **kw)
     dob = run_named(P, ref, mode="dob", rng=np.random.default_rng(5), **kw)
     for name in ("w", "u", "u_ff"):
         np.testing.assert_array_equal(getattr(off, name), getattr(dob, name))
