@@ -24,6 +24,7 @@ _EXPORTS = {
     "controllers.simulation.compensators": ("TrueFriction", "build_mode"),
     "controllers.peers.canudas": ("CanudasCompensator",),
     "controllers.peers.dob": ("DisturbanceObserver",),
+    "controllers.peers.adaptive_dob": ("AdaptiveDOBCompensator",),
     "controllers.experiments.compare": ("FIXED_METHODS", "Comparison", "CompareOptions", "compare", "eta",
                                         "friction_scale", "prefit_stribeck"),
     "controllers.experiments.paper_figures": ("identification_figures", "paper_figures", "PaperFigureOptions"),
@@ -46,7 +47,8 @@ __all__ = [
     "quasi_static_log", "closed_loop_response",
     "ESTIMATORS", "FIXED_METHODS", "friction_scale", "prefit_stribeck",
     "BATCH_MODES", "BatchResult", "run_batch",
-    "CanudasCompensator", "DisturbanceObserver", "assert_tracking_bound", "TrackingBoundError", "velocity_faults",
+    "CanudasCompensator", "DisturbanceObserver", "AdaptiveDOBCompensator", "assert_tracking_bound",
+    "TrackingBoundError", "velocity_faults",
 ]
 
 

@@ -624,3 +624,29 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
             else:
                 self.n_implausible += 1
         return ok
+
+
+class AdaptiveDOBCompensator:
+    """Oracle of the ``adaptive-dob`` composite (controllers/peers/adaptive_dob.py), written from its equations.
+
+    Per period: ``u_ff`` of the adaptive feedforward (at the measurement with stick detection, or at the
+    reference), ``d_hat`` of a disturbance observer (tests/peers_oracle.py) at the controller's measurement,
+    output ``clip(u_ff + d_hat, ±u_max)``; the observer then records ``u - u_ff``, the feedforward ``(u, w)``.
+    The counters and the estimator are those of the feedforward.
+    """
+
+    def __init__(self, ff, dob, *, u_max=math.inf, measured=True):
+        self.ff, self.dob, self.u_max, self.measured = ff, dob, u_max, measured
+        self.u_ff = 0.0
+
+    def __getattr__(self, name):  # counters, estimator, estimate: the feedforward's
+        return getattr(self.__dict__["ff"], name)
+
+    def step(self, w, w_ref):
+        self.u_ff = self.ff.step(w, w_ref) if self.measured else self.ff.step(w_ref)
+        d = self.dob.compensate(w, w_ref)
+        return min(max(self.u_ff + d, -self.u_max), self.u_max)
+
+    def observe(self, u, w):
+        self.dob.observe(u - self.u_ff, w)
+        return self.ff.observe(u, w)

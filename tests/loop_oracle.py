@@ -58,6 +58,10 @@ def _objects(p, mode, kw, J, Tc, u_max, ff_max, m):
     if mode == "adaptive" and kw.get("estimator", "sliding") == "eq4":
         return po.AdaptiveFrictionFeedforward(kw["model"], Ts=m * Tc, dt=Tc, lam=lam, P0=kw.get("P0", 1e4),
                                               warmup=kw.get("warmup", 200), lag=lag, ff_max=ff_max), None
+    if mode == "adaptive-dob":
+        ff, _ = _objects(p, "adaptive", kw, J, Tc, u_max, ff_max, m)
+        _, dob = _objects(p, "dob", dict(kw, omega_q=kw.get("omega_r", 1000.0)), J, Tc, u_max, ff_max, m)
+        return co.AdaptiveDOBCompensator(ff, dob, u_max=ff_max, measured=ff_input == "measured"), None
     if mode == "adaptive":
         model = kw.get("model")
         Vs = kw.get("Vs") if kw.get("Vs") is not None else model.Vs
@@ -95,7 +99,8 @@ def oracle_run(p, ref, *, mode, rng=None, faults=None, **kw):
     ctrl = OraclePI(Kp=kw["Kp"], Ki=kw["Ki"], Tc=Tc, u_max=u_max)
     ff, peer = _objects(plant, mode, kw, J, Tc, u_max, ff_max, m)
     eq4 = isinstance(ff, po.AdaptiveFrictionFeedforward)
-    robust = isinstance(ff, co.RobustAdaptiveFeedforward)
+    adob = isinstance(ff, co.AdaptiveDOBCompensator)
+    robust = adob or isinstance(ff, co.RobustAdaptiveFeedforward)
     ff_measured = kw.get("ff_input", "measured") == "measured"
     t = np.asarray(ref.t)
     wr = np.asarray(ref.w, dtype=float)
@@ -135,7 +140,9 @@ def oracle_run(p, ref, *, mode, rng=None, faults=None, **kw):
             ff.observe(u, wm)
             th_t.append(t[k])
             th.append(ff.theta.copy())
-        if ff is not None:
+        if adob:
+            uff = ff.step(wc, wrk)
+        elif ff is not None:
             uff = ff.step(wc, wrk) if ff_measured else ff.step(wrk)
         elif peer is not None:
             uff = peer.compensate(wc, wrk)

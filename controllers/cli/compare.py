@@ -112,7 +112,8 @@ def register(sub) -> None:
 
     c = sub.add_parser("compare", help="run all compensation modes on a plant and compare tracking error",
                        description="Simulate the 1 kHz plant in closed loop with the PI velocity controller in the "
-                                   "modes none, fixed, adaptive, canudas (Canudas de Wit et al. 1987), dob "
+                                   "modes none, fixed, adaptive, adaptive-dob (adaptive feedforward plus a "
+                                   "disturbance observer on its residual), canudas (Canudas de Wit et al. 1987), dob "
                                    "(disturbance observer), oracle and frictionless; print the metrics table and "
                                    "write PNG figures.")
     c.add_argument("--preset", default="paper", choices=PRESET_NAMES,
@@ -125,7 +126,8 @@ def register(sub) -> None:
     c.add_argument("--variant", choices=("lugre", "karnopp", "asymmetric", "small-inertia", "long-lag",
                                          "negative-delta", "static", "drift"),
                    help="a plant variant of the paper preset (drift: Fc, Fs +50%% over the first half)")
-    c.add_argument("--modes", help="comma-separated subset of none,fixed,adaptive,canudas,dob,oracle,frictionless "
+    c.add_argument("--modes", help="comma-separated subset of none,fixed,adaptive,adaptive-dob,canudas,dob,oracle,"
+                                   "frictionless "
                                    "(default: all; none and frictionless always run)")
     c.add_argument("--estimator", choices=("sliding", "eq4"), default="sliding",
                    help="adaptive estimator: sliding-regime inverse-dynamics RLS (default) or the paper's eq. 4")

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -14,6 +14,7 @@ from adaptive_ff.compensation.sliding_estimator import SlidingFit, fit_sliding
 from adaptive_ff.identification.stribeck_fit import StribeckFit
 from controllers.simulation.closed_loop import ModeOptions, run_mode
 from controllers.simulation.compensators import MODES
+from controllers.simulation.metrics import deviation_rms, first_active_time
 from controllers.design.pi import PIDesign, design_pi
 from controllers.experiments.quasi_static import (StribeckDesign, StribeckExperiment, prefit_stribeck,
                                                   stribeck_experiment)
@@ -34,7 +35,7 @@ FIXED_METHODS = ("sliding", "eq4")
 
 #: Modes that use the Stribeck factors Vs, delta (the pre-fit runs only for them); ``none``, ``canudas``,
 #: ``dob``, ``oracle`` and ``frictionless`` never run it.
-PREFIT_MODES = ("fixed", "adaptive")
+PREFIT_MODES = ("fixed", "adaptive", "adaptive-dob")
 
 
 def friction_scale(p, peak_w: float) -> float:
@@ -74,6 +75,14 @@ class Comparison:
         One run per mode, same reference and noise.
     eta : dict[str, float]
         Compensation efficiency per mode (second half of the run).
+    eta_full : dict[str, float]
+        The same over the whole run (start-up included).
+    rms_dev : dict[str, float]
+        RMS of ``w - w_frictionless`` over the whole run (rad/s): the distance of the mode's trajectory from
+        the frictionless run with the same reference and noise (does not saturate near the limit as eta does).
+    t_ff_on : dict[str, float or None]
+        Time (s) at which the mode's compensation first acts (non-zero torque); None for ``none`` and
+        ``frictionless`` and for a compensator that never switched on.
     prefit : StribeckFit or None
         Stribeck pre-fit (Sec. V-C) that gave Vs, delta to the regression model.
     offline : SlidingFit or LSResult or None
@@ -101,24 +110,35 @@ class Comparison:
     experiment: StribeckExperiment | None = None
     J_design: float | None = None
     notes: tuple = ()
+    eta_full: dict = field(default_factory=dict)
+    rms_dev: dict = field(default_factory=dict)
+    t_ff_on: dict = field(default_factory=dict)
 
     def rows(self) -> list[dict]:
-        """One dict per mode: mode, rms, max, rms_reversal (second half, rad/s), u_rms, eta."""
+        """One dict per mode: mode, rms, max, rms_reversal (second half, rad/s), u_rms (N·m), eta, eta_full,
+        rms_dev (whole run, rad/s) and t_ff_on (s or None)."""
         out = []
+        nan = float("nan")
         for mode, r in self.results.items():
             m = r.metrics
             out.append({"mode": mode, "rms": m.rms_second_half, "max": m.max_second_half,
-                        "rms_reversal": m.rms_reversal, "u_rms": m.u_rms, "eta": self.eta[mode]})
+                        "rms_reversal": m.rms_reversal, "u_rms": m.u_rms, "eta": self.eta[mode],
+                        "eta_full": self.eta_full.get(mode, nan), "rms_dev": self.rms_dev.get(mode, nan),
+                        "t_ff_on": self.t_ff_on.get(mode)})
         return out
 
     def table(self) -> str:
-        """The comparison as a fixed-width text table (velocities in deg/s)."""
-        head = f"{'mode':<13}{'RMS [deg/s]':>12}{'max [deg/s]':>13}{'reversal RMS':>14}{'u RMS [N·m]':>13}{'eta':>8}"
+        """The comparison as a fixed-width text table (velocities in deg/s; eta full, deviation and switch-on
+        time over the whole run)."""
+        head = (f"{'mode':<13}{'RMS [deg/s]':>12}{'max [deg/s]':>13}{'reversal RMS':>14}{'u RMS [N·m]':>13}"
+                f"{'eta':>8}{'eta full':>9}{'dev [deg/s]':>12}{'t_on [s]':>9}")
         lines = [head, "-" * len(head)]
         for row in self.rows():
             d = np.rad2deg
+            ton = "-" if row["t_ff_on"] is None else f"{row['t_ff_on']:.3f}"
             lines.append(f"{row['mode']:<13}{d(row['rms']):>12.4f}{d(row['max']):>13.4f}"
-                         f"{d(row['rms_reversal']):>14.4f}{row['u_rms']:>13.2f}{row['eta']:>8.3f}")
+                         f"{d(row['rms_reversal']):>14.4f}{row['u_rms']:>13.2f}{row['eta']:>8.3f}"
+                         f"{row['eta_full']:>9.3f}{d(row['rms_dev']):>12.4f}{ton:>9}")
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
@@ -141,8 +161,10 @@ class Comparison:
         return ax
 
     def to_json_dict(self) -> dict:
-        """``{"modes": {mode: {"rms", "max", "rms_reversal", "u_rms", "eta"}}, ...}`` in SI units (rad/s)."""
-        modes = {r["mode"]: {k: float(v) for k, v in r.items() if k != "mode"} for r in self.rows()}
+        """``{"modes": {mode: {"rms", "max", "rms_reversal", "u_rms", "eta", "eta_full", "rms_dev", "t_ff_on"}},
+        ...}`` in SI units (rad/s, N·m, s; ``t_ff_on`` None where no compensation acts)."""
+        modes = {r["mode"]: {k: (None if v is None else float(v)) for k, v in r.items() if k != "mode"}
+                 for r in self.rows()}
         out = {"modes": modes, "plant": plant_to_dict(self.plant),
                "controller": {"Kp": self.design.Kp, "Ki": self.design.Ki, "Tc": self.design.Tc,
                               "phase_margin_deg": self.design.phase_margin,
@@ -214,7 +236,11 @@ class CompareOptions:
         The same for the ``canudas`` peer; default reference (on the ``paper`` preset the better of the two
         for that scheme, see the benchmark pages).
     sign_width, T_filter, forgetting, warmup, dwell_max, offset
-        Adaptive feedforward settings (:class:`controllers.simulation.compensators.ModeOptions`).
+        Adaptive feedforward settings (:class:`controllers.simulation.compensators.ModeOptions`). ``warmup``
+        (sliding-regime RLS updates before the feedforward switches on; also the ``canudas`` and ``eq4``
+        warm-up) defaults to 50: on every plant of ``benchmarks/variants.py`` the second-half eta of
+        ``adaptive`` is that of 200 updates (the pre-fit start and the plausibility tests carry the
+        safety), and the feedforward acts about twice as early (docs/benchmarks/variants.md).
     stick_band, stick_samples : float or None, int
         Stick detection of the measured-velocity feedforward (``fixed``, ``adaptive``): after
         ``stick_samples`` samples inside ``±stick_band`` the reference velocity is used. Default
@@ -255,7 +281,7 @@ class CompareOptions:
     stick_samples: int = 5
     T_filter: float = 0.02
     forgetting: str = "exponential"
-    warmup: int = 200
+    warmup: int = 50
     omega_q: float = 500.0
     adaptive_initial: bool = True
     faults: dict | None = None
@@ -316,7 +342,9 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
     velocity noise), identified by ``fixed_method`` — the same sliding-regime
     regression as the adaptive estimator (on the 1 kHz record) or the paper's
     eq. 4 at ``Ts``. ``adaptive`` estimates online on the loop's own data.
-    ``eta`` uses the RMS error over the second half of the run.
+    ``eta`` uses the RMS error over the second half of the run, ``eta_full`` over the whole run; ``rms_dev``
+    is the RMS distance of each run's velocity from the frictionless run's (same reference and noise), and
+    ``t_ff_on`` the first time the mode's compensation torque is non-zero.
 
     No field of the true plant other than ``J`` (the default design inertia,
     when ``J_design`` is not given) reaches the design, the estimators, the
@@ -342,7 +370,8 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
     rf = results["frictionless"].metrics.rms_second_half
     etas = {mode: eta(rn, r.metrics.rms_second_half, rf) for mode, r in results.items()}
     return Comparison(plant=p, design=s.design, results=results, eta=etas, prefit=s.prefit, offline=s.offline,
-                      model=s.model, experiment=s.experiment, J_design=s.J_design, notes=s.notes)
+                      model=s.model, experiment=s.experiment, J_design=s.J_design, notes=s.notes,
+                      **_whole_run_metrics(results))
 
 
 def comparison_reference(o: CompareOptions):
@@ -455,6 +484,18 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False) -
     return ComparisonSetup(modes=tuple(run_modes), reference=ref, design=design, mode_options=opts,
                            noise_seed=noise_ss, prefit=fit, offline=offline, model=model, experiment=exp,
                            J_design=J, notes=tuple(exp.notes) if fit is not None else (), bar=bar)
+
+
+def _whole_run_metrics(results: dict) -> dict:
+    """``eta_full``, ``rms_dev`` and ``t_ff_on`` per mode (issue 11, item 5) from the recorded runs."""
+    rn, rf = results["none"].metrics.rms, results["frictionless"].metrics.rms
+    w_lim = results["frictionless"].w
+    out = {"eta_full": {}, "rms_dev": {}, "t_ff_on": {}}
+    for mode, r in results.items():
+        out["eta_full"][mode] = eta(rn, r.metrics.rms, rf)
+        out["rms_dev"][mode] = deviation_rms(r.w, w_lim)
+        out["t_ff_on"][mode] = None if mode in ("none", "frictionless") else first_active_time(r.t, r.u_ff)
+    return out
 
 
 def _quasi_static(p0, o: CompareOptions, J: float, peak_w: float, rng, *, fit: bool) -> StribeckExperiment:

@@ -1,1 +1,1 @@
-"""Peer compensators measured against the adaptive feedforward: Canudas de Wit et al. (1987) and a disturbance observer."""
+"""Peer compensators measured against the adaptive feedforward: Canudas de Wit et al. (1987), a disturbance observer, and the adaptive feedforward with a disturbance observer on its residual (adaptive_dob)."""

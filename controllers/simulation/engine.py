@@ -38,6 +38,7 @@ from adaptive_ff.compensation.eq4_feedforward import eq4_compensate, eq4_observe
 from adaptive_ff.compensation.feedforward import ff_compensate, ff_observe, robust_compensate, robust_observe
 from adaptive_ff.compensation.gate import gate_check
 from controllers.design.pi import pi_step
+from controllers.peers.adaptive_dob import adob_compensate, adob_observe
 from controllers.peers.canudas import canudas_compensate, canudas_observe
 from controllers.peers.dob import dob_compensate, dob_observe
 from controllers.simulation.metrics import METRICS_NSTATE, metrics_add, metrics_where
@@ -82,6 +83,8 @@ def _compensate(kind, cp, cs, w_ctrl, w_meas, w_ref, f_true):
         return dob_compensate(cp, cs, w_ctrl, w_meas, w_ref)
     if kind == 6:
         return eq4_compensate(cp, cs, w_ctrl, w_meas, w_ref)
+    if kind == 7:
+        return adob_compensate(cp, cs, w_ctrl, w_meas, w_ref)
     if kind == KIND_ORACLE:
         return f_true
     return 0.0
@@ -100,6 +103,8 @@ def _observe(kind, cp, cs, u, w_meas, theta_out):
         return dob_observe(cp, cs, u, w_meas, theta_out)
     if kind == 6:
         return eq4_observe(cp, cs, u, w_meas, theta_out)
+    if kind == 7:
+        return adob_observe(cp, cs, u, w_meas, theta_out)
     return False
 
 

@@ -17,11 +17,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plant.errors import ParameterError, check_nonnegative, check_signal
+from plant.errors import ParameterError, SignalError, check_nonnegative, check_signal
 from plant.jit import kernel
 
 __all__ = ["LoopMetrics", "loop_metrics", "reversal_times", "metrics_update", "metrics_where", "metrics_add",
-           "metrics_result", "METRICS_NSTATE", "METRIC_NAMES"]
+           "metrics_result", "METRICS_NSTATE", "METRIC_NAMES", "deviation_rms", "first_active_time"]
 
 # accumulator state: compensated sums (value, compensation) of e^2 (all, second half, reversal windows) and u^2,
 # maxima of |e| (all, second half), counts (second half, reversal windows), reversal pointer
@@ -237,3 +237,63 @@ def loop_metrics(t, w_ref, w, u, *, reversals, window: float = 0.2) -> LoopMetri
     _accumulate(st, np.ascontiguousarray(t), 0.5 * (t[0] + t[-1]), revs, window,
                 np.ascontiguousarray(w_ref - w), np.ascontiguousarray(u))
     return metrics_result(st)
+
+
+def deviation_rms(w, w_limit) -> float:
+    """RMS of ``w - w_limit`` (rad/s): how far a run's trajectory is from a limit trajectory.
+
+    Used with the frictionless run of the same reference and noise as ``w_limit`` (``rms_dev`` of
+    :class:`controllers.experiments.compare.Comparison`): unlike the tracking error, it does not saturate
+    when a compensator is at the frictionless tracking level (issue 11, item 5).
+
+    Parameters
+    ----------
+    w, w_limit : array_like, shape (N,)
+        Velocity of the run and of the limit run (rad/s), same time base.
+
+    Returns
+    -------
+    float
+        ``sqrt(mean((w - w_limit)**2))`` (rad/s); NaN if either contains NaN (a diverged run) or ``N = 0``.
+
+    Raises
+    ------
+    SignalError
+        Shapes differ.
+    """
+    w = np.asarray(w, dtype=float)
+    w_limit = np.asarray(w_limit, dtype=float)
+    if w.shape != w_limit.shape or w.ndim != 1:
+        raise SignalError(f"w and w_limit must be 1-D of the same shape, got {w.shape} and {w_limit.shape}")
+    if w.size == 0:
+        return math.nan
+    return float(np.sqrt(np.mean((w - w_limit) ** 2)))
+
+
+def first_active_time(t, u_c) -> float | None:
+    """Time (s) of the first sample at which a compensator's torque ``u_c`` is non-zero, or None if never.
+
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Time (s).
+    u_c : array_like, shape (N,)
+        Compensation torque of the run (N·m), e.g. :attr:`ClosedLoopResult.u_ff`.
+
+    Returns
+    -------
+    float or None
+        ``t[k]`` of the first ``k`` with a finite ``u_c[k] != 0``; None if there is none (no compensator,
+        a feedforward that never switched on, or no record).
+
+    Raises
+    ------
+    SignalError
+        Shapes differ.
+    """
+    t = np.asarray(t, dtype=float)
+    u_c = np.asarray(u_c, dtype=float)
+    if t.shape != u_c.shape:
+        raise SignalError(f"t and u_c must have the same shape, got {t.shape} and {u_c.shape}")
+    k = np.flatnonzero(np.isfinite(u_c) & (u_c != 0.0))
+    return float(t[k[0]]) if k.size else None
