@@ -532,6 +532,8 @@ def plot_rls_convergence(comp) -> Figure | None:
         ax.set_xlabel("time [s]")
         ax.tick_params(labelbottom=True)
     fig.suptitle(title, fontsize=9, x=0.95 / 10.0, ha="left", y=1.0 - 0.08 / (1.45 * nrow + 0.9), va="top")
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="upper right", bbox_to_anchor=(1.0 - 0.25 / 10.0, 1.0),
+               ncol=2, fontsize=8, frameon=False)  # in the top margin, above the panels
     axes[0].set_xlim(tt[0] if tt.size else 0.0, r.t[-1])
     return fig
 
