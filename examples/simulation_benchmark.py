@@ -24,12 +24,15 @@ def main(argv=None) -> int:
     ap.add_argument("--plant", help="JSON file with J, Fc, Fs, Vs, delta, sigma, tau (SI units); default: paper preset")
     ap.add_argument("--seeds", type=int, default=3, help="number of seeds (default 3)")
     ap.add_argument("--duration", type=float, default=60.0, help="run length in s (default 60)")
-    ap.add_argument("--no-prefit", action="store_true", help="use the true Vs, delta instead of the Stribeck pre-fit")
+    ap.add_argument("--Vs", type=float, default=None,
+                    help="Stribeck velocity in rad/s if you know it (with --delta: skips the Stribeck pre-fit)")
+    ap.add_argument("--delta", type=float, default=None, help="Stribeck shape factor if you know it (with --Vs)")
     args = ap.parse_args(argv)
 
     p = JointParams.from_json(args.plant) if args.plant else preset("paper")
     t0 = time.perf_counter()
-    runs = [compare(p, duration=args.duration, seed=seed, prefit=not args.no_prefit, progress=False)
+    known = {"Vs": args.Vs, "delta": args.delta} if args.Vs is not None and args.delta is not None else {}
+    runs = [compare(p, duration=args.duration, seed=seed, progress=False, **known)
             for seed in range(args.seeds)]
     wall = time.perf_counter() - t0
     modes = [row["mode"] for row in runs[0].rows()]

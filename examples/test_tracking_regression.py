@@ -20,6 +20,7 @@ from plant import multisine_reference, preset
 
 # --- your joint and your requirements ------------------------------------------------------------
 PLANT = preset("paper")  # or JointParams(J=..., Fc=..., Fs=..., Vs=..., delta=..., sigma=..., tau=...)
+VS, DELTA = 0.02, 1.0  # your joint's Stribeck velocity (rad/s) and shape factor, if known (else a pre-fit runs)
 DURATION = 30.0  # s of multi-sine tracking (0.01-1 Hz, up to 20 deg/s); metrics over the second half
 SEED = 0
 MAX_RMS_ADAPTIVE = math.radians(1.5)  # rad/s; measured 0.67 deg/s
@@ -32,7 +33,7 @@ MAX_RMS_UNCOMPENSATED = math.radians(5.0)  # rad/s; guards the PI loop itself; m
 @pytest.fixture(scope="module")
 def comparison():
     return compare(PLANT, duration=DURATION, seed=SEED, modes=("none", "adaptive", "frictionless"),
-                   prefit=False, progress=False)
+                   Vs=VS, delta=DELTA, progress=False)
 
 
 def test_adaptive_feedforward_meets_the_tracking_bound(comparison):

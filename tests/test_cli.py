@@ -108,3 +108,17 @@ def test_compare_and_identify_write_html_reports(tmp_path, capsys):
     html = (tmp_path / "i" / "report.html").read_text()
     assert "data:image/png;base64," in html and "95.5" in html  # J of EMPS in the parameter table
     assert any(p.suffix == ".png" for p in (tmp_path / "p").iterdir())
+
+
+def test_compare_no_prefit_given_factors_and_design_inertia(tmp_path, capsys):
+    base = ["compare", "--duration", "2", "--quiet", "--no-figures", "--out", str(tmp_path)]
+    assert main(base + ["--modes", "adaptive", "--no-prefit"]) == 2
+    assert "need Vs and delta" in capsys.readouterr().err
+    assert main(base + ["--modes", "none,dob"]) == 0
+    assert "Stribeck pre-fit" not in capsys.readouterr().out
+    assert main(base + ["--modes", "adaptive", "--Vs", "0.02", "--delta", "1", "--J-design", "2", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert "prefit" not in d and d["J_design"] == 2.0
+    assert main(base + ["--modes", "adaptive", "--J-design", "4", "--json"]) == 0
+    d4 = json.loads(capsys.readouterr().out)
+    assert d["controller"]["Kp"] == pytest.approx(0.5 * d4["controller"]["Kp"], rel=1e-12)  # PI designed for J_design

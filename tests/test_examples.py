@@ -16,7 +16,7 @@ def _run(*args, timeout=120):
 
 
 def test_simulation_benchmark():
-    out = _run(EXAMPLES / "simulation_benchmark.py", "--seeds", "2", "--duration", "6", "--no-prefit")
+    out = _run(EXAMPLES / "simulation_benchmark.py", "--seeds", "2", "--duration", "6", "--Vs", "0.02", "--delta", "1")
     lines = {ln.split()[0]: ln for ln in out.splitlines() if ln.strip()}
     for mode in ("none", "fixed", "adaptive", "oracle", "frictionless"):
         assert mode in lines

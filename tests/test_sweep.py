@@ -7,7 +7,7 @@ import pytest
 from controllers.experiments.sweep import expand_cases, load_spec, run_sweep
 
 SPEC = {"preset": "paper", "grid": {"Fc": [20.0, 30.0]}, "seeds": [0, 1], "modes": ["none", "adaptive"],
-        "duration": 4.0, "options": {"prefit": False}}
+        "duration": 4.0, "options": {"Vs": 0.02, "delta": 1.0}}
 
 
 def _rows(path):

@@ -81,6 +81,9 @@ _P_LOW = -np.log(0.95)
 _P_HIGH = 3.0
 #: Minimum number of distinct speeds |w| inside the transition window.
 _MIN_TRANSITION_SPEEDS = 3
+# With fallback: an undersampled transition whose excess |Fs - Fc| is below this fraction of the friction level
+# is taken as no Stribeck effect (Coulomb + viscous).
+_MIN_UNDERSAMPLED_EXCESS = 0.02
 # Scaled-Jacobian condition number above which the fit is declared singular.
 _COND_LIMIT = 1e10
 # Grid of Stribeck velocities for the initial guess (points per decade).
@@ -126,6 +129,16 @@ class StribeckFit:
     converged : bool
         True if the Levenberg-Marquardt run of the best start met a tolerance
         (MINPACK status 1-4); False if it stopped at the evaluation limit.
+    fallback : str or None
+        None for the full five-parameter fit; otherwise which reduced result
+        ``fit_stribeck(..., fallback=True)`` returned instead of raising:
+        ``"coulomb-viscous"`` (no resolvable Stribeck effect: ``Fs = Fc``, the
+        ``Vs``/``delta`` given are placeholders without effect on the map),
+        ``"delta-fixed"`` (the five-parameter Jacobian was singular; ``delta``
+        held at 1, its variance 0) or ``"transition-undersampled"`` (the full
+        fit, but fewer than 3 speeds in the fitted transition).
+    notes : tuple of str
+        Human-readable reasons for ``fallback`` (empty for the full fit).
 
     Notes
     -----
@@ -145,6 +158,8 @@ class StribeckFit:
     residual_rms: float
     n_points: int
     converged: bool
+    fallback: str | None = None
+    notes: tuple = ()
 
     @property
     def dof(self) -> int:
@@ -220,7 +235,7 @@ class StribeckFit:
         dict
             ``Fc, Fs, Vs, delta, sigma``, ``stderr`` (dict), ``cov`` (5 x 5
             lists, order :data:`PARAM_NAMES`), ``residual_rms``, ``n_points``,
-            ``converged``.
+            ``converged``, ``fallback`` (str or None), ``notes`` (list of str).
         """
         d = self.params()
         d.update(
@@ -229,6 +244,8 @@ class StribeckFit:
             residual_rms=self.residual_rms,
             n_points=self.n_points,
             converged=self.converged,
+            fallback=self.fallback,
+            notes=list(self.notes),
         )
         return json_safe(d)
 
@@ -238,6 +255,7 @@ class StribeckFit:
         lines = [f"Stribeck fit of eq. 3 ({self.n_points} points, residual RMS {self.residual_rms:.4g} N·m"
                  f"{'' if self.converged else ', NOT converged'})"]
         lines += [f"  {k:<6}{getattr(self, k):>12.6g} ± {self.stderr[k]:<10.3g}{units[k]}" for k in PARAM_NAMES]
+        lines += [f"  note ({self.fallback}): {n}" for n in self.notes]
         return "\n".join(lines)
 
     def plot(self, ax=None, *, w=None, F=None, F_std=None):
@@ -413,7 +431,7 @@ def _initial_guesses(sg, w, aw, logaw, F, wt, delta_starts) -> list[np.ndarray]:
 # --------------------------------------------------------------------------- fit
 
 
-def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0)) -> StribeckFit:
+def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0), fallback: bool = False) -> StribeckFit:
     """Fit the static Stribeck map of eq. 3 to steady-state (velocity, torque) pairs by Levenberg-Marquardt.
 
     Parameters
@@ -436,11 +454,24 @@ def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0)) -> 
         Start values of ``delta`` (non-zero), one Levenberg-Marquardt run each;
         the lowest-cost solution is kept. The negated values are added when the
         data show friction rising with speed (see Notes).
+    fallback : bool, keyword-only
+        False (default): raise :class:`ExcitationError` when the data do not
+        determine the five parameters. True: return a reduced result with
+        ``fallback`` and ``notes`` set instead (a pipeline that designed its
+        own runs uses this after refining them): no resolvable Stribeck effect
+        gives the Coulomb + viscous line (``Fs = Fc``, ``Vs`` = the lowest
+        measured speed, ``delta = 1``: placeholders, the map does not depend
+        on them); a singular Jacobian gives the fit with ``delta`` held at 1
+        (or the Coulomb + viscous line if that is singular too); too few
+        speeds in the transition keep the full fit with a note, unless its
+        excess ``|Fs - Fc|`` is below 2 % of the friction level (then the
+        Coulomb + viscous line).
 
     Returns
     -------
     StribeckFit
-        Parameters, standard errors, covariance, residual RMS.
+        Parameters, standard errors, covariance, residual RMS (and the
+        fallback taken, if any).
 
     Raises
     ------
@@ -455,7 +486,8 @@ def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0)) -> 
         distinct speeds lie in the Stribeck transition of the fitted curve
         (for ``delta = 1``: roughly ``0.05*Vs <= |w| <= 3*Vs``), so ``Fs`` and
         ``Vs`` are not identified; or ``Fs - Fc`` is not resolved from zero
-        (no Stribeck effect in the data).
+        (no Stribeck effect in the data). With ``fallback=True`` only the
+        first two (too few samples or speeds).
 
     Notes
     -----
@@ -498,20 +530,116 @@ def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0)) -> 
     x = best.x
     Fc, Fs, logVs, delta, sigma = (float(v) for v in x)
     Vs = float(np.exp(logVs))
-    cov = _covariance(jac(x), resid(x), F * wt, x)
+    try:
+        cov = _covariance(jac(x), resid(x), F * wt, x)
+    except ExcitationError as exc:
+        if not fallback:
+            raise
+        return _delta_fixed_fit(w, F, wt, str(exc))
+    checks = []
+    for check in (lambda: _check_transition(aw, Vs, delta), lambda: _check_stribeck_effect(cov, Fc, Fs, F)):
+        try:
+            check()
+        except ExcitationError as exc:
+            if not fallback:
+                raise
+            checks.append(str(exc))
+    no_effect = [c for c in checks if "no resolvable" in c]
+    if checks and not no_effect and abs(Fs - Fc) < _MIN_UNDERSAMPLED_EXCESS * max(abs(Fc), abs(Fs)):
+        no_effect = [f"a Stribeck excess Fs - Fc = {Fs - Fc:.3g} N·m below {_MIN_UNDERSAMPLED_EXCESS:.0%} of the "
+                     f"friction level, in an undersampled transition ({checks[0]})"]
+    if no_effect:
+        return _coulomb_viscous_fit(w, F, wt, no_effect[0])
+    return _result(x, w, F, cov, bool(best.status > 0),
+                   ("transition-undersampled", tuple(checks)) if checks else (None, ()))
+
+
+def _result(x, w, F, cov, converged: bool, fb) -> StribeckFit:
+    """The :class:`StribeckFit` of optimiser parameters ``x`` with covariance ``cov`` (natural scale)."""
+    Fc, Fs, logVs, delta, sigma = (float(v) for v in x)
     stderr = dict(zip(PARAM_NAMES, np.sqrt(np.clip(np.diag(cov), 0.0, None)).tolist()))
-    _check_transition(aw, Vs, delta)
-    _check_stribeck_effect(cov, Fc, Fs, F)
+    cov = np.array(cov, dtype=float)
     cov.setflags(write=False)
-    model_F = _model(x, w)
     return StribeckFit(
-        Fc=Fc, Fs=Fs, Vs=Vs, delta=delta, sigma=sigma,
+        Fc=Fc, Fs=Fs, Vs=float(np.exp(logVs)), delta=delta, sigma=sigma,
         stderr=stderr,
         cov=cov,
-        residual_rms=float(np.sqrt(np.mean((model_F - F) ** 2))),
+        residual_rms=float(np.sqrt(np.mean((_model(x, w) - F) ** 2))),
         n_points=int(w.shape[0]),
-        converged=bool(best.status > 0),
+        converged=converged,
+        fallback=fb[0],
+        notes=tuple(fb[1]),
     )
+
+
+def _coulomb_viscous_fit(w, F, wt, reason: str) -> StribeckFit:
+    """No resolvable Stribeck effect: weighted LS line ``Fc*sgn(w) + sigma*w``, ``Fs = Fc`` (placeholders Vs, delta).
+
+    ``Vs`` is set to the lowest measured speed (any Stribeck effect lies below it) and ``delta`` to 1; the map
+    does not depend on them since ``Fs - Fc = 0``. Covariance: ``s**2 inv(A^T A)`` of the line (Seber & Wild
+    1989, Sec. 2.1), ``Fs`` perfectly correlated with ``Fc``, zero variance for the placeholders.
+    """
+    sg = np.sign(w)
+    A = np.column_stack([sg, w]) * wt[:, None]
+    (c, sig), _ = _linear_part(A, F * wt)
+    r = A @ np.array([c, sig]) - F * wt
+    dof = max(r.shape[0] - 2, 1)
+    s2 = max(float(r @ r) / dof, (_RES_FLOOR_EPS * np.finfo(float).eps * float(np.max(np.abs(F * wt)))) ** 2)
+    c2 = s2 * np.linalg.pinv(A.T @ A)
+    cov = np.zeros((5, 5))
+    idx = (0, 1, 4)  # Fc, Fs (= Fc), sigma
+    src = (0, 0, 1)
+    for i, a in zip(idx, src):
+        for j, b in zip(idx, src):
+            cov[i, j] = c2[a, b]
+    x = np.array([c, c, math.log(float(np.min(np.abs(w)))), 1.0, sig])
+    note = (f"no Stribeck effect resolved from the data, Coulomb + viscous model used (Fs = Fc = {c:.4g} N·m, "
+            f"sigma = {sig:.4g} N·m·s/rad; Vs, delta are placeholders). Reason: {reason}")
+    return _result(x, w, F, cov, True, ("coulomb-viscous", (note,)))
+
+
+def _delta_fixed_fit(w, F, wt, reason: str) -> StribeckFit:
+    """Singular five-parameter Jacobian: refit with ``delta = 1`` held (Fc, Fs, log Vs, sigma free).
+
+    Falls back to :func:`_coulomb_viscous_fit` when this fit is singular too or shows no Stribeck effect.
+    """
+    sg, aw = np.sign(w), np.abs(w)
+    logaw = np.log(aw)
+    free = [0, 1, 2, 4]
+
+    def full(x4):
+        return np.array([x4[0], x4[1], x4[2], 1.0, x4[3]])
+
+    def resid(x4):
+        return (_model(full(x4), w) - F) * wt
+
+    def jac(x4):
+        return (_jacobian(full(x4), sg, w, logaw) * wt[:, None])[:, free]
+
+    x0 = _initial_guesses(sg, w, aw, logaw, F, wt, [1.0])[0]
+    best = _best_lm_run(resid, jac, [x0[free]])
+    x = full(best.x)
+    Jw = jac(best.x)
+    col = np.linalg.norm(Jw, axis=0)
+    if np.any(col == 0.0):
+        return _coulomb_viscous_fit(w, F, wt, reason)
+    _, sv, Vt = np.linalg.svd(Jw / col, full_matrices=False)
+    if sv[-1] <= sv[0] / _COND_LIMIT:
+        return _coulomb_viscous_fit(w, F, wt, reason)
+    r = resid(best.x)
+    s2 = max(float(r @ r) / max(r.shape[0] - 4, 1),
+             (_RES_FLOOR_EPS * np.finfo(float).eps * float(np.max(np.abs(F * wt)))) ** 2)
+    c4 = s2 * ((Vt.T / sv**2) @ Vt) / np.outer(col, col)
+    T = np.diag([1.0, 1.0, math.exp(float(x[2])), 1.0])  # delta method for Vs
+    c4 = T @ c4 @ T
+    cov = np.zeros((5, 5))
+    cov[np.ix_(free, free)] = 0.5 * (c4 + c4.T)
+    try:
+        _check_stribeck_effect(cov, float(x[0]), float(x[1]), F)
+    except ExcitationError as exc:
+        return _coulomb_viscous_fit(w, F, wt, str(exc))
+    note = f"delta held at 1 (the five-parameter fit was singular: {reason})"
+    return _result(x, w, F, cov, bool(best.status > 0), ("delta-fixed", (note,)))
 
 
 def _check_data(w, F, F_std):

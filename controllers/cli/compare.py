@@ -34,7 +34,8 @@ def run(args) -> int:
     progress = None if not args.quiet else False
     comp = compare(p, duration=args.duration, seed=args.seed, modes=modes, Ts=args.Ts, noise_std=args.noise,
                    lam=args.lam, crossover=args.crossover, phase_margin=args.phase_margin, progress=progress,
-                   estimator=args.estimator, ff_input=args.ff_input, omega_q=args.omega_q)
+                   estimator=args.estimator, ff_input=args.ff_input, omega_q=args.omega_q,
+                   prefit=not args.no_prefit, Vs=args.Vs, delta=args.delta, J_design=args.J_design)
     paths = [] if args.no_figures else plot_comparison(comp, args.out)
     report = None
     if args.report:
@@ -58,8 +59,16 @@ def run(args) -> int:
         print(f"drift: Fc {p.Fc_change:+.0%}, Fs {p.Fs_change:+.0%} from t = {p.t_start:g} s to {p.t_end:g} s")
     print(f"PI: Kp={d.Kp:.4g} N·m·s/rad, Ki={d.Ki:.4g} N·m/rad, Tc={d.Tc:g} s; "
           f"phase margin {d.phase_margin:.1f} deg, gain margin {d.gain_margin:.3g}")
+    print(f"design inertia J_design={comp.J_design:g} kg·m²")
     if comp.prefit is not None:
-        print(f"Stribeck pre-fit (Sec. V-C): Vs={comp.prefit.Vs:.4g} rad/s, delta={comp.prefit.delta:.4g}")
+        fb = comp.prefit.fallback
+        kind = "Coulomb + viscous (no Stribeck effect)" if fb == "coulomb-viscous" else f"Vs={comp.prefit.Vs:.4g} " \
+            f"rad/s, delta={comp.prefit.delta:.4g}" + (f" ({fb})" if fb else "")
+        print(f"Stribeck pre-fit (Sec. V-C): {kind}")
+    elif args.Vs is not None:
+        print(f"Stribeck factors given: Vs={args.Vs:g} rad/s, delta={args.delta:g} (no pre-fit)")
+    for note in comp.notes:
+        print(f"note: {note}")
     print(f"run: {args.duration:g} s, seed {args.seed}; metrics over the second half\n")
     print(comp.table())
     if paths:
@@ -102,6 +111,14 @@ def register(sub) -> None:
                    help="RLS forgetting factor per update (default 0.995; 0.999 for canudas)")
     c.add_argument("--crossover", type=float, default=20.0, help="PI crossover in rad/s (default 20)")
     c.add_argument("--phase-margin", type=float, default=60.0, help="PI phase margin in deg (default 60)")
+    c.add_argument("--no-prefit", action="store_true",
+                   help="do not run the Stribeck pre-fit (then fixed/adaptive need --Vs and --delta)")
+    c.add_argument("--Vs", type=float, default=None,
+                   help="Stribeck velocity in rad/s, if known (with --delta; no pre-fit then)")
+    c.add_argument("--delta", type=float, default=None, help="Stribeck shape factor, if known (with --Vs)")
+    c.add_argument("--J-design", dest="J_design", type=float, default=None,
+                   help="design inertia in kg·m² for the PI, the estimator start, the gates and the DOB "
+                        "(default: the plant's J, as a data sheet gives it)")
     c.add_argument("--json", action="store_true", help="print the metrics as JSON instead of the table")
     c.add_argument("--no-figures", action="store_true", help="do not write figures")
     c.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -11,28 +11,37 @@ from adaptive_ff.compensation.feedforward import project_estimate
 from adaptive_ff.identification.ls import LSResult, fit_ls
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from adaptive_ff.compensation.sliding_estimator import SlidingFit, fit_sliding
-from adaptive_ff.identification.stribeck_fit import StribeckFit, fit_stribeck
+from adaptive_ff.identification.stribeck_fit import StribeckFit
 from controllers.simulation.closed_loop import ModeOptions, run_mode
 from controllers.simulation.compensators import MODES
 from controllers.design.pi import PIDesign, design_pi
-from controllers.experiments.quasi_static import bidirectional_velocities, quasi_static_runs
-from plant.errors import ExcitationError, ParameterError, check_positive
+from controllers.experiments.quasi_static import (StribeckDesign, StribeckExperiment, prefit_stribeck,
+                                                  stribeck_experiment)
+from plant.errors import ParameterError, check_finite_scalar, check_positive
 from plant.excitation import bandlimited_noise, multisine_reference
 from plant.joint import simulate
 from plant.models import plant_to_dict
 from plant.results import axes_or_new, json_safe
 from plant.sampling import sample
 
-__all__ = ["Comparison", "CompareOptions", "compare", "eta", "FIXED_METHODS", "friction_scale", "prefit_stribeck"]
+__all__ = ["Comparison", "CompareOptions", "compare", "eta", "FIXED_METHODS", "PREFIT_MODES", "friction_scale",
+           "prefit_stribeck"]
 
 #: Offline identification behind the ``fixed`` mode: the sliding-regime
 #: inverse-dynamics LS (:func:`adaptive_ff.compensation.sliding_estimator.fit_sliding`,
 #: default) or the paper's eq. 4 LS at Ts (:func:`adaptive_ff.fit_ls`).
 FIXED_METHODS = ("sliding", "eq4")
 
+#: Modes that use the Stribeck factors Vs, delta (the pre-fit runs only for them); ``none``, ``canudas``,
+#: ``dob``, ``oracle`` and ``frictionless`` never run it.
+PREFIT_MODES = ("fixed", "adaptive")
+
 
 def friction_scale(p, peak_w: float) -> float:
     """Largest |steady-state friction| (N·m) of plant ``p`` for speeds up to ``peak_w`` (rad/s).
+
+    Reads the true plant: for tests and benchmarks that size a scenario. :func:`compare` uses the torque
+    scale measured in its quasi-static runs instead (:attr:`StribeckExperiment.torque_scale`).
 
     Evaluated on 400 speeds log-spaced from ``1e-4*peak_w`` to ``peak_w`` in both
     directions (covers the stiction peak and the viscous end).
@@ -72,6 +81,14 @@ class Comparison:
     model : RegressionModel
         Regression structure of eq. 4 with the pre-fitted Vs, delta (used by
         the ``eq4`` alternatives).
+    experiment : StribeckExperiment or None
+        The quasi-static runs (designed from the joint's response) behind the
+        pre-fit and the measured torque scale; None when neither was needed.
+    J_design : float or None
+        Design inertia used (kg·m²).
+    notes : tuple of str
+        What the pre-fit could not do as asked (e.g. the Coulomb + viscous
+        fallback of a joint without Stribeck effect, runs that did not hold).
     """
 
     plant: object
@@ -81,6 +98,9 @@ class Comparison:
     prefit: StribeckFit | None
     offline: SlidingFit | LSResult | None
     model: RegressionModel
+    experiment: StribeckExperiment | None = None
+    J_design: float | None = None
+    notes: tuple = ()
 
     def rows(self) -> list[dict]:
         """One dict per mode: mode, rms, max, rms_reversal (second half, rad/s), u_rms, eta."""
@@ -106,8 +126,8 @@ class Comparison:
         return json_safe(self.to_json_dict())
 
     def summary(self) -> str:
-        """The comparison table (:meth:`table`)."""
-        return self.table()
+        """The comparison table (:meth:`table`), then the notes of the pre-fit, one per line."""
+        return "\n".join([self.table()] + [f"note: {n}" for n in self.notes])
 
     def plot(self, ax=None):
         """Bar chart of eta per mode on ``ax`` (a new figure when None); returns the Axes."""
@@ -129,6 +149,10 @@ class Comparison:
                               "gain_margin": self.design.gain_margin}}
         if self.prefit is not None:
             out["prefit"] = {k: float(getattr(self.prefit, k)) for k in ("Fc", "Fs", "Vs", "delta", "sigma")}
+            out["prefit"]["fallback"] = self.prefit.fallback
+        if self.J_design is not None:
+            out["J_design"] = float(self.J_design)
+        out["notes"] = list(self.notes)
         if self.offline is not None:
             e = self.offline.estimate
             out["offline_ls"] = {k: float(getattr(e, k)) for k in ("J", "tau", "sigma", "Fc", "Fs")}
@@ -140,54 +164,6 @@ class Comparison:
             e = adaptive.estimate
             out["adaptive_final"] = {k: float(getattr(e, k)) for k in ("J", "tau", "sigma", "Fc", "Fs")}
         return out
-
-
-def prefit_stribeck(qs) -> StribeckFit:
-    """Stribeck pre-fit (Sec. V-C) of quasi-static runs, robust to stick-slip runs and asymmetric friction.
-
-    Parameters
-    ----------
-    qs : controllers.experiments.quasi_static.QuasiStaticData
-        Bidirectional constant-velocity runs.
-
-    Returns
-    -------
-    StribeckFit
-        The joint fit of both directions; if that cannot resolve the Stribeck
-        effect (e.g. direction-dependent levels), the fit of the positive
-        direction with ``Vs`` and ``delta`` replaced by the geometric and
-        arithmetic means of the per-direction fits.
-
-    Raises
-    ------
-    ExcitationError
-        No fit succeeds.
-
-    Notes
-    -----
-    Runs whose velocity spread exceeds twice the median spread are dropped
-    first: at the lowest speeds a joint that really sticks (or a soft loop on
-    the negative Stribeck slope) ends in a stick-slip limit cycle, whose mean
-    torque is not a point of the curve (the ``quasi_static_runs`` Notes).
-    """
-    w, u, ws = np.asarray(qs.w_mean), np.asarray(qs.u_mean), np.asarray(qs.w_std)
-    keep = ws <= 2.0 * np.median(ws)
-    w, u = w[keep], u[keep]
-    try:
-        return fit_stribeck(w, u, F_std=None)
-    except ExcitationError as joint_error:
-        fits = []
-        for sgn in (1.0, -1.0):
-            sel = sgn * w > 0
-            try:
-                fits.append(fit_stribeck(sgn * w[sel], sgn * u[sel], F_std=None))
-            except ExcitationError:
-                continue
-        if not fits:
-            raise joint_error
-        Vs = float(np.exp(np.mean([np.log(f.Vs) for f in fits])))
-        delta = float(np.mean([f.delta for f in fits]))
-        return replace(fits[0], Vs=Vs, delta=delta)
 
 
 @dataclass(frozen=True)
@@ -208,16 +184,24 @@ class CompareOptions:
     Tc, Ts : float
         Controller period and estimator sample time (s).
     u_max : float or None
-        Torque saturation (N·m); default ``3*(F_peak + J*accel_peak)`` with ``F_peak`` from
-        :func:`friction_scale` (of the plant at the end of the run when it drifts).
+        Torque saturation (N·m); default ``3*(F_peak + J_design*accel_peak)`` with ``F_peak`` the largest mean
+        torque measured in the quasi-static runs (:attr:`StribeckExperiment.torque_scale`; speeds up to 1.2
+        times the reference's peak).
     noise_std : float
         Velocity measurement noise (rad/s), default 1e-3.
     lam : float or None
         Forgetting factor of the adaptive estimators (default per estimator, see
         :class:`controllers.simulation.compensators.ModeOptions`).
     prefit : bool
-        Estimate Vs, delta by the Stribeck pre-fit from simulated quasi-static runs (paper Sec. V-C); False
-        uses the true values.
+        Estimate Vs, delta by the Stribeck pre-fit from quasi-static runs designed from the joint's response
+        (:func:`controllers.experiments.quasi_static.stribeck_experiment`, paper Sec. V-C). Run only for the
+        modes that use Vs, delta (``fixed``, ``adaptive``) and when ``Vs``/``delta`` are not given; False needs
+        ``Vs`` and ``delta`` for those modes.
+    Vs, delta : float or None
+        Stribeck velocity (rad/s, > 0) and shape factor (non-zero) the user knows; given (both), no pre-fit runs.
+    J_design : float or None
+        Design inertia (kg·m², > 0): the PI design, the quasi-static loops, the estimator start, the gates and
+        the DOB's nominal inertia. Default None: the plant's ``J``, as a data sheet would give it.
     lag : bool
         Filter the feedforward through the estimated lag.
     estimator : {"sliding", "eq4"}
@@ -246,7 +230,8 @@ class CompareOptions:
     Raises
     ------
     ParameterError
-        Unknown mode or fixed method, duration not > 0.
+        Unknown mode or fixed method, duration not > 0, ``Vs``/``delta``/``J_design`` out of range or only
+        one of ``Vs``, ``delta`` given.
     """
 
     duration: float = 120.0
@@ -276,9 +261,20 @@ class CompareOptions:
     faults: dict | None = None
     dwell_max: float = 0.01
     offset: bool = True
+    Vs: float | None = None
+    delta: float | None = None
+    J_design: float | None = None
 
     def __post_init__(self):
         check_positive("duration", self.duration)
+        if (self.Vs is None) != (self.delta is None):
+            raise ParameterError(f"give both Vs and delta, or neither; got Vs={self.Vs!r}, delta={self.delta!r}")
+        if self.Vs is not None:
+            check_positive("Vs", self.Vs)
+            if check_finite_scalar("delta", self.delta) == 0.0:
+                raise ParameterError("delta must be non-zero (|w/Vs|**0 is constant), got 0.0")
+        if self.J_design is not None:
+            check_positive("J_design", self.J_design)
         unknown = [m for m in self.modes if m not in MODES]
         if unknown:
             raise ParameterError(f"unknown mode(s) {unknown}; known: {MODES}")
@@ -315,11 +311,18 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
     -----
     ``fixed`` uses an offline fit of a separate identification run: the
     paper's Sec. IV-A experiment (open loop, 1 Hz low-pass band-limited
-    white-noise torque of standard deviation ``1.2*F_peak``, same length, same
+    white-noise torque of standard deviation ``1.2*F_peak``, ``F_peak`` the
+    torque scale measured in the quasi-static runs, same length, same
     velocity noise), identified by ``fixed_method`` — the same sliding-regime
     regression as the adaptive estimator (on the 1 kHz record) or the paper's
     eq. 4 at ``Ts``. ``adaptive`` estimates online on the loop's own data.
     ``eta`` uses the RMS error over the second half of the run.
+
+    No field of the true plant other than ``J`` (the default design inertia,
+    when ``J_design`` is not given) reaches the design, the estimators, the
+    compensators or the experiments: they see the plant only through its
+    simulated response (the plant step). ``oracle`` and ``frictionless`` are
+    the references, not compensators a user could build.
     """
     o = options if options is not None else CompareOptions()
     if changes:
@@ -329,40 +332,43 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
             raise ParameterError(f"compare: {exc}") from None
     run_modes = [m for m in MODES if m in set(o.modes) | {"none", "frictionless"}]
     p0 = p.at(0.0) if hasattr(p, "at") else p
+    J = float(p0.J) if o.J_design is None else float(o.J_design)  # the design inertia: no other plant field is read
     ref_ss, id_ss, noise_ss, qs_ss = np.random.SeedSequence(o.seed).spawn(4)
     ref = multisine_reference(o.duration, dt=o.Tc, rng=np.random.default_rng(ref_ss))
     peak_w, peak_a = float(np.max(np.abs(ref.w))), float(np.max(np.abs(ref.dw)))
-    u_max = o.u_max
-    if u_max is None:
-        p_end = p.at(o.duration) if hasattr(p, "at") else p
-        u_max = 3.0 * (max(friction_scale(p0, peak_w), friction_scale(p_end, peak_w)) + p0.J * peak_a)
-    design = design_pi(p0.J, crossover=o.crossover, phase_margin=o.phase_margin, Tc=o.Tc)
-    steps = len(run_modes) + (1 if "fixed" in run_modes else 0) + (1 if o.prefit else 0)
-    bar = tqdm(total=steps, desc="compare", disable=(None if progress is None else not progress), leave=False)
-    fit = None
-    if o.prefit:
-        bar.set_postfix_str("Stribeck pre-fit")
-        vel = bidirectional_velocities(0.2 * p0.Vs, 1.2 * peak_w, 12)
-        qs = quasi_static_runs(p0, vel, Tc=o.Tc, noise_std=o.noise_std, rng=np.random.default_rng(qs_ss))
-        fit = prefit_stribeck(qs)
-        Vs, delta = fit.Vs, fit.delta
+    needs_prefit = any(m in PREFIT_MODES for m in run_modes) and o.Vs is None
+    if needs_prefit and not o.prefit:
+        raise ParameterError(f"modes {[m for m in run_modes if m in PREFIT_MODES]} need Vs and delta: give them "
+                             f"(Vs=..., delta=...; --Vs/--delta) or allow the Stribeck pre-fit")
+    bar = tqdm(total=len(run_modes) + ("fixed" in run_modes) + needs_prefit, desc="compare",
+               disable=(None if progress is None else not progress), leave=False)
+    exp = None
+    if needs_prefit or o.u_max is None:
+        bar.set_postfix_str("quasi-static runs")
+        exp = _quasi_static(p0, o, J, peak_w, np.random.default_rng(qs_ss), fit=needs_prefit)
+    fit = exp.fit if needs_prefit else None
+    Vs, delta = (fit.Vs, fit.delta) if fit is not None else (o.Vs, o.delta)
+    if needs_prefit:
         bar.update()
-    else:
-        Vs, delta = p0.Vs, p0.delta
-    model = RegressionModel(Vs, delta, lag=True)
+    # the measured friction level (largest mean torque of the quasi-static runs) bounds the torques
+    F_peak = exp.torque_scale if exp is not None else None
+    u_max = o.u_max if o.u_max is not None else 3.0 * (F_peak + J * peak_a)
+    F_peak = F_peak if F_peak is not None else u_max / 3.0
+    design = design_pi(J, crossover=o.crossover, phase_margin=o.phase_margin, Tc=o.Tc)
+    model = RegressionModel(1.0 if Vs is None else Vs, 1.0 if delta is None else delta, lag=True)
     offline = estimate = None
     if "fixed" in run_modes:
         bar.set_postfix_str("identification run")
-        offline = _offline_fit(p0, o, model, peak_w, Vs, delta, np.random.default_rng(id_ss))
+        offline = _offline_fit(p0, o, model, F_peak, Vs, delta, np.random.default_rng(id_ss))
         estimate = project_estimate(offline.estimate, F_max=0.5 * u_max)
         bar.update()
     initial = None
     if o.adaptive_initial and fit is not None:
-        initial = FrictionEstimate(J=p0.J, tau=0.0, sigma=max(fit.sigma, 0.0), Fc=max(fit.Fc, 0.0),
+        initial = FrictionEstimate(J=J, tau=0.0, sigma=max(fit.sigma, 0.0), Fc=max(fit.Fc, 0.0),
                                    Fs=max(fit.Fs, 0.0), offset=0.0, Vs=Vs, delta=delta, J_alt=float("nan"))
     # the feedforward may use at most half the actuator range; friction levels above it are implausible
     mo = ModeOptions(Kp=design.Kp, Ki=design.Ki, u_max=u_max, ff_max=0.5 * u_max, Tc=o.Tc, Ts=o.Ts,
-                     noise_std=o.noise_std, lag=o.lag, model=model, estimate=estimate, lam=o.lam,
+                     noise_std=o.noise_std, J_design=J, lag=o.lag, model=model, estimate=estimate, lam=o.lam,
                      estimator=o.estimator, Vs=Vs, delta=delta, sign_width=o.sign_width, T_filter=o.T_filter,
                      forgetting=o.forgetting, stick_band=3.0 * o.noise_std if o.stick_band is None else o.stick_band,
                      stick_samples=o.stick_samples, dwell_max=o.dwell_max, offset=o.offset, warmup=o.warmup,
@@ -377,12 +383,23 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
     rn = results["none"].metrics.rms_second_half
     rf = results["frictionless"].metrics.rms_second_half
     etas = {mode: eta(rn, r.metrics.rms_second_half, rf) for mode, r in results.items()}
-    return Comparison(plant=p, design=design, results=results, eta=etas, prefit=fit, offline=offline, model=model)
+    notes = tuple(exp.notes) if fit is not None else ()
+    return Comparison(plant=p, design=design, results=results, eta=etas, prefit=fit, offline=offline, model=model,
+                      experiment=exp, J_design=J, notes=notes)
 
 
-def _offline_fit(p0, o: CompareOptions, model, peak_w, Vs, delta, id_rng):
-    """The paper's Sec. IV-A identification experiment (open loop, band-limited noise torque), fitted."""
-    _, u_id = bandlimited_noise(o.duration, dt=o.Tc, cutoff=1.0, std=1.2 * friction_scale(p0, peak_w), rng=id_rng)
+def _quasi_static(p0, o: CompareOptions, J: float, peak_w: float, rng, *, fit: bool) -> StribeckExperiment:
+    """The quasi-static runs of :func:`compare`: designed from the joint's response; coarse only without a fit."""
+    return stribeck_experiment(p0, J_design=J, noise_std=o.noise_std, Tc=o.Tc, rng=rng,
+                               options=StribeckDesign(w_max=1.2 * peak_w), fit=fit)
+
+
+def _offline_fit(p0, o: CompareOptions, model, F_peak, Vs, delta, id_rng):
+    """The paper's Sec. IV-A identification experiment (open loop, band-limited noise torque), fitted.
+
+    The torque's standard deviation is ``1.2*F_peak``, the measured friction level (no plant field is read).
+    """
+    _, u_id = bandlimited_noise(o.duration, dt=o.Tc, cutoff=1.0, std=1.2 * F_peak, rng=id_rng)
     resp = simulate(p0, u_id, dt=o.Tc)
     if o.fixed_method == "sliding":
         n = u_id.shape[0]

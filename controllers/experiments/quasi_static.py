@@ -10,17 +10,20 @@ Stribeck curve, to which the paper fits ``Vs`` and ``delta``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import statistics
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from adaptive_ff.identification.stribeck_fit import fit_stribeck
 from controllers.design.pi import PIController, PIDesign, design_pi
-from plant.errors import ParameterError, check_nonnegative, check_positive, check_signal
+from plant.errors import ExcitationError, ParameterError, SignalError, check_nonnegative, check_positive, check_signal
 from plant.friction import JointParams
 from plant.joint import make_rk4_step
 from plant.results import axes_or_new, json_safe
 
-__all__ = ["QuasiStaticData", "quasi_static_runs", "bidirectional_velocities", "QS_CROSSOVER"]
+__all__ = ["QuasiStaticData", "quasi_static_runs", "bidirectional_velocities", "QS_CROSSOVER", "StribeckDesign",
+           "StribeckExperiment", "stribeck_experiment", "prefit_stribeck"]
 
 #: Default crossover (rad/s) of the velocity loop used for the runs: stiff enough that
 #: the PI dominates the negative slope of the Stribeck curve (see quasi_static_runs).
@@ -289,3 +292,404 @@ def quasi_static_runs(
     return QuasiStaticData(setpoints=v.copy(), w_mean=w_mean, w_std=w_std, u_mean=u_mean,
                            u_std=u_std, hold=n_hold * Tc, settle=n_settle * Tc, Tc=Tc,
                            noise_std=noise_std, design=design)
+
+
+# --------------------------------------------------------------------------- experiment design that adapts
+
+
+@dataclass(frozen=True)
+class StribeckDesign:
+    """Settings of :func:`stribeck_experiment` (keyword-only, validated; SI units).
+
+    Parameters
+    ----------
+    w_min, w_max : float
+        Speed range (rad/s) of the coarse log-spaced sweep, ``0 < w_min < w_max``; default 1e-4 to 1. Speeds
+        below half the measurement noise (``noise_std/2``) are skipped: the loop then follows the noise
+        through zero and no run can hold them.
+    per_decade : int
+        Speeds per decade of the coarse sweep (per direction), >= 1; default 3.
+    n_refine : int
+        Speeds added per direction in each refinement round around the detected transition, >= 1; default 4.
+    max_rounds : int
+        Refinement rounds at most, >= 0; default 3.
+    crossover, crossover_max : float
+        Crossover (rad/s) of the quasi-static velocity loop, and the stiffer one a run that does not hold
+        its setpoint is repeated with; defaults :data:`QS_CROSSOVER` and 300 (at ``Tc = 1`` ms).
+    settle, hold : float
+        Settling time and averaging window (s) per run; the settling time of a slow run is lengthened to
+        three breakaway times (see :func:`stribeck_experiment`), up to ``settle_max``.
+    settle_max : float
+        Longest settling time (s), >= ``settle``; default 8.
+
+    Raises
+    ------
+    ParameterError
+        A value out of range (named, with its value).
+    """
+
+    w_min: float = 1e-4
+    w_max: float = 1.0
+    per_decade: int = 3
+    n_refine: int = 4
+    max_rounds: int = 3
+    crossover: float = QS_CROSSOVER
+    crossover_max: float = 300.0
+    settle: float = 2.0
+    hold: float = 2.0
+    settle_max: float = 8.0
+
+    def __post_init__(self):
+        check_positive("w_min", self.w_min)
+        check_positive("w_max", self.w_max)
+        if not self.w_max > self.w_min:
+            raise ParameterError(f"w_max must be > w_min = {self.w_min!r}, got {self.w_max!r}")
+        for name, low in (("per_decade", 1), ("n_refine", 1), ("max_rounds", 0)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < low:
+                raise ParameterError(f"{name} must be an integer >= {low}, got {v!r}")
+        check_positive("crossover", self.crossover)
+        if not self.crossover_max >= self.crossover:
+            raise ParameterError(f"crossover_max must be >= crossover = {self.crossover!r}, got {self.crossover_max!r}")
+        check_positive("hold", self.hold)
+        check_nonnegative("settle", self.settle)
+        if not self.settle_max >= self.settle:
+            raise ParameterError(f"settle_max must be >= settle = {self.settle!r}, got {self.settle_max!r}")
+
+
+@dataclass(frozen=True)
+class StribeckExperiment:
+    """Result of :func:`stribeck_experiment`: every run it designed, which of them held, and the fit.
+
+    Attributes
+    ----------
+    setpoints, w_mean, w_std, u_mean, u_std : ndarray, shape (n,)
+        Per run, as in :class:`QuasiStaticData` (rad/s, N·m), in the order run.
+    crossover : ndarray, shape (n,)
+        Crossover (rad/s) of the velocity loop of each run.
+    held : ndarray of bool, shape (n,)
+        Whether the run held its setpoint (a support point of the Stribeck curve, used by the fit); a run that
+        ends in stick-slip or follows the noise through zero does not.
+    fit : StribeckFit or None
+        Stribeck pre-fit of the held runs (None for ``stribeck_experiment(..., fit=False)``) (:func:`prefit_stribeck`, ``fallback=True``: a Coulomb + viscous
+        result when the joint shows no Stribeck effect, see ``fit.fallback``).
+    rounds : int
+        Refinement rounds run.
+    notes : tuple of str
+        What the design did (runs repeated with the stiffer loop, runs not held, the fit's fallback).
+    """
+
+    setpoints: np.ndarray
+    w_mean: np.ndarray
+    w_std: np.ndarray
+    u_mean: np.ndarray
+    u_std: np.ndarray
+    crossover: np.ndarray
+    held: np.ndarray
+    fit: object
+    rounds: int
+    notes: tuple
+
+    @property
+    def torque_scale(self) -> float:
+        """Largest measured mean torque ``max |u_mean|`` (N·m): the friction level a user has measured."""
+        return float(np.max(np.abs(self.u_mean)))
+
+    def to_dict(self) -> dict:
+        """Runs (lists), held flags, the fit (:meth:`StribeckFit.to_dict`), rounds and notes, strict JSON."""
+        return json_safe({
+            "setpoints": self.setpoints, "w_mean": self.w_mean, "w_std": self.w_std, "u_mean": self.u_mean,
+            "u_std": self.u_std, "crossover": self.crossover, "held": [bool(h) for h in self.held],
+            "fit": None if self.fit is None else self.fit.to_dict(), "rounds": self.rounds, "notes": list(self.notes)})
+
+    def summary(self) -> str:
+        """A few lines: runs, held runs, speed range, fitted Vs and delta, notes."""
+        aw = np.abs(self.setpoints[self.held]) if np.any(self.held) else np.abs(self.setpoints)
+        line = (f"{self.setpoints.shape[0]} constant-velocity runs ({int(self.held.sum())} held, "
+                f"|w| {float(aw.min()):.3g} to {float(aw.max()):.3g} rad/s), {self.rounds} refinement round(s)")
+        if self.fit is not None:
+            line += f"; Vs = {self.fit.Vs:.4g} rad/s, delta = {self.fit.delta:.4g}"
+        return "\n".join([line] + [f"note: {n}" for n in self.notes])
+
+    def plot(self, ax=None):
+        """Held runs (mean torque over mean velocity) with the fitted curve, not-held runs as crosses.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; default a new figure.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+        """
+        h = self.held
+        if self.fit is None:
+            ax = axes_or_new(ax)
+            ax.errorbar(self.w_mean[h], self.u_mean[h], yerr=self.u_std[h], fmt="o", ms=3, label="held runs")
+            ax.set_xlabel("velocity w (rad/s)")
+            ax.set_ylabel("torque u (N·m)")
+        else:
+            ax = self.fit.plot(ax, w=self.w_mean[h], F=self.u_mean[h], F_std=self.u_std[h])
+        bad = ~h
+        if np.any(bad):
+            ax.plot(self.w_mean[bad], self.u_mean[bad], "x", color="C3", label="not held (not used)")
+            ax.legend(fontsize=8)
+        return ax
+
+
+def prefit_stribeck(qs, *, fallback: bool = False):
+    """Stribeck pre-fit (Sec. V-C) of quasi-static runs, robust to stick-slip runs and asymmetric friction.
+
+    Parameters
+    ----------
+    qs : QuasiStaticData or StribeckExperiment
+        Bidirectional constant-velocity runs (of a :class:`StribeckExperiment`: its held runs only).
+    fallback : bool, keyword-only
+        Return a reduced fit with a note instead of raising when the data do not determine the five
+        parameters (see :func:`adaptive_ff.identification.stribeck_fit.fit_stribeck`).
+
+    Returns
+    -------
+    StribeckFit
+        The joint fit of both directions; if that cannot resolve the Stribeck
+        effect (e.g. direction-dependent levels), the fit of the positive
+        direction with ``Vs`` and ``delta`` replaced by the geometric and
+        arithmetic means of the per-direction fits; with ``fallback`` and
+        neither, the joint fit's fallback.
+
+    Raises
+    ------
+    ExcitationError
+        No fit succeeds (``fallback=False``), or fewer than 6 usable runs.
+
+    Notes
+    -----
+    Of a :class:`QuasiStaticData`, runs whose velocity spread exceeds twice
+    the median spread are dropped first: at the lowest speeds a joint that
+    really sticks (or a soft loop on the negative Stribeck slope) ends in a
+    stick-slip limit cycle, whose mean torque is not a point of the curve (the
+    :func:`quasi_static_runs` Notes).
+    """
+    w, u, ws = np.asarray(qs.w_mean), np.asarray(qs.u_mean), np.asarray(qs.w_std)
+    keep = np.asarray(qs.held, dtype=bool) if hasattr(qs, "held") else ws <= 2.0 * np.median(ws)
+    w, u = w[keep], u[keep]
+    try:
+        return fit_stribeck(w, u, F_std=None)
+    except ExcitationError as joint_error:
+        fits = []
+        for sgn in (1.0, -1.0):
+            sel = sgn * w > 0
+            try:
+                fits.append(fit_stribeck(sgn * w[sel], sgn * u[sel], F_std=None))
+            except (ExcitationError, SignalError):
+                continue
+        if not fits:
+            if fallback:
+                return fit_stribeck(w, u, F_std=None, fallback=True)
+            raise joint_error
+        Vs = float(statistics.geometric_mean([f.Vs for f in fits]))
+        delta = float(np.mean([f.delta for f in fits]))
+        return replace(fits[0], Vs=Vs, delta=delta)
+
+
+def _held(w_ref, w_std, u_std, noise_std: float, u_base: float) -> np.ndarray:
+    """Runs that held their setpoint: true-velocity spread <= 30 % of |w_ref|, torque spread <= 3x the loop's.
+
+    The measured spread is the noise and the joint's own velocity spread; ``w_std**2 - noise_std**2`` estimates
+    the latter. ``u_base`` is the torque spread of the fast runs of the same loop (its noise response).
+    """
+    excess = np.sqrt(np.maximum(w_std**2 - noise_std**2, 0.0))
+    return (excess <= 0.3 * np.abs(w_ref)) & (u_std <= 3.0 * u_base)
+
+
+def _settles(speeds, design: PIDesign, o: StribeckDesign, u_level: float) -> np.ndarray:
+    """Settling time per speed: >= three breakaway times ``u_level/(Ki |w|)`` (Notes of quasi_static_runs)."""
+    t_b = u_level / (design.Ki * np.abs(speeds)) if u_level > 0 else np.zeros(len(speeds))
+    return np.clip(3.0 * t_b, o.settle, o.settle_max)
+
+
+class _Runner:
+    """The runs of :func:`stribeck_experiment`: one list per statistic, appended as runs are made."""
+
+    def __init__(self, p, J_design: float, o: StribeckDesign, Tc: float, noise_std: float, rng):
+        self.p, self.o, self.Tc, self.noise_std, self.rng = p, o, Tc, noise_std, rng
+        self.designs = [design_pi(J_design, sigma=0.0, crossover=c, phase_margin=60.0, Tc=Tc)
+                        for c in (o.crossover, o.crossover_max)]
+        self.cols = {k: [] for k in ("setpoints", "w_mean", "w_std", "u_mean", "u_std", "crossover", "held")}
+        self.u_base = [None, None]
+        self.n_retried = 0
+
+    def _run(self, speeds, level: int) -> tuple:
+        d = self.designs[level]
+        u_level = max([abs(x) for x in self.cols["u_mean"]] or [0.0])
+        by_settle = {}
+        for s, st in zip(speeds, _settles(speeds, d, self.o, u_level)):
+            by_settle.setdefault(float(st), []).append(s)
+        out = []
+        for st, sp in by_settle.items():
+            q = quasi_static_runs(self.p, np.array(sp), hold=self.o.hold, settle=st, Tc=self.Tc,
+                                  noise_std=self.noise_std, rng=self.rng, design=d)
+            out += list(zip(q.setpoints, q.w_mean, q.w_std, q.u_mean, q.u_std))
+        out.sort(key=lambda r: -abs(r[0]))
+        a = np.array(out)
+        if self.u_base[level] is None:  # the loop's noise response: torque spread of the fastest third
+            self.u_base[level] = float(np.median(a[: max(len(a) // 3, 2), 4])) + 1e-12
+        return a, _held(a[:, 0], a[:, 2], a[:, 4], self.noise_std, self.u_base[level])
+
+    def measure(self, speeds) -> None:
+        """Run ``speeds`` (fastest first) with the default loop; repeat the runs that did not hold stiffer."""
+        a, ok = self._run(np.array(sorted(speeds, key=lambda s: -abs(s))), 0)
+        if not np.all(ok) and self.o.crossover_max > self.o.crossover:
+            if self.u_base[1] is None:
+                self.u_base[1] = self.u_base[0] * self.designs[1].Kp / self.designs[0].Kp
+            b, ok_b = self._run(a[~ok, 0], 1)
+            self.n_retried += int(b.shape[0])
+            self._append(a[ok], np.ones(int(ok.sum()), bool), 0)
+            self._append(b, ok_b, 1)
+        else:
+            self._append(a, ok, 0)
+
+    def _append(self, a, ok, level: int) -> None:
+        for row, h in zip(a.tolist(), ok.tolist()):
+            for k, v in zip(("setpoints", "w_mean", "w_std", "u_mean", "u_std"), row):
+                self.cols[k].append(v)
+            self.cols["crossover"].append(self.designs[level].crossover)
+            self.cols["held"].append(bool(h))
+
+    def arrays(self) -> dict:
+        return {k: np.array(v, dtype=bool if k == "held" else float) for k, v in self.cols.items()}
+
+
+def _refinement(w, u, held, n_refine: int) -> np.ndarray:
+    """New speeds (both signs) between the lowest held speed still at the full Stribeck excess and the first
+    speed above it where the excess over the Coulomb + viscous line of the fast runs has died out."""
+    aw, m = np.abs(w[held]), np.sign(w[held]) * u[held]
+    if aw.size < 4:
+        return np.empty(0)
+    hi = aw >= np.median(aw)
+    A = np.column_stack([np.ones(int(hi.sum())), aw[hi]])
+    (c, sig), *_ = np.linalg.lstsq(A, m[hi], rcond=None)
+    e = np.abs(m - (c + sig * aw))
+    E = float(np.max(e))
+    if E <= 0.02 * abs(c):
+        return np.empty(0)  # no Stribeck effect to refine
+    order = np.argsort(aw)
+    aw, e = aw[order], e[order]
+    full = np.flatnonzero(e >= 0.95 * E)
+    lo = float(aw[full[-1]]) if full.size else float(aw[0])
+    small = np.flatnonzero((aw > lo) & (e <= 0.05 * E))
+    top = float(aw[small[0]]) if small.size else float(aw[-1])
+    new = np.geomspace(lo, top, n_refine + 2)[1:-1]
+    known = np.unique(np.abs(w))
+    new = np.array([s for s in new if np.min(np.abs(np.log(known / s))) > 0.02])
+    return np.concatenate([-new[::-1], new]) if new.size else new
+
+
+def stribeck_experiment(p, *, J_design: float, noise_std: float = 0.0, Tc: float = 1e-3, rng=None,
+                        options: StribeckDesign | None = None, fit: bool = True) -> StribeckExperiment:
+    """Quasi-static runs whose speeds are chosen from the joint's own response, and the Stribeck pre-fit.
+
+    Parameters
+    ----------
+    p : plant model
+        The joint (any model of :mod:`plant.models`); only its simulated response is used (the plant step).
+    J_design : float, keyword-only
+        Design inertia (kg·m²) of the quasi-static velocity loops, > 0 (a data-sheet value).
+    noise_std : float, keyword-only
+        Velocity measurement noise (rad/s), >= 0: simulated on the measurement and used as the user's noise
+        estimate (which runs can hold, the lowest speed).
+    Tc : float, keyword-only
+        Controller period and integration step (s).
+    rng : numpy.random.Generator, keyword-only
+        Noise source (needed when ``noise_std > 0``).
+    options : StribeckDesign, keyword-only
+        Speed range, refinement and loop settings; default ``StribeckDesign()``.
+    fit : bool, keyword-only
+        False: the coarse sweep only, no refinement and no fit (``result.fit`` is None; e.g. to measure the
+        torque scale), which cannot fail.
+
+    Returns
+    -------
+    StribeckExperiment
+
+    Raises
+    ------
+    ParameterError
+        ``J_design``, ``noise_std``, ``Tc`` out of range, or ``noise_std > 0`` without ``rng``.
+    ExcitationError
+        With ``fit``: fewer than 6 runs held their setpoint (the data of the joint cannot give any friction
+        map).
+
+    Notes
+    -----
+    1. Coarse sweep: ``per_decade`` log-spaced speeds per decade from ``max(w_min, noise_std/2)`` to
+       ``w_max``, both directions, fastest first, with the PI designed for ``J_design`` at ``crossover``.
+       A run holds its setpoint when the joint's own velocity spread (``sqrt(w_std**2 - noise_std**2)``) is
+       at most 30 % of the speed and its torque spread at most 3 times that of the fast runs; one that does
+       not (stick-slip on the negative slope of the Stribeck curve, Notes of :func:`quasi_static_runs`) is
+       repeated with the stiffer loop at ``crossover_max`` (``Kp`` beats a steeper slope). Slow runs settle
+       for three breakaway times ``|u|/(Ki |w|)`` with ``|u|`` the largest torque measured so far.
+    2. Refinement: the excess of the held runs over the Coulomb + viscous line of the fast half locates the
+       transition; ``n_refine`` speeds per direction are added between the slowest held speed still at the
+       full excess and the first speed where it has died out (the same two criteria as the fit's transition
+       window, 95 % and 5 %). Repeated while the strict fit (:func:`prefit_stribeck`) says the data do not
+       determine it, at most ``max_rounds`` times.
+    3. The fit of the held runs with ``fallback=True``: never rejects the data it designed. No Stribeck
+       effect gives the Coulomb + viscous model with a note (``fit.fallback``).
+
+    Source: the experiment of Ruderman, Sec. V-C, Fig. 8; the design loop (a coarse sweep, then points
+    placed where the response changes) is sequential experiment design as in Pronzato & Pázman,
+    *Design of Experiments in Nonlinear Models* (2013), Ch. 8.
+    """
+    o = StribeckDesign() if options is None else options
+    if not isinstance(o, StribeckDesign):
+        raise TypeError(f"options must be a StribeckDesign, got {type(o).__name__}")
+    J_design = check_positive("J_design", J_design)
+    noise_std = check_nonnegative("noise_std", noise_std)
+    Tc = check_positive("Tc", Tc)
+    if noise_std > 0.0 and rng is None:
+        raise ParameterError("noise_std > 0 needs rng=np.random.default_rng(seed)")
+    w_lo = max(o.w_min, 0.5 * noise_std)
+    if not w_lo < o.w_max:
+        raise ParameterError(f"noise_std/2 = {0.5 * noise_std!r} rad/s leaves no speeds below w_max = {o.w_max!r}")
+    n = max(int(math.ceil(math.log10(o.w_max / w_lo) * o.per_decade)) + 1, 2)
+    runner = _Runner(p, J_design, o, Tc, noise_std, rng)
+    runner.measure(bidirectional_velocities(w_lo, o.w_max, n))
+    rounds = 0
+    while fit and rounds < o.max_rounds:
+        a = runner.arrays()
+        try:
+            prefit_stribeck(_Held(a))
+            break
+        except (ExcitationError, SignalError):
+            new = _refinement(a["w_mean"], a["u_mean"], a["held"], o.n_refine)
+            if not new.size:
+                break
+            runner.measure(new)
+            rounds += 1
+    a = runner.arrays()
+    n_held = int(a["held"].sum())
+    if not fit:
+        return StribeckExperiment(rounds=0, fit=None, notes=(), **a)
+    if n_held < 6:
+        raise ExcitationError(f"only {n_held} of {a['held'].size} quasi-static runs held their setpoint; "
+                              f"the joint's friction map cannot be measured with these loops")
+    sfit = prefit_stribeck(_Held(a), fallback=True)
+    notes = []
+    if runner.n_retried:
+        notes.append(f"{runner.n_retried} run(s) did not hold with the {o.crossover:g} rad/s loop and were "
+                     f"repeated at {o.crossover_max:g} rad/s")
+    if n_held < a["held"].size:
+        bad = np.abs(a["setpoints"][~a["held"]])
+        notes.append(f"{a['held'].size - n_held} run(s) did not hold their setpoint (|w| {bad.min():.3g} to "
+                     f"{bad.max():.3g} rad/s: stick-slip or noise-dominated) and were not used")
+    notes += list(sfit.notes)
+    return StribeckExperiment(rounds=rounds, fit=sfit, notes=tuple(notes), **a)
+
+
+class _Held:
+    """The arrays of a run table as the attributes :func:`prefit_stribeck` reads."""
+
+    def __init__(self, a: dict):
+        self.w_mean, self.u_mean, self.w_std, self.held = a["w_mean"], a["u_mean"], a["w_std"], a["held"]

@@ -11,7 +11,7 @@ A sweep is described by a small JSON or TOML spec::
       "modes": ["none", "adaptive", "frictionless"],
       "seeds": [0, 1, 2],                     # closed-loop seeds per case
       "duration": 60,
-      "options": {"prefit": false}            # further keyword arguments of compare()
+      "options": {"Vs": 0.02, "delta": 1}     # further keyword arguments of compare() (known Vs, delta: no pre-fit)
     }
 
 Every combination of grid point x controller point x Monte-Carlo draw x seed is

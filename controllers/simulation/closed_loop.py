@@ -236,7 +236,7 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     w_limit = 100.0 * float(np.max(np.abs(wr))) + 1.0 if w_limit is None else check_positive("w_limit", w_limit)
     table, seg = plant_table(plant, t, Tc)
     frozen = plant.at(0.0) if hasattr(plant, "at") else plant
-    gate = _sensor_gate(sensor_gate, controller, float(frozen.J))
+    gate = _sensor_gate(sensor_gate, controller, float(frozen.J) if sensor_gate is True else math.nan)
     kind, cp, cs, n_theta = _compensator_arrays(compensator)
     revs = reversal_times(t, wr)
     n_rec = (n + decimate - 1) // decimate if decimate > 0 else 0
@@ -332,9 +332,9 @@ def run_mode(plant, reference: Reference, mode: str, options: ModeOptions, *, rn
     """
     run_plant, controller, compensator = build_mode(plant, mode, options)
     gate = options.sensor_gate
-    if gate is True:  # the gate of the true plant's inertia (the drive's sensor model)
+    if gate is True:  # the gate of the design inertia (default: the plant's J, a data-sheet value)
         frozen = plant.at(0.0) if hasattr(plant, "at") else plant
-        gate = _sensor_gate(True, controller, float(frozen.J))
+        gate = _sensor_gate(True, controller, float(frozen.J) if options.J_design is None else options.J_design)
     res = run_closed_loop(run_plant, controller, compensator, reference, noise_std=options.noise_std, rng=rng,
                           faults=faults, sensor_gate=gate, w_limit=options.w_limit, decimate=options.decimate,
                           reversal_window=options.reversal_window)
