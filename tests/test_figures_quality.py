@@ -139,6 +139,13 @@ def _paper_figures():
     out["plot_input_torque"] = pf.plot_input_torque(t, np.round(30 * np.sign(w) / 0.6) * 0.6)
     out["plot_stribeck_fit"] = plot_stribeck_fit(fit, ws, P.friction(ws)).figure
     out["StribeckFit.plot"] = fit.plot().figure
+    from controllers.experiments.quasi_static import StribeckExperiment
+
+    held = np.ones(ws.size, dtype=bool)
+    held[0] = False
+    out["StribeckExperiment.plot"] = StribeckExperiment(
+        setpoints=ws, w_mean=ws, w_std=ws * 0.01, u_mean=P.friction(ws), u_std=ws * 0 + 0.1,
+        crossover=ws * 0 + 20.0, held=held, fit=fit, rounds=1, notes=()).plot().figure
     return out
 
 
@@ -196,6 +203,7 @@ COVERED = {"plot_tracking", "plot_error", "plot_friction", "plot_rls_convergence
            "plot_stribeck_figure", "plot_sample_times", "plot_input_torque", "plot_stribeck_fit", "StribeckFit.plot",
            "PIDesign.plot", "LoopAnalysis.plot", "plot_bode", "plot_step", "ClosedLoopStep.plot",
            "MeasuredData.plot", "FrictionEstimate.plot", "SupportPoints.plot", "QuasiStaticData.plot",
+           "StribeckExperiment.plot",
            "EMPSSimulation.plot", "EMPSValidation.plot", "VelocityEstimate.plot", "OnlineUKFResult.plot",
            # checked through the figures they return, by test_identification_figures below:
            "IdentificationReport.plot", "LSResult.plot"}
@@ -274,3 +282,33 @@ def test_checker_catches_a_bad_figure():
     ax.legend(loc="center", fontsize=30)
     with pytest.raises(AssertionError, match="legend"):
         check_figure(fig, "bad")
+
+
+def test_envelope_keeps_every_extreme():
+    from controllers.report.figures import minmax_envelope
+
+    rng = np.random.default_rng(0)
+    t = np.arange(100_003) * 1e-3
+    y = rng.normal(size=t.size)
+    y[77_777] = 50.0
+    y[5] = np.nan
+    tc, lo, hi = minmax_envelope(t, y, n_bins=1000)
+    assert tc.size == lo.size == hi.size <= 1001
+    assert np.nanmax(hi) == 50.0 and np.nanmin(lo) == np.nanmin(y)
+    short = minmax_envelope(t[:10], y[:10])
+    assert np.array_equal(short[1], y[:10], equal_nan=True)
+
+
+def test_rms_dev_and_reversal_choice(comp):
+    from controllers.report.figures import pick_reversal, rms_dev
+
+    ref = comp.results["frictionless"].w
+    dev = rms_dev(comp)
+    for mode, r in comp.results.items():  # independent: plain numpy over the whole run
+        assert dev[mode] == pytest.approx(float(np.sqrt(np.mean((r.w - ref) ** 2))), rel=1e-12, abs=1e-15)
+    assert dev["frictionless"] == 0.0 and dev["adaptive"] < dev["none"]
+    t0 = pick_reversal(comp, half_window=1.0)
+    r = comp.results["none"]
+    assert 0.5 * r.t[-1] <= t0 <= r.t[-1] - 1.0
+    i = np.searchsorted(r.t, t0)
+    assert np.sign(r.w_ref[i - 1]) != np.sign(r.w_ref[i])  # a sign change of the reference
