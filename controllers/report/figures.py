@@ -210,10 +210,8 @@ def pick_reversal(comp, *, half_window: float = 1.0) -> float:
     gap = np.diff(tr, prepend=-np.inf, append=np.inf)
     isolated = tr[(gap[:-1] > half_window) & (gap[1:] > half_window)]  # one clean sign change in the window
     cands = np.array([])
-    for pool in (isolated, tr):
-        inside = pool[(pool >= half_window) & (pool <= t[-1] - half_window)]
-        late = inside[inside >= 0.5 * t[-1]]
-        cands = late if late.size else inside
+    for pool, start in ((isolated, 0.5 * t[-1]), (tr, 0.5 * t[-1]), (isolated, 0.0), (tr, 0.0)):
+        cands = pool[(pool >= max(half_window, start)) & (pool <= t[-1] - half_window)]
         if cands.size:
             break
     if cands.size == 0:
