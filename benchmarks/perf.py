@@ -154,6 +154,50 @@ def _batch_rows(p, design, B, args):
     return rows
 
 
+def _own_loop_rows(p, design, args):
+    """Per-call cost of the feedforward object in a user's own Python loop (docs/your_loop.md): ``step(w, w_ref)``
+    and ``observe(u, w)`` once per 1 kHz period, on the (u, w) record of a closed-loop run."""
+    from adaptive_ff.compensation.feedforward import RobustAdaptiveFeedforward
+    from adaptive_ff.compensation.gate import OutlierGate, RangeGate
+    from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
+
+    ref = multisine_reference(min(args.seconds, 10.0), rng=np.random.default_rng(5))
+    r = run_mode(p, ref, "none", ModeOptions(Kp=design.Kp, Ki=design.Ki, u_max=U_MAX, noise_std=1e-3),
+                 rng=np.random.default_rng(6))
+    us, ws, wr = r.u.tolist(), r.w_meas.tolist(), np.asarray(ref.w, dtype=float).tolist()
+    n = len(us)
+
+    def fresh():
+        est = SlidingFrictionEstimator(p.Vs, p.delta, Tc=1e-3, J_guess=p.J, u_range=RangeGate(x_max=U_MAX),
+                                       gate=OutlierGate(max_step=2.0 * U_MAX * 1e-3 / p.J))
+        return RobustAdaptiveFeedforward(est, dt=1e-3, ff_max=0.5 * U_MAX, warmup=50)
+
+    def loop(what):
+        ff = fresh()
+        for u, w in zip(us[:n // 2], ws[:n // 2]):  # warm: switched on, as in service
+            ff.observe(u, w)
+        step, obs = ff.step, ff.observe
+        t0 = time.perf_counter()
+        if what == "step":
+            for w, w_r in zip(ws, wr):
+                step(w, w_r)
+        elif what == "observe":
+            for u, w in zip(us, ws):
+                obs(u, w)
+        else:
+            for u, w, w_r in zip(us, ws, wr):
+                step(w, w_r)
+                obs(u, w)
+        return time.perf_counter() - t0
+
+    rows = [("feedforward object in your loop (RobustAdaptiveFeedforward, Python calls at 1 kHz):", None, "")]
+    for what, label in (("step", "  step(w, w_ref), one call"), ("observe", "  observe(u, w), one call"),
+                        ("both", "  step() + observe(), one period")):
+        ts = [loop(what) for _ in range(args.repeat)]
+        rows.append((label, statistics.median(ts) / n * 1e6, "µs/call", min(ts) / n * 1e6))
+    return rows
+
+
 def _help_wall():
     """Wall time (s) of ``adaptive-ff --help`` in a fresh process (second run)."""
     exe = os.path.join(os.path.dirname(sys.executable), "adaptive-ff")
@@ -232,6 +276,7 @@ def main(argv=None) -> int:
                      best / m * 1e6))
 
     rows += _batch_rows(p, design, B, args)
+    rows += _own_loop_rows(p, design, args)
 
     mem = json.loads(_py(_MEMORY_SCRIPT, args.hours, 0))
     mem_dec = json.loads(_py(_MEMORY_SCRIPT, args.hours, 1000))
@@ -267,6 +312,9 @@ def main(argv=None) -> int:
     print(f"{'what':<66}{'median':>10}{'fastest':>10}  unit   (compare rows: wall, CPU)")
     print("-" * 96)
     for what, val, unit, *best in rows:
+        if val is None:  # a heading
+            print(what)
+            continue
         b = f"{best[0]:>10.3f}" if best else " " * 10
         print(f"{what:<66}{val:>10.3f}{b}  {unit}")
     print(f"\nspeed-up over python-control: run_mode none {us_pc / us['none']:.0f}x, "

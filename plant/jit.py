@@ -14,16 +14,17 @@ Every compiled function of the package is declared with :func:`kernel` instead o
    ``__pycache__`` folder beside the packages (an editable or user install), the
    user cache folder (``$XDG_CACHE_HOME`` or ``~/.cache``), the system temporary
    folder. A read-only install with a non-writable HOME therefore still caches
-   (in the temporary folder); where nothing is writable the kernels are compiled
-   in memory, with one warning saying so, instead of failing at import.
+   (in the temporary folder, with one line on stderr saying where); where nothing
+   is writable the kernels are compiled in memory, with one line saying so,
+   instead of failing at import (``tests/test_runs_anywhere.py``).
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
+import sys
 import tempfile
-import warnings
 from pathlib import Path
 
 import numba
@@ -56,7 +57,8 @@ def _writable(d: Path) -> bool:
         return False
 
 
-def _find_cache_dir() -> Path | None:
+def _find_cache_dir() -> tuple[Path | None, bool]:
+    """The first writable candidate folder (module docstring) and whether it is the temporary-folder fallback."""
     cands = []
     if os.environ.get("NUMBA_CACHE_DIR"):
         cands.append(Path(os.environ["NUMBA_CACHE_DIR"]) / "adaptive_ff")
@@ -69,10 +71,10 @@ def _find_cache_dir() -> Path | None:
         pass
     uid = os.getuid() if hasattr(os, "getuid") else "user"
     cands.append(Path(tempfile.gettempdir()) / f"adaptive_ff-kernels-{uid}")
-    for d in cands:
+    for i, d in enumerate(cands):
         if _writable(d):
-            return d
-    return None
+            return d, i == len(cands) - 1
+    return None, False
 
 
 def _prune(base: Path | None, keep: str, age: float = 3600.0) -> None:
@@ -91,9 +93,19 @@ def _prune(base: Path | None, keep: str, age: float = 3600.0) -> None:
         pass
 
 
+def _say(msg: str) -> None:
+    """One line on stderr (not a warning: it must not turn into an error under ``-W error``)."""
+    try:
+        print(f"adaptive_ff: {msg}", file=sys.stderr)
+    except (OSError, ValueError):  # no usable stderr
+        pass
+
+
 _DIGEST = _digest()
-_CACHE_DIR = _find_cache_dir()
+_CACHE_DIR, _fallback = _find_cache_dir()
 _prune(_CACHE_DIR, _DIGEST)
+if _fallback and not os.environ.get("NUMBA_CACHE_DIR"):
+    _say(f"package folder and user cache not writable; compiled kernels are cached in {_CACHE_DIR}")
 _warned = False
 
 
@@ -178,8 +190,8 @@ def kernel(*args, **options):
             disp._cache = _KernelCache(fn)  # what numba's enable_caching() does, with the package locator
         except RuntimeError:
             if not _warned:
-                warnings.warn("adaptive_ff: no writable folder for the compiled-kernel cache; kernels are "
-                              "compiled at every start (set NUMBA_CACHE_DIR to a writable folder)", stacklevel=2)
+                _say("no writable folder for the compiled-kernel cache; kernels are compiled at every start "
+                     "(set NUMBA_CACHE_DIR to a writable folder)")
                 _warned = True
         if sigs is not None:
             for s in (sigs if isinstance(sigs, (list, tuple)) else [sigs]):

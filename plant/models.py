@@ -27,6 +27,7 @@ parameter row :func:`plant.dynamics.plant_params` packs for any of these classes
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 from plant.asymmetric import AsymmetricParams
@@ -36,12 +37,21 @@ from plant.friction import JointParams
 from plant.karnopp import KarnoppParams
 from plant.lugre import LuGreParams
 
-__all__ = ["MODELS", "plant_from_dict", "plant_to_dict", "load_plant"]
+__all__ = ["MODELS", "PLAUSIBLE_RANGE", "plant_from_dict", "plant_to_dict", "load_plant", "read_json",
+           "check_plausible"]
 
 #: ``"model"`` name -> plant class.
 MODELS = {cls.MODEL: cls for cls in (JointParams, LuGreParams, KarnoppParams, AsymmetricParams)}
 
 _DRIFT_KEYS = ("Fc_change", "Fs_change", "t_start", "t_end", "period")
+
+#: Plausible magnitude range of every plant parameter in SI units (kg·m², N·m, N·m·s/rad, rad/s, s, ...).
+#: Values outside it are almost always a unit slip (g·mm² for kg·m², mN·m for N·m) and overflow the
+#: design or the simulation; zero stays allowed where the model allows it.
+PLAUSIBLE_RANGE = (1e-9, 1e9)
+
+#: Viscous-like coefficients (N·m·s/rad) that set the fastest mechanical time constant J/sigma.
+_VISCOUS_KEYS = ("sigma", "sigma_pos", "sigma_neg", "sigma1", "sigma2")
 
 
 def plant_from_dict(d: dict):
@@ -87,22 +97,117 @@ def plant_to_dict(p) -> dict:
     return d if "model" in d else {"model": p.MODEL, **d}
 
 
-def load_plant(path):
-    """Read a plant model from a JSON file (see the module docstring).
+def read_json(path, *, what: str = "JSON file"):
+    """Read a UTF-8 JSON file with every failure turned into a typed error naming the file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    what : str, keyword-only
+        What the file is, for messages (``"plant file"``, ``"sweep spec"``).
+
+    Returns
+    -------
+    object
+        The parsed JSON value (``NaN``/``Infinity`` literals are refused: RFC 8259).
+
+    Raises
+    ------
+    FileNotFoundError
+        No such file.
+    ParameterError
+        A directory, unreadable (permissions), not UTF-8, empty, not valid JSON
+        (line and column named), or nested too deeply.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise ParameterError(f"{path}: is a directory, expected a {what}")
+    if not path.exists():
+        raise FileNotFoundError(f"{what} not found: {path}")
+    try:
+        text = path.read_bytes().decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise ParameterError(f"{path}: not a UTF-8 text file (byte {exc.start}: {exc.reason}); "
+                             f"expected a {what} in JSON") from None
+    except OSError as exc:
+        raise ParameterError(f"{path}: cannot read the {what} ({exc.strerror or exc})") from None
+    if not text.strip():
+        raise ParameterError(f"{path}: empty file, expected a {what} in JSON")
+
+    def _no_constants(name):
+        raise ValueError(f"{name} is not valid JSON (use a finite number)")
+
+    try:
+        return json.loads(text, parse_constant=_no_constants)
+    except json.JSONDecodeError as exc:
+        raise ParameterError(f"{path}: not valid JSON at line {exc.lineno}, column {exc.colno} "
+                             f"({exc.msg})") from None
+    except (ValueError, RecursionError) as exc:
+        raise ParameterError(f"{path}: not a usable {what} ({exc})") from None
+
+
+def check_plausible(p, *, dt: float = 1e-3, where: str = "plant") -> None:
+    """Raise unless plant ``p`` has physically plausible parameters that a ``dt`` simulation can integrate.
+
+    Parameters
+    ----------
+    p : plant model
+        Any model of :data:`MODELS` (or a :class:`plant.drift.FrictionDrift` around one).
+    dt : float, keyword-only
+        Integration step of the simulation (s), default 1 ms (the 1 kHz plant).
+    where : str, keyword-only
+        Prefix of the message (a file name).
 
     Raises
     ------
     ParameterError
-        Not valid JSON, or invalid content (the file is named).
+        A parameter's magnitude outside :data:`PLAUSIBLE_RANGE` (zero excepted),
+        or a mechanical time constant ``J/sigma`` below ``dt/2``: the explicit
+        Runge-Kutta step diverges (RK4 is stable for ``dt*sigma/J < 2.78`` on
+        ``J dw/dt = -sigma w``; Butcher, *Numerical Methods for ODEs*, 2008,
+        Sec. 238), so the run would end in overflow or NaN. The message names
+        the parameter, its value and unit, and the likely cause.
+    """
+    base = getattr(p, "base", p)
+    d = {k: v for k, v in plant_to_dict(base).items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
+    lo, hi = PLAUSIBLE_RANGE
+    for k, v in d.items():
+        if not math.isfinite(v) or (v != 0 and not lo <= abs(v) <= hi):
+            raise ParameterError(f"{where}: {k} = {v!r} is outside the plausible range {lo:g}..{hi:g} (SI units: "
+                                 f"kg·m², N·m, N·m·s/rad, rad/s, s); check the units")
+    J = d.get("J")
+    visc = max((abs(d[k]) for k in _VISCOUS_KEYS if k in d), default=0.0)
+    if J is not None and visc > 0 and J / visc < dt / 2:
+        key = max((k for k in _VISCOUS_KEYS if k in d), key=lambda k: abs(d[k]))
+        raise ParameterError(f"{where}: J = {J!r} kg·m² with {key} = {d[key]!r} N·m·s/rad gives a mechanical time "
+                             f"constant J/{key} = {J / visc:.3g} s, below half the simulation step {dt:g} s: not a "
+                             "plausible joint (check the units of J and the viscous coefficient)")
+
+
+def load_plant(path, *, dt: float = 1e-3):
+    """Read a plant model from a JSON file (see the module docstring) and check it is plausible.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The plant file (UTF-8 JSON object).
+    dt : float, keyword-only
+        Simulation step (s) the plant must be integrable at (:func:`check_plausible`), default 1 ms.
+
+    Raises
+    ------
+    ParameterError
+        A directory, not UTF-8, not valid JSON (:func:`read_json`), invalid
+        content, or implausible values (:func:`check_plausible`); the file is named.
     FileNotFoundError
         The file does not exist.
     """
     path = Path(path)
+    d = read_json(path, what="plant file")
     try:
-        d = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise ParameterError(f"{path}: not valid JSON ({exc})") from None
-    try:
-        return plant_from_dict(d)
-    except (ParameterError, TypeError) as exc:
+        p = plant_from_dict(d)
+    except (ParameterError, TypeError, OverflowError) as exc:
         raise ParameterError(f"{path}: {exc}") from None
+    check_plausible(p, dt=dt, where=str(path))
+    return p

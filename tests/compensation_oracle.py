@@ -13,7 +13,7 @@ import numpy as np
 
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RecursiveLeastSquares
-from peers_oracle import FrictionFeedforward  # the former fixed feedforward (one copy of the oracle)
+from peers_oracle import FrictionFeedforward, Range, rls_try  # one copy of the oracle
 from plant.errors import ParameterError, check_finite_scalar, check_multiple, check_nonnegative, check_positive
 
 _NOISE_GAIN = math.sqrt(6.0) * math.sqrt(2.0 / math.pi)
@@ -269,6 +269,7 @@ class SlidingFrictionEstimator:
                                          theta0=[start[n] for n in self.names],
                                          bounds=([lower[n] for n in self.names], [upper[n] for n in self.names]))
         self.gate = OutlierGate() if gate is None else gate
+        self.u_range, self.w_range = Range(), Range(floor=self.Vs)  # issue 12
         self._a = 1.0 - math.exp(-self.Tc / self.T)
         self._settle = int(math.ceil(8.0 * self.T / self.Tc))  # filter transients (Erlang-3 tail < 1.5 %)
         self._s = [0.0] * 15  # three filter states for each of w, u, g, h, d
@@ -340,13 +341,20 @@ class SlidingFrictionEstimator:
         """
         self.updated = False
         u = float(u)
-        if not math.isfinite(u):
+        w = float(w)
+        if not self.u_range.ok(u):  # issue 12: torque range, velocity range (finite ones), then the gate
+            self.u_range.commit(u, False)
+            self.n_rejected += 1
+            return False
+        if math.isfinite(w) and not self.w_range.ok(w):
+            self.w_range.commit(w, False)
             self.n_rejected += 1
             return False
         if not self.gate.check(w):
             self.n_rejected += 1
             return False
-        w = float(w)
+        self.u_range.commit(u, True)
+        self.w_range.commit(w, True)
         # noise scale from the second difference of accepted samples
         if self._w2 is not None:
             d2 = w - 2.0 * self._w1 + self._w2
@@ -398,7 +406,11 @@ class SlidingFrictionEstimator:
         if s[14] > self.dwell_max:
             self.n_gated += 1
             return True
-        e = self.rls.update(self._phi(), s[5])
+        with np.errstate(over="ignore", invalid="ignore"):
+            phi = self._phi()
+        e = rls_try(self.rls, phi, s[5]) if np.all(np.isfinite(phi)) else None
+        if e is None:  # refused by the RLS (issue 12)
+            return True
         self._e2 += self._e2_rate * (e * e - self._e2)
         self.updated = True
         return True

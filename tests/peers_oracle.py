@@ -18,7 +18,43 @@ import numpy as np
 
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from adaptive_ff.identification.rls import RecursiveLeastSquares
-from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive
+from plant.errors import ParameterError, SignalError, check_multiple, check_nonnegative, check_positive
+
+
+class Range:
+    """Issue 12: the range rule of adaptive_ff.compensation.gate.RangeGate, written again (independent code).
+
+    Out of range: not finite, |x| > x_max, or |x| > factor*max(env, floor) while that reference is > 0 and fewer
+    than max_consecutive samples were rejected in a row. Accepted samples raise the envelope at once
+    (env = max(|x|, exp(-1/memory)*env)).
+    """
+
+    def __init__(self, x_max=math.inf, factor=100.0, floor=0.0, memory=10000.0, max_consecutive=20):
+        self.x_max, self.factor, self.floor = x_max, factor, floor
+        self.decay, self.max_consecutive = math.exp(-1.0 / memory), max_consecutive
+        self.env, self.held, self.n_rejected = 0.0, 0, 0
+
+    def ok(self, x: float) -> bool:
+        if not math.isfinite(x) or abs(x) > self.x_max:
+            return False
+        ref = max(self.env, self.floor)
+        return ref == 0.0 or self.held >= self.max_consecutive or abs(x) <= self.factor * ref
+
+    def commit(self, x: float, ok: bool) -> None:
+        if ok:
+            self.env = max(abs(x), self.decay * self.env)
+            self.held = 0
+        else:
+            self.held += 1
+            self.n_rejected += 1
+
+
+def rls_try(rls, phi, y):
+    """The package RLS update, with a refused sample (issue 12: an update that would overflow) as None."""
+    try:
+        return rls.update(phi, y)
+    except SignalError:
+        return None
 
 __all__ = ["CanudasCompensator", "DisturbanceObserver", "FrictionFeedforward", "AdaptiveFrictionFeedforward",
            "project_estimate"]
@@ -103,6 +139,7 @@ class CanudasCompensator:
         self._w_prev = None
         self._ok = True
         self.n_rejected = 0
+        self.u_range, self.w_range = Range(), Range(floor=self.w_dead)
 
     @property
     def estimate(self) -> dict | None:
@@ -118,6 +155,8 @@ class CanudasCompensator:
         if self.coef is None:
             return 0.0
         w = w_meas if self.ff_measured else w_ref
+        if not math.isfinite(w):  # issue 12
+            return 0.0
         Fcp, Fcn, sp, sn = self.coef
         if w > 0.0:
             c = Fcp + sp * w
@@ -125,14 +164,23 @@ class CanudasCompensator:
             c = -Fcn + sn * w
         else:
             c = 0.0
+        if not math.isfinite(c):  # issue 12
+            return 0.0
         return min(max(c, -self.ff_max), self.ff_max)
 
     def observe(self, u: float, w: float) -> None:
         """Record the torque ``u`` applied in this period and the velocity ``w`` measured at its start."""
-        if not (math.isfinite(u) and math.isfinite(w)):
+        uok, wok = self.u_range.ok(u), self.w_range.ok(w)
+        if not (uok and wok):
+            if not uok:
+                self.u_range.commit(u, False)
+            if not wok:
+                self.w_range.commit(w, False)
             self.n_rejected += 1
             self._ok = False  # the current interval is spoiled
             return
+        self.u_range.commit(u, True)
+        self.w_range.commit(w, True)
         k = self._k
         if k % self.m == 0:
             wp = self._w_prev
@@ -152,7 +200,9 @@ class CanudasCompensator:
             phi = [ubar, 0.0, -w0, 0.0, 1.0]
         else:
             return
-        self.rls.update(np.array(phi), w1 - w0)
+        if rls_try(self.rls, np.array(phi), w1 - w0) is None:
+            self.n_rejected += 1
+            return
         if self.rls.n_updates >= self.warmup:
             b, bsp, bsn, bfp, bfn = self.rls.theta.tolist()
             self.coef = (bfp / b, bfn / b, bsp / b, bsn / b)
@@ -215,10 +265,13 @@ class DisturbanceObserver:
         self._u_last = 0.0
         self.d_hat = 0.0
         self.n_rejected = 0
+        self.u_range, self.w_range = Range(), Range()
 
     def compensate(self, w_meas: float, w_ref: float) -> float:
         """Advance the observer with the measured velocity of this period; return the bounded ``d_hat`` (N·m)."""
-        if not math.isfinite(w_meas):
+        ok = self.w_range.ok(w_meas)
+        self.w_range.commit(w_meas, ok)
+        if not ok:
             self.n_rejected += 1
             return self.d_hat
         if self._w_last is None:
@@ -236,8 +289,12 @@ class DisturbanceObserver:
 
     def observe(self, u: float, w: float) -> None:
         """Record the torque ``u`` applied in this period (it drives the next velocity sample)."""
-        if math.isfinite(u):
+        ok = self.u_range.ok(u)
+        self.u_range.commit(u, ok)
+        if ok:
             self._u_last = u
+        else:
+            self.n_rejected += 1
 
 
 def project_estimate(est: FrictionEstimate, *, tau_max: float = 1.0,
@@ -331,6 +388,7 @@ class FrictionFeedforward:
         self.stick_samples = int(stick_samples)
         self._n_in_band = 0
         self.u_ff = 0.0
+        self.n_step_rejected = 0
         self._set(estimate)
 
     def _set(self, est: FrictionEstimate | None) -> None:
@@ -368,14 +426,24 @@ class FrictionFeedforward:
             Used instead of ``w`` while the joint is detected as stuck (see
             ``stick_band``), e.g. the reference velocity.
         """
+        held = min(max(self.u_ff, -self.ff_max), self.ff_max)
+        if not math.isfinite(w) or (w_ref is not None and not math.isfinite(w_ref)):  # issue 12: rejected, held
+            self.n_step_rejected += 1
+            return held
+        n_in_band = self._n_in_band
         if w_ref is not None:
             if -self.stick_band < w < self.stick_band:
-                self._n_in_band += 1
-                if self._n_in_band >= self.stick_samples:
+                n_in_band += 1
+                if n_in_band >= self.stick_samples:
                     w = w_ref
             else:
-                self._n_in_band = 0
-        self.u_ff += self._alpha * (self.static(w) - self.u_ff)
+                n_in_band = 0
+        f = self.static(w)
+        if not math.isfinite(f):
+            self.n_step_rejected += 1
+            return held
+        self._n_in_band = n_in_band
+        self.u_ff += self._alpha * (f - self.u_ff)
         return min(max(self.u_ff, -self.ff_max), self.ff_max)
 
 
@@ -438,6 +506,7 @@ class AdaptiveFrictionFeedforward(FrictionFeedforward):
         self.rls = RecursiveLeastSquares(model.n_params, lam=lam, P0=P0)
         self._past: list[float] | None = None  # [u(k-1), w(k-1), w(k-2)]
         self.n_rejected = 0
+        self.u_range, self.w_range = Range(), Range(floor=model.Vs if model.stribeck else 0.0)
         self.n_implausible = 0
 
     @property
@@ -463,15 +532,28 @@ class AdaptiveFrictionFeedforward(FrictionFeedforward):
         """
         u = float(u)
         w = float(w)
-        if not (math.isfinite(u) and math.isfinite(w)):
+        uok, wok = self.u_range.ok(u), self.w_range.ok(w)
+        if not (uok and wok):
+            if not uok:
+                self.u_range.commit(u, False)
+            if not wok:
+                self.w_range.commit(w, False)
             self.n_rejected += 1
             return False
         past = self._past
         if past is None:
+            self.u_range.commit(u, True)
+            self.w_range.commit(w, True)
             self._past = [u, w, w]
             return True
         u1, w1, w2 = past
-        self.rls.update(self.model.phi(u, u1, w1, w2), w)
+        with np.errstate(over="ignore", invalid="ignore"):
+            phi = self.model.phi(u, u1, w1, w2)
+        if not np.all(np.isfinite(phi)) or rls_try(self.rls, phi, w) is None:
+            self.n_rejected += 1
+            return False
+        self.u_range.commit(u, True)
+        self.w_range.commit(w, True)
         self._past = [u, w, w1]
         if self.rls.n_updates >= self.warmup:
             est = project_estimate(self.model.to_physical(self.rls.theta, self.Ts), tau_max=self.tau_max,

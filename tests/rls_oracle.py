@@ -173,8 +173,8 @@ class NumpyRLS:
                 raise ParameterError(f"theta0 must be {p} finite values, got {theta0!r}")
         if forgetting not in FORGETTING:
             raise ParameterError(f"forgetting must be one of {FORGETTING}, got {forgetting!r}")
-        if P_max is None:
-            P_max = float(np.trace(P)) if forgetting == "directional" else math.inf
+        if P_max is None:  # issue 12: windup-safe default for both schemes (math.inf: the paper's plain update)
+            P_max = float(np.trace(P))
         elif not (isinstance(P_max, (int, float, np.integer, np.floating)) and not isinstance(P_max, bool)
                   and P_max > 0):
             raise ParameterError(f"P_max must be a number > 0, got {P_max!r}")
@@ -195,6 +195,7 @@ class NumpyRLS:
         self.lam = lam
         self.forgetting = forgetting
         self.P_max = float(P_max)
+        self.n_rejected = 0
         self.theta = theta
         self.P = P
         self.n_updates = 0
@@ -246,7 +247,13 @@ class NumpyRLS:
             Wrong shape, or a NaN/inf in ``phi`` or ``y``; the state is left unchanged.
         """
         phi, y = self._check(phi, y)
-        e = y - float(phi @ self.theta)
+        with np.errstate(over="ignore", invalid="ignore"):
+            e = y - float(phi @ self.theta)
+            Pphi = (self.P * self._d if self._d is not None else self.P) @ phi
+            ok = math.isfinite(e * e) and math.isfinite(float(phi @ Pphi)) and math.isfinite(float(Pphi @ Pphi))
+        if not ok:  # issue 12: an update that would overflow is refused, the state unchanged, and counted
+            self.n_rejected += 1
+            raise SignalError(f"sample refused: its update would overflow (y = {y!r})")
         P = self.P
         Pphi = P @ phi
         r = float(phi @ Pphi)

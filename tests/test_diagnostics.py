@@ -53,7 +53,7 @@ def test_low_speed_warning_names_fs_and_vs():
     r = identify(d, Vs=p.Vs, delta=p.delta)
     assert any("Fs and Vs are not identifiable" in w for w in r.warnings)
     assert r.estimate.Fs == pytest.approx(1.4, rel=1e-6)
-    assert "Fs and Vs are not identifiable" in r.summary() and r.to_json_dict()["warnings"] == list(r.warnings)
+    assert "Fs and Vs are not identifiable" in r.summary() and r.to_json_dict()["warnings"] == [w.to_dict() for w in r.warnings]
     # slower reversals: 6 % of the samples in the transition, no warning
     p, d = _stribeck_record(3.0)
     assert excitation_report(d.u, d.w, Vs=p.Vs).warnings == ()

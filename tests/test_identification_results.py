@@ -98,7 +98,9 @@ def test_excitation_report_without_vs_has_none_fraction(record):
     assert "5 velocity reversals" in rep.summary() and "every parameter excited" in rep.summary()
     still = excitation_report(np.ones(50), np.zeros(50))
     assert "WARNING: the input u is constant" in still.summary()
-    assert strict(still)["warnings"] == list(still.warnings)
+    assert strict(still)["warnings"] == [{"code": w.code, "parameter": w.parameter, "message": str(w)}
+                                         for w in still.warnings]
+    assert still.warnings[0].code == "identifiability" and still.warnings[0].parameter == "all"
 
 
 # --------------------------------------------------------------------------- Stribeck pre-fit

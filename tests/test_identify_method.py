@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from adaptive_ff.io.data import MeasuredData
-from adaptive_ff.identification.identify import identify
+from adaptive_ff.identification.identify import IDENTIFY_METHODS, identify
 from adaptive_ff.identification.physical_id import METHODS, fit_physical
 from plant import bandlimited_noise, irregular_sample_times, preset, sample, simulate
 from plant.errors import ParameterError
@@ -79,4 +79,5 @@ def test_cli_method_choices_are_the_library_methods():
 
     sub = next(a for a in build_parser()._actions if a.dest == "command")
     opt = next(a for a in sub.choices["identify"]._actions if a.dest == "method")
-    assert tuple(opt.choices) == METHODS
+    assert tuple(opt.choices) == IDENTIFY_METHODS and set(METHODS) <= set(IDENTIFY_METHODS)
+    assert opt.default == "auto"

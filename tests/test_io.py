@@ -273,3 +273,78 @@ def test_position_noise_estimate():
     assert estimate_position_noise(q) == pytest.approx(1e-4, rel=0.1)
     step = 1e-3
     assert estimate_position_noise(np.floor(np.sin(t) / step) * step) >= step / math.sqrt(12) * (1 - 1e-12)
+
+
+# --------------------------------------------------------------------------- real files (issue 12 item 4)
+
+from adaptive_ff.io.logs import CsvFormat  # noqa: E402
+
+
+def _rows(n=N):
+    t, i, w = _log(n)
+    return t, i, w, [(f"{a:.6f}", f"{b:.9f}", f"{c:.9f}") for a, b, c in zip(t, i, w)]
+
+
+def test_scope_export_with_preamble_is_found_automatically(tmp_path):
+    t, i, w, rows = _rows()
+    pre = ["Model,DSO-X 2024A", "Serial,MY1234", "Sample interval,0.01", "", "Probe attenuation,10x"]
+    f = _write_csv(tmp_path / "scope.csv", ["Time (s)", "CH1", "CH2"], rows, preamble=pre)
+    d = load_log(f, columns="t=Time (s),u=CH1,w=CH2")
+    assert np.allclose(d.t, t) and np.allclose(d.u, i) and np.allclose(d.w, w)
+    # the same by explicit header line or skipped rows
+    d2 = load_log(f, columns="t=Time (s),u=CH1,w=CH2", csv_format=CsvFormat(header_line=6))
+    d3 = load_log(f, columns="t=Time (s),u=CH1,w=CH2", csv_format=CsvFormat(skip_rows=5))
+    assert np.array_equal(d2.u, d.u) and np.array_equal(d3.w, d.w)
+    with pytest.raises(SignalError, match=r"column 'u' .* missing from the header on line 6 \(header taken from "
+                                          r"line 6; lines before it skipped as a preamble\).*--header-line N"):
+        load_log(f, columns="t=Time (s),w=CH2")
+
+
+@pytest.mark.parametrize("delimiter, name", [(";", ";"), ("\t", "tab"), ("|", "pipe"), (" ", "space")])
+def test_explicit_delimiter(tmp_path, delimiter, name):
+    t, i, w, rows = _rows()
+    f = _write_csv(tmp_path / "log.txt", ["t", "u", "w"], rows, delimiter=delimiter)
+    d = load_log(f, csv_format=CsvFormat(delimiter=name))
+    assert np.allclose(d.t, t) and np.allclose(d.u, i) and np.allclose(d.w, w)
+
+
+def test_headerless_file_by_column_index(tmp_path):
+    t, i, w, rows = _rows()
+    f = tmp_path / "raw.csv"
+    f.write_text("\n".join(f"{a},{c},{b}" for a, b, c in rows) + "\n")  # t, w, u
+    d = load_log(f, columns="t=0,u=2,w=1")
+    assert np.allclose(d.t, t) and np.allclose(d.u, i) and np.allclose(d.w, w)
+    assert "t='#0'" in d.notes[0]
+    with pytest.raises(SignalError, match=r"line 1 is numeric .*no header\? use --columns with indices"):
+        load_log(f)
+    with pytest.raises(ParameterError, match="not a mix"):
+        load_log(f, columns="t=0,u=2")
+    with pytest.raises(SignalError, match=r"column '#5' \(w\), row 1 \(line 1\): missing cell"):
+        load_log(f, columns="t=0,u=2,w=5")
+
+
+def test_csv_format_validation():
+    for kw, msg in [({"skip_rows": -1}, "skip_rows"), ({"header_line": 0}, "header_line"),
+                    ({"delimiter": "ab"}, "delimiter"), ({"delimiter": "\n"}, "delimiter")]:
+        with pytest.raises(ParameterError, match=msg):
+            CsvFormat(**kw)
+
+
+def test_corrupt_huge_value_names_file_row_column_value(tmp_path):
+    t, i, w, rows = _rows()
+    rows[9] = (rows[9][0], "1e308", rows[9][2])
+    f = _write_csv(tmp_path / "log.csv", ["t", "u", "w"], rows)
+    with pytest.raises(SignalError, match=r"log.csv: column 'u' \(u\), row 10 \(line 11\): value 1e\+308 is outside "
+                                          r"the plausible range \|u\| <= 1e\+12"):
+        load_log(f)
+
+
+def test_non_utf8_and_binary_text_files(tmp_path):
+    f = tmp_path / "latin.csv"
+    f.write_bytes("t,u,w\n0,1,\xb5\n".encode("latin-1"))
+    with pytest.raises(SignalError, match=r"not a UTF-8 text \(CSV\) file: byte 10"):
+        load_log(f)
+    g = tmp_path / "bin.csv"
+    g.write_bytes(b"t,u,w\n\x00\x01")
+    with pytest.raises(SignalError, match="NUL bytes"):
+        load_log(g)

@@ -69,7 +69,7 @@ def test_numbers_behind_the_figures(result):
 def test_demo_logs_load_with_units(result):
     out, d = result
     logs = d["data_files"]
-    assert set(logs) == {"quasi_static_log", "robot_log", "plant"}
+    assert set(logs) == {"quasi_static_log", "robot_log", "controller_log", "plant"}
     data = load_log(logs["robot_log"], columns="t=time_ms,u=current_A,q=encoder_counts",
                     units=LogUnits(time_unit="ms", current_to_torque=DEMO_CURRENT_TO_TORQUE, position_unit="counts",
                                    counts_per_rev=DEMO_COUNTS_PER_REV))
@@ -80,6 +80,12 @@ def test_demo_logs_load_with_units(result):
     # Kalman velocity from counts vs the logged (noisy, 1e-3 rad/s) velocity
     assert np.sqrt(np.mean((data.w - ref.w) ** 2)) < 0.03 * np.sqrt(np.mean(ref.w**2))
     assert json.loads(open(logs["plant"]).read()) == P.to_dict()
+    # the controller's own 1 kHz record of the same run: the slow readout's torque is its sample, quantised
+    ctl = load_log(logs["controller_log"], columns="t=time_ms,u=current_A,w=velocity_deg_s",
+                   units=LogUnits(time_unit="ms", current_to_torque=DEMO_CURRENT_TO_TORQUE, velocity_unit="deg/s"))
+    np.testing.assert_allclose(np.diff(ctl.t), 1e-3, rtol=1e-6)
+    k = np.rint(ref.t / 1e-3).astype(int)
+    np.testing.assert_allclose(ref.u, np.round(ctl.u[np.maximum(k - 1, 0)] / 0.6) * 0.6, atol=1e-9)
 
 
 def test_rls_pass_equals_ridge_least_squares():

@@ -181,7 +181,11 @@ def test_canudas_state_layout_pickle_and_coef_setter():
         c.coef = (1.0, 2.0)
     c.coef = (10.0, 6.0, 8.0, 5.0)
     info = c.info()
-    assert info == {"n_rejected": 0, "n_updates": c.rls.n_updates, "lam": 0.999, "canudas_estimate": c.estimate}
+    # no non-finite samples here; the rejections are torques u + compensation far above the torque envelope
+    # (the compensation of a 3-update warm-up is absurd): the torque range gate of issue 12
+    assert c.n_rejected == c.u_range.n_rejected + c.w_range.n_rejected
+    assert info == {"n_rejected": c.n_rejected, "n_updates": c.rls.n_updates, "lam": 0.999,
+                    "canudas_estimate": c.estimate}
     assert info["canudas_estimate"]["J"] == c.Ts / c.rls.theta[0] and json.dumps(info, allow_nan=False)
 
 
@@ -194,8 +198,10 @@ def test_canudas_refuses_an_overflowing_row_without_touching_the_rls():
     for u_, w_ in [(0.0, 1.0), (1.7e308, 1.0), (1.7e308, 1.0)]:  # u_sum = inf over the interval
         c.observe(u_, w_)
     rls_before = c.rls.buffer.copy()
+    rls_before[7] += 1.0  # issue 12: the RLS counts the refused row (slot 7 of its header), nothing else changes
     c.observe(0.0, 1.0)  # closes the interval: u_bar = inf
     assert c.rls.n_updates == 0 and c.n_rejected == 1 and _same(c.rls.buffer, rls_before)
+    assert c.rls.n_rejected == 1
     for u_, w_ in [(1.0, 1.0), (1.0, 1.0), (0.0, 1.0)]:  # the next interval is an ordinary row
         c.observe(u_, w_)
     assert c.rls.n_updates == 1 and c.coef is not None and np.all(np.isfinite(c.rls.theta))
@@ -212,7 +218,7 @@ def _run_dob(c, o, wc, wm, wr, u_in):
         o.observe(u, wm[k])
         assert c.d_hat == o.d_hat or (math.isnan(c.d_hat) and math.isnan(o.d_hat))
     assert c.n_rejected == o.n_rejected and c._u_last == o._u_last and c._w_last == o._w_last
-    assert _same(c.state[5:], o._x)
+    assert _same(c.state[11:], o._x)
 
 
 @pytest.mark.parametrize("order,omega_q,d_max", [(1, 300.0, math.inf), (2, 500.0, 25.0), (4, 2000.0, 5.0)])
@@ -237,7 +243,8 @@ def test_dob_equals_the_python_class_bit_for_bit(order, omega_q, d_max):
 
 def test_dob_layout_and_properties():
     c = DisturbanceObserver(J_n=2.0, omega_q=400.0, Tc=1e-3, order=3, d_max=9.0)
-    assert c.KIND == 5 and c.n_theta == 0 and c.state.shape == (8,) and c.params.shape == (6,)
+    # issue 12: two range gates (torque, velocity) of 5 parameters and 3 state entries each
+    assert c.KIND == 5 and c.n_theta == 0 and c.state.shape == (14,) and c.params.shape == (16,)
     assert (c.J_n, c.omega_q, c.Tc, c.order, c.d_max) == (2.0, 400.0, 1e-3, 3, 9.0)
     assert c._a == 1.0 - math.exp(-0.4) and c._w_last is None
     c.d_hat = 1.5

@@ -1,5 +1,6 @@
 """RLS (eqs. 10-13): batch equivalence, an independent Kalman-filter formulation, numerical health, input checks."""
 
+import math
 import copy
 import pickle
 
@@ -42,7 +43,7 @@ def test_rls_lam1_equals_ridge_batch_ls():
 def test_rls_matches_filterpy_kalman_filter_with_fading_memory(lam):
     _, _, X, y = _identification_data(seed=1, duration=5.0)
     n = X.shape[1]
-    rls = RecursiveLeastSquares(n, lam=lam, P0=100.0)
+    rls = RecursiveLeastSquares(n, lam=lam, P0=100.0, P_max=math.inf)  # the paper's plain eqs. 10-13
     kf = KalmanFilter(dim_x=n, dim_z=1)
     kf.x = np.zeros((n, 1))
     kf.P = 100.0 * np.eye(n)

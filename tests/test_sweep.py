@@ -60,3 +60,140 @@ def test_dask_local_cluster_equals_local_run(tmp_path):
         remote = tmp_path / "dask.csv"
         run_sweep(spec, remote, scheduler=lc.scheduler_address, progress=False)
     assert _rows(remote) == _rows(local)
+
+
+# --------------------------------------------------------------------------- sweeps lose nothing (issue 12 item 7)
+
+import json  # noqa: E402
+import os  # noqa: E402
+import signal  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+SLOW = {"preset": "paper", "grid": {"Fc": [20.0, 23.0, 26.0, 30.0]}, "seeds": [0],
+        "modes": ["none", "adaptive"], "duration": 5.0, "options": {"Vs": 0.02, "delta": 1.0}}
+CLI = "import sys; from controllers.cli import main; sys.exit(main())"
+
+
+def _cases_in(path):
+    """{case_id: [modes]} of the complete rows of a results CSV."""
+    out = {}
+    with open(path, newline="") as fh:
+        for r in csv.DictReader(fh):
+            out.setdefault(r["case_id"], []).append(r["mode"])
+    return out
+
+
+def _start(tmp_path, out, *extra, new_session=False):
+    spec = tmp_path / "spec.json"
+    spec.write_text(json.dumps(SLOW))
+    return subprocess.Popen([sys.executable, "-c", CLI, "sweep", str(spec), "--out", str(out),
+                             "--workers", "2", "--quiet", *extra], cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=new_session)
+
+
+def _wait_for_cases(proc, out, n, timeout=240.0):
+    t_end = time.monotonic() + timeout
+    while time.monotonic() < t_end:
+        if out.exists() and len(_cases_in(out)) >= n:
+            return
+        if proc.poll() is not None:
+            pytest.fail(f"sweep ended early: {proc.returncode} {proc.stderr.read()}")
+        time.sleep(0.05)
+    pytest.fail("no case finished in time")
+
+
+def _children(pid):
+    try:
+        return [int(x) for x in Path(f"/proc/{pid}/task/{pid}/children").read_text().split()]
+    except OSError:
+        return []
+
+
+def _alive(pid):
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().split()[2] != "Z"
+    except OSError:
+        return False
+
+
+def test_sigint_stops_workers_keeps_finished_cases_and_exits_130(tmp_path):
+    out = tmp_path / "r.csv"
+    proc = _start(tmp_path, out)
+    _wait_for_cases(proc, out, 1)
+    workers = _children(proc.pid)
+    assert len(workers) == 2
+    t0 = time.monotonic()
+    proc.send_signal(signal.SIGINT)
+    while any(_alive(p) for p in workers) and time.monotonic() - t0 < 10:
+        time.sleep(0.01)
+    stop = time.monotonic() - t0
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 130, err
+    assert stop < 2.0, f"the workers took {stop:.2f} s to stop"
+    assert "interrupted" in err and "rerun the same command to resume" in err and "Traceback" not in err
+    done = _cases_in(out)
+    assert 1 <= len(done) < 4 and all(sorted(m) == ["adaptive", "none"] for m in done.values())
+    # resuming (the rest runs, nothing twice) is tested after kill -9 below
+
+
+def test_kill_9_then_resume_loses_nothing_and_duplicates_nothing(tmp_path):
+    out = tmp_path / "r.csv"
+    proc = _start(tmp_path, out, new_session=True)
+    _wait_for_cases(proc, out, 1)
+    os.killpg(proc.pid, signal.SIGKILL)  # the sweep's own process group: parent and workers
+    proc.communicate(timeout=30)
+    before = _cases_in(out)
+    spec = load_spec(SLOW)
+    s = run_sweep(spec, out, workers=2, progress=False)
+    assert s["n_skipped"] == len(before) and s["n_cases"] == 4
+    final = _cases_in(out)
+    assert len(final) == 4 and all(sorted(m) == ["adaptive", "none"] for m in final.values())
+
+
+def test_partly_written_case_is_rerun_without_duplicates(tmp_path):
+    spec = load_spec({**SPEC, "seeds": [0]})
+    full = tmp_path / "full.csv"
+    run_sweep(spec, full, workers=1, progress=False)
+    lines = full.read_text().splitlines(keepends=True)
+    # header, case A complete (2 rows), case B only its first mode row: killed between two rows
+    partial = tmp_path / "partial.csv"
+    partial.write_text("".join(lines[:4]))
+    s = run_sweep(spec, partial, workers=1, progress=False)
+    assert s["n_skipped"] == 1 and s["n_run"] == 1
+    assert _rows(partial) == _rows(full)
+    # a row with an empty metric counts as incomplete too
+    broken = tmp_path / "broken.csv"
+    cells = lines[2].rstrip("\n").split(",")
+    cells[-1] = ""
+    broken.write_text("".join(lines[:2]) + ",".join(cells) + "\n")
+    s = run_sweep(spec, broken, workers=1, progress=False)
+    assert s["n_skipped"] == 0 and _rows(broken) == _rows(full)
+
+
+def test_results_file_of_another_kind_is_refused(tmp_path):
+    other = tmp_path / "other.csv"
+    other.write_text("a,b\n1,2\n")
+    with pytest.raises(ValueError, match="not a results table of this sweep"):
+        run_sweep(load_spec(SPEC), other, workers=1, progress=False)
+    assert other.read_text() == "a,b\n1,2\n"
+
+
+@pytest.mark.parametrize("name", ["sweep_grid.json", "sweep_monte_carlo.json"])
+def test_example_specs_run(tmp_path, name, capsys):
+    from controllers.cli.main import main
+
+    path = ROOT / "examples" / name
+    d = json.loads(path.read_text())  # strict JSON
+    spec = load_spec(path)
+    assert len(expand_cases(spec)) == 4
+    small = tmp_path / name
+    small.write_text(json.dumps({**d, "duration": 3.0}))  # the example as shipped, shortened for the test
+    out = tmp_path / "r.csv"
+    assert main(["sweep", str(small), "--out", str(out), "--workers", "1", "--quiet", "--units", "rad"]) == 0
+    text = capsys.readouterr().out
+    assert "RMS mean [rad/s]" in text and "eta mean [-]" in text
+    assert len(_cases_in(out)) == 4

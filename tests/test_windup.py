@@ -1,5 +1,7 @@
 """RLS windup protection (covariance bound, directional forgetting) and projection onto parameter bounds."""
 
+import math
+
 import numpy as np
 import pytest
 from scipy.optimize import minimize
@@ -35,9 +37,10 @@ def _no_excitation(rls, rng, n):
 
 
 def test_plain_exponential_forgetting_winds_up_at_lam_085():
-    """The problem: eqs. 10-13 with lam = 0.85 divide the unexcited part of P by 0.85 per update."""
+    """The problem: eqs. 10-13 (``P_max=inf``, by name) with lam = 0.85 divide the unexcited part of P by 0.85
+    per update."""
     rng = np.random.default_rng(0)
-    rls = RecursiveLeastSquares(N_PARAMS, lam=0.85, P0=1e4)
+    rls = RecursiveLeastSquares(N_PARAMS, lam=0.85, P0=1e4, P_max=math.inf)
     _excited(rls, rng)
     with np.errstate(over="ignore", invalid="ignore"):
         _no_excitation(rls, rng, 2000)
@@ -127,3 +130,31 @@ def test_bounds_and_P_max_are_validated():
         RecursiveLeastSquares(2, bounds=([1.0, 0.0], [0.0, 1.0]))
     with pytest.raises(ParameterError, match="outside the bounds"):
         RecursiveLeastSquares(2, theta0=[-1.0, 0.0], bounds=([0.0, 0.0], [1.0, 1.0]))
+
+
+def test_default_rls_is_windup_safe_at_lam_085():
+    """Issue 12 item 6: with default settings lam = 0.85 overflowed after about 4,400 updates without excitation
+    and stayed NaN; the default covariance bound trace(P) <= trace(P0) keeps P finite and theta where it was."""
+    rng = np.random.default_rng(5)
+    rls = RecursiveLeastSquares(3, lam=0.85)
+    assert rls.P_max == pytest.approx(3e4)
+    for _ in range(300):
+        phi = rng.normal(size=3)
+        rls.update(phi, phi @ [1.0, 2.0, 3.0])
+    theta0 = rls.theta.copy()
+    plain = RecursiveLeastSquares(3, lam=0.85, P_max=math.inf)
+    plain.theta, plain.P = rls.theta, rls.P
+    phi = np.array([1.0, 0.0, 0.0])
+    with np.errstate(over="ignore", invalid="ignore"):
+        for _ in range(20_000):
+            rls.update(phi, 1.0)
+            try:
+                plain.update(phi, 1.0)
+            except Exception:  # noqa: BLE001 - the plain update overflows: refused now (it used to go NaN)
+                pass
+    assert np.all(np.isfinite(rls.P)) and np.trace(rls.P) <= 3e4 * (1 + 1e-12)
+    assert rls.theta[0] == pytest.approx(1.0, abs=1e-9) and np.allclose(rls.theta[1:], theta0[1:], atol=1e-6)
+    assert rls.n_updates == 20_300 and rls.n_rejected == 0
+    # the paper's plain update winds up until its update would overflow; from then on it refuses the samples
+    # (counted, state finite) instead of going NaN
+    assert plain.n_rejected > 0 and np.all(np.isfinite(plain.theta)) and np.max(plain.P) > 1e100

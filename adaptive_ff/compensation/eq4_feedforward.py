@@ -17,11 +17,12 @@ the one implementation, called by :class:`AdaptiveFrictionFeedforward`'s
 methods and by the closed-loop engine. Layouts (``p`` = number of regression
 parameters, :data:`FF_NPAR`/:data:`FF_NSTATE` the fixed feedforward's lengths)::
 
-    params: feedforward[FF_NPAR], m, Ts, warmup, tau_max, F_max, Vs, delta, lag, stribeck, offset, p
+    params: feedforward[FF_NPAR], m, Ts, warmup, tau_max, F_max, Vs, delta, lag, stribeck, offset, p,
+            torque range gate[RANGE_NPAR], velocity range gate[RANGE_NPAR]
     state:  feedforward[FF_NSTATE], due (periods to the next sample, m at start), u_prev, sampled,
             has_past, u(k-1), w(k-1), w(k-2), n_rejected, n_implausible, has_estimate,
-            estimate (J, tau, sigma, Fc, Fs, offset, J_alt), phi[p], theta[p] (scratch),
-            RLS buffer[rls_buffer_size(p)]
+            estimate (J, tau, sigma, Fc, Fs, offset, J_alt), torque and velocity range gates
+            [2*RANGE_NSTATE], phi[p], theta[p] (scratch), RLS buffer[rls_buffer_size(p)]
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ import numpy as np
 
 from adaptive_ff.compensation.feedforward import (FF_NPAR, FF_NSTATE, FrictionFeedforward, ff_compensate,
                                                   ff_set_estimate, project_levels)
+from adaptive_ff.compensation.gate import RANGE_NPAR, RANGE_NSTATE, RangeGate, range_commit, range_ok
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel, eq4_phi, eq4_to_physical
 from adaptive_ff.identification.rls import (RecursiveLeastSquares, rls_buffer_size, rls_n_updates, rls_theta,
                                             rls_update)
@@ -48,12 +50,14 @@ EQ4_KIND = 6
 # params slots after the feedforward's
 (_P_M, _P_TS, _P_WARMUP, _P_TAUMAX, _P_FMAX, _P_VS, _P_DELTA, _P_LAG, _P_STRIB, _P_OFF,
  _P_NP) = range(FF_NPAR, FF_NPAR + 11)
-_NPAR = FF_NPAR + 11
+_P_UR = FF_NPAR + 11  # torque range gate, then the velocity range gate
+_NPAR = _P_UR + 2 * RANGE_NPAR
 # state slots after the feedforward's
 (_S_DUE, _S_UPREV, _S_SAMPLED, _S_HASPAST, _S_U1, _S_W1, _S_W2, _S_NREJ, _S_NIMPL,
  _S_HASEST) = range(FF_NSTATE, FF_NSTATE + 10)
 _S_EST = FF_NSTATE + 10  # J, tau, sigma, Fc, Fs, offset, J_alt
-_S_PHI = _S_EST + 7  # phi (p), then theta scratch (p), then the RLS buffer
+_S_UR = _S_EST + 7  # torque range gate, velocity range gate
+_S_PHI = _S_UR + 2 * RANGE_NSTATE  # phi (p), then theta scratch (p), then the RLS buffer
 
 
 def _state_size(p: int) -> int:
@@ -102,8 +106,9 @@ def eq4_sample(par, st, u, w):
     Returns
     -------
     bool
-        False if the sample was refused (non-finite ``u`` or ``w``, or a non-finite regressor): only
-        ``n_rejected`` changes. True otherwise.
+        False if the sample was refused (non-finite or out-of-range ``u`` or ``w``, see the range gates
+        of :class:`AdaptiveFrictionFeedforward`, or an RLS update that would overflow): only the counters
+        change. True otherwise.
 
     Notes
     -----
@@ -112,10 +117,22 @@ def eq4_sample(par, st, u, w):
     physical parameters (inverse map of eq. 4), project them (:func:`eq4_project`) and put an admissible
     estimate into the feedforward (an inadmissible one is counted, the previous one kept).
     """
-    if not (math.isfinite(u) and math.isfinite(w)):
+    pu = par[_P_UR:_P_UR + RANGE_NPAR]
+    pw = par[_P_UR + RANGE_NPAR:_P_UR + 2 * RANGE_NPAR]
+    su = st[_S_UR:_S_UR + RANGE_NSTATE]
+    sw = st[_S_UR + RANGE_NSTATE:_S_UR + 2 * RANGE_NSTATE]
+    uok = range_ok(pu, su, u)
+    wok = range_ok(pw, sw, w)
+    if not (uok and wok):
+        if not uok:
+            range_commit(pu, su, u, False)
+        if not wok:
+            range_commit(pw, sw, w, False)
         st[_S_NREJ] += 1.0
         return False
     if st[_S_HASPAST] == 0.0:
+        range_commit(pu, su, u, True)
+        range_commit(pw, sw, w, True)
         st[_S_U1] = u
         st[_S_W1] = w
         st[_S_W2] = w
@@ -128,9 +145,11 @@ def eq4_sample(par, st, u, w):
     rls = st[_S_PHI + 2 * p:]
     n0 = rls_n_updates(rls)
     rls_update(rls, phi, w)
-    if rls_n_updates(rls) == n0:  # non-finite regressor (overflow): refused
+    if rls_n_updates(rls) == n0:  # non-finite regressor or an update that would overflow: refused
         st[_S_NREJ] += 1.0
         return False
+    range_commit(pu, su, u, True)
+    range_commit(pw, sw, w, True)
     st[_S_W2] = st[_S_W1]
     st[_S_W1] = w
     st[_S_U1] = u
@@ -234,6 +253,11 @@ class AdaptiveFrictionFeedforward(Component):
     ff_input : {"measured", "reference"}, keyword-only
         Velocity the closed-loop engine evaluates the feedforward at
         (:func:`eq4_compensate`); default measured.
+    u_range, w_range : RangeGate, keyword-only
+        Range gates of the torque (N·m) and velocity (rad/s) samples; defaults
+        ``RangeGate()`` and ``RangeGate(floor=model.Vs)`` (or ``floor`` 0 without
+        the Stribeck term): a sample above 100 times the envelope of the accepted
+        ones is refused (:class:`adaptive_ff.compensation.gate.RangeGate`).
 
     Attributes
     ----------
@@ -249,7 +273,8 @@ class AdaptiveFrictionFeedforward(Component):
     estimate : FrictionEstimate or None
         Estimate in use (projected), None before the first admissible one.
     n_rejected : int
-        Samples refused (non-finite ``u`` or ``w``); they leave the state unchanged.
+        Samples refused (non-finite or out-of-range ``u`` or ``w``, or an RLS update
+        that would overflow); they leave the state unchanged but the counters.
     n_implausible : int
         RLS updates whose estimate could not be projected (held the previous one).
 
@@ -271,7 +296,7 @@ class AdaptiveFrictionFeedforward(Component):
 
     def __init__(self, model: RegressionModel, *, Ts: float, dt: float, lam: float = 0.995, P0: float = 1e4,
                  warmup: int = 300, lag: bool = True, ff_max: float = math.inf, tau_max: float = 1.0,
-                 ff_input: str = "measured"):
+                 ff_input: str = "measured", u_range: RangeGate | None = None, w_range: RangeGate | None = None):
         ff = FrictionFeedforward(None, dt=dt, lag=lag, ff_max=ff_max, ff_input=ff_input)
         if not isinstance(model, RegressionModel):
             raise ParameterError(f"model must be a RegressionModel, got {type(model).__name__}")
@@ -288,16 +313,26 @@ class AdaptiveFrictionFeedforward(Component):
         self.params[:FF_NPAR] = ff.params
         self.state[:FF_NSTATE] = ff.state
         self.state[_S_DUE] = float(m)
-        self.params[FF_NPAR:] = (float(m), Ts, float(warmup), tau_max, ff.ff_max,
+        self.params[FF_NPAR:_P_UR] = (float(m), Ts, float(warmup), tau_max, ff.ff_max,
                                  model.Vs if model.stribeck else 1.0, model.delta if model.stribeck else 1.0,
                                  float(model.lag), float(model.stribeck), float(model.offset), float(p))
+        u_range = RangeGate() if u_range is None else u_range
+        w_range = RangeGate(floor=model.Vs if model.stribeck else 0.0) if w_range is None else w_range
+        for name, g in (("u_range", u_range), ("w_range", w_range)):
+            if not isinstance(g, RangeGate):
+                raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
         self._ff = ff
+        self.u_range = u_range
+        self.w_range = w_range
         self.rls = rls
         self._attached()
 
     def _attached(self) -> None:
         p = self.n_theta
         self._ff.attach(self.params[:FF_NPAR], self.state[:FF_NSTATE])
+        self.u_range.attach(self.params[_P_UR:_P_UR + RANGE_NPAR], self.state[_S_UR:_S_UR + RANGE_NSTATE])
+        self.w_range.attach(self.params[_P_UR + RANGE_NPAR:_NPAR],
+                            self.state[_S_UR + RANGE_NSTATE:_S_UR + 2 * RANGE_NSTATE])
         self.rls.attach(self.state[_S_PHI + 2 * p:])
 
     def __repr__(self) -> str:
@@ -382,7 +417,8 @@ class AdaptiveFrictionFeedforward(Component):
         Returns
         -------
         bool
-            True if the sample was used, False if rejected (non-finite); a
-            rejected sample changes no state except ``n_rejected``.
+            True if the sample was used, False if rejected (non-finite or out of
+            range, see ``u_range``, ``w_range``); a rejected sample changes no state
+            except the counters.
         """
         return bool(eq4_sample(self.params, self.state, float(u), float(w)))

@@ -96,12 +96,13 @@ def project_estimate(est: FrictionEstimate, *, tau_max: float = 1.0,
                             delta=est.delta, J_alt=est.J_alt)
 
 
-# FrictionFeedforward arrays. params: dt, lag, ff_max, sign_width, stick_band, stick_samples, reference input;
-# state: estimate in use (has, Fc, Fs - Fc, Vs, delta, sigma, lag filter gain, has Vs, tau), output filter, in-band count
-_DT, _LAG, _FFMAX, _SW, _SBAND, _SSAMP, _REF = range(7)
-_HAS, _FC, _DF, _VS, _DELTA, _SIGMA, _ALPHA, _HASVS, _TAU, _UFF, _NIB = range(11)
+# FrictionFeedforward arrays. params: dt, lag, ff_max, sign_width, stick_band, stick_samples, reference input, w_max;
+# state: estimate in use (has, Fc, Fs - Fc, Vs, delta, sigma, lag filter gain, has Vs, tau), output filter, in-band
+# count, rejected inputs
+_DT, _LAG, _FFMAX, _SW, _SBAND, _SSAMP, _REF, _WMAX = range(8)
+_HAS, _FC, _DF, _VS, _DELTA, _SIGMA, _ALPHA, _HASVS, _TAU, _UFF, _NIB, _FNREJ = range(12)
 #: Lengths of the fixed feedforward's parameter and state arrays.
-FF_NPAR, FF_NSTATE = 7, 11
+FF_NPAR, FF_NSTATE = 8, 12
 
 
 @kernel(inline="always")
@@ -145,17 +146,30 @@ def ff_step(par, st, w, w_ref, has_ref):
     """One period: stick detection (with ``has_ref``), lag filter, clip; return the feedforward (N·m).
 
     While the first velocity ``w`` stays inside ``±stick_band`` for ``stick_samples`` calls the
-    second, ``w_ref``, is used (see :class:`FrictionFeedforward`).
+    second, ``w_ref``, is used (see :class:`FrictionFeedforward`). A non-finite velocity (``w``, or
+    ``w_ref`` when given), one above ``w_max`` in magnitude, or a non-finite friction map at it is
+    rejected: the held output is returned and only the rejection counter changes.
     """
+    wmax = par[_WMAX]
+    if not (math.isfinite(w) and -wmax <= w <= wmax) or (has_ref and not (math.isfinite(w_ref)
+                                                                         and -wmax <= w_ref <= wmax)):
+        st[_FNREJ] += 1.0
+        return min(max(st[_UFF], -par[_FFMAX]), par[_FFMAX])
     x = w
+    nib = st[_NIB]
     if has_ref:
         if -par[_SBAND] < w < par[_SBAND]:
-            st[_NIB] += 1.0
-            if st[_NIB] >= par[_SSAMP]:
+            nib += 1.0
+            if nib >= par[_SSAMP]:
                 x = w_ref
         else:
-            st[_NIB] = 0.0
-    st[_UFF] += st[_ALPHA] * (ff_static(par, st, x) - st[_UFF])
+            nib = 0.0
+    fx = ff_static(par, st, x)
+    if not math.isfinite(fx):
+        st[_FNREJ] += 1.0
+        return min(max(st[_UFF], -par[_FFMAX]), par[_FFMAX])
+    st[_NIB] = nib
+    st[_UFF] += st[_ALPHA] * (fx - st[_UFF])
     return min(max(st[_UFF], -par[_FFMAX]), par[_FFMAX])
 
 
@@ -205,12 +219,18 @@ class FrictionFeedforward(Component):
         Velocity the closed-loop engine evaluates the feedforward at (:meth:`compensate`): the
         controller's measurement with stick detection against the reference (default), or the
         reference itself.
+    w_max : float, keyword-only
+        Largest plausible speed (rad/s), > 0: a velocity above it is rejected like a
+        non-finite one (see Notes); default inf.
 
     Attributes
     ----------
     params, state : ndarray
         The component's arrays (see :class:`plant.component.Component`); :func:`ff_step` and
         :func:`ff_compensate` advance them.
+    n_step_rejected : int
+        Calls of :meth:`step` whose input was rejected (non-finite or above ``w_max``,
+        or a non-finite friction map); they returned the held output.
 
     Raises
     ------
@@ -224,6 +244,13 @@ class FrictionFeedforward(Component):
     discretised exactly for a held input: ``u_ff += (1 - exp(-dt/tau))*(F_hat(w) - u_ff)``.
     The constant ``offset`` of the estimate is not fed forward (it is a sensor
     or drive bias, not friction; the PI integrator removes it).
+
+    **Input rejection.** A call with a non-finite velocity (or reference, when
+    given), a velocity above ``w_max`` in magnitude, or a friction map that is
+    not finite there (e.g. ``sigma*w`` overflowing) changes nothing but
+    :attr:`n_step_rejected` and returns the last output (held, clipped): one
+    bad sample cannot poison the lag filter. Finite spikes within ``w_max`` are
+    the job of the measurement's gate (:class:`adaptive_ff.compensation.gate.OutlierGate`).
     """
 
     KIND = 2
@@ -232,8 +259,9 @@ class FrictionFeedforward(Component):
 
     def __init__(self, estimate: FrictionEstimate | None, *, dt: float, lag: bool = True,
                  ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0,
-                 stick_samples: int = 10, ff_input: str = "measured"):
+                 stick_samples: int = 10, ff_input: str = "measured", w_max: float = math.inf):
         dt = check_positive("dt", dt)
+        w_max = float(w_max) if w_max == math.inf else check_positive("w_max", w_max)
         ff_max = float(ff_max) if ff_max == math.inf else check_nonnegative("ff_max", ff_max)
         sign_width = check_nonnegative("sign_width", sign_width)
         stick_band = check_nonnegative("stick_band", stick_band)
@@ -243,7 +271,7 @@ class FrictionFeedforward(Component):
             raise ParameterError(f"ff_input must be 'measured' or 'reference', got {ff_input!r}")
         self._init_arrays(FF_NPAR, FF_NSTATE)
         self.params[:] = (dt, float(bool(lag)), ff_max, sign_width, stick_band, float(stick_samples),
-                          float(ff_input == "reference"))
+                          float(ff_input == "reference"), w_max)
         self.state[_ALPHA] = 1.0
         self.estimate = None
         self._set(estimate)
@@ -257,6 +285,9 @@ class FrictionFeedforward(Component):
     ff_input = property(lambda self: "reference" if self.params[_REF] else "measured",
                         doc="Velocity the engine evaluates the feedforward at (``compensate``).")
     u_ff = property(lambda self: float(self.state[_UFF]), doc="Feedforward before the clip (N·m).")
+    w_max = property(lambda self: float(self.params[_WMAX]), doc="Largest plausible speed (rad/s).")
+    n_step_rejected = property(lambda self: int(self.state[_FNREJ]),
+                               doc="Calls of step() whose input was rejected (the output was held).")
 
     def _set(self, est: FrictionEstimate | None) -> None:
         self.estimate = est
@@ -279,6 +310,12 @@ class FrictionFeedforward(Component):
         w_ref : float, optional
             Used instead of ``w`` while the joint is detected as stuck (see
             ``stick_band``), e.g. the reference velocity.
+
+        Returns
+        -------
+        float
+            The feedforward (N·m), within ``±ff_max``; the held output if the input was
+            rejected (class Notes, counted in :attr:`n_step_rejected`).
         """
         has = w_ref is not None
         return float(ff_step(self.params, self.state, float(w), float(w_ref) if has else 0.0, has))
@@ -442,6 +479,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         ``tau >= 2*dt``); default 0.5.
     stick_band, stick_samples : keyword-only
         Stick detection, see :class:`FrictionFeedforward`.
+    ff_input, w_max : keyword-only
+        See :class:`FrictionFeedforward`.
 
     Attributes
     ----------
@@ -486,11 +525,11 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     def __init__(self, estimator: SlidingFrictionEstimator, *, dt: float, lag: bool = True,
                  ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0, stick_samples: int = 10,
                  warmup: int = 200, fade_in: float = 1.0, J_range: tuple = (0.0, math.inf), tau_max: float = 1.0,
-                 consistency: float = 0.5, ff_input: str = "measured"):
+                 consistency: float = 0.5, ff_input: str = "measured", w_max: float = math.inf):
         if not isinstance(estimator, SlidingFrictionEstimator):
             raise TypeError(f"estimator must be a SlidingFrictionEstimator, got {type(estimator).__name__}")
         ff = FrictionFeedforward(None, dt=dt, lag=lag, ff_max=ff_max, sign_width=sign_width,
-                                 stick_band=stick_band, stick_samples=stick_samples, ff_input=ff_input)
+                                 stick_band=stick_band, stick_samples=stick_samples, ff_input=ff_input, w_max=w_max)
         if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
             raise ParameterError(f"warmup must be an integer >= 0, got {warmup!r}")
         try:

@@ -68,7 +68,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from adaptive_ff.compensation.gate import GATE_NPAR, GATE_NSTATE, OutlierGate, gate_check
+from adaptive_ff.compensation.gate import (GATE_NPAR, GATE_NSTATE, RANGE_NPAR, RANGE_NSTATE, OutlierGate, RangeGate,
+                                          gate_check, range_commit, range_ok)
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RecursiveLeastSquares, rls_buffer_size, rls_update
 from plant.component import Component
@@ -98,8 +99,9 @@ def _check_int(name, v, lo):
     return int(v)
 
 
-# Layout of the estimator's arrays. params: own settings, then the gate's; state: own slots, the regressor
-# scratch phi (p), the gate's state, the RLS buffer.
+# Layout of the estimator's arrays. params: own settings, then the gate's, the torque range gate's, the velocity
+# range gate's; state: own slots, the regressor scratch phi (p), the gate's state, the two range gates' states,
+# the RLS buffer.
 _VS, _DELTA, _A, _T, _M, _SETTLE, _WBMIN, _DWELL, _E2RATE, _LAG, _OFFSET, _NP = range(12)
 _OWN_NPAR = 12
 _SF = 0  # 15 filter states: three stages each of w, u, g, h, d
@@ -109,7 +111,7 @@ _OWN_NSTATE = 24
 
 def sliding_sizes(p: int) -> tuple:
     """``(n_params, n_state)`` of a :class:`SlidingFrictionEstimator` with ``p`` parameters."""
-    return _OWN_NPAR + GATE_NPAR, _OWN_NSTATE + p + GATE_NSTATE + rls_buffer_size(p)
+    return _OWN_NPAR + GATE_NPAR + 2 * RANGE_NPAR, _OWN_NSTATE + p + GATE_NSTATE + 2 * RANGE_NSTATE + rls_buffer_size(p)
 
 
 @kernel(inline="always")
@@ -133,14 +135,29 @@ def sliding_observe(par, st, u, w):
     """
     p = np.int64(par[_NP])
     og = _OWN_NSTATE + p
-    orls = og + GATE_NSTATE
+    our = og + GATE_NSTATE
+    owr = our + RANGE_NSTATE
+    orls = owr + RANGE_NSTATE
+    pur = _OWN_NPAR + GATE_NPAR
+    pwr = pur + RANGE_NPAR
     st[_UPDATED] = 0.0
-    if not math.isfinite(u):
+    # input rejection: torque range, velocity range (finite velocities; the gate counts non-finite ones), then
+    # the velocity gate; the range gates record their decision only once the whole sample is accepted
+    uok = range_ok(par[pur:pwr], st[our:owr], u)
+    if not uok:
+        range_commit(par[pur:pwr], st[our:owr], u, False)
         st[_NREJ] += 1.0
         return False
-    if not gate_check(par[_OWN_NPAR:], st[og:orls], w):
+    wok = range_ok(par[pwr:pwr + RANGE_NPAR], st[owr:orls], w)
+    if math.isfinite(w) and not wok:
+        range_commit(par[pwr:pwr + RANGE_NPAR], st[owr:orls], w, False)
         st[_NREJ] += 1.0
         return False
+    if not gate_check(par[_OWN_NPAR:pur], st[og:our], w):
+        st[_NREJ] += 1.0
+        return False
+    range_commit(par[pur:pwr], st[our:owr], u, True)
+    range_commit(par[pwr:pwr + RANGE_NPAR], st[owr:orls], w, True)
     if st[_NACC] >= 2.0:
         dd = w - 2.0 * st[_W1] + st[_W2]
         st[_D2] += 0.01 * ((dd if dd >= 0.0 else -dd) - st[_D2])
@@ -190,6 +207,8 @@ def sliding_observe(par, st, u, w):
     if par[_OFFSET] > 0.0:
         phi[j] = 1.0
     err = rls_update(st[orls:], phi, st[5])
+    if err != err:  # refused by the RLS (an update that would overflow): counted there, nothing else changes
+        return True
     st[_E2] += par[_E2RATE] * (err * err - st[_E2])
     st[_UPDATED] = 1.0
     return True
@@ -204,7 +223,7 @@ def sliding_updated(st):
 @kernel(inline="always")
 def sliding_rls(par, st):
     """The RLS state buffer inside the estimator state ``st`` (a view)."""
-    return st[_OWN_NSTATE + np.int64(par[_NP]) + GATE_NSTATE:]
+    return st[_OWN_NSTATE + np.int64(par[_NP]) + GATE_NSTATE + 2 * RANGE_NSTATE:]
 
 
 @kernel(inline="always")
@@ -290,7 +309,16 @@ class SlidingFrictionEstimator(Component):
         Largest admissible filtered near-zero indicator of a row, in [0, 1];
         default 0.01; 1 switches the sliding-regime gate off.
     gate : OutlierGate, keyword-only
-        Plausibility gate of the velocity samples; default: non-finite only.
+        Plausibility gate of the velocity samples (jumps); default: non-finite only.
+    u_range : RangeGate, keyword-only
+        Range gate of the torque samples (N·m); default ``RangeGate()``: ``|u|``
+        above 100 times the envelope of the accepted ``|u|`` (10 s memory at
+        1 kHz) is out of range. Give ``x_max`` = the drive's torque limit to
+        bound it absolutely.
+    w_range : RangeGate, keyword-only
+        Range gate of the velocity samples (rad/s); default ``RangeGate(floor=Vs)``:
+        ``|w|`` above 100 times ``max(envelope of the accepted |w|, Vs)`` is out
+        of range (a floor of 0 is replaced by ``Vs``).
 
     Attributes
     ----------
@@ -301,9 +329,11 @@ class SlidingFrictionEstimator(Component):
     names : tuple of str
         Parameter names (a subset of :data:`SLIDING_NAMES`).
     n_samples, n_rejected, n_gated : int
-        Samples accepted, rejected (non-finite ``u`` or ``w``, velocity
-        outliers: they leave the estimator unchanged) and update instants
-        skipped by the sliding-regime gate.
+        Samples accepted, rejected (non-finite or out-of-range ``u`` or ``w``,
+        velocity outliers: they leave the estimator unchanged but the counters)
+        and update instants skipped by the sliding-regime gate.
+    u_range, w_range : RangeGate
+        The range gates (their envelopes and counters are live views).
     updated : bool
         Whether the last :meth:`observe` call updated the RLS.
     noise_std : float
@@ -323,7 +353,8 @@ class SlidingFrictionEstimator(Component):
                  lam: float = 0.995, forgetting: str = "exponential", P0: float = 1e4, P_max: float | None = None,
                  initial: FrictionEstimate | None = None, J_guess: float = 1.0, J_max: float = math.inf,
                  tau_max: float = 1.0, lag: bool = True, offset: bool = True, w_band_min: float | None = None,
-                 dwell_max: float = 0.01, gate: OutlierGate | None = None):
+                 dwell_max: float = 0.01, gate: OutlierGate | None = None, u_range: RangeGate | None = None,
+                 w_range: RangeGate | None = None):
         self.Vs = check_positive("Vs", Vs)
         self.delta = check_finite_scalar("delta", delta)
         if self.delta == 0.0:
@@ -365,6 +396,13 @@ class SlidingFrictionEstimator(Component):
         gate = OutlierGate() if gate is None else gate
         if not isinstance(gate, OutlierGate):
             raise ParameterError(f"gate must be an OutlierGate, got {type(gate).__name__}")
+        u_range = RangeGate() if u_range is None else u_range
+        w_range = RangeGate(floor=self.Vs) if w_range is None else w_range
+        for name, g in (("u_range", u_range), ("w_range", w_range)):
+            if not isinstance(g, RangeGate):
+                raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
+        if w_range.floor == 0.0:
+            w_range = w_range.with_floor(self.Vs)
         p = len(self.names)
         self._init_arrays(*sliding_sizes(p))
         a = 1.0 - math.exp(-self.Tc / self.T)
@@ -374,14 +412,21 @@ class SlidingFrictionEstimator(Component):
         self.params[:_OWN_NPAR] = (self.Vs, self.delta, a, self.T, float(self.m), float(settle), self.w_band_min,
                                    self.dwell_max, e2_rate, float(self.lag), float(self.offset), float(p))
         self.gate = gate
+        self.u_range = u_range
+        self.w_range = w_range
         self.rls = rls
         self._attached()
 
     def _attached(self) -> None:
         p = len(self.names)
         og = _OWN_NSTATE + p
-        self.gate.attach(self.params[_OWN_NPAR:], self.state[og:og + GATE_NSTATE])
-        self.rls.attach(self.state[og + GATE_NSTATE:])
+        pur = _OWN_NPAR + GATE_NPAR
+        our = og + GATE_NSTATE
+        self.gate.attach(self.params[_OWN_NPAR:pur], self.state[og:our])
+        self.u_range.attach(self.params[pur:pur + RANGE_NPAR], self.state[our:our + RANGE_NSTATE])
+        self.w_range.attach(self.params[pur + RANGE_NPAR:pur + 2 * RANGE_NPAR],
+                            self.state[our + RANGE_NSTATE:our + 2 * RANGE_NSTATE])
+        self.rls.attach(self.state[our + 2 * RANGE_NSTATE:])
 
     def __repr__(self) -> str:
         return (f"SlidingFrictionEstimator(Vs={self.Vs!r}, delta={self.delta!r}, Ts={self.Ts!r}, "
@@ -451,8 +496,9 @@ class SlidingFrictionEstimator(Component):
         -------
         bool
             True if the sample was used; False if it was rejected (non-finite
-            ``u`` or ``w``, or a velocity outlier of :attr:`gate`): a rejected
-            sample changes nothing but the counters.
+            or out-of-range ``u`` or ``w``, see :attr:`u_range`, :attr:`w_range`,
+            or a velocity outlier of :attr:`gate`): a rejected sample changes
+            nothing but the counters.
         """
         return bool(sliding_observe(self.params, self.state, float(u), float(w)))
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from adaptive_ff.identification.plausibility import IdentificationWarning
 from plant.errors import ParameterError, check_positive, check_signal, check_time
 from plant.results import json_safe
 
@@ -113,8 +114,10 @@ class ExcitationReport:
         Fraction of samples with ``noise_threshold < |w| < 3*Vs`` (the Stribeck transition).
     noise_std : float
         Estimated velocity noise (rad/s), :func:`velocity_noise_std`.
-    warnings : tuple of str
-        One message per parameter that the record does not excite, naming the cause.
+    warnings : tuple of IdentificationWarning
+        One ``"identifiability"`` warning (a str with ``code`` and ``parameter``,
+        :mod:`adaptive_ff.identification.plausibility`) per parameter that the record
+        does not excite, naming the cause.
     """
 
     n_samples: int
@@ -124,10 +127,11 @@ class ExcitationReport:
     warnings: tuple[str, ...]
 
     def to_dict(self) -> dict:
-        """Strict-JSON dict of the fields (``low_speed_fraction`` None when no ``Vs`` was given)."""
+        """Strict-JSON dict of the fields (``low_speed_fraction`` None when no ``Vs`` was given); ``warnings``
+        as a list of ``{"code", "parameter", "message"}``."""
         return json_safe({"n_samples": self.n_samples, "n_reversals": self.n_reversals,
                           "low_speed_fraction": self.low_speed_fraction, "noise_std": self.noise_std,
-                          "warnings": list(self.warnings)})
+                          "warnings": [w.to_dict() for w in self.warnings]})
 
     def summary(self) -> str:
         """One line of figures, then one line per warning (or "every parameter excited")."""
@@ -198,10 +202,11 @@ def excitation_report(u, w, *, Vs: float | None = None, min_reversals: int = 4,
     low = float(np.mean(moving & (np.abs(w) < 3.0 * Vs))) if Vs is not None else float("nan")
     warn = []
     if np.ptp(u) == 0.0:
-        warn.append("the input u is constant: no parameter is excited")
+        warn.append(IdentificationWarning("identifiability", "all", "the input u is constant: no parameter is excited"))
     if n_rev < min_reversals:
-        warn.append(f"only {n_rev} velocity reversal(s) above the noise level (need {min_reversals}): "
-                    "Fc is not separable from a constant torque offset; drive in both directions")
+        warn.append(IdentificationWarning(
+            "identifiability", "Fc", f"only {n_rev} velocity reversal(s) above the noise level (need {min_reversals}): "
+                                     "Fc is not separable from a constant torque offset; drive in both directions"))
     if Vs is not None and not low >= min_low_speed:
         if 3.0 * Vs <= thr:
             cause = (f"the Stribeck transition |w| < 3*Vs = {3 * Vs:.3g} rad/s lies below three times the "
@@ -209,12 +214,14 @@ def excitation_report(u, w, *, Vs: float | None = None, min_reversals: int = 4,
         else:
             cause = (f"only {100 * low:.2f} % of the samples lie in the Stribeck transition "
                      f"{thr:.3g} < |w| < 3*Vs = {3 * Vs:.3g} rad/s (need {100 * min_low_speed:g} %)")
-        warn.append(f"too few low-speed samples: Fs and Vs are not identifiable ({cause})")
+        warn.append(IdentificationWarning("identifiability", "Fs",
+                                          f"too few low-speed samples: Fs and Vs are not identifiable ({cause})"))
     if not moving.any() or np.ptp(np.abs(w[moving])) < 0.1 * np.max(np.abs(w)):
-        warn.append("the speed hardly varies: sigma is not separable from Fc; use several speed levels")
+        warn.append(IdentificationWarning("identifiability", "sigma", "the speed hardly varies: sigma is not "
+                                                                      "separable from Fc; use several speed levels"))
     dw = np.diff(w)
     if dw.size and np.std(dw) <= 3.0 * np.sqrt(2.0) * sn:
-        warn.append("the velocity changes no more than its noise from sample to sample: J (and tau) are "
-                    "not identifiable; excite accelerations")
+        warn.append(IdentificationWarning("identifiability", "J", "the velocity changes no more than its noise from "
+                                          "sample to sample: J (and tau) are not identifiable; excite accelerations"))
     return ExcitationReport(n_samples=int(w.shape[0]), n_reversals=n_rev, low_speed_fraction=low,
                             noise_std=sn, warnings=tuple(warn))

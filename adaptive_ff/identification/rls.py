@@ -17,14 +17,14 @@ from plant.jit import kernel
 from plant.errors import ParameterError, SignalError, check_finite_scalar
 
 __all__ = ["RecursiveLeastSquares", "FORGETTING", "rls_buffer_size", "rls_step", "rls_update", "rls_theta", "rls_P",
-           "rls_n_updates"]
+           "rls_n_updates", "rls_n_rejected"]
 
 #: Forgetting schemes of :class:`RecursiveLeastSquares`.
 FORGETTING = ("exponential", "directional")
 
 # Layout of the state buffer: a header, then theta (p), P (p*p, row-major), lower (p), upper (p),
 # D (p*p, vector-forgetting inflation factors) and a scratch vector (p) for P @ phi.
-_NP, _SCHEME, _LAM, _PMAX, _HASB, _NUPD, _NPROJ = 0, 1, 2, 3, 4, 5, 6
+_NP, _SCHEME, _LAM, _PMAX, _HASB, _NUPD, _NPROJ, _NREJ = 0, 1, 2, 3, 4, 5, 6, 7
 _HDR = 8
 _EXPONENTIAL, _DIRECTIONAL, _VECTOR = 0, 1, 2
 _NDARRAY = np.ndarray
@@ -52,6 +52,12 @@ def rls_P(buf, i, j):
 def rls_n_updates(buf):
     """Number of accepted updates recorded in the state buffer ``buf`` (float)."""
     return buf[_NUPD]
+
+
+@kernel(inline="always")
+def rls_n_rejected(buf):
+    """Number of rejected samples (non-finite, or an update that would overflow) in the state buffer (float)."""
+    return buf[_NREJ]
 
 
 @kernel
@@ -101,7 +107,13 @@ def _project(buf, p, th, P0, lo, hi):
 
 @kernel("float64(float64[::1], float64[:], float64)")
 def rls_step(buf, phi, y):
-    """One RLS update of the state in ``buf`` (see the class Notes), no input checks; return the a-priori error."""
+    """One RLS update of the state in ``buf`` (see the class Notes); return the a-priori error.
+
+    The sample must be finite (:func:`rls_update` checks that). An update that would overflow (the a-priori
+    error, ``phi @ P @ phi`` or ``|P @ phi|**2`` not finite: entries of ``phi`` or ``y`` beyond about
+    ``1e150/sqrt(trace P)``) is refused before the state is touched: NaN is returned and the sample is
+    counted in the rejected-sample counter (``rls_n_rejected``).
+    """
     p = np.int64(buf[_NP])
     th = _HDR
     P0 = th + p
@@ -115,6 +127,25 @@ def rls_step(buf, phi, y):
     e = y
     for i in range(p):
         e -= phi[i] * buf[th + i]
+    # P @ phi into the scratch vector (inflated by D for vector forgetting), then the overflow guard: the
+    # state is not touched before it
+    r = 0.0
+    vv = 0.0
+    tr = 0.0
+    for i in range(p):
+        acc = 0.0
+        for j in range(p):
+            if scheme == _VECTOR:
+                acc += (buf[P0 + i * p + j] * buf[D + i * p + j]) * phi[j]
+            else:
+                acc += buf[P0 + i * p + j] * phi[j]
+        buf[v + i] = acc
+        r += phi[i] * acc
+        vv += acc * acc
+        tr += buf[P0 + i * p + i]
+    if not (math.isfinite(e * e) and math.isfinite(r) and math.isfinite(vv)):
+        buf[_NREJ] += 1.0
+        return np.nan
     if scheme == _VECTOR:
         # inflate P <- D P D (unless that exceeds the trace bound), then a unit-weight update
         tr = 0.0
@@ -140,17 +171,6 @@ def rls_step(buf, phi, y):
                 buf[P0 + j * p + i] = x
         g = e / s
     else:
-        r = 0.0
-        vv = 0.0
-        tr = 0.0
-        for i in range(p):
-            acc = 0.0
-            for j in range(p):
-                acc += buf[P0 + i * p + j] * phi[j]
-            buf[v + i] = acc
-            r += phi[i] * acc
-            vv += acc * acc
-            tr += buf[P0 + i * p + i]
         if scheme == _EXPONENTIAL:
             s = lam + r
             div = 1.0
@@ -197,14 +217,17 @@ def rls_step(buf, phi, y):
 
 @kernel("float64(float64[::1], float64[:], float64)")
 def rls_update(buf, phi, y):
-    """Checked single update: NaN (state untouched) for a wrong length or a non-finite sample, else the error."""
+    """Checked single update: NaN (state untouched but the rejected-sample counter) for a wrong length, a
+    non-finite sample or an update that would overflow (:func:`rls_step`), else the a-priori error."""
     p = np.int64(buf[_NP])
     if phi.shape[0] != p:
+        buf[_NREJ] += 1.0
         return np.nan
     chk = y * 0.0  # NaN iff y or any phi[i] is NaN/inf
     for i in range(p):
         chk += phi[i] * 0.0
     if chk != 0.0:
+        buf[_NREJ] += 1.0
         return np.nan
     return rls_step(buf, phi, y)
 
@@ -245,16 +268,18 @@ class RecursiveLeastSquares:
         Initial estimate, default zeros (as in the paper).
     forgetting : {"exponential", "directional"}, keyword-only
         ``"exponential"`` (default): eqs. 10-13, every direction of ``P`` is
-        divided by ``lam`` at every update, so without excitation ``P`` grows
-        like ``lam**-k`` (estimator windup). ``"directional"``: directional
-        forgetting (see Notes); information is forgotten only along the current
-        regressor, so ``P`` stays bounded without excitation.
+        divided by ``lam`` at every update, so without excitation ``P`` would grow
+        like ``lam**-k`` (estimator windup) were it not for ``P_max``. ``"directional"``:
+        directional forgetting (see Notes); information is forgotten only along the
+        current regressor, so ``P`` stays bounded without excitation.
     P_max : float, keyword-only
-        Bound on ``trace(P)`` (covariance upper bound). When an update would
-        exceed it, that update forgets nothing (``lam = 1`` for that step).
-        Default: none for ``"exponential"`` (eqs. 10-13 unchanged),
-        ``trace(P0)`` for ``"directional"`` (forgetting never makes the estimate
-        less certain than the initial guess).
+        Bound on ``trace(P)`` (covariance upper bound, windup protection). When an
+        update would exceed it, that update forgets nothing (``lam = 1`` for that
+        step). Default ``trace(P0)`` for both schemes: forgetting never makes the
+        estimate less certain than the initial guess, so ``P`` stays bounded over
+        any number of updates without excitation. ``math.inf`` gives the paper's
+        plain eqs. 10-13 (``RecursiveLeastSquares(p, lam=0.85, P_max=math.inf)``),
+        which overflow after a few thousand unexcited updates at ``lam = 0.85``.
     bounds : tuple (lower, upper) of array_like, shape (p,), keyword-only
         Box of admissible parameters (``-inf``/``inf`` allowed). After each
         update ``theta`` is projected onto it (see Notes). Default: none.
@@ -272,6 +297,9 @@ class RecursiveLeastSquares:
         Accepted updates.
     n_projected : int
         Updates after which ``theta`` had to be projected onto ``bounds``.
+    n_rejected : int
+        Samples refused with the state unchanged: non-finite, or an update that
+        would overflow (see Notes).
 
     Raises
     ------
@@ -342,6 +370,13 @@ class RecursiveLeastSquares:
     (exact for one active bound), repeated at most ``p`` times, then a final
     clip. ``P`` is not changed.
 
+    **Input rejection.** A sample with a NaN/inf entry, or one whose update
+    would overflow (the a-priori error ``e``, ``phi @ P @ phi`` or
+    ``|P @ phi|**2`` not finite in float64: entries of ``phi``, ``y`` beyond
+    about ``1e150``), is refused before the state is touched and counted in
+    :attr:`n_rejected`; :meth:`update` then raises :class:`plant.errors.SignalError`,
+    the compiled :func:`rls_update` (used by the compiled components) returns NaN.
+
     **Implementation.** One compiled (numba) kernel performs an update in place
     on a private float64 buffer that holds ``theta``, ``P``, the counters and the
     configuration; :meth:`update` calls it once per sample (0.6-0.7 µs for
@@ -394,7 +429,7 @@ class RecursiveLeastSquares:
             if theta.shape != (p,) or not np.all(np.isfinite(theta)):
                 raise ParameterError(f"theta0 must be {p} finite values, got {theta0!r}")
         if P_max is None:
-            P_max = float(np.trace(P)) if forgetting == "directional" else math.inf
+            P_max = float(np.trace(P))
         elif not (isinstance(P_max, (int, float, np.integer, np.floating)) and not isinstance(P_max, bool)
                   and P_max > 0):
             raise ParameterError(f"P_max must be a number > 0, got {P_max!r}")
@@ -532,6 +567,11 @@ class RecursiveLeastSquares:
         return int(self._buf[_NPROJ])
 
     @property
+    def n_rejected(self) -> int:
+        """Number of refused samples (non-finite, or an update that would overflow); the state was left unchanged."""
+        return int(self._buf[_NREJ])
+
+    @property
     def bounds(self) -> tuple | None:
         """``(lower, upper)`` arrays of the projection box, or None."""
         return None if self._buf[_HASB] == 0.0 else (self._lower.copy(), self._upper.copy())
@@ -592,24 +632,31 @@ class RecursiveLeastSquares:
         Raises
         ------
         SignalError
-            Wrong shape, or a NaN/inf in ``phi`` or ``y``; the state is left unchanged.
+            Wrong shape, a NaN/inf in ``phi`` or ``y``, or an update that would
+            overflow (class Notes); the state is left unchanged but :attr:`n_rejected`.
 
         Notes
         -----
         The compiled kernel checks the sample (one multiply-add per entry: ``x*0`` is
-        NaN exactly for NaN/inf) before it touches the state and returns NaN for a
-        rejected sample; only then is the sample inspected in Python to raise the
-        error. A NaN error from finite data (a diverged estimator) is returned as is.
+        NaN exactly for NaN/inf, then the overflow guard) before it touches the state
+        and returns NaN for a rejected sample; only then is the sample inspected in
+        Python to raise the error.
         """
-        if type(phi) is not _NDARRAY or phi.dtype is not _F8:  # list, int array, ...: convert and check first
-            phi, y = self._check(phi, y)
         try:
-            e = rls_update(self._buf, phi, y)
-        except TypeError:  # phi not a vector, read-only, or y not a number (no matching compiled signature)
-            phi, y = self._check(phi, y)
-            e = rls_update(self._buf, np.array(phi), y)
+            if type(phi) is not _NDARRAY or phi.dtype is not _F8:  # list, int array, ...: convert and check first
+                phi, y = self._check(phi, y)
+            try:
+                e = rls_update(self._buf, phi, y)
+            except TypeError:  # phi not a vector, read-only, or y not a number (no matching compiled signature)
+                phi, y = self._check(phi, y)
+                e = rls_update(self._buf, np.array(phi), y)
+        except SignalError:
+            self._buf[_NREJ] += 1.0  # refused in Python before the kernel: counted as the kernel would
+            raise
         if e != e:
-            self._check(phi, y)  # raises SignalError if the kernel rejected the sample
+            self._check(phi, y)  # raises SignalError if the kernel rejected a non-finite sample
+            raise SignalError(f"sample refused: its update would overflow (phi = {np.asarray(phi).tolist()!r}, "
+                              f"y = {float(y)!r}); the state is unchanged")
         return e
 
     def update_many(self, Phi, Y) -> np.ndarray:
@@ -635,6 +682,11 @@ class RecursiveLeastSquares:
         SignalError
             Wrong shapes, or a NaN/inf anywhere in ``Phi`` or ``Y`` (the message names
             the first bad row); the whole stream is then rejected and the state left unchanged.
+
+        Notes
+        -----
+        A finite row whose update would overflow (class Notes) is skipped and counted in
+        :attr:`n_rejected`; its row of the history repeats the previous estimate.
         """
         Phi = np.asarray(Phi, dtype=float)
         Y = np.asarray(Y, dtype=float)

@@ -410,8 +410,10 @@ def load_emps(path, *, cutoff: float = EMPS_CUTOFF, order: int = 4, skip: int = 
         raise FileNotFoundError(f"EMPS file not found: {where}")
     try:
         mat = loadmat(str(path))
-    except (ValueError, TypeError, OSError, NotImplementedError) as exc:
-        raise SignalError(f"{where}: not a readable MATLAB .mat file ({exc})") from None
+    except Exception as exc:  # noqa: BLE001 - scipy's parser raises many types on damaged bytes
+        size = path.stat().st_size
+        raise SignalError(f"{where}: not a readable MATLAB .mat file "
+                          f"({'the file is empty (0 bytes)' if size == 0 else exc})") from None
     missing = [v for v in _EMPS_VARS if v not in mat]
     if missing:
         present = sorted(k for k in mat if not k.startswith("__"))

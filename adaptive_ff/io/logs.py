@@ -96,6 +96,9 @@ __all__ = [
     "POSITION_UNITS",
     "KALMAN_MODELS",
     "Table",
+    "CsvFormat",
+    "DELIMITER_NAMES",
+    "MAX_MAGNITUDE",
     "LogUnits",
     "KalmanSettings",
     "VelocityEstimate",
@@ -199,10 +202,82 @@ class Table:
         return f"column {self.names[role]!r} ({role})"
 
 
+#: Spellings of ``CsvFormat.delimiter`` for characters that are awkward on a command line.
+DELIMITER_NAMES = {"comma": ",", "semicolon": ";", "tab": "\t", "\\t": "\t", "space": None, "whitespace": None,
+                   "pipe": "|"}
+
+
+@dataclass(frozen=True, kw_only=True)
+class CsvFormat:
+    """Layout of a text (CSV/TXT) log, for files that are not a plain header + rows table (keyword-only).
+
+    Parameters
+    ----------
+    skip_rows : int
+        File lines to skip before anything else (>= 0), e.g. a scope's preamble.
+    header_line : int, optional
+        1-based file line of the header row (>= 1); data start on the next line.
+        Default: found automatically (the first line, a ``# name,...`` comment as
+        written by ``numpy.savetxt``, or the last text line before the first
+        numeric row, which skips a vendor preamble).
+    delimiter : str, optional
+        Field separator: one character, or ``comma``, ``semicolon``, ``tab``,
+        ``pipe``, ``space``/``whitespace`` (runs of blanks). Default: guessed
+        from the header (comma, semicolon, tab, else whitespace).
+
+    Raises
+    ------
+    ParameterError
+        A negative ``skip_rows``, ``header_line`` < 1, or a delimiter that is
+        not one character or a known name; each message names the field.
+
+    Notes
+    -----
+    Headerless files: map the roles to 0-based column indices
+    (``columns="t=0,u=2,w=1"`` in :func:`load_log`).
+    """
+
+    skip_rows: int = 0
+    header_line: int | None = None
+    delimiter: str | None = None
+
+    def __post_init__(self):
+        if isinstance(self.skip_rows, bool) or not isinstance(self.skip_rows, int) or self.skip_rows < 0:
+            raise ParameterError(f"skip_rows must be an integer >= 0, got {self.skip_rows!r}")
+        h = self.header_line
+        if h is not None and (isinstance(h, bool) or not isinstance(h, int) or h < 1):
+            raise ParameterError(f"header_line must be an integer >= 1 (a 1-based line number), got {h!r}")
+        d = self.delimiter
+        if d is not None:
+            if not isinstance(d, str) or not (len(d) == 1 or d.lower() in DELIMITER_NAMES) or d in "\r\n\"":
+                raise ParameterError(f"delimiter must be one character or one of {sorted(DELIMITER_NAMES)}, "
+                                     f"got {d!r}")
+
+    @property
+    def separator(self) -> str | None:
+        """The delimiter character, ``None`` for whitespace (also when not given: see :attr:`guess`)."""
+        d = self.delimiter
+        if d is None or d == " ":
+            return None
+        return DELIMITER_NAMES.get(d.lower(), d) if len(d) > 1 else d
+
+    @property
+    def guess(self) -> bool:
+        """True when the delimiter is guessed from the file."""
+        return self.delimiter is None
+
+
 def _split(line: str, delimiter: str | None) -> list[str]:
     if delimiter is None:
         return line.split()
-    return next(csv.reader([line], delimiter=delimiter))
+    try:
+        return next(csv.reader([line], delimiter=delimiter))
+    except (csv.Error, StopIteration):
+        return line.split(delimiter)
+
+
+def _guess_delimiter(line: str) -> str | None:
+    return next((d for d in (",", ";", "\t") if d in line), None)
 
 
 def _is_number(cell: str) -> bool:
@@ -213,51 +288,108 @@ def _is_number(cell: str) -> bool:
     return True
 
 
-def _read_csv(path: Path, names: dict, optional: set) -> Table:
-    """CSV (or whitespace/semicolon/tab separated text) with a header row of column names."""
+def _numeric_line(line: str, delimiter: str | None) -> bool:
+    cells = [c.strip() for c in _split(line, delimiter)]
+    cells = [c for c in cells if c]
+    return bool(cells) and all(_is_number(c) for c in cells)
+
+
+def _index_map(names: dict) -> bool:
+    """True when every column name of the map is a 0-based index (a headerless file)."""
+    return all(str(v).strip().isdigit() for v in names.values())
+
+
+def _csv_lines(path: Path, fmt: CsvFormat) -> list[tuple[int, str]]:
+    """``(line number, text)`` of the non-blank lines after ``fmt.skip_rows``; typed errors for bad bytes."""
     where = str(path)
     try:
-        text = path.read_text(encoding="utf-8-sig")
+        text = path.read_bytes().decode("utf-8-sig")
     except UnicodeDecodeError as exc:
-        raise SignalError(f"{where}: not a text (CSV) file ({exc})") from None
-    raw = [(i + 1, ln) for i, ln in enumerate(text.splitlines()) if ln.strip()]
+        raise SignalError(f"{where}: not a UTF-8 text (CSV) file: byte {exc.start} ({exc.reason}); "
+                          "export the log as UTF-8 or ASCII text") from None
+    if "\x00" in text:
+        raise SignalError(f"{where}: not a text (CSV) file (it holds NUL bytes); give .mat or .npz files "
+                          "their own suffix")
+    raw = [(i + 1, ln) for i, ln in enumerate(text.splitlines()) if ln.strip() and i >= fmt.skip_rows]
     if not raw:
-        raise SignalError(f"{where}: empty file, expected a header row with column names")
-    # header: the first line, unless the file starts with '#' comment lines; then the last of those
-    # if the next line is data (numpy.savetxt writes '# t,u,w'), else the first non-comment line
-    k = 0
-    while k < len(raw) and raw[k][1].lstrip().startswith("#"):
-        k += 1
-    if k == 0:
-        h_line, header_text, body = raw[0][0], raw[0][1], raw[1:]
-    elif k == len(raw):
+        extra = f" after skipping {fmt.skip_rows} lines" if fmt.skip_rows else ""
+        raise SignalError(f"{where}: empty file{extra}, expected a header row with column names")
+    return raw
+
+
+def _find_header(where: str, raw: list, fmt: CsvFormat, names: dict) -> tuple:
+    """``(header line number or None, header text or None, body lines)`` of a text log (see :class:`CsvFormat`)."""
+    if fmt.header_line is not None:
+        k = next((i for i, (ln, _) in enumerate(raw) if ln == fmt.header_line), None)
+        if k is None:
+            raise SignalError(f"{where}: --header-line {fmt.header_line}: no such non-blank line "
+                              f"(lines {raw[0][0]}..{raw[-1][0]} after skipping {fmt.skip_rows})")
+        return raw[k][0], raw[k][1].lstrip().lstrip("#"), raw[k + 1:]
+    content = [(i, ln, s) for i, (ln, s) in enumerate(raw) if not s.lstrip().startswith("#")]
+    if not content:
         raise SignalError(f"{where}: only comment lines, no data")
-    else:
-        first = raw[k][1]
-        delim = next((d for d in (",", ";", "\t") if d in first), None)
-        if all(_is_number(c.strip()) for c in _split(first, delim) if c.strip()):
-            h_line, header_text, body = raw[k - 1][0], raw[k - 1][1].lstrip()[1:], raw[k:]
-        else:
-            h_line, header_text, body = raw[k][0], first, raw[k + 1:]
-    delimiter = next((d for d in (",", ";", "\t") if d in header_text), None)
-    header = [c.strip() for c in _split(header_text, delimiter)]
+
+    def numeric(s):
+        return _numeric_line(s, fmt.separator if not fmt.guess else _guess_delimiter(s))
+
+    first_num = next((c for c in content if numeric(c[2])), None)
+    if _index_map(names):  # headerless: a text first line is taken as a header and skipped
+        i0 = content[0][0]
+        if numeric(raw[i0][1]):
+            return None, None, raw[i0:]
+        return raw[i0][0], raw[i0][1], raw[i0 + 1:]
+    i0, ln0, s0 = content[0]
+    if numeric(s0):
+        if i0 > 0 and raw[i0 - 1][1].lstrip().startswith("#"):  # numpy.savetxt: '# t,u,w'
+            return raw[i0 - 1][0], raw[i0 - 1][1].lstrip()[1:], raw[i0:]
+        raise SignalError(f"{where}: line {ln0} is numeric ({s0.strip()[:60]!r}), not a header of column names; "
+                          "no header? use --columns with indices, e.g. --columns t=0,u=1,w=2 (0-based), or "
+                          "--header-line N")
+    candidates = [content[0]]
+    if first_num is not None and first_num[0] > 0:
+        prev = next((c for c in reversed(content) if c[0] < first_num[0]), None)
+        if prev is not None and prev is not content[0]:
+            candidates.append(prev)
+    for i, ln, s in candidates:  # the first line, or the last text line before the data (after a preamble)
+        header = [c.strip().lower() for c in _split(s, fmt.separator if not fmt.guess else _guess_delimiter(s))]
+        if all(v.lower() in header for v in names.values()):
+            return ln, s, raw[i + 1:]
+    i, ln, s = candidates[-1]
+    return ln, s, raw[i + 1:]
+
+
+def _read_csv(path: Path, names: dict, optional: set, fmt: CsvFormat | None = None) -> Table:
+    """Text log (comma, semicolon, tab or whitespace separated; see :class:`CsvFormat` for the layout)."""
+    fmt = CsvFormat() if fmt is None else fmt
+    where = str(path)
+    raw = _csv_lines(path, fmt)
+    h_line, header_text, body = _find_header(where, raw, fmt, names)
+    delimiter = fmt.separator if not fmt.guess else _guess_delimiter(header_text or (body[0][1] if body else ""))
+    header = [c.strip() for c in _split(header_text, delimiter)] if header_text is not None else []
     lower = [c.lower() for c in header]
-    idx = {}
+    idx, found = {}, {}
     for role, name in names.items():
-        if name.lower() in lower:
-            idx[role] = lower.index(name.lower())
+        if _index_map(names):
+            idx[role], found[role] = int(name), (header[int(name)] if int(name) < len(header) else f"#{name}")
+        elif name.lower() in lower:
+            idx[role], found[role] = lower.index(name.lower()), name
         elif role not in optional:
+            hint = ("" if h_line == raw[0][0] else
+                    f" (header taken from line {h_line}; lines before it skipped as a preamble)")
             raise SignalError(f"{where}: column {name!r} (role {role}: {ROLES.get(role, role)}) missing from the "
-                              f"header on line {h_line}; columns are {header}")
+                              f"header on line {h_line}{hint}; columns are {header}. Choose the header with "
+                              "--header-line N, or map columns by 0-based index with --columns t=0,u=1,w=2")
     rows = [(ln, _split(s, delimiter)) for ln, s in body if not s.lstrip().startswith("#")]
+    if not rows:
+        raise SignalError(f"{where}: no data rows after the header on line {h_line}")
     cols = {role: np.empty(len(rows)) for role in idx}
     lines = np.array([ln for ln, _ in rows], dtype=np.int64)
     for i, (ln, row) in enumerate(rows):
         for role, j in idx.items():
-            col = f"column {names[role]!r} ({role})"
+            col = f"column {found[role]!r} ({role})"
             if j >= len(row) or not row[j].strip():
                 raise SignalError(f"{where}: {col}, row {i + 1} (line {ln}): missing cell "
-                                  f"(the row has {len(row)} fields, the header {len(header)})")
+                                  f"(the row has {len(row)} fields{'' if not header else f', the header {len(header)}'})")
             cell = row[j].strip()
             try:
                 x = float(cell)
@@ -266,7 +398,7 @@ def _read_csv(path: Path, names: dict, optional: set) -> Table:
             if not math.isfinite(x):
                 raise SignalError(f"{where}: {col}, row {i + 1} (line {ln}): non-finite value {cell!r}")
             cols[role][i] = x
-    return Table(source=where, kind="csv", columns=cols, names={r: names[r] for r in idx}, lines=lines)
+    return Table(source=where, kind="csv", columns=cols, names=found, lines=lines)
 
 
 def _vector(where: str, role: str, name: str, value) -> np.ndarray:
@@ -309,8 +441,8 @@ def _read_mat(path: Path, names: dict, optional: set) -> Table:
     except NotImplementedError:
         raise SignalError(f"{where}: MATLAB v7.3 (HDF5) files are not supported; save with "
                           "save(..., '-v7') or export CSV") from None
-    except (ValueError, TypeError, OSError) as exc:
-        raise SignalError(f"{where}: not a readable MATLAB .mat file ({exc})") from None
+    except Exception as exc:  # noqa: BLE001 - scipy's parser raises many types on damaged bytes
+        raise SignalError(f"{where}: not a readable MATLAB .mat file ({_reason(exc, path)})") from None
     present = sorted(k for k in mat if not k.startswith("__"))
     cols, found = {}, {}
     for role, name in names.items():
@@ -331,8 +463,8 @@ def _read_npz(path: Path, names: dict, optional: set) -> Table:
     where = str(path)
     try:
         npz = np.load(str(path), allow_pickle=False)
-    except (ValueError, OSError, EOFError) as exc:
-        raise SignalError(f"{where}: not a readable NumPy .npz file ({exc})") from None
+    except Exception as exc:  # noqa: BLE001 - zipfile/zlib/numpy raise many types on damaged bytes
+        raise SignalError(f"{where}: not a readable NumPy .npz file ({_reason(exc, path)})") from None
     if not hasattr(npz, "files"):
         raise SignalError(f"{where}: a single .npy array, not an .npz archive of named arrays")
     with npz:
@@ -346,12 +478,28 @@ def _read_npz(path: Path, names: dict, optional: set) -> Table:
             try:
                 value = npz[name]
             except ValueError as exc:  # object arrays need pickle, which is refused
+                if "pickle" not in str(exc):
+                    raise SignalError(f"{where}: array {name!r} ({role}) is damaged ({exc})") from None
                 raise SignalError(f"{where}: array {name!r} ({role}) cannot be read without pickle ({exc}); "
                                   "store plain numeric arrays") from None
+            except Exception as exc:  # noqa: BLE001 - a truncated member: zipfile/zlib/EOF errors
+                raise SignalError(f"{where}: array {name!r} ({role}) is damaged or truncated "
+                                  f"({_reason(exc, path)})") from None
             cols[role] = _vector(where, role, name, value)
             found[role] = name
     _check_lengths(where, cols, found, "array")
     return Table(source=where, kind="npz", columns=cols, names=found)
+
+
+def _reason(exc: Exception, path: Path) -> str:
+    """Short reason of a reader failure: the exception text, or the file size for an empty file."""
+    try:
+        if path.stat().st_size == 0:
+            return "the file is empty (0 bytes)"
+    except OSError:
+        pass
+    text = str(exc).strip() or type(exc).__name__
+    return text if len(text) < 200 else text[:200] + "..."
 
 
 def _check_lengths(where: str, cols: dict, names: dict, what: str) -> None:
@@ -361,7 +509,7 @@ def _check_lengths(where: str, cols: dict, names: dict, what: str) -> None:
         raise SignalError(f"{where}: the signals have different lengths ({desc})")
 
 
-def read_columns(path, names: Mapping, *, optional=()) -> Table:
+def read_columns(path, names: Mapping, *, optional=(), csv_format: CsvFormat | None = None) -> Table:
     """Read named columns (CSV) or variables (.mat, .npz) from a file, by role.
 
     Parameters
@@ -376,6 +524,10 @@ def read_columns(path, names: Mapping, *, optional=()) -> Table:
         ``{role: column name}``. CSV names match case-insensitively.
     optional : collection of str, keyword-only
         Roles that may be absent (they are left out of the result).
+    csv_format : CsvFormat, keyword-only, optional
+        Layout of a text file (lines to skip, header line, delimiter); with
+        every name of ``names`` a 0-based index (``"0"``, ``"2"``) the file
+        has no header and columns are taken by position.
 
     Returns
     -------
@@ -394,13 +546,17 @@ def read_columns(path, names: Mapping, *, optional=()) -> Table:
         the file, the column with its role, and the row.
     """
     path = Path(path)
+    if path.is_dir():
+        raise SignalError(f"{path}: is a directory, expected a data file")
     if not path.is_file():
         raise FileNotFoundError(f"no such file: {path}")
+    if csv_format is not None and not isinstance(csv_format, CsvFormat):
+        raise TypeError(f"csv_format must be a CsvFormat, got {type(csv_format).__name__}")
     names = {str(k): str(v) for k, v in dict(names).items()}
     optional = set(optional)
     suffix = path.suffix.lower()
     if suffix in (".csv", ".txt"):
-        return _read_csv(path, names, optional)
+        return _read_csv(path, names, optional, csv_format)
     if suffix == ".mat":
         return _read_mat(path, names, optional)
     if suffix == ".npz":
@@ -764,7 +920,25 @@ def _column_names(columns) -> dict:
         names["q"] = cmap["q"]
     else:
         names["w"] = cmap.get("w", "w")
+    digits = [r for r, v in names.items() if v.strip().isdigit()]
+    if digits and len(digits) != len(names):
+        raise ParameterError(f"column map {names}: map every role by 0-based index (a headerless file, e.g. "
+                             "t=0,u=1,w=2) or every role by name, not a mix")
     return names
+
+
+#: Largest plausible magnitude of a torque (N·m), velocity (rad/s) or position (rad) sample. A value
+#: beyond it is a corrupt cell (e.g. 1e308) and would overflow the regression sums.
+MAX_MAGNITUDE = 1e12
+
+
+def _check_magnitude(table: Table, role: str, x: np.ndarray, unit: str) -> None:
+    """SignalError naming file, column, row and value of the first sample with ``|x| > MAX_MAGNITUDE``."""
+    bad = np.flatnonzero(np.abs(x) > MAX_MAGNITUDE)
+    if bad.size:
+        i = int(bad[0])
+        raise SignalError(f"{table.source}: {table.column(role)}, {table.row(i)}: value {float(table.columns[role][i])!r} "
+                          f"is outside the plausible range |{role}| <= {MAX_MAGNITUDE:g} {unit} (a corrupt cell?)")
 
 
 def _check_time_and_input(table: Table, t: np.ndarray, u: np.ndarray, min_samples: int) -> None:
@@ -779,6 +953,14 @@ def _check_time_and_input(table: Table, t: np.ndarray, u: np.ndarray, min_sample
         now, before = float(table.columns["t"][i]), float(table.columns["t"][i - 1])
         raise SignalError(f"{where}: {table.column('t')} must be strictly increasing; {table.row(i)} has "
                           f"{now!r} <= {before!r} at {table.row(i - 1)}")
+    dt = np.diff(t)
+    med = float(np.median(dt))
+    gap = np.flatnonzero(dt > 1e6 * med)
+    if gap.size:
+        i = int(gap[0]) + 1
+        raise SignalError(f"{where}: {table.column('t')}, {table.row(i)}: time stamp {float(table.columns['t'][i])!r} "
+                          f"jumps by {float(dt[i - 1]):.3g} s, more than 1e6 times the median interval {med:.3g} s "
+                          "(a corrupt cell?)")
     if np.all(u == u[0]):
         raise SignalError(f"{where}: {table.column('u')} is constant ({float(u[0])!r} in all {n} rows, "
                           f"{table.row(0)} to {table.row(n - 1)}); the input does not excite the plant")
@@ -812,7 +994,7 @@ def _velocity(table: Table, t: np.ndarray, units: LogUnits, kalman: KalmanSettin
 
 def load_log(path, *, columns: Mapping | str | None = None, units: LogUnits | None = None,
              kalman: KalmanSettings | None = None, min_samples: int = MIN_SAMPLES,
-             progress: bool | None = False) -> MeasuredData:
+             progress: bool | None = False, csv_format: CsvFormat | None = None) -> MeasuredData:
     """Read a drive log (CSV, .mat, .npz) into a :class:`MeasuredData` record in SI units.
 
     Parameters
@@ -836,6 +1018,10 @@ def load_log(path, *, columns: Mapping | str | None = None, units: LogUnits | No
         Fewest samples accepted (default :data:`adaptive_ff.io.data.MIN_SAMPLES`), >= 4.
     progress : bool or None, keyword-only
         Progress bar of the Kalman pass (None: when on a terminal; default off).
+    csv_format : CsvFormat, keyword-only, optional
+        Layout of a text log: lines to skip, header line, delimiter
+        (:class:`CsvFormat`); map roles to 0-based indices in ``columns`` for
+        a file without a header.
 
     Returns
     -------
@@ -850,8 +1036,9 @@ def load_log(path, *, columns: Mapping | str | None = None, units: LogUnits | No
         No such file.
     SignalError
         See :func:`read_columns`; plus fewer than ``min_samples`` rows, time
-        stamps not strictly increasing, or constant input; each message names
-        the file, the column and the row.
+        stamps not strictly increasing, constant input, or a torque, velocity
+        or position beyond :data:`MAX_MAGNITUDE` (SI units); each message names
+        the file, the column, the row and the value.
     ParameterError
         Bad column map, ``min_samples`` < 4, or a bad Kalman bandwidth for the
         data (bad units and settings are rejected by :class:`LogUnits` and
@@ -873,7 +1060,7 @@ def load_log(path, *, columns: Mapping | str | None = None, units: LogUnits | No
     if isinstance(min_samples, bool) or not isinstance(min_samples, (int, np.integer)) or min_samples < 4:
         raise ParameterError(f"min_samples must be an integer >= 4, got {min_samples!r}")
 
-    table = read_columns(path, _column_names(columns))
+    table = read_columns(path, _column_names(columns), csv_format=csv_format)
     t_scale = TIME_UNITS[units.time_unit]
     t = table.columns["t"] * t_scale
     u = table.columns["u"]
@@ -886,5 +1073,10 @@ def load_log(path, *, columns: Mapping | str | None = None, units: LogUnits | No
     if K is not None:
         u = K * u
         notes.append(f"u = K*i with K = current_to_torque = {K:g} N·m/A (paper Sec. V-B)")
+    _check_magnitude(table, "u", u, "N·m")
+    if "q" in table.columns:
+        _check_magnitude(table, "q", table.columns["q"], "(position unit)")
     w = _velocity(table, t, units, kalman, progress, notes)
+    if "w" in table.columns:
+        _check_magnitude(table, "w", w, "rad/s")
     return MeasuredData(t, u, w, source=table.source, notes=tuple(notes))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-__all__ = ["register"]
+__all__ = ["register", "run", "comparison_table"]
 
 
 def run(args) -> int:
@@ -16,7 +16,13 @@ def run(args) -> int:
     from plant.friction import preset
     from plant.models import load_plant, plant_to_dict
     from plant.variants import drift_case, variant
+    from controllers.cli.data import check_output_dir
 
+    out_dir = args.out if args.out is not None else (args.report or "out")
+    if not args.no_figures:
+        check_output_dir(out_dir, "--out")
+    if args.report:
+        check_output_dir(args.report, "--report")
     if args.plant:
         p = load_plant(args.plant)
     elif args.variant == "drift":
@@ -36,7 +42,7 @@ def run(args) -> int:
                    lam=args.lam, crossover=args.crossover, phase_margin=args.phase_margin, progress=progress,
                    estimator=args.estimator, ff_input=args.ff_input, omega_q=args.omega_q,
                    prefit=not args.no_prefit, Vs=args.Vs, delta=args.delta, J_design=args.J_design)
-    paths = [] if args.no_figures else plot_comparison(comp, args.out)
+    paths = [] if args.no_figures else plot_comparison(comp, out_dir)
     report = None
     if args.report:
         from controllers.cli.data import command_line
@@ -70,7 +76,7 @@ def run(args) -> int:
     for note in comp.notes:
         print(f"note: {note}")
     print(f"run: {args.duration:g} s, seed {args.seed}; metrics over the second half\n")
-    print(comp.table())
+    print(comparison_table(comp, args))
     if paths:
         print("\nfigures: " + ", ".join(str(x) for x in paths))
     if report is not None:
@@ -78,14 +84,39 @@ def run(args) -> int:
     return 0
 
 
+def comparison_table(comp, args) -> str:
+    """The metrics table of a :class:`controllers.experiments.compare.Comparison` in the ``--units`` of ``args``.
+
+    Velocities (RMS, max and reversal RMS of the tracking error over the second
+    half) in deg/s or rad/s, the torque RMS in N·m, eta dimensionless; each
+    header names its unit. Undefined values (eta without friction degradation)
+    print as ``n/a``.
+    """
+    from controllers.cli.data import table_unit
+
+    k, unit = table_unit(args)
+    head = (f"{'mode':<13}{f'RMS [{unit}]':>14}{f'max [{unit}]':>14}{f'reversal RMS [{unit}]':>23}"
+            f"{'u RMS [N·m]':>13}{'eta [-]':>9}")
+    lines = [head, "-" * len(head)]
+    for row in comp.rows():
+        eta = row["eta"]
+        eta_text = f"{eta:>9.3f}" if eta == eta else f"{'n/a':>9}"
+        lines.append(f"{row['mode']:<13}{k * row['rms']:>14.4f}{k * row['max']:>14.4f}"
+                     f"{k * row['rms_reversal']:>23.4f}{row['u_rms']:>13.2f}{eta_text}")
+    return "\n".join(lines)
+
+
 def register(sub) -> None:
     """Add the ``compare`` subcommand to an argparse subparsers object."""
+    from controllers.cli.data import PRESET_NAMES, add_units_argument, seed_type
+
     c = sub.add_parser("compare", help="run all compensation modes on a plant and compare tracking error",
                        description="Simulate the 1 kHz plant in closed loop with the PI velocity controller in the "
                                    "modes none, fixed, adaptive, canudas (Canudas de Wit et al. 1987), dob "
                                    "(disturbance observer), oracle and frictionless; print the metrics table and "
                                    "write PNG figures.")
-    c.add_argument("--preset", default="paper", help="named plant parameter set (default: paper)")
+    c.add_argument("--preset", default="paper", choices=PRESET_NAMES,
+                   help="named plant parameter set: %(choices)s (default: paper)")
     c.add_argument("--plant", metavar="FILE",
                    help='JSON plant file (SI units): "model" = "lagged-stribeck" (default; J, Fc, Fs, Vs, delta, '
                         'sigma, tau), "lugre" (J, Fc, Fs, Vs, delta, sigma0, sigma1, sigma2), "karnopp" (... tau, dv) '
@@ -103,8 +134,9 @@ def register(sub) -> None:
     c.add_argument("--omega-q", type=float, default=500.0,
                    help="Q-filter cut-off of the disturbance observer in rad/s (default 500)")
     c.add_argument("--duration", type=float, default=120.0, help="run length in s (default 120)")
-    c.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    c.add_argument("--out", default="out", help="directory for the PNG figures (default ./out)")
+    c.add_argument("--seed", type=seed_type, default=0, help="random seed, an integer >= 0 (default 0)")
+    c.add_argument("--out", default=None, help="directory for the PNG figures (default: the --report "
+                                               "directory, else ./out)")
     c.add_argument("--Ts", type=float, default=0.01, help="estimator update period in s (default 0.01)")
     c.add_argument("--noise", type=float, default=1e-3, help="velocity noise std in rad/s (default 1e-3)")
     c.add_argument("--lam", type=float, default=None,
@@ -123,5 +155,6 @@ def register(sub) -> None:
     c.add_argument("--no-figures", action="store_true", help="do not write figures")
     c.add_argument("--quiet", action="store_true", help="no progress bar")
     c.add_argument("--report", metavar="DIR", default=None, help="write a self-contained HTML report into DIR")
+    add_units_argument(c)
     c.set_defaults(func=run)
 

@@ -9,12 +9,14 @@ goes through :func:`adaptive_ff.io.data.load_measurements` as before).
 
 from __future__ import annotations
 
+import math
 import shlex
 import sys
 from pathlib import Path
 
 __all__ = ["add_data_arguments", "load_data_from_args", "io_options_from_args", "progress_from_args",
-           "command_line", "DATA_EPILOG"]
+           "command_line", "DATA_EPILOG", "seed_type", "positive_int", "nonnegative_int", "check_output_dir",
+           "check_output_file", "PRESET_NAMES", "TABLE_UNITS", "add_units_argument", "table_unit"]
 
 #: Text for a subcommand's ``--help`` epilog: how to map columns and units.
 DATA_EPILOG = """\
@@ -22,7 +24,12 @@ data files: CSV/TXT (header row of names; comma, semicolon, tab or whitespace se
 MATLAB .mat (v5-v7; 'log.time' reaches into a struct) or NumPy .npz (read without pickle). Roles: t (time),
 u (torque; motor current with --current-to-torque), w (velocity) or q (position). Map roles to your
 column names with --columns, e.g. --columns t=time,u=current,w=vel; unmapped roles use their own name.
-Time stamps may be non-uniform. Position (--columns q=NAME) is turned into velocity by a Kalman filter
+Scope and vendor exports: a preamble before the header is skipped automatically (or --skip-rows N,
+--header-line N), --delimiter sets the separator; a file without a header is read by column index
+(--columns t=0,u=2,w=1). Values beyond 1e12 (SI) are refused as corrupt cells, naming file, row, column.
+Time stamps may be non-uniform: the readers, the Stribeck pre-fit and identify --method output_error
+keep them as read; identify's paper method (eq. 4 needs one Ts) resamples them onto a uniform grid and
+says so in its output. Position (--columns q=NAME) is turned into velocity by a Kalman filter
 + RTS smoother (filterpy; --kalman-model cv|ca, --kalman-bandwidth Hz, default a tenth of the sample
 rate; noise: the encoder quantum for counts, else estimated from the data).
 """
@@ -40,7 +47,16 @@ def add_data_arguments(parser, *, columns_help: str | None = None) -> None:
     g = parser.add_argument_group("data file (columns, units, velocity from position)")
     g.add_argument("--columns", metavar="MAP", default=None,
                    help=columns_help or "column map role=name,... with roles t, u, w or q, e.g. "
-                                        "t=time,u=current,w=vel (default: columns named t, u, w)")
+                                        "t=time,u=current,w=vel (default: columns named t, u, w); "
+                                        "a file without a header: 0-based indices, e.g. t=0,u=2,w=1")
+    g.add_argument("--skip-rows", type=nonnegative_int, default=0, metavar="N",
+                   help="text files: skip the first N lines (a preamble) before looking for the header")
+    g.add_argument("--header-line", type=positive_int, default=None, metavar="N",
+                   help="text files: the header is on line N (1-based); default: found automatically "
+                        "(first line, '# name,...', or the last text line before the numbers)")
+    g.add_argument("--delimiter", default=None, metavar="SEP",
+                   help="text files: field separator, one character or comma, semicolon, tab, pipe, space "
+                        "(default: guessed from the header)")
     g.add_argument("--current-to-torque", type=float, metavar="K", default=None,
                    help="u column is motor current i (A); torque u = K*i with K in N·m/A (paper Sec. V-B)")
     g.add_argument("--time-unit", choices=list(TIME_UNITS), default="s", help="unit of the time column (default s)")
@@ -66,7 +82,8 @@ def io_options_from_args(args) -> dict:
     Returns
     -------
     dict
-        ``{"units": LogUnits, "kalman": KalmanSettings}``, to pass as ``load_log(path, **options)``.
+        ``{"csv_format": CsvFormat, "units": LogUnits, "kalman": KalmanSettings}``, to pass as
+        ``load_log(path, **options)``.
 
     Raises
     ------
@@ -74,9 +91,12 @@ def io_options_from_args(args) -> dict:
         A unit or Kalman setting out of range (from :class:`adaptive_ff.io.logs.LogUnits`,
         :class:`adaptive_ff.io.logs.KalmanSettings`).
     """
-    from adaptive_ff.io.logs import KalmanSettings, LogUnits
+    from adaptive_ff.io.logs import CsvFormat, KalmanSettings, LogUnits
 
-    return {"units": LogUnits(current_to_torque=args.current_to_torque, time_unit=args.time_unit,
+    return {"csv_format": CsvFormat(skip_rows=getattr(args, "skip_rows", 0),
+                                    header_line=getattr(args, "header_line", None),
+                                    delimiter=getattr(args, "delimiter", None)),
+            "units": LogUnits(current_to_torque=args.current_to_torque, time_unit=args.time_unit,
                               velocity_unit=args.velocity_unit, position_unit=args.position_unit,
                               counts_per_rev=args.counts_per_rev),
             "kalman": KalmanSettings(model=args.kalman_model, bandwidth=args.kalman_bandwidth,
@@ -93,7 +113,7 @@ def _is_emps(path: Path) -> bool:
 
     try:
         names = {name for name, _, _ in whosmat(str(path))}
-    except (ValueError, TypeError, OSError, NotImplementedError):
+    except Exception:  # noqa: BLE001 - any unreadable file is simply not the EMPS layout; load_log says why
         return False
     return {"t", "qm", "vir", "gtau"} <= names
 
@@ -132,3 +152,142 @@ def command_line() -> str | None:
     if not sys.argv or Path(sys.argv[0]).name not in ("adaptive-ff", "cli.py"):
         return None
     return shlex.join(["adaptive-ff", *sys.argv[1:]])
+
+
+# --------------------------------------------------------------------------- argument types and output checks
+
+
+def seed_type(text: str) -> int:
+    """argparse ``type=`` of ``--seed``: an integer in ``0 .. 2**63 - 1`` (numpy ``SeedSequence`` entropy).
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Not an integer, or negative (argparse then exits 2 naming the option and the value).
+    """
+    return _int_type(text, lo=0, hi=2**63 - 1, what="a non-negative integer")
+
+
+def positive_int(text: str) -> int:
+    """argparse ``type=``: an integer >= 1 (``--workers``, ``--header-line``)."""
+    return _int_type(text, lo=1, hi=None, what="an integer >= 1")
+
+
+def nonnegative_int(text: str) -> int:
+    """argparse ``type=``: an integer >= 0 (``--skip-rows``)."""
+    return _int_type(text, lo=0, hi=None, what="an integer >= 0")
+
+
+def _int_type(text: str, *, lo: int, hi: int | None, what: str) -> int:
+    import argparse
+
+    try:
+        value = int(text, 10)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}") from None
+    if value < lo or (hi is not None and value > hi):
+        limit = f" (at most {hi})" if hi is not None and value > hi else ""
+        raise argparse.ArgumentTypeError(f"must be {what}{limit}, got {text!r}")
+    return value
+
+
+def check_output_dir(path, option: str) -> Path:
+    """Check up front that ``path`` can be a directory to write into (before any simulation).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output directory; it or any of its parents may not exist yet.
+    option : str
+        The option that named it (``--out``), for the message.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    ParameterError
+        ``path`` or a parent names an existing file, or the nearest existing
+        parent directory is not writable.
+    """
+    from plant.errors import ParameterError
+
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise ParameterError(f"{option} {path}: an existing file, not a directory; give a directory name")
+    _check_parents(path if path.exists() else path.parent, option, path)
+    return path
+
+
+def check_output_file(path, option: str, *, overwrite: bool = True) -> Path:
+    """Check up front that file ``path`` can be written (before any simulation).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file; its directory may not exist yet.
+    option : str
+        The option that named it (``--out``), for the message.
+    overwrite : bool, keyword-only
+        Allow an existing file (default; a resumable results table is appended to).
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    ParameterError
+        ``path`` is a directory, exists while ``overwrite`` is False, a parent
+        is a file, or the file or directory is not writable.
+    """
+    import os
+
+    from plant.errors import ParameterError
+
+    path = Path(path)
+    if path.is_dir():
+        raise ParameterError(f"{option} {path}: is a directory; give a file name")
+    if path.exists():
+        if not overwrite:
+            raise ParameterError(f"{option} {path}: the file exists; remove it or choose another name")
+        if not os.access(path, os.W_OK):
+            raise ParameterError(f"{option} {path}: the file is not writable")
+        return path
+    _check_parents(path.parent, option, path)
+    return path
+
+
+def _check_parents(start: Path, option: str, path: Path) -> None:
+    import os
+
+    from plant.errors import ParameterError
+
+    cur = start if str(start) else Path(".")
+    while not cur.exists():
+        cur = cur.parent
+    if not cur.is_dir():
+        raise ParameterError(f"{option} {path}: {cur} is an existing file, so it cannot hold {path}")
+    if not os.access(cur, os.W_OK | os.X_OK):
+        raise ParameterError(f"{option} {path}: the directory {cur} is not writable")
+
+
+#: Named plant parameter sets of :data:`plant.friction.PRESETS`, listed here so that ``--help`` needs no
+#: numba import (tests/test_cli_errors.py checks that the two agree).
+PRESET_NAMES = ("paper",)
+
+#: Velocity units of printed tables: name -> (factor from rad/s, label).
+TABLE_UNITS = {"deg": (180.0 / math.pi, "deg/s"), "rad": (1.0, "rad/s")}
+
+
+def add_units_argument(parser) -> None:
+    """Add ``--units {deg,rad}``: the velocity unit of printed tables (JSON and CSV stay in rad/s)."""
+    parser.add_argument("--units", choices=list(TABLE_UNITS), default="deg",
+                        help="velocity unit of the printed tables: deg (deg/s, default) or rad (rad/s); "
+                             "JSON and CSV outputs are always SI (rad/s)")
+
+
+def table_unit(args) -> tuple[float, str]:
+    """``(factor, label)`` converting rad/s to the ``--units`` of the printed tables (default deg/s)."""
+    return TABLE_UNITS[getattr(args, "units", "deg") or "deg"]

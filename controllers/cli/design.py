@@ -5,9 +5,13 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from pathlib import Path
 
-__all__ = ["register", "run", "plant_from_file"]
+__all__ = ["register", "run", "plant_from_file", "warnings_from_file", "EXIT_REFUSED"]
+
+#: Exit status of ``design --from`` refusing an identification with plausibility/identifiability warnings.
+EXIT_REFUSED = 3
 
 _EPILOG = """\
 The plant is the joint's linear part P(s) = 1/(J s + sigma) (friction is what the feedforward removes),
@@ -15,6 +19,9 @@ held by a zero-order hold at Tc. The PI C(z) = Kp + Ki*Tc*z/(z-1) places the gai
 discrete loop at --crossover with --phase-margin (controllers.design.pi.design_pi); margins come from
 control.stability_margins. J and sigma can be read from a JSON file with --from: the output of
 'adaptive-ff identify --json', a plant file (J, Fc, ..., tau) or this command's own --json output.
+An identification whose JSON carries a plausibility or identifiability warning (codes implausible,
+identifiability, conditioning) is refused with exit status 3 and the warnings echoed, unless
+--accept-warnings.
 
 Output: gains, crossover, phase and gain margins, stability margin (1/Ms), closed-loop bandwidth, step
 metrics; OUT/bode.png (open loop with margins, |S|, |T|) and OUT/step.png (velocity and torque of a
@@ -26,8 +33,53 @@ examples:
 """
 
 
+def _read_json(path: Path):
+    from plant.models import read_json
+
+    return read_json(path, what="JSON file with J (and sigma)")
+
+
+def warnings_from_file(path) -> list:
+    """The warnings of an ``identify --json`` output (empty for a plant file or a design output).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        JSON file.
+
+    Returns
+    -------
+    list of adaptive_ff.identification.plausibility.IdentificationWarning
+        From the top-level ``"warnings"`` list (``{"code", "parameter", "message"}`` objects; a bare
+        string of an older file counts as an identifiability warning).
+
+    Raises
+    ------
+    ParameterError
+        Not JSON, or ``"warnings"`` not a list of warning objects.
+    FileNotFoundError
+        No such file.
+    """
+    from adaptive_ff.identification.plausibility import warning_from_dict
+    from plant.errors import ParameterError
+
+    path = Path(path)
+    d = _read_json(path)
+    raw = d.get("warnings", []) if isinstance(d, dict) else []
+    if not isinstance(raw, list):
+        raise ParameterError(f"{path}: 'warnings' must be a list, got {type(raw).__name__}")
+    try:
+        return [warning_from_dict(w) for w in raw]
+    except ParameterError as exc:
+        raise ParameterError(f"{path}: {exc}") from None
+
+
 def plant_from_file(path) -> tuple[float, float]:
     """``(J, sigma)`` from a JSON object with a ``J`` key and optionally ``sigma`` (0 if absent).
+
+    An ``identify --json`` output whose method is not the paper's eq. 4 (``"physical"`` present, e.g.
+    ``"sliding"`` or ``"output_error"``) gives the J and sigma of that method (``physical.params``), the
+    answer of the identification; otherwise the top-level (eq. 4 LS) values are used.
 
     Raises
     ------
@@ -38,11 +90,12 @@ def plant_from_file(path) -> tuple[float, float]:
     """
     from plant.errors import ParameterError
 
+    from plant.models import read_json
+
     path = Path(path)
-    try:
-        d = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise ParameterError(f"{path}: not valid JSON ({exc})") from None
+    d = read_json(path, what="JSON file with J (and sigma)")
+    if isinstance(d, dict) and isinstance(d.get("physical"), dict) and isinstance(d["physical"].get("params"), dict):
+        d = d["physical"]["params"]
     if isinstance(d, dict) and "J" not in d and isinstance(d.get("plant"), dict):
         d = d["plant"]
     if not isinstance(d, dict) or not isinstance(d.get("J"), (int, float)) or isinstance(d.get("J"), bool):
@@ -50,7 +103,32 @@ def plant_from_file(path) -> tuple[float, float]:
     sigma = d.get("sigma", 0.0)
     if sigma is None:
         sigma = 0.0
-    return float(d["J"]), float(sigma)
+    try:
+        return float(d["J"]), float(sigma)
+    except (TypeError, ValueError, OverflowError):
+        raise ParameterError(f"{path}: J = {d['J']!r} and sigma = {sigma!r} must be finite numbers") from None
+
+
+def _check_range(J: float, sigma: float, source: str) -> None:
+    """ParameterError unless J (kg·m²) and sigma (N·m·s/rad) lie in :data:`plant.models.PLAUSIBLE_RANGE`."""
+    import math
+
+    from plant.errors import ParameterError
+    from plant.models import PLAUSIBLE_RANGE
+
+    lo, hi = PLAUSIBLE_RANGE
+    if not (math.isfinite(J) and lo <= J <= hi):
+        raise ParameterError(f"J = {J!r} kg·m² (from {source}) is outside the plausible range {lo:g}..{hi:g}; "
+                             "check the units")
+    if not (math.isfinite(sigma) and sigma <= hi):
+        raise ParameterError(f"sigma = {sigma!r} N·m·s/rad (from {source}) is outside the plausible range "
+                             f"0..{hi:g}; check the units")
+
+
+def _method_of(path) -> str:
+    d = _read_json(Path(path))
+    m = d.get("method") if isinstance(d, dict) else None
+    return f" (method {m!r})" if isinstance(m, str) and isinstance(d.get("physical"), dict) else ""
 
 
 def run(args) -> int:
@@ -60,11 +138,25 @@ def run(args) -> int:
     from controllers.design.pi import design_pi
     from plant.errors import ParameterError
 
+    from controllers.cli.data import check_output_dir
+
+    out_dir = args.out if args.out is not None else (args.report or "out/design")
+    if not args.no_figures:
+        check_output_dir(out_dir, "--out")
+    if args.report:
+        check_output_dir(args.report, "--report")
     J, sigma = args.J, args.sigma
     source = "command line"
     if args.from_file:
+        refusing = [w for w in warnings_from_file(args.from_file) if w.refusing]
+        for w in refusing:
+            print(f"adaptive-ff: {args.from_file}: {w.code} warning on {w.parameter}: {w}", file=sys.stderr)
+        if refusing and not args.accept_warnings:
+            print(f"adaptive-ff: refused: {args.from_file} carries {len(refusing)} plausibility/identifiability "
+                  "warning(s); fix the identification, or design anyway with --accept-warnings", file=sys.stderr)
+            return EXIT_REFUSED
         Jf, sf = plant_from_file(args.from_file)
-        source = str(args.from_file)
+        source = str(args.from_file) + _method_of(args.from_file)
         J = Jf if J is None else J
         sigma = sf if sigma is None else sigma
     if J is None:
@@ -74,6 +166,7 @@ def run(args) -> int:
         if not args.from_file:
             raise ParameterError(f"sigma must be >= 0, got {sigma!r}")
         sigma = 0.0  # an identified negative viscous term: design for the inertia alone
+    _check_range(J, sigma, source)
     design = design_pi(J, sigma=sigma, crossover=args.crossover, phase_margin=args.phase_margin, Tc=args.Tc)
     analysis = analyse_design(design, t_end=args.step_duration)
     paths = []
@@ -82,7 +175,7 @@ def run(args) -> int:
         figs = {"Bode plot of the open loop with gain and phase margins, |S| and |T|": plot_bode(design),
                 "closed-loop response to a 1 rad/s velocity step": plot_step(analysis)}
     if not args.no_figures:
-        out = Path(args.out)
+        out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         for name, fig in zip(("bode.png", "step.png"), figs.values()):
             fig.savefig(out / name, dpi=110)
@@ -127,6 +220,9 @@ def register(sub) -> None:
                    help="viscous coefficient in N·m·s/rad (default 0, or from --from)")
     d.add_argument("--from", dest="from_file", metavar="FILE", default=None,
                    help="JSON with J (and sigma): 'identify --json' output or a plant file; --J/--sigma override it")
+    d.add_argument("--accept-warnings", action="store_true",
+                   help="design even if the --from identification carries plausibility or identifiability warnings "
+                        "(otherwise refused with exit status 3, the warnings echoed)")
     d.add_argument("--crossover", type=float, default=20.0, metavar="RAD_S",
                    help="target gain crossover in rad/s (default 20; at most 0.2*pi/Tc)")
     d.add_argument("--phase-margin", type=float, default=60.0, metavar="DEG",
@@ -134,7 +230,8 @@ def register(sub) -> None:
     d.add_argument("--Tc", type=float, default=1e-3, metavar="S", help="controller period in s (default 0.001)")
     d.add_argument("--step-duration", type=float, default=None, metavar="S",
                    help="length of the step response in s (default 15/crossover)")
-    d.add_argument("--out", default="out/design", help="directory for bode.png and step.png (default out/design)")
+    d.add_argument("--out", default=None, help="directory for bode.png and step.png (default: the --report "
+                                               "directory, else out/design)")
     d.add_argument("--no-figures", action="store_true", help="write no figures")
     d.add_argument("--report", metavar="DIR", default=None, help="write a self-contained HTML report to DIR")
     d.add_argument("--json", action="store_true", help="print gains, margins and step metrics as JSON")

@@ -42,6 +42,27 @@ def _loop_line(label: str, v) -> str:
             f"position error {v.position_error:.4f} %; inverse-model force error {v.idim_force_error:.3f} %")
 
 
+def _time_stamps(data, method: str, asymmetric: bool = False) -> dict:
+    """How the record's time stamps were used: uniform or not, and resampled by which method (plain words)."""
+    import numpy as np
+
+    from adaptive_ff.io.data import is_uniform
+
+    dt = np.diff(data.t)
+    uniform = is_uniform(data.t)
+    resampled = [] if uniform else ["paper"] + (["asymmetric"] if asymmetric else [])
+    message = None
+    if not uniform:
+        kept = "; --method output_error fits on the stamps as read" if method == "paper" else (
+            f"; the {method} fit of the physical parameters uses the stamps as read")
+        message = (f"time stamps: irregular (intervals {1e3 * dt.min():.4g} to {1e3 * dt.max():.4g} ms); the paper "
+                   f"method (eq. 4 needs one Ts) RESAMPLED them onto a uniform grid at Ts = "
+                   f"{1e3 * float(np.median(dt)):.4g} ms by linear interpolation"
+                   f"{' (so did --asymmetric)' if asymmetric else ''}{kept}")
+    return {"uniform": uniform, "Ts_min": float(dt.min()), "Ts_max": float(dt.max()),
+            "resampled_by": resampled, "message": message}
+
+
 def run(args) -> int:
     """Execute ``adaptive-ff identify`` with parsed ``args``; return the exit status."""
     from adaptive_ff.identification.emps_validation import is_emps_record, validate_emps
@@ -51,10 +72,15 @@ def run(args) -> int:
     from controllers.cli.data import command_line, load_data_from_args
     from plant.errors import ParameterError
 
+    from controllers.cli.data import check_output_dir
+
+    for option, value in (("--plot", args.plot), ("--report", args.report)):
+        if value:
+            check_output_dir(value, option)
     data = load_data_from_args(args)
     report = identify(data, Vs=args.Vs, delta=args.delta, lag=args.lag, offset=not args.no_offset,
                       lam=args.lam, method=args.method)
-    extra: dict = {}
+    extra: dict = {"time_stamps": _time_stamps(data, args.method, args.asymmetric)}
     lines: list[str] = []
     asym = None
     if args.asymmetric:
@@ -111,6 +137,8 @@ def run(args) -> int:
     if args.json:
         print(json.dumps({**report.to_json_dict(), **extra}, indent=2))
     else:
+        if extra["time_stamps"]["message"]:
+            print(extra["time_stamps"]["message"])
         print(report.summary())
         for line in lines:
             print(line)
@@ -139,10 +167,13 @@ def register(sub) -> None:
                                                       "EMPS the fitted tau follows the velocity filter, not the plant)")
     i.add_argument("--no-offset", action="store_true", help="no constant torque offset regressor")
     i.add_argument("--lam", type=float, default=1.0, help="RLS forgetting factor (default 1)")
-    i.add_argument("--method", choices=("paper", "output_error"), default="paper",
-                   help="paper (default): the eq. 4 LS/RLS as printed; output_error: also fit the physical J, tau, "
-                        "sigma, Fc, Fs of eqs. 1-3 by simulation-error minimisation on the record's own time "
-                        "stamps (unbiased at Ts ~ tau, robust to noise and irregular sampling; needs --Vs, --delta)")
+    i.add_argument("--method", choices=("auto", "paper", "output_error", "sliding"), default="auto",
+                   help="auto (default): sliding for a uniform log at the controller rate (<= 2 ms) with --Vs, "
+                        "--delta, else paper; the choice is named in the notes. paper: the eq. 4 LS/RLS as "
+                        "printed; output_error: also fit the physical J, tau, sigma, Fc, Fs of eqs. 1-3 by "
+                        "simulation-error minimisation on the record's own time stamps (open-loop records; robust "
+                        "to noise and irregular sampling; needs --Vs, --delta); sliding: the sliding-regime "
+                        "inverse-dynamics regression on a controller-rate log (closed loop; needs --Vs, --delta)")
     i.add_argument("--asymmetric", action="store_true",
                    help="also fit direction-dependent friction Fc+, Fc-, sigma+ (Fv+), sigma- (Fv-) by the inverse "
                         "dynamic model (IDIM-LS, no offset), as the EMPS benchmark's asymmetric variant")

@@ -18,6 +18,16 @@ import sys
 __all__ = ["main", "build_parser"]
 
 
+def _version() -> str:
+    """The installed distribution's version (``importlib.metadata``), or ``unknown`` when not installed."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("adaptive-ff")
+    except PackageNotFoundError:
+        return "unknown (not installed)"
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``adaptive-ff`` argument parser; each subcommand lives in its own module of :mod:`controllers.cli`."""
     from controllers.cli import compare as cli_compare, design as cli_design, identify as cli_identify
@@ -26,6 +36,7 @@ def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="adaptive-ff", description=(
         "Identify sliding dynamic friction (Ruderman's discrete-time model: LS, RLS) and compare "
         "friction compensation modes in a PI velocity loop."))
+    ap.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = ap.add_subparsers(dest="command", required=True)
     for module in (cli_compare, cli_identify, cli_stribeck, cli_design, cli_paper_figures, cli_sweep):
         module.register(sub)
@@ -35,17 +46,47 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     """Entry point of the ``adaptive-ff`` console script; returns the exit status.
 
-    Package errors (bad parameters, bad data) are printed as ``adaptive-ff: error: ...``
-    with exit status 2, without a traceback.
+    Exit status: 0 success; 2 a usage error or a package error (bad parameters,
+    bad data, a file that cannot be read or written), printed as
+    ``adaptive-ff: error: ...`` naming the file, argument, row or value; 3 a
+    refusal by a command (e.g. ``design --from`` on a warned identification);
+    130 interrupted by Ctrl-C (SIGINT); 1 an unexpected internal error, printed
+    on one line (set ``ADAPTIVE_FF_DEBUG=1`` for the traceback). No traceback
+    otherwise.
     """
     args = build_parser().parse_args(argv)  # --help and usage errors exit here, before numpy is imported
-    from plant.errors import FrictionError
-
     try:
         return args.func(args)
-    except (FrictionError, FileNotFoundError) as exc:
-        print(f"adaptive-ff: error: {exc}", file=sys.stderr)
+    except KeyboardInterrupt:
+        print("adaptive-ff: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:  # output piped into e.g. head: stop quietly
+        sys.stderr.close()
+        return 0
+    except Exception as exc:  # noqa: BLE001 - the top-level guard: one line, never a traceback
+        return _report_error(exc)
+
+
+def _report_error(exc: Exception) -> int:
+    """Print ``exc`` as one ``adaptive-ff: error:`` line; 2 for package/file errors, 1 for anything else."""
+    import os
+
+    from plant.errors import FrictionError
+
+    if os.environ.get("ADAPTIVE_FF_DEBUG"):
+        raise exc
+    if isinstance(exc, (FrictionError, OSError)):
+        msg = str(exc)
+        if isinstance(exc, OSError) and exc.filename is not None and str(exc.filename) not in msg:
+            msg = f"{exc.filename}: {msg}"
+        elif isinstance(exc, OSError) and exc.strerror and exc.filename is not None:
+            msg = f"{exc.filename}: {exc.strerror}"
+        print(f"adaptive-ff: error: {msg}", file=sys.stderr)
         return 2
+    text = " ".join(str(exc).split()) or "(no message)"
+    print(f"adaptive-ff: internal error: {type(exc).__name__}: {text} (please report it; "
+          "ADAPTIVE_FF_DEBUG=1 shows the traceback)", file=sys.stderr)
+    return 1
 
 
 if __name__ == "__main__":  # pragma: no cover

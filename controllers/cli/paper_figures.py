@@ -14,8 +14,8 @@ Experiments (see controllers.experiments.paper_figures): Sec. IV open-loop band-
 fit (Fig. 8); Sec. V closed-loop multi-sine tracking by a stiff velocity loop (--crossover), read out at
 irregular instants with noise and torque quantisation (Fig. 7: the quantised torque, Fig. 9: LS, Fig. 10:
 sample times, Fig. 11: RLS with lambda = 0.85, Fig. 12: RLS parameters, windup included).
---axis-units deg draws velocities in deg/s, as the paper does. --save-data also writes the demonstration logs quasi_static_log.csv and robot_log.csv
-(current, encoder counts, irregular time in ms) for trying 'adaptive-ff stribeck' and 'identify'.
+--axis-units deg draws velocities in deg/s, as the paper does. --save-data also writes the demonstration logs
+quasi_static_log.csv and robot_log.csv (current, encoder counts, irregular time in ms) for trying 'adaptive-ff stribeck' and 'identify'.
 
 example:
   adaptive-ff paper-figures --out out/paper --axis-units deg --save-data --report out/paper
@@ -55,14 +55,24 @@ def run(args) -> int:
     """Execute ``adaptive-ff paper-figures`` with parsed ``args``; return the exit status."""
     from controllers.cli.data import command_line, progress_from_args
     from controllers.experiments.paper_figures import PaperFigureOptions, paper_figures
+    from controllers.cli.data import check_output_dir
+    from plant.errors import ParameterError
     from plant.friction import JointParams, preset
+    from plant.models import load_plant
 
-    p = JointParams.from_json(args.plant) if args.plant else preset(args.preset)
+    out_dir = args.out if args.out is not None else (args.report or "out/paper")
+    check_output_dir(out_dir, "--out")
+    if args.report:
+        check_output_dir(args.report, "--report")
+    p = load_plant(args.plant) if args.plant else preset(args.preset)
+    if not isinstance(p, JointParams):
+        raise ParameterError(f"{args.plant}: paper-figures needs the paper's lagged-stribeck model, "
+                             f"got model {p.MODEL!r}")
     options = PaperFigureOptions(seed=args.seed, sim_duration=args.sim_duration, exp_duration=args.exp_duration,
                                  n_speeds=args.speeds, noise_std=args.noise, quantization=args.quantization,
                                  lam_sim=args.lam_sim, lam_exp=args.lam, crossover=args.crossover,
                                  units=args.axis_units)
-    res = paper_figures(args.out, p=p, options=options, save_data=args.save_data,
+    res = paper_figures(out_dir, p=p, options=options, save_data=args.save_data,
                         progress=progress_from_args(args))
     report_path = None
     if args.report:
@@ -109,16 +119,20 @@ def run(args) -> int:
 
 def register(sub) -> None:
     """Add the ``paper-figures`` subcommand to an argparse subparsers object."""
+    from controllers.cli.data import PRESET_NAMES, seed_type
+
     f = sub.add_parser("paper-figures", help="regenerate the paper's Figs. 4, 5, 7, 8, 9, 10, 11, 12 from simulation",
                        description="Simulate the paper's experiments on the joint model (1 kHz RK4) and redraw its "
                                    "figures: LS and RLS velocity fits, Stribeck curve, irregular sample times, RLS "
                                    "parameter convergence, quantised input torque. Axes in SI units unless "
                                    "--axis-units deg.",
                        epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
-    f.add_argument("--out", default="out/paper", help="output directory for the PNG files (default out/paper)")
-    f.add_argument("--preset", default="paper", help="named plant parameter set (default: paper)")
+    f.add_argument("--out", default=None, help="output directory for the PNG files (default: the --report "
+                                               "directory, else out/paper)")
+    f.add_argument("--preset", default="paper", choices=PRESET_NAMES,
+                   help="named plant parameter set: %(choices)s (default: paper)")
     f.add_argument("--plant", metavar="FILE", help="JSON file with J, Fc, Fs, Vs, delta, sigma, tau (SI units)")
-    f.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    f.add_argument("--seed", type=seed_type, default=0, help="random seed, an integer >= 0 (default 0)")
     f.add_argument("--sim-duration", type=float, default=30.0, metavar="S",
                    help="open-loop simulation length for Figs. 4-5 in s (default 30)")
     f.add_argument("--exp-duration", type=float, default=60.0, metavar="S",

@@ -33,7 +33,9 @@ def _read_points(args):
 
     cmap = parse_column_map(args.columns, roles=("w", "F", "F_std")) if args.columns else {}
     names = {"w": cmap.get("w", "w"), "F": cmap.get("F", "F"), "F_std": cmap.get("F_std", "F_std")}
-    table = read_columns(args.file, names, optional=("F_std",))
+    from controllers.cli.data import io_options_from_args
+
+    table = read_columns(args.file, names, optional=("F_std",), csv_format=io_options_from_args(args)["csv_format"])
     w = table.columns["w"] * VELOCITY_UNITS[args.velocity_unit]
     F = table.columns["F"]
     if args.current_to_torque is not None:
@@ -58,6 +60,13 @@ def run(args) -> int:
     from controllers.experiments.paper_figures import plot_stribeck_figure
     from plant.errors import ParameterError
 
+    from controllers.cli.data import check_output_dir, table_unit
+
+    out_dir = args.out if args.out is not None else (args.report or "out/stribeck")
+    if not args.no_figures:
+        check_output_dir(out_dir, "--out")
+    if args.report:
+        check_output_dir(args.report, "--report")
     if args.points:
         pts, data = _read_points(args)
     else:
@@ -81,7 +90,7 @@ def run(args) -> int:
         figure = plot_stribeck_figure(fit, pts.w_mean, pts.u_mean, F_std=show_std,
                                       title=f"Stribeck curve over the measured support points: {Path(args.file).name}")
     if not args.no_figures:
-        out = Path(args.out)
+        out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         png = out / "fig08_stribeck.png"
         figure.savefig(png, dpi=110)
@@ -115,14 +124,19 @@ def run(args) -> int:
     print(f"support points: {pts.n_points} ({pts.method})")
     for note in pts.notes:
         print(f"  {note}")
-    units = {"Fc": "N·m", "Fs": "N·m", "Vs": "rad/s", "delta": "1", "sigma": "N·m·s/rad"}
+    kv, vunit = table_unit(args)
+    angle = vunit.split("/")[0]
+    units = {"Fc": "N·m", "Fs": "N·m", "Vs": vunit, "delta": "1", "sigma": f"N·m·s/{angle}"}
+    scale = {"Fc": 1.0, "Fs": 1.0, "Vs": kv, "delta": 1.0, "sigma": 1.0 / kv}
     print("\nStribeck fit, eq. 3 (Levenberg-Marquardt, Sec. V-C)")
     head = f"{'parameter':<10}{'value':>13}{'std error':>12}{'95 % interval':>28}  unit"
     print(head)
     print("-" * len(head))
     for k in ("Fc", "Fs", "Vs", "delta", "sigma"):
-        lo, hi = ci[k]
-        print(f"{k:<10}{getattr(fit, k):>13.6g}{fit.stderr[k]:>12.3g}{f'[{lo:.5g}, {hi:.5g}]':>28}  {units[k]}")
+        c = scale[k]
+        lo, hi = sorted((c * ci[k][0], c * ci[k][1]))
+        print(f"{k:<10}{c * getattr(fit, k):>13.6g}{c * fit.stderr[k]:>12.3g}{f'[{lo:.5g}, {hi:.5g}]':>28}  "
+              f"{units[k]}")
     print("-" * len(head))
     print(f"residual RMS {fit.residual_rms:.3g} N·m over {fit.n_points} points; converged: {fit.converged}")
     print(f"\nnext: adaptive-ff identify LOG --Vs {fit.Vs:.6g} --delta {fit.delta:.6g}")
@@ -135,7 +149,7 @@ def run(args) -> int:
 
 def register(sub) -> None:
     """Add the ``stribeck`` subcommand to an argparse subparsers object."""
-    from controllers.cli.data import DATA_EPILOG, add_data_arguments
+    from controllers.cli.data import DATA_EPILOG, add_data_arguments, add_units_argument
 
     s = sub.add_parser(
         "stribeck", help="fit the Stribeck curve (Vs, delta) from quasi-static data and draw Fig. 8",
@@ -161,10 +175,11 @@ def register(sub) -> None:
                    help="bins: drop samples with |dw/dt| above this (rad/s²)")
     s.add_argument("--weighted", action="store_true", help="weight the fit by 1/(torque spread) of each point")
     add_data_arguments(s)
-    s.add_argument("--out", default="out/stribeck", help="directory for the figure and support_points.csv "
-                                                         "(default out/stribeck)")
+    s.add_argument("--out", default=None, help="directory for the figure and support_points.csv "
+                                               "(default: the --report directory, else out/stribeck)")
     s.add_argument("--no-figures", action="store_true", help="write no files to --out")
     s.add_argument("--report", metavar="DIR", default=None, help="write a self-contained HTML report to DIR")
     s.add_argument("--json", action="store_true", help="print the fit, intervals and support points as JSON")
     s.add_argument("--quiet", action="store_true", help="no progress bar (Kalman pass on position logs)")
+    add_units_argument(s)
     s.set_defaults(func=run)

@@ -43,7 +43,8 @@ from adaptive_ff.identification.rls import RecursiveLeastSquares
 from adaptive_ff.identification.stribeck_fit import fit_stribeck
 from controllers.design.pi import design_pi
 from controllers.experiments.quasi_static import bidirectional_velocities, quasi_static_runs
-from controllers.experiments.synthetic_logs import closed_loop_response, encoder_counts, quasi_static_log, write_log_csv
+from controllers.experiments.synthetic_logs import (closed_loop_run, encoder_counts, quasi_static_log,
+                                                    write_controller_log, write_log_csv)
 from plant.errors import ParameterError, check_nonnegative, check_positive, check_signal, check_time
 from plant.excitation import bandlimited_noise, multisine_reference
 from plant.friction import JointParams, preset
@@ -679,17 +680,18 @@ def _figs45_simulation(p: JointParams, opt: PaperFigureOptions, model: Regressio
 
 
 def _closed_loop_readout(p: JointParams, opt: PaperFigureOptions, seeds, Tc: float, peak: float) -> tuple:
-    """Sec. V-B: the PI loop tracks a multi-sine, read out at irregular instants; returns ``(design, resp, meas)``."""
+    """Sec. V-B: the PI loop tracks a multi-sine, read out at irregular instants; returns ``(design, run, meas)``."""
     ref_ss, times_ss, meas_ss, loop_ss = seeds
     ref = multisine_reference(opt.exp_duration, dt=Tc, peak=peak, rng=np.random.default_rng(ref_ss))
     design = design_pi(p.J, crossover=opt.crossover, phase_margin=60.0, Tc=Tc)
     u_max = 3.0 * (max(p.Fs, p.Fc) + p.sigma * float(np.max(np.abs(ref.w))) + p.J * float(np.max(np.abs(ref.dw))))
-    resp = closed_loop_response(p, ref, design=design, u_max=u_max, noise_std=opt.noise_std,
-                                rng=np.random.default_rng(loop_ss))
+    run = closed_loop_run(p, ref, design=design, u_max=u_max, noise_std=opt.noise_std,
+                          rng=np.random.default_rng(loop_ss))
+    resp = run.response
     times = irregular_sample_times(float(resp.t[-1]), dt=Tc, rng=np.random.default_rng(times_ss))
     meas = sample(resp, times=times, noise_std=opt.noise_std, quantization=opt.quantization,
                   rng=np.random.default_rng(meas_ss))
-    return design, resp, meas
+    return design, run, meas
 
 
 def _figs9_12_experiment(p: JointParams, opt: PaperFigureOptions, model: RegressionModel, design, meas) -> tuple:
@@ -724,8 +726,10 @@ def _figs9_12_experiment(p: JointParams, opt: PaperFigureOptions, model: Regress
     return figs, numbers
 
 
-def _write_demo_logs(out: Path, p: JointParams, vel, opt: PaperFigureOptions, resp, meas, rng) -> dict:
-    """``quasi_static_log.csv``, ``robot_log.csv`` and ``plant.json`` (see :func:`paper_figures`); ``{name: Path}``."""
+def _write_demo_logs(out: Path, p: JointParams, vel, opt: PaperFigureOptions, run, meas, rng) -> dict:
+    """``quasi_static_log.csv``, ``robot_log.csv``, ``controller_log.csv`` and ``plant.json`` (see
+    :func:`paper_figures`); ``{name: Path}``."""
+    resp = run.response
     data_files = {}
     qlog = quasi_static_log(p, vel, hold=1.5, settle=1.5, noise_std=opt.noise_std, rng=rng)
     data_files["quasi_static_log"] = write_log_csv(
@@ -738,6 +742,8 @@ def _write_demo_logs(out: Path, p: JointParams, vel, opt: PaperFigureOptions, re
          "velocity_deg_s": np.rad2deg(meas.w), "encoder_counts": counts},
         header_comment=(f"simulated robot-joint log: u = {DEMO_CURRENT_TO_TORQUE:g} N·m/A * current_A, "
                         f"{DEMO_COUNTS_PER_REV} counts/rev, irregular readout"))
+    data_files["controller_log"] = write_controller_log(out / "controller_log.csv", run,
+                                                        current_to_torque=DEMO_CURRENT_TO_TORQUE)
     plant_json = out / "plant.json"
     plant_json.write_text(json.dumps(p.to_dict(), indent=2) + "\n")
     data_files["plant"] = plant_json
@@ -763,7 +769,10 @@ def paper_figures(out_dir, *, p: JointParams | None = None, options: PaperFigure
         for ``adaptive-ff stribeck`` and ``robot_log.csv`` (``time_ms``,
         ``current_A`` with ``u = 60 A·current``, ``velocity_deg_s``,
         ``encoder_counts`` with :data:`DEMO_COUNTS_PER_REV`; irregular time
-        stamps) for ``adaptive-ff identify``, plus ``plant.json``.
+        stamps) for ``adaptive-ff identify``, ``controller_log.csv`` (the same run as the PI
+        recorded it at 1 kHz: ``time_ms``, ``current_A``, ``velocity_deg_s``,
+        ``reference_deg_s``; :func:`controllers.experiments.synthetic_logs.write_controller_log`),
+        plus ``plant.json``.
     progress : bool or None, keyword-only
         tqdm progress bar over the stages (None: when stderr is a terminal).
     dpi : int, keyword-only
@@ -813,7 +822,7 @@ def paper_figures(out_dir, *, p: JointParams | None = None, options: PaperFigure
     figs.update(sim_figs)
     bar.update()
     bar.set_postfix_str("closed-loop experiment (Figs. 9-12)")
-    design, resp, meas = _closed_loop_readout(p, opt, (ref_ss, times_ss, meas_ss, loop_ss), Tc, peak)
+    design, run, meas = _closed_loop_readout(p, opt, (ref_ss, times_ss, meas_ss, loop_ss), Tc, peak)
     bar.update()
     bar.set_postfix_str("LS/RLS on the irregular samples")
     exp_figs, numbers["experiment"] = _figs9_12_experiment(p, opt, model, design, meas)
@@ -825,7 +834,7 @@ def paper_figures(out_dir, *, p: JointParams | None = None, options: PaperFigure
     paths = save_figures({stem: figs[stem] for stem in FIGURE_CAPTIONS}, out, dpi=dpi)
     data_files = {}
     if save_data:
-        data_files = _write_demo_logs(out, p, vel, opt, resp, meas, np.random.default_rng(ss.spawn(1)[0]))
+        data_files = _write_demo_logs(out, p, vel, opt, run, meas, np.random.default_rng(ss.spawn(1)[0]))
     bar.update()
     bar.close()
     return PaperFigures(out_dir=out, figures=dict(zip(FIGURE_CAPTIONS, paths)), captions=dict(FIGURE_CAPTIONS),

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import csv
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +25,8 @@ from plant.excitation import Reference
 from plant.friction import JointParams
 from plant.joint import PlantResponse, make_rk4_step
 
-__all__ = ["closed_loop_response", "quasi_static_log", "encoder_counts", "write_log_csv"]
+__all__ = ["closed_loop_response", "closed_loop_run", "ClosedLoopRun", "write_controller_log", "quasi_static_log", "encoder_counts",
+           "write_log_csv"]
 
 
 def _pi_loop(p: JointParams, w_ref, design: PIDesign, u_max: float, noise: np.ndarray):
@@ -43,6 +45,77 @@ def _pi_loop(p: JointParams, w_ref, design: PIDesign, u_max: float, noise: np.nd
         W[k], U[k], F[k] = w, u, f
         w, f = step(w, f, u)
     return W, U, F
+
+
+@dataclass(frozen=True)
+class ClosedLoopRun:
+    """A simulated PI velocity-loop run: the 1 kHz truth and what the controller itself saw.
+
+    Attributes
+    ----------
+    response : PlantResponse
+        The truth at the controller period: ``t`` (s), ``u`` (N·m, held over
+        ``[t[k], t[k+1])``), ``w`` (rad/s, true), ``f`` (N·m), ``dt = Tc``.
+    w_meas : ndarray, shape (N,)
+        The velocity the controller measured at ``t[k]`` (rad/s): ``w + noise``.
+    w_ref : ndarray, shape (N,)
+        The reference (rad/s).
+    """
+
+    response: PlantResponse
+    w_meas: np.ndarray
+    w_ref: np.ndarray
+
+    def controller_log(self) -> MeasuredData:
+        """The controller's own record at its period (what a drive's trace buffer holds).
+
+        Returns
+        -------
+        MeasuredData
+            ``t`` (s), ``u`` (N·m, the command applied over ``[t[k], t[k+1])``), ``w`` (rad/s, the
+            measured velocity at ``t[k]`` that the PI acted on): the rows of the sliding-regime
+            regression (:func:`adaptive_ff.compensation.sliding_estimator.fit_sliding`).
+        """
+        r = self.response
+        return MeasuredData(r.t.copy(), r.u.copy(), self.w_meas.copy(), source="simulated controller-rate log",
+                            notes=(f"PI velocity loop, torque and measured velocity logged every {r.dt:g} s",))
+
+
+def closed_loop_run(p: JointParams, reference: Reference, *, design: PIDesign, u_max: float = math.inf,
+                    noise_std: float = 0.0, rng: np.random.Generator | None = None) -> ClosedLoopRun:
+    """Simulate the PI velocity loop (no feedforward): the truth, the controller's measurements and the reference.
+
+    Parameters
+    ----------
+    p, reference, design, u_max, noise_std, rng
+        As in :func:`closed_loop_response` (which returns ``closed_loop_run(...).response``).
+
+    Returns
+    -------
+    ClosedLoopRun
+
+    Raises
+    ------
+    ParameterError
+        Reference step differs from ``design.Tc``; noise without ``rng``.
+
+    Notes
+    -----
+    Per period: ``u = sat(PI(w_ref - w_meas))`` (:class:`controllers.design.pi.PIController`,
+    anti-windup), then one RK4 step of eqs. 1-3 with ``u`` held (Ruderman, Sec. V-B).
+    """
+    Tc = design.Tc
+    t = np.asarray(reference.t, dtype=float)
+    if t.shape[0] > 1 and not math.isclose(t[1] - t[0], Tc, rel_tol=1e-9):
+        raise ParameterError(f"reference step {t[1] - t[0]!r} s differs from design.Tc = {Tc!r} s")
+    noise_std = check_nonnegative("noise_std", noise_std)
+    if noise_std > 0 and rng is None:
+        raise ParameterError("noise_std > 0 needs rng=np.random.default_rng(seed)")
+    n = t.shape[0]
+    noise = rng.normal(0.0, noise_std, size=n) if noise_std > 0 else np.zeros(n)
+    W, U, F = _pi_loop(p, reference.w, design, u_max, noise)
+    return ClosedLoopRun(response=PlantResponse(t=t.copy(), u=U, w=W, f=F, dt=Tc), w_meas=W + noise,
+                         w_ref=np.asarray(reference.w, dtype=float).copy())
 
 
 def closed_loop_response(p: JointParams, reference: Reference, *, design: PIDesign, u_max: float = math.inf,
@@ -82,17 +155,7 @@ def closed_loop_response(p: JointParams, reference: Reference, *, design: PIDesi
     anti-windup), then one RK4 step of eqs. 1-3 with ``u`` held. This is the
     paper's data collection (Sec. V-B: closed loop, multi-sine reference).
     """
-    Tc = design.Tc
-    t = np.asarray(reference.t, dtype=float)
-    if t.shape[0] > 1 and not math.isclose(t[1] - t[0], Tc, rel_tol=1e-9):
-        raise ParameterError(f"reference step {t[1] - t[0]!r} s differs from design.Tc = {Tc!r} s")
-    noise_std = check_nonnegative("noise_std", noise_std)
-    if noise_std > 0 and rng is None:
-        raise ParameterError("noise_std > 0 needs rng=np.random.default_rng(seed)")
-    n = t.shape[0]
-    noise = rng.normal(0.0, noise_std, size=n) if noise_std > 0 else np.zeros(n)
-    W, U, F = _pi_loop(p, reference.w, design, u_max, noise)
-    return PlantResponse(t=t.copy(), u=U, w=W, f=F, dt=Tc)
+    return closed_loop_run(p, reference, design=design, u_max=u_max, noise_std=noise_std, rng=rng).response
 
 
 def quasi_static_log(p: JointParams, velocities, *, hold: float = 2.0, settle: float = 1.0, Tc: float = 1e-3,
@@ -229,3 +292,40 @@ def write_log_csv(path, columns: dict, *, header_comment: str | None = None) -> 
         for row in zip(*(c.tolist() for c in cols.values())):
             wr.writerow([repr(x) for x in row])
     return path
+
+
+def write_controller_log(path, run: ClosedLoopRun, *, current_to_torque: float) -> Path:
+    """Write the controller's own 1 kHz record of a closed-loop run as a drive-style CSV.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file.
+    run : ClosedLoopRun
+        From :func:`closed_loop_run`.
+    current_to_torque : float, keyword-only
+        Torque constant (N·m/A), > 0: the torque is written as a motor current.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    ParameterError
+        ``current_to_torque`` not > 0.
+
+    Notes
+    -----
+    Columns: ``time_ms``, ``current_A`` (the command applied over the period that starts at the
+    stamp), ``velocity_deg_s`` (the measurement the PI acted on at the stamp), ``reference_deg_s``.
+    These are the rows of the sliding-regime regression that ``adaptive-ff identify`` chooses for a
+    uniform controller-rate log (:func:`adaptive_ff.identification.identify.choose_method`).
+    """
+    k = check_positive("current_to_torque", current_to_torque)
+    log = run.controller_log()
+    return write_log_csv(
+        path, {"time_ms": np.round(log.t * 1e3, 9), "current_A": log.u / k, "velocity_deg_s": np.rad2deg(log.w),
+               "reference_deg_s": np.rad2deg(run.w_ref)},
+        header_comment=(f"simulated controller-rate log of the PI velocity loop: u = {k:g} N·m/A * current_A, "
+                        f"every {run.response.dt * 1e3:g} ms"))

@@ -22,9 +22,11 @@ array ``params``, the whole mutable state (including the RLS buffer of
 implementation, called by :class:`CanudasCompensator`'s methods and by the
 closed-loop engine. Layouts::
 
-    params: Tc, Ts, m, w_dead, warmup, ff_max, ff_measured (1.0/0.0)      (7)
+    params: Tc, Ts, m, w_dead, warmup, ff_max, ff_measured (1.0/0.0), torque and velocity range gates
+            (7 + 2*RANGE_NPAR)
     state:  on, Fc_pos, Fc_neg, sigma_pos, sigma_neg, k, u_sum, w_prev,
-            has_prev, ok, n_rejected, k % m, phi[5] (scratch), RLS buffer (17 + rls_buffer_size(5))
+            has_prev, ok, n_rejected, k % m, phi[5] (scratch), torque and velocity range gates,
+            RLS buffer (17 + 2*RANGE_NSTATE + rls_buffer_size(5))
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ import math
 
 import numpy as np
 
+from adaptive_ff.compensation.gate import RANGE_NPAR, RANGE_NSTATE, RangeGate, range_commit, range_ok
 from adaptive_ff.identification.rls import (RecursiveLeastSquares, rls_buffer_size, rls_n_updates, rls_theta,
                                             rls_update)
 from plant.component import Component
@@ -48,11 +51,13 @@ CANUDAS_N_THETA = 5
 
 # params slots
 _P_TC, _P_TS, _P_M, _P_WDEAD, _P_WARMUP, _P_FFMAX, _P_MEAS = range(7)
-_NPAR = 7
+_P_UR = 7  # torque range gate, then the velocity range gate
+_NPAR = _P_UR + 2 * RANGE_NPAR
 # state slots
 _S_ON, _S_FCP, _S_FCN, _S_SP, _S_SN, _S_K, _S_USUM, _S_WPREV, _S_HASPREV, _S_OK, _S_NREJ, _S_PHASE = range(12)
 _S_PHI = 12
-_S_RLS = 17
+_S_UR = 17  # torque range gate, then the velocity range gate
+_S_RLS = _S_UR + 2 * RANGE_NSTATE
 
 
 @kernel(inline="always")
@@ -71,7 +76,8 @@ def canudas_compensate(par, st, w_ctrl, w_meas, w_ref):
     par, st : ndarray, shape (7,) and (17 + rls_buffer_size(5),), float64
         ``CanudasCompensator.params`` and ``.state`` (layout in the module docstring).
     w_ctrl : float
-        Velocity the controller uses this period (rad/s); evaluated when ``ff_measured``.
+        Velocity the controller uses this period (rad/s); evaluated when ``ff_measured``; a non-finite
+        velocity, or one at which the map overflows, gives 0 (no compensation without a velocity).
     w_meas : float
         Raw measured velocity (rad/s), unused.
     w_ref : float
@@ -86,12 +92,16 @@ def canudas_compensate(par, st, w_ctrl, w_meas, w_ref):
     if st[_S_ON] == 0.0:
         return 0.0
     w = w_ctrl if par[_P_MEAS] != 0.0 else w_ref
+    if not math.isfinite(w):
+        return 0.0
     if w > 0.0:
         c = st[_S_FCP] + st[_S_SP] * w
     elif w < 0.0:
         c = -st[_S_FCN] + st[_S_SN] * w
     else:
         c = 0.0
+    if not math.isfinite(c):  # a velocity so large that the map overflows: no compensation
+        return 0.0
     return _clip(c, -par[_P_FFMAX], par[_P_FFMAX])
 
 
@@ -156,13 +166,25 @@ def canudas_observe(par, st, u, w_meas, theta_out):
     Every ``m``-th call closes a sample interval of ``Ts``: with the mean torque ``u_bar`` over it and the
     velocities ``w0``, ``w1`` at its ends, the row ``(u_bar, -w0*1(w>0), -w0*1(w<0), -1(w>0), +1(w<0))``
     with output ``w1 - w0`` updates the RLS (eqs. 10-13 with directional forgetting) when both velocities
-    lie beyond ``±w_dead`` with one sign. A non-finite ``u`` or ``w`` is counted and spoils the current
-    interval.
+    lie beyond ``±w_dead`` with one sign. A non-finite or out-of-range ``u`` or ``w`` (the range gates of
+    :class:`CanudasCompensator`) is counted and spoils the current interval.
     """
-    if not (math.isfinite(u) and math.isfinite(w_meas)):
+    pu = par[_P_UR:_P_UR + RANGE_NPAR]
+    pw = par[_P_UR + RANGE_NPAR:_P_UR + 2 * RANGE_NPAR]
+    su = st[_S_UR:_S_UR + RANGE_NSTATE]
+    sw = st[_S_UR + RANGE_NSTATE:_S_RLS]
+    uok = range_ok(pu, su, u)
+    wok = range_ok(pw, sw, w_meas)
+    if not (uok and wok):  # a rejected sample counts in the failing gate(s) only
+        if not uok:
+            range_commit(pu, su, u, False)
+        if not wok:
+            range_commit(pw, sw, w_meas, False)
         st[_S_NREJ] += 1.0
         st[_S_OK] = 0.0
         return False
+    range_commit(pu, su, u, True)
+    range_commit(pw, sw, w_meas, True)
     upd = False
     if st[_S_PHASE] == 0.0:  # k % m == 0, kept as a counter (no integer division per period)
         if st[_S_HASPREV] != 0.0 and st[_S_OK] != 0.0:
@@ -210,6 +232,11 @@ class CanudasCompensator(Component):
     ff_input : {"measured", "reference"}, keyword-only
         Velocity the compensation is evaluated at; default measured (the
         velocity feedback of the original).
+    u_range, w_range : RangeGate, keyword-only
+        Range gates of the torque (N·m) and velocity (rad/s) samples; defaults
+        ``RangeGate()`` and ``RangeGate(floor=w_dead)``: a sample above
+        100 times the envelope of the accepted ones is refused
+        (:class:`adaptive_ff.compensation.gate.RangeGate`).
 
     Attributes
     ----------
@@ -226,7 +253,8 @@ class CanudasCompensator(Component):
     coef : tuple of 4 floats or None
         ``(Fc_pos, Fc_neg, sigma_pos, sigma_neg)`` in use, None before warm-up (read/write).
     n_rejected : int
-        Non-finite samples ignored.
+        Samples ignored: non-finite or out of range (the range gates), or an RLS
+        update that would overflow.
 
     Raises
     ------
@@ -253,7 +281,8 @@ class CanudasCompensator(Component):
 
     def __init__(self, *, Tc: float, Ts: float = 0.01, lam: float = 0.999, forgetting: str = "directional",
                  P0: float = 1e4, J_guess: float = 1.0, w_dead: float = 5e-3, warmup: int = 300,
-                 ff_max: float = math.inf, ff_input: str = "measured"):
+                 ff_max: float = math.inf, ff_input: str = "measured", u_range: RangeGate | None = None,
+                 w_range: RangeGate | None = None):
         Tc = check_positive("Tc", Tc)
         m = check_multiple("Ts", Ts, "Tc", Tc)
         w_dead = check_nonnegative("w_dead", w_dead)
@@ -267,14 +296,24 @@ class CanudasCompensator(Component):
         inf = math.inf
         rls = RecursiveLeastSquares(5, lam=lam, P0=P0, forgetting=forgetting, theta0=[b0, 0, 0, 0, 0],
                                     bounds=([1e-12, 0, 0, 0, 0], [inf, inf, inf, inf, inf]))
+        u_range = RangeGate() if u_range is None else u_range
+        w_range = RangeGate(floor=w_dead) if w_range is None else w_range
+        for name, g in (("u_range", u_range), ("w_range", w_range)):
+            if not isinstance(g, RangeGate):
+                raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
         self._init_arrays(_NPAR, _S_RLS + rls_buffer_size(5))
-        self.params[:] = (Tc, Ts, float(m), w_dead, float(warmup), ff_max, 1.0 if ff_input == "measured" else 0.0)
+        self.params[:_P_UR] = (Tc, Ts, float(m), w_dead, float(warmup), ff_max,
+                               1.0 if ff_input == "measured" else 0.0)
         self.state[_S_OK] = 1.0
         self.rls = rls
+        self.u_range = u_range
+        self.w_range = w_range
         self._theta_out = np.empty(5)
         self._attached()
 
     def _attached(self) -> None:
+        self.u_range.attach(self.params[_P_UR:_P_UR + RANGE_NPAR], self.state[_S_UR:_S_UR + RANGE_NSTATE])
+        self.w_range.attach(self.params[_P_UR + RANGE_NPAR:_NPAR], self.state[_S_UR + RANGE_NSTATE:_S_RLS])
         self.rls.attach(self.state[_S_RLS:])
 
     def __repr__(self) -> str:
@@ -433,6 +472,7 @@ class CanudasCompensator(Component):
 
         Notes
         -----
-        A non-finite value is counted in ``n_rejected`` and spoils the current sample interval.
+        A non-finite or out-of-range value is counted in ``n_rejected`` and spoils the current sample
+        interval.
         """
         canudas_observe(self.params, self.state, float(u), float(w), self._theta_out)

@@ -13,8 +13,9 @@ Compensator component (``KIND = 5``): configuration in the float64 array
 and :func:`dob_observe` are the one implementation, called by
 :class:`DisturbanceObserver`'s methods and by the closed-loop engine. Layouts::
 
-    params: Tc, J_n, omega_q, order, a, d_max                              (6)
-    state:  d_hat, u_last, w_last, has_w_last, n_rejected, x[order]        (5 + order)
+    params: Tc, J_n, omega_q, order, a, d_max, torque and velocity range gates     (6 + 2*RANGE_NPAR)
+    state:  d_hat, u_last, w_last, has_w_last, n_rejected, torque and velocity range gates,
+            x[order]                                                              (5 + 2*RANGE_NSTATE + order)
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import math
 
 import numpy as np
 
+from adaptive_ff.compensation.gate import RANGE_NPAR, RANGE_NSTATE, RangeGate, range_commit, range_ok
 from plant.component import Component
 from plant.errors import ParameterError, check_nonnegative, check_positive
 from plant.jit import kernel
@@ -33,8 +35,11 @@ __all__ = ["DisturbanceObserver", "dob_compensate", "dob_observe", "DOB_KIND"]
 DOB_KIND = 5
 
 _P_TC, _P_JN, _P_OMEGA, _P_ORDER, _P_A, _P_DMAX = range(6)
+_P_UR = 6  # torque range gate, then the velocity range gate
+_NPAR = _P_UR + 2 * RANGE_NPAR
 _S_D, _S_ULAST, _S_WLAST, _S_HASW, _S_NREJ = range(5)
-_S_X = 5
+_S_UR = 5  # torque range gate, then the velocity range gate
+_S_X = _S_UR + 2 * RANGE_NSTATE
 
 
 @kernel(inline="always")
@@ -46,8 +51,8 @@ def dob_compensate(par, st, w_ctrl, w_meas, w_ref):
     par, st : ndarray, shape (6,) and (5 + order,), float64
         ``DisturbanceObserver.params`` and ``.state`` (layouts in the module docstring).
     w_ctrl : float
-        Velocity the controller uses this period (rad/s); a non-finite value is counted and the
-        estimate held.
+        Velocity the controller uses this period (rad/s); a non-finite or out-of-range value (the
+        velocity range gate) is counted and the estimate held.
     w_meas, w_ref : float
         Raw measurement and reference (rad/s), unused.
 
@@ -57,7 +62,11 @@ def dob_compensate(par, st, w_ctrl, w_meas, w_ref):
         ``d_hat = Q[u(k-1) - J_n*(w(k) - w(k-1))/Tc]`` clipped to ``±d_max`` (Umeno & Hori 1991;
         class Notes).
     """
-    if not math.isfinite(w_ctrl):
+    pw = par[_P_UR + RANGE_NPAR:_NPAR]
+    sw = st[_S_UR + RANGE_NSTATE:_S_X]
+    ok = range_ok(pw, sw, w_ctrl)
+    range_commit(pw, sw, w_ctrl, ok)
+    if not ok:
         st[_S_NREJ] += 1.0
         return st[_S_D]
     if st[_S_HASW] == 0.0:
@@ -86,7 +95,8 @@ def dob_observe(par, st, u, w_meas, theta_out):
     par, st : ndarray, float64
         ``DisturbanceObserver.params`` and ``.state``.
     u : float
-        Applied torque (N·m); a non-finite value is ignored.
+        Applied torque (N·m); a non-finite or out-of-range value (the torque range gate) is counted
+        and ignored (the last one is kept).
     w_meas : float
         Measured velocity (rad/s), unused.
     theta_out : ndarray, float64
@@ -97,8 +107,14 @@ def dob_observe(par, st, u, w_meas, theta_out):
     bool
         Always False.
     """
-    if math.isfinite(u):
+    pu = par[_P_UR:_P_UR + RANGE_NPAR]
+    su = st[_S_UR:_S_UR + RANGE_NSTATE]
+    ok = range_ok(pu, su, u)
+    range_commit(pu, su, u, ok)
+    if ok:
         st[_S_ULAST] = u
+    else:
+        st[_S_NREJ] += 1.0
     return False
 
 
@@ -121,6 +137,10 @@ class DisturbanceObserver(Component):
         (``J_n*s*Q`` must be proper); default 2.
     d_max : float, keyword-only
         Bound on |d_hat| (N·m), default inf.
+    u_range, w_range : RangeGate, keyword-only
+        Range gates of the torque (N·m) and velocity (rad/s) samples; default
+        ``RangeGate()`` each: a sample above 100 times the envelope of the
+        accepted ones is ignored (:class:`adaptive_ff.compensation.gate.RangeGate`).
 
     Attributes
     ----------
@@ -133,7 +153,8 @@ class DisturbanceObserver(Component):
     d_hat : float
         Current disturbance estimate (N·m).
     n_rejected : int
-        Non-finite velocity samples (the estimate is held).
+        Non-finite or out-of-range velocity samples (the estimate is held) and
+        torque samples (the last torque is kept).
 
     Raises
     ------
@@ -155,16 +176,29 @@ class DisturbanceObserver(Component):
     MODE = "dob"
     n_theta = 0
 
-    def __init__(self, *, J_n: float, omega_q: float = 500.0, Tc: float, order: int = 2, d_max: float = math.inf):
+    def __init__(self, *, J_n: float, omega_q: float = 500.0, Tc: float, order: int = 2, d_max: float = math.inf,
+                 u_range: RangeGate | None = None, w_range: RangeGate | None = None):
         J_n = check_positive("J_n", J_n)
         omega_q = check_positive("omega_q", omega_q)
         Tc = check_positive("Tc", Tc)
         if isinstance(order, bool) or not isinstance(order, int) or order < 1:
             raise ParameterError(f"order must be an integer >= 1, got {order!r}")
         d_max = math.inf if d_max == math.inf else check_nonnegative("d_max", d_max)
-        self._init_arrays(6, _S_X + order)
-        self.params[:] = (Tc, J_n, omega_q, float(order), 1.0 - math.exp(-Tc * omega_q), d_max)
+        u_range = RangeGate() if u_range is None else u_range
+        w_range = RangeGate() if w_range is None else w_range
+        for name, g in (("u_range", u_range), ("w_range", w_range)):
+            if not isinstance(g, RangeGate):
+                raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
+        self._init_arrays(_NPAR, _S_X + order)
+        self.params[:_P_UR] = (Tc, J_n, omega_q, float(order), 1.0 - math.exp(-Tc * omega_q), d_max)
+        self.u_range = u_range
+        self.w_range = w_range
         self._theta_out = np.empty(0)
+        self._attached()
+
+    def _attached(self) -> None:
+        self.u_range.attach(self.params[_P_UR:_P_UR + RANGE_NPAR], self.state[_S_UR:_S_UR + RANGE_NSTATE])
+        self.w_range.attach(self.params[_P_UR + RANGE_NPAR:_NPAR], self.state[_S_UR + RANGE_NSTATE:_S_X])
 
     def __repr__(self) -> str:
         return (f"DisturbanceObserver(J_n={self.J_n!r}, omega_q={self.omega_q!r}, Tc={self.Tc!r}, "
@@ -210,7 +244,7 @@ class DisturbanceObserver(Component):
 
     @property
     def n_rejected(self) -> int:
-        """Non-finite velocity samples (the estimate was held)."""
+        """Rejected samples: non-finite or out-of-range velocities (the estimate was held) and torques."""
         return int(self.state[_S_NREJ])
 
     @n_rejected.setter
