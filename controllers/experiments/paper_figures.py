@@ -826,7 +826,7 @@ def paper_figures(out_dir, *, p: JointParams | None = None, options: PaperFigure
     bar.update()
     bar.set_postfix_str("LS/RLS on the irregular samples")
     exp_figs, numbers["experiment"] = _figs9_12_experiment(p, opt, model, design, meas)
-    numbers["experiment"]["motion"] = joint_motion(resp.w)
+    numbers["experiment"]["motion"] = joint_motion(run.response.w)
     figs.update(exp_figs)
     bar.update()
 
