@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import resource
 import statistics
@@ -154,6 +155,28 @@ def _batch_rows(p, design, B, args):
     return rows
 
 
+def _stiff_rows(args):
+    """Wall time (s) of a 120 s closed loop on stiff LuGre joints (sigma0 = 1e8 N·m/rad; issue 11 item 4: <= 10 s)."""
+    from plant.lugre import LuGreParams
+
+    seconds = 20.0 if args.quick else 120.0
+    ref = multisine_reference(seconds, rng=np.random.default_rng(0))
+    rows = []
+    for J in (0.05, 0.01):
+        p = LuGreParams(J=J, Fc=0.2 * J * 25.0, Fs=0.4 * J * 25.0, Vs=0.01, delta=2.0, sigma0=1e8,
+                        sigma1=math.sqrt(1e8 * J), sigma2=0.01)
+        d = design_pi(J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
+        o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=3.0 * (p.Fs + J * 3.0), noise_std=1e-3)
+        for mode in ("none", "dob"):
+            run = (lambda p=p, o=o, mode=mode: run_mode(p, ref, mode, o, rng=np.random.default_rng(1)))
+            run_mode(p, multisine_reference(0.5, rng=np.random.default_rng(0)), mode, o,
+                     rng=np.random.default_rng(1))  # load the kernel
+            med, best = timed(run, 1)
+            rows.append((f"stiff LuGre J={J}, sigma0=1e8, {mode}, {seconds:g} s run (<= 10 s per 120 s)", med, "s",
+                         best))
+    return rows
+
+
 def _own_loop_rows(p, design, args):
     """Per-call cost of the feedforward object in a user's own Python loop (docs/your_loop.md): ``step(w, w_ref)``
     and ``observe(u, w)`` once per 1 kHz period, on the (u, w) record of a closed-loop run."""
@@ -276,6 +299,7 @@ def main(argv=None) -> int:
                      best / m * 1e6))
 
     rows += _batch_rows(p, design, B, args)
+    rows += _stiff_rows(args)
     rows += _own_loop_rows(p, design, args)
 
     mem = json.loads(_py(_MEMORY_SCRIPT, args.hours, 0))

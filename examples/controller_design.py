@@ -1,4 +1,5 @@
 """Controller design for your joint: PI gains over a range of crossovers, margins, and robustness to inertia error.
+================================================================================================================
 
 For the control engineer tuning the velocity loop. Designs the discrete PI with python-control
 (:func:`controllers.design_pi`) for each target crossover, prints gains, margins, closed-loop

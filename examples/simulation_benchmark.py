@@ -1,4 +1,5 @@
 """Simulation benchmark: every friction-compensation mode on your joint, several seeds, mean ± std.
+================================================================================================
 
 For the researcher comparing compensation schemes. Runs :func:`controllers.experiments.compare` (the 1 kHz RK4
 joint of eqs. 1-3 in the discrete PI velocity loop, multi-sine reference) for each seed and prints

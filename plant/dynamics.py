@@ -42,7 +42,10 @@ slot  name            meaning
 17    ``g_min``       LuGre ``min(Fc, Fs)`` (N·m)
 18    ``g_max``       LuGre ``max(Fc, Fs)`` (N·m)
 19    ``base_rate``   LuGre ``(sigma1 + sigma2)/J + sqrt(sigma0/J)`` (1/s)
-20    ``key``         fingerprint of slots 0-19 (an integer in [1, 2**52)), see state slot 2
+20    ``rate``        lagged models: the fastest stable mode (1/s, :func:`lagged_rate`); where
+                      ``rate*dt > RK4_RATE_MAX`` the RK4 step is cut into ``int(rate*dt) + 1``
+                      equal sub-steps
+21    ``key``         fingerprint of slots 0-20 (an integer in [1, 2**52)), see state slot 2
 ====  ==============  ===========================================================
 
 State (:data:`PLANT_NSTATE` = 3): ``st[0]`` velocity ``w`` (rad/s);
@@ -51,7 +54,14 @@ LuGre the bristle deflection ``z`` in rad); ``st[2]`` equals ``key`` when
 ``st[1]`` is ``F(st[0])`` of these parameters with ``tau == 0`` (set by
 :func:`plant_step` and :func:`plant_state`), so the next step reuses it instead
 of evaluating eq. 3 again; any other value (e.g. NaN) means "not cached".
-Swapping the parameter row (a drifting plant) invalidates it by the key.
+Swapping the parameter row (a drifting plant) invalidates it by the key. For
+LuGre ``st[2]`` holds the last sub-step of the stiff integrator (s) or NaN.
+
+Stiff LuGre joints (a stiff bristle, ``sigma0`` up to 1e8 N·m/rad and more, on
+a small inertia) are integrated by :func:`lugre_stiff_step` (error-controlled,
+extrapolated backward Euler) once the RK4 sub-step count of a step would exceed
+:data:`LUGRE_RK4_MAX`; :func:`check_integrable` refuses, before a run, plants
+whose step cannot be computed accurately.
 """
 
 from __future__ import annotations
@@ -67,14 +77,16 @@ from plant.jit import kernel
 from plant.stribeck import stribeck_cutoff, stribeck_scalar
 
 __all__ = ["PLANT_NPAR", "PLANT_NSTATE", "PLANT_SLOTS", "MODEL_CODES", "plant_params", "lagged_params", "plant_state",
-           "plant_target", "plant_rk4", "plant_step", "plant_friction", "plant_simulate", "make_plant_step"]
+           "plant_target", "plant_rk4", "plant_step", "plant_friction", "plant_simulate", "make_plant_step",
+           "lugre_jacobian", "lugre_implicit_step", "lugre_stiff_step", "check_integrable", "lagged_rate", "RK4_RATE_MAX", "LAGGED_MAX_SUBSTEPS",
+           "LUGRE_STIFF_MAX", "LUGRE_RK4_MAX", "LUGRE_RTOL", "LUGRE_ZTOL", "LUGRE_MAX_SUBSTEPS"]
 
 #: Model codes of slot 0.
 MODEL_CODES = {"lagged-stribeck": 0, "asymmetric": 1, "karnopp": 2, "lugre": 3}
 #: Slot names of the parameter row -> index (see the module docstring).
 PLANT_SLOTS = {name: i for i, name in enumerate((
     "code", "J", "Vs", "delta", "tau", "Fc_pos", "dF_pos", "sigma_pos", "wcut_pos", "Fc_neg", "dF_neg",
-    "sigma_neg", "wcut_neg", "Fs_stick", "dv", "sigma0", "sigma1", "g_min", "g_max", "base_rate", "key"))}
+    "sigma_neg", "wcut_neg", "Fs_stick", "dv", "sigma0", "sigma1", "g_min", "g_max", "base_rate", "rate", "key"))}
 #: Length of the parameter row.
 PLANT_NPAR = len(PLANT_SLOTS)
 #: Length of the state array: w, the model's internal state, the eq. 3 cache key.
@@ -82,6 +94,7 @@ PLANT_NSTATE = 3
 
 _LUGRE = 3.0
 _KEY = PLANT_SLOTS["key"]
+_RATE = PLANT_SLOTS["rate"]
 _FIELDS = {
     "lagged-stribeck": ("J", "Fc", "Fs", "Vs", "delta", "sigma", "tau"),
     "asymmetric": ("J", "Fc_pos", "Fc_neg", "Fs_pos", "Fs_neg", "Vs", "delta", "sigma_pos", "sigma_neg", "tau"),
@@ -131,7 +144,43 @@ def lagged_params(J: float, Fc: float, Fs: float, Vs: float, delta: float, sigma
     r = np.zeros(PLANT_NPAR)
     r[1:5] = J, Vs, delta, tau
     r[5:9] = r[9:13] = Fc, Fs - Fc, sigma, stribeck_cutoff(Fc, Fs - Fc, Vs, delta)
+    r[_RATE] = lagged_rate(J, Fs - Fc, Vs, delta, sigma, tau)
     return _keyed(r)
+
+
+def lagged_rate(J: float, dF: float, Vs: float, delta: float, sigma: float, tau: float) -> float:
+    """Fastest stable mode (1/s) of the lagged Stribeck joint (eqs. 1-3), linearised where friction rises most.
+
+    Parameters
+    ----------
+    J, dF, Vs, delta, sigma, tau : float
+        Inertia (kg·m²), ``Fs - Fc`` (N·m), Stribeck velocity (rad/s), shape factor, viscous coefficient
+        (N·m·s/rad), lag (s).
+
+    Returns
+    -------
+    float
+        With ``s`` the steepest rise of the static map ``dF/d|w|`` (``sigma`` plus the Stribeck term where it
+        rises: ``dF*delta < 0``), ``s/J`` for ``tau = 0`` and ``max(1/tau, sqrt(s/(J*tau)))`` otherwise (the
+        eigenvalues of ``[[0, -1/J], [s/tau, -1/tau]]``). Where the Stribeck term falls (the usual dip) it adds
+        nothing: that mode is unstable physics, not stiffness. For ``0 < delta < 1`` with ``Fs < Fc`` the rise
+        at standstill is unbounded and is bounded here at ``|w| = 1e-3*Vs``.
+
+    Notes
+    -----
+    Derivative of eq. 3: ``d/d|w| dF*exp(-x**delta) = -dF*delta*x**(delta-1)*exp(-x**delta)/Vs``,
+    ``x = |w|/Vs``, largest at ``x**delta = 1 - 1/delta`` (``delta >= 1`` or ``delta < 0``).
+    """
+    rise = 0.0
+    if dF * delta < 0.0:
+        y = 1.0 - 1.0 / delta if (delta >= 1.0 or delta < 0.0) else 1e-3 ** delta
+        x = y ** (1.0 / delta) if y > 0.0 else 0.0
+        shape = (x ** (delta - 1.0) if x > 0.0 else (1.0 if delta == 1.0 else 0.0)) * math.exp(-y)
+        rise = abs(dF * delta) * shape / Vs
+    s = max(sigma, 0.0) + rise
+    if tau > 0.0:
+        return max(1.0 / tau, math.sqrt(s / (J * tau)))
+    return s / J
 
 
 def _keyed(r: np.ndarray) -> np.ndarray:
@@ -179,6 +228,8 @@ def plant_params(p) -> np.ndarray:
                                                                                 p.delta)
         r[9:13] = p.Fc_neg, p.Fs_neg - p.Fc_neg, p.sigma_neg, stribeck_cutoff(p.Fc_neg, p.Fs_neg - p.Fc_neg, p.Vs,
                                                                                  p.delta)
+        r[_RATE] = max(lagged_rate(p.J, p.Fs_pos - p.Fc_pos, p.Vs, p.delta, p.sigma_pos, p.tau),
+                       lagged_rate(p.J, p.Fs_neg - p.Fc_neg, p.Vs, p.delta, p.sigma_neg, p.tau))
         return _keyed(r)
     r[5:9] = r[9:13] = p.Fc, p.Fs - p.Fc, p.sigma2, stribeck_cutoff(p.Fc, p.Fs - p.Fc, p.Vs, p.delta)
     r[15:20] = (p.sigma0, p.sigma1, min(p.Fc, p.Fs), max(p.Fc, p.Fs),
@@ -216,6 +267,59 @@ def plant_state(p, w0: float = 0.0) -> np.ndarray:
         raise ParameterError(f"w0 must be finite, got {w0!r}")
     cached = model != "lugre" and p.tau == 0.0
     return np.array([w0, float(p.initial_state(w0)), plant_params(p)[_KEY] if cached else math.nan])
+
+
+#: Largest ``rate*dt`` of a stable mode that the explicit RK4 step of the lagged models accepts (RK4's
+#: stability interval on the negative real axis ends at 2.785; Hairer & Wanner, *Solving ODEs II*, Sec. IV.2).
+RK4_RATE_MAX = 2.5
+#: Most RK4 sub-steps per step of a lagged model (:func:`check_integrable` refuses faster plants).
+LAGGED_MAX_SUBSTEPS = 1000
+#: Largest pre-sliding frequency ``sqrt(sigma0/J)*dt`` of a LuGre joint that :func:`lugre_stiff_step` accepts.
+LUGRE_STIFF_MAX = 1e4
+
+
+def check_integrable(rows, dt: float) -> None:
+    """Refuse, before a run, plants whose step over ``dt`` cannot be computed accurately.
+
+    Parameters
+    ----------
+    rows : ndarray, shape (PLANT_NPAR,) or (K, PLANT_NPAR)
+        Parameter rows of :func:`plant_params` (a drifting plant: all its rows).
+    dt : float
+        Step (s) the plant is advanced by, > 0.
+
+    Raises
+    ------
+    ParameterError
+        The first offending row and the reason: a lagged model (lagged Stribeck, asymmetric, Karnopp) whose
+        fastest stable mode (:func:`lagged_rate`) needs more than about :data:`LAGGED_MAX_SUBSTEPS` RK4
+        sub-steps per step (``rate*dt > RK4_RATE_MAX*LAGGED_MAX_SUBSTEPS``), or a LuGre joint whose pre-sliding frequency ``sqrt(sigma0/J)``
+        exceeds ``LUGRE_STIFF_MAX/dt``. Such a plant would otherwise run for hours or into NaN.
+
+    Notes
+    -----
+    The rates are the eigenvalues of the linearised models (eqs. 1-3; LuGre at rest). RK4 stability: Hairer &
+    Wanner, *Solving ODEs II*, Sec. IV.2.
+    """
+    dt = check_positive("dt", dt)
+    r = np.atleast_2d(np.asarray(rows, dtype=float))
+    for j in range(r.shape[0]):
+        code, J, tau = r[j, 0], r[j, 1], r[j, 4]
+        if code == _LUGRE:
+            wp = math.sqrt(r[j, 15] / J)
+            if not wp * dt <= LUGRE_STIFF_MAX:
+                raise ParameterError(
+                    f"LuGre plant (row {j}): the pre-sliding frequency sqrt(sigma0/J) = {wp:.3g} rad/s is more than "
+                    f"{LUGRE_STIFF_MAX:g}/dt = {LUGRE_STIFF_MAX / dt:.3g} rad/s (sigma0 = {r[j, 15]:g} N·m/rad, "
+                    f"J = {J:g} kg·m², dt = {dt:g} s): the engine cannot integrate it accurately")
+            continue
+        rate = r[j, _RATE]
+        if not rate * dt <= RK4_RATE_MAX * LAGGED_MAX_SUBSTEPS:
+            raise ParameterError(
+                f"plant (row {j}, model code {int(code)}): its fastest stable mode (lagged_rate: the friction lag "
+                f"tau = {tau:g} s, the viscous and rising Stribeck slopes on J = {J:g} kg·m²) has a rate of "
+                f"{rate:.3g} 1/s; at dt = {dt:g} s that needs more than {LAGGED_MAX_SUBSTEPS} RK4 sub-steps per "
+                "step: the engine refuses it (use tau = 0 for a friction without lag, or a smaller step)")
 
 
 @kernel(inline="always")
@@ -350,7 +454,8 @@ def plant_step(par, st, u, dt):
     sticks (``w = 0``, ``f = u``); with ``|u| > Fs`` it breaks away (RK4 with
     the band target ``Fs*sgn(u)``). LuGre: ``n`` equal RK4 sub-steps, ``n``
     chosen from the stiffness at the step start so that each stays well inside
-    RK4's stability region (:meth:`plant.lugre.LuGreParams.make_step`); a
+    RK4's stability region (:meth:`plant.lugre.LuGreParams.make_step`); with
+    ``n > LUGRE_RK4_MAX`` (a stiff bristle) :func:`lugre_stiff_step` instead; a
     non-finite state or input gives NaN. Bit for bit the former Python steps
     of each model. One RK4 call site for all models (the lagged ones run one
     sub-step), which keeps the compiled step small and fast.
@@ -377,6 +482,9 @@ def plant_step(par, st, u, dt):
             return
         n = int(x) + 1
         h = dt / n
+        if n > LUGRE_RK4_MAX:  # stiff: the bristle state and the joint integrated as a linear system per sub-step
+            lugre_stiff_step(par, st, u, dt)
+            return
     else:
         dv = par[14]
         if -dv < w < dv:  # Karnopp stick band (dv = 0: never)
@@ -387,6 +495,10 @@ def plant_step(par, st, u, dt):
                 st[2] = math.nan
                 return
             sgn = 1.0 if u > 0.0 else -1.0
+        x = par[_RATE] * dt
+        if x > RK4_RATE_MAX:  # a stiff mode: equal sub-steps with rate*h < 1 (accurate, not only stable)
+            n = int(x) + 1
+            h = dt / n
     static = par[4] == 0.0 and not lugre
     cached = static and sgn == 0.0 and st[2] == par[_KEY]  # s = F(w) of these parameters
     for i in range(n):
@@ -399,6 +511,171 @@ def plant_step(par, st, u, dt):
         st[2] = math.nan
     st[0] = w
     st[1] = s
+
+
+#: LuGre steps whose RK4 sub-step count (stiffness bound of :func:`plant_step`) exceeds this use
+#: :func:`lugre_stiff_step`; at or below it the RK4 sub-steps (and their results) are kept.
+LUGRE_RK4_MAX = 64
+#: Relative tolerance of the sub-step error control of :func:`lugre_stiff_step`.
+LUGRE_RTOL = 1e-5
+#: Tolerance of the same error control on the bristle deflection, relative to the largest one ``max(Fc, Fs)/sigma0``
+#: (the deflection relaxes at the rate ``sigma0*|w|/g(w)``: its error does not accumulate while sliding).
+LUGRE_ZTOL = 1e-3
+#: Most sub-steps :func:`lugre_stiff_step` takes in one step before it gives up (NaN state: diverged).
+LUGRE_MAX_SUBSTEPS = 200000
+
+
+@kernel(inline="always")
+def lugre_jacobian(par, w, z, u):
+    """Right-hand side of the LuGre joint and its Jacobian at ``(w, z)`` with the torque ``u`` (N·m).
+
+    Parameters
+    ----------
+    par : ndarray, shape (PLANT_NPAR,)
+        LuGre parameter row (:func:`plant_params`).
+    w, z : float
+        Velocity (rad/s), bristle deflection (rad).
+    u : float
+        Torque (N·m).
+
+    Returns
+    -------
+    (float, float, float, float, float, float)
+        ``dw/dt, dz/dt`` and the Jacobian entries ``d(dw/dt)/dw, d(dw/dt)/dz, d(dz/dt)/dw, d(dz/dt)/dz``.
+
+    Notes
+    -----
+    Canudas de Wit et al. (1995) (module docstring): with ``a(w) = sigma0*|w|/g(w)``,
+    ``a'(w) = sgn(w)*sigma0*(g - |w|*dg/d|w|)/g**2`` and ``|w|*dg/d|w| = -(g - Fc)*delta*(|w|/Vs)**delta``
+    (derivative of eq. 3; ``g`` from :func:`plant_target`); ``a'(0) = 0`` (the kink of ``|w|``).
+    """
+    J = par[1]
+    s0 = par[15]
+    s1 = par[16]
+    s2 = par[7]
+    aw = w if w >= 0.0 else -w
+    g = plant_target(par, w, 0.0)
+    a = s0 * aw / g
+    fz = w - a * z
+    fw = (u - s0 * z - s1 * fz - s2 * w) / J
+    da = 0.0
+    if aw > 0.0:
+        x = aw / par[2]
+        p = x if par[3] == 1.0 else x ** par[3]
+        r = g - par[5]
+        da = s0 * (g + (r * par[3] * p if r != 0.0 else 0.0)) / (g * g)
+        if w < 0.0:
+            da = -da
+    dzw = 1.0 - da * z
+    return fw, fz, (-s1 * dzw - s2) / J, (-s0 + s1 * a) / J, dzw, -a
+
+
+@kernel(inline="always")
+def lugre_implicit_step(par, w0, z0, u, h):
+    """One backward-Euler step of the LuGre joint over ``h`` (s), solved by Newton's method.
+
+    Parameters
+    ----------
+    par : ndarray, shape (PLANT_NPAR,)
+        LuGre parameter row.
+    w0, z0 : float
+        Velocity (rad/s) and deflection (rad) at the start.
+    u : float
+        Torque (N·m), held.
+    h : float
+        Step (s), > 0.
+
+    Returns
+    -------
+    (float, float, bool)
+        ``(w, z)`` after ``h`` and whether Newton's iteration converged (at most 30 iterations, to ``1e-12``
+        relative to ``|w| + Vs`` and to ``max(Fc, Fs)/sigma0``).
+
+    Notes
+    -----
+    ``y1 = y0 + h f(y1)`` (Hairer & Wanner, *Solving ODEs II*, Sec. IV.3: L-stable, so the stiff bristle modes
+    are damped for every ``h``), Jacobian of :func:`lugre_jacobian`.
+    """
+    w = w0
+    z = z0
+    zs = par[18] / par[15]
+    for _ in range(30):
+        fw, fz, jww, jwz, jzw, jzz = lugre_jacobian(par, w, z, u)
+        g1 = w - w0 - h * fw
+        g2 = z - z0 - h * fz
+        m11 = 1.0 - h * jww
+        m12 = -h * jwz
+        m21 = -h * jzw
+        m22 = 1.0 - h * jzz
+        det = m11 * m22 - m12 * m21
+        dw = (g1 * m22 - m12 * g2) / det
+        dz = (m11 * g2 - m21 * g1) / det
+        w -= dw
+        z -= dz
+        if abs(dw) <= 1e-12 * (abs(w) + par[2]) and abs(dz) <= 1e-12 * zs:
+            return w, z, True
+    return w, z, False
+
+
+@kernel(inline="always")
+def lugre_stiff_step(par, st, u, dt):
+    """Advance a stiff LuGre joint by ``dt`` (s) with ``u`` (N·m) held: error-controlled implicit sub-steps.
+
+    Parameters
+    ----------
+    par : ndarray, shape (PLANT_NPAR,)
+        LuGre parameter row.
+    st : ndarray, shape (PLANT_NSTATE,)
+        ``[w, z, h]``: velocity (rad/s), deflection (rad), the last sub-step (s; NaN: none yet, then ``dt``);
+        updated in place. NaN state after :data:`LUGRE_MAX_SUBSTEPS` sub-steps (treated as diverged).
+    u : float
+        Torque (N·m).
+    dt : float
+        Step (s), > 0.
+
+    Notes
+    -----
+    Extrapolated backward Euler (Hairer & Wanner, *Solving ODEs II*, Sec. IV.9): a sub-step ``h`` of
+    :func:`lugre_implicit_step` and two of ``h/2`` give ``y = 2*y_(h/2) - y_h`` (second order; its stability
+    function ``2/(1 - z/2)**2 - 1/(1 - z)`` is A-stable and vanishes at infinity); accepted when
+    ``|w_(h/2) - w_h| <= rtol*(|w| + Vs)`` and ``|z_(h/2) - z_h| <= ztol*max(Fc, Fs)/sigma0``
+    (:data:`LUGRE_RTOL`, :data:`LUGRE_ZTOL`; step doubling, *Solving ODEs I*, Sec. II.4); the next ``h``
+    scales with ``0.9/sqrt(err)``, clipped to [0.2, 2]. No sub-step crosses the end of ``dt``.
+    """
+    w = st[0]
+    z = st[1]
+    h = st[2]
+    if not (h > 0.0 and h <= dt):
+        h = dt
+    tol_z = LUGRE_ZTOL * par[18] / par[15]
+    t = 0.0
+    count = 0
+    while t < dt:
+        if count >= LUGRE_MAX_SUBSTEPS or not (w == w and z == z):
+            st[0] = math.nan
+            st[1] = math.nan
+            st[2] = math.nan
+            return
+        count += 1
+        last = h >= dt - t
+        hh = dt - t if last else h
+        w1, z1, ok1 = lugre_implicit_step(par, w, z, u, hh)
+        wm, zm, ok2 = lugre_implicit_step(par, w, z, u, 0.5 * hh)
+        w2, z2, ok3 = lugre_implicit_step(par, wm, zm, u, 0.5 * hh)
+        err = math.inf
+        if ok1 and ok2 and ok3:
+            ew = abs(w2 - w1) / (LUGRE_RTOL * (abs(w2) + par[2]))
+            ez = abs(z2 - z1) / tol_z
+            err = ew if ew > ez else ez
+        if err <= 1.0:
+            t = dt if last else t + hh
+            w = 2.0 * w2 - w1
+            z = 2.0 * z2 - z1
+        fac = 0.9 / math.sqrt(err) if err > 0.0 else 2.0
+        h = hh * (2.0 if fac > 2.0 else (0.2 if fac < 0.2 else fac))
+    st[0] = w
+    st[1] = z
+    st[2] = h
 
 
 @kernel(inline="always")

@@ -129,7 +129,9 @@ class LuGreParams:
         Classic RK4 on ``(w, z)`` with ``n`` equal sub-steps, ``n`` chosen at each
         call from the current stiffness ``sigma0*|w|/g(w) + (sigma1 + sigma2)/J +
         sqrt(sigma0/J)`` so that each sub-step stays well inside RK4's stability
-        region (rate times sub-step <= 1; the region ends near 2.8). The compiled
+        region (rate times sub-step <= 1; the region ends near 2.8); beyond
+        :data:`plant.dynamics.LUGRE_RK4_MAX` sub-steps (a stiff bristle) the
+        error-controlled implicit :func:`plant.dynamics.lugre_stiff_step`. The compiled
         :func:`plant.dynamics.plant_step` behind a Python call.
 
         Raises

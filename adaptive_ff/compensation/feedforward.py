@@ -450,10 +450,9 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         Call period of :meth:`step` (s), normally the estimator's ``Tc``.
     lag : bool, keyword-only
         Filter the feedforward through the estimated lag ``tau`` (eq. 1);
-        default True. Measured on the ``paper`` preset with the true
-        parameters at the measured velocity: eta 0.99 with the lag, -0.37
-        without (a static map jumps by ``2*Fs`` at every reversal while the
-        real friction takes ``tau`` to follow).
+        default True. Without the lag a static map at the measured velocity
+        jumps by ``2*Fs`` at every reversal while the real friction takes
+        ``tau`` to follow (measured: docs/benchmarks/compensation.md).
     ff_max : float, keyword-only
         Bound on |feedforward| (N·m); estimates with ``Fc`` or ``Fs`` above it
         are implausible. Default inf.
@@ -515,8 +514,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     switch-on and is clipped to ``±ff_max``. Which velocity the feedforward is
     evaluated at (reference or measured) is the caller's choice; measured on
     the ``paper`` preset the measured velocity is the better one (the joint
-    lags the reference at reversals; 0.993 against 0.712, 10 seeds), see
-    ``benchmarks/compensation.py``.
+    lags the reference at reversals), see ``benchmarks/compensation.py`` and
+    docs/benchmarks/compensation.md.
     """
 
     KIND = 3

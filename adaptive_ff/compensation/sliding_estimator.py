@@ -282,8 +282,8 @@ class SlidingFrictionEstimator(Component):
     lam : float or array_like, keyword-only
         Forgetting factor per RLS update, in (0, 1] (an array: one per
         parameter); default 0.995 (memory ``Ts/(1 - lam)`` = 2 s of sliding
-        data at Ts = 10 ms). Measured in the drift benchmark (+50 % over
-        60 s): eta 0.985 at 0.995, 0.731 at 0.999.
+        data at Ts = 10 ms); a longer memory lags behind drifting friction
+        (measured: docs/benchmarks/compensation.md).
     forgetting : {"exponential", "directional"}, keyword-only
         RLS forgetting scheme (:class:`adaptive_ff.identification.rls.RecursiveLeastSquares`).
     P0 : float, keyword-only

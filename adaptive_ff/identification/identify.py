@@ -1,15 +1,8 @@
 """One-call identification of a measured record: offline LS (eq. 9) and an RLS pass (eqs. 10-13).
 
-Default structure, measured on the EMPS benchmark (``DATA_EMPS.mat`` through
-:func:`adaptive_ff.io.data.load_emps` at 100 Hz; published M = 95.1089 kg,
-Fv = 203.5034 N·s/m, Fc = 20.3935 N, offset = -3.1648 N):
-
-================  ========  =========  ========  =======  ========  =========
-structure          J error  sigma err  Fc error  offset   cond      free run
-================  ========  =========  ========  =======  ========  =========
-``lag=False``     +0.43 %   -1.67 %    +1.18 %   +0.33 %  5.0       95.0 %
-``lag=True``      +1.23 %   +2.03 %    -1.02 %   +2.17 %  1.0e4     94.4 %
-================  ========  =========  ========  =======  ========  =========
+The default structure (``lag=False``) was chosen on the EMPS benchmark
+(``DATA_EMPS.mat``): the errors of both structures against the published
+parameters are on the documentation's EMPS benchmark page.
 
 With ``lag=True`` the lag estimate follows the velocity filter, not the plant
 (tau = 0.003, 0.009, 0.018, 0.099, 0.189 s for cutoffs 300, 200, 100, 30,
@@ -395,7 +388,7 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
         hardly excite the low-speed region (such as EMPS).
     lag : bool, keyword-only
         Fit the friction lag ``tau`` (eq. 2). Default False, measured to be
-        better on EMPS (module docstring).
+        better on EMPS (docs/benchmarks/emps.md).
     offset : bool, keyword-only
         Fit a constant torque/force bias. Default True (real data carry one).
     lam : float, keyword-only

@@ -57,11 +57,10 @@ Methods
       stays simulated (gain ``(1, 0)``). The free-run output is chaotic at
       breakaway (a Stribeck curve falls with speed, so creep is unstable) and
       the free-run cost is rough in Fs at the 2-3 % level even without noise;
-      the one-step error is not, and on exact data it is unbiased
-      (measured at Ts = 10 ms, tau = 20 ms, 3 seeds: Fs within 0.94 %
-      instead of 1.8-2.9 % free-run). With noise the resets carry it into
-      the predictor (errors in variables): at 0.05 % noise one seed gave
-      Fs +7.9 % one-step against -0.8 % free-run, hence the low threshold.
+      the one-step error is not, and on exact data it is unbiased. With
+      noise the resets carry it into the predictor (errors in variables),
+      hence the low threshold (measurements: the documentation's
+      identification benchmark page).
 
     The cost is not convex in Fs (the stiction level only acts at breakaway)
     nor in tau from the eq. 4 start (tau -14 % to -90 %), so the search is
@@ -78,16 +77,11 @@ Methods
     Fc -3.7 %, cost above that at the true parameters). Parametrisation
     ``(log J, Fc, Fs, sigma, log tau, offset/Fc0)`` keeps J, tau > 0 and
     gives every parameter a finite-difference step visible past the jitter.
-    About 500-750 simulations (1-2 ms each, numba) per fit: 3-20 s for 60 s
-    of data at 10 ms, depending on the machine's load.
+    A fit runs several hundred simulations (numba).
 
-Measured (``benchmarks/identification.py``; the ``paper`` preset, 60 s of
-band-limited torque, Ts = 10 ms, Vs and delta known): noise-free, worst
-|error| over 5 seeds J 0.19 %, tau 1.22 %, sigma 0.22 %, Fc 0.42 %, Fs 1.11 %
-(eq. 4: Fs -62 to -65 %); with 1 % noise, 0.6 N·m input quantisation and
-Fig. 10's sampling scaled to 10 ms, worst over 10 seeds J 0.61 %, tau 5.02 %,
-sigma 0.91 %, Fc 1.87 %, Fs 3.02 %; with Fig. 10's sampling as is (22 ms mean)
-J 0.92 %, tau 5.38 %, sigma 0.76 %, Fc 2.45 %, Fs 2.95 %.
+Accuracy and cost against the paper's eq. 4 on simulated records are measured
+by ``benchmarks/identification.py``; its tables are on the documentation's
+benchmark pages (docs/benchmarks/).
 
 Standard errors (``stderr``) account for correlated prediction errors: the
 Newey-West (HAC) sandwich around the forward-difference Jacobian ``G`` of the

@@ -1,7 +1,7 @@
 """Recursive least squares with forgetting (eqs. 10-13), windup protection and projection onto parameter bounds.
 
 The arithmetic of one update is one compiled (numba) kernel, :func:`rls_step`, used by
-both :meth:`RecursiveLeastSquares.update` (one sample per call, about 0.6-0.7 µs for p = 6) and
+both :meth:`RecursiveLeastSquares.update` (one sample per call) and
 :meth:`RecursiveLeastSquares.update_many` (a whole stream in one call). The
 estimator state (``theta``, ``P``, counters, configuration) lives in one private
 float64 buffer; ``theta`` and ``P`` are views into it and are updated in place.
@@ -379,8 +379,8 @@ class RecursiveLeastSquares:
 
     **Implementation.** One compiled (numba) kernel performs an update in place
     on a private float64 buffer that holds ``theta``, ``P``, the counters and the
-    configuration; :meth:`update` calls it once per sample (0.6-0.7 µs for
-    p = 6, of which ~0.3 µs is numba's call dispatch), :meth:`update_many` runs
+    configuration; :meth:`update` calls it once per sample (timings:
+    ``benchmarks/rls.py`` and the documentation's benchmark pages), :meth:`update_many` runs
     a whole stream in one call. ``P`` is updated on its upper triangle and
     mirrored, so it is exactly symmetric.
     """

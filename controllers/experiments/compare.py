@@ -24,8 +24,8 @@ from plant.models import plant_to_dict
 from plant.results import axes_or_new, json_safe
 from plant.sampling import sample
 
-__all__ = ["Comparison", "CompareOptions", "compare", "eta", "FIXED_METHODS", "PREFIT_MODES", "friction_scale",
-           "prefit_stribeck"]
+__all__ = ["Comparison", "CompareOptions", "ComparisonSetup", "compare", "comparison_reference", "eta",
+           "FIXED_METHODS", "PREFIT_MODES", "friction_scale", "prefit_stribeck", "prepare_comparison"]
 
 #: Offline identification behind the ``fixed`` mode: the sliding-regime
 #: inverse-dynamics LS (:func:`adaptive_ff.compensation.sliding_estimator.fit_sliding`,
@@ -330,11 +330,89 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
             o = replace(o, **changes)
         except TypeError as exc:
             raise ParameterError(f"compare: {exc}") from None
+    s = prepare_comparison(p, o, progress=progress)
+    results = {}
+    for mode in s.modes:
+        s.bar.set_postfix_str(mode)
+        results[mode] = run_mode(p, s.reference, mode, s.mode_options[mode], rng=np.random.default_rng(s.noise_seed),
+                                 faults=o.faults)
+        s.bar.update()
+    s.bar.close()
+    rn = results["none"].metrics.rms_second_half
+    rf = results["frictionless"].metrics.rms_second_half
+    etas = {mode: eta(rn, r.metrics.rms_second_half, rf) for mode, r in results.items()}
+    return Comparison(plant=p, design=s.design, results=results, eta=etas, prefit=s.prefit, offline=s.offline,
+                      model=s.model, experiment=s.experiment, J_design=s.J_design, notes=s.notes)
+
+
+def comparison_reference(o: CompareOptions):
+    """The velocity reference of :func:`compare` with options ``o`` (a multisine of ``o.duration`` s at ``o.Tc``
+    from the first child of ``SeedSequence(o.seed)``; :func:`plant.excitation.multisine_reference`)."""
+    ref_ss = np.random.SeedSequence(o.seed).spawn(4)[0]
+    return multisine_reference(o.duration, dt=o.Tc, rng=np.random.default_rng(ref_ss))
+
+
+@dataclass(frozen=True)
+class ComparisonSetup:
+    """What :func:`compare` prepares before its runs: the reference, the PI design, the experiments and fits and
+    every mode's :class:`ModeOptions` (all from what a user has: simulated experiments, never the true friction).
+
+    Attributes
+    ----------
+    modes : tuple of str
+        The modes to run (``none`` and ``frictionless`` included), in registry order.
+    reference : Reference
+        Velocity reference sampled at ``Tc``.
+    design : PIDesign
+    mode_options : dict
+        ``{mode: ModeOptions}``.
+    noise_seed : numpy.random.SeedSequence
+        Seed of the measurement noise (the same noise in every mode).
+    prefit, offline, model, experiment, J_design, notes
+        As in :class:`Comparison`.
+    bar : tqdm progress bar (the caller updates and closes it)
+    """
+
+    modes: tuple
+    reference: object
+    design: PIDesign
+    mode_options: dict
+    noise_seed: object
+    prefit: object
+    offline: object
+    model: object
+    experiment: object
+    J_design: float
+    notes: tuple
+    bar: object
+
+
+def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False) -> ComparisonSetup:
+    """The preparation of :func:`compare`: reference, PI design, Stribeck experiment and pre-fit, offline fit of
+    ``fixed``, the options of every mode.
+
+    Parameters
+    ----------
+    p : plant model or FrictionDrift
+        True plant (only simulated experiments on it are used, and ``J`` when ``o.J_design`` is None).
+    o : CompareOptions
+    progress : bool, keyword-only
+        Progress bar over the preparation and the runs (:attr:`ComparisonSetup.bar`).
+
+    Returns
+    -------
+    ComparisonSetup
+
+    Raises
+    ------
+    ParameterError, ExcitationError
+        Invalid settings, or a fit that cannot be made.
+    """
     run_modes = [m for m in MODES if m in set(o.modes) | {"none", "frictionless"}]
     p0 = p.at(0.0) if hasattr(p, "at") else p
     J = float(p0.J) if o.J_design is None else float(o.J_design)  # the design inertia: no other plant field is read
-    ref_ss, id_ss, noise_ss, qs_ss = np.random.SeedSequence(o.seed).spawn(4)
-    ref = multisine_reference(o.duration, dt=o.Tc, rng=np.random.default_rng(ref_ss))
+    _, id_ss, noise_ss, qs_ss = np.random.SeedSequence(o.seed).spawn(4)
+    ref = comparison_reference(o)
     peak_w, peak_a = float(np.max(np.abs(ref.w))), float(np.max(np.abs(ref.dw)))
     needs_prefit = any(m in PREFIT_MODES for m in run_modes) and o.Vs is None
     if needs_prefit and not o.prefit:
@@ -373,19 +451,10 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
                      forgetting=o.forgetting, stick_band=3.0 * o.noise_std if o.stick_band is None else o.stick_band,
                      stick_samples=o.stick_samples, dwell_max=o.dwell_max, offset=o.offset, warmup=o.warmup,
                      omega_q=o.omega_q, initial=initial)
-    results = {}
-    for mode in run_modes:
-        bar.set_postfix_str(mode)
-        mode_o = replace(mo, ff_input=o.canudas_input if mode == "canudas" else o.ff_input)
-        results[mode] = run_mode(p, ref, mode, mode_o, rng=np.random.default_rng(noise_ss), faults=o.faults)
-        bar.update()
-    bar.close()
-    rn = results["none"].metrics.rms_second_half
-    rf = results["frictionless"].metrics.rms_second_half
-    etas = {mode: eta(rn, r.metrics.rms_second_half, rf) for mode, r in results.items()}
-    notes = tuple(exp.notes) if fit is not None else ()
-    return Comparison(plant=p, design=design, results=results, eta=etas, prefit=fit, offline=offline, model=model,
-                      experiment=exp, J_design=J, notes=notes)
+    opts = {mode: replace(mo, ff_input=o.canudas_input if mode == "canudas" else o.ff_input) for mode in run_modes}
+    return ComparisonSetup(modes=tuple(run_modes), reference=ref, design=design, mode_options=opts,
+                           noise_seed=noise_ss, prefit=fit, offline=offline, model=model, experiment=exp,
+                           J_design=J, notes=tuple(exp.notes) if fit is not None else (), bar=bar)
 
 
 def _quasi_static(p0, o: CompareOptions, J: float, peak_w: float, rng, *, fit: bool) -> StribeckExperiment:

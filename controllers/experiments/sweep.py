@@ -22,6 +22,13 @@ closed-loop seeds (integers >= 0); ``duration`` the run length in s;
 ``options`` further keyword arguments of ``compare()`` (e.g. known ``Vs``,
 ``delta``: no Stribeck pre-fit). All values in SI units.
 
+``random_plants`` draws joints of every plant model (lagged Stribeck, LuGre,
+Karnopp, asymmetric; with or without drift) with
+:func:`controllers.experiments.zoo.draw_plants`, the drawing code of the plant
+zoo; ``box`` may change any field of :class:`controllers.experiments.zoo.ZooBox`.
+It replaces the base plant (not combined with ``grid``/``monte_carlo``), e.g.
+``"random_plants": {"n": 20, "seed": 1, "box": {"models": ["lugre", "karnopp"], "J": [0.1, 5]}}``.
+
 Every combination of grid point x controller point x Monte-Carlo draw x seed is
 one *case*; its id is a hash of its content, so reruns recognise finished cases.
 Results go to one CSV (one row per case and mode, SI units), appended, flushed
@@ -39,7 +46,7 @@ import itertools
 import json
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -74,6 +81,8 @@ class SweepSpec:
         Run length (s).
     options : dict
         Extra keyword arguments for :func:`controllers.experiments.compare.compare`.
+    random_plants : dict
+        ``{"n", "seed", "box"}`` of random joints of every model (empty: none).
     """
 
     base: dict
@@ -84,6 +93,7 @@ class SweepSpec:
     seeds: tuple
     duration: float
     options: dict
+    random_plants: dict = field(default_factory=dict)
 
 
 _PLANT_KEYS = ("J", "Fc", "Fs", "Vs", "delta", "sigma", "tau")
@@ -217,6 +227,10 @@ def _modes_seeds_duration(where: str, d: dict) -> tuple:
 #: Modes of a spec without a "modes" key.
 DEFAULT_MODES = ("none", "fixed", "adaptive", "oracle", "frictionless")
 
+_SPEC_KEYS = {"preset", "plant", "grid", "controller", "monte_carlo", "modes", "seeds", "duration", "options",
+              "random_plants"}
+_RANDOM_KEYS = {"n", "seed", "box"}
+
 
 def load_spec(source) -> SweepSpec:
     """Read and validate a sweep spec from a ``.json``/``.toml`` file or a mapping.
@@ -272,8 +286,31 @@ def load_spec(source) -> SweepSpec:
     if n_cases > MAX_CASES:
         raise ParameterError(f"{where}: the spec expands to {n_cases} cases, more than {MAX_CASES}; "
                              "split the study or reduce the grid / monte_carlo n")
+    random_plants = _random_plants(d.get("random_plants"), grid or mc.get("n"), where)
+    if random_plants and random_plants["n"] * len(seeds) * math.prod(len(v) for v in controller.values()) > MAX_CASES:
+        raise ParameterError(f"{where}: random_plants.n x seeds x controller points is more than {MAX_CASES} cases")
     return SweepSpec(base=base, grid=grid, controller=controller, monte_carlo=mc, modes=modes, seeds=seeds,
-                     duration=duration, options=_options(where, d.get("options", {})))
+                     duration=duration, options=_options(where, d.get("options", {})), random_plants=random_plants)
+
+
+def _random_plants(rp, combined, where: str) -> dict:
+    """Validate the ``random_plants`` entry (n >= 1, seed, a box of :class:`controllers.experiments.zoo.ZooBox`)."""
+    if rp is None:
+        return {}
+    from controllers.experiments.zoo import zoo_box
+
+    if not isinstance(rp, dict) or set(rp) - _RANDOM_KEYS:
+        raise ParameterError(f"{where}: random_plants must be an object with keys {sorted(_RANDOM_KEYS)}, got {rp!r}")
+    if combined:
+        raise ParameterError(f"{where}: random_plants cannot be combined with grid or monte_carlo")
+    n = rp.get("n")
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise ParameterError(f"{where}: random_plants.n must be an integer >= 1, got {n!r}")
+    try:
+        zoo_box(rp.get("box"))
+    except (ParameterError, TypeError) as exc:
+        raise ParameterError(f"{where}: random_plants.box: {exc}") from None
+    return {"n": n, "seed": int(rp.get("seed", 0)), "box": dict(rp.get("box") or {})}
 
 
 def _case_id(case: dict) -> str:
@@ -295,6 +332,13 @@ def expand_cases(spec: SweepSpec) -> list[dict]:
         p = dict(spec.base)
         p.update(dict(zip(gk, values)))
         plants.append(p)
+    rp = spec.random_plants
+    if rp:
+        from controllers.experiments.compare import CompareOptions, comparison_reference
+        from controllers.experiments.zoo import draw_plants, zoo_box
+
+        ref = comparison_reference(CompareOptions(duration=spec.duration, seed=0))
+        plants = draw_plants(rp["n"], ref, seed=rp["seed"], box=zoo_box(rp["box"]))
     mc = spec.monte_carlo
     if mc.get("n"):
         rng = np.random.default_rng(int(mc.get("seed", 0)))
@@ -337,15 +381,16 @@ def run_case(case: dict) -> list[dict]:
         Invalid plant or controller values in the case.
     """
     from controllers.experiments.compare import compare
+    from plant.models import plant_from_dict
 
-    p = JointParams.from_dict(case["plant"])
+    p = plant_from_dict(case["plant"])
     comp = compare(p, duration=case["duration"], seed=case["seed"], modes=case["modes"], progress=False,
                    **case["controller"], **case["options"])
     rows = []
     for r in comp.rows():
         if r["mode"] not in case["modes"]:
             continue
-        row = {"case_id": case["id"], "seed": case["seed"], **case["plant"],
+        row = {"case_id": case["id"], "seed": case["seed"], **{k: case["plant"].get(k, "") for k in _PLANT_KEYS},
                **{k: case["controller"].get(k, "") for k in _CONTROLLER_KEYS}, "mode": r["mode"]}
         row.update({k: float(r[k]) for k in RESULT_FIELDS})
         rows.append(row)

@@ -127,9 +127,9 @@ class DisturbanceObserver(Component):
         Nominal inertia (kg·m²), > 0 (the same value the PI design uses).
     omega_q : float, keyword-only
         Q-filter cut-off (rad/s), > 0; default 500 (25 times the default
-        velocity-loop crossover, 80 Hz at the 1 kHz sampling rate; the
-        benchmark shows 300-2000 rad/s: higher tracks better and injects more
-        measurement noise into the torque).
+        velocity-loop crossover, 80 Hz at the 1 kHz sampling rate; higher
+        tracks better and injects more measurement noise into the torque,
+        see docs/benchmarks/compensation.md).
     Tc : float, keyword-only
         Controller period (s).
     order : int, keyword-only

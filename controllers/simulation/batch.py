@@ -166,7 +166,7 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
         segs.append(seg)
         frozen = run_plant.at(0.0) if hasattr(run_plant, "at") else run_plant
         states.append(plant_state(frozen, float(wr[0])))
-        J = float((p.at(0.0) if hasattr(p, "at") else p).J)
+        J = float((p.at(0.0) if hasattr(p, "at") else p).J) if o.J_design is None else float(o.J_design)
         gates.append(OutlierGate(max_step=2.0 * o.u_max * Tc / J if math.isfinite(o.u_max) else math.inf)
                      if o.sensor_gate else None)
     K = max(tb.shape[0] for tb in tables)

@@ -23,7 +23,7 @@ from controllers.simulation.engine import EngineInputs, engine_outcome, engine_s
 from controllers.simulation.metrics import LoopMetrics, loop_metrics, metrics_result, reversal_times
 from plant.errors import ParameterError, check_nonnegative, check_positive
 from plant.excitation import Reference
-from plant.dynamics import PLANT_NPAR, plant_params, plant_state
+from plant.dynamics import PLANT_NPAR, check_integrable, plant_params, plant_state
 from plant.results import axes_or_new, json_safe
 
 __all__ = ["MODES", "ESTIMATORS", "ModeOptions", "LoopMetrics", "ClosedLoopResult", "run_closed_loop", "run_mode",
@@ -116,12 +116,20 @@ def plant_table(p, t, Tc: float) -> tuple:
         Row ``j`` is the plant from sample ``j*seg`` on.
     seg : int
         Drift period in samples (0: one row).
+
+    Raises
+    ------
+    ParameterError
+        A row the engine cannot integrate over ``Tc`` (:func:`plant.dynamics.check_integrable`, with the reason).
     """
     if not hasattr(p, "at"):
-        return plant_params(p)[None, :], 0
-    seg = max(int(round(p.period / Tc)), 1)
-    rows = [plant_params(p.at(0.0))] + [plant_params(p.at(tk)) for tk in np.asarray(t)[seg::seg].tolist()]
-    return np.array(rows).reshape(-1, PLANT_NPAR), seg
+        table, seg = plant_params(p)[None, :], 0
+    else:
+        seg = max(int(round(p.period / Tc)), 1)
+        rows = [plant_params(p.at(0.0))] + [plant_params(p.at(tk)) for tk in np.asarray(t)[seg::seg].tolist()]
+        table = np.array(rows).reshape(-1, PLANT_NPAR)
+    check_integrable(table, Tc)
+    return table, seg
 
 
 def _check_decimate(decimate) -> int:

@@ -7,7 +7,7 @@ measures ``w_meas = w + noise`` (or an injected fault), the sensor gate
 measurement, the compensator computes its torque, the PI
 (:func:`controllers.design.pi.pi_step`) the saturated command, the compensator
 observes ``(u, w_meas)``, the metrics accumulator
-(:func:`controllers.simulation.metrics.metrics_update`) takes the tracking
+(:func:`controllers.simulation.metrics.metrics_add`) takes the tracking
 error of the true velocity, and the plant
 (:func:`plant.models.plant_step`) advances one step with ``u`` held.
 
@@ -40,7 +40,7 @@ from adaptive_ff.compensation.gate import gate_check
 from controllers.design.pi import pi_step
 from controllers.peers.canudas import canudas_compensate, canudas_observe
 from controllers.peers.dob import dob_compensate, dob_observe
-from controllers.simulation.metrics import METRICS_NSTATE, metrics_update
+from controllers.simulation.metrics import METRICS_NSTATE, metrics_add, metrics_where
 from plant.jit import kernel
 from plant.dynamics import plant_friction, plant_step
 
@@ -104,15 +104,9 @@ def _observe(kind, cp, cs, u, w_meas, theta_out):
 
 
 @kernel(inline="always")
-def _period(x, b, k, par):
-    """Advance scenario ``b`` by period ``k``; False once it has diverged (it then stays where it stopped)."""
-    es = x.eng_state[b]
-    ps = x.plant_state[b]
-    seg = x.seg[b]
-    if seg > 0 and k > 0 and k % seg == 0 and es[_ROW] + 1 < x.plant_table.shape[1]:
-        es[_ROW] += 1.0
-        par = x.plant_table[b, np.int64(es[_ROW])]
-    w = ps[0]
+def _sense(x, b, k, es, w):
+    """``(w_meas, w_ctrl)``: the sensor value of scenario ``b`` at period ``k`` (noise or an injected fault) and
+    what the gate passes to the controller (the held value after a rejected sample)."""
     if x.noise_rows > 1:
         wm = w + x.noise[b, k]
     elif x.noise_rows == 1:
@@ -130,11 +124,44 @@ def _period(x, b, k, par):
     if x.use_gate[b]:
         if gate_check(x.gate_par[b], x.gate_state[b], wm):
             es[_HELD] = wm
-        wc = es[_HELD]
-    else:
-        wc = wm
+        return wm, es[_HELD]
+    return wm, wm
+
+
+@kernel(inline="always")
+def _advance(x, b, k, es, par, u):
+    """Step the plant of scenario ``b`` with ``u`` held over period ``k``; False (and flagged) once it diverged."""
+    ps = x.plant_state[b]
+    plant_step(par, ps, u, x.dt)
+    w = ps[0]
+    if not (-x.w_limit[b] < w < x.w_limit[b]):
+        es[_DIV] = 1.0
+        es[_KEND] = k + 1
+        return False
+    return True
+
+
+@kernel(inline="always")
+def _row(x, b, k, es):
+    """The plant parameter row of scenario ``b`` at period ``k`` (a drifting plant moves to its next row)."""
+    seg = x.seg[b]
+    if seg > 0 and k > 0 and k % seg == 0 and es[_ROW] + 1 < x.plant_table.shape[1]:
+        es[_ROW] += 1.0
+    return x.plant_table[b, np.int64(es[_ROW])]
+
+
+@kernel(inline="always")
+def _period(x, b, k, where):
+    """Advance scenario ``b`` by period ``k`` (``where``: its metrics class); False once it has diverged (it then
+    stays where it stopped)."""
+    es = x.eng_state[b]
+    ps = x.plant_state[b]
+    par = _row(x, b, k, es)
+    w = ps[0]
+    wm, wc = _sense(x, b, k, es, w)
     wrk = x.wr[k]
-    f = plant_friction(par, ps)
+    rec = x.decimate > 0 and k % x.decimate == 0
+    f = plant_friction(par, ps) if rec or x.kind == KIND_ORACLE else 0.0  # LuGre: eq. 3 only where it is used
     cp = x.comp_par[b]
     cs = x.comp_state[b]
     uff = _compensate(x.kind, cp, cs, wc, wm, wrk, f)
@@ -146,40 +173,76 @@ def _period(x, b, k, par):
                 x.theta[b, j, i] = x.theta_buf[b, i]
             x.theta_k[b, j] = k
             es[_NTH] += 1.0
-    if x.decimate > 0 and k % x.decimate == 0:
+    if rec:
         r = k // x.decimate
         x.rec[b, 0, r] = w
         x.rec[b, 1, r] = wm
         x.rec[b, 2, r] = u
         x.rec[b, 3, r] = uff
         x.rec[b, 4, r] = f
-    metrics_update(x.met_state[b], x.t[k], 0.5 * (x.t[0] + x.t[-1]), x.revs, x.window, wrk - w, u)
-    plant_step(par, ps, u, x.dt)
+    metrics_add(x.met_state[b], where, wrk - w, u)
+    return _advance(x, b, k, es, par, u)
+
+
+@kernel(inline="always")
+def _period_plain(x, b, k, where):
+    """:func:`_period` for the engine's own kinds (none, oracle) without records: no compensator dispatch, the
+    friction torque only for the oracle. The same operations on the same values, so the same numbers."""
+    es = x.eng_state[b]
+    ps = x.plant_state[b]
+    par = _row(x, b, k, es)
     w = ps[0]
-    if not (-x.w_limit[b] < w < x.w_limit[b]):
-        es[_DIV] = 1.0
-        es[_KEND] = k + 1
-        return False
-    return True
+    wm, wc = _sense(x, b, k, es, w)
+    wrk = x.wr[k]
+    uff = plant_friction(par, ps) if x.kind == KIND_ORACLE else 0.0
+    u = pi_step(x.pi_par[b], x.pi_state[b], wrk - wc, uff)
+    metrics_add(x.met_state[b], where, wrk - w, u)
+    return _advance(x, b, k, es, par, u)
 
 
-@kernel(nogil=True, _nrt=False)
-def _run_chunk(x, b0, b1):
-    """Scenarios ``b0..b1-1`` over all periods, time-major (allocates nothing: compiled without numba's
-    reference counting, which would otherwise wrap every inlined component call taking arrays)."""
-    n = x.wr.shape[0]
+@kernel(inline="always")
+def _alive(x, b0, b1):
     n_alive = 0
     for b in range(b0, b1):
         if x.eng_state[b, _DIV] == 0.0:
             n_alive += 1
+    return n_alive
+
+
+@kernel(nogil=True, _nrt=False, error_model="numpy")
+def _run_chunk(x, b0, b1):
+    """Scenarios ``b0..b1-1`` over all periods, time-major (allocates nothing: compiled without numba's
+    reference counting, which would otherwise wrap every inlined component call taking arrays). The metrics
+    class of a period (second half, reversal window) depends on the time alone: computed once per period.
+    IEEE division (``error_model="numpy"``): no zero-divisor test before each of the ~12 divisions of a step
+    (the same quotients; a zero divisor gives inf/NaN, caught by the divergence test, instead of raising)."""
+    n = x.wr.shape[0]
+    n_alive = _alive(x, b0, b1)
+    tmid = 0.5 * (x.t[0] + x.t[-1])
+    ip = 0
     for k in range(n):
         if n_alive == 0:
             break
+        where, ip = metrics_where(x.t[k], tmid, x.revs, x.window, ip)
         for b in range(b0, b1):
-            if x.eng_state[b, _DIV] == 0.0:
-                par = x.plant_table[b, np.int64(x.eng_state[b, _ROW])]
-                if not _period(x, b, k, par):
-                    n_alive -= 1
+            if x.eng_state[b, _DIV] == 0.0 and not _period(x, b, k, where):
+                n_alive -= 1
+
+
+@kernel(nogil=True, _nrt=False, error_model="numpy")
+def _run_chunk_plain(x, b0, b1):
+    """:func:`_run_chunk` with :func:`_period_plain` (kinds none and oracle, nothing recorded)."""
+    n = x.wr.shape[0]
+    n_alive = _alive(x, b0, b1)
+    tmid = 0.5 * (x.t[0] + x.t[-1])
+    ip = 0
+    for k in range(n):
+        if n_alive == 0:
+            break
+        where, ip = metrics_where(x.t[k], tmid, x.revs, x.window, ip)
+        for b in range(b0, b1):
+            if x.eng_state[b, _DIV] == 0.0 and not _period_plain(x, b, k, where):
+                n_alive -= 1
 
 
 #: Scenarios per chunk: at most this many, at least _CHUNK_MIN (else B / threads).
@@ -201,12 +264,14 @@ def run_engine(x: EngineInputs) -> None:
     threads = numba.get_num_threads()  # NUMBA_NUM_THREADS, default: the cores
     chunk = max(_CHUNK_MIN, min(_CHUNK, -(-B // threads)))
     bounds = [(b0, min(B, b0 + chunk)) for b0 in range(0, B, chunk)]
+    plain = x.kind in (KIND_NONE, KIND_ORACLE) and x.decimate == 0
+    run = _run_chunk_plain if plain else _run_chunk
     if threads == 1 or len(bounds) == 1:
         for b0, b1 in bounds:
-            _run_chunk(x, b0, b1)
+            run(x, b0, b1)
     else:
         with ThreadPoolExecutor(max_workers=min(threads, len(bounds))) as pool:
-            list(pool.map(lambda b: _run_chunk(x, *b), bounds))
+            list(pool.map(lambda b: run(x, *b), bounds))
     live = x.eng_state[:, _DIV] == 0.0
     x.eng_state[live, _KEND] = x.wr.shape[0]
 

@@ -20,8 +20,8 @@ import numpy as np
 from plant.errors import ParameterError, check_nonnegative, check_signal
 from plant.jit import kernel
 
-__all__ = ["LoopMetrics", "loop_metrics", "reversal_times", "metrics_update", "metrics_result", "METRICS_NSTATE",
-           "METRIC_NAMES"]
+__all__ = ["LoopMetrics", "loop_metrics", "reversal_times", "metrics_update", "metrics_where", "metrics_add",
+           "metrics_result", "METRICS_NSTATE", "METRIC_NAMES"]
 
 # accumulator state: compensated sums (value, compensation) of e^2 (all, second half, reversal windows) and u^2,
 # maxima of |e| (all, second half), counts (second half, reversal windows), reversal pointer
@@ -76,12 +76,47 @@ def _add(st, i, x):
 
 
 @kernel(inline="always")
-def metrics_update(st, t, tmid, revs, window, e, u):
-    """Add one sample: error ``e`` (rad/s) and torque ``u`` (N·m) at time ``t`` (s), times non-decreasing.
+def metrics_where(t, tmid, revs, window, ip):
+    """Which sums a sample at time ``t`` (s) enters: 0 first half, 1 second half, 2 second half in a reversal window.
 
-    ``tmid`` is the start of the second half (s); ``revs`` the sorted reversal times (s); a sample belongs to
-    a reversal window when its nearest reversal is within ``window`` s (second half only). NaN propagates into
-    the sums and maxima as in numpy.
+    Depends on the time alone, so a batch of scenarios on one reference computes it once per period.
+
+    Parameters
+    ----------
+    t : float
+        Sample time (s), non-decreasing from call to call.
+    tmid : float
+        Start of the second half (s).
+    revs : ndarray, shape (R,)
+        Sorted reversal times (s).
+    window : float
+        Half-width of the reversal windows (s): a sample is in a window when its nearest reversal is within it.
+    ip : int
+        Reversal pointer of the previous call (0 at the start).
+
+    Returns
+    -------
+    (int, int)
+        The class of the sample and the advanced reversal pointer.
+    """
+    if not t >= tmid:
+        return 0, ip
+    nrev = revs.shape[0]
+    if nrev > 0:
+        while ip < nrev and revs[ip] < t:
+            ip += 1
+        lo = revs[ip - 1] if ip >= 1 else revs[0]
+        hi = revs[ip] if ip < nrev else revs[nrev - 1]
+        if min(abs(t - lo), abs(hi - t)) <= window:
+            return 2, ip
+    return 1, ip
+
+
+@kernel(inline="always")
+def metrics_add(st, where, e, u):
+    """Add one sample of class ``where`` (:func:`metrics_where`): error ``e`` (rad/s), torque ``u`` (N·m).
+
+    NaN propagates into the sums and maxima as in numpy. The reversal pointer slot of ``st`` is not touched.
     """
     e2 = e * e
     _add(st, _SE, e2)
@@ -89,23 +124,29 @@ def metrics_update(st, t, tmid, revs, window, e, u):
     if ae > st[_ME] or ae != ae:
         st[_ME] = ae if st[_ME] == st[_ME] else st[_ME]
     st[_N] += 1.0
-    if t >= tmid:
+    if where > 0:
         _add(st, _SH, e2)
         st[_NH] += 1.0
         if ae > st[_MH] or ae != ae:
             st[_MH] = ae if st[_MH] == st[_MH] else st[_MH]
-        nrev = revs.shape[0]
-        if nrev > 0:
-            ip = np.int64(st[_IP])
-            while ip < nrev and revs[ip] < t:
-                ip += 1
-            st[_IP] = ip
-            lo = revs[ip - 1] if ip >= 1 else revs[0]
-            hi = revs[ip] if ip < nrev else revs[nrev - 1]
-            if min(abs(t - lo), abs(hi - t)) <= window:
-                _add(st, _SR, e2)
-                st[_NR] += 1.0
+        if where == 2:
+            _add(st, _SR, e2)
+            st[_NR] += 1.0
     _add(st, _SU, u * u)
+
+
+@kernel(inline="always")
+def metrics_update(st, t, tmid, revs, window, e, u):
+    """Add one sample: error ``e`` (rad/s) and torque ``u`` (N·m) at time ``t`` (s), times non-decreasing.
+
+    ``tmid`` is the start of the second half (s); ``revs`` the sorted reversal times (s); a sample belongs to
+    a reversal window when its nearest reversal is within ``window`` s (second half only). NaN propagates into
+    the sums and maxima as in numpy. :func:`metrics_where` then :func:`metrics_add` (the reversal pointer kept
+    in ``st``).
+    """
+    where, ip = metrics_where(t, tmid, revs, window, np.int64(st[_IP]))
+    st[_IP] = ip
+    metrics_add(st, where, e, u)
 
 
 @kernel

@@ -1,0 +1,59 @@
+"""The plant zoo (issue 11, item 6): N random joints, every compensation mode, eta quantiles, win rates, failures.
+
+Run:  python benchmarks/zoo.py [--n 100] [--duration 120] [--seed 0] [--modes none,fixed,adaptive,dob,...]
+                               [--group 100] [--workers 2] [--scheduler tcp://host:8786] [--json out.json]
+
+Draws the joints with :func:`controllers.experiments.zoo.draw_plants` (the box of
+:class:`controllers.experiments.zoo.ZooBox`), prepares each as ``compare`` does
+(PI from the design inertia, pre-fit and offline fit from simulated experiments),
+runs every mode on the batch engine (all cores; a Dask cluster with
+``--scheduler``) and prints eta (second half) per mode as quantiles, the win rates
+of the adaptive modes against fixed, DOB and Canudas, and the failures. A new mode
+of the registry is picked up by default (``--modes`` lists the registry).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import subprocess
+import sys
+import time
+
+from controllers.experiments.zoo import ZooOptions, run_zoo, zoo_options_dict
+from controllers.simulation.compensators import MODES
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=100, help="number of joints")
+    ap.add_argument("--duration", type=float, default=120.0, help="run length (s)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--modes", default=",".join(MODES), help=f"comma-separated subset of {','.join(MODES)}")
+    ap.add_argument("--group", type=int, default=100, help="joints per batch call")
+    ap.add_argument("--workers", type=int, default=None, help="processes for the preparation (default: cores)")
+    ap.add_argument("--scheduler", default=None, help="Dask scheduler address (needs dask)")
+    ap.add_argument("--json", default=None, help="write the full result (strict JSON) to this file")
+    args = ap.parse_args(argv)
+    o = ZooOptions(n=args.n, duration=args.duration, seed=args.seed, modes=tuple(args.modes.split(",")),
+                   group=args.group, workers=args.workers, scheduler=args.scheduler)
+    try:
+        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
+    except OSError:
+        commit = "?"
+    print(f"# {' '.join(['python benchmarks/zoo.py', *(argv if argv is not None else sys.argv[1:])])}")
+    print(f"# {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, commit {commit}, {platform.machine()}, "
+          f"cores {__import__('os').cpu_count()}")
+    r = run_zoo(o)
+    print(r.summary())
+    if args.json:
+        d = r.to_dict()
+        d["options"] = zoo_options_dict(o)
+        with open(args.json, "w") as fh:
+            json.dump(d, fh, allow_nan=False)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

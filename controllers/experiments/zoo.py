@@ -1,0 +1,459 @@
+"""A plant zoo: random joints from a log-uniform box, every compensation mode on each, on the batch engine.
+
+:func:`draw_plants` is the one drawing code (``benchmarks/zoo.py`` and the
+``random_plants`` spec of ``adaptive-ff sweep`` use it). A joint is drawn as a
+JSON-ready dict of :func:`plant.models.plant_from_dict` (model, parameters,
+optional drift) from the box of :class:`ZooBox` (issue 11, item 6):
+
+- ``J`` log-uniform in 0.01-50 kg·m²;
+- the friction at the reference's peak speed is a share (uniform 5-60 %) of the
+  peak torque the reference demands, ``J*max|dw_ref/dt| + F_peak``; of it a
+  viscous share (uniform 0-30 %) is ``sigma*max|w_ref|``; ``Fc`` follows;
+- ``Fs/Fc`` uniform in 1-4, ``Vs`` log-uniform in 1e-3-0.1 rad/s;
+- ``delta`` uniform in -1...2.5 with ``|delta| >= 0.05``. **delta < 0** turns
+  eq. 3 around: ``exp(-|w/Vs|**delta)`` is 0 at standstill and tends to 1 at
+  high speed, so the friction *rises* from ``Fc`` at standstill towards ``Fs``
+  (no stiction peak; ``Fs`` is a high-speed level). The paper allows both signs
+  (Sec. II-B); the zoo draws them and reports them apart (``delta < 0`` rows);
+- lag ``tau``: 0 with probability ``p_static``, else log-uniform in 1e-3-0.1 s
+  (LuGre has no lag: its pre-sliding deflection ``Fc/sigma0`` is log-uniform
+  in 1e-6-1e-3 rad, ``sigma1 = zeta*sqrt(sigma0*J)`` with ``zeta`` in 0.1-1,
+  ``sigma2 = sigma``; Karnopp's stick band ``dv`` is 5-50 % of ``Vs``; the
+  asymmetric model scales the negative direction's levels by 0.6-1.4);
+- models drawn evenly from the four of :mod:`plant.models`; with probability
+  ``p_drift`` a :class:`plant.drift.FrictionDrift` ramps ``Fc`` and ``Fs`` by
+  -30...+60 % over the first half of the run.
+
+:func:`run_zoo` prepares every joint as :func:`controllers.experiments.compare.compare`
+does (its :func:`~controllers.experiments.compare.prepare_comparison`: the PI from
+the design inertia, the Stribeck pre-fit from simulated quasi-static runs and the
+offline fit of ``fixed`` from a simulated identification run; never the true
+friction), then runs each mode on groups of joints with
+:func:`controllers.simulation.batch.run_batch` (all cores), and reports ``eta``
+(second half) per joint and mode. A joint whose preparation or integration is
+refused is a failure with its reason; a diverged run is a failure of that mode.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from controllers.experiments.compare import CompareOptions, comparison_reference, eta, prepare_comparison
+from controllers.simulation.batch import run_batch
+from controllers.simulation.closed_loop import plant_table
+from controllers.simulation.compensators import MODES
+from plant.errors import ParameterError
+from plant.models import plant_from_dict
+from plant.results import json_safe
+from plant.stribeck import stribeck
+
+__all__ = ["ZooBox", "ZooOptions", "ZooResult", "ZOO_MODELS", "draw_plants", "run_zoo", "zoo_box", "zoo_options_dict"]
+
+#: Plant models the zoo draws from.
+ZOO_MODELS = ("lagged-stribeck", "lugre", "karnopp", "asymmetric")
+
+
+def _pair(name: str, v, lo: float = -math.inf) -> tuple:
+    try:
+        a, b = (float(x) for x in v)
+    except (TypeError, ValueError):
+        raise ParameterError(f"box {name} must be a pair [low, high], got {v!r}") from None
+    if not (math.isfinite(a) and math.isfinite(b) and lo <= a <= b):
+        raise ParameterError(f"box {name} must be finite with {lo:g} <= low <= high, got {v!r}")
+    return a, b
+
+
+@dataclass(frozen=True)
+class ZooBox:
+    """The box joints are drawn from (keyword-only; SI units; pairs are ``(low, high)``; see the module docstring).
+
+    Parameters
+    ----------
+    J, Vs, tau, presliding : pair of float
+        Log-uniform ranges: inertia (kg·m²), Stribeck velocity (rad/s), lag (s), LuGre ``Fc/sigma0`` (rad).
+    friction_share, viscous_share, Fs_ratio, delta, lugre_zeta, karnopp_dv, asymmetry, drift_change : pair of float
+        Uniform ranges: friction at peak speed over the peak torque demand, viscous part of it, ``Fs/Fc``, shape
+        factor, LuGre damping ratio, Karnopp ``dv/Vs``, negative-direction level factor, relative drift.
+    p_static, p_drift : float
+        Probabilities of ``tau = 0`` and of a drifting joint, in [0, 1].
+    models : tuple of str
+        Models drawn evenly (subset of :data:`ZOO_MODELS`).
+
+    Raises
+    ------
+    ParameterError
+        A range or probability out of bounds, an unknown model.
+    """
+
+    J: tuple = (0.01, 50.0)
+    friction_share: tuple = (0.05, 0.6)
+    viscous_share: tuple = (0.0, 0.3)
+    Fs_ratio: tuple = (1.0, 4.0)
+    Vs: tuple = (1e-3, 0.1)
+    delta: tuple = (-1.0, 2.5)
+    tau: tuple = (1e-3, 0.1)
+    p_static: float = 0.1
+    presliding: tuple = (1e-6, 1e-3)
+    lugre_zeta: tuple = (0.1, 1.0)
+    karnopp_dv: tuple = (0.05, 0.5)
+    asymmetry: tuple = (0.6, 1.4)
+    p_drift: float = 0.5
+    drift_change: tuple = (-0.3, 0.6)
+    models: tuple = ZOO_MODELS
+
+    def __post_init__(self):
+        for name in ("J", "Vs", "tau", "presliding"):
+            object.__setattr__(self, name, _pair(name, getattr(self, name), lo=1e-300))
+        for name in ("friction_share", "viscous_share", "Fs_ratio", "delta", "lugre_zeta", "karnopp_dv",
+                     "asymmetry", "drift_change"):
+            object.__setattr__(self, name, _pair(name, getattr(self, name)))
+        if not (0.0 < self.friction_share[0] and self.friction_share[1] < 1.0):
+            raise ParameterError(f"box friction_share must lie in (0, 1), got {self.friction_share!r}")
+        if not (0.0 <= self.viscous_share[0] and self.viscous_share[1] < 1.0):
+            raise ParameterError(f"box viscous_share must lie in [0, 1), got {self.viscous_share!r}")
+        if not (self.Fs_ratio[0] > 0 and self.asymmetry[0] > 0 and self.karnopp_dv[0] > 0 and self.lugre_zeta[0] >= 0
+                and self.drift_change[0] > -1.0):
+            raise ParameterError("box Fs_ratio, asymmetry, karnopp_dv must be > 0, lugre_zeta >= 0, "
+                                 "drift_change > -1")
+        for name in ("p_static", "p_drift"):
+            v = float(getattr(self, name))
+            if not 0.0 <= v <= 1.0:
+                raise ParameterError(f"box {name} must lie in [0, 1], got {v!r}")
+            object.__setattr__(self, name, v)
+        models = tuple(self.models)
+        bad = [m for m in models if m not in ZOO_MODELS]
+        if not models or bad:
+            raise ParameterError(f"box models must be a non-empty subset of {list(ZOO_MODELS)}, got {list(models)}")
+        object.__setattr__(self, "models", models)
+
+
+def zoo_box(d: dict | None = None) -> ZooBox:
+    """A :class:`ZooBox` from a mapping of its fields (a sweep spec's ``box``); unknown keys are refused.
+
+    Raises
+    ------
+    ParameterError
+        Unknown key or a value out of range.
+    """
+    d = dict(d or {})
+    known = set(ZooBox.__dataclass_fields__)
+    unknown = sorted(set(d) - known)
+    if unknown:
+        raise ParameterError(f"unknown zoo box key(s) {unknown}; allowed {sorted(known)}")
+    return ZooBox(**d)
+
+
+def _log_uniform(rng, pair) -> float:
+    return float(math.exp(rng.uniform(math.log(pair[0]), math.log(pair[1]))))
+
+
+def _draw_one(rng, box: ZooBox, peak_w: float, peak_a: float, duration: float) -> dict:
+    model = box.models[int(rng.integers(len(box.models)))]
+    J = _log_uniform(rng, box.J)
+    share = rng.uniform(*box.friction_share)
+    F_peak = share / (1.0 - share) * J * peak_a  # friction at peak speed = share of (J*accel + friction)
+    visc = rng.uniform(*box.viscous_share)
+    ratio = rng.uniform(*box.Fs_ratio)
+    Vs = _log_uniform(rng, box.Vs)
+    delta = 0.0
+    while abs(delta) < 0.05:
+        delta = float(rng.uniform(*box.delta))
+    # eq. 3 at the peak speed per unit Fc (sigma = 0): Fc*(1 + (ratio - 1)*exp(-(peak_w/Vs)**delta))
+    unit = float(stribeck(peak_w, Fc=1.0, Fs=ratio, Vs=Vs, delta=delta, sigma=0.0))
+    Fc = (1.0 - visc) * F_peak / unit
+    sigma = visc * F_peak / peak_w
+    tau = 0.0 if rng.uniform() < box.p_static else _log_uniform(rng, box.tau)
+    d = {"model": model, "J": J, "Fc": Fc, "Fs": ratio * Fc, "Vs": Vs, "delta": delta}
+    if model == "lugre":
+        sigma0 = Fc / _log_uniform(rng, box.presliding)
+        d.update(sigma0=sigma0, sigma1=rng.uniform(*box.lugre_zeta) * math.sqrt(sigma0 * J), sigma2=sigma)
+    elif model == "asymmetric":
+        k = rng.uniform(*box.asymmetry)
+        d = {"model": model, "J": J, "Fc_pos": Fc, "Fc_neg": k * Fc, "Fs_pos": ratio * Fc, "Fs_neg": k * ratio * Fc,
+             "Vs": Vs, "delta": delta, "sigma_pos": sigma, "sigma_neg": k * sigma, "tau": tau}
+    else:
+        d.update(sigma=sigma, tau=tau)
+        if model == "karnopp":
+            d["dv"] = rng.uniform(*box.karnopp_dv) * Vs
+    if rng.uniform() < box.p_drift:
+        ch = rng.uniform(*box.drift_change)
+        d["drift"] = {"Fc_change": ch, "Fs_change": ch, "t_start": 0.0, "t_end": 0.5 * duration}
+    return {k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in d.items()}
+
+
+def draw_plants(n: int, reference, *, seed: int = 0, box: ZooBox | None = None) -> list:
+    """Draw ``n`` joints from ``box`` scaled to the torque ``reference`` demands (module docstring).
+
+    Parameters
+    ----------
+    n : int
+        Number of joints, >= 1.
+    reference : Reference
+        The velocity reference of the runs (its peak speed and acceleration set the friction scale).
+    seed : int, keyword-only
+        Seed of the draw.
+    box : ZooBox, keyword-only
+        Default ``ZooBox()``.
+
+    Returns
+    -------
+    list of dict
+        Specs for :func:`plant.models.plant_from_dict` (JSON-ready; a drifting joint has a ``drift`` key).
+
+    Raises
+    ------
+    ParameterError
+        ``n`` < 1 or a reference without motion.
+    """
+    if isinstance(n, bool) or int(n) != n or n < 1:
+        raise ParameterError(f"n must be an integer >= 1, got {n!r}")
+    box = ZooBox() if box is None else box
+    peak_w = float(np.max(np.abs(reference.w)))
+    peak_a = float(np.max(np.abs(reference.dw)))
+    if not (peak_w > 0 and peak_a > 0):
+        raise ParameterError("reference must move (peak speed and acceleration > 0)")
+    duration = float(reference.t[-1] - reference.t[0])
+    rng = np.random.default_rng(seed)
+    return [_draw_one(rng, box, peak_w, peak_a, duration) for _ in range(int(n))]
+
+
+@dataclass(frozen=True)
+class ZooOptions:
+    """Settings of :func:`run_zoo` (keyword-only, validated).
+
+    Parameters
+    ----------
+    n : int
+        Number of joints.
+    duration : float
+        Run length (s).
+    seed : int
+        Seed of the draw and of every run (reference, noise, experiments as in ``compare``).
+    modes : tuple of str
+        Modes to run (``none`` and ``frictionless`` always; default every mode of the registry).
+    box : ZooBox
+    group : int
+        Joints per batch call (memory ~ ``group * duration/Tc * 8`` bytes of noise).
+    workers : int or None
+        Processes for the preparation (pre-fits, identification runs); default all cores.
+    scheduler : str or None
+        Dask scheduler address: preparation and batches run on that cluster (needs dask).
+
+    Raises
+    ------
+    ParameterError
+        Values out of range or an unknown mode.
+    """
+
+    n: int = 100
+    duration: float = 120.0
+    seed: int = 0
+    modes: tuple = MODES
+    box: ZooBox = field(default_factory=ZooBox)
+    group: int = 100
+    workers: int | None = None
+    scheduler: str | None = None
+
+    def __post_init__(self):
+        for name in ("n", "group"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or int(v) != v or v < 1:
+                raise ParameterError(f"{name} must be an integer >= 1, got {v!r}")
+        if not float(self.duration) > 0:
+            raise ParameterError(f"duration must be > 0, got {self.duration!r}")
+        bad = [m for m in self.modes if m not in MODES]
+        if bad:
+            raise ParameterError(f"unknown mode(s) {bad}; known {list(MODES)}")
+        object.__setattr__(self, "modes", tuple(m for m in MODES if m in set(self.modes) | {"none", "frictionless"}))
+        if self.workers is not None and (int(self.workers) != self.workers or self.workers < 1):
+            raise ParameterError(f"workers must be an integer >= 1, got {self.workers!r}")
+
+
+@dataclass(frozen=True)
+class ZooResult:
+    """Outcome of :func:`run_zoo`.
+
+    Attributes
+    ----------
+    plants : list of dict
+        The drawn joints (:func:`draw_plants`).
+    modes : tuple of str
+    eta : dict
+        ``{mode: ndarray (n,)}``: eta over the second half; NaN where refused or diverged.
+    refused : dict
+        ``{index: reason}`` of joints the preparation or the engine refused.
+    diverged : dict
+        ``{mode: ndarray of bool (n,)}``.
+    seconds : float
+        Wall time (s).
+    """
+
+    plants: list
+    modes: tuple
+    eta: dict
+    refused: dict
+    diverged: dict
+    seconds: float
+
+    def adaptive_modes(self) -> tuple:
+        """The modes named ``adaptive*`` (the adaptive friction feedforward and its composites)."""
+        return tuple(m for m in self.modes if m.startswith("adaptive"))
+
+    def quantiles(self, q=(0.05, 0.25, 0.5, 0.75, 0.95)) -> dict:
+        """``{mode: [min, quantiles..., max]}`` of eta over the joints that ran (NaN dropped)."""
+        out = {}
+        for m in self.modes:
+            e = self.eta[m][np.isfinite(self.eta[m])]
+            out[m] = [float(np.min(e))] + [float(v) for v in np.quantile(e, q)] + [float(np.max(e))] if e.size \
+                else [math.nan] * (len(q) + 2)
+        return out
+
+    def best_adaptive(self) -> np.ndarray:
+        """eta of the best adaptive mode per joint (NaN where none ran), shape (n,)."""
+        a = [self.eta[m] for m in self.adaptive_modes()]
+        if not a:
+            return np.full(len(self.plants), math.nan)
+        st = np.vstack(a)
+        ok = np.isfinite(st).any(axis=0)
+        out = np.full(st.shape[1], math.nan)
+        out[ok] = np.nanmax(st[:, ok], axis=0)
+        return out
+
+    def win_rates(self) -> dict:
+        """``{adaptive mode or "best adaptive": {rival: share of joints with eta >= rival's}}`` (joints where
+        both ran)."""
+        rows = {m: self.eta[m] for m in self.adaptive_modes()}
+        rows["best adaptive"] = self.best_adaptive()
+        out = {}
+        for name, e in rows.items():
+            out[name] = {}
+            for rival in ("fixed", "dob", "canudas"):
+                if rival in self.eta:
+                    both = np.isfinite(e) & np.isfinite(self.eta[rival])
+                    out[name][rival] = float(np.mean(e[both] >= self.eta[rival][both])) if both.any() else math.nan
+        return out
+
+    def to_dict(self) -> dict:
+        """Plants, eta per mode, failures, quantiles and win rates (strict JSON: NaN -> None)."""
+        return json_safe({"plants": self.plants, "modes": list(self.modes),
+                          "eta": {m: v.tolist() for m, v in self.eta.items()},
+                          "refused": {str(k): v for k, v in self.refused.items()},
+                          "diverged": {m: [bool(x) for x in v] for m, v in self.diverged.items()},
+                          "quantiles": self.quantiles(), "win_rates": self.win_rates(), "seconds": self.seconds})
+
+    def summary(self) -> str:
+        """The zoo table: eta quantiles per mode, win rates, failures (text)."""
+        n = len(self.plants)
+        lines = [f"zoo: {n} joints, {len(self.refused)} refused, wall {self.seconds:.1f} s",
+                 f"{'mode':<16}{'ran':>6}{'div':>5}{'min':>8}{'q05':>8}{'q25':>8}{'median':>8}{'q75':>8}{'q95':>8}"
+                 f"{'max':>8}"]
+        for m, qs in self.quantiles().items():
+            ran = int(np.count_nonzero(np.isfinite(self.eta[m])))
+            lines.append(f"{m:<16}{ran:>6}{int(np.count_nonzero(self.diverged[m])):>5}"
+                         + "".join(f"{v:>8.3f}" for v in qs))
+        best = self.best_adaptive()
+        fin = np.isfinite(best)
+        if fin.any():
+            lines.append(f"best adaptive mode: eta > 0 on {np.mean(best[fin] > 0):.1%} of {int(fin.sum())} joints")
+        for name, rivals in self.win_rates().items():
+            lines.append(f"{name} >= " + ", ".join(f"{r}: {v:.1%}" for r, v in rivals.items()))
+        neg = np.array([p.get("delta", 1.0) < 0 for p in self.plants])
+        if neg.any() and fin.any():
+            med = [float(np.nanmedian(best[s])) if np.isfinite(best[s]).any() else math.nan for s in (neg, ~neg)]
+            lines.append(f"delta < 0 (friction rising with speed): {int(neg.sum())} joints, best adaptive median "
+                         f"{med[0]:.3f}; delta > 0: median {med[1]:.3f}")
+        for i, why in sorted(self.refused.items())[:10]:
+            lines.append(f"refused #{i} ({self.plants[i].get('model')}): {why}")
+        return "\n".join(lines)
+
+
+def _prepare(args) -> tuple:
+    """Worker: (mode options, noise seed) of one joint, or the reason it was refused."""
+    spec, o = args
+    try:
+        p = plant_from_dict(spec)
+        plant_table(p, comparison_reference(o).t, o.Tc)  # refuses a plant the engine cannot integrate (every row)
+        s = prepare_comparison(p, o)
+        s.bar.close()
+        return s.mode_options, s.noise_seed, None
+    except Exception as exc:  # noqa: BLE001 - any refusal is a result of the zoo, with its reason
+        return None, None, f"{type(exc).__name__}: {exc}"
+
+
+def _batch(args) -> tuple:
+    """Worker: one mode on one group of joints -> (rms_second_half, diverged)."""
+    specs, ref, mode, opts, seeds = args
+    r = run_batch([plant_from_dict(s) for s in specs], ref, mode, opts, seeds=seeds)
+    return r.rms_second_half, r.diverged
+
+
+def _map(fn, items, o: ZooOptions, processes: bool) -> list:
+    if o.scheduler is not None:
+        from dask.distributed import Client
+
+        client = Client(o.scheduler)
+        try:
+            return client.gather(client.map(fn, items, pure=False))
+        finally:
+            client.close()
+    workers = o.workers or os.cpu_count() or 1
+    if processes and workers > 1 and len(items) > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            return list(pool.map(fn, items, chunksize=max(1, len(items) // (4 * workers))))
+    return [fn(it) for it in items]
+
+
+def run_zoo(options: ZooOptions | None = None) -> ZooResult:
+    """Draw the zoo and run every mode on every joint (module docstring).
+
+    Parameters
+    ----------
+    options : ZooOptions
+        Default ``ZooOptions()``.
+
+    Returns
+    -------
+    ZooResult
+
+    Raises
+    ------
+    ImportError
+        ``scheduler`` given without dask installed.
+    """
+    import time
+
+    o = ZooOptions() if options is None else options
+    t0 = time.perf_counter()
+    co = CompareOptions(duration=float(o.duration), seed=int(o.seed), modes=o.modes)
+    ref = comparison_reference(co)
+    specs = draw_plants(o.n, ref, seed=o.seed, box=o.box)
+    prepared = _map(_prepare, [(s, co) for s in specs], o, processes=True)
+    refused = {i: why for i, (_, _, why) in enumerate(prepared) if why is not None}
+    ok = [i for i in range(o.n) if i not in refused]
+    n = o.n
+    rms = {m: np.full(n, math.nan) for m in o.modes}
+    div = {m: np.zeros(n, dtype=bool) for m in o.modes}
+    groups = [ok[i:i + o.group] for i in range(0, len(ok), o.group)]
+    jobs = [(g, m) for m in o.modes for g in groups]
+    items = [([specs[i] for i in g], ref, m, [prepared[i][0][m] for i in g], [prepared[i][1] for i in g])
+             for g, m in jobs]
+    for (g, m), (r, d) in zip(jobs, _map(_batch, items, o, processes=False)):
+        rms[m][g] = np.where(d, math.nan, r)
+        div[m][g] = d
+    etas = {m: np.array([eta(rms["none"][i], rms[m][i], rms["frictionless"][i]) for i in range(n)])
+            for m in o.modes}
+    return ZooResult(plants=specs, modes=o.modes, eta=etas, refused=refused, diverged=div,
+                     seconds=time.perf_counter() - t0)
+
+
+def zoo_options_dict(o: ZooOptions) -> dict:
+    """The settings of a zoo run as a JSON-ready dict (for the benchmark page)."""
+    d = asdict(o)
+    d["box"] = asdict(o.box)
+    return json_safe(d)
