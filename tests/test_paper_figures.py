@@ -123,3 +123,41 @@ def test_identification_figures_for_a_log(result):
     paths = save_figures(figs, out / "id")
     assert [p.name for p in paths] == ["ls_fit.png", "rls_fit.png", "rls_parameters.png", "sample_time.png"]
     assert all(p.read_bytes()[:8] == PNG for p in paths)
+
+
+def test_experiment_moves_like_the_robot(result):
+    """Sec. V-B: 1-20 deg/s with frequent reversals, rarely stuck (a 20 rad/s loop sticks ~40 % of the time)."""
+    _, d = result
+    mo = d["summary"]["experiment"]["motion"]
+    assert mo["stuck_fraction"] < 0.10
+    assert 10.0 < np.rad2deg(mo["speed_p95"]) <= 21.0 and np.rad2deg(mo["speed_max"]) <= 22.0
+    assert mo["reversals"] >= 5  # 10 s of a 0.01-1 Hz multi-sine
+
+
+def test_joint_motion_counts():
+    from controllers.experiments.paper_figures import joint_motion
+
+    w = np.deg2rad(np.array([5.0, 0.1, -0.1, -5.0, -6.0, 0.0, 7.0, 7.0]))
+    m = joint_motion(w)
+    assert m["stuck_fraction"] == pytest.approx(3 / 8)
+    assert m["reversals"] == 2 and m["speed_max"] == pytest.approx(np.deg2rad(7.0))
+
+
+def test_deg_units_and_unclipped_windup():
+    from controllers.experiments.paper_figures import plot_input_torque
+
+    t = np.linspace(0, 10, 500)
+    w = 0.3 * np.sin(t)
+    f = plot_velocity_fit(t, w, w + 0.01, model_label="m", units="deg")
+    assert f.axes[0].get_ylabel() == "velocity w (deg/s)"
+    assert max(abs(y) for y in f.axes[0].get_ylim()) >= np.rad2deg(0.3)  # data drawn in deg/s
+    th = np.ones((500, 2))
+    th[250, 1] = 5e3  # a windup burst of plain RLS
+    f = plot_parameter_convergence(t, th, ["a1", "c1"], true=[1.0, 1.0], units="deg")
+    ax = f.axes[1]
+    assert ax.get_ylabel() == "c1 (deg/s)" and ax.get_ylim()[1] >= np.rad2deg(5e3)  # not clipped away
+    assert ax.get_yscale() == "symlog" and f.axes[0].get_yscale() == "linear"
+    f = plot_input_torque(t, np.round(30 * np.sign(w) / 0.6) * 0.6)
+    assert len(f.axes) == 3 and all(a.get_ylabel() == "torque u (N·m)" for a in f.axes)
+    with pytest.raises(Exception, match="units"):
+        plot_velocity_fit(t, w, w, model_label="m", units="grad")

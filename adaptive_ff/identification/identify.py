@@ -269,7 +269,7 @@ class IdentificationReport:
                 ax.plot(self.theta_time, self.theta_history[:, i] / ref, lw=0.9, label=name)
         ax.axhline(1.0, color="0.5", lw=0.6, ls="--")
         ax.set_xlabel("time (s)")
-        ax.set_ylabel("RLS estimate / LS estimate")
+        ax.set_ylabel("RLS estimate / LS estimate (-)")
         ax.set_title(f"RLS convergence (lam = {self.lam:g}), {self.source or 'measured data'}")
         ax.legend(loc="best", ncol=2)
         ax.grid(True, alpha=0.3)

@@ -716,7 +716,7 @@ class OnlineUKFResult:
                 ax.plot(self.t, self.theta[k] / self.final[k], lw=0.9, label=k)
         ax.axhline(1.0, color="0.5", lw=0.6, ls="--")
         ax.set_xlabel("time (s)")
-        ax.set_ylabel("estimate / final estimate")
+        ax.set_ylabel("estimate / final estimate (-)")
         ax.legend(loc="best", ncol=3)
         ax.grid(True, alpha=0.3)
         return ax

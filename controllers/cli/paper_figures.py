@@ -1,22 +1,24 @@
-"""``adaptive-ff paper-figures``: regenerate the paper's Figs. 4, 5, 8-12 from the simulated joint."""
+"""``adaptive-ff paper-figures``: regenerate the paper's Figs. 4, 5, 7-12 from the simulated joint."""
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 
 __all__ = ["register", "run", "report_tables"]
 
 _EPILOG = """\
 Experiments (see controllers.experiments.paper_figures): Sec. IV open-loop band-limited-noise run sampled at 10 ms
 (Fig. 4: LS model, Fig. 5: RLS prediction); Sec. V-C quasi-static runs and Levenberg-Marquardt Stribeck
-fit (Fig. 8); Sec. V closed-loop multi-sine tracking read out at irregular instants with noise and
-torque quantisation (Fig. 9: LS, Fig. 10: sample times, Fig. 11: RLS with lambda = 0.85, Fig. 12: RLS
-parameters). --save-data also writes the demonstration logs quasi_static_log.csv and robot_log.csv
-(current, encoder counts, irregular time in ms) for trying 'adaptive-ff stribeck' and 'identify'.
+fit (Fig. 8); Sec. V closed-loop multi-sine tracking by a stiff velocity loop (--crossover), read out at
+irregular instants with noise and torque quantisation (Fig. 7: the quantised torque, Fig. 9: LS, Fig. 10:
+sample times, Fig. 11: RLS with lambda = 0.85, Fig. 12: RLS parameters, windup included).
+--axis-units deg draws velocities in deg/s, as the paper does. --save-data also writes the demonstration logs
+quasi_static_log.csv and robot_log.csv (current, encoder counts, irregular time in ms) for trying 'adaptive-ff stribeck' and 'identify'.
 
 example:
-  adaptive-ff paper-figures --out out/paper --save-data --report out/paper
+  adaptive-ff paper-figures --out out/paper --axis-units deg --save-data --report out/paper
 """
 
 
@@ -68,7 +70,8 @@ def run(args) -> int:
                              f"got model {p.MODEL!r}")
     options = PaperFigureOptions(seed=args.seed, sim_duration=args.sim_duration, exp_duration=args.exp_duration,
                                  n_speeds=args.speeds, noise_std=args.noise, quantization=args.quantization,
-                                 lam_sim=args.lam_sim, lam_exp=args.lam)
+                                 lam_sim=args.lam_sim, lam_exp=args.lam, crossover=args.crossover,
+                                 units=args.axis_units)
     res = paper_figures(out_dir, p=p, options=options, save_data=args.save_data,
                         progress=progress_from_args(args))
     report_path = None
@@ -95,6 +98,10 @@ def run(args) -> int:
     print(f"Fig. 5  RLS (lambda = {sim['rls_lam']:g}) a-priori fit {sim['rls_fit']:.2f} %")
     print(f"Fig. 10 irregular readout: mean {ex['Ts_mean'] * 1e3:.2f} ms, min {ex['Ts_min'] * 1e3:.2f} ms, "
           f"max {ex['Ts_max'] * 1e3:.2f} ms, {ex['n_samples']} samples")
+    mo = ex["motion"]
+    print(f"Figs. 7, 9-12 joint motion: stuck (|w| < 0.2 deg/s) {mo['stuck_fraction']:.1%} of the time, speed "
+          f"{math.degrees(mo['speed_p05']):.2g}-{math.degrees(mo['speed_p95']):.3g} deg/s (5-95 %), "
+          f"{mo['reversals']} reversals")
     print(f"Fig. 9  experiment LS fit one-step {ex['ls_fit_one_step']:.2f} %, free run {ex['ls_fit_free_run']:.2f} %")
     print(f"Fig. 11 RLS (lambda = {ex['rls_lam']:g}) a-priori fit {ex['rls_fit']:.2f} %")
     print(f"{'':8}{'J':>10}{'tau':>10}{'sigma':>10}{'Fc':>10}{'Fs':>10}")
@@ -114,10 +121,11 @@ def register(sub) -> None:
     """Add the ``paper-figures`` subcommand to an argparse subparsers object."""
     from controllers.cli.data import PRESET_NAMES, seed_type
 
-    f = sub.add_parser("paper-figures", help="regenerate the paper's Figs. 4, 5, 8, 9, 10, 11, 12 from simulation",
+    f = sub.add_parser("paper-figures", help="regenerate the paper's Figs. 4, 5, 7, 8, 9, 10, 11, 12 from simulation",
                        description="Simulate the paper's experiments on the joint model (1 kHz RK4) and redraw its "
                                    "figures: LS and RLS velocity fits, Stribeck curve, irregular sample times, RLS "
-                                   "parameter convergence. Axes in SI units.",
+                                   "parameter convergence, quantised input torque. Axes in SI units unless "
+                                   "--axis-units deg.",
                        epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     f.add_argument("--out", default=None, help="output directory for the PNG files (default: the --report "
                                                "directory, else out/paper)")
@@ -136,6 +144,11 @@ def register(sub) -> None:
                    help="torque readout quantisation step in N·m (default 0.6 = 0.01 A at 60 N·m/A)")
     f.add_argument("--lam-sim", type=float, default=0.995, help="RLS forgetting factor of Fig. 5 (default 0.995)")
     f.add_argument("--lam", type=float, default=0.85, help="RLS forgetting factor of Figs. 11-12 (paper: 0.85)")
+    f.add_argument("--crossover", type=float, default=200.0, metavar="RAD_S",
+                   help="crossover of the experiment's PI velocity loop in rad/s (default 200: a stiff robot loop, "
+                        "the joint rarely sticks)")
+    f.add_argument("--axis-units", choices=("rad", "deg"), default="rad",
+                   help="velocity unit on the figure axes: rad/s (default) or deg/s as in the paper")
     f.add_argument("--save-data", action="store_true",
                    help="also write demonstration logs (quasi_static_log.csv, robot_log.csv, plant.json)")
     f.add_argument("--report", metavar="DIR", default=None, help="write a self-contained HTML report to DIR")

@@ -238,8 +238,8 @@ def plot_bode(design: PIDesign):
                  label=f"gain margin {20 * math.log10(d.gain_margin):.1f} dB at {d.phase_crossover:.4g} rad/s")
     ax1.axvline(math.pi / d.Tc, color="0.5", lw=0.6, ls="-.")
     ax2.axvline(math.pi / d.Tc, color="0.5", lw=0.6, ls="-.", label="Nyquist π/Tc")
-    ax1.legend(fontsize=8, loc="upper right")
-    ax2.legend(fontsize=8, loc="lower left")
+    ax1.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside the plot, never over a curve
+    ax2.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax2.set_ylabel("phase (deg)")
     ax2.set_xlabel("frequency ω (rad/s)")
     for ax in (ax1, ax2):

@@ -1,4 +1,4 @@
-"""The paper's figures regenerated from the simulation (Figs. 4, 5, 8-12), and the same kinds of figures for any log.
+"""The paper's figures regenerated from the simulation (Figs. 4, 5, 7-12), and the same kinds of figures for any log.
 
 Experiments, following Ruderman's paper on the simulated joint (``paper`` preset by default):
 
@@ -10,13 +10,18 @@ Experiments, following Ruderman's paper on the simulated joint (``paper`` preset
   (:func:`controllers.experiments.quasi_static.quasi_static_runs`) and the
   Levenberg-Marquardt Stribeck fit (:func:`adaptive_ff.identification.stribeck_fit.fit_stribeck`);
   its ``Vs``, ``delta`` fix the regression model of every other figure.
-* **Sec. V-B/D/E, Figs. 9-12** — the PI velocity loop tracks a 0.01-1 Hz
-  multi-sine reference (up to 20 deg/s, frequent reversals); torque and
+* **Sec. V-B/D/E, Figs. 7, 9-12** — a stiff PI velocity loop (200 rad/s
+  crossover, like an industrial robot's) tracks a 0.01-1 Hz multi-sine
+  reference (up to 20 deg/s, frequent reversals; the joint is stuck below
+  0.2 deg/s only a few per cent of the time, :func:`joint_motion`); torque and
   velocity are read out at irregular instants (Fig. 10: about 22 ms mean,
   outliers up to twice that), with velocity noise and torque quantisation
   (Fig. 7). Offline LS on the irregular samples as they are, with
   ``Ts`` = their mean (Fig. 9), and RLS with ``lam = 0.85`` as in the paper
-  (Fig. 11: velocity, Fig. 12: parameter convergence).
+  (Fig. 11: velocity, Fig. 12: parameter convergence, windup bursts shown,
+  not clipped). Fig. 7 is the read-out torque with close-ups of its
+  quantisation steps and uneven time grid. Axes in rad/s, or deg/s as in the
+  paper (``PaperFigureOptions(units="deg")``).
 
 Plotting functions take plain arrays, so :func:`identification_figures` draws
 the same figures for a measured log identified by :func:`adaptive_ff.identification.identify.identify`.
@@ -35,7 +40,7 @@ import numpy as np
 from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
 from adaptive_ff.identification.rls import RecursiveLeastSquares
-from adaptive_ff.identification.stribeck_fit import fit_stribeck, plot_stribeck_fit
+from adaptive_ff.identification.stribeck_fit import fit_stribeck
 from controllers.design.pi import design_pi
 from controllers.experiments.quasi_static import bidirectional_velocities, quasi_static_runs
 from controllers.experiments.synthetic_logs import (closed_loop_run, encoder_counts, quasi_static_log,
@@ -59,6 +64,9 @@ __all__ = [
     "plot_sample_times",
     "plot_parameter_convergence",
     "plot_stribeck_figure",
+    "plot_input_torque",
+    "joint_motion",
+    "AXIS_UNITS",
     "identification_figures",
     "save_figures",
     "FIGURE_CAPTIONS",
@@ -70,6 +78,7 @@ __all__ = [
 FIGURE_CAPTIONS = {
     "fig04_ls_simulation": "Fig. 4: simulated and offline (LS) estimated output velocity",
     "fig05_rls_simulation": "Fig. 5: simulated and online (RLS) estimated output velocity",
+    "fig07_input_torque": "Fig. 7: applied input joint torque signal with close-up views",
     "fig08_stribeck": "Fig. 8: Stribeck curve from bidirectional quasi-static drive experiments",
     "fig09_ls_experiment": "Fig. 9: measured and offline identified joint velocity",
     "fig10_sample_time": "Fig. 10: evaluated sample time of the identification experiment",
@@ -85,10 +94,22 @@ DEMO_COUNTS_PER_REV = 2**14 * 120
 
 # --------------------------------------------------------------------------- plots
 
+#: Velocity units the figures can be drawn in: name -> (factor from rad/s, label).
+AXIS_UNITS = {"rad": (1.0, "rad/s"), "deg": (180.0 / math.pi, "deg/s")}
+
+
+def _velocity_unit(units: str) -> tuple[float, str]:
+    """``(factor from rad/s, label)`` of ``units`` (:data:`AXIS_UNITS`); ParameterError otherwise."""
+    try:
+        return AXIS_UNITS[units]
+    except (KeyError, TypeError):
+        raise ParameterError(f"units must be one of {sorted(AXIS_UNITS)}, got {units!r}") from None
+
+
 
 def plot_velocity_fit(t, w, w_model, *, model_label: str, measured_label: str = "measured", title: str = "",
                       w_model2=None, model2_label: str = "", fit_percent: float | None = None,
-                      fit2_percent: float | None = None) -> Figure:
+                      fit2_percent: float | None = None, units: str = "rad") -> Figure:
     """Measured (or simulated) velocity against a model's velocity over time (paper Figs. 4, 5, 9, 11).
 
     Parameters
@@ -105,25 +126,32 @@ def plot_velocity_fit(t, w, w_model, *, model_label: str, measured_label: str = 
         A second model curve (dotted), with ``model2_label``.
     fit_percent, fit2_percent : float, keyword-only, optional
         NRMSE fits (%) appended to the legend entries.
+    units : {"rad", "deg"}, keyword-only
+        Velocity axis in rad/s (SI, default) or deg/s (as the paper's robot figures).
 
     Returns
     -------
     matplotlib.figure.Figure
-        Top: both velocities (rad/s) over time (s); bottom: the difference (rad/s).
+        Top: both velocities over time (s); bottom: the difference; legend above the plot.
 
     Raises
     ------
     SignalError
         Arrays of different lengths or non-finite ``t``/``w``.
+    ParameterError
+        ``w_model`` of another shape, unknown ``units``.
     """
     t = check_signal("t", t)
     w = check_signal("w", w, n=t.shape[0])
     wm = np.asarray(w_model, dtype=float).reshape(-1)
     if wm.shape != w.shape:
         raise ParameterError(f"w_model must have shape {w.shape}, got {wm.shape}")
+    k, vu = _velocity_unit(units)
+    w, wm = k * w, k * wm
+    w_model2 = None if w_model2 is None else k * np.asarray(w_model2, dtype=float).reshape(-1)
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(9.0, 5.0), layout="constrained")
+    fig = Figure(figsize=(9.0, 5.4), layout="constrained")
     ax, ax2 = fig.subplots(2, 1, sharex=True, height_ratios=[3, 1])
     ax.plot(t, w, color="0.2", lw=1.0, label=measured_label)
     lab = model_label + (f" (fit {fit_percent:.1f} %)" if fit_percent is not None else "")
@@ -134,11 +162,11 @@ def plot_velocity_fit(t, w, w_model, *, model_label: str, measured_label: str = 
         lab2 = model2_label + (f" (fit {fit2_percent:.1f} %)" if fit2_percent is not None else "")
         ax.plot(t, wm2, color="C0", lw=0.8, ls=":", label=lab2)
         ax2.plot(t, wm2 - w, color="C0", lw=0.6, ls=":")
-    ax.set_ylabel("velocity w (rad/s)")
-    ax.legend(loc="upper right", fontsize=8)
+    ax.set_ylabel(f"velocity w ({vu})")
+    ax.legend(loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=2, fontsize=8, frameon=False, borderaxespad=0.2)
     ax.grid(True, alpha=0.3)
     if title:
-        ax.set_title(title, fontsize=10, loc="left")
+        fig.suptitle(title, fontsize=10, x=0.01, ha="left")
     lim = float(np.max(np.abs(w))) * 1.5 or 1.0
     ax.set_ylim(-lim, lim)  # a diverging free run must not squash the measured curve
     res = [wm - w] + ([np.asarray(w_model2, dtype=float).reshape(-1) - w] if w_model2 is not None else [])
@@ -146,7 +174,7 @@ def plot_velocity_fit(t, w, w_model, *, model_label: str, measured_label: str = 
     res = res[np.isfinite(res)]
     rlim = min(float(np.percentile(res, 99.5)) * 1.5 if res.size else lim, lim) or lim
     ax2.set_ylim(-rlim, rlim)
-    ax2.set_ylabel("model − measured\n(rad/s)")
+    ax2.set_ylabel(f"model − measured\n({vu})")
     ax2.set_xlabel("time t (s)")
     ax2.grid(True, alpha=0.3)
     return fig
@@ -180,7 +208,7 @@ def plot_sample_times(t, *, title: str = "") -> Figure:
     ax, ax2 = fig.subplots(1, 2, width_ratios=[2, 1])
     ax.plot(np.arange(1, t.shape[0]), d, ".", ms=2, color="C0")
     ax.axhline(d.mean(), color="C3", lw=1.0, label=f"mean {d.mean():.2f} ms")
-    ax.set_xlabel("sample index i")
+    ax.set_xlabel("sample index i (-)")
     ax.set_ylabel("Ts = t(i) − t(i−1) (ms)")
     ax.legend(loc="upper right", fontsize=8)
     ax.grid(True, alpha=0.3)
@@ -201,58 +229,68 @@ def plot_sample_times(t, *, title: str = "") -> Figure:
     return fig
 
 
-def plot_parameter_convergence(t, theta, names, *, true=None, title: str = "") -> Figure:
-    """RLS parameter trajectories over time, one panel per parameter (paper Fig. 12).
+def plot_parameter_convergence(t, theta, names, *, true=None, title: str = "", units: str = "rad") -> Figure:
+    """RLS parameter trajectories over time, one panel per parameter (paper Fig. 12), nothing clipped.
 
     Parameters
     ----------
     t : array_like, shape (M,)
         Time (s) of each estimate.
     theta : array_like, shape (M, p)
-        Estimates (eq. 4 coefficients: a, c, d dimensionless per regressor
-        unit, b in (rad/s)/(N·m)).
+        Estimates (eq. 4 coefficients: a dimensionless, b in (rad/s)/(N·m),
+        c, d, o in rad/s).
     names : sequence of str, length p
         Parameter names (e.g. ``RegressionModel.names``).
     true : array_like, shape (p,), keyword-only, optional
         Reference values drawn dashed (e.g. the corrected coefficients of the true plant).
     title : str, keyword-only
+    units : {"rad", "deg"}, keyword-only
+        Velocity unit of the b, c, d, o coefficients: rad/s (default) or deg/s (scaled by 180/pi).
 
     Returns
     -------
     matplotlib.figure.Figure
+        The whole trajectory of every parameter is inside its panel: the
+        windup bursts of plain RLS with strong forgetting (paper: lambda =
+        0.85) are shown, not cut off. When the largest excursion exceeds five
+        times the typical range (the 5-95 % band of the last four fifths),
+        the y axis is symmetric-log, linear over the typical range, so the
+        bursts and the converged value are both readable.
 
     Raises
     ------
     ParameterError
-        Shapes disagree.
+        Shapes disagree, unknown ``units``.
     """
     t = np.asarray(t, dtype=float).reshape(-1)
-    th = np.asarray(theta, dtype=float)
+    th = np.array(theta, dtype=float)
     names = list(names)
     if th.ndim != 2 or th.shape != (t.shape[0], len(names)):
         raise ParameterError(f"theta must have shape ({t.shape[0]}, {len(names)}), got {th.shape}")
-    units = {"a1": "1", "a2": "1", "b0": "(rad/s)/(N·m)", "b1": "(rad/s)/(N·m)", "c1": "rad/s", "d1": "rad/s",
-             "o1": "rad/s"}
+    k, vu = _velocity_unit(units)
+    units_of = {"a1": "1", "a2": "1", "b0": f"({vu})/(N·m)", "b1": f"({vu})/(N·m)", "c1": vu, "d1": vu, "o1": vu}
+    scale = np.array([1.0 if n in ("a1", "a2") else k for n in names])
+    th = th * scale
+    ref = None if true is None else np.asarray(true, dtype=float).reshape(-1) * scale
     ncol = 2 if len(names) > 3 else 1
     nrow = math.ceil(len(names) / ncol)
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(9.0, 1.7 * nrow + 0.6), layout="constrained")
+    fig = Figure(figsize=(9.0, 1.8 * nrow + 0.7), layout="constrained")
     axes = np.atleast_1d(fig.subplots(nrow, ncol, sharex=True, squeeze=False)).ravel()
     for i, name in enumerate(names):
         ax = axes[i]
-        ax.plot(t, th[:, i], lw=0.8, color="C0")
-        if true is not None:
-            ax.axhline(float(np.asarray(true)[i]), color="k", ls="--", lw=0.8)
-        ax.set_ylabel(f"{name} ({units.get(name, '-')})", fontsize=8)
-        tail = th[th.shape[0] // 5:, i]
-        tail = tail[np.isfinite(tail)]
-        if tail.size:
-            lo, hi = np.percentile(tail, [1, 99])
-            ref = [float(np.asarray(true)[i])] if true is not None else []
-            lo, hi = min([lo] + ref), max([hi] + ref)
-            pad = 0.3 * (hi - lo) + 1e-12 * max(1.0, abs(hi))
-            ax.set_ylim(lo - pad, hi + pad)
+        ax.plot(t, th[:, i], lw=0.8, color="#0072B2")
+        if ref is not None:
+            ax.axhline(float(ref[i]), color="k", ls="--", lw=0.8)
+        ax.set_ylabel(f"{name} ({units_of.get(name, '-')})", fontsize=8)
+        col = th[:, i][np.isfinite(th[:, i])]
+        if col.size:
+            lo, hi = np.percentile(col[col.shape[0] // 5:], [5, 95])
+            centre = [float(ref[i])] if ref is not None else []
+            typical = max(hi - lo, *(abs(c) for c in centre), 1e-12)
+            if float(np.max(np.abs(col - np.median(col)))) > 5.0 * typical:
+                ax.set_yscale("symlog", linthresh=typical)
         ax.grid(True, alpha=0.3)
     for ax in axes[len(names):]:
         ax.set_visible(False)
@@ -263,44 +301,163 @@ def plot_parameter_convergence(t, theta, names, *, true=None, title: str = "") -
     return fig
 
 
-def plot_stribeck_figure(fit, w, F, *, F_std=None, title: str = "") -> Figure:
-    """Stribeck fit over the support points (paper Fig. 8): linear axes, and a symlog zoom on low speeds.
+def plot_input_torque(t, u, *, zoom_length: float | None = None, zooms=None, title: str = "") -> Figure:
+    """The applied input torque with close-up views (paper Fig. 7): quantisation and irregular sampling.
 
     Parameters
     ----------
-    fit : adaptive_ff.identification.stribeck_fit.StribeckFit
-        The fit.
-    w, F : array_like, shape (n,)
-        Mean velocity (rad/s) and torque (N·m) of each run.
-    F_std : array_like, shape (n,), keyword-only, optional
-        Torque spread (N·m), drawn as error bars.
+    t : array_like, shape (N,)
+        Read-out time stamps (s), strictly increasing.
+    u : array_like, shape (N,)
+        Torque (N·m) as read out, ``u = K i`` from the motor current.
+    zoom_length : float, keyword-only, optional
+        Length (s) of each close-up, > 0; default 25 mean sample intervals.
+    zooms : sequence of float, keyword-only, optional
+        Start times (s) of the close-ups; default two, at a third and two thirds of the record.
     title : str, keyword-only
 
     Returns
     -------
     matplotlib.figure.Figure
-        Left: :func:`adaptive_ff.identification.stribeck_fit.plot_stribeck_fit`; right: the same
-        with a symmetric-log velocity axis (linear within ``±Vs/10``), so the
-        Stribeck dip near ``Vs`` is visible.
+        Top: one close-up per zoom, the read-out samples as dots joined by
+        a zero-order hold, so the quantisation steps and the uneven time grid
+        show; bottom: the whole torque record (N·m) over time (s) with the
+        close-up windows shaded.
 
     Raises
     ------
-    TypeError, SignalError
-        See :func:`adaptive_ff.identification.stribeck_fit.plot_stribeck_fit`.
+    SignalError
+        ``t`` not strictly increasing or ``u`` of another length / not finite.
+    ParameterError
+        ``zoom_length`` not > 0.
     """
+    t = check_time("t", t)
+    u = check_signal("u", u, n=t.shape[0])
+    span = float(t[-1] - t[0])
+    length = 25.0 * span / max(t.shape[0] - 1, 1) if zoom_length is None else check_positive("zoom_length",
+                                                                                             zoom_length)
+    starts = [t[0] + span / 3.0, t[0] + 2.0 * span / 3.0] if zooms is None else [float(z) for z in zooms]
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(10.0, 4.2), layout="constrained")
-    ax1, ax2 = fig.subplots(1, 2)
-    plot_stribeck_fit(fit, w, F, F_std=F_std, ax=ax1)
-    plot_stribeck_fit(fit, w, F, F_std=F_std, ax=ax2)
-    ax1.set_title("")
-    ax2.set_title("")
-    ax2.set_xscale("symlog", linthresh=fit.Vs / 10.0)
-    ax2.get_legend().remove()
-    ax2.set_xlabel("velocity w (rad/s, symmetric log scale)")
+    fig = Figure(figsize=(9.0, 5.6), layout="constrained")
+    gs = fig.add_gridspec(2, len(starts), height_ratios=[1.0, 1.1])
+    whole = fig.add_subplot(gs[1, :])
+    whole.plot(t, u, color="#0072B2", lw=0.6)
+    for j, z0 in enumerate(starts):
+        ax = fig.add_subplot(gs[0, j])
+        sel = (t >= z0) & (t <= z0 + length)
+        ax.step(t[sel], u[sel], where="post", color="#0072B2", lw=0.9)
+        ax.plot(t[sel], u[sel], ".", color="#D55E00", ms=4)
+        ax.set_xlabel("time t (s)")
+        ax.set_ylabel("torque u (N·m)")
+        ax.set_title(f"close-up {j + 1}: {z0:.2f}–{z0 + length:.2f} s", fontsize=9, loc="left")
+        ax.grid(True, alpha=0.3)
+        whole.axvspan(z0, z0 + length, color="#F0E442", alpha=0.8, lw=0)
+    whole.set_xlabel("time t (s)")
+    whole.set_ylabel("torque u (N·m)")
+    whole.set_xlim(t[0], t[-1])
+    whole.grid(True, alpha=0.3)
+    fig.suptitle(title or "applied input torque with close-up views", fontsize=10)
+    return fig
+
+
+def plot_stribeck_figure(fit, w, F, *, F_std=None, title: str = "", units: str = "rad") -> Figure:
+    """Stribeck fit over the support points (paper Fig. 8): linear axes, and a symlog zoom on low speeds.
+
+    Parameters
+    ----------
+    fit : adaptive_ff.identification.stribeck_fit.StribeckFit
+        The fit (SI units).
+    w, F : array_like, shape (n,)
+        Mean velocity (rad/s) and torque (N·m) of each run.
+    F_std : array_like, shape (n,), keyword-only, optional
+        Torque spread (N·m), drawn as error bars.
+    title : str, keyword-only
+    units : {"rad", "deg"}, keyword-only
+        Velocity axis in rad/s (default) or deg/s.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Left: the support points (mean ± spread) and the fitted curve of eq. 3
+        on linear axes; right: the same with a symmetric-log velocity axis
+        (linear within ``±Vs/10``), so the Stribeck dip near ``Vs`` is visible.
+
+    Raises
+    ------
+    TypeError
+        ``fit`` not a StribeckFit.
+    SignalError
+        Bad ``w``, ``F``, ``F_std``.
+    ParameterError
+        Unknown ``units``.
+    """
+    from adaptive_ff.identification.stribeck_fit import StribeckFit
+
+    if not isinstance(fit, StribeckFit):
+        raise TypeError(f"fit must be a StribeckFit, got {type(fit).__name__}")
+    w = check_signal("w", w)
+    F = check_signal("F", F, n=w.shape[0])
+    yerr = None if F_std is None else check_signal("F_std", F_std, n=w.shape[0])
+    k, vu = _velocity_unit(units)
+    aw = np.abs(w[w != 0.0])
+    top, bottom = (float(aw.max()), float(aw.min())) if aw.size else (1.0, 1e-3)
+    branch = np.unique(np.concatenate([np.linspace(0.0, top, 400)[1:],
+                                       np.geomspace(min(bottom, fit.Vs) / 2.0, top, 400)]))
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(10.0, 4.4), layout="constrained")
+    axes = fig.subplots(1, 2)
+    for ax in axes:
+        ax.errorbar(k * w, F, yerr=yerr, fmt="o", ms=4, capsize=2, color="#0072B2",
+                    label="measured (mean ± spread)")
+        for sgn, lab in ((1.0, f"Stribeck fit (Vs = {k * fit.Vs:.3g} {vu}, δ = {fit.delta:.3g})"), (-1.0, None)):
+            ax.plot(sgn * k * branch, fit.friction(sgn * branch), "-", color="#D55E00", label=lab)
+        ax.axhline(0.0, color="0.7", lw=0.5)
+        ax.axvline(0.0, color="0.7", lw=0.5)
+        ax.set_ylabel("friction torque F (N·m)")
+        ax.grid(True, alpha=0.3)
+    axes[0].set_xlabel(f"velocity w ({vu})")
+    axes[0].legend(loc="upper left", fontsize=8)
+    axes[1].set_xscale("symlog", linthresh=k * fit.Vs / 10.0)
+    axes[1].set_xlabel(f"velocity w ({vu}, symmetric log scale)")
     fig.suptitle(title or "Stribeck curve from quasi-static runs", fontsize=10)
     return fig
+
+
+def joint_motion(w, *, stuck_below: float = math.radians(0.2)) -> dict:
+    """How a joint moved: share of time stuck, speed range and motion reversals.
+
+    Parameters
+    ----------
+    w : array_like, shape (N,)
+        Joint velocity (rad/s) on a uniform time grid.
+    stuck_below : float, keyword-only
+        Speed (rad/s) below which the joint counts as stuck, > 0; default 0.2 deg/s.
+
+    Returns
+    -------
+    dict
+        ``stuck_fraction`` (share of samples with ``|w| < stuck_below``),
+        ``speed_p05``, ``speed_p95``, ``speed_max`` (percentiles and maximum of
+        ``|w|`` while moving, rad/s) and ``reversals`` (sign changes between
+        samples moving faster than ``stuck_below``, so noise while stuck does
+        not count).
+
+    Raises
+    ------
+    SignalError
+        ``w`` empty or not finite.
+    """
+    w = check_signal("w", w)
+    thr = check_positive("stuck_below", stuck_below)
+    a = np.abs(w)
+    moving = a >= thr
+    sgn = np.sign(w[moving])
+    sp = a[moving] if moving.any() else np.zeros(1)
+    return {"stuck_fraction": float(np.mean(~moving)), "speed_p05": float(np.percentile(sp, 5)),
+            "speed_p95": float(np.percentile(sp, 95)), "speed_max": float(sp.max()),
+            "reversals": int(np.count_nonzero(sgn[1:] != sgn[:-1]))}
 
 
 # --------------------------------------------------------------------------- RLS pass
@@ -378,6 +535,13 @@ class PaperFigureOptions:
         RLS forgetting factors in (0, 1] of Fig. 5 and of Figs. 11-12 (paper: 0.85).
     P0 : float
         RLS initial covariance scale, > 0.
+    crossover : float
+        Gain crossover (rad/s) of the PI velocity loop of the closed-loop experiment, > 0; default 200,
+        a stiff loop like an industrial robot's, so the joint moves like the paper's (1-20 deg/s, frequent
+        reversals, rarely stuck; a 20 rad/s loop leaves the joint stuck about 40 % of the time).
+    units : {"rad", "deg"}
+        Velocity unit on the figures' axes: rad/s (SI, default) or deg/s as in the paper. The numbers
+        (:attr:`PaperFigures.numbers`) stay SI.
 
     Raises
     ------
@@ -396,6 +560,8 @@ class PaperFigureOptions:
     lam_sim: float = 0.995
     lam_exp: float = 0.85
     P0: float = 1e4
+    crossover: float = 200.0
+    units: str = "rad"
 
     def __post_init__(self):
         for name in ("seed", "n_speeds"):
@@ -415,9 +581,12 @@ class PaperFigureOptions:
             if not 0.0 < check_positive(name, getattr(self, name)) <= 1.0:
                 raise ParameterError(f"{name} must be in (0, 1], got {getattr(self, name)!r}")
         check_positive("P0", self.P0)
+        check_positive("crossover", self.crossover)
+        _velocity_unit(self.units)
         for name in ("seed", "n_speeds"):
             object.__setattr__(self, name, int(getattr(self, name)))
-        for name in ("sim_duration", "exp_duration", "noise_std", "quantization", "lam_sim", "lam_exp", "P0"):
+        for name in ("sim_duration", "exp_duration", "noise_std", "quantization", "lam_sim", "lam_exp", "P0",
+                     "crossover"):
             object.__setattr__(self, name, float(getattr(self, name)))
 
     def to_dict(self) -> dict:
@@ -480,7 +649,8 @@ def _fig8_stribeck(p: JointParams, opt: PaperFigureOptions, qs_ss) -> tuple:
     vel = bidirectional_velocities(0.2 * p.Vs, 0.4, opt.n_speeds)
     qs = quasi_static_runs(p, vel, noise_std=opt.noise_std, rng=np.random.default_rng(qs_ss))
     sfit = fit_stribeck(qs.w_mean, qs.u_mean)
-    fig = plot_stribeck_figure(sfit, qs.w_mean, qs.u_mean, F_std=qs.u_std, title=FIGURE_CAPTIONS["fig08_stribeck"])
+    fig = plot_stribeck_figure(sfit, qs.w_mean, qs.u_mean, F_std=qs.u_std, title=FIGURE_CAPTIONS["fig08_stribeck"],
+                               units=opt.units)
     numbers = {**sfit.params(), "stderr": dict(sfit.stderr), "n_points": sfit.n_points}
     return vel, RegressionModel(sfit.Vs, sfit.delta, lag=True), fig, numbers
 
@@ -496,12 +666,12 @@ def _figs45_simulation(p: JointParams, opt: PaperFigureOptions, model: Regressio
     figs = {"fig04_ls_simulation": plot_velocity_fit(
         meas_sim.t, meas_sim.w, ls_sim.w_free_run, model_label="LS model, free run", fit_percent=ls_sim.fit_free_run,
         w_model2=ls_sim.w_one_step, model2_label="LS model, one-step prediction", fit2_percent=ls_sim.fit_one_step,
-        measured_label="simulated (1 kHz RK4, sampled at 10 ms)", title=FIGURE_CAPTIONS["fig04_ls_simulation"])}
+        measured_label="simulated (1 kHz RK4, sampled at 10 ms)", title=FIGURE_CAPTIONS["fig04_ls_simulation"], units=opt.units)}
     w_rls_sim, th_sim = rls_pass(model, meas_sim.u, meas_sim.w, lam=opt.lam_sim, P0=opt.P0)
     fit_rls_sim = nrmse_fit(meas_sim.w[2:], w_rls_sim[2:])
     figs["fig05_rls_simulation"] = plot_velocity_fit(
         meas_sim.t, meas_sim.w, w_rls_sim, model_label=f"RLS a-priori prediction (λ = {opt.lam_sim:g})",
-        fit_percent=fit_rls_sim, measured_label="simulated", title=FIGURE_CAPTIONS["fig05_rls_simulation"])
+        fit_percent=fit_rls_sim, measured_label="simulated", title=FIGURE_CAPTIONS["fig05_rls_simulation"], units=opt.units)
     numbers = {"duration": opt.sim_duration, "Ts": Ts_sim, "n_samples": int(meas_sim.t.shape[0]),
                "ls_fit_one_step": ls_sim.fit_one_step, "ls_fit_free_run": ls_sim.fit_free_run,
                "ls_estimate": _estimate_dict(ls_sim.estimate), "rls_fit": fit_rls_sim, "rls_lam": opt.lam_sim,
@@ -513,7 +683,7 @@ def _closed_loop_readout(p: JointParams, opt: PaperFigureOptions, seeds, Tc: flo
     """Sec. V-B: the PI loop tracks a multi-sine, read out at irregular instants; returns ``(design, run, meas)``."""
     ref_ss, times_ss, meas_ss, loop_ss = seeds
     ref = multisine_reference(opt.exp_duration, dt=Tc, peak=peak, rng=np.random.default_rng(ref_ss))
-    design = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=Tc)
+    design = design_pi(p.J, crossover=opt.crossover, phase_margin=60.0, Tc=Tc)
     u_max = 3.0 * (max(p.Fs, p.Fc) + p.sigma * float(np.max(np.abs(ref.w))) + p.J * float(np.max(np.abs(ref.dw))))
     run = closed_loop_run(p, ref, design=design, u_max=u_max, noise_std=opt.noise_std,
                           rng=np.random.default_rng(loop_ss))
@@ -532,16 +702,18 @@ def _figs9_12_experiment(p: JointParams, opt: PaperFigureOptions, model: Regress
         meas.t, meas.w, ls_exp.w_one_step, model_label="LS model, one-step prediction",
         fit_percent=ls_exp.fit_one_step, w_model2=ls_exp.w_free_run, model2_label="LS model, free run",
         fit2_percent=ls_exp.fit_free_run, measured_label="measured (irregular readout, noise, quantised torque)",
-        title=FIGURE_CAPTIONS["fig09_ls_experiment"])}
+        title=FIGURE_CAPTIONS["fig09_ls_experiment"], units=opt.units)}
     figs["fig10_sample_time"] = plot_sample_times(meas.t)
+    figs["fig07_input_torque"] = plot_input_torque(meas.t, meas.u, title=FIGURE_CAPTIONS["fig07_input_torque"])
     w_rls, th = rls_pass(model, meas.u, meas.w, lam=opt.lam_exp, P0=opt.P0)
     fit_rls = nrmse_fit(meas.w[2:], w_rls[2:])
     figs["fig11_rls_experiment"] = plot_velocity_fit(
         meas.t, meas.w, w_rls, model_label=f"RLS a-priori prediction (λ = {opt.lam_exp:g})", fit_percent=fit_rls,
-        title=FIGURE_CAPTIONS["fig11_rls_experiment"])
+        title=FIGURE_CAPTIONS["fig11_rls_experiment"], units=opt.units)
     figs["fig12_rls_parameters"] = plot_parameter_convergence(
         meas.t[2:], th, model.names, true=model.theta_from_physical(p, Ts_exp),
-        title=f"{FIGURE_CAPTIONS['fig12_rls_parameters']} (λ = {opt.lam_exp:g}; dashed: true plant at mean Ts)")
+        title=f"{FIGURE_CAPTIONS['fig12_rls_parameters']} (λ = {opt.lam_exp:g}; dashed: true plant at mean Ts)",
+        units=opt.units)
     d = np.diff(meas.t)
     numbers = {
         "duration": opt.exp_duration, "n_samples": int(meas.t.shape[0]), "Ts_mean": float(d.mean()),
@@ -580,7 +752,7 @@ def _write_demo_logs(out: Path, p: JointParams, vel, opt: PaperFigureOptions, ru
 
 def paper_figures(out_dir, *, p: JointParams | None = None, options: PaperFigureOptions | None = None,
                   save_data: bool = False, progress: bool | None = None, dpi: int = 110) -> PaperFigures:
-    """Regenerate the paper's Figs. 4, 5, 8, 9, 10, 11, 12 from the simulated joint and write them as PNG.
+    """Regenerate the paper's Figs. 4, 5, 7, 8, 9, 10, 11, 12 from the simulated joint and write them as PNG.
 
     Parameters
     ----------
@@ -654,6 +826,7 @@ def paper_figures(out_dir, *, p: JointParams | None = None, options: PaperFigure
     bar.update()
     bar.set_postfix_str("LS/RLS on the irregular samples")
     exp_figs, numbers["experiment"] = _figs9_12_experiment(p, opt, model, design, meas)
+    numbers["experiment"]["motion"] = joint_motion(run.response.w)
     figs.update(exp_figs)
     bar.update()
 

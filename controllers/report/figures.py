@@ -1,87 +1,462 @@
-"""Figures of a comparison run (PNG): tracking, error, friction estimate, RLS convergence (cf. paper Fig. 12)."""
+"""Figures of a comparison run (PNG): a reversal up close, error per mode, Stribeck map, parameters, eta.
+
+What a control engineer looks at first, one file each (:func:`plot_comparison`):
+
+* ``tracking.png`` — the whole run (reference and the uncompensated velocity), and
+  the reference reversal of the metrics window with the largest uncompensated
+  error up close: reference, ``none``, ``fixed``, ``adaptive``, ``frictionless``
+  velocity and their tracking errors (:func:`plot_tracking`);
+* ``error.png`` — the tracking error of every mode as small multiples on one
+  shared scale, drawn as min/max envelopes (:func:`plot_error`);
+* ``friction.png`` — the estimated friction as a Stribeck map, torque over
+  velocity, estimate vs truth at a few times of the run (:func:`plot_friction`);
+* ``rls_convergence.png`` — every parameter of the adaptive estimator with its
+  unit, the true value dashed (:func:`plot_rls_convergence`, cf. paper Fig. 12);
+* ``eta.png`` — the compensation efficiency eta and ``rms_dev`` (RMS of
+  ``w - w_frictionless``) per mode (:func:`plot_eta`).
+
+Colours are the Okabe-Ito palette (Okabe and Ito, "Color Universal Design",
+2008), distinguishable with the common colour-vision deficiencies; one colour
+per mode in every figure (:data:`MODE_COLORS`). Long records are drawn as
+min/max envelopes over display bins (:func:`minmax_envelope`), so a 120 s run
+at 1 kHz costs a few thousand vertices, and the figures use fixed margins
+instead of a layout engine (both for speed). Velocities are shown in deg/s,
+torques in N·m.
+"""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from plant.errors import ParameterError, SignalError
+from plant.stribeck import stribeck
+
 if TYPE_CHECKING:  # annotations only: matplotlib is imported by the functions when they run
     from matplotlib.figure import Figure
 
-__all__ = ["plot_comparison", "plot_tracking", "plot_error", "plot_friction", "plot_rls_convergence"]
+__all__ = ["plot_comparison", "plot_tracking", "plot_error", "plot_friction", "plot_rls_convergence", "plot_eta",
+           "rms_dev", "minmax_envelope", "pick_reversal", "estimate_history", "MODE_COLORS", "PARAMETER_UNITS"]
 
-_STRIDE = 10  # plot every 10th controller sample (100 Hz): lighter files, same picture
+#: One Okabe-Ito colour per compensation mode (reference black, frictionless grey).
+MODE_COLORS = {"reference": "#000000", "none": "#D55E00", "fixed": "#0072B2", "adaptive": "#009E73",
+               "canudas": "#E69F00", "dob": "#CC79A7", "oracle": "#56B4E9", "frictionless": "#7A7A7A"}
+_SPARE_COLORS = ("#332288", "#882255", "#44AA99", "#999933", "#AA4499")  # Tol's muted: for modes added later
+
+#: Units of the estimator parameters: physical (sliding estimator) and eq. 4 coefficients.
+PARAMETER_UNITS = {"J": "kg·m²", "J_tau": "kg·m²·s", "tau": "s", "Fc": "N·m", "Fs": "N·m", "sigma": "N·m·s/rad",
+                   "offset": "N·m", "a1": "-", "a2": "-", "b0": "(rad/s)/(N·m)", "b1": "(rad/s)/(N·m)",
+                   "c1": "rad/s", "d1": "rad/s", "o1": "rad/s"}
+
+_DPI = 100
+_BINS = 1500  # display bins of an envelope: about two per pixel column of a 9 in figure at 100 dpi
+_ZOOM_MODES = ("none", "fixed", "adaptive", "frictionless")
 
 
-def plot_tracking(comp) -> Figure:
-    """Reference vs actual velocity (deg/s) over time (s), one panel per mode."""
-    modes = list(comp.results)
+def mode_color(mode: str, index: int = 0) -> str:
+    """Colour of ``mode`` (:data:`MODE_COLORS`; unknown modes take a spare colour by ``index``)."""
+    return MODE_COLORS.get(mode, _SPARE_COLORS[index % len(_SPARE_COLORS)])
+
+
+def minmax_envelope(t, y, *, n_bins: int = _BINS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Min/max envelope of a long record for display: ``n_bins`` bins, the extremes of each.
+
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Time (s), increasing.
+    y : array_like, shape (N,)
+        Signal, any unit; NaN samples (a diverged run) are ignored, a bin of NaN only stays NaN.
+    n_bins : int, keyword-only
+        Number of bins, >= 1; records of at most ``2*n_bins`` samples are returned as they are.
+
+    Returns
+    -------
+    tc, lo, hi : ndarray, shape (M,)
+        Bin start times (s) and the smallest and largest sample of each bin
+        (``lo == hi == y`` for short records). Every sample lies in one bin, so
+        ``fill_between(tc, lo, hi)`` covers every extreme of the record.
+
+    Raises
+    ------
+    SignalError
+        ``t`` and ``y`` of different lengths.
+    ParameterError
+        ``n_bins`` < 1.
+
+    Notes
+    -----
+    The standard trick of waveform viewers (e.g. the M4 aggregation of Jugel et
+    al., "M4: a visualization-oriented time series data aggregation", VLDB 2014,
+    reduced to min and max).
+    """
+    t = np.asarray(t, dtype=float).reshape(-1)
+    y = np.asarray(y, dtype=float).reshape(-1)
+    if t.shape != y.shape:
+        raise SignalError(f"t and y must have the same length, got {t.shape[0]} and {y.shape[0]}")
+    if isinstance(n_bins, bool) or not isinstance(n_bins, (int, np.integer)) or n_bins < 1:
+        raise ParameterError(f"n_bins must be an integer >= 1, got {n_bins!r}")
+    n = t.shape[0]
+    if n <= 2 * n_bins:
+        return t, y, y
+    k = -(-n // n_bins)  # samples per bin (last bin shorter)
+    pad = k * (-(-n // k)) - n
+    yp = np.concatenate([y, np.full(pad, np.nan)]).reshape(-1, k)
+    return t[::k], np.fmin.reduce(yp, axis=1), np.fmax.reduce(yp, axis=1)
+
+
+#: Style of these figures: titles at a fixed height (no tight-bbox search per axes at draw time).
+_RC = {"axes.titley": 1.0, "axes.titlepad": 4.0, "axes.titlesize": 9, "axes.labelsize": 9, "xtick.labelsize": 8,
+       "ytick.labelsize": 8, "legend.fontsize": 8}
+
+
+def _styled(fn):
+    """Run a figure function under :data:`_RC` (a ``matplotlib.rc_context``; the figure keeps the style)."""
+    import functools
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        import matplotlib
+
+        with matplotlib.rc_context(_RC):
+            return fn(*args, **kwargs)
+
+    return wrapper
+
+
+def _new_figure(width: float, height: float, *, left: float = 0.8, right: float = 0.25, top: float = 0.4,
+                bottom: float = 0.5) -> Figure:
+    """A pyplot-free figure of ``width`` x ``height`` inches with fixed margins (inches), no layout engine."""
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(10, 1.9 * len(modes)), layout="constrained")
-    axes = fig.subplots(len(modes), 1, sharex=True, squeeze=False)[:, 0]
-    for ax, mode in zip(axes, modes):
-        r = comp.results[mode]
-        s = slice(None, None, _STRIDE)
-        ax.plot(r.t[s], np.rad2deg(r.w_ref[s]), "k--", lw=0.8, label="reference")
-        ax.plot(r.t[s], np.rad2deg(r.w[s]), lw=0.8, label="velocity")
-        ax.set_ylabel("w [deg/s]")
-        ax.set_title(f"{mode}: RMS error {np.rad2deg(r.metrics.rms_second_half):.3f} deg/s (2nd half)",
-                     fontsize=9, loc="left")
-    axes[0].legend(loc="upper right", fontsize=8)
-    axes[-1].set_xlabel("time [s]")
+    fig = Figure(figsize=(width, height), dpi=_DPI)
+    fig.subplots_adjust(left=left / width, right=1.0 - right / width, top=1.0 - top / height,
+                        bottom=bottom / height)
     return fig
 
 
-def plot_error(comp) -> Figure:
-    """Tracking error (deg/s) over time (s), all modes overlaid, with a zoom on the second half."""
-    from matplotlib.figure import Figure
+def _legend_right(fig, ax, handles=None, labels=None, **kw):
+    """Legend outside the axes, to the right of ``ax`` (never over the data)."""
+    h, lab = ax.get_legend_handles_labels() if handles is None else (handles, labels)
+    return ax.legend(h, lab, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=8,
+                     frameon=False, **kw)
 
-    fig = Figure(figsize=(10, 6), layout="constrained")
-    ax1, ax2 = fig.subplots(2, 1)
+
+def _deg(x):
+    return np.rad2deg(np.asarray(x, dtype=float))
+
+
+# --------------------------------------------------------------------------- metrics shown in the figures
+
+
+def rms_dev(comp) -> dict:
+    """RMS deviation of each mode's velocity from the frictionless run's, ``RMS(w - w_frictionless)`` (rad/s).
+
+    Parameters
+    ----------
+    comp : controllers.experiments.compare.Comparison
+        With a ``frictionless`` run (same reference and noise in every mode).
+
+    Returns
+    -------
+    dict
+        ``{mode: float}`` over the whole run (rad/s); NaN for a diverged run.
+        Taken from ``comp.rows()`` when the comparison reports ``rms_dev``
+        itself, else computed from the recorded velocities.
+
+    Raises
+    ------
+    ParameterError
+        No ``frictionless`` run.
+    """
+    rows = comp.rows()
+    if rows and all("rms_dev" in r for r in rows):
+        return {r["mode"]: float(r["rms_dev"]) for r in rows}
+    ref = comp.results.get("frictionless")
+    if ref is None:
+        raise ParameterError("rms_dev needs the 'frictionless' run in the comparison")
+    out = {}
     for mode, r in comp.results.items():
-        s = slice(None, None, _STRIDE)
-        e = np.rad2deg(r.w_ref - r.w)
-        ax1.plot(r.t[s], e[s], lw=0.7, label=mode)
-        half = r.t >= 0.5 * r.t[-1]
-        ax2.plot(r.t[half][::_STRIDE], e[half][::_STRIDE], lw=0.7, label=mode)
-    ax1.set_ylabel("error [deg/s]")
-    ax1.set_title("tracking error w_ref - w", fontsize=9, loc="left")
-    ax1.legend(fontsize=8, ncol=5, loc="upper right")
-    ax2.set_ylabel("error [deg/s]")
+        d = np.asarray(r.w, dtype=float) - np.asarray(ref.w, dtype=float)
+        out[mode] = float(np.sqrt(np.mean(d * d))) if d.size else math.nan
+    return out
+
+
+def pick_reversal(comp, *, half_window: float = 1.0) -> float:
+    """Time (s) of the reference reversal to show up close: the largest uncompensated error, in the metrics window.
+
+    Parameters
+    ----------
+    comp : controllers.experiments.compare.Comparison
+    half_window : float, keyword-only
+        Half-width (s) of the zoom; reversals closer than that to either end are skipped.
+
+    Returns
+    -------
+    float
+        Among the sign changes of the reference in the second half of the run
+        (the metrics window) with no other sign change within ``±half_window``,
+        the one whose window has the largest RMS error of the ``none`` run.
+        Falls back to any reversal of the second half, then of the whole run;
+        with none at all, three quarters of the run.
+    """
+    r = comp.results["none"] if "none" in comp.results else next(iter(comp.results.values()))
+    t, e = np.asarray(r.t), np.asarray(r.w_ref) - np.asarray(r.w)
+    s = np.sign(r.w_ref)
+    tr = t[np.flatnonzero(s[1:] * s[:-1] < 0) + 1]
+    gap = np.diff(tr, prepend=-np.inf, append=np.inf)
+    isolated = tr[(gap[:-1] > half_window) & (gap[1:] > half_window)]  # one clean sign change in the window
+    cands = np.array([])
+    for pool, start in ((isolated, 0.5 * t[-1]), (tr, 0.5 * t[-1]), (isolated, 0.0), (tr, 0.0)):
+        cands = pool[(pool >= max(half_window, start)) & (pool <= t[-1] - half_window)]
+        if cands.size:
+            break
+    if cands.size == 0:
+        return float(0.75 * t[-1])
+    lo = np.searchsorted(t, cands - half_window)
+    hi = np.searchsorted(t, cands + half_window)
+    c2 = np.concatenate([[0.0], np.cumsum(np.nan_to_num(e) ** 2)])
+    score = (c2[hi] - c2[lo]) / np.maximum(hi - lo, 1)
+    return float(cands[int(np.argmax(score))])
+
+
+# --------------------------------------------------------------------------- figures
+
+
+@_styled
+def plot_tracking(comp, *, half_window: float = 1.0) -> Figure:
+    """The whole run, and one reversal up close with every mode of interest (velocities in deg/s).
+
+    Parameters
+    ----------
+    comp : controllers.experiments.compare.Comparison
+    half_window : float, keyword-only
+        Half-width (s) of the zoom around the reversal of :func:`pick_reversal`.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Top: reference and ``none`` velocity over the whole run (deg/s over s),
+        the zoom window shaded. Middle: reference and the velocity of
+        ``none``, ``fixed``, ``adaptive``, ``frictionless`` (those that ran)
+        around the reversal. Bottom: their tracking errors ``w_ref - w`` there.
+    """
+    t0 = pick_reversal(comp, half_window=half_window)
+    fig = _new_figure(9.0, 7.0, right=1.55, top=0.35)
+    outer = fig.add_gridspec(2, 1, height_ratios=[1.0, 2.9], hspace=0.42)
+    inner = outer[1].subgridspec(2, 1, height_ratios=[1.6, 1.0], hspace=0.08)
+    ax0 = fig.add_subplot(outer[0])
+    ax1 = fig.add_subplot(inner[0])
+    ax2 = fig.add_subplot(inner[1], sharex=ax1)
+    base = comp.results["none"] if "none" in comp.results else next(iter(comp.results.values()))
+    tc, lo, hi = minmax_envelope(base.t, _deg(base.w_ref))
+    ax0.fill_between(tc, lo, hi, color="k", lw=0.6, label="reference", step="post")
+    tc, lo, hi = minmax_envelope(base.t, _deg(base.w))
+    ax0.fill_between(tc, lo, hi, color=mode_color(base.mode), alpha=0.8, lw=0.6, label=f"{base.mode}",
+                     step="post")
+    ax0.axvspan(t0 - half_window, t0 + half_window, color="#F0E442", alpha=0.6, lw=0, label="zoom below")
+    ax0.set_ylabel("w [deg/s]")
+    ax0.set_xlabel("time [s]", labelpad=1)
+    ax0.set_xlim(base.t[0], base.t[-1])
+    ax0.set_title("whole run", fontsize=9, loc="left")
+    _legend_right(fig, ax0)
+    sel = slice(*np.searchsorted(base.t, [t0 - half_window, t0 + half_window]))
+    ax1.plot(base.t[sel], _deg(base.w_ref[sel]), color="k", ls="--", lw=1.4, label="reference")
+    for i, mode in enumerate(m for m in _ZOOM_MODES if m in comp.results):
+        r = comp.results[mode]
+        lw = 1.0 if mode == "frictionless" else 1.5
+        ax1.plot(r.t[sel], _deg(r.w[sel]), color=mode_color(mode, i), lw=lw, label=mode)
+        ax2.plot(r.t[sel], _deg(r.w_ref[sel] - r.w[sel]), color=mode_color(mode, i), lw=lw, label=mode)
+    ax1.axhline(0.0, color="0.6", lw=0.6, zorder=0)
+    ax2.axhline(0.0, color="0.6", lw=0.6, zorder=0)
+    ax1.set_ylabel("w [deg/s]")
+    ax1.set_title(f"reversal at t = {t0:.2f} s (of the metrics window, largest error without compensation)",
+                  fontsize=9, loc="left")
+    ax1.tick_params(labelbottom=False)
+    ax2.set_ylabel("w_ref − w [deg/s]")
     ax2.set_xlabel("time [s]")
-    ax2.set_title("second half (metrics window)", fontsize=9, loc="left")
+    ax1.set_xlim(t0 - half_window, t0 + half_window)
+    _legend_right(fig, ax1)
+    for ax in (ax0, ax1, ax2):
+        ax.grid(True, alpha=0.3, lw=0.5)
     return fig
 
 
-def plot_friction(comp) -> Figure:
-    """True friction torque vs the feedforward of the fixed and adaptive modes (N·m) over time (s)."""
-    from matplotlib.figure import Figure
+@_styled
+def plot_error(comp) -> Figure:
+    """Tracking error of every mode as small multiples, one shared scale (deg/s over s).
 
-    fig = Figure(figsize=(10, 4.5), layout="constrained")
-    ax = fig.subplots()
-    ref = comp.results.get("adaptive") or comp.results["none"]
-    s = slice(None, None, _STRIDE)
-    ax.plot(ref.t[s], ref.f[s], "k", lw=1.0, label="true friction f (adaptive run)")
-    for mode, style in (("fixed", "C1"), ("adaptive", "C2"), ("canudas", "C3"), ("dob", "C4")):
-        if mode in comp.results:
-            r = comp.results[mode]
-            what = "disturbance estimate" if mode == "dob" else "feedforward"
-            ax.plot(r.t[s], r.u_ff[s], style, lw=0.8, label=f"{what} ({mode})")
-    ax.set_xlabel("time [s]")
-    ax.set_ylabel("torque [N·m]")
-    ax.legend(fontsize=8, loc="upper right")
-    ax.set_title("estimated vs true friction", fontsize=9, loc="left")
+    Parameters
+    ----------
+    comp : controllers.experiments.compare.Comparison
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One panel per mode, the min/max envelope of ``w_ref - w``
+        (:func:`minmax_envelope`) in the mode's colour over the frictionless
+        run's envelope (grey), the metrics window (second half) marked and its
+        RMS error written in the panel.
+    """
+    modes = list(comp.results)
+    n = len(modes)
+    fig = _new_figure(9.0, 0.95 * n + 0.9, left=0.85, right=0.25, top=0.35, bottom=0.5)
+    from matplotlib.ticker import MaxNLocator, NullLocator
+
+    axes = np.atleast_1d(fig.subplots(n, 1, sharey=True, gridspec_kw={"hspace": 0.12}))
+    axes[0].yaxis.set_major_locator(MaxNLocator(nbins=2, symmetric=True))  # shared: 3 ticks on every panel
+    env = {m: minmax_envelope(r.t, _deg(r.w_ref - r.w)) for m, r in comp.results.items()}
+    fl = env.get("frictionless")
+    peak = max((float(np.nanmax(np.abs(np.concatenate([lo, hi])))) for _, lo, hi in env.values()
+                if np.isfinite(lo).any()), default=1.0)
+    t_end = comp.results[modes[0]].t[-1]
+    for i, (ax, mode) in enumerate(zip(axes, modes)):
+        tc, lo, hi = env[mode]
+        if fl is not None and mode != "frictionless":
+            ax.fill_between(fl[0], fl[1], fl[2], color=mode_color("frictionless"), alpha=0.45, lw=0, step="post")
+        ax.fill_between(tc, lo, hi, color=mode_color(mode, i), lw=0.5, step="post")
+        ax.axvline(0.5 * t_end, color="k", lw=0.6, ls=":")
+        rms = _deg(comp.results[mode].metrics.rms_second_half)
+        ax.text(0.005, 0.93, f"{mode}", transform=ax.transAxes, fontsize=9, fontweight="bold", va="top")
+        ax.text(0.51, 0.93, f"RMS {rms:.3f} deg/s (second half)", transform=ax.transAxes, fontsize=8, va="top")
+        ax.set_ylabel("e [deg/s]", fontsize=8)
+        ax.set_xlim(0.0, t_end)
+        if i < n - 1:
+            ax.xaxis.set_major_locator(NullLocator())  # the time axis is read on the bottom panel
+        ax.grid(True, alpha=0.3, lw=0.5)
+    lim = 1.15 * peak if math.isfinite(peak) and peak > 0 else 1.0
+    axes[0].set_ylim(-lim, lim)
+    axes[-1].set_xlabel("time [s]")
+    axes[0].set_title("tracking error e = w_ref − w per mode (grey: frictionless; right of the dotted line: "
+                      "metrics window)", fontsize=9, loc="left")
+    return fig
+
+
+def estimate_history(comp, times) -> list:
+    """The adaptive mode's friction estimate at given times, as physical parameters.
+
+    Parameters
+    ----------
+    comp : controllers.experiments.compare.Comparison
+    times : sequence of float
+        Times (s); each takes the last estimator update at or before it.
+
+    Returns
+    -------
+    list of dict
+        ``{"t", "Fc", "Fs", "Vs", "delta", "sigma", "offset"}`` per time (SI
+        units; ``Vs``, ``delta`` the fixed pre-fit values the estimator used),
+        skipping times before the first update; empty without an adaptive run.
+    """
+    r = comp.results.get("adaptive")
+    if r is None or r.theta.size == 0:
+        return []
+    Vs, delta = comp.model.Vs, comp.model.delta
+    names = list(r.info.get("names", ()))
+    out = []
+    for ti in times:
+        k = int(np.searchsorted(r.t_theta, ti, side="right")) - 1
+        if k < 0:
+            continue
+        th = r.theta[k]
+        if r.info.get("estimator") == "sliding":
+            v = dict(zip(names, (float(x) for x in th)))
+        else:
+            e = comp.model.to_physical(th, r.info["Ts"])
+            v = {"Fc": e.Fc, "Fs": e.Fs, "sigma": e.sigma, "offset": e.offset}
+        if not all(math.isfinite(v.get(n, 0.0)) for n in ("Fc", "Fs", "sigma", "offset")):
+            continue
+        out.append({"t": float(r.t_theta[k]), "Fc": v["Fc"], "Fs": v["Fs"], "sigma": v["sigma"],
+                    "offset": v.get("offset", 0.0), "Vs": Vs, "delta": delta})
+    return out
+
+
+def _estimate_curve(e: dict, w):
+    return stribeck(w, Fc=e["Fc"], Fs=e["Fs"], Vs=e["Vs"], delta=e["delta"], sigma=e["sigma"]) + e["offset"]
+
+
+@_styled
+def plot_friction(comp, *, times=(0.05, 0.15, 0.5, 1.0)) -> Figure:
+    """Estimated friction as a Stribeck map: torque (N·m) over velocity (deg/s), estimate vs truth.
+
+    Parameters
+    ----------
+    comp : controllers.experiments.compare.Comparison
+    times : sequence of float, keyword-only
+        Fractions of the run (0, 1] at which the adaptive estimate is drawn.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Top: the static friction map (eq. 3) over the whole speed range of the
+        run (left) and over the low speeds ``|w| <= 5 Vs`` where the Stribeck
+        effect lives (right): the true plant at the end of the run in black
+        (and at its start, dashed grey, when the plant drifts), the ``fixed``
+        mode's offline estimate dashed, the ``adaptive`` estimate at the given
+        times in shades of its colour (light = early). Bottom: each estimate
+        minus the truth (N·m), where a good estimate is a flat line at zero.
+    """
+    from matplotlib.colors import to_rgb
+
+    p = comp.plant
+    r0 = next(iter(comp.results.values()))
+    peak = float(np.nanmax(np.abs(r0.w_ref))) * 1.1
+    t_end = float(r0.t[-1])
+    p_end = p.at(t_end) if hasattr(p, "at") else p
+    p_start = p.at(0.0) if hasattr(p, "at") else p
+    Vs = float(comp.model.Vs if comp.model.Vs is not None else getattr(p_end, "Vs", 0.02))
+    curves = []  # (label, colour, linestyle, parameters)
+    if comp.offline is not None:
+        e = comp.offline.estimate
+        curves.append(("fixed (offline fit)", mode_color("fixed"), "--",
+                       {"Fc": e.Fc, "Fs": e.Fs, "sigma": e.sigma, "offset": e.offset, "Vs": comp.model.Vs,
+                        "delta": comp.model.delta}))
+    hist = estimate_history(comp, [t_end * f for f in times])
+    base = np.array(to_rgb(mode_color("adaptive")))
+    for j, e in enumerate(hist):
+        shade = 0.3 + 0.7 * (j + 1) / len(hist)
+        curves.append((f"adaptive at t = {e['t']:.0f} s", tuple(1 - shade * (1 - base)), "-", e))
+    fig = _new_figure(10.0, 6.2, right=2.05, top=0.4, bottom=0.55)
+    axes = fig.subplots(2, 2, sharex="col", gridspec_kw={"wspace": 0.3, "hspace": 0.1, "height_ratios": [1.6, 1.0]})
+    for col, wmax in enumerate((peak, min(5.0 * Vs, peak))):
+        ax, axe = axes[0, col], axes[1, col]
+        w = np.linspace(-wmax, wmax, 801)
+        wd = _deg(w)
+        truth = p_end.friction(w)
+        if p_start is not p_end:
+            ax.plot(wd, p_start.friction(w), color="0.55", ls="--", lw=1.2, label="truth at t = 0")
+        ax.plot(wd, truth, color="k", lw=2.4, label=f"truth at t = {t_end:.0f} s")
+        for label, color, ls, e in curves:
+            F = _estimate_curve(e, w)
+            ax.plot(wd, F, color=color, ls=ls, lw=1.3, label=label)
+            axe.plot(wd, F - truth, color=color, ls=ls, lw=1.3, label=label)
+        for a in (ax, axe):
+            a.axhline(0.0, color="0.6", lw=0.5, zorder=0)
+            a.axvline(0.0, color="0.6", lw=0.5, zorder=0)
+            a.grid(True, alpha=0.3, lw=0.5)
+        ax.set_xlim(wd[0], wd[-1])
+        ax.set_ylabel("friction F(w) [N·m]")
+        ax.tick_params(labelbottom=False)
+        axe.set_ylabel("estimate − truth [N·m]")
+        axe.set_xlabel("velocity w [deg/s]")
+        err = [np.abs(_estimate_curve(e, w) - truth) for _, _, _, e in curves[-2:]]  # the final estimates
+        lim = 1.5 * max((float(np.max(x)) for x in err), default=1.0) or 1.0
+        axe.set_ylim(-lim, lim)
+    axes[0, 0].set_title("static friction map (eq. 3), whole speed range", fontsize=9, loc="left")
+    axes[0, 1].set_title(f"low speeds, |w| ≤ 5 Vs = {_deg(min(5.0 * Vs, peak)):.2g} deg/s", fontsize=9, loc="left")
+    _legend_right(fig, axes[0, 1])
     return fig
 
 
 def _true_sliding(plant, names, t):
     """True values of the sliding estimator's parameters at times ``t`` (NaN where the plant has no such parameter)."""
     out = np.full((len(t), len(names)), np.nan)
-    for j, ti in enumerate(t):
-        p = plant.at(ti) if hasattr(plant, "at") else plant
+    drifting = hasattr(plant, "at")
+    for j, ti in enumerate(t if drifting else t[:1]):
+        p = plant.at(ti) if drifting else plant
         tau = getattr(p, "tau", None)
         vals = {"J": p.J, "Fc": p.Fc, "Fs": p.Fs, "sigma": p.sigma, "offset": 0.0}
         if tau is not None:
@@ -89,74 +464,152 @@ def _true_sliding(plant, names, t):
         if hasattr(p, "Fc_pos"):  # asymmetric: the offset carries half the level difference
             vals["offset"] = 0.5 * (p.Fc_pos - p.Fc_neg)
         out[j] = [vals.get(n, np.nan) for n in names]
+    if not drifting:
+        out[:] = out[0]
     return out
 
 
+@_styled
 def plot_rls_convergence(comp) -> Figure | None:
-    """Parameter trajectories of the adaptive run (like paper Fig. 12), with the true values dashed.
+    """Each parameter of the adaptive estimator over time with its unit, the true value dashed (cf. paper Fig. 12).
 
-    For the sliding estimator the parameters are physical (J in kg·m², J*tau
-    in kg·m²·s, tau in s, Fc, Fs, offset in N·m, sigma in N·m·s/rad); for the
-    eq. 4 estimator they are the regression coefficients of eq. 4.
+    Parameters
+    ----------
+    comp : controllers.experiments.compare.Comparison
+
+    Returns
+    -------
+    matplotlib.figure.Figure or None
+        One panel per parameter (two columns): the estimate in the adaptive
+        mode's colour, the true plant dashed black. The sliding estimator's
+        parameters are physical (J in kg·m², J_tau in kg·m²·s, tau in s, Fc,
+        Fs, offset in N·m, sigma in N·m·s/rad, :data:`PARAMETER_UNITS`); the
+        eq. 4 estimator's are the regression coefficients of eq. 4. The y
+        range follows the estimate after its first tenth, so the start-up
+        transient does not flatten the rest. None without an adaptive run.
     """
     r = comp.results.get("adaptive")
     if r is None or r.theta.size == 0:
         return None
-    names = r.info["names"]
+    names = list(r.info["names"])
+    stride = max(len(r.t_theta) // 1500, 1)
+    tt, th = r.t_theta[::stride], r.theta[::stride]
     if r.info.get("estimator") == "sliding":
-        stride = max(len(r.t_theta) // 2000, 1)
-        tt, th = r.t_theta[::stride], r.theta[::stride]
         true = _true_sliding(comp.plant, names, tt)
-        title = "sliding estimator: physical parameters (SI units)"
+        title = "sliding-regime estimator: physical parameters (dashed: true plant)"
     else:
-        tt, th = r.t_theta, r.theta
         p0 = comp.plant.at(0.0) if hasattr(comp.plant, "at") else comp.plant
         true = np.tile(comp.model.theta_from_physical(p0, r.info["Ts"]), (len(tt), 1))
-        title = "RLS parameter convergence, eq. 4 coefficients (units: rad/s per unit of regressor)"
-    n = len(names)
-    from matplotlib.figure import Figure
+        title = "eq. 4 RLS coefficients (dashed: true plant)"
+    from matplotlib.ticker import MaxNLocator
 
-    fig = Figure(figsize=(10, 1.6 * n), layout="constrained")
-    axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
+    n = len(names)
+    ncol = 2 if n > 3 else 1
+    nrow = -(-n // ncol)
+    fig = _new_figure(10.0, 1.45 * nrow + 0.9, left=0.95, right=0.25, top=0.4, bottom=0.5)
+    axes = np.atleast_1d(fig.subplots(nrow, ncol, sharex=True, squeeze=False,
+                                      gridspec_kw={"hspace": 0.18, "wspace": 0.32})).ravel()
     for i, (ax, name) in enumerate(zip(axes, names)):
-        ax.plot(tt, th[:, i], lw=0.8)
-        ax.plot(tt, true[:, i], color="k", ls="--", lw=0.8, label="true plant")
-        ax.set_ylabel(name)
-        lo, hi = np.percentile(th[len(th) // 10:, i], [1, 99])
+        ax.plot(tt, th[:, i], lw=1.0, color=mode_color("adaptive"), label="estimate")
+        ax.plot(tt, true[:, i], color="k", ls="--", lw=1.0, label="true plant")
+        ax.set_ylabel(f"{name} [{PARAMETER_UNITS.get(name, '-')}]", fontsize=8)
+        ax.yaxis.set_major_locator(MaxNLocator(nbins=3))
+        tail = th[len(th) // 10:, i]
+        tail = tail[np.isfinite(tail)]
         tv = true[:, i][np.isfinite(true[:, i])]
-        if tv.size:
-            lo, hi = min(lo, tv.min()), max(hi, tv.max())
-        pad = 0.5 * (hi - lo) + 1e-12
-        ax.set_ylim(lo - pad, hi + pad)
-    axes[0].legend(fontsize=8, loc="upper right")
-    axes[0].set_title(title, fontsize=9, loc="left")
-    axes[-1].set_xlabel("time [s]")
+        if tail.size:
+            lo, hi = np.percentile(tail, [0.5, 99.5])
+            if tv.size:
+                lo, hi = min(lo, tv.min()), max(hi, tv.max())
+            pad = 0.25 * (hi - lo) + 1e-9 * max(1.0, abs(hi))
+            ax.set_ylim(lo - pad, hi + pad)
+        ax.grid(True, alpha=0.3, lw=0.5)
+    for ax in axes[n:]:
+        fig.delaxes(ax)
+    for ax in axes[max(n - ncol, 0):n]:
+        ax.set_xlabel("time [s]")
+        ax.tick_params(labelbottom=True)
+    fig.suptitle(title, fontsize=9, x=0.95 / 10.0, ha="left", y=1.0 - 0.08 / (1.45 * nrow + 0.9), va="top")
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="upper right", bbox_to_anchor=(1.0 - 0.25 / 10.0, 1.0),
+               ncol=2, fontsize=8, frameon=False)  # in the top margin, above the panels
+    axes[0].set_xlim(tt[0] if tt.size else 0.0, r.t[-1])
     return fig
 
 
-def plot_comparison(comp, out_dir) -> list[Path]:
+@_styled
+def plot_eta(comp) -> Figure:
+    """Compensation efficiency eta and ``rms_dev`` per mode, as bars.
+
+    Parameters
+    ----------
+    comp : controllers.experiments.compare.Comparison
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Left: eta (second half of the run, 1 = frictionless, dashed line); right:
+        :func:`rms_dev` in deg/s (lower is better). Values written on the bars;
+        a mode with an undefined value gets an empty bar marked n/a.
+    """
+    modes = list(comp.results)
+    dev = rms_dev(comp)
+    fig = _new_figure(10.0, 3.6, left=0.8, right=0.25, top=0.4, bottom=0.85)
+    axes = fig.subplots(1, 2, gridspec_kw={"wspace": 0.25})
+    colors = [mode_color(m, i) for i, m in enumerate(modes)]
+    x = np.arange(len(modes))
+    for ax, vals, fmt in ((axes[0], [comp.eta[m] for m in modes], "{:.3f}"),
+                          (axes[1], [_deg(dev[m]) for m in modes], "{:.3g}")):
+        v = np.array([float(a) for a in vals])
+        ok = np.isfinite(v)
+        ax.bar(x, np.where(ok, v, 0.0), color=colors, width=0.7)
+        top = float(np.max(np.abs(v[ok]))) if ok.any() else 1.0
+        for xi, vi, good in zip(x, v, ok):
+            ax.text(xi, (vi if good else 0.0) + 0.02 * top, fmt.format(vi) if good else "n/a", ha="center",
+                    va="bottom", fontsize=8)
+        ax.set_xticks(x, modes, rotation=25, ha="right", fontsize=8)
+        ax.set_xlabel("compensation mode")
+        ax.set_ylim(min(0.0, float(np.min(v[ok])) * 1.15) if ok.any() else 0.0, 1.15 * top)
+        ax.grid(True, axis="y", alpha=0.3, lw=0.5)
+        ax.axhline(0.0, color="k", lw=0.6)
+    axes[0].axhline(1.0, color="k", lw=0.8, ls="--")
+    axes[0].set_ylabel("eta [-] (1 = frictionless)")
+    axes[0].set_title("compensation efficiency eta (second half)", fontsize=9, loc="left")
+    axes[1].set_ylabel("RMS(w − w_frictionless) [deg/s]")
+    axes[1].set_title("rms_dev: distance from the frictionless run (whole run)", fontsize=9, loc="left")
+    return fig
+
+
+_FIGURES = (("tracking", plot_tracking), ("error", plot_error), ("friction", plot_friction),
+            ("rls_convergence", plot_rls_convergence), ("eta", plot_eta))
+
+
+def plot_comparison(comp, out_dir, *, dpi: int = _DPI) -> list[Path]:
     """Write the comparison figures as PNG files into ``out_dir`` (created if needed).
 
     Parameters
     ----------
     comp : controllers.experiments.compare.Comparison
-    out_dir : str or Path
+        The runs (velocities in rad/s are drawn in deg/s).
+    out_dir : str or os.PathLike
+        Directory.
+    dpi : int, keyword-only
+        Resolution (dots per inch), default 100.
 
     Returns
     -------
     list of Path
-        ``tracking.png``, ``error.png``, ``friction.png`` and (adaptive mode)
-        ``rls_convergence.png``.
+        ``tracking.png``, ``error.png``, ``friction.png``,
+        ``rls_convergence.png`` (only with an adaptive run) and ``eta.png``, as
+        described in the module docstring.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = []
-    for name, fn in (("tracking", plot_tracking), ("error", plot_error), ("friction", plot_friction),
-                     ("rls_convergence", plot_rls_convergence)):
+    for name, fn in _FIGURES:
         fig = fn(comp)
         if fig is None:
             continue
         path = out / f"{name}.png"
-        fig.savefig(path, dpi=110)
+        fig.savefig(path, dpi=dpi, pil_kwargs={"compress_level": 1})  # fast zlib level: files ~1/3 larger
         paths.append(path)
     return paths
