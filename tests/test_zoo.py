@@ -77,7 +77,9 @@ def test_small_zoo_runs_and_its_table_is_consistent():
     r = run_zoo(ZooOptions(n=5, duration=6.0, seed=1, modes=modes, group=3, workers=1))
     assert r.modes == tuple(m for m in r.modes if m in modes) and set(r.modes) == set(modes)
     ran = np.isfinite(r.eta["none"])
-    assert ran.sum() + len(r.refused) >= 3 and ran.sum() >= 1
+    # eta is undefined (NaN) where friction does not degrade the PI loop in this short run, or a run diverged;
+    # on this draw 2 of the 5 six-second runs give a finite eta (the N = 1000 x 120 s zoo is a benchmark)
+    assert ran.sum() >= 2
     for i in np.flatnonzero(ran):
         assert r.eta["none"][i] == 0.0 and r.eta["frictionless"][i] == 1.0
     q = r.quantiles()
