@@ -21,7 +21,7 @@ def test_compare_json_and_figures(tmp_path, capsys):
     assert main(["compare", "--plant", str(plant_file), "--duration", "15", "--seed", "2", "--out", str(out),
                  "--json", "--quiet"]) == 0
     d = json.loads(capsys.readouterr().out)
-    assert set(d["modes"]) == {"none", "fixed", "adaptive", "canudas", "dob", "oracle", "frictionless"}
+    assert set(d["modes"]) == {"none", "fixed", "adaptive", "adaptive-dob", "canudas", "dob", "oracle", "frictionless"}
     for m in d["modes"].values():
         assert {"rms", "max", "rms_reversal", "eta"} <= set(m)
     assert d["modes"]["none"]["eta"] == 0.0 and d["modes"]["frictionless"]["eta"] == 1.0

@@ -120,7 +120,8 @@ def test_sliding_adaptive_mode_recovers_the_physical_parameters_in_closed_loop(r
 
 def test_compare_returns_all_modes_with_consistent_eta():
     comp = compare(P, duration=20.0, seed=3, progress=False)
-    assert list(comp.results) == ["none", "fixed", "adaptive", "canudas", "dob", "oracle", "frictionless"]
+    assert list(comp.results) == ["none", "fixed", "adaptive", "adaptive-dob", "canudas", "dob", "oracle",
+                                  "frictionless"]
     assert comp.eta["none"] == 0.0 and comp.eta["frictionless"] == 1.0
     assert comp.eta["oracle"] > 0.9
     d = comp.to_json_dict()
