@@ -178,11 +178,9 @@ def rms_dev(comp) -> dict:
     ref = comp.results.get("frictionless")
     if ref is None:
         raise ParameterError("rms_dev needs the 'frictionless' run in the comparison")
-    out = {}
-    for mode, r in comp.results.items():
-        d = np.asarray(r.w, dtype=float) - np.asarray(ref.w, dtype=float)
-        out[mode] = float(np.sqrt(np.mean(d * d))) if d.size else math.nan
-    return out
+    from controllers.simulation.metrics import deviation_rms  # the one implementation (compare's rows use it)
+
+    return {mode: deviation_rms(r.w, ref.w) for mode, r in comp.results.items()}
 
 
 def pick_reversal(comp, *, half_window: float = 1.0) -> float:
