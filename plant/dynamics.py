@@ -431,7 +431,7 @@ def plant_rk4(par, w, s, Fw, u0, um, u1, h, sgn):
             s + h6 * (k1s + 2.0 * k2s + 2.0 * k3s + k4s))
 
 
-@kernel(inline="always")
+@kernel
 def plant_step(par, st, u, dt):
     """Advance the plant state ``st`` in place by one step of ``dt`` (s) with the torque ``u`` (N·m) held.
 
@@ -460,10 +460,13 @@ def plant_step(par, st, u, dt):
     of each model. One RK4 call site for all models (the lagged ones run one
     sub-step), which keeps the compiled step small and fast.
 
-    Inlined (numba IR) into the caller. numba adds an atomic reference-count
-    increment and decrement of ``par`` and ``st`` around each inlined call; a
-    calling loop that allocates nothing can be compiled with ``_nrt=False``
-    (as :func:`plant_simulate`), which removes them.
+    A compiled call, not inlined at the numba IR level: the model dispatch
+    (LuGre's implicit step included) would otherwise be re-typed inside every
+    kernel that steps a plant, which made the closed-loop engine take minutes
+    to compile; its small callees (RK4, right-hand side, eq. 3) are inlined
+    here. A calling loop that allocates nothing can be compiled with
+    ``_nrt=False`` (as :func:`plant_simulate`), which removes numba's
+    reference counting around the call.
     """
     w = st[0]
     s = st[1]
@@ -525,7 +528,7 @@ LUGRE_ZTOL = 1e-3
 LUGRE_MAX_SUBSTEPS = 200000
 
 
-@kernel(inline="always")
+@kernel
 def lugre_jacobian(par, w, z, u):
     """Right-hand side of the LuGre joint and its Jacobian at ``(w, z)`` with the torque ``u`` (N·m).
 
@@ -570,7 +573,7 @@ def lugre_jacobian(par, w, z, u):
     return fw, fz, (-s1 * dzw - s2) / J, (-s0 + s1 * a) / J, dzw, -a
 
 
-@kernel(inline="always")
+@kernel
 def lugre_implicit_step(par, w0, z0, u, h):
     """One backward-Euler step of the LuGre joint over ``h`` (s), solved by Newton's method.
 
@@ -617,7 +620,7 @@ def lugre_implicit_step(par, w0, z0, u, h):
     return w, z, False
 
 
-@kernel(inline="always")
+@kernel
 def lugre_stiff_step(par, st, u, dt):
     """Advance a stiff LuGre joint by ``dt`` (s) with ``u`` (N·m) held: error-controlled implicit sub-steps.
 
@@ -678,7 +681,7 @@ def lugre_stiff_step(par, st, u, dt):
     st[2] = h
 
 
-@kernel(inline="always")
+@kernel
 def plant_friction(par, st):
     """Friction torque (N·m) of the plant in state ``st``.
 

@@ -90,7 +90,7 @@ def _use_estimate(par, st):
     st[_S_EST + 6] = J_alt
 
 
-@kernel(inline="always")
+@kernel
 def eq4_sample(par, st, u, w):
     """One sample ``(u(k), w(k))`` of the stream at ``Ts``: RLS update with eq. 4's regressor, new estimate.
 
@@ -158,7 +158,7 @@ def eq4_sample(par, st, u, w):
     return True
 
 
-@kernel(inline="always")
+@kernel
 def eq4_compensate(par, st, w_ctrl, w_meas, w_ref):
     """Compensator protocol (``KIND`` 6): every ``m``-th period a sample of the stream, then the feedforward.
 
@@ -195,7 +195,7 @@ def eq4_compensate(par, st, w_ctrl, w_meas, w_ref):
     return ff_compensate(par[:FF_NPAR], st[:FF_NSTATE], w_ctrl, w_meas, w_ref)
 
 
-@kernel(inline="always")
+@kernel
 def eq4_observe(par, st, u, w_meas, theta_out):
     """Compensator protocol (``KIND`` 6): store the applied torque for the next sample; report theta.
 

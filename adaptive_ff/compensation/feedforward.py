@@ -30,7 +30,7 @@ __all__ = ["FrictionFeedforward", "RobustAdaptiveFeedforward", "project_estimate
            "robust_observe"]
 
 
-@kernel(inline="always")
+@kernel
 def project_levels(J, tau, sigma, Fc, Fs, offset, tau_max, F_max):
     """Compiled projection of a physical estimate onto the admissible set (the one implementation of :func:`project_estimate`).
 
@@ -105,7 +105,7 @@ _HAS, _FC, _DF, _VS, _DELTA, _SIGMA, _ALPHA, _HASVS, _TAU, _UFF, _NIB, _FNREJ = 
 FF_NPAR, FF_NSTATE = 8, 12
 
 
-@kernel(inline="always")
+@kernel
 def ff_set_estimate(par, st, Fc, Fs, Vs, delta, sigma, tau, has_vs):
     """Put a friction estimate into use (levels N·m, ``Vs`` rad/s, ``sigma`` N·m·s/rad, lag ``tau`` s).
 
@@ -182,7 +182,7 @@ def ff_compensate(par, st, w_ctrl, w_meas, w_ref):
     return ff_step(par, st, w_ctrl, w_ref, True)
 
 
-@kernel(inline="always")
+@kernel
 def ff_observe(par, st, u, w_meas, theta_out):
     """Compensator protocol: the fixed feedforward learns nothing."""
     return False
@@ -349,7 +349,7 @@ def robust_compensate(par, st, w_ctrl, w_meas, w_ref):
     return out
 
 
-@kernel(inline="always")
+@kernel
 def _levels_plausible(par, eJ, etau, eFc, eFs, esig):
     """Range checks of an estimate (class Notes, item 5)."""
     ffmax = par[_FFMAX]
@@ -369,7 +369,7 @@ def robust_plausible(par, st, eJ, etau, eJalt, eFc, eFs, esig):
                            sliding_config(ep)[2])
 
 
-@kernel(inline="always")
+@kernel
 def _lag_consistent(par, rls, eJ, etau, eJalt, e2, dt, has_lag):
     """The two lag estimates (``tau`` and the ``J*tau`` column) agree (see RobustAdaptiveFeedforward Notes)."""
     if not (etau >= 2.0 * dt and math.isfinite(eJalt)):
@@ -389,7 +389,7 @@ def _lag_consistent(par, rls, eJ, etau, eJalt, e2, dt, has_lag):
     return diff <= 3.0 * math.sqrt(max(var, 0.0))
 
 
-@kernel(inline="always")
+@kernel
 def robust_observe(par, st, u, w_meas, theta_out):
     """Compensator protocol (``KIND`` 3): one sample into the estimator, then the plausibility tests and the
     estimate in use (see :class:`RobustAdaptiveFeedforward`). Returns True after an RLS update (theta written

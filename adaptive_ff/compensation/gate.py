@@ -194,7 +194,7 @@ def range_ok(par, st, x):
     return ax <= par[_RFAC] * ref
 
 
-@kernel(inline="always")
+@kernel
 def range_commit(par, st, x, ok):
     """Record the decision ``ok`` of :func:`range_ok` for ``x``: an accepted sample updates the envelope
     ``env = max(|x|, decay*env)``, a rejected one only the counters."""

@@ -114,7 +114,7 @@ def sliding_sizes(p: int) -> tuple:
     return _OWN_NPAR + GATE_NPAR + 2 * RANGE_NPAR, _OWN_NSTATE + p + GATE_NSTATE + 2 * RANGE_NSTATE + rls_buffer_size(p)
 
 
-@kernel(inline="always")
+@kernel
 def _svf3(st, o, a, x):
     """Advance one chain of three first-order lags ``st[o:o+3]`` (gain ``a``) by input ``x`` (the filter ``L``)."""
     x1 = st[o] + a * (x - st[o])
@@ -124,7 +124,7 @@ def _svf3(st, o, a, x):
     st[o + 1] = x2
 
 
-@kernel(inline="always")
+@kernel
 def sliding_observe(par, st, u, w):
     """One controller-period sample ``(u, w)`` into the estimator in ``(par, st)``; return acceptance.
 

@@ -527,7 +527,7 @@ def _sgn(w):
     return 1.0 if w > 0.0 else (-1.0 if w < 0.0 else (0.0 if w == 0.0 else w))
 
 
-@kernel(inline="always")
+@kernel
 def eq4_phi(phi, u_k, u_km1, w_km1, w_km2, Vs, delta, lag, stribeck, offset):
     """Compiled regressor ``phi(k)`` of eq. 4, written into ``phi``: :meth:`RegressionModel.phi` for kernels.
 
@@ -581,7 +581,7 @@ def eq4_phi(phi, u_k, u_km1, w_km1, w_km2, Vs, delta, lag, stribeck, offset):
     return j
 
 
-@kernel(inline="always")
+@kernel
 def eq4_to_physical(theta, Ts, lag, stribeck, offset):
     """Compiled inverse map of eq. 4: :meth:`RegressionModel.to_physical` for kernels.
 

@@ -54,7 +54,7 @@ _S_UFF = 0
 _OWN_NSTATE = 1
 
 
-@kernel(inline="always")
+@kernel
 def adob_compensate(par, st, w_ctrl, w_meas, w_ref):
     """The composite's torque for this period: adaptive feedforward plus the observer's residual (N·m).
 
@@ -82,7 +82,7 @@ def adob_compensate(par, st, w_ctrl, w_meas, w_ref):
     return min(max(out, -lim), lim)
 
 
-@kernel(inline="always")
+@kernel
 def adob_observe(par, st, u, w_meas, theta_out):
     """Record the applied torque ``u`` (N·m): the observer gets ``u - u_ff``, the estimator ``(u, w_meas)``.
 

@@ -67,7 +67,7 @@ def _clip(x, lo, hi):
     return hi if hi < y else y
 
 
-@kernel(inline="always")
+@kernel
 def canudas_compensate(par, st, w_ctrl, w_meas, w_ref):
     """Compensation torque for this period (N·m): the estimated direction-dependent friction map.
 
@@ -105,7 +105,7 @@ def canudas_compensate(par, st, w_ctrl, w_meas, w_ref):
     return _clip(c, -par[_P_FFMAX], par[_P_FFMAX])
 
 
-@kernel(inline="always")
+@kernel
 def _canudas_update(par, st, w0, w1, ubar):
     """One RLS update on the interval ``w0 -> w1`` if it lies beyond the dead zone; True when used."""
     wd = par[_P_WDEAD]
@@ -141,7 +141,7 @@ def _canudas_update(par, st, w0, w1, ubar):
     return True
 
 
-@kernel(inline="always")
+@kernel
 def canudas_observe(par, st, u, w_meas, theta_out):
     """Record the torque applied in this period and the velocity measured at its start; update every ``m`` periods.
 

@@ -42,7 +42,7 @@ _S_UR = 5  # torque range gate, then the velocity range gate
 _S_X = _S_UR + 2 * RANGE_NSTATE
 
 
-@kernel(inline="always")
+@kernel
 def dob_compensate(par, st, w_ctrl, w_meas, w_ref):
     """Advance the observer with the controller's velocity of this period; return the bounded ``d_hat`` (N·m).
 
@@ -86,7 +86,7 @@ def dob_compensate(par, st, w_ctrl, w_meas, w_ref):
     return st[_S_D]
 
 
-@kernel(inline="always")
+@kernel
 def dob_observe(par, st, u, w_meas, theta_out):
     """Record the torque ``u`` (N·m) applied in this period (it drives the next velocity sample).
 

@@ -135,7 +135,7 @@ def metrics_add(st, where, e, u):
     _add(st, _SU, u * u)
 
 
-@kernel(inline="always")
+@kernel
 def metrics_update(st, t, tmid, revs, window, e, u):
     """Add one sample: error ``e`` (rad/s) and torque ``u`` (N·m) at time ``t`` (s), times non-decreasing.
 
