@@ -511,7 +511,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     def __init__(self, estimator: SlidingFrictionEstimator, *, dt: float, lag: bool = True,
                  ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0, stick_samples: int = 10,
                  warmup: int = 200, fade_in: float = 1.0, J_range: tuple = (0.0, math.inf), tau_max: float = 1.0,
-                 consistency: float = 0.5):
+                 consistency: float = 0.5, start=None):
         super().__init__(None, dt=dt, lag=lag, ff_max=ff_max, sign_width=sign_width, stick_band=stick_band,
                          stick_samples=stick_samples)
         if not isinstance(estimator, SlidingFrictionEstimator):
@@ -534,6 +534,14 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         self._gain = 0.0
         self.n_implausible = 0
         self.n_lag_held = 0
+        # provisional start (issue 11 item 5): ``start`` = (estimate, gain, at_reference); the start map acts
+        # (times gain, at the reference velocity when at_reference) until the first estimate is taken
+        self.provisional = start is not None
+        if start is not None:
+            est, self._start_gain, self._start_ref = start
+            self._set(replace(est, Vs=estimator.Vs if est.Vs is None else est.Vs,
+                              delta=estimator.delta if est.delta is None else est.delta))
+            self._gain = 1.0
 
     def step(self, w: float, w_ref: float | None = None) -> float:
         """Advance one period; return the bounded feedforward (N·m), 0 before switch-on.
@@ -542,6 +550,10 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         """
         if self.estimate is None:
             return 0.0
+        if self.provisional:
+            if self._start_ref:
+                return FrictionFeedforward.step(self, w if w_ref is None else w_ref) * self._start_gain
+            return FrictionFeedforward.step(self, w, w_ref) * self._start_gain
         out = FrictionFeedforward.step(self, w, w_ref)
         if self._gain < 1.0:
             self._gain = min(self._gain + self._fade_step, 1.0)
@@ -617,13 +629,20 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
             if not self._levels_plausible(est):
                 self.n_implausible += 1
             elif self._lag_consistent(est):
-                self._set(est)
-            elif self.estimate is not None:
+                self._take(est)
+            elif self.estimate is not None and not self.provisional:
                 self.n_lag_held += 1
                 self._set(replace(est, tau=self.estimate.tau, J_alt=float("nan")))
             else:
                 self.n_implausible += 1
         return ok
+
+    def _take(self, est):
+        """Put the estimator's estimate in use; at the hand-over from the start map fade from its gain to 1."""
+        if self.provisional:
+            self.provisional = False
+            self._gain = self._start_gain
+        self._set(est)
 
 
 class AdaptiveDOBCompensator:

@@ -72,8 +72,11 @@ def _objects(p, mode, kw, J, Tc, u_max, ff_max, m):
                                           initial=kw.get("initial"), J_guess=J, lag=lag,
                                           dwell_max=kw.get("dwell_max", 0.01), offset=kw.get("offset", True),
                                           gate=co.OutlierGate(max_step=gate_step))
+        start = kw.get("start")
+        if start is not None:
+            start = (start.estimate, start.gain, start.ff_input == "reference")
         return co.RobustAdaptiveFeedforward(est, dt=Tc, lag=lag, ff_max=ff_max, warmup=kw.get("warmup", 200),
-                                            **common), None
+                                            start=start, **common), None
     if mode == "canudas":
         return None, po.CanudasCompensator(Tc=Tc, Ts=m * Tc, lam=lam, forgetting=kw.get("forgetting", "exponential"),
                                            P0=kw.get("P0", 1e4), J_guess=J, warmup=kw.get("warmup", 200),

@@ -106,6 +106,23 @@ def test_engine_equals_python_every_mode_with_noise_faults_and_gate(ref, mode):
             assert b.info["canudas_estimate"][k] == pytest.approx(v, rel=1e-12), k
 
 
+@pytest.mark.parametrize("mode", ["adaptive", "adaptive-dob"])
+@pytest.mark.parametrize("start_input,ff_input", [("reference", "measured"), ("measured", "measured"),
+                                                  ("reference", "reference")])
+def test_engine_equals_python_with_a_provisional_start(ref, mode, start_input, ff_input):
+    """The provisional start (FeedforwardStart: the map times its gain until the hand-over, then the fade from
+    the gain to 1) is the same in the engine and the oracle (tests/compensation_oracle.py)."""
+    from dataclasses import replace
+
+    from adaptive_ff.compensation.feedforward import FeedforwardStart
+    start = FeedforwardStart(replace(_initial(P, 0.9), tau=0.05), gain=0.7, ff_input=start_input)
+    a, b = _both(P, ref, mode=mode, Kp=DESIGN.Kp, Ki=DESIGN.Ki, u_max=150.0, ff_max=75.0, noise_std=1e-3,
+                 Vs=P.Vs, delta=P.delta, initial=_initial(P), warmup=50, stick_band=3e-3, stick_samples=5,
+                 start=start, ff_input=ff_input)
+    _assert_same(a, b)
+    assert b.u_ff[1] != 0.0 and b.estimate is not None  # acted from the start, then handed over
+
+
 @pytest.mark.parametrize("name", ["lugre", "karnopp", "asymmetric"])
 @pytest.mark.parametrize("mode", ["none", "oracle", "fixed", "adaptive", "canudas", "dob"])
 def test_engine_equals_python_on_every_plant_model(ref, name, mode):

@@ -52,8 +52,10 @@ def test_comparison_whole_run_metrics_equal_independent_computation(comp):
         assert comp.t_ff_on[m] == pytest.approx(1e-3, abs=1e-12)
     k = int(np.flatnonzero(R["adaptive"].u_ff != 0)[0])
     assert comp.t_ff_on["adaptive"] == R["adaptive"].t[k] and R["adaptive"].u_ff[k - 1] == 0.0
-    # eta_full < eta for the adaptive feedforward: the start without compensation is in the whole run only
-    assert comp.eta_full["adaptive"] < comp.eta["adaptive"] - 0.05
+    # the adaptive feedforward acts from the first periods (the provisional start map at the reference, issue 11
+    # item 5; tests/test_fast_start.py pins what it gains) but the start is in the whole run only: eta_full < eta
+    assert comp.t_ff_on["adaptive"] <= 0.002
+    assert comp.eta_full["adaptive"] < comp.eta["adaptive"]
 
 
 def test_comparison_json_and_table_carry_the_whole_run_metrics(comp):

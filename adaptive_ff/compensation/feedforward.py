@@ -11,7 +11,7 @@ paper's eq. 4 RLS feedforward, kept as a baseline, composes the first in
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -25,7 +25,7 @@ from plant.errors import ParameterError, check_nonnegative, check_positive
 from plant.jit import kernel
 from plant.stribeck import stribeck_scalar
 
-__all__ = ["FrictionFeedforward", "RobustAdaptiveFeedforward", "project_estimate", "project_levels",
+__all__ = ["FrictionFeedforward", "RobustAdaptiveFeedforward", "FeedforwardStart", "project_estimate", "project_levels",
            "FF_NPAR", "FF_NSTATE", "ff_set_estimate", "ff_step", "ff_compensate", "robust_compensate",
            "robust_observe"]
 
@@ -332,16 +332,26 @@ class FrictionFeedforward(Component):
 
 # RobustAdaptiveFeedforward arrays. params: the feedforward's, own settings, offsets, the estimator's;
 # state: the feedforward's, own slots, the parameter vector in use (p), the estimator's.
-_WARMUP, _FADE, _JLO, _JHI, _TAUMAX, _CONSIST, _P, _PO_EST, _SO_FTH, _SO_EST = range(FF_NPAR, FF_NPAR + 10)
-_GAIN, _NIMPL, _NLAG, _HELD = range(FF_NSTATE, FF_NSTATE + 4)
-_RB_NPAR, _RB_NSTATE = FF_NPAR + 10, FF_NSTATE + 4
+# (start gain and start input: the provisional start, see FeedforwardStart; the state flag _PROV is 1 while it
+# is in use)
+_WARMUP, _FADE, _JLO, _JHI, _TAUMAX, _CONSIST, _P, _PO_EST, _SO_FTH, _SO_EST, _SGAIN, _SREF = range(FF_NPAR,
+                                                                                                  FF_NPAR + 12)
+_GAIN, _NIMPL, _NLAG, _HELD, _PROV = range(FF_NSTATE, FF_NSTATE + 5)
+_RB_NPAR, _RB_NSTATE = FF_NPAR + 12, FF_NSTATE + 5
 
 
 @kernel(inline="always")
 def robust_compensate(par, st, w_ctrl, w_meas, w_ref):
-    """Compensator protocol (``KIND`` 3): the feedforward of the estimate in use, faded in; 0 before switch-on."""
+    """Compensator protocol (``KIND`` 3): the feedforward of the estimate in use, faded in; 0 before switch-on.
+
+    During the provisional start (:class:`FeedforwardStart`) the start map times the start gain, evaluated
+    at the reference (start input ``reference``) or as ``ff_input`` says."""
     if st[_HAS] == 0.0:
         return 0.0
+    if st[_PROV] > 0.0:
+        if par[_SREF] > 0.0:
+            return ff_step(par, st, w_ref, w_ref, False) * par[_SGAIN]
+        return ff_compensate(par, st, w_ctrl, w_meas, w_ref) * par[_SGAIN]
     out = ff_compensate(par, st, w_ctrl, w_meas, w_ref)
     if st[_GAIN] < 1.0:
         st[_GAIN] = min(st[_GAIN] + par[_FADE], 1.0)
@@ -423,18 +433,66 @@ def robust_observe(par, st, u, w_meas, theta_out):
         return True
     if _lag_consistent(par, rls, eJ, etau, eJalt, sliding_mse(es), par[_DT], lag):
         st[_HELD] = 0.0
-    elif st[_HAS] > 0.0:
+    elif st[_HAS] > 0.0 and st[_PROV] == 0.0:
         st[_NLAG] += 1.0
         etau = st[_TAU]
         st[_HELD] = 1.0
     else:
         st[_NIMPL] += 1.0
         return True
+    if st[_PROV] > 0.0:  # hand-over from the provisional start: fade from the start gain to 1
+        st[_PROV] = 0.0
+        st[_GAIN] = par[_SGAIN]
     ff_set_estimate(par, st, eFc, eFs, eVs, edelta, esig, etau, 1.0)
     o = np.int64(par[_SO_FTH])
     for i in range(p):
         st[o + i] = rls_theta(rls, i)
     return True
+
+
+@dataclass(frozen=True)
+class FeedforwardStart:
+    """Provisional start of :class:`RobustAdaptiveFeedforward`: a prior friction map in use from the first
+    period until the estimator's first trusted estimate.
+
+    Parameters
+    ----------
+    estimate : FrictionEstimate
+        The prior map: ``Fc``, ``Fs`` (N·m), ``sigma`` (N·m·s/rad), ``Vs`` (rad/s) and ``delta`` of eq. 3 (e.g.
+        the quasi-static Stribeck pre-fit, Sec. V-C), and the lag ``tau`` (s) its output is filtered
+        through (eq. 1). ``Vs``/``delta`` None: the estimator's. ``J`` and ``offset`` are not used.
+    gain : float
+        Factor on the start map, in (0, 1], default 1. At the hand-over the output fades from ``gain`` to
+        1 over the feedforward's ``fade_in``.
+    ff_input : {"reference", "measured"}
+        Velocity the start map is evaluated at: the reference (default) or as the feedforward's
+        ``ff_input`` says. At the reference the start map is an exogenous input, not a feedback: a wrong
+        lag or level cannot form a stick-slip cycle with the joint (a friction map fed back from the
+        measured velocity through a lag shorter than the joint's kicks the joint by about ``2*Fs*dtau/J``
+        at every reversal).
+
+    Raises
+    ------
+    ParameterError
+        ``gain`` outside (0, 1], unknown ``ff_input``, or a non-finite or negative level or lag.
+    """
+
+    estimate: FrictionEstimate
+    gain: float = 1.0
+    ff_input: str = "reference"
+
+    def __post_init__(self):
+        if not isinstance(self.estimate, FrictionEstimate):
+            raise ParameterError(f"estimate must be a FrictionEstimate, got {type(self.estimate).__name__}")
+        e = self.estimate
+        for name in ("Fc", "Fs", "sigma", "tau"):
+            v = getattr(e, name)
+            if not (math.isfinite(v) and v >= 0.0):
+                raise ParameterError(f"start estimate: {name} must be finite and >= 0, got {v!r}")
+        if not (0.0 < self.gain <= 1.0):
+            raise ParameterError(f"start gain must be in (0, 1], got {self.gain!r}")
+        if self.ff_input not in ("reference", "measured"):
+            raise ParameterError(f"start ff_input must be 'reference' or 'measured', got {self.ff_input!r}")
 
 
 class RobustAdaptiveFeedforward(FrictionFeedforward):
@@ -480,6 +538,11 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         Stick detection, see :class:`FrictionFeedforward`.
     ff_input, w_max : keyword-only
         See :class:`FrictionFeedforward`.
+    start : FeedforwardStart or None, keyword-only
+        Provisional start: the prior map acts from the first period (times its gain) until the first
+        estimate that passes warm-up and the plausibility tests, then that estimate takes over and the
+        output fades from the start gain to 1 over ``fade_in``. Default None: no feedforward before
+        switch-on.
 
     Attributes
     ----------
@@ -524,7 +587,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     def __init__(self, estimator: SlidingFrictionEstimator, *, dt: float, lag: bool = True,
                  ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0, stick_samples: int = 10,
                  warmup: int = 200, fade_in: float = 1.0, J_range: tuple = (0.0, math.inf), tau_max: float = 1.0,
-                 consistency: float = 0.5, ff_input: str = "measured", w_max: float = math.inf):
+                 consistency: float = 0.5, ff_input: str = "measured", w_max: float = math.inf,
+                 start: FeedforwardStart | None = None):
         if not isinstance(estimator, SlidingFrictionEstimator):
             raise TypeError(f"estimator must be a SlidingFrictionEstimator, got {type(estimator).__name__}")
         ff = FrictionFeedforward(None, dt=dt, lag=lag, ff_max=ff_max, sign_width=sign_width,
@@ -550,11 +614,21 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         self.state = np.zeros(so_est + ens)
         self.params[:FF_NPAR] = ff.params
         self.state[:FF_NSTATE] = ff.state
+        if start is not None and not isinstance(start, FeedforwardStart):
+            raise ParameterError(f"start must be a FeedforwardStart or None, got {type(start).__name__}")
         self.params[FF_NPAR:_RB_NPAR] = (float(warmup), 1.0 if fade_in == 0.0 else dt / fade_in, J_lo, J_hi,
                                          tau_max, consistency, float(p), float(_RB_NPAR), float(so_fth),
-                                         float(so_est))
+                                         float(so_est), 1.0 if start is None else start.gain,
+                                         float(start is not None and start.ff_input == "reference"))
         self.state[so_fth:so_est] = np.nan
         self.estimate = None
+        self.start = start
+        if start is not None:
+            e = start.estimate
+            ff_set_estimate(self.params, self.state, e.Fc, e.Fs, estimator.Vs if e.Vs is None else e.Vs,
+                            estimator.delta if e.delta is None else e.delta, e.sigma, e.tau, 1.0)
+            self.state[_PROV] = 1.0
+            self.state[_GAIN] = 1.0
         self._attached()
 
     def _attached(self) -> None:
@@ -569,10 +643,14 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     n_implausible = property(lambda self: int(self.state[_NIMPL]), doc="Estimates that failed the plausibility test.")
     n_lag_held = property(lambda self: int(self.state[_NLAG]), doc="Estimates used with the previous lag.")
 
+    provisional = property(lambda self: bool(self.state[_PROV]),
+                           doc="Whether the provisional start map (``start``) is in use.")
+
     @property
     def estimate(self) -> FrictionEstimate | None:
-        """The estimate in use (None before switch-on); with the previous lag where the lag estimates disagreed."""
-        if not self.state[_HAS]:
+        """The estimator's estimate in use (None before switch-on and during the provisional start); with the
+        previous lag where the lag estimates disagreed."""
+        if not self.state[_HAS] or self.state[_PROV]:
             return None
         o = int(self.params[_SO_FTH])
         e = estimate_from_theta(self.estimator.names, self.state[o:o + self.n_theta], self.estimator.Vs,
@@ -594,6 +672,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         if not self.state[_HAS]:
             return 0.0
         out = FrictionFeedforward.step(self, w, w_ref)
+        if self.state[_PROV]:
+            return out * float(self.params[_SGAIN])
         if self.state[_GAIN] < 1.0:
             self.state[_GAIN] = min(self.state[_GAIN] + self.params[_FADE], 1.0)
             return out * float(self.state[_GAIN])
@@ -610,7 +690,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
 
     @property
     def active(self) -> bool:
-        """True once a plausible estimate is in use."""
+        """True once the feedforward acts: a plausible estimate, or the provisional start map, is in use."""
         return bool(self.state[_HAS])
 
     @property

@@ -27,7 +27,7 @@ import math
 from dataclasses import dataclass, replace
 
 from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
-from adaptive_ff.compensation.feedforward import FrictionFeedforward, RobustAdaptiveFeedforward
+from adaptive_ff.compensation.feedforward import FeedforwardStart, FrictionFeedforward, RobustAdaptiveFeedforward
 from adaptive_ff.compensation.gate import OutlierGate
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
@@ -94,6 +94,9 @@ class ModeOptions:
     P0, warmup, lag, forgetting, T_filter, initial, dwell_max, offset
         Estimator settings (see :class:`adaptive_ff.SlidingFrictionEstimator`,
         :class:`adaptive_ff.RobustAdaptiveFeedforward`).
+    start : FeedforwardStart or None
+        Provisional start of the sliding ``adaptive`` feedforward (e.g. the pre-fit map at the reference): it
+        acts from the first period until the estimator's first trusted estimate; default None.
     ff_max : float or None
         Bound on |compensation| (N·m); default ``u_max``.
     ff_input : {"measured", "reference"}
@@ -144,6 +147,7 @@ class ModeOptions:
     initial: FrictionEstimate | None = None
     dwell_max: float = 0.01
     offset: bool = True
+    start: FeedforwardStart | None = None
     ff_max: float | None = None
     ff_input: str = "measured"
     sign_width: float = 0.0
@@ -212,7 +216,7 @@ def _adaptive(plant, o):
                                    dwell_max=o.dwell_max, offset=o.offset, gate=OutlierGate(max_step=gate_step))
     return plant, RobustAdaptiveFeedforward(est, dt=o.Tc, lag=o.lag, ff_max=ff_max, sign_width=o.sign_width,
                                             stick_band=o.stick_band, stick_samples=o.stick_samples,
-                                            warmup=o.warmup, ff_input=o.ff_input)
+                                            warmup=o.warmup, ff_input=o.ff_input, start=o.start)
 
 
 def _adaptive_dob(plant, o):
