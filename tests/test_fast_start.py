@@ -80,6 +80,7 @@ def test_start_map_acts_with_its_gain_until_the_hand_over_then_fades_to_one():
     # tau 0: no lag filter; at the reference 0.2 rad/s the start map is Fc = 10 N·m, times the gain
     assert ff.compensate(-0.3, 0.2) == pytest.approx(5.0, rel=1e-12)
     assert ff.step(0.2) == pytest.approx(5.0, rel=1e-12)
+    assert ff.step(-0.3, 0.2) == pytest.approx(5.0, rel=1e-12)  # the reference, not the measurement
     # the lag of the start map: first-order filter with gain 1 - exp(-dt/tau) on the static map
     ff2 = RobustAdaptiveFeedforward(SlidingFrictionEstimator(0.02, 1.0, Tc=1e-3), dt=1e-3,
                                     start=FeedforwardStart(_est(0.05, Fc=10.0, Fs=10.0, sigma=0.0)))

@@ -3,7 +3,8 @@
 Two components: :class:`FrictionFeedforward` (a fixed estimate through the
 estimated lag) and :class:`RobustAdaptiveFeedforward` (the recommended one: sliding-regime
 inverse-dynamics RLS with directional forgetting, projection, outlier and
-plausibility gates, see :mod:`adaptive_ff.compensation.sliding_estimator`). The
+plausibility gates, see :mod:`adaptive_ff.compensation.sliding_estimator`; optionally with a
+provisional start map, :class:`FeedforwardStart`, until its first trusted estimate). The
 paper's eq. 4 RLS feedforward, kept as a baseline, composes the first in
 :mod:`adaptive_ff.compensation.eq4_feedforward`.
 """
@@ -667,13 +668,16 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     def step(self, w: float, w_ref: float | None = None) -> float:
         """Advance one period; return the bounded feedforward (N·m), 0 before switch-on.
 
-        See :meth:`FrictionFeedforward.step`; after switch-on the output fades in over ``fade_in``.
+        See :meth:`FrictionFeedforward.step`; after switch-on the output fades in over ``fade_in``. During the
+        provisional start the start map times its gain, at ``w_ref`` (when given) for a start at the reference.
         """
         if not self.state[_HAS]:
             return 0.0
+        if self.state[_PROV]:  # the start map, at the reference when the start says so (as in compensate)
+            if self.params[_SREF] and w_ref is not None:
+                return FrictionFeedforward.step(self, w_ref) * float(self.params[_SGAIN])
+            return FrictionFeedforward.step(self, w, w_ref) * float(self.params[_SGAIN])
         out = FrictionFeedforward.step(self, w, w_ref)
-        if self.state[_PROV]:
-            return out * float(self.params[_SGAIN])
         if self.state[_GAIN] < 1.0:
             self.state[_GAIN] = min(self.state[_GAIN] + self.params[_FADE], 1.0)
             return out * float(self.state[_GAIN])
