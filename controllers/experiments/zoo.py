@@ -418,7 +418,8 @@ class ZooResult:
         """``{adaptive mode or "best adaptive": {rival: share of joints with eta >= rival's}}`` (joints where
         both are defined)."""
         rows = {m: self.eta[m] for m in self.adaptive_modes()}
-        rows["best adaptive"] = self.best_adaptive()
+        if rows:
+            rows["best adaptive"] = self.best_adaptive()
         out = {}
         for name, e in rows.items():
             out[name] = {}
