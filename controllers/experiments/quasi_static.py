@@ -439,7 +439,8 @@ class StribeckExperiment:
 
 
 def prefit_stribeck(qs, *, fallback: bool = False):
-    """Stribeck pre-fit (Sec. V-C) of quasi-static runs, robust to stick-slip runs and asymmetric friction.
+    """Stribeck pre-fit (Sec. V-C) of quasi-static runs, robust to stick-slip runs, outlying slow runs and
+    asymmetric friction.
 
     Parameters
     ----------
@@ -452,16 +453,17 @@ def prefit_stribeck(qs, *, fallback: bool = False):
     Returns
     -------
     StribeckFit
-        The joint fit of both directions; if that cannot resolve the Stribeck
-        effect (e.g. direction-dependent levels), the fit of the positive
-        direction with ``Vs`` and ``delta`` replaced by the geometric and
-        arithmetic means of the per-direction fits; with ``fallback`` and
-        neither, the joint fit's fallback.
+        The first determined fit of: all runs, then without the slowest speed, the two slowest, ... (at most
+        half of the speeds left out, at least 5 kept; a note names what was left out). Each is the joint fit
+        of both directions or, if that cannot resolve the Stribeck effect (e.g. direction-dependent levels),
+        the fit of the positive direction with ``Vs`` and ``delta`` replaced by the geometric and arithmetic
+        means of the per-direction fits. With ``fallback`` and none determined, the fallback of the joint fit
+        of all runs (Coulomb + viscous, ``delta`` held at 1, or an undersampled transition, with a note).
 
     Raises
     ------
     ExcitationError
-        No fit succeeds (``fallback=False``), or fewer than 6 usable runs.
+        No fit is determined (``fallback=False``), or fewer than 6 usable runs.
 
     Notes
     -----
@@ -469,11 +471,40 @@ def prefit_stribeck(qs, *, fallback: bool = False):
     the median spread are dropped first: at the lowest speeds a joint that
     really sticks (or a soft loop on the negative Stribeck slope) ends in a
     stick-slip limit cycle, whose mean torque is not a point of the curve (the
-    :func:`quasi_static_runs` Notes).
+    :func:`quasi_static_runs` Notes). The slowest runs are also the first to
+    leave the sliding regime unnoticed (a joint that stops between two samples
+    at a speed below ``F*Tc/J``, whose mean speed still matches the setpoint),
+    so a fit that their torques make undetermined or implausible (a step-like
+    ``delta``, a negative level: :func:`fit_stribeck`) is repeated without them
+    (trimmed estimation, as in robust regression: Rousseeuw & Leroy,
+    *Robust Regression and Outlier Detection*, 1987, Ch. 1).
     """
     w, u, ws = np.asarray(qs.w_mean), np.asarray(qs.u_mean), np.asarray(qs.w_std)
     keep = np.asarray(qs.held, dtype=bool) if hasattr(qs, "held") else ws <= 2.0 * np.median(ws)
     w, u = w[keep], u[keep]
+    speeds = np.unique(np.abs(w[w != 0.0]))
+    first_error = None
+    for k in range(max(min(speeds.size // 2, speeds.size - 5), 0) + 1):
+        sel = np.abs(w) >= speeds[k]
+        try:
+            fit = _both_directions(w[sel], u[sel])
+        except (ExcitationError, SignalError) as exc:
+            first_error = exc if first_error is None else first_error
+            continue
+        if k == 0:
+            return fit
+        note = (f"the {k} slowest speed(s) (|w| <= {speeds[k - 1]:.3g} rad/s) were left out of the fit: with "
+                f"them it was not determined ({first_error})")
+        return replace(fit, notes=tuple(fit.notes) + (note,))
+    if fallback:
+        return fit_stribeck(w, u, F_std=None, fallback=True)
+    if first_error is None:  # fewer than 5 speeds: the fit's own message
+        fit_stribeck(w, u, F_std=None)
+    raise first_error
+
+
+def _both_directions(w, u):
+    """The strict joint fit of both directions; if it fails, the per-direction fits combined (raises if none)."""
     try:
         return fit_stribeck(w, u, F_std=None)
     except ExcitationError as joint_error:
@@ -485,22 +516,23 @@ def prefit_stribeck(qs, *, fallback: bool = False):
             except (ExcitationError, SignalError):
                 continue
         if not fits:
-            if fallback:
-                return fit_stribeck(w, u, F_std=None, fallback=True)
             raise joint_error
         Vs = float(statistics.geometric_mean([f.Vs for f in fits]))
         delta = float(np.mean([f.delta for f in fits]))
         return replace(fits[0], Vs=Vs, delta=delta)
 
 
-def _held(w_ref, w_std, u_std, noise_std: float, u_base: float) -> np.ndarray:
-    """Runs that held their setpoint: true-velocity spread <= 30 % of |w_ref|, torque spread <= 3x the loop's.
+def _held(w_ref, w_std, u_mean, u_std, noise_std: float, u_base: float) -> np.ndarray:
+    """Runs that held their setpoint: true-velocity spread <= 30 % of |w_ref|, torque spread <= 3x the loop's,
+    and a mean torque in the direction of motion.
 
     The measured spread is the noise and the joint's own velocity spread; ``w_std**2 - noise_std**2`` estimates
-    the latter. ``u_base`` is the torque spread of the fast runs of the same loop (its noise response).
+    the latter. ``u_base`` is the torque spread of the fast runs of the same loop (its noise response). Friction
+    is dissipative, ``F(w)*w > 0`` in sliding, so a run whose mean torque does not drive the motion is not a
+    point of the curve (e.g. a joint held at rest between two samples, whose mean speed says nothing).
     """
     excess = np.sqrt(np.maximum(w_std**2 - noise_std**2, 0.0))
-    return (excess <= 0.3 * np.abs(w_ref)) & (u_std <= 3.0 * u_base)
+    return (excess <= 0.3 * np.abs(w_ref)) & (u_std <= 3.0 * u_base) & (np.sign(w_ref) * u_mean > 0.0)
 
 
 def _settles(speeds, design: PIDesign, o: StribeckDesign, u_level: float) -> np.ndarray:
@@ -535,7 +567,7 @@ class _Runner:
         a = np.array(out)
         if self.u_base[level] is None:  # the loop's noise response: torque spread of the fastest third
             self.u_base[level] = float(np.median(a[: max(len(a) // 3, 2), 4])) + 1e-12
-        return a, _held(a[:, 0], a[:, 2], a[:, 4], self.noise_std, self.u_base[level])
+        return a, _held(a[:, 0], a[:, 2], a[:, 3], a[:, 4], self.noise_std, self.u_base[level])
 
     def measure(self, speeds) -> None:
         """Run ``speeds`` (fastest first) with the default loop; repeat the runs that did not hold stiffer."""
