@@ -69,7 +69,7 @@ def test_numbers_behind_the_figures(result):
 def test_demo_logs_load_with_units(result):
     out, d = result
     logs = d["data_files"]
-    assert set(logs) == {"quasi_static_log", "robot_log", "controller_log", "plant"}
+    assert set(logs) == {"quasi_static_log", "robot_log", "controller_log", "controller", "plant"}
     data = load_log(logs["robot_log"], columns="t=time_ms,u=current_A,q=encoder_counts",
                     units=LogUnits(time_unit="ms", current_to_torque=DEMO_CURRENT_TO_TORQUE, position_unit="counts",
                                    counts_per_rev=DEMO_COUNTS_PER_REV))
