@@ -302,7 +302,10 @@ class IdentificationReport:
                   "std errors assume white equation error (optimistic on real data)"]
         if self.physical is not None:
             ph = self.physical
-            lines += ["", f"physical parameters by method {ph.method!r} (adaptive_ff.identification.physical_id.fit_physical; "
+            fn = {"sliding": "adaptive_ff.compensation.sliding_estimator.fit_sliding",
+                  "closed_loop": "controllers.experiments.closed_loop_id.fit_closed_loop"}.get(
+                ph.method, "adaptive_ff.identification.physical_id.fit_physical")
+            lines += ["", f"physical parameters by method {ph.method!r} ({fn}; "
                           f"the table above is the paper's eq. 4 LS/RLS)",
                       f"{'parameter':<10}{'value':>14}{'std error':>13}  unit", "-" * 70]
             for nm, v in ph.params.items():

@@ -26,7 +26,7 @@ Method
    :func:`controllers.design.pi.pi_step`, anti-windup clamping) and the plant
    (RK4, :func:`plant.dynamics.plant_step`) run on the package's compiled
    closed-loop engine (:mod:`controllers.simulation.engine`), many candidates
-   in one call (the finite-difference Jacobian: ``1 + p`` plants at once).
+   in one call (the forward-difference Jacobian: the ``p`` shifted plants at once).
 3. The simulated velocity at the log's own stamps and the simulated torque
    that drove the joint to each stamp (the command of the period before it)
    are compared with the logged ``w`` and ``u``; each channel is weighted by
@@ -36,21 +36,31 @@ Method
    Identification*, 2nd ed., Secs. 7.2 and 9.3; output error in closed loop
    with a known controller: Forssell & Ljung, Automatica 35(7), 1999, the
    "direct approach" with the loop simulated).
-4. Start values: the inverse-dynamics regression of the logged torque on the
-   reference's acceleration and the friction regressors (linear LS, like the
-   paper's eq. 9, on the readouts), and the eq. 4 LS estimate where it is
-   physical, each tried with a grid of ``tau``; the candidate of lowest cost
-   (one batched engine call) starts the fit.
+4. Start values: for each ``tau`` of a grid, the linear LS regression of the
+   logged torque on the reference's acceleration and the lagged friction
+   regressors of the reference (eqs. 1-3 with ``w = w_ref``: J, Fc, Fs - Fc
+   and sigma enter linearly once ``tau`` is fixed), and the eq. 4 LS estimate
+   where it is physical; the candidate of lowest closed-loop cost (one batched
+   engine call) is improved by rounds of the same regression on the simulated
+   velocity of the current best (a fixed-point iteration towards the loop's
+   own trajectory, every ``tau`` of the grid again), keeping the lowest cost.
+   The cost is the Gaussian likelihood with each channel's variance
+   concentrated out. Two least-squares passes follow, with wide and then finer
+   difference steps (the cost is rough at breakaway: the free-run output
+   jitters with the reversal instants).
 
 Noise
 -----
 The real loop's PI reacts to its sensor noise (``Kp`` times the noise enters
 the torque at every period); the fit simulates the loop noise-free, so that
-part of the logged torque is an error term (zero mean, white at the
-controller rate; it is what the ``u`` weight absorbs). Measurement noise on
-the readouts is likewise an error term. The fit is an output-error fit in
-closed loop: consistent when the loop's noise response is small against the
-friction and inertia torques (Forssell & Ljung, 1999, Sec. 5).
+part of the logged torque is an error term (zero mean; it is what the ``u``
+weight absorbs), and so is the measurement noise of the readouts. The fit is
+an output-error fit in closed loop with a known controller: consistent as far
+as the noise-free loop is the mean of the noisy one, i.e. while the loop's
+noise response is small against the friction and inertia torques and the
+Stribeck velocity (Forssell & Ljung, 1999). The friction parameters are the
+least affected; J (traded against tau along a flat valley of the cost) the
+most.
 
 Standard errors
 ---------------
@@ -207,7 +217,7 @@ class ClosedLoopIdOptions:
         of ``u_delay`` periods before (1, default: the torque that drove the joint to the logged velocity;
         0: the command computed at the stamp). 0 or 1.
     max_nfev : int
-        Most Jacobian evaluations of each ``least_squares`` pass, >= 2. Default 30.
+        Most residual evaluations of each ``least_squares`` pass, >= 2. Default 40.
     diff_step : float
         Forward-difference step in the fit variables ``(log J, Fc, Fs, sigma, log tau)`` relative to
         ``max(1, |x|)``, > 0. Default 1e-3.
@@ -217,7 +227,7 @@ class ClosedLoopIdOptions:
 
     burn: float = 0.3
     u_delay: int = 1
-    max_nfev: int = 30
+    max_nfev: int = 40
     diff_step: float = 1e-3
     start: dict | None = field(default=None)
 
@@ -497,8 +507,9 @@ def _warnings(params: dict, stderr: dict, cond: float, sol_status: int) -> list:
         out.append(IdentificationWarning("conditioning", "all", f"closed_loop: Jacobian condition number {cond:.3g} "
                                          "> 1e6: the estimates are sensitive to noise"))
     if sol_status == 0:
-        out.append(IdentificationWarning("identifiability", "all", "closed_loop: the least-squares fit stopped at "
-                                         "its evaluation limit before converging (raise max_nfev)"))
+        out.append(IdentificationWarning("method", "all", "closed_loop: the last least-squares pass stopped at its "
+                                         "evaluation limit (options max_nfev) on the rough cost; compare the fit "
+                                         "with another start (options start) before relying on it"))
     return out
 
 
