@@ -128,7 +128,8 @@ def run(args) -> int:
     data = load_data_from_args(args)
     report = identify(data, Vs=args.Vs, delta=args.delta, lag=args.lag, offset=not args.no_offset,
                       lam=args.lam, method=args.method)
-    extra: dict = {"time_stamps": _time_stamps(data, args.method, args.asymmetric)}
+    method = report.physical.method if report.physical is not None else "paper"  # what --method auto chose
+    extra: dict = {"time_stamps": _time_stamps(data, method, args.asymmetric)}
     lines: list[str] = []
     asym = None
     emps_file = args.columns is None and is_emps_record(args.file)
