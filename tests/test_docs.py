@@ -61,6 +61,10 @@ def test_site_builds_without_warnings_with_every_page(site):
     index = (site / "index.html").read_text(encoding="utf-8")
     for page in ("getting_started", "your_drive", "theory", "benchmarks/index", "api"):
         assert f'href="{page}.html"' in index, page  # every topic one click from the start page
+    pages = [md.relative_to(DOCS).with_suffix("").as_posix() for md in DOCS.rglob("*.md")
+             if not any(part.startswith(("_", ".")) or part == "auto_examples" for part in md.relative_to(DOCS).parts)]
+    unlinked = [page for page in pages if page != "index" and f'href="{page}.html"' not in index]
+    assert not unlinked, f"pages not linked from the start page: {unlinked}"
 
 
 def test_every_public_name_is_documented(site):
