@@ -274,3 +274,61 @@ def test_pi_step_buffers_and_properties():
         c.integral = float("nan")
     c.reset()
     assert c.state.tolist() == [0.0, 0.0]
+
+
+# the design cases above plus: slow sampling, a light joint, the paper joint, a large viscous term (python-control
+# itself drifts from the exact crossover by ~1e-9 once wc*Tc < ~0.01: at wc = 30 rad/s, Tc = 1e-4 s it is 1.3e-9 off)
+REFERENCE_CASES = CASES + [(1.0, 0.0, 100.0, 60.0, 5e-3), (0.0065, 0.5, 50.0, 70.0, 1e-3),
+                           (1.3, 0.0, 20.0, 60.0, 1e-3), (0.05, 0.0, 5.0, 60.0, 1e-3), (4.0, 40.0, 30.0, 60.0, 5e-4)]
+
+
+@pytest.mark.parametrize("J, sigma, wc, pm, Tc", REFERENCE_CASES)
+def test_closed_form_design_equals_python_control(J, sigma, wc, pm, Tc):
+    """design_pi is closed form (no python-control); python-control's design and margins are the reference."""
+    from pi_oracle import python_control_design
+
+    d = design_pi(J, sigma=sigma, crossover=wc, phase_margin=pm, Tc=Tc)
+    ref = python_control_design(J, sigma, wc, pm, Tc)
+    sm_ref = ref.pop("stability_margin")
+    for name, value in ref.items():
+        assert getattr(d, name) == pytest.approx(value, rel=1e-9), name
+    # python-control searches min |1 + L| on a frequency grid (its fallback for poles near z = 1): it can only
+    # be above the true minimum (by up to 5e-4 relative here); the dense check below is the tight one
+    assert d.stability_margin <= sm_ref * (1.0 + 1e-12) and d.stability_margin == pytest.approx(sm_ref, rel=1e-3)
+    # the closed form hits its own targets to rounding
+    assert d.crossover == pytest.approx(wc, rel=1e-12) and d.phase_margin == pytest.approx(pm, abs=1e-10)
+    # stability margin: the minimum of |1 + L| on a dense grid (refined) is the closed form's
+    w = np.linspace(1e-4 * wc, math.pi / Tc, 200001)
+    i = int(np.argmin(np.abs(1.0 + _loop_numpy(d, w))))
+    res = optimize.minimize_scalar(lambda x: abs(1.0 + _loop_numpy(d, x)),
+                                   bounds=(w[max(i - 1, 0)], w[min(i + 1, w.size - 1)]), method="bounded",
+                                   options={"xatol": 1e-12})
+    assert d.stability_margin == pytest.approx(min(res.fun, abs(1.0 + _loop_numpy(d, w[i]))), rel=1e-9)
+
+
+def test_transfer_functions_are_built_on_demand_and_equal_python_control():
+    import control
+
+    J, sigma, Tc = 0.5, 2.0, 2e-3
+    d = design_pi(J, sigma=sigma, crossover=50.0, phase_margin=70.0, Tc=Tc)
+    zs = np.exp(1j * np.array([0.3, 1.0, 2.5]))
+    P = control.sample_system(control.tf([1.0], [J, sigma]), Tc, method="zoh")
+    np.testing.assert_allclose(d.plant(zs), P(zs), rtol=1e-10)
+    np.testing.assert_allclose(d.loop(zs), _loop_numpy(d, np.angle(zs) / Tc), rtol=1e-12)
+    np.testing.assert_allclose(d.C(zs), d.Kp + d.Ki * Tc * zs / (zs - 1.0), rtol=1e-12)
+    assert d.loop is d.loop  # built once
+    given = PIDesign(**{k: getattr(d, k) for k in ("Kp", "Ki", "Tc", "crossover", "phase_margin", "gain_margin",
+                                                     "phase_crossover", "stability_margin", "J", "sigma")},
+                     C=d.C, plant=P, loop=d.loop)
+    assert given.plant is P and given == d
+
+
+def test_design_does_not_import_python_control():
+    import subprocess
+    import sys
+
+    code = ("import sys; from controllers.design.pi import design_pi; d = design_pi(4.0, crossover=20.0, "
+            "phase_margin=60.0, Tc=1e-3); d.summary(); d.to_dict(); print(sorted(m for m in ('control', "
+            "'scipy.signal', 'scipy.optimize') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
