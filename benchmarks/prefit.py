@@ -32,6 +32,7 @@ JOINTS = {
                                                     sigma1=224.0, sigma2=40.0),
     "karnopp variant": variant("karnopp"),
     "negative-delta variant": variant("negative-delta"),
+    "static variant (tau = 0)": variant("static"),
 }
 
 

@@ -24,7 +24,40 @@ import numpy as np
 from plant.errors import ParameterError, check_finite_scalar, check_positive
 from plant.jit import kernel
 
-__all__ = ["stribeck_scalar", "stribeck_cutoff", "stribeck", "stribeck_shape"]
+__all__ = ["stribeck_scalar", "stribeck_shape_scalar", "stribeck_cutoff", "stribeck", "stribeck_shape"]
+
+
+@kernel(inline="always")
+def stribeck_shape_scalar(w, Vs, delta):
+    """The Stribeck decay of eq. 3 at one velocity: ``s(w) = exp(-|w/Vs|**delta)`` (dimensionless).
+
+    Parameters
+    ----------
+    w : float
+        Velocity (rad/s).
+    Vs : float
+        Stribeck velocity (rad/s), > 0.
+    delta : float
+        Shape factor, non-zero.
+
+    Returns
+    -------
+    float
+        In [0, 1]; at ``w == 0`` the limit (1 for ``delta > 0``, 0 for
+        ``delta < 0``: the power overflows to ``inf``); NaN for a NaN velocity.
+
+    Notes
+    -----
+    Ruderman, eq. 3 (and the regressors of eqs. 5-6). The one implementation
+    of the exponential: :func:`stribeck_scalar`, :func:`stribeck_shape` and
+    the compiled eq. 4 regressor call it. ``delta == 1`` skips ``pow``
+    (``x**1 == x`` exactly); otherwise libm's ``pow`` and ``exp``, as a
+    Python evaluation with ``**`` and :func:`math.exp`.
+    """
+    x = abs(w) / Vs
+    if delta != 1.0:
+        x = x ** delta
+    return math.exp(-x)
 
 
 @kernel(inline="always")
@@ -67,18 +100,12 @@ def stribeck_scalar(w, Fc, dF, Vs, delta, sigma, wcut):
     if w > 0.0:
         if w > wcut:
             return Fc + sigma * w
-        x = w / Vs
-        if delta != 1.0:
-            x = x ** delta
-        return Fc + dF * math.exp(-x) + sigma * w
+        return Fc + dF * stribeck_shape_scalar(w, Vs, delta) + sigma * w
     if w == 0.0:
         return 0.0
     if -w > wcut:  # w < 0 (a NaN falls through to NaN)
         return -Fc + sigma * w
-    x = -w / Vs
-    if delta != 1.0:
-        x = x ** delta
-    return -(Fc + dF * math.exp(-x)) + sigma * w
+    return -(Fc + dF * stribeck_shape_scalar(w, Vs, delta)) + sigma * w
 
 
 def stribeck_cutoff(Fc: float, dF: float, Vs: float, delta: float) -> float:
@@ -116,6 +143,12 @@ def stribeck_cutoff(Fc: float, dF: float, Vs: float, delta: float) -> float:
         return 0.0
     xcut = 746.0 if Fc == 0.0 else max(math.log(abs(dF) / abs(Fc)) + 54.0 * math.log(2.0) + 1.0, 0.0)
     return Vs * xcut ** (1.0 / delta) * (1.0 + 1e-9)
+
+
+@kernel
+def _shape_loop(w, out, Vs, delta):
+    for i in range(w.shape[0]):
+        out[i] = stribeck_shape_scalar(w[i], Vs, delta)
 
 
 @kernel
@@ -195,10 +228,12 @@ def stribeck_shape(w, Vs: float, delta: float):
 
     Notes
     -----
-    Source: Ruderman, eq. 3 (numpy; the regressors of eqs. 5-6 use it).
+    Source: Ruderman, eq. 3 (the regressors of eqs. 5-6 use it): the compiled
+    :func:`stribeck_shape_scalar` looped over the array, so array and scalar
+    callers (and the compiled eq. 4 regressor) get the same bits.
     """
-    x = np.abs(np.asarray(w, dtype=float)) / Vs
-    with np.errstate(divide="ignore", over="ignore"):
-        p = np.power(x, delta)  # x == 0, delta < 0 -> inf -> exp(-inf) = 0
-    out = np.exp(-p)
-    return float(out) if np.ndim(out) == 0 else out
+    wa = np.asarray(w, dtype=float)
+    flat = np.ascontiguousarray(wa).reshape(-1)
+    out = np.empty_like(flat)
+    _shape_loop(flat, out, float(Vs), float(delta))
+    return float(out[0]) if wa.ndim == 0 else out.reshape(wa.shape)

@@ -315,7 +315,7 @@ def test_simulator_with_held_input_is_the_plant_step_bit_for_bit(tau):
     p = preset("paper").replace(tau=tau)
     n = 3000
     grid, h = _grid(np.full(n + 1, 38.0), n)
-    w = simulate_on_grid(p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau, grid, w0=-0.05, f0=3.0)
+    w = simulate_on_grid(lagged_params(p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau), grid, w0=-0.05, f0=3.0)
     Wo, _ = _run_oracle(oracle.make_rk4_step(p, h), np.full(n, 38.0), -0.05, 3.0)
     assert_bit_equal(w, Wo)
 
@@ -331,7 +331,7 @@ def test_simulator_matches_the_former_kernel_with_offset_and_injection():
     grid = InputGrid(tg=t, ug=u, idx=idx)
     w_meas = 0.8 + 0.05 * np.sin(2 * np.pi * 0.9 * t[idx])
     for offset, gain in ((0.0, (0.0, 0.0)), (2.5, (0.0, 0.0)), (-1.5, (1.0, 0.5))):
-        new = simulate_on_grid(p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau, grid, w0=0.8, f0=55.0,
+        new = simulate_on_grid(lagged_params(p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau), grid, w0=0.8, f0=55.0,
                                offset=offset, gain=gain, w_meas=w_meas)
         old = oracle.simulator_rk4(t, u, idx, p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau, offset, 0.8, 55.0,
                                    gain[0], gain[1], w_meas, gain != (0.0, 0.0))

@@ -5,6 +5,7 @@ import pytest
 from scipy.linalg import expm
 
 from adaptive_ff.identification.simulator import input_grid, simulate_on_grid, simulate_sampled
+from plant.dynamics import lagged_params
 from plant.errors import ParameterError, SignalError
 from plant.friction import JointParams
 
@@ -46,12 +47,12 @@ def test_zero_injection_error_leaves_the_free_run_unchanged():
     u = 40.0 * np.sin(2.0 * np.pi * 0.5 * t)
     g = input_grid(t, u, h_max=1e-3)
     p = JointParams(J=4.0, Fc=25.0, Fs=35.0, Vs=0.02, delta=1.0, sigma=40.0, tau=0.02)
-    free = simulate_on_grid(p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau, g, w0=0.0, f0=0.0)
-    inj = simulate_on_grid(p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau, g, w0=0.0, f0=0.0, gain=(1.0, 1.0),
+    free = simulate_on_grid(lagged_params(p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau), g, w0=0.0, f0=0.0)
+    inj = simulate_on_grid(lagged_params(p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau), g, w0=0.0, f0=0.0, gain=(1.0, 1.0),
                            w_meas=free)
     np.testing.assert_allclose(inj, free, rtol=0, atol=1e-12)
     # a measured offset of +0.01 rad/s injected with Kw = 1 moves the next prediction
-    inj2 = simulate_on_grid(p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau, g, w0=0.0, f0=0.0, gain=(1.0, 0.0),
+    inj2 = simulate_on_grid(lagged_params(p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau), g, w0=0.0, f0=0.0, gain=(1.0, 0.0),
                             w_meas=free + 0.01)
     assert np.max(np.abs(inj2[1:] - free[1:])) > 1e-3
 

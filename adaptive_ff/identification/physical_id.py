@@ -109,6 +109,7 @@ from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.plausibility import check_physical
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
 from adaptive_ff.identification.simulator import H_MAX_DEFAULT, input_grid, simulate_on_grid
+from plant.dynamics import lagged_params
 from plant.errors import (ExcitationError, ParameterError, SignalError, check_finite_scalar, check_positive,
                           check_signal, check_time)
 from plant.results import json_safe
@@ -471,8 +472,8 @@ class _OutputErrorProblem:
     def simulate(self, x) -> np.ndarray:
         """Predicted velocity at every sample (rad/s)."""
         J, Fc, Fs, sigma, tau, off = self.unpack(x)
-        return simulate_on_grid(J, Fc, Fs, self.Vs, self.delta, sigma, tau, self.grid, w0=self.w0, f0=self.f0,
-                                offset=off, gain=self.gain, w_meas=self.w)
+        par = lagged_params(J, Fc, Fs, self.Vs, self.delta, sigma, tau)
+        return simulate_on_grid(par, self.grid, w0=self.w0, f0=self.f0, offset=off, gain=self.gain, w_meas=self.w)
 
     def res(self, x) -> np.ndarray:
         """Prediction errors after the burn-in (rad/s); a large constant where the model is not admissible."""

@@ -53,6 +53,7 @@ import numpy as np
 from plant.errors import ExcitationError, ParameterError, check_finite_scalar, check_positive, check_signal
 from plant.friction import JointParams, stribeck, stribeck_shape
 from plant.jit import kernel
+from plant.stribeck import stribeck_shape_scalar
 from plant.results import axes_or_new, json_safe
 
 __all__ = [
@@ -552,8 +553,8 @@ def eq4_phi(phi, u_k, u_km1, w_km1, w_km2, Vs, delta, lag, stribeck, offset):
     Notes
     -----
     Ruderman eqs. 4-6: ``[w(k-1), -w(k-2), u(k), -u(k-1), -g(w(k-1)), -h(w(k-1)), -1]`` without the
-    absent columns; the same operations as :meth:`RegressionModel.phi`, with the C library's ``pow``
-    and ``exp`` (numpy's vectorised ones may differ in the last bit).
+    absent columns; the same operations as :meth:`RegressionModel.phi`, both through the one compiled
+    Stribeck decay :func:`plant.stribeck.stribeck_shape_scalar` (the same bits).
     """
     j = 0
     phi[j] = w_km1
@@ -568,7 +569,7 @@ def eq4_phi(phi, u_k, u_km1, w_km1, w_km2, Vs, delta, lag, stribeck, offset):
         j += 1
     s = _sgn(w_km1)
     if stribeck:
-        e = math.exp(-((abs(w_km1) / Vs) ** delta))
+        e = stribeck_shape_scalar(w_km1, Vs, delta)
         phi[j] = -(s * (1.0 - e))
         phi[j + 1] = -(s * e)
         j += 2

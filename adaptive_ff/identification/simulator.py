@@ -164,9 +164,8 @@ def _grid_kernel(tg, ug, idx, par, offset, w0, f0, Kw, Kf, w_meas, inject, out):
             f -= Kf * J / (tg[b] - tg[a]) * e
 
 
-def simulate_on_grid(J: float, Fc: float, Fs: float, Vs: float, delta: float, sigma: float, tau: float,
-                     grid: InputGrid, *, w0: float, f0: float, offset: float = 0.0, gain=(0.0, 0.0),
-                     w_meas=None) -> np.ndarray:
+def simulate_on_grid(par: np.ndarray, grid: InputGrid, *, w0: float, f0: float, offset: float = 0.0,
+                     gain=(0.0, 0.0), w_meas=None) -> np.ndarray:
     """Fast RK4 simulation of eqs. 1-3 on an :class:`InputGrid` (no validation: inner loop of the fits).
 
     Compiled with numba: the plant's one RK4 step (:func:`plant.dynamics.plant_rk4`)
@@ -174,10 +173,12 @@ def simulate_on_grid(J: float, Fc: float, Fs: float, Vs: float, delta: float, si
 
     Parameters
     ----------
-    J, Fc, Fs, Vs, delta, sigma, tau : float
-        Model parameters (SI units); need ``J > 0``, ``Vs > 0``, ``delta != 0``,
-        ``tau > 0`` (for RK4 stability ``tau`` above about 0.4 times the sub-step;
-        ``tau = 0`` integrates the static map).
+    par : ndarray, shape (PLANT_NPAR,)
+        Parameter row of the lagged Stribeck joint from
+        :func:`plant.dynamics.lagged_params` ``(J, Fc, Fs, Vs, delta, sigma, tau)``
+        (SI units); needs ``J > 0``, ``Vs > 0``, ``delta != 0``, ``tau > 0`` (for
+        RK4 stability ``tau`` above about 0.4 times the sub-step; ``tau = 0``
+        integrates the static map).
     grid : InputGrid
         From :func:`input_grid`.
     w0, f0 : float, keyword-only
@@ -200,8 +201,7 @@ def simulate_on_grid(J: float, Fc: float, Fs: float, Vs: float, delta: float, si
     inject = Kw != 0.0 or Kf != 0.0
     wm = np.ascontiguousarray(w_meas, dtype=float) if inject else np.zeros(grid.idx.shape[0])
     out = np.empty(grid.idx.shape[0])
-    _grid_kernel(grid.tg, grid.ug, grid.idx, lagged_params(J, Fc, Fs, Vs, delta, sigma, tau), float(offset),
-                 float(w0), float(f0), Kw, Kf, wm, inject, out)
+    _grid_kernel(grid.tg, grid.ug, grid.idx, par, float(offset), float(w0), float(f0), Kw, Kf, wm, inject, out)
     return out
 
 
@@ -251,7 +251,8 @@ def simulate_sampled(p: JointParams, t, u, *, w0: float = 0.0, f0: float | None 
     offset = check_finite_scalar("offset", offset)
     f0 = p.friction(w0) + offset if f0 is None else check_finite_scalar("f0", f0)
     grid = input_grid(t, u, h_max=h_max, input_delay=input_delay)
-    w = simulate_on_grid(p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau, grid, w0=w0, f0=f0, offset=offset)
+    par = lagged_params(p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau)
+    w = simulate_on_grid(par, grid, w0=w0, f0=f0, offset=offset)
     if not np.all(np.isfinite(w)):  # pragma: no cover - physical parameters keep the model stable
         raise SignalError("the simulation diverged; reduce h_max")
     return w

@@ -59,7 +59,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
+from scipy.optimize import least_squares, nnls
 from scipy.stats import t as student_t
 
 from plant.errors import ExcitationError, ParameterError, SignalError, check_finite_scalar, check_signal
@@ -67,7 +67,7 @@ from plant.friction import stribeck, stribeck_scalar
 from plant.jit import kernel
 from plant.results import axes_or_new, json_safe
 
-__all__ = ["PARAM_NAMES", "MIN_POINTS", "StribeckFit", "fit_stribeck", "plot_stribeck_fit"]
+__all__ = ["PARAM_NAMES", "MIN_POINTS", "DELTA_MAX", "StribeckFit", "fit_stribeck", "plot_stribeck_fit"]
 
 #: Order of the fitted parameters (natural scale) in ``StribeckFit.cov``.
 PARAM_NAMES = ("Fc", "Fs", "Vs", "delta", "sigma")
@@ -84,6 +84,11 @@ _MIN_TRANSITION_SPEEDS = 3
 # With fallback: an undersampled transition whose excess |Fs - Fc| is below this fraction of the friction level
 # is taken as no Stribeck effect (Coulomb + viscous).
 _MIN_UNDERSAMPLED_EXCESS = 0.02
+#: Largest plausible ``|delta|``: at ``|delta| = 10`` the excess falls from 95 % to 5 % between ``0.74*Vs`` and
+#: ``1.12*Vs`` (a factor 1.5 in speed), a step rather than a Stribeck transition; measured shape factors lie
+#: between about 0.5 and 2 (Armstrong-Hélouvry et al. 1994, Sec. 2.1; Ruderman, Sec. II-B). A fit beyond it
+#: fits a jump in the data (an outlier), not the curve.
+DELTA_MAX = 10.0
 # Scaled-Jacobian condition number above which the fit is declared singular.
 _COND_LIMIT = 1e10
 # Grid of Stribeck velocities for the initial guess (points per decade).
@@ -255,7 +260,7 @@ class StribeckFit:
         lines = [f"Stribeck fit of eq. 3 ({self.n_points} points, residual RMS {self.residual_rms:.4g} N·m"
                  f"{'' if self.converged else ', NOT converged'})"]
         lines += [f"  {k:<6}{getattr(self, k):>12.6g} ± {self.stderr[k]:<10.3g}{units[k]}" for k in PARAM_NAMES]
-        lines += [f"  note ({self.fallback}): {n}" for n in self.notes]
+        lines += [f"  note ({self.fallback or 'full fit'}): {n}" for n in self.notes]
         return "\n".join(lines)
 
     def plot(self, ax=None, *, w=None, F=None, F_std=None):
@@ -461,11 +466,13 @@ def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0), fal
         own runs uses this after refining them): no resolvable Stribeck effect
         gives the Coulomb + viscous line (``Fs = Fc``, ``Vs`` = the lowest
         measured speed, ``delta = 1``: placeholders, the map does not depend
-        on them); a singular Jacobian gives the fit with ``delta`` held at 1
-        (or the Coulomb + viscous line if that is singular too); too few
-        speeds in the transition keep the full fit with a note, unless its
-        excess ``|Fs - Fc|`` is below 2 % of the friction level (then the
-        Coulomb + viscous line).
+        on them; ``Fc, sigma >= 0``); a best fit that is not a friction
+        curve (``Fc <= 0``, ``Fs <= 0`` or ``|delta| >`` :data:`DELTA_MAX`)
+        gives the Coulomb + viscous line; a singular Jacobian gives the fit
+        with ``delta`` held at 1 (or the Coulomb + viscous line if that is
+        singular or implausible too); too few speeds in the transition keep
+        the full fit with a note, unless its excess ``|Fs - Fc|`` is below
+        2 % of the friction level (then the Coulomb + viscous line).
 
     Returns
     -------
@@ -485,8 +492,10 @@ def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0), fal
         ``|w|``; the Jacobian at the solution is singular; fewer than 3
         distinct speeds lie in the Stribeck transition of the fitted curve
         (for ``delta = 1``: roughly ``0.05*Vs <= |w| <= 3*Vs``), so ``Fs`` and
-        ``Vs`` are not identified; or ``Fs - Fc`` is not resolved from zero
-        (no Stribeck effect in the data). With ``fallback=True`` only the
+        ``Vs`` are not identified; ``Fs - Fc`` is not resolved from zero
+        (no Stribeck effect in the data); or the best fit is not a friction
+        curve (``Fc <= 0``, ``Fs <= 0`` or ``|delta| > DELTA_MAX``, e.g. it
+        fits a jump of one outlying run). With ``fallback=True`` only the
         first two (too few samples or speeds).
 
     Notes
@@ -530,6 +539,12 @@ def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0), fal
     x = best.x
     Fc, Fs, logVs, delta, sigma = (float(v) for v in x)
     Vs = float(np.exp(logVs))
+    try:
+        _check_plausible(Fc, Fs, Vs, delta)
+    except ExcitationError as exc:
+        if not fallback:
+            raise
+        return _coulomb_viscous_fit(w, F, wt, str(exc))
     try:
         cov = _covariance(jac(x), resid(x), F * wt, x)
     except ExcitationError as exc:
@@ -575,6 +590,9 @@ def _result(x, w, F, cov, converged: bool, fb) -> StribeckFit:
 def _coulomb_viscous_fit(w, F, wt, reason: str) -> StribeckFit:
     """No resolvable Stribeck effect: weighted LS line ``Fc*sgn(w) + sigma*w``, ``Fs = Fc`` (placeholders Vs, delta).
 
+    ``Fc`` and ``sigma`` are constrained to >= 0 (non-negative least squares, Lawson & Hanson 1974, Ch. 23) when
+    the unconstrained line has a negative one: friction is dissipative.
+
     ``Vs`` is set to the lowest measured speed (any Stribeck effect lies below it) and ``delta`` to 1; the map
     does not depend on them since ``Fs - Fc = 0``. Covariance: ``s**2 inv(A^T A)`` of the line (Seber & Wild
     1989, Sec. 2.1), ``Fs`` perfectly correlated with ``Fc``, zero variance for the placeholders.
@@ -582,6 +600,9 @@ def _coulomb_viscous_fit(w, F, wt, reason: str) -> StribeckFit:
     sg = np.sign(w)
     A = np.column_stack([sg, w]) * wt[:, None]
     (c, sig), _ = _linear_part(A, F * wt)
+    if c < 0.0 or sig < 0.0:  # friction is dissipative: Fc, sigma >= 0 (non-negative least squares)
+        (c, sig), _ = nnls(A, F * wt)
+        c, sig = float(c), float(sig)
     r = A @ np.array([c, sig]) - F * wt
     dof = max(r.shape[0] - 2, 1)
     s2 = max(float(r @ r) / dof, (_RES_FLOOR_EPS * np.finfo(float).eps * float(np.max(np.abs(F * wt)))) ** 2)
@@ -635,6 +656,7 @@ def _delta_fixed_fit(w, F, wt, reason: str) -> StribeckFit:
     cov = np.zeros((5, 5))
     cov[np.ix_(free, free)] = 0.5 * (c4 + c4.T)
     try:
+        _check_plausible(float(x[0]), float(x[1]), math.exp(float(x[2])), 1.0)
         _check_stribeck_effect(cov, float(x[0]), float(x[1]), F)
     except ExcitationError as exc:
         return _coulomb_viscous_fit(w, F, wt, str(exc))
@@ -731,6 +753,20 @@ def _check_transition(aw, Vs: float, delta: float) -> None:
             f"transition {w_lo:.3g} <= |w| <= {w_hi:.3g} rad/s of the fitted curve (Vs={Vs:.6g} rad/s, "
             f"delta={delta:.6g}), need at least {_MIN_TRANSITION_SPEEDS}; add quasi-static runs at "
             f"speeds around Vs (for delta > 0: |w| below about 3*Vs)")
+
+
+def _check_plausible(Fc: float, Fs: float, Vs: float, delta: float) -> None:
+    """Raise unless the fit is a friction curve: ``Fc > 0``, ``Fs > 0`` and ``|delta| <= DELTA_MAX``.
+
+    Friction opposes the motion (dissipative), so both levels of eq. 3 are positive; a negative level or a
+    step-like ``delta`` means the optimiser has fitted a jump in the data (e.g. one run whose mean torque is
+    not a point of the curve) instead of the curve.
+    """
+    if not (Fc > 0.0 and Fs > 0.0 and abs(delta) <= DELTA_MAX):
+        raise ExcitationError(
+            f"the data cannot identify Fs/Vs: the best fit is not a friction curve (Fc={Fc:.4g} N·m, "
+            f"Fs={Fs:.4g} N·m, Vs={Vs:.4g} rad/s, delta={delta:.4g}; friction levels must be > 0 and "
+            f"|delta| <= {DELTA_MAX:g}); a run whose mean torque is off the curve, or no Stribeck effect")
 
 
 def _check_stribeck_effect(cov, Fc: float, Fs: float, F) -> None:

@@ -439,7 +439,8 @@ class StribeckExperiment:
 
 
 def prefit_stribeck(qs, *, fallback: bool = False):
-    """Stribeck pre-fit (Sec. V-C) of quasi-static runs, robust to stick-slip runs and asymmetric friction.
+    """Stribeck pre-fit (Sec. V-C) of quasi-static runs, robust to stick-slip runs, outlying slow runs and
+    asymmetric friction.
 
     Parameters
     ----------
@@ -452,16 +453,18 @@ def prefit_stribeck(qs, *, fallback: bool = False):
     Returns
     -------
     StribeckFit
-        The joint fit of both directions; if that cannot resolve the Stribeck
-        effect (e.g. direction-dependent levels), the fit of the positive
-        direction with ``Vs`` and ``delta`` replaced by the geometric and
-        arithmetic means of the per-direction fits; with ``fallback`` and
-        neither, the joint fit's fallback.
+        The first determined fit of: all runs (the joint fit of both directions or, if that cannot resolve
+        the Stribeck effect, e.g. direction-dependent levels, the fit of the positive direction with ``Vs``
+        and ``delta`` replaced by the geometric and arithmetic means of the per-direction fits); then the
+        joint fit without the slowest speed, without the two slowest (both directions of a speed, at least 5
+        speeds kept; a note names what was left out). With ``fallback`` and none determined, the fallback
+        of the joint fit of all runs (Coulomb + viscous, ``delta`` held at 1, or an undersampled transition,
+        with a note).
 
     Raises
     ------
     ExcitationError
-        No fit succeeds (``fallback=False``), or fewer than 6 usable runs.
+        No fit is determined (``fallback=False``), or fewer than 6 usable runs.
 
     Notes
     -----
@@ -469,11 +472,62 @@ def prefit_stribeck(qs, *, fallback: bool = False):
     the median spread are dropped first: at the lowest speeds a joint that
     really sticks (or a soft loop on the negative Stribeck slope) ends in a
     stick-slip limit cycle, whose mean torque is not a point of the curve (the
-    :func:`quasi_static_runs` Notes).
+    :func:`quasi_static_runs` Notes). The slowest runs are also the first to
+    leave the sliding regime unnoticed (a joint that stops between two samples
+    at a speed below ``F*Tc/J``, whose mean speed still matches the setpoint),
+    so a fit that their torques make undetermined or implausible (a step-like
+    ``delta``, a negative level: :func:`fit_stribeck`) is repeated without them
+    (trimmed estimation, as in robust regression: Rousseeuw & Leroy,
+    *Robust Regression and Outlier Detection*, 1987, Ch. 1).
     """
     w, u, ws = np.asarray(qs.w_mean), np.asarray(qs.u_mean), np.asarray(qs.w_std)
     keep = np.asarray(qs.held, dtype=bool) if hasattr(qs, "held") else ws <= 2.0 * np.median(ws)
     w, u = w[keep], u[keep]
+    fit, error = _determined_fit(w, u)
+    if fit is not None:
+        return fit
+    if fallback:
+        return fit_stribeck(w, u, F_std=None, fallback=True)
+    raise error
+
+
+#: Slowest speed levels :func:`prefit_stribeck` may leave out (both directions of a speed are one level).
+_MAX_TRIMMED_LEVELS = 2
+
+
+def _speed_levels(aw) -> np.ndarray:
+    """The distinct speeds of ``aw`` (> 0), ascending, with speeds within 5 % of each other as one level (the
+    two directions of one setpoint); each level is given by its smallest speed."""
+    levels = []
+    for x in np.sort(aw[aw > 0.0]):
+        if not levels or x > 1.05 * levels[-1]:
+            levels.append(float(x))
+    return np.array(levels)
+
+
+def _determined_fit(w, u) -> tuple:
+    """``(fit, None)``: the first determined strict fit of all points (both directions,
+    :func:`_both_directions`), then of the joint fit without the slowest one, two speed levels (at least 5
+    kept); ``(None, error)`` with the error of all points when none is determined."""
+    levels = _speed_levels(np.abs(w))
+    error = None
+    for k in range(min(_MAX_TRIMMED_LEVELS, max(levels.size - 5, 0)) + 1):
+        sel = np.abs(w) >= levels[k] if k else np.ones(w.shape, bool)
+        try:
+            fit = _both_directions(w[sel], u[sel]) if k == 0 else fit_stribeck(w[sel], u[sel], F_std=None)
+        except (ExcitationError, SignalError) as exc:
+            error = exc if error is None else error
+            continue
+        if k == 0:
+            return fit, None
+        note = (f"the {k} slowest speed(s) (|w| <= {levels[k - 1] * 1.05:.3g} rad/s) were left out of the fit: "
+                f"with them it was not determined ({error})")
+        return replace(fit, notes=tuple(fit.notes) + (note,)), None
+    return None, error
+
+
+def _both_directions(w, u):
+    """The strict joint fit of both directions; if it fails, the per-direction fits combined (raises if none)."""
     try:
         return fit_stribeck(w, u, F_std=None)
     except ExcitationError as joint_error:
@@ -485,22 +539,23 @@ def prefit_stribeck(qs, *, fallback: bool = False):
             except (ExcitationError, SignalError):
                 continue
         if not fits:
-            if fallback:
-                return fit_stribeck(w, u, F_std=None, fallback=True)
             raise joint_error
         Vs = float(statistics.geometric_mean([f.Vs for f in fits]))
         delta = float(np.mean([f.delta for f in fits]))
         return replace(fits[0], Vs=Vs, delta=delta)
 
 
-def _held(w_ref, w_std, u_std, noise_std: float, u_base: float) -> np.ndarray:
-    """Runs that held their setpoint: true-velocity spread <= 30 % of |w_ref|, torque spread <= 3x the loop's.
+def _held(w_ref, w_std, u_mean, u_std, noise_std: float, u_base: float) -> np.ndarray:
+    """Runs that held their setpoint: true-velocity spread <= 30 % of |w_ref|, torque spread <= 3x the loop's,
+    and a mean torque in the direction of motion.
 
     The measured spread is the noise and the joint's own velocity spread; ``w_std**2 - noise_std**2`` estimates
-    the latter. ``u_base`` is the torque spread of the fast runs of the same loop (its noise response).
+    the latter. ``u_base`` is the torque spread of the fast runs of the same loop (its noise response). Friction
+    is dissipative, ``F(w)*w > 0`` in sliding, so a run whose mean torque does not drive the motion is not a
+    point of the curve (e.g. a joint held at rest between two samples, whose mean speed says nothing).
     """
     excess = np.sqrt(np.maximum(w_std**2 - noise_std**2, 0.0))
-    return (excess <= 0.3 * np.abs(w_ref)) & (u_std <= 3.0 * u_base)
+    return (excess <= 0.3 * np.abs(w_ref)) & (u_std <= 3.0 * u_base) & (np.sign(w_ref) * u_mean > 0.0)
 
 
 def _settles(speeds, design: PIDesign, o: StribeckDesign, u_level: float) -> np.ndarray:
@@ -535,7 +590,7 @@ class _Runner:
         a = np.array(out)
         if self.u_base[level] is None:  # the loop's noise response: torque spread of the fastest third
             self.u_base[level] = float(np.median(a[: max(len(a) // 3, 2), 4])) + 1e-12
-        return a, _held(a[:, 0], a[:, 2], a[:, 4], self.noise_std, self.u_base[level])
+        return a, _held(a[:, 0], a[:, 2], a[:, 3], a[:, 4], self.noise_std, self.u_base[level])
 
     def measure(self, speeds) -> None:
         """Run ``speeds`` (fastest first) with the default loop; repeat the runs that did not hold stiffer."""
@@ -626,15 +681,17 @@ def stribeck_experiment(p, *, J_design: float, noise_std: float = 0.0, Tc: float
     1. Coarse sweep: ``per_decade`` log-spaced speeds per decade from ``max(w_min, noise_std/2)`` to
        ``w_max``, both directions, fastest first, with the PI designed for ``J_design`` at ``crossover``.
        A run holds its setpoint when the joint's own velocity spread (``sqrt(w_std**2 - noise_std**2)``) is
-       at most 30 % of the speed and its torque spread at most 3 times that of the fast runs; one that does
-       not (stick-slip on the negative slope of the Stribeck curve, Notes of :func:`quasi_static_runs`) is
+       at most 30 % of the speed, its torque spread at most 3 times that of the fast runs and its mean torque
+       drives the motion (friction is dissipative: a run whose mean torque is against the motion, e.g. a joint
+       that stops within each sample, is not a point of the curve); one that does not (stick-slip on the negative slope of the Stribeck curve, Notes of :func:`quasi_static_runs`) is
        repeated with the stiffer loop at ``crossover_max`` (``Kp`` beats a steeper slope). Slow runs settle
        for three breakaway times ``|u|/(Ki |w|)`` with ``|u|`` the largest torque measured so far.
     2. Refinement: the excess of the held runs over the Coulomb + viscous line of the fast half locates the
        transition; ``n_refine`` speeds per direction are added between the slowest held speed still at the
        full excess and the first speed where it has died out (the same two criteria as the fit's transition
        window, 95 % and 5 %). Repeated while the strict fit (:func:`prefit_stribeck`) says the data do not
-       determine it, at most ``max_rounds`` times.
+       determine it, at most ``max_rounds`` times. The strict fit leaves out the slowest one or two speeds
+       when the fit with them is not determined (:func:`prefit_stribeck`).
     3. The fit of the held runs with ``fallback=True``: never rejects the data it designed. No Stribeck
        effect gives the Coulomb + viscous model with a note (``fit.fallback``).
 
@@ -656,18 +713,17 @@ def stribeck_experiment(p, *, J_design: float, noise_std: float = 0.0, Tc: float
     n = max(int(math.ceil(math.log10(o.w_max / w_lo) * o.per_decade)) + 1, 2)
     runner = _Runner(p, J_design, o, Tc, noise_std, rng)
     runner.measure(bidirectional_velocities(w_lo, o.w_max, n))
-    rounds = 0
+    rounds, outcome = 0, None
     while fit and rounds < o.max_rounds:
         a = runner.arrays()
-        try:
-            prefit_stribeck(_Held(a))
+        outcome = _determined_fit(a["w_mean"][a["held"]], a["u_mean"][a["held"]])
+        if outcome[0] is not None:
             break
-        except (ExcitationError, SignalError):
-            new = _refinement(a["w_mean"], a["u_mean"], a["held"], o.n_refine)
-            if not new.size:
-                break
-            runner.measure(new)
-            rounds += 1
+        new = _refinement(a["w_mean"], a["u_mean"], a["held"], o.n_refine)
+        if not new.size:
+            break
+        runner.measure(new)
+        rounds, outcome = rounds + 1, None
     a = runner.arrays()
     n_held = int(a["held"].sum())
     if not fit:
@@ -675,7 +731,10 @@ def stribeck_experiment(p, *, J_design: float, noise_std: float = 0.0, Tc: float
     if n_held < 6:
         raise ExcitationError(f"only {n_held} of {a['held'].size} quasi-static runs held their setpoint; "
                               f"the joint's friction map cannot be measured with these loops")
-    sfit = prefit_stribeck(_Held(a), fallback=True)
+    w, u = a["w_mean"][a["held"]], a["u_mean"][a["held"]]
+    if outcome is None:  # runs were added after the last fit
+        outcome = _determined_fit(w, u)
+    sfit = outcome[0] if outcome[0] is not None else fit_stribeck(w, u, F_std=None, fallback=True)
     notes = []
     if runner.n_retried:
         notes.append(f"{runner.n_retried} run(s) did not hold with the {o.crossover:g} rad/s loop and were "
@@ -683,13 +742,7 @@ def stribeck_experiment(p, *, J_design: float, noise_std: float = 0.0, Tc: float
     if n_held < a["held"].size:
         bad = np.abs(a["setpoints"][~a["held"]])
         notes.append(f"{a['held'].size - n_held} run(s) did not hold their setpoint (|w| {bad.min():.3g} to "
-                     f"{bad.max():.3g} rad/s: stick-slip or noise-dominated) and were not used")
+                     f"{bad.max():.3g} rad/s: stick-slip, noise-dominated or a mean torque against the motion) and were not used")
     notes += list(sfit.notes)
     return StribeckExperiment(rounds=rounds, fit=sfit, notes=tuple(notes), **a)
 
-
-class _Held:
-    """The arrays of a run table as the attributes :func:`prefit_stribeck` reads."""
-
-    def __init__(self, a: dict):
-        self.w_mean, self.u_mean, self.w_std, self.held = a["w_mean"], a["u_mean"], a["w_std"], a["held"]
