@@ -2,6 +2,7 @@
 
 import argparse
 import json
+import math
 
 import numpy as np
 import pytest
@@ -69,7 +70,7 @@ def test_numbers_behind_the_figures(result):
 def test_demo_logs_load_with_units(result):
     out, d = result
     logs = d["data_files"]
-    assert set(logs) == {"quasi_static_log", "robot_log", "controller_log", "plant"}
+    assert set(logs) == {"quasi_static_log", "robot_log", "controller_log", "controller", "plant"}
     data = load_log(logs["robot_log"], columns="t=time_ms,u=current_A,q=encoder_counts",
                     units=LogUnits(time_unit="ms", current_to_torque=DEMO_CURRENT_TO_TORQUE, position_unit="counts",
                                    counts_per_rev=DEMO_COUNTS_PER_REV))
@@ -86,6 +87,17 @@ def test_demo_logs_load_with_units(result):
     np.testing.assert_allclose(np.diff(ctl.t), 1e-3, rtol=1e-6)
     k = np.rint(ref.t / 1e-3).astype(int)
     np.testing.assert_allclose(ref.u, np.round(ctl.u[np.maximum(k - 1, 0)] / 0.6) * 0.6, atol=1e-9)
+    # issue 12 item 2: the commanded velocity at the stamps and the PI of the loop, for --method closed_loop
+    from adaptive_ff.io.logs import read_columns
+    from controllers.experiments.closed_loop_id import ControllerSpec
+
+    r = read_columns(logs["robot_log"], {"t": "time_ms", "r": "reference_deg_s"}).columns["r"]
+    c = read_columns(logs["controller_log"], {"t": "time_ms", "r": "reference_deg_s"}).columns["r"]
+    np.testing.assert_allclose(r, c[k], rtol=0, atol=1e-12)
+    spec = ControllerSpec.from_json(logs["controller"])
+    assert spec.Kp == pytest.approx(d["summary"]["experiment"]["controller"]["Kp"], rel=1e-12)
+    assert spec.Ki == pytest.approx(d["summary"]["experiment"]["controller"]["Ki"], rel=1e-12)
+    assert spec.Tc == 1e-3 and math.isfinite(spec.u_max) and spec.u_max > 0
 
 
 def test_rls_pass_equals_ridge_least_squares():

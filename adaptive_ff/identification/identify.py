@@ -40,10 +40,13 @@ from plant.errors import ExcitationError, ParameterError, check_positive
 from plant.results import axes_or_new, json_safe
 
 __all__ = ["IdentificationReport", "identify", "PARAM_UNITS", "CrossValidation", "cross_validate",
-           "IDENTIFY_METHODS", "choose_method"]
+           "IDENTIFY_METHODS", "choose_method", "attach_physical"]
 
 #: Methods of :func:`identify`: ``"auto"`` chooses among the others from the record (:func:`choose_method`).
-IDENTIFY_METHODS = ("auto", "paper", "output_error", "sliding")
+#: ``"closed_loop"`` simulates the user's controller and lives in ``controllers``
+#: (:func:`controllers.experiments.closed_loop_id.identify_closed_loop`), which attaches its fit to the report
+#: of :func:`identify` by :func:`attach_physical`.
+IDENTIFY_METHODS = ("auto", "paper", "output_error", "sliding", "closed_loop")
 
 #: Largest sample time (s) of a uniform record that ``"auto"`` treats as logged at the controller rate.
 CONTROLLER_RATE_TS = 2e-3
@@ -299,7 +302,10 @@ class IdentificationReport:
                   "std errors assume white equation error (optimistic on real data)"]
         if self.physical is not None:
             ph = self.physical
-            lines += ["", f"physical parameters by method {ph.method!r} (adaptive_ff.identification.physical_id.fit_physical; "
+            fn = {"sliding": "adaptive_ff.compensation.sliding_estimator.fit_sliding",
+                  "closed_loop": "controllers.experiments.closed_loop_id.fit_closed_loop"}.get(
+                ph.method, "adaptive_ff.identification.physical_id.fit_physical")
+            lines += ["", f"physical parameters by method {ph.method!r} ({fn}; "
                           f"the table above is the paper's eq. 4 LS/RLS)",
                       f"{'parameter':<10}{'value':>14}{'std error':>13}  unit", "-" * 70]
             for nm, v in ph.params.items():
@@ -312,7 +318,7 @@ class IdentificationReport:
         return "\n".join(lines)
 
 
-def choose_method(data: MeasuredData, *, Vs: float | None) -> tuple[str, str]:
+def choose_method(data: MeasuredData, *, Vs: float | None, controller_Tc: float | None = None) -> tuple[str, str]:
     """The identification method ``identify(method="auto")`` uses for a record, and why.
 
     Parameters
@@ -321,13 +327,18 @@ def choose_method(data: MeasuredData, *, Vs: float | None) -> tuple[str, str]:
         The record (``t`` in s).
     Vs : float or None
         The pre-fitted Stribeck velocity (rad/s), None if not given.
+    controller_Tc : float or None, keyword-only
+        The period (s) of the user's velocity controller when the controller (gains, limit) and the
+        commanded velocity of the log are known; None (default) if not.
 
     Returns
     -------
     method : str
         ``"sliding"`` for a uniform record at most :data:`CONTROLLER_RATE_TS` apart (a controller-rate
         log: torque and measured velocity as the controller had them) when ``Vs`` is known;
-        ``"paper"`` otherwise (eq. 4 LS; slow or irregular logs).
+        ``"closed_loop"`` for any other record read out slower than the controller (median interval above
+        1.5 ``controller_Tc``) when ``Vs`` and ``controller_Tc`` are known (the loop is simulated:
+        :mod:`controllers.experiments.closed_loop_id`); ``"paper"`` otherwise (eq. 4 LS).
     reason : str
         One sentence for the report.
 
@@ -346,9 +357,14 @@ def choose_method(data: MeasuredData, *, Vs: float | None) -> tuple[str, str]:
     if uniform and med <= CONTROLLER_RATE_TS:
         return "sliding", (f"uniform samples {med * 1e3:.3g} ms apart (controller rate): the sliding-regime "
                            "inverse-dynamics regression, unbiased in closed loop")
+    if controller_Tc is not None and med > 1.5 * controller_Tc:
+        return "closed_loop", (f"samples {med * 1e3:.3g} ms apart{'' if uniform else ' (irregular)'}, slower than "
+                               f"the controller period {controller_Tc * 1e3:.3g} ms, with the reference and the "
+                               "controller given: the output-error fit that simulates the known PI loop")
     return "paper", (f"samples {med * 1e3:.3g} ms apart{'' if uniform else ' (irregular)'}: the eq. 4 LS of the "
-                     "paper; a closed-loop drive identifies best from its controller-rate log (method 'sliding'), "
-                     "an open-loop record by method 'output_error'")
+                     "paper; a closed-loop drive identifies best from its controller-rate log (method 'sliding') "
+                     "or, read out slower, with its reference and controller (method 'closed_loop'), an open-loop "
+                     "record by method 'output_error'")
 
 
 def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bool) -> PhysicalFit:
@@ -502,6 +518,45 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
     return _report(ls, rls, rls_est, rls_fit, uni, keep, hist, std, P0, data, notes, warn, excitation, physical)
 
 
+def attach_physical(report: IdentificationReport, physical: PhysicalFit, *, note: str,
+                    auto_reason: str | None = None) -> IdentificationReport:
+    """The report with a physical fit computed outside :func:`identify` as its answer (e.g. ``"closed_loop"``).
+
+    Parameters
+    ----------
+    report : IdentificationReport
+        From :func:`identify` with ``method="paper"`` (the eq. 4 LS/RLS baseline).
+    physical : PhysicalFit
+        The fit that answers (e.g. :func:`controllers.experiments.closed_loop_id.fit_closed_loop`).
+    note : str, keyword-only
+        One line for the notes (how the fit was made).
+    auto_reason : str or None, keyword-only
+        Why ``"auto"`` chose this method (:func:`choose_method`); None if it was asked for by name.
+
+    Returns
+    -------
+    IdentificationReport
+        ``physical`` set; the eq. 4 warnings become ``"method"`` notes (the record's own excitation
+        warnings stay), followed by the fit's own warnings, as for the methods :func:`identify` runs itself.
+
+    Raises
+    ------
+    TypeError
+        ``report`` or ``physical`` of the wrong type.
+    """
+    from dataclasses import replace
+
+    if not isinstance(report, IdentificationReport) or not isinstance(physical, PhysicalFit):
+        raise TypeError("attach_physical needs an IdentificationReport and a PhysicalFit, got "
+                        f"{type(report).__name__} and {type(physical).__name__}")
+    notes = list(report.notes)
+    if auto_reason is not None:
+        notes.append(f"method {physical.method!r} chosen automatically: {auto_reason}")
+    notes.append(note)
+    warn = [_as_baseline(w) for w in report.warnings] + list(physical.warnings)
+    return replace(report, physical=physical, notes=tuple(notes), warnings=tuple(warn))
+
+
 def _report(ls, rls, rls_est, rls_fit, uni, keep, hist, std, P0, data, notes, warn, excitation, physical):
     return IdentificationReport(
         ls=ls, rls_theta=rls.theta.copy(), rls_estimate=rls_est, rls_fit_percent=rls_fit,
@@ -522,6 +577,10 @@ def _check_identify_args(data, Vs, delta, n_history, P0, method, method_options)
     P0 = check_positive("P0", P0)
     if method not in IDENTIFY_METHODS:
         raise ParameterError(f"method must be one of {IDENTIFY_METHODS}, got {method!r}")
+    if method == "closed_loop":
+        raise ParameterError("method 'closed_loop' simulates the user's controller: use "
+                             "controllers.experiments.closed_loop_id.identify_closed_loop (CLI: identify "
+                             "--reference-column NAME --controller controller.json)")
     if method in ("output_error", "sliding") and Vs is None:
         raise ParameterError(f"method {method!r} fits the Stribeck model of eqs. 1-3: give Vs and delta "
                              f"(pre-fit, Sec. V-C), got Vs = {Vs!r}, delta = {delta!r}")
@@ -656,7 +715,9 @@ def _estimate_warnings(ls: LSResult, rls_est: FrictionEstimate, lag: bool) -> li
             f"the eq. 4 model fits one step ahead ({ls.fit_one_step:.1f} %) but not in free run "
             f"({ls.fit_free_run:.1f} % < {_FREE_RUN_MIN:g} %): the record does not determine the dynamics (J, tau); "
             "typical of a closed-loop log read out slower than the loop: log torque and velocity at the "
-            "controller rate (method 'sliding')"))
+            "controller rate (method 'sliding'), or give the commanded velocity and the controller "
+            "(identify --reference-column NAME --controller controller.json, or --Kp --Ki --Tc --u-max; "
+            "with --Vs, --delta: method 'closed_loop')"))
     return warn
 
 

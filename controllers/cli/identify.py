@@ -63,10 +63,89 @@ def _time_stamps(data, method: str, asymmetric: bool = False) -> dict:
             "resampled_by": resampled, "message": message}
 
 
+def _split_reference(args) -> tuple:
+    """``(reference column or None, --columns text without an r= item)``; ParameterError if both name one."""
+    from plant.errors import ParameterError
+
+    ref, cols = args.reference_column, args.columns
+    if cols is not None:
+        items = [x.strip() for x in cols.split(",") if x.strip()]
+        rs = [x for x in items if x.replace(" ", "").startswith("r=")]
+        if rs:
+            if ref is not None or len(rs) > 1:
+                raise ParameterError(f"the reference column is named twice (--columns {cols!r}, "
+                                     f"--reference-column {ref!r}): give it once")
+            ref = rs[0].split("=", 1)[1].strip()
+            cols = ",".join(x for x in items if x not in rs) or None
+    return ref, cols
+
+
+def _controller_spec(args):
+    """The :class:`controllers.experiments.closed_loop_id.ControllerSpec` of ``--controller`` or ``--Kp/--Ki/--Tc
+    [--u-max]``; None if neither is given."""
+    from controllers.experiments.closed_loop_id import ControllerSpec
+    from plant.errors import ParameterError
+
+    given = {k: getattr(args, k) for k in ("Kp", "Ki", "Tc", "u_max") if getattr(args, k) is not None}
+    if args.controller is not None:
+        if given:
+            raise ParameterError(f"give the controller either as --controller {args.controller} or by "
+                                 f"--Kp/--Ki/--Tc/--u-max, not both (got {sorted(given)})")
+        return ControllerSpec.from_json(args.controller)
+    if not given:
+        return None
+    missing = [f"--{k}" for k in ("Kp", "Ki", "Tc") if k not in given]
+    if missing:
+        raise ParameterError(f"the controller needs --Kp, --Ki and --Tc (--u-max optional); missing {missing}")
+    return ControllerSpec.from_dict({k: v for k, v in given.items()}, where="--Kp/--Ki/--Tc/--u-max")
+
+
+def _read_reference(args, name: str, n: int):
+    """The reference column ``name`` of ``args.file`` in rad/s (``--velocity-unit``), checked to have ``n`` rows."""
+    from adaptive_ff.io.logs import parse_column_map, read_columns
+    from adaptive_ff.io.units import VELOCITY_UNITS
+    from controllers.cli.data import io_options_from_args
+    from plant.errors import SignalError
+
+    cmap = parse_column_map(args.columns) if args.columns else {}
+    t_name = cmap.get("t", "t")
+    table = read_columns(args.file, {"t": t_name, "r": name}, csv_format=io_options_from_args(args)["csv_format"])
+    r = table.columns["r"] * VELOCITY_UNITS[args.velocity_unit]
+    if r.shape[0] != n:
+        raise SignalError(f"{args.file}: reference column {name!r} has {r.shape[0]} rows, the log {n}")
+    return r
+
+
+def _identify(args, data):
+    """The report: :func:`controllers.experiments.closed_loop_id.identify_closed_loop` when the reference and the
+    controller are given (methods auto, closed_loop), else :func:`adaptive_ff.identification.identify.identify`."""
+    from adaptive_ff.identification.identify import identify
+    from plant.errors import ParameterError
+
+    ref_name, spec = args.reference_name, _controller_spec(args)
+    common = {"lag": args.lag, "offset": not args.no_offset, "lam": args.lam}
+    if args.method == "closed_loop" and (ref_name is None or spec is None):
+        need = [x for x, ok in (("--reference-column NAME (or r=NAME in --columns)", ref_name is not None),
+                                ("--controller FILE (or --Kp, --Ki, --Tc, --u-max)", spec is not None)) if not ok]
+        raise ParameterError(f"--method closed_loop simulates your velocity loop: add {' and '.join(need)}")
+    if ref_name is None or spec is None or args.method not in ("auto", "closed_loop"):
+        return identify(data, Vs=args.Vs, delta=args.delta, method=args.method, **common)
+    if args.Vs is None and args.method == "closed_loop":
+        raise ParameterError("--method closed_loop fits the Stribeck model of eqs. 1-3: give --Vs and --delta "
+                             "(pre-fit: adaptive-ff stribeck)")
+    from controllers.experiments.closed_loop_id import identify_closed_loop
+
+    if args.Vs is None:
+        return identify(data, Vs=None, delta=None, method="auto", **common)
+    w_ref = _read_reference(args, ref_name, data.t.shape[0])
+    return identify_closed_loop(data, w_ref, controller=spec, Vs=args.Vs, delta=args.delta, method=args.method,
+                                **common)
+
+
 def run(args) -> int:
     """Execute ``adaptive-ff identify`` with parsed ``args``; return the exit status."""
     from adaptive_ff.identification.emps_validation import is_emps_record, validate_emps
-    from adaptive_ff.identification.identify import cross_validate, identify
+    from adaptive_ff.identification.identify import cross_validate
     from adaptive_ff.io.data import to_uniform
     from adaptive_ff.identification.idim import fit_idim
     from controllers.cli.data import command_line, load_data_from_args
@@ -77,10 +156,11 @@ def run(args) -> int:
     for option, value in (("--plot", args.plot), ("--report", args.report)):
         if value:
             check_output_dir(value, option)
+    args.reference_name, args.columns = _split_reference(args)
     data = load_data_from_args(args)
-    report = identify(data, Vs=args.Vs, delta=args.delta, lag=args.lag, offset=not args.no_offset,
-                      lam=args.lam, method=args.method)
-    extra: dict = {"time_stamps": _time_stamps(data, args.method, args.asymmetric)}
+    report = _identify(args, data)
+    used = report.physical.method if report.physical is not None else "paper"
+    extra: dict = {"time_stamps": _time_stamps(data, used, args.asymmetric)}
     lines: list[str] = []
     asym = None
     if args.asymmetric:
@@ -167,9 +247,13 @@ def register(sub) -> None:
                                                       "EMPS the fitted tau follows the velocity filter, not the plant)")
     i.add_argument("--no-offset", action="store_true", help="no constant torque offset regressor")
     i.add_argument("--lam", type=float, default=1.0, help="RLS forgetting factor (default 1)")
-    i.add_argument("--method", choices=("auto", "paper", "output_error", "sliding"), default="auto",
+    i.add_argument("--method", choices=("auto", "paper", "output_error", "sliding", "closed_loop"), default="auto",
                    help="auto (default): sliding for a uniform log at the controller rate (<= 2 ms) with --Vs, "
-                        "--delta, else paper; the choice is named in the notes. paper: the eq. 4 LS/RLS as "
+                        "--delta; closed_loop for a slower log when its reference (--reference-column) and the "
+                        "controller (--controller or --Kp/--Ki/--Tc) are given; else paper; the choice is named in "
+                        "the notes. closed_loop: output-error fit of J, Fc, Fs, sigma, tau that simulates the known "
+                        "PI loop on the reference (closed-loop log read out slower than the loop; needs --Vs, "
+                        "--delta). paper: the eq. 4 LS/RLS as "
                         "printed; output_error: also fit the physical J, tau, sigma, Fc, Fs of eqs. 1-3 by "
                         "simulation-error minimisation on the record's own time stamps (open-loop records; robust "
                         "to noise and irregular sampling; needs --Vs, --delta); sliding: the sliding-regime "
@@ -181,6 +265,17 @@ def register(sub) -> None:
                    help="judge the identified model(s) on a second record (same format and options): one-step and "
                         "free-run fit, inverse-model relative force error; EMPS records also closed-loop velocity "
                         "and force errors")
+    c = i.add_argument_group("closed-loop log read out slower than the loop (method closed_loop)")
+    c.add_argument("--reference-column", metavar="NAME", default=None,
+                   help="column of the commanded velocity (same unit as the velocity, --velocity-unit); or r=NAME "
+                        "in --columns")
+    c.add_argument("--controller", metavar="FILE", default=None, type=Path,
+                   help="JSON file of the velocity PI: Kp (N·m·s/rad), Ki (N·m/rad), Tc (s), u_max (N·m, null = "
+                        "none), e.g. controller.json of paper-figures --save-data")
+    c.add_argument("--Kp", type=float, default=None, help="PI proportional gain (N·m·s/rad), instead of --controller")
+    c.add_argument("--Ki", type=float, default=None, help="PI integral gain (N·m/rad): C(z) = Kp + Ki*Tc*z/(z-1)")
+    c.add_argument("--Tc", type=float, default=None, help="controller period (s)")
+    c.add_argument("--u-max", dest="u_max", type=float, default=None, help="torque limit (N·m), default none")
     i.add_argument("--json", action="store_true", help="print the parameters as JSON")
     i.add_argument("--plot", metavar="DIR", default=None,
                    help="write the paper's kinds of figures for these data (measured vs LS/RLS velocity, "

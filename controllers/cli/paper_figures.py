@@ -150,7 +150,8 @@ def register(sub) -> None:
     f.add_argument("--axis-units", choices=("rad", "deg"), default="rad",
                    help="velocity unit on the figure axes: rad/s (default) or deg/s as in the paper")
     f.add_argument("--save-data", action="store_true",
-                   help="also write demonstration logs (quasi_static_log.csv, robot_log.csv, plant.json)")
+                   help="also write demonstration logs (quasi_static_log.csv, robot_log.csv, controller_log.csv, "
+                        "controller.json, plant.json)")
     f.add_argument("--report", metavar="DIR", default=None, help="write a self-contained HTML report to DIR")
     f.add_argument("--json", action="store_true", help="print the numbers behind the figures as JSON")
     f.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -680,7 +680,8 @@ def _figs45_simulation(p: JointParams, opt: PaperFigureOptions, model: Regressio
 
 
 def _closed_loop_readout(p: JointParams, opt: PaperFigureOptions, seeds, Tc: float, peak: float) -> tuple:
-    """Sec. V-B: the PI loop tracks a multi-sine, read out at irregular instants; returns ``(design, run, meas)``."""
+    """Sec. V-B: the PI loop tracks a multi-sine, read out at irregular instants; returns ``(design, run, meas,
+    u_max)``."""
     ref_ss, times_ss, meas_ss, loop_ss = seeds
     ref = multisine_reference(opt.exp_duration, dt=Tc, peak=peak, rng=np.random.default_rng(ref_ss))
     design = design_pi(p.J, crossover=opt.crossover, phase_margin=60.0, Tc=Tc)
@@ -691,7 +692,7 @@ def _closed_loop_readout(p: JointParams, opt: PaperFigureOptions, seeds, Tc: flo
     times = irregular_sample_times(float(resp.t[-1]), dt=Tc, rng=np.random.default_rng(times_ss))
     meas = sample(resp, times=times, noise_std=opt.noise_std, quantization=opt.quantization,
                   rng=np.random.default_rng(meas_ss))
-    return design, run, meas
+    return design, run, meas, u_max
 
 
 def _figs9_12_experiment(p: JointParams, opt: PaperFigureOptions, model: RegressionModel, design, meas) -> tuple:
@@ -726,9 +727,10 @@ def _figs9_12_experiment(p: JointParams, opt: PaperFigureOptions, model: Regress
     return figs, numbers
 
 
-def _write_demo_logs(out: Path, p: JointParams, vel, opt: PaperFigureOptions, run, meas, rng) -> dict:
-    """``quasi_static_log.csv``, ``robot_log.csv``, ``controller_log.csv`` and ``plant.json`` (see
-    :func:`paper_figures`); ``{name: Path}``."""
+def _write_demo_logs(out: Path, p: JointParams, vel, opt: PaperFigureOptions, experiment, rng) -> dict:
+    """``quasi_static_log.csv``, ``robot_log.csv``, ``controller_log.csv``, ``controller.json`` and ``plant.json``
+    (see :func:`paper_figures`) of ``experiment = (run, meas, controller dict)``; ``{name: Path}``."""
+    run, meas, controller = experiment
     resp = run.response
     data_files = {}
     qlog = quasi_static_log(p, vel, hold=1.5, settle=1.5, noise_std=opt.noise_std, rng=rng)
@@ -736,14 +738,19 @@ def _write_demo_logs(out: Path, p: JointParams, vel, opt: PaperFigureOptions, ru
         out / "quasi_static_log.csv", {"t": qlog.t, "u": qlog.u, "w": qlog.w},
         header_comment="simulated bidirectional constant-velocity runs: t (s), u (N·m), w (rad/s)")
     counts = encoder_counts(resp, meas.t, counts_per_rev=DEMO_COUNTS_PER_REV)
+    k = np.rint((meas.t - resp.t[0]) / resp.dt).astype(np.int64)
     data_files["robot_log"] = write_log_csv(
         out / "robot_log.csv",
         {"time_ms": np.round(meas.t * 1e3, 6), "current_A": meas.u / DEMO_CURRENT_TO_TORQUE,
-         "velocity_deg_s": np.rad2deg(meas.w), "encoder_counts": counts},
+         "velocity_deg_s": np.rad2deg(meas.w), "encoder_counts": counts, "reference_deg_s": np.rad2deg(run.w_ref[k])},
         header_comment=(f"simulated robot-joint log: u = {DEMO_CURRENT_TO_TORQUE:g} N·m/A * current_A, "
-                        f"{DEMO_COUNTS_PER_REV} counts/rev, irregular readout"))
+                        f"{DEMO_COUNTS_PER_REV} counts/rev, irregular readout; reference_deg_s: the commanded "
+                        "velocity; the PI velocity loop (1 kHz) is in controller.json"))
     data_files["controller_log"] = write_controller_log(out / "controller_log.csv", run,
                                                         current_to_torque=DEMO_CURRENT_TO_TORQUE)
+    ctl_json = out / "controller.json"
+    ctl_json.write_text(json.dumps({k: float(v) for k, v in controller.items()}, indent=2) + "\n")
+    data_files["controller"] = ctl_json
     plant_json = out / "plant.json"
     plant_json.write_text(json.dumps(p.to_dict(), indent=2) + "\n")
     data_files["plant"] = plant_json
@@ -772,7 +779,10 @@ def paper_figures(out_dir, *, p: JointParams | None = None, options: PaperFigure
         stamps) for ``adaptive-ff identify``, ``controller_log.csv`` (the same run as the PI
         recorded it at 1 kHz: ``time_ms``, ``current_A``, ``velocity_deg_s``,
         ``reference_deg_s``; :func:`controllers.experiments.synthetic_logs.write_controller_log`),
-        plus ``plant.json``.
+        plus ``plant.json`` and ``controller.json`` (the PI of the loop: ``Kp`` N·m·s/rad, ``Ki`` N·m/rad,
+        ``Tc`` s, ``u_max`` N·m, as :class:`controllers.experiments.closed_loop_id.ControllerSpec` reads it);
+        ``robot_log.csv`` also has ``reference_deg_s`` (the commanded velocity at the stamps) for
+        ``identify --method closed_loop``.
     progress : bool or None, keyword-only
         tqdm progress bar over the stages (None: when stderr is a terminal).
     dpi : int, keyword-only
@@ -822,7 +832,7 @@ def paper_figures(out_dir, *, p: JointParams | None = None, options: PaperFigure
     figs.update(sim_figs)
     bar.update()
     bar.set_postfix_str("closed-loop experiment (Figs. 9-12)")
-    design, run, meas = _closed_loop_readout(p, opt, (ref_ss, times_ss, meas_ss, loop_ss), Tc, peak)
+    design, run, meas, u_max = _closed_loop_readout(p, opt, (ref_ss, times_ss, meas_ss, loop_ss), Tc, peak)
     bar.update()
     bar.set_postfix_str("LS/RLS on the irregular samples")
     exp_figs, numbers["experiment"] = _figs9_12_experiment(p, opt, model, design, meas)
@@ -834,7 +844,8 @@ def paper_figures(out_dir, *, p: JointParams | None = None, options: PaperFigure
     paths = save_figures({stem: figs[stem] for stem in FIGURE_CAPTIONS}, out, dpi=dpi)
     data_files = {}
     if save_data:
-        data_files = _write_demo_logs(out, p, vel, opt, run, meas, np.random.default_rng(ss.spawn(1)[0]))
+        controller = {"Kp": design.Kp, "Ki": design.Ki, "Tc": design.Tc, "u_max": u_max}
+        data_files = _write_demo_logs(out, p, vel, opt, (run, meas, controller), np.random.default_rng(ss.spawn(1)[0]))
     bar.update()
     bar.close()
     return PaperFigures(out_dir=out, figures=dict(zip(FIGURE_CAPTIONS, paths)), captions=dict(FIGURE_CAPTIONS),

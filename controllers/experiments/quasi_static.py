@@ -16,10 +16,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from adaptive_ff.identification.stribeck_fit import fit_stribeck
-from controllers.design.pi import PIController, PIDesign, design_pi
+from controllers.design.pi import PIController, PIDesign, design_pi, pi_step
 from plant.errors import ExcitationError, ParameterError, SignalError, check_nonnegative, check_positive, check_signal
 from plant.friction import JointParams
-from plant.joint import make_rk4_step
+from plant.dynamics import PLANT_NSTATE, plant_params, plant_step
+from plant.jit import kernel
 from plant.results import axes_or_new, json_safe
 
 __all__ = ["QuasiStaticData", "quasi_static_runs", "bidirectional_velocities", "QS_CROSSOVER", "StribeckDesign",
@@ -150,20 +151,27 @@ def bidirectional_velocities(w_min: float, w_max: float, n: int) -> np.ndarray:
     return np.concatenate([-s[::-1], s])
 
 
-def _one_run(ctrl: PIController, step, wr: float, noise: list, n_settle: int, W: np.ndarray, U: np.ndarray) -> None:
-    """One run from rest to ``wr``: settle, then record measured velocity ``W`` and torque ``U`` (filled in place)."""
-    ctrl.reset()
+@kernel
+def _one_run(pi_par, pi_st, par, st, wr, noise, n_settle, W, U, dt):
+    """One run from rest to ``wr``: settle, then record measured velocity ``W`` and torque ``U`` (filled in place).
+
+    The PI step (:func:`controllers.design.pi.pi_step`, its state reset by the caller) and the plant step
+    (:func:`plant.dynamics.plant_step`, each step started without the eq. 3 cache, as
+    :func:`plant.dynamics.make_plant_step` does) composed in one compiled loop over ``noise`` (shape
+    ``(n_settle + W.shape[0],)``, rad/s).
+    """
     w, f = 0.0, 0.0
-    ctl = ctrl.step
-    for k in range(n_settle):
-        u = ctl(wr - (w + noise[k]))
-        w, f = step(w, f, u)
-    for k in range(W.shape[0]):
-        wm = w + noise[n_settle + k]
-        u = ctl(wr - wm)
-        W[k] = wm
-        U[k] = u
-        w, f = step(w, f, u)
+    for k in range(n_settle + W.shape[0]):
+        wm = w + noise[k]
+        u = pi_step(pi_par, pi_st, wr - wm, 0.0)
+        if k >= n_settle:
+            W[k - n_settle] = wm
+            U[k - n_settle] = u
+        st[0] = w
+        st[1] = f
+        st[2] = math.nan
+        plant_step(par, st, u, dt)
+        w, f = st[0], st[1]
 
 
 def quasi_static_runs(
@@ -274,7 +282,7 @@ def quasi_static_runs(
     ctrl = PIController.from_design(design, u_max=u_max)
     if noise_std > 0.0 and rng is None:
         rng = np.random.default_rng()
-    step = make_rk4_step(p, Tc)
+    par, st = plant_params(p), np.empty(PLANT_NSTATE)  # the plant step of p.make_step(Tc)
     n_tot = n_settle + n_hold
 
     n = v.shape[0]
@@ -282,11 +290,9 @@ def quasi_static_runs(
     W = np.empty(n_hold)
     U = np.empty(n_hold)
     for j, wr in enumerate(v.tolist()):
-        if noise_std > 0.0:
-            noise = (noise_std * rng.standard_normal(n_tot)).tolist()
-        else:
-            noise = [0.0] * n_tot
-        _one_run(ctrl, step, wr, noise, n_settle, W, U)
+        noise = noise_std * rng.standard_normal(n_tot) if noise_std > 0.0 else np.zeros(n_tot)
+        ctrl.reset()
+        _one_run(ctrl.params, ctrl.state, par, st, float(wr), noise, n_settle, W, U, float(Tc))
         w_mean[j], w_std[j] = W.mean(), W.std()
         u_mean[j], u_std[j] = U.mean(), U.std()
     return QuasiStaticData(setpoints=v.copy(), w_mean=w_mean, w_std=w_std, u_mean=u_mean,

@@ -22,7 +22,9 @@ optional drift) from the box of :class:`ZooBox` (issue 11, item 6):
   asymmetric model scales the negative direction's levels by 0.6-1.4);
 - models drawn evenly from the four of :mod:`plant.models`; with probability
   ``p_drift`` a :class:`plant.drift.FrictionDrift` ramps ``Fc`` and ``Fs`` by
-  -30...+60 % over the first half of the run.
+  -30...+60 % over the first half of the run, in :data:`DRIFT_STEPS` steps (a
+  slow thermal drift: at most 1 % of the level per step; the engine's plant
+  table then has ``2*DRIFT_STEPS`` rows instead of one per 10 ms).
 
 :func:`run_zoo` prepares every joint as :func:`controllers.experiments.compare.compare`
 does (its :func:`~controllers.experiments.compare.prepare_comparison`: the PI from
@@ -30,31 +32,49 @@ the design inertia, the Stribeck pre-fit from simulated quasi-static runs and th
 offline fit of ``fixed`` from a simulated identification run; never the true
 friction), then runs each mode on groups of joints with
 :func:`controllers.simulation.batch.run_batch` (all cores), and reports ``eta``
-(second half) per joint and mode. A joint whose preparation or integration is
-refused is a failure with its reason; a diverged run is a failure of that mode.
+(second half) per joint and mode. Every (joint, mode) has one outcome
+(:data:`STATUSES`, :meth:`ZooResult.status`), counted apart in the table:
+
+- ``refused``: the preparation or the engine refused the joint (no mode ran), or
+  this mode could not be built for it (e.g. the offline fit of ``fixed``
+  rejected as implausible), with the reason;
+- ``diverged``: the run left the engine's velocity bound;
+- ``undefined``: friction does not measurably degrade the uncompensated loop
+  (its second-half RMS error is within ``min_degradation`` of the frictionless
+  loop's), so eta, a ratio over that difference, is undefined (``None`` in
+  JSON). On a short run whose second half has no reversal the PI integrator
+  absorbs the friction and all modes track alike: a 6 s run gave "eta" 5.1
+  from a 0.7 % difference;
+- ``no reference``: the ``none`` or ``frictionless`` run of the joint is missing;
+- ``invalid``: a non-finite number from a run that neither diverged nor was
+  refused (a defect; none is expected);
+- ``ok``: eta is defined; the quantiles and win rates use these only.
 """
 
 from __future__ import annotations
 
 import math
 import os
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
 from controllers.experiments.compare import CompareOptions, comparison_reference, eta, prepare_comparison
 from controllers.simulation.batch import run_batch
 from controllers.simulation.closed_loop import plant_table
-from controllers.simulation.compensators import MODES
+from controllers.simulation.compensators import MODES, build_mode
 from plant.errors import ParameterError
 from plant.models import plant_from_dict
 from plant.results import json_safe
 from plant.stribeck import stribeck
 
-__all__ = ["ZooBox", "ZooOptions", "ZooResult", "ZOO_MODELS", "draw_plants", "run_zoo", "zoo_box", "zoo_options_dict"]
+__all__ = ["DRIFT_STEPS", "STATUSES", "ZooBox", "ZooOptions", "ZooResult", "ZOO_MODELS", "draw_plants", "run_zoo",
+           "zoo_box", "zoo_options_dict"]
 
 #: Plant models the zoo draws from.
 ZOO_MODELS = ("lagged-stribeck", "lugre", "karnopp", "asymmetric")
+#: Steps of a drifting joint's ramp (its :attr:`plant.drift.FrictionDrift.period` is the ramp length over this).
+DRIFT_STEPS = 60
 
 
 def _pair(name: str, v, lo: float = -math.inf) -> tuple:
@@ -181,7 +201,9 @@ def _draw_one(rng, box: ZooBox, peak_w: float, peak_a: float, duration: float) -
             d["dv"] = rng.uniform(*box.karnopp_dv) * Vs
     if rng.uniform() < box.p_drift:
         ch = rng.uniform(*box.drift_change)
-        d["drift"] = {"Fc_change": ch, "Fs_change": ch, "t_start": 0.0, "t_end": 0.5 * duration}
+        # the ramp in DRIFT_STEPS steps (1 s apart on a 120 s run): a table of 2*DRIFT_STEPS plant rows
+        d["drift"] = {"Fc_change": ch, "Fs_change": ch, "t_start": 0.0, "t_end": 0.5 * duration,
+                      "period": 0.5 * duration / DRIFT_STEPS}
     return {k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in d.items()}
 
 
@@ -240,8 +262,17 @@ class ZooOptions:
         Joints per batch call (memory ~ ``group * duration/Tc * 8`` bytes of noise).
     workers : int or None
         Processes for the preparation (pre-fits, identification runs); default all cores.
-    scheduler : str or None
-        Dask scheduler address: preparation and batches run on that cluster (needs dask).
+    scheduler : str, distributed.Client or None
+        Where the preparation and the batches run instead: ``"synchronous"``, ``"threads"`` or ``"processes"``
+        (Dask's local schedulers), or the address of a Dask cluster (``tcp://host:8786``) or a
+        ``distributed.Client``. Needs dask.
+    min_degradation : float
+        eta of a joint is *undefined* (``None`` in JSON) where friction raises the second-half RMS error of the
+        uncompensated loop by less than this share of the frictionless loop's, ``rms_none < (1 +
+        min_degradation) * rms_frictionless``: the denominator of eta is then within the loop's own tracking
+        error and the ratio is meaningless (a 6 s run without a reversal in its second half gives "eta" 5.1).
+        Default 0.01; >= 0 (0: undefined only where friction does not degrade the loop at all, as
+        :func:`controllers.experiments.compare.eta`).
 
     Raises
     ------
@@ -256,7 +287,8 @@ class ZooOptions:
     box: ZooBox = field(default_factory=ZooBox)
     group: int = 100
     workers: int | None = None
-    scheduler: str | None = None
+    scheduler: object = None
+    min_degradation: float = 0.01
 
     def __post_init__(self):
         for name in ("n", "group"):
@@ -271,6 +303,14 @@ class ZooOptions:
         object.__setattr__(self, "modes", tuple(m for m in MODES if m in set(self.modes) | {"none", "frictionless"}))
         if self.workers is not None and (int(self.workers) != self.workers or self.workers < 1):
             raise ParameterError(f"workers must be an integer >= 1, got {self.workers!r}")
+        md = float(self.min_degradation)
+        if not (math.isfinite(md) and md >= 0.0):
+            raise ParameterError(f"min_degradation must be a finite number >= 0, got {self.min_degradation!r}")
+        object.__setattr__(self, "min_degradation", md)
+
+
+#: Outcome of one (joint, mode), :meth:`ZooResult.status`.
+STATUSES = ("ok", "refused", "diverged", "undefined", "no reference", "invalid")
 
 
 @dataclass(frozen=True)
@@ -283,28 +323,79 @@ class ZooResult:
         The drawn joints (:func:`draw_plants`).
     modes : tuple of str
     eta : dict
-        ``{mode: ndarray (n,)}``: eta over the second half; NaN where refused or diverged.
+        ``{mode: ndarray (n,)}``: eta over the second half where it is defined (:meth:`status` ``"ok"``), NaN
+        elsewhere.
+    rms : dict
+        ``{mode: ndarray (n,)}``: second-half RMS velocity error (rad/s); NaN where the run was refused or
+        diverged.
     refused : dict
-        ``{index: reason}`` of joints the preparation or the engine refused.
+        ``{index: reason}`` of joints the preparation or the engine refused (no mode ran).
+    mode_refused : dict
+        ``{mode: {index: reason}}``: a mode that could not be built for a joint the others ran on (e.g. the
+        offline fit of ``fixed`` rejected as implausible).
     diverged : dict
         ``{mode: ndarray of bool (n,)}``.
+    min_degradation : float
+        The threshold of an undefined eta (:class:`ZooOptions`).
     seconds : float
         Wall time (s).
+    timing : dict
+        Wall time (s) of the preparation (``"prepare"``) and of the runs of each mode.
     """
 
     plants: list
     modes: tuple
     eta: dict
+    rms: dict
     refused: dict
+    mode_refused: dict
     diverged: dict
+    min_degradation: float
     seconds: float
+    timing: dict = field(default_factory=dict)
+
+    def degradation(self) -> np.ndarray:
+        """``rms_none / rms_frictionless - 1`` per joint (second half), shape (n,): how much friction degrades the
+        uncompensated loop; NaN where a reference run is missing."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return self.rms["none"] / self.rms["frictionless"] - 1.0
+
+    def undefined(self) -> np.ndarray:
+        """Joints whose eta is undefined (friction degrades the loop by less than ``min_degradation``), (n,)."""
+        d = self.degradation()
+        return np.isfinite(d) & (d < self.min_degradation)
+
+    def status(self, mode: str) -> np.ndarray:
+        """Outcome per joint of ``mode`` (:data:`STATUSES`), shape (n,) of str.
+
+        ``refused``: the joint or this mode was refused; ``diverged``: this run diverged; ``no reference``: the
+        ``none`` or ``frictionless`` run is missing (refused or diverged); ``undefined``: friction does not degrade
+        the loop (:meth:`undefined`); ``invalid``: a non-finite number from a run that neither diverged nor was
+        refused (a defect; expected never); ``ok``: eta is defined.
+        """
+        n = len(self.plants)
+        out = np.full(n, "ok", dtype=object)
+        ref_ok = np.isfinite(self.rms["none"]) & np.isfinite(self.rms["frictionless"])
+        bad = ~np.isfinite(self.rms[mode])
+        out[self.undefined()] = "undefined"
+        out[~ref_ok] = "no reference"
+        out[bad] = "invalid"
+        out[self.diverged[mode]] = "diverged"
+        out[[i for i in range(n) if i in self.refused or i in self.mode_refused.get(mode, {})]] = "refused"
+        out[(out == "ok") & ~np.isfinite(self.eta[mode])] = "invalid"
+        return out.astype(str)
+
+    def counts(self) -> dict:
+        """``{mode: {status: number of joints}}`` (:data:`STATUSES`)."""
+        return {m: {s: int(np.count_nonzero(self.status(m) == s)) for s in STATUSES} for m in self.modes}
 
     def adaptive_modes(self) -> tuple:
         """The modes named ``adaptive*`` (the adaptive friction feedforward and its composites)."""
         return tuple(m for m in self.modes if m.startswith("adaptive"))
 
     def quantiles(self, q=(0.05, 0.25, 0.5, 0.75, 0.95)) -> dict:
-        """``{mode: [min, quantiles..., max]}`` of eta over the joints that ran (NaN dropped)."""
+        """``{mode: [min, quantiles..., max]}`` of eta over the joints where it is defined (the others are
+        counted by :meth:`counts`); NaN where none is."""
         out = {}
         for m in self.modes:
             e = self.eta[m][np.isfinite(self.eta[m])]
@@ -313,7 +404,7 @@ class ZooResult:
         return out
 
     def best_adaptive(self) -> np.ndarray:
-        """eta of the best adaptive mode per joint (NaN where none ran), shape (n,)."""
+        """eta of the best adaptive mode per joint (NaN where none is defined), shape (n,)."""
         a = [self.eta[m] for m in self.adaptive_modes()]
         if not a:
             return np.full(len(self.plants), math.nan)
@@ -325,9 +416,10 @@ class ZooResult:
 
     def win_rates(self) -> dict:
         """``{adaptive mode or "best adaptive": {rival: share of joints with eta >= rival's}}`` (joints where
-        both ran)."""
+        both are defined)."""
         rows = {m: self.eta[m] for m in self.adaptive_modes()}
-        rows["best adaptive"] = self.best_adaptive()
+        if rows:
+            rows["best adaptive"] = self.best_adaptive()
         out = {}
         for name, e in rows.items():
             out[name] = {}
@@ -337,51 +429,120 @@ class ZooResult:
                     out[name][rival] = float(np.mean(e[both] >= self.eta[rival][both])) if both.any() else math.nan
         return out
 
-    def to_dict(self) -> dict:
-        """Plants, eta per mode, failures, quantiles and win rates (strict JSON: NaN -> None)."""
-        return json_safe({"plants": self.plants, "modes": list(self.modes),
-                          "eta": {m: v.tolist() for m, v in self.eta.items()},
-                          "refused": {str(k): v for k, v in self.refused.items()},
-                          "diverged": {m: [bool(x) for x in v] for m, v in self.diverged.items()},
-                          "quantiles": self.quantiles(), "win_rates": self.win_rates(), "seconds": self.seconds})
+    def targets(self) -> dict:
+        """The issue's targets (issue 11, item 6) and the joints that miss them.
 
-    def summary(self) -> str:
-        """The zoo table: eta quantiles per mode, win rates, failures (text)."""
-        n = len(self.plants)
-        lines = [f"zoo: {n} joints, {len(self.refused)} refused, wall {self.seconds:.1f} s",
-                 f"{'mode':<16}{'ran':>6}{'div':>5}{'min':>8}{'q05':>8}{'q25':>8}{'median':>8}{'q75':>8}{'q95':>8}"
-                 f"{'max':>8}"]
-        for m, qs in self.quantiles().items():
-            ran = int(np.count_nonzero(np.isfinite(self.eta[m])))
-            lines.append(f"{m:<16}{ran:>6}{int(np.count_nonzero(self.diverged[m])):>5}"
-                         + "".join(f"{v:>8.3f}" for v in qs))
+        Returns
+        -------
+        dict
+            ``refused``/``diverged``: numbers of (joint, mode) runs; ``best_positive``: share of the joints with a
+            defined best-adaptive eta where it is > 0, and ``best_not_positive`` their indices;
+            ``best_ge_dob``: share where the best adaptive eta >= the DOB's (both defined), ``best_below_dob``
+            the indices; ``undefined``: joints without a defined eta.
+        """
         best = self.best_adaptive()
         fin = np.isfinite(best)
-        if fin.any():
-            lines.append(f"best adaptive mode: eta > 0 on {np.mean(best[fin] > 0):.1%} of {int(fin.sum())} joints")
+        out = {"refused": len(self.refused) * len(self.modes) + sum(len(v) for v in self.mode_refused.values()),
+               "diverged": int(sum(np.count_nonzero(v) for v in self.diverged.values())),
+               "undefined": [int(i) for i in np.flatnonzero(self.undefined())],
+               "best_positive": float(np.mean(best[fin] > 0)) if fin.any() else math.nan,
+               "best_not_positive": [int(i) for i in np.flatnonzero(fin & ~(best > 0))]}
+        if "dob" in self.eta:
+            both = fin & np.isfinite(self.eta["dob"])
+            out["best_ge_dob"] = float(np.mean(best[both] >= self.eta["dob"][both])) if both.any() else math.nan
+            out["best_below_dob"] = [int(i) for i in np.flatnonzero(both & (best < self.eta["dob"]))]
+        return out
+
+    def to_dict(self) -> dict:
+        """Plants, eta and status per mode, failures, quantiles, win rates and targets (strict JSON: NaN -> None;
+        an undefined eta is None, its status says why)."""
+        return json_safe({"plants": self.plants, "modes": list(self.modes),
+                          "eta": {m: v.tolist() for m, v in self.eta.items()},
+                          "rms_second_half": {m: v.tolist() for m, v in self.rms.items()},
+                          "status": {m: self.status(m).tolist() for m in self.modes}, "counts": self.counts(),
+                          "refused": {str(k): v for k, v in self.refused.items()},
+                          "mode_refused": {m: {str(k): v for k, v in d.items()} for m, d in self.mode_refused.items()},
+                          "diverged": {m: [bool(x) for x in v] for m, v in self.diverged.items()},
+                          "min_degradation": self.min_degradation, "quantiles": self.quantiles(),
+                          "win_rates": self.win_rates(), "targets": self.targets(), "seconds": self.seconds,
+                          "timing": self.timing})
+
+    def summary(self) -> str:
+        """The zoo table: eta quantiles per mode with the count of every outcome, win rates, targets, failures."""
+        n = len(self.plants)
+        lines = [f"zoo: {n} joints, {len(self.refused)} refused, {int(self.undefined().sum())} with eta undefined "
+                 f"(friction degrades the loop by < {self.min_degradation:.0%}), wall {self.seconds:.1f} s",
+                 f"{'mode':<14}{'eta':>5}{'ref':>5}{'div':>5}{'undef':>6}{'noref':>6}{'inval':>6}{'min':>8}{'q05':>8}"
+                 f"{'q25':>8}{'median':>8}{'q75':>8}{'q95':>8}{'max':>8}"]
+        counts = self.counts()
+        for m, qs in self.quantiles().items():
+            c = counts[m]
+            lines.append(f"{m:<14}{c['ok']:>5}{c['refused']:>5}{c['diverged']:>5}{c['undefined']:>6}"
+                         f"{c['no reference']:>6}{c['invalid']:>6}" + "".join(f"{v:>8.3f}" for v in qs))
         for name, rivals in self.win_rates().items():
             lines.append(f"{name} >= " + ", ".join(f"{r}: {v:.1%}" for r, v in rivals.items()))
+        lines += self._target_lines()
+        return "\n".join(lines)
+
+    def _target_lines(self) -> list:
+        t = self.targets()
+        best = self.best_adaptive()
+        lines = [f"targets: runs refused {t['refused']}, diverged {t['diverged']} (target 0); best adaptive eta > 0 "
+                 f"on {t['best_positive']:.1%} of {int(np.isfinite(best).sum())} joints (target 100 %)"
+                 + (f"; >= dob on {t['best_ge_dob']:.1%} (target >= 95 %)" if "best_ge_dob" in t else "")]
         neg = np.array([p.get("delta", 1.0) < 0 for p in self.plants])
+        fin = np.isfinite(best)
         if neg.any() and fin.any():
             med = [float(np.nanmedian(best[s])) if np.isfinite(best[s]).any() else math.nan for s in (neg, ~neg)]
             lines.append(f"delta < 0 (friction rising with speed): {int(neg.sum())} joints, best adaptive median "
                          f"{med[0]:.3f}; delta > 0: median {med[1]:.3f}")
         for i, why in sorted(self.refused.items())[:10]:
             lines.append(f"refused #{i} ({self.plants[i].get('model')}): {why}")
-        return "\n".join(lines)
+        for m, d in self.mode_refused.items():
+            for i, why in sorted(d.items())[:10]:
+                lines.append(f"{m} refused on #{i} ({self.plants[i].get('model')}): {why}")
+        for m in self.modes:
+            for i in np.flatnonzero(self.diverged[m])[:10]:
+                lines.append(f"{m} diverged on #{i}: {self.plants[i]}")
+        for i in t["best_not_positive"][:10]:
+            lines.append(f"best adaptive eta {best[i]:.3f} <= 0 on #{i}: {self.plants[i]}")
+        for i in t.get("best_below_dob", [])[:10]:
+            lines.append(f"best adaptive eta {best[i]:.3f} < dob {self.eta['dob'][i]:.3f} on #{i}: {self.plants[i]}")
+        return lines
+
+
+_REF_T: dict = {}
+
+
+def _reference_time(o: CompareOptions) -> np.ndarray:
+    """Time grid of the comparison reference, once per process and setting."""
+    key = (o.duration, o.seed, o.Tc)
+    if key not in _REF_T:
+        _REF_T.clear()
+        _REF_T[key] = comparison_reference(o).t
+    return _REF_T[key]
 
 
 def _prepare(args) -> tuple:
-    """Worker: (mode options, noise seed) of one joint, or the reason it was refused."""
+    """Worker: (mode options, noise seed, {mode: reason it cannot be built}) of one joint, or the reason it was
+    refused."""
     spec, o = args
     try:
         p = plant_from_dict(spec)
-        plant_table(p, comparison_reference(o).t, o.Tc)  # refuses a plant the engine cannot integrate (every row)
+        plant_table(p, _reference_time(o), o.Tc)  # refuses a plant the engine cannot integrate (every row)
         s = prepare_comparison(p, o)
         s.bar.close()
-        return s.mode_options, s.noise_seed, None
     except Exception as exc:  # noqa: BLE001 - any refusal is a result of the zoo, with its reason
-        return None, None, f"{type(exc).__name__}: {exc}"
+        return None, None, None, f"{type(exc).__name__}: {exc}"
+    bad = {}
+    for m in s.modes:
+        try:
+            build_mode(p, m, s.mode_options[m])
+        except Exception as exc:  # noqa: BLE001 - a mode that cannot be built is that mode's failure
+            bad[m] = f"{type(exc).__name__}: {exc}"
+    if "none" in bad or "frictionless" in bad:
+        return None, None, None, "; ".join(f"{m}: {why}" for m, why in bad.items())
+    return s.mode_options, s.noise_seed, bad, None
 
 
 def _batch(args) -> tuple:
@@ -391,15 +552,23 @@ def _batch(args) -> tuple:
     return r.rms_second_half, r.diverged
 
 
+_DASK_LOCAL = ("synchronous", "threads", "processes")
+
+
 def _map(fn, items, o: ZooOptions, processes: bool) -> list:
+    if o.scheduler in _DASK_LOCAL:
+        import dask
+
+        return list(dask.compute(*[dask.delayed(fn, pure=False)(it) for it in items], scheduler=o.scheduler))
     if o.scheduler is not None:
         from dask.distributed import Client
 
-        client = Client(o.scheduler)
+        client = o.scheduler if isinstance(o.scheduler, Client) else Client(o.scheduler)
         try:
             return client.gather(client.map(fn, items, pure=False))
         finally:
-            client.close()
+            if client is not o.scheduler:
+                client.close()
     workers = o.workers or os.cpu_count() or 1
     if processes and workers > 1 and len(items) > 1:
         from concurrent.futures import ProcessPoolExecutor
@@ -425,6 +594,11 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
     ------
     ImportError
         ``scheduler`` given without dask installed.
+
+    Notes
+    -----
+    eta (second half) is :func:`controllers.experiments.compare.eta` of the joint's ``none``, mode and
+    ``frictionless`` runs, the number ``compare`` gives, where it is defined (:meth:`ZooResult.status`).
     """
     import time
 
@@ -434,26 +608,35 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
     ref = comparison_reference(co)
     specs = draw_plants(o.n, ref, seed=o.seed, box=o.box)
     prepared = _map(_prepare, [(s, co) for s in specs], o, processes=True)
-    refused = {i: why for i, (_, _, why) in enumerate(prepared) if why is not None}
-    ok = [i for i in range(o.n) if i not in refused]
+    timing = {"prepare": time.perf_counter() - t0}
+    refused = {i: why for i, (*_, why) in enumerate(prepared) if why is not None}
+    mode_refused = {m: {i: p[2][m] for i, p in enumerate(prepared) if p[2] and m in p[2]} for m in o.modes}
+    mode_refused = {m: d for m, d in mode_refused.items() if d}
     n = o.n
     rms = {m: np.full(n, math.nan) for m in o.modes}
     div = {m: np.zeros(n, dtype=bool) for m in o.modes}
-    groups = [ok[i:i + o.group] for i in range(0, len(ok), o.group)]
-    jobs = [(g, m) for m in o.modes for g in groups]
+    jobs = []
+    for m in o.modes:
+        ok = [i for i in range(n) if i not in refused and i not in mode_refused.get(m, {})]
+        jobs += [(ok[i:i + o.group], m) for i in range(0, len(ok), o.group)]
     items = [([specs[i] for i in g], ref, m, [prepared[i][0][m] for i in g], [prepared[i][1] for i in g])
              for g, m in jobs]
+    t1 = time.perf_counter()
     for (g, m), (r, d) in zip(jobs, _map(_batch, items, o, processes=False)):
         rms[m][g] = np.where(d, math.nan, r)
         div[m][g] = d
-    etas = {m: np.array([eta(rms["none"][i], rms[m][i], rms["frictionless"][i]) for i in range(n)])
-            for m in o.modes}
-    return ZooResult(plants=specs, modes=o.modes, eta=etas, refused=refused, diverged=div,
-                     seconds=time.perf_counter() - t0)
+    timing["runs"] = time.perf_counter() - t1
+    res = ZooResult(plants=specs, modes=o.modes, eta={}, rms=rms, refused=refused, mode_refused=mode_refused,
+                    diverged=div, min_degradation=o.min_degradation, seconds=time.perf_counter() - t0, timing=timing)
+    undefined = res.undefined()
+    for m in o.modes:
+        res.eta[m] = np.array([math.nan if undefined[i] else eta(rms["none"][i], rms[m][i], rms["frictionless"][i])
+                               for i in range(n)])
+    return res
 
 
 def zoo_options_dict(o: ZooOptions) -> dict:
     """The settings of a zoo run as a JSON-ready dict (for the benchmark page)."""
-    d = asdict(o)
+    d = asdict(o) if isinstance(o.scheduler, (str, type(None))) else asdict(replace(o, scheduler=str(o.scheduler)))
     d["box"] = asdict(o.box)
     return json_safe(d)

@@ -1,0 +1,196 @@
+"""Issue 12, item 2: identification on a closed-loop log read out slower than the loop (method 'closed_loop').
+
+The record is the paper's robot experiment (Sec. V-B) as ``paper-figures --save-data`` makes it, shorter: a PI
+velocity loop at 1 kHz (crossover 200 rad/s) tracks a multi-sine while the velocity and the (quantised) torque
+are read out every 20-40 ms, irregularly, with noise. The open-loop output-error fit, which interpolates the
+torque between readouts, is biased there; simulating the known controller on the logged reference is not.
+"""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from adaptive_ff.identification.identify import choose_method, identify
+from adaptive_ff.identification.physical_id import fit_physical
+from adaptive_ff.io.data import MeasuredData
+from controllers.cli.main import main
+from controllers.design.pi import design_pi
+from controllers.experiments.closed_loop_id import (ClosedLoopIdOptions, ControllerSpec, fit_closed_loop,
+                                                     identify_closed_loop)
+from controllers.experiments.synthetic_logs import closed_loop_run, write_log_csv
+from plant import irregular_sample_times, preset, sample
+from plant.errors import ParameterError
+from plant.excitation import multisine_reference
+
+P = preset("paper")
+VS, DELTA = 0.0197756, 1.01582  # the Stribeck pre-fit of the README's quasi-static log (true 0.02, 1)
+TRUE = {"J": P.J, "Fc": P.Fc, "Fs": P.Fs, "sigma": P.sigma, "tau": P.tau}
+
+
+def _errors(params: dict) -> dict:
+    return {k: params[k] / TRUE[k] - 1.0 for k in TRUE}
+
+
+def _within_targets(err: dict) -> bool:
+    """Issue 12 item 2: J, tau within 10 %, Fc, Fs, sigma within 5 %."""
+    return (max(abs(err["J"]), abs(err["tau"])) < 0.10
+            and max(abs(err["Fc"]), abs(err["Fs"]), abs(err["sigma"])) < 0.05)
+
+
+@pytest.fixture(scope="module")
+def record():
+    """30 s of the robot experiment: the 1 kHz loop (sensor noise 1e-3 rad/s seen by the PI), read out at the
+    irregular Fig. 10 stamps with noise and a 0.6 N·m torque quantum; the reference at the stamps."""
+    seed, duration = 3, 30.0
+    ref = multisine_reference(duration, dt=1e-3, peak=math.radians(20.0), rng=np.random.default_rng(seed))
+    design = design_pi(P.J, crossover=200.0, phase_margin=60.0, Tc=1e-3)
+    u_max = 3.0 * (max(P.Fs, P.Fc) + P.sigma * float(np.max(np.abs(ref.w))) + P.J * float(np.max(np.abs(ref.dw))))
+    run = closed_loop_run(P, ref, design=design, u_max=u_max, noise_std=1e-3, rng=np.random.default_rng(seed + 1))
+    times = irregular_sample_times(duration, dt=1e-3, rng=np.random.default_rng(seed + 2))
+    m = sample(run.response, times=times, noise_std=1e-3, quantization=0.6, rng=np.random.default_rng(seed + 3))
+    w_ref = run.w_ref[np.rint(m.t / 1e-3).astype(int)]
+    spec = ControllerSpec(Kp=design.Kp, Ki=design.Ki, Tc=1e-3, u_max=u_max)
+    return m, w_ref, spec
+
+
+@pytest.fixture(scope="module")
+def fit(record):
+    m, w_ref, spec = record
+    return fit_closed_loop(m.t, m.u, m.w, w_ref, controller=spec, Vs=VS, delta=DELTA)
+
+
+def test_closed_loop_fit_within_targets(fit):
+    err = _errors(fit.params)
+    assert _within_targets(err), err
+    assert fit.method == "closed_loop" and fit.warnings == ()
+    # the simulated loop reproduces the logged velocity; the torque up to the PI's reaction to sensor noise
+    # (Kp * 1e-3 rad/s = 0.7 N·m) and the quantum
+    assert fit.nrmse > 95.0 and fit.info["fit_u_percent"] > 90.0
+    assert 0.6 < fit.info["residual_rms_u"] < 1.3
+    assert all(0 < fit.stderr[k] < 0.05 * abs(fit.params[k]) for k in TRUE)
+    assert fit.info["hac_lags"] >= 1 and fit.info["stderr_white"].keys() == fit.stderr.keys()
+    d = fit.to_dict()
+    json.dumps(d, allow_nan=False)
+    assert d["method"] == "closed_loop" and d["info"]["controller"]["u_max"] == pytest.approx(
+        fit.info["controller"]["u_max"])
+
+
+def test_open_loop_output_error_misses_the_targets_on_the_same_record(record):
+    """Why the method exists: the torque varies within a readout interval (the PI reacts at 1 kHz)."""
+    m, _, _ = record
+    oe = fit_physical(m.t, m.u, m.w, Vs=VS, delta=DELTA, method="output_error", offset=False)
+    err = _errors(oe.params)
+    assert not _within_targets(err), err
+    assert abs(err["tau"]) > 0.2 or abs(err["Fs"]) > 0.08, err  # measured on such logs: tau -40..-50 %, Fs -15 %
+
+
+def test_identify_closed_loop_auto_chooses_it_and_names_it(record):
+    m, w_ref, spec = record
+    data = MeasuredData(m.t, m.u, m.w, source="slow robot readout")
+    assert choose_method(data, Vs=VS)[0] == "paper"  # without reference and controller: today's behaviour
+    method, reason = choose_method(data, Vs=VS, controller_Tc=spec.Tc)
+    assert method == "closed_loop" and "slower than the controller period 1 ms" in reason
+    rep = identify_closed_loop(data, w_ref, controller=spec, Vs=VS, delta=DELTA, lag=True)
+    assert rep.physical.method == "closed_loop" and rep.to_dict()["method"] == "closed_loop"
+    assert any("'closed_loop' chosen automatically" in n for n in rep.notes)
+    assert _within_targets(_errors(rep.physical.params))
+    # eq. 4 warnings are kept as baseline notes, none refuses the answer
+    assert [w for w in rep.warnings if w.refusing] == []
+    # a controller-rate record still goes to the sliding regression
+    fast = MeasuredData(np.arange(200) * 1e-3, np.sin(np.arange(200) / 7.0), np.cos(np.arange(200) / 9.0))
+    assert choose_method(fast, Vs=VS, controller_Tc=1e-3)[0] == "sliding"
+
+
+def test_paper_identify_refuses_closed_loop_and_says_how(record):
+    m, _, _ = record
+    data = MeasuredData(m.t, m.u, m.w)
+    with pytest.raises(ParameterError, match="identify_closed_loop"):
+        identify(data, Vs=VS, delta=DELTA, method="closed_loop")
+    rep = identify(data, Vs=VS, delta=DELTA, lag=True, method="auto")  # no reference/controller: eq. 4 ...
+    w = [x for x in rep.warnings if x.parameter == "J" and "free run" in x]
+    assert len(w) == 1 and "--reference-column" in w[0] and "--controller" in w[0]  # ... says what to add
+
+
+def test_controller_spec_validation(tmp_path):
+    with pytest.raises(ParameterError, match="Kp"):
+        ControllerSpec(Kp=-1.0, Ki=1.0, Tc=1e-3)
+    with pytest.raises(ParameterError, match="Tc"):
+        ControllerSpec(Kp=1.0, Ki=1.0, Tc=0.0)
+    with pytest.raises(ParameterError, match="u_max"):
+        ControllerSpec(Kp=1.0, Ki=1.0, Tc=1e-3, u_max=-5.0)
+    spec = ControllerSpec(Kp=2.0, Ki=3.0, Tc=1e-3)
+    assert ControllerSpec.from_dict(json.loads(json.dumps(spec.to_dict()))) == spec  # u_max inf <-> null
+    bad = tmp_path / "c.json"
+    bad.write_text('{"Kp": 1, "Ki": 2}')
+    with pytest.raises(ParameterError, match="missing \\['Tc'\\]"):
+        ControllerSpec.from_json(bad)
+    with pytest.raises(ParameterError, match="cannot read"):
+        ControllerSpec.from_json(tmp_path / "none.json")
+    with pytest.raises(ParameterError, match="u_delay"):
+        ClosedLoopIdOptions(u_delay=2)
+
+
+def test_fit_closed_loop_bad_input(record):
+    m, w_ref, spec = record
+    with pytest.raises(ParameterError, match="faster"):
+        fit_closed_loop(m.t, m.u, m.w, w_ref, controller=ControllerSpec(Kp=1.0, Ki=1.0, Tc=0.1), Vs=VS, delta=DELTA)
+    with pytest.raises(ParameterError, match="ControllerSpec"):
+        fit_closed_loop(m.t, m.u, m.w, w_ref, controller={"Kp": 1}, Vs=VS, delta=DELTA)
+    with pytest.raises(Exception, match="reference never changes sign"):
+        fit_closed_loop(m.t, m.u, m.w, np.abs(w_ref) + 0.1, controller=spec, Vs=VS, delta=DELTA)
+
+
+def _write_robot_log(tmp_path, record) -> tuple:
+    """The record as ``paper-figures --save-data`` writes it: robot_log.csv (ms, A, deg/s) and controller.json."""
+    m, w_ref, spec = record
+    csv = write_log_csv(tmp_path / "robot_log.csv",
+                        {"time_ms": np.round(m.t * 1e3, 6), "current_A": m.u / 60.0, "velocity_deg_s": np.rad2deg(m.w),
+                         "reference_deg_s": np.rad2deg(w_ref)})
+    ctl = tmp_path / "controller.json"
+    ctl.write_text(json.dumps({"Kp": spec.Kp, "Ki": spec.Ki, "Tc": spec.Tc, "u_max": spec.u_max}))
+    return csv, ctl
+
+
+COMMON = ["--time-unit", "ms", "--velocity-unit", "deg/s", "--current-to-torque", "60", "--Vs", str(VS),
+          "--delta", str(DELTA), "--quiet"]
+
+
+def test_cli_auto_names_closed_loop_and_design_accepts_it(record, tmp_path, capsys):
+    csv, ctl = _write_robot_log(tmp_path, record)
+    assert main(["identify", str(csv), "--columns", "t=time_ms,u=current_A,w=velocity_deg_s,r=reference_deg_s",
+                 "--controller", str(ctl), "--lag", "--json", *COMMON]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["method"] == "closed_loop"
+    assert _within_targets(_errors(out["physical"]["params"]))
+    assert not [w for w in out["warnings"] if w["code"] in ("implausible", "identifiability", "conditioning")]
+    idj = tmp_path / "id.json"
+    idj.write_text(json.dumps(out))
+    assert main(["design", "--from", str(idj), "--no-figures", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["J"] == pytest.approx(out["physical"]["params"]["J"]) and "method 'closed_loop'" in d["source"]
+
+
+def test_cli_text_report_names_the_choice(record, tmp_path, capsys):
+    csv, ctl = _write_robot_log(tmp_path, record)
+    m, w_ref, spec = record
+    assert main(["identify", str(csv), "--columns", "t=time_ms,u=current_A,w=velocity_deg_s",
+                 "--reference-column", "reference_deg_s", "--Kp", repr(spec.Kp), "--Ki", repr(spec.Ki),
+                 "--Tc", "0.001", "--u-max", repr(spec.u_max), *COMMON]) == 0
+    text = capsys.readouterr().out
+    assert "method 'closed_loop' chosen automatically" in text and "physical parameters by method 'closed_loop'" in text
+
+
+def test_cli_closed_loop_without_reference_exits_2_naming_what_to_add(record, tmp_path, capsys):
+    csv, ctl = _write_robot_log(tmp_path, record)
+    assert main(["identify", str(csv), "--columns", "t=time_ms,u=current_A,w=velocity_deg_s", "--method",
+                 "closed_loop", "--controller", str(ctl), *COMMON]) == 2
+    err = capsys.readouterr().err
+    assert "--reference-column" in err and "Traceback" not in err
+    assert main(["identify", str(csv), "--columns", "t=time_ms,u=current_A,w=velocity_deg_s", "--Kp", "1",
+                 "--reference-column", "reference_deg_s", *COMMON]) == 2
+    assert "--Ki" in capsys.readouterr().err
+    assert main(["identify", str(csv), "--columns", "t=time_ms,u=current_A,w=velocity_deg_s", "--reference-column",
+                 "nope", "--controller", str(ctl), *COMMON]) == 2
+    assert "nope" in capsys.readouterr().err
