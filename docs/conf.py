@@ -25,6 +25,7 @@ HERE = Path(__file__).resolve().parent
 # The repository root; tests/test_docs.py builds a copy of docs/ elsewhere and points here.
 ROOT = Path(os.environ.get("ADAPTIVE_FF_DOCS_ROOT", HERE.parent)).resolve()
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(HERE / "_ext"))  # figure_scraper: the gallery's scraper of pyplot-free figures
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 project = "adaptive-ff"
@@ -190,6 +191,8 @@ sphinx_gallery_conf = {
     "abort_on_example_error": True,
     "show_signature": False,
     "write_computation_times": False,
+    # the package's figures are pyplot-free Figure objects: see docs/_ext/figure_scraper.py
+    "image_scrapers": ("matplotlib", "figure_scraper.pyplot_free_figures"),
 }
 
 

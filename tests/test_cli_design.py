@@ -65,7 +65,7 @@ def test_from_identify_json_with_override_and_report(tmp_path, capsys):
     src = tmp_path / "id.json"
     src.write_text(json.dumps({"J": 2.0, "sigma": 3.0, "Fc": 5.0, "fit_percent": 99.0}))
     rep = tmp_path / "rep"
-    assert run(["--from", str(src), "--crossover", "30", "--no-figures", "--report", str(rep)]) == 0
+    assert run(["--from", str(src), "--crossover", "30", "--no-figures", "--report", str(rep), "--units", "rad"]) == 0
     text = capsys.readouterr().out
     ref = design_pi(2.0, sigma=3.0, crossover=30.0, phase_margin=60.0)
     assert f"Kp = {ref.Kp:.6g} N·m·s/rad" in text and f"J, sigma from {src}" in text

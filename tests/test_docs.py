@@ -1,5 +1,5 @@
 """The documentation builds without a warning, documents every public name, and its gallery script
-makes the README's figure (issue 13 item 1).
+makes the README's and Getting started's figures (issue 13 items 1, 4).
 
 The build runs Sphinx on a copy of ``docs/`` in a temporary folder, beside links to the rest of the
 checkout (nothing is written into the checkout), with ``-W --keep-going``; the gallery is rendered without running the scripts
@@ -61,6 +61,10 @@ def test_site_builds_without_warnings_with_every_page(site):
     index = (site / "index.html").read_text(encoding="utf-8")
     for page in ("getting_started", "your_drive", "theory", "benchmarks/index", "api"):
         assert f'href="{page}.html"' in index, page  # every topic one click from the start page
+    pages = [md.relative_to(DOCS).with_suffix("").as_posix() for md in DOCS.rglob("*.md")
+             if not any(part.startswith(("_", ".")) or part == "auto_examples" for part in md.relative_to(DOCS).parts)]
+    unlinked = [page for page in pages if page != "index" and f'href="{page}.html"' not in index]
+    assert not unlinked, f"pages not linked from the start page: {unlinked}"
 
 
 def test_every_public_name_is_documented(site):
@@ -84,12 +88,22 @@ def test_theory_page_has_the_erratum(site):
         assert fragment in text, fragment
 
 
-def test_gallery_script_makes_the_readme_figure(tmp_path):
-    png = tmp_path / "reversal.png"
-    r = subprocess.run([sys.executable, str(ROOT / "examples" / "plot_compare_modes.py"), str(png)],
+def test_gallery_script_makes_the_readme_and_docs_figures(tmp_path):
+    """The gallery script writes the figures the README and Getting started show, the same files as committed."""
+    from PIL import Image
+
+    r = subprocess.run([sys.executable, str(ROOT / "examples" / "plot_compare_modes.py"), str(tmp_path)],
                        cwd=tmp_path, capture_output=True, text=True, timeout=1800, env=_env())
     assert r.returncode == 0, r.stdout + r.stderr
-    assert png.stat().st_size > 10_000
+    made = sorted(p.name for p in tmp_path.glob("*.png"))
+    assert made == ["compare_error.png", "compare_eta.png", "compare_friction.png", "compare_rls_convergence.png",
+                    "reversal.png"]
+    shown = set(re.findall(r"_static/([\w.]+\.png)", (DOCS / "getting_started.md").read_text(encoding="utf-8")))
+    assert shown == set(made)  # Getting started shows every figure the script makes
+    for name in made:  # the committed figures are what the script draws now (same size in pixels)
+        assert (tmp_path / name).stat().st_size > 10_000, name
+        with Image.open(tmp_path / name) as new, Image.open(DOCS / "_static" / name) as committed:
+            assert new.size == committed.size, name
     rows = {ln.split()[0]: ln.split() for ln in r.stdout.splitlines() if ln.strip()}
     col = 5  # mode, RMS, max, reversal RMS, u RMS, eta (second half), eta full, dev, t_on
     assert rows["none"][col] == "0.000" and rows["frictionless"][col] == "1.000"  # eta by definition

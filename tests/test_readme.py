@@ -99,6 +99,38 @@ def test_links_and_figure_exist():
     assert (ROOT / "LICENSE").read_text(encoding="utf-8").startswith("BSD 3-Clause License")
 
 
+def _links(path: Path) -> set[Path]:
+    """The local files a Markdown file links to (``[text](target)``, anchors and URLs dropped)."""
+    text = path.read_text(encoding="utf-8")
+    text = re.sub(r"```.*?```", "", text, flags=re.S)  # links inside code blocks are not links
+    out = set()
+    for target in re.findall(r"\]\(([^)\s]+)\)", text):
+        target = target.split("#")[0]
+        if target and "://" not in target:
+            out.add((path.parent / target).resolve())
+    return out
+
+
+def test_every_docs_page_is_two_clicks_from_the_readme():
+    """Issue 13: a newcomer reaches any topic of the docs from the README within two clicks (as the
+    pages render on a code host: Markdown links only, no Sphinx toctrees or roles)."""
+    first = _links(README)
+    broken = [str(t.relative_to(ROOT)) for t in first if not t.exists()]
+    second = set(first)
+    for page in first:
+        if page.suffix == ".md" and page.exists():
+            links = _links(page)
+            broken += [f"{page.relative_to(ROOT)} -> {t}" for t in links if not t.exists()]
+            second |= links
+    assert not broken, f"links to missing files: {broken}"
+    pages = {p.resolve() for p in (ROOT / "docs").rglob("*.md")
+             if not any(part.startswith(("_", ".")) or part == "auto_examples" for part in p.relative_to(ROOT / "docs").parts)}
+    pages.add((ROOT / "docs" / "api.rst").resolve())
+    missing = sorted(str(p.relative_to(ROOT)) for p in pages - second)
+    assert not missing, (f"docs pages more than two clicks from the README: {missing}; link them from the README "
+                         "or from docs/benchmarks/index.md")
+
+
 def update() -> int:
     """Rewrite the README's quoted main-job output with what the command prints now."""
     import tempfile

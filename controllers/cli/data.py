@@ -16,7 +16,8 @@ from pathlib import Path
 
 __all__ = ["add_data_arguments", "load_data_from_args", "io_options_from_args", "progress_from_args",
            "command_line", "DATA_EPILOG", "seed_type", "positive_int", "nonnegative_int", "check_output_dir",
-           "check_output_file", "PRESET_NAMES", "TABLE_UNITS", "add_units_argument", "table_unit"]
+           "check_output_file", "PRESET_NAMES", "TABLE_UNITS", "add_units_argument", "table_unit",
+           "per_angle"]
 
 #: Text for a subcommand's ``--help`` epilog: how to map columns and units.
 DATA_EPILOG = """\
@@ -281,13 +282,31 @@ PRESET_NAMES = ("paper",)
 TABLE_UNITS = {"deg": (180.0 / math.pi, "deg/s"), "rad": (1.0, "rad/s")}
 
 
-def add_units_argument(parser) -> None:
-    """Add ``--units {deg,rad}``: the velocity unit of printed tables (JSON and CSV stay in rad/s)."""
+def add_units_argument(parser, *, extra: str = "") -> None:
+    """Add ``--units {deg,rad}``: the velocity unit of printed tables (JSON and CSV stay in rad/s).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The subcommand's parser.
+    extra : str, optional
+        Sentence appended to the option's help (what else the unit converts, or what it leaves alone).
+    """
     parser.add_argument("--units", choices=list(TABLE_UNITS), default="deg",
                         help="velocity unit of the printed tables: deg (deg/s, default) or rad (rad/s); "
-                             "JSON and CSV outputs are always SI (rad/s)")
+                             "JSON and CSV outputs are always SI (rad/s)" + (f". {extra}" if extra else ""))
 
 
 def table_unit(args) -> tuple[float, str]:
     """``(factor, label)`` converting rad/s to the ``--units`` of the printed tables (default deg/s)."""
     return TABLE_UNITS[getattr(args, "units", "deg") or "deg"]
+
+
+def per_angle(args) -> tuple[float, str]:
+    """``(factor, angle)`` converting a quantity per radian (N·m·s/rad, N·m/rad) to the ``--units`` of ``args``.
+
+    A coefficient per rad/s (sigma, Kp) or per rad (Ki) is multiplied by ``factor``
+    (pi/180 for ``deg``, 1 for ``rad``) and labelled per ``angle`` (``"deg"`` or ``"rad"``).
+    """
+    k, unit = table_unit(args)
+    return 1.0 / k, unit.split("/")[0]

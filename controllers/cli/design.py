@@ -197,7 +197,7 @@ def run(args) -> int:
         print(json.dumps(d, indent=2))
         return 0
     print(f"J, sigma from {source}")
-    print(analysis.summary())
+    print(_summary(analysis, args))
     print(f"targets: crossover {args.crossover:g} rad/s, phase margin {args.phase_margin:g} deg")
     if math.isfinite(design.gain_margin) and design.gain_margin < 2.0:
         print(f"warning: gain margin {design.gain_margin:.3g} < 2: little room for an inertia error")
@@ -208,8 +208,42 @@ def run(args) -> int:
     return 0
 
 
+def _summary(analysis, args) -> str:
+    """``analysis.summary()`` with the gains, sigma and the step's peak torque per ``--units`` angle.
+
+    For ``--units rad`` it is :meth:`controllers.design.loop_analysis.LoopAnalysis.summary` itself.
+    Frequencies (crossover, bandwidth) are angular frequencies and stay in rad/s; J stays in kg·m².
+    """
+    from controllers.cli.data import per_angle
+
+    text = analysis.summary()
+    c, angle = per_angle(args)
+    if angle == "rad":
+        return text
+    d = analysis.design
+
+    def swap(line: str, old: str, new: str) -> str:
+        if old not in line:  # the summary's format changed: fail loudly rather than print rad/s as deg/s
+            raise RuntimeError(f"design summary line without {old!r}: {line!r}")
+        return line.replace(old, new)
+
+    lines = text.splitlines()
+    for i, line in enumerate(lines):
+        if line.startswith("plant: "):
+            lines[i] = swap(line, f"sigma = {d.sigma:g} N·m·s/rad", f"sigma = {c * d.sigma:.6g} N·m·s/{angle}")
+        elif line.startswith("PI: "):
+            lines[i] = swap(line, f"Kp = {d.Kp:.6g} N·m·s/rad, Ki = {d.Ki:.6g} N·m/rad",
+                                    f"Kp = {c * d.Kp:.6g} N·m·s/{angle}, Ki = {c * d.Ki:.6g} N·m/{angle}")
+        elif line.startswith("closed loop: "):
+            lines[i] = swap(line, f"peak torque {analysis.peak_torque:.4g} N·m per rad/s",
+                                    f"peak torque {c * analysis.peak_torque:.4g} N·m per {angle}/s")
+    return "\n".join(lines)
+
+
 def register(sub) -> None:
     """Add the ``design`` subcommand to an argparse subparsers object."""
+    from controllers.cli.data import add_units_argument
+
     d = sub.add_parser("design", help="design the discrete PI velocity controller (gains, margins, Bode, step)",
                        description="Loop-shaping design of the discrete PI velocity controller for the joint "
                                    "inertia J (and viscous sigma) at a target crossover and phase margin, with "
@@ -236,4 +270,6 @@ def register(sub) -> None:
     d.add_argument("--report", metavar="DIR", default=None, help="write a self-contained HTML report to DIR")
     d.add_argument("--json", action="store_true", help="print gains, margins and step metrics as JSON")
     d.add_argument("--quiet", action="store_true", help="accepted for uniformity (the design is instantaneous)")
+    add_units_argument(d, extra="Converts sigma, Kp (N·m·s/deg), Ki (N·m/deg) and the step's peak torque; "
+                                "crossover and bandwidth are angular frequencies and stay in rad/s, J in kg·m²")
     d.set_defaults(func=run)

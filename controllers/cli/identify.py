@@ -22,17 +22,65 @@ _ASYM_UNITS = {"J": "J", "sigma_pos": "sigma", "Fc_pos": "Fc", "sigma_neg": "sig
                "offset": "offset"}
 
 
-def _asymmetric_lines(fit) -> list[str]:
+class _Units:
+    """Velocity unit of identify's printed tables: scale and label of each parameter (rad: exactly SI)."""
+
+    def __init__(self, args, si: bool = False):
+        from adaptive_ff.identification.identify import PARAM_UNITS
+        from controllers.cli.data import per_angle, table_unit
+
+        self.si = si or (getattr(args, "units", "deg") or "deg") == "rad"
+        k, unit = (1.0, "rad/s") if self.si else table_unit(args)
+        c, angle = (1.0, "rad") if self.si else per_angle(args)
+        self.units = dict(PARAM_UNITS)
+        self.scale = {n: 1.0 for n in PARAM_UNITS}
+        self.Vs = (k, "rad/s (m/s)" if self.si else unit)
+        if not self.si:
+            self.units["sigma"] = f"N·m·s/{angle}"
+            self.scale["sigma"] = c
+
+    def row(self, name: str, value: float, *rest: float) -> str:
+        """A row of an identify table: ``name``, value (width 14), std error (13) and RLS (14), unit."""
+        c = self.scale.get(name, 1.0)
+        nums = f"{c * value:>14.6g}" + "".join(f"{c * x:>{w}{fmt}}" for x, w, fmt in zip(rest, (13, 14), (".3g", ".6g")))
+        return f"{name:<10}{nums}  {self.units.get(name, '')}"
+
+
+def _summary(report, units: _Units) -> str:
+    """``report.summary()`` with sigma (and Vs) in the printed velocity unit; identical to it for ``--units rad``."""
     from adaptive_ff.identification.identify import PARAM_UNITS
 
+    if units.si:
+        return report.summary()
+    text = report.summary().splitlines()
+    e, r, m = report.estimate, report.rls_estimate, report.model
+    out = []
+    physical = False
+    for line in text:
+        name = line.split(" ", 1)[0]
+        if line.startswith("physical parameters by method"):
+            physical = True
+        unit = PARAM_UNITS.get(name)
+        if unit is not None and line.endswith(unit) and name == "sigma":
+            ph = report.physical
+            line = (units.row("sigma", ph.params["sigma"], ph.stderr.get("sigma", float("nan")))
+                    if physical else units.row("sigma", e.sigma, report.std["sigma"], r.sigma))
+        elif name == "Vs" and line.endswith("rad/s (m/s)") and m.stribeck:
+            k, label = units.Vs
+            line = f"{'Vs':<10}{k * m.Vs:>14.6g}{'(fixed)':>13}{'':>14}  {label}"
+        out.append(line)
+    return "\n".join(out)
+
+
+def _asymmetric_lines(fit, units: _Units) -> list[str]:
     no_offset = "" if "offset" in fit.names else ", no offset"
     lines = ["", f"asymmetric friction (inverse dynamic model, IDIM-LS{no_offset}; Janot et al. 2019), "
                  f"decimated by {fit.decimate}: {fit.n_samples} rows",
              f"{'parameter':<14}{'value':>12}{'std error':>12}{'rel. std':>10}  unit", "-" * 70]
     rel = fit.rel_stderr
     for n, v in fit.params.items():
-        unit = PARAM_UNITS[_ASYM_UNITS[n]]
-        lines.append(f"{_ASYM_LABELS[n]:<14}{v:>12.6g}{fit.stderr[n]:>12.3g}{rel[n]:>9.2f}%  {unit}")
+        c, unit = units.scale[_ASYM_UNITS[n]], units.units[_ASYM_UNITS[n]]
+        lines.append(f"{_ASYM_LABELS[n]:<14}{c * v:>12.6g}{c * fit.stderr[n]:>12.3g}{rel[n]:>9.2f}%  {unit}")
     lines += ["-" * 70, f"force error {fit.force_error:.3f} %, cond {fit.cond:.3g} (unscaled {fit.cond_raw:.3g})"]
     return lines
 
@@ -159,16 +207,20 @@ def run(args) -> int:
     args.reference_name, args.columns = _split_reference(args)
     data = load_data_from_args(args)
     report = _identify(args, data)
-    used = report.physical.method if report.physical is not None else "paper"
+    used = report.physical.method if report.physical is not None else "paper"  # what --method auto chose
     extra: dict = {"time_stamps": _time_stamps(data, used, args.asymmetric)}
     lines: list[str] = []
     asym = None
+    emps_file = args.columns is None and is_emps_record(args.file)
+    units = _Units(args, si=emps_file)  # the EMPS axis is prismatic: m/s, never deg/s
+    if emps_file and getattr(args, "units", "deg") != "rad":
+        lines.append("units: the EMPS record is a prismatic axis; its tables stay in SI (N, m/s)")
     if args.asymmetric:
         uni = to_uniform(data)
         asym = fit_idim(uni, asymmetric=True, decimate=max(1, int(round(0.01 / uni.Ts))))
     if asym is not None:
         extra["asymmetric"] = asym.to_json_dict()
-        lines += _asymmetric_lines(asym)
+        lines += _asymmetric_lines(asym, units)
 
     try:
         model = report.rigid_axis_model()
@@ -176,7 +228,6 @@ def run(args) -> int:
         model = None
         lines.append(f"WARNING: no closed-loop re-simulation, the LS estimate is not physical ({exc})")
     dropped = [n for n, on in (("Fs", report.model.stribeck), ("tau", report.model.lag)) if on]
-    emps_file = args.columns is None and is_emps_record(args.file)
     if model is not None and emps_file:
         loop = validate_emps(model, args.file)
         extra["closed_loop"] = loop.to_json_dict()
@@ -219,7 +270,7 @@ def run(args) -> int:
     else:
         if extra["time_stamps"]["message"]:
             print(extra["time_stamps"]["message"])
-        print(report.summary())
+        print(_summary(report, units))
         for line in lines:
             print(line)
         if "figures" in extra:
@@ -231,7 +282,7 @@ def run(args) -> int:
 
 def register(sub) -> None:
     """Add the ``identify`` subcommand to an argparse subparsers object."""
-    from controllers.cli.data import DATA_EPILOG, add_data_arguments
+    from controllers.cli.data import DATA_EPILOG, add_data_arguments, add_units_argument
 
     i = sub.add_parser("identify", help="identify friction parameters from measured data", epilog=DATA_EPILOG,
                        description="Offline LS (eq. 9) and RLS (eqs. 10-13) identification of the discrete-time "
@@ -282,5 +333,7 @@ def register(sub) -> None:
                         "parameter convergence, sample-time histogram) as PNG into DIR")
     i.add_argument("--report", metavar="DIR", default=None, help="write a self-contained HTML report into DIR")
     i.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_units_argument(i, extra="Converts sigma (N·m·s/deg) and Vs (deg/s); a prismatic axis (m/s) takes "
+                                "--units rad (an EMPS record always prints in SI)")
     add_data_arguments(i)
     i.set_defaults(func=run)

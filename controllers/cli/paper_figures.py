@@ -6,7 +6,7 @@ import argparse
 import json
 import math
 
-__all__ = ["register", "run", "report_tables"]
+__all__ = ["register", "run", "report_tables", "estimates_table"]
 
 _EPILOG = """\
 Experiments (see controllers.experiments.paper_figures): Sec. IV open-loop band-limited-noise run sampled at 10 ms
@@ -51,9 +51,40 @@ def report_tables(summary: dict) -> list:
     return [params, fits, times]
 
 
+def estimates_table(numbers: dict, args) -> str:
+    """The printed table of true and estimated J, tau, sigma, Fc, Fs, each header with its unit.
+
+    Parameters
+    ----------
+    numbers : dict
+        ``PaperFigures.numbers`` (SI units).
+    args : argparse.Namespace
+        Parsed arguments; ``args.units`` (``deg`` or ``rad``) sets the unit of sigma:
+        N·m·s/deg (the value times pi/180) or N·m·s/rad.
+
+    Returns
+    -------
+    str
+        Header, rule and rows ``true``, ``LS sim`` (Fig. 4), ``LS exp`` (Fig. 9),
+        ``RLS exp`` (final value, Figs. 11-12).
+    """
+    from controllers.cli.data import per_angle
+
+    c, angle = per_angle(args)
+    sim, ex = numbers["simulation"], numbers["experiment"]
+    cols = (("J", "kg·m²", 1.0), ("tau", "s", 1.0), ("sigma", f"N·m·s/{angle}", c), ("Fc", "N·m", 1.0),
+            ("Fs", "N·m", 1.0))
+    head = f"{'':8}" + "".join(f"{f'{k} [{u}]':>18}" for k, u, _ in cols)
+    lines = [head, "-" * len(head)]
+    for name, e in (("true", numbers["plant"]), ("LS sim", sim["ls_estimate"]), ("LS exp", ex["ls_estimate"]),
+                    ("RLS exp", ex["rls_estimate"])):
+        lines.append(f"{name:<8}" + "".join(f"{f * e[k]:>18.4g}" for k, _, f in cols))
+    return "\n".join(lines)
+
+
 def run(args) -> int:
     """Execute ``adaptive-ff paper-figures`` with parsed ``args``; return the exit status."""
-    from controllers.cli.data import command_line, progress_from_args
+    from controllers.cli.data import command_line, per_angle, progress_from_args, table_unit
     from controllers.experiments.paper_figures import PaperFigureOptions, paper_figures
     from controllers.cli.data import check_output_dir
     from plant.errors import ParameterError
@@ -91,8 +122,10 @@ def run(args) -> int:
     st, sim, ex = s["stribeck"], s["simulation"], s["experiment"]
     print(f"plant: {args.plant or 'preset ' + repr(args.preset)}: "
           + ", ".join(f"{k}={v:g}" for k, v in s["plant"].items()))
-    print(f"Fig. 8  Stribeck fit: Fc={st['Fc']:.4g} N·m, Fs={st['Fs']:.4g} N·m, Vs={st['Vs']:.4g} rad/s, "
-          f"delta={st['delta']:.4g}, sigma={st['sigma']:.4g} N·m·s/rad ({st['n_points']} runs)")
+    k, vunit = table_unit(args)
+    c, angle = per_angle(args)
+    print(f"Fig. 8  Stribeck fit: Fc={st['Fc']:.4g} N·m, Fs={st['Fs']:.4g} N·m, Vs={k * st['Vs']:.4g} {vunit}, "
+          f"delta={st['delta']:.4g}, sigma={c * st['sigma']:.4g} N·m·s/{angle} ({st['n_points']} runs)")
     print(f"Fig. 4  simulation, Ts = {sim['Ts'] * 1e3:g} ms, {sim['n_samples']} samples: LS fit one-step "
           f"{sim['ls_fit_one_step']:.2f} %, free run {sim['ls_fit_free_run']:.2f} %")
     print(f"Fig. 5  RLS (lambda = {sim['rls_lam']:g}) a-priori fit {sim['rls_fit']:.2f} %")
@@ -104,11 +137,7 @@ def run(args) -> int:
           f"{mo['reversals']} reversals")
     print(f"Fig. 9  experiment LS fit one-step {ex['ls_fit_one_step']:.2f} %, free run {ex['ls_fit_free_run']:.2f} %")
     print(f"Fig. 11 RLS (lambda = {ex['rls_lam']:g}) a-priori fit {ex['rls_fit']:.2f} %")
-    print(f"{'':8}{'J':>10}{'tau':>10}{'sigma':>10}{'Fc':>10}{'Fs':>10}")
-    rows = [("true", s["plant"]), ("LS sim", sim["ls_estimate"]), ("LS exp", ex["ls_estimate"]),
-            ("RLS exp", ex["rls_estimate"])]
-    for name, e in rows:
-        print(f"{name:<8}" + "".join(f"{e[k]:>10.4g}" for k in ("J", "tau", "sigma", "Fc", "Fs")))
+    print(estimates_table(s, args))
     print("figures: " + ", ".join(str(v) for v in res.figures.values()))
     if res.data_files:
         print("data: " + ", ".join(str(v) for v in res.data_files.values()))
@@ -119,7 +148,7 @@ def run(args) -> int:
 
 def register(sub) -> None:
     """Add the ``paper-figures`` subcommand to an argparse subparsers object."""
-    from controllers.cli.data import PRESET_NAMES, seed_type
+    from controllers.cli.data import PRESET_NAMES, add_units_argument, seed_type
 
     f = sub.add_parser("paper-figures", help="regenerate the paper's Figs. 4, 5, 7, 8, 9, 10, 11, 12 from simulation",
                        description="Simulate the paper's experiments on the joint model (1 kHz RK4) and redraw its "
@@ -149,6 +178,8 @@ def register(sub) -> None:
                         "the joint rarely sticks)")
     f.add_argument("--axis-units", choices=("rad", "deg"), default="rad",
                    help="velocity unit on the figure axes: rad/s (default) or deg/s as in the paper")
+    add_units_argument(f, extra="Converts Vs (deg/s) and sigma (N·m·s/deg) in the printed lines; the figures' "
+                                "axes follow --axis-units")
     f.add_argument("--save-data", action="store_true",
                    help="also write demonstration logs (quasi_static_log.csv, robot_log.csv, controller_log.csv, "
                         "controller.json, plant.json)")

@@ -139,7 +139,8 @@ def run(args) -> int:
               f"{units[k]}")
     print("-" * len(head))
     print(f"residual RMS {fit.residual_rms:.3g} N·m over {fit.n_points} points; converged: {fit.converged}")
-    print(f"\nnext: adaptive-ff identify LOG --Vs {fit.Vs:.6g} --delta {fit.delta:.6g}")
+    print(f"\nnext: adaptive-ff identify LOG --Vs {fit.Vs:.6g} --delta {fit.delta:.6g}"
+          + ("" if vunit == "rad/s" else "   (--Vs in rad/s)"))
     if paths:
         print("figures: " + ", ".join(str(p) for p in paths))
     if report_path:
