@@ -13,7 +13,7 @@ import numpy as np
 
 from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
 
-__all__ = ["OraclePI", "python_control_design"]
+__all__ = ["OraclePI"]
 
 
 class OraclePI:
@@ -153,47 +153,3 @@ class OraclePI:
             return -umax
         self.saturated = False
         return v
-
-
-def python_control_design(J: float, sigma: float, wc: float, pm: float, Tc: float) -> dict:
-    """The PI design by python-control (the reference of the closed form of ``controllers.design.pi``).
-
-    ZOH plant by ``control.sample_system``, gains by ``scipy.optimize.root`` on ``L(exp(j wc Tc)) = -exp(j PM)``,
-    margins by ``control.stability_margins`` with its two known slips on this loop corrected (0.10.2: a
-    spurious phase crossover near ``w = 0`` for a loop with an integrator, the crossover at ``z = -1`` missed).
-    Returns the fields ``Kp, Ki, crossover, phase_margin, gain_margin, phase_crossover, stability_margin``.
-    """
-    import warnings
-
-    import control
-    from scipy import optimize
-
-    pm_rad = math.radians(pm)
-    mag_inv, phi_p = math.hypot(J * wc, sigma), math.atan2(J * wc, sigma)
-    phi_c = math.pi - pm_rad - phi_p
-    Kp0, Ki0 = mag_inv * math.cos(phi_c), wc * mag_inv * math.sin(phi_c)
-    plant = control.sample_system(control.tf([1.0], [J, sigma]), Tc, method="zoh")
-    zc = complex(math.cos(wc * Tc), math.sin(wc * Tc))
-    Pz, integ = complex(plant(zc)), Tc * zc / (zc - 1.0)
-    target = -complex(math.cos(pm_rad), math.sin(pm_rad))
-
-    def residual(x):
-        r = (x[0] * Kp0 + x[1] * Ki0 * integ) * Pz - target
-        return [r.real, r.imag]
-
-    x = optimize.root(residual, [1.0, 1.0], method="hybr").x
-    Kp, Ki = float(x[0] * Kp0), float(x[1] * Ki0)
-    loop = control.series(control.tf([Kp + Ki * Tc, -Kp], [1.0, -1.0], Tc), plant)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        gm_all, pm_all, sm_all, wpc_all, wgc_all, _ = control.stability_margins(loop, returnall=True)
-    i = int(np.argmin(np.abs(np.atleast_1d(wgc_all) - wc)))
-    w_nyq = math.pi / Tc
-    cands = [(float(w), float(g)) for g, w in zip(np.atleast_1d(gm_all), np.atleast_1d(wpc_all))
-             if np.isfinite(w) and float(np.atleast_1d(wgc_all)[i]) < w < w_nyq * (1.0 - 1e-9)]
-    Lnyq = complex(loop(-1.0))
-    if Lnyq.real < 0.0 and abs(Lnyq.imag) <= 1e-9 * abs(Lnyq):
-        cands.append((w_nyq, 1.0 / abs(Lnyq)))
-    wpc, gm = min(cands) if cands else (math.nan, math.inf)
-    return dict(Kp=Kp, Ki=Ki, crossover=float(np.atleast_1d(wgc_all)[i]), phase_margin=float(np.atleast_1d(pm_all)[i]),
-                gain_margin=gm, phase_crossover=wpc, stability_margin=float(np.min(sm_all)))

@@ -1,7 +1,7 @@
 """Analysis of a PI velocity-loop design: closed-loop bandwidth, sensitivity peak, step metrics, Bode and step plots.
 
-Builds on :func:`controllers.design.pi.design_pi` (gains and margins in closed
-form, checked against ``control.stability_margins`` by the tests) and :func:`controllers.design.pi.closed_loop_step`.
+Builds on :func:`controllers.design.pi.design_pi` (gains and margins from
+``control.stability_margins``) and :func:`controllers.design.pi.closed_loop_step`.
 Frequency responses are evaluated on the unit circle ``z = exp(j w Tc)`` by
 ``control.frequency_response``; step metrics by ``control.step_info``.
 python-control and matplotlib are imported by the functions that use them.
@@ -201,7 +201,8 @@ def plot_bode(design: PIDesign):
         Magnitude (dB) and phase (deg) over frequency (rad/s) up to the
         Nyquist frequency ``pi/Tc``; the gain crossover with the phase margin
         and the phase crossover with the gain margin are marked (values from
-        the design, the closed form of :func:`controllers.design.pi.design_pi`).
+        the design, i.e. ``control.stability_margins`` with the corrections of
+        :func:`controllers.design.pi.design_pi`).
     """
     import control
     from matplotlib.figure import Figure

@@ -13,17 +13,15 @@ requested frequency with a requested phase margin; :class:`PIController`
 implements exactly this ``C(z)`` with a saturation, a feedforward input and
 anti-windup by conditional integration (integrator clamping), as one compiled
 step :func:`pi_step` over a parameter and a state buffer (the closed-loop
-engine calls the same kernel). The design (gains, crossover, margins) is closed
-form for this first-order plant and PI, in numpy and :mod:`math`;
-python-control is imported only when a transfer function (``PIDesign.C``,
-``.plant``, ``.loop``), a plot or a step response is asked for, and it is the
-reference the tests check the closed form against.
+engine calls the same kernel). python-control and scipy are imported by the
+design functions when they run, not with this module.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+import warnings
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -38,7 +36,6 @@ __all__ = [
     "closed_loop_step",
     "PIController",
     "pi_step",
-    "zoh_plant",
     "MAX_CROSSOVER_FRACTION",
 ]
 
@@ -46,26 +43,6 @@ __all__ = [
 #: At ``0.2*pi/Tc`` the hold and the sampling already cost about 18 degrees of
 #: phase (``wc*Tc/2``); beyond it the continuous-time picture is meaningless.
 MAX_CROSSOVER_FRACTION = 0.2
-
-
-class _LazyTF:
-    """Data descriptor of a :class:`PIDesign` transfer-function field: the value given to the constructor, else
-    built by ``PIDesign._build_tf`` on first access (python-control is imported only then)."""
-
-    def __init__(self, name: str):
-        self.name = name
-
-    def __get__(self, obj, owner=None):
-        if obj is None:
-            return self  # the dataclass default (stands for "not given")
-        v = obj.__dict__.get(self.name)
-        if v is None:
-            v = obj._build_tf(self.name)
-            obj.__dict__[self.name] = v
-        return v
-
-    def __set__(self, obj, value):
-        obj.__dict__[self.name] = None if value is self else value
 
 
 @dataclass(frozen=True)
@@ -81,9 +58,10 @@ class PIDesign:
     Tc : float
         Controller period (s).
     crossover : float
-        Achieved gain-crossover frequency of ``loop`` (rad/s), closed form (Notes of :func:`design_pi`).
+        Achieved gain-crossover frequency of ``loop`` (rad/s), from
+        ``control.stability_margins``.
     phase_margin : float
-        Achieved phase margin (degrees), closed form.
+        Achieved phase margin (degrees), from ``control.stability_margins``.
     gain_margin : float
         Upper gain margin (factor, not dB): ``1/|L|`` at the first phase
         crossover above ``crossover``; ``inf`` if there is none. See Notes of
@@ -91,19 +69,17 @@ class PIDesign:
     phase_crossover : float
         Frequency of that phase crossover (rad/s), NaN if ``gain_margin`` is inf.
     stability_margin : float
-        Smallest distance of ``L(exp(j w Tc))`` from -1, closed form.
+        Smallest distance of ``L(exp(j w Tc))`` from -1 (``control.stability_margins``).
     J : float
         Design inertia (kg·m²).
     sigma : float
         Design viscous coefficient (N·m·s/rad).
     C : control.TransferFunction
-        Discrete controller ``C(z)`` (``dt = Tc``); built by python-control on first access
-        unless given.
+        Discrete controller ``C(z)`` (``dt = Tc``).
     plant : control.TransferFunction
-        ZOH-discretised plant ``P(z) = b/(z - a)`` (``dt = Tc``, :func:`zoh_plant`); built on first access
-        unless given.
+        ZOH-discretised plant ``P(z)`` (``dt = Tc``).
     loop : control.TransferFunction
-        Open loop ``L(z) = C(z) P(z)``; built on first access unless given.
+        Open loop ``L(z) = C(z) P(z)``.
     """
 
     Kp: float
@@ -116,20 +92,9 @@ class PIDesign:
     stability_margin: float
     J: float
     sigma: float
-    C: control.TransferFunction = field(default=_LazyTF("C"), compare=False, repr=False)
-    plant: control.TransferFunction = field(default=_LazyTF("plant"), compare=False, repr=False)
-    loop: control.TransferFunction = field(default=_LazyTF("loop"), compare=False, repr=False)
-
-    def _build_tf(self, name: str):
-        """The python-control transfer function ``name`` (C, plant or loop) of this design."""
-        import control
-
-        if name == "C":
-            return _pi_tf(self.Kp, self.Ki, self.Tc)
-        if name == "plant":
-            a, b = zoh_plant(self.J, self.sigma, self.Tc)
-            return control.tf([b], [1.0, -a], self.Tc)
-        return control.series(self.C, self.plant)
+    C: control.TransferFunction
+    plant: control.TransferFunction
+    loop: control.TransferFunction
 
     def to_dict(self) -> dict:
         """Gains, margins and design plant as strict JSON (SI units; gain margin also in dB; inf/NaN as None).
@@ -199,6 +164,25 @@ def _pi_tf(Kp: float, Ki: float, Tc: float):
     return control.tf([Kp + Ki * Tc, -Kp], [1.0, -1.0], Tc)
 
 
+def _upper_gain_margin(loop, wgc: float, gm_all, wpc_all, Tc: float):
+    """Gain margin at the first phase crossover above ``wgc`` (factor, frequency in rad/s).
+
+    ``control.stability_margins`` (0.10.2) reports, for a discrete loop with an
+    integrator, a spurious phase crossover at ``w ~ 0`` (where ``|L| -> inf``) and
+    misses the crossover at the Nyquist frequency ``z = -1``; both are handled here.
+    """
+    w_nyq = math.pi / Tc
+    cands = [(float(w), float(g)) for g, w in zip(np.atleast_1d(gm_all), np.atleast_1d(wpc_all))
+             if np.isfinite(w) and wgc < w < w_nyq * (1.0 - 1e-9)]
+    Lnyq = complex(loop(-1.0))
+    if Lnyq.real < 0.0 and abs(Lnyq.imag) <= 1e-9 * abs(Lnyq):
+        cands.append((w_nyq, 1.0 / abs(Lnyq)))
+    if not cands:
+        return math.inf, math.nan
+    w, g = min(cands)
+    return g, w
+
+
 def _continuous_gains(J: float, sigma: float, wc: float, pm: float) -> tuple[float, float]:
     """Step 1 of :func:`design_pi`: ``(Kp, Ki)`` of the continuous-time loop-shaping solution."""
     pm_rad = math.radians(pm)
@@ -216,52 +200,28 @@ def _continuous_gains(J: float, sigma: float, wc: float, pm: float) -> tuple[flo
     return mag_inv * math.cos(phi_c), wc * mag_inv * math.sin(phi_c)
 
 
-def zoh_plant(J: float, sigma: float, Tc: float) -> tuple[float, float]:
-    """``(a, b)`` of the ZOH-discretised plant ``P(z) = b/(z - a)`` of ``P(s) = 1/(J s + sigma)``.
+def _discrete_gains(plant, Kp0: float, Ki0: float, wc: float, pm: float, Tc: float) -> tuple[float, float]:
+    """Step 2 of :func:`design_pi`: solve ``L(exp(j wc Tc)) = -exp(j PM)`` for ``(Kp, Ki)``, from ``(Kp0, Ki0)``."""
+    from scipy import optimize
 
-    Parameters
-    ----------
-    J : float
-        Inertia (kg·m²), > 0.
-    sigma : float
-        Viscous coefficient (N·m·s/rad), >= 0.
-    Tc : float
-        Sampling period (s), > 0.
-
-    Returns
-    -------
-    (float, float)
-        ``a = exp(-sigma*Tc/J)`` (1 for ``sigma = 0``) and ``b = (1 - a)/sigma`` (rad/s per N·m; ``Tc/J`` for
-        ``sigma = 0``), with ``1 - a`` from ``expm1`` (no cancellation for small ``sigma*Tc/J``).
-
-    Notes
-    -----
-    Zero-order-hold equivalent of a first-order lag (Franklin, Powell, Workman, *Digital Control of Dynamic
-    Systems*, 3rd ed., Sec. 6.2), exact for a command held over the period; ``control.sample_system(...,
-    method="zoh")`` gives the same to its matrix-exponential rounding (tests/test_pi.py).
-    """
-    x = sigma * Tc / J
-    if x == 0.0:
-        return 1.0, Tc / J
-    return math.exp(-x), -math.expm1(-x) / sigma
-
-
-def _unit(theta: float, a: float) -> tuple[complex, complex]:
-    """``(z - 1, z - a)`` at ``z = exp(j theta)``, without the cancellation of ``cos(theta) - 1``."""
-    y = 2.0 * math.sin(0.5 * theta) ** 2  # 1 - cos(theta)
-    u = complex(-y, math.sin(theta))
-    return u, u + (-math.expm1(math.log(a)) if a != 1.0 else 0.0)
-
-
-def _discrete_gains(a: float, b: float, wc: float, pm: float, Tc: float) -> tuple[float, float]:
-    """Step 2 of :func:`design_pi`: ``(Kp, Ki)`` with ``L(exp(j wc Tc)) = -exp(j PM)`` (linear in the gains)."""
     pm_rad = math.radians(pm)
-    zm1, zma = _unit(wc * Tc, a)
-    integ = Tc * (zm1 + 1.0) / zm1  # Tc z/(z - 1)
-    c = -complex(math.cos(pm_rad), math.sin(pm_rad)) * zma / b  # = C(z) = Kp + Ki*integ
-    Ki = c.imag / integ.imag
-    Kp = c.real - Ki * integ.real
-    if not (Kp > 0.0 and Ki > 0.0 and math.isfinite(Kp) and math.isfinite(Ki)):
+    zc = complex(math.cos(wc * Tc), math.sin(wc * Tc))
+    Pz = complex(plant(zc))
+    integ = Tc * zc / (zc - 1.0)
+    target = -complex(math.cos(pm_rad), math.sin(pm_rad))
+
+    def residual(x):
+        r = (x[0] * Kp0 + x[1] * Ki0 * integ) * Pz - target
+        return [r.real, r.imag]
+
+    sol = optimize.root(residual, [1.0, 1.0], method="hybr")
+    Kp, Ki = float(sol.x[0] * Kp0), float(sol.x[1] * Ki0)
+    if max(abs(v) for v in residual(sol.x)) > 1e-9:
+        raise ParameterError(
+            f"no discrete PI found for crossover={wc!r} rad/s, phase_margin={pm!r} deg, "
+            f"Tc={Tc!r} s ({sol.message})"
+        )
+    if Kp <= 0.0 or Ki <= 0.0:
         raise ParameterError(
             f"crossover={wc!r} rad/s with phase_margin={pm!r} deg needs Kp={Kp:.6g}, Ki={Ki:.6g} "
             f"at Tc={Tc!r} s (sampling lag too large); lower crossover or phase_margin"
@@ -269,42 +229,33 @@ def _discrete_gains(a: float, b: float, wc: float, pm: float, Tc: float) -> tupl
     return Kp, Ki
 
 
-def _positive_root(A: float, B: float, C: float) -> float:
-    """The positive root of ``A y**2 + B y + C`` with ``A > 0 > C`` (numerically stable form)."""
-    q = math.sqrt(B * B - 4.0 * A * C)
-    return 2.0 * C / (-B - q) if B >= 0.0 else (-B + q) / (2.0 * A)
-
-
-def _margins(a: float, b: float, Kp: float, Ki: float, Tc: float, wc: float, pm: float) -> tuple:
+def _margins(loop, wc: float, pm: float, Tc: float) -> tuple[float, float, float, float, float]:
     """Step 3 of :func:`design_pi`: ``(crossover, phase margin, gain margin, phase crossover, stability margin)``.
 
-    In ``y = 1 - cos(w Tc)`` with ``d = 1 - a``, ``c1 = Kp + Ki Tc``, ``c0 = Kp``: ``|L|**2 = 1`` is
-    ``4a y**2 + (2d**2 - 2b**2 c0 c1) y - (b Ki Tc)**2 = 0`` (one positive root: one crossover);
-    ``Im L = 0`` on ``(0, pi)`` would need ``cos(w Tc) = (1 + a)/2 + c1 d/(2 c0) > 1``: the only phase crossover
-    is ``z = -1``, ``GM = 1/|L(-1)| = 2(1 + a)/(b(c1 + c0))``; ``|1 + L|**2 = Q(y)/R(y)`` with
-    ``R = 2y(d**2 + 2a y)`` and ``Q = |char(z)|**2`` (closed-loop characteristic polynomial in ``z - 1``), minimised
-    where ``Q'R - QR' = 0`` (a quadratic) or at ``y = 2``. Raises ParameterError if the closed loop is unstable.
+    Raises ParameterError if the closed loop ``loop/(1 + loop)`` is unstable.
     """
-    c1, c0, d = Kp + Ki * Tc, Kp, (-math.expm1(math.log(a)) if a != 1.0 else 0.0)
-    g1, g0 = d + b * c1, b * Ki * Tc  # char(z) = (z - 1)**2 + g1 (z - 1) + g0 = (z - 1)(z - a) + b (c1 z - c0)
-    poles = np.roots([1.0, g1 - 2.0, 1.0 - g1 + g0])
+    import control
+
+    poles = control.poles(control.feedback(loop, 1))
     if np.any(np.abs(poles) >= 1.0):
         raise ParameterError(
             f"crossover={wc!r} rad/s, phase_margin={pm!r} deg give an unstable discrete closed loop "
             f"(pole moduli {np.abs(poles).round(6).tolist()}) at Tc={Tc!r} s"
         )
-    y = _positive_root(4.0 * a, 2.0 * d * d - 2.0 * b * b * c0 * c1, -g0 * g0)
-    theta = 2.0 * math.asin(math.sqrt(0.5 * y)) if y <= 2.0 else math.pi
-    zm1, zma = _unit(theta, a)
-    L = b * (c1 * zm1 + Ki * Tc) / (zm1 * zma)
-    pm_ach = 180.0 + math.degrees(math.atan2(L.imag, L.real))
-    gm = 2.0 * (1.0 + a) / (b * (c1 + c0))
-    Q2, Q1, Q0 = 4.0 - 4.0 * g1 + 4.0 * g0, 2.0 * g1 * g1 - 4.0 * g0 - 2.0 * g1 * g0, g0 * g0
-    R2, R1 = 4.0 * a, 2.0 * d * d
-    cands = [2.0] + [float(r.real) for r in np.roots([Q2 * R1 - Q1 * R2, -2.0 * Q0 * R2, -Q0 * R1])
-                     if abs(r.imag) <= 1e-12 * abs(r) and 0.0 < r.real < 2.0]
-    sm2 = min(((Q2 * v + Q1) * v + Q0) / ((R2 * v + R1) * v) for v in cands)
-    return theta / Tc, pm_ach, gm, math.pi / Tc, math.sqrt(sm2)
+    with warnings.catch_warnings():
+        # for poles close to z = 1 (crossover << 1/Tc) python-control switches from its
+        # polynomial to its frequency-grid method and says so; both are accurate here
+        warnings.filterwarnings("ignore", message="stability_margins: Falling back", category=UserWarning)
+        # its frequency-grid search probes points where the response is inf (z = 1) and scipy's
+        # finite differences warn about inf - inf; the margins it returns are unaffected
+        warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"scipy\.optimize\._numdiff")
+        gm_all, pm_all, sm_all, wpc_all, wgc_all, _ = control.stability_margins(loop, returnall=True)
+    i = int(np.argmin(np.abs(np.atleast_1d(wgc_all) - wc)))
+    wgc = float(np.atleast_1d(wgc_all)[i])
+    pm_ach = float(np.atleast_1d(pm_all)[i])
+    gm, wpc = _upper_gain_margin(loop, wgc, gm_all, wpc_all, Tc)
+    sm = float(np.min(sm_all)) if np.size(sm_all) else math.nan
+    return wgc, pm_ach, gm, wpc, sm
 
 
 def design_pi(
@@ -349,30 +300,30 @@ def design_pi(
 
     Notes
     -----
-    Plant discretised with a zero-order hold (:func:`zoh_plant`), which
+    Plant discretised with a zero-order hold (``control.sample_system``), which
     is exact for a command held over the period (Franklin, Powell, Workman,
     *Digital Control of Dynamic Systems*, 3rd ed., Sec. 6.2); the controller
-    uses the backward-Euler integrator of :class:`PIController`. Every step is
-    closed form (numpy and :mod:`math` only: python-control is not imported);
-    tests/test_pi.py checks the gains and the margins against python-control's
-    ``sample_system`` and ``stability_margins``.
+    uses the backward-Euler integrator of :class:`PIController`.
 
     1. Continuous-time start (Åström & Murray, *Feedback Systems*, 2nd ed.,
        Sec. 11.4 (loop shaping)): with ``phi_p = atan2(J wc, sigma)`` the plant
        lag at ``wc``, the PI lag is ``phi_c = 180 deg - PM - phi_p`` and
        ``Kp = |J j wc + sigma| cos(phi_c)``, ``Ki = wc |J j wc + sigma| sin(phi_c)``.
-    2. Discrete gains: ``L(exp(j wc Tc)) = -exp(j PM)`` (magnitude 1, phase
-       ``PM - 180 deg``) is linear in ``(Kp, Ki)``: ``C(z) = -exp(j PM)/P(z)``,
-       real and imaginary parts solved directly. Step 1 only checks that the
-       target is reachable.
-    3. Margins in closed form (:func:`_margins`): one gain crossover (a
-       quadratic in ``1 - cos(w Tc)``), the phase stays above -180 deg on
-       ``(0, pi/Tc)`` and reaches it at the Nyquist frequency, so the gain
-       margin is the upper one, ``GM = 1/|L(-1)|``; the stability margin
-       ``min |1 + L|`` from the zeros of a quadratic. python-control 0.10.2's
-       ``stability_margins`` on this loop reports a spurious crossover near
-       ``w = 0`` and misses ``z = -1``, which the former implementation corrected.
+    2. Discrete refinement: ``scipy.optimize.root`` solves
+       ``L(exp(j wc Tc)) = -exp(j PM)`` (magnitude 1, phase ``PM - 180 deg``) for
+       ``(Kp, Ki)``. ``C`` is linear in the gains, so this converges in a few
+       iterations to machine precision. For this plant and controller ``|L|``
+       decreases monotonically on ``(0, pi/Tc)``, so ``wc`` is the only crossover.
+    3. Margins from ``control.stability_margins`` on the discrete loop. The
+       gain margin is the upper one, at the first -180 deg crossing above
+       ``wc``. For this loop the phase stays above -180 deg on ``(0, pi/Tc)``
+       and reaches it at the Nyquist frequency (``L(-1)`` is real and
+       negative), so ``GM = 1/|L(-1)|``. python-control 0.10.2 reports a
+       spurious crossover near ``w = 0`` for loops with an integrator (phase
+       tends to -180 deg there) and misses ``z = -1``; both are corrected.
     """
+    import control
+
     J = check_positive("J", J)
     sigma = check_nonnegative("sigma", sigma)
     Tc = check_positive("Tc", Tc)
@@ -387,12 +338,15 @@ def design_pi(
     if not 0.0 < pm < 90.0:
         raise ParameterError(f"phase_margin must be in (0, 90) degrees, got {pm!r}")
 
-    _continuous_gains(J, sigma, wc, pm)  # 1. the continuous-time solution exists (else a ParameterError)
-    a, b = zoh_plant(J, sigma, Tc)
-    Kp, Ki = _discrete_gains(a, b, wc, pm, Tc)  # 2. discrete gains
-    wgc, pm_ach, gm, wpc, sm = _margins(a, b, Kp, Ki, Tc, wc, pm)  # 3. stability, margins
+    Kp0, Ki0 = _continuous_gains(J, sigma, wc, pm)  # 1. continuous-time analytic solution
+    plant = control.sample_system(control.tf([1.0], [J, sigma]), Tc, method="zoh")
+    Kp, Ki = _discrete_gains(plant, Kp0, Ki0, wc, pm, Tc)  # 2. discrete refinement
+    C = _pi_tf(Kp, Ki, Tc)
+    loop = control.series(C, plant)
+    wgc, pm_ach, gm, wpc, sm = _margins(loop, wc, pm, Tc)  # 3. stability, margins
     return PIDesign(Kp=Kp, Ki=Ki, Tc=Tc, crossover=wgc, phase_margin=pm_ach, gain_margin=gm,
-                    phase_crossover=wpc, stability_margin=sm, J=J, sigma=sigma)
+                    phase_crossover=wpc, stability_margin=sm, J=J, sigma=sigma, C=C,
+                    plant=plant, loop=loop)
 
 
 @dataclass(frozen=True)
