@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
 from plant.errors import ParameterError, check_positive
 
@@ -64,6 +63,8 @@ def bandlimited_noise(duration: float, *, dt: float = 1e-3, cutoff: float = 2.0,
     std = check_positive("std", std)
     if cutoff >= 0.5 / dt:
         raise ParameterError(f"cutoff = {cutoff!r} Hz must be below the Nyquist frequency {0.5 / dt!r} Hz")
+    from scipy import signal  # lazy: ~0.3 s of import, needed only here (not by multisine_reference)
+
     sos = signal.butter(int(order), cutoff, fs=1.0 / dt, output="sos")
     x = signal.sosfilt(sos, rng.standard_normal(t.shape[0]))
     x -= x.mean()

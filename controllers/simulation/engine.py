@@ -215,12 +215,18 @@ def _alive(x, b0, b1):
 
 
 @kernel(nogil=True, _nrt=False, error_model="numpy")
-def _run_chunk(x, b0, b1):
-    """Scenarios ``b0..b1-1`` over all periods, time-major (allocates nothing: compiled without numba's
-    reference counting, which would otherwise wrap every inlined component call taking arrays). The metrics
-    class of a period (second half, reversal window) depends on the time alone: computed once per period.
-    IEEE division (``error_model="numpy"``): no zero-divisor test before each of the ~12 divisions of a step
-    (the same quotients; a zero divisor gives inf/NaN, caught by the divergence test, instead of raising)."""
+def _run_chunk(x, b0, b1, full):
+    """Scenarios ``b0..b1-1`` over all periods, time-major; the period function is :func:`_period_plain` (kinds
+    none and oracle, nothing recorded) if ``full`` is None, else :func:`_period` (``full`` = True).
+
+    The choice is made by the type of ``full``: numba compiles one specialisation for None and one for a bool,
+    and its dead-branch pruning removes the other period function from each (``is None`` on an argument is
+    known at compile time), so the plain path keeps its speed and the loop exists once.
+    Allocates nothing: compiled without numba's reference counting, which would otherwise wrap every inlined
+    component call taking arrays. The metrics class of a period (second half, reversal window) depends on the
+    time alone: computed once per period. IEEE division (``error_model="numpy"``): no zero-divisor test before
+    each of the ~12 divisions of a step (the same quotients; a zero divisor gives inf/NaN, caught by the
+    divergence test, instead of raising)."""
     n = x.wr.shape[0]
     n_alive = _alive(x, b0, b1)
     tmid = 0.5 * (x.t[0] + x.t[-1])
@@ -230,24 +236,13 @@ def _run_chunk(x, b0, b1):
             break
         where, ip = metrics_where(x.t[k], tmid, x.revs, x.window, ip)
         for b in range(b0, b1):
-            if x.eng_state[b, _DIV] == 0.0 and not _period(x, b, k, where):
-                n_alive -= 1
-
-
-@kernel(nogil=True, _nrt=False, error_model="numpy")
-def _run_chunk_plain(x, b0, b1):
-    """:func:`_run_chunk` with :func:`_period_plain` (kinds none and oracle, nothing recorded)."""
-    n = x.wr.shape[0]
-    n_alive = _alive(x, b0, b1)
-    tmid = 0.5 * (x.t[0] + x.t[-1])
-    ip = 0
-    for k in range(n):
-        if n_alive == 0:
-            break
-        where, ip = metrics_where(x.t[k], tmid, x.revs, x.window, ip)
-        for b in range(b0, b1):
-            if x.eng_state[b, _DIV] == 0.0 and not _period_plain(x, b, k, where):
-                n_alive -= 1
+            if x.eng_state[b, _DIV] == 0.0:
+                if full is None:
+                    alive = _period_plain(x, b, k, where)
+                else:
+                    alive = _period(x, b, k, where)
+                if not alive:
+                    n_alive -= 1
 
 
 #: Scenarios per chunk: at most this many, at least _CHUNK_MIN (else B / threads).
@@ -269,14 +264,13 @@ def run_engine(x: EngineInputs) -> None:
     threads = numba.get_num_threads()  # NUMBA_NUM_THREADS, default: the cores
     chunk = max(_CHUNK_MIN, min(_CHUNK, -(-B // threads)))
     bounds = [(b0, min(B, b0 + chunk)) for b0 in range(0, B, chunk)]
-    plain = x.kind in (KIND_NONE, KIND_ORACLE) and x.decimate == 0
-    run = _run_chunk_plain if plain else _run_chunk
+    full = None if x.kind in (KIND_NONE, KIND_ORACLE) and x.decimate == 0 else True  # selects the period function
     if threads == 1 or len(bounds) == 1:
         for b0, b1 in bounds:
-            run(x, b0, b1)
+            _run_chunk(x, b0, b1, full)
     else:
         with ThreadPoolExecutor(max_workers=min(threads, len(bounds))) as pool:
-            list(pool.map(lambda b: run(x, *b), bounds))
+            list(pool.map(lambda b: _run_chunk(x, b[0], b[1], full), bounds))
     live = x.eng_state[:, _DIV] == 0.0
     x.eng_state[live, _KEND] = x.wr.shape[0]
 
