@@ -73,8 +73,12 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-SLOW = {"preset": "paper", "grid": {"Fc": [20.0, 23.0, 26.0, 30.0]}, "seeds": [0],
-        "modes": ["none", "adaptive"], "duration": 5.0, "options": {"Vs": 0.02, "delta": 1.0}}
+# Enough work that the interrupt cannot arrive after the last case even on a slow, loaded machine: with four
+# short cases (CI run of 53829ed) all four were written before SIGINT landed. 24 cases of 60 s simulated take
+# ~3 s on two idle cores after the first case is written, ~0.3 s per case and worker.
+N_SLOW = 24
+SLOW = {"preset": "paper", "grid": {"Fc": [20.0 + k for k in range(N_SLOW)]}, "seeds": [0],
+        "modes": ["none", "adaptive"], "duration": 60.0, "options": {"Vs": 0.02, "delta": 1.0}}
 CLI = "import sys; from controllers.cli import main; sys.exit(main())"
 
 
@@ -136,7 +140,7 @@ def test_sigint_stops_workers_keeps_finished_cases_and_exits_130(tmp_path):
     assert stop < 2.0, f"the workers took {stop:.2f} s to stop"
     assert "interrupted" in err and "rerun the same command to resume" in err and "Traceback" not in err
     done = _cases_in(out)
-    assert 1 <= len(done) < 4 and all(sorted(m) == ["adaptive", "none"] for m in done.values())
+    assert 1 <= len(done) < N_SLOW and all(sorted(m) == ["adaptive", "none"] for m in done.values())
     # resuming (the rest runs, nothing twice) is tested after kill -9 below
 
 
@@ -149,9 +153,9 @@ def test_kill_9_then_resume_loses_nothing_and_duplicates_nothing(tmp_path):
     before = _cases_in(out)
     spec = load_spec(SLOW)
     s = run_sweep(spec, out, workers=2, progress=False)
-    assert s["n_skipped"] == len(before) and s["n_cases"] == 4
+    assert s["n_skipped"] == len(before) and s["n_cases"] == N_SLOW
     final = _cases_in(out)
-    assert len(final) == 4 and all(sorted(m) == ["adaptive", "none"] for m in final.values())
+    assert len(final) == N_SLOW and all(sorted(m) == ["adaptive", "none"] for m in final.values())
 
 
 def test_partly_written_case_is_rerun_without_duplicates(tmp_path):
