@@ -29,15 +29,17 @@ optional drift) from the box of :class:`ZooBox` (issue 11, item 6):
 :func:`run_zoo` prepares every joint as :func:`controllers.experiments.compare.compare`
 does (its :func:`~controllers.experiments.compare.prepare_comparison`: the PI from
 the design inertia, the Stribeck pre-fit from simulated quasi-static runs and the
-offline fit of ``fixed`` from a simulated identification run; never the true
-friction), then runs each mode on groups of joints with
-:func:`controllers.simulation.batch.run_batch` (all cores), and reports ``eta``
+offline fit of ``fixed`` from a simulated identification run, or the pre-fit's
+static map where that fit is rejected; never the true friction), then runs each
+mode on the joint's group with :func:`controllers.simulation.batch.run_batch`
+(groups of ``group`` joints on ``workers`` processes, or Dask), and reports ``eta``
 (second half) per joint and mode. Every (joint, mode) has one outcome
 (:data:`STATUSES`, :meth:`ZooResult.status`), counted apart in the table:
 
 - ``refused``: the preparation or the engine refused the joint (no mode ran), or
-  this mode could not be built for it (e.g. the offline fit of ``fixed``
-  rejected as implausible), with the reason;
+  this mode could not be built for it, with the reason (``fixed`` no longer is
+  when its offline fit is rejected: it falls back to the pre-fit's static map,
+  :meth:`ZooResult.fixed_fallbacks`);
 - ``diverged``: the run left the engine's velocity bound;
 - ``undefined``: friction does not measurably degrade the uncompensated loop
   (its second-half RMS error is within ``min_degradation`` of the frictionless
@@ -397,6 +399,11 @@ class ZooResult:
         """``{mode: {status: number of joints}}`` (:data:`STATUSES`)."""
         return {m: {s: int(np.count_nonzero(self.status(m) == s)) for s in STATUSES} for m in self.modes}
 
+    def fixed_fallbacks(self) -> list:
+        """Joints where the offline fit of ``fixed`` was rejected and the pre-fit's static map used instead (a
+        ``"fixed:"`` note, :func:`controllers.experiments.compare.prepare_comparison`), ascending."""
+        return sorted(i for i, nts in self.notes.items() if any(n.startswith("fixed:") for n in nts))
+
     def adaptive_modes(self) -> tuple:
         """The modes named ``adaptive*`` (the adaptive friction feedforward and its composites)."""
         return tuple(m for m in self.modes if m.startswith("adaptive"))
@@ -504,6 +511,10 @@ class ZooResult:
             med = [float(np.nanmedian(best[s])) if np.isfinite(best[s]).any() else math.nan for s in (neg, ~neg)]
             lines.append(f"delta < 0 (friction rising with speed): {int(neg.sum())} joints, best adaptive median "
                          f"{med[0]:.3f}; delta > 0: median {med[1]:.3f}")
+        fb = self.fixed_fallbacks()
+        if fb:
+            lines.append(f"fixed: offline fit rejected on {len(fb)} joint(s), the pre-fit's static map used instead "
+                         f"(#{', #'.join(str(i) for i in fb[:10])}{', ...' if len(fb) > 10 else ''})")
         for i, why in sorted(self.refused.items())[:10]:
             lines.append(f"refused #{i} ({self.plants[i].get('model')}): {why}")
         for m, d in self.mode_refused.items():
@@ -537,7 +548,7 @@ def _prepare(spec, o: CompareOptions) -> tuple:
     try:
         p = plant_from_dict(spec)
         plant_table(p, _reference(o).t, o.Tc)  # refuses a plant the engine cannot integrate (every row)
-        s = prepare_comparison(p, o)
+        s = prepare_comparison(p, o, reference=_reference(o))
         s.bar.close()
     except Exception as exc:  # noqa: BLE001 - any refusal is a result of the zoo, with its reason
         return None, None, None, (), f"{type(exc).__name__}: {exc}"
