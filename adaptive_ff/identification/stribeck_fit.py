@@ -16,9 +16,10 @@ The optimiser works on ``x = (Fc, Fs, log Vs, delta, sigma)`` so ``Vs = exp(x[2]
 is positive by construction. For fixed ``(Vs, delta)`` the model is linear in
 ``(Fc, Fs, sigma)``; the initial guesses use this (a grid over ``Vs`` with the
 linear parameters solved by least squares, the idea of separable least squares,
-Golub & Pereyra 1973), then ``scipy.optimize.least_squares(method="lm")``
-(MINPACK's Levenberg-Marquardt, Moré 1978) refines all five parameters with
-an analytic Jacobian.
+Golub & Pereyra 1973), then MINPACK's Levenberg-Marquardt (``lmder``, Moré 1978,
+through :func:`scipy.optimize.leastsq`: the iterations of
+``scipy.optimize.least_squares(method="lm")`` with less overhead per evaluation)
+refines all five parameters with an analytic, compiled Jacobian.
 
 Sign of the shape factor
 ------------------------
@@ -519,10 +520,10 @@ def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0), fal
     Model: ``F(w) = sgn(w)*(Fc + (Fs - Fc)*exp(-|w/Vs|**delta)) + sigma*w``
     (Ruderman, eq. 3), fitted as in the paper's Sec. V-C (Levenberg-Marquardt
     on the averaged support points of bidirectional quasi-static runs, Fig. 8).
-    Optimiser: :func:`scipy.optimize.least_squares` with ``method="lm"``
-    (MINPACK, Moré 1978, "The Levenberg-Marquardt algorithm: implementation
-    and theory"), analytic Jacobian, parameters ``(Fc, Fs, log Vs, delta,
-    sigma)`` so that ``Vs > 0``.
+    Optimiser: MINPACK's ``lmder`` through :func:`scipy.optimize.leastsq`
+    (Moré 1978, "The Levenberg-Marquardt algorithm: implementation and
+    theory"; the iterations of ``least_squares(method="lm")``), analytic
+    Jacobian, parameters ``(Fc, Fs, log Vs, delta, sigma)`` so that ``Vs > 0``.
 
     Initial guess (``p0=None``): a Coulomb + viscous line by linear least
     squares on the higher-speed half of the points gives the sign of the
