@@ -215,7 +215,8 @@ class IdentificationReport:
             estimate, its ``fit_percent`` and ``lam``); ``rel_std`` (standard
             errors in % of the value); ``excitation`` (``noise_std``,
             ``n_reversals``, ``low_speed_fraction``), ``warnings`` (list of
-            ``{"code", "parameter", "message"}``), ``method`` and, for a method other than ``"paper"``,
+            ``{"code", "parameter", "message"}``), ``notes`` (list of str: preprocessing and the choices
+            made, as printed by :meth:`summary`), ``method`` and, for a method other than ``"paper"``,
             ``physical`` (:meth:`PhysicalFit.to_dict`). Non-finite values become ``None``.
         """
         e = self.estimate
@@ -240,6 +241,7 @@ class IdentificationReport:
             out["excitation"] = {"noise_std": x.noise_std, "n_reversals": int(x.n_reversals),
                                  "low_speed_fraction": x.low_speed_fraction}
         out["warnings"] = [_warning_dict(w) for w in self.warnings]
+        out["notes"] = [str(n) for n in self.notes]
         if self.physical is not None:
             out["method"] = self.physical.method
             out["physical"] = self.physical.to_dict()
