@@ -103,4 +103,7 @@ def test_cli_json_carries_the_notes_as_strict_json(record, tmp_path, capsys):
 def test_report_to_dict_notes_equal_the_report_notes(report):
     d = json.loads(json.dumps(report.to_dict(), allow_nan=False))
     assert d["notes"] == list(report.notes)
-    assert any("physical parameters by 'output_error'" in n for n in d["notes"])
+    note = next(n for n in d["notes"] if "physical parameters by 'output_error'" in n)
+    boot = report.physical.info["bootstrap"]
+    assert report.physical.info["stderr_kind"] == "bootstrap" and f"({boot['n_valid']} refits" in note
+    assert f"± is the bootstrap standard error ({boot['n_valid']} refits" in report.physical.summary()

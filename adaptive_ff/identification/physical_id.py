@@ -233,6 +233,10 @@ class PhysicalFit:
         lines += [f"  {k:<7}{v:>13.6g} ± {self.stderr.get(k, float('nan')):<10.3g}{units.get(k, '')}"
                   for k, v in self.params.items()]
         lines.append(f"  fit ({self.nrmse_kind}) {self.nrmse:.3f} %, cond {self.cond:.3g}")
+        if self.info.get("stderr_kind"):
+            boot = self.info.get("bootstrap") or {}
+            lines.append(f"  ± is the {self.info['stderr_kind']} standard error"
+                         + (f" ({boot.get('n_valid')} refits, seed {boot.get('seed')})" if boot else ""))
         return "\n".join(lines)
 
 
