@@ -20,8 +20,9 @@ Colours are the Okabe-Ito palette (Okabe and Ito, "Color Universal Design",
 per mode in every figure (:data:`MODE_COLORS`). Long records are drawn as
 min/max envelopes over display bins (:func:`minmax_envelope`), so a 120 s run
 at 1 kHz costs a few thousand vertices, and the figures use fixed margins
-instead of a layout engine (both for speed). Velocities are shown in deg/s,
-torques in N·m.
+instead of a layout engine (both for speed); ``plot_comparison(..., jobs=2)``
+draws them in two processes (a forked copy inherits the runs). Velocities are
+shown in deg/s, torques in N·m.
 """
 
 from __future__ import annotations
@@ -633,35 +634,44 @@ def plot_comparison(comp, out_dir, *, dpi: int = _DPI, jobs: int = 1) -> list[Pa
     return [out / f"{name}.png" for name in names if name in written]
 
 
-#: Relative cost of drawing each figure (CPU seconds on the 120 s paper comparison, rounded): it decides the shares.
-_FIGURE_COST = {"tracking": 0.3, "error": 0.5, "friction": 0.55, "rls_convergence": 0.35, "eta": 0.25}
+#: Relative cost of drawing each figure (thread CPU seconds, median of 5, 120 s paper comparison): it decides the shares.
+_FIGURE_COST = {"tracking": 0.24, "error": 0.45, "friction": 0.31, "rls_convergence": 0.33, "eta": 0.19}
 
 
 def figure_shares(names, jobs: int) -> list[list[str]]:
-    """Split figure ``names`` into ``jobs`` shares of about equal drawing cost (longest first, to the lightest share).
+    """Split figure ``names`` into ``jobs`` shares of about equal drawing cost (:data:`_FIGURE_COST`).
 
     Parameters
     ----------
     names : sequence of str
-        Figure names of :func:`plot_comparison` (unknown names count as cost 0.4).
+        Figure names of :func:`plot_comparison` (unknown names count as cost 0.3).
     jobs : int
         Number of shares, >= 1.
 
     Returns
     -------
     list of list of str
-        ``jobs`` lists, each in the order of ``names``; together every name once.
-        The greedy longest-processing-time rule (Graham, "Bounds on
-        multiprocessing timing anomalies", SIAM J. Appl. Math. 17, 1969).
+        ``jobs`` lists, each in the order of ``names``; together every name
+        once. The assignment with the smallest largest share among all
+        ``jobs**len(names)`` when that is at most 4096 (five figures on up to
+        five processes), else the greedy longest-processing-time rule
+        (Graham, "Bounds on multiprocessing timing anomalies", SIAM J. Appl.
+        Math. 17, 1969); the first share is never lighter than the others.
     """
-    shares = [[] for _ in range(max(int(jobs), 1))]
-    load = [0.0] * len(shares)
-    for name in sorted(names, key=lambda n: -_FIGURE_COST.get(n, 0.4)):
-        k = load.index(min(load))
-        shares[k].append(name)
-        load[k] += _FIGURE_COST.get(name, 0.4)
-    order = {n: i for i, n in enumerate(names)}
-    return [sorted(s, key=order.__getitem__) for s in shares]
+    import itertools
+
+    jobs = max(int(jobs), 1)
+    cost = [_FIGURE_COST.get(n, 0.3) for n in names]
+    if jobs ** len(names) <= 4096:
+        best = min(itertools.product(range(jobs), repeat=len(names)),
+                   key=lambda a: max(sum(c for c, k in zip(cost, a) if k == j) for j in range(jobs)))
+    else:
+        best, load = [0] * len(names), [0.0] * jobs
+        for i in sorted(range(len(names)), key=lambda i: -cost[i]):
+            best[i] = load.index(min(load))
+            load[best[i]] += cost[i]
+    shares = [[n for n, k in zip(names, best) if k == j] for j in range(jobs)]
+    return sorted(shares, key=lambda s: -sum(_FIGURE_COST.get(n, 0.3) for n in s))
 
 
 def _render(comp, out: Path, dpi: int, names) -> list[str]:
