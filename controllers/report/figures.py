@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 import os
 import signal
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -597,13 +598,15 @@ def plot_comparison(comp, out_dir, *, dpi: int = _DPI, jobs: int = 1) -> list[Pa
         Resolution (dots per inch), default 100.
     jobs : int, keyword-only
         Processes that render the figures, >= 1 (default 1: this process).
-        With ``jobs > 1`` on a system with ``os.fork`` (Linux, macOS), the
+        With ``jobs > 1`` on Linux, the
         figures are shared among this process and ``jobs - 1`` forked copies
         of it (:func:`figure_shares`), which inherit ``comp`` without copying
         it; matplotlib draws a figure in one thread only, so this is how the
         figures use more than one core. The files are the same bytes as with
         ``jobs=1``. A copy that fails leaves its figures to this process,
-        which then raises the error itself.
+        which then raises the error itself. Elsewhere (macOS, where forking a
+        process that has used system frameworks is unsafe; Windows, no fork)
+        every figure is drawn here.
 
     Returns
     -------
@@ -622,11 +625,11 @@ def plot_comparison(comp, out_dir, *, dpi: int = _DPI, jobs: int = 1) -> list[Pa
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     names = [name for name, _ in _FIGURES]
-    shares = figure_shares(names, min(int(jobs), len(names)) if hasattr(os, "fork") else 1)
+    shares = figure_shares(names, min(int(jobs), len(names)) if sys.platform.startswith("linux") else 1)
     written = set()
-    children = _fork_figure_workers(comp, out, dpi, shares[1:])
+    children, unforked = _fork_figure_workers(comp, out, dpi, shares[1:])
     try:
-        written.update(_render(comp, out, dpi, shares[0]))
+        written.update(_render(comp, out, dpi, shares[0] + unforked))
     finally:
         done, failed = _join_figure_workers(children)
     written.update(done)
@@ -688,19 +691,32 @@ def _render(comp, out: Path, dpi: int, names) -> list[str]:
     return written
 
 
-def _fork_figure_workers(comp, out: Path, dpi: int, shares) -> list[tuple[int, int, list[str]]]:
-    """Fork one copy of this process per share; each draws its share and reports the files on a pipe."""
-    import matplotlib.backends.backend_agg  # noqa: F401 - imported (font cache loaded) once, before the fork
-    import sys
+def _fork_figure_workers(comp, out: Path, dpi: int, shares) -> tuple[list[tuple[int, int, list[str]]], list[str]]:
+    """Fork one copy of this process per share; each draws its share and reports the files on a pipe.
 
-    children = []
+    Returns the copies ``(pid, read end of its pipe, share)`` and the figures of shares no copy could be made for.
+    """
+    import warnings
+
+    import matplotlib.backends.backend_agg  # noqa: F401 - imported (font cache loaded) once, before the fork
+
+    children, unforked = [], []
     for share in shares:
         if not share:
             continue
         sys.stdout.flush()
         sys.stderr.flush()
         r, w = os.pipe()
-        pid = os.fork()
+        with warnings.catch_warnings():  # Python >= 3.12 warns of forking with threads (idle BLAS/numba pools
+            # here): the copy only draws with matplotlib and numpy and leaves by os._exit
+            warnings.filterwarnings("ignore", message=r".*fork\(\) may lead to deadlocks", category=DeprecationWarning)
+            try:
+                pid = os.fork()
+            except OSError:  # no process left (EAGAIN, ENOMEM): this process draws the share
+                os.close(r)
+                os.close(w)
+                unforked.extend(share)
+                continue
         if pid == 0:  # the copy: draw, report, leave without running the parent's exit handlers
             code = 1
             try:
@@ -714,7 +730,7 @@ def _fork_figure_workers(comp, out: Path, dpi: int, shares) -> list[tuple[int, i
                 os._exit(code)
         os.close(w)
         children.append((pid, r, share))
-    return children
+    return children, unforked
 
 
 def _join_figure_workers(children) -> tuple[list[str], list[str]]:
