@@ -1,6 +1,6 @@
 """Performance table: the closed loop against python-control's input_output_response, RLS, batch, memory, compare.
 
-Run:  python benchmarks/perf.py [--seconds 20] [--repeat 5] [--quick]
+Run:  python benchmarks/perf.py [--seconds 20] [--repeat 5] [--quick] [--compare-only]
 
 Prints median timings measured side by side in one run (µs per 1 kHz step of
 the compiled engine, µs per RLS update, µs per scenario-step of the batch
@@ -386,13 +386,13 @@ def main(argv=None) -> int:
     rows.append(("  first compare() in a fresh process (numba cache loaded)", first, "s", cfirst))
     rows.append(("  imports of controllers.experiments.compare in that process", imp, "s", cimp))
     rows.append(("  first compare() incl. interpreter start and imports (cold)", cold, "s"))
-    rows.append(("adaptive-ff --help, fresh process (target <= 0.5)", _help_wall(), "s"))
-    rows += _compare_rows(3 if args.quick else 5)
     if not args.quick:
         with tempfile.TemporaryDirectory() as cache:
             env = dict(os.environ, NUMBA_CACHE_DIR=cache)
             _, first_nc, _, _, cfirst_nc, _ = (float(x) for x in _py(_COMPARE_SCRIPT, env=env).split())
             rows.append(("  first compare() with an empty numba cache (compiles)", first_nc, "s", cfirst_nc))
+    rows.append(("adaptive-ff --help, fresh process (target <= 0.5)", _help_wall(), "s"))
+    rows += _compare_rows(3 if args.quick else 5)
 
     _print_rows(rows)
     print(f"\nspeed-up over python-control: run_mode none {us_pc / us['none']:.0f}x, "
