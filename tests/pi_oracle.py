@@ -153,3 +153,27 @@ class OraclePI:
             return -umax
         self.saturated = False
         return v
+
+
+class OracleLoopModel:
+    """Oracle of :class:`adaptive_ff.compensation.feedforward.LoopModel` / ``loop_model_step``: the PI
+    ``Kp + Ki*Tc*z/(z-1)`` on the zero-order-hold joint ``1/(J s)``, no friction, no noise, no limit.
+
+    :meth:`step` returns the model velocity of this period and advances it; the first call starts it at the
+    given measurement (0 if not finite).
+    """
+
+    def __init__(self, Kp: float, Ki: float, J: float, Tc: float):
+        self.Kp, self.Ki, self.J, self.Tc = float(Kp), float(Ki), float(J), float(Tc)
+        self.w = None
+        self.integral = 0.0
+
+    def step(self, w0: float, r: float) -> float:
+        if self.w is None:
+            self.w = float(w0) if math.isfinite(w0) else 0.0
+        w = self.w
+        e = r - w
+        self.integral += (self.Ki * self.Tc) * e
+        torque = self.Kp * e + self.integral
+        self.w = w + (self.Tc / self.J) * torque
+        return w
