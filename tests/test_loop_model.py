@@ -29,7 +29,7 @@ def _est(tau=0.0):
 
 
 @pytest.mark.parametrize("kw", [dict(Kp=-1.0), dict(Ki=float("nan")), dict(J=0.0), dict(Kp=0.0, Ki=0.0),
-                                dict(Kp="x")])
+                                dict(Kp="x"), dict(track=-1.0), dict(track=float("inf"))])
 def test_loop_model_validation(kw):
     with pytest.raises(ParameterError):
         LoopModel(**{**dict(Kp=KP, Ki=KI, J=J), **kw})
@@ -45,7 +45,7 @@ def test_loop_model_is_the_closed_loop_of_the_pi_on_the_zoh_integrator():
     r = np.sin(2 * np.pi * 1.3 * t) * 0.1 + 0.02
     _, y = signal.dlsim((num, den, TC), r)
     ff = FrictionFeedforward(_est(), dt=TC, stick_band=1.0, stick_samples=1, lag=False,
-                             loop_model=LoopModel(Kp=KP, Ki=KI, J=J))
+                             loop_model=LoopModel(Kp=KP, Ki=KI, J=J, track=0.0))
     w_model = []
     for rk in r:  # measured velocity 0 (inside the band): the output is the map at the model's velocity
         out = ff.compensate(0.0, rk)
@@ -54,8 +54,27 @@ def test_loop_model_is_the_closed_loop_of_the_pi_on_the_zoh_integrator():
     expect = np.array([ff.static(float(v)) for v in y[:, 0]])
     assert np.max(np.abs(np.array(w_model) - expect)) < 1e-6 * 35.0
     # and the oracle recursion gives the same velocities
-    om = OracleLoopModel(KP, KI, J, TC)
+    om = OracleLoopModel(KP, KI, J, TC, track=0.0)
     assert np.max(np.abs(np.array([om.step(0.0, rk) for rk in r]) - y[:, 0])) < 1e-12
+
+
+def test_tracked_fallback_follows_a_stuck_joint_at_the_loop_bandwidth():
+    # the joint stays at rest (measurement 0) while the model moves: the fallback is w_m + d, d -> -w_m
+    lm = LoopModel(Kp=KP, Ki=KI, J=J)
+    assert lm.bandwidth == pytest.approx(KP / J, rel=1e-15)
+    ff = FrictionFeedforward(_est(), dt=TC, stick_band=1.0, stick_samples=1, lag=False, loop_model=lm)
+    om = OracleLoopModel(KP, KI, J, TC)
+    t = np.arange(2000) * TC
+    r = 0.05 * np.ones_like(t)
+    fb = np.array([om.step(0.0, rk) for rk in r])
+    out = np.array([ff.compensate(0.0, rk) for rk in r])
+    expect = np.array([ff.static(float(v)) for v in fb])
+    assert np.max(np.abs(out - expect)) < 1e-9
+    # an independent check of the low-pass: with the model at rest after its step response (w_m -> 0.05) the
+    # fallback decays like exp(-Kp/J*t) towards the measurement
+    om0 = OracleLoopModel(KP, KI, J, TC, track=0.0)
+    wm = np.array([om0.step(0.0, rk) for rk in r])
+    assert abs(wm[-1] - 0.05) < 1e-4 and abs(fb[-1]) < 0.05 * 0.02
 
 
 def test_without_a_loop_model_the_fallback_is_the_reference():
