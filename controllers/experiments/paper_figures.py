@@ -41,16 +41,15 @@ from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from adaptive_ff.identification.stribeck_fit import fit_stribeck
-from controllers.design.pi import design_pi
 from controllers.experiments.quasi_static import bidirectional_velocities, quasi_static_runs
-from controllers.experiments.synthetic_logs import (closed_loop_run, encoder_counts, quasi_static_log,
-                                                    write_controller_log, write_log_csv)
+from controllers.experiments.synthetic_logs import (ClosedLoopReadout, closed_loop_readout, encoder_counts,
+                                                    quasi_static_log, write_controller_log, write_log_csv)
 from plant.errors import ParameterError, check_nonnegative, check_positive, check_signal, check_time
-from plant.excitation import bandlimited_noise, multisine_reference
+from plant.excitation import bandlimited_noise
 from plant.friction import JointParams, preset
 from plant.joint import simulate
 from plant.results import json_safe
-from plant.sampling import irregular_sample_times, sample
+from plant.sampling import sample
 
 if TYPE_CHECKING:  # annotations only: matplotlib is imported by the plotting functions when they run
     from matplotlib.figure import Figure
@@ -679,22 +678,6 @@ def _figs45_simulation(p: JointParams, opt: PaperFigureOptions, model: Regressio
     return figs, numbers
 
 
-def _closed_loop_readout(p: JointParams, opt: PaperFigureOptions, seeds, Tc: float, peak: float) -> tuple:
-    """Sec. V-B: the PI loop tracks a multi-sine, read out at irregular instants; returns ``(design, run, meas,
-    u_max)``."""
-    ref_ss, times_ss, meas_ss, loop_ss = seeds
-    ref = multisine_reference(opt.exp_duration, dt=Tc, peak=peak, rng=np.random.default_rng(ref_ss))
-    design = design_pi(p.J, crossover=opt.crossover, phase_margin=60.0, Tc=Tc)
-    u_max = 3.0 * (max(p.Fs, p.Fc) + p.sigma * float(np.max(np.abs(ref.w))) + p.J * float(np.max(np.abs(ref.dw))))
-    run = closed_loop_run(p, ref, design=design, u_max=u_max, noise_std=opt.noise_std,
-                          rng=np.random.default_rng(loop_ss))
-    resp = run.response
-    times = irregular_sample_times(float(resp.t[-1]), dt=Tc, rng=np.random.default_rng(times_ss))
-    meas = sample(resp, times=times, noise_std=opt.noise_std, quantization=opt.quantization,
-                  rng=np.random.default_rng(meas_ss))
-    return design, run, meas, u_max
-
-
 def _figs9_12_experiment(p: JointParams, opt: PaperFigureOptions, model: RegressionModel, design, meas) -> tuple:
     """Sec. V-D/E: LS and RLS on the irregular samples as they are; returns ``(figures, numbers)``."""
     Ts_exp = meas.Ts
@@ -729,8 +712,8 @@ def _figs9_12_experiment(p: JointParams, opt: PaperFigureOptions, model: Regress
 
 def _write_demo_logs(out: Path, p: JointParams, vel, opt: PaperFigureOptions, experiment, rng) -> dict:
     """``quasi_static_log.csv``, ``robot_log.csv``, ``controller_log.csv``, ``controller.json`` and ``plant.json``
-    (see :func:`paper_figures`) of ``experiment = (run, meas, controller dict)``; ``{name: Path}``."""
-    run, meas, controller = experiment
+    (see :func:`paper_figures`) of the :class:`ClosedLoopReadout` ``experiment``; ``{name: Path}``."""
+    run, meas = experiment.run, experiment.measurement
     resp = run.response
     data_files = {}
     qlog = quasi_static_log(p, vel, hold=1.5, settle=1.5, noise_std=opt.noise_std, rng=rng)
@@ -738,18 +721,17 @@ def _write_demo_logs(out: Path, p: JointParams, vel, opt: PaperFigureOptions, ex
         out / "quasi_static_log.csv", {"t": qlog.t, "u": qlog.u, "w": qlog.w},
         header_comment="simulated bidirectional constant-velocity runs: t (s), u (N·m), w (rad/s)")
     counts = encoder_counts(resp, meas.t, counts_per_rev=DEMO_COUNTS_PER_REV)
-    k = np.rint((meas.t - resp.t[0]) / resp.dt).astype(np.int64)
     data_files["robot_log"] = write_log_csv(
         out / "robot_log.csv",
         {"time_ms": np.round(meas.t * 1e3, 6), "current_A": meas.u / DEMO_CURRENT_TO_TORQUE,
-         "velocity_deg_s": np.rad2deg(meas.w), "encoder_counts": counts, "reference_deg_s": np.rad2deg(run.w_ref[k])},
+         "velocity_deg_s": np.rad2deg(meas.w), "encoder_counts": counts, "reference_deg_s": np.rad2deg(experiment.w_ref)},
         header_comment=(f"simulated robot-joint log: u = {DEMO_CURRENT_TO_TORQUE:g} N·m/A * current_A, "
                         f"{DEMO_COUNTS_PER_REV} counts/rev, irregular readout; reference_deg_s: the commanded "
                         "velocity; the PI velocity loop (1 kHz) is in controller.json"))
     data_files["controller_log"] = write_controller_log(out / "controller_log.csv", run,
                                                         current_to_torque=DEMO_CURRENT_TO_TORQUE)
     ctl_json = out / "controller.json"
-    ctl_json.write_text(json.dumps({k: float(v) for k, v in controller.items()}, indent=2) + "\n")
+    ctl_json.write_text(json.dumps(experiment.controller(), indent=2) + "\n")
     data_files["controller"] = ctl_json
     plant_json = out / "plant.json"
     plant_json.write_text(json.dumps(p.to_dict(), indent=2) + "\n")
@@ -832,7 +814,10 @@ def paper_figures(out_dir, *, p: JointParams | None = None, options: PaperFigure
     figs.update(sim_figs)
     bar.update()
     bar.set_postfix_str("closed-loop experiment (Figs. 9-12)")
-    design, run, meas, u_max = _closed_loop_readout(p, opt, (ref_ss, times_ss, meas_ss, loop_ss), Tc, peak)
+    exp = closed_loop_readout(p, opt.exp_duration, seeds=(ref_ss, loop_ss, times_ss, meas_ss),
+                              crossover=opt.crossover, peak=peak, noise_std=opt.noise_std,
+                              quantization=opt.quantization, Tc=Tc)
+    design, run, meas = exp.design, exp.run, exp.measurement
     bar.update()
     bar.set_postfix_str("LS/RLS on the irregular samples")
     exp_figs, numbers["experiment"] = _figs9_12_experiment(p, opt, model, design, meas)
@@ -844,8 +829,7 @@ def paper_figures(out_dir, *, p: JointParams | None = None, options: PaperFigure
     paths = save_figures({stem: figs[stem] for stem in FIGURE_CAPTIONS}, out, dpi=dpi)
     data_files = {}
     if save_data:
-        controller = {"Kp": design.Kp, "Ki": design.Ki, "Tc": design.Tc, "u_max": u_max}
-        data_files = _write_demo_logs(out, p, vel, opt, (run, meas, controller), np.random.default_rng(ss.spawn(1)[0]))
+        data_files = _write_demo_logs(out, p, vel, opt, exp, np.random.default_rng(ss.spawn(1)[0]))
     bar.update()
     bar.close()
     return PaperFigures(out_dir=out, figures=dict(zip(FIGURE_CAPTIONS, paths)), captions=dict(FIGURE_CAPTIONS),
