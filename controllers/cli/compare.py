@@ -15,6 +15,7 @@ def run(args) -> int:
     from plant.errors import ParameterError
     from plant.friction import preset
     from plant.models import load_plant, plant_to_dict
+    from adaptive_ff.io.units import parameter_text
     from plant.variants import drift_case, variant
     from controllers.cli.data import check_output_dir
 
@@ -58,9 +59,7 @@ def run(args) -> int:
         return 0
     src = args.plant if args.plant else (f"variant '{args.variant}'" if args.variant else f"preset '{args.preset}'")
     d = comp.design
-    desc = ", ".join(f"{k}={v:g}" if isinstance(v, (int, float)) else f"{k}={v}"
-                     for k, v in plant_to_dict(p).items() if k != "drift")
-    print(f"plant: {src}: {desc}")
+    print(f"plant: {src}: {parameter_text(plant_to_dict(p))}")
     if hasattr(p, "at"):
         print(f"drift: Fc {p.Fc_change:+.0%}, Fs {p.Fs_change:+.0%} from t = {p.t_start:g} s to {p.t_end:g} s")
     print(f"PI: Kp={d.Kp:.4g} N·m·s/rad, Ki={d.Ki:.4g} N·m/rad, Tc={d.Tc:g} s; "
