@@ -42,7 +42,8 @@ def run(args) -> int:
     comp = compare(p, duration=args.duration, seed=args.seed, modes=modes, Ts=args.Ts, noise_std=args.noise,
                    lam=args.lam, crossover=args.crossover, phase_margin=args.phase_margin, progress=progress,
                    estimator=args.estimator, ff_input=args.ff_input, omega_q=args.omega_q,
-                   prefit=not args.no_prefit, Vs=args.Vs, delta=args.delta, J_design=args.J_design)
+                   prefit=not args.no_prefit, Vs=args.Vs, delta=args.delta, J_design=args.J_design,
+                   adaptive_start=not args.no_fast_start)
     paths = [] if args.no_figures else plot_comparison(comp, out_dir)
     report = None
     if args.report:
@@ -146,6 +147,9 @@ def register(sub) -> None:
     c.add_argument("--phase-margin", type=float, default=60.0, help="PI phase margin in deg (default 60)")
     c.add_argument("--no-prefit", action="store_true",
                    help="do not run the Stribeck pre-fit (then fixed/adaptive need --Vs and --delta)")
+    c.add_argument("--no-fast-start", action="store_true",
+                   help="adaptive, adaptive-dob: no provisional feedforward from the pre-fit before the estimator's "
+                        "first trusted estimate (CompareOptions.adaptive_start = False)")
     c.add_argument("--Vs", type=float, default=None,
                    help="Stribeck velocity in rad/s, if known (with --delta; no pre-fit then)")
     c.add_argument("--delta", type=float, default=None, help="Stribeck shape factor, if known (with --Vs)")
