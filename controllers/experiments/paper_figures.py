@@ -42,8 +42,8 @@ from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from adaptive_ff.identification.stribeck_fit import fit_stribeck
 from controllers.experiments.quasi_static import bidirectional_velocities, quasi_static_runs
-from controllers.experiments.synthetic_logs import (ClosedLoopReadout, closed_loop_readout, encoder_counts,
-                                                    quasi_static_log, write_controller_log, write_log_csv)
+from controllers.experiments.synthetic_logs import (closed_loop_readout, encoder_counts, quasi_static_log,
+                                                    write_controller_log, write_log_csv)
 from plant.errors import ParameterError, check_nonnegative, check_positive, check_signal, check_time
 from plant.excitation import bandlimited_noise
 from plant.friction import JointParams, preset
@@ -712,7 +712,8 @@ def _figs9_12_experiment(p: JointParams, opt: PaperFigureOptions, model: Regress
 
 def _write_demo_logs(out: Path, p: JointParams, vel, opt: PaperFigureOptions, experiment, rng) -> dict:
     """``quasi_static_log.csv``, ``robot_log.csv``, ``controller_log.csv``, ``controller.json`` and ``plant.json``
-    (see :func:`paper_figures`) of the :class:`ClosedLoopReadout` ``experiment``; ``{name: Path}``."""
+    (see :func:`paper_figures`) of the ``experiment`` (a
+    :class:`controllers.experiments.synthetic_logs.ClosedLoopReadout`); ``{name: Path}``."""
     run, meas = experiment.run, experiment.measurement
     resp = run.response
     data_files = {}
