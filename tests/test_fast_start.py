@@ -111,3 +111,19 @@ def test_start_validation(bad):
         FeedforwardStart(**kw)
     with pytest.raises(ParameterError):
         RobustAdaptiveFeedforward(SlidingFrictionEstimator(0.02, 1.0, Tc=1e-3), dt=1e-3, start=_est(0.0))
+
+
+def test_cli_no_fast_start_switches_the_start_off(capsys):
+    """``compare --no-fast-start``: the adaptive feedforward waits for the estimator (the joint sticks under the PI
+    alone for seconds); by default it acts from the first periods (as pinned above on 15 s)."""
+    import json
+
+    from controllers.cli.main import main
+
+    args = ["compare", "--modes", "adaptive", "--duration", "6", "--no-figures", "--quiet", "--json"]
+    t_on = {}
+    for flag in ((), ("--no-fast-start",)):
+        assert main(args + list(flag)) == 0
+        t_on[flag] = json.loads(capsys.readouterr().out)["modes"]["adaptive"]["t_ff_on"]
+    assert t_on[()] is not None and t_on[()] <= 0.002
+    assert t_on[("--no-fast-start",)] is None or t_on[("--no-fast-start",)] > 1.0  # measured 2.71 s
