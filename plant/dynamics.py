@@ -682,14 +682,14 @@ def lagged_implicit_step(par, w0, f0, u, h, sgn):
         k = h
         r = h * u
     start = w0
-    if w0 == 0.0 and dv == 0.0:  # at the jump of eq. 3: F(0) is the interval [F(0-), F(0+)]
-        Flo = plant_target(par, -5e-324, sgn)
-        Fhi = plant_target(par, 5e-324, sgn)
-        if k * Flo <= r <= k * Fhi:
+    if (w0 == 0.0 and dv == 0.0) or (dv > 0.0 and (w0 == dv or w0 == -dv)):  # on a jump of the map
+        Flo = plant_target(par, np.nextafter(w0, -math.inf), sgn)
+        Fhi = plant_target(par, np.nextafter(w0, math.inf), sgn)
+        if k * Flo <= r <= k * Fhi:  # F(w0) is the interval [Flo, Fhi] and holds the joint: it stays
             Fstar = r / k
-            return 0.0, (f0 + a * Fstar) / (1.0 + a) if tau > 0.0 else Fstar, Fstar
+            return w0, (f0 + a * Fstar) / (1.0 + a) if tau > 0.0 else Fstar, Fstar
         d = 1.0 if r > k * Fhi else -1.0
-        start = 5e-324 * d
+        start = np.nextafter(w0, d * math.inf)
     else:
         g = r - k * plant_target(par, w0, sgn)
         if g == 0.0 or not g == g:

@@ -40,7 +40,7 @@ class Lagged:
         self.points = (-self.dv, self.dv) if self.dv > 0.0 else (0.0,)
 
     def shape(self, w: float) -> float:
-        x = abs(w) / self.Vs
+        x = abs(float(w)) / self.Vs
         if x == 0.0:
             return 1.0 if self.delta > 0 else 0.0
         try:
