@@ -45,7 +45,9 @@ slot  name            meaning
 20    ``rate``        lagged models: the fastest stable mode (1/s, :func:`lagged_rate`); where
                       ``rate*dt > RK4_RATE_MAX`` the RK4 step is cut into ``int(rate*dt) + 1``
                       equal sub-steps
-21    ``key``         fingerprint of slots 0-20 (an integer in [1, 2**52)), see state slot 2
+21    ``inv_J``       ``1/J`` (1/(kg·m²)): the lagged models' right-hand side multiplies by it
+22    ``inv_tau``     ``1/tau`` (1/s), 0 for ``tau = 0``
+23    ``key``         fingerprint of slots 0-22 (an integer in [1, 2**52)), see state slot 2
 ====  ==============  ===========================================================
 
 State (:data:`PLANT_NSTATE` = 3): ``st[0]`` velocity ``w`` (rad/s);
@@ -87,7 +89,8 @@ MODEL_CODES = {"lagged-stribeck": 0, "asymmetric": 1, "karnopp": 2, "lugre": 3}
 #: Slot names of the parameter row -> index (see the module docstring).
 PLANT_SLOTS = {name: i for i, name in enumerate((
     "code", "J", "Vs", "delta", "tau", "Fc_pos", "dF_pos", "sigma_pos", "wcut_pos", "Fc_neg", "dF_neg",
-    "sigma_neg", "wcut_neg", "Fs_stick", "dv", "sigma0", "sigma1", "g_min", "g_max", "base_rate", "rate", "key"))}
+    "sigma_neg", "wcut_neg", "Fs_stick", "dv", "sigma0", "sigma1", "g_min", "g_max", "base_rate", "rate", "inv_J",
+    "inv_tau", "key"))}
 #: Length of the parameter row.
 PLANT_NPAR = len(PLANT_SLOTS)
 #: Length of the state array: w, the model's internal state, the eq. 3 cache key.
@@ -96,6 +99,8 @@ PLANT_NSTATE = 3
 _LUGRE = 3.0
 _KEY = PLANT_SLOTS["key"]
 _RATE = PLANT_SLOTS["rate"]
+_INV_J = PLANT_SLOTS["inv_J"]
+_INV_TAU = PLANT_SLOTS["inv_tau"]
 _FIELDS = {
     "lagged-stribeck": ("J", "Fc", "Fs", "Vs", "delta", "sigma", "tau"),
     "asymmetric": ("J", "Fc_pos", "Fc_neg", "Fs_pos", "Fs_neg", "Vs", "delta", "sigma_pos", "sigma_neg", "tau"),
@@ -185,6 +190,8 @@ def lagged_rate(J: float, dF: float, Vs: float, delta: float, sigma: float, tau:
 
 
 def _keyed(r: np.ndarray) -> np.ndarray:
+    r[_INV_J] = 1.0 / r[1] if r[1] != 0.0 else math.inf
+    r[_INV_TAU] = 1.0 / r[4] if r[4] > 0.0 else 0.0
     r[_KEY] = 1 + hash(tuple(r[:_KEY].tolist())) % (2**52 - 1)
     return r
 
@@ -370,16 +377,19 @@ def plant_target(par, w, sgn):
 
 @kernel(inline="always")
 def _rhs(par, w, s, u, Fw):
-    """``(dw/dt, ds/dt)`` at ``(w, s)`` with input ``u`` and ``Fw = plant_target(par, w, .)``."""
+    """``(dw/dt, ds/dt)`` at ``(w, s)`` with input ``u`` and ``Fw = plant_target(par, w, .)``.
+
+    Lagged models: ``(u - s)*(1/J)`` and ``(Fw - s)*(1/tau)`` with the reciprocals of the parameter row (two
+    multiplications instead of the two divisions, the largest cost of a step after ``exp``; within an ulp of
+    the quotients). LuGre divides as before."""
     J = par[1]
     if par[0] == _LUGRE:
         aw = w if w >= 0.0 else -w
         zdot = w - par[15] * aw / Fw * s
         return (u - par[15] * s - par[16] * zdot - par[7] * w) / J, zdot
-    tau = par[4]
-    if tau == 0.0:
-        return (u - Fw) / J, 0.0
-    return (u - s) / J, (Fw - s) / tau
+    if par[4] == 0.0:
+        return (u - Fw) * par[_INV_J], 0.0
+    return (u - s) * par[_INV_J], (Fw - s) * par[_INV_TAU]
 
 
 @kernel(inline="always")
