@@ -44,7 +44,7 @@ slot  name            meaning
 19    ``base_rate``   LuGre ``(sigma1 + sigma2)/J + sqrt(sigma0/J)`` (1/s)
 20    ``rate``        lagged models: the fastest stable mode (1/s, :func:`lagged_rate`); where
                       ``rate*dt > RK4_RATE_MAX`` the RK4 step is cut into ``int(rate*dt) + 1``
-                      equal sub-steps
+                      equal sub-steps, beyond ``LAGGED_RK4_MAX`` the stiff step (below)
 21    ``inv_J``       ``1/J`` (1/(kg·m²)): the lagged models' right-hand side multiplies by it
 22    ``inv_tau``     ``1/tau`` (1/s), 0 for ``tau = 0``
 23    ``key``         fingerprint of slots 0-22 (an integer in [1, 2**52)), see state slot 2
@@ -57,7 +57,16 @@ LuGre the bristle deflection ``z`` in rad); ``st[2]`` equals ``key`` when
 :func:`plant_step` and :func:`plant_state`), so the next step reuses it instead
 of evaluating eq. 3 again; any other value (e.g. NaN) means "not cached".
 Swapping the parameter row (a drifting plant) invalidates it by the key. For
-LuGre ``st[2]`` holds the last sub-step of the stiff integrator (s) or NaN.
+LuGre, and for a lagged model after a step of :func:`lagged_stiff_step`, ``st[2]``
+holds the last sub-step of the stiff integrator (s) or NaN.
+
+Stiff lagged models (a rising Stribeck map, ``delta < 0``, whose steepest slope
+sits at tiny speeds; a viscous slope far above ``J/dt``; a lag far below the
+step) take :func:`lagged_stiff_step` (error-controlled, extrapolated backward
+Euler, each sub-step one scalar bracketed solve that sticks on a jump of eq. 3
+where the friction is set-valued) for every step whose velocity range
+(:func:`lagged_local_rate`) would need more than :data:`LAGGED_RK4_MAX` RK4
+sub-steps; no lagged model is refused for stiffness.
 
 Stiff LuGre joints (a stiff bristle, ``sigma0`` up to 1e8 N·m/rad and more, on
 a small inertia) are integrated by :func:`lugre_stiff_step` (error-controlled,
