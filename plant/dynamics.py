@@ -471,7 +471,11 @@ def plant_step(par, st, u, dt):
     ``w``, then ``f = F(w)``, which the next step reuses through the cache
     slot). Karnopp: in the band ``|w| < dv`` with ``|u| <= Fs`` the joint
     sticks (``w = 0``, ``f = u``); with ``|u| > Fs`` it breaks away (RK4 with
-    the band target ``Fs*sgn(u)``). LuGre: ``n`` equal RK4 sub-steps, ``n``
+    the band target ``Fs*sgn(u)``). A lagged model whose fastest mode
+    (:func:`lagged_rate`) needs sub-steps takes ``int(rate*dt) + 1`` equal RK4
+    sub-steps, and beyond :data:`LAGGED_RK4_MAX` of them (unless the step's own
+    velocity range is mild, :func:`lagged_local_rate`) :func:`lagged_stiff_step`
+    with the same Karnopp direction. LuGre: ``n`` equal RK4 sub-steps, ``n``
     chosen from the stiffness at the step start so that each stays well inside
     RK4's stability region (:meth:`plant.lugre.LuGreParams.make_step`); with
     ``n > LUGRE_RK4_MAX`` (a stiff bristle) :func:`lugre_stiff_step` instead; a
