@@ -80,7 +80,8 @@ def test_closed_loop_fit_within_targets(fit):
 def test_open_loop_output_error_misses_the_targets_on_the_same_record(record):
     """Why the method exists: the torque varies within a readout interval (the PI reacts at 1 kHz)."""
     m, _, _ = record
-    oe = fit_physical(m.t, m.u, m.w, Vs=VS, delta=DELTA, method="output_error", offset=False)
+    oe = fit_physical(m.t, m.u, m.w, Vs=VS, delta=DELTA, method="output_error", offset=False,
+                      n_bootstrap=0)  # the estimate only: its standard errors are not the point here
     err = _errors(oe.params)
     assert not _within_targets(err), err
     assert abs(err["tau"]) > 0.2 or abs(err["Fs"]) > 0.08, err  # measured on such logs: tau -40..-50 %, Fs -15 %

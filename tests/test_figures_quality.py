@@ -312,3 +312,80 @@ def test_rms_dev_and_reversal_choice(comp):
     assert 0.5 * r.t[-1] <= t0 <= r.t[-1] - 1.0
     i = np.searchsorted(r.t, t0)
     assert np.sign(r.w_ref[i - 1]) != np.sign(r.w_ref[i])  # a sign change of the reference
+
+
+# --------------------------------------------------------------------------- figures drawn by several processes
+
+_fork = pytest.mark.skipif(not __import__("sys").platform.startswith("linux"), reason="figures fork on Linux only")
+
+
+@_fork
+def test_figures_drawn_in_two_processes_are_the_same_files(comp, tmp_path):
+    from controllers.report.figures import plot_comparison
+
+    one = plot_comparison(comp, tmp_path / "one", jobs=1)
+    two = plot_comparison(comp, tmp_path / "two", jobs=2)
+    assert [p.name for p in one] == [p.name for p in two] == ["tracking.png", "error.png", "friction.png",
+                                                              "rls_convergence.png", "eta.png"]
+    for a, b in zip(one, two):
+        assert a.read_bytes() == b.read_bytes(), a.name
+
+
+def _tiny_figure(_comp):
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(1, 1))
+    fig.subplots().plot([0, 1], [0, 1])
+    return fig
+
+
+@_fork
+def test_a_failed_figure_process_is_redrawn_here_or_raises(monkeypatch, tmp_path):
+    import os
+
+    from controllers.report import figures as F
+    from plant.errors import SignalError
+
+    parent = os.getpid()
+
+    def dies_in_a_copy(comp):
+        if os.getpid() != parent:
+            os._exit(3)  # a copy killed mid-figure: the parent draws its share
+        return _tiny_figure(comp)
+
+    def raises(comp):
+        raise SignalError("bad record")
+
+    monkeypatch.setattr(F, "_FIGURES", (("a", _tiny_figure), ("b", lambda c: None), ("c", dies_in_a_copy)))
+    assert F.figure_shares(["a", "b", "c"], 2) == [["a", "b"], ["c"]]  # this process draws the first share
+    paths = F.plot_comparison(None, tmp_path, jobs=2)
+    assert [p.name for p in paths] == ["a.png", "c.png"] and all(p.stat().st_size > 0 for p in paths)
+    assert F.figure_shares(["a", "b"], 2) == [["a"], ["b"]]
+    monkeypatch.setattr(F, "_FIGURES", (("a", _tiny_figure), ("b", raises)))
+    with pytest.raises(SignalError, match="bad record"):  # the copy's error, raised again by this process
+        F.plot_comparison(None, tmp_path, jobs=2)
+
+    def no_fork():
+        raise OSError(11, "Resource temporarily unavailable")
+
+    monkeypatch.setattr(F, "_FIGURES", (("a", _tiny_figure), ("b", _tiny_figure)))
+    monkeypatch.setattr(os, "fork", no_fork)  # no process left: this process draws every figure
+    assert [p.name for p in F.plot_comparison(None, tmp_path / "nf", jobs=2)] == ["a.png", "b.png"]
+
+
+def test_figure_shares_and_jobs_argument(tmp_path):
+    from controllers.report.figures import _FIGURE_COST, figure_shares, plot_comparison
+    from plant.errors import ParameterError
+
+    names = list(_FIGURE_COST)
+    for jobs in (1, 2, 3, 5, 7):
+        shares = figure_shares(names, jobs)
+        assert len(shares) == jobs and sorted(sum(shares, [])) == sorted(names)
+        loads = [sum(_FIGURE_COST[n] for n in s) for s in shares if s]
+        # no share exceeds the mean load by more than the largest single figure (true of LPT, so of the optimum)
+        assert max(loads) <= sum(_FIGURE_COST.values()) / len(loads) + max(_FIGURE_COST.values()) + 1e-12
+    assert figure_shares(names, 2) == [["tracking", "rls_convergence", "eta"], ["error", "friction"]]  # 0.76 | 0.76
+    assert sorted(sum(figure_shares(names * 2, 2), [])) == sorted(names * 2)  # 4096 < 2**10: the greedy rule
+    for bad in (0, -1, 1.5, True, "2"):
+        with pytest.raises(ParameterError, match="jobs"):
+            plot_comparison(None, tmp_path, jobs=bad)

@@ -81,3 +81,29 @@ def test_cli_method_choices_are_the_library_methods():
     opt = next(a for a in sub.choices["identify"]._actions if a.dest == "method")
     assert tuple(opt.choices) == IDENTIFY_METHODS and set(METHODS) <= set(IDENTIFY_METHODS)
     assert opt.default == "auto"
+
+
+def test_cli_json_carries_the_notes_as_strict_json(record, tmp_path, capsys):
+    # issue 12, item 4: the notes (preprocessing, method choice, structure, excitation) travel in --json as a list
+    # of strings, the same lines the text report prints after "note: "
+    from controllers.cli.main import main
+
+    csv = tmp_path / "log.csv"
+    np.savetxt(csv, np.column_stack([record.t, record.u, record.w]), delimiter=",", header="t,u,w", comments="")
+    assert main(["identify", str(csv), "--lag", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out, parse_constant=lambda c: pytest.fail(f"non-strict JSON constant {c}"))
+    notes = d["notes"]
+    assert isinstance(notes, list) and len(notes) >= 2 and all(isinstance(n, str) and n for n in notes)
+    assert any(n.startswith("structure: ") for n in notes) and any(n.startswith("excitation: ") for n in notes)
+    assert main(["identify", str(csv), "--lag"]) == 0
+    text = capsys.readouterr().out
+    assert all(f"note: {n}" in text for n in notes)
+
+
+def test_report_to_dict_notes_equal_the_report_notes(report):
+    d = json.loads(json.dumps(report.to_dict(), allow_nan=False))
+    assert d["notes"] == list(report.notes)
+    note = next(n for n in d["notes"] if "physical parameters by 'output_error'" in n)
+    boot = report.physical.info["bootstrap"]
+    assert report.physical.info["stderr_kind"] == "bootstrap" and f"({boot['n_valid']} refits" in note
+    assert f"± is the bootstrap standard error ({boot['n_valid']} refits" in report.physical.summary()

@@ -88,6 +88,14 @@ def test_output_error_one_noisy_quantised_irregular_seed():
     e = _rel(fit)
     for k, tol in (("Fc", 5.0), ("Fs", 5.0), ("sigma", 5.0), ("J", 10.0), ("tau", 10.0)):
         assert abs(e[k]) < tol, (k, e[k])
+    # issue 12 item 3: the reported (bootstrap) standard errors cover the truth on this record; the HAC ones
+    # (curvature of the rough free-run cost) do not for every parameter (the coverage over 40 records is the
+    # benchmark's, benchmarks/coverage.py)
+    assert fit.info["stderr_kind"] == "bootstrap"
+    z = {k: abs(fit.params[k] - getattr(P, k)) / fit.stderr[k] for k in KEYS}
+    z_hac = {k: abs(fit.params[k] - getattr(P, k)) / fit.info["stderr_hac"][k] for k in KEYS}
+    assert max(z.values()) < 1.96, z
+    assert max(z_hac.values()) > 1.96, z_hac
 
 
 def test_json_dict_is_plain_json(clean):
@@ -140,3 +148,30 @@ def test_noise_estimate_ignores_irregular_sampling():
     w = 2.0 * np.sin(2.0 * np.pi * 0.5 * t)
     assert noise_std(t, w) < 1e-4  # a smooth signal reads (almost) no noise despite the jitter
     assert noise_std(t, w + rng.normal(0.0, 0.01, t.shape)) == pytest.approx(0.01, rel=0.1)
+
+
+def test_bootstrap_is_seeded_keeps_the_estimate_and_falls_back_to_hac():
+    m = _record(2, noise=0.01, quant=0.6, irregular=True, duration=12.0)
+    kw = dict(Vs=P.Vs, delta=P.delta, input_delay=0.5 * DT, start={k: getattr(P, k) for k in KEYS})
+    hac = fit_physical(m.t, m.u, m.w, n_bootstrap=0, **kw)
+    assert hac.info["stderr_kind"] == "hac" and hac.info["bootstrap"] is None
+    assert hac.stderr == hac.info["stderr_hac"]
+    a = fit_physical(m.t, m.u, m.w, n_bootstrap=3, bootstrap_seed=1, **kw)
+    b = fit_physical(m.t, m.u, m.w, n_bootstrap=3, bootstrap_seed=1, **kw)
+    c = fit_physical(m.t, m.u, m.w, n_bootstrap=3, bootstrap_seed=2, **kw)
+    assert a.params == hac.params == c.params  # the bootstrap only adds the errors
+    assert a.stderr == b.stderr and a.stderr != c.stderr
+    assert a.info["stderr_hac"] == hac.stderr and a.info["stderr_kind"] == "bootstrap"
+    boot = a.info["bootstrap"]
+    assert boot["n"] == 3 and boot["n_valid"] == 3 and boot["seed"] == 1 and boot["block"] % 3 == 0
+    assert all(math.isfinite(v) and v > 0 for v in a.stderr.values())
+    # rms deviation >= |mean deviation| for every parameter (stderr includes the refits' mean shift)
+    assert all(a.stderr[k] >= abs(boot["bias"][k]) for k in a.stderr)
+    json.dumps(a.to_dict(), allow_nan=False)
+
+
+@pytest.mark.parametrize("opt", [{"n_bootstrap": -1}, {"n_bootstrap": 2.5}, {"bootstrap_seed": -3},
+                                 {"bootstrap_seed": True}])
+def test_bootstrap_options_are_validated(clean, opt):
+    with pytest.raises(ParameterError, match=next(iter(opt))):
+        fit_physical(clean.t[:300], clean.u[:300], clean.w[:300], Vs=P.Vs, delta=P.delta, **opt)

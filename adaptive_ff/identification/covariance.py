@@ -18,6 +18,12 @@ sandwich by a Bartlett-weighted sum of the score autocovariances:
 Andrews' AR(1) plug-in rule ``L = 1.1447 (alpha n)^{1/3}``,
 ``alpha = 4 rho^2/(1-rho)^4`` from the lag-one autocorrelation ``rho`` of the
 residuals (Andrews, *Econometrica* 59(3), 1991, eqs. 6.2 and 6.4).
+
+Neither sees the error of a fit whose cost is rough (the free-run output at
+breakaway): :func:`moving_block_resample` draws the residual series of a
+residual bootstrap (Künsch, *Ann. Statist.* 17(3), 1989), used by
+:func:`adaptive_ff.identification.physical_id.fit_physical` to refit
+re-simulated records.
 """
 
 from __future__ import annotations
@@ -28,7 +34,7 @@ import numpy as np
 
 from plant.errors import ParameterError, SignalError
 
-__all__ = ["hac_covariance", "andrews_bandwidth"]
+__all__ = ["hac_covariance", "andrews_bandwidth", "moving_block_resample"]
 
 
 def andrews_bandwidth(r) -> int:
@@ -116,3 +122,48 @@ def hac_covariance(G, r, *, lags: int | None = None) -> tuple[np.ndarray, int]:
         S += (1.0 - lag / (lags + 1.0)) * (g + g.T)
     A = np.linalg.inv(G.T @ G)
     return A @ S @ A * (n / max(n - p, 1)), lags
+
+
+def moving_block_resample(r, n_out: int, *, block: int, rng: np.random.Generator) -> np.ndarray:
+    """A moving-block bootstrap series: blocks of ``block`` consecutive residuals, drawn with replacement.
+
+    Parameters
+    ----------
+    r : array_like, shape (n,)
+        Residuals in time order (any unit), finite, ``n >= 1``.
+    n_out : int
+        Length of the series returned, >= 1.
+    block : int, keyword-only
+        Block length, ``1 <= block``; clipped to ``n`` (``1``: the i.i.d. residual bootstrap).
+    rng : numpy.random.Generator, keyword-only
+        Source of the block starts (seed it for a reproducible series).
+
+    Returns
+    -------
+    ndarray, shape (n_out,)
+        ``ceil(n_out/block)`` blocks ``r[s:s+block]``, each start ``s`` uniform on ``0 .. n - block``,
+        concatenated and cut to ``n_out``: the series keeps the correlation of ``r`` within a block.
+
+    Raises
+    ------
+    SignalError
+        ``r`` empty or not finite.
+    ParameterError
+        ``n_out`` or ``block`` not an integer >= 1, or ``rng`` not a numpy Generator.
+
+    Notes
+    -----
+    Künsch (1989), *Ann. Statist.* 17(3), 1217-1241; Lahiri, *Resampling Methods for Dependent Data*
+    (Springer, 2003), Sec. 2.5.
+    """
+    r = np.asarray(r, dtype=float).reshape(-1)
+    if r.shape[0] < 1 or not np.all(np.isfinite(r)):
+        raise SignalError(f"residuals must be >= 1 finite values, got shape {r.shape}")
+    for name, v in (("n_out", n_out), ("block", block)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+            raise ParameterError(f"{name} must be an integer >= 1, got {v!r}")
+    if not isinstance(rng, np.random.Generator):
+        raise ParameterError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    n, block = r.shape[0], int(min(block, r.shape[0]))
+    starts = rng.integers(0, n - block + 1, size=-(-int(n_out) // block))
+    return r[(starts[:, None] + np.arange(block)[None, :]).reshape(-1)[:n_out]]

@@ -215,7 +215,8 @@ class IdentificationReport:
             estimate, its ``fit_percent`` and ``lam``); ``rel_std`` (standard
             errors in % of the value); ``excitation`` (``noise_std``,
             ``n_reversals``, ``low_speed_fraction``), ``warnings`` (list of
-            ``{"code", "parameter", "message"}``), ``method`` and, for a method other than ``"paper"``,
+            ``{"code", "parameter", "message"}``), ``notes`` (list of str: preprocessing and the choices
+            made, as printed by :meth:`summary`), ``method`` and, for a method other than ``"paper"``,
             ``physical`` (:meth:`PhysicalFit.to_dict`). Non-finite values become ``None``.
         """
         e = self.estimate
@@ -240,6 +241,7 @@ class IdentificationReport:
             out["excitation"] = {"noise_std": x.noise_std, "n_reversals": int(x.n_reversals),
                                  "low_speed_fraction": x.low_speed_fraction}
         out["warnings"] = [_warning_dict(w) for w in self.warnings]
+        out["notes"] = [str(n) for n in self.notes]
         if self.physical is not None:
             out["method"] = self.physical.method
             out["physical"] = self.physical.to_dict()
@@ -510,7 +512,7 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
             physical = fit_physical(data.t, data.u, data.w, Vs=Vs, delta=delta, method=method, offset=offset,
                                     **(method_options or {}))
             notes.append(f"physical parameters by {method!r} on the record's own time stamps "
-                         f"({physical.n_samples} samples, fit {physical.nrmse_kind})")
+                         f"({physical.n_samples} samples, fit {physical.nrmse_kind}); {_stderr_note(physical)}")
         if method == "sliding":  # judge J and tau in the band of the sliding regression, not sample to sample
             warn = [w for w in warn if not (w.code == "identifiability" and w.parameter == "J")]
             warn += _sliding_band_warnings(uni, Vs, delta, excitation.noise_std, physical)
@@ -555,6 +557,17 @@ def attach_physical(report: IdentificationReport, physical: PhysicalFit, *, note
     notes.append(note)
     warn = [_as_baseline(w) for w in report.warnings] + list(physical.warnings)
     return replace(report, physical=physical, notes=tuple(notes), warnings=tuple(warn))
+
+
+def _stderr_note(fit: PhysicalFit) -> str:
+    """What the physical fit's standard errors are (one clause for the notes)."""
+    boot = fit.info.get("bootstrap")
+    if fit.info.get("stderr_kind") == "bootstrap" and boot:
+        return (f"standard errors by a parametric block bootstrap ({boot['n_valid']} refits of re-simulated "
+                f"records, seed {boot['seed']}; options n_bootstrap, bootstrap_seed)")
+    if fit.info.get("stderr_kind") == "hac":
+        return "standard errors HAC (Newey-West; too small on the rough free-run cost: use n_bootstrap > 0)"
+    return "standard errors as the method gives them"
 
 
 def _report(ls, rls, rls_est, rls_fit, uni, keep, hist, std, P0, data, notes, warn, excitation, physical):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-__all__ = ["register", "run", "comparison_table"]
+__all__ = ["register", "run", "comparison_table", "figure_jobs"]
 
 
 def run(args) -> int:
@@ -42,7 +42,7 @@ def run(args) -> int:
                    lam=args.lam, crossover=args.crossover, phase_margin=args.phase_margin, progress=progress,
                    estimator=args.estimator, ff_input=args.ff_input, omega_q=args.omega_q,
                    prefit=not args.no_prefit, Vs=args.Vs, delta=args.delta, J_design=args.J_design)
-    paths = [] if args.no_figures else plot_comparison(comp, out_dir)
+    paths = [] if args.no_figures else plot_comparison(comp, out_dir, jobs=figure_jobs())
     report = None
     if args.report:
         from controllers.cli.data import command_line
@@ -82,6 +82,22 @@ def run(args) -> int:
     if report is not None:
         print(f"report: {report}")
     return 0
+
+
+def figure_jobs() -> int:
+    """Processes that draw the figures of ``compare``: the CPUs this process may use (at least 1).
+
+    ``os.sched_getaffinity`` where it exists (Linux: honours taskset and
+    container CPU sets), else ``os.cpu_count()``; see
+    :func:`controllers.report.figures.plot_comparison` (``jobs``).
+    """
+    import os
+
+    try:
+        n = len(os.sched_getaffinity(0))
+    except AttributeError:  # macOS, Windows
+        n = os.cpu_count() or 1
+    return max(1, n)
 
 
 def comparison_table(comp, args) -> str:

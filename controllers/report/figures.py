@@ -20,13 +20,17 @@ Colours are the Okabe-Ito palette (Okabe and Ito, "Color Universal Design",
 per mode in every figure (:data:`MODE_COLORS`). Long records are drawn as
 min/max envelopes over display bins (:func:`minmax_envelope`), so a 120 s run
 at 1 kHz costs a few thousand vertices, and the figures use fixed margins
-instead of a layout engine (both for speed). Velocities are shown in deg/s,
-torques in N·m.
+instead of a layout engine (both for speed); ``plot_comparison(..., jobs=2)``
+draws them in two processes (a forked copy inherits the runs). Velocities are
+shown in deg/s, torques in N·m.
 """
 
 from __future__ import annotations
 
 import math
+import os
+import signal
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -38,7 +42,7 @@ from plant.stribeck import stribeck
 if TYPE_CHECKING:  # annotations only: matplotlib is imported by the functions when they run
     from matplotlib.figure import Figure
 
-__all__ = ["plot_comparison", "plot_tracking", "plot_error", "plot_friction", "plot_rls_convergence", "plot_eta",
+__all__ = ["plot_comparison", "figure_shares", "plot_tracking", "plot_error", "plot_friction", "plot_rls_convergence", "plot_eta",
            "rms_dev", "minmax_envelope", "pick_reversal", "estimate_history", "MODE_COLORS", "PARAMETER_UNITS"]
 
 #: One Okabe-Ito colour per compensation mode (reference black, frictionless grey).
@@ -581,7 +585,7 @@ _FIGURES = (("tracking", plot_tracking), ("error", plot_error), ("friction", plo
             ("rls_convergence", plot_rls_convergence), ("eta", plot_eta))
 
 
-def plot_comparison(comp, out_dir, *, dpi: int = _DPI) -> list[Path]:
+def plot_comparison(comp, out_dir, *, dpi: int = _DPI, jobs: int = 1) -> list[Path]:
     """Write the comparison figures as PNG files into ``out_dir`` (created if needed).
 
     Parameters
@@ -592,22 +596,161 @@ def plot_comparison(comp, out_dir, *, dpi: int = _DPI) -> list[Path]:
         Directory.
     dpi : int, keyword-only
         Resolution (dots per inch), default 100.
+    jobs : int, keyword-only
+        Processes that render the figures, >= 1 (default 1: this process).
+        With ``jobs > 1`` on Linux, the
+        figures are shared among this process and ``jobs - 1`` forked copies
+        of it (:func:`figure_shares`), which inherit ``comp`` without copying
+        it; matplotlib draws a figure in one thread only, so this is how the
+        figures use more than one core. The files are the same bytes as with
+        ``jobs=1``. A copy that fails leaves its figures to this process,
+        which then raises the error itself. Elsewhere (macOS, where forking a
+        process that has used system frameworks is unsafe; Windows, no fork)
+        every figure is drawn here.
 
     Returns
     -------
     list of Path
         ``tracking.png``, ``error.png``, ``friction.png``,
         ``rls_convergence.png`` (only with an adaptive run) and ``eta.png``, as
-        described in the module docstring.
+        described in the module docstring, in this order.
+
+    Raises
+    ------
+    ParameterError
+        ``jobs`` not an integer >= 1.
     """
+    if isinstance(jobs, bool) or not isinstance(jobs, (int, np.integer)) or jobs < 1:
+        raise ParameterError(f"jobs must be an integer >= 1, got {jobs!r}")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    paths = []
+    names = [name for name, _ in _FIGURES]
+    shares = figure_shares(names, min(int(jobs), len(names)) if sys.platform.startswith("linux") else 1)
+    written = set()
+    children, unforked = _fork_figure_workers(comp, out, dpi, shares[1:])
+    try:
+        written.update(_render(comp, out, dpi, shares[0] + unforked))
+    finally:
+        done, failed = _join_figure_workers(children)
+    written.update(done)
+    written.update(_render(comp, out, dpi, failed))  # a failed copy's figures: drawn (or raised) here
+    return [out / f"{name}.png" for name in names if name in written]
+
+
+#: Relative cost of drawing each figure (thread CPU seconds, median of 5, 120 s paper comparison): it decides the shares.
+_FIGURE_COST = {"tracking": 0.24, "error": 0.45, "friction": 0.31, "rls_convergence": 0.33, "eta": 0.19}
+
+
+def figure_shares(names, jobs: int) -> list[list[str]]:
+    """Split figure ``names`` into ``jobs`` shares of about equal drawing cost (:data:`_FIGURE_COST`).
+
+    Parameters
+    ----------
+    names : sequence of str
+        Figure names of :func:`plot_comparison` (unknown names count as cost 0.3).
+    jobs : int
+        Number of shares, >= 1.
+
+    Returns
+    -------
+    list of list of str
+        ``jobs`` lists, each in the order of ``names``; together every name
+        once. The assignment with the smallest largest share among all
+        ``jobs**len(names)`` when that is at most 4096 (five figures on up to
+        five processes), else the greedy longest-processing-time rule
+        (Graham, "Bounds on multiprocessing timing anomalies", SIAM J. Appl.
+        Math. 17, 1969); the first share is never lighter than the others.
+    """
+    import itertools
+
+    jobs = max(int(jobs), 1)
+    cost = [_FIGURE_COST.get(n, 0.3) for n in names]
+    if jobs ** len(names) <= 4096:
+        best = min(itertools.product(range(jobs), repeat=len(names)),
+                   key=lambda a: max(sum(c for c, k in zip(cost, a) if k == j) for j in range(jobs)))
+    else:
+        best, load = [0] * len(names), [0.0] * jobs
+        for i in sorted(range(len(names)), key=lambda i: -cost[i]):
+            best[i] = load.index(min(load))
+            load[best[i]] += cost[i]
+    shares = [[n for n, k in zip(names, best) if k == j] for j in range(jobs)]
+    return sorted(shares, key=lambda s: -sum(_FIGURE_COST.get(n, 0.3) for n in s))
+
+
+def _render(comp, out: Path, dpi: int, names) -> list[str]:
+    """Draw and save the figures ``names`` (in the order of ``_FIGURES``); the names of the files written."""
+    written = []
     for name, fn in _FIGURES:
+        if name not in names:
+            continue
         fig = fn(comp)
         if fig is None:
             continue
-        path = out / f"{name}.png"
-        fig.savefig(path, dpi=dpi, pil_kwargs={"compress_level": 1})  # fast zlib level: files ~1/3 larger
-        paths.append(path)
-    return paths
+        fig.savefig(out / f"{name}.png", dpi=dpi, pil_kwargs={"compress_level": 1})  # fast zlib: files ~1/3 larger
+        written.append(name)
+    return written
+
+
+def _fork_figure_workers(comp, out: Path, dpi: int, shares) -> tuple[list[tuple[int, int, list[str]]], list[str]]:
+    """Fork one copy of this process per share; each draws its share and reports the files on a pipe.
+
+    Returns the copies ``(pid, read end of its pipe, share)`` and the figures of shares no copy could be made for.
+    """
+    import warnings
+
+    import matplotlib.backends.backend_agg  # noqa: F401 - imported (font cache loaded) once, before the fork
+
+    children, unforked = [], []
+    for share in shares:
+        if not share:
+            continue
+        sys.stdout.flush()
+        sys.stderr.flush()
+        r, w = os.pipe()
+        with warnings.catch_warnings():  # Python >= 3.12 warns of forking with threads (idle BLAS/numba pools
+            # here): the copy only draws with matplotlib and numpy and leaves by os._exit
+            warnings.filterwarnings("ignore", message=r".*fork\(\) may lead to deadlocks", category=DeprecationWarning)
+            try:
+                pid = os.fork()
+            except OSError:  # no process left (EAGAIN, ENOMEM): this process draws the share
+                os.close(r)
+                os.close(w)
+                unforked.extend(share)
+                continue
+        if pid == 0:  # the copy: draw, report, leave without running the parent's exit handlers
+            code = 1
+            try:
+                os.close(r)
+                msg = "\n".join(_render(comp, out, dpi, share)) + "\n"
+                os.write(w, msg.encode())
+                code = 0
+            except BaseException:  # noqa: BLE001 - the parent draws this share again and raises the error
+                pass
+            finally:
+                os._exit(code)
+        os.close(w)
+        children.append((pid, r, share))
+    return children, unforked
+
+
+def _join_figure_workers(children) -> tuple[list[str], list[str]]:
+    """Wait for the copies of :func:`_fork_figure_workers`: (figures they wrote, figures of copies that failed)."""
+    done, failed = [], []
+    for pid, r, share in children:
+        try:
+            with os.fdopen(r, "rb") as fh:
+                text = fh.read().decode()
+            _, status = os.waitpid(pid, 0)
+        except BaseException:  # interrupted while waiting: stop the copies, then let the interrupt through
+            for other, _, _ in children:
+                try:
+                    os.kill(other, signal.SIGTERM)
+                    os.waitpid(other, 0)
+                except OSError:
+                    pass
+            raise
+        if os.waitstatus_to_exitcode(status) == 0 and text.endswith("\n"):
+            done.extend(x for x in text.splitlines() if x)
+        else:
+            failed.extend(share)
+    return done, failed

@@ -1,0 +1,104 @@
+"""adaptive_ff.identification.covariance: Newey-West sandwich, Andrews bandwidth, moving-block resampling."""
+
+import math
+
+import numpy as np
+import pytest
+
+from adaptive_ff.identification.covariance import andrews_bandwidth, hac_covariance, moving_block_resample
+from plant.errors import ParameterError, SignalError
+
+
+def _sandwich(G, r, L):
+    """Independent Newey-West: explicit double loop over lags and samples (Newey & West 1987, eq. 2)."""
+    n, p = G.shape
+    S = np.zeros((p, p))
+    for lag in range(-L, L + 1):
+        wgt = 1.0 - abs(lag) / (L + 1.0)
+        for t in range(n):
+            s = t - lag
+            if 0 <= s < n:
+                S += wgt * r[t] * r[s] * np.outer(G[t], G[s])
+    A = np.linalg.inv(G.T @ G)
+    return A @ S @ A * n / (n - p)
+
+
+@pytest.mark.parametrize("L", [0, 1, 4])
+def test_hac_equals_the_explicit_sum(L):
+    rng = np.random.default_rng(7)
+    G = rng.normal(size=(60, 3))
+    r = np.convolve(rng.normal(size=64), [1.0, 0.6, 0.3], mode="valid")[:60]
+    cov, lags = hac_covariance(G, r, lags=L)
+    assert lags == L
+    np.testing.assert_allclose(cov, _sandwich(G, r, L), rtol=1e-12, atol=0)
+
+
+def test_hac_of_one_column_and_white_residuals_is_whites_formula():
+    # p = 1, lags = 0: var = sum(g^2 r^2) / (sum g^2)^2 * n/(n-1) (White 1980)
+    g = np.array([1.0, 2.0, -1.0, 0.5])
+    r = np.array([0.1, -0.2, 0.3, 0.05])
+    cov, _ = hac_covariance(g[:, None], r, lags=0)
+    assert cov[0, 0] == pytest.approx(np.sum(g**2 * r**2) / np.sum(g**2) ** 2 * 4 / 3, rel=1e-14)
+
+
+def test_andrews_bandwidth_follows_the_ar1_rule():
+    rng = np.random.default_rng(1)
+    e = rng.normal(size=20000)
+    r = np.empty_like(e)
+    r[0] = e[0]
+    for k in range(1, e.size):
+        r[k] = 0.8 * r[k - 1] + e[k]
+    rc = r - r.mean()
+    rho = float(rc[1:] @ rc[:-1] / (rc @ rc))
+    assert rho == pytest.approx(0.8, abs=0.02)
+    alpha = 4 * rho**2 / (1 - rho) ** 4
+    assert andrews_bandwidth(r) == math.ceil(1.1447 * (alpha * r.size) ** (1 / 3))
+    assert andrews_bandwidth(-np.ones(5) * np.array([1, -1, 1, -1, 1])) == 0  # negative rho clipped to 0
+
+
+def test_moving_blocks_are_contiguous_runs_of_the_residuals():
+    r = np.arange(100.0)
+    out = moving_block_resample(r, 95, block=10, rng=np.random.default_rng(3))
+    assert out.shape == (95,)
+    full = out[:90].reshape(9, 10)  # 95 = 9.5 blocks of 10
+    assert np.all(np.diff(full, axis=1) == 1.0)  # each block is r[s:s+10]
+    assert np.all((full[:, 0] >= 0) & (full[:, 0] <= 90))
+    assert np.all(out[90:] == np.arange(out[90], out[90] + 5))  # the last block cut to 5
+    # same seed, same series; block = n: the record itself; block = 1: values of r only
+    again = moving_block_resample(r, 95, block=10, rng=np.random.default_rng(3))
+    np.testing.assert_array_equal(out, again)
+    np.testing.assert_array_equal(moving_block_resample(r, 100, block=500, rng=np.random.default_rng(0)), r)
+    iid = moving_block_resample(r, 1000, block=1, rng=np.random.default_rng(0))
+    assert set(iid) <= set(r) and len(set(iid)) > 90
+
+
+def test_moving_blocks_keep_the_lag_one_correlation():
+    # an AR(1) series with rho = 0.9: blocks of 50 keep rho (up to the 1/50 of pairs across block joints)
+    rng = np.random.default_rng(5)
+    e = rng.normal(size=5000)
+    r = np.empty_like(e)
+    r[0] = e[0]
+    for k in range(1, e.size):
+        r[k] = 0.9 * r[k - 1] + e[k]
+    out = moving_block_resample(r, 5000, block=50, rng=np.random.default_rng(6))
+    oc = out - out.mean()
+    assert float(oc[1:] @ oc[:-1] / (oc @ oc)) == pytest.approx(0.9, abs=0.04)
+    iid = moving_block_resample(r, 5000, block=1, rng=np.random.default_rng(6))
+    ic = iid - iid.mean()
+    assert abs(float(ic[1:] @ ic[:-1] / (ic @ ic))) < 0.05
+
+
+@pytest.mark.parametrize("kwargs, err, match", [
+    ({"r": []}, SignalError, "residuals"),
+    ({"r": [1.0, np.nan]}, SignalError, "residuals"),
+    ({"n_out": 0}, ParameterError, "n_out"),
+    ({"block": 0}, ParameterError, "block"),
+    ({"block": True}, ParameterError, "block"),
+    ({"rng": 3}, ParameterError, "rng"),
+])
+def test_moving_block_bad_input(kwargs, err, match):
+    args = {"r": [1.0, 2.0, 3.0], "n_out": 5, "block": 2, "rng": np.random.default_rng(0), **kwargs}
+    r = args.pop("r")
+    n_out = args.pop("n_out")
+    with pytest.raises(err, match=match):
+        moving_block_resample(r, n_out, **args)
