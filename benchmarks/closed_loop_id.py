@@ -16,17 +16,12 @@ on the machine's load; the errors do not.
 from __future__ import annotations
 
 import argparse
-import math
 import time
 
-import numpy as np
-
 from adaptive_ff.identification.physical_id import fit_physical
-from controllers.design.pi import design_pi
 from controllers.experiments.closed_loop_id import ControllerSpec, fit_closed_loop
-from controllers.experiments.synthetic_logs import closed_loop_run
-from plant import irregular_sample_times, preset, sample
-from plant.excitation import multisine_reference
+from controllers.experiments.synthetic_logs import closed_loop_readout
+from plant import preset
 
 P = preset("paper")
 VS, DELTA = 0.0197756, 1.01582
@@ -35,14 +30,8 @@ NAMES = ("J", "Fc", "Fs", "sigma", "tau")
 
 def record(seed: int, duration: float):
     """``(measurement, reference at the stamps, ControllerSpec)`` of one seeded robot experiment."""
-    ref = multisine_reference(duration, dt=1e-3, peak=math.radians(20.0), rng=np.random.default_rng(seed))
-    design = design_pi(P.J, crossover=200.0, phase_margin=60.0, Tc=1e-3)
-    u_max = 3.0 * (max(P.Fs, P.Fc) + P.sigma * float(np.max(np.abs(ref.w))) + P.J * float(np.max(np.abs(ref.dw))))
-    run = closed_loop_run(P, ref, design=design, u_max=u_max, noise_std=1e-3, rng=np.random.default_rng(seed + 1))
-    times = irregular_sample_times(duration, dt=1e-3, rng=np.random.default_rng(seed + 2))
-    m = sample(run.response, times=times, noise_std=1e-3, quantization=0.6, rng=np.random.default_rng(seed + 3))
-    return m, run.w_ref[np.rint(m.t / 1e-3).astype(int)], ControllerSpec(Kp=design.Kp, Ki=design.Ki, Tc=1e-3,
-                                                                         u_max=u_max)
+    exp = closed_loop_readout(P, duration, seeds=seed)
+    return exp.measurement, exp.w_ref, ControllerSpec(**exp.controller())
 
 
 def _row(label: str, params: dict, stderr: dict | None, dt: float) -> str:

@@ -107,7 +107,7 @@ class AsymmetricParams:
         return float(self.friction(float(w)))
 
     def make_step(self, dt: float) -> Callable[[float, float, float], tuple]:
-        """One classic RK4 step ``(w, f, u) -> (w, f)`` over ``dt`` (s) with ``u`` held.
+        """One step ``(w, f, u) -> (w, f)`` over ``dt`` (s) with ``u`` held (RK4; stiff joints: the implicit step).
 
         The compiled :func:`plant.dynamics.plant_step` behind a Python call.
 

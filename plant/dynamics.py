@@ -44,8 +44,10 @@ slot  name            meaning
 19    ``base_rate``   LuGre ``(sigma1 + sigma2)/J + sqrt(sigma0/J)`` (1/s)
 20    ``rate``        lagged models: the fastest stable mode (1/s, :func:`lagged_rate`); where
                       ``rate*dt > RK4_RATE_MAX`` the RK4 step is cut into ``int(rate*dt) + 1``
-                      equal sub-steps
-21    ``key``         fingerprint of slots 0-20 (an integer in [1, 2**52)), see state slot 2
+                      equal sub-steps, beyond ``LAGGED_RK4_MAX`` the stiff step (below)
+21    ``inv_J``       ``1/J`` (1/(kg·m²)): the lagged models' right-hand side multiplies by it
+22    ``inv_tau``     ``1/tau`` (1/s), 0 for ``tau = 0``
+23    ``key``         fingerprint of slots 0-22 (an integer in [1, 2**52)), see state slot 2
 ====  ==============  ===========================================================
 
 State (:data:`PLANT_NSTATE` = 3): ``st[0]`` velocity ``w`` (rad/s);
@@ -55,7 +57,16 @@ LuGre the bristle deflection ``z`` in rad); ``st[2]`` equals ``key`` when
 :func:`plant_step` and :func:`plant_state`), so the next step reuses it instead
 of evaluating eq. 3 again; any other value (e.g. NaN) means "not cached".
 Swapping the parameter row (a drifting plant) invalidates it by the key. For
-LuGre ``st[2]`` holds the last sub-step of the stiff integrator (s) or NaN.
+LuGre, and for a lagged model after a step of :func:`lagged_stiff_step`, ``st[2]``
+holds the last sub-step of the stiff integrator (s) or NaN.
+
+Stiff lagged models (a rising Stribeck map, ``delta < 0``, whose steepest slope
+sits at tiny speeds; a viscous slope far above ``J/dt``; a lag far below the
+step) take :func:`lagged_stiff_step` (error-controlled, extrapolated backward
+Euler, each sub-step one scalar bracketed solve that sticks on a jump of eq. 3
+where the friction is set-valued) for every step whose velocity range
+(:func:`lagged_local_rate`) would need more than :data:`LAGGED_RK4_MAX` RK4
+sub-steps; no lagged model is refused for stiffness.
 
 Stiff LuGre joints (a stiff bristle, ``sigma0`` up to 1e8 N·m/rad and more, on
 a small inertia) are integrated by :func:`lugre_stiff_step` (error-controlled,
@@ -78,15 +89,17 @@ from plant.stribeck import stribeck_cutoff, stribeck_scalar
 
 __all__ = ["PLANT_NPAR", "PLANT_NSTATE", "PLANT_SLOTS", "MODEL_CODES", "plant_params", "lagged_params", "plant_state",
            "plant_target", "plant_rk4", "plant_step", "plant_friction", "plant_simulate", "make_plant_step",
-           "lugre_jacobian", "lugre_implicit_step", "lugre_stiff_step", "check_integrable", "lagged_rate", "RK4_RATE_MAX", "LAGGED_MAX_SUBSTEPS",
-           "LUGRE_STIFF_MAX", "LUGRE_RK4_MAX", "LUGRE_RTOL", "LUGRE_ZTOL", "LUGRE_MAX_SUBSTEPS"]
+           "lugre_jacobian", "lugre_implicit_step", "lugre_stiff_step", "lagged_implicit_step", "lagged_stiff_step", "lagged_local_rate",
+           "check_integrable", "lagged_rate", "RK4_RATE_MAX", "LAGGED_RK4_MAX", "LAGGED_RTOL", "LAGGED_FTOL",
+           "LAGGED_MAX_SUBSTEPS", "LUGRE_STIFF_MAX", "LUGRE_RK4_MAX", "LUGRE_RTOL", "LUGRE_ZTOL", "LUGRE_MAX_SUBSTEPS"]
 
 #: Model codes of slot 0.
 MODEL_CODES = {"lagged-stribeck": 0, "asymmetric": 1, "karnopp": 2, "lugre": 3}
 #: Slot names of the parameter row -> index (see the module docstring).
 PLANT_SLOTS = {name: i for i, name in enumerate((
     "code", "J", "Vs", "delta", "tau", "Fc_pos", "dF_pos", "sigma_pos", "wcut_pos", "Fc_neg", "dF_neg",
-    "sigma_neg", "wcut_neg", "Fs_stick", "dv", "sigma0", "sigma1", "g_min", "g_max", "base_rate", "rate", "key"))}
+    "sigma_neg", "wcut_neg", "Fs_stick", "dv", "sigma0", "sigma1", "g_min", "g_max", "base_rate", "rate", "inv_J",
+    "inv_tau", "key"))}
 #: Length of the parameter row.
 PLANT_NPAR = len(PLANT_SLOTS)
 #: Length of the state array: w, the model's internal state, the eq. 3 cache key.
@@ -95,6 +108,8 @@ PLANT_NSTATE = 3
 _LUGRE = 3.0
 _KEY = PLANT_SLOTS["key"]
 _RATE = PLANT_SLOTS["rate"]
+_INV_J = PLANT_SLOTS["inv_J"]
+_INV_TAU = PLANT_SLOTS["inv_tau"]
 _FIELDS = {
     "lagged-stribeck": ("J", "Fc", "Fs", "Vs", "delta", "sigma", "tau"),
     "asymmetric": ("J", "Fc_pos", "Fc_neg", "Fs_pos", "Fs_neg", "Vs", "delta", "sigma_pos", "sigma_neg", "tau"),
@@ -184,6 +199,8 @@ def lagged_rate(J: float, dF: float, Vs: float, delta: float, sigma: float, tau:
 
 
 def _keyed(r: np.ndarray) -> np.ndarray:
+    r[_INV_J] = 1.0 / r[1] if r[1] != 0.0 else math.inf
+    r[_INV_TAU] = 1.0 / r[4] if r[4] > 0.0 else 0.0
     r[_KEY] = 1 + hash(tuple(r[:_KEY].tolist())) % (2**52 - 1)
     return r
 
@@ -272,8 +289,6 @@ def plant_state(p, w0: float = 0.0) -> np.ndarray:
 #: Largest ``rate*dt`` of a stable mode that the explicit RK4 step of the lagged models accepts (RK4's
 #: stability interval on the negative real axis ends at 2.785; Hairer & Wanner, *Solving ODEs II*, Sec. IV.2).
 RK4_RATE_MAX = 2.5
-#: Most RK4 sub-steps per step of a lagged model (:func:`check_integrable` refuses faster plants).
-LAGGED_MAX_SUBSTEPS = 1000
 #: Largest pre-sliding frequency ``sqrt(sigma0/J)*dt`` of a LuGre joint that :func:`lugre_stiff_step` accepts.
 LUGRE_STIFF_MAX = 1e4
 
@@ -291,15 +306,16 @@ def check_integrable(rows, dt: float) -> None:
     Raises
     ------
     ParameterError
-        The first offending row and the reason: a lagged model (lagged Stribeck, asymmetric, Karnopp) whose
-        fastest stable mode (:func:`lagged_rate`) needs more than about :data:`LAGGED_MAX_SUBSTEPS` RK4
-        sub-steps per step (``rate*dt > RK4_RATE_MAX*LAGGED_MAX_SUBSTEPS``), or a LuGre joint whose pre-sliding frequency ``sqrt(sigma0/J)``
-        exceeds ``LUGRE_STIFF_MAX/dt``. Such a plant would otherwise run for hours or into NaN.
+        The first offending row and the reason: a LuGre joint whose pre-sliding frequency ``sqrt(sigma0/J)``
+        exceeds ``LUGRE_STIFF_MAX/dt`` (it would run for hours), or a row with a non-finite or out-of-range
+        entry (inertia, lag, levels; possible only for rows not made by :func:`plant_params`). Every valid lagged
+        model (lagged Stribeck, asymmetric, Karnopp, any lag, slope or inertia) is integrable: beyond
+        :data:`LAGGED_RK4_MAX` RK4 sub-steps :func:`plant_step` takes the implicit :func:`lagged_stiff_step`.
 
     Notes
     -----
-    The rates are the eigenvalues of the linearised models (eqs. 1-3; LuGre at rest). RK4 stability: Hairer &
-    Wanner, *Solving ODEs II*, Sec. IV.2.
+    The LuGre rate is the eigenvalue of the linearised model at rest (Canudas de Wit et al. 1995); the lagged
+    models' stiff step is L-stable (backward Euler; Hairer & Wanner, *Solving ODEs II*, Sec. IV.3).
     """
     dt = check_positive("dt", dt)
     r = np.atleast_2d(np.asarray(rows, dtype=float))
@@ -313,13 +329,13 @@ def check_integrable(rows, dt: float) -> None:
                     f"{LUGRE_STIFF_MAX:g}/dt = {LUGRE_STIFF_MAX / dt:.3g} rad/s (sigma0 = {r[j, 15]:g} N·m/rad, "
                     f"J = {J:g} kg·m², dt = {dt:g} s): the engine cannot integrate it accurately")
             continue
-        rate = r[j, _RATE]
-        if not rate * dt <= RK4_RATE_MAX * LAGGED_MAX_SUBSTEPS:
+        J, tau = float(J), float(tau)
+        levels = [float(v) for v in (*r[j, 5:8], *r[j, 9:12], r[j, 2], r[j, 3], r[j, 13], r[j, 14])]
+        if not (J > 0.0 and math.isfinite(J) and 0.0 <= tau < math.inf and all(math.isfinite(v) for v in levels)):
             raise ParameterError(
-                f"plant (row {j}, model code {int(code)}): its fastest stable mode (lagged_rate: the friction lag "
-                f"tau = {tau:g} s, the viscous and rising Stribeck slopes on J = {J:g} kg·m²) has a rate of "
-                f"{rate:.3g} 1/s; at dt = {dt:g} s that needs more than {LAGGED_MAX_SUBSTEPS} RK4 sub-steps per "
-                "step: the engine refuses it (use tau = 0 for a friction without lag, or a smaller step)")
+                f"plant (row {j}, model code {int(code)}): J = {J!r} kg·m² must be finite and > 0, tau = {tau!r} s "
+                f"finite and >= 0, and the friction parameters (Fc, Fs - Fc, sigma per direction, Vs, delta, Fs, dv) "
+                f"finite, got {levels!r}: the engine cannot integrate it")
 
 
 @kernel(inline="always")
@@ -370,16 +386,19 @@ def plant_target(par, w, sgn):
 
 @kernel(inline="always")
 def _rhs(par, w, s, u, Fw):
-    """``(dw/dt, ds/dt)`` at ``(w, s)`` with input ``u`` and ``Fw = plant_target(par, w, .)``."""
+    """``(dw/dt, ds/dt)`` at ``(w, s)`` with input ``u`` and ``Fw = plant_target(par, w, .)``.
+
+    Lagged models: ``(u - s)*(1/J)`` and ``(Fw - s)*(1/tau)`` with the reciprocals of the parameter row (two
+    multiplications instead of the two divisions, the largest cost of a step after ``exp``; within an ulp of
+    the quotients). LuGre divides as before."""
     J = par[1]
     if par[0] == _LUGRE:
         aw = w if w >= 0.0 else -w
         zdot = w - par[15] * aw / Fw * s
         return (u - par[15] * s - par[16] * zdot - par[7] * w) / J, zdot
-    tau = par[4]
-    if tau == 0.0:
-        return (u - Fw) / J, 0.0
-    return (u - s) / J, (Fw - s) / tau
+    if par[4] == 0.0:
+        return (u - Fw) * par[_INV_J], 0.0
+    return (u - s) * par[_INV_J], (Fw - s) * par[_INV_TAU]
 
 
 @kernel(inline="always")
@@ -452,7 +471,11 @@ def plant_step(par, st, u, dt):
     ``w``, then ``f = F(w)``, which the next step reuses through the cache
     slot). Karnopp: in the band ``|w| < dv`` with ``|u| <= Fs`` the joint
     sticks (``w = 0``, ``f = u``); with ``|u| > Fs`` it breaks away (RK4 with
-    the band target ``Fs*sgn(u)``). LuGre: ``n`` equal RK4 sub-steps, ``n``
+    the band target ``Fs*sgn(u)``). A lagged model whose fastest mode
+    (:func:`lagged_rate`) needs sub-steps takes ``int(rate*dt) + 1`` equal RK4
+    sub-steps, and beyond :data:`LAGGED_RK4_MAX` of them (unless the step's own
+    velocity range is mild, :func:`lagged_local_rate`) :func:`lagged_stiff_step`
+    with the same Karnopp direction. LuGre: ``n`` equal RK4 sub-steps, ``n``
     chosen from the stiffness at the step start so that each stays well inside
     RK4's stability region (:meth:`plant.lugre.LuGreParams.make_step`); with
     ``n > LUGRE_RK4_MAX`` (a stiff bristle) :func:`lugre_stiff_step` instead; a
@@ -500,8 +523,14 @@ def plant_step(par, st, u, dt):
             sgn = 1.0 if u > 0.0 else -1.0
         x = par[_RATE] * dt
         if x > RK4_RATE_MAX:  # a stiff mode: equal sub-steps with rate*h < 1 (accurate, not only stable)
-            n = int(x) + 1
-            h = dt / n
+            if not x < LAGGED_RK4_MAX and sgn == 0.0:  # the stiffness of this step alone
+                x = lagged_local_rate(par, w, s, u, dt) * dt
+            if not x < LAGGED_RK4_MAX:  # more than LAGGED_RK4_MAX sub-steps: implicit, error-controlled
+                lagged_stiff_step(par, st, u, dt, sgn)
+                return
+            if x > RK4_RATE_MAX:
+                n = int(x) + 1
+                h = dt / n
     static = par[4] == 0.0 and not lugre
     cached = static and sgn == 0.0 and st[2] == par[_KEY]  # s = F(w) of these parameters
     for i in range(n):
@@ -514,6 +543,302 @@ def plant_step(par, st, u, dt):
         st[2] = math.nan
     st[0] = w
     st[1] = s
+
+
+#: Lagged-model steps whose RK4 sub-step count (``int(rate*dt) + 1``, :func:`lagged_rate`) would exceed this use
+#: :func:`lagged_stiff_step`; at or below it the RK4 sub-steps (and their results, bit for bit) are kept.
+LAGGED_RK4_MAX = 64
+#: Relative tolerance (to ``|w| + Vs``) of the sub-step error control of :func:`lagged_stiff_step` on the velocity.
+LAGGED_RTOL = 1e-5
+#: Tolerance of the same error control on the friction state (``tau > 0``), relative to the largest friction level.
+LAGGED_FTOL = 1e-4
+#: Most sub-steps :func:`lagged_stiff_step` takes in one step before it gives up (NaN state: diverged).
+LAGGED_MAX_SUBSTEPS = 200000
+
+
+@kernel
+def lagged_local_rate(par, w, f, u, dt):
+    """Fastest stable mode (1/s) of a lagged model over the velocities it can reach within ``dt`` from ``(w, f)``.
+
+    Parameters
+    ----------
+    par : ndarray, shape (PLANT_NPAR,)
+        Parameter row of a lagged model.
+    w, f : float
+        Velocity (rad/s) and friction state (N·m) at the step start.
+    u : float
+        Torque (N·m), held.
+    dt : float
+        Step (s).
+
+    Returns
+    -------
+    float
+        :func:`lagged_rate` with the steepest rise of the map taken over ``|w| +- D`` only,
+        ``D = 2*dt*(|u| + max(|f|, Fmax + sigma*|w|))/J`` (twice the largest speed change: the joint cannot leave
+        this range within the step); ``inf`` when the range reaches a jump of the map (``w = 0``, the Karnopp band
+        ``|w| <= dv``) or the state is not finite.
+
+    Notes
+    -----
+    The rise of eq. 3, ``-dF*delta*x**(delta-1)*exp(-x**delta)/Vs`` at ``x = |w|/Vs`` where ``dF*delta < 0``, is
+    largest at ``x**delta = 1 - 1/delta`` (:func:`lagged_rate`); over an interval it is largest at that point
+    clipped into the interval (one maximum; for ``0 < delta < 1`` it falls with ``x``).
+    """
+    J = par[1]
+    tau = par[4]
+    aw = w if w >= 0.0 else -w
+    pos = w > 0.0
+    dF = par[6] if pos else par[10]
+    sig = par[7] if pos else par[11]
+    Fmax = max(max(par[5], par[5] + par[6]), max(par[9], par[9] + par[10]), par[13])
+    D = 2.0 * dt * (abs(u) + max(abs(f), Fmax + max(par[7], par[11]) * aw)) / J
+    lo = aw - D
+    if not lo > par[14]:  # reaches the jump at 0 or the Karnopp band (or a NaN state)
+        return math.inf
+    delta = par[3]
+    Vs = par[2]
+    rise = 0.0
+    if dF * delta < 0.0:
+        x = 0.0
+        if delta >= 1.0 or delta < 0.0:
+            x = (1.0 - 1.0 / delta) ** (1.0 / delta)
+        xl = lo / Vs
+        xh = (aw + D) / Vs
+        x = xl if x < xl else (xh if x > xh else x)
+        y = x ** delta
+        rise = abs(dF * delta) * x ** (delta - 1.0) * math.exp(-y) / Vs
+    s = (sig if sig > 0.0 else 0.0) + rise
+    if tau > 0.0:
+        return max(1.0 / tau, math.sqrt(s / (J * tau)))
+    return s / J
+
+
+@kernel(inline="always")
+def _be_residual(par, w, sgn, c, k, r, w0, d):
+    """``d*(c*(w - w0) + k*F(w) - r)``: the backward-Euler residual of :func:`lagged_implicit_step`, oriented."""
+    return d * (c * (w - w0) + k * plant_target(par, w, sgn) - r)
+
+
+@kernel
+def _be_root(par, sgn, c, k, r, w0, d, lo, plo, hi, phi):
+    """A root of the oriented residual in the bracket ``(lo, hi)`` (``plo < 0 <= phi``): Illinois regula falsi,
+    with a bisection after three iterations that did not halve the bracket (Dahlquist & Björck, *Numerical
+    Methods*, Sec. 6.2). Returns ``hi`` once ``|hi - lo| <= 1e-13*(|lo| + |hi| + Vs)``."""
+    tol = 1e-13 * (abs(lo) + abs(hi) + par[2])
+    side = 0
+    stall = 0
+    for _ in range(300):
+        width = abs(hi - lo)
+        if not width > tol:
+            break
+        x = hi - phi * (hi - lo) / (phi - plo)
+        if stall >= 3 or not (abs(x - lo) < width and abs(x - hi) < width):
+            x = 0.5 * (lo + hi)
+            stall = 0
+        px = _be_residual(par, x, sgn, c, k, r, w0, d)
+        if px >= 0.0:
+            hi = x
+            phi = px
+            if side == 1:
+                plo *= 0.5
+            side = 1
+            if px == 0.0:
+                break
+        else:
+            lo = x
+            plo = px
+            if side == -1:
+                phi *= 0.5
+            side = -1
+        stall = stall + 1 if abs(hi - lo) > 0.5 * width else 0
+    return hi
+
+
+@kernel
+def lagged_implicit_step(par, w0, f0, u, h, sgn):
+    """One backward-Euler step of a lagged model (lagged Stribeck, asymmetric, Karnopp) over ``h`` (s).
+
+    Parameters
+    ----------
+    par : ndarray, shape (PLANT_NPAR,)
+        Parameter row of a lagged model (:func:`plant_params`).
+    w0, f0 : float
+        Velocity (rad/s) and friction state (N·m) at the start (``f0`` unused for ``tau == 0``).
+    u : float
+        Torque (N·m), held.
+    h : float
+        Step (s), > 0.
+    sgn : float
+        Karnopp breakaway direction (:func:`plant_target`).
+
+    Returns
+    -------
+    (float, float, float)
+        ``(w, f, Fstar)`` after ``h``: the velocity, the friction state (``tau == 0``: the friction) and the
+        value ``Fstar`` of the static map the step used (at a jump of the map, the value inside the jump that
+        balances the step: sticking).
+
+    Notes
+    -----
+    ``J*(w - w0) = h*(u - f)`` and ``tau*(f - f0) = h*(F(w) - f)`` (eqs. 1-2; ``f = F(w)`` for ``tau == 0``)
+    reduce to one scalar equation ``c*(w - w0) + k*F(w) = r`` with ``a = h/tau``, ``c = J*(1 + a)``, ``k = h*a``,
+    ``r = h*((1 + a)*u - f0)`` (``tau == 0``: ``c = J``, ``k = h``, ``r = h*u``). It is solved in the direction
+    ``d = sgn(r - k*F(w0))`` the joint accelerates in, between ``w0`` and a bound where the ``c`` term dominates
+    ``F`` (at most the largest level plus ``sigma*|w0|``), walking across the jumps of ``F`` (at ``w = 0``, or at
+    the Karnopp band edges ``±dv``): where the residual jumps across zero the map is set-valued there (Filippov;
+    Karnopp 1985) and the step ends on the jump (the joint sticks at ``w = 0``, ``|u|`` inside the static band).
+    A rising map (``delta < 0`` or a viscous slope) makes the residual increasing, so the root is unique; backward
+    Euler is L-stable (Hairer & Wanner, *Solving ODEs II*, Sec. IV.3), so any slope is damped for every ``h``.
+    """
+    J = par[1]
+    tau = par[4]
+    dv = par[14]
+    if tau > 0.0:
+        a = h / tau
+        c = J * (1.0 + a)
+        k = h * a
+        r = h * ((1.0 + a) * u - f0)
+    else:
+        a = 0.0
+        c = J
+        k = h
+        r = h * u
+    start = w0
+    if (w0 == 0.0 and dv == 0.0) or (dv > 0.0 and (w0 == dv or w0 == -dv)):  # on a jump of the map
+        Flo = plant_target(par, np.nextafter(w0, -math.inf), sgn)
+        Fhi = plant_target(par, np.nextafter(w0, math.inf), sgn)
+        if k * Flo <= r <= k * Fhi:  # F(w0) is the interval [Flo, Fhi] and holds the joint: it stays
+            Fstar = r / k
+            return w0, (f0 + a * Fstar) / (1.0 + a) if tau > 0.0 else Fstar, Fstar
+        d = 1.0 if r > k * Fhi else -1.0
+        start = np.nextafter(w0, d * math.inf)
+    else:
+        g = r - k * plant_target(par, w0, sgn)
+        if g == 0.0 or not g == g:
+            Fstar = plant_target(par, w0, sgn) if g == g else math.nan
+            return w0 if g == g else math.nan, (f0 + a * Fstar) / (1.0 + a) if tau > 0.0 else Fstar, Fstar
+        d = 1.0 if g > 0.0 else -1.0
+    Fbar = max(max(par[5], par[5] + par[6]), max(par[9], par[9] + par[10]), par[13])
+    Fbar += max(par[7], par[11]) * abs(w0)
+    hi = w0 + d * (abs(r) + k * Fbar) / c
+    hi = hi + d * 1e-15 * (abs(hi) + par[2])  # strictly past the bound
+    plo = _be_residual(par, start, sgn, c, k, r, w0, d)
+    phi = _be_residual(par, hi, sgn, c, k, r, w0, d)
+    for i in range(2):  # the jumps of the map ahead of the start, in the direction of motion
+        p = (0.0 if i == 0 else math.nan) if dv == 0.0 else (-d * dv if i == 0 else d * dv)
+        if not (d * (p - start) > 0.0 and d * (hi - p) > 0.0):
+            continue
+        before = np.nextafter(p, -d * math.inf)
+        pb = _be_residual(par, before, sgn, c, k, r, w0, d)
+        if pb >= 0.0:
+            hi = before
+            phi = pb
+            break
+        after = np.nextafter(p, d * math.inf)
+        pa = _be_residual(par, after, sgn, c, k, r, w0, d)
+        if pa >= 0.0:  # the residual jumps across zero: the step ends on the jump
+            Fstar = (r - c * (p - w0)) / k
+            return p, (f0 + a * Fstar) / (1.0 + a) if tau > 0.0 else Fstar, Fstar
+        start = after
+        plo = pa
+    if phi <= 0.0:
+        w = hi
+    elif plo >= 0.0:
+        w = start
+    else:
+        w = _be_root(par, sgn, c, k, r, w0, d, start, plo, hi, phi)
+    Fstar = (r - c * (w - w0)) / k
+    return w, (f0 + a * Fstar) / (1.0 + a) if tau > 0.0 else Fstar, Fstar
+
+
+@kernel(inline="always")
+def _region(par, w):
+    """Which smooth piece of the lagged map ``w`` lies on: -2/2 below/above the jump(s), 0 inside the Karnopp band,
+    odd on a jump point (``w = 0``, or ``w = -dv``/``dv``)."""
+    dv = par[14]
+    if dv == 0.0:
+        return -2 if w < 0.0 else (2 if w > 0.0 else 1)
+    if w < -dv:
+        return -2
+    if w > dv:
+        return 2
+    return -1 if w == -dv else (1 if w == dv else 0)
+
+
+@kernel
+def lagged_stiff_step(par, st, u, dt, sgn):
+    """Advance a stiff lagged model by ``dt`` (s) with ``u`` (N·m) held: error-controlled implicit sub-steps.
+
+    Parameters
+    ----------
+    par : ndarray, shape (PLANT_NPAR,)
+        Parameter row of a lagged model (lagged Stribeck, asymmetric, Karnopp).
+    st : ndarray, shape (PLANT_NSTATE,)
+        ``[w, f, h]``: velocity (rad/s), friction state (N·m), the last sub-step (s; any value outside
+        ``(0, dt]``: none yet, then ``dt``); updated in place. NaN state for a non-finite state or input or after
+        :data:`LAGGED_MAX_SUBSTEPS` sub-steps (treated as diverged).
+    u : float
+        Torque (N·m).
+    dt : float
+        Step (s), > 0.
+    sgn : float
+        Karnopp breakaway direction (:func:`plant_target`), fixed over the step as in the RK4 path.
+
+    Notes
+    -----
+    The scheme of :func:`lugre_stiff_step` on eqs. 1-3: a sub-step ``h`` of :func:`lagged_implicit_step` and two
+    of ``h/2`` give the error estimate (step doubling, Hairer, Nørsett & Wanner, *Solving ODEs I*, Sec. II.4),
+    accepted when ``|w_(h/2) - w_h| <= LAGGED_RTOL*(|w| + Vs)`` and (``tau > 0``)
+    ``|f_(h/2) - f_h| <= LAGGED_FTOL*max level``. Where all three solutions stay on one smooth piece of the map
+    (:func:`_region`) the result is the extrapolation ``2*y_(h/2) - y_h`` (second order, A-stable, *Solving ODEs
+    II*, Sec. IV.9); across a jump of the map (a reversal, a stick) it is ``y_(h/2)`` itself, which the
+    set-valued solve keeps on the jump. The next ``h`` scales with ``0.9/sqrt(err)``, clipped to [0.2, 2].
+    """
+    w = st[0]
+    f = st[1]
+    h = st[2]
+    if not (h > 0.0 and h <= dt):
+        h = dt
+    tau = par[4]
+    Vs = par[2]
+    tol_f = LAGGED_FTOL * max(max(par[5], par[5] + par[6]), max(par[9], par[9] + par[10]), par[13], 1e-300)
+    t = 0.0
+    count = 0
+    while t < dt:
+        if count >= LAGGED_MAX_SUBSTEPS or not (w - w == 0.0 and f - f == 0.0 and u - u == 0.0):
+            st[0] = math.nan
+            st[1] = math.nan
+            st[2] = math.nan
+            return
+        count += 1
+        last = h >= dt - t
+        hh = dt - t if last else h
+        w1, f1, F1 = lagged_implicit_step(par, w, f, u, hh, sgn)
+        wm, fm, Fm = lagged_implicit_step(par, w, f, u, 0.5 * hh, sgn)
+        w2, f2, F2 = lagged_implicit_step(par, wm, fm, u, 0.5 * hh, sgn)
+        err = abs(w2 - w1) / (LAGGED_RTOL * (abs(w2) + Vs))
+        if tau > 0.0:
+            ef = abs(f2 - f1) / tol_f
+            err = err if err > ef else ef
+        if not err == err:
+            err = math.inf
+        if err <= 1.0:
+            t = dt if last else t + hh
+            reg = _region(par, w2)
+            we = 2.0 * w2 - w1
+            smooth = reg % 2 == 0 and _region(par, w) == reg and _region(par, w1) == reg and _region(par, wm) == reg
+            if smooth and _region(par, we) == reg:
+                w = we
+                f = 2.0 * f2 - f1 if tau > 0.0 else plant_target(par, we, sgn)
+            else:
+                w = w2
+                f = f2
+        fac = 0.9 / math.sqrt(err) if err > 0.0 else 2.0
+        h = hh * (2.0 if fac > 2.0 else (0.2 if fac < 0.2 else fac))
+    st[0] = w
+    st[1] = f
+    st[2] = h
 
 
 #: LuGre steps whose RK4 sub-step count (stiffness bound of :func:`plant_step`) exceeds this use

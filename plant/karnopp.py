@@ -49,6 +49,9 @@ class KarnoppParams:
       outside it.
     - ``|w| >= dv``: the lagged Stribeck joint of eqs. 1-3 (RK4).
 
+    A stiff joint (:func:`plant.dynamics.lagged_rate` beyond ``LAGGED_RK4_MAX`` RK4 sub-steps per step) is
+    advanced by the implicit :func:`plant.dynamics.lagged_stiff_step` under the same rules.
+
     Karnopp (1985) fixes the acceleration to 0 in the band; zeroing the
     velocity as well removes the slow drift of that scheme (a common
     refinement, e.g. Olsson et al., "Friction models and friction

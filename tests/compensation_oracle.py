@@ -543,16 +543,18 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
                               delta=estimator.delta if est.delta is None else est.delta))
             self._gain = 1.0
 
-    def step(self, w: float, w_ref: float | None = None) -> float:
+    def step(self, w: float, w_ref: float | None = None, w_start: float | None = None) -> float:
         """Advance one period; return the bounded feedforward (N·m), 0 before switch-on.
 
-        See :meth:`FrictionFeedforward.step`; after switch-on the output fades in over ``fade_in``.
+        See :meth:`FrictionFeedforward.step`; after switch-on the output fades in over ``fade_in``. ``w_ref``
+        is the stick-detection fallback; a start at the reference uses ``w_start`` (default ``w_ref``).
         """
         if self.estimate is None:
             return 0.0
         if self.provisional:
             if self._start_ref:
-                return FrictionFeedforward.step(self, w if w_ref is None else w_ref) * self._start_gain
+                r = w_start if w_start is not None else (w if w_ref is None else w_ref)
+                return FrictionFeedforward.step(self, r) * self._start_gain
             return FrictionFeedforward.step(self, w, w_ref) * self._start_gain
         out = FrictionFeedforward.step(self, w, w_ref)
         if self._gain < 1.0:
@@ -661,8 +663,9 @@ class AdaptiveDOBCompensator:
     def __getattr__(self, name):  # counters, estimator, estimate: the feedforward's
         return getattr(self.__dict__["ff"], name)
 
-    def step(self, w, w_ref):
-        self.u_ff = self.ff.step(w, w_ref) if self.measured else self.ff.step(w_ref)
+    def step(self, w, w_ref, w_stuck=None):
+        wst = w_ref if w_stuck is None else w_stuck
+        self.u_ff = self.ff.step(w, wst, w_ref) if self.measured else self.ff.step(w_ref)
         d = self.dob.compensate(w, w_ref)
         return min(max(self.u_ff + d, -self.u_max), self.u_max)
 

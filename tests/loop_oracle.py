@@ -12,7 +12,7 @@ import numpy as np
 
 import compensation_oracle as co
 import peers_oracle as po
-from pi_oracle import OraclePI
+from pi_oracle import OracleLoopModel, OraclePI
 import plant_oracle as pl
 from controllers.simulation.metrics import LoopMetrics
 
@@ -105,6 +105,10 @@ def oracle_run(p, ref, *, mode, rng=None, faults=None, **kw):
     adob = isinstance(ff, co.AdaptiveDOBCompensator)
     robust = adob or isinstance(ff, co.RobustAdaptiveFeedforward)
     ff_measured = kw.get("ff_input", "measured") == "measured"
+    # the stick-detection fallback of the measured-velocity feedforward: the nominal loop (design inertia)
+    J_d = float(kw["J_design"]) if kw.get("J_design") is not None else J
+    lm = (OracleLoopModel(kw["Kp"], kw["Ki"], J_d, Tc) if ff is not None and not eq4 and ff_measured
+          and kw.get("stick_input", "model") == "model" and mode in ("fixed", "adaptive", "adaptive-dob") else None)
     t = np.asarray(ref.t)
     wr = np.asarray(ref.w, dtype=float)
     n = t.shape[0]
@@ -143,10 +147,13 @@ def oracle_run(p, ref, *, mode, rng=None, faults=None, **kw):
             ff.observe(u, wm)
             th_t.append(t[k])
             th.append(ff.theta.copy())
+        wst = wrk if lm is None else lm.step(wc, wrk)
         if adob:
-            uff = ff.step(wc, wrk)
+            uff = ff.step(wc, wrk, wst)
+        elif robust:
+            uff = ff.step(wc, wst, wrk) if ff_measured else ff.step(wrk)
         elif ff is not None:
-            uff = ff.step(wc, wrk) if ff_measured else ff.step(wrk)
+            uff = ff.step(wc, wst) if ff_measured else ff.step(wrk)
         elif peer is not None:
             uff = peer.compensate(wc, wrk)
         elif mode == "oracle":

@@ -153,3 +153,33 @@ class OraclePI:
             return -umax
         self.saturated = False
         return v
+
+
+class OracleLoopModel:
+    """Oracle of :class:`adaptive_ff.compensation.feedforward.LoopModel` / ``loop_model_step``: the PI
+    ``Kp + Ki*Tc*z/(z-1)`` on the zero-order-hold joint ``1/(J s)``, no friction, no noise, no limit.
+
+    :meth:`step` returns the model velocity of this period plus the deviation ``w0 - w_model`` tracked by a
+    first-order low-pass of bandwidth ``track`` (default ``Kp/J``), and advances; the first call starts the
+    model at the given measurement (0 if not finite).
+    """
+
+    def __init__(self, Kp: float, Ki: float, J: float, Tc: float, track: float | None = None):
+        self.Kp, self.Ki, self.J, self.Tc = float(Kp), float(Ki), float(J), float(Tc)
+        bw = self.Kp / self.J if track is None else float(track)
+        self.a = 1.0 - math.exp(-bw * self.Tc)
+        self.w = None
+        self.integral = 0.0
+        self.dev = 0.0
+
+    def step(self, w0: float, r: float) -> float:
+        if self.w is None:
+            self.w = float(w0) if math.isfinite(w0) else 0.0
+        w = self.w
+        e = r - w
+        self.integral += (self.Ki * self.Tc) * e
+        torque = self.Kp * e + self.integral
+        self.w = w + (self.Tc / self.J) * torque
+        if self.a > 0.0 and math.isfinite(w0):
+            self.dev = self.dev + self.a * ((w0 - w) - self.dev)
+        return w + self.dev

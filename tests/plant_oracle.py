@@ -1,6 +1,7 @@
 """Test oracle: the pure-Python plant steps and the identification simulator that the compiled kernels replaced.
 
-Verbatim (issue 10) the former ``plant.joint._friction_scalar`` and ``plant.joint.lagged_rk4_step`` (eq. 3 and
+Verbatim (issue 10, with one change: the lagged models' right-hand sides multiply by ``1/J`` and ``1/tau``, as the
+package's plant step does since the batch speed-up) the former ``plant.joint._friction_scalar`` and ``plant.joint.lagged_rk4_step`` (eq. 3 and
 the RK4 step of eqs. 1-2), ``KarnoppParams.make_step``, ``LuGreParams.make_step`` and ``friction_torque``,
 ``AsymmetricParams.make_step`` (here functions of the parameter object ``self``), and the former numba kernel of
 :mod:`adaptive_ff.identification.simulator` run as plain Python. Used by tests/test_plant_kernels.py to check
@@ -59,31 +60,33 @@ def lagged_rk4_step(F: Callable[[float], float], *, J: float, tau: float,
         The step function used by :func:`make_rk4_step` (see its Notes).
     """
     h2, h6 = dt / 2.0, dt / 6.0
+    iJ = 1.0 / J  # the package multiplies by the reciprocals (plant.dynamics, slots inv_J, inv_tau)
+    itau = 1.0 / tau if tau > 0.0 else 0.0
 
     if tau == 0.0:
 
         def step_static(w: float, f: float, u: float) -> tuple:
-            k1 = (u - F(w)) / J
-            k2 = (u - F(w + h2 * k1)) / J
-            k3 = (u - F(w + h2 * k2)) / J
-            k4 = (u - F(w + dt * k3)) / J
+            k1 = (u - F(w)) * iJ
+            k2 = (u - F(w + h2 * k1)) * iJ
+            k3 = (u - F(w + h2 * k2)) * iJ
+            k4 = (u - F(w + dt * k3)) * iJ
             w = w + h6 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
             return w, F(w)
 
         return step_static
 
     def step(w: float, f: float, u: float) -> tuple:
-        k1w = (u - f) / J
-        k1f = (F(w) - f) / tau
+        k1w = (u - f) * iJ
+        k1f = (F(w) - f) * itau
         w2, f2 = w + h2 * k1w, f + h2 * k1f
-        k2w = (u - f2) / J
-        k2f = (F(w2) - f2) / tau
+        k2w = (u - f2) * iJ
+        k2f = (F(w2) - f2) * itau
         w3, f3 = w + h2 * k2w, f + h2 * k2f
-        k3w = (u - f3) / J
-        k3f = (F(w3) - f3) / tau
+        k3w = (u - f3) * iJ
+        k3f = (F(w3) - f3) * itau
         w4, f4 = w + dt * k3w, f + dt * k3f
-        k4w = (u - f4) / J
-        k4f = (F(w4) - f4) / tau
+        k4w = (u - f4) * iJ
+        k4f = (F(w4) - f4) * itau
         return (w + h6 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w),
                 f + h6 * (k1f + 2.0 * k2f + 2.0 * k3f + k4f))
 
@@ -108,6 +111,7 @@ def karnopp_make_step(self, dt: float) -> Callable[[float, float, float], tuple]
     J, Fc, dF, Vs, delta, sigma, tau = self.J, self.Fc, self.Fs - self.Fc, self.Vs, self.delta, self.sigma, self.tau
     Fs, dv = self.Fs, self.dv
     h2, h6 = dt / 2.0, dt / 6.0
+    iJ, itau = 1.0 / J, (1.0 / tau if tau > 0.0 else 0.0)  # reciprocals, as plant.dynamics (slots inv_J, inv_tau)
     exp = math.exp
 
     def target(w: float, sgn_u: float) -> float:
@@ -125,23 +129,23 @@ def karnopp_make_step(self, dt: float) -> Callable[[float, float, float], tuple]
         else:
             sgn_u = 0.0
         if tau == 0.0:
-            k1 = (u - target(w, sgn_u)) / J
-            k2 = (u - target(w + h2 * k1, sgn_u)) / J
-            k3 = (u - target(w + h2 * k2, sgn_u)) / J
-            k4 = (u - target(w + dt * k3, sgn_u)) / J
+            k1 = (u - target(w, sgn_u)) * iJ
+            k2 = (u - target(w + h2 * k1, sgn_u)) * iJ
+            k3 = (u - target(w + h2 * k2, sgn_u)) * iJ
+            k4 = (u - target(w + dt * k3, sgn_u)) * iJ
             w = w + h6 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
             return w, target(w, sgn_u)
-        k1w = (u - f) / J
-        k1f = (target(w, sgn_u) - f) / tau
+        k1w = (u - f) * iJ
+        k1f = (target(w, sgn_u) - f) * itau
         w2, f2 = w + h2 * k1w, f + h2 * k1f
-        k2w = (u - f2) / J
-        k2f = (target(w2, sgn_u) - f2) / tau
+        k2w = (u - f2) * iJ
+        k2f = (target(w2, sgn_u) - f2) * itau
         w3, f3 = w + h2 * k2w, f + h2 * k2f
-        k3w = (u - f3) / J
-        k3f = (target(w3, sgn_u) - f3) / tau
+        k3w = (u - f3) * iJ
+        k3f = (target(w3, sgn_u) - f3) * itau
         w4, f4 = w + dt * k3w, f + dt * k3f
-        k4w = (u - f4) / J
-        k4f = (target(w4, sgn_u) - f4) / tau
+        k4w = (u - f4) * iJ
+        k4f = (target(w4, sgn_u) - f4) * itau
         return (w + h6 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w),
                 f + h6 * (k1f + 2.0 * k2f + 2.0 * k3f + k4f))
 

@@ -7,7 +7,6 @@ torque between readouts, is biased there; simulating the known controller on the
 """
 
 import json
-import math
 
 import numpy as np
 import pytest
@@ -19,10 +18,9 @@ from controllers.cli.main import main
 from controllers.design.pi import design_pi
 from controllers.experiments.closed_loop_id import (ClosedLoopIdOptions, ControllerSpec, fit_closed_loop,
                                                      identify_closed_loop)
-from controllers.experiments.synthetic_logs import closed_loop_run, write_log_csv
-from plant import irregular_sample_times, preset, sample
+from controllers.experiments.synthetic_logs import closed_loop_readout, write_log_csv
+from plant import preset
 from plant.errors import ParameterError
-from plant.excitation import multisine_reference
 
 P = preset("paper")
 VS, DELTA = 0.0197756, 1.01582  # the Stribeck pre-fit of the README's quasi-static log (true 0.02, 1)
@@ -43,16 +41,8 @@ def _within_targets(err: dict) -> bool:
 def record():
     """30 s of the robot experiment: the 1 kHz loop (sensor noise 1e-3 rad/s seen by the PI), read out at the
     irregular Fig. 10 stamps with noise and a 0.6 N·m torque quantum; the reference at the stamps."""
-    seed, duration = 3, 30.0
-    ref = multisine_reference(duration, dt=1e-3, peak=math.radians(20.0), rng=np.random.default_rng(seed))
-    design = design_pi(P.J, crossover=200.0, phase_margin=60.0, Tc=1e-3)
-    u_max = 3.0 * (max(P.Fs, P.Fc) + P.sigma * float(np.max(np.abs(ref.w))) + P.J * float(np.max(np.abs(ref.dw))))
-    run = closed_loop_run(P, ref, design=design, u_max=u_max, noise_std=1e-3, rng=np.random.default_rng(seed + 1))
-    times = irregular_sample_times(duration, dt=1e-3, rng=np.random.default_rng(seed + 2))
-    m = sample(run.response, times=times, noise_std=1e-3, quantization=0.6, rng=np.random.default_rng(seed + 3))
-    w_ref = run.w_ref[np.rint(m.t / 1e-3).astype(int)]
-    spec = ControllerSpec(Kp=design.Kp, Ki=design.Ki, Tc=1e-3, u_max=u_max)
-    return m, w_ref, spec
+    exp = closed_loop_readout(P, 30.0, seeds=3)  # crossover 200 rad/s, noise 1e-3 rad/s, quantum 0.6 N·m
+    return exp.measurement, exp.w_ref, ControllerSpec(**exp.controller())
 
 
 @pytest.fixture(scope="module")
@@ -195,3 +185,21 @@ def test_cli_closed_loop_without_reference_exits_2_naming_what_to_add(record, tm
     assert main(["identify", str(csv), "--columns", "t=time_ms,u=current_A,w=velocity_deg_s", "--reference-column",
                  "nope", "--controller", str(ctl), *COMMON]) == 2
     assert "nope" in capsys.readouterr().err
+
+
+def test_closed_loop_readout_is_the_one_robot_experiment():
+    """The readout stays inside the simulated span; an int seed is four consecutive seeds; bad seeds are named."""
+    a = closed_loop_readout(P, 2.0, seeds=7)
+    b = closed_loop_readout(P, 2.0, seeds=(7, 8, 9, 10))
+    m, r = a.measurement, a.run.response
+    assert np.array_equal(m.t, b.measurement.t) and np.array_equal(m.u, b.measurement.u)
+    assert m.t[0] == 0.0 and m.t[-1] <= r.t[-1] and 0.0185 < np.diff(m.t).min() <= np.diff(m.t).max() < 0.0415
+    k = np.rint(m.t / 1e-3).astype(int)
+    assert np.array_equal(a.w_ref, a.run.w_ref[k]) and np.array_equal(m.w_true, r.w[k])
+    assert np.all(np.abs(m.u / 0.6 - np.rint(m.u / 0.6)) < 1e-9)  # the 0.6 N·m quantum
+    c = a.controller()
+    assert c == {"Kp": a.design.Kp, "Ki": a.design.Ki, "Tc": 1e-3, "u_max": a.u_max}
+    d = design_pi(P.J, crossover=200.0, phase_margin=60.0, Tc=1e-3)
+    assert (a.design.Kp, a.design.Ki) == (d.Kp, d.Ki)
+    with pytest.raises(ParameterError, match="seeds"):
+        closed_loop_readout(P, 2.0, seeds=(1, 2))

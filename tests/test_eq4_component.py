@@ -20,7 +20,7 @@ import pytest
 
 import peers_oracle as oracle
 from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward, eq4_compensate, eq4_observe
-from adaptive_ff.compensation.feedforward import project_levels
+from adaptive_ff.compensation.feedforward import FF_NSTATE, project_levels
 from adaptive_ff.identification.regression import (FrictionEstimate, RegressionModel, eq4_phi, eq4_to_physical,
                                                    theta_from_physical)
 from plant.errors import ParameterError
@@ -319,6 +319,7 @@ def test_rejected_samples_leave_the_state_unchanged():
     # only counters: n_rejected, and the held/rejected counts of the torque and velocity range gates (issue 12)
     ur = ff.u_range.state.__array_interface__["data"][0] - ff.state.__array_interface__["data"][0]
     wr = ff.w_range.state.__array_interface__["data"][0] - ff.state.__array_interface__["data"][0]
-    counters = {19, ur // 8 + 1, ur // 8 + 2, wr // 8 + 1, wr // 8 + 2}
-    assert set(changed.tolist()) <= counters and ff.state[19] == 2.0
+    nrej = FF_NSTATE + 7  # n_rejected of the eq. 4 state (after the fixed feedforward's slots)
+    counters = {nrej, ur // 8 + 1, ur // 8 + 2, wr // 8 + 1, wr // 8 + 2}
+    assert set(changed.tolist()) <= counters and ff.state[nrej] == 2.0
     assert ff.u_range.n_rejected == 1 and ff.w_range.n_rejected == 1

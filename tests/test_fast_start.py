@@ -64,12 +64,14 @@ def test_fast_start_pins_switch_on_whole_run_eta_and_the_lag_in_use(runs):
     assert _eta_full(out, old) < 0.5
     # the estimator's estimate took over (hand-over) and its lag is within 5 % of the true 20 ms
     assert a.estimate is not None and a.estimate.tau == pytest.approx(P.tau, rel=0.05)
-    # second-half distance from the frictionless run: 2.8e-3 rad/s measured; the pre-fit map with the true lag
-    # off by 10 % (fixed mode, same scenario) is at 5.3e-3 .. 6.1e-3, so a 10 % lag error breaks the bound
+    # second-half distance from the frictionless run: 2.47e-3 rad/s measured (with the loop-model stick fallback,
+    # h/adaptive; 2.8e-3 with the reference fallback); the pre-fit map with the true lag off by -10 % / +10 %
+    # (fixed mode, same scenario) is at 6.77e-3 / 3.61e-3 (with the true lag 2.41e-3; seeds 1, 2: +10 % at
+    # 4.53e-3, 4.40e-3), so a 10 % lag error breaks the bound
     wl = out["frictionless"].w
     dev2 = lambda r: deviation_rms(r.w[HALF:], wl[HALF:])  # noqa: E731
-    assert dev2(a) <= 4.0e-3
-    assert dev2(out["fixed_0.9"]) > 4.0e-3 and dev2(out["fixed_1.1"]) > 4.0e-3
+    assert dev2(a) <= 3.1e-3
+    assert dev2(out["fixed_0.9"]) > 3.1e-3 and dev2(out["fixed_1.1"]) > 3.1e-3
 
 
 def test_start_map_acts_with_its_gain_until_the_hand_over_then_fades_to_one():
@@ -109,3 +111,19 @@ def test_start_validation(bad):
         FeedforwardStart(**kw)
     with pytest.raises(ParameterError):
         RobustAdaptiveFeedforward(SlidingFrictionEstimator(0.02, 1.0, Tc=1e-3), dt=1e-3, start=_est(0.0))
+
+
+def test_cli_no_fast_start_switches_the_start_off(capsys):
+    """``compare --no-fast-start``: the adaptive feedforward waits for the estimator (the joint sticks under the PI
+    alone for seconds); by default it acts from the first periods (as pinned above on 15 s)."""
+    import json
+
+    from controllers.cli.main import main
+
+    args = ["compare", "--modes", "adaptive", "--duration", "6", "--no-figures", "--quiet", "--json"]
+    t_on = {}
+    for flag in ((), ("--no-fast-start",)):
+        assert main(args + list(flag)) == 0
+        t_on[flag] = json.loads(capsys.readouterr().out)["modes"]["adaptive"]["t_ff_on"]
+    assert t_on[()] is not None and t_on[()] <= 0.002
+    assert t_on[("--no-fast-start",)] is None or t_on[("--no-fast-start",)] > 1.0  # measured 2.71 s

@@ -26,9 +26,9 @@ from plant.errors import ParameterError, check_nonnegative, check_positive
 from plant.jit import kernel
 from plant.stribeck import stribeck_scalar
 
-__all__ = ["FrictionFeedforward", "RobustAdaptiveFeedforward", "FeedforwardStart", "project_estimate", "project_levels",
-           "FF_NPAR", "FF_NSTATE", "ff_set_estimate", "ff_step", "ff_compensate", "robust_compensate",
-           "robust_observe"]
+__all__ = ["FrictionFeedforward", "RobustAdaptiveFeedforward", "FeedforwardStart", "LoopModel", "project_estimate",
+           "project_levels", "FF_NPAR", "FF_NSTATE", "ff_set_estimate", "ff_step", "ff_compensate", "loop_model_step",
+           "robust_compensate", "robust_observe"]
 
 
 @kernel
@@ -97,13 +97,77 @@ def project_estimate(est: FrictionEstimate, *, tau_max: float = 1.0,
                             delta=est.delta, J_alt=est.J_alt)
 
 
-# FrictionFeedforward arrays. params: dt, lag, ff_max, sign_width, stick_band, stick_samples, reference input, w_max;
-# state: estimate in use (has, Fc, Fs - Fc, Vs, delta, sigma, lag filter gain, has Vs, tau), output filter, in-band
-# count, rejected inputs
-_DT, _LAG, _FFMAX, _SW, _SBAND, _SSAMP, _REF, _WMAX = range(8)
-_HAS, _FC, _DF, _VS, _DELTA, _SIGMA, _ALPHA, _HASVS, _TAU, _UFF, _NIB, _FNREJ = range(12)
+@dataclass(frozen=True)
+class LoopModel:
+    """The nominal (frictionless) velocity loop a feedforward uses as its stick-detection fallback.
+
+    Parameters
+    ----------
+    Kp : float
+        Proportional gain of the loop's PI (N·m·s/rad), >= 0.
+    Ki : float
+        Integral gain of the loop's PI (N·m/rad), >= 0.
+    J : float
+        Design inertia (kg·m²), > 0: what the user knows (a data sheet), never the true plant's.
+    track : float or None
+        Bandwidth (rad/s, >= 0) at which the fallback follows the measured deviation of the joint from the
+        model (see Notes); default None: ``Kp/J``, the rate at which the loop itself removes a deviation
+        (about its crossover); 0: the model velocity alone.
+
+    Raises
+    ------
+    ParameterError
+        A gain negative or not finite, ``J`` not > 0, both gains 0, or ``track`` negative or not finite.
+
+    Notes
+    -----
+    With the controller's PI ``C(z) = Kp + Ki*Tc*z/(z - 1)`` (backward-Euler integrator) and the
+    frictionless joint ``1/(J s)`` sampled with a zero-order hold (exact: ``Tc/(J (z - 1))``), the model
+    velocity follows the closed loop ``w_m = C P/(1 + C P) w_ref`` driven by the reference: the trajectory
+    the joint would take if the friction were cancelled exactly, without measurement noise. This is the
+    reference model of model-reference adaptive control (Åström & Wittenmark, *Adaptive Control*, 2nd ed.,
+    1995, Sec. 5.1); see :class:`FrictionFeedforward` for its use. The fallback velocity is ``w_m + d``,
+    with ``d`` the measured deviation ``w_meas - w_m`` through a first-order low-pass of bandwidth ``track``
+    (``d += (1 - exp(-track*dt))*(w_meas - w_m - d)``): the model's noise-free shape, shifted to where the
+    joint really is (a joint that sticks, or lags the nominal loop, is not assumed to move as the model does).
+    Measured (120 s, seeds 0-2, eta of ``adaptive`` with ``track`` 0 -> ``Kp/J``): karnopp 0.65 -> 0.75,
+    paper, long-lag and small-inertia within +-0.01 (docs/benchmarks/variants.md).
+    """
+
+    Kp: float
+    Ki: float
+    J: float
+    track: float | None = None
+
+    def __post_init__(self):
+        for name in ("Kp", "Ki"):
+            v = getattr(self, name)
+            try:
+                ok = math.isfinite(float(v)) and float(v) >= 0.0
+            except (TypeError, ValueError):
+                ok = False
+            if not ok:
+                raise ParameterError(f"loop model: {name} must be finite and >= 0, got {v!r}")
+        check_positive("J", self.J)
+        if self.Kp == 0.0 and self.Ki == 0.0:
+            raise ParameterError("loop model: Kp and Ki are both 0 (no loop)")
+        if self.track is not None and not (isinstance(self.track, (int, float)) and math.isfinite(self.track)
+                                           and self.track >= 0.0):
+            raise ParameterError(f"loop model: track must be finite and >= 0 (rad/s) or None, got {self.track!r}")
+
+    @property
+    def bandwidth(self) -> float:
+        """The tracking bandwidth in use (rad/s): ``track``, or ``Kp/J`` when it is None."""
+        return float(self.Kp) / float(self.J) if self.track is None else float(self.track)
+
+
+# FrictionFeedforward arrays. params: dt, lag, ff_max, sign_width, stick_band, stick_samples, reference input, w_max,
+# loop model (has, Kp, Ki*dt, dt/J); state: estimate in use (has, Fc, Fs - Fc, Vs, delta, sigma, lag filter gain,
+# has Vs, tau), output filter, in-band count, rejected inputs, loop model (velocity, integrator, started)
+_DT, _LAG, _FFMAX, _SW, _SBAND, _SSAMP, _REF, _WMAX, _LM, _KP, _KITC, _BJ, _LMA = range(13)
+_HAS, _FC, _DF, _VS, _DELTA, _SIGMA, _ALPHA, _HASVS, _TAU, _UFF, _NIB, _FNREJ, _WM, _IM, _NM, _DW = range(16)
 #: Lengths of the fixed feedforward's parameter and state arrays.
-FF_NPAR, FF_NSTATE = 8, 12
+FF_NPAR, FF_NSTATE = 13, 16
 
 
 @kernel
@@ -175,12 +239,45 @@ def ff_step(par, st, w, w_ref, has_ref):
 
 
 @kernel(inline="always")
-def ff_compensate(par, st, w_ctrl, w_meas, w_ref):
-    """Compensator protocol (``KIND`` 2): the fixed feedforward at the controller's measurement (with stick
-    detection against the reference) or at the reference."""
+def loop_model_step(par, st, w0, w_ref):
+    """One period of the :class:`LoopModel` in ``(par, st)``: return the model velocity of this period (rad/s).
+
+    ``e = w_ref - w_m``, ``I += Ki*dt*e``, then ``w_m += dt/J*(Kp*e + I)`` (the PI of the loop on the
+    zero-order-hold joint ``1/(J s)``); the returned velocity is ``w_m + d`` with the tracked deviation
+    ``d += a*(w0 - w_m - d)`` (``a`` from the model's ``track``; a non-finite ``w0`` leaves ``d``). The model
+    starts at ``w0`` (the controller's measurement of this period; at the first call the model velocity, 0 if
+    not finite) with an empty integrator. Without a model (``par`` says none) ``w_ref`` is returned and nothing
+    changes.
+    """
+    if par[_LM] == 0.0:
+        return w_ref
+    if st[_NM] == 0.0:
+        st[_WM] = w0 if math.isfinite(w0) else 0.0
+        st[_IM] = 0.0
+        st[_NM] = 1.0
+    wm = st[_WM]
+    e = w_ref - wm
+    st[_IM] += par[_KITC] * e
+    st[_WM] = wm + par[_BJ] * (par[_KP] * e + st[_IM])
+    if par[_LMA] > 0.0 and math.isfinite(w0):
+        st[_DW] += par[_LMA] * (w0 - wm - st[_DW])
+    return wm + st[_DW]
+
+
+@kernel(inline="always")
+def ff_at(par, st, w_ctrl, w_stuck, w_ref):
+    """The feedforward of this period at the reference (``ff_input`` reference) or at the measurement with
+    stick detection against ``w_stuck`` (the loop model's velocity, or the reference without a model)."""
     if par[_REF] > 0.0:
         return ff_step(par, st, w_ref, w_ref, False)
-    return ff_step(par, st, w_ctrl, w_ref, True)
+    return ff_step(par, st, w_ctrl, w_stuck, True)
+
+
+@kernel(inline="always")
+def ff_compensate(par, st, w_ctrl, w_meas, w_ref):
+    """Compensator protocol (``KIND`` 2): the fixed feedforward at the controller's measurement (with stick
+    detection against the loop model's velocity, or the reference without a model) or at the reference."""
+    return ff_at(par, st, w_ctrl, loop_model_step(par, st, w_ctrl, w_ref), w_ref)
 
 
 @kernel
@@ -218,11 +315,14 @@ class FrictionFeedforward(Component):
         Consecutive in-band samples that declare sticking, >= 1; default 10.
     ff_input : {"measured", "reference"}, keyword-only
         Velocity the closed-loop engine evaluates the feedforward at (:meth:`compensate`): the
-        controller's measurement with stick detection against the reference (default), or the
-        reference itself.
+        controller's measurement with stick detection (default), or the reference itself.
     w_max : float, keyword-only
         Largest plausible speed (rad/s), > 0: a velocity above it is rejected like a
         non-finite one (see Notes); default inf.
+    loop_model : LoopModel or None, keyword-only
+        The nominal velocity loop. Given, :meth:`compensate` uses its velocity (driven by the
+        reference) instead of the reference while the joint is detected as stuck (see Notes); default
+        None: the reference.
 
     Attributes
     ----------
@@ -252,6 +352,16 @@ class FrictionFeedforward(Component):
     :attr:`n_step_rejected` and returns the last output (held, clipped): one
     bad sample cannot poison the lag filter. Finite spikes within ``w_max`` are
     the job of the measurement's gate (:class:`adaptive_ff.compensation.gate.OutlierGate`).
+
+    **Stick-detection fallback.** Inside the stick band the measured velocity is noise and its sign
+    says nothing; a friction map fed back from it turns every wrong-signed sample into a ``2*Fs``
+    torque error, and near a slow zero crossing those kicks push the joint the way the noise said
+    (the joint then follows the wrong sign). The reference gives the intended direction but leads
+    the joint at reversals by the loop's lag (the feedforward flips early and kicks the joint). The
+    loop model's velocity (:class:`LoopModel`, :func:`loop_model_step`) is the noise-free trajectory of
+    the compensated joint, with the loop's lag: at a reversal it crosses zero when the joint should.
+    Outside the band the measurement is used (it cancels the Stribeck dip's negative damping, which a
+    map at any other velocity would not). Measured on ``paper`` (docs/benchmarks/variants.md).
     """
 
     KIND = 2
@@ -260,8 +370,11 @@ class FrictionFeedforward(Component):
 
     def __init__(self, estimate: FrictionEstimate | None, *, dt: float, lag: bool = True,
                  ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0,
-                 stick_samples: int = 10, ff_input: str = "measured", w_max: float = math.inf):
+                 stick_samples: int = 10, ff_input: str = "measured", w_max: float = math.inf,
+                 loop_model: LoopModel | None = None):
         dt = check_positive("dt", dt)
+        if loop_model is not None and not isinstance(loop_model, LoopModel):
+            raise ParameterError(f"loop_model must be a LoopModel or None, got {type(loop_model).__name__}")
         w_max = float(w_max) if w_max == math.inf else check_positive("w_max", w_max)
         ff_max = float(ff_max) if ff_max == math.inf else check_nonnegative("ff_max", ff_max)
         sign_width = check_nonnegative("sign_width", sign_width)
@@ -271,8 +384,12 @@ class FrictionFeedforward(Component):
         if ff_input not in ("measured", "reference"):
             raise ParameterError(f"ff_input must be 'measured' or 'reference', got {ff_input!r}")
         self._init_arrays(FF_NPAR, FF_NSTATE)
+        lm = (0.0, 0.0, 0.0, 0.0, 0.0) if loop_model is None else (
+            1.0, float(loop_model.Kp), float(loop_model.Ki) * dt, dt / float(loop_model.J),
+            1.0 - math.exp(-loop_model.bandwidth * dt))
         self.params[:] = (dt, float(bool(lag)), ff_max, sign_width, stick_band, float(stick_samples),
-                          float(ff_input == "reference"), w_max)
+                          float(ff_input == "reference"), w_max) + lm
+        self.loop_model = loop_model
         self.state[_ALPHA] = 1.0
         self.estimate = None
         self._set(estimate)
@@ -346,14 +463,16 @@ def robust_compensate(par, st, w_ctrl, w_meas, w_ref):
     """Compensator protocol (``KIND`` 3): the feedforward of the estimate in use, faded in; 0 before switch-on.
 
     During the provisional start (:class:`FeedforwardStart`) the start map times the start gain, evaluated
-    at the reference (start input ``reference``) or as ``ff_input`` says."""
+    at the reference (start input ``reference``) or as ``ff_input`` says. The loop model (if any) advances
+    every period, also before switch-on."""
+    w_stuck = loop_model_step(par, st, w_ctrl, w_ref)
     if st[_HAS] == 0.0:
         return 0.0
     if st[_PROV] > 0.0:
         if par[_SREF] > 0.0:
             return ff_step(par, st, w_ref, w_ref, False) * par[_SGAIN]
-        return ff_compensate(par, st, w_ctrl, w_meas, w_ref) * par[_SGAIN]
-    out = ff_compensate(par, st, w_ctrl, w_meas, w_ref)
+        return ff_at(par, st, w_ctrl, w_stuck, w_ref) * par[_SGAIN]
+    out = ff_at(par, st, w_ctrl, w_stuck, w_ref)
     if st[_GAIN] < 1.0:
         st[_GAIN] = min(st[_GAIN] + par[_FADE], 1.0)
         out = out * st[_GAIN]
@@ -537,7 +656,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         ``tau >= 2*dt``); default 0.5.
     stick_band, stick_samples : keyword-only
         Stick detection, see :class:`FrictionFeedforward`.
-    ff_input, w_max : keyword-only
+    ff_input, w_max, loop_model : keyword-only
         See :class:`FrictionFeedforward`.
     start : FeedforwardStart or None, keyword-only
         Provisional start: the prior map acts from the first period (times its gain) until the first
@@ -589,11 +708,13 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
                  ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0, stick_samples: int = 10,
                  warmup: int = 200, fade_in: float = 1.0, J_range: tuple = (0.0, math.inf), tau_max: float = 1.0,
                  consistency: float = 0.5, ff_input: str = "measured", w_max: float = math.inf,
-                 start: FeedforwardStart | None = None):
+                 start: FeedforwardStart | None = None, loop_model: LoopModel | None = None):
         if not isinstance(estimator, SlidingFrictionEstimator):
             raise TypeError(f"estimator must be a SlidingFrictionEstimator, got {type(estimator).__name__}")
         ff = FrictionFeedforward(None, dt=dt, lag=lag, ff_max=ff_max, sign_width=sign_width,
-                                 stick_band=stick_band, stick_samples=stick_samples, ff_input=ff_input, w_max=w_max)
+                                 stick_band=stick_band, stick_samples=stick_samples, ff_input=ff_input, w_max=w_max,
+                                 loop_model=loop_model)
+        self.loop_model = loop_model
         if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
             raise ParameterError(f"warmup must be an integer >= 0, got {warmup!r}")
         try:

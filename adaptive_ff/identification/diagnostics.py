@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from adaptive_ff.identification.plausibility import IdentificationWarning
+from adaptive_ff.io.units import VELOCITY_LABEL
 from plant.errors import ParameterError, check_positive, check_signal, check_time
 from plant.results import json_safe
 
@@ -209,11 +210,11 @@ def excitation_report(u, w, *, Vs: float | None = None, min_reversals: int = 4,
                                      "Fc is not separable from a constant torque offset; drive in both directions"))
     if Vs is not None and not low >= min_low_speed:
         if 3.0 * Vs <= thr:
-            cause = (f"the Stribeck transition |w| < 3*Vs = {3 * Vs:.3g} rad/s lies below three times the "
-                     f"velocity noise ({thr:.3g} rad/s)")
+            cause = (f"the Stribeck transition |w| < 3*Vs = {3 * Vs:.3g} {VELOCITY_LABEL} lies below three times "
+                     f"the velocity noise ({thr:.3g} {VELOCITY_LABEL})")
         else:
             cause = (f"only {100 * low:.2f} % of the samples lie in the Stribeck transition "
-                     f"{thr:.3g} < |w| < 3*Vs = {3 * Vs:.3g} rad/s (need {100 * min_low_speed:g} %)")
+                     f"{thr:.3g} < |w| < 3*Vs = {3 * Vs:.3g} {VELOCITY_LABEL} (need {100 * min_low_speed:g} %)")
         warn.append(IdentificationWarning("identifiability", "Fs",
                                           f"too few low-speed samples: Fs and Vs are not identifiable ({cause})"))
     if not moving.any() or np.ptp(np.abs(w[moving])) < 0.1 * np.max(np.abs(w)):

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from adaptive_ff.io.data import MeasuredData, to_uniform
+from adaptive_ff.io.units import PARAM_UNITS, VELOCITY_LABEL
 from adaptive_ff.identification.diagnostics import ExcitationReport, excitation_report
 from adaptive_ff.identification.idim import RigidAxisModel, idim_force_error
 from adaptive_ff.identification.ls import LSResult, fit_ls
@@ -53,16 +54,6 @@ CONTROLLER_RATE_TS = 2e-3
 
 #: Free-run fit (%) of the eq. 4 LS below which the dynamics (J, tau) are not determined by the record.
 _FREE_RUN_MIN = 50.0
-
-#: Units of the physical parameters (rotary joint; prismatic axis in parentheses).
-PARAM_UNITS = {
-    "J": "kg·m² (kg)",
-    "sigma": "N·m·s/rad (N·s/m)",
-    "Fc": "N·m (N)",
-    "Fs": "N·m (N)",
-    "tau": "s",
-    "offset": "N·m (N)",
-}
 
 #: Condition number above which :func:`identify` adds a warning (fit_ls refuses above 1e10).
 _COND_WARN = 1e6
@@ -293,7 +284,7 @@ class IdentificationReport:
             lines.append(f"{nm:<10}{getattr(e, nm):>14.6g}{self.std[nm]:>13.3g}{getattr(r, nm):>14.6g}"
                          f"  {PARAM_UNITS[nm]}")
         if m.stribeck:
-            lines.append(f"{'Vs':<10}{m.Vs:>14.6g}{'(fixed)':>13}{'':>14}  rad/s (m/s)")
+            lines.append(f"{'Vs':<10}{m.Vs:>14.6g}{'(fixed)':>13}{'':>14}  {VELOCITY_LABEL}")
             lines.append(f"{'delta':<10}{m.delta:>14.6g}{'(fixed)':>13}{'':>14}  -")
         lines += ["-" * 70,
                   f"fit one-step {self.ls.fit_one_step:.3f} %, free-run {self.ls.fit_free_run:.2f} %, "
@@ -494,7 +485,7 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
     low = ("" if not stribeck else
            f", {100 * excitation.low_speed_fraction:.2f} % of the samples in the Stribeck transition |w| < 3*Vs")
     notes.append(f"excitation: {excitation.n_reversals} velocity reversals, velocity noise "
-                 f"{excitation.noise_std:.3g} (robust, from third differences){low}")
+                 f"{excitation.noise_std:.3g} {VELOCITY_LABEL} (robust, from third differences){low}")
     physical = None
     if method != "paper":
         if method == "sliding":

@@ -15,6 +15,7 @@ def run(args) -> int:
     from plant.errors import ParameterError
     from plant.friction import preset
     from plant.models import load_plant, plant_to_dict
+    from adaptive_ff.io.units import parameter_text
     from plant.variants import drift_case, variant
     from controllers.cli.data import check_output_dir
 
@@ -41,7 +42,8 @@ def run(args) -> int:
     comp = compare(p, duration=args.duration, seed=args.seed, modes=modes, Ts=args.Ts, noise_std=args.noise,
                    lam=args.lam, crossover=args.crossover, phase_margin=args.phase_margin, progress=progress,
                    estimator=args.estimator, ff_input=args.ff_input, omega_q=args.omega_q,
-                   prefit=not args.no_prefit, Vs=args.Vs, delta=args.delta, J_design=args.J_design)
+                   prefit=not args.no_prefit, Vs=args.Vs, delta=args.delta, J_design=args.J_design,
+                   adaptive_start=not args.no_fast_start)
     paths = [] if args.no_figures else plot_comparison(comp, out_dir, jobs=figure_jobs())
     report = None
     if args.report:
@@ -58,9 +60,7 @@ def run(args) -> int:
         return 0
     src = args.plant if args.plant else (f"variant '{args.variant}'" if args.variant else f"preset '{args.preset}'")
     d = comp.design
-    desc = ", ".join(f"{k}={v:g}" if isinstance(v, (int, float)) else f"{k}={v}"
-                     for k, v in plant_to_dict(p).items() if k != "drift")
-    print(f"plant: {src}: {desc}")
+    print(f"plant: {src}: {parameter_text(plant_to_dict(p))}")
     if hasattr(p, "at"):
         print(f"drift: Fc {p.Fc_change:+.0%}, Fs {p.Fs_change:+.0%} from t = {p.t_start:g} s to {p.t_end:g} s")
     print(f"PI: Kp={d.Kp:.4g} N·m·s/rad, Ki={d.Ki:.4g} N·m/rad, Tc={d.Tc:g} s; "
@@ -163,6 +163,9 @@ def register(sub) -> None:
     c.add_argument("--phase-margin", type=float, default=60.0, help="PI phase margin in deg (default 60)")
     c.add_argument("--no-prefit", action="store_true",
                    help="do not run the Stribeck pre-fit (then fixed/adaptive need --Vs and --delta)")
+    c.add_argument("--no-fast-start", action="store_true",
+                   help="adaptive, adaptive-dob: no provisional feedforward from the pre-fit before the estimator's "
+                        "first trusted estimate (CompareOptions.adaptive_start = False)")
     c.add_argument("--Vs", type=float, default=None,
                    help="Stribeck velocity in rad/s, if known (with --delta; no pre-fit then)")
     c.add_argument("--delta", type=float, default=None, help="Stribeck shape factor, if known (with --Vs)")

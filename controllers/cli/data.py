@@ -9,10 +9,11 @@ goes through :func:`adaptive_ff.io.data.load_measurements` as before).
 
 from __future__ import annotations
 
-import math
 import shlex
 import sys
 from pathlib import Path
+
+from adaptive_ff.io.units import TABLE_UNITS
 
 __all__ = ["add_data_arguments", "load_data_from_args", "io_options_from_args", "progress_from_args",
            "command_line", "DATA_EPILOG", "seed_type", "positive_int", "nonnegative_int", "check_output_dir",
@@ -278,8 +279,6 @@ def _check_parents(start: Path, option: str, path: Path) -> None:
 #: numba import (tests/test_cli_errors.py checks that the two agree).
 PRESET_NAMES = ("paper",)
 
-#: Velocity units of printed tables: name -> (factor from rad/s, label).
-TABLE_UNITS = {"deg": (180.0 / math.pi, "deg/s"), "rad": (1.0, "rad/s")}
 
 
 def add_units_argument(parser, *, extra: str = "") -> None:

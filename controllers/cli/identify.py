@@ -26,7 +26,7 @@ class _Units:
     """Velocity unit of identify's printed tables: scale and label of each parameter (rad: exactly SI)."""
 
     def __init__(self, args, si: bool = False):
-        from adaptive_ff.identification.identify import PARAM_UNITS
+        from adaptive_ff.io.units import PARAM_UNITS
         from controllers.cli.data import per_angle, table_unit
 
         self.si = si or (getattr(args, "units", "deg") or "deg") == "rad"
@@ -48,7 +48,7 @@ class _Units:
 
 def _summary(report, units: _Units) -> str:
     """``report.summary()`` with sigma (and Vs) in the printed velocity unit; identical to it for ``--units rad``."""
-    from adaptive_ff.identification.identify import PARAM_UNITS
+    from adaptive_ff.io.units import PARAM_UNITS
 
     if units.si:
         return report.summary()

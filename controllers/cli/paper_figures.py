@@ -86,6 +86,7 @@ def run(args) -> int:
     """Execute ``adaptive-ff paper-figures`` with parsed ``args``; return the exit status."""
     from controllers.cli.data import command_line, per_angle, progress_from_args, table_unit
     from controllers.experiments.paper_figures import PaperFigureOptions, paper_figures
+    from adaptive_ff.io.units import parameter_text
     from controllers.cli.data import check_output_dir
     from plant.errors import ParameterError
     from plant.friction import JointParams, preset
@@ -120,8 +121,7 @@ def run(args) -> int:
         return 0
     s = res.numbers
     st, sim, ex = s["stribeck"], s["simulation"], s["experiment"]
-    print(f"plant: {args.plant or 'preset ' + repr(args.preset)}: "
-          + ", ".join(f"{k}={v:g}" for k, v in s["plant"].items()))
+    print(f"plant: {args.plant or 'preset ' + repr(args.preset)}: {parameter_text(s['plant'])}")
     k, vunit = table_unit(args)
     c, angle = per_angle(args)
     print(f"Fig. 8  Stribeck fit: Fc={st['Fc']:.4g} N·m, Fs={st['Fs']:.4g} N·m, Vs={k * st['Vs']:.4g} {vunit}, "

@@ -20,31 +20,27 @@ import numpy as np
 from adaptive_ff.io.data import MeasuredData
 from controllers.design.pi import PIController, PIDesign, design_pi
 from controllers.experiments.quasi_static import QS_CROSSOVER
+from controllers.simulation.closed_loop import run_closed_loop
 from plant.errors import ParameterError, SignalError, check_nonnegative, check_positive, check_signal, check_time
-from plant.excitation import Reference
+from plant.excitation import Reference, multisine_reference
 from plant.friction import JointParams
-from plant.joint import PlantResponse, make_rk4_step
+from plant.joint import PlantResponse
+from plant.sampling import Measurement, irregular_sample_times, sample
 
-__all__ = ["closed_loop_response", "closed_loop_run", "ClosedLoopRun", "write_controller_log", "quasi_static_log", "encoder_counts",
-           "write_log_csv"]
+__all__ = ["closed_loop_response", "closed_loop_run", "ClosedLoopRun", "closed_loop_readout", "ClosedLoopReadout",
+           "write_controller_log", "quasi_static_log", "encoder_counts", "write_log_csv"]
 
 
-def _pi_loop(p: JointParams, w_ref, design: PIDesign, u_max: float, noise: np.ndarray):
-    """PI loop on the RK4 plant; returns true velocity, applied torque and friction state per period."""
-    Tc = design.Tc
-    ctrl = PIController.from_design(design, u_max=u_max)
-    step = make_rk4_step(p, Tc)
-    wr = np.asarray(w_ref, dtype=float).tolist()
-    nz = noise.tolist()
-    n = len(wr)
-    W, U, F = np.empty(n), np.empty(n), np.empty(n)
-    w = wr[0]
-    f = float(p.friction(w)) if p.tau == 0 else 0.0
-    for k in range(n):
-        u = ctrl.step(wr[k] - (w + nz[k]))
-        W[k], U[k], F[k] = w, u, f
-        w, f = step(w, f, u)
-    return W, U, F
+def _pi_loop(p: JointParams, ref: Reference, design: PIDesign, u_max: float, noise_std: float, rng):
+    """The PI loop (no compensator, no sensor gate) on the closed-loop engine; ``(W, W_meas, U, F)`` per period.
+
+    The joint starts at ``w_ref[0]`` with the friction lag unloaded (``F = 0`` where ``tau > 0``, else ``F(w)``)."""
+    res = run_closed_loop(p, PIController.from_design(design, u_max=u_max), None, ref, noise_std=noise_std, rng=rng,
+                          sensor_gate=False, friction0=0.0)
+    if res.info["diverged"]:
+        raise ParameterError(f"the PI loop (Kp = {design.Kp!r}, Ki = {design.Ki!r}) diverged on {p!r}: "
+                             "|w| exceeded 100 max|w_ref| + 1 rad/s")
+    return res.w, res.w_meas, res.u, res.f
 
 
 @dataclass(frozen=True)
@@ -102,7 +98,9 @@ def closed_loop_run(p: JointParams, reference: Reference, *, design: PIDesign, u
     Notes
     -----
     Per period: ``u = sat(PI(w_ref - w_meas))`` (:class:`controllers.design.pi.PIController`,
-    anti-windup), then one RK4 step of eqs. 1-3 with ``u`` held (Ruderman, Sec. V-B).
+    anti-windup), then one RK4 step of eqs. 1-3 with ``u`` held (Ruderman, Sec. V-B): the closed-loop
+    engine (:func:`controllers.simulation.closed_loop.run_closed_loop`, no compensator, no sensor gate),
+    from ``w = w_ref[0]`` with the friction lag unloaded.
     """
     Tc = design.Tc
     t = np.asarray(reference.t, dtype=float)
@@ -111,10 +109,8 @@ def closed_loop_run(p: JointParams, reference: Reference, *, design: PIDesign, u
     noise_std = check_nonnegative("noise_std", noise_std)
     if noise_std > 0 and rng is None:
         raise ParameterError("noise_std > 0 needs rng=np.random.default_rng(seed)")
-    n = t.shape[0]
-    noise = rng.normal(0.0, noise_std, size=n) if noise_std > 0 else np.zeros(n)
-    W, U, F = _pi_loop(p, reference.w, design, u_max, noise)
-    return ClosedLoopRun(response=PlantResponse(t=t.copy(), u=U, w=W, f=F, dt=Tc), w_meas=W + noise,
+    W, W_meas, U, F = _pi_loop(p, reference, design, u_max, noise_std, rng)
+    return ClosedLoopRun(response=PlantResponse(t=t.copy(), u=U, w=W, f=F, dt=Tc), w_meas=W_meas,
                          w_ref=np.asarray(reference.w, dtype=float).copy())
 
 
@@ -156,6 +152,101 @@ def closed_loop_response(p: JointParams, reference: Reference, *, design: PIDesi
     paper's data collection (Sec. V-B: closed loop, multi-sine reference).
     """
     return closed_loop_run(p, reference, design=design, u_max=u_max, noise_std=noise_std, rng=rng).response
+
+
+@dataclass(frozen=True)
+class ClosedLoopReadout:
+    """The robot experiment of :func:`closed_loop_readout`: the 1 kHz loop and its slow, irregular readout.
+
+    Attributes
+    ----------
+    run : ClosedLoopRun
+        The loop at the controller period ``Tc``: truth, the PI's measurements, the reference (rad/s).
+    measurement : plant.sampling.Measurement
+        The readout: ``t`` (s, irregular, 20-40 ms apart), ``u`` (N·m, quantised), ``w`` (rad/s, noisy),
+        shape (M,) each.
+    design : PIDesign
+        The PI of the loop (``Kp`` N·m·s/rad, ``Ki`` N·m/rad, ``Tc`` s).
+    u_max : float
+        Its torque limit (N·m).
+    """
+
+    run: ClosedLoopRun
+    measurement: Measurement
+    design: PIDesign
+    u_max: float
+
+    @property
+    def w_ref(self) -> np.ndarray:
+        """The reference at the readout stamps (rad/s), shape (M,): what a drive logs next to the readout."""
+        r = self.run.response
+        return self.run.w_ref[np.rint((self.measurement.t - r.t[0]) / r.dt).astype(np.int64)]
+
+    def controller(self) -> dict:
+        """``{"Kp", "Ki", "Tc", "u_max"}`` (N·m·s/rad, N·m/rad, s, N·m): the fields of
+        :class:`controllers.experiments.closed_loop_id.ControllerSpec`, as ``controller.json`` holds them."""
+        d = self.design
+        return {"Kp": float(d.Kp), "Ki": float(d.Ki), "Tc": float(d.Tc), "u_max": float(self.u_max)}
+
+
+def closed_loop_readout(p: JointParams, duration: float, *, seeds, crossover: float = 200.0,
+                        peak: float = math.radians(20.0), noise_std: float = 1e-3, quantization: float = 0.6,
+                        Tc: float = 1e-3) -> ClosedLoopReadout:
+    """The paper's robot experiment: a 1 kHz PI velocity loop tracks a multi-sine, read out every 20-40 ms.
+
+    Parameters
+    ----------
+    p : JointParams
+        Plant.
+    duration : float
+        Length of the reference (s), > 0; the readout covers the simulated span ``[0, duration - Tc]``.
+    seeds : int or sequence of 4
+        Seeds (anything :func:`numpy.random.default_rng` takes) of the reference phases, the PI's
+        measurement noise, the readout instants and the readout noise, in this order; an int ``s`` stands
+        for ``(s, s + 1, s + 2, s + 3)``.
+    crossover : float, keyword-only
+        Crossover of the PI loop (rad/s), > 0; default 200 (a stiff robot loop: the joint rarely sticks).
+    peak : float, keyword-only
+        Peak of the multi-sine reference (rad/s), > 0; default 20 deg/s.
+    noise_std : float, keyword-only
+        Velocity noise (rad/s), >= 0, seen by the PI and added to the readout.
+    quantization : float, keyword-only
+        Torque quantum of the readout (N·m), >= 0 (paper Fig. 7: 0.01 A at 60 N·m/A = 0.6 N·m).
+    Tc : float, keyword-only
+        Controller period and integration step (s), > 0.
+
+    Returns
+    -------
+    ClosedLoopReadout
+
+    Raises
+    ------
+    ParameterError
+        A setting out of range, or ``seeds`` neither an int nor four seeds.
+
+    Notes
+    -----
+    Ruderman, Sec. V-B: :func:`plant.excitation.multisine_reference` at ``Tc``; the PI of
+    :func:`controllers.design.pi.design_pi` (phase margin 60 deg) with the torque limit
+    ``u_max = 3 (max(Fs, Fc) + sigma max|w_ref| + J max|dw_ref/dt|)``; :func:`closed_loop_run`; the readout
+    at :func:`plant.sampling.irregular_sample_times` (Fig. 10) by :func:`plant.sampling.sample`.
+    """
+    if isinstance(seeds, (int, np.integer)) and not isinstance(seeds, bool):
+        seeds = tuple(int(seeds) + i for i in range(4))
+    if isinstance(seeds, (str, bytes)) or not hasattr(seeds, "__len__") or len(seeds) != 4:
+        raise ParameterError(f"seeds must be an int or a sequence of 4 seeds, got {seeds!r}")
+    ref_seed, loop_seed, times_seed, meas_seed = seeds
+    Tc = check_positive("Tc", Tc)
+    ref = multisine_reference(duration, dt=Tc, peak=peak, rng=np.random.default_rng(ref_seed))
+    design = design_pi(p.J, crossover=crossover, phase_margin=60.0, Tc=Tc)
+    u_max = 3.0 * (max(p.Fs, p.Fc) + p.sigma * float(np.max(np.abs(ref.w))) + p.J * float(np.max(np.abs(ref.dw))))
+    run = closed_loop_run(p, ref, design=design, u_max=u_max, noise_std=noise_std,
+                          rng=np.random.default_rng(loop_seed))
+    resp = run.response
+    times = irregular_sample_times(float(resp.t[-1]), dt=Tc, rng=np.random.default_rng(times_seed))
+    meas = sample(resp, times=times, noise_std=noise_std, quantization=quantization,
+                  rng=np.random.default_rng(meas_seed))
+    return ClosedLoopReadout(run=run, measurement=meas, design=design, u_max=u_max)
 
 
 def quasi_static_log(p: JointParams, velocities, *, hold: float = 2.0, settle: float = 1.0, Tc: float = 1e-3,
@@ -213,13 +304,12 @@ def quasi_static_log(p: JointParams, velocities, *, hold: float = 2.0, settle: f
     wr = np.repeat(v, n_each)
     if noise_std > 0 and rng is None:
         raise ParameterError("noise_std > 0 needs rng=np.random.default_rng(seed)")
-    noise = rng.normal(0.0, check_nonnegative("noise_std", noise_std), size=wr.shape[0]) if noise_std > 0 \
-        else np.zeros(wr.shape[0])
-    W, U, _ = _pi_loop(p, wr, design, math.inf, noise)
     t = np.arange(wr.shape[0]) * Tc
+    ref = Reference(t=t, w=wr, dw=np.zeros_like(wr))
+    W, W_meas, U, _ = _pi_loop(p, ref, design, math.inf, check_nonnegative("noise_std", noise_std), rng)
     # sample k: the measurement the controller saw, and the torque that drove the joint to it
     idx = np.arange(decimate, wr.shape[0], decimate)
-    return MeasuredData(t[idx], U[idx - 1], W[idx] + noise[idx], source="simulated quasi-static runs",
+    return MeasuredData(t[idx], U[idx - 1], W_meas[idx], source="simulated quasi-static runs",
                         notes=(f"{v.shape[0]} setpoints x {hold + settle:g} s, logged every {decimate * Tc:g} s",))
 
 

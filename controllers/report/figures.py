@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from adaptive_ff.io.units import PARAMETER_UNITS
 from plant.errors import ParameterError, SignalError
 from plant.stribeck import stribeck
 
@@ -50,10 +51,6 @@ MODE_COLORS = {"reference": "#000000", "none": "#D55E00", "fixed": "#0072B2", "a
                "canudas": "#E69F00", "dob": "#CC79A7", "oracle": "#56B4E9", "frictionless": "#7A7A7A"}
 _SPARE_COLORS = ("#332288", "#882255", "#44AA99", "#999933", "#AA4499")  # Tol's muted: for modes added later
 
-#: Units of the estimator parameters: physical (sliding estimator) and eq. 4 coefficients.
-PARAMETER_UNITS = {"J": "kg·m²", "J_tau": "kg·m²·s", "tau": "s", "Fc": "N·m", "Fs": "N·m", "sigma": "N·m·s/rad",
-                   "offset": "N·m", "a1": "-", "a2": "-", "b0": "(rad/s)/(N·m)", "b1": "(rad/s)/(N·m)",
-                   "c1": "rad/s", "d1": "rad/s", "o1": "rad/s"}
 
 _DPI = 100
 _BINS = 1500  # display bins of an envelope: about two per pixel column of a 9 in figure at 100 dpi

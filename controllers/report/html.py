@@ -171,7 +171,7 @@ def _section_data(data) -> str:
 
 def _units() -> dict:
     try:
-        from adaptive_ff.identification.identify import PARAM_UNITS
+        from adaptive_ff.io.units import PARAM_UNITS
         return dict(PARAM_UNITS)
     except ImportError:  # pragma: no cover - identify is part of the package
         return {}

@@ -21,7 +21,7 @@ from controllers.design.pi import PIController
 from controllers.simulation.compensators import MODES, ESTIMATORS, ModeOptions, build_mode
 from controllers.simulation.engine import EngineInputs, engine_outcome, engine_state, metrics_state, run_engine
 from controllers.simulation.metrics import LoopMetrics, loop_metrics, metrics_result, reversal_times
-from plant.errors import ParameterError, check_nonnegative, check_positive
+from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
 from plant.excitation import Reference
 from plant.dynamics import PLANT_NPAR, check_integrable, plant_params, plant_state
 from plant.results import axes_or_new, json_safe
@@ -172,7 +172,8 @@ def _compensator_arrays(compensator) -> tuple:
 
 def run_closed_loop(plant, controller: PIController, compensator, reference: Reference, *, noise_std: float = 0.0,
                     rng: np.random.Generator | None = None, faults=None, sensor_gate=True,
-                    w_limit: float | None = None, decimate: int = 1, reversal_window: float = 0.2) -> ClosedLoopResult:
+                    w_limit: float | None = None, decimate: int = 1, reversal_window: float = 0.2,
+                    friction0: float | None = None) -> ClosedLoopResult:
     """Simulate the PI velocity loop on the plant at the controller rate with one compensator.
 
     Parameters
@@ -208,6 +209,10 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
         history). The metrics always cover every sample.
     reversal_window : float, keyword-only
         Half-width (s) of the reversal windows of the metrics.
+    friction0 : float, keyword-only, optional
+        Initial friction state (N·m) of a lagged plant (``tau > 0``, eq. 3: the ``F`` of ``tau dF/dt = F(w) - F``),
+        e.g. 0 for a lag that starts unloaded; default (None) steady motion at ``w_ref[0]``
+        (:func:`plant.dynamics.plant_state`). Ignored where ``tau == 0``.
 
     Returns
     -------
@@ -217,7 +222,7 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     ------
     ParameterError
         Reference step not equal to ``controller.Tc``, noise without ``rng``, bad ``decimate``,
-        ``sensor_gate`` or ``w_limit``, or a compensator without the component protocol.
+        ``sensor_gate``, ``w_limit`` or ``friction0``, or a compensator without the component protocol.
 
     Notes
     -----
@@ -246,6 +251,9 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     frozen = plant.at(0.0) if hasattr(plant, "at") else plant
     gate = _sensor_gate(sensor_gate, controller, float(frozen.J) if sensor_gate is True else math.nan)
     kind, cp, cs, n_theta = _compensator_arrays(compensator)
+    state0 = plant_state(frozen, float(wr[0]))
+    if friction0 is not None and getattr(frozen, "tau", 0.0) > 0:  # the lagged models (LuGre has no tau)
+        state0[1] = check_finite_scalar("friction0", friction0)
     revs = reversal_times(t, wr)
     n_rec = (n + decimate - 1) // decimate if decimate > 0 else 0
     m_theta = n // _update_period(compensator) + 1 if (decimate and n_theta) else 0
@@ -254,7 +262,7 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     x = EngineInputs(
         wr=wr, t=t, revs=revs, window=float(reversal_window), dt=float(Tc), seg=np.array([seg], dtype=np.int64),
         plant_table=np.ascontiguousarray(table[None, :, :]),
-        plant_state=plant_state(frozen, float(wr[0]))[None, :].copy(),
+        plant_state=state0[None, :].copy(),
         noise=noise, noise_rows=1 if noise_std > 0 else 0, fault_k=fk, fault_v=fv,
         use_gate=np.array([gate is not None]), gate_par=(gate or OutlierGate()).params[None, :],
         gate_state=(gate or OutlierGate()).state[None, :], pi_par=controller.params[None, :],
