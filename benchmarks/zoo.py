@@ -1,7 +1,7 @@
 """The plant zoo (issue 11, item 6): N random joints, every compensation mode, eta quantiles, win rates, failures.
 
 Run:  python benchmarks/zoo.py [--n 100] [--duration 120] [--seed 0] [--modes none,fixed,adaptive,dob,...]
-                               [--group 100] [--workers 2] [--scheduler tcp://host:8786]
+                               [--group 8] [--workers 2] [--scheduler tcp://host:8786]
                                [--min-degradation 0.01] [--json out.json]
 
 Draws the joints with :func:`controllers.experiments.zoo.draw_plants` (the box of
@@ -34,8 +34,8 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=120.0, help="run length (s)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--modes", default=",".join(MODES), help=f"comma-separated subset of {','.join(MODES)}")
-    ap.add_argument("--group", type=int, default=100, help="joints per batch call")
-    ap.add_argument("--workers", type=int, default=None, help="processes for the preparation (default: cores)")
+    ap.add_argument("--group", type=int, default=8, help="joints per task (preparation + one batch call per mode)")
+    ap.add_argument("--workers", type=int, default=None, help="worker processes (default: cores)")
     ap.add_argument("--scheduler", default=None,
                     help="Dask: 'synchronous', 'threads', 'processes' (local schedulers) or a scheduler address")
     ap.add_argument("--min-degradation", type=float, default=0.01,
@@ -55,8 +55,9 @@ def main(argv=None) -> int:
     r = run_zoo(o)
     print(r.summary())
     tm = r.timing
-    print(f"wall {r.seconds:.1f} s: preparation {tm['prepare']:.1f} s, runs of every mode {tm['runs']:.1f} s; "
-          f"{60.0 * len(r.plants) / r.seconds:.1f} joints/min ({len(r.modes)} modes, {args.duration:g} s each)")
+    print(f"wall {r.seconds:.1f} s, {60.0 * len(r.plants) / r.seconds:.1f} joints/min ({len(r.modes)} modes, "
+          f"{args.duration:g} s each); CPU in the workers: preparation {tm['prepare_cpu']:.1f} s, runs of every "
+          f"mode {tm['runs_cpu']:.1f} s")
     if args.json:
         d = r.to_dict()
         d["options"] = zoo_options_dict(o)

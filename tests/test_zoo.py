@@ -6,7 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from controllers.experiments.compare import CompareOptions, compare, comparison_reference
+from adaptive_ff.compensation.feedforward import project_estimate
+from controllers.experiments.compare import CompareOptions, compare, comparison_reference, prepare_comparison
 from controllers.experiments.sweep import expand_cases, load_spec
 from controllers.experiments.zoo import ZOO_MODELS, ZooBox, ZooOptions, ZooResult, draw_plants, run_zoo, zoo_box
 from plant.errors import ParameterError
@@ -145,6 +146,9 @@ def test_status_counts_every_failure_apart():
     assert r.counts()["fixed"] == {"ok": 1, "refused": 1, "diverged": 1, "undefined": 0, "no reference": 1,
                                    "invalid": 1}
     assert r.targets()["refused"] == 1 and r.targets()["diverged"] == 2
+    r.notes[4] = ["a pre-fit note", "fixed: the offline fit of the identification run was rejected (...)"]
+    assert r.fixed_fallbacks() == [4] and "offline fit rejected on 1 joint(s)" in r.summary()
+    assert r.to_dict()["notes"] == {"4": r.notes[4]}
 
 
 def test_dask_scheduler_gives_the_numbers_of_the_default_path():
@@ -162,3 +166,27 @@ def test_dask_scheduler_gives_the_numbers_of_the_default_path():
         for m in base.modes:
             np.testing.assert_array_equal(r.rms[m], base.rms[m])
             np.testing.assert_array_equal(r.eta[m], base.eta[m])
+
+
+def test_fixed_falls_back_to_the_prefit_map_where_its_offline_fit_is_rejected():
+    # joint #18 of the zoo drawn for a 20 s run (seed 0), Karnopp: the offline fit of its identification run gives
+    # Fs = 5.0 N·m (true 1.10 N·m), above half the actuator range, so `fixed` used to be refused on it
+    co = CompareOptions(duration=20.0, seed=0, modes=("none", "fixed", "frictionless"))
+    spec = draw_plants(19, comparison_reference(co), seed=0)[18]
+    assert spec["model"] == "karnopp"
+    p = plant_from_dict(spec)
+    s = prepare_comparison(p, co)
+    mo = s.mode_options["fixed"]
+    assert project_estimate(s.offline.estimate, F_max=0.5 * mo.u_max) is None
+    f, e = s.prefit, mo.estimate
+    # the pre-fit's static map, no lag (the lag would come from the rejected fit), the design inertia
+    assert (e.Fc, e.Fs, e.sigma, e.Vs, e.delta, e.tau, e.J, e.offset) == (f.Fc, f.Fs, f.sigma, f.Vs, f.delta, 0.0,
+                                                                          spec["J"], 0.0)
+    assert f.Fc == pytest.approx(spec["Fc"], rel=0.02) and f.Fs == pytest.approx(spec["Fs"], rel=0.02)
+    assert [n for n in s.notes if n.startswith("fixed:")] == [
+        n for n in s.notes if "offline fit of the identification run was rejected" in n and "static map" in n]
+    assert len([n for n in s.notes if n.startswith("fixed:")]) == 1
+    c = compare(p, co, progress=False)
+    assert c.notes == s.notes
+    # measured 0.926; the adaptive start's guessed lag (1/crossover = 50 ms) instead of none gives 0.23
+    assert c.eta["fixed"] > 0.85

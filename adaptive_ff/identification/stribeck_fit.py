@@ -16,9 +16,10 @@ The optimiser works on ``x = (Fc, Fs, log Vs, delta, sigma)`` so ``Vs = exp(x[2]
 is positive by construction. For fixed ``(Vs, delta)`` the model is linear in
 ``(Fc, Fs, sigma)``; the initial guesses use this (a grid over ``Vs`` with the
 linear parameters solved by least squares, the idea of separable least squares,
-Golub & Pereyra 1973), then ``scipy.optimize.least_squares(method="lm")``
-(MINPACK's Levenberg-Marquardt, Moré 1978) refines all five parameters with
-an analytic Jacobian.
+Golub & Pereyra 1973), then MINPACK's Levenberg-Marquardt (``lmder``, Moré 1978,
+through :func:`scipy.optimize.leastsq`: the iterations of
+``scipy.optimize.least_squares(method="lm")`` with less overhead per evaluation)
+refines all five parameters with an analytic, compiled Jacobian.
 
 Sign of the shape factor
 ------------------------
@@ -57,9 +58,10 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
-from scipy.optimize import least_squares, nnls
+from scipy.optimize import leastsq, nnls
 from scipy.stats import t as student_t
 
 from plant.errors import ExcitationError, ParameterError, SignalError, check_finite_scalar, check_signal
@@ -329,23 +331,38 @@ def _eq3_values(w, Fc, dF, Vs, delta, sigma, out):
 
 def _model(x, w):
     """Eq. 3 with the optimiser's parameters ``x = (Fc, Fs, log Vs, delta, sigma)`` at the speeds ``w``."""
-    Fc, Fs, logVs, delta, sigma = (float(v) for v in x)
+    Fc, Fs, logVs, delta, sigma = np.asarray(x, dtype=float).tolist()
     Vs = math.exp(min(max(logVs, -_LOGP_MAX), _LOGP_MAX))  # finite and > 0 whatever the optimiser tries
     return _eq3_values(w, Fc, Fs - Fc, Vs, delta, sigma, np.empty_like(w))
 
 
-def _jacobian(x, sg, w, logaw):
-    """d F / d (Fc, Fs, log Vs, delta, sigma), shape (n, 5)."""
-    Fc, Fs, logVs, delta, sigma = x
-    s, sp, logx = _shape_terms(logaw, logVs, delta)
+@kernel
+def _eq3_jacobian(w, logaw, Fc, Fs, logVs, delta, out):
+    """d F / d (Fc, Fs, log Vs, delta, sigma) of eq. 3 at every ``w`` into ``out`` (n, 5), compiled.
+
+    With ``p = (|w|/Vs)**delta`` in the log domain as :func:`_shape_terms` (``log p`` clipped at ``_LOGP_MAX``,
+    ``s*p = exp(log p - p)`` without ``inf*0``): ``ds/dlog Vs = s*p*delta``, ``ds/ddelta = -s*p*log(|w|/Vs)``.
+    """
     d = Fs - Fc
-    return np.column_stack([
-        sg * (1.0 - s),
-        sg * s,
-        sg * d * delta * sp,  # ds/dlogVs = s*p*delta
-        -sg * d * sp * logx,  # ds/ddelta = -s*p*log(|w|/Vs)
-        w,
-    ])
+    for i in range(w.shape[0]):
+        sg = 1.0 if w[i] > 0.0 else (-1.0 if w[i] < 0.0 else 0.0)
+        logx = logaw[i] - logVs
+        logp = min(delta * logx, _LOGP_MAX)
+        p = math.exp(logp)
+        si = math.exp(-p)
+        sp = math.exp(logp - p)
+        out[i, 0] = sg * (1.0 - si)
+        out[i, 1] = sg * si
+        out[i, 2] = sg * d * delta * sp
+        out[i, 3] = -sg * d * sp * logx
+        out[i, 4] = w[i]
+    return out
+
+
+def _jacobian(x, sg, w, logaw):
+    """d F / d (Fc, Fs, log Vs, delta, sigma), shape (n, 5) (:func:`_eq3_jacobian`; ``sg = sign(w)``)."""
+    Fc, Fs, logVs, delta, _ = np.asarray(x, dtype=float).tolist()
+    return _eq3_jacobian(w, logaw, Fc, Fs, logVs, delta, np.empty((w.shape[0], 5)))
 
 
 # --------------------------------------------------------------------------- inputs
@@ -503,10 +520,10 @@ def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0), fal
     Model: ``F(w) = sgn(w)*(Fc + (Fs - Fc)*exp(-|w/Vs|**delta)) + sigma*w``
     (Ruderman, eq. 3), fitted as in the paper's Sec. V-C (Levenberg-Marquardt
     on the averaged support points of bidirectional quasi-static runs, Fig. 8).
-    Optimiser: :func:`scipy.optimize.least_squares` with ``method="lm"``
-    (MINPACK, Moré 1978, "The Levenberg-Marquardt algorithm: implementation
-    and theory"), analytic Jacobian, parameters ``(Fc, Fs, log Vs, delta,
-    sigma)`` so that ``Vs > 0``.
+    Optimiser: MINPACK's ``lmder`` through :func:`scipy.optimize.leastsq`
+    (Moré 1978, "The Levenberg-Marquardt algorithm: implementation and
+    theory"; the iterations of ``least_squares(method="lm")``), analytic
+    Jacobian, parameters ``(Fc, Fs, log Vs, delta, sigma)`` so that ``Vs > 0``.
 
     Initial guess (``p0=None``): a Coulomb + viscous line by linear least
     squares on the higher-speed half of the points gives the sign of the
@@ -695,12 +712,26 @@ def _usable_points(w, F, std):
     return w, F, wt
 
 
+def _lm_run(resid, jac, x0) -> SimpleNamespace:
+    """MINPACK's ``lmder`` (Levenberg-Marquardt, Moré 1978) from ``x0``: ``x``, ``cost`` (half the sum of squared
+    residuals), ``status`` (> 0 converged, 0 stopped at the evaluation limit), ``nfev``.
+
+    Called through :func:`scipy.optimize.leastsq`, the thin wrapper of ``lmder``: the same iterations as
+    ``least_squares(method="lm", x_scale="jac")`` (``diag`` from the Jacobian's column norms, ``factor`` 100),
+    without that wrapper's per-evaluation bookkeeping, which cost more than the residuals themselves here.
+    """
+    x, _, info, _, ier = leastsq(resid, x0, Dfun=jac, full_output=True, ftol=1e-12, xtol=1e-12, gtol=1e-12,
+                                 maxfev=2000)
+    f = info["fvec"]
+    return SimpleNamespace(x=x, cost=0.5 * float(f @ f), status=int(ier) if ier in (1, 2, 3, 4) else 0,
+                           nfev=int(info["nfev"]))
+
+
 def _best_lm_run(resid, jac, starts):
     """MINPACK Levenberg-Marquardt from every start; the finite solution of lowest cost."""
     best = None
     for x0 in starts:
-        res = least_squares(resid, x0, jac=jac, method="lm", x_scale="jac",
-                            ftol=1e-12, xtol=1e-12, gtol=1e-12, max_nfev=2000)
+        res = _lm_run(resid, jac, np.asarray(x0, dtype=float))
         if np.all(np.isfinite(res.x)) and (best is None or res.cost < best.cost):
             best = res
     if best is None:  # pragma: no cover - MINPACK keeps x finite from a finite start

@@ -97,7 +97,9 @@ class Comparison:
         Design inertia used (kg·m²).
     notes : tuple of str
         What the pre-fit could not do as asked (e.g. the Coulomb + viscous
-        fallback of a joint without Stribeck effect, runs that did not hold).
+        fallback of a joint without Stribeck effect, runs that did not hold),
+        and the fallback of ``fixed`` when its offline fit was rejected (a
+        note starting with ``"fixed:"``).
     """
 
     plant: object
@@ -426,7 +428,7 @@ class ComparisonSetup:
     bar: object
 
 
-def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False) -> ComparisonSetup:
+def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, reference=None) -> ComparisonSetup:
     """The preparation of :func:`compare`: reference, PI design, Stribeck experiment and pre-fit, offline fit of
     ``fixed``, the options of every mode.
 
@@ -437,6 +439,9 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False) -
     o : CompareOptions
     progress : bool, keyword-only
         Progress bar over the preparation and the runs (:attr:`ComparisonSetup.bar`).
+    reference : Reference, keyword-only
+        ``comparison_reference(o)`` when the caller already has it (the zoo prepares many joints on one
+        reference); default: made here.
 
     Returns
     -------
@@ -445,13 +450,22 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False) -
     Raises
     ------
     ParameterError, ExcitationError
-        Invalid settings, or a fit that cannot be made.
+        Invalid settings, a ``reference`` not on the grid of ``o`` (``Tc``, ``duration``), or a fit that cannot
+        be made.
+
+    Notes
+    -----
+    ``fixed`` never fails on its own identification: when the offline fit of its identification run is
+    rejected as implausible (:func:`adaptive_ff.compensation.feedforward.project_estimate`: a level above half
+    the actuator range, a negative inertia, e.g. a Stribeck term the pre-fit's ``Vs``, ``delta`` cannot
+    separate from the Coulomb level), ``fixed`` uses the pre-fit's static map instead, without a lag (the lag
+    would come from the rejected fit), with a note in ``notes``.
     """
     run_modes = [m for m in MODES if m in set(o.modes) | {"none", "frictionless"}]
     p0 = p.at(0.0) if hasattr(p, "at") else p
     J = float(p0.J) if o.J_design is None else float(o.J_design)  # the design inertia: no other plant field is read
     _, id_ss, noise_ss, qs_ss = np.random.SeedSequence(o.seed).spawn(4)
-    ref = comparison_reference(o)
+    ref = comparison_reference(o) if reference is None else _checked_reference(reference, o)
     peak_w, peak_a = float(np.max(np.abs(ref.w))), float(np.max(np.abs(ref.dw)))
     needs_prefit = any(m in PREFIT_MODES for m in run_modes) and o.Vs is None
     if needs_prefit and not o.prefit:
@@ -474,10 +488,14 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False) -
     design = design_pi(J, crossover=o.crossover, phase_margin=o.phase_margin, Tc=o.Tc)
     model = RegressionModel(1.0 if Vs is None else Vs, 1.0 if delta is None else delta, lag=True)
     offline = estimate = None
+    notes = list(exp.notes) if fit is not None else []
     if "fixed" in run_modes:
         bar.set_postfix_str("identification run")
         offline = _offline_fit(p0, o, model, F_peak, Vs, delta, np.random.default_rng(id_ss))
         estimate = project_estimate(offline.estimate, F_max=0.5 * u_max)
+        if estimate is None and fit is not None:
+            estimate, note = _fixed_fallback(offline.estimate, fit, J, 0.5 * u_max)
+            notes.append(note)
         bar.update()
     initial = None
     if o.adaptive_initial and fit is not None:
@@ -498,7 +516,43 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False) -
     opts = {mode: replace(mo, ff_input=o.canudas_input if mode == "canudas" else o.ff_input) for mode in run_modes}
     return ComparisonSetup(modes=tuple(run_modes), reference=ref, design=design, mode_options=opts,
                            noise_seed=noise_ss, prefit=fit, offline=offline, model=model, experiment=exp,
-                           J_design=J, notes=tuple(exp.notes) if fit is not None else (), bar=bar)
+                           J_design=J, notes=tuple(notes), bar=bar)
+
+
+def _checked_reference(ref, o: CompareOptions):
+    """``ref`` if it is on the grid of ``o`` (step ``Tc``, length ``duration``); raise otherwise."""
+    t = np.asarray(getattr(ref, "t", None), dtype=float)
+    if t.ndim != 1 or t.shape[0] < 2 or not np.isclose(t[1] - t[0], o.Tc, rtol=1e-9) \
+            or not np.isclose(t[-1] - t[0], o.duration, rtol=1e-9, atol=o.Tc):
+        raise ParameterError(f"reference must be comparison_reference(options): step Tc = {o.Tc!r} s over "
+                             f"duration = {o.duration!r} s")
+    return ref
+
+
+def _fixed_fallback(raw: FrictionEstimate, fit, J: float, F_max: float) -> tuple:
+    """The ``fixed`` mode's estimate when its offline fit ``raw`` is rejected: the pre-fit's static map (eq. 3)
+    without a lag (``tau = 0``), or its Coulomb + viscous part (``Fs = Fc``, the lower level) if a level of the
+    map exceeds ``F_max`` too; ``(estimate or None, note)``.
+
+    No lag: the lag would come from the rejected fit, and a guessed one (the adaptive start's ``1/crossover``)
+    did much worse than none on the zoo joints where this happens (docs/benchmarks/zoo.md).
+    """
+    levels = (max(fit.Fc, 0.0), max(fit.Fs, 0.0))
+    what = "the pre-fit's levels exceed it too: fixed has no estimate"
+    est = None
+    for (Fc, Fs), name in ((levels, "the pre-fit's static map"), ((min(levels),) * 2, "the Coulomb + viscous "
+                                                                   "part of the pre-fit's map (Fs = Fc)")):
+        est = project_estimate(FrictionEstimate(J=J, tau=0.0, sigma=max(fit.sigma, 0.0), Fc=Fc, Fs=Fs, offset=0.0,
+                                                Vs=fit.Vs, delta=fit.delta, J_alt=float("nan")), F_max=F_max)
+        if est is not None:
+            what = f"{name} is used instead"
+            break
+    note = (f"fixed: the offline fit of the identification run was rejected (J = {raw.J:.4g} kg·m², "
+            f"Fc = {raw.Fc:.4g} N·m, Fs = {raw.Fs:.4g} N·m, tau = {raw.tau:.4g} s; the levels must not exceed "
+            f"{F_max:.4g} N·m, half the actuator range, and J > 0); {what} (Fc = {levels[0]:.4g} N·m, "
+            f"Fs = {levels[1]:.4g} N·m, Vs = {fit.Vs:.4g} rad/s, delta = {fit.delta:.4g}, sigma = "
+            f"{max(fit.sigma, 0.0):.4g} N·m·s/rad, no lag)")
+    return est, note
 
 
 def _whole_run_metrics(results: dict) -> dict:

@@ -575,14 +575,21 @@ class _Runner:
 
     def __init__(self, p, J_design: float, o: StribeckDesign, Tc: float, noise_std: float, rng):
         self.p, self.o, self.Tc, self.noise_std, self.rng = p, o, Tc, noise_std, rng
-        self.designs = [design_pi(J_design, sigma=0.0, crossover=c, phase_margin=60.0, Tc=Tc)
-                        for c in (o.crossover, o.crossover_max)]
+        self.J_design = J_design
+        self._designs = [None, None]
         self.cols = {k: [] for k in ("setpoints", "w_mean", "w_std", "u_mean", "u_std", "crossover", "held")}
         self.u_base = [None, None]
         self.n_retried = 0
 
+    def design(self, level: int) -> PIDesign:
+        """The loop of ``level`` (0: ``crossover``, 1: ``crossover_max``), designed when first needed."""
+        if self._designs[level] is None:
+            c = (self.o.crossover, self.o.crossover_max)[level]
+            self._designs[level] = design_pi(self.J_design, sigma=0.0, crossover=c, phase_margin=60.0, Tc=self.Tc)
+        return self._designs[level]
+
     def _run(self, speeds, level: int) -> tuple:
-        d = self.designs[level]
+        d = self.design(level)
         u_level = max([abs(x) for x in self.cols["u_mean"]] or [0.0])
         by_settle = {}
         for s, st in zip(speeds, _settles(speeds, d, self.o, u_level)):
@@ -603,7 +610,7 @@ class _Runner:
         a, ok = self._run(np.array(sorted(speeds, key=lambda s: -abs(s))), 0)
         if not np.all(ok) and self.o.crossover_max > self.o.crossover:
             if self.u_base[1] is None:
-                self.u_base[1] = self.u_base[0] * self.designs[1].Kp / self.designs[0].Kp
+                self.u_base[1] = self.u_base[0] * self.design(1).Kp / self.design(0).Kp
             b, ok_b = self._run(a[~ok, 0], 1)
             self.n_retried += int(b.shape[0])
             self._append(a[ok], np.ones(int(ok.sum()), bool), 0)
@@ -615,7 +622,7 @@ class _Runner:
         for row, h in zip(a.tolist(), ok.tolist()):
             for k, v in zip(("setpoints", "w_mean", "w_std", "u_mean", "u_std"), row):
                 self.cols[k].append(v)
-            self.cols["crossover"].append(self.designs[level].crossover)
+            self.cols["crossover"].append(self.design(level).crossover)
             self.cols["held"].append(bool(h))
 
     def arrays(self) -> dict:

@@ -29,15 +29,17 @@ optional drift) from the box of :class:`ZooBox` (issue 11, item 6):
 :func:`run_zoo` prepares every joint as :func:`controllers.experiments.compare.compare`
 does (its :func:`~controllers.experiments.compare.prepare_comparison`: the PI from
 the design inertia, the Stribeck pre-fit from simulated quasi-static runs and the
-offline fit of ``fixed`` from a simulated identification run; never the true
-friction), then runs each mode on groups of joints with
-:func:`controllers.simulation.batch.run_batch` (all cores), and reports ``eta``
+offline fit of ``fixed`` from a simulated identification run, or the pre-fit's
+static map where that fit is rejected; never the true friction), then runs each
+mode on the joint's group with :func:`controllers.simulation.batch.run_batch`
+(groups of ``group`` joints on ``workers`` processes, or Dask), and reports ``eta``
 (second half) per joint and mode. Every (joint, mode) has one outcome
 (:data:`STATUSES`, :meth:`ZooResult.status`), counted apart in the table:
 
 - ``refused``: the preparation or the engine refused the joint (no mode ran), or
-  this mode could not be built for it (e.g. the offline fit of ``fixed``
-  rejected as implausible), with the reason;
+  this mode could not be built for it, with the reason (``fixed`` no longer is
+  when its offline fit is rejected: it falls back to the pre-fit's static map,
+  :meth:`ZooResult.fixed_fallbacks`);
 - ``diverged``: the run left the engine's velocity bound;
 - ``undefined``: friction does not measurably degrade the uncompensated loop
   (its second-half RMS error is within ``min_degradation`` of the frictionless
@@ -259,9 +261,11 @@ class ZooOptions:
         Modes to run (``none`` and ``frictionless`` always; default every mode of the registry).
     box : ZooBox
     group : int
-        Joints per batch call (memory ~ ``group * duration/Tc * 8`` bytes of noise).
+        Joints per task: a task prepares its joints and runs every mode on them, one batch call per mode
+        (memory ~ ``group * duration/Tc * 8`` bytes of noise). Default 8: small tasks keep the workers
+        evenly loaded, and a batch of 8 still lets the engine interleave its scenarios.
     workers : int or None
-        Processes for the preparation (pre-fits, identification runs); default all cores.
+        Processes the tasks run on (one numba thread each); default all cores.
     scheduler : str, distributed.Client or None
         Where the preparation and the batches run instead: ``"synchronous"``, ``"threads"`` or ``"processes"``
         (Dask's local schedulers), or the address of a Dask cluster (``tcp://host:8786``) or a
@@ -285,7 +289,7 @@ class ZooOptions:
     seed: int = 0
     modes: tuple = MODES
     box: ZooBox = field(default_factory=ZooBox)
-    group: int = 100
+    group: int = 8
     workers: int | None = None
     scheduler: object = None
     min_degradation: float = 0.01
@@ -340,7 +344,12 @@ class ZooResult:
     seconds : float
         Wall time (s).
     timing : dict
-        Wall time (s) of the preparation (``"prepare"``) and of the runs of each mode.
+        CPU time (s) summed over the workers: the preparation (``"prepare_cpu"``) and the runs of every mode
+        (``"runs_cpu"``).
+    notes : dict
+        ``{index: [note, ...]}``: what the preparation of a joint could not do as asked (e.g. the pre-fit's
+        Coulomb + viscous fallback, or the ``fixed`` mode's fallback to the pre-fit's static map), as
+        :attr:`controllers.experiments.compare.Comparison.notes`.
     """
 
     plants: list
@@ -353,6 +362,7 @@ class ZooResult:
     min_degradation: float
     seconds: float
     timing: dict = field(default_factory=dict)
+    notes: dict = field(default_factory=dict)
 
     def degradation(self) -> np.ndarray:
         """``rms_none / rms_frictionless - 1`` per joint (second half), shape (n,): how much friction degrades the
@@ -388,6 +398,11 @@ class ZooResult:
     def counts(self) -> dict:
         """``{mode: {status: number of joints}}`` (:data:`STATUSES`)."""
         return {m: {s: int(np.count_nonzero(self.status(m) == s)) for s in STATUSES} for m in self.modes}
+
+    def fixed_fallbacks(self) -> list:
+        """Joints where the offline fit of ``fixed`` was rejected and the pre-fit's static map used instead (a
+        ``"fixed:"`` note, :func:`controllers.experiments.compare.prepare_comparison`), ascending."""
+        return sorted(i for i, nts in self.notes.items() if any(n.startswith("fixed:") for n in nts))
 
     def adaptive_modes(self) -> tuple:
         """The modes named ``adaptive*`` (the adaptive friction feedforward and its composites)."""
@@ -465,7 +480,7 @@ class ZooResult:
                           "diverged": {m: [bool(x) for x in v] for m, v in self.diverged.items()},
                           "min_degradation": self.min_degradation, "quantiles": self.quantiles(),
                           "win_rates": self.win_rates(), "targets": self.targets(), "seconds": self.seconds,
-                          "timing": self.timing})
+                          "timing": self.timing, "notes": {str(k): v for k, v in self.notes.items()}})
 
     def summary(self) -> str:
         """The zoo table: eta quantiles per mode with the count of every outcome, win rates, targets, failures."""
@@ -496,6 +511,10 @@ class ZooResult:
             med = [float(np.nanmedian(best[s])) if np.isfinite(best[s]).any() else math.nan for s in (neg, ~neg)]
             lines.append(f"delta < 0 (friction rising with speed): {int(neg.sum())} joints, best adaptive median "
                          f"{med[0]:.3f}; delta > 0: median {med[1]:.3f}")
+        fb = self.fixed_fallbacks()
+        if fb:
+            lines.append(f"fixed: offline fit rejected on {len(fb)} joint(s), the pre-fit's static map used instead "
+                         f"(#{', #'.join(str(i) for i in fb[:10])}{', ...' if len(fb) > 10 else ''})")
         for i, why in sorted(self.refused.items())[:10]:
             lines.append(f"refused #{i} ({self.plants[i].get('model')}): {why}")
         for m, d in self.mode_refused.items():
@@ -511,29 +530,28 @@ class ZooResult:
         return lines
 
 
-_REF_T: dict = {}
+_REF: dict = {}
 
 
-def _reference_time(o: CompareOptions) -> np.ndarray:
-    """Time grid of the comparison reference, once per process and setting."""
+def _reference(o: CompareOptions):
+    """The comparison reference, once per process and setting."""
     key = (o.duration, o.seed, o.Tc)
-    if key not in _REF_T:
-        _REF_T.clear()
-        _REF_T[key] = comparison_reference(o).t
-    return _REF_T[key]
+    if key not in _REF:
+        _REF.clear()
+        _REF[key] = comparison_reference(o)
+    return _REF[key]
 
 
-def _prepare(args) -> tuple:
-    """Worker: (mode options, noise seed, {mode: reason it cannot be built}) of one joint, or the reason it was
-    refused."""
-    spec, o = args
+def _prepare(spec, o: CompareOptions) -> tuple:
+    """(mode options, noise seed, {mode: reason it cannot be built}, notes) of one joint, or the reason it was
+    refused (last item)."""
     try:
         p = plant_from_dict(spec)
-        plant_table(p, _reference_time(o), o.Tc)  # refuses a plant the engine cannot integrate (every row)
-        s = prepare_comparison(p, o)
+        plant_table(p, _reference(o).t, o.Tc)  # refuses a plant the engine cannot integrate (every row)
+        s = prepare_comparison(p, o, reference=_reference(o))
         s.bar.close()
     except Exception as exc:  # noqa: BLE001 - any refusal is a result of the zoo, with its reason
-        return None, None, None, f"{type(exc).__name__}: {exc}"
+        return None, None, None, (), f"{type(exc).__name__}: {exc}"
     bad = {}
     for m in s.modes:
         try:
@@ -541,21 +559,61 @@ def _prepare(args) -> tuple:
         except Exception as exc:  # noqa: BLE001 - a mode that cannot be built is that mode's failure
             bad[m] = f"{type(exc).__name__}: {exc}"
     if "none" in bad or "frictionless" in bad:
-        return None, None, None, "; ".join(f"{m}: {why}" for m, why in bad.items())
-    return s.mode_options, s.noise_seed, bad, None
+        return None, None, None, (), "; ".join(f"{m}: {why}" for m, why in bad.items())
+    return s.mode_options, s.noise_seed, bad, tuple(s.notes), None
 
 
-def _batch(args) -> tuple:
-    """Worker: one mode on one group of joints -> (rms_second_half, diverged)."""
-    specs, ref, mode, opts, seeds = args
-    r = run_batch([plant_from_dict(s) for s in specs], ref, mode, opts, seeds=seeds)
-    return r.rms_second_half, r.diverged
+def _group_task(args) -> dict:
+    """Worker: prepare a group of joints and run every mode on those it can (one batch call per mode).
+
+    The measurement noise of a joint is drawn once and shared by its modes (the numbers of
+    ``run_batch(..., seeds=...)``, which would draw the same noise once per mode). Returns the preparation
+    outcome per joint, ``{mode: (rms_second_half, diverged)}`` over the group (NaN/False where not run) and the
+    CPU seconds of the two phases.
+    """
+    import time
+
+    specs, co, modes = args
+    t0 = time.process_time()
+    prepared = [_prepare(s, co) for s in specs]
+    t1 = time.process_time()
+    ref = _reference(co)
+    n = len(specs)
+    noise = {}
+    for j, (opts, seed, *_rest, why) in enumerate(prepared):
+        sd = opts["none"].noise_std if why is None else 0.0
+        if why is None and sd > 0:
+            noise[j] = np.random.default_rng(seed).normal(0.0, sd, size=ref.t.shape[0])
+    runs = {}
+    for m in modes:
+        rms, div = np.full(n, math.nan), np.zeros(n, dtype=bool)
+        ok = [j for j, p in enumerate(prepared) if p[4] is None and m not in p[2]]
+        if ok:
+            plants = [plant_from_dict(specs[j]) for j in ok]
+            opts = [prepared[j][0][m] for j in ok]
+            if all(j in noise for j in ok):
+                r = run_batch(plants, ref, m, opts, noise=np.stack([noise[j] for j in ok]))
+            else:
+                r = run_batch(plants, ref, m, opts, seeds=[prepared[j][1] for j in ok])
+            rms[ok] = np.where(r.diverged, math.nan, r.rms_second_half)
+            div[ok] = r.diverged
+        runs[m] = (rms, div)
+    outcome = [(p[2] or {}, p[3], p[4]) for p in prepared]
+    return {"prepared": outcome, "runs": runs, "cpu": (t1 - t0, time.process_time() - t1)}
+
+
+def _init_worker() -> None:
+    """Process pool initialiser: one numba thread per worker process (the processes share the cores)."""
+    import numba
+
+    numba.set_num_threads(1)
 
 
 _DASK_LOCAL = ("synchronous", "threads", "processes")
 
 
-def _map(fn, items, o: ZooOptions, processes: bool) -> list:
+def _map(fn, items, o: ZooOptions) -> list:
+    """``[fn(item) for item in items]`` on Dask (``o.scheduler``), a process pool (``o.workers`` > 1) or here."""
     if o.scheduler in _DASK_LOCAL:
         import dask
 
@@ -569,12 +627,13 @@ def _map(fn, items, o: ZooOptions, processes: bool) -> list:
         finally:
             if client is not o.scheduler:
                 client.close()
-    workers = o.workers or os.cpu_count() or 1
-    if processes and workers > 1 and len(items) > 1:
+    workers = min(o.workers or os.cpu_count() or 1, len(items))
+    if workers > 1:
         from concurrent.futures import ProcessPoolExecutor
 
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            return list(pool.map(fn, items, chunksize=max(1, len(items) // (4 * workers))))
+        # one item at a time: a worker takes the next group as soon as it is free (groups differ in cost)
+        with ProcessPoolExecutor(max_workers=workers, initializer=_init_worker) as pool:
+            return list(pool.map(fn, items, chunksize=1))
     return [fn(it) for it in items]
 
 
@@ -599,35 +658,40 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
     -----
     eta (second half) is :func:`controllers.experiments.compare.eta` of the joint's ``none``, mode and
     ``frictionless`` runs, the number ``compare`` gives, where it is defined (:meth:`ZooResult.status`).
+    The joints are split into groups of ``group``; each group is one task (its preparation, then one batch call
+    per mode on its joints), the tasks run on ``workers`` processes with one numba thread each (or on Dask), a
+    free worker taking the next group. Each joint's numbers do not depend on the grouping.
     """
     import time
 
     o = ZooOptions() if options is None else options
     t0 = time.perf_counter()
     co = CompareOptions(duration=float(o.duration), seed=int(o.seed), modes=o.modes)
-    ref = comparison_reference(co)
-    specs = draw_plants(o.n, ref, seed=o.seed, box=o.box)
-    prepared = _map(_prepare, [(s, co) for s in specs], o, processes=True)
-    timing = {"prepare": time.perf_counter() - t0}
-    refused = {i: why for i, (*_, why) in enumerate(prepared) if why is not None}
-    mode_refused = {m: {i: p[2][m] for i, p in enumerate(prepared) if p[2] and m in p[2]} for m in o.modes}
-    mode_refused = {m: d for m, d in mode_refused.items() if d}
+    specs = draw_plants(o.n, _reference(co), seed=o.seed, box=o.box)
     n = o.n
+    starts = list(range(0, n, o.group))
+    out = _map(_group_task, [(specs[a:a + o.group], co, o.modes) for a in starts], o)
+    refused, mode_refused, notes = {}, {}, {}
     rms = {m: np.full(n, math.nan) for m in o.modes}
     div = {m: np.zeros(n, dtype=bool) for m in o.modes}
-    jobs = []
-    for m in o.modes:
-        ok = [i for i in range(n) if i not in refused and i not in mode_refused.get(m, {})]
-        jobs += [(ok[i:i + o.group], m) for i in range(0, len(ok), o.group)]
-    items = [([specs[i] for i in g], ref, m, [prepared[i][0][m] for i in g], [prepared[i][1] for i in g])
-             for g, m in jobs]
-    t1 = time.perf_counter()
-    for (g, m), (r, d) in zip(jobs, _map(_batch, items, o, processes=False)):
-        rms[m][g] = np.where(d, math.nan, r)
-        div[m][g] = d
-    timing["runs"] = time.perf_counter() - t1
+    cpu = [0.0, 0.0]
+    for a, res in zip(starts, out):
+        for j, (bad, nts, why) in enumerate(res["prepared"]):
+            if why is not None:
+                refused[a + j] = why
+            for m, reason in bad.items():
+                mode_refused.setdefault(m, {})[a + j] = reason
+            if nts:
+                notes[a + j] = list(nts)
+        for m, (r, d) in res["runs"].items():
+            rms[m][a:a + len(r)] = r
+            div[m][a:a + len(d)] = d
+        cpu = [cpu[0] + res["cpu"][0], cpu[1] + res["cpu"][1]]
+    mode_refused = {m: mode_refused[m] for m in o.modes if m in mode_refused}
+    timing = {"prepare_cpu": cpu[0], "runs_cpu": cpu[1]}
     res = ZooResult(plants=specs, modes=o.modes, eta={}, rms=rms, refused=refused, mode_refused=mode_refused,
-                    diverged=div, min_degradation=o.min_degradation, seconds=time.perf_counter() - t0, timing=timing)
+                    diverged=div, min_degradation=o.min_degradation, seconds=time.perf_counter() - t0, timing=timing,
+                    notes=notes)
     undefined = res.undefined()
     for m in o.modes:
         res.eta[m] = np.array([math.nan if undefined[i] else eta(rms["none"][i], rms[m][i], rms["frictionless"][i])
