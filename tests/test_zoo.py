@@ -190,3 +190,17 @@ def test_fixed_falls_back_to_the_prefit_map_where_its_offline_fit_is_rejected():
     assert c.notes == s.notes
     # measured 0.926; the adaptive start's guessed lag (1/crossover = 50 ms) instead of none gives 0.23
     assert c.eta["fixed"] > 0.85
+
+
+def test_groups_partition_the_joints_and_shrink_towards_the_end():
+    """Guided self-scheduling of the zoo's tasks: every joint in exactly one task, in order, at most ``group``
+    per task, sizes never growing, the last task a single joint (no worker left alone with a long group)."""
+    from controllers.experiments import zoo
+
+    for n, group, workers in [(1000, 8, 2), (37, 8, 4), (5, 8, 2), (1, 8, 1), (0, 8, 2)]:
+        b = zoo._group_bounds(n, group, workers)
+        assert [j for a, c in b for j in range(a, c)] == list(range(n))
+        sizes = [c - a for a, c in b]
+        assert all(1 <= s <= group for s in sizes) and sizes == sorted(sizes, reverse=True)
+        assert n == 0 or sizes[-1] == 1
+    assert [c - a for a, c in zoo._group_bounds(1000, 8, 2)][121:] == [8, 6, 5, 4, 3, 2, 1, 1, 1, 1]  # ceil(rest/4)

@@ -637,6 +637,21 @@ def _map(fn, items, o: ZooOptions) -> list:
     return [fn(it) for it in items]
 
 
+def _group_bounds(n: int, group: int, workers: int) -> list:
+    """``[(a, b), ...]``: joints ``a:b`` of each task, at most ``group`` each, shrinking towards the end.
+
+    Guided self-scheduling (Polychronopoulos & Kuck 1987): a task takes ``ceil(remaining/(2*workers))`` joints,
+    at most ``group`` and at least one, so that the last tasks are single joints and no worker is left with a
+    long group while the others idle (joints differ in cost by more than 10x: stiff ones take the implicit step).
+    """
+    out, a = [], 0
+    while a < n:
+        size = max(1, min(group, -(-(n - a) // (2 * max(1, workers)))))
+        out.append((a, a + size))
+        a += size
+    return out
+
+
 def run_zoo(options: ZooOptions | None = None) -> ZooResult:
     """Draw the zoo and run every mode on every joint (module docstring).
 
@@ -658,9 +673,10 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
     -----
     eta (second half) is :func:`controllers.experiments.compare.eta` of the joint's ``none``, mode and
     ``frictionless`` runs, the number ``compare`` gives, where it is defined (:meth:`ZooResult.status`).
-    The joints are split into groups of ``group``; each group is one task (its preparation, then one batch call
-    per mode on its joints), the tasks run on ``workers`` processes with one numba thread each (or on Dask), a
-    free worker taking the next group. Each joint's numbers do not depend on the grouping.
+    The joints are split into groups of at most ``group`` (smaller towards the end, :func:`_group_bounds`); each
+    group is one task (its preparation, then one batch call per mode on its joints), the tasks run on ``workers``
+    processes with one numba thread each (or on Dask), a free worker taking the next group. Each joint's numbers
+    do not depend on the grouping.
     """
     import time
 
@@ -669,8 +685,9 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
     co = CompareOptions(duration=float(o.duration), seed=int(o.seed), modes=o.modes)
     specs = draw_plants(o.n, _reference(co), seed=o.seed, box=o.box)
     n = o.n
-    starts = list(range(0, n, o.group))
-    out = _map(_group_task, [(specs[a:a + o.group], co, o.modes) for a in starts], o)
+    bounds = _group_bounds(n, o.group, o.workers or os.cpu_count() or 1)
+    starts = [a for a, _ in bounds]
+    out = _map(_group_task, [(specs[a:b], co, o.modes) for a, b in bounds], o)
     refused, mode_refused, notes = {}, {}, {}
     rms = {m: np.full(n, math.nan) for m in o.modes}
     div = {m: np.zeros(n, dtype=bool) for m in o.modes}
