@@ -242,6 +242,17 @@ def _region(par, w):
     return -1 if w == -dv else (1 if w == dv else 0)
 
 
+@kernel(inline="always")
+def _next_substep(hh, err):
+    """Next sub-step after one of length ``hh`` with scaled error ``err`` (accepted where ``err <= 1``).
+
+    The step-doubling controller of both stiff steps: ``hh*0.9/sqrt(err)`` (the error of backward Euler's step
+    difference is O(h**2)), the factor kept in [0.2, 2] (Hairer, Norsett & Wanner, *Solving ODEs I*, Sec. II.4).
+    """
+    fac = 0.9 / math.sqrt(err) if err > 0.0 else 2.0
+    return hh * (2.0 if fac > 2.0 else (0.2 if fac < 0.2 else fac))
+
+
 @kernel
 def lagged_stiff_step(par, st, u, dt, sgn):
     """Advance a stiff lagged model by ``dt`` (s) with ``u`` (N·m) held: error-controlled implicit sub-steps.
@@ -310,8 +321,7 @@ def lagged_stiff_step(par, st, u, dt, sgn):
             else:
                 w = w2
                 f = f2
-        fac = 0.9 / math.sqrt(err) if err > 0.0 else 2.0
-        h = hh * (2.0 if fac > 2.0 else (0.2 if fac < 0.2 else fac))
+        h = _next_substep(hh, err)
     st[0] = w
     st[1] = f
     st[2] = h
@@ -475,8 +485,7 @@ def lugre_stiff_step(par, st, u, dt):
             t = dt if last else t + hh
             w = 2.0 * w2 - w1
             z = 2.0 * z2 - z1
-        fac = 0.9 / math.sqrt(err) if err > 0.0 else 2.0
-        h = hh * (2.0 if fac > 2.0 else (0.2 if fac < 0.2 else fac))
+        h = _next_substep(hh, err)
     st[0] = w
     st[1] = z
     st[2] = h
