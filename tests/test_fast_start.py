@@ -1,5 +1,6 @@
-"""The fast start of the plain ``adaptive`` mode (issue 11, item 5): the pre-fit map at the reference acts from
-the first period, the estimator's estimate takes over once trusted; pinned on a short ``paper`` run."""
+"""The fast start of the plain ``adaptive`` mode (issue 11, item 5): the pre-fit map through the lag of the
+identification run acts from the first period, the estimator's estimate takes over once trusted; pinned on short
+``paper`` runs."""
 
 import math
 from dataclasses import replace
@@ -44,13 +45,44 @@ def _eta_full(out, r):
     return eta(out["none"].metrics.rms, r.metrics.rms, out["frictionless"].metrics.rms)
 
 
-def test_compare_starts_from_the_prefit_map_at_the_reference_with_the_loop_time_constant(runs):
+def test_compare_starts_from_the_prefit_map_with_the_identified_lag_at_the_measurement(runs):
     s, _ = runs
     st = s.mode_options["adaptive"].start
-    assert st is not None and st.ff_input == "reference" and st.gain == 1.0
-    assert st.estimate.tau == pytest.approx(1.0 / s.design.crossover, rel=1e-12)
+    assert st is not None and st.ff_input == "measured" and st.gain == 1.0
+    # the lag of the identification run's offline fit (Sec. IV-A), projected as fixed uses it: within 2 % of 20 ms
+    assert st.estimate.tau == pytest.approx(s.mode_options["fixed"].estimate.tau, rel=1e-12)
+    assert st.estimate.tau == pytest.approx(P.tau, rel=0.02)
     assert (st.estimate.Fc, st.estimate.Fs, st.estimate.sigma) == pytest.approx((s.prefit.Fc, s.prefit.Fs,
                                                                                    s.prefit.sigma), rel=1e-12)
+
+
+def test_without_an_accepted_identification_the_start_uses_the_loop_time_constant_at_the_reference():
+    # u_max = 40 N·m: levels above 20 N·m (half the range) are implausible, so the offline fit (Fc ~ 25 N·m) is
+    # rejected and its lag cannot be used
+    s = prepare_comparison(P, CompareOptions(duration=3.0, modes=("adaptive",), u_max=40.0))
+    assert s.offline is not None and s.offline.estimate.Fc > 20.0
+    st = s.mode_options["adaptive"].start
+    assert st.ff_input == "reference" and st.estimate.tau == pytest.approx(1.0 / s.design.crossover, rel=1e-12)
+
+
+def test_start_deviation_pins_the_identified_lag_over_seeds():
+    # RMS of w - w_frictionless over the first 2 s (the start and the hand-over), mean over seeds 0-2: measured
+    # 2.1e-3 rad/s with the identified lag, 6.6e-3 / 4.9e-3 with it 10 % short / long (oracle 1.4e-3; the
+    # provisional start at the reference through 1/crossover was 6.8e-3 on seed 0), so a 10 % lag error breaks
+    # the bound; one seed alone is not enough (seed 3: 4.2e-3 vs 4.1e-3 with +10 %)
+    n2 = 2000
+    devs = {k: [] for k in (0.9, 1.0, 1.1)}
+    for seed in (0, 1, 2):
+        s = prepare_comparison(P, CompareOptions(duration=DUR, seed=seed, modes=("adaptive",)))
+        run = lambda mode, o: run_mode(P, s.reference, mode, o, rng=np.random.default_rng(s.noise_seed))  # noqa: E731
+        wl = run("frictionless", s.mode_options["frictionless"]).w
+        mo = s.mode_options["adaptive"]
+        for k in devs:
+            st = replace(mo.start, estimate=replace(mo.start.estimate, tau=k * mo.start.estimate.tau))
+            devs[k].append(deviation_rms(run("adaptive", replace(mo, start=st)).w[:n2], wl[:n2]))
+    mean = {k: float(np.mean(v)) for k, v in devs.items()}
+    assert mean[1.0] <= 3.3e-3
+    assert mean[0.9] > 3.3e-3 and mean[1.1] > 3.3e-3
 
 
 def test_fast_start_pins_switch_on_whole_run_eta_and_the_lag_in_use(runs):

@@ -255,12 +255,13 @@ class CompareOptions:
     adaptive_start : bool
         Provisional start of the adaptive feedforward (``adaptive``, ``adaptive-dob``;
         :class:`adaptive_ff.compensation.feedforward.FeedforwardStart`), default True: from the first period
-        the pre-fit's static map at the reference velocity, through a lag of ``1/crossover`` (the loop's own
-        time constant, from the achieved crossover of the PI design; the friction lag is unknown before the estimator has data, and a start lag that is too
-        long only delays the feedforward at reversals, one too short kicks the joint), until the estimator's
-        first trusted estimate. Under the PI alone the joint sticks and the estimator gets no sliding data
-        for seconds (measured on ``paper``: feedforward on at 6.6 s without, 0.001 s with it; hand-over
-        at about 1.4 s; docs/benchmarks/variants.md).
+        the pre-fit's static map through the lag identified in the identification run (the offline fit of the
+        Sec. IV-A experiment, run for this even without ``fixed``), evaluated as ``ff_input`` says, until the
+        estimator's first trusted estimate. When that fit is rejected (implausible levels) the lag is unknown:
+        ``1/crossover`` (the loop's own time constant) with the map at the reference, where a wrong lag cannot
+        form a stick-slip cycle with the joint. Under the PI alone the joint sticks and the estimator gets no
+        sliding data for seconds; until the hand-over the start's lag decides how far the joint strays from
+        the frictionless run at every reversal (docs/benchmarks/variants.md).
     faults : mapping int -> float or None
         Measurement faults injected in every mode (see :func:`controllers.simulation.closed_loop.run_closed_loop`).
 
@@ -459,7 +460,8 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     rejected as implausible (:func:`adaptive_ff.compensation.feedforward.project_estimate`: a level above half
     the actuator range, a negative inertia, e.g. a Stribeck term the pre-fit's ``Vs``, ``delta`` cannot
     separate from the Coulomb level), ``fixed`` uses the pre-fit's static map instead, without a lag (the lag
-    would come from the rejected fit), with a note in ``notes``.
+    would come from the rejected fit), with a note in ``notes``. The identification run is also made for the
+    adaptive modes' provisional start (its lag, see ``CompareOptions.adaptive_start``).
     """
     run_modes = [m for m in MODES if m in set(o.modes) | {"none", "frictionless"}]
     p0 = p.at(0.0) if hasattr(p, "at") else p
@@ -487,13 +489,14 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     F_peak = F_peak if F_peak is not None else u_max / 3.0
     design = design_pi(J, crossover=o.crossover, phase_margin=o.phase_margin, Tc=o.Tc)
     model = RegressionModel(1.0 if Vs is None else Vs, 1.0 if delta is None else delta, lag=True)
-    offline = estimate = None
+    offline = estimate = accepted = None
     notes = list(exp.notes) if fit is not None else []
-    if "fixed" in run_modes:
+    wants_start = o.adaptive_start and fit is not None and any(m in run_modes for m in ("adaptive", "adaptive-dob"))
+    if "fixed" in run_modes or wants_start:
         bar.set_postfix_str("identification run")
         offline = _offline_fit(p0, o, model, F_peak, Vs, delta, np.random.default_rng(id_ss))
-        estimate = project_estimate(offline.estimate, F_max=0.5 * u_max)
-        if estimate is None and fit is not None:
+        estimate = accepted = project_estimate(offline.estimate, F_max=0.5 * u_max)
+        if estimate is None and fit is not None and "fixed" in run_modes:
             estimate, note = _fixed_fallback(offline.estimate, fit, J, 0.5 * u_max)
             notes.append(note)
         bar.update()
@@ -501,11 +504,7 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     if o.adaptive_initial and fit is not None:
         initial = FrictionEstimate(J=J, tau=0.0, sigma=max(fit.sigma, 0.0), Fc=max(fit.Fc, 0.0),
                                    Fs=max(fit.Fs, 0.0), offset=0.0, Vs=Vs, delta=delta, J_alt=float("nan"))
-    start = None
-    if o.adaptive_start and fit is not None:
-        start = FeedforwardStart(FrictionEstimate(J=J, tau=1.0 / design.crossover, sigma=max(fit.sigma, 0.0),
-                                                  Fc=max(fit.Fc, 0.0), Fs=max(fit.Fs, 0.0), offset=0.0, Vs=Vs,
-                                                  delta=delta, J_alt=float("nan")), ff_input="reference")
+    start = _adaptive_start(fit, J, design, accepted, o.ff_input) if wants_start else None
     # the feedforward may use at most half the actuator range; friction levels above it are implausible
     mo = ModeOptions(Kp=design.Kp, Ki=design.Ki, u_max=u_max, ff_max=0.5 * u_max, Tc=o.Tc, Ts=o.Ts,
                      noise_std=o.noise_std, J_design=J, lag=o.lag, model=model, estimate=estimate, lam=o.lam,
@@ -553,6 +552,25 @@ def _fixed_fallback(raw: FrictionEstimate, fit, J: float, F_max: float) -> tuple
             f"Fs = {levels[1]:.4g} N·m, Vs = {fit.Vs:.4g} rad/s, delta = {fit.delta:.4g}, sigma = "
             f"{max(fit.sigma, 0.0):.4g} N·m·s/rad, no lag)")
     return est, note
+
+
+def _adaptive_start(fit, J: float, design: PIDesign, identified: FrictionEstimate | None,
+                    ff_input: str) -> FeedforwardStart:
+    """The provisional start of the adaptive feedforward: the pre-fit's static map (eq. 3) through a lag.
+
+    The lag is the one identified in the identification run (``identified``, the projected offline fit of
+    :func:`_offline_fit`, Sec. IV-A), and the map is then evaluated as the feedforward's ``ff_input`` says (the
+    same structure as after the hand-over). Without an accepted fit the lag is unknown: ``1/crossover`` (the
+    loop's own time constant) at the reference, where a wrong lag cannot form a stick-slip cycle with the joint
+    (:class:`adaptive_ff.compensation.feedforward.FeedforwardStart`).
+    """
+    if identified is not None:
+        tau, where = identified.tau, ff_input
+    else:
+        tau, where = 1.0 / design.crossover, "reference"
+    return FeedforwardStart(FrictionEstimate(J=J, tau=tau, sigma=max(fit.sigma, 0.0), Fc=max(fit.Fc, 0.0),
+                                             Fs=max(fit.Fs, 0.0), offset=0.0, Vs=fit.Vs, delta=fit.delta,
+                                             J_alt=float("nan")), ff_input=where)
 
 
 def _whole_run_metrics(results: dict) -> dict:
