@@ -48,14 +48,13 @@ def test_comparison_whole_run_metrics_equal_independent_computation(comp):
         assert comp.eta_full[m] == pytest.approx(eta(rn, float(np.sqrt(np.mean((r.w_ref - r.w) ** 2))), rf), rel=1e-9)
     assert comp.eta_full["none"] == 0.0 and comp.eta_full["frictionless"] == 1.0 and comp.rms_dev["frictionless"] == 0.0
     assert comp.t_ff_on["none"] is None and comp.t_ff_on["frictionless"] is None
-    for m in ("dob", "adaptive-dob"):  # the observer acts from its second sample on
-        assert comp.t_ff_on[m] == pytest.approx(1e-3, abs=1e-12)
-    k = int(np.flatnonzero(R["adaptive"].u_ff != 0)[0])
-    assert comp.t_ff_on["adaptive"] == R["adaptive"].t[k] and R["adaptive"].u_ff[k - 1] == 0.0
-    # the adaptive feedforward acts from the first periods (the provisional start map at the reference, issue 11
-    # item 5; tests/test_fast_start.py pins what it gains) but the start is in the whole run only: eta_full < eta
-    assert comp.t_ff_on["adaptive"] <= 0.002
-    assert comp.eta_full["adaptive"] < comp.eta["adaptive"]
+    assert comp.t_ff_on["dob"] == pytest.approx(1e-3, abs=1e-12)  # the observer acts from its second sample on
+    for m in ("adaptive", "adaptive-dob"):
+        k = int(np.flatnonzero(R[m].u_ff != 0)[0])
+        assert comp.t_ff_on[m] == R[m].t[k] and (k == 0 or R[m].u_ff[k - 1] == 0.0)
+        # the provisional start map at the (noisy, non-zero) measurement acts from the first period (issue 11
+        # item 5; tests/test_fast_start.py pins what it gains)
+        assert comp.t_ff_on[m] <= 1e-3
 
 
 def test_comparison_json_and_table_carry_the_whole_run_metrics(comp):

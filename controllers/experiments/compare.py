@@ -26,7 +26,8 @@ from plant.results import axes_or_new, json_safe
 from plant.sampling import sample
 
 __all__ = ["Comparison", "CompareOptions", "ComparisonSetup", "compare", "comparison_reference", "eta",
-           "FIXED_METHODS", "PREFIT_MODES", "friction_scale", "prefit_stribeck", "prepare_comparison"]
+           "FIXED_METHODS", "PREFIT_MODES", "friction_scale", "prefit_stribeck", "prepare_comparison",
+           "residual_cutoff"]
 
 #: Offline identification behind the ``fixed`` mode: the sliding-regime
 #: inverse-dynamics LS (:func:`adaptive_ff.compensation.sliding_estimator.fit_sliding`,
@@ -461,7 +462,10 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     the actuator range, a negative inertia, e.g. a Stribeck term the pre-fit's ``Vs``, ``delta`` cannot
     separate from the Coulomb level), ``fixed`` uses the pre-fit's static map instead, without a lag (the lag
     would come from the rejected fit), with a note in ``notes``. The identification run is also made for the
-    adaptive modes' provisional start (its lag, see ``CompareOptions.adaptive_start``).
+    adaptive modes' provisional start (its lag, see ``CompareOptions.adaptive_start``). The residual observer of
+    ``adaptive-dob`` gets the cut-off :func:`residual_cutoff` of the design inertia, the noise estimate and the
+    friction level of the quasi-static runs that held (1000 rad/s unless its noise torque would exceed a tenth
+    of that level).
     """
     run_modes = [m for m in MODES if m in set(o.modes) | {"none", "frictionless"}]
     p0 = p.at(0.0) if hasattr(p, "at") else p
@@ -511,7 +515,8 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
                      estimator=o.estimator, Vs=Vs, delta=delta, sign_width=o.sign_width, T_filter=o.T_filter,
                      forgetting=o.forgetting, stick_band=3.0 * o.noise_std if o.stick_band is None else o.stick_band,
                      stick_samples=o.stick_samples, dwell_max=o.dwell_max, offset=o.offset, warmup=o.warmup,
-                     omega_q=o.omega_q, initial=initial, start=start)
+                     omega_q=o.omega_q, initial=initial, start=start,
+                     omega_r=residual_cutoff(J, o.noise_std, o.Tc, _friction_level(exp, F_peak)))
     opts = {mode: replace(mo, ff_input=o.canudas_input if mode == "canudas" else o.ff_input) for mode in run_modes}
     return ComparisonSetup(modes=tuple(run_modes), reference=ref, design=design, mode_options=opts,
                            noise_seed=noise_ss, prefit=fit, offline=offline, model=model, experiment=exp,
@@ -552,6 +557,53 @@ def _fixed_fallback(raw: FrictionEstimate, fit, J: float, F_max: float) -> tuple
             f"Fs = {levels[1]:.4g} N·m, Vs = {fit.Vs:.4g} rad/s, delta = {fit.delta:.4g}, sigma = "
             f"{max(fit.sigma, 0.0):.4g} N·m·s/rad, no lag)")
     return est, note
+
+
+def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, share: float = 0.1,
+                    omega_max: float = 1000.0) -> float:
+    """Q-filter cut-off (rad/s) of the residual observer of ``adaptive-dob``: ``omega_max``, or lower where its
+    noise torque would exceed ``share`` of the measured friction level.
+
+    Parameters
+    ----------
+    J : float
+        Design inertia (kg·m²), > 0 (the observer's nominal inertia).
+    noise_std : float
+        Velocity measurement noise (rad/s, white at ``Tc``), >= 0.
+    Tc : float
+        Controller period (s), > 0.
+    F_level : float
+        Friction level the user measured (N·m), e.g. :attr:`StribeckExperiment.torque_scale`.
+    share, omega_max : float, keyword-only
+        Largest noise torque as a share of ``F_level`` (default 0.1) and the cut-off without that bound (rad/s,
+        default 1000, :class:`controllers.simulation.compensators.ModeOptions`).
+
+    Returns
+    -------
+    float
+        ``min(omega_max, (4*(share*F_level)**2/(J**2*noise_std**2*Tc))**(1/3))`` (``omega_max`` without noise).
+
+    Notes
+    -----
+    The observer's estimate ``Q(s)*(u - J*s*w_meas)`` with the binomial ``Q = 1/(1 + s/w)**2`` passes white
+    measurement noise (two-sided density ``noise_std**2*Tc``) through ``J*s*Q(s)``; its variance is
+    ``J**2*noise_std**2*Tc/(2*pi) * integral of x**2*w**4/(w**2 + x**2)**2 dx = J**2*noise_std**2*Tc*w**3/4``
+    (Papoulis & Pillai, *Probability, Random Variables and Stochastic Processes*, 4th ed., 2002, Sec. 9-3). A
+    residual observer whose noise torque is larger than the friction it cancels does harm (light joints with
+    little friction: the zoo's Karnopp joint #550, docs/benchmarks/zoo.md).
+    """
+    if noise_std <= 0.0 or not (F_level > 0.0):
+        return float(omega_max)
+    w = (4.0 * (share * F_level) ** 2 / (J * J * noise_std * noise_std * Tc)) ** (1.0 / 3.0)
+    return float(min(omega_max, w))
+
+
+def _friction_level(exp, default: float) -> float:
+    """The friction level on the measured curve (N·m): the largest mean torque of the quasi-static runs that held
+    their setpoint (a run in stick-slip is not a point of the curve); ``default`` without such runs."""
+    if exp is None or not np.any(exp.held):
+        return float(default)
+    return float(np.max(np.abs(exp.u_mean[exp.held])))
 
 
 def _adaptive_start(fit, J: float, design: PIDesign, identified: FrictionEstimate | None,
