@@ -464,8 +464,8 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     would come from the rejected fit), with a note in ``notes``. The identification run is also made for the
     adaptive modes' provisional start (its lag, see ``CompareOptions.adaptive_start``). The residual observer of
     ``adaptive-dob`` gets the cut-off :func:`residual_cutoff` of the design inertia, the noise estimate and the
-    friction level of the quasi-static runs that held (1000 rad/s unless its noise torque would exceed a tenth
-    of that level).
+    friction level of the quasi-static runs that held (1000 rad/s unless its noise torque would exceed that
+    level).
     """
     run_modes = [m for m in MODES if m in set(o.modes) | {"none", "frictionless"}]
     p0 = p.at(0.0) if hasattr(p, "at") else p
@@ -559,10 +559,10 @@ def _fixed_fallback(raw: FrictionEstimate, fit, J: float, F_max: float) -> tuple
     return est, note
 
 
-def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, share: float = 0.1,
+def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, share: float = 1.0,
                     omega_max: float = 1000.0) -> float:
     """Q-filter cut-off (rad/s) of the residual observer of ``adaptive-dob``: ``omega_max``, or lower where its
-    noise torque would exceed ``share`` of the measured friction level.
+    noise torque would exceed the measured friction level (times ``share``).
 
     Parameters
     ----------
@@ -575,7 +575,8 @@ def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, sh
     F_level : float
         Friction level the user measured (N·m), e.g. :attr:`StribeckExperiment.torque_scale`.
     share, omega_max : float, keyword-only
-        Largest noise torque as a share of ``F_level`` (default 0.1) and the cut-off without that bound (rad/s,
+        Largest noise torque (standard deviation) as a share of ``F_level`` (default 1: an observer that injects
+        more noise torque than the friction it cancels does harm) and the cut-off without that bound (rad/s,
         default 1000, :class:`controllers.simulation.compensators.ModeOptions`).
 
     Returns
