@@ -93,3 +93,39 @@ def test_a_design_made_with_transfer_functions_keeps_them():
                  gain_margin=d.gain_margin, phase_crossover=d.phase_crossover, stability_margin=d.stability_margin,
                  J=d.J, sigma=d.sigma, C=d.C, plant=d.plant, loop=d.loop)
     assert e.C is d.C and e.plant is d.plant and e.loop is d.loop
+
+
+def _helper_dies(comp, out_dir, jobs):
+    os._exit(3)  # the helper process killed while it should draw
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or _usable_cpus() < 2,
+                    reason="the helper process needs fork and two CPUs")
+def test_figures_are_drawn_here_when_the_helper_dies(monkeypatch, tmp_path, capsys):
+    from controllers.cli import compare as cli_compare
+    from controllers.cli.main import main
+
+    monkeypatch.setattr(cli_compare, "_helper_draw", _helper_dies)
+    assert main(["compare", "--duration", "2", "--modes", "adaptive", "--quiet", "--out", str(tmp_path)]) == 0
+    text = capsys.readouterr().out
+    assert "figures: " in text and "adaptive" in text
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["error.png", "eta.png", "friction.png",
+                                                          "rls_convergence.png", "tracking.png"]
+
+
+def test_design_store_keeps_designs_exactly(monkeypatch, tmp_path):
+    from controllers.cli import compare as cli_compare
+
+    monkeypatch.setattr(cli_compare, "design_store", lambda: tmp_path / "pi_designs.json")
+    keys = [dict(J=4.0, sigma=0.0, crossover=c, phase_margin=60.0, Tc=1e-3) for c in (20.0, 150.0)]
+    assert cli_compare._stored_designs(keys) is None  # nothing kept yet
+    made = [(kw, design_pi(kw["J"], crossover=kw["crossover"], phase_margin=60.0, Tc=1e-3)) for kw in keys]
+    cli_compare._store_designs(made[:1])
+    assert cli_compare._stored_designs(keys) is None  # one of them missing: the helper designs all
+    cli_compare._store_designs(made[1:])
+    back = cli_compare._stored_designs(keys)
+    for (kw, d), (kw2, e) in zip(made, back):
+        assert kw2 == kw and e == d and e.to_dict() == d.to_dict()  # every number exactly
+        np.testing.assert_array_equal(e.loop.den_array[0, 0], d.loop.den_array[0, 0])
+    (tmp_path / "pi_designs.json").write_text("{not json")
+    assert cli_compare._stored_designs(keys) is None  # a damaged file: designed again, no error

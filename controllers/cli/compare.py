@@ -2,12 +2,14 @@
 
 Two processes share the work (Linux, more than one usable CPU): at entry the
 command forks a helper, a one-worker ``concurrent.futures.ProcessPoolExecutor``
-on the ``fork`` start method (:class:`CompareHelper`). While this process
-imports the simulation and runs the comparison, the helper imports
-python-control and designs the PI loops the comparison will ask
-:func:`controllers.design.pi.design_pi` for (handed over by
-:func:`controllers.design.pi.remember_designs`; the same function, the same
-numbers), then imports matplotlib and the figure code. When the runs are done
+on the ``fork`` start method (:class:`CompareHelper`), once the modules
+both need are imported. While this process imports the rest of the
+simulation, the helper imports python-control and designs the PI loops the
+comparison will ask :func:`controllers.design.pi.design_pi` for (handed over
+by :func:`controllers.design.pi.remember_designs`; the same function, the
+same numbers; kept for the next run in :func:`design_store`, beside the
+compiled kernels, so that a warm run neither waits for nor imports
+python-control), then imports matplotlib and the figure code. When the runs are done
 it receives the comparison and draws the figures (itself and one forked pool
 worker, :func:`controllers.report.figures.plot_comparison`) while this process
 prints the table. Elsewhere, or when the helper fails, everything runs here as
@@ -20,7 +22,7 @@ import importlib
 import json
 import sys
 
-__all__ = ["register", "run", "comparison_table", "figure_jobs", "CompareHelper"]
+__all__ = ["register", "run", "comparison_table", "figure_jobs", "CompareHelper", "design_store"]
 
 
 def run(args) -> int:
@@ -32,10 +34,11 @@ def run(args) -> int:
         check_output_dir(out_dir, "--out")
     if args.report:
         check_output_dir(args.report, "--report")
-    helper = CompareHelper.start(args)
+    p, modes = _load_plant(args), _modes(args)
+    helper = CompareHelper.start(p, args)
     done = False
     try:
-        code = _compare_and_print(args, _load_plant(args), out_dir, helper)
+        code = _compare_and_print(args, p, modes, out_dir, helper)
         done = True
         return code
     finally:
@@ -60,19 +63,22 @@ def _load_plant(args):
     return p
 
 
-def _compare_and_print(args, p, out_dir, helper) -> int:
-    """The comparison, its figures and report, and the output of :func:`run`."""
-    from controllers.simulation.closed_loop import MODES
+def _modes(args) -> tuple:
+    """The modes of ``--modes`` (default: all), checked."""
+    from controllers.simulation.compensators import MODES
     from plant.errors import ParameterError
 
-    modes = MODES
-    if args.modes:
-        modes = tuple(m.strip() for m in args.modes.split(",") if m.strip())
-        unknown = [m for m in modes if m not in MODES]
-        if unknown:
-            raise ParameterError(f"--modes: unknown mode(s) {unknown}; known: {list(MODES)}")
-    if helper is not None:
-        helper.design(p, args)
+    if not args.modes:
+        return MODES
+    modes = tuple(m.strip() for m in args.modes.split(",") if m.strip())
+    unknown = [m for m in modes if m not in MODES]
+    if unknown:
+        raise ParameterError(f"--modes: unknown mode(s) {unknown}; known: {list(MODES)}")
+    return modes
+
+
+def _compare_and_print(args, p, modes, out_dir, helper) -> int:
+    """The comparison, its figures and report, and the output of :func:`run`."""
     from controllers.design.pi import remember_designs
     from controllers.experiments.compare import compare
     from controllers.report.figures import plot_comparison
@@ -143,24 +149,31 @@ class CompareHelper:
 
     A one-worker ``concurrent.futures.ProcessPoolExecutor`` on the ``fork`` start
     method; the worker ignores Ctrl-C (this process takes it and stops the
-    worker). Every request that fails in transport (the worker died, the
-    comparison could not be sent) is done in this process instead; an error of
-    the work itself (e.g. an output folder that cannot be written) is raised
-    here as it would be without the helper.
+    worker) and ends if this process dies
+    (:func:`controllers.report.figures.worker_init`). Every request that fails
+    in transport (the worker died, the comparison could not be sent) is done in
+    this process instead; an error of the work itself (e.g. an output folder
+    that cannot be written) is raised here as it would be without the helper.
+
+    The PI designs are kept beside the compiled kernels (:func:`design_store`):
+    a warm run reads them there and the helper imports no python-control.
     """
 
-    def __init__(self, pool, procs, figures: bool):
-        self._pool, self._procs, self._figures = pool, procs, figures
+    def __init__(self, pool, keys, stored, figures: bool):
+        self._pool, self._keys, self._stored, self._figures = pool, keys, stored, figures
         self._designs = self._drawn = None
 
     @classmethod
-    def start(cls, args) -> CompareHelper | None:
-        """Import what both processes need (:data:`_SHARED_MODULES`), fork the helper; it imports python-control.
+    def start(cls, p, args) -> CompareHelper | None:
+        """Import what both processes need (:data:`_SHARED_MODULES`), fork the helper, ask it for the PI designs.
 
         Parameters
         ----------
+        p : plant model
+            The plant of the comparison (only its ``J`` is read, when ``args.J_design`` is None).
         args : argparse.Namespace
-            Parsed ``adaptive-ff compare`` arguments (``no_figures`` is read).
+            Parsed ``adaptive-ff compare`` arguments (``crossover``, ``phase_margin``, ``J_design``,
+            ``no_figures``).
 
         Returns
         -------
@@ -172,53 +185,40 @@ class CompareHelper:
         import os
         from concurrent.futures import ProcessPoolExecutor
 
+        from controllers.report.figures import worker_init
+
         if not sys.platform.startswith("linux") or figure_jobs() < 2 or os.environ.get("ADAPTIVE_FF_NO_HELPER"):
             return None
         _helper_imports(_SHARED_MODULES)
-        before = set(multiprocessing.active_children())
+        keys = _design_keys(p, args)
+        stored = _stored_designs(keys)
         sys.stdout.flush()
         sys.stderr.flush()
         try:
             pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("fork"),
-                                       initializer=_helper_init)
-            pool.submit(_helper_imports, ("control",))
+                                       initializer=worker_init)
+            self = cls(pool, keys, stored, not args.no_figures)
+            if stored is None:
+                self._designs = pool.submit(_helper_designs, keys)
+            if self._figures:
+                pool.submit(_helper_imports, _FIGURE_MODULES)
         except OSError:  # no process left: everything here
             return None
-        return cls(pool, [c for c in multiprocessing.active_children() if c not in before], not args.no_figures)
-
-    def design(self, p, args) -> None:
-        """Ask the helper for the PI designs of ``compare`` on plant ``p`` (:meth:`designs`), then to import the
-        figure code.
-
-        Parameters
-        ----------
-        p : plant model
-            The plant of the comparison (only its ``J`` is read, when ``args.J_design`` is None).
-        args : argparse.Namespace
-            Parsed ``adaptive-ff compare`` arguments (``crossover``, ``phase_margin``, ``J_design``).
-        """
-        from controllers.experiments.compare import CompareOptions
-        from controllers.experiments.quasi_static import StribeckDesign
-
-        p0 = p.at(0.0) if hasattr(p, "at") else p
-        J = float(p0.J) if args.J_design is None else float(args.J_design)
-        Tc, qs = CompareOptions().Tc, StribeckDesign()
-        keys = [dict(J=J, sigma=0.0, crossover=args.crossover, phase_margin=args.phase_margin, Tc=Tc)]
-        keys += [dict(J=J, sigma=0.0, crossover=c, phase_margin=60.0, Tc=Tc) for c in (qs.crossover, qs.crossover_max)]
-        try:
-            self._designs = self._pool.submit(_helper_designs, keys)
-            if self._figures:
-                self._pool.submit(_helper_imports, _FIGURE_MODULES)
-        except Exception:  # noqa: BLE001 - broken pool: designed here
-            self._designs = None
+        return self
 
     def designs(self) -> list:
-        """The ``(kwargs, PIDesign)`` pairs the helper computed (for :func:`controllers.design.pi.remember_designs`;
-        empty if it failed: then :func:`controllers.design.pi.design_pi` computes them here)."""
+        """The ``(kwargs, PIDesign)`` pairs for :func:`controllers.design.pi.remember_designs`: stored, or made by
+        the helper (and then stored); empty if it failed (then :func:`controllers.design.pi.design_pi` designs
+        them here)."""
+        if self._stored is not None:
+            return self._stored
         try:
-            return self._designs.result() if self._designs is not None else []
+            pairs = self._designs.result() if self._designs is not None else []
         except Exception:  # noqa: BLE001 - transport failure: design here
             return []
+        if len(pairs) == len(self._keys):
+            _store_designs(pairs)
+        return pairs
 
     def draw(self, comp, out_dir) -> None:
         """Send the comparison to the helper, which writes its figures into ``out_dir`` (:meth:`figures`)."""
@@ -250,10 +250,12 @@ class CompareHelper:
         return outcome
 
     def close(self, *, stop: bool = False) -> None:
-        """Shut the helper down; ``stop``: at once (an error or Ctrl-C here), without waiting for its work."""
-        if stop:
-            for proc in self._procs:
-                proc.terminate()
+        """Shut the helper down; ``stop`` (an error or Ctrl-C here): drop its queued work.
+
+        The task it is running is not killed but finishes (at most the drawing of its figures): a killed
+        helper would leave its own figure worker waiting for work forever (that worker holds the helper's
+        end of the pool's pipes, so neither this process nor the worker would see the helper end).
+        """
         self._pool.shutdown(wait=not stop, cancel_futures=True)
 
 
@@ -267,11 +269,88 @@ _FIGURE_MODULES = ("matplotlib.backends.backend_agg", "matplotlib.figure", "cont
                    "controllers.experiments.compare")
 
 
-def _helper_init() -> None:
-    """Helper process start: ignore Ctrl-C (the parent takes it and stops the helper)."""
-    import signal
+def _design_keys(p, args) -> list[dict]:
+    """The ``design_pi`` arguments ``compare`` will use: its PI loop and the two loops of the quasi-static runs."""
+    from controllers.experiments.compare import CompareOptions
+    from controllers.experiments.quasi_static import StribeckDesign
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    p0 = p.at(0.0) if hasattr(p, "at") else p
+    J = float(p0.J) if args.J_design is None else float(args.J_design)
+    Tc, qs = CompareOptions().Tc, StribeckDesign()
+    keys = [dict(J=J, sigma=0.0, crossover=float(args.crossover), phase_margin=float(args.phase_margin), Tc=Tc)]
+    return keys + [dict(J=J, sigma=0.0, crossover=c, phase_margin=60.0, Tc=Tc) for c in (qs.crossover, qs.crossover_max)]
+
+
+#: The numbers of a :class:`controllers.design.pi.PIDesign` kept by :func:`design_store` (exact, as float.hex).
+_DESIGN_FIELDS = ("Kp", "Ki", "Tc", "crossover", "phase_margin", "gain_margin", "phase_crossover",
+                  "stability_margin", "J", "sigma")
+
+
+def design_store():
+    """File of the PI designs kept for ``adaptive-ff compare``, or None (no cache folder).
+
+    Beside the compiled kernels (:func:`plant.jit.cache_dir`, in the folder of the
+    package's source digest), so that an edit of the package drops them with the
+    kernels; each entry is keyed by the python-control version and the exact
+    arguments of :func:`controllers.design.pi.design_pi`, whose result it holds
+    exactly (JSON, floats as ``float.hex``).
+
+    Returns
+    -------
+    pathlib.Path or None
+    """
+    from plant.jit import cache_dir, source_digest
+
+    base = cache_dir()
+    return None if base is None else base / source_digest() / "pi_designs.json"
+
+
+def _design_key(kwargs) -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        ctl = version("control")
+    except PackageNotFoundError:
+        ctl = "?"
+    return f"control {ctl}: " + " ".join(float(kwargs[k]).hex() for k in ("J", "sigma", "crossover", "phase_margin",
+                                                                             "Tc"))
+
+
+def _stored_designs(keys) -> list | None:
+    """The ``(kwargs, PIDesign)`` pairs of ``keys`` from :func:`design_store`; None unless every one is there."""
+    from controllers.design.pi import PIDesign
+
+    try:
+        path = design_store()
+        table = json.loads(path.read_text()) if path is not None else {}
+        return [(kw, PIDesign(**{f: float.fromhex(table[_design_key(kw)][f]) for f in _DESIGN_FIELDS}))
+                for kw in keys]
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):  # none, or not readable: the helper designs
+        return None
+
+
+def _store_designs(pairs) -> None:
+    """Add ``(kwargs, PIDesign)`` pairs to :func:`design_store` (best effort: a folder that cannot be written is
+    skipped; written to a temporary file and renamed, so a concurrent reader never sees half a file)."""
+    import os
+    import tempfile
+
+    try:
+        path = design_store()
+        if path is None:
+            return
+        try:
+            table = json.loads(path.read_text())
+        except (OSError, ValueError):
+            table = {}
+        for kw, d in pairs:
+            table[_design_key(kw)] = {f: float(getattr(d, f)).hex() for f in _DESIGN_FIELDS}
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        with os.fdopen(fd, "w") as fh:
+            json.dump(table, fh)
+        os.replace(tmp, path)
+    except (OSError, ValueError, TypeError):
+        pass
 
 
 def _helper_imports(modules) -> None:

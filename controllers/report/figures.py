@@ -42,7 +42,7 @@ from plant.stribeck import stribeck
 if TYPE_CHECKING:  # annotations only: matplotlib is imported by the functions when they run
     from matplotlib.figure import Figure
 
-__all__ = ["plot_comparison", "figure_shares", "plot_tracking", "plot_error", "plot_friction", "plot_rls_convergence", "plot_eta",
+__all__ = ["plot_comparison", "figure_shares", "worker_init", "plot_tracking", "plot_error", "plot_friction", "plot_rls_convergence", "plot_eta",
            "rms_dev", "minmax_envelope", "pick_reversal", "estimate_history", "MODE_COLORS", "PARAMETER_UNITS"]
 
 #: One Okabe-Ito colour per compensation mode (reference black, frictionless grey).
@@ -691,9 +691,22 @@ def _render_inherited(names) -> list[str]:
     return _render(comp, out, dpi, names)
 
 
-def _ignore_interrupt() -> None:
-    """Ignore SIGINT (Ctrl-C) in a worker process: its parent takes the interrupt and stops the workers."""
+def worker_init() -> None:
+    """Start of a forked worker process: ignore Ctrl-C, and end when the parent ends (Linux).
+
+    The parent takes SIGINT and stops its workers. ``prctl(PR_SET_PDEATHSIG,
+    SIGTERM)`` ends the worker if its parent dies: a worker forked from a pool
+    worker holds that worker's end of its pool's pipes and would otherwise wait
+    for work forever, and keep the pool above from seeing the death (best
+    effort: skipped where ``prctl`` is not available).
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # 1 = PR_SET_PDEATHSIG (linux/prctl.h)
+    except (OSError, AttributeError):
+        pass
 
 
 def _render_shares(comp, out: Path, dpi: int, shares) -> list[str]:
@@ -724,7 +737,7 @@ def _render_shares(comp, out: Path, dpi: int, shares) -> list[str]:
             warnings.filterwarnings("ignore", message=r".*fork\(\) may lead to deadlocks", category=DeprecationWarning)
             try:
                 pool = ProcessPoolExecutor(max_workers=len(shares) - 1, mp_context=multiprocessing.get_context("fork"),
-                                           initializer=_ignore_interrupt)
+                                           initializer=worker_init)
                 futures = [(pool.submit(_render_inherited, share), share) for share in shares[1:]]
             except OSError:  # no process left (EAGAIN, ENOMEM): this process draws every share
                 pool = None
