@@ -180,6 +180,8 @@ class CompareHelper:
         CompareHelper or None
             None where fork is unavailable (not Linux), only one CPU may be used (:func:`figure_jobs`),
             ``ADAPTIVE_FF_NO_HELPER`` is set or no process can be started: then everything runs in this process.
+            With ``--no-figures`` and every design in :func:`design_store`, no process is started (the designs
+            are handed over from the store).
         """
         import multiprocessing
         import os
@@ -192,6 +194,8 @@ class CompareHelper:
         _helper_imports(_SHARED_MODULES)
         keys = _design_keys(p, args)
         stored = _stored_designs(keys)
+        if stored is not None and args.no_figures:  # nothing left for a helper to do
+            return cls(None, keys, stored, False)
         sys.stdout.flush()
         sys.stderr.flush()
         try:
@@ -256,7 +260,8 @@ class CompareHelper:
         helper would leave its own figure worker waiting for work forever (that worker holds the helper's
         end of the pool's pipes, so neither this process nor the worker would see the helper end).
         """
-        self._pool.shutdown(wait=not stop, cancel_futures=True)
+        if self._pool is not None:
+            self._pool.shutdown(wait=not stop, cancel_futures=True)
 
 
 #: Imported before the helper is forked: both processes need them (the comparison's identification runs filter
