@@ -163,10 +163,10 @@ def lagged_params(J: float, Fc: float, Fs: float, Vs: float, delta: float, sigma
         The row (layout in the module docstring), model code 0.
     """
     J, Fc, Fs, Vs, delta, sigma, tau = (float(v) for v in (J, Fc, Fs, Vs, delta, sigma, tau))
-    r = np.zeros(PLANT_NPAR)
-    r[1:5] = J, Vs, delta, tau
-    r[5:9] = r[9:13] = Fc, Fs - Fc, sigma, stribeck_cutoff(Fc, Fs - Fc, Vs, delta)
-    r[_RATE] = lagged_rate(J, Fs - Fc, Vs, delta, sigma, tau)
+    dF = Fs - Fc
+    levels = [Fc, dF, sigma, stribeck_cutoff(Fc, dF, Vs, delta)]
+    r = np.array([0.0, J, Vs, delta, tau, *levels, *levels, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                  lagged_rate(J, dF, Vs, delta, sigma, tau), 0.0, 0.0, 0.0])
     return _keyed(r)
 
 
