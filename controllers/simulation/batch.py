@@ -196,7 +196,8 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
     comps = [c for _, _, c in built]
     kind = 0 if comps[0] is None else int(comps[0].KIND)
     nz, rows = _noise(noise, seeds, opts, B, n)
-    w_limit = [100.0 * float(np.max(np.abs(wr))) + 1.0 if o.w_limit is None else float(o.w_limit) for o in opts]
+    w_default = 100.0 * float(np.max(np.abs(wr))) + 1.0
+    w_limit = [w_default if o.w_limit is None else float(o.w_limit) for o in opts]
     dummy = OutlierGate()
     x = EngineInputs(
         wr=wr, t=t, revs=reversal_times(t, wr), window=float(opts[0].reversal_window), dt=float(Tc),
