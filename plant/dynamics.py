@@ -149,8 +149,8 @@ def plant_step(par, st, u, dt):
     non-finite state or input gives NaN. Bit for bit the former Python steps
     of each model. The common case (a lagged model with ``tau > 0`` outside the
     Karnopp band, one RK4 step: :func:`_single_rk4`) is tested first and runs
-    the same operations without the dispatch below. One RK4 call site for all models (the lagged ones run one
-    sub-step), which keeps the compiled step small and fast.
+    the same operations without the dispatch below. The general path has one
+    RK4 call site for all models (the lagged ones run one sub-step).
 
     A compiled call, not inlined at the numba IR level: the model dispatch
     (LuGre's implicit step included) would otherwise be re-typed inside every
