@@ -268,7 +268,8 @@ def _compare_rows(repeat):
 
 
 def _batch_rows(p, design, B, args):
-    """µs per scenario-step of run_batch: mode none (B plants), adaptive, and the plant models."""
+    """µs per scenario-step of run_batch (wall, median and fastest; with ``--only batch`` also the CPU time of the
+    process, all threads): mode none (B plants), adaptive, and the plant models."""
     from plant.variants import variant
 
     bref = multisine_reference(1.0 if args.quick else 2.0, rng=np.random.default_rng(0))
@@ -285,8 +286,13 @@ def _batch_rows(p, design, B, args):
         cases.append((f"run_batch adaptive, B={B}, {name} plants", [variant(name)] * B, "adaptive"))
     for label, ps, mode in cases:
         run_batch(ps[:2], bref, mode, o)  # load the kernel
-        t_b, b_b = timed(lambda ps=ps, mode=mode: run_batch(ps, bref, mode, o), max(1, args.repeat // 2))
+        c0 = time.process_time()
+        reps = max(1, args.repeat // 2)
+        t_b, b_b = timed(lambda ps=ps, mode=mode: run_batch(ps, bref, mode, o), reps)
         rows.append((label + ", per scenario-step", t_b / nb * 1e6, "µs", b_b / nb * 1e6))
+        if args.only == "batch":
+            rows.append(("  the same, CPU time of the process (all threads), mean", (time.process_time() - c0) / reps
+                         / nb * 1e6, "µs"))
     return rows
 
 
@@ -392,9 +398,15 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="short runs (5 s, 3 repeats, 0.1 h, B=200), no cold compile")
     ap.add_argument("--compare-only", action="store_true",
                     help="only the warm adaptive-ff compare rows (median wall beside the 2 s target, phases)")
+    ap.add_argument("--only", choices=("batch",),
+                    help="only the run_batch rows (batch: µs per scenario-step of every batch row, B=1000)")
     args = ap.parse_args(argv)
     if args.compare_only:
         _print_rows(_compare_rows(args.repeat))
+        return 0
+    if args.only == "batch":
+        p = preset("paper")
+        _print_rows(_batch_rows(p, design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3), 1000, args))
         return 0
     if args.quick:
         args.seconds, args.repeat, args.hours = min(args.seconds, 5.0), min(args.repeat, 3), min(args.hours, 0.1)
