@@ -88,7 +88,7 @@ import numpy as np
 
 from plant.errors import ParameterError, check_positive
 from plant.jit import kernel
-from plant.stribeck import stribeck_cutoff, stribeck_scalar
+from plant.stribeck import stribeck_cutoff, stribeck_scalar, stribeck_slope_scalar
 
 __all__ = ["PLANT_NPAR", "PLANT_NSTATE", "PLANT_SLOTS", "MODEL_CODES", "plant_params", "lagged_params", "plant_state",
            "plant_target", "check_integrable", "lagged_rate", "RK4_RATE_MAX", "LUGRE_STIFF_MAX"]
@@ -183,15 +183,14 @@ def lagged_rate(J: float, dF: float, Vs: float, delta: float, sigma: float, tau:
 
     Notes
     -----
-    Derivative of eq. 3: ``d/d|w| dF*exp(-x**delta) = -dF*delta*x**(delta-1)*exp(-x**delta)/Vs``,
-    ``x = |w|/Vs``, largest at ``x**delta = 1 - 1/delta`` (``delta >= 1`` or ``delta < 0``).
+    Derivative of eq. 3 (:func:`plant.stribeck.stribeck_slope_scalar`), ``x = |w|/Vs``, largest at
+    ``x**delta = 1 - 1/delta`` (``delta >= 1`` or ``delta < 0``).
     """
     rise = 0.0
     if dF * delta < 0.0:
         y = 1.0 - 1.0 / delta if (delta >= 1.0 or delta < 0.0) else 1e-3 ** delta
         x = y ** (1.0 / delta) if y > 0.0 else 0.0
-        shape = (x ** (delta - 1.0) if x > 0.0 else (1.0 if delta == 1.0 else 0.0)) * math.exp(-y)
-        rise = abs(dF * delta) * shape / Vs
+        rise = float(stribeck_slope_scalar(x, dF, Vs, delta))
     s = max(sigma, 0.0) + rise
     if tau > 0.0:
         return max(1.0 / tau, math.sqrt(s / (J * tau)))

@@ -15,6 +15,7 @@ import numpy as np
 
 from plant.jit import kernel
 from plant.rows import plant_target
+from plant.stribeck import stribeck_slope_scalar
 
 __all__ = ["LAGGED_RK4_MAX", "LAGGED_RTOL", "LAGGED_FTOL", "LAGGED_MAX_SUBSTEPS", "lagged_local_rate",
            "lagged_implicit_step", "lagged_stiff_step", "LUGRE_RK4_MAX", "LUGRE_RTOL", "LUGRE_ZTOL",
@@ -82,8 +83,7 @@ def lagged_local_rate(par, w, f, u, dt):
         xl = lo / Vs
         xh = (aw + D) / Vs
         x = xl if x < xl else (xh if x > xh else x)
-        y = x ** delta
-        rise = abs(dF * delta) * x ** (delta - 1.0) * math.exp(-y) / Vs
+        rise = stribeck_slope_scalar(x, dF, Vs, delta)
     s = (sig if sig > 0.0 else 0.0) + rise
     if tau > 0.0:
         return max(1.0 / tau, math.sqrt(s / (J * tau)))
@@ -360,8 +360,8 @@ def lugre_jacobian(par, w, z, u):
     Notes
     -----
     Canudas de Wit et al. (1995) (module docstring): with ``a(w) = sigma0*|w|/g(w)``,
-    ``a'(w) = sgn(w)*sigma0*(g - |w|*dg/d|w|)/g**2`` and ``|w|*dg/d|w| = -(g - Fc)*delta*(|w|/Vs)**delta``
-    (derivative of eq. 3; ``g`` from :func:`plant_target`); ``a'(0) = 0`` (the kink of ``|w|``).
+    ``a'(w) = sgn(w)*sigma0*(g - |w|*dg/d|w|)/g**2``, ``dg/d|w|`` the slope of eq. 3's Stribeck term
+    (:func:`plant.stribeck.stribeck_slope_scalar`; ``g`` from :func:`plant_target`); ``a'(0) = 0`` (the kink of ``|w|``).
     """
     J = par[1]
     s0 = par[15]
@@ -374,10 +374,7 @@ def lugre_jacobian(par, w, z, u):
     fw = (u - s0 * z - s1 * fz - s2 * w) / J
     da = 0.0
     if aw > 0.0:
-        x = aw / par[2]
-        p = x if par[3] == 1.0 else x ** par[3]
-        r = g - par[5]
-        da = s0 * (g + (r * par[3] * p if r != 0.0 else 0.0)) / (g * g)
+        da = s0 * (g - aw * stribeck_slope_scalar(aw / par[2], par[6], par[2], par[3])) / (g * g)
         if w < 0.0:
             da = -da
     dzw = 1.0 - da * z

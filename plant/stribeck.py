@@ -24,7 +24,8 @@ import numpy as np
 from plant.errors import ParameterError, check_finite_scalar, check_positive
 from plant.jit import kernel
 
-__all__ = ["stribeck_scalar", "stribeck_shape_scalar", "stribeck_cutoff", "stribeck", "stribeck_shape"]
+__all__ = ["stribeck_scalar", "stribeck_shape_scalar", "stribeck_slope_scalar", "stribeck_cutoff", "stribeck",
+           "stribeck_shape"]
 
 
 @kernel(inline="always")
@@ -106,6 +107,42 @@ def stribeck_scalar(w, Fc, dF, Vs, delta, sigma, wcut):
     if -w > wcut:  # w < 0 (a NaN falls through to NaN)
         return -Fc + sigma * w
     return -(Fc + dF * stribeck_shape_scalar(w, Vs, delta)) + sigma * w
+
+
+@kernel(inline="always")
+def stribeck_slope_scalar(x, dF, Vs, delta):
+    """Slope of the Stribeck term of eq. 3 over the speed: ``d/d|w| dF*exp(-|w/Vs|**delta)`` (N·m·s/rad).
+
+    Parameters
+    ----------
+    x : float
+        Normalised speed ``|w|/Vs`` (1), >= 0.
+    dF : float
+        ``Fs - Fc`` (N·m).
+    Vs : float
+        Stribeck velocity (rad/s), > 0.
+    delta : float
+        Shape factor, non-zero.
+
+    Returns
+    -------
+    float
+        ``-dF*delta*x**(delta - 1)*exp(-x**delta)/Vs``; 0 where the exponential underflows (``x**delta``
+        beyond ~745, and ``x -> 0`` for ``delta < 0``: the limit); ``inf`` times the sign of ``-dF`` at ``x = 0`` for
+        ``0 < delta < 1`` (the map's slope is unbounded there). The slope of the whole map for ``w != 0`` is
+        ``sigma`` plus this (eq. 3 is even in its slope).
+
+    Notes
+    -----
+    Derivative of Ruderman's eq. 3 (chain rule on ``exp(-x**delta)``, ``x = |w|/Vs``). The one implementation
+    used by the stiffness bounds of the lagged plant (:func:`plant.rows.lagged_rate`,
+    :func:`plant.stiff.lagged_local_rate`) and the Jacobian of the implicit LuGre step
+    (:func:`plant.stiff.lugre_jacobian`). Positive (a rising map) where ``dF*delta < 0``.
+    """
+    s = math.exp(-(x ** delta))
+    if s == 0.0:
+        return 0.0
+    return -dF * delta * x ** (delta - 1.0) * s / Vs
 
 
 def stribeck_cutoff(Fc: float, dF: float, Vs: float, delta: float) -> float:
