@@ -105,6 +105,18 @@ def plant_rk4(par, w, s, Fw, u0, um, u1, h, sgn):
             s + h6 * (k1s + 2.0 * k2s + 2.0 * k3s + k4s))
 
 
+@kernel(inline="always")
+def _single_rk4(par, w, dt):
+    """True where :func:`plant_step` takes exactly one RK4 step of ``dt`` with ``sgn = 0``: a lagged model, ``w``
+    outside the Karnopp band, no sub-steps (the branch conditions of its general path)."""
+    if par[0] == _LUGRE:
+        return False
+    dv = par[14]
+    if -dv < w < dv:
+        return False
+    return not par[_RATE] * dt > RK4_RATE_MAX
+
+
 @kernel
 def plant_step(par, st, u, dt):
     """Advance the plant state ``st`` in place by one step of ``dt`` (s) with the torque ``u`` (N·m) held.
@@ -135,8 +147,10 @@ def plant_step(par, st, u, dt):
     RK4's stability region (:meth:`plant.lugre.LuGreParams.make_step`); with
     ``n > LUGRE_RK4_MAX`` (a stiff bristle) :func:`lugre_stiff_step` instead; a
     non-finite state or input gives NaN. Bit for bit the former Python steps
-    of each model. One RK4 call site for all models (the lagged ones run one
-    sub-step), which keeps the compiled step small and fast.
+    of each model. The common case (a lagged model with ``tau > 0`` outside the
+    Karnopp band, one RK4 step: :func:`_single_rk4`) is tested first and runs
+    the same operations without the dispatch below. The general path has one
+    RK4 call site for all models (the lagged ones run one sub-step).
 
     A compiled call, not inlined at the numba IR level: the model dispatch
     (LuGre's implicit step included) would otherwise be re-typed inside every
@@ -148,6 +162,12 @@ def plant_step(par, st, u, dt):
     """
     w = st[0]
     s = st[1]
+    if par[4] != 0.0 and _single_rk4(par, w, dt):  # the common case: a lagged model, one RK4 step
+        w, s = plant_rk4(par, w, s, plant_target(par, w, 0.0), u, u, u, dt, 0.0)
+        st[0] = w
+        st[1] = s
+        st[2] = math.nan
+        return
     sgn = 0.0
     n = 1
     h = dt

@@ -118,10 +118,17 @@ _FIELDS = {
 }
 
 
+_KNOWN_TYPES = {}  # the model classes seen so far -> (model name, field names, frozen)
+
+
 def _model_of(p) -> str:
-    model = getattr(p, "MODEL", None)
-    names = tuple(f.name for f in fields(p)) if is_dataclass(p) and not isinstance(p, type) else None
-    frozen = names is not None and type(p).__dataclass_params__.frozen
+    known = _KNOWN_TYPES.get(type(p))
+    if known is None:
+        names = tuple(f.name for f in fields(p)) if is_dataclass(p) and not isinstance(p, type) else None
+        known = (getattr(p, "MODEL", None), names, names is not None and type(p).__dataclass_params__.frozen)
+        if isinstance(known[0], str):
+            _KNOWN_TYPES[type(p)] = known
+    model, names, frozen = known
     if model not in _FIELDS or names != _FIELDS[model] or not frozen:
         raise TypeError(f"p must be a frozen JointParams, AsymmetricParams, KarnoppParams or LuGreParams (for a "
                         f"FrictionDrift use p.at(t)), got {type(p).__name__}")
@@ -156,10 +163,10 @@ def lagged_params(J: float, Fc: float, Fs: float, Vs: float, delta: float, sigma
         The row (layout in the module docstring), model code 0.
     """
     J, Fc, Fs, Vs, delta, sigma, tau = (float(v) for v in (J, Fc, Fs, Vs, delta, sigma, tau))
-    r = np.zeros(PLANT_NPAR)
-    r[1:5] = J, Vs, delta, tau
-    r[5:9] = r[9:13] = Fc, Fs - Fc, sigma, stribeck_cutoff(Fc, Fs - Fc, Vs, delta)
-    r[_RATE] = lagged_rate(J, Fs - Fc, Vs, delta, sigma, tau)
+    dF = Fs - Fc
+    levels = [Fc, dF, sigma, stribeck_cutoff(Fc, dF, Vs, delta)]
+    r = np.array([0.0, J, Vs, delta, tau, *levels, *levels, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                  lagged_rate(J, dF, Vs, delta, sigma, tau), 0.0, 0.0, 0.0])
     return _keyed(r)
 
 
@@ -198,9 +205,13 @@ def lagged_rate(J: float, dF: float, Vs: float, delta: float, sigma: float, tau:
 
 
 def _keyed(r: np.ndarray) -> np.ndarray:
-    r[_INV_J] = 1.0 / r[1] if r[1] != 0.0 else math.inf
-    r[_INV_TAU] = 1.0 / r[4] if r[4] > 0.0 else 0.0
-    r[_KEY] = 1 + hash(tuple(r[:_KEY].tolist())) % (2**52 - 1)
+    v = r[:_INV_J].tolist()
+    J, tau = v[1], v[4]
+    inv_J = 1.0 / J if J != 0.0 else math.inf
+    inv_tau = 1.0 / tau if tau > 0.0 else 0.0
+    r[_INV_J] = inv_J
+    r[_INV_TAU] = inv_tau
+    r[_KEY] = 1 + hash((*v, inv_J, inv_tau)) % (2**52 - 1)
     return r
 
 
@@ -230,11 +241,12 @@ def plant_params(p) -> np.ndarray:
     """
     model = _model_of(p)
     if model in ("lagged-stribeck", "karnopp"):
-        r = lagged_params(p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau)
+        r = lagged_params(p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau)  # keyed
         if model == "karnopp":
             r[0] = MODEL_CODES[model]
             r[13:15] = p.Fs, p.dv
-        return _keyed(r)
+            return _keyed(r)
+        return r
     r = np.zeros(PLANT_NPAR)
     r[0] = MODEL_CODES[model]
     r[1:4] = p.J, p.Vs, p.delta
@@ -318,18 +330,18 @@ def check_integrable(rows, dt: float) -> None:
     """
     dt = check_positive("dt", dt)
     r = np.atleast_2d(np.asarray(rows, dtype=float))
-    for j in range(r.shape[0]):
-        code, J, tau = r[j, 0], r[j, 1], r[j, 4]
+    for j, row in enumerate(r.tolist()):
+        code, J, tau = row[0], row[1], row[4]
         if code == _LUGRE:
-            wp = math.sqrt(r[j, 15] / J)
+            ratio = row[15] / J if J != 0.0 else math.inf
+            wp = math.sqrt(ratio) if ratio >= 0.0 else math.nan
             if not wp * dt <= LUGRE_STIFF_MAX:
                 raise ParameterError(
                     f"LuGre plant (row {j}): the pre-sliding frequency sqrt(sigma0/J) = {wp:.3g} rad/s is more than "
-                    f"{LUGRE_STIFF_MAX:g}/dt = {LUGRE_STIFF_MAX / dt:.3g} rad/s (sigma0 = {r[j, 15]:g} N·m/rad, "
+                    f"{LUGRE_STIFF_MAX:g}/dt = {LUGRE_STIFF_MAX / dt:.3g} rad/s (sigma0 = {row[15]:g} N·m/rad, "
                     f"J = {J:g} kg·m², dt = {dt:g} s): the engine cannot integrate it accurately")
             continue
-        J, tau = float(J), float(tau)
-        levels = [float(v) for v in (*r[j, 5:8], *r[j, 9:12], r[j, 2], r[j, 3], r[j, 13], r[j, 14])]
+        levels = [*row[5:8], *row[9:12], row[2], row[3], row[13], row[14]]
         if not (J > 0.0 and math.isfinite(J) and 0.0 <= tau < math.inf and all(math.isfinite(v) for v in levels)):
             raise ParameterError(
                 f"plant (row {j}, model code {int(code)}): J = {J!r} kg·m² must be finite and > 0, tau = {tau!r} s "

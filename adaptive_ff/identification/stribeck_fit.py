@@ -62,7 +62,6 @@ from types import SimpleNamespace
 
 import numpy as np
 from scipy.optimize import leastsq, nnls
-from scipy.stats import t as student_t
 
 from plant.errors import ExcitationError, ParameterError, SignalError, check_finite_scalar, check_signal
 from plant.friction import stribeck, stribeck_scalar
@@ -223,6 +222,8 @@ class StribeckFit:
         level = check_finite_scalar("level", level)
         if not 0.0 < level < 1.0:
             raise ParameterError(f"level must be in (0, 1), got {level!r}")
+        from scipy.stats import t as student_t  # lazy: scipy.stats costs ~0.3 s of import, needed only here
+
         tq = float(student_t.ppf(0.5 * (1.0 + level), self.dof))
         out = {}
         for k in PARAM_NAMES:

@@ -1,22 +1,32 @@
-"""``adaptive-ff compare``: all friction-compensation modes on one plant, table and figures."""
+"""``adaptive-ff compare``: all friction-compensation modes on one plant, table and figures.
+
+Two processes share the work (Linux, more than one usable CPU): at entry the
+command forks a helper, a one-worker ``concurrent.futures.ProcessPoolExecutor``
+on the ``fork`` start method (:class:`CompareHelper`), once the modules
+both need are imported. While this process imports the rest of the
+simulation, the helper imports python-control and designs the PI loops the
+comparison will ask :func:`controllers.design.pi.design_pi` for (handed over
+by :func:`controllers.design.pi.remember_designs`; the same function, the
+same numbers; kept for the next run in :func:`design_store`, beside the
+compiled kernels, so that a warm run neither waits for nor imports
+python-control), then imports matplotlib and the figure code. When the runs are done
+it receives the comparison and draws the figures (itself and one forked pool
+worker, :func:`controllers.report.figures.plot_comparison`) while this process
+prints the table. Elsewhere, or when the helper fails, everything runs here as
+before. The output is the same either way.
+"""
 
 from __future__ import annotations
 
+import importlib
 import json
+import sys
 
-__all__ = ["register", "run", "comparison_table", "figure_jobs"]
+__all__ = ["register", "run", "comparison_table", "figure_jobs", "CompareHelper", "design_store"]
 
 
 def run(args) -> int:
-    """Execute ``adaptive-ff compare`` with parsed ``args``; return the exit status."""
-    from controllers.simulation.closed_loop import MODES
-    from controllers.experiments.compare import compare
-    from controllers.report.figures import plot_comparison
-    from plant.errors import ParameterError
-    from plant.friction import preset
-    from plant.models import load_plant, plant_to_dict
-    from adaptive_ff.io.units import parameter_text
-    from plant.variants import drift_case, variant
+    """Execute ``adaptive-ff compare`` with parsed ``args``; return the exit status (module docstring)."""
     from controllers.cli.data import check_output_dir
 
     out_dir = args.out if args.out is not None else (args.report or "out")
@@ -24,6 +34,24 @@ def run(args) -> int:
         check_output_dir(out_dir, "--out")
     if args.report:
         check_output_dir(args.report, "--report")
+    p, modes = _load_plant(args), _modes(args)
+    helper = CompareHelper.start(p, args)
+    done = False
+    try:
+        code = _compare_and_print(args, p, modes, out_dir, helper)
+        done = True
+        return code
+    finally:
+        if helper is not None:
+            helper.close(stop=not done)
+
+
+def _load_plant(args):
+    """The plant of ``adaptive-ff compare`` (``--plant``, ``--variant`` or ``--preset``)."""
+    from plant.friction import preset
+    from plant.models import load_plant
+    from plant.variants import drift_case, variant
+
     if args.plant:
         p = load_plant(args.plant)
     elif args.variant == "drift":
@@ -32,19 +60,48 @@ def run(args) -> int:
         p = variant(args.variant)
     else:
         p = preset(args.preset)
-    modes = MODES
-    if args.modes:
-        modes = tuple(m.strip() for m in args.modes.split(",") if m.strip())
-        unknown = [m for m in modes if m not in MODES]
-        if unknown:
-            raise ParameterError(f"--modes: unknown mode(s) {unknown}; known: {list(MODES)}")
+    return p
+
+
+def _modes(args) -> tuple:
+    """The modes of ``--modes`` (default: all), checked."""
+    from controllers.simulation.compensators import MODES
+    from plant.errors import ParameterError
+
+    if not args.modes:
+        return MODES
+    modes = tuple(m.strip() for m in args.modes.split(",") if m.strip())
+    unknown = [m for m in modes if m not in MODES]
+    if unknown:
+        raise ParameterError(f"--modes: unknown mode(s) {unknown}; known: {list(MODES)}")
+    return modes
+
+
+def _compare_and_print(args, p, modes, out_dir, helper) -> int:
+    """The comparison, its figures and report, and the output of :func:`run`."""
+    from controllers.design.pi import remember_designs
+    from controllers.experiments.compare import compare
+    from controllers.report.figures import plot_comparison
+    from adaptive_ff.io.units import parameter_text
+    from plant.models import plant_to_dict
+
     progress = None if not args.quiet else False
+    if helper is not None:
+        remember_designs(helper.designs())
     comp = compare(p, duration=args.duration, seed=args.seed, modes=modes, Ts=args.Ts, noise_std=args.noise,
                    lam=args.lam, crossover=args.crossover, phase_margin=args.phase_margin, progress=progress,
                    estimator=args.estimator, ff_input=args.ff_input, omega_q=args.omega_q,
                    prefit=not args.no_prefit, Vs=args.Vs, delta=args.delta, J_design=args.J_design,
                    adaptive_start=not args.no_fast_start)
-    paths = [] if args.no_figures else plot_comparison(comp, out_dir, jobs=figure_jobs())
+    if args.no_figures:
+        paths = []
+    elif helper is not None:
+        helper.draw(comp, out_dir)
+        paths = None  # drawn by the helper while the table is printed
+    else:
+        paths = plot_comparison(comp, out_dir, jobs=figure_jobs())
+    if paths is None and (args.report or args.json):
+        paths = helper.figures(comp, out_dir)
     report = None
     if args.report:
         from controllers.cli.data import command_line
@@ -77,11 +134,262 @@ def run(args) -> int:
         print(f"note: {note}")
     print(f"run: {args.duration:g} s, seed {args.seed}; metrics over the second half\n")
     print(comparison_table(comp, args))
+    if paths is None:
+        sys.stdout.flush()
+        paths = helper.figures(comp, out_dir)
     if paths:
         print("\nfigures: " + ", ".join(str(x) for x in paths))
     if report is not None:
         print(f"report: {report}")
     return 0
+
+
+class CompareHelper:
+    """The helper process of ``adaptive-ff compare`` (module docstring): PI designs and figures beside the runs.
+
+    A one-worker ``concurrent.futures.ProcessPoolExecutor`` on the ``fork`` start
+    method; the worker ignores Ctrl-C (this process takes it and stops the
+    worker) and ends if this process dies
+    (:func:`controllers.report.figures.worker_init`). Every request that fails
+    in transport (the worker died, the comparison could not be sent) is done in
+    this process instead; an error of the work itself (e.g. an output folder
+    that cannot be written) is raised here as it would be without the helper.
+
+    The PI designs are kept beside the compiled kernels (:func:`design_store`):
+    a warm run reads them there and the helper imports no python-control.
+    """
+
+    def __init__(self, pool, keys, stored, figures: bool):
+        self._pool, self._keys, self._stored, self._figures = pool, keys, stored, figures
+        self._designs = self._drawn = None
+
+    @classmethod
+    def start(cls, p, args) -> CompareHelper | None:
+        """Import what both processes need (:data:`_SHARED_MODULES`), fork the helper, ask it for the PI designs.
+
+        Parameters
+        ----------
+        p : plant model
+            The plant of the comparison (only its ``J`` is read, when ``args.J_design`` is None).
+        args : argparse.Namespace
+            Parsed ``adaptive-ff compare`` arguments (``crossover``, ``phase_margin``, ``J_design``,
+            ``no_figures``).
+
+        Returns
+        -------
+        CompareHelper or None
+            None where fork is unavailable (not Linux), only one CPU may be used (:func:`figure_jobs`),
+            ``ADAPTIVE_FF_NO_HELPER`` is set or no process can be started: then everything runs in this process.
+            With ``--no-figures`` and every design in :func:`design_store`, no process is started (the designs
+            are handed over from the store).
+        """
+        import multiprocessing
+        import os
+        from concurrent.futures import ProcessPoolExecutor
+
+        from controllers.report.figures import worker_init
+
+        if not sys.platform.startswith("linux") or figure_jobs() < 2 or os.environ.get("ADAPTIVE_FF_NO_HELPER"):
+            return None
+        _helper_imports(_SHARED_MODULES)
+        keys = _design_keys(p, args)
+        stored = _stored_designs(keys)
+        if stored is not None and args.no_figures:  # nothing left for a helper to do
+            return cls(None, keys, stored, False)
+        sys.stdout.flush()
+        sys.stderr.flush()
+        try:
+            pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("fork"),
+                                       initializer=worker_init)
+            self = cls(pool, keys, stored, not args.no_figures)
+            if stored is None:
+                self._designs = pool.submit(_helper_designs, keys)
+            if self._figures:
+                pool.submit(_helper_imports, _FIGURE_MODULES)
+        except OSError:  # no process left: everything here
+            return None
+        return self
+
+    def designs(self) -> list:
+        """The ``(kwargs, PIDesign)`` pairs for :func:`controllers.design.pi.remember_designs`: stored, or made by
+        the helper (and then stored); empty if it failed (then :func:`controllers.design.pi.design_pi` designs
+        them here)."""
+        if self._stored is not None:
+            return self._stored
+        try:
+            pairs = self._designs.result() if self._designs is not None else []
+        except Exception:  # noqa: BLE001 - transport failure: design here
+            return []
+        if len(pairs) == len(self._keys):
+            _store_designs(pairs)
+        return pairs
+
+    def draw(self, comp, out_dir) -> None:
+        """Send the comparison to the helper, which writes its figures into ``out_dir`` (:meth:`figures`)."""
+        try:
+            self._drawn = self._pool.submit(_helper_draw, comp, str(out_dir), figure_jobs())
+        except Exception:  # noqa: BLE001 - broken pool: :meth:`figures` draws here
+            self._drawn = None
+
+    def figures(self, comp, out_dir) -> list:
+        """Wait for the figures of :meth:`draw`: their paths (drawn here if the helper could not).
+
+        Raises
+        ------
+        Exception
+            What drawing them raised in the helper (a package error, OSError), re-raised here.
+        """
+        from controllers.report.figures import plot_comparison
+
+        outcome = None
+        if self._drawn is not None:
+            try:
+                outcome = self._drawn.result()
+            except Exception:  # noqa: BLE001 - transport failure (pickling, a dead worker): draw here
+                outcome = None
+        if outcome is None:
+            return plot_comparison(comp, out_dir, jobs=figure_jobs())
+        if isinstance(outcome, BaseException):
+            raise outcome
+        return outcome
+
+    def close(self, *, stop: bool = False) -> None:
+        """Shut the helper down; ``stop`` (an error or Ctrl-C here): drop its queued work.
+
+        The task it is running is not killed but finishes (at most the drawing of its figures): a killed
+        helper would leave its own figure worker waiting for work forever (that worker holds the helper's
+        end of the pool's pipes, so neither this process nor the worker would see the helper end).
+        """
+        if self._pool is not None:
+            self._pool.shutdown(wait=not stop, cancel_futures=True)
+
+
+#: Imported before the helper is forked: both processes need them (the comparison's identification runs filter
+#: with scipy.signal, python-control imports it; the designs need scipy.optimize and the PI module), so they are
+#: imported once instead of twice (the same time to the designs, ~0.8 s less CPU in all).
+_SHARED_MODULES = ("numpy", "numba", "scipy.optimize", "scipy.signal", "controllers.design.pi")
+
+#: What the helper imports for the figures while the runs are made (unpickling the comparison needs the package).
+_FIGURE_MODULES = ("matplotlib.backends.backend_agg", "matplotlib.figure", "controllers.report.figures",
+                   "controllers.experiments.compare")
+
+
+def _design_keys(p, args) -> list[dict]:
+    """The ``design_pi`` arguments ``compare`` will use: its PI loop and the two loops of the quasi-static runs."""
+    from controllers.experiments.compare import CompareOptions
+    from controllers.experiments.quasi_static import StribeckDesign
+
+    p0 = p.at(0.0) if hasattr(p, "at") else p
+    J = float(p0.J) if args.J_design is None else float(args.J_design)
+    Tc, qs = CompareOptions().Tc, StribeckDesign()
+    keys = [dict(J=J, sigma=0.0, crossover=float(args.crossover), phase_margin=float(args.phase_margin), Tc=Tc)]
+    return keys + [dict(J=J, sigma=0.0, crossover=c, phase_margin=60.0, Tc=Tc) for c in (qs.crossover, qs.crossover_max)]
+
+
+#: The numbers of a :class:`controllers.design.pi.PIDesign` kept by :func:`design_store` (exact, as float.hex).
+_DESIGN_FIELDS = ("Kp", "Ki", "Tc", "crossover", "phase_margin", "gain_margin", "phase_crossover",
+                  "stability_margin", "J", "sigma")
+
+
+def design_store():
+    """File of the PI designs kept for ``adaptive-ff compare``, or None (no cache folder).
+
+    Beside the compiled kernels (:func:`plant.jit.cache_dir`, in the folder of the
+    package's source digest), so that an edit of the package drops them with the
+    kernels; each entry is keyed by the python-control version and the exact
+    arguments of :func:`controllers.design.pi.design_pi`, whose result it holds
+    exactly (JSON, floats as ``float.hex``).
+
+    Returns
+    -------
+    pathlib.Path or None
+    """
+    from plant.jit import cache_dir, source_digest
+
+    base = cache_dir()
+    return None if base is None else base / source_digest() / "pi_designs.json"
+
+
+def _design_key(kwargs) -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        ctl = version("control")
+    except PackageNotFoundError:
+        ctl = "?"
+    return f"control {ctl}: " + " ".join(float(kwargs[k]).hex() for k in ("J", "sigma", "crossover", "phase_margin",
+                                                                             "Tc"))
+
+
+def _stored_designs(keys) -> list | None:
+    """The ``(kwargs, PIDesign)`` pairs of ``keys`` from :func:`design_store`; None unless every one is there."""
+    from controllers.design.pi import PIDesign
+
+    try:
+        path = design_store()
+        table = json.loads(path.read_text()) if path is not None else {}
+        return [(kw, PIDesign(**{f: float.fromhex(table[_design_key(kw)][f]) for f in _DESIGN_FIELDS}))
+                for kw in keys]
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):  # none, or not readable: the helper designs
+        return None
+
+
+def _store_designs(pairs) -> None:
+    """Add ``(kwargs, PIDesign)`` pairs to :func:`design_store` (best effort: a folder that cannot be written is
+    skipped; written to a temporary file and renamed, so a concurrent reader never sees half a file)."""
+    import os
+    import tempfile
+
+    try:
+        path = design_store()
+        if path is None:
+            return
+        try:
+            table = json.loads(path.read_text())
+        except (OSError, ValueError):
+            table = {}
+        for kw, d in pairs:
+            table[_design_key(kw)] = {f: float(getattr(d, f)).hex() for f in _DESIGN_FIELDS}
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        with os.fdopen(fd, "w") as fh:
+            json.dump(table, fh)
+        os.replace(tmp, path)
+    except (OSError, ValueError, TypeError):
+        pass
+
+
+def _helper_imports(modules) -> None:
+    """Helper task: import ``modules`` (before they are needed)."""
+    for name in modules:
+        importlib.import_module(name)
+
+
+def _helper_designs(keys) -> list:
+    """Helper task: ``design_pi(**kwargs)`` for each of ``keys``; the ``(kwargs, design)`` pairs that succeeded
+    (a failing one is designed, and raises, in the parent if the comparison needs it)."""
+    from controllers.design.pi import design_pi
+
+    out = []
+    for kwargs in keys:
+        kw = dict(kwargs)
+        try:
+            out.append((kwargs, design_pi(kw.pop("J"), **kw)))
+        except Exception:  # noqa: BLE001 - see docstring
+            pass
+    return out
+
+
+def _helper_draw(comp, out_dir: str, jobs: int):
+    """Helper task: :func:`controllers.report.figures.plot_comparison`; its paths, or the exception it raised."""
+    import gc
+
+    from controllers.report.figures import plot_comparison
+
+    gc.freeze()  # the comparison and the imported modules: not traversed by every collection while drawing
+    try:
+        return plot_comparison(comp, out_dir, jobs=jobs)
+    except Exception as exc:  # noqa: BLE001 - returned, raised in the parent (CompareHelper.figures)
+        return exc
 
 
 def figure_jobs() -> int:

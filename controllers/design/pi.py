@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -37,12 +37,38 @@ __all__ = [
     "PIController",
     "pi_step",
     "MAX_CROSSOVER_FRACTION",
+    "remember_designs",
 ]
 
 #: Largest allowed crossover as a fraction of the Nyquist frequency ``pi/Tc``.
 #: At ``0.2*pi/Tc`` the hold and the sampling already cost about 18 degrees of
 #: phase (``wc*Tc/2``); beyond it the continuous-time picture is meaningless.
 MAX_CROSSOVER_FRACTION = 0.2
+
+
+_TF_PREFIX = "_tf_"
+
+
+class _TransferFunctionField:
+    """Field ``C``, ``plant`` or ``loop`` of :class:`PIDesign`: given to the constructor, or built on first read.
+
+    A data descriptor (the dataclass stores what the constructor gets through ``__set__``): an unset value
+    (None) is built from the design's gains by ``PIDesign._build_transfer_functions``, which imports
+    python-control then, not when the design is made or unpickled.
+    """
+
+    def __init__(self, name: str):
+        self.key = _TF_PREFIX + name
+
+    def __get__(self, obj, objtype=None):
+        if obj is None:
+            return None  # the dataclass default
+        if obj.__dict__.get(self.key) is None:
+            obj._build_transfer_functions()
+        return obj.__dict__[self.key]
+
+    def __set__(self, obj, value):
+        obj.__dict__[self.key] = None if isinstance(value, _TransferFunctionField) else value
 
 
 @dataclass(frozen=True)
@@ -92,9 +118,19 @@ class PIDesign:
     stability_margin: float
     J: float
     sigma: float
-    C: control.TransferFunction
-    plant: control.TransferFunction
-    loop: control.TransferFunction
+    C: control.TransferFunction = field(default=None, repr=False, compare=False)
+    plant: control.TransferFunction = field(default=None, repr=False, compare=False)
+    loop: control.TransferFunction = field(default=None, repr=False, compare=False)
+
+    def __getstate__(self) -> dict:
+        """Pickled without the transfer functions: they are rebuilt on first use, so that a design computed in
+        another process (:func:`remember_designs`) does not import python-control where it is unpickled."""
+        return {k: v for k, v in self.__dict__.items() if not k.startswith(_TF_PREFIX)}
+
+    def _build_transfer_functions(self) -> None:
+        """Set ``C``, ``plant`` and ``loop`` from the gains, ``J``, ``sigma``, ``Tc`` (as :func:`design_pi`)."""
+        plant, C, loop = _transfer_functions(self.Kp, self.Ki, self.Tc, self.J, self.sigma)
+        self.__dict__.update({_TF_PREFIX + "C": C, _TF_PREFIX + "plant": plant, _TF_PREFIX + "loop": loop})
 
     def to_dict(self) -> dict:
         """Gains, margins and design plant as strict JSON (SI units; gain margin also in dB; inf/NaN as None).
@@ -155,6 +191,20 @@ class PIDesign:
         ax.legend(fontsize=8)
         ax.grid(True, which="both", alpha=0.3)
         return ax
+
+
+for _name in ("C", "plant", "loop"):
+    setattr(PIDesign, _name, _TransferFunctionField(_name))
+del _name
+
+
+def _transfer_functions(Kp: float, Ki: float, Tc: float, J: float, sigma: float) -> tuple:
+    """``(P(z), C(z), L(z))`` of the module docstring: ZOH plant, PI controller, open loop (python-control)."""
+    import control
+
+    plant = control.sample_system(control.tf([1.0], [J, sigma]), Tc, method="zoh")
+    C = _pi_tf(Kp, Ki, Tc)
+    return plant, C, control.series(C, plant)
 
 
 def _pi_tf(Kp: float, Ki: float, Tc: float):
@@ -322,8 +372,6 @@ def design_pi(
        spurious crossover near ``w = 0`` for loops with an integrator (phase
        tends to -180 deg there) and misses ``z = -1``; both are corrected.
     """
-    import control
-
     J = check_positive("J", J)
     sigma = check_nonnegative("sigma", sigma)
     Tc = check_positive("Tc", Tc)
@@ -338,6 +386,11 @@ def design_pi(
     if not 0.0 < pm < 90.0:
         raise ParameterError(f"phase_margin must be in (0, 90) degrees, got {pm!r}")
 
+    known = _REMEMBERED.get((float(J), float(sigma), float(wc), float(pm), float(Tc)))
+    if known is not None:
+        return known
+    import control
+
     Kp0, Ki0 = _continuous_gains(J, sigma, wc, pm)  # 1. continuous-time analytic solution
     plant = control.sample_system(control.tf([1.0], [J, sigma]), Tc, method="zoh")
     Kp, Ki = _discrete_gains(plant, Kp0, Ki0, wc, pm, Tc)  # 2. discrete refinement
@@ -347,6 +400,39 @@ def design_pi(
     return PIDesign(Kp=Kp, Ki=Ki, Tc=Tc, crossover=wgc, phase_margin=pm_ach, gain_margin=gm,
                     phase_crossover=wpc, stability_margin=sm, J=J, sigma=sigma, C=C,
                     plant=plant, loop=loop)
+
+
+#: Designs computed elsewhere (:func:`remember_designs`), by the arguments of :func:`design_pi`.
+_REMEMBERED: dict[tuple, PIDesign] = {}
+
+
+def remember_designs(designs) -> None:
+    """Let :func:`design_pi` return designs that were computed by :func:`design_pi` in another process.
+
+    ``adaptive-ff compare`` designs its PI loops in a helper process that imports
+    python-control while this one imports the simulation, and hands the results
+    over here (:mod:`controllers.cli.compare`); a design is a pure function of
+    its arguments, so :func:`design_pi` returns the same numbers either way. The
+    transfer functions of a handed-over design are rebuilt when first read.
+
+    Parameters
+    ----------
+    designs : iterable of (dict, PIDesign)
+        The keyword arguments of :func:`design_pi` (``J``, ``sigma``,
+        ``crossover``, ``phase_margin``, ``Tc``; SI units, degrees) and the
+        design it returned for them.
+
+    Raises
+    ------
+    ParameterError
+        An entry is not a :class:`PIDesign`, or its ``J``, ``sigma`` or ``Tc`` differ from its arguments.
+    """
+    for kwargs, d in designs:
+        key = (float(kwargs["J"]), float(kwargs.get("sigma", 0.0)), float(kwargs.get("crossover", 20.0)),
+               float(kwargs.get("phase_margin", 60.0)), float(kwargs.get("Tc", 1e-3)))
+        if not isinstance(d, PIDesign) or (d.J, d.sigma, d.Tc) != (key[0], key[1], key[4]):
+            raise ParameterError(f"remember_designs: {d!r} is not the design_pi result for {kwargs!r}")
+        _REMEMBERED[key] = d
 
 
 @dataclass(frozen=True)

@@ -21,14 +21,13 @@ per mode in every figure (:data:`MODE_COLORS`). Long records are drawn as
 min/max envelopes over display bins (:func:`minmax_envelope`), so a 120 s run
 at 1 kHz costs a few thousand vertices, and the figures use fixed margins
 instead of a layout engine (both for speed); ``plot_comparison(..., jobs=2)``
-draws them in two processes (a forked copy inherits the runs). Velocities are
+draws them in two processes (a forked pool worker inherits the runs). Velocities are
 shown in deg/s, torques in N·m.
 """
 
 from __future__ import annotations
 
 import math
-import os
 import signal
 import sys
 from pathlib import Path
@@ -43,7 +42,7 @@ from plant.stribeck import stribeck
 if TYPE_CHECKING:  # annotations only: matplotlib is imported by the functions when they run
     from matplotlib.figure import Figure
 
-__all__ = ["plot_comparison", "figure_shares", "plot_tracking", "plot_error", "plot_friction", "plot_rls_convergence", "plot_eta",
+__all__ = ["plot_comparison", "figure_shares", "worker_init", "plot_tracking", "plot_error", "plot_friction", "plot_rls_convergence", "plot_eta",
            "rms_dev", "minmax_envelope", "pick_reversal", "estimate_history", "MODE_COLORS", "PARAMETER_UNITS"]
 
 #: One Okabe-Ito colour per compensation mode (reference black, frictionless grey).
@@ -596,11 +595,12 @@ def plot_comparison(comp, out_dir, *, dpi: int = _DPI, jobs: int = 1) -> list[Pa
     jobs : int, keyword-only
         Processes that render the figures, >= 1 (default 1: this process).
         With ``jobs > 1`` on Linux, the
-        figures are shared among this process and ``jobs - 1`` forked copies
-        of it (:func:`figure_shares`), which inherit ``comp`` without copying
+        figures are shared among this process and ``jobs - 1`` workers of a
+        process pool forked from it (``concurrent.futures.ProcessPoolExecutor``,
+        :func:`figure_shares`), which inherit ``comp`` without copying
         it; matplotlib draws a figure in one thread only, so this is how the
         figures use more than one core. The files are the same bytes as with
-        ``jobs=1``. A copy that fails leaves its figures to this process,
+        ``jobs=1``. A worker that fails leaves its figures to this process,
         which then raises the error itself. Elsewhere (macOS, where forking a
         process that has used system frameworks is unsafe; Windows, no fork)
         every figure is drawn here.
@@ -623,14 +623,7 @@ def plot_comparison(comp, out_dir, *, dpi: int = _DPI, jobs: int = 1) -> list[Pa
     out.mkdir(parents=True, exist_ok=True)
     names = [name for name, _ in _FIGURES]
     shares = figure_shares(names, min(int(jobs), len(names)) if sys.platform.startswith("linux") else 1)
-    written = set()
-    children, unforked = _fork_figure_workers(comp, out, dpi, shares[1:])
-    try:
-        written.update(_render(comp, out, dpi, shares[0] + unforked))
-    finally:
-        done, failed = _join_figure_workers(children)
-    written.update(done)
-    written.update(_render(comp, out, dpi, failed))  # a failed copy's figures: drawn (or raised) here
+    written = set(_render_shares(comp, out, dpi, shares))
     return [out / f"{name}.png" for name in names if name in written]
 
 
@@ -688,66 +681,79 @@ def _render(comp, out: Path, dpi: int, names) -> list[str]:
     return written
 
 
-def _fork_figure_workers(comp, out: Path, dpi: int, shares) -> tuple[list[tuple[int, int, list[str]]], list[str]]:
-    """Fork one copy of this process per share; each draws its share and reports the files on a pipe.
+#: ``(comp, out, dpi)`` of the :func:`plot_comparison` call in progress: its forked workers inherit it (no copy).
+_INHERITED = None
 
-    Returns the copies ``(pid, read end of its pipe, share)`` and the figures of shares no copy could be made for.
+
+def _render_inherited(names) -> list[str]:
+    """Worker side of :func:`_render_shares`: draw ``names`` of the comparison inherited by the fork."""
+    comp, out, dpi = _INHERITED
+    return _render(comp, out, dpi, names)
+
+
+def worker_init() -> None:
+    """Start of a forked worker process: ignore Ctrl-C, and end when the parent ends (Linux).
+
+    The parent takes SIGINT and stops its workers. ``prctl(PR_SET_PDEATHSIG,
+    SIGTERM)`` ends the worker if its parent dies: a worker forked from a pool
+    worker holds that worker's end of its pool's pipes and would otherwise wait
+    for work forever, and keep the pool above from seeing the death (best
+    effort: skipped where ``prctl`` is not available).
     """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # 1 = PR_SET_PDEATHSIG (linux/prctl.h)
+    except (OSError, AttributeError):
+        pass
+
+
+def _render_shares(comp, out: Path, dpi: int, shares) -> list[str]:
+    """Draw ``shares[0]`` here and every other share in a forked worker process; the names of the files written.
+
+    A process pool of the standard library (``concurrent.futures.ProcessPoolExecutor``
+    on the ``fork`` start method): the workers inherit ``comp`` (:data:`_INHERITED`)
+    instead of receiving a copy. A share whose worker fails, or that no worker could
+    be started for, is drawn here afterwards (raising its error here, if it has one).
+    """
+    global _INHERITED
+    shares = [s for s in shares if s]
+    if len(shares) < 2:
+        return _render(comp, out, dpi, shares[0] if shares else [])
+    import multiprocessing
     import warnings
+    from concurrent.futures import ProcessPoolExecutor
 
     import matplotlib.backends.backend_agg  # noqa: F401 - imported (font cache loaded) once, before the fork
 
-    children, unforked = [], []
-    for share in shares:
-        if not share:
-            continue
-        sys.stdout.flush()
-        sys.stderr.flush()
-        r, w = os.pipe()
+    written, failed, futures = [], [], []
+    _INHERITED = (comp, out, dpi)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    try:
         with warnings.catch_warnings():  # Python >= 3.12 warns of forking with threads (idle BLAS/numba pools
-            # here): the copy only draws with matplotlib and numpy and leaves by os._exit
+            # here): the workers only draw with matplotlib and numpy
             warnings.filterwarnings("ignore", message=r".*fork\(\) may lead to deadlocks", category=DeprecationWarning)
             try:
-                pid = os.fork()
-            except OSError:  # no process left (EAGAIN, ENOMEM): this process draws the share
-                os.close(r)
-                os.close(w)
-                unforked.extend(share)
-                continue
-        if pid == 0:  # the copy: draw, report, leave without running the parent's exit handlers
-            code = 1
-            try:
-                os.close(r)
-                msg = "\n".join(_render(comp, out, dpi, share)) + "\n"
-                os.write(w, msg.encode())
-                code = 0
-            except BaseException:  # noqa: BLE001 - the parent draws this share again and raises the error
-                pass
-            finally:
-                os._exit(code)
-        os.close(w)
-        children.append((pid, r, share))
-    return children, unforked
-
-
-def _join_figure_workers(children) -> tuple[list[str], list[str]]:
-    """Wait for the copies of :func:`_fork_figure_workers`: (figures they wrote, figures of copies that failed)."""
-    done, failed = [], []
-    for pid, r, share in children:
+                pool = ProcessPoolExecutor(max_workers=len(shares) - 1, mp_context=multiprocessing.get_context("fork"),
+                                           initializer=worker_init)
+                futures = [(pool.submit(_render_inherited, share), share) for share in shares[1:]]
+            except OSError:  # no process left (EAGAIN, ENOMEM): this process draws every share
+                pool = None
+                failed = [n for share in shares[1:] for n in share]
+        ok = False
         try:
-            with os.fdopen(r, "rb") as fh:
-                text = fh.read().decode()
-            _, status = os.waitpid(pid, 0)
-        except BaseException:  # interrupted while waiting: stop the copies, then let the interrupt through
-            for other, _, _ in children:
-                try:
-                    os.kill(other, signal.SIGTERM)
-                    os.waitpid(other, 0)
-                except OSError:
-                    pass
-            raise
-        if os.waitstatus_to_exitcode(status) == 0 and text.endswith("\n"):
-            done.extend(x for x in text.splitlines() if x)
-        else:
-            failed.extend(share)
-    return done, failed
+            written += _render(comp, out, dpi, shares[0])
+            ok = True
+        finally:
+            if pool is not None:
+                pool.shutdown(wait=ok, cancel_futures=not ok)
+        for future, share in futures:
+            try:
+                written += future.result()
+            except Exception:  # noqa: BLE001 - drawn again below, where the error (if it is one) is raised
+                failed += share
+    finally:
+        _INHERITED = None
+    return written + _render(comp, out, dpi, failed)

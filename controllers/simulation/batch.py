@@ -110,6 +110,39 @@ def _stack(arrays, width=None) -> np.ndarray:
     return out
 
 
+def _rows(arrays, gates, default) -> np.ndarray:
+    """``np.stack(arrays)``; without any gate the rows are all ``default``: one broadcast copy."""
+    if all(g is None for g in gates):
+        return np.repeat(default[None, :], len(gates), axis=0)
+    return np.stack(list(arrays))
+
+
+def _plants_arrays(built, plants, opts, t, wr, Tc) -> tuple:
+    """Parameter table (B, K, NPAR), drift periods (B,), initial states (B, NSTATE) and sensor gates of the
+    scenarios. A plant object given more than once (``[p] * B``) is packed and checked once."""
+    done, tables, segs, states, gates = {}, [], [], [], []
+    for (run_plant, _, _), p, o in zip(built, plants, opts):
+        key = (id(run_plant), id(p))
+        if key not in done:
+            table, seg = plant_table(run_plant, t, Tc)
+            frozen = run_plant.at(0.0) if hasattr(run_plant, "at") else run_plant
+            J = float((p.at(0.0) if hasattr(p, "at") else p).J)
+            done[key] = (table, seg, plant_state(frozen, float(wr[0])), J)
+        table, seg, state, J = done[key]
+        tables.append(table)
+        segs.append(seg)
+        states.append(state)
+        J = J if o.J_design is None else float(o.J_design)
+        gates.append(OutlierGate(max_step=2.0 * o.u_max * Tc / J if math.isfinite(o.u_max) else math.inf)
+                     if o.sensor_gate else None)
+    K = max(tb.shape[0] for tb in tables)
+    PT = np.empty((len(tables), K, tables[0].shape[1]))
+    for b, tb in enumerate(tables):  # a shorter table (fewer drift rows) holds its last row
+        PT[b, :tb.shape[0]] = tb
+        PT[b, tb.shape[0]:] = tb[-1]
+    return PT, np.array(segs, dtype=np.int64), np.stack(states), gates
+
+
 def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, noise=None) -> BatchResult:
     """Run B closed loops (one per plant) on a common reference with the compiled engine.
 
@@ -159,30 +192,20 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
     if n > 1 and not math.isclose(t[1] - t[0], Tc, rel_tol=1e-9):
         raise ParameterError(f"reference step {t[1] - t[0]!r} s differs from Tc = {Tc!r} s")
     built = [build_mode(p, mode, o) for p, o in zip(plants, opts)]
-    tables, segs, states, gates = [], [], [], []
-    for (run_plant, ctrl, _), p, o in zip(built, plants, opts):
-        table, seg = plant_table(run_plant, t, Tc)
-        tables.append(table)
-        segs.append(seg)
-        frozen = run_plant.at(0.0) if hasattr(run_plant, "at") else run_plant
-        states.append(plant_state(frozen, float(wr[0])))
-        J = float((p.at(0.0) if hasattr(p, "at") else p).J) if o.J_design is None else float(o.J_design)
-        gates.append(OutlierGate(max_step=2.0 * o.u_max * Tc / J if math.isfinite(o.u_max) else math.inf)
-                     if o.sensor_gate else None)
-    K = max(tb.shape[0] for tb in tables)
-    PT = np.stack([np.vstack([tb, np.repeat(tb[-1:], K - tb.shape[0], axis=0)]) for tb in tables])
+    PT, segs, states, gates = _plants_arrays(built, plants, opts, t, wr, Tc)
     comps = [c for _, _, c in built]
     kind = 0 if comps[0] is None else int(comps[0].KIND)
     nz, rows = _noise(noise, seeds, opts, B, n)
-    w_limit = [100.0 * float(np.max(np.abs(wr))) + 1.0 if o.w_limit is None else float(o.w_limit) for o in opts]
+    w_default = 100.0 * float(np.max(np.abs(wr))) + 1.0
+    w_limit = [w_default if o.w_limit is None else float(o.w_limit) for o in opts]
     dummy = OutlierGate()
     x = EngineInputs(
         wr=wr, t=t, revs=reversal_times(t, wr), window=float(opts[0].reversal_window), dt=float(Tc),
-        seg=np.array(segs, dtype=np.int64), plant_table=PT, plant_state=np.stack(states), noise=nz,
+        seg=segs, plant_table=PT, plant_state=states, noise=nz,
         noise_rows=rows, fault_k=np.empty(0, dtype=np.int64), fault_v=np.empty(0),
         use_gate=np.array([g is not None for g in gates]),
-        gate_par=np.stack([(g or dummy).params for g in gates]),
-        gate_state=np.stack([(g or dummy).state for g in gates]),
+        gate_par=_rows(((g or dummy).params for g in gates), gates, dummy.params),
+        gate_state=_rows(((g or dummy).state for g in gates), gates, dummy.state),
         pi_par=np.stack([c.params for _, c, _ in built]), pi_state=np.stack([c.state for _, c, _ in built]),
         kind=kind, comp_par=_stack(c.params if c is not None else np.zeros(1) for c in comps),
         comp_state=_stack(c.state if c is not None else np.zeros(1) for c in comps),
