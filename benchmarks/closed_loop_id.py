@@ -9,8 +9,8 @@ quantum; the reference logged at the stamps) it fits
 :func:`controllers.experiments.closed_loop_id.fit_closed_loop` (Vs, delta of the README's Stribeck pre-fit)
 and, with ``--oe``, the open-loop ``fit_physical(method="output_error")`` on the same record. Prints one row
 per record: relative error (%) of J, Fc, Fs, sigma, tau, whether the issue's targets hold (J, tau within
-10 %, Fc, Fs, sigma within 5 %), the error in HAC standard errors of J and tau, and the fit time. Times depend
-on the machine's load; the errors do not.
+10 %, Fc, Fs, sigma within 5 %), the error in reported standard errors of J and tau (the fit's default: the
+bootstrap; ``--n-bootstrap 0``: HAC), and the fit time. Times depend on the machine's load; the errors do not.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import argparse
 import time
 
 from adaptive_ff.identification.physical_id import fit_physical
-from controllers.experiments.closed_loop_id import ControllerSpec, fit_closed_loop
+from controllers.experiments.closed_loop_id import ClosedLoopIdOptions, ControllerSpec, fit_closed_loop
 from controllers.experiments.synthetic_logs import closed_loop_readout
 from plant import preset
 
@@ -49,16 +49,19 @@ def main() -> None:
     ap.add_argument("--duration", type=float, default=60.0)
     ap.add_argument("--start", type=int, default=0)
     ap.add_argument("--oe", action="store_true", help="also the open-loop output-error fit")
+    ap.add_argument("--n-bootstrap", type=int, default=None, help="bootstrap refits (default: the fit's, 10)")
     a = ap.parse_args()
+    opts = ClosedLoopIdOptions() if a.n_bootstrap is None else ClosedLoopIdOptions(n_bootstrap=a.n_bootstrap)
     print(f"{'record':<16}" + "".join(f"{k + ' %':>8}" for k in NAMES) + "  targets  z(J)    z(tau)  time s")
     for seed in range(a.start, a.start + a.n):
         m, w_ref, spec = record(seed, a.duration)
         t0 = time.perf_counter()
-        f = fit_closed_loop(m.t, m.u, m.w, w_ref, controller=spec, Vs=VS, delta=DELTA)
+        f = fit_closed_loop(m.t, m.u, m.w, w_ref, controller=spec, Vs=VS, delta=DELTA, options=opts)
         print(_row(f"{seed} closed_loop", f.params, f.stderr, time.perf_counter() - t0), flush=True)
         if a.oe:
             t0 = time.perf_counter()
-            g = fit_physical(m.t, m.u, m.w, Vs=VS, delta=DELTA, method="output_error", offset=False)
+            g = fit_physical(m.t, m.u, m.w, Vs=VS, delta=DELTA, method="output_error", offset=False,
+                             n_bootstrap=0 if a.n_bootstrap == 0 else 20)
             print(_row(f"{seed} output_error", g.params, g.stderr, time.perf_counter() - t0), flush=True)
 
 

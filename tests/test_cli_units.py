@@ -50,9 +50,12 @@ def test_identify_tables_in_deg_and_rad(stribeck_log, capsys):
     assert main(base) == 0
     deg = capsys.readouterr().out
     report = identify(load_log(stribeck_log), Vs=0.02, delta=1.0, method="paper")
-    assert report.summary() in rad  # --units rad is the report's own summary, unchanged
+    # --units rad is the report's own summary with the rotary axis's units (no "(linear)" alternatives)
+    assert report.summary().replace(" (kg)", "").replace(" (N·s/m)", "").replace(" (N)", "").replace(
+        " (m/s)", "") in rad
     s_rad, s_deg = _row(rad, "sigma"), _row(deg, "sigma")
-    assert s_rad[-2:] == ["N·m·s/rad", "(N·s/m)"] and s_deg[-1] == "N·m·s/deg"
+    assert s_rad[-1] == "N·m·s/rad" and s_deg[-1] == "N·m·s/deg"
+    assert "(m/s)" not in rad + deg and "(kg)" not in rad + deg and "(N)" not in rad + deg
     truth = (report.estimate.sigma, report.std["sigma"], report.rls_estimate.sigma)  # value, std error, RLS
     for i, (v, rel) in enumerate(zip(truth, (1e-5, 5e-3, 1e-5)), start=1):  # printed with 6, 3, 6 digits
         assert float(s_rad[i]) == pytest.approx(v, rel=rel)
@@ -60,6 +63,33 @@ def test_identify_tables_in_deg_and_rad(stribeck_log, capsys):
     v_deg = _row(deg, "Vs")
     assert float(v_deg[1]) == pytest.approx(math.degrees(0.02), rel=1e-5) and v_deg[-1] == "deg/s"
     assert _row(deg, "J") == _row(rad, "J") and _row(deg, "Fc") == _row(rad, "Fc")  # J, torques unchanged
+
+
+def test_identify_axis_linear_prints_si_of_a_prismatic_axis(stribeck_log, capsys):
+    base = ["identify", str(stribeck_log), "--Vs", "0.02", "--delta", "1", "--method", "paper", "--quiet"]
+    assert main(base + ["--units", "rad"]) == 0
+    rot = capsys.readouterr().out
+    assert main(base + ["--axis", "linear"]) == 0
+    lin = capsys.readouterr().out
+    assert _row(lin, "J")[-1] == "kg" and _row(rot, "J")[-1] == "kg·m²"
+    assert _row(lin, "sigma")[-1] == "N·s/m" and _row(lin, "Fc")[-1] == "N" and _row(lin, "Vs")[-1] == "m/s"
+    assert _row(lin, "J")[1:-1] == _row(rot, "J")[1:-1] and _row(lin, "sigma")[1:-1] == _row(rot, "sigma")[1:-1]
+    assert "velocity noise" in lin and "rad/s" not in lin.split("note: excitation")[1].split("\n")[0]
+    assert "units: --axis linear; its tables stay in SI (N, m/s)" in lin  # --units deg (the default) ignored
+    with pytest.raises(SystemExit) as exc:  # argparse's usage error
+        main(base + ["--axis", "spherical"])
+    assert exc.value.code == 2 and "invalid choice" in capsys.readouterr().err
+
+
+def test_design_axis_linear(capsys):
+    base = ["design", "--J", "4", "--sigma", "40", "--crossover", "20", "--no-figures"]
+    assert main(base + ["--units", "rad"]) == 0
+    rot = capsys.readouterr().out
+    assert main(base + ["--axis", "linear"]) == 0
+    lin = capsys.readouterr().out
+    assert "J = 4 kg, sigma = 40 N·s/m" in lin and "Kp = 49.2849 N·s/m, Ki = 1482.9 N/m" in lin
+    assert "peak force 69.35 N per m/s" in lin and "crossover 20 rad/s" in lin  # a frequency stays rad/s
+    assert "Kp = 49.2849 N·m·s/rad, Ki = 1482.9 N·m/rad" in rot and "N·m" not in lin
 
 
 def test_design_gains_per_degree(capsys):
@@ -109,6 +139,6 @@ def test_identify_physical_and_asymmetric_tables(stribeck_log, capsys):
     assert ph_deg[-1] == "N·m·s/deg" and float(ph_deg[1]) == pytest.approx(DEG * float(ph_rad[1]), rel=2e-5)
     for label in ("sigma+", "sigma-"):
         a_rad, a_deg = _row(rad, label), _row(deg, label)
-        assert a_rad[-2] == "N·m·s/rad" and a_deg[-1] == "N·m·s/deg"
+        assert a_rad[-1] == "N·m·s/rad" and a_deg[-1] == "N·m·s/deg"
         assert float(a_deg[2]) == pytest.approx(DEG * float(a_rad[2]), rel=2e-5)
         assert a_deg[4] == a_rad[4]  # relative std error: unit-free

@@ -21,20 +21,24 @@ residuals (Andrews, *Econometrica* 59(3), 1991, eqs. 6.2 and 6.4).
 
 Neither sees the error of a fit whose cost is rough (the free-run output at
 breakaway): :func:`moving_block_resample` draws the residual series of a
-residual bootstrap (Künsch, *Ann. Statist.* 17(3), 1989), used by
-:func:`adaptive_ff.identification.physical_id.fit_physical` to refit
-re-simulated records.
+residual bootstrap (Künsch, *Ann. Statist.* 17(3), 1989), and
+:func:`parametric_block_bootstrap` refits records re-simulated from the
+estimate with those residuals added: the one bootstrap of the package, used by
+:func:`adaptive_ff.identification.physical_id.fit_physical` (output error) and
+:func:`controllers.experiments.closed_loop_id.fit_closed_loop` (closed loop).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
-from plant.errors import ParameterError, SignalError
+from plant.errors import FrictionError, ParameterError, SignalError
 
-__all__ = ["hac_covariance", "andrews_bandwidth", "moving_block_resample"]
+__all__ = ["hac_covariance", "andrews_bandwidth", "moving_block_resample", "parametric_block_bootstrap",
+           "BootstrapResult"]
 
 
 def andrews_bandwidth(r) -> int:
@@ -129,8 +133,9 @@ def moving_block_resample(r, n_out: int, *, block: int, rng: np.random.Generator
 
     Parameters
     ----------
-    r : array_like, shape (n,)
-        Residuals in time order (any unit), finite, ``n >= 1``.
+    r : array_like, shape (n,) or (n, c)
+        Residuals in time order (any unit), finite, ``n >= 1``; with ``c`` channels (columns) the rows are
+        resampled together (the same blocks for every channel: their cross-correlation is kept).
     n_out : int
         Length of the series returned, >= 1.
     block : int, keyword-only
@@ -140,14 +145,14 @@ def moving_block_resample(r, n_out: int, *, block: int, rng: np.random.Generator
 
     Returns
     -------
-    ndarray, shape (n_out,)
+    ndarray, shape (n_out,) or (n_out, c)
         ``ceil(n_out/block)`` blocks ``r[s:s+block]``, each start ``s`` uniform on ``0 .. n - block``,
         concatenated and cut to ``n_out``: the series keeps the correlation of ``r`` within a block.
 
     Raises
     ------
     SignalError
-        ``r`` empty or not finite.
+        ``r`` empty, not finite, or of more than two dimensions.
     ParameterError
         ``n_out`` or ``block`` not an integer >= 1, or ``rng`` not a numpy Generator.
 
@@ -156,9 +161,9 @@ def moving_block_resample(r, n_out: int, *, block: int, rng: np.random.Generator
     Künsch (1989), *Ann. Statist.* 17(3), 1217-1241; Lahiri, *Resampling Methods for Dependent Data*
     (Springer, 2003), Sec. 2.5.
     """
-    r = np.asarray(r, dtype=float).reshape(-1)
-    if r.shape[0] < 1 or not np.all(np.isfinite(r)):
-        raise SignalError(f"residuals must be >= 1 finite values, got shape {r.shape}")
+    r = np.asarray(r, dtype=float)
+    if r.ndim == 0 or r.ndim > 2 or r.shape[0] < 1 or r.size < 1 or not np.all(np.isfinite(r)):
+        raise SignalError(f"residuals must be >= 1 finite values of shape (n,) or (n, c), got shape {r.shape}")
     for name, v in (("n_out", n_out), ("block", block)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
             raise ParameterError(f"{name} must be an integer >= 1, got {v!r}")
@@ -167,3 +172,120 @@ def moving_block_resample(r, n_out: int, *, block: int, rng: np.random.Generator
     n, block = r.shape[0], int(min(block, r.shape[0]))
     starts = rng.integers(0, n - block + 1, size=-(-int(n_out) // block))
     return r[(starts[:, None] + np.arange(block)[None, :]).reshape(-1)[:n_out]]
+
+
+@dataclass(frozen=True)
+class BootstrapResult:
+    """Result of :func:`parametric_block_bootstrap`.
+
+    Attributes
+    ----------
+    stderr : ndarray, shape (p,)
+        Root-mean-square deviation of the refits from the estimate, per parameter (units of the estimate);
+        NaN when fewer than 2 refits are valid.
+    bias : ndarray, shape (p,)
+        Mean deviation of the refits from the estimate (NaN as ``stderr``).
+    replicates : ndarray, shape (n_valid, p)
+        The valid refits.
+    n : int
+        Refits tried.
+    block : int
+        Block length (samples) of the residual resampling.
+    failures : tuple of str
+        Why each dropped refit was dropped (an error's message, or ``"non-finite"``).
+    """
+
+    stderr: np.ndarray
+    bias: np.ndarray
+    replicates: np.ndarray
+    n: int
+    block: int
+    failures: tuple = ()
+
+    @property
+    def n_valid(self) -> int:
+        """Number of valid refits."""
+        return int(self.replicates.shape[0])
+
+
+def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int, block: int,
+                               rng: np.random.Generator) -> BootstrapResult:
+    """Standard errors of a fit by refitting re-simulated records: the parametric moving-block bootstrap.
+
+    Each replicate record is ``prediction + moving_block_resample(residuals)`` (the fitted model's own output on
+    the same input and stamps, plus the fit's residuals resampled in blocks: their colour is kept), refitted by
+    ``refit``; the standard error is the root-mean-square deviation of the refits from ``estimate`` (it includes
+    their mean shift, the bias).
+
+    Parameters
+    ----------
+    refit : callable
+        ``refit(y_star, rng) -> array_like (p,)``: the fit of one replicate ``y_star`` (shape of ``prediction``),
+        in the units of ``estimate``; it may draw from ``rng`` (e.g. a start spread around the estimate). A
+        :class:`plant.errors.FrictionError` or :class:`numpy.linalg.LinAlgError` it raises, or a non-finite
+        result, drops the replicate (counted, with the reason).
+    prediction : array_like, shape (m,) or (m, c)
+        The fitted model's output at the records' samples that the fit's cost uses (``c`` channels).
+    residuals : array_like, same shape as ``prediction``
+        The fit's residuals (either sign, used as given), in time order, finite.
+    estimate : array_like, shape (p,)
+        The fit's parameters (any units, e.g. SI).
+    n : int, keyword-only
+        Number of replicates, >= 1.
+    block : int, keyword-only
+        Block length (samples), >= 1 (:func:`moving_block_resample`); e.g. a few times the Andrews bandwidth of
+        the residuals plus one.
+    rng : numpy.random.Generator, keyword-only
+        Source of the block starts and of ``refit``'s draws (seed it for reproducible errors); per replicate the
+        blocks are drawn first, then ``refit`` runs.
+
+    Returns
+    -------
+    BootstrapResult
+        ``stderr``, ``bias`` (shape (p,)), the valid refits, ``n``, ``block``, the failures.
+
+    Raises
+    ------
+    SignalError
+        ``prediction`` and ``residuals`` differ in shape, or are not finite; ``estimate`` not finite.
+    ParameterError
+        ``n`` or ``block`` not an integer >= 1, ``rng`` not a numpy Generator, ``refit`` not callable.
+
+    Notes
+    -----
+    Künsch, *Ann. Statist.* 17(3), 1217-1241 (1989); Efron & Tibshirani, *An Introduction to the Bootstrap*
+    (Chapman & Hall, 1993), Sec. 9.5 (bootstrapping residuals of a regression) and Ch. 10 (bias); Lahiri,
+    *Resampling Methods for Dependent Data* (Springer, 2003), Sec. 2.5.
+    """
+    pred = np.asarray(prediction, dtype=float)
+    res = np.asarray(residuals, dtype=float)
+    est = np.asarray(estimate, dtype=float).reshape(-1)
+    if pred.shape != res.shape or pred.ndim not in (1, 2) or not np.all(np.isfinite(pred)):
+        raise SignalError(f"prediction must be finite and of the shape of residuals, got {pred.shape} and "
+                          f"{res.shape}")
+    if not np.all(np.isfinite(est)):
+        raise SignalError(f"estimate must be finite, got {est}")
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise ParameterError(f"n must be an integer >= 1, got {n!r}")
+    if not callable(refit):
+        raise ParameterError(f"refit must be callable, got {type(refit).__name__}")
+    reps, failures = [], []
+    for _ in range(int(n)):
+        y_star = pred + moving_block_resample(res, pred.shape[0], block=block, rng=rng)
+        try:
+            v = np.asarray(refit(y_star, rng), dtype=float).reshape(-1)
+        except (FrictionError, np.linalg.LinAlgError) as exc:
+            failures.append(f"{type(exc).__name__}: {exc}")
+            continue
+        if v.shape != est.shape or not np.all(np.isfinite(v)):
+            failures.append("non-finite")
+            continue
+        reps.append(v)
+    R = np.array(reps).reshape(len(reps), est.shape[0])
+    if R.shape[0] < 2:
+        nan = np.full(est.shape[0], math.nan)
+        return BootstrapResult(stderr=nan, bias=nan.copy(), replicates=R, n=int(n), block=int(block),
+                               failures=tuple(failures))
+    d = R - est
+    return BootstrapResult(stderr=np.sqrt(np.mean(d**2, axis=0)), bias=np.mean(d, axis=0), replicates=R, n=int(n),
+                           block=int(block), failures=tuple(failures))

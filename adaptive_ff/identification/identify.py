@@ -40,7 +40,7 @@ from adaptive_ff.identification.rls import RecursiveLeastSquares
 from plant.errors import ExcitationError, ParameterError, check_positive
 from plant.results import axes_or_new, json_safe
 
-__all__ = ["IdentificationReport", "identify", "PARAM_UNITS", "CrossValidation", "cross_validate",
+__all__ = ["IdentificationReport", "identify", "PARAM_UNITS", "CrossValidation", "cross_validate", "stderr_note",
            "IDENTIFY_METHODS", "choose_method", "attach_physical"]
 
 #: Methods of :func:`identify`: ``"auto"`` chooses among the others from the record (:func:`choose_method`).
@@ -503,7 +503,7 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
             physical = fit_physical(data.t, data.u, data.w, Vs=Vs, delta=delta, method=method, offset=offset,
                                     **(method_options or {}))
             notes.append(f"physical parameters by {method!r} on the record's own time stamps "
-                         f"({physical.n_samples} samples, fit {physical.nrmse_kind}); {_stderr_note(physical)}")
+                         f"({physical.n_samples} samples, fit {physical.nrmse_kind}); {stderr_note(physical)}")
         if method == "sliding":  # judge J and tau in the band of the sliding regression, not sample to sample
             warn = [w for w in warn if not (w.code == "identifiability" and w.parameter == "J")]
             warn += _sliding_band_warnings(uni, Vs, delta, excitation.noise_std, physical)
@@ -550,14 +550,28 @@ def attach_physical(report: IdentificationReport, physical: PhysicalFit, *, note
     return replace(report, physical=physical, notes=tuple(notes), warnings=tuple(warn))
 
 
-def _stderr_note(fit: PhysicalFit) -> str:
-    """What the physical fit's standard errors are (one clause for the notes)."""
+def stderr_note(fit: PhysicalFit) -> str:
+    """What a physical fit's standard errors are: one clause for the report's notes.
+
+    Parameters
+    ----------
+    fit : PhysicalFit
+        A fit whose ``info["stderr_kind"]`` is ``"bootstrap"`` (with ``info["bootstrap"]``), ``"hac"`` or absent.
+
+    Returns
+    -------
+    str
+        E.g. ``"standard errors by a parametric block bootstrap (20 refits of re-simulated records, seed 0, ...)"``;
+        for HAC the caveat that they are too small on a rough free-run cost (Künsch 1989; Newey & West 1987:
+        :mod:`adaptive_ff.identification.covariance`).
+    """
     boot = fit.info.get("bootstrap")
     if fit.info.get("stderr_kind") == "bootstrap" and boot:
         return (f"standard errors by a parametric block bootstrap ({boot['n_valid']} refits of re-simulated "
                 f"records, seed {boot['seed']}; options n_bootstrap, bootstrap_seed)")
     if fit.info.get("stderr_kind") == "hac":
-        return "standard errors HAC (Newey-West; too small on the rough free-run cost: use n_bootstrap > 0)"
+        return ("standard errors HAC (Newey-West, asymptotic; too small on the rough free-run cost, a lower "
+                "bound: use n_bootstrap > 0)")
     return "standard errors as the method gives them"
 
 

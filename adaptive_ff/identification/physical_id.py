@@ -126,7 +126,7 @@ from dataclasses import dataclass, field, fields, replace
 import numpy as np
 from scipy.optimize import least_squares
 
-from adaptive_ff.identification.covariance import andrews_bandwidth, hac_covariance, moving_block_resample
+from adaptive_ff.identification.covariance import andrews_bandwidth, hac_covariance, parametric_block_bootstrap
 from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
 from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.plausibility import check_physical
@@ -698,39 +698,34 @@ def _oe_stderr(pb: _OutputErrorProblem, x: np.ndarray, names: tuple) -> tuple[di
 
 
 def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.ndarray) -> tuple[dict, dict, dict]:
-    """Parametric moving-block bootstrap of the output-error fit (module docstring, "Standard errors").
+    """Parametric moving-block bootstrap of the output-error fit (module docstring, "Standard errors") by
+    :func:`adaptive_ff.identification.covariance.parametric_block_bootstrap`.
 
     Returns ``(stderr, bias, details)``: per parameter the root-mean-square deviation of the refits from the
     estimate and their mean deviation (physical units), and the JSON-able settings (block length, count, seed,
     simulations). Refits that end non-finite are dropped (counted in ``details``).
     """
     o = pb.opts
-    rng = np.random.default_rng(o.bootstrap_seed)
     w_hat = pb.simulate(x)
-    block = _BOOT_BLOCK * (andrews_bandwidth(r) + 1)
-    est = np.array(pb.unpack(x))
-    reps = []
-    n_sim = 0
-    for _ in range(o.n_bootstrap):
+    keep = [j for j, k in enumerate(PHYSICAL_NAMES) if k in names]
+    n_sim = [0]
+
+    def refit(y_star, rng):
         w_star = w_hat.copy()
-        w_star[pb.i0:] += moving_block_resample(r, r.shape[0], block=block, rng=rng)
+        w_star[pb.i0:] = y_star
         rp = pb.replicate(w_star)
         x0 = x + rng.normal(size=x.shape) * _BOOT_START * pb.typical(x)
         z = rp.refine(rp.refine(x0, o.diff_step, rp.f_wide).x, o.diff_step / 3.0).x
-        n_sim += rp.n_sim
-        v = np.array(rp.unpack(z))
-        if np.all(np.isfinite(v)):
-            reps.append(v)
-    keep = [j for j, k in enumerate(("J", "Fc", "Fs", "sigma", "tau", "offset")) if k in names]
-    if len(reps) < 2:
-        nan = {k: math.nan for k in names}
-        return nan, nan, {"n": o.n_bootstrap, "n_valid": len(reps), "block": int(block), "seed": o.bootstrap_seed,
-                          "start_spread": _BOOT_START, "n_simulations": n_sim}
-    d = np.array(reps)[:, keep] - est[keep]
-    stderr = {k: float(v) for k, v in zip(names, np.sqrt(np.mean(d**2, axis=0)))}
-    bias = {k: float(v) for k, v in zip(names, np.mean(d, axis=0))}
-    return stderr, bias, {"n": o.n_bootstrap, "n_valid": len(reps), "block": int(block), "seed": o.bootstrap_seed,
-                          "start_spread": _BOOT_START, "n_simulations": n_sim}
+        n_sim[0] += rp.n_sim
+        return np.array(rp.unpack(z))[keep]
+
+    est = np.array(pb.unpack(x))[keep]
+    b = parametric_block_bootstrap(refit, w_hat[pb.i0:], r, est, n=o.n_bootstrap,
+                                   block=_BOOT_BLOCK * (andrews_bandwidth(r) + 1),
+                                   rng=np.random.default_rng(o.bootstrap_seed))
+    details = {"n": o.n_bootstrap, "n_valid": b.n_valid, "block": int(b.block), "seed": o.bootstrap_seed,
+               "start_spread": _BOOT_START, "n_simulations": n_sim[0]}
+    return dict(zip(names, map(float, b.stderr))), dict(zip(names, map(float, b.bias))), details
 
 
 def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> PhysicalFit:

@@ -34,17 +34,18 @@ KALMAN_MODELS = {"cv": 2, "ca": 3}
 
 #: SI units of the parameter symbols on a rotary joint: the physical parameters (eqs. 1-3; ``J_tau = J*tau`` of
 #: the sliding estimator), the plant variants' (:mod:`plant.models`: LuGre ``sigma0..2``, Karnopp ``dv``,
-#: asymmetric ``*_pos``/``*_neg``) and the coefficients of the regression model (eq. 4, velocity in rad/s,
-#: torque in N·m); "1" and "-" mark dimensionless ones.
+#: asymmetric ``*_pos``/``*_neg``), the coefficients of the regression model (eq. 4, velocity in rad/s,
+#: torque in N·m) and the PI velocity controller's gains ``Kp``, ``Ki``; "1" and "-" mark dimensionless ones.
 PARAMETER_UNITS = {"J": "kg·m²", "J_tau": "kg·m²·s", "tau": "s", "Fc": "N·m", "Fs": "N·m", "sigma": "N·m·s/rad",
                    "offset": "N·m", "Vs": "rad/s", "delta": "1", "a1": "-", "a2": "-", "b0": "(rad/s)/(N·m)",
                    "b1": "(rad/s)/(N·m)", "c1": "rad/s", "d1": "rad/s", "o1": "rad/s",
                    "sigma0": "N·m/rad", "sigma1": "N·m·s/rad", "sigma2": "N·m·s/rad", "dv": "rad/s",
                    "Fc_pos": "N·m", "Fc_neg": "N·m", "Fs_pos": "N·m", "Fs_neg": "N·m", "sigma_pos": "N·m·s/rad",
-                   "sigma_neg": "N·m·s/rad"}
+                   "sigma_neg": "N·m·s/rad", "Kp": "N·m·s/rad", "Ki": "N·m/rad"}
 
 #: The same on a linear (prismatic) axis, where they differ: velocity in m/s, force in N (e.g. the EMPS axis).
-LINEAR_UNITS = {"J": "kg", "J_tau": "kg·s", "Fc": "N", "Fs": "N", "sigma": "N·s/m", "offset": "N", "Vs": "m/s"}
+LINEAR_UNITS = {"J": "kg", "J_tau": "kg·s", "Fc": "N", "Fs": "N", "sigma": "N·s/m", "offset": "N", "Vs": "m/s",
+                "Kp": "N·s/m", "Ki": "N/m"}
 
 #: A velocity as printed where the axis may be rotary or linear (the identification's notes and warnings).
 VELOCITY_LABEL = f"{PARAMETER_UNITS['Vs']} ({LINEAR_UNITS['Vs']})"

@@ -217,6 +217,8 @@ def _summary(analysis, args) -> str:
     from controllers.cli.data import per_angle
 
     text = analysis.summary()
+    if getattr(args, "axis", "rotary") == "linear":
+        return _linear_summary(analysis)
     c, angle = per_angle(args)
     if angle == "rad":
         return text
@@ -237,6 +239,38 @@ def _summary(analysis, args) -> str:
         elif line.startswith("closed loop: "):
             lines[i] = swap(line, f"peak torque {analysis.peak_torque:.4g} N·m per rad/s",
                                     f"peak torque {c * analysis.peak_torque:.4g} N·m per {angle}/s")
+    return "\n".join(lines)
+
+
+def _linear_summary(analysis) -> str:
+    """``analysis.summary()`` for a linear (prismatic) axis (``--axis linear``): the same SI numbers with the units
+    of :data:`adaptive_ff.io.units.LINEAR_UNITS` (kg, N·s/m, N/m, N per m/s); frequencies stay in rad/s.
+
+    Raises
+    ------
+    RuntimeError
+        The summary's format changed (a rotary unit label not found where expected).
+    """
+    from adaptive_ff.io.units import LINEAR_UNITS, PARAMETER_UNITS
+
+    d = analysis.design
+    swaps = {"plant: ": [(f"J = {d.J:g} {PARAMETER_UNITS['J']}", f"J = {d.J:g} {LINEAR_UNITS['J']}"),
+                         (f"sigma = {d.sigma:g} {PARAMETER_UNITS['sigma']}", f"sigma = {d.sigma:g} "
+                                                                              f"{LINEAR_UNITS['sigma']}")],
+             "PI: ": [(f"Kp = {d.Kp:.6g} {PARAMETER_UNITS['Kp']}, Ki = {d.Ki:.6g} {PARAMETER_UNITS['Ki']}",
+                       f"Kp = {d.Kp:.6g} {LINEAR_UNITS['Kp']}, Ki = {d.Ki:.6g} {LINEAR_UNITS['Ki']}")],
+             "closed loop: ": [(f"peak torque {analysis.peak_torque:.4g} {PARAMETER_UNITS['Fc']} per "
+                                f"{PARAMETER_UNITS['Vs']}", f"peak force {analysis.peak_torque:.4g} "
+                                                            f"{LINEAR_UNITS['Fc']} per {LINEAR_UNITS['Vs']}")]}
+    lines = analysis.summary().splitlines()
+    for i, line in enumerate(lines):
+        for head, pairs in swaps.items():
+            if line.startswith(head):
+                for old, new in pairs:
+                    if old not in line:  # the summary's format changed: fail loudly rather than mislabel
+                        raise RuntimeError(f"design summary line without {old!r}: {line!r}")
+                    line = line.replace(old, new)
+        lines[i] = line
     return "\n".join(lines)
 
 
@@ -270,6 +304,9 @@ def register(sub) -> None:
     d.add_argument("--report", metavar="DIR", default=None, help="write a self-contained HTML report to DIR")
     d.add_argument("--json", action="store_true", help="print gains, margins and step metrics as JSON")
     d.add_argument("--quiet", action="store_true", help="accepted for uniformity (the design is instantaneous)")
+    d.add_argument("--axis", choices=("rotary", "linear"), default="rotary",
+                   help="rotary (default): J in kg·m², sigma and Kp in N·m·s/rad, Ki in N·m/rad; linear: a "
+                        "prismatic axis, the same SI numbers in kg, N·s/m, N/m, N (--units does not apply)")
     add_units_argument(d, extra="Converts sigma, Kp (N·m·s/deg), Ki (N·m/deg) and the step's peak torque; "
                                 "crossover and bandwidth are angular frequencies and stay in rad/s, J in kg·m²")
     d.set_defaults(func=run)

@@ -23,18 +23,22 @@ _ASYM_UNITS = {"J": "J", "sigma_pos": "sigma", "Fc_pos": "Fc", "sigma_neg": "sig
 
 
 class _Units:
-    """Velocity unit of identify's printed tables: scale and label of each parameter (rad: exactly SI)."""
+    """Units of identify's printed tables: scale and label of each parameter, for the axis (``--axis``: rotary,
+    or linear: SI, m/s and N) and the velocity unit (``--units``; rad: exactly SI)."""
 
-    def __init__(self, args, si: bool = False):
-        from adaptive_ff.io.units import PARAM_UNITS
+    def __init__(self, args, si: bool = False, linear: bool = False):
+        from adaptive_ff.io.units import LINEAR_UNITS, PARAM_UNITS, PARAMETER_UNITS
         from controllers.cli.data import per_angle, table_unit
 
-        self.si = si or (getattr(args, "units", "deg") or "deg") == "rad"
+        self.linear = linear
+        self.si = si or linear or (getattr(args, "units", "deg") or "deg") == "rad"
         k, unit = (1.0, "rad/s") if self.si else table_unit(args)
         c, angle = (1.0, "rad") if self.si else per_angle(args)
-        self.units = dict(PARAM_UNITS)
+        table = {**PARAMETER_UNITS, **LINEAR_UNITS} if linear else PARAMETER_UNITS
+        self.units = {n: table[n] for n in PARAM_UNITS}
         self.scale = {n: 1.0 for n in PARAM_UNITS}
-        self.Vs = (k, "rad/s (m/s)" if self.si else unit)
+        self.Vs = (k, table["Vs"] if self.si else unit)
+        self.velocity_si = table["Vs"]  # the SI velocity unit of the axis (notes and warnings print in SI)
         if not self.si:
             self.units["sigma"] = f"N·m·s/{angle}"
             self.scale["sigma"] = c
@@ -47,11 +51,10 @@ class _Units:
 
 
 def _summary(report, units: _Units) -> str:
-    """``report.summary()`` with sigma (and Vs) in the printed velocity unit; identical to it for ``--units rad``."""
-    from adaptive_ff.io.units import PARAM_UNITS
+    """``report.summary()`` in the units of the axis (``--axis``) and with sigma (and Vs) in the printed velocity
+    unit (``--units``); the report's own "rotary (linear)" labels become the axis's one."""
+    from adaptive_ff.io.units import PARAM_UNITS, VELOCITY_LABEL
 
-    if units.si:
-        return report.summary()
     text = report.summary().splitlines()
     e, r, m = report.estimate, report.rls_estimate, report.model
     out = []
@@ -61,14 +64,16 @@ def _summary(report, units: _Units) -> str:
         if line.startswith("physical parameters by method"):
             physical = True
         unit = PARAM_UNITS.get(name)
-        if unit is not None and line.endswith(unit) and name == "sigma":
+        if unit is not None and line.endswith(unit) and name == "sigma" and not units.si:
             ph = report.physical
             line = (units.row("sigma", ph.params["sigma"], ph.stderr.get("sigma", float("nan")))
                     if physical else units.row("sigma", e.sigma, report.std["sigma"], r.sigma))
-        elif name == "Vs" and line.endswith("rad/s (m/s)") and m.stribeck:
+        elif unit is not None and line.endswith(unit):
+            line = line[:-len(unit)] + units.units[name]
+        elif name == "Vs" and line.endswith(VELOCITY_LABEL) and m.stribeck:
             k, label = units.Vs
             line = f"{'Vs':<10}{k * m.Vs:>14.6g}{'(fixed)':>13}{'':>14}  {label}"
-        out.append(line)
+        out.append(line.replace(VELOCITY_LABEL, units.velocity_si))
     return "\n".join(out)
 
 
@@ -172,22 +177,49 @@ def _identify(args, data):
 
     ref_name, spec = args.reference_name, _controller_spec(args)
     common = {"lag": args.lag, "offset": not args.no_offset, "lam": args.lam}
+    boot = {} if args.bootstrap is None else {"n_bootstrap": args.bootstrap}
     if args.method == "closed_loop" and (ref_name is None or spec is None):
         need = [x for x, ok in (("--reference-column NAME (or r=NAME in --columns)", ref_name is not None),
                                 ("--controller FILE (or --Kp, --Ki, --Tc, --u-max)", spec is not None)) if not ok]
         raise ParameterError(f"--method closed_loop simulates your velocity loop: add {' and '.join(need)}")
     if ref_name is None or spec is None or args.method not in ("auto", "closed_loop"):
-        return identify(data, Vs=args.Vs, delta=args.delta, method=args.method, **common)
+        mopts = boot if args.method in ("auto", "output_error") else None
+        return identify(data, Vs=args.Vs, delta=args.delta, method=args.method, method_options=mopts, **common)
     if args.Vs is None and args.method == "closed_loop":
         raise ParameterError("--method closed_loop fits the Stribeck model of eqs. 1-3: give --Vs and --delta "
                              "(pre-fit: adaptive-ff stribeck)")
-    from controllers.experiments.closed_loop_id import identify_closed_loop
+    from controllers.experiments.closed_loop_id import ClosedLoopIdOptions, identify_closed_loop
 
     if args.Vs is None:
         return identify(data, Vs=None, delta=None, method="auto", **common)
     w_ref = _read_reference(args, ref_name, data.t.shape[0])
     return identify_closed_loop(data, w_ref, controller=spec, Vs=args.Vs, delta=args.delta, method=args.method,
-                                **common)
+                                options=ClosedLoopIdOptions(**boot), **common)
+
+
+def _check_bootstrap(args) -> None:
+    """``--bootstrap N``: an integer >= 0 (ParameterError naming the option otherwise), checked before the data
+    are read."""
+    from plant.errors import ParameterError
+
+    if args.bootstrap is not None and args.bootstrap < 0:
+        raise ParameterError(f"--bootstrap must be an integer >= 0 (0: HAC standard errors), got {args.bootstrap}")
+
+
+def _bootstrap_lines(args, report) -> list:
+    """What ``--bootstrap`` did: nothing for a method without a bootstrap; with 0 the HAC caveat."""
+    if args.bootstrap is None:
+        return []
+    ph = report.physical
+    kind = None if ph is None else ph.info.get("stderr_kind")
+    if kind is None:
+        used = "paper" if ph is None else ph.method
+        return [f"note: --bootstrap {args.bootstrap} not used: method {used!r} has no bootstrap (output_error and "
+                "closed_loop have)"]
+    if kind == "hac":
+        return [f"note: --bootstrap 0: the {ph.method} standard errors are HAC (Newey-West, asymptotic): too small "
+                "on the rough free-run cost (2-10 times measured), a lower bound; use --bootstrap N > 0"]
+    return []
 
 
 def run(args) -> int:
@@ -204,6 +236,7 @@ def run(args) -> int:
     for option, value in (("--plot", args.plot), ("--report", args.report)):
         if value:
             check_output_dir(value, option)
+    _check_bootstrap(args)
     args.reference_name, args.columns = _split_reference(args)
     data = load_data_from_args(args)
     report = _identify(args, data)
@@ -212,9 +245,12 @@ def run(args) -> int:
     lines: list[str] = []
     asym = None
     emps_file = args.columns is None and is_emps_record(args.file)
-    units = _Units(args, si=emps_file)  # the EMPS axis is prismatic: m/s, never deg/s
-    if emps_file and getattr(args, "units", "deg") != "rad":
-        lines.append("units: the EMPS record is a prismatic axis; its tables stay in SI (N, m/s)")
+    linear = emps_file or args.axis == "linear"
+    units = _Units(args, si=emps_file, linear=linear)  # the EMPS axis is prismatic: m/s, never deg/s
+    if linear and getattr(args, "units", "deg") != "rad":
+        what = "the EMPS record is a prismatic axis" if emps_file else "--axis linear"
+        lines.append(f"units: {what}; its tables stay in SI (N, m/s)")
+    lines += _bootstrap_lines(args, report)
     if args.asymmetric:
         uni = to_uniform(data)
         asym = fit_idim(uni, asymmetric=True, decimate=max(1, int(round(0.01 / uni.Ts))))
@@ -327,6 +363,14 @@ def register(sub) -> None:
     c.add_argument("--Ki", type=float, default=None, help="PI integral gain (N·m/rad): C(z) = Kp + Ki*Tc*z/(z-1)")
     c.add_argument("--Tc", type=float, default=None, help="controller period (s)")
     c.add_argument("--u-max", dest="u_max", type=float, default=None, help="torque limit (N·m), default none")
+    i.add_argument("--bootstrap", metavar="N", type=int, default=None,
+                   help="refits of the parametric block bootstrap behind the standard errors of methods "
+                        "output_error and closed_loop (default 20 and 10; more: steadier errors, proportionally slower); "
+                        "0: HAC (Newey-West) errors instead, asymptotic and too small on these fits' rough cost")
+    i.add_argument("--axis", choices=("rotary", "linear"), default="rotary",
+                   help="rotary (default): tables in N·m, kg·m², rad/s (or deg/s, --units); linear: a prismatic "
+                        "axis, tables in N, kg, m/s (SI; --units does not apply). The values are the same numbers "
+                        "(SI of the axis); JSON unchanged")
     i.add_argument("--json", action="store_true", help="print the parameters as JSON")
     i.add_argument("--plot", metavar="DIR", default=None,
                    help="write the paper's kinds of figures for these data (measured vs LS/RLS velocity, "

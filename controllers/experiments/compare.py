@@ -165,7 +165,9 @@ class Comparison:
 
     def to_json_dict(self) -> dict:
         """``{"modes": {mode: {"rms", "max", "rms_reversal", "u_rms", "eta", "eta_full", "rms_dev", "t_ff_on"}},
-        ...}`` in SI units (rad/s, N·m, s; ``t_ff_on`` None where no compensation acts)."""
+        ...}`` in SI units (rad/s, N·m, s; ``t_ff_on`` None where no compensation acts); ``offline_ls`` (when
+        ``fixed`` ran): its offline fit's J, tau, sigma, Fc, Fs with ``accepted`` (False when the fit was rejected
+        and ``fixed`` used a fallback) and ``reason`` (the ``"fixed:"`` note, or None)."""
         modes = {r["mode"]: {k: (None if v is None else float(v)) for k, v in r.items() if k != "mode"}
                  for r in self.rows()}
         out = {"modes": modes, "plant": plant_to_dict(self.plant),
@@ -181,6 +183,8 @@ class Comparison:
         if self.offline is not None:
             e = self.offline.estimate
             out["offline_ls"] = {k: float(getattr(e, k)) for k in ("J", "tau", "sigma", "Fc", "Fs")}
+            rejected = [n for n in self.notes if n.startswith("fixed: the offline fit")]
+            out["offline_ls"].update(accepted=not rejected, reason=rejected[0] if rejected else None)
         for mode, r in self.results.items():
             if r.info.get("diverged"):
                 out["modes"][mode]["diverged"] = True
