@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from adaptive_ff.identification.covariance import (andrews_bandwidth, hac_covariance, moving_block_resample,
-                                                     parametric_block_bootstrap)
+from adaptive_ff.identification.covariance import (BootstrapResult, andrews_bandwidth, bootstrap_t_quantile,
+                                                     hac_covariance, moving_block_resample, parametric_block_bootstrap)
 from plant.errors import ParameterError, SignalError
 
 
@@ -189,6 +189,8 @@ def test_parametric_block_bootstrap_counts_failed_refits_and_is_seeded():
     ({"block": 0}, ParameterError, "block"),
     ({"rng": 1}, ParameterError, "rng"),
     ({"refit": None}, ParameterError, "refit"),
+    ({"simulate": 3.0}, ParameterError, "simulate must be callable"),
+    ({"simulate": lambda rng: np.zeros(9)}, ParameterError, r"simulate must return an array of shape \(10,\)"),
 ])
 def test_parametric_block_bootstrap_bad_input(kwargs, err, match):
     args = {"refit": lambda y, rng: [0.0], "prediction": np.zeros(10), "residuals": np.ones(10), "estimate": [0.0],
@@ -196,3 +198,57 @@ def test_parametric_block_bootstrap_bad_input(kwargs, err, match):
     with pytest.raises(err, match=match):
         parametric_block_bootstrap(args.pop("refit"), args.pop("prediction"), args.pop("residuals"),
                                    args.pop("estimate"), **args)
+
+
+def test_t_quantile_is_students_in_closed_form():
+    # t_1 is Cauchy: tan(pi (p - 1/2)); t_2: (2p - 1) / sqrt(2 p (1 - p)); t_inf the normal 1.959964
+    assert bootstrap_t_quantile(1) == pytest.approx(math.tan(math.pi * 0.475), rel=1e-10)
+    assert bootstrap_t_quantile(2) == pytest.approx(0.95 / math.sqrt(2 * 0.975 * 0.025), rel=1e-10)
+    assert bootstrap_t_quantile(2, 0.5) == pytest.approx(0.5 / math.sqrt(2 * 0.75 * 0.25), rel=1e-10)
+    assert bootstrap_t_quantile(10**7) == pytest.approx(1.959963984540054, rel=1e-6)
+    for bad in ({"n": 0}, {"n": 2.0}, {"n": True}, {"n": 3, "level": 1.0}, {"n": 3, "level": 0.0},
+                {"n": 3, "level": "0.9"}, {"n": 3, "level": math.nan}):
+        with pytest.raises(ParameterError):
+            bootstrap_t_quantile(**bad)
+
+
+def test_t_interval_of_few_refits_covers_95_percent_and_z_does_not():
+    # the estimate's error and each of n refit deviations i.i.d. N(0, 1) (an exact bootstrap): e <= t s holds in
+    # 95 % of 40000 seeded trials (Monte-Carlo sd 0.1 %); 1.96 s covers 90.2 % with 6 refits
+    rng = np.random.default_rng(11)
+    for n, z_cover in ((6, 0.902), (10, 0.922)):
+        e = np.abs(rng.standard_normal(40000))
+        s = np.sqrt(np.mean(rng.standard_normal((40000, n)) ** 2, axis=1))
+        assert np.mean(e <= bootstrap_t_quantile(n) * s) == pytest.approx(0.95, abs=0.005)
+        assert np.mean(e <= 1.959964 * s) == pytest.approx(z_cover, abs=0.006)
+    b = BootstrapResult(stderr=np.array([2.0, math.nan]), bias=np.zeros(2), replicates=np.zeros((4, 2)), n=5,
+                        block=3)
+    np.testing.assert_allclose(b.half_width()[0], 2.0 * 2.7764451051977934, rtol=1e-12)
+    assert math.isnan(b.half_width()[1])
+    none = BootstrapResult(stderr=np.full(1, math.nan), bias=np.zeros(1), replicates=np.zeros((0, 1)), n=2, block=1)
+    assert math.isnan(none.half_width()[0])
+
+
+def test_simulate_sees_process_noise_the_fit_absorbs():
+    # y_t = theta + c + e_t with a record-level random offset c ~ N(0, 1) (process noise) and white e_t (sd 1),
+    # fitted by the mean: c goes into the estimate, not the residuals. sd of the estimate sqrt(1 + 1/n) = 1.0012;
+    # the residual bootstrap sees only 1/sqrt(n) = 0.05, with simulate drawing c afresh it sees the whole
+    n, theta = 400, 3.0
+    rng = np.random.default_rng(5)
+    y = theta + rng.standard_normal() + rng.standard_normal(n)
+    est = np.array([y.mean()])
+    res, pred = y - est[0], np.full(n, est[0])
+
+    def refit(ys, rng):
+        return [ys.mean()]
+
+    plain = parametric_block_bootstrap(refit, pred, res, est, n=300, block=1, rng=np.random.default_rng(1))
+    fresh = parametric_block_bootstrap(refit, pred, res, est, n=300, block=1, rng=np.random.default_rng(1),
+                                       simulate=lambda rng: est[0] + rng.standard_normal() + np.zeros(n))
+    assert plain.stderr[0] == pytest.approx(1.0 / math.sqrt(n), rel=0.15)
+    assert fresh.stderr[0] == pytest.approx(math.sqrt(1.0 + 1.0 / n), rel=0.15)  # 300 refits: sd of s 4 %
+    # a non-finite draw drops its replicate with the reason
+    draws = iter([np.full(n, np.nan)] + [pred] * 3)
+    b = parametric_block_bootstrap(refit, pred, res, est, n=4, block=1, rng=np.random.default_rng(2),
+                                   simulate=lambda rng: next(draws))
+    assert b.n_valid == 3 and b.failures == ("non-finite simulation",)
