@@ -1,12 +1,11 @@
 """``--units {deg,rad}`` on identify, design and paper-figures: deg/s by default, rad/s exactly SI, units in headers."""
 
 import argparse
+import json
 import math
 from types import SimpleNamespace
 
 import numpy as np
-import json
-
 import pytest
 
 from controllers.cli.main import build_parser, main
