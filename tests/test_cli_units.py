@@ -1,6 +1,7 @@
 """``--units {deg,rad}`` on identify, design and paper-figures: deg/s by default, rad/s exactly SI, units in headers."""
 
 import argparse
+import json
 import math
 from types import SimpleNamespace
 
@@ -76,6 +77,13 @@ def test_identify_axis_linear_prints_si_of_a_prismatic_axis(stribeck_log, capsys
     assert _row(lin, "J")[1:-1] == _row(rot, "J")[1:-1] and _row(lin, "sigma")[1:-1] == _row(rot, "sigma")[1:-1]
     assert "velocity noise" in lin and "rad/s" not in lin.split("note: excitation")[1].split("\n")[0]
     assert "units: --axis linear; its tables stay in SI (N, m/s)" in lin  # --units deg (the default) ignored
+    # the JSON notes carry the axis's velocity unit, as the text report
+    for axis, unit in (("linear", "m/s"), ("rotary", "rad/s")):
+        assert main(base + ["--axis", axis, "--json"]) == 0
+        notes = json.loads(capsys.readouterr().out)["notes"]
+        exc_note = next(n for n in notes if n.startswith("excitation: "))
+        assert "velocity noise " in exc_note and exc_note.split("velocity noise ")[1].split()[1] == unit
+        assert not any("(m/s)" in n for n in notes)
     with pytest.raises(SystemExit) as exc:  # argparse's usage error
         main(base + ["--axis", "spherical"])
     assert exc.value.code == 2 and "invalid choice" in capsys.readouterr().err

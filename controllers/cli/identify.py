@@ -50,6 +50,18 @@ class _Units:
         return f"{name:<10}{nums}  {self.units.get(name, '')}"
 
 
+def _relabel(obj, old: str, new: str):
+    """``obj`` (JSON-like dicts, lists, strings) with ``old`` replaced by ``new`` in every string: the report's
+    "rotary (linear)" velocity label in the notes and warnings becomes the axis's one, as in the text report."""
+    if isinstance(obj, str):
+        return obj.replace(old, new)
+    if isinstance(obj, dict):
+        return {k: _relabel(v, old, new) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_relabel(v, old, new) for v in obj]
+    return obj
+
+
 def _summary(report, units: _Units) -> str:
     """``report.summary()`` in the units of the axis (``--axis``) and with sigma (and Vs) in the printed velocity
     unit (``--units``); the report's own "rotary (linear)" labels become the axis's one."""
@@ -302,7 +314,9 @@ def run(args) -> int:
 
         extra["report"] = str(identify_report(args.report, report, data, command=command_line()))
     if args.json:
-        print(json.dumps({**report.to_json_dict(), **extra}, indent=2))
+        from adaptive_ff.io.units import VELOCITY_LABEL
+
+        print(json.dumps(_relabel({**report.to_json_dict(), **extra}, VELOCITY_LABEL, units.velocity_si), indent=2))
     else:
         if extra["time_stamps"]["message"]:
             print(extra["time_stamps"]["message"])
