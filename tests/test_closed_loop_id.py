@@ -66,6 +66,16 @@ def test_closed_loop_fit_within_targets(fit):
     boot = fit.info["bootstrap"]
     assert fit.info["stderr_kind"] == "bootstrap" and boot["n"] == 4 and boot["n_valid"] == 4
     assert fit.info["stderr_hac"].keys() == fit.stderr.keys() and boot["block"] >= 3
+    # the replicates draw the loop's noise afresh and refit through the start search; t intervals of 4 dof
+    assert boot["loop_noise"] == "fresh realisation per replicate" and boot["refit"].startswith("whole estimator")
+    # torque residual: mostly (here all) Kp * noise, clipped at 0; velocity: mostly readout noise
+    assert 0.0 <= boot["residual_scale"]["u"] < 0.8 < boot["residual_scale"]["w"] <= 1.0
+    assert boot["t_quantile"] == pytest.approx(2.7764451051977934, rel=1e-9) and len(boot["replicates"]) == 4
+    for k in TRUE:
+        reps = np.array([r[k] for r in boot["replicates"]])
+        assert fit.stderr[k] == pytest.approx(np.sqrt(np.mean((reps - fit.params[k]) ** 2)), rel=1e-12)
+        assert boot["interval95"][k] == pytest.approx([fit.params[k] - 2.7764451051977934 * fit.stderr[k],
+                                                        fit.params[k] + 2.7764451051977934 * fit.stderr[k]], rel=1e-9)
     assert fit.info["n_noise"] == 8 and 0.8e-3 < fit.info["sensor_noise"] < 1.3e-3  # the log's level (1e-3)
     d = fit.to_dict()
     json.dumps(d, allow_nan=False)

@@ -83,15 +83,43 @@ bandwidth twice the larger Andrews AR(1) bandwidth of the two channels
 (``options.n_bootstrap > 0``, default 10) the package's parametric
 moving-block bootstrap
 (:func:`adaptive_ff.identification.covariance.parametric_block_bootstrap`, as
-for the output-error fit): each replicate is the simulated loop at the
-estimate (velocity and torque at the stamps) plus the two channels' residuals
-resampled in common blocks of ``3 (L + 1)`` readouts (``L`` the larger
-Andrews bandwidth), refitted by the fit's two trust-region passes from a
-start drawn around the estimate (normal, ``_BOOT_START`` times the larger of
-the HAC error and a typical change per parameter: 2 % of J and tau, 1 % of
-the friction levels); the standard error is the root-mean-square deviation of
-the refits from the estimate. ``info["stderr_white"]`` keeps the Gauss-Newton
-errors that assume white residuals. Coverage of the nominal 95 % intervals:
+for the output-error fit), built so that each replicate is made as the log
+was and fitted as the log was:
+
+* The loop's own noise is drawn afresh: each replicate is one simulation of
+  the loop at the estimate with a new white sensor-noise realisation of the
+  log's level (the PI reacts to it, the joint's motion through breakaway
+  follows), not the mean prediction. The fit absorbs much of that noise's
+  effect into its parameters (it shifts the breakaway instants as Fs and tau
+  do), so it is missing from the residuals and a residual bootstrap cannot
+  see it: on one 15 s record (seed 3; same reference and stamps) the fits of
+  six logs that differ only in the loop's noise scatter Fs by 0.69 % (standard
+  deviation), of six that differ only in the readout noise by 0.21 %.
+* The rest of the residuals (readout noise, quantisation, model error) is
+  added, resampled in common blocks of ``3 (L + 1)`` readouts (``L`` the
+  larger Andrews bandwidth of the two channels) and scaled per channel by
+  ``sqrt(1 - v_loop / mean(r**2))``, ``v_loop`` the variance of the loop
+  noise's part (across the ``n_noise`` realisations at the estimate), which
+  would otherwise be counted twice (``info["bootstrap"]["residual_scale"]``;
+  about 0.4 for the torque, whose residual is mostly ``Kp`` times the noise).
+* Each replicate is refitted by the whole estimator: the start search of
+  step 4 on the replicate, then the two trust-region passes (Efron &
+  Tibshirani, *An Introduction to the Bootstrap*, 1993, Sec. 6.4: the
+  bootstrap repeats the whole procedure). Where the fit lands in the flat,
+  rough valley depends on the path from its start (seed 3: the passes from
+  the true values stop at J -2 %, the fit from its start search at J -7.6 %,
+  0.19 apart in the negative log-likelihood); refits started near the
+  estimate did not see that spread. With ``options.start`` given, the refits
+  start there as the fit does.
+
+The standard error is the root-mean-square deviation of the refits from the
+estimate; the nominal 95 % interval (``info["bootstrap"]["interval95"]``) is
+``estimate ± t stderr`` with the Student-t quantile of ``n_valid`` degrees of
+freedom (:func:`adaptive_ff.identification.covariance.bootstrap_t_quantile`:
+2.23 for 10 refits: a standard error from a few refits is itself uncertain,
+and ``± 1.96 stderr`` would cover about 92 % at best).
+``info["stderr_white"]`` keeps the Gauss-Newton errors that assume white
+residuals. Coverage of the nominal 95 % intervals:
 ``benchmarks/coverage.py --method closed_loop``.
 """
 
@@ -105,7 +133,8 @@ from pathlib import Path
 import numpy as np
 
 from adaptive_ff.compensation.gate import OutlierGate
-from adaptive_ff.identification.covariance import andrews_bandwidth, hac_covariance, parametric_block_bootstrap
+from adaptive_ff.identification.covariance import (andrews_bandwidth, bootstrap_t_quantile, hac_covariance,
+                                                    parametric_block_bootstrap)
 from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
 from adaptive_ff.identification.physical_id import PhysicalFit
 from adaptive_ff.identification.plausibility import IdentificationWarning, check_physical
@@ -136,12 +165,8 @@ _PASS_STEPS = (30.0, 10.0)
 _REL_STD_WARN = 0.1
 #: Seed of the simulated sensor noise (common random numbers: the same realisations for every candidate).
 _NOISE_SEED = 20261122
-#: Bootstrap (module docstring, "Standard errors"): block length in units of (Andrews bandwidth + 1), and the
-#: spread of the refits' start points: _BOOT_START times the larger of the HAC error and the typical relative
-#: change _BOOT_TYPICAL of (J, Fc, Fs, sigma, tau).
+#: Bootstrap (module docstring, "Standard errors"): block length in units of (Andrews bandwidth + 1).
 _BOOT_BLOCK = 3
-_BOOT_START = 3.0
-_BOOT_TYPICAL = (0.02, 0.01, 0.01, 0.01, 0.02)
 
 
 @dataclass(frozen=True)
@@ -264,7 +289,8 @@ class ClosedLoopIdOptions:
     n_bootstrap : int
         Refits of the parametric block bootstrap that gives ``stderr`` (module docstring, "Standard errors"),
         >= 0; 0: the HAC standard errors instead (asymptotic, too small on this rough cost). Default 10 (each
-        refit costs about half the fit: ``benchmarks/coverage.py --method closed_loop``).
+        refit simulates the loop once with fresh noise and repeats the start search and the passes: about the
+        fit's cost; ``benchmarks/coverage.py --method closed_loop``).
     bootstrap_seed : int
         Seed of the bootstrap's resampling and start draws, >= 0. Default 0.
     """
@@ -344,11 +370,13 @@ class _LoopSimulator:
         J, tau = math.exp(x[0]), math.exp(x[4])
         return JointParams(J=J, Fc=x[1], Fs=x[2], Vs=self.Vs, delta=self.delta, sigma=x[3], tau=tau)
 
-    def run(self, X, *, fine: bool = False) -> tuple:
+    def run(self, X, *, fine: bool = False, noise=None) -> tuple:
         """Simulated ``(w, u)`` at the stamps, shape (B, M) each, for the rows of ``X`` (B, 5) (``fine``: on the
-        whole controller grid, shape (B, N)); NaN rows where a candidate is not a valid plant or its loop diverged."""
+        whole controller grid, shape (B, N)); NaN rows where a candidate is not a valid plant or its loop diverged.
+        Each is the mean over the sensor-noise realisations ``noise`` (K, N) (rad/s; default the common ones)."""
         X = np.atleast_2d(X)
-        C, n, K = X.shape[0], self.tg.shape[0], self.noise.shape[0]
+        noise = self.noise if noise is None else np.atleast_2d(noise)
+        C, n, K = X.shape[0], self.tg.shape[0], noise.shape[0]
         B = C * K  # each candidate in K noise realisations
         rows, ok = [], np.ones(C, dtype=bool)
         for b in range(C):
@@ -368,7 +396,7 @@ class _LoopSimulator:
             wr=self.wr, t=self.tg, revs=self.revs, window=0.0, dt=float(self.spec.Tc), seg=np.zeros(B, dtype=np.int64),
             plant_table=np.ascontiguousarray(np.stack([r for r, _ in rows])[:, None, :]),
             plant_state=np.ascontiguousarray(np.stack([s for _, s in rows])),
-            noise=np.ascontiguousarray(np.tile(self.noise, (C, 1))), noise_rows=B if self.noise_std > 0 else 0,
+            noise=np.ascontiguousarray(np.tile(noise, (C, 1))), noise_rows=B if self.noise_std > 0 else 0,
             fault_k=np.empty(0, dtype=np.int64), fault_v=np.empty(0), use_gate=np.zeros(B, dtype=bool),
             gate_par=np.repeat(g.params[None, :], B, axis=0), gate_state=np.repeat(g.state[None, :], B, axis=0),
             pi_par=np.repeat(ctrl.params[None, :], B, axis=0), pi_state=np.repeat(ctrl.state[None, :], B, axis=0),
@@ -554,37 +582,58 @@ def _passes(pb: _Problem, x, opts: ClosedLoopIdOptions) -> tuple:
     return x, status
 
 
-def _bootstrap(sim: _LoopSimulator, pb: _Problem, x, hac: dict, opts: ClosedLoopIdOptions) -> tuple:
+def _bootstrap(sim: _LoopSimulator, pb: _Problem, x, fixed_start, ctx: tuple, opts: ClosedLoopIdOptions) -> tuple:
     """Parametric moving-block bootstrap of the closed-loop fit (module docstring, "Standard errors") by
     :func:`adaptive_ff.identification.covariance.parametric_block_bootstrap`.
 
-    Replicates: the simulated loop at ``x`` (velocity and torque at the stamps) plus the two channels'
-    residuals resampled in common blocks; each is refitted by the fit's two passes from a start drawn around
-    ``x`` (``_BOOT_START`` times the larger of the HAC error and the typical change ``_BOOT_TYPICAL``). Returns
-    ``(stderr dict, details dict)``.
+    Replicates: one simulation of the loop at ``x`` with fresh sensor noise (velocity and torque at the
+    stamps; the mean prediction when the loop is simulated noise-free) plus the two channels' residuals
+    resampled in common blocks, scaled by the share not explained by the loop noise; each is refitted by the
+    whole estimator: the start search of step 4 on the replicate (or the user's ``fixed_start``) and the two
+    passes. ``ctx = (t, w_ref, paper_start)``. Returns ``(stderr dict, details dict)``.
     """
+    t, w_ref, paper_start = ctx
+    n_sim0 = sim.n_sim
     ws, us = sim.run(x[None, :])
     pred = np.column_stack([ws[0, sim.keep], us[0, sim.keep]])
     res = np.column_stack([pb.wm, pb.um]) - pred
     block = _BOOT_BLOCK * (max(andrews_bandwidth(res[:, 0]), andrews_bandwidth(res[:, 1])) + 1)
     est = np.array([math.exp(x[0]), x[1], x[2], x[3], math.exp(x[4])])
-    # start spread in the fit variables (log J, Fc, Fs, sigma, log tau)
-    rel = np.array([hac[k] / abs(v) if v != 0 and math.isfinite(hac[k]) else 0.0
-                    for k, v in zip(CLOSED_LOOP_NAMES, est)])
-    spread = _BOOT_START * np.maximum(rel, _BOOT_TYPICAL) * np.array([1.0, abs(x[1]), abs(x[2]), abs(x[3]), 1.0])
-    n_sim0 = sim.n_sim
     w_full, u_full = ws[0].copy(), us[0].copy()
+    simulate, scale = None, np.ones(2)
+    if sim.noise_std > 0:  # the loop's own noise, drawn afresh per replicate; the residuals keep the rest
+        rows = sim.noise if sim.noise.shape[0] >= 2 else sim.noise_std * np.random.default_rng(
+            _NOISE_SEED + 1).standard_normal((8, sim.tg.shape[0]))  # >= 2 realisations for their variance
+        each = [sim.run(x[None, :], noise=row[None, :]) for row in rows]
+        var_loop = np.array([np.mean(np.var(np.stack([e[c][0, sim.keep] for e in each]), axis=0, ddof=1))
+                             for c in (0, 1)])
+        scale = np.sqrt(np.clip(1.0 - var_loop / np.mean(res**2, axis=0), 0.0, 1.0))
+
+        def fresh(rng):
+            wn, un = sim.run(x[None, :], noise=sim.noise_std * rng.standard_normal((1, sim.tg.shape[0])))
+            return np.column_stack([wn[0, sim.keep], un[0, sim.keep]])
+
+        simulate = fresh
 
     def refit(y, rng):
         w_full[sim.keep], u_full[sim.keep] = y[:, 0], y[:, 1]
-        z, _ = _passes(_Problem(sim, w_full, u_full), x + rng.normal(size=x.shape) * spread, opts)
+        pr = _Problem(sim, w_full, u_full)
+        z0 = fixed_start if fixed_start is not None else _start(sim, pr, t, u_full, w_full, w_ref, paper_start)[0]
+        z, _ = _passes(pr, z0, opts)
         return np.array([math.exp(z[0]), z[1], z[2], z[3], math.exp(z[4])])
 
-    b = parametric_block_bootstrap(refit, pred, res, est, n=opts.n_bootstrap, block=block,
-                                   rng=np.random.default_rng(opts.bootstrap_seed))
+    b = parametric_block_bootstrap(refit, pred, res * scale, est, n=opts.n_bootstrap, block=block,
+                                   rng=np.random.default_rng(opts.bootstrap_seed), simulate=simulate)
+    hw = b.half_width(0.95)
     details = {"n": opts.n_bootstrap, "n_valid": b.n_valid, "block": int(b.block), "seed": opts.bootstrap_seed,
-               "start_spread": _BOOT_START, "n_simulations": int(sim.n_sim - n_sim0),
-               "bias": dict(zip(CLOSED_LOOP_NAMES, map(float, b.bias)))}
+               "loop_noise": "fresh realisation per replicate" if simulate is not None else "none (noise-free loop)",
+               "residual_scale": {"w": float(scale[0]), "u": float(scale[1])},
+               "refit": "whole estimator (start search and passes)" if fixed_start is None else
+               "the passes from options.start", "n_simulations": int(sim.n_sim - n_sim0),
+               "bias": dict(zip(CLOSED_LOOP_NAMES, map(float, b.bias))),
+               "t_quantile": bootstrap_t_quantile(b.n_valid) if b.n_valid >= 1 else None,
+               "interval95": {k: [float(v - h), float(v + h)] for k, v, h in zip(CLOSED_LOOP_NAMES, est, hw)},
+               "replicates": [dict(zip(CLOSED_LOOP_NAMES, map(float, r))) for r in b.replicates]}
     return dict(zip(CLOSED_LOOP_NAMES, map(float, b.stderr))), details
 
 
@@ -664,7 +713,9 @@ def fit_closed_loop(t, u, w, w_ref, *, controller: ControllerSpec, Vs: float, de
         (%) of the logged velocity by the simulated loop (``info["fit_u_percent"]`` of the torque); ``warnings``
         (plausibility and identifiability, ``{code, parameter, message}``); ``info`` with the controller,
         ``stderr_hac``, ``stderr_white``, ``hac_lags``, ``bootstrap`` (None, or ``n``, ``n_valid``, ``block``,
-        ``seed``, ``start_spread``, ``n_simulations``, ``bias``), ``sensor_noise`` and ``n_noise`` of the
+        ``seed``, ``loop_noise``, ``residual_scale``, ``refit``, ``n_simulations``, ``bias``, ``replicates`` (the
+        valid refits), ``t_quantile`` and ``interval95``: ``{name: [low, high]}``, the nominal 95 % interval
+        ``value ± t_quantile stderr``), ``sensor_noise`` and ``n_noise`` of the
         simulated loop, channel RMS, start, simulations run (each noise realisation counted).
 
     Raises
@@ -679,8 +730,9 @@ def fit_closed_loop(t, u, w, w_ref, *, controller: ControllerSpec, Vs: float, de
     Notes
     -----
     Module docstring: the loop is simulated with sensor noise of the log's level (mean of ``n_noise``
-    realisations); standard errors by a parametric moving-block bootstrap with spread starts (the cost is
-    rough; HAC ones are too small). Sources: Ruderman eqs. 1-3; Ljung, *System Identification*, 2nd ed.,
+    realisations); standard errors by a parametric moving-block bootstrap whose replicates draw the loop's
+    noise afresh and whose refits repeat the whole estimator, start search included (the cost is rough; HAC
+    ones are too small), intervals with Student-t quantiles. Sources: Ruderman eqs. 1-3; Ljung, *System Identification*, 2nd ed.,
     Secs. 7.2, 9.3; Forssell & Ljung, Automatica 35(7), 1999; Newey & West, Econometrica 55(3), 1987; Künsch,
     Ann. Statist. 17(3), 1989.
     """
@@ -690,19 +742,22 @@ def fit_closed_loop(t, u, w, w_ref, *, controller: ControllerSpec, Vs: float, de
     t, u, w, w_ref, Vs, delta = _check(t, u, w, w_ref, controller, Vs, delta)
     sim = _LoopSimulator(t, w_ref, w, u, controller, Vs, delta, opts)
     pb = _Problem(sim, w, u)
+    ok = paper_start is not None and all(float(paper_start.get(k, -1.0)) > 0 for k in ("J", "Fc", "Fs", "sigma"))
+    paper_start = paper_start if ok else None
+    fixed = None
     if opts.start is not None:
         s = opts.start
-        x, tried = np.array([math.log(s["J"]), s["Fc"], s["Fs"], s["sigma"], math.log(s["tau"])]), 0
+        fixed = np.array([math.log(s["J"]), s["Fc"], s["Fs"], s["sigma"], math.log(s["tau"])])
+        x, tried = fixed.copy(), 0
     else:
-        ok = paper_start is not None and all(float(paper_start.get(k, -1.0)) > 0 for k in ("J", "Fc", "Fs", "sigma"))
-        x, tried = _start(sim, pb, t, u, w, w_ref, paper_start if ok else None)
+        x, tried = _start(sim, pb, t, u, w, w_ref, paper_start)
     x0 = x.copy()
     x, status = _passes(pb, x, opts)
     pb.reweight(x)
     hac, white, cond, lags = _stderr(pb, x, _PASS_STEPS[-1] * opts.diff_step)
     stderr, boot = hac, None
     if opts.n_bootstrap > 0:
-        stderr, boot = _bootstrap(sim, pb, x, hac, opts)
+        stderr, boot = _bootstrap(sim, pb, x, fixed, (t, w_ref, paper_start), opts)
     J, Fc, Fs, sigma, tau = math.exp(x[0]), float(x[1]), float(x[2]), float(x[3]), math.exp(x[4])
     params = {"J": J, "Fc": Fc, "Fs": Fs, "sigma": sigma, "tau": tau}
     ws, us = (a[0, sim.keep] for a in sim.run(x[None, :]))
