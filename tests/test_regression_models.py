@@ -21,8 +21,11 @@ MODES = ("fixed", "adaptive", "adaptive-dob", "dob")
 #: The rms_dev values are those with the feedforward's provisional start (FeedforwardStart, h/faststart; without
 #: it: paper 1.3502e-3, lugre 1.4118e-3, karnopp 2.2466e-3 rad/s) and the loop-model stick fallback (LoopModel,
 #: h/adaptive; with the reference as the fallback: paper 7.4706e-4, karnopp 1.8791e-3 rad/s, lugre within 10 %).
-CASES = {"paper": (True, {"adaptive": 0.02, "adaptive-dob": 0.02}, 6.1861e-4), "lugre": (False, {}, 1.2475e-3),
-         "karnopp": (False, {"adaptive": 0.02}, 1.6510e-3), "asymmetric": (True, {}, None)}
+#: Since the adaptive start takes its lag from the identification run and acts from the first period (h/start,
+#: session 7; before: paper 6.1861e-4, lugre 1.2475e-3, karnopp 1.6510e-3 rad/s and t_ff_on 1 ms): plain adaptive's
+#: rms_dev fell by 40 % on lugre and 3 % on asymmetric, adaptive-dob's rose by 13 % on lugre (30 s run; 4 % at 120 s).
+CASES = {"paper": (True, {"adaptive": 0.02, "adaptive-dob": 0.02}, 5.6650e-4), "lugre": (False, {}, 1.4054e-3),
+         "karnopp": (False, {"adaptive": 0.02}, 1.5969e-3), "asymmetric": (True, {}, None)}
 
 
 @pytest.mark.parametrize("name", list(CASES))
@@ -38,7 +41,7 @@ def test_adaptive_modes_are_not_beaten_on_each_friction_model(name):
         assert c.eta["adaptive"] >= best_peer - 0.02
     for m, t in tau.items():
         assert c.results[m].estimate.tau == pytest.approx(t, rel=0.05), m
-    assert c.t_ff_on["adaptive-dob"] == pytest.approx(1e-3)
+    assert c.t_ff_on["adaptive-dob"] == 0.0  # the start acts from the first period
     assert c.rms_dev["adaptive-dob"] < c.rms_dev["dob"]
     if dev is not None:
         assert c.rms_dev["adaptive-dob"] == pytest.approx(dev, rel=0.10)
