@@ -194,11 +194,6 @@ def _stribeck_loop(w, out, Fc, dF, Vs, delta, sigma, wcut):
         out[i] = stribeck_scalar(w[i], Fc, dF, Vs, delta, sigma, wcut)
 
 
-def _plain_floats(*values) -> bool:
-    """All ``values`` are finite Python floats (what the validators of :func:`stribeck` would pass unchanged)."""
-    return all(type(v) is float and math.isfinite(v) for v in values)
-
-
 @kernel
 def _stribeck_one(w, Fc, dF, Vs, delta, sigma, wcut):
     return stribeck_scalar(w, Fc, dF, Vs, delta, sigma, wcut)
@@ -239,18 +234,18 @@ def stribeck(w, *, Fc: float, Fs: float, Vs: float, delta: float, sigma: float):
     (so equal bit for bit to the plant step's friction). Equivalently
     ``F = Fc*g(w) + Fs*h(w) + sigma*w`` with the regressors g, h of eqs. 5-6.
     """
-    if type(w) is float and _plain_floats(Fc, Fs, Vs, delta, sigma) and Vs > 0.0 and delta != 0.0:
-        dF = Fs - Fc  # one Python float with valid parameters (a plant's initial state): no array round trip
-        return _stribeck_one(w, Fc, dF, Vs, delta, sigma, stribeck_cutoff(Fc, dF, Vs, delta))
     Fc, Fs, sigma = check_finite_scalar("Fc", Fc), check_finite_scalar("Fs", Fs), check_finite_scalar("sigma", sigma)
     Vs, delta = check_positive("Vs", Vs), check_finite_scalar("delta", delta)
     if delta == 0.0:
         raise ParameterError("delta must be non-zero (|w/Vs|**0 is constant), got 0.0")
     dF = Fs - Fc
+    wcut = stribeck_cutoff(Fc, dF, Vs, delta)
+    if type(w) is float:  # one Python float (a plant's initial state): no array round trip
+        return _stribeck_one(w, Fc, dF, Vs, delta, sigma, wcut)
     wa = np.asarray(w, dtype=float)
     flat = np.ascontiguousarray(wa.reshape(-1))
     out = np.empty_like(flat)
-    _stribeck_loop(flat, out, Fc, dF, Vs, delta, sigma, stribeck_cutoff(Fc, dF, Vs, delta))
+    _stribeck_loop(flat, out, Fc, dF, Vs, delta, sigma, wcut)
     if wa.ndim == 0:
         return float(out[0])
     return out.reshape(wa.shape)
