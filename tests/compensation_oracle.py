@@ -663,9 +663,10 @@ class AdaptiveDOBCompensator:
     def __getattr__(self, name):  # counters, estimator, estimate: the feedforward's
         return getattr(self.__dict__["ff"], name)
 
-    def step(self, w, w_ref, w_stuck=None):
+    def step(self, w, w_ref, w_stuck=None, w_ff=None):
         wst = w_ref if w_stuck is None else w_stuck
-        self.u_ff = self.ff.step(w, wst, w_ref) if self.measured else self.ff.step(w_ref)
+        wf = w if w_ff is None else w_ff  # the feedforward's velocity (signed by the sign observer, if any)
+        self.u_ff = self.ff.step(wf, wst, w_ref) if self.measured else self.ff.step(w_ref)
         d = self.dob.compensate(w, w_ref)
         return min(max(self.u_ff + d, -self.u_max), self.u_max)
 

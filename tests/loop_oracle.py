@@ -12,7 +12,7 @@ import numpy as np
 
 import compensation_oracle as co
 import peers_oracle as po
-from pi_oracle import OracleLoopModel, OraclePI
+from pi_oracle import OracleLoopModel, OraclePI, OracleSignObserver
 import plant_oracle as pl
 from controllers.simulation.metrics import LoopMetrics
 
@@ -109,6 +109,13 @@ def oracle_run(p, ref, *, mode, rng=None, faults=None, **kw):
     J_d = float(kw["J_design"]) if kw.get("J_design") is not None else J
     lm = (OracleLoopModel(kw["Kp"], kw["Ki"], J_d, Tc) if ff is not None and not eq4 and ff_measured
           and kw.get("stick_input", "model") == "model" and mode in ("fixed", "adaptive", "adaptive-dob") else None)
+    # the sign observer of the measured-velocity feedforward (design inertia, 5*Kp/J unless given)
+    obs = None
+    if (ff is not None and not eq4 and ff_measured and kw.get("sign_input", "observer") == "observer"
+            and kw["Kp"] > 0 and mode in ("fixed", "adaptive", "adaptive-dob")):
+        bw = kw.get("observer_bandwidth") or 5.0 * kw["Kp"] / J_d
+        obs = OracleSignObserver(J_d, bw, Tc)
+    band = kw.get("stick_band", 0.0)
     t = np.asarray(ref.t)
     wr = np.asarray(ref.w, dtype=float)
     n = t.shape[0]
@@ -148,12 +155,13 @@ def oracle_run(p, ref, *, mode, rng=None, faults=None, **kw):
             th_t.append(t[k])
             th.append(ff.theta.copy())
         wst = wrk if lm is None else lm.step(wc, wrk)
+        wf = wc if obs is None else obs.signed(wc, band)
         if adob:
-            uff = ff.step(wc, wrk, wst)
+            uff = ff.step(wc, wrk, wst, w_ff=wf)
         elif robust:
-            uff = ff.step(wc, wst, wrk) if ff_measured else ff.step(wrk)
+            uff = ff.step(wf, wst, wrk) if ff_measured else ff.step(wrk)
         elif ff is not None:
-            uff = ff.step(wc, wst) if ff_measured else ff.step(wrk)
+            uff = ff.step(wf, wst) if ff_measured else ff.step(wrk)
         elif peer is not None:
             uff = peer.compensate(wc, wrk)
         elif mode == "oracle":
@@ -161,6 +169,8 @@ def oracle_run(p, ref, *, mode, rng=None, faults=None, **kw):
         else:
             uff = 0.0
         u = ctrl.step(wrk - wc, uff)
+        if obs is not None:
+            obs.update(u, ff.u_ff if adob else uff)
         if robust:
             ff.observe(u, wm)
             if ff.estimator.updated:

@@ -183,3 +183,42 @@ class OracleLoopModel:
         if self.a > 0.0 and math.isfinite(w0):
             self.dev = self.dev + self.a * ((w0 - w) - self.dev)
         return w + self.dev
+
+
+class OracleSignObserver:
+    """Oracle of :class:`adaptive_ff.compensation.feedforward.SignObserver` / ``sign_observer_step``, written
+    from its equations: the model ``J dw/dt = u - u_c - d`` with a constant residual ``d``, error poles
+    ``p1 = exp(-bandwidth*Tc)`` and ``p2 = exp(-residual_bandwidth*Tc)`` (default a tenth of ``bandwidth``).
+
+    :meth:`signed` gives the measurement with the observer's sign inside ``±band`` (starting the observer at the
+    first measurement); :meth:`update` corrects with that measurement and predicts with ``u - u_c``.
+    """
+
+    def __init__(self, J: float, bandwidth: float, Tc: float, residual_bandwidth: float | None = None):
+        rb = 0.1 * bandwidth if residual_bandwidth is None else residual_bandwidth
+        p1, p2 = math.exp(-bandwidth * Tc), math.exp(-rb * Tc)
+        # characteristic polynomial of the error dynamics: (x - p1)(x - p2) = x**2 - (2 - l1 - l2) x + (1 - l1)
+        self.l1 = 1.0 - p1 * p2
+        self.l2 = (2.0 - self.l1) - (p1 + p2)
+        self.b = Tc / J
+        self.w = None
+        self.z = 0.0
+        self.wc = math.nan
+
+    def signed(self, wc: float, band: float) -> float:
+        self.wc = wc
+        if self.w is None:
+            self.w = wc if math.isfinite(wc) else 0.0
+        if math.isfinite(wc) and abs(wc) < band:
+            return math.copysign(abs(wc), self.w)
+        return wc
+
+    def update(self, u: float, u_c: float) -> None:
+        if self.w is None:
+            return
+        if math.isfinite(self.wc):
+            e = self.wc - self.w
+            self.w += self.l1 * e
+            self.z -= self.l2 * e
+        if math.isfinite(u - u_c):
+            self.w += self.b * (u - u_c) - self.z

@@ -98,8 +98,11 @@ def paper_runs():
         s = prepare_comparison(p, CompareOptions(seed=seed, duration=120.0, modes=("adaptive", "oracle")))
         run = lambda m, o: run_mode(p, s.reference, m, o, rng=np.random.default_rng(s.noise_seed))  # noqa: E731
         o = s.mode_options["adaptive"]
-        out[seed] = {"frictionless": run("frictionless", o), "oracle": run("oracle", o), "model": run("adaptive", o),
-                     "reference": run("adaptive", replace(o, stick_input="reference"))}
+        # the fallback is compared where it acts often: the measured sign, stuck after 5 samples (the defaults
+        # before the sign observer, which takes a slow reversal for sticking far less often)
+        old = replace(o, sign_input="measured", stick_samples=5)
+        out[seed] = {"frictionless": run("frictionless", o), "oracle": run("oracle", o), "model": run("adaptive", old),
+                     "reference": run("adaptive", replace(old, stick_input="reference")), "default": run("adaptive", o)}
     return out
 
 
@@ -110,12 +113,13 @@ def test_paper_the_loop_model_fallback_brings_plain_adaptive_closer_to_the_frict
         dev = {k: float(np.sqrt(np.mean((r[k].w[half] - r["frictionless"].w[half]) ** 2)))
                for k in ("model", "reference", "oracle")}
         max2 = {k: r[k].metrics.max_second_half for k in ("model", "reference", "oracle")}
-        print(seed, dev, max2)
+        print(seed, dev, max2, r["default"].metrics.max_second_half / max2["oracle"])
         ratios.append(dev["model"] / dev["reference"])
-        max_ratios.append(max2["model"] / max2["oracle"])
+        max_ratios.append(r["default"].metrics.max_second_half / max2["oracle"])
         assert max2["reference"] > 1.3 * max2["model"], seed  # measured 1.69, 2.21, 1.69
-    # item 5: second-half max tracking error <= 1.5x the oracle's, over three seeds (measured 1.17, 1.08, 1.54:
-    # seed 2 misses it alone)
+    # item 5: second-half max tracking error of the default adaptive <= 1.5x the oracle's, over three seeds
+    # (measured with the loop-model fallback and the measured sign: 1.17, 1.08, 1.54; with the sign observer see
+    # the printed values)
     assert np.mean(max_ratios) <= 1.5, max_ratios
     # second-half distance from the frictionless run: measured 0.57-0.66x that of the reference fallback
     assert np.mean(ratios) <= 0.8 and max(ratios) < 0.95, ratios

@@ -24,7 +24,9 @@ MODES = ("fixed", "adaptive", "adaptive-dob", "dob")
 #: Since the adaptive start takes its lag from the identification run and acts from the first period (h/start,
 #: session 7; before: paper 6.1861e-4, lugre 1.2475e-3, karnopp 1.6510e-3 rad/s and t_ff_on 1 ms): plain adaptive's
 #: rms_dev fell by 40 % on lugre and 3 % on asymmetric, adaptive-dob's rose by 13 % on lugre (30 s run; 4 % at 120 s).
-CASES = {"paper": (True, {"adaptive": 0.02, "adaptive-dob": 0.02}, 5.6650e-4), "lugre": (False, {}, 1.4054e-3),
+#: With the sign observer of the feedforward and 50 stick samples (h/rms, session 8) adaptive-dob's rms_dev on lugre
+#: rose from 1.4054e-3 to 1.6097e-3 rad/s (30 s run); paper and karnopp stay within 10 %.
+CASES = {"paper": (True, {"adaptive": 0.02, "adaptive-dob": 0.02}, 5.6650e-4), "lugre": (False, {}, 1.6097e-3),
          "karnopp": (False, {"adaptive": 0.02}, 1.5969e-3), "asymmetric": (True, {}, None)}
 
 

@@ -26,9 +26,9 @@ from plant.errors import ParameterError, check_nonnegative, check_positive
 from plant.jit import kernel
 from plant.stribeck import stribeck_scalar
 
-__all__ = ["FrictionFeedforward", "RobustAdaptiveFeedforward", "FeedforwardStart", "LoopModel", "project_estimate",
-           "project_levels", "FF_NPAR", "FF_NSTATE", "ff_set_estimate", "ff_step", "ff_compensate", "loop_model_step",
-           "robust_compensate", "robust_observe"]
+__all__ = ["FrictionFeedforward", "RobustAdaptiveFeedforward", "FeedforwardStart", "LoopModel", "SignObserver",
+           "project_estimate", "project_levels", "FF_NPAR", "FF_NSTATE", "ff_set_estimate", "ff_step", "ff_compensate",
+           "loop_model_step", "sign_observer_step", "robust_compensate", "robust_observe"]
 
 
 @kernel
@@ -161,13 +161,76 @@ class LoopModel:
         return float(self.Kp) / float(self.J) if self.track is None else float(self.track)
 
 
+@dataclass(frozen=True)
+class SignObserver:
+    """Velocity observer that gives the friction map its sign inside the stick band (see :class:`FrictionFeedforward`).
+
+    Parameters
+    ----------
+    J : float
+        Design inertia (kg·m²), > 0: what the user knows (a data sheet), never the true plant's.
+    bandwidth : float
+        Observer bandwidth (rad/s), > 0: the rate at which the estimate is pulled to the measurement.
+    residual_bandwidth : float or None
+        Bandwidth (rad/s, >= 0) of the estimate of a constant friction residual (see Notes); default None:
+        ``0.1*bandwidth``; 0: no residual state.
+
+    Raises
+    ------
+    ParameterError
+        ``J`` or ``bandwidth`` not finite and > 0, ``residual_bandwidth`` negative or not finite.
+
+    Notes
+    -----
+    The compensated joint is the model ``J dw/dt = u - u_c - d`` with the applied torque ``u``, the compensator's
+    own torque ``u_c`` (its friction estimate) and a constant residual ``d`` (the part of the friction the
+    estimate misses, e.g. an asymmetry), sampled with a zero-order hold; ``z = d*Tc/J``. Per period ``Tc`` the
+    a-priori estimate ``w_hat`` is used, then corrected by the controller's measurement ``w_c`` and predicted
+    (:func:`sign_observer_step`)::
+
+        e = w_c - w_hat;   w_hat += l1*e;   z_hat -= l2*e
+        w_hat += Tc/J*(u - u_c) - z_hat
+
+    with ``l1 = 1 - p1*p2``, ``l2 = (1 - p1)*(1 - p2)``, ``p1 = exp(-bandwidth*Tc)``, ``p2 =
+    exp(-residual_bandwidth*Tc)``: the poles of the error dynamics (a Luenberger observer with a
+    constant-disturbance state: Franklin, Powell & Workman, *Digital Control of Dynamic Systems*, 3rd ed., 1998,
+    Secs. 8.2 and 8.5; poles a few times faster than the loop's, ibid. Sec. 8.3). The residual's pole is the
+    slower one, so that the fast friction transients of a reversal are not taken for a lasting residual. The estimate follows the joint's acceleration through the torque, not through differences of the
+    noisy measurement: near a reversal its sign is that of the joint, where the measurement's sign flips with
+    the noise (each wrong-signed sample is a ``2*Fs`` torque error into the lag filter). A constant residual
+    leaves no bias; a changing one (at a reversal, where the estimate in use is least exact) does, so the
+    observer's sign is used only inside the stick band, where the measured sign says nothing anyway.
+    """
+
+    J: float
+    bandwidth: float
+    residual_bandwidth: float | None = None
+
+    def __post_init__(self):
+        check_positive("J", self.J)
+        check_positive("bandwidth", self.bandwidth)
+        if self.residual_bandwidth is not None:
+            check_nonnegative("residual_bandwidth", self.residual_bandwidth)
+
+    def gains(self, dt: float) -> tuple:
+        """``(l1, l2)`` of the observer at the period ``dt`` (s): error poles at ``exp(-bandwidth*dt)`` and
+        ``exp(-residual_bandwidth*dt)`` (class Notes)."""
+        p1 = math.exp(-float(self.bandwidth) * dt)
+        rb = 0.1 * float(self.bandwidth) if self.residual_bandwidth is None else float(self.residual_bandwidth)
+        p2 = math.exp(-rb * dt)
+        return 1.0 - p1 * p2, (1.0 - p1) * (1.0 - p2)
+
+
 # FrictionFeedforward arrays. params: dt, lag, ff_max, sign_width, stick_band, stick_samples, reference input, w_max,
-# loop model (has, Kp, Ki*dt, dt/J); state: estimate in use (has, Fc, Fs - Fc, Vs, delta, sigma, lag filter gain,
-# has Vs, tau), output filter, in-band count, rejected inputs, loop model (velocity, integrator, started)
-_DT, _LAG, _FFMAX, _SW, _SBAND, _SSAMP, _REF, _WMAX, _LM, _KP, _KITC, _BJ, _LMA = range(13)
-_HAS, _FC, _DF, _VS, _DELTA, _SIGMA, _ALPHA, _HASVS, _TAU, _UFF, _NIB, _FNREJ, _WM, _IM, _NM, _DW = range(16)
+# loop model (has, Kp, Ki*dt, dt/J, tracking gain), sign observer (has, dt/J, gain); state: estimate in use (has,
+# Fc, Fs - Fc, Vs, delta, sigma, lag filter gain, has Vs, tau), output filter, in-band count, rejected inputs, loop
+# model (velocity, integrator, started, tracked deviation), sign observer (estimate, started, the controller's
+# measurement and the compensator's output of this period)
+_DT, _LAG, _FFMAX, _SW, _SBAND, _SSAMP, _REF, _WMAX, _LM, _KP, _KITC, _BJ, _LMA, _OB, _OBJ, _OBL, _OBZ = range(17)
+(_HAS, _FC, _DF, _VS, _DELTA, _SIGMA, _ALPHA, _HASVS, _TAU, _UFF, _NIB, _FNREJ, _WM, _IM, _NM, _DW,
+ _WH, _OBN, _WCS, _UOUT, _ZH) = range(21)
 #: Lengths of the fixed feedforward's parameter and state arrays.
-FF_NPAR, FF_NSTATE = 13, 16
+FF_NPAR, FF_NSTATE = 17, 21
 
 
 @kernel
@@ -265,24 +328,62 @@ def loop_model_step(par, st, w0, w_ref):
 
 
 @kernel(inline="always")
+def _signed(par, st, w_ctrl):
+    """The measurement with the :class:`SignObserver`'s sign inside the stick band (unchanged without an observer,
+    outside the band or when not finite); records ``w_ctrl`` for :func:`sign_observer_step` and starts the observer
+    at the first measurement."""
+    if par[_OB] == 0.0:
+        return w_ctrl
+    st[_WCS] = w_ctrl
+    if st[_OBN] == 0.0:
+        st[_WH] = w_ctrl if math.isfinite(w_ctrl) else 0.0
+        st[_OBN] = 1.0
+    if math.isfinite(w_ctrl) and -par[_SBAND] < w_ctrl < par[_SBAND]:
+        return math.copysign(abs(w_ctrl), st[_WH])
+    return w_ctrl
+
+
+@kernel(inline="always")
+def sign_observer_step(par, st, u):
+    """Correct the :class:`SignObserver` estimate with this period's measurement and predict the next period with
+    the applied torque ``u`` (N·m) less the compensator's output of this period (nothing without an observer or
+    before its first measurement; a non-finite measurement or torque skips its part)."""
+    if par[_OB] == 0.0 or st[_OBN] == 0.0:
+        return
+    wc = st[_WCS]
+    if math.isfinite(wc):
+        e = wc - st[_WH]
+        st[_WH] += par[_OBL] * e
+        st[_ZH] -= par[_OBZ] * e
+    du = u - st[_UOUT]
+    if math.isfinite(du):
+        st[_WH] += par[_OBJ] * du - st[_ZH]
+
+
+@kernel(inline="always")
 def ff_at(par, st, w_ctrl, w_stuck, w_ref):
-    """The feedforward of this period at the reference (``ff_input`` reference) or at the measurement with
-    stick detection against ``w_stuck`` (the loop model's velocity, or the reference without a model)."""
+    """The feedforward of this period at the reference (``ff_input`` reference) or at the measurement (with the
+    sign observer's sign inside the stick band, if any) with stick detection against ``w_stuck`` (the loop model's
+    velocity, or the reference without a model)."""
     if par[_REF] > 0.0:
         return ff_step(par, st, w_ref, w_ref, False)
-    return ff_step(par, st, w_ctrl, w_stuck, True)
+    return ff_step(par, st, _signed(par, st, w_ctrl), w_stuck, True)
 
 
 @kernel(inline="always")
 def ff_compensate(par, st, w_ctrl, w_meas, w_ref):
     """Compensator protocol (``KIND`` 2): the fixed feedforward at the controller's measurement (with stick
     detection against the loop model's velocity, or the reference without a model) or at the reference."""
-    return ff_at(par, st, w_ctrl, loop_model_step(par, st, w_ctrl, w_ref), w_ref)
+    out = ff_at(par, st, w_ctrl, loop_model_step(par, st, w_ctrl, w_ref), w_ref)
+    st[_UOUT] = out
+    return out
 
 
 @kernel
 def ff_observe(par, st, u, w_meas, theta_out):
-    """Compensator protocol: the fixed feedforward learns nothing."""
+    """Compensator protocol: the fixed feedforward learns nothing; its sign observer (if any) takes the applied
+    torque ``u`` (:func:`sign_observer_step`)."""
+    sign_observer_step(par, st, u)
     return False
 
 
@@ -323,6 +424,10 @@ class FrictionFeedforward(Component):
         The nominal velocity loop. Given, :meth:`compensate` uses its velocity (driven by the
         reference) instead of the reference while the joint is detected as stuck (see Notes); default
         None: the reference.
+    sign_observer : SignObserver or None, keyword-only
+        Given, :meth:`compensate` takes the sign of the friction map from this velocity observer while the
+        measurement is inside ``±stick_band`` (before the joint is detected as stuck; see Notes); default None:
+        the measurement's sign.
 
     Attributes
     ----------
@@ -362,6 +467,12 @@ class FrictionFeedforward(Component):
     the compensated joint, with the loop's lag: at a reversal it crosses zero when the joint should.
     Outside the band the measurement is used (it cancels the Stribeck dip's negative damping, which a
     map at any other velocity would not). Measured on ``paper`` (docs/benchmarks/variants.md).
+
+    **Sign inside the band.** Before the joint counts as stuck (a reversal crosses the band in a few
+    periods), the measured sign near zero flips with the noise, and each wrong-signed sample is a ``2*Fs``
+    step into the lag filter. With a :class:`SignObserver` the map is evaluated at the measured speed with the
+    observer's sign there (:func:`sign_observer_step`): a noise-filtered estimate that follows the joint's
+    acceleration through the applied torque and crosses zero with the joint (docs/benchmarks/compensation.md).
     """
 
     KIND = 2
@@ -371,10 +482,12 @@ class FrictionFeedforward(Component):
     def __init__(self, estimate: FrictionEstimate | None, *, dt: float, lag: bool = True,
                  ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0,
                  stick_samples: int = 10, ff_input: str = "measured", w_max: float = math.inf,
-                 loop_model: LoopModel | None = None):
+                 loop_model: LoopModel | None = None, sign_observer: SignObserver | None = None):
         dt = check_positive("dt", dt)
         if loop_model is not None and not isinstance(loop_model, LoopModel):
             raise ParameterError(f"loop_model must be a LoopModel or None, got {type(loop_model).__name__}")
+        if sign_observer is not None and not isinstance(sign_observer, SignObserver):
+            raise ParameterError(f"sign_observer must be a SignObserver or None, got {type(sign_observer).__name__}")
         w_max = float(w_max) if w_max == math.inf else check_positive("w_max", w_max)
         ff_max = float(ff_max) if ff_max == math.inf else check_nonnegative("ff_max", ff_max)
         sign_width = check_nonnegative("sign_width", sign_width)
@@ -387,9 +500,12 @@ class FrictionFeedforward(Component):
         lm = (0.0, 0.0, 0.0, 0.0, 0.0) if loop_model is None else (
             1.0, float(loop_model.Kp), float(loop_model.Ki) * dt, dt / float(loop_model.J),
             1.0 - math.exp(-loop_model.bandwidth * dt))
+        ob = (0.0, 0.0, 0.0, 0.0) if sign_observer is None else (1.0, dt / float(sign_observer.J)) + \
+            sign_observer.gains(dt)
         self.params[:] = (dt, float(bool(lag)), ff_max, sign_width, stick_band, float(stick_samples),
-                          float(ff_input == "reference"), w_max) + lm
+                          float(ff_input == "reference"), w_max) + lm + ob
         self.loop_model = loop_model
+        self.sign_observer = sign_observer
         self.state[_ALPHA] = 1.0
         self.estimate = None
         self._set(estimate)
@@ -444,7 +560,9 @@ class FrictionFeedforward(Component):
         return float(ff_compensate(self.params, self.state, float(w_meas), float(w_meas), float(w_ref)))
 
     def observe(self, u: float, w: float) -> bool:
-        """Compensator protocol: nothing to learn (returns False)."""
+        """Compensator protocol: nothing to learn (returns False); the sign observer (if any) takes the applied
+        torque ``u`` (N·m) of this period."""
+        sign_observer_step(self.params, self.state, float(u))
         return False
 
 
@@ -465,11 +583,21 @@ def robust_compensate(par, st, w_ctrl, w_meas, w_ref):
     During the provisional start (:class:`FeedforwardStart`) the start map times the start gain, evaluated
     at the reference (start input ``reference``) or as ``ff_input`` says. The loop model (if any) advances
     every period, also before switch-on."""
+    out = _robust_output(par, st, w_ctrl, w_ref)
+    st[_UOUT] = out
+    return out
+
+
+@kernel(inline="always")
+def _robust_output(par, st, w_ctrl, w_ref):
+    """The torque of :func:`robust_compensate` (N·m)."""
     w_stuck = loop_model_step(par, st, w_ctrl, w_ref)
     if st[_HAS] == 0.0:
+        _signed(par, st, w_ctrl)  # the sign observer follows the joint before switch-on too
         return 0.0
     if st[_PROV] > 0.0:
         if par[_SREF] > 0.0:
+            _signed(par, st, w_ctrl)
             return ff_step(par, st, w_ref, w_ref, False) * par[_SGAIN]
         return ff_at(par, st, w_ctrl, w_stuck, w_ref) * par[_SGAIN]
     out = ff_at(par, st, w_ctrl, w_stuck, w_ref)
@@ -523,7 +651,8 @@ def _lag_consistent(par, rls, eJ, etau, eJalt, e2, dt, has_lag):
 def robust_observe(par, st, u, w_meas, theta_out):
     """Compensator protocol (``KIND`` 3): one sample into the estimator, then the plausibility tests and the
     estimate in use (see :class:`RobustAdaptiveFeedforward`). Returns True after an RLS update (theta written
-    into ``theta_out``)."""
+    into ``theta_out``). The sign observer (if any) takes the applied torque first."""
+    sign_observer_step(par, st, u)
     p = np.int64(par[_P])
     ep = par[np.int64(par[_PO_EST]):]
     es = st[np.int64(par[_SO_EST]):]
@@ -656,7 +785,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         ``tau >= 2*dt``); default 0.5.
     stick_band, stick_samples : keyword-only
         Stick detection, see :class:`FrictionFeedforward`.
-    ff_input, w_max, loop_model : keyword-only
+    ff_input, w_max, loop_model, sign_observer : keyword-only
         See :class:`FrictionFeedforward`.
     start : FeedforwardStart or None, keyword-only
         Provisional start: the prior map acts from the first period (times its gain) until the first
@@ -708,13 +837,15 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
                  ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0, stick_samples: int = 10,
                  warmup: int = 200, fade_in: float = 1.0, J_range: tuple = (0.0, math.inf), tau_max: float = 1.0,
                  consistency: float = 0.5, ff_input: str = "measured", w_max: float = math.inf,
-                 start: FeedforwardStart | None = None, loop_model: LoopModel | None = None):
+                 start: FeedforwardStart | None = None, loop_model: LoopModel | None = None,
+                 sign_observer: SignObserver | None = None):
         if not isinstance(estimator, SlidingFrictionEstimator):
             raise TypeError(f"estimator must be a SlidingFrictionEstimator, got {type(estimator).__name__}")
         ff = FrictionFeedforward(None, dt=dt, lag=lag, ff_max=ff_max, sign_width=sign_width,
                                  stick_band=stick_band, stick_samples=stick_samples, ff_input=ff_input, w_max=w_max,
-                                 loop_model=loop_model)
+                                 loop_model=loop_model, sign_observer=sign_observer)
         self.loop_model = loop_model
+        self.sign_observer = sign_observer
         if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
             raise ParameterError(f"warmup must be an integer >= 0, got {warmup!r}")
         try:

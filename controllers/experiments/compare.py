@@ -248,10 +248,19 @@ class CompareOptions:
         warm-up) defaults to 50: on every plant of ``benchmarks/variants.py`` the second-half eta of
         ``adaptive`` is that of 200 updates (the pre-fit start and the plausibility tests carry the
         safety), and the feedforward acts about twice as early (docs/benchmarks/variants.md).
+    sign_input : {"observer", "measured"}
+        Sign of the measured-velocity feedforward's friction map inside the stick band (``fixed``, ``adaptive``,
+        ``adaptive-dob``): a velocity observer of the design inertia at ``observer_bandwidth`` (default ``None``:
+        five times the crossover) or the measurement's own (see
+        :class:`controllers.simulation.compensators.ModeOptions`).
+    observer_bandwidth : float or None
+        See ``sign_input``.
     stick_band, stick_samples : float or None, int
-        Stick detection of the measured-velocity feedforward (``fixed``, ``adaptive``): after
-        ``stick_samples`` samples inside ``±stick_band`` the reference velocity is used. Default
-        ``stick_band = 3*noise_std``.
+        Stick detection of the measured-velocity feedforward (``fixed``, ``adaptive``, ``adaptive-dob``): after
+        ``stick_samples`` samples inside ``±stick_band`` the loop model's velocity is used; before that the map
+        takes its sign from the velocity observer (``sign_input``). Default ``stick_band = 3*noise_std`` and
+        ``stick_samples = 50`` (50 ms at 1 ms): with the observer's sign a slow reversal is no longer taken for
+        sticking (docs/benchmarks/compensation.md).
     omega_q : float
         Q-filter cut-off of the ``dob`` peer (rad/s); default 500.
     adaptive_initial : bool
@@ -295,7 +304,7 @@ class CompareOptions:
     canudas_input: str = "reference"
     sign_width: float = 0.0
     stick_band: float | None = None
-    stick_samples: int = 5
+    stick_samples: int = 50
     T_filter: float = 0.02
     forgetting: str = "exponential"
     warmup: int = 50
@@ -308,9 +317,15 @@ class CompareOptions:
     Vs: float | None = None
     delta: float | None = None
     J_design: float | None = None
+    sign_input: str = "observer"
+    observer_bandwidth: float | None = None
 
     def __post_init__(self):
         check_positive("duration", self.duration)
+        if self.sign_input not in ("observer", "measured"):
+            raise ParameterError(f"sign_input must be 'observer' or 'measured', got {self.sign_input!r}")
+        if self.observer_bandwidth is not None:
+            check_positive("observer_bandwidth", self.observer_bandwidth)
         if (self.Vs is None) != (self.delta is None):
             raise ParameterError(f"give both Vs and delta, or neither; got Vs={self.Vs!r}, delta={self.delta!r}")
         if self.Vs is not None:
@@ -519,7 +534,8 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
                      estimator=o.estimator, Vs=Vs, delta=delta, sign_width=o.sign_width, T_filter=o.T_filter,
                      forgetting=o.forgetting, stick_band=3.0 * o.noise_std if o.stick_band is None else o.stick_band,
                      stick_samples=o.stick_samples, dwell_max=o.dwell_max, offset=o.offset, warmup=o.warmup,
-                     omega_q=o.omega_q, initial=initial, start=start,
+                     omega_q=o.omega_q, initial=initial, start=start, sign_input=o.sign_input,
+                     observer_bandwidth=o.observer_bandwidth,
                      omega_r=residual_cutoff(J, o.noise_std, o.Tc, _friction_level(exp, F_peak)))
     opts = {mode: replace(mo, ff_input=o.canudas_input if mode == "canudas" else o.ff_input) for mode in run_modes}
     return ComparisonSetup(modes=tuple(run_modes), reference=ref, design=design, mode_options=opts,

@@ -28,7 +28,7 @@ from dataclasses import dataclass, replace
 
 from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
 from adaptive_ff.compensation.feedforward import (FeedforwardStart, FrictionFeedforward, LoopModel,
-                                                  RobustAdaptiveFeedforward)
+                                                  RobustAdaptiveFeedforward, SignObserver)
 from adaptive_ff.compensation.gate import OutlierGate
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
@@ -110,6 +110,14 @@ class ModeOptions:
         of ``Kp``, ``Ki`` and the design inertia, driven by the reference; default) or the reference itself.
         Measured on ``paper``: RMS deviation from the frictionless run of ``adaptive`` over the second half
         0.0024 rad/s with the model, 0.0036 with the reference (docs/benchmarks/variants.md).
+    sign_input : {"observer", "measured"}
+        Sign of the friction map of the measured-velocity feedforward (``fixed``, ``adaptive``, ``adaptive-dob``)
+        inside ``±stick_band``: a :class:`adaptive_ff.compensation.feedforward.SignObserver` of the design inertia
+        (default) or the measurement's own sign.
+    observer_bandwidth : float or None
+        Bandwidth of that observer (rad/s); default None: ``5*Kp/J_design``, five times the loop's crossover
+        (observer poles a few times faster than the loop's, Franklin, Powell & Workman, *Digital Control of
+        Dynamic Systems*, 3rd ed., 1998, Sec. 8.3).
     J_n, omega_q : float or None, float
         Disturbance observer (``dob`` and the residual observer of ``adaptive-dob``): nominal inertia
         (default ``J_design``) and Q-filter cut-off (rad/s).
@@ -168,6 +176,8 @@ class ModeOptions:
     decimate: int = 1
     reversal_window: float = 0.2
     stick_input: str = "model"
+    sign_input: str = "observer"
+    observer_bandwidth: float | None = None
 
     def __post_init__(self):
         check_positive("Tc", self.Tc)
@@ -179,6 +189,10 @@ class ModeOptions:
             raise ParameterError(f"ff_input must be 'reference' or 'measured', got {self.ff_input!r}")
         if self.stick_input not in ("model", "reference"):
             raise ParameterError(f"stick_input must be 'model' or 'reference', got {self.stick_input!r}")
+        if self.sign_input not in ("observer", "measured"):
+            raise ParameterError(f"sign_input must be 'observer' or 'measured', got {self.sign_input!r}")
+        if self.observer_bandwidth is not None:
+            check_positive("observer_bandwidth", self.observer_bandwidth)
 
 
 def _ctx(plant, o: ModeOptions) -> tuple:
@@ -191,6 +205,13 @@ def _ctx(plant, o: ModeOptions) -> tuple:
 def _loop_model(J: float, o: ModeOptions) -> LoopModel | None:
     """The nominal loop of the stick-detection fallback (``stick_input`` model), from the PI and the design J."""
     return LoopModel(Kp=o.Kp, Ki=o.Ki, J=J) if o.stick_input == "model" else None
+
+
+def _sign_observer(J: float, o: ModeOptions) -> SignObserver | None:
+    """The velocity observer that signs the friction map inside the stick band (``sign_input`` observer)."""
+    if o.sign_input != "observer" or o.Kp <= 0.0:
+        return None
+    return SignObserver(J=J, bandwidth=5.0 * o.Kp / J if o.observer_bandwidth is None else o.observer_bandwidth)
 
 
 def _none(plant, o):
@@ -211,7 +232,7 @@ def _fixed(plant, o):
     J, ff_max = _ctx(plant, o)
     return plant, FrictionFeedforward(o.estimate, dt=o.Tc, lag=o.lag, ff_max=ff_max, sign_width=o.sign_width,
                                       stick_band=o.stick_band, stick_samples=o.stick_samples, ff_input=o.ff_input,
-                                      loop_model=_loop_model(J, o))
+                                      loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
 
 
 def _adaptive(plant, o):
@@ -233,7 +254,7 @@ def _adaptive(plant, o):
     return plant, RobustAdaptiveFeedforward(est, dt=o.Tc, lag=o.lag, ff_max=ff_max, sign_width=o.sign_width,
                                             stick_band=o.stick_band, stick_samples=o.stick_samples,
                                             warmup=o.warmup, ff_input=o.ff_input, start=o.start,
-                                            loop_model=_loop_model(J, o))
+                                            loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
 
 
 def _adaptive_dob(plant, o):
