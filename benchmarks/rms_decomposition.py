@@ -4,10 +4,13 @@ Runs the ``compare`` setup of the ``paper`` preset (same reference, PI, noise an
 ``rms_dev`` (RMS of ``w - w_frictionless`` over the whole run, rad/s), its ratio to the oracle's, and the share of
 ``rms_dev**2`` that falls within +-50 ms of the reference's reversals, in the first 5 s and elsewhere.
 
-Variants: the package modes (adaptive, fixed, oracle) and the fixed feedforward with the TRUE friction parameters
-(built here only, never in the package) evaluated at (a) the noisy measured velocity (the package's input: stick
-detection with the loop model), (b) the loop model's velocity (``stick_band`` infinite), (c) the true velocity (a
-Python loop of the package's kernels, which reproduces the engine for (a)).
+Variants: the package modes (adaptive, fixed, oracle; the defaults) and the fixed feedforward with the TRUE friction
+parameters (built here only, never in the package) evaluated at (a) ``true@meas``: the noisy measured velocity as the
+package does it (defaults: stick detection with the loop model, the sign observer's sign inside the stick band),
+(b) the loop model's velocity (``stick_band`` infinite), (c) rows marked ``(py)`` and below: a Python loop of the
+package's kernels without the sign observer (it reproduced the engine for (a) with ``sign_input="measured"`` and 5
+stick samples, the defaults before): at the measurement, at the true velocity, with other holds of the lag
+filter, and with the sign and the magnitude taken from the true and the measured velocity crosswise.
 
     python benchmarks/rms_decomposition.py --seeds 0 1 --duration 120 [--noise 1e-3]
 """
