@@ -18,6 +18,8 @@ before. The output is the same either way.
 
 from __future__ import annotations
 
+import contextlib
+import gc
 import importlib
 import json
 import sys
@@ -34,8 +36,10 @@ def run(args) -> int:
         check_output_dir(out_dir, "--out")
     if args.report:
         check_output_dir(args.report, "--report")
-    p, modes = _load_plant(args), _modes(args)
-    helper = CompareHelper.start(p, args)
+    with imports_without_gc():
+        p, modes = _load_plant(args), _modes(args)
+        helper = CompareHelper.start(p, args)
+        importlib.import_module("controllers.experiments.compare")
     done = False
     try:
         code = _compare_and_print(args, p, modes, out_dir, helper)
@@ -44,6 +48,32 @@ def run(args) -> int:
     finally:
         if helper is not None:
             helper.close(stop=not done)
+        gc.unfreeze()  # a caller that goes on (tests calling main()) collects them again
+
+
+@contextlib.contextmanager
+def imports_without_gc():
+    """Import modules without cyclic garbage collections, then keep what they made out of later collections.
+
+    The garbage collector is off inside (imports make few cycles but many
+    objects: every collection during them traverses all of them again, ~0.4 s
+    CPU for numba, scipy and the package) and on again after it, if it was;
+    everything alive at the end is moved to the permanent generation
+    (``gc.freeze()``), which later collections, the forked helper's included,
+    do not traverse: the pattern the :mod:`gc` documentation gives for a
+    process that forks ("call gc.disable() early in the parent process,
+    gc.freeze() right before fork(), and gc.enable() early in child
+    processes"). ``gc.unfreeze()`` returns the objects to the oldest
+    generation.
+    """
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        gc.freeze()
+        if enabled:
+            gc.enable()
 
 
 def _load_plant(args):
@@ -81,7 +111,7 @@ def _compare_and_print(args, p, modes, out_dir, helper) -> int:
     """The comparison, its figures and report, and the output of :func:`run`."""
     from controllers.design.pi import remember_designs
     from controllers.experiments.compare import compare
-    from controllers.report.figures import plot_comparison
+    from controllers.report.figures import figure_inputs, plot_comparison
     from adaptive_ff.io.units import parameter_text
     from plant.models import plant_to_dict
 
@@ -96,12 +126,13 @@ def _compare_and_print(args, p, modes, out_dir, helper) -> int:
     if args.no_figures:
         paths = []
     elif helper is not None:
-        helper.draw(comp, out_dir)
+        inputs = figure_inputs(comp)
+        helper.draw(inputs, out_dir)
         paths = None  # drawn by the helper while the table is printed
     else:
         paths = plot_comparison(comp, out_dir, jobs=figure_jobs())
     if paths is None and (args.report or args.json):
-        paths = helper.figures(comp, out_dir)
+        paths = helper.figures(inputs, out_dir)
     report = None
     if args.report:
         from controllers.cli.data import command_line
@@ -136,7 +167,7 @@ def _compare_and_print(args, p, modes, out_dir, helper) -> int:
     print(comparison_table(comp, args))
     if paths is None:
         sys.stdout.flush()
-        paths = helper.figures(comp, out_dir)
+        paths = helper.figures(inputs, out_dir)
     if paths:
         print("\nfigures: " + ", ".join(str(x) for x in paths))
     if report is not None:
@@ -198,6 +229,7 @@ class CompareHelper:
             return cls(None, keys, stored, False)
         sys.stdout.flush()
         sys.stderr.flush()
+        gc.freeze()  # what is alive now is shared with the helper: its collections do not touch (copy) it
         try:
             pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("fork"),
                                        initializer=worker_init)
@@ -224,22 +256,23 @@ class CompareHelper:
             _store_designs(pairs)
         return pairs
 
-    def draw(self, comp, out_dir) -> None:
-        """Send the comparison to the helper, which writes its figures into ``out_dir`` (:meth:`figures`)."""
+    def draw(self, inputs, out_dir) -> None:
+        """Send the figures' inputs (:func:`controllers.report.figures.figure_inputs`: well under 1 MB, not the
+        runs) to the helper, which writes the figures into ``out_dir`` (:meth:`figures`)."""
         try:
-            self._drawn = self._pool.submit(_helper_draw, comp, str(out_dir), figure_jobs())
+            self._drawn = self._pool.submit(_helper_draw, inputs, str(out_dir), figure_jobs())
         except Exception:  # noqa: BLE001 - broken pool: :meth:`figures` draws here
             self._drawn = None
 
-    def figures(self, comp, out_dir) -> list:
-        """Wait for the figures of :meth:`draw`: their paths (drawn here if the helper could not).
+    def figures(self, inputs, out_dir) -> list:
+        """Wait for the figures of :meth:`draw` (of ``inputs``): their paths (drawn here if the helper could not).
 
         Raises
         ------
         Exception
             What drawing them raised in the helper (a package error, OSError), re-raised here.
         """
-        from controllers.report.figures import plot_comparison
+        from controllers.report.figures import draw_figures
 
         outcome = None
         if self._drawn is not None:
@@ -248,7 +281,7 @@ class CompareHelper:
             except Exception:  # noqa: BLE001 - transport failure (pickling, a dead worker): draw here
                 outcome = None
         if outcome is None:
-            return plot_comparison(comp, out_dir, jobs=figure_jobs())
+            return draw_figures(inputs, out_dir, jobs=figure_jobs())
         if isinstance(outcome, BaseException):
             raise outcome
         return outcome
@@ -359,9 +392,15 @@ def _store_designs(pairs) -> None:
 
 
 def _helper_imports(modules) -> None:
-    """Helper task: import ``modules`` (before they are needed)."""
-    for name in modules:
-        importlib.import_module(name)
+    """Helper task: import ``modules`` (before they are needed; :func:`imports_without_gc`), then collect garbage.
+
+    The helper is forked while this process imports without collections, so it starts with the collector off;
+    it is switched on here, after the imports.
+    """
+    with imports_without_gc():
+        for name in modules:
+            importlib.import_module(name)
+    gc.enable()
 
 
 def _helper_designs(keys) -> list:
@@ -379,15 +418,13 @@ def _helper_designs(keys) -> list:
     return out
 
 
-def _helper_draw(comp, out_dir: str, jobs: int):
-    """Helper task: :func:`controllers.report.figures.plot_comparison`; its paths, or the exception it raised."""
-    import gc
+def _helper_draw(inputs, out_dir: str, jobs: int):
+    """Helper task: :func:`controllers.report.figures.draw_figures`; its paths, or the exception it raised."""
+    from controllers.report.figures import draw_figures
 
-    from controllers.report.figures import plot_comparison
-
-    gc.freeze()  # the comparison and the imported modules: not traversed by every collection while drawing
+    gc.freeze()  # the inputs and the imported modules: not traversed by every collection while drawing
     try:
-        return plot_comparison(comp, out_dir, jobs=jobs)
+        return draw_figures(inputs, out_dir, jobs=jobs)
     except Exception as exc:  # noqa: BLE001 - returned, raised in the parent (CompareHelper.figures)
         return exc
 
