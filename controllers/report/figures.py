@@ -148,6 +148,12 @@ def _legend_right(fig, ax, handles=None, labels=None, **kw):
                      frameon=False, **kw)
 
 
+def _hex_rgb(color: str) -> tuple:
+    """``"#RRGGBB"`` as RGB in [0, 1], as ``matplotlib.colors.to_rgb`` gives it (no matplotlib import: the figure
+    inputs are taken where matplotlib is not loaded)."""
+    return tuple(int(color[i:i + 2], 16) / 255 for i in (1, 3, 5))
+
+
 def _deg(x):
     return np.rad2deg(np.asarray(x, dtype=float))
 
@@ -414,8 +420,6 @@ def _estimate_curve(e: dict, w):
 
 def _friction_inputs(comp, *, times=(0.05, 0.15, 0.5, 1.0)) -> dict:
     """What :func:`plot_friction` draws: per column the velocity grid (deg/s), the true map and each estimate's."""
-    from matplotlib.colors import to_rgb
-
     p = comp.plant
     r0 = next(iter(comp.results.values()))
     peak = float(np.nanmax(np.abs(r0.w_ref))) * 1.1
@@ -430,7 +434,7 @@ def _friction_inputs(comp, *, times=(0.05, 0.15, 0.5, 1.0)) -> dict:
                        {"Fc": e.Fc, "Fs": e.Fs, "sigma": e.sigma, "offset": e.offset, "Vs": comp.model.Vs,
                         "delta": comp.model.delta}))
     hist = estimate_history(comp, [t_end * f for f in times])
-    base = np.array(to_rgb(mode_color("adaptive")))
+    base = np.array(_hex_rgb(mode_color("adaptive")))
     for j, e in enumerate(hist):
         shade = 0.3 + 0.7 * (j + 1) / len(hist)
         curves.append((f"adaptive at t = {e['t']:.0f} s", tuple(1 - shade * (1 - base)), "-", e))
