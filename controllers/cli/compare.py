@@ -1,19 +1,23 @@
 """``adaptive-ff compare``: all friction-compensation modes on one plant, table and figures.
 
-Two processes share the work (Linux, more than one usable CPU): at entry the
-command forks a helper, a one-worker ``concurrent.futures.ProcessPoolExecutor``
-on the ``fork`` start method (:class:`CompareHelper`), once the modules
-both need are imported. While this process imports the rest of the
-simulation, the helper imports python-control and designs the PI loops the
-comparison will ask :func:`controllers.design.pi.design_pi` for (handed over
-by :func:`controllers.design.pi.remember_designs`; the same function, the
-same numbers; kept for the next run in :func:`design_store`, beside the
-compiled kernels, so that a warm run neither waits for nor imports
-python-control), then imports matplotlib and the figure code. When the runs are done
-it receives the comparison and draws the figures (itself and one forked pool
-worker, :func:`controllers.report.figures.plot_comparison`) while this process
-prints the table. Elsewhere, or when the helper fails, everything runs here as
-before. The output is the same either way.
+Two processes share the work (Linux, more than one usable CPU): at entry,
+once the plant is loaded (numpy and numba imported), the command forks a
+helper, a one-worker ``concurrent.futures.ProcessPoolExecutor`` on the
+``fork`` start method (:class:`CompareHelper`). While this process imports
+the simulation and runs the comparison, the helper imports matplotlib and the
+figure code; if the PI designs the comparison will ask
+:func:`controllers.design.pi.design_pi` for are not kept from an earlier run
+(:func:`design_store`, beside the compiled kernels), it imports
+python-control and makes them (handed over by
+:func:`controllers.design.pi.remember_designs`; the same function, the same
+numbers), so that a warm run neither waits for nor imports python-control.
+When the runs are done this process takes from them what the figures show
+(:func:`controllers.report.figures.figure_inputs`: well under 1 MB, where the
+runs are ~55 MB) and sends it to the helper, which draws the figures (itself
+and one forked pool worker, :func:`controllers.report.figures.draw_figures`)
+while this process prints the table. Elsewhere, or when the helper fails,
+everything runs here as before. The output is the same either way. The
+imports run without garbage collections (:func:`imports_without_gc`).
 """
 
 from __future__ import annotations
@@ -39,7 +43,7 @@ def run(args) -> int:
     with imports_without_gc():
         p, modes = _load_plant(args), _modes(args)
         helper = CompareHelper.start(p, args)
-        importlib.import_module("controllers.experiments.compare")
+        _import_modules(_RUN_MODULES)
     done = False
     try:
         code = _compare_and_print(args, p, modes, out_dir, helper)
@@ -196,7 +200,14 @@ class CompareHelper:
 
     @classmethod
     def start(cls, p, args) -> CompareHelper | None:
-        """Import what both processes need (:data:`_SHARED_MODULES`), fork the helper, ask it for the PI designs.
+        """Fork the helper and give it its first work: the figure code to import, or the PI designs to make.
+
+        With figures, the helper is forked at once (this process has imported
+        numpy, numba and the plant): it imports matplotlib and the figure code
+        (:data:`_FIGURE_MODULES`) while this process imports the simulation and
+        runs the comparison. Without figures, a helper is only started for PI
+        designs that are not in :func:`design_store`, after this process has
+        imported what both need (:data:`_SHARED_MODULES`).
 
         Parameters
         ----------
@@ -214,32 +225,32 @@ class CompareHelper:
             With ``--no-figures`` and every design in :func:`design_store`, no process is started (the designs
             are handed over from the store).
         """
-        import multiprocessing
         import os
-        from concurrent.futures import ProcessPoolExecutor
-
-        from controllers.report.figures import worker_init
 
         if not sys.platform.startswith("linux") or figure_jobs() < 2 or os.environ.get("ADAPTIVE_FF_NO_HELPER"):
             return None
-        _helper_imports(_SHARED_MODULES)
+        figures = not args.no_figures
+        forked = _fork_helper(_import_modules, _FIGURE_MODULES, True) if figures else None
+        if figures and forked is None:  # no process left: everything here
+            return None
         keys = _design_keys(p, args)
         stored = _stored_designs(keys)
-        if stored is not None and args.no_figures:  # nothing left for a helper to do
-            return cls(None, keys, stored, False)
-        sys.stdout.flush()
-        sys.stderr.flush()
-        gc.freeze()  # what is alive now is shared with the helper: its collections do not touch (copy) it
-        try:
-            pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("fork"),
-                                       initializer=worker_init)
-            self = cls(pool, keys, stored, not args.no_figures)
+        if figures:
+            self = cls(forked[0], keys, stored, True)
             if stored is None:
-                self._designs = pool.submit(_helper_designs, keys)
-            if self._figures:
-                pool.submit(_helper_imports, _FIGURE_MODULES)
-        except OSError:  # no process left: everything here
+                try:
+                    self._designs = self._pool.submit(_helper_designs, keys)
+                except Exception:  # noqa: BLE001 - a broken pool: :meth:`designs` gives none, designed here
+                    pass
+            return self
+        if stored is not None:  # --no-figures, designs kept: nothing left for a helper to do
+            return cls(None, keys, stored, False)
+        _import_modules(_SHARED_MODULES)
+        forked = _fork_helper(_helper_designs, keys)
+        if forked is None:
             return None
+        self = cls(forked[0], keys, None, False)
+        self._designs = forked[1]
         return self
 
     def designs(self) -> list:
@@ -297,14 +308,43 @@ class CompareHelper:
             self._pool.shutdown(wait=not stop, cancel_futures=True)
 
 
-#: Imported before the helper is forked: both processes need them (the comparison's identification runs filter
-#: with scipy.signal, python-control imports it; the designs need scipy.optimize and the PI module), so they are
-#: imported once instead of twice (the same time to the designs, ~0.8 s less CPU in all).
+#: Imported before a helper is forked for the PI designs alone (``--no-figures``): both processes need them (the
+#: comparison's identification runs filter with scipy.signal, python-control imports it; the designs need
+#: scipy.optimize and the PI module), so they are imported once instead of twice.
 _SHARED_MODULES = ("numpy", "numba", "scipy.optimize", "scipy.signal", "controllers.design.pi")
 
-#: What the helper imports for the figures while the runs are made (unpickling the comparison needs the package).
-_FIGURE_MODULES = ("matplotlib.backends.backend_agg", "matplotlib.figure", "controllers.report.figures",
-                   "controllers.experiments.compare")
+#: What this process needs for the comparison (scipy.signal: the identification runs filter their input), imported
+#: with the rest (:func:`imports_without_gc`) instead of on first use.
+_RUN_MODULES = ("scipy.optimize", "scipy.signal", "controllers.experiments.compare")
+
+#: What the helper imports for the figures while the runs are made (it is sent the figures' inputs: plain numbers
+#: and arrays, no package objects).
+_FIGURE_MODULES = ("matplotlib.backends.backend_agg", "matplotlib.figure", "controllers.report.figures")
+
+
+def _fork_helper(task, *task_args):
+    """``(pool, future)``: a one-worker process pool on the ``fork`` start method, its worker forked now for its
+    first ``task`` (``future``); None if no process can be started. What is alive here is frozen first
+    (:func:`imports_without_gc`): the helper's collections then do not touch, and so copy, the pages it shares
+    with this process."""
+    import multiprocessing
+    import warnings
+    from concurrent.futures import ProcessPoolExecutor
+
+    from controllers.report.figures import worker_init
+
+    sys.stdout.flush()
+    sys.stderr.flush()
+    gc.freeze()
+    try:
+        pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("fork"),
+                                   initializer=worker_init)
+        with warnings.catch_warnings():  # Python >= 3.12 warns of forking with threads (the pool's own manager)
+            warnings.filterwarnings("ignore", message=r".*fork\(\) may lead to deadlocks", category=DeprecationWarning)
+            future = pool.submit(task, *task_args)  # the worker is forked at the first submission
+    except OSError:
+        return None
+    return pool, future
 
 
 def _design_keys(p, args) -> list[dict]:
@@ -391,16 +431,15 @@ def _store_designs(pairs) -> None:
         pass
 
 
-def _helper_imports(modules) -> None:
-    """Helper task: import ``modules`` (before they are needed; :func:`imports_without_gc`), then collect garbage.
-
-    The helper is forked while this process imports without collections, so it starts with the collector off;
-    it is switched on here, after the imports.
-    """
+def _import_modules(modules, collect: bool = False) -> None:
+    """Import ``modules`` before they are needed (:func:`imports_without_gc`); ``collect``: then switch the
+    garbage collector on (the helper's first task: it is forked while this process imports without collections,
+    so it starts with the collector off)."""
     with imports_without_gc():
         for name in modules:
             importlib.import_module(name)
-    gc.enable()
+    if collect:
+        gc.enable()
 
 
 def _helper_designs(keys) -> list:
