@@ -215,7 +215,9 @@ def _timeline_rows():
     rows = [("  the warm command's hand-overs, one fresh process (wall | CPU of that process):", None, ""),
             ("    main: plant loaded (numpy, numba), helper forked", fork[0], "s", fork[2]),
             ("    main: imports the package (beside the helper's imports)", start[1] - fork[0], "s",
-             start[3] - fork[2])]
+             start[3] - fork[2]),
+            ("    main: imports the run's scipy modules (scipy.signal with scipy.stats)", designs[0] - start[1], "s",
+             designs[2] - start[3])]
     wait = 0.0
     if "_helper_designs" in ev:  # not kept from an earlier run: designed by the helper
         hd = ev["_helper_designs"][0]
