@@ -53,6 +53,11 @@ def main(argv=None) -> int:
     130 interrupted by Ctrl-C (SIGINT); 1 an unexpected internal error, printed
     on one line (set ``ADAPTIVE_FF_DEBUG=1`` for the traceback). No traceback
     otherwise.
+
+    Called without ``argv`` (the console script: the process ends when this
+    returns), everything alive is frozen (``gc.freeze()``) before returning, so
+    that the interpreter's final garbage collections do not traverse the
+    imported numba, scipy and package objects again (a fraction of a second).
     """
     args = build_parser().parse_args(argv)  # --help and usage errors exit here, before numpy is imported
     try:
