@@ -168,11 +168,12 @@ def lagged_params(J: float, Fc: float, Fs: float, Vs: float, delta: float, sigma
 
 def _lagged_list(code, J, Fc, Fs, Vs, delta, sigma, tau, Fs_stick, dv) -> list:
     """The keyed row of a lagged Stribeck or Karnopp joint as a list of Python floats."""
-    J, Fc, Fs, Vs, delta, sigma, tau = (float(v) for v in (J, Fc, Fs, Vs, delta, sigma, tau))
+    J, Fc, Fs, Vs = float(J), float(Fc), float(Fs), float(Vs)
+    delta, sigma, tau = float(delta), float(sigma), float(tau)
     dF = Fs - Fc
-    levels = [Fc, dF, sigma, stribeck_cutoff(Fc, dF, Vs, delta)]
-    return _keyed([float(code), J, Vs, delta, tau, *levels, *levels, float(Fs_stick), float(dv), 0.0, 0.0, 0.0, 0.0,
-                   0.0, lagged_rate(J, dF, Vs, delta, sigma, tau)])
+    wcut = stribeck_cutoff(Fc, dF, Vs, delta)
+    return _keyed([float(code), J, Vs, delta, tau, Fc, dF, sigma, wcut, Fc, dF, sigma, wcut, float(Fs_stick),
+                   float(dv), 0.0, 0.0, 0.0, 0.0, 0.0, lagged_rate(J, dF, Vs, delta, sigma, tau)])
 
 
 def lagged_rate(J: float, dF: float, Vs: float, delta: float, sigma: float, tau: float) -> float:
@@ -210,11 +211,13 @@ def lagged_rate(J: float, dF: float, Vs: float, delta: float, sigma: float, tau:
 
 
 def _keyed(v: list) -> list:
-    """Append ``inv_J``, ``inv_tau`` and the fingerprint ``key`` to slots 0-20 (Python floats) of a row."""
+    """Append ``inv_J``, ``inv_tau`` and the fingerprint ``key`` to the list of slots 0-20 (Python floats) of a
+    row, in place; returns it."""
     J, tau = v[1], v[4]
-    inv_J = 1.0 / J if J != 0.0 else math.inf
-    inv_tau = 1.0 / tau if tau > 0.0 else 0.0
-    return [*v, inv_J, inv_tau, float(1 + hash((*v, inv_J, inv_tau)) % (2**52 - 1))]
+    v.append(1.0 / J if J != 0.0 else math.inf)
+    v.append(1.0 / tau if tau > 0.0 else 0.0)
+    v.append(float(1 + hash(tuple(v)) % (2**52 - 1)))
+    return v
 
 
 def plant_params(p) -> np.ndarray:

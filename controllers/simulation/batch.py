@@ -148,36 +148,31 @@ def _plants_arrays(run_plants, plants, opts, t, wr, Tc) -> tuple:
     one compiled pass."""
     uniq, idx = _unique(run_plants)
     static = [k for k, rp in enumerate(uniq) if not hasattr(rp, "at")]
-    tables, segs = [None] * len(uniq), np.zeros(len(uniq), dtype=np.int64)
+    segs = np.zeros(len(uniq), dtype=np.int64)
     states = np.empty((len(uniq), PLANT_NSTATE))
-    if static:
-        frozen = [uniq[k] for k in static]
-        rows = plant_rows(frozen)
-        bad = np.flatnonzero(~integrable_rows(rows, Tc))
-        if bad.size:
-            k = static[int(bad[0])]
-            b = int(np.flatnonzero(idx == k)[0])
-            try:
-                check_integrable(rows[bad[0]], Tc)
-            except ParameterError as e:
-                raise ParameterError(f"plants[{b}]: {e}") from None
-        states[static] = plant_states(frozen, rows, float(wr[0]))
-        for j, k in enumerate(static):
-            tables[k] = rows[j:j + 1]
+    rows = plant_rows([uniq[k] for k in static])
+    bad = np.flatnonzero(~integrable_rows(rows, Tc))
+    if bad.size:
+        b = int(np.flatnonzero(idx == static[int(bad[0])])[0])
+        try:
+            check_integrable(rows[bad[0]], Tc)
+        except ParameterError as e:
+            raise ParameterError(f"plants[{b}]: {e}") from None
+    states[static] = plant_states([uniq[k] for k in static], rows, float(wr[0]))
+    gates = [_sensor_gate(p, o, Tc) for p, o in zip(plants, opts)]
+    if len(static) == len(uniq):  # no drift: one row per plant
+        return rows[idx][:, None, :], segs[idx], states[idx], gates
+    tables = dict(zip(static, rows[:, None, :]))
     for k, rp in enumerate(uniq):
-        if tables[k] is None:  # a drifting plant: one row per drift period
+        if k not in tables:  # a drifting plant: one row per drift period
             tables[k], segs[k] = plant_table(rp, t, Tc)
             states[k] = plant_state(rp.at(0.0), float(wr[0]))
-    K = max(tb.shape[0] for tb in tables)
-    if K == 1:
-        PT = np.concatenate(tables)[idx][:, None, :]
-    else:
-        PT = np.empty((len(uniq), K, PLANT_NPAR))
-        for k, tb in enumerate(tables):  # a shorter table (fewer drift rows) holds its last row
-            PT[k, :tb.shape[0]] = tb
-            PT[k, tb.shape[0]:] = tb[-1]
-        PT = PT[idx]
-    return PT, segs[idx], states[idx], [_sensor_gate(p, o, Tc) for p, o in zip(plants, opts)]
+    K = max(tb.shape[0] for tb in tables.values())
+    PT = np.empty((len(uniq), K, PLANT_NPAR))
+    for k, tb in tables.items():  # a shorter table (fewer drift rows) holds its last row
+        PT[k, :tb.shape[0]] = tb
+        PT[k, tb.shape[0]:] = tb[-1]
+    return PT[idx], segs[idx], states[idx], gates
 
 
 def _sensor_gate(p, o, Tc: float):
