@@ -110,7 +110,6 @@ _LUGRE = 3.0
 _KEY = PLANT_SLOTS["key"]
 _RATE = PLANT_SLOTS["rate"]
 _INV_J = PLANT_SLOTS["inv_J"]
-_INV_TAU = PLANT_SLOTS["inv_tau"]
 _FIELDS = {
     "lagged-stribeck": ("J", "Fc", "Fs", "Vs", "delta", "sigma", "tau"),
     "asymmetric": ("J", "Fc_pos", "Fc_neg", "Fs_pos", "Fs_neg", "Vs", "delta", "sigma_pos", "sigma_neg", "tau"),
