@@ -102,7 +102,7 @@ def _noise(noise, seeds, opts, B: int, n: int) -> tuple:
     return np.zeros((1, 1)), 0
 
 
-#: Placeholder parameters/state of a scenario without compensator (never written: the engine skips it).
+#: Placeholder parameters/state of a scenario without compensator (only copied into the stacked arrays).
 _NONE = np.zeros(1)
 
 
