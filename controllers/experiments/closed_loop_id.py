@@ -105,12 +105,13 @@ was and fitted as the log was:
 * Each refit makes its own noise model as the fit does: the sensor-noise
   level estimated from the replicate's velocity (with ``options.sensor_noise``
   None) and fresh common random numbers for its ``n_noise`` realisations. The
-  fit's estimate depends on both: on the level, which it reads 10-20 % high
-  from these logs (the estimator of the level is biased, and the bias passes
-  into J, Fs and tau), and on which ``n_noise`` realisations the simulated
+  fit's estimate depends on which ``n_noise`` realisations the simulated
   predictor averages (a simulated likelihood's own error, Gouriéroux &
-  Monfort, 1996, Ch. 1); refits that reused the fit's level and draws saw
-  neither.
+  Monfort, 1996, Ch. 1: five draws scatter the fit of one 15 s log by J
+  1.5-11 %, tau 2-8 %, Fs 0.3-1.4 %, standard deviation) and on the level,
+  which it reads 10-20 % high from these logs; refits that reused the fit's
+  level and draws saw neither. Measured over 40 records this did not raise
+  the coverage (``docs/benchmarks/output_error.md``, session 8).
 * Each replicate is refitted by the whole estimator: the start search of
   step 4 on the replicate, then the two trust-region passes (Efron &
   Tibshirani, *An Introduction to the Bootstrap*, 1993, Sec. 6.4: the
