@@ -7,8 +7,9 @@ Run:  git worktree add /tmp/old REV   (or: mkdir /tmp/old && git archive REV | t
 calls (the plant step of :mod:`plant.dynamics`) needs the whole other tree. Each round runs one fresh process
 per tree (this tree and OTHER, alternating; each compiles or loads its own kernel cache first), which times
 ``run_batch`` with one numba thread by the CPU time of the calling thread (``time.thread_time``: not inflated
-by other processes on a loaded machine) and prints µs per scenario-step (median and fastest of ``--repeat``)
-and the first metrics, so a change of the numbers shows.
+by other processes on a loaded machine) and prints µs per scenario-step of the engine (median and fastest of
+``--repeat``), the serial Python part of the call (CPU of the calling thread outside the engine: packing the
+scenarios, the results) and the first metrics, so a change of the numbers shows.
 """
 
 from __future__ import annotations
@@ -39,10 +40,15 @@ def timed(x):
     t0 = time.thread_time(); run(x); spent.append(time.thread_time() - t0)
 bm.run_batch(plants[:2], ref, mode, o)
 bm.run_engine = timed
+whole = []
 for _ in range(repeat):
+    t0 = time.thread_time()
     r = bm.run_batch(plants, ref, mode, o)
+    whole.append(time.thread_time() - t0)
 n = B * ref.t.size
+serial = [a - b for a, b in zip(whole, spent)]
 print(f"median {statistics.median(spent) / n * 1e6:.4f} µs, fastest {min(spent) / n * 1e6:.4f} µs; "
+      f"serial Python part {statistics.median(serial) * 1e3:.2f} ms (least {min(serial) * 1e3:.2f}); "
       f"rms[:2] {r.rms[:2].tolist()}")
 """
 

@@ -20,7 +20,8 @@ import numpy as np
 from plant.errors import check_positive
 from plant.jit import kernel
 from plant.rows import (LUGRE_STIFF_MAX, MODEL_CODES, PLANT_NPAR, PLANT_NSTATE, PLANT_SLOTS, RK4_RATE_MAX,
-                        check_integrable, lagged_params, lagged_rate, plant_params, plant_state, plant_target)
+                        check_integrable, integrable_rows, lagged_params, lagged_rate, plant_params, plant_rows,
+                        plant_state, plant_states, plant_target)
 from plant.stiff import (LAGGED_FTOL, LAGGED_MAX_SUBSTEPS, LAGGED_RK4_MAX, LAGGED_RTOL, LUGRE_MAX_SUBSTEPS,
                          LUGRE_RK4_MAX, LUGRE_RTOL, LUGRE_ZTOL, lagged_implicit_step, lagged_local_rate,
                          lagged_stiff_step, lugre_implicit_step, lugre_jacobian, lugre_stiff_step)
@@ -30,7 +31,7 @@ __all__ = ["PLANT_NPAR", "PLANT_NSTATE", "PLANT_SLOTS", "MODEL_CODES", "plant_pa
            "lugre_jacobian", "lugre_implicit_step", "lugre_stiff_step", "lagged_implicit_step", "lagged_stiff_step",
            "lagged_local_rate", "check_integrable", "lagged_rate", "RK4_RATE_MAX", "LAGGED_RK4_MAX", "LAGGED_RTOL",
            "LAGGED_FTOL", "LAGGED_MAX_SUBSTEPS", "LUGRE_STIFF_MAX", "LUGRE_RK4_MAX", "LUGRE_RTOL", "LUGRE_ZTOL",
-           "LUGRE_MAX_SUBSTEPS"]
+           "LUGRE_MAX_SUBSTEPS", "plant_rows", "plant_states", "integrable_rows"]
 
 _LUGRE = float(MODEL_CODES["lugre"])
 _KEY = PLANT_SLOTS["key"]

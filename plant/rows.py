@@ -90,8 +90,9 @@ from plant.errors import ParameterError, check_positive
 from plant.jit import kernel
 from plant.stribeck import stribeck_cutoff, stribeck_scalar, stribeck_slope_scalar
 
-__all__ = ["PLANT_NPAR", "PLANT_NSTATE", "PLANT_SLOTS", "MODEL_CODES", "plant_params", "lagged_params", "plant_state",
-           "plant_target", "check_integrable", "lagged_rate", "RK4_RATE_MAX", "LUGRE_STIFF_MAX"]
+__all__ = ["PLANT_NPAR", "PLANT_NSTATE", "PLANT_SLOTS", "MODEL_CODES", "plant_params", "plant_rows", "lagged_params",
+           "plant_state", "plant_states", "plant_target", "check_integrable", "integrable_rows", "lagged_rate",
+           "RK4_RATE_MAX", "LUGRE_STIFF_MAX"]
 
 #: Model codes of slot 0.
 MODEL_CODES = {"lagged-stribeck": 0, "asymmetric": 1, "karnopp": 2, "lugre": 3}
@@ -109,7 +110,6 @@ _LUGRE = 3.0
 _KEY = PLANT_SLOTS["key"]
 _RATE = PLANT_SLOTS["rate"]
 _INV_J = PLANT_SLOTS["inv_J"]
-_INV_TAU = PLANT_SLOTS["inv_tau"]
 _FIELDS = {
     "lagged-stribeck": ("J", "Fc", "Fs", "Vs", "delta", "sigma", "tau"),
     "asymmetric": ("J", "Fc_pos", "Fc_neg", "Fs_pos", "Fs_neg", "Vs", "delta", "sigma_pos", "sigma_neg", "tau"),
@@ -162,12 +162,17 @@ def lagged_params(J: float, Fc: float, Fs: float, Vs: float, delta: float, sigma
     ndarray, shape (PLANT_NPAR,)
         The row (layout in the module docstring), model code 0.
     """
-    J, Fc, Fs, Vs, delta, sigma, tau = (float(v) for v in (J, Fc, Fs, Vs, delta, sigma, tau))
+    return np.array(_lagged_list(0.0, J, Fc, Fs, Vs, delta, sigma, tau, 0.0, 0.0))
+
+
+def _lagged_list(code, J, Fc, Fs, Vs, delta, sigma, tau, Fs_stick, dv) -> list:
+    """The keyed row of a lagged Stribeck or Karnopp joint as a list of Python floats."""
+    J, Fc, Fs, Vs = float(J), float(Fc), float(Fs), float(Vs)
+    delta, sigma, tau = float(delta), float(sigma), float(tau)
     dF = Fs - Fc
-    levels = [Fc, dF, sigma, stribeck_cutoff(Fc, dF, Vs, delta)]
-    r = np.array([0.0, J, Vs, delta, tau, *levels, *levels, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-                  lagged_rate(J, dF, Vs, delta, sigma, tau), 0.0, 0.0, 0.0])
-    return _keyed(r)
+    wcut = stribeck_cutoff(Fc, dF, Vs, delta)
+    return _keyed([float(code), J, Vs, delta, tau, Fc, dF, sigma, wcut, Fc, dF, sigma, wcut, float(Fs_stick),
+                   float(dv), 0.0, 0.0, 0.0, 0.0, 0.0, lagged_rate(J, dF, Vs, delta, sigma, tau)])
 
 
 def lagged_rate(J: float, dF: float, Vs: float, delta: float, sigma: float, tau: float) -> float:
@@ -204,15 +209,14 @@ def lagged_rate(J: float, dF: float, Vs: float, delta: float, sigma: float, tau:
     return s / J
 
 
-def _keyed(r: np.ndarray) -> np.ndarray:
-    v = r[:_INV_J].tolist()
+def _keyed(v: list) -> list:
+    """Append ``inv_J``, ``inv_tau`` and the fingerprint ``key`` to the list of slots 0-20 (Python floats) of a
+    row, in place; returns it."""
     J, tau = v[1], v[4]
-    inv_J = 1.0 / J if J != 0.0 else math.inf
-    inv_tau = 1.0 / tau if tau > 0.0 else 0.0
-    r[_INV_J] = inv_J
-    r[_INV_TAU] = inv_tau
-    r[_KEY] = 1 + hash((*v, inv_J, inv_tau)) % (2**52 - 1)
-    return r
+    v.append(1.0 / J if J != 0.0 else math.inf)
+    v.append(1.0 / tau if tau > 0.0 else 0.0)
+    v.append(float(1 + hash(tuple(v)) % (2**52 - 1)))
+    return v
 
 
 def plant_params(p) -> np.ndarray:
@@ -239,30 +243,60 @@ def plant_params(p) -> np.ndarray:
     Ruderman, eqs. 1-3, and the models of :mod:`plant.asymmetric`,
     :mod:`plant.karnopp`, :mod:`plant.lugre`.
     """
+    return np.array(_row_list(p))
+
+
+def _row_list(p) -> list:
+    """The row of :func:`plant_params` as a list of Python floats."""
     model = _model_of(p)
-    if model in ("lagged-stribeck", "karnopp"):
-        r = lagged_params(p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau)  # keyed
-        if model == "karnopp":
-            r[0] = MODEL_CODES[model]
-            r[13:15] = p.Fs, p.dv
-            return _keyed(r)
-        return r
-    r = np.zeros(PLANT_NPAR)
-    r[0] = MODEL_CODES[model]
-    r[1:4] = p.J, p.Vs, p.delta
+    if model == "lagged-stribeck":
+        return _lagged_list(0.0, p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau, 0.0, 0.0)
+    if model == "karnopp":
+        return _lagged_list(MODEL_CODES[model], p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau, p.Fs, p.dv)
+    r = [0.0] * _INV_J
+    r[0] = float(MODEL_CODES[model])
+    r[1:4] = float(p.J), float(p.Vs), float(p.delta)
     if model == "asymmetric":
-        r[4] = p.tau
-        r[5:9] = p.Fc_pos, p.Fs_pos - p.Fc_pos, p.sigma_pos, stribeck_cutoff(p.Fc_pos, p.Fs_pos - p.Fc_pos, p.Vs,
-                                                                                p.delta)
-        r[9:13] = p.Fc_neg, p.Fs_neg - p.Fc_neg, p.sigma_neg, stribeck_cutoff(p.Fc_neg, p.Fs_neg - p.Fc_neg, p.Vs,
-                                                                                 p.delta)
+        r[4] = float(p.tau)
+        r[5:9] = _levels(p.Fc_pos, p.Fs_pos, p.sigma_pos, p.Vs, p.delta)
+        r[9:13] = _levels(p.Fc_neg, p.Fs_neg, p.sigma_neg, p.Vs, p.delta)
         r[_RATE] = max(lagged_rate(p.J, p.Fs_pos - p.Fc_pos, p.Vs, p.delta, p.sigma_pos, p.tau),
                        lagged_rate(p.J, p.Fs_neg - p.Fc_neg, p.Vs, p.delta, p.sigma_neg, p.tau))
         return _keyed(r)
-    r[5:9] = r[9:13] = p.Fc, p.Fs - p.Fc, p.sigma2, stribeck_cutoff(p.Fc, p.Fs - p.Fc, p.Vs, p.delta)
-    r[15:20] = (p.sigma0, p.sigma1, min(p.Fc, p.Fs), max(p.Fc, p.Fs),
-                (p.sigma1 + p.sigma2) / p.J + math.sqrt(p.sigma0 / p.J))
+    r[5:9] = r[9:13] = _levels(p.Fc, p.Fs, p.sigma2, p.Vs, p.delta)
+    r[15:20] = (float(p.sigma0), float(p.sigma1), float(min(p.Fc, p.Fs)), float(max(p.Fc, p.Fs)),
+                float((p.sigma1 + p.sigma2) / p.J + math.sqrt(p.sigma0 / p.J)))
     return _keyed(r)
+
+
+def _levels(Fc, Fs, sigma, Vs, delta) -> list:
+    """Slots ``Fc, Fs - Fc, sigma, cut-off`` of one direction (Python floats)."""
+    return [float(Fc), float(Fs - Fc), float(sigma), float(stribeck_cutoff(Fc, Fs - Fc, Vs, delta))]
+
+
+def plant_rows(plants) -> np.ndarray:
+    """Pack B frozen plant models into a parameter table, one row of :func:`plant_params` each.
+
+    Parameters
+    ----------
+    plants : sequence of JointParams, AsymmetricParams, KarnoppParams or LuGreParams, length B
+        Validated (frozen) plant models, possibly of different classes.
+
+    Returns
+    -------
+    ndarray, shape (B, PLANT_NPAR)
+        Row ``b`` equals ``plant_params(plants[b])`` bit for bit (one list per plant, one array at the end).
+
+    Raises
+    ------
+    TypeError
+        An entry is not one of the four frozen models.
+
+    Notes
+    -----
+    Ruderman, eqs. 1-3 (as :func:`plant_params`).
+    """
+    return np.array([_row_list(p) for p in plants], dtype=float).reshape(-1, PLANT_NPAR)
 
 
 def plant_state(p, w0: float = 0.0) -> np.ndarray:
@@ -293,8 +327,9 @@ def plant_state(p, w0: float = 0.0) -> np.ndarray:
     w0 = float(w0)
     if not math.isfinite(w0):
         raise ParameterError(f"w0 must be finite, got {w0!r}")
-    cached = model != "lugre" and p.tau == 0.0
-    return np.array([w0, float(p.initial_state(w0)), plant_params(p)[_KEY] if cached else math.nan])
+    if model == "lugre":
+        return np.array([w0, float(p.initial_state(w0)), math.nan])
+    return plant_states((p,), plant_params(p)[None, :], w0)[0]
 
 
 #: Largest ``rate*dt`` of a stable mode that the explicit RK4 step of the lagged models accepts (RK4's
@@ -330,23 +365,109 @@ def check_integrable(rows, dt: float) -> None:
     """
     dt = check_positive("dt", dt)
     r = np.atleast_2d(np.asarray(rows, dtype=float))
-    for j, row in enumerate(r.tolist()):
-        code, J, tau = row[0], row[1], row[4]
-        if code == _LUGRE:
-            ratio = row[15] / J if J != 0.0 else math.inf
-            wp = math.sqrt(ratio) if ratio >= 0.0 else math.nan
-            if not wp * dt <= LUGRE_STIFF_MAX:
-                raise ParameterError(
-                    f"LuGre plant (row {j}): the pre-sliding frequency sqrt(sigma0/J) = {wp:.3g} rad/s is more than "
-                    f"{LUGRE_STIFF_MAX:g}/dt = {LUGRE_STIFF_MAX / dt:.3g} rad/s (sigma0 = {row[15]:g} N·m/rad, "
-                    f"J = {J:g} kg·m², dt = {dt:g} s): the engine cannot integrate it accurately")
-            continue
-        levels = [*row[5:8], *row[9:12], row[2], row[3], row[13], row[14]]
-        if not (J > 0.0 and math.isfinite(J) and 0.0 <= tau < math.inf and all(math.isfinite(v) for v in levels)):
-            raise ParameterError(
-                f"plant (row {j}, model code {int(code)}): J = {J!r} kg·m² must be finite and > 0, tau = {tau!r} s "
-                f"finite and >= 0, and the friction parameters (Fc, Fs - Fc, sigma per direction, Vs, delta, Fs, dv) "
-                f"finite, got {levels!r}: the engine cannot integrate it")
+    ok = integrable_rows(r, dt)
+    if ok.all():
+        return
+    j = int(np.argmin(ok))
+    row = r[j].tolist()
+    code, J, tau = row[0], row[1], row[4]
+    if code == _LUGRE:
+        ratio = row[15] / J if J != 0.0 else math.inf
+        wp = math.sqrt(ratio) if ratio >= 0.0 else math.nan
+        raise ParameterError(
+            f"LuGre plant (row {j}): the pre-sliding frequency sqrt(sigma0/J) = {wp:.3g} rad/s is more than "
+            f"{LUGRE_STIFF_MAX:g}/dt = {LUGRE_STIFF_MAX / dt:.3g} rad/s (sigma0 = {row[15]:g} N·m/rad, "
+            f"J = {J:g} kg·m², dt = {dt:g} s): the engine cannot integrate it accurately")
+    levels = [row[k] for k in _CHECKED]
+    raise ParameterError(
+        f"plant (row {j}, model code {int(code)}): J = {J!r} kg·m² must be finite and > 0, tau = {tau!r} s "
+        f"finite and >= 0, and the friction parameters (Fc, Fs - Fc, sigma per direction, Vs, delta, Fs, dv) "
+        f"finite, got {levels!r}: the engine cannot integrate it")
+
+
+#: Slots that must be finite in a lagged row: Fc, Fs - Fc, sigma per direction, Vs, delta, Fs_stick, dv.
+_CHECKED = [5, 6, 7, 9, 10, 11, 2, 3, 13, 14]
+
+
+def integrable_rows(rows, dt: float) -> np.ndarray:
+    """Which parameter rows :func:`check_integrable` accepts (one array pass over a whole table).
+
+    Parameters
+    ----------
+    rows : ndarray, shape (K, PLANT_NPAR)
+        Parameter rows of :func:`plant_params` (e.g. :func:`plant_rows` of a batch).
+    dt : float
+        Step (s), > 0 (not checked here).
+
+    Returns
+    -------
+    ndarray of bool, shape (K,)
+        LuGre rows: ``sqrt(sigma0/J)*dt <= LUGRE_STIFF_MAX``; lagged rows: ``J`` finite and > 0, ``tau``
+        finite and >= 0 and the friction slots finite (the conditions of :func:`check_integrable`).
+
+    Notes
+    -----
+    Canudas de Wit et al. (1995) for the LuGre rate at rest; the same IEEE operations (division, square
+    root) as a scalar evaluation, so a row passes here exactly when it passes one by one.
+    """
+    r = np.asarray(rows, dtype=float)
+    J, tau = r[:, 1], r[:, 4]
+    with np.errstate(all="ignore"):
+        wp = np.sqrt(np.where(J != 0.0, r[:, 15] / np.where(J != 0.0, J, 1.0), np.inf))
+        lugre_ok = wp * dt <= LUGRE_STIFF_MAX
+    lagged_ok = ((J > 0.0) & np.isfinite(J) & (tau >= 0.0) & (tau < np.inf)
+                 & np.isfinite(r[:, _CHECKED]).all(axis=1))
+    return np.where(r[:, 0] == _LUGRE, lugre_ok, lagged_ok)
+
+
+@kernel
+def _steady_states(rows, w0, out):
+    """``out[b] = [w0, F(w0), key or NaN]`` of the lagged rows (eq. 3 with the levels of the direction of w0)."""
+    for b in range(rows.shape[0]):
+        par = rows[b]
+        i = 5 if w0 > 0.0 else 9
+        out[b, 0] = w0
+        out[b, 1] = stribeck_scalar(w0, par[i], par[i + 1], par[2], par[3], par[i + 2], par[i + 3])
+        out[b, 2] = par[_KEY] if par[4] == 0.0 else math.nan
+
+
+def plant_states(plants, rows, w0: float) -> np.ndarray:
+    """States of steady motion at ``w0`` of B plants (:func:`plant_state` of each), in one compiled pass.
+
+    Parameters
+    ----------
+    plants : sequence of plant models, length B
+        The frozen models of ``rows`` (LuGre entries are initialised by :func:`plant_state`).
+    rows : ndarray, shape (B, PLANT_NPAR)
+        Their rows (:func:`plant_rows`).
+    w0 : float
+        Velocity (rad/s), finite.
+
+    Returns
+    -------
+    ndarray, shape (B, PLANT_NSTATE)
+        Row ``b`` equals ``plant_state(plants[b], w0)`` bit for bit: the lagged models' ``F(w0)`` is
+        :func:`plant.stribeck.stribeck_scalar` with the row's levels of the direction of ``w0`` (what
+        ``initial_state`` evaluates through :func:`plant.stribeck.stribeck`).
+
+    Raises
+    ------
+    ParameterError
+        ``w0`` not finite.
+
+    Notes
+    -----
+    Ruderman, eq. 3; LuGre: Canudas de Wit et al. (1995).
+    """
+    w0 = float(w0)
+    if not math.isfinite(w0):
+        raise ParameterError(f"w0 must be finite, got {w0!r}")
+    r = np.ascontiguousarray(rows, dtype=float).reshape(-1, PLANT_NPAR)
+    out = np.empty((r.shape[0], PLANT_NSTATE))
+    _steady_states(r, w0, out)
+    for b in np.flatnonzero(r[:, 0] == _LUGRE).tolist():
+        out[b] = plant_state(plants[b], w0)
+    return out
 
 
 @kernel(inline="always")

@@ -16,12 +16,13 @@ import numpy as np
 
 from adaptive_ff.compensation.gate import OutlierGate
 from controllers.simulation.closed_loop import plant_table
-from controllers.simulation.compensators import MODES, ModeOptions, build_mode
+from controllers.simulation.compensators import MODES, ModeOptions, build_modes
 from controllers.simulation.engine import EngineInputs, engine_outcome, engine_state, metrics_state, run_engine
-from controllers.simulation.metrics import METRIC_NAMES, metrics_result, reversal_times
+from controllers.simulation.metrics import METRIC_NAMES, metrics_columns, reversal_times
 from plant.errors import ParameterError
 from plant.excitation import Reference
-from plant.dynamics import plant_state
+from plant.rows import (PLANT_NPAR, PLANT_NSTATE, check_integrable, integrable_rows, plant_rows, plant_state,
+                        plant_states)
 from plant.results import json_safe
 
 __all__ = ["BATCH_MODES", "BatchResult", "run_batch"]
@@ -101,13 +102,25 @@ def _noise(noise, seeds, opts, B: int, n: int) -> tuple:
     return np.zeros((1, 1)), 0
 
 
+#: Placeholder parameters/state of a scenario without compensator (only copied into the stacked arrays).
+_NONE = np.zeros(1)
+
+
 def _stack(arrays, width=None) -> np.ndarray:
     arrays = list(arrays)
+    if all(a is _NONE for a in arrays):  # no compensator in any scenario
+        return np.zeros((len(arrays), 1 if width is None else width))
     width = max(a.shape[-1] for a in arrays) if width is None else width
     out = np.zeros((len(arrays), width))
     for b, a in enumerate(arrays):
         out[b, :a.shape[-1]] = a
     return out
+
+
+def _per_scenario(objs, name: str) -> np.ndarray:
+    """``np.stack([getattr(o, name) for o in objs])``, stacking each distinct object once."""
+    uniq, idx = _unique(objs)
+    return np.stack([getattr(o, name) for o in uniq])[idx]
 
 
 def _rows(arrays, gates, default) -> np.ndarray:
@@ -117,30 +130,57 @@ def _rows(arrays, gates, default) -> np.ndarray:
     return np.stack(list(arrays))
 
 
-def _plants_arrays(built, plants, opts, t, wr, Tc) -> tuple:
+def _unique(objs) -> tuple:
+    """The distinct objects of ``objs`` (by identity, first-seen order) and the index of each entry among them."""
+    first, uniq, idx = {}, [], []
+    for x in objs:
+        i = first.setdefault(id(x), len(uniq))
+        if i == len(uniq):
+            uniq.append(x)
+        idx.append(i)
+    return uniq, np.array(idx, dtype=np.int64)
+
+
+def _plants_arrays(run_plants, plants, opts, t, wr, Tc) -> tuple:
     """Parameter table (B, K, NPAR), drift periods (B,), initial states (B, NSTATE) and sensor gates of the
-    scenarios. A plant object given more than once (``[p] * B``) is packed and checked once."""
-    done, tables, segs, states, gates = {}, [], [], [], []
-    for (run_plant, _, _), p, o in zip(built, plants, opts):
-        key = (id(run_plant), id(p))
-        if key not in done:
-            table, seg = plant_table(run_plant, t, Tc)
-            frozen = run_plant.at(0.0) if hasattr(run_plant, "at") else run_plant
-            J = float((p.at(0.0) if hasattr(p, "at") else p).J)
-            done[key] = (table, seg, plant_state(frozen, float(wr[0])), J)
-        table, seg, state, J = done[key]
-        tables.append(table)
-        segs.append(seg)
-        states.append(state)
-        J = J if o.J_design is None else float(o.J_design)
-        gates.append(OutlierGate(max_step=2.0 * o.u_max * Tc / J if math.isfinite(o.u_max) else math.inf)
-                     if o.sensor_gate else None)
-    K = max(tb.shape[0] for tb in tables)
-    PT = np.empty((len(tables), K, tables[0].shape[1]))
-    for b, tb in enumerate(tables):  # a shorter table (fewer drift rows) holds its last row
-        PT[b, :tb.shape[0]] = tb
-        PT[b, tb.shape[0]:] = tb[-1]
-    return PT, np.array(segs, dtype=np.int64), np.stack(states), gates
+    scenarios. A plant object given more than once (``[p] * B``) is packed and checked once; plants that do not
+    drift are packed in one table (:func:`plant.rows.plant_rows`), checked in one array pass and initialised in
+    one compiled pass."""
+    uniq, idx = _unique(run_plants)
+    static = [k for k, rp in enumerate(uniq) if not hasattr(rp, "at")]
+    segs = np.zeros(len(uniq), dtype=np.int64)
+    states = np.empty((len(uniq), PLANT_NSTATE))
+    rows = plant_rows([uniq[k] for k in static])
+    bad = np.flatnonzero(~integrable_rows(rows, Tc))
+    if bad.size:
+        b = int(np.flatnonzero(idx == static[int(bad[0])])[0])
+        try:
+            check_integrable(rows[bad[0]], Tc)
+        except ParameterError as e:
+            raise ParameterError(f"plants[{b}]: {e}") from None
+    states[static] = plant_states([uniq[k] for k in static], rows, float(wr[0]))
+    gates = [_sensor_gate(p, o, Tc) for p, o in zip(plants, opts)]
+    if len(static) == len(uniq):  # no drift: one row per plant
+        return rows[idx][:, None, :], segs[idx], states[idx], gates
+    tables = dict(zip(static, rows[:, None, :]))
+    for k, rp in enumerate(uniq):
+        if k not in tables:  # a drifting plant: one row per drift period
+            tables[k], segs[k] = plant_table(rp, t, Tc)
+            states[k] = plant_state(rp.at(0.0), float(wr[0]))
+    K = max(tb.shape[0] for tb in tables.values())
+    PT = np.empty((len(uniq), K, PLANT_NPAR))
+    for k, tb in tables.items():  # a shorter table (fewer drift rows) holds its last row
+        PT[k, :tb.shape[0]] = tb
+        PT[k, tb.shape[0]:] = tb[-1]
+    return PT[idx], segs[idx], states[idx], gates
+
+
+def _sensor_gate(p, o, Tc: float):
+    """The sensor plausibility gate of one scenario (None without ``sensor_gate``), sized by the design inertia."""
+    if not o.sensor_gate:
+        return None
+    J = float((p.at(0.0) if hasattr(p, "at") else p).J) if o.J_design is None else float(o.J_design)
+    return OutlierGate(max_step=2.0 * o.u_max * Tc / J if math.isfinite(o.u_max) else math.inf)
 
 
 def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, noise=None) -> BatchResult:
@@ -191,9 +231,8 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
     n = t.shape[0]
     if n > 1 and not math.isclose(t[1] - t[0], Tc, rel_tol=1e-9):
         raise ParameterError(f"reference step {t[1] - t[0]!r} s differs from Tc = {Tc!r} s")
-    built = [build_mode(p, mode, o) for p, o in zip(plants, opts)]
-    PT, segs, states, gates = _plants_arrays(built, plants, opts, t, wr, Tc)
-    comps = [c for _, _, c in built]
+    run_plants, ctrls, comps = build_modes(plants, mode, opts)
+    PT, segs, states, gates = _plants_arrays(run_plants, plants, opts, t, wr, Tc)
     kind = 0 if comps[0] is None else int(comps[0].KIND)
     nz, rows = _noise(noise, seeds, opts, B, n)
     w_default = 100.0 * float(np.max(np.abs(wr))) + 1.0
@@ -206,9 +245,9 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
         use_gate=np.array([g is not None for g in gates]),
         gate_par=_rows(((g or dummy).params for g in gates), gates, dummy.params),
         gate_state=_rows(((g or dummy).state for g in gates), gates, dummy.state),
-        pi_par=np.stack([c.params for _, c, _ in built]), pi_state=np.stack([c.state for _, c, _ in built]),
-        kind=kind, comp_par=_stack(c.params if c is not None else np.zeros(1) for c in comps),
-        comp_state=_stack(c.state if c is not None else np.zeros(1) for c in comps),
+        pi_par=_per_scenario(ctrls, "params"), pi_state=_per_scenario(ctrls, "state"),
+        kind=kind, comp_par=_stack(c.params if c is not None else _NONE for c in comps),
+        comp_state=_stack(c.state if c is not None else _NONE for c in comps),
         w_limit=np.array(w_limit), eng_state=engine_state(B, float(wr[0])), met_state=metrics_state(B),
         decimate=0, rec=np.empty((B, 5, 0)), theta=np.empty((B, 0, 1)), theta_k=np.empty((B, 0), dtype=np.int64),
         theta_buf=np.zeros((B, max([getattr(c, "n_theta", 0) for c in comps if c is not None] + [1]))))
@@ -217,8 +256,7 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
         if c is not None:
             c.state[:] = x.comp_state[b, :c.state.shape[0]]
     _, diverged, _ = engine_outcome(x.eng_state)
-    m = [metrics_result(x.met_state[b]) for b in range(B)]
-    cols = {k: np.array([getattr(mb, k) for mb in m]) for k in METRIC_NAMES}
+    cols = metrics_columns(x.met_state)
     for k in METRIC_NAMES:
         cols[k][diverged] = np.nan
     return BatchResult(mode=mode, diverged=diverged, compensators=tuple(comps), **cols)

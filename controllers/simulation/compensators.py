@@ -39,7 +39,7 @@ from controllers.peers.dob import DisturbanceObserver
 from plant.component import Component
 from plant.errors import ParameterError, check_multiple, check_positive
 
-__all__ = ["MODES", "ESTIMATORS", "ModeOptions", "TrueFriction", "build_mode", "REGISTRY"]
+__all__ = ["MODES", "ESTIMATORS", "ModeOptions", "TrueFriction", "build_mode", "build_modes", "REGISTRY"]
 
 #: Estimators of the ``adaptive`` mode: the sliding-regime inverse-dynamics RLS (default) or the paper's eq. 4
 #: RLS at Ts (baseline).
@@ -290,10 +290,57 @@ def build_mode(plant, mode: str, options: ModeOptions) -> tuple:
     ParameterError
         Unknown mode, or settings missing for it.
     """
+    controller = _controller(mode, options)
+    run_plant, comp = REGISTRY[mode](plant, options)
+    return run_plant, controller, comp
+
+
+def _controller(mode: str, options: ModeOptions) -> PIController:
+    """The PI of ``options`` after checking ``mode`` and the type of ``options`` (the start of :func:`build_mode`)."""
     if mode not in REGISTRY:
         raise ParameterError(f"mode must be one of {MODES}, got {mode!r}")
     if not isinstance(options, ModeOptions):
         raise ParameterError(f"options must be ModeOptions, got {type(options).__name__}")
-    controller = PIController(Kp=options.Kp, Ki=options.Ki, Tc=options.Tc, u_max=options.u_max)
-    run_plant, comp = REGISTRY[mode](plant, options)
-    return run_plant, controller, comp
+    return PIController(Kp=options.Kp, Ki=options.Ki, Tc=options.Tc, u_max=options.u_max)
+
+
+def build_modes(plants, mode: str, options) -> tuple:
+    """:func:`build_mode` for B scenarios, with one controller per distinct options object.
+
+    The PI depends on the options only, so scenarios that share one :class:`ModeOptions` object share one
+    (unused, never stepped) :class:`PIController`; every scenario gets its own compensator (it holds the
+    scenario's state and may depend on the plant).
+
+    Parameters
+    ----------
+    plants : sequence of plant models, length B
+        True plants.
+    mode : str
+        One of :data:`MODES`.
+    options : sequence of ModeOptions, length B
+        Settings of each scenario.
+
+    Returns
+    -------
+    run_plants : list, length B
+        The plants to simulate.
+    controllers : list of PIController, length B
+        The PI of each scenario (the same object where the options object is the same).
+    compensators : list, length B
+        Compensator or None of each scenario.
+
+    Raises
+    ------
+    ParameterError
+        As :func:`build_mode`, for the first scenario whose settings are bad.
+    """
+    made, run_plants, controllers, comps = {}, [], [], []
+    for p, o in zip(plants, options):
+        c = made.get(id(o))
+        if c is None:
+            c = made[id(o)] = _controller(mode, o)
+        run_plant, comp = REGISTRY[mode](p, o)
+        run_plants.append(run_plant)
+        controllers.append(c)
+        comps.append(comp)
+    return run_plants, controllers, comps

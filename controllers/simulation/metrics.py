@@ -21,7 +21,8 @@ from plant.errors import ParameterError, SignalError, check_nonnegative, check_s
 from plant.jit import kernel
 
 __all__ = ["LoopMetrics", "loop_metrics", "reversal_times", "metrics_update", "metrics_where", "metrics_add",
-           "metrics_result", "METRICS_NSTATE", "METRIC_NAMES", "deviation_rms", "first_active_time"]
+           "metrics_result", "metrics_columns", "METRICS_NSTATE", "METRIC_NAMES", "deviation_rms",
+           "first_active_time"]
 
 # accumulator state: compensated sums (value, compensation) of e^2 (all, second half, reversal windows) and u^2,
 # maxima of |e| (all, second half), counts (second half, reversal windows), reversal pointer
@@ -167,14 +168,42 @@ def metrics_result(st, *, n_total: int | None = None) -> LoopMetrics:
         metric that needs the missing samples (all but a reversal RMS whose windows were complete).
     """
     nan = math.nan
-    n, nh, nr = st[_N], st[_NH], st[_NR]
-    rms = lambda i, c: math.sqrt((st[i] + st[i + 1]) / c) if c > 0 else nan  # noqa: E731
-    if n_total is not None and n < n_total:
+    if n_total is not None and st[_N] < n_total:
         return LoopMetrics(rms=nan, max=nan, rms_second_half=nan, max_second_half=nan, rms_reversal=nan,
                            u_rms=nan)
-    return LoopMetrics(rms=rms(_SE, n), max=float(st[_ME]) if n else nan, rms_second_half=rms(_SH, nh),
-                       max_second_half=float(st[_MH]) if nh else nan, rms_reversal=rms(_SR, nr),
-                       u_rms=rms(_SU, n))
+    cols = metrics_columns(np.asarray(st, dtype=float)[None, :])
+    return LoopMetrics(**{k: float(v[0]) for k, v in cols.items()})
+
+
+def metrics_columns(states) -> dict:
+    """The metrics of B accumulator states at once: one array per field of :class:`LoopMetrics`.
+
+    Parameters
+    ----------
+    states : ndarray, shape (B, METRICS_NSTATE)
+        Accumulator states after the runs.
+
+    Returns
+    -------
+    dict
+        ``{name: ndarray of shape (B,)}`` for every name of :data:`METRIC_NAMES`: an RMS is
+        ``sqrt((sum + compensation)/count)`` (NaN where the count is 0), a maximum NaN where no sample was
+        seen. The IEEE operations of a scalar evaluation (division, square root), so entry ``b`` equals the
+        field of ``metrics_result(states[b])`` bit for bit.
+
+    Notes
+    -----
+    RMS of the Neumaier-compensated sums of squares (module docstring).
+    """
+    st = np.asarray(states, dtype=float)
+    n, nh, nr = st[:, _N], st[:, _NH], st[:, _NR]
+    with np.errstate(all="ignore"):
+        def rms(i, c):
+            return np.where(c > 0, np.sqrt((st[:, i] + st[:, i + 1]) / c), np.nan)
+
+        return {"rms": rms(_SE, n), "max": np.where(n != 0, st[:, _ME], np.nan), "rms_second_half": rms(_SH, nh),
+                "max_second_half": np.where(nh != 0, st[:, _MH], np.nan), "rms_reversal": rms(_SR, nr),
+                "u_rms": rms(_SU, n)}
 
 
 def reversal_times(t, w, chunk: int = 1 << 16) -> np.ndarray:

@@ -1,0 +1,154 @@
+"""Tests of the vectorised packing behind run_batch: plant_rows, plant_states, integrable_rows, build_modes and
+metrics_columns equal their one-plant/one-run counterparts bit for bit; a bad plant in a batch is named by index."""
+
+import math
+
+import numpy as np
+import pytest
+
+from controllers.simulation.batch import run_batch
+from controllers.simulation.closed_loop import ModeOptions
+from controllers.simulation.compensators import build_mode, build_modes
+from controllers.simulation.metrics import METRIC_NAMES, METRICS_NSTATE, metrics_columns, metrics_result
+from plant.errors import ParameterError
+from plant.excitation import multisine_reference
+from plant.friction import preset
+from plant.lugre import LuGreParams
+from plant.rows import (LUGRE_STIFF_MAX, PLANT_NPAR, PLANT_SLOTS, check_integrable, integrable_rows, plant_params,
+                        plant_rows, plant_state, plant_states)
+from plant.variants import variant
+
+DT = 1e-3
+
+
+def _zoo():
+    """Every model class, with and without lag, rising and falling maps, and one object twice."""
+    p = preset("paper")
+    k, a = variant("karnopp"), variant("asymmetric")
+    return [p, p.replace(tau=0.0), p.replace(Fs=0.5 * p.Fc, delta=-0.5), p.replace(delta=1.7, sigma=0.0),
+            variant("lugre"), k, k.replace(tau=0.0), a, a.replace(tau=0.0), p]
+
+
+def _bits(x):
+    return np.asarray(x, dtype=float).view(np.int64)
+
+
+def test_plant_rows_and_states_equal_the_one_plant_functions_bit_for_bit():
+    zoo = _zoo()
+    rows = plant_rows(zoo)
+    assert rows.shape == (len(zoo), PLANT_NPAR) and rows.flags.c_contiguous
+    np.testing.assert_array_equal(_bits(rows), _bits(np.stack([plant_params(p) for p in zoo])))
+    assert plant_rows([]).shape == (0, PLANT_NPAR)
+    for w0 in (0.0, -0.0, 0.05, -0.3, 1e-6, -40.0):
+        st = plant_states(zoo, rows, w0)
+        np.testing.assert_array_equal(_bits(st), _bits(np.stack([plant_state(p, w0) for p in zoo])))
+        for p, s in zip(zoo, st):  # the state of steady motion: F(w0) of the class (LuGre: its deflection)
+            assert s[0] == w0 and s[1] == p.initial_state(w0)
+    # the eq. 3 cache slot holds the row's key exactly for the lagged models without lag
+    st = plant_states(zoo, rows, 0.2)
+    cached = (rows[:, 0] != 3.0) & (rows[:, PLANT_SLOTS["tau"]] == 0.0)
+    np.testing.assert_array_equal(st[cached, 2], rows[cached, PLANT_SLOTS["key"]])
+    assert np.all(np.isnan(st[~cached, 2])) and np.count_nonzero(cached) == 3
+    with pytest.raises(ParameterError, match="w0"):
+        plant_states(zoo, rows, math.nan)
+    with pytest.raises(TypeError, match="frozen"):
+        plant_rows([zoo[0], {"J": 1.0}])
+
+
+def _scalar_ok(row, dt):
+    """Independent scalar statement of the integrability conditions (plant.rows.check_integrable's docstring)."""
+    code, J, tau = row[0], row[1], row[4]
+    if code == 3.0:
+        ratio = row[15] / J if J != 0.0 else math.inf
+        return (math.sqrt(ratio) if ratio >= 0.0 else math.nan) * dt <= LUGRE_STIFF_MAX
+    levels = [row[i] for i in (2, 3, 5, 6, 7, 9, 10, 11, 13, 14)]
+    return J > 0.0 and math.isfinite(J) and 0.0 <= tau < math.inf and all(map(math.isfinite, levels))
+
+
+def test_integrable_rows_equals_the_scalar_conditions_and_check_integrable_names_the_first_bad_row():
+    rng = np.random.default_rng(4)
+    good = plant_rows(_zoo())
+    lugre = plant_params(LuGreParams(J=1e-2, Fc=1.0, Fs=2.0, Vs=0.01, delta=2.0, sigma0=1.0, sigma1=0.0,
+                                     sigma2=0.0))
+    edge = (LUGRE_STIFF_MAX / DT) ** 2 * 1e-2  # sqrt(sigma0/J)*dt == LUGRE_STIFF_MAX: accepted
+    table = [good, *(lugre.copy() for _ in range(8))]
+    for j, s0 in enumerate((edge, edge * (1 + 1e-12), 1e14, -1.0, 0.0, math.nan, math.inf, 1.0)):
+        table[1 + j][15] = s0
+    table[-1][1] = 0.0  # LuGre with J = 0: infinite frequency
+    bad = []
+    for slot, value in [(1, 0.0), (1, -1.0), (1, math.inf), (1, math.nan), (4, -1e-3), (4, math.inf), (4, math.nan),
+                        (2, math.nan), (3, math.inf), (6, math.nan), (10, -math.inf), (13, math.nan), (14, math.inf),
+                        (20, math.nan)]:  # slot 20 (rate) is not checked
+        r = good[rng.integers(len(good))].copy()
+        if r[0] == 3.0:
+            r = good[0].copy()
+        r[slot] = value
+        bad.append(r)
+    rows = np.vstack([table[0], np.stack(table[1:]), np.stack(bad)])
+    ok = integrable_rows(rows, DT)
+    assert ok.dtype == bool and ok.tolist() == [_scalar_ok(r, DT) for r in rows.tolist()]
+    assert ok[:len(good) + 1].all() and not ok[len(good) + 1] and ok[-1]
+    for j in np.flatnonzero(~ok).tolist():  # each bad row alone and at the end of a good table: named by row
+        with pytest.raises(ParameterError, match=r"row 0\b"):
+            check_integrable(rows[j], DT)
+        with pytest.raises(ParameterError, match=rf"row {len(good)}\b"):
+            check_integrable(np.vstack([good, rows[j]]), DT)
+    check_integrable(good, DT)
+
+
+def test_a_bad_plant_in_a_batch_is_named_by_its_index():
+    ref = multisine_reference(0.2, rng=np.random.default_rng(0))
+    o = ModeOptions(Kp=1.0, Ki=1.0, u_max=5.0)
+    absurd = LuGreParams(J=1e-4, Fc=1.0, Fs=2.0, Vs=0.01, delta=2.0, sigma0=1e14, sigma1=0.0, sigma2=0.0)
+    p = preset("paper")
+    with pytest.raises(ParameterError, match=r"plants\[3\]: LuGre plant \(row 0\): the pre-sliding frequency"):
+        run_batch([p, p, variant("lugre"), absurd, absurd], ref, "none", o)
+    with pytest.raises(TypeError, match="frozen"):
+        run_batch([p, "paper"], ref, "none", o)
+
+
+def test_build_modes_equals_build_mode_with_one_controller_per_options_object():
+    p = preset("paper")
+    plants = [p, p.replace(J=2 * p.J), p]
+    o1 = ModeOptions(Kp=2.0, Ki=40.0, u_max=5.0, Vs=p.Vs, delta=p.delta)
+    o2 = ModeOptions(Kp=3.0, Ki=40.0, u_max=5.0, Vs=p.Vs, delta=p.delta)
+    for mode in ("none", "frictionless", "adaptive", "dob"):
+        run_plants, ctrls, comps = build_modes(plants, mode, [o1, o2, o1])
+        assert ctrls[0] is ctrls[2] and ctrls[1] is not ctrls[0]
+        for b, (q, o) in enumerate(zip(plants, (o1, o2, o1))):
+            rp, c, comp = build_mode(q, mode, o)
+            assert rp == run_plants[b]
+            np.testing.assert_array_equal(c.params, ctrls[b].params)
+            np.testing.assert_array_equal(c.state, ctrls[b].state)
+            if comp is None:
+                assert comps[b] is None
+            else:
+                np.testing.assert_array_equal(_bits(comp.params), _bits(comps[b].params))
+                np.testing.assert_array_equal(_bits(comp.state), _bits(comps[b].state))
+        assert mode in ("none", "frictionless") or len({id(c) for c in comps}) == 3
+    with pytest.raises(ParameterError, match="mode"):
+        build_modes(plants, "magic", [o1] * 3)
+    with pytest.raises(ParameterError, match="options"):
+        build_modes(plants, "none", [o1, "o2", o1])
+
+
+def test_metrics_columns_equal_metrics_result_per_run():
+    rng = np.random.default_rng(7)
+    st = rng.uniform(0.0, 3.0, size=(40, METRICS_NSTATE))
+    st[:, 1::3] *= 1e-17  # compensation terms
+    st[::5, 12] = 0.0  # empty run
+    st[1::5, 6] = 0.0  # no second-half samples
+    st[2::5, 9] = 0.0  # no reversal window
+    st[3::5, 2] = math.nan  # a diverged run's maximum
+    cols = metrics_columns(st)
+    assert sorted(cols) == sorted(METRIC_NAMES)
+    for b in range(st.shape[0]):
+        one = metrics_result(st[b])
+        for k in METRIC_NAMES:
+            assert _bits(cols[k][b]) == _bits(getattr(one, k)), (b, k)
+    # analytic: sum of squares 8 (+ compensation 1) over 4 samples -> RMS 1.5
+    s = np.zeros(METRICS_NSTATE)
+    s[[0, 1, 12, 2]] = 8.0, 1.0, 4.0, 2.5
+    c = metrics_columns(s[None, :])
+    assert c["rms"][0] == 1.5 and c["max"][0] == 2.5 and c["u_rms"][0] == 0.0
+    assert math.isnan(c["rms_second_half"][0]) and math.isnan(c["max_second_half"][0])
