@@ -183,8 +183,10 @@ def stamped(f, name):
         finally:
             note(name, [w0, time.perf_counter() - T0, c0, time.process_time(), os.getpid()])
     return g
-for name in ("_helper_imports", "_helper_designs", "_helper_draw"):
+for name in ("_import_modules", "_helper_designs", "_helper_draw", "_fork_helper"):
     setattr(C, name, stamped(getattr(C, name), name))
+import controllers.report.figures as F
+F.figure_inputs = stamped(F.figure_inputs, "figure_inputs")
 start = C.CompareHelper.__dict__["start"].__func__
 C.CompareHelper.start = classmethod(stamped(start, "start"))
 for name in ("designs", "draw", "figures"):
@@ -206,32 +208,38 @@ print(json.dumps(ev))
 def _timeline_rows():
     """The hand-overs of one warm ``adaptive-ff compare`` (main process and helper) and the critical path in CPU s."""
     ev = json.loads(_py(_TIMELINE_SCRIPT))
-    start, designs, draw = ev["start"][0], ev["designs"][0], ev["draw"][0]
-    imp_figures, hdraw = ev["_helper_imports"][-1], ev["_helper_draw"][0]
+    start, designs, draw, fork = ev["start"][0], ev["designs"][0], ev["draw"][0], ev["_fork_helper"][0]
+    imp_figures = [e for e in ev["_import_modules"] if e[4] != start[4]][-1]  # the helper's (not this process's)
+    hdraw, inputs = ev["_helper_draw"][0], ev["figure_inputs"][0]
     end_wall, end_cpu = ev["end"][0]
-    fork = start[3]  # CPU of the main process when it forks (the imports both need are done)
     rows = [("  the warm command's hand-overs, one fresh process (wall | CPU of that process):", None, ""),
-            ("    main: imports both need (numpy, numba, scipy.optimize/.signal, plant), fork", start[1], "s", fork)]
+            ("    main: plant loaded (numpy, numba), helper forked", fork[0], "s", fork[2]),
+            ("    main: imports the package (beside the helper's imports)", start[1] - fork[0], "s",
+             start[3] - fork[2]),
+            ("    main: imports the run's scipy modules (scipy.signal with scipy.stats)", designs[0] - start[1], "s",
+             designs[2] - start[3])]
     wait = 0.0
     if "_helper_designs" in ev:  # not kept from an earlier run: designed by the helper
         hd = ev["_helper_designs"][0]
-        wait = max(0.0, fork + hd[3] - designs[2])  # the helper's CPU from its fork until the designs are made
-        rows.append(("    helper: python-control imported and the PI designs made", hd[1] - start[1], "s", hd[3]))
+        wait = max(0.0, fork[2] + (imp_figures[3] - imp_figures[2]) + hd[3] - designs[2])
+        rows.append(("    helper: python-control imported and the PI designs made", hd[1] - fork[0], "s", hd[3]))
     else:
         rows.append(("    PI designs read from the design store (no python-control)", None, ""))
-    compare_cpu = draw[2] - designs[3]
-    receive = hdraw[2] - imp_figures[3]  # the helper's CPU between its last import and drawing: the comparison
+    imp_cpu = imp_figures[3] - imp_figures[2]
+    receive = hdraw[2] - imp_figures[3]  # the helper's CPU between its imports and drawing: unpickling the inputs
     rows += [
-        ("    main: asks for the designs", designs[0], "s", designs[2]),
-        ("    main: waits for them (CPU: idle time charged to the critical path)", designs[1] - designs[0], "s", wait),
-        ("    main: compare()", draw[0] - designs[1], "s", compare_cpu),
-        ("    helper: figure code imported (beside compare())", imp_figures[1] - imp_figures[0], "s",
-         imp_figures[3] - imp_figures[2]),
-        ("    helper: receives the comparison", hdraw[0] - draw[0], "s", receive),
+        ("    main: waits for the designs (CPU: idle time charged to the critical path)", designs[1] - designs[0], "s",
+         wait),
+        ("    main: compare()", inputs[0] - designs[1], "s", inputs[2] - designs[3]),
+        ("    main: the figures' inputs taken from the runs", inputs[1] - inputs[0], "s", inputs[3] - inputs[2]),
+        ("    main: hands them over", draw[0], "s", draw[2]),
+        ("    helper: figure code imported (beside the package and compare())", imp_figures[1] - imp_figures[0], "s",
+         imp_cpu),
+        ("    helper: receives the figures' inputs", hdraw[0] - draw[0], "s", receive),
         ("    helper: draws its share (a pool worker the other)", hdraw[1] - hdraw[0], "s", hdraw[3] - hdraw[2]),
         ("    main: end", end_wall, "s", end_cpu),
-        ("    critical path in CPU s (main until hand-over + wait + receive + draw)",
-         draw[2] + wait + receive + (hdraw[3] - hdraw[2]), "s"),
+        ("    critical path in CPU s (max(main until hand-over + wait, fork + helper imports) + receive + draw)",
+         max(draw[2] + wait, fork[2] + imp_cpu) + receive + (hdraw[3] - hdraw[2]), "s"),
     ]
     return rows
 

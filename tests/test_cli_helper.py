@@ -105,8 +105,13 @@ def test_figures_are_drawn_here_when_the_helper_dies(monkeypatch, tmp_path, caps
     from controllers.cli import compare as cli_compare
     from controllers.cli.main import main
 
+    import gc
+
     monkeypatch.setattr(cli_compare, "_helper_draw", _helper_dies)
+    enabled = gc.isenabled()
     assert main(["compare", "--duration", "2", "--modes", "adaptive", "--quiet", "--out", str(tmp_path)]) == 0
+    # called in-process (argv given): the collector is as it was and nothing stays frozen (imports_without_gc)
+    assert gc.isenabled() == enabled and gc.get_freeze_count() == 0
     text = capsys.readouterr().out
     assert "figures: " in text and "adaptive" in text
     assert sorted(p.name for p in tmp_path.iterdir()) == ["error.png", "eta.png", "friction.png",

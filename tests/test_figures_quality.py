@@ -109,7 +109,7 @@ def comp():
 def _compare_figures(comp):
     from controllers.report import figures as F
 
-    out = {f"compare.{n}": fn(comp) for n, fn in F._FIGURES}
+    out = {f"compare.{n}": getattr(F, f"plot_{n}")(comp) for n, _, _ in F._FIGURES}
     out["Comparison.plot"] = comp.plot().figure
     out["ClosedLoopResult.plot"] = comp.results["adaptive"].plot().figure
     return out
@@ -331,7 +331,45 @@ def test_figures_drawn_in_two_processes_are_the_same_files(comp, tmp_path):
         assert a.read_bytes() == b.read_bytes(), a.name
 
 
-def _tiny_figure(_comp):
+@_fork
+def test_figure_inputs_are_small_and_draw_the_same_files(comp, tmp_path):
+    import pickle
+
+    from controllers.report.figures import draw_figures, figure_inputs, minmax_envelope, plot_comparison
+
+    inputs = figure_inputs(comp)
+    assert list(inputs) == ["tracking", "error", "friction", "rls_convergence", "eta"]
+    sent, runs = len(pickle.dumps(inputs)), len(pickle.dumps(comp))
+    n = comp.results["none"].t.size  # 12 000 samples per record here (12 s at 1 kHz)
+    assert sent < 1e6 and sent < runs / 5, (sent, runs)  # what another process is sent: not the runs
+
+    def arrays(x):
+        if isinstance(x, np.ndarray):
+            yield x
+        elif isinstance(x, dict):
+            for v in x.values():
+                yield from arrays(v)
+        elif isinstance(x, (list, tuple)):
+            for v in x:
+                yield from arrays(v)
+    assert max(a.shape[0] for a in arrays(inputs) if a.ndim) < n // 4  # every long record decimated (zoom: 2 s)
+    r = comp.results["adaptive"]  # the decimated error keeps the record's extremes, in deg/s
+    tc, lo, hi = inputs["error"]["envelopes"]["adaptive"]
+    e = np.rad2deg(r.w_ref - r.w)
+    assert np.nanmax(hi) == np.max(e) and np.nanmin(lo) == np.min(e)
+    np.testing.assert_array_equal(tc, minmax_envelope(r.t, e)[0])
+    a = draw_figures(pickle.loads(pickle.dumps(inputs)), tmp_path / "a", jobs=2)  # as the CLI's helper gets them
+    b = plot_comparison(comp, tmp_path / "b", jobs=1)
+    assert [p.name for p in a] == [p.name for p in b]
+    for x, y in zip(a, b):
+        assert x.read_bytes() == y.read_bytes(), x.name
+
+
+def _no_inputs(_comp):
+    return {}
+
+
+def _tiny_figure(_inputs):
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(1, 1))
@@ -348,29 +386,31 @@ def test_a_failed_figure_process_is_redrawn_here_or_raises(monkeypatch, tmp_path
 
     parent = os.getpid()
 
-    def dies_in_a_copy(comp):
+    def dies_in_a_copy(inputs):
         if os.getpid() != parent:
             os._exit(3)  # a copy killed mid-figure: the parent draws its share
-        return _tiny_figure(comp)
+        return _tiny_figure(inputs)
 
-    def raises(comp):
+    def raises(inputs):
         raise SignalError("bad record")
 
-    monkeypatch.setattr(F, "_FIGURES", (("a", _tiny_figure), ("b", lambda c: None), ("c", dies_in_a_copy)))
+    monkeypatch.setattr(F, "_FIGURES", (("a", _no_inputs, _tiny_figure), ("b", _no_inputs, lambda d: None),
+                                        ("c", _no_inputs, dies_in_a_copy)))
     assert F.figure_shares(["a", "b", "c"], 2) == [["a", "b"], ["c"]]  # this process draws the first share
     paths = F.plot_comparison(None, tmp_path, jobs=2)
     assert [p.name for p in paths] == ["a.png", "c.png"] and all(p.stat().st_size > 0 for p in paths)
     assert F.figure_shares(["a", "b"], 2) == [["a"], ["b"]]
-    monkeypatch.setattr(F, "_FIGURES", (("a", _tiny_figure), ("b", raises)))
+    monkeypatch.setattr(F, "_FIGURES", (("a", _no_inputs, _tiny_figure), ("b", _no_inputs, raises)))
     with pytest.raises(SignalError, match="bad record"):  # the copy's error, raised again by this process
         F.plot_comparison(None, tmp_path, jobs=2)
 
     def no_fork():
         raise OSError(11, "Resource temporarily unavailable")
 
-    monkeypatch.setattr(F, "_FIGURES", (("a", _tiny_figure), ("b", _tiny_figure)))
+    monkeypatch.setattr(F, "_FIGURES", (("a", _no_inputs, _tiny_figure), ("b", lambda c: None, raises),
+                                        ("c", _no_inputs, _tiny_figure)))
     monkeypatch.setattr(os, "fork", no_fork)  # no process left: this process draws every figure
-    assert [p.name for p in F.plot_comparison(None, tmp_path / "nf", jobs=2)] == ["a.png", "b.png"]
+    assert [p.name for p in F.plot_comparison(None, tmp_path / "nf", jobs=2)] == ["a.png", "c.png"]  # b: no inputs
 
 
 def test_figure_shares_and_jobs_argument(tmp_path):

@@ -1,23 +1,29 @@
 """``adaptive-ff compare``: all friction-compensation modes on one plant, table and figures.
 
-Two processes share the work (Linux, more than one usable CPU): at entry the
-command forks a helper, a one-worker ``concurrent.futures.ProcessPoolExecutor``
-on the ``fork`` start method (:class:`CompareHelper`), once the modules
-both need are imported. While this process imports the rest of the
-simulation, the helper imports python-control and designs the PI loops the
-comparison will ask :func:`controllers.design.pi.design_pi` for (handed over
-by :func:`controllers.design.pi.remember_designs`; the same function, the
-same numbers; kept for the next run in :func:`design_store`, beside the
-compiled kernels, so that a warm run neither waits for nor imports
-python-control), then imports matplotlib and the figure code. When the runs are done
-it receives the comparison and draws the figures (itself and one forked pool
-worker, :func:`controllers.report.figures.plot_comparison`) while this process
-prints the table. Elsewhere, or when the helper fails, everything runs here as
-before. The output is the same either way.
+Two processes share the work (Linux, more than one usable CPU): at entry,
+once the plant is loaded (numpy and numba imported), the command forks a
+helper, a one-worker ``concurrent.futures.ProcessPoolExecutor`` on the
+``fork`` start method (:class:`CompareHelper`). While this process imports
+the simulation and runs the comparison, the helper imports matplotlib and the
+figure code; if the PI designs the comparison will ask
+:func:`controllers.design.pi.design_pi` for are not kept from an earlier run
+(:func:`design_store`, beside the compiled kernels), it imports
+python-control and makes them (handed over by
+:func:`controllers.design.pi.remember_designs`; the same function, the same
+numbers), so that a warm run neither waits for nor imports python-control.
+When the runs are done this process takes from them what the figures show
+(:func:`controllers.report.figures.figure_inputs`: well under 1 MB, where the
+runs are ~55 MB) and sends it to the helper, which draws the figures (itself
+and one forked pool worker, :func:`controllers.report.figures.draw_figures`)
+while this process prints the table. Elsewhere, or when the helper fails,
+everything runs here as before. The output is the same either way. The
+imports run without garbage collections (:func:`imports_without_gc`).
 """
 
 from __future__ import annotations
 
+import contextlib
+import gc
 import importlib
 import json
 import sys
@@ -34,8 +40,10 @@ def run(args) -> int:
         check_output_dir(out_dir, "--out")
     if args.report:
         check_output_dir(args.report, "--report")
-    p, modes = _load_plant(args), _modes(args)
-    helper = CompareHelper.start(p, args)
+    with imports_without_gc():
+        p, modes = _load_plant(args), _modes(args)
+        helper = CompareHelper.start(p, args)
+        _import_modules(_RUN_MODULES)
     done = False
     try:
         code = _compare_and_print(args, p, modes, out_dir, helper)
@@ -44,6 +52,32 @@ def run(args) -> int:
     finally:
         if helper is not None:
             helper.close(stop=not done)
+        gc.unfreeze()  # a caller that goes on (tests calling main()) collects them again
+
+
+@contextlib.contextmanager
+def imports_without_gc():
+    """Import modules without cyclic garbage collections, then keep what they made out of later collections.
+
+    The garbage collector is off inside (imports make few cycles but many
+    objects: every collection during them traverses all of them again, ~0.4 s
+    CPU for numba, scipy and the package) and on again after it, if it was;
+    everything alive at the end is moved to the permanent generation
+    (``gc.freeze()``), which later collections, the forked helper's included,
+    do not traverse: the pattern the :mod:`gc` documentation gives for a
+    process that forks ("call gc.disable() early in the parent process,
+    gc.freeze() right before fork(), and gc.enable() early in child
+    processes"). ``gc.unfreeze()`` returns the objects to the oldest
+    generation.
+    """
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        gc.freeze()
+        if enabled:
+            gc.enable()
 
 
 def _load_plant(args):
@@ -81,7 +115,7 @@ def _compare_and_print(args, p, modes, out_dir, helper) -> int:
     """The comparison, its figures and report, and the output of :func:`run`."""
     from controllers.design.pi import remember_designs
     from controllers.experiments.compare import compare
-    from controllers.report.figures import plot_comparison
+    from controllers.report.figures import figure_inputs, plot_comparison
     from adaptive_ff.io.units import parameter_text
     from plant.models import plant_to_dict
 
@@ -96,12 +130,13 @@ def _compare_and_print(args, p, modes, out_dir, helper) -> int:
     if args.no_figures:
         paths = []
     elif helper is not None:
-        helper.draw(comp, out_dir)
+        inputs = figure_inputs(comp)
+        helper.draw(inputs, out_dir)
         paths = None  # drawn by the helper while the table is printed
     else:
         paths = plot_comparison(comp, out_dir, jobs=figure_jobs())
     if paths is None and (args.report or args.json):
-        paths = helper.figures(comp, out_dir)
+        paths = helper.figures(inputs, out_dir)
     report = None
     if args.report:
         from controllers.cli.data import command_line
@@ -136,7 +171,7 @@ def _compare_and_print(args, p, modes, out_dir, helper) -> int:
     print(comparison_table(comp, args))
     if paths is None:
         sys.stdout.flush()
-        paths = helper.figures(comp, out_dir)
+        paths = helper.figures(inputs, out_dir)
     if paths:
         print("\nfigures: " + ", ".join(str(x) for x in paths))
     if report is not None:
@@ -165,7 +200,14 @@ class CompareHelper:
 
     @classmethod
     def start(cls, p, args) -> CompareHelper | None:
-        """Import what both processes need (:data:`_SHARED_MODULES`), fork the helper, ask it for the PI designs.
+        """Fork the helper and give it its first work: the figure code to import, or the PI designs to make.
+
+        With figures, the helper is forked at once (this process has imported
+        numpy, numba and the plant): it imports matplotlib and the figure code
+        (:data:`_FIGURE_MODULES`) while this process imports the simulation and
+        runs the comparison. Without figures, a helper is only started for PI
+        designs that are not in :func:`design_store`, after this process has
+        imported what both need (:data:`_SHARED_MODULES`).
 
         Parameters
         ----------
@@ -183,31 +225,32 @@ class CompareHelper:
             With ``--no-figures`` and every design in :func:`design_store`, no process is started (the designs
             are handed over from the store).
         """
-        import multiprocessing
         import os
-        from concurrent.futures import ProcessPoolExecutor
-
-        from controllers.report.figures import worker_init
 
         if not sys.platform.startswith("linux") or figure_jobs() < 2 or os.environ.get("ADAPTIVE_FF_NO_HELPER"):
             return None
-        _helper_imports(_SHARED_MODULES)
+        figures = not args.no_figures
+        forked = _fork_helper(_import_modules, _FIGURE_MODULES, True) if figures else None
+        if figures and forked is None:  # no process left: everything here
+            return None
         keys = _design_keys(p, args)
         stored = _stored_designs(keys)
-        if stored is not None and args.no_figures:  # nothing left for a helper to do
-            return cls(None, keys, stored, False)
-        sys.stdout.flush()
-        sys.stderr.flush()
-        try:
-            pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("fork"),
-                                       initializer=worker_init)
-            self = cls(pool, keys, stored, not args.no_figures)
+        if figures:
+            self = cls(forked[0], keys, stored, True)
             if stored is None:
-                self._designs = pool.submit(_helper_designs, keys)
-            if self._figures:
-                pool.submit(_helper_imports, _FIGURE_MODULES)
-        except OSError:  # no process left: everything here
+                try:
+                    self._designs = self._pool.submit(_helper_designs, keys)
+                except Exception:  # noqa: BLE001 - a broken pool: :meth:`designs` gives none, designed here
+                    pass
+            return self
+        if stored is not None:  # --no-figures, designs kept: nothing left for a helper to do
+            return cls(None, keys, stored, False)
+        _import_modules(_SHARED_MODULES)
+        forked = _fork_helper(_helper_designs, keys)
+        if forked is None:
             return None
+        self = cls(forked[0], keys, None, False)
+        self._designs = forked[1]
         return self
 
     def designs(self) -> list:
@@ -224,22 +267,23 @@ class CompareHelper:
             _store_designs(pairs)
         return pairs
 
-    def draw(self, comp, out_dir) -> None:
-        """Send the comparison to the helper, which writes its figures into ``out_dir`` (:meth:`figures`)."""
+    def draw(self, inputs, out_dir) -> None:
+        """Send the figures' inputs (:func:`controllers.report.figures.figure_inputs`: well under 1 MB, not the
+        runs) to the helper, which writes the figures into ``out_dir`` (:meth:`figures`)."""
         try:
-            self._drawn = self._pool.submit(_helper_draw, comp, str(out_dir), figure_jobs())
+            self._drawn = self._pool.submit(_helper_draw, inputs, str(out_dir), figure_jobs())
         except Exception:  # noqa: BLE001 - broken pool: :meth:`figures` draws here
             self._drawn = None
 
-    def figures(self, comp, out_dir) -> list:
-        """Wait for the figures of :meth:`draw`: their paths (drawn here if the helper could not).
+    def figures(self, inputs, out_dir) -> list:
+        """Wait for the figures of :meth:`draw` (of ``inputs``): their paths (drawn here if the helper could not).
 
         Raises
         ------
         Exception
             What drawing them raised in the helper (a package error, OSError), re-raised here.
         """
-        from controllers.report.figures import plot_comparison
+        from controllers.report.figures import draw_figures
 
         outcome = None
         if self._drawn is not None:
@@ -248,7 +292,7 @@ class CompareHelper:
             except Exception:  # noqa: BLE001 - transport failure (pickling, a dead worker): draw here
                 outcome = None
         if outcome is None:
-            return plot_comparison(comp, out_dir, jobs=figure_jobs())
+            return draw_figures(inputs, out_dir, jobs=figure_jobs())
         if isinstance(outcome, BaseException):
             raise outcome
         return outcome
@@ -264,14 +308,43 @@ class CompareHelper:
             self._pool.shutdown(wait=not stop, cancel_futures=True)
 
 
-#: Imported before the helper is forked: both processes need them (the comparison's identification runs filter
-#: with scipy.signal, python-control imports it; the designs need scipy.optimize and the PI module), so they are
-#: imported once instead of twice (the same time to the designs, ~0.8 s less CPU in all).
+#: Imported before a helper is forked for the PI designs alone (``--no-figures``): both processes need them (the
+#: comparison's identification runs filter with scipy.signal, python-control imports it; the designs need
+#: scipy.optimize and the PI module), so they are imported once instead of twice.
 _SHARED_MODULES = ("numpy", "numba", "scipy.optimize", "scipy.signal", "controllers.design.pi")
 
-#: What the helper imports for the figures while the runs are made (unpickling the comparison needs the package).
-_FIGURE_MODULES = ("matplotlib.backends.backend_agg", "matplotlib.figure", "controllers.report.figures",
-                   "controllers.experiments.compare")
+#: What this process needs for the comparison (scipy.signal: the identification runs filter their input), imported
+#: with the rest (:func:`imports_without_gc`) instead of on first use.
+_RUN_MODULES = ("scipy.optimize", "scipy.signal", "controllers.experiments.compare")
+
+#: What the helper imports for the figures while the runs are made (it is sent the figures' inputs: plain numbers
+#: and arrays, no package objects).
+_FIGURE_MODULES = ("matplotlib.backends.backend_agg", "matplotlib.figure", "controllers.report.figures")
+
+
+def _fork_helper(task, *task_args):
+    """``(pool, future)``: a one-worker process pool on the ``fork`` start method, its worker forked now for its
+    first ``task`` (``future``); None if no process can be started. What is alive here is frozen first
+    (:func:`imports_without_gc`): the helper's collections then do not touch, and so copy, the pages it shares
+    with this process."""
+    import multiprocessing
+    import warnings
+    from concurrent.futures import ProcessPoolExecutor
+
+    from controllers.report.figures import worker_init
+
+    sys.stdout.flush()
+    sys.stderr.flush()
+    gc.freeze()
+    try:
+        pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("fork"),
+                                   initializer=worker_init)
+        with warnings.catch_warnings():  # Python >= 3.12 warns of forking with threads (the pool's own manager)
+            warnings.filterwarnings("ignore", message=r".*fork\(\) may lead to deadlocks", category=DeprecationWarning)
+            future = pool.submit(task, *task_args)  # the worker is forked at the first submission
+    except OSError:
+        return None
+    return pool, future
 
 
 def _design_keys(p, args) -> list[dict]:
@@ -358,10 +431,15 @@ def _store_designs(pairs) -> None:
         pass
 
 
-def _helper_imports(modules) -> None:
-    """Helper task: import ``modules`` (before they are needed)."""
-    for name in modules:
-        importlib.import_module(name)
+def _import_modules(modules, collect: bool = False) -> None:
+    """Import ``modules`` before they are needed (:func:`imports_without_gc`); ``collect``: then switch the
+    garbage collector on (the helper's first task: it is forked while this process imports without collections,
+    so it starts with the collector off)."""
+    with imports_without_gc():
+        for name in modules:
+            importlib.import_module(name)
+    if collect:
+        gc.enable()
 
 
 def _helper_designs(keys) -> list:
@@ -379,15 +457,13 @@ def _helper_designs(keys) -> list:
     return out
 
 
-def _helper_draw(comp, out_dir: str, jobs: int):
-    """Helper task: :func:`controllers.report.figures.plot_comparison`; its paths, or the exception it raised."""
-    import gc
+def _helper_draw(inputs, out_dir: str, jobs: int):
+    """Helper task: :func:`controllers.report.figures.draw_figures`; its paths, or the exception it raised."""
+    from controllers.report.figures import draw_figures
 
-    from controllers.report.figures import plot_comparison
-
-    gc.freeze()  # the comparison and the imported modules: not traversed by every collection while drawing
+    gc.freeze()  # the inputs and the imported modules: not traversed by every collection while drawing
     try:
-        return plot_comparison(comp, out_dir, jobs=jobs)
+        return draw_figures(inputs, out_dir, jobs=jobs)
     except Exception as exc:  # noqa: BLE001 - returned, raised in the parent (CompareHelper.figures)
         return exc
 

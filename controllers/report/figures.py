@@ -21,7 +21,10 @@ per mode in every figure (:data:`MODE_COLORS`). Long records are drawn as
 min/max envelopes over display bins (:func:`minmax_envelope`), so a 120 s run
 at 1 kHz costs a few thousand vertices, and the figures use fixed margins
 instead of a layout engine (both for speed); ``plot_comparison(..., jobs=2)``
-draws them in two processes (a forked pool worker inherits the runs). Velocities are
+draws them in two processes (a forked pool worker inherits the figures' inputs).
+:func:`plot_comparison` is :func:`figure_inputs` (what each figure shows, taken
+from the runs: well under 1 MB for a 120 s run) followed by
+:func:`draw_figures` (matplotlib), so another process can draw from the inputs. Velocities are
 shown in deg/s, torques in N·m.
 """
 
@@ -37,13 +40,13 @@ import numpy as np
 
 from adaptive_ff.io.units import PARAMETER_UNITS
 from plant.errors import ParameterError, SignalError
-from plant.stribeck import stribeck
 
 if TYPE_CHECKING:  # annotations only: matplotlib is imported by the functions when they run
     from matplotlib.figure import Figure
 
-__all__ = ["plot_comparison", "figure_shares", "worker_init", "plot_tracking", "plot_error", "plot_friction", "plot_rls_convergence", "plot_eta",
-           "rms_dev", "minmax_envelope", "pick_reversal", "estimate_history", "MODE_COLORS", "PARAMETER_UNITS"]
+__all__ = ["plot_comparison", "figure_inputs", "draw_figures", "figure_shares", "worker_init", "plot_tracking",
+           "plot_error", "plot_friction", "plot_rls_convergence", "plot_eta", "rms_dev", "minmax_envelope",
+           "pick_reversal", "estimate_history", "MODE_COLORS", "PARAMETER_UNITS"]
 
 #: One Okabe-Ito colour per compensation mode (reference black, frictionless grey).
 MODE_COLORS = {"reference": "#000000", "none": "#D55E00", "fixed": "#0072B2", "adaptive": "#009E73",
@@ -145,6 +148,12 @@ def _legend_right(fig, ax, handles=None, labels=None, **kw):
                      frameon=False, **kw)
 
 
+def _hex_rgb(color: str) -> tuple:
+    """``"#RRGGBB"`` as RGB in [0, 1], as ``matplotlib.colors.to_rgb`` gives it (no matplotlib import: the figure
+    inputs are taken where matplotlib is not loaded)."""
+    return tuple(int(color[i:i + 2], 16) / 255 for i in (1, 3, 5))
+
+
 def _deg(x):
     return np.rad2deg(np.asarray(x, dtype=float))
 
@@ -222,52 +231,52 @@ def pick_reversal(comp, *, half_window: float = 1.0) -> float:
 
 
 # --------------------------------------------------------------------------- figures
+#
+# Each figure is two functions: ``_<name>_inputs(comp)`` takes from the comparison what the figure shows (min/max
+# envelopes, the zoom window, curves, histories: a few hundred kB, plain numbers and arrays), and ``_draw_<name>``
+# draws them with matplotlib. :func:`figure_inputs` and :func:`draw_figures` are the two halves of
+# :func:`plot_comparison`, so that another process can draw from the inputs alone (``adaptive-ff compare``).
+
+
+def _tracking_inputs(comp, *, half_window: float = 1.0) -> dict:
+    """What :func:`plot_tracking` draws: the zoom time, whole-run envelopes and the zoom window of each mode."""
+    t0 = pick_reversal(comp, half_window=half_window)
+    base = comp.results["none"] if "none" in comp.results else next(iter(comp.results.values()))
+    sel = slice(*np.searchsorted(base.t, [t0 - half_window, t0 + half_window]))
+    zoom = []
+    for i, mode in enumerate(m for m in _ZOOM_MODES if m in comp.results):
+        r = comp.results[mode]
+        zoom.append((mode, mode_color(mode, i), r.t[sel].copy(), _deg(r.w[sel]), _deg(r.w_ref[sel] - r.w[sel])))
+    return {"t0": t0, "half_window": half_window, "mode": base.mode, "t_span": (base.t[0], base.t[-1]),
+            "reference": minmax_envelope(base.t, _deg(base.w_ref)), "w": minmax_envelope(base.t, _deg(base.w)),
+            "zoom_t": base.t[sel].copy(), "zoom_reference": _deg(base.w_ref[sel]), "zoom": zoom}
 
 
 @_styled
-def plot_tracking(comp, *, half_window: float = 1.0) -> Figure:
-    """The whole run, and one reversal up close with every mode of interest (velocities in deg/s).
-
-    Parameters
-    ----------
-    comp : controllers.experiments.compare.Comparison
-    half_window : float, keyword-only
-        Half-width (s) of the zoom around the reversal of :func:`pick_reversal`.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-        Top: reference and ``none`` velocity over the whole run (deg/s over s),
-        the zoom window shaded. Middle: reference and the velocity of
-        ``none``, ``fixed``, ``adaptive``, ``frictionless`` (those that ran)
-        around the reversal. Bottom: their tracking errors ``w_ref - w`` there.
-    """
-    t0 = pick_reversal(comp, half_window=half_window)
+def _draw_tracking(d: dict) -> Figure:
+    t0, half_window = d["t0"], d["half_window"]
     fig = _new_figure(9.0, 7.0, right=1.55, top=0.35)
     outer = fig.add_gridspec(2, 1, height_ratios=[1.0, 2.9], hspace=0.42)
     inner = outer[1].subgridspec(2, 1, height_ratios=[1.6, 1.0], hspace=0.08)
     ax0 = fig.add_subplot(outer[0])
     ax1 = fig.add_subplot(inner[0])
     ax2 = fig.add_subplot(inner[1], sharex=ax1)
-    base = comp.results["none"] if "none" in comp.results else next(iter(comp.results.values()))
-    tc, lo, hi = minmax_envelope(base.t, _deg(base.w_ref))
+    tc, lo, hi = d["reference"]
     ax0.fill_between(tc, lo, hi, color="k", lw=0.6, label="reference", step="post")
-    tc, lo, hi = minmax_envelope(base.t, _deg(base.w))
-    ax0.fill_between(tc, lo, hi, color=mode_color(base.mode), alpha=0.8, lw=0.6, label=f"{base.mode}",
+    tc, lo, hi = d["w"]
+    ax0.fill_between(tc, lo, hi, color=mode_color(d["mode"]), alpha=0.8, lw=0.6, label=f"{d['mode']}",
                      step="post")
     ax0.axvspan(t0 - half_window, t0 + half_window, color="#F0E442", alpha=0.6, lw=0, label="zoom below")
     ax0.set_ylabel("w [deg/s]")
     ax0.set_xlabel("time [s]", labelpad=1)
-    ax0.set_xlim(base.t[0], base.t[-1])
+    ax0.set_xlim(*d["t_span"])
     ax0.set_title("whole run", fontsize=9, loc="left")
     _legend_right(fig, ax0)
-    sel = slice(*np.searchsorted(base.t, [t0 - half_window, t0 + half_window]))
-    ax1.plot(base.t[sel], _deg(base.w_ref[sel]), color="k", ls="--", lw=1.4, label="reference")
-    for i, mode in enumerate(m for m in _ZOOM_MODES if m in comp.results):
-        r = comp.results[mode]
+    ax1.plot(d["zoom_t"], d["zoom_reference"], color="k", ls="--", lw=1.4, label="reference")
+    for mode, color, t, w, e in d["zoom"]:
         lw = 1.0 if mode == "frictionless" else 1.5
-        ax1.plot(r.t[sel], _deg(r.w[sel]), color=mode_color(mode, i), lw=lw, label=mode)
-        ax2.plot(r.t[sel], _deg(r.w_ref[sel] - r.w[sel]), color=mode_color(mode, i), lw=lw, label=mode)
+        ax1.plot(t, w, color=color, lw=lw, label=mode)
+        ax2.plot(t, e, color=color, lw=lw, label=mode)
     ax1.axhline(0.0, color="0.6", lw=0.6, zorder=0)
     ax2.axhline(0.0, color="0.6", lw=0.6, zorder=0)
     ax1.set_ylabel("w [deg/s]")
@@ -283,7 +292,69 @@ def plot_tracking(comp, *, half_window: float = 1.0) -> Figure:
     return fig
 
 
+def plot_tracking(comp, *, half_window: float = 1.0) -> Figure:
+    """The whole run, and one reversal up close with every mode of interest (velocities in deg/s).
+
+    Parameters
+    ----------
+    comp : controllers.experiments.compare.Comparison
+    half_window : float, keyword-only
+        Half-width (s) of the zoom around the reversal of :func:`pick_reversal`.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Top: reference and ``none`` velocity over the whole run (deg/s over s;
+        min/max envelopes, :func:`minmax_envelope`), the zoom window shaded.
+        Middle: reference and the velocity of ``none``, ``fixed``,
+        ``adaptive``, ``frictionless`` (those that ran) around the reversal,
+        every sample. Bottom: their tracking errors ``w_ref - w`` there.
+    """
+    return _draw_tracking(_tracking_inputs(comp, half_window=half_window))
+
+
+def _error_inputs(comp) -> dict:
+    """What :func:`plot_error` draws: the envelope of each mode's tracking error (deg/s), its RMS, the run's end."""
+    modes, runs = list(comp.results), comp.results.items()
+    return {"modes": modes, "envelopes": {m: minmax_envelope(r.t, _deg(r.w_ref - r.w)) for m, r in runs},
+            "rms": {m: _deg(r.metrics.rms_second_half) for m, r in runs}, "t_end": comp.results[modes[0]].t[-1]}
+
+
 @_styled
+def _draw_error(d: dict) -> Figure:
+    modes, env = d["modes"], d["envelopes"]
+    n = len(modes)
+    fig = _new_figure(9.0, 0.95 * n + 0.9, left=0.85, right=0.25, top=0.35, bottom=0.5)
+    from matplotlib.ticker import MaxNLocator, NullLocator
+
+    axes = np.atleast_1d(fig.subplots(n, 1, sharey=True, gridspec_kw={"hspace": 0.12}))
+    axes[0].yaxis.set_major_locator(MaxNLocator(nbins=2, symmetric=True))  # shared: 3 ticks on every panel
+    fl = env.get("frictionless")
+    peak = max((float(np.nanmax(np.abs(np.concatenate([lo, hi])))) for _, lo, hi in env.values()
+                if np.isfinite(lo).any()), default=1.0)
+    t_end = d["t_end"]
+    for i, (ax, mode) in enumerate(zip(axes, modes)):
+        tc, lo, hi = env[mode]
+        if fl is not None and mode != "frictionless":
+            ax.fill_between(fl[0], fl[1], fl[2], color=mode_color("frictionless"), alpha=0.45, lw=0, step="post")
+        ax.fill_between(tc, lo, hi, color=mode_color(mode, i), lw=0.5, step="post")
+        ax.axvline(0.5 * t_end, color="k", lw=0.6, ls=":")
+        rms = d["rms"][mode]
+        ax.text(0.005, 0.93, f"{mode}", transform=ax.transAxes, fontsize=9, fontweight="bold", va="top")
+        ax.text(0.51, 0.93, f"RMS {rms:.3f} deg/s (second half)", transform=ax.transAxes, fontsize=8, va="top")
+        ax.set_ylabel("e [deg/s]", fontsize=8)
+        ax.set_xlim(0.0, t_end)
+        if i < n - 1:
+            ax.xaxis.set_major_locator(NullLocator())  # the time axis is read on the bottom panel
+        ax.grid(True, alpha=0.3, lw=0.5)
+    lim = 1.15 * peak if math.isfinite(peak) and peak > 0 else 1.0
+    axes[0].set_ylim(-lim, lim)
+    axes[-1].set_xlabel("time [s]")
+    axes[0].set_title("tracking error e = w_ref − w per mode (grey: frictionless; right of the dotted line: "
+                      "metrics window)", fontsize=9, loc="left")
+    return fig
+
+
 def plot_error(comp) -> Figure:
     """Tracking error of every mode as small multiples, one shared scale (deg/s over s).
 
@@ -299,38 +370,7 @@ def plot_error(comp) -> Figure:
         run's envelope (grey), the metrics window (second half) marked and its
         RMS error written in the panel.
     """
-    modes = list(comp.results)
-    n = len(modes)
-    fig = _new_figure(9.0, 0.95 * n + 0.9, left=0.85, right=0.25, top=0.35, bottom=0.5)
-    from matplotlib.ticker import MaxNLocator, NullLocator
-
-    axes = np.atleast_1d(fig.subplots(n, 1, sharey=True, gridspec_kw={"hspace": 0.12}))
-    axes[0].yaxis.set_major_locator(MaxNLocator(nbins=2, symmetric=True))  # shared: 3 ticks on every panel
-    env = {m: minmax_envelope(r.t, _deg(r.w_ref - r.w)) for m, r in comp.results.items()}
-    fl = env.get("frictionless")
-    peak = max((float(np.nanmax(np.abs(np.concatenate([lo, hi])))) for _, lo, hi in env.values()
-                if np.isfinite(lo).any()), default=1.0)
-    t_end = comp.results[modes[0]].t[-1]
-    for i, (ax, mode) in enumerate(zip(axes, modes)):
-        tc, lo, hi = env[mode]
-        if fl is not None and mode != "frictionless":
-            ax.fill_between(fl[0], fl[1], fl[2], color=mode_color("frictionless"), alpha=0.45, lw=0, step="post")
-        ax.fill_between(tc, lo, hi, color=mode_color(mode, i), lw=0.5, step="post")
-        ax.axvline(0.5 * t_end, color="k", lw=0.6, ls=":")
-        rms = _deg(comp.results[mode].metrics.rms_second_half)
-        ax.text(0.005, 0.93, f"{mode}", transform=ax.transAxes, fontsize=9, fontweight="bold", va="top")
-        ax.text(0.51, 0.93, f"RMS {rms:.3f} deg/s (second half)", transform=ax.transAxes, fontsize=8, va="top")
-        ax.set_ylabel("e [deg/s]", fontsize=8)
-        ax.set_xlim(0.0, t_end)
-        if i < n - 1:
-            ax.xaxis.set_major_locator(NullLocator())  # the time axis is read on the bottom panel
-        ax.grid(True, alpha=0.3, lw=0.5)
-    lim = 1.15 * peak if math.isfinite(peak) and peak > 0 else 1.0
-    axes[0].set_ylim(-lim, lim)
-    axes[-1].set_xlabel("time [s]")
-    axes[0].set_title("tracking error e = w_ref − w per mode (grey: frictionless; right of the dotted line: "
-                      "metrics window)", fontsize=9, loc="left")
-    return fig
+    return _draw_error(_error_inputs(comp))
 
 
 def estimate_history(comp, times) -> list:
@@ -373,10 +413,72 @@ def estimate_history(comp, times) -> list:
 
 
 def _estimate_curve(e: dict, w):
+    from plant.stribeck import stribeck  # the one map of eq. 3 (imported here: drawing alone needs no numba)
+
     return stribeck(w, Fc=e["Fc"], Fs=e["Fs"], Vs=e["Vs"], delta=e["delta"], sigma=e["sigma"]) + e["offset"]
 
 
+def _friction_inputs(comp, *, times=(0.05, 0.15, 0.5, 1.0)) -> dict:
+    """What :func:`plot_friction` draws: per column the velocity grid (deg/s), the true map and each estimate's."""
+    p = comp.plant
+    r0 = next(iter(comp.results.values()))
+    peak = float(np.nanmax(np.abs(r0.w_ref))) * 1.1
+    t_end = float(r0.t[-1])
+    p_end = p.at(t_end) if hasattr(p, "at") else p
+    p_start = p.at(0.0) if hasattr(p, "at") else p
+    Vs = float(comp.model.Vs if comp.model.Vs is not None else getattr(p_end, "Vs", 0.02))
+    curves = []  # (label, colour, linestyle, parameters)
+    if comp.offline is not None:
+        e = comp.offline.estimate
+        curves.append(("fixed (offline fit)", mode_color("fixed"), "--",
+                       {"Fc": e.Fc, "Fs": e.Fs, "sigma": e.sigma, "offset": e.offset, "Vs": comp.model.Vs,
+                        "delta": comp.model.delta}))
+    hist = estimate_history(comp, [t_end * f for f in times])
+    base = np.array(_hex_rgb(mode_color("adaptive")))
+    for j, e in enumerate(hist):
+        shade = 0.3 + 0.7 * (j + 1) / len(hist)
+        curves.append((f"adaptive at t = {e['t']:.0f} s", tuple(1 - shade * (1 - base)), "-", e))
+    columns = []
+    for wmax in (peak, min(5.0 * Vs, peak)):
+        w = np.linspace(-wmax, wmax, 801)
+        columns.append({"wd": _deg(w), "truth": p_end.friction(w),
+                        "start": p_start.friction(w) if p_start is not p_end else None,
+                        "curves": [(label, color, ls, _estimate_curve(e, w)) for label, color, ls, e in curves]})
+    return {"columns": columns, "t_end": t_end, "Vs": Vs, "peak": peak}
+
+
 @_styled
+def _draw_friction(d: dict) -> Figure:
+    t_end, Vs, peak = d["t_end"], d["Vs"], d["peak"]
+    fig = _new_figure(10.0, 6.2, right=2.05, top=0.4, bottom=0.55)
+    axes = fig.subplots(2, 2, sharex="col", gridspec_kw={"wspace": 0.3, "hspace": 0.1, "height_ratios": [1.6, 1.0]})
+    for col, c in enumerate(d["columns"]):
+        ax, axe = axes[0, col], axes[1, col]
+        wd, truth = c["wd"], c["truth"]
+        if c["start"] is not None:
+            ax.plot(wd, c["start"], color="0.55", ls="--", lw=1.2, label="truth at t = 0")
+        ax.plot(wd, truth, color="k", lw=2.4, label=f"truth at t = {t_end:.0f} s")
+        for label, color, ls, F in c["curves"]:
+            ax.plot(wd, F, color=color, ls=ls, lw=1.3, label=label)
+            axe.plot(wd, F - truth, color=color, ls=ls, lw=1.3, label=label)
+        for a in (ax, axe):
+            a.axhline(0.0, color="0.6", lw=0.5, zorder=0)
+            a.axvline(0.0, color="0.6", lw=0.5, zorder=0)
+            a.grid(True, alpha=0.3, lw=0.5)
+        ax.set_xlim(wd[0], wd[-1])
+        ax.set_ylabel("friction F(w) [N·m]")
+        ax.tick_params(labelbottom=False)
+        axe.set_ylabel("estimate − truth [N·m]")
+        axe.set_xlabel("velocity w [deg/s]")
+        err = [np.abs(F - truth) for _, _, _, F in c["curves"][-2:]]  # the final estimates
+        lim = 1.5 * max((float(np.max(x)) for x in err), default=1.0) or 1.0
+        axe.set_ylim(-lim, lim)
+    axes[0, 0].set_title("static friction map (eq. 3), whole speed range", fontsize=9, loc="left")
+    axes[0, 1].set_title(f"low speeds, |w| ≤ 5 Vs = {_deg(min(5.0 * Vs, peak)):.2g} deg/s", fontsize=9, loc="left")
+    _legend_right(fig, axes[0, 1])
+    return fig
+
+
 def plot_friction(comp, *, times=(0.05, 0.15, 0.5, 1.0)) -> Figure:
     """Estimated friction as a Stribeck map: torque (N·m) over velocity (deg/s), estimate vs truth.
 
@@ -397,56 +499,7 @@ def plot_friction(comp, *, times=(0.05, 0.15, 0.5, 1.0)) -> Figure:
         times in shades of its colour (light = early). Bottom: each estimate
         minus the truth (N·m), where a good estimate is a flat line at zero.
     """
-    from matplotlib.colors import to_rgb
-
-    p = comp.plant
-    r0 = next(iter(comp.results.values()))
-    peak = float(np.nanmax(np.abs(r0.w_ref))) * 1.1
-    t_end = float(r0.t[-1])
-    p_end = p.at(t_end) if hasattr(p, "at") else p
-    p_start = p.at(0.0) if hasattr(p, "at") else p
-    Vs = float(comp.model.Vs if comp.model.Vs is not None else getattr(p_end, "Vs", 0.02))
-    curves = []  # (label, colour, linestyle, parameters)
-    if comp.offline is not None:
-        e = comp.offline.estimate
-        curves.append(("fixed (offline fit)", mode_color("fixed"), "--",
-                       {"Fc": e.Fc, "Fs": e.Fs, "sigma": e.sigma, "offset": e.offset, "Vs": comp.model.Vs,
-                        "delta": comp.model.delta}))
-    hist = estimate_history(comp, [t_end * f for f in times])
-    base = np.array(to_rgb(mode_color("adaptive")))
-    for j, e in enumerate(hist):
-        shade = 0.3 + 0.7 * (j + 1) / len(hist)
-        curves.append((f"adaptive at t = {e['t']:.0f} s", tuple(1 - shade * (1 - base)), "-", e))
-    fig = _new_figure(10.0, 6.2, right=2.05, top=0.4, bottom=0.55)
-    axes = fig.subplots(2, 2, sharex="col", gridspec_kw={"wspace": 0.3, "hspace": 0.1, "height_ratios": [1.6, 1.0]})
-    for col, wmax in enumerate((peak, min(5.0 * Vs, peak))):
-        ax, axe = axes[0, col], axes[1, col]
-        w = np.linspace(-wmax, wmax, 801)
-        wd = _deg(w)
-        truth = p_end.friction(w)
-        if p_start is not p_end:
-            ax.plot(wd, p_start.friction(w), color="0.55", ls="--", lw=1.2, label="truth at t = 0")
-        ax.plot(wd, truth, color="k", lw=2.4, label=f"truth at t = {t_end:.0f} s")
-        for label, color, ls, e in curves:
-            F = _estimate_curve(e, w)
-            ax.plot(wd, F, color=color, ls=ls, lw=1.3, label=label)
-            axe.plot(wd, F - truth, color=color, ls=ls, lw=1.3, label=label)
-        for a in (ax, axe):
-            a.axhline(0.0, color="0.6", lw=0.5, zorder=0)
-            a.axvline(0.0, color="0.6", lw=0.5, zorder=0)
-            a.grid(True, alpha=0.3, lw=0.5)
-        ax.set_xlim(wd[0], wd[-1])
-        ax.set_ylabel("friction F(w) [N·m]")
-        ax.tick_params(labelbottom=False)
-        axe.set_ylabel("estimate − truth [N·m]")
-        axe.set_xlabel("velocity w [deg/s]")
-        err = [np.abs(_estimate_curve(e, w) - truth) for _, _, _, e in curves[-2:]]  # the final estimates
-        lim = 1.5 * max((float(np.max(x)) for x in err), default=1.0) or 1.0
-        axe.set_ylim(-lim, lim)
-    axes[0, 0].set_title("static friction map (eq. 3), whole speed range", fontsize=9, loc="left")
-    axes[0, 1].set_title(f"low speeds, |w| ≤ 5 Vs = {_deg(min(5.0 * Vs, peak)):.2g} deg/s", fontsize=9, loc="left")
-    _legend_right(fig, axes[0, 1])
-    return fig
+    return _draw_friction(_friction_inputs(comp, times=times))
 
 
 def _true_sliding(plant, names, t):
@@ -467,31 +520,16 @@ def _true_sliding(plant, names, t):
     return out
 
 
-@_styled
-def plot_rls_convergence(comp) -> Figure | None:
-    """Each parameter of the adaptive estimator over time with its unit, the true value dashed (cf. paper Fig. 12).
 
-    Parameters
-    ----------
-    comp : controllers.experiments.compare.Comparison
-
-    Returns
-    -------
-    matplotlib.figure.Figure or None
-        One panel per parameter (two columns): the estimate in the adaptive
-        mode's colour, the true plant dashed black. The sliding estimator's
-        parameters are physical (J in kg·m², J_tau in kg·m²·s, tau in s, Fc,
-        Fs, offset in N·m, sigma in N·m·s/rad, :data:`PARAMETER_UNITS`); the
-        eq. 4 estimator's are the regression coefficients of eq. 4. The y
-        range follows the estimate after its first tenth, so the start-up
-        transient does not flatten the rest. None without an adaptive run.
-    """
+def _rls_inputs(comp) -> dict | None:
+    """What :func:`plot_rls_convergence` draws: the estimates (at most ~1500 updates) and the true values; None
+    without an adaptive run."""
     r = comp.results.get("adaptive")
     if r is None or r.theta.size == 0:
         return None
     names = list(r.info["names"])
     stride = max(len(r.t_theta) // 1500, 1)
-    tt, th = r.t_theta[::stride], r.theta[::stride]
+    tt, th = np.ascontiguousarray(r.t_theta[::stride]), np.ascontiguousarray(r.theta[::stride])
     if r.info.get("estimator") == "sliding":
         true = _true_sliding(comp.plant, names, tt)
         title = "sliding-regime estimator: physical parameters (dashed: true plant)"
@@ -499,8 +537,14 @@ def plot_rls_convergence(comp) -> Figure | None:
         p0 = comp.plant.at(0.0) if hasattr(comp.plant, "at") else comp.plant
         true = np.tile(comp.model.theta_from_physical(p0, r.info["Ts"]), (len(tt), 1))
         title = "eq. 4 RLS coefficients (dashed: true plant)"
+    return {"names": names, "t": tt, "theta": th, "true": true, "title": title, "t_end": r.t[-1]}
+
+
+@_styled
+def _draw_rls_convergence(d: dict) -> Figure:
     from matplotlib.ticker import MaxNLocator
 
+    names, tt, th, true = d["names"], d["t"], d["theta"], d["true"]
     n = len(names)
     ncol = 2 if n > 3 else 1
     nrow = -(-n // ncol)
@@ -527,16 +571,15 @@ def plot_rls_convergence(comp) -> Figure | None:
     for ax in axes[max(n - ncol, 0):n]:
         ax.set_xlabel("time [s]")
         ax.tick_params(labelbottom=True)
-    fig.suptitle(title, fontsize=9, x=0.95 / 10.0, ha="left", y=1.0 - 0.08 / (1.45 * nrow + 0.9), va="top")
+    fig.suptitle(d["title"], fontsize=9, x=0.95 / 10.0, ha="left", y=1.0 - 0.08 / (1.45 * nrow + 0.9), va="top")
     fig.legend(*axes[0].get_legend_handles_labels(), loc="upper right", bbox_to_anchor=(1.0 - 0.25 / 10.0, 1.0),
                ncol=2, fontsize=8, frameon=False)  # in the top margin, above the panels
-    axes[0].set_xlim(tt[0] if tt.size else 0.0, r.t[-1])
+    axes[0].set_xlim(tt[0] if tt.size else 0.0, d["t_end"])
     return fig
 
 
-@_styled
-def plot_eta(comp) -> Figure:
-    """Compensation efficiency eta and ``rms_dev`` per mode, as bars.
+def plot_rls_convergence(comp) -> Figure | None:
+    """Each parameter of the adaptive estimator over time with its unit, the true value dashed (cf. paper Fig. 12).
 
     Parameters
     ----------
@@ -544,19 +587,34 @@ def plot_eta(comp) -> Figure:
 
     Returns
     -------
-    matplotlib.figure.Figure
-        Left: eta (second half of the run, 1 = frictionless, dashed line); right:
-        :func:`rms_dev` in deg/s (lower is better). Values written on the bars;
-        a mode with an undefined value gets an empty bar marked n/a.
+    matplotlib.figure.Figure or None
+        One panel per parameter (two columns): the estimate in the adaptive
+        mode's colour, the true plant dashed black. The sliding estimator's
+        parameters are physical (J in kg·m², J_tau in kg·m²·s, tau in s, Fc,
+        Fs, offset in N·m, sigma in N·m·s/rad, :data:`PARAMETER_UNITS`); the
+        eq. 4 estimator's are the regression coefficients of eq. 4. The y
+        range follows the estimate after its first tenth, so the start-up
+        transient does not flatten the rest. None without an adaptive run.
     """
+    d = _rls_inputs(comp)
+    return None if d is None else _draw_rls_convergence(d)
+
+
+def _eta_inputs(comp) -> dict:
+    """What :func:`plot_eta` draws: the modes, their eta and :func:`rms_dev` (deg/s)."""
     modes = list(comp.results)
     dev = rms_dev(comp)
+    return {"modes": modes, "eta": [comp.eta[m] for m in modes], "rms_dev": [_deg(dev[m]) for m in modes]}
+
+
+@_styled
+def _draw_eta(d: dict) -> Figure:
+    modes = d["modes"]
     fig = _new_figure(10.0, 3.6, left=0.8, right=0.25, top=0.4, bottom=0.85)
     axes = fig.subplots(1, 2, gridspec_kw={"wspace": 0.25})
     colors = [mode_color(m, i) for i, m in enumerate(modes)]
     x = np.arange(len(modes))
-    for ax, vals, fmt in ((axes[0], [comp.eta[m] for m in modes], "{:.3f}"),
-                          (axes[1], [_deg(dev[m]) for m in modes], "{:.3g}")):
+    for ax, vals, fmt in ((axes[0], d["eta"], "{:.3f}"), (axes[1], d["rms_dev"], "{:.3g}")):
         v = np.array([float(a) for a in vals])
         ok = np.isfinite(v)
         ax.bar(x, np.where(ok, v, 0.0), color=colors, width=0.7)
@@ -577,12 +635,93 @@ def plot_eta(comp) -> Figure:
     return fig
 
 
-_FIGURES = (("tracking", plot_tracking), ("error", plot_error), ("friction", plot_friction),
-            ("rls_convergence", plot_rls_convergence), ("eta", plot_eta))
+def plot_eta(comp) -> Figure:
+    """Compensation efficiency eta and ``rms_dev`` per mode, as bars.
+
+    Parameters
+    ----------
+    comp : controllers.experiments.compare.Comparison
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Left: eta (second half of the run, 1 = frictionless, dashed line); right:
+        :func:`rms_dev` in deg/s (lower is better). Values written on the bars;
+        a mode with an undefined value gets an empty bar marked n/a.
+    """
+    return _draw_eta(_eta_inputs(comp))
+
+
+#: ``(name, inputs, draw)`` of each figure of :func:`plot_comparison`, in its order: ``draw(inputs(comp))`` is the
+#: figure (or None: not drawn), the same as ``plot_<name>(comp)``.
+_FIGURES = (("tracking", _tracking_inputs, _draw_tracking), ("error", _error_inputs, _draw_error),
+            ("friction", _friction_inputs, _draw_friction), ("rls_convergence", _rls_inputs, _draw_rls_convergence),
+            ("eta", _eta_inputs, _draw_eta))
+
+
+def figure_inputs(comp) -> dict:
+    """What the figures of :func:`plot_comparison` show, taken from a comparison: small, picklable, enough to draw.
+
+    Parameters
+    ----------
+    comp : controllers.experiments.compare.Comparison
+
+    Returns
+    -------
+    dict
+        ``{figure name: inputs or None}`` for :func:`draw_figures` (None: that
+        figure is not drawn, e.g. ``rls_convergence`` without an adaptive run).
+        The inputs are plain numbers, strings and NumPy arrays: min/max
+        envelopes of the long records (:func:`minmax_envelope`, about 1500
+        bins each), every sample of the zoom window, the friction curves and
+        at most ~1500 estimator updates, so a 120 s comparison at 1 kHz
+        (~55 MB of traces) gives well under 1 MB.
+    """
+    return {name: inputs(comp) for name, inputs, _ in _FIGURES}
+
+
+def draw_figures(inputs: dict, out_dir, *, dpi: int = _DPI, jobs: int = 1) -> list[Path]:
+    """Draw the figures of :func:`figure_inputs` as PNG files into ``out_dir`` (created if needed).
+
+    Parameters
+    ----------
+    inputs : dict
+        The result of :func:`figure_inputs` (possibly in another process).
+    out_dir : str or os.PathLike
+        Directory.
+    dpi : int, keyword-only
+        Resolution (dots per inch), default 100.
+    jobs : int, keyword-only
+        Processes that render the figures, >= 1 (see :func:`plot_comparison`).
+
+    Returns
+    -------
+    list of Path
+        The files written, in the order of :func:`plot_comparison`.
+
+    Raises
+    ------
+    ParameterError
+        ``jobs`` not an integer >= 1.
+    """
+    _check_jobs(jobs)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    names = [name for name, _, _ in _FIGURES]
+    shares = figure_shares(names, min(int(jobs), len(names)) if sys.platform.startswith("linux") else 1)
+    written = set(_render_shares(inputs, out, dpi, shares))
+    return [out / f"{name}.png" for name in names if name in written]
+
+
+def _check_jobs(jobs) -> None:
+    if isinstance(jobs, bool) or not isinstance(jobs, (int, np.integer)) or jobs < 1:
+        raise ParameterError(f"jobs must be an integer >= 1, got {jobs!r}")
 
 
 def plot_comparison(comp, out_dir, *, dpi: int = _DPI, jobs: int = 1) -> list[Path]:
     """Write the comparison figures as PNG files into ``out_dir`` (created if needed).
+
+    ``draw_figures(figure_inputs(comp), out_dir, dpi=dpi, jobs=jobs)``.
 
     Parameters
     ----------
@@ -597,8 +736,8 @@ def plot_comparison(comp, out_dir, *, dpi: int = _DPI, jobs: int = 1) -> list[Pa
         With ``jobs > 1`` on Linux, the
         figures are shared among this process and ``jobs - 1`` workers of a
         process pool forked from it (``concurrent.futures.ProcessPoolExecutor``,
-        :func:`figure_shares`), which inherit ``comp`` without copying
-        it; matplotlib draws a figure in one thread only, so this is how the
+        :func:`figure_shares`), which inherit the figures' inputs without copying
+        them; matplotlib draws a figure in one thread only, so this is how the
         figures use more than one core. The files are the same bytes as with
         ``jobs=1``. A worker that fails leaves its figures to this process,
         which then raises the error itself. Elsewhere (macOS, where forking a
@@ -617,14 +756,8 @@ def plot_comparison(comp, out_dir, *, dpi: int = _DPI, jobs: int = 1) -> list[Pa
     ParameterError
         ``jobs`` not an integer >= 1.
     """
-    if isinstance(jobs, bool) or not isinstance(jobs, (int, np.integer)) or jobs < 1:
-        raise ParameterError(f"jobs must be an integer >= 1, got {jobs!r}")
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    names = [name for name, _ in _FIGURES]
-    shares = figure_shares(names, min(int(jobs), len(names)) if sys.platform.startswith("linux") else 1)
-    written = set(_render_shares(comp, out, dpi, shares))
-    return [out / f"{name}.png" for name in names if name in written]
+    _check_jobs(jobs)
+    return draw_figures(figure_inputs(comp), out_dir, dpi=dpi, jobs=jobs)
 
 
 #: Relative cost of drawing each figure (thread CPU seconds, median of 5, 120 s paper comparison): it decides the shares.
@@ -667,13 +800,13 @@ def figure_shares(names, jobs: int) -> list[list[str]]:
     return sorted(shares, key=lambda s: -sum(_FIGURE_COST.get(n, 0.3) for n in s))
 
 
-def _render(comp, out: Path, dpi: int, names) -> list[str]:
+def _render(inputs, out: Path, dpi: int, names) -> list[str]:
     """Draw and save the figures ``names`` (in the order of ``_FIGURES``); the names of the files written."""
     written = []
-    for name, fn in _FIGURES:
-        if name not in names:
+    for name, _, draw in _FIGURES:
+        if name not in names or inputs.get(name) is None:
             continue
-        fig = fn(comp)
+        fig = draw(inputs[name])
         if fig is None:
             continue
         fig.savefig(out / f"{name}.png", dpi=dpi, pil_kwargs={"compress_level": 1})  # fast zlib: files ~1/3 larger
@@ -681,14 +814,14 @@ def _render(comp, out: Path, dpi: int, names) -> list[str]:
     return written
 
 
-#: ``(comp, out, dpi)`` of the :func:`plot_comparison` call in progress: its forked workers inherit it (no copy).
+#: ``(inputs, out, dpi)`` of the :func:`draw_figures` call in progress: its forked workers inherit it (no copy).
 _INHERITED = None
 
 
 def _render_inherited(names) -> list[str]:
-    """Worker side of :func:`_render_shares`: draw ``names`` of the comparison inherited by the fork."""
-    comp, out, dpi = _INHERITED
-    return _render(comp, out, dpi, names)
+    """Worker side of :func:`_render_shares`: draw ``names`` of the figure inputs inherited by the fork."""
+    inputs, out, dpi = _INHERITED
+    return _render(inputs, out, dpi, names)
 
 
 def worker_init() -> None:
@@ -709,18 +842,18 @@ def worker_init() -> None:
         pass
 
 
-def _render_shares(comp, out: Path, dpi: int, shares) -> list[str]:
+def _render_shares(inputs, out: Path, dpi: int, shares) -> list[str]:
     """Draw ``shares[0]`` here and every other share in a forked worker process; the names of the files written.
 
     A process pool of the standard library (``concurrent.futures.ProcessPoolExecutor``
-    on the ``fork`` start method): the workers inherit ``comp`` (:data:`_INHERITED`)
+    on the ``fork`` start method): the workers inherit ``inputs`` (:data:`_INHERITED`)
     instead of receiving a copy. A share whose worker fails, or that no worker could
     be started for, is drawn here afterwards (raising its error here, if it has one).
     """
     global _INHERITED
     shares = [s for s in shares if s]
     if len(shares) < 2:
-        return _render(comp, out, dpi, shares[0] if shares else [])
+        return _render(inputs, out, dpi, shares[0] if shares else [])
     import multiprocessing
     import warnings
     from concurrent.futures import ProcessPoolExecutor
@@ -728,7 +861,7 @@ def _render_shares(comp, out: Path, dpi: int, shares) -> list[str]:
     import matplotlib.backends.backend_agg  # noqa: F401 - imported (font cache loaded) once, before the fork
 
     written, failed, futures = [], [], []
-    _INHERITED = (comp, out, dpi)
+    _INHERITED = (inputs, out, dpi)
     sys.stdout.flush()
     sys.stderr.flush()
     try:
@@ -744,7 +877,7 @@ def _render_shares(comp, out: Path, dpi: int, shares) -> list[str]:
                 failed = [n for share in shares[1:] for n in share]
         ok = False
         try:
-            written += _render(comp, out, dpi, shares[0])
+            written += _render(inputs, out, dpi, shares[0])
             ok = True
         finally:
             if pool is not None:
@@ -756,4 +889,4 @@ def _render_shares(comp, out: Path, dpi: int, shares) -> list[str]:
                 failed += share
     finally:
         _INHERITED = None
-    return written + _render(comp, out, dpi, failed)
+    return written + _render(inputs, out, dpi, failed)
