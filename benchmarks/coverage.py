@@ -1,7 +1,7 @@
 """Do nominal 95 % intervals of the output-error and closed-loop fits cover the truth? (issue 12, item 3)
 
 Run ``python benchmarks/coverage.py [--method output_error|closed_loop] [--n 40] [--duration 20] [--start 0]
-[--n-bootstrap 20] [--jobs 1] [--out rows.jsonl]`` (or ``--table-from rows.jsonl``: the table of records saved
+[--n-bootstrap 20] [--jobs 1] [--out rows.jsonl] [--seeds 2,23]`` (or ``--table-from rows.jsonl``: the table of records saved
 by an earlier, possibly unfinished, run). For ``n`` simulated records (seeds ``start .. start+n-1``) the fit's
 nominal 95 % interval is checked against the true value, per parameter, for
 
@@ -133,6 +133,8 @@ def main(argv=None) -> int:
     ap.add_argument("--n", type=int, default=40, help="number of records (default 40)")
     ap.add_argument("--duration", type=float, default=20.0, help="record length in s (default 20)")
     ap.add_argument("--start", type=int, default=0, help="first seed (default 0)")
+    ap.add_argument("--seeds", type=str, default=None,
+                    help="comma-separated seeds to run instead of --start/--n (e.g. 2,23,37: one record each)")
     ap.add_argument("--n-bootstrap", type=int, default=None,
                     help="bootstrap refits per fit (default: the method's, 20 for output_error, 10 for closed_loop)")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
@@ -142,6 +144,11 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     p = preset("paper")
     seeds = list(range(a.start, a.start + a.n))
+    if a.seeds is not None:
+        try:
+            seeds = [int(v) for v in a.seeds.split(",") if v.strip()]
+        except ValueError:
+            ap.error(f"--seeds must be comma-separated integers, got {a.seeds!r}")
     t0 = time.time()
     if a.n_bootstrap is None:
         a.n_bootstrap = 10 if a.method == "closed_loop" else 20
@@ -164,10 +171,17 @@ def main(argv=None) -> int:
              "(Fig. 10 stamps), velocity noise 1e-3 rad/s" if a.method == "closed_loop" else
              "output-error fit, noise 1 %, Fig. 10 sampling scaled to 10 ms")
     print(f"coverage of nominal 95 % intervals, {where}, quantisation {QUANT} N·m, {a.duration:g} s records, "
-          f"seeds {a.start}..{a.start + a.n - 1}, {a.n_bootstrap} bootstrap refits")
+          f"seeds {_span(seeds)}, {a.n_bootstrap} bootstrap refits")
     print(table(p, rows))
     print(f"({time.time() - t0:.0f} s on this machine)", file=sys.stderr)
     return 0 if all(np.mean([_covered(r, "boot", k) for r in rows]) >= 0.85 for k in KEYS) else 1
+
+
+def _span(seeds: list) -> str:
+    """``a..b`` for a run of consecutive seeds, else the list."""
+    if seeds == list(range(seeds[0], seeds[0] + len(seeds))):
+        return f"{seeds[0]}..{seeds[-1]}"
+    return ",".join(map(str, seeds))
 
 
 def _save(path: Path, row: dict) -> dict:

@@ -13,11 +13,13 @@ import math
 
 import numpy as np
 
+from plant.errors import ParameterError
 from plant.jit import kernel
-from plant.rows import plant_target
+from plant.rows import MODEL_CODES, plant_target
 from plant.stribeck import stribeck_slope_scalar
 
 __all__ = ["LAGGED_RK4_MAX", "LAGGED_RTOL", "LAGGED_FTOL", "LAGGED_MAX_SUBSTEPS", "lagged_local_rate",
+           "lagged_oscillation", "check_oscillation",
            "lagged_implicit_step", "lagged_stiff_step", "LUGRE_RK4_MAX", "LUGRE_RTOL", "LUGRE_ZTOL",
            "LUGRE_MAX_SUBSTEPS", "lugre_jacobian", "lugre_implicit_step", "lugre_stiff_step"]
 
@@ -88,6 +90,80 @@ def lagged_local_rate(par, w, f, u, dt):
     if tau > 0.0:
         return max(1.0 / tau, math.sqrt(s / (J * tau)))
     return s / J
+
+
+def lagged_oscillation(par) -> float:
+    """Angular frequency (rad/s) of the lag-inertia oscillation of a lagged model where its static map rises most.
+
+    Parameters
+    ----------
+    par : array_like, shape (PLANT_NPAR,)
+        Parameter row of a lagged model (:func:`plant.rows.plant_params`).
+
+    Returns
+    -------
+    float
+        ``sqrt(s/(J*tau) - 1/(4*tau**2))`` where positive (the linearised joint oscillates), else 0 (over-damped,
+        ``tau == 0``, a LuGre row); ``s`` the steepest rise of the map, ``sigma`` plus the Stribeck term where it
+        rises (``dF*delta < 0``; as :func:`plant.rows.lagged_rate`), the larger of the two directions.
+
+    Notes
+    -----
+    Eqs. 1-2 linearised at a slope ``s`` of eq. 3: ``J dw/dt = u - f``, ``tau df/dt = s*w - f``, eigenvalues
+    ``-1/(2 tau) +- i*sqrt(s/(J tau) - 1/(4 tau**2))``. Backward Euler damps such a mode at any step (L-stable),
+    but the error control of :func:`lagged_stiff_step` must resolve it: where ``omega*dt`` is large and the mode
+    under-damped (``tau >> 1/omega``), every step needs tens of sub-steps per radian of ``omega*dt``
+    (Hairer & Wanner, *Solving ODEs II*, Sec. IV.2: stiff solvers pay for oscillatory modes).
+    """
+    par = [float(v) for v in par[:15]]
+    J, Vs, delta, tau = par[1], par[2], par[3], par[4]
+    if par[0] == MODEL_CODES["lugre"] or not (tau > 0.0 and J > 0.0):  # LuGre, or no lag
+        return 0.0
+    s = 0.0
+    for dF, sig in ((par[6], par[7]), (par[10], par[11])):
+        rise = 0.0
+        if dF * delta < 0.0:
+            y = 1.0 - 1.0 / delta if (delta >= 1.0 or delta < 0.0) else 1e-3 ** delta
+            x = y ** (1.0 / delta) if y > 0.0 else 0.0
+            rise = float(stribeck_slope_scalar(x, dF, Vs, delta))
+        s = max(s, max(sig, 0.0) + rise)
+    disc = s / (J * tau) - 0.25 / (tau * tau)
+    return math.sqrt(disc) if disc > 0.0 else 0.0
+
+
+def check_oscillation(par, dt: float) -> None:
+    """Refuse a lagged model whose lag-inertia oscillation is too fast for the step ``dt`` to resolve cheaply.
+
+    Parameters
+    ----------
+    par : array_like, shape (PLANT_NPAR,)
+        Parameter row (:func:`plant.rows.plant_params`); LuGre rows and rows without a lag pass.
+    dt : float
+        Step (s) the plant is advanced by, > 0.
+
+    Raises
+    ------
+    ParameterError
+        ``lagged_oscillation(par)*dt > LAGGED_RK4_MAX``: an under-damped mode that :func:`plant.dynamics.plant_step`
+        would hand to :func:`lagged_stiff_step`, whose error control then resolves the oscillation at every step
+        (measured: ``J = 1e-6``, ``tau = 2 ms``, ``sigma = 28``, ``Fs < Fc``, ``omega*dt = 840``: about 20000
+        sub-steps per 1 ms step, hours for a 15 s closed-loop run). The message gives the frequency and the
+        parameters that set it.
+
+    Notes
+    -----
+    :func:`lagged_oscillation` (eqs. 1-3 linearised). Not part of :func:`plant.rows.check_integrable`: the rise of
+    a map with ``delta < 0`` is steep only near standstill, where such joints run well (tests/test_stiff_lagged.py,
+    zoo joints); a fit that proposes candidate plants (``controllers.experiments.closed_loop_id``) uses it to keep
+    its candidates where the engine integrates them in bounded time.
+    """
+    om = lagged_oscillation(par)
+    if om * dt > LAGGED_RK4_MAX:
+        J, tau = float(par[1]), float(par[4])
+        raise ParameterError(
+            f"lagged plant: the lag-inertia oscillation {om:.3g} rad/s (J = {J:.3g} kg·m², tau = {tau:.3g} s, "
+            f"under-damped) is more than LAGGED_RK4_MAX/dt = {LAGGED_RK4_MAX / dt:.3g} rad/s: resolving it would "
+            "take tens of implicit sub-steps per radian at every step")
 
 
 @kernel(inline="always")

@@ -125,3 +125,48 @@ def test_stiff_zoo_joints_run_in_the_closed_loop_engine():
     assert np.all(np.isfinite(r.w)) and not np.any(b.diverged)
     free = run_mode(p, ref, "frictionless", o, rng=np.random.default_rng(0)).metrics.rms
     assert free < r.metrics.rms < 0.5 * math.sqrt(float(np.mean(ref.w ** 2)))
+
+
+# A candidate of the closed-loop fit's start search (seed 2 of benchmarks/coverage.py --method closed_loop) that
+# stalled the fit: J = 1e-6 (a regression's J <= 0 clipped), Fs < Fc, tau = 2 ms. Linearised, its lag and inertia
+# oscillate at 8.4e5 rad/s with a decay of 250 1/s: lagged_stiff_step resolved that at ~20000 sub-steps per step.
+STALL = JointParams(J=1e-6, Fc=27.49347928859416, Fs=0.0, Vs=0.02, delta=1.0, sigma=28.47542624616106, tau=0.002)
+
+
+def test_the_root_search_of_the_stalled_candidate_converges_in_a_few_iterations(monkeypatch):
+    import plant.stiff as stiff
+
+    par = plant_params(STALL)
+    calls = []
+    res = stiff._be_residual.py_func
+    monkeypatch.setattr(stiff, "_be_residual", lambda *a: calls.append(1) or res(*a))
+    monkeypatch.setattr(stiff, "_be_root", stiff._be_root.py_func)
+    for w0, f0, u, h in ((0.3, 36.0, 40.0, 1e-3), (0.3, 36.0, 40.0, 5e-8), (1e-4, 0.5, -3.0, 2e-6),
+                         (-2.0, -30.0, 10.0, 1e-5)):
+        calls.clear()
+        w, f, F = stiff.lagged_implicit_step.py_func(par, w0, f0, u, h, 0.0)
+        assert len(calls) <= 40, (w0, h, len(calls))  # Illinois: superlinear on this smooth, monotone residual
+        # the backward-Euler equations hold (eqs. 1-2): J (w - w0) = h (u - f), tau (f - f0) = h (F(w) - f)
+        assert STALL.J * (w - w0) == pytest.approx(h * (u - f), rel=1e-9, abs=1e-12 * h * (abs(u) + abs(f)))
+        assert STALL.tau * (f - f0) == pytest.approx(h * (F - f), rel=1e-9, abs=1e-9 * h * abs(F))
+
+
+def test_an_under_damped_lag_oscillation_too_fast_for_the_step_is_refused_with_its_frequency():
+    from plant.errors import ParameterError
+    from plant.stiff import check_oscillation, lagged_oscillation
+
+    # no Stribeck rise (Fs > Fc, delta > 0: the map dips): s = sigma, the eigenvalues of [[0, -1/J], [s/tau, -1/tau]]
+    for J, sigma, tau in ((1e-6, 28.0, 0.002), (0.01, 400.0, 0.05), (4.0, 40.0, 0.05)):
+        p = JointParams(J=J, Fc=25.0, Fs=35.0, Vs=0.02, delta=1.0, sigma=sigma, tau=tau)
+        ev = np.linalg.eigvals(np.array([[0.0, -1.0 / J], [sigma / tau, -1.0 / tau]]))
+        assert lagged_oscillation(plant_params(p)) == pytest.approx(float(np.max(np.abs(ev.imag))), rel=1e-12)
+    assert lagged_oscillation(plant_params(JointParams(J=4.0, Fc=25.0, Fs=35.0, Vs=0.02, delta=1.0, sigma=40.0,
+                                                       tau=0.02))) == 0.0  # the paper's joint: over-damped
+    # the rising map of Fs < Fc adds its slope at standstill, (Fc - Fs)/Vs for delta = 1
+    s = STALL.sigma + STALL.Fc / STALL.Vs
+    om = math.sqrt(s / (STALL.J * STALL.tau) - 0.25 / STALL.tau**2)
+    assert lagged_oscillation(plant_params(STALL)) == pytest.approx(om, rel=1e-12)
+    with pytest.raises(ParameterError, match=r"oscillation 8\.\d+e\+05 rad/s .*J = 1e-06"):
+        check_oscillation(plant_params(STALL), DT)
+    check_oscillation(plant_params(STALL.replace(J=1e-2)), DT)  # 2.6e3 rad/s: RK4 sub-steps resolve it
+    check_oscillation(plant_params(STALL.replace(tau=1e-12)), DT)  # over-damped: the implicit step's case

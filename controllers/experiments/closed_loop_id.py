@@ -102,6 +102,16 @@ was and fitted as the log was:
   noise's part (across the ``n_noise`` realisations at the estimate), which
   would otherwise be counted twice (``info["bootstrap"]["residual_scale"]``;
   about 0.4 for the torque, whose residual is mostly ``Kp`` times the noise).
+* Each refit makes its own noise model as the fit does: the sensor-noise
+  level estimated from the replicate's velocity (with ``options.sensor_noise``
+  None) and fresh common random numbers for its ``n_noise`` realisations. The
+  fit's estimate depends on which ``n_noise`` realisations the simulated
+  predictor averages (a simulated likelihood's own error, Gouriéroux &
+  Monfort, 1996, Ch. 1: five draws scatter the fit of one 15 s log by J
+  1.5-11 %, tau 2-8 %, Fs 0.3-1.4 %, standard deviation) and on the level,
+  which it reads 10-20 % high from these logs; refits that reused the fit's
+  level and draws saw neither. Measured over 40 records this did not raise
+  the coverage (``docs/benchmarks/output_error.md``, session 8).
 * Each replicate is refitted by the whole estimator: the start search of
   step 4 on the replicate, then the two trust-region passes (Efron &
   Tibshirani, *An Introduction to the Bootstrap*, 1993, Sec. 6.4: the
@@ -125,6 +135,7 @@ residuals. Coverage of the nominal 95 % intervals:
 
 from __future__ import annotations
 
+import copy
 import json
 import math
 from dataclasses import dataclass, field
@@ -146,6 +157,7 @@ from plant.dynamics import check_integrable, plant_params, plant_state
 from plant.errors import ExcitationError, ParameterError, SignalError, check_finite_scalar, check_positive, \
     check_signal, check_time
 from plant.friction import JointParams
+from plant.stiff import check_oscillation
 
 __all__ = ["ControllerSpec", "ClosedLoopIdOptions", "fit_closed_loop", "identify_closed_loop", "CLOSED_LOOP_NAMES"]
 
@@ -167,6 +179,9 @@ _REL_STD_WARN = 0.1
 _NOISE_SEED = 20261122
 #: Bootstrap (module docstring, "Standard errors"): block length in units of (Andrews bandwidth + 1).
 _BOOT_BLOCK = 3
+#: Bootstrap refits redraw the fit's noise model (module docstring, "Standard errors"): the sensor-noise level
+#: estimated from the replicate, fresh common random numbers.
+_BOOT_REDRAW = True
 
 
 @dataclass(frozen=True)
@@ -365,6 +380,15 @@ class _LoopSimulator:
         K = opts.n_noise if self.noise_std > 0 else 1
         self.noise = self.noise_std * np.random.default_rng(_NOISE_SEED).standard_normal((K, n))
 
+    def redrawn(self, noise_std: float, rng: np.random.Generator) -> "_LoopSimulator":
+        """A copy simulating with ``noise_std`` (rad/s) and as many fresh sensor-noise realisations drawn from
+        ``rng`` (the common random numbers of a bootstrap refit); its ``n_sim`` counts from 0."""
+        other = copy.copy(self)
+        other.noise_std = float(noise_std)
+        other.noise = other.noise_std * rng.standard_normal(self.noise.shape)
+        other.n_sim = 0
+        return other
+
     def plant(self, x) -> JointParams:
         """The plant of fit variables ``x = (log J, Fc, Fs, sigma, log tau)``."""
         J, tau = math.exp(x[0]), math.exp(x[4])
@@ -372,7 +396,9 @@ class _LoopSimulator:
 
     def run(self, X, *, fine: bool = False, noise=None) -> tuple:
         """Simulated ``(w, u)`` at the stamps, shape (B, M) each, for the rows of ``X`` (B, 5) (``fine``: on the
-        whole controller grid, shape (B, N)); NaN rows where a candidate is not a valid plant or its loop diverged.
+        whole controller grid, shape (B, N)); NaN rows where a candidate is not a valid plant
+        (:func:`plant.dynamics.check_integrable`), has a lag-inertia oscillation too fast for the controller
+        period (:func:`plant.stiff.check_oscillation`: it would take hours) or its loop diverged.
         Each is the mean over the sensor-noise realisations ``noise`` (K, N) (rad/s; default the common ones)."""
         X = np.atleast_2d(X)
         noise = self.noise if noise is None else np.atleast_2d(noise)
@@ -384,6 +410,7 @@ class _LoopSimulator:
                 p = self.plant(X[b])
                 row = plant_params(p)
                 check_integrable(row, self.spec.Tc)
+                check_oscillation(row, self.spec.Tc)
             except (ParameterError, TypeError, OverflowError, ValueError):
                 ok[b] = False
                 p = self.plant(np.array([0.0, 1.0, 1.0, 1.0, math.log(0.01)]))
@@ -443,7 +470,8 @@ def _regress(sim: _LoopSimulator, u, Wg, tau: float, acc=None) -> np.ndarray:
 
     ``u(k) = J (w(k+1) - w(k))/Tc + Fc L[sgn w](k) + (Fs - Fc) L[sgn w s(w)](k) + sigma L[w](k)`` at the
     commands ``k`` read out (eqs. 1-3 over one period, ``L`` the lag of eq. 2 for the given ``tau``); ``acc``
-    replaces the difference quotient when given. Values are clipped into the physical range.
+    replaces the difference quotient when given. The friction values are clipped into the physical range; a
+    regression with ``J <= 0`` gives a NaN ``log J`` (no candidate: :meth:`_LoopSimulator.run` refuses it).
     """
     Tc = sim.spec.Tc
     k = sim.ku
@@ -452,8 +480,8 @@ def _regress(sim: _LoopSimulator, u, Wg, tau: float, acc=None) -> np.ndarray:
         acc = (Wg[k1] - Wg[k]) / Tc
     X = np.column_stack([acc, _lagged(Wg, sim.Vs, sim.delta, tau, Tc)[k]])[sim.keep]
     th, *_ = np.linalg.lstsq(X, u[sim.keep], rcond=None)
-    return np.array([math.log(max(th[0], 1e-6)), max(th[1], 0.0), max(th[1] + th[2], 0.0), max(th[3], 0.0),
-                     math.log(tau)])
+    J = math.log(th[0]) if th[0] > 0 else math.nan  # no inertia: not a candidate (NaN: refused by the simulator)
+    return np.array([J, max(th[1], 0.0), max(th[1] + th[2], 0.0), max(th[3], 0.0), math.log(tau)])
 
 
 class _Problem:
@@ -617,9 +645,16 @@ def _bootstrap(sim: _LoopSimulator, pb: _Problem, x, fixed_start, ctx: tuple, op
 
     def refit(y, rng):
         w_full[sim.keep], u_full[sim.keep] = y[:, 0], y[:, 1]
-        pr = _Problem(sim, w_full, u_full)
-        z0 = fixed_start if fixed_start is not None else _start(sim, pr, t, u_full, w_full, w_ref, paper_start)[0]
+        rs = sim
+        if _BOOT_REDRAW and sim.noise_std > 0:  # the fit's own noise model, made from the replicate as from the log
+            level = (velocity_noise_std_irregular(t[sim.keep], y[:, 0]) if opts.sensor_noise is None
+                     else sim.noise_std)
+            rs = sim.redrawn(level, rng)
+        pr = _Problem(rs, w_full, u_full)
+        z0 = fixed_start if fixed_start is not None else _start(rs, pr, t, u_full, w_full, w_ref, paper_start)[0]
         z, _ = _passes(pr, z0, opts)
+        if rs is not sim:
+            sim.n_sim += rs.n_sim
         return np.array([math.exp(z[0]), z[1], z[2], z[3], math.exp(z[4])])
 
     b = parametric_block_bootstrap(refit, pred, res * scale, est, n=opts.n_bootstrap, block=block,
@@ -628,6 +663,8 @@ def _bootstrap(sim: _LoopSimulator, pb: _Problem, x, fixed_start, ctx: tuple, op
     details = {"n": opts.n_bootstrap, "n_valid": b.n_valid, "block": int(b.block), "seed": opts.bootstrap_seed,
                "loop_noise": "fresh realisation per replicate" if simulate is not None else "none (noise-free loop)",
                "residual_scale": {"w": float(scale[0]), "u": float(scale[1])},
+               "noise_model": ("per refit: level from the replicate, fresh common random numbers"
+                               if _BOOT_REDRAW and sim.noise_std > 0 else "the fit's"),
                "refit": "whole estimator (start search and passes)" if fixed_start is None else
                "the passes from options.start", "n_simulations": int(sim.n_sim - n_sim0),
                "bias": dict(zip(CLOSED_LOOP_NAMES, map(float, b.bias))),
@@ -713,8 +750,8 @@ def fit_closed_loop(t, u, w, w_ref, *, controller: ControllerSpec, Vs: float, de
         (%) of the logged velocity by the simulated loop (``info["fit_u_percent"]`` of the torque); ``warnings``
         (plausibility and identifiability, ``{code, parameter, message}``); ``info`` with the controller,
         ``stderr_hac``, ``stderr_white``, ``hac_lags``, ``bootstrap`` (None, or ``n``, ``n_valid``, ``block``,
-        ``seed``, ``loop_noise``, ``residual_scale``, ``refit``, ``n_simulations``, ``bias``, ``replicates`` (the
-        valid refits), ``t_quantile`` and ``interval95``: ``{name: [low, high]}``, the nominal 95 % interval
+        ``seed``, ``loop_noise``, ``residual_scale``, ``noise_model``, ``refit``, ``n_simulations``, ``bias``,
+        ``replicates`` (the valid refits), ``t_quantile`` and ``interval95``: ``{name: [low, high]}``, the nominal 95 % interval
         ``value ± t_quantile stderr``), ``sensor_noise`` and ``n_noise`` of the
         simulated loop, channel RMS, start, simulations run (each noise realisation counted).
 
