@@ -68,8 +68,8 @@ def test_closed_loop_fit_within_targets(fit):
     assert fit.info["stderr_hac"].keys() == fit.stderr.keys() and boot["block"] >= 3
     # the replicates draw the loop's noise afresh and refit through the start search; t intervals of 4 dof
     assert boot["loop_noise"] == "fresh realisation per replicate" and boot["refit"].startswith("whole estimator")
-    # ... and each refit makes its noise model as the fit does: level from the replicate, fresh common draws
-    assert boot["noise_model"] == "per refit: level from the replicate, fresh common random numbers"
+    # ... with the fit's noise model (its level and common random numbers: redrawn ones covered less, session 8)
+    assert boot["noise_model"] == "the fit's (its sensor-noise level and common random numbers)"
     # torque residual: mostly (here all) Kp * noise, clipped at 0; velocity: mostly readout noise
     assert 0.0 <= boot["residual_scale"]["u"] < 0.8 < boot["residual_scale"]["w"] <= 1.0
     assert boot["t_quantile"] == pytest.approx(2.7764451051977934, rel=1e-9) and len(boot["replicates"]) == 4

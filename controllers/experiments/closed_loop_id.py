@@ -102,16 +102,13 @@ was and fitted as the log was:
   noise's part (across the ``n_noise`` realisations at the estimate), which
   would otherwise be counted twice (``info["bootstrap"]["residual_scale"]``;
   about 0.4 for the torque, whose residual is mostly ``Kp`` times the noise).
-* Each refit makes its own noise model as the fit does: the sensor-noise
-  level estimated from the replicate's velocity (with ``options.sensor_noise``
-  None) and fresh common random numbers for its ``n_noise`` realisations. The
-  fit's estimate depends on which ``n_noise`` realisations the simulated
-  predictor averages (a simulated likelihood's own error, Gouriéroux &
-  Monfort, 1996, Ch. 1: five draws scatter the fit of one 15 s log by J
-  1.5-11 %, tau 2-8 %, Fs 0.3-1.4 %, standard deviation) and on the level,
-  which it reads 10-20 % high from these logs; refits that reused the fit's
-  level and draws saw neither. Measured over 40 records this did not raise
-  the coverage (``docs/benchmarks/output_error.md``, session 8).
+* Each refit uses the fit's noise model (its sensor-noise level and its
+  ``n_noise`` common random numbers). The fit's estimate also depends on which
+  realisations the simulated predictor averages (a simulated likelihood's own
+  error, Gouriéroux & Monfort, 1996, Ch. 1), but refits that drew their own
+  level and realisations covered the truth less often over 40 simulated
+  records (``docs/benchmarks/output_error.md``, session 8), so the refits keep
+  the fit's.
 * Each replicate is refitted by the whole estimator: the start search of
   step 4 on the replicate, then the two trust-region passes (Efron &
   Tibshirani, *An Introduction to the Bootstrap*, 1993, Sec. 6.4: the
@@ -135,7 +132,6 @@ residuals. Coverage of the nominal 95 % intervals:
 
 from __future__ import annotations
 
-import copy
 import json
 import math
 from dataclasses import dataclass, field
@@ -179,9 +175,6 @@ _REL_STD_WARN = 0.1
 _NOISE_SEED = 20261122
 #: Bootstrap (module docstring, "Standard errors"): block length in units of (Andrews bandwidth + 1).
 _BOOT_BLOCK = 3
-#: Bootstrap refits redraw the fit's noise model (module docstring, "Standard errors"): the sensor-noise level
-#: estimated from the replicate, fresh common random numbers.
-_BOOT_REDRAW = True
 
 
 @dataclass(frozen=True)
@@ -379,15 +372,6 @@ class _LoopSimulator:
                           else opts.sensor_noise)
         K = opts.n_noise if self.noise_std > 0 else 1
         self.noise = self.noise_std * np.random.default_rng(_NOISE_SEED).standard_normal((K, n))
-
-    def redrawn(self, noise_std: float, rng: np.random.Generator) -> "_LoopSimulator":
-        """A copy simulating with ``noise_std`` (rad/s) and as many fresh sensor-noise realisations drawn from
-        ``rng`` (the common random numbers of a bootstrap refit); its ``n_sim`` counts from 0."""
-        other = copy.copy(self)
-        other.noise_std = float(noise_std)
-        other.noise = other.noise_std * rng.standard_normal(self.noise.shape)
-        other.n_sim = 0
-        return other
 
     def plant(self, x) -> JointParams:
         """The plant of fit variables ``x = (log J, Fc, Fs, sigma, log tau)``."""
@@ -645,16 +629,9 @@ def _bootstrap(sim: _LoopSimulator, pb: _Problem, x, fixed_start, ctx: tuple, op
 
     def refit(y, rng):
         w_full[sim.keep], u_full[sim.keep] = y[:, 0], y[:, 1]
-        rs = sim
-        if _BOOT_REDRAW and sim.noise_std > 0:  # the fit's own noise model, made from the replicate as from the log
-            level = (velocity_noise_std_irregular(t[sim.keep], y[:, 0]) if opts.sensor_noise is None
-                     else sim.noise_std)
-            rs = sim.redrawn(level, rng)
-        pr = _Problem(rs, w_full, u_full)
-        z0 = fixed_start if fixed_start is not None else _start(rs, pr, t, u_full, w_full, w_ref, paper_start)[0]
+        pr = _Problem(sim, w_full, u_full)
+        z0 = fixed_start if fixed_start is not None else _start(sim, pr, t, u_full, w_full, w_ref, paper_start)[0]
         z, _ = _passes(pr, z0, opts)
-        if rs is not sim:
-            sim.n_sim += rs.n_sim
         return np.array([math.exp(z[0]), z[1], z[2], z[3], math.exp(z[4])])
 
     b = parametric_block_bootstrap(refit, pred, res * scale, est, n=opts.n_bootstrap, block=block,
@@ -663,8 +640,7 @@ def _bootstrap(sim: _LoopSimulator, pb: _Problem, x, fixed_start, ctx: tuple, op
     details = {"n": opts.n_bootstrap, "n_valid": b.n_valid, "block": int(b.block), "seed": opts.bootstrap_seed,
                "loop_noise": "fresh realisation per replicate" if simulate is not None else "none (noise-free loop)",
                "residual_scale": {"w": float(scale[0]), "u": float(scale[1])},
-               "noise_model": ("per refit: level from the replicate, fresh common random numbers"
-                               if _BOOT_REDRAW and sim.noise_std > 0 else "the fit's"),
+               "noise_model": "the fit's (its sensor-noise level and common random numbers)",
                "refit": "whole estimator (start search and passes)" if fixed_start is None else
                "the passes from options.start", "n_simulations": int(sim.n_sim - n_sim0),
                "bias": dict(zip(CLOSED_LOOP_NAMES, map(float, b.bias))),
