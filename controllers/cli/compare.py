@@ -230,7 +230,7 @@ class CompareHelper:
         if not sys.platform.startswith("linux") or figure_jobs() < 2 or os.environ.get("ADAPTIVE_FF_NO_HELPER"):
             return None
         figures = not args.no_figures
-        forked = _fork_helper(_import_modules, _FIGURE_MODULES, True) if figures else None
+        forked = _fork_helper(_helper_prepare, _modes(args), args.estimator) if figures else None
         if figures and forked is None:  # no process left: everything here
             return None
         keys = _design_keys(p, args)
@@ -440,6 +440,30 @@ def _import_modules(modules, collect: bool = False) -> None:
             importlib.import_module(name)
     if collect:
         gc.enable()
+
+
+#: Parameters of the default sliding estimator (``len(adaptive_ff.compensation.sliding_estimator.SLIDING_NAMES)``,
+#: kept equal by a test): written here because importing that module (its compiled kernels) costs the helper more
+#: than the skeletons save.
+_SLIDING_PARAMETERS = 7
+
+
+def _helper_prepare(modes, estimator: str) -> None:
+    """Helper's first task with figures: import the figure code (:data:`_FIGURE_MODULES`, then the garbage collector
+    on, :func:`_import_modules`), then make the figures' data-free parts while the runs are made
+    (:func:`controllers.report.figures.prepare_figures`), for the layouts this comparison will most likely have:
+    ``none``, ``modes`` and ``frictionless`` (``error``); the sliding estimator's parameters (``rls_convergence``).
+    A wrong guess, or a failure here, only costs the helper's idle time (the figures are then made as they go)."""
+    _import_modules(_FIGURE_MODULES, True)
+    from controllers.report.figures import prepare_figures, rls_grid
+
+    layouts = {"tracking": None, "error": len(set(modes) | {"none", "frictionless"}), "friction": None, "eta": None}
+    if "adaptive" in modes and estimator == "sliding":
+        layouts["rls_convergence"] = rls_grid(_SLIDING_PARAMETERS)
+    try:
+        prepare_figures(layouts)
+    except Exception:  # noqa: BLE001 - an optimisation only: the figures are made when drawn
+        pass
 
 
 def _helper_designs(keys) -> list:
