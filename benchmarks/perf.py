@@ -227,9 +227,10 @@ def _timeline_rows():
     else:
         rows.append(("    PI designs read from the design store (no python-control)", None, ""))
     imp_cpu = imp_figures[3] - imp_figures[2]
-    prep = ev.get("_helper_prepare", [imp_figures])[0]  # imports + figure skeletons (session 8), else imports only
-    prep_cpu = (prep[3] - prep[2]) - imp_cpu
-    receive = hdraw[2] - prep[3]  # the helper's CPU between its first task and drawing: unpickling the inputs
+    idle = [imp_figures[1], imp_figures[1], imp_figures[3], imp_figures[3]]  # before session 8: no skeletons
+    prep = ev.get("_helper_prepare", [idle])[0]  # the figures' skeletons, made while the helper waits
+    prep_cpu = prep[3] - prep[2]
+    receive = hdraw[2] - prep[3]  # the helper's CPU between its last idle task and drawing: unpickling the inputs
     rows += [
         ("    main: waits for the designs (CPU: idle time charged to the critical path)", designs[1] - designs[0], "s",
          wait),
@@ -239,7 +240,7 @@ def _timeline_rows():
         ("    helper: figure code imported (beside the package and compare())", imp_figures[1] - imp_figures[0], "s",
          imp_cpu),
         ("    helper: makes the figures' data-free skeletons (prepare_figures, while it waits)",
-         prep[1] - imp_figures[1], "s", prep_cpu),
+         prep[1] - prep[0], "s", prep_cpu),
         ("    helper: receives the figures' inputs", hdraw[0] - draw[0], "s", receive),
         ("    helper: draws its share (a pool worker the other)", hdraw[1] - hdraw[0], "s", hdraw[3] - hdraw[2]),
         ("    main: end", end_wall, "s", end_cpu),

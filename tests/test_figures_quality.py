@@ -431,7 +431,7 @@ def test_figure_shares_and_jobs_argument(tmp_path):
             plot_comparison(None, tmp_path, jobs=bad)
 
 
-def test_prepared_skeletons_are_taken_and_give_the_same_files(comp, tmp_path, monkeypatch):
+def test_prepared_skeletons_are_taken_and_give_the_same_files(comp, tmp_path):
     """prepare_figures (the CLI helper's idle time) moves the data-free part ahead; the PNG bytes do not change,
     a skeleton of the wrong layout is not used, and the helper guesses the layouts of a default comparison."""
     from controllers.cli import compare as C
@@ -465,7 +465,6 @@ def test_prepared_skeletons_are_taken_and_give_the_same_files(comp, tmp_path, mo
         # what the CLI helper prepares for a default comparison (all modes, sliding estimator) is what it draws
         assert C._SLIDING_PARAMETERS == len(SLIDING_NAMES) == len(inputs["rls_convergence"]["names"])
         assert set(comp.results) == set(MODES) | {"none", "frictionless"}
-        monkeypatch.setattr(C, "_import_modules", lambda *a, **k: None)  # imported here already (gc left alone)
         C._helper_prepare(MODES, "sliding")
         assert set(F._PREPARED) == set(layouts.items())
     finally:

@@ -230,18 +230,19 @@ class CompareHelper:
         if not sys.platform.startswith("linux") or figure_jobs() < 2 or os.environ.get("ADAPTIVE_FF_NO_HELPER"):
             return None
         figures = not args.no_figures
-        forked = _fork_helper(_helper_prepare, _modes(args), args.estimator) if figures else None
+        forked = _fork_helper(_import_modules, _FIGURE_MODULES, True) if figures else None
         if figures and forked is None:  # no process left: everything here
             return None
         keys = _design_keys(p, args)
         stored = _stored_designs(keys)
         if figures:
             self = cls(forked[0], keys, stored, True)
-            if stored is None:
-                try:
+            try:
+                if stored is None:
                     self._designs = self._pool.submit(_helper_designs, keys)
-                except Exception:  # noqa: BLE001 - a broken pool: :meth:`designs` gives none, designed here
-                    pass
+                self._pool.submit(_helper_prepare, _modes(args), args.estimator)  # after the designs: this waits
+            except Exception:  # noqa: BLE001 - a broken pool: :meth:`designs` gives none, designed here
+                pass
             return self
         if stored is not None:  # --no-figures, designs kept: nothing left for a helper to do
             return cls(None, keys, stored, False)
@@ -449,12 +450,11 @@ _SLIDING_PARAMETERS = 7
 
 
 def _helper_prepare(modes, estimator: str) -> None:
-    """Helper's first task with figures: import the figure code (:data:`_FIGURE_MODULES`, then the garbage collector
-    on, :func:`_import_modules`), then make the figures' data-free parts while the runs are made
-    (:func:`controllers.report.figures.prepare_figures`), for the layouts this comparison will most likely have:
-    ``none``, ``modes`` and ``frictionless`` (``error``); the sliding estimator's parameters (``rls_convergence``).
-    A wrong guess, or a failure here, only costs the helper's idle time (the figures are then made as they go)."""
-    _import_modules(_FIGURE_MODULES, True)
+    """Helper task, after the figure code is imported and the PI designs are made: the figures' data-free parts,
+    made while this process runs the comparison (:func:`controllers.report.figures.prepare_figures`), for the
+    layouts this comparison will most likely have: ``none``, ``modes`` and ``frictionless`` (``error``); the sliding
+    estimator's parameters (``rls_convergence``). A wrong guess, or a failure here, only costs the helper's idle
+    time (the figures are then made as they are drawn)."""
     from controllers.report.figures import prepare_figures, rls_grid
 
     layouts = {"tracking": None, "error": len(set(modes) | {"none", "frictionless"}), "friction": None, "eta": None}
