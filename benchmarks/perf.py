@@ -183,8 +183,9 @@ def stamped(f, name):
         finally:
             note(name, [w0, time.perf_counter() - T0, c0, time.process_time(), os.getpid()])
     return g
-for name in ("_import_modules", "_helper_designs", "_helper_draw", "_fork_helper"):
-    setattr(C, name, stamped(getattr(C, name), name))
+for name in ("_import_modules", "_helper_designs", "_helper_draw", "_fork_helper", "_helper_prepare"):
+    if hasattr(C, name):  # _helper_prepare: since session 8
+        setattr(C, name, stamped(getattr(C, name), name))
 import controllers.report.figures as F
 F.figure_inputs = stamped(F.figure_inputs, "figure_inputs")
 start = C.CompareHelper.__dict__["start"].__func__
@@ -226,7 +227,10 @@ def _timeline_rows():
     else:
         rows.append(("    PI designs read from the design store (no python-control)", None, ""))
     imp_cpu = imp_figures[3] - imp_figures[2]
-    receive = hdraw[2] - imp_figures[3]  # the helper's CPU between its imports and drawing: unpickling the inputs
+    idle = [imp_figures[1], imp_figures[1], imp_figures[3], imp_figures[3]]  # before session 8: no skeletons
+    prep = ev.get("_helper_prepare", [idle])[0]  # the figures' skeletons, made while the helper waits
+    prep_cpu = prep[3] - prep[2]
+    receive = hdraw[2] - prep[3]  # the helper's CPU between its last idle task and drawing: unpickling the inputs
     rows += [
         ("    main: waits for the designs (CPU: idle time charged to the critical path)", designs[1] - designs[0], "s",
          wait),
@@ -235,11 +239,13 @@ def _timeline_rows():
         ("    main: hands them over", draw[0], "s", draw[2]),
         ("    helper: figure code imported (beside the package and compare())", imp_figures[1] - imp_figures[0], "s",
          imp_cpu),
+        ("    helper: makes the figures' data-free skeletons (prepare_figures, while it waits)",
+         prep[1] - prep[0], "s", prep_cpu),
         ("    helper: receives the figures' inputs", hdraw[0] - draw[0], "s", receive),
         ("    helper: draws its share (a pool worker the other)", hdraw[1] - hdraw[0], "s", hdraw[3] - hdraw[2]),
         ("    main: end", end_wall, "s", end_cpu),
-        ("    critical path in CPU s (max(main until hand-over + wait, fork + helper imports) + receive + draw)",
-         max(draw[2] + wait, fork[2] + imp_cpu) + receive + (hdraw[3] - hdraw[2]), "s"),
+        ("    critical path in CPU s (max(main until hand-over + wait, fork + helper imports + skeletons) + "
+         "receive + draw)", max(draw[2] + wait, fork[2] + imp_cpu + prep_cpu) + receive + (hdraw[3] - hdraw[2]), "s"),
     ]
     return rows
 

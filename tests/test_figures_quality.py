@@ -429,3 +429,43 @@ def test_figure_shares_and_jobs_argument(tmp_path):
     for bad in (0, -1, 1.5, True, "2"):
         with pytest.raises(ParameterError, match="jobs"):
             plot_comparison(None, tmp_path, jobs=bad)
+
+
+def test_prepared_skeletons_are_taken_and_give_the_same_files(comp, tmp_path):
+    """prepare_figures (the CLI helper's idle time) moves the data-free part ahead; the PNG bytes do not change,
+    a skeleton of the wrong layout is not used, and the helper guesses the layouts of a default comparison."""
+    from controllers.cli import compare as C
+    from controllers.report import figures as F
+    from adaptive_ff.compensation.sliding_estimator import SLIDING_NAMES
+    from controllers.simulation.compensators import MODES
+    from plant.errors import ParameterError
+
+    inputs = F.figure_inputs(comp)
+    layouts = {"tracking": None, "error": len(inputs["error"]["modes"]), "friction": None,
+               "rls_convergence": F.rls_grid(len(inputs["rls_convergence"]["names"])), "eta": None}
+    plain = F.draw_figures(inputs, tmp_path / "plain", jobs=1)
+    try:
+        F.prepare_figures(layouts)
+        prepared = {key: fig for key, (fig, _) in F._PREPARED.items()}
+        assert set(prepared) == set(layouts.items())
+        taken = {}
+        for name, _, draw in F._FIGURES:  # each figure is drawn on its prepared skeleton
+            taken[name] = draw(inputs[name])
+        assert F._PREPARED == {} and all(taken[n] is prepared[(n, lay)] for n, lay in layouts.items())
+        F.prepare_figures(layouts)
+        F.prepare_figures({"error": layouts["error"] + 1})  # a wrong guess: kept, not used
+        ahead = F.draw_figures(inputs, tmp_path / "ahead", jobs=1)
+        assert list(F._PREPARED) == [("error", layouts["error"] + 1)]
+        assert [p.name for p in ahead] == [p.name for p in plain]
+        for a, b in zip(ahead, plain):
+            assert a.read_bytes() == b.read_bytes(), a.name
+        with pytest.raises(ParameterError, match="nope"):
+            F.prepare_figures({"nope": None})
+        F._PREPARED.clear()
+        # what the CLI helper prepares for a default comparison (all modes, sliding estimator) is what it draws
+        assert C._SLIDING_PARAMETERS == len(SLIDING_NAMES) == len(inputs["rls_convergence"]["names"])
+        assert set(comp.results) == set(MODES) | {"none", "frictionless"}
+        C._helper_prepare(MODES, "sliding")
+        assert set(F._PREPARED) == set(layouts.items())
+    finally:
+        F._PREPARED.clear()

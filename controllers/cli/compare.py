@@ -237,11 +237,12 @@ class CompareHelper:
         stored = _stored_designs(keys)
         if figures:
             self = cls(forked[0], keys, stored, True)
-            if stored is None:
-                try:
+            try:
+                if stored is None:
                     self._designs = self._pool.submit(_helper_designs, keys)
-                except Exception:  # noqa: BLE001 - a broken pool: :meth:`designs` gives none, designed here
-                    pass
+                self._pool.submit(_helper_prepare, _modes(args), args.estimator)  # after the designs: this waits
+            except Exception:  # noqa: BLE001 - a broken pool: :meth:`designs` gives none, designed here
+                pass
             return self
         if stored is not None:  # --no-figures, designs kept: nothing left for a helper to do
             return cls(None, keys, stored, False)
@@ -440,6 +441,29 @@ def _import_modules(modules, collect: bool = False) -> None:
             importlib.import_module(name)
     if collect:
         gc.enable()
+
+
+#: Parameters of the default sliding estimator (``len(adaptive_ff.compensation.sliding_estimator.SLIDING_NAMES)``,
+#: kept equal by a test): written here because importing that module (its compiled kernels) costs the helper more
+#: than the skeletons save.
+_SLIDING_PARAMETERS = 7
+
+
+def _helper_prepare(modes, estimator: str) -> None:
+    """Helper task, after the figure code is imported and the PI designs are made: the figures' data-free parts,
+    made while this process runs the comparison (:func:`controllers.report.figures.prepare_figures`), for the
+    layouts this comparison will most likely have: ``none``, ``modes`` and ``frictionless`` (``error``); the sliding
+    estimator's parameters (``rls_convergence``). A wrong guess, or a failure here, only costs the helper's idle
+    time (the figures are then made as they are drawn)."""
+    from controllers.report.figures import prepare_figures, rls_grid
+
+    layouts = {"tracking": None, "error": len(set(modes) | {"none", "frictionless"}), "friction": None, "eta": None}
+    if "adaptive" in modes and estimator == "sliding":
+        layouts["rls_convergence"] = rls_grid(_SLIDING_PARAMETERS)
+    try:
+        prepare_figures(layouts)
+    except Exception:  # noqa: BLE001 - an optimisation only: the figures are made when drawn
+        pass
 
 
 def _helper_designs(keys) -> list:

@@ -44,7 +44,8 @@ from plant.errors import ParameterError, SignalError
 if TYPE_CHECKING:  # annotations only: matplotlib is imported by the functions when they run
     from matplotlib.figure import Figure
 
-__all__ = ["plot_comparison", "figure_inputs", "draw_figures", "figure_shares", "worker_init", "plot_tracking",
+__all__ = ["plot_comparison", "figure_inputs", "draw_figures", "prepare_figures", "rls_grid", "figure_shares",
+           "worker_init", "plot_tracking",
            "plot_error", "plot_friction", "plot_rls_convergence", "plot_eta", "rms_dev", "minmax_envelope",
            "pick_reversal", "estimate_history", "MODE_COLORS", "PARAMETER_UNITS"]
 
@@ -253,24 +254,37 @@ def _tracking_inputs(comp, *, half_window: float = 1.0) -> dict:
 
 
 @_styled
-def _draw_tracking(d: dict) -> Figure:
-    t0, half_window = d["t0"], d["half_window"]
+def _tracking_skeleton(layout=None):
+    """The data-free part of :func:`_draw_tracking`: the figure, its three axes, fixed labels and grids."""
     fig = _new_figure(9.0, 7.0, right=1.55, top=0.35)
     outer = fig.add_gridspec(2, 1, height_ratios=[1.0, 2.9], hspace=0.42)
     inner = outer[1].subgridspec(2, 1, height_ratios=[1.6, 1.0], hspace=0.08)
     ax0 = fig.add_subplot(outer[0])
     ax1 = fig.add_subplot(inner[0])
     ax2 = fig.add_subplot(inner[1], sharex=ax1)
+    ax0.set_ylabel("w [deg/s]")
+    ax0.set_xlabel("time [s]", labelpad=1)
+    ax0.set_title("whole run", fontsize=9, loc="left")
+    ax1.set_ylabel("w [deg/s]")
+    ax1.tick_params(labelbottom=False)
+    ax2.set_ylabel("w_ref − w [deg/s]")
+    ax2.set_xlabel("time [s]")
+    for ax in (ax0, ax1, ax2):
+        ax.grid(True, alpha=0.3, lw=0.5)
+    return fig, (ax0, ax1, ax2)
+
+
+@_styled
+def _draw_tracking(d: dict) -> Figure:
+    t0, half_window = d["t0"], d["half_window"]
+    fig, (ax0, ax1, ax2) = _skeleton("tracking", None)
     tc, lo, hi = d["reference"]
     ax0.fill_between(tc, lo, hi, color="k", lw=0.6, label="reference", step="post")
     tc, lo, hi = d["w"]
     ax0.fill_between(tc, lo, hi, color=mode_color(d["mode"]), alpha=0.8, lw=0.6, label=f"{d['mode']}",
                      step="post")
     ax0.axvspan(t0 - half_window, t0 + half_window, color="#F0E442", alpha=0.6, lw=0, label="zoom below")
-    ax0.set_ylabel("w [deg/s]")
-    ax0.set_xlabel("time [s]", labelpad=1)
     ax0.set_xlim(*d["t_span"])
-    ax0.set_title("whole run", fontsize=9, loc="left")
     _legend_right(fig, ax0)
     ax1.plot(d["zoom_t"], d["zoom_reference"], color="k", ls="--", lw=1.4, label="reference")
     for mode, color, t, w, e in d["zoom"]:
@@ -279,16 +293,10 @@ def _draw_tracking(d: dict) -> Figure:
         ax2.plot(t, e, color=color, lw=lw, label=mode)
     ax1.axhline(0.0, color="0.6", lw=0.6, zorder=0)
     ax2.axhline(0.0, color="0.6", lw=0.6, zorder=0)
-    ax1.set_ylabel("w [deg/s]")
     ax1.set_title(f"reversal at t = {t0:.2f} s (of the metrics window, largest error without compensation)",
                   fontsize=9, loc="left")
-    ax1.tick_params(labelbottom=False)
-    ax2.set_ylabel("w_ref − w [deg/s]")
-    ax2.set_xlabel("time [s]")
     ax1.set_xlim(t0 - half_window, t0 + half_window)
     _legend_right(fig, ax1)
-    for ax in (ax0, ax1, ax2):
-        ax.grid(True, alpha=0.3, lw=0.5)
     return fig
 
 
@@ -321,14 +329,28 @@ def _error_inputs(comp) -> dict:
 
 
 @_styled
-def _draw_error(d: dict) -> Figure:
-    modes, env = d["modes"], d["envelopes"]
-    n = len(modes)
-    fig = _new_figure(9.0, 0.95 * n + 0.9, left=0.85, right=0.25, top=0.35, bottom=0.5)
+def _error_skeleton(n: int):
+    """The data-free part of :func:`_draw_error` for ``n`` modes: the panels, their locators, labels and grids."""
     from matplotlib.ticker import MaxNLocator, NullLocator
 
+    fig = _new_figure(9.0, 0.95 * n + 0.9, left=0.85, right=0.25, top=0.35, bottom=0.5)
     axes = np.atleast_1d(fig.subplots(n, 1, sharey=True, gridspec_kw={"hspace": 0.12}))
     axes[0].yaxis.set_major_locator(MaxNLocator(nbins=2, symmetric=True))  # shared: 3 ticks on every panel
+    for i, ax in enumerate(axes):
+        ax.set_ylabel("e [deg/s]", fontsize=8)
+        if i < n - 1:
+            ax.xaxis.set_major_locator(NullLocator())  # the time axis is read on the bottom panel
+        ax.grid(True, alpha=0.3, lw=0.5)
+    axes[-1].set_xlabel("time [s]")
+    axes[0].set_title("tracking error e = w_ref − w per mode (grey: frictionless; right of the dotted line: "
+                      "metrics window)", fontsize=9, loc="left")
+    return fig, axes
+
+
+@_styled
+def _draw_error(d: dict) -> Figure:
+    modes, env = d["modes"], d["envelopes"]
+    fig, axes = _skeleton("error", len(modes))
     fl = env.get("frictionless")
     peak = max((float(np.nanmax(np.abs(np.concatenate([lo, hi])))) for _, lo, hi in env.values()
                 if np.isfinite(lo).any()), default=1.0)
@@ -342,16 +364,9 @@ def _draw_error(d: dict) -> Figure:
         rms = d["rms"][mode]
         ax.text(0.005, 0.93, f"{mode}", transform=ax.transAxes, fontsize=9, fontweight="bold", va="top")
         ax.text(0.51, 0.93, f"RMS {rms:.3f} deg/s (second half)", transform=ax.transAxes, fontsize=8, va="top")
-        ax.set_ylabel("e [deg/s]", fontsize=8)
         ax.set_xlim(0.0, t_end)
-        if i < n - 1:
-            ax.xaxis.set_major_locator(NullLocator())  # the time axis is read on the bottom panel
-        ax.grid(True, alpha=0.3, lw=0.5)
     lim = 1.15 * peak if math.isfinite(peak) and peak > 0 else 1.0
     axes[0].set_ylim(-lim, lim)
-    axes[-1].set_xlabel("time [s]")
-    axes[0].set_title("tracking error e = w_ref − w per mode (grey: frictionless; right of the dotted line: "
-                      "metrics window)", fontsize=9, loc="left")
     return fig
 
 
@@ -448,10 +463,25 @@ def _friction_inputs(comp, *, times=(0.05, 0.15, 0.5, 1.0)) -> dict:
 
 
 @_styled
-def _draw_friction(d: dict) -> Figure:
-    t_end, Vs, peak = d["t_end"], d["Vs"], d["peak"]
+def _friction_skeleton(layout=None):
+    """The data-free part of :func:`_draw_friction`: the 2 x 2 axes, fixed labels and grids."""
     fig = _new_figure(10.0, 6.2, right=2.05, top=0.4, bottom=0.55)
     axes = fig.subplots(2, 2, sharex="col", gridspec_kw={"wspace": 0.3, "hspace": 0.1, "height_ratios": [1.6, 1.0]})
+    for ax, axe in axes.T:
+        ax.grid(True, alpha=0.3, lw=0.5)
+        axe.grid(True, alpha=0.3, lw=0.5)
+        ax.set_ylabel("friction F(w) [N·m]")
+        ax.tick_params(labelbottom=False)
+        axe.set_ylabel("estimate − truth [N·m]")
+        axe.set_xlabel("velocity w [deg/s]")
+    axes[0, 0].set_title("static friction map (eq. 3), whole speed range", fontsize=9, loc="left")
+    return fig, axes
+
+
+@_styled
+def _draw_friction(d: dict) -> Figure:
+    t_end, Vs, peak = d["t_end"], d["Vs"], d["peak"]
+    fig, axes = _skeleton("friction", None)
     for col, c in enumerate(d["columns"]):
         ax, axe = axes[0, col], axes[1, col]
         wd, truth = c["wd"], c["truth"]
@@ -464,16 +494,10 @@ def _draw_friction(d: dict) -> Figure:
         for a in (ax, axe):
             a.axhline(0.0, color="0.6", lw=0.5, zorder=0)
             a.axvline(0.0, color="0.6", lw=0.5, zorder=0)
-            a.grid(True, alpha=0.3, lw=0.5)
         ax.set_xlim(wd[0], wd[-1])
-        ax.set_ylabel("friction F(w) [N·m]")
-        ax.tick_params(labelbottom=False)
-        axe.set_ylabel("estimate − truth [N·m]")
-        axe.set_xlabel("velocity w [deg/s]")
         err = [np.abs(F - truth) for _, _, _, F in c["curves"][-2:]]  # the final estimates
         lim = 1.5 * max((float(np.max(x)) for x in err), default=1.0) or 1.0
         axe.set_ylim(-lim, lim)
-    axes[0, 0].set_title("static friction map (eq. 3), whole speed range", fontsize=9, loc="left")
     axes[0, 1].set_title(f"low speeds, |w| ≤ 5 Vs = {_deg(min(5.0 * Vs, peak)):.2g} deg/s", fontsize=9, loc="left")
     _legend_right(fig, axes[0, 1])
     return fig
@@ -540,22 +564,37 @@ def _rls_inputs(comp) -> dict | None:
     return {"names": names, "t": tt, "theta": th, "true": true, "title": title, "t_end": r.t[-1]}
 
 
+def rls_grid(n: int) -> tuple[int, int]:
+    """``(rows, columns)`` of the panels of :func:`plot_rls_convergence` for ``n`` parameters (two columns above 3)."""
+    ncol = 2 if n > 3 else 1
+    return -(-n // ncol), ncol
+
+
 @_styled
-def _draw_rls_convergence(d: dict) -> Figure:
+def _rls_skeleton(grid: tuple[int, int]):
+    """The data-free part of :func:`_draw_rls_convergence`: ``grid = (rows, columns)`` panels, locators, grids."""
     from matplotlib.ticker import MaxNLocator
 
-    names, tt, th, true = d["names"], d["t"], d["theta"], d["true"]
-    n = len(names)
-    ncol = 2 if n > 3 else 1
-    nrow = -(-n // ncol)
+    nrow, ncol = grid
     fig = _new_figure(10.0, 1.45 * nrow + 0.9, left=0.95, right=0.25, top=0.4, bottom=0.5)
     axes = np.atleast_1d(fig.subplots(nrow, ncol, sharex=True, squeeze=False,
                                       gridspec_kw={"hspace": 0.18, "wspace": 0.32})).ravel()
+    for ax in axes:
+        ax.yaxis.set_major_locator(MaxNLocator(nbins=3))
+        ax.grid(True, alpha=0.3, lw=0.5)
+    return fig, axes
+
+
+@_styled
+def _draw_rls_convergence(d: dict) -> Figure:
+    names, tt, th, true = d["names"], d["t"], d["theta"], d["true"]
+    n = len(names)
+    nrow, ncol = rls_grid(n)
+    fig, axes = _skeleton("rls_convergence", (nrow, ncol))
     for i, (ax, name) in enumerate(zip(axes, names)):
         ax.plot(tt, th[:, i], lw=1.0, color=mode_color("adaptive"), label="estimate")
         ax.plot(tt, true[:, i], color="k", ls="--", lw=1.0, label="true plant")
         ax.set_ylabel(f"{name} [{PARAMETER_UNITS.get(name, '-')}]", fontsize=8)
-        ax.yaxis.set_major_locator(MaxNLocator(nbins=3))
         tail = th[len(th) // 10:, i]
         tail = tail[np.isfinite(tail)]
         tv = true[:, i][np.isfinite(true[:, i])]
@@ -565,7 +604,6 @@ def _draw_rls_convergence(d: dict) -> Figure:
                 lo, hi = min(lo, tv.min()), max(hi, tv.max())
             pad = 0.25 * (hi - lo) + 1e-9 * max(1.0, abs(hi))
             ax.set_ylim(lo - pad, hi + pad)
-        ax.grid(True, alpha=0.3, lw=0.5)
     for ax in axes[n:]:
         fig.delaxes(ax)
     for ax in axes[max(n - ncol, 0):n]:
@@ -608,10 +646,24 @@ def _eta_inputs(comp) -> dict:
 
 
 @_styled
-def _draw_eta(d: dict) -> Figure:
-    modes = d["modes"]
+def _eta_skeleton(layout=None):
+    """The data-free part of :func:`_draw_eta`: the two axes, fixed labels, titles and grids."""
     fig = _new_figure(10.0, 3.6, left=0.8, right=0.25, top=0.4, bottom=0.85)
     axes = fig.subplots(1, 2, gridspec_kw={"wspace": 0.25})
+    for ax in axes:
+        ax.set_xlabel("compensation mode")
+        ax.grid(True, axis="y", alpha=0.3, lw=0.5)
+    axes[0].set_ylabel("eta [-] (1 = frictionless)")
+    axes[0].set_title("compensation efficiency eta (second half)", fontsize=9, loc="left")
+    axes[1].set_ylabel("RMS(w − w_frictionless) [deg/s]")
+    axes[1].set_title("rms_dev: distance from the frictionless run (whole run)", fontsize=9, loc="left")
+    return fig, axes
+
+
+@_styled
+def _draw_eta(d: dict) -> Figure:
+    modes = d["modes"]
+    fig, axes = _skeleton("eta", None)
     colors = [mode_color(m, i) for i, m in enumerate(modes)]
     x = np.arange(len(modes))
     for ax, vals, fmt in ((axes[0], d["eta"], "{:.3f}"), (axes[1], d["rms_dev"], "{:.3g}")):
@@ -623,15 +675,9 @@ def _draw_eta(d: dict) -> Figure:
             ax.text(xi, (vi if good else 0.0) + 0.02 * top, fmt.format(vi) if good else "n/a", ha="center",
                     va="bottom", fontsize=8)
         ax.set_xticks(x, modes, rotation=25, ha="right", fontsize=8)
-        ax.set_xlabel("compensation mode")
         ax.set_ylim(min(0.0, float(np.min(v[ok])) * 1.15) if ok.any() else 0.0, 1.15 * top)
-        ax.grid(True, axis="y", alpha=0.3, lw=0.5)
         ax.axhline(0.0, color="k", lw=0.6)
     axes[0].axhline(1.0, color="k", lw=0.8, ls="--")
-    axes[0].set_ylabel("eta [-] (1 = frictionless)")
-    axes[0].set_title("compensation efficiency eta (second half)", fontsize=9, loc="left")
-    axes[1].set_ylabel("RMS(w − w_frictionless) [deg/s]")
-    axes[1].set_title("rms_dev: distance from the frictionless run (whole run)", fontsize=9, loc="left")
     return fig
 
 
@@ -657,6 +703,64 @@ def plot_eta(comp) -> Figure:
 _FIGURES = (("tracking", _tracking_inputs, _draw_tracking), ("error", _error_inputs, _draw_error),
             ("friction", _friction_inputs, _draw_friction), ("rls_convergence", _rls_inputs, _draw_rls_convergence),
             ("eta", _eta_inputs, _draw_eta))
+
+
+#: The data-free part of each figure, ``skeleton(layout) -> (fig, axes)``: ``layout`` is None, the number of modes
+#: (``error``) or ``(rows, columns)`` (``rls_convergence``, :func:`rls_grid`).
+_SKELETONS = {"tracking": _tracking_skeleton, "error": _error_skeleton, "friction": _friction_skeleton,
+              "rls_convergence": _rls_skeleton, "eta": _eta_skeleton}
+
+#: Skeletons made ahead by :func:`prepare_figures`, ``{(name, layout): (fig, axes)}``; each is used once.
+_PREPARED: dict = {}
+
+#: Major ticks made ahead on the x and y axis of each panel of a prepared skeleton: a figure draws the first ones it
+#: needs and makes the rest while saved, unused ones are not drawn (same bytes) but cost time, so these are about the
+#: fewest the figures of a comparison use (7-10 on a time or velocity axis, 4-11 on a y axis).
+_PREPARED_TICKS = (7, 5)
+
+
+def _skeleton(name: str, layout):
+    """The skeleton of figure ``name`` for ``layout``: the one :func:`prepare_figures` made, or a new one."""
+    prepared = _PREPARED.pop((name, layout), None)
+    return prepared if prepared is not None else _SKELETONS[name](layout)
+
+
+def prepare_figures(layouts: dict) -> None:
+    """Make the data-free part of figures ahead, while waiting for their inputs (``adaptive-ff compare``'s helper).
+
+    The figures, axes, fixed labels, titles, locators and grids, and
+    a few major ticks per axis (``_PREPARED_TICKS``): about a fifth of the drawing of a
+    figure. The next figure of that name and layout drawn in this process (or
+    in a process forked from it afterwards) takes them instead of making its
+    own; the files are the same bytes either way.
+
+    Parameters
+    ----------
+    layouts : dict
+        ``{figure name: layout}``: None for ``tracking``, ``friction`` and
+        ``eta``; the number of modes of the comparison for ``error``;
+        ``rls_grid(number of estimator parameters)`` for ``rls_convergence``.
+        A layout that turns out wrong only costs the time spent on it.
+
+    Raises
+    ------
+    ParameterError
+        An unknown figure name.
+    """
+    unknown = [name for name in layouts if name not in _SKELETONS]
+    if unknown:
+        raise ParameterError(f"prepare_figures: unknown figure(s) {unknown}; known: {list(_SKELETONS)}")
+    import matplotlib
+    from matplotlib.ticker import NullLocator
+
+    for name, layout in layouts.items():
+        fig, axes = _SKELETONS[name](layout)
+        with matplotlib.rc_context(_RC):  # the ticks a figure would make while it is saved
+            for ax in fig.axes:
+                for axis, count in zip((ax.xaxis, ax.yaxis), _PREPARED_TICKS):
+                    if not isinstance(axis.get_major_locator(), NullLocator):
+                        axis.get_major_ticks(count)
+        _PREPARED[(name, layout)] = (fig, axes)
 
 
 def figure_inputs(comp) -> dict:
