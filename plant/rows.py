@@ -91,7 +91,7 @@ from plant.jit import kernel
 from plant.stribeck import stribeck_cutoff, stribeck_scalar, stribeck_slope_scalar
 
 __all__ = ["PLANT_NPAR", "PLANT_NSTATE", "PLANT_SLOTS", "MODEL_CODES", "plant_params", "plant_rows", "lagged_params",
-           "plant_state", "plant_states", "plant_target", "check_integrable", "integrable_rows", "lagged_rate",
+           "plant_state", "plant_states", "plant_target", "check_integrable", "integrable_rows", "lagged_rate", "steepest_rise",
            "RK4_RATE_MAX", "LUGRE_STIFF_MAX"]
 
 #: Model codes of slot 0.
@@ -198,15 +198,38 @@ def lagged_rate(J: float, dF: float, Vs: float, delta: float, sigma: float, tau:
     Derivative of eq. 3 (:func:`plant.stribeck.stribeck_slope_scalar`), ``x = |w|/Vs``, largest at
     ``x**delta = 1 - 1/delta`` (``delta >= 1`` or ``delta < 0``).
     """
+    s = steepest_rise(dF, Vs, delta, sigma)
+    if tau > 0.0:
+        return max(1.0 / tau, math.sqrt(s / (J * tau)))
+    return s / J
+
+
+def steepest_rise(dF: float, Vs: float, delta: float, sigma: float) -> float:
+    """Steepest rise ``dF/d|w|`` (N·m·s/rad) of one direction of the static map (eq. 3).
+
+    Parameters
+    ----------
+    dF, Vs, delta, sigma : float
+        ``Fs - Fc`` (N·m), Stribeck velocity (rad/s), shape factor, viscous coefficient (N·m·s/rad).
+
+    Returns
+    -------
+    float
+        ``max(sigma, 0)`` plus the Stribeck term's largest slope where it rises (``dF*delta < 0``), at
+        ``x**delta = 1 - 1/delta`` (``x = |w|/Vs``; ``delta >= 1`` or ``delta < 0``), bounded at ``|w| =
+        1e-3*Vs`` for ``0 < delta < 1`` (unbounded at standstill there); where the term falls it adds nothing.
+
+    Notes
+    -----
+    Derivative of eq. 3: :func:`plant.stribeck.stribeck_slope_scalar`. Used by :func:`lagged_rate` and
+    :func:`plant.stiff.lagged_oscillation`.
+    """
     rise = 0.0
     if dF * delta < 0.0:
         y = 1.0 - 1.0 / delta if (delta >= 1.0 or delta < 0.0) else 1e-3 ** delta
         x = y ** (1.0 / delta) if y > 0.0 else 0.0
         rise = float(stribeck_slope_scalar(x, dF, Vs, delta))
-    s = max(sigma, 0.0) + rise
-    if tau > 0.0:
-        return max(1.0 / tau, math.sqrt(s / (J * tau)))
-    return s / J
+    return max(sigma, 0.0) + rise
 
 
 def _keyed(v: list) -> list:

@@ -15,7 +15,7 @@ import numpy as np
 
 from plant.errors import ParameterError
 from plant.jit import kernel
-from plant.rows import MODEL_CODES, plant_target
+from plant.rows import MODEL_CODES, plant_target, steepest_rise
 from plant.stribeck import stribeck_slope_scalar
 
 __all__ = ["LAGGED_RK4_MAX", "LAGGED_RTOL", "LAGGED_FTOL", "LAGGED_MAX_SUBSTEPS", "lagged_local_rate",
@@ -105,7 +105,7 @@ def lagged_oscillation(par) -> float:
     float
         ``sqrt(s/(J*tau) - 1/(4*tau**2))`` where positive (the linearised joint oscillates), else 0 (over-damped,
         ``tau == 0``, a LuGre row); ``s`` the steepest rise of the map, ``sigma`` plus the Stribeck term where it
-        rises (``dF*delta < 0``; as :func:`plant.rows.lagged_rate`), the larger of the two directions.
+        rises (``dF*delta < 0``; :func:`plant.rows.steepest_rise`), the larger of the two directions.
 
     Notes
     -----
@@ -119,14 +119,7 @@ def lagged_oscillation(par) -> float:
     J, Vs, delta, tau = par[1], par[2], par[3], par[4]
     if par[0] == MODEL_CODES["lugre"] or not (tau > 0.0 and J > 0.0):  # LuGre, or no lag
         return 0.0
-    s = 0.0
-    for dF, sig in ((par[6], par[7]), (par[10], par[11])):
-        rise = 0.0
-        if dF * delta < 0.0:
-            y = 1.0 - 1.0 / delta if (delta >= 1.0 or delta < 0.0) else 1e-3 ** delta
-            x = y ** (1.0 / delta) if y > 0.0 else 0.0
-            rise = float(stribeck_slope_scalar(x, dF, Vs, delta))
-        s = max(s, max(sig, 0.0) + rise)
+    s = max(steepest_rise(par[6], Vs, delta, par[7]), steepest_rise(par[10], Vs, delta, par[11]))
     disc = s / (J * tau) - 0.25 / (tau * tau)
     return math.sqrt(disc) if disc > 0.0 else 0.0
 
