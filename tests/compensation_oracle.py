@@ -511,7 +511,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     def __init__(self, estimator: SlidingFrictionEstimator, *, dt: float, lag: bool = True,
                  ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0, stick_samples: int = 10,
                  warmup: int = 200, fade_in: float = 1.0, J_range: tuple = (0.0, math.inf), tau_max: float = 1.0,
-                 consistency: float = 0.5, start=None):
+                 consistency: float = 0.5, lag_margin: float = 1.0, lag_margin_max: float = 0.05,
+                 max_rel_stderr: float = 0.05, start=None):
         super().__init__(None, dt=dt, lag=lag, ff_max=ff_max, sign_width=sign_width, stick_band=stick_band,
                          stick_samples=stick_samples)
         if not isinstance(estimator, SlidingFrictionEstimator):
@@ -529,11 +530,15 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         self.J_range = (J_lo, J_hi)
         self.tau_max = check_positive("tau_max", tau_max)
         self.consistency = check_positive("consistency", consistency)
+        self.lag_margin = check_nonnegative("lag_margin", lag_margin)
+        self.lag_margin_max = float(lag_margin_max)
+        self.max_rel_stderr = float(max_rel_stderr)
         fade_in = check_nonnegative("fade_in", fade_in)
         self._fade_step = 1.0 if fade_in == 0.0 else self.dt / fade_in
         self._gain = 0.0
         self.n_implausible = 0
         self.n_lag_held = 0
+        self.n_undetermined = 0
         # provisional start (issue 11 item 5): ``start`` = (estimate, gain, at_reference); the start map acts
         # (times gain, at the reference velocity when at_reference) until the first estimate is taken
         self.provisional = start is not None
@@ -628,9 +633,18 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         ok = self.estimator.observe(u, w)
         if self.estimator.updated and self.estimator.n_updates >= self.warmup:
             est = self.estimator.estimate
+            cov = self.estimator.theta_cov
+            names = list(self.estimator.names)
+            i_fc = names.index("Fc")
             if not self._levels_plausible(est):
                 self.n_implausible += 1
+            elif not math.sqrt(max(cov[i_fc, i_fc], 0.0)) <= self.max_rel_stderr * max(est.Fc, est.Fs):
+                self.n_undetermined += 1  # Fc not determined (e.g. confounded with the offset)
             elif self._lag_consistent(est):
+                if self.estimator.lag:  # upper confidence bound of the lag, at most lag_margin_max*tau above it
+                    i_tau = names.index("tau")
+                    margin = min(self.lag_margin * math.sqrt(max(cov[i_tau, i_tau], 0.0)), self.lag_margin_max * est.tau)
+                    est = replace(est, tau=min(est.tau + margin, self.tau_max))
                 self._take(est)
             elif self.estimate is not None and not self.provisional:
                 self.n_lag_held += 1

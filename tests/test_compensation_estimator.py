@@ -112,7 +112,8 @@ def test_feedforward_sign_treatments_and_stick_detection():
 def test_robust_feedforward_waits_fades_in_and_holds_the_last_plausible_estimate(open_loop):
     u, w = open_loop
     est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, Ts=0.01)
-    ff = RobustAdaptiveFeedforward(est, dt=1e-3, warmup=100, fade_in=0.5)
+    # the warm-up count alone (the determinacy test has its own tests below)
+    ff = RobustAdaptiveFeedforward(est, dt=1e-3, warmup=100, fade_in=0.5, max_rel_stderr=math.inf)
     n_on = None
     for k, (uk, wk) in enumerate(zip(u.tolist(), w.tolist())):
         ff.observe(uk, wk)
@@ -129,6 +130,86 @@ def test_robust_feedforward_waits_fades_in_and_holds_the_last_plausible_estimate
     assert not ff.plausible(bad) and ff.plausible(full)
     with pytest.raises(ParameterError, match="J_range"):
         RobustAdaptiveFeedforward(est, dt=1e-3, J_range=(2.0, 1.0))
+
+
+def _fc_stderr_ratio(est):
+    """Standard error of Fc over max(Fc, Fs), from the estimator's covariance (the determinacy test, by hand)."""
+    i = list(est.names).index("Fc")
+    th = est.theta
+    return math.sqrt(est.theta_cov[i, i]) / max(th[i], th[i + 1])
+
+
+def test_feedforward_is_not_switched_on_while_Fc_and_the_offset_are_confounded(open_loop):
+    """Sliding in one direction only: ``sgn(w)`` is the offset column, so the RLS fits ``Fc + offset`` and the
+    standard error of ``Fc`` stays large; the feedforward (no offset in its map) waits. Once the joint has moved
+    both ways it switches on at the first update (after warm-up) where the test passes, computed by hand."""
+    t = np.arange(3000) * 1e-3
+    u1 = 45.0 + 12.0 * np.sin(2 * np.pi * t) + 8.0 * np.sin(2 * np.pi * 3.1 * t)  # w > 0.13 rad/s after 0.3 s
+    w1 = simulate(P, u1).w[:-1]
+    assert w1[300:].min() > 0.1
+    u2, w2 = open_loop
+    # a start near the pre-fit, as the pipeline gives it (levels a few % off, no lag)
+    start = FrictionEstimate(J=4.4, tau=0.0, sigma=38.0, Fc=24.0, Fs=33.0, offset=0.0, Vs=P.Vs, delta=P.delta,
+                             J_alt=math.nan)
+    mk = lambda **kw: RobustAdaptiveFeedforward(  # noqa: E731
+        SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, Ts=0.01, initial=start, J_guess=4.4), dt=1e-3,
+        warmup=100, fade_in=0.0, **kw)
+    ff = mk()
+    est = ff.estimator
+    for uk, wk in zip(u1.tolist(), w1.tolist()):
+        ff.observe(uk, wk)
+    i = list(est.names).index("Fc")
+    assert est.theta[i] + est.theta[-1] == pytest.approx(P.Fc, rel=0.01)  # the sum is identified ...
+    assert abs(est.theta[i] / P.Fc - 1.0) > 0.1  # ... Fc is not
+    assert est.n_updates > 200 and not ff.active and ff.n_undetermined > 0 and _fc_stderr_ratio(est) > 0.05
+    # the same record without the test: switched on with an Fc that is off by the offset
+    ff_inf = mk(max_rel_stderr=math.inf)
+    for uk, wk in zip(u1.tolist(), w1.tolist()):
+        ff_inf.observe(uk, wk)
+    assert ff_inf.active and ff_inf.n_undetermined == 0 and abs(ff_inf.estimate.Fc / P.Fc - 1.0) > 0.1
+    # both directions: on at the first update whose Fc standard error passes
+    k_on = None
+    for k, (uk, wk) in enumerate(zip(u2.tolist(), w2.tolist())):
+        ff.observe(uk, wk)
+        if est.updated and k_on is None:
+            passes = _fc_stderr_ratio(est) <= 0.05 and ff.plausible(est.estimate)
+            assert ff.active == passes
+            if passes:
+                k_on = k
+    assert k_on is not None and ff.estimate.Fc == pytest.approx(P.Fc, rel=0.02)
+
+
+@pytest.mark.parametrize("lag_margin, cap", [(0.0, 0.05), (1.0, 0.05), (2.5, math.inf), (50.0, 0.02)])
+def test_the_lag_in_use_is_the_estimate_plus_lag_margin_standard_errors_up_to_the_cap(open_loop, lag_margin, cap):
+    u, w = open_loop
+    est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, Ts=0.01)
+    ff = RobustAdaptiveFeedforward(est, dt=1e-3, warmup=100, lag_margin=lag_margin, lag_margin_max=cap)
+    i = list(est.names).index("tau")
+    n_capped = n_margin = 0
+    for uk, wk in zip(u.tolist(), w.tolist()):
+        ff.observe(uk, wk)
+        if est.updated and ff.active and ff.n_lag_held == 0 and not ff.provisional:
+            tau, sd = est.theta[i], math.sqrt(est.theta_cov[i, i])
+            want = tau + min(lag_margin * sd, cap * tau)
+            assert ff.estimate.tau == pytest.approx(want, rel=1e-12, abs=1e-15)
+            n_capped += lag_margin * sd > cap * tau
+            n_margin += lag_margin * sd < cap * tau
+    assert n_capped + n_margin > 100
+    if lag_margin == 50.0:
+        assert n_capped > 100  # 50 standard errors are more than 2 % of the lag: the cap acts
+    elif lag_margin > 0.0:
+        assert n_margin > 100  # one or 2.5 standard errors stay below the cap on this record
+
+
+@pytest.mark.parametrize("kw, match", [(dict(lag_margin=-1.0), "lag_margin"), (dict(lag_margin=math.nan), "lag_margin"),
+                                       (dict(max_rel_stderr=0.0), "max_rel_stderr"),
+                                       (dict(max_rel_stderr="x"), "max_rel_stderr"),
+                                       (dict(max_rel_stderr=True), "max_rel_stderr"),
+                                       (dict(lag_margin_max=-0.1), "lag_margin_max"),
+                                       (dict(lag_margin_max=math.nan), "lag_margin_max")])
+def test_lag_margin_and_max_rel_stderr_are_validated(kw, match):
+    with pytest.raises(ParameterError, match=match):
+        RobustAdaptiveFeedforward(SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3), dt=1e-3, **kw)
 
 
 def test_outlier_gate_rules():

@@ -34,7 +34,9 @@ def test_own_loop_example_learns_the_friction_and_tracks_better_with_faults():
     assert abs(_num(r"Fs ([\d.]+) N·m", out) / 35.0 - 1) < 0.05
     assert abs(_num(r"sigma ([\d.]+) N·m·s", out) / 40.0 - 1) < 0.03
     assert _num(r"samples rejected (\d+)", out) >= 7  # 8 faults in 20 s, each refused by the estimator
-    assert _num(r"step\(\) inputs rejected (\d+)", out) >= 4  # the NaN and inf frames (1e308 overflows F_hat)
+    # the NaN, inf and 1e308 frames after switch-on (1e308 overflows F_hat): the feedforward waits until Fc is
+    # determined (about 10 s here), and three such frames follow (at 11.2, 13.7 and 16.2 s)
+    assert _num(r"step\(\) inputs rejected (\d+)", out) >= 3
     assert _num(r"([\d.]+) µs per period", out) < 1000.0
 
 

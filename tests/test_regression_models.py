@@ -26,8 +26,11 @@ MODES = ("fixed", "adaptive", "adaptive-dob", "dob")
 #: rms_dev fell by 40 % on lugre and 3 % on asymmetric, adaptive-dob's rose by 13 % on lugre (30 s run; 4 % at 120 s).
 #: With the sign observer of the feedforward and 50 stick samples (h/rms, session 8) adaptive-dob's rms_dev on lugre
 #: rose from 1.4054e-3 to 1.6097e-3 rad/s (30 s run); paper and karnopp stay within 10 %.
+#: With the lag margin and the determinacy test of the adaptive estimate (session 9) adaptive-dob's rms_dev on
+#: karnopp rose from 1.5969e-3 to 1.7661e-3 rad/s (30 s run, the start; +1.7 % over 120 s in variants.md);
+#: paper (5.5059e-4) and lugre (1.5762e-3) stay within 3 %.
 CASES = {"paper": (True, {"adaptive": 0.02, "adaptive-dob": 0.02}, 5.6650e-4), "lugre": (False, {}, 1.6097e-3),
-         "karnopp": (False, {"adaptive": 0.02}, 1.5969e-3), "asymmetric": (True, {}, None)}
+         "karnopp": (False, {"adaptive": 0.02}, 1.7661e-3), "asymmetric": (True, {}, None)}
 
 
 @pytest.mark.parametrize("name", list(CASES))

@@ -570,10 +570,10 @@ class FrictionFeedforward(Component):
 # state: the feedforward's, own slots, the parameter vector in use (p), the estimator's.
 # (start gain and start input: the provisional start, see FeedforwardStart; the state flag _PROV is 1 while it
 # is in use)
-_WARMUP, _FADE, _JLO, _JHI, _TAUMAX, _CONSIST, _P, _PO_EST, _SO_FTH, _SO_EST, _SGAIN, _SREF = range(FF_NPAR,
-                                                                                                  FF_NPAR + 12)
-_GAIN, _NIMPL, _NLAG, _HELD, _PROV = range(FF_NSTATE, FF_NSTATE + 5)
-_RB_NPAR, _RB_NSTATE = FF_NPAR + 12, FF_NSTATE + 5
+(_WARMUP, _FADE, _JLO, _JHI, _TAUMAX, _CONSIST, _P, _PO_EST, _SO_FTH, _SO_EST, _SGAIN, _SREF, _LAGZ, _RELSD,
+ _LAGCAP) = range(FF_NPAR, FF_NPAR + 15)
+_GAIN, _NIMPL, _NLAG, _HELD, _PROV, _NUND = range(FF_NSTATE, FF_NSTATE + 6)
+_RB_NPAR, _RB_NSTATE = FF_NPAR + 15, FF_NSTATE + 6
 
 
 @kernel(inline="always")
@@ -680,8 +680,15 @@ def robust_observe(par, st, u, w_meas, theta_out):
     if not _levels_plausible(par, eJ, etau, eFc, eFs, esig):
         st[_NIMPL] += 1.0
         return True
-    if _lag_consistent(par, rls, eJ, etau, eJalt, sliding_mse(es), par[_DT], lag):
+    e2 = sliding_mse(es)
+    if not math.sqrt(max(e2 * rls_P(rls, iFc, iFc), 0.0)) <= par[_RELSD] * max(eFc, eFs):
+        st[_NUND] += 1.0  # Fc not determined yet (e.g. one direction of motion only: Fc and the offset agree)
+        return True
+    if _lag_consistent(par, rls, eJ, etau, eJalt, e2, par[_DT], lag):
         st[_HELD] = 0.0
+        if lag:  # the upper confidence bound of the lag, at most lag_margin_max*tau above it (class Notes)
+            m = min(par[_LAGZ] * math.sqrt(max(e2 * rls_P(rls, 2, 2), 0.0)), par[_LAGCAP] * etau)
+            etau = min(etau + m, par[_TAUMAX])
     elif st[_HAS] > 0.0 and st[_PROV] == 0.0:
         st[_NLAG] += 1.0
         etau = st[_TAU]
@@ -783,6 +790,22 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         and by more than three standard deviations (delta method on
         :attr:`SlidingFrictionEstimator.theta_cov`) is not used (for
         ``tau >= 2*dt``); default 0.5.
+    lag_margin : float, keyword-only
+        The lag in use is the estimated ``tau`` plus this many of its
+        standard errors (``sqrt`` of the ``tau`` diagonal element of
+        :attr:`SlidingFrictionEstimator.theta_cov`), at most
+        ``lag_margin_max*tau`` more, clipped to ``tau_max``: a one-sided
+        upper confidence bound (see Notes). Default 1; 0: the estimate
+        itself.
+    lag_margin_max : float, keyword-only
+        Largest margin as a fraction of the estimated lag (inf: no cap),
+        default 0.05: the cost of a lag error is lopsided only for small
+        errors (a lag far too long under-compensates every reversal), and
+        ``theta_cov`` of a weakly excited lag can exceed the lag itself.
+    max_rel_stderr : float, keyword-only
+        An estimate is used only once ``Fc`` is determined: its standard
+        error (from :attr:`SlidingFrictionEstimator.theta_cov`) at most this
+        fraction of ``max(Fc, Fs)``. Default 0.05; inf: no test.
     stick_band, stick_samples : keyword-only
         Stick detection, see :class:`FrictionFeedforward`.
     ff_input, w_max, loop_model, sign_observer : keyword-only
@@ -802,6 +825,9 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     n_lag_held : int
         Estimates whose friction levels were used with the previous lag
         (the two lag estimates disagreed), see :meth:`observe`.
+    n_undetermined : int
+        Plausible estimates not used because ``Fc`` was not determined yet
+        (``max_rel_stderr``).
     active : bool
         Whether the feedforward is switched on.
 
@@ -820,11 +846,34 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     (4) ``theta`` is projected onto physical bounds after every update;
     (5) the estimate is used only after ``warmup`` updates and only if
     plausible (finite, ``J`` in ``J_range``, ``tau <= tau_max``,
-    ``Fc, Fs <= ff_max``, the two lag estimates consistent), otherwise the
-    last plausible one is held (an inconsistent lag alone keeps the previous
-    ``tau`` and takes the new friction levels); (6) the output fades in after
-    switch-on and is clipped to ``±ff_max``. Which velocity the feedforward is
-    evaluated at (reference or measured) is the caller's choice; measured on
+    ``Fc, Fs <= ff_max``), determined (the standard error of ``Fc`` at most
+    ``max_rel_stderr*max(Fc, Fs)``) and with consistent lag estimates,
+    otherwise the last usable one is held (an inconsistent lag alone keeps
+    the previous ``tau`` and takes the new friction levels); (6) the output
+    fades in after switch-on and is clipped to ``±ff_max``.
+
+    The determinacy test of (5) matters after motion in one direction only:
+    there the Coulomb column ``sgn(w)`` equals the offset column, the RLS
+    fits ``Fc + offset`` and not ``Fc``, and the map (which has no offset)
+    would over-compensate the first motion in the other direction by the
+    offset; the covariance says so (the standard error of ``Fc`` stays large
+    until both directions are seen).
+
+    The lag in use is an upper confidence bound, not the point estimate
+    (a cautious rather than a certainty-equivalence use of the estimate:
+    Åström & Wittenmark, *Adaptive Control*, 2nd ed., 1995, Ch. 7), because
+    the two signs of a small lag error do not cost the same. A feedforward
+    at the measured velocity through a lag shorter than the joint's reverses
+    before the friction does and over-compensates at every reversal, which
+    pushes the joint on in the new direction and is fed back through the
+    measurement (over-compensation of friction drives the loop towards
+    hunting: Armstrong-Hélouvry, Dupont & Canudas de Wit, *Automatica*
+    30(7), 1994); a slightly longer lag under-compensates for a moment, a
+    disturbance the PI removes. A lag far too long under-compensates every
+    reversal and costs as well, hence ``lag_margin_max``. The measured cost
+    of both signs is on docs/benchmarks/compensation.md.
+
+    Which velocity the feedforward is evaluated at (reference or measured) is the caller's choice; measured on
     the ``paper`` preset the measured velocity is the better one (the joint
     lags the reference at reversals), see ``benchmarks/compensation.py`` and
     docs/benchmarks/compensation.md.
@@ -836,9 +885,10 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     def __init__(self, estimator: SlidingFrictionEstimator, *, dt: float, lag: bool = True,
                  ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0, stick_samples: int = 10,
                  warmup: int = 200, fade_in: float = 1.0, J_range: tuple = (0.0, math.inf), tau_max: float = 1.0,
-                 consistency: float = 0.5, ff_input: str = "measured", w_max: float = math.inf,
-                 start: FeedforwardStart | None = None, loop_model: LoopModel | None = None,
-                 sign_observer: SignObserver | None = None):
+                 consistency: float = 0.5, lag_margin: float = 1.0, lag_margin_max: float = 0.05,
+                 max_rel_stderr: float = 0.05,
+                 ff_input: str = "measured", w_max: float = math.inf, start: FeedforwardStart | None = None,
+                 loop_model: LoopModel | None = None, sign_observer: SignObserver | None = None):
         if not isinstance(estimator, SlidingFrictionEstimator):
             raise TypeError(f"estimator must be a SlidingFrictionEstimator, got {type(estimator).__name__}")
         ff = FrictionFeedforward(None, dt=dt, lag=lag, ff_max=ff_max, sign_width=sign_width,
@@ -856,6 +906,16 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
             raise ParameterError(f"J_range must satisfy 0 <= low < high, got {J_range!r}")
         tau_max = check_positive("tau_max", tau_max)
         consistency = check_positive("consistency", consistency)
+        lag_margin = check_nonnegative("lag_margin", lag_margin)
+        lag_margin_max = (math.inf if isinstance(lag_margin_max, (int, float)) and lag_margin_max == math.inf
+                          else check_nonnegative("lag_margin_max", lag_margin_max))  # inf: no cap
+        try:
+            rel = math.nan if isinstance(max_rel_stderr, bool) else float(max_rel_stderr)
+        except (TypeError, ValueError):
+            rel = math.nan
+        if not rel > 0.0:  # inf allowed: no determinacy test
+            raise ParameterError(f"max_rel_stderr must be > 0 (inf: no test), got {max_rel_stderr!r}")
+        max_rel_stderr = rel
         fade_in = check_nonnegative("fade_in", fade_in)
         self.estimator = estimator
         p = len(estimator.names)
@@ -872,7 +932,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         self.params[FF_NPAR:_RB_NPAR] = (float(warmup), 1.0 if fade_in == 0.0 else dt / fade_in, J_lo, J_hi,
                                          tau_max, consistency, float(p), float(_RB_NPAR), float(so_fth),
                                          float(so_est), 1.0 if start is None else start.gain,
-                                         float(start is not None and start.ff_input == "reference"))
+                                         float(start is not None and start.ff_input == "reference"), lag_margin,
+                                         max_rel_stderr, lag_margin_max)
         self.state[so_fth:so_est] = np.nan
         self.estimate = None
         self.start = start
@@ -895,22 +956,29 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     consistency = property(lambda self: float(self.params[_CONSIST]), doc="Relative lag-consistency tolerance.")
     n_implausible = property(lambda self: int(self.state[_NIMPL]), doc="Estimates that failed the plausibility test.")
     n_lag_held = property(lambda self: int(self.state[_NLAG]), doc="Estimates used with the previous lag.")
+    n_undetermined = property(lambda self: int(self.state[_NUND]),
+                              doc="Plausible estimates not used because ``Fc`` was not determined yet.")
+    lag_margin = property(lambda self: float(self.params[_LAGZ]),
+                          doc="Standard errors added to the estimated lag in use.")
+    lag_margin_max = property(lambda self: float(self.params[_LAGCAP]),
+                              doc="Largest lag margin, as a fraction of the estimated lag.")
+    max_rel_stderr = property(lambda self: float(self.params[_RELSD]),
+                              doc="Largest standard error of ``Fc`` in use, relative to ``max(Fc, Fs)``.")
 
     provisional = property(lambda self: bool(self.state[_PROV]),
                            doc="Whether the provisional start map (``start``) is in use.")
 
     @property
     def estimate(self) -> FrictionEstimate | None:
-        """The estimator's estimate in use (None before switch-on and during the provisional start); with the
-        previous lag where the lag estimates disagreed."""
+        """The estimator's estimate in use (None before switch-on and during the provisional start), with the lag
+        in use: the estimated lag plus ``lag_margin`` standard errors, or the previous lag where the lag estimates
+        disagreed (then ``J_alt`` is NaN)."""
         if not self.state[_HAS] or self.state[_PROV]:
             return None
         o = int(self.params[_SO_FTH])
         e = estimate_from_theta(self.estimator.names, self.state[o:o + self.n_theta], self.estimator.Vs,
                                 self.estimator.delta)
-        if self.state[_HELD]:
-            e = replace(e, tau=float(self.state[_TAU]), J_alt=float("nan"))
-        return e
+        return replace(e, tau=float(self.state[_TAU]), J_alt=float("nan") if self.state[_HELD] else e.J_alt)
 
     @estimate.setter
     def estimate(self, value) -> None:
@@ -963,7 +1031,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         """Counters and settings of the estimator and the plausibility tests (for run reports)."""
         e = self.estimator
         return {"estimator": "sliding", "n_rejected": e.n_rejected, "n_implausible": self.n_implausible,
-                "n_lag_held": self.n_lag_held, "n_updates": e.n_updates, "n_gated": e.n_gated,
+                "n_undetermined": self.n_undetermined, "n_lag_held": self.n_lag_held, "n_updates": e.n_updates,
+                "n_gated": e.n_gated,
                 "n_projected": e.rls.n_projected, "lam": e.rls.lam, "names": list(e.names),
                 "raw_estimate": e.estimate.to_dict(), "noise_estimate": e.noise_std}
 
