@@ -24,7 +24,8 @@ from plant.rows import (LUGRE_STIFF_MAX, MODEL_CODES, PLANT_NPAR, PLANT_NSTATE, 
                         plant_state, plant_states, plant_target)
 from plant.stiff import (LAGGED_FTOL, LAGGED_MAX_SUBSTEPS, LAGGED_RK4_MAX, LAGGED_RTOL, LUGRE_MAX_SUBSTEPS,
                          LUGRE_RK4_MAX, LUGRE_RTOL, LUGRE_ZTOL, lagged_implicit_step, lagged_local_rate,
-                         lagged_stiff_step, lugre_implicit_step, lugre_jacobian, lugre_stiff_step)
+                         lagged_stiff_step, lugre_implicit_step, lugre_jacobian, lugre_stiff_step,
+                         static_jump_in_reach)
 
 __all__ = ["PLANT_NPAR", "PLANT_NSTATE", "PLANT_SLOTS", "MODEL_CODES", "plant_params", "lagged_params", "plant_state",
            "plant_target", "plant_rk4", "plant_step", "plant_friction", "plant_simulate", "make_plant_step",
@@ -137,7 +138,11 @@ def plant_step(par, st, u, dt):
     -----
     Lagged models: one :func:`plant_rk4` step (eqs. 1-3; ``tau == 0``: RK4 on
     ``w``, then ``f = F(w)``, which the next step reuses through the cache
-    slot). Karnopp: in the band ``|w| < dv`` with ``|u| <= Fs`` the joint
+    slot). ``tau == 0`` without a Karnopp band: the map jumps at ``w = 0``, and
+    a step that can reach it (:func:`plant.stiff.static_jump_in_reach`) is the
+    set-valued :func:`lagged_stiff_step` instead (Filippov: at rest while
+    ``-F(0-) <= u <= F(0+)``, with ``f = u``; RK4 would creep and chatter
+    through the jump). Karnopp: in the band ``|w| < dv`` with ``|u| <= Fs`` the joint
     sticks (``w = 0``, ``f = u``); with ``|u| > Fs`` it breaks away (RK4 with
     the band target ``Fs*sgn(u)``). A lagged model whose fastest mode
     (:func:`lagged_rate`) needs sub-steps takes ``int(rate*dt) + 1`` equal RK4
@@ -197,6 +202,10 @@ def plant_step(par, st, u, dt):
                 st[2] = math.nan
                 return
             sgn = 1.0 if u > 0.0 else -1.0
+        elif dv == 0.0 and par[4] == 0.0 and static_jump_in_reach(par, w, u, dt):  # F jumps at w = 0: set-valued
+            st[2] = math.nan
+            lagged_stiff_step(par, st, u, dt, 0.0)
+            return
         x = par[_RATE] * dt
         if x > RK4_RATE_MAX:  # a stiff mode: equal sub-steps with rate*h < 1 (accurate, not only stable)
             if not x < LAGGED_RK4_MAX and sgn == 0.0:  # the stiffness of this step alone

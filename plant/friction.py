@@ -48,7 +48,8 @@ class JointParams:
     sigma : float
         Viscous coefficient (N·m·s/rad), >= 0.
     tau : float
-        Friction lag (s), >= 0; ``tau = 0`` makes friction the static map.
+        Friction lag (s), >= 0; ``tau = 0`` makes friction the static map, which is set-valued at ``w = 0``
+        (the joint sticks while ``|u|`` is below the map's level at standstill, see :func:`plant.dynamics.plant_step`).
 
     Raises
     ------

@@ -19,6 +19,7 @@ from plant.rows import MODEL_CODES, plant_target, steepest_rise
 from plant.stribeck import stribeck_slope_scalar
 
 __all__ = ["LAGGED_RK4_MAX", "LAGGED_RTOL", "LAGGED_FTOL", "LAGGED_MAX_SUBSTEPS", "lagged_local_rate",
+           "lagged_level_max", "static_jump_in_reach",
            "lagged_oscillation", "check_oscillation",
            "lagged_implicit_step", "lagged_stiff_step", "LUGRE_RK4_MAX", "LUGRE_RTOL", "LUGRE_ZTOL",
            "LUGRE_MAX_SUBSTEPS", "lugre_jacobian", "lugre_implicit_step", "lugre_stiff_step"]
@@ -160,6 +161,53 @@ def check_oscillation(par, dt: float) -> None:
 
 
 @kernel(inline="always")
+def lagged_level_max(par):
+    """Largest friction level (N·m) of a lagged row: ``max(Fc, Fs)`` over both directions and the Karnopp stick level.
+
+    Parameters
+    ----------
+    par : ndarray, shape (PLANT_NPAR,)
+        Parameter row of a lagged model (:func:`plant.rows.plant_params`).
+
+    Returns
+    -------
+    float
+        The bound of ``|F(w)| - sigma*|w|`` over all ``w`` (eq. 3: ``Fc + (Fs - Fc)*exp(...)`` lies between ``Fc``
+        and ``Fs``).
+    """
+    return max(max(par[5], par[5] + par[6]), max(par[9], par[9] + par[10]), par[13])
+
+
+@kernel(inline="always")
+def static_jump_in_reach(par, w, u, dt):
+    """True where a step of a static lagged row (``tau = 0``, no Karnopp band) may reach the jump of its map at 0.
+
+    Parameters
+    ----------
+    par : ndarray, shape (PLANT_NPAR,)
+        Parameter row of a lagged model with ``tau = 0`` and ``dv = 0``.
+    w : float
+        Velocity (rad/s) at the step start.
+    u : float
+        Torque (N·m), held over the step.
+    dt : float
+        Step (s), > 0.
+
+    Returns
+    -------
+    bool
+        ``not |w| > dt*a_max`` with ``a_max = (|u| + F_max + 2*sigma_max*|w|)/J`` (:func:`lagged_level_max`): a
+        bound of ``|dw/dt|`` while ``|w|`` does not grow past twice its start. Where it is False no RK4 stage of the
+        step can leave the side of 0 that ``w`` is on, so the map is smooth along the step; where it is True the
+        step needs the set-valued solve of :func:`lagged_stiff_step` (stick or reversal, Filippov). True for a
+        non-finite ``w`` or ``u``.
+    """
+    aw = abs(w)
+    amax = (abs(u) + lagged_level_max(par) + 2.0 * max(par[7], par[11], 0.0) * aw) / par[1]
+    return not aw > dt * amax
+
+
+@kernel(inline="always")
 def _be_residual(par, w, sgn, c, k, r, w0, d):
     """``d*(c*(w - w0) + k*F(w) - r)``: the backward-Euler residual of :func:`lagged_implicit_step`, oriented."""
     return d * (c * (w - w0) + k * plant_target(par, w, sgn) - r)
@@ -264,8 +312,7 @@ def lagged_implicit_step(par, w0, f0, u, h, sgn):
             Fstar = plant_target(par, w0, sgn) if g == g else math.nan
             return w0 if g == g else math.nan, (f0 + a * Fstar) / (1.0 + a) if tau > 0.0 else Fstar, Fstar
         d = 1.0 if g > 0.0 else -1.0
-    Fbar = max(max(par[5], par[5] + par[6]), max(par[9], par[9] + par[10]), par[13])
-    Fbar += max(par[7], par[11]) * abs(w0)
+    Fbar = lagged_level_max(par) + max(par[7], par[11]) * abs(w0)
     hi = w0 + d * (abs(r) + k * Fbar) / c
     hi = hi + d * 1e-15 * (abs(hi) + par[2])  # strictly past the bound
     plo = _be_residual(par, start, sgn, c, k, r, w0, d)
@@ -358,7 +405,7 @@ def lagged_stiff_step(par, st, u, dt, sgn):
         h = dt
     tau = par[4]
     Vs = par[2]
-    tol_f = LAGGED_FTOL * max(max(par[5], par[5] + par[6]), max(par[9], par[9] + par[10]), par[13], 1e-300)
+    tol_f = LAGGED_FTOL * max(lagged_level_max(par), 1e-300)
     t = 0.0
     count = 0
     while t < dt:

@@ -6,6 +6,12 @@ the RK4 step of eqs. 1-2), ``KarnoppParams.make_step``, ``LuGreParams.make_step`
 ``AsymmetricParams.make_step`` (here functions of the parameter object ``self``), and the former numba kernel of
 :mod:`adaptive_ff.identification.simulator` run as plain Python. Used by tests/test_plant_kernels.py to check
 :mod:`plant.dynamics` bit for bit. Not part of the package.
+
+One change of the model since then: a static map (``tau = 0``, lagged Stribeck and asymmetric) jumps at ``w = 0``
+and the joint sticks there (Filippov). RK4 steps creep and chatter through that jump, so a step that can reach it
+(:func:`plant.stiff.static_jump_in_reach`) is the package's set-valued step (:func:`plant.stiff.lagged_stiff_step`),
+which tests/test_static_stick.py checks against the independent Radau solution of tests/stiff_oracle.py; every
+other step here is the former RK4 step, verbatim.
 """
 
 from __future__ import annotations
@@ -15,7 +21,9 @@ from typing import Callable
 
 import numpy as np
 
+from plant.dynamics import plant_params
 from plant.errors import check_positive
+from plant.stiff import lagged_stiff_step, static_jump_in_reach
 
 __all__ = ["friction_scalar", "lagged_rk4_step", "make_rk4_step", "karnopp_make_step", "lugre_make_step",
            "lugre_friction_torque", "asymmetric_make_step", "simulator_rk4"]
@@ -39,8 +47,23 @@ def friction_scalar(p) -> Callable[[float], float]:
     return F
 
 
-def lagged_rk4_step(F: Callable[[float], float], *, J: float, tau: float,
-                    dt: float) -> Callable[[float, float, float], tuple]:
+def static_jump_step(p, dt: float) -> Callable[[float, float, float], tuple | None]:
+    """``(w, f, u) -> (w, f)`` of the package's set-valued step where the jump of a static map is within reach of
+    the step, else None (see the module docstring)."""
+    par = plant_params(p)
+
+    def jump(w: float, f: float, u: float):
+        if not static_jump_in_reach(par, w, u, dt):
+            return None
+        st = np.array([w, f, math.nan])
+        lagged_stiff_step(par, st, u, dt, 0.0)
+        return float(st[0]), float(st[1])
+
+    return jump
+
+
+def lagged_rk4_step(F: Callable[[float], float], *, J: float, tau: float, dt: float,
+                    jump: Callable | None = None) -> Callable[[float, float, float], tuple]:
     """RK4 step ``(w, f, u) -> (w, f)`` of ``J*dw/dt = u - f``, ``tau*df/dt + f = F(w)`` for any scalar map ``F``.
 
     Parameters
@@ -53,6 +76,8 @@ def lagged_rk4_step(F: Callable[[float], float], *, J: float, tau: float,
         Friction lag (s); 0 makes ``f = F(w)`` algebraic (RK4 on ``w`` alone).
     dt : float, keyword-only
         Step (s).
+    jump : callable or None, keyword-only
+        With ``tau = 0``: :func:`static_jump_step` of the plant, taking the steps that can reach ``w = 0``.
 
     Returns
     -------
@@ -66,6 +91,9 @@ def lagged_rk4_step(F: Callable[[float], float], *, J: float, tau: float,
     if tau == 0.0:
 
         def step_static(w: float, f: float, u: float) -> tuple:
+            near = jump(w, f, u) if jump is not None else None
+            if near is not None:
+                return near
             k1 = (u - F(w)) * iJ
             k2 = (u - F(w + h2 * k1)) * iJ
             k3 = (u - F(w + h2 * k2)) * iJ
@@ -96,7 +124,7 @@ def lagged_rk4_step(F: Callable[[float], float], *, J: float, tau: float,
 def make_rk4_step(p, dt: float) -> Callable[[float, float, float], tuple]:
     """The former ``plant.joint.make_rk4_step`` for a ``JointParams`` ``p``."""
     dt = check_positive("dt", dt)
-    return lagged_rk4_step(friction_scalar(p), J=p.J, tau=p.tau, dt=dt)
+    return lagged_rk4_step(friction_scalar(p), J=p.J, tau=p.tau, dt=dt, jump=static_jump_step(p, dt))
 
 
 def karnopp_make_step(self, dt: float) -> Callable[[float, float, float], tuple]:
@@ -227,7 +255,7 @@ def asymmetric_make_step(self, dt: float) -> Callable[[float, float, float], tup
             return -(cn + dn * exp(-((-w / Vs) ** delta))) + sn * w
         return 0.0
 
-    return lagged_rk4_step(F, J=J, tau=tau, dt=dt)
+    return lagged_rk4_step(F, J=J, tau=tau, dt=dt, jump=static_jump_step(self, dt))
 
 
 def _friction(x, Fc, dF, Vs, delta, sigma, offset):

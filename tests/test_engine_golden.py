@@ -9,6 +9,11 @@ loop (second half, actuator RMS) is within 1 %. The whole-run RMS and peak inclu
 where the discontinuous friction (``sgn(w)`` of eq. 3 under 1e-3 rad/s noise) makes the trajectory depend on the
 last bit of any input: a change of ``Kp`` by 1e-13 moves them by more than 1 % as well (checked below), so they
 are held to 10 %.
+
+Scenario 0 of the ``paper`` batch is a static joint (``tau = 0``). Its model changed after the file was made: the
+map's jump at ``w = 0`` is now set-valued (the joint sticks there, Filippov, tests/test_static_stick.py) where RK4
+used to chatter through it. Its stored numbers describe the former model, so it is left out here; the batch
+engine on static joints is compared with the loop oracle in tests/test_batch.py.
 """
 
 import json
@@ -62,8 +67,11 @@ def test_metrics_equal_todays_numbers(label, mode):
     r = golden_runs(label, mode)
     g = json.loads(GOLDEN_PATH.read_text())[f"{label}/{mode}"]
     same_arithmetic = label == "lugre" or mode == "oracle"
+    keep = slice(1, None) if label == "paper" else slice(None)  # paper: scenario 0 is static (module docstring)
+    assert label != "paper" or _plants(label)[0].tau == 0.0
     for name in SETTLED + WHOLE:
-        got = getattr(r, name)
+        got = np.asarray(getattr(r, name))[keep]
+        g[name] = np.asarray(g[name], dtype=float)[keep]
         if same_arithmetic:
             np.testing.assert_allclose(got, g[name], rtol=1e-12, err_msg=name)
         else:
