@@ -109,7 +109,7 @@ def comp():
 def _compare_figures(comp):
     from controllers.report import figures as F
 
-    out = {f"compare.{n}": getattr(F, f"plot_{n}")(comp) for n, _, _ in F._FIGURES}
+    out = {f"compare.{f.name}": getattr(F, f"plot_{f.name}")(comp) for f in F._FIGURES}
     out["Comparison.plot"] = comp.plot().figure
     out["ClosedLoopResult.plot"] = comp.results["adaptive"].plot().figure
     return out
@@ -365,6 +365,13 @@ def test_figure_inputs_are_small_and_draw_the_same_files(comp, tmp_path):
         assert x.read_bytes() == y.read_bytes(), x.name
 
 
+def _fig(name, inputs, draw):
+    """A figure record of ``controllers.report.figures`` without a skeleton (cost 0.3, as an unknown name)."""
+    from controllers.report import figures as F
+
+    return F._Figure(name, inputs, None, draw, 0.3)
+
+
 def _no_inputs(_comp):
     return {}
 
@@ -394,21 +401,21 @@ def test_a_failed_figure_process_is_redrawn_here_or_raises(monkeypatch, tmp_path
     def raises(inputs):
         raise SignalError("bad record")
 
-    monkeypatch.setattr(F, "_FIGURES", (("a", _no_inputs, _tiny_figure), ("b", _no_inputs, lambda d: None),
-                                        ("c", _no_inputs, dies_in_a_copy)))
+    monkeypatch.setattr(F, "_FIGURES", (_fig("a", _no_inputs, _tiny_figure), _fig("b", _no_inputs, lambda d: None),
+                                        _fig("c", _no_inputs, dies_in_a_copy)))
     assert F.figure_shares(["a", "b", "c"], 2) == [["a", "b"], ["c"]]  # this process draws the first share
     paths = F.plot_comparison(None, tmp_path, jobs=2)
     assert [p.name for p in paths] == ["a.png", "c.png"] and all(p.stat().st_size > 0 for p in paths)
     assert F.figure_shares(["a", "b"], 2) == [["a"], ["b"]]
-    monkeypatch.setattr(F, "_FIGURES", (("a", _no_inputs, _tiny_figure), ("b", _no_inputs, raises)))
+    monkeypatch.setattr(F, "_FIGURES", (_fig("a", _no_inputs, _tiny_figure), _fig("b", _no_inputs, raises)))
     with pytest.raises(SignalError, match="bad record"):  # the copy's error, raised again by this process
         F.plot_comparison(None, tmp_path, jobs=2)
 
     def no_fork():
         raise OSError(11, "Resource temporarily unavailable")
 
-    monkeypatch.setattr(F, "_FIGURES", (("a", _no_inputs, _tiny_figure), ("b", lambda c: None, raises),
-                                        ("c", _no_inputs, _tiny_figure)))
+    monkeypatch.setattr(F, "_FIGURES", (_fig("a", _no_inputs, _tiny_figure), _fig("b", lambda c: None, raises),
+                                        _fig("c", _no_inputs, _tiny_figure)))
     monkeypatch.setattr(os, "fork", no_fork)  # no process left: this process draws every figure
     assert [p.name for p in F.plot_comparison(None, tmp_path / "nf", jobs=2)] == ["a.png", "c.png"]  # b: no inputs
 
@@ -449,7 +456,7 @@ def test_prepared_skeletons_are_taken_and_give_the_same_files(comp, tmp_path):
         prepared = {key: fig for key, (fig, _) in F._PREPARED.items()}
         assert set(prepared) == set(layouts.items())
         taken = {}
-        for name, _, draw in F._FIGURES:  # each figure is drawn on its prepared skeleton
+        for name, draw in ((f.name, f.draw) for f in F._FIGURES):  # each figure is drawn on its prepared skeleton
             taken[name] = draw(inputs[name])
         assert F._PREPARED == {} and all(taken[n] is prepared[(n, lay)] for n, lay in layouts.items())
         F.prepare_figures(layouts)

@@ -34,7 +34,7 @@ import math
 import signal
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Callable, NamedTuple
 
 import numpy as np
 
@@ -698,17 +698,29 @@ def plot_eta(comp) -> Figure:
     return _draw_eta(_eta_inputs(comp))
 
 
-#: ``(name, inputs, draw)`` of each figure of :func:`plot_comparison`, in its order: ``draw(inputs(comp))`` is the
-#: figure (or None: not drawn), the same as ``plot_<name>(comp)``.
-_FIGURES = (("tracking", _tracking_inputs, _draw_tracking), ("error", _error_inputs, _draw_error),
-            ("friction", _friction_inputs, _draw_friction), ("rls_convergence", _rls_inputs, _draw_rls_convergence),
-            ("eta", _eta_inputs, _draw_eta))
+class _Figure(NamedTuple):
+    """One figure of :func:`plot_comparison`: ``draw(inputs(comp))`` is the figure (or None: not drawn), the same
+    as ``plot_<name>(comp)``; ``skeleton(layout) -> (fig, axes)`` its data-free part (``layout`` None, the number of
+    modes (``error``) or ``(rows, columns)`` (``rls_convergence``, :func:`rls_grid`)); ``cost`` the relative cost of
+    drawing it (thread CPU seconds, median of 5, 120 s paper comparison), which decides :func:`figure_shares`."""
+
+    name: str
+    inputs: Callable
+    skeleton: Callable
+    draw: Callable
+    cost: float
 
 
-#: The data-free part of each figure, ``skeleton(layout) -> (fig, axes)``: ``layout`` is None, the number of modes
-#: (``error``) or ``(rows, columns)`` (``rls_convergence``, :func:`rls_grid`).
-_SKELETONS = {"tracking": _tracking_skeleton, "error": _error_skeleton, "friction": _friction_skeleton,
-              "rls_convergence": _rls_skeleton, "eta": _eta_skeleton}
+#: The figures of :func:`plot_comparison`, in its order.
+_FIGURES = (_Figure("tracking", _tracking_inputs, _tracking_skeleton, _draw_tracking, 0.24),
+            _Figure("error", _error_inputs, _error_skeleton, _draw_error, 0.45),
+            _Figure("friction", _friction_inputs, _friction_skeleton, _draw_friction, 0.31),
+            _Figure("rls_convergence", _rls_inputs, _rls_skeleton, _draw_rls_convergence, 0.33),
+            _Figure("eta", _eta_inputs, _eta_skeleton, _draw_eta, 0.19))
+#: ``{name: figure}`` of :data:`_FIGURES`.
+_BY_NAME = {f.name: f for f in _FIGURES}
+#: ``{name: cost}`` of :data:`_FIGURES`.
+_FIGURE_COST = {f.name: f.cost for f in _FIGURES}
 
 #: Skeletons made ahead by :func:`prepare_figures`, ``{(name, layout): (fig, axes)}``; each is used once.
 _PREPARED: dict = {}
@@ -722,7 +734,7 @@ _PREPARED_TICKS = (7, 5)
 def _skeleton(name: str, layout):
     """The skeleton of figure ``name`` for ``layout``: the one :func:`prepare_figures` made, or a new one."""
     prepared = _PREPARED.pop((name, layout), None)
-    return prepared if prepared is not None else _SKELETONS[name](layout)
+    return prepared if prepared is not None else _BY_NAME[name].skeleton(layout)
 
 
 def prepare_figures(layouts: dict) -> None:
@@ -747,14 +759,14 @@ def prepare_figures(layouts: dict) -> None:
     ParameterError
         An unknown figure name.
     """
-    unknown = [name for name in layouts if name not in _SKELETONS]
+    unknown = [name for name in layouts if name not in _BY_NAME]
     if unknown:
-        raise ParameterError(f"prepare_figures: unknown figure(s) {unknown}; known: {list(_SKELETONS)}")
+        raise ParameterError(f"prepare_figures: unknown figure(s) {unknown}; known: {list(_BY_NAME)}")
     import matplotlib
     from matplotlib.ticker import NullLocator
 
     for name, layout in layouts.items():
-        fig, axes = _SKELETONS[name](layout)
+        fig, axes = _BY_NAME[name].skeleton(layout)
         with matplotlib.rc_context(_RC):  # the ticks a figure would make while it is saved
             for ax in fig.axes:
                 for axis, count in zip((ax.xaxis, ax.yaxis), _PREPARED_TICKS):
@@ -781,7 +793,7 @@ def figure_inputs(comp) -> dict:
         at most ~1500 estimator updates, so a 120 s comparison at 1 kHz
         (~55 MB of traces) gives well under 1 MB.
     """
-    return {name: inputs(comp) for name, inputs, _ in _FIGURES}
+    return {f.name: f.inputs(comp) for f in _FIGURES}
 
 
 def draw_figures(inputs: dict, out_dir, *, dpi: int = _DPI, jobs: int = 1) -> list[Path]:
@@ -811,7 +823,7 @@ def draw_figures(inputs: dict, out_dir, *, dpi: int = _DPI, jobs: int = 1) -> li
     _check_jobs(jobs)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    names = [name for name, _, _ in _FIGURES]
+    names = [f.name for f in _FIGURES]
     shares = figure_shares(names, min(int(jobs), len(names)) if sys.platform.startswith("linux") else 1)
     written = set(_render_shares(inputs, out, dpi, shares))
     return [out / f"{name}.png" for name in names if name in written]
@@ -864,10 +876,6 @@ def plot_comparison(comp, out_dir, *, dpi: int = _DPI, jobs: int = 1) -> list[Pa
     return draw_figures(figure_inputs(comp), out_dir, dpi=dpi, jobs=jobs)
 
 
-#: Relative cost of drawing each figure (thread CPU seconds, median of 5, 120 s paper comparison): it decides the shares.
-_FIGURE_COST = {"tracking": 0.24, "error": 0.45, "friction": 0.31, "rls_convergence": 0.33, "eta": 0.19}
-
-
 def figure_shares(names, jobs: int) -> list[list[str]]:
     """Split figure ``names`` into ``jobs`` shares of about equal drawing cost (:data:`_FIGURE_COST`).
 
@@ -907,10 +915,11 @@ def figure_shares(names, jobs: int) -> list[list[str]]:
 def _render(inputs, out: Path, dpi: int, names) -> list[str]:
     """Draw and save the figures ``names`` (in the order of ``_FIGURES``); the names of the files written."""
     written = []
-    for name, _, draw in _FIGURES:
+    for f in _FIGURES:
+        name = f.name
         if name not in names or inputs.get(name) is None:
             continue
-        fig = draw(inputs[name])
+        fig = f.draw(inputs[name])
         if fig is None:
             continue
         fig.savefig(out / f"{name}.png", dpi=dpi, pil_kwargs={"compress_level": 1})  # fast zlib: files ~1/3 larger
