@@ -16,6 +16,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from adaptive_ff.compensation.ff_layout import (ALPHA, BJ, DELTA, DF, DT, DW, FC, FF_NPAR, FF_NSTATE, FFMAX,
+                                               FNREJ, HAS, HASVS, IM, KITC, KP, LAG, LM, LMA, NIB, NM, OB, OBJ,
+                                               OBL, OBN, OBZ, REF, SBAND, SIGMA, SSAMP, SW, TAU, UFF, UOUT, VS,
+                                               WCS, WH, WM, WMAX, ZH)
 from adaptive_ff.compensation.sliding_estimator import (SlidingFrictionEstimator, estimate_from_theta,
                                                        sliding_config, sliding_mse, sliding_observe, sliding_rls,
                                                        sliding_sizes, sliding_updated)
@@ -27,7 +31,7 @@ from plant.jit import kernel
 from plant.stribeck import stribeck_scalar
 
 __all__ = ["FrictionFeedforward", "RobustAdaptiveFeedforward", "FeedforwardStart", "LoopModel", "SignObserver",
-           "project_estimate", "project_levels", "FF_NPAR", "FF_NSTATE", "ff_set_estimate", "ff_step", "ff_compensate",
+           "project_estimate", "project_levels", "ff_set_estimate", "ff_step", "ff_compensate",
            "loop_model_step", "sign_observer_step", "robust_compensate", "robust_observe"]
 
 
@@ -221,18 +225,6 @@ class SignObserver:
         return 1.0 - p1 * p2, (1.0 - p1) * (1.0 - p2)
 
 
-# FrictionFeedforward arrays. params: dt, lag, ff_max, sign_width, stick_band, stick_samples, reference input, w_max,
-# loop model (has, Kp, Ki*dt, dt/J, tracking gain), sign observer (has, dt/J, gain); state: estimate in use (has,
-# Fc, Fs - Fc, Vs, delta, sigma, lag filter gain, has Vs, tau), output filter, in-band count, rejected inputs, loop
-# model (velocity, integrator, started, tracked deviation), sign observer (estimate, started, the controller's
-# measurement and the compensator's output of this period)
-_DT, _LAG, _FFMAX, _SW, _SBAND, _SSAMP, _REF, _WMAX, _LM, _KP, _KITC, _BJ, _LMA, _OB, _OBJ, _OBL, _OBZ = range(17)
-(_HAS, _FC, _DF, _VS, _DELTA, _SIGMA, _ALPHA, _HASVS, _TAU, _UFF, _NIB, _FNREJ, _WM, _IM, _NM, _DW,
- _WH, _OBN, _WCS, _UOUT, _ZH) = range(21)
-#: Lengths of the fixed feedforward's parameter and state arrays.
-FF_NPAR, FF_NSTATE = 17, 21
-
-
 @kernel
 def ff_set_estimate(par, st, Fc, Fs, Vs, delta, sigma, tau, has_vs):
     """Put a friction estimate into use (levels N·m, ``Vs`` rad/s, ``sigma`` N·m·s/rad, lag ``tau`` s).
@@ -241,32 +233,32 @@ def ff_set_estimate(par, st, Fc, Fs, Vs, delta, sigma, tau, has_vs):
     feedforward filters through the lag and ``tau > 0``, else 1 (no filter). ``has_vs`` 0 drops the Stribeck
     term (Coulomb level only).
     """
-    st[_HAS] = 1.0
-    st[_FC] = Fc
-    st[_DF] = Fs - Fc
-    st[_VS] = Vs
-    st[_DELTA] = delta
-    st[_SIGMA] = sigma
-    st[_TAU] = tau
-    st[_HASVS] = has_vs
-    st[_ALPHA] = 1.0 - math.exp(-par[_DT] / tau) if (par[_LAG] > 0.0 and tau > 0.0) else 1.0
+    st[HAS] = 1.0
+    st[FC] = Fc
+    st[DF] = Fs - Fc
+    st[VS] = Vs
+    st[DELTA] = delta
+    st[SIGMA] = sigma
+    st[TAU] = tau
+    st[HASVS] = has_vs
+    st[ALPHA] = 1.0 - math.exp(-par[DT] / tau) if (par[LAG] > 0.0 and tau > 0.0) else 1.0
 
 
 @kernel(inline="always")
 def ff_static(par, st, w):
     """Static friction estimate ``F_hat(w)`` (N·m): eq. 3 with the estimate in use, sign ramp of width
     ``sign_width`` near zero, no offset; 0 without an estimate."""
-    if w == 0.0 or st[_HAS] == 0.0:
+    if w == 0.0 or st[HAS] == 0.0:
         return 0.0
     aw = abs(w)
-    if st[_HASVS] > 0.0:  # the Stribeck level: eq. 3 at |w| without the viscous term
-        mag = stribeck_scalar(aw, st[_FC], st[_DF], st[_VS], st[_DELTA], 0.0, math.inf)
+    if st[HASVS] > 0.0:  # the Stribeck level: eq. 3 at |w| without the viscous term
+        mag = stribeck_scalar(aw, st[FC], st[DF], st[VS], st[DELTA], 0.0, math.inf)
     else:
-        mag = st[_FC]
-    sw = par[_SW]
+        mag = st[FC]
+    sw = par[SW]
     if sw > 0.0 and aw < sw:
-        return mag * (w / sw) + st[_SIGMA] * w
-    return math.copysign(mag, w) + st[_SIGMA] * w
+        return mag * (w / sw) + st[SIGMA] * w
+    return math.copysign(mag, w) + st[SIGMA] * w
 
 
 @kernel(inline="always")
@@ -278,27 +270,27 @@ def ff_step(par, st, w, w_ref, has_ref):
     ``w_ref`` when given), one above ``w_max`` in magnitude, or a non-finite friction map at it is
     rejected: the held output is returned and only the rejection counter changes.
     """
-    wmax = par[_WMAX]
+    wmax = par[WMAX]
     if not (math.isfinite(w) and -wmax <= w <= wmax) or (has_ref and not (math.isfinite(w_ref)
                                                                          and -wmax <= w_ref <= wmax)):
-        st[_FNREJ] += 1.0
-        return min(max(st[_UFF], -par[_FFMAX]), par[_FFMAX])
+        st[FNREJ] += 1.0
+        return min(max(st[UFF], -par[FFMAX]), par[FFMAX])
     x = w
-    nib = st[_NIB]
+    nib = st[NIB]
     if has_ref:
-        if -par[_SBAND] < w < par[_SBAND]:
+        if -par[SBAND] < w < par[SBAND]:
             nib += 1.0
-            if nib >= par[_SSAMP]:
+            if nib >= par[SSAMP]:
                 x = w_ref
         else:
             nib = 0.0
     fx = ff_static(par, st, x)
     if not math.isfinite(fx):
-        st[_FNREJ] += 1.0
-        return min(max(st[_UFF], -par[_FFMAX]), par[_FFMAX])
-    st[_NIB] = nib
-    st[_UFF] += st[_ALPHA] * (fx - st[_UFF])
-    return min(max(st[_UFF], -par[_FFMAX]), par[_FFMAX])
+        st[FNREJ] += 1.0
+        return min(max(st[UFF], -par[FFMAX]), par[FFMAX])
+    st[NIB] = nib
+    st[UFF] += st[ALPHA] * (fx - st[UFF])
+    return min(max(st[UFF], -par[FFMAX]), par[FFMAX])
 
 
 @kernel(inline="always")
@@ -312,19 +304,19 @@ def loop_model_step(par, st, w0, w_ref):
     not finite) with an empty integrator. Without a model (``par`` says none) ``w_ref`` is returned and nothing
     changes.
     """
-    if par[_LM] == 0.0:
+    if par[LM] == 0.0:
         return w_ref
-    if st[_NM] == 0.0:
-        st[_WM] = w0 if math.isfinite(w0) else 0.0
-        st[_IM] = 0.0
-        st[_NM] = 1.0
-    wm = st[_WM]
+    if st[NM] == 0.0:
+        st[WM] = w0 if math.isfinite(w0) else 0.0
+        st[IM] = 0.0
+        st[NM] = 1.0
+    wm = st[WM]
     e = w_ref - wm
-    st[_IM] += par[_KITC] * e
-    st[_WM] = wm + par[_BJ] * (par[_KP] * e + st[_IM])
-    if par[_LMA] > 0.0 and math.isfinite(w0):
-        st[_DW] += par[_LMA] * (w0 - wm - st[_DW])
-    return wm + st[_DW]
+    st[IM] += par[KITC] * e
+    st[WM] = wm + par[BJ] * (par[KP] * e + st[IM])
+    if par[LMA] > 0.0 and math.isfinite(w0):
+        st[DW] += par[LMA] * (w0 - wm - st[DW])
+    return wm + st[DW]
 
 
 @kernel(inline="always")
@@ -332,14 +324,14 @@ def _signed(par, st, w_ctrl):
     """The measurement with the :class:`SignObserver`'s sign inside the stick band (unchanged without an observer,
     outside the band or when not finite); records ``w_ctrl`` for :func:`sign_observer_step` and starts the observer
     at the first measurement."""
-    if par[_OB] == 0.0:
+    if par[OB] == 0.0:
         return w_ctrl
-    st[_WCS] = w_ctrl
-    if st[_OBN] == 0.0:
-        st[_WH] = w_ctrl if math.isfinite(w_ctrl) else 0.0
-        st[_OBN] = 1.0
-    if math.isfinite(w_ctrl) and -par[_SBAND] < w_ctrl < par[_SBAND]:
-        return math.copysign(abs(w_ctrl), st[_WH])
+    st[WCS] = w_ctrl
+    if st[OBN] == 0.0:
+        st[WH] = w_ctrl if math.isfinite(w_ctrl) else 0.0
+        st[OBN] = 1.0
+    if math.isfinite(w_ctrl) and -par[SBAND] < w_ctrl < par[SBAND]:
+        return math.copysign(abs(w_ctrl), st[WH])
     return w_ctrl
 
 
@@ -348,16 +340,16 @@ def sign_observer_step(par, st, u):
     """Correct the :class:`SignObserver` estimate with this period's measurement and predict the next period with
     the applied torque ``u`` (N·m) less the compensator's output of this period (nothing without an observer or
     before its first measurement; a non-finite measurement or torque skips its part)."""
-    if par[_OB] == 0.0 or st[_OBN] == 0.0:
+    if par[OB] == 0.0 or st[OBN] == 0.0:
         return
-    wc = st[_WCS]
+    wc = st[WCS]
     if math.isfinite(wc):
-        e = wc - st[_WH]
-        st[_WH] += par[_OBL] * e
-        st[_ZH] -= par[_OBZ] * e
-    du = u - st[_UOUT]
+        e = wc - st[WH]
+        st[WH] += par[OBL] * e
+        st[ZH] -= par[OBZ] * e
+    du = u - st[UOUT]
     if math.isfinite(du):
-        st[_WH] += par[_OBJ] * du - st[_ZH]
+        st[WH] += par[OBJ] * du - st[ZH]
 
 
 @kernel(inline="always")
@@ -365,7 +357,7 @@ def ff_at(par, st, w_ctrl, w_stuck, w_ref):
     """The feedforward of this period at the reference (``ff_input`` reference) or at the measurement (with the
     sign observer's sign inside the stick band, if any) with stick detection against ``w_stuck`` (the loop model's
     velocity, or the reference without a model)."""
-    if par[_REF] > 0.0:
+    if par[REF] > 0.0:
         return ff_step(par, st, w_ref, w_ref, False)
     return ff_step(par, st, _signed(par, st, w_ctrl), w_stuck, True)
 
@@ -375,7 +367,7 @@ def ff_compensate(par, st, w_ctrl, w_meas, w_ref):
     """Compensator protocol (``KIND`` 2): the fixed feedforward at the controller's measurement (with stick
     detection against the loop model's velocity, or the reference without a model) or at the reference."""
     out = ff_at(par, st, w_ctrl, loop_model_step(par, st, w_ctrl, w_ref), w_ref)
-    st[_UOUT] = out
+    st[UOUT] = out
     return out
 
 
@@ -506,21 +498,21 @@ class FrictionFeedforward(Component):
                           float(ff_input == "reference"), w_max) + lm + ob
         self.loop_model = loop_model
         self.sign_observer = sign_observer
-        self.state[_ALPHA] = 1.0
+        self.state[ALPHA] = 1.0
         self.estimate = None
         self._set(estimate)
 
-    dt = property(lambda self: float(self.params[_DT]), doc="Call period of :meth:`step` (s).")
-    lag = property(lambda self: bool(self.params[_LAG]), doc="Filter through the estimated lag.")
-    ff_max = property(lambda self: float(self.params[_FFMAX]), doc="Bound on |feedforward| (N·m).")
-    sign_width = property(lambda self: float(self.params[_SW]), doc="Sign ramp half-width (rad/s).")
-    stick_band = property(lambda self: float(self.params[_SBAND]), doc="Stick-detection band (rad/s).")
-    stick_samples = property(lambda self: int(self.params[_SSAMP]), doc="In-band samples that declare sticking.")
-    ff_input = property(lambda self: "reference" if self.params[_REF] else "measured",
+    dt = property(lambda self: float(self.params[DT]), doc="Call period of :meth:`step` (s).")
+    lag = property(lambda self: bool(self.params[LAG]), doc="Filter through the estimated lag.")
+    ff_max = property(lambda self: float(self.params[FFMAX]), doc="Bound on |feedforward| (N·m).")
+    sign_width = property(lambda self: float(self.params[SW]), doc="Sign ramp half-width (rad/s).")
+    stick_band = property(lambda self: float(self.params[SBAND]), doc="Stick-detection band (rad/s).")
+    stick_samples = property(lambda self: int(self.params[SSAMP]), doc="In-band samples that declare sticking.")
+    ff_input = property(lambda self: "reference" if self.params[REF] else "measured",
                         doc="Velocity the engine evaluates the feedforward at (``compensate``).")
-    u_ff = property(lambda self: float(self.state[_UFF]), doc="Feedforward before the clip (N·m).")
-    w_max = property(lambda self: float(self.params[_WMAX]), doc="Largest plausible speed (rad/s).")
-    n_step_rejected = property(lambda self: int(self.state[_FNREJ]),
+    u_ff = property(lambda self: float(self.state[UFF]), doc="Feedforward before the clip (N·m).")
+    w_max = property(lambda self: float(self.params[WMAX]), doc="Largest plausible speed (rad/s).")
+    n_step_rejected = property(lambda self: int(self.state[FNREJ]),
                                doc="Calls of step() whose input was rejected (the output was held).")
 
     def _set(self, est: FrictionEstimate | None) -> None:
@@ -584,7 +576,7 @@ def robust_compensate(par, st, w_ctrl, w_meas, w_ref):
     at the reference (start input ``reference``) or as ``ff_input`` says. The loop model (if any) advances
     every period, also before switch-on."""
     out = _robust_output(par, st, w_ctrl, w_ref)
-    st[_UOUT] = out
+    st[UOUT] = out
     return out
 
 
@@ -592,7 +584,7 @@ def robust_compensate(par, st, w_ctrl, w_meas, w_ref):
 def _robust_output(par, st, w_ctrl, w_ref):
     """The torque of :func:`robust_compensate` (N·m)."""
     w_stuck = loop_model_step(par, st, w_ctrl, w_ref)
-    if st[_HAS] == 0.0:
+    if st[HAS] == 0.0:
         _signed(par, st, w_ctrl)  # the sign observer follows the joint before switch-on too
         return 0.0
     if st[_PROV] > 0.0:
@@ -610,7 +602,7 @@ def _robust_output(par, st, w_ctrl, w_ref):
 @kernel
 def _levels_plausible(par, eJ, etau, eFc, eFs, esig):
     """Range checks of an estimate (class Notes, item 5)."""
-    ffmax = par[_FFMAX]
+    ffmax = par[FFMAX]
     return (math.isfinite(eJ) and math.isfinite(etau) and math.isfinite(esig) and math.isfinite(eFc)
             and math.isfinite(eFs) and par[_JLO] < eJ < par[_JHI] and 0.0 <= etau <= par[_TAUMAX]
             and esig >= 0.0 and 0.0 <= eFc <= ffmax and 0.0 <= eFs <= ffmax)
@@ -623,7 +615,7 @@ def robust_plausible(par, st, eJ, etau, eJalt, eFc, eFs, esig):
         return False
     ep = par[np.int64(par[_PO_EST]):]
     es = st[np.int64(par[_SO_EST]):]
-    return _lag_consistent(par, sliding_rls(ep, es), eJ, etau, eJalt, sliding_mse(es), par[_DT],
+    return _lag_consistent(par, sliding_rls(ep, es), eJ, etau, eJalt, sliding_mse(es), par[DT],
                            sliding_config(ep)[2])
 
 
@@ -684,14 +676,14 @@ def robust_observe(par, st, u, w_meas, theta_out):
     if not math.sqrt(max(e2 * rls_P(rls, iFc, iFc), 0.0)) <= par[_RELSD] * max(eFc, eFs):
         st[_NUND] += 1.0  # Fc not determined yet (e.g. one direction of motion only: Fc and the offset agree)
         return True
-    if _lag_consistent(par, rls, eJ, etau, eJalt, e2, par[_DT], lag):
+    if _lag_consistent(par, rls, eJ, etau, eJalt, e2, par[DT], lag):
         st[_HELD] = 0.0
         if lag:  # the upper confidence bound of the lag, at most lag_margin_max*tau above it (class Notes)
             m = min(par[_LAGZ] * math.sqrt(max(e2 * rls_P(rls, 2, 2), 0.0)), par[_LAGCAP] * etau)
             etau = min(etau + m, par[_TAUMAX])
-    elif st[_HAS] > 0.0 and st[_PROV] == 0.0:
+    elif st[HAS] > 0.0 and st[_PROV] == 0.0:
         st[_NLAG] += 1.0
-        etau = st[_TAU]
+        etau = st[TAU]
         st[_HELD] = 1.0
     else:
         st[_NIMPL] += 1.0
@@ -973,12 +965,12 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         """The estimator's estimate in use (None before switch-on and during the provisional start), with the lag
         in use: the estimated lag plus ``lag_margin`` standard errors, or the previous lag where the lag estimates
         disagreed (then ``J_alt`` is NaN)."""
-        if not self.state[_HAS] or self.state[_PROV]:
+        if not self.state[HAS] or self.state[_PROV]:
             return None
         o = int(self.params[_SO_FTH])
         e = estimate_from_theta(self.estimator.names, self.state[o:o + self.n_theta], self.estimator.Vs,
                                 self.estimator.delta)
-        return replace(e, tau=float(self.state[_TAU]), J_alt=float("nan") if self.state[_HELD] else e.J_alt)
+        return replace(e, tau=float(self.state[TAU]), J_alt=float("nan") if self.state[_HELD] else e.J_alt)
 
     @estimate.setter
     def estimate(self, value) -> None:
@@ -991,7 +983,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         See :meth:`FrictionFeedforward.step`; after switch-on the output fades in over ``fade_in``. During the
         provisional start the start map times its gain, at ``w_ref`` (when given) for a start at the reference.
         """
-        if not self.state[_HAS]:
+        if not self.state[HAS]:
             return 0.0
         if self.state[_PROV]:  # the start map, at the reference when the start says so (as in compensate)
             if self.params[_SREF] and w_ref is not None:
@@ -1015,7 +1007,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     @property
     def active(self) -> bool:
         """True once the feedforward acts: a plausible estimate, or the provisional start map, is in use."""
-        return bool(self.state[_HAS])
+        return bool(self.state[HAS])
 
     @property
     def theta(self) -> np.ndarray:
