@@ -1,7 +1,7 @@
 """The paper's eq. 4 adaptive feedforward as a compensator component: RLS (eqs. 10-13) at Ts drives the feedforward.
 
 The first prototype of the paper's future work, kept as a baseline to
-:class:`adaptive_ff.compensation.feedforward.RobustAdaptiveFeedforward`: the
+:class:`adaptive_ff.compensation.adaptive_feedforward.RobustAdaptiveFeedforward`: the
 regression model of eq. 4 (:class:`adaptive_ff.identification.regression.RegressionModel`)
 is estimated online by recursive least squares on the (u, w) stream sampled
 at ``Ts``, every estimate is mapped to physical parameters (inverse map of

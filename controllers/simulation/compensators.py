@@ -27,7 +27,8 @@ import math
 from dataclasses import dataclass, replace
 
 from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
-from adaptive_ff.compensation.feedforward import FeedforwardStart, FrictionFeedforward, RobustAdaptiveFeedforward
+from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart, RobustAdaptiveFeedforward
+from adaptive_ff.compensation.feedforward import FrictionFeedforward
 from adaptive_ff.compensation.velocity_input import LoopModel, SignObserver
 from adaptive_ff.compensation.gate import OutlierGate
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
