@@ -361,7 +361,7 @@ def _stiff_rows(args):
 def _own_loop_rows(p, design, args):
     """Per-call cost of the feedforward object in a user's own Python loop (docs/your_loop.md): ``step(w, w_ref)``
     and ``observe(u, w)`` once per 1 kHz period, on the (u, w) record of a closed-loop run."""
-    from adaptive_ff.compensation.feedforward import RobustAdaptiveFeedforward
+    from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
     from adaptive_ff.compensation.gate import OutlierGate, RangeGate
     from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
 

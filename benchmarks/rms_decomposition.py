@@ -24,7 +24,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from adaptive_ff.compensation.feedforward import FrictionFeedforward, LoopModel, ff_compensate, ff_static
+from adaptive_ff.compensation.feedforward import FrictionFeedforward, ff_compensate, ff_static
+from adaptive_ff.compensation.velocity_input import LoopModel
 from adaptive_ff.compensation.gate import gate_check
 from adaptive_ff.identification.regression import FrictionEstimate
 from controllers.design.pi import PIController, pi_step

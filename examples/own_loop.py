@@ -26,7 +26,7 @@ import time
 
 import numpy as np
 
-from adaptive_ff.compensation.feedforward import RobustAdaptiveFeedforward
+from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
 from adaptive_ff.compensation.gate import OutlierGate
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
 

@@ -156,7 +156,7 @@ class OraclePI:
 
 
 class OracleLoopModel:
-    """Oracle of :class:`adaptive_ff.compensation.feedforward.LoopModel` / ``loop_model_step``: the PI
+    """Oracle of :class:`adaptive_ff.compensation.velocity_input.LoopModel` / ``loop_model_step``: the PI
     ``Kp + Ki*Tc*z/(z-1)`` on the zero-order-hold joint ``1/(J s)``, no friction, no noise, no limit.
 
     :meth:`step` returns the model velocity of this period plus the deviation ``w0 - w_model`` tracked by a
@@ -186,7 +186,7 @@ class OracleLoopModel:
 
 
 class OracleSignObserver:
-    """Oracle of :class:`adaptive_ff.compensation.feedforward.SignObserver` / ``sign_observer_step``, written
+    """Oracle of :class:`adaptive_ff.compensation.velocity_input.SignObserver` / ``sign_observer_step``, written
     from its equations: the model ``J dw/dt = u - u_c - d`` with a constant residual ``d``, error poles
     ``p1 = exp(-bandwidth*Tc)`` and ``p2 = exp(-residual_bandwidth*Tc)`` (default a tenth of ``bandwidth``).
 

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from adaptive_ff.compensation.feedforward import RobustAdaptiveFeedforward
+from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
 from controllers.design.pi import design_pi
 from controllers.peers.adaptive_dob import AdaptiveDOBCompensator

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
-from adaptive_ff.compensation.feedforward import FrictionFeedforward, RobustAdaptiveFeedforward
+from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
+from adaptive_ff.compensation.feedforward import FrictionFeedforward
 from adaptive_ff.compensation.gate import OutlierGate, RangeGate
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel

@@ -6,7 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from adaptive_ff.compensation.feedforward import FrictionFeedforward, RobustAdaptiveFeedforward
+from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
+from adaptive_ff.compensation.feedforward import FrictionFeedforward
 from adaptive_ff.compensation.gate import OutlierGate
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, fit_sliding, sliding_regressors

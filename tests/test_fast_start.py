@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from adaptive_ff.compensation.feedforward import FeedforwardStart, RobustAdaptiveFeedforward
+from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart, RobustAdaptiveFeedforward
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
 from adaptive_ff.identification.regression import FrictionEstimate
 from controllers.experiments.compare import CompareOptions, eta, prepare_comparison

@@ -114,7 +114,7 @@ def test_engine_equals_python_with_a_provisional_start(ref, mode, start_input, f
     the gain to 1) is the same in the engine and the oracle (tests/compensation_oracle.py)."""
     from dataclasses import replace
 
-    from adaptive_ff.compensation.feedforward import FeedforwardStart
+    from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
     start = FeedforwardStart(replace(_initial(P, 0.9), tau=0.05), gain=0.7, ff_input=start_input)
     a, b = _both(P, ref, mode=mode, Kp=DESIGN.Kp, Ki=DESIGN.Ki, u_max=150.0, ff_max=75.0, noise_std=1e-3,
                  Vs=P.Vs, delta=P.delta, initial=_initial(P), warmup=50, stick_band=3e-3, stick_samples=5,

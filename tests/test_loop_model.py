@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from adaptive_ff.compensation.feedforward import FrictionFeedforward, LoopModel
+from adaptive_ff.compensation.feedforward import FrictionFeedforward
+from adaptive_ff.compensation.velocity_input import LoopModel
 from adaptive_ff.identification.regression import FrictionEstimate
 from controllers.experiments.compare import CompareOptions, prepare_comparison
 from controllers.simulation.closed_loop import run_mode

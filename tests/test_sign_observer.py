@@ -12,7 +12,8 @@ import pytest
 
 import compensation_oracle as co
 from pi_oracle import OracleSignObserver
-from adaptive_ff.compensation.feedforward import FrictionFeedforward, SignObserver
+from adaptive_ff.compensation.feedforward import FrictionFeedforward
+from adaptive_ff.compensation.velocity_input import SignObserver
 from adaptive_ff.identification.regression import FrictionEstimate
 from controllers.experiments.compare import compare
 from plant.errors import ParameterError

@@ -1,7 +1,7 @@
 """The paper's eq. 4 adaptive feedforward as a compensator component: RLS (eqs. 10-13) at Ts drives the feedforward.
 
 The first prototype of the paper's future work, kept as a baseline to
-:class:`adaptive_ff.compensation.feedforward.RobustAdaptiveFeedforward`: the
+:class:`adaptive_ff.compensation.adaptive_feedforward.RobustAdaptiveFeedforward`: the
 regression model of eq. 4 (:class:`adaptive_ff.identification.regression.RegressionModel`)
 is estimated online by recursive least squares on the (u, w) stream sampled
 at ``Ts``, every estimate is mapped to physical parameters (inverse map of
@@ -15,7 +15,8 @@ compiled kernels :func:`eq4_sample` (one sample of the stream),
 :func:`eq4_compensate` and :func:`eq4_observe` (the closed-loop protocol) are
 the one implementation, called by :class:`AdaptiveFrictionFeedforward`'s
 methods and by the closed-loop engine. Layouts (``p`` = number of regression
-parameters, :data:`FF_NPAR`/:data:`FF_NSTATE` the fixed feedforward's lengths)::
+parameters, :data:`FF_NPAR`/:data:`FF_NSTATE` the fixed feedforward's lengths, see
+:mod:`adaptive_ff.compensation.ff_layout`)::
 
     params: feedforward[FF_NPAR], m, Ts, warmup, tau_max, F_max, Vs, delta, lag, stribeck, offset, p,
             torque range gate[RANGE_NPAR], velocity range gate[RANGE_NPAR]
@@ -31,8 +32,8 @@ import math
 
 import numpy as np
 
-from adaptive_ff.compensation.feedforward import (FF_NPAR, FF_NSTATE, FrictionFeedforward, ff_compensate,
-                                                  ff_set_estimate, project_levels)
+from adaptive_ff.compensation.feedforward import FrictionFeedforward, ff_compensate, ff_set_estimate, project_levels
+from adaptive_ff.compensation.ff_layout import FF_NPAR, FF_NSTATE
 from adaptive_ff.compensation.gate import RANGE_NPAR, RANGE_NSTATE, RangeGate, range_commit, range_ok
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel, eq4_phi, eq4_to_physical
 from adaptive_ff.identification.rls import (RecursiveLeastSquares, rls_buffer_size, rls_n_updates, rls_theta,

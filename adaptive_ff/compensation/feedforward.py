@@ -1,34 +1,40 @@
-"""Friction feedforward: fixed (from an offline estimate) and adaptive (online RLS, the paper's future work).
+"""Fixed friction feedforward (a friction estimate, fed forward through the estimated lag) and the estimate projection.
 
-Two components: :class:`FrictionFeedforward` (a fixed estimate through the
-estimated lag) and :class:`RobustAdaptiveFeedforward` (the recommended one: sliding-regime
-inverse-dynamics RLS with directional forgetting, projection, outlier and
-plausibility gates, see :mod:`adaptive_ff.compensation.sliding_estimator`; optionally with a
-provisional start map, :class:`FeedforwardStart`, until its first trusted estimate). The
-paper's eq. 4 RLS feedforward, kept as a baseline, composes the first in
+:class:`FrictionFeedforward` is a compensator component (``KIND`` 2): its configuration and its state are the
+float64 arrays ``params`` and ``state`` (layout: :mod:`adaptive_ff.compensation.ff_layout`), advanced by compiled
+kernels, the one implementation, called by the class's methods and by the closed-loop engine:
+:func:`ff_set_estimate` (put an estimate into use), :func:`ff_static` (the static map, eq. 3), :func:`ff_step`
+(stick detection, the lag of eq. 1, the clip), :func:`ff_at` (the map at the measurement or at the reference) and
+the closed-loop protocol :func:`ff_compensate` / :func:`ff_observe`. Near standstill its velocity input comes from
+the loop model and the sign observer of :mod:`adaptive_ff.compensation.velocity_input`.
+
+:func:`project_estimate` (compiled: :func:`project_levels`) projects a raw estimate onto the physically admissible
+set or rejects it.
+
+The adaptive feedforwards compose this one: the recommended
+:class:`adaptive_ff.compensation.adaptive_feedforward.RobustAdaptiveFeedforward` (online sliding-regime RLS,
+the paper's future work) and the paper's eq. 4 RLS feedforward, kept as a baseline, in
 :mod:`adaptive_ff.compensation.eq4_feedforward`.
 """
-
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
 
 import numpy as np
 
-from adaptive_ff.compensation.sliding_estimator import (SlidingFrictionEstimator, estimate_from_theta,
-                                                       sliding_config, sliding_mse, sliding_observe, sliding_rls,
-                                                       sliding_sizes, sliding_updated)
+from adaptive_ff.compensation.ff_layout import (ALPHA, DELTA, DF, DT, FC, FF_NPAR, FF_NSTATE, FFMAX, FNREJ, HAS,
+                                               HASVS, LAG, NIB, REF, SBAND, SIGMA, SSAMP, SW, TAU, UFF, UOUT, VS,
+                                               WMAX)
+from adaptive_ff.compensation.velocity_input import (LoopModel, SignObserver, loop_model_step, sign_observer_step,
+                                                    signed_measurement)
 from adaptive_ff.identification.regression import FrictionEstimate
-from adaptive_ff.identification.rls import rls_P, rls_n_updates, rls_theta
 from plant.component import Component
 from plant.errors import ParameterError, check_nonnegative, check_positive
 from plant.jit import kernel
 from plant.stribeck import stribeck_scalar
 
-__all__ = ["FrictionFeedforward", "RobustAdaptiveFeedforward", "FeedforwardStart", "LoopModel", "SignObserver",
-           "project_estimate", "project_levels", "FF_NPAR", "FF_NSTATE", "ff_set_estimate", "ff_step", "ff_compensate",
-           "loop_model_step", "sign_observer_step", "robust_compensate", "robust_observe"]
+__all__ = ["FrictionFeedforward", "project_estimate", "project_levels", "ff_set_estimate", "ff_step", "ff_at",
+           "ff_compensate"]
 
 
 @kernel
@@ -97,142 +103,6 @@ def project_estimate(est: FrictionEstimate, *, tau_max: float = 1.0,
                             delta=est.delta, J_alt=est.J_alt)
 
 
-@dataclass(frozen=True)
-class LoopModel:
-    """The nominal (frictionless) velocity loop a feedforward uses as its stick-detection fallback.
-
-    Parameters
-    ----------
-    Kp : float
-        Proportional gain of the loop's PI (N·m·s/rad), >= 0.
-    Ki : float
-        Integral gain of the loop's PI (N·m/rad), >= 0.
-    J : float
-        Design inertia (kg·m²), > 0: what the user knows (a data sheet), never the true plant's.
-    track : float or None
-        Bandwidth (rad/s, >= 0) at which the fallback follows the measured deviation of the joint from the
-        model (see Notes); default None: ``Kp/J``, the rate at which the loop itself removes a deviation
-        (about its crossover); 0: the model velocity alone.
-
-    Raises
-    ------
-    ParameterError
-        A gain negative or not finite, ``J`` not > 0, both gains 0, or ``track`` negative or not finite.
-
-    Notes
-    -----
-    With the controller's PI ``C(z) = Kp + Ki*Tc*z/(z - 1)`` (backward-Euler integrator) and the
-    frictionless joint ``1/(J s)`` sampled with a zero-order hold (exact: ``Tc/(J (z - 1))``), the model
-    velocity follows the closed loop ``w_m = C P/(1 + C P) w_ref`` driven by the reference: the trajectory
-    the joint would take if the friction were cancelled exactly, without measurement noise. This is the
-    reference model of model-reference adaptive control (Åström & Wittenmark, *Adaptive Control*, 2nd ed.,
-    1995, Sec. 5.1); see :class:`FrictionFeedforward` for its use. The fallback velocity is ``w_m + d``,
-    with ``d`` the measured deviation ``w_meas - w_m`` through a first-order low-pass of bandwidth ``track``
-    (``d += (1 - exp(-track*dt))*(w_meas - w_m - d)``): the model's noise-free shape, shifted to where the
-    joint really is (a joint that sticks, or lags the nominal loop, is not assumed to move as the model does).
-    Measured (120 s, seeds 0-2, eta of ``adaptive`` with ``track`` 0 -> ``Kp/J``): karnopp 0.65 -> 0.75,
-    paper, long-lag and small-inertia within +-0.01 (docs/benchmarks/variants.md).
-    """
-
-    Kp: float
-    Ki: float
-    J: float
-    track: float | None = None
-
-    def __post_init__(self):
-        for name in ("Kp", "Ki"):
-            v = getattr(self, name)
-            try:
-                ok = math.isfinite(float(v)) and float(v) >= 0.0
-            except (TypeError, ValueError):
-                ok = False
-            if not ok:
-                raise ParameterError(f"loop model: {name} must be finite and >= 0, got {v!r}")
-        check_positive("J", self.J)
-        if self.Kp == 0.0 and self.Ki == 0.0:
-            raise ParameterError("loop model: Kp and Ki are both 0 (no loop)")
-        if self.track is not None and not (isinstance(self.track, (int, float)) and math.isfinite(self.track)
-                                           and self.track >= 0.0):
-            raise ParameterError(f"loop model: track must be finite and >= 0 (rad/s) or None, got {self.track!r}")
-
-    @property
-    def bandwidth(self) -> float:
-        """The tracking bandwidth in use (rad/s): ``track``, or ``Kp/J`` when it is None."""
-        return float(self.Kp) / float(self.J) if self.track is None else float(self.track)
-
-
-@dataclass(frozen=True)
-class SignObserver:
-    """Velocity observer that gives the friction map its sign inside the stick band (see :class:`FrictionFeedforward`).
-
-    Parameters
-    ----------
-    J : float
-        Design inertia (kg·m²), > 0: what the user knows (a data sheet), never the true plant's.
-    bandwidth : float
-        Observer bandwidth (rad/s), > 0: the rate at which the estimate is pulled to the measurement.
-    residual_bandwidth : float or None
-        Bandwidth (rad/s, >= 0) of the estimate of a constant friction residual (see Notes); default None:
-        ``0.1*bandwidth``; 0: no residual state.
-
-    Raises
-    ------
-    ParameterError
-        ``J`` or ``bandwidth`` not finite and > 0, ``residual_bandwidth`` negative or not finite.
-
-    Notes
-    -----
-    The compensated joint is the model ``J dw/dt = u - u_c - d`` with the applied torque ``u``, the compensator's
-    own torque ``u_c`` (its friction estimate) and a constant residual ``d`` (the part of the friction the
-    estimate misses, e.g. an asymmetry), sampled with a zero-order hold; ``z = d*Tc/J``. Per period ``Tc`` the
-    a-priori estimate ``w_hat`` is used, then corrected by the controller's measurement ``w_c`` and predicted
-    (:func:`sign_observer_step`)::
-
-        e = w_c - w_hat;   w_hat += l1*e;   z_hat -= l2*e
-        w_hat += Tc/J*(u - u_c) - z_hat
-
-    with ``l1 = 1 - p1*p2``, ``l2 = (1 - p1)*(1 - p2)``, ``p1 = exp(-bandwidth*Tc)``, ``p2 =
-    exp(-residual_bandwidth*Tc)``: the poles of the error dynamics (a Luenberger observer with a
-    constant-disturbance state: Franklin, Powell & Workman, *Digital Control of Dynamic Systems*, 3rd ed., 1998,
-    Secs. 8.2 and 8.5; poles a few times faster than the loop's, ibid. Sec. 8.3). The residual's pole is the
-    slower one, so that the fast friction transients of a reversal are not taken for a lasting residual. The estimate follows the joint's acceleration through the torque, not through differences of the
-    noisy measurement: near a reversal its sign is that of the joint, where the measurement's sign flips with
-    the noise (each wrong-signed sample is a ``2*Fs`` torque error into the lag filter). A constant residual
-    leaves no bias; a changing one (at a reversal, where the estimate in use is least exact) does, so the
-    observer's sign is used only inside the stick band, where the measured sign says nothing anyway.
-    """
-
-    J: float
-    bandwidth: float
-    residual_bandwidth: float | None = None
-
-    def __post_init__(self):
-        check_positive("J", self.J)
-        check_positive("bandwidth", self.bandwidth)
-        if self.residual_bandwidth is not None:
-            check_nonnegative("residual_bandwidth", self.residual_bandwidth)
-
-    def gains(self, dt: float) -> tuple:
-        """``(l1, l2)`` of the observer at the period ``dt`` (s): error poles at ``exp(-bandwidth*dt)`` and
-        ``exp(-residual_bandwidth*dt)`` (class Notes)."""
-        p1 = math.exp(-float(self.bandwidth) * dt)
-        rb = 0.1 * float(self.bandwidth) if self.residual_bandwidth is None else float(self.residual_bandwidth)
-        p2 = math.exp(-rb * dt)
-        return 1.0 - p1 * p2, (1.0 - p1) * (1.0 - p2)
-
-
-# FrictionFeedforward arrays. params: dt, lag, ff_max, sign_width, stick_band, stick_samples, reference input, w_max,
-# loop model (has, Kp, Ki*dt, dt/J, tracking gain), sign observer (has, dt/J, gain); state: estimate in use (has,
-# Fc, Fs - Fc, Vs, delta, sigma, lag filter gain, has Vs, tau), output filter, in-band count, rejected inputs, loop
-# model (velocity, integrator, started, tracked deviation), sign observer (estimate, started, the controller's
-# measurement and the compensator's output of this period)
-_DT, _LAG, _FFMAX, _SW, _SBAND, _SSAMP, _REF, _WMAX, _LM, _KP, _KITC, _BJ, _LMA, _OB, _OBJ, _OBL, _OBZ = range(17)
-(_HAS, _FC, _DF, _VS, _DELTA, _SIGMA, _ALPHA, _HASVS, _TAU, _UFF, _NIB, _FNREJ, _WM, _IM, _NM, _DW,
- _WH, _OBN, _WCS, _UOUT, _ZH) = range(21)
-#: Lengths of the fixed feedforward's parameter and state arrays.
-FF_NPAR, FF_NSTATE = 17, 21
-
-
 @kernel
 def ff_set_estimate(par, st, Fc, Fs, Vs, delta, sigma, tau, has_vs):
     """Put a friction estimate into use (levels N·m, ``Vs`` rad/s, ``sigma`` N·m·s/rad, lag ``tau`` s).
@@ -241,32 +111,32 @@ def ff_set_estimate(par, st, Fc, Fs, Vs, delta, sigma, tau, has_vs):
     feedforward filters through the lag and ``tau > 0``, else 1 (no filter). ``has_vs`` 0 drops the Stribeck
     term (Coulomb level only).
     """
-    st[_HAS] = 1.0
-    st[_FC] = Fc
-    st[_DF] = Fs - Fc
-    st[_VS] = Vs
-    st[_DELTA] = delta
-    st[_SIGMA] = sigma
-    st[_TAU] = tau
-    st[_HASVS] = has_vs
-    st[_ALPHA] = 1.0 - math.exp(-par[_DT] / tau) if (par[_LAG] > 0.0 and tau > 0.0) else 1.0
+    st[HAS] = 1.0
+    st[FC] = Fc
+    st[DF] = Fs - Fc
+    st[VS] = Vs
+    st[DELTA] = delta
+    st[SIGMA] = sigma
+    st[TAU] = tau
+    st[HASVS] = has_vs
+    st[ALPHA] = 1.0 - math.exp(-par[DT] / tau) if (par[LAG] > 0.0 and tau > 0.0) else 1.0
 
 
 @kernel(inline="always")
 def ff_static(par, st, w):
     """Static friction estimate ``F_hat(w)`` (N·m): eq. 3 with the estimate in use, sign ramp of width
     ``sign_width`` near zero, no offset; 0 without an estimate."""
-    if w == 0.0 or st[_HAS] == 0.0:
+    if w == 0.0 or st[HAS] == 0.0:
         return 0.0
     aw = abs(w)
-    if st[_HASVS] > 0.0:  # the Stribeck level: eq. 3 at |w| without the viscous term
-        mag = stribeck_scalar(aw, st[_FC], st[_DF], st[_VS], st[_DELTA], 0.0, math.inf)
+    if st[HASVS] > 0.0:  # the Stribeck level: eq. 3 at |w| without the viscous term
+        mag = stribeck_scalar(aw, st[FC], st[DF], st[VS], st[DELTA], 0.0, math.inf)
     else:
-        mag = st[_FC]
-    sw = par[_SW]
+        mag = st[FC]
+    sw = par[SW]
     if sw > 0.0 and aw < sw:
-        return mag * (w / sw) + st[_SIGMA] * w
-    return math.copysign(mag, w) + st[_SIGMA] * w
+        return mag * (w / sw) + st[SIGMA] * w
+    return math.copysign(mag, w) + st[SIGMA] * w
 
 
 @kernel(inline="always")
@@ -278,86 +148,27 @@ def ff_step(par, st, w, w_ref, has_ref):
     ``w_ref`` when given), one above ``w_max`` in magnitude, or a non-finite friction map at it is
     rejected: the held output is returned and only the rejection counter changes.
     """
-    wmax = par[_WMAX]
+    wmax = par[WMAX]
     if not (math.isfinite(w) and -wmax <= w <= wmax) or (has_ref and not (math.isfinite(w_ref)
                                                                          and -wmax <= w_ref <= wmax)):
-        st[_FNREJ] += 1.0
-        return min(max(st[_UFF], -par[_FFMAX]), par[_FFMAX])
+        st[FNREJ] += 1.0
+        return min(max(st[UFF], -par[FFMAX]), par[FFMAX])
     x = w
-    nib = st[_NIB]
+    nib = st[NIB]
     if has_ref:
-        if -par[_SBAND] < w < par[_SBAND]:
+        if -par[SBAND] < w < par[SBAND]:
             nib += 1.0
-            if nib >= par[_SSAMP]:
+            if nib >= par[SSAMP]:
                 x = w_ref
         else:
             nib = 0.0
     fx = ff_static(par, st, x)
     if not math.isfinite(fx):
-        st[_FNREJ] += 1.0
-        return min(max(st[_UFF], -par[_FFMAX]), par[_FFMAX])
-    st[_NIB] = nib
-    st[_UFF] += st[_ALPHA] * (fx - st[_UFF])
-    return min(max(st[_UFF], -par[_FFMAX]), par[_FFMAX])
-
-
-@kernel(inline="always")
-def loop_model_step(par, st, w0, w_ref):
-    """One period of the :class:`LoopModel` in ``(par, st)``: return the model velocity of this period (rad/s).
-
-    ``e = w_ref - w_m``, ``I += Ki*dt*e``, then ``w_m += dt/J*(Kp*e + I)`` (the PI of the loop on the
-    zero-order-hold joint ``1/(J s)``); the returned velocity is ``w_m + d`` with the tracked deviation
-    ``d += a*(w0 - w_m - d)`` (``a`` from the model's ``track``; a non-finite ``w0`` leaves ``d``). The model
-    starts at ``w0`` (the controller's measurement of this period; at the first call the model velocity, 0 if
-    not finite) with an empty integrator. Without a model (``par`` says none) ``w_ref`` is returned and nothing
-    changes.
-    """
-    if par[_LM] == 0.0:
-        return w_ref
-    if st[_NM] == 0.0:
-        st[_WM] = w0 if math.isfinite(w0) else 0.0
-        st[_IM] = 0.0
-        st[_NM] = 1.0
-    wm = st[_WM]
-    e = w_ref - wm
-    st[_IM] += par[_KITC] * e
-    st[_WM] = wm + par[_BJ] * (par[_KP] * e + st[_IM])
-    if par[_LMA] > 0.0 and math.isfinite(w0):
-        st[_DW] += par[_LMA] * (w0 - wm - st[_DW])
-    return wm + st[_DW]
-
-
-@kernel(inline="always")
-def _signed(par, st, w_ctrl):
-    """The measurement with the :class:`SignObserver`'s sign inside the stick band (unchanged without an observer,
-    outside the band or when not finite); records ``w_ctrl`` for :func:`sign_observer_step` and starts the observer
-    at the first measurement."""
-    if par[_OB] == 0.0:
-        return w_ctrl
-    st[_WCS] = w_ctrl
-    if st[_OBN] == 0.0:
-        st[_WH] = w_ctrl if math.isfinite(w_ctrl) else 0.0
-        st[_OBN] = 1.0
-    if math.isfinite(w_ctrl) and -par[_SBAND] < w_ctrl < par[_SBAND]:
-        return math.copysign(abs(w_ctrl), st[_WH])
-    return w_ctrl
-
-
-@kernel(inline="always")
-def sign_observer_step(par, st, u):
-    """Correct the :class:`SignObserver` estimate with this period's measurement and predict the next period with
-    the applied torque ``u`` (N·m) less the compensator's output of this period (nothing without an observer or
-    before its first measurement; a non-finite measurement or torque skips its part)."""
-    if par[_OB] == 0.0 or st[_OBN] == 0.0:
-        return
-    wc = st[_WCS]
-    if math.isfinite(wc):
-        e = wc - st[_WH]
-        st[_WH] += par[_OBL] * e
-        st[_ZH] -= par[_OBZ] * e
-    du = u - st[_UOUT]
-    if math.isfinite(du):
-        st[_WH] += par[_OBJ] * du - st[_ZH]
+        st[FNREJ] += 1.0
+        return min(max(st[UFF], -par[FFMAX]), par[FFMAX])
+    st[NIB] = nib
+    st[UFF] += st[ALPHA] * (fx - st[UFF])
+    return min(max(st[UFF], -par[FFMAX]), par[FFMAX])
 
 
 @kernel(inline="always")
@@ -365,9 +176,9 @@ def ff_at(par, st, w_ctrl, w_stuck, w_ref):
     """The feedforward of this period at the reference (``ff_input`` reference) or at the measurement (with the
     sign observer's sign inside the stick band, if any) with stick detection against ``w_stuck`` (the loop model's
     velocity, or the reference without a model)."""
-    if par[_REF] > 0.0:
+    if par[REF] > 0.0:
         return ff_step(par, st, w_ref, w_ref, False)
-    return ff_step(par, st, _signed(par, st, w_ctrl), w_stuck, True)
+    return ff_step(par, st, signed_measurement(par, st, w_ctrl), w_stuck, True)
 
 
 @kernel(inline="always")
@@ -375,7 +186,7 @@ def ff_compensate(par, st, w_ctrl, w_meas, w_ref):
     """Compensator protocol (``KIND`` 2): the fixed feedforward at the controller's measurement (with stick
     detection against the loop model's velocity, or the reference without a model) or at the reference."""
     out = ff_at(par, st, w_ctrl, loop_model_step(par, st, w_ctrl, w_ref), w_ref)
-    st[_UOUT] = out
+    st[UOUT] = out
     return out
 
 
@@ -506,21 +317,21 @@ class FrictionFeedforward(Component):
                           float(ff_input == "reference"), w_max) + lm + ob
         self.loop_model = loop_model
         self.sign_observer = sign_observer
-        self.state[_ALPHA] = 1.0
+        self.state[ALPHA] = 1.0
         self.estimate = None
         self._set(estimate)
 
-    dt = property(lambda self: float(self.params[_DT]), doc="Call period of :meth:`step` (s).")
-    lag = property(lambda self: bool(self.params[_LAG]), doc="Filter through the estimated lag.")
-    ff_max = property(lambda self: float(self.params[_FFMAX]), doc="Bound on |feedforward| (N·m).")
-    sign_width = property(lambda self: float(self.params[_SW]), doc="Sign ramp half-width (rad/s).")
-    stick_band = property(lambda self: float(self.params[_SBAND]), doc="Stick-detection band (rad/s).")
-    stick_samples = property(lambda self: int(self.params[_SSAMP]), doc="In-band samples that declare sticking.")
-    ff_input = property(lambda self: "reference" if self.params[_REF] else "measured",
+    dt = property(lambda self: float(self.params[DT]), doc="Call period of :meth:`step` (s).")
+    lag = property(lambda self: bool(self.params[LAG]), doc="Filter through the estimated lag.")
+    ff_max = property(lambda self: float(self.params[FFMAX]), doc="Bound on |feedforward| (N·m).")
+    sign_width = property(lambda self: float(self.params[SW]), doc="Sign ramp half-width (rad/s).")
+    stick_band = property(lambda self: float(self.params[SBAND]), doc="Stick-detection band (rad/s).")
+    stick_samples = property(lambda self: int(self.params[SSAMP]), doc="In-band samples that declare sticking.")
+    ff_input = property(lambda self: "reference" if self.params[REF] else "measured",
                         doc="Velocity the engine evaluates the feedforward at (``compensate``).")
-    u_ff = property(lambda self: float(self.state[_UFF]), doc="Feedforward before the clip (N·m).")
-    w_max = property(lambda self: float(self.params[_WMAX]), doc="Largest plausible speed (rad/s).")
-    n_step_rejected = property(lambda self: int(self.state[_FNREJ]),
+    u_ff = property(lambda self: float(self.state[UFF]), doc="Feedforward before the clip (N·m).")
+    w_max = property(lambda self: float(self.params[WMAX]), doc="Largest plausible speed (rad/s).")
+    n_step_rejected = property(lambda self: int(self.state[FNREJ]),
                                doc="Calls of step() whose input was rejected (the output was held).")
 
     def _set(self, est: FrictionEstimate | None) -> None:
@@ -564,506 +375,3 @@ class FrictionFeedforward(Component):
         torque ``u`` (N·m) of this period."""
         sign_observer_step(self.params, self.state, float(u))
         return False
-
-
-# RobustAdaptiveFeedforward arrays. params: the feedforward's, own settings, offsets, the estimator's;
-# state: the feedforward's, own slots, the parameter vector in use (p), the estimator's.
-# (start gain and start input: the provisional start, see FeedforwardStart; the state flag _PROV is 1 while it
-# is in use)
-(_WARMUP, _FADE, _JLO, _JHI, _TAUMAX, _CONSIST, _P, _PO_EST, _SO_FTH, _SO_EST, _SGAIN, _SREF, _LAGZ, _RELSD,
- _LAGCAP) = range(FF_NPAR, FF_NPAR + 15)
-_GAIN, _NIMPL, _NLAG, _HELD, _PROV, _NUND = range(FF_NSTATE, FF_NSTATE + 6)
-_RB_NPAR, _RB_NSTATE = FF_NPAR + 15, FF_NSTATE + 6
-
-
-@kernel(inline="always")
-def robust_compensate(par, st, w_ctrl, w_meas, w_ref):
-    """Compensator protocol (``KIND`` 3): the feedforward of the estimate in use, faded in; 0 before switch-on.
-
-    During the provisional start (:class:`FeedforwardStart`) the start map times the start gain, evaluated
-    at the reference (start input ``reference``) or as ``ff_input`` says. The loop model (if any) advances
-    every period, also before switch-on."""
-    out = _robust_output(par, st, w_ctrl, w_ref)
-    st[_UOUT] = out
-    return out
-
-
-@kernel(inline="always")
-def _robust_output(par, st, w_ctrl, w_ref):
-    """The torque of :func:`robust_compensate` (N·m)."""
-    w_stuck = loop_model_step(par, st, w_ctrl, w_ref)
-    if st[_HAS] == 0.0:
-        _signed(par, st, w_ctrl)  # the sign observer follows the joint before switch-on too
-        return 0.0
-    if st[_PROV] > 0.0:
-        if par[_SREF] > 0.0:
-            _signed(par, st, w_ctrl)
-            return ff_step(par, st, w_ref, w_ref, False) * par[_SGAIN]
-        return ff_at(par, st, w_ctrl, w_stuck, w_ref) * par[_SGAIN]
-    out = ff_at(par, st, w_ctrl, w_stuck, w_ref)
-    if st[_GAIN] < 1.0:
-        st[_GAIN] = min(st[_GAIN] + par[_FADE], 1.0)
-        out = out * st[_GAIN]
-    return out
-
-
-@kernel
-def _levels_plausible(par, eJ, etau, eFc, eFs, esig):
-    """Range checks of an estimate (class Notes, item 5)."""
-    ffmax = par[_FFMAX]
-    return (math.isfinite(eJ) and math.isfinite(etau) and math.isfinite(esig) and math.isfinite(eFc)
-            and math.isfinite(eFs) and par[_JLO] < eJ < par[_JHI] and 0.0 <= etau <= par[_TAUMAX]
-            and esig >= 0.0 and 0.0 <= eFc <= ffmax and 0.0 <= eFs <= ffmax)
-
-
-@kernel
-def robust_plausible(par, st, eJ, etau, eJalt, eFc, eFs, esig):
-    """The plausibility test of an estimate against the estimator in ``(par, st)``: ranges and lag consistency."""
-    if not _levels_plausible(par, eJ, etau, eFc, eFs, esig):
-        return False
-    ep = par[np.int64(par[_PO_EST]):]
-    es = st[np.int64(par[_SO_EST]):]
-    return _lag_consistent(par, sliding_rls(ep, es), eJ, etau, eJalt, sliding_mse(es), par[_DT],
-                           sliding_config(ep)[2])
-
-
-@kernel
-def _lag_consistent(par, rls, eJ, etau, eJalt, e2, dt, has_lag):
-    """The two lag estimates (``tau`` and the ``J*tau`` column) agree (see RobustAdaptiveFeedforward Notes)."""
-    if not (etau >= 2.0 * dt and math.isfinite(eJalt)):
-        return True
-    diff = abs(eJalt * etau - eJ * etau)
-    if diff <= par[_CONSIST] * eJ * etau:
-        return True
-    if not has_lag:
-        return False
-    # delta method on theta_cov[:3, :3] = e2 * P[:3, :3] with the gradient (-tau, 1, -J)
-    g0 = -etau
-    g2 = -eJ
-    v0 = g0 * (e2 * rls_P(rls, 0, 0)) + 1.0 * (e2 * rls_P(rls, 1, 0)) + g2 * (e2 * rls_P(rls, 2, 0))
-    v1 = g0 * (e2 * rls_P(rls, 0, 1)) + 1.0 * (e2 * rls_P(rls, 1, 1)) + g2 * (e2 * rls_P(rls, 2, 1))
-    v2 = g0 * (e2 * rls_P(rls, 0, 2)) + 1.0 * (e2 * rls_P(rls, 1, 2)) + g2 * (e2 * rls_P(rls, 2, 2))
-    var = v0 * g0 + v1 * 1.0 + v2 * g2
-    return diff <= 3.0 * math.sqrt(max(var, 0.0))
-
-
-@kernel
-def robust_observe(par, st, u, w_meas, theta_out):
-    """Compensator protocol (``KIND`` 3): one sample into the estimator, then the plausibility tests and the
-    estimate in use (see :class:`RobustAdaptiveFeedforward`). Returns True after an RLS update (theta written
-    into ``theta_out``). The sign observer (if any) takes the applied torque first."""
-    sign_observer_step(par, st, u)
-    p = np.int64(par[_P])
-    ep = par[np.int64(par[_PO_EST]):]
-    es = st[np.int64(par[_SO_EST]):]
-    sliding_observe(ep, es, u, w_meas)
-    if not sliding_updated(es):
-        return False
-    rls = sliding_rls(ep, es)
-    for i in range(p):
-        theta_out[i] = rls_theta(rls, i)
-    if rls_n_updates(rls) < par[_WARMUP]:
-        return True
-    eVs, edelta, lag = sliding_config(ep)
-    eJ = rls_theta(rls, 0)
-    if lag:
-        etau = rls_theta(rls, 2)
-        eJalt = rls_theta(rls, 1) / etau if etau > 0.0 else np.nan
-        iFc = 3
-    else:
-        etau = 0.0
-        eJalt = np.nan
-        iFc = 1
-    eFc = rls_theta(rls, iFc)
-    eFs = rls_theta(rls, iFc + 1)
-    esig = rls_theta(rls, iFc + 2)
-    if not _levels_plausible(par, eJ, etau, eFc, eFs, esig):
-        st[_NIMPL] += 1.0
-        return True
-    e2 = sliding_mse(es)
-    if not math.sqrt(max(e2 * rls_P(rls, iFc, iFc), 0.0)) <= par[_RELSD] * max(eFc, eFs):
-        st[_NUND] += 1.0  # Fc not determined yet (e.g. one direction of motion only: Fc and the offset agree)
-        return True
-    if _lag_consistent(par, rls, eJ, etau, eJalt, e2, par[_DT], lag):
-        st[_HELD] = 0.0
-        if lag:  # the upper confidence bound of the lag, at most lag_margin_max*tau above it (class Notes)
-            m = min(par[_LAGZ] * math.sqrt(max(e2 * rls_P(rls, 2, 2), 0.0)), par[_LAGCAP] * etau)
-            etau = min(etau + m, par[_TAUMAX])
-    elif st[_HAS] > 0.0 and st[_PROV] == 0.0:
-        st[_NLAG] += 1.0
-        etau = st[_TAU]
-        st[_HELD] = 1.0
-    else:
-        st[_NIMPL] += 1.0
-        return True
-    if st[_PROV] > 0.0:  # hand-over from the provisional start: fade from the start gain to 1
-        st[_PROV] = 0.0
-        st[_GAIN] = par[_SGAIN]
-    ff_set_estimate(par, st, eFc, eFs, eVs, edelta, esig, etau, 1.0)
-    o = np.int64(par[_SO_FTH])
-    for i in range(p):
-        st[o + i] = rls_theta(rls, i)
-    return True
-
-
-@dataclass(frozen=True)
-class FeedforwardStart:
-    """Provisional start of :class:`RobustAdaptiveFeedforward`: a prior friction map in use from the first
-    period until the estimator's first trusted estimate.
-
-    Parameters
-    ----------
-    estimate : FrictionEstimate
-        The prior map: ``Fc``, ``Fs`` (N·m), ``sigma`` (N·m·s/rad), ``Vs`` (rad/s) and ``delta`` of eq. 3 (e.g.
-        the quasi-static Stribeck pre-fit, Sec. V-C), and the lag ``tau`` (s) its output is filtered
-        through (eq. 1). ``Vs``/``delta`` None: the estimator's. ``J`` and ``offset`` are not used.
-    gain : float
-        Factor on the start map, in (0, 1], default 1. At the hand-over the output fades from ``gain`` to
-        1 over the feedforward's ``fade_in``.
-    ff_input : {"reference", "measured"}
-        Velocity the start map is evaluated at: the reference (default) or as the feedforward's
-        ``ff_input`` says. At the reference the start map is an exogenous input, not a feedback: a wrong
-        lag or level cannot form a stick-slip cycle with the joint (a friction map fed back from the
-        measured velocity through a lag shorter than the joint's kicks the joint by about ``2*Fs*dtau/J``
-        at every reversal).
-
-    Raises
-    ------
-    ParameterError
-        ``gain`` outside (0, 1], unknown ``ff_input``, or a non-finite or negative level or lag.
-    """
-
-    estimate: FrictionEstimate
-    gain: float = 1.0
-    ff_input: str = "reference"
-
-    def __post_init__(self):
-        if not isinstance(self.estimate, FrictionEstimate):
-            raise ParameterError(f"estimate must be a FrictionEstimate, got {type(self.estimate).__name__}")
-        e = self.estimate
-        for name in ("Fc", "Fs", "sigma", "tau"):
-            v = getattr(e, name)
-            if not (math.isfinite(v) and v >= 0.0):
-                raise ParameterError(f"start estimate: {name} must be finite and >= 0, got {v!r}")
-        if not (0.0 < self.gain <= 1.0):
-            raise ParameterError(f"start gain must be in (0, 1], got {self.gain!r}")
-        if self.ff_input not in ("reference", "measured"):
-            raise ParameterError(f"start ff_input must be 'reference' or 'measured', got {self.ff_input!r}")
-
-
-class RobustAdaptiveFeedforward(FrictionFeedforward):
-    """Adaptive friction feedforward for a running machine: safe online estimation plus the lagged feedforward.
-
-    Parameters
-    ----------
-    estimator : SlidingFrictionEstimator
-        The online estimator (sliding-regime inverse-dynamics RLS with
-        directional forgetting, parameter projection and an outlier gate);
-        :meth:`observe` feeds it.
-    dt : float, keyword-only
-        Call period of :meth:`step` (s), normally the estimator's ``Tc``.
-    lag : bool, keyword-only
-        Filter the feedforward through the estimated lag ``tau`` (eq. 1);
-        default True. Without the lag a static map at the measured velocity
-        jumps by ``2*Fs`` at every reversal while the real friction takes
-        ``tau`` to follow (measured: docs/benchmarks/compensation.md).
-    ff_max : float, keyword-only
-        Bound on |feedforward| (N·m); estimates with ``Fc`` or ``Fs`` above it
-        are implausible. Default inf.
-    sign_width : float, keyword-only
-        Sign treatment near zero velocity, see :class:`FrictionFeedforward`.
-    warmup : int, keyword-only
-        RLS updates in the sliding regime before the feedforward is switched
-        on (excitation gate), default 200 (2 s of sliding at Ts = 10 ms).
-    fade_in : float, keyword-only
-        After switch-on the output is ramped from 0 to full over this time
-        (s), so that the PI integrator, which carried the friction so far,
-        unloads smoothly (bumpless transfer); default 1 s, 0 = step.
-    J_range : tuple of float, keyword-only
-        Plausible inertia interval (kg·m²); an estimate outside it is not
-        used. Default ``(0, inf)``.
-    tau_max : float, keyword-only
-        Largest plausible lag (s), default 1.
-    consistency : float, keyword-only
-        The lag is identified twice (``tau`` and ``J*tau``): the lag of an
-        estimate whose two values differ by more than ``consistency*J*tau``
-        and by more than three standard deviations (delta method on
-        :attr:`SlidingFrictionEstimator.theta_cov`) is not used (for
-        ``tau >= 2*dt``); default 0.5.
-    lag_margin : float, keyword-only
-        The lag in use is the estimated ``tau`` plus this many of its
-        standard errors (``sqrt`` of the ``tau`` diagonal element of
-        :attr:`SlidingFrictionEstimator.theta_cov`), at most
-        ``lag_margin_max*tau`` more, clipped to ``tau_max``: a one-sided
-        upper confidence bound (see Notes). Default 1; 0: the estimate
-        itself.
-    lag_margin_max : float, keyword-only
-        Largest margin as a fraction of the estimated lag (inf: no cap),
-        default 0.05: the cost of a lag error is lopsided only for small
-        errors (a lag far too long under-compensates every reversal), and
-        ``theta_cov`` of a weakly excited lag can exceed the lag itself.
-    max_rel_stderr : float, keyword-only
-        An estimate is used only once ``Fc`` is determined: its standard
-        error (from :attr:`SlidingFrictionEstimator.theta_cov`) at most this
-        fraction of ``max(Fc, Fs)``. Default 0.05; inf: no test.
-    stick_band, stick_samples : keyword-only
-        Stick detection, see :class:`FrictionFeedforward`.
-    ff_input, w_max, loop_model, sign_observer : keyword-only
-        See :class:`FrictionFeedforward`.
-    start : FeedforwardStart or None, keyword-only
-        Provisional start: the prior map acts from the first period (times its gain) until the first
-        estimate that passes warm-up and the plausibility tests, then that estimate takes over and the
-        output fades from the start gain to 1 over ``fade_in``. Default None: no feedforward before
-        switch-on.
-
-    Attributes
-    ----------
-    estimator : SlidingFrictionEstimator
-    n_implausible : int
-        Estimates (after warm-up) that failed the plausibility test; the
-        feedforward kept the previous one.
-    n_lag_held : int
-        Estimates whose friction levels were used with the previous lag
-        (the two lag estimates disagreed), see :meth:`observe`.
-    n_undetermined : int
-        Plausible estimates not used because ``Fc`` was not determined yet
-        (``max_rel_stderr``).
-    active : bool
-        Whether the feedforward is switched on.
-
-    Raises
-    ------
-    ParameterError
-        Invalid settings (the message quotes the value).
-
-    Notes
-    -----
-    Safety chain: (1) samples with non-finite values or velocity outliers are
-    rejected by the estimator and leave it unchanged; (2) rows outside the
-    sliding regime are not used (excitation/validity gate); (3) the
-    covariance bound (or directional forgetting) of the estimator's RLS keeps
-    ``P`` bounded when the motion does not excite (windup protection);
-    (4) ``theta`` is projected onto physical bounds after every update;
-    (5) the estimate is used only after ``warmup`` updates and only if
-    plausible (finite, ``J`` in ``J_range``, ``tau <= tau_max``,
-    ``Fc, Fs <= ff_max``), determined (the standard error of ``Fc`` at most
-    ``max_rel_stderr*max(Fc, Fs)``) and with consistent lag estimates,
-    otherwise the last usable one is held (an inconsistent lag alone keeps
-    the previous ``tau`` and takes the new friction levels); (6) the output
-    fades in after switch-on and is clipped to ``±ff_max``.
-
-    The determinacy test of (5) matters after motion in one direction only:
-    there the Coulomb column ``sgn(w)`` equals the offset column, the RLS
-    fits ``Fc + offset`` and not ``Fc``, and the map (which has no offset)
-    would over-compensate the first motion in the other direction by the
-    offset; the covariance says so (the standard error of ``Fc`` stays large
-    until both directions are seen).
-
-    The lag in use is an upper confidence bound, not the point estimate
-    (a cautious rather than a certainty-equivalence use of the estimate:
-    Åström & Wittenmark, *Adaptive Control*, 2nd ed., 1995, Ch. 7), because
-    the two signs of a small lag error do not cost the same. A feedforward
-    at the measured velocity through a lag shorter than the joint's reverses
-    before the friction does and over-compensates at every reversal, which
-    pushes the joint on in the new direction and is fed back through the
-    measurement (over-compensation of friction drives the loop towards
-    hunting: Armstrong-Hélouvry, Dupont & Canudas de Wit, *Automatica*
-    30(7), 1994); a slightly longer lag under-compensates for a moment, a
-    disturbance the PI removes. A lag far too long under-compensates every
-    reversal and costs as well, hence ``lag_margin_max``. The measured cost
-    of both signs is on docs/benchmarks/compensation.md.
-
-    Which velocity the feedforward is evaluated at (reference or measured) is the caller's choice; measured on
-    the ``paper`` preset the measured velocity is the better one (the joint
-    lags the reference at reversals), see ``benchmarks/compensation.py`` and
-    docs/benchmarks/compensation.md.
-    """
-
-    KIND = 3
-    MODE = "adaptive"
-
-    def __init__(self, estimator: SlidingFrictionEstimator, *, dt: float, lag: bool = True,
-                 ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0, stick_samples: int = 10,
-                 warmup: int = 200, fade_in: float = 1.0, J_range: tuple = (0.0, math.inf), tau_max: float = 1.0,
-                 consistency: float = 0.5, lag_margin: float = 1.0, lag_margin_max: float = 0.05,
-                 max_rel_stderr: float = 0.05,
-                 ff_input: str = "measured", w_max: float = math.inf, start: FeedforwardStart | None = None,
-                 loop_model: LoopModel | None = None, sign_observer: SignObserver | None = None):
-        if not isinstance(estimator, SlidingFrictionEstimator):
-            raise TypeError(f"estimator must be a SlidingFrictionEstimator, got {type(estimator).__name__}")
-        ff = FrictionFeedforward(None, dt=dt, lag=lag, ff_max=ff_max, sign_width=sign_width,
-                                 stick_band=stick_band, stick_samples=stick_samples, ff_input=ff_input, w_max=w_max,
-                                 loop_model=loop_model, sign_observer=sign_observer)
-        self.loop_model = loop_model
-        self.sign_observer = sign_observer
-        if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
-            raise ParameterError(f"warmup must be an integer >= 0, got {warmup!r}")
-        try:
-            J_lo, J_hi = (float(x) for x in J_range)
-        except (TypeError, ValueError):
-            raise ParameterError(f"J_range must be a pair (low, high), got {J_range!r}") from None
-        if not (0.0 <= J_lo < J_hi):
-            raise ParameterError(f"J_range must satisfy 0 <= low < high, got {J_range!r}")
-        tau_max = check_positive("tau_max", tau_max)
-        consistency = check_positive("consistency", consistency)
-        lag_margin = check_nonnegative("lag_margin", lag_margin)
-        lag_margin_max = (math.inf if isinstance(lag_margin_max, (int, float)) and lag_margin_max == math.inf
-                          else check_nonnegative("lag_margin_max", lag_margin_max))  # inf: no cap
-        try:
-            rel = math.nan if isinstance(max_rel_stderr, bool) else float(max_rel_stderr)
-        except (TypeError, ValueError):
-            rel = math.nan
-        if not rel > 0.0:  # inf allowed: no determinacy test
-            raise ParameterError(f"max_rel_stderr must be > 0 (inf: no test), got {max_rel_stderr!r}")
-        max_rel_stderr = rel
-        fade_in = check_nonnegative("fade_in", fade_in)
-        self.estimator = estimator
-        p = len(estimator.names)
-        self.n_theta = p
-        enp, ens = sliding_sizes(p)
-        so_fth = _RB_NSTATE
-        so_est = so_fth + p
-        self.params = np.zeros(_RB_NPAR + enp)
-        self.state = np.zeros(so_est + ens)
-        self.params[:FF_NPAR] = ff.params
-        self.state[:FF_NSTATE] = ff.state
-        if start is not None and not isinstance(start, FeedforwardStart):
-            raise ParameterError(f"start must be a FeedforwardStart or None, got {type(start).__name__}")
-        self.params[FF_NPAR:_RB_NPAR] = (float(warmup), 1.0 if fade_in == 0.0 else dt / fade_in, J_lo, J_hi,
-                                         tau_max, consistency, float(p), float(_RB_NPAR), float(so_fth),
-                                         float(so_est), 1.0 if start is None else start.gain,
-                                         float(start is not None and start.ff_input == "reference"), lag_margin,
-                                         max_rel_stderr, lag_margin_max)
-        self.state[so_fth:so_est] = np.nan
-        self.estimate = None
-        self.start = start
-        if start is not None:
-            e = start.estimate
-            ff_set_estimate(self.params, self.state, e.Fc, e.Fs, estimator.Vs if e.Vs is None else e.Vs,
-                            estimator.delta if e.delta is None else e.delta, e.sigma, e.tau, 1.0)
-            self.state[_PROV] = 1.0
-            self.state[_GAIN] = 1.0
-        self._attached()
-
-    def _attached(self) -> None:
-        po, so = int(self.params[_PO_EST]), int(self.params[_SO_EST])
-        self.estimator.attach(self.params[po:], self.state[so:])
-
-    warmup = property(lambda self: int(self.params[_WARMUP]), doc="RLS updates before switch-on.")
-    J_range = property(lambda self: (float(self.params[_JLO]), float(self.params[_JHI])),
-                       doc="Plausible inertia interval (kg·m²).")
-    tau_max = property(lambda self: float(self.params[_TAUMAX]), doc="Largest plausible lag (s).")
-    consistency = property(lambda self: float(self.params[_CONSIST]), doc="Relative lag-consistency tolerance.")
-    n_implausible = property(lambda self: int(self.state[_NIMPL]), doc="Estimates that failed the plausibility test.")
-    n_lag_held = property(lambda self: int(self.state[_NLAG]), doc="Estimates used with the previous lag.")
-    n_undetermined = property(lambda self: int(self.state[_NUND]),
-                              doc="Plausible estimates not used because ``Fc`` was not determined yet.")
-    lag_margin = property(lambda self: float(self.params[_LAGZ]),
-                          doc="Standard errors added to the estimated lag in use.")
-    lag_margin_max = property(lambda self: float(self.params[_LAGCAP]),
-                              doc="Largest lag margin, as a fraction of the estimated lag.")
-    max_rel_stderr = property(lambda self: float(self.params[_RELSD]),
-                              doc="Largest standard error of ``Fc`` in use, relative to ``max(Fc, Fs)``.")
-
-    provisional = property(lambda self: bool(self.state[_PROV]),
-                           doc="Whether the provisional start map (``start``) is in use.")
-
-    @property
-    def estimate(self) -> FrictionEstimate | None:
-        """The estimator's estimate in use (None before switch-on and during the provisional start), with the lag
-        in use: the estimated lag plus ``lag_margin`` standard errors, or the previous lag where the lag estimates
-        disagreed (then ``J_alt`` is NaN)."""
-        if not self.state[_HAS] or self.state[_PROV]:
-            return None
-        o = int(self.params[_SO_FTH])
-        e = estimate_from_theta(self.estimator.names, self.state[o:o + self.n_theta], self.estimator.Vs,
-                                self.estimator.delta)
-        return replace(e, tau=float(self.state[_TAU]), J_alt=float("nan") if self.state[_HELD] else e.J_alt)
-
-    @estimate.setter
-    def estimate(self, value) -> None:
-        if value is not None:
-            raise ParameterError("the estimate of a RobustAdaptiveFeedforward is set by its estimator only")
-
-    def step(self, w: float, w_ref: float | None = None) -> float:
-        """Advance one period; return the bounded feedforward (N·m), 0 before switch-on.
-
-        See :meth:`FrictionFeedforward.step`; after switch-on the output fades in over ``fade_in``. During the
-        provisional start the start map times its gain, at ``w_ref`` (when given) for a start at the reference.
-        """
-        if not self.state[_HAS]:
-            return 0.0
-        if self.state[_PROV]:  # the start map, at the reference when the start says so (as in compensate)
-            if self.params[_SREF] and w_ref is not None:
-                return FrictionFeedforward.step(self, w_ref) * float(self.params[_SGAIN])
-            return FrictionFeedforward.step(self, w, w_ref) * float(self.params[_SGAIN])
-        out = FrictionFeedforward.step(self, w, w_ref)
-        if self.state[_GAIN] < 1.0:
-            self.state[_GAIN] = min(self.state[_GAIN] + self.params[_FADE], 1.0)
-            return out * float(self.state[_GAIN])
-        return out
-
-    def compensate(self, w_meas: float, w_ref: float) -> float:
-        """Compensator protocol: the faded-in feedforward for this period (N·m), see :func:`robust_compensate`."""
-        return float(robust_compensate(self.params, self.state, float(w_meas), float(w_meas), float(w_ref)))
-
-    def plausible(self, est: FrictionEstimate) -> bool:
-        """The plausibility test of the class Notes, item (5): range checks and lag consistency."""
-        return bool(robust_plausible(self.params, self.state, est.J, est.tau, est.J_alt, est.Fc, est.Fs,
-                                     est.sigma))
-
-    @property
-    def active(self) -> bool:
-        """True once the feedforward acts: a plausible estimate, or the provisional start map, is in use."""
-        return bool(self.state[_HAS])
-
-    @property
-    def theta(self) -> np.ndarray:
-        """The estimator's current parameter vector."""
-        return self.estimator.theta
-
-    @property
-    def n_rejected(self) -> int:
-        """Samples rejected by the estimator (non-finite or outliers)."""
-        return self.estimator.n_rejected
-
-    def info(self) -> dict:
-        """Counters and settings of the estimator and the plausibility tests (for run reports)."""
-        e = self.estimator
-        return {"estimator": "sliding", "n_rejected": e.n_rejected, "n_implausible": self.n_implausible,
-                "n_undetermined": self.n_undetermined, "n_lag_held": self.n_lag_held, "n_updates": e.n_updates,
-                "n_gated": e.n_gated,
-                "n_projected": e.rls.n_projected, "lam": e.rls.lam, "names": list(e.names),
-                "raw_estimate": e.estimate.to_dict(), "noise_estimate": e.noise_std}
-
-    def observe(self, u: float, w: float) -> bool:
-        """Feed one controller-period sample to the estimator; refresh the estimate in use.
-
-        Parameters
-        ----------
-        u : float
-            Torque applied in this period (N·m).
-        w : float
-            Measured velocity (rad/s).
-
-        Returns
-        -------
-        bool
-            False if the sample was rejected (state unchanged, counted).
-
-        Notes
-        -----
-        An estimate that passes the range checks but whose two lag estimates
-        disagree updates the friction levels (``Fc, Fs, sigma``) and keeps the
-        lag ``tau`` in use (counted in ``n_lag_held``); one that fails the range
-        checks is not used at all (``n_implausible``).
-        """
-        n_rej = self.estimator.n_rejected
-        robust_observe(self.params, self.state, float(u), float(w), self._theta_scratch())
-        return self.estimator.n_rejected == n_rej
-
-    def _theta_scratch(self) -> np.ndarray:
-        t = getattr(self, "_scratch", None)
-        if t is None:
-            t = self._scratch = np.empty(self.n_theta)
-        return t

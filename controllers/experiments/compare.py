@@ -7,7 +7,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from tqdm.auto import tqdm
 
-from adaptive_ff.compensation.feedforward import FeedforwardStart, project_estimate
+from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
+from adaptive_ff.compensation.feedforward import project_estimate
 from adaptive_ff.identification.ls import LSResult, fit_ls
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from adaptive_ff.compensation.sliding_estimator import SlidingFit, fit_sliding
@@ -268,7 +269,7 @@ class CompareOptions:
         instead of zero friction.
     adaptive_start : bool
         Provisional start of the adaptive feedforward (``adaptive``, ``adaptive-dob``;
-        :class:`adaptive_ff.compensation.feedforward.FeedforwardStart`), default True: from the first period
+        :class:`adaptive_ff.compensation.adaptive_feedforward.FeedforwardStart`), default True: from the first period
         the pre-fit's static map through the lag identified in the identification run (the offline fit of the
         Sec. IV-A experiment, run for this even without ``fixed``), evaluated as ``ff_input`` says, until the
         estimator's first trusted estimate. When that fit is rejected (implausible levels) the lag is unknown:
@@ -635,7 +636,7 @@ def _adaptive_start(fit, J: float, design: PIDesign, identified: FrictionEstimat
     :func:`_offline_fit`, Sec. IV-A), and the map is then evaluated as the feedforward's ``ff_input`` says (the
     same structure as after the hand-over). Without an accepted fit the lag is unknown: ``1/crossover`` (the
     loop's own time constant) at the reference, where a wrong lag cannot form a stick-slip cycle with the joint
-    (:class:`adaptive_ff.compensation.feedforward.FeedforwardStart`).
+    (:class:`adaptive_ff.compensation.adaptive_feedforward.FeedforwardStart`).
     """
     if identified is not None:
         tau, where = identified.tau, ff_input

@@ -22,8 +22,8 @@ torque, so the inverse-dynamics regression is unchanged).
 Compensator component (``KIND = 7``): the parts' arrays are slices of the
 composite's, and the compiled kernels :func:`adob_compensate` and
 :func:`adob_observe` call the parts' compiled steps
-(:func:`adaptive_ff.compensation.feedforward.robust_compensate`,
-:func:`~adaptive_ff.compensation.feedforward.robust_observe`,
+(:func:`adaptive_ff.compensation.adaptive_feedforward.robust_compensate`,
+:func:`~adaptive_ff.compensation.adaptive_feedforward.robust_observe`,
 :func:`controllers.peers.dob.dob_compensate`,
 :func:`~controllers.peers.dob.dob_observe`) on them. Layouts::
 
@@ -37,7 +37,7 @@ import math
 
 import numpy as np
 
-from adaptive_ff.compensation.feedforward import RobustAdaptiveFeedforward, robust_compensate, robust_observe
+from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward, robust_compensate, robust_observe
 from controllers.peers.dob import DisturbanceObserver, dob_compensate, dob_observe
 from plant.component import Component
 from plant.errors import ParameterError, check_nonnegative
@@ -69,7 +69,7 @@ def adob_compensate(par, st, w_ctrl, w_meas, w_ref):
     -------
     float
         ``u_ff + d_hat`` clipped to ``±u_max``, with ``u_ff`` of
-        :func:`adaptive_ff.compensation.feedforward.robust_compensate` (0 before switch-on) and ``d_hat``
+        :func:`adaptive_ff.compensation.adaptive_feedforward.robust_compensate` (0 before switch-on) and ``d_hat``
         of :func:`controllers.peers.dob.dob_compensate` (module docstring).
     """
     pd = np.int64(par[_P_PDOB])
@@ -100,7 +100,7 @@ def adob_observe(par, st, u, w_meas, theta_out):
     Returns
     -------
     bool
-        True after an RLS update of the estimator (:func:`adaptive_ff.compensation.feedforward.robust_observe`).
+        True after an RLS update of the estimator (:func:`adaptive_ff.compensation.adaptive_feedforward.robust_observe`).
     """
     pd = np.int64(par[_P_PDOB])
     sd = np.int64(par[_P_SDOB])

@@ -27,8 +27,9 @@ import math
 from dataclasses import dataclass, replace
 
 from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
-from adaptive_ff.compensation.feedforward import (FeedforwardStart, FrictionFeedforward, LoopModel,
-                                                  RobustAdaptiveFeedforward, SignObserver)
+from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart, RobustAdaptiveFeedforward
+from adaptive_ff.compensation.feedforward import FrictionFeedforward
+from adaptive_ff.compensation.velocity_input import LoopModel, SignObserver
 from adaptive_ff.compensation.gate import OutlierGate
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
@@ -111,13 +112,13 @@ class ModeOptions:
         Feedforward settings (see :class:`adaptive_ff.FrictionFeedforward`).
     stick_input : {"model", "reference"}
         Velocity the measured-velocity feedforward (``fixed``, ``adaptive``, ``adaptive-dob``) uses while the
-        joint is detected as stuck: the nominal loop's (:class:`adaptive_ff.compensation.feedforward.LoopModel`
+        joint is detected as stuck: the nominal loop's (:class:`adaptive_ff.compensation.velocity_input.LoopModel`
         of ``Kp``, ``Ki`` and the design inertia, driven by the reference; default) or the reference itself.
         Measured on ``paper``: RMS deviation from the frictionless run of ``adaptive`` over the second half
         0.0024 rad/s with the model, 0.0036 with the reference (docs/benchmarks/variants.md).
     sign_input : {"observer", "measured"}
         Sign of the friction map of the measured-velocity feedforward (``fixed``, ``adaptive``, ``adaptive-dob``)
-        inside ``±stick_band``: a :class:`adaptive_ff.compensation.feedforward.SignObserver` of the design inertia
+        inside ``±stick_band``: a :class:`adaptive_ff.compensation.velocity_input.SignObserver` of the design inertia
         (default) or the measurement's own sign.
     observer_bandwidth : float or None
         Bandwidth of that observer (rad/s); default None: ``5*Kp/J_design``, five times the loop's crossover

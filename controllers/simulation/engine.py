@@ -35,7 +35,8 @@ import numba
 import numpy as np
 
 from adaptive_ff.compensation.eq4_feedforward import eq4_compensate, eq4_observe
-from adaptive_ff.compensation.feedforward import ff_compensate, ff_observe, robust_compensate, robust_observe
+from adaptive_ff.compensation.adaptive_feedforward import robust_compensate, robust_observe
+from adaptive_ff.compensation.feedforward import ff_compensate, ff_observe
 from adaptive_ff.compensation.gate import gate_check
 from controllers.design.pi import pi_step
 from controllers.peers.adaptive_dob import adob_compensate, adob_observe

@@ -1,0 +1,539 @@
+"""Adaptive friction feedforward (online RLS, the paper's future work): the recommended component for a running machine.
+
+:class:`RobustAdaptiveFeedforward` (compensator ``KIND`` 3) puts the estimates of a
+:class:`~adaptive_ff.compensation.sliding_estimator.SlidingFrictionEstimator` (sliding-regime inverse-dynamics RLS
+with directional forgetting, projection and an outlier gate, see :mod:`adaptive_ff.compensation.sliding_estimator`)
+into the fixed feedforward of :mod:`adaptive_ff.compensation.feedforward`, each only after the warm-up and the
+plausibility tests, faded in after switch-on; optionally a provisional start map, :class:`FeedforwardStart`, acts
+until its first trusted estimate.
+
+Its arrays begin with the fixed feedforward's (layout: :mod:`adaptive_ff.compensation.ff_layout`), followed by its
+own settings and counters, the parameter vector in use and the estimator's arrays. The compiled kernels
+:func:`robust_compensate` and :func:`robust_observe` (the closed-loop protocol) and :func:`robust_plausible` (the
+plausibility test) are the one implementation, called by the class's methods and by the closed-loop engine. The
+paper's eq. 4 RLS feedforward, kept as a baseline, is :mod:`adaptive_ff.compensation.eq4_feedforward`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from adaptive_ff.compensation.feedforward import FrictionFeedforward, ff_at, ff_set_estimate, ff_step
+from adaptive_ff.compensation.ff_layout import DT, FF_NPAR, FF_NSTATE, FFMAX, HAS, TAU, UOUT
+from adaptive_ff.compensation.sliding_estimator import (SlidingFrictionEstimator, estimate_from_theta,
+                                                       sliding_config, sliding_mse, sliding_observe, sliding_rls,
+                                                       sliding_sizes, sliding_updated)
+from adaptive_ff.compensation.velocity_input import (LoopModel, SignObserver, loop_model_step, sign_observer_step,
+                                                    signed_measurement)
+from adaptive_ff.identification.regression import FrictionEstimate
+from adaptive_ff.identification.rls import rls_P, rls_n_updates, rls_theta
+from plant.errors import ParameterError, check_nonnegative, check_positive
+from plant.jit import kernel
+
+__all__ = ["RobustAdaptiveFeedforward", "FeedforwardStart", "robust_compensate", "robust_observe"]
+
+
+# RobustAdaptiveFeedforward arrays. params: the feedforward's, own settings, offsets, the estimator's;
+# state: the feedforward's, own slots, the parameter vector in use (p), the estimator's.
+# (start gain and start input: the provisional start, see FeedforwardStart; the state flag _PROV is 1 while it
+# is in use)
+(_WARMUP, _FADE, _JLO, _JHI, _TAUMAX, _CONSIST, _P, _PO_EST, _SO_FTH, _SO_EST, _SGAIN, _SREF, _LAGZ, _RELSD,
+ _LAGCAP) = range(FF_NPAR, FF_NPAR + 15)
+_GAIN, _NIMPL, _NLAG, _HELD, _PROV, _NUND = range(FF_NSTATE, FF_NSTATE + 6)
+_RB_NPAR, _RB_NSTATE = FF_NPAR + 15, FF_NSTATE + 6
+
+
+@kernel(inline="always")
+def robust_compensate(par, st, w_ctrl, w_meas, w_ref):
+    """Compensator protocol (``KIND`` 3): the feedforward of the estimate in use, faded in; 0 before switch-on.
+
+    During the provisional start (:class:`FeedforwardStart`) the start map times the start gain, evaluated
+    at the reference (start input ``reference``) or as ``ff_input`` says. The loop model (if any) advances
+    every period, also before switch-on."""
+    out = _robust_output(par, st, w_ctrl, w_ref)
+    st[UOUT] = out
+    return out
+
+
+@kernel(inline="always")
+def _robust_output(par, st, w_ctrl, w_ref):
+    """The torque of :func:`robust_compensate` (N·m)."""
+    w_stuck = loop_model_step(par, st, w_ctrl, w_ref)
+    if st[HAS] == 0.0:
+        signed_measurement(par, st, w_ctrl)  # the sign observer follows the joint before switch-on too
+        return 0.0
+    if st[_PROV] > 0.0:
+        if par[_SREF] > 0.0:
+            signed_measurement(par, st, w_ctrl)
+            return ff_step(par, st, w_ref, w_ref, False) * par[_SGAIN]
+        return ff_at(par, st, w_ctrl, w_stuck, w_ref) * par[_SGAIN]
+    out = ff_at(par, st, w_ctrl, w_stuck, w_ref)
+    if st[_GAIN] < 1.0:
+        st[_GAIN] = min(st[_GAIN] + par[_FADE], 1.0)
+        out = out * st[_GAIN]
+    return out
+
+
+@kernel
+def _levels_plausible(par, eJ, etau, eFc, eFs, esig):
+    """Range checks of an estimate (class Notes, item 5)."""
+    ffmax = par[FFMAX]
+    return (math.isfinite(eJ) and math.isfinite(etau) and math.isfinite(esig) and math.isfinite(eFc)
+            and math.isfinite(eFs) and par[_JLO] < eJ < par[_JHI] and 0.0 <= etau <= par[_TAUMAX]
+            and esig >= 0.0 and 0.0 <= eFc <= ffmax and 0.0 <= eFs <= ffmax)
+
+
+@kernel
+def robust_plausible(par, st, eJ, etau, eJalt, eFc, eFs, esig):
+    """The plausibility test of an estimate against the estimator in ``(par, st)``: ranges and lag consistency."""
+    if not _levels_plausible(par, eJ, etau, eFc, eFs, esig):
+        return False
+    ep = par[np.int64(par[_PO_EST]):]
+    es = st[np.int64(par[_SO_EST]):]
+    return _lag_consistent(par, sliding_rls(ep, es), eJ, etau, eJalt, sliding_mse(es), par[DT],
+                           sliding_config(ep)[2])
+
+
+@kernel
+def _lag_consistent(par, rls, eJ, etau, eJalt, e2, dt, has_lag):
+    """The two lag estimates (``tau`` and the ``J*tau`` column) agree (see RobustAdaptiveFeedforward Notes)."""
+    if not (etau >= 2.0 * dt and math.isfinite(eJalt)):
+        return True
+    diff = abs(eJalt * etau - eJ * etau)
+    if diff <= par[_CONSIST] * eJ * etau:
+        return True
+    if not has_lag:
+        return False
+    # delta method on theta_cov[:3, :3] = e2 * P[:3, :3] with the gradient (-tau, 1, -J)
+    g0 = -etau
+    g2 = -eJ
+    v0 = g0 * (e2 * rls_P(rls, 0, 0)) + 1.0 * (e2 * rls_P(rls, 1, 0)) + g2 * (e2 * rls_P(rls, 2, 0))
+    v1 = g0 * (e2 * rls_P(rls, 0, 1)) + 1.0 * (e2 * rls_P(rls, 1, 1)) + g2 * (e2 * rls_P(rls, 2, 1))
+    v2 = g0 * (e2 * rls_P(rls, 0, 2)) + 1.0 * (e2 * rls_P(rls, 1, 2)) + g2 * (e2 * rls_P(rls, 2, 2))
+    var = v0 * g0 + v1 * 1.0 + v2 * g2
+    return diff <= 3.0 * math.sqrt(max(var, 0.0))
+
+
+@kernel
+def robust_observe(par, st, u, w_meas, theta_out):
+    """Compensator protocol (``KIND`` 3): one sample into the estimator, then the plausibility tests and the
+    estimate in use (see :class:`RobustAdaptiveFeedforward`). Returns True after an RLS update (theta written
+    into ``theta_out``). The sign observer (if any) takes the applied torque first."""
+    sign_observer_step(par, st, u)
+    p = np.int64(par[_P])
+    ep = par[np.int64(par[_PO_EST]):]
+    es = st[np.int64(par[_SO_EST]):]
+    sliding_observe(ep, es, u, w_meas)
+    if not sliding_updated(es):
+        return False
+    rls = sliding_rls(ep, es)
+    for i in range(p):
+        theta_out[i] = rls_theta(rls, i)
+    if rls_n_updates(rls) < par[_WARMUP]:
+        return True
+    eVs, edelta, lag = sliding_config(ep)
+    eJ = rls_theta(rls, 0)
+    if lag:
+        etau = rls_theta(rls, 2)
+        eJalt = rls_theta(rls, 1) / etau if etau > 0.0 else np.nan
+        iFc = 3
+    else:
+        etau = 0.0
+        eJalt = np.nan
+        iFc = 1
+    eFc = rls_theta(rls, iFc)
+    eFs = rls_theta(rls, iFc + 1)
+    esig = rls_theta(rls, iFc + 2)
+    if not _levels_plausible(par, eJ, etau, eFc, eFs, esig):
+        st[_NIMPL] += 1.0
+        return True
+    e2 = sliding_mse(es)
+    if not math.sqrt(max(e2 * rls_P(rls, iFc, iFc), 0.0)) <= par[_RELSD] * max(eFc, eFs):
+        st[_NUND] += 1.0  # Fc not determined yet (e.g. one direction of motion only: Fc and the offset agree)
+        return True
+    if _lag_consistent(par, rls, eJ, etau, eJalt, e2, par[DT], lag):
+        st[_HELD] = 0.0
+        if lag:  # the upper confidence bound of the lag, at most lag_margin_max*tau above it (class Notes)
+            m = min(par[_LAGZ] * math.sqrt(max(e2 * rls_P(rls, 2, 2), 0.0)), par[_LAGCAP] * etau)
+            etau = min(etau + m, par[_TAUMAX])
+    elif st[HAS] > 0.0 and st[_PROV] == 0.0:
+        st[_NLAG] += 1.0
+        etau = st[TAU]
+        st[_HELD] = 1.0
+    else:
+        st[_NIMPL] += 1.0
+        return True
+    if st[_PROV] > 0.0:  # hand-over from the provisional start: fade from the start gain to 1
+        st[_PROV] = 0.0
+        st[_GAIN] = par[_SGAIN]
+    ff_set_estimate(par, st, eFc, eFs, eVs, edelta, esig, etau, 1.0)
+    o = np.int64(par[_SO_FTH])
+    for i in range(p):
+        st[o + i] = rls_theta(rls, i)
+    return True
+
+
+@dataclass(frozen=True)
+class FeedforwardStart:
+    """Provisional start of :class:`RobustAdaptiveFeedforward`: a prior friction map in use from the first
+    period until the estimator's first trusted estimate.
+
+    Parameters
+    ----------
+    estimate : FrictionEstimate
+        The prior map: ``Fc``, ``Fs`` (N·m), ``sigma`` (N·m·s/rad), ``Vs`` (rad/s) and ``delta`` of eq. 3 (e.g.
+        the quasi-static Stribeck pre-fit, Sec. V-C), and the lag ``tau`` (s) its output is filtered
+        through (eq. 1). ``Vs``/``delta`` None: the estimator's. ``J`` and ``offset`` are not used.
+    gain : float
+        Factor on the start map, in (0, 1], default 1. At the hand-over the output fades from ``gain`` to
+        1 over the feedforward's ``fade_in``.
+    ff_input : {"reference", "measured"}
+        Velocity the start map is evaluated at: the reference (default) or as the feedforward's
+        ``ff_input`` says. At the reference the start map is an exogenous input, not a feedback: a wrong
+        lag or level cannot form a stick-slip cycle with the joint (a friction map fed back from the
+        measured velocity through a lag shorter than the joint's kicks the joint by about ``2*Fs*dtau/J``
+        at every reversal).
+
+    Raises
+    ------
+    ParameterError
+        ``gain`` outside (0, 1], unknown ``ff_input``, or a non-finite or negative level or lag.
+    """
+
+    estimate: FrictionEstimate
+    gain: float = 1.0
+    ff_input: str = "reference"
+
+    def __post_init__(self):
+        if not isinstance(self.estimate, FrictionEstimate):
+            raise ParameterError(f"estimate must be a FrictionEstimate, got {type(self.estimate).__name__}")
+        e = self.estimate
+        for name in ("Fc", "Fs", "sigma", "tau"):
+            v = getattr(e, name)
+            if not (math.isfinite(v) and v >= 0.0):
+                raise ParameterError(f"start estimate: {name} must be finite and >= 0, got {v!r}")
+        if not (0.0 < self.gain <= 1.0):
+            raise ParameterError(f"start gain must be in (0, 1], got {self.gain!r}")
+        if self.ff_input not in ("reference", "measured"):
+            raise ParameterError(f"start ff_input must be 'reference' or 'measured', got {self.ff_input!r}")
+
+
+class RobustAdaptiveFeedforward(FrictionFeedforward):
+    """Adaptive friction feedforward for a running machine: safe online estimation plus the lagged feedforward.
+
+    Parameters
+    ----------
+    estimator : SlidingFrictionEstimator
+        The online estimator (sliding-regime inverse-dynamics RLS with
+        directional forgetting, parameter projection and an outlier gate);
+        :meth:`observe` feeds it.
+    dt : float, keyword-only
+        Call period of :meth:`step` (s), normally the estimator's ``Tc``.
+    lag : bool, keyword-only
+        Filter the feedforward through the estimated lag ``tau`` (eq. 1);
+        default True. Without the lag a static map at the measured velocity
+        jumps by ``2*Fs`` at every reversal while the real friction takes
+        ``tau`` to follow (measured: docs/benchmarks/compensation.md).
+    ff_max : float, keyword-only
+        Bound on |feedforward| (N·m); estimates with ``Fc`` or ``Fs`` above it
+        are implausible. Default inf.
+    sign_width : float, keyword-only
+        Sign treatment near zero velocity, see :class:`FrictionFeedforward`.
+    warmup : int, keyword-only
+        RLS updates in the sliding regime before the feedforward is switched
+        on (excitation gate), default 200 (2 s of sliding at Ts = 10 ms).
+    fade_in : float, keyword-only
+        After switch-on the output is ramped from 0 to full over this time
+        (s), so that the PI integrator, which carried the friction so far,
+        unloads smoothly (bumpless transfer); default 1 s, 0 = step.
+    J_range : tuple of float, keyword-only
+        Plausible inertia interval (kg·m²); an estimate outside it is not
+        used. Default ``(0, inf)``.
+    tau_max : float, keyword-only
+        Largest plausible lag (s), default 1.
+    consistency : float, keyword-only
+        The lag is identified twice (``tau`` and ``J*tau``): the lag of an
+        estimate whose two values differ by more than ``consistency*J*tau``
+        and by more than three standard deviations (delta method on
+        :attr:`SlidingFrictionEstimator.theta_cov`) is not used (for
+        ``tau >= 2*dt``); default 0.5.
+    lag_margin : float, keyword-only
+        The lag in use is the estimated ``tau`` plus this many of its
+        standard errors (``sqrt`` of the ``tau`` diagonal element of
+        :attr:`SlidingFrictionEstimator.theta_cov`), at most
+        ``lag_margin_max*tau`` more, clipped to ``tau_max``: a one-sided
+        upper confidence bound (see Notes). Default 1; 0: the estimate
+        itself.
+    lag_margin_max : float, keyword-only
+        Largest margin as a fraction of the estimated lag (inf: no cap),
+        default 0.05: the cost of a lag error is lopsided only for small
+        errors (a lag far too long under-compensates every reversal), and
+        ``theta_cov`` of a weakly excited lag can exceed the lag itself.
+    max_rel_stderr : float, keyword-only
+        An estimate is used only once ``Fc`` is determined: its standard
+        error (from :attr:`SlidingFrictionEstimator.theta_cov`) at most this
+        fraction of ``max(Fc, Fs)``. Default 0.05; inf: no test.
+    stick_band, stick_samples : keyword-only
+        Stick detection, see :class:`FrictionFeedforward`.
+    ff_input, w_max, loop_model, sign_observer : keyword-only
+        See :class:`FrictionFeedforward`.
+    start : FeedforwardStart or None, keyword-only
+        Provisional start: the prior map acts from the first period (times its gain) until the first
+        estimate that passes warm-up and the plausibility tests, then that estimate takes over and the
+        output fades from the start gain to 1 over ``fade_in``. Default None: no feedforward before
+        switch-on.
+
+    Attributes
+    ----------
+    estimator : SlidingFrictionEstimator
+    n_implausible : int
+        Estimates (after warm-up) that failed the plausibility test; the
+        feedforward kept the previous one.
+    n_lag_held : int
+        Estimates whose friction levels were used with the previous lag
+        (the two lag estimates disagreed), see :meth:`observe`.
+    n_undetermined : int
+        Plausible estimates not used because ``Fc`` was not determined yet
+        (``max_rel_stderr``).
+    active : bool
+        Whether the feedforward is switched on.
+
+    Raises
+    ------
+    ParameterError
+        Invalid settings (the message quotes the value).
+
+    Notes
+    -----
+    Safety chain: (1) samples with non-finite values or velocity outliers are
+    rejected by the estimator and leave it unchanged; (2) rows outside the
+    sliding regime are not used (excitation/validity gate); (3) the
+    covariance bound (or directional forgetting) of the estimator's RLS keeps
+    ``P`` bounded when the motion does not excite (windup protection);
+    (4) ``theta`` is projected onto physical bounds after every update;
+    (5) the estimate is used only after ``warmup`` updates and only if
+    plausible (finite, ``J`` in ``J_range``, ``tau <= tau_max``,
+    ``Fc, Fs <= ff_max``), determined (the standard error of ``Fc`` at most
+    ``max_rel_stderr*max(Fc, Fs)``) and with consistent lag estimates,
+    otherwise the last usable one is held (an inconsistent lag alone keeps
+    the previous ``tau`` and takes the new friction levels); (6) the output
+    fades in after switch-on and is clipped to ``±ff_max``.
+
+    The determinacy test of (5) matters after motion in one direction only:
+    there the Coulomb column ``sgn(w)`` equals the offset column, the RLS
+    fits ``Fc + offset`` and not ``Fc``, and the map (which has no offset)
+    would over-compensate the first motion in the other direction by the
+    offset; the covariance says so (the standard error of ``Fc`` stays large
+    until both directions are seen).
+
+    The lag in use is an upper confidence bound, not the point estimate
+    (a cautious rather than a certainty-equivalence use of the estimate:
+    Åström & Wittenmark, *Adaptive Control*, 2nd ed., 1995, Ch. 7), because
+    the two signs of a small lag error do not cost the same. A feedforward
+    at the measured velocity through a lag shorter than the joint's reverses
+    before the friction does and over-compensates at every reversal, which
+    pushes the joint on in the new direction and is fed back through the
+    measurement (over-compensation of friction drives the loop towards
+    hunting: Armstrong-Hélouvry, Dupont & Canudas de Wit, *Automatica*
+    30(7), 1994); a slightly longer lag under-compensates for a moment, a
+    disturbance the PI removes. A lag far too long under-compensates every
+    reversal and costs as well, hence ``lag_margin_max``. The measured cost
+    of both signs is on docs/benchmarks/compensation.md.
+
+    Which velocity the feedforward is evaluated at (reference or measured) is the caller's choice; measured on
+    the ``paper`` preset the measured velocity is the better one (the joint
+    lags the reference at reversals), see ``benchmarks/compensation.py`` and
+    docs/benchmarks/compensation.md.
+    """
+
+    KIND = 3
+    MODE = "adaptive"
+
+    def __init__(self, estimator: SlidingFrictionEstimator, *, dt: float, lag: bool = True,
+                 ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0, stick_samples: int = 10,
+                 warmup: int = 200, fade_in: float = 1.0, J_range: tuple = (0.0, math.inf), tau_max: float = 1.0,
+                 consistency: float = 0.5, lag_margin: float = 1.0, lag_margin_max: float = 0.05,
+                 max_rel_stderr: float = 0.05,
+                 ff_input: str = "measured", w_max: float = math.inf, start: FeedforwardStart | None = None,
+                 loop_model: LoopModel | None = None, sign_observer: SignObserver | None = None):
+        if not isinstance(estimator, SlidingFrictionEstimator):
+            raise TypeError(f"estimator must be a SlidingFrictionEstimator, got {type(estimator).__name__}")
+        ff = FrictionFeedforward(None, dt=dt, lag=lag, ff_max=ff_max, sign_width=sign_width,
+                                 stick_band=stick_band, stick_samples=stick_samples, ff_input=ff_input, w_max=w_max,
+                                 loop_model=loop_model, sign_observer=sign_observer)
+        self.loop_model = loop_model
+        self.sign_observer = sign_observer
+        if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
+            raise ParameterError(f"warmup must be an integer >= 0, got {warmup!r}")
+        try:
+            J_lo, J_hi = (float(x) for x in J_range)
+        except (TypeError, ValueError):
+            raise ParameterError(f"J_range must be a pair (low, high), got {J_range!r}") from None
+        if not (0.0 <= J_lo < J_hi):
+            raise ParameterError(f"J_range must satisfy 0 <= low < high, got {J_range!r}")
+        tau_max = check_positive("tau_max", tau_max)
+        consistency = check_positive("consistency", consistency)
+        lag_margin = check_nonnegative("lag_margin", lag_margin)
+        lag_margin_max = (math.inf if isinstance(lag_margin_max, (int, float)) and lag_margin_max == math.inf
+                          else check_nonnegative("lag_margin_max", lag_margin_max))  # inf: no cap
+        try:
+            rel = math.nan if isinstance(max_rel_stderr, bool) else float(max_rel_stderr)
+        except (TypeError, ValueError):
+            rel = math.nan
+        if not rel > 0.0:  # inf allowed: no determinacy test
+            raise ParameterError(f"max_rel_stderr must be > 0 (inf: no test), got {max_rel_stderr!r}")
+        max_rel_stderr = rel
+        fade_in = check_nonnegative("fade_in", fade_in)
+        self.estimator = estimator
+        p = len(estimator.names)
+        self.n_theta = p
+        enp, ens = sliding_sizes(p)
+        so_fth = _RB_NSTATE
+        so_est = so_fth + p
+        self.params = np.zeros(_RB_NPAR + enp)
+        self.state = np.zeros(so_est + ens)
+        self.params[:FF_NPAR] = ff.params
+        self.state[:FF_NSTATE] = ff.state
+        if start is not None and not isinstance(start, FeedforwardStart):
+            raise ParameterError(f"start must be a FeedforwardStart or None, got {type(start).__name__}")
+        self.params[FF_NPAR:_RB_NPAR] = (float(warmup), 1.0 if fade_in == 0.0 else dt / fade_in, J_lo, J_hi,
+                                         tau_max, consistency, float(p), float(_RB_NPAR), float(so_fth),
+                                         float(so_est), 1.0 if start is None else start.gain,
+                                         float(start is not None and start.ff_input == "reference"), lag_margin,
+                                         max_rel_stderr, lag_margin_max)
+        self.state[so_fth:so_est] = np.nan
+        self.estimate = None
+        self.start = start
+        if start is not None:
+            e = start.estimate
+            ff_set_estimate(self.params, self.state, e.Fc, e.Fs, estimator.Vs if e.Vs is None else e.Vs,
+                            estimator.delta if e.delta is None else e.delta, e.sigma, e.tau, 1.0)
+            self.state[_PROV] = 1.0
+            self.state[_GAIN] = 1.0
+        self._attached()
+
+    def _attached(self) -> None:
+        po, so = int(self.params[_PO_EST]), int(self.params[_SO_EST])
+        self.estimator.attach(self.params[po:], self.state[so:])
+
+    warmup = property(lambda self: int(self.params[_WARMUP]), doc="RLS updates before switch-on.")
+    J_range = property(lambda self: (float(self.params[_JLO]), float(self.params[_JHI])),
+                       doc="Plausible inertia interval (kg·m²).")
+    tau_max = property(lambda self: float(self.params[_TAUMAX]), doc="Largest plausible lag (s).")
+    consistency = property(lambda self: float(self.params[_CONSIST]), doc="Relative lag-consistency tolerance.")
+    n_implausible = property(lambda self: int(self.state[_NIMPL]), doc="Estimates that failed the plausibility test.")
+    n_lag_held = property(lambda self: int(self.state[_NLAG]), doc="Estimates used with the previous lag.")
+    n_undetermined = property(lambda self: int(self.state[_NUND]),
+                              doc="Plausible estimates not used because ``Fc`` was not determined yet.")
+    lag_margin = property(lambda self: float(self.params[_LAGZ]),
+                          doc="Standard errors added to the estimated lag in use.")
+    lag_margin_max = property(lambda self: float(self.params[_LAGCAP]),
+                              doc="Largest lag margin, as a fraction of the estimated lag.")
+    max_rel_stderr = property(lambda self: float(self.params[_RELSD]),
+                              doc="Largest standard error of ``Fc`` in use, relative to ``max(Fc, Fs)``.")
+
+    provisional = property(lambda self: bool(self.state[_PROV]),
+                           doc="Whether the provisional start map (``start``) is in use.")
+
+    @property
+    def estimate(self) -> FrictionEstimate | None:
+        """The estimator's estimate in use (None before switch-on and during the provisional start), with the lag
+        in use: the estimated lag plus ``lag_margin`` standard errors, or the previous lag where the lag estimates
+        disagreed (then ``J_alt`` is NaN)."""
+        if not self.state[HAS] or self.state[_PROV]:
+            return None
+        o = int(self.params[_SO_FTH])
+        e = estimate_from_theta(self.estimator.names, self.state[o:o + self.n_theta], self.estimator.Vs,
+                                self.estimator.delta)
+        return replace(e, tau=float(self.state[TAU]), J_alt=float("nan") if self.state[_HELD] else e.J_alt)
+
+    @estimate.setter
+    def estimate(self, value) -> None:
+        if value is not None:
+            raise ParameterError("the estimate of a RobustAdaptiveFeedforward is set by its estimator only")
+
+    def step(self, w: float, w_ref: float | None = None) -> float:
+        """Advance one period; return the bounded feedforward (N·m), 0 before switch-on.
+
+        See :meth:`FrictionFeedforward.step`; after switch-on the output fades in over ``fade_in``. During the
+        provisional start the start map times its gain, at ``w_ref`` (when given) for a start at the reference.
+        """
+        if not self.state[HAS]:
+            return 0.0
+        if self.state[_PROV]:  # the start map, at the reference when the start says so (as in compensate)
+            if self.params[_SREF] and w_ref is not None:
+                return FrictionFeedforward.step(self, w_ref) * float(self.params[_SGAIN])
+            return FrictionFeedforward.step(self, w, w_ref) * float(self.params[_SGAIN])
+        out = FrictionFeedforward.step(self, w, w_ref)
+        if self.state[_GAIN] < 1.0:
+            self.state[_GAIN] = min(self.state[_GAIN] + self.params[_FADE], 1.0)
+            return out * float(self.state[_GAIN])
+        return out
+
+    def compensate(self, w_meas: float, w_ref: float) -> float:
+        """Compensator protocol: the faded-in feedforward for this period (N·m), see :func:`robust_compensate`."""
+        return float(robust_compensate(self.params, self.state, float(w_meas), float(w_meas), float(w_ref)))
+
+    def plausible(self, est: FrictionEstimate) -> bool:
+        """The plausibility test of the class Notes, item (5): range checks and lag consistency."""
+        return bool(robust_plausible(self.params, self.state, est.J, est.tau, est.J_alt, est.Fc, est.Fs,
+                                     est.sigma))
+
+    @property
+    def active(self) -> bool:
+        """True once the feedforward acts: a plausible estimate, or the provisional start map, is in use."""
+        return bool(self.state[HAS])
+
+    @property
+    def theta(self) -> np.ndarray:
+        """The estimator's current parameter vector."""
+        return self.estimator.theta
+
+    @property
+    def n_rejected(self) -> int:
+        """Samples rejected by the estimator (non-finite or outliers)."""
+        return self.estimator.n_rejected
+
+    def info(self) -> dict:
+        """Counters and settings of the estimator and the plausibility tests (for run reports)."""
+        e = self.estimator
+        return {"estimator": "sliding", "n_rejected": e.n_rejected, "n_implausible": self.n_implausible,
+                "n_undetermined": self.n_undetermined, "n_lag_held": self.n_lag_held, "n_updates": e.n_updates,
+                "n_gated": e.n_gated,
+                "n_projected": e.rls.n_projected, "lam": e.rls.lam, "names": list(e.names),
+                "raw_estimate": e.estimate.to_dict(), "noise_estimate": e.noise_std}
+
+    def observe(self, u: float, w: float) -> bool:
+        """Feed one controller-period sample to the estimator; refresh the estimate in use.
+
+        Parameters
+        ----------
+        u : float
+            Torque applied in this period (N·m).
+        w : float
+            Measured velocity (rad/s).
+
+        Returns
+        -------
+        bool
+            False if the sample was rejected (state unchanged, counted).
+
+        Notes
+        -----
+        An estimate that passes the range checks but whose two lag estimates
+        disagree updates the friction levels (``Fc, Fs, sigma``) and keeps the
+        lag ``tau`` in use (counted in ``n_lag_held``); one that fails the range
+        checks is not used at all (``n_implausible``).
+        """
+        n_rej = self.estimator.n_rejected
+        robust_observe(self.params, self.state, float(u), float(w), self._theta_scratch())
+        return self.estimator.n_rejected == n_rej
+
+    def _theta_scratch(self) -> np.ndarray:
+        t = getattr(self, "_scratch", None)
+        if t is None:
+            t = self._scratch = np.empty(self.n_theta)
+        return t
