@@ -22,7 +22,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from adaptive_ff.compensation.feedforward import FrictionFeedforward, ff_at, ff_set_estimate, ff_step
-from adaptive_ff.compensation.ff_layout import DT, FF_NPAR, FF_NSTATE, FFMAX, HAS, TAU, UOUT
+from adaptive_ff.compensation.ff_layout import FF_NPAR, FF_NSTATE, P_DT, P_FFMAX, S_HAS, S_TAU, S_UOUT
 from adaptive_ff.compensation.sliding_estimator import (SlidingFrictionEstimator, estimate_from_theta,
                                                        sliding_config, sliding_mse, sliding_observe, sliding_rls,
                                                        sliding_sizes, sliding_updated)
@@ -54,7 +54,7 @@ def robust_compensate(par, st, w_ctrl, w_meas, w_ref):
     at the reference (start input ``reference``) or as ``ff_input`` says. The loop model (if any) advances
     every period, also before switch-on."""
     out = _robust_output(par, st, w_ctrl, w_ref)
-    st[UOUT] = out
+    st[S_UOUT] = out
     return out
 
 
@@ -62,7 +62,7 @@ def robust_compensate(par, st, w_ctrl, w_meas, w_ref):
 def _robust_output(par, st, w_ctrl, w_ref):
     """The torque of :func:`robust_compensate` (N·m)."""
     w_stuck = loop_model_step(par, st, w_ctrl, w_ref)
-    if st[HAS] == 0.0:
+    if st[S_HAS] == 0.0:
         signed_measurement(par, st, w_ctrl)  # the sign observer follows the joint before switch-on too
         return 0.0
     if st[_PROV] > 0.0:
@@ -80,7 +80,7 @@ def _robust_output(par, st, w_ctrl, w_ref):
 @kernel
 def _levels_plausible(par, eJ, etau, eFc, eFs, esig):
     """Range checks of an estimate (class Notes, item 5)."""
-    ffmax = par[FFMAX]
+    ffmax = par[P_FFMAX]
     return (math.isfinite(eJ) and math.isfinite(etau) and math.isfinite(esig) and math.isfinite(eFc)
             and math.isfinite(eFs) and par[_JLO] < eJ < par[_JHI] and 0.0 <= etau <= par[_TAUMAX]
             and esig >= 0.0 and 0.0 <= eFc <= ffmax and 0.0 <= eFs <= ffmax)
@@ -93,7 +93,7 @@ def robust_plausible(par, st, eJ, etau, eJalt, eFc, eFs, esig):
         return False
     ep = par[np.int64(par[_PO_EST]):]
     es = st[np.int64(par[_SO_EST]):]
-    return _lag_consistent(par, sliding_rls(ep, es), eJ, etau, eJalt, sliding_mse(es), par[DT],
+    return _lag_consistent(par, sliding_rls(ep, es), eJ, etau, eJalt, sliding_mse(es), par[P_DT],
                            sliding_config(ep)[2])
 
 
@@ -154,14 +154,14 @@ def robust_observe(par, st, u, w_meas, theta_out):
     if not math.sqrt(max(e2 * rls_P(rls, iFc, iFc), 0.0)) <= par[_RELSD] * max(eFc, eFs):
         st[_NUND] += 1.0  # Fc not determined yet (e.g. one direction of motion only: Fc and the offset agree)
         return True
-    if _lag_consistent(par, rls, eJ, etau, eJalt, e2, par[DT], lag):
+    if _lag_consistent(par, rls, eJ, etau, eJalt, e2, par[P_DT], lag):
         st[_HELD] = 0.0
         if lag:  # the upper confidence bound of the lag, at most lag_margin_max*tau above it (class Notes)
             m = min(par[_LAGZ] * math.sqrt(max(e2 * rls_P(rls, 2, 2), 0.0)), par[_LAGCAP] * etau)
             etau = min(etau + m, par[_TAUMAX])
-    elif st[HAS] > 0.0 and st[_PROV] == 0.0:
+    elif st[S_HAS] > 0.0 and st[_PROV] == 0.0:
         st[_NLAG] += 1.0
-        etau = st[TAU]
+        etau = st[S_TAU]
         st[_HELD] = 1.0
     else:
         st[_NIMPL] += 1.0
@@ -443,12 +443,12 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         """The estimator's estimate in use (None before switch-on and during the provisional start), with the lag
         in use: the estimated lag plus ``lag_margin`` standard errors, or the previous lag where the lag estimates
         disagreed (then ``J_alt`` is NaN)."""
-        if not self.state[HAS] or self.state[_PROV]:
+        if not self.state[S_HAS] or self.state[_PROV]:
             return None
         o = int(self.params[_SO_FTH])
         e = estimate_from_theta(self.estimator.names, self.state[o:o + self.n_theta], self.estimator.Vs,
                                 self.estimator.delta)
-        return replace(e, tau=float(self.state[TAU]), J_alt=float("nan") if self.state[_HELD] else e.J_alt)
+        return replace(e, tau=float(self.state[S_TAU]), J_alt=float("nan") if self.state[_HELD] else e.J_alt)
 
     @estimate.setter
     def estimate(self, value) -> None:
@@ -461,7 +461,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         See :meth:`FrictionFeedforward.step`; after switch-on the output fades in over ``fade_in``. During the
         provisional start the start map times its gain, at ``w_ref`` (when given) for a start at the reference.
         """
-        if not self.state[HAS]:
+        if not self.state[S_HAS]:
             return 0.0
         if self.state[_PROV]:  # the start map, at the reference when the start says so (as in compensate)
             if self.params[_SREF] and w_ref is not None:
@@ -485,7 +485,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     @property
     def active(self) -> bool:
         """True once the feedforward acts: a plausible estimate, or the provisional start map, is in use."""
-        return bool(self.state[HAS])
+        return bool(self.state[S_HAS])
 
     @property
     def theta(self) -> np.ndarray:

@@ -22,9 +22,9 @@ import math
 
 import numpy as np
 
-from adaptive_ff.compensation.ff_layout import (ALPHA, DELTA, DF, DT, FC, FF_NPAR, FF_NSTATE, FFMAX, FNREJ, HAS,
-                                               HASVS, LAG, NIB, REF, SBAND, SIGMA, SSAMP, SW, TAU, UFF, UOUT, VS,
-                                               WMAX)
+from adaptive_ff.compensation.ff_layout import (FF_NPAR, FF_NSTATE, P_DT, P_FFMAX, P_LAG, P_REF, P_SBAND, P_SSAMP,
+                                                P_SW, P_WMAX, S_ALPHA, S_DELTA, S_DF, S_FC, S_FNREJ, S_HAS, S_HASVS,
+                                                S_NIB, S_SIGMA, S_TAU, S_UFF, S_UOUT, S_VS)
 from adaptive_ff.compensation.velocity_input import (LoopModel, SignObserver, loop_model_step, sign_observer_step,
                                                     signed_measurement)
 from adaptive_ff.identification.regression import FrictionEstimate
@@ -111,32 +111,32 @@ def ff_set_estimate(par, st, Fc, Fs, Vs, delta, sigma, tau, has_vs):
     feedforward filters through the lag and ``tau > 0``, else 1 (no filter). ``has_vs`` 0 drops the Stribeck
     term (Coulomb level only).
     """
-    st[HAS] = 1.0
-    st[FC] = Fc
-    st[DF] = Fs - Fc
-    st[VS] = Vs
-    st[DELTA] = delta
-    st[SIGMA] = sigma
-    st[TAU] = tau
-    st[HASVS] = has_vs
-    st[ALPHA] = 1.0 - math.exp(-par[DT] / tau) if (par[LAG] > 0.0 and tau > 0.0) else 1.0
+    st[S_HAS] = 1.0
+    st[S_FC] = Fc
+    st[S_DF] = Fs - Fc
+    st[S_VS] = Vs
+    st[S_DELTA] = delta
+    st[S_SIGMA] = sigma
+    st[S_TAU] = tau
+    st[S_HASVS] = has_vs
+    st[S_ALPHA] = 1.0 - math.exp(-par[P_DT] / tau) if (par[P_LAG] > 0.0 and tau > 0.0) else 1.0
 
 
 @kernel(inline="always")
 def ff_static(par, st, w):
     """Static friction estimate ``F_hat(w)`` (N·m): eq. 3 with the estimate in use, sign ramp of width
     ``sign_width`` near zero, no offset; 0 without an estimate."""
-    if w == 0.0 or st[HAS] == 0.0:
+    if w == 0.0 or st[S_HAS] == 0.0:
         return 0.0
     aw = abs(w)
-    if st[HASVS] > 0.0:  # the Stribeck level: eq. 3 at |w| without the viscous term
-        mag = stribeck_scalar(aw, st[FC], st[DF], st[VS], st[DELTA], 0.0, math.inf)
+    if st[S_HASVS] > 0.0:  # the Stribeck level: eq. 3 at |w| without the viscous term
+        mag = stribeck_scalar(aw, st[S_FC], st[S_DF], st[S_VS], st[S_DELTA], 0.0, math.inf)
     else:
-        mag = st[FC]
-    sw = par[SW]
+        mag = st[S_FC]
+    sw = par[P_SW]
     if sw > 0.0 and aw < sw:
-        return mag * (w / sw) + st[SIGMA] * w
-    return math.copysign(mag, w) + st[SIGMA] * w
+        return mag * (w / sw) + st[S_SIGMA] * w
+    return math.copysign(mag, w) + st[S_SIGMA] * w
 
 
 @kernel(inline="always")
@@ -148,27 +148,27 @@ def ff_step(par, st, w, w_ref, has_ref):
     ``w_ref`` when given), one above ``w_max`` in magnitude, or a non-finite friction map at it is
     rejected: the held output is returned and only the rejection counter changes.
     """
-    wmax = par[WMAX]
+    wmax = par[P_WMAX]
     if not (math.isfinite(w) and -wmax <= w <= wmax) or (has_ref and not (math.isfinite(w_ref)
                                                                          and -wmax <= w_ref <= wmax)):
-        st[FNREJ] += 1.0
-        return min(max(st[UFF], -par[FFMAX]), par[FFMAX])
+        st[S_FNREJ] += 1.0
+        return min(max(st[S_UFF], -par[P_FFMAX]), par[P_FFMAX])
     x = w
-    nib = st[NIB]
+    nib = st[S_NIB]
     if has_ref:
-        if -par[SBAND] < w < par[SBAND]:
+        if -par[P_SBAND] < w < par[P_SBAND]:
             nib += 1.0
-            if nib >= par[SSAMP]:
+            if nib >= par[P_SSAMP]:
                 x = w_ref
         else:
             nib = 0.0
     fx = ff_static(par, st, x)
     if not math.isfinite(fx):
-        st[FNREJ] += 1.0
-        return min(max(st[UFF], -par[FFMAX]), par[FFMAX])
-    st[NIB] = nib
-    st[UFF] += st[ALPHA] * (fx - st[UFF])
-    return min(max(st[UFF], -par[FFMAX]), par[FFMAX])
+        st[S_FNREJ] += 1.0
+        return min(max(st[S_UFF], -par[P_FFMAX]), par[P_FFMAX])
+    st[S_NIB] = nib
+    st[S_UFF] += st[S_ALPHA] * (fx - st[S_UFF])
+    return min(max(st[S_UFF], -par[P_FFMAX]), par[P_FFMAX])
 
 
 @kernel(inline="always")
@@ -176,7 +176,7 @@ def ff_at(par, st, w_ctrl, w_stuck, w_ref):
     """The feedforward of this period at the reference (``ff_input`` reference) or at the measurement (with the
     sign observer's sign inside the stick band, if any) with stick detection against ``w_stuck`` (the loop model's
     velocity, or the reference without a model)."""
-    if par[REF] > 0.0:
+    if par[P_REF] > 0.0:
         return ff_step(par, st, w_ref, w_ref, False)
     return ff_step(par, st, signed_measurement(par, st, w_ctrl), w_stuck, True)
 
@@ -186,7 +186,7 @@ def ff_compensate(par, st, w_ctrl, w_meas, w_ref):
     """Compensator protocol (``KIND`` 2): the fixed feedforward at the controller's measurement (with stick
     detection against the loop model's velocity, or the reference without a model) or at the reference."""
     out = ff_at(par, st, w_ctrl, loop_model_step(par, st, w_ctrl, w_ref), w_ref)
-    st[UOUT] = out
+    st[S_UOUT] = out
     return out
 
 
@@ -317,21 +317,21 @@ class FrictionFeedforward(Component):
                           float(ff_input == "reference"), w_max) + lm + ob
         self.loop_model = loop_model
         self.sign_observer = sign_observer
-        self.state[ALPHA] = 1.0
+        self.state[S_ALPHA] = 1.0
         self.estimate = None
         self._set(estimate)
 
-    dt = property(lambda self: float(self.params[DT]), doc="Call period of :meth:`step` (s).")
-    lag = property(lambda self: bool(self.params[LAG]), doc="Filter through the estimated lag.")
-    ff_max = property(lambda self: float(self.params[FFMAX]), doc="Bound on |feedforward| (N·m).")
-    sign_width = property(lambda self: float(self.params[SW]), doc="Sign ramp half-width (rad/s).")
-    stick_band = property(lambda self: float(self.params[SBAND]), doc="Stick-detection band (rad/s).")
-    stick_samples = property(lambda self: int(self.params[SSAMP]), doc="In-band samples that declare sticking.")
-    ff_input = property(lambda self: "reference" if self.params[REF] else "measured",
+    dt = property(lambda self: float(self.params[P_DT]), doc="Call period of :meth:`step` (s).")
+    lag = property(lambda self: bool(self.params[P_LAG]), doc="Filter through the estimated lag.")
+    ff_max = property(lambda self: float(self.params[P_FFMAX]), doc="Bound on |feedforward| (N·m).")
+    sign_width = property(lambda self: float(self.params[P_SW]), doc="Sign ramp half-width (rad/s).")
+    stick_band = property(lambda self: float(self.params[P_SBAND]), doc="Stick-detection band (rad/s).")
+    stick_samples = property(lambda self: int(self.params[P_SSAMP]), doc="In-band samples that declare sticking.")
+    ff_input = property(lambda self: "reference" if self.params[P_REF] else "measured",
                         doc="Velocity the engine evaluates the feedforward at (``compensate``).")
-    u_ff = property(lambda self: float(self.state[UFF]), doc="Feedforward before the clip (N·m).")
-    w_max = property(lambda self: float(self.params[WMAX]), doc="Largest plausible speed (rad/s).")
-    n_step_rejected = property(lambda self: int(self.state[FNREJ]),
+    u_ff = property(lambda self: float(self.state[S_UFF]), doc="Feedforward before the clip (N·m).")
+    w_max = property(lambda self: float(self.params[P_WMAX]), doc="Largest plausible speed (rad/s).")
+    n_step_rejected = property(lambda self: int(self.state[S_FNREJ]),
                                doc="Calls of step() whose input was rejected (the output was held).")
 
     def _set(self, est: FrictionEstimate | None) -> None:

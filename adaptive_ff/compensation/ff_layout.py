@@ -7,29 +7,32 @@ observer that give it its velocity input near standstill (:mod:`adaptive_ff.comp
 those of the adaptive feedforward, whose arrays begin with the fixed one's
 (:mod:`adaptive_ff.compensation.adaptive_feedforward`). This module is the one definition of the layout::
 
-    params: DT (call period, s), LAG (filter through the lag, 1/0), FFMAX (bound on |feedforward|, N·m),
-            SW (sign ramp width, rad/s), SBAND (stick band, rad/s), SSAMP (in-band samples that declare
-            sticking), REF (1: evaluated at the reference), WMAX (largest plausible speed, rad/s),
-            loop model: LM (has one, 1/0), KP (Kp), KITC (Ki*dt), BJ (dt/J), LMA (tracking gain),
-            sign observer: OB (has one, 1/0), OBJ (dt/J), OBL (gain l1), OBZ (gain l2)
-    state:  estimate in use: HAS (1/0), FC (Fc), DF (Fs - Fc), VS (Vs), DELTA (delta), SIGMA (sigma),
-            ALPHA (lag filter gain), HASVS (has Vs, 1/0), TAU (tau),
-            UFF (output filter), NIB (in-band count), FNREJ (rejected inputs),
-            loop model: WM (velocity), IM (integrator), NM (started, 1/0), DW (tracked deviation),
-            sign observer: WH (estimate), OBN (started, 1/0), WCS (the controller's measurement of this
-            period), UOUT (the compensator's output of this period), ZH (residual estimate)
+    params: P_DT (call period, s), P_LAG (filter through the lag, 1/0), P_FFMAX (bound on |feedforward|, N·m),
+            P_SW (sign ramp width, rad/s), P_SBAND (stick band, rad/s), P_SSAMP (in-band samples that declare
+            sticking), P_REF (1: evaluated at the reference), P_WMAX (largest plausible speed, rad/s),
+            loop model: P_LM (has one, 1/0), P_KP (Kp), P_KITC (Ki*dt), P_BJ (dt/J), P_LMA (tracking gain),
+            sign observer: P_OB (has one, 1/0), P_OBJ (dt/J), P_OBL (gain l1), P_OBZ (gain l2)
+    state:  estimate in use: S_HAS (1/0), S_FC (Fc), S_DF (Fs - Fc), S_VS (Vs), S_DELTA (delta), S_SIGMA (sigma),
+            S_ALPHA (lag filter gain), S_HASVS (has Vs, 1/0), S_TAU (tau),
+            S_UFF (output filter), S_NIB (in-band count), S_FNREJ (rejected inputs),
+            loop model: S_WM (velocity), S_IM (integrator), S_NM (started, 1/0), S_DW (tracked deviation),
+            sign observer: S_WH (estimate), S_OBN (started, 1/0), S_WCS (the controller's measurement of this
+            period), S_UOUT (the compensator's output of this period), S_ZH (residual estimate)
 
-The slot names have no leading underscore because these modules share them; :mod:`adaptive_ff` exports none.
+The slot names (``P_`` a slot of ``params``, ``S_`` one of ``state``) have no leading underscore because these
+modules share them; :mod:`adaptive_ff` exports none.
 """
 
 from __future__ import annotations
 
-__all__ = ["FF_NPAR", "FF_NSTATE", "DT", "LAG", "FFMAX", "SW", "SBAND", "SSAMP", "REF", "WMAX", "LM", "KP", "KITC",
-           "BJ", "LMA", "OB", "OBJ", "OBL", "OBZ", "HAS", "FC", "DF", "VS", "DELTA", "SIGMA", "ALPHA", "HASVS", "TAU",
-           "UFF", "NIB", "FNREJ", "WM", "IM", "NM", "DW", "WH", "OBN", "WCS", "UOUT", "ZH"]
+__all__ = ["FF_NPAR", "FF_NSTATE", "P_DT", "P_LAG", "P_FFMAX", "P_SW", "P_SBAND", "P_SSAMP", "P_REF", "P_WMAX", "P_LM",
+           "P_KP", "P_KITC", "P_BJ", "P_LMA", "P_OB", "P_OBJ", "P_OBL", "P_OBZ", "S_HAS", "S_FC", "S_DF", "S_VS",
+           "S_DELTA", "S_SIGMA", "S_ALPHA", "S_HASVS", "S_TAU", "S_UFF", "S_NIB", "S_FNREJ", "S_WM", "S_IM", "S_NM",
+           "S_DW", "S_WH", "S_OBN", "S_WCS", "S_UOUT", "S_ZH"]
 
-DT, LAG, FFMAX, SW, SBAND, SSAMP, REF, WMAX, LM, KP, KITC, BJ, LMA, OB, OBJ, OBL, OBZ = range(17)
-(HAS, FC, DF, VS, DELTA, SIGMA, ALPHA, HASVS, TAU, UFF, NIB, FNREJ, WM, IM, NM, DW,
- WH, OBN, WCS, UOUT, ZH) = range(21)
+(P_DT, P_LAG, P_FFMAX, P_SW, P_SBAND, P_SSAMP, P_REF, P_WMAX, P_LM, P_KP, P_KITC, P_BJ, P_LMA, P_OB, P_OBJ,
+ P_OBL, P_OBZ) = range(17)
+(S_HAS, S_FC, S_DF, S_VS, S_DELTA, S_SIGMA, S_ALPHA, S_HASVS, S_TAU, S_UFF, S_NIB, S_FNREJ, S_WM, S_IM, S_NM,
+ S_DW, S_WH, S_OBN, S_WCS, S_UOUT, S_ZH) = range(21)
 #: Lengths of the fixed feedforward's parameter and state arrays.
 FF_NPAR, FF_NSTATE = 17, 21

@@ -23,8 +23,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from adaptive_ff.compensation.ff_layout import (BJ, DW, IM, KITC, KP, LM, LMA, NM, OB, OBJ, OBL, OBN, OBZ, SBAND,
-                                               UOUT, WCS, WH, WM, ZH)
+from adaptive_ff.compensation.ff_layout import (P_BJ, P_KITC, P_KP, P_LM, P_LMA, P_OB, P_OBJ, P_OBL, P_OBZ, P_SBAND,
+                                                S_DW, S_IM, S_NM, S_OBN, S_UOUT, S_WCS, S_WH, S_WM, S_ZH)
 from plant.errors import ParameterError, check_nonnegative, check_positive
 from plant.jit import kernel
 
@@ -168,19 +168,19 @@ def loop_model_step(par, st, w0, w_ref):
     not finite) with an empty integrator. Without a model (``par`` says none) ``w_ref`` is returned and nothing
     changes.
     """
-    if par[LM] == 0.0:
+    if par[P_LM] == 0.0:
         return w_ref
-    if st[NM] == 0.0:
-        st[WM] = w0 if math.isfinite(w0) else 0.0
-        st[IM] = 0.0
-        st[NM] = 1.0
-    wm = st[WM]
+    if st[S_NM] == 0.0:
+        st[S_WM] = w0 if math.isfinite(w0) else 0.0
+        st[S_IM] = 0.0
+        st[S_NM] = 1.0
+    wm = st[S_WM]
     e = w_ref - wm
-    st[IM] += par[KITC] * e
-    st[WM] = wm + par[BJ] * (par[KP] * e + st[IM])
-    if par[LMA] > 0.0 and math.isfinite(w0):
-        st[DW] += par[LMA] * (w0 - wm - st[DW])
-    return wm + st[DW]
+    st[S_IM] += par[P_KITC] * e
+    st[S_WM] = wm + par[P_BJ] * (par[P_KP] * e + st[S_IM])
+    if par[P_LMA] > 0.0 and math.isfinite(w0):
+        st[S_DW] += par[P_LMA] * (w0 - wm - st[S_DW])
+    return wm + st[S_DW]
 
 
 @kernel(inline="always")
@@ -188,14 +188,14 @@ def signed_measurement(par, st, w_ctrl):
     """The measurement with the :class:`SignObserver`'s sign inside the stick band (unchanged without an observer,
     outside the band or when not finite); records ``w_ctrl`` for :func:`sign_observer_step` and starts the observer
     at the first measurement."""
-    if par[OB] == 0.0:
+    if par[P_OB] == 0.0:
         return w_ctrl
-    st[WCS] = w_ctrl
-    if st[OBN] == 0.0:
-        st[WH] = w_ctrl if math.isfinite(w_ctrl) else 0.0
-        st[OBN] = 1.0
-    if math.isfinite(w_ctrl) and -par[SBAND] < w_ctrl < par[SBAND]:
-        return math.copysign(abs(w_ctrl), st[WH])
+    st[S_WCS] = w_ctrl
+    if st[S_OBN] == 0.0:
+        st[S_WH] = w_ctrl if math.isfinite(w_ctrl) else 0.0
+        st[S_OBN] = 1.0
+    if math.isfinite(w_ctrl) and -par[P_SBAND] < w_ctrl < par[P_SBAND]:
+        return math.copysign(abs(w_ctrl), st[S_WH])
     return w_ctrl
 
 
@@ -204,13 +204,13 @@ def sign_observer_step(par, st, u):
     """Correct the :class:`SignObserver` estimate with this period's measurement and predict the next period with
     the applied torque ``u`` (N·m) less the compensator's output of this period (nothing without an observer or
     before its first measurement; a non-finite measurement or torque skips its part)."""
-    if par[OB] == 0.0 or st[OBN] == 0.0:
+    if par[P_OB] == 0.0 or st[S_OBN] == 0.0:
         return
-    wc = st[WCS]
+    wc = st[S_WCS]
     if math.isfinite(wc):
-        e = wc - st[WH]
-        st[WH] += par[OBL] * e
-        st[ZH] -= par[OBZ] * e
-    du = u - st[UOUT]
+        e = wc - st[S_WH]
+        st[S_WH] += par[P_OBL] * e
+        st[S_ZH] -= par[P_OBZ] * e
+    du = u - st[S_UOUT]
     if math.isfinite(du):
-        st[WH] += par[OBJ] * du - st[ZH]
+        st[S_WH] += par[P_OBJ] * du - st[S_ZH]
