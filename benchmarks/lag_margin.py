@@ -6,9 +6,10 @@ Runs the ``compare`` setup of a preset (same reference, PI, noise and options pe
 
 - ``true tau x k``: the fixed feedforward with the TRUE friction parameters (built here only, never in the
   package) and the lag scaled by ``k``: the cost of a lag that is too short against one that is too long;
-- ``adaptive z=.. cap=.. rel=..``: the ``adaptive`` mode with ``lag_margin`` z (the lag in use is the estimate
-  plus z standard errors), ``lag_margin_max`` cap (at most that fraction of the estimate more) and
-  ``max_rel_stderr`` rel (``inf``: an estimate is used whether or not ``Fc`` is determined).
+- ``adaptive z=.. cap=.. rel=.. mem=..``: the ``adaptive`` mode with ``lag_margin`` z (the lag in use is the
+  estimate plus z standard errors), ``lag_margin_max`` cap (at most that fraction of the estimate more),
+  ``max_rel_stderr`` rel (``inf``: an estimate is used whether or not ``Fc`` is determined) and ``lag_memory`` mem
+  (s; the lag estimates are weighted by their inverse variance over that memory; 0: the latest estimate).
 
     python benchmarks/lag_margin.py --seeds 20 --duration 120 --jobs 2 [--preset paper]
 """
@@ -32,9 +33,10 @@ from plant import preset
 
 #: Lag factors of the true-parameter rows.
 TAU_FACTORS = (0.97, 0.99, 1.0, 1.01, 1.03, 1.05, 1.1, 1.3)
-#: (lag_margin, lag_margin_max, max_rel_stderr) of the adaptive rows; the first is the package's default.
-ADAPTIVE = ((1.0, 0.05, 0.05), (1.0, math.inf, 0.05), (0.0, 0.0, 0.05), (1.0, 0.05, math.inf), (0.0, 0.0, math.inf),
-            (2.0, 0.05, 0.05))
+#: (lag_margin, lag_margin_max, max_rel_stderr, lag_memory) of the adaptive rows; the first is the package's default,
+#: the second session 9's, the fifth session 8's.
+ADAPTIVE = ((1.0, 0.05, 0.05, 10.0), (1.0, 0.05, 0.05, 0.0), (1.0, 0.05, 0.05, 3.0), (1.0, 0.05, 0.05, 30.0),
+            (0.0, 0.0, math.inf, 0.0), (0.0, 0.0, 0.05, 10.0))
 
 
 def _rms(a, b) -> float:
@@ -59,9 +61,9 @@ def _one(args) -> dict:
         est = FrictionEstimate(J=p.J, tau=k * p.tau, sigma=p.sigma, Fc=p.Fc, Fs=p.Fs, offset=0.0, Vs=p.Vs,
                                delta=p.delta, J_alt=math.nan)
         out[f"true tau x {k:g}"] = _rms(run("fixed", replace(s.mode_options["fixed"], estimate=est)), wl) / ro
-    for z, cap, rel in ADAPTIVE:
-        mo = replace(s.mode_options["adaptive"], lag_margin=z, lag_margin_max=cap, max_rel_stderr=rel)
-        out[f"adaptive z={z:g} cap={cap:g} rel={rel:g}"] = _rms(run("adaptive", mo), wl) / ro
+    for z, cap, rel, mem in ADAPTIVE:
+        mo = replace(s.mode_options["adaptive"], lag_margin=z, lag_margin_max=cap, max_rel_stderr=rel, lag_memory=mem)
+        out[f"adaptive z={z:g} cap={cap:g} rel={rel:g} mem={mem:g}"] = _rms(run("adaptive", mo), wl) / ro
     return out
 
 

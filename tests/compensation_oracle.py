@@ -512,7 +512,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
                  ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0, stick_samples: int = 10,
                  warmup: int = 200, fade_in: float = 1.0, J_range: tuple = (0.0, math.inf), tau_max: float = 1.0,
                  consistency: float = 0.5, lag_margin: float = 1.0, lag_margin_max: float = 0.05,
-                 max_rel_stderr: float = 0.05, start=None):
+                 max_rel_stderr: float = 0.05, lag_memory: float = 10.0, start=None):
         super().__init__(None, dt=dt, lag=lag, ff_max=ff_max, sign_width=sign_width, stick_band=stick_band,
                          stick_samples=stick_samples)
         if not isinstance(estimator, SlidingFrictionEstimator):
@@ -533,6 +533,11 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         self.lag_margin = check_nonnegative("lag_margin", lag_margin)
         self.lag_margin_max = float(lag_margin_max)
         self.max_rel_stderr = float(max_rel_stderr)
+        # the lag in use: the inverse-variance weighted mean of the lag estimates, each weight forgotten by
+        # exp(-Ts/lag_memory) per update (the recursion of the weighted mean, in the package's order of operations)
+        self._lag_forget = math.exp(-estimator.Ts / lag_memory) if lag_memory > 0.0 else 0.0
+        self._lag_mean = 0.0
+        self._lag_info = 0.0
         fade_in = check_nonnegative("fade_in", fade_in)
         self._fade_step = 1.0 if fade_in == 0.0 else self.dt / fade_in
         self._gain = 0.0
@@ -641,10 +646,19 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
             elif not math.sqrt(max(cov[i_fc, i_fc], 0.0)) <= self.max_rel_stderr * max(est.Fc, est.Fs):
                 self.n_undetermined += 1  # Fc not determined (e.g. confounded with the offset)
             elif self._lag_consistent(est):
-                if self.estimator.lag:  # upper confidence bound of the lag, at most lag_margin_max*tau above it
+                if self.estimator.lag:  # upper confidence bound of the weighted lag, at most lag_margin_max above it
                     i_tau = names.index("tau")
-                    margin = min(self.lag_margin * math.sqrt(max(cov[i_tau, i_tau], 0.0)), self.lag_margin_max * est.tau)
-                    est = replace(est, tau=min(est.tau + margin, self.tau_max))
+                    sd = math.sqrt(max(cov[i_tau, i_tau], 0.0))
+                    tau = est.tau
+                    if self._lag_forget > 0.0 and sd > 0.0:
+                        w = 1.0 / (sd * sd)
+                        info = self._lag_forget * self._lag_info + w
+                        self._lag_mean = tau if self._lag_info == 0.0 else self._lag_mean + (w / info) * (
+                            tau - self._lag_mean)
+                        self._lag_info = info
+                        tau = self._lag_mean
+                    margin = min(self.lag_margin * sd, self.lag_margin_max * tau)
+                    est = replace(est, tau=min(tau + margin, self.tau_max))
                 self._take(est)
             elif self.estimate is not None and not self.provisional:
                 self.n_lag_held += 1

@@ -180,19 +180,27 @@ def test_feedforward_is_not_switched_on_while_Fc_and_the_offset_are_confounded(o
     assert k_on is not None and ff.estimate.Fc == pytest.approx(P.Fc, rel=0.02)
 
 
+@pytest.mark.parametrize("lag_memory", [0.0, 10.0])
 @pytest.mark.parametrize("lag_margin, cap", [(0.0, 0.05), (1.0, 0.05), (2.5, math.inf), (50.0, 0.02)])
-def test_the_lag_in_use_is_the_estimate_plus_lag_margin_standard_errors_up_to_the_cap(open_loop, lag_margin, cap):
+def test_the_lag_in_use_is_the_estimate_plus_lag_margin_standard_errors_up_to_the_cap(open_loop, lag_margin, cap,
+                                                                                      lag_memory):
     u, w = open_loop
     est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, Ts=0.01)
-    ff = RobustAdaptiveFeedforward(est, dt=1e-3, warmup=100, lag_margin=lag_margin, lag_margin_max=cap)
+    ff = RobustAdaptiveFeedforward(est, dt=1e-3, warmup=100, lag_margin=lag_margin, lag_margin_max=cap,
+                                   lag_memory=lag_memory)
     i = list(est.names).index("tau")
     n_capped = n_margin = 0
+    lam = math.exp(-0.01 / lag_memory) if lag_memory > 0 else 0.0
+    s0 = s1 = 0.0  # forgotten sums of the weights 1/sd**2 and of the weighted estimates (lag_memory > 0)
     for uk, wk in zip(u.tolist(), w.tolist()):
         ff.observe(uk, wk)
         if est.updated and ff.active and ff.n_lag_held == 0 and not ff.provisional:
             tau, sd = est.theta[i], math.sqrt(est.theta_cov[i, i])
+            if lag_memory > 0:
+                s0, s1 = lam * s0 + 1.0 / sd**2, lam * s1 + tau / sd**2
+                tau = s1 / s0
             want = tau + min(lag_margin * sd, cap * tau)
-            assert ff.estimate.tau == pytest.approx(want, rel=1e-12, abs=1e-15)
+            assert ff.estimate.tau == pytest.approx(want, rel=1e-10, abs=1e-15)
             n_capped += lag_margin * sd > cap * tau
             n_margin += lag_margin * sd < cap * tau
     assert n_capped + n_margin > 100

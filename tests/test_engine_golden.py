@@ -50,9 +50,9 @@ def golden_runs(label, mode, Kp=KP):
     ref = multisine_reference(3.0, rng=np.random.default_rng(0))
     ps = _plants(label)
     # the adaptive feedforward as it was then: the lag estimate itself, no determinacy test (both came later,
-    # session 9; they change the algorithm, not the arithmetic this file checks)
+    # session 9), no weighted lag (session 10); they change the algorithm, not the arithmetic this file checks
     o = ModeOptions(Kp=Kp, Ki=KI, u_max=150.0, Vs=P.Vs, delta=P.delta, noise_std=1e-3, lag_margin=0.0,
-                    max_rel_stderr=math.inf)
+                    max_rel_stderr=math.inf, lag_memory=0.0)
     return run_batch(ps, ref, mode, o, seeds=list(range(len(ps))))
 
 

@@ -33,17 +33,17 @@ from adaptive_ff.identification.rls import rls_P, rls_n_updates, rls_theta
 from plant.errors import ParameterError, check_nonnegative, check_positive
 from plant.jit import kernel
 
-__all__ = ["RobustAdaptiveFeedforward", "FeedforwardStart", "robust_compensate", "robust_observe"]
+__all__ = ["RobustAdaptiveFeedforward", "FeedforwardStart", "robust_compensate", "robust_observe", "lag_weighted"]
 
 
 # RobustAdaptiveFeedforward arrays. params: the feedforward's, own settings, offsets, the estimator's;
 # state: the feedforward's, own slots, the parameter vector in use (p), the estimator's.
 # (start gain and start input: the provisional start, see FeedforwardStart; the state flag _PROV is 1 while it
-# is in use)
+# is in use; _LAGFORGET, _LAGW, _LAGI: the forgetting factor, mean and total weight of the weighted lag, lag_weighted)
 (_WARMUP, _FADE, _JLO, _JHI, _TAUMAX, _CONSIST, _P, _PO_EST, _SO_FTH, _SO_EST, _SGAIN, _SREF, _LAGZ, _RELSD,
- _LAGCAP) = range(FF_NPAR, FF_NPAR + 15)
-_GAIN, _NIMPL, _NLAG, _HELD, _PROV, _NUND = range(FF_NSTATE, FF_NSTATE + 6)
-_RB_NPAR, _RB_NSTATE = FF_NPAR + 15, FF_NSTATE + 6
+ _LAGCAP, _LAGFORGET) = range(FF_NPAR, FF_NPAR + 16)
+_GAIN, _NIMPL, _NLAG, _HELD, _PROV, _NUND, _LAGW, _LAGI = range(FF_NSTATE, FF_NSTATE + 8)
+_RB_NPAR, _RB_NSTATE = FF_NPAR + 16, FF_NSTATE + 8
 
 
 @kernel(inline="always")
@@ -117,6 +117,36 @@ def _lag_consistent(par, rls, eJ, etau, eJalt, e2, dt, has_lag):
     return diff <= 3.0 * math.sqrt(max(var, 0.0))
 
 
+@kernel(inline="always")
+def lag_weighted(par, st, etau, sd):
+    """Take one lag estimate into the weighted mean of :class:`RobustAdaptiveFeedforward` and return the mean.
+
+    Parameters
+    ----------
+    par, st : ndarray
+        The arrays of a :class:`RobustAdaptiveFeedforward` (``st`` holds the mean and its total weight, updated).
+    etau : float
+        The lag estimate (s).
+    sd : float
+        Its standard error (s).
+
+    Returns
+    -------
+    float
+        ``sum(l**(n-k) * x_k / sd_k**2) / sum(l**(n-k) / sd_k**2)`` over the estimates ``x_k`` taken so far
+        (``l = exp(-Ts/lag_memory)``, recursively: the weighted least-squares mean with forgetting, Ljung,
+        *System Identification*, 2nd ed., 1999, Sec. 11.2); ``etau`` itself, the mean unchanged, where
+        ``lag_memory`` is 0 or ``sd`` is not > 0.
+    """
+    if not (par[_LAGFORGET] > 0.0 and sd > 0.0):
+        return etau
+    w = 1.0 / (sd * sd)
+    info = par[_LAGFORGET] * st[_LAGI] + w
+    st[_LAGW] = etau if st[_LAGI] == 0.0 else st[_LAGW] + (w / info) * (etau - st[_LAGW])
+    st[_LAGI] = info
+    return st[_LAGW]
+
+
 @kernel
 def robust_observe(par, st, u, w_meas, theta_out):
     """Compensator protocol (``KIND`` 3): one sample into the estimator, then the plausibility tests and the
@@ -156,8 +186,10 @@ def robust_observe(par, st, u, w_meas, theta_out):
         return True
     if _lag_consistent(par, rls, eJ, etau, eJalt, e2, par[P_DT], lag):
         st[_HELD] = 0.0
-        if lag:  # the upper confidence bound of the lag, at most lag_margin_max*tau above it (class Notes)
-            m = min(par[_LAGZ] * math.sqrt(max(e2 * rls_P(rls, 2, 2), 0.0)), par[_LAGCAP] * etau)
+        if lag:  # the upper confidence bound of the weighted lag, at most lag_margin_max*tau above it (class Notes)
+            sd = math.sqrt(max(e2 * rls_P(rls, 2, 2), 0.0))
+            etau = lag_weighted(par, st, etau, sd)
+            m = min(par[_LAGZ] * sd, par[_LAGCAP] * etau)
             etau = min(etau + m, par[_TAUMAX])
     elif st[S_HAS] > 0.0 and st[_PROV] == 0.0:
         st[_NLAG] += 1.0
@@ -276,6 +308,13 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         An estimate is used only once ``Fc`` is determined: its standard
         error (from :attr:`SlidingFrictionEstimator.theta_cov`) at most this
         fraction of ``max(Fc, Fs)``. Default 0.05; inf: no test.
+    lag_memory : float, keyword-only
+        Memory (s) of the lag in use: the lag estimates put in use are
+        averaged with the weights ``1/sd**2`` (``sd`` the standard error of
+        each, see ``lag_margin``), each weight forgotten by
+        ``exp(-Ts/lag_memory)`` per estimator update (see Notes); the margin
+        is added to that mean. Default 10 s (five memories of the default
+        RLS); 0: the latest estimate itself.
     stick_band, stick_samples : keyword-only
         Stick detection, see :class:`FrictionFeedforward`.
     ff_input, w_max, loop_model, sign_observer : keyword-only
@@ -343,6 +382,20 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     reversal and costs as well, hence ``lag_margin_max``. The measured cost
     of both signs is on docs/benchmarks/compensation.md.
 
+    The lag in use is also an information-weighted mean of the lag estimates
+    (``lag_memory``), not the latest one. Through a stretch of slow, smooth
+    motion the regressor's acceleration columns carry little more than the
+    measurement noise, and a least-squares estimate with noise in its
+    regressors is biased towards zero (attenuation, errors in variables:
+    Söderström & Stoica, *System Identification*, 1989, Sec. 7.2), so the
+    estimated ``J`` and ``J*tau`` and with them ``tau`` drift down while
+    the forgetting RLS forgets the better-excited past. The covariance
+    shows it (the standard error of ``tau`` grows several-fold) but the
+    bias can be several of those standard errors, more than the margin
+    covers. Weighting each estimate by its inverse variance keeps the lag
+    of the well-excited data until the motion excites the lag again; a
+    steady change of the lag is followed within about ``lag_memory``.
+
     Which velocity the feedforward is evaluated at (reference or measured) is the caller's choice; measured on
     the ``paper`` preset the measured velocity is the better one (the joint
     lags the reference at reversals), see ``benchmarks/compensation.py`` and
@@ -356,7 +409,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
                  ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0, stick_samples: int = 10,
                  warmup: int = 200, fade_in: float = 1.0, J_range: tuple = (0.0, math.inf), tau_max: float = 1.0,
                  consistency: float = 0.5, lag_margin: float = 1.0, lag_margin_max: float = 0.05,
-                 max_rel_stderr: float = 0.05,
+                 max_rel_stderr: float = 0.05, lag_memory: float = 10.0,
                  ff_input: str = "measured", w_max: float = math.inf, start: FeedforwardStart | None = None,
                  loop_model: LoopModel | None = None, sign_observer: SignObserver | None = None):
         if not isinstance(estimator, SlidingFrictionEstimator):
@@ -386,6 +439,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         if not rel > 0.0:  # inf allowed: no determinacy test
             raise ParameterError(f"max_rel_stderr must be > 0 (inf: no test), got {max_rel_stderr!r}")
         max_rel_stderr = rel
+        lag_memory = check_nonnegative("lag_memory", lag_memory)
         fade_in = check_nonnegative("fade_in", fade_in)
         self.estimator = estimator
         p = len(estimator.names)
@@ -403,7 +457,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
                                          tau_max, consistency, float(p), float(_RB_NPAR), float(so_fth),
                                          float(so_est), 1.0 if start is None else start.gain,
                                          float(start is not None and start.ff_input == "reference"), lag_margin,
-                                         max_rel_stderr, lag_margin_max)
+                                         max_rel_stderr, lag_margin_max,
+                                         math.exp(-estimator.Ts / lag_memory) if lag_memory > 0.0 else 0.0)
         self.state[so_fth:so_est] = np.nan
         self.estimate = None
         self.start = start
@@ -432,6 +487,9 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
                           doc="Standard errors added to the estimated lag in use.")
     lag_margin_max = property(lambda self: float(self.params[_LAGCAP]),
                               doc="Largest lag margin, as a fraction of the estimated lag.")
+    lag_memory = property(lambda self: (-self.estimator.Ts / math.log(float(self.params[_LAGFORGET]))
+                                        if self.params[_LAGFORGET] > 0.0 else 0.0),
+                          doc="Memory (s) of the inverse-variance weighted lag in use; 0: the latest estimate.")
     max_rel_stderr = property(lambda self: float(self.params[_RELSD]),
                               doc="Largest standard error of ``Fc`` in use, relative to ``max(Fc, Fs)``.")
 

@@ -96,10 +96,11 @@ class ModeOptions:
     P0, warmup, lag, forgetting, T_filter, initial, dwell_max, offset
         Estimator settings (see :class:`adaptive_ff.SlidingFrictionEstimator`,
         :class:`adaptive_ff.RobustAdaptiveFeedforward`).
-    lag_margin, lag_margin_max, max_rel_stderr : float
+    lag_margin, lag_margin_max, max_rel_stderr, lag_memory : float
         Use of the sliding ``adaptive`` estimate (see :class:`adaptive_ff.RobustAdaptiveFeedforward`): the lag in
-        use is the estimate plus ``lag_margin`` standard errors (default 1), at most ``lag_margin_max`` (default
-        0.05) of the estimate more, and an estimate is used once the standard error of ``Fc`` is at most
+        use is the inverse-variance weighted mean of the lag estimates over ``lag_memory`` (s, default 10; 0: the
+        latest estimate) plus ``lag_margin`` standard errors (default 1), at most ``lag_margin_max`` (default
+        0.05) of it more, and an estimate is used once the standard error of ``Fc`` is at most
         ``max_rel_stderr`` (default 0.05) of ``max(Fc, Fs)``.
     start : FeedforwardStart or None
         Provisional start of the sliding ``adaptive`` feedforward (e.g. the pre-fit map at the reference): it
@@ -171,6 +172,7 @@ class ModeOptions:
     lag_margin: float = 1.0
     lag_margin_max: float = 0.05
     max_rel_stderr: float = 0.05
+    lag_memory: float = 10.0
     start: FeedforwardStart | None = None
     ff_max: float | None = None
     ff_input: str = "measured"
@@ -264,7 +266,8 @@ def _adaptive(plant, o):
                                             stick_band=o.stick_band, stick_samples=o.stick_samples,
                                             warmup=o.warmup, lag_margin=o.lag_margin,
                                             lag_margin_max=o.lag_margin_max,
-                                            max_rel_stderr=o.max_rel_stderr, ff_input=o.ff_input, start=o.start,
+                                            max_rel_stderr=o.max_rel_stderr, lag_memory=o.lag_memory,
+                                            ff_input=o.ff_input, start=o.start,
                                             loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
 
 
