@@ -102,8 +102,9 @@ def paper_runs():
         o = s.mode_options["adaptive"]
         # the fallback is compared where it acts often: the measured sign, stuck after 5 samples (the defaults
         # before the sign observer, which takes a slow reversal for sticking far less often), and the estimate
-        # used as it was then (the lag estimate itself, no determinacy test: session 9)
-        old = replace(o, sign_input="measured", stick_samples=5, lag_margin=0.0, max_rel_stderr=math.inf)
+        # used as it was then (the lag estimate itself, no determinacy test: session 9; no weighted lag: session 10)
+        old = replace(o, sign_input="measured", stick_samples=5, lag_margin=0.0, max_rel_stderr=math.inf,
+                      lag_memory=0.0)
         out[seed] = {"frictionless": run("frictionless", o), "oracle": run("oracle", o), "model": run("adaptive", old),
                      "reference": run("adaptive", replace(old, stick_input="reference")), "default": run("adaptive", o)}
     return out
