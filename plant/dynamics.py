@@ -153,7 +153,7 @@ def plant_step(par, st, u, dt):
     RK4's stability region (:meth:`plant.lugre.LuGreParams.make_step`); with
     ``n > LUGRE_RK4_MAX`` (a stiff bristle) :func:`lugre_stiff_step` instead; a
     non-finite state or input gives NaN. Bit for bit the former Python steps
-    of each model. The common case (a lagged model with ``tau > 0`` outside the
+    of each model, except the static steps that reach the jump (above). The common case (a lagged model with ``tau > 0`` outside the
     Karnopp band, one RK4 step: :func:`_single_rk4`) is tested first and runs
     the same operations without the dispatch below. The general path has one
     RK4 call site for all models (the lagged ones run one sub-step).

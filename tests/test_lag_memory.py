@@ -51,7 +51,8 @@ def test_no_memory_or_no_standard_error_uses_the_estimate_itself():
     lag_weighted(c.params, c.state, 0.02, 1e-3)
     assert lag_weighted(c.params, c.state, 0.011, 0.0) == 0.011  # sd 0: that estimate alone, the mean unchanged
     assert lag_weighted(c.params, c.state, 0.02, 1e-3) == pytest.approx(0.02, rel=1e-12)
-    for bad in (-1.0, math.nan, "10"):
+    assert _component(lag_memory=1e300).lag_memory == math.inf  # no forgetting in float64: the memory is unbounded
+    for bad in (-1.0, math.nan, math.inf, "10"):
         with pytest.raises((ParameterError, TypeError), match="lag_memory"):
             _component(lag_memory=bad)
 

@@ -487,8 +487,9 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
                           doc="Standard errors added to the estimated lag in use.")
     lag_margin_max = property(lambda self: float(self.params[_LAGCAP]),
                               doc="Largest lag margin, as a fraction of the estimated lag.")
-    lag_memory = property(lambda self: (-self.estimator.Ts / math.log(float(self.params[_LAGFORGET]))
-                                        if self.params[_LAGFORGET] > 0.0 else 0.0),
+    lag_memory = property(lambda self: (0.0 if not self.params[_LAGFORGET] > 0.0 else math.inf
+                                        if self.params[_LAGFORGET] >= 1.0
+                                        else -self.estimator.Ts / math.log(float(self.params[_LAGFORGET]))),
                           doc="Memory (s) of the inverse-variance weighted lag in use; 0: the latest estimate.")
     max_rel_stderr = property(lambda self: float(self.params[_RELSD]),
                               doc="Largest standard error of ``Fc`` in use, relative to ``max(Fc, Fs)``.")
