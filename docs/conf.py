@@ -14,6 +14,7 @@ renders them without running, as ``tests/test_docs.py`` does). No network is nee
 
 from __future__ import annotations
 
+import functools
 import importlib
 import inspect
 import logging
@@ -336,6 +337,81 @@ def escape_abs_bars(app, what, name, obj, options, lines) -> None:
             literal_indent = indent
 
 
+# --- references by the defining module: resolved to the public name's page -------------------
+# A docstring names an object where it is defined (``plant.stribeck.stribeck_shape``, or
+# ``stribeck_shape`` inside that module), the package pages document it under its public name
+# (``plant.stribeck_shape``). A reference that Sphinx does not find and that imports to the very
+# object documented under a public name links to that name's page, its text unchanged; any other
+# reference stays unresolved (``nitpicky`` reports it).
+_MISSING = object()
+
+
+def _load(path: str):
+    """The object at the dotted ``path`` under one of :data:`PACKAGES` (a module, then attributes), or None."""
+    parts = path.split(".")
+    if parts[0] not in PACKAGES:
+        return None
+    for i in range(len(parts), 0, -1):
+        try:
+            obj = importlib.import_module(".".join(parts[:i]))
+        except ImportError:
+            continue
+        for attr in parts[i:]:
+            obj = getattr(obj, attr, _MISSING)
+            if obj is _MISSING:
+                return None
+        return obj
+    return None
+
+
+@functools.lru_cache(maxsize=None)
+def documented_homes() -> tuple[dict[int, str], dict[str, tuple[str, object]]]:
+    """``({id of a documented class or function: its documented name}, {constant's name: (its
+    documented name, the object)})`` over the package pages."""
+    objects, constants = {}, {}
+    for package in PACKAGES:
+        mod = importlib.import_module(package)
+        names, fq_constants, _ = api_entries(package)
+        for name in names:
+            obj = getattr(mod, name)
+            if callable(obj):  # a class or function: known by identity
+                objects[id(obj)] = f"{package}.{name}"
+            else:
+                constants[name] = (f"{package}.{name}", obj)
+        for target in fq_constants:
+            constants[target.rpartition(".")[2]] = (target, _load(target))
+    return objects, constants
+
+
+def resolve_by_definition(app, env, node, contnode):
+    """``missing-reference`` hook: a Python reference to a documented object by its defining
+    module (or relative to the module, class or docstring it is in) links to its page."""
+    if node.get("refdomain") != "py" or node.get("reftype") == "mod":
+        return None
+    objects, constants = documented_homes()
+    target, module, cls = node["reftarget"].lstrip("."), node.get("py:module"), node.get("py:class")
+    candidates = [f"{module}.{cls}.{target}" if module and cls else None, f"{module}.{target}" if module else None]
+    # in a docstring shown on a package page, a relative name is relative to where the object is defined
+    where = re.search(r"docstring of ([\w.]+)", getattr(node, "source", None) or "")
+    if where:
+        parts = where.group(1).split(".")
+        candidates += [".".join(parts[:i] + [target]) for i in range(len(parts), 0, -1)]
+    candidates.append(target)
+    for path in filter(None, candidates):
+        obj = _load(path)
+        if obj is None:
+            continue
+        home = objects.get(id(obj))
+        name = path.rpartition(".")[2]
+        if home is None and name in constants and constants[name][1] is obj:
+            home = constants[name][0]
+        if home is None:  # the nearest object of that name is not documented: so is the reference
+            return None
+        return env.get_domain("py").resolve_xref(env, node["refdoc"], app.builder, node["reftype"], home,
+                                                 node, contnode)
+    return None
+
+
 class _OptionalGlobFilter(logging.Filter):
     """Drop the "toctree glob pattern ... didn't match" warning for :data:`OPTIONAL_GLOBS`."""
 
@@ -349,4 +425,5 @@ write_module_pages()  # here, after _escape_bars, which the summaries use
 
 def setup(app):
     app.connect("autodoc-process-docstring", escape_abs_bars)
+    app.connect("missing-reference", resolve_by_definition)
     logging.getLogger("sphinx.sphinx.directives.other").addFilter(_OptionalGlobFilter())
