@@ -243,7 +243,7 @@ def _keyed(v: list) -> list:
 
 
 def plant_params(p) -> np.ndarray:
-    """Pack a frozen plant model into the parameter row of :func:`plant_step`.
+    """Pack a frozen plant model into the parameter row of :func:`~plant.dynamics.plant_step`.
 
     Parameters
     ----------
