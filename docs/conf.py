@@ -221,11 +221,12 @@ def module_page(module: str, tree: dict[str, list[str]], defined: dict[str, list
     lines += ["   :no-index:", "", f"In the package's namespace, ``{module}`` is :obj:`{module}`, defined in this "
               f"module; ``import {module}`` imports the module shown here."] if shadowed(module) else []
     lines.append("")
+    # sections, not rubrics: after the docstring's own sections a rubric would read as part of the last one
     if tree.get(module):
-        lines += [".. rubric:: Modules", "", *module_table(tree[module], ""),
+        lines += ["Modules", "-------", "", *module_table(tree[module], ""),
                   ".. toctree::", "   :hidden:", "", *(f"   {m}" for m in tree[module]), ""]
     if defined.get(module):
-        lines += [".. rubric:: Public names defined here", "",
+        lines += ["Public names defined here", "-------------------------", "",
                   f"Documented with the package, :doc:`../{package}`.", "", f".. currentmodule:: {package}", "",
                   ".. autosummary::", "   :nosignatures:", "", *(f"   {n}" for n in defined[module]), ""]
     return "\n".join(lines)
