@@ -7,7 +7,7 @@ one float64 array ``state``. One compiled (numba) step function over
 ``(params, state, ...)`` is the only implementation of the component's
 equations: the Python methods call it, and so does the closed-loop engine,
 which composes components by handing their arrays to their steps (a composite
-component lays its parts out as slices of its own arrays, see :meth:`attach`).
+component lays its parts out as slices of its own arrays, see :meth:`Component.attach`).
 The pattern is :class:`adaptive_ff.identification.rls.RecursiveLeastSquares`
 (state buffer with public views) and filterpy's small stateful filters
 (public ``x``, ``P``).

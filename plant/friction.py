@@ -2,17 +2,17 @@
 
 Symbols (SI units, joint side; for a prismatic axis read N for N·m and m for rad):
 
-========  ==============  ================================================
-symbol    unit            meaning
-========  ==============  ================================================
-``J``     kg·m²           lumped inertia
-``Fc``    N·m             Coulomb friction level
-``Fs``    N·m             static (stiction / adhesion) friction level
-``Vs``    rad/s           Stribeck velocity
-``delta`` 1               Stribeck shape factor (positive or negative, not 0)
-``sigma`` N·m·s/rad       viscous friction coefficient
-``tau``   s               friction lag time constant (eq. 1), 0 = static map
-========  ==============  ================================================
+==========  ==============  ================================================
+symbol      unit            meaning
+==========  ==============  ================================================
+``J``       kg·m²           lumped inertia
+``Fc``      N·m             Coulomb friction level
+``Fs``      N·m             static (stiction / adhesion) friction level
+``Vs``      rad/s           Stribeck velocity
+``delta``   1               Stribeck shape factor (positive or negative, not 0)
+``sigma``   N·m·s/rad       viscous friction coefficient
+``tau``     s               friction lag time constant (eq. 1), 0 = static map
+==========  ==============  ================================================
 """
 
 from __future__ import annotations

@@ -61,21 +61,21 @@ LuGre the bristle deflection ``z`` in rad); ``st[2]`` equals ``key`` when
 :func:`plant.dynamics.plant_step` and :func:`plant_state`), so the next step reuses it instead
 of evaluating eq. 3 again; any other value (e.g. NaN) means "not cached".
 Swapping the parameter row (a drifting plant) invalidates it by the key. For
-LuGre, and for a lagged model after a step of :func:`lagged_stiff_step`, ``st[2]``
+LuGre, and for a lagged model after a step of :func:`~plant.stiff.lagged_stiff_step`, ``st[2]``
 holds the last sub-step of the stiff integrator (s) or NaN.
 
 Stiff lagged models (a rising Stribeck map, ``delta < 0``, whose steepest slope
 sits at tiny speeds; a viscous slope far above ``J/dt``; a lag far below the
-step) take :func:`lagged_stiff_step` (error-controlled, extrapolated backward
+step) take :func:`~plant.stiff.lagged_stiff_step` (error-controlled, extrapolated backward
 Euler, each sub-step one scalar bracketed solve that sticks on a jump of eq. 3
 where the friction is set-valued) for every step whose velocity range
-(:func:`lagged_local_rate`) would need more than :data:`LAGGED_RK4_MAX` RK4
+(:func:`~plant.stiff.lagged_local_rate`) would need more than :data:`~plant.stiff.LAGGED_RK4_MAX` RK4
 sub-steps; no lagged model is refused for stiffness.
 
 Stiff LuGre joints (a stiff bristle, ``sigma0`` up to 1e8 N·m/rad and more, on
-a small inertia) are integrated by :func:`lugre_stiff_step` (error-controlled,
+a small inertia) are integrated by :func:`~plant.stiff.lugre_stiff_step` (error-controlled,
 extrapolated backward Euler) once the RK4 sub-step count of a step would exceed
-:data:`LUGRE_RK4_MAX`; :func:`check_integrable` refuses, before a run, plants
+:data:`~plant.stiff.LUGRE_RK4_MAX`; :func:`check_integrable` refuses, before a run, plants
 whose step cannot be computed accurately.
 """
 
@@ -243,7 +243,7 @@ def _keyed(v: list) -> list:
 
 
 def plant_params(p) -> np.ndarray:
-    """Pack a frozen plant model into the parameter row of :func:`plant_step`.
+    """Pack a frozen plant model into the parameter row of :func:`~plant.dynamics.plant_step`.
 
     Parameters
     ----------
@@ -358,7 +358,8 @@ def plant_state(p, w0: float = 0.0) -> np.ndarray:
 #: Largest ``rate*dt`` of a stable mode that the explicit RK4 step of the lagged models accepts (RK4's
 #: stability interval on the negative real axis ends at 2.785; Hairer & Wanner, *Solving ODEs II*, Sec. IV.2).
 RK4_RATE_MAX = 2.5
-#: Largest pre-sliding frequency ``sqrt(sigma0/J)*dt`` of a LuGre joint that :func:`lugre_stiff_step` accepts.
+#: Largest pre-sliding frequency ``sqrt(sigma0/J)*dt`` of a LuGre joint that
+#: :func:`~plant.stiff.lugre_stiff_step` accepts.
 LUGRE_STIFF_MAX = 1e4
 
 
@@ -379,7 +380,8 @@ def check_integrable(rows, dt: float) -> None:
         exceeds ``LUGRE_STIFF_MAX/dt`` (it would run for hours), or a row with a non-finite or out-of-range
         entry (inertia, lag, levels; possible only for rows not made by :func:`plant_params`). Every valid lagged
         model (lagged Stribeck, asymmetric, Karnopp, any lag, slope or inertia) is integrable: beyond
-        :data:`LAGGED_RK4_MAX` RK4 sub-steps :func:`plant_step` takes the implicit :func:`lagged_stiff_step`.
+        :data:`~plant.stiff.LAGGED_RK4_MAX` RK4 sub-steps :func:`~plant.dynamics.plant_step` takes the implicit
+        :func:`~plant.stiff.lagged_stiff_step`.
 
     Notes
     -----

@@ -25,8 +25,9 @@ __all__ = ["LAGGED_RK4_MAX", "LAGGED_RTOL", "LAGGED_FTOL", "LAGGED_MAX_SUBSTEPS"
            "LUGRE_MAX_SUBSTEPS", "lugre_jacobian", "lugre_implicit_step", "lugre_stiff_step"]
 
 
-#: Lagged-model steps whose RK4 sub-step count (``int(rate*dt) + 1``, :func:`lagged_rate`) would exceed this use
-#: :func:`lagged_stiff_step`; at or below it the RK4 sub-steps (and their results, bit for bit) are kept.
+#: Lagged-model steps whose RK4 sub-step count (``int(rate*dt) + 1``, :func:`~plant.rows.lagged_rate`) would
+#: exceed this use :func:`lagged_stiff_step`; at or below it the RK4 sub-steps (and their results, bit for bit)
+#: are kept.
 LAGGED_RK4_MAX = 64
 #: Relative tolerance (to ``|w| + Vs``) of the sub-step error control of :func:`lagged_stiff_step` on the velocity.
 LAGGED_RTOL = 1e-5
@@ -54,7 +55,7 @@ def lagged_local_rate(par, w, f, u, dt):
     Returns
     -------
     float
-        :func:`lagged_rate` with the steepest rise of the map taken over ``|w| +- D`` only,
+        :func:`~plant.rows.lagged_rate` with the steepest rise of the map taken over ``|w| +- D`` only,
         ``D = 2*dt*(|u| + max(|f|, Fmax + sigma*|w|))/J`` (twice the largest speed change: the joint cannot leave
         this range within the step); ``inf`` when the range reaches a jump of the map (``w = 0``, the Karnopp band
         ``|w| <= dv``) or the state is not finite.
@@ -62,8 +63,8 @@ def lagged_local_rate(par, w, f, u, dt):
     Notes
     -----
     The rise of eq. 3, ``-dF*delta*x**(delta-1)*exp(-x**delta)/Vs`` at ``x = |w|/Vs`` where ``dF*delta < 0``, is
-    largest at ``x**delta = 1 - 1/delta`` (:func:`lagged_rate`); over an interval it is largest at that point
-    clipped into the interval (one maximum; for ``0 < delta < 1`` it falls with ``x``).
+    largest at ``x**delta = 1 - 1/delta`` (:func:`~plant.rows.lagged_rate`); over an interval it is largest at
+    that point clipped into the interval (one maximum; for ``0 < delta < 1`` it falls with ``x``).
     """
     J = par[1]
     tau = par[4]
@@ -255,7 +256,7 @@ def lagged_implicit_step(par, w0, f0, u, h, sgn):
     Parameters
     ----------
     par : ndarray, shape (PLANT_NPAR,)
-        Parameter row of a lagged model (:func:`plant_params`).
+        Parameter row of a lagged model (:func:`~plant.rows.plant_params`).
     w0, f0 : float
         Velocity (rad/s) and friction state (N·m) at the start (``f0`` unused for ``tau == 0``).
     u : float
@@ -443,7 +444,7 @@ def lagged_stiff_step(par, st, u, dt, sgn):
     st[2] = h
 
 
-#: LuGre steps whose RK4 sub-step count (stiffness bound of :func:`plant_step`) exceeds this use
+#: LuGre steps whose RK4 sub-step count (stiffness bound of :func:`~plant.dynamics.plant_step`) exceeds this use
 #: :func:`lugre_stiff_step`; at or below it the RK4 sub-steps (and their results) are kept.
 LUGRE_RK4_MAX = 64
 #: Relative tolerance of the sub-step error control of :func:`lugre_stiff_step`.
@@ -462,7 +463,7 @@ def lugre_jacobian(par, w, z, u):
     Parameters
     ----------
     par : ndarray, shape (PLANT_NPAR,)
-        LuGre parameter row (:func:`plant_params`).
+        LuGre parameter row (:func:`~plant.rows.plant_params`).
     w, z : float
         Velocity (rad/s), bristle deflection (rad).
     u : float

@@ -115,8 +115,9 @@ def eq4_sample(par, st, u, w):
     -----
     The first sample only fills the past ``u(k-1), w(k-1), w(k-2)``. Later ones build ``phi(k)`` (eq. 4),
     update the RLS (eqs. 10-13) with output ``w(k)`` and, after ``warmup`` updates, map ``theta`` to
-    physical parameters (inverse map of eq. 4), project them (:func:`eq4_project`) and put an admissible
-    estimate into the feedforward (an inadmissible one is counted, the previous one kept).
+    physical parameters (inverse map of eq. 4), project them
+    (:func:`~adaptive_ff.compensation.feedforward.project_levels`) and put an admissible estimate into the
+    feedforward (an inadmissible one is counted, the previous one kept).
     """
     pu = par[_P_UR:_P_UR + RANGE_NPAR]
     pw = par[_P_UR + RANGE_NPAR:_P_UR + 2 * RANGE_NPAR]
@@ -289,7 +290,7 @@ class AdaptiveFrictionFeedforward(Component):
     At each sample ``k``: ``phi(k)`` from eq. 4 with the stored ``u(k-1)``,
     ``w(k-1)``, ``w(k-2)``; RLS update; ``theta`` mapped to physical
     parameters (inverse map in :mod:`adaptive_ff.identification.regression`), projected
-    (:func:`eq4_project`); the feedforward uses the last admissible estimate.
+    (:func:`~adaptive_ff.compensation.feedforward.project_levels`); the feedforward uses the last admissible estimate.
     """
 
     KIND = EQ4_KIND

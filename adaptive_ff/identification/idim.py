@@ -387,7 +387,7 @@ def fit_idim(data: MeasuredData, *, asymmetric: bool = False, offset: bool | Non
     Notes
     -----
     Janot, Gautier, Brunot (2019), reference procedure (here the force is
-    filtered by the caller's zero-phase filter too, which :func:`load_emps`
+    filtered by the caller's zero-phase filter too, which :func:`~adaptive_ff.io.data.load_emps`
     does, and the acceleration is ``numpy.gradient(w, t)``). Standard errors:
     Ljung (1999), Sec. 9.2.
     """

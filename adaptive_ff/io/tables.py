@@ -166,7 +166,7 @@ class CsvFormat:
     Notes
     -----
     Headerless files: map the roles to 0-based column indices
-    (``columns="t=0,u=2,w=1"`` in :func:`load_log`).
+    (``columns="t=0,u=2,w=1"`` in :func:`~adaptive_ff.io.logs.load_log`).
     """
 
     skip_rows: int = 0

@@ -6,7 +6,7 @@ lag and reaches the frictionless limit; where it does not (true sticking of a
 Karnopp joint, LuGre pre-sliding, direction-dependent levels, drift) a
 disturbance observer, which needs no friction model, does better. The
 composite feeds the adaptive feedforward forward and lets a disturbance
-observer (:class:`controllers.peers.DisturbanceObserver`) estimate and cancel
+observer (:class:`controllers.DisturbanceObserver`) estimate and cancel
 the *residual* ``f - u_ff``: the observer is given the torque without the
 feedforward, ``u - u_ff``, so that with ``J*dw/dt = u - f`` its raw sample is
 ``(u - u_ff) - J_n*dw/dt = f - u_ff`` (for ``J_n = J``). This is the standard

@@ -187,7 +187,7 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     compensator : compensator component or None
         A :class:`adaptive_ff.FrictionFeedforward` (fixed), :class:`adaptive_ff.RobustAdaptiveFeedforward`,
         :class:`adaptive_ff.compensation.eq4_feedforward.AdaptiveFrictionFeedforward`,
-        :class:`controllers.peers.CanudasCompensator`, :class:`controllers.peers.DisturbanceObserver`,
+        :class:`controllers.CanudasCompensator`, :class:`controllers.DisturbanceObserver`,
         :class:`controllers.simulation.compensators.TrueFriction` (the oracle), or None (no compensation).
         Its state is advanced in place (read its counters and estimate afterwards).
     reference : Reference

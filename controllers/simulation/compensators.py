@@ -9,9 +9,9 @@ mode              objects (:func:`build_mode`)
                   :class:`adaptive_ff.SlidingFrictionEstimator` (``estimator="sliding"``), or the paper's eq. 4
                   RLS feedforward (``estimator="eq4"``)
 ``adaptive-dob``  :class:`controllers.peers.adaptive_dob.AdaptiveDOBCompensator`: the sliding ``adaptive``
-                  feedforward plus a :class:`controllers.peers.DisturbanceObserver` on the residual
-``canudas``       :class:`controllers.peers.CanudasCompensator` (Canudas de Wit, Åström, Braun 1987)
-``dob``           :class:`controllers.peers.DisturbanceObserver`
+                  feedforward plus a :class:`controllers.DisturbanceObserver` on the residual
+``canudas``       :class:`controllers.CanudasCompensator` (Canudas de Wit, Åström, Braun 1987)
+``dob``           :class:`controllers.DisturbanceObserver`
 ``oracle``        :class:`TrueFriction`: the plant's true friction torque (the upper bound)
 ``frictionless``  no compensator, the plant without friction (the limit)
 ================  ==========================================================================================

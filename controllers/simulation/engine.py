@@ -9,7 +9,7 @@ measurement, the compensator computes its torque, the PI
 observes ``(u, w_meas)``, the metrics accumulator
 (:func:`controllers.simulation.metrics.metrics_add`) takes the tracking
 error of the true velocity, and the plant
-(:func:`plant.models.plant_step`) advances one step with ``u`` held.
+(:func:`plant.dynamics.plant_step`) advances one step with ``u`` held.
 
 Every equation lives in the component of its concept; this module only
 composes them. Compensators are dispatched on their ``KIND`` (the registry of

@@ -307,7 +307,7 @@ def first_active_time(t, u_c) -> float | None:
     t : array_like, shape (N,)
         Time (s).
     u_c : array_like, shape (N,)
-        Compensation torque of the run (N·m), e.g. :attr:`ClosedLoopResult.u_ff`.
+        Compensation torque of the run (N·m), e.g. :attr:`controllers.ClosedLoopResult.u_ff`.
 
     Returns
     -------
