@@ -54,7 +54,7 @@ source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
 exclude_patterns = ["_build", "_gallery_src", "**/README.md", "auto_examples/*.ipynb", "auto_examples/*.py",
                     "auto_examples/*.zip", "auto_examples/*.json", "auto_examples/*.md5"]
-templates_path = []
+templates_path = ["_templates"]
 html_theme = "alabaster"
 html_static_path = ["_static"]
 html_title = f"adaptive-ff {release}"
@@ -66,7 +66,9 @@ myst_heading_anchors = 3
 
 autosummary_generate = True
 autosummary_imported_members = True
-autodoc_default_options = {"members": False}
+# class pages (docs/_templates/autosummary/class.rst) document their methods and properties; module pages say
+# ``:no-members:`` themselves
+autodoc_default_options: dict = {}
 autodoc_typehints = "none"
 numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False

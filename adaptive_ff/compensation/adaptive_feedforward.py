@@ -500,8 +500,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     @property
     def estimate(self) -> FrictionEstimate | None:
         """The estimator's estimate in use (None before switch-on and during the provisional start), with the lag
-        in use: the estimated lag plus ``lag_margin`` standard errors, or the previous lag where the lag estimates
-        disagreed (then ``J_alt`` is NaN)."""
+        in use: the weighted mean of the lag estimates (``lag_memory``) plus ``lag_margin`` standard errors, or the
+        previous lag where the lag estimates disagreed (then ``J_alt`` is NaN)."""
         if not self.state[S_HAS] or self.state[_PROV]:
             return None
         o = int(self.params[_SO_FTH])
