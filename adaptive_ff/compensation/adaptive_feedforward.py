@@ -487,15 +487,20 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
                           doc="Standard errors added to the estimated lag in use.")
     lag_margin_max = property(lambda self: float(self.params[_LAGCAP]),
                               doc="Largest lag margin, as a fraction of the estimated lag.")
-    lag_memory = property(lambda self: (0.0 if not self.params[_LAGFORGET] > 0.0 else math.inf
-                                        if self.params[_LAGFORGET] >= 1.0
-                                        else -self.estimator.Ts / math.log(float(self.params[_LAGFORGET]))),
-                          doc="Memory (s) of the inverse-variance weighted lag in use; 0: the latest estimate.")
     max_rel_stderr = property(lambda self: float(self.params[_RELSD]),
                               doc="Largest standard error of ``Fc`` in use, relative to ``max(Fc, Fs)``.")
 
     provisional = property(lambda self: bool(self.state[_PROV]),
                            doc="Whether the provisional start map (``start``) is in use.")
+
+    @property
+    def lag_memory(self) -> float:
+        """Memory (s) of the inverse-variance weighted lag in use; 0: the latest estimate; inf where the forgetting
+        factor ``exp(-Ts/lag_memory)`` rounds to 1."""
+        lam = float(self.params[_LAGFORGET])
+        if not lam > 0.0:
+            return 0.0
+        return math.inf if lam >= 1.0 else -self.estimator.Ts / math.log(lam)
 
     @property
     def estimate(self) -> FrictionEstimate | None:
