@@ -124,7 +124,8 @@ def lagged_rk4_step(F: Callable[[float], float], *, J: float, tau: float, dt: fl
 def make_rk4_step(p, dt: float) -> Callable[[float, float, float], tuple]:
     """The former ``plant.joint.make_rk4_step`` for a ``JointParams`` ``p``."""
     dt = check_positive("dt", dt)
-    return lagged_rk4_step(friction_scalar(p), J=p.J, tau=p.tau, dt=dt, jump=static_jump_step(p, dt))
+    return lagged_rk4_step(friction_scalar(p), J=p.J, tau=p.tau, dt=dt,
+                           jump=static_jump_step(p, dt) if p.tau == 0.0 else None)
 
 
 def karnopp_make_step(self, dt: float) -> Callable[[float, float, float], tuple]:
@@ -255,7 +256,7 @@ def asymmetric_make_step(self, dt: float) -> Callable[[float, float, float], tup
             return -(cn + dn * exp(-((-w / Vs) ** delta))) + sn * w
         return 0.0
 
-    return lagged_rk4_step(F, J=J, tau=tau, dt=dt, jump=static_jump_step(self, dt))
+    return lagged_rk4_step(F, J=J, tau=tau, dt=dt, jump=static_jump_step(self, dt) if tau == 0.0 else None)
 
 
 def _friction(x, Fc, dF, Vs, delta, sigma, offset):
