@@ -71,7 +71,7 @@ import numpy as np
 from adaptive_ff.compensation.gate import (GATE_NPAR, GATE_NSTATE, RANGE_NPAR, RANGE_NSTATE, OutlierGate, RangeGate,
                                           gate_check, range_commit, range_ok)
 from adaptive_ff.identification.regression import FrictionEstimate
-from adaptive_ff.identification.rls import RecursiveLeastSquares, rls_buffer_size, rls_update
+from adaptive_ff.identification.rls import RecursiveLeastSquares, rls_buffer_size, rls_P, rls_update
 from plant.component import Component
 from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, check_multiple, check_positive,
                           check_signal)
@@ -206,12 +206,32 @@ def sliding_observe(par, st, u, w):
     j += 3
     if par[_OFFSET] > 0.0:
         phi[j] = 1.0
+    s = _phi_P_phi(st[orls:], phi)  # before the update: the a-priori error's variance is e2*(1 + s)
     err = rls_update(st[orls:], phi, st[5])
     if err != err:  # refused by the RLS (an update that would overflow): counted there, nothing else changes
         return True
-    st[_E2] += par[_E2RATE] * (err * err - st[_E2])
+    st[_E2] += par[_E2RATE] * (err * err / (1.0 + s) - st[_E2])
     st[_UPDATED] = 1.0
     return True
+
+
+@kernel(inline="always")
+def _phi_P_phi(rls, phi):
+    """``phi @ P @ phi`` of the RLS state ``rls`` (dimensionless with ``P`` scaled by the noise variance).
+
+    The a-priori error ``y - phi @ theta`` of an RLS whose ``theta`` has covariance ``e2*P`` has the variance
+    ``e2*(1 + phi @ P @ phi)`` (the innovation variance of the Kalman-filter form of RLS; Ljung,
+    *System Identification*, 2nd ed., 1999, Sec. 11.2): dividing the squared error by ``1 + phi @ P @ phi``
+    gives a sample of the noise variance ``e2`` alone. Not ``inf``-safe: ``phi`` is finite here.
+    """
+    n = phi.shape[0]
+    acc = 0.0
+    for i in range(n):
+        row = 0.0
+        for jj in range(n):
+            row += rls_P(rls, i, jj) * phi[jj]
+        acc += phi[i] * row
+    return acc if acc > 0.0 else 0.0
 
 
 @kernel(inline="always")
@@ -228,7 +248,8 @@ def sliding_rls(par, st):
 
 @kernel(inline="always")
 def sliding_mse(st):
-    """Running mean square a-priori error of the RLS (N·m²), the scale of :attr:`SlidingFrictionEstimator.theta_cov`."""
+    """Running mean of the normalised squared a-priori errors of the RLS, ``err**2/(1 + phi @ P @ phi)`` (N·m²):
+    the noise variance, the scale of :attr:`SlidingFrictionEstimator.theta_cov`."""
     return st[_E2]
 
 
@@ -469,9 +490,13 @@ class SlidingFrictionEstimator(Component):
 
     @property
     def theta_cov(self) -> np.ndarray:
-        """Approximate covariance of ``theta``, shape (p, p): ``P`` times the running mean square a-priori error.
+        """Approximate covariance of ``theta``, shape (p, p): ``P`` times the running noise variance.
 
-        The filtered equation errors are correlated from row to row, so this
+        The noise variance is the running mean of the squared a-priori errors, each divided by its own
+        predicted variance factor ``1 + phi @ P @ phi`` (the innovation variance of the Kalman-filter form of
+        RLS): an error that is large because the estimate was still uncertain in the direction of ``phi``
+        (the first reversal after a stretch of one-sided motion) does not inflate the scale for the rest of
+        the run. The filtered equation errors are correlated from row to row, so this
         understates the true uncertainty (by a factor of a few); use it for
         relative comparisons.
         """
