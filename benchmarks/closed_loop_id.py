@@ -1,5 +1,4 @@
-"""Closed-loop logs read out slower than the loop: method 'closed_loop' against the open-loop output error
-(issue 12, item 2).
+"""Closed-loop logs read out slower than the loop: method 'closed_loop' against the open-loop output error.
 
 Run ``python benchmarks/closed_loop_id.py [--n 6] [--duration 60] [--start 0] [--oe]``. For ``n`` seeded
 records of the paper's robot experiment as ``paper-figures --save-data`` makes it (the ``paper`` preset in a
@@ -8,7 +7,7 @@ PI velocity loop at 1 kHz, crossover 200 rad/s, tracking a 20 deg/s multi-sine; 
 quantum; the reference logged at the stamps) it fits
 :func:`controllers.experiments.closed_loop_id.fit_closed_loop` (Vs, delta of the README's Stribeck pre-fit)
 and, with ``--oe``, the open-loop ``fit_physical(method="output_error")`` on the same record. Prints one row
-per record: relative error (%) of J, Fc, Fs, sigma, tau, whether the issue's targets hold (J, tau within
+per record: relative error (%) of J, Fc, Fs, sigma, tau, whether the targets hold (J, tau within
 10 %, Fc, Fs, sigma within 5 %), the error in reported standard errors of J and tau (the fit's default: the
 bootstrap; ``--n-bootstrap 0``: HAC), and the fit time. Times depend on the machine's load; the errors do not.
 """

@@ -8,8 +8,8 @@ velocities in deg/s, torques in N·m; eta = (RMS_none - RMS_mode) / (RMS_none - 
 1. the ``paper`` preset and the drift case (Fc, Fs +50 % over the first half) in every mode,
    including the two peers (Canudas de Wit et al. 1987, disturbance observer);
 2. the matrix of plant variants (:mod:`plant.variants`): eta per mode and diverged runs;
-3. feedforward and estimator design alternatives side by side (issue item 3), the peers' tuning;
-4. the closed-loop identification bias (item 4): the sliding-regime regression on the loop's own
+3. feedforward and estimator design alternatives side by side, the peers' tuning;
+4. the closed-loop identification bias: the sliding-regime regression on the loop's own
    data with and without its gate, against the true parameters.
 
 "u noise" is ``std(diff(u))/sqrt(2)`` over the second half: the white part of the torque command.
@@ -88,7 +88,7 @@ def _row(comp, mode: str) -> dict:
 
 
 def main_task(scenario: str, seed: int, duration: float) -> dict:
-    """All modes on one scenario and seed; for the preset also the closed-loop bias fits (item 4)."""
+    """All modes on one scenario and seed; for the preset also the closed-loop bias fits (part 4)."""
     comp = compare(_plant(scenario, duration), duration=duration, seed=seed, progress=False)
     out = {"rows": {mode: _row(comp, mode) for mode in comp.results}}
     est = comp.results["adaptive"].estimate

@@ -1,4 +1,4 @@
-"""Do nominal 95 % intervals of the output-error and closed-loop fits cover the truth? (issue 12, item 3)
+"""Do nominal 95 % intervals of the output-error and closed-loop fits cover the truth?
 
 Run ``python benchmarks/coverage.py [--method output_error|closed_loop] [--n 40] [--duration 20] [--start 0]
 [--n-bootstrap 20] [--jobs 1] [--out rows.jsonl] [--seeds 2,23]`` (or ``--table-from rows.jsonl``: the table of records saved

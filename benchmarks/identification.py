@@ -1,4 +1,4 @@
-"""Identification accuracy of the physical parameters: the paper's eq. 4 LS against output-error (issue 3).
+"""Identification accuracy of the physical parameters: the paper's eq. 4 LS against output-error.
 
 Run ``python benchmarks/identification.py [--quick] [--fig10]``. Prints
 
@@ -13,7 +13,7 @@ Run ``python benchmarks/identification.py [--quick] [--fig10]``. Prints
     :func:`controllers.experiments.paper_figures.paper_figures`) and the non-uniform
     sampling of Fig. 10 (:func:`plant.sampling.irregular_sample_times`), once
     with its pattern scaled to a 10 ms base (mean about 11 ms, outliers of
-    20 ms = about twice the mean) -- the issue's target case -- and, with
+    20 ms = about twice the mean) -- the target case -- and, with
     ``--fig10``, once as in Fig. 10 (20 ms base, 40 ms outliers, mean about
     22 ms); mean and worst
     |error| per parameter with pass/fail against the targets
@@ -167,7 +167,7 @@ def table_c(seeds, irregular: str, methods=("paper", "output_error")):
 
 
 def online_table():
-    """(d) Online identification: UKF of all six friction parameters vs RLS on eq. 4 (issue 3, item 4).
+    """(d) Online identification: UKF of all six friction parameters vs RLS on eq. 4.
 
     Runs :func:`online_identification.online_rows` (paper preset, 60 s at Ts = 10 ms, seed 0; about 25 s)
     and prints its table; ``python benchmarks/online_identification.py --seeds 5`` gives the spread and

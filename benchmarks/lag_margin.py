@@ -1,4 +1,4 @@
-"""What an error in the feedforward's lag costs, and how the adaptive mode uses its estimate (issue 11, item 5).
+"""What an error in the feedforward's lag costs, and how the adaptive mode uses its estimate.
 
 Runs the ``compare`` setup of a preset (same reference, PI, noise and options per seed) and prints, per variant,
 ``rms_dev`` (RMS of ``w - w_frictionless`` over the whole run) as a multiple of the oracle's, over the seeds
@@ -34,7 +34,8 @@ from plant import preset
 #: Lag factors of the true-parameter rows.
 TAU_FACTORS = (0.97, 0.99, 1.0, 1.01, 1.03, 1.05, 1.1, 1.3)
 #: (lag_margin, lag_margin_max, max_rel_stderr, lag_memory) of the adaptive rows; the first is the package's default,
-#: the second session 9's, the fifth session 8's.
+#: the second the default of commit a42b9e9 (before ``lag_memory``), the fifth that of commit 88db4dc
+#: (before ``lag_margin``).
 ADAPTIVE = ((1.0, 0.05, 0.05, 10.0), (1.0, 0.05, 0.05, 0.0), (1.0, 0.05, 0.05, 3.0), (1.0, 0.05, 0.05, 30.0),
             (0.0, 0.0, math.inf, 0.0), (0.0, 0.0, 0.05, 10.0))
 

@@ -1,4 +1,4 @@
-"""Online identification of all friction parameters: unscented Kalman filter vs. the paper's RLS (issue 3, item 4).
+"""Online identification of all friction parameters: unscented Kalman filter vs. the paper's RLS.
 
 The paper's online estimator (RLS on eq. 4, eqs. 10-13) needs the Stribeck
 factors ``Vs``, ``delta`` from a quasi-static pre-fit (Sec. V-C; its footnote

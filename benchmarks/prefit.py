@@ -1,4 +1,4 @@
-"""Pre-fit benchmark (issue 11 items 1, 2): the designed quasi-static experiment on hard joints, and the
+"""Pre-fit benchmark: the designed quasi-static experiment on hard joints, and the
 adaptive mode with a wrong design inertia.
 
 Run:  python benchmarks/prefit.py [--duration 120] [--seed 0]
@@ -7,7 +7,7 @@ Table 1: per joint, what the Stribeck experiment designed from the joint's respo
 stiffer loop) and the pre-fit against the truth (Vs, delta, Fs; or the Coulomb + viscous fallback).
 Table 2: ``compare`` on the ``paper`` preset, modes adaptive and dob, with ``J_design`` 0.5x, 1x and 2x the true
 J (the PI design, the estimator start, the gates and the DOB all use it): eta over the second half
-(target: adaptive >= 0.9 at 0.5x and 2x, issue 11 item 5).
+(target: adaptive >= 0.9 at 0.5x and 2x).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Where does adaptive's rms_dev excess over the oracle come from on ``paper``? (issue 11, item 5; a script, not a test)
+"""Where does adaptive's rms_dev excess over the oracle come from on ``paper``? (A script, not a test.)
 
 Runs the ``compare`` setup of the ``paper`` preset (same reference, PI, noise and options) and prints, per variant,
 ``rms_dev`` (RMS of ``w - w_frictionless`` over the whole run, rad/s), its ratio to the oracle's, and the share of

@@ -1,4 +1,4 @@
-"""Stiff lagged plants (issue 11, items 4 and 6): the zoo's formerly refused joints through ``compare``, and the
+"""Stiff lagged plants: the zoo's formerly refused joints through ``compare``, and the
 120 s run time of the stiffest corners of the zoo box.
 
 Run:  python benchmarks/stiff.py [--ids 46,51,93,179,225,537,913,925,993] [--n 1000] [--seed 0]

@@ -1,4 +1,4 @@
-"""The plant zoo (issue 11, item 6): N random joints, every compensation mode, eta quantiles, win rates, failures.
+"""The plant zoo: N random joints, every compensation mode, eta quantiles, win rates, failures.
 
 Run:  python benchmarks/zoo.py [--n 100] [--duration 120] [--seed 0] [--modes none,fixed,adaptive,dob,...]
                                [--group 8] [--workers 2] [--scheduler tcp://host:8786]
@@ -10,8 +10,10 @@ Draws the joints with :func:`controllers.experiments.zoo.draw_plants` (the box o
 runs every mode on the batch engine (all cores; Dask with ``--scheduler``) and
 prints eta (second half) per mode as quantiles with the count of every outcome
 (ok, refused, diverged, undefined, no reference, invalid), the win rates of the
-adaptive modes against fixed, DOB and Canudas, the issue's targets with the
-joints that miss them, and the wall time split into preparation and runs. A new mode
+adaptive modes against fixed, DOB and Canudas, the targets (no run refused or
+diverged; best adaptive eta > 0 on every joint with a defined eta; best adaptive
+at or above the DOB on at least 95 %) with the joints that miss them, and the
+wall time split into preparation and runs. A new mode
 of the registry is picked up by default (``--modes`` lists the registry).
 """
 

@@ -7,7 +7,7 @@ Every compiled function of the package is declared with :func:`kernel` instead o
    kernel that calls (and inlines) kernels of other modules — the closed-loop
    engine composes the plant, the PI, the gate, the estimator, the RLS and the
    feedforward, each in the module of its concept — would silently keep the old
-   machine code after an edit of a callee (numba issue #6845). Here the cache
+   machine code after an edit of a callee (https://github.com/numba/numba/issues/6845). Here the cache
    stamp of every kernel is one digest of all source files of ``plant``,
    ``adaptive_ff`` and ``controllers``: any edit recompiles everything once.
 2. **Where it is written.** The first writable of: ``$NUMBA_CACHE_DIR``, the

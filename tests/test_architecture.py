@@ -1,6 +1,6 @@
 """Architecture rules of the package, checked on the source text (AST) and, for import cost, in a subprocess.
 
-Rules (house rules of the project, issue 10):
+Rules (house rules of the project):
 
 (a) the import graph of ``plant``, ``adaptive_ff`` and ``controllers`` (module-level and function-level
     imports alike) has no cycles;

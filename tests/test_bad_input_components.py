@@ -1,4 +1,4 @@
-"""Issue 12 item 6: no silent NaN. Every estimator, gate, feedforward and peer rejects non-finite and out-of-range
+"""No silent NaN. Every estimator, gate, feedforward and peer rejects non-finite and out-of-range
 inputs (NaN, +-inf, 1e308, spikes of the torque and of the velocity), counts them and leaves its state unchanged.
 
 The strongest form of "state unchanged" is tested where the component's timing allows it: the run with the bad
@@ -137,7 +137,7 @@ def test_sliding_estimator_rejects_every_bad_input_and_equals_the_run_without_th
     np.testing.assert_array_equal(est.theta, clean.theta)  # bit for bit: the bad samples changed nothing
     np.testing.assert_array_equal(est.rls.P, clean.rls.P)
     assert est.theta_cov.tolist() == clean.theta_cov.tolist() and np.all(np.isfinite(est.theta_cov))
-    # and the clean estimate is the physical one (J within 5 %: the -29 % of the issue came from the spikes)
+    # and the clean estimate is the physical one (J within 5 %: the -29 % seen before the fix came from the spikes)
     assert est.estimate.J == pytest.approx(P.J, rel=0.05) and est.estimate.Fc == pytest.approx(P.Fc, rel=0.02)
 
 
@@ -164,7 +164,7 @@ def test_robust_feedforward_observe_and_step_reject_bad_inputs(log):
 
 
 def test_fixed_feedforward_step_rejects_non_finite_and_out_of_range_velocities():
-    """Issue 12: FrictionFeedforward.step(nan) made every later output NaN."""
+    """Regression: FrictionFeedforward.step(nan) made every later output NaN."""
     ws = np.sin(np.linspace(0, 6, 600)) * 0.3
     clean = FrictionFeedforward(EST, dt=1e-3, w_max=5.0, stick_band=0.003, stick_samples=3)
     ff = FrictionFeedforward(EST, dt=1e-3, w_max=5.0, stick_band=0.003, stick_samples=3)
@@ -209,7 +209,7 @@ def test_eq4_feedforward_rejects_bad_samples_with_the_state_unchanged(log):
 
 
 def test_canudas_peer_rejects_bad_samples_and_stays_on_its_clean_estimate(log):
-    """Issue 12: the Canudas peer diverged under huge spikes (1e200 gave NaN coefficients)."""
+    """Regression: the Canudas peer diverged under huge spikes (1e200 gave NaN coefficients)."""
     u, w = log
     bad_u, bad_w = _faults(u.size, 6)
     bad_u.update({k + 1: 1e200 for k in list(bad_u)[:10]})

@@ -1,6 +1,6 @@
 """``adaptive-ff`` never shows a traceback: every bad input exits 2 naming the file, argument, row or value.
 
-Issue 12 item 5. Each case runs ``main()`` in-process (fast) and checks the exit status and the
+Each case runs ``main()`` in-process (fast) and checks the exit status and the
 one-line message; one subprocess case checks that stderr holds no traceback at all.
 """
 

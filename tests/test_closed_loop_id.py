@@ -1,4 +1,4 @@
-"""Issue 12, item 2: identification on a closed-loop log read out slower than the loop (method 'closed_loop').
+"""Identification on a closed-loop log read out slower than the loop (method 'closed_loop').
 
 The record is the paper's robot experiment (Sec. V-B) as ``paper-figures --save-data`` makes it, shorter: a PI
 velocity loop at 1 kHz (crossover 200 rad/s) tracks a multi-sine while the velocity and the (quantised) torque
@@ -32,7 +32,7 @@ def _errors(params: dict) -> dict:
 
 
 def _within_targets(err: dict) -> bool:
-    """Issue 12 item 2: J, tau within 10 %, Fc, Fs, sigma within 5 %."""
+    """The targets: J, tau within 10 %, Fc, Fs, sigma within 5 %."""
     return (max(abs(err["J"]), abs(err["tau"])) < 0.10
             and max(abs(err["Fc"]), abs(err["Fs"]), abs(err["sigma"])) < 0.05)
 
@@ -62,13 +62,14 @@ def test_closed_loop_fit_within_targets(fit):
     assert 0.6 < fit.info["residual_rms_u"] < 1.3
     assert all(0 < fit.stderr[k] < 0.1 * abs(fit.params[k]) for k in TRUE)
     assert fit.info["hac_lags"] >= 1 and fit.info["stderr_white"].keys() == fit.stderr.keys()
-    # issue 12 item 3: bootstrap errors by default (the HAC ones kept), the loop simulated with sensor noise
+    # bootstrap errors by default (the HAC ones kept), the loop simulated with sensor noise
     boot = fit.info["bootstrap"]
     assert fit.info["stderr_kind"] == "bootstrap" and boot["n"] == 4 and boot["n_valid"] == 4
     assert fit.info["stderr_hac"].keys() == fit.stderr.keys() and boot["block"] >= 3
     # the replicates draw the loop's noise afresh and refit through the start search; t intervals of 4 dof
     assert boot["loop_noise"] == "fresh realisation per replicate" and boot["refit"].startswith("whole estimator")
-    # ... with the fit's noise model (its level and common random numbers: redrawn ones covered less, session 8)
+    # ... with the fit's noise model (its level and common random numbers: redrawn ones covered less,
+    # docs/benchmarks/output_error.md)
     assert boot["noise_model"] == "the fit's (its sensor-noise level and common random numbers)"
     # torque residual: mostly (here all) Kp * noise, clipped at 0; velocity: mostly readout noise
     assert 0.0 <= boot["residual_scale"]["u"] < 0.8 < boot["residual_scale"]["w"] <= 1.0

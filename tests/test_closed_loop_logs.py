@@ -1,4 +1,4 @@
-"""Closed-loop logs (issue 12, item 2; item 3's identifiability judgment): the method is chosen from the log.
+"""Closed-loop logs (and the identifiability judgment): the method is chosen from the log.
 
 The paper's robot experiment (Sec. V-B): a PI velocity loop at 1 kHz tracks a multi-sine. Read out every
 20-40 ms (``robot_log.csv``) the record does not determine J and tau (eq. 4 LS gave J 231 or 12.6 for 4,
@@ -50,7 +50,7 @@ def test_controller_rate_log_is_identified_within_targets(run):
     # targets J, tau within 10 %, Fc, Fs, sigma within 5 %; measured J +2.7 %, tau -0.3 %, the rest 0.1 %
     assert abs(err["J"]) < 0.04 and abs(err["tau"]) < 0.04, err
     assert max(abs(err[k]) for k in ("Fc", "Fs", "sigma")) < 0.015, err
-    # item 3: judged in the band of the sliding regression, J and tau are identifiable here: no warning,
+    # judged in the band of the sliding regression, J and tau are identifiable here: no warning,
     # while the sample-to-sample heuristic of the eq. 4 LS fires on the same record
     assert [w for w in rep.warnings if w.refusing] == []
     paper = identify(log, Vs=VS, delta=DELTA, method="paper")
@@ -69,7 +69,7 @@ def test_noisier_controller_log_warns_where_tau_is_not_recovered():
 
 
 def test_slow_irregular_readout_of_the_same_loop_is_refused(run):
-    """Issue 12: the slow closed-loop log gave J 12.6 (or 231 without --lag) for 4 with no refusing warning."""
+    """Regression: the slow closed-loop log gave J 12.6 (or 231 without --lag) for 4 with no refusing warning."""
     rng = np.random.default_rng(5)
     times = irregular_sample_times(float(run.response.t[-1]), dt=1e-3, rng=rng)
     m = sample(run.response, times=times, noise_std=1e-3, quantization=0.6, rng=rng)

@@ -1,4 +1,4 @@
-"""Issue 12, item 3: ``compare --json``'s ``offline_ls`` block says whether the fixed mode's offline fit was accepted."""
+"""``compare --json``'s ``offline_ls`` block says whether the fixed mode's offline fit was accepted."""
 
 import json
 from types import SimpleNamespace

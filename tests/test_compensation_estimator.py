@@ -56,7 +56,7 @@ def test_online_estimator_builds_exactly_the_batch_rows(open_loop):
 
 
 def test_closed_loop_noise_bias_and_the_sliding_regime_gate(closed_loop_none):
-    """Item 4: in closed loop the torque reacts to the noise that decides sgn(w_meas) near zero."""
+    """In closed loop the torque reacts to the noise that decides sgn(w_meas) near zero."""
     r = closed_loop_none
     kw = dict(Tc=1e-3, Vs=P.Vs, delta=P.delta, Ts=0.01)
     ungated = fit_sliding(r.u, r.w_meas, dwell_max=1.0, **kw).estimate

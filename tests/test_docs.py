@@ -1,5 +1,5 @@
 """The documentation builds without a warning, documents every public name, and its gallery script
-makes the README's and Getting started's figures (issue 13 items 1, 4).
+makes the README's and Getting started's figures.
 
 The build runs Sphinx on a copy of ``docs/`` in a temporary folder, beside links to the rest of the
 checkout (nothing is written into the checkout), with ``-W --keep-going``; the gallery is rendered without running the scripts

@@ -1,6 +1,6 @@
 """Fuzz of the file readers (derandomized Hypothesis): a typed error or a result, never another exception.
 
-Issue 12 item 5. Readers: drive-log CSV (:func:`adaptive_ff.io.logs.load_log`), plant JSON
+Readers: drive-log CSV (:func:`adaptive_ff.io.logs.load_log`), plant JSON
 (:func:`plant.models.load_plant`) and sweep specs (:func:`controllers.experiments.sweep.load_spec`,
 then :func:`~controllers.experiments.sweep.check_case` on every case it expands to).
 """

@@ -1,4 +1,4 @@
-"""The J identifiability warning judges the band of the regression (issue 12, item 3).
+"""The J identifiability warning judges the band of the regression.
 
 Before: "J (and tau) are not identifiable" fired whenever the velocity changed no more than its noise from
 one sample to the next, also where the eq. 4 LS recovered J within 3-4 %. Now the record is refitted with its

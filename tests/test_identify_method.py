@@ -84,7 +84,7 @@ def test_cli_method_choices_are_the_library_methods():
 
 
 def test_cli_json_carries_the_notes_as_strict_json(record, tmp_path, capsys):
-    # issue 12, item 4: the notes (preprocessing, method choice, structure, excitation) travel in --json as a list
+    # the notes (preprocessing, method choice, structure, excitation) travel in --json as a list
     # of strings, the same lines the text report prints after "note: "
     from controllers.cli.main import main
 

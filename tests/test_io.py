@@ -275,7 +275,7 @@ def test_position_noise_estimate():
     assert estimate_position_noise(np.floor(np.sin(t) / step) * step) >= step / math.sqrt(12) * (1 - 1e-12)
 
 
-# --------------------------------------------------------------------------- real files (issue 12 item 4)
+# --------------------------------------------------------------------------- real files
 
 from adaptive_ff.io.logs import CsvFormat  # noqa: E402
 

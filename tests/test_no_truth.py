@@ -1,4 +1,4 @@
-"""Issue 11 item 2: nothing from the true plant reaches an estimator, compensator or experiment design.
+"""Nothing from the true plant reaches an estimator, compensator or experiment design.
 
 The plant object of these tests raises :class:`TruthLeak` when a friction field (or ``J``, when a design inertia
 is given) is read anywhere but in the plant step's packing (:func:`plant.dynamics.plant_params`,

@@ -1,4 +1,4 @@
-"""Tests of adaptive_ff.identification.online_ukf: joint UKF estimation of (Fc, Fs, Vs, delta, sigma, tau), issue 3 item 4."""
+"""Tests of adaptive_ff.identification.online_ukf: joint UKF estimation of (Fc, Fs, Vs, delta, sigma, tau)."""
 
 import math
 import warnings

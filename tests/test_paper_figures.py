@@ -87,7 +87,7 @@ def test_demo_logs_load_with_units(result):
     np.testing.assert_allclose(np.diff(ctl.t), 1e-3, rtol=1e-6)
     k = np.rint(ref.t / 1e-3).astype(int)
     np.testing.assert_allclose(ref.u, np.round(ctl.u[np.maximum(k - 1, 0)] / 0.6) * 0.6, atol=1e-9)
-    # issue 12 item 2: the commanded velocity at the stamps and the PI of the loop, for --method closed_loop
+    # the commanded velocity at the stamps and the PI of the loop, for --method closed_loop
     from adaptive_ff.io.logs import read_columns
     from controllers.experiments.closed_loop_id import ControllerSpec
 

@@ -38,7 +38,7 @@ def clean():
 def test_output_error_recovers_noise_free_parameters_at_10_ms(clean):
     fit = fit_physical(clean.t, clean.u, clean.w, Vs=P.Vs, delta=P.delta, input_delay=0.5 * DT)
     e = _rel(fit)
-    # issue targets: Fc, Fs, sigma within 2 %, J, tau within 5 % (measured: all within 0.6 %)
+    # targets: Fc, Fs, sigma within 2 %, J, tau within 5 % (measured: all within 0.6 %)
     for k, tol in (("Fc", 2.0), ("Fs", 2.0), ("sigma", 2.0), ("J", 5.0), ("tau", 5.0)):
         assert abs(e[k]) < tol, (k, e[k])
     # noise-free data: the one-step predictor is chosen (module docstring); it reproduces the record
@@ -88,7 +88,7 @@ def test_output_error_one_noisy_quantised_irregular_seed():
     e = _rel(fit)
     for k, tol in (("Fc", 5.0), ("Fs", 5.0), ("sigma", 5.0), ("J", 10.0), ("tau", 10.0)):
         assert abs(e[k]) < tol, (k, e[k])
-    # issue 12 item 3: the reported (bootstrap) standard errors cover the truth on this record; the HAC ones
+    # the reported (bootstrap) standard errors cover the truth on this record; the HAC ones
     # (curvature of the rough free-run cost) do not for every parameter (the coverage over 40 records is the
     # benchmark's, benchmarks/coverage.py)
     assert fit.info["stderr_kind"] == "bootstrap"

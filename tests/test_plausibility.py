@@ -1,4 +1,4 @@
-"""Plausibility everywhere (issue 12, item 1): typed warnings naming the parameter, and design --from refusing them."""
+"""Plausibility everywhere: typed warnings naming the parameter, and design --from refusing them."""
 
 import argparse
 import json
@@ -62,7 +62,7 @@ def test_warning_json_round_trip_and_validation():
 
 
 def test_output_error_negative_fs_is_flagged(frictionless_record):
-    """Issue 12: output-error returned Fs = -0.27 N·m with no warning (eq. 4 results did get one)."""
+    """Regression: output-error returned Fs = -0.27 N·m with no warning (eq. 4 results did get one)."""
     d = frictionless_record
     fit = fit_physical(d.t, d.u, d.w, Vs=0.05, delta=1.0, method="output_error", burn=0.1,
                        start={"J": 1.0, "Fc": 0.1, "Fs": 0.1, "sigma": 2.0, "tau": 0.01})
@@ -86,7 +86,7 @@ def test_identify_json_carries_typed_warnings(frictionless_record):
 
 
 def test_design_from_refuses_warned_identification(tmp_path, capsys):
-    """Issue 12: design --from ignored the identification's warning and printed Ki 6594 instead of 786."""
+    """Regression: design --from ignored the identification's warning and printed Ki 6594 instead of 786."""
     src = tmp_path / "id.json"
     warn = {"code": "identifiability", "parameter": "tau", "message": "the data do not support the lag"}
     src.write_text(json.dumps({"J": 12.6, "sigma": 237.0, "warnings": [warn]}))

@@ -1,4 +1,4 @@
-"""The residual observer of ``adaptive-dob`` is kept below the friction it cancels (zoo joint #550, issue 11): its
+"""The residual observer of ``adaptive-dob`` is kept below the friction it cancels (zoo joint #550): its
 Q-filter cut-off from the noise estimate, the design inertia and the measured friction level, checked against the
 observer component driven by noise, and the zoo joint where the 1000 rad/s observer made the mode worse than none."""
 

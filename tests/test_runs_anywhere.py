@@ -1,4 +1,4 @@
-"""Issue 12 item 8: import and the CLI work from a read-only install with a non-writable HOME.
+"""Import and the CLI work from a read-only install with a non-writable HOME.
 
 The packages are copied to a temporary folder that cannot be written, HOME points where nothing can be created,
 NUMBA_CACHE_DIR and XDG_CACHE_HOME are unset. The compiled-kernel cache (plant/jit.py) must then fall back to the

@@ -1,4 +1,4 @@
-"""Stiff LuGre joints (issue 11 item 4) and the refusal of plants the engine cannot integrate.
+"""Stiff LuGre joints and the refusal of plants the engine cannot integrate.
 
 The stiff path of :func:`plant.dynamics.plant_step` (error-controlled extrapolated backward Euler,
 :func:`plant.dynamics.lugre_stiff_step`) is checked against an independent tight-tolerance solution of the same

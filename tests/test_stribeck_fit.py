@@ -326,7 +326,7 @@ def test_plot_draws_curve_and_measurements_with_labelled_axes():
         plot_stribeck_fit(fit.to_dict(), w, F)
 
 
-# --------------------------------------------------------------------------- issue 3, item 3: simulated quasi-static runs,
+# --------------------------------------------------------------------------- simulated quasi-static runs,
 # both signs of delta, interval width vs noise, intervals on exact data
 
 

@@ -62,7 +62,7 @@ def test_dask_local_cluster_equals_local_run(tmp_path):
     assert _rows(remote) == _rows(local)
 
 
-# --------------------------------------------------------------------------- sweeps lose nothing (issue 12 item 7)
+# --------------------------------------------------------------------------- sweeps lose nothing
 
 import json  # noqa: E402
 import os  # noqa: E402

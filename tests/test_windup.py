@@ -133,7 +133,7 @@ def test_bounds_and_P_max_are_validated():
 
 
 def test_default_rls_is_windup_safe_at_lam_085():
-    """Issue 12 item 6: with default settings lam = 0.85 overflowed after about 4,400 updates without excitation
+    """Regression: with default settings lam = 0.85 overflowed after about 4,400 updates without excitation
     and stayed NaN; the default covariance bound trace(P) <= trace(P0) keeps P finite and theta where it was."""
     rng = np.random.default_rng(5)
     rls = RecursiveLeastSquares(3, lam=0.85)

@@ -79,7 +79,7 @@ def _robust_output(par, st, w_ctrl, w_ref):
 
 @kernel
 def _levels_plausible(par, eJ, etau, eFc, eFs, esig):
-    """Range checks of an estimate (class Notes, item 5)."""
+    """Range checks of an estimate (point (5) of the RobustAdaptiveFeedforward Notes)."""
     ffmax = par[P_FFMAX]
     return (math.isfinite(eJ) and math.isfinite(etau) and math.isfinite(esig) and math.isfinite(eFc)
             and math.isfinite(eFs) and par[_JLO] < eJ < par[_JHI] and 0.0 <= etau <= par[_TAUMAX]
@@ -542,7 +542,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         return float(robust_compensate(self.params, self.state, float(w_meas), float(w_meas), float(w_ref)))
 
     def plausible(self, est: FrictionEstimate) -> bool:
-        """The plausibility test of the class Notes, item (5): range checks and lag consistency."""
+        """The plausibility test of point (5) of the class Notes: range checks and lag consistency."""
         return bool(robust_plausible(self.params, self.state, est.J, est.tau, est.J_alt, est.Fc, est.Fs,
                                      est.sigma))
 

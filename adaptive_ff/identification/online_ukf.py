@@ -33,7 +33,7 @@ Augmented state (order :data:`STATE_NAMES`)::
   static pre-fit tells it, :func:`adaptive_ff.identification.stribeck_fit.fit_stribeck`).
 
 The inertia ``J`` is *known* (a constructor argument), not estimated: the
-issue asks for the six friction parameters; ``J`` of a robot joint is
+task is the six friction parameters; ``J`` of a robot joint is
 normally known from CAD data and the motor/gear data sheet (and is the
 best-determined parameter of the paper's regression), and with ``J``
 estimated too the product structure ``J*w' = u - f`` leaves the filter one

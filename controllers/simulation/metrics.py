@@ -273,7 +273,7 @@ def deviation_rms(w, w_limit) -> float:
 
     Used with the frictionless run of the same reference and noise as ``w_limit`` (``rms_dev`` of
     :class:`controllers.experiments.compare.Comparison`): unlike the tracking error, it does not saturate
-    when a compensator is at the frictionless tracking level (issue 11, item 5).
+    when a compensator is at the frictionless tracking level.
 
     Parameters
     ----------
