@@ -25,7 +25,7 @@ _EXPORTS = {
     "plant.karnopp": ("KarnoppParams",),
     "plant.lugre": ("LuGreParams",),
     "plant.models": ("MODELS", "load_plant", "plant_from_dict", "plant_to_dict"),
-    "plant.variants": ("VARIANT_NAMES", "drift_case", "variant", "variants"),
+    "plant.variant_plants": ("VARIANT_NAMES", "drift_case", "variant", "variants"),
     "plant.joint": ("DT_DEFAULT", "PlantResponse", "make_rk4_step", "simulate"),
     "plant.sampling": ("Measurement", "irregular_sample_times", "sample"),
     "plant.results": ("json_safe", "to_json", "axes_or_new"),
