@@ -7,7 +7,7 @@ velocities in deg/s, torques in N·m; eta = (RMS_none - RMS_mode) / (RMS_none - 
 
 1. the ``paper`` preset and the drift case (Fc, Fs +50 % over the first half) in every mode,
    including the two peers (Canudas de Wit et al. 1987, disturbance observer);
-2. the matrix of plant variants (:mod:`plant.variants`): eta per mode and diverged runs;
+2. the matrix of plant variants (:mod:`plant.variant_plants`): eta per mode and diverged runs;
 3. feedforward and estimator design alternatives side by side, the peers' tuning;
 4. the closed-loop identification bias: the sliding-regime regression on the loop's own
    data with and without its gate, against the true parameters.
@@ -30,7 +30,7 @@ from adaptive_ff.compensation.sliding_estimator import fit_sliding
 from controllers.simulation.closed_loop import MODES
 from controllers.experiments.compare import compare
 from plant.friction import preset
-from plant.variants import VARIANT_NAMES, drift_case, variant
+from plant.variant_plants import VARIANT_NAMES, drift_case, variant
 
 COLUMNS = ("rms", "max", "rms_reversal", "u_rms", "u_noise", "eta")
 EST_KEYS = ("J", "tau", "Fc", "Fs", "sigma")

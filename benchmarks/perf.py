@@ -284,7 +284,7 @@ def _compare_rows(repeat):
 def _batch_rows(p, design, B, args):
     """µs per scenario-step of run_batch (wall, median and fastest; with ``--only batch`` also the CPU time of the
     process, all threads): mode none (B plants), adaptive, and the plant models."""
-    from plant.variants import variant
+    from plant.variant_plants import variant
 
     bref = multisine_reference(1.0 if args.quick else 2.0, rng=np.random.default_rng(0))
     brng = np.random.default_rng(2)

@@ -21,7 +21,7 @@ from controllers.experiments.compare import compare
 from controllers.experiments.quasi_static import StribeckDesign, stribeck_experiment
 from plant.friction import JointParams, preset
 from plant.lugre import LuGreParams
-from plant.variants import variant
+from plant.variant_plants import variant
 
 JOINTS = {
     "paper": preset("paper"),

@@ -2,7 +2,7 @@
 
 Run:  python benchmarks/variants.py [--seeds 1] [--duration 120] [--jobs N] [--plants paper,karnopp,...]
 
-For each plant (:mod:`plant.variants`: the ``paper`` preset, each variant that changes one thing, and the
+For each plant (:mod:`plant.variant_plants`: the ``paper`` preset, each variant that changes one thing, and the
 drift case with Fc, Fs +50 % over the first half) :func:`controllers.experiments.compare.compare` runs every
 mode on one scenario per seed (same reference and noise in every mode). Printed per plant and mode, as the
 mean over the seeds:
@@ -31,7 +31,7 @@ import numpy as np
 
 from controllers.experiments.compare import compare
 from plant.friction import preset
-from plant.variants import VARIANT_NAMES, drift_case, variant
+from plant.variant_plants import VARIANT_NAMES, drift_case, variant
 
 #: Plants of the table, in order.
 PLANTS = ("paper",) + VARIANT_NAMES + ("drift",)

@@ -2,39 +2,33 @@
 
 The top layer: imports :mod:`adaptive_ff` and :mod:`plant`.
 
-The names below are imported lazily (PEP 562): ``import controllers`` is cheap,
-and ``controllers.design_pi`` or ``from controllers import run_closed_loop``
-imports the module that defines it (and python-control, numba, matplotlib as
-that module needs them) on first use.
+The names below are imported lazily (``lazy_loader``, Scientific Python SPEC 1):
+``import controllers`` is cheap, and ``controllers.design_pi`` or
+``from controllers import run_closed_loop`` imports the module that defines it
+(and python-control, numba, matplotlib as that module needs them) on first use.
 """
 
-from __future__ import annotations
+import lazy_loader
 
-import importlib
-import sys
-import types
-
-#: module -> the public names this package re-exports from it
-_EXPORTS = {
-    "controllers.design.pi": ("PIController", "PIDesign", "closed_loop_step", "design_pi", "pi_step"),
-    "controllers.design.loop_analysis": ("LoopAnalysis", "analyse_design"),
-    "controllers.simulation.batch": ("BATCH_MODES", "BatchResult", "run_batch"),
-    "controllers.simulation.closed_loop": ("ESTIMATORS", "MODES", "ModeOptions", "ClosedLoopResult", "LoopMetrics",
-                                           "loop_metrics", "run_closed_loop", "run_mode"),
-    "controllers.simulation.compensators": ("TrueFriction", "build_mode"),
-    "controllers.peers.canudas": ("CanudasCompensator",),
-    "controllers.peers.dob": ("DisturbanceObserver",),
-    "controllers.peers.adaptive_dob": ("AdaptiveDOBCompensator",),
-    "controllers.experiments.compare": ("FIXED_METHODS", "Comparison", "CompareOptions", "compare", "eta",
-                                        "friction_scale", "prefit_stribeck"),
-    "controllers.experiments.paper_figures": ("identification_figures", "paper_figures", "PaperFigureOptions"),
-    "controllers.experiments.synthetic_logs": ("closed_loop_response", "quasi_static_log"),
-    "controllers.experiments.quasi_static": ("QuasiStaticData", "bidirectional_velocities", "quasi_static_runs"),
-    "controllers.report.figures": ("plot_comparison",),
-    "controllers.report.html": ("compare_report", "identify_report", "report_html", "write_report"),
-    "controllers.testing": ("TrackingBoundError", "assert_tracking_bound", "velocity_faults"),
-}
-_WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
+__getattr__, __dir__, _ = lazy_loader.attach(__name__, submod_attrs={
+    "design.pi": ["PIController", "PIDesign", "closed_loop_step", "design_pi", "pi_step"],
+    "design.loop_analysis": ["LoopAnalysis", "analyse_design"],
+    "simulation.batch": ["BATCH_MODES", "BatchResult", "run_batch"],
+    "simulation.closed_loop": ["ESTIMATORS", "MODES", "ModeOptions", "ClosedLoopResult", "LoopMetrics",
+                               "loop_metrics", "run_closed_loop", "run_mode"],
+    "simulation.compensators": ["TrueFriction", "build_mode"],
+    "peers.canudas": ["CanudasCompensator"],
+    "peers.dob": ["DisturbanceObserver"],
+    "peers.adaptive_dob": ["AdaptiveDOBCompensator"],
+    "experiments.compare": ["FIXED_METHODS", "Comparison", "CompareOptions", "compare", "eta", "friction_scale",
+                            "prefit_stribeck"],
+    "experiments.paper_figures": ["identification_figures", "paper_figures", "PaperFigureOptions"],
+    "experiments.synthetic_logs": ["closed_loop_response", "quasi_static_log"],
+    "experiments.quasi_static": ["QuasiStaticData", "bidirectional_velocities", "quasi_static_runs"],
+    "report.figures": ["plot_comparison"],
+    "report.html": ["compare_report", "identify_report", "report_html", "write_report"],
+    "testing": ["TrackingBoundError", "assert_tracking_bound", "velocity_faults"],
+})
 
 __all__ = [
     "PIDesign", "design_pi", "PIController", "closed_loop_step", "pi_step",
@@ -50,34 +44,3 @@ __all__ = [
     "CanudasCompensator", "DisturbanceObserver", "AdaptiveDOBCompensator", "assert_tracking_bound",
     "TrackingBoundError", "velocity_faults",
 ]
-
-
-def __getattr__(name: str):
-    """Import the module of a re-exported ``name`` on first access (PEP 562) and cache the value here."""
-    module = _WHERE.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
-
-
-class _Package(types.ModuleType):
-    """This package's module type: a submodule never shadows a re-exported name of the same spelling.
-
-    Importing a submodule binds it on its package (``setattr(package, "name", module)``);
-    where a re-exported object has that name (``plant.stribeck`` the function and
-    ``plant/stribeck.py`` the module), the object wins, as with eager imports.
-    """
-
-    def __setattr__(self, name, value):
-        if name in _WHERE and isinstance(value, types.ModuleType) and value.__name__ == f"{__name__}.{name}":
-            return
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Package

@@ -193,8 +193,8 @@ def defined_names(package: str) -> dict[str, list[str]]:
 
 
 def shadowed(module: str) -> bool:
-    """Whether a public name of the package has the module's full name (``plant.stribeck`` is a
-    function defined in the module ``plant.stribeck``): the two cannot share one target, so the
+    """Whether a public name of the package has the module's full name (as a function ``plant.stribeck``
+    would beside a module ``plant/stribeck.py``): the two cannot share one target, so the
     module's page is not indexed (``:no-index:``) and is linked as a page, not as ``:mod:``."""
     package, _, name = module.rpartition(".")
     return package in PACKAGES and name in public_names(package)
@@ -341,7 +341,7 @@ def escape_abs_bars(app, what, name, obj, options, lines) -> None:
 
 
 # --- references by the defining module: resolved to the public name's page -------------------
-# A docstring names an object where it is defined (``plant.stribeck.stribeck_shape``, or
+# A docstring names an object where it is defined (``plant.stribeck_map.stribeck_shape``, or
 # ``stribeck_shape`` inside that module), the package pages document it under its public name
 # (``plant.stribeck_shape``). A reference that Sphinx does not find and that imports to the very
 # object documented under a public name links to that name's page, its text unchanged; any other

@@ -1,4 +1,4 @@
-"""The joint's physical parameters (eqs. 1-3); the Stribeck map of eq. 3 is re-exported from :mod:`plant.stribeck`.
+"""The joint's physical parameters (eqs. 1-3); the Stribeck map of eq. 3 is re-exported from :mod:`plant.stribeck_map`.
 
 Symbols (SI units, joint side; for a prismatic axis read N for N·m and m for rad):
 
@@ -24,7 +24,7 @@ from typing import Callable, ClassVar
 
 from plant.dynamics import make_plant_step
 from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
-from plant.stribeck import stribeck, stribeck_cutoff, stribeck_scalar, stribeck_shape
+from plant.stribeck_map import stribeck, stribeck_cutoff, stribeck_scalar, stribeck_shape
 
 __all__ = ["JointParams", "stribeck_shape", "stribeck", "stribeck_scalar", "stribeck_cutoff", "PRESETS", "preset"]
 

@@ -100,7 +100,7 @@ class LuGreParams:
     def g(self, w):
         """Stribeck level ``g(w) = Fc + (Fs - Fc)*exp(-|w/Vs|**delta)`` (N·m), > 0; its limit at ``w = 0``.
 
-        ``g(w)`` is eq. 3 at ``|w|`` with ``sigma = 0`` (:func:`plant.stribeck.stribeck`).
+        ``g(w)`` is eq. 3 at ``|w|`` with ``sigma = 0`` (:func:`plant.stribeck_map.stribeck`).
         """
         aw = np.abs(np.asarray(w, dtype=float))
         lim = self.Fs if self.delta > 0 else self.Fc

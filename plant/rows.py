@@ -36,7 +36,7 @@ slot  name            meaning
 3     ``delta``       shape factor
 4     ``tau``         friction lag (s); 0 for LuGre
 5-8   ``*_pos``       ``Fc``, ``Fs - Fc`` (N·m), ``sigma`` (N·m·s/rad), cut-off speed
-                      (:func:`plant.stribeck.stribeck_cutoff`, rad/s) for ``w > 0``
+                      (:func:`plant.stribeck_map.stribeck_cutoff`, rad/s) for ``w > 0``
                       (LuGre: its ``Fc``, ``Fs - Fc``, ``sigma2``, cut-off)
 9-12  ``*_neg``       the same for ``w < 0`` (equal to 5-8 but for the asymmetric model)
 13    ``Fs_stick``    Karnopp: friction limit in the band (``Fs``, N·m)
@@ -88,7 +88,7 @@ import numpy as np
 
 from plant.errors import ParameterError, check_positive
 from plant.jit import kernel
-from plant.stribeck import stribeck_cutoff, stribeck_scalar, stribeck_slope_scalar
+from plant.stribeck_map import stribeck_cutoff, stribeck_scalar, stribeck_slope_scalar
 
 __all__ = ["PLANT_NPAR", "PLANT_NSTATE", "PLANT_SLOTS", "MODEL_CODES", "plant_params", "plant_rows", "lagged_params",
            "plant_state", "plant_states", "plant_target", "check_integrable", "integrable_rows", "lagged_rate", "steepest_rise",
@@ -195,7 +195,7 @@ def lagged_rate(J: float, dF: float, Vs: float, delta: float, sigma: float, tau:
 
     Notes
     -----
-    Derivative of eq. 3 (:func:`plant.stribeck.stribeck_slope_scalar`), ``x = |w|/Vs``, largest at
+    Derivative of eq. 3 (:func:`plant.stribeck_map.stribeck_slope_scalar`), ``x = |w|/Vs``, largest at
     ``x**delta = 1 - 1/delta`` (``delta >= 1`` or ``delta < 0``).
     """
     s = steepest_rise(dF, Vs, delta, sigma)
@@ -221,7 +221,7 @@ def steepest_rise(dF: float, Vs: float, delta: float, sigma: float) -> float:
 
     Notes
     -----
-    Derivative of eq. 3: :func:`plant.stribeck.stribeck_slope_scalar`. Used by :func:`lagged_rate` and
+    Derivative of eq. 3: :func:`plant.stribeck_map.stribeck_slope_scalar`. Used by :func:`lagged_rate` and
     :func:`plant.stiff.lagged_oscillation`.
     """
     rise = 0.0
@@ -472,8 +472,8 @@ def plant_states(plants, rows, w0: float) -> np.ndarray:
     -------
     ndarray, shape (B, PLANT_NSTATE)
         Row ``b`` equals ``plant_state(plants[b], w0)`` bit for bit: the lagged models' ``F(w0)`` is
-        :func:`plant.stribeck.stribeck_scalar` with the row's levels of the direction of ``w0`` (what
-        ``initial_state`` evaluates through :func:`plant.stribeck.stribeck`).
+        :func:`plant.stribeck_map.stribeck_scalar` with the row's levels of the direction of ``w0`` (what
+        ``initial_state`` evaluates through :func:`plant.stribeck_map.stribeck`).
 
     Raises
     ------
@@ -519,7 +519,7 @@ def plant_target(par, w, sgn):
 
     Notes
     -----
-    Ruderman, eq. 3 (:func:`plant.stribeck.stribeck_scalar`, one call site so
+    Ruderman, eq. 3 (:func:`plant.stribeck_map.stribeck_scalar`, one call site so
     the compiled code holds one copy of it); Karnopp (1985); Canudas de Wit et
     al. (1995), eq. 3.
     """

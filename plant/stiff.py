@@ -16,7 +16,7 @@ import numpy as np
 from plant.errors import ParameterError
 from plant.jit import kernel
 from plant.rows import MODEL_CODES, plant_target, steepest_rise
-from plant.stribeck import stribeck_slope_scalar
+from plant.stribeck_map import stribeck_slope_scalar
 
 __all__ = ["LAGGED_RK4_MAX", "LAGGED_RTOL", "LAGGED_FTOL", "LAGGED_MAX_SUBSTEPS", "lagged_local_rate",
            "lagged_level_max", "static_jump_in_reach",
@@ -478,7 +478,7 @@ def lugre_jacobian(par, w, z, u):
     -----
     Canudas de Wit et al. (1995) (module docstring): with ``a(w) = sigma0*|w|/g(w)``,
     ``a'(w) = sgn(w)*sigma0*(g - |w|*dg/d|w|)/g**2``, ``dg/d|w|`` the slope of eq. 3's Stribeck term
-    (:func:`plant.stribeck.stribeck_slope_scalar`; ``g`` from :func:`plant_target`); ``a'(0) = 0`` (the kink of ``|w|``).
+    (:func:`plant.stribeck_map.stribeck_slope_scalar`; ``g`` from :func:`plant_target`); ``a'(0) = 0`` (the kink of ``|w|``).
     """
     J = par[1]
     s0 = par[15]

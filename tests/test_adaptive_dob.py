@@ -19,7 +19,7 @@ from loop_helpers import run_named
 from plant.errors import ParameterError
 from plant.excitation import multisine_reference
 from plant.friction import preset
-from plant.variants import variant
+from plant.variant_plants import variant
 from test_kernel_adaptive import _assert_same, _both, _initial
 
 P = preset("paper")

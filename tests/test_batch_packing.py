@@ -16,7 +16,7 @@ from plant.friction import preset
 from plant.lugre import LuGreParams
 from plant.rows import (LUGRE_STIFF_MAX, PLANT_NPAR, PLANT_SLOTS, check_integrable, integrable_rows, plant_params,
                         plant_rows, plant_state, plant_states)
-from plant.variants import variant
+from plant.variant_plants import variant
 
 DT = 1e-3
 

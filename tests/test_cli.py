@@ -42,7 +42,7 @@ def test_compare_table(tmp_path, capsys):
 @pytest.mark.parametrize("model", ["lugre", "karnopp", "asymmetric"])
 def test_compare_accepts_plant_variants_by_model_key(tmp_path, capsys, model):
     from plant.models import plant_to_dict
-    from plant.variants import variant
+    from plant.variant_plants import variant
 
     name = {"lugre": "lugre", "karnopp": "karnopp", "asymmetric": "asymmetric"}[model]
     d_in = plant_to_dict(variant(name))

@@ -13,7 +13,7 @@ cannot flip them.
 """
 
 from plant import preset
-from plant.variants import drift_case
+from plant.variant_plants import drift_case
 from controllers.experiments.compare import compare
 
 DURATION = 60.0

@@ -27,7 +27,7 @@ from controllers.simulation.batch import run_batch
 from controllers.simulation.closed_loop import ModeOptions
 from plant.excitation import multisine_reference
 from plant.friction import preset
-from plant.variants import variant
+from plant.variant_plants import variant
 
 GOLDEN_PATH = Path(__file__).parent / "engine_golden_divisions.json"
 KP, KI = 69.28434179621937, 786.1169272191827  # design_pi of the paper joint (20 rad/s, 60 deg), as in 334a38e

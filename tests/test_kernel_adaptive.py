@@ -18,7 +18,7 @@ from loop_oracle import oracle_run
 from plant.errors import ParameterError
 from plant.excitation import multisine_reference
 from plant.friction import preset
-from plant.variants import variant
+from plant.variant_plants import variant
 
 P = preset("paper")
 DESIGN = design_pi(P.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)

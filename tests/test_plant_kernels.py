@@ -1,4 +1,4 @@
-"""The compiled plant (plant.stribeck, plant.dynamics) against the former pure-Python steps (tests/plant_oracle.py).
+"""The compiled plant (plant.stribeck_map, plant.dynamics) against the former pure-Python steps (tests/plant_oracle.py).
 
 Eq. 3 once (``stribeck_scalar``), one RK4 (``plant_rk4``) and one step (``plant_step``) for the lagged Stribeck,
 asymmetric, Karnopp and LuGre models must reproduce the former Python implementations bit for bit (same
@@ -24,7 +24,7 @@ from plant.friction import JointParams, preset, stribeck, stribeck_cutoff, strib
 from plant.joint import simulate
 from plant.karnopp import KarnoppParams
 from plant.lugre import LuGreParams
-from plant.variants import variant
+from plant.variant_plants import variant
 
 SETTINGS = settings(derandomize=True, max_examples=25, deadline=None, database=None,
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])

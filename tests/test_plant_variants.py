@@ -14,7 +14,7 @@ from plant.joint import make_rk4_step
 from plant.karnopp import KarnoppParams
 from plant.lugre import LuGreParams
 from plant.models import MODELS, load_plant, plant_from_dict, plant_to_dict
-from plant.variants import VARIANT_NAMES, drift_case, variant
+from plant.variant_plants import VARIANT_NAMES, drift_case, variant
 
 LUGRE = variant("lugre")
 

@@ -25,7 +25,7 @@ from controllers.experiments.zoo import draw_plants
 from plant.errors import ExcitationError
 from plant.friction import preset, stribeck
 from plant.models import plant_from_dict
-from plant.variants import VARIANT_NAMES, variant
+from plant.variant_plants import VARIANT_NAMES, variant
 
 P = preset("paper")
 #: the speed range compare() designs the quasi-static runs for (1.2 x the reference's peak speed)

@@ -11,7 +11,7 @@ import pytest
 
 from controllers.experiments.compare import compare
 from plant.friction import preset
-from plant.variants import variant
+from plant.variant_plants import variant
 
 MODES = ("fixed", "adaptive", "adaptive-dob", "dob")
 #: plant -> (sliding model, {mode: true lag the estimate is pinned to}, measured rms_dev of adaptive-dob in rad/s).

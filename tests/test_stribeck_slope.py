@@ -1,11 +1,11 @@
-"""The slope of eq. 3's Stribeck term (plant.stribeck.stribeck_slope_scalar) against central differences of the map."""
+"""The slope of eq. 3's Stribeck term (plant.stribeck_map.stribeck_slope_scalar) against central differences of the map."""
 
 import math
 
 import numpy as np
 import pytest
 
-from plant.stribeck import stribeck, stribeck_slope_scalar
+from plant.stribeck_map import stribeck, stribeck_slope_scalar
 
 
 @pytest.mark.parametrize("delta", [-0.7, 0.5, 1.0, 2.0, 2.5])

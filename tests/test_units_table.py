@@ -6,7 +6,7 @@ from adaptive_ff.identification.diagnostics import excitation_report
 from adaptive_ff.io import units
 from plant.friction import preset
 from plant.models import plant_to_dict
-from plant.variants import variants
+from plant.variant_plants import variants
 
 
 def test_one_definition_imported_by_the_others():

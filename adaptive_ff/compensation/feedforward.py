@@ -31,7 +31,7 @@ from adaptive_ff.identification.regression import FrictionEstimate
 from plant.component import Component
 from plant.errors import ParameterError, check_nonnegative, check_positive
 from plant.jit import kernel
-from plant.stribeck import stribeck_scalar
+from plant.stribeck_map import stribeck_scalar
 
 __all__ = ["FrictionFeedforward", "project_estimate", "project_levels", "ff_set_estimate", "ff_step", "ff_at",
            "ff_compensate"]

@@ -76,7 +76,7 @@ from plant.component import Component
 from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, check_multiple, check_positive,
                           check_signal)
 from plant.jit import kernel
-from plant.stribeck import stribeck_scalar, stribeck_shape
+from plant.stribeck_map import stribeck_scalar, stribeck_shape
 
 __all__ = ["SlidingFrictionEstimator", "SlidingFit", "fit_sliding", "sliding_regressors", "SLIDING_NAMES",
            "sliding_observe", "sliding_sizes", "estimate_from_theta", "sliding_updated", "sliding_rls", "sliding_mse",

@@ -53,7 +53,7 @@ import numpy as np
 from plant.errors import ExcitationError, ParameterError, check_finite_scalar, check_positive, check_signal
 from plant.friction import JointParams, stribeck, stribeck_shape
 from plant.jit import kernel
-from plant.stribeck import stribeck_shape_scalar
+from plant.stribeck_map import stribeck_shape_scalar
 from plant.results import axes_or_new, json_safe
 
 __all__ = [
@@ -554,7 +554,7 @@ def eq4_phi(phi, u_k, u_km1, w_km1, w_km2, Vs, delta, lag, stribeck, offset):
     -----
     Ruderman eqs. 4-6: ``[w(k-1), -w(k-2), u(k), -u(k-1), -g(w(k-1)), -h(w(k-1)), -1]`` without the
     absent columns; the same operations as :meth:`RegressionModel.phi`, both through the one compiled
-    Stribeck decay :func:`plant.stribeck.stribeck_shape_scalar` (the same bits).
+    Stribeck decay :func:`plant.stribeck_map.stribeck_shape_scalar` (the same bits).
     """
     j = 0
     phi[j] = w_km1

@@ -84,7 +84,7 @@ def _load_plant(args):
     """The plant of ``adaptive-ff compare`` (``--plant``, ``--variant`` or ``--preset``)."""
     from plant.friction import preset
     from plant.models import load_plant
-    from plant.variants import drift_case, variant
+    from plant.variant_plants import drift_case, variant
 
     if args.plant:
         p = load_plant(args.plant)

@@ -441,7 +441,7 @@ def _lagged(Wg, Vs: float, delta: float, tau: float, Tc: float) -> np.ndarray:
     """
     from scipy.signal import lfilter
 
-    from plant.stribeck import stribeck_shape
+    from plant.stribeck_map import stribeck_shape
 
     sg = np.sign(Wg)
     base = np.column_stack([sg, sg * stribeck_shape(Wg, Vs, delta), Wg])

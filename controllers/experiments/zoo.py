@@ -68,7 +68,7 @@ from controllers.simulation.compensators import MODES, build_mode
 from plant.errors import ParameterError
 from plant.models import plant_from_dict
 from plant.results import json_safe
-from plant.stribeck import stribeck
+from plant.stribeck_map import stribeck
 
 __all__ = ["DRIFT_STEPS", "STATUSES", "ZooBox", "ZooOptions", "ZooResult", "ZOO_MODELS", "draw_plants", "run_zoo",
            "zoo_box", "zoo_options_dict"]
