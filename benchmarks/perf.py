@@ -132,8 +132,8 @@ def _cli(args, env=None):
     return wall, (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
 
 
-# Runs in a fresh process: where the warm ``adaptive-ff compare`` spends its time, phase by phase (CPU s), all
-# in one process and one after the other (what the command does without its helper process).
+# Runs in a fresh process: where the warm ``adaptive-ff compare`` spends its time, phase by phase (CPU s), one
+# after the other in one process (as the command runs them).
 _PHASES_SCRIPT = r"""
 import json, resource, sys, tempfile, time
 def cpu(who=resource.RUSAGE_SELF):
@@ -144,7 +144,6 @@ def mark(name):
 import numpy, numba; mark("numpy, numba")
 import scipy.optimize; mark("scipy.optimize")
 import scipy.signal; mark("scipy.signal (imports scipy.stats)")
-from controllers.cli.compare import figure_jobs
 from controllers.experiments.compare import compare
 from plant import preset
 mark("the package (controllers.experiments.compare)")
@@ -155,125 +154,36 @@ from controllers.design.pi import design_pi
 design_pi(4.0, crossover=20.0, phase_margin=60.0, Tc=1e-3); mark("first design_pi")
 comp = compare(preset("paper"), progress=False); mark("compare(), first (numba init, cached kernels)")
 comp = compare(preset("paper"), progress=False); mark("compare(), second")
-jobs = figure_jobs()
 with tempfile.TemporaryDirectory() as d:
     c0 = cpu(resource.RUSAGE_CHILDREN)
-    plot_comparison(comp, d, jobs=1); mark("figures, one process")
-    plot_comparison(comp, d, jobs=jobs); mark(f"figures, jobs={jobs}: this process")
-    out[f"figures, jobs={jobs}: the pool worker"] = (float("nan"), cpu(resource.RUSAGE_CHILDREN) - c0)
+    plot_comparison(comp, d, jobs=1); mark("figures, one process (as the command draws them)")
+    plot_comparison(comp, d, jobs=2); mark("figures, jobs=2: this process (waits for its pool)")
+    out["figures, jobs=2: the pool's two workers"] = (float("nan"), cpu(resource.RUSAGE_CHILDREN) - c0)
 print(json.dumps(out))
 """
-
-# Runs ``adaptive-ff compare`` in a fresh process with time stamps (wall, CPU of the process that reaches them) at
-# the hand-overs between the main process and its helper (controllers/cli/compare.py).
-_TIMELINE_SCRIPT = r"""
-import functools, json, os, sys, tempfile, time
-T0 = time.perf_counter()
-import controllers.cli.compare as C
-log = os.path.join(tempfile.mkdtemp(), "log")
-def note(key, value):
-    with open(log, "a") as fh:
-        fh.write(json.dumps([key, value]) + "\n")
-def stamped(f, name):
-    @functools.wraps(f)
-    def g(*a, **k):
-        w0, c0 = time.perf_counter() - T0, time.process_time()
-        try:
-            return f(*a, **k)
-        finally:
-            note(name, [w0, time.perf_counter() - T0, c0, time.process_time(), os.getpid()])
-    return g
-for name in ("_import_modules", "_helper_designs", "_helper_draw", "_fork_helper", "_helper_prepare"):
-    if hasattr(C, name):  # _helper_prepare: since session 8
-        setattr(C, name, stamped(getattr(C, name), name))
-import controllers.report.figures as F
-F.figure_inputs = stamped(F.figure_inputs, "figure_inputs")
-start = C.CompareHelper.__dict__["start"].__func__
-C.CompareHelper.start = classmethod(stamped(start, "start"))
-for name in ("designs", "draw", "figures"):
-    setattr(C.CompareHelper, name, stamped(getattr(C.CompareHelper, name), name))
-from controllers.cli.main import main
-with tempfile.TemporaryDirectory() as d:
-    sys.stdout = open(os.devnull, "w")
-    main(["compare", "--preset", "paper", "--quiet", "--out", d])
-    sys.stdout = sys.__stdout__
-note("end", [time.perf_counter() - T0, time.process_time()])
-ev = {}
-for line in open(log):
-    k, v = json.loads(line)
-    ev.setdefault(k, []).append(v)
-print(json.dumps(ev))
-"""
-
-
-def _timeline_rows():
-    """The hand-overs of one warm ``adaptive-ff compare`` (main process and helper) and the critical path in CPU s."""
-    ev = json.loads(_py(_TIMELINE_SCRIPT))
-    start, designs, draw, fork = ev["start"][0], ev["designs"][0], ev["draw"][0], ev["_fork_helper"][0]
-    imp_figures = [e for e in ev["_import_modules"] if e[4] != start[4]][-1]  # the helper's (not this process's)
-    hdraw, inputs = ev["_helper_draw"][0], ev["figure_inputs"][0]
-    end_wall, end_cpu = ev["end"][0]
-    rows = [("  the warm command's hand-overs, one fresh process (wall | CPU of that process):", None, ""),
-            ("    main: plant loaded (numpy, numba), helper forked", fork[0], "s", fork[2]),
-            ("    main: imports the package (beside the helper's imports)", start[1] - fork[0], "s",
-             start[3] - fork[2]),
-            ("    main: imports the run's scipy modules (scipy.signal with scipy.stats)", designs[0] - start[1], "s",
-             designs[2] - start[3])]
-    wait = 0.0
-    if "_helper_designs" in ev:  # not kept from an earlier run: designed by the helper
-        hd = ev["_helper_designs"][0]
-        wait = max(0.0, fork[2] + (imp_figures[3] - imp_figures[2]) + hd[3] - designs[2])
-        rows.append(("    helper: python-control imported and the PI designs made", hd[1] - fork[0], "s", hd[3]))
-    else:
-        rows.append(("    PI designs read from the design store (no python-control)", None, ""))
-    imp_cpu = imp_figures[3] - imp_figures[2]
-    idle = [imp_figures[1], imp_figures[1], imp_figures[3], imp_figures[3]]  # before session 8: no skeletons
-    prep = ev.get("_helper_prepare", [idle])[0]  # the figures' skeletons, made while the helper waits
-    prep_cpu = prep[3] - prep[2]
-    receive = hdraw[2] - prep[3]  # the helper's CPU between its last idle task and drawing: unpickling the inputs
-    rows += [
-        ("    main: waits for the designs (CPU: idle time charged to the critical path)", designs[1] - designs[0], "s",
-         wait),
-        ("    main: compare()", inputs[0] - designs[1], "s", inputs[2] - designs[3]),
-        ("    main: the figures' inputs taken from the runs", inputs[1] - inputs[0], "s", inputs[3] - inputs[2]),
-        ("    main: hands them over", draw[0], "s", draw[2]),
-        ("    helper: figure code imported (beside the package and compare())", imp_figures[1] - imp_figures[0], "s",
-         imp_cpu),
-        ("    helper: makes the figures' data-free skeletons (prepare_figures, while it waits)",
-         prep[1] - prep[0], "s", prep_cpu),
-        ("    helper: receives the figures' inputs", hdraw[0] - draw[0], "s", receive),
-        ("    helper: draws its share (a pool worker the other)", hdraw[1] - hdraw[0], "s", hdraw[3] - hdraw[2]),
-        ("    main: end", end_wall, "s", end_cpu),
-        ("    critical path in CPU s (max(main until hand-over + wait, fork + helper imports + skeletons) + "
-         "receive + draw)", max(draw[2] + wait, fork[2] + imp_cpu + prep_cpu) + receive + (hdraw[3] - hdraw[2]), "s"),
-    ]
-    return rows
-
 
 def _compare_rows(repeat):
     """Warm ``adaptive-ff compare`` (numba cache present): median wall of ``repeat`` runs beside the target, phases.
 
-    With figures, the command with its helper process and without it (``ADAPTIVE_FF_NO_HELPER=1``: everything in
-    one process, figures in two) run alternately, so that both see the same machine load.
+    Without and with figures, run alternately so that both see the same machine load; targets: 2 s without
+    figures, 4 s with them (drawn one after the other in the command's one process).
     """
-    rows = [("adaptive-ff compare --preset paper, fresh process, warm: wall (target <= 2 s); CPU", None, "")]
-    alone = dict(os.environ, ADAPTIVE_FF_NO_HELPER="1")
-    cases = (("  --no-figures", ["--no-figures", "--quiet"], None),
-             ("  with figures (5 PNG)", ["--quiet"], None),
-             ("  with figures, without the helper process", ["--quiet"], alone))
-    for _, cli, env in cases:
-        _cli(cli, env)  # warm: numba cache, matplotlib font cache, page cache
+    rows = [("adaptive-ff compare --preset paper, fresh process, warm: wall; CPU", None, "")]
+    cases = (("  --no-figures", ["--no-figures", "--quiet"], 2.0),
+             ("  with figures (5 PNG)", ["--quiet"], 4.0))
+    for _, cli, _ in cases:
+        _cli(cli)  # warm: numba cache, matplotlib font cache, page cache
     runs = {label: [] for label, _, _ in cases}
     for _ in range(repeat):
-        for label, cli, env in cases:
-            runs[label].append(_cli(cli, env))
-    for label, _, _ in cases:
+        for label, cli, _ in cases:
+            runs[label].append(_cli(cli))
+    for label, _, target in cases:
         wall = statistics.median(w for w, _ in runs[label])
         rows.append((f"{label}, median of {repeat} (wall | CPU incl. children)", wall, "s",
                      statistics.median(c for _, c in runs[label])))
         fastest = min(w for w, _ in runs[label])
-        rows.append((f"{label}, fastest wall; target 2 s {'met' if fastest <= 2.0 else 'NOT met'}", fastest, "s"))
-    rows += _timeline_rows()
+        rows.append((f"{label}, fastest wall; target {target:g} s {'met' if fastest <= target else 'NOT met'}",
+                     fastest, "s"))
     phases = json.loads(_py(_PHASES_SCRIPT))
     rows.append(("  its phases in one fresh process, one after the other (wall | CPU):", None, ""))
     for name, (wall, cpu) in phases.items():
@@ -437,7 +347,7 @@ def main(argv=None) -> int:
     ap.add_argument("--hours", type=float, default=1.0, help="simulated time of the memory run (h)")
     ap.add_argument("--quick", action="store_true", help="short runs (5 s, 3 repeats, 0.1 h, B=200), no cold compile")
     ap.add_argument("--compare-only", action="store_true",
-                    help="only the warm adaptive-ff compare rows (median wall beside the 2 s target, phases)")
+                    help="only the warm adaptive-ff compare rows (median wall beside the targets, phases)")
     ap.add_argument("--only", choices=("batch",),
                     help="only the run_batch rows (batch: µs per scenario-step of every batch row, B=1000)")
     args = ap.parse_args(argv)

@@ -118,17 +118,10 @@ _FIELDS = {
 }
 
 
-_KNOWN_TYPES = {}  # the model classes seen so far -> (model name, field names, frozen)
-
-
 def _model_of(p) -> str:
-    known = _KNOWN_TYPES.get(type(p))
-    if known is None:
-        names = tuple(f.name for f in fields(p)) if is_dataclass(p) and not isinstance(p, type) else None
-        known = (getattr(p, "MODEL", None), names, names is not None and type(p).__dataclass_params__.frozen)
-        if isinstance(known[0], str):
-            _KNOWN_TYPES[type(p)] = known
-    model, names, frozen = known
+    model = getattr(p, "MODEL", None)
+    names = tuple(f.name for f in fields(p)) if is_dataclass(p) and not isinstance(p, type) else None
+    frozen = names is not None and type(p).__dataclass_params__.frozen
     if model not in _FIELDS or names != _FIELDS[model] or not frozen:
         raise TypeError(f"p must be a frozen JointParams, AsymmetricParams, KarnoppParams or LuGreParams (for a "
                         f"FrictionDrift use p.at(t)), got {type(p).__name__}")

@@ -314,13 +314,10 @@ def test_rms_dev_and_reversal_choice(comp):
     assert np.sign(r.w_ref[i - 1]) != np.sign(r.w_ref[i])  # a sign change of the reference
 
 
-# --------------------------------------------------------------------------- figures drawn by several processes
-
-_fork = pytest.mark.skipif(not __import__("sys").platform.startswith("linux"), reason="figures fork on Linux only")
+# --------------------------------------------------------------------------- figures drawn by a process pool
 
 
-@_fork
-def test_figures_drawn_in_two_processes_are_the_same_files(comp, tmp_path):
+def test_figures_drawn_by_a_process_pool_are_the_same_files(comp, tmp_path):
     from controllers.report.figures import plot_comparison
 
     one = plot_comparison(comp, tmp_path / "one", jobs=1)
@@ -331,7 +328,6 @@ def test_figures_drawn_in_two_processes_are_the_same_files(comp, tmp_path):
         assert a.read_bytes() == b.read_bytes(), a.name
 
 
-@_fork
 def test_figure_inputs_are_small_and_draw_the_same_files(comp, tmp_path):
     import pickle
 
@@ -341,7 +337,7 @@ def test_figure_inputs_are_small_and_draw_the_same_files(comp, tmp_path):
     assert list(inputs) == ["tracking", "error", "friction", "rls_convergence", "eta"]
     sent, runs = len(pickle.dumps(inputs)), len(pickle.dumps(comp))
     n = comp.results["none"].t.size  # 12 000 samples per record here (12 s at 1 kHz)
-    assert sent < 1e6 and sent < runs / 5, (sent, runs)  # what another process is sent: not the runs
+    assert sent < 1e6 and sent < runs / 5, (sent, runs)  # what a pool worker is sent: not the runs
 
     def arrays(x):
         if isinstance(x, np.ndarray):
@@ -358,18 +354,18 @@ def test_figure_inputs_are_small_and_draw_the_same_files(comp, tmp_path):
     e = np.rad2deg(r.w_ref - r.w)
     assert np.nanmax(hi) == np.max(e) and np.nanmin(lo) == np.min(e)
     np.testing.assert_array_equal(tc, minmax_envelope(r.t, e)[0])
-    a = draw_figures(pickle.loads(pickle.dumps(inputs)), tmp_path / "a", jobs=2)  # as the CLI's helper gets them
-    b = plot_comparison(comp, tmp_path / "b", jobs=1)
+    a = draw_figures(pickle.loads(pickle.dumps(inputs)), tmp_path / "a")  # as a pool worker gets them
+    b = plot_comparison(comp, tmp_path / "b")
     assert [p.name for p in a] == [p.name for p in b]
     for x, y in zip(a, b):
         assert x.read_bytes() == y.read_bytes(), x.name
 
 
 def _fig(name, inputs, draw):
-    """A figure record of ``controllers.report.figures`` without a skeleton (cost 0.3, as an unknown name)."""
+    """A figure record of ``controllers.report.figures``."""
     from controllers.report import figures as F
 
-    return F._Figure(name, inputs, None, draw, 0.3)
+    return F._Figure(name, inputs, draw)
 
 
 def _no_inputs(_comp):
@@ -384,95 +380,30 @@ def _tiny_figure(_inputs):
     return fig
 
 
-@_fork
-def test_a_failed_figure_process_is_redrawn_here_or_raises(monkeypatch, tmp_path):
-    import os
-
+def test_figures_without_inputs_or_content_are_skipped_and_errors_raised(monkeypatch, tmp_path):
     from controllers.report import figures as F
     from plant.errors import SignalError
-
-    parent = os.getpid()
-
-    def dies_in_a_copy(inputs):
-        if os.getpid() != parent:
-            os._exit(3)  # a copy killed mid-figure: the parent draws its share
-        return _tiny_figure(inputs)
 
     def raises(inputs):
         raise SignalError("bad record")
 
     monkeypatch.setattr(F, "_FIGURES", (_fig("a", _no_inputs, _tiny_figure), _fig("b", _no_inputs, lambda d: None),
-                                        _fig("c", _no_inputs, dies_in_a_copy)))
-    assert F.figure_shares(["a", "b", "c"], 2) == [["a", "b"], ["c"]]  # this process draws the first share
-    paths = F.plot_comparison(None, tmp_path, jobs=2)
-    assert [p.name for p in paths] == ["a.png", "c.png"] and all(p.stat().st_size > 0 for p in paths)
-    assert F.figure_shares(["a", "b"], 2) == [["a"], ["b"]]
+                                        _fig("c", lambda c: None, raises), _fig("d", _no_inputs, _tiny_figure)))
+    paths = F.plot_comparison(None, tmp_path)  # b: nothing to show; c: no inputs, not drawn
+    assert paths == [tmp_path / "a.png", tmp_path / "d.png"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png", "d.png"]
+    assert all(p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in paths)
     monkeypatch.setattr(F, "_FIGURES", (_fig("a", _no_inputs, _tiny_figure), _fig("b", _no_inputs, raises)))
-    with pytest.raises(SignalError, match="bad record"):  # the copy's error, raised again by this process
-        F.plot_comparison(None, tmp_path, jobs=2)
-
-    def no_fork():
-        raise OSError(11, "Resource temporarily unavailable")
-
-    monkeypatch.setattr(F, "_FIGURES", (_fig("a", _no_inputs, _tiny_figure), _fig("b", lambda c: None, raises),
-                                        _fig("c", _no_inputs, _tiny_figure)))
-    monkeypatch.setattr(os, "fork", no_fork)  # no process left: this process draws every figure
-    assert [p.name for p in F.plot_comparison(None, tmp_path / "nf", jobs=2)] == ["a.png", "c.png"]  # b: no inputs
+    with pytest.raises(SignalError, match="bad record"):
+        F.plot_comparison(None, tmp_path / "e")
 
 
-def test_figure_shares_and_jobs_argument(tmp_path):
-    from controllers.report.figures import _FIGURE_COST, figure_shares, plot_comparison
+def test_jobs_argument_is_checked(tmp_path):
+    from controllers.report.figures import draw_figures, plot_comparison
     from plant.errors import ParameterError
 
-    names = list(_FIGURE_COST)
-    for jobs in (1, 2, 3, 5, 7):
-        shares = figure_shares(names, jobs)
-        assert len(shares) == jobs and sorted(sum(shares, [])) == sorted(names)
-        loads = [sum(_FIGURE_COST[n] for n in s) for s in shares if s]
-        # no share exceeds the mean load by more than the largest single figure (true of LPT, so of the optimum)
-        assert max(loads) <= sum(_FIGURE_COST.values()) / len(loads) + max(_FIGURE_COST.values()) + 1e-12
-    assert figure_shares(names, 2) == [["tracking", "rls_convergence", "eta"], ["error", "friction"]]  # 0.76 | 0.76
-    assert sorted(sum(figure_shares(names * 2, 2), [])) == sorted(names * 2)  # 4096 < 2**10: the greedy rule
     for bad in (0, -1, 1.5, True, "2"):
         with pytest.raises(ParameterError, match="jobs"):
             plot_comparison(None, tmp_path, jobs=bad)
-
-
-def test_prepared_skeletons_are_taken_and_give_the_same_files(comp, tmp_path):
-    """prepare_figures (the CLI helper's idle time) moves the data-free part ahead; the PNG bytes do not change,
-    a skeleton of the wrong layout is not used, and the helper guesses the layouts of a default comparison."""
-    from controllers.cli import compare as C
-    from controllers.report import figures as F
-    from adaptive_ff.compensation.sliding_estimator import SLIDING_NAMES
-    from controllers.simulation.compensators import MODES
-    from plant.errors import ParameterError
-
-    inputs = F.figure_inputs(comp)
-    layouts = {"tracking": None, "error": len(inputs["error"]["modes"]), "friction": None,
-               "rls_convergence": F.rls_grid(len(inputs["rls_convergence"]["names"])), "eta": None}
-    plain = F.draw_figures(inputs, tmp_path / "plain", jobs=1)
-    try:
-        F.prepare_figures(layouts)
-        prepared = {key: fig for key, (fig, _) in F._PREPARED.items()}
-        assert set(prepared) == set(layouts.items())
-        taken = {}
-        for name, draw in ((f.name, f.draw) for f in F._FIGURES):  # each figure is drawn on its prepared skeleton
-            taken[name] = draw(inputs[name])
-        assert F._PREPARED == {} and all(taken[n] is prepared[(n, lay)] for n, lay in layouts.items())
-        F.prepare_figures(layouts)
-        F.prepare_figures({"error": layouts["error"] + 1})  # a wrong guess: kept, not used
-        ahead = F.draw_figures(inputs, tmp_path / "ahead", jobs=1)
-        assert list(F._PREPARED) == [("error", layouts["error"] + 1)]
-        assert [p.name for p in ahead] == [p.name for p in plain]
-        for a, b in zip(ahead, plain):
-            assert a.read_bytes() == b.read_bytes(), a.name
-        with pytest.raises(ParameterError, match="nope"):
-            F.prepare_figures({"nope": None})
-        F._PREPARED.clear()
-        # what the CLI helper prepares for a default comparison (all modes, sliding estimator) is what it draws
-        assert C._SLIDING_PARAMETERS == len(SLIDING_NAMES) == len(inputs["rls_convergence"]["names"])
-        assert set(comp.results) == set(MODES) | {"none", "frictionless"}
-        C._helper_prepare(MODES, "sliding")
-        assert set(F._PREPARED) == set(layouts.items())
-    finally:
-        F._PREPARED.clear()
+        with pytest.raises(ParameterError, match="jobs"):
+            draw_figures({}, tmp_path, jobs=bad)

@@ -53,11 +53,6 @@ def main(argv=None) -> int:
     130 interrupted by Ctrl-C (SIGINT); 1 an unexpected internal error, printed
     on one line (set ``ADAPTIVE_FF_DEBUG=1`` for the traceback). No traceback
     otherwise.
-
-    Called without ``argv`` (the console script: the process ends when this
-    returns), everything alive is frozen (``gc.freeze()``) before returning, so
-    that the interpreter's final garbage collections do not traverse the
-    imported numba, scipy and package objects again (a fraction of a second).
     """
     args = build_parser().parse_args(argv)  # --help and usage errors exit here, before numpy is imported
     try:
@@ -70,11 +65,6 @@ def main(argv=None) -> int:
         return 0
     except Exception as exc:  # noqa: BLE001 - the top-level guard: one line, never a traceback
         return _report_error(exc)
-    finally:
-        if argv is None:  # the console script: the process ends now; its final collections skip what is alive
-            import gc  # (frozen; a fraction of a second of CPU with numba, scipy and the package imported)
-
-            gc.freeze()
 
 
 def _report_error(exc: Exception) -> int:

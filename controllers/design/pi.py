@@ -37,7 +37,6 @@ __all__ = [
     "PIController",
     "pi_step",
     "MAX_CROSSOVER_FRACTION",
-    "remember_designs",
 ]
 
 #: Largest allowed crossover as a fraction of the Nyquist frequency ``pi/Tc``.
@@ -123,8 +122,8 @@ class PIDesign:
     loop: control.TransferFunction = field(default=None, repr=False, compare=False)
 
     def __getstate__(self) -> dict:
-        """Pickled without the transfer functions: they are rebuilt on first use, so that a design computed in
-        another process (:func:`remember_designs`) does not import python-control where it is unpickled."""
+        """Pickled without the transfer functions: they are rebuilt on first use, so that a design sent to
+        another process does not import python-control where it is unpickled."""
         return {k: v for k, v in self.__dict__.items() if not k.startswith(_TF_PREFIX)}
 
     def _build_transfer_functions(self) -> None:
@@ -386,9 +385,6 @@ def design_pi(
     if not 0.0 < pm < 90.0:
         raise ParameterError(f"phase_margin must be in (0, 90) degrees, got {pm!r}")
 
-    known = _REMEMBERED.get((float(J), float(sigma), float(wc), float(pm), float(Tc)))
-    if known is not None:
-        return known
     import control
 
     Kp0, Ki0 = _continuous_gains(J, sigma, wc, pm)  # 1. continuous-time analytic solution
@@ -400,39 +396,6 @@ def design_pi(
     return PIDesign(Kp=Kp, Ki=Ki, Tc=Tc, crossover=wgc, phase_margin=pm_ach, gain_margin=gm,
                     phase_crossover=wpc, stability_margin=sm, J=J, sigma=sigma, C=C,
                     plant=plant, loop=loop)
-
-
-#: Designs computed elsewhere (:func:`remember_designs`), by the arguments of :func:`design_pi`.
-_REMEMBERED: dict[tuple, PIDesign] = {}
-
-
-def remember_designs(designs) -> None:
-    """Let :func:`design_pi` return designs that were computed by :func:`design_pi` in another process.
-
-    ``adaptive-ff compare`` designs its PI loops in a helper process that imports
-    python-control while this one imports the simulation, and hands the results
-    over here (:mod:`controllers.cli.compare`); a design is a pure function of
-    its arguments, so :func:`design_pi` returns the same numbers either way. The
-    transfer functions of a handed-over design are rebuilt when first read.
-
-    Parameters
-    ----------
-    designs : iterable of (dict, PIDesign)
-        The keyword arguments of :func:`design_pi` (``J``, ``sigma``,
-        ``crossover``, ``phase_margin``, ``Tc``; SI units, degrees) and the
-        design it returned for them.
-
-    Raises
-    ------
-    ParameterError
-        An entry is not a :class:`PIDesign`, or its ``J``, ``sigma`` or ``Tc`` differ from its arguments.
-    """
-    for kwargs, d in designs:
-        key = (float(kwargs["J"]), float(kwargs.get("sigma", 0.0)), float(kwargs.get("crossover", 20.0)),
-               float(kwargs.get("phase_margin", 60.0)), float(kwargs.get("Tc", 1e-3)))
-        if not isinstance(d, PIDesign) or (d.J, d.sigma, d.Tc) != (key[0], key[1], key[4]):
-            raise ParameterError(f"remember_designs: {d!r} is not the design_pi result for {kwargs!r}")
-        _REMEMBERED[key] = d
 
 
 @dataclass(frozen=True)

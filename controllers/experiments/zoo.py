@@ -530,25 +530,13 @@ class ZooResult:
         return lines
 
 
-_REF: dict = {}
-
-
-def _reference(o: CompareOptions):
-    """The comparison reference, once per process and setting."""
-    key = (o.duration, o.seed, o.Tc)
-    if key not in _REF:
-        _REF.clear()
-        _REF[key] = comparison_reference(o)
-    return _REF[key]
-
-
-def _prepare(spec, o: CompareOptions) -> tuple:
-    """(mode options, noise seed, {mode: reason it cannot be built}, notes) of one joint, or the reason it was
-    refused (last item)."""
+def _prepare(spec, o: CompareOptions, ref) -> tuple:
+    """(mode options, noise seed, {mode: reason it cannot be built}, notes) of one joint on the comparison
+    reference ``ref`` of ``o``, or the reason it was refused (last item)."""
     try:
         p = plant_from_dict(spec)
-        plant_table(p, _reference(o).t, o.Tc)  # refuses a plant the engine cannot integrate (every row)
-        s = prepare_comparison(p, o, reference=_reference(o))
+        plant_table(p, ref.t, o.Tc)  # refuses a plant the engine cannot integrate (every row)
+        s = prepare_comparison(p, o, reference=ref)
         s.bar.close()
     except Exception as exc:  # noqa: BLE001 - any refusal is a result of the zoo, with its reason
         return None, None, None, (), f"{type(exc).__name__}: {exc}"
@@ -575,9 +563,9 @@ def _group_task(args) -> dict:
 
     specs, co, modes = args
     t0 = time.process_time()
-    prepared = [_prepare(s, co) for s in specs]
+    ref = comparison_reference(co)  # once per group: the same reference for every joint
+    prepared = [_prepare(s, co, ref) for s in specs]
     t1 = time.process_time()
-    ref = _reference(co)
     n = len(specs)
     noise = {}
     for j, (opts, seed, *_rest, why) in enumerate(prepared):
@@ -683,7 +671,7 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
     o = ZooOptions() if options is None else options
     t0 = time.perf_counter()
     co = CompareOptions(duration=float(o.duration), seed=int(o.seed), modes=o.modes)
-    specs = draw_plants(o.n, _reference(co), seed=o.seed, box=o.box)
+    specs = draw_plants(o.n, comparison_reference(co), seed=o.seed, box=o.box)
     n = o.n
     bounds = _group_bounds(n, o.group, o.workers or os.cpu_count() or 1)
     starts = [a for a, _ in bounds]

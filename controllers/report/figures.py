@@ -20,19 +20,17 @@ Colours are the Okabe-Ito palette (Okabe and Ito, "Color Universal Design",
 per mode in every figure (:data:`MODE_COLORS`). Long records are drawn as
 min/max envelopes over display bins (:func:`minmax_envelope`), so a 120 s run
 at 1 kHz costs a few thousand vertices, and the figures use fixed margins
-instead of a layout engine (both for speed); ``plot_comparison(..., jobs=2)``
-draws them in two processes (a forked pool worker inherits the figures' inputs).
-:func:`plot_comparison` is :func:`figure_inputs` (what each figure shows, taken
-from the runs: well under 1 MB for a 120 s run) followed by
-:func:`draw_figures` (matplotlib), so another process can draw from the inputs. Velocities are
-shown in deg/s, torques in N·m.
+instead of a layout engine (both for speed). :func:`plot_comparison` is
+:func:`figure_inputs` (what each figure shows, taken from the runs: well under
+1 MB for a 120 s run) followed by :func:`draw_figures` (matplotlib), which
+draws them one after the other, or in a ``concurrent.futures`` process pool
+(``jobs``) that is sent the inputs, not the runs. Velocities are shown in
+deg/s, torques in N·m.
 """
 
 from __future__ import annotations
 
 import math
-import signal
-import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, NamedTuple
 
@@ -44,10 +42,9 @@ from plant.errors import ParameterError, SignalError
 if TYPE_CHECKING:  # annotations only: matplotlib is imported by the functions when they run
     from matplotlib.figure import Figure
 
-__all__ = ["plot_comparison", "figure_inputs", "draw_figures", "prepare_figures", "rls_grid", "figure_shares",
-           "worker_init", "plot_tracking",
-           "plot_error", "plot_friction", "plot_rls_convergence", "plot_eta", "rms_dev", "minmax_envelope",
-           "pick_reversal", "estimate_history", "MODE_COLORS", "PARAMETER_UNITS"]
+__all__ = ["plot_comparison", "figure_inputs", "draw_figures", "rls_grid", "plot_tracking", "plot_error",
+           "plot_friction", "plot_rls_convergence", "plot_eta", "rms_dev", "minmax_envelope", "pick_reversal",
+           "estimate_history", "MODE_COLORS", "PARAMETER_UNITS"]
 
 #: One Okabe-Ito colour per compensation mode (reference black, frictionless grey).
 MODE_COLORS = {"reference": "#000000", "none": "#D55E00", "fixed": "#0072B2", "adaptive": "#009E73",
@@ -235,8 +232,9 @@ def pick_reversal(comp, *, half_window: float = 1.0) -> float:
 #
 # Each figure is two functions: ``_<name>_inputs(comp)`` takes from the comparison what the figure shows (min/max
 # envelopes, the zoom window, curves, histories: a few hundred kB, plain numbers and arrays), and ``_draw_<name>``
-# draws them with matplotlib. :func:`figure_inputs` and :func:`draw_figures` are the two halves of
-# :func:`plot_comparison`, so that another process can draw from the inputs alone (``adaptive-ff compare``).
+# draws them with matplotlib (on ``_<name>_skeleton``, the data-free part: figure, axes, fixed labels, grids).
+# :func:`figure_inputs` and :func:`draw_figures` are the two halves of :func:`plot_comparison`, so that a process
+# pool can draw from the inputs alone.
 
 
 def _tracking_inputs(comp, *, half_window: float = 1.0) -> dict:
@@ -254,7 +252,7 @@ def _tracking_inputs(comp, *, half_window: float = 1.0) -> dict:
 
 
 @_styled
-def _tracking_skeleton(layout=None):
+def _tracking_skeleton():
     """The data-free part of :func:`_draw_tracking`: the figure, its three axes, fixed labels and grids."""
     fig = _new_figure(9.0, 7.0, right=1.55, top=0.35)
     outer = fig.add_gridspec(2, 1, height_ratios=[1.0, 2.9], hspace=0.42)
@@ -277,7 +275,7 @@ def _tracking_skeleton(layout=None):
 @_styled
 def _draw_tracking(d: dict) -> Figure:
     t0, half_window = d["t0"], d["half_window"]
-    fig, (ax0, ax1, ax2) = _skeleton("tracking", None)
+    fig, (ax0, ax1, ax2) = _tracking_skeleton()
     tc, lo, hi = d["reference"]
     ax0.fill_between(tc, lo, hi, color="k", lw=0.6, label="reference", step="post")
     tc, lo, hi = d["w"]
@@ -350,7 +348,7 @@ def _error_skeleton(n: int):
 @_styled
 def _draw_error(d: dict) -> Figure:
     modes, env = d["modes"], d["envelopes"]
-    fig, axes = _skeleton("error", len(modes))
+    fig, axes = _error_skeleton(len(modes))
     fl = env.get("frictionless")
     peak = max((float(np.nanmax(np.abs(np.concatenate([lo, hi])))) for _, lo, hi in env.values()
                 if np.isfinite(lo).any()), default=1.0)
@@ -463,7 +461,7 @@ def _friction_inputs(comp, *, times=(0.05, 0.15, 0.5, 1.0)) -> dict:
 
 
 @_styled
-def _friction_skeleton(layout=None):
+def _friction_skeleton():
     """The data-free part of :func:`_draw_friction`: the 2 x 2 axes, fixed labels and grids."""
     fig = _new_figure(10.0, 6.2, right=2.05, top=0.4, bottom=0.55)
     axes = fig.subplots(2, 2, sharex="col", gridspec_kw={"wspace": 0.3, "hspace": 0.1, "height_ratios": [1.6, 1.0]})
@@ -481,7 +479,7 @@ def _friction_skeleton(layout=None):
 @_styled
 def _draw_friction(d: dict) -> Figure:
     t_end, Vs, peak = d["t_end"], d["Vs"], d["peak"]
-    fig, axes = _skeleton("friction", None)
+    fig, axes = _friction_skeleton()
     for col, c in enumerate(d["columns"]):
         ax, axe = axes[0, col], axes[1, col]
         wd, truth = c["wd"], c["truth"]
@@ -590,7 +588,7 @@ def _draw_rls_convergence(d: dict) -> Figure:
     names, tt, th, true = d["names"], d["t"], d["theta"], d["true"]
     n = len(names)
     nrow, ncol = rls_grid(n)
-    fig, axes = _skeleton("rls_convergence", (nrow, ncol))
+    fig, axes = _rls_skeleton((nrow, ncol))
     for i, (ax, name) in enumerate(zip(axes, names)):
         ax.plot(tt, th[:, i], lw=1.0, color=mode_color("adaptive"), label="estimate")
         ax.plot(tt, true[:, i], color="k", ls="--", lw=1.0, label="true plant")
@@ -646,7 +644,7 @@ def _eta_inputs(comp) -> dict:
 
 
 @_styled
-def _eta_skeleton(layout=None):
+def _eta_skeleton():
     """The data-free part of :func:`_draw_eta`: the two axes, fixed labels, titles and grids."""
     fig = _new_figure(10.0, 3.6, left=0.8, right=0.25, top=0.4, bottom=0.85)
     axes = fig.subplots(1, 2, gridspec_kw={"wspace": 0.25})
@@ -663,7 +661,7 @@ def _eta_skeleton(layout=None):
 @_styled
 def _draw_eta(d: dict) -> Figure:
     modes = d["modes"]
-    fig, axes = _skeleton("eta", None)
+    fig, axes = _eta_skeleton()
     colors = [mode_color(m, i) for i, m in enumerate(modes)]
     x = np.arange(len(modes))
     for ax, vals, fmt in ((axes[0], d["eta"], "{:.3f}"), (axes[1], d["rms_dev"], "{:.3g}")):
@@ -700,79 +698,19 @@ def plot_eta(comp) -> Figure:
 
 class _Figure(NamedTuple):
     """One figure of :func:`plot_comparison`: ``draw(inputs(comp))`` is the figure (or None: not drawn), the same
-    as ``plot_<name>(comp)``; ``skeleton(layout) -> (fig, axes)`` its data-free part (``layout`` None, the number of
-    modes (``error``) or ``(rows, columns)`` (``rls_convergence``, :func:`rls_grid`)); ``cost`` the relative cost of
-    drawing it (thread CPU seconds, median of 5, 120 s paper comparison), which decides :func:`figure_shares`."""
+    as ``plot_<name>(comp)``."""
 
     name: str
     inputs: Callable
-    skeleton: Callable
     draw: Callable
-    cost: float
 
 
 #: The figures of :func:`plot_comparison`, in its order.
-_FIGURES = (_Figure("tracking", _tracking_inputs, _tracking_skeleton, _draw_tracking, 0.24),
-            _Figure("error", _error_inputs, _error_skeleton, _draw_error, 0.45),
-            _Figure("friction", _friction_inputs, _friction_skeleton, _draw_friction, 0.31),
-            _Figure("rls_convergence", _rls_inputs, _rls_skeleton, _draw_rls_convergence, 0.33),
-            _Figure("eta", _eta_inputs, _eta_skeleton, _draw_eta, 0.19))
-#: ``{name: figure}`` of :data:`_FIGURES`.
-_BY_NAME = {f.name: f for f in _FIGURES}
-#: ``{name: cost}`` of :data:`_FIGURES`.
-_FIGURE_COST = {f.name: f.cost for f in _FIGURES}
-
-#: Skeletons made ahead by :func:`prepare_figures`, ``{(name, layout): (fig, axes)}``; each is used once.
-_PREPARED: dict = {}
-
-#: Major ticks made ahead on the x and y axis of each panel of a prepared skeleton: a figure draws the first ones it
-#: needs and makes the rest while saved, unused ones are not drawn (same bytes) but cost time, so these are about the
-#: fewest the figures of a comparison use (7-10 on a time or velocity axis, 4-11 on a y axis).
-_PREPARED_TICKS = (7, 5)
-
-
-def _skeleton(name: str, layout):
-    """The skeleton of figure ``name`` for ``layout``: the one :func:`prepare_figures` made, or a new one."""
-    prepared = _PREPARED.pop((name, layout), None)
-    return prepared if prepared is not None else _BY_NAME[name].skeleton(layout)
-
-
-def prepare_figures(layouts: dict) -> None:
-    """Make the data-free part of figures ahead, while waiting for their inputs (``adaptive-ff compare``'s helper).
-
-    The figures, axes, fixed labels, titles, locators and grids, and
-    a few major ticks per axis (``_PREPARED_TICKS``): about a fifth of the drawing of a
-    figure. The next figure of that name and layout drawn in this process (or
-    in a process forked from it afterwards) takes them instead of making its
-    own; the files are the same bytes either way.
-
-    Parameters
-    ----------
-    layouts : dict
-        ``{figure name: layout}``: None for ``tracking``, ``friction`` and
-        ``eta``; the number of modes of the comparison for ``error``;
-        ``rls_grid(number of estimator parameters)`` for ``rls_convergence``.
-        A layout that turns out wrong only costs the time spent on it.
-
-    Raises
-    ------
-    ParameterError
-        An unknown figure name.
-    """
-    unknown = [name for name in layouts if name not in _BY_NAME]
-    if unknown:
-        raise ParameterError(f"prepare_figures: unknown figure(s) {unknown}; known: {list(_BY_NAME)}")
-    import matplotlib
-    from matplotlib.ticker import NullLocator
-
-    for name, layout in layouts.items():
-        fig, axes = _BY_NAME[name].skeleton(layout)
-        with matplotlib.rc_context(_RC):  # the ticks a figure would make while it is saved
-            for ax in fig.axes:
-                for axis, count in zip((ax.xaxis, ax.yaxis), _PREPARED_TICKS):
-                    if not isinstance(axis.get_major_locator(), NullLocator):
-                        axis.get_major_ticks(count)
-        _PREPARED[(name, layout)] = (fig, axes)
+_FIGURES = (_Figure("tracking", _tracking_inputs, _draw_tracking),
+            _Figure("error", _error_inputs, _draw_error),
+            _Figure("friction", _friction_inputs, _draw_friction),
+            _Figure("rls_convergence", _rls_inputs, _draw_rls_convergence),
+            _Figure("eta", _eta_inputs, _draw_eta))
 
 
 def figure_inputs(comp) -> dict:
@@ -819,14 +757,33 @@ def draw_figures(inputs: dict, out_dir, *, dpi: int = _DPI, jobs: int = 1) -> li
     ------
     ParameterError
         ``jobs`` not an integer >= 1.
+    concurrent.futures.process.BrokenProcessPool
+        With ``jobs > 1``: a pool worker died.
     """
     _check_jobs(jobs)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    names = [f.name for f in _FIGURES]
-    shares = figure_shares(names, min(int(jobs), len(names)) if sys.platform.startswith("linux") else 1)
-    written = set(_render_shares(inputs, out, dpi, shares))
-    return [out / f"{name}.png" for name in names if name in written]
+    names = [f.name for f in _FIGURES if inputs.get(f.name) is not None]
+    if jobs > 1 and len(names) > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(max_workers=min(int(jobs), len(names))) as pool:
+            written = list(pool.map(_draw_file, names, [inputs[n] for n in names], [out] * len(names),
+                                    [dpi] * len(names)))
+    else:
+        written = [_draw_file(n, inputs[n], out, dpi) for n in names]
+    return [path for path in written if path is not None]
+
+
+def _draw_file(name: str, d: dict, out: Path, dpi: int) -> Path | None:
+    """Draw figure ``name`` of :data:`_FIGURES` from its inputs ``d`` into ``out/<name>.png``; its path, or None
+    when the figure has nothing to show."""
+    fig = next(f for f in _FIGURES if f.name == name).draw(d)
+    if fig is None:
+        return None
+    path = out / f"{name}.png"
+    fig.savefig(path, dpi=dpi, pil_kwargs={"compress_level": 1})  # fast zlib: files ~1/3 larger
+    return path
 
 
 def _check_jobs(jobs) -> None:
@@ -848,17 +805,14 @@ def plot_comparison(comp, out_dir, *, dpi: int = _DPI, jobs: int = 1) -> list[Pa
     dpi : int, keyword-only
         Resolution (dots per inch), default 100.
     jobs : int, keyword-only
-        Processes that render the figures, >= 1 (default 1: this process).
-        With ``jobs > 1`` on Linux, the
-        figures are shared among this process and ``jobs - 1`` workers of a
-        process pool forked from it (``concurrent.futures.ProcessPoolExecutor``,
-        :func:`figure_shares`), which inherit the figures' inputs without copying
-        them; matplotlib draws a figure in one thread only, so this is how the
-        figures use more than one core. The files are the same bytes as with
-        ``jobs=1``. A worker that fails leaves its figures to this process,
-        which then raises the error itself. Elsewhere (macOS, where forking a
-        process that has used system frameworks is unsafe; Windows, no fork)
-        every figure is drawn here.
+        Processes that render the figures, >= 1 (default 1: one after the
+        other in this process). With ``jobs > 1`` a
+        ``concurrent.futures.ProcessPoolExecutor`` of up to ``jobs`` workers
+        (the platform's default start method) draws one figure per task from
+        the figures' inputs (:func:`figure_inputs`, sent to the workers, not
+        the runs); matplotlib draws a figure in one thread only, so this is how
+        the figures use more than one core. The files are the same bytes as
+        with ``jobs=1``; an error raised while drawing is raised here.
 
     Returns
     -------
@@ -871,135 +825,8 @@ def plot_comparison(comp, out_dir, *, dpi: int = _DPI, jobs: int = 1) -> list[Pa
     ------
     ParameterError
         ``jobs`` not an integer >= 1.
+    concurrent.futures.process.BrokenProcessPool
+        With ``jobs > 1``: a pool worker died.
     """
     _check_jobs(jobs)
     return draw_figures(figure_inputs(comp), out_dir, dpi=dpi, jobs=jobs)
-
-
-def figure_shares(names, jobs: int) -> list[list[str]]:
-    """Split figure ``names`` into ``jobs`` shares of about equal drawing cost (:data:`_FIGURE_COST`).
-
-    Parameters
-    ----------
-    names : sequence of str
-        Figure names of :func:`plot_comparison` (unknown names count as cost 0.3).
-    jobs : int
-        Number of shares, >= 1.
-
-    Returns
-    -------
-    list of list of str
-        ``jobs`` lists, each in the order of ``names``; together every name
-        once. The assignment with the smallest largest share among all
-        ``jobs**len(names)`` when that is at most 4096 (five figures on up to
-        five processes), else the greedy longest-processing-time rule
-        (Graham, "Bounds on multiprocessing timing anomalies", SIAM J. Appl.
-        Math. 17, 1969); the first share is never lighter than the others.
-    """
-    import itertools
-
-    jobs = max(int(jobs), 1)
-    cost = [_FIGURE_COST.get(n, 0.3) for n in names]
-    if jobs ** len(names) <= 4096:
-        best = min(itertools.product(range(jobs), repeat=len(names)),
-                   key=lambda a: max(sum(c for c, k in zip(cost, a) if k == j) for j in range(jobs)))
-    else:
-        best, load = [0] * len(names), [0.0] * jobs
-        for i in sorted(range(len(names)), key=lambda i: -cost[i]):
-            best[i] = load.index(min(load))
-            load[best[i]] += cost[i]
-    shares = [[n for n, k in zip(names, best) if k == j] for j in range(jobs)]
-    return sorted(shares, key=lambda s: -sum(_FIGURE_COST.get(n, 0.3) for n in s))
-
-
-def _render(inputs, out: Path, dpi: int, names) -> list[str]:
-    """Draw and save the figures ``names`` (in the order of ``_FIGURES``); the names of the files written."""
-    written = []
-    for f in _FIGURES:
-        name = f.name
-        if name not in names or inputs.get(name) is None:
-            continue
-        fig = f.draw(inputs[name])
-        if fig is None:
-            continue
-        fig.savefig(out / f"{name}.png", dpi=dpi, pil_kwargs={"compress_level": 1})  # fast zlib: files ~1/3 larger
-        written.append(name)
-    return written
-
-
-#: ``(inputs, out, dpi)`` of the :func:`draw_figures` call in progress: its forked workers inherit it (no copy).
-_INHERITED = None
-
-
-def _render_inherited(names) -> list[str]:
-    """Worker side of :func:`_render_shares`: draw ``names`` of the figure inputs inherited by the fork."""
-    inputs, out, dpi = _INHERITED
-    return _render(inputs, out, dpi, names)
-
-
-def worker_init() -> None:
-    """Start of a forked worker process: ignore Ctrl-C, and end when the parent ends (Linux).
-
-    The parent takes SIGINT and stops its workers. ``prctl(PR_SET_PDEATHSIG,
-    SIGTERM)`` ends the worker if its parent dies: a worker forked from a pool
-    worker holds that worker's end of its pool's pipes and would otherwise wait
-    for work forever, and keep the pool above from seeing the death (best
-    effort: skipped where ``prctl`` is not available).
-    """
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        import ctypes
-
-        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # 1 = PR_SET_PDEATHSIG (linux/prctl.h)
-    except (OSError, AttributeError):
-        pass
-
-
-def _render_shares(inputs, out: Path, dpi: int, shares) -> list[str]:
-    """Draw ``shares[0]`` here and every other share in a forked worker process; the names of the files written.
-
-    A process pool of the standard library (``concurrent.futures.ProcessPoolExecutor``
-    on the ``fork`` start method): the workers inherit ``inputs`` (:data:`_INHERITED`)
-    instead of receiving a copy. A share whose worker fails, or that no worker could
-    be started for, is drawn here afterwards (raising its error here, if it has one).
-    """
-    global _INHERITED
-    shares = [s for s in shares if s]
-    if len(shares) < 2:
-        return _render(inputs, out, dpi, shares[0] if shares else [])
-    import multiprocessing
-    import warnings
-    from concurrent.futures import ProcessPoolExecutor
-
-    import matplotlib.backends.backend_agg  # noqa: F401 - imported (font cache loaded) once, before the fork
-
-    written, failed, futures = [], [], []
-    _INHERITED = (inputs, out, dpi)
-    sys.stdout.flush()
-    sys.stderr.flush()
-    try:
-        with warnings.catch_warnings():  # Python >= 3.12 warns of forking with threads (idle BLAS/numba pools
-            # here): the workers only draw with matplotlib and numpy
-            warnings.filterwarnings("ignore", message=r".*fork\(\) may lead to deadlocks", category=DeprecationWarning)
-            try:
-                pool = ProcessPoolExecutor(max_workers=len(shares) - 1, mp_context=multiprocessing.get_context("fork"),
-                                           initializer=worker_init)
-                futures = [(pool.submit(_render_inherited, share), share) for share in shares[1:]]
-            except OSError:  # no process left (EAGAIN, ENOMEM): this process draws every share
-                pool = None
-                failed = [n for share in shares[1:] for n in share]
-        ok = False
-        try:
-            written += _render(inputs, out, dpi, shares[0])
-            ok = True
-        finally:
-            if pool is not None:
-                pool.shutdown(wait=ok, cancel_futures=not ok)
-        for future, share in futures:
-            try:
-                written += future.result()
-            except Exception:  # noqa: BLE001 - drawn again below, where the error (if it is one) is raised
-                failed += share
-    finally:
-        _INHERITED = None
-    return written + _render(inputs, out, dpi, failed)
