@@ -247,7 +247,7 @@ def _serial_part(call, reps: int) -> tuple:
 
 
 def _stiff_rows(args):
-    """Wall time (s) of a 120 s closed loop on stiff LuGre joints (sigma0 = 1e8 N·m/rad; issue 11 item 4: <= 10 s)."""
+    """Wall time (s) of a 120 s closed loop on stiff LuGre joints (sigma0 = 1e8 N·m/rad; target <= 10 s)."""
     from plant.lugre import LuGreParams
 
     seconds = 20.0 if args.quick else 120.0

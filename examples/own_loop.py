@@ -1,4 +1,4 @@
-"""Deploy the adaptive friction feedforward in your own 1 kHz velocity loop (issue 12 item 9; docs/your_loop.md).
+"""Deploy the adaptive friction feedforward in your own 1 kHz velocity loop (docs/your_loop.md).
 
 Your loop, not the package's: every period you measure the velocity ``w``, ask the feedforward object for its
 torque with ``step(w, w_ref)``, add it to your own controller's output, apply the torque ``u`` and then hand the

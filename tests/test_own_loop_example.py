@@ -1,4 +1,4 @@
-"""Issue 12 item 9: examples/own_loop.py puts the adaptive feedforward object into a hand-written 1 kHz loop
+"""examples/own_loop.py puts the adaptive feedforward object into a hand-written 1 kHz loop
 (``step(w, w_ref)`` / ``observe(u, w)``) and must improve the tracking, learn the friction and survive sensor
 faults; its ``--log`` mode replays a measured CSV through ``observe``."""
 

@@ -3,7 +3,7 @@
 :func:`draw_plants` is the one drawing code (``benchmarks/zoo.py`` and the
 ``random_plants`` spec of ``adaptive-ff sweep`` use it). A joint is drawn as a
 JSON-ready dict of :func:`plant.models.plant_from_dict` (model, parameters,
-optional drift) from the box of :class:`ZooBox` (issue 11, item 6):
+optional drift) from the box of :class:`ZooBox` (docs/benchmarks/zoo.md):
 
 - ``J`` log-uniform in 0.01-50 kg·m²;
 - the friction at the reference's peak speed is a share (uniform 5-60 %) of the
@@ -445,7 +445,11 @@ class ZooResult:
         return out
 
     def targets(self) -> dict:
-        """The issue's targets (issue 11, item 6) and the joints that miss them.
+        """The zoo's targets and the joints that miss them.
+
+        The targets (docs/benchmarks/zoo.md): no (joint, mode) run refused or diverged; the best adaptive eta > 0 on
+        every joint with a defined eta; the best adaptive eta >= the DOB's on at least 95 % of the joints where both
+        are defined.
 
         Returns
         -------
