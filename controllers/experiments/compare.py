@@ -15,6 +15,7 @@ from adaptive_ff.compensation.sliding_estimator import SlidingFit, fit_sliding
 from adaptive_ff.identification.stribeck_fit import StribeckFit
 from controllers.simulation.closed_loop import ModeOptions, run_mode
 from controllers.simulation.compensators import MODES
+from controllers.simulation.memory import MODE_SIGNALS, PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
 from controllers.simulation.metrics import deviation_rms, first_active_time
 from controllers.design.pi import PIDesign, design_pi
 from controllers.experiments.quasi_static import (StribeckDesign, StribeckExperiment, prefit_stribeck,
@@ -284,7 +285,9 @@ class CompareOptions:
     ------
     ParameterError
         Unknown mode or fixed method, duration not > 0, ``Vs``/``delta``/``J_design`` out of range or only
-        one of ``Vs``, ``delta`` given.
+        one of ``Vs``, ``delta`` given, or a duration whose runs do not fit into the memory available
+        (:meth:`check_memory`: the message gives the samples, the memory they need and the longest duration
+        that fits).
     """
 
     duration: float = 120.0
@@ -340,6 +343,37 @@ class CompareOptions:
             raise ParameterError(f"unknown mode(s) {unknown}; known: {MODES}")
         if self.fixed_method not in FIXED_METHODS:
             raise ParameterError(f"fixed_method must be one of {FIXED_METHODS}, got {self.fixed_method!r}")
+        self.check_memory()
+
+    def check_memory(self, *, processes: int = 1) -> int:
+        """Refuse a :func:`compare` of these settings that does not fit into the memory available; its samples.
+
+        Before anything is allocated (run on construction, so every entry that builds these options is
+        guarded: :func:`compare`, the zoo, the sweep): ``round(duration/Tc)`` samples times the float64
+        signals a comparison holds at its peak, the larger of ``SHARED_SIGNALS + MODE_SIGNALS*n_modes``
+        (the reference and one recorded run per mode) and ``PREPARATION_SIGNALS`` when the identification
+        run is made (``fixed``, or the adaptive start); :mod:`controllers.simulation.memory`.
+
+        Parameters
+        ----------
+        processes : int, keyword-only
+            Comparisons running at the same time (the workers of a sweep), >= 1.
+
+        Returns
+        -------
+        int
+            Samples per run.
+
+        Raises
+        ------
+        ParameterError
+            The runs do not fit (:func:`controllers.simulation.memory.check_run_memory`).
+        """
+        run = set(self.modes) | {"none", "frictionless"}
+        ident = "fixed" in run or (self.adaptive_start and bool(run & {"adaptive", "adaptive-dob"}))
+        signals = max(SHARED_SIGNALS + MODE_SIGNALS * len(run), PREPARATION_SIGNALS if ident else 0)
+        return check_run_memory(self.duration, self.Tc, signals=signals, detail=f"{len(run)} modes",
+                                processes=processes)
 
 
 def compare(p, options: CompareOptions | None = None, *, progress: bool | None = None, **changes) -> Comparison:

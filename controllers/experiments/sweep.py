@@ -647,7 +647,10 @@ def run_sweep(spec: SweepSpec, out_csv, *, workers: int | None = None, scheduler
     ------
     ParameterError
         Bad ``workers``; ``out_csv`` not a results table of a sweep; a case
-        with invalid values (:func:`check_case`, before any case runs); a case
+        with invalid values (:func:`check_case`, before any case runs); a
+        duration whose comparisons do not fit into the memory available in
+        every local worker at once (before any case runs,
+        :meth:`controllers.experiments.compare.CompareOptions.check_memory`); a case
         that failed in a worker (the cases finished before it are written).
     SweepInterrupted
         SIGINT (Ctrl-C): the workers are terminated at once, every finished
@@ -675,6 +678,11 @@ def run_sweep(spec: SweepSpec, out_csv, *, workers: int | None = None, scheduler
     path.parent.mkdir(parents=True, exist_ok=True)
     done = _finished(path, cases)
     todo = [c for c in cases if c["id"] not in done]
+    if todo:  # every worker holds one comparison at a time: refused before any case runs if they do not fit
+        from controllers.experiments.compare import CompareOptions
+
+        parallel = 1 if scheduler is not None or workers == 1 else min(int(workers), len(todo))
+        CompareOptions(duration=spec.duration, modes=spec.modes, **spec.options).check_memory(processes=parallel)
     new_file = not path.exists() or path.stat().st_size == 0
     written = 0
     with path.open("a", newline="") as fh:
