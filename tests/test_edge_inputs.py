@@ -1,15 +1,19 @@
-"""Unusual input: a run too long for the memory.
+"""Unusual input: a run too long for the memory, and a joint without friction.
 
 A duration whose runs cannot fit is refused before anything is allocated, with the number of samples, the
 memory they need and the longest duration that fits (the numbers recomputed here from the documented memory
-model of :mod:`controllers.simulation.memory`: 8 bytes per sample and signal).
+model of :mod:`controllers.simulation.memory`: 8 bytes per sample and signal). A joint with ``Fc = Fs = sigma = 0``
+runs through ``compare``: every mode whose feedforward is exactly zero tracks exactly as the frictionless loop,
+the others within the bound the loop's own linear dynamics give, and eta is undefined (None, ``null``, ``n/a``).
 """
 
+import json
 import math
 import os
 import re
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -18,6 +22,7 @@ import controllers.simulation.memory as memory
 from controllers.cli.main import main
 from controllers.design.pi import PIController
 from controllers.experiments.compare import compare
+from controllers.experiments.quasi_static import stribeck_experiment
 from controllers.experiments.sweep import load_spec, run_sweep
 from controllers.experiments.zoo import ZooOptions, run_zoo
 from controllers.simulation.closed_loop import run_closed_loop
@@ -101,3 +106,91 @@ def test_zoo_and_sweep_count_every_worker(monkeypatch, tmp_path):
     with pytest.raises(ParameterError, match=r"for 3 modes in each of 2 processes"):
         run_sweep(spec, tmp_path / "s.csv", workers=2, progress=False)
     assert not (tmp_path / "s.csv").exists() or (tmp_path / "s.csv").read_text().count("\n") <= 1
+
+
+# ------------------------------------------------------------------------------------------ a joint without friction
+@pytest.fixture(scope="module")
+def frictionless_comparison():
+    return compare(NO_FRICTION, duration=5, seed=0, progress=False)
+
+
+def _loop_response(u_ff, J: float, Kp: float, Ki: float, Tc: float) -> np.ndarray:
+    """Velocity the loop adds in response to the torque ``u_ff`` (same reference and noise): the frictionless
+    inertia ``w[k+1] = w[k] + Tc/J*u[k]`` (exact for a torque held over the period) under the PI
+    ``u[k] = Kp*e[k] + I[k]``, ``I[k] = I[k-1] + Ki*Tc*e[k]`` (backward Euler), ``e = -w``: linear, so a run with
+    a feedforward is the run without it plus this."""
+    dw, integ = np.zeros(len(u_ff)), 0.0
+    for k in range(len(u_ff) - 1):
+        integ -= Ki * Tc * dw[k]
+        dw[k + 1] = dw[k] + Tc / J * (-Kp * dw[k] + integ + u_ff[k])
+    return dw
+
+
+def test_frictionless_joint_runs_every_mode_and_tracks_like_the_limit(frictionless_comparison):
+    comp = frictionless_comparison
+    assert list(comp.results) == list(MODES)
+    assert comp.prefit is None and comp.offline is None
+    assert any(n.startswith("no friction measured") and "fixed feeds forward zero friction" in n for n in comp.notes)
+    r_fl = comp.results["frictionless"]
+    rf = r_fl.metrics.rms_second_half
+    assert np.all(comp.results["fixed"].u_ff == 0.0)  # nothing identified: a zero feedforward
+    for mode in ("none", "fixed", "oracle"):  # zero (oracle: rounding-level) feedforward
+        assert abs(comp.results[mode].u_ff).max() < 1e-12
+        assert comp.results[mode].metrics.rms_second_half == pytest.approx(rf, rel=1e-9, abs=0)
+    # the other modes feed forward what they estimate from noise; without friction the loop is linear, so the run
+    # is the frictionless one plus the loop's response to that torque, and it stays within 2 % of its RMS error
+    d = comp.design
+    for mode in ("adaptive", "adaptive-dob", "canudas", "dob"):
+        r = comp.results[mode]
+        dw = _loop_response(r.u_ff, NO_FRICTION.J, d.Kp, d.Ki, d.Tc)
+        assert np.max(np.abs(dw)) > 1e-7, mode  # a feedforward that acts
+        np.testing.assert_allclose(r.w - r_fl.w, dw, rtol=0, atol=1e-12, err_msg=mode)
+        assert r.metrics.rms_second_half == pytest.approx(rf, rel=0.02), mode
+
+
+def test_frictionless_joint_reports_eta_as_undefined(frictionless_comparison, tmp_path):
+    comp = frictionless_comparison
+    assert all(comp.eta[m] is None and comp.eta_full[m] is None for m in MODES)
+    d = json.loads(json.dumps(comp.to_dict(), allow_nan=False))
+    assert all(d["modes"][m]["eta"] is None and d["modes"][m]["eta_full"] is None for m in MODES)
+    assert d["no_friction"] is True and "prefit" not in d and "offline_ls" not in d
+    table = comp.table()
+    assert "nan" not in table.lower()
+    assert all(line.split()[5:7] == ["-", "-"] for line in table.splitlines()[2:])
+    from controllers.report.figures import plot_eta
+    from controllers.report.html import compare_report
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # e.g. matplotlib's singular axis limits
+        fig = plot_eta(comp)
+    assert [t.get_text() for t in fig.axes[0].texts] == ["n/a"] * len(MODES)
+    html = compare_report(tmp_path / "rep", comp).read_text()
+    assert "nan" not in re.sub(r"<img[^>]*>", "", html).lower() and "no friction measured" in html
+
+
+def test_frictionless_joint_through_the_cli_json(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("ADAPTIVE_FF_NO_HELPER", "1")
+    plant = tmp_path / "p.json"
+    plant.write_text(json.dumps({"J": 0.5, "Fc": 0, "Fs": 0, "Vs": 0.05, "delta": 1.5, "sigma": 0, "tau": 0.01}))
+    assert main(["compare", "--plant", str(plant), "--duration", "5", "--no-figures", "--quiet", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert [d["modes"][m]["eta"] for m in MODES] == [None] * len(MODES)
+    assert d["modes"]["fixed"]["rms"] == d["modes"]["frictionless"]["rms"]
+
+
+def test_quasi_static_runs_tell_no_friction_from_friction():
+    none = stribeck_experiment(NO_FRICTION, J_design=NO_FRICTION.J, noise_std=1e-3, rng=np.random.default_rng(1))
+    assert none.no_friction and none.fit is None and none.notes[0].startswith("no friction measured")
+    p = preset("paper")
+    some = stribeck_experiment(p, J_design=p.J, noise_std=1e-3, rng=np.random.default_rng(1), fit=False)
+    assert not some.no_friction
+
+
+def test_sweep_of_a_frictionless_joint_writes_an_undefined_eta_and_counts_the_case_finished(tmp_path):
+    spec = load_spec({"plant": {"J": 0.5, "Fc": 0.0, "Fs": 0.0, "Vs": 0.05, "delta": 1.5, "sigma": 0.0,
+                                "tau": 0.01}, "seeds": [0], "modes": ["none", "fixed"], "duration": 3.0})
+    out = tmp_path / "s.csv"
+    assert run_sweep(spec, out, workers=1, progress=False)["n_run"] == 1
+    rows = out.read_text().splitlines()
+    assert len(rows) == 1 + 2 and all(r.split(",")[-1] == "nan" for r in rows[1:])  # none, fixed
+    assert run_sweep(spec, out, workers=1, progress=False)["n_run"] == 0

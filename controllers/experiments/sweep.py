@@ -392,7 +392,7 @@ def run_case(case: dict) -> list[dict]:
             continue
         row = {"case_id": case["id"], "seed": case["seed"], **{k: case["plant"].get(k, "") for k in _PLANT_KEYS},
                **{k: case["controller"].get(k, "") for k in _CONTROLLER_KEYS}, "mode": r["mode"]}
-        row.update({k: float(r[k]) for k in RESULT_FIELDS})
+        row.update({k: math.nan if r[k] is None else float(r[k]) for k in RESULT_FIELDS})  # None: an undefined eta
         rows.append(row)
     return rows
 
@@ -718,7 +718,8 @@ def run_sweep(spec: SweepSpec, out_csv, *, workers: int | None = None, scheduler
 
 
 def summarize(out_csv) -> dict:
-    """Per-mode statistics (count, mean, std, min, max of each metric) of a results CSV.
+    """Per-mode statistics (count, mean, std, min, max of each metric over its finite values, NaN where there are
+    none, e.g. the eta of a joint without friction) of a results CSV.
 
     Returns
     -------
@@ -733,7 +734,8 @@ def summarize(out_csv) -> dict:
         stats = {"n": len(sel)}
         for k in RESULT_FIELDS:
             a = np.array([float(r[k]) for r in sel])
-            stats[k] = {"mean": float(np.nanmean(a)), "std": float(np.nanstd(a)), "min": float(np.nanmin(a)),
-                        "max": float(np.nanmax(a))}
+            a = a[np.isfinite(a)]  # nan: an undefined eta (a joint without friction) or a diverged run
+            stats[k] = ({"mean": float(np.mean(a)), "std": float(np.std(a)), "min": float(np.min(a)),
+                         "max": float(np.max(a))} if a.size else dict.fromkeys(("mean", "std", "min", "max"), math.nan))
         out["modes"][mode] = stats
     return out
