@@ -88,13 +88,14 @@ def assert_tracking_bound(plant, *, mode: str = "adaptive", max_rms: float | Non
         failures.append(f"RMS error {m.rms_second_half:.4g} rad/s > max_rms {max_rms:.4g} rad/s")
     if max_error is not None and not m.max_second_half <= max_error:
         failures.append(f"max error {m.max_second_half:.4g} rad/s > max_error {max_error:.4g} rad/s")
-    if min_eta is not None and not e >= min_eta:
-        failures.append(f"eta {e:.4f} < min_eta {min_eta:.4f}")
+    e_text = "undefined" if e is None else f"{e:.4f}"  # None: friction does not degrade the loop, or it diverged
+    if min_eta is not None and (e is None or not e >= min_eta):
+        failures.append(f"eta {e_text} < min_eta {min_eta:.4f}")
     if failures:
         raise TrackingBoundError(
             f"mode {mode!r} on {type(plant).__name__} (seed {seed}, {duration:g} s): " + "; ".join(failures)
             + f". Metrics (second half): RMS {m.rms_second_half:.4g} rad/s, max {m.max_second_half:.4g} rad/s, "
-            f"reversal RMS {m.rms_reversal:.4g} rad/s, eta {e:.4f}; RMS without compensation "
+            f"reversal RMS {m.rms_reversal:.4g} rad/s, eta {e_text}; RMS without compensation "
             f"{comp.results['none'].metrics.rms_second_half:.4g} rad/s, frictionless "
             f"{comp.results['frictionless'].metrics.rms_second_half:.4g} rad/s")
     return comp

@@ -46,7 +46,7 @@ def main(argv=None) -> int:
         rows = [next(r for r in c.rows() if r["mode"] == mode) for c in runs]
         rms = np.rad2deg([r["rms"] for r in rows])
         mx = np.rad2deg([r["max"] for r in rows])
-        et = np.array([r["eta"] for r in rows])
+        et = np.array([np.nan if r["eta"] is None else r["eta"] for r in rows])  # None: undefined eta
         print(f"{mode:<13}{rms.mean():>10.3f} ± {rms.std():<5.3f}{mx.mean():>10.3f} ± {mx.std():<5.3f}"
               f"{et.mean():>8.3f} ± {et.std():<5.3f}")
     return 0

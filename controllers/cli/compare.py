@@ -129,7 +129,7 @@ def comparison_table(comp, args) -> str:
     lines = [head, "-" * len(head)]
     for row in comp.rows():
         eta = row["eta"]
-        eta_text = f"{eta:>9.3f}" if eta == eta else f"{'n/a':>9}"
+        eta_text = f"{eta:>9.3f}" if eta is not None and eta == eta else f"{'n/a':>9}"
         lines.append(f"{row['mode']:<13}{k * row['rms']:>14.4f}{k * row['max']:>14.4f}"
                      f"{k * row['rms_reversal']:>23.4f}{row['u_rms']:>13.2f}{eta_text}")
     return "\n".join(lines)

@@ -47,7 +47,8 @@ def main(argv=None) -> int:
     """Entry point of the ``adaptive-ff`` console script; returns the exit status.
 
     Exit status: 0 success; 2 a usage error or a package error (bad parameters,
-    bad data, a file that cannot be read or written), printed as
+    bad data, a file that cannot be read or written, a run too long for the
+    memory: refused before it starts, or a ``MemoryError`` on the way), printed as
     ``adaptive-ff: error: ...`` naming the file, argument, row or value; 3 a
     refusal by a command (e.g. ``design --from`` on a warned identification);
     130 interrupted by Ctrl-C (SIGINT); 1 an unexpected internal error, printed
@@ -68,7 +69,8 @@ def main(argv=None) -> int:
 
 
 def _report_error(exc: Exception) -> int:
-    """Print ``exc`` as one ``adaptive-ff: error:`` line; 2 for package/file errors, 1 for anything else."""
+    """Print ``exc`` as one ``adaptive-ff: error:`` line; 2 for package/file errors and lack of memory, 1 for
+    anything else."""
     import os
 
     from plant.errors import FrictionError
@@ -84,6 +86,10 @@ def _report_error(exc: Exception) -> int:
         print(f"adaptive-ff: error: {msg}", file=sys.stderr)
         return 2
     text = " ".join(str(exc).split()) or "(no message)"
+    if isinstance(exc, MemoryError):  # a resource, not a defect: what was asked needs more memory than there is
+        print(f"adaptive-ff: error: out of memory ({text}); a shorter --duration or a smaller input needs less",
+              file=sys.stderr)
+        return 2
     print(f"adaptive-ff: internal error: {type(exc).__name__}: {text} (please report it; "
           "ADAPTIVE_FF_DEBUG=1 shows the traceback)", file=sys.stderr)
     return 1

@@ -15,6 +15,7 @@ from adaptive_ff.compensation.sliding_estimator import SlidingFit, fit_sliding
 from adaptive_ff.identification.stribeck_fit import StribeckFit
 from controllers.simulation.closed_loop import ModeOptions, run_mode
 from controllers.simulation.compensators import MODES
+from controllers.simulation.memory import MODE_SIGNALS, PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
 from controllers.simulation.metrics import deviation_rms, first_active_time
 from controllers.design.pi import PIDesign, design_pi
 from controllers.experiments.quasi_static import (StribeckDesign, StribeckExperiment, prefit_stribeck,
@@ -57,10 +58,19 @@ def eta(rms_none: float, rms_mode: float, rms_frictionless: float) -> float:
     """Compensation efficiency ``(RMS_none - RMS_mode) / (RMS_none - RMS_frictionless)``.
 
     1 means the mode reaches the frictionless limit, 0 no improvement, < 0 worse
-    than no compensation. NaN if friction does not degrade the loop at all.
+    than no compensation. NaN (the numeric form, for arrays: the zoo) where it is
+    undefined: friction does not degrade the loop at all (``RMS_none <=
+    RMS_frictionless``, e.g. a joint without friction, where it is 0/0) or an RMS
+    is NaN (a diverged run); :class:`Comparison` reports it as None.
     """
     den = rms_none - rms_frictionless
     return float((rms_none - rms_mode) / den) if den > 0 else float("nan")
+
+
+def _eta_or_none(rms_none: float, rms_mode: float, rms_frictionless: float) -> float | None:
+    """:func:`eta`, None where it is undefined (not finite)."""
+    e = eta(rms_none, rms_mode, rms_frictionless)
+    return e if np.isfinite(e) else None
 
 
 @dataclass(frozen=True)
@@ -75,9 +85,10 @@ class Comparison:
         The PI design used in every mode.
     results : dict[str, ClosedLoopResult]
         One run per mode, same reference and noise.
-    eta : dict[str, float]
-        Compensation efficiency per mode (second half of the run).
-    eta_full : dict[str, float]
+    eta : dict[str, float or None]
+        Compensation efficiency per mode (second half of the run, :func:`eta`); None where it is undefined:
+        friction does not degrade the loop (a joint without friction: 0/0) or a run diverged.
+    eta_full : dict[str, float or None]
         The same over the whole run (start-up included).
     rms_dev : dict[str, float]
         RMS of ``w - w_frictionless`` over the whole run (rad/s): the distance of the mode's trajectory from
@@ -127,26 +138,27 @@ class Comparison:
             m = r.metrics
             out.append({"mode": mode, "rms": m.rms_second_half, "max": m.max_second_half,
                         "rms_reversal": m.rms_reversal, "u_rms": m.u_rms, "eta": self.eta[mode],
-                        "eta_full": self.eta_full.get(mode, nan), "rms_dev": self.rms_dev.get(mode, nan),
+                        "eta_full": self.eta_full.get(mode), "rms_dev": self.rms_dev.get(mode, nan),
                         "t_ff_on": self.t_ff_on.get(mode)})
         return out
 
     def table(self) -> str:
         """The comparison as a fixed-width text table (velocities in deg/s; eta full, deviation and switch-on
-        time over the whole run)."""
+        time over the whole run; an undefined eta and a compensation that never acts print as ``-``)."""
         head = (f"{'mode':<13}{'RMS [deg/s]':>12}{'max [deg/s]':>13}{'reversal RMS':>14}{'u RMS [N·m]':>13}"
                 f"{'eta':>8}{'eta full':>9}{'dev [deg/s]':>12}{'t_on [s]':>9}")
         lines = [head, "-" * len(head)]
         for row in self.rows():
             d = np.rad2deg
             ton = "-" if row["t_ff_on"] is None else f"{row['t_ff_on']:.3f}"
+            e, ef = ("-" if row[k] is None else f"{row[k]:.3f}" for k in ("eta", "eta_full"))
             lines.append(f"{row['mode']:<13}{d(row['rms']):>12.4f}{d(row['max']):>13.4f}"
-                         f"{d(row['rms_reversal']):>14.4f}{row['u_rms']:>13.2f}{row['eta']:>8.3f}"
-                         f"{row['eta_full']:>9.3f}{d(row['rms_dev']):>12.4f}{ton:>9}")
+                         f"{d(row['rms_reversal']):>14.4f}{row['u_rms']:>13.2f}{e:>8}"
+                         f"{ef:>9}{d(row['rms_dev']):>12.4f}{ton:>9}")
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
-        """:meth:`to_json_dict` as strict JSON (NaN, e.g. an undefined eta, becomes None)."""
+        """:meth:`to_json_dict` as strict JSON (an undefined eta is None, ``null``; any NaN becomes None)."""
         return json_safe(self.to_json_dict())
 
     def summary(self) -> str:
@@ -154,11 +166,12 @@ class Comparison:
         return "\n".join([self.table()] + [f"note: {n}" for n in self.notes])
 
     def plot(self, ax=None):
-        """Bar chart of eta per mode on ``ax`` (a new figure when None); returns the Axes."""
+        """Bar chart of eta per mode on ``ax`` (a new figure when None; an undefined eta an empty bar); returns
+        the Axes."""
         ax = axes_or_new(ax, figsize=(6.0, 3.0))
         modes = list(self.eta)
         vals = [self.eta[m] for m in modes]
-        ax.bar(modes, [v if v == v else 0.0 for v in vals], color="C0")
+        ax.bar(modes, [0.0 if v is None else v for v in vals], color="C0")
         ax.axhline(1.0, color="k", lw=0.8, ls="--")
         ax.set_ylabel("eta [-] (1 = frictionless)")
         ax.set_xlabel("compensation mode")
@@ -166,7 +179,9 @@ class Comparison:
 
     def to_json_dict(self) -> dict:
         """``{"modes": {mode: {"rms", "max", "rms_reversal", "u_rms", "eta", "eta_full", "rms_dev", "t_ff_on"}},
-        ...}`` in SI units (rad/s, N·m, s; ``t_ff_on`` None where no compensation acts); ``offline_ls`` (when
+        ...}`` in SI units (rad/s, N·m, s; ``t_ff_on`` None where no compensation acts, ``eta`` and ``eta_full``
+        None where undefined); ``no_friction`` (when quasi-static runs were made: True where they measured no
+        friction, ``StribeckExperiment.no_friction``); ``offline_ls`` (when
         ``fixed`` ran): its offline fit's J, tau, sigma, Fc, Fs with ``accepted`` (False when the fit was rejected
         and ``fixed`` used a fallback) and ``reason`` (the ``"fixed:"`` note, or None)."""
         modes = {r["mode"]: {k: (None if v is None else float(v)) for k, v in r.items() if k != "mode"}
@@ -180,6 +195,8 @@ class Comparison:
             out["prefit"]["fallback"] = self.prefit.fallback
         if self.J_design is not None:
             out["J_design"] = float(self.J_design)
+        if self.experiment is not None:
+            out["no_friction"] = bool(self.experiment.no_friction)
         out["notes"] = list(self.notes)
         if self.offline is not None:
             e = self.offline.estimate
@@ -284,7 +301,9 @@ class CompareOptions:
     ------
     ParameterError
         Unknown mode or fixed method, duration not > 0, ``Vs``/``delta``/``J_design`` out of range or only
-        one of ``Vs``, ``delta`` given.
+        one of ``Vs``, ``delta`` given, or a duration whose runs do not fit into the memory available
+        (:meth:`check_memory`: the message gives the samples, the memory they need and the longest duration
+        that fits).
     """
 
     duration: float = 120.0
@@ -340,6 +359,37 @@ class CompareOptions:
             raise ParameterError(f"unknown mode(s) {unknown}; known: {MODES}")
         if self.fixed_method not in FIXED_METHODS:
             raise ParameterError(f"fixed_method must be one of {FIXED_METHODS}, got {self.fixed_method!r}")
+        self.check_memory()
+
+    def check_memory(self, *, processes: int = 1) -> int:
+        """Refuse a :func:`compare` of these settings that does not fit into the memory available; its samples.
+
+        Before anything is allocated (run on construction, so every entry that builds these options is
+        guarded: :func:`compare`, the zoo, the sweep): ``round(duration/Tc)`` samples times the float64
+        signals a comparison holds at its peak, the larger of ``SHARED_SIGNALS + MODE_SIGNALS*n_modes``
+        (the reference and one recorded run per mode) and ``PREPARATION_SIGNALS`` when the identification
+        run is made (``fixed``, or the adaptive start); :mod:`controllers.simulation.memory`.
+
+        Parameters
+        ----------
+        processes : int, keyword-only
+            Comparisons running at the same time (the workers of a sweep), >= 1.
+
+        Returns
+        -------
+        int
+            Samples per run.
+
+        Raises
+        ------
+        ParameterError
+            The runs do not fit (:func:`controllers.simulation.memory.check_run_memory`).
+        """
+        run = set(self.modes) | {"none", "frictionless"}
+        ident = "fixed" in run or (self.adaptive_start and bool(run & {"adaptive", "adaptive-dob"}))
+        signals = max(SHARED_SIGNALS + MODE_SIGNALS * len(run), PREPARATION_SIGNALS if ident else 0)
+        return check_run_memory(self.duration, self.Tc, signals=signals, detail=f"{len(run)} modes",
+                                processes=processes)
 
 
 def compare(p, options: CompareOptions | None = None, *, progress: bool | None = None, **changes) -> Comparison:
@@ -402,7 +452,7 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
     s.bar.close()
     rn = results["none"].metrics.rms_second_half
     rf = results["frictionless"].metrics.rms_second_half
-    etas = {mode: eta(rn, r.metrics.rms_second_half, rf) for mode, r in results.items()}
+    etas = {mode: _eta_or_none(rn, r.metrics.rms_second_half, rf) for mode, r in results.items()}
     return Comparison(plant=p, design=s.design, results=results, eta=etas, prefit=s.prefit, offline=s.offline,
                       model=s.model, experiment=s.experiment, J_design=s.J_design, notes=s.notes,
                       **_whole_run_metrics(results))
@@ -477,6 +527,13 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
 
     Notes
     -----
+    A joint whose quasi-static runs measured no friction (``StribeckExperiment.no_friction``: every mean
+    torque within the resolution of its mean) has nothing to identify: there is no pre-fit (``prefit`` None) and no
+    identification run (``offline`` None), ``fixed`` feeds forward zero friction (``Fc = Fs = sigma = 0``, so
+    it runs exactly as ``none``), and the adaptive modes start from zero friction without a provisional start,
+    their ``Vs``, ``delta`` the given ones or placeholders (the lowest speed of the runs and 1, as the pre-fit's
+    Coulomb + viscous fallback); a note says so. ``eta`` is then undefined (0/0).
+
     ``fixed`` never fails on its own identification: when the offline fit of its identification run is
     rejected as implausible (:func:`adaptive_ff.compensation.feedforward.project_estimate`: a level above half
     the actuator range, a negative inertia, e.g. a Stribeck term the pre-fit's ``Vs``, ``delta`` cannot
@@ -505,6 +562,9 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
         exp = _quasi_static(p0, o, J, peak_w, np.random.default_rng(qs_ss), fit=needs_prefit)
     fit = exp.fit if needs_prefit else None
     Vs, delta = (fit.Vs, fit.delta) if fit is not None else (o.Vs, o.delta)
+    no_friction = exp is not None and exp.no_friction
+    if no_friction and Vs is None:  # placeholders, as the pre-fit's without a Stribeck effect: the lowest speed, 1
+        Vs, delta = float(np.min(np.abs(exp.setpoints))), 1.0
     if needs_prefit:
         bar.update()
     # the measured friction level (largest mean torque of the quasi-static runs) bounds the torques
@@ -515,8 +575,14 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     model = RegressionModel(1.0 if Vs is None else Vs, 1.0 if delta is None else delta, lag=True)
     offline = estimate = accepted = None
     notes = list(exp.notes) if fit is not None else []
+    if no_friction:
+        notes.append(_no_friction_note(exp, run_modes, Vs, o.Vs is None))
     wants_start = o.adaptive_start and fit is not None and any(m in run_modes for m in ("adaptive", "adaptive-dob"))
-    if "fixed" in run_modes or wants_start:
+    if no_friction and "fixed" in run_modes:  # nothing to identify: the fixed map is zero friction
+        estimate = FrictionEstimate(J=J, tau=0.0, sigma=0.0, Fc=0.0, Fs=0.0, offset=0.0, Vs=Vs, delta=delta,
+                                    J_alt=float("nan"))
+        bar.update()
+    elif "fixed" in run_modes or wants_start:
         bar.set_postfix_str("identification run")
         offline = _offline_fit(p0, o, model, F_peak, Vs, delta, np.random.default_rng(id_ss))
         estimate = accepted = project_estimate(offline.estimate, F_max=0.5 * u_max)
@@ -542,6 +608,18 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     return ComparisonSetup(modes=tuple(run_modes), reference=ref, design=design, mode_options=opts,
                            noise_seed=noise_ss, prefit=fit, offline=offline, model=model, experiment=exp,
                            J_design=J, notes=tuple(notes), bar=bar)
+
+
+def _no_friction_note(exp: StribeckExperiment, run_modes, Vs: float, placeholders: bool) -> str:
+    """The note of a comparison on a joint whose quasi-static runs measured no friction (what each mode does)."""
+    what = list(exp.notes)
+    if "fixed" in run_modes:
+        what.append("fixed feeds forward zero friction (Fc = Fs = sigma = 0)")
+    adaptive = [m for m in run_modes if m in ("adaptive", "adaptive-dob")]
+    if adaptive:
+        shape = f"placeholders Vs = {Vs:.4g} rad/s, delta = 1" if placeholders else "the Vs, delta given"
+        what.append(f"{' and '.join(adaptive)} start from zero friction ({shape})")
+    return "; ".join(what) + "; eta is undefined where friction does not degrade the loop (0/0)"
 
 
 def _checked_reference(ref, o: CompareOptions):
@@ -648,12 +726,12 @@ def _adaptive_start(fit, J: float, design: PIDesign, identified: FrictionEstimat
 
 
 def _whole_run_metrics(results: dict) -> dict:
-    """``eta_full``, ``rms_dev`` and ``t_ff_on`` per mode (issue 11, item 5) from the recorded runs."""
+    """``eta_full``, ``rms_dev`` and ``t_ff_on`` per mode from the recorded runs."""
     rn, rf = results["none"].metrics.rms, results["frictionless"].metrics.rms
     w_lim = results["frictionless"].w
     out = {"eta_full": {}, "rms_dev": {}, "t_ff_on": {}}
     for mode, r in results.items():
-        out["eta_full"][mode] = eta(rn, r.metrics.rms, rf)
+        out["eta_full"][mode] = _eta_or_none(rn, r.metrics.rms, rf)
         out["rms_dev"][mode] = deviation_rms(r.w, w_lim)
         out["t_ff_on"][mode] = None if mode in ("none", "frictionless") else first_active_time(r.t, r.u_ff)
     return out

@@ -377,12 +377,17 @@ class StribeckExperiment:
         Whether the run held its setpoint (a support point of the Stribeck curve, used by the fit); a run that
         ends in stick-slip or follows the noise through zero does not.
     fit : StribeckFit or None
-        Stribeck pre-fit of the held runs (None for ``stribeck_experiment(..., fit=False)``) (:func:`prefit_stribeck`, ``fallback=True``: a Coulomb + viscous
-        result when the joint shows no Stribeck effect, see ``fit.fallback``).
+        Stribeck pre-fit of the held runs (:func:`prefit_stribeck`, ``fallback=True``: a Coulomb + viscous result
+        when the joint shows no Stribeck effect, see ``fit.fallback``); None for ``stribeck_experiment(...,
+        fit=False)`` and for a joint whose runs measured no friction (``no_friction``).
     rounds : int
         Refinement rounds run.
     notes : tuple of str
-        What the design did (runs repeated with the stiffer loop, runs not held, the fit's fallback).
+        What the design did (runs repeated with the stiffer loop, runs not held, the fit's fallback), or that
+        the runs measured no friction.
+    no_friction : bool
+        The runs measured no friction: the mean torque of every run lies within the resolution of its mean
+        (:func:`stribeck_experiment`, Notes); then there is no refinement and no fit.
     """
 
     setpoints: np.ndarray
@@ -395,6 +400,7 @@ class StribeckExperiment:
     fit: object
     rounds: int
     notes: tuple
+    no_friction: bool = False
 
     @property
     def torque_scale(self) -> float:
@@ -406,7 +412,8 @@ class StribeckExperiment:
         return json_safe({
             "setpoints": self.setpoints, "w_mean": self.w_mean, "w_std": self.w_std, "u_mean": self.u_mean,
             "u_std": self.u_std, "crossover": self.crossover, "held": [bool(h) for h in self.held],
-            "fit": None if self.fit is None else self.fit.to_dict(), "rounds": self.rounds, "notes": list(self.notes)})
+            "fit": None if self.fit is None else self.fit.to_dict(), "rounds": self.rounds, "notes": list(self.notes),
+            "no_friction": bool(self.no_friction)})
 
     def summary(self) -> str:
         """A few lines: runs, held runs, speed range, fitted Vs and delta, notes."""
@@ -629,6 +636,18 @@ class _Runner:
         return {k: np.array(v, dtype=bool if k == "held" else float) for k, v in self.cols.items()}
 
 
+def _no_friction(a: dict, J_design: float, n_hold: int) -> tuple:
+    """``(no_friction, note)`` of the runs ``a`` (:meth:`_Runner.arrays`): every mean torque within the resolution
+    of its mean (Notes of :func:`stribeck_experiment`)."""
+    resolution = a["u_std"] / math.sqrt(n_hold) + 1e-9 * J_design * a["crossover"] * np.abs(a["setpoints"])
+    ratio = np.abs(a["u_mean"]) / resolution
+    if not np.all(ratio <= 1.0):
+        return False, ""
+    return True, (f"no friction measured: the mean torque of each of the {ratio.size} constant-velocity runs lies "
+                  f"within the resolution of its mean (u_std/sqrt({n_hold}); at most {float(np.max(ratio)):.2g} of "
+                  f"it, largest |mean torque| {float(np.max(np.abs(a['u_mean']))):.3g} N·m): no friction to identify")
+
+
 def _refinement(w, u, held, n_refine: int) -> np.ndarray:
     """New speeds (both signs) between the lowest held speed still at the full Stribeck excess and the first
     speed above it where the excess over the Coulomb + viscous line of the fast runs has died out."""
@@ -708,6 +727,17 @@ def stribeck_experiment(p, *, J_design: float, noise_std: float = 0.0, Tc: float
     3. The fit of the held runs with ``fallback=True``: never rejects the data it designed. No Stribeck
        effect gives the Coulomb + viscous model with a note (``fit.fallback``).
 
+    A joint whose coarse sweep measured no friction has nothing to fit (``no_friction``, with a note; no
+    refinement, ``fit`` None), instead of a Stribeck curve fitted to the noise of the means: the mean torque
+    ``u_mean`` of every run lies within what the mean of its ``n = hold/Tc`` samples resolves, the standard
+    error ``u_std/sqrt(n)`` of the mean of ``n`` independent samples (a bound: the loop's noise torque is
+    high-pass, ``J*s`` times the low-passed noise, so its mean is smaller still), plus ``1e-9`` of the torque
+    of the loop's step to the setpoint (``J_design*crossover*|w_ref|``, rounding of a noise-free run). Friction
+    is the mean torque at constant velocity: a joint without friction gives at most 0.2 of that resolution (the
+    runs of ``compare`` with seeds 0-19 at 1e-3 rad/s noise; the ratio does not depend on ``J``), the
+    ``paper`` preset at least 580 times it; a zoo joint (friction at least 5 % of its peak torque demand,
+    ``u_std`` about ``J*crossover*noise_std``) is estimated at 15 times or more.
+
     Source: the experiment of Ruderman, Sec. V-C, Fig. 8; the design loop (a coarse sweep, then points
     placed where the response changes) is sequential experiment design as in Pronzato & Pázman,
     *Design of Experiments in Nonlinear Models* (2013), Ch. 8.
@@ -726,6 +756,9 @@ def stribeck_experiment(p, *, J_design: float, noise_std: float = 0.0, Tc: float
     n = max(int(math.ceil(math.log10(o.w_max / w_lo) * o.per_decade)) + 1, 2)
     runner = _Runner(p, J_design, o, Tc, noise_std, rng)
     runner.measure(bidirectional_velocities(w_lo, o.w_max, n))
+    no_friction, note = _no_friction(runner.arrays(), J_design, int(round(o.hold / Tc)))
+    if no_friction:
+        return StribeckExperiment(rounds=0, fit=None, notes=(note,), no_friction=True, **runner.arrays())
     rounds, outcome = 0, None
     while fit and rounds < o.max_rounds:
         a = runner.arrays()

@@ -392,7 +392,7 @@ def run_case(case: dict) -> list[dict]:
             continue
         row = {"case_id": case["id"], "seed": case["seed"], **{k: case["plant"].get(k, "") for k in _PLANT_KEYS},
                **{k: case["controller"].get(k, "") for k in _CONTROLLER_KEYS}, "mode": r["mode"]}
-        row.update({k: float(r[k]) for k in RESULT_FIELDS})
+        row.update({k: math.nan if r[k] is None else float(r[k]) for k in RESULT_FIELDS})  # None: an undefined eta
         rows.append(row)
     return rows
 
@@ -647,7 +647,10 @@ def run_sweep(spec: SweepSpec, out_csv, *, workers: int | None = None, scheduler
     ------
     ParameterError
         Bad ``workers``; ``out_csv`` not a results table of a sweep; a case
-        with invalid values (:func:`check_case`, before any case runs); a case
+        with invalid values (:func:`check_case`, before any case runs); a
+        duration whose comparisons do not fit into the memory available in
+        every local worker at once (before any case runs,
+        :meth:`controllers.experiments.compare.CompareOptions.check_memory`); a case
         that failed in a worker (the cases finished before it are written).
     SweepInterrupted
         SIGINT (Ctrl-C): the workers are terminated at once, every finished
@@ -675,6 +678,11 @@ def run_sweep(spec: SweepSpec, out_csv, *, workers: int | None = None, scheduler
     path.parent.mkdir(parents=True, exist_ok=True)
     done = _finished(path, cases)
     todo = [c for c in cases if c["id"] not in done]
+    if todo:  # every worker holds one comparison at a time: refused before any case runs if they do not fit
+        from controllers.experiments.compare import CompareOptions
+
+        parallel = 1 if scheduler is not None or workers == 1 else min(int(workers), len(todo))
+        CompareOptions(duration=spec.duration, modes=spec.modes, **spec.options).check_memory(processes=parallel)
     new_file = not path.exists() or path.stat().st_size == 0
     written = 0
     with path.open("a", newline="") as fh:
@@ -710,7 +718,8 @@ def run_sweep(spec: SweepSpec, out_csv, *, workers: int | None = None, scheduler
 
 
 def summarize(out_csv) -> dict:
-    """Per-mode statistics (count, mean, std, min, max of each metric) of a results CSV.
+    """Per-mode statistics (count, mean, std, min, max of each metric over its finite values, NaN where there are
+    none, e.g. the eta of a joint without friction) of a results CSV.
 
     Returns
     -------
@@ -725,7 +734,8 @@ def summarize(out_csv) -> dict:
         stats = {"n": len(sel)}
         for k in RESULT_FIELDS:
             a = np.array([float(r[k]) for r in sel])
-            stats[k] = {"mean": float(np.nanmean(a)), "std": float(np.nanstd(a)), "min": float(np.nanmin(a)),
-                        "max": float(np.nanmax(a))}
+            a = a[np.isfinite(a)]  # nan: an undefined eta (a joint without friction) or a diverged run
+            stats[k] = ({"mean": float(np.mean(a)), "std": float(np.std(a)), "min": float(np.min(a)),
+                         "max": float(np.max(a))} if a.size else dict.fromkeys(("mean", "std", "min", "max"), math.nan))
         out["modes"][mode] = stats
     return out

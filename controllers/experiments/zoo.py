@@ -63,6 +63,7 @@ import numpy as np
 
 from controllers.experiments.compare import CompareOptions, comparison_reference, eta, prepare_comparison
 from controllers.simulation.batch import run_batch
+from controllers.simulation.memory import PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
 from controllers.simulation.closed_loop import plant_table
 from controllers.simulation.compensators import MODES, build_mode
 from plant.errors import ParameterError
@@ -660,6 +661,9 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
     ------
     ImportError
         ``scheduler`` given without dask installed.
+    ParameterError
+        A duration whose runs do not fit into the memory available, in every worker process at once (before
+        anything is drawn or run; :func:`controllers.simulation.memory.check_run_memory`).
 
     Notes
     -----
@@ -675,9 +679,12 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
     o = ZooOptions() if options is None else options
     t0 = time.perf_counter()
     co = CompareOptions(duration=float(o.duration), seed=int(o.seed), modes=o.modes)
-    specs = draw_plants(o.n, comparison_reference(co), seed=o.seed, box=o.box)
     n = o.n
     bounds = _group_bounds(n, o.group, o.workers or os.cpu_count() or 1)
+    processes = 1 if o.scheduler is not None else min(o.workers or os.cpu_count() or 1, len(bounds))
+    check_run_memory(co.duration, co.Tc, signals=SHARED_SIGNALS + PREPARATION_SIGNALS + o.group, processes=processes,
+                     detail=f"a joint's preparation and the noise of {o.group} joint{'s' * (o.group > 1)}")
+    specs = draw_plants(o.n, comparison_reference(co), seed=o.seed, box=o.box)
     starts = [a for a, _ in bounds]
     out = _map(_group_task, [(specs[a:b], co, o.modes) for a, b in bounds], o)
     refused, mode_refused, notes = {}, {}, {}

@@ -640,7 +640,8 @@ def _eta_inputs(comp) -> dict:
     """What :func:`plot_eta` draws: the modes, their eta and :func:`rms_dev` (deg/s)."""
     modes = list(comp.results)
     dev = rms_dev(comp)
-    return {"modes": modes, "eta": [comp.eta[m] for m in modes], "rms_dev": [_deg(dev[m]) for m in modes]}
+    eta = [math.nan if comp.eta[m] is None else comp.eta[m] for m in modes]  # None: undefined (n/a on the bar)
+    return {"modes": modes, "eta": eta, "rms_dev": [_deg(dev[m]) for m in modes]}
 
 
 @_styled
@@ -668,7 +669,8 @@ def _draw_eta(d: dict) -> Figure:
         v = np.array([float(a) for a in vals])
         ok = np.isfinite(v)
         ax.bar(x, np.where(ok, v, 0.0), color=colors, width=0.7)
-        top = float(np.max(np.abs(v[ok]))) if ok.any() else 1.0
+        top = float(np.max(np.abs(v[ok]))) if ok.any() else 0.0
+        top = top if top > 0.0 else 1.0  # all undefined or zero (a joint without friction): a unit axis
         for xi, vi, good in zip(x, v, ok):
             ax.text(xi, (vi if good else 0.0) + 0.02 * top, fmt.format(vi) if good else "n/a", ha="center",
                     va="bottom", fontsize=8)

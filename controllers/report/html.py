@@ -423,7 +423,8 @@ def identify_report(out_dir, report, data, *, design=None, figures=None, command
 
 def compare_report(out_dir, comparison, *, figures=None, command: str | None = None,
                    title: str = "Friction compensation comparison") -> Path:
-    """Report of ``adaptive-ff compare``: plant, controller design, Stribeck pre-fit, metrics table, figures.
+    """Report of ``adaptive-ff compare``: plant, controller design, Stribeck pre-fit, metrics table, figures and
+    the comparison's notes (e.g. that the joint's runs measured no friction: then eta is undefined, ``–``).
 
     Parameters
     ----------
@@ -447,4 +448,5 @@ def compare_report(out_dir, comparison, *, figures=None, command: str | None = N
         figures = [(Path(f).stem.replace("_", " "), f) if not isinstance(f, tuple) else f for f in figures]
     summary = {"plant": comparison.plant.to_dict()}
     return write_report(out_dir, title=title, summary=summary, stribeck=getattr(comparison, "prefit", None),
-                        design=comparison.design, comparison=comparison, figures=figures, command=command)
+                        design=comparison.design, comparison=comparison, figures=figures, command=command,
+                        notes=tuple(getattr(comparison, "notes", ())))

@@ -20,6 +20,7 @@ from adaptive_ff.identification.regression import FrictionEstimate
 from controllers.design.pi import PIController
 from controllers.simulation.compensators import MODES, ESTIMATORS, ModeOptions, build_mode
 from controllers.simulation.engine import EngineInputs, engine_outcome, engine_state, metrics_state, run_engine
+from controllers.simulation.memory import MODE_SIGNALS, check_run_memory
 from controllers.simulation.metrics import LoopMetrics, loop_metrics, metrics_result, reversal_times
 from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
 from plant.excitation import Reference
@@ -222,7 +223,9 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     ------
     ParameterError
         Reference step not equal to ``controller.Tc``, noise without ``rng``, bad ``decimate``,
-        ``sensor_gate``, ``w_limit`` or ``friction0``, or a compensator without the component protocol.
+        ``sensor_gate``, ``w_limit`` or ``friction0``, a compensator without the component protocol, or a
+        reference too long for the memory available (its noise and records,
+        :func:`controllers.simulation.memory.check_run_memory`, checked before they are allocated).
 
     Notes
     -----
@@ -246,6 +249,9 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
         raise ParameterError(f"reference step {t[1] - t[0]!r} s differs from Tc = {Tc!r} s")
     if noise_std > 0 and rng is None:
         raise ParameterError("noise_std > 0 needs rng=np.random.default_rng(seed)")
+    if n > 0:  # the noise, the records (every decimate-th sample) and the parameter history
+        check_run_memory(n * Tc, Tc, signals=1 + (-(-(MODE_SIGNALS - 1) // decimate) if decimate else 0),
+                         what="the reference's duration", detail="the noise and records of one run")
     w_limit = 100.0 * float(np.max(np.abs(wr))) + 1.0 if w_limit is None else check_positive("w_limit", w_limit)
     table, seg = plant_table(plant, t, Tc)
     frozen = plant.at(0.0) if hasattr(plant, "at") else plant
