@@ -29,11 +29,12 @@ from adaptive_ff.compensation.sliding_estimator import (SlidingFrictionEstimator
 from adaptive_ff.compensation.velocity_input import (LoopModel, SignObserver, loop_model_step, sign_observer_step,
                                                     signed_measurement)
 from adaptive_ff.identification.regression import FrictionEstimate
-from adaptive_ff.identification.rls import rls_P, rls_n_updates, rls_theta
+from adaptive_ff.identification.rls import rls_P, rls_n_updates, rls_prior_variance, rls_theta
 from plant.errors import ParameterError, check_nonnegative, check_positive
 from plant.jit import kernel
 
-__all__ = ["RobustAdaptiveFeedforward", "FeedforwardStart", "robust_compensate", "robust_observe", "lag_weighted"]
+__all__ = ["RobustAdaptiveFeedforward", "FeedforwardStart", "robust_compensate", "robust_observe", "lag_weighted",
+           "fc_determined", "FC_INFO_FRACTION"]
 
 
 # RobustAdaptiveFeedforward arrays. params: the feedforward's, own settings, offsets, the estimator's;
@@ -75,6 +76,29 @@ def _robust_output(par, st, w_ctrl, w_ref):
         st[_GAIN] = min(st[_GAIN] + par[_FADE], 1.0)
         out = out * st[_GAIN]
     return out
+
+
+#: Fraction of the RLS prior variance below which the data have determined ``Fc`` (see :func:`fc_determined`).
+FC_INFO_FRACTION = 0.01
+
+
+@kernel(inline="always")
+def fc_determined(max_rel_stderr, e2, P_FcFc, P_prior, eFc, eFs):
+    """The determinacy test of ``Fc`` (class Notes of :class:`RobustAdaptiveFeedforward`): True if both
+
+    - its standard error ``sqrt(e2*P_FcFc)`` is at most ``max_rel_stderr*max(Fc, Fs)`` (``e2`` the estimator's
+      noise variance, N·m²), and
+    - the data have reduced its entry of ``P`` to at most :data:`FC_INFO_FRACTION` of the prior variance
+      ``P_prior`` (:func:`adaptive_ff.identification.rls.rls_prior_variance`): a direction the data do not
+      excite (one direction of motion only: the ``Fc`` and offset columns are the same) keeps ``P`` at the
+      prior's order however small the noise, where the standard error alone would pass on clean data.
+
+    ``max_rel_stderr = inf`` disables the test (always True).
+    """
+    if not max_rel_stderr < math.inf:
+        return True
+    return (math.sqrt(max(e2 * P_FcFc, 0.0)) <= max_rel_stderr * max(eFc, eFs)
+            and P_FcFc <= FC_INFO_FRACTION * P_prior)
 
 
 @kernel
@@ -181,7 +205,7 @@ def robust_observe(par, st, u, w_meas, theta_out):
         st[_NIMPL] += 1.0
         return True
     e2 = sliding_mse(es)
-    if not math.sqrt(max(e2 * rls_P(rls, iFc, iFc), 0.0)) <= par[_RELSD] * max(eFc, eFs):
+    if not fc_determined(par[_RELSD], e2, rls_P(rls, iFc, iFc), rls_prior_variance(rls), eFc, eFs):
         st[_NUND] += 1.0  # Fc not determined yet (e.g. one direction of motion only: Fc and the offset agree)
         return True
     if _lag_consistent(par, rls, eJ, etau, eJalt, e2, par[P_DT], lag):
@@ -305,9 +329,10 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         errors (a lag far too long under-compensates every reversal), and
         ``theta_cov`` of a weakly excited lag can exceed the lag itself.
     max_rel_stderr : float, keyword-only
-        An estimate is used only once ``Fc`` is determined: its standard
-        error (from :attr:`SlidingFrictionEstimator.theta_cov`) at most this
-        fraction of ``max(Fc, Fs)``. Default 0.05; inf: no test.
+        An estimate is used only once ``Fc`` is determined (:func:`fc_determined`): its
+        standard error (from :attr:`SlidingFrictionEstimator.theta_cov`) at most this
+        fraction of ``max(Fc, Fs)``, and its entry of the RLS ``P`` reduced by the data
+        to at most 1 % of the prior variance. Default 0.05; inf: no test.
     lag_memory : float, keyword-only
         Memory (s) of the lag in use: the lag estimates put in use are
         averaged with the weights ``1/sd**2`` (``sd`` the standard error of

@@ -17,7 +17,7 @@ from plant.jit import kernel
 from plant.errors import ParameterError, SignalError, check_finite_scalar
 
 __all__ = ["RecursiveLeastSquares", "FORGETTING", "rls_buffer_size", "rls_step", "rls_update", "rls_theta", "rls_P",
-           "rls_n_updates", "rls_n_rejected"]
+           "rls_n_updates", "rls_n_rejected", "rls_prior_variance"]
 
 #: Forgetting schemes of :class:`RecursiveLeastSquares`.
 FORGETTING = ("exponential", "directional")
@@ -46,6 +46,15 @@ def rls_theta(buf, i):
 def rls_P(buf, i, j):
     """Entry ``(i, j)`` of ``P`` in the state buffer ``buf``."""
     return buf[_HDR + np.int64(buf[_NP]) * (1 + i) + j]
+
+
+@kernel(inline="always")
+def rls_prior_variance(buf):
+    """Prior variance per parameter of the RLS in ``buf``: the trace bound ``P_max`` over ``p`` (``P0`` for a
+    scalar ``P0`` and the default ``P_max``; ``inf`` for the paper's unbounded eqs. 10-13). The scale against
+    which the data's reduction of a diagonal entry of ``P`` is judged (no information along a direction
+    leaves its ``P`` entry at that order)."""
+    return buf[_PMAX] / buf[_NP]
 
 
 @kernel(inline="always")
