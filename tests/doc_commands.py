@@ -46,10 +46,10 @@ ROOT = Path(__file__).resolve().parents[1]
 FENCE = re.compile(r"^```(?P<info>[^\n`]*)\n(?P<body>.*?)^```[ \t]*$", re.M | re.S)
 MARKER = re.compile(r"<!-- main-job-output: (?P<cmd>[^(]*?) \(.*?-->\n```\n(?P<body>.*?)^```[ \t]*$", re.M | re.S)
 NUMBER = re.compile(r"(?<![\w.])[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?(?![\w])")
+# Not run: making and filling an environment (the tests already run in the installed one: a second
+# install would only test pip and the network) and running the tests (that is this run itself).
 SETUP = re.compile(r"^\s*(python3? -m venv\b|\. \S*activate\b|source \S*activate\b|(python3? -m )?pip install\b"
                    r"|python3? -m pytest\b|pytest\b)")
-SETUP_WHY = ("environment set-up (venv, activate, pip install): the tests already run in the installed "
-             "environment; python -m pytest: the test run itself")
 ERROR_PREFIX = "adaptive-ff: error:"
 
 
@@ -58,7 +58,7 @@ class Step:
     """One command of a page and the output the page quotes for it (None: the page quotes none)."""
 
     command: str
-    kind: str  # "bash" (set -e, standard output) or "console" (no set -e, standard output + error)
+    kind: str  # "bash" (run with set -e) or "console" (without)
     line: int  # line of the page the command starts on (1-based)
     quoted: str | None = None
     span: tuple[int, int] | None = None  # offsets of the quoted output in the page text
@@ -139,6 +139,7 @@ def command_key(cmd: str) -> tuple[str, ...]:
 
 
 def _console_steps(body: str, offset: int, first: int) -> list[Step]:
+    """The ``$ `` commands of a console block body (at ``offset`` of the page, line ``first``) and their outputs."""
     lines = body.splitlines(keepends=True)
     steps, pos, i = [], offset, 0
     while i < len(lines):
@@ -164,13 +165,11 @@ def _console_steps(body: str, offset: int, first: int) -> list[Step]:
 def environment(bin_dir: Path) -> dict:
     """The environment of the page's commands: this checkout's ``adaptive-ff`` and ``python`` first on PATH."""
     bin_dir.mkdir(parents=True, exist_ok=True)
-    exe = sys.executable
-    shim = bin_dir / "adaptive-ff"
-    shim.write_text("#!/bin/sh\n"
-                    f'exec "{exe}" -c "import sys; from controllers.cli import main; sys.exit(main(sys.argv[1:]))" "$@"\n',
-                    encoding="utf-8")
+    exe = shlex.quote(sys.executable)
+    cli = shlex.quote("import sys; from controllers.cli import main; sys.exit(main(sys.argv[1:]))")
+    (bin_dir / "adaptive-ff").write_text(f'#!/bin/sh\nexec {exe} -c {cli} "$@"\n', encoding="utf-8")
     for name in ("python", "python3"):  # a shim, not a link: a link outside the venv would not start the venv
-        (bin_dir / name).write_text(f'#!/bin/sh\nexec "{exe}" "$@"\n', encoding="utf-8")
+        (bin_dir / name).write_text(f'#!/bin/sh\nexec {exe} "$@"\n', encoding="utf-8")
     for f in bin_dir.iterdir():
         f.chmod(f.stat().st_mode | stat.S_IXUSR | stat.S_IXGRP | stat.S_IXOTH)
     env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONUNBUFFERED": "1"}

@@ -103,6 +103,25 @@ def test_the_comparison_tells_stable_digits_from_a_wrong_number():
     assert not Tol(units=2).allows("4", "5")  # integers are exact
 
 
+def test_the_runner_runs_pages_as_written(tmp_path):
+    """A synthetic page: the install line is skipped, files carry over between commands, a quoted output
+    that the command does not print is reported, and a failing recipe line stops the page."""
+    page_md = tmp_path / "page.md"
+    page_md.write_text("```bash\npip install -e . && printf '1.25\\n' > x.txt   # make x\n```\n\n"
+                       "```\n$ cat x.txt\n1.25\n$ cat x.txt; echo \"exit $?\"\n1.28\nexit 0\n```\n",
+                       encoding="utf-8")
+    page = run_page(parse_page(page_md), tmp_path / "run")
+    assert [s.command for s in page.steps] == ["printf '1.25\\n' > x.txt   # make x", "cat x.txt",
+                                               'cat x.txt; echo "exit $?"']
+    assert page.skipped and page.steps[1].printed == "1.25\n"
+    assert check_page(page, stable_digits) == [
+        'page.md:8: $ cat x.txt; echo "exit $?"\nline 1, number 1: printed 1.25, quoted 1.28 (allowed: '
+        'Tol(rel=0.0, units=2, abs=0.0, factor=0.0)):\n  1.25']
+    page_md.write_text("```bash\ncat my_joint.json\necho never\n```\n", encoding="utf-8")
+    with pytest.raises(AssertionError, match=r"(?s)page.md:2: command failed \(exit 1\).*cat my_joint.json"):
+        run_page(parse_page(page_md), tmp_path / "run2")
+
+
 def test_python_example_runs(tmp_path):
     text = README.read_text(encoding="utf-8")
     m = EXAMPLE.search(text)
