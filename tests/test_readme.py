@@ -1,5 +1,7 @@
-"""The README tells the truth: the main job's quoted output is what the command prints, the Python
-example runs, the links resolve, and the file stays short (issue 13 item 2: at most 12 KB).
+"""The README tells the truth: its commands run as written in an empty folder, the main job's quoted
+output is what the command prints (to the digits that are stable across platforms and package
+versions: ``doc_commands.stable_digits``), the Python example runs, the links resolve, and the file
+stays short (at most 12 KB).
 
 Refresh the quoted output after a change of the main job (one command, from the repository root)::
 
@@ -8,16 +10,21 @@ Refresh the quoted output after a change of the main job (one command, from the 
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import subprocess
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # also as ``python -m tests.test_readme``
+
+from doc_commands import (ROOT, Tol, check_page, mismatches, parse_page, run_page, stable_digits,  # noqa: E402
+                          timings, update_page)
+
 README = ROOT / "README.md"
-OUTPUT_START = re.compile(r"<!-- main-job-output: adaptive-ff (?P<args>[^(]*?) \(.*?-->\n```\n")
-OUTPUT_END = "```\n<!-- /main-job-output -->"
 EXAMPLE = re.compile(r"<!-- readme-example: .*?-->\n```python\n(?P<code>.*?)```\n", re.S)
 MAX_BYTES = 12 * 1024
 
@@ -28,23 +35,12 @@ def _env() -> dict:
     return env
 
 
-def quoted_output(text: str) -> tuple[list[str], str, int, int]:
-    """The quoted main job of the README: (command arguments, output, start, end offsets)."""
-    m = OUTPUT_START.search(text)
-    if m is None:
-        raise AssertionError("README: no '<!-- main-job-output: adaptive-ff ... -->' block")
-    end = text.index(OUTPUT_END, m.end())
-    return m.group("args").split(), text[m.end():end], m.end(), end
-
-
-def run_main_job(args: list[str], cwd: Path) -> str:
-    """Run ``adaptive-ff ARGS`` (this checkout's code) in ``cwd``; return its standard output."""
-    code = "import sys; from controllers.cli import main; sys.exit(main(sys.argv[1:]))"
-    r = subprocess.run([sys.executable, "-c", code, *args], cwd=cwd, capture_output=True, text=True,
-                       env=_env(), timeout=1800)
-    if r.returncode != 0:
-        raise AssertionError(f"adaptive-ff {' '.join(args)} failed ({r.returncode}):\n{r.stdout}\n{r.stderr}")
-    return r.stdout
+@pytest.fixture(scope="module")
+def ran(tmp_path_factory):
+    """The README's commands, run in page order in an empty folder."""
+    page = run_page(parse_page(README), tmp_path_factory.mktemp("readme"))
+    print("\n" + timings(page))
+    return page
 
 
 def test_readme_is_short():
@@ -52,14 +48,78 @@ def test_readme_is_short():
     assert size <= MAX_BYTES, f"README.md is {size} bytes (at most {MAX_BYTES}): move detail into docs/"
 
 
-def test_main_job_output_is_quoted_verbatim(tmp_path):
-    text = README.read_text(encoding="utf-8")
-    args, quoted, _, _ = quoted_output(text)
-    assert args[:1] == ["compare"], args
-    printed = run_main_job(args, tmp_path)
-    assert printed == quoted, ("the README's main-job output differs from what the command prints; "
-                               "refresh it with: python -m tests.test_readme --update")
-    assert (tmp_path / "out" / "tracking.png").exists()
+def test_commands_are_found_and_setup_lines_skipped():
+    page = parse_page(README)
+    assert [s.command for s in page.steps][0] == "adaptive-ff compare"  # the quick start, less its pip lines
+    assert len(page.skipped) == 2, page.skipped  # the venv/pip install line and the test run
+    main_job = page.steps[0]
+    assert main_job.quoted is not None and "mode" in main_job.quoted
+
+
+def test_main_job_output_is_what_the_command_prints(ran):
+    bad = check_page(ran, stable_digits)
+    assert not bad, ("the README's main-job output differs from what the command prints; refresh it with: "
+                     "python -m tests.test_readme --update\n\n" + "\n\n".join(bad))
+    assert (ran.folder / "out" / "tracking.png").is_file()
+
+
+def test_your_drive_block_runs_in_an_empty_folder(ran):
+    """The 'Your drive in ten lines' block writes every file it reads (id.json, my_joint.json) itself."""
+    for f in ("out/paper/controller_log.csv", "out/stribeck/report.html", "id.json", "out/design/report.html",
+              "my_joint.json", "out/compare/report.html"):
+        assert (ran.folder / f).is_file(), f
+    plant = json.loads((ran.folder / "my_joint.json").read_text(encoding="utf-8"))
+    ident = json.loads((ran.folder / "id.json").read_text(encoding="utf-8"))
+    assert plant == {**{k: ident["physical"]["params"][k] for k in ("J", "Fc", "Fs", "sigma", "tau")},
+                     "Vs": 0.0197756, "delta": 1.01582}
+    compare = ran.steps[-1]
+    assert compare.command.startswith("adaptive-ff compare --plant my_joint.json")
+    assert "plant: my_joint.json: model=lagged-stribeck" in compare.printed
+
+
+def test_the_comparison_tells_stable_digits_from_a_wrong_number():
+    """The rule of ``stable_digits`` passes the spread seen across platforms and fails a real change."""
+    quoted = ("Stribeck pre-fit (Sec. V-C): Vs=0.02004 rad/s, delta=1.002\n"
+              "none                 2.8990       10.1503                 2.2575        26.45    0.000\n"
+              "fixed                0.5120        1.3438                 0.4925        29.45    1.000\n"
+              "adaptive             0.5162        1.2005                 0.5040        29.47    0.999\n"
+              "canudas              1.8763        8.3415                 2.7847        28.78    0.429\n"
+              '{"J": 4.091543591653956, "Fc": 25.047089315261}\n')
+    # the other machine's canudas max, fixed's max at the other end of its range, last digits moved
+    ok = (quoted.replace("8.3415", "8.6843").replace("1.3438", "2.1057").replace("2.8990", "2.9100")
+          .replace("1.2005", "1.2052").replace("0.02004", "0.02005").replace("653956", "653938"))
+    assert mismatches(quoted, ok, stable_digits) == []
+    for wrong in (quoted.replace("0.5162", "0.5262"),  # adaptive RMS +2 %
+                  quoted.replace("delta=1.002", "delta=1.012"),  # the pre-fit moved
+                  quoted.replace("2.8990", "2.9990"),  # no compensation 3 % worse
+                  quoted.replace("8.3415", "11.3415"),  # canudas peak +36 %
+                  quoted.replace("1.3438", "2.8159"),  # fixed peak doubled
+                  quoted.replace("0.999", "0.989"),  # adaptive eta -0.01
+                  quoted.replace("4.091543591653956", "4.0915436"),  # a JSON float cut short
+                  quoted.replace("Vs=", "Vs:")):  # text
+        assert len(mismatches(quoted, wrong, stable_digits)) == 1, wrong
+    assert mismatches(quoted, quoted + "x\n", stable_digits) == ["7 lines printed, 6 quoted"]
+    assert Tol(units=2).allows("0.5120", "0.5122") and not Tol(units=2).allows("0.5120", "0.5123")
+    assert not Tol(units=2).allows("4", "5")  # integers are exact
+
+
+def test_the_runner_runs_pages_as_written(tmp_path):
+    """A synthetic page: the install line is skipped, files carry over between commands, a quoted output
+    that the command does not print is reported, and a failing recipe line stops the page."""
+    page_md = tmp_path / "page.md"
+    page_md.write_text("```bash\npip install -e . && printf '1.25\\n' > x.txt   # make x\n```\n\n"
+                       "```\n$ cat x.txt\n1.25\n$ cat x.txt; echo \"exit $?\"\n1.28\nexit 0\n```\n",
+                       encoding="utf-8")
+    page = run_page(parse_page(page_md), tmp_path / "run")
+    assert [s.command for s in page.steps] == ["printf '1.25\\n' > x.txt   # make x", "cat x.txt",
+                                               'cat x.txt; echo "exit $?"']
+    assert page.skipped and page.steps[1].printed == "1.25\n"
+    assert check_page(page, stable_digits) == [
+        'page.md:8: $ cat x.txt; echo "exit $?"\nline 1, number 1: printed 1.25, quoted 1.28 (allowed: '
+        'Tol(rel=0.0, units=2, abs=0.0, factor=0.0)):\n  1.25']
+    page_md.write_text("```bash\ncat my_joint.json\necho never\n```\n", encoding="utf-8")
+    with pytest.raises(AssertionError, match=r"(?s)page.md:2: command failed \(exit 1\).*cat my_joint.json"):
+        run_page(parse_page(page_md), tmp_path / "run2")
 
 
 def test_python_example_runs(tmp_path):
@@ -84,7 +144,8 @@ def test_your_drive_recipe_is_ten_lines():
     assert m is not None, "README: no '## Your drive in ten lines' bash block"
     lines = m.group("body").strip().splitlines()
     assert 4 <= len(lines) <= 10, len(lines)
-    for step in ("adaptive-ff stribeck", "adaptive-ff identify", "adaptive-ff design", "adaptive-ff compare"):
+    for step in ("adaptive-ff stribeck", "adaptive-ff identify", "adaptive-ff design", "python -c",
+                 "adaptive-ff compare --plant my_joint.json"):
         assert any(ln.startswith(step) for ln in lines), step
 
 
@@ -112,7 +173,7 @@ def _links(path: Path) -> set[Path]:
 
 
 def test_every_docs_page_is_two_clicks_from_the_readme():
-    """Issue 13: a newcomer reaches any topic of the docs from the README within two clicks (as the
+    """A newcomer reaches any topic of the docs from the README within two clicks (as the
     pages render on a code host: Markdown links only, no Sphinx toctrees or roles)."""
     first = _links(README)
     broken = [str(t.relative_to(ROOT)) for t in first if not t.exists()]
@@ -131,24 +192,8 @@ def test_every_docs_page_is_two_clicks_from_the_readme():
                          "or from docs/benchmarks/index.md")
 
 
-def update() -> int:
-    """Rewrite the README's quoted main-job output with what the command prints now."""
-    import tempfile
-
-    text = README.read_text(encoding="utf-8")
-    args, quoted, start, end = quoted_output(text)
-    with tempfile.TemporaryDirectory() as tmp:
-        printed = run_main_job(args, Path(tmp))
-    if printed == quoted:
-        print("README.md: main-job output already current")
-        return 0
-    README.write_text(text[:start] + printed + text[end:], encoding="utf-8")
-    print(f"README.md: main-job output of 'adaptive-ff {' '.join(args)}' refreshed")
-    return 0
-
-
 if __name__ == "__main__":
     if sys.argv[1:] != ["--update"]:
         print("usage: python -m tests.test_readme --update", file=sys.stderr)
         sys.exit(2)
-    sys.exit(update())
+    sys.exit(update_page(README))
