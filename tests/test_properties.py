@@ -1,12 +1,11 @@
-"""Property tests (hypothesis) of the compiled kernels of issue 5.
+"""Property tests (hypothesis) of the compiled kernels.
 
-* :func:`controllers.simulation.batch.run_batch` equals the former plain-Python loop (tests/loop_oracle.py)
-  run one by one, to 1e-9, over random plants (eq. 3 with lag),
-  gains, limits, noise seeds and modes.
+* :func:`controllers.simulation.batch.run_batch` equals single runs of the engine, each checked period by period
+  against its replay by the independent oracles (tests/loop_oracle.py), to 1e-9, over random plants (eq. 3 with
+  lag), gains, limits, noise seeds and modes.
 * :meth:`adaptive_ff.identification.rls.RecursiveLeastSquares.update` equals ``update_many`` (bit for bit)
-  and the former numpy implementation (tests/rls_oracle.py) to rounding (1e-10 relative to the
-  largest entry of ``P``; BLAS sums ``P @ phi`` in another order) over random streams,
-  forgetting schemes, covariance bounds and parameter boxes.
+  and the information form of tests/rls_oracle.py (1e-8 relative to the largest entry, see the test) over
+  random streams, forgetting schemes, covariance bounds and parameter boxes.
 
 Deterministic (``derandomize=True``) and small (``max_examples``), ``deadline=None``.
 """
@@ -22,7 +21,7 @@ from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from controllers.simulation.batch import run_batch
 from controllers.simulation.closed_loop import ModeOptions
-from loop_oracle import oracle_run
+from loop_oracle import replayed_run
 from plant.excitation import multisine_reference
 from plant.friction import JointParams
 from rls_oracle import InformationRLS
@@ -70,9 +69,9 @@ def test_batch_kernel_equals_run_closed_loop_one_by_one(case):
                         estimate=est[b], ff_input=ff_input, sensor_gate=False) for b in range(len(ps))]
     res = run_batch(ps, ref, mode, opts, seeds=seeds)
     for b, p in enumerate(ps):
-        one = oracle_run(p, ref, mode=mode, Kp=float(Kp[b]), Ki=float(Ki[b]), u_max=float(u_max[b]),
-                         noise_std=noise_std, rng=np.random.default_rng(seeds[b]), estimate=est[b],
-                         ff_input=ff_input, sensor_gate=False)
+        one = replayed_run(p, ref, mode=mode, Kp=float(Kp[b]), Ki=float(Ki[b]), u_max=float(u_max[b]),
+                           noise_std=noise_std, seed=seeds[b], estimate=est[b], ff_input=ff_input,
+                           sensor_gate=False)
         assert bool(res.diverged[b]) == bool(one["diverged"])
         for name in FIELDS:
             assert getattr(res, name)[b] == pytest.approx(getattr(one["metrics"], name), rel=1e-9, abs=1e-15,
