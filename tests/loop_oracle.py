@@ -33,10 +33,8 @@ __all__ = ["oracle_replay", "replayed_run", "oracle_metrics", "oracle_make_step"
 
 
 def oracle_make_step(p, dt):
-    """The one-step plant of tests/plant_oracle.py for each plant model."""
-    step = {"lagged-stribeck": pl.make_rk4_step, "lugre": pl.lugre_make_step, "karnopp": pl.karnopp_make_step,
-            "asymmetric": pl.asymmetric_make_step}[p.MODEL]
-    return step(p, dt)
+    """The one-step plant of tests/plant_oracle.py (every plant model)."""
+    return pl.make_step(p, dt)
 
 
 def oracle_metrics(t, w_ref, w, u, *, reversals, window=0.2) -> LoopMetrics:
@@ -221,14 +219,14 @@ def oracle_replay(run, p, ref, *, mode, rng=None, faults=None, **kw) -> dict:
     w_o, f_o = np.full(n, np.nan), np.full(n, np.nan)
     w_o[0] = wr[0]
     z = plant.initial_state(wr[0])
-    f_o[0] = z if lagged else plant.friction_torque(wr[0], z)
+    f_o[0] = z if lagged else float(pl.lugre_friction_torque(plant, wr[0], z))
     diverged = False
     w_limit = kw.get("w_limit") or 100.0 * float(np.max(np.abs(wr))) + 1.0
     for k in range(n_ok):
         if drift_m and k % drift_m == 0 and k > 0:
             step = oracle_make_step(p.at(t[k]), Tc)
         w1, z = step(W[k], F[k] if lagged else z, U[k])
-        f1 = z if lagged else plant.friction_torque(w1, z)
+        f1 = z if lagged else float(pl.lugre_friction_torque(plant, w1, z))
         if not -w_limit < w1 < w_limit:
             diverged = True
             break
