@@ -22,8 +22,7 @@ import peers_oracle as oracle
 from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward, eq4_compensate, eq4_observe
 from adaptive_ff.compensation.feedforward import project_levels
 from adaptive_ff.compensation.ff_layout import FF_NSTATE
-from adaptive_ff.identification.regression import (FrictionEstimate, RegressionModel, eq4_phi, eq4_to_physical,
-                                                   theta_from_physical)
+from adaptive_ff.identification.regression import RegressionModel, eq4_phi, eq4_to_physical
 from plant.errors import ParameterError
 from plant.friction import JointParams
 
