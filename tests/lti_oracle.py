@@ -44,31 +44,22 @@ def combine(terms, den) -> tuple:
 
 
 class StepLTI:
-    """A SISO discrete transfer function ``(b, a)`` (in ``z^-1``) stepped one sample at a time.
+    """A SISO discrete transfer function ``(b, a)`` (in ``z^-1``) stepped one sample at a time, from rest.
 
     ``x' = A x + B u``, ``y = C x + D u`` with the controllable canonical realisation of
-    :func:`scipy.signal.tf2ss`; starts at rest (or, with ``y0``, in the steady state of a constant input that
-    gives ``y0``).
+    :func:`scipy.signal.tf2ss`.
     """
 
-    def __init__(self, ba: tuple, y0: float = 0.0):
+    def __init__(self, ba: tuple):
         b, a = (np.asarray(v, dtype=float) for v in ba)
         n = max(len(b), len(a))
         b, a = np.pad(b, (0, n - len(b))), np.pad(a, (0, n - len(a)))
         self.A, self.B, self.C, self.D = signal.tf2ss(b, a)
         self.D = float(self.D[0, 0])
         self.x = np.zeros(self.A.shape[0])
-        if y0 != 0.0:
-            dc = float(np.sum(b) / np.sum(a))
-            u0 = y0 / dc
-            self.x = np.linalg.solve(np.eye(self.A.shape[0]) - self.A, self.B[:, 0] * u0)
-
-    def output(self, u: float) -> float:
-        """The output for input ``u`` without advancing."""
-        return float(self.C[0] @ self.x) + self.D * u
 
     def step(self, u: float) -> float:
         """Advance by one input sample; return the output of this sample."""
-        y = self.output(u)
+        y = float(self.C[0] @ self.x) + self.D * u
         self.x = self.A @ self.x + self.B[:, 0] * u
         return y
