@@ -5,7 +5,7 @@ blocks of ``block`` updates on a random stream (``lam = 0.995``, as benchmarks/p
 prints the median over blocks of the time per update, so a busy machine (another process
 taking the core for a moment) does not move the result. Cases: ``update`` (one call per
 sample, from a Python loop over the rows), ``update_many`` (the whole block in one call) and
-the former pure-numpy implementation (tests/rls_oracle.py, the test oracle).
+the numpy RLS in information form of the test oracle (tests/rls_oracle.py).
 """
 
 import argparse

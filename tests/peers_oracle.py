@@ -1,13 +1,26 @@
-"""Test oracle: the Python peers and the eq. 4 adaptive feedforward as they were before they became compiled components.
+"""Test oracles of the friction feedforward (fixed, and eq. 4 adaptive) and of the two peers, from their equations.
 
-Verbatim copies (issue 10) of ``controllers.peers.canudas.CanudasCompensator``,
-``controllers.peers.dob.DisturbanceObserver`` and, from
-``adaptive_ff.compensation.feedforward``, ``project_estimate``,
-``FrictionFeedforward`` and ``AdaptiveFrictionFeedforward`` (commit 9d852bd).
-Used by tests/test_peer_components.py and tests/test_eq4_component.py to check
-the compiled components bit for bit (peers) and to 1e-12 (eq. 4). Not part of
-the package. They use the package's ``RecursiveLeastSquares`` (itself checked
-against ``tests/rls_oracle.py``) and ``RegressionModel`` (numpy arithmetic).
+Each oracle is written from the documented model of its component, not from the component's code, and runs over
+whole recorded signals (the torque, the velocities), so that a test can drive the package's component in its
+calling sequence and then check every output against the oracle fed with the same signals:
+
+* :func:`friction_map` (eq. 3 with the sign ramp, vectorised) and :class:`Feedforward`, the fixed feedforward
+  of :class:`adaptive_ff.compensation.feedforward.FrictionFeedforward` (stick detection, eq. 1's lag in its
+  exact solution for a held input, the bound), stepped;
+* :func:`eq4_path`, the eq. 4 adaptive feedforward of :mod:`adaptive_ff.compensation.eq4_feedforward`: eq. 4's
+  regressor and its inverse map as derived in :mod:`adaptive_ff.identification.regression`'s docstring, the
+  projection of :func:`adaptive_ff.compensation.feedforward.project_estimate`;
+* :func:`canudas_path`, Canudas de Wit et al.'s compensator (:mod:`controllers.peers.canudas`): the sample
+  intervals of ``Ts`` over the accepted samples, the rows of the sampled motor model, the direction-dependent
+  Coulomb + viscous map;
+* :func:`dob_path`, the disturbance observer (:mod:`controllers.peers.dob`): the raw disturbance samples
+  filtered by the binomial Q-filter from tests/lti_oracle.py (:func:`scipy.signal.lfilter`);
+* :class:`Range`, the range rule of :class:`adaptive_ff.compensation.gate.RangeGate`.
+
+The estimators' RLS is the package's :class:`~adaptive_ff.identification.rls.RecursiveLeastSquares`, which
+tests/test_rls.py and tests/test_properties.py check against tests/rls_oracle.py (closed form, information form):
+here it is a trusted part, and the oracles check what the components feed it and make of its estimates. Not
+part of the package.
 """
 
 from __future__ import annotations
@@ -15,14 +28,19 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy import signal
 
-from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
+from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RecursiveLeastSquares
-from plant.errors import ParameterError, SignalError, check_multiple, check_nonnegative, check_positive
+from lti_oracle import lag, power
+from plant.errors import SignalError
+
+__all__ = ["Range", "rls_try", "friction_map", "Feedforward", "eq4_columns", "eq4_physical", "admissible",
+           "Eq4Estimator", "eq4_path", "canudas_path", "dob_path"]
 
 
 class Range:
-    """Issue 12: the range rule of adaptive_ff.compensation.gate.RangeGate, written again (independent code).
+    """The range rule of adaptive_ff.compensation.gate.RangeGate, written again (independent code).
 
     Out of range: not finite, |x| > x_max, or |x| > factor*max(env, floor) while that reference is > 0 and fewer
     than max_consecutive samples were rejected in a row. Accepted samples raise the envelope at once
@@ -50,516 +68,327 @@ class Range:
 
 
 def rls_try(rls, phi, y):
-    """The package RLS update, with a refused sample (issue 12: an update that would overflow) as None."""
+    """The package RLS update, with a refused sample (an update that would overflow) as None."""
     try:
         return rls.update(phi, y)
     except SignalError:
         return None
 
-__all__ = ["CanudasCompensator", "DisturbanceObserver", "FrictionFeedforward", "AdaptiveFrictionFeedforward",
-           "project_estimate"]
+
+# ------------------------------------------------------------------------------------------- fixed feedforward
+def friction_map(w, Fc, Fs, Vs, delta, sigma, sign_width=0.0):
+    """Eq. 3 without offset, ``sgn(w)*(Fc + (Fs - Fc)*exp(-|w/Vs|**delta)) + sigma*w`` (N·m), any shape.
+
+    ``Vs`` None: the Coulomb level ``Fc`` alone. ``sign_width > 0``: ``sgn`` is the ramp
+    ``clip(w/sign_width, -1, 1)``.
+    """
+    w = np.asarray(w, dtype=float)
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        level = Fc + 0.0 * w if Vs is None else Fc + (Fs - Fc) * np.exp(-((np.abs(w) / Vs) ** delta))
+        sgn = np.sign(w) if sign_width <= 0.0 else np.clip(w / sign_width, -1.0, 1.0)
+        out = np.where(w == 0.0, 0.0, sgn * level + sigma * w)
+    return float(out) if out.ndim == 0 else out
 
 
-class CanudasCompensator:
-    """Direction-dependent Coulomb + viscous friction, estimated by RLS, compensated at a velocity.
+class Feedforward:
+    """The feedforward of the estimate in use (:meth:`use`), one period per :meth:`step`.
 
-    Parameters
-    ----------
-    Tc : float, keyword-only
-        Controller period (s): :meth:`compensate` and :meth:`observe` are called once per period.
-    Ts : float, keyword-only
-        Sample time of the estimator (s), a multiple of ``Tc``; default 10 ms.
-    lam : float, keyword-only
-        Forgetting factor per RLS update; default 0.999.
-    forgetting : {"directional", "exponential"}, keyword-only
-        RLS forgetting scheme, default directional.
-    P0 : float, keyword-only
-        Initial covariance scale, default 1e4.
-    J_guess : float, keyword-only
-        Initial inertia (kg·m²) for ``theta0``; default 1.
-    w_dead : float, keyword-only
-        Estimation dead zone (rad/s): a sample interval is used only if the
-        velocity stays beyond ``±w_dead`` with one sign (no reversal, no
-        sticking); default 5e-3.
-    warmup : int, keyword-only
-        RLS updates before the compensation is switched on; default 300.
-    ff_max : float, keyword-only
-        Bound on |compensation| (N·m), default inf.
-    ff_input : {"measured", "reference"}, keyword-only
-        Velocity the compensation is evaluated at; default measured (the
-        velocity feedback of the original).
-
-    Attributes
-    ----------
-    rls : RecursiveLeastSquares
-        ``theta = (b, b*sigma_pos, b*sigma_neg, b*Fc_pos, b*Fc_neg)``, ``b = Ts/J``.
-    n_rejected : int
-        Non-finite samples ignored.
-
-    Raises
-    ------
-    ParameterError
-        Invalid settings (the message quotes the value).
-
-    Notes
-    -----
-    Sampled motor model over one period ``Ts`` (Euler, torque averaged over the
-    period ``u_bar``)::
-
-        w(k+1) - w(k) = b*u_bar(k) - b*sigma_d*w(k) - b*Fc_d*sgn(w(k)),   b = Ts/J
-
-    with ``d`` the direction of ``w(k)``. Regressor
-    ``(u_bar, -w*1(w>0), -w*1(w<0), -1(w>0), +1(w<0))``. Compensation
-    ``u_c = Fc_d*sgn(w) + sigma_d*w`` with the estimated coefficients. The
-    model has no friction lag and no Stribeck effect: that is the difference
-    to Ruderman's model that the comparison measures.
+    Per period: the velocity to evaluate (the second one, ``w_ref``, once the first has stayed inside
+    ``±stick_band`` for ``stick_samples`` calls), the map of eq. 3 there, the lag of eq. 1 solved exactly over
+    the period, ``u <- exp(-dt/tau)*u + (1 - exp(-dt/tau))*F``, the output clipped to ``±ff_max``. A non-finite
+    velocity (or ``w_ref`` when given) or map leaves everything but ``n_rejected`` and returns the held output.
     """
 
-    def __init__(self, *, Tc: float, Ts: float = 0.01, lam: float = 0.999, forgetting: str = "directional",
-                 P0: float = 1e4, J_guess: float = 1.0, w_dead: float = 5e-3, warmup: int = 300,
-                 ff_max: float = math.inf, ff_input: str = "measured"):
-        self.Tc = check_positive("Tc", Tc)
-        self.m = check_multiple("Ts", Ts, "Tc", self.Tc)
-        self.Ts = self.m * self.Tc
-        self.w_dead = check_nonnegative("w_dead", w_dead)
-        if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
-            raise ParameterError(f"warmup must be an integer >= 0, got {warmup!r}")
-        self.warmup = int(warmup)
-        self.ff_max = math.inf if ff_max == math.inf else check_nonnegative("ff_max", ff_max)
-        if ff_input not in ("measured", "reference"):
-            raise ParameterError(f"ff_input must be 'measured' or 'reference', got {ff_input!r}")
-        self.ff_measured = ff_input == "measured"
-        b0 = self.Ts / check_positive("J_guess", J_guess)
-        inf = math.inf
-        self.rls = RecursiveLeastSquares(5, lam=lam, P0=P0, forgetting=forgetting, theta0=[b0, 0, 0, 0, 0],
-                                         bounds=([1e-12, 0, 0, 0, 0], [inf, inf, inf, inf, inf]))
-        self.coef = None  # (Fc_pos, Fc_neg, sigma_pos, sigma_neg) in use
-        self._k = 0
-        self._usum = 0.0
-        self._w_prev = None
-        self._ok = True
-        self.n_rejected = 0
-        self.u_range, self.w_range = Range(), Range(floor=self.w_dead)
-
-    @property
-    def estimate(self) -> dict | None:
-        """``{"J", "Fc_pos", "Fc_neg", "sigma_pos", "sigma_neg"}`` in use (SI units), or None before warm-up."""
-        if self.coef is None:
-            return None
-        b = float(self.rls.theta[0])
-        Fcp, Fcn, sp, sn = self.coef
-        return {"J": self.Ts / b, "Fc_pos": Fcp, "Fc_neg": Fcn, "sigma_pos": sp, "sigma_neg": sn}
-
-    def compensate(self, w_meas: float, w_ref: float) -> float:
-        """Compensation torque (N·m) for this period, bounded by ``ff_max``."""
-        if self.coef is None:
-            return 0.0
-        w = w_meas if self.ff_measured else w_ref
-        if not math.isfinite(w):  # issue 12
-            return 0.0
-        Fcp, Fcn, sp, sn = self.coef
-        if w > 0.0:
-            c = Fcp + sp * w
-        elif w < 0.0:
-            c = -Fcn + sn * w
-        else:
-            c = 0.0
-        if not math.isfinite(c):  # issue 12
-            return 0.0
-        return min(max(c, -self.ff_max), self.ff_max)
-
-    def observe(self, u: float, w: float) -> None:
-        """Record the torque ``u`` applied in this period and the velocity ``w`` measured at its start."""
-        uok, wok = self.u_range.ok(u), self.w_range.ok(w)
-        if not (uok and wok):
-            if not uok:
-                self.u_range.commit(u, False)
-            if not wok:
-                self.w_range.commit(w, False)
-            self.n_rejected += 1
-            self._ok = False  # the current interval is spoiled
-            return
-        self.u_range.commit(u, True)
-        self.w_range.commit(w, True)
-        k = self._k
-        if k % self.m == 0:
-            wp = self._w_prev
-            if wp is not None and self._ok:
-                self._update(wp, w, self._usum / self.m)
-            self._w_prev = w
-            self._usum = 0.0
-            self._ok = True
-        self._usum += u
-        self._k = k + 1
-
-    def _update(self, w0: float, w1: float, ubar: float) -> None:
-        wd = self.w_dead
-        if w0 > wd and w1 > wd:
-            phi = [ubar, -w0, 0.0, -1.0, 0.0]
-        elif w0 < -wd and w1 < -wd:
-            phi = [ubar, 0.0, -w0, 0.0, 1.0]
-        else:
-            return
-        if rls_try(self.rls, np.array(phi), w1 - w0) is None:
-            self.n_rejected += 1
-            return
-        if self.rls.n_updates >= self.warmup:
-            b, bsp, bsn, bfp, bfn = self.rls.theta.tolist()
-            self.coef = (bfp / b, bfn / b, bsp / b, bsn / b)
-
-
-class DisturbanceObserver:
-    """Velocity-loop disturbance observer ``d_hat = Q*(u - J_n*dw/dt)``, added to the controller output.
-
-    Parameters
-    ----------
-    J_n : float, keyword-only
-        Nominal inertia (kg·m²), > 0 (the same value the PI design uses).
-    omega_q : float, keyword-only
-        Q-filter cut-off (rad/s), > 0; default 500 (25 times the default
-        velocity-loop crossover, 80 Hz at the 1 kHz sampling rate; the
-        benchmark shows 300-2000 rad/s: higher tracks better and injects more
-        measurement noise into the torque).
-    Tc : float, keyword-only
-        Controller period (s).
-    order : int, keyword-only
-        Order of the binomial Q-filter ``1/(1 + s/omega_q)**order``, >= 1
-        (``J_n*s*Q`` must be proper); default 2.
-    d_max : float, keyword-only
-        Bound on |d_hat| (N·m), default inf.
-
-    Attributes
-    ----------
-    d_hat : float
-        Current disturbance estimate (N·m).
-    n_rejected : int
-        Non-finite velocity samples (the estimate is held).
-
-    Raises
-    ------
-    ParameterError
-        Invalid settings (the message quotes the value).
-
-    Notes
-    -----
-    Plant ``J*dw/dt = u - d`` (here ``d`` = friction). Discrete form, exact for
-    a torque held over each period: the raw disturbance sample is
-    ``v(k) = u(k-1) - J_n*(w(k) - w(k-1))/Tc`` (the mean of ``d`` over the last
-    period when ``J_n = J``), and ``d_hat = Q[v]`` with ``Q`` realised as
-    ``order`` cascaded first-order lags (each ``x += a*(input - x)``,
-    ``a = 1 - exp(-Tc*omega_q)``, unit gain at zero frequency). The
-    compensated command is ``u = u_PI + d_hat``.
-    """
-
-    def __init__(self, *, J_n: float, omega_q: float = 500.0, Tc: float, order: int = 2, d_max: float = math.inf):
-        self.J_n = check_positive("J_n", J_n)
-        self.omega_q = check_positive("omega_q", omega_q)
-        self.Tc = check_positive("Tc", Tc)
-        if isinstance(order, bool) or not isinstance(order, int) or order < 1:
-            raise ParameterError(f"order must be an integer >= 1, got {order!r}")
-        self.order = order
-        self.d_max = math.inf if d_max == math.inf else check_nonnegative("d_max", d_max)
-        self._a = 1.0 - math.exp(-self.Tc * self.omega_q)
-        self._x = [0.0] * order
-        self._w_last = None
-        self._u_last = 0.0
-        self.d_hat = 0.0
-        self.n_rejected = 0
-        self.u_range, self.w_range = Range(), Range()
-
-    def compensate(self, w_meas: float, w_ref: float) -> float:
-        """Advance the observer with the measured velocity of this period; return the bounded ``d_hat`` (N·m)."""
-        ok = self.w_range.ok(w_meas)
-        self.w_range.commit(w_meas, ok)
-        if not ok:
-            self.n_rejected += 1
-            return self.d_hat
-        if self._w_last is None:
-            self._w_last = w_meas
-            return self.d_hat
-        v = self._u_last - self.J_n * (w_meas - self._w_last) / self.Tc
-        self._w_last = w_meas
-        a = self._a
-        x = self._x
-        for i in range(self.order):
-            x[i] += a * (v - x[i])
-            v = x[i]
-        self.d_hat = min(max(v, -self.d_max), self.d_max)
-        return self.d_hat
-
-    def observe(self, u: float, w: float) -> None:
-        """Record the torque ``u`` applied in this period (it drives the next velocity sample)."""
-        ok = self.u_range.ok(u)
-        self.u_range.commit(u, ok)
-        if ok:
-            self._u_last = u
-        else:
-            self.n_rejected += 1
-
-
-def project_estimate(est: FrictionEstimate, *, tau_max: float = 1.0,
-                     F_max: float = math.inf) -> FrictionEstimate | None:
-    """Project a raw estimate onto the physically admissible set, or reject it.
-
-    Parameters
-    ----------
-    est : FrictionEstimate
-        Raw estimate from :meth:`RegressionModel.to_physical`.
-    tau_max : float, keyword-only
-        Largest admissible lag (s).
-    F_max : float, keyword-only
-        Largest admissible Coulomb or static friction level (N·m), e.g. the
-        feedforward bound; default inf.
-
-    Returns
-    -------
-    FrictionEstimate or None
-        ``None`` if a value is non-finite, ``J <= 0`` (the input gain
-        ``b0 - b1`` has the wrong sign: nothing physical can be read from it),
-        or ``Fc`` or ``Fs`` exceeds ``F_max`` (an unconverged estimate);
-        otherwise a copy with ``Fc, Fs, sigma`` clipped to ``>= 0`` and ``tau``
-        clipped to ``[0, tau_max]``.
-
-    Notes
-    -----
-    Projection onto a box of physical bounds, the standard safeguard of
-    adaptive control (Ioannou & Sun, *Robust Adaptive Control*, 1996, Sec. 4.11.3),
-    applied here to the physical parameters rather than to ``theta``.
-    """
-    vals = (est.J, est.tau, est.sigma, est.Fc, est.Fs, est.offset)
-    if not all(math.isfinite(v) for v in vals) or est.J <= 0 or est.Fc > F_max or est.Fs > F_max:
-        return None
-    return FrictionEstimate(J=est.J, tau=min(max(est.tau, 0.0), tau_max), sigma=max(est.sigma, 0.0),
-                            Fc=max(est.Fc, 0.0), Fs=max(est.Fs, 0.0), offset=est.offset, Vs=est.Vs,
-                            delta=est.delta, J_alt=est.J_alt)
-
-
-class FrictionFeedforward:
-    """Friction feedforward torque from a fixed estimate, with the estimated lag.
-
-    Parameters
-    ----------
-    estimate : FrictionEstimate or None
-        Friction parameters; ``None`` gives zero feedforward.
-    dt : float, keyword-only
-        Call period of :meth:`step` (s), e.g. the controller period.
-    lag : bool, keyword-only
-        Filter the static map through the estimated lag ``tau`` (eq. 1), default True.
-    ff_max : float, keyword-only
-        Bound on |feedforward| (N·m), default inf.
-    sign_width : float, keyword-only
-        Treatment of the sign near zero velocity (rad/s): 0 (default) uses
-        ``sgn(w)``; ``> 0`` the linear ramp ``clip(w/sign_width, -1, 1)``, which
-        stops measurement noise from flipping the full Coulomb torque.
-    stick_band : float, keyword-only
-        Velocity band (rad/s) for the stick detection: once the first velocity
-        given to :meth:`step` (the measurement) has stayed inside
-        ``±stick_band`` for ``stick_samples`` consecutive calls, the joint is
-        taken as stuck and the second velocity (the reference: the intended
-        direction of motion) is used instead, until the measurement leaves the
-        band. A stuck joint's measured velocity is noise; its sign says
-        nothing. Default 0 (off).
-    stick_samples : int, keyword-only
-        Consecutive in-band samples that declare sticking, >= 1; default 10.
-
-    Raises
-    ------
-    ParameterError
-        ``dt <= 0``, ``ff_max < 0``, ``sign_width < 0``, ``stick_band < 0`` or ``stick_samples < 1``.
-
-    Notes
-    -----
-    ``u_ff`` follows ``tau*du_ff/dt + u_ff = F_hat(w)`` (eq. 1 with the estimate),
-    discretised exactly for a held input: ``u_ff += (1 - exp(-dt/tau))*(F_hat(w) - u_ff)``.
-    The constant ``offset`` of the estimate is not fed forward (it is a sensor
-    or drive bias, not friction; the PI integrator removes it).
-    """
-
-    def __init__(self, estimate: FrictionEstimate | None, *, dt: float, lag: bool = True,
-                 ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0,
-                 stick_samples: int = 10):
-        self.dt = check_positive("dt", dt)
-        self.ff_max = float(ff_max) if ff_max == math.inf else check_nonnegative("ff_max", ff_max)
-        self.lag = bool(lag)
-        self.sign_width = check_nonnegative("sign_width", sign_width)
-        self.stick_band = check_nonnegative("stick_band", stick_band)
-        if isinstance(stick_samples, bool) or not isinstance(stick_samples, (int, np.integer)) or stick_samples < 1:
-            raise ParameterError(f"stick_samples must be an integer >= 1, got {stick_samples!r}")
-        self.stick_samples = int(stick_samples)
-        self._n_in_band = 0
+    def __init__(self, *, dt, lag=True, ff_max=math.inf, sign_width=0.0, stick_band=0.0, stick_samples=10):
+        self.dt, self.lag, self.ff_max, self.sign_width = dt, lag, ff_max, sign_width
+        self.stick_band, self.stick_samples = stick_band, stick_samples
+        self.estimate = None
+        self.keep = 0.0  # exp(-dt/tau): the part of the last output the lag keeps
         self.u_ff = 0.0
-        self.n_step_rejected = 0
-        self._set(estimate)
+        self.in_band = 0
+        self.n_rejected = 0
 
-    def _set(self, est: FrictionEstimate | None) -> None:
+    def use(self, est) -> None:
+        """Put ``est`` (a FrictionEstimate or None) into use; the lag's output carries over."""
         self.estimate = est
-        if est is None:
-            self._alpha = 1.0
-            return
-        self._alpha = 1.0 - math.exp(-self.dt / est.tau) if (self.lag and est.tau > 0) else 1.0
-        self._Fc, self._dF, self._sigma = est.Fc, est.Fs - est.Fc, est.sigma
-        self._Vs, self._delta = est.Vs, est.delta
+        self.keep = math.exp(-self.dt / est.tau) if (est is not None and self.lag and est.tau > 0.0) else 0.0
 
-    def static(self, w: float) -> float:
-        """Static friction estimate ``F_hat(w)`` (N·m), eq. 3 with the estimate (no offset)."""
-        est = self.estimate
-        if est is None or w == 0.0:
-            return 0.0
-        aw = abs(w)
-        if self._Vs is None:
-            mag = self._Fc
-        else:
-            mag = self._Fc + self._dF * math.exp(-((aw / self._Vs) ** self._delta))
-        sw = self.sign_width
-        if sw > 0.0 and aw < sw:
-            return mag * (w / sw) + self._sigma * w
-        return math.copysign(mag, w) + self._sigma * w
+    def static(self, w):
+        e = self.estimate
+        if e is None:
+            return 0.0 * np.asarray(w, dtype=float)
+        return friction_map(w, e.Fc, e.Fs, e.Vs, e.delta, e.sigma, self.sign_width)
 
-    def step(self, w: float, w_ref: float | None = None) -> float:
-        """Advance one period; return the bounded feedforward (N·m).
-
-        Parameters
-        ----------
-        w : float
-            Velocity the friction map is evaluated at (rad/s), e.g. the measurement.
-        w_ref : float, optional
-            Used instead of ``w`` while the joint is detected as stuck (see
-            ``stick_band``), e.g. the reference velocity.
-        """
-        held = min(max(self.u_ff, -self.ff_max), self.ff_max)
-        if not math.isfinite(w) or (w_ref is not None and not math.isfinite(w_ref)):  # issue 12: rejected, held
-            self.n_step_rejected += 1
-            return held
-        n_in_band = self._n_in_band
-        if w_ref is not None:
-            if -self.stick_band < w < self.stick_band:
-                n_in_band += 1
-                if n_in_band >= self.stick_samples:
-                    w = w_ref
-            else:
-                n_in_band = 0
-        f = self.static(w)
-        if not math.isfinite(f):
-            self.n_step_rejected += 1
-            return held
-        self._n_in_band = n_in_band
-        self.u_ff += self._alpha * (f - self.u_ff)
+    def output(self) -> float:
         return min(max(self.u_ff, -self.ff_max), self.ff_max)
 
-
-class AdaptiveFrictionFeedforward(FrictionFeedforward):
-    """Adaptive friction feedforward: RLS (eqs. 10-13) on the sampled (u, w) stream drives the feedforward.
-
-    Parameters
-    ----------
-    model : RegressionModel
-        Regression structure, with Vs, delta from the pre-fit (Sec. V-C).
-    Ts : float, keyword-only
-        Sample time of the (u, w) stream fed to :meth:`observe` (s).
-    dt : float, keyword-only
-        Call period of :meth:`step` (s).
-    lam : float, keyword-only
-        RLS forgetting factor in (0, 1]; default 0.995 (memory ``Ts/(1-lam)``,
-        2 s at Ts = 10 ms). The paper's 0.85 suits offline replay of noisy data,
-        not a loop that must hold its estimate through slow phases.
-    P0 : float, keyword-only
-        Initial RLS covariance scale, default 1e4.
-    warmup : int, keyword-only
-        Accepted samples before the feedforward is switched on, default 300
-        (the paper's RLS transient lasts about 4 s).
-    lag, ff_max : see :class:`FrictionFeedforward`; estimates with ``Fc`` or
-        ``Fs`` above ``ff_max`` are treated as implausible.
-    tau_max : float, keyword-only
-        Upper projection bound of ``tau`` (s), default 1.
-
-    Attributes
-    ----------
-    rls : RecursiveLeastSquares
-        The estimator (public ``theta``, ``P``).
-    n_rejected : int
-        Samples refused (non-finite ``u`` or ``w``); they leave the state unchanged.
-    n_implausible : int
-        RLS updates whose estimate could not be projected (held the previous one).
-
-    Raises
-    ------
-    ParameterError
-        Invalid hyperparameters (message quotes the value).
-
-    Notes
-    -----
-    At each sample ``k``: ``phi(k)`` from eq. 4 with the stored ``u(k-1)``,
-    ``w(k-1)``, ``w(k-2)``; RLS update; ``theta`` mapped to physical
-    parameters (inverse map in :mod:`adaptive_ff.identification.regression`), projected by
-    :func:`project_estimate`; the feedforward uses the last admissible estimate.
-    """
-
-    def __init__(self, model: RegressionModel, *, Ts: float, dt: float, lam: float = 0.995, P0: float = 1e4,
-                 warmup: int = 300, lag: bool = True, ff_max: float = math.inf, tau_max: float = 1.0):
-        super().__init__(None, dt=dt, lag=lag, ff_max=ff_max)
-        self.model = model
-        self.Ts = check_positive("Ts", Ts)
-        if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
-            raise ParameterError(f"warmup must be an integer >= 0, got {warmup!r}")
-        self.warmup = int(warmup)
-        self.tau_max = check_positive("tau_max", tau_max)
-        self.rls = RecursiveLeastSquares(model.n_params, lam=lam, P0=P0)
-        self._past: list[float] | None = None  # [u(k-1), w(k-1), w(k-2)]
-        self.n_rejected = 0
-        self.u_range, self.w_range = Range(), Range(floor=model.Vs if model.stribeck else 0.0)
-        self.n_implausible = 0
-
-    @property
-    def theta(self) -> np.ndarray:
-        """Current RLS parameter vector, shape (p,)."""
-        return self.rls.theta
-
-    def observe(self, u: float, w: float) -> bool:
-        """Feed one sample ``(u(k), w(k))`` taken ``Ts`` after the previous one.
-
-        Parameters
-        ----------
-        u : float
-            Torque applied just before the sample (N·m).
-        w : float
-            Measured velocity (rad/s).
-
-        Returns
-        -------
-        bool
-            True if the sample was used, False if rejected (non-finite); a
-            rejected sample changes no state except ``n_rejected``.
-        """
-        u = float(u)
-        w = float(w)
-        uok, wok = self.u_range.ok(u), self.w_range.ok(w)
-        if not (uok and wok):
-            if not uok:
-                self.u_range.commit(u, False)
-            if not wok:
-                self.w_range.commit(w, False)
+    def step(self, w, w_ref=None) -> float:
+        if not math.isfinite(w) or (w_ref is not None and not math.isfinite(w_ref)):
             self.n_rejected += 1
-            return False
-        past = self._past
-        if past is None:
-            self.u_range.commit(u, True)
-            self.w_range.commit(w, True)
-            self._past = [u, w, w]
-            return True
-        u1, w1, w2 = past
-        with np.errstate(over="ignore", invalid="ignore"):
-            phi = self.model.phi(u, u1, w1, w2)
-        if not np.all(np.isfinite(phi)) or rls_try(self.rls, phi, w) is None:
+            return self.output()
+        in_band = self.in_band
+        x = w
+        if w_ref is not None:
+            in_band = in_band + 1 if abs(w) < self.stick_band else 0
+            if in_band >= self.stick_samples:
+                x = w_ref
+        F = float(self.static(x))
+        if not math.isfinite(F):
+            self.n_rejected += 1
+            return self.output()
+        self.in_band = in_band
+        self.u_ff = self.keep * self.u_ff + (1.0 - self.keep) * F
+        return self.output()
+
+
+# ------------------------------------------------------------------------------------------ eq. 4 feedforward
+def eq4_columns(u, u1, w1, w2, model) -> np.ndarray:
+    """Eq. 4's regressor ``(w(k-1), -w(k-2), u(k), -u(k-1), -g(w(k-1)), -h(w(k-1)), -1)`` for the structure of
+    ``model`` (without the lag: no ``w(k-2)``, ``u(k-1)``; without Stribeck: ``-sgn`` for ``-g, -h``)."""
+    s = float(np.sign(w1))
+    cols = [w1] + ([-w2] if model.lag else []) + [u] + ([-u1] if model.lag else [])
+    if model.stribeck:
+        with np.errstate(over="ignore"):
+            e = float(np.exp(-((abs(w1) / model.Vs) ** model.delta))) if w1 != 0.0 else 1.0
+        cols += [-s * (1.0 - e), -s * e]  # -g, -h (eqs. 5, 6)
+    else:
+        cols += [-s]
+    if model.offset:
+        cols.append(-1.0)
+    return np.array(cols)
+
+
+def eq4_physical(theta, model, Ts):
+    """The inverse map of eq. 4 (the regression module's docstring): ``(J, tau, sigma, Fc, Fs, offset, J_alt)``."""
+    it = iter(np.asarray(theta, dtype=float).tolist())
+    a1 = next(it)
+    a2 = next(it) if model.lag else 0.0
+    b0 = next(it)
+    b1 = next(it) if model.lag else 0.0
+    c1 = next(it)
+    d1 = next(it) if model.stribeck else c1
+    o1 = next(it) if model.offset else 0.0
+    gain = b0 - b1  # = Ts**2/D
+    with np.errstate(divide="ignore", invalid="ignore"):
+        q = np.float64(1.0) / np.float64(gain)
+        J_alt = Ts * a2 / b1 if b1 != 0.0 else math.nan
+    return (float(Ts * (a1 - 2.0 * a2) * q), float(Ts * b1 * q), float((1.0 - a1 + a2) * q), float(c1 * q),
+            float(d1 * q), float(o1 * q), float(J_alt))
+
+
+def admissible(phys, *, tau_max, F_max, Vs=None, delta=None):
+    """project_estimate's rule for ``phys = (J, tau, sigma, Fc, Fs, offset, J_alt)``: None unless finite, J > 0
+    and Fc, Fs <= F_max; then the lag clipped to [0, tau_max] and sigma, Fc, Fs to >= 0."""
+    J, tau, sigma, Fc, Fs, offset, J_alt = phys
+    if not all(math.isfinite(v) for v in (J, tau, sigma, Fc, Fs, offset)) or J <= 0.0 or max(Fc, Fs) > F_max:
+        return None
+    return FrictionEstimate(J=J, tau=float(np.clip(tau, 0.0, tau_max)), sigma=max(sigma, 0.0), Fc=max(Fc, 0.0),
+                            Fs=max(Fs, 0.0), offset=offset, Vs=Vs, delta=delta, J_alt=J_alt)
+
+
+class Eq4Estimator:
+    """The eq. 4 RLS on the ``(u, w)`` stream at ``Ts`` and the estimate it puts into use (the feedforward's)."""
+
+    def __init__(self, model, *, Ts, lam=0.995, P0=1e4, warmup=300, ff_max=math.inf, tau_max=1.0):
+        self.model, self.Ts, self.warmup, self.ff_max, self.tau_max = model, Ts, warmup, ff_max, tau_max
+        self.rls = RecursiveLeastSquares(model.n_params, lam=lam, P0=P0)
+        self.u_range = Range()
+        self.w_range = Range(floor=model.Vs if model.stribeck else 0.0)
+        self.past = None  # (u(k-1), w(k-1), w(k-2))
+        self.n_rejected = self.n_implausible = 0
+        self.estimate = None
+
+    def sample(self, u: float, w: float) -> bool:
+        """One sample; False if refused (only the counters change)."""
+        ok_u, ok_w = self.u_range.ok(u), self.w_range.ok(w)
+        phi = None
+        if ok_u and ok_w and self.past is not None:
+            phi = eq4_columns(u, *self.past, self.model)
+            refused = not np.all(np.isfinite(phi)) or rls_try(self.rls, phi, w) is None
+        else:
+            refused = not (ok_u and ok_w)
+        if refused:
+            for gate, x, ok in ((self.u_range, u, ok_u), (self.w_range, w, ok_w)):
+                if not ok:
+                    gate.commit(x, False)
             self.n_rejected += 1
             return False
         self.u_range.commit(u, True)
         self.w_range.commit(w, True)
-        self._past = [u, w, w1]
-        if self.rls.n_updates >= self.warmup:
-            est = project_estimate(self.model.to_physical(self.rls.theta, self.Ts), tau_max=self.tau_max,
-                                   F_max=self.ff_max)
+        self.past = (u, w, w if self.past is None else self.past[1])
+        if phi is not None and self.rls.n_updates >= self.warmup:
+            est = admissible(eq4_physical(self.rls.theta, self.model, self.Ts), tau_max=self.tau_max,
+                             F_max=self.ff_max, Vs=self.model.Vs, delta=self.model.delta)
             if est is None:
                 self.n_implausible += 1
             else:
-                self._set(est)
+                self.estimate = est
         return True
+
+
+def eq4_path(u_prev, w_meas, w_ctrl, w_ref, model, *, Ts, dt, lam=0.995, P0=1e4, warmup=300, lag=True,
+             ff_max=math.inf, tau_max=1.0, measured=True) -> dict:
+    """The eq. 4 feedforward over a recorded run at the controller period ``dt``.
+
+    Parameters
+    ----------
+    u_prev : array_like, shape (N,)
+        Torque applied in the period before each one (N·m).
+    w_meas, w_ctrl, w_ref : array_like, shape (N,)
+        Raw measurement (the stream's sample), the controller's velocity and the reference (rad/s).
+    model : RegressionModel
+        The structure (``lag``, ``stribeck``, ``offset``, ``Vs``, ``delta``); only its settings are read.
+    measured : bool
+        Evaluate at ``w_ctrl`` with stick detection against ``w_ref`` (True) or at ``w_ref``.
+
+    Returns
+    -------
+    dict
+        ``u_ff`` (N,), ``sampled`` (N,) bool, ``theta`` (one row per sample, after it), the estimator
+        (``est``: counters, ``rls``, ``estimate``) and the feedforward (``ff``).
+
+    Notes
+    -----
+    In period ``k > 0`` with ``k % (Ts/dt) == 0`` the stream takes ``(u_prev[k], w_meas[k])`` before the
+    feedforward's step, whose estimate is then the newest.
+    """
+    m = int(round(Ts / dt))
+    est = Eq4Estimator(model, Ts=Ts, lam=lam, P0=P0, warmup=warmup, ff_max=ff_max, tau_max=tau_max)
+    ff = Feedforward(dt=dt, lag=lag, ff_max=ff_max)
+    n = len(w_ref)
+    out, sampled, theta = np.empty(n), np.zeros(n, dtype=bool), []
+    for k in range(n):
+        if k > 0 and k % m == 0:
+            est.sample(float(u_prev[k]), float(w_meas[k]))
+            sampled[k] = True
+            theta.append(est.rls.theta.copy())
+            if est.estimate is not ff.estimate:
+                ff.use(est.estimate)
+        out[k] = ff.step(float(w_ctrl[k]), float(w_ref[k])) if measured else ff.step(float(w_ref[k]))
+    return {"u_ff": out, "sampled": sampled, "theta": np.array(theta).reshape(len(theta), model.n_params),
+            "est": est, "ff": ff}
+
+
+# ------------------------------------------------------------------------------------------------------ peers
+def _range_flags(x, gate: Range) -> np.ndarray:
+    """Acceptance of each sample of ``x`` by ``gate`` (recorded as it goes)."""
+    ok = np.empty(len(x), dtype=bool)
+    for k, v in enumerate(np.asarray(x, dtype=float).tolist()):
+        ok[k] = gate.ok(v)
+        gate.commit(v, ok[k])
+    return ok
+
+
+def canudas_path(u, w_meas, w_ctrl, w_ref, *, Tc, Ts=0.01, lam=0.999, forgetting="directional", P0=1e4,
+                 J_guess=1.0, w_dead=5e-3, warmup=300, ff_max=math.inf, ff_input="measured") -> dict:
+    """Canudas de Wit's compensator over a recorded run (its :meth:`compensate` before its :meth:`observe` in
+    each period).
+
+    Parameters
+    ----------
+    u : array_like, shape (N,)
+        Torque applied in each period (N·m), what :meth:`observe` got.
+    w_meas : array_like, shape (N,)
+        Velocity measured at the start of each period (rad/s), what :meth:`observe` got.
+    w_ctrl, w_ref : array_like, shape (N,)
+        The velocities :meth:`compensate` got (the map is evaluated at ``w_ctrl`` for ``ff_input`` measured,
+        else at ``w_ref``).
+
+    Returns
+    -------
+    dict
+        ``c`` (N,) compensation, ``update_at`` sample index of each RLS update, ``theta`` (after each update),
+        ``coef`` ``(Fc_pos, Fc_neg, sigma_pos, sigma_neg)`` at the end or None, ``n_rejected``, ``rls``.
+
+    Notes
+    -----
+    The model ``w(k+1) - w(k) = b*u_bar - b*sigma_d*w(k) - b*Fc_d*sgn(w(k))``, ``b = Ts/J``, over intervals of
+    ``m = Ts/Tc`` accepted samples (a rejected sample, torque or velocity out of range, spoils its interval);
+    an interval is a row when both its end velocities lie beyond ``±w_dead`` with one sign. After ``warmup``
+    updates the coefficients ``theta[3]/theta[0]``, ``theta[4]/theta[0]``, ``theta[1]/theta[0]``,
+    ``theta[2]/theta[0]`` are the map's, from the next period on.
+    """
+    u, w = np.asarray(u, dtype=float), np.asarray(w_meas, dtype=float)
+    n = u.shape[0]
+    m = int(round(Ts / Tc))
+    Ts = m * Tc
+    gu, gw = Range(), Range(floor=w_dead)
+    acc = np.empty(n, dtype=bool)
+    for k in range(n):  # a sample passes both range gates; a failing gate alone records its rejection
+        ok_u, ok_w = gu.ok(u[k]), gw.ok(w[k])
+        acc[k] = ok_u and ok_w
+        for gate, x, ok in ((gu, u[k], ok_u), (gw, w[k], ok_w)):
+            if acc[k] or not ok:
+                gate.commit(x, ok)
+    idx = np.flatnonzero(acc)
+    ends = idx[::m]  # interval boundaries: every m-th accepted sample
+    n_int = ends.size - 1
+    rejected_before = np.cumsum(~acc)
+    clean = rejected_before[ends[1:]] == rejected_before[ends[:-1]]
+    # the interval means, summed in time order: on a stream whose estimate runs away (the RLS covariance reaching
+    # condition 1e21) even the last bit of another summation order shows in the compensation
+    ubar = np.cumsum(u[idx[:n_int * m]].reshape(n_int, m), axis=1)[:, -1] / m if n_int > 0 else np.empty(0)
+    w0, w1 = w[ends[:-1]], w[ends[1:]]
+    pos, neg = (w0 > w_dead) & (w1 > w_dead), (w0 < -w_dead) & (w1 < -w_dead)
+    rows = np.flatnonzero(clean & (pos | neg))
+    Phi = np.column_stack([ubar, -w0 * pos, -w0 * neg, -1.0 * pos, 1.0 * neg])
+    rls = RecursiveLeastSquares(5, lam=lam, P0=P0, forgetting=forgetting, theta0=[Ts / J_guess, 0, 0, 0, 0],
+                                bounds=([1e-12, 0, 0, 0, 0], [math.inf] * 5))
+    coef_from = np.full((n + 1, 4), np.nan)  # coefficients in use from each period on
+    n_rejected = int(np.count_nonzero(~acc))
+    update_at, theta = [], []
+    for i in rows.tolist():
+        if rls_try(rls, Phi[i], w1[i] - w0[i]) is None:
+            n_rejected += 1
+            continue
+        update_at.append(int(ends[i + 1]))
+        theta.append(rls.theta.copy())
+        if rls.n_updates >= warmup:
+            coef_from[ends[i + 1] + 1] = rls.theta[[3, 4, 1, 2]] / rls.theta[0]
+    # forward-fill the coefficients in use
+    have = ~np.isnan(coef_from[:, 0])
+    last = np.maximum.accumulate(np.where(have, np.arange(n + 1), -1))
+    coef = np.where((last >= 0)[:, None], coef_from[np.maximum(last, 0)], np.nan)[:n]
+    x = np.asarray(w_ctrl if ff_input == "measured" else w_ref, dtype=float)
+    with np.errstate(invalid="ignore", over="ignore"):
+        c = np.where(x > 0.0, coef[:, 0] + coef[:, 2] * x, np.where(x < 0.0, -coef[:, 1] + coef[:, 3] * x, 0.0))
+        c = np.where(np.isfinite(c), np.clip(c, -ff_max, ff_max), 0.0)
+    c = np.where(np.isnan(coef[:, 0]), 0.0, c)
+    final = None if np.isnan(coef_from[have][-1:, 0]).all() else tuple(coef_from[have][-1].tolist())
+    return {"c": c, "update_at": np.array(update_at, dtype=int), "theta": np.array(theta).reshape(-1, 5),
+            "coef": final, "n_rejected": n_rejected, "rls": rls}
+
+
+def dob_path(w_ctrl, u, *, J_n, omega_q=500.0, Tc, order=2, d_max=math.inf) -> dict:
+    """The disturbance observer over a recorded run (``compensate(w_ctrl[k])`` before ``observe(u[k])``).
+
+    Returns
+    -------
+    dict
+        ``d_hat`` (N,) and ``n_rejected``.
+
+    Notes
+    -----
+    ``J*dw/dt = u - d`` with the torque held over each period: the mean disturbance over the last period is
+    ``v(k) = u(k-1) - J_n*(w(k) - w(k-1))/Tc`` (last accepted torque, last accepted velocity), and
+    ``d_hat = clip(Q[v], ±d_max)``, ``Q = (omega_q/(s + omega_q))**order`` in the package's discretisation
+    (tests/lti_oracle.py), run over the sequence of ``v`` by :func:`scipy.signal.lfilter`. A rejected velocity
+    (non-finite or out of range) holds the estimate; the first accepted one only starts the differences.
+    """
+    w = np.asarray(w_ctrl, dtype=float)
+    u = np.asarray(u, dtype=float)
+    n = w.shape[0]
+    ok_w, ok_u = _range_flags(w, Range()), _range_flags(u, Range())
+    # the torque of the previous period as the observer holds it: the last accepted one before k (0 at first)
+    last_u = np.concatenate([[0.0], np.where(ok_u, u, np.nan)])[:n]
+    held = np.maximum.accumulate(np.where(np.isfinite(last_u), np.arange(n), 0))
+    u_before = last_u[held]
+    kw = np.flatnonzero(ok_w)
+    v = u_before[kw[1:]] - J_n * np.diff(w[kw]) / Tc
+    d = np.clip(signal.lfilter(*power(lag(omega_q, Tc), order), v), -d_max, d_max)
+    out = np.zeros(n)
+    at = np.zeros(n, dtype=int)
+    at[kw[1:]] = np.arange(1, v.size + 1)
+    at = np.maximum.accumulate(at)
+    out = np.concatenate([[0.0], d])[at]
+    return {"d_hat": out, "n_rejected": int(np.count_nonzero(~ok_w) + np.count_nonzero(~ok_u))}

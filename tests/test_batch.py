@@ -1,4 +1,5 @@
-"""Tests of controllers.simulation.batch: the batch engine equals the former Python loop run one by one."""
+"""Tests of controllers.simulation.batch: the batch engine equals single runs, each checked against its replay by the
+independent oracles (tests/loop_oracle.py)."""
 
 import math
 
@@ -8,7 +9,7 @@ import pytest
 from adaptive_ff.identification.regression import FrictionEstimate
 from controllers.simulation.batch import run_batch
 from controllers.simulation.closed_loop import ModeOptions
-from loop_oracle import oracle_run
+from loop_oracle import replayed_run
 from plant.errors import ParameterError
 from plant.excitation import multisine_reference
 from plant.friction import preset
@@ -17,7 +18,7 @@ FIELDS = ("rms", "max", "rms_second_half", "max_second_half", "rms_reversal", "u
 
 
 def _opts(Kp, Ki, u_max=math.inf, estimate=None, **kw):
-    """One ModeOptions per scenario (sensor gate off, as the batch runs of issue 5 were defined)."""
+    """One ModeOptions per scenario (sensor gate off, as the batch runs were first defined)."""
     B = len(np.atleast_1d(Kp))
     per = lambda x, b: float(np.broadcast_to(np.asarray(x, dtype=float), (B,))[b])  # noqa: E731
     ests = estimate if isinstance(estimate, list) else [estimate] * B
@@ -52,15 +53,14 @@ def test_batch_equals_one_by_one(mode, ff_input):
                             delta=p.delta, J_alt=p.J) for p in plants]
     res = run_batch(plants, ref, mode, _opts(Kp, Ki, u_max, est, noise_std=1e-3, ff_input=ff_input), seeds=seeds)
     for b, p in enumerate(plants):
-        one = oracle_run(p, ref, mode=mode, Kp=float(Kp[b]), Ki=float(Ki[b]), u_max=float(u_max[b]),
-                         noise_std=1e-3, rng=np.random.default_rng(seeds[b]), estimate=est[b],
-                         ff_input=ff_input, sensor_gate=False)
+        one = replayed_run(p, ref, mode=mode, Kp=float(Kp[b]), Ki=float(Ki[b]), u_max=float(u_max[b]),
+                           noise_std=1e-3, seed=seeds[b], estimate=est[b], ff_input=ff_input, sensor_gate=False)
         for name in FIELDS:
             assert getattr(res, name)[b] == pytest.approx(getattr(one["metrics"], name), rel=1e-9, abs=1e-15, nan_ok=True), name
         assert not res.diverged[b]
     res2 = run_batch(plants, ref, mode, _opts(Kp, Ki, u_max, est, ff_input=ff_input), noise=noise)
-    one = oracle_run(plants[1], ref, mode=mode, Kp=float(Kp[1]), Ki=float(Ki[1]), u_max=float(u_max[1]),
-                     estimate=est[1], ff_input=ff_input, sensor_gate=False, noise_std=0.0)
+    one = replayed_run(plants[1], ref, mode=mode, Kp=float(Kp[1]), Ki=float(Ki[1]), u_max=float(u_max[1]),
+                       estimate=est[1], ff_input=ff_input, sensor_gate=False, noise_std=0.0)
     res0 = run_batch(plants, ref, mode, _opts(Kp, Ki, u_max, est, ff_input=ff_input))
     assert res0.rms[1] == pytest.approx(one["metrics"].rms, rel=1e-9)
     assert np.all(np.isfinite(res2.rms))
@@ -95,7 +95,7 @@ def test_divergence_matches_run_closed_loop():
     p = preset("paper")
     Kp = 5.0 * p.J / 1e-3  # Kp*Tc/J = 5 > 2: the discrete loop is unstable
     res = run_batch([p, p], ref, "none", _opts([Kp, 1.0], 1.0))
-    one = oracle_run(p, ref, mode="none", Kp=Kp, Ki=1.0, sensor_gate=False)
+    one = replayed_run(p, ref, mode="none", Kp=Kp, Ki=1.0, sensor_gate=False)
     assert one["diverged"] and res.diverged[0] and not res.diverged[1]
     assert math.isnan(res.rms[0]) and math.isnan(one["metrics"].rms)
 

@@ -1,13 +1,13 @@
-"""The eq. 4 adaptive feedforward as a compiled compensator component (issue 10) against the former Python class.
+"""The eq. 4 adaptive feedforward as a compiled compensator component against the oracle of tests/peers_oracle.py.
 
-``tests/peers_oracle.py`` holds the former ``AdaptiveFrictionFeedforward``
-(RLS with eq. 4's regressor from ``RegressionModel.phi``, the inverse map
-``RegressionModel.to_physical`` and ``project_estimate`` in numpy/Python).
-The component computes the same in compiled code. numpy's ``exp``/``power``
-may differ from the C library's in the last bit, so against the verbatim
-oracle the test is to 1e-12 relative; with the oracle's regressor evaluated by
-the C library's functions (``_LibmModel``) the whole run, theta history
-included, is bit-identical.
+The oracle builds eq. 4's regressor and its inverse map from the derivation in
+:mod:`adaptive_ff.identification.regression` (not from ``RegressionModel``), projects by the rule of
+``project_estimate`` and feeds the fixed feedforward oracle; its RLS is the package's (checked on its own by
+tests/test_rls.py). It evaluates the Stribeck shape with numpy's ``exp``, which differs from the C library's
+(compiled code) in the last bit on some arguments, and eq. 4's covariance (condition near 1e8) amplifies those
+differences over thousands of updates: the comparisons are to ``RTOL`` relative to each column's range
+(measured up to 8e-11 with the offset column). In the closed loop the component runs the loop and the oracle is
+fed the loop's recorded signals.
 """
 
 import json
@@ -22,31 +22,13 @@ import peers_oracle as oracle
 from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward, eq4_compensate, eq4_observe
 from adaptive_ff.compensation.feedforward import project_levels
 from adaptive_ff.compensation.ff_layout import FF_NSTATE
-from adaptive_ff.identification.regression import (FrictionEstimate, RegressionModel, eq4_phi, eq4_to_physical,
-                                                   theta_from_physical)
+from adaptive_ff.identification.regression import RegressionModel, eq4_phi, eq4_to_physical
 from plant.errors import ParameterError
 from plant.friction import JointParams
 
 PLANT = JointParams(J=0.8, Fc=6.0, Fs=9.0, Vs=0.03, delta=1.2, sigma=4.0, tau=0.004)
 TC = 1e-3
-# Against the verbatim oracle (numpy's exp/power, which differ from the C library's in the last bit on about
-# 5 % of arguments): the RLS covariance of eq. 4 has a condition number near 1e8, which amplifies those 1-ulp
-# differences of the regressor over thousands of updates (measured: theta 8e-13, estimate 7e-12 relative to
-# each column's range for the default structure, 3e-11 and 8e-11 with the offset column). With the C library's
-# functions in the oracle (_LibmModel) the runs are identical, which shows that the arithmetic is the same.
 RTOL = 1e-9
-
-
-class _LibmModel(RegressionModel):
-    """RegressionModel whose g, h use math.exp and ``**`` (the C library, as compiled code does)."""
-
-    def friction_regressors(self, w):
-        w = float(w)
-        s = 1.0 if w > 0.0 else (-1.0 if w < 0.0 else 0.0)
-        if self.stribeck:
-            e = math.exp(-((abs(w) / self.Vs) ** self.delta))
-            return [-(s * (1.0 - e)), -(s * e)]
-        return [-s]
 
 
 def _close(a, b, rtol) -> bool:
@@ -73,6 +55,12 @@ def _record(c):
                            [c.u_ff, c.n_rejected, c.n_implausible, c.rls.n_updates]])
 
 
+def _oracle_record(est, ff):
+    e = _est_tuple(est.estimate)
+    return np.concatenate([est.rls.theta, np.diag(est.rls.P), [math.nan] * 7 if e is None else e,
+                           [ff.u_ff, est.n_rejected, est.n_implausible, est.rls.n_updates]])
+
+
 def _open_stream(seed, n):
     """Samples (u, w) of a plant moving back and forth, with noise and non-finite entries."""
     rng = np.random.default_rng(seed)
@@ -87,28 +75,30 @@ def _open_stream(seed, n):
 
 @pytest.mark.parametrize("struct", [dict(), dict(lag=False), dict(stribeck=False), dict(offset=True),
                                     dict(lag=False, stribeck=False, offset=True)])
-@pytest.mark.parametrize("libm", [True, False])
-def test_standalone_observe_and_step_equal_the_python_class(struct, libm):
+def test_standalone_observe_and_step_equal_the_oracle(struct):
     Vs, delta = (PLANT.Vs, PLANT.delta) if struct.get("stribeck", True) else (None, None)
-    kw = dict(Ts=0.01, dt=TC, lam=0.99, warmup=50, ff_max=60.0, tau_max=0.5)
-    c = AdaptiveFrictionFeedforward(RegressionModel(Vs, delta, **struct), **kw)
-    o = oracle.AdaptiveFrictionFeedforward((_LibmModel if libm else RegressionModel)(Vs, delta, **struct), **kw)
-    rtol = 0.0 if libm else RTOL
+    kw = dict(Ts=0.01, lam=0.99, warmup=50, ff_max=60.0, tau_max=0.5)
+    model = RegressionModel(Vs, delta, **struct)
+    c = AdaptiveFrictionFeedforward(model, dt=TC, **kw)
+    est = oracle.Eq4Estimator(model, **kw)
+    ff = oracle.Feedforward(dt=TC, ff_max=60.0)
     u, w = _open_stream(3, 3000)
     rc, ro, sc, so = [], [], [], []
     for k in range(len(u)):
-        assert c.observe(u[k], w[k]) == o.observe(u[k], w[k])
+        assert c.observe(u[k], w[k]) == est.sample(u[k], w[k])
+        if est.estimate is not ff.estimate:
+            ff.use(est.estimate)
         for j in range(3):
             x = w[k] if math.isfinite(w[k]) else 0.1
             sc.append(c.step(x, 0.3 if j else None))
-            so.append(o.step(x, 0.3 if j else None))
+            so.append(ff.step(x, 0.3 if j else None))
         rc.append(_record(c))
-        ro.append(_record(o))
+        ro.append(_oracle_record(est, ff))
     rc, ro = np.array(rc), np.array(ro)
     assert np.array_equal(rc[:, -3:], ro[:, -3:])  # counters exactly
-    assert _close(rc, ro, rtol) and _close(sc, so, rtol) and _close(c.rls.P, o.rls.P, rtol)
-    assert o.n_rejected > 5 and o.rls.n_updates > 2900 and o.estimate is not None
-    assert (c.estimate.Vs, c.estimate.delta) == (o.estimate.Vs, o.estimate.delta)
+    assert _close(rc, ro, RTOL) and _close(sc, so, RTOL) and _close(c.rls.P, est.rls.P, RTOL)
+    assert est.n_rejected > 5 and est.rls.n_updates > 2900 and est.estimate is not None
+    assert (c.estimate.Vs, c.estimate.delta) == (est.estimate.Vs, est.estimate.delta)
 
 
 def _reference(n):
@@ -117,8 +107,8 @@ def _reference(n):
 
 
 def _closed_loop(n, seed, step_comp, observe_comp):
-    """The loop of run_closed_loop(engine="python") on PLANT: sensor noise and faults, held last good
-    measurement for the controller, PI with output limit, friction with lag (Euler, 10 substeps)."""
+    """A velocity loop on PLANT: sensor noise and faults, held last good measurement for the controller, PI with
+    output limit, friction with lag (Euler, 10 substeps). Columns: w, u, u_ff, w_meas, w_ctrl."""
     rng = np.random.default_rng(seed)
     noise = rng.normal(0.0, 2e-4, n).tolist()
     faults = set(rng.integers(100, n, 15).tolist()) | {1000, 2000, 2500, 3100}  # some on sample instants
@@ -127,7 +117,7 @@ def _closed_loop(n, seed, step_comp, observe_comp):
     Kp, KiTc, umax = 16.0, 16.0 * 5.0 * TC, 80.0
     w = f = integ = 0.0
     held = w
-    out = np.empty((n, 3))
+    out = np.empty((n, 5))
     for k in range(n):
         wm = math.nan if k in faults else w + noise[k]
         if math.isfinite(wm):
@@ -138,28 +128,12 @@ def _closed_loop(n, seed, step_comp, observe_comp):
         integ += KiTc * e
         u = min(max(Kp * e + integ + uff, -umax), umax)
         observe_comp(k, u, wm)
-        out[k] = (w, u, uff)
+        out[k] = (w, u, uff, wm, wc)
         h = TC / 10
         for _ in range(10):
             F = math.copysign(Fc + (Fs - Fc) * math.exp(-((abs(w) / Vs) ** dl)), w) + sg * w if w != 0.0 else 0.0
             w, f = w + h * (u - f) / J, f + h * (F - f) / tau
     return out
-
-
-def _oracle_loop(o, n, seed, m, measured):
-    hist = []
-    last = [0.0]
-
-    def comp(k, wc, wm, wr):
-        if k % m == 0 and k > 0:
-            o.observe(last[0], wm)
-            hist.append((k, o.theta.copy()))
-        return o.step(wc, wr) if measured else o.step(wr)
-
-    def obs(k, u, wm):
-        last[0] = u
-
-    return _closed_loop(n, seed, comp, obs), hist
 
 
 def _component_loop(c, n, seed):
@@ -176,32 +150,24 @@ def _component_loop(c, n, seed):
     return _closed_loop(n, seed, comp, obs), hist
 
 
-@pytest.mark.parametrize("libm,measured,Ts,n", [(True, True, 0.01, 12000), (True, False, 0.005, 12000),
-                                                (False, True, 0.01, 3600)])
-def test_closed_loop_protocol_equals_the_python_loop_with_the_old_class(libm, measured, Ts, n):
-    """The component in the engine's calling sequence against the old class in run_closed_loop's Python loop.
-
-    With the verbatim oracle the closed loop amplifies the first 1-ulp difference of the regressor once the
-    feedforward is on (sample 3000: measured growth about 10x per 150 periods, 1e-12 relative reached near
-    period 3900), so that case stops 600 periods after switch-on and is compared to 1e-12.
-    """
-    model_kw = dict(Vs=PLANT.Vs, delta=PLANT.delta)
-    kw = dict(Ts=Ts, dt=TC, warmup=300, lag=True, ff_max=40.0, ff_input="measured" if measured else "reference")
-    c = AdaptiveFrictionFeedforward(RegressionModel(**model_kw), **kw)
-    kw.pop("ff_input")
-    o = oracle.AdaptiveFrictionFeedforward((_LibmModel if libm else RegressionModel)(**model_kw), **kw)
-    rtol = 0.0 if libm else 1e-12
+@pytest.mark.parametrize("measured,Ts,n", [(True, 0.01, 12000), (False, 0.005, 12000)])
+def test_closed_loop_protocol_equals_the_oracle_on_the_loop_record(measured, Ts, n):
+    """The component in the engine's calling sequence (a sample of the stream every m periods with the previous
+    period's torque, before the feedforward's step): its outputs and parameter history against the oracle fed
+    the loop's recorded torques and velocities."""
+    model = RegressionModel(Vs=PLANT.Vs, delta=PLANT.delta)
+    kw = dict(Ts=Ts, warmup=300, lag=True, ff_max=40.0)
+    c = AdaptiveFrictionFeedforward(model, dt=TC, ff_input="measured" if measured else "reference", **kw)
     m = int(round(Ts / TC))
-    ref, h_ref = _oracle_loop(o, n, 5, m, measured)
     got, h_got = _component_loop(c, n, 5)
-    assert _close(got, ref, rtol)
-    assert [k for k, _ in h_got] == [k for k, _ in h_ref] == list(range(m, n, m))
-    assert _close(np.array([x for _, x in h_got]), np.array([x for _, x in h_ref]), rtol)
-    assert _close(_record(c), _record(o), rtol)
+    u_prev = np.concatenate([[0.0], got[:-1, 1]])
+    o = oracle.eq4_path(u_prev, got[:, 3], got[:, 4], np.array(_reference(n)), model, dt=TC, measured=measured, **kw)
+    assert _close(got[:, 2], o["u_ff"], RTOL)
+    assert [k for k, _ in h_got] == np.flatnonzero(o["sampled"]).tolist() == list(range(m, n, m))
+    assert _close(np.array([x for _, x in h_got]), o["theta"], RTOL)
+    assert _close(_record(c), _oracle_record(o["est"], o["ff"]), RTOL)
     # the run exercised rejection, the estimate and the feedforward
-    assert o.n_rejected > 0 and o.estimate is not None and np.abs(ref[:, 2]).max() > 1.0
-    if libm:
-        assert np.array_equal(got, ref)
+    assert o["est"].n_rejected > 0 and o["est"].estimate is not None and np.abs(got[:, 2]).max() > 1.0
 
 
 @numba.njit
@@ -235,7 +201,7 @@ def test_protocol_in_a_compiled_loop_equals_python_calls():
     assert b.n_rejected > 0 and b.estimate is not None
 
 
-def test_compiled_phi_and_inverse_map_against_the_model_and_the_analytic_theta():
+def test_compiled_phi_and_inverse_map_against_the_model_the_oracle_and_the_analytic_theta():
     for struct in [dict(), dict(lag=False), dict(stribeck=False), dict(offset=True), dict(lag=False, offset=True)]:
         strib = struct.get("stribeck", True)
         model = RegressionModel(PLANT.Vs if strib else None, PLANT.delta if strib else None, **struct)
@@ -244,6 +210,7 @@ def test_compiled_phi_and_inverse_map_against_the_model_and_the_analytic_theta()
         for args in [(3.0, -1.0, 0.02, 0.01), (-2.0, 1.5, -0.5, 0.3), (0.0, 0.0, 0.0, -0.1)]:
             n = eq4_phi(phi, *args, model.Vs or 1.0, model.delta or 1.0, model.lag, model.stribeck, model.offset)
             assert n == p and _close(phi, model.phi(*args), 1e-15)
+            assert _close(phi, oracle.eq4_columns(*args, model), 1e-15)
         # the inverse map is RegressionModel.to_physical bit for bit and recovers the physical parameters
         plant = PLANT.replace(tau=0.0) if not model.lag else PLANT
         plant = plant.replace(Fs=plant.Fc) if not model.stribeck else plant
@@ -251,6 +218,7 @@ def test_compiled_phi_and_inverse_map_against_the_model_and_the_analytic_theta()
         theta = model.theta_from_physical(plant, 0.01, offset=off)
         got = eq4_to_physical(theta, 0.01, model.lag, model.stribeck, model.offset)
         assert _close(got, _est_tuple(model.to_physical(theta, 0.01)), 0.0)
+        assert _close(got, oracle.eq4_physical(theta, model, 0.01), 1e-15)
         np.testing.assert_allclose(got[:6], [plant.J, plant.tau, plant.sigma, plant.Fc, plant.Fs, off], rtol=1e-12,
                                    atol=1e-15)
     # b0 == b1: no input gain -> non-finite, like numpy (1/0 = inf)
@@ -265,7 +233,7 @@ def test_projection_equals_project_estimate():
     cases = [raw, {**raw, "tau": 3.0}, {**raw, "Fs": math.nan}, {**raw, "J": -1.0}, {**raw, "J": 0.0},
              {**raw, "Fc": 9.0}, {**raw, "offset": math.inf}, {**raw, "tau": -0.0, "sigma": -0.0}]
     for d in cases:
-        ref = oracle.project_estimate(FrictionEstimate(**d, Vs=None, delta=None, J_alt=1.0), tau_max=0.5, F_max=8.0)
+        ref = oracle.admissible(tuple(d.values()) + (1.0,), tau_max=0.5, F_max=8.0)
         ok, tau, sigma, Fc, Fs = project_levels(d["J"], d["tau"], d["sigma"], d["Fc"], d["Fs"], d["offset"], 0.5, 8.0)
         assert ok == (ref is not None)
         if ok:
@@ -317,7 +285,7 @@ def test_rejected_samples_leave_the_state_unchanged():
     assert ff.observe(math.nan, 0.1) is False and ff.observe(1.0, math.inf) is False
     assert ff.n_rejected == 2
     changed = np.flatnonzero(~((ff.state == before) | (np.isnan(ff.state) & np.isnan(before))))
-    # only counters: n_rejected, and the held/rejected counts of the torque and velocity range gates (issue 12)
+    # only counters: n_rejected, and the held/rejected counts of the torque and velocity range gates
     ur = ff.u_range.state.__array_interface__["data"][0] - ff.state.__array_interface__["data"][0]
     wr = ff.w_range.state.__array_interface__["data"][0] - ff.state.__array_interface__["data"][0]
     nrej = FF_NSTATE + 7  # n_rejected of the eq. 4 state (after the fixed feedforward's slots)

@@ -1,5 +1,5 @@
-"""The compiled closed-loop engine equals the former pure-Python loop (tests/loop_oracle.py) for every mode on
-every plant model, and streams metrics."""
+"""The compiled closed-loop engine against the replay of its record by the independent oracles (tests/loop_oracle.py)
+for every mode on every plant model, and its streamed metrics."""
 
 import math
 
@@ -14,7 +14,7 @@ from controllers.design.pi import PIController, design_pi
 from controllers.simulation.closed_loop import loop_metrics, run_closed_loop
 from controllers.simulation.metrics import reversal_times
 from loop_helpers import run_named
-from loop_oracle import oracle_run
+from loop_oracle import oracle_replay
 from plant.errors import ParameterError
 from plant.excitation import multisine_reference
 from plant.friction import preset
@@ -40,9 +40,10 @@ def _close(a, b, rel=1e-9):
 
 
 def _both(p, ref, **kw):
+    """The engine's run and the oracle's replay of it (tests/loop_oracle.py)."""
     seed = kw.pop("seed", 1)
-    a = oracle_run(p, ref, rng=np.random.default_rng(seed), **kw)
     b = run_named(p, ref, rng=np.random.default_rng(seed), **kw)
+    a = oracle_replay(b, p, ref, rng=np.random.default_rng(seed), **kw)
     return a, b
 
 
@@ -52,9 +53,8 @@ def _assert_same(a, b):
     for name in METRICS:
         assert getattr(b.metrics, name) == pytest.approx(getattr(a["metrics"], name), rel=1e-9, abs=1e-15,
                                                          nan_ok=True), name
-    if a["peer"] is None:  # the former loop kept no theta history of the peers (the engine now does)
-        _close(a["t_theta"], b.t_theta, rel=0.0)
-        _close(a["theta"], b.theta)
+    _close(a["t_theta"], b.t_theta, rel=0.0)
+    _close(a["theta"], b.theta)
     assert a["diverged"] == b.info["diverged"]
     if a["gate"] is not None:
         assert b.info["n_sensor_rejected"] == a["gate"].n_rejected
@@ -71,9 +71,12 @@ def _assert_same(a, b):
         assert b.estimate is None
     else:
         ea, eb = a["estimate"], b.estimate
+        # the oracle's regressors (transfer functions in second-order sections) differ from the engine's filter
+        # cascade by rounding, which the RLS amplifies by its conditioning: agreement ~1e-10 of the largest level
+        scale = max(1.0, abs(ea.J), abs(ea.Fc), abs(ea.Fs), abs(ea.sigma))
         for k in ("J", "tau", "sigma", "Fc", "Fs", "offset", "Vs", "delta", "J_alt"):
             v, w = getattr(ea, k), getattr(eb, k)
-            assert (v is None and w is None) or w == pytest.approx(v, rel=1e-9, abs=1e-12, nan_ok=True), k
+            assert (v is None and w is None) or w == pytest.approx(v, rel=1e-9, abs=1e-9 * scale, nan_ok=True), k
 
 
 @pytest.fixture(scope="module")
@@ -87,7 +90,7 @@ def _initial(p, scale=0.8):
 
 
 @pytest.mark.parametrize("mode", ["none", "frictionless", "oracle", "fixed", "adaptive", "canudas", "dob"])
-def test_engine_equals_python_every_mode_with_noise_faults_and_gate(ref, mode):
+def test_engine_equals_the_replay_every_mode_with_noise_faults_and_gate(ref, mode):
     est = FrictionEstimate(J=P.J, tau=P.tau, sigma=P.sigma, Fc=0.9 * P.Fc, Fs=P.Fs, offset=0.0, Vs=P.Vs,
                            delta=P.delta, J_alt=P.J)
     faults = {500: float("nan"), 1200: 5.0, 1201: math.inf, 3000: -3.0}
@@ -109,7 +112,7 @@ def test_engine_equals_python_every_mode_with_noise_faults_and_gate(ref, mode):
 @pytest.mark.parametrize("mode", ["adaptive", "adaptive-dob"])
 @pytest.mark.parametrize("start_input,ff_input", [("reference", "measured"), ("measured", "measured"),
                                                   ("reference", "reference")])
-def test_engine_equals_python_with_a_provisional_start(ref, mode, start_input, ff_input):
+def test_engine_equals_the_replay_with_a_provisional_start(ref, mode, start_input, ff_input):
     """The provisional start (FeedforwardStart: the map times its gain until the hand-over, then the fade from
     the gain to 1) is the same in the engine and the oracle (tests/compensation_oracle.py)."""
     from dataclasses import replace
@@ -125,8 +128,8 @@ def test_engine_equals_python_with_a_provisional_start(ref, mode, start_input, f
 
 @pytest.mark.parametrize("name", ["lugre", "karnopp", "asymmetric"])
 @pytest.mark.parametrize("mode", ["none", "oracle", "fixed", "adaptive", "canudas", "dob"])
-def test_engine_equals_python_on_every_plant_model(ref, name, mode):
-    """The variants ran only in the Python loop before; the engine now runs them compiled, to the same numbers."""
+def test_engine_equals_the_replay_on_every_plant_model(ref, name, mode):
+    """The plant variants (LuGre, Karnopp, asymmetric) in the engine, every mode."""
     p = variant(name)
     est = FrictionEstimate(J=p.J, tau=0.02, sigma=p.sigma, Fc=0.9 * p.Fc, Fs=p.Fs, offset=0.0, Vs=p.Vs,
                            delta=p.delta, J_alt=p.J)
@@ -136,23 +139,19 @@ def test_engine_equals_python_on_every_plant_model(ref, name, mode):
     _assert_same(a, b)
 
 
-def test_eq4_adaptive_mode_equals_python(ref):
-    """The eq. 4 stream through the engine: sample alignment and RLS as the former loop.
-
-    The feedforward is kept off (warm-up longer than the run): the former class evaluates the regressor with
-    numpy's exp, which differs from the C library's in the last bit, and eq. 4's covariance (condition ~1e8)
-    amplifies that once the feedforward closes the loop (tests/test_eq4_component.py checks that part bit for
-    bit against a C-library oracle).
-    """
+def test_eq4_adaptive_mode_equals_the_replay(ref):
+    """The eq. 4 stream through the engine: sample alignment, RLS and the feedforward it switches on (after 300
+    updates, 3 s of the 6 s run). The oracle evaluates the regressor with numpy's exp (the engine: the C
+    library's, which differs in the last bit) and eq. 4's covariance (condition ~1e8) amplifies that; measured
+    3e-13 on the signals and 8e-14 on theta, relative."""
     model = RegressionModel(P.Vs, P.delta)
     for ff_input in ("measured", "reference"):
         a, b = _both(P, ref, mode="adaptive", estimator="eq4", model=model, Kp=DESIGN.Kp, Ki=DESIGN.Ki,
-                     noise_std=1e-3, warmup=10**6, ff_input=ff_input)
-        for name in SIGNALS:
-            _close(a[name], getattr(b, name), rel=0.0)
+                     noise_std=1e-3, warmup=300, ff_input=ff_input)
+        _assert_same(a, b)
         _close(a["t_theta"], b.t_theta, rel=0.0)
-        _close(a["theta"], b.theta, rel=1e-6)
         assert b.theta.shape[0] == ref.t.size // 10 - 1
+        assert np.max(np.abs(b.u_ff)) > 10.0 and b.estimate is not None  # the feedforward acted
 
 
 @settings(max_examples=8, **HYP)
@@ -163,7 +162,7 @@ def test_eq4_adaptive_mode_equals_python(ref):
        lag=st.booleans(), offset=st.booleans(), ff_input=st.sampled_from(["measured", "reference"]),
        sign_width=st.sampled_from([0.0, 2e-3]), gate=st.booleans(), lam=st.sampled_from([0.99, 0.995, 1.0]),
        seed=st.integers(0, 2**16))
-def test_adaptive_engine_equals_python_over_random_plants(ref, J, Fc, ratio, Vs, delta, sigma, tau, crossover,
+def test_adaptive_engine_equals_the_replay_over_random_plants(ref, J, Fc, ratio, Vs, delta, sigma, tau, crossover,
                                                           u_max, noise, forgetting, lag, offset, ff_input,
                                                           sign_width, gate, lam, seed):
     p = P.replace(J=J, Fc=Fc, Fs=Fc * ratio, Vs=Vs, delta=delta, sigma=sigma, tau=tau)
@@ -180,7 +179,7 @@ def test_adaptive_engine_equals_python_over_random_plants(ref, J, Fc, ratio, Vs,
        tau=st.sampled_from([0.0, 0.01, 0.03]), mode=st.sampled_from(["canudas", "dob"]),
        forgetting=st.sampled_from(["exponential", "directional"]), ff_input=st.sampled_from(["measured", "reference"]),
        omega_q=st.floats(100.0, 2000.0), u_max=st.sampled_from([math.inf, 100.0]), seed=st.integers(0, 2**16))
-def test_peer_engine_equals_python_over_random_plants(ref, J, Fc, sigma, tau, mode, forgetting, ff_input, omega_q,
+def test_peer_engine_equals_the_replay_over_random_plants(ref, J, Fc, sigma, tau, mode, forgetting, ff_input, omega_q,
                                                       u_max, seed):
     p = P.replace(J=J, Fc=Fc, Fs=1.3 * Fc, sigma=sigma, tau=tau)
     d = design_pi(J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
@@ -190,7 +189,7 @@ def test_peer_engine_equals_python_over_random_plants(ref, J, Fc, sigma, tau, mo
 
 
 @pytest.mark.parametrize("mode", ["none", "oracle", "adaptive", "canudas"])
-def test_engine_equals_python_on_a_drifting_plant(ref, mode):
+def test_engine_equals_the_replay_on_a_drifting_plant(ref, mode):
     from plant.drift import FrictionDrift
 
     p = FrictionDrift(P, Fc_change=0.5, Fs_change=0.3, t_start=1.0, t_end=5.0, period=0.01)
@@ -208,7 +207,7 @@ def test_streamed_metrics_equal_full_record_metrics(ref, decimate):
               warmup=50)
     full = run_named(P, ref, rng=np.random.default_rng(3), **kw)
     dec = run_named(P, ref, rng=np.random.default_rng(3), decimate=decimate, **kw)
-    # independent computation from the full record (the former numpy metrics)
+    # independent computation from the full record (tests/loop_oracle.py)
     from loop_oracle import oracle_metrics
 
     m = oracle_metrics(full.t, full.w_ref, full.w, full.u, reversals=ref.reversals(), window=0.2)

@@ -1,4 +1,4 @@
-"""The stick-detection fallback of the measured-velocity feedforward: the nominal loop model (issue 11, item 5).
+"""The stick-detection fallback of the measured-velocity feedforward: the nominal loop model.
 
 ``LoopModel`` / ``loop_model_step`` against the closed-loop transfer function computed independently
 (scipy.signal), the fallback inside ``FrictionFeedforward.compensate``, and the effect on ``paper`` (seeded
@@ -102,7 +102,7 @@ def paper_runs():
         o = s.mode_options["adaptive"]
         # the fallback is compared where it acts often: the measured sign, stuck after 5 samples (the defaults
         # before the sign observer, which takes a slow reversal for sticking far less often), and the estimate
-        # used as it was then (the lag estimate itself, no determinacy test: session 9; no weighted lag: session 10)
+        # used as it was then (the lag estimate itself, before the determinacy test and the weighted lag)
         old = replace(o, sign_input="measured", stick_samples=5, lag_margin=0.0, max_rel_stderr=math.inf,
                       lag_memory=0.0)
         out[seed] = {"frictionless": run("frictionless", o), "oracle": run("oracle", o), "model": run("adaptive", old),
@@ -121,7 +121,7 @@ def test_paper_the_loop_model_fallback_brings_plain_adaptive_closer_to_the_frict
         ratios.append(dev["model"] / dev["reference"])
         max_ratios.append(r["default"].metrics.max_second_half / max2["oracle"])
         assert max2["reference"] > 1.3 * max2["model"], seed  # measured 1.69, 2.21, 1.69
-    # item 5: second-half max tracking error of the default adaptive <= 1.5x the oracle's, over three seeds
+    # second-half max tracking error of the default adaptive <= 1.5x the oracle's, over three seeds
     # (measured with the loop-model fallback and the measured sign: 1.17, 1.08, 1.54; with the sign observer see
     # the printed values)
     assert np.mean(max_ratios) <= 1.5, max_ratios

@@ -1,8 +1,9 @@
-"""The sign observer of the measured-velocity feedforward (issue 11, item 5: rms_dev of ``adaptive`` on ``paper``).
+"""The sign observer of the measured-velocity feedforward (rms_dev of ``adaptive`` on ``paper``).
 
-Against the independent oracle (tests/pi_oracle.py ``OracleSignObserver``), against analytic answers (a ramp with
-a constant friction residual), and in the closed loop: the observer's sign must bring the whole-run deviation from
-the frictionless run (``rms_dev``) of ``adaptive`` well below that with the measurement's sign.
+Against the independent oracle (tests/pi_oracle.py ``OracleSignObserver``: gains by pole placement, scipy), against
+analytic answers (a ramp with a constant friction residual), and in the closed loop: the observer's sign must bring
+the whole-run deviation from the frictionless run (``rms_dev``) of ``adaptive`` well below that with the
+measurement's sign.
 """
 
 import math
@@ -10,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-import compensation_oracle as co
+import peers_oracle as po
 from pi_oracle import OracleSignObserver
 from adaptive_ff.compensation.feedforward import FrictionFeedforward
 from adaptive_ff.compensation.velocity_input import SignObserver
@@ -29,7 +30,8 @@ def test_sign_observer_matches_oracle():
     Tc, J, band = 1e-3, 4.0, 3e-3
     ff = FrictionFeedforward(EST, dt=Tc, stick_band=band, stick_samples=50,
                              sign_observer=SignObserver(J=J, bandwidth=100.0))
-    ref_ff = co.FrictionFeedforward(EST, dt=Tc, stick_band=band, stick_samples=50)
+    ref_ff = po.Feedforward(dt=Tc, stick_band=band, stick_samples=50)
+    ref_ff.use(EST)
     obs = OracleSignObserver(J, 100.0, Tc)
     n = 2000
     w = np.linspace(0.05, -0.05, n) + rng.normal(0.0, 1e-3, n)
