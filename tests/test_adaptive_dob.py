@@ -1,7 +1,7 @@
 """The ``adaptive-dob`` composite (adaptive friction feedforward + disturbance observer on the residual): the
 compiled engine equals an independent oracle (tests/compensation_oracle.py, tests/loop_oracle.py), the batch
 engine equals the single run, the parts compose as specified, and the mode holds its targets on one plant of
-each friction model (issue 11, item 3)."""
+each friction model (the margin target of docs/benchmarks/variants.md)."""
 
 import math
 

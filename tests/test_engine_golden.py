@@ -1,8 +1,8 @@
 """The engine's metrics against the numbers of the code before the plant step changed its arithmetic.
 
-``tests/engine_golden_divisions.json`` holds the metrics of :func:`run_batch` at commit a6446c7 (branch h/stiff:
-main 12b8833 plus the stiff lagged step), before :func:`plant.dynamics.plant_step` multiplied by ``1/J`` and
-``1/tau`` instead of dividing (issue 10: the batch speed target; first tried as commit 334a38e against a8d0e12).
+``tests/engine_golden_divisions.json`` holds the metrics of :func:`run_batch` at commit a6446c7 (main 12b8833
+plus the stiff lagged step), before :func:`plant.dynamics.plant_step` multiplied by ``1/J`` and
+``1/tau`` instead of dividing (for the batch speed target of docs/benchmarks/perf.md; first tried as commit 334a38e against a8d0e12).
 Where the arithmetic is the same (LuGre, and the oracle mode, whose trajectory does not depend on the friction's
 last bits) the numbers agree to rounding; where it differs by an ulp, every metric that describes the controlled
 loop (second half, actuator RMS) is within 1 %. The whole-run RMS and peak include the start from standstill,
@@ -50,7 +50,7 @@ def golden_runs(label, mode, Kp=KP):
     ref = multisine_reference(3.0, rng=np.random.default_rng(0))
     ps = _plants(label)
     # the adaptive feedforward as it was then: the lag estimate itself, no determinacy test (both came later,
-    # session 9), no weighted lag (session 10); they change the algorithm, not the arithmetic this file checks
+    # commit a42b9e9), no weighted lag (commit 28abafb); they change the algorithm, not the arithmetic this file checks
     o = ModeOptions(Kp=Kp, Ki=KI, u_max=150.0, Vs=P.Vs, delta=P.delta, noise_std=1e-3, lag_margin=0.0,
                     max_rel_stderr=math.inf, lag_memory=0.0)
     return run_batch(ps, ref, mode, o, seeds=list(range(len(ps))))

@@ -1,4 +1,4 @@
-"""Whole-run metrics of the comparison (issue 11, item 5): eta over the whole run, the RMS deviation from the
+"""Whole-run metrics of the comparison: eta over the whole run, the RMS deviation from the
 frictionless run and the time the compensation first acts, checked against analytic values and independent
 numpy computations on the recorded runs."""
 
@@ -52,8 +52,8 @@ def test_comparison_whole_run_metrics_equal_independent_computation(comp):
     for m in ("adaptive", "adaptive-dob"):
         k = int(np.flatnonzero(R[m].u_ff != 0)[0])
         assert comp.t_ff_on[m] == R[m].t[k] and (k == 0 or R[m].u_ff[k - 1] == 0.0)
-        # the provisional start map at the (noisy, non-zero) measurement acts from the first period (issue 11
-        # item 5; tests/test_fast_start.py pins what it gains)
+        # the provisional start map at the (noisy, non-zero) measurement acts from the first period
+        # (tests/test_fast_start.py pins what it gains)
         assert comp.t_ff_on[m] <= 1e-3
 
 

@@ -23,7 +23,7 @@ def test_quasi_static_runs_then_lm_fit_recover_the_stribeck_curve(noise_std):
     assert lo > 0 and lo < hi
 
 
-# ---------------------------------------------------------------- issue 11 item 1: the design adapts to the joint
+# ---------------------------------------------------------------- the design adapts to the joint
 
 from controllers.experiments.compare import compare  # noqa: E402
 from controllers.experiments.quasi_static import StribeckDesign, stribeck_experiment  # noqa: E402

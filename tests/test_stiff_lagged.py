@@ -1,4 +1,4 @@
-"""Stiff lagged plants (issue 11 items 4 and 6): the implicit step of :func:`plant.dynamics.lagged_stiff_step`.
+"""Stiff lagged plants: the implicit step of :func:`plant.dynamics.lagged_stiff_step`.
 
 Plants whose fastest stable mode needs more than ``LAGGED_RK4_MAX`` RK4 sub-steps per 1 ms step (a rising Stribeck
 map, ``delta < 0``, as the zoo draws it; a viscous slope far above ``J/dt``; a lag far below the step) are checked
