@@ -160,10 +160,12 @@ def sliding_path(u, w, *, Vs, delta, Tc, Ts=0.01, T_filter=0.02, lam=0.995, forg
     e2 = 0.0
     at, th, Ps, E2 = [], [], [], []
     for j in np.flatnonzero(due & ~gated).tolist():
+        Pb = rls.P.copy()  # before the update: the a-priori error's variance is e2 * (1 + phi' P phi)
         e = rls_try(rls, X[j], y[j])  # a non-finite row is refused (and counted) by the RLS
         if e is None:
             continue
-        e2 += rate * (e * e - e2)
+        xj = np.asarray(X[j], dtype=float)
+        e2 += rate * (e * e / (1.0 + max(float(xj @ Pb @ xj), 0.0)) - e2)
         at.append(int(idx[j]))
         th.append(rls.theta.copy())
         Ps.append(rls.P.copy())
@@ -171,7 +173,8 @@ def sliding_path(u, w, *, Vs, delta, Tc, Ts=0.01, T_filter=0.02, lam=0.995, forg
     return {"names": names, "accepted": acc, "update_at": np.array(at, dtype=int),
             "theta": np.array(th).reshape(len(th), p), "P": np.array(Ps).reshape(len(Ps), p, p),
             "e2": np.array(E2), "rls": rls, "n_samples": int(idx.size), "n_rejected": int(n - idx.size),
-            "n_gated": int(np.count_nonzero(gated)), "Vs": Vs, "delta": delta, "lag": lag, "Ts": m * Tc}
+            "n_gated": int(np.count_nonzero(gated)), "Vs": Vs, "delta": delta, "lag": lag, "Ts": m * Tc,
+            "P_prior": rls.P_max / p}
 
 
 def _estimate(names, theta, Vs, delta) -> FrictionEstimate:
@@ -210,7 +213,11 @@ def robust_decisions(path: dict, *, dt, warmup=200, ff_max=math.inf, J_range=(0.
                 and est.sigma >= 0.0 and 0.0 <= est.Fc <= ff_max and 0.0 <= est.Fs <= ff_max):
             counts["n_implausible"] += 1
             continue
-        if not math.sqrt(max(cov[i_fc, i_fc], 0.0)) <= max_rel_stderr * max(est.Fc, est.Fs):
+        # Fc determined: standard error within max_rel_stderr of the level, and the data took its P entry to 1 %
+        # of the prior (docs/theory.md; inf switches the test off)
+        if max_rel_stderr < math.inf and not (
+                math.sqrt(max(cov[i_fc, i_fc], 0.0)) <= max_rel_stderr * max(est.Fc, est.Fs)
+                and path["P"][j][i_fc, i_fc] <= 0.01 * path["P_prior"]):
             counts["n_undetermined"] += 1
             continue
         consistent = True
