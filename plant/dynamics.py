@@ -88,8 +88,9 @@ def plant_rk4(par, w, s, Fw, u0, um, u1, h, sgn):
     Notes
     -----
     Classic RK4 (Hairer, Nørsett, Wanner, *Solving ODEs I*, Sec. II.1) of
-    eqs. 1-2 (lagged models) or of the LuGre equations (module docstring); the
-    operations are those of the former Python steps, in the same order.
+    eqs. 1-2 (lagged models) or of the LuGre equations (module docstring).
+    tests/test_plant_kernels.py checks every step against an RK4 tableau on
+    arrays written from the equations (tests/plant_oracle.py) to 1e-13.
     """
     h2 = 0.5 * h
     h6 = h / 6.0
@@ -152,8 +153,9 @@ def plant_step(par, st, u, dt):
     chosen from the stiffness at the step start so that each stays well inside
     RK4's stability region (:meth:`plant.lugre.LuGreParams.make_step`); with
     ``n > LUGRE_RK4_MAX`` (a stiff bristle) :func:`lugre_stiff_step` instead; a
-    non-finite state or input gives NaN. Bit for bit the former Python steps
-    of each model, except the static steps that reach the jump (above). The common case (a lagged model with ``tau > 0`` outside the
+    non-finite state or input gives NaN. Checked step by step against the
+    equations (tests/test_plant_kernels.py), the static steps that reach the
+    jump against a Radau + Filippov oracle (tests/test_static_stick.py). The common case (a lagged model with ``tau > 0`` outside the
     Karnopp band, one RK4 step: :func:`_single_rk4`) is tested first and runs
     the same operations without the dispatch below. The general path has one
     RK4 call site for all models (the lagged ones run one sub-step).
