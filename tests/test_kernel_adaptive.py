@@ -54,7 +54,10 @@ def _assert_same(a, b):
         assert getattr(b.metrics, name) == pytest.approx(getattr(a["metrics"], name), rel=1e-9, abs=1e-15,
                                                          nan_ok=True), name
     _close(a["t_theta"], b.t_theta, rel=0.0)
-    _close(a["theta"], b.theta)
+    # theta: the oracle's own estimator (whole-signal filters, scipy) through the RLS, which amplifies rounding by
+    # the regressors' conditioning: 1.1e-9 of the scale on the LuGre variant with numpy's AVX-512 kernels disabled
+    # and numba compiling for a generic CPU (the platform-dependence check of 2026-11-23); a defect is O(1)
+    _close(a["theta"], b.theta, rel=1e-7)
     assert a["diverged"] == b.info["diverged"]
     if a["gate"] is not None:
         assert b.info["n_sensor_rejected"] == a["gate"].n_rejected
