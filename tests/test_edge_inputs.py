@@ -9,7 +9,6 @@ the others within the bound the loop's own linear dynamics give, and eta is unde
 
 import json
 import math
-import os
 import re
 import subprocess
 import sys
@@ -45,7 +44,6 @@ def _fake_memory(monkeypatch, n_bytes):
 
 # ------------------------------------------------------------------------------------------- run length and memory
 def test_cli_refuses_a_duration_too_long_for_the_memory_with_the_numbers(monkeypatch, capsys):
-    monkeypatch.setenv("ADAPTIVE_FF_NO_HELPER", "1")
     _fake_memory(monkeypatch, 16e9)
     code = main(["compare", "--duration", "1e9", "--no-figures", "--quiet"])
     err = capsys.readouterr().err
@@ -62,8 +60,7 @@ def test_cli_refuses_a_duration_too_long_for_the_memory_with_the_numbers(monkeyp
 def test_cli_message_in_a_fresh_process_has_no_traceback_and_consistent_numbers():
     cli = "import sys; from controllers.cli.main import main; sys.exit(main())"  # the console script's body
     r = subprocess.run([sys.executable, "-c", cli, "compare", "--duration", "1e9", "--quiet", "--no-figures"],
-                       capture_output=True, text=True, timeout=300,
-                       env={**os.environ, "ADAPTIVE_FF_NO_HELPER": "1"})
+                       capture_output=True, text=True, timeout=300)
     assert r.returncode == 2 and "Traceback" not in r.stderr and r.stdout == ""
     m = re.fullmatch(r"adaptive-ff: error: duration = 1e\+09 s is 1e12 samples at 1 kHz \(Tc = 0\.001 s\): about "
                      r"416 TB for 8 modes, but ([\d.]+) (GB|TB|MB) of memory (?:are|is) [^:]+: at most ([\d,]+) s.*",
@@ -169,7 +166,6 @@ def test_frictionless_joint_reports_eta_as_undefined(frictionless_comparison, tm
 
 
 def test_frictionless_joint_through_the_cli_json(tmp_path, monkeypatch, capsys):
-    monkeypatch.setenv("ADAPTIVE_FF_NO_HELPER", "1")
     plant = tmp_path / "p.json"
     plant.write_text(json.dumps({"J": 0.5, "Fc": 0, "Fs": 0, "Vs": 0.05, "delta": 1.5, "sigma": 0, "tau": 0.01}))
     assert main(["compare", "--plant", str(plant), "--duration", "5", "--no-figures", "--quiet", "--json"]) == 0
