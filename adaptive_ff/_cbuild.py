@@ -1,0 +1,34 @@
+"""Build script of adaptive_ff's C core (cffi, API mode; the scheme: plant/_cbuild.py).
+
+Builds ``adaptive_ff._caff`` from ``adaptive_ff/csrc/*.c`` plus plant's C sources (the compensator evaluates
+eq. 3 with plant's one implementation); the plant types are shared with ``plant._cplant`` through
+``ffi.include``. ``adaptive_ff/csrc`` never includes a header of ``controllers``.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+CSRC = Path(__file__).resolve().parent / "csrc"
+
+#: Headers read by cffi, in dependency order.
+HEADERS = [
+    "aff_gate.h",
+]
+
+
+def load_build_script(path: Path, name: str):
+    """Import a build script by its path (the build scripts are files run by setuptools, not a package)."""
+    spec = importlib.util.spec_from_file_location(name, path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+plant_build = load_build_script(CSRC.parent.parent / "plant" / "_cbuild.py", "plant_cbuild")
+LAYERS = [(plant_build.CSRC, plant_build.HEADERS), (CSRC, HEADERS)]
+ffibuilder = plant_build.make_ffi("adaptive_ff._caff", LAYERS, include=plant_build.ffibuilder)
+
+if __name__ == "__main__":
+    ffibuilder.compile(verbose=True)

@@ -1,0 +1,34 @@
+"""Build script of controllers' C core (cffi, API mode; the scheme: plant/_cbuild.py).
+
+Builds ``controllers._cctl`` from ``controllers/csrc/*.c`` plus the C sources of ``adaptive_ff`` and
+``plant`` (the engine composes the plant, the gates and the compensators); their types are shared with
+``adaptive_ff._caff`` and ``plant._cplant`` through ``ffi.include``.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+CSRC = Path(__file__).resolve().parent / "csrc"
+
+#: Headers read by cffi, in dependency order.
+HEADERS = [
+    "ctl_pi.h",
+]
+
+
+def load_build_script(path: Path, name: str):
+    """Import a build script by its path (the build scripts are files run by setuptools, not a package)."""
+    spec = importlib.util.spec_from_file_location(name, path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+aff_build = load_build_script(CSRC.parent.parent / "adaptive_ff" / "_cbuild.py", "adaptive_ff_cbuild")
+LAYERS = aff_build.LAYERS + [(CSRC, HEADERS)]
+ffibuilder = aff_build.plant_build.make_ffi("controllers._cctl", LAYERS, include=aff_build.ffibuilder)
+
+if __name__ == "__main__":
+    ffibuilder.compile(verbose=True)

@@ -1,0 +1,28 @@
+/* aff_real.h -- the floating-point type of the code that may run on a drive.
+ *
+ * aff_real is double unless AFF_FLOAT is defined (a build for an MCU with a
+ * single-precision FPU: `-DAFF_FLOAT`). The AFF_EXP/AFF_FABS/... macros pick
+ * the matching <math.h> function, so the same source compiles in both
+ * precisions. The simulation (plant integrators, engine) is double only.
+ */
+#ifndef AFF_REAL_H
+#define AFF_REAL_H
+#include <math.h>
+
+#ifdef AFF_FLOAT
+typedef float aff_real;
+#define AFF_EXP expf
+#define AFF_POW powf
+#define AFF_FABS fabsf
+#define AFF_SQRT sqrtf
+#define AFF_LOG logf
+#else
+typedef double aff_real;
+#define AFF_EXP exp
+#define AFF_POW pow
+#define AFF_FABS fabs
+#define AFF_SQRT sqrt
+#define AFF_LOG log
+#endif
+
+#endif
