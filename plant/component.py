@@ -1,86 +1,82 @@
-"""Runtime components: a thin Python object over a parameter array and a state array that compiled steps advance.
+"""Runtime components: a thin Python object over the C struct that the C core's functions advance.
 
 Every piece of the closed loop that runs at the controller rate (friction
-model, PI, gate, estimator, RLS, feedforward, peers, metrics) keeps its
-configuration in one float64 array ``params`` and everything that changes in
-one float64 array ``state``. One compiled (numba) step function over
-``(params, state, ...)`` is the only implementation of the component's
-equations: the Python methods call it, and so does the closed-loop engine,
-which composes components by handing their arrays to their steps (a composite
-component lays its parts out as slices of its own arrays, see :meth:`Component.attach`).
-The pattern is :class:`adaptive_ff.identification.rls.RecursiveLeastSquares`
-(state buffer with public views) and filterpy's small stateful filters
-(public ``x``, ``P``).
+model, PI, gate, estimator, RLS, feedforward, peers, metrics) is a C99 struct
+with named fields (configuration and state) and ``*_init`` / ``*_step`` /
+``*_observe`` functions in the ``csrc`` folder of its package (``plant/csrc``,
+``adaptive_ff/csrc``, ``controllers/csrc``). Those functions are the only
+implementation of the component's equations: the Python methods call them
+through cffi, and so does the closed-loop engine (``controllers/csrc/ctl_engine.c``),
+which composes components by holding their structs. A composite component
+(an estimator with its own gate and RLS) embeds its parts' structs as fields;
+the Python part objects then point into the composite's struct
+(:meth:`Component._use`), so their attributes show the live values. The
+pattern is filterpy's small stateful filters (public ``x``, ``P``) and OSQP's
+C workspace behind a thin Python object.
 """
 
 from __future__ import annotations
 
-import numpy as np
-
-from plant.errors import ParameterError
+from typing import Any
 
 __all__ = ["Component"]
 
 
 class Component:
-    """Base class: owns ``params`` and ``state`` (1-D, C-contiguous float64 arrays).
+    """Base class: owns (or points into) one C struct of the component's type.
+
+    Subclasses set two class attributes, ``_ffi`` (the cffi ``FFI`` of their
+    package's extension module) and ``_ctype`` (the struct's C name, e.g.
+    ``"aff_gate"``), call :meth:`_new_struct` in ``__init__`` and expose named
+    properties that read and write fields of :attr:`cdata`.
 
     Attributes
     ----------
-    params : ndarray, shape (n_params,)
-        Configuration read by the compiled step (never written by it).
-    state : ndarray, shape (n_state,)
-        Mutable state advanced in place by the compiled step.
+    cdata : cffi pointer
+        Pointer to the component's struct (owned, or a field of a composite's struct).
 
     Notes
     -----
-    Subclasses allocate both arrays with :meth:`_init_arrays` and expose named
-    properties that read and write entries of them. A composite component
-    (e.g. an estimator with its own gate and RLS) calls :meth:`attach` on each
-    part with slices of its own arrays, so the part's Python attributes keep
-    showing the live values while the compiled code advances the composite.
+    Copies (:func:`copy.deepcopy`, :mod:`pickle`: a process pool, Dask) carry
+    the struct's bytes; a composite re-points its parts in :meth:`_attached`.
     """
 
-    params: np.ndarray
-    state: np.ndarray
+    _ffi: Any = None
+    _ctype: str = ""
 
-    def _init_arrays(self, n_params: int, n_state: int) -> None:
-        self.params = np.zeros(int(n_params))
-        self.state = np.zeros(int(n_state))
+    def _new_struct(self) -> None:
+        """Allocate a zeroed struct of type ``_ctype`` owned by this object."""
+        self._c = self._ffi.new(f"{self._ctype} *")
+        self._owner = None
 
-    def attach(self, params: np.ndarray, state: np.ndarray) -> None:
-        """Copy the current parameters and state into ``params`` and ``state`` and use those arrays from now on.
+    def _use(self, ptr, owner) -> None:
+        """Use the struct at ``ptr`` (a field of ``owner``'s struct, kept alive here) from now on, after
+        copying the current values into it."""
+        ptr[0] = self._c[0]
+        self._c = ptr
+        self._owner = owner
 
-        Parameters
-        ----------
-        params, state : ndarray
-            1-D C-contiguous float64 arrays (typically slices of a composite's
-            arrays) of the same lengths as :attr:`params` and :attr:`state`.
+    @property
+    def cdata(self):
+        """Pointer to the component's C struct (cffi)."""
+        return self._c
 
-        Raises
-        ------
-        ParameterError
-            Wrong shape, dtype or memory layout.
-        """
-        for name, new, old in (("params", params, self.params), ("state", state, self.state)):
-            if (not isinstance(new, np.ndarray) or new.dtype != np.float64 or new.shape != old.shape
-                    or not new.flags.c_contiguous):
-                raise ParameterError(f"{name} must be a C-contiguous float64 array of shape {old.shape}")
-        params[:] = self.params
-        state[:] = self.state
-        self.params = params
-        self.state = state
-        self._attached()
+    def struct_bytes(self) -> bytes:
+        """The struct's bytes (a snapshot of configuration and state)."""
+        return bytes(self._ffi.buffer(self._c))
 
     def _attached(self) -> None:
-        """Hook: re-attach parts after :meth:`attach` (composites override it)."""
+        """Hook: re-point parts into this component's struct (composites override it)."""
 
     def __getstate__(self) -> dict:
-        d = dict(self.__dict__)
-        d["params"] = np.array(self.params)
-        d["state"] = np.array(self.state)
+        d = {k: v for k, v in self.__dict__.items() if k not in ("_c", "_owner")}
+        d["_cbytes"] = self.struct_bytes()
         return d
 
     def __setstate__(self, d: dict) -> None:
+        d = dict(d)
+        raw = d.pop("_cbytes")
         self.__dict__.update(d)
+        self._new_struct()
+        self._ffi.buffer(self._c)[:] = raw
         self._attached()

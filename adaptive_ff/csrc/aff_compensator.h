@@ -1,0 +1,25 @@
+/* aff_compensator.h -- the interface every friction compensator offers a velocity loop.
+ *
+ * Per controller period, in this order (docs/your_loop.md):
+ *   uff = ops->compensate(self, w_ctrl, w_meas, w_ref);   friction torque to add (N*m)
+ *   u   = the loop's PI(w_ref - w_ctrl, uff);             the applied, saturated torque
+ *   ops->observe(self, u, w_meas, theta_out);              learn from (u, w_meas)
+ * w_ctrl: the measurement the controller uses (after the loop's sensor gate; rad/s), w_meas: the raw
+ * sensor sample (rad/s, may be NaN or a spike: the compensator gates it itself), w_ref: the velocity
+ * reference (rad/s). observe returns 1 after an update of the estimate and then writes the estimate
+ * (the compensator's own parameter vector, its length known to the caller) into theta_out (may be
+ * NULL), else 0.
+ * The closed-loop engine (controllers/csrc/ctl_engine.h) holds a (self, ops) pair per scenario;
+ * each compensator's header declares its const ops table (aff_fixed_ff_ops, aff_robust_ff_ops,
+ * aff_eq4_ff_ops; the peers ctl_canudas_ops, ctl_dob_ops, ctl_adob_ops).
+ */
+#ifndef AFF_COMPENSATOR_H
+#define AFF_COMPENSATOR_H
+
+typedef struct aff_compensator_ops {
+    const char *name;  /* the mode's name, e.g. "adaptive" */
+    double (*compensate)(void *self, double w_ctrl, double w_meas, double w_ref);
+    int (*observe)(void *self, double u, double w_meas, double *theta_out);
+} aff_compensator_ops;
+
+#endif
