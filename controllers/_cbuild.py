@@ -16,6 +16,7 @@ CSRC = Path(__file__).resolve().parent / "csrc"
 HEADERS = [
     "ctl_pi.h",
     "ctl_metrics.h",
+    "ctl_dob.h",
 ]
 
 

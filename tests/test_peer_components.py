@@ -14,7 +14,6 @@ import json
 import math
 import pickle
 
-import numba
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -22,7 +21,8 @@ from hypothesis import strategies as hst
 
 import peers_oracle as oracle
 from controllers.peers.canudas import CanudasCompensator, canudas_compensate, canudas_observe
-from controllers.peers.dob import DisturbanceObserver, dob_compensate, dob_observe
+from controllers._cctl import ffi
+from controllers.peers.dob import DOB_ORDER_MAX, DisturbanceObserver
 from plant.errors import ParameterError
 
 SETTINGS = dict(deadline=None, derandomize=True, database=None, max_examples=12,
@@ -127,14 +127,21 @@ def test_canudas_property_equal_to_oracle(seed, m, w_dead, warmup, ff_max, meas,
     _check_canudas(c, kw, wc, wm, wr, *_run_canudas(c, wc, wm, wr, u_in))
 
 
-@numba.njit
-def _drive(comp, obs, par, st, wc, wm, wr, u_in, out, upd, th):
-    """The engine's calling sequence in a compiled loop: compensate, apply, observe; theta when updated."""
-    for k in range(wc.shape[0]):
-        c = comp(par, st, wc[k], wm[k], wr[k])
-        out[k] = c
-        upd[k] = obs(par, st, u_in[k] + c, wm[k], th[k])
-    return out
+def _drive(c, wc, wm, wr, u_in):
+    """The engine's calling sequence through the component's C ops table on its struct (compensate, apply,
+    observe): compensation, update flags, and theta after each update (NaN elsewhere)."""
+    from controllers._cctl import ffi
+
+    ops, p = c.ops, c.cdata
+    n, m = wc.shape[0], c.n_theta
+    buf = ffi.new("double[]", max(m, 1))
+    out, upd, th = np.empty(n), np.zeros(n, dtype=bool), np.full((n, m), np.nan)
+    for k, (a, b, r, x) in enumerate(zip(wc.tolist(), wm.tolist(), wr.tolist(), u_in.tolist())):
+        out[k] = ops.compensate(p, a, b, r)
+        upd[k] = ops.observe(p, x + out[k], b, buf)
+        if upd[k]:
+            th[k] = list(buf)[:m]
+    return out, upd, th
 
 
 def test_canudas_kernels_in_a_compiled_loop_equal_the_oracle_and_report_theta():
@@ -232,16 +239,16 @@ def test_dob_equals_the_oracle(order, omega_q, d_max):
     if math.isfinite(d_max):
         assert np.max(np.abs(d_hat)) == d_max  # the bound acted
     c2 = DisturbanceObserver(**kw)
-    out, upd, th = np.empty(12000), np.zeros(12000, dtype=np.bool_), np.zeros((12000, 0))
-    _drive(dob_compensate, dob_observe, c2.params, c2.state, wc, wm, wr, u_in, out, upd, th)
+    out, upd, th = _drive(c2, wc, wm, wr, u_in)
     _check_dob(kw, wc, u_in + out, out, c2.n_rejected)
-    assert not upd.any()
+    assert not upd.any() and th.shape == (12000, 0)
 
 
 def test_dob_layout_and_properties():
     c = DisturbanceObserver(J_n=2.0, omega_q=400.0, Tc=1e-3, order=3, d_max=9.0)
-    # two range gates (torque, velocity) of 5 parameters and 3 state entries each
-    assert c.KIND == 5 and c.n_theta == 0 and c.state.shape == (14,) and c.params.shape == (16,)
+    assert c.KIND == 5 and c.n_theta == 0 and ffi.string(c.ops.name) == b"dob"
+    # the two range gates (torque, velocity) live in the observer's struct
+    assert c.u_range.cdata == ffi.addressof(c.cdata, "u_range") and c.w_range.cdata == ffi.addressof(c.cdata, "w_range")
     assert (c.J_n, c.omega_q, c.Tc, c.order, c.d_max) == (2.0, 400.0, 1e-3, 3, 9.0)
     assert c._a == 1.0 - math.exp(-0.4) and c._w_last is None
     c.d_hat = 1.5
@@ -249,3 +256,29 @@ def test_dob_layout_and_properties():
     assert c.compensate(0.1, 0.0) == 1.5 and c._w_last == 0.1 and c.n_rejected == 4
     assert c.compensate(math.nan, 0.0) == 1.5 and c.n_rejected == 5
     assert c.info() == {"n_rejected": 5, "J_n": 2.0, "omega_q": 400.0}
+
+
+def test_dob_pickle_continues_exactly_and_its_gates_stay_live():
+    kw = dict(J_n=1.2, omega_q=800.0, Tc=1e-3, order=2, d_max=30.0)
+    c = DisturbanceObserver(**kw)
+    wc, wm, wr, u_in = _stream(5, 4000, bad=0.01)
+    for k in range(2000):
+        c.observe(u_in[k] - c.compensate(wc[k], wr[k]), wm[k])
+    d = pickle.loads(pickle.dumps(c))
+    assert d.cdata != c.cdata and d.struct_bytes() == c.struct_bytes()
+    assert d.u_range.cdata == ffi.addressof(d.cdata, "u_range") and d.w_range.cdata == ffi.addressof(d.cdata, "w_range")
+    for k in range(2000, 4000):
+        a, b = c.compensate(wc[k], wr[k]), d.compensate(wc[k], wr[k])
+        assert a == b or (math.isnan(a) and math.isnan(b))
+        c.observe(u_in[k] - a, wm[k])
+        d.observe(u_in[k] - b, wm[k])
+    assert d.struct_bytes() == c.struct_bytes()
+    # every refusal is a gate's: the gate objects show the counts of the struct's gates
+    assert c.n_rejected == c.u_range.n_rejected + c.w_range.n_rejected > 40
+    assert c.u_range.n_rejected == c.cdata.u_range.n_rejected and c.w_range.envelope == c.cdata.w_range.env
+
+
+def test_dob_order_capacity():
+    assert DisturbanceObserver(J_n=1.0, Tc=1e-3, order=DOB_ORDER_MAX).order == DOB_ORDER_MAX
+    with pytest.raises(ParameterError, match="order"):
+        DisturbanceObserver(J_n=1.0, Tc=1e-3, order=DOB_ORDER_MAX + 1)
