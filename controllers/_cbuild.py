@@ -17,6 +17,7 @@ HEADERS = [
     "ctl_pi.h",
     "ctl_metrics.h",
     "ctl_dob.h",
+    "ctl_canudas.h",
 ]
 
 

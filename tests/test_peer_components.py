@@ -1,4 +1,4 @@
-"""The peers as compiled compensator components against the oracles of tests/peers_oracle.py.
+"""The peers as C compensator components (struct and ops table) against the oracles of tests/peers_oracle.py.
 
 The oracles are written from the peers' equations and run over whole signals: Canudas de Wit's compensator as
 the sample intervals of the accepted samples, the rows of the sampled motor model, the RLS (the package's,
@@ -6,7 +6,7 @@ checked on its own by tests/test_rls.py) and the direction-dependent map; the di
 disturbance samples through its binomial Q-filter (scipy's ``lfilter`` with coefficients from
 ``cont2discrete``). The components run on long seeded random streams with direction changes, sticking (dead
 zone), non-finite samples, warm-up and saturation of the compensation, through their methods and through their
-compiled kernels in a compiled loop (as the closed-loop engine calls them); every output, the update instants,
+C ops tables on their structs (as the closed-loop engine calls them); every output, the update instants,
 the parameter history and the counters are compared with the oracle fed the same signals.
 """
 
@@ -20,7 +20,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as hst
 
 import peers_oracle as oracle
-from controllers.peers.canudas import CanudasCompensator, canudas_compensate, canudas_observe
+from controllers.peers.canudas import CanudasCompensator
 from controllers._cctl import ffi
 from controllers.peers.dob import DOB_ORDER_MAX, DisturbanceObserver
 from plant.errors import ParameterError
@@ -144,45 +144,42 @@ def _drive(c, wc, wm, wr, u_in):
     return out, upd, th
 
 
-def test_canudas_kernels_in_a_compiled_loop_equal_the_oracle_and_report_theta():
+def test_canudas_ops_table_equals_the_oracle_and_reports_theta():
     kw = dict(Tc=1e-3, Ts=4e-3, warmup=25, w_dead=0.01, ff_max=30.0)
     c = CanudasCompensator(**kw)
     wc, wm, wr, u_in = _stream(7, 20000)
-    n = wc.shape[0]
-    out, upd, th = np.empty(n), np.zeros(n, dtype=np.bool_), np.full((n, 5), np.nan)
-    _drive(canudas_compensate, canudas_observe, c.params, c.state, wc, wm, wr, u_in, out, upd, th)
+    out, upd, th = _drive(c, wc, wm, wr, u_in)
     assert np.isnan(th[~upd]).all()  # theta is reported exactly when the RLS was updated
     o = _check_canudas(c, kw, wc, wm, wr, out, u_in + out, upd, th)
     assert upd.sum() == o["rls"].n_updates > 500
 
 
-def test_canudas_state_layout_pickle_and_coef_setter():
+def test_canudas_struct_pickle_and_coef_setter():
     c = CanudasCompensator(Tc=1e-3, Ts=2e-3, warmup=3, w_dead=0.0)
-    assert c.KIND == 4 and c.n_theta == 5 and c.params.flags.c_contiguous and c.state.flags.c_contiguous
-    assert c.params.dtype == np.float64 and c.state.dtype == np.float64
-    assert c.rls.buffer.base is c.state  # the RLS state is a slice of the component's state
+    assert c.KIND == 4 and c.n_theta == 5 and ffi.string(c.ops.name) == b"canudas"
+    for part in ("rls", "u_range", "w_range"):  # the parts' structs are fields of the compensator's struct
+        assert getattr(c, part).cdata == ffi.addressof(c.cdata, part)
     wc, wm, wr, u = _stream(3, 2000, bad=0.0, stick=False)
     for k in range(1000):
         c.observe(u[k] + c.compensate(wc[k], wr[k]), wm[k])
     d = pickle.loads(pickle.dumps(c))
-    assert d.rls.buffer.base is d.state and _same(d.state, c.state) and _same(d.params, c.params)
+    assert d.rls.cdata == ffi.addressof(d.cdata, "rls") and d.struct_bytes() == c.struct_bytes()
     for k in range(1000, 2000):  # the copy continues exactly like the original
         a, b = c.compensate(wc[k], wr[k]), d.compensate(wc[k], wr[k])
         assert a == b
         c.observe(u[k] + a, wm[k])
         d.observe(u[k] + b, wm[k])
-    assert _same(d.state, c.state)
-    # attached to slices of a composite's arrays, it continues exactly like the copy
-    big_p, big_s = np.zeros(c.params.size + 3), np.zeros(c.state.size + 4)
-    c.attach(big_p[3:], big_s[4:])
-    assert c.rls.buffer.base is big_s and c.params.base is big_p
-    for k in range(1000, 1500):
-        a = c.compensate(wc[k], wr[k])
-        c.observe(u[k] + a, wm[k])
+    assert d.struct_bytes() == c.struct_bytes()
+    # moved into an element of a composite's array of structs, it continues exactly like the copy
+    big = ffi.new("ctl_canudas[3]")
+    c._use(ffi.addressof(big, 1), big)
+    assert c.cdata == ffi.addressof(big, 1) and c.rls.cdata == ffi.addressof(big[1], "rls")
+    assert c.w_range.cdata == ffi.addressof(big[1], "w_range") and c.struct_bytes() == d.struct_bytes()
     e = pickle.loads(pickle.dumps(d))
     for k in range(1000, 1500):
+        c.observe(u[k] + c.compensate(wc[k], wr[k]), wm[k])
         e.observe(u[k] + e.compensate(wc[k], wr[k]), wm[k])
-    assert _same(big_s[4:], e.state) and c.coef == e.coef
+    assert c.struct_bytes() == e.struct_bytes() and c.coef == e.coef and c.rls.n_updates == e.rls.n_updates
     c.coef = (10.0, 6.0, 8.0, 5.0)
     assert c.coef == (10.0, 6.0, 8.0, 5.0) and c.compensate(-0.5, 0.0) == -6.0 - 2.5
     c.coef = None
@@ -204,11 +201,12 @@ def test_canudas_refuses_an_overflowing_row_without_touching_the_rls():
     c = CanudasCompensator(Tc=1e-3, Ts=3e-3, warmup=0, w_dead=0.0)
     for u_, w_ in [(0.0, 1.0), (1.7e308, 1.0), (1.7e308, 1.0)]:  # u_sum = inf over the interval
         c.observe(u_, w_)
-    rls_before = c.rls.buffer.copy()
-    rls_before[7] += 1.0  # the RLS counts the refused row (slot 7 of its header), nothing else changes
+    rls_before = bytearray(c.rls.struct_bytes())
     c.observe(0.0, 1.0)  # closes the interval: u_bar = inf
-    assert c.rls.n_updates == 0 and c.n_rejected == 1 and _same(c.rls.buffer, rls_before)
-    assert c.rls.n_rejected == 1
+    assert c.rls.n_updates == 0 and c.n_rejected == 1 and c.rls.n_rejected == 1
+    c.rls.cdata.n_rejected = 0  # the RLS counted the refused row, nothing else changed
+    assert c.rls.struct_bytes() == bytes(rls_before)
+    c.rls.cdata.n_rejected = 1
     for u_, w_ in [(1.0, 1.0), (1.0, 1.0), (0.0, 1.0)]:  # the next interval is an ordinary row
         c.observe(u_, w_)
     assert c.rls.n_updates == 1 and c.coef is not None and np.all(np.isfinite(c.rls.theta))
