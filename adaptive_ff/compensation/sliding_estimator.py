@@ -59,6 +59,13 @@ approximate at 1 kHz; J does not enter the feedforward). The benchmark
 ``w_band`` adapts to the noise: ``max(w_band_min, 4*sigma_n)`` with the
 noise level ``sigma_n`` estimated from the running mean of ``|w(k) - 2 w(k-1)
 + w(k-2)|`` (``= sqrt(6)*sqrt(2/pi)*sigma_n`` for white noise on a smooth signal).
+
+Implementation
+--------------
+The estimator is the C struct ``aff_sliding`` (``adaptive_ff/csrc/aff_sliding.h``), which embeds its outlier gate,
+its two range gates and its RLS (``aff_gate``, ``aff_range_gate``, ``aff_rls``); ``aff_sliding_observe`` is the one
+implementation of a sample, called by :meth:`SlidingFrictionEstimator.observe` and by the C adaptive feedforward.
+:func:`sliding_regressors` computes the same rows for a whole record with numpy and scipy.
 """
 
 from __future__ import annotations
