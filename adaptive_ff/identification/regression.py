@@ -53,7 +53,6 @@ import numpy as np
 from adaptive_ff._caff import ffi, lib
 from plant.errors import ExcitationError, ParameterError, check_finite_scalar, check_positive, check_signal
 from plant.friction import JointParams, stribeck, stribeck_shape
-from plant.stribeck_map import stribeck_shape_scalar
 from plant.results import axes_or_new, json_safe
 
 __all__ = [
@@ -528,7 +527,7 @@ def eq4_phi(phi, u_k, u_km1, w_km1, w_km2, Vs, delta, lag, stribeck, offset) -> 
 
     Parameters
     ----------
-    phi : ndarray, shape (>= p,), float64, C-contiguous
+    phi : ndarray, shape (>= p,), float64, C-contiguous, writable
         Output, ``p`` as :attr:`RegressionModel.n_params` of the structure.
     u_k, u_km1 : float
         Torque ``u(k)``, ``u(k-1)`` (N·m).
@@ -547,17 +546,18 @@ def eq4_phi(phi, u_k, u_km1, w_km1, w_km2, Vs, delta, lag, stribeck, offset) -> 
     Raises
     ------
     ParameterError
-        ``phi`` not a writable C-contiguous float64 array of at least 7 entries.
+        ``phi`` not a writable C-contiguous float64 array of at least ``p`` entries.
 
     Notes
     -----
     Ruderman eqs. 4-6: ``[w(k-1), -w(k-2), u(k), -u(k-1), -g(w(k-1)), -h(w(k-1)), -1]`` without the
-    absent columns; the same operations as :meth:`RegressionModel.phi`, both through the one Stribeck decay
-    (C ``plant_stribeck_shape``, Python :func:`plant.stribeck_map.stribeck_shape_scalar`: the same bits).
+    absent columns; the operations of :meth:`RegressionModel.phi`, with plant's one Stribeck decay of eq. 3
+    (C ``plant_stribeck_shape``).
     """
-    if (not isinstance(phi, np.ndarray) or phi.dtype != np.float64 or phi.ndim != 1 or phi.shape[0] < 7
+    p = 3 + 2 * bool(lag) + bool(stribeck) + bool(offset)
+    if (not isinstance(phi, np.ndarray) or phi.dtype != np.float64 or phi.ndim != 1 or phi.shape[0] < p
             or not phi.flags.c_contiguous or not phi.flags.writeable):
-        raise ParameterError("phi must be a writable C-contiguous float64 array of at least 7 entries")
+        raise ParameterError(f"phi must be a writable C-contiguous float64 array of at least {p} entries")
     return int(lib.aff_eq4_phi(ffi.from_buffer("double[]", phi, require_writable=True), u_k, u_km1, w_km1, w_km2,
                                Vs, delta, bool(lag), bool(stribeck), bool(offset)))
 
