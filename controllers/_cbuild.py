@@ -18,6 +18,7 @@ HEADERS = [
     "ctl_metrics.h",
     "ctl_dob.h",
     "ctl_canudas.h",
+    "ctl_adob.h",
 ]
 
 

@@ -280,3 +280,84 @@ def test_dob_order_capacity():
     assert DisturbanceObserver(J_n=1.0, Tc=1e-3, order=DOB_ORDER_MAX).order == DOB_ORDER_MAX
     with pytest.raises(ParameterError, match="order"):
         DisturbanceObserver(J_n=1.0, Tc=1e-3, order=DOB_ORDER_MAX + 1)
+
+
+def _adob_parts(u_max=math.inf, start=False):
+    """A robust adaptive feedforward and an observer for the ``paper`` joint, built twice from the same settings."""
+    from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart, RobustAdaptiveFeedforward
+    from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
+    from adaptive_ff.identification.regression import FrictionEstimate
+    from plant.friction import preset
+
+    p = preset("paper")
+    init = FrictionEstimate(J=p.J, tau=0.0, sigma=0.8 * p.sigma, Fc=0.8 * p.Fc, Fs=0.8 * p.Fs, offset=0.0,
+                            Vs=p.Vs, delta=p.delta, J_alt=math.nan)
+    est = SlidingFrictionEstimator(p.Vs, p.delta, Tc=1e-3, initial=init, J_guess=p.J)
+    ff = RobustAdaptiveFeedforward(est, dt=1e-3, warmup=20, fade_in=0.05, max_rel_stderr=math.inf,
+                                   start=FeedforwardStart(init) if start else None)
+    return p, ff, DisturbanceObserver(J_n=0.9 * p.J, Tc=1e-3, omega_q=400.0, d_max=60.0)
+
+
+def _adob_stream(p, n, seed):
+    """Velocities of a sliding joint with reversals and bad samples, and torques consistent with them (eq. 3 plus
+    inertia), so that the estimator updates and the feedforward switches on."""
+    from plant.friction import stribeck
+
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * 1e-3
+    w = 0.2 * np.sin(2 * np.pi * 0.5 * t) + 0.05 * np.sin(2 * np.pi * 2.3 * t)
+    u = p.J * np.gradient(w, 1e-3) + stribeck(w, Fc=p.Fc, Fs=p.Fs, Vs=p.Vs, delta=p.delta, sigma=p.sigma)
+    wm = w + rng.normal(0.0, 1e-4, n)
+    u = u + rng.normal(0.0, 0.2, n)
+    for a in (wm, u):
+        idx = rng.random(n) < 0.002
+        a[idx] = rng.choice([math.nan, math.inf, 1e3], idx.sum())
+    return wm, 0.2 * np.sin(2 * np.pi * 0.5 * t), u
+
+
+@pytest.mark.parametrize("u_max,start", [(math.inf, False), (25.0, True)])
+def test_adaptive_dob_is_its_parts_composed_and_moves_as_one_struct(u_max, start):
+    """The composite (its ops table on its struct) equals the two parts driven by hand in the stated order:
+    u_ff, then d_hat, the sum clipped to u_max; the observer records u - u_ff, the feedforward (u, w)."""
+    from controllers.peers.adaptive_dob import AdaptiveDOBCompensator
+
+    p, ff, dob = _adob_parts(u_max, start)
+    c = AdaptiveDOBCompensator(ff, dob, u_max=u_max)
+    assert ff.cdata == ffi.addressof(c.cdata, "ff") and dob.cdata == ffi.addressof(c.cdata, "dob")
+    assert ff.estimator.cdata == ffi.addressof(c.cdata.ff, "est") and ffi.string(c.ops.name) == b"adaptive-dob"
+    assert c.n_theta == ff.n_theta and c.u_max == u_max
+    _, ff2, dob2 = _adob_parts(u_max, start)  # the reference: the parts on their own
+    wm, wr, u_in = _adob_stream(p, 6000, 4)
+    ops, cp = c.ops, c.cdata
+    th = ffi.new("double[]", c.n_theta)
+    n_upd = 0
+    for k, (w, r, x) in enumerate(zip(wm.tolist(), wr.tolist(), u_in.tolist())):
+        out = ops.compensate(cp, w, w, r)
+        uff = ff2.compensate(w, r)
+        ref = min(max(uff + dob2.compensate(w, r), -u_max), u_max)
+        assert out == ref or (math.isnan(out) and math.isnan(ref)), k
+        assert c.u_ff == uff or (math.isnan(uff) and math.isnan(c.u_ff))
+        uk = x + 0.3 * out
+        upd = ops.observe(cp, uk, w, th)
+        dob2.observe(uk - uff, w)
+        n0 = ff2.estimator.n_updates
+        ff2.observe(uk, w)
+        assert bool(upd) == (ff2.estimator.n_updates > n0)
+        if upd:
+            n_upd += 1
+            assert list(th) == ff2.estimator.theta.tolist()
+        if k == 3000:  # moved into an element of a struct array mid-run (as the engine holds it), it carries on
+            arr = ffi.new("ctl_adob[2]")
+            c._use(ffi.addressof(arr, 1), arr)
+            cp = c.cdata
+            assert ff.estimator.cdata == ffi.addressof(arr[1].ff, "est") and dob.cdata == ffi.addressof(arr[1], "dob")
+    assert n_upd > 50 and c.active and ff2.active
+    assert dob.struct_bytes() == dob2.struct_bytes() and ff.estimator.theta.tolist() == ff2.estimator.theta.tolist()
+    d = pickle.loads(pickle.dumps(c))
+    assert d.struct_bytes() == c.struct_bytes() and d.feedforward.estimator.cdata == ffi.addressof(d.cdata.ff, "est")
+    for w, r, x in zip(wm[:500].tolist(), wr[:500].tolist(), u_in[:500].tolist()):
+        a, b = c.compensate(w, r), d.compensate(w, r)
+        assert a == b or (math.isnan(a) and math.isnan(b))
+        c.observe(x, w)
+        d.observe(x, w)
+    assert d.struct_bytes() == c.struct_bytes()
