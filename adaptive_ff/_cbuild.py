@@ -14,7 +14,15 @@ CSRC = Path(__file__).resolve().parent / "csrc"
 
 #: Headers read by cffi, in dependency order.
 HEADERS = [
+    "aff_compensator.h",
     "aff_gate.h",
+    "aff_rls.h",
+    "aff_regression.h",
+    "aff_velocity_input.h",
+    "aff_feedforward.h",
+    "aff_sliding.h",
+    "aff_robust_ff.h",
+    "aff_eq4_ff.h",
 ]
 
 
