@@ -69,7 +69,7 @@ GOLDEN_DIR = Path(__file__).parent / "golden"
 #: Date the records were frozen (tests/golden/README.md).
 FROZEN_ON = "2026-11-23"
 
-DURATION = 3.0  # s of every closed-loop case
+DURATION = 3.0  # s, the longest closed-loop run (MATRIX_SETTINGS shortens some)
 TC = 1e-3
 NOISE = 1e-3  # rad/s, velocity measurement noise of the noisy cases
 EVERY = 20  # signals: every 20th sample (50 Hz)
