@@ -130,7 +130,7 @@ def _plants_arrays(run_plants, plants, opts, t, wr, Tc) -> tuple:
             check_integrable(rows + int(bad[0]), Tc)
         except ParameterError as e:
             raise ParameterError(f"plants[{b}]: {e}") from None
-    st = plant_states([uniq[k] for k in static], rows, float(wr[0]))
+    st = plant_states(rows, float(wr[0]))
     tables, segs, states = [None] * len(uniq), [0] * len(uniq), [None] * len(uniq)
     for j, k in enumerate(static):
         tables[k], states[k] = rows + j, st[j]
@@ -219,7 +219,7 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
     x.keep(rows)
     x.run()
     _, diverged, _ = x.outcome()
-    cols = metrics_columns(x.scenarios)
+    cols = metrics_columns(x.metrics())
     for k in METRIC_NAMES:
         cols[k][diverged] = np.nan
     return BatchResult(mode=mode, diverged=diverged, compensators=tuple(comps), **cols)

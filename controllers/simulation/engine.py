@@ -31,6 +31,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from controllers._cctl import ffi, lib
+from controllers.simulation.metrics import METRICS_DTYPE
 from plant.errors import ParameterError
 
 __all__ = ["EngineRun", "THETA_NMAX", "engine_threads"]
@@ -215,6 +216,16 @@ class EngineRun:
         else:
             with ThreadPoolExecutor(max_workers=min(threads, len(bounds))) as pool:
                 list(pool.map(one, bounds))
+
+    def metrics(self) -> np.ndarray:
+        """The scenarios' metric accumulators, a copy as a numpy array of
+        :data:`controllers.simulation.metrics.METRICS_DTYPE`, shape (B,)."""
+        sc = self.scenarios
+        out = np.empty(len(sc), dtype=METRICS_DTYPE)
+        raw = out.view(np.uint8).reshape(len(sc), -1)
+        for b in range(len(sc)):
+            raw[b] = np.frombuffer(ffi.buffer(ffi.addressof(sc[b], "metrics")), dtype=np.uint8)
+        return out
 
     def outcome(self) -> tuple:
         """``(k_end, diverged, n_theta)`` arrays (int64, bool, int64) of shape (B,)."""
