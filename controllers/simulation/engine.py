@@ -37,7 +37,7 @@ from plant.errors import ParameterError
 __all__ = ["EngineRun", "THETA_NMAX", "engine_threads"]
 
 #: Largest parameter vector a compensator may report (``CTL_THETA_NMAX`` of ctl_engine.h).
-THETA_NMAX = int(lib.CTL_THETA_NMAX)
+THETA_NMAX = len(ffi.new("ctl_scenario *").theta_buf)
 #: Scenarios per chunk: at most this many, at least _CHUNK_MIN (else B / threads).
 _CHUNK = 64
 _CHUNK_MIN = 8
