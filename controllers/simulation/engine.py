@@ -134,6 +134,7 @@ class EngineRun:
         r.m_theta = int(m_theta)
         self.scenarios = ffi.new("ctl_scenario[]", B)
         self._keep = []
+        self._ops = {}
         rec = ffi.from_buffer("double[]", self.rec)
         th = ffi.from_buffer("double[]", self.theta)
         thk = ffi.from_buffer("int64_t[]", self.theta_k)
@@ -199,9 +200,12 @@ class EngineRun:
         if name is None:
             raise ParameterError(f"compensator must be a compensator component (C_OPS) or None, got {comp!r}")
         sc = self.scenarios[b]
+        ops = self._ops.get(name)
+        if ops is None:  # cffi reads a const table as a value: one copy per run, kept alive here
+            ops = self._ops[name] = ffi.new("aff_compensator_ops *", getattr(lib, name))
         self._keep.append(comp)
         sc.comp = ffi.cast("void *", comp.cdata)
-        sc.ops = ffi.addressof(lib, name)
+        sc.ops = ops
 
     def run(self) -> None:
         """Run every scenario to the end (or divergence) in chunks on :func:`engine_threads` threads."""
