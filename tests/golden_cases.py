@@ -392,7 +392,7 @@ def loop_engine_decimate_friction0():
     res = run_closed_loop(run_plant, ctrl, comp, reference(), noise_std=NOISE, rng=np.random.default_rng(8),
                           decimate=20, reversal_window=0.1, friction0=0.0)
     out = closed_loop_record(res, every=1, theta_every=1, inputs=True)
-    out["controller_state"] = ctrl.state.copy()
+    out["controller_state"] = np.array([ctrl.integral, float(ctrl.saturated)])  # (I, saturated) of the PI
     return out
 
 
