@@ -16,6 +16,7 @@ CSRC = Path(__file__).resolve().parent / "csrc"
 HEADERS = [
     "aff_gate.h",
     "aff_stribeck_fit.h",
+    "aff_simulator.h",
 ]
 
 
