@@ -17,6 +17,7 @@ HEADERS = [
     "aff_gate.h",
     "aff_stribeck_fit.h",
     "aff_simulator.h",
+    "aff_online_ukf.h",
 ]
 
 
