@@ -20,6 +20,7 @@ HEADERS = [
     "ctl_canudas.h",
     "ctl_adob.h",
     "ctl_quasi_static.h",
+    "ctl_engine.h",
 ]
 
 
