@@ -51,10 +51,13 @@ class Component:
 
     def _use(self, ptr, owner) -> None:
         """Use the struct at ``ptr`` (a field of ``owner``'s struct, kept alive here) from now on, after
-        copying the current values into it."""
-        ptr[0] = self._c[0]
+        copying the current values into it; then :meth:`_attached` re-points the parts (a composite's), while the
+        old struct is still alive (their old pointers point into it)."""
+        old, old_owner = self._c, self._owner  # noqa: F841 - alive until the parts have moved along
+        ptr[0] = old[0]
         self._c = ptr
         self._owner = owner
+        self._attached()
 
     @property
     def cdata(self):

@@ -140,10 +140,6 @@ class AdaptiveFrictionFeedforward(Component):
         self.w_range._use(ffi.addressof(self._c, "w_range"), self)
         self.rls._use(ffi.addressof(self._c, "rls"), self)
 
-    def _use(self, ptr, owner) -> None:
-        super()._use(ptr, owner)
-        self._attached()
-
     def __repr__(self) -> str:
         return (f"AdaptiveFrictionFeedforward({self.model!r}, Ts={self.Ts!r}, dt={self.dt!r}, "
                 f"warmup={self.warmup}, n_updates={self.rls.n_updates})")

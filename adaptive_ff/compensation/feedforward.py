@@ -230,10 +230,6 @@ class FrictionFeedforward(Component):
     def _attached(self) -> None:
         self._f = self._c
 
-    def _use(self, ptr, owner) -> None:
-        super()._use(ptr, owner)
-        self._attached()
-
     def __getstate__(self) -> dict:
         d = super().__getstate__()
         d.pop("_f", None)

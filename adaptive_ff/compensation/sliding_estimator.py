@@ -295,10 +295,6 @@ class SlidingFrictionEstimator(Component):
         self.w_range._use(ffi.addressof(self._c, "w_range"), self)
         self.rls._use(ffi.addressof(self._c, "rls"), self)
 
-    def _use(self, ptr, owner) -> None:
-        super()._use(ptr, owner)
-        self._attached()
-
     def __repr__(self) -> str:
         return (f"SlidingFrictionEstimator(Vs={self.Vs!r}, delta={self.delta!r}, Ts={self.Ts!r}, "
                 f"T_filter={self.T!r}, n_updates={self.rls.n_updates})")

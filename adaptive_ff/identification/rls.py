@@ -262,10 +262,6 @@ class RecursiveLeastSquares(Component):
         self._upper = view(c.upper, p)
         self._D = view(c.D, p * p).reshape(p, p)
 
-    def _use(self, ptr, owner) -> None:
-        super()._use(ptr, owner)
-        self._bind()
-
     def _attached(self) -> None:
         self._bind()
 

@@ -107,17 +107,8 @@ class AdaptiveDOBCompensator(Component):
 
     def _attached(self) -> None:
         """Point the feedforward (with its estimator) and the observer (with its gates) into this struct."""
-        old = self.feedforward.cdata  # alive until the feedforward's parts have moved too
-        self.feedforward._use(ffi.addressof(self._c, "ff"), self)
-        self.feedforward._attached()  # its estimator follows its struct
-        del old
+        self.feedforward._use(ffi.addressof(self._c, "ff"), self)  # its estimator follows its struct
         self.observer._use(ffi.addressof(self._c, "dob"), self)
-
-    def _use(self, ptr, owner) -> None:
-        old = self._c  # alive until the parts have moved with the struct
-        super()._use(ptr, owner)
-        self._attached()
-        del old
 
     def __repr__(self) -> str:
         return f"AdaptiveDOBCompensator({self.feedforward.estimator!r}, {self.observer!r})"

@@ -156,12 +156,6 @@ class CanudasCompensator(Component):
         self.w_range._use(ffi.addressof(self._c, "w_range"), self)
         self.rls._use(ffi.addressof(self._c, "rls"), self)
 
-    def _use(self, ptr, owner) -> None:
-        old = self._c  # alive until the parts have moved with the struct
-        super()._use(ptr, owner)
-        self._attached()
-        del old
-
     def __repr__(self) -> str:
         return (f"CanudasCompensator(Tc={self.Tc!r}, Ts={self.Ts!r}, w_dead={self.w_dead!r}, "
                 f"warmup={self.warmup}, ff_max={self.ff_max!r}, n_updates={self.rls.n_updates})")

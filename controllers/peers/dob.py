@@ -120,12 +120,6 @@ class DisturbanceObserver(Component):
         self.u_range._use(ffi.addressof(self._c, "u_range"), self)
         self.w_range._use(ffi.addressof(self._c, "w_range"), self)
 
-    def _use(self, ptr, owner) -> None:
-        old = self._c  # alive until the gates have moved with the struct
-        super()._use(ptr, owner)
-        self._attached()
-        del old
-
     def __repr__(self) -> str:
         return (f"DisturbanceObserver(J_n={self.J_n!r}, omega_q={self.omega_q!r}, Tc={self.Tc!r}, "
                 f"order={self.order}, d_max={self.d_max!r})")
