@@ -420,10 +420,10 @@ def plant_state(p, w0: float = 0.0):
 
 #: Largest ``rate*dt`` of a stable mode that the explicit RK4 step of the lagged models accepts (RK4's
 #: stability interval on the negative real axis ends at 2.785; Hairer & Wanner, *Solving ODEs II*, Sec. IV.2).
-RK4_RATE_MAX = 2.5
+RK4_RATE_MAX = lib.plant_rk4_rate_max  # 2.5, C plant_dynamics.h
 #: Largest pre-sliding frequency ``sqrt(sigma0/J)*dt`` of a LuGre joint that
 #: :func:`~plant.stiff.lugre_stiff_step` accepts.
-LUGRE_STIFF_MAX = 1e4
+LUGRE_STIFF_MAX = lib.plant_lugre_stiff_max  # 1e4, C plant_params.h
 
 
 def check_integrable(rows, dt: float) -> None:

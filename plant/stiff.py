@@ -26,13 +26,13 @@ __all__ = ["LAGGED_RK4_MAX", "LAGGED_RTOL", "LAGGED_FTOL", "LAGGED_MAX_SUBSTEPS"
 #: Lagged-model steps whose RK4 sub-step count (``int(rate*dt) + 1``, :func:`~plant.rows.lagged_rate`) would
 #: exceed this use :func:`lagged_stiff_step`; at or below it the RK4 sub-steps (and their results, bit for bit)
 #: are kept.
-LAGGED_RK4_MAX = 64
+LAGGED_RK4_MAX = int(lib.PLANT_LAGGED_RK4_MAX)  # 64, C plant_stiff.h (as the next ones)
 #: Relative tolerance (to ``|w| + Vs``) of the sub-step error control of :func:`lagged_stiff_step` on the velocity.
-LAGGED_RTOL = 1e-5
+LAGGED_RTOL = lib.plant_lagged_rtol  # 1e-5
 #: Tolerance of the same error control on the friction state (``tau > 0``), relative to the largest friction level.
-LAGGED_FTOL = 1e-4
+LAGGED_FTOL = lib.plant_lagged_ftol  # 1e-4
 #: Most sub-steps :func:`lagged_stiff_step` takes in one step before it gives up (NaN state: diverged).
-LAGGED_MAX_SUBSTEPS = 200000
+LAGGED_MAX_SUBSTEPS = int(lib.PLANT_LAGGED_MAX_SUBSTEPS)  # 200000
 
 
 def lagged_local_rate(par, w: float, f: float, u: float, dt: float) -> float:
@@ -253,14 +253,14 @@ def lagged_stiff_step(par, st, u: float, dt: float, sgn: float) -> None:
 
 #: LuGre steps whose RK4 sub-step count (stiffness bound of :func:`~plant.dynamics.plant_step`) exceeds this use
 #: :func:`lugre_stiff_step`; at or below it the RK4 sub-steps (and their results) are kept.
-LUGRE_RK4_MAX = 64
+LUGRE_RK4_MAX = int(lib.PLANT_LUGRE_RK4_MAX)  # 64
 #: Relative tolerance of the sub-step error control of :func:`lugre_stiff_step`.
-LUGRE_RTOL = 1e-5
+LUGRE_RTOL = lib.plant_lugre_rtol  # 1e-5
 #: Tolerance of the same error control on the bristle deflection, relative to the largest one ``max(Fc, Fs)/sigma0``
 #: (the deflection relaxes at the rate ``sigma0*|w|/g(w)``: its error does not accumulate while sliding).
-LUGRE_ZTOL = 1e-3
+LUGRE_ZTOL = lib.plant_lugre_ztol  # 1e-3
 #: Most sub-steps :func:`lugre_stiff_step` takes in one step before it gives up (NaN state: diverged).
-LUGRE_MAX_SUBSTEPS = 200000
+LUGRE_MAX_SUBSTEPS = int(lib.PLANT_LUGRE_MAX_SUBSTEPS)  # 200000
 
 
 def lugre_jacobian(par, w: float, z: float, u: float) -> tuple:

@@ -5,10 +5,10 @@
 The one implementation is C (``plant/csrc/plant_stribeck.c``: ``plant_stribeck_eval``
 and its array loop), which the plant step (``plant/csrc/plant_dynamics.c``), the
 identification simulator and the closed-loop engine call; :func:`stribeck_scalar`
-and the vectorised :func:`stribeck` are its Python entries. :func:`stribeck_cutoff` gives the speed above which the
-Stribeck term no longer changes ``Fc`` in float64 (an exact shortcut).
-:func:`stribeck_shape` is the shape factor alone (numpy), used by the
-regressors of eqs. 5-6.
+and the vectorised :func:`stribeck` are its Python entries. :func:`stribeck_cutoff`
+gives the speed above which the Stribeck term no longer changes ``Fc`` in float64
+(an exact shortcut). :func:`stribeck_shape` is the shape factor alone (C
+``plant_stribeck_shape_array``), used by the regressors of eqs. 5-6.
 
 The names are re-exported by :mod:`plant.friction` (the joint's parameters); eq. 3
 lives in its own leaf module so that the plant step can use it without an

@@ -285,6 +285,24 @@ def test_parameter_struct_state_and_friction_of_each_model():
     assert bytes(ffi.buffer(raw)) == bytes(ffi.buffer(plant_params(q)))
 
 
+def test_plant_simulate_checks_its_arrays_and_lugre_pickles_without_its_c_struct():
+    import pickle
+
+    p = variant("lugre")
+    par, st = plant_params(p), plant_state(p, 0.0)
+    u = np.full(10, 30.0)
+    for W, S in ((np.empty(10), np.empty(11)), (np.empty(11, dtype=np.float32), np.empty(11)),
+                 (np.empty(22)[::2], np.empty(11))):
+        with pytest.raises(TypeError, match="float64 array of at least 11"):
+            plant_simulate(par, st, u, DT, W, S)
+    with pytest.raises(TypeError, match="u must be"):
+        plant_simulate(par, st, [30.0] * 10, DT, np.empty(11), np.empty(11))
+    assert st.w == 0.0 and st.s == 0.0  # nothing ran
+    torque = p.friction_torque(0.01, 1e-4)  # caches the C struct on the (frozen) model
+    q = pickle.loads(pickle.dumps(p))
+    assert q == p and "_packed" not in q.__dict__ and q.friction_torque(0.01, 1e-4) == torque
+
+
 def test_swapping_the_parameter_row_invalidates_the_eq3_cache():
     """tau = 0: a drifting plant swaps rows; the step after a swap must not reuse F(w) of the old row."""
     a = preset("paper").replace(tau=0.0)

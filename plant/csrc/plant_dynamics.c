@@ -2,6 +2,8 @@
  * those of the former numba kernels of plant/dynamics.py in the same order (results equal bit for bit). */
 #include "plant_dynamics.h"
 
+const double plant_rk4_rate_max = 2.5;
+
 /* (dw/dt, ds/dt) at (w, s) with input u and Fw = plant_target(p, w, .). */
 static void rhs(const plant_params *p, double w, double s, double u, double Fw, double *dw, double *ds)
 {
@@ -52,7 +54,7 @@ static int single_rk4(const plant_params *p, double w, double dt)
         return 0;
     if (-dv < w && w < dv)
         return 0;
-    return !(p->rate * dt > PLANT_RK4_RATE_MAX);
+    return !(p->rate * dt > plant_rk4_rate_max);
 }
 
 void plant_step(const plant_params *p, plant_state *st, double u, double dt)
@@ -106,14 +108,14 @@ void plant_step(const plant_params *p, plant_state *st, double u, double dt)
             return;
         }
         x = p->rate * dt;
-        if (x > PLANT_RK4_RATE_MAX) { /* a stiff mode: equal sub-steps with rate*h < 1 */
+        if (x > plant_rk4_rate_max) { /* a stiff mode: equal sub-steps with rate*h < 1 */
             if (!(x < PLANT_LAGGED_RK4_MAX) && sgn == 0.0) /* the stiffness of this step alone */
                 x = plant_lagged_local_rate(p, w, s, u, dt) * dt;
             if (!(x < PLANT_LAGGED_RK4_MAX)) { /* more than PLANT_LAGGED_RK4_MAX sub-steps: implicit */
                 plant_lagged_stiff_step(p, st, u, dt, sgn);
                 return;
             }
-            if (x > PLANT_RK4_RATE_MAX) {
+            if (x > plant_rk4_rate_max) {
                 n = (long)x + 1;
                 h = dt / (double)n;
             }

@@ -10,9 +10,10 @@
 #include "plant_params.h"
 #include "plant_stiff.h"
 
-/* Largest rate*dt of a stable mode that one explicit RK4 step of a lagged model accepts (RK4's stability
- * interval on the negative real axis ends at 2.785; Hairer & Wanner, Solving ODEs II, Sec. IV.2). */
-#define PLANT_RK4_RATE_MAX 2.5
+/* Largest rate*dt of a stable mode that one explicit RK4 step of a lagged model accepts (2.5; RK4's stability
+ * interval on the negative real axis ends at 2.785; Hairer & Wanner, Solving ODEs II, Sec. IV.2). Python:
+ * plant.rows.RK4_RATE_MAX. */
+extern const double plant_rk4_rate_max;
 
 /* One classic fourth-order Runge-Kutta step of h (s, > 0) of the plant, in place on *w (rad/s) and *s (f in N*m,
  * LuGre z in rad), with the input torque given at the start, the middle and the end of the step (u0, um, u1,
@@ -29,7 +30,7 @@ void plant_rk4(const plant_params *p, double *w, double *s, double Fw, double u0
  * tau == 0 without a Karnopp band where the step can reach the jump at w = 0 (plant_static_jump_in_reach): the
  * set-valued plant_lagged_stiff_step (Filippov: at rest while -F(0-) <= u <= F(0+), f = u). Karnopp: in the band
  * |w| < dv with |u| <= Fs the joint sticks (w = 0, f = u); with |u| > Fs it breaks away (RK4 with the band
- * target Fs*sgn(u)). A lagged model with rate*dt > PLANT_RK4_RATE_MAX takes (long)(rate*dt) + 1 equal RK4
+ * target Fs*sgn(u)). A lagged model with rate*dt > plant_rk4_rate_max takes (long)(rate*dt) + 1 equal RK4
  * sub-steps, beyond PLANT_LAGGED_RK4_MAX of them (unless the step's own velocity range is mild,
  * plant_lagged_local_rate) plant_lagged_stiff_step. LuGre: n equal RK4 sub-steps with n chosen from the
  * stiffness at the step start (rate*h < 1); n > PLANT_LUGRE_RK4_MAX: plant_lugre_stiff_step; a non-finite state

@@ -1,6 +1,8 @@
 /* plant_params.c -- the plant's friction map, steady states and the up-front check (see plant_params.h). */
 #include "plant_params.h"
 
+const double plant_lugre_stiff_max = 1e4;
+
 double plant_target(const plant_params *p, double w, double sgn)
 {
     const plant_stribeck *m;
@@ -48,7 +50,7 @@ int plant_integrable(const plant_params *p, double dt)
     double J = p->J;
     if (p->model == PLANT_LUGRE) {
         double wp = sqrt(J != 0.0 ? p->sigma0 / J : INFINITY);
-        return wp * dt <= PLANT_LUGRE_STIFF_MAX;
+        return wp * dt <= plant_lugre_stiff_max;
     }
     return J > 0.0 && isfinite(J) && p->tau >= 0.0 && p->tau < INFINITY
         && isfinite(p->pos.Fc) && isfinite(p->pos.dF) && isfinite(p->pos.sigma)

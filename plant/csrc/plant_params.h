@@ -44,7 +44,7 @@ typedef struct plant_params {
     double g_max;      /* LuGre max(Fc, Fs) (N*m) */
     double base_rate;  /* LuGre (sigma1 + sigma2)/J + sqrt(sigma0/J) (1/s) */
     double rate;       /* lagged models: fastest stable mode (1/s, plant.rows.lagged_rate): where rate*dt >
-                          PLANT_RK4_RATE_MAX the RK4 step is cut into (long)(rate*dt) + 1 sub-steps, beyond
+                          plant_rk4_rate_max the RK4 step is cut into (long)(rate*dt) + 1 sub-steps, beyond
                           PLANT_LAGGED_RK4_MAX the stiff step */
     double inv_J;      /* 1/J (1/(kg*m^2)), inf for J == 0 */
     double inv_tau;    /* 1/tau (1/s), 0 for tau == 0 */
@@ -77,8 +77,8 @@ void plant_steady_state(const plant_params *p, double w0, plant_state *s);
 /* plant_steady_state of n plants: out[b] for p[b], b < n (arrays of n structs). Python: plant.rows.plant_states. */
 void plant_steady_states(const plant_params *p, long n, double w0, plant_state *out);
 
-/* 1 where the plant can be integrated over steps of dt (s): LuGre: sqrt(sigma0/J)*dt <= PLANT_LUGRE_STIFF_MAX
- * (the pre-sliding frequency, Canudas de Wit et al. 1995); lagged models: J finite and > 0, tau finite and >= 0,
+/* 1 where the plant can be integrated over steps of dt (s): LuGre: sqrt(sigma0/J)*dt <= plant_lugre_stiff_max
+ * (plant_lugre_stiff_max; the pre-sliding frequency, Canudas de Wit et al. 1995); lagged models: J finite and > 0, tau finite and >= 0,
  * the levels (Fc, Fs - Fc, sigma per direction), Vs, delta, Fs_stick, dv finite. Else 0. Python:
  * plant.rows.check_integrable / integrable_rows. */
 int plant_integrable(const plant_params *p, double dt);
@@ -86,7 +86,8 @@ int plant_integrable(const plant_params *p, double dt);
 /* ok[b] = plant_integrable(&p[b], dt) for b < n. */
 void plant_integrable_array(const plant_params *p, long n, double dt, int *ok);
 
-/* Largest pre-sliding frequency times step of a LuGre plant accepted by plant_integrable. */
-#define PLANT_LUGRE_STIFF_MAX 1e4
+/* Largest pre-sliding frequency times step, sqrt(sigma0/J)*dt, of a LuGre plant that plant_integrable accepts
+ * (1e4; Python: plant.rows.LUGRE_STIFF_MAX). */
+extern const double plant_lugre_stiff_max;
 
 #endif

@@ -2,6 +2,11 @@
  * numba kernels of plant/stiff.py in the same order (results equal bit for bit). */
 #include "plant_stiff.h"
 
+const double plant_lagged_rtol = 1e-5;
+const double plant_lagged_ftol = 1e-4;
+const double plant_lugre_rtol = 1e-5;
+const double plant_lugre_ztol = 1e-3;
+
 /* Python's max(a, b): b if b > a else a (NaN handling as Python's and numba's builtin). */
 static double pymax(double a, double b)
 {
@@ -214,7 +219,7 @@ void plant_lagged_stiff_step(const plant_params *p, plant_state *st, double u, d
     double h = st->aux;
     double tau = p->tau;
     double Vs = p->pos.Vs;
-    double tol_f = PLANT_LAGGED_FTOL * pymax(plant_lagged_level_max(p), 1e-300);
+    double tol_f = plant_lagged_ftol * pymax(plant_lagged_level_max(p), 1e-300);
     double t = 0.0;
     long count = 0;
     if (!(h > 0.0 && h <= dt))
@@ -234,7 +239,7 @@ void plant_lagged_stiff_step(const plant_params *p, plant_state *st, double u, d
         plant_lagged_implicit_step(p, w, f, u, hh, sgn, &w1, &f1, &F1);
         plant_lagged_implicit_step(p, w, f, u, 0.5 * hh, sgn, &wm, &fm, &Fm);
         plant_lagged_implicit_step(p, wm, fm, u, 0.5 * hh, sgn, &w2, &f2, &F2);
-        err = fabs(w2 - w1) / (PLANT_LAGGED_RTOL * (fabs(w2) + Vs));
+        err = fabs(w2 - w1) / (plant_lagged_rtol * (fabs(w2) + Vs));
         if (tau > 0.0) {
             double ef = fabs(f2 - f1) / tol_f;
             err = err > ef ? err : ef;
@@ -325,7 +330,7 @@ void plant_lugre_stiff_step(const plant_params *p, plant_state *st, double u, do
     double w = st->w;
     double z = st->s;
     double h = st->aux;
-    double tol_z = PLANT_LUGRE_ZTOL * p->g_max / p->sigma0;
+    double tol_z = plant_lugre_ztol * p->g_max / p->sigma0;
     double t = 0.0;
     long count = 0;
     if (!(h > 0.0 && h <= dt))
@@ -347,7 +352,7 @@ void plant_lugre_stiff_step(const plant_params *p, plant_state *st, double u, do
         ok3 = plant_lugre_implicit_step(p, wm, zm, u, 0.5 * hh, &w2, &z2);
         err = INFINITY;
         if (ok1 && ok2 && ok3) {
-            double ew = fabs(w2 - w1) / (PLANT_LUGRE_RTOL * (fabs(w2) + p->pos.Vs));
+            double ew = fabs(w2 - w1) / (plant_lugre_rtol * (fabs(w2) + p->pos.Vs));
             double ez = fabs(z2 - z1) / tol_z;
             err = ew > ez ? ew : ez;
         }

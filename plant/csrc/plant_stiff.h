@@ -11,22 +11,22 @@
 #define PLANT_STIFF_H
 #include "plant_params.h"
 
-/* Lagged-model steps whose RK4 sub-step count would exceed this use plant_lagged_stiff_step. */
-#define PLANT_LAGGED_RK4_MAX 64
-/* Relative tolerance (to |w| + Vs) of plant_lagged_stiff_step's error control on the velocity. */
-#define PLANT_LAGGED_RTOL 1e-5
-/* Tolerance of the same error control on the friction state (tau > 0), relative to the largest level. */
-#define PLANT_LAGGED_FTOL 1e-4
-/* Most sub-steps plant_lagged_stiff_step takes in one step (then NaN state: diverged). */
-#define PLANT_LAGGED_MAX_SUBSTEPS 200000
-/* LuGre steps whose RK4 sub-step count exceeds this use plant_lugre_stiff_step. */
-#define PLANT_LUGRE_RK4_MAX 64
-/* Relative tolerance of plant_lugre_stiff_step's error control on the velocity. */
-#define PLANT_LUGRE_RTOL 1e-5
-/* Tolerance on the bristle deflection, relative to max(Fc, Fs)/sigma0. */
-#define PLANT_LUGRE_ZTOL 1e-3
-/* Most sub-steps plant_lugre_stiff_step takes in one step (then NaN state: diverged). */
-#define PLANT_LUGRE_MAX_SUBSTEPS 200000
+/* The limits of the stiff steps (Python: the constants of plant.stiff). */
+typedef enum plant_stiff_limits {
+    PLANT_LAGGED_RK4_MAX = 64,          /* lagged-model steps needing more RK4 sub-steps: plant_lagged_stiff_step */
+    PLANT_LAGGED_MAX_SUBSTEPS = 200000, /* most sub-steps of plant_lagged_stiff_step in one step (then NaN) */
+    PLANT_LUGRE_RK4_MAX = 64,           /* LuGre steps needing more RK4 sub-steps: plant_lugre_stiff_step */
+    PLANT_LUGRE_MAX_SUBSTEPS = 200000   /* most sub-steps of plant_lugre_stiff_step in one step (then NaN) */
+} plant_stiff_limits;
+
+/* Relative tolerance (to |w| + Vs) of plant_lagged_stiff_step's error control on the velocity (1e-5). */
+extern const double plant_lagged_rtol;
+/* Tolerance of the same error control on the friction state (tau > 0), relative to the largest level (1e-4). */
+extern const double plant_lagged_ftol;
+/* Relative tolerance (to |w| + Vs) of plant_lugre_stiff_step's error control on the velocity (1e-5). */
+extern const double plant_lugre_rtol;
+/* Tolerance on the bristle deflection, relative to max(Fc, Fs)/sigma0 (1e-3). */
+extern const double plant_lugre_ztol;
 
 /* Largest friction level (N*m) of a lagged model: max(Fc, Fs) over both directions and Fs_stick (the bound of
  * |F(w)| - sigma*|w|, eq. 3). Python: plant.stiff.lagged_level_max. */
@@ -55,8 +55,8 @@ void plant_lagged_implicit_step(const plant_params *p, double w0, double f0, dou
                                 double *w, double *f, double *Fstar);
 
 /* Advance a stiff lagged model by dt (s) with u (N*m) held, in place: sub-steps of plant_lagged_implicit_step
- * with step doubling (accepted when |w_(h/2) - w_h| <= PLANT_LAGGED_RTOL*(|w| + Vs) and, tau > 0,
- * |f_(h/2) - f_h| <= PLANT_LAGGED_FTOL*max level), extrapolated 2*y_(h/2) - y_h on one smooth piece of the map,
+ * with step doubling (accepted when |w_(h/2) - w_h| <= plant_lagged_rtol*(|w| + Vs) and, tau > 0,
+ * |f_(h/2) - f_h| <= plant_lagged_ftol*max level), extrapolated 2*y_(h/2) - y_h on one smooth piece of the map,
  * y_(h/2) across a jump; next sub-step hh*0.9/sqrt(err) clipped to [0.2, 2]*hh. s->aux: the last sub-step
  * (in, any value outside (0, dt]: dt; out). NaN state for a non-finite state or input or after
  * PLANT_LAGGED_MAX_SUBSTEPS sub-steps. sgn: Karnopp breakaway direction (plant_target). Python:
@@ -76,8 +76,8 @@ int plant_lugre_implicit_step(const plant_params *p, double w0, double z0, doubl
                               double *z);
 
 /* Advance a stiff LuGre joint by dt (s) with u (N*m) held, in place: extrapolated backward Euler
- * (2*y_(h/2) - y_h; Hairer & Wanner, Solving ODEs II, Sec. IV.9) with step doubling (PLANT_LUGRE_RTOL on w,
- * PLANT_LUGRE_ZTOL*max(Fc, Fs)/sigma0 on z). s->aux: the last sub-step (in: NaN or outside (0, dt]: dt; out).
+ * (2*y_(h/2) - y_h; Hairer & Wanner, Solving ODEs II, Sec. IV.9) with step doubling (plant_lugre_rtol on w,
+ * plant_lugre_ztol*max(Fc, Fs)/sigma0 on z). s->aux: the last sub-step (in: NaN or outside (0, dt]: dt; out).
  * NaN state for a NaN state or after PLANT_LUGRE_MAX_SUBSTEPS sub-steps. Python: plant.stiff.lugre_stiff_step. */
 void plant_lugre_stiff_step(const plant_params *p, plant_state *s, double u, double dt);
 
