@@ -15,6 +15,7 @@ CSRC = Path(__file__).resolve().parent / "csrc"
 #: Headers read by cffi, in dependency order.
 HEADERS = [
     "aff_gate.h",
+    "aff_rls.h",
 ]
 
 

@@ -9,7 +9,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
-from adaptive_ff.identification.rls import RecursiveLeastSquares, rls_P, rls_n_updates, rls_theta
+from adaptive_ff._caff import lib
+from adaptive_ff.identification.rls import RecursiveLeastSquares
 from controllers.design.pi import PIController, design_pi
 from controllers.simulation.closed_loop import loop_metrics, run_closed_loop
 from controllers.simulation.metrics import reversal_times
@@ -261,11 +262,12 @@ def test_chunked_reversals_equal_reference_reversals():
         np.testing.assert_array_equal(reversal_times(r.t, r.w, chunk=chunk), r.reversals())
 
 
-def test_rls_accessors_read_the_state_buffer():
+def test_rls_accessors_read_the_struct():
     rls = RecursiveLeastSquares(3, lam=0.99, P0=[[2.0, 0.1, 0.0], [0.1, 3.0, 0.2], [0.0, 0.2, 4.0]],
-                                theta0=[1.0, 2.0, 3.0])
+                                theta0=[1.0, 2.0, 3.0], P_max=12.0)
     rls.update(np.array([0.5, -1.0, 2.0]), 1.5)
-    buf = rls.buffer
-    assert [rls_theta(buf, i) for i in range(3)] == rls.theta.tolist()
-    assert [[rls_P(buf, i, j) for j in range(3)] for i in range(3)] == rls.P.tolist()
-    assert rls_n_updates(buf) == rls.n_updates == 1
+    c = rls.cdata
+    assert [c.theta[i] for i in range(3)] == rls.theta.tolist()
+    assert [[lib.aff_rls_P(c, i, j) for j in range(3)] for i in range(3)] == rls.P.tolist()
+    assert c.n_updates == rls.n_updates == 1
+    assert lib.aff_rls_prior_variance(c) == rls.prior_variance == 4.0

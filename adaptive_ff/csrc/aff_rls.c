@@ -1,0 +1,245 @@
+/* aff_rls.c -- recursive least squares (see aff_rls.h). */
+#include "aff_rls.h"
+
+int aff_rls_init(aff_rls *r, long p, int scheme, aff_real lam, aff_real P_max, aff_real P0)
+{
+    long i, k;
+    if (p < 1 || p > AFF_RLS_NMAX)
+        return -1;
+    r->p = p;
+    r->scheme = scheme;
+    r->lam = lam;
+    r->P_max = P_max;
+    r->has_bounds = 0;
+    for (i = 0; i < AFF_RLS_NMAX; i++) {
+        r->lower[i] = -INFINITY;
+        r->upper[i] = INFINITY;
+        r->theta[i] = 0;
+        r->v[i] = 0;
+    }
+    for (k = 0; k < AFF_RLS_NMAX * AFF_RLS_NMAX; k++) {
+        r->D[k] = 1;
+        r->P[k] = 0;
+    }
+    for (i = 0; i < p; i++)
+        r->P[i * p + i] = P0;
+    r->n_updates = 0;
+    r->n_projected = 0;
+    r->n_rejected = 0;
+    return 0;
+}
+
+/* How far theta[i] lies outside [lower[i], upper[i]] (0 inside). */
+static aff_real violation(const aff_rls *r, long i)
+{
+    aff_real t = r->theta[i];
+    aff_real a = r->lower[i] - t;
+    aff_real b = t - r->upper[i];
+    return (a > 0 ? a : (aff_real)0.0) + (b > 0 ? b : (aff_real)0.0);
+}
+
+/* Project theta onto the box in the metric of P^-1: for the most violated bound (violation over the standard
+ * deviation sqrt(P_ii)) theta -= P[:, i]*(theta_i - b_i)/P_ii, at most p times, then a final clip; counts
+ * the projection. P is not changed. */
+static void project(aff_rls *r)
+{
+    long p = r->p;
+    long i, j, it;
+    int any_viol = 0;
+    for (i = 0; i < p; i++) {
+        if (violation(r, i) != 0) {
+            any_viol = 1;
+            break;
+        }
+    }
+    if (!any_viol)
+        return;
+    r->n_projected++;
+    for (it = 0; it < p; it++) {
+        aff_real best = -1.0;
+        long ib = -1;
+        aff_real t, b, c;
+        for (i = 0; i < p; i++) {
+            aff_real vi = violation(r, i);
+            if (vi != 0) {
+                aff_real q = vi / AFF_SQRT(r->P[i * p + i]);
+                if (ib < 0 || q > best) {
+                    best = q;
+                    ib = i;
+                }
+            }
+        }
+        if (ib < 0)
+            break;
+        t = r->theta[ib];
+        b = t < r->lower[ib] ? r->lower[ib] : r->upper[ib];
+        c = (t - b) / r->P[ib * p + ib];
+        for (j = 0; j < p; j++)
+            r->theta[j] = r->theta[j] - r->P[j * p + ib] * c;
+        r->theta[ib] = b;
+    }
+    for (i = 0; i < p; i++) {
+        aff_real t = r->theta[i];
+        if (t < r->lower[i])
+            r->theta[i] = r->lower[i];
+        else if (t > r->upper[i])
+            r->theta[i] = r->upper[i];
+    }
+}
+
+aff_real aff_rls_step(aff_rls *r, const aff_real *phi, aff_real y)
+{
+    long p = r->p;
+    long i, j, k;
+    int scheme = r->scheme;
+    aff_real lam = r->lam;
+    aff_real P_max = r->P_max;
+    aff_real *P = r->P;
+    aff_real *v = r->v;
+    aff_real e = y;
+    aff_real rr = 0, vv = 0, tr = 0, g, s;
+    for (i = 0; i < p; i++)
+        e -= phi[i] * r->theta[i];
+    /* P phi into the scratch vector (inflated by D for vector forgetting), then the overflow guard: the state
+     * is not touched before it */
+    for (i = 0; i < p; i++) {
+        aff_real acc = 0;
+        for (j = 0; j < p; j++) {
+            if (scheme == AFF_RLS_VECTOR)
+                acc += (P[i * p + j] * r->D[i * p + j]) * phi[j];
+            else
+                acc += P[i * p + j] * phi[j];
+        }
+        v[i] = acc;
+        rr += phi[i] * acc;
+        vv += acc * acc;
+        tr += P[i * p + i];
+    }
+    if (!(isfinite(e * e) && isfinite(rr) && isfinite(vv))) {
+        r->n_rejected++;
+        return NAN;
+    }
+    if (scheme == AFF_RLS_VECTOR) {
+        /* inflate P <- D.P (unless that exceeds the trace bound), then a unit-weight update */
+        tr = 0;
+        for (i = 0; i < p; i++)
+            tr += P[i * p + i] * r->D[i * p + i];
+        if (tr <= P_max) {
+            for (k = 0; k < p * p; k++)
+                P[k] = P[k] * r->D[k];
+        }
+        rr = 0;
+        for (i = 0; i < p; i++) {
+            aff_real acc = 0;
+            for (j = 0; j < p; j++)
+                acc += P[i * p + j] * phi[j];
+            v[i] = acc;
+            rr += phi[i] * acc;
+        }
+        s = (aff_real)1.0 + rr;
+        for (i = 0; i < p; i++) {
+            aff_real vi = v[i];
+            for (j = i; j < p; j++) {
+                aff_real x = P[i * p + j] - (vi * v[j]) / s;
+                P[i * p + j] = x;
+                P[j * p + i] = x;
+            }
+        }
+        g = e / s;
+    } else if (scheme == AFF_RLS_EXPONENTIAL) {
+        aff_real div = 1.0;
+        s = lam + rr;
+        if (lam < (aff_real)1.0) {
+            aff_real tr1 = 0;
+            for (i = 0; i < p; i++)
+                tr1 += P[i * p + i] - (v[i] * v[i]) / s;
+            if (tr1 / lam <= P_max)
+                div = lam;
+            else /* covariance bound reached: this update forgets nothing (ordinary RLS step) */
+                s = (aff_real)1.0 + rr;
+        }
+        for (i = 0; i < p; i++) {
+            aff_real vi = v[i];
+            for (j = i; j < p; j++) {
+                aff_real x = P[i * p + j] - (vi * v[j]) / s;
+                if (div != (aff_real)1.0)
+                    x = x / div;
+                P[i * p + j] = x;
+                P[j * p + i] = x;
+            }
+        }
+        g = e / s;
+    } else { /* directional forgetting */
+        aff_real beta = rr > 0 ? lam - ((aff_real)1.0 - lam) / rr : (aff_real)1.0;
+        aff_real den = (aff_real)1.0 + beta * rr;
+        aff_real c;
+        if (beta < 0) {
+            /* trace after the update: trace(P) - beta*|P phi|^2/den; over the bound -> no forgetting */
+            if (tr - beta * vv / den > P_max) {
+                beta = 1.0;
+                den = (aff_real)1.0 + rr;
+            }
+        }
+        c = beta / den;
+        for (i = 0; i < p; i++) {
+            aff_real vi = v[i];
+            for (j = i; j < p; j++) {
+                aff_real x = P[i * p + j] - (vi * v[j]) * c;
+                P[i * p + j] = x;
+                P[j * p + i] = x;
+            }
+        }
+        g = e / den; /* theta += P_new phi e */
+    }
+    for (i = 0; i < p; i++)
+        r->theta[i] += v[i] * g;
+    if (r->has_bounds)
+        project(r);
+    r->n_updates++;
+    return e;
+}
+
+/* 0 iff y and phi[0..p-1] are all finite (x*0 is NaN exactly for NaN/inf). */
+static int nonfinite(const aff_real *phi, aff_real y, long p)
+{
+    aff_real chk = y * (aff_real)0.0;
+    long i;
+    for (i = 0; i < p; i++)
+        chk += phi[i] * (aff_real)0.0;
+    return chk != 0;
+}
+
+aff_real aff_rls_update(aff_rls *r, const aff_real *phi, aff_real y)
+{
+    if (nonfinite(phi, y, r->p)) {
+        r->n_rejected++;
+        return NAN;
+    }
+    return aff_rls_step(r, phi, y);
+}
+
+long aff_rls_update_many(aff_rls *r, const aff_real *Phi, const aff_real *Y, long n, aff_real *hist)
+{
+    long p = r->p;
+    long k, i;
+    for (k = 0; k < n; k++) {
+        if (nonfinite(Phi + k * p, Y[k], p))
+            return k;
+    }
+    for (k = 0; k < n; k++) {
+        aff_rls_step(r, Phi + k * p, Y[k]);
+        for (i = 0; i < p; i++)
+            hist[k * p + i] = r->theta[i];
+    }
+    return -1;
+}
+
+aff_real aff_rls_P(const aff_rls *r, long i, long j)
+{
+    return r->P[i * r->p + j];
+}
+
+aff_real aff_rls_prior_variance(const aff_rls *r)
+{
+    return r->P_max / (aff_real)r->p;
+}

@@ -1,0 +1,72 @@
+/* aff_rls.h -- recursive least squares with forgetting (Ruderman eqs. 10-13), windup protection and projection.
+ *
+ * With phi the regressor and y the output (paper: X and w), per accepted sample
+ *   e = y - phi'theta,  s = lam + phi'P phi,  theta += P phi e/s,  P = (P - (P phi)(P phi)'/s)/lam
+ * in the symmetric rank-one form (P exactly symmetric: Ljung & Soderstrom, Theory and Practice of Recursive
+ * Identification, 1983, Sec. 2.2), with three forgetting schemes:
+ *   AFF_RLS_EXPONENTIAL  eqs. 10-13; an update whose trace(P) would exceed P_max forgets nothing;
+ *   AFF_RLS_DIRECTIONAL  information forgotten along phi only (Kulhavy, Automatica 23(5), 1987; Bittanti,
+ *                        Bolzern, Campi, Automatica 26(5), 1990), same trace bound;
+ *   AFF_RLS_VECTOR       one factor per parameter: P <- D.P (elementwise, D = d d', d = lam^-1/2) unless that
+ *                        exceeds P_max, then a unit-weight update (Saelid & Foss, IEEE CDC 1983).
+ * After an update theta is projected onto the box [lower, upper] in the metric of P^-1 (Goodwin & Sin,
+ * Adaptive Filtering, Prediction and Control, 1984, Sec. 3.3.7). A sample whose update would overflow is
+ * refused before the state changes. Python: adaptive_ff.identification.rls.RecursiveLeastSquares.
+ */
+#ifndef AFF_RLS_H
+#define AFF_RLS_H
+#include "aff_real.h"
+
+/* Most parameters an aff_rls holds (the Python wrapper refuses more with a ParameterError). */
+#define AFF_RLS_NMAX 16
+
+/* Forgetting schemes (field scheme). */
+enum { AFF_RLS_EXPONENTIAL = 0, AFF_RLS_DIRECTIONAL = 1, AFF_RLS_VECTOR = 2 };
+
+/* Configuration, then state. Units are those of phi and y (theta: y per unit of phi). Arrays hold p (p*p,
+ * row-major with row length p) valid entries at their start. */
+typedef struct aff_rls {
+    long p;                                      /* number of parameters, 1..AFF_RLS_NMAX */
+    int scheme;                                  /* AFF_RLS_EXPONENTIAL, _DIRECTIONAL or _VECTOR */
+    aff_real lam;                                /* forgetting factor in (0, 1] (1 for the vector scheme) */
+    aff_real P_max;                              /* bound on trace(P), > 0, INFINITY = none */
+    int has_bounds;                              /* 1: project theta onto [lower, upper] after each update */
+    aff_real lower[AFF_RLS_NMAX];                /* lower bounds of theta (-INFINITY allowed) */
+    aff_real upper[AFF_RLS_NMAX];                /* upper bounds of theta (INFINITY allowed) */
+    aff_real D[AFF_RLS_NMAX * AFF_RLS_NMAX];     /* vector scheme: inflation factors d_i*d_j (p*p) */
+    aff_real theta[AFF_RLS_NMAX];                /* estimate */
+    aff_real P[AFF_RLS_NMAX * AFF_RLS_NMAX];     /* covariance, p*p row-major, exactly symmetric */
+    aff_real v[AFF_RLS_NMAX];                    /* scratch: P phi of the last update */
+    long n_updates;                              /* accepted updates */
+    long n_projected;                            /* updates after which theta was projected onto the box */
+    long n_rejected;                             /* refused samples (non-finite, or an update that would overflow) */
+} aff_rls;
+
+/* Configure r with p parameters (1..AFF_RLS_NMAX), scheme, lam and P_max and clear it: theta = 0,
+ * P = P0*I (P0 > 0), no bounds (lower -inf, upper +inf), D = 1, counters 0. A caller with a full P0, theta0,
+ * bounds or vector factors writes the fields theta, P, lower/upper (has_bounds = 1) and D afterwards.
+ * Returns 0, or -1 (r untouched) for p outside 1..AFF_RLS_NMAX. Python: RecursiveLeastSquares.__init__. */
+int aff_rls_init(aff_rls *r, long p, int scheme, aff_real lam, aff_real P_max, aff_real P0);
+
+/* One update with the finite sample (phi[0..p-1], y) (unchecked: aff_rls_update checks); returns the a-priori
+ * error y - phi'theta (unit of y). An update that would overflow (e*e, phi'P phi or |P phi|^2 not finite) is
+ * refused before the state changes: n_rejected counts it and NAN is returned. Eqs. 10-13 and the schemes above. */
+aff_real aff_rls_step(aff_rls *r, const aff_real *phi, aff_real y);
+
+/* Checked update: NAN (state untouched but n_rejected) if y or an entry of phi[0..p-1] is NaN/inf, else
+ * aff_rls_step. Python: RecursiveLeastSquares.update. */
+aff_real aff_rls_update(aff_rls *r, const aff_real *phi, aff_real y);
+
+/* A stream of n samples: Phi (n*p, row-major), Y (n). Checks every sample first: returns the index of the first
+ * non-finite one with the state untouched; else updates row by row (aff_rls_step), writes theta after sample k
+ * into hist[k*p .. k*p+p-1] and returns -1. Python: RecursiveLeastSquares.update_many. */
+long aff_rls_update_many(aff_rls *r, const aff_real *Phi, const aff_real *Y, long n, aff_real *hist);
+
+/* Entry (i, j) of P (0 <= i, j < p; not checked). */
+aff_real aff_rls_P(const aff_rls *r, long i, long j);
+
+/* Prior variance per parameter, P_max/p (INFINITY for the unbounded eqs. 10-13): the scale against which the
+ * data's reduction of a diagonal entry of P is judged (adaptive_ff.compensation.adaptive_feedforward). */
+aff_real aff_rls_prior_variance(const aff_rls *r);
+
+#endif
