@@ -130,8 +130,39 @@ def _banner(name: str, what: str, source: str) -> str:
             f" * C sources of the adaptive-ff package{source}; do not edit: export again.\n */\n")
 
 
+_STATIC = re.compile(r"^static\b([^;=(\[{]*?)\b([A-Za-z_]\w*)\s*[(=\[;]", re.MULTILINE)
+
+
+def _static_names(text: str) -> set:
+    """The file-scope ``static`` functions and variables defined or declared in a C source."""
+    return {m.group(2) for m in _STATIC.finditer(text)}
+
+
+def _unique_statics(texts: dict) -> dict:
+    """The sources with every ``static`` name that more than one of them defines prefixed by its file's stem.
+
+    A ``static`` name is private to its file; in one amalgamated file two files' ``min2`` would collide.
+    ``texts``: file name -> text. Only whole identifiers are renamed (comments included, harmlessly).
+    """
+    seen: dict = {}
+    for name, text in texts.items():
+        for ident in _static_names(text):
+            seen.setdefault(ident, []).append(name)
+    out = {}
+    for name, text in texts.items():
+        stem = Path(name).stem
+        for ident in sorted(_static_names(text)):
+            if len(seen[ident]) > 1:
+                text = re.sub(rf"\b{ident}\b", f"{stem}_{ident}", text)
+        out[name] = text
+    return out
+
+
 def amalgamate(headers, sources, origin: str = "") -> tuple[str, str]:
     """The text of ``aff.h`` and ``aff.c``: the files concatenated, their quoted includes removed.
+
+    A ``static`` name defined by more than one source is prefixed by its file's stem in that file
+    (``min2`` of ``aff_feedforward.c`` becomes ``aff_feedforward_min2``): one file has one scope.
 
     Parameters
     ----------
@@ -150,8 +181,9 @@ def amalgamate(headers, sources, origin: str = "") -> tuple[str, str]:
         h.append(f"\n/* ==== {p.name} ==== */\n" + _strip_local_includes(p.read_text()))
     c = [_banner("aff.c", "the adaptive friction feedforward's C implementation (one file).", origin),
          '#include "aff.h"\n']
+    texts = _unique_statics({p.name: _strip_local_includes(p.read_text()) for p in sources})
     for p in sources:
-        c.append(f"\n/* ==== {p.name} ==== */\n" + _strip_local_includes(p.read_text()))
+        c.append(f"\n/* ==== {p.name} ==== */\n" + texts[p.name])
     return "".join(h), "".join(c)
 
 
