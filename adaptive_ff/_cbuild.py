@@ -14,8 +14,12 @@ CSRC = Path(__file__).resolve().parent / "csrc"
 
 #: Headers read by cffi, in dependency order.
 HEADERS = [
+    "aff_compensator.h",
     "aff_gate.h",
     "aff_rls.h",
+    "aff_regression.h",
+    "aff_velocity_input.h",
+    "aff_feedforward.h",
 ]
 
 

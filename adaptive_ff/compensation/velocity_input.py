@@ -5,17 +5,15 @@ every wrong-signed sample into a ``2*Fs`` torque error (see
 :class:`adaptive_ff.compensation.feedforward.FrictionFeedforward`, Notes). Two optional components give the map a
 better input there:
 
-* :class:`LoopModel`, the nominal (frictionless) velocity loop driven by the reference, and its kernel
-  :func:`loop_model_step`: the velocity used once the joint is detected as stuck;
-* :class:`SignObserver`, a velocity observer driven by the applied torque, and its kernels
-  :func:`signed_measurement` (the measurement with the observer's sign inside the stick band) and
-  :func:`sign_observer_step` (correction by the measurement, prediction with the torque): the sign of the map
-  before the joint counts as stuck.
+* :class:`LoopModel`, the nominal (frictionless) velocity loop driven by the reference: the velocity used once the
+  joint is detected as stuck;
+* :class:`SignObserver`, a velocity observer driven by the applied torque: the sign of the map inside the stick
+  band before the joint counts as stuck.
 
-The classes hold the settings; their configuration and state are slots of the feedforward's arrays
-(:mod:`adaptive_ff.compensation.ff_layout`), which the compiled kernels advance once per controller period, inside
-the fixed feedforward's (:mod:`adaptive_ff.compensation.feedforward`) and the adaptive feedforward's
-(:mod:`adaptive_ff.compensation.adaptive_feedforward`) kernels.
+The classes hold the settings. Their configuration and state are C structs embedded in the feedforward's
+(``adaptive_ff/csrc/aff_velocity_input.h``: ``aff_loop_model``, ``aff_sign_observer``), advanced once per
+controller period by C (``aff_loop_model_step``, ``aff_sign_observer_signed``, ``aff_sign_observer_step``) inside
+the feedforwards' compensate/observe (``adaptive_ff/csrc/aff_feedforward.c`` and the adaptive feedforwards).
 """
 
 from __future__ import annotations
@@ -23,12 +21,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from adaptive_ff.compensation.ff_layout import (P_BJ, P_KITC, P_KP, P_LM, P_LMA, P_OB, P_OBJ, P_OBL, P_OBZ, P_SBAND,
-                                                S_DW, S_IM, S_NM, S_OBN, S_UOUT, S_WCS, S_WH, S_WM, S_ZH)
 from plant.errors import ParameterError, check_nonnegative, check_positive
-from plant.jit import kernel
 
-__all__ = ["LoopModel", "SignObserver", "loop_model_step", "signed_measurement", "sign_observer_step"]
+__all__ = ["LoopModel", "SignObserver"]
 
 
 @dataclass(frozen=True)
@@ -94,6 +89,12 @@ class LoopModel:
         """The tracking bandwidth in use (rad/s): ``track``, or ``Kp/J`` when it is None."""
         return float(self.Kp) / float(self.J) if self.track is None else float(self.track)
 
+    def coefficients(self, dt: float) -> tuple:
+        """``(Kp, Ki*dt, dt/J, 1 - exp(-bandwidth*dt))`` at the period ``dt`` (s): the configuration of the C
+        ``aff_loop_model`` (``aff_loop_model_init``; one period: ``e = w_ref - w_m``, ``I += Ki*dt*e``,
+        ``w_m += dt/J*(Kp*e + I)``, the deviation tracked with the last gain, class Notes)."""
+        return (float(self.Kp), float(self.Ki) * dt, dt / float(self.J), 1.0 - math.exp(-self.bandwidth * dt))
+
 
 @dataclass(frozen=True)
 class SignObserver:
@@ -122,7 +123,7 @@ class SignObserver:
     own torque ``u_c`` (its friction estimate) and a constant residual ``d`` (the part of the friction the
     estimate misses, e.g. an asymmetry), sampled with a zero-order hold; ``z = d*Tc/J``. Per period ``Tc`` the
     a-priori estimate ``w_hat`` is used, then corrected by the controller's measurement ``w_c`` and predicted
-    (:func:`sign_observer_step`)::
+    (C: ``aff_sign_observer_step``)::
 
         e = w_c - w_hat;   w_hat += l1*e;   z_hat -= l2*e
         w_hat += Tc/J*(u - u_c) - z_hat
@@ -155,62 +156,3 @@ class SignObserver:
         rb = 0.1 * float(self.bandwidth) if self.residual_bandwidth is None else float(self.residual_bandwidth)
         p2 = math.exp(-rb * dt)
         return 1.0 - p1 * p2, (1.0 - p1) * (1.0 - p2)
-
-
-@kernel(inline="always")
-def loop_model_step(par, st, w0, w_ref):
-    """One period of the :class:`LoopModel` in ``(par, st)``: return the model velocity of this period (rad/s).
-
-    ``e = w_ref - w_m``, ``I += Ki*dt*e``, then ``w_m += dt/J*(Kp*e + I)`` (the PI of the loop on the
-    zero-order-hold joint ``1/(J s)``); the returned velocity is ``w_m + d`` with the tracked deviation
-    ``d += a*(w0 - w_m - d)`` (``a`` from the model's ``track``; a non-finite ``w0`` leaves ``d``). The model
-    starts at ``w0`` (the controller's measurement of this period; at the first call the model velocity, 0 if
-    not finite) with an empty integrator. Without a model (``par`` says none) ``w_ref`` is returned and nothing
-    changes.
-    """
-    if par[P_LM] == 0.0:
-        return w_ref
-    if st[S_NM] == 0.0:
-        st[S_WM] = w0 if math.isfinite(w0) else 0.0
-        st[S_IM] = 0.0
-        st[S_NM] = 1.0
-    wm = st[S_WM]
-    e = w_ref - wm
-    st[S_IM] += par[P_KITC] * e
-    st[S_WM] = wm + par[P_BJ] * (par[P_KP] * e + st[S_IM])
-    if par[P_LMA] > 0.0 and math.isfinite(w0):
-        st[S_DW] += par[P_LMA] * (w0 - wm - st[S_DW])
-    return wm + st[S_DW]
-
-
-@kernel(inline="always")
-def signed_measurement(par, st, w_ctrl):
-    """The measurement with the :class:`SignObserver`'s sign inside the stick band (unchanged without an observer,
-    outside the band or when not finite); records ``w_ctrl`` for :func:`sign_observer_step` and starts the observer
-    at the first measurement."""
-    if par[P_OB] == 0.0:
-        return w_ctrl
-    st[S_WCS] = w_ctrl
-    if st[S_OBN] == 0.0:
-        st[S_WH] = w_ctrl if math.isfinite(w_ctrl) else 0.0
-        st[S_OBN] = 1.0
-    if math.isfinite(w_ctrl) and -par[P_SBAND] < w_ctrl < par[P_SBAND]:
-        return math.copysign(abs(w_ctrl), st[S_WH])
-    return w_ctrl
-
-
-@kernel(inline="always")
-def sign_observer_step(par, st, u):
-    """Correct the :class:`SignObserver` estimate with this period's measurement and predict the next period with
-    the applied torque ``u`` (N·m) less the compensator's output of this period (nothing without an observer or
-    before its first measurement; a non-finite measurement or torque skips its part)."""
-    if par[P_OB] == 0.0 or st[S_OBN] == 0.0:
-        return
-    wc = st[S_WCS]
-    if math.isfinite(wc):
-        e = wc - st[S_WH]
-        st[S_WH] += par[P_OBL] * e
-        st[S_ZH] -= par[P_OBZ] * e
-    du = u - st[S_UOUT]
-    if math.isfinite(du):
-        st[S_WH] += par[P_OBJ] * du - st[S_ZH]

@@ -50,9 +50,9 @@ from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
+from adaptive_ff._caff import ffi, lib
 from plant.errors import ExcitationError, ParameterError, check_finite_scalar, check_positive, check_signal
 from plant.friction import JointParams, stribeck, stribeck_shape
-from plant.jit import kernel
 from plant.stribeck_map import stribeck_shape_scalar
 from plant.results import axes_or_new, json_safe
 
@@ -522,19 +522,13 @@ def nrmse_fit(y, y_hat) -> float:
     return float(100.0 * (1.0 - num / den)) if np.isfinite(num) else float("-inf")
 
 
-@kernel(inline="always")
-def _sgn(w):
-    """``np.sign`` for one float: 1, -1, 0 (also for -0.0), NaN for NaN."""
-    return 1.0 if w > 0.0 else (-1.0 if w < 0.0 else (0.0 if w == 0.0 else w))
-
-
-@kernel
-def eq4_phi(phi, u_k, u_km1, w_km1, w_km2, Vs, delta, lag, stribeck, offset):
-    """Compiled regressor ``phi(k)`` of eq. 4, written into ``phi``: :meth:`RegressionModel.phi` for kernels.
+def eq4_phi(phi, u_k, u_km1, w_km1, w_km2, Vs, delta, lag, stribeck, offset) -> int:
+    """Regressor ``phi(k)`` of eq. 4 written into ``phi`` by C (``adaptive_ff/csrc/aff_regression.c``,
+    ``aff_eq4_phi``): :meth:`RegressionModel.phi` as the C components compute it.
 
     Parameters
     ----------
-    phi : ndarray, shape (p,), float64
+    phi : ndarray, shape (>= p,), float64, C-contiguous
         Output, ``p`` as :attr:`RegressionModel.n_params` of the structure.
     u_k, u_km1 : float
         Torque ``u(k)``, ``u(k-1)`` (N·m).
@@ -550,45 +544,31 @@ def eq4_phi(phi, u_k, u_km1, w_km1, w_km2, Vs, delta, lag, stribeck, offset):
     int
         ``p``, the number of entries written.
 
+    Raises
+    ------
+    ParameterError
+        ``phi`` not a writable C-contiguous float64 array of at least 7 entries.
+
     Notes
     -----
     Ruderman eqs. 4-6: ``[w(k-1), -w(k-2), u(k), -u(k-1), -g(w(k-1)), -h(w(k-1)), -1]`` without the
-    absent columns; the same operations as :meth:`RegressionModel.phi`, both through the one compiled
-    Stribeck decay :func:`plant.stribeck_map.stribeck_shape_scalar` (the same bits).
+    absent columns; the same operations as :meth:`RegressionModel.phi`, both through the one Stribeck decay
+    (C ``plant_stribeck_shape``, Python :func:`plant.stribeck_map.stribeck_shape_scalar`: the same bits).
     """
-    j = 0
-    phi[j] = w_km1
-    j += 1
-    if lag:
-        phi[j] = -w_km2
-        j += 1
-    phi[j] = u_k
-    j += 1
-    if lag:
-        phi[j] = -u_km1
-        j += 1
-    s = _sgn(w_km1)
-    if stribeck:
-        e = stribeck_shape_scalar(w_km1, Vs, delta)
-        phi[j] = -(s * (1.0 - e))
-        phi[j + 1] = -(s * e)
-        j += 2
-    else:
-        phi[j] = -s
-        j += 1
-    if offset:
-        phi[j] = -1.0
-        j += 1
-    return j
+    if (not isinstance(phi, np.ndarray) or phi.dtype != np.float64 or phi.ndim != 1 or phi.shape[0] < 7
+            or not phi.flags.c_contiguous or not phi.flags.writeable):
+        raise ParameterError("phi must be a writable C-contiguous float64 array of at least 7 entries")
+    return int(lib.aff_eq4_phi(ffi.from_buffer("double[]", phi, require_writable=True), u_k, u_km1, w_km1, w_km2,
+                               Vs, delta, bool(lag), bool(stribeck), bool(offset)))
 
 
-@kernel
-def eq4_to_physical(theta, Ts, lag, stribeck, offset):
-    """Compiled inverse map of eq. 4: :meth:`RegressionModel.to_physical` for kernels.
+def eq4_to_physical(theta, Ts, lag, stribeck, offset) -> tuple:
+    """Inverse map of eq. 4 by C (``adaptive_ff/csrc/aff_regression.c``, ``aff_eq4_to_physical``):
+    :meth:`RegressionModel.to_physical` as the C components compute it.
 
     Parameters
     ----------
-    theta : ndarray, shape (p,), float64
+    theta : array_like, shape (p,)
         Regression parameters of the structure ``(lag, stribeck, offset)`` (order of
         :attr:`RegressionModel.names`).
     Ts : float
@@ -602,28 +582,17 @@ def eq4_to_physical(theta, Ts, lag, stribeck, offset):
         ``(J, tau, sigma, Fc, Fs, offset, J_alt)`` by the inverse map of the module docstring (same
         operations as :meth:`RegressionModel.to_physical`; ``±inf``/NaN where ``b0 == b1``, ``J_alt``
         NaN where ``b1 == 0``).
+
+    Raises
+    ------
+    ParameterError
+        ``theta`` of the wrong length for the structure.
     """
-    j = 0
-    a1 = theta[j]
-    j += 1
-    a2 = 0.0
-    if lag:
-        a2 = theta[j]
-        j += 1
-    b0 = theta[j]
-    j += 1
-    b1 = 0.0
-    if lag:
-        b1 = theta[j]
-        j += 1
-    c1 = theta[j]
-    j += 1
-    d1 = c1
-    if stribeck:
-        d1 = theta[j]
-        j += 1
-    o1 = theta[j] if offset else 0.0
-    gain = b0 - b1
-    inv = 1.0 / gain if gain != 0.0 else math.copysign(math.inf, gain)
-    J_alt = Ts * a2 / b1 if b1 != 0.0 else math.nan
-    return (Ts * (a1 - 2.0 * a2) * inv, Ts * b1 * inv, (1.0 - a1 + a2) * inv, c1 * inv, d1 * inv, o1 * inv, J_alt)
+    lag, stribeck, offset = bool(lag), bool(stribeck), bool(offset)
+    th = np.ascontiguousarray(theta, dtype=float).reshape(-1)
+    p = 3 + 2 * lag + stribeck + offset
+    if th.shape != (p,):
+        raise ParameterError(f"theta must have {p} entries for this structure, got shape {np.shape(theta)}")
+    out = ffi.new("aff_physical *")
+    lib.aff_eq4_to_physical(ffi.from_buffer("double[]", th), Ts, lag, stribeck, offset, out)
+    return (out.J, out.tau, out.sigma, out.Fc, out.Fs, out.offset, out.J_alt)

@@ -1,0 +1,60 @@
+/* aff_regression.c -- eq. 4's regressor and inverse map (see aff_regression.h). */
+#include "aff_regression.h"
+#include "plant_stribeck.h"
+
+/* sgn(w): 1, -1, 0 (also for -0.0), NaN for NaN (numpy's sign). */
+static aff_real sgn(aff_real w)
+{
+    return w > 0 ? (aff_real)1.0 : (w < 0 ? (aff_real)-1.0 : (w == 0 ? (aff_real)0.0 : w));
+}
+
+long aff_eq4_phi(aff_real *phi, aff_real u_k, aff_real u_km1, aff_real w_km1, aff_real w_km2, aff_real Vs,
+                 aff_real delta, int lag, int stribeck, int offset)
+{
+    long j = 0;
+    aff_real s;
+    phi[j++] = w_km1;
+    if (lag)
+        phi[j++] = -w_km2;
+    phi[j++] = u_k;
+    if (lag)
+        phi[j++] = -u_km1;
+    s = sgn(w_km1);
+    if (stribeck) {
+        aff_real e = plant_stribeck_shape(w_km1, Vs, delta);
+        phi[j] = -(s * ((aff_real)1.0 - e));
+        phi[j + 1] = -(s * e);
+        j += 2;
+    } else {
+        phi[j++] = -s;
+    }
+    if (offset)
+        phi[j++] = -1.0;
+    return j;
+}
+
+void aff_eq4_to_physical(const aff_real *theta, aff_real Ts, int lag, int stribeck, int offset, aff_physical *out)
+{
+    long j = 0;
+    aff_real a1, a2 = 0, b0, b1 = 0, c1, d1, o1, gain, inv;
+    a1 = theta[j++];
+    if (lag)
+        a2 = theta[j++];
+    b0 = theta[j++];
+    if (lag)
+        b1 = theta[j++];
+    c1 = theta[j++];
+    d1 = c1;
+    if (stribeck)
+        d1 = theta[j++];
+    o1 = offset ? theta[j] : (aff_real)0.0;
+    gain = b0 - b1;
+    inv = gain != 0 ? (aff_real)1.0 / gain : (aff_real)copysign(INFINITY, gain);
+    out->J = Ts * (a1 - (aff_real)2.0 * a2) * inv;
+    out->tau = Ts * b1 * inv;
+    out->sigma = ((aff_real)1.0 - a1 + a2) * inv;
+    out->Fc = c1 * inv;
+    out->Fs = d1 * inv;
+    out->offset = o1 * inv;
+    out->J_alt = b1 != 0 ? Ts * a2 / b1 : NAN;
+}
