@@ -1,0 +1,353 @@
+"""``adaptive-ff export-c``: the exported C library is the package's compensator.
+
+The proof: the export is compiled with the system C compiler alone (no Python headers, no package), a closed-loop
+log of 10^6 periods of the ``adaptive`` mode on the ``paper`` joint with measurement noise is replayed through
+it by a small C program (``aff_step``, ``aff_observe`` per period), and its feedforward sequence is compared
+with the package's (the same log through the package's compensator, built from the same identification:
+``aff_replay`` through cffi, itself checked against the Python methods ``compensate``/``observe``, and the
+feedforward the closed loop applied). Double: equal within 1e-12 of ``max|u_ff|``. Float (``-DAFF_FLOAT``):
+the deviation is measured and must stay within 1 % of the friction level ``Fc``
+(docs/benchmarks/export_c.md). Also: ``AFF_INITIAL`` is the package's struct byte for byte, the library
+references nothing but ``<math.h>`` functions and ``memmove``/``memset``/``memcpy``, ``make`` builds and runs
+the example in both precisions, a sanitizer build replays cleanly, and the command's errors.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from controllers.cli.main import main
+
+CC = shutil.which("cc") or shutil.which("gcc")
+needs_cc = pytest.mark.skipif(CC is None, reason="no C compiler (cc or gcc) on PATH")
+
+#: Periods of the replayed log (1000 s at 1 kHz).
+N = 10**6
+U_MAX = 150.0
+NOISE = 1e-3
+
+#: An ``identify --json`` output of the paper joint (J 4, Fc 25, Fs 35, sigma 40, tau 0.02, Vs 0.02, delta 1):
+#: the values ``adaptive-ff identify --Vs 0.02 --delta 1`` gave for a simulated 8 s log of it, method sliding.
+IDENTIFIED = {"J": 4.103424729656735, "Fc": 24.950807390864934, "Fs": 37.21688646402248,
+              "sigma": 40.130682711238826, "tau": 0.020772473265106176, "offset": 0.001036172817080081}
+ID_JSON = {"J": 10.0, "sigma": 36.7, "Fc": 26.1, "Fs": 9.96, "tau": 0.0, "offset": 0.0, "Vs": 0.02, "delta": 1.0,
+           "excitation": {"noise_std": NOISE, "n_reversals": 8, "low_speed_fraction": 0.05},
+           "warnings": [], "notes": [], "method": "sliding",
+           "physical": {"method": "sliding", "params": IDENTIFIED, "stderr": {}, "warnings": []}}
+
+#: The replay program: reads u, w, w_ref (float64, n each, one block after the other), writes u_ff (float64, n).
+REPLAY_C = r"""
+#include <stdio.h>
+#include <stdlib.h>
+#include "aff_config.h"
+
+int main(int argc, char **argv)
+{
+    FILE *f = fopen(argv[1], "rb");
+    long n, k;
+    double *buf, *uff;
+    static aff c;
+    if (!f || fseek(f, 0, SEEK_END) != 0) return 2;
+    n = ftell(f) / (3 * (long)sizeof(double));
+    if (argc > 3) { long m = atol(argv[3]); n = m < n ? m : n; }
+    rewind(f);
+    buf = malloc(3 * (size_t)n * sizeof(double));
+    uff = malloc((size_t)n * sizeof(double));
+    if (!buf || !uff || fread(buf, sizeof(double), 3 * (size_t)n, f) != 3 * (size_t)n) return 3;
+    fclose(f);
+    aff_init(&c, &AFF_INITIAL);
+    for (k = 0; k < n; k++) {
+        uff[k] = (double)aff_step(&c, (aff_real)buf[n + k], (aff_real)buf[2 * n + k]);
+        aff_observe(&c, (aff_real)buf[k], (aff_real)buf[n + k]);
+    }
+    f = fopen(argv[2], "wb");
+    if (!f || fwrite(uff, sizeof(double), (size_t)n, f) != (size_t)n) return 4;
+    fclose(f);
+    printf("%d %ld %ld\n", aff_active(&c), aff_n_updates(&c), aff_n_rejected(&c));
+    free(buf);
+    free(uff);
+    return 0;
+}
+"""
+
+#: Writes the bytes of AFF_INITIAL.
+DUMP_C = r"""
+#include <stdio.h>
+#include "aff_config.h"
+
+int main(int argc, char **argv)
+{
+    FILE *f = fopen(argv[1], "wb");
+    (void)argc;
+    return !(f && fwrite(&AFF_INITIAL, sizeof AFF_INITIAL, 1, f) == 1 && fclose(f) == 0);
+}
+"""
+
+WARN = ["-std=c99", "-O2", "-Wall", "-Wextra", "-pedantic", "-Werror", "-ffp-contract=off"]
+
+
+def _compile(src: Path, main_c: str, exe: Path, *flags: str) -> Path:
+    """Compile the export in ``src`` with ``main_c`` into ``exe``: the system compiler, no include path but the
+    export's folder, no Python header."""
+    (exe.parent / (exe.name + ".c")).write_text(main_c)
+    cmd = [CC, *WARN, *flags, f"-I{src}", str(src / "aff.c"), str(src / "aff_config.c"),
+           str(exe.parent / (exe.name + ".c")), "-o", str(exe), "-lm"]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    assert r.returncode == 0 and not r.stderr.strip(), f"{' '.join(cmd)}\n{r.stderr}"
+    return exe
+
+
+@pytest.fixture(scope="module")
+def id_file(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("id") / "id.json"
+    path.write_text(json.dumps(ID_JSON))
+    return path
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory, id_file) -> Path:
+    out = tmp_path_factory.mktemp("export") / "drive_ff"
+    assert main(["export-c", "--from", str(id_file), "--u-max", str(U_MAX), "--out", str(out), "--quiet"]) == 0
+    return out
+
+
+@pytest.fixture(scope="module")
+def package(id_file):
+    """A fresh compensator of the identification (the one the export holds) and its settings."""
+    from controllers.cli.export_c import compensator_from_file
+
+    return lambda: compensator_from_file(id_file, u_max=U_MAX)
+
+
+@pytest.fixture(scope="module")
+def log(package):
+    """10^6 periods of the adaptive mode on the paper joint, noise 1e-3 rad/s, no sensor gate (the loop's
+    measurement is the raw sample the compensator gets): (u, w_meas, w_ref, the applied u_ff)."""
+    from dataclasses import replace
+
+    from controllers.simulation.closed_loop import run_mode
+    from plant import preset
+    from plant.excitation import multisine_reference
+
+    _, s = package()
+    opts = replace(s["options"], noise_std=NOISE, decimate=1, sensor_gate=False)
+    ref = multisine_reference(N * opts.Tc, dt=opts.Tc, rng=np.random.default_rng(1))
+    r = run_mode(preset("paper"), ref, "adaptive", opts, rng=np.random.default_rng(2))
+    assert r.u.shape == (N,)
+    return r.u, r.w_meas, r.w_ref, r.u_ff
+
+
+@pytest.fixture(scope="module")
+def reference_ff(package, log):
+    """The package's feedforward sequence for the log: aff_replay of the package's C core (cffi)."""
+    from adaptive_ff._caff import ffi, lib
+
+    comp, _ = package()
+    u, w, wr, _ = (np.ascontiguousarray(x, dtype=np.float64) for x in log)
+    c = ffi.new("aff *")
+    lib.aff_init(c, comp.cdata)
+    uff = np.empty(N)
+    lib.aff_replay(c, ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", w),
+                   ffi.from_buffer("double[]", wr), ffi.from_buffer("double[]", uff), N)
+    return uff
+
+
+@pytest.fixture(scope="module")
+def log_file(tmp_path_factory, log) -> Path:
+    path = tmp_path_factory.mktemp("log") / "log.bin"
+    np.concatenate([np.asarray(x, dtype=np.float64) for x in log[:3]]).tofile(path)
+    return path
+
+
+def _replay(exported: Path, log_file: Path, tmp: Path, *flags: str, n: int | None = None) -> tuple:
+    exe = _compile(exported, REPLAY_C, tmp / ("replay" + "".join(f.replace("-", "_") for f in flags)), *flags)
+    out = tmp / (exe.name + ".out")
+    r = subprocess.run([str(exe), str(log_file), str(out)] + ([str(n)] if n else []), capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    return np.fromfile(out, dtype=np.float64), r.stdout.split()
+
+
+def test_package_replay_is_the_python_compensator_and_the_closed_loop(package, log, reference_ff):
+    u, w, wr, uff_loop = log
+    comp, _ = package()
+    k = 20_000  # 20 s: the switch-on and the fade-in
+    py = np.array([(comp.compensate(w[i], wr[i]), comp.observe(u[i], w[i]))[0] for i in range(k)])
+    np.testing.assert_array_equal(reference_ff[:k], py)
+    # the closed loop applied the same feedforward (the sensor gate off: the compensator saw the same samples)
+    np.testing.assert_array_equal(reference_ff, uff_loop)
+    assert comp.active and np.max(np.abs(reference_ff)) > IDENTIFIED["Fc"]  # the feedforward acted
+
+
+@needs_cc
+def test_exported_double_build_replays_the_package_feedforward(exported, log_file, reference_ff, tmp_path):
+    uff, (active, n_updates, _) = _replay(exported, log_file, tmp_path)
+    assert uff.shape == (N,) and active == "1" and int(n_updates) > 1000
+    rel = np.max(np.abs(uff - reference_ff)) / np.max(np.abs(reference_ff))
+    print(f"\nexported double build: max |u_ff - package| / max |u_ff| = {rel:.3g} over {N} periods")
+    assert rel <= 1e-12
+
+
+@needs_cc
+def test_exported_float_build_deviates_less_than_one_percent_of_the_friction_level(exported, log_file,
+                                                                                   reference_ff, tmp_path):
+    uff, (active, _, _) = _replay(exported, log_file, tmp_path, "-DAFF_FLOAT")
+    dev = np.abs(uff - reference_ff)
+    rel = float(np.max(dev)) / IDENTIFIED["Fc"]
+    print(f"\nexported float build (AFF_FLOAT): max |u_ff - package| = {np.max(dev):.4g} N·m = {100 * rel:.3g} % "
+          f"of Fc, RMS {np.sqrt(np.mean(dev ** 2)):.3g} N·m, over {N} periods")
+    assert active == "1" and rel <= 0.01
+
+
+@needs_cc
+def test_initial_struct_is_the_package_struct_byte_for_byte(exported, package, tmp_path):
+    from adaptive_ff._caff import ffi
+
+    exe = _compile(exported, DUMP_C, tmp_path / "dump")
+    subprocess.run([str(exe), str(tmp_path / "init.bin")], check=True, timeout=30)
+    comp, _ = package()
+    assert (tmp_path / "init.bin").read_bytes() == bytes(ffi.buffer(comp.cdata))
+
+
+@needs_cc
+def test_library_needs_only_the_math_library(exported, tmp_path):
+    text = (exported / "aff.h").read_text() + (exported / "aff.c").read_text()
+    includes = {line.split()[1] for line in text.splitlines() if line.lstrip().startswith("#include")}
+    assert includes <= {"<math.h>", "<string.h>", '"aff.h"'}, includes
+    for word in ("malloc", "free(", "printf", "FILE", "Python.h", "static aff_real s_", "errno"):
+        assert word not in text, word
+    nm = shutil.which("nm")
+    if nm is None:
+        pytest.skip("no nm to list the object's undefined symbols")
+    obj = tmp_path / "aff.o"
+    for flags in ([], ["-DAFF_FLOAT"]):
+        subprocess.run([CC, *WARN, *flags, "-c", str(exported / "aff.c"), "-o", str(obj)], check=True)
+        undefined = set(subprocess.run([nm, "-u", str(obj)], capture_output=True, text=True,
+                                       check=True).stdout.split()) - {"U"}
+        math_fns = {"exp", "pow", "sqrt", "fabs", "log", "expf", "powf", "sqrtf", "fabsf", "logf"}
+        assert undefined <= math_fns | {"memmove", "memcpy", "memset"}, undefined
+
+
+@needs_cc
+@pytest.mark.skipif(shutil.which("make") is None, reason="no make")
+@pytest.mark.parametrize("flt", ["0", "1"])
+def test_make_builds_the_library_and_runs_the_example(exported, tmp_path, flt):
+    work = tmp_path / "drive_ff"
+    shutil.copytree(exported, work)
+    r = subprocess.run(["make", "-C", str(work), f"FLOAT={flt}", "CFLAGS=-std=c99 -O2 -Wall -Wextra -pedantic "
+                        "-Werror", "run"], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stdout + r.stderr
+    build = work / "build" / ("float" if flt == "1" else "double")
+    assert (build / "libaff.a").is_file() and (build / "example_loop").is_file()
+    assert "warning" not in r.stderr
+    last = r.stdout.strip().splitlines()[-1]
+    assert last.startswith("after 60 s: feedforward on,"), last  # the stub joint taught it the friction
+
+
+@needs_cc
+def test_sanitizer_replay_is_clean(exported, log_file, reference_ff, tmp_path):
+    probe = subprocess.run([CC, "-fsanitize=address,undefined", "-x", "c", "-", "-o", str(tmp_path / "p")],
+                           input="int main(void){return 0;}", capture_output=True, text=True)
+    if probe.returncode != 0:
+        pytest.skip("the compiler has no address/undefined sanitizer runtime")
+    n = 50_000
+    uff, _ = _replay(exported, log_file, tmp_path, "-fsanitize=address,undefined", "-fno-sanitize-recover=all",
+                     "-g", n=n)
+    assert np.max(np.abs(uff - reference_ff[:n])) <= 1e-12 * np.max(np.abs(reference_ff[:n]))
+
+
+def test_exported_files_and_configuration(exported, package):
+    comp, s = package()
+    assert sorted(p.name for p in exported.iterdir()) == sorted(
+        ["aff.h", "aff.c", "aff_config.h", "aff_config.c", "example_loop.c", "Makefile"])
+    cfg = (exported / "aff_config.h").read_text()
+    for macro, value in (("AFF_VS", 0.02), ("AFF_DELTA", 1.0), ("AFF_J_DESIGN", IDENTIFIED["J"]),
+                         ("AFF_U_MAX", U_MAX), ("AFF_FF_MAX", U_MAX / 2), ("AFF_TC", 1e-3), ("AFF_TS", 0.01),
+                         ("AFF_KP", s["Kp"]), ("AFF_KI", s["Ki"])):
+        line = next(x for x in cfg.splitlines() if x.startswith(f"#define {macro} "))
+        assert float(line.split()[2]) == value, line
+    init = (exported / "aff_config.c").read_text()
+    assert ".dt = AFF_TC," in init and ".ff_max = AFF_FF_MAX," in init and ".Vs = AFF_VS," in init
+    assert "export again" in init or "new export" in init
+    # the headers and sources are those #include reaches from aff_drive.h, each once, dependencies first
+    h = (exported / "aff.h").read_text()
+    order = [line.split()[2] for line in h.splitlines() if line.startswith("/* ==== ")]
+    assert order[0] == "aff_real.h" and order[-1] == "aff_drive.h" and len(order) == len(set(order))
+    assert order.index("aff_rls.h") < order.index("aff_sliding.h") < order.index("aff_robust_ff.h")
+
+
+def test_json_output_lists_the_files(id_file, tmp_path, capsys):
+    out = tmp_path / "x"
+    assert main(["export-c", "--from", str(id_file), "--u-max", "100", "--out", str(out), "--json",
+                 "--Kp", "50", "--Ki", "1000", "--float", "--start"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert [Path(p).name for p in d["files"]] == ["aff.h", "aff.c", "aff_config.h", "aff_config.c",
+                                                  "example_loop.c", "Makefile"]
+    assert d["config"]["AFF_KP"] == 50.0 and d["config"]["AFF_START_FC"] == IDENTIFIED["Fc"]
+    assert d["float_default"] and "FLOAT ?= 1" in (out / "Makefile").read_text()
+    assert "aff_drive.c" in d["sources"] and "aff_robust_ff.c" in d["sources"]
+
+
+def _err(capsys) -> str:
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    return err
+
+
+def test_errors_name_the_file_and_the_key(id_file, tmp_path, capsys):
+    out = str(tmp_path / "o")
+    base = ["export-c", "--u-max", "100", "--out", out]
+    assert main(base + ["--from", str(tmp_path / "missing.json")]) == 2
+    assert "missing.json" in _err(capsys)
+    bad = tmp_path / "bad.json"
+    bad.write_text("{\"J\": 4,")
+    assert main(base + ["--from", str(bad)]) == 2
+    assert f"{bad}: " in _err(capsys)
+    no_vs = tmp_path / "no_vs.json"
+    no_vs.write_text(json.dumps({k: v for k, v in ID_JSON.items() if k != "Vs"}))
+    assert main(base + ["--from", str(no_vs)]) == 2
+    assert f"{no_vs}: no 'Vs'" in _err(capsys)
+    text_vs = tmp_path / "text_vs.json"
+    text_vs.write_text(json.dumps({**ID_JSON, "delta": "one"}))
+    assert main(base + ["--from", str(text_vs)]) == 2
+    assert "'delta' must be a finite number, got 'one'" in _err(capsys)
+    assert main(base + ["--from", str(id_file), "--Kp", "5"]) == 2
+    assert "--Kp and --Ki" in _err(capsys)
+    assert main(["export-c", "--from", str(id_file), "--u-max", "0", "--out", out]) == 2
+    assert "--u-max must be a finite torque > 0" in _err(capsys)
+    assert main(base + ["--from", str(id_file), "--Ts", "0.0015"]) == 2
+    assert "Ts" in _err(capsys)
+    assert not (tmp_path / "o").exists()  # nothing written on an error
+
+
+def test_non_empty_folder_needs_force_and_warnings_refuse(id_file, tmp_path, capsys):
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "mine.txt").write_text("keep")
+    args = ["export-c", "--from", str(id_file), "--u-max", "100", "--out", str(out), "--quiet"]
+    assert main(args) == 2
+    err = _err(capsys)
+    assert f"--out {out}: the folder exists and is not empty" in err and "--force" in err
+    assert main(args + ["--force"]) == 0
+    assert (out / "mine.txt").read_text() == "keep" and (out / "aff.c").is_file()
+    warned = tmp_path / "warned.json"
+    warned.write_text(json.dumps({**ID_JSON, "warnings": [{"code": "implausible", "parameter": "J",
+                                                          "message": "J below the plausible range"}]}))
+    args = ["export-c", "--from", str(warned), "--u-max", "100", "--out", str(tmp_path / "w"), "--quiet"]
+    assert main(args) == 3
+    assert "refused" in _err(capsys)
+    assert main(args + ["--accept-warnings"]) == 0
+
+
+def test_no_traceback_in_a_subprocess(tmp_path):
+    r = subprocess.run([sys.executable, "-c", "import sys; from controllers.cli import main; sys.exit(main())",
+                        "export-c", "--from", str(tmp_path / "nope.json"), "--u-max", "1", "--out", str(tmp_path)],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "Traceback" not in r.stderr and "nope.json" in r.stderr
