@@ -1,14 +1,20 @@
 """Performance table: the closed loop against python-control's input_output_response, RLS, batch, memory, compare.
 
-Run:  python benchmarks/perf.py [--seconds 20] [--repeat 5] [--quick] [--compare-only]
+Run:  python benchmarks/perf.py [--seconds 20] [--repeat 5] [--quick] [--compare-only] [--fresh-install]
 
 Prints median timings measured side by side in one run (µs per 1 kHz step of
-the compiled engine, µs per RLS update, µs per scenario-step of the batch
-engine for every mode and plant model, s per compare and per ``--help``), the
-peak memory of a simulated hour, and the speed-up over python-control.
-python-control simulates the same loop (RK4 lagged-Stribeck plant, discrete PI
-with saturation, no feedforward, no RLS) as a discrete ``nlsys``
-interconnection. Memory and compare timings run in fresh processes.
+the C engine, µs per RLS update, µs per scenario-step of the batch engine for
+every mode and plant model, the C compensator alone, s per compare and per
+``--help``), the peak memory of a simulated hour, and the speed-up over
+python-control (targets: at least 2500x for mode ``none``, 1200x for
+``adaptive``). python-control simulates the same loop (RK4 lagged-Stribeck
+plant, discrete PI with saturation, no feedforward, no RLS) as a discrete
+``nlsys`` interconnection. Memory and compare timings run in fresh processes.
+
+``--fresh-install`` (about a minute; alone or with the other rows) makes a new
+virtual environment, times ``pip install -e .`` of this tree (with the C build),
+the C build alone, and the first ``adaptive-ff compare`` in it (targets: install
+plus first compare <= 60 s on the 2-core CI machine, the first compare <= 10 s).
 """
 
 from __future__ import annotations
@@ -37,6 +43,10 @@ from plant.friction import preset
 from plant.joint import make_rk4_step
 
 U_MAX = 150.0
+#: Speed targets: the warm engine's µs per step against python-control's on the same loop (mode: at least this ratio).
+RATIO_TARGET = {"none": 2500, "adaptive": 1200}
+#: Targets of an install from an empty environment (s): pip install -e . plus the first compare, the compare alone.
+FRESH_TARGET, FIRST_COMPARE_TARGET = 60.0, 10.0
 
 
 def python_control_loop(p, design, u_max):
@@ -85,7 +95,7 @@ p = preset("paper")
 d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
 small = multisine_reference(1.0, rng=np.random.default_rng(0))
 o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta)
-run_mode(p, small, "adaptive", o)  # load kernel
+run_mode(p, small, "adaptive", o)  # warm-up
 def status(key):  # kB -> MB, Linux /proc
     with open("/proc/self/status") as fh:
         return next(int(l.split()[1]) for l in fh if l.startswith(key)) / 1024
@@ -141,7 +151,8 @@ def cpu(who=resource.RUSAGE_SELF):
 out, last = {}, [time.perf_counter(), cpu()]
 def mark(name):
     t, c = time.perf_counter(), cpu(); out[name] = (t - last[0], c - last[1]); last[:] = [t, c]
-import numpy, numba; mark("numpy, numba")
+import numpy; mark("numpy")
+import plant._cplant, adaptive_ff._caff, controllers._cctl; mark("the C core (three extension modules, cffi)")
 import scipy.optimize; mark("scipy.optimize")
 import scipy.signal; mark("scipy.signal (imports scipy.stats)")
 from controllers.experiments.compare import compare
@@ -152,7 +163,7 @@ from controllers.report.figures import plot_comparison
 import matplotlib.backends.backend_agg; mark("matplotlib Agg, figures module")
 from controllers.design.pi import design_pi
 design_pi(4.0, crossover=20.0, phase_margin=60.0, Tc=1e-3); mark("first design_pi")
-comp = compare(preset("paper"), progress=False); mark("compare(), first (numba init, cached kernels)")
+comp = compare(preset("paper"), progress=False); mark("compare(), first")
 comp = compare(preset("paper"), progress=False); mark("compare(), second")
 with tempfile.TemporaryDirectory() as d:
     c0 = cpu(resource.RUSAGE_CHILDREN)
@@ -163,7 +174,7 @@ print(json.dumps(out))
 """
 
 def _compare_rows(repeat):
-    """Warm ``adaptive-ff compare`` (numba cache present): median wall of ``repeat`` runs beside the target, phases.
+    """Warm ``adaptive-ff compare``: median wall of ``repeat`` runs beside the target, phases.
 
     Without and with figures, run alternately so that both see the same machine load; targets: 2 s without
     figures, 4 s with them (drawn one after the other in the command's one process).
@@ -172,7 +183,7 @@ def _compare_rows(repeat):
     cases = (("  --no-figures", ["--no-figures", "--quiet"], 2.0),
              ("  with figures (5 PNG)", ["--quiet"], 4.0))
     for _, cli, _ in cases:
-        _cli(cli)  # warm: numba cache, matplotlib font cache, page cache
+        _cli(cli)  # warm: matplotlib font cache, page cache
     runs = {label: [] for label, _, _ in cases}
     for _ in range(repeat):
         for label, cli, _ in cases:
@@ -209,7 +220,7 @@ def _batch_rows(p, design, B, args):
         cases.append((f"run_batch none, B={B}, {name} plants", [variant(name)] * B, "none"))
         cases.append((f"run_batch adaptive, B={B}, {name} plants", [variant(name)] * B, "adaptive"))
     for label, ps, mode in cases:
-        run_batch(ps[:2], bref, mode, o)  # load the kernel
+        run_batch(ps[:2], bref, mode, o)  # warm-up
         c0 = time.process_time()
         reps = max(1, args.repeat // 2)
         t_b, b_b = timed(lambda ps=ps, mode=mode: run_batch(ps, bref, mode, o), reps)
@@ -224,25 +235,25 @@ def _batch_rows(p, design, B, args):
 
 
 def _serial_part(call, reps: int) -> tuple:
-    """Median and least CPU time (s) of the calling thread in ``call()`` outside the compiled engine (packing the
-    scenarios before, results after): ``time.thread_time`` of the call minus that of its ``run_engine``."""
-    import controllers.simulation.batch as bm
+    """Median and least CPU time (s) of the calling thread in ``call()`` outside the C engine (packing the
+    scenarios before, results after): ``time.thread_time`` of the call minus that of its ``EngineRun.run``."""
+    from controllers.simulation.engine import EngineRun
 
-    run, spent, serial = bm.run_engine, [], []
+    run, spent, serial = EngineRun.run, [], []
 
-    def timed(x):
+    def timed(self):
         t0 = time.thread_time()
-        run(x)
+        run(self)
         spent.append(time.thread_time() - t0)
 
-    bm.run_engine = timed
+    EngineRun.run = timed
     try:
         for _ in range(max(reps, 3)):
             t0 = time.thread_time()
             call()
             serial.append(time.thread_time() - t0 - spent[-1])
     finally:
-        bm.run_engine = run
+        EngineRun.run = run
     return float(np.median(serial)), min(serial)
 
 
@@ -261,7 +272,7 @@ def _stiff_rows(args):
         for mode in ("none", "dob"):
             run = (lambda p=p, o=o, mode=mode: run_mode(p, ref, mode, o, rng=np.random.default_rng(1)))
             run_mode(p, multisine_reference(0.5, rng=np.random.default_rng(0)), mode, o,
-                     rng=np.random.default_rng(1))  # load the kernel
+                     rng=np.random.default_rng(1))  # warm-up
             med, best = timed(run, 1)
             rows.append((f"stiff LuGre J={J}, sigma0=1e8, {mode}, {seconds:g} s run (<= 10 s per 120 s)", med, "s",
                          best))
@@ -312,6 +323,75 @@ def _own_loop_rows(p, design, args):
     return rows
 
 
+def _c_compensator_rows(args):
+    """The C compensator alone, outside Python: ns per ``aff_step`` + ``aff_observe`` (and CPU cycles where the
+    platform gives them) against a budget of 1 µs on a 1 kHz drive and 31 µs on a 32 kHz one (its whole period).
+
+    The rows come from ``benchmarks/export_c.py`` (beside this file; the compensator as ``adaptive-ff export-c``
+    exports it): its ``perf_rows(quick)`` returns rows in this table's format, ``(what, value, unit[, fastest])``.
+    Without that script: one row saying so.
+    """
+    import importlib
+    import importlib.util
+
+    if importlib.util.find_spec("export_c") is None:  # sys.path[0] is benchmarks/ when run as a script
+        return [("C compensator alone (aff_step + aff_observe): benchmarks/export_c.py not present", None, "")]
+    return list(importlib.import_module("export_c").perf_rows(quick=args.quick))
+
+
+def _fresh_install_rows():
+    """Install from an empty environment: a new virtual environment in a temporary folder, ``pip install -e``
+    of this tree (the C build included), the C build alone, and the first ``adaptive-ff compare`` (with its
+    figures, as the README's first command runs it). Wall and CPU time (s, CPU of the child processes).
+
+    HOME, XDG_CACHE_HOME and MPLCONFIGDIR point at empty folders (matplotlib's font cache is built by the first
+    compare, as on a new machine); pip's download cache stays where it is (as in ``.ci/run``: it changes which
+    bytes are downloaded, not what is installed or built).
+    """
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    pip_cache = subprocess.run([sys.executable, "-m", "pip", "cache", "dir"], capture_output=True,
+                               text=True).stdout.strip()
+    with tempfile.TemporaryDirectory(prefix="adaptive-ff-fresh-") as tmp:
+        env = dict(os.environ, HOME=os.path.join(tmp, "home"), XDG_CACHE_HOME=os.path.join(tmp, "cache"),
+                   MPLCONFIGDIR=os.path.join(tmp, "mpl"), MPLBACKEND="Agg")
+        if pip_cache:
+            env["PIP_CACHE_DIR"] = pip_cache
+        env.pop("PYTHONPATH", None)
+        env.pop("VIRTUAL_ENV", None)
+        for d in ("home", "cache", "mpl", "work"):
+            os.makedirs(os.path.join(tmp, d))
+        venv = os.path.join(tmp, "venv")
+        subprocess.run([sys.executable, "-m", "venv", venv], check=True)
+        bindir = os.path.join(venv, "Scripts" if os.name == "nt" else "bin")
+        py = os.path.join(bindir, "python")
+
+        def run(cmd, cwd):
+            r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+            t0 = time.perf_counter()
+            subprocess.run(cmd, cwd=cwd, env=env, check=True, stdout=subprocess.DEVNULL)
+            wall = time.perf_counter() - t0
+            r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+            return wall, (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+
+        install = run([py, "-m", "pip", "install", "-q", "-e", root], tmp)
+        first = run([os.path.join(bindir, "adaptive-ff"), "compare", "--quiet"], os.path.join(tmp, "work"))
+        # the C build alone, into this temporary folder (the tree's in-place modules stay as they are)
+        subprocess.run([py, "-m", "pip", "install", "-q", "setuptools>=77"], env=env, check=True,
+                       stdout=subprocess.DEVNULL)
+        build = run([py, "setup.py", "-q", "build_ext", "--force", "--build-lib", os.path.join(tmp, "lib"),
+                     "--build-temp", os.path.join(tmp, "obj")], root)
+    total = install[0] + first[0]
+    return [
+        ("install + first compare from an empty environment (wall | CPU):", None, ""),
+        (f"  pip install -e . and the first adaptive-ff compare; target <= {FRESH_TARGET:g} s "
+         f"{'met' if total <= FRESH_TARGET else 'NOT met'}", total, "s", install[1] + first[1]),
+        ("  pip install -e . (dependencies from pip's cache, the C build)", install[0], "s", install[1]),
+        ("  the C build alone, once more (setup.py build_ext --force)", build[0], "s", build[1]),
+        (f"  first adaptive-ff compare (with figures); target <= {FIRST_COMPARE_TARGET:g} s "
+         f"{'met' if first[0] <= FIRST_COMPARE_TARGET else 'NOT met'}", first[0], "s", first[1]),
+    ]
+
+
 def _help_wall():
     """Wall time (s) of ``adaptive-ff --help`` in a fresh process (second run)."""
     exe = os.path.join(os.path.dirname(sys.executable), "adaptive-ff")
@@ -330,7 +410,7 @@ def _py(script, *args, env=None):
 
 
 def _print_rows(rows):
-    print(f"{'what':<72}{'median':>10}{'fastest':>10}  unit   (compare rows: wall, CPU)")
+    print(f"{'what':<72}{'median':>10}{'fastest':>10}  unit   (compare, install rows: wall, CPU)")
     print("-" * 102)
     for what, val, unit, *best in rows:
         if val is None:  # a heading
@@ -345,18 +425,23 @@ def main(argv=None) -> int:
     ap.add_argument("--seconds", type=float, default=20.0, help="simulated time per closed-loop run (s)")
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--hours", type=float, default=1.0, help="simulated time of the memory run (h)")
-    ap.add_argument("--quick", action="store_true", help="short runs (5 s, 3 repeats, 0.1 h, B=200), no cold compile")
+    ap.add_argument("--quick", action="store_true", help="short runs (5 s, 3 repeats, 0.1 h, B=200)")
     ap.add_argument("--compare-only", action="store_true",
                     help="only the warm adaptive-ff compare rows (median wall beside the targets, phases)")
     ap.add_argument("--only", choices=("batch",),
                     help="only the run_batch rows (batch: µs per scenario-step of every batch row, B=1000)")
+    ap.add_argument("--fresh-install", action="store_true",
+                    help="also (alone with --compare-only or --only) the install + first compare from an empty "
+                         "environment: a new venv, pip install -e . with the C build, then adaptive-ff compare "
+                         "(about a minute)")
     args = ap.parse_args(argv)
+    fresh = _fresh_install_rows() if args.fresh_install else []
     if args.compare_only:
-        _print_rows(_compare_rows(args.repeat))
+        _print_rows(fresh + _compare_rows(args.repeat))
         return 0
     if args.only == "batch":
         p = preset("paper")
-        _print_rows(_batch_rows(p, design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3), 1000, args))
+        _print_rows(fresh + _batch_rows(p, design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3), 1000, args))
         return 0
     if args.quick:
         args.seconds, args.repeat, args.hours = min(args.seconds, 5.0), min(args.repeat, 3), min(args.hours, 0.1)
@@ -384,11 +469,11 @@ def main(argv=None) -> int:
     for label, mode, o in (("none", "none", base), ("adaptive", "adaptive", adaptive)):
         def run(mode=mode, o=o):
             return run_mode(p, ref, mode, o, rng=np.random.default_rng(1))
-        run()  # load the compiled kernel (cache) before timing
+        run()  # warm-up before timing
         med, best = timed(run, args.repeat)
         us[label] = med / n * 1e6
         extra = " (noise 1e-3)" if label == "adaptive" else ""
-        rows.append((f"run_mode {label}{extra}, compiled engine (target <= {0.2 if label == 'none' else 0.3})",
+        rows.append((f"run_mode {label}{extra}, C engine (ratio to python-control >= {RATIO_TARGET[label]}x)",
                      us[label], "µs/step", best / n * 1e6))
 
     rls = RecursiveLeastSquares(7, lam=0.995)
@@ -414,6 +499,7 @@ def main(argv=None) -> int:
     rows += _batch_rows(p, design, B, args)
     rows += _stiff_rows(args)
     rows += _own_loop_rows(p, design, args)
+    rows += _c_compensator_rows(args)
 
     mem = json.loads(_py(_MEMORY_SCRIPT, args.hours, 0))
     mem_dec = json.loads(_py(_MEMORY_SCRIPT, args.hours, 1000))
@@ -431,20 +517,19 @@ def main(argv=None) -> int:
     imp, first, warm, cimp, cfirst, cwarm = (float(x) for x in _py(_COMPARE_SCRIPT).split())
     cold = time.perf_counter() - cold_t0 - warm
     rows.append(("compare(), paper preset, 120 s, all modes (warm), wall | CPU", warm, "s", cwarm))
-    rows.append(("  first compare() in a fresh process (numba cache loaded)", first, "s", cfirst))
+    rows.append(("  first compare() in a fresh process", first, "s", cfirst))
     rows.append(("  imports of controllers.experiments.compare in that process", imp, "s", cimp))
     rows.append(("  first compare() incl. interpreter start and imports (cold)", cold, "s"))
-    if not args.quick:
-        with tempfile.TemporaryDirectory() as cache:
-            env = dict(os.environ, NUMBA_CACHE_DIR=cache)
-            _, first_nc, _, _, cfirst_nc, _ = (float(x) for x in _py(_COMPARE_SCRIPT, env=env).split())
-            rows.append(("  first compare() with an empty numba cache (compiles)", first_nc, "s", cfirst_nc))
     rows.append(("adaptive-ff --help, fresh process (target <= 0.5)", _help_wall(), "s"))
     rows += _compare_rows(3 if args.quick else 5)
+    rows += fresh
 
     _print_rows(rows)
-    print(f"\nspeed-up over python-control: run_mode none {us_pc / us['none']:.0f}x, "
-          f"adaptive (with RLS, noise) {us_pc / us['adaptive']:.0f}x")
+    ratio = {k: us_pc / v for k, v in us.items()}
+    verdict = {k: "met" if ratio[k] >= RATIO_TARGET[k] else "NOT met" for k in ratio}
+    print(f"\nspeed-up over python-control: run_mode none {ratio['none']:.0f}x (target >= {RATIO_TARGET['none']}x: "
+          f"{verdict['none']}), adaptive (with RLS, noise) {ratio['adaptive']:.0f}x (target >= "
+          f"{RATIO_TARGET['adaptive']}x: {verdict['adaptive']})")
     print(f"max |w| difference to python-control: {agree_first:.1e} rad/s over the first 0.2 s, {agree:.1e} over the "
           "run (the python-control model's PI has no anti-windup clamp; differences grow where the velocity "
           "chatters around zero)")

@@ -12,7 +12,7 @@ mode, the single-run engine, seed ``--seed``): eta per mode, diverged runs, wall
 
 Part 2 runs mode ``none`` for ``--duration`` s on the stiffest corners of the zoo box (J = 0.01 kg·m², Vs = 1e-3
 rad/s, Fs/Fc = 4, delta = -0.05: a rising map whose steepest slope is ~1e17 times 1/dt, tau = 0 and 1e-3 s, each
-lagged model) and prints the wall time of the run (after a warm-up run that compiles).
+lagged model) and prints the wall time of the run (after a short warm-up run).
 """
 
 from __future__ import annotations
@@ -76,7 +76,7 @@ def _corners(args) -> None:
                    KarnoppParams(J=J, Fc=Fc, Fs=4 * Fc, Vs=Vs, delta=delta, sigma=0.01, tau=tau, dv=0.05 * Vs)]
     d = design_pi(J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
     o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=10.0, noise_std=1e-3)
-    run_mode(plants[0], multisine_reference(1.0, rng=np.random.default_rng(0)), "none", o, rng=np.random.default_rng(0))  # compile
+    run_mode(plants[0], multisine_reference(1.0, rng=np.random.default_rng(0)), "none", o, rng=np.random.default_rng(0))  # warm-up
     print(f"\n## stiffest corners, mode none, {args.duration:g} s (wall, this machine)")
     for p in plants:
         rate = plant_params(p)[PLANT_SLOTS["rate"]] * 1e-3

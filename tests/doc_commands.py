@@ -333,7 +333,7 @@ def update_page(path: Path) -> int:
 # --- which digits are stable ------------------------------------------------------------------------------
 #
 # The outputs are deterministic (seeded) on one machine, but not bit for bit across CPUs and numpy,
-# scipy, numba or BLAS versions: sums, matrix products and library solvers round differently in the
+# scipy, C compiler, libm or BLAS versions: sums, matrix products and library solvers round differently in the
 # last bits. Where the simulated joint sticks and slips, such a difference decides whether a velocity
 # reversal breaks away a period earlier or later, and the run goes its own way from there: the rows of
 # a `compare` table whose compensation leaves stick-slip (none, fixed, canudas). The README once quoted

@@ -102,7 +102,8 @@ def test_divergence_matches_run_closed_loop():
 
 @pytest.mark.parametrize("mode", ["none", "fixed", "adaptive", "dob"])
 def test_parallel_chunks_equal_single_runs_bit_for_bit(mode):
-    """B = 21 spans several chunks (the prange kernel with >= 2 numba threads); each scenario equals its own run."""
+    """B = 21 spans several chunks (on >= 2 engine threads where the machine has them); each scenario equals its own
+    run."""
     rng = np.random.default_rng(8)
     ref = multisine_reference(1.0, f_min=0.5, rng=rng)
     plants = _plants(rng, 21)

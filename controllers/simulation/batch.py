@@ -1,9 +1,9 @@
-"""Batches of closed-loop scenarios on the compiled engine: every mode on every plant model, metrics streamed.
+"""Batches of closed-loop scenarios on the C engine: every mode on every plant model, metrics streamed.
 
 :func:`run_batch` runs B scenarios (one plant each, a common reference) in one
 call of the engine that also runs single runs
 (:mod:`controllers.simulation.engine`), in parallel over chunks of scenarios
-on all numba threads. Memory is O(B) apart from optional noise arrays; no
+on threads (:func:`controllers.simulation.engine.engine_threads`). Memory is O(B) apart from optional noise arrays; no
 signals are recorded.
 """
 
@@ -16,13 +16,12 @@ import numpy as np
 
 from adaptive_ff.compensation.gate import OutlierGate
 from controllers.simulation.closed_loop import plant_table
-from controllers.simulation.compensators import MODES, ModeOptions, build_modes
-from controllers.simulation.engine import EngineInputs, engine_outcome, engine_state, metrics_state, run_engine
+from controllers.simulation.compensators import MODES, ModeOptions, TrueFriction, build_modes
+from controllers.simulation.engine import EngineRun
 from controllers.simulation.metrics import METRIC_NAMES, metrics_columns, reversal_times
 from plant.errors import ParameterError
 from plant.excitation import Reference
-from plant.rows import (PLANT_NPAR, PLANT_NSTATE, check_integrable, integrable_rows, plant_rows, plant_state,
-                        plant_states)
+from plant.rows import check_integrable, integrable_rows, plant_rows, plant_state, plant_states
 from plant.results import json_safe
 
 __all__ = ["BATCH_MODES", "BatchResult", "run_batch"]
@@ -102,34 +101,6 @@ def _noise(noise, seeds, opts, B: int, n: int) -> tuple:
     return np.zeros((1, 1)), 0
 
 
-#: Placeholder parameters/state of a scenario without compensator (only copied into the stacked arrays).
-_NONE = np.zeros(1)
-
-
-def _stack(arrays, width=None) -> np.ndarray:
-    arrays = list(arrays)
-    if all(a is _NONE for a in arrays):  # no compensator in any scenario
-        return np.zeros((len(arrays), 1 if width is None else width))
-    width = max(a.shape[-1] for a in arrays) if width is None else width
-    out = np.zeros((len(arrays), width))
-    for b, a in enumerate(arrays):
-        out[b, :a.shape[-1]] = a
-    return out
-
-
-def _per_scenario(objs, name: str) -> np.ndarray:
-    """``np.stack([getattr(o, name) for o in objs])``, stacking each distinct object once."""
-    uniq, idx = _unique(objs)
-    return np.stack([getattr(o, name) for o in uniq])[idx]
-
-
-def _rows(arrays, gates, default) -> np.ndarray:
-    """``np.stack(arrays)``; without any gate the rows are all ``default``: one broadcast copy."""
-    if all(g is None for g in gates):
-        return np.repeat(default[None, :], len(gates), axis=0)
-    return np.stack(list(arrays))
-
-
 def _unique(objs) -> tuple:
     """The distinct objects of ``objs`` (by identity, first-seen order) and the index of each entry among them."""
     first, uniq, idx = {}, [], []
@@ -142,37 +113,34 @@ def _unique(objs) -> tuple:
 
 
 def _plants_arrays(run_plants, plants, opts, t, wr, Tc) -> tuple:
-    """Parameter table (B, K, NPAR), drift periods (B,), initial states (B, NSTATE) and sensor gates of the
-    scenarios. A plant object given more than once (``[p] * B``) is packed and checked once; plants that do not
-    drift are packed in one table (:func:`plant.rows.plant_rows`), checked in one array pass and initialised in
-    one compiled pass."""
+    """Parameter rows, drift periods and initial states of the scenarios, and their sensor gates.
+
+    Returns ``(tables, index, segs, states, gates)``: ``tables[i]`` (a cffi ``plant_params`` array) and
+    ``states[i]`` (``plant_state``) of the distinct plant ``i`` (a plant object given more than once,
+    ``[p] * B``, is packed and checked once), ``index[b]`` the distinct plant of scenario ``b``. Plants that do
+    not drift are packed in one table (:func:`plant.rows.plant_rows`), checked in one array pass and
+    initialised in one C pass; a drifting plant has one row per drift period."""
     uniq, idx = _unique(run_plants)
     static = [k for k, rp in enumerate(uniq) if not hasattr(rp, "at")]
-    segs = np.zeros(len(uniq), dtype=np.int64)
-    states = np.empty((len(uniq), PLANT_NSTATE))
     rows = plant_rows([uniq[k] for k in static])
     bad = np.flatnonzero(~integrable_rows(rows, Tc))
     if bad.size:
         b = int(np.flatnonzero(idx == static[int(bad[0])])[0])
         try:
-            check_integrable(rows[bad[0]], Tc)
+            check_integrable(rows + int(bad[0]), Tc)
         except ParameterError as e:
             raise ParameterError(f"plants[{b}]: {e}") from None
-    states[static] = plant_states([uniq[k] for k in static], rows, float(wr[0]))
-    gates = [_sensor_gate(p, o, Tc) for p, o in zip(plants, opts)]
-    if len(static) == len(uniq):  # no drift: one row per plant
-        return rows[idx][:, None, :], segs[idx], states[idx], gates
-    tables = dict(zip(static, rows[:, None, :]))
+    st = plant_states([uniq[k] for k in static], rows, float(wr[0]))
+    tables, segs, states = [None] * len(uniq), [0] * len(uniq), [None] * len(uniq)
+    for j, k in enumerate(static):
+        tables[k], states[k] = rows + j, st[j]
     for k, rp in enumerate(uniq):
-        if k not in tables:  # a drifting plant: one row per drift period
+        if tables[k] is None:  # a drifting plant: one row per drift period
             tables[k], segs[k] = plant_table(rp, t, Tc)
-            states[k] = plant_state(rp.at(0.0), float(wr[0]))
-    K = max(tb.shape[0] for tb in tables.values())
-    PT = np.empty((len(uniq), K, PLANT_NPAR))
-    for k, tb in tables.items():  # a shorter table (fewer drift rows) holds its last row
-        PT[k, :tb.shape[0]] = tb
-        PT[k, tb.shape[0]:] = tb[-1]
-    return PT[idx], segs[idx], states[idx], gates
+            states[k] = plant_state(rp.at(0.0), float(wr[0]))[0]
+    n_rows = [1 if segs[k] == 0 else len(tables[k]) for k in range(len(uniq))]
+    gates = [_sensor_gate(p, o, Tc) for p, o in zip(plants, opts)]
+    return (rows, tables, n_rows, segs, states), idx, gates
 
 
 def _sensor_gate(p, o, Tc: float):
@@ -184,7 +152,7 @@ def _sensor_gate(p, o, Tc: float):
 
 
 def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, noise=None) -> BatchResult:
-    """Run B closed loops (one per plant) on a common reference with the compiled engine.
+    """Run B closed loops (one per plant) on a common reference with the C engine.
 
     Parameters
     ----------
@@ -216,7 +184,7 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
     Notes
     -----
     Scenario b equals ``run_mode(plants[b], reference, mode, options_b, rng=default_rng(seeds[b]))`` bit for
-    bit (the same compiled engine; each scenario's result does not depend on B or the chunking).
+    bit (the same C engine; each scenario's result does not depend on B or the chunking).
     """
     plants = list(plants)
     B = len(plants)
@@ -232,31 +200,26 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
     if n > 1 and not math.isclose(t[1] - t[0], Tc, rel_tol=1e-9):
         raise ParameterError(f"reference step {t[1] - t[0]!r} s differs from Tc = {Tc!r} s")
     run_plants, ctrls, comps = build_modes(plants, mode, opts)
-    PT, segs, states, gates = _plants_arrays(run_plants, plants, opts, t, wr, Tc)
-    kind = 0 if comps[0] is None else int(comps[0].KIND)
-    nz, rows = _noise(noise, seeds, opts, B, n)
+    (rows, tables, n_rows, segs, states), idx, gates = _plants_arrays(run_plants, plants, opts, t, wr, Tc)
+    oracle = isinstance(comps[0], TrueFriction)
+    nz, nrows = _noise(noise, seeds, opts, B, n)
     w_default = 100.0 * float(np.max(np.abs(wr))) + 1.0
-    w_limit = [w_default if o.w_limit is None else float(o.w_limit) for o in opts]
-    dummy = OutlierGate()
-    x = EngineInputs(
-        wr=wr, t=t, revs=reversal_times(t, wr), window=float(opts[0].reversal_window), dt=float(Tc),
-        seg=segs, plant_table=PT, plant_state=states, noise=nz,
-        noise_rows=rows, fault_k=np.empty(0, dtype=np.int64), fault_v=np.empty(0),
-        use_gate=np.array([g is not None for g in gates]),
-        gate_par=_rows(((g or dummy).params for g in gates), gates, dummy.params),
-        gate_state=_rows(((g or dummy).state for g in gates), gates, dummy.state),
-        pi_par=_per_scenario(ctrls, "params"), pi_state=_per_scenario(ctrls, "state"),
-        kind=kind, comp_par=_stack(c.params if c is not None else _NONE for c in comps),
-        comp_state=_stack(c.state if c is not None else _NONE for c in comps),
-        w_limit=np.array(w_limit), eng_state=engine_state(B, float(wr[0])), met_state=metrics_state(B),
-        decimate=0, rec=np.empty((B, 5, 0)), theta=np.empty((B, 0, 1)), theta_k=np.empty((B, 0), dtype=np.int64),
-        theta_buf=np.zeros((B, max([getattr(c, "n_theta", 0) for c in comps if c is not None] + [1]))))
-    run_engine(x)
-    for b, c in enumerate(comps):  # final states back into the objects (their parts are views of c.state)
-        if c is not None:
-            c.state[:] = x.comp_state[b, :c.state.shape[0]]
-    _, diverged, _ = engine_outcome(x.eng_state)
-    cols = metrics_columns(x.met_state)
+    x = EngineRun(t=t, w_ref=wr, revs=reversal_times(t, wr), window=float(opts[0].reversal_window), dt=float(Tc),
+                  n_scenarios=B, oracle=oracle)
+    x.set_noise_table(nz if nrows else None)
+    for b in range(B):
+        k = idx[b]
+        o = opts[b]
+        x.set_plant(b, tables[k], n_rows[k], segs[k], states[k], w_default if o.w_limit is None else float(o.w_limit))
+        if nrows:
+            x.set_noise_row(b, b if nrows > 1 else 0)
+        x.set_gate(b, gates[b])
+        x.set_pi(b, ctrls[b])
+        x.set_compensator(b, None if oracle else comps[b])
+    x.keep(rows)
+    x.run()
+    _, diverged, _ = x.outcome()
+    cols = metrics_columns(x.scenarios)
     for k in METRIC_NAMES:
         cols[k][diverged] = np.nan
     return BatchResult(mode=mode, diverged=diverged, compensators=tuple(comps), **cols)

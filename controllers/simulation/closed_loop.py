@@ -2,7 +2,7 @@
 
 :func:`run_closed_loop` takes the objects themselves (a plant model of
 :mod:`plant.models`, a :class:`controllers.design.pi.PIController`, a
-compensator component or None) and runs them on the compiled engine
+compensator component or None) and runs them on the C engine
 (:mod:`controllers.simulation.engine`). :func:`run_mode` builds the objects of
 one named compensation mode from :class:`ModeOptions` through the registry
 :mod:`controllers.simulation.compensators` (what ``compare`` does per mode).
@@ -18,13 +18,13 @@ import numpy as np
 from adaptive_ff.compensation.gate import OutlierGate
 from adaptive_ff.identification.regression import FrictionEstimate
 from controllers.design.pi import PIController
-from controllers.simulation.compensators import MODES, ESTIMATORS, ModeOptions, build_mode
-from controllers.simulation.engine import EngineInputs, engine_outcome, engine_state, metrics_state, run_engine
+from controllers.simulation.compensators import MODES, ESTIMATORS, ModeOptions, TrueFriction, build_mode
+from controllers.simulation.engine import EngineRun
 from controllers.simulation.memory import MODE_SIGNALS, check_run_memory
 from controllers.simulation.metrics import LoopMetrics, loop_metrics, metrics_result, reversal_times
 from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
 from plant.excitation import Reference
-from plant.dynamics import PLANT_NPAR, check_integrable, plant_params, plant_state
+from plant.dynamics import check_integrable, plant_params, plant_state, plant_table_rows
 from plant.results import axes_or_new, json_safe
 
 __all__ = ["MODES", "ESTIMATORS", "ModeOptions", "LoopMetrics", "ClosedLoopResult", "run_closed_loop", "run_mode",
@@ -113,7 +113,7 @@ def plant_table(p, t, Tc: float) -> tuple:
 
     Returns
     -------
-    table : ndarray, shape (K, PLANT_NPAR)
+    table : cffi ``plant_params[K]``
         Row ``j`` is the plant from sample ``j*seg`` on.
     seg : int
         Drift period in samples (0: one row).
@@ -124,11 +124,11 @@ def plant_table(p, t, Tc: float) -> tuple:
         A row the engine cannot integrate over ``Tc`` (:func:`plant.dynamics.check_integrable`, with the reason).
     """
     if not hasattr(p, "at"):
-        table, seg = plant_params(p)[None, :], 0
+        table, seg = plant_table_rows([plant_params(p)]), 0
     else:
         seg = max(int(round(p.period / Tc)), 1)
         rows = [plant_params(p.at(0.0))] + [plant_params(p.at(tk)) for tk in np.asarray(t)[seg::seg].tolist()]
-        table = np.array(rows).reshape(-1, PLANT_NPAR)
+        table = plant_table_rows(rows)
     check_integrable(table, Tc)
     return table, seg
 
@@ -162,13 +162,6 @@ def _update_period(compensator) -> int:
     est = getattr(compensator, "estimator", None)
     m = getattr(est, "m", None) if est is not None else getattr(compensator, "m", None)
     return max(int(m), 1) if m else 1
-
-
-def _compensator_arrays(compensator) -> tuple:
-    if compensator is None:
-        return 0, np.zeros((1, 1)), np.zeros((1, 1)), 0
-    kind = int(compensator.KIND)
-    return kind, compensator.params[None, :], compensator.state[None, :], int(getattr(compensator, "n_theta", 0))
 
 
 def run_closed_loop(plant, controller: PIController, compensator, reference: Reference, *, noise_std: float = 0.0,
@@ -236,7 +229,8 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     """
     if not isinstance(controller, PIController):
         raise ParameterError(f"controller must be a PIController, got {type(controller).__name__}")
-    if compensator is not None and not all(hasattr(compensator, a) for a in ("KIND", "params", "state")):
+    oracle = isinstance(compensator, TrueFriction)
+    if compensator is not None and not oracle and getattr(compensator, "C_OPS", None) is None:
         raise ParameterError(f"compensator must be a compensator component or None, got {compensator!r}")
     decimate = _check_decimate(decimate)
     Tc = controller.Tc
@@ -256,38 +250,35 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     table, seg = plant_table(plant, t, Tc)
     frozen = plant.at(0.0) if hasattr(plant, "at") else plant
     gate = _sensor_gate(sensor_gate, controller, float(frozen.J) if sensor_gate is True else math.nan)
-    kind, cp, cs, n_theta = _compensator_arrays(compensator)
+    n_theta = 0 if compensator is None or oracle else int(getattr(compensator, "n_theta", 0))
     state0 = plant_state(frozen, float(wr[0]))
     if friction0 is not None and getattr(frozen, "tau", 0.0) > 0:  # the lagged models (LuGre has no tau)
-        state0[1] = check_finite_scalar("friction0", friction0)
+        state0.x = check_finite_scalar("friction0", friction0)
     revs = reversal_times(t, wr)
-    n_rec = (n + decimate - 1) // decimate if decimate > 0 else 0
     m_theta = n // _update_period(compensator) + 1 if (decimate and n_theta) else 0
-    noise = rng.normal(0.0, noise_std, size=n)[None, :] if noise_std > 0 else np.zeros((1, 1))
-    fk, fv = _faults(faults, n)
-    x = EngineInputs(
-        wr=wr, t=t, revs=revs, window=float(reversal_window), dt=float(Tc), seg=np.array([seg], dtype=np.int64),
-        plant_table=np.ascontiguousarray(table[None, :, :]),
-        plant_state=state0[None, :].copy(),
-        noise=noise, noise_rows=1 if noise_std > 0 else 0, fault_k=fk, fault_v=fv,
-        use_gate=np.array([gate is not None]), gate_par=(gate or OutlierGate()).params[None, :],
-        gate_state=(gate or OutlierGate()).state[None, :], pi_par=controller.params[None, :],
-        pi_state=controller.state[None, :], kind=kind, comp_par=cp, comp_state=cs,
-        w_limit=np.array([w_limit]), eng_state=engine_state(1, float(wr[0])), met_state=metrics_state(1),
-        decimate=decimate, rec=np.full((1, 5, n_rec), np.nan), theta=np.empty((1, m_theta, max(n_theta, 1))),
-        theta_k=np.empty((1, m_theta), dtype=np.int64), theta_buf=np.zeros((1, max(n_theta, 1))))
-    run_engine(x)
-    return _result(x, plant, compensator, t, wr, revs, gate, decimate, n_theta, noise_std)
+    x = EngineRun(t=t, w_ref=wr, revs=revs, window=float(reversal_window), dt=float(Tc), n_scenarios=1,
+                  faults=_faults(faults, n), oracle=oracle, decimate=decimate, n_theta=n_theta, m_theta=m_theta)
+    x.set_plant(0, table, len(table), seg, state0, w_limit)
+    x.set_noise(0, rng.normal(0.0, noise_std, size=n) if noise_std > 0 else None)
+    x.set_gate(0, gate)
+    x.set_pi(0, controller)
+    x.set_compensator(0, None if oracle else compensator)
+    x.run()
+    controller.cdata[0] = x.scenarios[0].pi  # the controller's and the gate's state advance as in a loop
+    if gate is not None:
+        gate.cdata[0] = x.scenarios[0].gate
+    return _result(x, plant, compensator, t, wr, revs, gate, decimate, n_theta, noise_std, Tc,
+                   float(reversal_window))
 
 
-def _result(x: EngineInputs, plant, compensator, t, wr, revs, gate, decimate, n_theta, noise_std):
-    k_end, diverged, n_th = (a[0] for a in engine_outcome(x.eng_state))
+def _result(x: EngineRun, plant, compensator, t, wr, revs, gate, decimate, n_theta, noise_std, Tc, window):
+    k_end, diverged, n_th = (a[0] for a in x.outcome())
     n = t.shape[0]
-    metrics = metrics_result(x.met_state[0])
+    metrics = metrics_result(x.scenarios[0].metrics)
     if diverged:
         nan = math.nan
         rev = metrics.rms_reversal
-        if k_end < n and _window_after(t, revs, x.window, k_end):
+        if k_end < n and _window_after(t, revs, window, k_end):
             rev = nan
         metrics = LoopMetrics(rms=nan, max=nan, rms_second_half=nan, max_second_half=nan, rms_reversal=rev,
                               u_rms=nan)
@@ -298,7 +289,7 @@ def _result(x: EngineInputs, plant, compensator, t, wr, revs, gate, decimate, n_
         t_th = t[x.theta_k[0, :n_th]]
     else:
         th, t_th = np.empty((0, 0)), np.empty(0)
-    info = {"Tc": x.dt, "noise_std": noise_std, "diverged": bool(diverged), "decimate": decimate,
+    info = {"Tc": Tc, "noise_std": noise_std, "diverged": bool(diverged), "decimate": decimate,
             "n_sensor_rejected": gate.n_rejected if gate is not None else 0}
     if compensator is not None and hasattr(compensator, "info"):
         info.update(compensator.info())

@@ -17,8 +17,9 @@ mode              objects (:func:`build_mode`)
 ================  ==========================================================================================
 
 A new compensator is a component class (:class:`plant.component.Component`
-with the compensator protocol, see :mod:`controllers.simulation.engine`) and
-one entry of :data:`REGISTRY`.
+over a C struct that implements ``adaptive_ff/csrc/aff_compensator.h``, named
+by its ``C_OPS`` attribute, see :mod:`controllers.simulation.engine`) and one
+entry of :data:`REGISTRY`.
 """
 
 from __future__ import annotations
@@ -37,7 +38,6 @@ from controllers.design.pi import PIController
 from controllers.peers.adaptive_dob import AdaptiveDOBCompensator
 from controllers.peers.canudas import CanudasCompensator
 from controllers.peers.dob import DisturbanceObserver
-from plant.component import Component
 from plant.errors import ParameterError, check_multiple, check_positive
 
 __all__ = ["MODES", "ESTIMATORS", "ModeOptions", "TrueFriction", "build_mode", "build_modes", "REGISTRY"]
@@ -47,19 +47,19 @@ __all__ = ["MODES", "ESTIMATORS", "ModeOptions", "TrueFriction", "build_mode", "
 ESTIMATORS = ("sliding", "eq4")
 
 
-class TrueFriction(Component):
+class TrueFriction:
     """The oracle compensator: feeds the plant's true friction torque forward (the upper bound of compensation).
 
-    Not an estimator: it is the reference a compensator is measured against, and the only component that
-    reads the true plant (the engine hands it the friction torque of the plant state).
+    Not an estimator: it is the reference a compensator is measured against, and the only "component" that
+    reads the true plant: it has no C struct, the engine feeds the friction torque of the plant state forward
+    (``ctl_run.oracle``).
     """
 
-    KIND = 1
     MODE = "oracle"
     n_theta = 0
 
-    def __init__(self):
-        self._init_arrays(1, 1)
+    def __repr__(self) -> str:
+        return "TrueFriction()"
 
 
 @dataclass(frozen=True)

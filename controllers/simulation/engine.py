@@ -1,293 +1,226 @@
-"""The closed-loop engine: plant ∘ sensor ∘ PI ∘ compensator, one compiled step for single runs and batches.
+"""The closed-loop engine: plant ∘ sensor ∘ PI ∘ compensator, one C step for single runs and batches.
 
 At every controller period ``Tc`` (Ruderman's 1 kHz; the notes of
 :func:`controllers.simulation.closed_loop.run_closed_loop`): the sensor
 measures ``w_meas = w + noise`` (or an injected fault), the sensor gate
-(:func:`adaptive_ff.compensation.gate.gate_check`) gives the controller its
-measurement, the compensator computes its torque, the PI
-(:func:`controllers.design.pi.pi_step`) the saturated command, the compensator
-observes ``(u, w_meas)``, the metrics accumulator
-(:func:`controllers.simulation.metrics.metrics_add`) takes the tracking
-error of the true velocity, and the plant
-(:func:`plant.dynamics.plant_step`) advances one step with ``u`` held.
+(``aff_gate_check``, :class:`adaptive_ff.OutlierGate`) gives the controller
+its measurement, the compensator computes its torque, the PI (``ctl_pi_step``,
+:class:`controllers.PIController`) the saturated command, the compensator
+observes ``(u, w_meas)``, the metrics (``ctl_metrics_add``) take the tracking
+error of the true velocity, and the plant (``plant_step``) advances one step
+with ``u`` held. The loop is C (``controllers/csrc/ctl_engine.c``,
+``ctl_run_chunk``); every equation lives in the component of its concept, the
+engine only composes them. A compensator is any object whose C struct
+implements ``adaptive_ff/csrc/aff_compensator.h`` (``compensate`` and
+``observe`` through a const ops table named by the class attribute ``C_OPS``).
 
-Every equation lives in the component of its concept; this module only
-composes them. Compensators are dispatched on their ``KIND`` (the registry of
-:mod:`controllers.simulation.compensators`): a new compensator is a component
-class with the two compiled protocol functions plus one line in
-:func:`_compensate` and :func:`_observe`.
-
-A single run is a batch of one: :func:`run_engine` steps ``B`` scenarios in
+A single run is a batch of one: :meth:`EngineRun.run` steps ``B`` scenarios in
 chunks, each chunk time-major (every scenario of the chunk advances one period
 before the next period), which lets the CPU overlap the independent,
 latency-bound RK4 chains of the scenarios. Chunks run in parallel on threads
-(the compiled chunk releases the GIL), so one compiled function serves every
-case. Each scenario's numbers do not depend on ``B`` or the chunking.
+(cffi releases the GIL during the C call). Each scenario's numbers do not depend
+on ``B`` or the chunking.
 """
 
 from __future__ import annotations
 
-from collections import namedtuple
-
+import math
+import os
 from concurrent.futures import ThreadPoolExecutor
 
-import numba
 import numpy as np
 
-from adaptive_ff.compensation.eq4_feedforward import eq4_compensate, eq4_observe
-from adaptive_ff.compensation.adaptive_feedforward import robust_compensate, robust_observe
-from adaptive_ff.compensation.feedforward import ff_compensate, ff_observe
-from adaptive_ff.compensation.gate import gate_check
-from controllers.design.pi import pi_step
-from controllers.peers.adaptive_dob import adob_compensate, adob_observe
-from controllers.peers.canudas import canudas_compensate, canudas_observe
-from controllers.peers.dob import dob_compensate, dob_observe
-from controllers.simulation.metrics import METRICS_NSTATE, metrics_add, metrics_where
-from plant.jit import kernel
-from plant.dynamics import plant_friction, plant_step
+from controllers._cctl import ffi, lib
+from plant.errors import ParameterError
 
-__all__ = ["EngineInputs", "run_engine", "KIND_NONE", "KIND_ORACLE", "ENGINE_NSTATE"]
+__all__ = ["EngineRun", "THETA_NMAX", "engine_threads"]
 
-#: Compensator kinds handled by the engine itself (the others are the components' ``KIND``).
-KIND_NONE, KIND_ORACLE = 0, 1
-
-# per-scenario engine state: held sensor value, drift row, end sample, diverged flag, theta records, fault pointer
-_HELD, _ROW, _KEND, _DIV, _NTH, _FP = range(6)
-#: Length of the engine's own per-scenario state.
-ENGINE_NSTATE = 6
-
-#: The arrays of a run (leading axis: scenario ``b`` of ``B``, except the shared ones).
-EngineInputs = namedtuple("EngineInputs", [
-    "wr", "t", "revs", "window",           # shared: reference (rad/s), time (s), reversal times (s), window (s)
-    "dt", "seg", "plant_table", "plant_state",  # plant: step (s); drift period in samples (B,), rows (B, K, NPAR),
-                                           # state (B, NSTATE)
-    "noise", "noise_rows", "fault_k", "fault_v",  # sensor: noise (R, N) with R in {0, 1, B}; faults (shared)
-    "use_gate", "gate_par", "gate_state",  # sensor gate (B,), (B, 4), (B, 7)
-    "pi_par", "pi_state",                  # PI (B, 3), (B, 2)
-    "kind", "comp_par", "comp_state",      # compensator kind (shared), arrays (B, ·)
-    "w_limit", "eng_state", "met_state",   # divergence bound (B,), engine state (B, 6), metrics (B, 14)
-    "decimate", "rec", "theta", "theta_k",  # records: every decimate-th sample (B, 5, R); theta (B, M, p), (B, M)
-    "theta_buf",                           # scratch (B, p)
-])
-
-
-@kernel(inline="always")
-def _compensate(kind, cp, cs, w_ctrl, w_meas, w_ref, f_true):
-    """The compensator's torque for this period (dispatch on ``kind``)."""
-    if kind == 2:
-        return ff_compensate(cp, cs, w_ctrl, w_meas, w_ref)
-    if kind == 3:
-        return robust_compensate(cp, cs, w_ctrl, w_meas, w_ref)
-    if kind == 4:
-        return canudas_compensate(cp, cs, w_ctrl, w_meas, w_ref)
-    if kind == 5:
-        return dob_compensate(cp, cs, w_ctrl, w_meas, w_ref)
-    if kind == 6:
-        return eq4_compensate(cp, cs, w_ctrl, w_meas, w_ref)
-    if kind == 7:
-        return adob_compensate(cp, cs, w_ctrl, w_meas, w_ref)
-    if kind == KIND_ORACLE:
-        return f_true
-    return 0.0
-
-
-@kernel(inline="always")
-def _observe(kind, cp, cs, u, w_meas, theta_out):
-    """The compensator observes the applied torque and the measurement; True after an estimate update."""
-    if kind == 2:
-        return ff_observe(cp, cs, u, w_meas, theta_out)
-    if kind == 3:
-        return robust_observe(cp, cs, u, w_meas, theta_out)
-    if kind == 4:
-        return canudas_observe(cp, cs, u, w_meas, theta_out)
-    if kind == 5:
-        return dob_observe(cp, cs, u, w_meas, theta_out)
-    if kind == 6:
-        return eq4_observe(cp, cs, u, w_meas, theta_out)
-    if kind == 7:
-        return adob_observe(cp, cs, u, w_meas, theta_out)
-    return False
-
-
-@kernel(inline="always")
-def _sense(x, b, k, es, w):
-    """``(w_meas, w_ctrl)``: the sensor value of scenario ``b`` at period ``k`` (noise or an injected fault) and
-    what the gate passes to the controller (the held value after a rejected sample)."""
-    if x.noise_rows > 1:
-        wm = w + x.noise[b, k]
-    elif x.noise_rows == 1:
-        wm = w + x.noise[0, k]
-    else:
-        wm = w + 0.0
-    nf = x.fault_k.shape[0]
-    if nf > 0:  # faults sorted by sample index
-        fp = np.int64(es[_FP])
-        while fp < nf and x.fault_k[fp] < k:
-            fp += 1
-        es[_FP] = fp
-        if fp < nf and x.fault_k[fp] == k:
-            wm = x.fault_v[fp]
-    if x.use_gate[b]:
-        if gate_check(x.gate_par[b], x.gate_state[b], wm):
-            es[_HELD] = wm
-        return wm, es[_HELD]
-    return wm, wm
-
-
-@kernel(inline="always")
-def _advance(x, b, k, es, par, u):
-    """Step the plant of scenario ``b`` with ``u`` held over period ``k``; False (and flagged) once it diverged."""
-    ps = x.plant_state[b]
-    plant_step(par, ps, u, x.dt)
-    w = ps[0]
-    if not (-x.w_limit[b] < w < x.w_limit[b]):
-        es[_DIV] = 1.0
-        es[_KEND] = k + 1
-        return False
-    return True
-
-
-@kernel(inline="always")
-def _row(x, b, k, es):
-    """The plant parameter row of scenario ``b`` at period ``k`` (a drifting plant moves to its next row)."""
-    seg = x.seg[b]
-    if seg > 0 and k > 0 and k % seg == 0 and es[_ROW] + 1 < x.plant_table.shape[1]:
-        es[_ROW] += 1.0
-    return x.plant_table[b, np.int64(es[_ROW])]
-
-
-@kernel(inline="always")
-def _period(x, b, k, where):
-    """Advance scenario ``b`` by period ``k`` (``where``: its metrics class); False once it has diverged (it then
-    stays where it stopped)."""
-    es = x.eng_state[b]
-    ps = x.plant_state[b]
-    par = _row(x, b, k, es)
-    w = ps[0]
-    wm, wc = _sense(x, b, k, es, w)
-    wrk = x.wr[k]
-    rec = x.decimate > 0 and k % x.decimate == 0
-    f = plant_friction(par, ps) if rec or x.kind == KIND_ORACLE else 0.0  # LuGre: eq. 3 only where it is used
-    cp = x.comp_par[b]
-    cs = x.comp_state[b]
-    uff = _compensate(x.kind, cp, cs, wc, wm, wrk, f)
-    u = pi_step(x.pi_par[b], x.pi_state[b], wrk - wc, uff)
-    if _observe(x.kind, cp, cs, u, wm, x.theta_buf[b]) and x.theta.shape[1] > 0:
-        j = np.int64(es[_NTH])
-        if j < x.theta.shape[1]:
-            for i in range(x.theta.shape[2]):
-                x.theta[b, j, i] = x.theta_buf[b, i]
-            x.theta_k[b, j] = k
-            es[_NTH] += 1.0
-    if rec:
-        r = k // x.decimate
-        x.rec[b, 0, r] = w
-        x.rec[b, 1, r] = wm
-        x.rec[b, 2, r] = u
-        x.rec[b, 3, r] = uff
-        x.rec[b, 4, r] = f
-    metrics_add(x.met_state[b], where, wrk - w, u)
-    return _advance(x, b, k, es, par, u)
-
-
-@kernel(inline="always")
-def _period_plain(x, b, k, where):
-    """:func:`_period` for the engine's own kinds (none, oracle) without records: no compensator dispatch, the
-    friction torque only for the oracle. The same operations on the same values, so the same numbers."""
-    es = x.eng_state[b]
-    ps = x.plant_state[b]
-    par = _row(x, b, k, es)
-    w = ps[0]
-    wm, wc = _sense(x, b, k, es, w)
-    wrk = x.wr[k]
-    uff = plant_friction(par, ps) if x.kind == KIND_ORACLE else 0.0
-    u = pi_step(x.pi_par[b], x.pi_state[b], wrk - wc, uff)
-    metrics_add(x.met_state[b], where, wrk - w, u)
-    return _advance(x, b, k, es, par, u)
-
-
-@kernel(inline="always")
-def _alive(x, b0, b1):
-    n_alive = 0
-    for b in range(b0, b1):
-        if x.eng_state[b, _DIV] == 0.0:
-            n_alive += 1
-    return n_alive
-
-
-@kernel(nogil=True, _nrt=False, error_model="numpy")
-def _run_chunk(x, b0, b1, full):
-    """Scenarios ``b0..b1-1`` over all periods, time-major; the period function is :func:`_period_plain` (kinds
-    none and oracle, nothing recorded) if ``full`` is None, else :func:`_period` (``full`` = True).
-
-    The choice is made by the type of ``full``: numba compiles one specialisation for None and one for a bool,
-    and its dead-branch pruning removes the other period function from each (``is None`` on an argument is
-    known at compile time), so the plain path keeps its speed and the loop exists once.
-    Allocates nothing: compiled without numba's reference counting, which would otherwise wrap every inlined
-    component call taking arrays. The metrics class of a period (second half, reversal window) depends on the
-    time alone: computed once per period. IEEE division (``error_model="numpy"``): no zero-divisor test before
-    each of the ~12 divisions of a step (the same quotients; a zero divisor gives inf/NaN, caught by the
-    divergence test, instead of raising)."""
-    n = x.wr.shape[0]
-    n_alive = _alive(x, b0, b1)
-    tmid = 0.5 * (x.t[0] + x.t[-1])
-    ip = 0
-    for k in range(n):
-        if n_alive == 0:
-            break
-        where, ip = metrics_where(x.t[k], tmid, x.revs, x.window, ip)
-        for b in range(b0, b1):
-            if x.eng_state[b, _DIV] == 0.0:
-                if full is None:
-                    alive = _period_plain(x, b, k, where)
-                else:
-                    alive = _period(x, b, k, where)
-                if not alive:
-                    n_alive -= 1
-
-
+#: Largest parameter vector a compensator may report (``CTL_THETA_NMAX`` of ctl_engine.h).
+THETA_NMAX = int(lib.CTL_THETA_NMAX)
 #: Scenarios per chunk: at most this many, at least _CHUNK_MIN (else B / threads).
 _CHUNK = 64
 _CHUNK_MIN = 8
+#: Signals recorded per period (rows of :attr:`EngineRun.rec`).
+RECORDED = ("w", "w_meas", "u", "u_ff", "f")
 
 
-def run_engine(x: EngineInputs) -> None:
-    """Run every scenario of ``x`` to the end (or divergence); all outputs are written into ``x``'s arrays.
+def engine_threads() -> int:
+    """Threads the engine runs chunks on: ``ADAPTIVE_FF_THREADS`` if set (an integer >= 1), else the CPUs this
+    process may use."""
+    env = os.environ.get("ADAPTIVE_FF_THREADS")
+    if env:
+        try:
+            n = int(env)
+        except ValueError:
+            n = 0
+        if n < 1:
+            raise ParameterError(f"ADAPTIVE_FF_THREADS must be an integer >= 1, got {env!r}")
+        return n
+    try:
+        return max(len(os.sched_getaffinity(0)), 1)
+    except AttributeError:  # not on Linux
+        return max(os.cpu_count() or 1, 1)
+
+
+def _f8(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+class EngineRun:
+    """The inputs of one engine call: what all scenarios share (a ``ctl_run``) and ``B`` scenarios
+    (``ctl_scenario[B]``), with every array the C structs point to kept alive here.
 
     Parameters
     ----------
-    x : EngineInputs
-        Prepared by :func:`controllers.simulation.closed_loop.run_closed_loop` or
-        :func:`controllers.simulation.batch.run_batch` (the shapes are listed in the field comments of
-        :data:`EngineInputs`). The end sample (``k_end``) is set to ``N`` for runs that did not diverge.
+    t, w_ref : ndarray, shape (N,)
+        Time (s) and velocity reference (rad/s) sampled at ``dt``.
+    revs : ndarray, shape (R,)
+        Reversal times of the reference (s), increasing.
+    window : float
+        Half-width (s) of the metrics' reversal windows.
+    dt : float
+        Controller period = integration step (s).
+    n_scenarios : int
+        ``B``.
+    faults : (ndarray of int64, ndarray of float), optional
+        Sorted sample indices whose measurement is replaced, and the values (rad/s); shared by all scenarios.
+    oracle : bool
+        Feed the plant's true friction forward (the ``oracle`` mode).
+    decimate : int
+        Record every ``decimate``-th period (0: nothing recorded).
+    n_theta, m_theta : int
+        Length of the compensator's parameter vector and capacity of the estimate history (0: none).
+
+    Attributes
+    ----------
+    rec : ndarray, shape (B, 5, ceil(N/decimate))
+        Records of :data:`RECORDED` (NaN where not reached).
+    theta : ndarray, shape (B, m_theta, n_theta); theta_k : ndarray of int64, shape (B, m_theta)
+        Estimates after updates and their periods.
+    scenarios : cffi ``ctl_scenario[B]``
+        The scenarios' structs (plant state, gate, PI, metrics, outcome) after :meth:`run`.
     """
-    B = x.eng_state.shape[0]
-    threads = numba.get_num_threads()  # NUMBA_NUM_THREADS, default: the cores
-    chunk = max(_CHUNK_MIN, min(_CHUNK, -(-B // threads)))
-    bounds = [(b0, min(B, b0 + chunk)) for b0 in range(0, B, chunk)]
-    full = None if x.kind in (KIND_NONE, KIND_ORACLE) and x.decimate == 0 else True  # selects the period function
-    if threads == 1 or len(bounds) == 1:
-        for b0, b1 in bounds:
-            _run_chunk(x, b0, b1, full)
-    else:
-        with ThreadPoolExecutor(max_workers=min(threads, len(bounds))) as pool:
-            list(pool.map(lambda b: _run_chunk(x, b[0], b[1], full), bounds))
-    live = x.eng_state[:, _DIV] == 0.0
-    x.eng_state[live, _KEND] = x.wr.shape[0]
 
+    def __init__(self, *, t, w_ref, revs, window: float, dt: float, n_scenarios: int, faults=None,
+                 oracle: bool = False, decimate: int = 0, n_theta: int = 0, m_theta: int = 0):
+        if n_theta > THETA_NMAX:
+            raise ParameterError(f"the compensator reports {n_theta} parameters, more than the engine's "
+                                 f"{THETA_NMAX} (CTL_THETA_NMAX)")
+        B = int(n_scenarios)
+        self._t, self._wr, self._revs = _f8(t), _f8(w_ref), _f8(revs)
+        n = self._t.shape[0]
+        fk, fv = faults if faults is not None else (np.empty(0, dtype=np.int64), np.empty(0))
+        self._fk, self._fv = np.ascontiguousarray(fk, dtype=np.int64), _f8(fv)
+        n_rec = (n + decimate - 1) // decimate if decimate > 0 else 0
+        self.rec = np.full((B, 5, n_rec), math.nan)
+        self.theta = np.empty((B, m_theta, max(n_theta, 1)))
+        self.theta_k = np.zeros((B, m_theta), dtype=np.int64)
+        r = self.c_run = ffi.new("ctl_run *")
+        r.t = ffi.from_buffer("double[]", self._t)
+        r.w_ref = ffi.from_buffer("double[]", self._wr)
+        r.n = n
+        r.dt = float(dt)
+        r.revs = ffi.from_buffer("double[]", self._revs)
+        r.n_revs = self._revs.shape[0]
+        r.window = float(window)
+        r.fault_k = ffi.from_buffer("int64_t[]", self._fk)
+        r.fault_v = ffi.from_buffer("double[]", self._fv)
+        r.n_faults = self._fk.shape[0]
+        r.oracle = bool(oracle)
+        r.decimate = int(decimate)
+        r.n_rec = n_rec
+        r.n_theta = int(n_theta)
+        r.m_theta = int(m_theta)
+        self.scenarios = ffi.new("ctl_scenario[]", B)
+        self._keep = []
+        rec = ffi.from_buffer("double[]", self.rec)
+        th = ffi.from_buffer("double[]", self.theta)
+        thk = ffi.from_buffer("int64_t[]", self.theta_k)
+        for b in range(B):
+            sc = self.scenarios[b]
+            lib.ctl_scenario_init(ffi.addressof(self.scenarios, b), float(self._wr[0]) if n else 0.0)
+            if decimate > 0:
+                sc.rec = rec + b * 5 * n_rec
+                if m_theta > 0 and n_theta > 0:
+                    sc.theta = th + b * m_theta * max(n_theta, 1)
+                    sc.theta_k = thk + b * m_theta
 
-def engine_state(n_scenarios: int, w0: float) -> np.ndarray:
-    """Initial engine state of ``n_scenarios`` scenarios whose sensor gate holds ``w0`` (rad/s) at the start."""
-    es = np.zeros((n_scenarios, ENGINE_NSTATE))
-    es[:, _HELD] = w0
-    return es
+    def set_plant(self, b: int, rows, n_rows: int, seg: int, state, w_limit: float) -> None:
+        """Scenario ``b``'s plant: ``n_rows`` parameter rows (a cffi ``plant_params`` pointer/array, kept
+        alive here; row ``j`` from sample ``j*seg`` on), its initial state (``plant_state``) and the divergence
+        bound (rad/s)."""
+        sc = self.scenarios[b]
+        self._keep.append(rows)
+        sc.rows = rows
+        sc.n_rows = int(n_rows)
+        sc.seg = int(seg)
+        sc.plant = state[0] if ffi.typeof(state).kind == "pointer" else state
+        sc.w_limit = float(w_limit)
 
+    def set_noise(self, b: int, noise) -> None:
+        """Scenario ``b``'s measurement noise, shape (N,) (rad/s), kept alive here; None: none."""
+        if noise is None:
+            return
+        a = _f8(noise)
+        self._keep.append(a)
+        self.scenarios[b].noise = ffi.from_buffer("double[]", a)
 
-def engine_outcome(es: np.ndarray) -> tuple:
-    """``(k_end, diverged, n_theta)`` arrays (int, bool, int) from the engine state ``es`` (B, ENGINE_NSTATE)."""
-    return es[:, _KEND].astype(np.int64), es[:, _DIV] > 0.0, es[:, _NTH].astype(np.int64)
+    def set_noise_table(self, noise) -> None:
+        """A table of noise rows, shape (R, N) (rad/s), that :meth:`set_noise_row` hands to scenarios; None: none."""
+        self._noise = None if noise is None else np.ascontiguousarray(noise, dtype=np.float64)
+        if self._noise is not None:
+            self._noise_ptr = ffi.from_buffer("double[]", self._noise)
 
+    def set_noise_row(self, b: int, r: int) -> None:
+        """Scenario ``b`` measures with row ``r`` of the noise table."""
+        self.scenarios[b].noise = self._noise_ptr + r * self._noise.shape[1]
 
-def metrics_state(n_scenarios: int) -> np.ndarray:
-    """Zeroed metric accumulators for ``n_scenarios`` scenarios, shape (B, METRICS_NSTATE)."""
-    return np.zeros((n_scenarios, METRICS_NSTATE))
+    def keep(self, obj) -> None:
+        """Keep ``obj`` (memory a scenario points into) alive as long as this run."""
+        self._keep.append(obj)
+
+    def set_gate(self, b: int, gate) -> None:
+        """Scenario ``b``'s sensor gate (an :class:`adaptive_ff.OutlierGate`, copied by value) or None."""
+        sc = self.scenarios[b]
+        sc.use_gate = gate is not None
+        if gate is not None:
+            sc.gate = gate.cdata[0]
+
+    def set_pi(self, b: int, controller) -> None:
+        """Scenario ``b``'s PI (a :class:`controllers.PIController`, copied by value)."""
+        self.scenarios[b].pi = controller.cdata[0]
+
+    def set_compensator(self, b: int, comp) -> None:
+        """Scenario ``b``'s compensator: its own struct is advanced in place (kept alive here); None: none."""
+        if comp is None:
+            return
+        name = getattr(comp, "C_OPS", None)
+        if name is None:
+            raise ParameterError(f"compensator must be a compensator component (C_OPS) or None, got {comp!r}")
+        sc = self.scenarios[b]
+        self._keep.append(comp)
+        sc.comp = ffi.cast("void *", comp.cdata)
+        sc.ops = ffi.addressof(lib, name)
+
+    def run(self) -> None:
+        """Run every scenario to the end (or divergence) in chunks on :func:`engine_threads` threads."""
+        B = len(self.scenarios)
+        threads = engine_threads()
+        chunk = max(_CHUNK_MIN, min(_CHUNK, -(-B // threads)))
+        bounds = [(b0, min(B, b0 + chunk)) for b0 in range(0, B, chunk)]
+        one = lambda b: lib.ctl_run_chunk(self.c_run, self.scenarios + b[0], b[1] - b[0])  # noqa: E731
+        if threads == 1 or len(bounds) == 1:
+            for bd in bounds:
+                one(bd)
+        else:
+            with ThreadPoolExecutor(max_workers=min(threads, len(bounds))) as pool:
+                list(pool.map(one, bounds))
+
+    def outcome(self) -> tuple:
+        """``(k_end, diverged, n_theta)`` arrays (int64, bool, int64) of shape (B,)."""
+        sc = self.scenarios
+        B = len(sc)
+        k_end = np.fromiter((sc[b].k_end for b in range(B)), dtype=np.int64, count=B)
+        div = np.fromiter((sc[b].diverged for b in range(B)), dtype=bool, count=B)
+        nth = np.fromiter((sc[b].n_theta_rec for b in range(B)), dtype=np.int64, count=B)
+        return k_end, div, nth

@@ -1,0 +1,107 @@
+/* ctl_engine.c -- the closed-loop engine (see ctl_engine.h). */
+#include "ctl_engine.h"
+
+void ctl_scenario_init(ctl_scenario *sc, double w0)
+{
+    sc->held = w0;
+    sc->row = 0;
+    sc->k_end = 0;
+    sc->diverged = 0;
+    sc->n_theta_rec = 0;
+    sc->fault_pos = 0;
+    for (int i = 0; i < CTL_THETA_NMAX; i++)
+        sc->theta_buf[i] = 0.0;
+}
+
+/* The parameter row of period k (a drifting plant moves to its next row every seg periods). */
+static const plant_params *row_at(ctl_scenario *sc, long k)
+{
+    if (sc->seg > 0 && k > 0 && k % sc->seg == 0 && sc->row + 1 < sc->n_rows)
+        sc->row += 1;
+    return sc->rows + sc->row;
+}
+
+/* The sensor sample of period k (noise or an injected fault) into *wm; returns the controller's
+ * measurement (the held value after a sample the gate rejected). */
+static double sense(const ctl_run *run, ctl_scenario *sc, long k, double w, double *wm)
+{
+    double m = w + (sc->noise != NULL ? sc->noise[k] : 0.0);
+    if (run->n_faults > 0) { /* faults sorted by sample index */
+        long fp = sc->fault_pos;
+        while (fp < run->n_faults && run->fault_k[fp] < k)
+            fp++;
+        sc->fault_pos = fp;
+        if (fp < run->n_faults && run->fault_k[fp] == k)
+            m = run->fault_v[fp];
+    }
+    *wm = m;
+    if (sc->use_gate) {
+        if (aff_gate_check(&sc->gate, m))
+            sc->held = m;
+        return sc->held;
+    }
+    return m;
+}
+
+/* One period of scenario sc; 0 once it diverged (it then stays where it stopped). */
+static int period(const ctl_run *run, ctl_scenario *sc, long k, int where)
+{
+    const plant_params *par = row_at(sc, k);
+    double w = sc->plant.w;
+    double wm;
+    double wc = sense(run, sc, k, w, &wm);
+    double wrk = run->w_ref[k];
+    int rec = sc->rec != NULL && run->decimate > 0 && k % run->decimate == 0;
+    double f = (rec || run->oracle) ? plant_friction(par, &sc->plant) : 0.0; /* LuGre: eq. 3 only if used */
+    double uff = 0.0;
+    if (sc->ops != NULL)
+        uff = sc->ops->compensate(sc->comp, wc, wm, wrk);
+    else if (run->oracle)
+        uff = f;
+    double u = ctl_pi_step(&sc->pi, wrk - wc, uff);
+    if (sc->ops != NULL && sc->ops->observe(sc->comp, u, wm, sc->theta_buf) && sc->theta != NULL) {
+        long j = sc->n_theta_rec;
+        if (j < run->m_theta) {
+            for (long i = 0; i < run->n_theta; i++)
+                sc->theta[j * run->n_theta + i] = sc->theta_buf[i];
+            sc->theta_k[j] = k;
+            sc->n_theta_rec += 1;
+        }
+    }
+    if (rec) {
+        long r = k / run->decimate;
+        sc->rec[0 * run->n_rec + r] = w;
+        sc->rec[1 * run->n_rec + r] = wm;
+        sc->rec[2 * run->n_rec + r] = u;
+        sc->rec[3 * run->n_rec + r] = uff;
+        sc->rec[4 * run->n_rec + r] = f;
+    }
+    ctl_metrics_add(&sc->metrics, where, wrk - w, u);
+    plant_step(par, &sc->plant, u, run->dt);
+    w = sc->plant.w;
+    if (!(-sc->w_limit < w && w < sc->w_limit)) {
+        sc->diverged = 1;
+        sc->k_end = k + 1;
+        return 0;
+    }
+    return 1;
+}
+
+void ctl_run_chunk(const ctl_run *run, ctl_scenario *sc, long n_sc)
+{
+    long n = run->n;
+    long n_alive = 0;
+    for (long b = 0; b < n_sc; b++)
+        n_alive += sc[b].diverged == 0;
+    double tmid = n > 0 ? 0.5 * (run->t[0] + run->t[n - 1]) : 0.0;
+    long ip = 0;
+    for (long k = 0; k < n && n_alive > 0; k++) {
+        int where = ctl_metrics_where(run->t[k], tmid, run->revs, run->n_revs, run->window, &ip);
+        for (long b = 0; b < n_sc; b++)
+            if (sc[b].diverged == 0 && !period(run, sc + b, k, where))
+                n_alive--;
+    }
+    for (long b = 0; b < n_sc; b++)
+        if (sc[b].diverged == 0)
+            sc[b].k_end = n;
+}

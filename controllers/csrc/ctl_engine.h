@@ -1,0 +1,82 @@
+/* ctl_engine.h -- the closed-loop engine: plant o sensor o PI o compensator, one period at a time.
+ *
+ * Per controller period Tc (Ruderman's 1 kHz), for every scenario:
+ *   w_meas = w + noise[k] (or the injected fault of sample k);
+ *   the sensor gate (aff_gate) gives the controller its measurement w_ctrl (the held value after a
+ *   rejected sample);
+ *   u_ff = ops->compensate(comp, w_ctrl, w_meas, w_ref[k])  (or the plant's true friction: the oracle);
+ *   u = PI(w_ref[k] - w_ctrl, u_ff) (ctl_pi, saturated);
+ *   ops->observe(comp, u, w_meas, theta) (the estimate recorded after an update);
+ *   the metrics take e = w_ref[k] - w and u (ctl_metrics);
+ *   the plant advances one step with u held (plant_step); |w| >= w_limit ends the scenario (diverged).
+ * A single run is a batch of one. ctl_run_chunk advances scenarios sc[0..n_sc-1] time-major (every scenario
+ * of the chunk one period before the next period), which lets the CPU overlap their independent RK4
+ * chains; the Python side runs chunks on threads (cffi releases the GIL). A scenario's numbers do not depend
+ * on the chunking. No allocation; the work per period is bounded by the plant's sub-steps.
+ * Python: controllers.simulation.engine.run_engine.
+ */
+#ifndef CTL_ENGINE_H
+#define CTL_ENGINE_H
+#include <stdint.h>
+#include "plant_dynamics.h"
+#include "aff_gate.h"
+#include "aff_compensator.h"
+#include "ctl_pi.h"
+#include "ctl_metrics.h"
+
+/* Largest parameter vector a compensator may report through observe. */
+#define CTL_THETA_NMAX 32
+
+/* What all scenarios of a run share (read only). */
+typedef struct ctl_run {
+    const double *t;          /* time (s), n samples */
+    const double *w_ref;      /* velocity reference (rad/s), n samples */
+    long n;                   /* periods */
+    double dt;                /* controller period = integration step Tc (s) */
+    const double *revs;       /* reversal times of the reference (s), n_revs, increasing */
+    long n_revs;
+    double window;            /* half-width of the reversal windows of the metrics (s) */
+    const int64_t *fault_k;   /* samples whose measurement is replaced (increasing), n_faults */
+    const double *fault_v;    /* their values (rad/s) */
+    long n_faults;
+    int oracle;               /* 1: the feedforward is the plant's true friction (the oracle mode) */
+    long decimate;            /* record every decimate-th period (0: none) */
+    long n_rec;               /* records per signal: ceil(n/decimate) */
+    long n_theta;             /* length of the compensator's parameter vector (<= CTL_THETA_NMAX) */
+    long m_theta;             /* capacity of the estimate history (0: none) */
+} ctl_run;
+
+/* One scenario: its plant, sensor, controller, compensator, metrics and records. */
+typedef struct ctl_scenario {
+    const plant_params *rows;   /* n_rows parameter rows; row j from sample j*seg on (a drifting plant) */
+    long n_rows;
+    long seg;                   /* drift period (samples), 0: one row */
+    plant_state plant;          /* the plant's state, advanced in place */
+    double w_limit;             /* divergence bound on |w| (rad/s) */
+    const double *noise;        /* n measurement-noise samples (rad/s), or NULL */
+    int use_gate;               /* 1: the controller's measurement passes the sensor gate */
+    aff_gate gate;
+    ctl_pi pi;
+    void *comp;                 /* the compensator's struct, or NULL (none, oracle) */
+    const aff_compensator_ops *ops;
+    ctl_metrics metrics;
+    double *rec;                /* 5 x n_rec records (w, w_meas, u, u_ff, f), row-major, or NULL */
+    double *theta;              /* m_theta x n_theta estimates after updates, or NULL */
+    int64_t *theta_k;           /* the period of each */
+    double held;                /* the controller's measurement held after a rejected sample (rad/s) */
+    long row;                   /* current parameter row */
+    long k_end;                 /* periods run (n unless diverged) */
+    int diverged;               /* 1 once |w| left w_limit */
+    long n_theta_rec;           /* estimates recorded */
+    long fault_pos;             /* next fault to apply */
+    double theta_buf[CTL_THETA_NMAX];
+} ctl_scenario;
+
+/* Prepare sc for a run that starts from the plant state s0 (rad/s, N*m or rad) with the sensor gate holding
+ * w0 (rad/s); the other fields (rows, gate, pi, comp/ops, metrics, records) are set by the caller. */
+void ctl_scenario_init(ctl_scenario *sc, double w0);
+
+/* Run scenarios sc[0..n_sc-1] over all periods of run (or until each diverged); sets k_end. */
+void ctl_run_chunk(const ctl_run *run, ctl_scenario *sc, long n_sc);
+
+#endif
