@@ -12,9 +12,10 @@ __all__ = ["register", "run", "compensator_from_file"]
 
 _EPILOG = """\
 The compensator is the 'adaptive' mode's (adaptive_ff.RobustAdaptiveFeedforward on a
-SlidingFrictionEstimator, built as 'compare' builds it), configured with the identification's Stribeck
-factors Vs and delta ('identify --Vs --delta ... --json'), its inertia as the design inertia and your
-drive's torque limit. The PI gains of the example loop (and of the compensator's stick fallback, the
+SlidingFrictionEstimator), configured as 'compare' configures it: the identification's Stribeck factors
+Vs and delta ('identify --Vs --delta ... --json'), its inertia as the design inertia, its friction
+levels as the estimator's start, a feedforward bound of half your drive's torque limit and a stick band
+of three times the identified velocity noise. The PI gains of the example loop (and of the compensator's stick fallback, the
 nominal loop model) are --Kp/--Ki, or designed as 'design --from' does (--crossover, --phase-margin).
 
 Writes into DIR: aff.h (the API, one header), aff.c (the package's C code of the compensator, one file),
@@ -60,37 +61,43 @@ def _identified(path) -> tuple[dict, dict]:
     return d, params if isinstance(params, dict) else d
 
 
-def compensator_from_file(path, *, u_max: float, Tc: float = 1e-3, Ts: float = 0.01, J_design: float | None = None,
-                          Vs: float | None = None, delta: float | None = None, Kp: float | None = None,
-                          Ki: float | None = None, crossover: float = 20.0, phase_margin: float = 60.0,
-                          start: bool = False):
-    """The ``adaptive`` mode's compensator configured from an ``identify --json`` file.
+def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: float | None = None,
+                          crossover: float = 20.0, phase_margin: float = 60.0, start: bool = False,
+                          initial: bool = True, **options):
+    """The ``adaptive`` mode's compensator configured from an ``identify --json`` file, as ``compare`` configures it.
 
     Parameters
     ----------
     path : str or os.PathLike
-        The identification (``adaptive-ff identify ... --Vs --delta --json``).
+        The identification (``adaptive-ff identify ... --Vs --delta --json``): ``Vs``, ``delta`` at its top level,
+        ``J``, ``sigma``, ``Fc``, ``Fs``, ``tau`` in ``physical.params`` (or at the top level), the velocity noise
+        in ``excitation.noise_std`` (optional).
     u_max : float, keyword-only
-        The drive's torque limit (N·m): the feedforward's bound and the velocity gate's.
-    Tc, Ts : float, keyword-only
-        Controller period and estimator update period (s), ``Ts`` a multiple of ``Tc``.
-    J_design : float, keyword-only
-        Design inertia (kg·m²); default the identified ``J`` (:func:`controllers.cli.design.plant_from_file`).
-    Vs, delta : float, keyword-only
-        Stribeck factors; default the file's ``Vs``, ``delta``.
+        The drive's torque limit (N·m): the velocity gate's bound; the feedforward's bound is half of it (as in
+        ``compare``) unless ``ff_max`` is given.
     Kp, Ki : float, keyword-only
-        PI gains (both or neither); default :func:`controllers.design.pi.design_pi` of the identified ``J`` and
-        ``sigma`` at ``crossover`` (rad/s) and ``phase_margin`` (deg).
+        PI gains (both or neither; the nominal loop model of the stick fallback and the example loop); default
+        :func:`controllers.design.pi.design_pi` of the identified ``J`` and ``sigma`` at ``crossover`` (rad/s)
+        and ``phase_margin`` (deg), as ``design --from`` does.
     start : bool, keyword-only
         Use the identified map (``Fc``, ``Fs``, ``sigma``, ``tau``) as the provisional start
         (:class:`adaptive_ff.compensation.adaptive_feedforward.FeedforwardStart`, at the measured velocity).
+    initial : bool, keyword-only
+        Start the estimator's RLS from the identified ``Fc``, ``Fs``, ``sigma`` and ``J_design`` (default, as
+        ``compare`` starts it from its pre-fit) instead of zero friction.
+    **options
+        Fields of :class:`controllers.simulation.compensators.ModeOptions` that override the defaults: ``Tc``
+        (1 ms), ``Ts`` (10 ms), ``J_design`` (the identified ``J``), ``Vs``, ``delta`` (the file's), ``ff_max``
+        (``u_max/2``), ``stick_band`` (three times the identification's noise estimate, 0 without one),
+        ``stick_samples`` (50), ``warmup`` (50), ...
 
     Returns
     -------
     compensator : RobustAdaptiveFeedforward
+        Not yet stepped.
     settings : dict
-        ``J_design, u_max, Kp, Ki`` and ``joint`` (the identified ``Fc``, ``Fs``, ``sigma``) for
-        :func:`adaptive_ff.compensation.export_c.export_c`.
+        ``J_design, u_max, Kp, Ki`` and ``joint`` (the identified ``Fc``, ``Fs``, ``sigma`` that are finite and
+        >= 0) for :func:`adaptive_ff.compensation.export_c.export_c`, and ``options`` (the ModeOptions used).
 
     Raises
     ------
@@ -107,15 +114,19 @@ def compensator_from_file(path, *, u_max: float, Tc: float = 1e-3, Ts: float = 0
     from plant.errors import ParameterError
 
     top, params = _identified(path)
+    Vs = options.pop("Vs", None)
+    delta = options.pop("delta", None)
     Vs = _number(top, "Vs", path) if Vs is None else Vs
     delta = _number(top, "delta", path) if delta is None else delta
     J_id, sigma_id = plant_from_file(path)
+    J_design = options.pop("J_design", None)
     if J_design is None:
         if not (math.isfinite(J_id) and J_id > 0.0):
             raise ParameterError(f"{path}: the identified J = {J_id!r} kg·m² is not > 0; give --J-design")
         J_design = J_id
     if (Kp is None) != (Ki is None):
         raise ParameterError("give both --Kp and --Ki, or neither (then the PI is designed from J and sigma)")
+    Tc = options.get("Tc", 1e-3)
     if Kp is None:
         d = design_pi(J_design, sigma=max(sigma_id, 0.0), crossover=crossover, phase_margin=phase_margin, Tc=Tc)
         Kp, Ki = d.Kp, d.Ki
@@ -124,15 +135,24 @@ def compensator_from_file(path, *, u_max: float, Tc: float = 1e-3, Ts: float = 0
         v = _number(params, k, path, required=False)
         if v is not None and v >= 0.0:
             joint[k] = v
+    exc = top.get("excitation")
+    noise = _number(exc, "noise_std", path, required=False) if isinstance(exc, dict) else None
     first = None
     if start:
         e = {k: _number(params, k, path) for k in ("Fc", "Fs", "sigma", "tau")}
         first = FeedforwardStart(FrictionEstimate(J=J_design, tau=e["tau"], sigma=e["sigma"], Fc=e["Fc"], Fs=e["Fs"],
                                                   offset=0.0, Vs=None, delta=None, J_alt=math.nan),
                                  ff_input="measured")
-    opts = ModeOptions(Kp=Kp, Ki=Ki, u_max=u_max, Tc=Tc, Ts=Ts, J_design=J_design, Vs=Vs, delta=delta, start=first)
-    _, _, comp = build_mode(None, "adaptive", opts)  # None: the plant's J is not needed with J_design given
-    return comp, {"J_design": J_design, "u_max": u_max, "Kp": Kp, "Ki": Ki, "joint": joint}
+    init = None
+    if initial:
+        init = FrictionEstimate(J=J_design, tau=0.0, sigma=joint.get("sigma", 0.0), Fc=joint.get("Fc", 0.0),
+                                Fs=joint.get("Fs", 0.0), offset=0.0, Vs=Vs, delta=delta, J_alt=math.nan)
+    settings = {"ff_max": 0.5 * u_max, "stick_band": 3.0 * noise if noise is not None and noise >= 0 else 0.0,
+                "stick_samples": 50, "warmup": 50, **options}
+    opts = ModeOptions(Kp=Kp, Ki=Ki, u_max=u_max, J_design=J_design, Vs=Vs, delta=delta, start=first, initial=init,
+                       **settings)
+    _, _, comp = build_mode(None, "adaptive", opts)  # None: no plant field is read with J_design given
+    return comp, {"J_design": J_design, "u_max": u_max, "Kp": Kp, "Ki": Ki, "joint": joint, "options": opts}
 
 
 def run(args) -> int:
@@ -156,9 +176,10 @@ def run(args) -> int:
         print(f"adaptive-ff: refused: {args.from_file} carries {len(refusing)} plausibility/identifiability "
               "warning(s); fix the identification, or export anyway with --accept-warnings", file=sys.stderr)
         return EXIT_REFUSED
-    comp, s = compensator_from_file(args.from_file, u_max=args.u_max, Tc=args.Tc, Ts=args.Ts, J_design=args.J_design,
-                                    Vs=args.Vs, delta=args.delta, Kp=args.Kp, Ki=args.Ki, crossover=args.crossover,
-                                    phase_margin=args.phase_margin, start=args.start)
+    extra = {k: getattr(args, k) for k in ("ff_max", "stick_band") if getattr(args, k) is not None}
+    comp, s = compensator_from_file(args.from_file, u_max=args.u_max, Kp=args.Kp, Ki=args.Ki, crossover=args.crossover,
+                                    phase_margin=args.phase_margin, start=args.start, Tc=args.Tc, Ts=args.Ts,
+                                    J_design=args.J_design, Vs=args.Vs, delta=args.delta, **extra)
     res = export_c(comp, out, J_design=s["J_design"], u_max=s["u_max"], Kp=s["Kp"], Ki=s["Ki"], joint=s["joint"],
                    float_default=args.float, force=args.force, origin=f" for {Path(args.from_file).name}")
     if args.json:
@@ -186,6 +207,11 @@ def register(sub) -> None:
                    help="estimator update period in s, a multiple of --Tc (default 0.01)")
     e.add_argument("--J-design", type=float, default=None, metavar="KGM2",
                    help="design inertia in kg·m² (default: the identified J)")
+    e.add_argument("--ff-max", type=float, default=None, metavar="NM",
+                   help="bound on |feedforward| in N·m (default: half of --u-max, as compare)")
+    e.add_argument("--stick-band", type=float, default=None, metavar="RAD_S",
+                   help="stick-detection band in rad/s (default: three times the identification's velocity noise "
+                        "estimate, excitation.noise_std; 0 without one)")
     e.add_argument("--Vs", type=float, default=None, metavar="RAD_S", help="Stribeck velocity (default: the file's)")
     e.add_argument("--delta", type=float, default=None, help="Stribeck shape factor (default: the file's)")
     e.add_argument("--Kp", type=float, default=None, metavar="NMS", help="PI gain in N·m·s/rad (with --Ki)")
