@@ -57,7 +57,7 @@ _MACRO_FIELDS = {
     "AFF_VS": ("Vs",),
     "AFF_DELTA": ("delta",),
     "AFF_FF_MAX": ("ff_max",),
-    "AFF_J_DESIGN": ("J_guess", "J_design"),
+    "AFF_KP": ("Kp",),
 }
 
 
@@ -126,8 +126,8 @@ def _strip_local_includes(text: str) -> str:
 
 
 def _banner(name: str, what: str, source: str) -> str:
-    return (f"/* {name} -- {what}\n *\n * Written by `adaptive-ff export-c` (adaptive_ff.compensation.export_c) from the\n"
-            f" * C sources of the adaptive-ff package{source}; do not edit: export again.\n */\n")
+    return (f"/* {name} -- {what}\n *\n * Written by `adaptive-ff export-c` (adaptive_ff.compensation.export_c) "
+            f"from the\n * C sources of the adaptive-ff package{source}; do not edit: export again.\n */\n")
 
 
 _STATIC = re.compile(r"^static\b([^;=(\[{]*?)\b([A-Za-z_]\w*)\s*[(=\[;]", re.MULTILINE)
@@ -348,10 +348,9 @@ def _config_header(config: dict, source: str, ctype: str) -> str:
              "#ifndef AFF_CONFIG_H", "#define AFF_CONFIG_H", '#include "aff.h"', "",
              "/* SI units; the values the compensator in aff_config.c was configured with. Changing one here",
              " * does not reconfigure it (its derived fields were computed by the export): export again. */"]
-    width = max(len(k) for k in config) + 1
     for k, v in config.items():
         unit, what = _MACRO_DOC[k]
-        lines.append(f"#define {k:<{width}}{c_literal(v):<24} /* {unit}: {what} */")
+        lines += ["", f"/* {what[0].upper() + what[1:]} ({unit}). */", f"#define {k} {c_literal(v)}"]
     lines += ["",
               f"/* The configured compensator with its initial state (aff_config.c): aff_init(&c, &AFF_INITIAL). */",
               f"extern const {ctype} AFF_INITIAL;", "", "#endif", ""]
@@ -458,6 +457,13 @@ int main(void)
     }
     printf("after %g s: feedforward %s, %ld estimator updates, %ld samples rejected\n", EXAMPLE_SECONDS,
            aff_active(&comp) ? "on" : "off", aff_n_updates(&comp), aff_n_rejected(&comp));
+    {
+        aff_real Fc, Fs, sigma, tau;
+        if (aff_estimate(&comp, &Fc, &Fs, &sigma, &tau))
+            printf("estimate in use: Fc %.4g N*m, Fs %.4g N*m, sigma %.4g N*m*s/rad, tau %.3g s "
+                   "(stub joint: %g, %g, %g, no lag)\n", (double)Fc, (double)Fs, (double)sigma, (double)tau,
+                   EXAMPLE_FC, EXAMPLE_FS, EXAMPLE_SIGMA);
+    }
     return 0;
 }
 """
