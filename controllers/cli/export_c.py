@@ -15,8 +15,9 @@ The compensator is the 'adaptive' mode's (adaptive_ff.RobustAdaptiveFeedforward 
 SlidingFrictionEstimator), configured as 'compare' configures it: the identification's Stribeck factors
 Vs and delta ('identify --Vs --delta ... --json'), its inertia as the design inertia, its friction
 levels as the estimator's start, a feedforward bound of half your drive's torque limit and a stick band
-of three times the identified velocity noise. The PI gains of the example loop (and of the compensator's stick fallback, the
-nominal loop model) are --Kp/--Ki, or designed as 'design --from' does (--crossover, --phase-margin).
+of three times the identified velocity noise. The PI gains of the example loop (and of the
+compensator's stick fallback, the nominal loop model) are --Kp/--Ki, or designed as 'design --from'
+does (--crossover, --phase-margin).
 
 Writes into DIR: aff.h (the API, one header), aff.c (the package's C code of the compensator, one file),
 aff_config.h (the settings as macros: AFF_TC, AFF_TS, AFF_VS, AFF_DELTA, AFF_J_DESIGN, AFF_U_MAX,
