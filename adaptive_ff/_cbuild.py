@@ -20,6 +20,9 @@ HEADERS = [
     "aff_regression.h",
     "aff_velocity_input.h",
     "aff_feedforward.h",
+    "aff_sliding.h",
+    "aff_robust_ff.h",
+    "aff_eq4_ff.h",
 ]
 
 

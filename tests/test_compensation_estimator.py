@@ -48,7 +48,7 @@ def test_online_estimator_builds_exactly_the_batch_rows(open_loop):
     rows = []
     for uk, wk in zip(u.tolist(), w.tolist()):
         est.observe(uk, wk)
-        if est.updated:  # the row of this update (the compiled estimator's own regressor and output)
+        if est.updated:  # the row of this update (the C estimator's own regressor and output)
             rows.append((est.phi.copy(), est.y))
     assert len(rows) == X.shape[0] and est.n_gated == n_gated and names == est.names
     np.testing.assert_allclose(np.array([r[0] for r in rows]), X, rtol=1e-9, atol=1e-9)

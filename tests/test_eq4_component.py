@@ -1,10 +1,10 @@
-"""The eq. 4 adaptive feedforward as a compiled compensator component against the oracle of tests/peers_oracle.py.
+"""The eq. 4 adaptive feedforward as a C compensator component against the oracle of tests/peers_oracle.py.
 
 The oracle builds eq. 4's regressor and its inverse map from the derivation in
 :mod:`adaptive_ff.identification.regression` (not from ``RegressionModel``), projects by the rule of
 ``project_estimate`` and feeds the fixed feedforward oracle; its RLS is the package's (checked on its own by
 tests/test_rls.py). It evaluates the Stribeck shape with numpy's ``exp``, which differs from the C library's
-(compiled code) in the last bit on some arguments, and eq. 4's covariance (condition near 1e8) amplifies those
+(the C code) in the last bit on some arguments, and eq. 4's covariance (condition near 1e8) amplifies those
 differences over thousands of updates: the comparisons are to ``RTOL`` relative to each column's range
 (measured up to 8e-11 with the offset column). In the closed loop the component runs the loop and the oracle is
 fed the loop's recorded signals.
@@ -14,14 +14,13 @@ import json
 import math
 import pickle
 
-import numba
 import numpy as np
 import pytest
 
 import peers_oracle as oracle
-from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward, eq4_compensate, eq4_observe
+from adaptive_ff._caff import ffi, lib
+from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
 from adaptive_ff.compensation.feedforward import project_levels
-from adaptive_ff.compensation.ff_layout import FF_NSTATE
 from adaptive_ff.identification.regression import RegressionModel, eq4_phi, eq4_to_physical
 from plant.errors import ParameterError
 from plant.friction import JointParams
@@ -43,6 +42,10 @@ def _close(a, b, rtol) -> bool:
     fin = np.where(np.isfinite(b), np.abs(b), 0.0)
     scale = fin.max(axis=0) if b.ndim > 1 else fin.max()
     return bool(np.all(same | (np.abs(a - b) <= rtol * scale)))
+
+
+def _same_estimate(a, b) -> bool:
+    return (a is None and b is None) or (a is not None and b is not None and _close(_est_tuple(a), _est_tuple(b), 0.0))
 
 
 def _est_tuple(e):
@@ -140,11 +143,13 @@ def _component_loop(c, n, seed):
     hist = []
     th = np.empty(c.n_theta)
 
+    th_c = ffi.from_buffer("double[]", th, require_writable=True)
+
     def comp(k, wc, wm, wr):
-        return eq4_compensate(c.params, c.state, wc, wm, wr)
+        return lib.aff_eq4_ff_compensate(c.cdata, wc, wm, wr)
 
     def obs(k, u, wm):
-        if eq4_observe(c.params, c.state, u, wm, th):
+        if lib.aff_eq4_ff_observe(c.cdata, u, wm, th_c):
             hist.append((k, th.copy()))
 
     return _closed_loop(n, seed, comp, obs), hist
@@ -170,15 +175,11 @@ def test_closed_loop_protocol_equals_the_oracle_on_the_loop_record(measured, Ts,
     assert o["est"].n_rejected > 0 and o["est"].estimate is not None and np.abs(got[:, 2]).max() > 1.0
 
 
-@numba.njit
-def _drive(par, st, wc, wm, wr, u_in, out, upd, th):
-    for k in range(wc.shape[0]):
-        c = eq4_compensate(par, st, wc[k], wm[k], wr[k])
-        out[k] = c
-        upd[k] = eq4_observe(par, st, u_in[k] + c, wm[k], th[k])
-
-
-def test_protocol_in_a_compiled_loop_equals_python_calls():
+def test_a_struct_copy_through_the_ops_table_continues_exactly_like_the_component():
+    """What the closed-loop engine does: copy the component's struct by value into its own storage and call the
+    ops table. The copy is a complete compensator (no pointer into the original): driven through
+    ``aff_eq4_ff_ops`` it gives the same outputs, parameter history and final struct as the component driven
+    through the functions, and the original is left untouched by the copy's run."""
     n = 5000
     rng = np.random.default_rng(2)
     wm = 0.3 * np.sin(np.arange(n) * 2e-3) + rng.normal(0, 1e-3, n)
@@ -188,20 +189,34 @@ def test_protocol_in_a_compiled_loop_equals_python_calls():
     u = 10.0 * np.tanh(wm / 0.01) + rng.normal(0, 0.3, n)
     model = RegressionModel(PLANT.Vs, PLANT.delta)
     a = AdaptiveFrictionFeedforward(model, Ts=0.004, dt=TC, warmup=20)
+    for k in range(n // 2):  # the copy is taken mid-run
+        c = lib.aff_eq4_ff_compensate(a.cdata, wc[k], wm[k], wr[k])
+        lib.aff_eq4_ff_observe(a.cdata, u[k] + c, wm[k], ffi.NULL)
+    store = ffi.new("aff_eq4_ff[2]")  # the engine's per-scenario array
+    store[1] = a.cdata[0]
+    frozen = a.struct_bytes()
+    ops = lib.aff_eq4_ff_ops
+    assert ffi.string(ops.name) == b"adaptive"
+    self_ = ffi.addressof(store, 1)
+    t_ops, t_fn = np.empty(a.n_theta), np.empty(a.n_theta)
     b = AdaptiveFrictionFeedforward(model, Ts=0.004, dt=TC, warmup=20)
-    out, upd, th = np.empty(n), np.zeros(n, dtype=np.bool_), np.full((n, a.n_theta), np.nan)
-    _drive(a.params, a.state, wc, wm, wr, u, out, upd, th)
-    t2 = np.empty(b.n_theta)
-    for k in range(n):
-        assert eq4_compensate(b.params, b.state, wc[k], wm[k], wr[k]) == out[k]
-        assert eq4_observe(b.params, b.state, u[k] + out[k], wm[k], t2) == upd[k]
-        if upd[k]:
-            assert np.array_equal(t2, th[k])
-    assert np.array_equal(a.state, b.state) and upd.sum() == (n - 1) // 4
-    assert b.n_rejected > 0 and b.estimate is not None
+    b.cdata[0] = a.cdata[0]
+    upd = 0
+    for k in range(n // 2, n):
+        c1 = ops.compensate(self_, wc[k], wm[k], wr[k])
+        c2 = lib.aff_eq4_ff_compensate(b.cdata, wc[k], wm[k], wr[k])
+        assert c1 == c2
+        o1 = ops.observe(self_, u[k] + c1, wm[k], ffi.from_buffer("double[]", t_ops, require_writable=True))
+        o2 = lib.aff_eq4_ff_observe(b.cdata, u[k] + c2, wm[k], ffi.from_buffer("double[]", t_fn, require_writable=True))
+        assert o1 == o2
+        if o1:
+            upd += 1
+            assert np.array_equal(t_ops, t_fn) and np.array_equal(t_fn, b.theta)
+    assert bytes(ffi.buffer(self_)) == b.struct_bytes() and a.struct_bytes() == frozen
+    assert upd == (n - 1) // 4 - (n // 2 - 1) // 4 and b.n_rejected > 0 and b.estimate is not None
 
 
-def test_compiled_phi_and_inverse_map_against_the_model_the_oracle_and_the_analytic_theta():
+def test_c_phi_and_inverse_map_against_the_model_the_oracle_and_the_analytic_theta():
     for struct in [dict(), dict(lag=False), dict(stribeck=False), dict(offset=True), dict(lag=False, offset=True)]:
         strib = struct.get("stribeck", True)
         model = RegressionModel(PLANT.Vs if strib else None, PLANT.delta if strib else None, **struct)
@@ -246,18 +261,20 @@ def test_layout_properties_pickle_and_validation():
     model = RegressionModel(PLANT.Vs, PLANT.delta, offset=True)
     c = AdaptiveFrictionFeedforward(model, Ts=0.01, dt=TC, warmup=5, ff_max=30.0)
     assert c.KIND == 6 and c.n_theta == 7 and c.m == 10 and c.Ts == 0.01 and c.dt == TC and c.tau_max == 1.0
-    assert c.params.dtype == np.float64 and c.params.flags.c_contiguous and c.state.flags.c_contiguous
-    assert c.rls.buffer.base is c.state and c.ff_max == 30.0 and c.ff_input == "measured" and c.lag
+    # the parts live inside the component's struct
+    assert c.rls.cdata == ffi.addressof(c.cdata, "rls") and c.u_range.cdata == ffi.addressof(c.cdata, "u_range")
+    assert c.ff_max == 30.0 and c.ff_input == "measured" and c.lag
     assert c.estimate is None and c.static(0.3) == 0.0 and c.step(0.3) == 0.0
     u, w = _open_stream(8, 400)
     for k in range(200):
         c.observe(u[k], w[k])
     d = pickle.loads(pickle.dumps(c))
-    assert d.rls.buffer.base is d.state and np.array_equal(d.state, c.state, equal_nan=True)
+    assert d.rls.cdata == ffi.addressof(d.cdata, "rls") and d.struct_bytes() == c.struct_bytes()
+    assert np.shares_memory(d.theta, np.frombuffer(ffi.buffer(d.cdata), dtype=np.uint8))
     for k in range(200, 400):
         assert c.observe(u[k], w[k]) == d.observe(u[k], w[k])
         assert c.step(0.2) == d.step(0.2)
-    assert np.array_equal(d.state, c.state, equal_nan=True) and d.estimate == c.estimate
+    assert d.struct_bytes() == c.struct_bytes() and _same_estimate(d.estimate, c.estimate)
     info = c.info()
     assert info == {"estimator": "eq4", "n_rejected": c.n_rejected, "n_implausible": c.n_implausible,
                     "n_updates": c.rls.n_updates, "lam": 0.995, "names": list(model.names)}
@@ -281,14 +298,14 @@ def test_rejected_samples_leave_the_state_unchanged():
     rng = np.random.default_rng(0)
     for _ in range(50):
         ff.observe(rng.normal(30.0, 5.0), rng.normal(0.2, 0.05))
-    before = ff.state.copy()
+    c = ff.cdata
+    counters = lambda: (c.n_rejected, c.u_range.n_held, c.u_range.n_rejected, c.w_range.n_held,  # noqa: E731
+                        c.w_range.n_rejected)
+    n0 = counters()
+    before = ff.struct_bytes()
     assert ff.observe(math.nan, 0.1) is False and ff.observe(1.0, math.inf) is False
-    assert ff.n_rejected == 2
-    changed = np.flatnonzero(~((ff.state == before) | (np.isnan(ff.state) & np.isnan(before))))
-    # only counters: n_rejected, and the held/rejected counts of the torque and velocity range gates
-    ur = ff.u_range.state.__array_interface__["data"][0] - ff.state.__array_interface__["data"][0]
-    wr = ff.w_range.state.__array_interface__["data"][0] - ff.state.__array_interface__["data"][0]
-    nrej = FF_NSTATE + 7  # n_rejected of the eq. 4 state (after the fixed feedforward's slots)
-    counters = {nrej, ur // 8 + 1, ur // 8 + 2, wr // 8 + 1, wr // 8 + 2}
-    assert set(changed.tolist()) <= counters and ff.state[nrej] == 2.0
-    assert ff.u_range.n_rejected == 1 and ff.w_range.n_rejected == 1
+    assert ff.n_rejected == n0[0] + 2 == 2
+    assert ff.u_range.n_rejected == n0[2] + 1 and ff.w_range.n_rejected == n0[4] + 1
+    # only counters changed: n_rejected, and the held/rejected counts of the torque and velocity range gates
+    c.n_rejected, c.u_range.n_held, c.u_range.n_rejected, c.w_range.n_held, c.w_range.n_rejected = n0
+    assert ff.struct_bytes() == before

@@ -34,23 +34,23 @@ def test_weighted_lag_is_the_forgotten_inverse_variance_mean():
     x = rng.uniform(0.01, 0.03, 300)
     sd = rng.uniform(1e-4, 5e-3, 300)
     for k in range(x.size):
-        got = lag_weighted(c.params, c.state, x[k], sd[k])
+        got = lag_weighted(c, x[k], sd[k])
         w = lam ** np.arange(k, -1, -1) / sd[: k + 1] ** 2  # the weights of estimates 0..k at update k
         assert got == pytest.approx(np.sum(w * x[: k + 1]) / np.sum(w), rel=1e-12)
     # a precise estimate dominates imprecise ones: 5x the standard error is 1/25 of the weight
     c = _component(lag_memory=1e9)
-    lag_weighted(c.params, c.state, 0.020, 1e-4)
-    assert lag_weighted(c.params, c.state, 0.010, 5e-4) == pytest.approx((0.020 + 0.010 / 25) / (1 + 1 / 25))
+    lag_weighted(c, 0.020, 1e-4)
+    assert lag_weighted(c, 0.010, 5e-4) == pytest.approx((0.020 + 0.010 / 25) / (1 + 1 / 25))
 
 
 def test_no_memory_or_no_standard_error_uses_the_estimate_itself():
     c = _component(lag_memory=0.0)
     assert c.lag_memory == 0.0
-    assert lag_weighted(c.params, c.state, 0.0123, 1e-3) == 0.0123
+    assert lag_weighted(c, 0.0123, 1e-3) == 0.0123
     c = _component(lag_memory=10.0)
-    lag_weighted(c.params, c.state, 0.02, 1e-3)
-    assert lag_weighted(c.params, c.state, 0.011, 0.0) == 0.011  # sd 0: that estimate alone, the mean unchanged
-    assert lag_weighted(c.params, c.state, 0.02, 1e-3) == pytest.approx(0.02, rel=1e-12)
+    lag_weighted(c, 0.02, 1e-3)
+    assert lag_weighted(c, 0.011, 0.0) == 0.011  # sd 0: that estimate alone, the mean unchanged
+    assert lag_weighted(c, 0.02, 1e-3) == pytest.approx(0.02, rel=1e-12)
     assert _component(lag_memory=1e300).lag_memory == math.inf  # no forgetting in float64: the memory is unbounded
     for bad in (-1.0, math.nan, math.inf, "10"):
         with pytest.raises((ParameterError, TypeError), match="lag_memory"):

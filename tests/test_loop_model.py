@@ -1,6 +1,6 @@
 """The stick-detection fallback of the measured-velocity feedforward: the nominal loop model.
 
-``LoopModel`` / ``loop_model_step`` against the closed-loop transfer function computed independently
+``LoopModel`` (C ``aff_loop_model_step``) against the closed-loop transfer function computed independently
 (scipy.signal), the fallback inside ``FrictionFeedforward.compensate``, and the effect on ``paper`` (seeded
 ``compare`` setups, judged over two seeds with margins far from the measured values).
 """
@@ -38,7 +38,7 @@ def test_loop_model_validation(kw):
 
 
 def test_loop_model_is_the_closed_loop_of_the_pi_on_the_zoh_integrator():
-    # T(z) = C P / (1 + C P), C = Kp + Ki*Tc*z/(z-1), P = (Tc/J)/(z-1), from polynomials (independent of the kernel)
+    # T(z) = C P / (1 + C P), C = Kp + Ki*Tc*z/(z-1), P = (Tc/J)/(z-1), from polynomials (independent of the C)
     Cn = np.polyadd(KP * np.array([1.0, -1.0]), [KI * TC, 0.0])  # C = Cn / (z - 1)
     Pn, Pd = np.array([TC / J]), np.array([1.0, -1.0])
     num = np.polymul(Cn, Pn)

@@ -11,7 +11,7 @@ from filterpy.kalman import KalmanFilter
 
 from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.regression import RegressionModel
-from adaptive_ff.identification.rls import RecursiveLeastSquares
+from adaptive_ff.identification.rls import RLS_NMAX, RecursiveLeastSquares
 from plant import JointParams, ParameterError, SignalError, bandlimited_noise, sample, simulate
 from rls_oracle import InformationRLS, weighted_ls_path
 
@@ -102,7 +102,7 @@ def test_default_initial_theta_is_zero_and_P0_validated():
         RecursiveLeastSquares(2, P0=np.eye(3))
 
 
-# ---- the compiled kernel against the oracle's closed form and information form (tests/rls_oracle.py) ----
+# ---- the C update (aff_rls_step) against the oracle's closed form and information form (tests/rls_oracle.py) ----
 
 CONFIGS = [
     dict(lam=1.0),
@@ -238,3 +238,12 @@ def test_state_survives_copy_and_pickle_and_theta_assignment():
     np.testing.assert_array_equal(rls.theta, [0.5, 0.0, -0.5])
     with pytest.raises(ParameterError, match="theta"):
         rls.theta = np.zeros(4)
+
+
+def test_more_parameters_than_the_c_struct_holds_are_refused_with_the_limit():
+    """The C struct has room for AFF_RLS_NMAX parameters; the wrapper refuses more by name, not by a crash."""
+    full = RecursiveLeastSquares(RLS_NMAX, lam=0.99)
+    full.update(np.ones(RLS_NMAX), 1.0)
+    np.testing.assert_allclose(full.theta, np.full(RLS_NMAX, 1.0 / RLS_NMAX), rtol=1e-3)
+    with pytest.raises(ParameterError, match=f"n_params must be at most {RLS_NMAX}"):
+        RecursiveLeastSquares(RLS_NMAX + 1)

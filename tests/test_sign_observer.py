@@ -61,7 +61,7 @@ def test_ramp_with_constant_residual(rb):
         ff.compensate(w, 0.0)  # no estimate: output 0, so u - u_c = u
         ff.observe(J * a + d, w)  # the joint's acceleration is (u - d)/J = a
         w += a * Tc
-    w_hat = ff.state[16]  # the a-priori estimate for the velocity w now has
+    w_hat = ff.cdata.ob.w_hat  # the a-priori estimate for the velocity w now has
     l1 = 1.0 - math.exp(-bw * Tc)
     expect = w if rb is None else w + (d * Tc / J) / l1
     assert w_hat == pytest.approx(expect, abs=1e-9)

@@ -1,17 +1,19 @@
 """Adaptive friction feedforward (online RLS, the paper's future work): the recommended component for a running machine.
 
-:class:`RobustAdaptiveFeedforward` (compensator ``KIND`` 3) puts the estimates of a
+:class:`RobustAdaptiveFeedforward` (compensator mode ``adaptive``) puts the estimates of a
 :class:`~adaptive_ff.compensation.sliding_estimator.SlidingFrictionEstimator` (sliding-regime inverse-dynamics RLS
 with directional forgetting, projection and an outlier gate, see :mod:`adaptive_ff.compensation.sliding_estimator`)
 into the fixed feedforward of :mod:`adaptive_ff.compensation.feedforward`, each only after the warm-up and the
 plausibility tests, faded in after switch-on; optionally a provisional start map, :class:`FeedforwardStart`, acts
 until its first trusted estimate.
 
-Its arrays begin with the fixed feedforward's (layout: :mod:`adaptive_ff.compensation.ff_layout`), followed by its
-own settings and counters, the parameter vector in use and the estimator's arrays. The compiled kernels
-:func:`robust_compensate` and :func:`robust_observe` (the closed-loop protocol) and :func:`robust_plausible` (the
-plausibility test) are the one implementation, called by the class's methods and by the closed-loop engine. The
-paper's eq. 4 RLS feedforward, kept as a baseline, is :mod:`adaptive_ff.compensation.eq4_feedforward`.
+Its configuration and state are the C struct ``aff_robust_ff`` (``adaptive_ff/csrc/aff_robust_ff.h``), which
+embeds the fixed feedforward's struct and the estimator's (with its gates and RLS). C is the one
+implementation, called by the class's methods and by the closed-loop engine: the compensator interface
+``aff_robust_ff_compensate`` / ``aff_robust_ff_observe`` (ops table ``aff_robust_ff_ops``), the plausibility test
+``aff_robust_ff_plausible``, the determinacy test ``aff_fc_determined`` (:func:`fc_determined`) and the weighted
+lag ``aff_robust_ff_lag_weighted`` (:func:`lag_weighted`). The paper's eq. 4 RLS feedforward, kept as a baseline,
+is :mod:`adaptive_ff.compensation.eq4_feedforward`.
 """
 
 from __future__ import annotations
@@ -21,134 +23,45 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from adaptive_ff.compensation.feedforward import FrictionFeedforward, ff_at, ff_set_estimate, ff_step
-from adaptive_ff.compensation.ff_layout import FF_NPAR, FF_NSTATE, P_DT, P_FFMAX, S_HAS, S_TAU, S_UOUT
-from adaptive_ff.compensation.sliding_estimator import (SlidingFrictionEstimator, estimate_from_theta,
-                                                       sliding_config, sliding_mse, sliding_observe, sliding_rls,
-                                                       sliding_sizes, sliding_updated)
-from adaptive_ff.compensation.velocity_input import (LoopModel, SignObserver, loop_model_step, sign_observer_step,
-                                                    signed_measurement)
+from adaptive_ff._caff import ffi, lib
+from adaptive_ff.compensation.feedforward import FrictionFeedforward
+from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, estimate_from_theta
+from adaptive_ff.compensation.velocity_input import LoopModel, SignObserver
 from adaptive_ff.identification.regression import FrictionEstimate
-from adaptive_ff.identification.rls import rls_P, rls_n_updates, rls_prior_variance, rls_theta
 from plant.errors import ParameterError, check_nonnegative, check_positive
-from plant.jit import kernel
 
-__all__ = ["RobustAdaptiveFeedforward", "FeedforwardStart", "robust_compensate", "robust_observe", "lag_weighted",
-           "fc_determined", "FC_INFO_FRACTION"]
+__all__ = ["RobustAdaptiveFeedforward", "FeedforwardStart", "lag_weighted", "fc_determined", "FC_INFO_FRACTION"]
 
 
-# RobustAdaptiveFeedforward arrays. params: the feedforward's, own settings, offsets, the estimator's;
-# state: the feedforward's, own slots, the parameter vector in use (p), the estimator's.
-# (start gain and start input: the provisional start, see FeedforwardStart; the state flag _PROV is 1 while it
-# is in use; _LAGFORGET, _LAGW, _LAGI: the forgetting factor, mean and total weight of the weighted lag, lag_weighted)
-(_WARMUP, _FADE, _JLO, _JHI, _TAUMAX, _CONSIST, _P, _PO_EST, _SO_FTH, _SO_EST, _SGAIN, _SREF, _LAGZ, _RELSD,
- _LAGCAP, _LAGFORGET) = range(FF_NPAR, FF_NPAR + 16)
-_GAIN, _NIMPL, _NLAG, _HELD, _PROV, _NUND, _LAGW, _LAGI = range(FF_NSTATE, FF_NSTATE + 8)
-_RB_NPAR, _RB_NSTATE = FF_NPAR + 16, FF_NSTATE + 8
-
-
-@kernel(inline="always")
-def robust_compensate(par, st, w_ctrl, w_meas, w_ref):
-    """Compensator protocol (``KIND`` 3): the feedforward of the estimate in use, faded in; 0 before switch-on.
-
-    During the provisional start (:class:`FeedforwardStart`) the start map times the start gain, evaluated
-    at the reference (start input ``reference``) or as ``ff_input`` says. The loop model (if any) advances
-    every period, also before switch-on."""
-    out = _robust_output(par, st, w_ctrl, w_ref)
-    st[S_UOUT] = out
-    return out
-
-
-@kernel(inline="always")
-def _robust_output(par, st, w_ctrl, w_ref):
-    """The torque of :func:`robust_compensate` (N·m)."""
-    w_stuck = loop_model_step(par, st, w_ctrl, w_ref)
-    if st[S_HAS] == 0.0:
-        signed_measurement(par, st, w_ctrl)  # the sign observer follows the joint before switch-on too
-        return 0.0
-    if st[_PROV] > 0.0:
-        if par[_SREF] > 0.0:
-            signed_measurement(par, st, w_ctrl)
-            return ff_step(par, st, w_ref, w_ref, False) * par[_SGAIN]
-        return ff_at(par, st, w_ctrl, w_stuck, w_ref) * par[_SGAIN]
-    out = ff_at(par, st, w_ctrl, w_stuck, w_ref)
-    if st[_GAIN] < 1.0:
-        st[_GAIN] = min(st[_GAIN] + par[_FADE], 1.0)
-        out = out * st[_GAIN]
-    return out
-
-
-#: Fraction of the RLS prior variance below which the data have determined ``Fc`` (see :func:`fc_determined`).
+#: Fraction of the RLS prior variance below which the data have determined ``Fc`` (see :func:`fc_determined`;
+#: ``AFF_FC_INFO_FRACTION`` of ``adaptive_ff/csrc/aff_robust_ff.h``).
 FC_INFO_FRACTION = 0.01
 
 
-@kernel(inline="always")
-def fc_determined(max_rel_stderr, e2, P_FcFc, P_prior, eFc, eFs):
-    """The determinacy test of ``Fc`` (class Notes of :class:`RobustAdaptiveFeedforward`): True if both
+def fc_determined(max_rel_stderr, e2, P_FcFc, P_prior, eFc, eFs) -> bool:
+    """The determinacy test of ``Fc`` (class Notes of :class:`RobustAdaptiveFeedforward`; C ``aff_fc_determined``):
+    True if both
 
     - its standard error ``sqrt(e2*P_FcFc)`` is at most ``max_rel_stderr*max(Fc, Fs)`` (``e2`` the estimator's
       noise variance, N·m²), and
     - the data have reduced its entry of ``P`` to at most :data:`FC_INFO_FRACTION` of the prior variance
-      ``P_prior`` (:func:`adaptive_ff.identification.rls.rls_prior_variance`): a direction the data do not
-      excite (one direction of motion only: the ``Fc`` and offset columns are the same) keeps ``P`` at the
-      prior's order however small the noise, where the standard error alone would pass on clean data.
+      ``P_prior`` (:attr:`adaptive_ff.identification.rls.RecursiveLeastSquares.prior_variance`): a direction the
+      data do not excite (one direction of motion only: the ``Fc`` and offset columns are the same) keeps ``P``
+      at the prior's order however small the noise, where the standard error alone would pass on clean data.
 
     ``max_rel_stderr = inf`` disables the test (always True).
     """
-    if not max_rel_stderr < math.inf:
-        return True
-    return (math.sqrt(max(e2 * P_FcFc, 0.0)) <= max_rel_stderr * max(eFc, eFs)
-            and P_FcFc <= FC_INFO_FRACTION * P_prior)
+    return bool(lib.aff_fc_determined(max_rel_stderr, e2, P_FcFc, P_prior, eFc, eFs))
 
 
-@kernel
-def _levels_plausible(par, eJ, etau, eFc, eFs, esig):
-    """Range checks of an estimate (point (5) of the RobustAdaptiveFeedforward Notes)."""
-    ffmax = par[P_FFMAX]
-    return (math.isfinite(eJ) and math.isfinite(etau) and math.isfinite(esig) and math.isfinite(eFc)
-            and math.isfinite(eFs) and par[_JLO] < eJ < par[_JHI] and 0.0 <= etau <= par[_TAUMAX]
-            and esig >= 0.0 and 0.0 <= eFc <= ffmax and 0.0 <= eFs <= ffmax)
-
-
-@kernel
-def robust_plausible(par, st, eJ, etau, eJalt, eFc, eFs, esig):
-    """The plausibility test of an estimate against the estimator in ``(par, st)``: ranges and lag consistency."""
-    if not _levels_plausible(par, eJ, etau, eFc, eFs, esig):
-        return False
-    ep = par[np.int64(par[_PO_EST]):]
-    es = st[np.int64(par[_SO_EST]):]
-    return _lag_consistent(par, sliding_rls(ep, es), eJ, etau, eJalt, sliding_mse(es), par[P_DT],
-                           sliding_config(ep)[2])
-
-
-@kernel
-def _lag_consistent(par, rls, eJ, etau, eJalt, e2, dt, has_lag):
-    """The two lag estimates (``tau`` and the ``J*tau`` column) agree (see RobustAdaptiveFeedforward Notes)."""
-    if not (etau >= 2.0 * dt and math.isfinite(eJalt)):
-        return True
-    diff = abs(eJalt * etau - eJ * etau)
-    if diff <= par[_CONSIST] * eJ * etau:
-        return True
-    if not has_lag:
-        return False
-    # delta method on theta_cov[:3, :3] = e2 * P[:3, :3] with the gradient (-tau, 1, -J)
-    g0 = -etau
-    g2 = -eJ
-    v0 = g0 * (e2 * rls_P(rls, 0, 0)) + 1.0 * (e2 * rls_P(rls, 1, 0)) + g2 * (e2 * rls_P(rls, 2, 0))
-    v1 = g0 * (e2 * rls_P(rls, 0, 1)) + 1.0 * (e2 * rls_P(rls, 1, 1)) + g2 * (e2 * rls_P(rls, 2, 1))
-    v2 = g0 * (e2 * rls_P(rls, 0, 2)) + 1.0 * (e2 * rls_P(rls, 1, 2)) + g2 * (e2 * rls_P(rls, 2, 2))
-    var = v0 * g0 + v1 * 1.0 + v2 * g2
-    return diff <= 3.0 * math.sqrt(max(var, 0.0))
-
-
-@kernel(inline="always")
-def lag_weighted(par, st, etau, sd):
-    """Take one lag estimate into the weighted mean of :class:`RobustAdaptiveFeedforward` and return the mean.
+def lag_weighted(ff: "RobustAdaptiveFeedforward", etau: float, sd: float) -> float:
+    """Take one lag estimate into the weighted mean of a :class:`RobustAdaptiveFeedforward` and return the mean
+    (C ``aff_robust_ff_lag_weighted``).
 
     Parameters
     ----------
-    par, st : ndarray
-        The arrays of a :class:`RobustAdaptiveFeedforward` (``st`` holds the mean and its total weight, updated).
+    ff : RobustAdaptiveFeedforward
+        The feedforward (its struct holds the mean and its total weight, updated).
     etau : float
         The lag estimate (s).
     sd : float
@@ -162,74 +75,7 @@ def lag_weighted(par, st, etau, sd):
         *System Identification*, 2nd ed., 1999, Sec. 11.2); ``etau`` itself, the mean unchanged, where
         ``lag_memory`` is 0 or ``sd`` is not > 0.
     """
-    if not (par[_LAGFORGET] > 0.0 and sd > 0.0):
-        return etau
-    w = 1.0 / (sd * sd)
-    info = par[_LAGFORGET] * st[_LAGI] + w
-    st[_LAGW] = etau if st[_LAGI] == 0.0 else st[_LAGW] + (w / info) * (etau - st[_LAGW])
-    st[_LAGI] = info
-    return st[_LAGW]
-
-
-@kernel
-def robust_observe(par, st, u, w_meas, theta_out):
-    """Compensator protocol (``KIND`` 3): one sample into the estimator, then the plausibility tests and the
-    estimate in use (see :class:`RobustAdaptiveFeedforward`). Returns True after an RLS update (theta written
-    into ``theta_out``). The sign observer (if any) takes the applied torque first."""
-    sign_observer_step(par, st, u)
-    p = np.int64(par[_P])
-    ep = par[np.int64(par[_PO_EST]):]
-    es = st[np.int64(par[_SO_EST]):]
-    sliding_observe(ep, es, u, w_meas)
-    if not sliding_updated(es):
-        return False
-    rls = sliding_rls(ep, es)
-    for i in range(p):
-        theta_out[i] = rls_theta(rls, i)
-    if rls_n_updates(rls) < par[_WARMUP]:
-        return True
-    eVs, edelta, lag = sliding_config(ep)
-    eJ = rls_theta(rls, 0)
-    if lag:
-        etau = rls_theta(rls, 2)
-        eJalt = rls_theta(rls, 1) / etau if etau > 0.0 else np.nan
-        iFc = 3
-    else:
-        etau = 0.0
-        eJalt = np.nan
-        iFc = 1
-    eFc = rls_theta(rls, iFc)
-    eFs = rls_theta(rls, iFc + 1)
-    esig = rls_theta(rls, iFc + 2)
-    if not _levels_plausible(par, eJ, etau, eFc, eFs, esig):
-        st[_NIMPL] += 1.0
-        return True
-    e2 = sliding_mse(es)
-    if not fc_determined(par[_RELSD], e2, rls_P(rls, iFc, iFc), rls_prior_variance(rls), eFc, eFs):
-        st[_NUND] += 1.0  # Fc not determined yet (e.g. one direction of motion only: Fc and the offset agree)
-        return True
-    if _lag_consistent(par, rls, eJ, etau, eJalt, e2, par[P_DT], lag):
-        st[_HELD] = 0.0
-        if lag:  # the upper confidence bound of the weighted lag, at most lag_margin_max*tau above it (class Notes)
-            sd = math.sqrt(max(e2 * rls_P(rls, 2, 2), 0.0))
-            etau = lag_weighted(par, st, etau, sd)
-            m = min(par[_LAGZ] * sd, par[_LAGCAP] * etau)
-            etau = min(etau + m, par[_TAUMAX])
-    elif st[S_HAS] > 0.0 and st[_PROV] == 0.0:
-        st[_NLAG] += 1.0
-        etau = st[S_TAU]
-        st[_HELD] = 1.0
-    else:
-        st[_NIMPL] += 1.0
-        return True
-    if st[_PROV] > 0.0:  # hand-over from the provisional start: fade from the start gain to 1
-        st[_PROV] = 0.0
-        st[_GAIN] = par[_SGAIN]
-    ff_set_estimate(par, st, eFc, eFs, eVs, edelta, esig, etau, 1.0)
-    o = np.int64(par[_SO_FTH])
-    for i in range(p):
-        st[o + i] = rls_theta(rls, i)
-    return True
+    return float(lib.aff_robust_ff_lag_weighted(ff.cdata, float(etau), float(sd)))
 
 
 @dataclass(frozen=True)
@@ -353,6 +199,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     Attributes
     ----------
     estimator : SlidingFrictionEstimator
+        Its struct is embedded in this component's (:attr:`cdata`, ``aff_robust_ff``): a copy of the struct is a
+        complete, independent compensator.
     n_implausible : int
         Estimates (after warm-up) that failed the plausibility test; the
         feedforward kept the previous one.
@@ -429,6 +277,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
 
     KIND = 3
     MODE = "adaptive"
+    _ctype = "aff_robust_ff"
 
     def __init__(self, estimator: SlidingFrictionEstimator, *, dt: float, lag: bool = True,
                  ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0, stick_samples: int = 10,
@@ -466,63 +315,52 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         max_rel_stderr = rel
         lag_memory = check_nonnegative("lag_memory", lag_memory)
         fade_in = check_nonnegative("fade_in", fade_in)
-        self.estimator = estimator
-        p = len(estimator.names)
-        self.n_theta = p
-        enp, ens = sliding_sizes(p)
-        so_fth = _RB_NSTATE
-        so_est = so_fth + p
-        self.params = np.zeros(_RB_NPAR + enp)
-        self.state = np.zeros(so_est + ens)
-        self.params[:FF_NPAR] = ff.params
-        self.state[:FF_NSTATE] = ff.state
         if start is not None and not isinstance(start, FeedforwardStart):
             raise ParameterError(f"start must be a FeedforwardStart or None, got {type(start).__name__}")
-        self.params[FF_NPAR:_RB_NPAR] = (float(warmup), 1.0 if fade_in == 0.0 else dt / fade_in, J_lo, J_hi,
-                                         tau_max, consistency, float(p), float(_RB_NPAR), float(so_fth),
-                                         float(so_est), 1.0 if start is None else start.gain,
-                                         float(start is not None and start.ff_input == "reference"), lag_margin,
-                                         max_rel_stderr, lag_margin_max,
-                                         math.exp(-estimator.Ts / lag_memory) if lag_memory > 0.0 else 0.0)
-        self.state[so_fth:so_est] = np.nan
-        self.estimate = None
+        self.estimator = estimator
+        self.n_theta = len(estimator.names)
+        self._new_struct()
+        lib.aff_robust_ff_init(self._c, ff.cdata, estimator.cdata, int(warmup), 1.0 if fade_in == 0.0 else dt / fade_in,
+                               J_lo, J_hi, tau_max, consistency, 1.0 if start is None else start.gain,
+                               start is not None and start.ff_input == "reference", lag_margin, max_rel_stderr,
+                               lag_margin_max, math.exp(-estimator.Ts / lag_memory) if lag_memory > 0.0 else 0.0)
         self.start = start
+        self._attached()
         if start is not None:
             e = start.estimate
-            ff_set_estimate(self.params, self.state, e.Fc, e.Fs, estimator.Vs if e.Vs is None else e.Vs,
-                            estimator.delta if e.delta is None else e.delta, e.sigma, e.tau, 1.0)
-            self.state[_PROV] = 1.0
-            self.state[_GAIN] = 1.0
-        self._attached()
+            lib.aff_robust_ff_start(self._c, e.Fc, e.Fs, estimator.Vs if e.Vs is None else e.Vs,
+                                    estimator.delta if e.delta is None else e.delta, e.sigma, e.tau)
 
     def _attached(self) -> None:
-        po, so = int(self.params[_PO_EST]), int(self.params[_SO_EST])
-        self.estimator.attach(self.params[po:], self.state[so:])
+        """The feedforward part and the estimator (with its parts) point into this component's struct."""
+        self._f = ffi.addressof(self._c, "ff")
+        self.estimator._use(ffi.addressof(self._c, "est"), self)
 
-    warmup = property(lambda self: int(self.params[_WARMUP]), doc="RLS updates before switch-on.")
-    J_range = property(lambda self: (float(self.params[_JLO]), float(self.params[_JHI])),
+    warmup = property(lambda self: int(self._c.warmup), doc="RLS updates before switch-on.")
+    J_range = property(lambda self: (float(self._c.J_lo), float(self._c.J_hi)),
                        doc="Plausible inertia interval (kg·m²).")
-    tau_max = property(lambda self: float(self.params[_TAUMAX]), doc="Largest plausible lag (s).")
-    consistency = property(lambda self: float(self.params[_CONSIST]), doc="Relative lag-consistency tolerance.")
-    n_implausible = property(lambda self: int(self.state[_NIMPL]), doc="Estimates that failed the plausibility test.")
-    n_lag_held = property(lambda self: int(self.state[_NLAG]), doc="Estimates used with the previous lag.")
-    n_undetermined = property(lambda self: int(self.state[_NUND]),
+    tau_max = property(lambda self: float(self._c.tau_max), doc="Largest plausible lag (s).")
+    consistency = property(lambda self: float(self._c.consistency), doc="Relative lag-consistency tolerance.")
+    n_implausible = property(lambda self: int(self._c.n_implausible),
+                             doc="Estimates that failed the plausibility test.")
+    n_lag_held = property(lambda self: int(self._c.n_lag_held), doc="Estimates used with the previous lag.")
+    n_undetermined = property(lambda self: int(self._c.n_undetermined),
                               doc="Plausible estimates not used because ``Fc`` was not determined yet.")
-    lag_margin = property(lambda self: float(self.params[_LAGZ]),
+    lag_margin = property(lambda self: float(self._c.lag_margin),
                           doc="Standard errors added to the estimated lag in use.")
-    lag_margin_max = property(lambda self: float(self.params[_LAGCAP]),
+    lag_margin_max = property(lambda self: float(self._c.lag_margin_max),
                               doc="Largest lag margin, as a fraction of the estimated lag.")
-    max_rel_stderr = property(lambda self: float(self.params[_RELSD]),
+    max_rel_stderr = property(lambda self: float(self._c.max_rel_stderr),
                               doc="Largest standard error of ``Fc`` in use, relative to ``max(Fc, Fs)``.")
 
-    provisional = property(lambda self: bool(self.state[_PROV]),
+    provisional = property(lambda self: bool(self._c.provisional),
                            doc="Whether the provisional start map (``start``) is in use.")
 
     @property
     def lag_memory(self) -> float:
         """Memory (s) of the inverse-variance weighted lag in use; 0: the latest estimate; inf where the forgetting
         factor ``exp(-Ts/lag_memory)`` rounds to 1."""
-        lam = float(self.params[_LAGFORGET])
+        lam = float(self._c.lag_forget)
         if not lam > 0.0:
             return 0.0
         return math.inf if lam >= 1.0 else -self.estimator.Ts / math.log(lam)
@@ -532,12 +370,11 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         """The estimator's estimate in use (None before switch-on and during the provisional start), with the lag
         in use: the weighted mean of the lag estimates (``lag_memory``) plus ``lag_margin`` standard errors, or the
         previous lag where the lag estimates disagreed (then ``J_alt`` is NaN)."""
-        if not self.state[S_HAS] or self.state[_PROV]:
+        if not self._f.has or self._c.provisional:
             return None
-        o = int(self.params[_SO_FTH])
-        e = estimate_from_theta(self.estimator.names, self.state[o:o + self.n_theta], self.estimator.Vs,
-                                self.estimator.delta)
-        return replace(e, tau=float(self.state[S_TAU]), J_alt=float("nan") if self.state[_HELD] else e.J_alt)
+        e = estimate_from_theta(self.estimator.names, ffi.unpack(self._c.theta_used, self.n_theta),
+                                self.estimator.Vs, self.estimator.delta)
+        return replace(e, tau=float(self._f.tau), J_alt=float("nan") if self._c.held else e.J_alt)
 
     @estimate.setter
     def estimate(self, value) -> None:
@@ -550,31 +387,32 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         See :meth:`FrictionFeedforward.step`; after switch-on the output fades in over ``fade_in``. During the
         provisional start the start map times its gain, at ``w_ref`` (when given) for a start at the reference.
         """
-        if not self.state[S_HAS]:
+        c = self._c
+        if not self._f.has:
             return 0.0
-        if self.state[_PROV]:  # the start map, at the reference when the start says so (as in compensate)
-            if self.params[_SREF] and w_ref is not None:
-                return FrictionFeedforward.step(self, w_ref) * float(self.params[_SGAIN])
-            return FrictionFeedforward.step(self, w, w_ref) * float(self.params[_SGAIN])
+        if c.provisional:  # the start map, at the reference when the start says so (as in compensate)
+            if c.start_at_ref and w_ref is not None:
+                return FrictionFeedforward.step(self, w_ref) * float(c.start_gain)
+            return FrictionFeedforward.step(self, w, w_ref) * float(c.start_gain)
         out = FrictionFeedforward.step(self, w, w_ref)
-        if self.state[_GAIN] < 1.0:
-            self.state[_GAIN] = min(self.state[_GAIN] + self.params[_FADE], 1.0)
-            return out * float(self.state[_GAIN])
+        if c.gain < 1.0:
+            c.gain = min(c.gain + c.fade, 1.0)
+            return out * float(c.gain)
         return out
 
     def compensate(self, w_meas: float, w_ref: float) -> float:
-        """Compensator protocol: the faded-in feedforward for this period (N·m), see :func:`robust_compensate`."""
-        return float(robust_compensate(self.params, self.state, float(w_meas), float(w_meas), float(w_ref)))
+        """Compensator protocol: the faded-in feedforward for this period (N·m), C ``aff_robust_ff_compensate``."""
+        return float(lib.aff_robust_ff_compensate(self._c, float(w_meas), float(w_meas), float(w_ref)))
 
     def plausible(self, est: FrictionEstimate) -> bool:
-        """The plausibility test of point (5) of the class Notes: range checks and lag consistency."""
-        return bool(robust_plausible(self.params, self.state, est.J, est.tau, est.J_alt, est.Fc, est.Fs,
-                                     est.sigma))
+        """The plausibility test of point (5) of the class Notes: range checks and lag consistency (C
+        ``aff_robust_ff_plausible``)."""
+        return bool(lib.aff_robust_ff_plausible(self._c, est.J, est.tau, est.J_alt, est.Fc, est.Fs, est.sigma))
 
     @property
     def active(self) -> bool:
         """True once the feedforward acts: a plausible estimate, or the provisional start map, is in use."""
-        return bool(self.state[S_HAS])
+        return bool(self._f.has)
 
     @property
     def theta(self) -> np.ndarray:
@@ -596,7 +434,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
                 "raw_estimate": e.estimate.to_dict(), "noise_estimate": e.noise_std}
 
     def observe(self, u: float, w: float) -> bool:
-        """Feed one controller-period sample to the estimator; refresh the estimate in use.
+        """Feed one controller-period sample to the estimator; refresh the estimate in use (C
+        ``aff_robust_ff_observe``).
 
         Parameters
         ----------
@@ -618,11 +457,5 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         checks is not used at all (``n_implausible``).
         """
         n_rej = self.estimator.n_rejected
-        robust_observe(self.params, self.state, float(u), float(w), self._theta_scratch())
+        lib.aff_robust_ff_observe(self._c, float(u), float(w), ffi.NULL)
         return self.estimator.n_rejected == n_rej
-
-    def _theta_scratch(self) -> np.ndarray:
-        t = getattr(self, "_scratch", None)
-        if t is None:
-            t = self._scratch = np.empty(self.n_theta)
-        return t

@@ -59,6 +59,13 @@ approximate at 1 kHz; J does not enter the feedforward). The benchmark
 ``w_band`` adapts to the noise: ``max(w_band_min, 4*sigma_n)`` with the
 noise level ``sigma_n`` estimated from the running mean of ``|w(k) - 2 w(k-1)
 + w(k-2)|`` (``= sqrt(6)*sqrt(2/pi)*sigma_n`` for white noise on a smooth signal).
+
+Implementation
+--------------
+The estimator is the C struct ``aff_sliding`` (``adaptive_ff/csrc/aff_sliding.h``), which embeds its outlier gate,
+its two range gates and its RLS (``aff_gate``, ``aff_range_gate``, ``aff_rls``); ``aff_sliding_observe`` is the one
+implementation of a sample, called by :meth:`SlidingFrictionEstimator.observe` and by the C adaptive feedforward.
+:func:`sliding_regressors` computes the same rows for a whole record with numpy and scipy.
 """
 
 from __future__ import annotations
@@ -68,19 +75,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from adaptive_ff.compensation.gate import (GATE_NPAR, GATE_NSTATE, RANGE_NPAR, RANGE_NSTATE, OutlierGate, RangeGate,
-                                          gate_check, range_commit, range_ok)
+from adaptive_ff._caff import ffi, lib
+from adaptive_ff.compensation.gate import OutlierGate, RangeGate
 from adaptive_ff.identification.regression import FrictionEstimate
-from adaptive_ff.identification.rls import RecursiveLeastSquares, rls_buffer_size, rls_P, rls_update
+from adaptive_ff.identification.rls import RecursiveLeastSquares
 from plant.component import Component
 from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, check_multiple, check_positive,
                           check_signal)
-from plant.jit import kernel
-from plant.stribeck_map import stribeck_scalar, stribeck_shape
+from plant.stribeck_map import stribeck_shape
 
 __all__ = ["SlidingFrictionEstimator", "SlidingFit", "fit_sliding", "sliding_regressors", "SLIDING_NAMES",
-           "sliding_observe", "sliding_sizes", "estimate_from_theta", "sliding_updated", "sliding_rls", "sliding_mse",
-           "sliding_config"]
+           "estimate_from_theta"]
 
 #: Parameter names of the full structure (lag and offset), in ``theta`` order.
 SLIDING_NAMES = ("J", "J_tau", "tau", "Fc", "Fs", "sigma", "offset")
@@ -97,166 +102,6 @@ def _check_int(name, v, lo):
     if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
         raise ParameterError(f"{name} must be an integer >= {lo}, got {v!r}")
     return int(v)
-
-
-# Layout of the estimator's arrays. params: own settings, then the gate's, the torque range gate's, the velocity
-# range gate's; state: own slots, the regressor scratch phi (p), the gate's state, the two range gates' states,
-# the RLS buffer.
-_VS, _DELTA, _A, _T, _M, _SETTLE, _WBMIN, _DWELL, _E2RATE, _LAG, _OFFSET, _NP = range(12)
-_OWN_NPAR = 12
-_SF = 0  # 15 filter states: three stages each of w, u, g, h, d
-_W1, _W2, _NACC, _D2, _E2, _NSAMP, _NREJ, _NGATED, _UPDATED = range(15, 24)
-_OWN_NSTATE = 24
-
-
-def sliding_sizes(p: int) -> tuple:
-    """``(n_params, n_state)`` of a :class:`SlidingFrictionEstimator` with ``p`` parameters."""
-    return _OWN_NPAR + GATE_NPAR + 2 * RANGE_NPAR, _OWN_NSTATE + p + GATE_NSTATE + 2 * RANGE_NSTATE + rls_buffer_size(p)
-
-
-@kernel
-def _svf3(st, o, a, x):
-    """Advance one chain of three first-order lags ``st[o:o+3]`` (gain ``a``) by input ``x`` (the filter ``L``)."""
-    x1 = st[o] + a * (x - st[o])
-    x2 = st[o + 1] + a * (x1 - st[o + 1])
-    st[o + 2] += a * (x2 - st[o + 2])
-    st[o] = x1
-    st[o + 1] = x2
-
-
-@kernel
-def sliding_observe(par, st, u, w):
-    """One controller-period sample ``(u, w)`` into the estimator in ``(par, st)``; return acceptance.
-
-    The one implementation of :meth:`SlidingFrictionEstimator.observe` (see the module docstring): gate,
-    noise scale, near-zero band, the five state-variable filter chains, the sliding-regime gate and the RLS
-    update (:func:`adaptive_ff.identification.rls.rls_update`) every ``m`` samples. ``st[_UPDATED]`` is 1
-    after an RLS update, else 0.
-    """
-    p = np.int64(par[_NP])
-    og = _OWN_NSTATE + p
-    our = og + GATE_NSTATE
-    owr = our + RANGE_NSTATE
-    orls = owr + RANGE_NSTATE
-    pur = _OWN_NPAR + GATE_NPAR
-    pwr = pur + RANGE_NPAR
-    st[_UPDATED] = 0.0
-    # input rejection: torque range, velocity range (finite velocities; the gate counts non-finite ones), then
-    # the velocity gate; the range gates record their decision only once the whole sample is accepted
-    uok = range_ok(par[pur:pwr], st[our:owr], u)
-    if not uok:
-        range_commit(par[pur:pwr], st[our:owr], u, False)
-        st[_NREJ] += 1.0
-        return False
-    wok = range_ok(par[pwr:pwr + RANGE_NPAR], st[owr:orls], w)
-    if math.isfinite(w) and not wok:
-        range_commit(par[pwr:pwr + RANGE_NPAR], st[owr:orls], w, False)
-        st[_NREJ] += 1.0
-        return False
-    if not gate_check(par[_OWN_NPAR:pur], st[og:our], w):
-        st[_NREJ] += 1.0
-        return False
-    range_commit(par[pur:pwr], st[our:owr], u, True)
-    range_commit(par[pwr:pwr + RANGE_NPAR], st[owr:orls], w, True)
-    if st[_NACC] >= 2.0:
-        dd = w - 2.0 * st[_W1] + st[_W2]
-        st[_D2] += 0.01 * ((dd if dd >= 0.0 else -dd) - st[_D2])
-    st[_W2] = st[_W1]
-    st[_W1] = w
-    st[_NACC] += 1.0
-    band = par[_WBMIN]
-    nb = _BAND_SIGMAS * st[_D2] / _NOISE_GAIN
-    if nb > band:
-        band = nb
-    aw = w if w >= 0.0 else -w
-    if aw > 0.0:
-        ee = stribeck_scalar(aw, 0.0, 1.0, par[_VS], par[_DELTA], 0.0, math.inf)  # exp(-|w/Vs|**delta), eq. 3's shape
-        sg = 1.0 if w > 0.0 else -1.0
-        gg = sg * (1.0 - ee)
-        hh = sg * ee
-    else:
-        gg = 0.0
-        hh = 0.0
-    dz = 1.0 if aw < band else 0.0
-    a = par[_A]
-    _svf3(st, 0, a, w)
-    _svf3(st, 3, a, u)
-    _svf3(st, 6, a, gg)
-    _svf3(st, 9, a, hh)
-    _svf3(st, 12, a, dz)
-    st[_NSAMP] += 1.0
-    k = np.int64(st[_NSAMP])
-    if k % np.int64(par[_M]) != 0 or k < par[_SETTLE]:
-        return True
-    if st[14] > par[_DWELL]:
-        st[_NGATED] += 1.0
-        return True
-    phi = st[_OWN_NSTATE:og]
-    T = par[_T]
-    j = 0
-    phi[j] = (st[1] - st[2]) / T
-    j += 1
-    if par[_LAG] > 0.0:
-        phi[j] = (st[0] - 2.0 * st[1] + st[2]) / (T * T)
-        phi[j + 1] = -(st[4] - st[5]) / T
-        j += 2
-    phi[j] = st[8]
-    phi[j + 1] = st[11]
-    phi[j + 2] = st[2]
-    j += 3
-    if par[_OFFSET] > 0.0:
-        phi[j] = 1.0
-    s = _phi_P_phi(st[orls:], phi)  # before the update: the a-priori error's variance is e2*(1 + s)
-    err = rls_update(st[orls:], phi, st[5])
-    if err != err:  # refused by the RLS (an update that would overflow): counted there, nothing else changes
-        return True
-    st[_E2] += par[_E2RATE] * (err * err / (1.0 + s) - st[_E2])
-    st[_UPDATED] = 1.0
-    return True
-
-
-@kernel(inline="always")
-def _phi_P_phi(rls, phi):
-    """``phi @ P @ phi`` of the RLS state ``rls`` (dimensionless with ``P`` scaled by the noise variance).
-
-    The a-priori error ``y - phi @ theta`` of an RLS whose ``theta`` has covariance ``e2*P`` has the variance
-    ``e2*(1 + phi @ P @ phi)`` (the innovation variance of the Kalman-filter form of RLS; Ljung,
-    *System Identification*, 2nd ed., 1999, Sec. 11.2): dividing the squared error by ``1 + phi @ P @ phi``
-    gives a sample of the noise variance ``e2`` alone. Not ``inf``-safe: ``phi`` is finite here.
-    """
-    n = phi.shape[0]
-    acc = 0.0
-    for i in range(n):
-        row = 0.0
-        for jj in range(n):
-            row += rls_P(rls, i, jj) * phi[jj]
-        acc += phi[i] * row
-    return acc if acc > 0.0 else 0.0
-
-
-@kernel(inline="always")
-def sliding_updated(st):
-    """Whether the last :func:`sliding_observe` on state ``st`` updated the RLS."""
-    return st[_UPDATED] > 0.0
-
-
-@kernel(inline="always")
-def sliding_rls(par, st):
-    """The RLS state buffer inside the estimator state ``st`` (a view)."""
-    return st[_OWN_NSTATE + np.int64(par[_NP]) + GATE_NSTATE + 2 * RANGE_NSTATE:]
-
-
-@kernel(inline="always")
-def sliding_mse(st):
-    """Running mean of the normalised squared a-priori errors of the RLS, ``err**2/(1 + phi @ P @ phi)`` (N·m²):
-    the noise variance, the scale of :attr:`SlidingFrictionEstimator.theta_cov`."""
-    return st[_E2]
-
-
-@kernel(inline="always")
-def sliding_config(par):
-    """``(Vs, delta, lag)`` of the estimator parameters ``par``."""
-    return par[_VS], par[_DELTA], par[_LAG] > 0.0
 
 
 def estimate_from_theta(names, theta, Vs, delta) -> FrictionEstimate:
@@ -370,6 +215,9 @@ class SlidingFrictionEstimator(Component):
     See the module docstring for the model, the filters and the gate.
     """
 
+    _ffi = ffi
+    _ctype = "aff_sliding"
+
     def __init__(self, Vs: float, delta: float, *, Tc: float, Ts: float = 0.01, T_filter: float = 0.02,
                  lam: float = 0.995, forgetting: str = "exponential", P0: float = 1e4, P_max: float | None = None,
                  initial: FrictionEstimate | None = None, J_guess: float = 1.0, J_max: float = math.inf,
@@ -425,13 +273,15 @@ class SlidingFrictionEstimator(Component):
         if w_range.floor == 0.0:
             w_range = w_range.with_floor(self.Vs)
         p = len(self.names)
-        self._init_arrays(*sliding_sizes(p))
         a = 1.0 - math.exp(-self.Tc / self.T)
         settle = int(math.ceil(8.0 * self.T / self.Tc))  # filter transients (Erlang-3 tail < 1.5 %)
         lam_min = float(np.min(rls.lam))
         e2_rate = 1.0 - lam_min if lam_min < 1.0 else 0.01  # running mean square error, same memory
-        self.params[:_OWN_NPAR] = (self.Vs, self.delta, a, self.T, float(self.m), float(settle), self.w_band_min,
-                                   self.dwell_max, e2_rate, float(self.lag), float(self.offset), float(p))
+        self._new_struct()
+        if lib.aff_sliding_init(self._c, self.Vs, self.delta, a, self.T, self.m, settle, self.w_band_min,
+                                self.dwell_max, e2_rate, self.lag, self.offset, gate.cdata, u_range.cdata,
+                                w_range.cdata, rls.cdata) != 0:
+            raise ParameterError(f"the RLS has {rls.n_params} parameters, the structure {p}")  # cannot happen
         self.gate = gate
         self.u_range = u_range
         self.w_range = w_range
@@ -439,24 +289,24 @@ class SlidingFrictionEstimator(Component):
         self._attached()
 
     def _attached(self) -> None:
-        p = len(self.names)
-        og = _OWN_NSTATE + p
-        pur = _OWN_NPAR + GATE_NPAR
-        our = og + GATE_NSTATE
-        self.gate.attach(self.params[_OWN_NPAR:pur], self.state[og:our])
-        self.u_range.attach(self.params[pur:pur + RANGE_NPAR], self.state[our:our + RANGE_NSTATE])
-        self.w_range.attach(self.params[pur + RANGE_NPAR:pur + 2 * RANGE_NPAR],
-                            self.state[our + RANGE_NSTATE:our + 2 * RANGE_NSTATE])
-        self.rls.attach(self.state[our + 2 * RANGE_NSTATE:])
+        """Point the parts (gate, range gates, RLS) into this estimator's struct."""
+        self.gate._use(ffi.addressof(self._c, "gate"), self)
+        self.u_range._use(ffi.addressof(self._c, "u_range"), self)
+        self.w_range._use(ffi.addressof(self._c, "w_range"), self)
+        self.rls._use(ffi.addressof(self._c, "rls"), self)
+
+    def _use(self, ptr, owner) -> None:
+        super()._use(ptr, owner)
+        self._attached()
 
     def __repr__(self) -> str:
         return (f"SlidingFrictionEstimator(Vs={self.Vs!r}, delta={self.delta!r}, Ts={self.Ts!r}, "
                 f"T_filter={self.T!r}, n_updates={self.rls.n_updates})")
 
-    n_samples = property(lambda self: int(self.state[_NSAMP]), doc="Samples accepted.")
-    n_rejected = property(lambda self: int(self.state[_NREJ]), doc="Samples rejected (non-finite or outliers).")
-    n_gated = property(lambda self: int(self.state[_NGATED]), doc="Update instants skipped by the sliding gate.")
-    updated = property(lambda self: bool(self.state[_UPDATED]), doc="Whether the last observe() updated the RLS.")
+    n_samples = property(lambda self: int(self._c.n_samples), doc="Samples accepted.")
+    n_rejected = property(lambda self: int(self._c.n_rejected), doc="Samples rejected (non-finite or outliers).")
+    n_gated = property(lambda self: int(self._c.n_gated), doc="Update instants skipped by the sliding gate.")
+    updated = property(lambda self: bool(self._c.updated), doc="Whether the last observe() updated the RLS.")
 
     @property
     def theta(self) -> np.ndarray:
@@ -465,13 +315,13 @@ class SlidingFrictionEstimator(Component):
 
     @property
     def phi(self) -> np.ndarray:
-        """Regressor of the last RLS update, shape (p,) (a view; valid while :attr:`updated` is True)."""
-        return self.state[_OWN_NSTATE:_OWN_NSTATE + len(self.names)]
+        """Regressor of the last RLS update, shape (p,) (a copy; valid while :attr:`updated` is True)."""
+        return np.array(ffi.unpack(self._c.phi, len(self.names)))
 
     @property
     def y(self) -> float:
         """Output of the last RLS update: the filtered torque ``L[u]`` (N·m)."""
-        return float(self.state[5])
+        return float(self._c.xu[2])
 
     @property
     def n_updates(self) -> int:
@@ -481,12 +331,18 @@ class SlidingFrictionEstimator(Component):
     @property
     def noise_std(self) -> float:
         """Running estimate of the velocity noise standard deviation (rad/s)."""
-        return float(self.state[_D2]) / _NOISE_GAIN
+        return float(self._c.d2) / _NOISE_GAIN
 
     @property
     def w_band(self) -> float:
         """Current near-zero band (rad/s): ``max(w_band_min, 4*noise_std)``."""
-        return max(self.w_band_min, _BAND_SIGMAS * float(self.state[_D2]) / _NOISE_GAIN)
+        return max(self.w_band_min, _BAND_SIGMAS * float(self._c.d2) / _NOISE_GAIN)
+
+    @property
+    def noise_variance(self) -> float:
+        """Running mean of the normalised squared a-priori errors of the RLS, ``err**2/(1 + phi @ P @ phi)``
+        (N·m²): the noise variance, the scale of :attr:`theta_cov`."""
+        return float(self._c.e2)
 
     @property
     def theta_cov(self) -> np.ndarray:
@@ -500,7 +356,7 @@ class SlidingFrictionEstimator(Component):
         understates the true uncertainty (by a factor of a few); use it for
         relative comparisons.
         """
-        return float(self.state[_E2]) * self.rls.P
+        return float(self._c.e2) * self.rls.P
 
     @property
     def estimate(self) -> FrictionEstimate:
@@ -508,7 +364,7 @@ class SlidingFrictionEstimator(Component):
         return estimate_from_theta(self.names, self.rls.theta, self.Vs, self.delta)
 
     def observe(self, u: float, w: float) -> bool:
-        """Feed one controller-period sample.
+        """Feed one controller-period sample (C: ``adaptive_ff/csrc/aff_sliding.c``, ``aff_sliding_observe``).
 
         Parameters
         ----------
@@ -525,7 +381,7 @@ class SlidingFrictionEstimator(Component):
             or a velocity outlier of :attr:`gate`): a rejected sample changes
             nothing but the counters.
         """
-        return bool(sliding_observe(self.params, self.state, float(u), float(w)))
+        return bool(lib.aff_sliding_observe(self._c, float(u), float(w)))
 
 
 @dataclass(frozen=True)
@@ -597,7 +453,7 @@ def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | 
                                    offset=offset, w_band_min=w_band_min, dwell_max=dwell_max)
     from scipy import signal  # lazy: scipy.signal is heavy to import
 
-    a, T = float(est.params[_A]), est.T
+    a, T = float(est.cdata.a), est.T
     lf = lambda x: signal.lfilter([a], [1.0, -(1.0 - a)], x)  # noqa: E731  x_i += a*(x_{i-1} - x_i)
 
     def cascade(x):
@@ -625,7 +481,7 @@ def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | 
         cols.append(np.ones_like(w))
     X = np.column_stack(cols)
     k = np.arange(1, w.shape[0] + 1)
-    rows = (k % est.m == 0) & (k >= est.params[_SETTLE])
+    rows = (k % est.m == 0) & (k >= est.cdata.settle)
     keep = rows & (d3 <= est.dwell_max)
     return X[keep], u3[keep], np.flatnonzero(keep), int(np.count_nonzero(rows & ~keep)), est.names
 

@@ -528,7 +528,7 @@ def eq4_phi(phi, u_k, u_km1, w_km1, w_km2, Vs, delta, lag, stribeck, offset) -> 
 
     Parameters
     ----------
-    phi : ndarray, shape (>= p,), float64, C-contiguous
+    phi : ndarray, shape (>= p,), float64, C-contiguous, writable
         Output, ``p`` as :attr:`RegressionModel.n_params` of the structure.
     u_k, u_km1 : float
         Torque ``u(k)``, ``u(k-1)`` (N·m).
@@ -547,7 +547,7 @@ def eq4_phi(phi, u_k, u_km1, w_km1, w_km2, Vs, delta, lag, stribeck, offset) -> 
     Raises
     ------
     ParameterError
-        ``phi`` not a writable C-contiguous float64 array of at least 7 entries.
+        ``phi`` not a writable C-contiguous float64 array of at least ``p`` entries.
 
     Notes
     -----
@@ -555,9 +555,10 @@ def eq4_phi(phi, u_k, u_km1, w_km1, w_km2, Vs, delta, lag, stribeck, offset) -> 
     absent columns; the same operations as :meth:`RegressionModel.phi`, both through the one Stribeck decay
     (C ``plant_stribeck_shape``, Python :func:`plant.stribeck_map.stribeck_shape_scalar`: the same bits).
     """
-    if (not isinstance(phi, np.ndarray) or phi.dtype != np.float64 or phi.ndim != 1 or phi.shape[0] < 7
+    p = 3 + 2 * bool(lag) + bool(stribeck) + bool(offset)
+    if (not isinstance(phi, np.ndarray) or phi.dtype != np.float64 or phi.ndim != 1 or phi.shape[0] < p
             or not phi.flags.c_contiguous or not phi.flags.writeable):
-        raise ParameterError("phi must be a writable C-contiguous float64 array of at least 7 entries")
+        raise ParameterError(f"phi must be a writable C-contiguous float64 array of at least {p} entries")
     return int(lib.aff_eq4_phi(ffi.from_buffer("double[]", phi, require_writable=True), u_k, u_km1, w_km1, w_km2,
                                Vs, delta, bool(lag), bool(stribeck), bool(offset)))
 

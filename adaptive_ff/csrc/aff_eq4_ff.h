@@ -1,0 +1,73 @@
+/* aff_eq4_ff.h -- the paper's eq. 4 adaptive feedforward: RLS (eqs. 10-13) on the (u, w) stream sampled at Ts
+ * drives the fixed feedforward.
+ *
+ * At each sample k (every m-th controller period): phi(k) of eq. 4 (aff_regression.h) from the stored u(k-1),
+ * w(k-1), w(k-2); RLS update with the output w(k); after warmup updates theta is mapped to physical parameters
+ * (inverse map of eq. 4), projected (aff_project_levels) and, if admissible, put into the feedforward. Samples
+ * pass a torque and a velocity range gate first. The first prototype of the paper's future work, kept as a
+ * baseline. Python: adaptive_ff.compensation.eq4_feedforward.AdaptiveFrictionFeedforward (mode "adaptive").
+ */
+#ifndef AFF_EQ4_FF_H
+#define AFF_EQ4_FF_H
+#include "aff_real.h"
+#include "aff_compensator.h"
+#include "aff_feedforward.h"
+#include "aff_gate.h"
+#include "aff_regression.h"
+#include "aff_rls.h"
+
+typedef struct aff_eq4_ff {
+    aff_fixed_ff ff;              /* the feedforward (no stick detection, loop model or sign observer) */
+    /* configuration */
+    long m;                       /* controller periods per sample, Ts/dt */
+    aff_real Ts;                  /* sample time of the stream (s) */
+    long warmup;                  /* RLS updates before an estimate is used */
+    aff_real tau_max;             /* upper projection bound of tau (s) */
+    aff_real F_max;               /* largest admissible Fc, Fs (N*m) */
+    aff_real Vs;                  /* Stribeck velocity of the structure (rad/s; 1 without the Stribeck term) */
+    aff_real delta;               /* Stribeck shape factor (1 without the Stribeck term) */
+    int lag;                      /* the structure of eq. 4 (aff_regression.h) */
+    int stribeck;
+    int offset;
+    aff_range_gate u_range;       /* range gate of the torque samples */
+    aff_range_gate w_range;       /* range gate of the velocity samples */
+    /* state */
+    long due;                     /* periods to the next sample (m at start) */
+    aff_real u_prev;              /* torque applied in the previous period (N*m) */
+    int sampled;                  /* 1 if this period took a sample */
+    int has_past;                 /* 1 once u(k-1), w(k-1), w(k-2) are filled */
+    aff_real u1;                  /* u(k-1) (N*m) */
+    aff_real w1;                  /* w(k-1) (rad/s) */
+    aff_real w2;                  /* w(k-2) (rad/s) */
+    long n_rejected;              /* samples refused (range gates, RLS) */
+    long n_implausible;           /* estimates the projection refused */
+    int has_estimate;             /* 1 once an estimate is in use */
+    aff_physical est;             /* the estimate in use (projected) */
+    aff_real phi[AFF_RLS_NMAX];   /* regressor of the last sample */
+    aff_rls rls;                  /* the estimator of theta (p = the structure's n_params) */
+} aff_eq4_ff;
+
+/* Configure e from the configured parts ff (aff_fixed_ff_init), u_range, w_range (aff_range_gate_init) and rls
+ * (aff_rls_init with p = 3 + 2*lag + stribeck + offset), copied by value, and clear its state (due = m). Returns
+ * 0, or -1 (e untouched) if rls->p does not fit the structure. Python: AdaptiveFrictionFeedforward.__init__. */
+int aff_eq4_ff_init(aff_eq4_ff *e, const aff_fixed_ff *ff, long m, aff_real Ts, long warmup, aff_real tau_max,
+                    aff_real F_max, aff_real Vs, aff_real delta, int lag, int stribeck, int offset,
+                    const aff_range_gate *u_range, const aff_range_gate *w_range, const aff_rls *rls);
+
+/* One sample (u(k) N*m, w(k) rad/s) of the stream: returns 0 if refused (a range gate, or the RLS refused the
+ * update: only counters change), else 1 (the first sample only fills the past). Python:
+ * AdaptiveFrictionFeedforward.observe (was eq4_sample). */
+int aff_eq4_ff_sample(aff_eq4_ff *e, aff_real u, aff_real w);
+
+/* Compensator interface (aff_compensator.h), self an aff_eq4_ff: in every m-th period (from the m-th on) a
+ * sample (the previous period's torque, w_meas), then the feedforward (aff_fixed_ff_compensate at w_ctrl/w_ref). */
+double aff_eq4_ff_compensate(void *self, double w_ctrl, double w_meas, double w_ref);
+
+/* Compensator interface: store the applied torque u (N*m) for the next sample; returns 1 in a period that took
+ * a sample (refused ones included), then theta is written into theta_out[0..p-1] (if not NULL), else 0. */
+int aff_eq4_ff_observe(void *self, double u, double w_meas, double *theta_out);
+
+/* The ops table of the eq. 4 feedforward (name "adaptive"). */
+extern const aff_compensator_ops aff_eq4_ff_ops;
+
+#endif

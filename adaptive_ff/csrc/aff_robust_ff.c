@@ -1,0 +1,217 @@
+/* aff_robust_ff.c -- the robust adaptive feedforward (see aff_robust_ff.h). */
+#include <string.h>
+#include "aff_robust_ff.h"
+
+/* Python's (and numba's) min(a, b) and max(a, b). */
+static aff_real min2(aff_real a, aff_real b)
+{
+    return b < a ? b : a;
+}
+
+static aff_real max2(aff_real a, aff_real b)
+{
+    return b > a ? b : a;
+}
+
+void aff_robust_ff_init(aff_robust_ff *r, const aff_fixed_ff *ff, const aff_sliding *est, long warmup,
+                        aff_real fade, aff_real J_lo, aff_real J_hi, aff_real tau_max, aff_real consistency,
+                        aff_real start_gain, int start_at_ref, aff_real lag_margin, aff_real max_rel_stderr,
+                        aff_real lag_margin_max, aff_real lag_forget)
+{
+    long i;
+    memset(r, 0, sizeof *r);
+    r->ff = *ff;
+    r->est = *est;
+    r->warmup = warmup;
+    r->fade = fade;
+    r->J_lo = J_lo;
+    r->J_hi = J_hi;
+    r->tau_max = tau_max;
+    r->consistency = consistency;
+    r->start_gain = start_gain;
+    r->start_at_ref = start_at_ref;
+    r->lag_margin = lag_margin;
+    r->max_rel_stderr = max_rel_stderr;
+    r->lag_margin_max = lag_margin_max;
+    r->lag_forget = lag_forget;
+    for (i = 0; i < AFF_RLS_NMAX; i++)
+        r->theta_used[i] = NAN;
+}
+
+void aff_robust_ff_start(aff_robust_ff *r, aff_real Fc, aff_real Fs, aff_real Vs, aff_real delta, aff_real sigma,
+                         aff_real tau)
+{
+    aff_fixed_ff_set_estimate(&r->ff, Fc, Fs, Vs, delta, sigma, tau, 1);
+    r->provisional = 1;
+    r->gain = 1.0;
+}
+
+/* The output of aff_robust_ff_compensate (N*m). */
+static aff_real output(aff_robust_ff *r, aff_real w_ctrl, aff_real w_ref)
+{
+    aff_fixed_ff *f = &r->ff;
+    aff_real w_stuck = aff_loop_model_step(&f->lm, w_ctrl, w_ref);
+    aff_real out;
+    if (!f->has) {
+        aff_sign_observer_signed(&f->ob, w_ctrl, f->stick_band); /* the sign observer follows the joint too */
+        return 0.0;
+    }
+    if (r->provisional) {
+        if (r->start_at_ref) {
+            aff_sign_observer_signed(&f->ob, w_ctrl, f->stick_band);
+            return aff_fixed_ff_step(f, w_ref, w_ref, 0) * r->start_gain;
+        }
+        return aff_fixed_ff_at(f, w_ctrl, w_stuck, w_ref) * r->start_gain;
+    }
+    out = aff_fixed_ff_at(f, w_ctrl, w_stuck, w_ref);
+    if (r->gain < (aff_real)1.0) {
+        r->gain = min2(r->gain + r->fade, 1.0);
+        out = out * r->gain;
+    }
+    return out;
+}
+
+double aff_robust_ff_compensate(void *self, double w_ctrl, double w_meas, double w_ref)
+{
+    aff_robust_ff *r = (aff_robust_ff *)self;
+    aff_real out = output(r, (aff_real)w_ctrl, (aff_real)w_ref);
+    (void)w_meas;
+    r->ff.u_out = out;
+    return out;
+}
+
+int aff_fc_determined(aff_real max_rel_stderr, aff_real e2, aff_real P_FcFc, aff_real P_prior, aff_real eFc,
+                      aff_real eFs)
+{
+    if (!(max_rel_stderr < INFINITY))
+        return 1;
+    return AFF_SQRT(max2(e2 * P_FcFc, 0.0)) <= max_rel_stderr * max2(eFc, eFs)
+           && P_FcFc <= (aff_real)AFF_FC_INFO_FRACTION * P_prior;
+}
+
+/* Range checks of an estimate (point (5) of the Python class Notes). */
+static int levels_plausible(const aff_robust_ff *r, aff_real eJ, aff_real etau, aff_real eFc, aff_real eFs,
+                            aff_real esig)
+{
+    aff_real ffmax = r->ff.ff_max;
+    return isfinite(eJ) && isfinite(etau) && isfinite(esig) && isfinite(eFc) && isfinite(eFs) && r->J_lo < eJ
+           && eJ < r->J_hi && 0 <= etau && etau <= r->tau_max && esig >= 0 && 0 <= eFc && eFc <= ffmax
+           && 0 <= eFs && eFs <= ffmax;
+}
+
+/* The two lag estimates (tau and the J*tau column) agree: within consistency*J*tau, or within three standard
+ * deviations of their difference (delta method on e2*P[:3, :3] with the gradient (-tau, 1, -J)); checked only
+ * for tau >= 2*dt and a finite J_alt. */
+static int lag_consistent(const aff_robust_ff *r, const aff_rls *rls, aff_real eJ, aff_real etau, aff_real eJalt,
+                          aff_real e2, aff_real dt, int has_lag)
+{
+    aff_real diff, g0, g2, v0, v1, v2, var;
+    if (!(etau >= (aff_real)2.0 * dt && isfinite(eJalt)))
+        return 1;
+    diff = AFF_FABS(eJalt * etau - eJ * etau);
+    if (diff <= r->consistency * eJ * etau)
+        return 1;
+    if (!has_lag)
+        return 0;
+    g0 = -etau;
+    g2 = -eJ;
+    v0 = g0 * (e2 * aff_rls_P(rls, 0, 0)) + (aff_real)1.0 * (e2 * aff_rls_P(rls, 1, 0))
+         + g2 * (e2 * aff_rls_P(rls, 2, 0));
+    v1 = g0 * (e2 * aff_rls_P(rls, 0, 1)) + (aff_real)1.0 * (e2 * aff_rls_P(rls, 1, 1))
+         + g2 * (e2 * aff_rls_P(rls, 2, 1));
+    v2 = g0 * (e2 * aff_rls_P(rls, 0, 2)) + (aff_real)1.0 * (e2 * aff_rls_P(rls, 1, 2))
+         + g2 * (e2 * aff_rls_P(rls, 2, 2));
+    var = v0 * g0 + v1 * (aff_real)1.0 + v2 * g2;
+    return diff <= (aff_real)3.0 * AFF_SQRT(max2(var, 0.0));
+}
+
+int aff_robust_ff_plausible(const aff_robust_ff *r, aff_real J, aff_real tau, aff_real J_alt, aff_real Fc,
+                            aff_real Fs, aff_real sigma)
+{
+    if (!levels_plausible(r, J, tau, Fc, Fs, sigma))
+        return 0;
+    return lag_consistent(r, &r->est.rls, J, tau, J_alt, r->est.e2, r->ff.dt, r->est.lag);
+}
+
+aff_real aff_robust_ff_lag_weighted(aff_robust_ff *r, aff_real tau, aff_real sd)
+{
+    aff_real w, info;
+    if (!(r->lag_forget > 0 && sd > 0))
+        return tau;
+    w = (aff_real)1.0 / (sd * sd);
+    info = r->lag_forget * r->lag_info + w;
+    r->lag_mean = r->lag_info == 0 ? tau : r->lag_mean + (w / info) * (tau - r->lag_mean);
+    r->lag_info = info;
+    return r->lag_mean;
+}
+
+int aff_robust_ff_observe(void *self, double u, double w_meas, double *theta_out)
+{
+    aff_robust_ff *r = (aff_robust_ff *)self;
+    aff_sliding *est = &r->est;
+    const aff_rls *rls = &est->rls;
+    long p = rls->p;
+    long i, iFc;
+    int lag;
+    aff_real eJ, etau, eJalt, eFc, eFs, esig, e2;
+    aff_sign_observer_step(&r->ff.ob, (aff_real)u, r->ff.u_out);
+    aff_sliding_observe(est, (aff_real)u, (aff_real)w_meas);
+    if (!est->updated)
+        return 0;
+    if (theta_out)
+        for (i = 0; i < p; i++)
+            theta_out[i] = rls->theta[i];
+    if (rls->n_updates < r->warmup)
+        return 1;
+    lag = est->lag;
+    eJ = rls->theta[0];
+    if (lag) {
+        etau = rls->theta[2];
+        eJalt = etau > 0 ? rls->theta[1] / etau : NAN;
+        iFc = 3;
+    } else {
+        etau = 0.0;
+        eJalt = NAN;
+        iFc = 1;
+    }
+    eFc = rls->theta[iFc];
+    eFs = rls->theta[iFc + 1];
+    esig = rls->theta[iFc + 2];
+    if (!levels_plausible(r, eJ, etau, eFc, eFs, esig)) {
+        r->n_implausible++;
+        return 1;
+    }
+    e2 = est->e2;
+    if (!aff_fc_determined(r->max_rel_stderr, e2, aff_rls_P(rls, iFc, iFc), aff_rls_prior_variance(rls), eFc,
+                           eFs)) {
+        r->n_undetermined++; /* Fc not determined yet (e.g. one direction of motion only: Fc and the offset agree) */
+        return 1;
+    }
+    if (lag_consistent(r, rls, eJ, etau, eJalt, e2, r->ff.dt, lag)) {
+        r->held = 0;
+        if (lag) { /* the upper confidence bound of the weighted lag, at most lag_margin_max*tau above it */
+            aff_real sd = AFF_SQRT(max2(e2 * aff_rls_P(rls, 2, 2), 0.0));
+            aff_real m;
+            etau = aff_robust_ff_lag_weighted(r, etau, sd);
+            m = min2(r->lag_margin * sd, r->lag_margin_max * etau);
+            etau = min2(etau + m, r->tau_max);
+        }
+    } else if (r->ff.has && !r->provisional) {
+        r->n_lag_held++;
+        etau = r->ff.tau;
+        r->held = 1;
+    } else {
+        r->n_implausible++;
+        return 1;
+    }
+    if (r->provisional) { /* hand-over from the provisional start: fade from the start gain to 1 */
+        r->provisional = 0;
+        r->gain = r->start_gain;
+    }
+    aff_fixed_ff_set_estimate(&r->ff, eFc, eFs, est->Vs, est->delta, esig, etau, 1);
+    for (i = 0; i < p; i++)
+        r->theta_used[i] = rls->theta[i];
+    return 1;
+}
+
+const aff_compensator_ops aff_robust_ff_ops = {"adaptive", aff_robust_ff_compensate, aff_robust_ff_observe};

@@ -1,0 +1,96 @@
+/* aff_robust_ff.h -- the robust adaptive friction feedforward: the sliding-regime estimator's estimates put into
+ * the fixed feedforward after warm-up and plausibility tests, faded in after switch-on.
+ *
+ * Safety chain (Python class Notes): samples gated by the estimator; rows outside the sliding regime unused;
+ * the RLS's covariance bound or directional forgetting; projection onto physical bounds; an estimate is used
+ * only after warmup RLS updates and if plausible (finite, J in (J_lo, J_hi), 0 <= tau <= tau_max, sigma >= 0,
+ * 0 <= Fc, Fs <= ff_max), with Fc determined (aff_fc_determined) and the two lag estimates (tau and J*tau/J)
+ * consistent (else the previous lag is held); the lag in use is the inverse-variance weighted mean of the lag
+ * estimates with forgetting (Ljung, System Identification, 2nd ed., 1999, Sec. 11.2) plus lag_margin standard
+ * errors (at most lag_margin_max times the lag, at most tau_max: a cautious use of the estimate, Astrom &
+ * Wittenmark, Adaptive Control, 2nd ed., 1995, Ch. 7); the output fades in over fade_in and is clipped. An
+ * optional provisional start map acts until the first trusted estimate. Python:
+ * adaptive_ff.compensation.adaptive_feedforward.RobustAdaptiveFeedforward (mode "adaptive").
+ */
+#ifndef AFF_ROBUST_FF_H
+#define AFF_ROBUST_FF_H
+#include "aff_real.h"
+#include "aff_compensator.h"
+#include "aff_feedforward.h"
+#include "aff_sliding.h"
+
+/* Fraction of the RLS prior variance below which the data have determined Fc (aff_fc_determined). */
+#define AFF_FC_INFO_FRACTION 0.01
+
+typedef struct aff_robust_ff {
+    aff_fixed_ff ff;              /* the feedforward; its estimate is the one in use */
+    /* configuration */
+    long warmup;                  /* RLS updates before switch-on */
+    aff_real fade;                /* gain increment per period, dt/fade_in (1 = step) */
+    aff_real J_lo;                /* plausible inertia interval, exclusive (kg*m^2) */
+    aff_real J_hi;
+    aff_real tau_max;             /* largest plausible lag (s) */
+    aff_real consistency;         /* relative lag-consistency tolerance */
+    aff_real start_gain;          /* factor on the provisional start map, in (0, 1] (1 without a start) */
+    int start_at_ref;             /* 1: the start map is evaluated at the reference */
+    aff_real lag_margin;          /* standard errors added to the weighted lag */
+    aff_real max_rel_stderr;      /* largest standard error of Fc relative to max(Fc, Fs), INFINITY = no test */
+    aff_real lag_margin_max;      /* largest margin as a fraction of the lag, INFINITY = no cap */
+    aff_real lag_forget;          /* forgetting factor of the weighted lag per update, exp(-Ts/lag_memory), 0 = off */
+    /* state */
+    aff_real gain;                /* fade-in gain of the output */
+    int provisional;              /* 1 while the start map is in use */
+    int held;                     /* 1 if the lag in use was held from the previous estimate */
+    long n_implausible;           /* estimates after warm-up that failed the tests */
+    long n_lag_held;              /* estimates used with the previous lag */
+    long n_undetermined;          /* plausible estimates not used because Fc was not determined */
+    aff_real lag_mean;            /* weighted mean of the lag estimates (s) */
+    aff_real lag_info;            /* its total weight (1/s^2) */
+    aff_real theta_used[AFF_RLS_NMAX]; /* the estimator's theta whose estimate is in use (NaN before) */
+    aff_sliding est;              /* the online estimator */
+} aff_robust_ff;
+
+/* Configure r from the configured parts ff (aff_fixed_ff_init, no estimate) and est (aff_sliding_init), both
+ * copied by value, and clear its state (gain 1, no estimate in use, theta_used NaN). warmup >= 0; fade = dt/fade_in
+ * (1 for fade_in 0); J_lo < J_hi; tau_max > 0; consistency > 0; start_gain in (0, 1]; lag_margin >= 0;
+ * max_rel_stderr > 0; lag_margin_max >= 0; lag_forget in [0, 1). Python: RobustAdaptiveFeedforward.__init__. */
+void aff_robust_ff_init(aff_robust_ff *r, const aff_fixed_ff *ff, const aff_sliding *est, long warmup,
+                        aff_real fade, aff_real J_lo, aff_real J_hi, aff_real tau_max, aff_real consistency,
+                        aff_real start_gain, int start_at_ref, aff_real lag_margin, aff_real max_rel_stderr,
+                        aff_real lag_margin_max, aff_real lag_forget);
+
+/* Put the provisional start map into use (levels N*m, Vs rad/s, sigma N*m*s/rad, lag s): the feedforward's
+ * estimate, provisional = 1, gain 1. Python: RobustAdaptiveFeedforward(start=FeedforwardStart(...)). */
+void aff_robust_ff_start(aff_robust_ff *r, aff_real Fc, aff_real Fs, aff_real Vs, aff_real delta, aff_real sigma,
+                         aff_real tau);
+
+/* The determinacy test of Fc: 1 if max_rel_stderr is INFINITY, else 1 iff sqrt(max(e2*P_FcFc, 0)) <=
+ * max_rel_stderr*max(eFc, eFs) and P_FcFc <= AFF_FC_INFO_FRACTION*P_prior (e2 the noise variance, N*m^2; P_prior
+ * aff_rls_prior_variance). Python: adaptive_feedforward.fc_determined. */
+int aff_fc_determined(aff_real max_rel_stderr, aff_real e2, aff_real P_FcFc, aff_real P_prior, aff_real eFc,
+                      aff_real eFs);
+
+/* The plausibility test of an estimate (J kg*m^2, tau s, J_alt kg*m^2, Fc, Fs N*m, sigma N*m*s/rad): the
+ * ranges, then the lag consistency against the estimator's covariance. Python: RobustAdaptiveFeedforward.plausible. */
+int aff_robust_ff_plausible(const aff_robust_ff *r, aff_real J, aff_real tau, aff_real J_alt, aff_real Fc,
+                            aff_real Fs, aff_real sigma);
+
+/* Take the lag estimate tau (s) with standard error sd (s) into the weighted mean and return the mean:
+ * lag_mean += (w/info)*(tau - lag_mean), info = lag_forget*info + w, w = 1/sd^2 (the first: tau itself); tau
+ * itself, the mean unchanged, where lag_forget is 0 or sd is not > 0. Python: adaptive_feedforward.lag_weighted. */
+aff_real aff_robust_ff_lag_weighted(aff_robust_ff *r, aff_real tau, aff_real sd);
+
+/* Compensator interface (aff_compensator.h), self an aff_robust_ff: the loop model's period; 0 before
+ * switch-on; the start map times start_gain during the provisional start; else the feedforward, faded in.
+ * Python: RobustAdaptiveFeedforward.compensate. */
+double aff_robust_ff_compensate(void *self, double w_ctrl, double w_meas, double w_ref);
+
+/* Compensator interface: the sign observer takes u, the estimator the sample (u N*m, w_meas rad/s), then the
+ * tests and the estimate in use. Returns 1 after an RLS update (theta written into theta_out[0..p-1] if not
+ * NULL), else 0. Python: RobustAdaptiveFeedforward.observe. */
+int aff_robust_ff_observe(void *self, double u, double w_meas, double *theta_out);
+
+/* The ops table of the robust adaptive feedforward (name "adaptive"). */
+extern const aff_compensator_ops aff_robust_ff_ops;
+
+#endif
