@@ -23,6 +23,7 @@ HEADERS = [
     "aff_sliding.h",
     "aff_robust_ff.h",
     "aff_eq4_ff.h",
+    "aff_drive.h",
 ]
 
 

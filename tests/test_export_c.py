@@ -7,8 +7,8 @@ with the package's (the same log through the package's compensator, built from t
 ``aff_replay`` through cffi, itself checked against the Python methods ``compensate``/``observe``, and the
 feedforward the closed loop applied). Double: equal within 1e-12 of ``max|u_ff|``. Float (``-DAFF_FLOAT``):
 the deviation is measured and printed; it must stay within 1 % of the friction level ``Fc`` except where a
-threshold decision falls on the neighbouring period (docs/benchmarks/export_c.md). Also: ``AFF_INITIAL`` is the package's struct byte for byte, the library
-references nothing but ``<math.h>`` functions and ``memmove``/``memset``/``memcpy``, ``make`` builds and runs
+threshold decision falls on the neighbouring period (docs/benchmarks/export_c.md). Also: ``AFF_INITIAL`` is the
+package's struct byte for byte, the library references nothing but ``<math.h>`` functions and ``memmove``/``memset``/``memcpy``, ``make`` builds and runs
 the example in both precisions, a sanitizer build replays cleanly, and the command's errors.
 """
 
