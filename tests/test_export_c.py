@@ -177,8 +177,10 @@ def test_make_builds_the_library_and_runs_the_example(exported, tmp_path, flt):
     build = work / "build" / ("float" if flt == "1" else "double")
     assert (build / "libaff.a").is_file() and (build / "example_loop").is_file()
     assert "warning" not in r.stderr
-    last = r.stdout.strip().splitlines()[-1]
-    assert last.startswith("after 60 s: feedforward on,"), last  # the stub joint taught it the friction
+    lines = [x for x in r.stdout.splitlines() if x.startswith(("after ", "estimate in use:"))]
+    assert lines[0].startswith("after 60 s: feedforward on,"), r.stdout  # the stub joint taught it the friction
+    fc = float(lines[1].split("Fc ")[1].split()[0])  # the example's stub joint has the identified Fc
+    assert abs(fc - IDENTIFIED["Fc"]) <= 0.05 * IDENTIFIED["Fc"], lines[1]
 
 
 @needs_cc

@@ -313,7 +313,8 @@ class CExport:
         """A few lines: the folder, the files, the configuration and how to build."""
         lines = [f"C library of the adaptive feedforward written to {self.out}"]
         lines += [f"  {p.name}" for p in self.files]
-        lines.append("configuration (aff_config.h): " + ", ".join(f"{k} = {v:.6g}" for k, v in self.config.items()))
+        lines.append("configuration (aff_config.h):")
+        lines += [f"  {k:<16}{v:.6g}" for k, v in self.config.items()]
         lines.append(f"from {len(self.headers)} headers and {len(self.sources)} sources of the package: "
                      + ", ".join(self.sources))
         lines.append(f"build: make -C {self.out}" + (" (single precision: AFF_FLOAT)" if self.float_default else

@@ -202,7 +202,8 @@ def register(sub) -> None:
                    help="'adaptive-ff identify --Vs ... --delta ... --json' output (Vs, delta, J, sigma)")
     e.add_argument("--out", metavar="DIR", required=True, help="folder to write (new or empty; see --force)")
     e.add_argument("--u-max", type=float, required=True, metavar="NM",
-                   help="the drive's torque limit in N·m: the feedforward's bound and the velocity gate's")
+                   help="the drive's torque limit in N·m: the velocity gate's bound, twice the feedforward's (unless "
+                        "--ff-max) and the example's saturation")
     e.add_argument("--Tc", type=float, default=1e-3, metavar="S", help="controller period in s (default 0.001)")
     e.add_argument("--Ts", type=float, default=0.01, metavar="S",
                    help="estimator update period in s, a multiple of --Tc (default 0.01)")
