@@ -54,7 +54,7 @@ def _identified(path) -> tuple[dict, dict]:
     from plant.errors import ParameterError
     from plant.models import read_json
 
-    d = read_json(path, what="identification JSON (adaptive-ff identify --json)")
+    d = read_json(path, what="JSON identification (adaptive-ff identify --json)")
     if not isinstance(d, dict):
         raise ParameterError(f"{path}: expected a JSON object (adaptive-ff identify --json), got {type(d).__name__}")
     phys = d.get("physical")
@@ -170,6 +170,7 @@ def run(args) -> int:
                              "overwrite the exported files in it")
     if not (math.isfinite(args.u_max) and args.u_max > 0.0):
         raise ParameterError(f"--u-max must be a finite torque > 0 (N·m), got {args.u_max!r}")
+    _identified(args.from_file)  # read errors name the file as what it should be: an identification
     refusing = [w for w in warnings_from_file(args.from_file) if w.refusing]
     for w in refusing:
         print(f"adaptive-ff: {args.from_file}: {w.code} warning on {w.parameter}: {w}", file=sys.stderr)
