@@ -34,7 +34,7 @@ __all__ = ["RobustAdaptiveFeedforward", "FeedforwardStart", "lag_weighted", "fc_
 
 
 #: Fraction of the RLS prior variance below which the data have determined ``Fc`` (see :func:`fc_determined`;
-#: ``AFF_FC_INFO_FRACTION`` of ``adaptive_ff/csrc/aff_robust_ff.h``).
+#: ``FC_INFO_FRACTION`` of ``adaptive_ff/csrc/aff_robust_ff.c``).
 FC_INFO_FRACTION = 0.01
 
 

@@ -2,6 +2,9 @@
 #include <string.h>
 #include "aff_robust_ff.h"
 
+/* Fraction of the RLS prior variance below which the data have determined Fc (Python: FC_INFO_FRACTION). */
+static const aff_real FC_INFO_FRACTION = 0.01;
+
 /* Python's (and numba's) min(a, b) and max(a, b). */
 static aff_real min2(aff_real a, aff_real b)
 {
@@ -86,7 +89,7 @@ int aff_fc_determined(aff_real max_rel_stderr, aff_real e2, aff_real P_FcFc, aff
     if (!(max_rel_stderr < INFINITY))
         return 1;
     return AFF_SQRT(max2(e2 * P_FcFc, 0.0)) <= max_rel_stderr * max2(eFc, eFs)
-           && P_FcFc <= (aff_real)AFF_FC_INFO_FRACTION * P_prior;
+           && P_FcFc <= FC_INFO_FRACTION * P_prior;
 }
 
 /* Range checks of an estimate (point (5) of the Python class Notes). */

@@ -19,9 +19,6 @@
 #include "aff_feedforward.h"
 #include "aff_sliding.h"
 
-/* Fraction of the RLS prior variance below which the data have determined Fc (aff_fc_determined). */
-#define AFF_FC_INFO_FRACTION 0.01
-
 typedef struct aff_robust_ff {
     aff_fixed_ff ff;              /* the feedforward; its estimate is the one in use */
     /* configuration */
@@ -65,8 +62,8 @@ void aff_robust_ff_start(aff_robust_ff *r, aff_real Fc, aff_real Fs, aff_real Vs
                          aff_real tau);
 
 /* The determinacy test of Fc: 1 if max_rel_stderr is INFINITY, else 1 iff sqrt(max(e2*P_FcFc, 0)) <=
- * max_rel_stderr*max(eFc, eFs) and P_FcFc <= AFF_FC_INFO_FRACTION*P_prior (e2 the noise variance, N*m^2; P_prior
- * aff_rls_prior_variance). Python: adaptive_feedforward.fc_determined. */
+ * max_rel_stderr*max(eFc, eFs) and P_FcFc <= 0.01*P_prior (the data have determined Fc; e2 the noise variance,
+ * N*m^2; P_prior aff_rls_prior_variance). Python: adaptive_feedforward.fc_determined. */
 int aff_fc_determined(aff_real max_rel_stderr, aff_real e2, aff_real P_FcFc, aff_real P_prior, aff_real eFc,
                       aff_real eFs);
 

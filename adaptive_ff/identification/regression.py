@@ -53,7 +53,6 @@ import numpy as np
 from adaptive_ff._caff import ffi, lib
 from plant.errors import ExcitationError, ParameterError, check_finite_scalar, check_positive, check_signal
 from plant.friction import JointParams, stribeck, stribeck_shape
-from plant.stribeck_map import stribeck_shape_scalar
 from plant.results import axes_or_new, json_safe
 
 __all__ = [
@@ -552,8 +551,8 @@ def eq4_phi(phi, u_k, u_km1, w_km1, w_km2, Vs, delta, lag, stribeck, offset) -> 
     Notes
     -----
     Ruderman eqs. 4-6: ``[w(k-1), -w(k-2), u(k), -u(k-1), -g(w(k-1)), -h(w(k-1)), -1]`` without the
-    absent columns; the same operations as :meth:`RegressionModel.phi`, both through the one Stribeck decay
-    (C ``plant_stribeck_shape``, Python :func:`plant.stribeck_map.stribeck_shape_scalar`: the same bits).
+    absent columns; the operations of :meth:`RegressionModel.phi`, with plant's one Stribeck decay of eq. 3
+    (C ``plant_stribeck_shape``).
     """
     p = 3 + 2 * bool(lag) + bool(stribeck) + bool(offset)
     if (not isinstance(phi, np.ndarray) or phi.dtype != np.float64 or phi.ndim != 1 or phi.shape[0] < p
