@@ -253,7 +253,7 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     n_theta = 0 if compensator is None or oracle else int(getattr(compensator, "n_theta", 0))
     state0 = plant_state(frozen, float(wr[0]))
     if friction0 is not None and getattr(frozen, "tau", 0.0) > 0:  # the lagged models (LuGre has no tau)
-        state0.x = check_finite_scalar("friction0", friction0)
+        state0.s = check_finite_scalar("friction0", friction0)
     revs = reversal_times(t, wr)
     m_theta = n // _update_period(compensator) + 1 if (decimate and n_theta) else 0
     x = EngineRun(t=t, w_ref=wr, revs=revs, window=float(reversal_window), dt=float(Tc), n_scenarios=1,
