@@ -15,6 +15,10 @@ CSRC = Path(__file__).resolve().parent / "csrc"
 #: Headers read by cffi, in dependency order.
 HEADERS = [
     "ctl_pi.h",
+    "ctl_metrics.h",
+    "ctl_dob.h",
+    "ctl_canudas.h",
+    "ctl_adob.h",
 ]
 
 

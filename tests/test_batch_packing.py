@@ -1,5 +1,6 @@
-"""Tests of the vectorised packing behind run_batch: plant_rows, plant_states, integrable_rows, build_modes and
-metrics_columns equal their one-plant/one-run counterparts bit for bit; a bad plant in a batch is named by index."""
+"""Tests of the vectorised packing behind run_batch: plant_rows, plant_states, integrable_rows, build_modes
+equal their one-plant/one-run counterparts bit for bit (metrics_columns: tests/test_metrics.py); a bad plant in a
+batch is named by index."""
 
 import math
 
@@ -9,7 +10,6 @@ import pytest
 from controllers.simulation.batch import run_batch
 from controllers.simulation.closed_loop import ModeOptions
 from controllers.simulation.compensators import build_mode, build_modes
-from controllers.simulation.metrics import METRIC_NAMES, METRICS_NSTATE, metrics_columns, metrics_result
 from plant.errors import ParameterError
 from plant.excitation import multisine_reference
 from plant.friction import preset
@@ -130,25 +130,3 @@ def test_build_modes_equals_build_mode_with_one_controller_per_options_object():
         build_modes(plants, "magic", [o1] * 3)
     with pytest.raises(ParameterError, match="options"):
         build_modes(plants, "none", [o1, "o2", o1])
-
-
-def test_metrics_columns_equal_metrics_result_per_run():
-    rng = np.random.default_rng(7)
-    st = rng.uniform(0.0, 3.0, size=(40, METRICS_NSTATE))
-    st[:, 1::3] *= 1e-17  # compensation terms
-    st[::5, 12] = 0.0  # empty run
-    st[1::5, 6] = 0.0  # no second-half samples
-    st[2::5, 9] = 0.0  # no reversal window
-    st[3::5, 2] = math.nan  # a diverged run's maximum
-    cols = metrics_columns(st)
-    assert sorted(cols) == sorted(METRIC_NAMES)
-    for b in range(st.shape[0]):
-        one = metrics_result(st[b])
-        for k in METRIC_NAMES:
-            assert _bits(cols[k][b]) == _bits(getattr(one, k)), (b, k)
-    # analytic: sum of squares 8 (+ compensation 1) over 4 samples -> RMS 1.5
-    s = np.zeros(METRICS_NSTATE)
-    s[[0, 1, 12, 2]] = 8.0, 1.0, 4.0, 2.5
-    c = metrics_columns(s[None, :])
-    assert c["rms"][0] == 1.5 and c["max"][0] == 2.5 and c["u_rms"][0] == 0.0
-    assert math.isnan(c["rms_second_half"][0]) and math.isnan(c["max_second_half"][0])

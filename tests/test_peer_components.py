@@ -1,4 +1,4 @@
-"""The peers as compiled compensator components against the oracles of tests/peers_oracle.py.
+"""The peers as C compensator components (struct and ops table) against the oracles of tests/peers_oracle.py.
 
 The oracles are written from the peers' equations and run over whole signals: Canudas de Wit's compensator as
 the sample intervals of the accepted samples, the rows of the sampled motor model, the RLS (the package's,
@@ -6,7 +6,7 @@ checked on its own by tests/test_rls.py) and the direction-dependent map; the di
 disturbance samples through its binomial Q-filter (scipy's ``lfilter`` with coefficients from
 ``cont2discrete``). The components run on long seeded random streams with direction changes, sticking (dead
 zone), non-finite samples, warm-up and saturation of the compensation, through their methods and through their
-compiled kernels in a compiled loop (as the closed-loop engine calls them); every output, the update instants,
+C ops tables on their structs (as the closed-loop engine calls them); every output, the update instants,
 the parameter history and the counters are compared with the oracle fed the same signals.
 """
 
@@ -14,15 +14,15 @@ import json
 import math
 import pickle
 
-import numba
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as hst
 
 import peers_oracle as oracle
-from controllers.peers.canudas import CanudasCompensator, canudas_compensate, canudas_observe
-from controllers.peers.dob import DisturbanceObserver, dob_compensate, dob_observe
+from controllers.peers.canudas import CanudasCompensator
+from controllers._cctl import ffi
+from controllers.peers.dob import DOB_ORDER_MAX, DisturbanceObserver
 from plant.errors import ParameterError
 
 SETTINGS = dict(deadline=None, derandomize=True, database=None, max_examples=12,
@@ -127,55 +127,59 @@ def test_canudas_property_equal_to_oracle(seed, m, w_dead, warmup, ff_max, meas,
     _check_canudas(c, kw, wc, wm, wr, *_run_canudas(c, wc, wm, wr, u_in))
 
 
-@numba.njit
-def _drive(comp, obs, par, st, wc, wm, wr, u_in, out, upd, th):
-    """The engine's calling sequence in a compiled loop: compensate, apply, observe; theta when updated."""
-    for k in range(wc.shape[0]):
-        c = comp(par, st, wc[k], wm[k], wr[k])
-        out[k] = c
-        upd[k] = obs(par, st, u_in[k] + c, wm[k], th[k])
-    return out
+def _drive(c, wc, wm, wr, u_in):
+    """The engine's calling sequence through the component's C ops table on its struct (compensate, apply,
+    observe): compensation, update flags, and theta after each update (NaN elsewhere)."""
+    from controllers._cctl import ffi
+
+    ops, p = c.ops, c.cdata
+    n, m = wc.shape[0], c.n_theta
+    buf = ffi.new("double[]", max(m, 1))
+    out, upd, th = np.empty(n), np.zeros(n, dtype=bool), np.full((n, m), np.nan)
+    for k, (a, b, r, x) in enumerate(zip(wc.tolist(), wm.tolist(), wr.tolist(), u_in.tolist())):
+        out[k] = ops.compensate(p, a, b, r)
+        upd[k] = ops.observe(p, x + out[k], b, buf)
+        if upd[k]:
+            th[k] = list(buf)[:m]
+    return out, upd, th
 
 
-def test_canudas_kernels_in_a_compiled_loop_equal_the_oracle_and_report_theta():
+def test_canudas_ops_table_equals_the_oracle_and_reports_theta():
     kw = dict(Tc=1e-3, Ts=4e-3, warmup=25, w_dead=0.01, ff_max=30.0)
     c = CanudasCompensator(**kw)
     wc, wm, wr, u_in = _stream(7, 20000)
-    n = wc.shape[0]
-    out, upd, th = np.empty(n), np.zeros(n, dtype=np.bool_), np.full((n, 5), np.nan)
-    _drive(canudas_compensate, canudas_observe, c.params, c.state, wc, wm, wr, u_in, out, upd, th)
+    out, upd, th = _drive(c, wc, wm, wr, u_in)
     assert np.isnan(th[~upd]).all()  # theta is reported exactly when the RLS was updated
     o = _check_canudas(c, kw, wc, wm, wr, out, u_in + out, upd, th)
     assert upd.sum() == o["rls"].n_updates > 500
 
 
-def test_canudas_state_layout_pickle_and_coef_setter():
+def test_canudas_struct_pickle_and_coef_setter():
     c = CanudasCompensator(Tc=1e-3, Ts=2e-3, warmup=3, w_dead=0.0)
-    assert c.KIND == 4 and c.n_theta == 5 and c.params.flags.c_contiguous and c.state.flags.c_contiguous
-    assert c.params.dtype == np.float64 and c.state.dtype == np.float64
-    assert c.rls.buffer.base is c.state  # the RLS state is a slice of the component's state
+    assert c.KIND == 4 and c.n_theta == 5 and ffi.string(c.ops.name) == b"canudas"
+    for part in ("rls", "u_range", "w_range"):  # the parts' structs are fields of the compensator's struct
+        assert getattr(c, part).cdata == ffi.addressof(c.cdata, part)
     wc, wm, wr, u = _stream(3, 2000, bad=0.0, stick=False)
     for k in range(1000):
         c.observe(u[k] + c.compensate(wc[k], wr[k]), wm[k])
     d = pickle.loads(pickle.dumps(c))
-    assert d.rls.buffer.base is d.state and _same(d.state, c.state) and _same(d.params, c.params)
+    assert d.rls.cdata == ffi.addressof(d.cdata, "rls") and d.struct_bytes() == c.struct_bytes()
     for k in range(1000, 2000):  # the copy continues exactly like the original
         a, b = c.compensate(wc[k], wr[k]), d.compensate(wc[k], wr[k])
         assert a == b
         c.observe(u[k] + a, wm[k])
         d.observe(u[k] + b, wm[k])
-    assert _same(d.state, c.state)
-    # attached to slices of a composite's arrays, it continues exactly like the copy
-    big_p, big_s = np.zeros(c.params.size + 3), np.zeros(c.state.size + 4)
-    c.attach(big_p[3:], big_s[4:])
-    assert c.rls.buffer.base is big_s and c.params.base is big_p
-    for k in range(1000, 1500):
-        a = c.compensate(wc[k], wr[k])
-        c.observe(u[k] + a, wm[k])
+    assert d.struct_bytes() == c.struct_bytes()
+    # moved into an element of a composite's array of structs, it continues exactly like the copy
+    big = ffi.new("ctl_canudas[3]")
+    c._use(ffi.addressof(big, 1), big)
+    assert c.cdata == ffi.addressof(big, 1) and c.rls.cdata == ffi.addressof(big[1], "rls")
+    assert c.w_range.cdata == ffi.addressof(big[1], "w_range") and c.struct_bytes() == d.struct_bytes()
     e = pickle.loads(pickle.dumps(d))
     for k in range(1000, 1500):
+        c.observe(u[k] + c.compensate(wc[k], wr[k]), wm[k])
         e.observe(u[k] + e.compensate(wc[k], wr[k]), wm[k])
-    assert _same(big_s[4:], e.state) and c.coef == e.coef
+    assert c.struct_bytes() == e.struct_bytes() and c.coef == e.coef and c.rls.n_updates == e.rls.n_updates
     c.coef = (10.0, 6.0, 8.0, 5.0)
     assert c.coef == (10.0, 6.0, 8.0, 5.0) and c.compensate(-0.5, 0.0) == -6.0 - 2.5
     c.coef = None
@@ -197,11 +201,12 @@ def test_canudas_refuses_an_overflowing_row_without_touching_the_rls():
     c = CanudasCompensator(Tc=1e-3, Ts=3e-3, warmup=0, w_dead=0.0)
     for u_, w_ in [(0.0, 1.0), (1.7e308, 1.0), (1.7e308, 1.0)]:  # u_sum = inf over the interval
         c.observe(u_, w_)
-    rls_before = c.rls.buffer.copy()
-    rls_before[7] += 1.0  # the RLS counts the refused row (slot 7 of its header), nothing else changes
+    rls_before = bytearray(c.rls.struct_bytes())
     c.observe(0.0, 1.0)  # closes the interval: u_bar = inf
-    assert c.rls.n_updates == 0 and c.n_rejected == 1 and _same(c.rls.buffer, rls_before)
-    assert c.rls.n_rejected == 1
+    assert c.rls.n_updates == 0 and c.n_rejected == 1 and c.rls.n_rejected == 1
+    c.rls.cdata.n_rejected = 0  # the RLS counted the refused row, nothing else changed
+    assert c.rls.struct_bytes() == bytes(rls_before)
+    c.rls.cdata.n_rejected = 1
     for u_, w_ in [(1.0, 1.0), (1.0, 1.0), (0.0, 1.0)]:  # the next interval is an ordinary row
         c.observe(u_, w_)
     assert c.rls.n_updates == 1 and c.coef is not None and np.all(np.isfinite(c.rls.theta))
@@ -232,16 +237,16 @@ def test_dob_equals_the_oracle(order, omega_q, d_max):
     if math.isfinite(d_max):
         assert np.max(np.abs(d_hat)) == d_max  # the bound acted
     c2 = DisturbanceObserver(**kw)
-    out, upd, th = np.empty(12000), np.zeros(12000, dtype=np.bool_), np.zeros((12000, 0))
-    _drive(dob_compensate, dob_observe, c2.params, c2.state, wc, wm, wr, u_in, out, upd, th)
+    out, upd, th = _drive(c2, wc, wm, wr, u_in)
     _check_dob(kw, wc, u_in + out, out, c2.n_rejected)
-    assert not upd.any()
+    assert not upd.any() and th.shape == (12000, 0)
 
 
 def test_dob_layout_and_properties():
     c = DisturbanceObserver(J_n=2.0, omega_q=400.0, Tc=1e-3, order=3, d_max=9.0)
-    # two range gates (torque, velocity) of 5 parameters and 3 state entries each
-    assert c.KIND == 5 and c.n_theta == 0 and c.state.shape == (14,) and c.params.shape == (16,)
+    assert c.KIND == 5 and c.n_theta == 0 and ffi.string(c.ops.name) == b"dob"
+    # the two range gates (torque, velocity) live in the observer's struct
+    assert c.u_range.cdata == ffi.addressof(c.cdata, "u_range") and c.w_range.cdata == ffi.addressof(c.cdata, "w_range")
     assert (c.J_n, c.omega_q, c.Tc, c.order, c.d_max) == (2.0, 400.0, 1e-3, 3, 9.0)
     assert c._a == 1.0 - math.exp(-0.4) and c._w_last is None
     c.d_hat = 1.5
@@ -249,3 +254,110 @@ def test_dob_layout_and_properties():
     assert c.compensate(0.1, 0.0) == 1.5 and c._w_last == 0.1 and c.n_rejected == 4
     assert c.compensate(math.nan, 0.0) == 1.5 and c.n_rejected == 5
     assert c.info() == {"n_rejected": 5, "J_n": 2.0, "omega_q": 400.0}
+
+
+def test_dob_pickle_continues_exactly_and_its_gates_stay_live():
+    kw = dict(J_n=1.2, omega_q=800.0, Tc=1e-3, order=2, d_max=30.0)
+    c = DisturbanceObserver(**kw)
+    wc, wm, wr, u_in = _stream(5, 4000, bad=0.01)
+    for k in range(2000):
+        c.observe(u_in[k] - c.compensate(wc[k], wr[k]), wm[k])
+    d = pickle.loads(pickle.dumps(c))
+    assert d.cdata != c.cdata and d.struct_bytes() == c.struct_bytes()
+    assert d.u_range.cdata == ffi.addressof(d.cdata, "u_range") and d.w_range.cdata == ffi.addressof(d.cdata, "w_range")
+    for k in range(2000, 4000):
+        a, b = c.compensate(wc[k], wr[k]), d.compensate(wc[k], wr[k])
+        assert a == b or (math.isnan(a) and math.isnan(b))
+        c.observe(u_in[k] - a, wm[k])
+        d.observe(u_in[k] - b, wm[k])
+    assert d.struct_bytes() == c.struct_bytes()
+    # every refusal is a gate's: the gate objects show the counts of the struct's gates
+    assert c.n_rejected == c.u_range.n_rejected + c.w_range.n_rejected > 40
+    assert c.u_range.n_rejected == c.cdata.u_range.n_rejected and c.w_range.envelope == c.cdata.w_range.env
+
+
+def test_dob_order_capacity():
+    assert DisturbanceObserver(J_n=1.0, Tc=1e-3, order=DOB_ORDER_MAX).order == DOB_ORDER_MAX
+    with pytest.raises(ParameterError, match="order"):
+        DisturbanceObserver(J_n=1.0, Tc=1e-3, order=DOB_ORDER_MAX + 1)
+
+
+def _adob_parts(u_max=math.inf, start=False):
+    """A robust adaptive feedforward and an observer for the ``paper`` joint, built twice from the same settings."""
+    from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart, RobustAdaptiveFeedforward
+    from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
+    from adaptive_ff.identification.regression import FrictionEstimate
+    from plant.friction import preset
+
+    p = preset("paper")
+    init = FrictionEstimate(J=p.J, tau=0.0, sigma=0.8 * p.sigma, Fc=0.8 * p.Fc, Fs=0.8 * p.Fs, offset=0.0,
+                            Vs=p.Vs, delta=p.delta, J_alt=math.nan)
+    est = SlidingFrictionEstimator(p.Vs, p.delta, Tc=1e-3, initial=init, J_guess=p.J)
+    ff = RobustAdaptiveFeedforward(est, dt=1e-3, warmup=20, fade_in=0.05, max_rel_stderr=math.inf,
+                                   start=FeedforwardStart(init) if start else None)
+    return p, ff, DisturbanceObserver(J_n=0.9 * p.J, Tc=1e-3, omega_q=400.0, d_max=60.0)
+
+
+def _adob_stream(p, n, seed):
+    """Velocities of a sliding joint with reversals and bad samples, and torques consistent with them (eq. 3 plus
+    inertia), so that the estimator updates and the feedforward switches on."""
+    from plant.friction import stribeck
+
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * 1e-3
+    w = 0.2 * np.sin(2 * np.pi * 0.5 * t) + 0.05 * np.sin(2 * np.pi * 2.3 * t)
+    u = p.J * np.gradient(w, 1e-3) + stribeck(w, Fc=p.Fc, Fs=p.Fs, Vs=p.Vs, delta=p.delta, sigma=p.sigma)
+    wm = w + rng.normal(0.0, 1e-4, n)
+    u = u + rng.normal(0.0, 0.2, n)
+    for a in (wm, u):
+        idx = rng.random(n) < 0.002
+        a[idx] = rng.choice([math.nan, math.inf, 1e3], idx.sum())
+    return wm, 0.2 * np.sin(2 * np.pi * 0.5 * t), u
+
+
+@pytest.mark.parametrize("u_max,start", [(math.inf, False), (25.0, True)])
+def test_adaptive_dob_is_its_parts_composed_and_moves_as_one_struct(u_max, start):
+    """The composite (its ops table on its struct) equals the two parts driven by hand in the stated order:
+    u_ff, then d_hat, the sum clipped to u_max; the observer records u - u_ff, the feedforward (u, w)."""
+    from controllers.peers.adaptive_dob import AdaptiveDOBCompensator
+
+    p, ff, dob = _adob_parts(u_max, start)
+    c = AdaptiveDOBCompensator(ff, dob, u_max=u_max)
+    assert ff.cdata == ffi.addressof(c.cdata, "ff") and dob.cdata == ffi.addressof(c.cdata, "dob")
+    assert ff.estimator.cdata == ffi.addressof(c.cdata.ff, "est") and ffi.string(c.ops.name) == b"adaptive-dob"
+    assert c.n_theta == ff.n_theta and c.u_max == u_max
+    _, ff2, dob2 = _adob_parts(u_max, start)  # the reference: the parts on their own
+    wm, wr, u_in = _adob_stream(p, 6000, 4)
+    ops, cp = c.ops, c.cdata
+    th = ffi.new("double[]", c.n_theta)
+    n_upd = 0
+    for k, (w, r, x) in enumerate(zip(wm.tolist(), wr.tolist(), u_in.tolist())):
+        out = ops.compensate(cp, w, w, r)
+        uff = ff2.compensate(w, r)
+        ref = min(max(uff + dob2.compensate(w, r), -u_max), u_max)
+        assert out == ref or (math.isnan(out) and math.isnan(ref)), k
+        assert c.u_ff == uff or (math.isnan(uff) and math.isnan(c.u_ff))
+        uk = x + 0.3 * out
+        upd = ops.observe(cp, uk, w, th)
+        dob2.observe(uk - uff, w)
+        n0 = ff2.estimator.n_updates
+        ff2.observe(uk, w)
+        assert bool(upd) == (ff2.estimator.n_updates > n0)
+        if upd:
+            n_upd += 1
+            assert list(th) == ff2.estimator.theta.tolist()
+        if k == 3000:  # moved into an element of a struct array mid-run (as the engine holds it), it carries on
+            arr = ffi.new("ctl_adob[2]")
+            c._use(ffi.addressof(arr, 1), arr)
+            cp = c.cdata
+            assert ff.estimator.cdata == ffi.addressof(arr[1].ff, "est") and dob.cdata == ffi.addressof(arr[1], "dob")
+    assert n_upd > 50 and c.active and ff2.active
+    assert dob.struct_bytes() == dob2.struct_bytes() and ff.estimator.theta.tolist() == ff2.estimator.theta.tolist()
+    d = pickle.loads(pickle.dumps(c))
+    assert d.struct_bytes() == c.struct_bytes() and d.feedforward.estimator.cdata == ffi.addressof(d.cdata.ff, "est")
+    for w, r, x in zip(wm[:500].tolist(), wr[:500].tolist(), u_in[:500].tolist()):
+        a, b = c.compensate(w, r), d.compensate(w, r)
+        assert a == b or (math.isnan(a) and math.isnan(b))
+        c.observe(x, w)
+        d.observe(x, w)
+    assert d.struct_bytes() == c.struct_bytes()

@@ -243,17 +243,16 @@ def test_pi_step_without_limit_is_the_backward_difference_filter():
     for _ in range(40):
         kw, e, u_ff = _random_pi_case(rng)
         kw["u_max"] = math.inf
-        par = np.array([kw["Kp"], kw["Ki"] * kw["Tc"], kw["u_max"]])
-        st = np.array([kw["integral0"], 0.0])
+        st = PIController(**kw).cdata  # the C struct, stepped as the engine steps it
         u, integral = np.empty(len(e)), np.empty(len(e))
         for k, (ek, fk) in enumerate(zip(e, u_ff)):
-            u[k] = pi_step(par, st, ek, fk)
-            integral[k] = st[0]
+            u[k] = pi_step(st, ek, fk)
+            integral[k] = st.I
         u_o, integral_o = pi_linear(e, u_ff, Kp=kw["Kp"], Ki=kw["Ki"], Tc=kw["Tc"], integral0=kw["integral0"])
         scale = max(1.0, float(np.max(np.abs(u_o))), float(np.max(np.abs(integral_o))))
         assert np.max(np.abs(u - u_o)) <= 1e-12 * scale
         assert np.max(np.abs(integral - integral_o)) <= 1e-12 * scale
-        assert not st[1]
+        assert not st.saturated
 
 
 def test_pi_step_with_limit_follows_the_conditional_integration_rule():
@@ -269,37 +268,54 @@ def test_pi_step_with_limit_follows_the_conditional_integration_rule():
         kw, e, u_ff = _random_pi_case(rng)
         ref = OraclePI(**kw)
         ctl = PIController(**kw)
-        par = np.array([kw["Kp"], kw["Ki"] * kw["Tc"], kw["u_max"]])
-        st = np.array([kw["integral0"], 0.0])
+        st = PIController(**kw).cdata
         scale = max(1.0, abs(kw["integral0"]), float(np.max(np.abs(u_ff))),
                     kw["Kp"] * float(np.max(np.abs(e))), kw["u_max"] if math.isfinite(kw["u_max"]) else 0.0)
         for ek, fk in zip(e, u_ff):
             I_before = ref.integral
             u_ref = ref.step(ek, fk)
             u_cls = ctl.step(ek, fk)
-            u_raw = pi_step(par, st, ek, fk)
-            assert u_cls == u_raw and st[0] == ctl.integral  # the class is the kernel on its buffers
+            u_raw = pi_step(st, ek, fk)
+            assert u_cls == u_raw and st.I == ctl.integral  # the class is the C step on its struct
             tol = 1e-12 * max(scale, abs(ref.integral))
-            assert abs(u_raw - u_ref) <= tol and abs(st[0] - ref.integral) <= tol
-            if abs(abs(ek * kw["Kp"] + st[0] + fk) - kw["u_max"]) > tol:
-                assert bool(st[1]) == ref.saturated == ctl.saturated
+            assert abs(u_raw - u_ref) <= tol and abs(st.I - ref.integral) <= tol
+            if abs(abs(ek * kw["Kp"] + st.I + fk) - kw["u_max"]) > tol:
+                assert bool(st.saturated) == ref.saturated == ctl.saturated
             n_sat += ref.saturated
             n_clamped += ref.saturated and abs(ref.integral - (I_before + kw["Ki"] * kw["Tc"] * ek)) > tol
     assert n_sat > 1000 and n_clamped > 100  # the cases exercise saturation and the clamp
 
 
-def test_pi_step_buffers_and_properties():
+def test_pi_struct_fields_and_properties():
     c = PIController(Kp=2.0, Ki=70.0, Tc=1e-2, u_max=10.0, integral0=1.5)
-    assert c.params.dtype == np.float64 and c.params.tolist() == [2.0, 70.0 * 1e-2, 10.0]
-    assert c.state.tolist() == [1.5, 0.0]
+    st = c.cdata
+    assert (st.Kp, st.KiTc, st.u_max, st.I, st.saturated) == (2.0, 70.0 * 1e-2, 10.0, 1.5, 0)
     assert (c.Kp, c.Ki, c.Tc, c.u_max, c.integral, c.saturated) == (2.0, 70.0, 1e-2, 10.0, 1.5, False)
-    with pytest.raises(ValueError):
-        c.params[0] = 3.0  # gains are fixed: the buffer is read-only
     c.step(10.0)
-    assert c.saturated and c.state[1] == 1.0
+    assert c.saturated and st.saturated == 1
     c.integral = -2.0
-    assert c.state[0] == -2.0
+    assert st.I == -2.0
     with pytest.raises(ParameterError, match="integral"):
         c.integral = float("nan")
     c.reset()
-    assert c.state.tolist() == [0.0, 0.0]
+    assert (st.I, st.saturated) == (0.0, 0)
+
+
+def test_pi_pickles_and_copies_its_state():
+    """A pickled or deep-copied controller (a process pool) carries gains and integrator, owns its own struct
+    and continues exactly as the original."""
+    import copy
+    import pickle
+
+    c = PIController(Kp=2.0, Ki=70.0, Tc=1e-2, u_max=10.0, integral0=1.5)
+    e = np.random.default_rng(5).standard_normal(300).tolist()
+    for x in e[:100]:
+        c.step(x, 2.0)
+    copies = [pickle.loads(pickle.dumps(c)), copy.deepcopy(c)]
+    for d in copies:
+        assert d.cdata != c.cdata
+        assert (d.Kp, d.Ki, d.Tc, d.u_max, d.integral, d.saturated) == (c.Kp, c.Ki, c.Tc, c.u_max, c.integral,
+                                                                         c.saturated)
+    u = [c.step(x, 2.0) for x in e[100:]]
+    for d in copies:
+        assert [d.step(x, 2.0) for x in e[100:]] == u and d.integral == c.integral

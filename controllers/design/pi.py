@@ -11,9 +11,9 @@ over ``[t_k, t_k + Tc)``)::
 :func:`design_pi` places the gain crossover of the *discrete* ``L`` at a
 requested frequency with a requested phase margin; :class:`PIController`
 implements exactly this ``C(z)`` with a saturation, a feedforward input and
-anti-windup by conditional integration (integrator clamping), as one compiled
-step :func:`pi_step` over a parameter and a state buffer (the closed-loop
-engine calls the same kernel). python-control and scipy are imported by the
+anti-windup by conditional integration (integrator clamping), a thin class
+over the C struct ``ctl_pi`` and its step (``controllers/csrc/ctl_pi.c``,
+``ctl_pi_step``; the closed-loop engine calls the same function). python-control and scipy are imported by the
 design functions when they run, not with this module.
 """
 
@@ -25,8 +25,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from controllers._cctl import ffi, lib
+from plant.component import Component
 from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
-from plant.jit import kernel
 from plant.results import axes_or_new, json_safe
 
 __all__ = [
@@ -487,19 +488,14 @@ def closed_loop_step(design: PIDesign, *, t_end: float = 0.5) -> ClosedLoopStep:
                           u=np.asarray(u, dtype=float).reshape(-1))
 
 
-@kernel(inline="always")
-def pi_step(par, st, e, u_ff):
-    """One period of the discrete PI with saturation and clamping anti-windup; updates ``st`` in place.
+def pi_step(pi, e: float, u_ff: float = 0.0) -> float:
+    """One period of the discrete PI with saturation and clamping anti-windup on a ``ctl_pi`` struct.
 
     Parameters
     ----------
-    par : ndarray of float64, shape (3,)
-        ``(Kp, Ki*Tc, u_max)``: proportional gain (N·m·s/rad), integral gain
-        times the period (N·m/rad·s = N·m per rad/s of error per step), torque
-        limit (N·m, ``inf`` = none), as in :attr:`PIController.params`.
-    st : ndarray of float64, shape (2,)
-        ``(I, saturated)``: integrator state (N·m) and 1.0 if the last command
-        was clipped, else 0.0 (:attr:`PIController.state`); written.
+    pi : PIController or cffi ``ctl_pi *``
+        The controller (or a pointer to its C struct, e.g. an element of a ``ctl_pi[]`` array); its
+        integrator and saturation flag are advanced in place.
     e : float
         Velocity error ``r - w`` (rad/s) at this sample.
     u_ff : float
@@ -512,44 +508,20 @@ def pi_step(par, st, e, u_ff):
 
     Notes
     -----
-    Compiled (:func:`plant.jit.kernel`, inlined into the closed-loop kernels);
-    inputs are not validated. With ``d = Ki*Tc*e`` the backward-Euler
-    integrator ``I' = I + d`` (``C(z) = Kp + Ki*Tc*z/(z-1)``) is clamped: if
-    ``I'`` would drive ``v = Kp*e + I' + u_ff`` past the limit in the direction
-    of ``d``, it is cut to where ``v`` touches the limit, but never moved
-    against ``d`` (then ``I' = I``). Anti-windup by conditional integration:
-    Åström & Hägglund, *Advanced PID Control*, ISA 2006, Sec. 3.5. See
-    :class:`PIController` for its properties.
+    C (``controllers/csrc/ctl_pi.c``, ``ctl_pi_step``); inputs are not validated. With ``d = Ki*Tc*e`` the
+    backward-Euler integrator ``I' = I + d`` (``C(z) = Kp + Ki*Tc*z/(z-1)``) is clamped: if ``I'`` would
+    drive ``v = Kp*e + I' + u_ff`` past the limit in the direction of ``d``, it is cut to where ``v``
+    touches the limit, but never moved against ``d`` (then ``I' = I``). Anti-windup by conditional
+    integration: Åström & Hägglund, *Advanced PID Control*, ISA 2006, Sec. 3.5. See :class:`PIController`
+    for its properties.
     """
-    Kpe = par[0] * e
-    d = par[1] * e
-    I = st[0]  # noqa: E741
-    In = I + d
-    umax = par[2]
-    if d > 0.0:
-        lim = umax - Kpe - u_ff
-        if In > lim:
-            In = lim if lim > I else I
-    elif d < 0.0:
-        lim = -umax - Kpe - u_ff
-        if In < lim:
-            In = lim if lim < I else I
-    st[0] = In
-    v = Kpe + In + u_ff
-    if v >= umax:
-        st[1] = 1.0
-        return umax
-    if v <= -umax:
-        st[1] = 1.0
-        return -umax
-    st[1] = 0.0
-    return v
+    return lib.ctl_pi_step(pi.cdata if isinstance(pi, PIController) else pi, e, u_ff)
 
 
-class PIController:
+class PIController(Component):
     """Discrete PI controller with saturation, feedforward and anti-windup (integrator clamping).
 
-    A thin class over two float64 buffers and the compiled step :func:`pi_step`.
+    A thin class over the C struct ``ctl_pi`` (``controllers/csrc/ctl_pi.h``) and its step ``ctl_pi_step``.
 
     Parameters
     ----------
@@ -566,15 +538,13 @@ class PIController:
 
     Attributes
     ----------
-    params : ndarray of float64, shape (3,), read-only
-        ``(Kp, Ki*Tc, u_max)``, the parameter buffer of :func:`pi_step`.
-    state : ndarray of float64, shape (2,)
-        ``(integral, saturated)``, the state buffer of :func:`pi_step`
-        (``saturated`` as 1.0/0.0); :meth:`step` updates it in place.
+    cdata : cffi ``ctl_pi *``
+        The C struct: fields ``Kp``, ``KiTc`` (``Ki*Tc``), ``u_max``, ``I``, ``saturated``
+        (:class:`plant.component.Component`).
     integral : float
-        Integrator state ``I`` (N·m), ``state[0]`` (read it, or set it to preload).
+        Integrator state ``I`` (N·m) (read it, or set it to preload).
     saturated : bool
-        Whether the last command was clipped to ``±u_max`` (``state[1]``).
+        Whether the last command was clipped to ``±u_max``.
 
     Raises
     ------
@@ -605,7 +575,8 @@ class PIController:
     designed by :func:`design_pi`.
     """
 
-    __slots__ = ("params", "state", "_Ki", "_Tc")
+    _ffi = ffi
+    _ctype = "ctl_pi"
 
     def __init__(self, *, Kp: float, Ki: float, Tc: float, u_max: float = math.inf,
                  integral0: float = 0.0):
@@ -617,9 +588,9 @@ class PIController:
         u_max = float(u_max)
         if not u_max > 0.0:  # also rejects NaN
             raise ParameterError(f"u_max must be > 0 (math.inf for no limit), got {u_max!r}")
-        self.params = np.array([Kp, self._Ki * self._Tc, u_max], dtype=np.float64)
-        self.params.flags.writeable = False
-        self.state = np.array([check_finite_scalar("integral0", integral0), 0.0], dtype=np.float64)
+        integral0 = check_finite_scalar("integral0", integral0)
+        self._new_struct()
+        lib.ctl_pi_init(self._c, Kp, self._Ki * self._Tc, u_max, integral0)
 
     @classmethod
     def from_design(cls, design: PIDesign, *, u_max: float = math.inf) -> "PIController":
@@ -632,10 +603,14 @@ class PIController:
         """
         return cls(Kp=design.Kp, Ki=design.Ki, Tc=design.Tc, u_max=u_max)
 
+    def __repr__(self) -> str:
+        return (f"PIController(Kp={self.Kp!r}, Ki={self.Ki!r}, Tc={self.Tc!r}, u_max={self.u_max!r}, "
+                f"integral={self.integral!r})")
+
     @property
     def Kp(self) -> float:
         """Proportional gain (N·m·s/rad)."""
-        return float(self.params[0])
+        return float(self._c.Kp)
 
     @property
     def Ki(self) -> float:
@@ -650,30 +625,30 @@ class PIController:
     @property
     def u_max(self) -> float:
         """Torque limit (N·m), ``inf`` = none."""
-        return float(self.params[2])
+        return float(self._c.u_max)
 
     @property
     def integral(self) -> float:
         """Integrator state ``I`` (N·m); settable (finite) to preload it."""
-        return float(self.state[0])
+        return float(self._c.I)
 
     @integral.setter
     def integral(self, value: float) -> None:
-        self.state[0] = check_finite_scalar("integral", value)
+        self._c.I = check_finite_scalar("integral", value)
 
     @property
     def saturated(self) -> bool:
         """Whether the last command was clipped to ``±u_max``."""
-        return bool(self.state[1])
+        return bool(self._c.saturated)
 
     @saturated.setter
     def saturated(self, value: bool) -> None:
-        self.state[1] = 1.0 if value else 0.0
+        self._c.saturated = 1 if value else 0
 
     def reset(self, integral: float = 0.0) -> None:
         """Set the integrator to ``integral`` (N·m, default 0) and clear ``saturated``."""
-        self.state[0] = check_finite_scalar("integral", integral)
-        self.state[1] = 0.0
+        self._c.I = check_finite_scalar("integral", integral)
+        self._c.saturated = 0
 
     def step(self, e: float, u_ff: float = 0.0) -> float:
         """Advance one period and return the saturated command ``sat(Kp*e + I + u_ff)`` (N·m).
@@ -692,7 +667,7 @@ class PIController:
 
         Notes
         -----
-        :func:`pi_step` on :attr:`params` and :attr:`state`; inputs are not
+        C (``controllers/csrc/ctl_pi.c``, ``ctl_pi_step``) on :attr:`cdata`; inputs are not
         validated here. See the class Notes for the clamping rule.
         """
-        return pi_step(self.params, self.state, e, u_ff)
+        return lib.ctl_pi_step(self._c, e, u_ff)

@@ -19,93 +19,29 @@ compensates (a fast start that needs no friction model); the estimator learns
 from the loop's own ``(u, w)`` as in the ``adaptive`` mode (``u`` is the total
 torque, so the inverse-dynamics regression is unchanged).
 
-Compensator component (``KIND = 7``): the parts' arrays are slices of the
-composite's, and the compiled kernels :func:`adob_compensate` and
-:func:`adob_observe` call the parts' compiled steps
-(:func:`adaptive_ff.compensation.adaptive_feedforward.robust_compensate`,
-:func:`~adaptive_ff.compensation.adaptive_feedforward.robust_observe`,
-:func:`controllers.peers.dob.dob_compensate`,
-:func:`~controllers.peers.dob.dob_observe`) on them. Layouts::
-
-    params: so_dob_par, so_dob_state, u_max, feedforward params, observer params   (3 + ...)
-    state:  u_ff of this period, feedforward state, observer state                  (1 + ...)
+Compensator component (``KIND = 7``): the C struct ``ctl_adob``
+(``controllers/csrc/ctl_adob.h``) embeds the feedforward's ``aff_robust_ff``
+and the observer's ``ctl_dob``; ``ctl_adob_compensate`` and
+``ctl_adob_observe`` (the ``aff_compensator_ops`` table ``ctl_adob_ops``) call
+the parts' C functions on them (``aff_robust_ff_compensate``/``_observe``,
+``ctl_dob_compensate``/``_observe``) and are the one implementation, called by
+:class:`AdaptiveDOBCompensator`'s methods and by the closed-loop engine.
 """
 
 from __future__ import annotations
 
 import math
 
-import numpy as np
-
-from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward, robust_compensate, robust_observe
-from controllers.peers.dob import DisturbanceObserver, dob_compensate, dob_observe
+from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
+from controllers._cctl import ffi, lib
+from controllers.peers.dob import DisturbanceObserver
 from plant.component import Component
 from plant.errors import ParameterError, check_nonnegative
-from plant.jit import kernel
 
-__all__ = ["AdaptiveDOBCompensator", "adob_compensate", "adob_observe", "ADOB_KIND"]
+__all__ = ["AdaptiveDOBCompensator", "ADOB_KIND"]
 
 #: Compensator kind code of :class:`AdaptiveDOBCompensator` (engine protocol).
 ADOB_KIND = 7
-
-_P_PDOB, _P_SDOB, _P_UMAX = range(3)
-_OWN_NPAR = 3
-_S_UFF = 0
-_OWN_NSTATE = 1
-
-
-@kernel
-def adob_compensate(par, st, w_ctrl, w_meas, w_ref):
-    """The composite's torque for this period: adaptive feedforward plus the observer's residual (N·m).
-
-    Parameters
-    ----------
-    par, st : ndarray, float64
-        :attr:`AdaptiveDOBCompensator.params` and ``.state`` (layouts in the module docstring).
-    w_ctrl, w_meas, w_ref : float
-        Controller's (gated) measurement, raw measurement and reference velocity (rad/s).
-
-    Returns
-    -------
-    float
-        ``u_ff + d_hat`` clipped to ``±u_max``, with ``u_ff`` of
-        :func:`adaptive_ff.compensation.adaptive_feedforward.robust_compensate` (0 before switch-on) and ``d_hat``
-        of :func:`controllers.peers.dob.dob_compensate` (module docstring).
-    """
-    pd = np.int64(par[_P_PDOB])
-    sd = np.int64(par[_P_SDOB])
-    uff = robust_compensate(par[_OWN_NPAR:pd], st[_OWN_NSTATE:sd], w_ctrl, w_meas, w_ref)
-    st[_S_UFF] = uff
-    d = dob_compensate(par[pd:], st[sd:], w_ctrl, w_meas, w_ref)
-    out = uff + d
-    lim = par[_P_UMAX]
-    return min(max(out, -lim), lim)
-
-
-@kernel
-def adob_observe(par, st, u, w_meas, theta_out):
-    """Record the applied torque ``u`` (N·m): the observer gets ``u - u_ff``, the estimator ``(u, w_meas)``.
-
-    Parameters
-    ----------
-    par, st : ndarray, float64
-        :attr:`AdaptiveDOBCompensator.params` and ``.state``.
-    u : float
-        Applied (saturated) torque of this period (N·m).
-    w_meas : float
-        Raw measured velocity (rad/s).
-    theta_out : ndarray, shape (p,), float64
-        Receives the estimator's parameter vector after an update.
-
-    Returns
-    -------
-    bool
-        True after an RLS update of the estimator (:func:`adaptive_ff.compensation.adaptive_feedforward.robust_observe`).
-    """
-    pd = np.int64(par[_P_PDOB])
-    sd = np.int64(par[_P_SDOB])
-    dob_observe(par[pd:], st[sd:], u - st[_S_UFF], w_meas, theta_out)
-    return robust_observe(par[_OWN_NPAR:pd], st[_OWN_NSTATE:sd], u, w_meas, theta_out)
 
 
 class AdaptiveDOBCompensator(Component):
@@ -114,7 +50,8 @@ class AdaptiveDOBCompensator(Component):
     Parameters
     ----------
     feedforward : RobustAdaptiveFeedforward
-        The adaptive feedforward (with its estimator); its arrays become slices of the composite's.
+        The adaptive feedforward (with its estimator); its struct is copied into the composite's, and the
+        object points there from now on (as ``observer``).
     observer : DisturbanceObserver
         The observer of the residual ``f - u_ff`` (nominal inertia: the design inertia).
     u_max : float, keyword-only
@@ -124,8 +61,14 @@ class AdaptiveDOBCompensator(Component):
     ----------
     KIND : int
         7 (compensator protocol of the closed-loop engine).
+    OPS : str
+        ``"ctl_adob_ops"``, the C ops table (``aff_compensator_ops``) the engine calls with :attr:`cdata`.
+    cdata : cffi ``ctl_adob *``
+        The composite's struct; the parts' structs are its fields ``ff`` and ``dob``.
     feedforward : RobustAdaptiveFeedforward
+        Points into the field ``ff`` (its estimator into ``ff.est``).
     observer : DisturbanceObserver
+        Points into the field ``dob``.
     estimator : SlidingFrictionEstimator
         The feedforward's estimator.
     n_theta : int
@@ -149,6 +92,10 @@ class AdaptiveDOBCompensator(Component):
 
     KIND = ADOB_KIND
     MODE = "adaptive-dob"
+    #: Name of the C ops table (``aff_compensator_ops``) the engine calls with :attr:`cdata`, see :attr:`ops`.
+    OPS = "ctl_adob_ops"
+    _ffi = ffi
+    _ctype = "ctl_adob"
 
     def __init__(self, feedforward: RobustAdaptiveFeedforward, observer: DisturbanceObserver, *,
                  u_max: float = math.inf):
@@ -160,26 +107,34 @@ class AdaptiveDOBCompensator(Component):
         self.feedforward = feedforward
         self.observer = observer
         self.n_theta = feedforward.n_theta
-        pd = _OWN_NPAR + feedforward.params.shape[0]
-        sd = _OWN_NSTATE + feedforward.state.shape[0]
-        self._init_arrays(pd + observer.params.shape[0], sd + observer.state.shape[0])
-        self.params[:_OWN_NPAR] = (float(pd), float(sd), u_max)
-        self.params[_OWN_NPAR:pd] = feedforward.params
-        self.params[pd:] = observer.params
-        self.state[_OWN_NSTATE:sd] = feedforward.state
-        self.state[sd:] = observer.state
+        self._new_struct()
+        lib.ctl_adob_init(self._c, feedforward.cdata, observer.cdata, u_max)
         self._attached()
 
     def _attached(self) -> None:
-        pd, sd = int(self.params[_P_PDOB]), int(self.params[_P_SDOB])
-        self.feedforward.attach(self.params[_OWN_NPAR:pd], self.state[_OWN_NSTATE:sd])
-        self.observer.attach(self.params[pd:], self.state[sd:])
+        """Point the feedforward (with its estimator) and the observer (with its gates) into this struct."""
+        old = self.feedforward.cdata  # alive until the feedforward's parts have moved too
+        self.feedforward._use(ffi.addressof(self._c, "ff"), self)
+        self.feedforward._attached()  # its estimator follows its struct
+        del old
+        self.observer._use(ffi.addressof(self._c, "dob"), self)
+
+    def _use(self, ptr, owner) -> None:
+        old = self._c  # alive until the parts have moved with the struct
+        super()._use(ptr, owner)
+        self._attached()
+        del old
 
     def __repr__(self) -> str:
         return f"AdaptiveDOBCompensator({self.feedforward.estimator!r}, {self.observer!r})"
 
-    u_max = property(lambda self: float(self.params[_P_UMAX]), doc="Bound on the total output (N·m).")
-    u_ff = property(lambda self: float(self.state[_S_UFF]), doc="Feedforward part of the last output (N·m).")
+    @property
+    def ops(self):
+        """Pointer to the C ops table ``ctl_adob_ops`` (``aff_compensator_ops *``)."""
+        return ffi.addressof(getattr(lib, self.OPS))
+
+    u_max = property(lambda self: float(self._c.u_max), doc="Bound on the total output (N·m).")
+    u_ff = property(lambda self: float(self._c.u_ff), doc="Feedforward part of the last output (N·m).")
 
     @property
     def estimator(self):
@@ -204,7 +159,7 @@ class AdaptiveDOBCompensator(Component):
         return d
 
     def compensate(self, w_meas: float, w_ref: float) -> float:
-        """Compensator protocol: ``u_ff + d_hat`` for this period (N·m), see :func:`adob_compensate`.
+        """Compensator protocol: ``u_ff + d_hat`` for this period (N·m), C ``ctl_adob_compensate``.
 
         Parameters
         ----------
@@ -212,10 +167,10 @@ class AdaptiveDOBCompensator(Component):
             Measured and reference velocity (rad/s).
         """
         w_meas = float(w_meas)
-        return float(adob_compensate(self.params, self.state, w_meas, w_meas, float(w_ref)))
+        return float(lib.ctl_adob_compensate(self._c, w_meas, w_meas, float(w_ref)))
 
     def observe(self, u: float, w: float) -> bool:
-        """Compensator protocol: record the applied torque and the measurement (:func:`adob_observe`).
+        """Compensator protocol: record the applied torque and the measurement (C ``ctl_adob_observe``).
 
         Parameters
         ----------
@@ -229,10 +184,4 @@ class AdaptiveDOBCompensator(Component):
         bool
             True after an RLS update of the estimator.
         """
-        return bool(adob_observe(self.params, self.state, float(u), float(w), self._theta_scratch()))
-
-    def _theta_scratch(self) -> np.ndarray:
-        t = getattr(self, "_scratch", None)
-        if t is None:
-            t = self._scratch = np.empty(self.n_theta)
-        return t
+        return bool(lib.ctl_adob_observe(self._c, float(u), float(w), ffi.NULL))

@@ -15,18 +15,12 @@ with the same RLS machinery as the package's own estimator (directional
 forgetting, projection) so that the comparison is about the friction model and
 the regression, not about numerics.
 
-Compensator component (``KIND = 4``): the whole configuration is in the float64
-array ``params``, the whole mutable state (including the RLS buffer of
-:mod:`adaptive_ff.identification.rls`) in ``state``; the two compiled kernels
-:func:`canudas_compensate` and :func:`canudas_observe` are the one
-implementation, called by :class:`CanudasCompensator`'s methods and by the
-closed-loop engine. Layouts::
-
-    params: Tc, Ts, m, w_dead, warmup, ff_max, ff_measured (1.0/0.0), torque and velocity range gates
-            (7 + 2*RANGE_NPAR)
-    state:  on, Fc_pos, Fc_neg, sigma_pos, sigma_neg, k, u_sum, w_prev,
-            has_prev, ok, n_rejected, k % m, phi[5] (scratch), torque and velocity range gates,
-            RLS buffer (17 + 2*RANGE_NSTATE + rls_buffer_size(5))
+Compensator component (``KIND = 4``): configuration and state in the C struct
+``ctl_canudas`` (``controllers/csrc/ctl_canudas.h``), which embeds the RLS
+(``aff_rls``) and the two range gates (``aff_range_gate``);
+``ctl_canudas_compensate`` and ``ctl_canudas_observe`` (the
+``aff_compensator_ops`` table ``ctl_canudas_ops``) are the one implementation,
+called by :class:`CanudasCompensator`'s methods and by the closed-loop engine.
 """
 
 from __future__ import annotations
@@ -35,173 +29,18 @@ import math
 
 import numpy as np
 
-from adaptive_ff.compensation.gate import RANGE_NPAR, RANGE_NSTATE, RangeGate, range_commit, range_ok
-from adaptive_ff.identification.rls import (RecursiveLeastSquares, rls_buffer_size, rls_n_updates, rls_theta,
-                                            rls_update)
+from adaptive_ff.compensation.gate import RangeGate
+from adaptive_ff.identification.rls import RecursiveLeastSquares
+from controllers._cctl import ffi, lib
 from plant.component import Component
 from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive
-from plant.jit import kernel
 
-__all__ = ["CanudasCompensator", "canudas_compensate", "canudas_observe", "CANUDAS_KIND", "CANUDAS_N_THETA"]
+__all__ = ["CanudasCompensator", "CANUDAS_KIND", "CANUDAS_N_THETA"]
 
 #: Compensator kind code of :class:`CanudasCompensator` (engine protocol).
 CANUDAS_KIND = 4
 #: Length of the reported parameter vector ``theta``.
 CANUDAS_N_THETA = 5
-
-# params slots
-_P_TC, _P_TS, _P_M, _P_WDEAD, _P_WARMUP, _P_FFMAX, _P_MEAS = range(7)
-_P_UR = 7  # torque range gate, then the velocity range gate
-_NPAR = _P_UR + 2 * RANGE_NPAR
-# state slots
-_S_ON, _S_FCP, _S_FCN, _S_SP, _S_SN, _S_K, _S_USUM, _S_WPREV, _S_HASPREV, _S_OK, _S_NREJ, _S_PHASE = range(12)
-_S_PHI = 12
-_S_UR = 17  # torque range gate, then the velocity range gate
-_S_RLS = _S_UR + 2 * RANGE_NSTATE
-
-
-@kernel(inline="always")
-def _clip(x, lo, hi):
-    """``min(max(x, lo), hi)`` with Python's tie and signed-zero rules."""
-    y = lo if lo > x else x
-    return hi if hi < y else y
-
-
-@kernel
-def canudas_compensate(par, st, w_ctrl, w_meas, w_ref):
-    """Compensation torque for this period (N·m): the estimated direction-dependent friction map.
-
-    Parameters
-    ----------
-    par, st : ndarray, shape (7,) and (17 + rls_buffer_size(5),), float64
-        ``CanudasCompensator.params`` and ``.state`` (layout in the module docstring).
-    w_ctrl : float
-        Velocity the controller uses this period (rad/s); evaluated when ``ff_measured``; a non-finite
-        velocity, or one at which the map overflows, gives 0 (no compensation without a velocity).
-    w_meas : float
-        Raw measured velocity (rad/s), unused.
-    w_ref : float
-        Reference velocity (rad/s); evaluated unless ``ff_measured``.
-
-    Returns
-    -------
-    float
-        ``Fc_pos + sigma_pos*w`` (w > 0), ``-Fc_neg + sigma_neg*w`` (w < 0), 0 at w = 0, clipped to
-        ``±ff_max``; 0 before the warm-up is over (Canudas de Wit et al. 1987, eq. 2).
-    """
-    if st[_S_ON] == 0.0:
-        return 0.0
-    w = w_ctrl if par[_P_MEAS] != 0.0 else w_ref
-    if not math.isfinite(w):
-        return 0.0
-    if w > 0.0:
-        c = st[_S_FCP] + st[_S_SP] * w
-    elif w < 0.0:
-        c = -st[_S_FCN] + st[_S_SN] * w
-    else:
-        c = 0.0
-    if not math.isfinite(c):  # a velocity so large that the map overflows: no compensation
-        return 0.0
-    return _clip(c, -par[_P_FFMAX], par[_P_FFMAX])
-
-
-@kernel
-def _canudas_update(par, st, w0, w1, ubar):
-    """One RLS update on the interval ``w0 -> w1`` if it lies beyond the dead zone; True when used."""
-    wd = par[_P_WDEAD]
-    phi = st[_S_PHI:_S_PHI + 5]
-    if w0 > wd and w1 > wd:
-        phi[0] = ubar
-        phi[1] = -w0
-        phi[2] = 0.0
-        phi[3] = -1.0
-        phi[4] = 0.0
-    elif w0 < -wd and w1 < -wd:
-        phi[0] = ubar
-        phi[1] = 0.0
-        phi[2] = -w0
-        phi[3] = 0.0
-        phi[4] = 1.0
-    else:
-        return False
-    buf = st[_S_RLS:]
-    n0 = rls_n_updates(buf)
-    rls_update(buf, phi, w1 - w0)
-    n1 = rls_n_updates(buf)
-    if n1 == n0:  # a non-finite row (overflow of finite samples) is refused and counted
-        st[_S_NREJ] += 1.0
-        return False
-    if n1 >= par[_P_WARMUP]:
-        b = rls_theta(buf, 0)
-        st[_S_FCP] = rls_theta(buf, 3) / b
-        st[_S_FCN] = rls_theta(buf, 4) / b
-        st[_S_SP] = rls_theta(buf, 1) / b
-        st[_S_SN] = rls_theta(buf, 2) / b
-        st[_S_ON] = 1.0
-    return True
-
-
-@kernel
-def canudas_observe(par, st, u, w_meas, theta_out):
-    """Record the torque applied in this period and the velocity measured at its start; update every ``m`` periods.
-
-    Parameters
-    ----------
-    par, st : ndarray, float64
-        ``CanudasCompensator.params`` and ``.state``.
-    u : float
-        Torque applied in this period (N·m).
-    w_meas : float
-        Velocity measured at the start of this period (rad/s).
-    theta_out : ndarray, shape (>= 5,), float64
-        Receives ``theta = (b, b*sigma_pos, b*sigma_neg, b*Fc_pos, b*Fc_neg)`` when the RLS was updated.
-
-    Returns
-    -------
-    bool
-        True when the RLS estimate was updated in this call.
-
-    Notes
-    -----
-    Every ``m``-th call closes a sample interval of ``Ts``: with the mean torque ``u_bar`` over it and the
-    velocities ``w0``, ``w1`` at its ends, the row ``(u_bar, -w0*1(w>0), -w0*1(w<0), -1(w>0), +1(w<0))``
-    with output ``w1 - w0`` updates the RLS (eqs. 10-13 with directional forgetting) when both velocities
-    lie beyond ``±w_dead`` with one sign. A non-finite or out-of-range ``u`` or ``w`` (the range gates of
-    :class:`CanudasCompensator`) is counted and spoils the current interval.
-    """
-    pu = par[_P_UR:_P_UR + RANGE_NPAR]
-    pw = par[_P_UR + RANGE_NPAR:_P_UR + 2 * RANGE_NPAR]
-    su = st[_S_UR:_S_UR + RANGE_NSTATE]
-    sw = st[_S_UR + RANGE_NSTATE:_S_RLS]
-    uok = range_ok(pu, su, u)
-    wok = range_ok(pw, sw, w_meas)
-    if not (uok and wok):  # a rejected sample counts in the failing gate(s) only
-        if not uok:
-            range_commit(pu, su, u, False)
-        if not wok:
-            range_commit(pw, sw, w_meas, False)
-        st[_S_NREJ] += 1.0
-        st[_S_OK] = 0.0
-        return False
-    range_commit(pu, su, u, True)
-    range_commit(pw, sw, w_meas, True)
-    upd = False
-    if st[_S_PHASE] == 0.0:  # k % m == 0, kept as a counter (no integer division per period)
-        if st[_S_HASPREV] != 0.0 and st[_S_OK] != 0.0:
-            upd = _canudas_update(par, st, st[_S_WPREV], w_meas, st[_S_USUM] / par[_P_M])
-        st[_S_WPREV] = w_meas
-        st[_S_HASPREV] = 1.0
-        st[_S_USUM] = 0.0
-        st[_S_OK] = 1.0
-    st[_S_USUM] += u
-    st[_S_K] += 1.0
-    ph = st[_S_PHASE] + 1.0
-    st[_S_PHASE] = 0.0 if ph >= par[_P_M] else ph
-    if upd:
-        buf = st[_S_RLS:]
-        for i in range(5):
-            theta_out[i] = rls_theta(buf, i)
-    return upd
 
 
 class CanudasCompensator(Component):
@@ -242,14 +81,16 @@ class CanudasCompensator(Component):
     ----------
     KIND : int
         4 (compensator protocol of the closed-loop engine).
-    params, state : ndarray, float64
-        Configuration and state (layouts in the module docstring), advanced in place by
-        :func:`canudas_compensate` and :func:`canudas_observe` (:class:`plant.component.Component`).
+    OPS : str
+        ``"ctl_canudas_ops"``, the C ops table (``aff_compensator_ops``) the engine calls with :attr:`cdata`.
+    cdata : cffi ``ctl_canudas *``
+        Configuration and state (:class:`plant.component.Component`), advanced in place by
+        ``ctl_canudas_compensate`` and ``ctl_canudas_observe``.
     n_theta : int
         5.
     rls : RecursiveLeastSquares
-        ``theta = (b, b*sigma_pos, b*sigma_neg, b*Fc_pos, b*Fc_neg)``, ``b = Ts/J``; its buffer is the
-        tail of ``state``.
+        ``theta = (b, b*sigma_pos, b*sigma_neg, b*Fc_pos, b*Fc_neg)``, ``b = Ts/J``; its struct is the field
+        ``rls`` of :attr:`cdata` (as are the range gates' ``u_range`` and ``w_range``).
     coef : tuple of 4 floats or None
         ``(Fc_pos, Fc_neg, sigma_pos, sigma_neg)`` in use, None before warm-up (read/write).
     n_rejected : int
@@ -277,7 +118,11 @@ class CanudasCompensator(Component):
 
     KIND = CANUDAS_KIND
     MODE = "canudas"
+    #: Name of the C ops table (``aff_compensator_ops``) the engine calls with :attr:`cdata`, see :attr:`ops`.
+    OPS = "ctl_canudas_ops"
     n_theta = CANUDAS_N_THETA
+    _ffi = ffi
+    _ctype = "ctl_canudas"
 
     def __init__(self, *, Tc: float, Ts: float = 0.01, lam: float = 0.999, forgetting: str = "directional",
                  P0: float = 1e4, J_guess: float = 1.0, w_dead: float = 5e-3, warmup: int = 300,
@@ -292,7 +137,8 @@ class CanudasCompensator(Component):
         if ff_input not in ("measured", "reference"):
             raise ParameterError(f"ff_input must be 'measured' or 'reference', got {ff_input!r}")
         Ts = m * Tc
-        b0 = Ts / check_positive("J_guess", J_guess)
+        J_guess = check_positive("J_guess", J_guess)
+        b0 = Ts / J_guess
         inf = math.inf
         rls = RecursiveLeastSquares(5, lam=lam, P0=P0, forgetting=forgetting, theta0=[b0, 0, 0, 0, 0],
                                     bounds=([1e-12, 0, 0, 0, 0], [inf, inf, inf, inf, inf]))
@@ -301,126 +147,136 @@ class CanudasCompensator(Component):
         for name, g in (("u_range", u_range), ("w_range", w_range)):
             if not isinstance(g, RangeGate):
                 raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
-        self._init_arrays(_NPAR, _S_RLS + rls_buffer_size(5))
-        self.params[:_P_UR] = (Tc, Ts, float(m), w_dead, float(warmup), ff_max,
-                               1.0 if ff_input == "measured" else 0.0)
-        self.state[_S_OK] = 1.0
+        self._new_struct()
+        lib.ctl_canudas_init(self._c, Tc, m, w_dead, int(warmup), ff_max, 1 if ff_input == "measured" else 0,
+                             rls.cdata.scheme, rls.cdata.lam, float(P0) if np.ndim(P0) == 0 else 1.0, J_guess)
         self.rls = rls
         self.u_range = u_range
         self.w_range = w_range
-        self._theta_out = np.empty(5)
         self._attached()
 
     def _attached(self) -> None:
-        self.u_range.attach(self.params[_P_UR:_P_UR + RANGE_NPAR], self.state[_S_UR:_S_UR + RANGE_NSTATE])
-        self.w_range.attach(self.params[_P_UR + RANGE_NPAR:_NPAR], self.state[_S_UR + RANGE_NSTATE:_S_RLS])
-        self.rls.attach(self.state[_S_RLS:])
+        """Point the parts into this struct (its ``rls``, ``u_range`` and ``w_range`` fields)."""
+        self.u_range._use(ffi.addressof(self._c, "u_range"), self)
+        self.w_range._use(ffi.addressof(self._c, "w_range"), self)
+        self.rls._use(ffi.addressof(self._c, "rls"), self)
+
+    def _use(self, ptr, owner) -> None:
+        old = self._c  # alive until the parts have moved with the struct
+        super()._use(ptr, owner)
+        self._attached()
+        del old
 
     def __repr__(self) -> str:
         return (f"CanudasCompensator(Tc={self.Tc!r}, Ts={self.Ts!r}, w_dead={self.w_dead!r}, "
                 f"warmup={self.warmup}, ff_max={self.ff_max!r}, n_updates={self.rls.n_updates})")
 
-    # ---- configuration (read-only views of params)
+    @property
+    def ops(self):
+        """Pointer to the C ops table ``ctl_canudas_ops`` (``aff_compensator_ops *``)."""
+        return ffi.addressof(getattr(lib, self.OPS))
+
+    # ---- configuration (read-only fields of the struct)
     @property
     def Tc(self) -> float:
         """Controller period (s)."""
-        return float(self.params[_P_TC])
+        return float(self._c.Tc)
 
     @property
     def Ts(self) -> float:
         """Estimator sample time ``m*Tc`` (s)."""
-        return float(self.params[_P_TS])
+        return float(self._c.Ts)
 
     @property
     def m(self) -> int:
         """Controller periods per estimator sample."""
-        return int(self.params[_P_M])
+        return int(self._c.m)
 
     @property
     def w_dead(self) -> float:
         """Estimation dead zone (rad/s)."""
-        return float(self.params[_P_WDEAD])
+        return float(self._c.w_dead)
 
     @property
     def warmup(self) -> int:
         """RLS updates before the compensation is switched on."""
-        return int(self.params[_P_WARMUP])
+        return int(self._c.warmup)
 
     @property
     def ff_max(self) -> float:
         """Bound on |compensation| (N·m)."""
-        return float(self.params[_P_FFMAX])
+        return float(self._c.ff_max)
 
     @property
     def ff_measured(self) -> bool:
         """True: compensation at the controller's measured velocity; False: at the reference."""
-        return self.params[_P_MEAS] != 0.0
+        return bool(self._c.ff_measured)
 
-    # ---- state (read/write views of state)
+    # ---- state (read/write fields of the struct)
     @property
     def coef(self) -> tuple | None:
         """``(Fc_pos, Fc_neg, sigma_pos, sigma_neg)`` in use (N·m, N·m·s/rad), or None before warm-up."""
-        st = self.state
-        if st[_S_ON] == 0.0:
+        c = self._c
+        if not c.on:
             return None
-        return (float(st[_S_FCP]), float(st[_S_FCN]), float(st[_S_SP]), float(st[_S_SN]))
+        return (float(c.Fc_pos), float(c.Fc_neg), float(c.sigma_pos), float(c.sigma_neg))
 
     @coef.setter
     def coef(self, value) -> None:
-        st = self.state
+        c = self._c
         if value is None:
-            st[_S_ON] = 0.0
+            c.on = 0
             return
         try:
             Fcp, Fcn, sp, sn = (float(v) for v in value)
         except (TypeError, ValueError):
             raise ParameterError(f"coef must be None or 4 numbers (Fc_pos, Fc_neg, sigma_pos, sigma_neg), "
                                  f"got {value!r}") from None
-        st[_S_FCP], st[_S_FCN], st[_S_SP], st[_S_SN] = Fcp, Fcn, sp, sn
-        st[_S_ON] = 1.0
+        c.Fc_pos, c.Fc_neg, c.sigma_pos, c.sigma_neg = Fcp, Fcn, sp, sn
+        c.on = 1
 
     @property
     def n_rejected(self) -> int:
-        """Non-finite samples ignored."""
-        return int(self.state[_S_NREJ])
+        """Samples ignored (range gates) and RLS rows refused."""
+        return int(self._c.n_rejected)
 
     @n_rejected.setter
     def n_rejected(self, value: int) -> None:
-        self.state[_S_NREJ] = int(value)
+        self._c.n_rejected = int(value)
 
     @property
     def _k(self) -> int:
-        return int(self.state[_S_K])
+        return int(self._c.k)
 
     @_k.setter
     def _k(self, value: int) -> None:
-        self.state[_S_K] = int(value)
-        self.state[_S_PHASE] = int(value) % self.m
+        self._c.k = int(value)
+        self._c.phase = int(value) % self.m
 
     @property
     def _usum(self) -> float:
-        return float(self.state[_S_USUM])
+        return float(self._c.u_sum)
 
     @_usum.setter
     def _usum(self, value: float) -> None:
-        self.state[_S_USUM] = value
+        self._c.u_sum = value
 
     @property
     def _w_prev(self) -> float | None:
-        return float(self.state[_S_WPREV]) if self.state[_S_HASPREV] != 0.0 else None
+        return float(self._c.w_prev) if self._c.has_prev else None
 
     @_w_prev.setter
     def _w_prev(self, value: float | None) -> None:
-        self.state[_S_HASPREV] = 0.0 if value is None else 1.0
-        self.state[_S_WPREV] = 0.0 if value is None else value
+        self._c.has_prev = 0 if value is None else 1
+        self._c.w_prev = 0.0 if value is None else value
 
     @property
     def _ok(self) -> bool:
-        return self.state[_S_OK] != 0.0
+        return bool(self._c.ok)
 
     @_ok.setter
     def _ok(self, value: bool) -> None:
-        self.state[_S_OK] = 1.0 if value else 0.0
+        self._c.ok = 1 if value else 0
 
     @property
     def estimate(self) -> dict | None:
@@ -444,7 +300,7 @@ class CanudasCompensator(Component):
                 "canudas_estimate": self.estimate}
 
     def compensate(self, w_meas: float, w_ref: float) -> float:
-        """Compensation torque (N·m) for this period, bounded by ``ff_max`` (:func:`canudas_compensate`).
+        """Compensation torque (N·m) for this period, bounded by ``ff_max`` (C ``ctl_canudas_compensate``).
 
         Parameters
         ----------
@@ -458,10 +314,10 @@ class CanudasCompensator(Component):
         float
         """
         w_meas = float(w_meas)
-        return canudas_compensate(self.params, self.state, w_meas, w_meas, float(w_ref))
+        return lib.ctl_canudas_compensate(self._c, w_meas, w_meas, float(w_ref))
 
     def observe(self, u: float, w: float) -> None:
-        """Record the torque applied in this period and the velocity measured at its start (:func:`canudas_observe`).
+        """Record the torque applied in this period and the velocity measured at its start (C ``ctl_canudas_observe``).
 
         Parameters
         ----------
@@ -475,4 +331,4 @@ class CanudasCompensator(Component):
         A non-finite or out-of-range value is counted in ``n_rejected`` and spoils the current sample
         interval.
         """
-        canudas_observe(self.params, self.state, float(u), float(w), self._theta_out)
+        lib.ctl_canudas_observe(self._c, float(u), float(w), ffi.NULL)

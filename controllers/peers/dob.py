@@ -8,114 +8,28 @@ Trans. Ind. Electron. 38(5), 1991. The observer needs no friction model: it
 estimates the lumped disturbance torque from the nominal inverse plant and
 cancels it within the Q-filter bandwidth.
 
-Compensator component (``KIND = 5``): configuration in the float64 array
-``params``, state in ``state``; the compiled kernels :func:`dob_compensate`
-and :func:`dob_observe` are the one implementation, called by
-:class:`DisturbanceObserver`'s methods and by the closed-loop engine. Layouts::
-
-    params: Tc, J_n, omega_q, order, a, d_max, torque and velocity range gates     (6 + 2*RANGE_NPAR)
-    state:  d_hat, u_last, w_last, has_w_last, n_rejected, torque and velocity range gates,
-            x[order]                                                              (5 + 2*RANGE_NSTATE + order)
+Compensator component (``KIND = 5``): configuration and state in the C struct
+``ctl_dob`` (``controllers/csrc/ctl_dob.h``, with its two range gates embedded
+as ``aff_range_gate`` fields); ``ctl_dob_compensate`` and ``ctl_dob_observe``
+(the ``aff_compensator_ops`` table ``ctl_dob_ops``) are the one implementation,
+called by :class:`DisturbanceObserver`'s methods and by the closed-loop engine.
 """
 
 from __future__ import annotations
 
 import math
 
-import numpy as np
-
-from adaptive_ff.compensation.gate import RANGE_NPAR, RANGE_NSTATE, RangeGate, range_commit, range_ok
+from adaptive_ff.compensation.gate import RangeGate
+from controllers._cctl import ffi, lib
 from plant.component import Component
 from plant.errors import ParameterError, check_nonnegative, check_positive
-from plant.jit import kernel
 
-__all__ = ["DisturbanceObserver", "dob_compensate", "dob_observe", "DOB_KIND"]
+__all__ = ["DisturbanceObserver", "DOB_KIND", "DOB_ORDER_MAX"]
 
 #: Compensator kind code of :class:`DisturbanceObserver` (engine protocol).
 DOB_KIND = 5
-
-_P_TC, _P_JN, _P_OMEGA, _P_ORDER, _P_A, _P_DMAX = range(6)
-_P_UR = 6  # torque range gate, then the velocity range gate
-_NPAR = _P_UR + 2 * RANGE_NPAR
-_S_D, _S_ULAST, _S_WLAST, _S_HASW, _S_NREJ = range(5)
-_S_UR = 5  # torque range gate, then the velocity range gate
-_S_X = _S_UR + 2 * RANGE_NSTATE
-
-
-@kernel
-def dob_compensate(par, st, w_ctrl, w_meas, w_ref):
-    """Advance the observer with the controller's velocity of this period; return the bounded ``d_hat`` (N·m).
-
-    Parameters
-    ----------
-    par, st : ndarray, shape (6,) and (5 + order,), float64
-        ``DisturbanceObserver.params`` and ``.state`` (layouts in the module docstring).
-    w_ctrl : float
-        Velocity the controller uses this period (rad/s); a non-finite or out-of-range value (the
-        velocity range gate) is counted and the estimate held.
-    w_meas, w_ref : float
-        Raw measurement and reference (rad/s), unused.
-
-    Returns
-    -------
-    float
-        ``d_hat = Q[u(k-1) - J_n*(w(k) - w(k-1))/Tc]`` clipped to ``±d_max`` (Umeno & Hori 1991;
-        class Notes).
-    """
-    pw = par[_P_UR + RANGE_NPAR:_NPAR]
-    sw = st[_S_UR + RANGE_NSTATE:_S_X]
-    ok = range_ok(pw, sw, w_ctrl)
-    range_commit(pw, sw, w_ctrl, ok)
-    if not ok:
-        st[_S_NREJ] += 1.0
-        return st[_S_D]
-    if st[_S_HASW] == 0.0:
-        st[_S_WLAST] = w_ctrl
-        st[_S_HASW] = 1.0
-        return st[_S_D]
-    v = st[_S_ULAST] - par[_P_JN] * (w_ctrl - st[_S_WLAST]) / par[_P_TC]
-    st[_S_WLAST] = w_ctrl
-    a = par[_P_A]
-    for i in range(np.int64(par[_P_ORDER])):
-        j = _S_X + i
-        st[j] += a * (v - st[j])
-        v = st[j]
-    dmax = par[_P_DMAX]
-    y = -dmax if -dmax > v else v
-    st[_S_D] = dmax if dmax < y else y
-    return st[_S_D]
-
-
-@kernel
-def dob_observe(par, st, u, w_meas, theta_out):
-    """Record the torque ``u`` (N·m) applied in this period (it drives the next velocity sample).
-
-    Parameters
-    ----------
-    par, st : ndarray, float64
-        ``DisturbanceObserver.params`` and ``.state``.
-    u : float
-        Applied torque (N·m); a non-finite or out-of-range value (the torque range gate) is counted
-        and ignored (the last one is kept).
-    w_meas : float
-        Measured velocity (rad/s), unused.
-    theta_out : ndarray, float64
-        Unused (the observer reports no parameter vector).
-
-    Returns
-    -------
-    bool
-        Always False.
-    """
-    pu = par[_P_UR:_P_UR + RANGE_NPAR]
-    su = st[_S_UR:_S_UR + RANGE_NSTATE]
-    ok = range_ok(pu, su, u)
-    range_commit(pu, su, u, ok)
-    if ok:
-        st[_S_ULAST] = u
-    else:
-        st[_S_NREJ] += 1.0
-    return False
+#: Highest order of the Q-filter (``CTL_DOB_ORDER_MAX`` of ``controllers/csrc/ctl_dob.h``).
+DOB_ORDER_MAX = len(ffi.new("ctl_dob *").x)
 
 
 class DisturbanceObserver(Component):
@@ -133,8 +47,8 @@ class DisturbanceObserver(Component):
     Tc : float, keyword-only
         Controller period (s).
     order : int, keyword-only
-        Order of the binomial Q-filter ``1/(1 + s/omega_q)**order``, >= 1
-        (``J_n*s*Q`` must be proper); default 2.
+        Order of the binomial Q-filter ``1/(1 + s/omega_q)**order``, 1 to
+        :data:`DOB_ORDER_MAX` (``J_n*s*Q`` must be proper); default 2.
     d_max : float, keyword-only
         Bound on |d_hat| (N·m), default inf.
     u_range, w_range : RangeGate, keyword-only
@@ -146,8 +60,11 @@ class DisturbanceObserver(Component):
     ----------
     KIND : int
         5 (compensator protocol of the closed-loop engine).
-    params, state : ndarray, float64
-        Configuration and state (layouts in the module docstring; :class:`plant.component.Component`).
+    OPS : str
+        ``"ctl_dob_ops"``, the C ops table (``aff_compensator_ops``) the engine calls with :attr:`cdata`.
+    cdata : cffi ``ctl_dob *``
+        Configuration and state (:class:`plant.component.Component`); the range gates' structs are its
+        fields ``u_range`` and ``w_range`` (the :class:`RangeGate` objects point into it).
     n_theta : int
         0 (no parameter vector).
     d_hat : float
@@ -174,7 +91,12 @@ class DisturbanceObserver(Component):
 
     KIND = DOB_KIND
     MODE = "dob"
+    #: Name of the C ops table (``ffi.addressof(getattr(controllers._cctl.lib, OPS))``: the engine's compensator
+    #: interface, see :attr:`ops`).
+    OPS = "ctl_dob_ops"
     n_theta = 0
+    _ffi = ffi
+    _ctype = "ctl_dob"
 
     def __init__(self, *, J_n: float, omega_q: float = 500.0, Tc: float, order: int = 2, d_max: float = math.inf,
                  u_range: RangeGate | None = None, w_range: RangeGate | None = None):
@@ -183,90 +105,104 @@ class DisturbanceObserver(Component):
         Tc = check_positive("Tc", Tc)
         if isinstance(order, bool) or not isinstance(order, int) or order < 1:
             raise ParameterError(f"order must be an integer >= 1, got {order!r}")
+        if order > DOB_ORDER_MAX:
+            raise ParameterError(f"order must be at most {DOB_ORDER_MAX} (CTL_DOB_ORDER_MAX of the C core), "
+                                 f"got {order!r}")
         d_max = math.inf if d_max == math.inf else check_nonnegative("d_max", d_max)
         u_range = RangeGate() if u_range is None else u_range
         w_range = RangeGate() if w_range is None else w_range
         for name, g in (("u_range", u_range), ("w_range", w_range)):
             if not isinstance(g, RangeGate):
                 raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
-        self._init_arrays(_NPAR, _S_X + order)
-        self.params[:_P_UR] = (Tc, J_n, omega_q, float(order), 1.0 - math.exp(-Tc * omega_q), d_max)
+        self._new_struct()
+        lib.ctl_dob_init(self._c, Tc, J_n, omega_q, order, d_max)
         self.u_range = u_range
         self.w_range = w_range
-        self._theta_out = np.empty(0)
         self._attached()
 
     def _attached(self) -> None:
-        self.u_range.attach(self.params[_P_UR:_P_UR + RANGE_NPAR], self.state[_S_UR:_S_UR + RANGE_NSTATE])
-        self.w_range.attach(self.params[_P_UR + RANGE_NPAR:_NPAR], self.state[_S_UR + RANGE_NSTATE:_S_X])
+        """Point the range gates into this struct (its ``u_range`` and ``w_range`` fields)."""
+        self.u_range._use(ffi.addressof(self._c, "u_range"), self)
+        self.w_range._use(ffi.addressof(self._c, "w_range"), self)
+
+    def _use(self, ptr, owner) -> None:
+        old = self._c  # alive until the gates have moved with the struct
+        super()._use(ptr, owner)
+        self._attached()
+        del old
 
     def __repr__(self) -> str:
         return (f"DisturbanceObserver(J_n={self.J_n!r}, omega_q={self.omega_q!r}, Tc={self.Tc!r}, "
                 f"order={self.order}, d_max={self.d_max!r})")
 
     @property
+    def ops(self):
+        """Pointer to the C ops table ``ctl_dob_ops`` (``aff_compensator_ops *``)."""
+        return ffi.addressof(getattr(lib, self.OPS))
+
+    @property
     def J_n(self) -> float:
         """Nominal inertia (kg·m²)."""
-        return float(self.params[_P_JN])
+        return float(self._c.J_n)
 
     @property
     def omega_q(self) -> float:
         """Q-filter cut-off (rad/s)."""
-        return float(self.params[_P_OMEGA])
+        return float(self._c.omega_q)
 
     @property
     def Tc(self) -> float:
         """Controller period (s)."""
-        return float(self.params[_P_TC])
+        return float(self._c.Tc)
 
     @property
     def order(self) -> int:
         """Order of the binomial Q-filter."""
-        return int(self.params[_P_ORDER])
+        return int(self._c.order)
 
     @property
     def d_max(self) -> float:
         """Bound on |d_hat| (N·m)."""
-        return float(self.params[_P_DMAX])
+        return float(self._c.d_max)
 
     @property
     def _a(self) -> float:
-        return float(self.params[_P_A])
+        return float(self._c.a)
 
     @property
     def d_hat(self) -> float:
         """Current disturbance estimate (N·m)."""
-        return float(self.state[_S_D])
+        return float(self._c.d_hat)
 
     @d_hat.setter
     def d_hat(self, value: float) -> None:
-        self.state[_S_D] = value
+        self._c.d_hat = value
 
     @property
     def n_rejected(self) -> int:
         """Rejected samples: non-finite or out-of-range velocities (the estimate was held) and torques."""
-        return int(self.state[_S_NREJ])
+        return int(self._c.n_rejected)
 
     @n_rejected.setter
     def n_rejected(self, value: int) -> None:
-        self.state[_S_NREJ] = int(value)
+        self._c.n_rejected = int(value)
 
     @property
     def _u_last(self) -> float:
-        return float(self.state[_S_ULAST])
+        return float(self._c.u_last)
 
     @_u_last.setter
     def _u_last(self, value: float) -> None:
-        self.state[_S_ULAST] = value
+        self._c.u_last = value
 
     @property
     def _w_last(self) -> float | None:
-        return float(self.state[_S_WLAST]) if self.state[_S_HASW] != 0.0 else None
+        return float(self._c.w_last) if self._c.has_w_last else None
 
     @_w_last.setter
     def _w_last(self, value: float | None) -> None:
-        self.state[_S_HASW] = 0.0 if value is None else 1.0
-        self.state[_S_WLAST] = 0.0 if value is None else value
+        self._c.has_w_last = 0 if value is None else 1
+        self._c.w_last = 0.0 if value is None else value
 
     def info(self) -> dict:
         """Counter and settings for run reports: ``n_rejected``, ``J_n`` (kg·m²), ``omega_q`` (rad/s).
@@ -278,7 +214,7 @@ class DisturbanceObserver(Component):
         return {"n_rejected": self.n_rejected, "J_n": self.J_n, "omega_q": self.omega_q}
 
     def compensate(self, w_meas: float, w_ref: float) -> float:
-        """Advance the observer with the measured velocity of this period (:func:`dob_compensate`).
+        """Advance the observer with the measured velocity of this period (C ``ctl_dob_compensate``).
 
         Parameters
         ----------
@@ -293,10 +229,10 @@ class DisturbanceObserver(Component):
             The bounded disturbance estimate ``d_hat`` (N·m).
         """
         w_meas = float(w_meas)
-        return dob_compensate(self.params, self.state, w_meas, w_meas, float(w_ref))
+        return lib.ctl_dob_compensate(self._c, w_meas, w_meas, float(w_ref))
 
     def observe(self, u: float, w: float) -> None:
-        """Record the torque applied in this period (it drives the next velocity sample; :func:`dob_observe`).
+        """Record the torque applied in this period (it drives the next velocity sample; C ``ctl_dob_observe``).
 
         Parameters
         ----------
@@ -305,4 +241,4 @@ class DisturbanceObserver(Component):
         w : float
             Measured velocity (rad/s), unused.
         """
-        dob_observe(self.params, self.state, float(u), float(w), self._theta_out)
+        lib.ctl_dob_observe(self._c, float(u), float(w), ffi.NULL)

@@ -1,13 +1,17 @@
-"""Tracking metrics of a closed-loop run: one compiled accumulator, streamed sample by sample.
+"""Tracking metrics of a closed-loop run: one C accumulator, streamed sample by sample.
 
 The metrics of :class:`LoopMetrics` (RMS and maximum of the velocity error over
 the whole run and over its second half, RMS within windows around the
-reference reversals, RMS torque) are accumulated by :func:`metrics_update`,
-the one implementation: the closed-loop engine calls it at every controller
-period, and :func:`loop_metrics` runs it over a recorded run. Sums of squares
-are Neumaier-compensated (Neumaier, "Rundungsfehleranalyse einiger Verfahren
-zur Summation endlicher Summen", ZAMM 54, 1974), so a one-hour run at 1 kHz
-loses no digits and memory does not grow with the run length.
+reference reversals, RMS torque) are accumulated in the C struct
+``ctl_metrics`` (``controllers/csrc/ctl_metrics.h``) by ``ctl_metrics_add``,
+the one implementation: the closed-loop engine holds one struct per scenario
+and calls it at every controller period, and :func:`loop_metrics` runs it over
+a recorded run. Sums of squares are Neumaier-compensated (Neumaier,
+"Rundungsfehleranalyse einiger Verfahren zur Summation endlicher Summen",
+ZAMM 54, 1974), so a one-hour run at 1 kHz loses no digits and memory does not
+grow with the run length. :func:`metrics_result` and :func:`metrics_columns`
+turn accumulators (a ``ctl_metrics *``, a ``ctl_metrics[]`` array, or a numpy
+array of :data:`METRICS_DTYPE`) into results.
 """
 
 from __future__ import annotations
@@ -17,20 +21,39 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from controllers._cctl import ffi, lib
 from plant.errors import ParameterError, SignalError, check_nonnegative, check_signal
-from plant.jit import kernel
 
 __all__ = ["LoopMetrics", "loop_metrics", "reversal_times", "metrics_update", "metrics_where", "metrics_add",
-           "metrics_result", "metrics_columns", "METRICS_NSTATE", "METRIC_NAMES", "deviation_rms",
+           "metrics_result", "metrics_columns", "new_metrics", "METRICS_DTYPE", "METRIC_NAMES", "deviation_rms",
            "first_active_time"]
 
-# accumulator state: compensated sums (value, compensation) of e^2 (all, second half, reversal windows) and u^2,
-# maxima of |e| (all, second half), counts (second half, reversal windows), reversal pointer
-_SE, _SEC, _ME, _SH, _SHC, _MH, _NH, _SR, _SRC, _NR, _SU, _SUC, _N, _IP = range(14)
-#: Length of the accumulator state.
-METRICS_NSTATE = 14
 #: Field names of :class:`LoopMetrics`, in order.
 METRIC_NAMES = ("rms", "max", "rms_second_half", "max_second_half", "rms_reversal", "u_rms")
+
+
+def _struct_dtype(ctype: str) -> np.dtype:
+    """The numpy structured dtype of the C struct ``ctype`` (fields, offsets and size as the compiler laid them
+    out; ``double`` as float64, integers as signed integers of their size)."""
+    t = ffi.typeof(ctype)
+    names, formats, offsets = [], [], []
+    for name, f in t.fields:
+        names.append(name)
+        kind = f.type.kind
+        if f.type.cname == "double":
+            formats.append(np.float64)
+        elif kind == "primitive" or kind == "enum":
+            formats.append(np.dtype(f"i{ffi.sizeof(f.type)}"))
+        else:  # pragma: no cover - ctl_metrics has scalars only
+            raise TypeError(f"field {name} of {ctype} is not a scalar")
+        offsets.append(f.offset)
+    return np.dtype({"names": names, "formats": formats, "offsets": offsets, "itemsize": ffi.sizeof(t)})
+
+
+#: numpy structured dtype of the C struct ``ctl_metrics`` (a view of ``ctl_metrics[]`` memory, or memory for it:
+#: ``ffi.from_buffer("ctl_metrics[]", np.zeros(B, METRICS_DTYPE))``).
+METRICS_DTYPE = _struct_dtype("ctl_metrics")
+_CTYPE = ffi.typeof("ctl_metrics")
 
 
 @dataclass(frozen=True)
@@ -67,20 +90,40 @@ class LoopMetrics:
                 f"(second half), reversal RMS {d(self.rms_reversal):.4f} deg/s, u RMS {self.u_rms:.2f} N·m")
 
 
-@kernel(inline="always")
-def _add(st, i, x):
-    """Neumaier-compensated ``sum += x`` on slots ``st[i]`` (sum) and ``st[i + 1]`` (compensation)."""
-    s = st[i]
-    q = s + x
-    st[i + 1] += (s - q) + x if abs(s) >= abs(x) else (x - q) + s
-    st[i] = q
+def new_metrics(n: int | None = None):
+    """Zeroed accumulators: one ``ctl_metrics *`` (``n`` None) or a ``ctl_metrics[n]`` array (cffi, owned).
+
+    Parameters
+    ----------
+    n : int, optional
+        Number of accumulators (one per scenario), >= 0.
+
+    Returns
+    -------
+    cffi cdata
+        ``ctl_metrics *`` or ``ctl_metrics[n]``, every field 0 (``ctl_metrics_init``).
+    """
+    if n is None:
+        return ffi.new("ctl_metrics *")
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+        raise ParameterError(f"n must be an integer >= 0, got {n!r}")
+    return ffi.new("ctl_metrics[]", int(n))
 
 
-@kernel(inline="always")
-def metrics_where(t, tmid, revs, window, ip):
+def _revs_buffer(revs):
+    """``(const double *, R)`` of a sorted reversal-time array (kept alive by the caller through the returned
+    array)."""
+    r = np.ascontiguousarray(revs, dtype=np.float64)
+    if r.ndim != 1:
+        raise SignalError(f"revs must be 1-D, got shape {r.shape}")
+    return r, ffi.from_buffer("double[]", r), r.shape[0]
+
+
+def metrics_where(t: float, tmid: float, revs, window: float, ip: int) -> tuple[int, int]:
     """Which sums a sample at time ``t`` (s) enters: 0 first half, 1 second half, 2 second half in a reversal window.
 
-    Depends on the time alone, so a batch of scenarios on one reference computes it once per period.
+    Depends on the time alone, so a batch of scenarios on one reference computes it once per period
+    (the engine calls the C function ``ctl_metrics_where`` directly; this is its Python face).
 
     Parameters
     ----------
@@ -98,90 +141,81 @@ def metrics_where(t, tmid, revs, window, ip):
     Returns
     -------
     (int, int)
-        The class of the sample and the advanced reversal pointer.
+        The class of the sample and the advanced reversal pointer (C ``controllers/csrc/ctl_metrics.c``,
+        ``ctl_metrics_where``).
     """
-    if not t >= tmid:
-        return 0, ip
-    nrev = revs.shape[0]
-    if nrev > 0:
-        while ip < nrev and revs[ip] < t:
-            ip += 1
-        lo = revs[ip - 1] if ip >= 1 else revs[0]
-        hi = revs[ip] if ip < nrev else revs[nrev - 1]
-        if min(abs(t - lo), abs(hi - t)) <= window:
-            return 2, ip
-    return 1, ip
+    _, r, nrev = _revs_buffer(revs)
+    p = ffi.new("long *", int(ip))
+    where = lib.ctl_metrics_where(t, tmid, r, nrev, window, p)
+    return int(where), int(p[0])
 
 
-@kernel(inline="always")
-def metrics_add(st, where, e, u):
+def metrics_add(m, where: int, e: float, u: float) -> None:
     """Add one sample of class ``where`` (:func:`metrics_where`): error ``e`` (rad/s), torque ``u`` (N·m).
 
-    NaN propagates into the sums and maxima as in numpy. The reversal pointer slot of ``st`` is not touched.
+    ``m`` is a ``ctl_metrics *`` (:func:`new_metrics`). NaN propagates into the sums and maxima as in numpy.
+    The reversal pointer ``m.ip`` is not touched. C (``ctl_metrics_add``).
     """
-    e2 = e * e
-    _add(st, _SE, e2)
-    ae = abs(e)
-    if ae > st[_ME] or ae != ae:
-        st[_ME] = ae if st[_ME] == st[_ME] else st[_ME]
-    st[_N] += 1.0
-    if where > 0:
-        _add(st, _SH, e2)
-        st[_NH] += 1.0
-        if ae > st[_MH] or ae != ae:
-            st[_MH] = ae if st[_MH] == st[_MH] else st[_MH]
-        if where == 2:
-            _add(st, _SR, e2)
-            st[_NR] += 1.0
-    _add(st, _SU, u * u)
+    lib.ctl_metrics_add(m, where, e, u)
 
 
-@kernel
-def metrics_update(st, t, tmid, revs, window, e, u):
+def metrics_update(m, t: float, tmid: float, revs, window: float, e: float, u: float) -> None:
     """Add one sample: error ``e`` (rad/s) and torque ``u`` (N·m) at time ``t`` (s), times non-decreasing.
 
-    ``tmid`` is the start of the second half (s); ``revs`` the sorted reversal times (s); a sample belongs to
-    a reversal window when its nearest reversal is within ``window`` s (second half only). NaN propagates into
-    the sums and maxima as in numpy. :func:`metrics_where` then :func:`metrics_add` (the reversal pointer kept
-    in ``st``).
+    ``m`` is a ``ctl_metrics *``; ``tmid`` the start of the second half (s); ``revs`` the sorted reversal times
+    (s); a sample belongs to a reversal window when its nearest reversal is within ``window`` s (second half
+    only). :func:`metrics_where` with the pointer ``m.ip``, then :func:`metrics_add` (C ``ctl_metrics_update``).
     """
-    where, ip = metrics_where(t, tmid, revs, window, np.int64(st[_IP]))
-    st[_IP] = ip
-    metrics_add(st, where, e, u)
+    _, r, nrev = _revs_buffer(revs)
+    lib.ctl_metrics_update(m, t, tmid, r, nrev, window, e, u)
 
 
-@kernel
-def _accumulate(st, t, tmid, revs, window, e, u):
-    for k in range(t.shape[0]):
-        metrics_update(st, t[k], tmid, revs, window, e[k], u[k])
+def _records(states) -> np.ndarray:
+    """The accumulators ``states`` as a 1-D numpy array of :data:`METRICS_DTYPE` (a view of cffi memory)."""
+    if isinstance(states, np.ndarray):
+        if states.dtype != METRICS_DTYPE:
+            raise ParameterError(f"states must have dtype METRICS_DTYPE, got {states.dtype}")
+        return states.reshape(-1)
+    if isinstance(states, ffi.CData):
+        t = ffi.typeof(states)
+        if t.kind == "struct":
+            states = ffi.addressof(states)
+            t = ffi.typeof(states)
+        item = t.item if t.kind in ("pointer", "array") else None
+        if item is not None and item is _CTYPE:
+            return np.frombuffer(ffi.buffer(states), dtype=METRICS_DTYPE)
+    raise ParameterError(f"states must be ctl_metrics cdata or an array of METRICS_DTYPE, got {states!r}")
 
 
 def metrics_result(st, *, n_total: int | None = None) -> LoopMetrics:
-    """:class:`LoopMetrics` of an accumulator state ``st`` (shape (METRICS_NSTATE,)).
+    """:class:`LoopMetrics` of one accumulator ``st``.
 
     Parameters
     ----------
-    st : ndarray, shape (METRICS_NSTATE,)
-        Accumulator state after the run.
+    st : cffi ``ctl_metrics *`` or ``ctl_metrics`` (an element of a ``ctl_metrics[]`` array)
+        Accumulator after the run (also a numpy record array of :data:`METRICS_DTYPE` of length 1).
     n_total : int, optional
         Samples the run should have had; a run that stopped earlier (diverged) reports NaN for every
         metric that needs the missing samples (all but a reversal RMS whose windows were complete).
     """
+    rec = _records(st)
+    if rec.shape != (1,):
+        raise ParameterError(f"st must be one accumulator, got {rec.shape[0]}")
     nan = math.nan
-    if n_total is not None and st[_N] < n_total:
+    if n_total is not None and rec["n"][0] < n_total:
         return LoopMetrics(rms=nan, max=nan, rms_second_half=nan, max_second_half=nan, rms_reversal=nan,
                            u_rms=nan)
-    cols = metrics_columns(np.asarray(st, dtype=float)[None, :])
+    cols = metrics_columns(rec)
     return LoopMetrics(**{k: float(v[0]) for k, v in cols.items()})
 
 
 def metrics_columns(states) -> dict:
-    """The metrics of B accumulator states at once: one array per field of :class:`LoopMetrics`.
+    """The metrics of B accumulators at once: one array per field of :class:`LoopMetrics`.
 
     Parameters
     ----------
-    states : ndarray, shape (B, METRICS_NSTATE)
-        Accumulator states after the runs.
+    states : cffi ``ctl_metrics[B]`` (or ``ctl_metrics *``), or ndarray of :data:`METRICS_DTYPE`, shape (B,)
+        Accumulators after the runs (the engine's per-scenario structs).
 
     Returns
     -------
@@ -195,15 +229,16 @@ def metrics_columns(states) -> dict:
     -----
     RMS of the Neumaier-compensated sums of squares (module docstring).
     """
-    st = np.asarray(states, dtype=float)
-    n, nh, nr = st[:, _N], st[:, _NH], st[:, _NR]
+    st = _records(states)
+    n, nh, nr = (st[k].astype(np.float64) for k in ("n", "n_half", "n_rev"))
     with np.errstate(all="ignore"):
-        def rms(i, c):
-            return np.where(c > 0, np.sqrt((st[:, i] + st[:, i + 1]) / c), np.nan)
+        def rms(k, c):
+            return np.where(c > 0, np.sqrt((st[k] + st[k + "_c"]) / c), np.nan)
 
-        return {"rms": rms(_SE, n), "max": np.where(n != 0, st[:, _ME], np.nan), "rms_second_half": rms(_SH, nh),
-                "max_second_half": np.where(nh != 0, st[:, _MH], np.nan), "rms_reversal": rms(_SR, nr),
-                "u_rms": rms(_SU, n)}
+        return {"rms": rms("e2", n), "max": np.where(n != 0, st["e_max"], np.nan),
+                "rms_second_half": rms("e2_half", nh),
+                "max_second_half": np.where(nh != 0, st["e_max_half"], np.nan), "rms_reversal": rms("e2_rev", nr),
+                "u_rms": rms("u2", n)}
 
 
 def reversal_times(t, w, chunk: int = 1 << 16) -> np.ndarray:
@@ -230,7 +265,7 @@ def reversal_times(t, w, chunk: int = 1 << 16) -> np.ndarray:
 
 
 def loop_metrics(t, w_ref, w, u, *, reversals, window: float = 0.2) -> LoopMetrics:
-    """Compute :class:`LoopMetrics` from a recorded run (the engine's accumulator, :func:`metrics_update`).
+    """Compute :class:`LoopMetrics` from a recorded run (the engine's accumulator, C ``ctl_metrics_accumulate``).
 
     Parameters
     ----------
@@ -261,11 +296,14 @@ def loop_metrics(t, w_ref, w, u, *, reversals, window: float = 0.2) -> LoopMetri
         if a.shape != (n,):
             raise ParameterError(f"{name} must have shape ({n},), got {a.shape}")
     window = check_nonnegative("window", window)
-    st = np.zeros(METRICS_NSTATE)
-    revs = np.ascontiguousarray(np.sort(np.asarray(reversals, dtype=float)))
-    _accumulate(st, np.ascontiguousarray(t), 0.5 * (t[0] + t[-1]), revs, window,
-                np.ascontiguousarray(w_ref - w), np.ascontiguousarray(u))
-    return metrics_result(st)
+    m = new_metrics()
+    revs, r, nrev = _revs_buffer(np.sort(np.asarray(reversals, dtype=float)))
+    t = np.ascontiguousarray(t, dtype=np.float64)
+    e = np.ascontiguousarray(w_ref - w, dtype=np.float64)
+    u = np.ascontiguousarray(u, dtype=np.float64)
+    lib.ctl_metrics_accumulate(m, ffi.from_buffer("double[]", t), ffi.from_buffer("double[]", e),
+                               ffi.from_buffer("double[]", u), n, 0.5 * (t[0] + t[-1]), r, nrev, window)
+    return metrics_result(m)
 
 
 def deviation_rms(w, w_limit) -> float:

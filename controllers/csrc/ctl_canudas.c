@@ -1,0 +1,146 @@
+/* ctl_canudas.c -- Canudas de Wit et al.'s adaptive friction compensation (see ctl_canudas.h). */
+#include <stddef.h>
+
+#include "ctl_canudas.h"
+
+int ctl_canudas_init(ctl_canudas *c, aff_real Tc, long m, aff_real w_dead, long warmup, aff_real ff_max,
+                     int ff_measured, int scheme, aff_real lam, aff_real P0, aff_real J_guess)
+{
+    if (m < 1)
+        return -1;
+    c->Tc = Tc;
+    c->Ts = (aff_real)m * Tc;
+    c->m = m;
+    c->w_dead = w_dead;
+    c->warmup = warmup;
+    c->ff_max = ff_max;
+    c->ff_measured = ff_measured;
+    aff_real decay = AFF_EXP((aff_real)-1.0 / (aff_real)10000.0);
+    aff_range_gate_init(&c->u_range, (aff_real)INFINITY, (aff_real)100.0, (aff_real)0.0, decay, 20);
+    aff_range_gate_init(&c->w_range, (aff_real)INFINITY, (aff_real)100.0, w_dead, decay, 20);
+    aff_real trace = P0;
+    for (int i = 1; i < 5; i++)
+        trace += P0; /* np.trace(P0*I), summed in order */
+    aff_rls_init(&c->rls, 5, scheme, lam, trace, P0);
+    c->rls.theta[0] = c->Ts / J_guess;
+    c->rls.has_bounds = 1;
+    for (int i = 0; i < 5; i++) {
+        c->rls.lower[i] = i == 0 ? (aff_real)1e-12 : (aff_real)0.0;
+        c->rls.upper[i] = (aff_real)INFINITY;
+    }
+    c->on = 0;
+    c->Fc_pos = 0;
+    c->Fc_neg = 0;
+    c->sigma_pos = 0;
+    c->sigma_neg = 0;
+    c->k = 0;
+    c->u_sum = 0;
+    c->w_prev = 0;
+    c->has_prev = 0;
+    c->ok = 1;
+    c->n_rejected = 0;
+    c->phase = 0;
+    return 0;
+}
+
+double ctl_canudas_compensate(void *self, double w_ctrl, double w_meas, double w_ref)
+{
+    const ctl_canudas *c = (const ctl_canudas *)self;
+    (void)w_meas;
+    if (!c->on)
+        return 0.0;
+    aff_real w = (aff_real)(c->ff_measured ? w_ctrl : w_ref);
+    if (!isfinite(w))
+        return 0.0;
+    aff_real v;
+    if (w > 0)
+        v = c->Fc_pos + c->sigma_pos * w;
+    else if (w < 0)
+        v = -c->Fc_neg + c->sigma_neg * w;
+    else
+        v = 0;
+    if (!isfinite(v)) /* a velocity so large that the map overflows: no compensation */
+        return 0.0;
+    aff_real lo = -c->ff_max;
+    aff_real y = lo > v ? lo : v;
+    return c->ff_max < y ? c->ff_max : y;
+}
+
+/* One RLS update on the interval w0 -> w1 with mean torque ubar if it lies beyond the dead zone; 1 when used. */
+static int canudas_update(ctl_canudas *c, aff_real w0, aff_real w1, aff_real ubar)
+{
+    aff_real wd = c->w_dead;
+    aff_real phi[5];
+    if (w0 > wd && w1 > wd) {
+        phi[0] = ubar;
+        phi[1] = -w0;
+        phi[2] = 0;
+        phi[3] = -1;
+        phi[4] = 0;
+    } else if (w0 < -wd && w1 < -wd) {
+        phi[0] = ubar;
+        phi[1] = 0;
+        phi[2] = -w0;
+        phi[3] = 0;
+        phi[4] = 1;
+    } else {
+        return 0;
+    }
+    long n0 = c->rls.n_updates;
+    aff_rls_update(&c->rls, phi, w1 - w0);
+    long n1 = c->rls.n_updates;
+    if (n1 == n0) { /* a non-finite row (overflow of finite samples) is refused and counted */
+        c->n_rejected++;
+        return 0;
+    }
+    if (n1 >= c->warmup) {
+        const aff_real *th = c->rls.theta;
+        aff_real b = th[0];
+        c->Fc_pos = th[3] / b;
+        c->Fc_neg = th[4] / b;
+        c->sigma_pos = th[1] / b;
+        c->sigma_neg = th[2] / b;
+        c->on = 1;
+    }
+    return 1;
+}
+
+int ctl_canudas_observe(void *self, double u, double w_meas, double *theta_out)
+{
+    ctl_canudas *c = (ctl_canudas *)self;
+    aff_real uu = (aff_real)u;
+    aff_real w = (aff_real)w_meas;
+    int uok = aff_range_gate_ok(&c->u_range, uu);
+    int wok = aff_range_gate_ok(&c->w_range, w);
+    if (!(uok && wok)) { /* a rejected sample counts in the failing gate(s) only */
+        if (!uok)
+            aff_range_gate_commit(&c->u_range, uu, 0);
+        if (!wok)
+            aff_range_gate_commit(&c->w_range, w, 0);
+        c->n_rejected++;
+        c->ok = 0;
+        return 0;
+    }
+    aff_range_gate_commit(&c->u_range, uu, 1);
+    aff_range_gate_commit(&c->w_range, w, 1);
+    int upd = 0;
+    if (c->phase == 0) { /* k % m == 0, kept as a counter (no integer division per period) */
+        if (c->has_prev && c->ok)
+            upd = canudas_update(c, c->w_prev, w, c->u_sum / (aff_real)c->m);
+        c->w_prev = w;
+        c->has_prev = 1;
+        c->u_sum = 0;
+        c->ok = 1;
+    }
+    c->u_sum += uu;
+    c->k++;
+    long ph = c->phase + 1;
+    c->phase = ph >= c->m ? 0 : ph;
+    if (upd && theta_out != NULL) {
+        for (int i = 0; i < 5; i++)
+            theta_out[i] = (double)c->rls.theta[i];
+    }
+    return upd;
+}
+
+const aff_compensator_ops ctl_canudas_ops = {"canudas", ctl_canudas_compensate, ctl_canudas_observe};
