@@ -23,6 +23,9 @@ HEADERS = [
     "aff_sliding.h",
     "aff_robust_ff.h",
     "aff_eq4_ff.h",
+    "aff_stribeck_fit.h",
+    "aff_simulator.h",
+    "aff_online_ukf.h",
     "aff_drive.h",
 ]
 

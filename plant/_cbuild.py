@@ -25,6 +25,9 @@ CSRC = Path(__file__).resolve().parent / "csrc"
 #: Headers read by cffi, in dependency order (aff_real.h is replaced by its double typedef).
 HEADERS = [
     "plant_stribeck.h",
+    "plant_params.h",
+    "plant_stiff.h",
+    "plant_dynamics.h",
 ]
 
 _ARRAY_MACRO = re.compile(r"\[\s*[A-Z_][A-Z0-9_]*(\s*[*+]\s*[A-Z0-9_]+)*\s*\]")

@@ -109,7 +109,7 @@ class AsymmetricParams:
     def make_step(self, dt: float) -> Callable[[float, float, float], tuple]:
         """One step ``(w, f, u) -> (w, f)`` over ``dt`` (s) with ``u`` held (RK4; stiff joints: the implicit step).
 
-        The compiled :func:`plant.dynamics.plant_step` behind a Python call.
+        The C :func:`plant.dynamics.plant_step` behind a Python call.
 
         Raises
         ------

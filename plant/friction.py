@@ -105,7 +105,7 @@ class JointParams:
     def make_step(self, dt: float) -> Callable[[float, float, float], tuple]:
         """One RK4 step ``(w, f, u) -> (w, f)`` of this joint over ``dt`` (s), ``u`` held (eqs. 1-3).
 
-        The compiled :func:`plant.dynamics.plant_step` behind a Python call; for
+        The C :func:`plant.dynamics.plant_step` behind a Python call; for
         ``tau == 0`` the returned ``f`` is ``F(w)`` at the new velocity.
 
         Raises

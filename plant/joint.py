@@ -8,7 +8,7 @@ State ``x = (w, f)``: velocity (rad/s) and friction torque (N·m)::
 The input ``u`` (N·m) is held constant over each step (zero-order hold), as a
 digital drive applies it. The paper simulates this structure (its Fig. 2) with
 a fixed-step solver at 1 kHz; ``dt = 1e-3`` s is the default here. The step
-itself is the compiled plant component of :mod:`plant.dynamics` (every friction
+itself is the C plant component of :mod:`plant.dynamics` (every friction
 model of :mod:`plant.models`); this module runs it over an input sequence.
 """
 
@@ -20,6 +20,7 @@ from typing import Callable
 
 import numpy as np
 
+from plant._cplant import ffi
 from plant.drift import FrictionDrift
 from plant.dynamics import plant_params, plant_simulate, plant_state
 from plant.errors import check_finite_scalar, check_positive, check_signal
@@ -66,7 +67,7 @@ def make_rk4_step(p: JointParams, dt: float = DT_DEFAULT) -> Callable[[float, fl
     Notes
     -----
     Classic fourth-order Runge-Kutta (e.g. Hairer, Nørsett, Wanner, *Solving
-    ODEs I*, Sec. II.1) of eqs. 1-3: the compiled
+    ODEs I*, Sec. II.1) of eqs. 1-3: the C
     :func:`plant.dynamics.plant_step`. ``F`` is discontinuous at ``w = 0``; with
     ``tau > 0`` the lag integrates it, so ``dw/dt`` stays continuous.
     """
@@ -134,7 +135,7 @@ def simulate(p: JointParams, u, *, dt: float = DT_DEFAULT, w0: float = 0.0, f0: 
     Notes
     -----
     Model: eqs. 1-3 of Ruderman (or the variant's equations); integrator: the
-    compiled loop :func:`plant.dynamics.plant_simulate` of
+    C loop :func:`plant.dynamics.plant_simulate` of
     :func:`plant.dynamics.plant_step`. A :class:`plant.drift.FrictionDrift`
     runs as its plant at ``t = 0`` (as its ``make_step``).
     """
@@ -146,7 +147,7 @@ def simulate(p: JointParams, u, *, dt: float = DT_DEFAULT, w0: float = 0.0, f0: 
     if isinstance(q, JointParams) and q.tau == 0.0:
         st = plant_state(q, w)  # static friction: the state is algebraic
     else:
-        st = np.array([w, f, math.nan])
+        st = ffi.new("plant_state *", (w, f, math.nan))
     n = u.shape[0]
     W = np.empty(n + 1)
     Fr = np.empty(n + 1)

@@ -95,7 +95,7 @@ class KarnoppParams:
     def make_step(self, dt: float) -> Callable[[float, float, float], tuple]:
         """One step ``(w, f, u) -> (w, f)`` over ``dt`` (s) with ``u`` held; rules in the class Notes.
 
-        The compiled :func:`plant.dynamics.plant_step` behind a Python call.
+        The C :func:`plant.dynamics.plant_step` behind a Python call.
 
         Raises
         ------

@@ -18,6 +18,7 @@ from typing import Callable, ClassVar
 
 import numpy as np
 
+from plant._cplant import ffi
 from plant.dynamics import make_plant_step, plant_friction, plant_params
 from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
 from plant.friction import JointParams, stribeck
@@ -114,9 +115,9 @@ class LuGreParams:
     def friction_torque(self, w: float, z: float) -> float:
         """Friction torque (N·m) in state ``(w, z)``: ``sigma0*z + sigma1*dz/dt + sigma2*w``.
 
-        The compiled :func:`plant.dynamics.plant_friction`.
+        C (:func:`plant.dynamics.plant_friction`).
         """
-        return plant_friction(self._packed, np.array([float(w), float(z), math.nan]))
+        return plant_friction(self._packed, ffi.new("plant_state *", (float(w), float(z), math.nan)))
 
     def initial_state(self, w: float) -> float:
         """Bristle deflection of steady motion at ``w``: ``sgn(w)*g(w)/sigma0`` (0 at rest), rad."""
@@ -131,7 +132,7 @@ class LuGreParams:
         sqrt(sigma0/J)`` so that each sub-step stays well inside RK4's stability
         region (rate times sub-step <= 1; the region ends near 2.8); beyond
         :data:`plant.dynamics.LUGRE_RK4_MAX` sub-steps (a stiff bristle) the
-        error-controlled implicit :func:`plant.dynamics.lugre_stiff_step`. The compiled
+        error-controlled implicit :func:`plant.dynamics.lugre_stiff_step`. The C
         :func:`plant.dynamics.plant_step` behind a Python call.
 
         Raises
@@ -142,8 +143,13 @@ class LuGreParams:
         return make_plant_step(self, dt)
 
     @cached_property
-    def _packed(self) -> np.ndarray:
+    def _packed(self):
+        """The C struct of :func:`plant.dynamics.plant_params` (cached; not pickled, see ``__getstate__``)."""
         return plant_params(self)
+
+    def __getstate__(self) -> dict:
+        """The fields without the cached C struct (cffi objects do not pickle; it is rebuilt on use)."""
+        return {k: v for k, v in self.__dict__.items() if k != "_packed"}
 
     def frictionless(self) -> JointParams:
         """The same inertia without friction (the compensation limit)."""

@@ -20,8 +20,8 @@ Every plant class provides ``J``, ``Vs``, ``delta``, ``friction(w)`` (steady
 sliding map), ``make_step(dt)`` (one integration step ``(w, s, u) -> (w, s)``
 with the model's internal state ``s``), ``friction_torque(w, s)``,
 ``initial_state(w)``, ``frictionless()``, ``to_dict()`` and ``MODEL``. The
-compiled step behind all of them is :func:`plant.dynamics.plant_step` on the
-parameter row :func:`plant.dynamics.plant_params` packs for any of these classes.
+C step behind all of them is :func:`plant.dynamics.plant_step` on the
+``plant_params`` struct :func:`plant.dynamics.plant_params` packs for any of these classes.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The plant's parameter row and state: layout, packing, the friction map the steps evaluate, the up-front check.
+"""The plant's parameters and state as C structs: packing, the friction map the steps evaluate, the up-front check.
 
 The steps themselves are in :mod:`plant.dynamics` (RK4, :func:`plant.dynamics.plant_step`) and
 :mod:`plant.stiff` (the implicit steps of stiff plants); :mod:`plant.dynamics` re-exports every name of
@@ -6,12 +6,16 @@ this module.
 
 Every friction model of the package (:mod:`plant.friction` lagged Stribeck,
 :mod:`plant.asymmetric`, :mod:`plant.karnopp`, :mod:`plant.lugre`) is packed by
-:func:`plant_params` into one float64 row of :data:`PLANT_NPAR` entries; its
-state is a float64 array of :data:`PLANT_NSTATE` entries made by
-:func:`plant_state`. The compiled :func:`plant.dynamics.plant_step` advances the state by one
-step with the input held, in place; :func:`plant.dynamics.plant_friction` returns the friction
-torque. The Python classes (``make_step``, :func:`plant.joint.simulate`), the
-identification simulator and the closed-loop engine all call these kernels.
+:func:`plant_params` into one C struct ``plant_params`` (``plant/csrc/plant_params.h``,
+cffi: ``plant._cplant.ffi``); its state is a ``plant_state`` struct made by
+:func:`plant_state`. A table of B plants (a batch; a drifting plant's K rows) is a
+cffi array ``plant_params[B]`` (:func:`plant_rows`, :func:`stack_params`) with the states
+``plant_state[B]`` (:func:`plant_states`); an element is ``rows[b]`` (a struct, copied by
+value on assignment) and ``rows + b`` is a pointer to it. The C :func:`plant.dynamics.plant_step`
+advances the state by one step with the input held, in place; :func:`plant.dynamics.plant_friction`
+returns the friction torque. The Python classes (``make_step``, :func:`plant.joint.simulate`),
+the identification simulator and the closed-loop engine all call these C functions.
+cffi objects do not pickle: pack in the process that steps.
 
 Model (Ruderman, eqs. 1-3) of the lagged models::
 
@@ -25,44 +29,44 @@ Braun 1987) and, for Karnopp's model, the stick band ``|w| < dv`` (see
     dz/dt = w - sigma0*|w|/g(w)*z,   g(w) = F(|w|) with sigma = 0
     J*dw/dt = u - sigma0*z - sigma1*dz/dt - sigma2*w
 
-Parameter row (index: meaning; unused entries 0)
+Fields of ``plant_params`` (unused ones 0)
 
-====  ==============  ===========================================================
-slot  name            meaning
-====  ==============  ===========================================================
-0     ``code``        model: 0 lagged Stribeck, 1 asymmetric, 2 Karnopp, 3 LuGre
-1     ``J``           inertia (kg·m²)
-2     ``Vs``          Stribeck velocity (rad/s)
-3     ``delta``       shape factor
-4     ``tau``         friction lag (s); 0 for LuGre
-5-8   ``*_pos``       ``Fc``, ``Fs - Fc`` (N·m), ``sigma`` (N·m·s/rad), cut-off speed
-                      (:func:`plant.stribeck_map.stribeck_cutoff`, rad/s) for ``w > 0``
-                      (LuGre: its ``Fc``, ``Fs - Fc``, ``sigma2``, cut-off)
-9-12  ``*_neg``       the same for ``w < 0`` (equal to 5-8 but for the asymmetric model)
-13    ``Fs_stick``    Karnopp: friction limit in the band (``Fs``, N·m)
-14    ``dv``          Karnopp: half-width of the stick band (rad/s); 0 = no band
-15    ``sigma0``      LuGre bristle stiffness (N·m/rad)
-16    ``sigma1``      LuGre bristle damping (N·m·s/rad)
-17    ``g_min``       LuGre ``min(Fc, Fs)`` (N·m)
-18    ``g_max``       LuGre ``max(Fc, Fs)`` (N·m)
-19    ``base_rate``   LuGre ``(sigma1 + sigma2)/J + sqrt(sigma0/J)`` (1/s)
-20    ``rate``        lagged models: the fastest stable mode (1/s, :func:`lagged_rate`); where
-                      ``rate*dt > RK4_RATE_MAX`` the RK4 step is cut into ``int(rate*dt) + 1``
-                      equal sub-steps, beyond ``LAGGED_RK4_MAX`` the stiff step (below)
-21    ``inv_J``       ``1/J`` (1/(kg·m²)): the lagged models' right-hand side multiplies by it
-22    ``inv_tau``     ``1/tau`` (1/s), 0 for ``tau = 0``
-23    ``key``         fingerprint of slots 0-22 (an integer in [1, 2**52)), see state slot 2
-====  ==============  ===========================================================
+==============  ==================================================================
+field           meaning
+==============  ==================================================================
+``model``       ``plant_model`` enum (:data:`MODEL_CODES`): 0 lagged Stribeck
+                (``PLANT_LAGGED_STRIBECK``), 1 asymmetric, 2 Karnopp, 3 LuGre
+``J``           inertia (kg·m²)
+``tau``         friction lag (s); 0 for LuGre
+``pos``         eq. 3 for ``w > 0`` (a ``plant_stribeck``): ``Fc``, ``dF = Fs - Fc``
+                (N·m), ``Vs`` (rad/s), ``delta``, ``sigma`` (N·m·s/rad), cut-off
+                speed ``wcut`` (:func:`plant.stribeck_map.stribeck_cutoff`, rad/s)
+                (LuGre: its ``Fc``, ``Fs - Fc``, ``Vs``, ``delta``, ``sigma2``, cut-off)
+``neg``         the same for ``w < 0`` (equal to ``pos`` but for the asymmetric model)
+``Fs_stick``    Karnopp: friction limit in the band (``Fs``, N·m)
+``dv``          Karnopp: half-width of the stick band (rad/s); 0 = no band
+``sigma0``      LuGre bristle stiffness (N·m/rad)
+``sigma1``      LuGre bristle damping (N·m·s/rad)
+``g_min``       LuGre ``min(Fc, Fs)`` (N·m)
+``g_max``       LuGre ``max(Fc, Fs)`` (N·m)
+``base_rate``   LuGre ``(sigma1 + sigma2)/J + sqrt(sigma0/J)`` (1/s)
+``rate``        lagged models: the fastest stable mode (1/s, :func:`lagged_rate`); where
+                ``rate*dt > RK4_RATE_MAX`` the RK4 step is cut into ``int(rate*dt) + 1``
+                equal sub-steps, beyond ``LAGGED_RK4_MAX`` the stiff step (below)
+``inv_J``       ``1/J`` (1/(kg·m²)): the lagged models' right-hand side multiplies by it
+``inv_tau``     ``1/tau`` (1/s), 0 for ``tau = 0``
+``key``         fingerprint of the fields above (an integer in [1, 2**52)), see ``aux``
+==============  ==================================================================
 
-State (:data:`PLANT_NSTATE` = 3): ``st[0]`` velocity ``w`` (rad/s);
-``st[1]`` the model's internal state (the friction torque ``f`` in N·m, for
-LuGre the bristle deflection ``z`` in rad); ``st[2]`` equals ``key`` when
-``st[1]`` is ``F(st[0])`` of these parameters with ``tau == 0`` (set by
-:func:`plant.dynamics.plant_step` and :func:`plant_state`), so the next step reuses it instead
-of evaluating eq. 3 again; any other value (e.g. NaN) means "not cached".
-Swapping the parameter row (a drifting plant) invalidates it by the key. For
-LuGre, and for a lagged model after a step of :func:`~plant.stiff.lagged_stiff_step`, ``st[2]``
-holds the last sub-step of the stiff integrator (s) or NaN.
+Fields of ``plant_state``: ``w`` velocity (rad/s); ``s`` the model's internal
+state (the friction torque ``f`` in N·m, for LuGre the bristle deflection ``z``
+in rad); ``aux`` equals ``key`` when ``s`` is ``F(w)`` of these parameters with
+``tau == 0`` (set by :func:`plant.dynamics.plant_step` and :func:`plant_state`), so
+the next step reuses it instead of evaluating eq. 3 again; any other value (e.g.
+NaN) means "not cached". Swapping the parameters (a drifting plant) invalidates it
+by the key. For LuGre, and for a lagged model after a step of
+:func:`~plant.stiff.lagged_stiff_step`, ``aux`` holds the last sub-step of the
+stiff integrator (s) or NaN.
 
 Stiff lagged models (a rising Stribeck map, ``delta < 0``, whose steepest slope
 sits at tiny speeds; a viscous slope far above ``J/dt``; a lag far below the
@@ -86,30 +90,23 @@ from dataclasses import fields, is_dataclass
 
 import numpy as np
 
+from plant._cplant import ffi, lib
 from plant.errors import ParameterError, check_positive
-from plant.jit import kernel
-from plant.stribeck_map import stribeck_cutoff, stribeck_scalar, stribeck_slope_scalar
+from plant.stribeck_map import stribeck_cutoff, stribeck_slope_scalar
 
-__all__ = ["PLANT_NPAR", "PLANT_NSTATE", "PLANT_SLOTS", "MODEL_CODES", "plant_params", "plant_rows", "lagged_params",
-           "plant_state", "plant_states", "plant_target", "check_integrable", "integrable_rows", "lagged_rate", "steepest_rise",
-           "RK4_RATE_MAX", "LUGRE_STIFF_MAX"]
+__all__ = ["MODEL_CODES", "plant_params", "plant_rows", "lagged_params", "plant_state", "plant_states",
+           "stack_params", "stack_states", "plant_target", "check_integrable", "integrable_rows", "lagged_rate",
+           "steepest_rise", "RK4_RATE_MAX", "LUGRE_STIFF_MAX"]
 
-#: Model codes of slot 0.
-MODEL_CODES = {"lagged-stribeck": 0, "asymmetric": 1, "karnopp": 2, "lugre": 3}
-#: Slot names of the parameter row -> index (see the module docstring).
-PLANT_SLOTS = {name: i for i, name in enumerate((
-    "code", "J", "Vs", "delta", "tau", "Fc_pos", "dF_pos", "sigma_pos", "wcut_pos", "Fc_neg", "dF_neg",
-    "sigma_neg", "wcut_neg", "Fs_stick", "dv", "sigma0", "sigma1", "g_min", "g_max", "base_rate", "rate", "inv_J",
-    "inv_tau", "key"))}
-#: Length of the parameter row.
-PLANT_NPAR = len(PLANT_SLOTS)
-#: Length of the state array: w, the model's internal state, the eq. 3 cache key.
-PLANT_NSTATE = 3
+#: Model name -> value of the ``plant_model`` enum (field ``model`` of ``plant_params``).
+MODEL_CODES = {"lagged-stribeck": lib.PLANT_LAGGED_STRIBECK, "asymmetric": lib.PLANT_ASYMMETRIC,
+               "karnopp": lib.PLANT_KARNOPP, "lugre": lib.PLANT_LUGRE}
 
-_LUGRE = 3.0
-_KEY = PLANT_SLOTS["key"]
-_RATE = PLANT_SLOTS["rate"]
-_INV_J = PLANT_SLOTS["inv_J"]
+_LUGRE = lib.PLANT_LUGRE
+_PARAMS = ffi.typeof("plant_params")
+_PARAMS_PTR = ffi.typeof("plant_params *")
+_STATE = ffi.typeof("plant_state")
+_STATE_PTR = ffi.typeof("plant_state *")
 _FIELDS = {
     "lagged-stribeck": ("J", "Fc", "Fs", "Vs", "delta", "sigma", "tau"),
     "asymmetric": ("J", "Fc_pos", "Fc_neg", "Fs_pos", "Fs_neg", "Vs", "delta", "sigma_pos", "sigma_neg", "tau"),
@@ -128,8 +125,8 @@ def _model_of(p) -> str:
     return model
 
 
-def lagged_params(J: float, Fc: float, Fs: float, Vs: float, delta: float, sigma: float, tau: float) -> np.ndarray:
-    """Parameter row of the lagged Stribeck joint (eqs. 1-3) from plain numbers, not validated.
+def lagged_params(J: float, Fc: float, Fs: float, Vs: float, delta: float, sigma: float, tau: float):
+    """Parameters of the lagged Stribeck joint (eqs. 1-3) from plain numbers, not validated.
 
     For inner loops that explore parameters (the output-error fits of
     :mod:`adaptive_ff.identification.simulator`); validated models go through
@@ -152,14 +149,14 @@ def lagged_params(J: float, Fc: float, Fs: float, Vs: float, delta: float, sigma
 
     Returns
     -------
-    ndarray, shape (PLANT_NPAR,)
-        The row (layout in the module docstring), model code 0.
+    cffi ``plant_params *``
+        A new struct (fields in the module docstring), model ``PLANT_LAGGED_STRIBECK``.
     """
-    return np.array(_lagged_list(0.0, J, Fc, Fs, Vs, delta, sigma, tau, 0.0, 0.0))
+    return ffi.new(_PARAMS_PTR, _init(_lagged_list(0.0, J, Fc, Fs, Vs, delta, sigma, tau, 0.0, 0.0)))
 
 
 def _lagged_list(code, J, Fc, Fs, Vs, delta, sigma, tau, Fs_stick, dv) -> list:
-    """The keyed row of a lagged Stribeck or Karnopp joint as a list of Python floats."""
+    """The keyed values of a lagged Stribeck or Karnopp joint as a list of Python floats (order: :func:`_init`)."""
     J, Fc, Fs, Vs = float(J), float(Fc), float(Fs), float(Vs)
     delta, sigma, tau = float(delta), float(sigma), float(tau)
     dF = Fs - Fc
@@ -226,8 +223,8 @@ def steepest_rise(dF: float, Vs: float, delta: float, sigma: float) -> float:
 
 
 def _keyed(v: list) -> list:
-    """Append ``inv_J``, ``inv_tau`` and the fingerprint ``key`` to the list of slots 0-20 (Python floats) of a
-    row, in place; returns it."""
+    """Append ``inv_J``, ``inv_tau`` and the fingerprint ``key`` to the list of the 21 values before them
+    (Python floats, order of :func:`_init`), in place; returns it."""
     J, tau = v[1], v[4]
     v.append(1.0 / J if J != 0.0 else math.inf)
     v.append(1.0 / tau if tau > 0.0 else 0.0)
@@ -235,8 +232,18 @@ def _keyed(v: list) -> list:
     return v
 
 
-def plant_params(p) -> np.ndarray:
-    """Pack a frozen plant model into the parameter row of :func:`~plant.dynamics.plant_step`.
+def _init(v: list) -> dict:
+    """The initialiser of a ``plant_params`` struct from the list ``[model, J, Vs, delta, tau, Fc, dF, sigma,
+    wcut (w > 0), Fc, dF, sigma, wcut (w < 0), Fs_stick, dv, sigma0, sigma1, g_min, g_max, base_rate, rate,
+    inv_J, inv_tau, key]``."""
+    return {"model": int(v[0]), "J": v[1], "tau": v[4],
+            "pos": (v[5], v[6], v[2], v[3], v[7], v[8]), "neg": (v[9], v[10], v[2], v[3], v[11], v[12]),
+            "Fs_stick": v[13], "dv": v[14], "sigma0": v[15], "sigma1": v[16], "g_min": v[17], "g_max": v[18],
+            "base_rate": v[19], "rate": v[20], "inv_J": v[21], "inv_tau": v[22], "key": v[23]}
+
+
+def plant_params(p):
+    """Pack a frozen plant model into the ``plant_params`` struct of :func:`~plant.dynamics.plant_step`.
 
     Parameters
     ----------
@@ -246,8 +253,8 @@ def plant_params(p) -> np.ndarray:
 
     Returns
     -------
-    ndarray, shape (PLANT_NPAR,)
-        The row (layout in the module docstring), C-contiguous float64.
+    cffi ``plant_params *``
+        A new struct owned by the returned object (fields in the module docstring).
 
     Raises
     ------
@@ -259,25 +266,25 @@ def plant_params(p) -> np.ndarray:
     Ruderman, eqs. 1-3, and the models of :mod:`plant.asymmetric`,
     :mod:`plant.karnopp`, :mod:`plant.lugre`.
     """
-    return np.array(_row_list(p))
+    return ffi.new(_PARAMS_PTR, _init(_row_list(p)))
 
 
 def _row_list(p) -> list:
-    """The row of :func:`plant_params` as a list of Python floats."""
+    """The values of :func:`plant_params` as a list of Python floats (order: :func:`_init`)."""
     model = _model_of(p)
     if model == "lagged-stribeck":
         return _lagged_list(0.0, p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau, 0.0, 0.0)
     if model == "karnopp":
         return _lagged_list(MODEL_CODES[model], p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau, p.Fs, p.dv)
-    r = [0.0] * _INV_J
+    r = [0.0] * 21
     r[0] = float(MODEL_CODES[model])
     r[1:4] = float(p.J), float(p.Vs), float(p.delta)
     if model == "asymmetric":
         r[4] = float(p.tau)
         r[5:9] = _levels(p.Fc_pos, p.Fs_pos, p.sigma_pos, p.Vs, p.delta)
         r[9:13] = _levels(p.Fc_neg, p.Fs_neg, p.sigma_neg, p.Vs, p.delta)
-        r[_RATE] = max(lagged_rate(p.J, p.Fs_pos - p.Fc_pos, p.Vs, p.delta, p.sigma_pos, p.tau),
-                       lagged_rate(p.J, p.Fs_neg - p.Fc_neg, p.Vs, p.delta, p.sigma_neg, p.tau))
+        r[20] = max(lagged_rate(p.J, p.Fs_pos - p.Fc_pos, p.Vs, p.delta, p.sigma_pos, p.tau),
+                    lagged_rate(p.J, p.Fs_neg - p.Fc_neg, p.Vs, p.delta, p.sigma_neg, p.tau))
         return _keyed(r)
     r[5:9] = r[9:13] = _levels(p.Fc, p.Fs, p.sigma2, p.Vs, p.delta)
     r[15:20] = (float(p.sigma0), float(p.sigma1), float(min(p.Fc, p.Fs)), float(max(p.Fc, p.Fs)),
@@ -286,12 +293,12 @@ def _row_list(p) -> list:
 
 
 def _levels(Fc, Fs, sigma, Vs, delta) -> list:
-    """Slots ``Fc, Fs - Fc, sigma, cut-off`` of one direction (Python floats)."""
+    """``Fc, Fs - Fc, sigma, cut-off`` of one direction (Python floats)."""
     return [float(Fc), float(Fs - Fc), float(sigma), float(stribeck_cutoff(Fc, Fs - Fc, Vs, delta))]
 
 
-def plant_rows(plants) -> np.ndarray:
-    """Pack B frozen plant models into a parameter table, one row of :func:`plant_params` each.
+def plant_rows(plants):
+    """Pack B frozen plant models into a table of ``plant_params`` structs, one :func:`plant_params` each.
 
     Parameters
     ----------
@@ -300,8 +307,9 @@ def plant_rows(plants) -> np.ndarray:
 
     Returns
     -------
-    ndarray, shape (B, PLANT_NPAR)
-        Row ``b`` equals ``plant_params(plants[b])`` bit for bit (one list per plant, one array at the end).
+    cffi ``plant_params[B]``
+        A new array; element ``b`` equals ``plant_params(plants[b])[0]`` byte for byte (``rows + b`` is a
+        pointer to it).
 
     Raises
     ------
@@ -312,10 +320,72 @@ def plant_rows(plants) -> np.ndarray:
     -----
     Ruderman, eqs. 1-3 (as :func:`plant_params`).
     """
-    return np.array([_row_list(p) for p in plants], dtype=float).reshape(-1, PLANT_NPAR)
+    return ffi.new("plant_params[]", [_init(_row_list(p)) for p in plants])
 
 
-def plant_state(p, w0: float = 0.0) -> np.ndarray:
+def _table(rows, what: str, item, ptr):
+    """``(pointer to the first struct, count)`` of a cffi struct pointer, struct or array of ``item``."""
+    try:
+        t = ffi.typeof(rows)
+    except TypeError:
+        raise TypeError(f"{what} must be a cffi {item.cname} pointer or array (plant.rows), got "
+                        f"{type(rows).__name__}") from None
+    if t is ptr:
+        return rows, 1
+    if t is item:
+        return ffi.addressof(rows), 1
+    if t.kind == "array" and t.item is item:
+        return ffi.cast(ptr, rows), len(rows)
+    raise TypeError(f"{what} must be a cffi {item.cname} pointer or array (plant.rows), got {t.cname}")
+
+
+def stack_params(items):
+    """Copy plant parameter structs into one table (a batch, a drifting plant's rows).
+
+    Parameters
+    ----------
+    items : sequence of cffi ``plant_params *`` or ``plant_params`` (e.g. of :func:`plant_params`), length B
+
+    Returns
+    -------
+    cffi ``plant_params[B]``
+        A new array; element ``b`` is a copy of ``items[b]``.
+
+    Raises
+    ------
+    TypeError
+        An entry is not a ``plant_params`` struct or pointer.
+    """
+    out = ffi.new("plant_params[]", len(items))
+    for b, x in enumerate(items):
+        out[b] = _table(x, f"items[{b}]", _PARAMS, _PARAMS_PTR)[0][0]
+    return out
+
+
+def stack_states(items):
+    """Copy plant state structs into one table.
+
+    Parameters
+    ----------
+    items : sequence of cffi ``plant_state *`` or ``plant_state`` (e.g. of :func:`plant_state`), length B
+
+    Returns
+    -------
+    cffi ``plant_state[B]``
+        A new array; element ``b`` is a copy of ``items[b]``.
+
+    Raises
+    ------
+    TypeError
+        An entry is not a ``plant_state`` struct or pointer.
+    """
+    out = ffi.new("plant_state[]", len(items))
+    for b, x in enumerate(items):
+        out[b] = _table(x, f"items[{b}]", _STATE, _STATE_PTR)[0][0]
+    return out
+
+
+def plant_state(p, w0: float = 0.0):
     """State of steady motion at velocity ``w0`` (what ``p.initial_state(w0)`` gives), for :func:`plant_step`.
 
     Parameters
@@ -327,10 +397,10 @@ def plant_state(p, w0: float = 0.0) -> np.ndarray:
 
     Returns
     -------
-    ndarray, shape (PLANT_NSTATE,)
-        ``[w0, s0, key]``: ``s0`` the friction ``F(w0)`` (lagged models, eq. 3;
-        0 at rest) or the LuGre deflection ``sgn(w0) g(w0)/sigma0``; the cache
-        slot is set where ``tau == 0`` (module docstring), else NaN.
+    cffi ``plant_state *``
+        A new struct ``{w: w0, s: s0, aux}``: ``s0`` the friction ``F(w0)`` (lagged models, eq. 3;
+        0 at rest) or the LuGre deflection ``sgn(w0) g(w0)/sigma0``; ``aux`` the cache key where
+        ``tau == 0`` (module docstring), else NaN. C: ``plant_steady_state``.
 
     Raises
     ------
@@ -339,13 +409,13 @@ def plant_state(p, w0: float = 0.0) -> np.ndarray:
     ParameterError
         ``w0`` not finite.
     """
-    model = _model_of(p)
+    par = plant_params(p)
     w0 = float(w0)
     if not math.isfinite(w0):
         raise ParameterError(f"w0 must be finite, got {w0!r}")
-    if model == "lugre":
-        return np.array([w0, float(p.initial_state(w0)), math.nan])
-    return plant_states((p,), plant_params(p)[None, :], w0)[0]
+    st = ffi.new(_STATE_PTR)
+    lib.plant_steady_state(par, w0, st)
+    return st
 
 
 #: Largest ``rate*dt`` of a stable mode that the explicit RK4 step of the lagged models accepts (RK4's
@@ -361,8 +431,8 @@ def check_integrable(rows, dt: float) -> None:
 
     Parameters
     ----------
-    rows : ndarray, shape (PLANT_NPAR,) or (K, PLANT_NPAR)
-        Parameter rows of :func:`plant_params` (a drifting plant: all its rows).
+    rows : cffi ``plant_params *`` or ``plant_params[K]``
+        Parameters of :func:`plant_params` (a drifting plant: all its K structs, :func:`plant_rows`).
     dt : float
         Step (s) the plant is advanced by, > 0.
 
@@ -371,131 +441,118 @@ def check_integrable(rows, dt: float) -> None:
     ParameterError
         The first offending row and the reason: a LuGre joint whose pre-sliding frequency ``sqrt(sigma0/J)``
         exceeds ``LUGRE_STIFF_MAX/dt`` (it would run for hours), or a row with a non-finite or out-of-range
-        entry (inertia, lag, levels; possible only for rows not made by :func:`plant_params`). Every valid lagged
-        model (lagged Stribeck, asymmetric, Karnopp, any lag, slope or inertia) is integrable: beyond
+        field (inertia, lag, levels; possible only for structs not made by :func:`plant_params`). Every valid
+        lagged model (lagged Stribeck, asymmetric, Karnopp, any lag, slope or inertia) is integrable: beyond
         :data:`~plant.stiff.LAGGED_RK4_MAX` RK4 sub-steps :func:`~plant.dynamics.plant_step` takes the implicit
         :func:`~plant.stiff.lagged_stiff_step`.
+    TypeError
+        ``rows`` is not a ``plant_params`` pointer or array.
 
     Notes
     -----
     The LuGre rate is the eigenvalue of the linearised model at rest (Canudas de Wit et al. 1995); the lagged
-    models' stiff step is L-stable (backward Euler; Hairer & Wanner, *Solving ODEs II*, Sec. IV.3).
+    models' stiff step is L-stable (backward Euler; Hairer & Wanner, *Solving ODEs II*, Sec. IV.3). The
+    conditions are C (``plant_integrable`` in ``plant/csrc/plant_params.c``).
     """
     dt = check_positive("dt", dt)
-    r = np.atleast_2d(np.asarray(rows, dtype=float))
-    ok = integrable_rows(r, dt)
+    ptr, _ = _table(rows, "rows", _PARAMS, _PARAMS_PTR)
+    ok = integrable_rows(rows, dt)
     if ok.all():
         return
     j = int(np.argmin(ok))
-    row = r[j].tolist()
-    code, J, tau = row[0], row[1], row[4]
+    row = ptr[j]
+    code, J, tau = int(row.model), row.J, row.tau
     if code == _LUGRE:
-        ratio = row[15] / J if J != 0.0 else math.inf
+        ratio = row.sigma0 / J if J != 0.0 else math.inf
         wp = math.sqrt(ratio) if ratio >= 0.0 else math.nan
         raise ParameterError(
             f"LuGre plant (row {j}): the pre-sliding frequency sqrt(sigma0/J) = {wp:.3g} rad/s is more than "
-            f"{LUGRE_STIFF_MAX:g}/dt = {LUGRE_STIFF_MAX / dt:.3g} rad/s (sigma0 = {row[15]:g} N·m/rad, "
+            f"{LUGRE_STIFF_MAX:g}/dt = {LUGRE_STIFF_MAX / dt:.3g} rad/s (sigma0 = {row.sigma0:g} N·m/rad, "
             f"J = {J:g} kg·m², dt = {dt:g} s): the engine cannot integrate it accurately")
-    levels = [row[k] for k in _CHECKED]
+    levels = [row.pos.Fc, row.pos.dF, row.pos.sigma, row.neg.Fc, row.neg.dF, row.neg.sigma, row.pos.Vs,
+              row.pos.delta, row.Fs_stick, row.dv]
     raise ParameterError(
-        f"plant (row {j}, model code {int(code)}): J = {J!r} kg·m² must be finite and > 0, tau = {tau!r} s "
+        f"plant (row {j}, model code {code}): J = {J!r} kg·m² must be finite and > 0, tau = {tau!r} s "
         f"finite and >= 0, and the friction parameters (Fc, Fs - Fc, sigma per direction, Vs, delta, Fs, dv) "
         f"finite, got {levels!r}: the engine cannot integrate it")
 
 
-#: Slots that must be finite in a lagged row: Fc, Fs - Fc, sigma per direction, Vs, delta, Fs_stick, dv.
-_CHECKED = [5, 6, 7, 9, 10, 11, 2, 3, 13, 14]
-
-
 def integrable_rows(rows, dt: float) -> np.ndarray:
-    """Which parameter rows :func:`check_integrable` accepts (one array pass over a whole table).
+    """Which parameter structs :func:`check_integrable` accepts (one C pass over a whole table).
 
     Parameters
     ----------
-    rows : ndarray, shape (K, PLANT_NPAR)
-        Parameter rows of :func:`plant_params` (e.g. :func:`plant_rows` of a batch).
+    rows : cffi ``plant_params[K]`` (or one ``plant_params *``)
+        Parameters of :func:`plant_params` (e.g. :func:`plant_rows` of a batch).
     dt : float
         Step (s), > 0 (not checked here).
 
     Returns
     -------
     ndarray of bool, shape (K,)
-        LuGre rows: ``sqrt(sigma0/J)*dt <= LUGRE_STIFF_MAX``; lagged rows: ``J`` finite and > 0, ``tau``
-        finite and >= 0 and the friction slots finite (the conditions of :func:`check_integrable`).
+        LuGre: ``sqrt(sigma0/J)*dt <= LUGRE_STIFF_MAX``; lagged models: ``J`` finite and > 0, ``tau``
+        finite and >= 0 and the friction fields (``Fc``, ``dF``, ``sigma``, ``Vs``, ``delta`` per direction,
+        ``Fs_stick``, ``dv``) finite (the conditions of :func:`check_integrable`).
+
+    Raises
+    ------
+    TypeError
+        ``rows`` is not a ``plant_params`` pointer or array.
 
     Notes
     -----
-    Canudas de Wit et al. (1995) for the LuGre rate at rest; the same IEEE operations (division, square
-    root) as a scalar evaluation, so a row passes here exactly when it passes one by one.
+    Canudas de Wit et al. (1995) for the LuGre rate at rest. C: ``plant_integrable_array``.
     """
-    r = np.asarray(rows, dtype=float)
-    J, tau = r[:, 1], r[:, 4]
-    with np.errstate(all="ignore"):
-        wp = np.sqrt(np.where(J != 0.0, r[:, 15] / np.where(J != 0.0, J, 1.0), np.inf))
-        lugre_ok = wp * dt <= LUGRE_STIFF_MAX
-    lagged_ok = ((J > 0.0) & np.isfinite(J) & (tau >= 0.0) & (tau < np.inf)
-                 & np.isfinite(r[:, _CHECKED]).all(axis=1))
-    return np.where(r[:, 0] == _LUGRE, lugre_ok, lagged_ok)
+    ptr, n = _table(rows, "rows", _PARAMS, _PARAMS_PTR)
+    ok = np.empty(n, dtype=np.intc)
+    lib.plant_integrable_array(ptr, n, float(dt), ffi.from_buffer("int[]", ok))
+    return ok.astype(bool)
 
 
-@kernel
-def _steady_states(rows, w0, out):
-    """``out[b] = [w0, F(w0), key or NaN]`` of the lagged rows (eq. 3 with the levels of the direction of w0)."""
-    for b in range(rows.shape[0]):
-        par = rows[b]
-        i = 5 if w0 > 0.0 else 9
-        out[b, 0] = w0
-        out[b, 1] = stribeck_scalar(w0, par[i], par[i + 1], par[2], par[3], par[i + 2], par[i + 3])
-        out[b, 2] = par[_KEY] if par[4] == 0.0 else math.nan
-
-
-def plant_states(plants, rows, w0: float) -> np.ndarray:
-    """States of steady motion at ``w0`` of B plants (:func:`plant_state` of each), in one compiled pass.
+def plant_states(rows, w0: float):
+    """States of steady motion at ``w0`` of B plants (:func:`plant_state` of each), in one C pass.
 
     Parameters
     ----------
-    plants : sequence of plant models, length B
-        The frozen models of ``rows`` (LuGre entries are initialised by :func:`plant_state`).
-    rows : ndarray, shape (B, PLANT_NPAR)
-        Their rows (:func:`plant_rows`).
+    rows : cffi ``plant_params[B]`` (or one ``plant_params *``)
+        The plants' parameters (:func:`plant_rows`).
     w0 : float
         Velocity (rad/s), finite.
 
     Returns
     -------
-    ndarray, shape (B, PLANT_NSTATE)
-        Row ``b`` equals ``plant_state(plants[b], w0)`` bit for bit: the lagged models' ``F(w0)`` is
-        :func:`plant.stribeck_map.stribeck_scalar` with the row's levels of the direction of ``w0`` (what
-        ``initial_state`` evaluates through :func:`plant.stribeck_map.stribeck`).
+    cffi ``plant_state[B]``
+        Element ``b`` equals ``plant_state(plants[b], w0)[0]`` bit for bit (C ``plant_steady_states``): the lagged
+        models' ``F(w0)`` is eq. 3 with the levels of the direction of ``w0`` (what ``initial_state``
+        evaluates through :func:`plant.stribeck_map.stribeck`), LuGre's ``sgn(w0) g(w0)/sigma0``.
 
     Raises
     ------
     ParameterError
         ``w0`` not finite.
+    TypeError
+        ``rows`` is not a ``plant_params`` table.
 
     Notes
     -----
     Ruderman, eq. 3; LuGre: Canudas de Wit et al. (1995).
     """
+    ptr, n = _table(rows, "rows", _PARAMS, _PARAMS_PTR)
     w0 = float(w0)
     if not math.isfinite(w0):
         raise ParameterError(f"w0 must be finite, got {w0!r}")
-    r = np.ascontiguousarray(rows, dtype=float).reshape(-1, PLANT_NPAR)
-    out = np.empty((r.shape[0], PLANT_NSTATE))
-    _steady_states(r, w0, out)
-    for b in np.flatnonzero(r[:, 0] == _LUGRE).tolist():
-        out[b] = plant_state(plants[b], w0)
+    out = ffi.new("plant_state[]", n)
+    lib.plant_steady_states(ptr, n, w0, out)
     return out
 
 
-@kernel(inline="always")
-def plant_target(par, w, sgn):
+def plant_target(par, w: float, sgn: float) -> float:
     """The friction map the RK4 stages evaluate, at velocity ``w``.
 
     Parameters
     ----------
-    par : ndarray, shape (PLANT_NPAR,)
-        Parameter row of :func:`plant_params`.
+    par : cffi ``plant_params *``
+        Parameters of :func:`plant_params` (an element ``b`` of a table: ``rows + b``).
     w : float
         Velocity (rad/s).
     sgn : float
@@ -512,25 +569,8 @@ def plant_target(par, w, sgn):
 
     Notes
     -----
-    Ruderman, eq. 3 (:func:`plant.stribeck_map.stribeck_scalar`, one call site so
-    the compiled code holds one copy of it); Karnopp (1985); Canudas de Wit et
+    Ruderman, eq. 3 (C ``plant_target`` in ``plant/csrc/plant_params.c`` over
+    ``plant_stribeck_eval``, the one eq. 3); Karnopp (1985); Canudas de Wit et
     al. (1995), eq. 3.
     """
-    if par[0] == _LUGRE:
-        x = w if w >= 0.0 else -w
-        if not x > 0.0:
-            return par[5] + par[6] if par[3] > 0 else par[5]
-        Fc, dF, sigma, wcut = par[5], par[6], 0.0, par[8]
-    else:
-        x = w
-        if w > 0.0:
-            if w < par[14]:
-                return par[13] * sgn
-            Fc, dF, sigma, wcut = par[5], par[6], par[7], par[8]
-        else:
-            if -w < par[14]:
-                return par[13] * sgn
-            Fc, dF, sigma, wcut = par[9], par[10], par[11], par[12]
-    return stribeck_scalar(x, Fc, dF, par[2], par[3], sigma, wcut)
-
-
+    return lib.plant_target(par, w, sgn)

@@ -1,11 +1,11 @@
-"""Ruderman's eq. 3, the static Stribeck friction map, implemented once (compiled) for every caller.
+"""Ruderman's eq. 3, the static Stribeck friction map, implemented once (C) for every caller.
 
 ``F(w) = sgn(w)*(Fc + (Fs - Fc)*exp(-|w/Vs|**delta)) + sigma*w``
 
-:func:`stribeck_scalar` is the one implementation: a numba kernel on scalars,
-inlined into the plant step (:mod:`plant.dynamics`), the identification
-simulator and the closed-loop engine, and looped over arrays by the vectorised
-:func:`stribeck`. :func:`stribeck_cutoff` gives the speed above which the
+The one implementation is C (``plant/csrc/plant_stribeck.c``: ``plant_stribeck_eval``
+and its array loop), which the plant step (``plant/csrc/plant_dynamics.c``), the
+identification simulator and the closed-loop engine call; :func:`stribeck_scalar`
+and the vectorised :func:`stribeck` are its Python entries. :func:`stribeck_cutoff` gives the speed above which the
 Stribeck term no longer changes ``Fc`` in float64 (an exact shortcut).
 :func:`stribeck_shape` is the shape factor alone (numpy), used by the
 regressors of eqs. 5-6.
@@ -22,14 +22,13 @@ import math
 import numpy as np
 
 from plant.errors import ParameterError, check_finite_scalar, check_positive
-from plant.jit import kernel
+from plant._cplant import ffi, lib
 
 __all__ = ["stribeck_scalar", "stribeck_shape_scalar", "stribeck_slope_scalar", "stribeck_cutoff", "stribeck",
            "stribeck_shape"]
 
 
-@kernel(inline="always")
-def stribeck_shape_scalar(w, Vs, delta):
+def stribeck_shape_scalar(w: float, Vs: float, delta: float) -> float:
     """The Stribeck decay of eq. 3 at one velocity: ``s(w) = exp(-|w/Vs|**delta)`` (dimensionless).
 
     Parameters
@@ -49,20 +48,17 @@ def stribeck_shape_scalar(w, Vs, delta):
 
     Notes
     -----
-    Ruderman, eq. 3 (and the regressors of eqs. 5-6). The one implementation
-    of the exponential: :func:`stribeck_scalar`, :func:`stribeck_shape` and
-    the compiled eq. 4 regressor call it. ``delta == 1`` skips ``pow``
-    (``x**1 == x`` exactly); otherwise libm's ``pow`` and ``exp``, as a
-    Python evaluation with ``**`` and :func:`math.exp`.
+    Ruderman, eq. 3 (and the regressors of eqs. 5-6). C
+    (``plant/csrc/plant_stribeck.c``, ``plant_stribeck_shape``), the one
+    implementation of the exponential: :func:`stribeck_scalar`,
+    :func:`stribeck_shape` and the C eq. 4 regressor call it. ``delta == 1``
+    skips ``pow`` (``x**1 == x`` exactly); otherwise libm's ``pow`` and
+    ``exp``, as a Python evaluation with ``**`` and :func:`math.exp`.
     """
-    x = abs(w) / Vs
-    if delta != 1.0:
-        x = x ** delta
-    return math.exp(-x)
+    return lib.plant_stribeck_shape(w, Vs, delta)
 
 
-@kernel(inline="always")
-def stribeck_scalar(w, Fc, dF, Vs, delta, sigma, wcut):
+def stribeck_scalar(w: float, Fc: float, dF: float, Vs: float, delta: float, sigma: float, wcut: float) -> float:
     """Eq. 3 at one velocity: ``sgn(w)*(Fc + dF*exp(-|w/Vs|**delta)) + sigma*w`` (N·m).
 
     Parameters
@@ -90,27 +86,21 @@ def stribeck_scalar(w, Fc, dF, Vs, delta, sigma, wcut):
 
     Notes
     -----
-    Ruderman, eq. 3. Two shortcuts, both exact in float64: ``delta == 1``
-    skips ``pow`` (``x**1 == x``); ``|w| > wcut`` skips ``pow`` and ``exp``
-    (there ``Fc + dF*exp(...)`` rounds to ``Fc``). Otherwise the operations are
-    those of the plain formula in this order, so the result equals a Python
+    Ruderman, eq. 3: C (``plant/csrc/plant_stribeck.c``,
+    ``plant_stribeck_eval``), the one implementation, which the plant step,
+    the identification simulator and the closed-loop engine evaluate. Two
+    shortcuts, both exact in float64: ``delta == 1`` skips ``pow``
+    (``x**1 == x``); ``|w| > wcut`` skips ``pow`` and ``exp`` (there
+    ``Fc + dF*exp(...)`` rounds to ``Fc``). Otherwise the operations are those
+    of the plain formula in this order, so the result equals a Python
     evaluation with ``**`` and :func:`math.exp` bit for bit (both call libm;
     for ``delta < 0`` and tiny ``|w|`` the power overflows to ``inf`` and the
-    shape factor is its limit 0). No ``fastmath``.
+    shape factor is its limit 0).
     """
-    if w > 0.0:
-        if w > wcut:
-            return Fc + sigma * w
-        return Fc + dF * stribeck_shape_scalar(w, Vs, delta) + sigma * w
-    if w == 0.0:
-        return 0.0
-    if -w > wcut:  # w < 0 (a NaN falls through to NaN)
-        return -Fc + sigma * w
-    return -(Fc + dF * stribeck_shape_scalar(w, Vs, delta)) + sigma * w
+    return lib.plant_stribeck_eval(ffi.new("plant_stribeck *", (Fc, dF, Vs, delta, sigma, wcut)), w)
 
 
-@kernel(inline="always")
-def stribeck_slope_scalar(x, dF, Vs, delta):
+def stribeck_slope_scalar(x: float, dF: float, Vs: float, delta: float) -> float:
     """Slope of the Stribeck term of eq. 3 over the speed: ``d/d|w| dF*exp(-|w/Vs|**delta)`` (N·m·s/rad).
 
     Parameters
@@ -134,15 +124,13 @@ def stribeck_slope_scalar(x, dF, Vs, delta):
 
     Notes
     -----
-    Derivative of Ruderman's eq. 3 (chain rule on ``exp(-x**delta)``, ``x = |w|/Vs``). The one implementation
-    used by the stiffness bounds of the lagged plant (:func:`plant.rows.lagged_rate`,
-    :func:`plant.stiff.lagged_local_rate`) and the Jacobian of the implicit LuGre step
-    (:func:`plant.stiff.lugre_jacobian`). Positive (a rising map) where ``dF*delta < 0``.
+    Derivative of Ruderman's eq. 3 (chain rule on ``exp(-x**delta)``, ``x = |w|/Vs``): C
+    (``plant/csrc/plant_stribeck.c``, ``plant_stribeck_slope``), the one implementation used by the stiffness
+    bounds of the lagged plant (:func:`plant.rows.lagged_rate`, :func:`plant.stiff.lagged_local_rate`) and the
+    Jacobian of the implicit LuGre step (:func:`plant.stiff.lugre_jacobian`). Positive (a rising map) where
+    ``dF*delta < 0``.
     """
-    s = math.exp(-(x ** delta))
-    if s == 0.0:
-        return 0.0
-    return -dF * delta * x ** (delta - 1.0) * s / Vs
+    return lib.plant_stribeck_slope(x, dF, Vs, delta)
 
 
 def stribeck_cutoff(Fc: float, dF: float, Vs: float, delta: float) -> float:
@@ -180,23 +168,6 @@ def stribeck_cutoff(Fc: float, dF: float, Vs: float, delta: float) -> float:
         return 0.0
     xcut = 746.0 if Fc == 0.0 else max(math.log(abs(dF) / abs(Fc)) + 54.0 * math.log(2.0) + 1.0, 0.0)
     return Vs * xcut ** (1.0 / delta) * (1.0 + 1e-9)
-
-
-@kernel
-def _shape_loop(w, out, Vs, delta):
-    for i in range(w.shape[0]):
-        out[i] = stribeck_shape_scalar(w[i], Vs, delta)
-
-
-@kernel
-def _stribeck_loop(w, out, Fc, dF, Vs, delta, sigma, wcut):
-    for i in range(w.shape[0]):
-        out[i] = stribeck_scalar(w[i], Fc, dF, Vs, delta, sigma, wcut)
-
-
-@kernel
-def _stribeck_one(w, Fc, dF, Vs, delta, sigma, wcut):
-    return stribeck_scalar(w, Fc, dF, Vs, delta, sigma, wcut)
 
 
 def stribeck(w, *, Fc: float, Fs: float, Vs: float, delta: float, sigma: float):
@@ -240,12 +211,13 @@ def stribeck(w, *, Fc: float, Fs: float, Vs: float, delta: float, sigma: float):
         raise ParameterError("delta must be non-zero (|w/Vs|**0 is constant), got 0.0")
     dF = Fs - Fc
     wcut = stribeck_cutoff(Fc, dF, Vs, delta)
+    m = ffi.new("plant_stribeck *", (Fc, dF, Vs, delta, sigma, wcut))
     if type(w) is float:  # one Python float (a plant's initial state): no array round trip
-        return _stribeck_one(w, Fc, dF, Vs, delta, sigma, wcut)
+        return lib.plant_stribeck_eval(m, w)
     wa = np.asarray(w, dtype=float)
     flat = np.ascontiguousarray(wa.reshape(-1))
     out = np.empty_like(flat)
-    _stribeck_loop(flat, out, Fc, dF, Vs, delta, sigma, wcut)
+    lib.plant_stribeck_array(m, ffi.from_buffer("double[]", flat), ffi.from_buffer("double[]", out), flat.size)
     if wa.ndim == 0:
         return float(out[0])
     return out.reshape(wa.shape)
@@ -273,12 +245,14 @@ def stribeck_shape(w, Vs: float, delta: float):
 
     Notes
     -----
-    Source: Ruderman, eq. 3 (the regressors of eqs. 5-6 use it): the compiled
-    :func:`stribeck_shape_scalar` looped over the array, so array and scalar
-    callers (and the compiled eq. 4 regressor) get the same bits.
+    Source: Ruderman, eq. 3 (the regressors of eqs. 5-6 use it): C
+    (``plant_stribeck_shape_array``), :func:`stribeck_shape_scalar` looped over
+    the array, so array and scalar callers (and the C eq. 4 regressor) get the
+    same bits.
     """
     wa = np.asarray(w, dtype=float)
     flat = np.ascontiguousarray(wa).reshape(-1)
     out = np.empty_like(flat)
-    _shape_loop(flat, out, float(Vs), float(delta))
+    lib.plant_stribeck_shape_array(ffi.from_buffer("double[]", flat), ffi.from_buffer("double[]", out), flat.size,
+                                   float(Vs), float(delta))
     return float(out[0]) if wa.ndim == 0 else out.reshape(wa.shape)

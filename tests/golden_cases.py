@@ -392,7 +392,7 @@ def loop_engine_decimate_friction0():
     res = run_closed_loop(run_plant, ctrl, comp, reference(), noise_std=NOISE, rng=np.random.default_rng(8),
                           decimate=20, reversal_window=0.1, friction0=0.0)
     out = closed_loop_record(res, every=1, theta_every=1, inputs=True)
-    out["controller_state"] = ctrl.state.copy()
+    out["controller_state"] = np.array([ctrl.integral, float(ctrl.saturated)])  # (I, saturated) of the PI
     return out
 
 
@@ -748,10 +748,10 @@ def golden_path(name: str) -> Path:
 
 def freeze(names=None) -> None:
     """Compute and write the records of ``names`` (default all)."""
-    import numba
+    import cffi
     GOLDEN_DIR.mkdir(exist_ok=True)
     about = {"commit": commit(), "date": FROZEN_ON, "made_by": "python -m tests.golden_cases --freeze",
-             "numpy": np.__version__, "numba": numba.__version__, "note": "do NOT regenerate to make a failing "
+             "numpy": np.__version__, "core": f"C (cffi {cffi.__version__})", "note": "do NOT regenerate to make a failing "
              "comparison pass (tests/golden/README.md)"}
     for name in names or list(CASES):
         doc = " ".join((CASES[name].__doc__ or "").split())

@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from plant._cplant import ffi
 from plant.dynamics import plant_params
 from plant.stiff import lagged_stiff_step, static_jump_in_reach
 
@@ -143,9 +144,9 @@ def step(p, w, s, u, dt):
     if p.tau == 0.0 and dv == 0.0:
         par = plant_params(p)
         for i in np.flatnonzero([static_jump_in_reach(par, a, b, dt) for a, b in zip(w.ravel(), u.ravel())]):
-            st = np.array([w.flat[i], s.flat[i], math.nan])
+            st = ffi.new("plant_state *", (w.flat[i], s.flat[i], math.nan))
             lagged_stiff_step(par, st, u.flat[i], dt, 0.0)
-            w1.flat[i], s1.flat[i] = st[0], st[1]
+            w1.flat[i], s1.flat[i] = st.w, st.s
     return w1, s1
 
 

@@ -14,8 +14,9 @@ from plant.errors import ParameterError
 from plant.excitation import multisine_reference
 from plant.friction import preset
 from plant.lugre import LuGreParams
-from plant.rows import (LUGRE_STIFF_MAX, PLANT_NPAR, PLANT_SLOTS, check_integrable, integrable_rows, plant_params,
-                        plant_rows, plant_state, plant_states)
+from plant._cplant import ffi, lib
+from plant.rows import (LUGRE_STIFF_MAX, check_integrable, integrable_rows, plant_params, plant_rows, plant_state,
+                        plant_states, stack_params, stack_states)
 from plant.variant_plants import variant
 
 DT = 1e-3
@@ -33,35 +34,63 @@ def _bits(x):
     return np.asarray(x, dtype=float).view(np.int64)
 
 
+def _bytes(x) -> bytes:
+    """The bytes of a cffi struct or array."""
+    return bytes(ffi.buffer(x))
+
+
 def test_plant_rows_and_states_equal_the_one_plant_functions_bit_for_bit():
     zoo = _zoo()
     rows = plant_rows(zoo)
-    assert rows.shape == (len(zoo), PLANT_NPAR) and rows.flags.c_contiguous
-    np.testing.assert_array_equal(_bits(rows), _bits(np.stack([plant_params(p) for p in zoo])))
-    assert plant_rows([]).shape == (0, PLANT_NPAR)
+    assert ffi.typeof(rows).item is ffi.typeof("plant_params") and len(rows) == len(zoo)
+    assert _bytes(rows) == b"".join(_bytes(plant_params(p)) for p in zoo)
+    assert len(plant_rows([])) == 0
+    assert _bytes(stack_params([plant_params(p) for p in zoo])) == _bytes(rows)
+    assert _bytes(stack_params([rows[b] for b in range(len(zoo))])) == _bytes(rows)  # structs or pointers
     for w0 in (0.0, -0.0, 0.05, -0.3, 1e-6, -40.0):
-        st = plant_states(zoo, rows, w0)
-        np.testing.assert_array_equal(_bits(st), _bits(np.stack([plant_state(p, w0) for p in zoo])))
+        st = plant_states(rows, w0)
+        assert _bytes(st) == b"".join(_bytes(plant_state(p, w0)) for p in zoo)
+        assert _bytes(stack_states([plant_state(p, w0) for p in zoo])) == _bytes(st)
         for p, s in zip(zoo, st):  # the state of steady motion: F(w0) of the class (LuGre: its deflection)
-            assert s[0] == w0 and s[1] == p.initial_state(w0)
-    # the eq. 3 cache slot holds the row's key exactly for the lagged models without lag
-    st = plant_states(zoo, rows, 0.2)
-    cached = (rows[:, 0] != 3.0) & (rows[:, PLANT_SLOTS["tau"]] == 0.0)
-    np.testing.assert_array_equal(st[cached, 2], rows[cached, PLANT_SLOTS["key"]])
-    assert np.all(np.isnan(st[~cached, 2])) and np.count_nonzero(cached) == 3
+            assert s.w == w0 and s.s == p.initial_state(w0)
+    # the eq. 3 cache field holds the struct's key exactly for the lagged models without lag
+    st = plant_states(rows, 0.2)
+    cached = [r.model != lib.PLANT_LUGRE and r.tau == 0.0 for r in rows]
+    assert [s.aux == r.key for s, r in zip(st, rows)] == cached and sum(cached) == 3
+    assert all(math.isnan(s.aux) for s, c in zip(st, cached) if not c)
     with pytest.raises(ParameterError, match="w0"):
-        plant_states(zoo, rows, math.nan)
+        plant_states(rows, math.nan)
     with pytest.raises(TypeError, match="frozen"):
         plant_rows([zoo[0], {"J": 1.0}])
+    with pytest.raises(TypeError, match="plant_params"):
+        plant_states(np.zeros((2, 24)), 0.0)
+    with pytest.raises(TypeError, match="plant_state"):
+        stack_states([rows[0]])
+
+
+#: Fields that must be finite in a lagged model (check_integrable's docstring), as paths into plant_params.
+_CHECKED = ("pos.Vs", "pos.delta", "neg.Vs", "neg.delta", "pos.Fc", "pos.dF", "pos.sigma", "neg.Fc", "neg.dF",
+            "neg.sigma", "Fs_stick", "dv")
+
+
+def _get(r, path):
+    for name in path.split("."):
+        r = getattr(r, name)
+    return r
+
+
+def _set(r, path, value):
+    head, _, last = path.rpartition(".")
+    setattr(_get(r, head) if head else r, last, value)
 
 
 def _scalar_ok(row, dt):
     """Independent scalar statement of the integrability conditions (plant.rows.check_integrable's docstring)."""
-    code, J, tau = row[0], row[1], row[4]
-    if code == 3.0:
-        ratio = row[15] / J if J != 0.0 else math.inf
+    J, tau = row.J, row.tau
+    if row.model == lib.PLANT_LUGRE:
+        ratio = row.sigma0 / J if J != 0.0 else math.inf
         return (math.sqrt(ratio) if ratio >= 0.0 else math.nan) * dt <= LUGRE_STIFF_MAX
-    levels = [row[i] for i in (2, 3, 5, 6, 7, 9, 10, 11, 13, 14)]
+    levels = [_get(row, f) for f in _CHECKED]
     return J > 0.0 and math.isfinite(J) and 0.0 <= tau < math.inf and all(map(math.isfinite, levels))
 
 
@@ -71,28 +100,31 @@ def test_integrable_rows_equals_the_scalar_conditions_and_check_integrable_names
     lugre = plant_params(LuGreParams(J=1e-2, Fc=1.0, Fs=2.0, Vs=0.01, delta=2.0, sigma0=1.0, sigma1=0.0,
                                      sigma2=0.0))
     edge = (LUGRE_STIFF_MAX / DT) ** 2 * 1e-2  # sqrt(sigma0/J)*dt == LUGRE_STIFF_MAX: accepted
-    table = [good, *(lugre.copy() for _ in range(8))]
+    table = [ffi.new("plant_params *", lugre[0]) for _ in range(8)]
     for j, s0 in enumerate((edge, edge * (1 + 1e-12), 1e14, -1.0, 0.0, math.nan, math.inf, 1.0)):
-        table[1 + j][15] = s0
-    table[-1][1] = 0.0  # LuGre with J = 0: infinite frequency
+        table[j].sigma0 = s0
+    table[-1].J = 0.0  # LuGre with J = 0: infinite frequency
     bad = []
-    for slot, value in [(1, 0.0), (1, -1.0), (1, math.inf), (1, math.nan), (4, -1e-3), (4, math.inf), (4, math.nan),
-                        (2, math.nan), (3, math.inf), (6, math.nan), (10, -math.inf), (13, math.nan), (14, math.inf),
-                        (20, math.nan)]:  # slot 20 (rate) is not checked
-        r = good[rng.integers(len(good))].copy()
-        if r[0] == 3.0:
-            r = good[0].copy()
-        r[slot] = value
+    for field, value in [("J", 0.0), ("J", -1.0), ("J", math.inf), ("J", math.nan), ("tau", -1e-3),
+                         ("tau", math.inf), ("tau", math.nan), ("pos.Vs", math.nan), ("neg.delta", math.inf),
+                         ("pos.dF", math.nan), ("neg.dF", -math.inf), ("Fs_stick", math.nan), ("dv", math.inf),
+                         ("neg.sigma", math.nan), ("rate", math.nan)]:  # rate is not checked
+        r = ffi.new("plant_params *", good[int(rng.integers(len(good)))])
+        if r.model == lib.PLANT_LUGRE:
+            r = ffi.new("plant_params *", good[0])
+        _set(r, field, value)
         bad.append(r)
-    rows = np.vstack([table[0], np.stack(table[1:]), np.stack(bad)])
+    rows = stack_params([*good, *table, *bad])
     ok = integrable_rows(rows, DT)
-    assert ok.dtype == bool and ok.tolist() == [_scalar_ok(r, DT) for r in rows.tolist()]
+    assert ok.dtype == bool and ok.tolist() == [_scalar_ok(r, DT) for r in rows]
     assert ok[:len(good) + 1].all() and not ok[len(good) + 1] and ok[-1]
     for j in np.flatnonzero(~ok).tolist():  # each bad row alone and at the end of a good table: named by row
         with pytest.raises(ParameterError, match=r"row 0\b"):
+            check_integrable(rows + j, DT)
+        with pytest.raises(ParameterError, match=r"row 0\b"):
             check_integrable(rows[j], DT)
         with pytest.raises(ParameterError, match=rf"row {len(good)}\b"):
-            check_integrable(np.vstack([good, rows[j]]), DT)
+            check_integrable(stack_params([*good, rows[j]]), DT)
     check_integrable(good, DT)
 
 

@@ -260,7 +260,7 @@ def test_projection_equals_project_estimate():
 def test_layout_properties_pickle_and_validation():
     model = RegressionModel(PLANT.Vs, PLANT.delta, offset=True)
     c = AdaptiveFrictionFeedforward(model, Ts=0.01, dt=TC, warmup=5, ff_max=30.0)
-    assert c.KIND == 6 and c.n_theta == 7 and c.m == 10 and c.Ts == 0.01 and c.dt == TC and c.tau_max == 1.0
+    assert c.C_OPS == "aff_eq4_ff_ops" and c.n_theta == 7 and c.m == 10 and c.Ts == 0.01 and c.dt == TC and c.tau_max == 1.0
     # the parts live inside the component's struct
     assert c.rls.cdata == ffi.addressof(c.cdata, "rls") and c.u_range.cdata == ffi.addressof(c.cdata, "u_range")
     assert c.ff_max == 30.0 and c.ff_input == "measured" and c.lag

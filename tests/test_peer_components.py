@@ -156,7 +156,7 @@ def test_canudas_ops_table_equals_the_oracle_and_reports_theta():
 
 def test_canudas_struct_pickle_and_coef_setter():
     c = CanudasCompensator(Tc=1e-3, Ts=2e-3, warmup=3, w_dead=0.0)
-    assert c.KIND == 4 and c.n_theta == 5 and ffi.string(c.ops.name) == b"canudas"
+    assert c.C_OPS == "ctl_canudas_ops" and c.n_theta == 5 and ffi.string(c.ops.name) == b"canudas"
     for part in ("rls", "u_range", "w_range"):  # the parts' structs are fields of the compensator's struct
         assert getattr(c, part).cdata == ffi.addressof(c.cdata, part)
     wc, wm, wr, u = _stream(3, 2000, bad=0.0, stick=False)
@@ -244,7 +244,7 @@ def test_dob_equals_the_oracle(order, omega_q, d_max):
 
 def test_dob_layout_and_properties():
     c = DisturbanceObserver(J_n=2.0, omega_q=400.0, Tc=1e-3, order=3, d_max=9.0)
-    assert c.KIND == 5 and c.n_theta == 0 and ffi.string(c.ops.name) == b"dob"
+    assert c.C_OPS == "ctl_dob_ops" and c.n_theta == 0 and ffi.string(c.ops.name) == b"dob"
     # the two range gates (torque, velocity) live in the observer's struct
     assert c.u_range.cdata == ffi.addressof(c.cdata, "u_range") and c.w_range.cdata == ffi.addressof(c.cdata, "w_range")
     assert (c.J_n, c.omega_q, c.Tc, c.order, c.d_max) == (2.0, 400.0, 1e-3, 3, 9.0)

@@ -1,4 +1,4 @@
-"""The compiled plant (plant.stribeck_map, plant.dynamics) against the oracle of tests/plant_oracle.py.
+"""The C plant (plant.stribeck_map, plant.dynamics) against the oracle of tests/plant_oracle.py.
 
 The oracle writes each model's right-hand side from its equations and integrates it with the classical Runge-Kutta
 tableau on arrays: every step of a kernel trajectory is recomputed from the kernel's own state at its start and must
@@ -7,7 +7,7 @@ weights 1/6, 1/3, numpy's exp against the C library's), so the comparison is to 
 (measured 2e-16; 1e-9 for the steps through ``w = 0``, see ``assert_steps``); a wrong sign, a wrong factor or a
 step of another length is many orders above it. Eq. 3 itself (``stribeck_scalar``) is compared to 1e-15 of the
 map's level. Parameters are drawn by hypothesis (derandomized) over the physical ranges of the package. The
-Python-facing steps (``make_step``, ``simulate``) are the same kernel, bit for bit.
+Python-facing steps (``make_step``, ``simulate``) are the same C step, bit for bit.
 """
 
 import math
@@ -21,8 +21,9 @@ import plant_oracle as oracle
 from adaptive_ff.identification.simulator import InputGrid, simulate_on_grid
 from plant.asymmetric import AsymmetricParams
 from plant.drift import FrictionDrift
-from plant.dynamics import (LUGRE_RK4_MAX, PLANT_NPAR, PLANT_NSTATE, PLANT_SLOTS, RK4_RATE_MAX, lagged_params,
-                            make_plant_step, plant_friction, plant_params, plant_simulate, plant_state)
+from plant._cplant import ffi
+from plant.dynamics import (LUGRE_RK4_MAX, RK4_RATE_MAX, lagged_params, make_plant_step, plant_friction,
+                            plant_params, plant_simulate, plant_state)
 from plant.errors import ParameterError
 from plant.friction import JointParams, preset, stribeck, stribeck_cutoff, stribeck_scalar
 from plant.joint import simulate
@@ -52,7 +53,7 @@ def _static(tau: float, seed: int) -> float:
 def _one_rk4_step(p) -> bool:
     """The oracle takes one RK4 step per DT; the kernel does too unless a stable mode is faster than
     RK4_RATE_MAX/DT (then it sub-steps: tests/test_stiff_lugre.py checks those against a fine-step solution)."""
-    return plant_params(p)[PLANT_SLOTS["rate"]] * DT <= RK4_RATE_MAX
+    return plant_params(p).rate * DT <= RK4_RATE_MAX
 
 
 def _bits(x: np.ndarray) -> np.ndarray:
@@ -75,8 +76,13 @@ def _input(seed: int, level: float, n: int = N_STEPS) -> np.ndarray:
                     + rng.uniform(-0.3, 0.3))
 
 
+def _state(w, s, aux=math.nan):
+    """A new ``plant_state`` struct."""
+    return ffi.new("plant_state *", (w, s, aux))
+
+
 def _run_kernel(p, u, w0, s0, *, cached_state=None):
-    st_ = np.array([w0, s0, math.nan]) if cached_state is None else cached_state.copy()
+    st_ = _state(w0, s0) if cached_state is None else ffi.new("plant_state *", cached_state[0])
     W = np.empty(u.shape[0] + 1)
     S = np.empty(u.shape[0] + 1)
     plant_simulate(plant_params(p), st_, np.ascontiguousarray(u, dtype=float), DT, W, S)
@@ -239,7 +245,7 @@ def test_lugre_step_and_friction_equal_the_oracle(J, Fc, Fs, Vs, delta, lsigma0,
     W, Z = _compare(p, u, 0.0, 0.0)
     par = plant_params(p)
     for w, z in list(zip(W.tolist(), Z.tolist()))[::7] + [(0.0, Z[-1]), (-0.0, Z[-1])]:
-        got = plant_friction(par, np.array([w, z, math.nan]))
+        got = plant_friction(par, _state(w, z))
         assert_bit_equal([got], [p.friction_torque(w, z)])
         scale = sigma0 * abs(z) + (p.sigma1 + sigma2) * abs(w) + max(Fc, Fs)  # the terms that may cancel
         assert abs(got - float(oracle.lugre_friction_torque(p, w, z))) <= 1e-13 * scale
@@ -252,16 +258,19 @@ def test_lugre_stiff_bristles_fixed_case():
 
 
 # ----------------------------------------------------------------------------------------------------- component
-def test_parameter_row_state_and_friction_of_each_model():
+def test_parameter_struct_state_and_friction_of_each_model():
     for name in ("lugre", "karnopp", "asymmetric", "static"):
         p = variant(name)
         par = plant_params(p)
-        assert par.shape == (PLANT_NPAR,) and par.flags.c_contiguous and par[-1] >= 1.0
+        assert ffi.typeof(par) is ffi.typeof("plant_params *") and 1.0 <= par.key < 2.0**52
+        assert par.J == p.J and par.pos.Vs == par.neg.Vs == p.Vs and par.pos.delta == par.neg.delta == p.delta
         for w0 in (0.0, 0.05, -0.3):
             s = plant_state(p, w0)
-            assert s.shape == (PLANT_NSTATE,) and s[0] == w0 and s[1] == p.initial_state(w0)
+            assert ffi.typeof(s) is ffi.typeof("plant_state *") and s.w == w0 and s.s == p.initial_state(w0)
+            # the eq. 3 cache is set exactly for the static map (tau == 0, lagged)
+            assert (s.aux == par.key) == (name == "static")
             if name != "lugre":
-                assert plant_friction(par, s) == s[1]
+                assert plant_friction(par, s) == s.s
     with pytest.raises(TypeError, match="FrictionDrift use p.at"):
         plant_params(FrictionDrift(preset("paper")))
     with pytest.raises(TypeError, match="frozen"):
@@ -270,9 +279,10 @@ def test_parameter_row_state_and_friction_of_each_model():
         plant_state(preset("paper"), math.inf)
     with pytest.raises(ParameterError, match="dt"):
         make_plant_step(preset("paper"), 0.0)
-    # the raw row of the fits equals the validated one
+    # the raw struct of the fits equals the validated one, byte for byte
     q = preset("paper")
-    np.testing.assert_array_equal(lagged_params(q.J, q.Fc, q.Fs, q.Vs, q.delta, q.sigma, q.tau), plant_params(q))
+    raw = lagged_params(q.J, q.Fc, q.Fs, q.Vs, q.delta, q.sigma, q.tau)
+    assert bytes(ffi.buffer(raw)) == bytes(ffi.buffer(plant_params(q)))
 
 
 def test_swapping_the_parameter_row_invalidates_the_eq3_cache():
@@ -321,7 +331,7 @@ def test_simulator_with_held_input_is_the_plant_step(tau):
     n = 3000
     grid, h = _grid(np.full(n + 1, 38.0), n)
     w = simulate_on_grid(lagged_params(p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau), grid, w0=-0.05, f0=3.0)
-    st_ = np.array([-0.05, 3.0, math.nan])
+    st_ = _state(-0.05, 3.0)
     W, S = np.empty(n + 1), np.empty(n + 1)
     plant_simulate(plant_params(p), st_, np.full(n, 38.0), h, W, S)
     assert_bit_equal(w, W)

@@ -88,3 +88,25 @@ def test_invalid_arguments_raise_typed_errors():
         simulate_sampled(P, t, u, h_max=0.0)
     with pytest.raises(TypeError, match="JointParams"):
         simulate_sampled({"J": 4.0}, t, u)
+
+
+def test_diverging_parameters_give_nan_from_the_divergence_on():
+    # tau far below the RK4 stability limit (h/tau = 100 > 2.78): the friction state grows by |1 - h/tau + ...| ~
+    # 1e6 per sub-step, overflows within a few samples; the samples before it stay finite
+    t = np.arange(0.0, 0.2, 0.01)
+    g = input_grid(t, 30.0 + 0.0 * t, h_max=1e-3)
+    w = simulate_on_grid(lagged_params(4.0, 25.0, 35.0, 0.02, 1.0, 40.0, 1e-5), g, w0=0.1, f0=10.0)
+    assert w[0] == 0.1
+    bad = np.flatnonzero(~np.isfinite(w))
+    assert 1 <= bad[0] < w.size and np.all(np.isnan(w[bad[0]:]))
+    assert np.all(np.isfinite(w[:bad[0]]))
+
+
+def test_injection_needs_a_measured_velocity_of_the_sample_length():
+    t = np.arange(0.0, 0.1, 0.01)
+    g = input_grid(t, np.zeros_like(t))
+    par = lagged_params(P.J, P.Fc, P.Fs, P.Vs, P.delta, P.sigma, P.tau)
+    with pytest.raises(SignalError, match="w_meas"):
+        simulate_on_grid(par, g, w0=0.0, f0=0.0, gain=(1.0, 0.0), w_meas=np.zeros(t.size - 1))
+    with pytest.raises(SignalError, match="w_meas"):
+        simulate_on_grid(par, g, w0=0.0, f0=0.0, gain=(1.0, 0.0))

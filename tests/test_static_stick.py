@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from plant.asymmetric import AsymmetricParams
-from plant.dynamics import (PLANT_SLOTS, RK4_RATE_MAX, plant_friction, plant_params, plant_simulate, plant_state,
+from plant.dynamics import (RK4_RATE_MAX, plant_friction, plant_params, plant_simulate, plant_state,
                             plant_step)
 from plant.friction import JointParams, preset
 from plant.stiff import static_jump_in_reach
@@ -54,7 +54,7 @@ def _simulate(p, u, w0=0.0):
 @pytest.mark.parametrize("name", list(PLANTS))
 def test_static_joint_matches_the_filippov_solution_through_stick_breakaway_and_reversal(name):
     p = PLANTS[name]
-    assert plant_params(p)[PLANT_SLOTS["rate"]] * DT <= RK4_RATE_MAX  # one RK4 step per period away from zero
+    assert plant_params(p).rate * DT <= RK4_RATE_MAX  # one RK4 step per period away from zero
     lo, hi = _levels(p)
     n = 1500
     t = np.arange(n) * DT
@@ -90,9 +90,9 @@ def test_held_torque_sticks_inside_the_static_band_and_breaks_away_outside(name)
         for _ in range(200):
             plant_step(par, st, u, DT)
             if moves == 0:
-                assert st[0] == 0.0 and plant_friction(par, st) == u  # at rest, the friction balances the torque
+                assert st.w == 0.0 and plant_friction(par, st) == u  # at rest, the friction balances the torque
         if moves:
-            assert np.sign(st[0]) == moves and abs(st[0]) > 1e-3, (u, st[0])
+            assert np.sign(st.w) == moves and abs(st.w) > 1e-3, (u, st.w)
 
 
 def test_a_joint_coasting_to_rest_stops_where_the_friction_impulse_says_and_stays():
@@ -122,4 +122,4 @@ def test_only_steps_near_the_jump_leave_rk4():
     st = plant_state(p, 0.2)
     plant_step(par, st, u, DT)
     w1, f1 = plant_oracle.rk4(p, 0.2, p.initial_state(0.2), u, DT)
-    assert st[0] == pytest.approx(float(w1), rel=1e-14) and st[1] == pytest.approx(float(f1), rel=1e-14)
+    assert st.w == pytest.approx(float(w1), rel=1e-14) and st.s == pytest.approx(float(f1), rel=1e-14)

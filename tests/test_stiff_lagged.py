@@ -25,7 +25,7 @@ from controllers.simulation.batch import run_batch
 from controllers.simulation.closed_loop import ModeOptions, run_mode
 from controllers.design.pi import design_pi
 from plant.asymmetric import AsymmetricParams
-from plant.dynamics import (LAGGED_RK4_MAX, PLANT_SLOTS, check_integrable, lagged_implicit_step, plant_params,
+from plant.dynamics import (LAGGED_RK4_MAX, check_integrable, lagged_implicit_step, plant_params,
                             plant_simulate, plant_state)
 from plant.excitation import multisine_reference
 from plant.friction import JointParams
@@ -68,7 +68,7 @@ def _torque(p, n, hz=4.0):
 @pytest.mark.parametrize("name", list(PLANTS))
 def test_stiff_lagged_step_matches_radau_through_stick_breakaway_and_reversal(name):
     p, n = PLANTS[name]
-    assert plant_params(p)[PLANT_SLOTS["rate"]] * DT > LAGGED_RK4_MAX  # the stiff path
+    assert plant_params(p).rate * DT > LAGGED_RK4_MAX  # the stiff path
     u = _torque(p, n, hz=4.0 if n > 200 else (8.0 if n > 100 else 14.0))
     W, _ = _kernel(p, u)
     Wo, _ = lagged_reference(p, u, DT)
@@ -83,7 +83,7 @@ def test_stiff_lagged_step_matches_radau_through_stick_breakaway_and_reversal(na
 def test_a_vanishing_lag_tends_to_the_static_joint():
     # tau = 1e-6 s (1000 times below the step): the lagged joint is the static one up to ~ tau (Tikhonov)
     p = JointParams(J=0.05, Fc=1.0, Fs=2.0, Vs=0.01, delta=1.0, sigma=1.0, tau=1e-6)
-    assert plant_params(p)[PLANT_SLOTS["rate"]] * DT >= 1000.0
+    assert plant_params(p).rate * DT >= 1000.0
     u = _torque(p, 150, hz=8.0)
     W, _ = _kernel(p, u)
     Wo, _ = lagged_reference(p.replace(tau=0.0), u, DT)
@@ -133,19 +133,11 @@ def test_stiff_zoo_joints_run_in_the_closed_loop_engine():
 STALL = JointParams(J=1e-6, Fc=27.49347928859416, Fs=0.0, Vs=0.02, delta=1.0, sigma=28.47542624616106, tau=0.002)
 
 
-def test_the_root_search_of_the_stalled_candidate_converges_in_a_few_iterations(monkeypatch):
-    import plant.stiff as stiff
-
+def test_the_root_search_of_the_stalled_candidate_solves_the_backward_euler_equations():
     par = plant_params(STALL)
-    calls = []
-    res = stiff._be_residual.py_func
-    monkeypatch.setattr(stiff, "_be_residual", lambda *a: calls.append(1) or res(*a))
-    monkeypatch.setattr(stiff, "_be_root", stiff._be_root.py_func)
     for w0, f0, u, h in ((0.3, 36.0, 40.0, 1e-3), (0.3, 36.0, 40.0, 5e-8), (1e-4, 0.5, -3.0, 2e-6),
                          (-2.0, -30.0, 10.0, 1e-5)):
-        calls.clear()
-        w, f, F = stiff.lagged_implicit_step.py_func(par, w0, f0, u, h, 0.0)
-        assert len(calls) <= 40, (w0, h, len(calls))  # Illinois: superlinear on this smooth, monotone residual
+        w, f, F = lagged_implicit_step(par, w0, f0, u, h, 0.0)
         # the backward-Euler equations hold (eqs. 1-2): J (w - w0) = h (u - f), tau (f - f0) = h (F(w) - f)
         assert STALL.J * (w - w0) == pytest.approx(h * (u - f), rel=1e-9, abs=1e-12 * h * (abs(u) + abs(f)))
         assert STALL.tau * (f - f0) == pytest.approx(h * (F - f), rel=1e-9, abs=1e-9 * h * abs(F))

@@ -16,7 +16,7 @@ from scipy.integrate import solve_ivp
 from controllers.design.pi import design_pi
 from controllers.simulation.batch import run_batch
 from controllers.simulation.closed_loop import ModeOptions, run_mode
-from plant.dynamics import (LUGRE_RK4_MAX, LUGRE_STIFF_MAX, PLANT_SLOTS, RK4_RATE_MAX,
+from plant.dynamics import (LUGRE_RK4_MAX, LUGRE_STIFF_MAX, RK4_RATE_MAX,
                             check_integrable, plant_params, plant_simulate, plant_state)
 from plant.errors import ParameterError
 from plant.excitation import multisine_reference
@@ -85,7 +85,7 @@ def test_stiff_lagged_plants_take_rk4_sub_steps_and_match_a_fine_step_solution()
     for p in (JointParams(J=0.01, Fc=0.5, Fs=2.0, Vs=0.002, delta=-1.0, sigma=0.2, tau=0.0),
               AsymmetricParams(J=0.05, Fc_pos=0.5, Fc_neg=0.4, Fs_pos=1.0, Fs_neg=0.8, Vs=0.01, delta=2.0,
                                sigma_pos=0.5, sigma_neg=0.4, tau=2e-5)):
-        rate = plant_params(p)[PLANT_SLOTS["rate"]]
+        rate = plant_params(p).rate
         assert rate * DT > 10 * RK4_RATE_MAX
         if isinstance(p, JointParams):  # the steepest rise of eq. 3 for delta = -1: 0.541*(Fs - Fc)/Vs
             rise = 4.0 * math.exp(-2.0) * (p.Fs - p.Fc) / p.Vs  # max of d/dw e^(-Vs/w) = 4 e^-2 / Vs
@@ -121,11 +121,11 @@ def test_refusal_of_unintegrable_plants_names_the_reason():
               JointParams(J=1e-4, Fc=1.0, Fs=2.0, Vs=0.01, delta=1.0, sigma=1e5, tau=0.0),
               KarnoppParams(J=1.0, Fc=1.0, Fs=2.0, Vs=0.01, delta=1.0, sigma=1.0, tau=1e-7, dv=1e-3)):
         row = plant_params(p)
-        assert row[PLANT_SLOTS["rate"]] * DT > 1000 * RK4_RATE_MAX
+        assert row.rate * DT > 1000 * RK4_RATE_MAX
         check_integrable(row, DT)
     # a row not made by plant_params with a non-finite inertia: refused with the reason
     bad = plant_params(JointParams(J=1.0, Fc=1.0, Fs=2.0, Vs=0.01, delta=1.0, sigma=1.0, tau=0.0))
-    bad[1] = math.nan
+    bad.J = math.nan
     with pytest.raises(ParameterError, match="J = nan"):
         check_integrable(bad, DT)
     # LuGre beyond the stiff integrator's range

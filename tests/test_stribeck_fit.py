@@ -214,6 +214,51 @@ def test_to_dict_is_json_serialisable_and_complete():
     assert d["residual_rms"] == fit.residual_rms
 
 
+# --------------------------------------------------------------------------- model and Jacobian (C)
+
+
+def eq3_numpy(w, Fc, Fs, Vs, delta, sigma):
+    """Eq. 3 written out in numpy (independent of the C core)."""
+    return np.sign(w) * (Fc + (Fs - Fc) * np.exp(-(np.abs(w) / Vs) ** delta)) + sigma * w
+
+
+@pytest.mark.parametrize("delta", [1.0, 0.6, 2.5, -0.8])
+def test_c_model_and_jacobian_equal_eq3_and_its_central_differences(delta):
+    from adaptive_ff.identification.stribeck_fit import _jacobian, _model
+
+    rng = np.random.default_rng(7)
+    w = np.concatenate([-1.0, 1.0] * np.geomspace(1e-3, 2.0, 40)[:, None]).ravel()
+    w = w * (1.0 + 0.1 * rng.random(w.size))
+    x = np.array([25.0, 35.0, np.log(0.02), delta, 40.0])
+    Fc, Fs, logVs, d, sigma = x
+    np.testing.assert_allclose(_model(x, w), eq3_numpy(w, Fc, Fs, np.exp(logVs), d, sigma), rtol=1e-14, atol=0)
+    J = _jacobian(x, np.sign(w), w, np.log(np.abs(w)))
+    assert J.shape == (w.size, 5)
+    for j in range(5):
+        h = 1e-6 * max(abs(x[j]), 1.0)
+        up, dn = x.copy(), x.copy()
+        up[j] += h
+        dn[j] -= h
+        fd = (eq3_numpy(w, up[0], up[1], np.exp(up[2]), up[3], up[4])
+              - eq3_numpy(w, dn[0], dn[1], np.exp(dn[2]), dn[3], dn[4])) / (2 * h)
+        np.testing.assert_allclose(J[:, j], fd, rtol=1e-6, atol=1e-6 * np.max(np.abs(fd)), err_msg=str(j))
+
+
+def test_c_jacobian_is_finite_where_the_power_overflows():
+    from adaptive_ff.identification.stribeck_fit import _jacobian, _model
+
+    w = np.array([-1e-300, 1e-300, 1e3])
+    x = np.array([1.0, 2.0, np.log(0.01), -2.0, 0.5])  # delta < 0: (|w|/Vs)**delta overflows at tiny |w|
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        J = _jacobian(x, np.sign(w), w, np.log(np.abs(w)))
+        F = _model(x, w)
+    # s -> 0 at standstill for delta < 0: |F| -> Fc, dF/dFc = sgn(w), the Stribeck columns vanish
+    np.testing.assert_array_equal(J[:2], [[-1.0, -0.0, -0.0, 0.0, -1e-300], [1.0, 0.0, 0.0, -0.0, 1e-300]])
+    assert F[1] == 1.0 and F[0] == -1.0
+    assert np.all(np.isfinite(J))
+
+
 # --------------------------------------------------------------------------- w == 0
 
 

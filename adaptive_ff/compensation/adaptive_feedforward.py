@@ -275,7 +275,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     docs/benchmarks/compensation.md.
     """
 
-    KIND = 3
+    #: The C ops table (``aff_compensator_ops``) the closed-loop engine calls with :attr:`cdata`.
+    C_OPS = "aff_robust_ff_ops"
     MODE = "adaptive"
     _ctype = "aff_robust_ff"
 

@@ -8,7 +8,7 @@ at ``Ts``, every estimate is mapped to physical parameters (inverse map of
 eq. 4), projected onto the admissible set and, after the warm-up, put into a
 :class:`adaptive_ff.compensation.feedforward.FrictionFeedforward`.
 
-Compensator component (``KIND = 6``): the configuration and state are the C struct ``aff_eq4_ff``
+Compensator component (ops table ``aff_eq4_ff_ops``): the configuration and state are the C struct ``aff_eq4_ff``
 (``adaptive_ff/csrc/aff_eq4_ff.h``), which embeds the feedforward's (``aff_fixed_ff``), the two range gates' and the
 RLS's (``aff_rls``) structs. C is the one implementation: ``aff_eq4_ff_sample`` (one sample of the stream,
 :meth:`AdaptiveFrictionFeedforward.observe`) and the compensator interface ``aff_eq4_ff_compensate`` /
@@ -29,10 +29,7 @@ from adaptive_ff.identification.rls import RecursiveLeastSquares
 from plant.component import Component
 from plant.errors import ParameterError, check_multiple, check_positive
 
-__all__ = ["AdaptiveFrictionFeedforward", "EQ4_KIND"]
-
-#: Compensator kind code of :class:`AdaptiveFrictionFeedforward` (engine protocol).
-EQ4_KIND = 6
+__all__ = ["AdaptiveFrictionFeedforward"]
 
 
 class AdaptiveFrictionFeedforward(Component):
@@ -70,8 +67,8 @@ class AdaptiveFrictionFeedforward(Component):
 
     Attributes
     ----------
-    KIND : int
-        6 (compensator kind of the closed-loop engine).
+    C_OPS : str
+        ``"aff_eq4_ff_ops"``, the C ops table (``aff_compensator_ops``) the closed-loop engine calls with :attr:`cdata`.
     cdata : cffi pointer
         The C struct ``aff_eq4_ff`` (``adaptive_ff/csrc/aff_eq4_ff.h``), which embeds the feedforward's, the range
         gates' and the RLS's structs: a copy of the struct is a complete, independent compensator.
@@ -101,7 +98,7 @@ class AdaptiveFrictionFeedforward(Component):
     (:func:`~adaptive_ff.compensation.feedforward.project_levels`); the feedforward uses the last admissible estimate.
     """
 
-    KIND = EQ4_KIND
+    C_OPS = "aff_eq4_ff_ops"
     MODE = "adaptive"
     _ffi = ffi
     _ctype = "aff_eq4_ff"

@@ -185,7 +185,8 @@ class FrictionFeedforward(Component):
     acceleration through the applied torque and crosses zero with the joint (docs/benchmarks/compensation.md).
     """
 
-    KIND = 2
+    #: The C ops table (``aff_compensator_ops``) the closed-loop engine calls with :attr:`cdata`.
+    C_OPS = "aff_fixed_ff_ops"
     MODE = "fixed"
     n_theta = 0
     _ffi = ffi

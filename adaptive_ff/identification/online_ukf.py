@@ -45,8 +45,8 @@ Process model: eqs. 1-2 (``J*dw/dt = u - f``, ``tau*df/dt + f = F(w)``,
 ``n_substeps`` classical RK4 steps, the input ``u`` held constant over the
 interval (the convention of :func:`plant.sampling.sample`: ``u[k]`` is the
 torque that drove the joint from ``t[k-1]`` to ``t[k]``). The step and eq. 3
-are the plant's own compiled ones (:func:`plant.dynamics.plant_rk4`,
-:func:`plant.friction.stribeck_scalar`), so the filter predicts with the
+are the plant's own, in C (``plant_rk4`` and ``plant_stribeck_eval`` of ``plant/csrc``, called by
+``aff_ukf_propagate`` of ``adaptive_ff/csrc/aff_online_ukf.c``), so the filter predicts with the
 arithmetic of the simulated joint; for sigma points with negative levels
 eq. 3 keeps its form ``sgn(w)*(Fc + (Fs - Fc)*s(w)) + sigma*w``. Parameters follow
 a random walk (small process noise). Measurement: the sampled velocity
@@ -102,10 +102,10 @@ import numpy as np
 import scipy.linalg
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
+from adaptive_ff._caff import ffi, lib
 from plant.errors import FrictionError, ParameterError, SignalError, check_finite_scalar, check_positive, \
     check_signal, check_time
-from plant.dynamics import lagged_params, plant_rk4, plant_target
-from plant.jit import kernel
+from plant.dynamics import lagged_params
 from plant.results import axes_or_new, json_safe
 
 __all__ = [
@@ -143,17 +143,17 @@ class FilterDivergedError(FrictionError, ArithmeticError):
     """The filter produced a non-finite state or covariance; the sample was rolled back."""
 
 
-@kernel
-def _propagate(par, w, f, u, h, n):
+def _propagate(par, w: float, f: float, u: float, h: float, n: int) -> tuple:
     """Eqs. 1-2 with eq. 3 over ``n`` RK4 steps of ``h`` (s), ``u`` held: ``(w, f)`` at the end.
 
-    ``par``: the lagged-Stribeck parameter row of :func:`plant.dynamics.lagged_params`. The plant's own step
-    (:func:`plant.dynamics.plant_rk4`), so the filter predicts with exactly the arithmetic of the simulated
+    ``par``: the lagged-Stribeck parameters of :func:`plant.dynamics.lagged_params` (cffi ``plant_params *``).
+    C (``aff_online_ukf.c``, ``aff_ukf_propagate``): the plant's own step (``plant_rk4`` of
+    ``plant/csrc/plant_dynamics.c``), so the filter predicts with exactly the arithmetic of the simulated
     joint; any sign of ``Fc``, ``Fs``, ``sigma`` is allowed (sigma points may leave the physical set).
     """
-    for _ in range(n):
-        w, f = plant_rk4(par, w, f, plant_target(par, w, 0.0), u, u, u, h, 0.0)
-    return w, f
+    wf = ffi.new("double[2]", (w, f))
+    lib.aff_ukf_propagate(par, wf, wf + 1, u, h, n)
+    return wf[0], wf[1]
 
 
 def _robust_sqrt(P: np.ndarray) -> np.ndarray:

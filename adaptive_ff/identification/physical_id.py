@@ -77,7 +77,7 @@ Methods
     Fc -3.7 %, cost above that at the true parameters). Parametrisation
     ``(log J, Fc, Fs, sigma, log tau, offset/Fc0)`` keeps J, tau > 0 and
     gives every parameter a finite-difference step visible past the jitter.
-    A fit runs several hundred simulations (numba).
+    A fit runs several hundred simulations (C, ``aff_simulator.c``).
 
 Accuracy and cost against the paper's eq. 4 on simulated records are measured
 by ``benchmarks/identification.py``; its tables are on the documentation's

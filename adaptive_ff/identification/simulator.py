@@ -42,15 +42,17 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from plant.dynamics import lagged_params, plant_rk4, plant_target
+from adaptive_ff._caff import ffi, lib
+from plant.dynamics import lagged_params
 from plant.errors import ParameterError, SignalError, check_finite_scalar, check_positive, check_signal, check_time
 from plant.friction import JointParams
-from plant.jit import kernel
 
 __all__ = ["InputGrid", "input_grid", "simulate_on_grid", "simulate_sampled", "H_MAX_DEFAULT"]
 
 #: Default largest RK4 sub-step (s): the paper's 1 kHz integration rate.
 H_MAX_DEFAULT = 1e-3
+
+_LONG = np.dtype(f"i{ffi.sizeof('long')}")  # C long of aff_simulate_on_grid's idx (8 bytes on LP64, 4 on Windows)
 
 
 @dataclass(frozen=True)
@@ -133,48 +135,18 @@ def input_grid(t, u, *, h_max: float = H_MAX_DEFAULT, input_delay: float = 0.0, 
     return InputGrid(tg=np.ascontiguousarray(tg), ug=np.ascontiguousarray(ug), idx=idx.astype(np.int64))
 
 
-@kernel(nogil=True, _nrt=False)
-def _grid_kernel(tg, ug, idx, par, offset, w0, f0, Kw, Kf, w_meas, inject, out):
-    """The joint on the grid: :func:`plant.dynamics.plant_rk4` per sub-step, first-order-hold input.
-
-    The offset enters as ``u - offset`` and ``f - offset`` (the same dynamics, see
-    :func:`simulate_on_grid`). ``out[0] = w0``; ``out[s]`` the velocity at sample ``s``.
-    """
-    n = idx.shape[0]
-    out[0] = w0
-    J = par[1]
-    w = w0
-    f = f0 - offset
-    for s in range(1, n):
-        a = idx[s - 1]
-        b = idx[s]
-        for j in range(a, b):
-            u0 = ug[j] - offset
-            u1 = ug[j + 1] - offset
-            w, f = plant_rk4(par, w, f, plant_target(par, w, 0.0), u0, 0.5 * (u0 + u1), u1, tg[j + 1] - tg[j],
-                             0.0)
-        if not (math.isfinite(w) and math.isfinite(f)):
-            for r in range(s, n):
-                out[r] = np.nan
-            return
-        out[s] = w
-        if inject:
-            e = w_meas[s] - w
-            w += Kw * e
-            f -= Kf * J / (tg[b] - tg[a]) * e
-
-
 def simulate_on_grid(par: np.ndarray, grid: InputGrid, *, w0: float, f0: float, offset: float = 0.0,
                      gain=(0.0, 0.0), w_meas=None) -> np.ndarray:
     """Fast RK4 simulation of eqs. 1-3 on an :class:`InputGrid` (no validation: inner loop of the fits).
 
-    Compiled with numba: the plant's one RK4 step (:func:`plant.dynamics.plant_rk4`)
-    with the input at the start, middle and end of each sub-step.
+    C (``aff_simulator.c``, ``aff_simulate_on_grid``): the plant's one RK4 step (``plant_rk4`` of
+    ``plant/csrc/plant_dynamics.c``) with the input at the start, middle and end of each sub-step. The
+    offset enters as ``u - offset`` and ``f - offset``. Releases the GIL (threads may run fits in parallel).
 
     Parameters
     ----------
-    par : ndarray, shape (PLANT_NPAR,)
-        Parameter row of the lagged Stribeck joint from
+    par : cffi ``plant_params *``
+        Parameters of the lagged Stribeck joint from
         :func:`plant.dynamics.lagged_params` ``(J, Fc, Fs, Vs, delta, sigma, tau)``
         (SI units); needs ``J > 0``, ``Vs > 0``, ``delta != 0``, ``tau > 0`` (for
         RK4 stability ``tau`` above about 0.4 times the sub-step; ``tau = 0``
@@ -196,12 +168,28 @@ def simulate_on_grid(par: np.ndarray, grid: InputGrid, *, w0: float, f0: float, 
     ndarray, shape (N,)
         Predicted velocity at the sample instants (before any correction);
         entry 0 is ``w0``. Diverging parameters give NaN from the divergence on, not an error.
+
+    Raises
+    ------
+    SignalError
+        ``w_meas`` missing or not of shape (N,) while a gain is non-zero.
     """
     Kw, Kf = float(gain[0]), float(gain[1])
     inject = Kw != 0.0 or Kf != 0.0
-    wm = np.ascontiguousarray(w_meas, dtype=float) if inject else np.zeros(grid.idx.shape[0])
-    out = np.empty(grid.idx.shape[0])
-    _grid_kernel(grid.tg, grid.ug, grid.idx, par, float(offset), float(w0), float(f0), Kw, Kf, wm, inject, out)
+    n = grid.idx.shape[0]
+    out = np.empty(n)
+    if inject:
+        wm = np.ascontiguousarray(w_meas, dtype=float)
+        if wm.shape != (n,):
+            raise SignalError(f"w_meas must have shape ({n},) with a non-zero gain, got {wm.shape}")
+    else:
+        wm = out  # not read
+    tg = np.ascontiguousarray(grid.tg, dtype=float)
+    ug = np.ascontiguousarray(grid.ug, dtype=float)
+    idx = np.ascontiguousarray(grid.idx, dtype=_LONG)
+    lib.aff_simulate_on_grid(par, ffi.from_buffer("double[]", tg), ffi.from_buffer("double[]", ug),
+                             ffi.from_buffer("long[]", idx), n, float(offset), float(w0), float(f0), Kw, Kf,
+                             ffi.from_buffer("double[]", wm), int(inject), ffi.from_buffer("double[]", out))
     return out
 
 

@@ -19,7 +19,7 @@ linear parameters solved by least squares, the idea of separable least squares,
 Golub & Pereyra 1973), then MINPACK's Levenberg-Marquardt (``lmder``, Moré 1978,
 through :func:`scipy.optimize.leastsq`: the iterations of
 ``scipy.optimize.least_squares(method="lm")`` with less overhead per evaluation)
-refines all five parameters with an analytic, compiled Jacobian.
+refines all five parameters with an analytic Jacobian in C (``aff_stribeck_fit.c``).
 
 Sign of the shape factor
 ------------------------
@@ -41,7 +41,7 @@ or negative", Sec. II-B). With ``p = |w/Vs|**delta``:
   cover the transition.
 * ``w = 0``: ``sgn(0) = 0`` gives ``F(0) = 0`` for either sign; the limit of
   ``s`` (1 or 0) is finite. Eq. 3 itself is evaluated by the package's one
-  implementation, :func:`plant.friction.stribeck_scalar` (the power overflows
+  implementation, C ``plant_stribeck_eval`` (``plant/csrc/plant_stribeck.c``; the power overflows
   to ``inf`` for ``delta < 0`` and tiny ``|w|``, and ``exp(-inf) = 0``), here and
   in the online filter (:mod:`adaptive_ff.identification.online_ukf`); the
   Jacobian and the start values use the log-domain shape terms of this module.
@@ -63,9 +63,9 @@ from types import SimpleNamespace
 import numpy as np
 from scipy.optimize import leastsq, nnls
 
+from adaptive_ff._caff import ffi, lib
 from plant.errors import ExcitationError, ParameterError, SignalError, check_finite_scalar, check_signal
-from plant.friction import stribeck, stribeck_scalar
-from plant.jit import kernel
+from plant.friction import stribeck
 from plant.results import axes_or_new, json_safe
 
 __all__ = ["PARAM_NAMES", "MIN_POINTS", "DELTA_MAX", "StribeckFit", "fit_stribeck", "plot_stribeck_fit"]
@@ -319,14 +319,15 @@ def _shape_terms(logaw: np.ndarray, logVs: float, delta: float):
     return s, sp, logx
 
 
-@kernel
 def _eq3_values(w, Fc, dF, Vs, delta, sigma, out):
-    """Eq. 3 at every ``w`` into ``out`` by the one implementation, :func:`plant.friction.stribeck_scalar`.
+    """Eq. 3 at every ``w`` into ``out`` by the one implementation, C (``aff_stribeck_fit.c``,
+    ``aff_stribeck_fit_values``: plant's ``plant_stribeck_eval`` per element).
 
-    No argument checks (the optimiser may try any ``delta``) and no speed shortcut.
+    ``w``, ``out``: C-contiguous float64 of one length. No argument checks (the optimiser may try any
+    ``delta``) and no speed shortcut.
     """
-    for i in range(w.shape[0]):
-        out[i] = stribeck_scalar(w[i], Fc, dF, Vs, delta, sigma, math.inf)
+    lib.aff_stribeck_fit_values(ffi.from_buffer("double[]", w), ffi.from_buffer("double[]", out), w.shape[0],
+                                Fc, dF, Vs, delta, sigma)
     return out
 
 
@@ -334,35 +335,27 @@ def _model(x, w):
     """Eq. 3 with the optimiser's parameters ``x = (Fc, Fs, log Vs, delta, sigma)`` at the speeds ``w``."""
     Fc, Fs, logVs, delta, sigma = np.asarray(x, dtype=float).tolist()
     Vs = math.exp(min(max(logVs, -_LOGP_MAX), _LOGP_MAX))  # finite and > 0 whatever the optimiser tries
+    w = np.ascontiguousarray(w, dtype=float)
     return _eq3_values(w, Fc, Fs - Fc, Vs, delta, sigma, np.empty_like(w))
 
 
-@kernel
 def _eq3_jacobian(w, logaw, Fc, Fs, logVs, delta, out):
-    """d F / d (Fc, Fs, log Vs, delta, sigma) of eq. 3 at every ``w`` into ``out`` (n, 5), compiled.
+    """d F / d (Fc, Fs, log Vs, delta, sigma) of eq. 3 at every ``w`` into ``out`` (n, 5), in C
+    (``aff_stribeck_fit.c``, ``aff_stribeck_fit_jacobian``).
 
     With ``p = (|w|/Vs)**delta`` in the log domain as :func:`_shape_terms` (``log p`` clipped at ``_LOGP_MAX``,
     ``s*p = exp(log p - p)`` without ``inf*0``): ``ds/dlog Vs = s*p*delta``, ``ds/ddelta = -s*p*log(|w|/Vs)``.
+    ``w``, ``logaw``: C-contiguous float64 (n,); ``out``: C-contiguous float64 (n, 5).
     """
-    d = Fs - Fc
-    for i in range(w.shape[0]):
-        sg = 1.0 if w[i] > 0.0 else (-1.0 if w[i] < 0.0 else 0.0)
-        logx = logaw[i] - logVs
-        logp = min(delta * logx, _LOGP_MAX)
-        p = math.exp(logp)
-        si = math.exp(-p)
-        sp = math.exp(logp - p)
-        out[i, 0] = sg * (1.0 - si)
-        out[i, 1] = sg * si
-        out[i, 2] = sg * d * delta * sp
-        out[i, 3] = -sg * d * sp * logx
-        out[i, 4] = w[i]
+    lib.aff_stribeck_fit_jacobian(ffi.from_buffer("double[]", w), ffi.from_buffer("double[]", logaw),
+                                  ffi.from_buffer("double[]", out), w.shape[0], Fc, Fs, logVs, delta)
     return out
 
 
 def _jacobian(x, sg, w, logaw):
     """d F / d (Fc, Fs, log Vs, delta, sigma), shape (n, 5) (:func:`_eq3_jacobian`; ``sg = sign(w)``)."""
     Fc, Fs, logVs, delta, _ = np.asarray(x, dtype=float).tolist()
+    w, logaw = np.ascontiguousarray(w, dtype=float), np.ascontiguousarray(logaw, dtype=float)
     return _eq3_jacobian(w, logaw, Fc, Fs, logVs, delta, np.empty((w.shape[0], 5)))
 
 

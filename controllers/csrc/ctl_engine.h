@@ -17,6 +17,7 @@
  */
 #ifndef CTL_ENGINE_H
 #define CTL_ENGINE_H
+#include <stddef.h>
 #include <stdint.h>
 #include "plant_dynamics.h"
 #include "aff_gate.h"

@@ -139,7 +139,6 @@ from pathlib import Path
 
 import numpy as np
 
-from adaptive_ff.compensation.gate import OutlierGate
 from adaptive_ff.identification.covariance import (andrews_bandwidth, bootstrap_t_quantile, hac_covariance,
                                                     parametric_block_bootstrap)
 from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
@@ -147,7 +146,7 @@ from adaptive_ff.identification.physical_id import PhysicalFit
 from adaptive_ff.identification.plausibility import IdentificationWarning, check_physical
 from adaptive_ff.identification.regression import nrmse_fit
 from controllers.design.pi import PIController
-from controllers.simulation.engine import EngineInputs, engine_outcome, engine_state, metrics_state, run_engine
+from controllers.simulation.engine import EngineRun
 from controllers.simulation.metrics import reversal_times
 from plant.dynamics import check_integrable, plant_params, plant_state
 from plant.errors import ExcitationError, ParameterError, SignalError, check_finite_scalar, check_positive, \
@@ -401,23 +400,18 @@ class _LoopSimulator:
                 row = plant_params(p)
             rows += [(row, plant_state(p, self.w0))] * K
         ctrl = self.spec.controller(self.integral0)
-        g = OutlierGate()
         lim = 100.0 * float(np.max(np.abs(self.wr))) + 1.0
-        x = EngineInputs(
-            wr=self.wr, t=self.tg, revs=self.revs, window=0.0, dt=float(self.spec.Tc), seg=np.zeros(B, dtype=np.int64),
-            plant_table=np.ascontiguousarray(np.stack([r for r, _ in rows])[:, None, :]),
-            plant_state=np.ascontiguousarray(np.stack([s for _, s in rows])),
-            noise=np.ascontiguousarray(np.tile(noise, (C, 1))), noise_rows=B if self.noise_std > 0 else 0,
-            fault_k=np.empty(0, dtype=np.int64), fault_v=np.empty(0), use_gate=np.zeros(B, dtype=bool),
-            gate_par=np.repeat(g.params[None, :], B, axis=0), gate_state=np.repeat(g.state[None, :], B, axis=0),
-            pi_par=np.repeat(ctrl.params[None, :], B, axis=0), pi_state=np.repeat(ctrl.state[None, :], B, axis=0),
-            kind=0, comp_par=np.zeros((B, 1)), comp_state=np.zeros((B, 1)), w_limit=np.full(B, lim),
-            eng_state=engine_state(B, self.w0), met_state=metrics_state(B), decimate=1,
-            rec=np.full((B, 5, n), np.nan), theta=np.empty((B, 0, 1)), theta_k=np.empty((B, 0), dtype=np.int64),
-            theta_buf=np.zeros((B, 1)))
-        run_engine(x)
+        x = EngineRun(t=self.tg, w_ref=self.wr, revs=self.revs, window=0.0, dt=float(self.spec.Tc), n_scenarios=B,
+                      decimate=1)
+        x.set_noise_table(np.tile(noise, (C, 1)) if self.noise_std > 0 else None)
+        for b, (row, st) in enumerate(rows):
+            x.set_plant(b, row, 1, 0, st, lim)
+            if self.noise_std > 0:
+                x.set_noise_row(b, b)
+            x.set_pi(b, ctrl)
+        x.run()
         self.n_sim += B
-        _, diverged, _ = engine_outcome(x.eng_state)
+        _, diverged, _ = x.outcome()
         W, U = x.rec[:, 0, :].reshape(C, K, n).mean(axis=1), x.rec[:, 2, :].reshape(C, K, n).mean(axis=1)
         diverged = np.asarray(diverged, dtype=bool).reshape(C, K).any(axis=1)
         if fine:

@@ -266,7 +266,7 @@ class ZooOptions:
         (memory ~ ``group * duration/Tc * 8`` bytes of noise). Default 8: small tasks keep the workers
         evenly loaded, and a batch of 8 still lets the engine interleave its scenarios.
     workers : int or None
-        Processes the tasks run on (one numba thread each); default all cores.
+        Processes the tasks run on (one engine thread each); default all cores.
     scheduler : str, distributed.Client or None
         Where the preparation and the batches run instead: ``"synchronous"``, ``"threads"`` or ``"processes"``
         (Dask's local schedulers), or the address of a Dask cluster (``tcp://host:8786``) or a
@@ -596,10 +596,9 @@ def _group_task(args) -> dict:
 
 
 def _init_worker() -> None:
-    """Process pool initialiser: one numba thread per worker process (the processes share the cores)."""
-    import numba
-
-    numba.set_num_threads(1)
+    """Process pool initialiser: one engine thread per worker process (the processes share the cores;
+    :func:`controllers.simulation.engine.engine_threads` reads ``ADAPTIVE_FF_THREADS``)."""
+    os.environ["ADAPTIVE_FF_THREADS"] = "1"
 
 
 _DASK_LOCAL = ("synchronous", "threads", "processes")
@@ -671,7 +670,7 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
     ``frictionless`` runs, the number ``compare`` gives, where it is defined (:meth:`ZooResult.status`).
     The joints are split into groups of at most ``group`` (smaller towards the end, :func:`_group_bounds`); each
     group is one task (its preparation, then one batch call per mode on its joints), the tasks run on ``workers``
-    processes with one numba thread each (or on Dask), a free worker taking the next group. Each joint's numbers
+    processes with one engine thread each (or on Dask), a free worker taking the next group. Each joint's numbers
     do not depend on the grouping.
     """
     import time

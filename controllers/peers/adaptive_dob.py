@@ -19,7 +19,7 @@ compensates (a fast start that needs no friction model); the estimator learns
 from the loop's own ``(u, w)`` as in the ``adaptive`` mode (``u`` is the total
 torque, so the inverse-dynamics regression is unchanged).
 
-Compensator component (``KIND = 7``): the C struct ``ctl_adob``
+Compensator component: the C struct ``ctl_adob``
 (``controllers/csrc/ctl_adob.h``) embeds the feedforward's ``aff_robust_ff``
 and the observer's ``ctl_dob``; ``ctl_adob_compensate`` and
 ``ctl_adob_observe`` (the ``aff_compensator_ops`` table ``ctl_adob_ops``) call
@@ -38,10 +38,7 @@ from controllers.peers.dob import DisturbanceObserver
 from plant.component import Component
 from plant.errors import ParameterError, check_nonnegative
 
-__all__ = ["AdaptiveDOBCompensator", "ADOB_KIND"]
-
-#: Compensator kind code of :class:`AdaptiveDOBCompensator` (engine protocol).
-ADOB_KIND = 7
+__all__ = ["AdaptiveDOBCompensator"]
 
 
 class AdaptiveDOBCompensator(Component):
@@ -59,9 +56,7 @@ class AdaptiveDOBCompensator(Component):
 
     Attributes
     ----------
-    KIND : int
-        7 (compensator protocol of the closed-loop engine).
-    OPS : str
+    C_OPS : str
         ``"ctl_adob_ops"``, the C ops table (``aff_compensator_ops``) the engine calls with :attr:`cdata`.
     cdata : cffi ``ctl_adob *``
         The composite's struct; the parts' structs are its fields ``ff`` and ``dob``.
@@ -90,10 +85,9 @@ class AdaptiveDOBCompensator(Component):
     reversals beyond it.
     """
 
-    KIND = ADOB_KIND
     MODE = "adaptive-dob"
     #: Name of the C ops table (``aff_compensator_ops``) the engine calls with :attr:`cdata`, see :attr:`ops`.
-    OPS = "ctl_adob_ops"
+    C_OPS = "ctl_adob_ops"
     _ffi = ffi
     _ctype = "ctl_adob"
 
@@ -131,7 +125,7 @@ class AdaptiveDOBCompensator(Component):
     @property
     def ops(self):
         """Pointer to the C ops table ``ctl_adob_ops`` (``aff_compensator_ops *``)."""
-        return ffi.addressof(getattr(lib, self.OPS))
+        return ffi.addressof(getattr(lib, self.C_OPS))
 
     u_max = property(lambda self: float(self._c.u_max), doc="Bound on the total output (N·m).")
     u_ff = property(lambda self: float(self._c.u_ff), doc="Feedforward part of the last output (N·m).")

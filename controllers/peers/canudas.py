@@ -15,7 +15,7 @@ with the same RLS machinery as the package's own estimator (directional
 forgetting, projection) so that the comparison is about the friction model and
 the regression, not about numerics.
 
-Compensator component (``KIND = 4``): configuration and state in the C struct
+Compensator component: configuration and state in the C struct
 ``ctl_canudas`` (``controllers/csrc/ctl_canudas.h``), which embeds the RLS
 (``aff_rls``) and the two range gates (``aff_range_gate``);
 ``ctl_canudas_compensate`` and ``ctl_canudas_observe`` (the
@@ -35,10 +35,8 @@ from controllers._cctl import ffi, lib
 from plant.component import Component
 from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive
 
-__all__ = ["CanudasCompensator", "CANUDAS_KIND", "CANUDAS_N_THETA"]
+__all__ = ["CanudasCompensator", "CANUDAS_N_THETA"]
 
-#: Compensator kind code of :class:`CanudasCompensator` (engine protocol).
-CANUDAS_KIND = 4
 #: Length of the reported parameter vector ``theta``.
 CANUDAS_N_THETA = 5
 
@@ -79,9 +77,7 @@ class CanudasCompensator(Component):
 
     Attributes
     ----------
-    KIND : int
-        4 (compensator protocol of the closed-loop engine).
-    OPS : str
+    C_OPS : str
         ``"ctl_canudas_ops"``, the C ops table (``aff_compensator_ops``) the engine calls with :attr:`cdata`.
     cdata : cffi ``ctl_canudas *``
         Configuration and state (:class:`plant.component.Component`), advanced in place by
@@ -116,10 +112,9 @@ class CanudasCompensator(Component):
     to Ruderman's model that the comparison measures.
     """
 
-    KIND = CANUDAS_KIND
     MODE = "canudas"
     #: Name of the C ops table (``aff_compensator_ops``) the engine calls with :attr:`cdata`, see :attr:`ops`.
-    OPS = "ctl_canudas_ops"
+    C_OPS = "ctl_canudas_ops"
     n_theta = CANUDAS_N_THETA
     _ffi = ffi
     _ctype = "ctl_canudas"
@@ -174,7 +169,7 @@ class CanudasCompensator(Component):
     @property
     def ops(self):
         """Pointer to the C ops table ``ctl_canudas_ops`` (``aff_compensator_ops *``)."""
-        return ffi.addressof(getattr(lib, self.OPS))
+        return ffi.addressof(getattr(lib, self.C_OPS))
 
     # ---- configuration (read-only fields of the struct)
     @property

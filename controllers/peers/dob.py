@@ -8,7 +8,7 @@ Trans. Ind. Electron. 38(5), 1991. The observer needs no friction model: it
 estimates the lumped disturbance torque from the nominal inverse plant and
 cancels it within the Q-filter bandwidth.
 
-Compensator component (``KIND = 5``): configuration and state in the C struct
+Compensator component: configuration and state in the C struct
 ``ctl_dob`` (``controllers/csrc/ctl_dob.h``, with its two range gates embedded
 as ``aff_range_gate`` fields); ``ctl_dob_compensate`` and ``ctl_dob_observe``
 (the ``aff_compensator_ops`` table ``ctl_dob_ops``) are the one implementation,
@@ -24,10 +24,8 @@ from controllers._cctl import ffi, lib
 from plant.component import Component
 from plant.errors import ParameterError, check_nonnegative, check_positive
 
-__all__ = ["DisturbanceObserver", "DOB_KIND", "DOB_ORDER_MAX"]
+__all__ = ["DisturbanceObserver", "DOB_ORDER_MAX"]
 
-#: Compensator kind code of :class:`DisturbanceObserver` (engine protocol).
-DOB_KIND = 5
 #: Highest order of the Q-filter (``CTL_DOB_ORDER_MAX`` of ``controllers/csrc/ctl_dob.h``).
 DOB_ORDER_MAX = len(ffi.new("ctl_dob *").x)
 
@@ -58,9 +56,7 @@ class DisturbanceObserver(Component):
 
     Attributes
     ----------
-    KIND : int
-        5 (compensator protocol of the closed-loop engine).
-    OPS : str
+    C_OPS : str
         ``"ctl_dob_ops"``, the C ops table (``aff_compensator_ops``) the engine calls with :attr:`cdata`.
     cdata : cffi ``ctl_dob *``
         Configuration and state (:class:`plant.component.Component`); the range gates' structs are its
@@ -89,11 +85,10 @@ class DisturbanceObserver(Component):
     compensated command is ``u = u_PI + d_hat``.
     """
 
-    KIND = DOB_KIND
     MODE = "dob"
-    #: Name of the C ops table (``ffi.addressof(getattr(controllers._cctl.lib, OPS))``: the engine's compensator
+    #: Name of the C ops table (``ffi.addressof(getattr(controllers._cctl.lib, C_OPS))``: the engine's compensator
     #: interface, see :attr:`ops`).
-    OPS = "ctl_dob_ops"
+    C_OPS = "ctl_dob_ops"
     n_theta = 0
     _ffi = ffi
     _ctype = "ctl_dob"
@@ -138,7 +133,7 @@ class DisturbanceObserver(Component):
     @property
     def ops(self):
         """Pointer to the C ops table ``ctl_dob_ops`` (``aff_compensator_ops *``)."""
-        return ffi.addressof(getattr(lib, self.OPS))
+        return ffi.addressof(getattr(lib, self.C_OPS))
 
     @property
     def J_n(self) -> float:

@@ -115,11 +115,13 @@ def _unique(objs) -> tuple:
 def _plants_arrays(run_plants, plants, opts, t, wr, Tc) -> tuple:
     """Parameter rows, drift periods and initial states of the scenarios, and their sensor gates.
 
-    Returns ``(tables, index, segs, states, gates)``: ``tables[i]`` (a cffi ``plant_params`` array) and
+    Returns ``((rows, st), tables, n_rows, segs, states), index, gates``: ``tables[i]`` (a cffi ``plant_params`` array) and
     ``states[i]`` (``plant_state``) of the distinct plant ``i`` (a plant object given more than once,
     ``[p] * B``, is packed and checked once), ``index[b]`` the distinct plant of scenario ``b``. Plants that do
     not drift are packed in one table (:func:`plant.rows.plant_rows`), checked in one array pass and
-    initialised in one C pass; a drifting plant has one row per drift period."""
+    initialised in one C pass; a drifting plant has one row per drift period. The arrays the entries point into
+    (``rows`` of the static plants, their states ``st``) are returned first: the caller keeps them alive (an
+    element of a cffi array does not own its memory)."""
     uniq, idx = _unique(run_plants)
     static = [k for k, rp in enumerate(uniq) if not hasattr(rp, "at")]
     rows = plant_rows([uniq[k] for k in static])
@@ -130,17 +132,17 @@ def _plants_arrays(run_plants, plants, opts, t, wr, Tc) -> tuple:
             check_integrable(rows + int(bad[0]), Tc)
         except ParameterError as e:
             raise ParameterError(f"plants[{b}]: {e}") from None
-    st = plant_states([uniq[k] for k in static], rows, float(wr[0]))
+    st = plant_states(rows, float(wr[0]))
     tables, segs, states = [None] * len(uniq), [0] * len(uniq), [None] * len(uniq)
     for j, k in enumerate(static):
         tables[k], states[k] = rows + j, st[j]
     for k, rp in enumerate(uniq):
         if tables[k] is None:  # a drifting plant: one row per drift period
             tables[k], segs[k] = plant_table(rp, t, Tc)
-            states[k] = plant_state(rp.at(0.0), float(wr[0]))[0]
+            states[k] = plant_state(rp.at(0.0), float(wr[0]))  # owns its struct
     n_rows = [1 if segs[k] == 0 else len(tables[k]) for k in range(len(uniq))]
     gates = [_sensor_gate(p, o, Tc) for p, o in zip(plants, opts)]
-    return (rows, tables, n_rows, segs, states), idx, gates
+    return ((rows, st), tables, n_rows, segs, states), idx, gates
 
 
 def _sensor_gate(p, o, Tc: float):
@@ -219,7 +221,7 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
     x.keep(rows)
     x.run()
     _, diverged, _ = x.outcome()
-    cols = metrics_columns(x.scenarios)
+    cols = metrics_columns(x.metrics())
     for k in METRIC_NAMES:
         cols[k][diverged] = np.nan
     return BatchResult(mode=mode, diverged=diverged, compensators=tuple(comps), **cols)

@@ -24,7 +24,8 @@ from controllers.simulation.memory import MODE_SIGNALS, check_run_memory
 from controllers.simulation.metrics import LoopMetrics, loop_metrics, metrics_result, reversal_times
 from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
 from plant.excitation import Reference
-from plant.dynamics import check_integrable, plant_params, plant_state, plant_table_rows
+from plant.dynamics import check_integrable, plant_params, plant_state
+from plant.rows import stack_params
 from plant.results import axes_or_new, json_safe
 
 __all__ = ["MODES", "ESTIMATORS", "ModeOptions", "LoopMetrics", "ClosedLoopResult", "run_closed_loop", "run_mode",
@@ -124,11 +125,11 @@ def plant_table(p, t, Tc: float) -> tuple:
         A row the engine cannot integrate over ``Tc`` (:func:`plant.dynamics.check_integrable`, with the reason).
     """
     if not hasattr(p, "at"):
-        table, seg = plant_table_rows([plant_params(p)]), 0
+        table, seg = stack_params([plant_params(p)]), 0
     else:
         seg = max(int(round(p.period / Tc)), 1)
         rows = [plant_params(p.at(0.0))] + [plant_params(p.at(tk)) for tk in np.asarray(t)[seg::seg].tolist()]
-        table = plant_table_rows(rows)
+        table = stack_params(rows)
     check_integrable(table, Tc)
     return table, seg
 

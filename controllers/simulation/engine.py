@@ -31,12 +31,13 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from controllers._cctl import ffi, lib
+from controllers.simulation.metrics import METRICS_DTYPE
 from plant.errors import ParameterError
 
 __all__ = ["EngineRun", "THETA_NMAX", "engine_threads"]
 
 #: Largest parameter vector a compensator may report (``CTL_THETA_NMAX`` of ctl_engine.h).
-THETA_NMAX = int(lib.CTL_THETA_NMAX)
+THETA_NMAX = len(ffi.new("ctl_scenario *").theta_buf)
 #: Scenarios per chunk: at most this many, at least _CHUNK_MIN (else B / threads).
 _CHUNK = 64
 _CHUNK_MIN = 8
@@ -133,6 +134,7 @@ class EngineRun:
         r.m_theta = int(m_theta)
         self.scenarios = ffi.new("ctl_scenario[]", B)
         self._keep = []
+        self._ops = {}
         rec = ffi.from_buffer("double[]", self.rec)
         th = ffi.from_buffer("double[]", self.theta)
         thk = ffi.from_buffer("int64_t[]", self.theta_k)
@@ -198,9 +200,12 @@ class EngineRun:
         if name is None:
             raise ParameterError(f"compensator must be a compensator component (C_OPS) or None, got {comp!r}")
         sc = self.scenarios[b]
+        ops = self._ops.get(name)
+        if ops is None:  # cffi reads a const table as a value: one copy per run, kept alive here
+            ops = self._ops[name] = ffi.new("aff_compensator_ops *", getattr(lib, name))
         self._keep.append(comp)
         sc.comp = ffi.cast("void *", comp.cdata)
-        sc.ops = ffi.addressof(lib, name)
+        sc.ops = ops
 
     def run(self) -> None:
         """Run every scenario to the end (or divergence) in chunks on :func:`engine_threads` threads."""
@@ -215,6 +220,16 @@ class EngineRun:
         else:
             with ThreadPoolExecutor(max_workers=min(threads, len(bounds))) as pool:
                 list(pool.map(one, bounds))
+
+    def metrics(self) -> np.ndarray:
+        """The scenarios' metric accumulators, a copy as a numpy array of
+        :data:`controllers.simulation.metrics.METRICS_DTYPE`, shape (B,)."""
+        sc = self.scenarios
+        out = np.empty(len(sc), dtype=METRICS_DTYPE)
+        raw = out.view(np.uint8).reshape(len(sc), -1)
+        for b in range(len(sc)):
+            raw[b] = np.frombuffer(ffi.buffer(ffi.addressof(sc[b], "metrics")), dtype=np.uint8)
+        return out
 
     def outcome(self) -> tuple:
         """``(k_end, diverged, n_theta)`` arrays (int64, bool, int64) of shape (B,)."""

@@ -1,0 +1,26 @@
+/* aff_simulator.h -- the joint (eqs. 1-3) simulated on measured, possibly irregular, sample times.
+ *
+ * Between the sample instants the grid holds equal sub-steps (adaptive_ff.identification.simulator.input_grid);
+ * each sub-step is one plant_rk4 step (the plant's one RK4, plant_dynamics.h) with the input linear over it
+ * (first-order hold: u at the start, the mean in the middle, u at the end). A constant torque offset enters as
+ * u - offset and f - offset. Optional output injection after each sample (Ljung, System Identification, 2nd ed.,
+ * Secs. 3.2, 5.7): with e = w_meas - w, w += Kw*e and f -= Kf*J/h_i*e (h_i the sample interval).
+ * Python: adaptive_ff.identification.simulator.simulate_on_grid (the inner loop of the output-error fits of
+ * adaptive_ff.identification.physical_id).
+ */
+#ifndef AFF_SIMULATOR_H
+#define AFF_SIMULATOR_H
+#include "plant_dynamics.h"
+
+/* Velocity (rad/s) of the plant p at the n sample instants into out[0..n-1], out[0] = w0.
+ * tg, ug: grid times (s) and input (N*m), idx[n-1] + 1 entries; idx: grid position of each sample (n entries,
+ * idx[0] = 0, increasing); offset (N*m); w0 (rad/s), f0 (N*m): state at tg[0]; Kw (1), Kf (1): injection
+ * gains, used where inject != 0 with the measured velocity w_meas (n entries; not read when inject == 0, may
+ * then be any array of n doubles). Needs p->J > 0, tau > 0 (RK4 stable for tau above about 0.4 times the
+ * sub-step). A non-finite state after a sample makes out NaN from that sample on (no error). No checks.
+ * Source: Ruderman eqs. 1-3; classic RK4 (plant_rk4). */
+void aff_simulate_on_grid(const plant_params *p, const double *tg, const double *ug, const long *idx, long n,
+                          double offset, double w0, double f0, double Kw, double Kf, const double *w_meas,
+                          int inject, double *out);
+
+#endif

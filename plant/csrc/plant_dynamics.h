@@ -1,0 +1,50 @@
+/* plant_dynamics.h -- the plant as one component: the RK4 step, the step of every model, the friction torque.
+ *
+ * plant_step advances a plant_state by one step with the input held, in place (RK4 sub-steps; the implicit
+ * steps of plant_stiff.h where the plant is stiff); plant_friction returns the friction torque. The open-loop
+ * simulation (plant.joint.simulate), the identification simulator and the closed-loop engine call them with
+ * the structs of plant_params.h. Python: plant.dynamics.
+ */
+#ifndef PLANT_DYNAMICS_H
+#define PLANT_DYNAMICS_H
+#include "plant_params.h"
+#include "plant_stiff.h"
+
+/* Largest rate*dt of a stable mode that one explicit RK4 step of a lagged model accepts (RK4's stability
+ * interval on the negative real axis ends at 2.785; Hairer & Wanner, Solving ODEs II, Sec. IV.2). */
+#define PLANT_RK4_RATE_MAX 2.5
+
+/* One classic fourth-order Runge-Kutta step of h (s, > 0) of the plant, in place on *w (rad/s) and *s (f in N*m,
+ * LuGre z in rad), with the input torque given at the start, the middle and the end of the step (u0, um, u1,
+ * N*m; u0 = um = u1: zero-order hold; um = (u0 + u1)/2: first-order hold). Fw = plant_target(p, *w, sgn),
+ * passed in so a caller can reuse a value it has; sgn: Karnopp breakaway direction (plant_target). Lagged
+ * models with tau == 0: RK4 on w alone, s unchanged (the caller sets f = F(w)). Right-hand side: eqs. 1-2 with
+ * the reciprocals inv_J, inv_tau (lagged models) or the LuGre equations (dividing by J). Classic RK4: Hairer,
+ * Norsett, Wanner, Solving ODEs I, Sec. II.1. Python: plant.dynamics.plant_rk4. */
+void plant_rk4(const plant_params *p, double *w, double *s, double Fw, double u0, double um, double u1, double h,
+               double sgn);
+
+/* Advance the plant state *st by one step of dt (s, > 0) with the torque u (N*m) held, in place.
+ * Lagged models: one RK4 step (tau == 0: RK4 on w, then s = F(w) and aux = p->key, which the next step reuses);
+ * tau == 0 without a Karnopp band where the step can reach the jump at w = 0 (plant_static_jump_in_reach): the
+ * set-valued plant_lagged_stiff_step (Filippov: at rest while -F(0-) <= u <= F(0+), f = u). Karnopp: in the band
+ * |w| < dv with |u| <= Fs the joint sticks (w = 0, f = u); with |u| > Fs it breaks away (RK4 with the band
+ * target Fs*sgn(u)). A lagged model with rate*dt > PLANT_RK4_RATE_MAX takes (long)(rate*dt) + 1 equal RK4
+ * sub-steps, beyond PLANT_LAGGED_RK4_MAX of them (unless the step's own velocity range is mild,
+ * plant_lagged_local_rate) plant_lagged_stiff_step. LuGre: n equal RK4 sub-steps with n chosen from the
+ * stiffness at the step start (rate*h < 1); n > PLANT_LUGRE_RK4_MAX: plant_lugre_stiff_step; a non-finite state
+ * or input gives NaN. Eqs. 1-3 of Ruderman; Karnopp (1985); Canudas de Wit et al. (1995).
+ * Python: plant.dynamics.plant_step, make_plant_step. */
+void plant_step(const plant_params *p, plant_state *st, double u, double dt);
+
+/* Friction torque (N*m) of the plant in state *st: lagged models the friction state s (eq. 1); LuGre
+ * sigma0*z + sigma1*dz/dt + sigma2*w (Canudas de Wit et al. 1995, eq. 3). Python: plant.dynamics.plant_friction. */
+double plant_friction(const plant_params *p, const plant_state *st);
+
+/* Open loop: plant_step over the n inputs u[k] (N*m, each held for dt s) from *st (advanced in place to the
+ * final state), recording W[k], S[k] (velocity, internal state) for k = 0..n (n + 1 entries each, the initial
+ * state included). Python: plant.dynamics.plant_simulate, plant.joint.simulate. */
+void plant_simulate(const plant_params *p, plant_state *st, const double *u, long n, double dt, double *W,
+                    double *S);
+
+#endif

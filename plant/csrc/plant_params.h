@@ -1,0 +1,92 @@
+/* plant_params.h -- the plant's parameters and state: one struct each for every friction model of the package.
+ *
+ * Models (Ruderman, eqs. 1-3, and the variants of plant/asymmetric.py, plant/karnopp.py, plant/lugre.py):
+ *
+ *   lagged (lagged Stribeck, asymmetric, Karnopp):
+ *     J*dw/dt = u - f,   tau*df/dt + f = F(w)   (f = F(w) algebraically if tau == 0)
+ *     F: eq. 3 with the levels of the direction of w (p->pos for w > 0, p->neg for w < 0; asymmetric levels:
+ *     Canudas de Wit, Astrom, Braun 1987); Karnopp (1985): Fs_stick*sgn inside the stick band |w| < dv.
+ *   LuGre (Canudas de Wit, Olsson, Astrom, Lischinsky 1995, eqs. 2-5):
+ *     dz/dt = w - sigma0*|w|/g(w)*z,   g(w) = eq. 3 at |w| with sigma = 0
+ *     J*dw/dt = u - sigma0*z - sigma1*dz/dt - sigma2*w
+ *
+ * The Python packers (plant.rows.plant_params, lagged_params, plant_rows) fill plant_params from a validated
+ * model; plant.rows.plant_state / plant_states (C: plant_steady_state) make a plant_state. The steps are in
+ * plant_dynamics.h (RK4, plant_step) and plant_stiff.h (the implicit steps of stiff plants). Simulation code:
+ * double only (no aff_real); the eq. 3 parts are plant_stribeck structs (double in the package build).
+ */
+#ifndef PLANT_PARAMS_H
+#define PLANT_PARAMS_H
+#include "plant_stribeck.h"
+
+/* Friction model of a plant_params (the "model" key of a plant file, plant/models.py). */
+typedef enum plant_model {
+    PLANT_LAGGED_STRIBECK = 0, /* plant.friction.JointParams */
+    PLANT_ASYMMETRIC = 1,      /* plant.asymmetric.AsymmetricParams */
+    PLANT_KARNOPP = 2,         /* plant.karnopp.KarnoppParams */
+    PLANT_LUGRE = 3            /* plant.lugre.LuGreParams */
+} plant_model;
+
+/* Parameters of one plant (unused fields 0). Units SI, joint side. */
+typedef struct plant_params {
+    plant_model model;
+    double J;          /* inertia (kg*m^2) */
+    double tau;        /* friction lag (s); 0: static map (lagged models), always 0 for LuGre */
+    plant_stribeck pos; /* eq. 3 for w > 0: Fc, Fs - Fc (N*m), Vs (rad/s), delta, sigma (N*m*s/rad), cut-off
+                           speed (rad/s, plant.stribeck_map.stribeck_cutoff). LuGre: its Fc, Fs - Fc, Vs, delta,
+                           sigma2 and cut-off (g(w) is this map at |w| with sigma = 0) */
+    plant_stribeck neg; /* the same for w < 0 (equal to pos but for the asymmetric model) */
+    double Fs_stick;   /* Karnopp: friction limit in the stick band (Fs, N*m); else 0 */
+    double dv;         /* Karnopp: half-width of the stick band (rad/s); 0 = no band */
+    double sigma0;     /* LuGre bristle stiffness (N*m/rad) */
+    double sigma1;     /* LuGre bristle damping (N*m*s/rad) */
+    double g_min;      /* LuGre min(Fc, Fs) (N*m) */
+    double g_max;      /* LuGre max(Fc, Fs) (N*m) */
+    double base_rate;  /* LuGre (sigma1 + sigma2)/J + sqrt(sigma0/J) (1/s) */
+    double rate;       /* lagged models: fastest stable mode (1/s, plant.rows.lagged_rate): where rate*dt >
+                          PLANT_RK4_RATE_MAX the RK4 step is cut into (long)(rate*dt) + 1 sub-steps, beyond
+                          PLANT_LAGGED_RK4_MAX the stiff step */
+    double inv_J;      /* 1/J (1/(kg*m^2)), inf for J == 0 */
+    double inv_tau;    /* 1/tau (1/s), 0 for tau == 0 */
+    double key;        /* fingerprint of the fields above (an integer in [1, 2^52)): see plant_state.aux */
+} plant_params;
+
+/* State of one plant. */
+typedef struct plant_state {
+    double w;    /* velocity (rad/s) */
+    double s;    /* the model's internal state: friction torque f (N*m) of the lagged models, LuGre bristle
+                    deflection z (rad) */
+    double aux;  /* == p->key: s is F(w) of these parameters with tau == 0 (eq. 3 cache: the next step reuses it;
+                    a swapped parameter struct invalidates it by the key); after a stiff step
+                    (plant_lagged_stiff_step, plant_lugre_stiff_step) its last sub-step (s); any other value
+                    (NaN) means neither */
+} plant_state;
+
+/* The friction map the RK4 stages evaluate at velocity w (rad/s), N*m. Lagged models: Fs_stick*sgn inside the
+ * Karnopp band |w| < dv, else eq. 3 with the levels of the direction of w (NaN for NaN w). LuGre: the Stribeck
+ * level g(w) = Fc + (Fs - Fc)*exp(-|w/Vs|^delta), its limit at w == 0. sgn: Karnopp breakaway direction (sgn(u))
+ * when the step started in the stick band, else 0. Source: eq. 3 (plant_stribeck_eval); Karnopp (1985);
+ * Canudas de Wit et al. (1995). Python: plant.rows.plant_target. */
+double plant_target(const plant_params *p, double w, double sgn);
+
+/* State of steady motion at velocity w0 (rad/s) into *s: w = w0; s = F(w0) (lagged models, eq. 3 with the
+ * levels of the direction of w0; 0 at rest) or the LuGre deflection sgn(w0)*g(w0)/sigma0 (0 at rest);
+ * aux = p->key where tau == 0 (lagged), else NaN. Python: plant.rows.plant_state. */
+void plant_steady_state(const plant_params *p, double w0, plant_state *s);
+
+/* plant_steady_state of n plants: out[b] for p[b], b < n (arrays of n structs). Python: plant.rows.plant_states. */
+void plant_steady_states(const plant_params *p, long n, double w0, plant_state *out);
+
+/* 1 where the plant can be integrated over steps of dt (s): LuGre: sqrt(sigma0/J)*dt <= PLANT_LUGRE_STIFF_MAX
+ * (the pre-sliding frequency, Canudas de Wit et al. 1995); lagged models: J finite and > 0, tau finite and >= 0,
+ * the levels (Fc, Fs - Fc, sigma per direction), Vs, delta, Fs_stick, dv finite. Else 0. Python:
+ * plant.rows.check_integrable / integrable_rows. */
+int plant_integrable(const plant_params *p, double dt);
+
+/* ok[b] = plant_integrable(&p[b], dt) for b < n. */
+void plant_integrable_array(const plant_params *p, long n, double dt, int *ok);
+
+/* Largest pre-sliding frequency times step of a LuGre plant accepted by plant_integrable. */
+#define PLANT_LUGRE_STIFF_MAX 1e4
+
+#endif
