@@ -8,13 +8,15 @@ with the package's (the same log through the package's compensator, built from t
 feedforward the closed loop applied). Double: equal within 1e-12 of ``max|u_ff|``. Float (``-DAFF_FLOAT``):
 the deviation is measured and printed; it must stay within 1 % of the friction level ``Fc`` except where a
 threshold decision falls on the neighbouring period (docs/benchmarks/export_c.md). Also: ``AFF_INITIAL`` is the
-package's struct byte for byte, the library references nothing but ``<math.h>`` functions and ``memmove``/``memset``/``memcpy``, ``make`` builds and runs
-the example in both precisions, a sanitizer build replays cleanly, and the command's errors.
+package's struct byte for byte, the library references nothing but ``<math.h>`` functions and
+``memmove``/``memset``/``memcpy``, ``make`` builds and runs the example in both precisions, a sanitizer build
+replays cleanly, and the command's errors.
 """
 
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -24,12 +26,10 @@ import numpy as np
 import pytest
 
 from controllers.cli.main import main
-
-CC = shutil.which("cc") or shutil.which("gcc")
-
 from export_c_helpers import (DUMP_C, ID_JSON, IDENTIFIED, N, REPLAY_C, U_MAX, WARN, closed_loop_log, compile_export,
                               deviation)
 
+CC = shutil.which("cc") or shutil.which("gcc")
 needs_cc = pytest.mark.skipif(CC is None, reason="no C compiler (cc or gcc) on PATH")
 
 
@@ -90,7 +90,7 @@ def log_file(tmp_path_factory, log) -> Path:
 
 
 def _replay(exported: Path, log_file: Path, tmp: Path, *flags: str, n: int | None = None) -> tuple:
-    exe = _compile(exported, REPLAY_C, tmp / ("replay" + "".join(f.replace("-", "_") for f in flags)), *flags)
+    exe = _compile(exported, REPLAY_C, tmp / ("replay" + re.sub(r"\W", "_", "".join(flags))), *flags)
     out = tmp / (exe.name + ".out")
     r = subprocess.run([str(exe), str(log_file), str(out)] + ([str(n)] if n else []), capture_output=True,
                        text=True, timeout=120)
@@ -213,6 +213,7 @@ def test_exported_files_and_configuration(exported, package):
     order = [line.split()[2] for line in h.splitlines() if line.startswith("/* ==== ")]
     assert order[0] == "aff_real.h" and order[-1] == "aff_drive.h" and len(order) == len(set(order))
     assert order.index("aff_rls.h") < order.index("aff_sliding.h") < order.index("aff_robust_ff.h")
+    assert "aff_eq4_ff.h" not in order and "aff_online_ukf.h" not in order  # not reached from aff_drive.h
 
 
 def test_json_output_lists_the_files(id_file, tmp_path, capsys):
@@ -225,6 +226,33 @@ def test_json_output_lists_the_files(id_file, tmp_path, capsys):
     assert d["config"]["AFF_KP"] == 50.0 and d["config"]["AFF_START_FC"] == IDENTIFIED["Fc"]
     assert d["float_default"] and "FLOAT ?= 1" in (out / "Makefile").read_text()
     assert "aff_drive.c" in d["sources"] and "aff_robust_ff.c" in d["sources"]
+
+
+def test_python_api_refuses_other_compensators_and_bad_numbers(package, tmp_path):
+    from adaptive_ff.compensation.export_c import export_c
+    from adaptive_ff.compensation.feedforward import FrictionFeedforward
+    from plant.errors import ParameterError
+
+    comp, s = package()
+    kw = {"J_design": s["J_design"], "u_max": U_MAX, "Kp": s["Kp"], "Ki": s["Ki"]}
+    with pytest.raises(ParameterError, match="must be a RobustAdaptiveFeedforward"):
+        export_c(FrictionFeedforward(None, dt=1e-3), tmp_path / "a", **kw)
+    with pytest.raises(ParameterError, match="u_max must be a finite number > 0, got inf"):
+        export_c(comp, tmp_path / "b", **{**kw, "u_max": float("inf")})
+    with pytest.raises(ParameterError, match="joint: unknown key 'Fv'"):
+        export_c(comp, tmp_path / "c", joint={"Fv": 1.0}, **kw)
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(ParameterError, match="an existing file, not a directory"):
+        export_c(comp, tmp_path / "file", **kw)
+    res = export_c(comp, tmp_path / "d", **kw)
+    assert res.to_dict()["files"] == [str(tmp_path / "d" / f) for f in ("aff.h", "aff.c", "aff_config.h",
+                                                                         "aff_config.c", "example_loop.c",
+                                                                         "Makefile")]
+    assert "make -C" in res.summary() and "AFF_VS" in res.summary()
+    from controllers.cli.export_c import compensator_from_file
+
+    with pytest.raises(ParameterError, match=r"unknown option\(s\) \['turbo'\]"):
+        compensator_from_file(tmp_path / "id.json", u_max=U_MAX, turbo=True)
 
 
 def _err(capsys) -> str:

@@ -107,6 +107,8 @@ def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: fl
     FileNotFoundError
         No such file.
     """
+    from dataclasses import fields
+
     from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
     from adaptive_ff.identification.regression import FrictionEstimate
     from controllers.cli.design import plant_from_file
@@ -114,6 +116,10 @@ def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: fl
     from controllers.simulation.compensators import ModeOptions, build_mode
     from plant.errors import ParameterError
 
+    known = {f.name for f in fields(ModeOptions)} - {"Kp", "Ki", "u_max", "start", "initial"}
+    unknown = sorted(set(options) - known)
+    if unknown:
+        raise ParameterError(f"unknown option(s) {unknown}; allowed: the fields of ModeOptions {sorted(known)}")
     top, params = _identified(path)
     Vs = options.pop("Vs", None)
     delta = options.pop("delta", None)
