@@ -353,7 +353,7 @@ def _config_header(config: dict, source: str, ctype: str) -> str:
         unit, what = _MACRO_DOC[k]
         lines += ["", f"/* {what[0].upper() + what[1:]} ({unit}). */", f"#define {k} {c_literal(v)}"]
     lines += ["",
-              f"/* The configured compensator with its initial state (aff_config.c): aff_init(&c, &AFF_INITIAL). */",
+              "/* The configured compensator with its initial state (aff_config.c): aff_init(&c, &AFF_INITIAL). */",
               f"extern const {ctype} AFF_INITIAL;", "", "#endif", ""]
     return "\n".join(lines)
 
