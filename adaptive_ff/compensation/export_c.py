@@ -19,7 +19,9 @@ file                content
                     the single-precision build (``-DAFF_FLOAT``, ``plant/csrc/aff_real.h``)
 ==================  ===================================================================================
 
-The library uses ``<math.h>`` only: no ``malloc``, no I/O, no global state, bounded work per call. The
+The library uses ``<math.h>`` (and ``<string.h>``: the compiler's ``memmove`` for struct copies) and nothing
+else: no ``malloc``, no I/O, no global state, bounded work per call. A ``static`` helper that two sources
+both define (``min2``) is prefixed by its file's stem in ``aff.c``, the one scope they share there. The
 compensator's derived fields (filter coefficients, forgetting factors, bounds) are computed here by the Python
 constructors, which validate the hyperparameters, and written as numbers into ``aff_config.c``; a changed
 macro of ``aff_config.h`` therefore needs a new export. The files to ship are found by following the
@@ -36,7 +38,8 @@ from pathlib import Path
 
 from plant.errors import ParameterError
 
-__all__ = ["export_c", "CExport", "c_closure", "struct_initializer", "EXPORT_FILES"]
+__all__ = ["export_c", "CExport", "c_closure", "amalgamate", "struct_initializer", "c_literal", "EXPORT_FILES",
+           "CSRC_DIRS", "ROOT_HEADER"]
 
 #: The folders the compensator's C sources live in, searched in this order for a quoted ``#include``.
 CSRC_DIRS = (Path(__file__).resolve().parents[1] / "csrc", Path(__file__).resolve().parents[2] / "plant" / "csrc")
