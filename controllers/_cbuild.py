@@ -19,6 +19,7 @@ HEADERS = [
     "ctl_dob.h",
     "ctl_canudas.h",
     "ctl_adob.h",
+    "ctl_quasi_static.h",
     "ctl_engine.h",
 ]
 

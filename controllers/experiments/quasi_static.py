@@ -16,12 +16,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from adaptive_ff.identification.stribeck_fit import fit_stribeck
-from controllers.design.pi import PIController, PIDesign, design_pi, pi_step
+from controllers._cctl import ffi, lib
+from controllers.design.pi import PIController, PIDesign, design_pi
 from plant.errors import ExcitationError, ParameterError, SignalError, check_nonnegative, check_positive, check_signal
 from plant.friction import JointParams
-from plant.dynamics import PLANT_NSTATE, plant_params, plant_step
-from plant.jit import kernel
 from plant.results import axes_or_new, json_safe
+from plant.rows import plant_params
 
 __all__ = ["QuasiStaticData", "quasi_static_runs", "bidirectional_velocities", "QS_CROSSOVER", "StribeckDesign",
            "StribeckExperiment", "stribeck_experiment", "prefit_stribeck"]
@@ -151,29 +151,6 @@ def bidirectional_velocities(w_min: float, w_max: float, n: int) -> np.ndarray:
     return np.concatenate([-s[::-1], s])
 
 
-@kernel
-def _one_run(pi_par, pi_st, par, st, wr, noise, n_settle, W, U, dt):
-    """One run from rest to ``wr``: settle, then record measured velocity ``W`` and torque ``U`` (filled in place).
-
-    The PI step (:func:`controllers.design.pi.pi_step`, its state reset by the caller) and the plant step
-    (:func:`plant.dynamics.plant_step`, each step started without the eq. 3 cache, as
-    :func:`plant.dynamics.make_plant_step` does) composed in one compiled loop over ``noise`` (shape
-    ``(n_settle + W.shape[0],)``, rad/s).
-    """
-    w, f = 0.0, 0.0
-    for k in range(n_settle + W.shape[0]):
-        wm = w + noise[k]
-        u = pi_step(pi_par, pi_st, wr - wm, 0.0)
-        if k >= n_settle:
-            W[k - n_settle] = wm
-            U[k - n_settle] = u
-        st[0] = w
-        st[1] = f
-        st[2] = math.nan
-        plant_step(par, st, u, dt)
-        w, f = st[0], st[1]
-
-
 def quasi_static_runs(
     p: JointParams,
     velocities,
@@ -233,8 +210,9 @@ def quasi_static_runs(
     Each run starts at rest (``w = f = 0``, integrator 0) with a step to its
     setpoint. At sample ``k`` the controller reads ``w_k`` (+ noise) and its
     command is held over ``[t_k, t_k + Tc)`` for the RK4 plant
-    (:func:`plant.joint.make_rk4_step`). Noise-free and settled, ``u = F(w)``
-    of eq. 3 to rounding.
+    (:func:`plant.joint.make_rk4_step`); the loop is C
+    (``controllers/csrc/ctl_quasi_static.c``, ``ctl_quasi_static_run``: ``ctl_pi_step`` and
+    ``plant_step``). Noise-free and settled, ``u = F(w)`` of eq. 3 to rounding.
 
     Breakaway: from rest the joint creeps and chatters around ``w = 0`` until
     the integrator has built up about ``Fs``; with the error about ``|w_ref|``
@@ -282,17 +260,19 @@ def quasi_static_runs(
     ctrl = PIController.from_design(design, u_max=u_max)
     if noise_std > 0.0 and rng is None:
         rng = np.random.default_rng()
-    par, st = plant_params(p), np.empty(PLANT_NSTATE)  # the plant step of p.make_step(Tc)
+    par = plant_params(p)  # the plant step of p.make_step(Tc)
     n_tot = n_settle + n_hold
 
     n = v.shape[0]
     w_mean, w_std, u_mean, u_std = (np.empty(n) for _ in range(4))
     W = np.empty(n_hold)
     U = np.empty(n_hold)
+    Wp, Up = ffi.from_buffer("double[]", W), ffi.from_buffer("double[]", U)
     for j, wr in enumerate(v.tolist()):
         noise = noise_std * rng.standard_normal(n_tot) if noise_std > 0.0 else np.zeros(n_tot)
         ctrl.reset()
-        _one_run(ctrl.params, ctrl.state, par, st, float(wr), noise, n_settle, W, U, float(Tc))
+        lib.ctl_quasi_static_run(ctrl.cdata, par, float(wr), ffi.from_buffer("double[]", noise), n_settle, n_hold,
+                                 Wp, Up, float(Tc))
         w_mean[j], w_std[j] = W.mean(), W.std()
         u_mean[j], u_std[j] = U.mean(), U.std()
     return QuasiStaticData(setpoints=v.copy(), w_mean=w_mean, w_std=w_std, u_mean=u_mean,
