@@ -26,6 +26,7 @@ HEADERS = [
     "aff_stribeck_fit.h",
     "aff_simulator.h",
     "aff_online_ukf.h",
+    "aff_drive.h",
 ]
 
 

@@ -8,6 +8,7 @@ stribeck       fit the Stribeck curve (Vs, delta) from quasi-static data, Fig. 8
 design         discrete PI velocity controller: gains, margins, Bode, step
 paper-figures  regenerate the paper's Figs. 4, 5, 8-12 from simulation
 sweep     grid / Monte-Carlo study over plants, gains, modes and seeds (resumable; local cores or Dask)
+export-c  the adaptive feedforward as a C library for a drive (C99, <math.h> only)
 """
 
 from __future__ import annotations
@@ -32,13 +33,14 @@ def build_parser() -> argparse.ArgumentParser:
     """The ``adaptive-ff`` argument parser; each subcommand lives in its own module of :mod:`controllers.cli`."""
     from controllers.cli import compare as cli_compare, design as cli_design, identify as cli_identify
     from controllers.cli import paper_figures as cli_paper_figures, stribeck as cli_stribeck, sweep as cli_sweep
+    from controllers.cli import export_c as cli_export_c
 
     ap = argparse.ArgumentParser(prog="adaptive-ff", description=(
         "Identify sliding dynamic friction (Ruderman's discrete-time model: LS, RLS) and compare "
         "friction compensation modes in a PI velocity loop."))
     ap.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = ap.add_subparsers(dest="command", required=True)
-    for module in (cli_compare, cli_identify, cli_stribeck, cli_design, cli_paper_figures, cli_sweep):
+    for module in (cli_compare, cli_identify, cli_stribeck, cli_design, cli_paper_figures, cli_sweep, cli_export_c):
         module.register(sub)
     return ap
 

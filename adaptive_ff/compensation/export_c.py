@@ -1,0 +1,641 @@
+"""The adaptive feedforward as a drop-in C library for a drive: :func:`export_c` (``adaptive-ff export-c``).
+
+The exported folder holds the package's own C code of the compensator, the same functions the Python
+classes call, so a drive runs the compensator that was simulated:
+
+==================  ===================================================================================
+file                content
+==================  ===================================================================================
+``aff.h``           the API: ``aff_real.h``, ``plant_stribeck.h``, the ``aff_*.h`` headers the compensator
+                    needs and ``aff_drive.h`` (``aff_init``, ``aff_step``, ``aff_observe``), concatenated
+                    (an amalgamation, as SQLite ships; local ``#include`` lines removed, guards kept)
+``aff.c``           the matching ``.c`` files, in dependency order
+``aff_config.h``    the settings of this export as documented macros (``AFF_TC``, ``AFF_VS``, ...) and
+                    ``extern const aff_robust_ff AFF_INITIAL``
+``aff_config.c``    ``AFF_INITIAL``: every field of the configured compensator, a C99 designated initializer
+``example_loop.c``  a 1 kHz velocity loop: read the velocity, ``aff_step``, a PI, write the torque,
+                    ``aff_observe`` (stub I/O to replace)
+``Makefile``        ``make``: ``libaff.a`` and the example (``$(CC) -std=c99``, ``-lm``); ``make FLOAT=1``:
+                    the single-precision build (``-DAFF_FLOAT``, ``plant/csrc/aff_real.h``)
+==================  ===================================================================================
+
+The library uses ``<math.h>`` (and ``<string.h>``: the compiler's ``memmove`` for struct copies) and nothing
+else: no ``malloc``, no I/O, no global state, bounded work per call. A ``static`` helper that two sources
+both define (``min2``) is prefixed by its file's stem in ``aff.c``, the one scope they share there. The
+compensator's derived fields (filter coefficients, forgetting factors, bounds) are computed here by the Python
+constructors, which validate the hyperparameters, and written as numbers into ``aff_config.c``; a changed
+macro of ``aff_config.h`` therefore needs a new export. The files to ship are found by following the
+``#include`` lines from ``adaptive_ff/csrc/aff_drive.h`` (:func:`c_closure`), not from a list.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import struct
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from plant.errors import ParameterError
+
+__all__ = ["export_c", "CExport", "c_closure", "amalgamate", "struct_initializer", "c_literal", "EXPORT_FILES",
+           "CSRC_DIRS", "ROOT_HEADER"]
+
+#: The folders the compensator's C sources live in, searched in this order for a quoted ``#include``.
+CSRC_DIRS = (Path(__file__).resolve().parents[1] / "csrc", Path(__file__).resolve().parents[2] / "plant" / "csrc")
+
+#: The header the exported API starts from.
+ROOT_HEADER = "aff_drive.h"
+
+#: The files an export writes, in the order :attr:`CExport.files` lists them.
+EXPORT_FILES = ("aff.h", "aff.c", "aff_config.h", "aff_config.c", "example_loop.c", "Makefile")
+
+_LOCAL_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$', re.MULTILINE)
+
+#: Macros of aff_config.h and the struct fields that take their value (a field of that name whose initial value
+#: equals the macro's is written as the macro in aff_config.c).
+_MACRO_FIELDS = {
+    "AFF_TC": ("dt", "Tc"),
+    "AFF_TS": ("Ts",),
+    "AFF_VS": ("Vs",),
+    "AFF_DELTA": ("delta",),
+    "AFF_FF_MAX": ("ff_max",),
+    "AFF_KP": ("Kp",),
+}
+
+
+def _find_header(name: str, dirs) -> Path:
+    for d in dirs:
+        if (d / name).is_file():
+            return d / name
+    raise FileNotFoundError(f"C header {name!r} not found in {', '.join(str(d) for d in dirs)}")
+
+
+def c_closure(root: str = ROOT_HEADER, dirs=CSRC_DIRS) -> tuple[list[Path], list[Path]]:
+    """The headers and sources a C API needs, found by following its quoted ``#include`` lines.
+
+    Starting from the header ``root``, every ``#include "x.h"`` of a header, and of the ``.c`` file beside a
+    header (same stem, same folder), is followed; system includes (``<math.h>``) are not.
+
+    Parameters
+    ----------
+    root : str
+        File name of the API's header (default ``aff_drive.h``).
+    dirs : sequence of Path
+        Folders searched for a quoted include, in order (default: ``adaptive_ff/csrc``, ``plant/csrc``).
+
+    Returns
+    -------
+    headers : list of Path
+        Every header reached, each after the headers it includes (dependency order).
+    sources : list of Path
+        The ``.c`` files beside those headers, in the same order.
+
+    Raises
+    ------
+    FileNotFoundError
+        A quoted include names no file of ``dirs``.
+    ParameterError
+        The includes form a cycle.
+    """
+    dirs = [Path(d) for d in dirs]
+    order: list[Path] = []
+    state: dict[Path, int] = {}  # 1 visiting, 2 done
+
+    def visit(h: Path, chain: tuple) -> None:
+        if state.get(h) == 2:
+            return
+        if state.get(h) == 1:
+            raise ParameterError("C include cycle: " + " -> ".join(p.name for p in chain + (h,)))
+        state[h] = 1
+        texts = [h.read_text()]
+        c = h.with_suffix(".c")
+        if c.is_file():
+            texts.append(c.read_text())
+        for text in texts:
+            for name in _LOCAL_INCLUDE.findall(text):
+                dep = _find_header(name, [h.parent] + dirs)
+                if dep != h:
+                    visit(dep, chain + (h,))
+        state[h] = 2
+        order.append(h)
+
+    visit(_find_header(root, dirs), ())
+    return order, [h.with_suffix(".c") for h in order if h.with_suffix(".c").is_file()]
+
+
+def _strip_local_includes(text: str) -> str:
+    return _LOCAL_INCLUDE.sub("", text).strip("\n") + "\n"
+
+
+def _banner(name: str, what: str, source: str) -> str:
+    return (f"/* {name} -- {what}\n *\n * Written by `adaptive-ff export-c` (adaptive_ff.compensation.export_c) "
+            f"from the\n * C sources of the adaptive-ff package{source}; do not edit: export again.\n */\n")
+
+
+_STATIC = re.compile(r"^static\b([^;=(\[{]*?)\b([A-Za-z_]\w*)\s*[(=\[;]", re.MULTILINE)
+
+
+def _static_names(text: str) -> set:
+    """The file-scope ``static`` functions and variables defined or declared in a C source."""
+    return {m.group(2) for m in _STATIC.finditer(text)}
+
+
+def _unique_statics(texts: dict) -> dict:
+    """The sources with every ``static`` name that more than one of them defines prefixed by its file's stem.
+
+    A ``static`` name is private to its file; in one amalgamated file two files' ``min2`` would collide.
+    ``texts``: file name -> text. Only whole identifiers are renamed (comments included, harmlessly).
+    """
+    seen: dict = {}
+    for name, text in texts.items():
+        for ident in _static_names(text):
+            seen.setdefault(ident, []).append(name)
+    out = {}
+    for name, text in texts.items():
+        stem = Path(name).stem
+        for ident in sorted(_static_names(text)):
+            if len(seen[ident]) > 1:
+                text = re.sub(rf"\b{ident}\b", f"{stem}_{ident}", text)
+        out[name] = text
+    return out
+
+
+def amalgamate(headers, sources, origin: str = "") -> tuple[str, str]:
+    """The text of ``aff.h`` and ``aff.c``: the files concatenated, their quoted includes removed.
+
+    A ``static`` name defined by more than one source is prefixed by its file's stem in that file
+    (``min2`` of ``aff_feedforward.c`` becomes ``aff_feedforward_min2``): one file has one scope.
+
+    Parameters
+    ----------
+    headers, sources : list of Path
+        From :func:`c_closure`.
+    origin : str
+        Appended to the banner (e.g. ``" (version 0.1.0)"``).
+
+    Returns
+    -------
+    (str, str)
+        The header and the source text.
+    """
+    h = [_banner("aff.h", "the adaptive friction feedforward's C API (one header).", origin)]
+    for p in headers:
+        h.append(f"\n/* ==== {p.name} ==== */\n" + _strip_local_includes(p.read_text()))
+    c = [_banner("aff.c", "the adaptive friction feedforward's C implementation (one file).", origin),
+         '#include "aff.h"\n']
+    texts = _unique_statics({p.name: _strip_local_includes(p.read_text()) for p in sources})
+    for p in sources:
+        c.append(f"\n/* ==== {p.name} ==== */\n" + texts[p.name])
+    return "".join(h), "".join(c)
+
+
+def c_literal(x) -> str:
+    """A C99 literal of the Python number ``x``: ints as they are, floats with the shortest round-trip digits
+    (``repr``, at most 17 significant digits, so the C ``double`` is the same number), ``INFINITY``/``NAN``."""
+    if isinstance(x, bool):
+        return str(int(x))
+    if isinstance(x, int):
+        return str(x)
+    x = float(x)
+    if math.isnan(x):
+        return "NAN"
+    if math.isinf(x):
+        return "INFINITY" if x > 0 else "-INFINITY"
+    s = repr(x)
+    return s if ("." in s or "e" in s or "n" in s) else s + ".0"
+
+
+_FLT_MAX = struct.unpack("<f", b"\xff\xff\x7f\x7f")[0]
+
+
+def struct_initializer(ffi, value, ctype, *, macros=None, indent: str = "    ", path: str = "",
+                       too_large_for_float: list | None = None) -> str:
+    """A C99 designated initializer of every field of the struct ``value`` (a cffi struct object).
+
+    Parameters
+    ----------
+    ffi : cffi.FFI
+        The FFI that declares the struct.
+    value : cffi cdata
+        The struct (``ptr[0]``).
+    ctype : cffi CType
+        Its type (``ffi.typeof(ptr).item``).
+    macros : dict, keyword-only
+        ``{macro name: (value, field names)}``: a scalar field whose name is among the field names and whose
+        value equals the macro's is written as the macro.
+    indent : str, keyword-only
+        Indentation of the fields.
+    path : str, keyword-only
+        Dotted field path of ``value`` (for messages).
+    too_large_for_float : list, keyword-only
+        Receives the dotted names of finite fields beyond the float range (a float build would overflow them).
+
+    Returns
+    -------
+    str
+        ``{\\n    .a = 1.0,\\n    .b = {...},\\n}`` (no trailing semicolon).
+
+    Raises
+    ------
+    ParameterError
+        A field is a pointer (a struct of the C core holds values only).
+    """
+    macros = macros or {}
+    lines = ["{"]
+    for name, f in ctype.fields:
+        here = f"{path}.{name}" if path else name
+        lines.append(f"{indent}.{name} = " + _initializer(ffi, getattr(value, name), f.type, name, here, macros,
+                                                          indent, too_large_for_float) + ",")
+    lines.append(indent[:-4] + "}")
+    return "\n".join(lines)
+
+
+def _initializer(ffi, v, t, name, here, macros, indent, big) -> str:
+    if t.kind == "struct":
+        return struct_initializer(ffi, v, t, macros=macros, indent=indent + "    ", path=here,
+                                  too_large_for_float=big)
+    if t.kind == "array":
+        items = [_initializer(ffi, v[i], t.item, name, f"{here}[{i}]", {}, indent + "    ", big)
+                 for i in range(t.length)]
+        rows = [", ".join(items[i:i + 6]) for i in range(0, len(items), 6)]
+        if len(rows) <= 1:
+            return "{" + (rows[0] if rows else "") + "}"
+        inner = indent + "    "
+        return "{\n" + ",\n".join(inner + r for r in rows) + "\n" + indent + "}"
+    if t.kind in ("primitive", "enum"):
+        if t.kind == "primitive" and t.cname in ("float", "double", "long double"):
+            x = float(v)
+            if big is not None and math.isfinite(x) and abs(x) > _FLT_MAX:
+                big.append(here)
+            for macro, (mv, names) in macros.items():
+                if name in names and isinstance(mv, float) and (x == mv or (math.isnan(x) and math.isnan(mv))):
+                    return macro
+            return c_literal(x)
+        return str(int(v))
+    raise ParameterError(f"field {here} of type {t.cname} cannot be exported (a C-core struct holds values only)")
+
+
+@dataclass(frozen=True)
+class CExport:
+    """What :func:`export_c` wrote.
+
+    Attributes
+    ----------
+    out : Path
+        The folder.
+    files : tuple of Path
+        The files written (:data:`EXPORT_FILES`, in that order).
+    config : dict
+        The macros of ``aff_config.h``: name -> value (SI units, see the header's comments).
+    headers, sources : tuple of str
+        The package's C files in ``aff.h`` and ``aff.c``, in their order there.
+    float_default : bool
+        Whether ``make`` builds the single-precision variant by default.
+    notes : tuple of str
+        Caveats (e.g. values that a float build cannot represent).
+    """
+
+    out: Path
+    files: tuple
+    config: dict
+    headers: tuple
+    sources: tuple
+    float_default: bool = False
+    notes: tuple = field(default_factory=tuple)
+
+    def to_dict(self) -> dict:
+        """Strict-JSON dict: ``out, files, config, headers, sources, float_default, notes`` (inf as None)."""
+        from plant.results import json_safe
+
+        return json_safe({"out": str(self.out), "files": [str(p) for p in self.files], "config": dict(self.config),
+                          "headers": list(self.headers), "sources": list(self.sources),
+                          "float_default": self.float_default, "notes": list(self.notes)})
+
+    def summary(self) -> str:
+        """A few lines: the folder, the files, the configuration and how to build."""
+        lines = [f"C library of the adaptive feedforward written to {self.out}"]
+        lines += [f"  {p.name}" for p in self.files]
+        lines.append("configuration (aff_config.h):")
+        lines += [f"  {k:<16}{v:.6g}" for k, v in self.config.items()]
+        lines.append(f"from {len(self.headers)} headers and {len(self.sources)} sources of the package: "
+                     + ", ".join(self.sources))
+        lines.append(f"build: make -C {self.out}" + (" (single precision: AFF_FLOAT)" if self.float_default else
+                                                    f"; single precision: make -C {self.out} FLOAT=1"))
+        lines += [f"note: {n}" for n in self.notes]
+        return "\n".join(lines)
+
+
+# ------------------------------------------------------------------------------------------------------- the files
+#: Documentation of each macro of aff_config.h: (unit, meaning).
+_MACRO_DOC = {
+    "AFF_TC": ("s", "controller period: call aff_step and aff_observe once per AFF_TC"),
+    "AFF_TS": ("s", "update period of the estimator's RLS, a multiple of AFF_TC"),
+    "AFF_VS": ("rad/s", "Stribeck velocity Vs of eq. 3 (the identification's, fixed)"),
+    "AFF_DELTA": ("1", "Stribeck shape factor delta of eq. 3 (the identification's, fixed)"),
+    "AFF_J_DESIGN": ("kg*m^2", "design inertia: the estimator's start and its velocity gate"),
+    "AFF_U_MAX": ("N*m", "the drive's torque limit (the example's saturation; the velocity gate's bound)"),
+    "AFF_FF_MAX": ("N*m", "bound on |feedforward|; estimates with Fc or Fs above it are not used"),
+    "AFF_KP": ("N*m*s/rad", "proportional gain of the example loop's PI"),
+    "AFF_KI": ("N*m/rad", "integral gain of the example loop's PI"),
+    "AFF_START_FC": ("N*m", "Coulomb level Fc of the provisional start map (acts until the first trusted estimate)"),
+    "AFF_START_FS": ("N*m", "static level Fs of the provisional start map"),
+    "AFF_START_SIGMA": ("N*m*s/rad", "viscous coefficient sigma of the provisional start map"),
+    "AFF_START_TAU": ("s", "lag tau of the provisional start map (eq. 1)"),
+}
+_START_FIELDS = {"AFF_START_FC": ("Fc",), "AFF_START_FS": ("Fs",), "AFF_START_SIGMA": ("sigma",),
+                 "AFF_START_TAU": ("tau",)}
+
+
+def _config_header(config: dict, source: str, ctype: str) -> str:
+    lines = [_banner("aff_config.h", "the settings of this export and the compensator's initial struct.", source),
+             "#ifndef AFF_CONFIG_H", "#define AFF_CONFIG_H", '#include "aff.h"', "",
+             "/* SI units; the values the compensator in aff_config.c was configured with. Changing one here",
+             " * does not reconfigure it (its derived fields were computed by the export): export again. */"]
+    for k, v in config.items():
+        unit, what = _MACRO_DOC[k]
+        lines += ["", f"/* {what[0].upper() + what[1:]} ({unit}). */", f"#define {k} {c_literal(v)}"]
+    lines += ["",
+              "/* The configured compensator with its initial state (aff_config.c): aff_init(&c, &AFF_INITIAL). */",
+              f"extern const {ctype} AFF_INITIAL;", "", "#endif", ""]
+    return "\n".join(lines)
+
+
+def _config_source(init: str, source: str, ctype: str, big: list) -> str:
+    guard = ""
+    if big:
+        guard = ("#ifdef AFF_FLOAT\n#error \"fields beyond the float range (" + ", ".join(big[:4])
+                 + "): this export cannot be built with AFF_FLOAT\"\n#endif\n\n")
+    return (_banner("aff_config.c", "AFF_INITIAL, the compensator as configured by the export.", source)
+            + '#include "aff_config.h"\n\n' + guard
+            + f"/* Every field of {ctype}: its configuration and its initial (cleared) state, as the package's\n"
+              " * Python constructors computed them from validated settings. Fields written with a macro of\n"
+              " * aff_config.h take that setting as it is; the derived fields (filter coefficients, forgetting\n"
+              " * factors, bounds, ...) are numbers computed from the settings by the export: a changed macro\n"
+              " * needs a new export (adaptive-ff export-c). Numbers have 17 significant digits at most\n"
+              " * (the shortest that give back the same double). */\n"
+            + f"const {ctype} AFF_INITIAL = {init};\n")
+
+
+_EXAMPLE = r"""/* example_loop.c -- the adaptive friction feedforward in a 1 kHz velocity loop.
+ *
+ * Written by `adaptive-ff export-c`; yours to change. Per period AFF_TC, in this order:
+ *   w    = read_velocity();               the measured velocity (rad/s), raw: NaN or a spike is gated
+ *   u_ff = aff_step(&comp, w, w_ref);     the feedforward torque of this period (N*m), 0 until switch-on
+ *   u    = your PI on w_ref - w, plus u_ff, saturated to the drive's limit
+ *   write_torque(u);                      the torque applied in this period (N*m)
+ *   aff_observe(&comp, u, w);             learn from the applied torque and the measured velocity
+ * read_velocity, write_torque and reference below are stubs: a rigid joint of the design inertia with the
+ * friction map of eq. 3 (EXAMPLE_* below) integrated by explicit Euler, for a dry run on a PC
+ * (`make run`). Replace them by your drive's I/O and trajectory; keep the order of the calls.
+ */
+#include <stdio.h>
+
+#include "aff_config.h"
+
+/* The stub joint's friction (eq. 3; N*m, N*m*s/rad). */
+#define EXAMPLE_FC @FC@
+#define EXAMPLE_FS @FS@
+#define EXAMPLE_SIGMA @SIGMA@
+/* Length of the dry run (s) and amplitude (rad/s) and frequency (Hz) of its sine reference. */
+#define EXAMPLE_SECONDS 60.0
+#define EXAMPLE_AMPLITUDE @AMP@
+#define EXAMPLE_HZ 0.2
+
+static double joint_w; /* the stub joint's velocity (rad/s) */
+
+static aff_real read_velocity(void)
+{
+    return (aff_real)joint_w;
+}
+
+static void write_torque(aff_real u)
+{
+    static const plant_stribeck friction = {
+        (aff_real)EXAMPLE_FC, (aff_real)(EXAMPLE_FS - EXAMPLE_FC), (aff_real)AFF_VS, (aff_real)AFF_DELTA,
+        (aff_real)EXAMPLE_SIGMA, (aff_real)INFINITY};
+    double ud = (double)u;
+    if (joint_w == 0.0) { /* at rest: static friction holds the joint up to EXAMPLE_FS */
+        if (fabs(ud) > EXAMPLE_FS)
+            joint_w = AFF_TC * (ud - (ud > 0.0 ? EXAMPLE_FS : -EXAMPLE_FS)) / AFF_J_DESIGN;
+        return;
+    }
+    double f = (double)plant_stribeck_eval(&friction, (aff_real)joint_w);
+    double w_next = joint_w + AFF_TC * (ud - f) / AFF_J_DESIGN;
+    joint_w = w_next * joint_w < 0.0 ? 0.0 : w_next; /* friction stops the joint; it does not reverse it */
+}
+
+static aff_real reference(long k)
+{
+    return (aff_real)(EXAMPLE_AMPLITUDE * sin(2.0 * 3.14159265358979323846 * EXAMPLE_HZ * AFF_TC * (double)k));
+}
+
+/* A discrete PI C(z) = Kp + Ki*Tc*z/(z-1) with the feedforward added, saturated to +-AFF_U_MAX, and
+ * conditional integration (no integration past the limit: Astrom & Hagglund, Advanced PID Control, 2006). */
+typedef struct pi { aff_real I; } pi;
+
+static aff_real pi_step(pi *p, aff_real e, aff_real u_ff)
+{
+    const aff_real umax = (aff_real)AFF_U_MAX;
+    aff_real In = p->I + (aff_real)(AFF_KI * AFF_TC) * e;
+    aff_real v = (aff_real)AFF_KP * e + In + u_ff;
+    if (v > umax || v < -umax) /* saturated: hold the integrator */
+        return v > umax ? umax : -umax;
+    p->I = In;
+    return v;
+}
+
+int main(void)
+{
+    static aff comp; /* the compensator's state (a few kB): static, not on a small stack */
+    pi ctl = {0};
+    long n = (long)(EXAMPLE_SECONDS / AFF_TC + 0.5);
+    aff_init(&comp, &AFF_INITIAL);
+    for (long k = 0; k < n; k++) { /* in a drive: the body of the AFF_TC task */
+        aff_real w_ref = reference(k);
+        aff_real w = read_velocity();
+        aff_real u_ff = aff_step(&comp, w, w_ref);
+        aff_real u = pi_step(&ctl, w_ref - w, u_ff);
+        write_torque(u);
+        aff_observe(&comp, u, w);
+    }
+    printf("after %g s: feedforward %s, %ld estimator updates, %ld samples rejected\n", EXAMPLE_SECONDS,
+           aff_active(&comp) ? "on" : "off", aff_n_updates(&comp), aff_n_rejected(&comp));
+    {
+        aff_real Fc, Fs, sigma, tau;
+        if (aff_estimate(&comp, &Fc, &Fs, &sigma, &tau))
+            printf("estimate in use: Fc %.4g N*m, Fs %.4g N*m, sigma %.4g N*m*s/rad, tau %.3g s "
+                   "(stub joint: %g, %g, %g, no lag)\n", (double)Fc, (double)Fs, (double)sigma, (double)tau,
+                   EXAMPLE_FC, EXAMPLE_FS, EXAMPLE_SIGMA);
+    }
+    return 0;
+}
+"""
+
+_MAKEFILE = """\
+# Makefile -- libaff.a and example_loop, the adaptive friction feedforward (written by adaptive-ff export-c).
+#
+#   make            double precision: build/double/libaff.a, build/double/example_loop
+#   make FLOAT=1    single precision (-DAFF_FLOAT: float and the f-functions of <math.h>), for an MCU with a
+#                   single-precision FPU: build/float/...
+#   make run        build and run the example loop (a dry run on a stub joint)
+#
+# Needs a C99 compiler and <math.h> (-lm); nothing else. In your own build: compile aff.c and aff_config.c
+# with your flags (add -DAFF_FLOAT for single precision) and include aff_config.h.
+FLOAT ?= @FLOAT@
+CFLAGS ?= -std=c99 -O2 -Wall -Wextra -pedantic
+# no contraction of a*b + c into one fused multiply-add: the double build computes what the package computes
+CFLAGS += -ffp-contract=off
+LDLIBS = -lm
+AR ?= ar
+ifeq ($(FLOAT),1)
+CPPFLAGS += -DAFF_FLOAT
+BUILD = build/float
+else
+BUILD = build/double
+endif
+
+all: $(BUILD)/libaff.a $(BUILD)/example_loop
+
+$(BUILD):
+\tmkdir -p $@
+
+$(BUILD)/%.o: %.c aff.h aff_config.h | $(BUILD)
+\t$(CC) $(CPPFLAGS) $(CFLAGS) -c $< -o $@
+
+$(BUILD)/libaff.a: $(BUILD)/aff.o $(BUILD)/aff_config.o
+\t$(AR) rcs $@ $^
+
+$(BUILD)/example_loop: $(BUILD)/example_loop.o $(BUILD)/libaff.a
+\t$(CC) $(CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS)
+
+run: all
+\t./$(BUILD)/example_loop
+
+clean:
+\trm -rf build
+
+.PHONY: all run clean
+"""
+
+
+def _check_number(name: str, x, *, positive: bool = True) -> float:
+    """``x`` as a finite float, > 0 (``positive``) or >= 0; ParameterError naming ``name`` otherwise."""
+    try:
+        v = math.nan if isinstance(x, bool) else float(x)
+    except (TypeError, ValueError, OverflowError):
+        v = math.nan
+    if not (math.isfinite(v) and (v > 0.0 if positive else v >= 0.0)):
+        raise ParameterError(f"{name} must be a finite number {'> 0' if positive else '>= 0'}, got {x!r}")
+    return v
+
+
+def _prepare_out(out, force: bool) -> Path:
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise ParameterError(f"out {out}: an existing file, not a directory; give a directory name")
+    if out.is_dir() and any(out.iterdir()) and not force:
+        raise ParameterError(f"out {out}: the folder exists and is not empty; give a new folder, or force=True "
+                             "(--force) to overwrite the exported files in it")
+    out.mkdir(parents=True, exist_ok=True)
+    return out
+
+
+def export_c(compensator, out, *, J_design: float, u_max: float, Kp: float, Ki: float, joint=None,
+             float_default: bool = False, force: bool = False, origin: str = "") -> CExport:
+    """Write the compensator as a C library for a drive: sources, one header, its configuration, an example loop
+    and a Makefile (the files: module docstring of :mod:`adaptive_ff.compensation.export_c`).
+
+    Parameters
+    ----------
+    compensator : RobustAdaptiveFeedforward
+        The configured compensator (the ``adaptive`` mode's, e.g. from
+        :func:`controllers.simulation.compensators.build_mode`); its C struct, as it is now, becomes
+        ``AFF_INITIAL`` (export it before it observes anything, so that the drive starts from a cleared state).
+    out : str or os.PathLike
+        Folder to write into (created; must be empty unless ``force``).
+    J_design : float, keyword-only
+        Design inertia (kg·m²) the compensator was built with (documented as ``AFF_J_DESIGN``; the example's
+        stub joint).
+    u_max : float, keyword-only
+        The drive's torque limit (N·m), the example loop's saturation (``AFF_U_MAX``).
+    Kp, Ki : float, keyword-only
+        Gains of the example loop's PI (N·m·s/rad, N·m/rad; ``AFF_KP``, ``AFF_KI``), >= 0.
+    joint : mapping, optional, keyword-only
+        ``Fc``, ``Fs`` (N·m) and ``sigma`` (N·m·s/rad) of the example's stub joint (e.g. the identified ones);
+        default a joint without friction.
+    float_default : bool, keyword-only
+        ``make`` builds the single-precision variant unless ``FLOAT=0`` (default False: double).
+    force : bool, keyword-only
+        Write into a non-empty folder (the exported files are overwritten, others left alone).
+    origin : str, keyword-only
+        Where the settings came from (e.g. ``" from id.json"``), for the files' banners.
+
+    Returns
+    -------
+    CExport
+        The folder, the files and the configuration (``to_dict()``, ``summary()``).
+
+    Raises
+    ------
+    ParameterError
+        Not a :class:`~adaptive_ff.compensation.adaptive_feedforward.RobustAdaptiveFeedforward`, a bad number,
+        or ``out`` an existing file or a non-empty folder without ``force``.
+    FileNotFoundError
+        The package's C sources are missing (an installation without ``csrc``).
+    """
+    from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
+
+    if not isinstance(compensator, RobustAdaptiveFeedforward):
+        raise ParameterError(f"compensator must be a RobustAdaptiveFeedforward (the adaptive mode's), "
+                             f"got {type(compensator).__name__}")
+    J_design = _check_number("J_design", J_design)
+    u_max = _check_number("u_max", u_max)
+    Kp = _check_number("Kp", Kp, positive=False)
+    Ki = _check_number("Ki", Ki, positive=False)
+    jd = {"Fc": 0.0, "Fs": 0.0, "sigma": 0.0}
+    for k, v in dict(joint or {}).items():
+        if k not in jd:
+            raise ParameterError(f"joint: unknown key {k!r}; allowed {sorted(jd)}")
+        jd[k] = _check_number(f"joint {k}", v, positive=False)
+    jd["Fs"] = max(jd["Fs"], jd["Fc"])
+    est = compensator.estimator
+    config = {"AFF_TC": float(est.Tc), "AFF_TS": float(est.Ts), "AFF_VS": float(est.Vs),
+              "AFF_DELTA": float(est.delta), "AFF_J_DESIGN": J_design, "AFF_U_MAX": u_max,
+              "AFF_FF_MAX": float(compensator.ff_max), "AFF_KP": Kp, "AFF_KI": Ki}
+    fields = dict(_MACRO_FIELDS)
+    if compensator.start is not None:
+        e = compensator.start.estimate
+        config.update({"AFF_START_FC": float(e.Fc), "AFF_START_FS": float(e.Fs), "AFF_START_SIGMA": float(e.sigma),
+                       "AFF_START_TAU": float(e.tau)})
+        fields.update(_START_FIELDS)
+    macros = {k: (config[k], fields[k]) for k in fields if k in config}
+    headers, sources = c_closure()
+    out = _prepare_out(out, force)
+    from adaptive_ff._caff import ffi
+
+    ptr = compensator.cdata
+    ctype = ffi.typeof(ptr).item
+    cname = ctype.cname.replace("struct ", "")  # the typedef of the C core: typedef struct x {...} x;
+    big: list = []
+    init = struct_initializer(ffi, ptr[0], ctype, macros=macros, too_large_for_float=big)
+    h_text, c_text = amalgamate(headers, sources, origin)
+    notes = []
+    if big:
+        notes.append(f"fields beyond the float range ({', '.join(big)}): the export builds in double only")
+        if float_default:
+            raise ParameterError(f"float_default: fields beyond the float range ({', '.join(big)})")
+    example = _EXAMPLE
+    for key, v in (("@FC@", jd["Fc"]), ("@FS@", jd["Fs"]), ("@SIGMA@", jd["sigma"]),
+                   ("@AMP@", 50.0 * float(est.Vs))):
+        example = example.replace(key, c_literal(v))
+    texts = {"aff.h": h_text, "aff.c": c_text,
+             "aff_config.h": _config_header(config, origin, cname),
+             "aff_config.c": _config_source(init, origin, cname, big),
+             "example_loop.c": example, "Makefile": _MAKEFILE.replace("@FLOAT@", "1" if float_default else "0")}
+    files = []
+    for name in EXPORT_FILES:
+        (out / name).write_text(texts[name])
+        files.append(out / name)
+    return CExport(out=out, files=tuple(files), config=config, headers=tuple(p.name for p in headers),
+                   sources=tuple(p.name for p in sources), float_default=bool(float_default), notes=tuple(notes))

@@ -1,0 +1,181 @@
+"""Benchmark of ``adaptive-ff export-c``: the exported C library's float deviation, time and instructions per period.
+
+Run: ``python benchmarks/export_c.py [--periods 1000000] [--repeat 5] [--callgrind-periods 100000]``.
+
+The setup is that of tests/test_export_c.py (tests/export_c_helpers.py): the paper joint's identification
+exported with ``--u-max 150``, a closed-loop log of the ``adaptive`` mode (velocity noise 1e-3 rad/s) replayed
+through the export. Printed, for the double and the float (``-DAFF_FLOAT``) build:
+
+* the deviation of the feedforward from the package's (``aff_replay`` of the package's C core): max and RMS in
+  N·m, the max relative to the identified friction level ``Fc`` (target <= 1 % for float), the max when each
+  period may also match its neighbour (a threshold decision taken one period later in float), and the number
+  of periods beyond 1 % of ``Fc`` (tests/export_c_helpers.py, ``deviation``);
+* ns per period (``aff_step`` + ``aff_observe``): a C timing loop compiled with the system compiler at ``-O2``,
+  ``clock_gettime(CLOCK_MONOTONIC)`` around the whole replay of the log, median over ``--repeat`` replays; and
+  the 99.9th and 99.99th percentile of the single periods of one replay timed period by period (timer
+  included): what a real-time task budgets for (the maximum of a shared machine is its scheduler's, not the
+  code's);
+* instructions per period under ``valgrind --tool=callgrind`` (if valgrind is installed), counted inside the
+  replay loop only (``--toggle-collect``) over the first ``--callgrind-periods`` periods of the log: machine
+  independent, unlike the times.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent / "tests"))
+from export_c_helpers import (ID_JSON, IDENTIFIED, REPLAY_C, U_MAX, closed_loop_log, compile_export,  # noqa: E402
+                              deviation)
+
+#: Times the replay of the log: ``time LOG REPEATS``; prints the median over the repeats of the ns per period of a
+#: whole replay, then of one replay timed period by period (timer included) the median, 99.9th and 99.99th
+#: percentile (ns).
+TIMING_C = r"""
+#define _POSIX_C_SOURCE 199309L
+#include <stdio.h>
+#include <stdlib.h>
+#include <time.h>
+#include "aff_config.h"
+
+static double now(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec * 1e9 + (double)t.tv_nsec;
+}
+
+static int cmp(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+int main(int argc, char **argv)
+{
+    FILE *f = argc < 3 ? NULL : fopen(argv[1], "rb");
+    int reps = argc < 3 ? 0 : atoi(argv[2]), r;
+    long n, k;
+    double *buf, *ns, *per, sink = 0.0;
+    static aff c;
+    if (!f || reps < 1 || fseek(f, 0, SEEK_END) != 0) return 2;
+    n = ftell(f) / (3 * (long)sizeof(double));
+    rewind(f);
+    buf = malloc(3 * (size_t)n * sizeof(double));
+    ns = malloc((size_t)reps * sizeof(double));
+    per = malloc((size_t)n * sizeof(double));
+    if (!buf || !ns || !per || fread(buf, sizeof(double), 3 * (size_t)n, f) != 3 * (size_t)n) return 3;
+    fclose(f);
+    for (r = 0; r < reps; r++) {
+        double t0;
+        aff_init(&c, &AFF_INITIAL);
+        t0 = now();
+        for (k = 0; k < n; k++) {
+            sink += (double)aff_step(&c, (aff_real)buf[n + k], (aff_real)buf[2 * n + k]);
+            aff_observe(&c, (aff_real)buf[k], (aff_real)buf[n + k]);
+        }
+        ns[r] = (now() - t0) / (double)n;
+    }
+    aff_init(&c, &AFF_INITIAL);
+    for (k = 0; k < n; k++) {
+        double t0 = now();
+        sink += (double)aff_step(&c, (aff_real)buf[n + k], (aff_real)buf[2 * n + k]);
+        aff_observe(&c, (aff_real)buf[k], (aff_real)buf[n + k]);
+        per[k] = now() - t0;
+    }
+    qsort(ns, (size_t)reps, sizeof(double), cmp);
+    qsort(per, (size_t)n, sizeof(double), cmp);
+    printf("%.6g %.6g %.6g %.6g %d %g\n", ns[reps / 2], per[n / 2], per[n - 1 - n / 1000], per[n - 1 - n / 10000],
+           aff_active(&c), sink);
+    return 0;
+}
+"""
+
+
+def _package_ff(path, log):
+    """The package's feedforward for the log: aff_replay of the package's C core (cffi)."""
+    from adaptive_ff._caff import ffi, lib
+    from controllers.cli.export_c import compensator_from_file
+
+    comp, _ = compensator_from_file(path, u_max=U_MAX)
+    u, w, wr = (np.ascontiguousarray(x, dtype=np.float64) for x in log[:3])
+    c = ffi.new("aff *")
+    lib.aff_init(c, comp.cdata)
+    uff = np.empty(len(u))
+    lib.aff_replay(c, *(ffi.from_buffer("double[]", x) for x in (u, w, wr, uff)), len(u))
+    return uff
+
+
+def _callgrind(exe: pathlib.Path, log_file: pathlib.Path, out: pathlib.Path, n: int) -> float | None:
+    """Instructions per period inside the replay loop (callgrind, collection toggled on in main's loop only)."""
+    vg = shutil.which("valgrind")
+    if vg is None:
+        return None
+    cg = out.with_suffix(".cg")
+    subprocess.run([vg, "--tool=callgrind", f"--callgrind-out-file={cg}", "--collect-atstart=no",
+                    "--toggle-collect=aff_step", "--toggle-collect=aff_observe", str(exe), str(log_file),
+                    str(out), str(n)], check=True, capture_output=True, timeout=3600)
+    text = cg.read_text()
+    m = re.search(r"^summary:\s+(\d+)", text, re.M) or re.search(r"^totals:\s+(\d+)", text, re.M)
+    return int(m.group(1)) / n
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--periods", type=int, default=10**6)
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--callgrind-periods", type=int, default=100_000)
+    args = ap.parse_args(argv)
+    from controllers.cli.export_c import compensator_from_file
+    from controllers.cli.main import main as cli
+
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        print("no C compiler (cc or gcc) on PATH")
+        return 1
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = pathlib.Path(tmp)
+        id_file = tmp / "id.json"
+        id_file.write_text(json.dumps(ID_JSON))
+        out = tmp / "drive_ff"
+        assert cli(["export-c", "--from", str(id_file), "--u-max", str(U_MAX), "--out", str(out), "--quiet"]) == 0
+        _, s = compensator_from_file(id_file, u_max=U_MAX)
+        log = closed_loop_log(s["options"], args.periods)
+        log_file = tmp / "log.bin"
+        np.concatenate([np.asarray(x, dtype=np.float64) for x in log[:3]]).tofile(log_file)
+        ref = _package_ff(id_file, log)
+        print(f"log: {args.periods} periods of the adaptive mode on the paper joint (noise 1e-3 rad/s); "
+              f"compiler {cc} -O2; max |u_ff| {np.max(np.abs(ref)):.4g} N·m, Fc {IDENTIFIED['Fc']:.4g} N·m")
+        fc = IDENTIFIED["Fc"]
+        print(f"{'build':<8}{'max dev':>10}{'of Fc':>8}{'±1 period':>11}{'of Fc':>8}{'RMS dev':>10}{'> 1 % Fc':>10}"
+              f"{'ns/period':>11}{'p99.9 ns':>10}{'p99.99 ns':>12}{'instr/period':>14}")
+        for label, flags in (("double", []), ("float", ["-DAFF_FLOAT"])):
+            rep = compile_export(cc, out, REPLAY_C, tmp / f"replay_{label}", *flags)
+            uff_out = tmp / f"uff_{label}.bin"
+            subprocess.run([str(rep), str(log_file), str(uff_out)], check=True, capture_output=True)
+            d = deviation(np.fromfile(uff_out, dtype=np.float64), ref, fc)
+            timer = compile_export(cc, out, TIMING_C, tmp / f"time_{label}", *flags)
+            r = subprocess.run([str(timer), str(log_file), str(args.repeat)], check=True, capture_output=True,
+                               text=True)
+            ns, _, p999, p9999 = (float(x) for x in r.stdout.split()[:4])
+            ir = _callgrind(rep, log_file, tmp / f"cg_{label}.out", args.callgrind_periods)
+            print(f"{label:<8}{d['max']:>10.3g}{100 * d['max'] / fc:>7.3g}%{d['max_shift']:>11.3g}"
+                  f"{100 * d['max_shift'] / fc:>7.3g}%{d['rms']:>10.3g}{d['n_over']:>10d}{ns:>11.1f}{p999:>10.0f}"
+                  f"{p9999:>12.0f}{'n/a' if ir is None else f'{ir:.0f}':>14}")
+        print("deviations in N·m from the package's feedforward (aff_replay of the package's C core); '±1 period': "
+              "each period may also match its neighbour (a threshold decision one period later); '> 1 % Fc': "
+              "periods whose plain deviation exceeds 1 % of Fc")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

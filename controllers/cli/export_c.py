@@ -1,0 +1,243 @@
+"""``adaptive-ff export-c``: the adaptive feedforward, configured from an identification, as a C library for a drive."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+__all__ = ["register", "run", "compensator_from_file"]
+
+_EPILOG = """\
+The compensator is the 'adaptive' mode's (adaptive_ff.RobustAdaptiveFeedforward on a
+SlidingFrictionEstimator), configured as 'compare' configures it: the identification's Stribeck factors
+Vs and delta ('identify --Vs --delta ... --json'), its inertia as the design inertia, its friction
+levels as the estimator's start, a feedforward bound of half your drive's torque limit and a stick band
+of three times the identified velocity noise. The PI gains of the example loop (and of the
+compensator's stick fallback, the nominal loop model) are --Kp/--Ki, or designed as 'design --from'
+does (--crossover, --phase-margin).
+
+Writes into DIR: aff.h (the API, one header), aff.c (the package's C code of the compensator, one file),
+aff_config.h (the settings as macros: AFF_TC, AFF_TS, AFF_VS, AFF_DELTA, AFF_J_DESIGN, AFF_U_MAX,
+AFF_FF_MAX, AFF_KP, AFF_KI), aff_config.c (AFF_INITIAL, the configured compensator), example_loop.c (a
+1 kHz loop: read velocity, aff_step, PI, write torque, aff_observe) and a Makefile ('make': libaff.a and
+the example in double; 'make FLOAT=1': single precision, -DAFF_FLOAT). C99 and <math.h> only: no malloc,
+no I/O, bounded work per call. An identification with plausibility or identifiability warnings is
+refused with exit status 3 (as 'design --from') unless --accept-warnings.
+
+examples:
+  adaptive-ff export-c --from id.json --u-max 150 --out drive_ff && make -C drive_ff run
+  adaptive-ff export-c --from id.json --u-max 150 --Kp 80 --Ki 1600 --float --out drive_ff
+"""
+
+
+def _number(d: dict, key: str, path, *, required: bool = True):
+    """``d[key]`` as a finite float; ParameterError naming the file and the key otherwise (None if absent and not
+    ``required``)."""
+    from plant.errors import ParameterError
+
+    v = d.get(key)
+    if v is None:
+        if required:
+            raise ParameterError(f"{path}: no {key!r} (a number) in the identification")
+        return None
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise ParameterError(f"{path}: {key!r} must be a finite number, got {v!r}")
+    return float(v)
+
+
+def _identified(path) -> tuple[dict, dict]:
+    """``(top level, physical parameters)`` of an ``identify --json`` output (the physical parameters of the method
+    that gave the answer where there are any, else the top level's)."""
+    from plant.errors import ParameterError
+    from plant.models import read_json
+
+    d = read_json(path, what="JSON identification (adaptive-ff identify --json)")
+    if not isinstance(d, dict):
+        raise ParameterError(f"{path}: expected a JSON object (adaptive-ff identify --json), got {type(d).__name__}")
+    phys = d.get("physical")
+    params = phys.get("params") if isinstance(phys, dict) else None
+    return d, params if isinstance(params, dict) else d
+
+
+def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: float | None = None,
+                          crossover: float = 20.0, phase_margin: float = 60.0, start: bool = False,
+                          initial: bool = True, **options):
+    """The ``adaptive`` mode's compensator configured from an ``identify --json`` file, as ``compare`` configures it.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The identification (``adaptive-ff identify ... --Vs --delta --json``): ``Vs``, ``delta`` at its top level,
+        ``J``, ``sigma``, ``Fc``, ``Fs``, ``tau`` in ``physical.params`` (or at the top level), the velocity noise
+        in ``excitation.noise_std`` (optional).
+    u_max : float, keyword-only
+        The drive's torque limit (N·m): the velocity gate's bound; the feedforward's bound is half of it (as in
+        ``compare``) unless ``ff_max`` is given.
+    Kp, Ki : float, keyword-only
+        PI gains (both or neither; the nominal loop model of the stick fallback and the example loop); default
+        :func:`controllers.design.pi.design_pi` of the identified ``J`` and ``sigma`` at ``crossover`` (rad/s)
+        and ``phase_margin`` (deg), as ``design --from`` does.
+    start : bool, keyword-only
+        Use the identified map (``Fc``, ``Fs``, ``sigma``, ``tau``) as the provisional start
+        (:class:`adaptive_ff.compensation.adaptive_feedforward.FeedforwardStart`, at the measured velocity).
+    initial : bool, keyword-only
+        Start the estimator's RLS from the identified ``Fc``, ``Fs``, ``sigma`` and ``J_design`` (default, as
+        ``compare`` starts it from its pre-fit) instead of zero friction.
+    **options
+        Fields of :class:`controllers.simulation.compensators.ModeOptions` that override the defaults: ``Tc``
+        (1 ms), ``Ts`` (10 ms), ``J_design`` (the identified ``J``), ``Vs``, ``delta`` (the file's), ``ff_max``
+        (``u_max/2``), ``stick_band`` (three times the identification's noise estimate, 0 without one),
+        ``stick_samples`` (50), ``warmup`` (50), ...
+
+    Returns
+    -------
+    compensator : RobustAdaptiveFeedforward
+        Not yet stepped.
+    settings : dict
+        ``J_design, u_max, Kp, Ki`` and ``joint`` (the identified ``Fc``, ``Fs``, ``sigma`` that are finite and
+        >= 0) for :func:`adaptive_ff.compensation.export_c.export_c`, and ``options`` (the ModeOptions used).
+
+    Raises
+    ------
+    ParameterError
+        Unreadable or invalid file (the file and the key named), a bad setting, one of ``Kp``/``Ki`` alone.
+    FileNotFoundError
+        No such file.
+    """
+    from dataclasses import fields
+
+    from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
+    from adaptive_ff.identification.regression import FrictionEstimate
+    from controllers.cli.design import plant_from_file
+    from controllers.design.pi import design_pi
+    from controllers.simulation.compensators import ModeOptions, build_mode
+    from plant.errors import ParameterError
+
+    known = {f.name for f in fields(ModeOptions)} - {"Kp", "Ki", "u_max", "start", "initial"}
+    unknown = sorted(set(options) - known)
+    if unknown:
+        raise ParameterError(f"unknown option(s) {unknown}; allowed: the fields of ModeOptions {sorted(known)}")
+    top, params = _identified(path)
+    Vs = options.pop("Vs", None)
+    delta = options.pop("delta", None)
+    Vs = _number(top, "Vs", path) if Vs is None else Vs
+    delta = _number(top, "delta", path) if delta is None else delta
+    J_id, sigma_id = plant_from_file(path)
+    J_design = options.pop("J_design", None)
+    if J_design is None:
+        if not (math.isfinite(J_id) and J_id > 0.0):
+            raise ParameterError(f"{path}: the identified J = {J_id!r} kg·m² is not > 0; give --J-design")
+        J_design = J_id
+    if (Kp is None) != (Ki is None):
+        raise ParameterError("give both --Kp and --Ki, or neither (then the PI is designed from J and sigma)")
+    Tc = options.get("Tc", 1e-3)
+    if Kp is None:
+        d = design_pi(J_design, sigma=max(sigma_id, 0.0), crossover=crossover, phase_margin=phase_margin, Tc=Tc)
+        Kp, Ki = d.Kp, d.Ki
+    joint = {}
+    for k in ("Fc", "Fs", "sigma"):
+        v = _number(params, k, path, required=False)
+        if v is not None and v >= 0.0:
+            joint[k] = v
+    exc = top.get("excitation")
+    noise = _number(exc, "noise_std", path, required=False) if isinstance(exc, dict) else None
+    first = None
+    if start:
+        e = {k: _number(params, k, path) for k in ("Fc", "Fs", "sigma", "tau")}
+        first = FeedforwardStart(FrictionEstimate(J=J_design, tau=e["tau"], sigma=e["sigma"], Fc=e["Fc"], Fs=e["Fs"],
+                                                  offset=0.0, Vs=None, delta=None, J_alt=math.nan),
+                                 ff_input="measured")
+    init = None
+    if initial:
+        init = FrictionEstimate(J=J_design, tau=0.0, sigma=joint.get("sigma", 0.0), Fc=joint.get("Fc", 0.0),
+                                Fs=joint.get("Fs", 0.0), offset=0.0, Vs=Vs, delta=delta, J_alt=math.nan)
+    settings = {"ff_max": 0.5 * u_max, "stick_band": 3.0 * noise if noise is not None and noise >= 0 else 0.0,
+                "stick_samples": 50, "warmup": 50, **options}
+    opts = ModeOptions(Kp=Kp, Ki=Ki, u_max=u_max, J_design=J_design, Vs=Vs, delta=delta, start=first, initial=init,
+                       **settings)
+    _, _, comp = build_mode(None, "adaptive", opts)  # None: no plant field is read with J_design given
+    return comp, {"J_design": J_design, "u_max": u_max, "Kp": Kp, "Ki": Ki, "joint": joint, "options": opts}
+
+
+def run(args) -> int:
+    """Execute ``adaptive-ff export-c`` with parsed ``args``; return the exit status."""
+    from adaptive_ff.compensation.export_c import export_c
+    from controllers.cli.design import EXIT_REFUSED, warnings_from_file
+    from controllers.cli.data import check_output_dir
+    from plant.errors import ParameterError
+
+    check_output_dir(args.out, "--out")
+    out = Path(args.out)
+    if out.is_dir() and any(out.iterdir()) and not args.force:
+        raise ParameterError(f"--out {out}: the folder exists and is not empty; give a new folder, or --force to "
+                             "overwrite the exported files in it")
+    if not (math.isfinite(args.u_max) and args.u_max > 0.0):
+        raise ParameterError(f"--u-max must be a finite torque > 0 (N·m), got {args.u_max!r}")
+    _identified(args.from_file)  # read errors name the file as what it should be: an identification
+    refusing = [w for w in warnings_from_file(args.from_file) if w.refusing]
+    for w in refusing:
+        print(f"adaptive-ff: {args.from_file}: {w.code} warning on {w.parameter}: {w}", file=sys.stderr)
+    if refusing and not args.accept_warnings:
+        print(f"adaptive-ff: refused: {args.from_file} carries {len(refusing)} plausibility/identifiability "
+              "warning(s); fix the identification, or export anyway with --accept-warnings", file=sys.stderr)
+        return EXIT_REFUSED
+    extra = {k: getattr(args, k) for k in ("ff_max", "stick_band") if getattr(args, k) is not None}
+    comp, s = compensator_from_file(args.from_file, u_max=args.u_max, Kp=args.Kp, Ki=args.Ki, crossover=args.crossover,
+                                    phase_margin=args.phase_margin, start=args.start, Tc=args.Tc, Ts=args.Ts,
+                                    J_design=args.J_design, Vs=args.Vs, delta=args.delta, **extra)
+    res = export_c(comp, out, J_design=s["J_design"], u_max=s["u_max"], Kp=s["Kp"], Ki=s["Ki"], joint=s["joint"],
+                   float_default=args.float, force=args.force, origin=f" for {Path(args.from_file).name}")
+    if args.json:
+        print(json.dumps(res.to_dict(), indent=2))
+    elif not args.quiet:
+        print(res.summary())
+    return 0
+
+
+def register(sub) -> None:
+    """Add the ``export-c`` subcommand to an argparse subparsers object."""
+    e = sub.add_parser("export-c", help="write the adaptive feedforward as a C library for your drive (C99, "
+                                        "<math.h> only)",
+                       description="Write the adaptive friction feedforward, configured from an identification, as "
+                                   "C sources with one header, its configuration, an example 1 kHz loop and a "
+                                   "Makefile: the package's own C code of the compensator.",
+                       epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    e.add_argument("--from", dest="from_file", metavar="FILE", required=True,
+                   help="'adaptive-ff identify --Vs ... --delta ... --json' output (Vs, delta, J, sigma)")
+    e.add_argument("--out", metavar="DIR", required=True, help="folder to write (new or empty; see --force)")
+    e.add_argument("--u-max", type=float, required=True, metavar="NM",
+                   help="the drive's torque limit in N·m: the velocity gate's bound, twice the feedforward's (unless "
+                        "--ff-max) and the example's saturation")
+    e.add_argument("--Tc", type=float, default=1e-3, metavar="S", help="controller period in s (default 0.001)")
+    e.add_argument("--Ts", type=float, default=0.01, metavar="S",
+                   help="estimator update period in s, a multiple of --Tc (default 0.01)")
+    e.add_argument("--J-design", type=float, default=None, metavar="KGM2",
+                   help="design inertia in kg·m² (default: the identified J)")
+    e.add_argument("--ff-max", type=float, default=None, metavar="NM",
+                   help="bound on |feedforward| in N·m (default: half of --u-max, as compare)")
+    e.add_argument("--stick-band", type=float, default=None, metavar="RAD_S",
+                   help="stick-detection band in rad/s (default: three times the identification's velocity noise "
+                        "estimate, excitation.noise_std; 0 without one)")
+    e.add_argument("--Vs", type=float, default=None, metavar="RAD_S", help="Stribeck velocity (default: the file's)")
+    e.add_argument("--delta", type=float, default=None, help="Stribeck shape factor (default: the file's)")
+    e.add_argument("--Kp", type=float, default=None, metavar="NMS", help="PI gain in N·m·s/rad (with --Ki)")
+    e.add_argument("--Ki", type=float, default=None, metavar="NM", help="PI gain in N·m/rad (with --Kp)")
+    e.add_argument("--crossover", type=float, default=20.0, metavar="RAD_S",
+                   help="without --Kp/--Ki: the PI's gain crossover in rad/s (default 20)")
+    e.add_argument("--phase-margin", type=float, default=60.0, metavar="DEG",
+                   help="without --Kp/--Ki: the PI's phase margin in degrees (default 60)")
+    e.add_argument("--start", action="store_true",
+                   help="feed the identified friction map forward from the first period until the first "
+                        "trusted estimate (a provisional start; default: 0 until the estimator switches on)")
+    e.add_argument("--float", action="store_true",
+                   help="make builds single precision by default (AFF_FLOAT; make FLOAT=0 for double)")
+    e.add_argument("--accept-warnings", action="store_true",
+                   help="export even if the identification carries plausibility or identifiability warnings")
+    e.add_argument("--force", action="store_true", help="write into a non-empty --out (the exported files are "
+                                                         "overwritten)")
+    e.add_argument("--json", action="store_true", help="print the files and the configuration as JSON")
+    e.add_argument("--quiet", action="store_true", help="print nothing on success")
+    e.set_defaults(func=run)

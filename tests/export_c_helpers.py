@@ -1,0 +1,124 @@
+"""Shared by tests/test_export_c.py and benchmarks/export_c.py: the identification, the closed-loop log and the C
+programs that replay it through an export of ``adaptive-ff export-c``."""
+
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+
+import numpy as np
+
+#: Periods of the replayed log (1000 s at 1 kHz).
+N = 10**6
+U_MAX = 150.0
+NOISE = 1e-3
+
+#: An ``identify --json`` output of the paper joint (J 4, Fc 25, Fs 35, sigma 40, tau 0.02, Vs 0.02, delta 1):
+#: the values ``adaptive-ff identify --Vs 0.02 --delta 1`` gave for a simulated 8 s log of it, method sliding.
+IDENTIFIED = {"J": 4.103424729656735, "Fc": 24.950807390864934, "Fs": 37.21688646402248,
+              "sigma": 40.130682711238826, "tau": 0.020772473265106176, "offset": 0.001036172817080081}
+ID_JSON = {"J": 10.0, "sigma": 36.7, "Fc": 26.1, "Fs": 9.96, "tau": 0.0, "offset": 0.0, "Vs": 0.02, "delta": 1.0,
+           "excitation": {"noise_std": NOISE, "n_reversals": 8, "low_speed_fraction": 0.05},
+           "warnings": [], "notes": [], "method": "sliding",
+           "physical": {"method": "sliding", "params": IDENTIFIED, "stderr": {}, "warnings": []}}
+
+#: The replay program: ``replay LOG OUT [N]`` reads u, w, w_ref (float64, one block after the other) from LOG,
+#: replays the first N periods (default all) and writes u_ff (float64) to OUT; prints aff_active, aff_n_updates
+#: and aff_n_rejected at the end.
+REPLAY_C = r"""
+#include <stdio.h>
+#include <stdlib.h>
+#include "aff_config.h"
+
+int main(int argc, char **argv)
+{
+    FILE *f = fopen(argv[1], "rb");
+    long total, n, k;
+    double *buf, *u, *w, *w_ref, *uff;
+    static aff c;
+    if (!f || fseek(f, 0, SEEK_END) != 0) return 2;
+    total = ftell(f) / (3 * (long)sizeof(double));
+    n = argc > 3 && atol(argv[3]) < total ? atol(argv[3]) : total;
+    rewind(f);
+    buf = malloc(3 * (size_t)total * sizeof(double));
+    uff = malloc((size_t)n * sizeof(double));
+    if (!buf || !uff || fread(buf, sizeof(double), 3 * (size_t)total, f) != 3 * (size_t)total) return 3;
+    fclose(f);
+    u = buf;
+    w = buf + total;
+    w_ref = buf + 2 * total;
+    aff_init(&c, &AFF_INITIAL);
+    for (k = 0; k < n; k++) {
+        uff[k] = (double)aff_step(&c, (aff_real)w[k], (aff_real)w_ref[k]);
+        aff_observe(&c, (aff_real)u[k], (aff_real)w[k]);
+    }
+    f = fopen(argv[2], "wb");
+    if (!f || fwrite(uff, sizeof(double), (size_t)n, f) != (size_t)n) return 4;
+    fclose(f);
+    printf("%d %ld %ld\n", aff_active(&c), aff_n_updates(&c), aff_n_rejected(&c));
+    free(buf);
+    free(uff);
+    return 0;
+}
+"""
+
+#: Writes the bytes of AFF_INITIAL.
+DUMP_C = r"""
+#include <stdio.h>
+#include "aff_config.h"
+
+int main(int argc, char **argv)
+{
+    FILE *f = fopen(argv[1], "wb");
+    (void)argc;
+    return !(f && fwrite(&AFF_INITIAL, sizeof AFF_INITIAL, 1, f) == 1 && fclose(f) == 0);
+}
+"""
+
+WARN = ["-std=c99", "-O2", "-Wall", "-Wextra", "-pedantic", "-Werror", "-ffp-contract=off"]
+
+
+def compile_export(cc: str, src: Path, main_c: str, exe: Path, *flags: str) -> Path:
+    """Compile the export in ``src`` with ``main_c`` into ``exe``: the system compiler, no include path but the
+    export's folder, no Python header."""
+    (exe.parent / (exe.name + ".c")).write_text(main_c)
+    cmd = [cc, *WARN, *flags, f"-I{src}", str(src / "aff.c"), str(src / "aff_config.c"),
+           str(exe.parent / (exe.name + ".c")), "-o", str(exe), "-lm"]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    assert r.returncode == 0 and not r.stderr.strip(), f"{' '.join(cmd)}\n{r.stderr}"
+    return exe
+
+
+def closed_loop_log(options, n: int = N) -> tuple:
+    """``n`` periods of the adaptive mode of ``options`` (ModeOptions) on the ``paper`` joint, velocity noise
+    :data:`NOISE`, no sensor gate (the loop's measurement is the raw sample the compensator gets), a multisine
+    reference (seed 1; noise seed 2): ``(u, w_meas, w_ref, u_ff)``, arrays of ``n``."""
+    from dataclasses import replace
+
+    from controllers.simulation.closed_loop import run_mode
+    from plant import preset
+    from plant.excitation import multisine_reference
+
+    opts = replace(options, noise_std=NOISE, decimate=1, sensor_gate=False)
+    ref = multisine_reference(n * opts.Tc, dt=opts.Tc, rng=np.random.default_rng(1))
+    r = run_mode(preset("paper"), ref, "adaptive", opts, rng=np.random.default_rng(2))
+    assert r.u.shape == (n,)
+    return r.u, r.w_meas, r.w_ref, r.u_ff
+
+
+def deviation(uff: np.ndarray, ref: np.ndarray, level: float) -> dict:
+    """How far a feedforward sequence ``uff`` is from ``ref`` (N·m, arrays of one length), in N·m.
+
+    ``max`` and ``rms`` of ``|uff - ref|``; ``max_shift``: the largest deviation when each period may also be
+    compared with its neighbour in ``ref`` (one period earlier or later): a threshold decision (a sign inside the
+    stick band, the count of in-band samples) that falls one period later in float than in double shifts a
+    reversal by one period and gives a plain deviation of the feedforward's change over one period there, without
+    the compensators differing otherwise; ``n_over``: periods whose plain deviation exceeds 1 % of ``level``
+    (N·m, the friction level Fc).
+    """
+    d = np.abs(uff - ref)
+    shifted = d.copy()
+    shifted[1:] = np.minimum(shifted[1:], np.abs(uff[1:] - ref[:-1]))
+    shifted[:-1] = np.minimum(shifted[:-1], np.abs(uff[:-1] - ref[1:]))
+    return {"max": float(np.max(d)), "rms": float(np.sqrt(np.mean(d ** 2))), "max_shift": float(np.max(shifted)),
+            "n_over": int(np.count_nonzero(d > 0.01 * level)), "argmax": int(np.argmax(d))}
