@@ -5,7 +5,7 @@ exceptions are defined in :mod:`plant.errors` and re-exported here.
 
 The names below are imported lazily (``lazy_loader``, Scientific Python SPEC 1):
 ``import adaptive_ff`` is cheap, and ``adaptive_ff.fit_ls`` or ``from adaptive_ff import fit_ls``
-imports the module that defines it (and its dependencies: scipy, numba, filterpy) on first use.
+imports the module that defines it (and its dependencies: scipy, filterpy) on first use.
 """
 
 import lazy_loader

@@ -5,7 +5,7 @@ The top layer: imports :mod:`adaptive_ff` and :mod:`plant`.
 The names below are imported lazily (``lazy_loader``, Scientific Python SPEC 1):
 ``import controllers`` is cheap, and ``controllers.design_pi`` or
 ``from controllers import run_closed_loop`` imports the module that defines it
-(and python-control, numba, matplotlib as that module needs them) on first use.
+(and python-control, matplotlib as that module needs them) on first use.
 """
 
 import lazy_loader

@@ -6,7 +6,7 @@ paper's measurement defects, and excitation generators.
 
 The names below are imported lazily (``lazy_loader``, Scientific Python SPEC 1):
 ``import plant`` is cheap, and ``plant.simulate`` or ``from plant import simulate``
-imports :mod:`plant.joint` (and whatever it needs, e.g. scipy or numba) on first use.
+imports :mod:`plant.joint` (and whatever it needs, e.g. scipy) on first use.
 """
 
 import lazy_loader

@@ -3,7 +3,7 @@
 #include "aff_feedforward.h"
 #include "plant_stribeck.h"
 
-/* Python's (and numba's) min(a, b) and max(a, b): the first argument unless the second compares smaller/larger. */
+/* Python's min(a, b) and max(a, b): the first argument unless the second compares smaller/larger. */
 static aff_real min2(aff_real a, aff_real b)
 {
     return b < a ? b : a;

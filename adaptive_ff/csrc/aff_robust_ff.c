@@ -5,7 +5,7 @@
 /* Fraction of the RLS prior variance below which the data have determined Fc (Python: FC_INFO_FRACTION). */
 static const aff_real FC_INFO_FRACTION = 0.01;
 
-/* Python's (and numba's) min(a, b) and max(a, b). */
+/* Python's min(a, b) and max(a, b). */
 static aff_real min2(aff_real a, aff_real b)
 {
     return b < a ? b : a;

@@ -426,7 +426,7 @@ def estimate_history(comp, times) -> list:
 
 
 def _estimate_curve(e: dict, w):
-    from plant.stribeck_map import stribeck  # the one map of eq. 3 (imported here: drawing alone needs no numba)
+    from plant.stribeck_map import stribeck  # the one map of eq. 3 (imported here: drawing alone loads no C module)
 
     return stribeck(w, Fc=e["Fc"], Fs=e["Fs"], Vs=e["Vs"], delta=e["delta"], sigma=e["sigma"]) + e["offset"]
 

@@ -1,5 +1,5 @@
 /* plant_dynamics.c -- RK4, the plant step and the friction torque (see plant_dynamics.h). The operations are
- * those of the former numba kernels of plant/dynamics.py in the same order (results equal bit for bit). */
+ * those of the former JIT kernels of plant/dynamics.py in the same order (results equal bit for bit). */
 #include "plant_dynamics.h"
 
 const double plant_rk4_rate_max = 2.5;

@@ -1,5 +1,5 @@
 /* plant_stiff.c -- implicit steps of stiff plants (see plant_stiff.h). The operations are those of the former
- * numba kernels of plant/stiff.py in the same order (results equal bit for bit). */
+ * former JIT kernels of plant/stiff.py in the same order (results equal bit for bit). */
 #include "plant_stiff.h"
 
 const double plant_lagged_rtol = 1e-5;
@@ -7,7 +7,7 @@ const double plant_lagged_ftol = 1e-4;
 const double plant_lugre_rtol = 1e-5;
 const double plant_lugre_ztol = 1e-3;
 
-/* Python's max(a, b): b if b > a else a (NaN handling as Python's and numba's builtin). */
+/* Python's max(a, b): b if b > a else a (NaN handling as Python's builtin). */
 static double pymax(double a, double b)
 {
     return b > a ? b : a;
