@@ -260,7 +260,9 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     x = EngineRun(t=t, w_ref=wr, revs=revs, window=float(reversal_window), dt=float(Tc), n_scenarios=1,
                   faults=_faults(faults, n), oracle=oracle, decimate=decimate, n_theta=n_theta, m_theta=m_theta)
     x.set_plant(0, table, len(table), seg, state0, w_limit)
-    x.set_noise(0, rng.normal(0.0, noise_std, size=n) if noise_std > 0 else None)
+    if noise_std > 0:
+        x.set_noise_table(rng.normal(0.0, noise_std, size=n)[None, :])
+        x.set_noise_row(0, 0)
     x.set_gate(0, gate)
     x.set_pi(0, controller)
     x.set_compensator(0, None if oracle else compensator)

@@ -159,14 +159,6 @@ class EngineRun:
         sc.plant = state[0] if ffi.typeof(state).kind == "pointer" else state
         sc.w_limit = float(w_limit)
 
-    def set_noise(self, b: int, noise) -> None:
-        """Scenario ``b``'s measurement noise, shape (N,) (rad/s), kept alive here; None: none."""
-        if noise is None:
-            return
-        a = _f8(noise)
-        self._keep.append(a)
-        self.scenarios[b].noise = ffi.from_buffer("double[]", a)
-
     def set_noise_table(self, noise) -> None:
         """A table of noise rows, shape (R, N) (rad/s), that :meth:`set_noise_row` hands to scenarios; None: none."""
         self._noise = None if noise is None else np.ascontiguousarray(noise, dtype=np.float64)
