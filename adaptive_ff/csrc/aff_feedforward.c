@@ -3,17 +3,6 @@
 #include "aff_feedforward.h"
 #include "plant_stribeck.h"
 
-/* Python's min(a, b) and max(a, b): the first argument unless the second compares smaller/larger. */
-static aff_real min2(aff_real a, aff_real b)
-{
-    return b < a ? b : a;
-}
-
-static aff_real max2(aff_real a, aff_real b)
-{
-    return b > a ? b : a;
-}
-
 void aff_fixed_ff_init(aff_fixed_ff *f, aff_real dt, int lag, aff_real ff_max, aff_real sign_width,
                        aff_real stick_band, long stick_samples, int at_ref, aff_real w_max,
                        const aff_loop_model *lm, const aff_sign_observer *ob)
@@ -74,7 +63,7 @@ aff_real aff_fixed_ff_static(const aff_fixed_ff *f, aff_real w)
 
 static aff_real held(const aff_fixed_ff *f)
 {
-    return min2(max2(f->u_ff, -f->ff_max), f->ff_max);
+    return aff_min2(aff_max2(f->u_ff, -f->ff_max), f->ff_max);
 }
 
 aff_real aff_fixed_ff_step(aff_fixed_ff *f, aff_real w, aff_real w_ref, int has_ref)

@@ -5,17 +5,6 @@
 /* Fraction of the RLS prior variance below which the data have determined Fc (Python: FC_INFO_FRACTION). */
 static const aff_real FC_INFO_FRACTION = 0.01;
 
-/* Python's min(a, b) and max(a, b). */
-static aff_real min2(aff_real a, aff_real b)
-{
-    return b < a ? b : a;
-}
-
-static aff_real max2(aff_real a, aff_real b)
-{
-    return b > a ? b : a;
-}
-
 void aff_robust_ff_init(aff_robust_ff *r, const aff_fixed_ff *ff, const aff_sliding *est, long warmup,
                         aff_real fade, aff_real J_lo, aff_real J_hi, aff_real tau_max, aff_real consistency,
                         aff_real start_gain, int start_at_ref, aff_real lag_margin, aff_real max_rel_stderr,
@@ -68,7 +57,7 @@ static aff_real output(aff_robust_ff *r, aff_real w_ctrl, aff_real w_ref)
     }
     out = aff_fixed_ff_at(f, w_ctrl, w_stuck, w_ref);
     if (r->gain < (aff_real)1.0) {
-        r->gain = min2(r->gain + r->fade, 1.0);
+        r->gain = aff_min2(r->gain + r->fade, 1.0);
         out = out * r->gain;
     }
     return out;
@@ -88,7 +77,7 @@ int aff_fc_determined(aff_real max_rel_stderr, aff_real e2, aff_real P_FcFc, aff
 {
     if (!(max_rel_stderr < INFINITY))
         return 1;
-    return AFF_SQRT(max2(e2 * P_FcFc, 0.0)) <= max_rel_stderr * max2(eFc, eFs)
+    return AFF_SQRT(aff_max2(e2 * P_FcFc, 0.0)) <= max_rel_stderr * aff_max2(eFc, eFs)
            && P_FcFc <= FC_INFO_FRACTION * P_prior;
 }
 
@@ -125,7 +114,7 @@ static int lag_consistent(const aff_robust_ff *r, const aff_rls *rls, aff_real e
     v2 = g0 * (e2 * aff_rls_P(rls, 0, 2)) + (aff_real)1.0 * (e2 * aff_rls_P(rls, 1, 2))
          + g2 * (e2 * aff_rls_P(rls, 2, 2));
     var = v0 * g0 + v1 * (aff_real)1.0 + v2 * g2;
-    return diff <= (aff_real)3.0 * AFF_SQRT(max2(var, 0.0));
+    return diff <= (aff_real)3.0 * AFF_SQRT(aff_max2(var, 0.0));
 }
 
 int aff_robust_ff_plausible(const aff_robust_ff *r, aff_real J, aff_real tau, aff_real J_alt, aff_real Fc,
@@ -193,11 +182,11 @@ int aff_robust_ff_observe(void *self, double u, double w_meas, double *theta_out
     if (lag_consistent(r, rls, eJ, etau, eJalt, e2, r->ff.dt, lag)) {
         r->held = 0;
         if (lag) { /* the upper confidence bound of the weighted lag, at most lag_margin_max*tau above it */
-            aff_real sd = AFF_SQRT(max2(e2 * aff_rls_P(rls, 2, 2), 0.0));
+            aff_real sd = AFF_SQRT(aff_max2(e2 * aff_rls_P(rls, 2, 2), 0.0));
             aff_real m;
             etau = aff_robust_ff_lag_weighted(r, etau, sd);
-            m = min2(r->lag_margin * sd, r->lag_margin_max * etau);
-            etau = min2(etau + m, r->tau_max);
+            m = aff_min2(r->lag_margin * sd, r->lag_margin_max * etau);
+            etau = aff_min2(etau + m, r->tau_max);
         }
     } else if (r->ff.has && !r->provisional) {
         r->n_lag_held++;

@@ -25,4 +25,17 @@ typedef double aff_real;
 #define AFF_LOG log
 #endif
 
+/* Python's min(a, b) and max(a, b) (the first argument unless the second compares smaller/larger): the
+ * order of the comparison decides which of two equal or NaN arguments is returned, as in the Python code
+ * the components were first written in. */
+static inline aff_real aff_min2(aff_real a, aff_real b)
+{
+    return b < a ? b : a;
+}
+
+static inline aff_real aff_max2(aff_real a, aff_real b)
+{
+    return b > a ? b : a;
+}
+
 #endif
