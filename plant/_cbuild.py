@@ -46,16 +46,39 @@ def cdef_text(header: Path) -> str:
 
 def compile_args() -> list[str]:
     """C99, optimised, and no contraction of ``a*b + c`` into a fused multiply-add: the same numbers on every
-    compiler and CPU (MSVC: its default ``/fp:precise`` does not contract either)."""
+    compiler and CPU (MSVC: its default ``/fp:precise`` does not contract either).
+
+    ``-O3`` without ``-ffast-math`` keeps every floating-point operation and its order (vectorising or
+    inlining does not reassociate), so the results equal those of ``-O2`` (tests/test_golden.py); it made the
+    engine 20-25 % faster per step (docs/benchmarks/perf.md). On Linux, ``-fno-semantic-interposition`` lets
+    the compiler inline the components' exported functions into their callers inside the module (an ELF
+    shared object otherwise keeps every exported call interposable).
+    """
     if sys.platform == "win32":
         return ["/O2"]
-    return ["-std=c99", "-O2", "-ffp-contract=off", "-fno-fast-math"]
+    args = ["-std=c99", "-O3", "-ffp-contract=off", "-fno-fast-math"]
+    if sys.platform.startswith("linux"):
+        args.append("-fno-semantic-interposition")
+    return args
 
 
 def sources(csrc: Path) -> list[str]:
     """The ``.c`` files of a ``csrc`` folder, relative to the project root (setuptools wants relative paths)."""
     root = csrc.parent.parent
     return [os.path.relpath(p, root) for p in sorted(csrc.glob("*.c"))]
+
+
+def unity_source(layers: list[tuple[Path, list[str]]]) -> str:
+    """The module's C source: the declared headers, then every ``.c`` file of ``layers`` included in order.
+
+    One translation unit per extension module (a "unity build"), so the compiler inlines across the
+    components' files as it does within one (the plant's RK4 step calls eq. 3 four times per period; the
+    engine calls the compensator through its ops table): the same sources, no link-time optimiser needed,
+    on every compiler. The components' file-local (``static``) names are therefore unique across all
+    layers (tests/test_c_layers.py).
+    """
+    includes = "".join(f'#include "{h}"\n' for _, hs in layers for h in hs)
+    return includes + "".join(f'#include "{Path(s).name}"\n' for d, _ in layers for s in sources(d))
 
 
 def make_ffi(module: str, layers: list[tuple[Path, list[str]]], include: FFI | None = None) -> FFI:
@@ -78,10 +101,10 @@ def make_ffi(module: str, layers: list[tuple[Path, list[str]]], include: FFI | N
     own_dir, own_headers = layers[-1]
     ffi.cdef("\n".join(cdef_text(own_dir / h) for h in own_headers))
     root = own_dir.parent.parent
-    includes = "".join(f'#include "{h}"\n' for d, hs in layers for h in hs)
-    ffi.set_source(module, includes,
-                   sources=[s for d, _ in layers for s in sources(d)],
+    ffi.set_source(module, unity_source(layers),
                    include_dirs=[os.path.relpath(d, root) for d, _ in layers],
+                   depends=[s for d, _ in layers for s in sources(d)]
+                   + [os.path.relpath(h, root) for d, _ in layers for h in sorted(d.glob("*.h"))],
                    extra_compile_args=compile_args())
     return ffi
 

@@ -47,3 +47,35 @@ def test_includes_follow_the_layers(layer, path):
 def test_a_layer_prefix_names_every_file():
     for layer, path in FILES:
         assert _owner(path.name) == layer, f"{layer}/csrc/{path.name}: the file name must carry the layer's prefix"
+
+
+def _file_local_names(code: str) -> set[str]:
+    """Names a C source declares ``static`` at file scope (functions and constants)."""
+    code = re.sub(r"/\*.*?\*/", "", code, flags=re.S)
+    return set(re.findall(r"^static\s+(?:const\s+)?[A-Za-z_][\w ]*?[\s*]+([A-Za-z_]\w*)\s*[(=\[;]", code, re.M))
+
+
+def test_file_local_names_are_unique_across_the_core():
+    """Each extension module compiles its layers' sources as one translation unit (plant/_cbuild.py,
+    ``unity_source``): a file-local name declared in two sources would collide there."""
+    seen: dict[str, str] = {}
+    for _, path in FILES:
+        if path.suffix != ".c":
+            continue
+        for name in _file_local_names(path.read_text()):
+            assert name not in seen, f"static {name} is declared in {seen[name]} and in {path.name}"
+            seen[name] = path.name
+    assert {"rhs", "row_at", "sense", "FC_INFO_FRACTION", "NOISE_GAIN"} <= set(seen)  # the pattern finds them
+
+
+def test_the_module_source_includes_every_c_file_once():
+    """The unity source of the engine's module names each header it declares and every .c of the three layers."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("plant_cbuild_for_test", ROOT / "plant" / "_cbuild.py")
+    build = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(build)
+    layers = [(ROOT / layer / "csrc", []) for layer in LAYERS]
+    text = build.unity_source(layers)
+    included = re.findall(r'#include "([^"]+\.c)"', text)
+    assert sorted(included) == sorted(p.name for _, p in FILES if p.suffix == ".c")
