@@ -7,7 +7,7 @@ eq. 3 with plant's one implementation); the plant types are shared with ``plant.
 
 from __future__ import annotations
 
-import importlib.util
+import runpy
 from pathlib import Path
 
 CSRC = Path(__file__).resolve().parent / "csrc"
@@ -30,17 +30,12 @@ HEADERS = [
 ]
 
 
-def load_build_script(path: Path, name: str):
-    """Import a build script by its path (the build scripts are files run by setuptools, not a package)."""
-    spec = importlib.util.spec_from_file_location(name, path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-plant_build = load_build_script(CSRC.parent.parent / "plant" / "_cbuild.py", "plant_cbuild")
-LAYERS = [(plant_build.CSRC, plant_build.HEADERS), (CSRC, HEADERS)]
-ffibuilder = plant_build.make_ffi("adaptive_ff._caff", LAYERS, include=plant_build.ffibuilder)
+#: The layer below's build script, run by its path (the build scripts are files setuptools runs, not a package):
+#: its globals (``CSRC``, ``HEADERS``, ``make_ffi``, ``ffibuilder``).
+plant_build = runpy.run_path(str(CSRC.parent.parent / "plant" / "_cbuild.py"))
+LAYERS = [(plant_build["CSRC"], plant_build["HEADERS"]), (CSRC, HEADERS)]
+make_ffi = plant_build["make_ffi"]
+ffibuilder = make_ffi("adaptive_ff._caff", LAYERS, include=plant_build["ffibuilder"])
 
 if __name__ == "__main__":
     ffibuilder.compile(verbose=True)

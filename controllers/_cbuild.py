@@ -7,7 +7,7 @@ Builds ``controllers._cctl`` from ``controllers/csrc/*.c`` plus the C sources of
 
 from __future__ import annotations
 
-import importlib.util
+import runpy
 from pathlib import Path
 
 CSRC = Path(__file__).resolve().parent / "csrc"
@@ -24,17 +24,10 @@ HEADERS = [
 ]
 
 
-def load_build_script(path: Path, name: str):
-    """Import a build script by its path (the build scripts are files run by setuptools, not a package)."""
-    spec = importlib.util.spec_from_file_location(name, path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-aff_build = load_build_script(CSRC.parent.parent / "adaptive_ff" / "_cbuild.py", "adaptive_ff_cbuild")
-LAYERS = aff_build.LAYERS + [(CSRC, HEADERS)]
-ffibuilder = aff_build.plant_build.make_ffi("controllers._cctl", LAYERS, include=aff_build.ffibuilder)
+#: The layer below's build script, run by its path (it runs plant's in turn): its globals.
+aff_build = runpy.run_path(str(CSRC.parent.parent / "adaptive_ff" / "_cbuild.py"))
+LAYERS = aff_build["LAYERS"] + [(CSRC, HEADERS)]
+ffibuilder = aff_build["make_ffi"]("controllers._cctl", LAYERS, include=aff_build["ffibuilder"])
 
 if __name__ == "__main__":
     ffibuilder.compile(verbose=True)
