@@ -1,8 +1,16 @@
-"""A/B of the batch engine between two source trees (e.g. before/after a change of the plant step).
+"""A/B of the engine between two source trees (e.g. before/after a change of the plant step).
 
 Run:  git worktree add /tmp/old REV   (or: mkdir /tmp/old && git archive REV | tar -x -C /tmp/old)
       (cd /tmp/old && python setup.py build_ext --inplace)   # its C core, built in place
       python benchmarks/tree_ab.py /tmp/old [--B 1000] [--seconds 2] [--repeat 5] [--rounds 3] [--mode none]
+      python benchmarks/tree_ab.py /tmp/old --ratio [--other-python /venv-of-old/bin/python]
+
+``--ratio`` times, in the same alternating fresh processes, python-control's ``input_output_response`` on
+the PI + plant loop of ``benchmarks/perf.py`` and the single-run engine (``run_mode`` ``none`` and
+``adaptive`` with noise 1e-3), and prints the ratios: the speed target "warm engine ratio to
+python-control not worse than before" compared on one machine in one run, where python-control's own
+time per step varies several-fold between runs (docs/benchmarks/perf.md). ``--other-python`` runs the
+other tree under another interpreter (a tree from before the C core needs an environment with numba).
 
 Each tree imports its own C core: the extension modules built in place beside its packages (``setup.py
 build_ext --inplace``; an editable install of this tree has done that for this one). Each round runs one
@@ -16,7 +24,9 @@ processes on a loaded machine) and prints µs per scenario-step of the engine (m
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import statistics
 import subprocess
 import sys
 from pathlib import Path
@@ -53,6 +63,90 @@ print(f"median {statistics.median(spent) / n * 1e6:.4f} µs, fastest {min(spent)
       f"rms[:2] {r.rms[:2].tolist()}")
 """
 
+_RATIO_CHILD = r"""
+import json, statistics, sys, time
+import numpy as np
+import control
+from controllers.simulation.closed_loop import ModeOptions, run_mode
+from controllers.design.pi import design_pi
+from plant.excitation import multisine_reference
+from plant.friction import preset
+from plant.joint import make_rk4_step
+seconds, repeat = float(sys.argv[1]), int(sys.argv[2])
+p = preset("paper")
+d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
+Tc, u_max = d.Tc, 150.0
+step = make_rk4_step(p, Tc)
+Kp, KiTc = d.Kp, d.Ki * Tc
+def ctrl_out(t, x, u, params):
+    e = u[0] - u[1]
+    return np.array([min(max(Kp * e + x[0] + KiTc * e, -u_max), u_max)])
+P = control.nlsys(lambda t, x, u, params: np.array(step(x[0], x[1], u[0])), lambda t, x, u, params: x[:1],
+                  inputs=["u"], outputs=["w"], states=2, dt=Tc, name="plant")
+C = control.nlsys(lambda t, x, u, params: np.array([x[0] + KiTc * (u[0] - u[1])]), ctrl_out,
+                  inputs=["r", "w"], outputs=["u"], states=1, dt=Tc, name="pi")
+loop = control.interconnect([P, C], inplist=["pi.r"], outlist=["plant.w", "pi.u"],
+                            connections=[["plant.u", "pi.u"], ["pi.w", "plant.w"]], dt=Tc)
+def cpu(fn, reps):
+    out = []
+    for _ in range(reps):
+        t0 = time.thread_time(); fn(); out.append(time.thread_time() - t0)
+    return statistics.median(out)
+pc_ref = multisine_reference(min(seconds, 2.0), rng=np.random.default_rng(0))
+us = {"python-control": cpu(lambda: control.input_output_response(loop, pc_ref.t, pc_ref.w),
+                            max(1, repeat // 2)) / pc_ref.t.size * 1e6}
+ref = multisine_reference(seconds, rng=np.random.default_rng(0))
+base = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=u_max)
+adaptive = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=u_max, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
+for mode, o in (("none", base), ("adaptive", adaptive)):
+    run = lambda: run_mode(p, ref, mode, o, rng=np.random.default_rng(1))
+    run()  # warm-up (compiles where the other tree has a JIT)
+    us[mode] = cpu(run, repeat) / ref.t.size * 1e6
+print(json.dumps(us))
+"""
+
+
+def ratio_rounds(trees: dict, pythons: dict, *, seconds: float = 20.0, repeat: int = 5, rounds: int = 3,
+                 out=print) -> dict:
+    """Alternate fresh processes of the trees; print µs per step and ratios to python-control of each run.
+
+    Parameters
+    ----------
+    trees : dict of str -> str
+        Name -> root of a source tree (holds plant/, adaptive_ff/, controllers/).
+    pythons : dict of str -> str
+        Name -> interpreter that runs that tree.
+    seconds, repeat, rounds : float, int, int
+        Simulated time of each ``run_mode`` (s; python-control runs ``min(seconds, 2)``), timed calls per
+        process (median), processes per tree.
+    out : callable
+        Receives each printed line.
+
+    Returns
+    -------
+    dict of str -> (float, float)
+        Name -> median over the rounds of the ratio ``none`` and ``adaptive`` to python-control.
+    """
+    out(f"python-control input_output_response ({min(seconds, 2.0):g} s) and run_mode ({seconds:g} s), "
+        "CPU time of the calling thread, median of --repeat")
+    out(f"{'tree':<10} {'python-control':>15} {'none':>9} {'adaptive':>9} {'ratio none':>11} {'ratio adaptive':>15}")
+    ratios = {name: [] for name in trees}
+    for _ in range(rounds):
+        for name, root in trees.items():
+            env = dict(os.environ, PYTHONPATH=root, ADAPTIVE_FF_THREADS="1")
+            proc = subprocess.run([pythons[name], "-c", _RATIO_CHILD, str(seconds), str(repeat)],
+                                  env=env, cwd=root, capture_output=True, text=True, check=True)
+            us = json.loads(proc.stdout.strip().splitlines()[-1])
+            r = (us["python-control"] / us["none"], us["python-control"] / us["adaptive"])
+            ratios[name].append(r)
+            out(f"{name:<10} {us['python-control']:>12.1f} us {us['none']:>9.4f} {us['adaptive']:>9.4f} "
+                f"{r[0]:>10.0f}x {r[1]:>14.0f}x")
+    medians = {name: (statistics.median(a for a, _ in rs), statistics.median(b for _, b in rs))
+               for name, rs in ratios.items()}
+    for name, (a, b) in medians.items():
+        out(f"{name:<10} median ratio: none {a:.0f}x, adaptive {b:.0f}x")
+    return medians
+
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -62,13 +156,21 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--mode", default="none")
+    ap.add_argument("--ratio", action="store_true",
+                    help="time run_mode none/adaptive against python-control in both trees (ratios), not run_batch")
+    ap.add_argument("--other-python", default=sys.executable,
+                    help="interpreter for the other tree (default: this one)")
     args = ap.parse_args(argv)
     trees = {"this tree": str(Path(__file__).resolve().parent.parent), "other": str(Path(args.other).resolve())}
+    pythons = {"this tree": sys.executable, "other": args.other_python}
+    if args.ratio:
+        ratio_rounds(trees, pythons, seconds=args.seconds, repeat=args.repeat, rounds=args.rounds)
+        return 0
     print(f"run_batch {args.mode}, B={args.B}, {args.seconds:g} s, 1 thread, engine CPU time per scenario-step")
     for _ in range(args.rounds):
         for name, root in trees.items():
             env = dict(os.environ, PYTHONPATH=root, ADAPTIVE_FF_THREADS="1")
-            out = subprocess.run([sys.executable, "-c", _CHILD, str(args.B), str(args.seconds), str(args.repeat),
+            out = subprocess.run([pythons[name], "-c", _CHILD, str(args.B), str(args.seconds), str(args.repeat),
                                   args.mode], env=env, cwd=root, capture_output=True, text=True, check=True)
             print(f"{name:<10} {out.stdout.strip()}")
     return 0
