@@ -90,9 +90,23 @@ class Reference:
     dw: np.ndarray
 
     def reversals(self) -> np.ndarray:
-        """Times (s) where the reference velocity changes sign."""
+        """Times (s) where the reference velocity changes sign: ``t[k]`` where ``sgn(w[k-1])*sgn(w[k]) < 0``, or
+        where ``w[k] == 0`` between samples of opposite signs (a zero crossing on a sample)."""
         s = np.sign(self.w)
-        i = np.flatnonzero(s[1:] * s[:-1] < 0)
+        direct = s[1:] * s[:-1] < 0
+        on_zero = np.zeros_like(direct)
+        on_zero[:-1] = (s[1:-1] == 0) & (s[2:] * s[:-2] < 0)
+        return self.t[np.flatnonzero(direct | on_zero) + 1]
+
+    def stops(self) -> np.ndarray:
+        """Times (s) where the reference comes to rest: the first sample of each run of ``w == 0`` that follows
+        motion and lasts at least two samples or to the end (a point-to-point move's end,
+        :func:`plant.motion.point_to_point_reference`; a single zero sample between motion is no stop, e.g. a
+        zero crossing on a sample, :meth:`reversals`)."""
+        rest = self.w == 0.0
+        run2 = rest.copy()
+        run2[:-1] = rest[:-1] & rest[1:]
+        i = np.flatnonzero(run2[1:] & ~rest[:-1])
         return self.t[i + 1]
 
 

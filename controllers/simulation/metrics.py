@@ -254,13 +254,19 @@ def reversal_times(t, w, chunk: int = 1 << 16) -> np.ndarray:
     Returns
     -------
     ndarray, shape (R,)
-        ``t[k]`` for every ``k`` with ``sgn(w[k-1])*sgn(w[k]) < 0``.
+        ``t[k]`` for every ``k`` with ``sgn(w[k-1])*sgn(w[k]) < 0``, and for every ``k`` with ``w[k] == 0`` and
+        ``sgn(w[k-1])*sgn(w[k+1]) < 0`` (a reversal whose zero crossing falls on a sample; two or more samples
+        at rest in between make a stop and a start, not a reversal).
     """
     n = w.shape[0]
     out = [t[:0]]
     for i in range(0, n - 1, chunk):
-        s = np.sign(w[i:i + chunk + 1])
-        out.append(t[i + 1 + np.flatnonzero(s[1:] * s[:-1] < 0)])
+        s = np.sign(w[i:i + chunk + 2])
+        direct = s[1:] * s[:-1] < 0
+        on_zero = np.zeros_like(direct)
+        on_zero[:-1] = (s[1:-1] == 0) & (s[2:] * s[:-2] < 0)
+        k = np.flatnonzero((direct | on_zero)[:chunk])
+        out.append(t[i + 1 + k])
     return np.concatenate(out)
 
 

@@ -1,0 +1,98 @@
+"""A velocity reference from a recorded trajectory: time and velocity, or time and position, from a file.
+
+A robot's own motion (a recorded or planned joint trajectory) as the reference of a comparison: the file is
+read by :func:`adaptive_ff.io.tables.read_columns` (CSV with a header, ``.mat``, ``.npz``; errors name the
+file, the column and the row), converted to SI units, a position differentiated, and the result resampled to
+the controller's step. The generated references (point-to-point moves, reversals) are in :mod:`plant.motion`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from adaptive_ff.io.tables import CsvFormat, read_columns
+from adaptive_ff.io.units import TIME_UNITS, VELOCITY_UNITS
+from plant.errors import ParameterError, SignalError, check_positive
+from plant.excitation import Reference
+
+__all__ = ["load_reference", "REFERENCE_POSITION_UNITS"]
+
+#: Position units of a reference file and their factor to rad.
+REFERENCE_POSITION_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}
+
+
+def _unit(name: str, value: str, table: dict) -> float:
+    if value not in table:
+        raise ParameterError(f"{name} must be one of {list(table)}, got {value!r}")
+    return table[value]
+
+
+def load_reference(path, *, time: str = "t", velocity: str | None = None, position: str | None = None,
+                   dt: float = 1e-3, time_unit: str = "s", velocity_unit: str = "rad/s",
+                   position_unit: str = "rad", csv_format: CsvFormat | None = None) -> Reference:
+    """Read a velocity reference from a file of time and velocity, or time and position.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        ``.csv``/``.txt`` with a header row, ``.mat`` or ``.npz`` (:func:`adaptive_ff.io.tables.read_columns`).
+    time : str, keyword-only
+        Name of the time column, default ``"t"``.
+    velocity, position : str, keyword-only
+        Name of the velocity column or of the position column: exactly one. A position is differentiated by
+        second-order central differences on its own time stamps (``numpy.gradient``), for a planned or
+        smooth recorded trajectory; a noisy measured position wants
+        :func:`adaptive_ff.io.kalman_velocity.velocity_from_position` first.
+    dt : float, keyword-only
+        Step of the returned reference (s), > 0, default 1 ms: the file is resampled by linear interpolation
+        from its first time stamp, which becomes ``t = 0``, to its last.
+    time_unit, velocity_unit, position_unit : str, keyword-only
+        ``"s"``, ``"ms"``, ``"us"``; ``"rad/s"``, ``"deg/s"``, ``"rpm"``; ``"rad"``, ``"deg"``.
+    csv_format : CsvFormat, keyword-only, optional
+        Layout of a text file (lines to skip, delimiter, ...).
+
+    Returns
+    -------
+    Reference
+        ``t`` from 0 in steps of ``dt``, ``w`` (rad/s) and ``dw`` (rad/s², central differences of the resampled
+        ``w``; one-sided at the ends).
+
+    Raises
+    ------
+    FileNotFoundError
+        No such file.
+    SignalError
+        The file's own errors (a missing column, a cell that is not a finite number, naming the file, column
+        and row), fewer than two rows, or time stamps not strictly increasing (naming the row and the value).
+    ParameterError
+        Neither or both of ``velocity`` and ``position``, an unknown unit, ``dt`` not > 0, or a file shorter
+        than two steps of ``dt``.
+    """
+    if (velocity is None) == (position is None):
+        raise ParameterError(f"give exactly one of velocity= and position= (the column's name), got "
+                             f"velocity={velocity!r}, position={position!r}")
+    dt = check_positive("dt", dt)
+    kt = _unit("time_unit", time_unit, TIME_UNITS)
+    role = "w" if velocity is not None else "q"
+    k = (_unit("velocity_unit", velocity_unit, VELOCITY_UNITS) if role == "w"
+         else _unit("position_unit", position_unit, REFERENCE_POSITION_UNITS))
+    table = read_columns(path, {"t": time, role: velocity if role == "w" else position}, csv_format=csv_format)
+    t = table.columns["t"] * kt
+    x = table.columns[role] * k
+    if t.shape[0] < 2:
+        raise SignalError(f"{table.source}: {t.shape[0]} row(s), a reference needs at least two")
+    bad = np.flatnonzero(~(np.diff(t) > 0))
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise SignalError(f"{table.source}: {table.column('t')} must be strictly increasing; {table.row(i)} has "
+                          f"{float(table.columns['t'][i])!r} after {float(table.columns['t'][i - 1])!r}")
+    w = np.gradient(x, t) if role == "q" else x
+    span = float(t[-1] - t[0])
+    n = int(math.floor(span / dt * (1.0 + 1e-12))) + 1
+    if n < 2:
+        raise ParameterError(f"{table.source}: the file spans {span!r} s, shorter than two steps of dt = {dt!r} s")
+    tr = np.arange(n) * dt
+    wr = np.interp(tr + t[0], t, w)
+    return Reference(t=tr, w=wr, dw=np.gradient(wr, dt))
