@@ -292,6 +292,25 @@ def _stiff_rows(args):
     return rows
 
 
+def _user_compensator_rows(p, design, args, ref, n):
+    """The engine's cost of a user's own Python compensator (controllers.simulation.user_compensator): ``run_own``
+    with one that returns 0, against ``run_mode none`` on the same loop (µs per 1 kHz step, wall, median)."""
+    from controllers.simulation.closed_loop import run_own
+
+    class Zero:
+        def compensate(self, w_meas, w_ref):
+            return 0.0
+
+        def observe(self, u, w_meas):
+            return None
+
+    o = ModeOptions(Kp=design.Kp, Ki=design.Ki, u_max=U_MAX)
+    run_own(p, ref, Zero(), o)  # warm-up
+    med, best = timed(lambda: run_own(p, ref, Zero(), o), args.repeat)
+    return [("run_own, your Python compensator (returns 0): the engine calling it back, per step", med / n * 1e6,
+             "µs/step", best / n * 1e6)]
+
+
 def _own_loop_rows(p, design, args):
     """Per-call cost of the feedforward object in a user's own Python loop (docs/your_loop.md): ``step(w, w_ref)``
     and ``observe(u, w)`` once per 1 kHz period, on the (u, w) record of a closed-loop run."""
@@ -518,6 +537,7 @@ def main(argv=None) -> int:
         rows.append(("RecursiveLeastSquares.update_many (p = 7), per sample", med / m * 1e6, "µs/update",
                      best / m * 1e6))
 
+    rows += _user_compensator_rows(p, design, args, ref, n)
     rows += _batch_rows(p, design, B, args)
     rows += _stiff_rows(args)
     rows += _own_loop_rows(p, design, args)

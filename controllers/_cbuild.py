@@ -28,6 +28,11 @@ HEADERS = [
 aff_build = runpy.run_path(str(CSRC.parent.parent / "adaptive_ff" / "_cbuild.py"))
 LAYERS = aff_build["LAYERS"] + [(CSRC, HEADERS)]
 ffibuilder = aff_build["make_ffi"]("controllers._cctl", LAYERS, include=aff_build["ffibuilder"])
+#: A user's compensator written in Python (controllers/simulation/user_compensator.py) runs in the same engine
+#: through an ops table whose two functions call back into Python (cffi ``extern "Python"``, the signatures of
+#: ``aff_compensator_ops``). They exist only in the binding, so they are declared here, not in a C header.
+ffibuilder.cdef('extern "Python" double ctl_py_compensate(void *, double, double, double);\n'
+                'extern "Python" int ctl_py_observe(void *, double, double, double *);')
 
 if __name__ == "__main__":
     ffibuilder.compile(verbose=True)

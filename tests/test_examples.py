@@ -34,3 +34,12 @@ def test_controller_design(tmp_path):
 def test_tracking_regression_example_passes():
     out = _run("-m", "pytest", "-q", "-p", "no:cacheprovider", EXAMPLES / "test_tracking_regression.py")
     assert "3 passed" in out
+
+
+def test_lugre_model_example_runs_its_compensator_beside_adaptive_dob():
+    out = _run(EXAMPLES / "lugre_model.py", "--duration", "20")
+    rows = {ln.split()[0]: ln.split() for ln in out.splitlines() if ln.strip()}
+    assert "lugre-model" in rows and "adaptive-dob" in rows
+    eta_own, eta_adob = float(rows["lugre-model"][5]), float(rows["adaptive-dob"][5])
+    assert 0.5 < eta_own < eta_adob  # the model-based feedforward helps, the adaptive composite more
+    assert len((EXAMPLES / "lugre_model.py").read_text().splitlines()) <= 80

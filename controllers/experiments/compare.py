@@ -13,10 +13,11 @@ from adaptive_ff.identification.ls import LSResult, fit_ls
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from adaptive_ff.compensation.sliding_estimator import SlidingFit, fit_sliding
 from adaptive_ff.identification.stribeck_fit import StribeckFit
-from controllers.simulation.closed_loop import ModeOptions, run_mode
+from controllers.simulation.closed_loop import ModeOptions, run_mode, run_own
 from controllers.simulation.compensators import MODES
 from controllers.simulation.memory import MODE_SIGNALS, PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
 from controllers.simulation.metrics import deviation_rms, first_active_time
+from controllers.simulation.user_compensator import CompensatorContext
 from controllers.design.pi import PIDesign, design_pi
 from controllers.experiments.quasi_static import (StribeckDesign, StribeckExperiment, prefit_stribeck,
                                                   stribeck_experiment)
@@ -226,6 +227,12 @@ class CompareOptions:
     modes : sequence of str
         Subset of :data:`controllers.simulation.compensators.MODES`; ``none`` and ``frictionless`` are always
         run (``eta`` needs them).
+    compensators : dict of str -> callable, optional
+        Your own compensators beside the built-in modes: ``{name: factory}``, each ``factory(context)`` given a
+        :class:`controllers.simulation.user_compensator.CompensatorContext` (the design inertia, the PI, the
+        limits, the pre-fit; never the true plant) and returning an object with ``compensate(w_meas, w_ref)``
+        and ``observe(u, w_meas)``; it runs in the same loop, on the same reference and noise, and appears in
+        the table, the figures and the JSON under ``name`` (not a built-in mode's name).
     crossover, phase_margin : float
         PI design targets (rad/s, deg) for :func:`controllers.design.pi.design_pi` on ``1/(J s)``.
     Tc, Ts : float
@@ -339,6 +346,7 @@ class CompareOptions:
     J_design: float | None = None
     sign_input: str = "observer"
     observer_bandwidth: float | None = None
+    compensators: dict | None = None
 
     def __post_init__(self):
         check_positive("duration", self.duration)
@@ -359,6 +367,13 @@ class CompareOptions:
             raise ParameterError(f"unknown mode(s) {unknown}; known: {MODES}")
         if self.fixed_method not in FIXED_METHODS:
             raise ParameterError(f"fixed_method must be one of {FIXED_METHODS}, got {self.fixed_method!r}")
+        for name, factory in (self.compensators or {}).items():
+            if not isinstance(name, str) or not name.strip() or name in MODES:
+                raise ParameterError(f"compensators: a name must be a non-empty string other than a built-in mode "
+                                     f"{MODES}, got {name!r}")
+            if not callable(factory):
+                raise ParameterError(f"compensators[{name!r}] must be a callable factory(context) -> compensator, "
+                                     f"got {type(factory).__name__}")
         self.check_memory()
 
     def check_memory(self, *, processes: int = 1) -> int:
@@ -385,7 +400,7 @@ class CompareOptions:
         ParameterError
             The runs do not fit (:func:`controllers.simulation.memory.check_run_memory`).
         """
-        run = set(self.modes) | {"none", "frictionless"}
+        run = set(self.modes) | {"none", "frictionless"} | set(self.compensators or {})
         ident = "fixed" in run or (self.adaptive_start and bool(run & {"adaptive", "adaptive-dob"}))
         signals = max(SHARED_SIGNALS + MODE_SIGNALS * len(run), PREPARATION_SIGNALS if ident else 0)
         return check_run_memory(self.duration, self.Tc, signals=signals, detail=f"{len(run)} modes",
@@ -449,6 +464,14 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
         results[mode] = run_mode(p, s.reference, mode, s.mode_options[mode], rng=np.random.default_rng(s.noise_seed),
                                  faults=o.faults)
         s.bar.update()
+    if o.compensators:
+        mo = s.mode_options["none"]
+        ctx = CompensatorContext(J=float(s.J_design), Tc=mo.Tc, Ts=mo.Ts, Kp=mo.Kp, Ki=mo.Ki, u_max=mo.u_max,
+                                 ff_max=mo.ff_max, noise_std=mo.noise_std, prefit=s.prefit)
+        for name, factory in o.compensators.items():
+            s.bar.set_postfix_str(name)
+            results[name] = run_own(p, s.reference, factory(ctx), mo, name=name,
+                                    rng=np.random.default_rng(s.noise_seed), faults=o.faults)
     s.bar.close()
     rn = results["none"].metrics.rms_second_half
     rf = results["frictionless"].metrics.rms_second_half
@@ -550,7 +573,7 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     _, id_ss, noise_ss, qs_ss = np.random.SeedSequence(o.seed).spawn(4)
     ref = comparison_reference(o) if reference is None else _checked_reference(reference, o)
     peak_w, peak_a = float(np.max(np.abs(ref.w))), float(np.max(np.abs(ref.dw)))
-    needs_prefit = any(m in PREFIT_MODES for m in run_modes) and o.Vs is None
+    needs_prefit = (any(m in PREFIT_MODES for m in run_modes) or bool(o.compensators)) and o.Vs is None
     if needs_prefit and not o.prefit:
         raise ParameterError(f"modes {[m for m in run_modes if m in PREFIT_MODES]} need Vs and delta: give them "
                              f"(Vs=..., delta=...; --Vs/--delta) or allow the Stribeck pre-fit")

@@ -22,6 +22,7 @@ from controllers.simulation.compensators import MODES, ESTIMATORS, ModeOptions, 
 from controllers.simulation.engine import EngineRun
 from controllers.simulation.memory import MODE_SIGNALS, check_run_memory
 from controllers.simulation.metrics import LoopMetrics, loop_metrics, metrics_result, reversal_times
+from controllers.simulation.user_compensator import UserCompensator, is_user_compensator
 from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
 from plant.excitation import Reference
 from plant.dynamics import check_integrable, plant_params, plant_state
@@ -29,7 +30,7 @@ from plant.rows import stack_params
 from plant.results import axes_or_new, json_safe
 
 __all__ = ["MODES", "ESTIMATORS", "ModeOptions", "LoopMetrics", "ClosedLoopResult", "run_closed_loop", "run_mode",
-           "loop_metrics", "plant_table"]
+           "run_own", "loop_metrics", "plant_table"]
 
 
 @dataclass(frozen=True)
@@ -179,12 +180,14 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     controller : PIController
         The PI (gains, period ``Tc`` = the integration step, saturation); its integrator state is
         advanced in place.
-    compensator : compensator component or None
+    compensator : compensator component, your own compensator, or None
         A :class:`adaptive_ff.FrictionFeedforward` (fixed), :class:`adaptive_ff.RobustAdaptiveFeedforward`,
         :class:`adaptive_ff.compensation.eq4_feedforward.AdaptiveFrictionFeedforward`,
         :class:`controllers.CanudasCompensator`, :class:`controllers.DisturbanceObserver`,
-        :class:`controllers.simulation.compensators.TrueFriction` (the oracle), or None (no compensation).
-        Its state is advanced in place (read its counters and estimate afterwards).
+        :class:`controllers.simulation.compensators.TrueFriction` (the oracle), any object with
+        ``compensate(w_meas, w_ref)`` and ``observe(u, w_meas)`` methods (run through
+        :class:`controllers.simulation.user_compensator.UserCompensator`; the result's mode is its name), or
+        None (no compensation). Its state is advanced in place (read its counters and estimate afterwards).
     reference : Reference
         Velocity reference sampled at ``controller.Tc`` (e.g. :func:`plant.multisine_reference`).
     noise_std : float, keyword-only
@@ -215,6 +218,8 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
 
     Raises
     ------
+    CompensatorError
+        Your own compensator raised or returned a non-finite torque (the period is named; the run ended there).
     ParameterError
         Reference step not equal to ``controller.Tc``, noise without ``rng``, bad ``decimate``,
         ``sensor_gate``, ``w_limit`` or ``friction0``, a compensator without the component protocol, or a
@@ -232,7 +237,11 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
         raise ParameterError(f"controller must be a PIController, got {type(controller).__name__}")
     oracle = isinstance(compensator, TrueFriction)
     if compensator is not None and not oracle and getattr(compensator, "C_OPS", None) is None:
-        raise ParameterError(f"compensator must be a compensator component or None, got {compensator!r}")
+        if not isinstance(compensator, UserCompensator):
+            if not is_user_compensator(compensator):
+                raise ParameterError(f"compensator must be a compensator component, an object with compensate("
+                                     f"w_meas, w_ref) and observe(u, w_meas) methods, or None, got {compensator!r}")
+            compensator = UserCompensator(compensator)
     decimate = _check_decimate(decimate)
     Tc = controller.Tc
     noise_std = check_nonnegative("noise_std", noise_std)
@@ -267,6 +276,8 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     x.set_pi(0, controller)
     x.set_compensator(0, None if oracle else compensator)
     x.run()
+    if isinstance(compensator, UserCompensator):
+        compensator.raise_error()
     controller.cdata[0] = x.scenarios[0].pi  # the controller's and the gate's state advance as in a loop
     if gate is not None:
         gate.cdata[0] = x.scenarios[0].gate
@@ -301,6 +312,51 @@ def _result(x: EngineRun, plant, compensator, t, wr, revs, gate, decimate, n_the
     est = est if isinstance(est, FrictionEstimate) else None
     return ClosedLoopResult(mode=mode, t=ts, w_ref=wrs, w=W, w_meas=WM, u=U, u_ff=UFF, f=F, t_theta=t_th, theta=th,
                             estimate=est, metrics=metrics, info=info)
+
+
+def run_own(plant, reference: Reference, compensator, options: ModeOptions, *, name: str | None = None,
+            rng: np.random.Generator | None = None, faults=None) -> ClosedLoopResult:
+    """Run your own compensator in the loop of :func:`run_mode` (the PI, sensor gate and noise of ``options``).
+
+    Parameters
+    ----------
+    plant : plant model
+        True plant (see :func:`run_closed_loop`).
+    reference : Reference
+        Velocity reference sampled at ``options.Tc``.
+    compensator : object
+        Has ``compensate(w_meas, w_ref)`` and ``observe(u, w_meas)``
+        (:mod:`controllers.simulation.user_compensator`); its state advances in place.
+    options : ModeOptions
+        The loop's settings (gains, saturation, noise, sensor gate, ``J_design``); the compensation settings
+        are not used.
+    name : str, keyword-only, optional
+        The result's mode; default the compensator's ``MODE``, ``name`` or class name.
+    rng, faults : keyword-only
+        As :func:`run_mode`.
+
+    Returns
+    -------
+    ClosedLoopResult
+        Its ``mode`` is the compensator's name; ``info`` carries ``n_calls`` and the object's own ``info()``.
+
+    Raises
+    ------
+    ParameterError
+        The object lacks the protocol, bad settings.
+    CompensatorError
+        The compensator raised or returned a non-finite torque (the period is named).
+    """
+    comp = compensator if isinstance(compensator, UserCompensator) else UserCompensator(compensator, name=name)
+    run_plant, controller, _ = build_mode(plant, "none", options)
+    gate = options.sensor_gate
+    if gate is True:
+        frozen = plant.at(0.0) if hasattr(plant, "at") else plant
+        gate = _sensor_gate(True, controller, float(frozen.J) if options.J_design is None else options.J_design)
+    res = run_closed_loop(run_plant, controller, comp, reference, noise_std=options.noise_std, rng=rng,
+                          faults=faults, sensor_gate=gate, w_limit=options.w_limit, decimate=options.decimate,
+                          reversal_window=options.reversal_window)
+    return replace(res, mode=comp.name)
 
 
 def _window_after(t, revs, window, k_end) -> bool:

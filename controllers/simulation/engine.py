@@ -185,13 +185,21 @@ class EngineRun:
         self.scenarios[b].pi = controller.cdata[0]
 
     def set_compensator(self, b: int, comp) -> None:
-        """Scenario ``b``'s compensator: its own struct is advanced in place (kept alive here); None: none."""
+        """Scenario ``b``'s compensator: its own struct is advanced in place (kept alive here); a
+        :class:`controllers.simulation.user_compensator.UserCompensator` is called back through its ops table;
+        None: none."""
         if comp is None:
             return
         name = getattr(comp, "C_OPS", None)
-        if name is None:
-            raise ParameterError(f"compensator must be a compensator component (C_OPS) or None, got {comp!r}")
         sc = self.scenarios[b]
+        if name is None and hasattr(comp, "ops") and hasattr(comp, "handle"):  # a user's Python compensator
+            self._keep.append(comp)
+            sc.comp = comp.handle
+            sc.ops = comp.ops
+            return
+        if name is None:
+            raise ParameterError(f"compensator must be a compensator component (C_OPS), a UserCompensator or None, "
+                                 f"got {comp!r}")
         ops = self._ops.get(name)
         if ops is None:  # cffi reads a const table as a value: one copy per run, kept alive here
             ops = self._ops[name] = ffi.new("aff_compensator_ops *", getattr(lib, name))
