@@ -20,6 +20,8 @@ HEADERS = [
     "ctl_canudas.h",
     "ctl_adob.h",
     "ctl_quasi_static.h",
+    "ctl_sensor.h",
+    "ctl_drive.h",
     "ctl_engine.h",
 ]
 

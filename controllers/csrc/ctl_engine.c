@@ -9,6 +9,8 @@ void ctl_scenario_init(ctl_scenario *sc, double w0)
     sc->diverged = 0;
     sc->n_theta_rec = 0;
     sc->fault_pos = 0;
+    sc->use_sensor = 0;
+    sc->use_drive = 0;
     for (int i = 0; i < CTL_THETA_NMAX; i++)
         sc->theta_buf[i] = 0.0;
 }
@@ -25,7 +27,8 @@ static const plant_params *row_at(ctl_scenario *sc, long k)
  * measurement (the held value after a sample the gate rejected). */
 static double sense(const ctl_run *run, ctl_scenario *sc, long k, double w, double *wm)
 {
-    double m = w + (sc->noise != NULL ? sc->noise[k] : 0.0);
+    double nk = sc->noise != NULL ? sc->noise[k] : 0.0;
+    double m = sc->use_sensor ? ctl_sensor_measure(&sc->sensor, w, nk) : w + nk;
     if (run->n_faults > 0) { /* faults sorted by sample index */
         long fp = sc->fault_pos;
         while (fp < run->n_faults && run->fault_k[fp] < k)
@@ -59,6 +62,8 @@ static int period(const ctl_run *run, ctl_scenario *sc, long k, int where)
     else if (run->oracle)
         uff = f;
     double u = ctl_pi_step(&sc->pi, wrk - wc, uff);
+    if (sc->use_drive)
+        u = ctl_drive_apply(&sc->drive, u);
     if (sc->ops != NULL && sc->ops->observe(sc->comp, u, wm, sc->theta_buf) && sc->theta != NULL) {
         long j = sc->n_theta_rec;
         if (j < run->m_theta) {

@@ -1,11 +1,12 @@
 /* ctl_engine.h -- the closed-loop engine: plant o sensor o PI o compensator, one period at a time.
  *
  * Per controller period Tc (Ruderman's 1 kHz), for every scenario:
- *   w_meas = w + noise[k] (or the injected fault of sample k);
+ *   w_meas = w + noise[k] (or, with a sensor, its measurement: an encoder's difference quotient, a delay:
+ *   ctl_sensor), or the injected fault of sample k;
  *   the sensor gate (aff_gate) gives the controller its measurement w_ctrl (the held value after a
  *   rejected sample);
  *   u_ff = ops->compensate(comp, w_ctrl, w_meas, w_ref[k])  (or the plant's true friction: the oracle);
- *   u = PI(w_ref[k] - w_ctrl, u_ff) (ctl_pi, saturated);
+ *   u = PI(w_ref[k] - w_ctrl, u_ff) (ctl_pi, saturated), then the drive's slew-rate limit (ctl_drive, if any);
  *   ops->observe(comp, u, w_meas, theta) (the estimate recorded after an update);
  *   the metrics take e = w_ref[k] - w and u (ctl_metrics);
  *   the plant advances one step with u held (plant_step); |w| >= w_limit ends the scenario (diverged).
@@ -24,6 +25,8 @@
 #include "aff_compensator.h"
 #include "ctl_pi.h"
 #include "ctl_metrics.h"
+#include "ctl_sensor.h"
+#include "ctl_drive.h"
 
 /* Largest parameter vector a compensator may report through observe. */
 #define CTL_THETA_NMAX 32
@@ -57,6 +60,10 @@ typedef struct ctl_scenario {
     const double *noise;        /* n measurement-noise samples (rad/s), or NULL */
     int use_gate;               /* 1: the controller's measurement passes the sensor gate */
     aff_gate gate;
+    int use_sensor;             /* 1: the measurement is the sensor's (encoder, delay), else w + noise */
+    ctl_sensor sensor;
+    int use_drive;              /* 1: the torque passes the drive's slew-rate limit */
+    ctl_drive drive;
     ctl_pi pi;
     void *comp;                 /* the compensator's struct, or NULL (none, oracle) */
     const aff_compensator_ops *ops;

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from adaptive_ff.compensation.gate import OutlierGate
-from controllers.simulation.closed_loop import plant_table
+from controllers.simulation.closed_loop import plant_table, sensor_and_drive
 from controllers.simulation.compensators import MODES, ModeOptions, TrueFriction, build_modes
 from controllers.simulation.engine import EngineRun
 from controllers.simulation.metrics import METRIC_NAMES, metrics_columns, reversal_times
@@ -216,6 +216,9 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
         if nrows:
             x.set_noise_row(b, b if nrows > 1 else 0)
         x.set_gate(b, gates[b])
+        sensor, drive = sensor_and_drive(o)
+        x.set_sensor(b, sensor)
+        x.set_drive(b, drive)
         x.set_pi(b, ctrls[b])
         x.set_compensator(b, None if oracle else comps[b])
     x.keep(rows)

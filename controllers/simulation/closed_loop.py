@@ -22,6 +22,7 @@ from controllers.simulation.compensators import MODES, ESTIMATORS, ModeOptions, 
 from controllers.simulation.engine import EngineRun
 from controllers.simulation.memory import MODE_SIGNALS, check_run_memory
 from controllers.simulation.metrics import LoopMetrics, loop_metrics, metrics_result, reversal_times
+from controllers.simulation.sensor_drive import Drive, Sensor
 from controllers.simulation.user_compensator import UserCompensator, is_user_compensator
 from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
 from plant.excitation import Reference
@@ -232,7 +233,18 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     controller's measurement ``w_c``; the compensator gives ``u_c``; ``u = sat(PI(w_ref - w_c) + u_c)`` with
     anti-windup; the compensator observes ``(u, w_meas)``; the plant advances one step with ``u`` held
     (RK4, Ruderman eqs. 1-3). All of it runs in the compiled engine (:mod:`controllers.simulation.engine`).
+    The measurement is ``w + noise`` and the command is applied as it is; an encoder, a measurement delay and
+    a torque slew-rate limit: :func:`run_mode` / :func:`run_own` with ``ModeOptions(encoder_counts=...,
+    delay=..., slew_rate=...)`` (:mod:`controllers.simulation.sensor_drive`).
     """
+    return _run_loop(plant, controller, compensator, reference, noise_std=noise_std, rng=rng, faults=faults,
+                     sensor_gate=sensor_gate, w_limit=w_limit, decimate=decimate, reversal_window=reversal_window,
+                     friction0=friction0, sensor=None, drive=None)
+
+
+def _run_loop(plant, controller, compensator, reference, *, noise_std, rng, faults, sensor_gate, w_limit, decimate,
+              reversal_window, friction0, sensor, drive) -> ClosedLoopResult:
+    """:func:`run_closed_loop` with the loop's sensor and drive (:class:`Sensor`, :class:`Drive` or None; copied)."""
     if not isinstance(controller, PIController):
         raise ParameterError(f"controller must be a PIController, got {type(controller).__name__}")
     oracle = isinstance(compensator, TrueFriction)
@@ -273,6 +285,8 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
         x.set_noise_table(rng.normal(0.0, noise_std, size=n)[None, :])
         x.set_noise_row(0, 0)
     x.set_gate(0, gate)
+    x.set_sensor(0, _checked("sensor", sensor, Sensor))
+    x.set_drive(0, _checked("drive", drive, Drive))
     x.set_pi(0, controller)
     x.set_compensator(0, None if oracle else compensator)
     x.run()
@@ -283,6 +297,21 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
         gate.cdata[0] = x.scenarios[0].gate
     return _result(x, plant, compensator, t, wr, revs, gate, decimate, n_theta, noise_std, Tc,
                    float(reversal_window))
+
+
+def _checked(name: str, obj, cls):
+    if obj is not None and not isinstance(obj, cls):
+        raise ParameterError(f"{name} must be a {cls.__name__} or None, got {type(obj).__name__}")
+    return obj
+
+
+def sensor_and_drive(options: ModeOptions) -> tuple:
+    """The :class:`Sensor` and :class:`Drive` of ``options`` (``encoder_counts``, ``delay``, ``slew_rate``), each
+    None where the options ask for none."""
+    sensor = (Sensor(Tc=options.Tc, counts_per_rev=options.encoder_counts, delay=options.delay)
+              if options.encoder_counts is not None or options.delay else None)
+    drive = Drive(Tc=options.Tc, slew_rate=options.slew_rate) if math.isfinite(options.slew_rate) else None
+    return sensor, drive
 
 
 def _result(x: EngineRun, plant, compensator, t, wr, revs, gate, decimate, n_theta, noise_std, Tc, window):
@@ -353,9 +382,10 @@ def run_own(plant, reference: Reference, compensator, options: ModeOptions, *, n
     if gate is True:
         frozen = plant.at(0.0) if hasattr(plant, "at") else plant
         gate = _sensor_gate(True, controller, float(frozen.J) if options.J_design is None else options.J_design)
-    res = run_closed_loop(run_plant, controller, comp, reference, noise_std=options.noise_std, rng=rng,
-                          faults=faults, sensor_gate=gate, w_limit=options.w_limit, decimate=options.decimate,
-                          reversal_window=options.reversal_window)
+    sensor, drive = sensor_and_drive(options)
+    res = _run_loop(run_plant, controller, comp, reference, noise_std=options.noise_std, rng=rng,
+                    faults=faults, sensor_gate=gate, w_limit=options.w_limit, decimate=options.decimate,
+                    reversal_window=options.reversal_window, friction0=None, sensor=sensor, drive=drive)
     return replace(res, mode=comp.name)
 
 
@@ -407,8 +437,9 @@ def run_mode(plant, reference: Reference, mode: str, options: ModeOptions, *, rn
     if gate is True:  # the gate of the design inertia (default: the plant's J, a data-sheet value)
         frozen = plant.at(0.0) if hasattr(plant, "at") else plant
         gate = _sensor_gate(True, controller, float(frozen.J) if options.J_design is None else options.J_design)
-    res = run_closed_loop(run_plant, controller, compensator, reference, noise_std=options.noise_std, rng=rng,
-                          faults=faults, sensor_gate=gate, w_limit=options.w_limit, decimate=options.decimate,
-                          reversal_window=options.reversal_window)
+    sensor, drive = sensor_and_drive(options)
+    res = _run_loop(run_plant, controller, compensator, reference, noise_std=options.noise_std, rng=rng,
+                    faults=faults, sensor_gate=gate, w_limit=options.w_limit, decimate=options.decimate,
+                    reversal_window=options.reversal_window, friction0=None, sensor=sensor, drive=drive)
     info = dict(res.info, Ts=options.Ts, ff_input=options.ff_input)
     return replace(res, mode=mode, info=info)

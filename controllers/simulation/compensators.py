@@ -140,6 +140,15 @@ class ModeOptions:
         Signal recording (see ``run_closed_loop``).
     reversal_window : float
         Half-width (s) of the reversal windows of the metrics.
+    encoder_counts : int or None
+        The loop measures with an encoder of this many counts per joint revolution (quantised position,
+        velocity by backward difference; :class:`controllers.simulation.sensor_drive.Sensor`); None (default):
+        ``w + noise``.
+    delay : int
+        Measurement delay (periods), default 0.
+    slew_rate : float
+        The drive's torque slew-rate limit (N·m/s), default inf (none;
+        :class:`controllers.simulation.sensor_drive.Drive`). The torque limit is ``u_max``.
 
     Raises
     ------
@@ -189,6 +198,9 @@ class ModeOptions:
     stick_input: str = "model"
     sign_input: str = "observer"
     observer_bandwidth: float | None = None
+    encoder_counts: int | None = None
+    delay: int = 0
+    slew_rate: float = math.inf
 
     def __post_init__(self):
         check_positive("Tc", self.Tc)
@@ -204,6 +216,10 @@ class ModeOptions:
             raise ParameterError(f"sign_input must be 'observer' or 'measured', got {self.sign_input!r}")
         if self.observer_bandwidth is not None:
             check_positive("observer_bandwidth", self.observer_bandwidth)
+        from controllers.simulation.sensor_drive import Drive, Sensor  # the checks of the components themselves
+
+        Sensor(Tc=self.Tc, counts_per_rev=self.encoder_counts, delay=self.delay)
+        Drive(Tc=self.Tc, slew_rate=self.slew_rate)
 
 
 def _ctx(plant, o: ModeOptions) -> tuple:

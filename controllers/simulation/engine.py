@@ -180,6 +180,22 @@ class EngineRun:
         if gate is not None:
             sc.gate = gate.cdata[0]
 
+    def set_sensor(self, b: int, sensor) -> None:
+        """Scenario ``b``'s sensor (a :class:`controllers.simulation.sensor_drive.Sensor`, copied by value) or None
+        (the measurement is ``w + noise``)."""
+        sc = self.scenarios[b]
+        sc.use_sensor = sensor is not None
+        if sensor is not None:
+            sc.sensor = sensor.cdata[0]
+
+    def set_drive(self, b: int, drive) -> None:
+        """Scenario ``b``'s drive (a :class:`controllers.simulation.sensor_drive.Drive`, copied by value) or None
+        (the command is applied as it is)."""
+        sc = self.scenarios[b]
+        sc.use_drive = drive is not None
+        if drive is not None:
+            sc.drive = drive.cdata[0]
+
     def set_pi(self, b: int, controller) -> None:
         """Scenario ``b``'s PI (a :class:`controllers.PIController`, copied by value)."""
         self.scenarios[b].pi = controller.cdata[0]
