@@ -20,11 +20,39 @@ import numpy as np
 
 from plant._cplant import ffi
 from plant.dynamics import make_plant_step, plant_friction, plant_params
-from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
+from plant.errors import ParameterError, check_finite_scalar
 from plant.friction import JointParams, stribeck
 from plant.mapping import plant_from_mapping
 
 __all__ = ["LuGreParams"]
+
+
+#: Unit and physical meaning of each LuGre parameter, for the messages of :func:`_physical`.
+_MEANING = {"J": ("kg·m²", "the joint inertia"), "Fc": ("N·m", "the Coulomb friction level"),
+            "Fs": ("N·m", "the static friction level"), "Vs": ("rad/s", "the Stribeck velocity"),
+            "sigma0": ("N·m/rad", "the bristle stiffness"), "sigma1": ("N·m·s/rad", "the bristle damping"),
+            "sigma2": ("N·m·s/rad", "the viscous friction coefficient")}
+
+
+def _physical(name: str, value, positive: bool) -> float:
+    """``value`` as a float, or a :class:`ParameterError` in physical words: the parameter, its value, unit and meaning.
+
+    ``positive``: the value must be > 0 (else >= 0: a damping or viscous coefficient may vanish, a negative one
+    would feed energy into the joint). The messages start as :func:`plant.errors.check_positive`'s
+    (``"sigma0 must be > 0, got 0.0"``).
+    """
+    unit, meaning = _MEANING[name]
+    try:
+        v = check_finite_scalar(name, value)
+    except ParameterError:
+        raise ParameterError(f"{name} must be finite, got {float(value)!r} {unit} ({meaning} of a LuGre "
+                             "joint)") from None
+    if positive and v <= 0.0:
+        raise ParameterError(f"{name} must be > 0, got {v!r} {unit}: {meaning} of a LuGre joint is positive")
+    if not positive and v < 0.0:
+        raise ParameterError(f"{name} must be >= 0, got {v!r} {unit}: {meaning} of a LuGre joint cannot be "
+                             "negative (it would feed energy into the joint)")
+    return v
 
 
 @dataclass(frozen=True)
@@ -81,17 +109,14 @@ class LuGreParams:
     sigma2: float
 
     def __post_init__(self):
-        object.__setattr__(self, "J", check_positive("J", self.J))
-        object.__setattr__(self, "Fc", check_positive("Fc", self.Fc))
-        object.__setattr__(self, "Fs", check_positive("Fs", self.Fs))
-        object.__setattr__(self, "Vs", check_positive("Vs", self.Vs))
+        for name, positive in (("J", True), ("Fc", True), ("Fs", True), ("Vs", True), ("sigma0", True),
+                               ("sigma1", False), ("sigma2", False)):
+            object.__setattr__(self, name, _physical(name, getattr(self, name), positive))
         delta = check_finite_scalar("delta", self.delta)
         if delta == 0.0:
-            raise ParameterError("delta must be non-zero, got 0.0")
+            raise ParameterError("delta must be non-zero, got 0.0 (the Stribeck shape factor: g(w) would not "
+                                 "depend on the speed)")
         object.__setattr__(self, "delta", delta)
-        object.__setattr__(self, "sigma0", check_positive("sigma0", self.sigma0))
-        object.__setattr__(self, "sigma1", check_nonnegative("sigma1", self.sigma1))
-        object.__setattr__(self, "sigma2", check_nonnegative("sigma2", self.sigma2))
 
     @property
     def sigma(self) -> float:
@@ -128,11 +153,23 @@ class LuGreParams:
         """One integration step ``(w, z, u) -> (w, z)`` over ``dt`` (s) with ``u`` held.
 
         Classic RK4 on ``(w, z)`` with ``n`` equal sub-steps, ``n`` chosen at each
-        call from the current stiffness ``sigma0*|w|/g(w) + (sigma1 + sigma2)/J +
-        sqrt(sigma0/J)`` so that each sub-step stays well inside RK4's stability
-        region (rate times sub-step <= 1; the region ends near 2.8); beyond
-        :data:`plant.dynamics.LUGRE_RK4_MAX` sub-steps (a stiff bristle) the
-        error-controlled implicit :func:`plant.dynamics.lugre_stiff_step`. The C
+        call from the current stiffness ``rate = sigma0*|w|/g(w) + (sigma1 + sigma2)/J +
+        sqrt(sigma0/J)`` (``|w|`` bounded over the step) so that ``rate*h <= 1``. ``rate``
+        bounds the eigenvalues ``l`` of the bristle-mass system linearised at ``(w, z)``
+        (``J*l**2 + (d*sigma1 + sigma2 + J*a)*l + d*sigma0 + a*sigma2 = 0`` with
+        ``a = sigma0*|w|/g(w)`` and ``d = d(dz/dt)/dw = 1 - z*da/dw``; at rest ``a = 0``,
+        ``d = 1``: the damped pre-sliding oscillator, critically damped at
+        ``sigma1 + sigma2 = 2*sqrt(sigma0*J)``), the bristle damping ``sigma1`` included,
+        so every sub-step stays inside RK4's stability interval (``|l|*h <= 2.78`` on the
+        negative real axis; Hairer & Wanner, *Solving ODEs II*, Sec. IV.2) with a margin
+        for the transients where the deflection is off its steady value. Beyond
+        :data:`plant.dynamics.LUGRE_RK4_MAX` sub-steps (a stiff bristle, or a damping
+        ``sigma1/J`` far above ``1/dt``) the error-controlled implicit
+        :func:`plant.dynamics.lugre_stiff_step` (extrapolated backward Euler, Newton on
+        the Jacobian) takes the step, so any ``sigma0 > 0`` and ``sigma1, sigma2 >= 0``
+        simulate at a 1 ms step (up to the pre-sliding frequency of
+        :func:`plant.rows.check_integrable`). Where RK4 was chosen its results are bit for
+        bit those of before this note (tests/test_golden.py). The C
         :func:`plant.dynamics.plant_step` behind a Python call.
 
         Raises

@@ -36,6 +36,7 @@ from plant.errors import ParameterError
 from plant.friction import JointParams
 from plant.karnopp import KarnoppParams
 from plant.lugre import LuGreParams
+from plant.rows import check_integrable, plant_params
 
 __all__ = ["MODELS", "PLAUSIBLE_RANGE", "plant_from_dict", "plant_to_dict", "load_plant", "read_json",
            "check_plausible"]
@@ -50,8 +51,11 @@ _DRIFT_KEYS = ("Fc_change", "Fs_change", "t_start", "t_end", "period")
 #: design or the simulation; zero stays allowed where the model allows it.
 PLAUSIBLE_RANGE = (1e-9, 1e9)
 
-#: Viscous-like coefficients (N·m·s/rad) that set the fastest mechanical time constant J/sigma.
-_VISCOUS_KEYS = ("sigma", "sigma_pos", "sigma_neg", "sigma1", "sigma2")
+#: Viscous coefficients (N·m·s/rad) of the lagged models (lagged Stribeck, Karnopp, asymmetric) that set their
+#: fastest mechanical time constant J/sigma. LuGre has none here: its ``sigma1`` is the bristle damping and its
+#: viscous ``sigma2`` enters the eigenvalues of the bristle-mass system, from which the LuGre step chooses its
+#: RK4 sub-steps or the implicit step (:meth:`plant.lugre.LuGreParams.make_step`); no LuGre damping is too stiff.
+_VISCOUS_KEYS = ("sigma", "sigma_pos", "sigma_neg")
 
 
 def plant_from_dict(d: dict):
@@ -162,12 +166,26 @@ def check_plausible(p, *, dt: float = 1e-3, where: str = "plant") -> None:
     Raises
     ------
     ParameterError
-        A parameter's magnitude outside :data:`PLAUSIBLE_RANGE` (zero excepted),
-        or a mechanical time constant ``J/sigma`` below ``dt/2``: the explicit
-        Runge-Kutta step diverges (RK4 is stable for ``dt*sigma/J < 2.78`` on
-        ``J dw/dt = -sigma w``; Butcher, *Numerical Methods for ODEs*, 2008,
-        Sec. 238), so the run would end in overflow or NaN. The message names
-        the parameter, its value and unit, and the likely cause.
+        A parameter's magnitude outside :data:`PLAUSIBLE_RANGE` (zero excepted);
+        for the lagged models (lagged Stribeck, Karnopp, asymmetric) a mechanical
+        time constant ``J/sigma`` below ``dt/2`` (RK4 is stable for
+        ``dt*sigma/J < 2.78`` on ``J dw/dt = -sigma w``; Butcher, *Numerical
+        Methods for ODEs*, 2008, Sec. 238: such a ``sigma`` is almost always a
+        unit slip); for LuGre a pre-sliding frequency ``sqrt(sigma0/J)`` beyond
+        :data:`plant.rows.LUGRE_STIFF_MAX` ``/dt`` (:func:`plant.rows.check_integrable`).
+        The message names the parameter, its value and unit, and the likely cause.
+
+    Notes
+    -----
+    LuGre joints are not held to ``J/sigma``: ``sigma1`` is the bristle damping
+    (critical damping ``2*sqrt(sigma0*J)`` is the textbook choice, far above
+    ``2*J/dt`` for a stiff bristle) and ``sigma2`` the viscous coefficient;
+    both enter the eigenvalues of the linearised bristle-mass system, from which
+    the LuGre step takes enough RK4 sub-steps or the implicit step
+    (:meth:`plant.lugre.LuGreParams.make_step`), so every ``sigma1, sigma2 >= 0``
+    simulates. Physically meaningless LuGre parameters (``sigma0 <= 0``, a
+    negative damping, ``J <= 0``, non-finite values) are refused by
+    :class:`plant.lugre.LuGreParams` itself.
     """
     base = getattr(p, "base", p)
     d = {k: v for k, v in plant_to_dict(base).items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
@@ -176,6 +194,12 @@ def check_plausible(p, *, dt: float = 1e-3, where: str = "plant") -> None:
         if not math.isfinite(v) or (v != 0 and not lo <= abs(v) <= hi):
             raise ParameterError(f"{where}: {k} = {v!r} is outside the plausible range {lo:g}..{hi:g} (SI units: "
                                  f"kg·m², N·m, N·m·s/rad, rad/s, s); check the units")
+    if isinstance(base, LuGreParams):
+        try:
+            check_integrable(plant_params(base), dt)
+        except ParameterError as exc:
+            raise ParameterError(f"{where}: {exc}") from None
+        return
     J = d.get("J")
     visc = max((abs(d[k]) for k in _VISCOUS_KEYS if k in d), default=0.0)
     if J is not None and visc > 0 and J / visc < dt / 2:

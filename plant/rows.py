@@ -77,7 +77,8 @@ where the friction is set-valued) for every step whose velocity range
 sub-steps; no lagged model is refused for stiffness.
 
 Stiff LuGre joints (a stiff bristle, ``sigma0`` up to 1e8 N·m/rad and more, on
-a small inertia) are integrated by :func:`~plant.stiff.lugre_stiff_step` (error-controlled,
+a small inertia; a bristle damping ``sigma1`` up to critical, ``2*sqrt(sigma0*J)``,
+and beyond, whose ``J/sigma1`` is far below the step) are integrated by :func:`~plant.stiff.lugre_stiff_step` (error-controlled,
 extrapolated backward Euler) once the RK4 sub-step count of a step would exceed
 :data:`~plant.stiff.LUGRE_RK4_MAX`; :func:`check_integrable` refuses, before a run, plants
 whose step cannot be computed accurately.

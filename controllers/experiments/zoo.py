@@ -17,8 +17,10 @@ optional drift) from the box of :class:`ZooBox` (docs/benchmarks/zoo.md):
   (Sec. II-B); the zoo draws them and reports them apart (``delta < 0`` rows);
 - lag ``tau``: 0 with probability ``p_static``, else log-uniform in 1e-3-0.1 s
   (LuGre has no lag: its pre-sliding deflection ``Fc/sigma0`` is log-uniform
-  in 1e-6-1e-3 rad, ``sigma1 = zeta*sqrt(sigma0*J)`` with ``zeta`` in 0.1-1,
-  ``sigma2 = sigma``; Karnopp's stick band ``dv`` is 5-50 % of ``Vs``; the
+  in 1e-6-1e-3 rad, ``sigma1 = zeta*2*sqrt(sigma0*J)`` with the bristle damping
+  ratio ``zeta`` uniform in 0.1-2 (lightly damped up to twice critical damping;
+  until 2026-11-23 ``sigma1 = zeta*sqrt(sigma0*J)`` with ``zeta`` in 0.1-1, i.e.
+  damping ratios 0.05-0.5), ``sigma2 = sigma``; Karnopp's stick band ``dv`` is 5-50 % of ``Vs``; the
   asymmetric model scales the negative direction's levels by 0.6-1.4);
 - models drawn evenly from the four of :mod:`plant.models`; with probability
   ``p_drift`` a :class:`plant.drift.FrictionDrift` ramps ``Fc`` and ``Fs`` by
@@ -100,7 +102,8 @@ class ZooBox:
         Log-uniform ranges: inertia (kg·m²), Stribeck velocity (rad/s), lag (s), LuGre ``Fc/sigma0`` (rad).
     friction_share, viscous_share, Fs_ratio, delta, lugre_zeta, karnopp_dv, asymmetry, drift_change : pair of float
         Uniform ranges: friction at peak speed over the peak torque demand, viscous part of it, ``Fs/Fc``, shape
-        factor, LuGre damping ratio, Karnopp ``dv/Vs``, negative-direction level factor, relative drift.
+        factor, LuGre bristle damping ratio ``sigma1/(2*sqrt(sigma0*J))`` (1: critical), Karnopp ``dv/Vs``,
+        negative-direction level factor, relative drift.
     p_static, p_drift : float
         Probabilities of ``tau = 0`` and of a drifting joint, in [0, 1].
     models : tuple of str
@@ -121,7 +124,7 @@ class ZooBox:
     tau: tuple = (1e-3, 0.1)
     p_static: float = 0.1
     presliding: tuple = (1e-6, 1e-3)
-    lugre_zeta: tuple = (0.1, 1.0)
+    lugre_zeta: tuple = (0.1, 2.0)
     karnopp_dv: tuple = (0.05, 0.5)
     asymmetry: tuple = (0.6, 1.4)
     p_drift: float = 0.5
@@ -193,7 +196,7 @@ def _draw_one(rng, box: ZooBox, peak_w: float, peak_a: float, duration: float) -
     d = {"model": model, "J": J, "Fc": Fc, "Fs": ratio * Fc, "Vs": Vs, "delta": delta}
     if model == "lugre":
         sigma0 = Fc / _log_uniform(rng, box.presliding)
-        d.update(sigma0=sigma0, sigma1=rng.uniform(*box.lugre_zeta) * math.sqrt(sigma0 * J), sigma2=sigma)
+        d.update(sigma0=sigma0, sigma1=rng.uniform(*box.lugre_zeta) * 2.0 * math.sqrt(sigma0 * J), sigma2=sigma)
     elif model == "asymmetric":
         k = rng.uniform(*box.asymmetry)
         d = {"model": model, "J": J, "Fc_pos": Fc, "Fc_neg": k * Fc, "Fs_pos": ratio * Fc, "Fs_neg": k * ratio * Fc,

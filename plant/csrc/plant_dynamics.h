@@ -33,7 +33,9 @@ void plant_rk4(const plant_params *p, double *w, double *s, double Fw, double u0
  * target Fs*sgn(u)). A lagged model with rate*dt > plant_rk4_rate_max takes (long)(rate*dt) + 1 equal RK4
  * sub-steps, beyond PLANT_LAGGED_RK4_MAX of them (unless the step's own velocity range is mild,
  * plant_lagged_local_rate) plant_lagged_stiff_step. LuGre: n equal RK4 sub-steps with n chosen from the
- * stiffness at the step start (rate*h < 1); n > PLANT_LUGRE_RK4_MAX: plant_lugre_stiff_step; a non-finite state
+ * stiffness at the step start, rate = sigma0*|w|max/g_min + base_rate (rate*h < 1; rate bounds the eigenvalues of
+ * the linearised bristle-mass system, the damping sigma1 + sigma2 included, so |l|*h stays inside RK4's interval
+ * (-2.78, 0]); n > PLANT_LUGRE_RK4_MAX: plant_lugre_stiff_step (any sigma1, sigma2 >= 0); a non-finite state
  * or input gives NaN. Eqs. 1-3 of Ruderman; Karnopp (1985); Canudas de Wit et al. (1995).
  * Python: plant.dynamics.plant_step, make_plant_step. */
 void plant_step(const plant_params *p, plant_state *st, double u, double dt);

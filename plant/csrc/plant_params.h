@@ -42,7 +42,8 @@ typedef struct plant_params {
     double sigma1;     /* LuGre bristle damping (N*m*s/rad) */
     double g_min;      /* LuGre min(Fc, Fs) (N*m) */
     double g_max;      /* LuGre max(Fc, Fs) (N*m) */
-    double base_rate;  /* LuGre (sigma1 + sigma2)/J + sqrt(sigma0/J) (1/s) */
+    double base_rate;  /* LuGre (sigma1 + sigma2)/J + sqrt(sigma0/J) (1/s): bounds |l| of the pre-sliding
+                          oscillator J*l^2 + (sigma1 + sigma2)*l + sigma0 = 0, damping included */
     double rate;       /* lagged models: fastest stable mode (1/s, plant.rows.lagged_rate): where rate*dt >
                           plant_rk4_rate_max the RK4 step is cut into (long)(rate*dt) + 1 sub-steps, beyond
                           PLANT_LAGGED_RK4_MAX the stiff step */
