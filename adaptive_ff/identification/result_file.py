@@ -129,7 +129,7 @@ def _value(d: dict, key: str, where, prefix: str, *, required: bool = True):
     if v is None:
         return math.nan
     if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise IdentificationFileError(where, prefix + key, f"{prefix + key!r} must be a number, got {v!r}")
+        raise IdentificationFileError(where, prefix + key, f"{prefix + key!r} must be a finite number, got {v!r}")
     return float(v)
 
 
