@@ -161,3 +161,14 @@ def test_report_attributes_and_summary_lead_with_the_answer(id_json):
     first_j = next(x for x in lines if x.startswith("J "))
     assert float(first_j.split()[1]) == pytest.approx(rep.J, rel=1e-5)  # the answer's J is the first J row
     assert lines.index(first_j) < next(i for i, x in enumerate(lines) if x.startswith("baselines:"))
+
+
+def test_html_report_leads_with_the_answer(id_json, tmp_path):
+    from adaptive_ff.identification.identify import identify
+    from controllers.report.html import identify_report
+
+    log = id_json[2].controller_log()
+    rep = identify(log, Vs=VS, delta=DELTA, method="sliding")
+    html = identify_report(tmp_path / "r", rep, log).read_text(encoding="utf-8")
+    answer = html.index("Answer: method <b>sliding</b>")
+    assert answer < html.index(f"{rep.J:.6g}") < html.index("Baselines: the paper's eq. 4") < html.index("LS value")
