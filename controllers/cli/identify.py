@@ -385,7 +385,9 @@ def register(sub) -> None:
                    help="rotary (default): tables in N·m, kg·m², rad/s (or deg/s, --units); linear: a prismatic "
                         "axis, tables in N, kg, m/s (SI; --units does not apply). The values are the same numbers "
                         "(SI of the axis); JSON unchanged")
-    i.add_argument("--json", action="store_true", help="print the parameters as JSON")
+    i.add_argument("--json", action="store_true",
+                   help="print the parameters as JSON: the chosen method's (method, form, J, Fc, Fs, sigma, tau, "
+                        "offset, Vs, delta, std) at the top level, the paper's eq. 4 LS/RLS under baselines")
     i.add_argument("--plot", metavar="DIR", default=None,
                    help="write the paper's kinds of figures for these data (measured vs LS/RLS velocity, "
                         "parameter convergence, sample-time histogram) as PNG into DIR")
