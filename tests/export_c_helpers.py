@@ -17,10 +17,13 @@ NOISE = 1e-3
 #: the values ``adaptive-ff identify --Vs 0.02 --delta 1`` gave for a simulated 8 s log of it, method sliding.
 IDENTIFIED = {"J": 4.103424729656735, "Fc": 24.950807390864934, "Fs": 37.21688646402248,
               "sigma": 40.130682711238826, "tau": 0.020772473265106176, "offset": 0.001036172817080081}
-ID_JSON = {"J": 10.0, "sigma": 36.7, "Fc": 26.1, "Fs": 9.96, "tau": 0.0, "offset": 0.0, "Vs": 0.02, "delta": 1.0,
+#: Its layout: the answer (method sliding) at the top level, the paper's eq. 4 LS/RLS (far off in closed loop)
+#: under ``baselines`` (tests/test_identification_file.py reads the former layout, answer under ``physical``).
+ID_JSON = {"method": "sliding", **IDENTIFIED, "Vs": 0.02, "delta": 1.0, "std": {},
+           "baselines": {"eq4_ls": {"J": 10.0, "sigma": 36.7, "Fc": 26.1, "Fs": 9.96, "tau": 0.0, "offset": 0.0},
+                         "eq4_rls": {"J": 10.0, "sigma": 36.7, "Fc": 26.1, "Fs": 9.96, "tau": 0.0, "offset": 0.0}},
            "excitation": {"noise_std": NOISE, "n_reversals": 8, "low_speed_fraction": 0.05},
-           "warnings": [], "notes": [], "method": "sliding",
-           "physical": {"method": "sliding", "params": IDENTIFIED, "stderr": {}, "warnings": []}}
+           "warnings": [], "notes": []}
 
 #: The replay program: ``replay LOG OUT [N]`` reads u, w, w_ref (float64, one block after the other) from LOG,
 #: replays the first N periods (default all) and writes u_ff (float64) to OUT; prints aff_active, aff_n_updates

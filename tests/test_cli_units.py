@@ -142,8 +142,8 @@ def test_identify_physical_and_asymmetric_tables(stribeck_log, capsys):
     rad = capsys.readouterr().out
     assert main(base) == 0
     deg = capsys.readouterr().out
-    assert "physical parameters by method 'sliding'" in deg
-    ph_rad, ph_deg = _row(rad, "sigma", 1), _row(deg, "sigma", 1)  # the physical table's sigma
+    assert "method 'sliding': lagged Stribeck" in deg.splitlines()[1] and "\nbaselines: the paper's eq. 4" in deg
+    ph_rad, ph_deg = _row(rad, "sigma", 0), _row(deg, "sigma", 0)  # the answer's (sliding) table comes first
     assert ph_deg[-1] == "N·m·s/deg" and float(ph_deg[1]) == pytest.approx(DEG * float(ph_rad[1]), rel=2e-5)
     for label in ("sigma+", "sigma-"):
         a_rad, a_deg = _row(rad, label), _row(deg, label)

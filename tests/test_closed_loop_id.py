@@ -175,14 +175,14 @@ def test_cli_auto_names_closed_loop_and_design_accepts_it(record, tmp_path, caps
                  "--controller", str(ctl), "--lag", "--json", "--bootstrap", "2", *COMMON]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["method"] == "closed_loop"
-    assert out["physical"]["info"]["stderr_kind"] == "bootstrap" and out["physical"]["info"]["bootstrap"]["n"] == 2
-    assert _within_targets(_errors(out["physical"]["params"]))
+    assert out["info"]["stderr_kind"] == "bootstrap" and out["info"]["bootstrap"]["n"] == 2
+    assert "physical" not in out and _within_targets(_errors({k: out[k] for k in ("J", "Fc", "Fs", "sigma", "tau")}))
     assert not [w for w in out["warnings"] if w["code"] in ("implausible", "identifiability", "conditioning")]
     idj = tmp_path / "id.json"
     idj.write_text(json.dumps(out))
     assert main(["design", "--from", str(idj), "--no-figures", "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
-    assert d["J"] == pytest.approx(out["physical"]["params"]["J"]) and "method 'closed_loop'" in d["source"]
+    assert d["J"] == pytest.approx(out["J"]) and "method 'closed_loop'" in d["source"]
 
 
 def test_cli_text_report_names_the_choice(record, tmp_path, capsys):
@@ -192,7 +192,7 @@ def test_cli_text_report_names_the_choice(record, tmp_path, capsys):
                  "--reference-column", "reference_deg_s", "--Kp", repr(spec.Kp), "--Ki", repr(spec.Ki),
                  "--Tc", "0.001", "--u-max", repr(spec.u_max), "--bootstrap", "0", *COMMON]) == 0
     text = capsys.readouterr().out
-    assert "method 'closed_loop' chosen automatically" in text and "physical parameters by method 'closed_loop'" in text
+    assert "method 'closed_loop' chosen automatically" in text and "method 'closed_loop': lagged Stribeck" in text
     assert "note: --bootstrap 0: the closed_loop standard errors are HAC (Newey-West, asymptotic)" in text
 
 

@@ -89,7 +89,7 @@ def test_cli_controller_log_to_design(run, tmp_path, capsys):
                  "--current-to-torque", "60", "--velocity-unit", "deg/s", "--Vs", str(VS), "--delta", str(DELTA),
                  "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["method"] == "sliding" and abs(out["physical"]["params"]["J"] / P.J - 1.0) < 0.04
+    assert out["method"] == "sliding" and abs(out["J"] / P.J - 1.0) < 0.04
     idj = tmp_path / "id.json"
     idj.write_text(json.dumps(out))
     ap = argparse.ArgumentParser(prog="adaptive-ff")
@@ -97,7 +97,7 @@ def test_cli_controller_log_to_design(run, tmp_path, capsys):
     args = ap.parse_args(["design", "--from", str(idj), "--no-figures", "--json"])
     assert args.func(args) == 0
     d = json.loads(capsys.readouterr().out)
-    assert d["J"] == pytest.approx(out["physical"]["params"]["J"]) and "method 'sliding'" in d["source"]
+    assert d["J"] == pytest.approx(out["J"]) and "method 'sliding'" in d["source"]
 
 
 def test_cli_slow_log_design_refused(run, tmp_path, capsys):

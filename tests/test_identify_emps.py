@@ -47,16 +47,21 @@ def test_emps_parameters_match_published(report):
 
 def test_emps_json_dict(report):
     d = report.to_json_dict()
-    for key in ("J", "sigma", "Fc", "Fs", "tau", "offset", "fit_percent", "fit_free_run_percent", "cond", "rls"):
+    for key in ("J", "sigma", "Fc", "Fs", "tau", "offset", "fit_percent", "fit_free_run_percent", "cond", "baselines"):
         assert key in d, key
+    assert "rls" not in d and "physical" not in d  # the eq. 4 RLS is a baseline, nested under its name
     assert "Vs" not in d and "delta" not in d  # Coulomb structure: nothing pre-estimated
     assert d["method"] == "paper"  # the eq. 4 LS is the answer; no physical fit
 
     def floats(x):
         return [v for v in x.values() if not isinstance(v, (dict, list, str))]
 
-    assert all(type(v) is float for v in floats(d))
-    assert all(type(v) is float for v in floats(d["rls"])) and all(type(v) is float for v in d["std"].values())
+    assert all(type(v) is float for v in floats({k: v for k, v in d.items() if k != "n_samples"}))
+    assert d["n_samples"] == report.ls.w_one_step.shape[0] and type(d["n_samples"]) is int
+    rls = d["baselines"]["eq4_rls"]
+    assert all(type(v) is float for v in floats(rls)) and all(type(v) is float for v in d["std"].values())
+    assert rls["J"] == report.rls_estimate.J and d["baselines"]["eq4_ls"]["J"] == d["J"]  # paper: LS is the answer
+    assert d["form"]["name"] == "Coulomb + viscous" and d["form"]["constrained"] == {"Fs": "Fc", "tau": 0.0}
     text = json.dumps(d, allow_nan=False)          # strict JSON
     assert json.loads(text)["J"] == d["J"]
     # values agree with the underlying results

@@ -51,10 +51,11 @@ def test_report_carries_the_physical_fit_equal_to_fit_physical(record, report):
 def test_json_and_summary_name_the_method(report):
     out = json.loads(json.dumps(report.to_json_dict()))
     assert out["method"] == "output_error"
-    assert out["physical"]["params"]["Fc"] == pytest.approx(report.physical.params["Fc"], rel=1e-12)
-    assert set(out["physical"]["stderr"]) == set(report.physical.params)
+    assert out["Fc"] == pytest.approx(report.physical.params["Fc"], rel=1e-12) and "physical" not in out
+    assert set(out["std"]) == set(report.physical.params) and out["form"]["fitted"] == list(report.physical.params)
+    assert out["baselines"]["eq4_ls"]["Fc"] == pytest.approx(report.estimate.Fc, rel=1e-12)
     text = report.summary()
-    assert "physical parameters by method 'output_error'" in text
+    assert "method 'output_error': lagged Stribeck (eqs. 1-3; adaptive_ff.identification.physical_id" in text
     assert f"{report.physical.params['J']:.6g}" in text
 
 

@@ -70,7 +70,7 @@ def test_your_drive_block_runs_in_an_empty_folder(ran):
         assert (ran.folder / f).is_file(), f
     plant = json.loads((ran.folder / "my_joint.json").read_text(encoding="utf-8"))
     ident = json.loads((ran.folder / "id.json").read_text(encoding="utf-8"))
-    assert plant == {**{k: ident["physical"]["params"][k] for k in ("J", "Fc", "Fs", "sigma", "tau")},
+    assert plant == {**{k: ident[k] for k in ("J", "Fc", "Fs", "sigma", "tau")},
                      "Vs": 0.0197756, "delta": 1.01582}
     compare = ran.steps[-1]
     assert compare.command.startswith("adaptive-ff compare --plant my_joint.json")

@@ -104,6 +104,12 @@ def _physical_std(model: RegressionModel, u, w, ls: LSResult, names: tuple[str, 
 class IdentificationReport:
     """Result of :func:`identify`.
 
+    The answer is the chosen method's (:attr:`method`): :attr:`params` (``J``, ``Fc``, ``Fs``, ``sigma``,
+    ``tau``, ``offset``, also as attributes ``report.J`` ...), :attr:`stderr`, :attr:`Vs`, :attr:`delta` and
+    :attr:`form` (the model fitted). The paper's eq. 4 LS and RLS are baselines (:attr:`baselines`; ``ls``,
+    ``estimate``, ``rls_estimate``): with ``physical`` set they are *not* the answer (on a closed-loop
+    log eq. 4 gave J 171.6 kg·m² for a joint of 4, the sliding-regime regression 4.1).
+
     Attributes
     ----------
     ls : LSResult
@@ -171,8 +177,122 @@ class IdentificationReport:
 
     @property
     def estimate(self) -> FrictionEstimate:
-        """Physical parameters of the LS fit."""
+        """Physical parameters of the eq. 4 LS fit: the baseline, the answer only for ``method == "paper"``
+        (the answer is :attr:`params`)."""
         return self.ls.estimate
+
+    @property
+    def method(self) -> str:
+        """The method whose parameters are the answer: ``physical.method``, or ``"paper"`` (eq. 4 LS)."""
+        return self.physical.method if self.physical is not None else "paper"
+
+    @property
+    def params(self) -> dict:
+        """The answer: ``{"J": kg·m², "Fc": N·m, "Fs": N·m, "sigma": N·m·s/rad, "tau": s, "offset": N·m}`` of the
+        chosen method (:attr:`method`); ``Fs = Fc`` for the Coulomb structure, ``tau = 0`` without lag,
+        ``offset = 0`` without offset."""
+        if self.physical is not None:
+            return {k: float(self.physical.params.get(k, 0.0)) for k in _ANSWER_KEYS}
+        e = self.estimate
+        return {k: float(getattr(e, k)) for k in _ANSWER_KEYS}
+
+    @property
+    def stderr(self) -> dict:
+        """Standard errors of the fitted :attr:`params` (same keys and units; NaN where the method gives none):
+        the method's own (``physical.stderr``: bootstrap, HAC or regression errors, ``physical.info``), or the
+        eq. 4 LS delta-method errors (``std``) for ``"paper"``."""
+        if self.physical is not None:
+            return {k: float(v) for k, v in self.physical.stderr.items()}
+        return dict(self.std)
+
+    @property
+    def Vs(self) -> float | None:
+        """Stribeck velocity (rad/s or m/s) of the fitted model, fixed by the pre-fit; None without Stribeck."""
+        return self.model.Vs if self.model.stribeck else None
+
+    @property
+    def delta(self) -> float | None:
+        """Stribeck shape factor of the fitted model, fixed by the pre-fit; None without Stribeck."""
+        return self.model.delta if self.model.stribeck else None
+
+    @property
+    def J(self) -> float:
+        """Inertia (kg·m²) of the chosen method (:attr:`params`)."""
+        return self.params["J"]
+
+    @property
+    def Fc(self) -> float:
+        """Coulomb level (N·m) of the chosen method."""
+        return self.params["Fc"]
+
+    @property
+    def Fs(self) -> float:
+        """Stiction level (N·m) of the chosen method."""
+        return self.params["Fs"]
+
+    @property
+    def sigma(self) -> float:
+        """Viscous coefficient (N·m·s/rad) of the chosen method."""
+        return self.params["sigma"]
+
+    @property
+    def tau(self) -> float:
+        """Friction lag (s) of the chosen method."""
+        return self.params["tau"]
+
+    @property
+    def offset(self) -> float:
+        """Constant torque bias (N·m) of the chosen method (0 if not fitted)."""
+        return self.params["offset"]
+
+    @property
+    def form(self) -> dict:
+        """The model the chosen method fitted (strict JSON).
+
+        Returns
+        -------
+        dict
+            ``name`` (e.g. ``"lagged Stribeck"``, ``"Coulomb + viscous"``), ``equations`` (the paper's),
+            ``stribeck``, ``lag``, ``offset`` (bool), ``fitted`` (names of the fitted parameters), ``fixed``
+            (``{"Vs", "delta"}`` from the Stribeck pre-fit; empty without Stribeck), ``constrained``
+            (``{"Fs": "Fc"}`` for the Coulomb structure, ``{"tau": 0.0}`` without lag, ``{"offset": 0.0}``
+            without offset) and ``estimator`` (the function that fitted it).
+        """
+        m = self.model
+        fixed = {"Vs": m.Vs, "delta": m.delta} if m.stribeck else {}
+        if self.physical is not None:
+            fitted = [k for k in _ANSWER_KEYS if k in self.physical.params]
+            lag, stribeck, offset = "tau" in fitted, True, "offset" in fitted
+            equations = "eqs. 1-3"
+            estimator = _ESTIMATORS.get(self.method, _ESTIMATORS["output_error"])
+        else:
+            fitted = list(_parameter_names(m))
+            lag, stribeck, offset = m.lag, m.stribeck, m.offset
+            equations = "eq. 4 regression of eqs. 1-3, LS of eq. 9"
+            estimator = "adaptive_ff.identification.ls.fit_ls"
+        constrained = {}
+        if not stribeck:
+            constrained["Fs"] = "Fc"
+        if not lag:
+            constrained["tau"] = 0.0
+        if not offset:
+            constrained["offset"] = 0.0
+        name = ("lagged " if lag else "") + ("Stribeck" if stribeck else "Coulomb + viscous")
+        return json_safe({"name": name, "equations": equations, "stribeck": stribeck, "lag": lag, "offset": offset,
+                          "fitted": fitted, "fixed": fixed, "constrained": constrained, "estimator": estimator})
+
+    @property
+    def baselines(self) -> dict:
+        """The paper's eq. 4 estimates beside the answer: ``{"eq4_ls": {...}, "eq4_rls": {...}}`` as in
+        :meth:`to_dict` (J, sigma, Fc, Fs, tau, offset; the LS with ``std``, ``rel_std``, fits, ``cond``, ``Ts``;
+        the RLS with ``fit_percent``, ``lam``, ``P0``)."""
+        e, r = self.estimate, self.rls_estimate
+        ls = {k: getattr(e, k) for k in _ANSWER_KEYS}
+        ls.update(std=dict(self.std), rel_std=_relative(self.std, ls), fit_percent=self.ls.fit_one_step,
+                  fit_free_run_percent=self.ls.fit_free_run, cond=self.ls.cond, Ts=self.Ts)
+        rls = {k: getattr(r, k) for k in _ANSWER_KEYS}
+        rls.update(fit_percent=self.rls_fit_percent, lam=self.lam, P0=self.P0)
+        return json_safe({"eq4_ls": ls, "eq4_rls": rls})
 
     def rigid_axis_model(self) -> RigidAxisModel:
         """The LS estimate as a :class:`adaptive_ff.identification.idim.RigidAxisModel` (Coulomb + viscous + offset).
@@ -192,52 +312,47 @@ class IdentificationReport:
         return RigidAxisModel.symmetric(e.J, e.sigma, e.Fc, e.offset)
 
     def to_dict(self) -> dict:
-        """Strict-JSON summary of the identification (the CLI's JSON output).
+        """Strict-JSON summary of the identification (the CLI's JSON output): the chosen method at the top.
 
         Returns
         -------
         dict
-            ``J, sigma, Fc, Fs, tau, offset`` (LS, SI units; ``Fs = Fc`` for
-            the Coulomb structure, ``tau = 0`` without lag, ``offset = 0``
-            without offset), ``fit_percent`` (one-step-ahead NRMSE fit, %),
-            ``fit_free_run_percent``, ``cond``, ``Ts``; ``Vs`` and ``delta``
-            for the Stribeck structure; ``std`` (standard errors of the fitted
-            parameters) and ``rls`` (the same parameters of the final RLS
-            estimate, its ``fit_percent`` and ``lam``); ``rel_std`` (standard
-            errors in % of the value); ``excitation`` (``noise_std``,
-            ``n_reversals``, ``low_speed_fraction``), ``warnings`` (list of
-            ``{"code", "parameter", "message"}``), ``notes`` (list of str: preprocessing and the choices
-            made, as printed by :meth:`summary`), ``method`` and, for a method other than ``"paper"``,
-            ``physical`` (:meth:`PhysicalFit.to_dict`). Non-finite values become ``None``.
+            ``method`` (:attr:`method`), ``form`` (:attr:`form`: the model fitted), the answer ``J, Fc, Fs,
+            sigma, tau, offset`` (SI units; :attr:`params`), ``Vs`` and ``delta`` (for the Stribeck structure,
+            fixed by the pre-fit), ``std`` (standard errors of the fitted parameters, :attr:`stderr`) and
+            ``rel_std`` (in % of the value), ``fit_percent`` with ``fit_kind`` (which prediction),
+            ``cond``, ``n_samples``, ``Ts`` (the uniform grid of the record); for ``"paper"`` also
+            ``fit_free_run_percent``, for other methods ``info`` (the method's details, e.g. the bootstrap);
+            ``baselines`` (:attr:`baselines`: ``eq4_ls`` and ``eq4_rls``, the paper's eq. 4 values, never the
+            answer unless ``method`` is ``"paper"``); ``excitation`` (``noise_std``, ``n_reversals``,
+            ``low_speed_fraction``), ``warnings`` (list of ``{"code", "parameter", "message"}``) and
+            ``notes`` (list of str, as printed by :meth:`summary`). Non-finite values become ``None``.
+            :func:`adaptive_ff.identification.result_file.read_identification` reads it back (and older files,
+            whose top level was the eq. 4 LS with the answer under ``physical.params``).
         """
-        e = self.estimate
-        keys = ("J", "sigma", "Fc", "Fs", "tau", "offset")
-        out = {k: getattr(e, k) for k in keys}
-        out["fit_percent"] = self.ls.fit_one_step
-        out["fit_free_run_percent"] = self.ls.fit_free_run
-        out["cond"] = self.ls.cond
-        out["Ts"] = self.Ts
+        params = self.params
+        out = {"method": self.method, "form": self.form, **params}
         if self.model.stribeck:
             out["Vs"] = self.model.Vs
             out["delta"] = self.model.delta
-        out["std"] = dict(self.std)
-        r = self.rls_estimate
-        out["rls"] = {k: getattr(r, k) for k in keys}
-        out["rls"]["fit_percent"] = self.rls_fit_percent
-        out["rls"]["lam"] = self.lam
-        out["rel_std"] = {k: 100.0 * v / abs(getattr(e, k)) if getattr(e, k) != 0 else None
-                          for k, v in self.std.items()}
+        std = self.stderr
+        out["std"] = std
+        out["rel_std"] = _relative(std, params)
+        if self.physical is not None:
+            ph = self.physical
+            out.update(fit_percent=ph.nrmse, fit_kind=ph.nrmse_kind, cond=ph.cond, n_samples=ph.n_samples,
+                       Ts=self.Ts, info=ph.info)
+        else:
+            out.update(fit_percent=self.ls.fit_one_step, fit_kind="one-step",
+                       fit_free_run_percent=self.ls.fit_free_run, cond=self.ls.cond,
+                       n_samples=int(self.ls.w_one_step.shape[0]), Ts=self.Ts)
+        out["baselines"] = self.baselines
         if self.excitation is not None:
             x = self.excitation
             out["excitation"] = {"noise_std": x.noise_std, "n_reversals": int(x.n_reversals),
                                  "low_speed_fraction": x.low_speed_fraction}
         out["warnings"] = [_warning_dict(w) for w in self.warnings]
         out["notes"] = [str(n) for n in self.notes]
-        if self.physical is not None:
-            out["method"] = self.physical.method
-            out["physical"] = self.physical.to_dict()
-        else:
-            out["method"] = "paper"
         return json_safe(out)
 
     def to_json_dict(self) -> dict:
@@ -272,20 +387,40 @@ class IdentificationReport:
         return ax
 
     def summary(self) -> str:
-        """Human-readable multi-line table: parameter, LS value, std error, RLS value, unit."""
-        e, r = self.estimate, self.rls_estimate
+        """Human-readable report: the chosen method's parameters first, then the eq. 4 LS/RLS baselines.
+
+        Returns
+        -------
+        str
+            A header naming the method and the model fitted (:attr:`form`); the answer's table (parameter,
+            value, std error, unit; for ``"paper"`` with the RLS column); its fit; for another method the
+            table of the baselines (``baselines: ...``, eq. 4 LS with std error and RLS); notes and warnings.
+        """
         m = self.model
+        f = self.form
+        fixed = ", ".join(f"{k} fixed" for k in f["fixed"])
         lines = [f"Identification of {self.source or 'measured data'}",
-                 f"model: {m!r}, Ts = {self.Ts:.6g} s, {self.ls.w_one_step.shape[0]} samples",
-                 "",
-                 f"{'parameter':<10}{'value':>14}{'std error':>13}{'RLS':>14}  unit",
-                 "-" * 70]
+                 f"method {self.method!r}: {f['name']} ({f['equations']}; {f['estimator']}), fitted "
+                 f"{', '.join(f['fitted'])}" + (f"; {fixed} (Stribeck pre-fit)" if fixed else ""), ""]
+        if self.physical is not None:
+            ph = self.physical
+            lines += [f"{'parameter':<10}{'value':>14}{'std error':>13}  unit", "-" * 70]
+            for nm, v in ph.params.items():
+                lines.append(f"{nm:<10}{v:>14.6g}{ph.stderr.get(nm, float('nan')):>13.3g}  {PARAM_UNITS[nm]}")
+            lines += _fixed_rows(m, "")
+            lines += ["-" * 70, f"fit ({ph.nrmse_kind}) {ph.nrmse:.3f} %, cond {ph.cond:.3g}, "
+                                f"{ph.n_samples} samples",
+                      "", f"baselines: the paper's eq. 4 LS (eq. 9) and RLS (eqs. 10-13), not the answer; "
+                          f"model: {m!r}, Ts = {self.Ts:.6g} s, {self.ls.w_one_step.shape[0]} samples"]
+        else:
+            lines[-1:] = [f"model: {m!r}, Ts = {self.Ts:.6g} s, {self.ls.w_one_step.shape[0]} samples", ""]
+        e, r = self.estimate, self.rls_estimate
+        lines += [f"{'parameter':<10}{'value':>14}{'std error':>13}{'RLS':>14}  unit", "-" * 70]
         for nm in _parameter_names(m):
             lines.append(f"{nm:<10}{getattr(e, nm):>14.6g}{self.std[nm]:>13.3g}{getattr(r, nm):>14.6g}"
                          f"  {PARAM_UNITS[nm]}")
-        if m.stribeck:
-            lines.append(f"{'Vs':<10}{m.Vs:>14.6g}{'(fixed)':>13}{'':>14}  {VELOCITY_LABEL}")
-            lines.append(f"{'delta':<10}{m.delta:>14.6g}{'(fixed)':>13}{'':>14}  -")
+        if self.physical is None:
+            lines += _fixed_rows(m, f"{'':>14}")
         lines += ["-" * 70,
                   f"fit one-step {self.ls.fit_one_step:.3f} %, free-run {self.ls.fit_free_run:.2f} %, "
                   f"RLS one-step {self.rls_fit_percent:.3f} % (lam = {self.lam:g}), cond {self.ls.cond:.3g}",
@@ -293,22 +428,32 @@ class IdentificationReport:
                       f"{nm} {100 * self.std[nm] / abs(getattr(e, nm)):.3g} %" if getattr(e, nm) != 0 else f"{nm} n/a"
                       for nm in _parameter_names(m)),
                   "std errors assume white equation error (optimistic on real data)"]
-        if self.physical is not None:
-            ph = self.physical
-            fn = {"sliding": "adaptive_ff.compensation.sliding_estimator.fit_sliding",
-                  "closed_loop": "controllers.experiments.closed_loop_id.fit_closed_loop"}.get(
-                ph.method, "adaptive_ff.identification.physical_id.fit_physical")
-            lines += ["", f"physical parameters by method {ph.method!r} ({fn}; "
-                          f"the table above is the paper's eq. 4 LS/RLS)",
-                      f"{'parameter':<10}{'value':>14}{'std error':>13}  unit", "-" * 70]
-            for nm, v in ph.params.items():
-                lines.append(f"{nm:<10}{v:>14.6g}{ph.stderr.get(nm, float('nan')):>13.3g}  {PARAM_UNITS[nm]}")
-            lines += ["-" * 70, f"fit ({ph.nrmse_kind}) {ph.nrmse:.3f} %, cond {ph.cond:.3g}, "
-                                f"{ph.n_samples} samples"]
         lines += [f"note: {n}" for n in self.notes]
         lines += [f"WARNING [{getattr(w, 'code', 'note')}: {getattr(w, 'parameter', 'all')}]: {w}"
                   for w in self.warnings]
         return "\n".join(lines)
+
+
+#: The answer's keys, in the order of :attr:`IdentificationReport.params`.
+_ANSWER_KEYS = ("J", "Fc", "Fs", "sigma", "tau", "offset")
+
+#: The function behind each method other than ``"paper"`` (the report's header and ``form["estimator"]``).
+_ESTIMATORS = {"sliding": "adaptive_ff.compensation.sliding_estimator.fit_sliding",
+               "closed_loop": "controllers.experiments.closed_loop_id.fit_closed_loop",
+               "output_error": "adaptive_ff.identification.physical_id.fit_physical"}
+
+
+def _relative(std: dict, values: dict) -> dict:
+    """Standard errors in % of the value (None where the value is 0)."""
+    return {k: 100.0 * v / abs(values[k]) if values.get(k) else None for k, v in std.items()}
+
+
+def _fixed_rows(m: RegressionModel, pad: str) -> list:
+    """The Vs and delta rows (fixed by the Stribeck pre-fit) of a summary table; none without Stribeck."""
+    if not m.stribeck:
+        return []
+    return [f"{'Vs':<10}{m.Vs:>14.6g}{'(fixed)':>13}{pad}  {VELOCITY_LABEL}",
+            f"{'delta':<10}{m.delta:>14.6g}{'(fixed)':>13}{pad}  -"]
 
 
 def choose_method(data: MeasuredData, *, Vs: float | None, controller_Tc: float | None = None) -> tuple[str, str]:

@@ -77,25 +77,30 @@ def warnings_from_file(path) -> list:
 def plant_from_file(path) -> tuple[float, float]:
     """``(J, sigma)`` from a JSON object with a ``J`` key and optionally ``sigma`` (0 if absent).
 
-    An ``identify --json`` output whose method is not the paper's eq. 4 (``"physical"`` present, e.g.
-    ``"sliding"`` or ``"output_error"``) gives the J and sigma of that method (``physical.params``), the
-    answer of the identification; otherwise the top-level (eq. 4 LS) values are used.
+    An ``identify --json`` output (a ``method``, ``physical`` or ``baselines`` key) is read by
+    :func:`adaptive_ff.identification.result_file.read_identification`: the J and sigma of the method that gave
+    the answer (the top level; in a file written before the ``baselines`` layout, ``physical.params`` when
+    present). A plant file or this command's own ``--json`` output (``plant``) gives its ``J`` and ``sigma``.
 
     Raises
     ------
     ParameterError
         Not JSON, not an object, or no numeric ``J``.
+    IdentificationFileError
+        An identification of no known layout (the file and the missing key named; a ParameterError).
     FileNotFoundError
         No such file.
     """
+    from adaptive_ff.identification.result_file import identification_from_dict, is_identification
     from plant.errors import ParameterError
 
     from plant.models import read_json
 
     path = Path(path)
     d = read_json(path, what="JSON file with J (and sigma)")
-    if isinstance(d, dict) and isinstance(d.get("physical"), dict) and isinstance(d["physical"].get("params"), dict):
-        d = d["physical"]["params"]
+    if is_identification(d):
+        joint = identification_from_dict(d, where=path)
+        d = {"J": joint.J, "sigma": joint.sigma}
     if isinstance(d, dict) and "J" not in d and isinstance(d.get("plant"), dict):
         d = d["plant"]
     if not isinstance(d, dict) or not isinstance(d.get("J"), (int, float)) or isinstance(d.get("J"), bool):
@@ -128,7 +133,7 @@ def _check_range(J: float, sigma: float, source: str) -> None:
 def _method_of(path) -> str:
     d = _read_json(Path(path))
     m = d.get("method") if isinstance(d, dict) else None
-    return f" (method {m!r})" if isinstance(m, str) and isinstance(d.get("physical"), dict) else ""
+    return f" (method {m!r})" if isinstance(m, str) else ""
 
 
 def run(args) -> int:

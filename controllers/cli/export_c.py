@@ -48,18 +48,12 @@ def _number(d: dict, key: str, path, *, required: bool = True):
     return float(v)
 
 
-def _identified(path) -> tuple[dict, dict]:
-    """``(top level, physical parameters)`` of an ``identify --json`` output (the physical parameters of the method
-    that gave the answer where there are any, else the top level's)."""
-    from plant.errors import ParameterError
-    from plant.models import read_json
+def _identified(path):
+    """The :class:`adaptive_ff.identification.result_file.IdentifiedJoint` of an ``identify --json`` output (the
+    parameters of the method that gave the answer, in either file layout)."""
+    from adaptive_ff.identification.result_file import read_identification
 
-    d = read_json(path, what="JSON identification (adaptive-ff identify --json)")
-    if not isinstance(d, dict):
-        raise ParameterError(f"{path}: expected a JSON object (adaptive-ff identify --json), got {type(d).__name__}")
-    phys = d.get("physical")
-    params = phys.get("params") if isinstance(phys, dict) else None
-    return d, params if isinstance(params, dict) else d
+    return read_identification(path)
 
 
 def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: float | None = None,
@@ -71,8 +65,10 @@ def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: fl
     ----------
     path : str or os.PathLike
         The identification (``adaptive-ff identify ... --Vs --delta --json``): ``Vs``, ``delta`` at its top level,
-        ``J``, ``sigma``, ``Fc``, ``Fs``, ``tau`` in ``physical.params`` (or at the top level), the velocity noise
-        in ``excitation.noise_std`` (optional).
+        ``J``, ``sigma``, ``Fc``, ``Fs``, ``tau`` of the chosen method at its top level (a file written before
+        that layout: in ``physical.params``; read by
+        :func:`adaptive_ff.identification.result_file.read_identification`), the velocity noise in
+        ``excitation.noise_std`` (optional).
     u_max : float, keyword-only
         The drive's torque limit (N·m): the velocity gate's bound; the feedforward's bound is half of it (as in
         ``compare``) unless ``ff_max`` is given.
@@ -111,7 +107,6 @@ def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: fl
 
     from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
     from adaptive_ff.identification.regression import FrictionEstimate
-    from controllers.cli.design import plant_from_file
     from controllers.design.pi import design_pi
     from controllers.simulation.compensators import ModeOptions, build_mode
     from plant.errors import ParameterError
@@ -120,12 +115,14 @@ def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: fl
     unknown = sorted(set(options) - known)
     if unknown:
         raise ParameterError(f"unknown option(s) {unknown}; allowed: the fields of ModeOptions {sorted(known)}")
-    top, params = _identified(path)
+    ident = _identified(path)
+    top = {"Vs": ident.Vs, "delta": ident.delta}
+    params = {k: v for k, v in ident.params.items() if math.isfinite(v)}  # a null (non-finite) value: absent
     Vs = options.pop("Vs", None)
     delta = options.pop("delta", None)
     Vs = _number(top, "Vs", path) if Vs is None else Vs
     delta = _number(top, "delta", path) if delta is None else delta
-    J_id, sigma_id = plant_from_file(path)
+    J_id, sigma_id = ident.J, ident.sigma
     J_design = options.pop("J_design", None)
     if J_design is None:
         if not (math.isfinite(J_id) and J_id > 0.0):
@@ -142,8 +139,7 @@ def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: fl
         v = _number(params, k, path, required=False)
         if v is not None and v >= 0.0:
             joint[k] = v
-    exc = top.get("excitation")
-    noise = _number(exc, "noise_std", path, required=False) if isinstance(exc, dict) else None
+    noise = ident.noise_std if ident.noise_std is not None and math.isfinite(ident.noise_std) else None
     first = None
     if start:
         e = {k: _number(params, k, path) for k in ("Fc", "Fs", "sigma", "tau")}

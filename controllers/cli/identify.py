@@ -70,11 +70,11 @@ def _summary(report, units: _Units) -> str:
     text = report.summary().splitlines()
     e, r, m = report.estimate, report.rls_estimate, report.model
     out = []
-    physical = False
+    physical = report.physical is not None  # the answer's table comes first; the eq. 4 baselines after it
     for line in text:
         name = line.split(" ", 1)[0]
-        if line.startswith("physical parameters by method"):
-            physical = True
+        if line.startswith("baselines:"):
+            physical = False
         unit = PARAM_UNITS.get(name)
         if unit is not None and line.endswith(unit) and name == "sigma" and not units.si:
             ph = report.physical
@@ -84,7 +84,7 @@ def _summary(report, units: _Units) -> str:
             line = line[:-len(unit)] + units.units[name]
         elif name == "Vs" and line.endswith(VELOCITY_LABEL) and m.stribeck:
             k, label = units.Vs
-            line = f"{'Vs':<10}{k * m.Vs:>14.6g}{'(fixed)':>13}{'':>14}  {label}"
+            line = f"{'Vs':<10}{k * m.Vs:>14.6g}" + line[24:-len(VELOCITY_LABEL)] + label
         out.append(line.replace(VELOCITY_LABEL, units.velocity_si))
     return "\n".join(out)
 
@@ -385,7 +385,9 @@ def register(sub) -> None:
                    help="rotary (default): tables in N·m, kg·m², rad/s (or deg/s, --units); linear: a prismatic "
                         "axis, tables in N, kg, m/s (SI; --units does not apply). The values are the same numbers "
                         "(SI of the axis); JSON unchanged")
-    i.add_argument("--json", action="store_true", help="print the parameters as JSON")
+    i.add_argument("--json", action="store_true",
+                   help="print the parameters as JSON: the chosen method's (method, form, J, Fc, Fs, sigma, tau, "
+                        "offset, Vs, delta, std) at the top level, the paper's eq. 4 LS/RLS under baselines")
     i.add_argument("--plot", metavar="DIR", default=None,
                    help="write the paper's kinds of figures for these data (measured vs LS/RLS velocity, "
                         "parameter convergence, sample-time histogram) as PNG into DIR")

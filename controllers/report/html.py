@@ -177,8 +177,31 @@ def _units() -> dict:
         return {}
 
 
+def _section_answer(rep, units: dict) -> str:
+    """The chosen method's parameters (the answer of an identification whose method is not eq. 4), with the
+    model it fitted; empty for the paper's method, whose answer is the LS table."""
+    ph = getattr(rep, "physical", None)
+    if ph is None:
+        return ""
+    form = rep.form
+    rows = []
+    for n, v in ph.params.items():
+        se = ph.stderr.get(n)
+        rel = f"{100 * se / abs(v):.2g} %" if se is not None and v not in (0, None) and math.isfinite(se) else "–"
+        rows.append((n, _num(v), _num(se, ".3g"), rel, units.get(n, "")))
+    for k, v in form["fixed"].items():
+        rows.append((f"{k} (pre-fit, fixed)", _num(v), "", "", "rad/s (m/s)" if k == "Vs" else "1"))
+    out = (f'<p>Answer: method <b>{_e(ph.method)}</b>, {_e(form["name"])} ({_e(form["equations"])}; '
+           f'{_e(form["estimator"])}); fitted {_e(", ".join(form["fitted"]))}.</p>')
+    out += _table(["parameter", "value", "std error", "rel.", "unit"], rows)
+    out += (f'<p class="note">fit ({_e(ph.nrmse_kind)}) {_num(ph.nrmse, ".3f")} %, condition number '
+            f'{_num(ph.cond, ".3g")}, {ph.n_samples} samples.</p>')
+    return out + ("<p>Baselines: the paper's eq. 4 LS (eq. 9) and RLS (eqs. 10-13), not the answer.</p>")
+
+
 def _section_identification(rep, seen=frozenset()) -> str:
     units = _units()
+    answer = _section_answer(rep, units)
     est, rls = rep.estimate, rep.rls_estimate
     std = dict(getattr(rep, "std", {}) or {})
     names = list(std) or [n for n in ("J", "sigma", "Fc", "Fs", "tau", "offset") if hasattr(est, n)]
@@ -192,7 +215,7 @@ def _section_identification(rep, seen=frozenset()) -> str:
     if getattr(m, "stribeck", False):
         rows.append(("Vs (pre-fit, fixed)", _num(m.Vs), "", "", "", "rad/s (m/s)"))
         rows.append(("delta (pre-fit, fixed)", _num(m.delta), "", "", "", "1"))
-    out = _table(["parameter", "LS value", "std error", "rel.", "RLS final", "unit"], rows)
+    out = answer + _table(["parameter", "LS value", "std error", "rel.", "RLS final", "unit"], rows)
     ls = rep.ls
     fit_rows = [("model", repr(m)), ("Ts", f"{_num(rep.Ts, '.6g')} s"),
                 ("one-step fit (NRMSE)", f"{_num(ls.fit_one_step, '.3f')} %"),
