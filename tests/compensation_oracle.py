@@ -8,7 +8,9 @@ tests and the estimate in use, and the adaptive-DOB composite, written from thei
   functions of the state-variable filter ``L = 1/(1 + T s)**3`` in the package's discretisation
   (``L``, ``L s = (L2 - L3)/T``, ``L s^2 = (L1 - 2 L2 + L3)/T^2`` from the module docstring, built from
   tests/lti_oracle.py and run by :func:`scipy.signal.sosfilt` in second-order sections); then the RLS over the
-  rows that pass the sliding-regime gate.
+  rows that pass the sliding-regime gate, unconstrained (the class's Notes: a projection of its state onto the
+  physical box diverges after one-sided motion); the box bounds only the reported estimate
+  (:func:`reported_estimate`).
 * :func:`robust_decisions`: the safety chain of
   :class:`adaptive_ff.compensation.adaptive_feedforward.RobustAdaptiveFeedforward` (warm-up, range checks,
   determinacy of ``Fc``, lag consistency by the delta method, the weighted lag in closed form
@@ -32,7 +34,7 @@ from adaptive_ff.identification.rls import RecursiveLeastSquares
 from lti_oracle import combine, lag, power
 from peers_oracle import Feedforward, Range, rls_try
 
-__all__ = ["OutlierGate", "sliding_path", "robust_decisions", "RobustOutput", "SLIDING_NAMES"]
+__all__ = ["OutlierGate", "sliding_path", "reported_estimate", "robust_decisions", "RobustOutput", "SLIDING_NAMES"]
 
 SLIDING_NAMES = ("J", "J_tau", "tau", "Fc", "Fs", "sigma", "offset")
 
@@ -97,7 +99,8 @@ def sliding_path(u, w, *, Vs, delta, Tc, Ts=0.01, T_filter=0.02, lam=0.995, forg
     dict
         ``names``; ``accepted`` (N,) bool; ``update_at`` (M,) sample index of each RLS update; ``theta``
         (M, p), ``P`` (M, p, p) and ``e2`` (M,) after each update; ``rls``; the counters ``n_samples``,
-        ``n_rejected``, ``n_gated``.
+        ``n_rejected``, ``n_gated``; ``box``: the physical box (name -> (lower, upper)) of the reported
+        estimate.
     """
     u, w = np.asarray(u, dtype=float), np.asarray(w, dtype=float)
     n = u.shape[0]
@@ -140,7 +143,7 @@ def sliding_path(u, w, *, Vs, delta, Tc, Ts=0.01, T_filter=0.02, lam=0.995, forg
     count = np.arange(1, idx.size + 1)  # accepted samples so far
     due = (count % m == 0) & (count >= math.ceil(8.0 * T_filter / Tc))  # after the filters' transient
     gated = due & (dwell > dwell_max) if dwell_max < 1.0 else np.zeros_like(due)
-    # the RLS with the physical box
+    # the physical box: the start is clipped to it, the RLS runs without it (it bounds the report only)
     J_max = float(J_max)
     lo = {"J": 1e-9, "J_tau": 0.0, "tau": 0.0, "Fc": 0.0, "Fs": 0.0, "sigma": 0.0, "offset": -math.inf}
     hi = {"J": J_max, "J_tau": J_max * tau_max, "tau": tau_max, "Fc": math.inf, "Fs": math.inf,
@@ -154,8 +157,7 @@ def sliding_path(u, w, *, Vs, delta, Tc, Ts=0.01, T_filter=0.02, lam=0.995, forg
                      sigma=max(initial.sigma, 0.0), offset=initial.offset)
     p = len(names)
     rls = RecursiveLeastSquares(p, lam=lam, P0=P0, forgetting=forgetting, P_max=p * P0 if P_max is None else P_max,
-                                theta0=[start[x] for x in names], bounds=([lo[x] for x in names],
-                                                                           [hi[x] for x in names]))
+                                theta0=[start[x] for x in names])
     rate = 1.0 - float(np.min(lam)) if float(np.min(lam)) < 1.0 else 0.01
     e2 = 0.0
     at, th, Ps, E2 = [], [], [], []
@@ -174,7 +176,14 @@ def sliding_path(u, w, *, Vs, delta, Tc, Ts=0.01, T_filter=0.02, lam=0.995, forg
             "theta": np.array(th).reshape(len(th), p), "P": np.array(Ps).reshape(len(Ps), p, p),
             "e2": np.array(E2), "rls": rls, "n_samples": int(idx.size), "n_rejected": int(n - idx.size),
             "n_gated": int(np.count_nonzero(gated)), "Vs": Vs, "delta": delta, "lag": lag, "Ts": m * Tc,
-            "P_prior": rls.P_max / p}
+            "P_prior": rls.P_max / p, "box": {x: (lo[x], hi[x]) for x in names}}
+
+
+def reported_estimate(path: dict, theta) -> FrictionEstimate:
+    """The estimate the estimator reports for ``theta``: each parameter clipped to the physical box of ``path``
+    (:func:`sliding_path`), ``J_alt`` from the clipped ``J_tau`` and ``tau``."""
+    clipped = [min(max(float(v), path["box"][x][0]), path["box"][x][1]) for x, v in zip(path["names"], theta)]
+    return _estimate(path["names"], clipped, path["Vs"], path["delta"])
 
 
 def _estimate(names, theta, Vs, delta) -> FrictionEstimate:

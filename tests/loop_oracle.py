@@ -90,7 +90,7 @@ def _robust(kw, U, WM, J, Tc, m, ff_max, u_max):
     info = SimpleNamespace(n_rejected=path["n_rejected"], n_updates=path["rls"].n_updates, n_gated=path["n_gated"],
                            rls=path["rls"])
     ff = SimpleNamespace(estimator=info, n_implausible=dec["n_implausible"], n_lag_held=dec["n_lag_held"],
-                         estimate=dec["estimate"])
+                         estimate=dec["estimate"], raw_estimate=co.reported_estimate(path, path["rls"].theta))
     return path, out, ff
 
 
@@ -174,7 +174,7 @@ def oracle_replay(run, p, ref, *, mode, rng=None, faults=None, **kw) -> dict:
         The oracle's signals ``w``, ``w_meas``, ``u``, ``u_ff``, ``f`` (shape (N,), NaN after a divergence),
         ``t_theta``, ``theta``, ``metrics``, ``diverged``, ``estimate``, and objects with the counters: ``ff``
         (``estimator.n_rejected``, ``n_updates``, ``n_gated``, ``rls.n_projected``; ``n_implausible``,
-        ``n_lag_held``), ``peer`` (``n_rejected``, ``estimate``), ``gate`` (``n_rejected``).
+        ``n_lag_held``; ``raw_estimate``, the estimator's report of its final state), ``peer`` (``n_rejected``, ``estimate``), ``gate`` (``n_rejected``).
     """
     Tc = kw.get("Tc", 1e-3)
     m = int(round(kw.get("Ts", 0.01) / Tc))

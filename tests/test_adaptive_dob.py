@@ -61,7 +61,10 @@ def test_before_switch_on_it_is_the_observer_and_after_it_the_observer_sees_the_
     for k in range(400):  # a sliding ramp: the estimator updates and the feedforward switches on
         w = 0.05 + 1e-4 * k + 1e-4 * rng.normal()
         out = comp.compensate(w, w)
-        u = out + 30.0
+        # the torque of the joint on that ramp (eq. 3's static map at w, plus J*dw/dt with dw/dt = 0.1 rad/s²):
+        # data a friction model explains, so the unconstrained estimator's estimate is plausible (a constant
+        # torque is explained by no positive J, sigma: the RLS state, which is not projected, is refused)
+        u = P.Fc + (P.Fs - P.Fc) * math.exp(-((w / P.Vs) ** P.delta)) + P.sigma * w + P.J * 0.1
         comp.observe(u, w)
     assert comp.active and comp.feedforward.u_ff != 0.0
     assert comp.observer._u_last == pytest.approx(u - comp.u_ff, rel=1e-15)

@@ -73,7 +73,11 @@ def test_metrics_equal_todays_numbers(label, mode):
         got = np.asarray(getattr(r, name))[keep]
         g[name] = np.asarray(g[name], dtype=float)[keep]
         if same_arithmetic:
-            np.testing.assert_allclose(got, g[name], rtol=1e-12, err_msg=name)
+            # lugre/adaptive: since commit 8b0af0b the sliding estimator's RLS is not projected onto its box (the
+            # algorithm, not the arithmetic, changed); the projection had acted on 20 and 21 of the first updates
+            # here and the metrics moved by up to 1.9e-8 (u_rms), 3e-9 (rms_second_half)
+            rtol = 1e-7 if (label, mode) == ("lugre", "adaptive") else 1e-12
+            np.testing.assert_allclose(got, g[name], rtol=rtol, err_msg=name)
         else:
             assert np.max(_rel(got, g[name])) <= (0.01 if name in SETTLED else 0.10), name
     assert np.all(np.isnan(r.rms_reversal)) and all(v is None for v in g["rms_reversal"])

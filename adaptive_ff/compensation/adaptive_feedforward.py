@@ -2,7 +2,7 @@
 
 :class:`RobustAdaptiveFeedforward` (compensator mode ``adaptive``) puts the estimates of a
 :class:`~adaptive_ff.compensation.sliding_estimator.SlidingFrictionEstimator` (sliding-regime inverse-dynamics RLS
-with directional forgetting, projection and an outlier gate, see :mod:`adaptive_ff.compensation.sliding_estimator`)
+with directional forgetting and an outlier gate, see :mod:`adaptive_ff.compensation.sliding_estimator`)
 into the fixed feedforward of :mod:`adaptive_ff.compensation.feedforward`, each only after the warm-up and the
 plausibility tests, faded in after switch-on; optionally a provisional start map, :class:`FeedforwardStart`, acts
 until its first trusted estimate.
@@ -130,7 +130,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     ----------
     estimator : SlidingFrictionEstimator
         The online estimator (sliding-regime inverse-dynamics RLS with
-        directional forgetting, parameter projection and an outlier gate);
+        directional forgetting and an outlier gate);
         :meth:`observe` feeds it.
     dt : float, keyword-only
         Call period of :meth:`step` (s), normally the estimator's ``Tc``.
@@ -225,10 +225,12 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     sliding regime are not used (excitation/validity gate); (3) the
     covariance bound (or directional forgetting) of the estimator's RLS keeps
     ``P`` bounded when the motion does not excite (windup protection);
-    (4) ``theta`` is projected onto physical bounds after every update;
-    (5) the estimate is used only after ``warmup`` updates and only if
-    plausible (finite, ``J`` in ``J_range``, ``tau <= tau_max``,
-    ``Fc, Fs <= ff_max``), determined (the standard error of ``Fc`` at most
+    (4) ``theta`` is not projected onto physical bounds (a projection of
+    the RLS state diverges after one-sided motion:
+    :class:`~adaptive_ff.compensation.sliding_estimator.SlidingFrictionEstimator`,
+    Notes); instead (5) the estimate is used only after ``warmup`` updates and only if
+    plausible (finite, ``J`` in ``J_range``, ``0 <= tau <= tau_max``,
+    ``sigma >= 0``, ``0 <= Fc, Fs <= ff_max``), determined (the standard error of ``Fc`` at most
     ``max_rel_stderr*max(Fc, Fs)``) and with consistent lag estimates,
     otherwise the last usable one is held (an inconsistent lag alone keeps
     the previous ``tau`` and takes the new friction levels); (6) the output

@@ -104,7 +104,7 @@ def _check_int(name, v, lo):
     return int(v)
 
 
-def estimate_from_theta(names, theta, Vs, delta) -> FrictionEstimate:
+def estimate_from_theta(names, theta, Vs, delta, *, box=None) -> FrictionEstimate:
     """Physical parameters from a parameter vector of the sliding-regime regression.
 
     Parameters
@@ -115,14 +115,28 @@ def estimate_from_theta(names, theta, Vs, delta) -> FrictionEstimate:
         Parameter values.
     Vs, delta : float or None
         Stribeck factors attached to the estimate.
+    box : tuple (lower, upper) of array_like, shape (p,), keyword-only
+        Physical box of ``theta`` (e.g. :attr:`SlidingFrictionEstimator.box`): each parameter is clipped to
+        it before the physical parameters are formed (``J_alt`` from the clipped ``J_tau`` and ``tau``).
+        Default None: ``theta`` as it is (the unconstrained least-squares estimate of :func:`fit_sliding`).
 
     Returns
     -------
     FrictionEstimate
         With ``J_alt = J_tau/tau`` (NaN without the lag columns or for ``tau <= 0``) and ``offset`` 0
         without the offset column.
+
+    Notes
+    -----
+    The clip is a statement about the report, not about the estimator: the
+    RLS of :class:`SlidingFrictionEstimator` runs unconstrained (its Notes
+    say why), and the clipped values are what it reports.
     """
-    d = dict(zip(names, (float(x) for x in theta)))
+    theta = [float(x) for x in theta]
+    if box is not None:
+        lo, hi = box
+        theta = [min(max(x, float(a)), float(b)) for x, a, b in zip(theta, lo, hi)]
+    d = dict(zip(names, theta))
     tau = d.get("tau", 0.0)
     J_alt = d["J_tau"] / tau if ("J_tau" in d and tau > 0) else float("nan")
     return FrictionEstimate(J=d["J"], tau=tau, sigma=d["sigma"], Fc=d["Fc"], Fs=d["Fs"], offset=d.get("offset", 0.0),
@@ -163,7 +177,7 @@ class SlidingFrictionEstimator(Component):
     J_guess : float, keyword-only
         Inertia (kg·m²) used when ``initial`` is None, default 1.
     J_max, tau_max : float, keyword-only
-        Upper projection bounds of ``J`` (kg·m²) and ``tau`` (s); defaults inf, 1.
+        Upper bounds of the reported ``J`` (kg·m²) and ``tau`` (s) (:attr:`box`); defaults inf, 1.
     lag : bool, keyword-only
         Estimate the friction lag (columns ``L[s^2 w]``, ``-L[s u]``), default True.
     offset : bool, keyword-only
@@ -189,9 +203,12 @@ class SlidingFrictionEstimator(Component):
     Attributes
     ----------
     rls : RecursiveLeastSquares
-        The estimator, with ``theta`` in :attr:`names` order and projection
-        bounds ``J in [1e-9, J_max]``, ``tau in [0, tau_max]``, ``J*tau in [0,
-        J_max*tau_max]``, ``Fc, Fs, sigma >= 0``.
+        The estimator, with ``theta`` in :attr:`names` order, without bounds
+        (unconstrained; see Notes).
+    box : tuple (lower, upper) of ndarray, shape (p,)
+        The physical box of :attr:`estimate`: ``J in [1e-9, J_max]``, ``tau in
+        [0, tau_max]``, ``J*tau in [0, J_max*tau_max]``, ``Fc, Fs, sigma >= 0``
+        (the offset is free).
     names : tuple of str
         Parameter names (a subset of :data:`SLIDING_NAMES`).
     n_samples, n_rejected, n_gated : int
@@ -213,6 +230,28 @@ class SlidingFrictionEstimator(Component):
     Notes
     -----
     See the module docstring for the model, the filters and the gate.
+
+    The RLS state is not projected onto the physical box; only the reported
+    :attr:`estimate` is clipped to it, and the robust feedforward
+    (:class:`adaptive_ff.compensation.adaptive_feedforward.RobustAdaptiveFeedforward`)
+    decides from the unclipped ``theta`` whether an estimate is plausible and
+    determined. A projection of the state, even the one in the metric of
+    ``P^-1``, diverges here: during the first move (one direction of motion
+    only) ``L[g]``, ``L[h]`` and the offset column are nearly collinear, so
+    ``P`` is ~1e4 along that direction and ~1e-4 across it, and a correction
+    of one violated bound ``i`` moves every other parameter ``j`` by
+    ``P[j, i]/P[i, i]`` times the violation, far along the unexcited
+    direction, where it violates other bounds. Measured on the ``paper``
+    joint with point-to-point moves (v 0.5 rad/s, a 4 rad/s²): ``theta`` ran
+    away to 1e8 within 0.7 s of the first move and decayed over ~30 s, the
+    feedforward refused 2056 of 2263 updates as implausible and never
+    switched on (eta 0.00); the same log through the unconstrained RLS gives
+    J 3.78, Fc 25.03, sigma 39.9 (true 4, 25, 40) from the 100th update on,
+    and eta 1.00 in closed loop (docs/benchmarks/compensation.md, "Point-to-point
+    moves: the unconstrained estimator"). The unconstrained estimate leaves
+    the box only where the data do not determine it, and there the robust
+    feedforward refuses it anyway (range checks, determinacy of ``Fc``, lag
+    consistency).
     """
 
     _ffi = ffi
@@ -258,10 +297,11 @@ class SlidingFrictionEstimator(Component):
             if not all(math.isfinite(v) for v in start.values()):
                 raise ParameterError(f"initial estimate must be finite, got {initial!r}")
         P0 = check_positive("P0", P0)
+        # no bounds on the RLS state: the box applies to the reported estimate only (class Notes)
         rls = RecursiveLeastSquares(len(self.names), lam=lam, P0=P0, forgetting=forgetting,
                                     P_max=len(self.names) * P0 if P_max is None else P_max,
-                                    theta0=[start[n] for n in self.names],
-                                    bounds=([lower[n] for n in self.names], [upper[n] for n in self.names]))
+                                    theta0=[start[n] for n in self.names])
+        self._box = (np.array([lower[n] for n in self.names]), np.array([upper[n] for n in self.names]))
         gate = OutlierGate() if gate is None else gate
         if not isinstance(gate, OutlierGate):
             raise ParameterError(f"gate must be an OutlierGate, got {type(gate).__name__}")
@@ -355,9 +395,15 @@ class SlidingFrictionEstimator(Component):
         return float(self._c.e2) * self.rls.P
 
     @property
+    def box(self) -> tuple:
+        """``(lower, upper)`` of the reported estimate, arrays of shape (p,) in :attr:`names` order (copies)."""
+        return self._box[0].copy(), self._box[1].copy()
+
+    @property
     def estimate(self) -> FrictionEstimate:
-        """Physical parameters of the current ``theta`` (inside the projection bounds)."""
-        return estimate_from_theta(self.names, self.rls.theta, self.Vs, self.delta)
+        """Physical parameters of the current ``theta``, each clipped to :attr:`box` (the RLS state itself is
+        unconstrained: class Notes)."""
+        return estimate_from_theta(self.names, self.rls.theta, self.Vs, self.delta, box=self._box)
 
     def observe(self, u: float, w: float) -> bool:
         """Feed one controller-period sample (C: ``adaptive_ff/csrc/aff_sliding.c``, ``aff_sliding_observe``).

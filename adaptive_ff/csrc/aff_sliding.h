@@ -57,8 +57,9 @@ typedef struct aff_sliding {
 } aff_sliding;
 
 /* Configure e and clear its state (filters, noise scale and counters 0); gate, u_range, w_range and rls are
- * configured parts (aff_gate_init, aff_range_gate_init, aff_rls_init with its theta0 and bounds) copied into e
- * by value. Returns 0, or -1 (e untouched) if rls->p differs from 4 + 2*lag + offset. Python:
+ * configured parts (aff_gate_init, aff_range_gate_init, aff_rls_init with its theta0; the Python class gives the
+ * RLS no bounds: a projection of its state diverges after one-sided motion, see SlidingFrictionEstimator's Notes)
+ * copied into e by value. Returns 0, or -1 (e untouched) if rls->p differs from 4 + 2*lag + offset. Python:
  * SlidingFrictionEstimator.__init__. */
 int aff_sliding_init(aff_sliding *e, aff_real Vs, aff_real delta, aff_real a, aff_real T, long m, long settle,
                      aff_real w_band_min, aff_real dwell_max, aff_real e2_rate, int lag, int offset,
