@@ -90,9 +90,14 @@ def _assert_same(a, b):
         # the oracle's regressors (transfer functions in second-order sections) differ from the engine's filter
         # cascade by rounding, which the RLS amplifies by its conditioning: agreement ~1e-10 of the largest level
         scale = max(1.0, abs(ea.J), abs(ea.Fc), abs(ea.Fs), abs(ea.sigma))
-        for k in ("J", "tau", "sigma", "Fc", "Fs", "offset", "Vs", "delta", "J_alt"):
+        for k in ("J", "tau", "sigma", "Fc", "Fs", "offset", "Vs", "delta"):
             v, w = getattr(ea, k), getattr(eb, k)
             assert (v is None and w is None) or w == pytest.approx(v, rel=1e-9, abs=1e-9 * scale, nan_ok=True), k
+        # J_alt = (J*tau)/tau is a ratio of two RLS outputs: where the lag estimate is near zero (a joint without a
+        # lag, whose unconstrained estimate of tau sits near 0) the ratio amplifies their rounding, and it carries
+        # theta's tolerance above (1e-7; measured 1.4e-9 on J 4, tau 0, J_alt 370); a defect is O(1)
+        v, w = ea.J_alt, eb.J_alt
+        assert (v is None and w is None) or w == pytest.approx(v, rel=1e-7, abs=1e-9 * scale, nan_ok=True), "J_alt"
 
 
 @pytest.fixture(scope="module")
