@@ -80,7 +80,8 @@ def _assert_same(a, b):
         scale = max(1.0, abs(want.J), abs(want.Fc), abs(want.Fs), abs(want.sigma))
         for k in ("J", "tau", "sigma", "Fc", "Fs", "offset", "J_alt"):
             got = math.nan if raw[k] is None else raw[k]  # to_dict() writes NaN as None
-            assert got == pytest.approx(getattr(want, k), rel=1e-9, abs=1e-9 * scale, nan_ok=True), k
+            rel = 1e-5 if k == "J_alt" else 1e-9  # J_alt = (J*tau)/tau: see the estimate's check below
+            assert got == pytest.approx(getattr(want, k), rel=rel, abs=1e-9 * scale, nan_ok=True), k
     if peer is not None:
         assert b.info["n_rejected"] == peer.n_rejected
     if a["estimate"] is None:
@@ -93,11 +94,12 @@ def _assert_same(a, b):
         for k in ("J", "tau", "sigma", "Fc", "Fs", "offset", "Vs", "delta"):
             v, w = getattr(ea, k), getattr(eb, k)
             assert (v is None and w is None) or w == pytest.approx(v, rel=1e-9, abs=1e-9 * scale, nan_ok=True), k
-        # J_alt = (J*tau)/tau is a ratio of two RLS outputs: where the lag estimate is near zero (a joint without a
-        # lag, whose unconstrained estimate of tau sits near 0) the ratio amplifies their rounding, and it carries
-        # theta's tolerance above (1e-7; measured 1.4e-9 on J 4, tau 0, J_alt 370); a defect is O(1)
+        # J_alt = (J*tau)/tau is a ratio of two RLS outputs (theta, compared above at 1e-7): where the lag estimate is
+        # near zero (a joint without a lag, whose unconstrained estimate of tau sits near 0) the division amplifies
+        # their rounding without bound. Measured on lag-free plants in CI: 1.4e-9 (J 4, J_alt 370) and 1.5e-7
+        # (J 4.66, J_alt 46.4) relative; compared at 1e-5, a defect is O(1)
         v, w = ea.J_alt, eb.J_alt
-        assert (v is None and w is None) or w == pytest.approx(v, rel=1e-7, abs=1e-9 * scale, nan_ok=True), "J_alt"
+        assert (v is None and w is None) or w == pytest.approx(v, rel=1e-5, abs=1e-9 * scale, nan_ok=True), "J_alt"
 
 
 @pytest.fixture(scope="module")
