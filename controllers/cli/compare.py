@@ -22,7 +22,35 @@ def run(args) -> int:
         check_output_dir(out_dir, "--out")
     if args.report:
         check_output_dir(args.report, "--report")
+    if args.scenario:
+        return _scenario_and_print(args, out_dir)
     return _compare_and_print(args, _load_plant(args), _modes(args), out_dir)
+
+
+#: Options the scenario file sets, with the table that holds each: refused beside ``--scenario``.
+_SCENARIO_SETS = {"preset": "[plant] preset", "plant": "[plant] file", "variant": "[plant] variant",
+                  "modes": "modes", "estimator": "[compensation] estimator", "ff_input": "[compensation] ff_input",
+                  "omega_q": "[compensation] omega_q", "duration": "[reference] (its length)", "seed": "seed",
+                  "Ts": "[controller] Ts", "noise": "[sensor] noise_std", "lam": "[compensation] lam",
+                  "crossover": "[controller] crossover", "phase_margin": "[controller] phase_margin",
+                  "no_prefit": "[compensation] prefit", "no_fast_start": "[compensation] adaptive_start",
+                  "Vs": "[compensation] Vs", "delta": "[compensation] delta", "J_design": "[controller] J_design"}
+
+
+def _scenario_and_print(args, out_dir) -> int:
+    """``compare --scenario FILE``: the file's comparison, its figures, report and table (or JSON)."""
+    from controllers.experiments.scenario import load_scenario
+    from plant.errors import ParameterError
+
+    given = [k for k in _SCENARIO_SETS if getattr(args, k) != args.scenario_defaults[k]]
+    if given:
+        k = given[0]
+        raise ParameterError(f"--{k.replace('_', '-')} cannot be combined with --scenario: the scenario file "
+                             f"sets it ({_SCENARIO_SETS[k]})")
+    sc = load_scenario(args.scenario)
+    comp = sc.compare(progress=None if not args.quiet else False)
+    header = [sc.summary()] + ([sc.description] if sc.description else [])
+    return _print_comparison(args, comp, out_dir, header, sc.to_dict())
 
 
 def _load_plant(args):
@@ -68,6 +96,20 @@ def _compare_and_print(args, p, modes, out_dir) -> int:
                    estimator=args.estimator, ff_input=args.ff_input, omega_q=args.omega_q,
                    prefit=not args.no_prefit, Vs=args.Vs, delta=args.delta, J_design=args.J_design,
                    adaptive_start=not args.no_fast_start)
+    src = args.plant if args.plant else (f"variant '{args.variant}'" if args.variant else f"preset '{args.preset}'")
+    header = [f"plant: {src}: {parameter_text(plant_to_dict(p))}"]
+    if hasattr(p, "at"):
+        header.append(f"drift: Fc {p.Fc_change:+.0%}, Fs {p.Fs_change:+.0%} from t = {p.t_start:g} s to "
+                      f"{p.t_end:g} s")
+    return _print_comparison(args, comp, out_dir, header, None, run=f"run: {args.duration:g} s, seed {args.seed}")
+
+
+def _print_comparison(args, comp, out_dir, header, scenario, run: str = "") -> int:
+    """The figures, the report and the printed table (or JSON) of a comparison; ``header``: lines printed
+    before the design; ``scenario``: the scenario's ``to_dict`` for the JSON (None without one)."""
+    from adaptive_ff.io.units import parameter_text
+    from plant.models import plant_to_dict
+
     if args.no_figures:
         paths = []
     else:
@@ -85,13 +127,15 @@ def _compare_and_print(args, p, modes, out_dir) -> int:
         d["figures"] = [str(x) for x in paths]
         if report is not None:
             d["report"] = str(report)
+        if scenario is not None:
+            d["scenario"] = scenario
         print(json.dumps(d, indent=2))
         return 0
-    src = args.plant if args.plant else (f"variant '{args.variant}'" if args.variant else f"preset '{args.preset}'")
     d = comp.design
-    print(f"plant: {src}: {parameter_text(plant_to_dict(p))}")
-    if hasattr(p, "at"):
-        print(f"drift: Fc {p.Fc_change:+.0%}, Fs {p.Fs_change:+.0%} from t = {p.t_start:g} s to {p.t_end:g} s")
+    for line in header:
+        print(line)
+    if scenario is not None:
+        print(f"plant: {parameter_text(plant_to_dict(comp.plant))}")
     print(f"PI: Kp={d.Kp:.4g} N·m·s/rad, Ki={d.Ki:.4g} N·m/rad, Tc={d.Tc:g} s; "
           f"phase margin {d.phase_margin:.1f} deg, gain margin {d.gain_margin:.3g}")
     print(f"design inertia J_design={comp.J_design:g} kg·m²")
@@ -104,7 +148,7 @@ def _compare_and_print(args, p, modes, out_dir) -> int:
         print(f"Stribeck factors given: Vs={args.Vs:g} rad/s, delta={args.delta:g} (no pre-fit)")
     for note in comp.notes:
         print(f"note: {note}")
-    print(f"run: {args.duration:g} s, seed {args.seed}; metrics over the second half\n")
+    print((f"{run}; " if run else "") + "metrics over the second half\n")
     print(comparison_table(comp, args))
     if paths:
         print("\nfigures: " + ", ".join(str(x) for x in paths))
@@ -189,6 +233,11 @@ def register(sub) -> None:
     c.add_argument("--no-figures", action="store_true", help="do not write figures")
     c.add_argument("--quiet", action="store_true", help="no progress bar")
     c.add_argument("--report", metavar="DIR", default=None, help="write a self-contained HTML report into DIR")
+    c.add_argument("--scenario", metavar="FILE", default=None,
+                   help="a scenario TOML file: plant, reference (multisine, point-to-point, reversing, a CSV "
+                        "trajectory), sensor (encoder, delay), drive (torque and slew limits), controller design, "
+                        "modes and your own compensators (controllers.experiments.scenario); the output options "
+                        "(--out, --report, --json, --no-figures, --quiet, --units) still apply")
     add_units_argument(c)
-    c.set_defaults(func=run)
+    c.set_defaults(func=run, scenario_defaults={k: c.get_default(k) for k in _SCENARIO_SETS})
 

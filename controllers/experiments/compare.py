@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -14,14 +15,15 @@ from adaptive_ff.identification.regression import FrictionEstimate, RegressionMo
 from adaptive_ff.compensation.sliding_estimator import SlidingFit, fit_sliding
 from adaptive_ff.identification.stribeck_fit import StribeckFit
 from controllers.simulation.closed_loop import ModeOptions, run_mode, run_own
-from controllers.simulation.compensators import MODES
+from controllers.simulation.compensators import ESTIMATORS, MODES
 from controllers.simulation.memory import MODE_SIGNALS, PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
 from controllers.simulation.metrics import deviation_rms, first_active_time
 from controllers.simulation.user_compensator import CompensatorContext
 from controllers.design.pi import PIDesign, design_pi
 from controllers.experiments.quasi_static import (StribeckDesign, StribeckExperiment, prefit_stribeck,
                                                   stribeck_experiment)
-from plant.errors import ParameterError, check_finite_scalar, check_positive
+from controllers.simulation.sensor_drive import DELAY_MAX
+from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
 from plant.excitation import bandlimited_noise, multisine_reference
 from plant.joint import simulate
 from plant.models import plant_to_dict
@@ -29,8 +31,8 @@ from plant.results import axes_or_new, json_safe
 from plant.sampling import sample
 
 __all__ = ["Comparison", "CompareOptions", "ComparisonSetup", "compare", "comparison_reference", "eta",
-           "FIXED_METHODS", "PREFIT_MODES", "friction_scale", "prefit_stribeck", "prepare_comparison",
-           "residual_cutoff"]
+           "FIXED_METHODS", "PREFIT_MODES", "friction_scale", "measurement_noise", "prefit_stribeck",
+           "prepare_comparison", "residual_cutoff"]
 
 #: Offline identification behind the ``fixed`` mode: the sliding-regime
 #: inverse-dynamics LS (:func:`adaptive_ff.compensation.sliding_estimator.fit_sliding`,
@@ -303,6 +305,22 @@ class CompareOptions:
         the frictionless run at every reversal (docs/benchmarks/variants.md).
     faults : mapping int -> float or None
         Measurement faults injected in every mode (see :func:`controllers.simulation.closed_loop.run_closed_loop`).
+    reference : Reference or None
+        The velocity reference of every run (:class:`plant.excitation.Reference` sampled at ``Tc``: a
+        point-to-point cycle of :func:`plant.motion.point_to_point_reference`, constant speed with reversals of
+        :func:`plant.motion.reversing_reference`, a recorded trajectory of
+        :func:`adaptive_ff.io.references.load_reference`); default None: the multisine of
+        :func:`comparison_reference`. Given, ``duration`` becomes the reference's (``N*Tc``).
+    encoder_counts : int or None
+        The loop measures with an encoder of this many counts per joint revolution (quantised position,
+        velocity by backward difference, plus ``noise_std``; :class:`controllers.simulation.sensor_drive.Sensor`);
+        default None: a velocity sensor, ``w + noise``. What the user knows of it, the quantisation noise
+        (:func:`measurement_noise`), also sets the design's noise level: the stick band, the residual
+        observer's cut-off and the noise of the quasi-static and identification experiments.
+    delay : int
+        Measurement delay of the loop's sensor (periods, 0-32), default 0.
+    slew_rate : float
+        The drive's torque slew-rate limit (N·m/s), default inf (none). The torque limit is ``u_max``.
 
     Raises
     ------
@@ -347,9 +365,34 @@ class CompareOptions:
     sign_input: str = "observer"
     observer_bandwidth: float | None = None
     compensators: dict | None = None
+    reference: object = None
+    encoder_counts: int | None = None
+    delay: int = 0
+    slew_rate: float = math.inf
 
     def __post_init__(self):
+        check_positive("Tc", self.Tc)
+        if self.reference is not None:  # the reference sets the duration
+            object.__setattr__(self, "duration", _reference_duration(self.reference, self.Tc))
         check_positive("duration", self.duration)
+        check_nonnegative("noise_std", self.noise_std)
+        for key, value, allowed in (("estimator", self.estimator, ESTIMATORS),
+                                    ("ff_input", self.ff_input, ("measured", "reference")),
+                                    ("canudas_input", self.canudas_input, ("measured", "reference"))):
+            if value not in allowed:
+                raise ParameterError(f"{key} must be one of {allowed}, got {value!r}")
+        if self.u_max is not None:
+            check_positive("u_max", self.u_max)
+        c = self.encoder_counts
+        if c is not None and (isinstance(c, bool) or not isinstance(c, (int, np.integer)) or c < 1):
+            raise ParameterError(f"encoder_counts must be an integer >= 1 (counts per joint revolution) or None, "
+                                 f"got {c!r}")
+        if isinstance(self.delay, bool) or not isinstance(self.delay, (int, np.integer)) \
+                or not 0 <= self.delay <= DELAY_MAX:
+            raise ParameterError(f"delay must be an integer number of periods in 0..{DELAY_MAX}, got {self.delay!r}")
+        if isinstance(self.slew_rate, bool) or not isinstance(self.slew_rate, (int, float)) \
+                or not self.slew_rate > 0:
+            raise ParameterError(f"slew_rate must be a number > 0 (N·m/s; inf for none), got {self.slew_rate!r}")
         if self.sign_input not in ("observer", "measured"):
             raise ParameterError(f"sign_input must be 'observer' or 'measured', got {self.sign_input!r}")
         if self.observer_bandwidth is not None:
@@ -467,7 +510,7 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
     if o.compensators:
         mo = s.mode_options["none"]
         ctx = CompensatorContext(J=float(s.J_design), Tc=mo.Tc, Ts=mo.Ts, Kp=mo.Kp, Ki=mo.Ki, u_max=mo.u_max,
-                                 ff_max=mo.ff_max, noise_std=mo.noise_std, prefit=s.prefit)
+                                 ff_max=mo.ff_max, noise_std=measurement_noise(o), prefit=s.prefit)
         for name, factory in o.compensators.items():
             s.bar.set_postfix_str(name)
             results[name] = run_own(p, s.reference, factory(ctx), mo, name=name,
@@ -571,7 +614,10 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     p0 = p.at(0.0) if hasattr(p, "at") else p
     J = float(p0.J) if o.J_design is None else float(o.J_design)  # the design inertia: no other plant field is read
     _, id_ss, noise_ss, qs_ss = np.random.SeedSequence(o.seed).spawn(4)
+    if reference is None:
+        reference = o.reference
     ref = comparison_reference(o) if reference is None else _checked_reference(reference, o)
+    noise = measurement_noise(o)
     peak_w, peak_a = float(np.max(np.abs(ref.w))), float(np.max(np.abs(ref.dw)))
     needs_prefit = (any(m in PREFIT_MODES for m in run_modes) or bool(o.compensators)) and o.Vs is None
     if needs_prefit and not o.prefit:
@@ -582,7 +628,7 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     exp = None
     if needs_prefit or o.u_max is None:
         bar.set_postfix_str("quasi-static runs")
-        exp = _quasi_static(p0, o, J, peak_w, np.random.default_rng(qs_ss), fit=needs_prefit)
+        exp = _quasi_static(p0, o, J, peak_w, np.random.default_rng(qs_ss), fit=needs_prefit, noise=noise)
     fit = exp.fit if needs_prefit else None
     Vs, delta = (fit.Vs, fit.delta) if fit is not None else (o.Vs, o.delta)
     no_friction = exp is not None and exp.no_friction
@@ -607,7 +653,7 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
         bar.update()
     elif "fixed" in run_modes or wants_start:
         bar.set_postfix_str("identification run")
-        offline = _offline_fit(p0, o, model, F_peak, Vs, delta, np.random.default_rng(id_ss))
+        offline = _offline_fit(p0, o, model, F_peak, Vs, delta, np.random.default_rng(id_ss), noise)
         estimate = accepted = project_estimate(offline.estimate, F_max=0.5 * u_max)
         if estimate is None and fit is not None and "fixed" in run_modes:
             estimate, note = _fixed_fallback(offline.estimate, fit, J, 0.5 * u_max)
@@ -622,11 +668,12 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     mo = ModeOptions(Kp=design.Kp, Ki=design.Ki, u_max=u_max, ff_max=0.5 * u_max, Tc=o.Tc, Ts=o.Ts,
                      noise_std=o.noise_std, J_design=J, lag=o.lag, model=model, estimate=estimate, lam=o.lam,
                      estimator=o.estimator, Vs=Vs, delta=delta, sign_width=o.sign_width, T_filter=o.T_filter,
-                     forgetting=o.forgetting, stick_band=3.0 * o.noise_std if o.stick_band is None else o.stick_band,
+                     forgetting=o.forgetting, stick_band=3.0 * noise if o.stick_band is None else o.stick_band,
                      stick_samples=o.stick_samples, dwell_max=o.dwell_max, offset=o.offset, warmup=o.warmup,
                      omega_q=o.omega_q, initial=initial, start=start, sign_input=o.sign_input,
                      observer_bandwidth=o.observer_bandwidth,
-                     omega_r=residual_cutoff(J, o.noise_std, o.Tc, _friction_level(exp, F_peak)))
+                     omega_r=residual_cutoff(J, noise, o.Tc, _friction_level(exp, F_peak)),
+                     encoder_counts=o.encoder_counts, delay=o.delay, slew_rate=o.slew_rate)
     opts = {mode: replace(mo, ff_input=o.canudas_input if mode == "canudas" else o.ff_input) for mode in run_modes}
     return ComparisonSetup(modes=tuple(run_modes), reference=ref, design=design, mode_options=opts,
                            noise_seed=noise_ss, prefit=fit, offline=offline, model=model, experiment=exp,
@@ -643,6 +690,51 @@ def _no_friction_note(exp: StribeckExperiment, run_modes, Vs: float, placeholder
         shape = f"placeholders Vs = {Vs:.4g} rad/s, delta = 1" if placeholders else "the Vs, delta given"
         what.append(f"{' and '.join(adaptive)} start from zero friction ({shape})")
     return "; ".join(what) + "; eta is undefined where friction does not degrade the loop (0/0)"
+
+
+def _reference_duration(ref, Tc: float) -> float:
+    """Duration ``N*Tc`` (s) of a :class:`plant.excitation.Reference` given to :class:`CompareOptions`, checked:
+    1-D finite ``t``, ``w``, ``dw`` of one length ``N >= 2`` and a time step ``Tc`` throughout."""
+    arrays = {}
+    for k in ("t", "w", "dw"):
+        a = getattr(ref, k, None)
+        try:
+            a = np.asarray(a, dtype=float)
+        except (TypeError, ValueError):
+            a = None
+        if a is None or a.ndim != 1:
+            raise ParameterError(f"reference must be a plant.excitation.Reference (1-D arrays t, w, dw), got "
+                                 f"{type(ref).__name__} without a 1-D {k!r}")
+        bad = np.flatnonzero(~np.isfinite(a))
+        if bad.size:
+            raise ParameterError(f"reference.{k}[{bad[0]}] = {float(a[bad[0]])!r} is not a finite number")
+        arrays[k] = a
+    n = arrays["t"].shape[0]
+    if n < 2 or arrays["w"].shape[0] != n or arrays["dw"].shape[0] != n:
+        raise ParameterError(f"reference: t, w, dw must have one length >= 2, got {n}, {arrays['w'].shape[0]}, "
+                             f"{arrays['dw'].shape[0]}")
+    step = np.diff(arrays["t"])
+    off = np.flatnonzero(~np.isclose(step, Tc, rtol=1e-6, atol=0.0))
+    if off.size:
+        i = int(off[0])
+        raise ParameterError(f"reference: the time step t[{i + 1}] - t[{i}] = {float(step[i])!r} s differs from Tc = "
+                             f"{Tc!r} s (resample it: adaptive_ff.io.references.load_reference(dt=Tc))")
+    return n * Tc
+
+
+def measurement_noise(o: CompareOptions) -> float:
+    """Standard deviation (rad/s) of the loop's velocity measurement error that the design assumes.
+
+    ``sqrt(noise_std**2 + 2*(res**2/12)/Tc**2)`` with ``res = 2*pi/encoder_counts`` (rad): the white noise plus
+    the backward difference of two independent, uniformly distributed quantisation errors of variance
+    ``res**2/12`` each (Widrow & Kollar, *Quantization Noise*, 2008, ch. 4); ``noise_std`` without an encoder.
+    A 2^17-count encoder at 1 kHz: 0.0196 rad/s. What a user knows of their sensor (its resolution), not a
+    field of the plant.
+    """
+    if o.encoder_counts is None:
+        return float(o.noise_std)
+    res = 2.0 * math.pi / o.encoder_counts
+    return math.sqrt(o.noise_std ** 2 + res * res / (6.0 * o.Tc * o.Tc))
 
 
 def _checked_reference(ref, o: CompareOptions):
@@ -760,22 +852,26 @@ def _whole_run_metrics(results: dict) -> dict:
     return out
 
 
-def _quasi_static(p0, o: CompareOptions, J: float, peak_w: float, rng, *, fit: bool) -> StribeckExperiment:
-    """The quasi-static runs of :func:`compare`: designed from the joint's response; coarse only without a fit."""
-    return stribeck_experiment(p0, J_design=J, noise_std=o.noise_std, Tc=o.Tc, rng=rng,
+def _quasi_static(p0, o: CompareOptions, J: float, peak_w: float, rng, *, fit: bool,
+                  noise: float) -> StribeckExperiment:
+    """The quasi-static runs of :func:`compare`: designed from the joint's response; coarse only without a fit.
+    ``noise``: the velocity noise (rad/s) of the runs' measurement (:func:`measurement_noise`)."""
+    return stribeck_experiment(p0, J_design=J, noise_std=noise, Tc=o.Tc, rng=rng,
                                options=StribeckDesign(w_max=1.2 * peak_w), fit=fit)
 
 
-def _offline_fit(p0, o: CompareOptions, model, F_peak, Vs, delta, id_rng):
+def _offline_fit(p0, o: CompareOptions, model, F_peak, Vs, delta, id_rng, noise: float):
     """The paper's Sec. IV-A identification experiment (open loop, band-limited noise torque), fitted.
 
-    The torque's standard deviation is ``1.2*F_peak``, the measured friction level (no plant field is read).
+    The torque's standard deviation is ``1.2*F_peak``, the measured friction level (no plant field is read);
+    the velocity is measured with white noise of ``noise`` (rad/s, :func:`measurement_noise`: an encoder's
+    quantisation taken as white noise of its level).
     """
     _, u_id = bandlimited_noise(o.duration, dt=o.Tc, cutoff=1.0, std=1.2 * F_peak, rng=id_rng)
     resp = simulate(p0, u_id, dt=o.Tc)
     if o.fixed_method == "sliding":
         n = u_id.shape[0]
-        w_id = resp.w[:-1] + id_rng.normal(0.0, o.noise_std, size=n) if o.noise_std > 0 else resp.w[:-1]
+        w_id = resp.w[:-1] + id_rng.normal(0.0, noise, size=n) if noise > 0 else resp.w[:-1]
         return fit_sliding(u_id, w_id, Tc=o.Tc, Vs=Vs, delta=delta, Ts=o.Ts, T_filter=o.T_filter, lag=o.lag)
-    meas = sample(resp, Ts=o.Ts, noise_std=o.noise_std, rng=id_rng)
+    meas = sample(resp, Ts=o.Ts, noise_std=noise, rng=id_rng)
     return fit_ls(model, meas.u, meas.w, Ts=o.Ts)

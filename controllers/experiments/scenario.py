@@ -1,0 +1,448 @@
+"""A comparison scenario in one TOML file: plant, reference, sensor, drive, controller design, modes, your compensators.
+
+``adaptive-ff compare --scenario FILE`` runs it, :func:`load_scenario` reads it into a :class:`Scenario` whose
+:meth:`Scenario.compare` runs the same comparison from Python, and
+:func:`controllers.testing.assert_tracking_bound` takes it (a regression test in three lines). The file (read
+with the standard library's :mod:`tomllib`; SI units throughout)::
+
+    name = "robot base joint, pick and place"     # optional: name, description
+    seed = 0                                      # everything random (reference, noise, experiments)
+    modes = ["none", "fixed", "adaptive", "adaptive-dob", "dob"]   # default: all built-in modes
+
+    [plant]            # one of: preset = "paper" | variant = "karnopp" | file = "joint.json" (relative to this
+    model = "lagged-stribeck"    # file) | the keys of a plant file (plant.models.plant_from_dict), as here
+    J = 4.0
+    Fc = 25.0
+    # ...
+
+    [reference]        # kind = "multisine" (duration) | "point-to-point" | "reversing" | "file"
+    kind = "point-to-point"
+    targets = [0.5, -0.2, 0.4, 0.0]   # rad; the other keys are those of plant.motion.point_to_point_reference
+    v_max = 0.5
+    a_max = 4.0
+    dwell = 0.5
+    repeat = 3                        # the target list three times
+
+    [sensor]           # encoder_counts (counts per revolution), delay (periods), noise_std (rad/s; default 1e-3
+    encoder_counts = 131072           # without an encoder, 0 with one: its quantisation is the noise)
+    delay = 1
+
+    [drive]            # u_max (torque limit, N·m; default from the quasi-static runs), slew_rate (N·m/s)
+    u_max = 150.0
+
+    [controller]       # crossover (rad/s), phase_margin (deg), Tc, Ts (s), J_design (kg·m²)
+    crossover = 20.0
+
+    [compensation]     # further fields of controllers.experiments.compare.CompareOptions (estimator, lam, ...)
+
+    [compensators.lugre-model]        # your compensator: factory(context, **the other keys) -> object with
+    factory = "lugre_model.py:LuGreModel"   # compensate(w_meas, w_ref) and observe(u, w_meas); "module:name"
+    deflection = 1e-3                       # or "path/to/file.py:name" (relative to this file)
+
+    [bounds]           # for assert_tracking_bound: mode, min_eta, max_rms (rad/s), max_error (rad/s)
+    mode = "adaptive-dob"
+    min_eta = 0.8
+
+Every error names the file, the table and key, and the value (:class:`ScenarioError`).
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib
+import importlib.util
+import math
+import os
+import sys
+import tomllib
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+from controllers.experiments.compare import CompareOptions, Comparison, compare
+from controllers.simulation.compensators import MODES
+from plant.errors import ParameterError
+
+__all__ = ["Scenario", "ScenarioError", "TrackingBounds", "load_scenario", "scenario_from_dict", "REFERENCE_KINDS"]
+
+#: Kinds of ``[reference]`` and their keys (besides ``kind``).
+REFERENCE_KINDS = {
+    "multisine": ("duration",),
+    "point-to-point": ("targets", "v_max", "a_max", "j_max", "dwell", "start_dwell", "q0", "repeat"),
+    "reversing": ("speed", "hold", "accel", "n_reversals", "start_dwell"),
+    "file": ("path", "time", "velocity", "position", "time_unit", "velocity_unit", "position_unit"),
+}
+_TOP = ("name", "description", "seed", "modes", "plant", "reference", "sensor", "drive", "controller",
+        "compensation", "compensators", "bounds")
+_SENSOR = ("encoder_counts", "delay", "noise_std")
+_DRIVE = ("u_max", "slew_rate")
+_CONTROLLER = ("crossover", "phase_margin", "Tc", "Ts", "J_design")
+_BOUNDS = ("mode", "min_eta", "max_rms", "max_error")
+#: CompareOptions fields a scenario sets elsewhere (or not at all): not allowed under ``[compensation]``.
+_NOT_COMPENSATION = ("duration", "seed", "modes", "compensators", "reference", "faults", "encoder_counts",
+                     "delay", "noise_std", "u_max", "slew_rate") + _CONTROLLER
+
+
+class ScenarioError(ParameterError):
+    """A scenario file or mapping is invalid; the message names the file, the table and key, and the value."""
+
+
+@dataclass(frozen=True)
+class TrackingBounds:
+    """The ``[bounds]`` of a scenario: what :func:`controllers.testing.assert_tracking_bound` asserts.
+
+    Attributes
+    ----------
+    mode : str
+        The mode (or own compensator) checked; default ``"adaptive"``.
+    min_eta : float or None
+        Lower bound on eta over the second half.
+    max_rms, max_error : float or None
+        Bounds on the RMS and the largest |velocity error| over the second half (rad/s).
+    """
+
+    mode: str = "adaptive"
+    min_eta: float | None = None
+    max_rms: float | None = None
+    max_error: float | None = None
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One comparison scenario: the plant and the :class:`CompareOptions` of everything else.
+
+    Attributes
+    ----------
+    name : str
+        Its name (the file's ``name``, else the file's stem).
+    plant : plant model
+        The true plant (:mod:`plant.models`; a drift, payload step or ripple as the plant file says).
+    options : CompareOptions
+        Reference, sensor, drive, design, modes, seed and your compensators.
+    bounds : TrackingBounds or None
+        The file's ``[bounds]``.
+    description : str
+    source : str or None
+        The file it was read from.
+    """
+
+    name: str
+    plant: object
+    options: CompareOptions
+    bounds: TrackingBounds | None = None
+    description: str = ""
+    source: str | None = None
+
+    def compare(self, *, progress: bool | None = None, **changes) -> Comparison:
+        """Run the comparison (:func:`controllers.experiments.compare.compare` on :attr:`plant` with
+        :attr:`options`, fields changed by ``changes``, e.g. ``modes=("adaptive",)``)."""
+        return compare(self.plant, self.options, progress=progress, **changes)
+
+    def to_dict(self) -> dict:
+        """Strict-JSON summary: name, description, source, the reference's length and its stops and reversals,
+        sensor, drive, seed, modes, own compensators' names, bounds."""
+        o = self.options
+        ref = o.reference
+        d = {"name": self.name, "description": self.description, "source": self.source, "seed": o.seed,
+             "modes": list(o.modes), "duration": o.duration, "Tc": o.Tc,
+             "sensor": {"encoder_counts": o.encoder_counts, "delay": o.delay, "noise_std": o.noise_std},
+             "drive": {"u_max": o.u_max, "slew_rate": None if math.isinf(o.slew_rate) else o.slew_rate},
+             "compensators": sorted(o.compensators or {}),
+             "bounds": None if self.bounds is None else {f.name: getattr(self.bounds, f.name)
+                                                         for f in fields(self.bounds)}}
+        if ref is not None:
+            d["reference"] = {"stops": int(len(ref.stops())), "reversals": int(len(ref.reversals()))}
+        return d
+
+    def summary(self) -> str:
+        """One paragraph: name, duration, reference events, sensor, drive, modes."""
+        o = self.options
+        ref = o.reference
+        events = "multisine" if ref is None else f"{len(ref.stops())} stops, {len(ref.reversals())} reversals"
+        sensor = (f"{o.encoder_counts}-count encoder" if o.encoder_counts else "velocity sensor") + \
+            (f", {o.delay} period(s) delay" if o.delay else "") + f", noise {o.noise_std:g} rad/s"
+        drive = ("u_max from the quasi-static runs" if o.u_max is None else f"u_max {o.u_max:g} N·m") + \
+            ("" if math.isinf(o.slew_rate) else f", slew {o.slew_rate:g} N·m/s")
+        own = f"; own: {', '.join(o.compensators)}" if o.compensators else ""
+        return (f"scenario {self.name!r}: {o.duration:g} s ({events}), seed {o.seed}; {sensor}; {drive}; "
+                f"modes {', '.join(o.modes)}{own}")
+
+
+def load_scenario(path) -> Scenario:
+    """Read a scenario TOML file (the module docstring shows every table and key).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; relative paths inside it (``[plant] file``, ``[reference] path``, a compensator's
+        ``file.py:name``) are relative to its folder.
+
+    Returns
+    -------
+    Scenario
+
+    Raises
+    ------
+    ScenarioError
+        Missing, unreadable or not TOML (with the line and column), an unknown table or key, a value out of
+        range or of the wrong type, an unknown mode, a compensator that cannot be imported: the message names
+        the file, the table and key, and the value.
+    """
+    p = Path(os.fspath(path))
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ScenarioError(f"{p}: no such scenario file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError(f"{p}: cannot read the scenario file ({exc})") from None
+    try:
+        d = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{p}: not valid TOML: {exc}") from None
+    return scenario_from_dict(d, base_dir=p.parent, source=str(p), default_name=p.stem)
+
+
+def scenario_from_dict(d: dict, *, base_dir=".", source: str = "<scenario>", default_name: str = "scenario") -> Scenario:
+    """Build a :class:`Scenario` from the mapping of a scenario file (:func:`load_scenario`).
+
+    Parameters
+    ----------
+    d : dict
+        The tables and keys of the module docstring.
+    base_dir : str or os.PathLike, keyword-only
+        Folder that relative paths are resolved against.
+    source : str, keyword-only
+        Name used in error messages (the file).
+    default_name : str, keyword-only
+        Name when ``d`` has none.
+
+    Raises
+    ------
+    ScenarioError
+        As :func:`load_scenario`.
+    """
+    ctx = _Ctx(source, Path(os.fspath(base_dir)))
+    if not isinstance(d, dict):
+        raise ScenarioError(f"{source}: a scenario must be a table of tables, got {type(d).__name__}")
+    ctx.known("", d, _TOP)
+    name = ctx.typed("", "name", d.get("name", default_name), str)
+    description = ctx.typed("", "description", d.get("description", ""), str)
+    seed = d.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ctx.error("", "seed", seed, "must be an integer >= 0")
+    modes = _modes(ctx, d)
+    plant = _plant(ctx, ctx.table(d, "plant", required=True))
+    controller = ctx.table(d, "controller")
+    ctx.known("controller", controller, _CONTROLLER)
+    Tc = controller.get("Tc", 1e-3)
+    sensor, drive = ctx.table(d, "sensor"), ctx.table(d, "drive")
+    ctx.known("sensor", sensor, _SENSOR)
+    ctx.known("drive", drive, _DRIVE)
+    reference = _reference(ctx, ctx.table(d, "reference"), Tc, seed)
+    compensation = ctx.table(d, "compensation")
+    allowed = tuple(f.name for f in fields(CompareOptions) if f.name not in _NOT_COMPENSATION)
+    ctx.known("compensation", compensation, allowed)
+    compensators = _compensators(ctx, ctx.table(d, "compensators"))
+    noise = sensor.get("noise_std", 0.0 if sensor.get("encoder_counts") is not None else 1e-3)
+    kw = dict(seed=seed, modes=modes, reference=reference, compensators=compensators or None, noise_std=noise,
+              **{k: sensor[k] for k in ("encoder_counts", "delay") if k in sensor}, **drive, **controller,
+              **compensation)
+    if reference is None:
+        kw.pop("reference")
+        duration = ctx.table(d, "reference").get("duration", 60.0)
+        kw["duration"] = duration
+    try:
+        options = CompareOptions(**kw)
+    except (ParameterError, TypeError, ValueError) as exc:
+        raise ScenarioError(f"{source}: {_where_option(str(exc))}{exc}") from None
+    bounds = _bounds(ctx, d, modes, compensators)
+    return Scenario(name=name, plant=plant, options=options, bounds=bounds, description=description, source=source)
+
+
+class _Ctx:
+    """The file being read (for messages) and its folder (for relative paths)."""
+
+    def __init__(self, source: str, base: Path):
+        self.source, self.base = source, base
+
+    def error(self, table: str, key: str, value, what: str) -> ScenarioError:
+        where = f"[{table}] {key}" if table else key
+        return ScenarioError(f"{self.source}: {where} = {value!r}: {what}")
+
+    def table(self, d: dict, name: str, *, required: bool = False) -> dict:
+        t = d.get(name)
+        if t is None:
+            if required:
+                raise ScenarioError(f"{self.source}: missing table [{name}]")
+            return {}
+        if not isinstance(t, dict):
+            raise self.error("", name, t, f"must be a table [{name}]")
+        return t
+
+    def known(self, table: str, d: dict, allowed) -> None:
+        for k, v in d.items():
+            if k not in allowed:
+                raise self.error(table, k, v, f"unknown key; known: {', '.join(allowed)}")
+
+    def typed(self, table: str, key: str, value, typ):
+        if not isinstance(value, typ) or isinstance(value, bool) and typ is not bool:
+            raise self.error(table, key, value, f"must be a {typ.__name__}")
+        return value
+
+    def path(self, table: str, key: str, value) -> Path:
+        self.typed(table, key, value, str)
+        p = Path(value)
+        return p if p.is_absolute() else self.base / p
+
+
+def _where_option(msg: str) -> str:
+    """The table of the CompareOptions field a ParameterError message starts with ("u_max must ..."), for the
+    error message."""
+    key = msg.split(" ", 1)[0].strip("'\":,")
+    for table, keys in (("sensor", _SENSOR), ("drive", _DRIVE), ("controller", _CONTROLLER)):
+        if key in keys:
+            return f"[{table}] "
+    return "[compensation] " if key in {f.name for f in fields(CompareOptions)} else ""
+
+
+def _modes(ctx: _Ctx, d: dict) -> tuple:
+    modes = d.get("modes", list(MODES))
+    if not isinstance(modes, list) or not all(isinstance(m, str) for m in modes):
+        raise ctx.error("", "modes", modes, "must be a list of mode names")
+    unknown = [m for m in modes if m not in MODES]
+    if unknown:
+        raise ctx.error("", "modes", unknown[0], f"unknown mode; known: {', '.join(MODES)} (your own compensators "
+                                                 f"go under [compensators.NAME])")
+    return tuple(modes)
+
+
+def _plant(ctx: _Ctx, t: dict):
+    from plant.friction import PRESETS, preset
+    from plant.models import load_plant, plant_from_dict
+    from plant.variant_plants import VARIANT_NAMES, variant
+
+    picks = [k for k in ("preset", "variant", "file") if k in t]
+    if len(picks) > 1 or (picks and len(t) > 1):
+        raise ScenarioError(f"{ctx.source}: [plant]: give one of preset, variant, file, or the plant's own keys; "
+                            f"got {', '.join(sorted(t))}")
+    try:
+        if "preset" in t:
+            if t["preset"] not in PRESETS:
+                raise ctx.error("plant", "preset", t["preset"], f"unknown preset; known: {', '.join(PRESETS)}")
+            return preset(t["preset"])
+        if "variant" in t:
+            if t["variant"] not in VARIANT_NAMES:
+                raise ctx.error("plant", "variant", t["variant"], f"unknown variant; known: "
+                                                                  f"{', '.join(VARIANT_NAMES)}")
+            return variant(t["variant"])
+        if "file" in t:
+            return load_plant(ctx.path("plant", "file", t["file"]))
+        return plant_from_dict(t)
+    except ScenarioError:
+        raise
+    except (ParameterError, OSError) as exc:
+        raise ScenarioError(f"{ctx.source}: [plant]: {exc}") from None
+
+
+def _reference(ctx: _Ctx, t: dict, Tc, seed: int):
+    """The Reference of ``[reference]``, or None for the multisine (made by compare from the seed)."""
+    from adaptive_ff.io.references import load_reference
+    from plant.motion import point_to_point_reference, reversing_reference
+
+    kind = t.get("kind", "multisine")
+    if kind not in REFERENCE_KINDS:
+        raise ctx.error("reference", "kind", kind, f"unknown kind; known: {', '.join(REFERENCE_KINDS)}")
+    kw = {k: v for k, v in t.items() if k != "kind"}
+    ctx.known("reference", kw, REFERENCE_KINDS[kind])
+    if kind == "multisine":
+        return None
+    try:
+        if kind == "point-to-point":
+            targets = kw.pop("targets", None)
+            if not isinstance(targets, list) or not targets or not all(
+                    isinstance(x, (int, float)) and not isinstance(x, bool) for x in targets):
+                raise ctx.error("reference", "targets", targets, "must be a non-empty list of positions (rad)")
+            repeat = kw.pop("repeat", 1)
+            if isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
+                raise ctx.error("reference", "repeat", repeat, "must be an integer >= 1")
+            for k in ("v_max", "a_max"):
+                if k not in kw:
+                    raise ScenarioError(f"{ctx.source}: [reference] {k}: missing (kind = 'point-to-point')")
+            return point_to_point_reference([float(x) for x in targets] * repeat, dt=Tc, **kw)
+        if kind == "reversing":
+            return reversing_reference(dt=Tc, **kw)
+        path = ctx.path("reference", "path", kw.pop("path", None))
+        return load_reference(path, dt=Tc, **kw)
+    except ScenarioError:
+        raise
+    except (ParameterError, TypeError, ValueError, OSError) as exc:
+        raise ScenarioError(f"{ctx.source}: [reference] (kind = {kind!r}): {exc}") from None
+
+
+def _compensators(ctx: _Ctx, t: dict) -> dict:
+    out = {}
+    for name, spec in t.items():
+        table = f"compensators.{name}"
+        if name in MODES:
+            raise ctx.error("compensators", name, spec, "is a built-in mode's name; choose another")
+        if not isinstance(spec, dict) or "factory" not in spec:
+            raise ScenarioError(f"{ctx.source}: [{table}] must be a table with factory = \"module:name\" or "
+                                f"\"file.py:name\", got {spec!r}")
+        kwargs = {k: v for k, v in spec.items() if k != "factory"}
+        factory = _import_factory(ctx, table, spec["factory"])
+        out[name] = functools.partial(factory, **kwargs) if kwargs else factory
+    return out
+
+
+def _import_factory(ctx: _Ctx, table: str, ref):
+    """The callable ``module:name`` (importable) or ``path/file.py:name`` (relative to the scenario file)."""
+    if not isinstance(ref, str) or ref.count(":") != 1:
+        raise ctx.error(table, "factory", ref, "must be \"module:name\" or \"path/file.py:name\"")
+    mod_name, attr = ref.split(":")
+    try:
+        if mod_name.endswith(".py"):
+            path = ctx.path(table, "factory", mod_name)
+            if not path.is_file():
+                raise ctx.error(table, "factory", ref, f"no such file {path}")
+            key = f"_adaptive_ff_scenario_{abs(hash(str(path.resolve())))}"
+            module = sys.modules.get(key)
+            if module is None:
+                spec = importlib.util.spec_from_file_location(key, path)
+                module = importlib.util.module_from_spec(spec)
+                sys.modules[key] = module
+                try:
+                    spec.loader.exec_module(module)
+                except BaseException:
+                    del sys.modules[key]
+                    raise
+        else:
+            module = importlib.import_module(mod_name)
+    except ScenarioError:
+        raise
+    except Exception as exc:  # the user's module may raise anything while it is imported
+        raise ctx.error(table, "factory", ref, f"cannot import it ({type(exc).__name__}: {exc})") from None
+    obj = getattr(module, attr, None)
+    if not callable(obj):
+        raise ctx.error(table, "factory", ref, f"{mod_name} has no callable {attr!r}")
+    return obj
+
+
+def _bounds(ctx: _Ctx, d: dict, modes: tuple, compensators: dict) -> TrackingBounds | None:
+    t = ctx.table(d, "bounds")
+    if not t:
+        return None
+    ctx.known("bounds", t, _BOUNDS)
+    mode = t.get("mode", "adaptive")
+    if mode not in set(modes) | set(compensators):
+        raise ctx.error("bounds", "mode", mode, f"is neither a mode of the scenario ({', '.join(modes)}) nor one of "
+                                                f"its compensators")
+    vals = {}
+    for k in ("min_eta", "max_rms", "max_error"):
+        v = t.get(k)
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
+                              or (k != "min_eta" and v <= 0)):
+            raise ctx.error("bounds", k, v, "must be a finite number" + ("" if k == "min_eta" else " > 0"))
+        vals[k] = None if v is None else float(v)
+    if all(v is None for v in vals.values()):
+        raise ScenarioError(f"{ctx.source}: [bounds]: give at least one of min_eta, max_rms, max_error")
+    return TrackingBounds(mode=mode, **vals)
+
