@@ -220,3 +220,20 @@ def test_scenario_to_dict_is_strict_json_and_the_summary_names_what_runs(tmp_pat
     assert d["reference"] == {"stops": 6, "reversals": 0} and d["drive"]["slew_rate"] == 1e5
     assert "65536-count encoder, 1 period(s) delay" in s.summary()
     assert isinstance(scenario_from_dict({"plant": {"preset": "paper"}}), Scenario)
+
+
+def test_an_identification_run_too_short_to_fit_falls_back_with_notes():
+    """A 3.7 s reference makes a 3.7 s identification run; a Karnopp joint of the zoo hardly leaves zero velocity
+    in it: fixed takes the pre-fit's map and the adaptive start the loop's time constant, each with a note (before:
+    compare raised the fit's ExcitationError)."""
+    from controllers.experiments.zoo import draw_plants
+    from plant.models import plant_from_dict
+
+    ref = point_to_point_reference([0.4, -0.2, 0.3], v_max=0.5, a_max=4.0, dwell=0.4)
+    p = plant_from_dict(draw_plants(3, ref, seed=4)[0])
+    c = compare(p, reference=ref, encoder_counts=2 ** 16, delay=1, seed=4, modes=("fixed", "adaptive"), progress=False)
+    assert c.offline is None
+    assert any(n.startswith("the identification run could not be fitted (only 0 regression rows") for n in c.notes)
+    fixed = [n for n in c.notes if n.startswith("fixed: the offline fit of the identification run failed")]
+    assert fixed and "the pre-fit's static map is used instead" in fixed[0]
+    assert c.eta["fixed"] > 0.3 and c.eta["adaptive"] > 0.3

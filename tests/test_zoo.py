@@ -9,7 +9,8 @@ import pytest
 from adaptive_ff.compensation.feedforward import project_estimate
 from controllers.experiments.compare import CompareOptions, compare, comparison_reference, prepare_comparison
 from controllers.experiments.sweep import expand_cases, load_spec
-from controllers.experiments.zoo import ZOO_MODELS, ZooBox, ZooOptions, ZooResult, draw_plants, run_zoo, zoo_box
+from controllers.experiments.zoo import (ZOO_MODELS, ZooBox, ZooOptions, ZooResult, draw_plants, run_zoo, zoo_box,
+                                      zoo_options_dict)
 from plant.errors import ParameterError
 from plant.models import plant_from_dict
 
@@ -204,3 +205,25 @@ def test_groups_partition_the_joints_and_shrink_towards_the_end():
         assert all(1 <= s <= group for s in sizes) and sizes == sorted(sizes, reverse=True)
         assert n == 0 or sizes[-1] == 1
     assert [c - a for a, c in zoo._group_bounds(1000, 8, 2)][121:] == [8, 6, 5, 4, 3, 2, 1, 1, 1, 1]  # ceil(rest/4)
+
+
+def test_a_zoo_on_a_point_to_point_reference_with_an_encoder_is_compare_on_each_joint():
+    """ZooOptions(reference=, encoder_counts=, delay=): every joint's numbers are compare()'s with the same
+    settings (batch engine with sensors == single runs), and the joints are drawn for that reference."""
+    from plant.motion import point_to_point_reference
+
+    ref = point_to_point_reference([0.4, -0.2, 0.3], v_max=0.5, a_max=4.0, dwell=0.4)
+    modes = ("none", "adaptive", "dob", "frictionless")
+    o = ZooOptions(n=3, seed=4, modes=modes, reference=ref, encoder_counts=2 ** 16, delay=1, workers=1)
+    assert o.duration == pytest.approx(ref.t.shape[0] * 1e-3)
+    r = run_zoo(o)
+    assert r.plants == draw_plants(3, ref, seed=4)
+    json.dumps(r.to_dict(), allow_nan=False)
+    d = json.loads(json.dumps(zoo_options_dict(o), allow_nan=False))
+    assert d["reference"] == {"samples": ref.t.shape[0], "stops": 3, "reversals": 0} and d["encoder_counts"] == 65536
+    assert not r.refused, r.refused  # a 3.7 s identification run too short to fit: fixed/the start fall back
+    for j in (0, 2):
+        c = compare(plant_from_dict(r.plants[j]), reference=ref, encoder_counts=2 ** 16, delay=1, seed=4, modes=modes,
+                    progress=False)
+        for m in modes:
+            assert r.rms[m][j] == pytest.approx(c.results[m].metrics.rms_second_half, rel=1e-12), (j, m)

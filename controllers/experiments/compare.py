@@ -23,7 +23,7 @@ from controllers.design.pi import PIDesign, design_pi
 from controllers.experiments.quasi_static import (StribeckDesign, StribeckExperiment, prefit_stribeck,
                                                   stribeck_experiment)
 from controllers.simulation.sensor_drive import DELAY_MAX
-from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
+from plant.errors import ExcitationError, ParameterError, check_finite_scalar, check_nonnegative, check_positive
 from plant.excitation import bandlimited_noise, multisine_reference
 from plant.joint import simulate
 from plant.models import plant_to_dict
@@ -653,10 +653,21 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
         bar.update()
     elif "fixed" in run_modes or wants_start:
         bar.set_postfix_str("identification run")
-        offline = _offline_fit(p0, o, model, F_peak, Vs, delta, np.random.default_rng(id_ss), noise)
-        estimate = accepted = project_estimate(offline.estimate, F_max=0.5 * u_max)
+        try:
+            offline = _offline_fit(p0, o, model, F_peak, Vs, delta, np.random.default_rng(id_ss), noise)
+        except ExcitationError as exc:  # e.g. a short run whose noise torque hardly moves the joint
+            why = f"failed ({exc})"
+            if wants_start:
+                notes.append(f"the identification run could not be fitted ({exc}): the adaptive start takes the "
+                             f"loop's own time constant 1/crossover as its lag, at the reference")
+        else:
+            estimate = accepted = project_estimate(offline.estimate, F_max=0.5 * u_max)
+            e = offline.estimate
+            why = (f"was rejected (J = {e.J:.4g} kg·m², Fc = {e.Fc:.4g} N·m, Fs = {e.Fs:.4g} N·m, tau = "
+                   f"{e.tau:.4g} s; the levels must not exceed {0.5 * u_max:.4g} N·m, half the actuator range, "
+                   f"and J > 0)")
         if estimate is None and fit is not None and "fixed" in run_modes:
-            estimate, note = _fixed_fallback(offline.estimate, fit, J, 0.5 * u_max)
+            estimate, note = _fixed_fallback(why, fit, J, 0.5 * u_max)
             notes.append(note)
         bar.update()
     initial = None
@@ -747,10 +758,10 @@ def _checked_reference(ref, o: CompareOptions):
     return ref
 
 
-def _fixed_fallback(raw: FrictionEstimate, fit, J: float, F_max: float) -> tuple:
-    """The ``fixed`` mode's estimate when its offline fit ``raw`` is rejected: the pre-fit's static map (eq. 3)
-    without a lag (``tau = 0``), or its Coulomb + viscous part (``Fs = Fc``, the lower level) if a level of the
-    map exceeds ``F_max`` too; ``(estimate or None, note)``.
+def _fixed_fallback(why: str, fit, J: float, F_max: float) -> tuple:
+    """The ``fixed`` mode's estimate when its offline fit is rejected or failed (``why``, the note's words): the
+    pre-fit's static map (eq. 3) without a lag (``tau = 0``), or its Coulomb + viscous part (``Fs = Fc``, the
+    lower level) if a level of the map exceeds ``F_max`` too; ``(estimate or None, note)``.
 
     No lag: the lag would come from the rejected fit, and a guessed one (the adaptive start's ``1/crossover``)
     did much worse than none on the zoo joints where this happens (docs/benchmarks/zoo.md).
@@ -765,9 +776,7 @@ def _fixed_fallback(raw: FrictionEstimate, fit, J: float, F_max: float) -> tuple
         if est is not None:
             what = f"{name} is used instead"
             break
-    note = (f"fixed: the offline fit of the identification run was rejected (J = {raw.J:.4g} kg·m², "
-            f"Fc = {raw.Fc:.4g} N·m, Fs = {raw.Fs:.4g} N·m, tau = {raw.tau:.4g} s; the levels must not exceed "
-            f"{F_max:.4g} N·m, half the actuator range, and J > 0); {what} (Fc = {levels[0]:.4g} N·m, "
+    note = (f"fixed: the offline fit of the identification run {why}; {what} (Fc = {levels[0]:.4g} N·m, "
             f"Fs = {levels[1]:.4g} N·m, Vs = {fit.Vs:.4g} rad/s, delta = {fit.delta:.4g}, sigma = "
             f"{max(fit.sigma, 0.0):.4g} N·m·s/rad, no lag)")
     return est, note

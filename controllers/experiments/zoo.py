@@ -274,6 +274,15 @@ class ZooOptions:
         Where the preparation and the batches run instead: ``"synchronous"``, ``"threads"`` or ``"processes"``
         (Dask's local schedulers), or the address of a Dask cluster (``tcp://host:8786``) or a
         ``distributed.Client``. Needs dask.
+    reference : Reference or None
+        Velocity reference of every run (e.g. :func:`plant.motion.point_to_point_reference`); default None: the
+        multisine of ``duration`` s of :func:`controllers.experiments.compare.comparison_reference`. Given, it
+        sets the duration and the joints are drawn for its peak speed and acceleration.
+    encoder_counts, delay, slew_rate
+        The loop's encoder (counts per revolution), measurement delay (periods) and torque slew limit (N·m/s)
+        in every run, as :class:`controllers.experiments.compare.CompareOptions`; default none of them. The
+        torque limit is each joint's ``u_max`` of ``compare``: three times its measured friction level plus
+        its design inertia times the reference's peak acceleration.
     min_degradation : float
         eta of a joint is *undefined* (``None`` in JSON) where friction raises the second-half RMS error of the
         uncompensated loop by less than this share of the frictionless loop's, ``rms_none < (1 +
@@ -297,8 +306,18 @@ class ZooOptions:
     workers: int | None = None
     scheduler: object = None
     min_degradation: float = 0.01
+    reference: object = None
+    encoder_counts: int | None = None
+    delay: int = 0
+    slew_rate: float = math.inf
 
     def __post_init__(self):
+        if self.reference is not None:  # its length sets the duration (checked with the step by CompareOptions)
+            t = np.asarray(getattr(self.reference, "t", ()), dtype=float)
+            if t.ndim != 1 or t.shape[0] < 2:
+                raise ParameterError(f"reference must be a plant.excitation.Reference of at least two samples, got "
+                                     f"{type(self.reference).__name__}")
+            object.__setattr__(self, "duration", float(t.shape[0] * (t[1] - t[0])))
         for name in ("n", "group"):
             v = getattr(self, name)
             if isinstance(v, bool) or int(v) != v or v < 1:
@@ -571,7 +590,7 @@ def _group_task(args) -> dict:
 
     specs, co, modes = args
     t0 = time.process_time()
-    ref = comparison_reference(co)  # once per group: the same reference for every joint
+    ref = _reference(co)  # once per group: the same reference for every joint
     prepared = [_prepare(s, co, ref) for s in specs]
     t1 = time.process_time()
     n = len(specs)
@@ -596,6 +615,11 @@ def _group_task(args) -> dict:
         runs[m] = (rms, div)
     outcome = [(p[2] or {}, p[3], p[4]) for p in prepared]
     return {"prepared": outcome, "runs": runs, "cpu": (t1 - t0, time.process_time() - t1)}
+
+
+def _reference(co: CompareOptions):
+    """The reference of every run: ``co.reference``, else the comparison's multisine."""
+    return co.reference if co.reference is not None else comparison_reference(co)
 
 
 def _init_worker() -> None:
@@ -680,13 +704,14 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
 
     o = ZooOptions() if options is None else options
     t0 = time.perf_counter()
-    co = CompareOptions(duration=float(o.duration), seed=int(o.seed), modes=o.modes)
+    co = CompareOptions(duration=float(o.duration), seed=int(o.seed), modes=o.modes, reference=o.reference,
+                        encoder_counts=o.encoder_counts, delay=o.delay, slew_rate=o.slew_rate)
     n = o.n
     bounds = _group_bounds(n, o.group, o.workers or os.cpu_count() or 1)
     processes = 1 if o.scheduler is not None else min(o.workers or os.cpu_count() or 1, len(bounds))
     check_run_memory(co.duration, co.Tc, signals=SHARED_SIGNALS + PREPARATION_SIGNALS + o.group, processes=processes,
                      detail=f"a joint's preparation and the noise of {o.group} joint{'s' * (o.group > 1)}")
-    specs = draw_plants(o.n, comparison_reference(co), seed=o.seed, box=o.box)
+    specs = draw_plants(o.n, _reference(co), seed=o.seed, box=o.box)
     starts = [a for a, _ in bounds]
     out = _map(_group_task, [(specs[a:b], co, o.modes) for a, b in bounds], o)
     refused, mode_refused, notes = {}, {}, {}
@@ -719,6 +744,11 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
 
 def zoo_options_dict(o: ZooOptions) -> dict:
     """The settings of a zoo run as a JSON-ready dict (for the benchmark page)."""
+    ref = o.reference
+    o = replace(o, reference=None)
     d = asdict(o) if isinstance(o.scheduler, (str, type(None))) else asdict(replace(o, scheduler=str(o.scheduler)))
     d["box"] = asdict(o.box)
+    if ref is not None:
+        d["reference"] = {"samples": int(ref.t.shape[0]), "stops": int(len(ref.stops())),
+                          "reversals": int(len(ref.reversals()))}
     return json_safe(d)
