@@ -201,3 +201,43 @@ def test_example_specs_run(tmp_path, name, capsys):
     text = capsys.readouterr().out
     assert "RMS mean [rad/s]" in text and "eta mean [-]" in text
     assert len(_cases_in(out)) == 4
+
+
+def test_own_compensator_by_file_runs_in_every_case_in_worker_processes(tmp_path):
+    """A spec's compensators (a file beside the spec) run in each case on 2 worker processes: rows under their
+    name, equal to compare() with the same factory; a resumed sweep counts their rows."""
+    import json
+
+    from controllers import compare
+    from plant import preset
+
+    (tmp_path / "coulomb_ff.py").write_text(
+        "class CoulombFF:\n"
+        "    def __init__(self, ctx, level):\n"
+        "        self.F = level  # N·m (the spec gives Vs, delta: no pre-fit, ctx.prefit is None)\n"
+        "    def compensate(self, w_meas, w_ref):\n"
+        "        return self.F if w_ref > 0 else -self.F if w_ref < 0 else 0.0\n"
+        "    def observe(self, u, w_meas):\n"
+        "        pass\n", encoding="utf-8")
+    spec_file = tmp_path / "spec.json"
+    spec_file.write_text(json.dumps({**SPEC, "seeds": [0], "modes": ["none"],
+                                     "compensators": {"coulomb": {"factory": "coulomb_ff.py:CoulombFF",
+                                                                  "level": 22.0}}}), encoding="utf-8")
+    spec = load_spec(spec_file)
+    assert spec.compensators["coulomb"]["factory"] == f"{(tmp_path / 'coulomb_ff.py').resolve()}:CoulombFF"
+    out = tmp_path / "r.csv"
+    s = run_sweep(spec, out, workers=2, progress=False)
+    assert s["n_run"] == 2 and s["modes"]["coulomb"]["n"] == 2
+    with open(out, newline="") as fh:
+        rows = {(r["Fc"], r["mode"]): float(r["rms"]) for r in csv.DictReader(fh)}
+    import importlib.util
+
+    mod_spec = importlib.util.spec_from_file_location("coulomb_ff_here", tmp_path / "coulomb_ff.py")
+    mod = importlib.util.module_from_spec(mod_spec)
+    mod_spec.loader.exec_module(mod)
+    c = compare(preset("paper").replace(Fc=30.0), duration=4.0, seed=0, modes=("none",), Vs=0.02, delta=1.0,
+                compensators={"coulomb": lambda ctx: mod.CoulombFF(ctx, 22.0)}, progress=False)
+    assert rows[("30.0", "coulomb")] == pytest.approx(c.results["coulomb"].metrics.rms_second_half, rel=1e-12)
+    assert run_sweep(spec, out, workers=1, progress=False)["n_run"] == 0  # its rows count as the case's
+    with pytest.raises(ValueError, match=r"compensators: \[compensators.none\] factory|built-in mode"):
+        load_spec({**SPEC, "compensators": {"none": "math:sin"}})

@@ -227,3 +227,27 @@ def test_a_zoo_on_a_point_to_point_reference_with_an_encoder_is_compare_on_each_
                     progress=False)
         for m in modes:
             assert r.rms[m][j] == pytest.approx(c.results[m].metrics.rms_second_half, rel=1e-12), (j, m)
+
+
+def test_own_compensators_run_on_every_zoo_joint_in_worker_processes(tmp_path, monkeypatch):
+    """ZooOptions(compensators=) by file path: resolved in each worker, one run per joint, eta beside the modes,
+    equal to compare() on that joint with the same factory."""
+    import importlib.util
+
+    (tmp_path / "zero_ff.py").write_text(
+        "class Zero:\n"
+        "    def __init__(self, ctx):\n"
+        "        pass\n"
+        "    def compensate(self, w_meas, w_ref):\n"
+        "        return 0.0\n"
+        "    def observe(self, u, w_meas):\n"
+        "        pass\n", encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    modes = ("none", "adaptive", "frictionless")
+    r = run_zoo(ZooOptions(n=3, duration=6.0, seed=2, modes=modes, workers=2, group=1,
+                           compensators={"zero": "zero_ff.py:Zero"}))
+    assert r.modes == modes + ("zero",)
+    np.testing.assert_array_equal(r.rms["zero"], r.rms["none"])  # no compensation is `none`, bit for bit
+    np.testing.assert_array_equal(r.eta["zero"], 0.0)
+    with pytest.raises(ParameterError, match=r"\[compensators.x\] factory = 'no_such_file.py:Zero': no such file"):
+        ZooOptions(n=1, compensators={"x": "no_such_file.py:Zero"})

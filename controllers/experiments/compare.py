@@ -31,7 +31,7 @@ from plant.results import axes_or_new, json_safe
 from plant.sampling import sample
 
 __all__ = ["Comparison", "CompareOptions", "ComparisonSetup", "compare", "comparison_reference", "eta",
-           "FIXED_METHODS", "PREFIT_MODES", "friction_scale", "measurement_noise", "prefit_stribeck",
+           "FIXED_METHODS", "PREFIT_MODES", "compensator_context", "friction_scale", "measurement_noise", "prefit_stribeck",
            "prepare_comparison", "residual_cutoff"]
 
 #: Offline identification behind the ``fixed`` mode: the sliding-regime
@@ -508,12 +508,10 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
                                  faults=o.faults)
         s.bar.update()
     if o.compensators:
-        mo = s.mode_options["none"]
-        ctx = CompensatorContext(J=float(s.J_design), Tc=mo.Tc, Ts=mo.Ts, Kp=mo.Kp, Ki=mo.Ki, u_max=mo.u_max,
-                                 ff_max=mo.ff_max, noise_std=measurement_noise(o), prefit=s.prefit)
+        ctx = compensator_context(s, o)
         for name, factory in o.compensators.items():
             s.bar.set_postfix_str(name)
-            results[name] = run_own(p, s.reference, factory(ctx), mo, name=name,
+            results[name] = run_own(p, s.reference, factory(ctx), s.mode_options["none"], name=name,
                                     rng=np.random.default_rng(s.noise_seed), faults=o.faults)
     s.bar.close()
     rn = results["none"].metrics.rms_second_half
@@ -522,6 +520,15 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
     return Comparison(plant=p, design=s.design, results=results, eta=etas, prefit=s.prefit, offline=s.offline,
                       model=s.model, experiment=s.experiment, J_design=s.J_design, notes=s.notes,
                       **_whole_run_metrics(results))
+
+
+def compensator_context(s: ComparisonSetup, o: CompareOptions) -> CompensatorContext:
+    """What a user's compensator factory is given (:class:`CompensatorContext`) in a comparison prepared as
+    ``s`` with options ``o``: the design inertia, the PI, the periods and limits, the design's noise level
+    (:func:`measurement_noise`) and the Stribeck pre-fit; never the true plant."""
+    mo = s.mode_options["none"]
+    return CompensatorContext(J=float(s.J_design), Tc=mo.Tc, Ts=mo.Ts, Kp=mo.Kp, Ki=mo.Ki, u_max=mo.u_max,
+                              ff_max=mo.ff_max, noise_std=measurement_noise(o), prefit=s.prefit)
 
 
 def comparison_reference(o: CompareOptions):

@@ -62,7 +62,8 @@ from controllers.experiments.compare import CompareOptions, Comparison, compare
 from controllers.simulation.compensators import MODES
 from plant.errors import ParameterError
 
-__all__ = ["Scenario", "ScenarioError", "TrackingBounds", "load_scenario", "scenario_from_dict", "REFERENCE_KINDS"]
+__all__ = ["Scenario", "ScenarioError", "TrackingBounds", "compensator_factories", "load_scenario",
+           "scenario_from_dict", "REFERENCE_KINDS"]
 
 #: Kinds of ``[reference]`` and their keys (besides ``kind``).
 REFERENCE_KINDS = {
@@ -376,6 +377,37 @@ def _reference(ctx: _Ctx, t: dict, Tc, seed: int):
         raise
     except (ParameterError, TypeError, ValueError, OSError) as exc:
         raise ScenarioError(f"{ctx.source}: [reference] (kind = {kind!r}): {exc}") from None
+
+
+def compensator_factories(table: dict, *, base_dir=".", source: str = "compensators") -> dict:
+    """``{name: factory}`` of a table of own compensators, as ``[compensators]`` of a scenario file.
+
+    Parameters
+    ----------
+    table : dict
+        ``{name: {"factory": "module:name" | "path/file.py:name", **keywords}}`` or ``{name: "module:name"}``;
+        the factory is called as ``factory(context, **keywords)``
+        (:class:`controllers.simulation.user_compensator.CompensatorContext`).
+    base_dir : str or os.PathLike, keyword-only
+        Folder a relative ``file.py`` is resolved against.
+    source : str, keyword-only
+        Name used in error messages (the file the table came from).
+
+    Returns
+    -------
+    dict
+        Callables, one per name (a ``functools.partial`` where keywords are given), in the table's order.
+
+    Raises
+    ------
+    ScenarioError
+        A built-in mode's name, a missing or malformed ``factory``, a module or file that cannot be imported
+        (with the import's own error) or without that callable.
+    """
+    if not isinstance(table, dict):
+        raise ScenarioError(f"{source}: compensators must be a table {{name: {{factory = ...}}}}, got {table!r}")
+    spelled = {k: ({"factory": v} if isinstance(v, str) else v) for k, v in table.items()}
+    return _compensators(_Ctx(source, Path(os.fspath(base_dir))), spelled)
 
 
 def _compensators(ctx: _Ctx, t: dict) -> dict:

@@ -20,7 +20,10 @@ A sweep is described by a small JSON or TOML spec (``examples/sweep_grid.json``,
 (``uniform: [lo, hi]`` or ``normal: [mean, std]`` per parameter); ``seeds``
 closed-loop seeds (integers >= 0); ``duration`` the run length in s;
 ``options`` further keyword arguments of ``compare()`` (e.g. known ``Vs``,
-``delta``: no Stribeck pre-fit). All values in SI units.
+``delta``: no Stribeck pre-fit); ``compensators`` your own compensators by
+import path, run in every case beside the modes, as the ``[compensators]`` of a
+scenario file (``{"mine": {"factory": "my_comp.py:Mine", "gain": 2.0}}``, a
+file relative to the spec's folder). All values in SI units.
 
 ``random_plants`` draws joints of every plant model (lagged Stribeck, LuGre,
 Karnopp, asymmetric; with or without drift) with
@@ -83,6 +86,9 @@ class SweepSpec:
         Extra keyword arguments for :func:`controllers.experiments.compare.compare`.
     random_plants : dict
         ``{"n", "seed", "box"}`` of random joints of every model (empty: none).
+    compensators : dict
+        Your own compensators by import path (``{name: "module:factory"}`` or ``{name: {"factory":
+        "file.py:factory", **keywords}}``, files made absolute), run in every case beside the modes (empty: none).
     """
 
     base: dict
@@ -94,13 +100,14 @@ class SweepSpec:
     duration: float
     options: dict
     random_plants: dict = field(default_factory=dict)
+    compensators: dict = field(default_factory=dict)
 
 
 _PLANT_KEYS = ("J", "Fc", "Fs", "Vs", "delta", "sigma", "tau")
 _CONTROLLER_KEYS = ("crossover", "phase_margin")
 _SPEC_KEYS = {"preset", "plant", "grid", "controller", "monte_carlo", "modes", "seeds", "duration", "options"}
 #: Fields of CompareOptions that the spec sets by its own keys (not through "options").
-_OWN_OPTIONS = ("duration", "seed", "modes", "crossover", "phase_margin")
+_OWN_OPTIONS = ("duration", "seed", "modes", "crossover", "phase_margin", "compensators", "reference")
 
 
 #: Most cases one spec may expand to (a typo like "n": 1e9 fails at once instead of exhausting memory).
@@ -228,7 +235,7 @@ def _modes_seeds_duration(where: str, d: dict) -> tuple:
 DEFAULT_MODES = ("none", "fixed", "adaptive", "oracle", "frictionless")
 
 _SPEC_KEYS = {"preset", "plant", "grid", "controller", "monte_carlo", "modes", "seeds", "duration", "options",
-              "random_plants"}
+              "random_plants", "compensators"}
 _RANDOM_KEYS = {"n", "seed", "box"}
 
 
@@ -289,8 +296,27 @@ def load_spec(source) -> SweepSpec:
     random_plants = _random_plants(d.get("random_plants"), grid or mc.get("n"), where)
     if random_plants and random_plants["n"] * len(seeds) * math.prod(len(v) for v in controller.values()) > MAX_CASES:
         raise ParameterError(f"{where}: random_plants.n x seeds x controller points is more than {MAX_CASES} cases")
+    own = _own_compensators(d.get("compensators", {}), Path(where).parent if not isinstance(source, dict) else Path("."),
+                            where)
     return SweepSpec(base=base, grid=grid, controller=controller, monte_carlo=mc, modes=modes, seeds=seeds,
-                     duration=duration, options=_options(where, d.get("options", {})), random_plants=random_plants)
+                     duration=duration, options=_options(where, d.get("options", {})), random_plants=random_plants,
+                     compensators=own)
+
+
+def _own_compensators(table, base: Path, where: str) -> dict:
+    """The spec's ``compensators``, checked (importable, not a mode's name: ``compensator_factories``), with
+    every ``file.py`` made absolute against the spec's folder (the cases run in other processes and folders)."""
+    from controllers.experiments.scenario import compensator_factories
+
+    compensator_factories(table, base_dir=base, source=f"{where}: compensators")
+    out = {}
+    for name, spec in table.items():
+        spec = {"factory": spec} if isinstance(spec, str) else dict(spec)
+        mod, _, attr = spec["factory"].partition(":")
+        if mod.endswith(".py") and not Path(mod).is_absolute():
+            spec["factory"] = f"{(base / mod).resolve()}:{attr}"
+        out[name] = spec
+    return out
 
 
 def _random_plants(rp, combined, where: str) -> dict:
@@ -361,6 +387,8 @@ def expand_cases(spec: SweepSpec) -> list[dict]:
             for seed in spec.seeds:
                 case = {"plant": p, "controller": c, "seed": seed, "modes": list(spec.modes),
                         "duration": spec.duration, "options": spec.options}
+                if spec.compensators:  # only then: the ids of cases without them stay as they were
+                    case["compensators"] = spec.compensators
                 case["id"] = _case_id(case)
                 cases.append(case)
     return cases
@@ -384,11 +412,16 @@ def run_case(case: dict) -> list[dict]:
     from plant.models import plant_from_dict
 
     p = plant_from_dict(case["plant"])
+    own = case.get("compensators") or {}
+    if own:
+        from controllers.experiments.scenario import compensator_factories
+
+        own = compensator_factories(own, source=f"case {case.get('id')}: compensators")
     comp = compare(p, duration=case["duration"], seed=case["seed"], modes=case["modes"], progress=False,
-                   **case["controller"], **case["options"])
+                   compensators=own or None, **case["controller"], **case["options"])
     rows = []
     for r in comp.rows():
-        if r["mode"] not in case["modes"]:
+        if r["mode"] not in case["modes"] and r["mode"] not in own:
             continue
         row = {"case_id": case["id"], "seed": case["seed"], **{k: case["plant"].get(k, "") for k in _PLANT_KEYS},
                **{k: case["controller"].get(k, "") for k in _CONTROLLER_KEYS}, "mode": r["mode"]}
@@ -489,7 +522,7 @@ def _finished(path: Path, cases: list[dict]) -> set[str]:
         raise ParameterError(f"{path}: not a results table of this sweep (header {header[:4]}...); "
                              "choose another --out")
     rows = list(csv.DictReader(lines))
-    expected = {c["id"]: set(c["modes"]) for c in cases}
+    expected = {c["id"]: set(c["modes"]) | set(c.get("compensators") or ()) for c in cases}
     got: dict[str, set] = {}
     for r in rows:
         if _complete_row(r):

@@ -63,10 +63,12 @@ from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
-from controllers.experiments.compare import CompareOptions, comparison_reference, eta, prepare_comparison
+from controllers.experiments.compare import (CompareOptions, compensator_context, comparison_reference, eta,
+                                             prepare_comparison)
+from controllers.experiments.scenario import compensator_factories
 from controllers.simulation.batch import run_batch
 from controllers.simulation.memory import PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
-from controllers.simulation.closed_loop import plant_table
+from controllers.simulation.closed_loop import plant_table, run_own
 from controllers.simulation.compensators import MODES, build_mode
 from plant.errors import ParameterError
 from plant.models import plant_from_dict
@@ -283,6 +285,13 @@ class ZooOptions:
         in every run, as :class:`controllers.experiments.compare.CompareOptions`; default none of them. The
         torque limit is each joint's ``u_max`` of ``compare``: three times its measured friction level plus
         its design inertia times the reference's peak acceleration.
+    compensators : dict or None
+        Your own compensators beside the modes, by import path (picklable, resolved in every worker):
+        ``{name: "module:factory"}`` or ``{name: {"factory": "path/file.py:factory", **keywords}}`` as the
+        ``[compensators]`` of a scenario file (:func:`controllers.experiments.scenario.compensator_factories`;
+        a relative file is relative to the working folder). Each runs on every joint with ``compare``'s context
+        (:func:`controllers.experiments.compare.compensator_context`) and the joint's noise, one run per joint
+        through the Python protocol (about ten times the engine's time per step), and appears among the modes.
     min_degradation : float
         eta of a joint is *undefined* (``None`` in JSON) where friction raises the second-half RMS error of the
         uncompensated loop by less than this share of the frictionless loop's, ``rms_none < (1 +
@@ -310,6 +319,7 @@ class ZooOptions:
     encoder_counts: int | None = None
     delay: int = 0
     slew_rate: float = math.inf
+    compensators: dict | None = None
 
     def __post_init__(self):
         if self.reference is not None:  # its length sets the duration (checked with the step by CompareOptions)
@@ -328,6 +338,8 @@ class ZooOptions:
         if bad:
             raise ParameterError(f"unknown mode(s) {bad}; known {list(MODES)}")
         object.__setattr__(self, "modes", tuple(m for m in MODES if m in set(self.modes) | {"none", "frictionless"}))
+        if self.compensators:
+            compensator_factories(self.compensators, source="ZooOptions.compensators")  # importable, named well
         if self.workers is not None and (int(self.workers) != self.workers or self.workers < 1):
             raise ParameterError(f"workers must be an integer >= 1, got {self.workers!r}")
         md = float(self.min_degradation)
@@ -558,15 +570,15 @@ class ZooResult:
 
 
 def _prepare(spec, o: CompareOptions, ref) -> tuple:
-    """(mode options, noise seed, {mode: reason it cannot be built}, notes) of one joint on the comparison
-    reference ``ref`` of ``o``, or the reason it was refused (last item)."""
+    """(mode options, noise seed, {mode: reason it cannot be built}, notes, the context of own compensators) of
+    one joint on the comparison reference ``ref`` of ``o``, or the reason it was refused (last item)."""
     try:
         p = plant_from_dict(spec)
         plant_table(p, ref.t, o.Tc)  # refuses a plant the engine cannot integrate (every row)
         s = prepare_comparison(p, o, reference=ref)
         s.bar.close()
     except Exception as exc:  # noqa: BLE001 - any refusal is a result of the zoo, with its reason
-        return None, None, None, (), f"{type(exc).__name__}: {exc}"
+        return None, None, None, (), None, f"{type(exc).__name__}: {exc}"
     bad = {}
     for m in s.modes:
         try:
@@ -574,8 +586,8 @@ def _prepare(spec, o: CompareOptions, ref) -> tuple:
         except Exception as exc:  # noqa: BLE001 - a mode that cannot be built is that mode's failure
             bad[m] = f"{type(exc).__name__}: {exc}"
     if "none" in bad or "frictionless" in bad:
-        return None, None, None, (), "; ".join(f"{m}: {why}" for m, why in bad.items())
-    return s.mode_options, s.noise_seed, bad, tuple(s.notes), None
+        return None, None, None, (), None, "; ".join(f"{m}: {why}" for m, why in bad.items())
+    return s.mode_options, s.noise_seed, bad, tuple(s.notes), compensator_context(s, o), None
 
 
 def _group_task(args) -> dict:
@@ -588,7 +600,7 @@ def _group_task(args) -> dict:
     """
     import time
 
-    specs, co, modes = args
+    specs, co, modes, own = args
     t0 = time.process_time()
     ref = _reference(co)  # once per group: the same reference for every joint
     prepared = [_prepare(s, co, ref) for s in specs]
@@ -602,7 +614,7 @@ def _group_task(args) -> dict:
     runs = {}
     for m in modes:
         rms, div = np.full(n, math.nan), np.zeros(n, dtype=bool)
-        ok = [j for j, p in enumerate(prepared) if p[4] is None and m not in p[2]]
+        ok = [j for j, p in enumerate(prepared) if p[-1] is None and m not in p[2]]
         if ok:
             plants = [plant_from_dict(specs[j]) for j in ok]
             opts = [prepared[j][0][m] for j in ok]
@@ -613,13 +625,40 @@ def _group_task(args) -> dict:
             rms[ok] = np.where(r.diverged, math.nan, r.rms_second_half)
             div[ok] = r.diverged
         runs[m] = (rms, div)
-    outcome = [(p[2] or {}, p[3], p[4]) for p in prepared]
+    if own:
+        runs.update(_own_runs(specs, prepared, ref, own))
+    outcome = [(p[2] or {}, p[3], p[-1]) for p in prepared]
     return {"prepared": outcome, "runs": runs, "cpu": (t1 - t0, time.process_time() - t1)}
 
 
 def _reference(co: CompareOptions):
     """The reference of every run: ``co.reference``, else the comparison's multisine."""
     return co.reference if co.reference is not None else comparison_reference(co)
+
+
+def _own_runs(specs, prepared, ref, own: dict) -> dict:
+    """``{name: (rms_second_half, diverged)}`` of the user's compensators ``own`` (import paths, resolved here in
+    the worker) on the prepared joints, one :func:`run_own` each with the joint's context, options and noise; an
+    error of the compensator is recorded as that joint's refusal of ``name`` (in the joint's ``bad``)."""
+    from controllers.simulation.user_compensator import CompensatorError
+
+    factories = compensator_factories(own, source="ZooOptions.compensators")
+    out = {}
+    for name, factory in factories.items():
+        rms, div = np.full(len(specs), math.nan), np.zeros(len(specs), dtype=bool)
+        for j, (opts, seed, bad, _notes, ctx, why) in enumerate(prepared):
+            if why is not None:
+                continue
+            try:
+                r = run_own(plant_from_dict(specs[j]), ref, factory(ctx), opts["none"], name=name,
+                            rng=np.random.default_rng(seed))
+            except (CompensatorError, ParameterError) as exc:
+                bad[name] = f"{type(exc).__name__}: {exc}"
+                continue
+            div[j] = bool(r.info.get("diverged"))
+            rms[j] = math.nan if div[j] else r.metrics.rms_second_half
+        out[name] = (rms, div)
+    return out
 
 
 def _init_worker() -> None:
@@ -713,10 +752,12 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
                      detail=f"a joint's preparation and the noise of {o.group} joint{'s' * (o.group > 1)}")
     specs = draw_plants(o.n, _reference(co), seed=o.seed, box=o.box)
     starts = [a for a, _ in bounds]
-    out = _map(_group_task, [(specs[a:b], co, o.modes) for a, b in bounds], o)
+    own = tuple(o.compensators or ())
+    out = _map(_group_task, [(specs[a:b], co, o.modes, o.compensators) for a, b in bounds], o)
     refused, mode_refused, notes = {}, {}, {}
-    rms = {m: np.full(n, math.nan) for m in o.modes}
-    div = {m: np.zeros(n, dtype=bool) for m in o.modes}
+    modes = o.modes + own
+    rms = {m: np.full(n, math.nan) for m in modes}
+    div = {m: np.zeros(n, dtype=bool) for m in modes}
     cpu = [0.0, 0.0]
     for a, res in zip(starts, out):
         for j, (bad, nts, why) in enumerate(res["prepared"]):
@@ -730,13 +771,13 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
             rms[m][a:a + len(r)] = r
             div[m][a:a + len(d)] = d
         cpu = [cpu[0] + res["cpu"][0], cpu[1] + res["cpu"][1]]
-    mode_refused = {m: mode_refused[m] for m in o.modes if m in mode_refused}
+    mode_refused = {m: mode_refused[m] for m in modes if m in mode_refused}
     timing = {"prepare_cpu": cpu[0], "runs_cpu": cpu[1]}
-    res = ZooResult(plants=specs, modes=o.modes, eta={}, rms=rms, refused=refused, mode_refused=mode_refused,
+    res = ZooResult(plants=specs, modes=modes, eta={}, rms=rms, refused=refused, mode_refused=mode_refused,
                     diverged=div, min_degradation=o.min_degradation, seconds=time.perf_counter() - t0, timing=timing,
                     notes=notes)
     undefined = res.undefined()
-    for m in o.modes:
+    for m in modes:
         res.eta[m] = np.array([math.nan if undefined[i] else eta(rms["none"][i], rms[m][i], rms["frictionless"][i])
                                for i in range(n)])
     return res
