@@ -276,7 +276,8 @@ def test_kalman_needs_an_encoder():
 
 @pytest.mark.parametrize("kw,match", [
     (dict(velocity_bandwidth=0.0), "velocity_bandwidth"), (dict(velocity_bandwidth=math.nan), "velocity_bandwidth"),
-    (dict(velocity_bandwidth=-1.0), "velocity_bandwidth"), (dict(velocity="fir"), "velocity"),
+    (dict(velocity_bandwidth=-1.0), "velocity_bandwidth"), (dict(velocity_bandwidth=500.0), "velocity_bandwidth"),
+    (dict(velocity="fir"), "velocity"),
     (dict(velocity_model="cj"), "velocity_model")])
 def test_bad_mode_options_are_refused(kw, match):
     with pytest.raises(ParameterError, match=match):

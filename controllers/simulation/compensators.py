@@ -230,8 +230,10 @@ class ModeOptions:
 
         if self.velocity_model not in ("cv", "ca"):
             raise ParameterError(f"velocity_model must be 'cv' or 'ca', got {self.velocity_model!r}")
-        if self.velocity_bandwidth is not None:
-            check_positive("velocity_bandwidth", self.velocity_bandwidth)
+        if self.velocity_bandwidth is not None and check_positive("velocity_bandwidth",
+                                                                  self.velocity_bandwidth) >= 0.5 / self.Tc:
+            raise ParameterError(f"velocity_bandwidth must be below the Nyquist frequency {0.5 / self.Tc:.6g} Hz, "
+                                 f"got {self.velocity_bandwidth!r}")
         Sensor(Tc=self.Tc, counts_per_rev=self.encoder_counts, delay=self.delay, velocity=self.velocity,
                bandwidth=self.velocity_bandwidth, model=self.velocity_model)
         Drive(Tc=self.Tc, slew_rate=self.slew_rate)
