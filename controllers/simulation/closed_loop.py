@@ -308,7 +308,8 @@ def _checked(name: str, obj, cls):
 def sensor_and_drive(options: ModeOptions) -> tuple:
     """The :class:`Sensor` and :class:`Drive` of ``options`` (``encoder_counts``, ``delay``, ``slew_rate``), each
     None where the options ask for none."""
-    sensor = (Sensor(Tc=options.Tc, counts_per_rev=options.encoder_counts, delay=options.delay)
+    sensor = (Sensor(Tc=options.Tc, counts_per_rev=options.encoder_counts, delay=options.delay,
+                     velocity=options.velocity, bandwidth=options.velocity_bandwidth, model=options.velocity_model)
               if options.encoder_counts is not None or options.delay else None)
     drive = Drive(Tc=options.Tc, slew_rate=options.slew_rate) if math.isfinite(options.slew_rate) else None
     return sensor, drive

@@ -144,6 +144,13 @@ class ModeOptions:
         The loop measures with an encoder of this many counts per joint revolution (quantised position,
         velocity by backward difference; :class:`controllers.simulation.sensor_drive.Sensor`); None (default):
         ``w + noise``.
+    velocity : {"difference", "kalman"}
+        The encoder's velocity: backward difference (default) or a causal steady-state Kalman filter on the
+        counts (:class:`controllers.simulation.sensor_drive.Sensor`); "kalman" needs ``encoder_counts``.
+    velocity_bandwidth : float or None
+        Bandwidth of the Kalman velocity (Hz); default None: ``0.1/Tc`` (100 Hz at 1 kHz).
+    velocity_model : {"cv", "ca"}
+        Kinematic model of the Kalman velocity; default "cv".
     delay : int
         Measurement delay (periods), default 0.
     slew_rate : float
@@ -201,6 +208,9 @@ class ModeOptions:
     encoder_counts: int | None = None
     delay: int = 0
     slew_rate: float = math.inf
+    velocity: str = "difference"
+    velocity_bandwidth: float | None = None
+    velocity_model: str = "cv"
 
     def __post_init__(self):
         check_positive("Tc", self.Tc)
@@ -218,7 +228,14 @@ class ModeOptions:
             check_positive("observer_bandwidth", self.observer_bandwidth)
         from controllers.simulation.sensor_drive import Drive, Sensor  # the checks of the components themselves
 
-        Sensor(Tc=self.Tc, counts_per_rev=self.encoder_counts, delay=self.delay)
+        if self.velocity_model not in ("cv", "ca"):
+            raise ParameterError(f"velocity_model must be 'cv' or 'ca', got {self.velocity_model!r}")
+        if self.velocity_bandwidth is not None and check_positive("velocity_bandwidth",
+                                                                  self.velocity_bandwidth) >= 0.5 / self.Tc:
+            raise ParameterError(f"velocity_bandwidth must be below the Nyquist frequency {0.5 / self.Tc:.6g} Hz, "
+                                 f"got {self.velocity_bandwidth!r}")
+        Sensor(Tc=self.Tc, counts_per_rev=self.encoder_counts, delay=self.delay, velocity=self.velocity,
+               bandwidth=self.velocity_bandwidth, model=self.velocity_model)
         Drive(Tc=self.Tc, slew_rate=self.slew_rate)
 
 
