@@ -99,7 +99,7 @@ def test_the_cli_runs_a_scenario_with_an_own_compensator(tmp_path, capsys):
     d = json.loads(capsys.readouterr().out)
     assert set(d["modes"]) == {"none", "fixed", "adaptive", "adaptive-dob", "dob", "frictionless", "lugre-model"}
     assert d["scenario"]["name"] == "robot base joint, pick and place"
-    assert d["scenario"]["sensor"] == {"encoder_counts": 131072, "delay": 1, "noise_std": 0.0}
+    assert d["scenario"]["sensor"] == {"encoder_counts": 131072, "delay": 1, "noise_std": 0.0, "velocity": "kalman"}
     assert d["scenario"]["reference"]["stops"] == 16
     for mode, row in d["modes"].items():  # every mode ran and made the loop no worse than a tenth of none's RMS
         assert row["rms"] is not None and math.isfinite(row["rms"]), mode
@@ -218,7 +218,7 @@ def test_scenario_to_dict_is_strict_json_and_the_summary_names_what_runs(tmp_pat
     text = json.dumps(s.to_dict(), allow_nan=False)
     d = json.loads(text)
     assert d["reference"] == {"stops": 6, "reversals": 0} and d["drive"]["slew_rate"] == 1e5
-    assert "65536-count encoder, 1 period(s) delay" in s.summary()
+    assert "65536-count encoder (difference), 1 period(s) delay" in s.summary()
     assert isinstance(scenario_from_dict({"plant": {"preset": "paper"}}), Scenario)
 
 
@@ -237,3 +237,33 @@ def test_an_identification_run_too_short_to_fit_falls_back_with_notes():
     fixed = [n for n in c.notes if n.startswith("fixed: the offline fit of the identification run failed")]
     assert fixed and "the pre-fit's static map is used instead" in fixed[0]
     assert c.eta["fixed"] > 0.3 and c.eta["adaptive"] > 0.3
+
+
+def test_the_kalman_velocity_reaches_the_runs_and_the_design_noise_level(tmp_path):
+    """[sensor] velocity = "kalman": the runs' measured velocity is the C filter's (not the difference quotient's
+    0.048 rad/s steps), and the design's noise level is the filter's steady-state P[1, 1] (an independent DARE
+    solution with scipy here)."""
+    from scipy.linalg import solve_discrete_are
+
+    text = SMALL.replace("delay = 1", 'delay = 0\nvelocity = "kalman"\nvelocity_bandwidth = 50.0')
+    sc = load_scenario(write(tmp_path, text))
+    o = sc.options
+    assert (o.velocity, o.velocity_bandwidth, o.velocity_model) == ("kalman", 50.0, "cv")
+    res, Tc = 2 * math.pi / 65536, 1e-3
+    r = res * res / 12
+    wb = 2 * math.pi * 50.0
+    S = wb ** 4 * r * Tc  # the tuning rule of adaptive_ff.io.kalman_velocity for cv: (2 pi fb)^(2n) r T
+    F = np.array([[1.0, Tc], [0.0, 1.0]])
+    Q = S * np.array([[Tc ** 3 / 3, Tc ** 2 / 2], [Tc ** 2 / 2, Tc]])
+    H = np.array([[1.0, 0.0]])
+    P = solve_discrete_are(F.T, H.T, Q, np.array([[r]]))
+    K = P @ H.T / (H @ P @ H.T + r)
+    P_post = (np.eye(2) - K @ H) @ P
+    assert measurement_noise(o) == pytest.approx(math.sqrt(P_post[1, 1]), rel=1e-6)
+    c = sc.compare(progress=False, modes=("none",))
+    step = res / Tc
+    wm = c.results["none"].w_meas
+    wm = wm[np.abs(wm) > step]  # while the joint moves
+    assert np.mean(np.abs(wm / step - np.round(wm / step)) > 1e-6) > 0.9  # not on the difference quotient's grid
+    with pytest.raises(ParameterError, match="velocity_model must be 'cv' or 'ca'"):
+        CompareOptions(encoder_counts=65536, velocity="kalman", velocity_model="cj")

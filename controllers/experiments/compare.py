@@ -321,6 +321,10 @@ class CompareOptions:
         Measurement delay of the loop's sensor (periods, 0-32), default 0.
     slew_rate : float
         The drive's torque slew-rate limit (N·m/s), default inf (none). The torque limit is ``u_max``.
+    velocity, velocity_bandwidth, velocity_model
+        The encoder's velocity: ``"difference"`` (default) or ``"kalman"`` (a causal steady-state Kalman filter
+        on the counts, bandwidth in Hz, default ``0.1/Tc``; kinematic model ``"cv"`` or ``"ca"``), as
+        :class:`controllers.simulation.compensators.ModeOptions`.
 
     Raises
     ------
@@ -369,6 +373,9 @@ class CompareOptions:
     encoder_counts: int | None = None
     delay: int = 0
     slew_rate: float = math.inf
+    velocity: str = "difference"
+    velocity_bandwidth: float | None = None
+    velocity_model: str = "cv"
 
     def __post_init__(self):
         check_positive("Tc", self.Tc)
@@ -393,6 +400,10 @@ class CompareOptions:
         if isinstance(self.slew_rate, bool) or not isinstance(self.slew_rate, (int, float)) \
                 or not self.slew_rate > 0:
             raise ParameterError(f"slew_rate must be a number > 0 (N·m/s; inf for none), got {self.slew_rate!r}")
+        # the sensor's velocity options, checked (with their names) as the modes will get them
+        ModeOptions(Kp=0.0, Ki=0.0, Tc=self.Tc, Ts=self.Tc, encoder_counts=self.encoder_counts,
+                    velocity=self.velocity, velocity_bandwidth=self.velocity_bandwidth,
+                    velocity_model=self.velocity_model)
         if self.sign_input not in ("observer", "measured"):
             raise ParameterError(f"sign_input must be 'observer' or 'measured', got {self.sign_input!r}")
         if self.observer_bandwidth is not None:
@@ -691,7 +702,8 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
                      omega_q=o.omega_q, initial=initial, start=start, sign_input=o.sign_input,
                      observer_bandwidth=o.observer_bandwidth,
                      omega_r=residual_cutoff(J, noise, o.Tc, _friction_level(exp, F_peak)),
-                     encoder_counts=o.encoder_counts, delay=o.delay, slew_rate=o.slew_rate)
+                     encoder_counts=o.encoder_counts, delay=o.delay, slew_rate=o.slew_rate, velocity=o.velocity,
+                     velocity_bandwidth=o.velocity_bandwidth, velocity_model=o.velocity_model)
     opts = {mode: replace(mo, ff_input=o.canudas_input if mode == "canudas" else o.ff_input) for mode in run_modes}
     return ComparisonSetup(modes=tuple(run_modes), reference=ref, design=design, mode_options=opts,
                            noise_seed=noise_ss, prefit=fit, offline=offline, model=model, experiment=exp,
@@ -746,12 +758,21 @@ def measurement_noise(o: CompareOptions) -> float:
     ``sqrt(noise_std**2 + 2*(res**2/12)/Tc**2)`` with ``res = 2*pi/encoder_counts`` (rad): the white noise plus
     the backward difference of two independent, uniformly distributed quantisation errors of variance
     ``res**2/12`` each (Widrow & Kollar, *Quantization Noise*, 2008, ch. 4); ``noise_std`` without an encoder.
-    A 2^17-count encoder at 1 kHz: 0.0196 rad/s. What a user knows of their sensor (its resolution), not a
-    field of the plant.
+    A 2^17-count encoder at 1 kHz: 0.0196 rad/s. With the Kalman velocity (``velocity="kalman"``) the
+    quantisation part is the filter's own steady-state velocity variance ``P[1, 1]`` for white position noise
+    ``res**2/12`` (:func:`adaptive_ff.io.kalman_velocity.steady_state_kalman`; 0.0043 rad/s for 2^17 counts, cv,
+    100 Hz). What a user knows of their sensor (its resolution, its filter), not a field of the plant.
     """
     if o.encoder_counts is None:
         return float(o.noise_std)
     res = 2.0 * math.pi / o.encoder_counts
+    if o.velocity == "kalman":
+        from adaptive_ff.io.kalman_velocity import steady_state_kalman
+        from controllers.simulation.sensor_drive import default_velocity_bandwidth
+
+        bw = o.velocity_bandwidth if o.velocity_bandwidth is not None else default_velocity_bandwidth(o.Tc)
+        kf = steady_state_kalman(o.velocity_model, bandwidth=bw, position_noise=res / math.sqrt(12.0), T=o.Tc)
+        return math.sqrt(o.noise_std ** 2 + float(kf.P[1, 1]))
     return math.sqrt(o.noise_std ** 2 + res * res / (6.0 * o.Tc * o.Tc))
 
 

@@ -24,8 +24,8 @@ with the standard library's :mod:`tomllib`; SI units throughout)::
     repeat = 3                        # the target list three times
 
     [sensor]           # encoder_counts (counts per revolution), delay (periods), noise_std (rad/s; default 1e-3
-    encoder_counts = 131072           # without an encoder, 0 with one: its quantisation is the noise)
-    delay = 1
+    encoder_counts = 131072           # without an encoder, 0 with one: its quantisation is the noise),
+    delay = 1                         # velocity = "difference" | "kalman" (velocity_bandwidth Hz, velocity_model)
 
     [drive]            # u_max (torque limit, N·m; default from the quasi-static runs), slew_rate (N·m/s)
     u_max = 150.0
@@ -74,13 +74,13 @@ REFERENCE_KINDS = {
 }
 _TOP = ("name", "description", "seed", "modes", "plant", "reference", "sensor", "drive", "controller",
         "compensation", "compensators", "bounds")
-_SENSOR = ("encoder_counts", "delay", "noise_std")
+_SENSOR = ("encoder_counts", "delay", "noise_std", "velocity", "velocity_bandwidth", "velocity_model")
 _DRIVE = ("u_max", "slew_rate")
 _CONTROLLER = ("crossover", "phase_margin", "Tc", "Ts", "J_design")
 _BOUNDS = ("mode", "min_eta", "max_rms", "max_error")
 #: CompareOptions fields a scenario sets elsewhere (or not at all): not allowed under ``[compensation]``.
-_NOT_COMPENSATION = ("duration", "seed", "modes", "compensators", "reference", "faults", "encoder_counts",
-                     "delay", "noise_std", "u_max", "slew_rate") + _CONTROLLER
+_NOT_COMPENSATION = ("duration", "seed", "modes", "compensators", "reference", "faults", "u_max",
+                     "slew_rate") + _SENSOR + _CONTROLLER
 
 
 class ScenarioError(ParameterError):
@@ -145,7 +145,8 @@ class Scenario:
         ref = o.reference
         d = {"name": self.name, "description": self.description, "source": self.source, "seed": o.seed,
              "modes": list(o.modes), "duration": o.duration, "Tc": o.Tc,
-             "sensor": {"encoder_counts": o.encoder_counts, "delay": o.delay, "noise_std": o.noise_std},
+             "sensor": {"encoder_counts": o.encoder_counts, "delay": o.delay, "noise_std": o.noise_std,
+                        "velocity": o.velocity if o.encoder_counts else None},
              "drive": {"u_max": o.u_max, "slew_rate": None if math.isinf(o.slew_rate) else o.slew_rate},
              "compensators": sorted(o.compensators or {}),
              "bounds": None if self.bounds is None else {f.name: getattr(self.bounds, f.name)
@@ -159,7 +160,7 @@ class Scenario:
         o = self.options
         ref = o.reference
         events = "multisine" if ref is None else f"{len(ref.stops())} stops, {len(ref.reversals())} reversals"
-        sensor = (f"{o.encoder_counts}-count encoder" if o.encoder_counts else "velocity sensor") + \
+        sensor = (f"{o.encoder_counts}-count encoder ({o.velocity})" if o.encoder_counts else "velocity sensor") + \
             (f", {o.delay} period(s) delay" if o.delay else "") + f", noise {o.noise_std:g} rad/s"
         drive = ("u_max from the quasi-static runs" if o.u_max is None else f"u_max {o.u_max:g} N·m") + \
             ("" if math.isinf(o.slew_rate) else f", slew {o.slew_rate:g} N·m/s")
@@ -245,7 +246,7 @@ def scenario_from_dict(d: dict, *, base_dir=".", source: str = "<scenario>", def
     compensators = _compensators(ctx, ctx.table(d, "compensators"))
     noise = sensor.get("noise_std", 0.0 if sensor.get("encoder_counts") is not None else 1e-3)
     kw = dict(seed=seed, modes=modes, reference=reference, compensators=compensators or None, noise_std=noise,
-              **{k: sensor[k] for k in ("encoder_counts", "delay") if k in sensor}, **drive, **controller,
+              **{k: v for k, v in sensor.items() if k != "noise_std"}, **drive, **controller,
               **compensation)
     if reference is None:
         kw.pop("reference")
