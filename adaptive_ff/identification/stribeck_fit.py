@@ -714,8 +714,9 @@ def _lm_run(resid, jac, x0) -> SimpleNamespace:
     ``least_squares(method="lm", x_scale="jac")`` (``diag`` from the Jacobian's column norms, ``factor`` 100),
     without that wrapper's per-evaluation bookkeeping, which cost more than the residuals themselves here.
     """
-    x, _, info, _, ier = leastsq(resid, x0, Dfun=jac, full_output=True, ftol=1e-12, xtol=1e-12, gtol=1e-12,
-                                 maxfev=2000)
+    with np.errstate(over="ignore", invalid="ignore"):  # leastsq's own cov_x (unused here) overflows on a
+        x, _, info, _, ier = leastsq(resid, x0, Dfun=jac, full_output=True, ftol=1e-12, xtol=1e-12,  # flat cost
+                                     gtol=1e-12, maxfev=2000)
     f = info["fvec"]
     return SimpleNamespace(x=x, cost=0.5 * float(f @ f), status=int(ier) if ier in (1, 2, 3, 4) else 0,
                            nfev=int(info["nfev"]))
