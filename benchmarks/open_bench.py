@@ -1,12 +1,13 @@
 """The open bench's hard case: point-to-point moves, a 17-bit encoder, one period of delay, a torque limit.
 
-Run:  python benchmarks/open_bench.py [--zoo 100] [--seed 0] [--workers 2]
+Run:  python benchmarks/open_bench.py [--zoo 100] [--seed 0] [--workers 2] [--velocity difference|kalman]
 
 Every plant of the project's variants (the ``paper`` preset, :data:`plant.variant_plants.VARIANT_NAMES`, the
 drift case) and ``--zoo`` joints of the plant zoo (:func:`controllers.experiments.zoo.run_zoo`, drawn for this
 reference) run ``compare`` on: the pick-and-place reference of ``benchmarks/point_to_point.py`` (targets
 ``[0.5, -0.2, 0.4, 0.0, 0.6, -0.3]`` rad three times, v 0.5 rad/s, a 4 rad/s², 0.5 s dwell; 35 s), a
-2^17 counts/rev encoder (velocity by backward difference, no further noise), one period of measurement delay, and
+2^17 counts/rev encoder (velocity by backward difference, or ``--velocity kalman``: the package's steady-state
+Kalman filter on the counts at its default 100 Hz; no further noise), one period of measurement delay, and
 the torque limit ``u_max`` of ``compare`` (three times the measured friction level plus the design inertia times
 the peak acceleration; 150 N·m for the variants). Printed: eta of fixed, DOB, adaptive, adaptive-dob, the best
 adaptive mode and its margin over the better of fixed and DOB; the zoo as quantiles and the joints where the best
@@ -46,7 +47,7 @@ def _row(name: str, eta: dict) -> str:
     return f"| {name} | {cells} | {best:.3f} | {best - rival:+.3f}{flag} |"
 
 
-def variants_table(seed: int) -> None:
+def variants_table(seed: int, velocity: str) -> None:
     ref = bench_reference()
     print("| plant | fixed | dob | adaptive | adaptive-dob | best adaptive | margin |")
     print("|---|---:|---:|---:|---:|---:|---:|")
@@ -54,14 +55,14 @@ def variants_table(seed: int) -> None:
               "drift": drift_case(float(ref.t.shape[0]) * 1e-3)}
     for name, p in plants.items():
         c = compare(p, reference=ref, encoder_counts=2 ** 17, delay=1, noise_std=0.0, u_max=150.0, seed=seed,
-                    modes=MODES, progress=False)
+                    modes=MODES, velocity=velocity, progress=False)
         eta = {m: (math.nan if c.eta[m] is None else c.eta[m]) for m in MODES}
         print(_row(name, eta), flush=True)
 
 
-def zoo_table(n: int, seed: int, workers) -> None:
+def zoo_table(n: int, seed: int, workers, velocity: str) -> None:
     o = ZooOptions(n=n, seed=seed, modes=MODES, reference=bench_reference(), encoder_counts=2 ** 17, delay=1,
-                   workers=workers)
+                   workers=workers, velocity=velocity)
     r = run_zoo(o)
     q = (0.05, 0.25, 0.5)
     best = np.fmax(r.eta["adaptive"], r.eta["adaptive-dob"])
@@ -89,13 +90,15 @@ def main(argv=None) -> int:
     ap.add_argument("--zoo", type=int, default=100, help="zoo joints (0: the variants only)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--workers", type=int, default=None, help="zoo worker processes (default: cores)")
+    ap.add_argument("--velocity", choices=("difference", "kalman"), default="difference",
+                    help="the encoder's velocity (default: backward difference)")
     a = ap.parse_args(argv)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
-    print(f"# {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, commit {commit}")
+    print(f"# {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, commit {commit}, velocity {a.velocity}")
     t0 = time.perf_counter()
-    variants_table(a.seed)
+    variants_table(a.seed, a.velocity)
     if a.zoo > 0:
-        zoo_table(a.zoo, a.seed, a.workers)
+        zoo_table(a.zoo, a.seed, a.workers, a.velocity)
     print(f"\nwall time {time.perf_counter() - t0:.0f} s")
     return 0
 

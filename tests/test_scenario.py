@@ -95,8 +95,12 @@ def test_the_encoder_noise_level_of_the_design_is_the_quantised_difference_quoti
 
 def test_the_cli_runs_a_scenario_with_an_own_compensator(tmp_path, capsys):
     f = EXAMPLES / "robot_base.toml"
-    assert main(["compare", "--scenario", str(f), "--json", "--quiet", "--no-figures", "--out", str(tmp_path)]) == 0
+    assert main(["compare", "--scenario", str(f), "--json", "--quiet", "--out", str(tmp_path),
+                 "--report", str(tmp_path / "report")]) == 0
     d = json.loads(capsys.readouterr().out)
+    html = Path(d["report"]).read_text(encoding="utf-8")
+    assert html.count("lugre-model") >= 1 and "adaptive-dob" in html  # the own compensator's row in the report
+    assert len(d["figures"]) >= 3 and all(Path(x).stat().st_size > 10_000 for x in d["figures"])
     assert set(d["modes"]) == {"none", "fixed", "adaptive", "adaptive-dob", "dob", "frictionless", "lugre-model"}
     assert d["scenario"]["name"] == "robot base joint, pick and place"
     assert d["scenario"]["sensor"] == {"encoder_counts": 131072, "delay": 1, "noise_std": 0.0, "velocity": "kalman"}

@@ -280,9 +280,9 @@ class ZooOptions:
         Velocity reference of every run (e.g. :func:`plant.motion.point_to_point_reference`); default None: the
         multisine of ``duration`` s of :func:`controllers.experiments.compare.comparison_reference`. Given, it
         sets the duration and the joints are drawn for its peak speed and acceleration.
-    encoder_counts, delay, slew_rate
-        The loop's encoder (counts per revolution), measurement delay (periods) and torque slew limit (N·m/s)
-        in every run, as :class:`controllers.experiments.compare.CompareOptions`; default none of them. The
+    encoder_counts, delay, slew_rate, velocity
+        The loop's encoder (counts per revolution), measurement delay (periods), torque slew limit (N·m/s) and
+        the encoder's velocity (``"difference"`` or ``"kalman"``, at its default bandwidth) in every run, as :class:`controllers.experiments.compare.CompareOptions`; default none of them. The
         torque limit is each joint's ``u_max`` of ``compare``: three times its measured friction level plus
         its design inertia times the reference's peak acceleration.
     compensators : dict or None
@@ -320,6 +320,7 @@ class ZooOptions:
     delay: int = 0
     slew_rate: float = math.inf
     compensators: dict | None = None
+    velocity: str = "difference"
 
     def __post_init__(self):
         if self.reference is not None:  # its length sets the duration (checked with the step by CompareOptions)
@@ -744,7 +745,7 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
     o = ZooOptions() if options is None else options
     t0 = time.perf_counter()
     co = CompareOptions(duration=float(o.duration), seed=int(o.seed), modes=o.modes, reference=o.reference,
-                        encoder_counts=o.encoder_counts, delay=o.delay, slew_rate=o.slew_rate)
+                        encoder_counts=o.encoder_counts, delay=o.delay, slew_rate=o.slew_rate, velocity=o.velocity)
     n = o.n
     bounds = _group_bounds(n, o.group, o.workers or os.cpu_count() or 1)
     processes = 1 if o.scheduler is not None else min(o.workers or os.cpu_count() or 1, len(bounds))
