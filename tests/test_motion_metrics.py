@@ -252,3 +252,83 @@ def test_plot_marks_dwells_settling_and_reversals(p2p_runs):
     n_inf = int(np.count_nonzero(np.isinf(r.motion.settling_time)))
     assert ("not settled" in labels) == (n_inf > 0)
     plt.close(ax.figure)
+
+
+# --------------------------------------------------------------------------- comparison table, JSON and figures
+
+
+def _comparison(ref, modes=("none", "adaptive", "frictionless")):
+    from adaptive_ff.identification.regression import RegressionModel
+    from controllers.experiments.compare import Comparison, _eta_or_none, _whole_run_metrics
+
+    p, o = _loop()
+    d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=DT)
+    res = {m: run_mode(p, ref, m, o, rng=np.random.default_rng(3)) for m in modes}
+    rn, rf = res["none"].metrics.rms_second_half, res["frictionless"].metrics.rms_second_half
+    etas = {m: _eta_or_none(rn, r.metrics.rms_second_half, rf) for m, r in res.items()}
+    return Comparison(plant=p, design=d, results=res, eta=etas, prefit=None, offline=None,
+                      model=RegressionModel(p.Vs, p.delta, lag=True), **_whole_run_metrics(res))
+
+
+BASE_KEYS = {"mode", "rms", "max", "rms_reversal", "u_rms", "eta", "eta_full", "rms_dev", "t_ff_on"}
+
+
+@pytest.fixture(scope="module")
+def p2p_comparison():
+    return _comparison(point_to_point_reference(TARGETS, v_max=0.5, a_max=4.0, dwell=0.5))
+
+
+def test_comparison_rows_table_and_json_carry_the_motion_metrics(p2p_comparison):
+    import argparse
+
+    from controllers.cli.compare import comparison_table
+
+    c = p2p_comparison
+    assert c.has_stops
+    for row in c.rows():
+        m = c.results[row["mode"]].motion
+        assert set(row) == BASE_KEYS | {"rms_motion", "settling_max", "n_unsettled", "max_reversal"}
+        assert row["rms_motion"] == m.rms_motion and row["settling_max"] == m.settling_max
+        assert row["n_unsettled"] == m.n_unsettled and math.isnan(row["max_reversal"])  # no reversal in these moves
+        late = m.settling_time[m.stop_start >= m.t_mid]
+        assert row["settling_max"] == np.max(late)
+    table = c.table()
+    assert "motion RMS" in table and "settle max [s]" in table
+    adaptive = next(line for line in table.splitlines() if line.startswith("adaptive"))
+    assert f"{c.results['adaptive'].motion.settling_max:.3f}" in adaptive
+    assert f"{np.rad2deg(c.results['adaptive'].motion.rms_motion):.4f}" in adaptive
+    cli = comparison_table(c, argparse.Namespace(units="rad"))
+    assert "motion RMS [rad/s]" in cli and f"{c.results['none'].motion.rms_motion:.4f}" in cli
+    d = json.loads(json.dumps(c.to_dict(), allow_nan=False))
+    assert d["modes"]["adaptive"]["n_unsettled"] == c.results["adaptive"].motion.n_unsettled
+    assert d["modes"]["none"]["max_reversal"] is None
+    assert len(d["motion"]["adaptive"]["stops"]) == len(TARGETS)
+
+
+def test_a_multisine_comparison_keeps_its_rows_and_table():
+    c = _comparison(multisine_reference(6.0, rng=np.random.default_rng(2)))
+    assert not c.has_stops
+    assert all(set(r) == BASE_KEYS for r in c.rows())
+    assert "motion" not in c.table() and "motion" not in c.to_dict()
+
+
+def test_figures_of_a_comparison_with_stops_show_them_and_pass_the_figure_checks(p2p_comparison):
+    from test_figures_quality import check_figure
+
+    from controllers.report import figures as F
+
+    c = p2p_comparison
+    t0 = F.pick_stop(c)
+    a = c.results["none"].motion.stop_start
+    assert t0 in a and t0 >= c.results["none"].motion.t_mid
+    inputs = F.figure_inputs(c)
+    np.testing.assert_array_equal(inputs["tracking"]["stops"][0], a)
+    assert inputs["tracking"]["t0"] == t0 and set(inputs["tracking"]["zoom_stop"]["settle"]) <= set(c.results)
+    assert set(inputs["error"]["motion"]) == set(c.results)
+    for f in F._FIGURES:
+        fig = getattr(F, f"plot_{f.name}")(c)
+        if fig is not None:
+            check_figure(fig, f.name)
+    ax = c.results["adaptive"].plot()
+    check_figure(ax.figure, "ClosedLoopResult.plot with stops")
+    assert F.pick_stop(_comparison(multisine_reference(4.0, rng=np.random.default_rng(1)))) is None

@@ -15,10 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from adaptive_ff.compensation.gate import OutlierGate
-from controllers.simulation.closed_loop import _motion, plant_table, sensor_and_drive
+from controllers.simulation.closed_loop import plant_table, sensor_and_drive
 from controllers.simulation.compensators import MODES, ModeOptions, TrueFriction, build_modes
 from controllers.simulation.engine import EngineRun
-from controllers.simulation.metrics import METRIC_NAMES, metrics_columns, reversal_times
+from controllers.simulation.metrics import METRIC_NAMES, metrics_columns, reversal_times, engine_motion
 from plant.errors import ParameterError
 from plant.excitation import Reference
 from plant.rows import check_integrable, integrable_rows, plant_rows, plant_state, plant_states
@@ -255,8 +255,9 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
     x.keep(rows)
     x.run()
     _, diverged, _ = x.outcome()
-    cols = metrics_columns(x.metrics())
+    states = x.metrics()
+    cols = metrics_columns(states)
     for k in METRIC_NAMES:
         cols[k][diverged] = np.nan
-    motion = tuple(_motion(x, b, t, revs, float(opts[0].reversal_window), bool(diverged[b])) for b in range(B))
+    motion = engine_motion(x, states, t, revs, window=float(opts[0].reversal_window), diverged=diverged)
     return BatchResult(mode=mode, diverged=diverged, compensators=tuple(comps), motion=motion, **cols)

@@ -21,7 +21,7 @@ from controllers.design.pi import PIController
 from controllers.simulation.compensators import MODES, ESTIMATORS, ModeOptions, TrueFriction, build_mode
 from controllers.simulation.engine import EngineRun
 from controllers.simulation.memory import MODE_SIGNALS, check_run_memory
-from controllers.simulation.metrics import (LoopMetrics, MotionMetrics, loop_metrics, metrics_result, motion_result,
+from controllers.simulation.metrics import (LoopMetrics, MotionMetrics, engine_motion, loop_metrics, metrics_result,
                                             reversal_times)
 from controllers.simulation.sensor_drive import Drive, Sensor
 from controllers.simulation.user_compensator import UserCompensator, is_user_compensator
@@ -111,18 +111,22 @@ class ClosedLoopResult:
     def plot(self, ax=None):
         """Reference and velocity (deg/s) over time on ``ax`` (a new figure when None); returns the Axes.
 
-        With motion metrics: each stop's dwell shaded (grey), the time its error settled into the band marked
-        (a green tick at ``t_start + settling_time``; a red one at the dwell's end when it did not settle), each
-        reversal a dotted vertical line.
+        When the reference has stops (:attr:`has_stops`, a robot's moves): each stop's dwell shaded (grey), the
+        time its error settled into the band marked (a green tick at ``t_start + settling_time``; a red one at the
+        dwell's end when it did not settle), each reversal a dotted vertical line (:func:`mark_motion`), and the
+        legend to the right of the axes (a new figure is made wider for it).
         """
-        ax = axes_or_new(ax, figsize=(8.0, 3.0))
+        stops = self.has_stops
+        ax = axes_or_new(ax, figsize=(9.5, 3.0) if stops else (8.0, 3.0))
         ax.plot(self.t, np.rad2deg(self.w_ref), "k--", lw=0.8, label="reference")
         ax.plot(self.t, np.rad2deg(self.w), lw=1.0, label=self.mode)
-        if self.motion is not None:
-            mark_motion(ax, self.motion)
         ax.set_xlabel("time [s]")
         ax.set_ylabel("velocity [deg/s]")
-        ax.legend(loc="upper right")
+        if stops:
+            mark_motion(ax, self.motion)
+            ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=8, frameon=False)
+        else:
+            ax.legend(loc="upper right")
         return ax
 
 
@@ -347,13 +351,6 @@ def _run_loop(plant, controller, compensator, reference, *, noise_std, rng, faul
                    float(reversal_window))
 
 
-def _motion(x: EngineRun, b: int, t, revs, window: float, diverged: bool) -> MotionMetrics:
-    """The :class:`MotionMetrics` of scenario ``b`` of an engine run on the reference of time ``t``."""
-    c = x.c_run
-    return motion_result(x.scenarios[b].metrics, x.stops, x.settle[b], x.stop_max[b], revs, x.rev_max[b],
-                         t_mid=0.5 * (t[0] + t[-1]) if t.shape[0] else math.nan, window=window,
-                         share=c.settle_share, floor=c.settle_floor, diverged=diverged)
-
 
 def _checked(name: str, obj, cls):
     if obj is not None and not isinstance(obj, cls):
@@ -374,7 +371,7 @@ def _result(x: EngineRun, plant, compensator, t, wr, revs, gate, decimate, n_the
     k_end, diverged, n_th = (a[0] for a in x.outcome())
     n = t.shape[0]
     metrics = metrics_result(x.scenarios[0].metrics)
-    motion = _motion(x, 0, t, revs, window, bool(diverged))
+    motion = engine_motion(x, x.metrics(), t, revs, window=window, diverged=[bool(diverged)])[0]
     if diverged:
         nan = math.nan
         rev = metrics.rms_reversal

@@ -35,7 +35,7 @@ from plant.errors import ParameterError, SignalError, check_nonnegative, check_s
 
 __all__ = ["LoopMetrics", "loop_metrics", "reversal_times", "metrics_update", "metrics_where", "metrics_add",
            "metrics_result", "metrics_columns", "new_metrics", "METRICS_DTYPE", "METRIC_NAMES", "deviation_rms",
-           "first_active_time", "MotionMetrics", "motion_metrics", "motion_result", "stop_intervals",
+           "first_active_time", "MotionMetrics", "motion_metrics", "motion_result", "engine_motion", "stop_intervals",
            "SETTLE_SHARE"]
 
 #: Default settling band of a stop as a share of the move's peak speed (2 %, :class:`MotionMetrics`).
@@ -623,6 +623,50 @@ def motion_result(st, stops, settle, stop_max, revs, rev_max, *, t_mid: float, w
                          settling_time=np.array(settle, dtype=float), stop_max=np.array(stop_max, dtype=float),
                          reversal_times=np.array(revs, dtype=float), reversal_max=np.array(rev_max, dtype=float),
                          window=float(window), share=float(share), floor=float(floor))
+
+
+def engine_motion(run, states, t, revs, *, window: float, diverged) -> tuple:
+    """:class:`MotionMetrics` of every scenario of an engine run, one per scenario.
+
+    Parameters
+    ----------
+    run : controllers.simulation.engine.EngineRun
+        After ``run()``: its ``stops``, ``settle``, ``stop_max``, ``rev_max`` (the per-event arrays, shared as
+        views: one row per scenario) and the band of its ``c_run``.
+    states : ndarray of :data:`METRICS_DTYPE`, shape (B,)
+        The scenarios' accumulators (``run.metrics()``).
+    t : ndarray, shape (N,)
+        Time of the reference (s).
+    revs : ndarray, shape (R,)
+        Its reversal times (s).
+    window : float, keyword-only
+        Half-width of the reversal windows (s).
+    diverged : array_like of bool, shape (B,), keyword-only
+        Scenarios that stopped early: NaN RMS and standstill maximum (:func:`motion_result`).
+
+    Returns
+    -------
+    tuple of MotionMetrics
+        Entry ``b`` equals ``motion_result(states[b], ...)`` bit for bit (the same IEEE operations, vectorised).
+    """
+    st = _records(states)
+    dv = np.asarray(diverged, dtype=bool).reshape(-1)
+    with np.errstate(all="ignore"):
+        nm, nr = st["n_move"].astype(np.float64), st["n_rest"].astype(np.float64)
+        rm = np.where((nm > 0) & ~dv, np.sqrt((st["e2_move"] + st["e2_move_c"]) / nm), np.nan)
+        rr = np.where((nr > 0) & ~dv, np.sqrt((st["e2_rest"] + st["e2_rest_c"]) / nr), np.nan)
+        mr = np.where((nr > 0) & ~dv, st["e_max_rest"], np.nan)
+    c = run.c_run
+    t_mid = 0.5 * (t[0] + t[-1]) if len(t) else math.nan
+    a, b, band = (np.array(x, dtype=float) for x in run.stops)
+    revs = np.array(revs, dtype=float)
+    for x in (a, b, band, revs):
+        x.flags.writeable = False  # shared by the scenarios' results
+    common = dict(t_mid=float(t_mid), stop_start=a, stop_end=b, stop_band=band, reversal_times=revs,
+                  window=float(window), share=float(c.settle_share), floor=float(c.settle_floor))
+    return tuple(MotionMetrics(rms_motion=float(rm[i]), rms_standstill=float(rr[i]), max_standstill=float(mr[i]),
+                               settling_time=run.settle[i], stop_max=run.stop_max[i], reversal_max=run.rev_max[i],
+                               **common) for i in range(st.shape[0]))
 
 
 def motion_metrics(t, w_ref, w, *, reversals, window: float = 0.2, share: float = SETTLE_SHARE,
