@@ -110,10 +110,10 @@ void ctl_metrics_add_motion(ctl_metrics *m, int where, int rest, double e)
     }
 }
 
-void ctl_motion_init(ctl_motion *c, double share, double floor, double window)
+void ctl_motion_init(ctl_motion *c, double share, double band_floor, double window)
 {
     c->share = share;
-    c->floor = floor;
+    c->band_floor = band_floor;
     c->window = window;
     c->rest = 0;
     c->stop = -1;
@@ -157,7 +157,7 @@ void ctl_motion_where(ctl_motion *c, const double *t, const double *w_ref, long 
             c->stop = c->n_stops;
             c->n_stops++;
             c->t_stop = t[k];
-            c->band = b > c->floor ? b : c->floor;
+            c->band = b > c->band_floor ? b : c->band_floor;
         }
         c->stop_end = c->stop >= 0 && (k == n - 1 || w_ref[k + 1] != 0.0);
         c->peak = 0.0;
@@ -178,11 +178,11 @@ void ctl_motion_where(ctl_motion *c, const double *t, const double *w_ref, long 
     }
 }
 
-long ctl_motion_stops(const double *t, const double *w_ref, long n, double share, double floor, double *t0,
+long ctl_motion_stops(const double *t, const double *w_ref, long n, double share, double band_floor, double *t0,
                       double *t1, double *band, long cap)
 {
     ctl_motion c;
-    ctl_motion_init(&c, share, floor, 0.0);
+    ctl_motion_init(&c, share, band_floor, 0.0);
     long prev = -1;
     for (long k = 0; k < n; k++) {
         ctl_motion_where(&c, t, w_ref, n, k, NULL, 0);

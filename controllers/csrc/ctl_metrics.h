@@ -21,8 +21,8 @@
  *  - a stop: a run of standstill samples that follows motion (plant.excitation.Reference.stops: its first
  *    sample), from that sample to its last one (the sample before the next motion, or the end);
  *  - the settling band of a stop: b = max(share * (the move's peak speed), floor) (rad/s), the move's peak speed
- *    being the largest |w_ref| since the previous standstill; share (e.g. 0.02) and floor (rad/s, e.g. a noise
- *    level) are the caller's;
+ *    being the largest |w_ref| since the previous standstill; share (e.g. 0.02) and floor (band_floor, rad/s,
+ *    e.g. a noise level) are the caller's;
  *  - the settling time of a stop: t[j+1] - t[k0], j the last sample of the stop with |e| > b (0 when none),
  *    k0 its first sample; to one sample. INFINITY when |e| > b at the stop's last sample (it did not settle
  *    before the next move or the end of the run); NaN when the run ended before the stop did (diverged);
@@ -72,7 +72,7 @@ typedef struct ctl_metrics {
  * reference, shared by the scenarios of a batch. */
 typedef struct ctl_motion {
     double share;       /* settling band as a share of the move's peak speed (-) */
-    double floor;       /* the band's lower bound (rad/s) */
+    double band_floor;  /* the band's lower bound (rad/s) */
     double window;      /* half-width of the reversal windows (s) */
     int rest;           /* 1: the sample is at standstill */
     long stop;          /* the stop it belongs to (0, 1, ... in time order), -1: none */
@@ -128,9 +128,9 @@ void ctl_metrics_accumulate(ctl_metrics *m, const double *t, const double *e, co
  * not touched. */
 void ctl_metrics_add_motion(ctl_metrics *m, int where, int rest, double e);
 
-/* Start a pass over a reference: the band's share (-, >= 0) and floor (rad/s, >= 0), the reversal windows'
- * half-width window (s); no stop, no reversal, peak 0. */
-void ctl_motion_init(ctl_motion *c, double share, double floor, double window);
+/* Start a pass over a reference: the band's share (-, >= 0) and floor band_floor (rad/s, >= 0), the reversal
+ * windows' half-width window (s); no stop, no reversal, peak 0. */
+void ctl_motion_init(ctl_motion *c, double share, double band_floor, double window);
 
 /* Classify sample k of the reference (t: n times, s, increasing; w_ref: n velocities, rad/s; revs: nrev sorted
  * reversal times, s): fills c->rest, stop, stop_end, t_stop, band, rev, rev_end (definitions above). Call for
@@ -141,7 +141,7 @@ void ctl_motion_where(ctl_motion *c, const double *t, const double *w_ref, long 
 /* The stops of a reference (t, w_ref: n samples) with the band share and floor: writes the first cap of them
  * (t0: first sample time, t1: last sample time, s; band: rad/s; any of the three may be NULL when cap is 0) and
  * returns how many there are (call with cap 0 to size the arrays). */
-long ctl_motion_stops(const double *t, const double *w_ref, long n, double share, double floor, double *t0,
+long ctl_motion_stops(const double *t, const double *w_ref, long n, double share, double band_floor, double *t0,
                       double *t1, double *band, long cap);
 
 /* Point ev at the caller's arrays (settle, stop_max: n_stops doubles; rev_max: n_revs doubles; NULL with a
