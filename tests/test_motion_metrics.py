@@ -225,6 +225,18 @@ def test_a_diverged_run_keeps_the_events_it_completed_and_nothing_else():
     d = json.loads(json.dumps(r.to_dict(), allow_nan=False))
     assert d["motion"]["stops"][2]["settled"] is None and d["motion"]["stops"][2]["settling_time"] is None
     assert d["motion"]["rms_motion"] is None and d["motion"]["settling_max"] is None
+    # a batch with one diverging scenario: each scenario as its single run
+    from dataclasses import replace
+
+    opts = [replace(o, w_limit=0.4), o]
+    b = run_batch([p, p], ref, "none", opts)
+    assert list(b.diverged) == [True, False]
+    for i in range(2):
+        one = run_mode(p, ref, "none", opts[i]).motion
+        for k in ("settling_time", "stop_max"):
+            np.testing.assert_array_equal(getattr(b.motion[i], k), getattr(one, k))
+        np.testing.assert_equal(b.motion[i].rms_motion, one.rms_motion)  # NaN for the diverged one
+    assert math.isnan(b.motion[0].settling_time[2]) and np.isfinite(b.motion[1].settling_time).all()
 
 
 def test_stop_intervals_are_the_reference_stops_and_refuse_bad_bands():
