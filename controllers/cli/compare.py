@@ -163,19 +163,31 @@ def comparison_table(comp, args) -> str:
     Velocities (RMS, max and reversal RMS of the tracking error over the second
     half) in deg/s or rad/s, the torque RMS in N·m, eta dimensionless; each
     header names its unit. Undefined values (eta without friction degradation)
-    print as ``n/a``.
+    print as ``n/a``. When the reference has stops (point-to-point moves,
+    ``Comparison.has_stops``) three more columns, over the second half: the
+    RMS error while the reference moves, the longest settling time after a stop
+    (s; ``no (k)`` when k stops did not settle into their band) and the largest
+    error at a reversal (``MotionMetrics``).
     """
     from controllers.cli.data import table_unit
+    from controllers.experiments.compare import settling_text
 
     k, unit = table_unit(args)
+    stops = getattr(comp, "has_stops", False)
     head = (f"{'mode':<13}{f'RMS [{unit}]':>14}{f'max [{unit}]':>14}{f'reversal RMS [{unit}]':>23}"
             f"{'u RMS [N·m]':>13}{'eta [-]':>9}")
+    if stops:
+        head += f"{f'motion RMS [{unit}]':>22}{'settle max [s]':>16}{f'reversal max [{unit}]':>23}"
     lines = [head, "-" * len(head)]
     for row in comp.rows():
         eta = row["eta"]
         eta_text = f"{eta:>9.3f}" if eta is not None and eta == eta else f"{'n/a':>9}"
-        lines.append(f"{row['mode']:<13}{k * row['rms']:>14.4f}{k * row['max']:>14.4f}"
-                     f"{k * row['rms_reversal']:>23.4f}{row['u_rms']:>13.2f}{eta_text}")
+        line = (f"{row['mode']:<13}{k * row['rms']:>14.4f}{k * row['max']:>14.4f}"
+                f"{k * row['rms_reversal']:>23.4f}{row['u_rms']:>13.2f}{eta_text}")
+        if stops:
+            line += (f"{k * row['rms_motion']:>22.4f}{settling_text(row['settling_max'], row['n_unsettled']):>16}"
+                     f"{k * row['max_reversal']:>23.4f}")
+        lines.append(line)
     return "\n".join(lines)
 
 

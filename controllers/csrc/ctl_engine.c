@@ -47,7 +47,7 @@ static double sense(const ctl_run *run, ctl_scenario *sc, long k, double w, doub
 }
 
 /* One period of scenario sc; 0 once it diverged (it then stays where it stopped). */
-static int period(const ctl_run *run, ctl_scenario *sc, long k, int where)
+static int period(const ctl_run *run, ctl_scenario *sc, long k, int where, const ctl_motion *mo)
 {
     const plant_params *par = row_at(sc, k);
     double w = sc->plant.w;
@@ -82,6 +82,8 @@ static int period(const ctl_run *run, ctl_scenario *sc, long k, int where)
         sc->rec[4 * run->n_rec + r] = f;
     }
     ctl_metrics_add(&sc->metrics, where, wrk - w, u);
+    ctl_metrics_add_motion(&sc->metrics, where, mo->rest, wrk - w);
+    ctl_events_add(&sc->events, mo, run->t[k], wrk - w);
     plant_step(par, &sc->plant, u, run->dt);
     w = sc->plant.w;
     if (!(-sc->w_limit < w && w < sc->w_limit)) {
@@ -100,10 +102,13 @@ void ctl_run_chunk(const ctl_run *run, ctl_scenario *sc, long n_sc)
         n_alive += sc[b].diverged == 0;
     double tmid = n > 0 ? 0.5 * (run->t[0] + run->t[n - 1]) : 0.0;
     long ip = 0;
+    ctl_motion mo;
+    ctl_motion_init(&mo, run->settle_share, run->settle_floor, run->window);
     for (long k = 0; k < n && n_alive > 0; k++) {
         int where = ctl_metrics_where(run->t[k], tmid, run->revs, run->n_revs, run->window, &ip);
+        ctl_motion_where(&mo, run->t, run->w_ref, n, k, run->revs, run->n_revs);
         for (long b = 0; b < n_sc; b++)
-            if (sc[b].diverged == 0 && !period(run, sc + b, k, where))
+            if (sc[b].diverged == 0 && !period(run, sc + b, k, where, &mo))
                 n_alive--;
     }
     for (long b = 0; b < n_sc; b++)

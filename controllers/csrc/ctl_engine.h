@@ -8,7 +8,8 @@
  *   u_ff = ops->compensate(comp, w_ctrl, w_meas, w_ref[k])  (or the plant's true friction: the oracle);
  *   u = PI(w_ref[k] - w_ctrl, u_ff) (ctl_pi, saturated), then the drive's slew-rate limit (ctl_drive, if any);
  *   ops->observe(comp, u, w_meas, theta) (the estimate recorded after an update);
- *   the metrics take e = w_ref[k] - w and u (ctl_metrics);
+ *   the metrics take e = w_ref[k] - w and u (ctl_metrics), the motion metrics e (ctl_metrics_add_motion,
+ *   ctl_events_add; the reference's stops and reversal windows classified once per period, ctl_motion_where);
  *   the plant advances one step with u held (plant_step); |w| >= w_limit ends the scenario (diverged).
  * A single run is a batch of one. ctl_run_chunk advances scenarios sc[0..n_sc-1] time-major (every scenario
  * of the chunk one period before the next period), which lets the CPU overlap their independent RK4
@@ -48,6 +49,8 @@ typedef struct ctl_run {
     long n_rec;               /* records per signal: ceil(n/decimate) */
     long n_theta;             /* length of the compensator's parameter vector (<= CTL_THETA_NMAX) */
     long m_theta;             /* capacity of the estimate history (0: none) */
+    double settle_share;      /* settling band of the stops: share of the move's peak speed (-) (ctl_motion) */
+    double settle_floor;      /* and its lower bound (rad/s) */
 } ctl_run;
 
 /* One scenario: its plant, sensor, controller, compensator, metrics and records. */
@@ -68,6 +71,7 @@ typedef struct ctl_scenario {
     void *comp;                 /* the compensator's struct, or NULL (none, oracle) */
     const aff_compensator_ops *ops;
     ctl_metrics metrics;
+    ctl_events events;          /* per-stop and per-reversal results (ctl_events_init; zeroed: none) */
     double *rec;                /* 5 x n_rec records (w, w_meas, u, u_ff, f), row-major, or NULL */
     double *theta;              /* m_theta x n_theta estimates after updates, or NULL */
     int64_t *theta_k;           /* the period of each */

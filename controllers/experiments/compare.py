@@ -70,6 +70,14 @@ def eta(rms_none: float, rms_mode: float, rms_frictionless: float) -> float:
     return float((rms_none - rms_mode) / den) if den > 0 else float("nan")
 
 
+def settling_text(settling_max: float, n_unsettled: int) -> str:
+    """A table cell for the longest settling time (s): ``"0.123"``, ``"no (k)"`` when k stops did not settle into
+    their band, ``"-"`` without stops in the second half (NaN)."""
+    if math.isinf(settling_max):
+        return f"no ({n_unsettled})"
+    return "-" if math.isnan(settling_max) else f"{settling_max:.3f}"
+
+
 def _eta_or_none(rms_none: float, rms_mode: float, rms_frictionless: float) -> float | None:
     """:func:`eta`, None where it is undefined (not finite)."""
     e = eta(rms_none, rms_mode, rms_frictionless)
@@ -132,32 +140,56 @@ class Comparison:
     rms_dev: dict = field(default_factory=dict)
     t_ff_on: dict = field(default_factory=dict)
 
+    @property
+    def has_stops(self) -> bool:
+        """Whether the reference comes to rest (point-to-point moves): :meth:`rows`, :meth:`table` and
+        :meth:`to_dict` then carry the motion metrics (:class:`controllers.simulation.metrics.MotionMetrics`)."""
+        return any(getattr(r, "has_stops", False) for r in self.results.values())
+
     def rows(self) -> list[dict]:
         """One dict per mode: mode, rms, max, rms_reversal (second half, rad/s), u_rms (N·m), eta, eta_full,
-        rms_dev (whole run, rad/s) and t_ff_on (s or None)."""
+        rms_dev (whole run, rad/s) and t_ff_on (s or None); when the reference has stops (:attr:`has_stops`) also
+        rms_motion (RMS error in motion, second half, rad/s), settling_max (longest settling time of the
+        second-half stops, s; inf when one did not settle), n_unsettled (those stops) and max_reversal (largest
+        error at the second-half reversals, rad/s; NaN without reversals)."""
         out = []
         nan = float("nan")
+        stops = self.has_stops
         for mode, r in self.results.items():
             m = r.metrics
-            out.append({"mode": mode, "rms": m.rms_second_half, "max": m.max_second_half,
-                        "rms_reversal": m.rms_reversal, "u_rms": m.u_rms, "eta": self.eta[mode],
-                        "eta_full": self.eta_full.get(mode), "rms_dev": self.rms_dev.get(mode, nan),
-                        "t_ff_on": self.t_ff_on.get(mode)})
+            row = {"mode": mode, "rms": m.rms_second_half, "max": m.max_second_half,
+                   "rms_reversal": m.rms_reversal, "u_rms": m.u_rms, "eta": self.eta[mode],
+                   "eta_full": self.eta_full.get(mode), "rms_dev": self.rms_dev.get(mode, nan),
+                   "t_ff_on": self.t_ff_on.get(mode)}
+            if stops:
+                mm = r.motion
+                row.update(rms_motion=mm.rms_motion, settling_max=mm.settling_max, n_unsettled=mm.n_unsettled,
+                           max_reversal=mm.max_reversal)
+            out.append(row)
         return out
 
     def table(self) -> str:
         """The comparison as a fixed-width text table (velocities in deg/s; eta full, deviation and switch-on
-        time over the whole run; an undefined eta and a compensation that never acts print as ``-``)."""
+        time over the whole run; an undefined eta and a compensation that never acts print as ``-``). With stops
+        in the reference three more columns: the RMS error in motion, the longest settling time (``no (k)``: k
+        stops did not settle into the band) and the largest error at a reversal (second half)."""
+        stops = self.has_stops
         head = (f"{'mode':<13}{'RMS [deg/s]':>12}{'max [deg/s]':>13}{'reversal RMS':>14}{'u RMS [N·m]':>13}"
                 f"{'eta':>8}{'eta full':>9}{'dev [deg/s]':>12}{'t_on [s]':>9}")
+        if stops:
+            head += f"{'motion RMS':>12}{'settle max [s]':>16}{'rev. max':>10}"
         lines = [head, "-" * len(head)]
         for row in self.rows():
             d = np.rad2deg
             ton = "-" if row["t_ff_on"] is None else f"{row['t_ff_on']:.3f}"
             e, ef = ("-" if row[k] is None else f"{row[k]:.3f}" for k in ("eta", "eta_full"))
-            lines.append(f"{row['mode']:<13}{d(row['rms']):>12.4f}{d(row['max']):>13.4f}"
-                         f"{d(row['rms_reversal']):>14.4f}{row['u_rms']:>13.2f}{e:>8}"
-                         f"{ef:>9}{d(row['rms_dev']):>12.4f}{ton:>9}")
+            line = (f"{row['mode']:<13}{d(row['rms']):>12.4f}{d(row['max']):>13.4f}"
+                    f"{d(row['rms_reversal']):>14.4f}{row['u_rms']:>13.2f}{e:>8}"
+                    f"{ef:>9}{d(row['rms_dev']):>12.4f}{ton:>9}")
+            if stops:
+                line += (f"{d(row['rms_motion']):>12.4f}{settling_text(row['settling_max'], row['n_unsettled']):>16}"
+                         f"{d(row['max_reversal']):>10.4f}")
+            lines.append(line)
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
@@ -186,9 +218,13 @@ class Comparison:
         None where undefined); ``no_friction`` (when quasi-static runs were made: True where they measured no
         friction, ``StribeckExperiment.no_friction``); ``offline_ls`` (when
         ``fixed`` ran): its offline fit's J, tau, sigma, Fc, Fs with ``accepted`` (False when the fit was rejected
-        and ``fixed`` used a fallback) and ``reason`` (the ``"fixed:"`` note, or None)."""
-        modes = {r["mode"]: {k: (None if v is None else float(v)) for k, v in r.items() if k != "mode"}
-                 for r in self.rows()}
+        and ``fixed`` used a fallback) and ``reason`` (the ``"fixed:"`` note, or None). When the reference has stops
+        (:attr:`has_stops`) each mode's row also holds ``rms_motion``, ``settling_max`` (None when a stop did not
+        settle: ``n_unsettled`` > 0, or without second-half stops), ``n_unsettled`` and ``max_reversal``, and
+        ``motion`` holds each mode's :meth:`controllers.simulation.metrics.MotionMetrics.to_dict` (every stop and
+        reversal)."""
+        modes = {r["mode"]: {k: (None if v is None else (v if k == "n_unsettled" else float(v)))
+                             for k, v in r.items() if k != "mode"} for r in self.rows()}
         out = {"modes": modes, "plant": plant_to_dict(self.plant),
                "controller": {"Kp": self.design.Kp, "Ki": self.design.Ki, "Tc": self.design.Tc,
                               "phase_margin_deg": self.design.phase_margin,
@@ -209,6 +245,8 @@ class Comparison:
         for mode, r in self.results.items():
             if r.info.get("diverged"):
                 out["modes"][mode]["diverged"] = True
+        if self.has_stops:
+            out["motion"] = {mode: r.motion.to_dict() for mode, r in self.results.items()}
         adaptive = self.results.get("adaptive")
         if adaptive is not None and adaptive.estimate is not None:
             e = adaptive.estimate

@@ -5,9 +5,14 @@ What a control engineer looks at first, one file each (:func:`plot_comparison`):
 * ``tracking.png`` — the whole run (reference and the uncompensated velocity), and
   the reference reversal of the metrics window with the largest uncompensated
   error up close: reference, ``none``, ``fixed``, ``adaptive``, ``frictionless``
-  velocity and their tracking errors (:func:`plot_tracking`);
+  velocity and their tracking errors (:func:`plot_tracking`); for a reference
+  with stops (point-to-point moves) the dwells shaded and, up close, the stop
+  of the metrics window with the longest settling, its band and each mode's
+  settling time (:func:`pick_stop`);
 * ``error.png`` — the tracking error of every mode as small multiples on one
-  shared scale, drawn as min/max envelopes (:func:`plot_error`);
+  shared scale, drawn as min/max envelopes (:func:`plot_error`); with stops,
+  the dwells shaded and each mode's RMS error in motion and longest settling
+  time written in its panel;
 * ``friction.png`` — the estimated friction as a Stribeck map, torque over
   velocity, estimate vs truth at a few times of the run (:func:`plot_friction`);
 * ``rls_convergence.png`` — every parameter of the adaptive estimator with its
@@ -44,7 +49,7 @@ if TYPE_CHECKING:  # annotations only: matplotlib is imported by the functions w
 
 __all__ = ["plot_comparison", "figure_inputs", "draw_figures", "rls_grid", "plot_tracking", "plot_error",
            "plot_friction", "plot_rls_convergence", "plot_eta", "rms_dev", "minmax_envelope", "pick_reversal",
-           "estimate_history", "MODE_COLORS", "PARAMETER_UNITS"]
+           "estimate_history", "MODE_COLORS", "PARAMETER_UNITS", "pick_stop"]
 
 #: One Okabe-Ito colour per compensation mode (reference black, frictionless grey).
 MODE_COLORS = {"reference": "#000000", "none": "#D55E00", "fixed": "#0072B2", "adaptive": "#009E73",
@@ -190,6 +195,33 @@ def rms_dev(comp) -> dict:
     return {mode: deviation_rms(r.w, ref.w) for mode, r in comp.results.items()}
 
 
+def _motion_runs(comp) -> dict:
+    """``{mode: MotionMetrics}`` of the runs whose reference has stops (point-to-point moves); empty otherwise."""
+    return {m: r.motion for m, r in comp.results.items() if getattr(r, "has_stops", False)}
+
+
+def pick_stop(comp, *, half_window: float = 1.0) -> float | None:
+    """Start time (s) of the reference stop to show up close, or None when the reference has no stops.
+
+    Among the stops of the second half (the metrics window), the one with the longest settling time of the modes
+    drawn up close (``none``, ``fixed``, ``adaptive``; a stop that did not settle counts as longest), ties to the
+    earliest; without stops in the second half, among all. ``half_window`` is the zoom's half-width (s), kept for
+    the signature of :func:`pick_reversal` (the zoom may reach past the run's ends).
+    """
+    motion = _motion_runs(comp)
+    if not motion:
+        return None
+    mm = next(iter(motion.values()))
+    a, t_mid = mm.stop_start, mm.t_mid
+    shown = [motion[m] for m in _ZOOM_MODES if m in motion and m != "frictionless"] or list(motion.values())
+    score = np.nanmax(np.stack([np.nan_to_num(x.settling_time, nan=-1.0) for x in shown]), axis=0)
+    for ok in (a >= t_mid, np.ones(a.shape, bool)):
+        if ok.any():
+            i = np.flatnonzero(ok)[int(np.argmax(score[ok]))]
+            return float(a[i])
+    return None  # pragma: no cover - a run with stops has at least one
+
+
 def pick_reversal(comp, *, half_window: float = 1.0) -> float:
     """Time (s) of the reference reversal to show up close: the largest uncompensated error, in the metrics window.
 
@@ -238,17 +270,27 @@ def pick_reversal(comp, *, half_window: float = 1.0) -> float:
 
 
 def _tracking_inputs(comp, *, half_window: float = 1.0) -> dict:
-    """What :func:`plot_tracking` draws: the zoom time, whole-run envelopes and the zoom window of each mode."""
-    t0 = pick_reversal(comp, half_window=half_window)
+    """What :func:`plot_tracking` draws: the zoom time, whole-run envelopes and the zoom window of each mode (and,
+    for a reference with stops, the dwells and the zoomed stop's band and settling times)."""
+    motion = _motion_runs(comp)
+    stop = pick_stop(comp, half_window=half_window)
+    t0 = stop if stop is not None else pick_reversal(comp, half_window=half_window)
     base = comp.results["none"] if "none" in comp.results else next(iter(comp.results.values()))
     sel = slice(*np.searchsorted(base.t, [t0 - half_window, t0 + half_window]))
     zoom = []
     for i, mode in enumerate(m for m in _ZOOM_MODES if m in comp.results):
         r = comp.results[mode]
         zoom.append((mode, mode_color(mode, i), r.t[sel].copy(), _deg(r.w[sel]), _deg(r.w_ref[sel] - r.w[sel])))
-    return {"t0": t0, "half_window": half_window, "mode": base.mode, "t_span": (base.t[0], base.t[-1]),
-            "reference": minmax_envelope(base.t, _deg(base.w_ref)), "w": minmax_envelope(base.t, _deg(base.w)),
-            "zoom_t": base.t[sel].copy(), "zoom_reference": _deg(base.w_ref[sel]), "zoom": zoom}
+    d = {"t0": t0, "half_window": half_window, "mode": base.mode, "t_span": (base.t[0], base.t[-1]),
+         "reference": minmax_envelope(base.t, _deg(base.w_ref)), "w": minmax_envelope(base.t, _deg(base.w)),
+         "zoom_t": base.t[sel].copy(), "zoom_reference": _deg(base.w_ref[sel]), "zoom": zoom}
+    if motion:
+        mm = next(iter(motion.values()))
+        i = int(np.flatnonzero(mm.stop_start == stop)[0])
+        d["stops"] = (mm.stop_start.copy(), mm.stop_end.copy())
+        d["zoom_stop"] = {"t_end": float(mm.stop_end[i]), "band": float(_deg(mm.stop_band[i])),
+                          "settle": {m: float(motion[m].settling_time[i]) for m, *_ in zoom if m in motion}}
+    return d
 
 
 @_styled
@@ -282,6 +324,8 @@ def _draw_tracking(d: dict) -> Figure:
     ax0.fill_between(tc, lo, hi, color=mode_color(d["mode"]), alpha=0.8, lw=0.6, label=f"{d['mode']}",
                      step="post")
     ax0.axvspan(t0 - half_window, t0 + half_window, color="#F0E442", alpha=0.6, lw=0, label="zoom below")
+    for j, (a, b) in enumerate(zip(*d.get("stops", ((), ())))):
+        ax0.axvspan(a, b, color="0.8", lw=0, zorder=0, label="dwell (stop)" if j == 0 else None)
     ax0.set_xlim(*d["t_span"])
     _legend_right(fig, ax0)
     ax1.plot(d["zoom_t"], d["zoom_reference"], color="k", ls="--", lw=1.4, label="reference")
@@ -291,8 +335,23 @@ def _draw_tracking(d: dict) -> Figure:
         ax2.plot(t, e, color=color, lw=lw, label=mode)
     ax1.axhline(0.0, color="0.6", lw=0.6, zorder=0)
     ax2.axhline(0.0, color="0.6", lw=0.6, zorder=0)
-    ax1.set_title(f"reversal at t = {t0:.2f} s (of the metrics window, largest error without compensation)",
-                  fontsize=9, loc="left")
+    zs = d.get("zoom_stop")
+    if zs is None:
+        ax1.set_title(f"reversal at t = {t0:.2f} s (of the metrics window, largest error without compensation)",
+                      fontsize=9, loc="left")
+    else:
+        for ax in (ax1, ax2):
+            ax.axvspan(t0, zs["t_end"], color="0.85", lw=0, zorder=0)
+        for y in (-zs["band"], zs["band"]):
+            ax2.axhline(y, color="k", lw=0.6, ls=":")
+        colors = {mode: color for mode, color, *_ in d["zoom"]}
+        for mode, ts in zs["settle"].items():
+            if math.isfinite(ts):
+                ax2.axvline(t0 + ts, color=colors[mode], lw=1.0, ls="--")
+        unset = [m for m, ts in zs["settle"].items() if math.isinf(ts)]
+        note = f"; not settled: {', '.join(unset)}" if unset else ""
+        ax1.set_title(f"stop at t = {t0:.2f} s (longest settling, second half; dwell shaded); error: band "
+                      f"±{zs['band']:.3g} deg/s dotted, settled dashed{note}", fontsize=9, loc="left")
     ax1.set_xlim(t0 - half_window, t0 + half_window)
     _legend_right(fig, ax1)
     return fig
@@ -315,15 +374,26 @@ def plot_tracking(comp, *, half_window: float = 1.0) -> Figure:
         Middle: reference and the velocity of ``none``, ``fixed``,
         ``adaptive``, ``frictionless`` (those that ran) around the reversal,
         every sample. Bottom: their tracking errors ``w_ref - w`` there.
+        For a reference with stops (:func:`pick_stop`) the zoom is on a stop
+        instead: the dwells shaded (top and zoom), the stop's settling band
+        dotted and each mode's settling time dashed on the error panel
+        (:class:`controllers.simulation.metrics.MotionMetrics`).
     """
     return _draw_tracking(_tracking_inputs(comp, half_window=half_window))
 
 
 def _error_inputs(comp) -> dict:
-    """What :func:`plot_error` draws: the envelope of each mode's tracking error (deg/s), its RMS, the run's end."""
+    """What :func:`plot_error` draws: the envelope of each mode's tracking error (deg/s), its RMS, the run's end;
+    for a reference with stops the dwells and each mode's RMS in motion (deg/s) and longest settling time (s)."""
     modes, runs = list(comp.results), comp.results.items()
-    return {"modes": modes, "envelopes": {m: minmax_envelope(r.t, _deg(r.w_ref - r.w)) for m, r in runs},
-            "rms": {m: _deg(r.metrics.rms_second_half) for m, r in runs}, "t_end": comp.results[modes[0]].t[-1]}
+    d = {"modes": modes, "envelopes": {m: minmax_envelope(r.t, _deg(r.w_ref - r.w)) for m, r in runs},
+         "rms": {m: _deg(r.metrics.rms_second_half) for m, r in runs}, "t_end": comp.results[modes[0]].t[-1]}
+    motion = _motion_runs(comp)
+    if motion:
+        mm = next(iter(motion.values()))
+        d["stops"] = (mm.stop_start.copy(), mm.stop_end.copy())
+        d["motion"] = {m: (float(_deg(x.rms_motion)), x.settling_max, x.n_unsettled) for m, x in motion.items()}
+    return d
 
 
 @_styled
@@ -359,10 +429,21 @@ def _draw_error(d: dict) -> Figure:
             ax.fill_between(fl[0], fl[1], fl[2], color=mode_color("frictionless"), alpha=0.45, lw=0, step="post")
         ax.fill_between(tc, lo, hi, color=mode_color(mode, i), lw=0.5, step="post")
         ax.axvline(0.5 * t_end, color="k", lw=0.6, ls=":")
+        for a, b in zip(*d.get("stops", ((), ()))):
+            ax.axvspan(a, b, color="0.9", lw=0, zorder=0)
         rms = d["rms"][mode]
         ax.text(0.005, 0.93, f"{mode}", transform=ax.transAxes, fontsize=9, fontweight="bold", va="top")
-        ax.text(0.51, 0.93, f"RMS {rms:.3f} deg/s (second half)", transform=ax.transAxes, fontsize=8, va="top")
+        x, text = 0.51, f"RMS {rms:.3f} deg/s (second half)"
+        if mode in d.get("motion", {}):
+            rm, smax, unset = d["motion"][mode]
+            settle = (f"{unset} stop(s) not settled" if math.isinf(smax) else
+                      "no stop" if math.isnan(smax) else f"settling max {smax:.3f} s")
+            x, text = 0.3, f"RMS {rms:.3f} deg/s, in motion {rm:.3f} deg/s, {settle} (second half)"
+        ax.text(x, 0.93, text, transform=ax.transAxes, fontsize=8, va="top")
         ax.set_xlim(0.0, t_end)
+    if "stops" in d:
+        axes[0].set_title("tracking error e = w_ref − w per mode (grey: frictionless; shaded: stops; right of the "
+                          "dotted line: metrics window)", fontsize=9, loc="left")
     lim = 1.15 * peak if math.isfinite(peak) and peak > 0 else 1.0
     axes[0].set_ylim(-lim, lim)
     return fig
@@ -381,7 +462,9 @@ def plot_error(comp) -> Figure:
         One panel per mode, the min/max envelope of ``w_ref - w``
         (:func:`minmax_envelope`) in the mode's colour over the frictionless
         run's envelope (grey), the metrics window (second half) marked and its
-        RMS error written in the panel.
+        RMS error written in the panel; for a reference with stops the dwells
+        shaded and the RMS error in motion and the longest settling time of the
+        second half written too.
     """
     return _draw_error(_error_inputs(comp))
 

@@ -18,7 +18,7 @@ from adaptive_ff.compensation.gate import OutlierGate
 from controllers.simulation.closed_loop import plant_table, sensor_and_drive
 from controllers.simulation.compensators import MODES, ModeOptions, TrueFriction, build_modes
 from controllers.simulation.engine import EngineRun
-from controllers.simulation.metrics import METRIC_NAMES, metrics_columns, reversal_times
+from controllers.simulation.metrics import METRIC_NAMES, metrics_columns, reversal_times, engine_motion
 from plant.errors import ParameterError
 from plant.excitation import Reference
 from plant.rows import check_integrable, integrable_rows, plant_rows, plant_state, plant_states
@@ -46,6 +46,10 @@ class BatchResult:
         |w| left ``w_limit``.
     compensators : tuple
         The compensator object of each scenario (None where the mode has none), with its final state.
+    motion : tuple of MotionMetrics
+        Per scenario: error in motion and at standstill, settling time and largest error of each stop of the
+        reference, largest error at each reversal (:class:`controllers.simulation.metrics.MotionMetrics`; the
+        per-event arrays are the scenario's own).
     """
 
     mode: str
@@ -57,21 +61,47 @@ class BatchResult:
     u_rms: np.ndarray
     diverged: np.ndarray
     compensators: tuple = ()
+    motion: tuple = ()
+
+    @property
+    def has_stops(self) -> bool:
+        """Whether the common reference comes to rest: the motion metrics are then part of :meth:`to_dict` and
+        :meth:`summary`."""
+        return bool(self.motion) and self.motion[0].n_stops > 0
+
+    def motion_column(self, name: str) -> np.ndarray:
+        """One aggregate of :class:`controllers.simulation.metrics.MotionMetrics` (``rms_motion``,
+        ``settling_max``, ``max_reversal``, ...) over the scenarios, shape (B,)."""
+        return np.array([getattr(m, name) for m in self.motion], dtype=float)
 
     def to_dict(self) -> dict:
-        """Mode, metric arrays as lists (NaN -> None) and the diverged flags (strict JSON)."""
+        """Mode, metric arrays as lists (NaN -> None) and the diverged flags (strict JSON); ``"motion"``, one
+        :meth:`MotionMetrics.to_dict` per scenario, when the reference has stops (:attr:`has_stops`)."""
         d = {"mode": self.mode, "diverged": [bool(x) for x in self.diverged]}
         d.update({k: getattr(self, k).tolist() for k in METRIC_NAMES})
+        if self.has_stops:
+            d["motion"] = [m.to_dict() for m in self.motion]
         return json_safe(d)
 
     def summary(self) -> str:
-        """One line: B, median and worst second-half RMS error (deg/s), diverged runs."""
+        """One line: B, median and worst second-half RMS error (deg/s), diverged runs; when the reference has
+        stops a second: median and worst in-motion RMS (deg/s) and longest settling time (s) over the
+        scenarios."""
         r = np.rad2deg(self.rms_second_half)
         fin = r[np.isfinite(r)]
         med = float(np.median(fin)) if fin.size else math.nan
         worst = float(np.max(fin)) if fin.size else math.nan
-        return (f"{self.mode}: B = {self.diverged.size}, second-half RMS median {med:.4f} deg/s, worst "
+        line = (f"{self.mode}: B = {self.diverged.size}, second-half RMS median {med:.4f} deg/s, worst "
                 f"{worst:.4f} deg/s, diverged {int(np.count_nonzero(self.diverged))}")
+        if not self.has_stops:
+            return line
+        rm = np.rad2deg(self.motion_column("rms_motion"))
+        rm = rm[np.isfinite(rm)]
+        st = self.motion_column("settling_max")
+        st = st[~np.isnan(st)]
+        return line + (f"\n  in motion RMS median {float(np.median(rm)) if rm.size else math.nan:.4f} deg/s, worst "
+                       f"{float(np.max(rm)) if rm.size else math.nan:.4f} deg/s; settling max over the scenarios "
+                       f"{float(np.max(st)) if st.size else math.nan:.3f} s")
 
 
 def _options_list(options, B: int) -> list:
@@ -206,7 +236,8 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
     oracle = isinstance(comps[0], TrueFriction)
     nz, nrows = _noise(noise, seeds, opts, B, n)
     w_default = 100.0 * float(np.max(np.abs(wr))) + 1.0
-    x = EngineRun(t=t, w_ref=wr, revs=reversal_times(t, wr), window=float(opts[0].reversal_window), dt=float(Tc),
+    revs = reversal_times(t, wr)
+    x = EngineRun(t=t, w_ref=wr, revs=revs, window=float(opts[0].reversal_window), dt=float(Tc),
                   n_scenarios=B, oracle=oracle)
     x.set_noise_table(nz if nrows else None)
     for b in range(B):
@@ -224,7 +255,9 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
     x.keep(rows)
     x.run()
     _, diverged, _ = x.outcome()
-    cols = metrics_columns(x.metrics())
+    states = x.metrics()
+    cols = metrics_columns(states)
     for k in METRIC_NAMES:
         cols[k][diverged] = np.nan
-    return BatchResult(mode=mode, diverged=diverged, compensators=tuple(comps), **cols)
+    motion = engine_motion(x, states, t, revs, window=float(opts[0].reversal_window), diverged=diverged)
+    return BatchResult(mode=mode, diverged=diverged, compensators=tuple(comps), motion=motion, **cols)

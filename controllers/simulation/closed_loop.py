@@ -21,7 +21,8 @@ from controllers.design.pi import PIController
 from controllers.simulation.compensators import MODES, ESTIMATORS, ModeOptions, TrueFriction, build_mode
 from controllers.simulation.engine import EngineRun
 from controllers.simulation.memory import MODE_SIGNALS, check_run_memory
-from controllers.simulation.metrics import LoopMetrics, loop_metrics, metrics_result, reversal_times
+from controllers.simulation.metrics import (LoopMetrics, MotionMetrics, engine_motion, loop_metrics, metrics_result,
+                                            reversal_times)
 from controllers.simulation.sensor_drive import Drive, Sensor
 from controllers.simulation.user_compensator import UserCompensator, is_user_compensator
 from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
@@ -31,7 +32,7 @@ from plant.rows import stack_params
 from plant.results import axes_or_new, json_safe
 
 __all__ = ["MODES", "ESTIMATORS", "ModeOptions", "LoopMetrics", "ClosedLoopResult", "run_closed_loop", "run_mode",
-           "run_own", "loop_metrics", "plant_table"]
+           "run_own", "loop_metrics", "plant_table", "mark_motion"]
 
 
 @dataclass(frozen=True)
@@ -64,6 +65,9 @@ class ClosedLoopResult:
         sensor gate replaced by the last valid one), ``Tc``, ``noise_std``,
         ``decimate`` and the compensator's own counters (``n_rejected``,
         ``n_updates``, ``n_gated``, ``n_implausible``, ...).
+    motion : MotionMetrics or None
+        Error in motion and at standstill, settling time and largest error of each stop, largest error at each
+        reversal (:class:`controllers.simulation.metrics.MotionMetrics`); every sample, whatever ``decimate``.
     """
 
     mode: str
@@ -79,27 +83,75 @@ class ClosedLoopResult:
     estimate: FrictionEstimate | None
     metrics: LoopMetrics
     info: dict = field(default_factory=dict)
+    motion: MotionMetrics | None = None
+
+    @property
+    def has_stops(self) -> bool:
+        """Whether the reference comes to rest (a point-to-point move, the end of a reversing run): the motion
+        metrics are then part of :meth:`to_dict` and :meth:`summary`."""
+        return self.motion is not None and self.motion.n_stops > 0
 
     def to_dict(self) -> dict:
-        """Mode, metrics, final estimate and info as strict JSON (no signals; NaN -> None)."""
+        """Mode, metrics, final estimate and info as strict JSON (no signals; NaN -> None); with ``"motion"``
+        (:meth:`MotionMetrics.to_dict`) when the reference has stops (:attr:`has_stops`; a reference that never
+        stops, the multi-sine, keeps the keys it had)."""
         est = None if self.estimate is None else self.estimate.to_dict()
-        return json_safe({"mode": self.mode, "metrics": self.metrics.to_dict(), "estimate": est,
-                          "info": self.info})
+        d = {"mode": self.mode, "metrics": self.metrics.to_dict(), "estimate": est, "info": self.info}
+        if self.has_stops:
+            d["motion"] = self.motion.to_dict()
+        return json_safe(d)
 
     def summary(self) -> str:
-        """Two lines: the mode and its metrics, and whether it diverged."""
+        """The mode and its metrics, and whether it diverged; then, when the reference has stops, the motion
+        metrics (:meth:`MotionMetrics.summary`)."""
         tail = " (diverged)" if self.info.get("diverged") else ""
-        return f"{self.mode}: {self.metrics.summary()}{tail}"
+        head = f"{self.mode}: {self.metrics.summary()}{tail}"
+        return head + ("\n" + self.motion.summary() if self.has_stops else "")
 
     def plot(self, ax=None):
-        """Reference and velocity (deg/s) over time on ``ax`` (a new figure when None); returns the Axes."""
-        ax = axes_or_new(ax, figsize=(8.0, 3.0))
+        """Reference and velocity (deg/s) over time on ``ax`` (a new figure when None); returns the Axes.
+
+        When the reference has stops (:attr:`has_stops`, a robot's moves): each stop's dwell shaded (grey), the
+        time its error settled into the band marked (a green tick at ``t_start + settling_time``; a red one at the
+        dwell's end when it did not settle), each reversal a dotted vertical line (:func:`mark_motion`), and the
+        legend to the right of the axes (a new figure is made wider for it).
+        """
+        stops = self.has_stops
+        ax = axes_or_new(ax, figsize=(9.5, 3.0) if stops else (8.0, 3.0))
         ax.plot(self.t, np.rad2deg(self.w_ref), "k--", lw=0.8, label="reference")
         ax.plot(self.t, np.rad2deg(self.w), lw=1.0, label=self.mode)
         ax.set_xlabel("time [s]")
         ax.set_ylabel("velocity [deg/s]")
-        ax.legend(loc="upper right")
+        if stops:
+            mark_motion(ax, self.motion)
+            ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=8, frameon=False)
+        else:
+            ax.legend(loc="upper right")
         return ax
+
+
+def mark_motion(ax, motion: MotionMetrics, *, labels: bool = True) -> None:
+    """Mark the stops and reversals of ``motion`` on the time axis of ``ax`` (matplotlib Axes).
+
+    Each stop's dwell (``stop_start`` to ``stop_end``) is shaded grey, its settling marked by a green vertical
+    tick at ``stop_start + settling_time`` (red at ``stop_end`` when it did not settle, none when incomplete),
+    each reversal a dotted grey vertical line. ``labels``: put one legend entry per kind.
+    """
+    first = {"dwell": labels, "settled": labels, "not settled": labels, "reversal": labels}
+
+    def lab(k):
+        on = first[k]
+        first[k] = False
+        return k if on else None
+
+    for a, b, ts in zip(motion.stop_start, motion.stop_end, motion.settling_time):
+        ax.axvspan(a, b, color="0.85", lw=0, zorder=0, label=lab("dwell"))
+        if np.isfinite(ts):
+            ax.axvline(a + ts, color="#009E73", lw=0.9, ymax=0.12, label=lab("settled"))
+        elif np.isinf(ts):
+            ax.axvline(b, color="#D55E00", lw=0.9, ymax=0.12, label=lab("not settled"))
+    for tr in motion.reversal_times:
+        ax.axvline(tr, color="0.5", lw=0.7, ls=":", label=lab("reversal"))
 
 
 def plant_table(p, t, Tc: float) -> tuple:
@@ -299,6 +351,7 @@ def _run_loop(plant, controller, compensator, reference, *, noise_std, rng, faul
                    float(reversal_window))
 
 
+
 def _checked(name: str, obj, cls):
     if obj is not None and not isinstance(obj, cls):
         raise ParameterError(f"{name} must be a {cls.__name__} or None, got {type(obj).__name__}")
@@ -319,6 +372,7 @@ def _result(x: EngineRun, plant, compensator, t, wr, revs, gate, decimate, n_the
     k_end, diverged, n_th = (a[0] for a in x.outcome())
     n = t.shape[0]
     metrics = metrics_result(x.scenarios[0].metrics)
+    motion = engine_motion(x, x.metrics(), t, revs, window=window, diverged=[bool(diverged)])[0]
     if diverged:
         nan = math.nan
         rev = metrics.rms_reversal
@@ -341,7 +395,7 @@ def _result(x: EngineRun, plant, compensator, t, wr, revs, gate, decimate, n_the
     est = getattr(compensator, "estimate", None)
     est = est if isinstance(est, FrictionEstimate) else None
     return ClosedLoopResult(mode=mode, t=ts, w_ref=wrs, w=W, w_meas=WM, u=U, u_ff=UFF, f=F, t_theta=t_th, theta=th,
-                            estimate=est, metrics=metrics, info=info)
+                            estimate=est, metrics=metrics, info=info, motion=motion)
 
 
 def run_own(plant, reference: Reference, compensator, options: ModeOptions, *, name: str | None = None,

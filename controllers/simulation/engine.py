@@ -31,7 +31,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from controllers._cctl import ffi, lib
-from controllers.simulation.metrics import METRICS_DTYPE
+from controllers.simulation.metrics import METRICS_DTYPE, SETTLE_SHARE, stop_intervals
 from plant.errors import ParameterError
 
 __all__ = ["EngineRun", "THETA_NMAX", "engine_threads"]
@@ -91,6 +91,9 @@ class EngineRun:
         Record every ``decimate``-th period (0: nothing recorded).
     n_theta, m_theta : int
         Length of the compensator's parameter vector and capacity of the estimate history (0: none).
+    settle_share, settle_floor : float
+        Settling band of the reference's stops: ``max(settle_share * move peak speed, settle_floor)`` (-, rad/s;
+        :class:`controllers.simulation.metrics.MotionMetrics`).
 
     Attributes
     ----------
@@ -100,10 +103,17 @@ class EngineRun:
         Estimates after updates and their periods.
     scenarios : cffi ``ctl_scenario[B]``
         The scenarios' structs (plant state, gate, PI, metrics, outcome) after :meth:`run`.
+    stops : (ndarray, ndarray, ndarray), each shape (S,)
+        The reference's stops: first and last sample time (s) and settling band (rad/s)
+        (:func:`controllers.simulation.metrics.stop_intervals`).
+    settle, stop_max : ndarray, shape (B, S); rev_max : ndarray, shape (B, R)
+        Per scenario: settling time (s) and largest |e| (rad/s) of each stop, largest |e| in each reversal's window
+        (rad/s); written by the C engine (``ctl_events``), NaN where the event was not complete.
     """
 
     def __init__(self, *, t, w_ref, revs, window: float, dt: float, n_scenarios: int, faults=None,
-                 oracle: bool = False, decimate: int = 0, n_theta: int = 0, m_theta: int = 0):
+                 oracle: bool = False, decimate: int = 0, n_theta: int = 0, m_theta: int = 0,
+                 settle_share: float = SETTLE_SHARE, settle_floor: float = 0.0):
         if n_theta > THETA_NMAX:
             raise ParameterError(f"the compensator reports {n_theta} parameters, more than the engine's "
                                  f"{THETA_NMAX} (CTL_THETA_NMAX)")
@@ -132,6 +142,11 @@ class EngineRun:
         r.n_rec = n_rec
         r.n_theta = int(n_theta)
         r.m_theta = int(m_theta)
+        r.settle_share, r.settle_floor = float(settle_share), float(settle_floor)
+        self.stops = stop_intervals(self._t, self._wr, share=settle_share, floor=settle_floor)
+        S, R = self.stops[0].shape[0], self._revs.shape[0]
+        self.settle, self.stop_max, self.rev_max = np.empty((B, S)), np.empty((B, S)), np.empty((B, R))
+        ev = [ffi.from_buffer("double[]", a) for a in (self.settle, self.stop_max, self.rev_max)]
         self.scenarios = ffi.new("ctl_scenario[]", B)
         self._keep = []
         self._ops = {}
@@ -141,6 +156,7 @@ class EngineRun:
         for b in range(B):
             sc = self.scenarios[b]
             lib.ctl_scenario_init(ffi.addressof(self.scenarios, b), float(self._wr[0]) if n else 0.0)
+            lib.ctl_events_init(ffi.addressof(sc, "events"), ev[0] + b * S, ev[1] + b * S, S, ev[2] + b * R, R)
             if decimate > 0:
                 sc.rec = rec + b * 5 * n_rec
                 if m_theta > 0 and n_theta > 0:

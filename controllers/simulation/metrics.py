@@ -12,6 +12,15 @@ ZAMM 54, 1974), so a one-hour run at 1 kHz loses no digits and memory does not
 grow with the run length. :func:`metrics_result` and :func:`metrics_columns`
 turn accumulators (a ``ctl_metrics *``, a ``ctl_metrics[]`` array, or a numpy
 array of :data:`METRICS_DTYPE`) into results.
+
+:class:`MotionMetrics` says what happened on a robot's motion (point-to-point
+moves with dwell, constant speed with reversals, :mod:`plant.motion`): the RMS
+error in motion and at standstill, the settling time and largest error of each
+stop, the largest error at each reversal. The same C accumulates it
+(``ctl_metrics_add_motion``, ``ctl_motion_where``, ``ctl_events_add`` of
+``controllers/csrc/ctl_metrics.c``; the definitions are in its header and in
+:class:`MotionMetrics`), in the engine and in :func:`motion_metrics` over a
+recorded run.
 """
 
 from __future__ import annotations
@@ -26,7 +35,11 @@ from plant.errors import ParameterError, SignalError, check_nonnegative, check_s
 
 __all__ = ["LoopMetrics", "loop_metrics", "reversal_times", "metrics_update", "metrics_where", "metrics_add",
            "metrics_result", "metrics_columns", "new_metrics", "METRICS_DTYPE", "METRIC_NAMES", "deviation_rms",
-           "first_active_time"]
+           "first_active_time", "MotionMetrics", "motion_metrics", "motion_result", "engine_motion", "stop_intervals",
+           "SETTLE_SHARE"]
+
+#: Default settling band of a stop as a share of the move's peak speed (2 %, :class:`MotionMetrics`).
+SETTLE_SHARE = 0.02
 
 #: Field names of :class:`LoopMetrics`, in order.
 METRIC_NAMES = ("rms", "max", "rms_second_half", "max_second_half", "rms_reversal", "u_rms")
@@ -370,3 +383,339 @@ def first_active_time(t, u_c) -> float | None:
         raise SignalError(f"t and u_c must have the same shape, got {t.shape} and {u_c.shape}")
     k = np.flatnonzero(np.isfinite(u_c) & (u_c != 0.0))
     return float(t[k[0]]) if k.size else None
+
+
+# --------------------------------------------------------------------------- motion: stops and reversals
+
+
+def _nan_or(x) -> float | None:
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+@dataclass(frozen=True)
+class MotionMetrics:
+    """What happened at each stop and reversal of a robot's motion, and the error in motion and at standstill.
+
+    Velocity error ``e = w_ref - w`` (rad/s), the quantity the loop tracks (a position error would add the
+    integral of ``e`` since the move began, which the velocity loop does not control). Definitions (C
+    ``controllers/csrc/ctl_metrics.h``):
+
+    * **at standstill**: a sample with ``w_ref == 0`` in a run of at least two such samples, or at either end of
+      the reference; **in motion**: every other sample (a lone zero sample where the reference crosses zero is
+      motion, a reversal);
+    * **a stop**: a run of standstill samples that follows motion (:meth:`plant.excitation.Reference.stops`), the
+      dwell from its first sample to its last (the sample before the next move, or the end of the run);
+    * **settling band** of a stop: ``b = max(share * peak, floor)`` (rad/s), ``peak`` the largest ``|w_ref|`` of
+      the move before it (since the previous standstill);
+    * **settling time** of a stop: ``t[j+1] - t[k0]`` with ``k0`` its first sample and ``j`` its last sample with
+      ``|e| > b`` (0 when there is none), to one sample; ``inf`` when ``|e| > b`` at the stop's last sample (it
+      did not settle before the next move or the end of the run); NaN when the run ended before the stop did
+      (diverged);
+    * **reversal window**: the samples whose nearest reversal (the earlier of two equally near) is within
+      ``window`` s (the samples of :attr:`LoopMetrics.rms_reversal`, here over the whole run); the largest
+      ``|e|`` in each; NaN where the run ended before the window did.
+
+    Attributes
+    ----------
+    rms_motion, rms_standstill : float
+        RMS of ``e`` over the second-half samples in motion and at standstill (rad/s); NaN without such samples
+        or for a diverged run.
+    max_standstill : float
+        Largest ``|e|`` over the second-half samples at standstill (rad/s): the drift while the reference holds
+        still.
+    t_mid : float
+        Start of the second half (s), ``(t[0] + t[-1])/2``.
+    stop_start, stop_end : ndarray, shape (S,)
+        First and last sample time of each stop (s).
+    stop_band : ndarray, shape (S,)
+        Settling band of each stop (rad/s).
+    settling_time : ndarray, shape (S,)
+        Settling time of each stop (s; inf: not settled, NaN: not complete).
+    stop_max : ndarray, shape (S,)
+        Largest ``|e|`` during each stop (rad/s).
+    reversal_times : ndarray, shape (R,)
+        Reversal times of the reference (s).
+    reversal_max : ndarray, shape (R,)
+        Largest ``|e|`` in each reversal's window (rad/s).
+    window, share, floor : float
+        Half-width of the reversal windows (s), the band's share of the peak speed (-) and its floor (rad/s).
+
+    Notes
+    -----
+    The aggregates (:attr:`settling_median`, :attr:`settling_max`, :attr:`n_unsettled`, :attr:`max_reversal`)
+    are over the events of the second half (a stop or reversal at or after :attr:`t_mid`), as the RMS of
+    :class:`LoopMetrics` (after adaptation transients); the arrays hold every event.
+    """
+
+    rms_motion: float
+    rms_standstill: float
+    max_standstill: float
+    t_mid: float
+    stop_start: np.ndarray
+    stop_end: np.ndarray
+    stop_band: np.ndarray
+    settling_time: np.ndarray
+    stop_max: np.ndarray
+    reversal_times: np.ndarray
+    reversal_max: np.ndarray
+    window: float
+    share: float
+    floor: float
+
+    @property
+    def n_stops(self) -> int:
+        """Number of stops of the reference."""
+        return int(self.stop_start.shape[0])
+
+    @property
+    def n_reversals(self) -> int:
+        """Number of reversals of the reference."""
+        return int(self.reversal_times.shape[0])
+
+    def _late_stops(self) -> np.ndarray:
+        return self.settling_time[self.stop_start >= self.t_mid]
+
+    @property
+    def settling_median(self) -> float:
+        """Median settling time of the second-half stops (s; inf when more than half did not settle, NaN without
+        such stops or when one was not complete)."""
+        s = self._late_stops()
+        return float(np.median(s)) if s.size and not np.isnan(s).any() else math.nan
+
+    @property
+    def settling_max(self) -> float:
+        """Longest settling time of the second-half stops (s; inf when one did not settle, NaN without such stops
+        or when one was not complete)."""
+        s = self._late_stops()
+        return float(np.max(s)) if s.size and not np.isnan(s).any() else math.nan
+
+    @property
+    def n_unsettled(self) -> int:
+        """Second-half stops whose error did not settle into the band before the stop ended."""
+        return int(np.count_nonzero(np.isinf(self._late_stops())))
+
+    @property
+    def max_reversal(self) -> float:
+        """Largest ``|e|`` at the second-half reversals (rad/s; NaN without such reversals or when one window was
+        not complete)."""
+        m = self.reversal_max[self.reversal_times >= self.t_mid]
+        return float(np.max(m)) if m.size else math.nan
+
+    def to_dict(self) -> dict:
+        """Strict JSON: the aggregates, then one dict per stop and per reversal (SI units; NaN and inf as None,
+        with ``settled`` False for a stop that did not settle, None for one not complete)."""
+        stops = []
+        for a, b, band, ts, mx in zip(self.stop_start, self.stop_end, self.stop_band, self.settling_time,
+                                      self.stop_max):
+            settled = None if math.isnan(ts) else bool(math.isfinite(ts))
+            stops.append({"t_start": float(a), "t_end": float(b), "band": float(band), "settling_time": _nan_or(ts),
+                          "settled": settled, "max": _nan_or(mx)})
+        revs = [{"t": float(t), "max": _nan_or(m)} for t, m in zip(self.reversal_times, self.reversal_max)]
+        return {"rms_motion": _nan_or(self.rms_motion), "rms_standstill": _nan_or(self.rms_standstill),
+                "max_standstill": _nan_or(self.max_standstill), "n_stops": self.n_stops,
+                "settling_median": _nan_or(self.settling_median), "settling_max": _nan_or(self.settling_max),
+                "n_unsettled": self.n_unsettled, "n_reversals": self.n_reversals,
+                "max_reversal": _nan_or(self.max_reversal), "t_mid": _nan_or(self.t_mid),
+                "band_share": float(self.share), "band_floor": float(self.floor),
+                "reversal_window": float(self.window), "stops": stops, "reversals": revs}
+
+    def summary(self) -> str:
+        """Up to three lines (velocities in deg/s): RMS in motion and at standstill, settling of the stops,
+        error at the reversals (second half)."""
+        d = math.degrees
+        lines = [f"in motion RMS {d(self.rms_motion):.4f} deg/s; at standstill RMS {d(self.rms_standstill):.4f} "
+                 f"deg/s, max {d(self.max_standstill):.4f} deg/s (second half)"]
+        late = int(np.count_nonzero(self.stop_start >= self.t_mid))
+        if self.n_stops:
+            floor = f", floor {d(self.floor):.3g} deg/s" if self.floor > 0 else ""
+            unset = f"; {self.n_unsettled} did not settle before the stop ended" if self.n_unsettled else ""
+            lines.append(f"stops: {self.n_stops} ({late} in the second half), settling median "
+                         f"{self.settling_median:.3f} s, max {self.settling_max:.3f} s (band {100 * self.share:g} % "
+                         f"of the move's peak speed{floor}){unset}")
+        if self.n_reversals:
+            late = int(np.count_nonzero(self.reversal_times >= self.t_mid))
+            lines.append(f"reversals: {self.n_reversals} ({late} in the second half), largest |e| "
+                         f"{d(self.max_reversal):.4f} deg/s within ±{self.window:g} s")
+        return "\n".join(lines)
+
+
+def stop_intervals(t, w_ref, *, share: float = SETTLE_SHARE, floor: float = 0.0) -> tuple:
+    """The stops of a reference and their settling bands (C ``ctl_motion_stops``; :class:`MotionMetrics`).
+
+    Parameters
+    ----------
+    t, w_ref : array_like, shape (N,)
+        Time (s, increasing) and reference velocity (rad/s).
+    share : float, keyword-only
+        Band as a share of the move's peak speed (-), >= 0; default :data:`SETTLE_SHARE`.
+    floor : float, keyword-only
+        The band's lower bound (rad/s), >= 0 (e.g. a noise level).
+
+    Returns
+    -------
+    start, end, band : ndarray, shape (S,)
+        First and last sample time of each stop (s; ``start`` equals
+        :meth:`plant.excitation.Reference.stops`) and its band ``max(share*peak, floor)`` (rad/s).
+
+    Raises
+    ------
+    ParameterError
+        ``share`` or ``floor`` negative or not finite, shapes differ.
+    """
+    share = check_nonnegative("share", share)
+    floor = check_nonnegative("floor", floor)
+    for name, v in (("share", share), ("floor", floor)):
+        if not math.isfinite(v):
+            raise ParameterError(f"{name} must be finite, got {v!r}")
+    t = np.ascontiguousarray(t, dtype=np.float64)
+    w = np.ascontiguousarray(w_ref, dtype=np.float64)
+    if t.ndim != 1 or w.shape != t.shape:
+        raise ParameterError(f"t and w_ref must be 1-D of one shape, got {t.shape} and {w.shape}")
+    tp, wp = ffi.from_buffer("double[]", t), ffi.from_buffer("double[]", w)
+    n = t.shape[0]
+    S = int(lib.ctl_motion_stops(tp, wp, n, share, floor, ffi.NULL, ffi.NULL, ffi.NULL, 0))
+    out = [np.empty(S) for _ in range(3)]
+    if S:
+        lib.ctl_motion_stops(tp, wp, n, share, floor, *(ffi.from_buffer("double[]", a) for a in out), S)
+    return tuple(out)
+
+
+def motion_result(st, stops, settle, stop_max, revs, rev_max, *, t_mid: float, window: float, share: float,
+                  floor: float, diverged: bool = False) -> MotionMetrics:
+    """:class:`MotionMetrics` of one accumulator and its event arrays (what the engine or
+    :func:`motion_metrics` wrote).
+
+    Parameters
+    ----------
+    st : cffi ``ctl_metrics`` (pointer or element), or a numpy record of :data:`METRICS_DTYPE` of length 1
+        The accumulator (its motion sums).
+    stops : (ndarray, ndarray, ndarray)
+        :func:`stop_intervals` of the reference.
+    settle, stop_max : ndarray, shape (S,)
+        Settling time (s) and largest error (rad/s) of each stop (``ctl_events``).
+    revs, rev_max : ndarray, shape (R,)
+        Reversal times (s) and the largest error in each window (rad/s).
+    t_mid, window, share, floor : float, keyword-only
+        Start of the second half (s), reversal half-window (s), band share (-) and floor (rad/s).
+    diverged : bool, keyword-only
+        The run stopped early: the RMS values and the standstill maximum become NaN (the event arrays hold NaN
+        where an event was not complete).
+
+    Returns
+    -------
+    MotionMetrics
+    """
+    rec = _records(st)
+    if rec.shape != (1,):
+        raise ParameterError(f"st must be one accumulator, got {rec.shape[0]}")
+    r = rec[0]
+    with np.errstate(all="ignore"):
+        nm, nr = float(r["n_move"]), float(r["n_rest"])
+        rms_m = math.sqrt((r["e2_move"] + r["e2_move_c"]) / nm) if nm > 0 else math.nan
+        rms_r = math.sqrt((r["e2_rest"] + r["e2_rest_c"]) / nr) if nr > 0 else math.nan
+        mx_r = float(r["e_max_rest"]) if nr > 0 else math.nan
+    if diverged:
+        rms_m = rms_r = mx_r = math.nan
+    a, b, band = (np.array(x, dtype=float) for x in stops)
+    return MotionMetrics(rms_motion=float(rms_m), rms_standstill=float(rms_r), max_standstill=mx_r,
+                         t_mid=float(t_mid), stop_start=a, stop_end=b, stop_band=band,
+                         settling_time=np.array(settle, dtype=float), stop_max=np.array(stop_max, dtype=float),
+                         reversal_times=np.array(revs, dtype=float), reversal_max=np.array(rev_max, dtype=float),
+                         window=float(window), share=float(share), floor=float(floor))
+
+
+def engine_motion(run, states, t, revs, *, window: float, diverged) -> tuple:
+    """:class:`MotionMetrics` of every scenario of an engine run, one per scenario.
+
+    Parameters
+    ----------
+    run : controllers.simulation.engine.EngineRun
+        After ``run()``: its ``stops``, ``settle``, ``stop_max``, ``rev_max`` (the per-event arrays, shared as
+        views: one row per scenario) and the band of its ``c_run``.
+    states : ndarray of :data:`METRICS_DTYPE`, shape (B,)
+        The scenarios' accumulators (``run.metrics()``).
+    t : ndarray, shape (N,)
+        Time of the reference (s).
+    revs : ndarray, shape (R,)
+        Its reversal times (s).
+    window : float, keyword-only
+        Half-width of the reversal windows (s).
+    diverged : array_like of bool, shape (B,), keyword-only
+        Scenarios that stopped early: NaN RMS and standstill maximum (:func:`motion_result`).
+
+    Returns
+    -------
+    tuple of MotionMetrics
+        Entry ``b`` equals ``motion_result(states[b], ...)`` bit for bit (the same IEEE operations, vectorised).
+    """
+    st = _records(states)
+    dv = np.asarray(diverged, dtype=bool).reshape(-1)
+    with np.errstate(all="ignore"):
+        nm, nr = st["n_move"].astype(np.float64), st["n_rest"].astype(np.float64)
+        rm = np.where((nm > 0) & ~dv, np.sqrt((st["e2_move"] + st["e2_move_c"]) / nm), np.nan)
+        rr = np.where((nr > 0) & ~dv, np.sqrt((st["e2_rest"] + st["e2_rest_c"]) / nr), np.nan)
+        mr = np.where((nr > 0) & ~dv, st["e_max_rest"], np.nan)
+    c = run.c_run
+    t_mid = 0.5 * (t[0] + t[-1]) if len(t) else math.nan
+    a, b, band = (np.array(x, dtype=float) for x in run.stops)
+    revs = np.array(revs, dtype=float)
+    for x in (a, b, band, revs):
+        x.flags.writeable = False  # shared by the scenarios' results
+    common = dict(t_mid=float(t_mid), stop_start=a, stop_end=b, stop_band=band, reversal_times=revs,
+                  window=float(window), share=float(c.settle_share), floor=float(c.settle_floor))
+    return tuple(MotionMetrics(rms_motion=float(rm[i]), rms_standstill=float(rr[i]), max_standstill=float(mr[i]),
+                               settling_time=run.settle[i], stop_max=run.stop_max[i], reversal_max=run.rev_max[i],
+                               **common) for i in range(st.shape[0]))
+
+
+def motion_metrics(t, w_ref, w, *, reversals, window: float = 0.2, share: float = SETTLE_SHARE,
+                   floor: float = 0.0) -> MotionMetrics:
+    """:class:`MotionMetrics` of a recorded run (the engine's accumulators, C ``ctl_motion_accumulate``).
+
+    Parameters
+    ----------
+    t, w_ref, w : array_like, shape (N,)
+        Time (s, increasing), reference and actual velocity (rad/s), every controller period.
+    reversals : array_like, shape (R,)
+        Reversal times of the reference (s), sorted (:func:`reversal_times`).
+    window : float, keyword-only
+        Half-width of the reversal windows (s).
+    share, floor : float, keyword-only
+        Settling band ``max(share * move peak, floor)`` (-, rad/s).
+
+    Returns
+    -------
+    MotionMetrics
+        Equal bit for bit to the engine's for the same run (the same C on the same samples).
+
+    Raises
+    ------
+    SignalError
+        ``t`` empty or not finite.
+    ParameterError
+        Shapes differ, ``window``, ``share`` or ``floor`` negative.
+    """
+    t = check_signal("t", t)
+    n = t.shape[0]
+    w_ref = np.ascontiguousarray(w_ref, dtype=np.float64)
+    w = np.asarray(w, dtype=float)
+    for name, a in (("w_ref", w_ref), ("w", w)):
+        if a.shape != (n,):
+            raise ParameterError(f"{name} must have shape ({n},), got {a.shape}")
+    window = check_nonnegative("window", window)
+    t = np.ascontiguousarray(t, dtype=np.float64)
+    stops = stop_intervals(t, w_ref, share=share, floor=floor)
+    revs, r, nrev = _revs_buffer(np.sort(np.asarray(reversals, dtype=float)))
+    S = stops[0].shape[0]
+    settle, stop_max, rev_max = np.empty(S), np.empty(S), np.empty(nrev)
+    m, c, ev = new_metrics(), ffi.new("ctl_motion *"), ffi.new("ctl_events *")
+    lib.ctl_motion_init(c, share, floor, window)
+    lib.ctl_events_init(ev, ffi.from_buffer("double[]", settle), ffi.from_buffer("double[]", stop_max), S,
+                        ffi.from_buffer("double[]", rev_max), nrev)
+    e = np.ascontiguousarray(w_ref - w, dtype=np.float64)
+    t_mid = 0.5 * (t[0] + t[-1])
+    lib.ctl_motion_accumulate(m, c, ev, ffi.from_buffer("double[]", t), ffi.from_buffer("double[]", w_ref),
+                              ffi.from_buffer("double[]", e), n, t_mid, r, nrev)
+    return motion_result(m, stops, settle, stop_max, revs, rev_max, t_mid=t_mid, window=window, share=share,
+                         floor=floor)
