@@ -170,7 +170,7 @@ def comparison_table(comp, args) -> str:
     error at a reversal (``MotionMetrics``).
     """
     from controllers.cli.data import table_unit
-    from controllers.experiments.compare import settling_text
+    from controllers.experiments.compare import number_text, settling_text
 
     k, unit = table_unit(args)
     stops = getattr(comp, "has_stops", False)
@@ -183,10 +183,10 @@ def comparison_table(comp, args) -> str:
         eta = row["eta"]
         eta_text = f"{eta:>9.3f}" if eta is not None and eta == eta else f"{'n/a':>9}"
         line = (f"{row['mode']:<13}{k * row['rms']:>14.4f}{k * row['max']:>14.4f}"
-                f"{k * row['rms_reversal']:>23.4f}{row['u_rms']:>13.2f}{eta_text}")
+                f"{number_text(k * row['rms_reversal'], 23)}{row['u_rms']:>13.2f}{eta_text}")
         if stops:
             line += (f"{k * row['rms_motion']:>22.4f}{settling_text(row['settling_max'], row['n_unsettled']):>16}"
-                     f"{k * row['max_reversal']:>23.4f}")
+                     f"{number_text(k * row['max_reversal'], 23)}")
         lines.append(line)
     return "\n".join(lines)
 

@@ -31,8 +31,8 @@ from plant.results import axes_or_new, json_safe
 from plant.sampling import sample
 
 __all__ = ["Comparison", "CompareOptions", "ComparisonSetup", "compare", "comparison_reference", "eta",
-           "FIXED_METHODS", "PREFIT_MODES", "compensator_context", "friction_scale", "measurement_noise", "prefit_stribeck",
-           "prepare_comparison", "residual_cutoff"]
+           "FIXED_METHODS", "PREFIT_MODES", "compensator_context", "number_text", "friction_scale",
+           "measurement_noise", "prefit_stribeck", "prepare_comparison", "residual_cutoff"]
 
 #: Offline identification behind the ``fixed`` mode: the sliding-regime
 #: inverse-dynamics LS (:func:`adaptive_ff.compensation.sliding_estimator.fit_sliding`,
@@ -184,11 +184,11 @@ class Comparison:
             ton = "-" if row["t_ff_on"] is None else f"{row['t_ff_on']:.3f}"
             e, ef = ("-" if row[k] is None else f"{row[k]:.3f}" for k in ("eta", "eta_full"))
             line = (f"{row['mode']:<13}{d(row['rms']):>12.4f}{d(row['max']):>13.4f}"
-                    f"{d(row['rms_reversal']):>14.4f}{row['u_rms']:>13.2f}{e:>8}"
+                    f"{number_text(d(row['rms_reversal']), 14)}{row['u_rms']:>13.2f}{e:>8}"
                     f"{ef:>9}{d(row['rms_dev']):>12.4f}{ton:>9}")
             if stops:
                 line += (f"{d(row['rms_motion']):>12.4f}{settling_text(row['settling_max'], row['n_unsettled']):>16}"
-                         f"{d(row['max_reversal']):>10.4f}")
+                         f"{number_text(d(row['max_reversal']), 10)}")
             lines.append(line)
         return "\n".join(lines)
 
@@ -569,6 +569,12 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
     return Comparison(plant=p, design=s.design, results=results, eta=etas, prefit=s.prefit, offline=s.offline,
                       model=s.model, experiment=s.experiment, J_design=s.J_design, notes=s.notes,
                       **_whole_run_metrics(results))
+
+
+def number_text(x: float, width: int, digits: int = 4) -> str:
+    """``x`` right-aligned in ``width`` characters with ``digits`` decimals, ``n/a`` where it is NaN (e.g. the
+    reversal RMS of a run without a reversal in its second half)."""
+    return f"{'n/a':>{width}}" if x != x else f"{x:>{width}.{digits}f}"
 
 
 def compensator_context(s: ComparisonSetup, o: CompareOptions) -> CompensatorContext:

@@ -350,7 +350,7 @@ def _draw_tracking(d: dict) -> Figure:
                 ax2.axvline(t0 + ts, color=colors[mode], lw=1.0, ls="--")
         unset = [m for m, ts in zs["settle"].items() if math.isinf(ts)]
         note = f"; not settled: {', '.join(unset)}" if unset else ""
-        ax1.set_title(f"stop at t = {t0:.2f} s (longest settling, second half; dwell shaded); error: band "
+        ax1.set_title(f"stop at t = {t0:.2f} s (longest settling, second half; dwell shaded)\nerror: band "
                       f"±{zs['band']:.3g} deg/s dotted, settled dashed{note}", fontsize=9, loc="left")
     ax1.set_xlim(t0 - half_window, t0 + half_window)
     _legend_right(fig, ax1)
