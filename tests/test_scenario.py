@@ -100,6 +100,7 @@ def test_the_cli_runs_a_scenario_with_an_own_compensator(tmp_path, capsys):
     d = json.loads(capsys.readouterr().out)
     html = Path(d["report"]).read_text(encoding="utf-8")
     assert html.count("lugre-model") >= 1 and "adaptive-dob" in html  # the own compensator's row in the report
+    assert "longest settling (s)" in html and "RMS error in motion" in html  # the columns of a reference with stops
     assert len(d["figures"]) >= 3 and all(Path(x).stat().st_size > 10_000 for x in d["figures"])
     assert set(d["modes"]) == {"none", "fixed", "adaptive", "adaptive-dob", "dob", "frictionless", "lugre-model"}
     assert d["scenario"]["name"] == "robot base joint, pick and place"

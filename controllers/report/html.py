@@ -282,13 +282,26 @@ def _section_design(analysis) -> str:
 
 
 def _section_comparison(comp) -> str:
+    from controllers.experiments.compare import settling_text
+
+    stops = getattr(comp, "has_stops", False)
     rows = []
     for r in comp.rows():
-        rows.append((r["mode"], _num(np.rad2deg(r["rms"]), ".4f"), _num(np.rad2deg(r["max"]), ".4f"),
-                     _num(np.rad2deg(r["rms_reversal"]), ".4f"), _num(r["u_rms"], ".2f"), _num(r["eta"], ".3f")))
-    out = _table(["mode", "RMS error (deg/s)", "max error (deg/s)", "reversal RMS (deg/s)", "u RMS (N·m)", "η"], rows)
+        row = (r["mode"], _num(np.rad2deg(r["rms"]), ".4f"), _num(np.rad2deg(r["max"]), ".4f"),
+               _num(np.rad2deg(r["rms_reversal"]), ".4f"), _num(r["u_rms"], ".2f"), _num(r["eta"], ".3f"))
+        if stops:
+            row += (_num(np.rad2deg(r["rms_motion"]), ".4f"), settling_text(r["settling_max"], r["n_unsettled"]),
+                    _num(np.rad2deg(r["max_reversal"]), ".4f"))
+        rows.append(row)
+    head = ["mode", "RMS error (deg/s)", "max error (deg/s)", "reversal RMS (deg/s)", "u RMS (N·m)", "η"]
+    if stops:
+        head += ["RMS error in motion (deg/s)", "longest settling (s)", "max error at a reversal (deg/s)"]
+    out = _table(head, rows)
     out += ('<p class="note">η = (RMS<sub>none</sub> − RMS<sub>mode</sub>) / (RMS<sub>none</sub> − '
-            'RMS<sub>frictionless</sub>), over the second half of the run.</p>')
+            'RMS<sub>frictionless</sub>), over the second half of the run.'
+            + (' In motion: where the reference moves; settling: after each stop of the second half, until '
+               '|w<sub>ref</sub> − w| stays within 2 % of the move\'s peak speed (“no (k)”: k stops did not '
+               'settle within their dwell).' if stops else '') + '</p>')
     return out
 
 
