@@ -27,12 +27,9 @@ __all__ = ["FrictionRipple"]
 
 def _finite(name: str, value) -> float:
     """``value`` as a float, or a ParameterError naming ``name`` and the value (not a real number, NaN, inf)."""
-    if isinstance(value, bool):
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ParameterError(f"{name} must be a finite number, got {value!r}")
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a finite number, got {value!r}") from None
+    v = float(value)
     if not math.isfinite(v):
         raise ParameterError(f"{name} must be a finite number, got {value!r}")
     return v
