@@ -44,8 +44,9 @@ class PayloadStep:
     Notes
     -----
     ``at(t)`` is the frozen plant at ``t`` (``base.at(t)`` for a time-varying base) with ``J = J_after`` where
-    ``t >= t_step``. Attribute access not defined here (``J``, ``Vs``, ``friction``, ...) is delegated to the
-    plant at ``t = 0`` (as :class:`plant.drift.FrictionDrift`): the design inertia ``J_design`` a compensator gets
+    ``t >= t_step``. Attribute access not defined here (``Vs``, ``friction``, a drift's ``Fc_change``, ...) is
+    delegated to ``base`` (and so to the plant at ``t = 0``, as :class:`plant.drift.FrictionDrift`), ``J`` is
+    ``at(0.0).J``: the design inertia ``J_design`` a compensator gets
     by default is the plant's ``J`` at ``t = 0`` (``at(0.0).J``; with ``t_step = 0`` that is ``J_after``): nothing
     of the true plant after ``t = 0`` reaches a compensator, which must cope with the new inertia itself. The plant
     file (:mod:`plant.models`) carries it as ``"payload": {"t_step": t, "J_after": J}``.
@@ -102,7 +103,9 @@ class PayloadStep:
     def __getattr__(self, name):
         if name.startswith("__") or name in ("base", "t_step", "J_after"):
             raise AttributeError(name)
-        return getattr(self.at(0.0), name)
+        if name == "J":  # the inertia at t = 0 (J_after where t_step == 0)
+            return self.at(0.0).J
+        return getattr(self.base, name)  # the base's (a drift's Fc_change; the friction of the plant at t = 0)
 
     def frictionless(self):
         """The same payload step on the base plant without friction."""

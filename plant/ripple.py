@@ -128,10 +128,7 @@ class FrictionRipple:
             raise AttributeError(name)  # a static ripple is a frozen plant: no time dependence
         if name == "at":
             return lambda t: replace(self, base=self.base.at(t))
-        base = self.base.at(0.0) if hasattr(self.base, "at") else self.base
-        if name == "row_starts":
-            return self.base.row_starts
-        return getattr(base, name)
+        return getattr(self.base, name)  # a time-varying base delegates on to its plant at t = 0
 
     def replace(self, **changes):
         """The ripple around ``base.replace(**changes)`` (e.g. ``J``: :class:`plant.payload.PayloadStep`; ``Fc``,

@@ -494,6 +494,12 @@ def check_integrable(rows, dt: float) -> None:
     j = int(np.argmin(ok))
     row = ptr[j]
     code, J, tau = int(row.model), row.J, row.tau
+    ripple = [row.ripple_a, row.ripple_n, row.ripple_phase]
+    if not (ripple[0] == 0.0 or (0.0 < ripple[0] < 1.0 and 0.0 < ripple[1] < math.inf
+                                 and math.isfinite(ripple[2]))):
+        raise ParameterError(f"plant (row {j}, model code {code}): the friction ripple (a, n, phase) = {ripple!r} "
+                             f"must have a = 0, or 0 < a < 1 with n > 0 and n, phase finite: the engine cannot "
+                             f"integrate it")
     if code == _LUGRE:
         ratio = row.sigma0 / J if J != 0.0 else math.inf
         wp = math.sqrt(ratio) if ratio >= 0.0 else math.nan

@@ -23,6 +23,7 @@ from plant import (AsymmetricParams, FrictionDrift, FrictionRipple, JointParams,
 from plant._cplant import ffi
 from plant.dynamics import plant_friction, plant_params, plant_simulate, plant_state, plant_step
 from plant.excitation import Reference
+from plant.rows import check_integrable
 
 DT = 1e-3
 P = preset("paper")  # J 4, Fc 25, Fs 35, Vs 0.02, delta 1, sigma 40, tau 0.02
@@ -332,3 +333,22 @@ def test_plant_file_tables_refuse_unknown_and_missing_keys():
         FrictionRipple(FrictionRipple(P, amplitude=0.1, harmonic=2.0), amplitude=0.1, harmonic=2.0)
     with pytest.raises(ParameterError, match="make_step"):
         FrictionRipple(P, amplitude=0.1, harmonic=2.0).make_step(DT)
+
+
+def test_a_hand_made_struct_with_a_bad_ripple_is_refused_before_a_run():
+    for model in (P, LUGRE):
+        par = plant_params(FrictionRipple(model, amplitude=0.1, harmonic=3.0))
+        check_integrable(par, DT)
+        for a, n in ((1.5, 3.0), (0.1, 0.0), (0.1, math.nan), (-0.2, 3.0)):
+            par.ripple_a, par.ripple_n = a, n
+            with pytest.raises(ParameterError, match="ripple"):
+                check_integrable(par, DT)
+
+
+def test_wrappers_delegate_to_the_plant_at_t0():
+    drift = FrictionDrift(P, Fc_change=0.3)
+    p = PayloadStep(FrictionRipple(drift, amplitude=0.1, harmonic=5.0), t_step=0.0, J_after=7.0)
+    assert p.J == 7.0 and p.Fc == P.Fc and p.Fc_change == 0.3 and p.MODEL == P.MODEL
+    assert p.frictionless().at(1.0).J == 7.0 and p.frictionless().at(1.0).Fc == 0.0
+    assert FrictionRipple(P, amplitude=0.1, harmonic=5.0).tau == P.tau
+    assert not hasattr(FrictionRipple(P, amplitude=0.1, harmonic=5.0), "at")

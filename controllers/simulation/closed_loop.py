@@ -181,7 +181,8 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     ----------
     plant : plant model
         True plant: :class:`plant.JointParams` or a variant of :mod:`plant.models` (LuGre, Karnopp,
-        asymmetric), possibly wrapped in :class:`plant.drift.FrictionDrift` (re-frozen every ``p.period`` s).
+        asymmetric), possibly wrapped in :class:`plant.drift.FrictionDrift` (re-frozen every ``p.period`` s),
+        :class:`plant.ripple.FrictionRipple` or :class:`plant.payload.PayloadStep` (:func:`plant_table`).
     controller : PIController
         The PI (gains, period ``Tc`` = the integration step, saturation); its integrator state is
         advanced in place.

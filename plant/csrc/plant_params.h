@@ -68,7 +68,7 @@ typedef struct plant_state {
     double w;    /* velocity (rad/s) */
     double s;    /* the model's internal state: friction torque f (N*m) of the lagged models, LuGre bristle
                     deflection z (rad) */
-    double aux;  /* == p->key: s is F(w) of these parameters with tau == 0 (eq. 3 cache: the next step reuses it;
+    double aux;  /* == p->key: s is F(w) (times R(q) with a ripple) of these parameters with tau == 0 (eq. 3 cache: the next step reuses it;
                     a swapped parameter struct invalidates it by the key); after a stiff step
                     (plant_lagged_stiff_step, plant_lugre_stiff_step) its last sub-step (s); any other value
                     (NaN) means neither */
@@ -101,7 +101,8 @@ void plant_steady_states(const plant_params *p, long n, double w0, plant_state *
 
 /* 1 where the plant can be integrated over steps of dt (s): LuGre: sqrt(sigma0/J)*dt <= plant_lugre_stiff_max
  * (plant_lugre_stiff_max; the pre-sliding frequency, Canudas de Wit et al. 1995); lagged models: J finite and > 0, tau finite and >= 0,
- * the levels (Fc, Fs - Fc, sigma per direction), Vs, delta, Fs_stick, dv finite. Else 0. Python:
+ * the levels (Fc, Fs - Fc, sigma per direction), Vs, delta, Fs_stick, dv finite; both: the ripple ripple_a == 0 or
+ * 0 < ripple_a < 1 with ripple_n > 0 finite and ripple_phase finite. Else 0. Python:
  * plant.rows.check_integrable / integrable_rows. */
 int plant_integrable(const plant_params *p, double dt);
 
