@@ -15,8 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from plant.errors import ParameterError
-from plant.ripple import _finite
+from plant.errors import ParameterError, check_finite_scalar
 
 __all__ = ["PayloadStep"]
 
@@ -38,8 +37,9 @@ class PayloadStep:
     Raises
     ------
     ParameterError
-        ``t_step < 0``, ``J_after <= 0``, a value not finite or not a number, or ``base`` not a plant; the key
-        and value named.
+        ``t_step < 0``, ``J_after <= 0``, a value not finite, or ``base`` not a plant; the key and value named.
+    TypeError
+        A value not a real number (a string, a bool).
 
     Notes
     -----
@@ -57,10 +57,10 @@ class PayloadStep:
     J_after: float
 
     def __post_init__(self):
-        t = _finite("t_step", self.t_step)
+        t = check_finite_scalar("t_step", self.t_step)
         if t < 0.0:
             raise ParameterError(f"t_step must be >= 0 (s), got {self.t_step!r}")
-        J = _finite("J_after", self.J_after)
+        J = check_finite_scalar("J_after", self.J_after)
         if not J > 0.0:
             raise ParameterError(f"J_after must be > 0 (kg·m²), got {self.J_after!r}")
         if not hasattr(self.base, "MODEL"):

@@ -14,25 +14,14 @@ with ``q`` the joint position (rad), a state the plant integrates with the same 
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
-from plant.errors import ParameterError
+from plant.errors import ParameterError, check_finite_scalar
 
 __all__ = ["FrictionRipple"]
-
-
-def _finite(name: str, value) -> float:
-    """``value`` as a float, or a ParameterError naming ``name`` and the value (not a real number, NaN, inf)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ParameterError(f"{name} must be a finite number, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v):
-        raise ParameterError(f"{name} must be a finite number, got {value!r}")
-    return v
 
 
 @dataclass(frozen=True)
@@ -57,8 +46,10 @@ class FrictionRipple:
     Raises
     ------
     ParameterError
-        ``amplitude`` not in [0, 1), ``harmonic`` not > 0, a value not finite (NaN, inf) or not a number, or
-        ``base`` a FrictionRipple itself (one ripple per plant) or not a plant model; the key and value named.
+        ``amplitude`` not in [0, 1), ``harmonic`` not > 0, a value not finite (NaN, inf), or ``base`` a
+        FrictionRipple itself (one ripple per plant) or not a plant model; the key and value named.
+    TypeError
+        A value not a real number (a string, a bool).
 
     Notes
     -----
@@ -93,13 +84,13 @@ class FrictionRipple:
     phase: float = 0.0
 
     def __post_init__(self):
-        a = _finite("amplitude", self.amplitude)
+        a = check_finite_scalar("amplitude", self.amplitude)
         if not 0.0 <= a < 1.0:
             raise ParameterError(f"amplitude must be in [0, 1) (the friction keeps its sign), got {self.amplitude!r}")
-        n = _finite("harmonic", self.harmonic)
+        n = check_finite_scalar("harmonic", self.harmonic)
         if not n > 0.0:
             raise ParameterError(f"harmonic must be > 0 (ripple periods per revolution), got {self.harmonic!r}")
-        phase = _finite("phase", self.phase)
+        phase = check_finite_scalar("phase", self.phase)
         if isinstance(self.base, FrictionRipple):
             raise ParameterError("base is a FrictionRipple already: one ripple per plant")
         if not hasattr(self.base, "MODEL"):
