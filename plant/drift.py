@@ -75,7 +75,8 @@ class FrictionDrift:
         object.__setattr__(self, "period", check_positive("period", self.period))
         if hasattr(self.base, "at"):
             raise ParameterError(f"the base of a FrictionDrift must not vary with time itself, got "
-                                 f"{type(self.base).__name__}: wrap the drift instead (PayloadStep(FrictionDrift(...)))")
+                                 f"{type(self.base).__name__}: wrap the drift instead "
+                                 f"(PayloadStep(FrictionDrift(...)))")
         model = self.base
         while hasattr(model, "ripple_fields"):  # a FrictionRipple: the fields of the model it wraps
             model = model.base
@@ -104,7 +105,8 @@ class FrictionDrift:
         return self.base.replace(**changes)
 
     def row_starts(self, t, Tc: float) -> np.ndarray:
-        """Samples of a run where the engine re-freezes the plant (:func:`controllers.simulation.closed_loop.plant_table`).
+        """Samples of a run where the engine re-freezes the plant
+        (:func:`controllers.simulation.closed_loop.plant_table`).
 
         Parameters
         ----------

@@ -61,9 +61,9 @@ def plant_rk4(par, w: float, s: float, Fw: float, u0: float, um: float, u1: floa
     Returns
     -------
     (float, float)
-        ``(w, s)`` after the step (the position is advanced too, ``dq/dt = w``, but not returned). With ``tau == 0`` (lagged models) the
-        friction is algebraic: RK4 integrates ``w`` alone and ``s`` is returned
-        unchanged (the caller sets ``f = F(w)``).
+        ``(w, s)`` after the step (the position is advanced too, ``dq/dt = w``, but not returned). With
+        ``tau == 0`` (lagged models) the friction is algebraic: RK4 integrates ``w`` alone and ``s`` is
+        returned unchanged (the caller sets ``f = F(w)``).
 
     Notes
     -----

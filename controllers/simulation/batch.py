@@ -115,14 +115,14 @@ def _unique(objs) -> tuple:
 def _plants_arrays(run_plants, plants, opts, t, wr, Tc) -> tuple:
     """Parameter rows, drift periods and initial states of the scenarios, and their sensor gates.
 
-    Returns ``((rows, st), tables, n_rows, row_ks, states), index, gates``: ``tables[i]`` (a cffi ``plant_params`` array),
-    ``row_ks[i]`` (the start samples of its rows, :func:`plant_table`; 0 for one row) and
+    Returns ``((rows, st), tables, n_rows, row_ks, states), index, gates``: ``tables[i]`` (a cffi
+    ``plant_params`` array), ``row_ks[i]`` (the start samples of its rows, :func:`plant_table`; 0 for one row) and
     ``states[i]`` (``plant_state``) of the distinct plant ``i`` (a plant object given more than once,
     ``[p] * B``, is packed and checked once), ``index[b]`` the distinct plant of scenario ``b``. Plants that do
     not drift are packed in one table (:func:`plant.rows.plant_rows`), checked in one array pass and
-    initialised in one C pass; a time-varying plant (drift, payload step) has one row per change. The arrays the entries point into
-    (``rows`` of the static plants, their states ``st``) are returned first: the caller keeps them alive (an
-    element of a cffi array does not own its memory)."""
+    initialised in one C pass; a time-varying plant (drift, payload step) has one row per change. The arrays
+    the entries point into (``rows`` of the static plants, their states ``st``) are returned first: the caller
+    keeps them alive (an element of a cffi array does not own its memory)."""
     uniq, idx = _unique(run_plants)
     static = [k for k, rp in enumerate(uniq) if not hasattr(rp, "at")]
     rows = plant_rows([uniq[k] for k in static])

@@ -44,12 +44,16 @@ void plant_rk4_at(const plant_params *p, double *w, double *s, double *q, double
  * stiffness at the step start, rate = sigma0*|w|max/g_min + base_rate (rate*h < 1; rate bounds the eigenvalues of
  * the linearised bristle-mass system, the damping sigma1 + sigma2 included, so |l|*h stays inside RK4's interval
  * (-2.78, 0]); n > PLANT_LUGRE_RK4_MAX: plant_lugre_stiff_step (any sigma1, sigma2 >= 0); a non-finite state
- * or input gives NaN. Eqs. 1-3 of Ruderman; Karnopp (1985); Canudas de Wit et al. (1995).
+ * or input gives NaN. With a friction ripple the lagged models' rate also covers the ripple's position stiffness
+ * and 4*n*|w| (its passing rate), LuGre's the levels within (1 -+ a), the position coupling and n*|w|, and LuGre
+ * takes 4 times the RK4 sub-steps of that rate (accuracy of its forced bristle mode; the stiff switch unchanged).
+ * Eqs. 1-3 of Ruderman; Karnopp (1985); Canudas de Wit et al. (1995).
  * Python: plant.dynamics.plant_step, make_plant_step. */
 void plant_step(const plant_params *p, plant_state *st, double u, double dt);
 
 /* Friction torque (N*m) of the plant in state *st: lagged models the friction state s (eq. 1); LuGre
- * sigma0*z + sigma1*dz/dt + sigma2*w (Canudas de Wit et al. 1995, eq. 3; with a ripple g and sigma2 times R(q)). Python: plant.dynamics.plant_friction. */
+ * sigma0*z + sigma1*dz/dt + sigma2*w (Canudas de Wit et al. 1995, eq. 3; with a ripple g and sigma2 times R(q)).
+ * Python: plant.dynamics.plant_friction. */
 double plant_friction(const plant_params *p, const plant_state *st);
 
 /* Open loop: plant_step over the n inputs u[k] (N*m, each held for dt s) from *st (advanced in place to the

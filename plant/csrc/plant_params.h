@@ -68,10 +68,10 @@ typedef struct plant_state {
     double w;    /* velocity (rad/s) */
     double s;    /* the model's internal state: friction torque f (N*m) of the lagged models, LuGre bristle
                     deflection z (rad) */
-    double aux;  /* == p->key: s is F(w) (times R(q) with a ripple) of these parameters with tau == 0 (eq. 3 cache: the next step reuses it;
-                    a swapped parameter struct invalidates it by the key); after a stiff step
-                    (plant_lagged_stiff_step, plant_lugre_stiff_step) its last sub-step (s); any other value
-                    (NaN) means neither */
+    double aux;  /* == p->key: s is F(w) (times R(q) with a ripple) of these parameters with tau == 0 (eq. 3
+                    cache: the next step reuses it; a swapped parameter struct invalidates it by the key);
+                    after a stiff step (plant_lagged_stiff_step, plant_lugre_stiff_step) its last sub-step (s);
+                    any other value (NaN) means neither */
     double q;    /* joint position (rad), dq/dt = w; read only by the friction ripple (ripple_a != 0) */
 } plant_state;
 
@@ -93,7 +93,8 @@ double plant_target_at(const plant_params *p, double w, double q, double sgn);
 
 /* State of steady motion at velocity w0 (rad/s) into *s: w = w0; q = 0 (the joint position, rad); s = F(w0)
  * (lagged models, eq. 3 with the levels of the direction of w0; 0 at rest) or the LuGre deflection
- * sgn(w0)*g(w0)/sigma0 (0 at rest), both times R(0) with a ripple; aux = p->key where tau == 0 (lagged), else NaN. Python: plant.rows.plant_state. */
+ * sgn(w0)*g(w0)/sigma0 (0 at rest), both times R(0) with a ripple; aux = p->key where tau == 0 (lagged), else
+ * NaN. Python: plant.rows.plant_state. */
 void plant_steady_state(const plant_params *p, double w0, plant_state *s);
 
 /* plant_steady_state of n plants: out[b] for p[b], b < n (arrays of n structs). Python: plant.rows.plant_states. */
