@@ -51,9 +51,9 @@ int plant_static_jump_in_reach(const plant_params *p, double w, double u, double
 /* One backward-Euler step of a lagged model over h (s) from (w0, f0) (rad/s, N*m) at the position q0 (rad) with
  * u (N*m) held and the Karnopp direction sgn (the map at the end position q0 + h*w, plant_target_at): *w, *f
  * after the step (tau == 0: f is the friction) and *Fstar, the value of the map the step used (on a jump of the
- * map: the value inside the jump that balances the step, Filippov; Karnopp 1985). One scalar equation c*(w - w0) + k*F(w) = r (a = h/tau, c = J*(1 + a), k = h*a,
- * r = h*((1 + a)*u - f0); tau == 0: c = J, k = h, r = h*u) solved by a bracketed Illinois regula falsi
- * (Dahlquist & Bjorck, Sec. 6.2) across the jumps of F. Eqs. 1-3; Hairer & Wanner, Solving ODEs II, Sec. IV.3.
+ * map: the value inside the jump that balances the step, Filippov; Karnopp 1985). One scalar equation
+ * c*(w - w0) + k*F(w) = r (a = h/tau, c = J*(1 + a), k = h*a, r = h*((1 + a)*u - f0); tau == 0: c = J, k = h,
+ * r = h*u) solved by a bracketed Illinois regula falsi (Dahlquist & Bjorck, Sec. 6.2) across the jumps of F. Eqs. 1-3; Hairer & Wanner, Solving ODEs II, Sec. IV.3.
  * Python: plant.stiff.lagged_implicit_step. */
 void plant_lagged_implicit_step(const plant_params *p, double w0, double f0, double q0, double u, double h,
                                 double sgn, double *w, double *f, double *Fstar);
