@@ -74,13 +74,17 @@ ASYM = AsymmetricParams(J=2.0, Fc_pos=20.0, Fc_neg=15.0, Fs_pos=30.0, Fs_neg=22.
 KARN = KarnoppParams(J=4.0, Fc=25.0, Fs=35.0, Vs=0.02, delta=1.0, sigma=40.0, tau=0.02, dv=1e-3)
 LUGRE = LuGreParams(J=1.0, Fc=1.0, Fs=1.5, Vs=0.05, delta=2.0, sigma0=1e3, sigma1=10.0, sigma2=0.5)
 STIFF_LAG = LAGGED.replace(tau=1e-5)  # 1/tau*dt = 100: the implicit stiff step (plant_lagged_stiff_step)
+# sigma0*|w|/g*dt = 300 RK4 sub-steps: the implicit stiff step (plant_lugre_stiff_step)
+STIFF_LUGRE = LuGreParams(J=0.01, Fc=1.0, Fs=1.5, Vs=0.05, delta=2.0, sigma0=1e6, sigma1=100.0, sigma2=0.5)
 CASES = {
     "lagged": (LAGGED, 0.2, 50.0, 0.3, 60.0, 15.0, 0.3, 1e-6),
     "static": (STATIC, 0.15, 30.0, -1.0, 60.0, 15.0, 0.3, 1e-6),
     "asymmetric": (ASYM, 0.3, 20.0, 0.0, 45.0, 10.0, 0.3, 1e-6),
     "karnopp": (KARN, 0.2, 50.0, 0.3, 60.0, 15.0, 0.3, 1e-6),
     "lugre": (LUGRE, 0.25, 40.0, 0.5, 2.5, 0.8, 0.3, 1e-6),
+    # the stiff steps control their error to 1e-5 relative (plant.stiff.LAGGED_RTOL, LUGRE_RTOL): 1e-4 here
     "lagged-stiff-step": (STIFF_LAG, 0.2, 50.0, 0.3, 60.0, 15.0, 0.3, 1e-4),
+    "lugre-stiff-step": (STIFF_LUGRE, 0.25, 40.0, 0.5, 2.4, 0.4, 0.3, 1e-4),
 }
 
 
