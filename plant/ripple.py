@@ -1,10 +1,11 @@
 """Position-dependent friction ripple: the friction of harmonic drives and gearboxes varying along the revolution.
 
 A harmonic drive's or a gearbox's friction is not a function of the velocity alone: it varies with the
-position of the wave generator or the tooth mesh, periodically along the joint's revolution (Tuttle & Seering,
-"A nonlinear model of a harmonic drive gear transmission", IEEE Trans. Robot. Autom. 12(3), 1996; Taghirad &
-Bélanger, "Modeling and parameter identification of harmonic drive systems", J. Dyn. Sys. Meas. Control 120,
-1998: a sinusoid in the wave generator's angle). :class:`FrictionRipple` multiplies a plant's friction map by
+position of the wave generator or the tooth mesh, periodically along the joint's revolution (the
+position-dependent torque of harmonic drives: Tuttle & Seering, "A nonlinear model of a harmonic drive gear
+transmission", IEEE Trans. Robot. Autom. 12(3), 1996; Taghirad & Bélanger, "Modeling and parameter
+identification of harmonic drive systems", J. Dyn. Sys. Meas. Control 120, 1998). The simplest such model, one
+harmonic of the position, is the one here: :class:`FrictionRipple` multiplies a plant's friction map by
 
     R(q) = 1 + a*sin(n*q + phase)
 

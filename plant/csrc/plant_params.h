@@ -83,8 +83,8 @@ typedef struct plant_state {
 double plant_target(const plant_params *p, double w, double sgn);
 
 /* The ripple factor R(q) = 1 + ripple_a*sin(ripple_n*q + ripple_phase) at the joint position q (rad); exactly 1
- * where ripple_a == 0. Source: the position-dependent friction of harmonic drives (Tuttle & Seering 1996; Taghirad
- * & Belanger 1998, a sinusoid in the wave-generator angle). Python: plant.ripple.FrictionRipple. */
+ * where ripple_a == 0. Source: the position-dependent torque of harmonic drives (Tuttle & Seering 1996; Taghirad
+ * & Belanger 1998), one harmonic of the position. Python: plant.ripple.FrictionRipple. */
 double plant_ripple(const plant_params *p, double q);
 
 /* plant_target at the joint position q (rad): plant_target(p, w, sgn)*plant_ripple(p, q) (ripple_a == 0: plant_target
