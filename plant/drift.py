@@ -11,6 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Callable
 
+import numpy as np
+
 from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
 
 __all__ = ["FrictionDrift"]
@@ -41,7 +43,8 @@ class FrictionDrift:
     Raises
     ------
     ParameterError
-        Values out of range, or ``base`` without Coulomb/static friction fields.
+        Values out of range, ``base`` without Coulomb/static friction fields, or ``base`` time-varying itself
+        (wrap the drift instead: ``PayloadStep(FrictionDrift(...))``, ``FrictionRipple(FrictionDrift(...))``).
 
     Notes
     -----
@@ -70,7 +73,14 @@ class FrictionDrift:
         if not self.t_end > self.t_start:
             raise ParameterError(f"t_end must be > t_start = {self.t_start!r}, got {self.t_end!r}")
         object.__setattr__(self, "period", check_positive("period", self.period))
-        names = getattr(self.base, "__dataclass_fields__", {})
+        if hasattr(self.base, "at"):
+            raise ParameterError(f"the base of a FrictionDrift must not vary with time itself, got "
+                                 f"{type(self.base).__name__}: wrap the drift instead "
+                                 f"(PayloadStep(FrictionDrift(...)))")
+        model = self.base
+        while hasattr(model, "ripple_fields"):  # a FrictionRipple: the fields of the model it wraps
+            model = model.base
+        names = getattr(model, "__dataclass_fields__", {})
         fc = [k for k in _FC_FIELDS if k in names]
         fs = [k for k in _FS_FIELDS if k in names]
         if not (fc and fs and hasattr(self.base, "replace")):
@@ -94,6 +104,25 @@ class FrictionDrift:
         changes.update({k: getattr(self.base, k) * (1.0 + self.Fs_change * r) for k in fs})
         return self.base.replace(**changes)
 
+    def row_starts(self, t, Tc: float) -> np.ndarray:
+        """Samples of a run where the engine re-freezes the plant
+        (:func:`controllers.simulation.closed_loop.plant_table`).
+
+        Parameters
+        ----------
+        t : ndarray, shape (N,)
+            Time of the run (s).
+        Tc : float
+            Controller period (s).
+
+        Returns
+        -------
+        ndarray of int64
+            ``0, seg, 2*seg, ...`` below ``N``, ``seg = max(round(period/Tc), 1)``; ``[0]`` at least.
+        """
+        seg = max(int(round(self.period / Tc)), 1)
+        return np.arange(0, max(len(t), 1), seg, dtype=np.int64)
+
     def make_step(self, dt: float) -> Callable[[float, float, float], tuple]:
         """Integration step of the plant at ``t = 0`` (callers re-make it from :meth:`at` as time passes)."""
         return self.base.make_step(dt)
@@ -105,7 +134,8 @@ class FrictionDrift:
 
     def to_dict(self) -> dict:
         """The base plant's dict plus ``"drift": {Fc_change, Fs_change, t_start, t_end, period}``."""
-        d = {"model": self.base.MODEL, **self.base.to_dict()}
+        d = self.base.to_dict()
+        d = d if "model" in d else {"model": self.base.MODEL, **d}
         d["drift"] = {"Fc_change": self.Fc_change, "Fs_change": self.Fs_change, "t_start": self.t_start,
                       "t_end": self.t_end, "period": self.period}
         return d

@@ -36,7 +36,8 @@ __all__ = ["MODEL_CODES", "plant_params", "lagged_params", "plant_state", "plant
            "plant_states", "integrable_rows", "stack_params", "stack_states", "static_jump_in_reach"]
 
 
-def plant_rk4(par, w: float, s: float, Fw: float, u0: float, um: float, u1: float, h: float, sgn: float) -> tuple:
+def plant_rk4(par, w: float, s: float, Fw: float, u0: float, um: float, u1: float, h: float, sgn: float,
+              q: float = 0.0) -> tuple:
     """One classic fourth-order Runge-Kutta step of the plant, with the input given at three instants.
 
     Parameters
@@ -54,13 +55,15 @@ def plant_rk4(par, w: float, s: float, Fw: float, u0: float, um: float, u1: floa
         Step (s), > 0.
     sgn : float
         Karnopp breakaway direction, see :func:`plant_target`.
+    q : float
+        Joint position (rad) at the step start (read by a friction ripple only; ``Fw`` is then the map at ``q``).
 
     Returns
     -------
     (float, float)
-        ``(w, s)`` after the step. With ``tau == 0`` (lagged models) the
-        friction is algebraic: RK4 integrates ``w`` alone and ``s`` is returned
-        unchanged (the caller sets ``f = F(w)``).
+        ``(w, s)`` after the step (the position is advanced too, ``dq/dt = w``, but not returned). With
+        ``tau == 0`` (lagged models) the friction is algebraic: RK4 integrates ``w`` alone and ``s`` is
+        returned unchanged (the caller sets ``f = F(w)``).
 
     Notes
     -----
@@ -70,8 +73,8 @@ def plant_rk4(par, w: float, s: float, Fw: float, u0: float, um: float, u1: floa
     ``plant_rk4``, in place on ``double *w, *s``). tests/test_plant_kernels.py checks every step against
     an RK4 tableau on arrays written from the equations (tests/plant_oracle.py) to 1e-13.
     """
-    ws = ffi.new("double[2]", (w, s))
-    lib.plant_rk4(par, ws, ws + 1, Fw, u0, um, u1, h, sgn)
+    ws = ffi.new("double[3]", (w, s, q))
+    lib.plant_rk4_at(par, ws, ws + 1, ws + 2, Fw, u0, um, u1, h, sgn)
     return ws[0], ws[1]
 
 
@@ -138,7 +141,7 @@ def _doubles(name: str, a, n: int):
     return ffi.from_buffer("double[]", a, require_writable=name != "u")
 
 
-def plant_simulate(par, st, u, dt: float, W, S) -> None:
+def plant_simulate(par, st, u, dt: float, W, S, Q=None) -> None:
     """Open loop: ``plant_step`` over the inputs ``u`` (N·m, each held for ``dt`` s), recording every state.
 
     Parameters
@@ -153,6 +156,8 @@ def plant_simulate(par, st, u, dt: float, W, S) -> None:
         Step (s).
     W, S : ndarray, shape (N + 1,)
         Filled with the velocity (rad/s) and the internal state, initial state included (C-contiguous float64).
+    Q : ndarray, shape (N + 1,), optional
+        Filled with the joint position (rad); None: not recorded.
 
     Raises
     ------
@@ -165,7 +170,8 @@ def plant_simulate(par, st, u, dt: float, W, S) -> None:
     """
     n = u.shape[0] if isinstance(u, np.ndarray) and u.ndim == 1 else -1
     cu = _doubles("u", u, max(n, 0))
-    lib.plant_simulate(par, st, cu, n, dt, _doubles("W", W, n + 1), _doubles("S", S, n + 1))
+    cq = ffi.NULL if Q is None else _doubles("Q", Q, n + 1)
+    lib.plant_simulate(par, st, cu, n, dt, _doubles("W", W, n + 1), _doubles("S", S, n + 1), cq)
 
 
 def make_plant_step(p, dt: float) -> Callable[[float, float, float], tuple]:

@@ -33,8 +33,9 @@ DT_DEFAULT = 1e-3
 
 
 def _frozen(p):
-    """The frozen model :func:`plant.dynamics.plant_params` packs for ``p`` (a drifting plant: at ``t = 0``)."""
-    return p.at(0.0) if isinstance(p, FrictionDrift) else p
+    """The frozen model :func:`plant.dynamics.plant_params` packs for ``p`` (a time-varying plant, a
+    :class:`plant.drift.FrictionDrift` or :class:`plant.payload.PayloadStep`: at ``t = 0``)."""
+    return p.at(0.0) if isinstance(p, FrictionDrift) or hasattr(p, "at") else p
 
 
 def make_rk4_step(p: JointParams, dt: float = DT_DEFAULT) -> Callable[[float, float, float], tuple]:
@@ -137,14 +138,16 @@ def simulate(p: JointParams, u, *, dt: float = DT_DEFAULT, w0: float = 0.0, f0: 
     Model: eqs. 1-3 of Ruderman (or the variant's equations); integrator: the
     C loop :func:`plant.dynamics.plant_simulate` of
     :func:`plant.dynamics.plant_step`. A :class:`plant.drift.FrictionDrift`
-    runs as its plant at ``t = 0`` (as its ``make_step``).
+    or :class:`plant.payload.PayloadStep` runs as its plant at ``t = 0`` (as its ``make_step``); a
+    :class:`plant.ripple.FrictionRipple` with its position starting at ``q = 0``.
     """
     u = check_signal("u", u)
     w = check_finite_scalar("w0", w0)
     f = check_finite_scalar("f0", f0)
     dt = check_positive("dt", dt)
     q = _frozen(p)
-    if isinstance(q, JointParams) and q.tau == 0.0:
+    model = q.base if hasattr(q, "ripple_fields") else q  # a FrictionRipple: the model it wraps
+    if isinstance(model, JointParams) and q.tau == 0.0:
         st = plant_state(q, w)  # static friction: the state is algebraic
     else:
         st = ffi.new("plant_state *", (w, f, math.nan))

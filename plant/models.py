@@ -14,7 +14,11 @@ asymmetric          ``J, Fc_pos, Fc_neg, Fs_pos, Fs_neg, Vs, delta,``      :clas
 ==================  =====================================================  =============================
 
 Any of them may carry ``"drift": {"Fc_change": 0.5, "Fs_change": 0.5, "t_start": 0, "t_end": 60}``
-(:class:`plant.drift.FrictionDrift`, all keys optional).
+(:class:`plant.drift.FrictionDrift`, all keys optional), a friction ripple
+``"ripple": {"amplitude": 0.1, "harmonic": 100, "phase": 0}`` (:class:`plant.ripple.FrictionRipple`, ``phase``
+optional) and a payload step ``"payload": {"t_step": 5, "J_after": 0.08}`` (:class:`plant.payload.PayloadStep`,
+both keys needed). Loaded as ``PayloadStep(FrictionRipple(FrictionDrift(model)))`` (the parts present); the
+drift scales the levels, the ripple multiplies the map, the payload changes ``J``: any order is the same plant.
 
 Every plant class provides ``J``, ``Vs``, ``delta``, ``friction(w)`` (steady
 sliding map), ``make_step(dt)`` (one integration step ``(w, s, u) -> (w, s)``
@@ -36,6 +40,8 @@ from plant.errors import ParameterError
 from plant.friction import JointParams
 from plant.karnopp import KarnoppParams
 from plant.lugre import LuGreParams
+from plant.payload import PayloadStep
+from plant.ripple import FrictionRipple
 from plant.rows import check_integrable, plant_params
 
 __all__ = ["MODELS", "PLAUSIBLE_RANGE", "plant_from_dict", "plant_to_dict", "load_plant", "read_json",
@@ -45,6 +51,8 @@ __all__ = ["MODELS", "PLAUSIBLE_RANGE", "plant_from_dict", "plant_to_dict", "loa
 MODELS = {cls.MODEL: cls for cls in (JointParams, LuGreParams, KarnoppParams, AsymmetricParams)}
 
 _DRIFT_KEYS = ("Fc_change", "Fs_change", "t_start", "t_end", "period")
+_RIPPLE_KEYS = ("amplitude", "harmonic", "phase")
+_PAYLOAD_KEYS = ("t_step", "J_after")
 
 #: Plausible magnitude range of every plant parameter in SI units (kg·m², N·m, N·m·s/rad, rad/s, s, ...).
 #: Values outside it are almost always a unit slip (g·mm² for kg·m², mN·m for N·m) and overflow the
@@ -65,34 +73,58 @@ def plant_from_dict(d: dict):
     ----------
     d : dict
         Parameters under their standard symbols; ``"model"`` defaults to
-        ``"lagged-stribeck"``; optional ``"drift"`` mapping.
+        ``"lagged-stribeck"``; optional ``"drift"``, ``"ripple"`` and ``"payload"`` mappings.
 
     Returns
     -------
-    JointParams, LuGreParams, KarnoppParams, AsymmetricParams or FrictionDrift
+    JointParams, LuGreParams, KarnoppParams, AsymmetricParams, FrictionDrift, FrictionRipple or PayloadStep
+        ``PayloadStep(FrictionRipple(FrictionDrift(model)))`` with the parts present.
 
     Raises
     ------
     ParameterError
         Not a mapping, unknown model (the known ones are listed), missing or
-        unknown keys, or values out of range.
+        unknown keys, or values out of range (the key and value named).
     """
     if not isinstance(d, dict):
         raise ParameterError(f"plant parameters must be a JSON object / dict, got {type(d).__name__}")
     d = dict(d)
     model = d.pop("model", JointParams.MODEL)
     drift = d.pop("drift", None)
+    ripple = d.pop("ripple", None)
+    payload = d.pop("payload", None)
     if model not in MODELS:
         raise ParameterError(f"unknown friction model {model!r}; known: {sorted(MODELS)}")
     p = MODELS[model].from_dict(d)
-    if drift is None:
-        return p
-    if not isinstance(drift, dict):
-        raise ParameterError(f"'drift' must be an object with keys {list(_DRIFT_KEYS)}, got {drift!r}")
-    unknown = [k for k in drift if k not in _DRIFT_KEYS]
+    if drift is not None:
+        p = FrictionDrift(p, **_table("drift", drift, _DRIFT_KEYS, ()))
+    if ripple is not None:
+        kw = _table("ripple", ripple, _RIPPLE_KEYS, ("amplitude", "harmonic"))
+        p = FrictionRipple(p, **{k: _value("ripple", k, v) for k, v in kw.items()})
+    if payload is not None:
+        kw = _table("payload", payload, _PAYLOAD_KEYS, _PAYLOAD_KEYS)
+        p = PayloadStep(p, **{k: _value("payload", k, v) for k, v in kw.items()})
+    return p
+
+
+def _table(name: str, value, allowed: tuple, required: tuple) -> dict:
+    """The keys of the plant file's ``name`` object, checked against ``allowed`` and ``required``."""
+    if not isinstance(value, dict):
+        raise ParameterError(f"{name!r} must be an object with keys {list(allowed)}, got {value!r}")
+    unknown = [k for k in value if k not in allowed]
     if unknown:
-        raise ParameterError(f"unknown drift key(s) {unknown}; allowed {list(_DRIFT_KEYS)}")
-    return FrictionDrift(p, **drift)
+        raise ParameterError(f"unknown {name} key(s) {unknown}; allowed {list(allowed)}")
+    missing = [k for k in required if k not in value]
+    if missing:
+        raise ParameterError(f"{name} needs key(s) {missing}; got {sorted(value)}")
+    return dict(value)
+
+
+def _value(name: str, key: str, v):
+    """A plant-file number of the ``name`` object (not a bool, not a string), else a ParameterError naming it."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ParameterError(f"{name}.{key} must be a number, got {v!r}")
+    return v
 
 
 def plant_to_dict(p) -> dict:
@@ -187,7 +219,12 @@ def check_plausible(p, *, dt: float = 1e-3, where: str = "plant") -> None:
     negative damping, ``J <= 0``, non-finite values) are refused by
     :class:`plant.lugre.LuGreParams` itself.
     """
-    base = getattr(p, "base", p)
+    base = p
+    while hasattr(base, "base"):  # the model inside the drift, ripple and payload wrappers
+        base = base.base
+    for q in _wrappers(p):  # the payload's inertia after the step is a plant's J too
+        if isinstance(q, PayloadStep):
+            check_plausible(base.replace(J=q.J_after), dt=dt, where=f"{where} (after the payload step)")
     d = {k: v for k, v in plant_to_dict(base).items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
     lo, hi = PLAUSIBLE_RANGE
     for k, v in d.items():
@@ -207,6 +244,14 @@ def check_plausible(p, *, dt: float = 1e-3, where: str = "plant") -> None:
         raise ParameterError(f"{where}: J = {J!r} kg·m² with {key} = {d[key]!r} N·m·s/rad gives a mechanical time "
                              f"constant J/{key} = {J / visc:.3g} s, below half the simulation step {dt:g} s: not a "
                              "plausible joint (check the units of J and the viscous coefficient)")
+
+
+def _wrappers(p) -> list:
+    """``p`` and the wrappers inside it (drift, ripple, payload), outermost first, the model last."""
+    out = [p]
+    while hasattr(out[-1], "base"):
+        out.append(out[-1].base)
+    return out
 
 
 def load_plant(path, *, dt: float = 1e-3):

@@ -55,12 +55,21 @@ field           meaning
                 equal sub-steps, beyond ``LAGGED_RK4_MAX`` the stiff step (below)
 ``inv_J``       ``1/J`` (1/(kg·m²)): the lagged models' right-hand side multiplies by it
 ``inv_tau``     ``1/tau`` (1/s), 0 for ``tau = 0``
+``ripple_a``    friction ripple amplitude ``a`` (0 <= a < 1; 0: none), :class:`plant.ripple.FrictionRipple`
+``ripple_n``    ripple periods per joint revolution ``n``
+``ripple_phase`` ripple phase (rad)
 ``key``         fingerprint of the fields above (an integer in [1, 2**52)), see ``aux``
 ==============  ==================================================================
 
+With a friction ripple (``ripple_a != 0``) the friction map is ``F(w)*R(q)``,
+``R(q) = 1 + a*sin(n*q + phase)``, ``q`` the joint position (the lagged models'
+target, the Karnopp stick limit included; LuGre's ``g(w)`` and ``sigma2*w``);
+``ripple_a == 0`` gives every result bit for bit (``plant/csrc/plant_params.h``).
+
 Fields of ``plant_state``: ``w`` velocity (rad/s); ``s`` the model's internal
 state (the friction torque ``f`` in N·m, for LuGre the bristle deflection ``z``
-in rad); ``aux`` equals ``key`` when ``s`` is ``F(w)`` of these parameters with
+in rad); ``q`` the joint position (rad, ``dq/dt = w``, 0 at the start of a run;
+only the ripple reads it); ``aux`` equals ``key`` when ``s`` is ``F(w)`` of these parameters with
 ``tau == 0`` (set by :func:`plant.dynamics.plant_step` and :func:`plant_state`), so
 the next step reuses it instead of evaluating eq. 3 again; any other value (e.g.
 NaN) means "not cached". Swapping the parameters (a drifting plant) invalidates it
@@ -121,8 +130,9 @@ def _model_of(p) -> str:
     names = tuple(f.name for f in fields(p)) if is_dataclass(p) and not isinstance(p, type) else None
     frozen = names is not None and type(p).__dataclass_params__.frozen
     if model not in _FIELDS or names != _FIELDS[model] or not frozen:
-        raise TypeError(f"p must be a frozen JointParams, AsymmetricParams, KarnoppParams or LuGreParams (for a "
-                        f"FrictionDrift use p.at(t)), got {type(p).__name__}")
+        raise TypeError(f"p must be a frozen JointParams, AsymmetricParams, KarnoppParams or LuGreParams, or a "
+                        f"FrictionRipple around one (for a FrictionDrift use p.at(t), as for a PayloadStep), got "
+                        f"{type(p).__name__}")
     return model
 
 
@@ -156,14 +166,16 @@ def lagged_params(J: float, Fc: float, Fs: float, Vs: float, delta: float, sigma
     return ffi.new(_PARAMS_PTR, _init(_lagged_list(0.0, J, Fc, Fs, Vs, delta, sigma, tau, 0.0, 0.0)))
 
 
-def _lagged_list(code, J, Fc, Fs, Vs, delta, sigma, tau, Fs_stick, dv) -> list:
-    """The keyed values of a lagged Stribeck or Karnopp joint as a list of Python floats (order: :func:`_init`)."""
+def _lagged_list(code, J, Fc, Fs, Vs, delta, sigma, tau, Fs_stick, dv, keyed: bool = True) -> list:
+    """The keyed values of a lagged Stribeck or Karnopp joint as a list of Python floats (order: :func:`_init`);
+    ``keyed=False``: the 21 values without ``inv_J``, ``inv_tau``, the ripple and the key."""
     J, Fc, Fs, Vs = float(J), float(Fc), float(Fs), float(Vs)
     delta, sigma, tau = float(delta), float(sigma), float(tau)
     dF = Fs - Fc
     wcut = stribeck_cutoff(Fc, dF, Vs, delta)
-    return _keyed([float(code), J, Vs, delta, tau, Fc, dF, sigma, wcut, Fc, dF, sigma, wcut, float(Fs_stick),
-                   float(dv), 0.0, 0.0, 0.0, 0.0, 0.0, lagged_rate(J, dF, Vs, delta, sigma, tau)])
+    v = [float(code), J, Vs, delta, tau, Fc, dF, sigma, wcut, Fc, dF, sigma, wcut, float(Fs_stick),
+         float(dv), 0.0, 0.0, 0.0, 0.0, 0.0, lagged_rate(J, dF, Vs, delta, sigma, tau)]
+    return _keyed(v) if keyed else v
 
 
 def lagged_rate(J: float, dF: float, Vs: float, delta: float, sigma: float, tau: float) -> float:
@@ -223,12 +235,13 @@ def steepest_rise(dF: float, Vs: float, delta: float, sigma: float) -> float:
     return max(sigma, 0.0) + rise
 
 
-def _keyed(v: list) -> list:
-    """Append ``inv_J``, ``inv_tau`` and the fingerprint ``key`` to the list of the 21 values before them
-    (Python floats, order of :func:`_init`), in place; returns it."""
+def _keyed(v: list, ripple: tuple = (0.0, 0.0, 0.0)) -> list:
+    """Append ``inv_J``, ``inv_tau``, the ripple ``(a, n, phase)`` and the fingerprint ``key`` to the list of the
+    21 values before them (Python floats, order of :func:`_init`), in place; returns it."""
     J, tau = v[1], v[4]
     v.append(1.0 / J if J != 0.0 else math.inf)
     v.append(1.0 / tau if tau > 0.0 else 0.0)
+    v.extend(float(x) for x in ripple)
     v.append(float(1 + hash(tuple(v)) % (2**52 - 1)))
     return v
 
@@ -236,11 +249,12 @@ def _keyed(v: list) -> list:
 def _init(v: list) -> dict:
     """The initialiser of a ``plant_params`` struct from the list ``[model, J, Vs, delta, tau, Fc, dF, sigma,
     wcut (w > 0), Fc, dF, sigma, wcut (w < 0), Fs_stick, dv, sigma0, sigma1, g_min, g_max, base_rate, rate,
-    inv_J, inv_tau, key]``."""
+    inv_J, inv_tau, ripple_a, ripple_n, ripple_phase, key]``."""
     return {"model": int(v[0]), "J": v[1], "tau": v[4],
             "pos": (v[5], v[6], v[2], v[3], v[7], v[8]), "neg": (v[9], v[10], v[2], v[3], v[11], v[12]),
             "Fs_stick": v[13], "dv": v[14], "sigma0": v[15], "sigma1": v[16], "g_min": v[17], "g_max": v[18],
-            "base_rate": v[19], "rate": v[20], "inv_J": v[21], "inv_tau": v[22], "key": v[23]}
+            "base_rate": v[19], "rate": v[20], "inv_J": v[21], "inv_tau": v[22], "ripple_a": v[23],
+            "ripple_n": v[24], "ripple_phase": v[25], "key": v[26]}
 
 
 def plant_params(p):
@@ -272,11 +286,28 @@ def plant_params(p):
 
 def _row_list(p) -> list:
     """The values of :func:`plant_params` as a list of Python floats (order: :func:`_init`)."""
+    ripple = getattr(p, "ripple_fields", None)
+    if ripple is None:
+        return _keyed(_model_list(p))
+    a = float(ripple[0])
+    v = _model_list(p.base)
+    if a != 0.0:  # the map and its slopes up to (1 + a) times the base's (plant_params.h)
+        if int(v[0]) == _LUGRE:
+            v[19] = (v[16] + v[7] * (1.0 + a)) / v[1] + math.sqrt(v[15] / v[1])
+        else:
+            v[20] = max(lagged_rate(v[1], v[6] * (1.0 + a), v[2], v[3], v[7] * (1.0 + a), v[4]),
+                        lagged_rate(v[1], v[10] * (1.0 + a), v[2], v[3], v[11] * (1.0 + a), v[4]))
+    return _keyed(v, ripple)
+
+
+def _model_list(p) -> list:
+    """The 21 model values of :func:`_row_list` (without ``inv_J``, ``inv_tau``, the ripple and the key)."""
     model = _model_of(p)
     if model == "lagged-stribeck":
-        return _lagged_list(0.0, p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau, 0.0, 0.0)
+        return _lagged_list(0.0, p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau, 0.0, 0.0, keyed=False)
     if model == "karnopp":
-        return _lagged_list(MODEL_CODES[model], p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau, p.Fs, p.dv)
+        return _lagged_list(MODEL_CODES[model], p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau, p.Fs, p.dv,
+                            keyed=False)
     r = [0.0] * 21
     r[0] = float(MODEL_CODES[model])
     r[1:4] = float(p.J), float(p.Vs), float(p.delta)
@@ -286,11 +317,11 @@ def _row_list(p) -> list:
         r[9:13] = _levels(p.Fc_neg, p.Fs_neg, p.sigma_neg, p.Vs, p.delta)
         r[20] = max(lagged_rate(p.J, p.Fs_pos - p.Fc_pos, p.Vs, p.delta, p.sigma_pos, p.tau),
                     lagged_rate(p.J, p.Fs_neg - p.Fc_neg, p.Vs, p.delta, p.sigma_neg, p.tau))
-        return _keyed(r)
+        return r
     r[5:9] = r[9:13] = _levels(p.Fc, p.Fs, p.sigma2, p.Vs, p.delta)
     r[15:20] = (float(p.sigma0), float(p.sigma1), float(min(p.Fc, p.Fs)), float(max(p.Fc, p.Fs)),
                 float((p.sigma1 + p.sigma2) / p.J + math.sqrt(p.sigma0 / p.J)))
-    return _keyed(r)
+    return r
 
 
 def _levels(Fc, Fs, sigma, Vs, delta) -> list:
@@ -463,6 +494,12 @@ def check_integrable(rows, dt: float) -> None:
     j = int(np.argmin(ok))
     row = ptr[j]
     code, J, tau = int(row.model), row.J, row.tau
+    ripple = [row.ripple_a, row.ripple_n, row.ripple_phase]
+    if not (ripple[0] == 0.0 or (0.0 < ripple[0] < 1.0 and 0.0 < ripple[1] < math.inf
+                                 and math.isfinite(ripple[2]))):
+        raise ParameterError(f"plant (row {j}, model code {code}): the friction ripple (a, n, phase) = {ripple!r} "
+                             f"must have a = 0, or 0 < a < 1 with n > 0 and n, phase finite: the engine cannot "
+                             f"integrate it")
     if code == _LUGRE:
         ratio = row.sigma0 / J if J != 0.0 else math.inf
         wp = math.sqrt(ratio) if ratio >= 0.0 else math.nan
@@ -547,7 +584,7 @@ def plant_states(rows, w0: float):
     return out
 
 
-def plant_target(par, w: float, sgn: float) -> float:
+def plant_target(par, w: float, sgn: float, q: float | None = None) -> float:
     """The friction map the RK4 stages evaluate, at velocity ``w``.
 
     Parameters
@@ -559,6 +596,8 @@ def plant_target(par, w: float, sgn: float) -> float:
     sgn : float
         Karnopp breakaway direction (``sgn(u)``) when the step started in the
         stick band, else 0.
+    q : float, optional
+        Joint position (rad): the map times the ripple ``R(q)`` (C ``plant_target_at``); None: without it.
 
     Returns
     -------
@@ -566,7 +605,7 @@ def plant_target(par, w: float, sgn: float) -> float:
         Lagged models: ``Fs_stick*sgn`` inside the Karnopp band ``|w| < dv``,
         else eq. 3 with the levels of the direction of ``w`` (N·m). LuGre: the
         Stribeck level ``g(w) = Fc + (Fs - Fc)*exp(-|w/Vs|**delta)`` (N·m),
-        its limit at ``w = 0``.
+        its limit at ``w = 0``. With ``q``: times ``1 + ripple_a*sin(ripple_n*q + ripple_phase)``.
 
     Notes
     -----
@@ -574,4 +613,6 @@ def plant_target(par, w: float, sgn: float) -> float:
     ``plant_stribeck_eval``, the one eq. 3); Karnopp (1985); Canudas de Wit et
     al. (1995), eq. 3.
     """
+    if q is not None:
+        return lib.plant_target_at(par, w, q, sgn)
     return lib.plant_target(par, w, sgn)

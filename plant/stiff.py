@@ -176,7 +176,7 @@ def static_jump_in_reach(par, w: float, u: float, dt: float) -> bool:
     return bool(lib.plant_static_jump_in_reach(par, w, u, dt))
 
 
-def lagged_implicit_step(par, w0: float, f0: float, u: float, h: float, sgn: float) -> tuple:
+def lagged_implicit_step(par, w0: float, f0: float, u: float, h: float, sgn: float, q0: float = 0.0) -> tuple:
     """One backward-Euler step of a lagged model (lagged Stribeck, asymmetric, Karnopp) over ``h`` (s).
 
     Parameters
@@ -191,6 +191,9 @@ def lagged_implicit_step(par, w0: float, f0: float, u: float, h: float, sgn: flo
         Step (s), > 0.
     sgn : float
         Karnopp breakaway direction (:func:`plant.rows.plant_target`).
+    q0 : float
+        Joint position (rad) at the start: with a friction ripple the map is evaluated at the end position
+        ``q0 + h*w`` (backward Euler on ``dq/dt = w``).
 
     Returns
     -------
@@ -215,7 +218,7 @@ def lagged_implicit_step(par, w0: float, f0: float, u: float, h: float, sgn: flo
     (``plant/csrc/plant_stiff.c``, ``plant_lagged_implicit_step``).
     """
     out = ffi.new("double[3]")
-    lib.plant_lagged_implicit_step(par, w0, f0, u, h, sgn, out, out + 1, out + 2)
+    lib.plant_lagged_implicit_step(par, w0, f0, q0, u, h, sgn, out, out + 1, out + 2)
     return out[0], out[1], out[2]
 
 
@@ -263,7 +266,7 @@ LUGRE_ZTOL = lib.plant_lugre_ztol  # 1e-3
 LUGRE_MAX_SUBSTEPS = int(lib.PLANT_LUGRE_MAX_SUBSTEPS)  # 200000
 
 
-def lugre_jacobian(par, w: float, z: float, u: float) -> tuple:
+def lugre_jacobian(par, w: float, z: float, u: float, q: float = 0.0) -> tuple:
     """Right-hand side of the LuGre joint and its Jacobian at ``(w, z)`` with the torque ``u`` (N·m).
 
     Parameters
@@ -274,6 +277,9 @@ def lugre_jacobian(par, w: float, z: float, u: float) -> tuple:
         Velocity (rad/s), bristle deflection (rad).
     u : float
         Torque (N·m).
+    q : float
+        Joint position (rad): with a friction ripple ``g`` and ``sigma2`` are times ``R(q)`` (the Jacobian in
+        ``(w, z)`` at fixed ``q``).
 
     Returns
     -------
@@ -288,11 +294,11 @@ def lugre_jacobian(par, w: float, z: float, u: float) -> tuple:
     (the kink of ``|w|``). C (``plant/csrc/plant_stiff.c``, ``plant_lugre_jacobian``).
     """
     out = ffi.new("double[6]")
-    lib.plant_lugre_jacobian(par, w, z, u, out)
+    lib.plant_lugre_jacobian(par, w, z, q, u, out)
     return tuple(out)
 
 
-def lugre_implicit_step(par, w0: float, z0: float, u: float, h: float) -> tuple:
+def lugre_implicit_step(par, w0: float, z0: float, u: float, h: float, q0: float = 0.0) -> tuple:
     """One backward-Euler step of the LuGre joint over ``h`` (s), solved by Newton's method.
 
     Parameters
@@ -305,6 +311,9 @@ def lugre_implicit_step(par, w0: float, z0: float, u: float, h: float) -> tuple:
         Torque (N·m), held.
     h : float
         Step (s), > 0.
+    q0 : float
+        Joint position (rad) at the start (a friction ripple's map at ``q0 + h*w``; the Newton matrix leaves that
+        dependence out, a term of order ``h**2``).
 
     Returns
     -------
@@ -319,7 +328,7 @@ def lugre_implicit_step(par, w0: float, z0: float, u: float, h: float) -> tuple:
     ``plant_lugre_implicit_step``).
     """
     out = ffi.new("double[2]")
-    ok = lib.plant_lugre_implicit_step(par, w0, z0, u, h, out, out + 1)
+    ok = lib.plant_lugre_implicit_step(par, w0, z0, q0, u, h, out, out + 1)
     return out[0], out[1], bool(ok)
 
 

@@ -15,10 +15,10 @@ void ctl_scenario_init(ctl_scenario *sc, double w0)
         sc->theta_buf[i] = 0.0;
 }
 
-/* The parameter row of period k (a drifting plant moves to its next row every seg periods). */
+/* The parameter row of period k (a time-varying plant moves to row j at period row_k[j]). */
 static const plant_params *row_at(ctl_scenario *sc, long k)
 {
-    if (sc->seg > 0 && k > 0 && k % sc->seg == 0 && sc->row + 1 < sc->n_rows)
+    while (sc->row + 1 < sc->n_rows && k >= sc->row_k[sc->row + 1])
         sc->row += 1;
     return sc->rows + sc->row;
 }

@@ -55,9 +55,10 @@ typedef struct ctl_run {
 
 /* One scenario: its plant, sensor, controller, compensator, metrics and records. */
 typedef struct ctl_scenario {
-    const plant_params *rows;   /* n_rows parameter rows; row j from sample j*seg on (a drifting plant) */
+    const plant_params *rows;   /* n_rows parameter rows; row j from sample row_k[j] on (a time-varying plant:
+                                   drift, payload step) */
     long n_rows;
-    long seg;                   /* drift period (samples), 0: one row */
+    const long *row_k;          /* start sample of each row: row_k[0] = 0, increasing; NULL where n_rows == 1 */
     plant_state plant;          /* the plant's state, advanced in place */
     double w_limit;             /* divergence bound on |w| (rad/s) */
     const double *noise;        /* n measurement-noise samples (rad/s), or NULL */

@@ -8,6 +8,7 @@ void ctl_quasi_static_run(ctl_pi *pi, const plant_params *p, double w_ref, const
 {
     plant_state st;
     double w = 0.0, f = 0.0;
+    st.q = 0.0; /* the joint position (a friction ripple's), carried across the periods */
     for (long k = 0; k < n_settle + n_hold; k++) {
         double wm = w + noise[k];
         double u = ctl_pi_step(pi, w_ref - wm, 0.0);

@@ -145,13 +145,14 @@ def _unique(objs) -> tuple:
 def _plants_arrays(run_plants, plants, opts, t, wr, Tc) -> tuple:
     """Parameter rows, drift periods and initial states of the scenarios, and their sensor gates.
 
-    Returns ``((rows, st), tables, n_rows, segs, states), index, gates``: ``tables[i]`` (a cffi ``plant_params`` array) and
+    Returns ``((rows, st), tables, n_rows, row_ks, states), index, gates``: ``tables[i]`` (a cffi
+    ``plant_params`` array), ``row_ks[i]`` (the start samples of its rows, :func:`plant_table`; 0 for one row) and
     ``states[i]`` (``plant_state``) of the distinct plant ``i`` (a plant object given more than once,
     ``[p] * B``, is packed and checked once), ``index[b]`` the distinct plant of scenario ``b``. Plants that do
     not drift are packed in one table (:func:`plant.rows.plant_rows`), checked in one array pass and
-    initialised in one C pass; a drifting plant has one row per drift period. The arrays the entries point into
-    (``rows`` of the static plants, their states ``st``) are returned first: the caller keeps them alive (an
-    element of a cffi array does not own its memory)."""
+    initialised in one C pass; a time-varying plant (drift, payload step) has one row per change. The arrays
+    the entries point into (``rows`` of the static plants, their states ``st``) are returned first: the caller
+    keeps them alive (an element of a cffi array does not own its memory)."""
     uniq, idx = _unique(run_plants)
     static = [k for k, rp in enumerate(uniq) if not hasattr(rp, "at")]
     rows = plant_rows([uniq[k] for k in static])
@@ -163,16 +164,16 @@ def _plants_arrays(run_plants, plants, opts, t, wr, Tc) -> tuple:
         except ParameterError as e:
             raise ParameterError(f"plants[{b}]: {e}") from None
     st = plant_states(rows, float(wr[0]))
-    tables, segs, states = [None] * len(uniq), [0] * len(uniq), [None] * len(uniq)
+    tables, row_ks, states = [None] * len(uniq), [0] * len(uniq), [None] * len(uniq)
     for j, k in enumerate(static):
         tables[k], states[k] = rows + j, st[j]
     for k, rp in enumerate(uniq):
-        if tables[k] is None:  # a drifting plant: one row per drift period
-            tables[k], segs[k] = plant_table(rp, t, Tc)
+        if tables[k] is None:  # a time-varying plant: one row per change
+            tables[k], row_ks[k] = plant_table(rp, t, Tc)
             states[k] = plant_state(rp.at(0.0), float(wr[0]))  # owns its struct
-    n_rows = [1 if segs[k] == 0 else len(tables[k]) for k in range(len(uniq))]
+    n_rows = [1 if isinstance(row_ks[k], int) else len(tables[k]) for k in range(len(uniq))]
     gates = [_sensor_gate(p, o, Tc) for p, o in zip(plants, opts)]
-    return ((rows, st), tables, n_rows, segs, states), idx, gates
+    return ((rows, st), tables, n_rows, row_ks, states), idx, gates
 
 
 def _sensor_gate(p, o, Tc: float):
@@ -232,7 +233,7 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
     if n > 1 and not math.isclose(t[1] - t[0], Tc, rel_tol=1e-9):
         raise ParameterError(f"reference step {t[1] - t[0]!r} s differs from Tc = {Tc!r} s")
     run_plants, ctrls, comps = build_modes(plants, mode, opts)
-    (rows, tables, n_rows, segs, states), idx, gates = _plants_arrays(run_plants, plants, opts, t, wr, Tc)
+    (rows, tables, n_rows, row_ks, states), idx, gates = _plants_arrays(run_plants, plants, opts, t, wr, Tc)
     oracle = isinstance(comps[0], TrueFriction)
     nz, nrows = _noise(noise, seeds, opts, B, n)
     w_default = 100.0 * float(np.max(np.abs(wr))) + 1.0
@@ -243,7 +244,8 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
     for b in range(B):
         k = idx[b]
         o = opts[b]
-        x.set_plant(b, tables[k], n_rows[k], segs[k], states[k], w_default if o.w_limit is None else float(o.w_limit))
+        x.set_plant(b, tables[k], n_rows[k], row_ks[k], states[k],
+                    w_default if o.w_limit is None else float(o.w_limit))
         if nrows:
             x.set_noise_row(b, b if nrows > 1 else 0)
         x.set_gate(b, gates[b])

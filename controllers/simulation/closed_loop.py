@@ -155,12 +155,15 @@ def mark_motion(ax, motion: MotionMetrics, *, labels: bool = True) -> None:
 
 
 def plant_table(p, t, Tc: float) -> tuple:
-    """Parameter rows of a (possibly drifting) plant for the engine, and the drift period in samples.
+    """Parameter rows of a (possibly time-varying) plant for the engine, and the sample each row starts at.
 
     Parameters
     ----------
-    p : plant model or FrictionDrift
-        A plant of :mod:`plant.models`; a :class:`plant.drift.FrictionDrift` is frozen every ``p.period`` s.
+    p : plant model, FrictionRipple, FrictionDrift or PayloadStep
+        A plant of :mod:`plant.models`; a time-varying plant (one with ``at(t)`` and ``row_starts(t, Tc)``:
+        :class:`plant.drift.FrictionDrift`, frozen every ``p.period`` s; :class:`plant.payload.PayloadStep`, its
+        inertia switched at ``t_step``; a :class:`plant.ripple.FrictionRipple` around either) has one row per
+        start sample, row ``j`` the plant ``p.at(t[row_k[j]])`` (row 0: ``p.at(0.0)``).
     t : ndarray, shape (N,)
         Time of the run (s).
     Tc : float
@@ -169,9 +172,10 @@ def plant_table(p, t, Tc: float) -> tuple:
     Returns
     -------
     table : cffi ``plant_params[K]``
-        Row ``j`` is the plant from sample ``j*seg`` on.
-    seg : int
-        Drift period in samples (0: one row).
+        Row ``j`` is the plant from sample ``row_k[j]`` on.
+    row_k : ndarray of int, shape (K,)
+        Start samples of the rows, increasing, ``row_k[0] = 0`` (what
+        :meth:`controllers.simulation.engine.EngineRun.set_plant` takes).
 
     Raises
     ------
@@ -179,13 +183,13 @@ def plant_table(p, t, Tc: float) -> tuple:
         A row the engine cannot integrate over ``Tc`` (:func:`plant.dynamics.check_integrable`, with the reason).
     """
     if not hasattr(p, "at"):
-        table, seg = stack_params([plant_params(p)]), 0
+        table, row_k = stack_params([plant_params(p)]), np.zeros(1, dtype=np.int64)
     else:
-        seg = max(int(round(p.period / Tc)), 1)
-        rows = [plant_params(p.at(0.0))] + [plant_params(p.at(tk)) for tk in np.asarray(t)[seg::seg].tolist()]
-        table = stack_params(rows)
+        t = np.asarray(t, dtype=float)
+        row_k = np.asarray(p.row_starts(t, Tc), dtype=np.int64)
+        table = stack_params([plant_params(p.at(0.0))] + [plant_params(p.at(tk)) for tk in t[row_k[1:]].tolist()])
     check_integrable(table, Tc)
-    return table, seg
+    return table, row_k
 
 
 def _check_decimate(decimate) -> int:
@@ -229,7 +233,8 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     ----------
     plant : plant model
         True plant: :class:`plant.JointParams` or a variant of :mod:`plant.models` (LuGre, Karnopp,
-        asymmetric), possibly wrapped in :class:`plant.drift.FrictionDrift` (re-frozen every ``p.period`` s).
+        asymmetric), possibly wrapped in :class:`plant.drift.FrictionDrift` (re-frozen every ``p.period`` s),
+        :class:`plant.ripple.FrictionRipple` or :class:`plant.payload.PayloadStep` (:func:`plant_table`).
     controller : PIController
         The PI (gains, period ``Tc`` = the integration step, saturation); its integrator state is
         advanced in place.
@@ -321,7 +326,7 @@ def _run_loop(plant, controller, compensator, reference, *, noise_std, rng, faul
         check_run_memory(n * Tc, Tc, signals=1 + (-(-(MODE_SIGNALS - 1) // decimate) if decimate else 0),
                          what="the reference's duration", detail="the noise and records of one run")
     w_limit = 100.0 * float(np.max(np.abs(wr))) + 1.0 if w_limit is None else check_positive("w_limit", w_limit)
-    table, seg = plant_table(plant, t, Tc)
+    table, row_k = plant_table(plant, t, Tc)
     frozen = plant.at(0.0) if hasattr(plant, "at") else plant
     gate = _sensor_gate(sensor_gate, controller, float(frozen.J) if sensor_gate is True else math.nan)
     n_theta = 0 if compensator is None or oracle else int(getattr(compensator, "n_theta", 0))
@@ -332,7 +337,7 @@ def _run_loop(plant, controller, compensator, reference, *, noise_std, rng, faul
     m_theta = n // _update_period(compensator) + 1 if (decimate and n_theta) else 0
     x = EngineRun(t=t, w_ref=wr, revs=revs, window=float(reversal_window), dt=float(Tc), n_scenarios=1,
                   faults=_faults(faults, n), oracle=oracle, decimate=decimate, n_theta=n_theta, m_theta=m_theta)
-    x.set_plant(0, table, len(table), seg, state0, w_limit)
+    x.set_plant(0, table, len(table), row_k, state0, w_limit)
     if noise_std > 0:
         x.set_noise_table(rng.normal(0.0, noise_std, size=n)[None, :])
         x.set_noise_row(0, 0)

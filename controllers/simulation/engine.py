@@ -163,15 +163,23 @@ class EngineRun:
                     sc.theta = th + b * m_theta * max(n_theta, 1)
                     sc.theta_k = thk + b * m_theta
 
-    def set_plant(self, b: int, rows, n_rows: int, seg: int, state, w_limit: float) -> None:
+    def set_plant(self, b: int, rows, n_rows: int, row_k, state, w_limit: float) -> None:
         """Scenario ``b``'s plant: ``n_rows`` parameter rows (a cffi ``plant_params`` pointer/array, kept
-        alive here; row ``j`` from sample ``j*seg`` on), its initial state (``plant_state``) and the divergence
-        bound (rad/s)."""
+        alive here), the sample each row starts at (``row_k``: increasing integers from 0, length ``n_rows``, e.g.
+        of :func:`controllers.simulation.closed_loop.plant_table`; an int ``seg`` means row ``j`` from sample
+        ``j*seg`` on, 0 one row), its initial state (``plant_state``) and the divergence bound (rad/s)."""
         sc = self.scenarios[b]
-        self._keep.append(rows)
+        n_rows = int(n_rows)
+        if isinstance(row_k, (int, np.integer)):  # a uniform period: row j from sample j*seg on (0: row 0 only)
+            n_rows = n_rows if row_k else 1
+            row_k = np.arange(n_rows) * int(row_k)
+        starts = np.ascontiguousarray(row_k, dtype=np.dtype("long"))
+        if starts.shape != (max(n_rows, 1),) or starts[0] != 0 or np.any(np.diff(starts) < 0):
+            raise ParameterError(f"row_k must hold {n_rows} increasing start samples from 0, got {row_k!r}")
+        self._keep.extend((rows, starts))
         sc.rows = rows
-        sc.n_rows = int(n_rows)
-        sc.seg = int(seg)
+        sc.n_rows = n_rows
+        sc.row_k = ffi.from_buffer("long[]", starts)
         sc.plant = state[0] if ffi.typeof(state).kind == "pointer" else state
         sc.w_limit = float(w_limit)
 

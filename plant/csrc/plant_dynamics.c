@@ -1,16 +1,24 @@
 /* plant_dynamics.c -- RK4, the plant step and the friction torque (see plant_dynamics.h). The operations are
  * those of the former JIT kernels of plant/dynamics.py in the same order (results equal bit for bit). */
+#include <stddef.h>
+
 #include "plant_dynamics.h"
 
 const double plant_rk4_rate_max = 2.5;
 
-/* (dw/dt, ds/dt) at (w, s) with input u and Fw = plant_target(p, w, .). */
-static void rhs(const plant_params *p, double w, double s, double u, double Fw, double *dw, double *ds)
+/* Sub-steps per unit of rate*dt of a LuGre step with a friction ripple (more than the 1 of stability). */
+static const double lugre_ripple_substeps = 4.0;
+
+/* (dw/dt, ds/dt) at (w, s, q) with input u and Fw = plant_target_at(p, w, q, .) (dq/dt = w: the caller's). */
+static void rhs(const plant_params *p, double w, double s, double q, double u, double Fw, double *dw, double *ds)
 {
     if (p->model == PLANT_LUGRE) {
         double aw = w >= 0.0 ? w : -w;
         double zdot = w - p->sigma0 * aw / Fw * s;
-        *dw = (u - p->sigma0 * s - p->sigma1 * zdot - p->pos.sigma * w) / p->J;
+        if (p->ripple_a != 0.0) /* the viscous part rippled with g (plant_params.h) */
+            *dw = (u - p->sigma0 * s - p->sigma1 * zdot - p->pos.sigma * plant_ripple(p, q) * w) / p->J;
+        else
+            *dw = (u - p->sigma0 * s - p->sigma1 * zdot - p->pos.sigma * w) / p->J;
         *ds = zdot;
         return;
     }
@@ -23,26 +31,57 @@ static void rhs(const plant_params *p, double w, double s, double u, double Fw, 
     *ds = (Fw - s) * p->inv_tau;
 }
 
-void plant_rk4(const plant_params *p, double *w_io, double *s_io, double Fw, double u0, double um, double u1,
-               double h, double sgn)
+void plant_rk4(const plant_params *p, double *w_io, double *s_io, double Fw, double u0, double um, double u1, double h,
+               double sgn)
+{
+    double q = 0.0;
+    plant_rk4_at(p, w_io, s_io, &q, Fw, u0, um, u1, h, sgn);
+}
+
+void plant_rk4_at(const plant_params *p, double *w_io, double *s_io, double *q_io, double Fw, double u0, double um,
+                  double u1, double h, double sgn)
 {
     double w = *w_io;
     double s = *s_io;
+    double q = *q_io;
     double h2 = 0.5 * h;
     double h6 = h / 6.0;
-    double k1w, k1s, k2w, k2s, k3w, k3s, k4w, k4s, wa, sa, wb, sb, wc, sc;
-    rhs(p, w, s, u0, Fw, &k1w, &k1s);
+    double k1w, k1s, k2w, k2s, k3w, k3s, k4w, k4s, wa, sa, qa, wb, sb, qb, wc, sc, qc;
+    rhs(p, w, s, q, u0, Fw, &k1w, &k1s);
     wa = w + h2 * k1w;
     sa = s + h2 * k1s;
-    rhs(p, wa, sa, um, plant_target(p, wa, sgn), &k2w, &k2s);
+    qa = q + h2 * w;
+    rhs(p, wa, sa, qa, um, plant_target_at(p, wa, qa, sgn), &k2w, &k2s);
     wb = w + h2 * k2w;
     sb = s + h2 * k2s;
-    rhs(p, wb, sb, um, plant_target(p, wb, sgn), &k3w, &k3s);
+    qb = q + h2 * wa;
+    rhs(p, wb, sb, qb, um, plant_target_at(p, wb, qb, sgn), &k3w, &k3s);
     wc = w + h * k3w;
     sc = s + h * k3s;
-    rhs(p, wc, sc, u1, plant_target(p, wc, sgn), &k4w, &k4s);
+    qc = q + h * wb;
+    rhs(p, wc, sc, qc, u1, plant_target_at(p, wc, qc, sgn), &k4w, &k4s);
     *w_io = w + h6 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w);
     *s_io = s + h6 * (k1s + 2.0 * k2s + 2.0 * k3s + k4s);
+    *q_io = q + h6 * (w + 2.0 * wa + 2.0 * wb + wc);
+}
+
+/* The fastest mode (1/s) a lagged model's RK4 step at velocity w must resolve: p->rate; with a friction ripple
+ * also the ripple's position stiffness kq = (Fmax + sigma*|w|*(1 + a))*a*n (N*m/rad; sqrt(kq/J), tau > 0:
+ * cbrt(kq/(J*tau)), the roots' bound of J*tau*l^3 + J*l^2 + s*l + kq) and 4*n*|w|, the rate the ripple passes
+ * at times 4 (at most 0.625 rad of ripple phase per RK4 sub-step: accuracy, not stability). */
+static double lagged_rate_at(const plant_params *p, double w)
+{
+    double a = p->ripple_a;
+    double aw, sig, kq, rq, rp;
+    if (a == 0.0)
+        return p->rate;
+    aw = fabs(w);
+    sig = p->pos.sigma > p->neg.sigma ? p->pos.sigma : p->neg.sigma;
+    kq = (plant_lagged_level_max(p) + (sig > 0.0 ? sig : 0.0) * aw * (1.0 + a)) * a * p->ripple_n;
+    rq = p->tau > 0.0 ? cbrt(kq / (p->J * p->tau)) : sqrt(kq / p->J);
+    rp = 4.0 * p->ripple_n * aw;
+    rq = rq > rp ? rq : rp;
+    return p->rate > rq ? p->rate : rq;
 }
 
 /* True where plant_step takes exactly one RK4 step of dt with sgn = 0: a lagged model, w outside the Karnopp
@@ -54,21 +93,23 @@ static int single_rk4(const plant_params *p, double w, double dt)
         return 0;
     if (-dv < w && w < dv)
         return 0;
-    return !(p->rate * dt > plant_rk4_rate_max);
+    return !(lagged_rate_at(p, w) * dt > plant_rk4_rate_max);
 }
 
 void plant_step(const plant_params *p, plant_state *st, double u, double dt)
 {
     double w = st->w;
     double s = st->s;
+    double q = st->q;
     double sgn = 0.0;
     double h = dt;
     long n = 1;
     int lugre, stat, cached;
     if (p->tau != 0.0 && single_rk4(p, w, dt)) { /* the common case: a lagged model, one RK4 step */
-        plant_rk4(p, &w, &s, plant_target(p, w, 0.0), u, u, u, dt, 0.0);
+        plant_rk4_at(p, &w, &s, &q, plant_target_at(p, w, q, 0.0), u, u, u, dt, 0.0);
         st->w = w;
         st->s = s;
+        st->q = q;
         st->aux = NAN;
         return;
     }
@@ -78,7 +119,15 @@ void plant_step(const plant_params *p, plant_state *st, double u, double dt)
         /* bound |w| over the step by its start value plus the largest acceleration */
         double rate = p->sigma0 * (aw + (fabs(u) + p->g_max + p->pos.sigma * aw) * dt / p->J) / p->g_min
                       + p->base_rate;
-        double x = rate * dt;
+        double x;
+        if (p->ripple_a != 0.0) { /* levels within (1 -+ a) of g; the position coupling of the ripple */
+            double a = p->ripple_a;
+            double an = a * p->ripple_n;
+            double wmax = aw + (fabs(u) + (p->g_max + p->pos.sigma * aw) * (1.0 + a)) * dt / p->J;
+            rate = p->sigma0 * wmax / (p->g_min * (1.0 - a)) + p->base_rate + p->ripple_n * wmax / (1.0 - a)
+                   + sqrt((p->sigma1 + p->pos.sigma * (1.0 + a)) * an * wmax / p->J);
+        }
+        x = rate * dt;
         if (!(x < 1e15)) { /* non-finite state or input: no step count exists */
             st->w = NAN;
             st->s = NAN;
@@ -90,11 +139,19 @@ void plant_step(const plant_params *p, plant_state *st, double u, double dt)
             plant_lugre_stiff_step(p, st, u, dt);
             return;
         }
+        if (p->ripple_a != 0.0) { /* accuracy: the ripple forces the bristle's fast mode at n*|w|, and RK4's
+                                     forced response errs by about (rate*h)^4*(n*|w|*h)/120: a quarter of the
+                                     sub-step keeps the friction within 1e-6 of its peak (tests/test_plant_options) */
+            n = (long)(lugre_ripple_substeps * x) + 1;
+            h = dt / (double)n;
+        }
     } else {
         double dv = p->dv;
         double x;
         if (-dv < w && w < dv) { /* Karnopp stick band (dv = 0: never) */
             double Fs = p->Fs_stick;
+            if (p->ripple_a != 0.0)
+                Fs *= plant_ripple(p, q);
             if (-Fs <= u && u <= Fs) {
                 st->w = 0.0;
                 st->s = u;
@@ -107,7 +164,7 @@ void plant_step(const plant_params *p, plant_state *st, double u, double dt)
             plant_lagged_stiff_step(p, st, u, dt, 0.0);
             return;
         }
-        x = p->rate * dt;
+        x = lagged_rate_at(p, w) * dt;
         if (x > plant_rk4_rate_max) { /* a stiff mode: equal sub-steps with rate*h < 1 */
             if (!(x < PLANT_LAGGED_RK4_MAX) && sgn == 0.0) /* the stiffness of this step alone */
                 x = plant_lagged_local_rate(p, w, s, u, dt) * dt;
@@ -124,17 +181,18 @@ void plant_step(const plant_params *p, plant_state *st, double u, double dt)
     stat = p->tau == 0.0 && !lugre;
     cached = stat && sgn == 0.0 && st->aux == p->key; /* s = F(w) of these parameters */
     for (long i = 0; i < n; i++) {
-        double Fw = cached && i == 0 ? s : plant_target(p, w, sgn);
-        plant_rk4(p, &w, &s, Fw, u, u, u, h, sgn);
+        double Fw = cached && i == 0 ? s : plant_target_at(p, w, q, sgn);
+        plant_rk4_at(p, &w, &s, &q, Fw, u, u, u, h, sgn);
     }
     if (stat) {
-        s = plant_target(p, w, sgn);
+        s = plant_target_at(p, w, q, sgn);
         st->aux = p->key;
     } else {
         st->aux = NAN;
     }
     st->w = w;
     st->s = s;
+    st->q = q;
 }
 
 double plant_friction(const plant_params *p, const plant_state *st)
@@ -145,19 +203,25 @@ double plant_friction(const plant_params *p, const plant_state *st)
     w = st->w;
     z = st->s;
     aw = fabs(w);
-    g = plant_target(p, w, 0.0); /* g(|w|); any positive value at w = 0, where aw/g = 0 */
+    g = plant_target_at(p, w, st->q, 0.0); /* g(|w|)*R(q); any positive value at w = 0, where aw/g = 0 */
     zdot = w - p->sigma0 * aw / g * z;
+    if (p->ripple_a != 0.0)
+        return p->sigma0 * z + p->sigma1 * zdot + p->pos.sigma * plant_ripple(p, st->q) * w;
     return p->sigma0 * z + p->sigma1 * zdot + p->pos.sigma * w;
 }
 
 void plant_simulate(const plant_params *p, plant_state *st, const double *u, long n, double dt, double *W,
-                    double *S)
+                    double *S, double *Q)
 {
     W[0] = st->w;
     S[0] = st->s;
+    if (Q != NULL)
+        Q[0] = st->q;
     for (long k = 0; k < n; k++) {
         plant_step(p, st, u[k], dt);
         W[k + 1] = st->w;
         S[k + 1] = st->s;
+        if (Q != NULL)
+            Q[k + 1] = st->q;
     }
 }

@@ -15,8 +15,11 @@ static double pymax(double a, double b)
 
 double plant_lagged_level_max(const plant_params *p)
 {
-    return pymax(pymax(pymax(p->pos.Fc, p->pos.Fc + p->pos.dF), pymax(p->neg.Fc, p->neg.Fc + p->neg.dF)),
-                 p->Fs_stick);
+    double m = pymax(pymax(pymax(p->pos.Fc, p->pos.Fc + p->pos.dF), pymax(p->neg.Fc, p->neg.Fc + p->neg.dF)),
+                     p->Fs_stick);
+    if (p->ripple_a != 0.0) /* the map times R(q) <= 1 + a */
+        m *= 1.0 + p->ripple_a;
+    return m;
 }
 
 double plant_lagged_local_rate(const plant_params *p, double w, double f, double u, double dt)
@@ -27,8 +30,7 @@ double plant_lagged_local_rate(const plant_params *p, double w, double f, double
     int pos = w > 0.0;
     double dF = pos ? p->pos.dF : p->neg.dF;
     double sig = pos ? p->pos.sigma : p->neg.sigma;
-    double Fmax = pymax(pymax(pymax(p->pos.Fc, p->pos.Fc + p->pos.dF), pymax(p->neg.Fc, p->neg.Fc + p->neg.dF)),
-                        p->Fs_stick);
+    double Fmax = plant_lagged_level_max(p);
     double D = 2.0 * dt * (fabs(u) + pymax(fabs(f), Fmax + pymax(p->pos.sigma, p->neg.sigma) * aw)) / J;
     double lo = aw - D;
     double delta, Vs, rise, s;
@@ -47,6 +49,14 @@ double plant_lagged_local_rate(const plant_params *p, double w, double f, double
         rise = plant_stribeck_slope(x, dF, Vs, delta);
     }
     s = (sig > 0.0 ? sig : 0.0) + rise;
+    if (p->ripple_a != 0.0) { /* the ripple's position stiffness k = |dF/dq| <= (Fmax + sigma*|w|)*a*n */
+        double kq = (Fmax + pymax(pymax(p->pos.sigma, p->neg.sigma), 0.0) * (aw + D)) * p->ripple_a * p->ripple_n;
+        double rp = 4.0 * p->ripple_n * (aw + D); /* the ripple's passing rate, resolved (accuracy) */
+        s = s * (1.0 + p->ripple_a);
+        if (tau > 0.0) /* J*tau*l^3 + J*l^2 + s*l + kq = 0: |l| <= max(1/tau, sqrt(s/(J tau)), cbrt(kq/(J tau))) */
+            return pymax(pymax(pymax(1.0 / tau, sqrt(s / (J * tau))), cbrt(kq / (J * tau))), rp);
+        return pymax(pymax(s / J, sqrt(kq / J)), rp);
+    }
     if (tau > 0.0)
         return pymax(1.0 / tau, sqrt(s / (J * tau)));
     return s / J;
@@ -60,18 +70,19 @@ int plant_static_jump_in_reach(const plant_params *p, double w, double u, double
     return !(aw > dt * amax);
 }
 
-/* d*(c*(w - w0) + k*F(w) - r): the backward-Euler residual of plant_lagged_implicit_step, oriented. */
+/* d*(c*(w - w0) + k*F(w, q0 + h*w) - r): the backward-Euler residual of plant_lagged_implicit_step, oriented
+ * (the map at the step's end position q0 + h*w, plant_target_at). */
 static double be_residual(const plant_params *p, double w, double sgn, double c, double k, double r, double w0,
-                          double d)
+                          double d, double q0, double h)
 {
-    return d * (c * (w - w0) + k * plant_target(p, w, sgn) - r);
+    return d * (c * (w - w0) + k * plant_target_at(p, w, q0 + h * w, sgn) - r);
 }
 
 /* A root of the oriented residual in the bracket (lo, hi) (plo < 0 <= phi): Illinois regula falsi with a
  * bisection after three iterations that did not halve the bracket (Dahlquist & Bjorck, Numerical Methods,
  * Sec. 6.2); returns hi once |hi - lo| <= 1e-13*(|lo| + |hi| + Vs), at most 300 iterations. */
 static double be_root(const plant_params *p, double sgn, double c, double k, double r, double w0, double d,
-                      double lo, double plo, double hi, double phi)
+                      double q0, double h, double lo, double plo, double hi, double phi)
 {
     double tol = 1e-13 * (fabs(lo) + fabs(hi) + p->pos.Vs);
     int side = 0;
@@ -86,7 +97,7 @@ static double be_root(const plant_params *p, double sgn, double c, double k, dou
             x = 0.5 * (lo + hi);
             stall = 0;
         }
-        px = be_residual(p, x, sgn, c, k, r, w0, d);
+        px = be_residual(p, x, sgn, c, k, r, w0, d, q0, h);
         if (px >= 0.0) {
             hi = x;
             phi = px;
@@ -107,8 +118,8 @@ static double be_root(const plant_params *p, double sgn, double c, double k, dou
     return hi;
 }
 
-void plant_lagged_implicit_step(const plant_params *p, double w0, double f0, double u, double h, double sgn,
-                                double *w, double *f, double *Fstar)
+void plant_lagged_implicit_step(const plant_params *p, double w0, double f0, double q0, double u, double h,
+                                double sgn, double *w, double *f, double *Fstar)
 {
     double J = p->J;
     double tau = p->tau;
@@ -127,8 +138,8 @@ void plant_lagged_implicit_step(const plant_params *p, double w0, double f0, dou
     }
     start = w0;
     if ((w0 == 0.0 && dv == 0.0) || (dv > 0.0 && (w0 == dv || w0 == -dv))) { /* on a jump of the map */
-        double Flo = plant_target(p, nextafter(w0, -INFINITY), sgn);
-        double Fhi = plant_target(p, nextafter(w0, INFINITY), sgn);
+        double Flo = plant_target_at(p, nextafter(w0, -INFINITY), q0 + h * w0, sgn);
+        double Fhi = plant_target_at(p, nextafter(w0, INFINITY), q0 + h * w0, sgn);
         if (k * Flo <= r && r <= k * Fhi) { /* F(w0) is the interval [Flo, Fhi] and holds the joint: it stays */
             Fs = r / k;
             *w = w0;
@@ -139,9 +150,9 @@ void plant_lagged_implicit_step(const plant_params *p, double w0, double f0, dou
         d = r > k * Fhi ? 1.0 : -1.0;
         start = nextafter(w0, d * INFINITY);
     } else {
-        double g = r - k * plant_target(p, w0, sgn);
+        double g = r - k * plant_target_at(p, w0, q0 + h * w0, sgn);
         if (g == 0.0 || !(g == g)) {
-            Fs = g == g ? plant_target(p, w0, sgn) : NAN;
+            Fs = g == g ? plant_target_at(p, w0, q0 + h * w0, sgn) : NAN;
             *w = g == g ? w0 : NAN;
             *f = tau > 0.0 ? (f0 + a * Fs) / (1.0 + a) : Fs;
             *Fstar = Fs;
@@ -150,24 +161,26 @@ void plant_lagged_implicit_step(const plant_params *p, double w0, double f0, dou
         d = g > 0.0 ? 1.0 : -1.0;
     }
     Fbar = plant_lagged_level_max(p) + pymax(p->pos.sigma, p->neg.sigma) * fabs(w0);
+    if (p->ripple_a != 0.0) /* the viscous part rippled too */
+        Fbar = plant_lagged_level_max(p) + pymax(p->pos.sigma, p->neg.sigma) * fabs(w0) * (1.0 + p->ripple_a);
     hi = w0 + d * (fabs(r) + k * Fbar) / c;
     hi = hi + d * 1e-15 * (fabs(hi) + p->pos.Vs); /* strictly past the bound */
-    plo = be_residual(p, start, sgn, c, k, r, w0, d);
-    phi = be_residual(p, hi, sgn, c, k, r, w0, d);
+    plo = be_residual(p, start, sgn, c, k, r, w0, d, q0, h);
+    phi = be_residual(p, hi, sgn, c, k, r, w0, d, q0, h);
     for (int i = 0; i < 2; i++) { /* the jumps of the map ahead of the start, in the direction of motion */
         double q = dv == 0.0 ? (i == 0 ? 0.0 : NAN) : (i == 0 ? -d * dv : d * dv);
         double before, pb, after, pa;
         if (!(d * (q - start) > 0.0 && d * (hi - q) > 0.0))
             continue;
         before = nextafter(q, -d * INFINITY);
-        pb = be_residual(p, before, sgn, c, k, r, w0, d);
+        pb = be_residual(p, before, sgn, c, k, r, w0, d, q0, h);
         if (pb >= 0.0) {
             hi = before;
             phi = pb;
             break;
         }
         after = nextafter(q, d * INFINITY);
-        pa = be_residual(p, after, sgn, c, k, r, w0, d);
+        pa = be_residual(p, after, sgn, c, k, r, w0, d, q0, h);
         if (pa >= 0.0) { /* the residual jumps across zero: the step ends on the jump */
             Fs = (r - c * (q - w0)) / k;
             *w = q;
@@ -183,7 +196,7 @@ void plant_lagged_implicit_step(const plant_params *p, double w0, double f0, dou
     else if (plo >= 0.0)
         ws = start;
     else
-        ws = be_root(p, sgn, c, k, r, w0, d, start, plo, hi, phi);
+        ws = be_root(p, sgn, c, k, r, w0, d, q0, h, start, plo, hi, phi);
     Fs = (r - c * (ws - w0)) / k;
     *w = ws;
     *f = tau > 0.0 ? (f0 + a * Fs) / (1.0 + a) : Fs;
@@ -216,6 +229,7 @@ void plant_lagged_stiff_step(const plant_params *p, plant_state *st, double u, d
 {
     double w = st->w;
     double f = st->s;
+    double q = st->q;
     double h = st->aux;
     double tau = p->tau;
     double Vs = p->pos.Vs;
@@ -226,7 +240,7 @@ void plant_lagged_stiff_step(const plant_params *p, plant_state *st, double u, d
         h = dt;
     while (t < dt) {
         int last, reg, smooth;
-        double hh, w1, f1, F1, wm, fm, Fm, w2, f2, F2, err, we;
+        double hh, w1, f1, F1, wm, fm, Fm, w2, f2, F2, err, we, q1, qm, q2;
         if (count >= PLANT_LAGGED_MAX_SUBSTEPS || !(w - w == 0.0 && f - f == 0.0 && u - u == 0.0)) {
             st->w = NAN;
             st->s = NAN;
@@ -236,9 +250,12 @@ void plant_lagged_stiff_step(const plant_params *p, plant_state *st, double u, d
         count++;
         last = h >= dt - t;
         hh = last ? dt - t : h;
-        plant_lagged_implicit_step(p, w, f, u, hh, sgn, &w1, &f1, &F1);
-        plant_lagged_implicit_step(p, w, f, u, 0.5 * hh, sgn, &wm, &fm, &Fm);
-        plant_lagged_implicit_step(p, wm, fm, u, 0.5 * hh, sgn, &w2, &f2, &F2);
+        plant_lagged_implicit_step(p, w, f, q, u, hh, sgn, &w1, &f1, &F1);
+        plant_lagged_implicit_step(p, w, f, q, u, 0.5 * hh, sgn, &wm, &fm, &Fm);
+        qm = q + 0.5 * hh * wm; /* backward Euler on dq/dt = w */
+        plant_lagged_implicit_step(p, wm, fm, qm, u, 0.5 * hh, sgn, &w2, &f2, &F2);
+        q1 = q + hh * w1;
+        q2 = qm + 0.5 * hh * w2;
         err = fabs(w2 - w1) / (plant_lagged_rtol * (fabs(w2) + Vs));
         if (tau > 0.0) {
             double ef = fabs(f2 - f1) / tol_f;
@@ -253,9 +270,11 @@ void plant_lagged_stiff_step(const plant_params *p, plant_state *st, double u, d
             smooth = reg % 2 == 0 && region(p, w) == reg && region(p, w1) == reg && region(p, wm) == reg;
             if (smooth && region(p, we) == reg) {
                 w = we;
-                f = tau > 0.0 ? 2.0 * f2 - f1 : plant_target(p, we, sgn);
+                q = 2.0 * q2 - q1;
+                f = tau > 0.0 ? 2.0 * f2 - f1 : plant_target_at(p, we, q, sgn);
             } else {
                 w = w2;
+                q = q2;
                 f = f2;
             }
         }
@@ -263,24 +282,34 @@ void plant_lagged_stiff_step(const plant_params *p, plant_state *st, double u, d
     }
     st->w = w;
     st->s = f;
+    st->q = q;
     st->aux = h;
 }
 
-void plant_lugre_jacobian(const plant_params *p, double w, double z, double u, double out[6])
+void plant_lugre_jacobian(const plant_params *p, double w, double z, double q, double u, double out[6])
 {
     double J = p->J;
     double s0 = p->sigma0;
     double s1 = p->sigma1;
     double s2 = p->pos.sigma;
     double aw = w >= 0.0 ? w : -w;
-    double g = plant_target(p, w, 0.0);
+    double g = plant_target_at(p, w, q, 0.0);
+    double R = 1.0;
     double a = s0 * aw / g;
     double fz = w - a * z;
     double fw = (u - s0 * z - s1 * fz - s2 * w) / J;
     double da = 0.0;
     double dzw;
+    if (p->ripple_a != 0.0) { /* g*R and sigma2*R (plant_params.h) */
+        R = plant_ripple(p, q);
+        s2 = s2 * R;
+        fw = (u - s0 * z - s1 * fz - s2 * w) / J;
+    }
     if (aw > 0.0) {
-        da = s0 * (g - aw * plant_stribeck_slope(aw / p->pos.Vs, p->pos.dF, p->pos.Vs, p->pos.delta)) / (g * g);
+        double slope = plant_stribeck_slope(aw / p->pos.Vs, p->pos.dF, p->pos.Vs, p->pos.delta);
+        if (p->ripple_a != 0.0)
+            slope = slope * R;
+        da = s0 * (g - aw * slope) / (g * g);
         if (w < 0.0)
             da = -da;
     }
@@ -293,8 +322,8 @@ void plant_lugre_jacobian(const plant_params *p, double w, double z, double u, d
     out[5] = -a;
 }
 
-int plant_lugre_implicit_step(const plant_params *p, double w0, double z0, double u, double h, double *w_out,
-                              double *z_out)
+int plant_lugre_implicit_step(const plant_params *p, double w0, double z0, double q0, double u, double h,
+                              double *w_out, double *z_out)
 {
     double w = w0;
     double z = z0;
@@ -302,7 +331,7 @@ int plant_lugre_implicit_step(const plant_params *p, double w0, double z0, doubl
     for (int it = 0; it < 30; it++) {
         double jac[6];
         double g1, g2, m11, m12, m21, m22, det, dw, dz;
-        plant_lugre_jacobian(p, w, z, u, jac);
+        plant_lugre_jacobian(p, w, z, q0 + h * w, u, jac);
         g1 = w - w0 - h * jac[0];
         g2 = z - z0 - h * jac[1];
         m11 = 1.0 - h * jac[2];
@@ -329,6 +358,7 @@ void plant_lugre_stiff_step(const plant_params *p, plant_state *st, double u, do
 {
     double w = st->w;
     double z = st->s;
+    double q = st->q;
     double h = st->aux;
     double tol_z = plant_lugre_ztol * p->g_max / p->sigma0;
     double t = 0.0;
@@ -337,7 +367,7 @@ void plant_lugre_stiff_step(const plant_params *p, plant_state *st, double u, do
         h = dt;
     while (t < dt) {
         int last, ok1, ok2, ok3;
-        double hh, w1, z1, wm, zm, w2, z2, err;
+        double hh, w1, z1, wm, zm, w2, z2, err, qm;
         if (count >= PLANT_LUGRE_MAX_SUBSTEPS || !(w == w && z == z)) {
             st->w = NAN;
             st->s = NAN;
@@ -347,9 +377,10 @@ void plant_lugre_stiff_step(const plant_params *p, plant_state *st, double u, do
         count++;
         last = h >= dt - t;
         hh = last ? dt - t : h;
-        ok1 = plant_lugre_implicit_step(p, w, z, u, hh, &w1, &z1);
-        ok2 = plant_lugre_implicit_step(p, w, z, u, 0.5 * hh, &wm, &zm);
-        ok3 = plant_lugre_implicit_step(p, wm, zm, u, 0.5 * hh, &w2, &z2);
+        ok1 = plant_lugre_implicit_step(p, w, z, q, u, hh, &w1, &z1);
+        ok2 = plant_lugre_implicit_step(p, w, z, q, u, 0.5 * hh, &wm, &zm);
+        qm = q + 0.5 * hh * wm; /* backward Euler on dq/dt = w */
+        ok3 = plant_lugre_implicit_step(p, wm, zm, qm, u, 0.5 * hh, &w2, &z2);
         err = INFINITY;
         if (ok1 && ok2 && ok3) {
             double ew = fabs(w2 - w1) / (plant_lugre_rtol * (fabs(w2) + p->pos.Vs));
@@ -358,6 +389,7 @@ void plant_lugre_stiff_step(const plant_params *p, plant_state *st, double u, do
         }
         if (err <= 1.0) {
             t = last ? dt : t + hh;
+            q = 2.0 * (qm + 0.5 * hh * w2) - (q + hh * w1);
             w = 2.0 * w2 - w1;
             z = 2.0 * z2 - z1;
         }
@@ -365,5 +397,6 @@ void plant_lugre_stiff_step(const plant_params *p, plant_state *st, double u, do
     }
     st->w = w;
     st->s = z;
+    st->q = q;
     st->aux = h;
 }
