@@ -272,3 +272,18 @@ def test_the_kalman_velocity_reaches_the_runs_and_the_design_noise_level(tmp_pat
     assert np.mean(np.abs(wm / step - np.round(wm / step)) > 1e-6) > 0.9  # not on the difference quotient's grid
     with pytest.raises(ParameterError, match="velocity_model must be 'cv' or 'ca'"):
         CompareOptions(encoder_counts=65536, velocity="kalman", velocity_model="cj")
+
+
+def test_the_wrist_scenario_has_its_payload_step_and_the_cli_says_so(capsys, tmp_path):
+    from plant import PayloadStep
+
+    s = load_scenario(EXAMPLES / "wrist_payload.toml")
+    assert isinstance(s.plant, PayloadStep) and s.plant.J_after == 0.08 and s.plant.t_step == 12.0
+    assert s.plant.at(11.999).J == 0.05 and s.plant.at(12.0).J == 0.08
+    assert main(["compare", "--scenario", str(EXAMPLES / "wrist_payload.toml"), "--quiet", "--no-figures",
+                 "--modes", "none"]) == 2  # the file sets the modes
+    assert "--modes cannot be combined with --scenario" in capsys.readouterr().err
+    assert main(["compare", "--scenario", str(EXAMPLES / "wrist_payload.toml"), "--quiet", "--no-figures",
+                 "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "payload step: J 0.05 -> 0.08 kg·m² at t = 12 s" in out and "settle max [s]" in out

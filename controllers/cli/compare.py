@@ -98,9 +98,13 @@ def _compare_and_print(args, p, modes, out_dir) -> int:
                    adaptive_start=not args.no_fast_start)
     src = args.plant if args.plant else (f"variant '{args.variant}'" if args.variant else f"preset '{args.preset}'")
     header = [f"plant: {src}: {parameter_text(plant_to_dict(p))}"]
-    if hasattr(p, "at"):
+    if hasattr(p, "Fc_change"):
         header.append(f"drift: Fc {p.Fc_change:+.0%}, Fs {p.Fs_change:+.0%} from t = {p.t_start:g} s to "
                       f"{p.t_end:g} s")
+    if hasattr(p, "J_after"):
+        header.append(f"payload step: J {p.at(0.0).J:g} -> {p.J_after:g} kg·m² at t = {p.t_step:g} s")
+    if hasattr(p, "harmonic"):
+        header.append(f"friction ripple: 1 + {p.amplitude:g}*sin({p.harmonic:g}*q + {p.phase:g})")
     return _print_comparison(args, comp, out_dir, header, None, run=f"run: {args.duration:g} s, seed {args.seed}")
 
 
