@@ -97,15 +97,21 @@ def _compare_and_print(args, p, modes, out_dir) -> int:
                    prefit=not args.no_prefit, Vs=args.Vs, delta=args.delta, J_design=args.J_design,
                    adaptive_start=not args.no_fast_start)
     src = args.plant if args.plant else (f"variant '{args.variant}'" if args.variant else f"preset '{args.preset}'")
-    header = [f"plant: {src}: {parameter_text(plant_to_dict(p))}"]
-    if hasattr(p, "Fc_change"):
-        header.append(f"drift: Fc {p.Fc_change:+.0%}, Fs {p.Fs_change:+.0%} from t = {p.t_start:g} s to "
-                      f"{p.t_end:g} s")
-    if hasattr(p, "J_after"):
-        header.append(f"payload step: J {p.at(0.0).J:g} -> {p.J_after:g} kg·m² at t = {p.t_step:g} s")
-    if hasattr(p, "harmonic"):
-        header.append(f"friction ripple: 1 + {p.amplitude:g}*sin({p.harmonic:g}*q + {p.phase:g})")
+    header = [f"plant: {src}: {parameter_text(plant_to_dict(p))}"] + _time_varying_lines(p)
     return _print_comparison(args, comp, out_dir, header, None, run=f"run: {args.duration:g} s, seed {args.seed}")
+
+
+def _time_varying_lines(p) -> list:
+    """What of the plant changes during the run or along the position: drift, payload step, friction ripple."""
+    lines = []
+    if hasattr(p, "Fc_change"):
+        lines.append(f"drift: Fc {p.Fc_change:+.0%}, Fs {p.Fs_change:+.0%} from t = {p.t_start:g} s to "
+                     f"{p.t_end:g} s")
+    if hasattr(p, "J_after"):
+        lines.append(f"payload step: J {p.at(0.0).J:g} -> {p.J_after:g} kg·m² at t = {p.t_step:g} s")
+    if hasattr(p, "harmonic"):
+        lines.append(f"friction ripple: 1 + {p.amplitude:g}*sin({p.harmonic:g}*q + {p.phase:g})")
+    return lines
 
 
 def _print_comparison(args, comp, out_dir, header, scenario, run: str = "") -> int:
@@ -140,6 +146,8 @@ def _print_comparison(args, comp, out_dir, header, scenario, run: str = "") -> i
         print(line)
     if scenario is not None:
         print(f"plant: {parameter_text(plant_to_dict(comp.plant))}")
+        for line in _time_varying_lines(comp.plant):
+            print(line)
     print(f"PI: Kp={d.Kp:.4g} N·m·s/rad, Ki={d.Ki:.4g} N·m/rad, Tc={d.Tc:g} s; "
           f"phase margin {d.phase_margin:.1f} deg, gain margin {d.gain_margin:.3g}")
     print(f"design inertia J_design={comp.J_design:g} kg·m²")
