@@ -219,7 +219,9 @@ def register(sub) -> None:
                    help='JSON plant file (SI units): "model" = "lagged-stribeck" (default; J, Fc, Fs, Vs, delta, '
                         'sigma, tau), "lugre" (J, Fc, Fs, Vs, delta, sigma0, sigma1, sigma2), "karnopp" (... tau, dv) '
                         'or "asymmetric" (J, Fc_pos, Fc_neg, Fs_pos, Fs_neg, Vs, delta, sigma_pos, sigma_neg, tau); '
-                        'optional "drift": {"Fc_change", "Fs_change", "t_start", "t_end"}')
+                        'optional "drift": {"Fc_change", "Fs_change", "t_start", "t_end"}, "ripple": {"amplitude", '
+                        '"harmonic", "phase"} (friction times 1 + a*sin(n*q + phase)), "payload": {"t_step", '
+                        '"J_after"}')
     c.add_argument("--variant", choices=("lugre", "karnopp", "asymmetric", "small-inertia", "long-lag",
                                          "negative-delta", "static", "drift"),
                    help="a plant variant of the paper preset (drift: Fc, Fs +50%% over the first half)")
