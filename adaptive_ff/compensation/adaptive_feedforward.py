@@ -280,6 +280,10 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     n_undetermined : int
         Plausible estimates not used because ``Fc`` was not determined yet
         (``max_rel_stderr``).
+    n_lag_zero : int
+        Estimates whose lag estimate below 0 was taken as lag 0 (``lag_zero``).
+    n_boxed : int
+        Estimates the projection moved onto the plausible box (``project``).
     active : bool
         Whether the feedforward is switched on.
 
