@@ -193,10 +193,32 @@ def _estimate(names, theta, Vs, delta) -> FrictionEstimate:
                             Vs=Vs, delta=delta, J_alt=v["J_tau"] / tau if ("J_tau" in v and tau > 0.0) else math.nan)
 
 
+def box_projection(P, theta, lo, hi) -> np.ndarray:
+    """``argmin (x - theta)' P^-1 (x - theta)`` subject to ``lo <= x <= hi``: the active bounds from scipy's BVLS
+    on the Cholesky factor of ``P^-1``, then the minimiser with those bounds held, in closed form (the conditional
+    mean ``theta + P[:, W] P[W, W]^-1 (b_W - theta_W)``), so that the result is exact to rounding."""
+    from scipy.optimize import lsq_linear
+
+    theta = np.asarray(theta, dtype=float)
+    if np.all((theta >= lo) & (theta <= hi)):
+        return theta.copy()
+    R = np.linalg.cholesky(np.linalg.inv(P)).T
+    sol = lsq_linear(R, R @ theta, bounds=(lo, hi), method="bvls", tol=1e-15)
+    W = np.flatnonzero(sol.active_mask != 0)
+    b = np.where(sol.active_mask[W] < 0, lo[W], hi[W])
+    x = theta + P[:, W] @ np.linalg.solve(P[np.ix_(W, W)], b - theta[W])
+    x[W] = b
+    return x
+
+
 def robust_decisions(path: dict, *, dt, warmup=200, ff_max=math.inf, J_range=(0.0, math.inf), tau_max=1.0,
                      consistency=0.5, lag_margin=1.0, lag_margin_max=0.05, max_rel_stderr=0.05, lag_memory=10.0,
-                     start=None) -> dict:
+                     lag_zero=3.0, project=True, start=None) -> dict:
     """The estimates the robust feedforward puts into use, from the estimator's updates (:func:`sliding_path`).
+
+    A lag estimate below 0 by at most ``max(lag_zero*sd, 2*dt)`` is lag 0, a lower one is refused; with
+    ``project`` the tests and the feedforward take :func:`box_projection` of ``theta`` onto the plausible box
+    (``J*tau >= 0``, ``0 <= tau <= tau_max``, ``0 <= Fc, Fs <= ff_max``, ``sigma >= 0``).
 
     Returns
     -------
@@ -215,8 +237,21 @@ def robust_decisions(path: dict, *, dt, warmup=200, ff_max=math.inf, J_range=(0.
     for j, k in enumerate(path["update_at"].tolist()):
         if j + 1 < warmup:
             continue
-        est = _estimate(names, path["theta"][j], path["Vs"], path["delta"])
+        theta = np.array(path["theta"][j], dtype=float)
         cov = path["e2"][j] * path["P"][j]
+        if lag_cols and theta[2] < 0.0 and lag_zero > 0.0:
+            if theta[2] < -max(lag_zero * math.sqrt(max(cov[2, 2], 0.0)), 2.0 * dt):
+                counts["n_implausible"] += 1
+                continue
+            if not project:
+                theta[2] = 0.0
+                theta[1] = max(theta[1], 0.0)
+        if project:
+            lo = np.array([{"J_tau": 0.0, "tau": 0.0 if lag_zero > 0.0 else -math.inf, "Fc": 0.0, "Fs": 0.0,
+                            "sigma": 0.0}.get(x, -math.inf) for x in names])
+            hi = np.array([{"tau": tau_max, "Fc": ff_max, "Fs": ff_max}.get(x, math.inf) for x in names])
+            theta = box_projection(path["P"][j], theta, lo, hi)
+        est = _estimate(names, theta, path["Vs"], path["delta"])
         vals = (est.J, est.tau, est.sigma, est.Fc, est.Fs)
         if not (all(math.isfinite(v) for v in vals) and J_range[0] < est.J < J_range[1] and 0.0 <= est.tau <= tau_max
                 and est.sigma >= 0.0 and 0.0 <= est.Fc <= ff_max and 0.0 <= est.Fs <= ff_max):

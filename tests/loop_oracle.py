@@ -85,7 +85,8 @@ def _robust(kw, U, WM, J, Tc, m, ff_max, u_max):
                            lam=0.995 if lam is None else lam, forgetting=kw.get("forgetting", "exponential"),
                            P0=kw.get("P0", 1e4), initial=kw.get("initial"), J_guess=J, lag=kw.get("lag", True),
                            offset=kw.get("offset", True), dwell_max=kw.get("dwell_max", 0.01), gate=gate)
-    dec = co.robust_decisions(path, dt=Tc, warmup=kw.get("warmup", 200), ff_max=ff_max, start=kw.get("start"))
+    dec = co.robust_decisions(path, dt=Tc, warmup=kw.get("warmup", 200), ff_max=ff_max, start=kw.get("start"),
+                              lag_zero=kw.get("lag_zero", 3.0), project=kw.get("project", True))
     out = co.RobustOutput(dec, start=kw.get("start"), Vs=Vs, delta=delta, **_ff_settings(kw, Tc, ff_max))
     info = SimpleNamespace(n_rejected=path["n_rejected"], n_updates=path["rls"].n_updates, n_gated=path["n_gated"],
                            rls=path["rls"])

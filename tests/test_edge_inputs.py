@@ -140,13 +140,12 @@ def test_frictionless_joint_runs_every_mode_and_tracks_like_the_limit(frictionle
     for mode in ("adaptive", "adaptive-dob", "canudas", "dob"):
         r = comp.results[mode]
         dw = _loop_response(r.u_ff, NO_FRICTION.J, d.Kp, d.Ki, d.Tc)
+        # a feedforward that acts: adaptive uses the estimate of friction that is not there projected onto the
+        # plausible box (commit 32c8929; a lag or level below 0 had refused it from commit 8b0af0b on), measured
+        # 0.095 N*m at most (a Stribeck level fitted to the noise; 0.16 N*m with the projected RLS state before)
+        assert np.max(np.abs(dw)) > 1e-7, mode
         if mode == "adaptive":
-            # the unconstrained estimate of friction that is not there straddles zero (a lag or level below 0): the
-            # robust feedforward refuses it and feeds forward nothing (with the RLS state projected onto the box,
-            # before commit 8b0af0b, it fed forward up to 0.16 N*m of Stribeck level fitted to the noise)
-            assert np.all(r.u_ff == 0.0) and r.info["n_implausible"] > 0.5 * r.info["n_updates"]
-        else:
-            assert np.max(np.abs(dw)) > 1e-7, mode  # a feedforward that acts
+            assert np.max(np.abs(r.u_ff)) < 0.2 and r.info["n_implausible"] < 0.05 * r.info["n_updates"]
         np.testing.assert_allclose(r.w - r_fl.w, dw, rtol=0, atol=1e-12, err_msg=mode)
         assert r.metrics.rms_second_half == pytest.approx(rf, rel=0.02), mode
 

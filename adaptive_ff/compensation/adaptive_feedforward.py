@@ -28,9 +28,11 @@ from adaptive_ff.compensation.feedforward import FrictionFeedforward
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, estimate_from_theta
 from adaptive_ff.compensation.velocity_input import LoopModel, SignObserver
 from adaptive_ff.identification.regression import FrictionEstimate
+from adaptive_ff.identification.rls import RLS_NMAX
 from plant.errors import ParameterError, check_nonnegative, check_positive
 
-__all__ = ["RobustAdaptiveFeedforward", "FeedforwardStart", "lag_weighted", "fc_determined", "FC_INFO_FRACTION"]
+__all__ = ["RobustAdaptiveFeedforward", "FeedforwardStart", "lag_weighted", "fc_determined", "project_box",
+           "FC_INFO_FRACTION"]
 
 
 #: Fraction of the RLS prior variance below which the data have determined ``Fc`` (see :func:`fc_determined`;
@@ -76,6 +78,60 @@ def lag_weighted(ff: "RobustAdaptiveFeedforward", etau: float, sd: float) -> flo
         ``lag_memory`` is 0 or ``sd`` is not > 0.
     """
     return float(lib.aff_robust_ff_lag_weighted(ff.cdata, float(etau), float(sd)))
+
+
+def project_box(P, theta, lower, upper) -> tuple:
+    """Projection of ``theta`` onto a box in the metric of ``P^-1`` (C ``aff_project_box``).
+
+    Solves ``min (x - theta)' P^-1 (x - theta)`` subject to ``lower <= x <= upper`` exactly (primal active-set
+    method for convex QP, Nocedal & Wright, *Numerical Optimization*, 2nd ed., 2006, Alg. 16.3; with the working
+    set ``W`` at its bounds the minimiser is ``theta + P[:, W] mu``, ``P[W, W] mu = b_W - theta_W``). With ``P``
+    the covariance of a least-squares estimate ``theta`` this is the least-squares estimate under the bounds
+    (Goodwin & Sin, *Adaptive Filtering, Prediction and Control*, 1984, Sec. 3.3.7).
+
+    Parameters
+    ----------
+    P : array_like, shape (p, p)
+        Symmetric positive definite matrix (the RLS covariance), 1 <= p <= ``AFF_RLS_NMAX``.
+    theta : array_like, shape (p,)
+        The unconstrained estimate.
+    lower, upper : array_like, shape (p,)
+        Bounds (``-inf``/``inf`` for a free parameter), ``lower <= upper``, ``lower < inf``, ``upper > -inf``.
+
+    Returns
+    -------
+    x : ndarray, shape (p,)
+        The projection (``theta`` itself where it lies in the box).
+    n_active : int
+        Bounds active at ``x``.
+
+    Raises
+    ------
+    ParameterError
+        Shapes that do not match, non-finite ``P`` or ``theta``, an empty bound pair, or a ``P`` not positive
+        definite on the active bounds (the solver's failure).
+    """
+    P = np.ascontiguousarray(P, dtype=float)
+    theta = np.ascontiguousarray(theta, dtype=float)
+    lo = np.ascontiguousarray(lower, dtype=float)
+    hi = np.ascontiguousarray(upper, dtype=float)
+    p = theta.size
+    if theta.ndim != 1 or not 1 <= p <= RLS_NMAX:
+        raise ParameterError(f"theta must be a vector of 1..{RLS_NMAX} entries, got shape {theta.shape}")
+    if P.shape != (p, p) or lo.shape != (p,) or hi.shape != (p,):
+        raise ParameterError(f"P must have shape {(p, p)} and lower, upper {(p,)}, got {P.shape}, {lo.shape}, "
+                             f"{hi.shape}")
+    if not (np.all(np.isfinite(P)) and np.all(np.isfinite(theta))):
+        raise ParameterError("P and theta must be finite")
+    if not (np.all(lo <= hi) and np.all(lo < np.inf) and np.all(hi > -np.inf)):
+        raise ParameterError(f"bounds must satisfy lower <= upper, got {lo!r}, {hi!r}")
+    x = np.empty(p)
+    n = lib.aff_project_box(p, ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", theta),
+                            ffi.from_buffer("double[]", lo), ffi.from_buffer("double[]", hi),
+                            ffi.from_buffer("double[]", x))
+    if n < 0:
+        raise ParameterError("project_box: P is not positive definite on the active bounds")
+    return x, int(n)
 
 
 @dataclass(frozen=True)
@@ -186,6 +242,20 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         ``exp(-Ts/lag_memory)`` per estimator update (see Notes); the margin
         is added to that mean. Default 10 s (five memories of the default
         RLS); 0: the latest estimate itself.
+    lag_zero : float, keyword-only
+        A lag estimate below 0 by at most ``max(lag_zero*sd, 2*dt)`` (``sd``
+        its standard error, see ``lag_margin``; in standard errors) is lag
+        0: a lag-free joint's estimate scatters around 0 and half of it
+        falls below. A lower lag estimate refuses the estimate. Default 3;
+        inf: every negative lag is 0; 0: a negative lag refuses the
+        estimate (as before 2026-11-23).
+    project : bool, keyword-only
+        Use the projection of a copy of the estimator's ``theta`` onto the
+        plausible box in the metric of ``P^-1`` (:func:`project_box`: the
+        least-squares estimate under the bounds ``J*tau >= 0``, ``0 <= tau
+        <= tau_max``, ``0 <= Fc, Fs <= ff_max``, ``sigma >= 0``) instead of
+        refusing an estimate outside it; the RLS state stays unconstrained.
+        Default True.
     stick_band, stick_samples : keyword-only
         Stick detection, see :class:`FrictionFeedforward`.
     ff_input, w_max, loop_model, sign_observer : keyword-only
@@ -210,6 +280,10 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     n_undetermined : int
         Plausible estimates not used because ``Fc`` was not determined yet
         (``max_rel_stderr``).
+    n_lag_zero : int
+        Estimates whose lag estimate below 0 was taken as lag 0 (``lag_zero``).
+    n_boxed : int
+        Estimates the projection moved onto the plausible box (``project``).
     active : bool
         Whether the feedforward is switched on.
 
@@ -225,16 +299,30 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     sliding regime are not used (excitation/validity gate); (3) the
     covariance bound (or directional forgetting) of the estimator's RLS keeps
     ``P`` bounded when the motion does not excite (windup protection);
-    (4) ``theta`` is not projected onto physical bounds (a projection of
-    the RLS state diverges after one-sided motion:
+    (4) the RLS state ``theta`` is not projected onto physical bounds (a
+    projection of the state diverges after one-sided motion:
     :class:`~adaptive_ff.compensation.sliding_estimator.SlidingFrictionEstimator`,
-    Notes); instead (5) the estimate is used only after ``warmup`` updates and only if
+    Notes); instead (5) after ``warmup`` updates a lag estimate below 0
+    within ``lag_zero`` standard errors is lag 0 (a lower one refuses the
+    estimate), a copy of ``theta`` is projected onto the plausible box
+    (``project``, :func:`project_box`), and that estimate is used only if
     plausible (finite, ``J`` in ``J_range``, ``0 <= tau <= tau_max``,
     ``sigma >= 0``, ``0 <= Fc, Fs <= ff_max``), determined (the standard error of ``Fc`` at most
     ``max_rel_stderr*max(Fc, Fs)``) and with consistent lag estimates,
     otherwise the last usable one is held (an inconsistent lag alone keeps
     the previous ``tau`` and takes the new friction levels); (6) the output
     fades in after switch-on and is clipped to ``±ff_max``.
+
+    The projection of (5) is the box-constrained least-squares estimate: the
+    RLS minimises a cost that is ``(x - theta)' P^-1 (x - theta)`` (times
+    the noise variance) plus a constant, so its minimiser under the bounds is
+    the projection of ``theta`` in that metric (Goodwin & Sin, *Adaptive
+    Filtering, Prediction and Control*, 1984, Sec. 3.3.7). A parameter pushed
+    onto a bound moves the others along their correlation with it (a joint
+    without lag: ``tau`` to 0 and the levels to their best fit without the
+    lag columns). Deciding on the raw ``theta`` refused such estimates for
+    whole runs (docs/benchmarks/compensation.md, "the unconstrained
+    estimator").
 
     The determinacy test of (5) matters after motion in one direction only:
     there the Coulomb column ``sgn(w)`` equals the offset column, the RLS
@@ -286,8 +374,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
                  ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0, stick_samples: int = 10,
                  warmup: int = 200, fade_in: float = 1.0, J_range: tuple = (0.0, math.inf), tau_max: float = 1.0,
                  consistency: float = 0.5, lag_margin: float = 1.0, lag_margin_max: float = 0.05,
-                 max_rel_stderr: float = 0.05, lag_memory: float = 10.0,
-                 ff_input: str = "measured", w_max: float = math.inf, start: FeedforwardStart | None = None,
+                 max_rel_stderr: float = 0.05, lag_memory: float = 10.0, lag_zero: float = 3.0,
+                 project: bool = True, ff_input: str = "measured", w_max: float = math.inf, start: FeedforwardStart | None = None,
                  loop_model: LoopModel | None = None, sign_observer: SignObserver | None = None):
         if not isinstance(estimator, SlidingFrictionEstimator):
             raise TypeError(f"estimator must be a SlidingFrictionEstimator, got {type(estimator).__name__}")
@@ -317,6 +405,10 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
             raise ParameterError(f"max_rel_stderr must be > 0 (inf: no test), got {max_rel_stderr!r}")
         max_rel_stderr = rel
         lag_memory = check_nonnegative("lag_memory", lag_memory)
+        lag_zero = (math.inf if isinstance(lag_zero, (int, float)) and lag_zero == math.inf
+                    else check_nonnegative("lag_zero", lag_zero))  # inf: every negative lag is 0
+        if not isinstance(project, (bool, np.bool_)):
+            raise ParameterError(f"project must be True or False, got {project!r}")
         fade_in = check_nonnegative("fade_in", fade_in)
         if start is not None and not isinstance(start, FeedforwardStart):
             raise ParameterError(f"start must be a FeedforwardStart or None, got {type(start).__name__}")
@@ -326,7 +418,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         lib.aff_robust_ff_init(self._c, ff.cdata, estimator.cdata, int(warmup), 1.0 if fade_in == 0.0 else dt / fade_in,
                                J_lo, J_hi, tau_max, consistency, 1.0 if start is None else start.gain,
                                start is not None and start.ff_input == "reference", lag_margin, max_rel_stderr,
-                               lag_margin_max, math.exp(-estimator.Ts / lag_memory) if lag_memory > 0.0 else 0.0)
+                               lag_margin_max, math.exp(-estimator.Ts / lag_memory) if lag_memory > 0.0 else 0.0,
+                               lag_zero, bool(project))
         self.start = start
         self._attached()
         if start is not None:
@@ -356,6 +449,15 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     max_rel_stderr = property(lambda self: float(self._c.max_rel_stderr),
                               doc="Largest standard error of ``Fc`` in use, relative to ``max(Fc, Fs)``.")
 
+    lag_zero = property(lambda self: float(self._c.lag_zero),
+                        doc="Standard errors below 0 within which a lag estimate is lag 0.")
+    project = property(lambda self: bool(self._c.project),
+                       doc="Whether the estimate used is theta projected onto the plausible box.")
+    n_lag_zero = property(lambda self: int(self._c.n_lag_zero),
+                          doc="Estimates whose negative lag estimate was taken as lag 0.")
+    n_boxed = property(lambda self: int(self._c.n_boxed),
+                       doc="Estimates the projection moved onto the plausible box.")
+
     provisional = property(lambda self: bool(self._c.provisional),
                            doc="Whether the provisional start map (``start``) is in use.")
 
@@ -370,8 +472,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
 
     @property
     def estimate(self) -> FrictionEstimate | None:
-        """The estimator's estimate in use (None before switch-on and during the provisional start), with the lag
-        in use: the weighted mean of the lag estimates (``lag_memory``) plus ``lag_margin`` standard errors, or the
+        """The estimator's estimate in use (None before switch-on and during the provisional start; projected onto
+        the plausible box with ``project``), with the lag in use: the weighted mean of the lag estimates (``lag_memory``) plus ``lag_margin`` standard errors, or the
         previous lag where the lag estimates disagreed (then ``J_alt`` is NaN)."""
         if not self._f.has or self._c.provisional:
             return None
@@ -406,6 +508,19 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     def compensate(self, w_meas: float, w_ref: float) -> float:
         """Compensator protocol: the faded-in feedforward for this period (N·m), C ``aff_robust_ff_compensate``."""
         return float(lib.aff_robust_ff_compensate(self._c, float(w_meas), float(w_meas), float(w_ref)))
+
+    def decide(self) -> bool:
+        """Take the estimator's current ``theta`` through the tests of point (5) of the class Notes and put it into
+        use if it passes (what :meth:`observe` does after each RLS update past the warm-up; C
+        ``aff_robust_ff_decide``).
+
+        Returns
+        -------
+        bool
+            True if the estimate is in use (possibly with the previous lag held), False if refused (counted in
+            :attr:`n_implausible` or :attr:`n_undetermined`).
+        """
+        return bool(lib.aff_robust_ff_decide(self._c))
 
     def plausible(self, est: FrictionEstimate) -> bool:
         """The plausibility test of point (5) of the class Notes: range checks and lag consistency (C

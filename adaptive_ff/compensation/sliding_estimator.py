@@ -248,10 +248,13 @@ class SlidingFrictionEstimator(Component):
     switched on (eta 0.00); the same log through the unconstrained RLS gives
     J 3.78, Fc 25.03, sigma 39.9 (true 4, 25, 40) from the 100th update on,
     and eta 1.00 in closed loop (docs/benchmarks/compensation.md, "Point-to-point
-    moves: the unconstrained estimator"). The unconstrained estimate leaves
-    the box only where the data do not determine it, and there the robust
-    feedforward refuses it anyway (range checks, determinacy of ``Fc``, lag
-    consistency).
+    moves: the unconstrained estimator"). Where the unconstrained estimate
+    leaves the box (a lag-free joint's lag estimate scatters around 0), the
+    robust feedforward uses a copy of it projected onto the plausible box in
+    the same metric, the least-squares estimate under the bounds, computed
+    exactly and once per decision rather than accumulated in the state
+    (:func:`adaptive_ff.compensation.adaptive_feedforward.project_box`), and
+    refuses a lag estimate clearly below 0 (its ``lag_zero``).
     """
 
     _ffi = ffi

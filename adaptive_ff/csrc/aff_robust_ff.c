@@ -8,7 +8,7 @@ static const aff_real FC_INFO_FRACTION = 0.01;
 void aff_robust_ff_init(aff_robust_ff *r, const aff_fixed_ff *ff, const aff_sliding *est, long warmup,
                         aff_real fade, aff_real J_lo, aff_real J_hi, aff_real tau_max, aff_real consistency,
                         aff_real start_gain, int start_at_ref, aff_real lag_margin, aff_real max_rel_stderr,
-                        aff_real lag_margin_max, aff_real lag_forget)
+                        aff_real lag_margin_max, aff_real lag_forget, aff_real lag_zero, int project)
 {
     long i;
     memset(r, 0, sizeof *r);
@@ -26,6 +26,8 @@ void aff_robust_ff_init(aff_robust_ff *r, const aff_fixed_ff *ff, const aff_slid
     r->max_rel_stderr = max_rel_stderr;
     r->lag_margin_max = lag_margin_max;
     r->lag_forget = lag_forget;
+    r->lag_zero = lag_zero;
+    r->project = project != 0;
     for (i = 0; i < AFF_RLS_NMAX; i++)
         r->theta_used[i] = NAN;
 }
@@ -137,47 +139,231 @@ aff_real aff_robust_ff_lag_weighted(aff_robust_ff *r, aff_real tau, aff_real sd)
     return r->lag_mean;
 }
 
-int aff_robust_ff_observe(void *self, double u, double w_meas, double *theta_out)
+int aff_project_box(long p, const aff_real *P, const aff_real *theta, const aff_real *lo, const aff_real *hi,
+                    aff_real *x)
 {
-    aff_robust_ff *r = (aff_robust_ff *)self;
+    int side[AFF_RLS_NMAX];      /* working set: 0 free, -1 held at lo, +1 held at hi */
+    long W[AFF_RLS_NMAX];        /* indices of the working set */
+    aff_real th[AFF_RLS_NMAX];   /* theta (x may alias it) */
+    aff_real L[AFF_RLS_NMAX * AFF_RLS_NMAX]; /* Cholesky factor of P[W, W], row-major, row length p */
+    aff_real mu[AFF_RLS_NMAX];   /* multipliers: P[W, W] mu = b_W - theta_W */
+    aff_real z[AFF_RLS_NMAX];    /* minimiser with W held */
+    long i, j, k, nw, it, blk;
+    int bside, nact;
+    aff_real alpha, worst;
+    if (p < 1 || p > AFF_RLS_NMAX)
+        return -1;
+    nact = 0;
+    for (i = 0; i < p; i++) {
+        if (!(lo[i] <= hi[i] && lo[i] < INFINITY && hi[i] > -INFINITY))
+            return -1;
+        th[i] = theta[i];
+        x[i] = th[i];
+        side[i] = 0;
+        if (x[i] < lo[i]) {
+            x[i] = lo[i];
+            side[i] = -1;
+            nact++;
+        } else if (x[i] > hi[i]) {
+            x[i] = hi[i];
+            side[i] = 1;
+            nact++;
+        }
+    }
+    if (nact == 0)
+        return 0;
+    /* x is feasible (theta clipped) and the working set holds the clipped parameters at their bounds */
+    for (it = 0; it < 8 * p + 8; it++) {
+        nw = 0;
+        for (i = 0; i < p; i++)
+            if (side[i] != 0)
+                W[nw++] = i;
+        /* Cholesky of P[W, W], then mu */
+        for (j = 0; j < nw; j++) {
+            aff_real d = P[W[j] * p + W[j]];
+            for (k = 0; k < j; k++)
+                d -= L[j * p + k] * L[j * p + k];
+            if (!(d > 0) || !isfinite(d))
+                return -1;
+            L[j * p + j] = AFF_SQRT(d);
+            for (i = j + 1; i < nw; i++) {
+                aff_real c = P[W[i] * p + W[j]];
+                for (k = 0; k < j; k++)
+                    c -= L[i * p + k] * L[j * p + k];
+                L[i * p + j] = c / L[j * p + j];
+            }
+        }
+        for (j = 0; j < nw; j++) { /* forward: L y = b_W - theta_W */
+            aff_real c = (side[W[j]] < 0 ? lo[W[j]] : hi[W[j]]) - th[W[j]];
+            for (k = 0; k < j; k++)
+                c -= L[j * p + k] * mu[k];
+            mu[j] = c / L[j * p + j];
+        }
+        for (j = nw - 1; j >= 0; j--) { /* backward: L' mu = y */
+            aff_real c = mu[j];
+            for (k = j + 1; k < nw; k++)
+                c -= L[k * p + j] * mu[k];
+            mu[j] = c / L[j * p + j];
+        }
+        for (i = 0; i < p; i++) {
+            if (side[i] != 0) {
+                z[i] = side[i] < 0 ? lo[i] : hi[i];
+            } else {
+                aff_real c = th[i];
+                for (k = 0; k < nw; k++)
+                    c += P[i * p + W[k]] * mu[k];
+                z[i] = c;
+            }
+        }
+        /* the step from x towards z, as far as the first bound it meets */
+        alpha = 1.0;
+        blk = -1;
+        bside = 0;
+        for (i = 0; i < p; i++) {
+            aff_real a;
+            if (side[i] != 0)
+                continue;
+            if (!isfinite(z[i]))
+                return -1;
+            if (z[i] < lo[i]) {
+                a = (lo[i] - x[i]) / (z[i] - x[i]);
+                if (blk < 0 || a < alpha) { /* (a < 1 but for rounding) */
+                    alpha = aff_min2(alpha, a);
+                    blk = i;
+                    bside = -1;
+                }
+            } else if (z[i] > hi[i]) {
+                a = (hi[i] - x[i]) / (z[i] - x[i]);
+                if (blk < 0 || a < alpha) {
+                    alpha = aff_min2(alpha, a);
+                    blk = i;
+                    bside = 1;
+                }
+            }
+        }
+        if (blk >= 0) { /* blocked: move to the bound, hold it */
+            if (!(alpha >= 0))
+                alpha = 0.0;
+            for (i = 0; i < p; i++) {
+                if (side[i] != 0)
+                    continue;
+                x[i] += alpha * (z[i] - x[i]);
+                if (x[i] < lo[i])
+                    x[i] = lo[i];
+                else if (x[i] > hi[i])
+                    x[i] = hi[i];
+            }
+            x[blk] = bside < 0 ? lo[blk] : hi[blk];
+            side[blk] = bside;
+            continue;
+        }
+        for (i = 0; i < p; i++)
+            x[i] = z[i];
+        /* optimal if every multiplier has its sign (>= 0 at lo, <= 0 at hi); else free the worst */
+        worst = 0.0;
+        blk = -1;
+        for (j = 0; j < nw; j++) {
+            aff_real v = side[W[j]] < 0 ? -mu[j] : mu[j];
+            if (v > worst) {
+                worst = v;
+                blk = W[j];
+            }
+        }
+        if (blk < 0)
+            return (int)nw;
+        side[blk] = 0;
+    }
+    return -1;
+}
+
+/* The plausible box of theta for the projection: J and the offset free; J*tau >= 0; 0 <= tau <= tau_max;
+ * 0 <= Fc, Fs <= ff_max; sigma >= 0. */
+static void plausible_box(const aff_robust_ff *r, aff_real *lo, aff_real *hi)
+{
+    long p = r->est.p;
+    long i, k = 1;
+    for (i = 0; i < p; i++) {
+        lo[i] = -INFINITY;
+        hi[i] = INFINITY;
+    }
+    if (r->est.lag) {
+        lo[1] = 0.0;
+        lo[2] = 0.0;
+        hi[2] = r->tau_max;
+        k = 3;
+    }
+    lo[k] = 0.0;
+    hi[k] = r->ff.ff_max;
+    lo[k + 1] = 0.0;
+    hi[k + 1] = r->ff.ff_max;
+    lo[k + 2] = 0.0;
+}
+
+int aff_robust_ff_decide(aff_robust_ff *r)
+{
     aff_sliding *est = &r->est;
     const aff_rls *rls = &est->rls;
     long p = rls->p;
     long i, iFc;
     int lag;
+    aff_real x[AFF_RLS_NMAX];
     aff_real eJ, etau, eJalt, eFc, eFs, esig, e2;
-    aff_sign_observer_step(&r->ff.ob, (aff_real)u, r->ff.u_out);
-    aff_sliding_observe(est, (aff_real)u, (aff_real)w_meas);
-    if (!est->updated)
-        return 0;
-    if (theta_out)
-        for (i = 0; i < p; i++)
-            theta_out[i] = rls->theta[i];
-    if (rls->n_updates < r->warmup)
-        return 1;
     lag = est->lag;
-    eJ = rls->theta[0];
+    e2 = est->e2;
+    for (i = 0; i < p; i++)
+        x[i] = rls->theta[i];
+    if (lag && x[2] < 0 && r->lag_zero > 0) {
+        /* a lag estimate below 0 within its noise is lag 0 (its standard error sd = sqrt(e2*P_tautau), the
+         * Kalman-filter form of RLS: Ljung, System Identification, 2nd ed., 1999, Sec. 11.2; at least two periods,
+         * the shortest lag lag_consistent tests) */
+        aff_real sd = AFF_SQRT(aff_max2(e2 * aff_rls_P(rls, 2, 2), 0.0));
+        aff_real tol = r->lag_zero < INFINITY ? aff_max2(r->lag_zero * sd, (aff_real)2.0 * r->ff.dt) : INFINITY;
+        if (!(x[2] >= -tol)) {
+            r->n_implausible++;
+            return 0;
+        }
+        r->n_lag_zero++;
+        if (!r->project) {
+            x[2] = 0.0;
+            if (x[1] < 0)
+                x[1] = 0.0;
+        }
+    }
+    if (r->project) {
+        aff_real lo[AFF_RLS_NMAX], hi[AFF_RLS_NMAX];
+        int nb;
+        plausible_box(r, lo, hi);
+        if (lag && !(r->lag_zero > 0))
+            lo[2] = -INFINITY; /* lag_zero 0: a negative lag is refused below, not projected */
+        nb = aff_project_box(p, rls->P, rls->theta, lo, hi, x);
+        if (nb < 0) {
+            r->n_implausible++;
+            return 0;
+        }
+        if (nb > 0)
+            r->n_boxed++;
+    }
+    eJ = x[0];
     if (lag) {
-        etau = rls->theta[2];
-        eJalt = etau > 0 ? rls->theta[1] / etau : NAN;
+        etau = x[2];
+        eJalt = etau > 0 ? x[1] / etau : NAN;
         iFc = 3;
     } else {
         etau = 0.0;
         eJalt = NAN;
         iFc = 1;
     }
-    eFc = rls->theta[iFc];
-    eFs = rls->theta[iFc + 1];
-    esig = rls->theta[iFc + 2];
+    eFc = x[iFc];
+    eFs = x[iFc + 1];
+    esig = x[iFc + 2];
     if (!levels_plausible(r, eJ, etau, eFc, eFs, esig)) {
         r->n_implausible++;
-        return 1;
+        return 0;
     }
-    e2 = est->e2;
     if (!aff_fc_determined(r->max_rel_stderr, e2, aff_rls_P(rls, iFc, iFc), aff_rls_prior_variance(rls), eFc,
                            eFs)) {
         r->n_undetermined++; /* Fc not determined yet (e.g. one direction of motion only: Fc and the offset agree) */
-        return 1;
+        return 0;
     }
     if (lag_consistent(r, rls, eJ, etau, eJalt, e2, r->ff.dt, lag)) {
         r->held = 0;
@@ -194,7 +380,7 @@ int aff_robust_ff_observe(void *self, double u, double w_meas, double *theta_out
         r->held = 1;
     } else {
         r->n_implausible++;
-        return 1;
+        return 0;
     }
     if (r->provisional) { /* hand-over from the provisional start: fade from the start gain to 1 */
         r->provisional = 0;
@@ -202,7 +388,27 @@ int aff_robust_ff_observe(void *self, double u, double w_meas, double *theta_out
     }
     aff_fixed_ff_set_estimate(&r->ff, eFc, eFs, est->Vs, est->delta, esig, etau, 1);
     for (i = 0; i < p; i++)
-        r->theta_used[i] = rls->theta[i];
+        r->theta_used[i] = x[i];
+    return r->held ? 2 : 1;
+}
+
+int aff_robust_ff_observe(void *self, double u, double w_meas, double *theta_out)
+{
+    aff_robust_ff *r = (aff_robust_ff *)self;
+    aff_sliding *est = &r->est;
+    const aff_rls *rls = &est->rls;
+    long p = rls->p;
+    long i;
+    aff_sign_observer_step(&r->ff.ob, (aff_real)u, r->ff.u_out);
+    aff_sliding_observe(est, (aff_real)u, (aff_real)w_meas);
+    if (!est->updated)
+        return 0;
+    if (theta_out)
+        for (i = 0; i < p; i++)
+            theta_out[i] = rls->theta[i];
+    if (rls->n_updates < r->warmup)
+        return 1;
+    aff_robust_ff_decide(r);
     return 1;
 }
 

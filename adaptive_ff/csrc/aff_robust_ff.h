@@ -2,10 +2,13 @@
  * the fixed feedforward after warm-up and plausibility tests, faded in after switch-on.
  *
  * Safety chain (Python class Notes): samples gated by the estimator; rows outside the sliding regime unused;
- * the RLS's covariance bound or directional forgetting; projection onto physical bounds; an estimate is used
- * only after warmup RLS updates and if plausible (finite, J in (J_lo, J_hi), 0 <= tau <= tau_max, sigma >= 0,
- * 0 <= Fc, Fs <= ff_max), with Fc determined (aff_fc_determined) and the two lag estimates (tau and J*tau/J)
- * consistent (else the previous lag is held); the lag in use is the inverse-variance weighted mean of the lag
+ * the RLS's covariance bound or directional forgetting; the RLS state itself unconstrained. After warmup RLS
+ * updates a lag estimate tau < 0 within its noise (tau >= -max(lag_zero*sd, 2*dt), sd its standard error) is
+ * lag 0, a lower one refuses the estimate; then a copy of theta is projected onto the plausible box in the
+ * metric of P^-1 (aff_project_box: the box-constrained least-squares estimate), and that copy is used if
+ * plausible (finite, J in (J_lo, J_hi), 0 <= tau <= tau_max, sigma >= 0, 0 <= Fc, Fs <= ff_max), with Fc
+ * determined (aff_fc_determined) and the two lag estimates (tau and J*tau/J) consistent (else the previous lag
+ * is held); the lag in use is the inverse-variance weighted mean of the lag
  * estimates with forgetting (Ljung, System Identification, 2nd ed., 1999, Sec. 11.2) plus lag_margin standard
  * errors (at most lag_margin_max times the lag, at most tau_max: a cautious use of the estimate, Astrom &
  * Wittenmark, Adaptive Control, 2nd ed., 1995, Ch. 7); the output fades in over fade_in and is clipped. An
@@ -34,6 +37,9 @@ typedef struct aff_robust_ff {
     aff_real max_rel_stderr;      /* largest standard error of Fc relative to max(Fc, Fs), INFINITY = no test */
     aff_real lag_margin_max;      /* largest margin as a fraction of the lag, INFINITY = no cap */
     aff_real lag_forget;          /* forgetting factor of the weighted lag per update, exp(-Ts/lag_memory), 0 = off */
+    aff_real lag_zero;            /* a lag estimate >= -max(lag_zero*sd, 2*dt) is lag 0 (standard errors; 0: none,
+                                   * INFINITY: every negative lag) */
+    int project;                  /* 1: the estimate used is theta projected onto the plausible box (P^-1 metric) */
     /* state */
     aff_real gain;                /* fade-in gain of the output */
     int provisional;              /* 1 while the start map is in use */
@@ -41,20 +47,45 @@ typedef struct aff_robust_ff {
     long n_implausible;           /* estimates after warm-up that failed the tests */
     long n_lag_held;              /* estimates used with the previous lag */
     long n_undetermined;          /* plausible estimates not used because Fc was not determined */
+    long n_lag_zero;              /* estimates whose negative lag estimate was taken as lag 0 */
+    long n_boxed;                 /* estimates the projection moved onto the box */
     aff_real lag_mean;            /* weighted mean of the lag estimates (s) */
     aff_real lag_info;            /* its total weight (1/s^2) */
-    aff_real theta_used[AFF_RLS_NMAX]; /* the estimator's theta whose estimate is in use (NaN before) */
+    aff_real theta_used[AFF_RLS_NMAX]; /* the estimate in use as a theta (the projected copy; NaN before) */
     aff_sliding est;              /* the online estimator */
 } aff_robust_ff;
 
 /* Configure r from the configured parts ff (aff_fixed_ff_init, no estimate) and est (aff_sliding_init), both
  * copied by value, and clear its state (gain 1, no estimate in use, theta_used NaN). warmup >= 0; fade = dt/fade_in
  * (1 for fade_in 0); J_lo < J_hi; tau_max > 0; consistency > 0; start_gain in (0, 1]; lag_margin >= 0;
- * max_rel_stderr > 0; lag_margin_max >= 0; lag_forget in [0, 1). Python: RobustAdaptiveFeedforward.__init__. */
+ * max_rel_stderr > 0; lag_margin_max >= 0; lag_forget in [0, 1); lag_zero >= 0 (INFINITY allowed); project 0 or
+ * 1 (lag_zero 0 and project 0: the tests on the raw theta, as before 2026-11-23). Python:
+ * RobustAdaptiveFeedforward.__init__. */
 void aff_robust_ff_init(aff_robust_ff *r, const aff_fixed_ff *ff, const aff_sliding *est, long warmup,
                         aff_real fade, aff_real J_lo, aff_real J_hi, aff_real tau_max, aff_real consistency,
                         aff_real start_gain, int start_at_ref, aff_real lag_margin, aff_real max_rel_stderr,
-                        aff_real lag_margin_max, aff_real lag_forget);
+                        aff_real lag_margin_max, aff_real lag_forget, aff_real lag_zero, int project);
+
+/* Projection of theta onto the box lo <= x <= hi in the metric of P^-1: x minimises (x - theta)' P^-1 (x - theta)
+ * subject to the bounds (P, p*p row-major, symmetric positive definite; lo[i] = -INFINITY / hi[i] = INFINITY for
+ * a free parameter; x may alias theta). With P the RLS covariance this is the least-squares estimate under the
+ * bounds (the cost of the RLS data is that quadratic form plus a constant: the constrained least-squares step,
+ * Goodwin & Sin, Adaptive Filtering, Prediction and Control, 1984, Sec. 3.3.7; Ljung, System Identification, 2nd
+ * ed., 1999, Sec. 11.2). Solved exactly by the primal active-set method for convex QP (Nocedal & Wright, Numerical
+ * Optimization, 2nd ed., 2006, Alg. 16.3): with the working set W held at its bounds b_W the minimiser is the
+ * conditional mean x = theta + P[:, W] mu, P[W, W] mu = b_W - theta_W (Cholesky), and mu is the bound's multiplier
+ * (>= 0 at a lower, <= 0 at an upper bound). Work: at most 8*p + 8 iterations of O(p^3). Returns the number of
+ * bounds active at x (0: x = theta), or -1 (x undefined) if p is outside 1..AFF_RLS_NMAX, a bound pair is empty (or lo +inf, hi -inf),
+ * a P[W, W] is not numerically positive definite, or the iterations run out. Python:
+ * adaptive_ff.compensation.adaptive_feedforward.project_box. */
+int aff_project_box(long p, const aff_real *P, const aff_real *theta, const aff_real *lo, const aff_real *hi,
+                    aff_real *x);
+
+/* The estimator's current theta through the tests of the safety chain (what aff_robust_ff_observe does after an
+ * RLS update past warm-up): the lag-zero test, the projection, range checks, determinacy of Fc, lag consistency;
+ * an estimate that passes is put into the feedforward (theta_used, the lag in use). Returns 1 if the estimate is
+ * in use (2 with the previous lag held), 0 if refused (counted). Python: RobustAdaptiveFeedforward.decide. */
+int aff_robust_ff_decide(aff_robust_ff *r);
 
 /* Put the provisional start map into use (levels N*m, Vs rad/s, sigma N*m*s/rad, lag s): the feedforward's
  * estimate, provisional = 1, gain 1. Python: RobustAdaptiveFeedforward(start=FeedforwardStart(...)). */

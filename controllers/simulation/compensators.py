@@ -102,6 +102,10 @@ class ModeOptions:
         latest estimate) plus ``lag_margin`` standard errors (default 1), at most ``lag_margin_max`` (default
         0.05) of it more, and an estimate is used once the standard error of ``Fc`` is at most
         ``max_rel_stderr`` (default 0.05) of ``max(Fc, Fs)``.
+    lag_zero : float
+        A negative lag estimate within ``max(lag_zero`` standard errors, ``2*Tc)`` of 0 is lag 0 (default 3).
+    project : bool
+        Use the estimate projected onto the plausible box (P^-1 metric) instead of refusing it (default True).
     start : FeedforwardStart or None
         Provisional start of the sliding ``adaptive`` feedforward (e.g. the pre-fit map at the reference): it
         acts from the first period until the estimator's first trusted estimate; default None.
@@ -189,6 +193,8 @@ class ModeOptions:
     lag_margin_max: float = 0.05
     max_rel_stderr: float = 0.05
     lag_memory: float = 10.0
+    lag_zero: float = 3.0
+    project: bool = True
     start: FeedforwardStart | None = None
     ff_max: float | None = None
     ff_input: str = "measured"
@@ -300,6 +306,7 @@ def _adaptive(plant, o):
                                             warmup=o.warmup, lag_margin=o.lag_margin,
                                             lag_margin_max=o.lag_margin_max,
                                             max_rel_stderr=o.max_rel_stderr, lag_memory=o.lag_memory,
+                                            lag_zero=o.lag_zero, project=o.project,
                                             ff_input=o.ff_input, start=o.start,
                                             loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
 
