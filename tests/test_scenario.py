@@ -287,3 +287,21 @@ def test_the_wrist_scenario_has_its_payload_step_and_the_cli_says_so(capsys, tmp
                  "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "payload step: J 0.05 -> 0.08 kg·m² at t = 12 s" in out and "settle max [s]" in out
+
+
+def test_the_residual_observer_is_no_faster_than_the_kalman_velocity():
+    """With the encoder's Kalman velocity (cv, 100 Hz) adaptive-dob's residual observer is capped at 2*pi*100 rad/s:
+    on the small-inertia variant with point-to-point moves and one period of delay eta 0.68 at the former 1000
+    rad/s, 1.00 capped (2026-11-23)."""
+    from controllers.experiments.compare import prepare_comparison
+    from plant.variant_plants import variant
+
+    ref = point_to_point_reference([0.5, -0.2, 0.4, 0.0, 0.6, -0.3] * 3, v_max=0.5, a_max=4.0, dwell=0.5)
+    kw = dict(reference=ref, encoder_counts=2 ** 17, delay=1, noise_std=0.0, u_max=150.0, modes=("none", "adaptive-dob"))
+    p = variant("small-inertia")
+    s = prepare_comparison(p, CompareOptions(velocity="kalman", **kw))
+    assert s.mode_options["adaptive-dob"].omega_r == pytest.approx(2 * math.pi * 100.0, rel=1e-12)
+    s2 = prepare_comparison(p, CompareOptions(velocity="difference", **kw))
+    assert s2.mode_options["adaptive-dob"].omega_r == 1000.0
+    c = compare(p, CompareOptions(velocity="kalman", **kw), progress=False)
+    assert c.eta["adaptive-dob"] >= 0.95

@@ -745,7 +745,8 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
                      stick_samples=o.stick_samples, dwell_max=o.dwell_max, offset=o.offset, warmup=o.warmup,
                      omega_q=o.omega_q, initial=initial, start=start, sign_input=o.sign_input,
                      observer_bandwidth=o.observer_bandwidth,
-                     omega_r=residual_cutoff(J, noise, o.Tc, _friction_level(exp, F_peak)),
+                     omega_r=residual_cutoff(J, noise, o.Tc, _friction_level(exp, F_peak),
+                                             omega_max=_observer_max(o)),
                      encoder_counts=o.encoder_counts, delay=o.delay, slew_rate=o.slew_rate, velocity=o.velocity,
                      velocity_bandwidth=o.velocity_bandwidth, velocity_model=o.velocity_model)
     opts = {mode: replace(mo, ff_input=o.canudas_input if mode == "canudas" else o.ff_input) for mode in run_modes}
@@ -852,6 +853,20 @@ def _fixed_fallback(why: str, fit, J: float, F_max: float) -> tuple:
             f"Fs = {levels[1]:.4g} N·m, Vs = {fit.Vs:.4g} rad/s, delta = {fit.delta:.4g}, sigma = "
             f"{max(fit.sigma, 0.0):.4g} N·m·s/rad, no lag)")
     return est, note
+
+
+def _observer_max(o: CompareOptions) -> float:
+    """Fastest residual observer (rad/s) the loop's velocity supports: 1000, or with the encoder's Kalman velocity
+    its bandwidth ``2*pi*fb`` (the filter's lag, about ``sqrt(2)/(2*pi*fb)`` for cv, turns the observer's
+    ``J*s*w`` into a phase error above it). Measured on the open bench (2^17 encoder, Kalman cv 100 Hz, one period
+    of delay, point-to-point moves; 2026-11-23): ``adaptive-dob`` on ``small-inertia`` 0.68 at 1000 rad/s, 1.00 at
+    600; ``long-lag``, ``paper``, ``karnopp`` 0.99 -> 1.03-1.04 (docs/benchmarks/scenarios.md)."""
+    if o.encoder_counts is None or o.velocity != "kalman":
+        return 1000.0
+    from controllers.simulation.sensor_drive import default_velocity_bandwidth
+
+    bw = o.velocity_bandwidth if o.velocity_bandwidth is not None else default_velocity_bandwidth(o.Tc)
+    return min(1000.0, 2.0 * math.pi * bw)
 
 
 def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, share: float = 1.0,
