@@ -167,7 +167,7 @@ def point_to_point_reference(targets: Sequence[float], *, v_max: float, a_max: f
 
 
 def reversing_reference(speed: float, *, hold: float, accel: float, n_reversals: int, start_dwell: float = 0.5,
-                        dt: float = 1e-3) -> Reference:
+                        end_dwell: float = 0.5, dt: float = 1e-3) -> Reference:
     """Constant speed ``±speed`` held for ``hold`` seconds, reversed ``n_reversals`` times through zero.
 
     Parameters
@@ -184,6 +184,9 @@ def reversing_reference(speed: float, *, hold: float, accel: float, n_reversals:
         rest after the last segment.
     start_dwell : float, keyword-only
         Standstill before the first ramp (s), >= 0, default 0.5 s.
+    end_dwell : float, keyword-only
+        Standstill after the last ramp (s), >= 0, default 0.5 s: the final stop, long enough for its settling to
+        be measured (0: the reference reaches rest on its last sample, a stop the run ends in).
     dt : float, keyword-only
         Step (s), > 0, default 1 ms.
 
@@ -191,7 +194,7 @@ def reversing_reference(speed: float, *, hold: float, accel: float, n_reversals:
     -------
     Reference
         ``|w| <= speed``, ``|dw| <= accel``; :meth:`~plant.excitation.Reference.reversals` holds
-        ``n_reversals`` times.
+        ``n_reversals`` times, :meth:`~plant.excitation.Reference.stops` one (the final rest).
 
     Raises
     ------
@@ -203,6 +206,7 @@ def reversing_reference(speed: float, *, hold: float, accel: float, n_reversals:
     if isinstance(n_reversals, bool) or int(n_reversals) != n_reversals or n_reversals < 1:
         raise ParameterError(f"n_reversals must be an integer >= 1, got {n_reversals!r}")
     start_dwell = check_nonnegative("start_dwell", start_dwell)
+    end_dwell = check_nonnegative("end_dwell", end_dwell)
     # piecewise-linear breakpoints (time, velocity): a ramp up, then per segment a hold and a ramp to the other sign
     tr = speed / accel
     times, vals = [0.0, start_dwell, start_dwell + tr], [0.0, 0.0, speed]
@@ -213,6 +217,9 @@ def reversing_reference(speed: float, *, hold: float, accel: float, n_reversals:
         s = -s
     times += [times[-1] + hold, times[-1] + hold + tr]
     vals += [s * speed, 0.0]
+    if end_dwell > 0:
+        times.append(times[-1] + end_dwell)
+        vals.append(0.0)
     n = int(math.ceil(times[-1] / dt)) + 1
     t = np.arange(n) * dt
     w = np.interp(t, times, vals)

@@ -113,7 +113,7 @@ def test_point_to_point_run_equals_the_numpy_definitions(p2p_runs):
 
 def test_reversing_run_errors_at_each_reversal_and_the_stop_at_its_end():
     p, o = _loop()
-    ref = reversing_reference(0.3, hold=1.0, accel=3.0, n_reversals=5)
+    ref = reversing_reference(0.3, hold=1.0, accel=3.0, n_reversals=5, end_dwell=0.0)
     r = run_mode(p, ref, "none", o, rng=np.random.default_rng(5))
     revs = ref.reversals()
     m = r.motion
@@ -130,6 +130,12 @@ def test_reversing_run_errors_at_each_reversal_and_the_stop_at_its_end():
     assert d["motion"]["stops"][0]["settled"] is False and d["motion"]["stops"][0]["settling_time"] is None
     assert d["motion"]["settling_max"] is None and d["motion"]["n_unsettled"] == 1
     assert "did not settle" in r.summary()
+    # with the default final dwell (0.5 s) the last stop is one whose settling is measured
+    r2 = run_mode(p, reversing_reference(0.3, hold=1.0, accel=3.0, n_reversals=5), "none", o,
+                  rng=np.random.default_rng(5))
+    m2 = r2.motion
+    assert m2.n_stops == 1 and m2.stop_end[0] - m2.stop_start[0] == pytest.approx(0.5, abs=2e-3)
+    assert_matches(m2, oracle(r2.t, r2.w_ref, r2.w, revs, 0.2))
 
 
 def test_batch_scenarios_have_their_own_event_arrays_equal_to_single_runs(p2p_runs):

@@ -69,7 +69,7 @@ __all__ = ["Scenario", "ScenarioError", "TrackingBounds", "compensator_factories
 REFERENCE_KINDS = {
     "multisine": ("duration",),
     "point-to-point": ("targets", "v_max", "a_max", "j_max", "dwell", "start_dwell", "q0", "repeat"),
-    "reversing": ("speed", "hold", "accel", "n_reversals", "start_dwell"),
+    "reversing": ("speed", "hold", "accel", "n_reversals", "start_dwell", "end_dwell"),
     "file": ("path", "time", "velocity", "position", "time_unit", "velocity_unit", "position_unit"),
 }
 _TOP = ("name", "description", "seed", "modes", "plant", "reference", "sensor", "drive", "controller",

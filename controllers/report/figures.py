@@ -201,7 +201,8 @@ def _motion_runs(comp) -> dict:
 
 
 def pick_stop(comp, *, half_window: float = 1.0) -> float | None:
-    """Start time (s) of the reference stop to show up close, or None when the reference has no stops.
+    """Start time (s) of the reference stop to show up close, or None when the reference has no stops or its second
+    half holds more reversals than stops (then :func:`pick_reversal` chooses).
 
     Among the stops of the second half (the metrics window), the one with the longest settling time of the modes
     drawn up close (``none``, ``fixed``, ``adaptive``; a stop that did not settle counts as longest), ties to the
@@ -213,6 +214,8 @@ def pick_stop(comp, *, half_window: float = 1.0) -> float | None:
         return None
     mm = next(iter(motion.values()))
     a, t_mid = mm.stop_start, mm.t_mid
+    if np.count_nonzero(mm.reversal_times >= t_mid) > np.count_nonzero(a >= t_mid):
+        return None  # a motion of reversals (constant speed, reversed): the reversal is what to look at
     shown = [motion[m] for m in _ZOOM_MODES if m in motion and m != "frictionless"] or list(motion.values())
     score = np.nanmax(np.stack([np.nan_to_num(x.settling_time, nan=-1.0) for x in shown]), axis=0)
     for ok in (a >= t_mid, np.ones(a.shape, bool)):
@@ -286,8 +289,9 @@ def _tracking_inputs(comp, *, half_window: float = 1.0) -> dict:
          "zoom_t": base.t[sel].copy(), "zoom_reference": _deg(base.w_ref[sel]), "zoom": zoom}
     if motion:
         mm = next(iter(motion.values()))
-        i = int(np.flatnonzero(mm.stop_start == stop)[0])
         d["stops"] = (mm.stop_start.copy(), mm.stop_end.copy())
+    if motion and stop is not None:
+        i = int(np.flatnonzero(mm.stop_start == stop)[0])
         d["zoom_stop"] = {"t_end": float(mm.stop_end[i]), "band": float(_deg(mm.stop_band[i])),
                           "settle": {m: float(motion[m].settling_time[i]) for m, *_ in zoom if m in motion}}
     return d
