@@ -219,20 +219,16 @@ class IdentificationReport:
         """Stribeck velocity (rad/s or m/s) of the fitted model, fixed by the pre-fit; None without Stribeck.
         With a form selection (:attr:`forms`): the chosen form's (fitted for the free Stribeck forms; the given
         one, without effect since ``Fs = Fc``, for Coulomb + viscous)."""
-        if self.forms is not None:
-            return self.forms.best.params["Vs"] if self._form_vs() else None
+        if self.forms is not None and self.forms.best.stribeck == "free":
+            return self.forms.best.params["Vs"]
         return self.model.Vs if self.model.stribeck else None
 
     @property
     def delta(self) -> float | None:
         """Stribeck shape factor of the fitted model, fixed by the pre-fit; None without Stribeck (as :attr:`Vs`)."""
-        if self.forms is not None:
-            return self.forms.best.params["delta"] if self._form_vs() else None
+        if self.forms is not None and self.forms.best.stribeck == "free":
+            return self.forms.best.params["delta"]
         return self.model.delta if self.model.stribeck else None
-
-    def _form_vs(self) -> bool:
-        """Whether the chosen form has a Stribeck velocity to report: fitted, or given to :func:`identify`."""
-        return self.forms.best.stribeck == "free" or self.model.stribeck
 
     @property
     def J(self) -> float:
@@ -782,8 +778,8 @@ def _attach_form(report: IdentificationReport, data, form: str, options: dict, V
     physical = PhysicalFit(method="output_error", params=params, stderr=stderr, cond=float("nan"),
                            nrmse=float(b.fit_percent), n_samples=int(sel.n_samples), nrmse_kind=sel.predictor,
                            info={"form": b.name, "stderr_kind": "jackknife", "cv_rms": b.cv_rms, "rms": b.rms,
-                                 "noise_std": sel.noise_std, "Vs": b.params["Vs"], "delta": b.params["delta"],
-                                 "aic": b.aic, "bic": b.bic},
+                                 "noise_std": sel.noise_std, "Vs": b.params.get("Vs"),
+                                 "delta": b.params.get("delta"), "aic": b.aic, "bic": b.bic},
                            warnings=tuple(check_physical(params, source=f"form {b.name} (select_form)")))
     notes = list(report.notes) + [
         f"model form {b.label!r} ({b.name}, k = {b.n_params}) {'chosen' if form == 'auto' else 'asked for'} "
@@ -1034,7 +1030,8 @@ class CrossValidation:
         Free-run (simulation) NRMSE fit (%) of the LS eq. 4 model.
     idim_force_error : float or None
         Relative force error (%) of the inverse dynamic model ``J*dw/dt +
-        Fc*sgn(w) + sigma*w + offset`` (:func:`adaptive_ff.identification.idim.idim_force_error`);
+        Fc*sgn(w) + sigma*w + offset`` (:func:`adaptive_ff.identification.idim.idim_force_error`) of the
+        eq. 4 LS estimate, or of the chosen form's answer for a report with a form selection;
         None if the estimate is not physical.
     decimate : int
         Decimation used for ``idim_force_error``.
@@ -1120,7 +1117,9 @@ def cross_validate(report: IdentificationReport, data: MeasuredData, *, decimate
     w_one = m.predict(theta, uni.u, uni.w)
     w_free = m.simulate(theta, uni.u, uni.w[:2])
     try:
-        fe = idim_force_error(report.rigid_axis_model(), uni, decimate=q)
+        rigid = (report.rigid_axis_model() if report.forms is None else  # the chosen form's (Fs, tau dropped)
+                 RigidAxisModel.symmetric(report.J, report.sigma, report.Fc, report.offset))
+        fe = idim_force_error(rigid, uni, decimate=q)
     except ParameterError:
         fe = None
     return CrossValidation(fit_one_step=nrmse_fit(uni.w[2:], w_one[2:]),

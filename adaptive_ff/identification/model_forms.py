@@ -125,6 +125,9 @@ MIN_LOW_SPEED = 200
 _BURN = 0.5  # s at the start not scored (the initial state is a guess)
 _ONE_STEP_NOISE = 3e-4  # as physical_id: below this noise (fraction of peak |w|) the one-step predictor
 _MAX_NFEV = 100
+#: Shape factors the free Stribeck forms may take (trial points outside get a large residual); eq. 3 fits
+#: report 0.5-2 (Ruderman; Armstrong-Hélouvry, Automatica 30(7), 1994).
+_DELTA_RANGE = (0.2, 5.0)
 
 
 @dataclass(frozen=True)
@@ -147,9 +150,9 @@ class FormCandidate:
     n_params : int
         Number of fitted parameters ``k`` (offset included when fitted).
     params : dict
-        ``J`` (kg·m²), ``Fc``, ``Fs`` (N·m), ``sigma`` (N·m·s/rad), ``tau`` (s), ``offset`` (N·m), ``Vs``
-        (rad/s), ``delta``: the whole-record fit (``Fs = Fc`` for Coulomb + viscous, ``tau = 0`` without lag);
-        empty if not fitted.
+        ``J`` (kg·m²), ``Fc``, ``Fs`` (N·m), ``sigma`` (N·m·s/rad), ``tau`` (s), ``offset`` (N·m) and, for the
+        Stribeck forms, ``Vs`` (rad/s) and ``delta``: the whole-record fit (``Fs = Fc`` for Coulomb + viscous,
+        ``tau = 0`` without lag); empty if not fitted.
     stderr : dict
         Delete-a-block jackknife standard errors of the fitted parameters (module docstring); NaN if unknown.
     fitted : tuple of str
@@ -211,7 +214,7 @@ class FormCandidate:
         p = self.params
         w = np.asarray(w, dtype=float)
         aw = np.abs(w)
-        e = stribeck_shape(np.where(aw > 0, aw, 1.0), p["Vs"], p["delta"]) if p["Fs"] != p["Fc"] else 0.0
+        e = stribeck_shape(np.where(aw > 0, aw, 1.0), p["Vs"], p["delta"]) if self.stribeck != "none" else 0.0
         return np.sign(w) * (p["Fc"] + (p["Fs"] - p["Fc"]) * np.where(aw > 0, e, 1.0)) + p["sigma"] * w + p["offset"]
 
     def intervals(self, level: float = 0.95) -> dict:
@@ -514,9 +517,14 @@ class _Problem:
         p = self.unpack(name, x)
         if not (p["Vs"] > 0 and p["delta"] != 0 and math.isfinite(p["J"]) and p["J"] > 0):
             return np.full(self.w.shape[0], np.nan)
-        if p["tau"] > 0 and p["tau"] < 0.4 * self.h_max:
+        free = FORMS[name][1] == "free"
+        if (p["tau"] > 0 and p["tau"] < 0.4 * self.h_max) or (
+                free and not _DELTA_RANGE[0] <= p["delta"] <= _DELTA_RANGE[1]):
             return np.full(self.w.shape[0], np.nan)
-        par = lagged_params(p["J"], p["Fc"], p["Fs"], p["Vs"], p["delta"], p["sigma"], p["tau"])
+        try:
+            par = lagged_params(p["J"], p["Fc"], p["Fs"], p["Vs"], p["delta"], p["sigma"], p["tau"])
+        except (OverflowError, ValueError, ZeroDivisionError, ParameterError):
+            return np.full(self.w.shape[0], np.nan)  # a trial point outside the model's range: a large residual
         return simulate_on_grid(par, self.grid, w0=self.w0, f0=self.f0, offset=p["offset"], gain=self.gain,
                                 w_meas=self.w)
 
@@ -673,6 +681,8 @@ def _candidate(pb: _Problem, name: str, x, fold_fits, fold_cold, blocks, scored)
     cv_mse = float(np.sum(fm * nn) / np.sum(nn)) if nn.sum() else math.nan
     cv_se = float(np.std(fm, ddof=1) / math.sqrt(fm.shape[0])) if fm.shape[0] > 1 else math.nan
     params = pb.unpack(name, x)
+    if stribeck == "none":  # Fs = Fc: Vs and delta have no effect
+        del params["Vs"], params["delta"]
     fitted = tuple({"logJ": "J", "logtau": "tau", "logVs": "Vs", "off": "offset"}.get(s, s) for s in lay)
     P = np.array([[pb.unpack(name, th)[f] for f in fitted] for th in thetas])
     K = P.shape[0]
