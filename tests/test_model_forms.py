@@ -170,7 +170,8 @@ def test_one_standard_error_rule_on_a_hand_made_table():
 
 @pytest.mark.parametrize("kw, word", [({"folds": 1}, "folds"), ({"folds": 2.5}, "folds"), ({"folds": True}, "folds"),
                                       ({"criterion": "r2"}, "criterion"), ({"forms": ["lugre"]}, "forms"),
-                                      ({"method": "sliding"}, "method"), ({"Vs": 0.02}, "delta")])
+                                      ({"method": "sliding"}, "method"), ({"Vs": 0.02}, "delta"),
+                                      ({"predictor": "two-step"}, "predictor")])
 def test_bad_values_name_the_argument(kw, word):
     data = _log(CV, 2, duration=2.0)
     with pytest.raises(ParameterError, match=word):

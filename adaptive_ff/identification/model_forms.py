@@ -94,6 +94,7 @@ from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
 from adaptive_ff.identification.simulator import H_MAX_DEFAULT, input_grid, simulate_on_grid
 from adaptive_ff.io.data import MeasuredData, to_uniform
+from adaptive_ff.io.units import VELOCITY_LABEL
 from plant.dynamics import lagged_params
 from plant.errors import ExcitationError, ParameterError, check_finite_scalar, check_positive
 from plant.results import axes_or_new, json_safe
@@ -347,7 +348,7 @@ class FormSelection:
             lines.append(f"{mark} {c.label:<34}{c.n_params:>3}{c.rms:>11.4g}{c.fit_percent:>8.2f}{c.cv_rms:>11.4g}"
                          f"{se_rms:>10.2g}{c.aic:>12.6g}{c.bic:>12.6g}")
         lines += ["  " + "-" * 101, f"chosen: {self.best.label} ({self.chosen}); {self.rule}",
-                  "RMS and CV RMS in rad/s (velocity prediction error), CV SE the standard error of the CV RMS; "
+                  f"RMS and CV RMS in {VELOCITY_LABEL} (velocity prediction error), CV SE the standard error of the CV RMS; "
                   "AIC = n ln(RSS/n) + 2k, BIC = n ln(RSS/n) + k ln n on the whole-record residuals"]
         b = self.best
         lines.append("chosen parameters: " + ", ".join(
@@ -382,7 +383,7 @@ class FormSelection:
             F[w == 0] = np.nan
             ax.plot(w, F, lw=2.4 if c.name == self.chosen else 1.0,
                     label=f"{c.label} (k={c.n_params})" + (" chosen" if c.name == self.chosen else ""))
-        ax.set_xlabel("velocity (rad/s)")
+        ax.set_xlabel(f"velocity ({VELOCITY_LABEL})")
         ax.set_ylabel("friction F(w) (N·m)")
         ax.set_title(f"candidate friction forms, {self.source or 'measured data'}")
         ax.legend(loc="best", fontsize="small")
@@ -461,7 +462,8 @@ def _check_folds(folds) -> int:
 class _Problem:
     """The prediction errors of every form on one record; parameter vectors by form (see ``_layout``)."""
 
-    def __init__(self, data: MeasuredData, Vs, delta, offset: bool, h_max: float, input_delay: float):
+    def __init__(self, data: MeasuredData, Vs, delta, offset: bool, h_max: float, input_delay: float,
+                 predictor: str = "auto"):
         t, u, w = data.t, data.u, data.w
         self.t, self.u, self.w = t, u, w
         self.grid = input_grid(t, u, h_max=h_max, input_delay=input_delay)
@@ -470,7 +472,8 @@ class _Problem:
         self.Vs, self.delta, self.offset = Vs, delta, offset
         self.noise = float(velocity_noise_std_irregular(t, w))
         self.peak = float(np.max(np.abs(w)))
-        self.predictor = "one-step" if self.noise < _ONE_STEP_NOISE * self.peak else "free-run"
+        self.predictor = predictor if predictor != "auto" else (
+            "one-step" if self.noise < _ONE_STEP_NOISE * self.peak else "free-run")
         self.gain = (1.0, 0.0) if self.predictor == "one-step" else (0.0, 0.0)
         self.f_scale = max(3.0 * self.noise, 1e-3 * self.peak)
         self.f_wide = max(self.f_scale, 1e-2 * self.peak)
@@ -705,7 +708,8 @@ def _not_fitted(name: str, status: str, offset: bool) -> FormCandidate:
 
 def select_form(data: MeasuredData, *, Vs: float | None = None, delta: float | None = None,
                 method: str = "output_error", folds: int = 5, criterion: str = "cv", offset: bool = True,
-                forms=None, h_max: float = H_MAX_DEFAULT, input_delay: float = 0.0) -> FormSelection:
+                forms=None, h_max: float = H_MAX_DEFAULT, input_delay: float = 0.0,
+                predictor: str = "auto") -> FormSelection:
     """Fit the candidate friction forms to a record and choose one by blocked cross-validation (or AIC/BIC).
 
     Parameters
@@ -731,6 +735,9 @@ def select_form(data: MeasuredData, *, Vs: float | None = None, delta: float | N
     input_delay : float, keyword-only
         Time (s) by which each input sample precedes its time stamp (as in
         :class:`adaptive_ff.identification.physical_id.OutputErrorOptions`), default 0.
+    predictor : {"auto", "free-run", "one-step"}, keyword-only
+        The prediction fitted and judged: ``"auto"`` (default) chooses as ``fit_physical`` does (one-step
+        below a velocity noise of 0.03 % of the peak ``|w|``, else free run).
 
     Returns
     -------
@@ -774,6 +781,8 @@ def select_form(data: MeasuredData, *, Vs: float | None = None, delta: float | N
             raise ParameterError("delta must be non-zero, got 0.0")
     h_max = check_positive("h_max", h_max)
     input_delay = check_finite_scalar("input_delay", input_delay)
+    if predictor not in ("auto", "free-run", "one-step"):
+        raise ParameterError(f"predictor must be one of ['auto', 'free-run', 'one-step'], got {predictor!r}")
     names = list(FORMS) if forms is None else [forms] if isinstance(forms, str) else list(forms)
     bad = [f for f in names if f not in FORMS]
     if bad or not names:
@@ -788,7 +797,7 @@ def select_form(data: MeasuredData, *, Vs: float | None = None, delta: float | N
                               "both directions of motion")
     if np.ptp(data.u) == 0.0:
         raise ExcitationError("u is constant: the input does not excite J (nor any parameter)")
-    pb = _Problem(data, Vs, delta, bool(offset), h_max, input_delay)
+    pb = _Problem(data, Vs, delta, bool(offset), h_max, input_delay, predictor)
     n = data.t.shape[0]
     scored = np.zeros(n, dtype=bool)
     scored[pb.i0:] = True
