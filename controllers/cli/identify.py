@@ -229,7 +229,8 @@ def _identify_form(args, data, ref_name, spec, common):
         raise ParameterError(f"--bootstrap does not apply to --form {args.form}: its standard errors are the "
                              "delete-a-block jackknife of the cross-validation")
     return identify(data, Vs=args.Vs, delta=args.delta, method="output_error", form=args.form,
-                    form_options={"folds": args.folds, "criterion": args.criterion}, **common)
+                    form_options={"folds": args.folds, "criterion": args.criterion, "predictor": args.predictor},
+                    **common)
 
 
 def _form_rigid_axis(report):
@@ -404,6 +405,10 @@ def register(sub) -> None:
                                                           "default 5)")
     f.add_argument("--criterion", choices=("cv", "aic", "bic"), default="cv",
                    help="rule of --form: cv (default; one-standard-error rule on the blocked-CV error), aic, bic")
+    f.add_argument("--predictor", choices=("auto", "free-run", "one-step"), default="auto",
+                   help="prediction --form fits and judges: auto (default; one-step on a nearly noise-free "
+                        "velocity, else free-run), free-run (simulation on the torque alone), one-step (velocity "
+                        "reset to the measurement after each sample)")
     i.add_argument("--asymmetric", action="store_true",
                    help="also fit direction-dependent friction Fc+, Fc-, sigma+ (Fv+), sigma- (Fv-) by the inverse "
                         "dynamic model (IDIM-LS, no offset), as the EMPS benchmark's asymmetric variant")
