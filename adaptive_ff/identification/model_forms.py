@@ -3,18 +3,14 @@ r"""Model-form selection on the user's log: which friction model does the record
 A friction engineer facing a log tries several forms of eqs. 1-3 and keeps the simplest one that predicts
 as well as the others. :func:`select_form` does that on the record itself:
 
-=========================  ===========================================================  ==========================
-form (``name``)            friction map and lag                                          parameters (with offset)
-=========================  ===========================================================  ==========================
-``coulomb_viscous``        ``F = Fc sgn(w) + sigma w`` (``Fs = Fc``), ``tau = 0``         J, Fc, sigma, offset
-``coulomb_viscous_lag``    the same through the lag of eq. 1 (``tau`` fitted)             + tau
-``stribeck``               eq. 3 with the given ``Vs``, ``delta`` (``Fs`` fitted),        J, Fc, Fs, sigma, offset
-                           ``tau = 0``
-``stribeck_lag``           eq. 3 with the given ``Vs``, ``delta``, lag of eq. 1           + tau
-``stribeck_free``          eq. 3 with ``Vs`` and ``delta`` fitted too, ``tau = 0``        J, Fc, Fs, sigma, Vs,
-                                                                                        delta, offset
-``stribeck_free_lag``      eq. 3 with ``Vs``, ``delta`` fitted, lag of eq. 1              + tau
-=========================  ===========================================================  ==========================
+* ``coulomb_viscous``: ``F = Fc sgn(w) + sigma w`` (``Fs = Fc``), ``tau = 0``; parameters J, Fc, sigma
+  (and the offset);
+* ``coulomb_viscous_lag``: the same through the lag of eq. 1; + tau;
+* ``stribeck``: eq. 3 with the given ``Vs``, ``delta``, ``tau = 0``; J, Fc, Fs, sigma (offset);
+* ``stribeck_lag``: eq. 3 with the given ``Vs``, ``delta``, lag of eq. 1; + tau;
+* ``stribeck_free``: eq. 3 with ``Vs`` and ``delta`` fitted too, ``tau = 0``; J, Fc, Fs, sigma, Vs,
+  delta (offset);
+* ``stribeck_free_lag``: eq. 3 with ``Vs``, ``delta`` fitted, lag of eq. 1; + tau.
 
 The Stribeck forms with given ``Vs``, ``delta`` need them (a pre-fit, Sec. V-C); the free ones need
 low-speed data: at least :data:`MIN_LOW_SPEED` samples with ``3*noise < |w| < 3*Vs`` (``Vs`` the given one,
