@@ -213,3 +213,28 @@ def test_plot_draws_every_fitted_form(cv_report):
     x = ax.lines[0].get_xdata()
     assert x.min() == pytest.approx(lo) and x.max() == pytest.approx(hi)
     plt.close(ax.figure)
+
+
+def test_design_from_uses_the_chosen_form(cv_report, tmp_path, capsys):
+    # the excitation warning on Fs (too few low-speed samples) does not concern a form without Fs: a note
+    codes = {(w.code, w.parameter) for w in cv_report.warnings}
+    assert ("identifiability", "Fs") not in codes and ("method", "Fs") in codes
+    f = tmp_path / "id.json"
+    f.write_text(json.dumps(cv_report.to_json_dict()))
+    assert main(["design", "--from", str(f), "--crossover", "10", "--no-figures", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["J"] == cv_report.forms.best.params["J"]
+    assert out["sigma"] == cv_report.forms.best.params["sigma"] and "output_error" in out["source"]
+
+
+def test_cli_form_auto_prints_the_table(tmp_path, capsys):
+    data = _log(CV, 5, duration=8.0)
+    f = tmp_path / "log.csv"
+    np.savetxt(f, np.column_stack([data.t, data.u, data.w]), delimiter=",", header="t,u,w", comments="")
+    assert main(["identify", str(f), "--form", "auto", "--folds", "3", "--units", "rad"]) == 0
+    out = capsys.readouterr().out
+    assert "blocked CV, 3 contiguous blocks" in out
+    for c in FORMS.values():
+        assert c[0] in out  # every candidate has a row (fitted, or why not)
+    assert "not run: needs Vs and delta" in out and "chosen: " in out
+    assert out.index("model forms of") < out.index("baselines:")  # the table before the eq. 4 baselines

@@ -786,8 +786,17 @@ def _attach_form(report: IdentificationReport, data, form: str, options: dict, V
         f"among {sum(c.ok for c in sel.candidates)} fitted candidate forms by {sel.criterion} "
         f"({sel.folds} contiguous blocks): output-error fit on the record's own time stamps, standard errors the "
         "delete-a-block jackknife of the cross-validation refits"]
-    warn = [_as_baseline(w) for w in report.warnings] + list(physical.warnings)
+    unfitted = {k for k in ("Fs", "tau", "Vs") if k not in b.fitted}
+    warn = [_not_in_form(_as_baseline(w), b, unfitted) for w in report.warnings] + list(physical.warnings)
     return replace(report, physical=physical, forms=sel, notes=tuple(notes), warnings=tuple(warn))
+
+
+def _not_in_form(w, cand, unfitted: set):
+    """A warning on a parameter the chosen form does not fit (Fs of Coulomb + viscous, tau without lag) as a
+    ``"method"`` note: the selection answered it by leaving the parameter out."""
+    if getattr(w, "parameter", None) in unfitted and w.code != "method":
+        return IdentificationWarning("method", w.parameter, f"not fitted by the chosen form {cand.name!r}: {w}")
+    return w
 
 
 def attach_physical(report: IdentificationReport, physical: PhysicalFit, *, note: str,
