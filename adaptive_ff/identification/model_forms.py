@@ -86,7 +86,6 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
-from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
 from adaptive_ff.identification.simulator import H_MAX_DEFAULT, input_grid, simulate_on_grid
 from adaptive_ff.io.data import MeasuredData, to_uniform
@@ -344,8 +343,8 @@ class FormSelection:
             lines.append(f"{mark} {c.label:<34}{c.n_params:>3}{c.rms:>11.4g}{c.fit_percent:>8.2f}{c.cv_rms:>11.4g}"
                          f"{se_rms:>10.2g}{c.aic:>12.6g}{c.bic:>12.6g}")
         lines += ["  " + "-" * 101, f"chosen: {self.best.label} ({self.chosen}); {self.rule}",
-                  f"RMS and CV RMS in {VELOCITY_LABEL} (velocity prediction error), CV SE the standard error of the CV RMS; "
-                  "AIC = n ln(RSS/n) + 2k, BIC = n ln(RSS/n) + k ln n on the whole-record residuals"]
+                  f"RMS and CV RMS in {VELOCITY_LABEL} (velocity prediction error), CV SE the standard error of "
+                  "the CV RMS; AIC = n ln(RSS/n) + 2k, BIC = n ln(RSS/n) + k ln n on the whole-record residuals"]
         b = self.best
         lines.append("chosen parameters: " + ", ".join(
             f"{k} {v:.6g}" + (f" ± {b.stderr[k]:.2g}" if k in b.stderr and math.isfinite(b.stderr[k]) else "")

@@ -233,6 +233,17 @@ def _identify_form(args, data, ref_name, spec, common):
                     **common)
 
 
+def _forms_figure(selection, out_dir) -> str:
+    """``OUT/model_forms.png``: the candidate forms' friction maps over the log's velocity range."""
+    import matplotlib.pyplot as plt
+
+    path = Path(out_dir) / "model_forms.png"
+    ax = selection.plot()
+    ax.figure.savefig(path, dpi=120, bbox_inches="tight")
+    plt.close(ax.figure)
+    return str(path)
+
+
 def _form_rigid_axis(report):
     """The chosen form's J, sigma, Fc, offset as a rigid-axis model (the EMPS closed-loop re-simulation)."""
     from adaptive_ff.identification.idim import RigidAxisModel
@@ -342,6 +353,8 @@ def run(args) -> int:
         figures = identification_figures(report, data)
         if args.plot:
             extra["figures"] = [str(x) for x in save_figures(figures, args.plot)]
+            if report.forms is not None:
+                extra["figures"].append(_forms_figure(report.forms, args.plot))
     if args.report:
         from controllers.report.html import identify_report
 
