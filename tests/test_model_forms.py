@@ -170,7 +170,7 @@ def test_one_standard_error_rule_on_a_hand_made_table():
 
 @pytest.mark.parametrize("kw, word", [({"folds": 1}, "folds"), ({"folds": 2.5}, "folds"), ({"folds": True}, "folds"),
                                       ({"criterion": "r2"}, "criterion"), ({"forms": ["lugre"]}, "forms"),
-                                      ({"method": "sliding"}, "method"), ({"Vs": 0.02}, "delta"),
+                                      ({"method": "closed_loop"}, "method"), ({"Vs": 0.02}, "delta"),
                                       ({"predictor": "two-step"}, "predictor")])
 def test_bad_values_name_the_argument(kw, word):
     data = _log(CV, 2, duration=2.0)
@@ -186,8 +186,8 @@ def test_identify_form_bad_values():
         identify(data, form="auto", form_options={"folds": 1})
     with pytest.raises(ParameterError, match="form_options"):
         identify(data, form="auto", form_options={"fold": 3})
-    with pytest.raises(ParameterError, match="method must be"):
-        identify(data, Vs=0.02, delta=1.0, form="auto", method="sliding")
+    with pytest.raises(ParameterError, match="got 'closed_loop'"):
+        identify(data, Vs=0.02, delta=1.0, form="auto", method="closed_loop")
 
 
 @pytest.mark.parametrize("argv, word", [(["--form", "bogus"], "form must be"), (["--form", "auto", "--folds", "1"],
@@ -238,3 +238,25 @@ def test_cli_form_auto_prints_the_table(tmp_path, capsys):
         assert c[0] in out  # every candidate has a row (fitted, or why not)
     assert "not run: needs Vs and delta" in out and "chosen: " in out
     assert out.index("model forms of") < out.index("baselines:")  # the table before the eq. 4 baselines
+
+
+def _log_1khz(p, seed, duration=20.0):
+    """The same torque on the joint, logged at 1 kHz (a controller-rate log) with 1e-3 rad/s velocity noise."""
+    rng = np.random.default_rng(seed)
+    _, u = bandlimited_noise(duration, dt=DT, cutoff=1.0, std=1.2 * (P.Fs + P.sigma * math.radians(20.0)), rng=rng)
+    m = sample(simulate(p, u, dt=DT), Ts=DT, noise_std=1e-3, rng=rng)
+    return MeasuredData(m.t, m.u, m.w, source=f"1 kHz seed {seed}")
+
+
+@pytest.mark.parametrize("p, true_form", [(CV, "coulomb_viscous"), (P, "stribeck_lag")])
+def test_sliding_regression_selection_chooses_the_true_form(p, true_form):
+    four = ["coulomb_viscous", "coulomb_viscous_lag", "stribeck", "stribeck_lag"]
+    r = identify(_log_1khz(p, 0), Vs=P.Vs, delta=P.delta, method="sliding", form="auto", form_options={"forms": four})
+    sel = r.forms
+    assert sel.method == "sliding" and r.method == "sliding" and sel.chosen == true_form, sel.summary()
+    assert "N·m (N) (equation error of the filtered torque L[u])" in sel.summary()
+    # Fc and sigma within 0.5 % (the sliding regression's J is biased by about +2.5 % at 1 kHz: its module
+    # docstring; its intervals are not checked here for that reason)
+    assert r.Fc == pytest.approx(p.Fc, rel=5e-3) and r.sigma == pytest.approx(p.sigma, rel=5e-3)
+    assert [c.n_params for c in sel.candidates] == [4, 6, 5, 7]  # the lag adds J*tau and tau
+    json.dumps(r.to_dict(), allow_nan=False)

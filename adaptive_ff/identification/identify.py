@@ -624,9 +624,10 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
         (Coulomb + viscous, Stribeck with the given ``Vs``, ``delta``, Stribeck with ``Vs``, ``delta`` fitted
         where the log allows; each with and without lag) are fitted by output error and the one chosen by
         blocked cross-validation (one-standard-error rule) is the answer (``physical``, method
-        ``"output_error"``); a name of :data:`adaptive_ff.identification.model_forms.FORMS` makes that
+        ``"output_error"``, or ``"sliding"`` with ``method="sliding"``: the sliding-regime regression); a name of :data:`adaptive_ff.identification.model_forms.FORMS` makes that
         candidate the answer. The table of candidates is :attr:`IdentificationReport.forms` (``to_dict()["forms"]``).
-        Needs ``method`` ``"paper"``, ``"auto"`` or ``"output_error"`` and no ``method_options``.
+        Needs ``method`` ``"paper"``, ``"auto"``, ``"output_error"`` (all three: output error) or ``"sliding"``,
+        and no ``method_options``.
     form_options : dict, keyword-only, optional
         Options of :func:`adaptive_ff.identification.model_forms.select_form`: ``folds``, ``criterion``,
         ``forms``, ``h_max``, ``input_delay``, ``predictor``.
@@ -643,7 +644,7 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
         Only one of ``Vs``/``delta`` given, invalid ``Vs``/``delta``/``lam``/
         ``P0``/``n_history``, an unknown ``method``, or a ``method`` other than
         ``"paper"`` without ``Vs``/``delta``; an unknown ``form`` or ``form_options`` key, ``folds < 2``,
-        ``form`` with ``method`` ``"sliding"`` or with ``method_options``, or a named form that could not
+        ``form`` with ``method`` ``"closed_loop"`` or with ``method_options``, or a named form that could not
         be fitted on the record.
     SignalError
         Too few samples for the structure.
@@ -669,6 +670,7 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
     form_options = _check_form_args(form, form_options, method, method_options)
     auto_reason = None
     if form is not None:
+        form_options.setdefault("method", "sliding" if method == "sliding" else "output_error")
         method = "paper"  # the eq. 4 LS/RLS baselines; the answer is the selected form's (below)
     if method == "auto":
         method, auto_reason = choose_method(data, Vs=Vs)
@@ -739,9 +741,9 @@ def _check_form_args(form, form_options, method, method_options) -> dict:
         return {}
     if not isinstance(form, str) or (form != "auto" and form not in FORMS):
         raise ParameterError(f"form must be 'auto' or one of {list(FORMS)}, got {form!r}")
-    if method not in ("paper", "auto", "output_error"):
-        raise ParameterError(f"form {form!r} fits the candidate forms by output error: method must be 'paper', "
-                             f"'auto' or 'output_error', got {method!r}")
+    if method not in ("paper", "auto", "output_error", "sliding"):
+        raise ParameterError(f"form {form!r} fits the candidate forms by output error (method 'paper', 'auto' or "
+                             f"'output_error') or by the sliding regression (method 'sliding'), got {method!r}")
     if method_options:
         raise ParameterError(f"method_options do not apply to a form selection (its standard errors are the "
                              f"delete-a-block jackknife of the cross-validation); got {method_options!r}")
@@ -775,7 +777,7 @@ def _attach_form(report: IdentificationReport, data, form: str, options: dict, V
     stderr = {k: float(b.stderr[k]) for k in keys if k in b.stderr}
     if b.stribeck == "none" and "Fc" in b.stderr:
         stderr["Fs"] = stderr["Fc"]  # Fs = Fc
-    physical = PhysicalFit(method="output_error", params=params, stderr=stderr, cond=float("nan"),
+    physical = PhysicalFit(method=sel.method, params=params, stderr=stderr, cond=float("nan"),
                            nrmse=float(b.fit_percent), n_samples=int(sel.n_samples), nrmse_kind=sel.predictor,
                            info={"form": b.name, "stderr_kind": "jackknife", "cv_rms": b.cv_rms, "rms": b.rms,
                                  "noise_std": sel.noise_std, "Vs": b.params.get("Vs"),
@@ -784,7 +786,9 @@ def _attach_form(report: IdentificationReport, data, form: str, options: dict, V
     notes = list(report.notes) + [
         f"model form {b.label!r} ({b.name}, k = {b.n_params}) {'chosen' if form == 'auto' else 'asked for'} "
         f"among {sum(c.ok for c in sel.candidates)} fitted candidate forms by {sel.criterion} "
-        f"({sel.folds} contiguous blocks): output-error fit on the record's own time stamps, standard errors the "
+        f"({sel.folds} contiguous blocks): "
+        + ("output-error fit on the record's own time stamps" if sel.method == "output_error" else
+           "sliding-regime torque regression on the uniform grid") + ", standard errors the "
         "delete-a-block jackknife of the cross-validation refits"]
     unfitted = {k for k in ("Fs", "tau", "Vs") if k not in b.fitted}
     warn = [_not_in_form(_as_baseline(w), b, unfitted) for w in report.warnings] + list(physical.warnings)

@@ -33,6 +33,21 @@ The out-of-sample error is that same prediction's error, because it is the error
 one the model is used for (predicting the joint's motion from its torque); a regression error (the eq. 4 or
 sliding-regime equation error) would judge a different, noise-biased predictor.
 
+The sliding-regime regression (``method="sliding"``)
+----------------------------------------------------
+For a controller-rate log in closed loop (:func:`adaptive_ff.identification.identify.choose_method`), the
+forms can instead be fitted by the torque regression of
+:func:`adaptive_ff.compensation.sliding_estimator.fit_sliding` (linear least squares on the filtered rows
+that pass its sliding-regime gate; Coulomb + viscous sums the ``g`` and ``h`` columns, the free forms take
+the ``(Vs, delta)`` of smallest training residual on a grid of 12 velocities times ``delta`` 0.5, 1, 2). Its
+error is the regression's equation error on the filtered torque ``L[u]`` (N·m), one step, because that is
+what the regression minimises and what the closed-loop log determines without bias (the torque is known
+exactly, the velocity enters filtered); it is not comparable with the output-error table. ``k`` counts the
+regression's parameters (the lag adds two: ``J*tau`` and ``tau``). Held-out rows are those whose sample lies
+in the block; training rows leave out the block and the 11 filter time constants after it, whose filtered
+regressors still remember the block (h-block cross-validation, Burman, Chow & Nolan, *Biometrika* 81(2),
+1994).
+
 Blocked cross-validation
 ------------------------
 The record is cut into ``folds`` contiguous blocks (:func:`cv_blocks`; each sample is held out exactly once).
@@ -113,7 +128,7 @@ FORMS = {
 CRITERIA = ("cv", "aic", "bic")
 
 #: Fit methods of :func:`select_form` (the prediction whose error is judged).
-SELECTION_METHODS = ("output_error",)
+SELECTION_METHODS = ("output_error", "sliding")
 
 #: Fewest resolved low-speed samples (``3*noise < |w| < 3*Vs``) for fitting ``Vs`` and ``delta``.
 MIN_LOW_SPEED = 200
@@ -343,7 +358,7 @@ class FormSelection:
             lines.append(f"{mark} {c.label:<34}{c.n_params:>3}{c.rms:>11.4g}{c.fit_percent:>8.2f}{c.cv_rms:>11.4g}"
                          f"{se_rms:>10.2g}{c.aic:>12.6g}{c.bic:>12.6g}")
         lines += ["  " + "-" * 101, f"chosen: {self.best.label} ({self.chosen}); {self.rule}",
-                  f"RMS and CV RMS in {VELOCITY_LABEL} (velocity prediction error), CV SE the standard error of "
+                  f"RMS and CV RMS in {_error_unit(self.method)}, CV SE the standard error of "
                   "the CV RMS; AIC = n ln(RSS/n) + 2k, BIC = n ln(RSS/n) + k ln n on the whole-record residuals"]
         b = self.best
         lines.append("chosen parameters: " + ", ".join(
@@ -384,6 +399,13 @@ class FormSelection:
         ax.legend(loc="best", fontsize="small")
         ax.grid(True, alpha=0.3)
         return ax
+
+
+def _error_unit(method: str) -> str:
+    """Unit and kind of the errors of a selection's table."""
+    if method == "sliding":
+        return "N·m (N) (equation error of the filtered torque L[u])"
+    return f"{VELOCITY_LABEL} (velocity prediction error)"
 
 
 def cv_blocks(n: int, folds: int) -> list:
@@ -695,10 +717,205 @@ def _candidate(pb: _Problem, name: str, x, fold_fits, fold_cold, blocks, scored)
                          cv_fold_mse=tuple(fold_mse), aic=aic, bic=bic, n_scored=n)
 
 
-def _not_fitted(name: str, status: str, offset: bool) -> FormCandidate:
+def _not_fitted(name: str, status: str, offset: bool, k: int | None = None) -> FormCandidate:
     label, stribeck, lag = FORMS[name]
     return FormCandidate(name=name, label=label, stribeck=stribeck, lag=lag, status=status,
-                         n_params=len(_Problem.layout(name, offset)))
+                         n_params=len(_Problem.layout(name, offset)) if k is None else k)
+
+
+def _select_output_error(data, Vs, delta, offset: bool, folds: int, names, h_max, input_delay, predictor):
+    """The candidates of :func:`select_form` by output error: ``(candidates, blocks, predictor, noise, n)``."""
+    pb = _Problem(data, Vs, delta, offset, h_max, input_delay, predictor)
+    n = data.t.shape[0]
+    scored = np.zeros(n, dtype=bool)
+    scored[pb.i0:] = True
+    if np.count_nonzero(scored) < max(2 * folds, 20):
+        raise ParameterError(f"the record ({data.t[-1] - data.t[0]:.4g} s) is too short: the first {_BURN} s "
+                             "are not scored")
+    blocks = cv_blocks(n, folds)
+    uni = to_uniform(data)
+    start = _ls_start(uni, offset)
+    pb.torque = max(abs(start["Fc"]), 1e-3 * float(np.std(data.u)))
+    status = {}
+    run = []
+    for f in names:
+        if FORMS[f][1] == "fixed" and Vs is None:
+            status[f] = "not run: needs Vs and delta (the Stribeck pre-fit, adaptive-ff stribeck)"
+        else:
+            run.append(f)
+    fits = _full_fits(pb, run, start, scored)
+    keep = []
+    for f in run:
+        if FORMS[f][1] == "free":
+            vs_ref = Vs if Vs is not None else pb.unpack(f, fits[f])["Vs"]
+            low = _low_speed_count(pb, vs_ref)
+            if low < MIN_LOW_SPEED:
+                status[f] = (f"not identifiable from this log: {low} samples with {3 * pb.noise:.3g} < |w| < "
+                             f"3*Vs = {3 * vs_ref:.3g} (need {MIN_LOW_SPEED})")
+                continue
+        keep.append(f)
+    fold_fits, fold_cold = [], []
+    for a, b in blocks:  # each block held out: the whole search again on the other blocks, from their own start
+        train = scored.copy()
+        train[a:b] = False
+        cold: dict = {}
+        fold_fits.append(_full_fits(pb, keep, _ls_start(uni, offset, (data.t[a], data.t[b - 1])), train,
+                                    warm=fits, cold=cold))
+        fold_cold.append(cold)
+    cands = []
+    for f in names:
+        if f in status:
+            cands.append(_not_fitted(f, status[f], pb.offset))
+            continue
+        cands.append(_candidate(pb, f, fits[f], fold_fits, fold_cold, blocks, scored))
+    return cands, blocks, pb.predictor, pb.noise, n
+
+
+#: Stribeck shape factors and number of Stribeck velocities of the grid search of the free forms (sliding).
+_SLIDING_DELTAS = (0.5, 1.0, 2.0)
+_SLIDING_N_VS = 12
+#: Rows after a held-out block left out of the training rows, in filter time constants (the cascade of three
+#: first-order lags of the sliding regressors forgets a sample to 1e-3 after about 11 time constants).
+_SLIDING_GAP = 11.0
+
+
+def _sliding_k(name: str, offset: bool) -> int:
+    """Regression parameters of a form in the sliding regression: J, Fc, sigma (+ Fs, + J*tau and tau with the
+    lag, + Vs and delta when fitted, + offset)."""
+    _, stribeck, lag = FORMS[name]
+    return 3 + (stribeck != "none") + 2 * lag + 2 * (stribeck == "free") + offset
+
+
+def _sliding_rows(uni, name, Vs, delta, offset, band):
+    """``(X, y, index, names)`` of the sliding regression for a form; Coulomb + viscous sums the ``Fc`` and ``Fs``
+    columns (``Fs = Fc``). ``band``: the gate's ``w_band_min`` (rad/s), the same for every form and ``Vs``, so
+    that all fits see the same rows."""
+    from adaptive_ff.compensation.sliding_estimator import sliding_regressors
+
+    lag = FORMS[name][2]
+    X, y, idx, _, names = sliding_regressors(uni.u, uni.w, Tc=uni.Ts, Vs=Vs, delta=delta, lag=lag, offset=offset,
+                                             w_band_min=band)
+    names = list(names)
+    if FORMS[name][1] == "none":
+        i, j = names.index("Fc"), names.index("Fs")
+        X = X.copy()
+        X[:, i] += X[:, j]  # g(w) + h(w) = sgn(w): Fc*g + Fs*h with Fs = Fc
+        X = np.delete(X, j, axis=1)
+        names.pop(j)
+    return X, y, idx, tuple(names)
+
+
+def _lstsq(X, y):
+    sc = np.linalg.norm(X, axis=0)
+    sc = np.where(sc > 0, sc, 1.0)
+    return np.linalg.lstsq(X / sc, y, rcond=None)[0] / sc
+
+
+def _sliding_fit(uni, name, Vs, delta, offset, train_of, grid, band) -> dict:
+    """The least-squares fit of a form on the rows ``train_of(index)`` selects: ``theta``, ``names``, ``Vs``,
+    ``delta`` (for the free forms the grid point of smallest training residual)."""
+    pts = grid if FORMS[name][1] == "free" else [(Vs if Vs is not None else 1.0, delta if delta is not None else 1.0)]
+    best = None
+    for vs, de in pts:
+        X, y, idx, names = _sliding_rows(uni, name, vs, de, offset, band)
+        m = train_of(idx)
+        if np.count_nonzero(m) < 2 * X.shape[1]:
+            continue
+        th = _lstsq(X[m], y[m])
+        r = y[m] - X[m] @ th
+        c = float(r @ r)
+        if best is None or c < best[0]:
+            best = (c, {"theta": th, "names": names, "Vs": vs, "delta": de})
+    if best is None:
+        raise ExcitationError(f"form {name!r}: too few sliding-regime rows to fit")
+    return best[1]
+
+
+def _sliding_params(name, fit, offset) -> dict:
+    from adaptive_ff.compensation.sliding_estimator import estimate_from_theta
+
+    d = dict(zip(fit["names"], (float(x) for x in fit["theta"])))
+    if "Fs" not in d:
+        d["Fs"] = d["Fc"]
+    names = tuple(d)
+    e = estimate_from_theta(names, [d[k] for k in names], fit["Vs"], fit["delta"])
+    p = {"J": e.J, "Fc": e.Fc, "Fs": e.Fs, "sigma": e.sigma, "tau": e.tau, "offset": e.offset if offset else 0.0}
+    if FORMS[name][1] != "none":
+        p.update(Vs=float(fit["Vs"]), delta=float(fit["delta"]))
+    return p
+
+
+def _select_sliding(data, Vs, delta, offset: bool, folds: int, names):
+    """The candidates of :func:`select_form` by the sliding regression: ``(candidates, blocks, kind, noise, n)``.
+
+    Blocks are contiguous on the uniform grid; a row is held out when its sample lies in the block, and the
+    training rows leave out the block and the :data:`_SLIDING_GAP` filter time constants after it (rows whose
+    filtered regressors still remember held-out samples: h-block cross-validation, Burman, Chow & Nolan 1994).
+    """
+    from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
+
+    uni = to_uniform(data)
+    n = uni.n_samples
+    noise = float(velocity_noise_std_irregular(uni.t, uni.w))
+    peak = float(np.max(np.abs(uni.w)))
+    blocks = cv_blocks(n, folds)
+    T = SlidingFrictionEstimator(1.0, 1.0, Tc=uni.Ts, Ts=uni.Ts).T
+    gap = int(math.ceil(_SLIDING_GAP * T / uni.Ts))
+    # the gate's least band: fit_sliding's 0.1*Vs of the pre-fit, else the noise's 4 sigma (its adaptive band)
+    band = 0.1 * Vs if Vs is not None else max(4.0 * noise, 1e-6 * peak, 1e-12)
+    grid = [(float(v), d) for v in np.geomspace(max(3.0 * noise, 1e-3 * peak), 0.3 * peak, _SLIDING_N_VS)
+            for d in _SLIDING_DELTAS]
+    cands = []
+    for f in names:
+        k = _sliding_k(f, offset)
+        if FORMS[f][1] == "fixed" and Vs is None:
+            cands.append(_not_fitted(f, "not run: needs Vs and delta (the Stribeck pre-fit, adaptive-ff stribeck)",
+                                     offset, k))
+            continue
+        full = _sliding_fit(uni, f, Vs, delta, offset, lambda idx: np.ones(idx.shape[0], dtype=bool), grid, band)
+        if FORMS[f][1] == "free":
+            aw = np.abs(uni.w)
+            low = int(np.count_nonzero((aw > 3.0 * noise) & (aw < 3.0 * full["Vs"])))
+            if low < MIN_LOW_SPEED:
+                cands.append(_not_fitted(f, f"not identifiable from this log: {low} samples with {3 * noise:.3g} "
+                                            f"< |w| < 3*Vs = {3 * full['Vs']:.3g} (need {MIN_LOW_SPEED})", offset, k))
+                continue
+        X, y, idx, _ = _sliding_rows(uni, f, full["Vs"], full["delta"], offset, band)
+        r = y - X @ full["theta"]
+        fold_mse, ests, ns = [], [], []
+        for a, b in blocks:
+            fk = _sliding_fit(uni, f, Vs, delta, offset, lambda i, a=a, b=b: (i < a) | (i >= b + gap), grid, band)
+            Xk, yk, ik, _ = _sliding_rows(uni, f, fk["Vs"], fk["delta"], offset, band)
+            held = (ik >= a) & (ik < b)
+            rk = yk[held] - Xk[held] @ fk["theta"]
+            ns.append(int(rk.size))
+            fold_mse.append(float(np.mean(rk**2)) if rk.size else math.nan)
+            ests.append(_sliding_params(f, fk, offset))
+        cands.append(_sliding_candidate(f, k, full, r, y, X, fold_mse, ns, ests, offset))
+    return cands, blocks, "regression (filtered torque L[u])", noise, n
+
+
+def _sliding_candidate(name, k, full, r, y, X, fold_mse, ns, ests, offset) -> FormCandidate:
+    label, stribeck, lag = FORMS[name]
+    use = [i for i, m in enumerate(fold_mse) if math.isfinite(m)]
+    fm, nn = np.array([fold_mse[i] for i in use]), np.array([ns[i] for i in use], dtype=float)
+    cv_mse = float(np.sum(fm * nn) / np.sum(nn)) if nn.sum() else math.nan
+    cv_se = float(np.std(fm, ddof=1) / math.sqrt(fm.shape[0])) if fm.shape[0] > 1 else math.nan
+    params = _sliding_params(name, full, offset)
+    fitted = tuple(["J", "Fc"] + (["Fs"] if stribeck != "none" else []) + ["sigma"] + (["tau"] if lag else [])
+                   + (["Vs", "delta"] if stribeck == "free" else []) + (["offset"] if offset else []))
+    P = np.array([[e[q] for q in fitted] for e in ests])
+    K = P.shape[0]
+    jack = np.sqrt((K - 1) / K * np.sum((P - P.mean(axis=0)) ** 2, axis=0))
+    n = int(r.shape[0])
+    rss = float(r @ r)
+    finite = rss > 0 and n > 0
+    return FormCandidate(name=name, label=label, stribeck=stribeck, lag=lag, status="fitted", n_params=k,
+                         params=params, stderr={q: float(v) for q, v in zip(fitted, jack)}, fitted=fitted,
+                         rms=math.sqrt(rss / n) if n else math.nan, fit_percent=float(nrmse_fit(y, X @ full["theta"])),
+                         cv_mse=cv_mse, cv_se=cv_se, cv_fold_mse=tuple(fold_mse),
+                         aic=n * math.log(rss / n) + 2 * k if finite else math.nan,
+                         bic=n * math.log(rss / n) + k * math.log(n) if finite else math.nan, n_scored=n)
 
 
 def select_form(data: MeasuredData, *, Vs: float | None = None, delta: float | None = None,
@@ -716,7 +933,10 @@ def select_form(data: MeasuredData, *, Vs: float | None = None, delta: float | N
         Pre-fitted Stribeck velocity (rad/s, > 0) and shape factor (non-zero), both or neither: the forms
         ``stribeck`` and ``stribeck_lag`` need them (listed as not run otherwise); the free forms start there.
     method : str, keyword-only
-        One of :data:`SELECTION_METHODS`: ``"output_error"`` (the simulation error, module docstring).
+        One of :data:`SELECTION_METHODS`: ``"output_error"`` (default; the simulation error, module
+        docstring) or ``"sliding"`` (the sliding-regime torque regression on the uniform grid, for
+        controller-rate closed-loop logs; its equation error; ``h_max``, ``input_delay`` and ``predictor``
+        do not apply).
     folds : int, keyword-only
         Contiguous cross-validation blocks, >= 2 (default 5).
     criterion : str, keyword-only
@@ -792,50 +1012,15 @@ def select_form(data: MeasuredData, *, Vs: float | None = None, delta: float | N
                               "both directions of motion")
     if np.ptp(data.u) == 0.0:
         raise ExcitationError("u is constant: the input does not excite J (nor any parameter)")
-    pb = _Problem(data, Vs, delta, bool(offset), h_max, input_delay, predictor)
-    n = data.t.shape[0]
-    scored = np.zeros(n, dtype=bool)
-    scored[pb.i0:] = True
-    if np.count_nonzero(scored) < max(2 * folds, 20):
-        raise ParameterError(f"the record ({data.t[-1] - data.t[0]:.4g} s) is too short: the first {_BURN} s "
-                             "are not scored")
-    blocks = cv_blocks(n, folds)
-    uni = to_uniform(data)
-    start = _ls_start(uni, bool(offset))
-    pb.torque = max(abs(start["Fc"]), 1e-3 * float(np.std(data.u)))
-    status = {}
-    run = []
-    for f in names:
-        if FORMS[f][1] == "fixed" and Vs is None:
-            status[f] = "not run: needs Vs and delta (the Stribeck pre-fit, adaptive-ff stribeck)"
-        else:
-            run.append(f)
-    fits = _full_fits(pb, run, start, scored)
-    keep = []
-    for f in run:
-        if FORMS[f][1] == "free":
-            vs_ref = Vs if Vs is not None else pb.unpack(f, fits[f])["Vs"]
-            low = _low_speed_count(pb, vs_ref)
-            if low < MIN_LOW_SPEED:
-                status[f] = (f"not identifiable from this log: {low} samples with {3 * pb.noise:.3g} < |w| < "
-                             f"3*Vs = {3 * vs_ref:.3g} (need {MIN_LOW_SPEED})")
-                continue
-        keep.append(f)
-    fold_fits, fold_cold = [], []
-    for a, b in blocks:  # each block held out: the whole search again on the other blocks, from their own start
-        train = scored.copy()
-        train[a:b] = False
-        cold: dict = {}
-        fold_fits.append(_full_fits(pb, keep, _ls_start(uni, bool(offset), (data.t[a], data.t[b - 1])), train,
-                                    warm=fits, cold=cold))
-        fold_cold.append(cold)
-    cands = []
-    for f in names:
-        if f in status:
-            cands.append(_not_fitted(f, status[f], pb.offset))
-            continue
-        cands.append(_candidate(pb, f, fits[f], fold_fits, fold_cold, blocks, scored))
+    if method == "sliding":
+        cands, blocks, pred, noise, n = _select_sliding(data, Vs, delta, bool(offset), folds, names)
+    else:
+        cands, blocks, pred, noise, n = _select_output_error(data, Vs, delta, bool(offset), folds, names, h_max,
+                                                             input_delay, predictor)
     ok = [c for c in cands if c.ok]
+    if not ok:
+        raise ExcitationError("no candidate form could be fitted and cross-validated on this record: "
+                              + "; ".join(f"{c.name}: {c.status}" for c in cands))
     if criterion == "cv":
         chosen, rule = one_standard_error_choice((c.name, c.n_params, c.cv_mse, c.cv_se) for c in ok)
     else:
@@ -845,6 +1030,6 @@ def select_form(data: MeasuredData, *, Vs: float | None = None, delta: float | N
         best = min(pool, key=lambda c: getattr(c, criterion))
         chosen, rule = best.name, f"smallest {criterion.upper()} ({getattr(best, criterion):.6g})"
     return FormSelection(candidates=tuple(cands), chosen=chosen, criterion=criterion, rule=rule, folds=folds,
-                         blocks=tuple(blocks), method=method, predictor=pb.predictor, noise_std=pb.noise,
+                         blocks=tuple(blocks), method=method, predictor=pred, noise_std=noise,
                          n_samples=int(n), w_range=(float(np.min(data.w)), float(np.max(data.w))),
                          source=data.source)

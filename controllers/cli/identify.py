@@ -219,18 +219,24 @@ def _identify_form(args, data, ref_name, spec, common):
 
     if args.folds < 2:
         raise ParameterError(f"--folds must be an integer >= 2, got {args.folds}")
-    if args.method not in ("auto", "output_error", "paper"):
-        raise ParameterError(f"--form {args.form} fits every candidate form by output error: --method must be auto, "
-                             f"output_error or paper, got {args.method}")
+    if args.method not in ("auto", "output_error", "paper", "sliding"):
+        raise ParameterError(f"--form {args.form} fits every candidate form by output error (--method auto, "
+                             f"output_error or paper) or by the sliding regression (--method sliding), got "
+                             f"{args.method}")
     if ref_name is not None or spec is not None:
         raise ParameterError(f"--form {args.form} fits the open-loop model of eqs. 1-3 to the log; it does not "
                              "simulate your controller (drop --reference-column and --controller/--Kp/--Ki/--Tc)")
     if args.bootstrap is not None:
         raise ParameterError(f"--bootstrap does not apply to --form {args.form}: its standard errors are the "
                              "delete-a-block jackknife of the cross-validation")
-    return identify(data, Vs=args.Vs, delta=args.delta, method="output_error", form=args.form,
-                    form_options={"folds": args.folds, "criterion": args.criterion, "predictor": args.predictor},
-                    **common)
+    options = {"folds": args.folds, "criterion": args.criterion}
+    if args.method == "sliding":
+        if args.predictor != "auto":
+            raise ParameterError("--predictor applies to the output-error fits of --form, not to --method sliding")
+    else:
+        options["predictor"] = args.predictor
+    return identify(data, Vs=args.Vs, delta=args.delta, method=args.method if args.method == "sliding" else
+                    "output_error", form=args.form, form_options=options, **common)
 
 
 def _forms_figure(selection, out_dir) -> str:
