@@ -25,11 +25,11 @@ the velocity prediction errors are minimised by ``scipy.optimize.least_squares``
 wide robust scale, then at the noise level, as in
 :func:`adaptive_ff.identification.physical_id.fit_physical`), from starts built from the simpler nested forms
 (the eq. 4 LS for Coulomb + viscous; profiles over ``log tau``, ``Fs`` and ``log Vs`` for the forms that add
-them). The predictor is the one ``fit_physical`` chooses from the noise level: free run (output error,
-consistent under white noise) unless the record is nearly noise-free, then the one-step predictor with the
-velocity reset to the measurement after each sample.
+them). The predictor (``predictor="auto"``) is the one ``fit_physical`` chooses from the noise level: free
+run (output error, consistent under white noise) unless the record is nearly noise-free, then the one-step
+predictor with the velocity reset to the measurement after each sample.
 
-The out-of-sample error is that same prediction's error, because it is the error the fit minimises and the
+For these fits the out-of-sample error is that same prediction's error, because it is the error the fit minimises and the
 one the model is used for (predicting the joint's motion from its torque); a regression error (the eq. 4 or
 sliding-regime equation error) would judge a different, noise-biased predictor.
 
@@ -53,13 +53,14 @@ Blocked cross-validation
 The record is cut into ``folds`` contiguous blocks (:func:`cv_blocks`; each sample is held out exactly once).
 For each block the form is refitted on the other blocks: the model is simulated through the whole record on
 the measured input, and only the residuals outside the held-out block enter the cost (the held-out velocity
-never reaches the fit; with the free-run predictor it is not even read). The held-out error is the mean
+is not read with the free-run predictor; with the one-step predictor only through the velocity reset at the
+first training sample after the block). The held-out error is the mean
 squared prediction error on the block (samples of the initial burn-in, 0.5 s, are not scored). Blocks rather
 than random samples, because the residuals of neighbouring samples are correlated (Burman, Chow & Nolan,
 *Biometrika* 81(2), 1994; Bergmeir & Benítez, *Inf. Sci.* 191, 2012). Each fold runs the whole search again
 (the eq. 4 LS start on the rows outside the held-out block, the profiles, the fits) and one more fit started at
 the whole-record estimate, and keeps the one of lower cost on its training blocks (the held-out block never
-enters a cost). The second start is needed: on the rough free-run cost the search alone stopped up to 15 %
+enters a cost; the starts do not either, except the whole-record estimate). The second start is needed: on the rough free-run cost the search alone stopped up to 15 %
 above the training cost that the whole-record estimate attains (measured on a simulated Coulomb + viscous
 record, 2 of 5 folds), which inflated the held-out errors by 5-10 % at random and let a lag-free record
 choose a lag; the first keeps a fold free to leave the whole-record valley when its own data prefer another.
