@@ -260,3 +260,20 @@ def test_sliding_regression_selection_chooses_the_true_form(p, true_form):
     assert r.Fc == pytest.approx(p.Fc, rel=5e-3) and r.sigma == pytest.approx(p.sigma, rel=5e-3)
     assert [c.n_params for c in sel.candidates] == [4, 6, 5, 7]  # the lag adds J*tau and tau
     json.dumps(r.to_dict(), allow_nan=False)
+
+
+def test_compare_plant_reads_the_chosen_form(cv_report, tmp_path, capsys):
+    d = cv_report.to_json_dict()
+    for k in ("Vs", "delta"):  # as written without a Stribeck pre-fit: nothing to give
+        d.pop(k)
+    f = tmp_path / "id.json"
+    f.write_text(json.dumps(d))
+    joint = identification_from_dict(d)
+    plant = joint.plant_dict()
+    assert plant["Fs"] == plant["Fc"] == d["Fc"] and plant["tau"] == 0.0 and plant["J"] == d["J"]
+    assert main(["compare", "--plant", str(f), "--duration", "1", "--modes", "none", "--no-figures", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert f"Fc={d['Fc']:.6g} N·m, Fs={d['Fc']:.6g} N·m" in out and "tau=0 s" in out
+    # a Stribeck answer without Vs, delta cannot make a plant file
+    with pytest.raises(ParameterError, match="Vs"):
+        identification_from_dict(dict(d, Fs=1.2 * d["Fc"])).plant_dict()
