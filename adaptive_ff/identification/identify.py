@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -38,6 +39,9 @@ from adaptive_ff.identification.plausibility import IdentificationWarning, check
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel, nrmse_fit
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from plant.errors import ExcitationError, ParameterError, check_positive
+
+if TYPE_CHECKING:  # pragma: no cover
+    from adaptive_ff.identification.model_forms import FormSelection
 from plant.results import axes_or_new, json_safe
 
 __all__ = ["IdentificationReport", "identify", "PARAM_UNITS", "CrossValidation", "cross_validate", "stderr_note",
@@ -152,6 +156,10 @@ class IdentificationReport:
         (:func:`adaptive_ff.identification.physical_id.fit_physical`, e.g. ``"output_error"``:
         unbiased where eq. 4 is not); None for ``method="paper"``, where the
         eq. 4 LS (``ls``, ``estimate``) is the answer.
+    forms : FormSelection or None
+        The model-form selection (``identify(form=...)``,
+        :func:`adaptive_ff.identification.model_forms.select_form`): every candidate form and the chosen one,
+        whose output-error fit is then ``physical``; None without it.
     """
 
     ls: LSResult
@@ -169,6 +177,7 @@ class IdentificationReport:
     warnings: tuple[str, ...] = field(default_factory=tuple)
     excitation: ExcitationReport | None = None
     physical: PhysicalFit | None = None
+    forms: "FormSelection | None" = None
 
     @property
     def model(self) -> RegressionModel:
@@ -207,12 +216,18 @@ class IdentificationReport:
 
     @property
     def Vs(self) -> float | None:
-        """Stribeck velocity (rad/s or m/s) of the fitted model, fixed by the pre-fit; None without Stribeck."""
+        """Stribeck velocity (rad/s or m/s) of the fitted model, fixed by the pre-fit; None without Stribeck.
+        With a form selection (:attr:`forms`): the chosen form's (fitted for the free Stribeck forms; the given
+        one, without effect since ``Fs = Fc``, for Coulomb + viscous)."""
+        if self.forms is not None and self.forms.best.stribeck == "free":
+            return self.forms.best.params["Vs"]
         return self.model.Vs if self.model.stribeck else None
 
     @property
     def delta(self) -> float | None:
-        """Stribeck shape factor of the fitted model, fixed by the pre-fit; None without Stribeck."""
+        """Stribeck shape factor of the fitted model, fixed by the pre-fit; None without Stribeck (as :attr:`Vs`)."""
+        if self.forms is not None and self.forms.best.stribeck == "free":
+            return self.forms.best.params["delta"]
         return self.model.delta if self.model.stribeck else None
 
     @property
@@ -259,6 +274,8 @@ class IdentificationReport:
             without offset) and ``estimator`` (the function that fitted it).
         """
         m = self.model
+        if self.forms is not None:
+            return _selected_form(self.forms, m, self.physical)
         fixed = {"Vs": m.Vs, "delta": m.delta} if m.stribeck else {}
         if self.physical is not None:
             fitted = [k for k in _ANSWER_KEYS if k in self.physical.params]
@@ -332,9 +349,9 @@ class IdentificationReport:
         """
         params = self.params
         out = {"method": self.method, "form": self.form, **params}
-        if self.model.stribeck:
-            out["Vs"] = self.model.Vs
-            out["delta"] = self.model.delta
+        if self.Vs is not None:
+            out["Vs"] = self.Vs
+            out["delta"] = self.delta
         std = self.stderr
         out["std"] = std
         out["rel_std"] = _relative(std, params)
@@ -347,6 +364,8 @@ class IdentificationReport:
                        fit_free_run_percent=self.ls.fit_free_run, cond=self.ls.cond,
                        n_samples=int(self.ls.w_one_step.shape[0]), Ts=self.Ts)
         out["baselines"] = self.baselines
+        if self.forms is not None:
+            out["forms"] = self.forms.to_dict()
         if self.excitation is not None:
             x = self.excitation
             out["excitation"] = {"noise_std": x.noise_std, "n_reversals": int(x.n_reversals),
@@ -402,12 +421,14 @@ class IdentificationReport:
         lines = [f"Identification of {self.source or 'measured data'}",
                  f"method {self.method!r}: {f['name']} ({f['equations']}; {f['estimator']}), fitted "
                  f"{', '.join(f['fitted'])}" + (f"; {fixed} (Stribeck pre-fit)" if fixed else ""), ""]
+        if self.forms is not None:
+            lines[-1:] = ["", self.forms.summary(), ""]
         if self.physical is not None:
             ph = self.physical
             lines += [f"{'parameter':<10}{'value':>14}{'std error':>13}  unit", "-" * 70]
             for nm, v in ph.params.items():
                 lines.append(f"{nm:<10}{v:>14.6g}{ph.stderr.get(nm, float('nan')):>13.3g}  {PARAM_UNITS[nm]}")
-            lines += _fixed_rows(m, "")
+            lines += _fixed_rows(m, "") if self.forms is None else _form_rows(self.forms, m)
             lines += ["-" * 70, f"fit ({ph.nrmse_kind}) {ph.nrmse:.3f} %, cond {ph.cond:.3g}, "
                                 f"{ph.n_samples} samples",
                       "", f"baselines: the paper's eq. 4 LS (eq. 9) and RLS (eqs. 10-13), not the answer; "
@@ -441,6 +462,36 @@ _ANSWER_KEYS = ("J", "Fc", "Fs", "sigma", "tau", "offset")
 _ESTIMATORS = {"sliding": "adaptive_ff.compensation.sliding_estimator.fit_sliding",
                "closed_loop": "controllers.experiments.closed_loop_id.fit_closed_loop",
                "output_error": "adaptive_ff.identification.physical_id.fit_physical"}
+
+
+def _selected_form(sel, m: RegressionModel, physical) -> dict:
+    """The :attr:`IdentificationReport.form` of a form selection: the chosen candidate's model (strict JSON)."""
+    b = sel.best
+    offset = "offset" in b.fitted
+    fixed = {"Vs": m.Vs, "delta": m.delta} if b.stribeck == "fixed" else {}
+    constrained = {}
+    if b.stribeck == "none":
+        constrained["Fs"] = "Fc"
+    if not b.lag:
+        constrained["tau"] = 0.0
+    if not offset:
+        constrained["offset"] = 0.0
+    name = ("lagged " if b.lag else "") + ("Coulomb + viscous" if b.stribeck == "none" else "Stribeck")
+    return json_safe({"name": name, "equations": "eqs. 1-3", "stribeck": b.stribeck != "none", "lag": b.lag,
+                      "offset": offset, "fitted": list(b.fitted), "fixed": fixed, "constrained": constrained,
+                      "estimator": "adaptive_ff.identification.model_forms.select_form", "selected": b.name,
+                      "label": b.label, "criterion": sel.criterion, "rule": sel.rule})
+
+
+def _form_rows(sel, m: RegressionModel) -> list:
+    """The Vs and delta rows of the chosen form: fixed (given), fitted (free Stribeck) or none."""
+    b = sel.best
+    if b.stribeck == "fixed":
+        return _fixed_rows(m, "")
+    if b.stribeck == "free":
+        return [f"{'Vs':<10}{b.params['Vs']:>14.6g}{b.stderr.get('Vs', float('nan')):>13.3g}  {VELOCITY_LABEL}",
+                f"{'delta':<10}{b.params['delta']:>14.6g}{b.stderr.get('delta', float('nan')):>13.3g}  -"]
+    return []
 
 
 def _relative(std: dict, values: dict) -> dict:
@@ -526,7 +577,8 @@ def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bo
 
 def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None = None, lag: bool = False,
              offset: bool = True, lam: float = 1.0, P0: float = 1e4, n_history: int = 500,
-             method: str = "paper", method_options: dict | None = None) -> IdentificationReport:
+             method: str = "paper", method_options: dict | None = None, form: str | None = None,
+             form_options: dict | None = None) -> IdentificationReport:
     """Identify the joint model of eq. 4 from a measured record, offline (LS) and online (RLS).
 
     Parameters
@@ -566,6 +618,19 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
         stay). ``"auto"``: the method of :func:`choose_method` (named in the notes).
     method_options : dict, keyword-only, optional
         Extra keyword options of :func:`adaptive_ff.identification.physical_id.fit_physical`.
+    form : str or None, keyword-only
+        Model-form selection (:func:`adaptive_ff.identification.model_forms.select_form`). None (default):
+        none, the structure is the one given (``Vs``, ``delta``, ``lag``). ``"auto"``: the candidate forms
+        (Coulomb + viscous, Stribeck with the given ``Vs``, ``delta``, Stribeck with ``Vs``, ``delta`` fitted
+        where the log allows; each with and without lag) are fitted by output error and the one chosen by
+        blocked cross-validation (one-standard-error rule) is the answer (``physical``, method
+        ``"output_error"``, or ``"sliding"`` with ``method="sliding"``: the sliding-regime regression); a name of :data:`adaptive_ff.identification.model_forms.FORMS` makes that
+        candidate the answer. The table of candidates is :attr:`IdentificationReport.forms` (``to_dict()["forms"]``).
+        Needs ``method`` ``"paper"``, ``"auto"``, ``"output_error"`` (all three: output error) or ``"sliding"``,
+        and no ``method_options``.
+    form_options : dict, keyword-only, optional
+        Options of :func:`adaptive_ff.identification.model_forms.select_form`: ``folds``, ``criterion``,
+        ``forms``, ``h_max``, ``input_delay``, ``predictor``.
 
     Returns
     -------
@@ -578,7 +643,9 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
     ParameterError
         Only one of ``Vs``/``delta`` given, invalid ``Vs``/``delta``/``lam``/
         ``P0``/``n_history``, an unknown ``method``, or a ``method`` other than
-        ``"paper"`` without ``Vs``/``delta``.
+        ``"paper"`` without ``Vs``/``delta``; an unknown ``form`` or ``form_options`` key, ``folds < 2``,
+        ``form`` with ``method`` ``"closed_loop"`` or with ``method_options``, or a named form that could not
+        be fitted on the record.
     SignalError
         Too few samples for the structure.
     ExcitationError
@@ -599,8 +666,12 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
     about -0.001 s (LS: 0.0175 s); ``P0`` of 1e8-1e10 brings RLS within 4 % of
     LS there, larger values lose accuracy to rounding.
     """
-    P0 = _check_identify_args(data, Vs, delta, n_history, P0, method, method_options)
+    P0 = _check_identify_args(data, Vs, delta, n_history, P0, method if form is None else "paper", method_options)
+    form_options = _check_form_args(form, form_options, method, method_options)
     auto_reason = None
+    if form is not None:
+        form_options.setdefault("method", "sliding" if method == "sliding" else "output_error")
+        method = "paper"  # the eq. 4 LS/RLS baselines; the answer is the selected form's (below)
     if method == "auto":
         method, auto_reason = choose_method(data, Vs=Vs)
     stribeck = Vs is not None
@@ -653,7 +724,83 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
             warn = [w for w in warn if not (w.code == "identifiability" and w.parameter == "J")]
             warn += _sliding_band_warnings(uni, Vs, delta, excitation.noise_std, physical)
         warn = [_as_baseline(w) for w in warn] + list(physical.warnings)
-    return _report(ls, rls, rls_est, rls_fit, uni, keep, hist, std, P0, data, notes, warn, excitation, physical)
+    report = _report(ls, rls, rls_est, rls_fit, uni, keep, hist, std, P0, data, notes, warn, excitation, physical)
+    if form is not None:
+        report = _attach_form(report, data, form, form_options, Vs, delta, offset)
+    return report
+
+
+def _check_form_args(form, form_options, method, method_options) -> dict:
+    """The checks of ``identify(form=...)``; returns the options of ``select_form`` as a dict."""
+    from adaptive_ff.identification.model_forms import FORMS
+
+    if form is None:
+        if form_options:
+            raise ParameterError(f"form_options apply to a form selection: give form='auto' (got form_options = "
+                                 f"{form_options!r})")
+        return {}
+    if not isinstance(form, str) or (form != "auto" and form not in FORMS):
+        raise ParameterError(f"form must be 'auto' or one of {list(FORMS)}, got {form!r}")
+    if method not in ("paper", "auto", "output_error", "sliding"):
+        raise ParameterError(f"form {form!r} fits the candidate forms by output error (method 'paper', 'auto' or "
+                             f"'output_error') or by the sliding regression (method 'sliding'), got {method!r}")
+    if method_options:
+        raise ParameterError(f"method_options do not apply to a form selection (its standard errors are the "
+                             f"delete-a-block jackknife of the cross-validation); got {method_options!r}")
+    if form_options is None:
+        return {}
+    if not isinstance(form_options, dict):
+        raise ParameterError(f"form_options must be a dict, got {form_options!r}")
+    allowed = ("folds", "criterion", "forms", "h_max", "input_delay", "predictor")
+    unknown = sorted(set(form_options) - set(allowed))
+    if unknown:
+        raise ParameterError(f"unknown form_options {unknown}; allowed: {list(allowed)}")
+    return dict(form_options)
+
+
+def _attach_form(report: IdentificationReport, data, form: str, options: dict, Vs, delta,
+                 offset: bool) -> IdentificationReport:
+    """The report with the form selection's chosen (or named) candidate as its answer (method ``"output_error"``)."""
+    from dataclasses import replace
+
+    from adaptive_ff.identification.model_forms import select_form
+
+    sel = select_form(data, Vs=Vs, delta=delta, offset=offset, **options)
+    if form != "auto":
+        c = sel.candidate(form)
+        if not c.ok:
+            raise ParameterError(f"form {form!r} was not fitted on this record: {c.status}")
+        sel = replace(sel, chosen=form, rule=f"asked for by name (form={form!r}); {sel.rule}")
+    b = sel.best
+    keys = ("J", "Fc", "Fs", "sigma", "tau") + (("offset",) if offset else ())
+    params = {k: float(b.params[k]) for k in keys}
+    stderr = {k: float(b.stderr[k]) for k in keys if k in b.stderr}
+    if b.stribeck == "none" and "Fc" in b.stderr:
+        stderr["Fs"] = stderr["Fc"]  # Fs = Fc
+    physical = PhysicalFit(method=sel.method, params=params, stderr=stderr, cond=float("nan"),
+                           nrmse=float(b.fit_percent), n_samples=int(sel.n_samples), nrmse_kind=sel.predictor,
+                           info={"form": b.name, "stderr_kind": "jackknife", "cv_rms": b.cv_rms, "rms": b.rms,
+                                 "noise_std": sel.noise_std, "Vs": b.params.get("Vs"),
+                                 "delta": b.params.get("delta"), "aic": b.aic, "bic": b.bic},
+                           warnings=tuple(check_physical(params, source=f"form {b.name} (select_form)")))
+    notes = list(report.notes) + [
+        f"model form {b.label!r} ({b.name}, k = {b.n_params}) {'chosen' if form == 'auto' else 'asked for'} "
+        f"among {sum(c.ok for c in sel.candidates)} fitted candidate forms by {sel.criterion} "
+        f"({sel.folds} contiguous blocks): "
+        + ("output-error fit on the record's own time stamps" if sel.method == "output_error" else
+           "sliding-regime torque regression on the uniform grid") + ", standard errors the "
+        "delete-a-block jackknife of the cross-validation refits"]
+    unfitted = {k for k in ("Fs", "tau", "Vs") if k not in b.fitted}
+    warn = [_not_in_form(_as_baseline(w), b, unfitted) for w in report.warnings] + list(physical.warnings)
+    return replace(report, physical=physical, forms=sel, notes=tuple(notes), warnings=tuple(warn))
+
+
+def _not_in_form(w, cand, unfitted: set):
+    """A warning on a parameter the chosen form does not fit (Fs of Coulomb + viscous, tau without lag) as a
+    ``"method"`` note: the selection answered it by leaving the parameter out."""
+    if getattr(w, "parameter", None) in unfitted and w.code != "method":
+        return IdentificationWarning("method", w.parameter, f"not fitted by the chosen form {cand.name!r}: {w}")
+    return w
 
 
 def attach_physical(report: IdentificationReport, physical: PhysicalFit, *, note: str,
@@ -896,7 +1043,8 @@ class CrossValidation:
         Free-run (simulation) NRMSE fit (%) of the LS eq. 4 model.
     idim_force_error : float or None
         Relative force error (%) of the inverse dynamic model ``J*dw/dt +
-        Fc*sgn(w) + sigma*w + offset`` (:func:`adaptive_ff.identification.idim.idim_force_error`);
+        Fc*sgn(w) + sigma*w + offset`` (:func:`adaptive_ff.identification.idim.idim_force_error`) of the
+        eq. 4 LS estimate, or of the chosen form's answer for a report with a form selection;
         None if the estimate is not physical.
     decimate : int
         Decimation used for ``idim_force_error``.
@@ -982,7 +1130,9 @@ def cross_validate(report: IdentificationReport, data: MeasuredData, *, decimate
     w_one = m.predict(theta, uni.u, uni.w)
     w_free = m.simulate(theta, uni.u, uni.w[:2])
     try:
-        fe = idim_force_error(report.rigid_axis_model(), uni, decimate=q)
+        rigid = (report.rigid_axis_model() if report.forms is None else  # the chosen form's (Fs, tau dropped)
+                 RigidAxisModel.symmetric(report.J, report.sigma, report.Fc, report.offset))
+        fe = idim_force_error(rigid, uni, decimate=q)
     except ParameterError:
         fe = None
     return CrossValidation(fit_one_step=nrmse_fit(uni.w[2:], w_one[2:]),

@@ -111,6 +111,35 @@ class IdentifiedJoint:
         """Friction lag (s)."""
         return self.params["tau"]
 
+    def plant_dict(self) -> dict:
+        """A plant file (:mod:`plant.models`, lagged Stribeck) of the identified joint, for ``compare --plant``.
+
+        Returns
+        -------
+        dict
+            ``{"J", "Fc", "Fs", "Vs", "delta", "sigma", "tau"}`` (SI units). A Coulomb + viscous identification
+            (``Fs == Fc``) without ``Vs``, ``delta`` gets ``Vs = 1``, ``delta = 1``, which have no effect when
+            ``Fs = Fc``; the offset is not part of a plant file.
+
+        Raises
+        ------
+        IdentificationFileError
+            A Stribeck identification (``Fs != Fc``) without ``Vs`` or ``delta``, or a non-finite parameter.
+        """
+        p = {k: self.params[k] for k in ("J", "Fc", "Fs", "sigma", "tau")}
+        bad = [k for k, v in p.items() if not math.isfinite(v)]
+        if bad:
+            raise IdentificationFileError(self.source, bad[0], f"{bad[0]} is not a finite number (null in the "
+                                          "identification): no plant file")
+        Vs, delta = self.Vs, self.delta
+        if Vs is None or delta is None:
+            if p["Fs"] != p["Fc"]:
+                raise IdentificationFileError(self.source, "Vs", "a Stribeck identification (Fs != Fc) without "
+                                              "'Vs' and 'delta': no plant file")
+            Vs, delta = 1.0, 1.0  # Fs = Fc: the Stribeck term vanishes
+        return {"J": p["J"], "Fc": p["Fc"], "Fs": p["Fs"], "Vs": Vs, "delta": delta, "sigma": p["sigma"],
+                "tau": p["tau"]}
+
 
 def is_identification(d) -> bool:
     """True if ``d`` (a parsed JSON value) is an identification: an object with ``method``, ``physical`` or

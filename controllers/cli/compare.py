@@ -56,17 +56,35 @@ def _scenario_and_print(args, out_dir) -> int:
 def _load_plant(args):
     """The plant of ``adaptive-ff compare`` (``--plant``, ``--variant`` or ``--preset``)."""
     from plant.friction import preset
-    from plant.models import load_plant
     from plant.variant_plants import drift_case, variant
 
     if args.plant:
-        p = load_plant(args.plant)
+        p = _plant_or_identification(args.plant)
     elif args.variant == "drift":
         p = drift_case(args.duration)
     elif args.variant:
         p = variant(args.variant)
     else:
         p = preset(args.preset)
+    return p
+
+
+def _plant_or_identification(path):
+    """The plant of ``--plant FILE``: a plant file, or an ``identify --json`` output read by
+    :func:`adaptive_ff.identification.result_file.identification_from_dict` (the chosen form's parameters;
+    a Coulomb + viscous form gives ``Fs = Fc``)."""
+    from adaptive_ff.identification.result_file import identification_from_dict, is_identification
+    from plant.errors import ParameterError
+    from plant.models import check_plausible, load_plant, plant_from_dict, read_json
+
+    d = read_json(path, what="plant file")
+    if not is_identification(d):
+        return load_plant(path)
+    try:
+        p = plant_from_dict(identification_from_dict(d, where=path).plant_dict())
+    except (ParameterError, TypeError, OverflowError) as exc:
+        raise ParameterError(f"{path}: {exc}") from None
+    check_plausible(p, where=str(path))
     return p
 
 

@@ -190,6 +190,8 @@ def _identify(args, data):
     ref_name, spec = args.reference_name, _controller_spec(args)
     common = {"lag": args.lag, "offset": not args.no_offset, "lam": args.lam}
     boot = {} if args.bootstrap is None else {"n_bootstrap": args.bootstrap}
+    if args.form is not None:
+        return _identify_form(args, data, ref_name, spec, common)
     if args.method == "closed_loop" and (ref_name is None or spec is None):
         need = [x for x, ok in (("--reference-column NAME (or r=NAME in --columns)", ref_name is not None),
                                 ("--controller FILE (or --Kp, --Ki, --Tc, --u-max)", spec is not None)) if not ok]
@@ -207,6 +209,52 @@ def _identify(args, data):
     w_ref = _read_reference(args, ref_name, data.t.shape[0])
     return identify_closed_loop(data, w_ref, controller=spec, Vs=args.Vs, delta=args.delta, method=args.method,
                                 options=ClosedLoopIdOptions(**boot), **common)
+
+
+def _identify_form(args, data, ref_name, spec, common):
+    """``--form auto|NAME``: the model-form selection (:func:`adaptive_ff.identification.model_forms.select_form`)
+    through :func:`adaptive_ff.identification.identify.identify`; the options that do not apply are refused."""
+    from adaptive_ff.identification.identify import identify
+    from plant.errors import ParameterError
+
+    if args.folds < 2:
+        raise ParameterError(f"--folds must be an integer >= 2, got {args.folds}")
+    if args.method not in ("auto", "output_error", "paper", "sliding"):
+        raise ParameterError(f"--form {args.form} fits every candidate form by output error (--method auto, "
+                             f"output_error or paper) or by the sliding regression (--method sliding), got "
+                             f"{args.method}")
+    if ref_name is not None or spec is not None:
+        raise ParameterError(f"--form {args.form} fits the open-loop model of eqs. 1-3 to the log; it does not "
+                             "simulate your controller (drop --reference-column and --controller/--Kp/--Ki/--Tc)")
+    if args.bootstrap is not None:
+        raise ParameterError(f"--bootstrap does not apply to --form {args.form}: its standard errors are the "
+                             "delete-a-block jackknife of the cross-validation")
+    options = {"folds": args.folds, "criterion": args.criterion}
+    if args.method == "sliding":
+        if args.predictor != "auto":
+            raise ParameterError("--predictor applies to the output-error fits of --form, not to --method sliding")
+    else:
+        options["predictor"] = args.predictor
+    return identify(data, Vs=args.Vs, delta=args.delta, method=args.method if args.method == "sliding" else
+                    "output_error", form=args.form, form_options=options, **common)
+
+
+def _forms_figure(selection, out_dir) -> str:
+    """``OUT/model_forms.png``: the candidate forms' friction maps over the log's velocity range."""
+    import matplotlib.pyplot as plt
+
+    path = Path(out_dir) / "model_forms.png"
+    ax = selection.plot()
+    ax.figure.savefig(path, dpi=120, bbox_inches="tight")
+    plt.close(ax.figure)
+    return str(path)
+
+
+def _form_rigid_axis(report):
+    """The chosen form's J, sigma, Fc, offset as a rigid-axis model (the EMPS closed-loop re-simulation)."""
+    from adaptive_ff.identification.idim import RigidAxisModel
+
+    return RigidAxisModel.symmetric(report.J, report.sigma, report.Fc, report.offset)
 
 
 def _check_bootstrap(args) -> None:
@@ -271,11 +319,13 @@ def run(args) -> int:
         lines += _asymmetric_lines(asym, units)
 
     try:
-        model = report.rigid_axis_model()
+        model = report.rigid_axis_model() if report.forms is None else _form_rigid_axis(report)
     except ParameterError as exc:
         model = None
         lines.append(f"WARNING: no closed-loop re-simulation, the LS estimate is not physical ({exc})")
     dropped = [n for n, on in (("Fs", report.model.stribeck), ("tau", report.model.lag)) if on]
+    if report.forms is not None:
+        dropped = [n for n, on in (("Fs", report.forms.best.stribeck != "none"), ("tau", report.forms.best.lag)) if on]
     if model is not None and emps_file:
         loop = validate_emps(model, args.file)
         extra["closed_loop"] = loop.to_json_dict()
@@ -309,6 +359,8 @@ def run(args) -> int:
         figures = identification_figures(report, data)
         if args.plot:
             extra["figures"] = [str(x) for x in save_figures(figures, args.plot)]
+            if report.forms is not None:
+                extra["figures"].append(_forms_figure(report.forms, args.plot))
     if args.report:
         from controllers.report.html import identify_report
 
@@ -359,6 +411,23 @@ def register(sub) -> None:
                         "simulation-error minimisation on the record's own time stamps (open-loop records; robust "
                         "to noise and irregular sampling; needs --Vs, --delta); sliding: the sliding-regime "
                         "inverse-dynamics regression on a controller-rate log (closed loop; needs --Vs, --delta)")
+    f = i.add_argument_group("model-form selection (adaptive_ff.identification.model_forms.select_form)")
+    f.add_argument("--form", default=None, metavar="auto|NAME",
+                   help="auto: fit the candidate forms (Coulomb + viscous; Stribeck with --Vs, --delta; Stribeck "
+                        "with Vs, delta fitted where the log has low-speed data; each with and without lag) by "
+                        "output error, print their table (parameters, in-sample and blocked cross-validated "
+                        "error, AIC, BIC) and answer with the form chosen by the one-standard-error rule; NAME "
+                        "(coulomb_viscous, coulomb_viscous_lag, stribeck, stribeck_lag, stribeck_free, "
+                        "stribeck_free_lag): answer with that form, table printed too. The answer (JSON top "
+                        "level) drives design --from and the plant file for compare --plant")
+    f.add_argument("--folds", type=int, default=5, help="contiguous cross-validation blocks of --form (>= 2, "
+                                                          "default 5)")
+    f.add_argument("--criterion", choices=("cv", "aic", "bic"), default="cv",
+                   help="rule of --form: cv (default; one-standard-error rule on the blocked-CV error), aic, bic")
+    f.add_argument("--predictor", choices=("auto", "free-run", "one-step"), default="auto",
+                   help="prediction --form fits and judges: auto (default; one-step on a nearly noise-free "
+                        "velocity, else free-run), free-run (simulation on the torque alone), one-step (velocity "
+                        "reset to the measurement after each sample)")
     i.add_argument("--asymmetric", action="store_true",
                    help="also fit direction-dependent friction Fc+, Fc-, sigma+ (Fv+), sigma- (Fv-) by the inverse "
                         "dynamic model (IDIM-LS, no offset), as the EMPS benchmark's asymmetric variant")
