@@ -78,7 +78,10 @@ def zoo_table(n: int, seed: int, workers, velocity: str) -> None:
     deg = r.degradation()
     lose = np.flatnonzero(best < rival - LOSS)
     material = [i for i in lose if deg[i] >= MATERIAL]
-    print(f"\nbest adaptive below max(fixed, dob) - {LOSS}: {lose.size} of {n} joints; {len(material)} of them "
+    capped = np.flatnonzero(best < np.minimum(rival, 1.0) - LOSS)
+    print(f"\nbest adaptive below min(max(fixed, dob), 1) - {LOSS} (short of the frictionless loop where a rival "
+          f"reaches it): {capped.size} of {n} joints: {capped.tolist()}")
+    print(f"best adaptive below max(fixed, dob) - {LOSS}: {lose.size} of {n} joints; {len(material)} of them "
           f"where friction raises the uncompensated RMS error by at least {MATERIAL:.0%} (of "
           f"{int(np.sum(deg >= MATERIAL))} such joints; elsewhere eta's denominator is within a few per cent "
           f"of the frictionless loop's own error and a difference of 0.02 is a fraction of a per cent of RMS)")
