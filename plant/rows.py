@@ -31,35 +31,35 @@ Braun 1987) and, for Karnopp's model, the stick band ``|w| < dv`` (see
 
 Fields of ``plant_params`` (unused ones 0)
 
-==============  ==================================================================
-field           meaning
-==============  ==================================================================
-``model``       ``plant_model`` enum (:data:`MODEL_CODES`): 0 lagged Stribeck
-                (``PLANT_LAGGED_STRIBECK``), 1 asymmetric, 2 Karnopp, 3 LuGre
-``J``           inertia (kg·m²)
-``tau``         friction lag (s); 0 for LuGre
-``pos``         eq. 3 for ``w > 0`` (a ``plant_stribeck``): ``Fc``, ``dF = Fs - Fc``
-                (N·m), ``Vs`` (rad/s), ``delta``, ``sigma`` (N·m·s/rad), cut-off
-                speed ``wcut`` (:func:`plant.stribeck_map.stribeck_cutoff`, rad/s)
-                (LuGre: its ``Fc``, ``Fs - Fc``, ``Vs``, ``delta``, ``sigma2``, cut-off)
-``neg``         the same for ``w < 0`` (equal to ``pos`` but for the asymmetric model)
-``Fs_stick``    Karnopp: friction limit in the band (``Fs``, N·m)
-``dv``          Karnopp: half-width of the stick band (rad/s); 0 = no band
-``sigma0``      LuGre bristle stiffness (N·m/rad)
-``sigma1``      LuGre bristle damping (N·m·s/rad)
-``g_min``       LuGre ``min(Fc, Fs)`` (N·m)
-``g_max``       LuGre ``max(Fc, Fs)`` (N·m)
-``base_rate``   LuGre ``(sigma1 + sigma2)/J + sqrt(sigma0/J)`` (1/s)
-``rate``        lagged models: the fastest stable mode (1/s, :func:`lagged_rate`); where
-                ``rate*dt > RK4_RATE_MAX`` the RK4 step is cut into ``int(rate*dt) + 1``
-                equal sub-steps, beyond ``LAGGED_RK4_MAX`` the stiff step (below)
-``inv_J``       ``1/J`` (1/(kg·m²)): the lagged models' right-hand side multiplies by it
-``inv_tau``     ``1/tau`` (1/s), 0 for ``tau = 0``
-``ripple_a``    friction ripple amplitude ``a`` (0 <= a < 1; 0: none), :class:`plant.ripple.FrictionRipple`
-``ripple_n``    ripple periods per joint revolution ``n``
-``ripple_phase`` ripple phase (rad)
-``key``         fingerprint of the fields above (an integer in [1, 2**52)), see ``aux``
-==============  ==================================================================
+================  ==================================================================
+field             meaning
+================  ==================================================================
+``model``         ``plant_model`` enum (:data:`MODEL_CODES`): 0 lagged Stribeck
+                  (``PLANT_LAGGED_STRIBECK``), 1 asymmetric, 2 Karnopp, 3 LuGre
+``J``             inertia (kg·m²)
+``tau``           friction lag (s); 0 for LuGre
+``pos``           eq. 3 for ``w > 0`` (a ``plant_stribeck``): ``Fc``, ``dF = Fs - Fc``
+                  (N·m), ``Vs`` (rad/s), ``delta``, ``sigma`` (N·m·s/rad), cut-off
+                  speed ``wcut`` (:func:`plant.stribeck_map.stribeck_cutoff`, rad/s)
+                  (LuGre: its ``Fc``, ``Fs - Fc``, ``Vs``, ``delta``, ``sigma2``, cut-off)
+``neg``           the same for ``w < 0`` (equal to ``pos`` but for the asymmetric model)
+``Fs_stick``      Karnopp: friction limit in the band (``Fs``, N·m)
+``dv``            Karnopp: half-width of the stick band (rad/s); 0 = no band
+``sigma0``        LuGre bristle stiffness (N·m/rad)
+``sigma1``        LuGre bristle damping (N·m·s/rad)
+``g_min``         LuGre ``min(Fc, Fs)`` (N·m)
+``g_max``         LuGre ``max(Fc, Fs)`` (N·m)
+``base_rate``     LuGre ``(sigma1 + sigma2)/J + sqrt(sigma0/J)`` (1/s)
+``rate``          lagged models: the fastest stable mode (1/s, :func:`lagged_rate`); where
+                  ``rate*dt > RK4_RATE_MAX`` the RK4 step is cut into ``int(rate*dt) + 1``
+                  equal sub-steps, beyond ``LAGGED_RK4_MAX`` the stiff step (below)
+``inv_J``         ``1/J`` (1/(kg·m²)): the lagged models' right-hand side multiplies by it
+``inv_tau``       ``1/tau`` (1/s), 0 for ``tau = 0``
+``ripple_a``      friction ripple amplitude ``a`` (0 <= a < 1; 0: none), :class:`plant.ripple.FrictionRipple`
+``ripple_n``      ripple periods per joint revolution ``n``
+``ripple_phase``  ripple phase (rad)
+``key``           fingerprint of the fields above (an integer in [1, 2**52)), see ``aux``
+================  ==================================================================
 
 With a friction ripple (``ripple_a != 0``) the friction map is ``F(w)*R(q)``,
 ``R(q) = 1 + a*sin(n*q + phase)``, ``q`` the joint position (the lagged models'

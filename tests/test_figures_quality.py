@@ -139,6 +139,7 @@ def _paper_figures():
     out["plot_input_torque"] = pf.plot_input_torque(t, np.round(30 * np.sign(w) / 0.6) * 0.6)
     out["plot_stribeck_fit"] = plot_stribeck_fit(fit, ws, P.friction(ws)).figure
     out["StribeckFit.plot"] = fit.plot().figure
+    out["FormSelection.plot"] = _form_selection().plot().figure
     from controllers.experiments.quasi_static import StribeckExperiment
 
     held = np.ones(ws.size, dtype=bool)
@@ -197,13 +198,30 @@ def _result_figures():
     return out
 
 
+def _form_selection():
+    """A model-form selection (sliding regression, two forms) on a 10 s simulated log of the paper's joint."""
+    from adaptive_ff import select_form
+    from adaptive_ff.io.data import MeasuredData
+    from plant.excitation import bandlimited_noise
+    from plant.friction import preset
+    from plant.joint import simulate
+    from plant.sampling import sample
+
+    P = preset("paper")
+    rng = np.random.default_rng(0)
+    _, u = bandlimited_noise(10.0, dt=1e-3, cutoff=1.0, std=50.0, rng=rng)
+    m = sample(simulate(P, u, dt=1e-3), Ts=0.01, noise_std=0.005, rng=rng)
+    return select_form(MeasuredData(m.t, m.u, m.w), method="sliding", Vs=P.Vs, delta=P.delta,
+                       forms=("coulomb_viscous", "stribeck_lag"))
+
+
 #: Figure names built by the builders above -> the package names (``Class.plot`` / ``function``) they cover.
 COVERED = {"plot_tracking", "plot_error", "plot_friction", "plot_rls_convergence", "plot_eta", "plot_comparison",
            "Comparison.plot", "ClosedLoopResult.plot", "plot_velocity_fit", "plot_parameter_convergence",
            "plot_stribeck_figure", "plot_sample_times", "plot_input_torque", "plot_stribeck_fit", "StribeckFit.plot",
            "PIDesign.plot", "LoopAnalysis.plot", "plot_bode", "plot_step", "ClosedLoopStep.plot",
            "MeasuredData.plot", "FrictionEstimate.plot", "SupportPoints.plot", "QuasiStaticData.plot",
-           "StribeckExperiment.plot",
+           "StribeckExperiment.plot", "FormSelection.plot",
            "EMPSSimulation.plot", "EMPSValidation.plot", "VelocityEstimate.plot", "OnlineUKFResult.plot",
            # checked through the figures they return, by test_identification_figures below:
            "IdentificationReport.plot", "LSResult.plot"}
