@@ -32,8 +32,10 @@ int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real o
     s->delay = delay;
     s->a = (aff_real)1.0 - AFF_EXP(-Tc * omega);
     s->b = (aff_real)1.0 - AFF_EXP(-Tc / window);
-    s->n_start = (long)ceil(5.0 / ((double)omega * (double)Tc));
-    s->n_decide = s->n_start + (long)floor((double)settle / (double)Tc + 0.5);
+    double ns = ceil(5.0 / ((double)omega * (double)Tc));
+    double nd = floor((double)settle / (double)Tc + 0.5);
+    s->n_start = (long)(ns < 1e9 ? ns : 1e9); /* bounded: a 32-bit long holds it (never reached in practice) */
+    s->n_decide = s->n_start + (long)(nd < 1e9 ? nd : 1e9);
     s->on = 1;
     s->applied_on = 1;
     s->transfer = 0;
@@ -72,6 +74,7 @@ void aff_supervisor_observe(aff_supervisor *s, double u, double w)
 {
     aff_real uu = (aff_real)u;
     aff_real ww = (aff_real)w;
+    long k = s->n; /* this period's index, from 0 */
     s->n += 1;
     if (!s->on)
         s->n_off += 1;
@@ -95,11 +98,11 @@ void aff_supervisor_observe(aff_supervisor *s, double u, double w)
     s->w_last = ww;
     aff_real f = aff_lag_step(&s->x_f, s->a, v);
     aff_real r = aff_lag_step(&s->x_r, s->a, v - c_old);
-    if (s->n < s->n_start)
+    if (k < s->n_start)
         return;
     aff_lag_step(&s->m_f, s->b, f * f);
     aff_lag_step(&s->m_r, s->b, r * r);
-    if (s->n < s->n_decide)
+    if (k < s->n_decide)
         return;
     if (s->on && s->m_r > s->m_f) {
         s->on = 0;

@@ -15,7 +15,7 @@
  *   f_hat(k) = Q[v](k)                      the disturbance of the plant: the friction the PI would face alone;
  *   r_hat(k) = Q[v - u_c(k-1-d)](k)         what the PI faces with the candidate applied: f - u_c.
  * Exponentially weighted mean squares over the window T (s), m += b*(x^2 - m), b = 1 - exp(-Tc/T), from 0
- * at period n_start = ceil(5/(omega*Tc)) on (the Q-filters start from 0: their start transient, e^-5 of it left
+ * at period (index from 0) n_start = ceil(5/(omega*Tc)) on (the Q-filters start from 0: their start transient, e^-5 of it left
  * then, is not evidence):
  *   M_f = EWMA(f_hat^2), M_r = EWMA(r_hat^2).
  * Because J*dw/dt = u - f whatever torque was applied, f_hat is the friction both while the candidate is
@@ -50,8 +50,9 @@ typedef struct aff_supervisor {
     long delay;           /* measurement delay d (periods), 0..AFF_SUPERVISOR_DELAY_MAX */
     aff_real a;           /* Q-filter factor 1 - exp(-Tc*omega) */
     aff_real b;           /* EWMA factor 1 - exp(-Tc/window) */
-    long n_start;         /* first period whose filtered samples enter the mean squares, ceil(5/(omega*Tc)) */
-    long n_decide;        /* first period that decides, n_start + round(settle/Tc) */
+    long n_start;         /* first period (index from 0) whose filtered samples enter the mean squares,
+                             ceil(5/(omega*Tc)) */
+    long n_decide;        /* first period (index from 0) that decides, n_start + round(settle/Tc) */
     int on;               /* 1: the candidate is applied (decided by the last observe) */
     int applied_on;       /* the mode of the last apply */
     aff_real transfer;    /* torque to add to the PI integrator in this period (N*m), 0 unless the mode switched */
