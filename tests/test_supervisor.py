@@ -212,3 +212,23 @@ def test_zoo_table_counts_the_joints_worse_than_none():
     assert "<none" in lines[1]
     row = next(ln for ln in lines if ln.startswith("adaptive"))
     assert row.split()[7] == "2"  # mode, ok, refused, diverged, undefined, no reference, invalid, <none
+
+
+def test_nothing_is_applied_with_the_reference_at_rest_and_the_statistics_hold():
+    rng = np.random.default_rng(3)
+    n = 600
+    w_ref = np.where((np.arange(n) >= 200) & (np.arange(n) < 400), 0.0, 0.5)
+    u_c, u, w = rng.normal(size=n), rng.normal(size=n), rng.normal(size=n)
+    kw = dict(Tc=1e-3, J_n=0.5, omega=40.0, window=0.2, settle=0.0)
+    s = FeedforwardSupervisor(**kw)
+    out = s.run(u_c, u, w, w_ref)
+    rest = np.zeros(n, dtype=bool)
+    rest[201:400] = True  # at rest in this and the previous period
+    np.testing.assert_array_equal(out["applied"][rest], 0.0)
+    assert s.t_rest == pytest.approx(199 * 1e-3, abs=1e-12)
+    # the mean squares do not move at rest (the Q-filters do)
+    assert np.all(np.diff(out["ms_friction"][200:400]) == 0.0) and np.all(np.diff(out["ms_residual"][200:400]) == 0.0)
+    assert np.any(np.diff(out["f_hat"][200:400]) != 0.0)
+    # without the rest rule it is the plain supervisor
+    s2 = FeedforwardSupervisor(**kw, rest_band=None)
+    np.testing.assert_array_equal(s2.run(u_c, u, w, w_ref)["applied"], FeedforwardSupervisor(**kw).run(u_c, u, w)["applied"])

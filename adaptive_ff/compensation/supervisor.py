@@ -52,6 +52,10 @@ class FeedforwardSupervisor(Component):
     settle : float or None, keyword-only
         Evidence (s) the first decision waits for, >= 0, after the Q-filter's start transient ``5/omega``; default
         None: ``window/2``.
+    rest_band : float or None, keyword-only
+        The reference is at rest where ``|w_ref| <= rest_band`` (rad/s) in this and the previous period: nothing is
+        applied then (Notes); default 0 (a reference exactly at rest, e.g. the dwells of
+        :func:`plant.motion.point_to_point_reference`); None: no rest rule.
     delay : int, keyword-only
         Measurement delay of the velocity (periods), 0..:data:`DELAY_MAX`; default 0. The statistic pairs the
         velocity difference with the torques of ``delay`` periods before.
@@ -63,7 +67,9 @@ class FeedforwardSupervisor(Component):
     n_backoff, n_restore : int
         Switches off and back on.
     t_off : float
-        Time backed off (s).
+        Time backed off (s), the reference moving.
+    t_rest : float
+        Time the reference was at rest (s): nothing applied.
     f_hat, r_hat : float
         Filtered disturbance without and with the candidate (N·m).
     ms_friction, ms_residual : float
@@ -86,7 +92,12 @@ class FeedforwardSupervisor(Component):
     the candidate ``u_c`` leaves. With ``M = EWMA(x^2)`` (``m += b*(x^2 - m)``, ``b = 1 - exp(-Tc/window)``, from
     0 at period ``n_start = ceil(5/(omega*Tc))`` on, past the Q-filter's start transient), from period ``n_start +
     round(settle/Tc)`` on: on and ``M_r > M_f``: back off; off and ``M_r < (1 - margin)*M_f``: on again. Noise and the inertia error enter
-    ``f_hat`` and ``r_hat`` alike. While on, the applied torque is the candidate itself (bit for bit).
+    ``f_hat`` and ``r_hat`` alike. In the period the applied torque switches the loop adds ``+u_c`` (off) or
+    ``-u_c`` (on) to its PI integrator (bumpless transfer, Åström & Hägglund, *Advanced PID Control*, ISA 2006,
+    Sec. 3.5). With the reference at rest a velocity loop's friction brakes the joint toward its setpoint
+    ``w = 0``; a friction feedforward can only lift that brake, so nothing is applied there (no transfer) and those
+    periods do not enter the statistics. While on and moving, the applied torque is the candidate itself (bit for
+    bit).
     C: ``adaptive_ff/csrc/aff_supervisor.c``.
     """
 
@@ -94,26 +105,28 @@ class FeedforwardSupervisor(Component):
     _ctype = "aff_supervisor"
 
     def __init__(self, *, Tc: float, J_n: float, omega: float, window: float = 2.0, margin: float = 0.1,
-                 settle: float | None = None, delay: int = 0):
+                 settle: float | None = None, rest_band: float | None = 0.0, delay: int = 0):
         Tc, J_n = check_positive("Tc", Tc), check_positive("J_n", J_n)
         omega, window = check_positive("omega", omega), check_positive("window", window)
         margin = float(margin)
         if not (0.0 <= margin < 1.0):
             raise ParameterError(f"margin must be in [0, 1), got {margin!r}")
         settle = 0.5 * window if settle is None else check_nonnegative("settle", settle)
+        band = -1.0 if rest_band is None else check_nonnegative("rest_band", rest_band)
         if isinstance(delay, bool) or not isinstance(delay, (int, np.integer)) or not 0 <= delay <= DELAY_MAX:
             raise ParameterError(f"delay must be an integer in 0..{DELAY_MAX} (periods), got {delay!r}")
-        if not all(math.isfinite(v) for v in (Tc, J_n, omega, window, settle)):
-            raise ParameterError(f"Tc, J_n, omega, window and settle must be finite, got {Tc!r}, {J_n!r}, {omega!r}, "
-                                 f"{window!r}, {settle!r}")
+        if not all(math.isfinite(v) for v in (Tc, J_n, omega, window, settle, band)):
+            raise ParameterError(f"Tc, J_n, omega, window, settle and rest_band must be finite, got {Tc!r}, {J_n!r}, "
+                                 f"{omega!r}, {window!r}, {settle!r}, {rest_band!r}")
         self._new_struct()
-        if lib.aff_supervisor_init(self._c, Tc, J_n, omega, window, margin, settle, int(delay)) != 0:
+        if lib.aff_supervisor_init(self._c, Tc, J_n, omega, window, margin, settle, band, int(delay)) != 0:
             raise ParameterError("aff_supervisor_init refused the settings")  # unreachable after the checks
 
     def __repr__(self) -> str:
         c = self._c
         return (f"FeedforwardSupervisor(Tc={c.Tc!r}, J_n={c.J_n!r}, omega={c.omega!r}, window={c.window!r}, "
-                f"margin={c.margin!r}, settle={c.settle!r}, delay={c.delay!r})")
+                f"margin={c.margin!r}, settle={c.settle!r}, "
+                f"rest_band={None if c.rest_band < 0 else c.rest_band!r}, delay={c.delay!r})")
 
     @property
     def on(self) -> bool:
@@ -132,6 +145,10 @@ class FeedforwardSupervisor(Component):
         return float(self._c.n_off) * float(self._c.Tc)
 
     @property
+    def t_rest(self) -> float:
+        return float(self._c.n_rest) * float(self._c.Tc)
+
+    @property
     def f_hat(self) -> float:
         return float(self._c.x_f)
 
@@ -147,22 +164,25 @@ class FeedforwardSupervisor(Component):
     def ms_residual(self) -> float:
         return float(self._c.m_r)
 
-    def apply(self, u_c: float) -> float:
-        """This period's compensation (N·m): the candidate ``u_c`` (N·m) while on, 0 while backed off."""
-        return float(lib.aff_supervisor_apply(self._c, float(u_c)))
+    def apply(self, u_c: float, w_ref: float = math.inf) -> float:
+        """This period's compensation (N·m): the candidate ``u_c`` (N·m) while on and the reference ``w_ref`` (rad/s;
+        default moving) is not at rest, else 0."""
+        return float(lib.aff_supervisor_apply(self._c, float(u_c), float(w_ref)))
 
     def observe(self, u: float, w: float) -> None:
         """After the PI: the applied torque ``u`` (N·m) and the controller's velocity ``w`` (rad/s) of this period
         (non-finite: skipped)."""
         lib.aff_supervisor_observe(self._c, float(u), float(w))
 
-    def run(self, u_c, u, w) -> dict:
+    def run(self, u_c, u, w, w_ref=None) -> dict:
         """Replay a log: :meth:`apply` then :meth:`observe` for every period (C ``aff_supervisor_run``).
 
         Parameters
         ----------
         u_c, u, w : array_like, shape (N,)
             Candidate torque (N·m), applied torque (N·m) and controller's velocity (rad/s) of each period.
+        w_ref : array_like, shape (N,), optional
+            Velocity reference (rad/s); default moving throughout.
 
         Returns
         -------
@@ -178,15 +198,16 @@ class FeedforwardSupervisor(Component):
         uc = _f8("u_c", u_c)
         n = uc.shape[0]
         uu, ww = _f8("u", u, n), _f8("w", w, n)
+        wr = np.full(n, math.inf) if w_ref is None else _f8("w_ref", w_ref, n)
         out = {k: np.empty(n) for k in ("applied", "f_hat", "r_hat", "ms_friction", "ms_residual")}
         on = np.empty(n, dtype=np.intc)
         p = lambda a: ffi.from_buffer("double[]", a)  # noqa: E731
-        lib.aff_supervisor_run(self._c, p(uc), p(uu), p(ww), n, p(out["applied"]), p(out["f_hat"]),
+        lib.aff_supervisor_run(self._c, p(uc), p(wr), p(uu), p(ww), n, p(out["applied"]), p(out["f_hat"]),
                                p(out["r_hat"]), p(out["ms_friction"]), p(out["ms_residual"]),
                                ffi.from_buffer("int[]", on))
         out["on"] = on.astype(bool)
         return out
 
     def info(self) -> dict:
-        """The counters a closed-loop result reports: ``n_backoff``, ``n_restore``, ``t_off`` (s)."""
-        return {"n_backoff": self.n_backoff, "n_restore": self.n_restore, "t_off": self.t_off}
+        """The counters a closed-loop result reports: ``n_backoff``, ``n_restore``, ``t_off``, ``t_rest`` (s)."""
+        return {"n_backoff": self.n_backoff, "n_restore": self.n_restore, "t_off": self.t_off, "t_rest": self.t_rest}

@@ -1,4 +1,5 @@
 /* aff_supervisor.c -- the feedforward supervisor (see aff_supervisor.h). */
+#include <stddef.h>
 #include "aff_supervisor.h"
 
 aff_real aff_dob_raw(aff_real u_last, aff_real J_n, aff_real w, aff_real w_last, aff_real Tc)
@@ -18,10 +19,11 @@ static int positive(aff_real x)
 }
 
 int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real omega, aff_real window,
-                        aff_real margin, aff_real settle, long delay)
+                        aff_real margin, aff_real settle, aff_real rest_band, long delay)
 {
     if (!positive(Tc) || !positive(J_n) || !positive(omega) || !positive(window) || !(margin >= 0 && margin < 1)
-        || !(isfinite(settle) && settle >= 0) || delay < 0 || delay > AFF_SUPERVISOR_DELAY_MAX)
+        || !(isfinite(settle) && settle >= 0) || !(isfinite(rest_band) && rest_band >= -1) || delay < 0
+        || delay > AFF_SUPERVISOR_DELAY_MAX)
         return -1;
     s->Tc = Tc;
     s->J_n = J_n;
@@ -29,6 +31,10 @@ int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real o
     s->window = window;
     s->margin = margin;
     s->settle = settle;
+    s->rest_band = rest_band;
+    s->rest = 0;
+    s->rest_last = 0;
+    s->n_rest = 0;
     s->delay = delay;
     s->a = (aff_real)1.0 - AFF_EXP(-Tc * omega);
     s->b = (aff_real)1.0 - AFF_EXP(-Tc / window);
@@ -59,10 +65,17 @@ int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real o
     return 0;
 }
 
-double aff_supervisor_apply(aff_supervisor *s, double u_c)
+double aff_supervisor_apply(aff_supervisor *s, double u_c, double w_ref)
 {
+    int still = AFF_FABS((aff_real)w_ref) <= s->rest_band;
+    s->rest = still && s->rest_last;
+    s->rest_last = still;
     s->u_c = (aff_real)u_c;
     s->transfer = 0;
+    if (s->rest) {
+        s->n_rest += 1;
+        return 0.0;
+    }
     if (s->on != s->applied_on) {
         s->transfer = s->on ? -s->u_c : s->u_c;
         s->applied_on = s->on;
@@ -76,7 +89,7 @@ void aff_supervisor_observe(aff_supervisor *s, double u, double w)
     aff_real ww = (aff_real)w;
     long k = s->n; /* this period's index, from 0 */
     s->n += 1;
-    if (!s->on)
+    if (!s->on && !s->rest)
         s->n_off += 1;
     if (!isfinite(uu) || !isfinite(ww)) {
         s->n_skipped += 1;
@@ -98,7 +111,7 @@ void aff_supervisor_observe(aff_supervisor *s, double u, double w)
     s->w_last = ww;
     aff_real f = aff_lag_step(&s->x_f, s->a, v);
     aff_real r = aff_lag_step(&s->x_r, s->a, v - c_old);
-    if (k < s->n_start)
+    if (k < s->n_start || s->rest)
         return;
     aff_lag_step(&s->m_f, s->b, f * f);
     aff_lag_step(&s->m_r, s->b, r * r);
@@ -113,11 +126,11 @@ void aff_supervisor_observe(aff_supervisor *s, double u, double w)
     }
 }
 
-void aff_supervisor_run(aff_supervisor *s, const double *u_c, const double *u, const double *w, long n,
-                        double *applied, double *f_hat, double *r_hat, double *m_f, double *m_r, int *on)
+void aff_supervisor_run(aff_supervisor *s, const double *u_c, const double *w_ref, const double *u,
+                        const double *w, long n, double *applied, double *f_hat, double *r_hat, double *m_f, double *m_r, int *on)
 {
     for (long k = 0; k < n; k++) {
-        double y = aff_supervisor_apply(s, u_c[k]);
+        double y = aff_supervisor_apply(s, u_c[k], w_ref[k]);
         if (applied != NULL)
             applied[k] = y;
         aff_supervisor_observe(s, u[k], w[k]);

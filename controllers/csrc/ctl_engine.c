@@ -63,7 +63,7 @@ static int period(const ctl_run *run, ctl_scenario *sc, long k, int where, const
     else if (run->oracle)
         uff = f;
     if (sc->use_supervisor) {
-        uff = aff_supervisor_apply(&sc->sup, uff);
+        uff = aff_supervisor_apply(&sc->sup, uff, wrk);
         if (sc->sup.transfer != 0.0) /* bumpless transfer into the PI's integrator (aff_supervisor.h) */
             sc->pi.I += (double)sc->sup.transfer;
     }

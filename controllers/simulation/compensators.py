@@ -39,7 +39,7 @@ from controllers.design.pi import PIController
 from controllers.peers.adaptive_dob import AdaptiveDOBCompensator
 from controllers.peers.canudas import CanudasCompensator
 from controllers.peers.dob import DisturbanceObserver
-from plant.errors import ParameterError, check_multiple, check_positive
+from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive
 
 __all__ = ["MODES", "ESTIMATORS", "ModeOptions", "TrueFriction", "build_mode", "build_modes", "REGISTRY",
            "SUPERVISED_MODES", "build_supervisor"]
@@ -178,6 +178,10 @@ class ModeOptions:
     supervise_omega : float or None
         Cut-off of its Q-filter (rad/s); default None: ``Kp/J_design``, the loop's crossover (``omega`` of
         :func:`build_supervisor`).
+    supervise_rest_band : float or None
+        The reference is at rest where ``|w_ref|`` is at most this (rad/s): the supervisor applies no compensation
+        there (a velocity loop's friction then brakes the joint toward ``w = 0``); default 0 (exactly at rest, the
+        dwells of a point-to-point reference); None: no rest rule.
 
     Raises
     ------
@@ -239,6 +243,7 @@ class ModeOptions:
     supervise_window: float = 2.0
     supervise_margin: float = 0.1
     supervise_omega: float | None = None
+    supervise_rest_band: float | None = 0.0
 
     def __post_init__(self):
         check_positive("Tc", self.Tc)
@@ -261,6 +266,8 @@ class ModeOptions:
             raise ParameterError(f"supervise_margin must be in [0, 1), got {self.supervise_margin!r}")
         if self.supervise_omega is not None:
             check_positive("supervise_omega", self.supervise_omega)
+        if self.supervise_rest_band is not None:
+            check_nonnegative("supervise_rest_band", self.supervise_rest_band)
         from controllers.simulation.sensor_drive import Drive, Sensor  # the checks of the components themselves
 
         if self.velocity_model not in ("cv", "ca"):
@@ -288,7 +295,8 @@ def build_supervisor(plant, mode: str, options: ModeOptions, *, force: bool = Fa
 
     Its settings: ``Tc``, ``J_n = J_design`` (default the plant's J), ``omega = supervise_omega`` (default
     ``Kp/J_n``, the loop's crossover; ``10/supervise_window`` rad/s where ``Kp`` is 0), ``window =
-    supervise_window``, ``margin = supervise_margin``, ``delay`` = the options' measurement delay (periods).
+    supervise_window``, ``margin = supervise_margin``, ``rest_band = supervise_rest_band``, ``delay`` = the options'
+    measurement delay (periods).
 
     Raises
     ------
@@ -302,7 +310,8 @@ def build_supervisor(plant, mode: str, options: ModeOptions, *, force: bool = Fa
     if omega is None:
         omega = options.Kp / J if options.Kp > 0 else 10.0 / options.supervise_window
     return FeedforwardSupervisor(Tc=options.Tc, J_n=J, omega=omega, window=options.supervise_window,
-                                 margin=options.supervise_margin, delay=int(options.delay))
+                                 margin=options.supervise_margin, rest_band=options.supervise_rest_band,
+                                 delay=int(options.delay))
 
 
 def _loop_model(J: float, o: ModeOptions) -> LoopModel | None:
