@@ -36,6 +36,13 @@
  * bench's point-to-point moves (docs/benchmarks/compensation.md, "The supervisor"): the adaptive feedforward's
  * mean-square error at rest was 20-46 times the uncompensated loop's on joints where it was worse than none,
  * while in motion it was at the frictionless loop's.
+ * Design notes. The statistic compares disturbance torques, not tracking errors: a prediction of the error
+ * without the feedforward by superposition through the linear loop (PI and J_n) was tried on the open bench's
+ * worse-than-none joints and predicted the uncompensated error 2x too large (the linear model lets a joint at rest
+ * move where friction holds it); the torque comparison needs no loop model. It does not see every harm: a
+ * feedforward whose residual is small in mean square can still cost tracking where friction was helping (at rest,
+ * hence the rest rule, or where the PI's integrator rejected the friction anyway, a joint whose friction raises
+ * the uncompensated error by 2 %).
  * A non-finite u or w is skipped (the statistics hold; n_skipped counted); the first finite w only starts the
  * difference. No allocation, bounded work. Python: adaptive_ff.compensation.supervisor.FeedforwardSupervisor.
  */
