@@ -65,7 +65,11 @@ class ClosedLoopResult:
         rest of the record is NaN), ``n_sensor_rejected`` (measurements the
         sensor gate replaced by the last valid one), ``Tc``, ``noise_std``,
         ``decimate`` and the compensator's own counters (``n_rejected``,
-        ``n_updates``, ``n_gated``, ``n_implausible``, ...).
+        ``n_updates``, ``n_gated``, ``n_implausible``, ...); with a feedforward
+        supervisor (:func:`run_mode` of a supervised mode, :func:`run_own` with
+        ``supervise=True``) its ``n_backoff``, ``n_restore``, ``t_off`` (s backed
+        off, the reference moving) and ``t_rest`` (s with the reference at rest,
+        nothing applied).
     motion : MotionMetrics or None
         Error in motion and at standstill, settling time and largest error of each stop, largest error at each
         reversal (:class:`controllers.simulation.metrics.MotionMetrics`); every sample, whatever ``decimate``.
