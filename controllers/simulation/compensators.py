@@ -298,6 +298,21 @@ def build_supervisor(plant, mode: str, options: ModeOptions, *, force: bool = Fa
     supervise_window``, ``margin = supervise_margin``, ``rest_band = supervise_rest_band``, ``delay`` = the options'
     measurement delay (periods).
 
+    Parameters
+    ----------
+    plant : plant model
+        The true plant (its J is the design inertia where ``options.J_design`` is None).
+    mode : str
+        The mode's name (the user's compensator of ``run_own``: any name with ``force``).
+    options : ModeOptions
+        The loop's settings.
+    force : bool, keyword-only
+        Supervise whatever ``mode`` is (``options.supervise`` still has to be True).
+
+    Returns
+    -------
+    FeedforwardSupervisor or None
+
     Raises
     ------
     ParameterError
