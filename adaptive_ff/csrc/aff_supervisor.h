@@ -2,8 +2,8 @@
  *
  * Per controller period Tc the loop hands the compensator's candidate torque u_c (N*m) and the velocity
  * reference w_ref (rad/s) to aff_supervisor_apply, which returns u_c while the supervisor is on and 0 (no
- * compensation) while it is backed off or the reference is at rest; after the PI (and the drive) the loop hands the applied torque u (N*m) and the controller's
- * velocity w (rad/s) to aff_supervisor_observe.
+ * compensation) while it is backed off or the reference is at rest; after the PI (and the drive) the loop hands
+ * the applied torque u (N*m) and the controller's velocity w (rad/s) to aff_supervisor_observe.
  *
  * Test statistic (a disturbance observer of the design inertia J_n, Ohnishi, Shibata, Murakami, "Motion
  * control for advanced mechatronics", IEEE/ASME Trans. Mechatronics 1(1), 1996; the discrete form of ctl_dob:
@@ -15,8 +15,8 @@
  *   f_hat(k) = Q[v](k)                      the disturbance of the plant: the friction the PI would face alone;
  *   r_hat(k) = Q[v - u_c(k-1-d)](k)         what the PI faces with the candidate applied: f - u_c.
  * Exponentially weighted mean squares over the window T (s), m += b*(x^2 - m), b = 1 - exp(-Tc/T), from 0
- * at period (index from 0) n_start = ceil(5/(omega*Tc)) on (the Q-filters start from 0: their start transient, e^-5 of it left
- * then, is not evidence):
+ * at period (index from 0) n_start = ceil(5/(omega*Tc)) on (the Q-filters start from 0: their start transient,
+ * e^-5 of it left then, is not evidence):
  *   M_f = EWMA(f_hat^2), M_r = EWMA(r_hat^2).
  * Because J*dw/dt = u - f whatever torque was applied, f_hat is the friction both while the candidate is
  * applied and while it is not, and r_hat is the residual the candidate leaves (r_hat = f_hat - Q[u_c] by
@@ -27,8 +27,8 @@
  * band [(1 - margin)*M_f, M_f] keeps it from chattering. Bumpless transfer (Astrom & Hagglund, Advanced PID
  * Control, ISA 2006, Sec. 3.5, between manual and automatic modes): in the period the applied torque switches,
  * transfer = (the torque the old mode would apply) - (the new mode's), +u_c off, -u_c on, is what the loop adds
- * to its PI integrator, so the total command does not jump (0 in every other period). While on, the applied torque is the candidate
- * itself, so a supervisor that never backs off leaves the loop bit for bit unchanged.
+ * to its PI integrator, so the total command does not jump (0 in every other period). While on, the applied
+ * torque is the candidate itself, so a supervisor that never backs off leaves the loop bit for bit unchanged.
  * The reference at rest (|w_ref| <= rest_band in this and the previous period): a velocity loop's friction then
  * brakes the joint toward its setpoint w = 0 (the error is -w and friction opposes w), so a friction
  * feedforward can only lift that brake; the supervisor applies none (no transfer: the brake is wanted) and
@@ -38,8 +38,8 @@
  * while in motion it was at the frictionless loop's.
  * Design notes. The statistic compares disturbance torques, not tracking errors: a prediction of the error
  * without the feedforward by superposition through the linear loop (PI and J_n) was tried on the open bench's
- * worse-than-none joints and predicted the uncompensated error 2x too large (the linear model lets a joint at rest
- * move where friction holds it); the torque comparison needs no loop model. It does not see every harm: a
+ * worse-than-none joints and on the multi-sine variants and predicted the uncompensated error 2 to 10 times too
+ * large (the linear model lacks the friction's braking); the torque comparison needs no loop model. It does not see every harm: a
  * feedforward whose residual is small in mean square can still cost tracking where friction was helping (at rest,
  * hence the rest rule, or where the PI's integrator rejected the friction anyway, a joint whose friction raises
  * the uncompensated error by 2 %).
