@@ -231,4 +231,5 @@ def test_nothing_is_applied_with_the_reference_at_rest_and_the_statistics_hold()
     assert np.any(np.diff(out["f_hat"][200:400]) != 0.0)
     # without the rest rule it is the plain supervisor
     s2 = FeedforwardSupervisor(**kw, rest_band=None)
-    np.testing.assert_array_equal(s2.run(u_c, u, w, w_ref)["applied"], FeedforwardSupervisor(**kw).run(u_c, u, w)["applied"])
+    np.testing.assert_array_equal(s2.run(u_c, u, w, w_ref)["applied"],
+                                  FeedforwardSupervisor(**kw).run(u_c, u, w)["applied"])

@@ -127,7 +127,8 @@ void aff_supervisor_observe(aff_supervisor *s, double u, double w)
 }
 
 void aff_supervisor_run(aff_supervisor *s, const double *u_c, const double *w_ref, const double *u,
-                        const double *w, long n, double *applied, double *f_hat, double *r_hat, double *m_f, double *m_r, int *on)
+                        const double *w, long n, double *applied, double *f_hat, double *r_hat, double *m_f,
+                        double *m_r, int *on)
 {
     for (long k = 0; k < n; k++) {
         double y = aff_supervisor_apply(s, u_c[k], w_ref[k]);

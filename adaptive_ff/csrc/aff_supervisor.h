@@ -39,10 +39,11 @@
  * Design notes. The statistic compares disturbance torques, not tracking errors: a prediction of the error
  * without the feedforward by superposition through the linear loop (PI and J_n) was tried on the open bench's
  * worse-than-none joints and on the multi-sine variants and predicted the uncompensated error 2 to 10 times too
- * large (the linear model lacks the friction's braking); the torque comparison needs no loop model. It does not see every harm: a
- * feedforward whose residual is small in mean square can still cost tracking where friction was helping (at rest,
- * hence the rest rule, or where the PI's integrator rejected the friction anyway, a joint whose friction raises
- * the uncompensated error by 2 %).
+ * large (the linear model lacks the friction's braking); the torque comparison needs no loop model. It does not
+ * see every harm: a feedforward whose residual is small in mean square can still cost tracking where friction
+ * was helping (at rest, hence the rest rule, or where the PI's integrator rejected the friction anyway, a joint
+ * whose friction raises the uncompensated error by 2 %), or change the loop's motion (the eq. 4 feedforward's
+ * limit cycle on the static and small-inertia variants, docs/benchmarks/compensation.md).
  * A non-finite u or w is skipped (the statistics hold; n_skipped counted); the first finite w only starts the
  * difference. No allocation, bounded work. Python: adaptive_ff.compensation.supervisor.FeedforwardSupervisor.
  */
@@ -116,8 +117,8 @@ double aff_supervisor_apply(aff_supervisor *s, double u_c, double w_ref);
  * of this period and decide (header comment). Non-finite u or w: skipped (counted). */
 void aff_supervisor_observe(aff_supervisor *s, double u, double w);
 
-/* Run s over n periods: apply(u_c[k], w_ref[k]) into applied[k] (may be NULL), then observe(u[k], w[k]); the state after
- * each period into f_hat, r_hat, m_f, m_r (each may be NULL) and on[k] (may be NULL). For tests and offline
+/* Run s over n periods: apply(u_c[k], w_ref[k]) into applied[k] (may be NULL), then observe(u[k], w[k]); the
+ * state after each period into f_hat, r_hat, m_f, m_r (each may be NULL) and on[k] (may be NULL). For tests and offline
  * replay of a log. */
 void aff_supervisor_run(aff_supervisor *s, const double *u_c, const double *w_ref, const double *u,
                         const double *w, long n,
