@@ -27,6 +27,7 @@ HEADERS = [
     "aff_simulator.h",
     "aff_online_ukf.h",
     "aff_drive.h",
+    "aff_supervisor.h",
 ]
 
 

@@ -9,7 +9,8 @@ Draws the joints with :func:`controllers.experiments.zoo.draw_plants` (the box o
 (PI from the design inertia, pre-fit and offline fit from simulated experiments),
 runs every mode on the batch engine (all cores; Dask with ``--scheduler``) and
 prints eta (second half) per mode as quantiles with the count of every outcome
-(ok, refused, diverged, undefined, no reference, invalid), the win rates of the
+(ok, refused, diverged, undefined, no reference, invalid) and of the joints where the mode is worse than none
+(``<none``: eta < -0.02), the win rates of the
 adaptive modes against fixed, DOB and Canudas, the targets (no run refused or
 diverged; best adaptive eta > 0 on every joint with a defined eta; best adaptive
 at or above the DOB on at least 95 %) with the joints that miss them, and the

@@ -41,12 +41,10 @@ double ctl_dob_compensate(void *self, double w_ctrl, double w_meas, double w_ref
         d->has_w_last = 1;
         return d->d_hat;
     }
-    aff_real v = d->u_last - d->J_n * (w - d->w_last) / d->Tc;
+    aff_real v = aff_dob_raw(d->u_last, d->J_n, w, d->w_last, d->Tc);
     d->w_last = w;
-    for (long i = 0; i < d->order; i++) {
-        d->x[i] += d->a * (v - d->x[i]);
-        v = d->x[i];
-    }
+    for (long i = 0; i < d->order; i++)
+        v = aff_lag_step(&d->x[i], d->a, v);
     aff_real dmax = d->d_max;
     aff_real y = -dmax > v ? -dmax : v;
     d->d_hat = dmax < y ? dmax : y;

@@ -20,6 +20,7 @@
 #include "aff_real.h"
 #include "aff_gate.h"
 #include "aff_compensator.h"
+#include "aff_supervisor.h"
 
 /* Highest order of the binomial Q-filter (the Python wrapper refuses more with a ParameterError). */
 #define CTL_DOB_ORDER_MAX 8

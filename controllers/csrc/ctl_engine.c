@@ -11,6 +11,7 @@ void ctl_scenario_init(ctl_scenario *sc, double w0)
     sc->fault_pos = 0;
     sc->use_sensor = 0;
     sc->use_drive = 0;
+    sc->use_supervisor = 0;
     for (int i = 0; i < CTL_THETA_NMAX; i++)
         sc->theta_buf[i] = 0.0;
 }
@@ -61,6 +62,11 @@ static int period(const ctl_run *run, ctl_scenario *sc, long k, int where, const
         uff = sc->ops->compensate(sc->comp, wc, wm, wrk);
     else if (run->oracle)
         uff = f;
+    if (sc->use_supervisor) {
+        uff = aff_supervisor_apply(&sc->sup, uff, wrk);
+        if (sc->sup.transfer != 0.0) /* bumpless transfer into the PI's integrator (aff_supervisor.h) */
+            sc->pi.I += (double)sc->sup.transfer;
+    }
     double u = ctl_pi_step(&sc->pi, wrk - wc, uff);
     if (sc->use_drive)
         u = ctl_drive_apply(&sc->drive, u);
@@ -73,6 +79,8 @@ static int period(const ctl_run *run, ctl_scenario *sc, long k, int where, const
             sc->n_theta_rec += 1;
         }
     }
+    if (sc->use_supervisor)
+        aff_supervisor_observe(&sc->sup, u, wc);
     if (rec) {
         long r = k / run->decimate;
         sc->rec[0 * run->n_rec + r] = w;

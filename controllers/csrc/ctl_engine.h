@@ -6,8 +6,11 @@
  *   the sensor gate (aff_gate) gives the controller its measurement w_ctrl (the held value after a
  *   rejected sample);
  *   u_ff = ops->compensate(comp, w_ctrl, w_meas, w_ref[k])  (or the plant's true friction: the oracle);
+ *   with a supervisor (aff_supervisor) u_ff is applied only while it helps (else 0), a switch moved into the
+ *   PI's integrator (bumpless transfer);
  *   u = PI(w_ref[k] - w_ctrl, u_ff) (ctl_pi, saturated), then the drive's slew-rate limit (ctl_drive, if any);
  *   ops->observe(comp, u, w_meas, theta) (the estimate recorded after an update);
+ *   the supervisor observes (u, w_ctrl);
  *   the metrics take e = w_ref[k] - w and u (ctl_metrics), the motion metrics e (ctl_metrics_add_motion,
  *   ctl_events_add; the reference's stops and reversal windows classified once per period, ctl_motion_where);
  *   the plant advances one step with u held (plant_step); |w| >= w_limit ends the scenario (diverged).
@@ -28,6 +31,7 @@
 #include "ctl_metrics.h"
 #include "ctl_sensor.h"
 #include "ctl_drive.h"
+#include "aff_supervisor.h"
 
 /* Largest parameter vector a compensator may report through observe. */
 #define CTL_THETA_NMAX 32
@@ -68,6 +72,8 @@ typedef struct ctl_scenario {
     ctl_sensor sensor;
     int use_drive;              /* 1: the torque passes the drive's slew-rate limit */
     ctl_drive drive;
+    int use_supervisor;         /* 1: the compensator's torque passes the supervisor (aff_supervisor) */
+    aff_supervisor sup;
     ctl_pi pi;
     void *comp;                 /* the compensator's struct, or NULL (none, oracle) */
     const aff_compensator_ops *ops;

@@ -75,7 +75,7 @@ from plant.models import plant_from_dict
 from plant.results import json_safe
 from plant.stribeck_map import stribeck
 
-__all__ = ["DRIFT_STEPS", "STATUSES", "ZooBox", "ZooOptions", "ZooResult", "ZOO_MODELS", "draw_plants", "run_zoo",
+__all__ = ["DRIFT_STEPS", "STATUSES", "WORSE_THAN_NONE", "ZooBox", "ZooOptions", "ZooResult", "ZOO_MODELS", "draw_plants", "run_zoo",
            "zoo_box", "zoo_options_dict"]
 
 #: Plant models the zoo draws from.
@@ -351,6 +351,9 @@ class ZooOptions:
 
 #: Outcome of one (joint, mode), :meth:`ZooResult.status`.
 STATUSES = ("ok", "refused", "diverged", "undefined", "no reference", "invalid")
+#: eta below this is "worse than none" (:meth:`ZooResult.worse_than_none`): a compensation that raises the tracking
+#: error above the uncompensated loop's by more than 2 % of what friction costs it.
+WORSE_THAN_NONE = -0.02
 
 
 @dataclass(frozen=True)
@@ -435,6 +438,11 @@ class ZooResult:
         """``{mode: {status: number of joints}}`` (:data:`STATUSES`)."""
         return {m: {s: int(np.count_nonzero(self.status(m) == s)) for s in STATUSES} for m in self.modes}
 
+    def worse_than_none(self, threshold: float = WORSE_THAN_NONE) -> dict:
+        """``{mode: number of joints}`` whose eta is defined and below ``threshold`` (default
+        :data:`WORSE_THAN_NONE`, -0.02): the compensation made the loop worse than no compensation."""
+        return {m: int(np.count_nonzero(np.isfinite(self.eta[m]) & (self.eta[m] < threshold))) for m in self.modes}
+
     def fixed_fallbacks(self) -> list:
         """Joints where the offline fit of ``fixed`` was rejected and the pre-fit's static map used instead (a
         ``"fixed:"`` note, :func:`controllers.experiments.compare.prepare_comparison`), ascending."""
@@ -515,6 +523,7 @@ class ZooResult:
                           "eta": {m: v.tolist() for m, v in self.eta.items()},
                           "rms_second_half": {m: v.tolist() for m, v in self.rms.items()},
                           "status": {m: self.status(m).tolist() for m in self.modes}, "counts": self.counts(),
+                          "worse_than_none": self.worse_than_none(),
                           "refused": {str(k): v for k, v in self.refused.items()},
                           "mode_refused": {m: {str(k): v for k, v in d.items()} for m, d in self.mode_refused.items()},
                           "diverged": {m: [bool(x) for x in v] for m, v in self.diverged.items()},
@@ -523,17 +532,19 @@ class ZooResult:
                           "timing": self.timing, "notes": {str(k): v for k, v in self.notes.items()}})
 
     def summary(self) -> str:
-        """The zoo table: eta quantiles per mode with the count of every outcome, win rates, targets, failures."""
+        """The zoo table: eta quantiles per mode with the count of every outcome and of the joints where the mode is
+        worse than none (``<none``: eta < :data:`WORSE_THAN_NONE`), win rates, targets, failures."""
         n = len(self.plants)
         lines = [f"zoo: {n} joints, {len(self.refused)} refused, {int(self.undefined().sum())} with eta undefined "
                  f"(friction degrades the loop by < {self.min_degradation:.0%}), wall {self.seconds:.1f} s",
-                 f"{'mode':<14}{'eta':>5}{'ref':>5}{'div':>5}{'undef':>6}{'noref':>6}{'inval':>6}{'min':>8}{'q05':>8}"
-                 f"{'q25':>8}{'median':>8}{'q75':>8}{'q95':>8}{'max':>8}"]
+                 f"{'mode':<14}{'eta':>5}{'ref':>5}{'div':>5}{'undef':>6}{'noref':>6}{'inval':>6}{'<none':>6}{'min':>8}"
+                 f"{'q05':>8}{'q25':>8}{'median':>8}{'q75':>8}{'q95':>8}{'max':>8}"]
         counts = self.counts()
+        worse = self.worse_than_none()
         for m, qs in self.quantiles().items():
             c = counts[m]
             lines.append(f"{m:<14}{c['ok']:>5}{c['refused']:>5}{c['diverged']:>5}{c['undefined']:>6}"
-                         f"{c['no reference']:>6}{c['invalid']:>6}" + "".join(f"{v:>8.3f}" for v in qs))
+                         f"{c['no reference']:>6}{c['invalid']:>6}{worse[m]:>6}" + "".join(f"{v:>8.3f}" for v in qs))
         for name, rivals in self.win_rates().items():
             lines.append(f"{name} >= " + ", ".join(f"{r}: {v:.1%}" for r, v in rivals.items()))
         lines += self._target_lines()

@@ -16,7 +16,7 @@ import numpy as np
 
 from adaptive_ff.compensation.gate import OutlierGate
 from controllers.simulation.closed_loop import plant_table, sensor_and_drive
-from controllers.simulation.compensators import MODES, ModeOptions, TrueFriction, build_modes
+from controllers.simulation.compensators import MODES, ModeOptions, TrueFriction, build_modes, build_supervisor
 from controllers.simulation.engine import EngineRun
 from controllers.simulation.metrics import METRIC_NAMES, metrics_columns, reversal_times, engine_motion
 from plant.errors import ParameterError
@@ -50,6 +50,9 @@ class BatchResult:
         Per scenario: error in motion and at standstill, settling time and largest error of each stop of the
         reference, largest error at each reversal (:class:`controllers.simulation.metrics.MotionMetrics`; the
         per-event arrays are the scenario's own).
+    supervisors : tuple
+        The feedforward supervisor of each scenario with its final state (counters ``n_backoff``, ``t_off``), None
+        where the mode is not supervised (:func:`controllers.simulation.compensators.build_supervisor`).
     """
 
     mode: str
@@ -62,6 +65,7 @@ class BatchResult:
     diverged: np.ndarray
     compensators: tuple = ()
     motion: tuple = ()
+    supervisors: tuple = ()
 
     @property
     def has_stops(self) -> bool:
@@ -241,6 +245,7 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
     x = EngineRun(t=t, w_ref=wr, revs=revs, window=float(opts[0].reversal_window), dt=float(Tc),
                   n_scenarios=B, oracle=oracle)
     x.set_noise_table(nz if nrows else None)
+    sups = [None] * B
     for b in range(B):
         k = idx[b]
         o = opts[b]
@@ -254,12 +259,18 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
         x.set_drive(b, drive)
         x.set_pi(b, ctrls[b])
         x.set_compensator(b, None if oracle else comps[b])
+        sups[b] = None if comps[b] is None or oracle else build_supervisor(plants[b], mode, o)
+        x.set_supervisor(b, sups[b])
     x.keep(rows)
     x.run()
+    for b in range(B):
+        if sups[b] is not None:
+            x.supervisor_state(b, sups[b])
     _, diverged, _ = x.outcome()
     states = x.metrics()
     cols = metrics_columns(states)
     for k in METRIC_NAMES:
         cols[k][diverged] = np.nan
     motion = engine_motion(x, states, t, revs, window=float(opts[0].reversal_window), diverged=diverged)
-    return BatchResult(mode=mode, diverged=diverged, compensators=tuple(comps), motion=motion, **cols)
+    return BatchResult(mode=mode, diverged=diverged, compensators=tuple(comps), motion=motion,
+                       supervisors=tuple(sups), **cols)

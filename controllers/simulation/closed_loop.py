@@ -18,7 +18,8 @@ import numpy as np
 from adaptive_ff.compensation.gate import OutlierGate
 from adaptive_ff.identification.regression import FrictionEstimate
 from controllers.design.pi import PIController
-from controllers.simulation.compensators import MODES, ESTIMATORS, ModeOptions, TrueFriction, build_mode
+from controllers.simulation.compensators import (MODES, ESTIMATORS, ModeOptions, TrueFriction, build_mode,
+                                                 build_supervisor)
 from controllers.simulation.engine import EngineRun
 from controllers.simulation.memory import MODE_SIGNALS, check_run_memory
 from controllers.simulation.metrics import (LoopMetrics, MotionMetrics, engine_motion, loop_metrics, metrics_result,
@@ -64,7 +65,11 @@ class ClosedLoopResult:
         rest of the record is NaN), ``n_sensor_rejected`` (measurements the
         sensor gate replaced by the last valid one), ``Tc``, ``noise_std``,
         ``decimate`` and the compensator's own counters (``n_rejected``,
-        ``n_updates``, ``n_gated``, ``n_implausible``, ...).
+        ``n_updates``, ``n_gated``, ``n_implausible``, ...); with a feedforward
+        supervisor (:func:`run_mode` of a supervised mode, :func:`run_own` with
+        ``supervise=True``) its ``n_backoff``, ``n_restore``, ``t_off`` (s backed
+        off, the reference moving) and ``t_rest`` (s with the reference at rest,
+        nothing applied).
     motion : MotionMetrics or None
         Error in motion and at standstill, settling time and largest error of each stop, largest error at each
         reversal (:class:`controllers.simulation.metrics.MotionMetrics`); every sample, whatever ``decimate``.
@@ -300,8 +305,10 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
 
 
 def _run_loop(plant, controller, compensator, reference, *, noise_std, rng, faults, sensor_gate, w_limit, decimate,
-              reversal_window, friction0, sensor, drive) -> ClosedLoopResult:
-    """:func:`run_closed_loop` with the loop's sensor and drive (:class:`Sensor`, :class:`Drive` or None; copied)."""
+              reversal_window, friction0, sensor, drive, supervisor=None) -> ClosedLoopResult:
+    """:func:`run_closed_loop` with the loop's sensor and drive (:class:`Sensor`, :class:`Drive` or None; copied)
+    and a feedforward supervisor (:class:`adaptive_ff.compensation.supervisor.FeedforwardSupervisor` or None; its
+    state advanced as the run's, its counters in the result's ``info``)."""
     if not isinstance(controller, PIController):
         raise ParameterError(f"controller must be a PIController, got {type(controller).__name__}")
     oracle = isinstance(compensator, TrueFriction)
@@ -346,14 +353,18 @@ def _run_loop(plant, controller, compensator, reference, *, noise_std, rng, faul
     x.set_drive(0, _checked("drive", drive, Drive))
     x.set_pi(0, controller)
     x.set_compensator(0, None if oracle else compensator)
+    x.set_supervisor(0, supervisor if compensator is not None and not oracle else None)
     x.run()
     if isinstance(compensator, UserCompensator):
         compensator.raise_error()
     controller.cdata[0] = x.scenarios[0].pi  # the controller's and the gate's state advance as in a loop
     if gate is not None:
         gate.cdata[0] = x.scenarios[0].gate
-    return _result(x, plant, compensator, t, wr, revs, gate, decimate, n_theta, noise_std, Tc,
-                   float(reversal_window))
+    res = _result(x, plant, compensator, t, wr, revs, gate, decimate, n_theta, noise_std, Tc, float(reversal_window))
+    if supervisor is not None and x.scenarios[0].use_supervisor:
+        x.supervisor_state(0, supervisor)
+        res.info.update(supervisor.info())
+    return res
 
 
 
@@ -404,7 +415,7 @@ def _result(x: EngineRun, plant, compensator, t, wr, revs, gate, decimate, n_the
 
 
 def run_own(plant, reference: Reference, compensator, options: ModeOptions, *, name: str | None = None,
-            rng: np.random.Generator | None = None, faults=None) -> ClosedLoopResult:
+            rng: np.random.Generator | None = None, faults=None, supervise: bool = False) -> ClosedLoopResult:
     """Run your own compensator in the loop of :func:`run_mode` (the PI, sensor gate and noise of ``options``).
 
     Parameters
@@ -423,11 +434,17 @@ def run_own(plant, reference: Reference, compensator, options: ModeOptions, *, n
         The result's mode; default the compensator's ``MODE``, ``name`` or class name.
     rng, faults : keyword-only
         As :func:`run_mode`.
+    supervise : bool, keyword-only
+        Pass the compensator's torque through a feedforward supervisor
+        (:func:`controllers.simulation.compensators.build_supervisor` with the ``supervise_*`` settings of
+        ``options``), which backs it off to none while it makes the loop's torque disturbance larger; default False
+        (your compensator is applied as it is).
 
     Returns
     -------
     ClosedLoopResult
-        Its ``mode`` is the compensator's name; ``info`` carries ``n_calls`` and the object's own ``info()``.
+        Its ``mode`` is the compensator's name; ``info`` carries ``n_calls`` and the object's own ``info()`` (and
+        ``n_backoff``, ``n_restore``, ``t_off`` with ``supervise``).
 
     Raises
     ------
@@ -443,9 +460,11 @@ def run_own(plant, reference: Reference, compensator, options: ModeOptions, *, n
         frozen = plant.at(0.0) if hasattr(plant, "at") else plant
         gate = _sensor_gate(True, controller, float(frozen.J) if options.J_design is None else options.J_design)
     sensor, drive = sensor_and_drive(options)
+    sup = build_supervisor(plant, "own", replace(options, supervise=True), force=True) if supervise else None
     res = _run_loop(run_plant, controller, comp, reference, noise_std=options.noise_std, rng=rng,
                     faults=faults, sensor_gate=gate, w_limit=options.w_limit, decimate=options.decimate,
-                    reversal_window=options.reversal_window, friction0=None, sensor=sensor, drive=drive)
+                    reversal_window=options.reversal_window, friction0=None, sensor=sensor, drive=drive,
+                    supervisor=sup)
     return replace(res, mode=comp.name)
 
 
@@ -485,7 +504,9 @@ def run_mode(plant, reference: Reference, mode: str, options: ModeOptions, *, rn
     Returns
     -------
     ClosedLoopResult
-        With ``mode`` set to the name given and ``info`` holding ``Ts`` and ``ff_input`` too.
+        With ``mode`` set to the name given and ``info`` holding ``Ts`` and ``ff_input`` too, and for a supervised
+        mode (``options.supervise``, :data:`controllers.simulation.compensators.SUPERVISED_MODES`) the
+        supervisor's ``n_backoff``, ``n_restore`` and ``t_off`` (s).
 
     Raises
     ------
@@ -500,6 +521,7 @@ def run_mode(plant, reference: Reference, mode: str, options: ModeOptions, *, rn
     sensor, drive = sensor_and_drive(options)
     res = _run_loop(run_plant, controller, compensator, reference, noise_std=options.noise_std, rng=rng,
                     faults=faults, sensor_gate=gate, w_limit=options.w_limit, decimate=options.decimate,
-                    reversal_window=options.reversal_window, friction0=None, sensor=sensor, drive=drive)
+                    reversal_window=options.reversal_window, friction0=None, sensor=sensor, drive=drive,
+                    supervisor=build_supervisor(plant, mode, options))
     info = dict(res.info, Ts=options.Ts, ff_input=options.ff_input)
     return replace(res, mode=mode, info=info)

@@ -33,14 +33,20 @@ from adaptive_ff.compensation.feedforward import FrictionFeedforward
 from adaptive_ff.compensation.velocity_input import LoopModel, SignObserver
 from adaptive_ff.compensation.gate import OutlierGate
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
+from adaptive_ff.compensation.supervisor import FeedforwardSupervisor
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from controllers.design.pi import PIController
 from controllers.peers.adaptive_dob import AdaptiveDOBCompensator
 from controllers.peers.canudas import CanudasCompensator
 from controllers.peers.dob import DisturbanceObserver
-from plant.errors import ParameterError, check_multiple, check_positive
+from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive
 
-__all__ = ["MODES", "ESTIMATORS", "ModeOptions", "TrueFriction", "build_mode", "build_modes", "REGISTRY"]
+__all__ = ["MODES", "ESTIMATORS", "ModeOptions", "TrueFriction", "build_mode", "build_modes", "REGISTRY",
+           "SUPERVISED_MODES", "build_supervisor"]
+
+#: Modes whose compensation a :class:`adaptive_ff.compensation.supervisor.FeedforwardSupervisor` watches when
+#: ``ModeOptions.supervise`` (the adaptive ones: their estimate may be wrong).
+SUPERVISED_MODES = ("adaptive", "adaptive-dob")
 
 #: Estimators of the ``adaptive`` mode: the sliding-regime inverse-dynamics RLS (default) or the paper's eq. 4
 #: RLS at Ts (baseline).
@@ -160,6 +166,22 @@ class ModeOptions:
     slew_rate : float
         The drive's torque slew-rate limit (N·m/s), default inf (none;
         :class:`controllers.simulation.sensor_drive.Drive`). The torque limit is ``u_max``.
+    supervise : bool
+        Pass the compensation of the modes of :data:`SUPERVISED_MODES` (``adaptive`` with either estimator,
+        ``adaptive-dob``) through a :class:`adaptive_ff.compensation.supervisor.FeedforwardSupervisor`, which backs
+        it off to none while it makes the torque disturbance the PI sees larger than the friction alone (default
+        True; the result's ``info`` then has ``n_backoff``, ``n_restore`` and ``t_off``, s). Other modes ignore it.
+    supervise_window : float
+        Time constant of the supervisor's mean squares (s), default 2.
+    supervise_margin : float
+        Its hysteresis (-), in [0, 1): back on below ``(1 - margin)`` times the friction's mean square; default 0.1.
+    supervise_omega : float or None
+        Cut-off of its Q-filter (rad/s); default None: ``Kp/J_design``, the loop's crossover (``omega`` of
+        :func:`build_supervisor`).
+    supervise_rest_band : float or None
+        The reference is at rest where ``|w_ref|`` is at most this (rad/s): the supervisor applies no compensation
+        there (a velocity loop's friction then brakes the joint toward ``w = 0``); default 0 (exactly at rest, the
+        dwells of a point-to-point reference); None: no rest rule.
 
     Raises
     ------
@@ -217,6 +239,11 @@ class ModeOptions:
     velocity: str = "difference"
     velocity_bandwidth: float | None = None
     velocity_model: str = "cv"
+    supervise: bool = True
+    supervise_window: float = 2.0
+    supervise_margin: float = 0.1
+    supervise_omega: float | None = None
+    supervise_rest_band: float | None = 0.0
 
     def __post_init__(self):
         check_positive("Tc", self.Tc)
@@ -232,6 +259,15 @@ class ModeOptions:
             raise ParameterError(f"sign_input must be 'observer' or 'measured', got {self.sign_input!r}")
         if self.observer_bandwidth is not None:
             check_positive("observer_bandwidth", self.observer_bandwidth)
+        if not isinstance(self.supervise, bool):
+            raise ParameterError(f"supervise must be True or False, got {self.supervise!r}")
+        check_positive("supervise_window", self.supervise_window)
+        if not (0.0 <= self.supervise_margin < 1.0):
+            raise ParameterError(f"supervise_margin must be in [0, 1), got {self.supervise_margin!r}")
+        if self.supervise_omega is not None:
+            check_positive("supervise_omega", self.supervise_omega)
+        if self.supervise_rest_band is not None:
+            check_nonnegative("supervise_rest_band", self.supervise_rest_band)
         from controllers.simulation.sensor_drive import Drive, Sensor  # the checks of the components themselves
 
         if self.velocity_model not in ("cv", "ca"):
@@ -250,6 +286,47 @@ def _ctx(plant, o: ModeOptions) -> tuple:
     J = float(frozen.J) if o.J_design is None else check_positive("J_design", o.J_design)
     ff_max = o.u_max if o.ff_max is None else o.ff_max
     return J, ff_max
+
+
+def build_supervisor(plant, mode: str, options: ModeOptions, *, force: bool = False) -> FeedforwardSupervisor | None:
+    """The supervisor of one scenario: a :class:`FeedforwardSupervisor` where ``options.supervise`` and ``mode`` is
+    one of :data:`SUPERVISED_MODES` (or ``force``: any compensator, e.g. your own in
+    :func:`controllers.simulation.closed_loop.run_own`), else None.
+
+    Its settings: ``Tc``, ``J_n = J_design`` (default the plant's J), ``omega = supervise_omega`` (default
+    ``Kp/J_n``, the loop's crossover; ``10/supervise_window`` rad/s where ``Kp`` is 0), ``window =
+    supervise_window``, ``margin = supervise_margin``, ``rest_band = supervise_rest_band``, ``delay`` = the options'
+    measurement delay (periods).
+
+    Parameters
+    ----------
+    plant : plant model
+        The true plant (its J is the design inertia where ``options.J_design`` is None).
+    mode : str
+        The mode's name (the user's compensator of ``run_own``: any name with ``force``).
+    options : ModeOptions
+        The loop's settings.
+    force : bool, keyword-only
+        Supervise whatever ``mode`` is (``options.supervise`` still has to be True).
+
+    Returns
+    -------
+    FeedforwardSupervisor or None
+
+    Raises
+    ------
+    ParameterError
+        A measurement delay above :data:`adaptive_ff.compensation.supervisor.DELAY_MAX`.
+    """
+    if not (options.supervise and (force or mode in SUPERVISED_MODES)):
+        return None
+    J, _ = _ctx(plant, options)
+    omega = options.supervise_omega
+    if omega is None:
+        omega = options.Kp / J if options.Kp > 0 else 10.0 / options.supervise_window
+    return FeedforwardSupervisor(Tc=options.Tc, J_n=J, omega=omega, window=options.supervise_window,
+                                 margin=options.supervise_margin, rest_band=options.supervise_rest_band,
+                                 delay=int(options.delay))
 
 
 def _loop_model(J: float, o: ModeOptions) -> LoopModel | None:

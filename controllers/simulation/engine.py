@@ -220,6 +220,20 @@ class EngineRun:
         if drive is not None:
             sc.drive = drive.cdata[0]
 
+    def set_supervisor(self, b: int, supervisor) -> None:
+        """Scenario ``b``'s feedforward supervisor (an :class:`adaptive_ff.compensation.supervisor.FeedforwardSupervisor`,
+        copied by value; read its state back with :meth:`supervisor_state`) or None (the compensation is applied as
+        it is)."""
+        sc = self.scenarios[b]
+        sc.use_supervisor = supervisor is not None
+        if supervisor is not None:
+            sc.sup = supervisor.cdata[0]
+
+    def supervisor_state(self, b: int, supervisor) -> None:
+        """Copy scenario ``b``'s supervisor struct after :meth:`run` into ``supervisor`` (its counters then read the
+        run's)."""
+        supervisor.cdata[0] = self.scenarios[b].sup
+
     def set_pi(self, b: int, controller) -> None:
         """Scenario ``b``'s PI (a :class:`controllers.PIController`, copied by value)."""
         self.scenarios[b].pi = controller.cdata[0]

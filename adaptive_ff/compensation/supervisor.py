@@ -1,0 +1,213 @@
+"""The feedforward supervisor: a compensator's torque is applied only while it makes the loop's disturbance smaller.
+
+:class:`FeedforwardSupervisor` wraps the C struct ``aff_supervisor`` (``adaptive_ff/csrc/aff_supervisor.h``).
+The closed-loop engine composes it like the sensor gate and the drive
+(:meth:`controllers.simulation.engine.EngineRun.set_supervisor`): each period it passes the compensator's
+candidate torque through :meth:`FeedforwardSupervisor.apply` and, after the PI, hands it the applied torque and the
+controller's velocity (:meth:`FeedforwardSupervisor.observe`). The modes ``adaptive`` (either estimator) and
+``adaptive-dob`` are supervised by default (``ModeOptions(supervise=True)``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from adaptive_ff._caff import ffi, lib
+from plant.component import Component
+from plant.errors import ParameterError, check_nonnegative, check_positive
+
+__all__ = ["FeedforwardSupervisor", "DELAY_MAX"]
+
+#: Largest measurement delay (periods) the statistic aligns (``AFF_SUPERVISOR_DELAY_MAX``).
+DELAY_MAX = len(ffi.new("aff_supervisor *").u_hist) - 1
+
+
+def _f8(name: str, x, n: int | None = None) -> np.ndarray:
+    a = np.ascontiguousarray(x, dtype=np.float64)
+    if a.ndim != 1 or (n is not None and a.shape[0] != n):
+        raise ParameterError(f"{name} must be a 1-D array{'' if n is None else f' of length {n}'}, got shape "
+                             f"{a.shape}")
+    return a
+
+
+class FeedforwardSupervisor(Component):
+    """Back a feedforward off to none while it makes the torque disturbance the PI sees larger than no compensation.
+
+    Parameters
+    ----------
+    Tc : float, keyword-only
+        Controller period (s), > 0.
+    J_n : float, keyword-only
+        Design inertia of the disturbance observer (kg·m²), > 0.
+    omega : float, keyword-only
+        Cut-off of the first-order Q-filter (rad/s), > 0; e.g. the loop's crossover ``Kp/J_n``.
+    window : float, keyword-only
+        Time constant of the exponentially weighted mean squares (s), > 0; default 2. Longer: a lower variance of
+        the comparison, a slower reaction.
+    margin : float, keyword-only
+        Hysteresis (-), in [0, 1): a backed-off feedforward is applied again once its mean-square residual is below
+        ``(1 - margin)`` times the friction's; default 0.1.
+    settle : float or None, keyword-only
+        Evidence (s) the first decision waits for, >= 0, after the Q-filter's start transient ``5/omega``; default
+        None: ``window/2``.
+    rest_band : float or None, keyword-only
+        The reference is at rest where ``|w_ref| <= rest_band`` (rad/s) in this and the previous period: nothing is
+        applied then (Notes); default 0 (a reference exactly at rest, e.g. the dwells of
+        :func:`plant.motion.point_to_point_reference`); None: no rest rule.
+    delay : int, keyword-only
+        Measurement delay of the velocity (periods), 0..:data:`DELAY_MAX`; default 0. The statistic pairs the
+        velocity difference with the torques of ``delay`` periods before.
+
+    Attributes
+    ----------
+    on : bool
+        Whether the candidate torque is applied.
+    n_backoff, n_restore : int
+        Switches off and back on.
+    t_off : float
+        Time backed off (s), the reference moving.
+    t_rest : float
+        Time the reference was at rest (s): nothing applied.
+    f_hat, r_hat : float
+        Filtered disturbance without and with the candidate (N·m).
+    ms_friction, ms_residual : float
+        Their exponentially weighted mean squares ``M_f``, ``M_r`` (N²·m²).
+
+    Raises
+    ------
+    ParameterError
+        A setting outside its range (the message names it and quotes the value).
+
+    Notes
+    -----
+    With the torque ``u(k-1)`` held over a period, the raw disturbance sample of a disturbance observer of
+    inertia ``J_n`` is ``v(k) = u(k-1-d) - J_n*(w(k) - w(k-1))/Tc`` (Ohnishi, Shibata, Murakami, "Motion control
+    for advanced mechatronics", IEEE/ASME Trans. Mechatronics 1(1), 1996; the form of
+    :class:`controllers.DisturbanceObserver`, the same C functions ``aff_dob_raw``, ``aff_lag_step``), with the Q-filter
+    ``x += a*(v - x)``, ``a = 1 - exp(-Tc*omega)`` (the zero-order-hold discretisation of ``1/(1 + s/omega)``;
+    Franklin, Powell & Workman, *Digital Control of Dynamic Systems*, 3rd ed., 1998, Sec. 6.3). ``f_hat = Q[v]``
+    is the friction whatever torque was applied (``J*dw/dt = u - f``), ``r_hat = Q[v - u_c]`` the residual
+    the candidate ``u_c`` leaves. With ``M = EWMA(x^2)`` (``m += b*(x^2 - m)``, ``b = 1 - exp(-Tc/window)``, from
+    0 at period ``n_start = ceil(5/(omega*Tc))`` on, past the Q-filter's start transient), from period ``n_start +
+    round(settle/Tc)`` on: on and ``M_r > M_f``: back off; off and ``M_r < (1 - margin)*M_f``: on again. Noise and
+    the inertia error enter ``f_hat`` and ``r_hat`` alike. In the period the applied torque switches the loop adds ``+u_c`` (off) or
+    ``-u_c`` (on) to its PI integrator (bumpless transfer, Åström & Hägglund, *Advanced PID Control*, ISA 2006,
+    Sec. 3.5). With the reference at rest a velocity loop's friction brakes the joint toward its setpoint
+    ``w = 0``; a friction feedforward can only lift that brake, so nothing is applied there (no transfer) and those
+    periods do not enter the statistics. While on and moving, the applied torque is the candidate itself (bit for
+    bit).
+    C: ``adaptive_ff/csrc/aff_supervisor.c``.
+    """
+
+    _ffi = ffi
+    _ctype = "aff_supervisor"
+
+    def __init__(self, *, Tc: float, J_n: float, omega: float, window: float = 2.0, margin: float = 0.1,
+                 settle: float | None = None, rest_band: float | None = 0.0, delay: int = 0):
+        Tc, J_n = check_positive("Tc", Tc), check_positive("J_n", J_n)
+        omega, window = check_positive("omega", omega), check_positive("window", window)
+        margin = float(margin)
+        if not (0.0 <= margin < 1.0):
+            raise ParameterError(f"margin must be in [0, 1), got {margin!r}")
+        settle = 0.5 * window if settle is None else check_nonnegative("settle", settle)
+        band = -1.0 if rest_band is None else check_nonnegative("rest_band", rest_band)
+        if isinstance(delay, bool) or not isinstance(delay, (int, np.integer)) or not 0 <= delay <= DELAY_MAX:
+            raise ParameterError(f"delay must be an integer in 0..{DELAY_MAX} (periods), got {delay!r}")
+        if not all(math.isfinite(v) for v in (Tc, J_n, omega, window, settle, band)):
+            raise ParameterError(f"Tc, J_n, omega, window, settle and rest_band must be finite, got {Tc!r}, {J_n!r}, "
+                                 f"{omega!r}, {window!r}, {settle!r}, {rest_band!r}")
+        self._new_struct()
+        if lib.aff_supervisor_init(self._c, Tc, J_n, omega, window, margin, settle, band, int(delay)) != 0:
+            raise ParameterError("aff_supervisor_init refused the settings")  # unreachable after the checks
+
+    def __repr__(self) -> str:
+        c = self._c
+        return (f"FeedforwardSupervisor(Tc={c.Tc!r}, J_n={c.J_n!r}, omega={c.omega!r}, window={c.window!r}, "
+                f"margin={c.margin!r}, settle={c.settle!r}, "
+                f"rest_band={None if c.rest_band < 0 else c.rest_band!r}, delay={c.delay!r})")
+
+    @property
+    def on(self) -> bool:
+        return bool(self._c.on)
+
+    @property
+    def n_backoff(self) -> int:
+        return int(self._c.n_backoff)
+
+    @property
+    def n_restore(self) -> int:
+        return int(self._c.n_restore)
+
+    @property
+    def t_off(self) -> float:
+        return float(self._c.n_off) * float(self._c.Tc)
+
+    @property
+    def t_rest(self) -> float:
+        return float(self._c.n_rest) * float(self._c.Tc)
+
+    @property
+    def f_hat(self) -> float:
+        return float(self._c.x_f)
+
+    @property
+    def r_hat(self) -> float:
+        return float(self._c.x_r)
+
+    @property
+    def ms_friction(self) -> float:
+        return float(self._c.m_f)
+
+    @property
+    def ms_residual(self) -> float:
+        return float(self._c.m_r)
+
+    def apply(self, u_c: float, w_ref: float = math.inf) -> float:
+        """This period's compensation (N·m): the candidate ``u_c`` (N·m) while on and the reference ``w_ref`` (rad/s;
+        default moving) is not at rest, else 0."""
+        return float(lib.aff_supervisor_apply(self._c, float(u_c), float(w_ref)))
+
+    def observe(self, u: float, w: float) -> None:
+        """After the PI: the applied torque ``u`` (N·m) and the controller's velocity ``w`` (rad/s) of this period
+        (non-finite: skipped)."""
+        lib.aff_supervisor_observe(self._c, float(u), float(w))
+
+    def run(self, u_c, u, w, w_ref=None) -> dict:
+        """Replay a log: :meth:`apply` then :meth:`observe` for every period (C ``aff_supervisor_run``).
+
+        Parameters
+        ----------
+        u_c, u, w : array_like, shape (N,)
+            Candidate torque (N·m), applied torque (N·m) and controller's velocity (rad/s) of each period.
+        w_ref : array_like, shape (N,), optional
+            Velocity reference (rad/s); default moving throughout.
+
+        Returns
+        -------
+        dict
+            ``applied``, ``f_hat``, ``r_hat`` (N·m), ``ms_friction``, ``ms_residual`` (N²·m²), each shape (N,), and
+            ``on`` (bool, (N,)): the state after each period.
+
+        Raises
+        ------
+        ParameterError
+            Arrays not 1-D or of different lengths.
+        """
+        uc = _f8("u_c", u_c)
+        n = uc.shape[0]
+        uu, ww = _f8("u", u, n), _f8("w", w, n)
+        wr = np.full(n, math.inf) if w_ref is None else _f8("w_ref", w_ref, n)
+        out = {k: np.empty(n) for k in ("applied", "f_hat", "r_hat", "ms_friction", "ms_residual")}
+        on = np.empty(n, dtype=np.intc)
+        p = lambda a: ffi.from_buffer("double[]", a)  # noqa: E731
+        lib.aff_supervisor_run(self._c, p(uc), p(wr), p(uu), p(ww), n, p(out["applied"]), p(out["f_hat"]),
+                               p(out["r_hat"]), p(out["ms_friction"]), p(out["ms_residual"]),
+                               ffi.from_buffer("int[]", on))
+        out["on"] = on.astype(bool)
+        return out
+
+    def info(self) -> dict:
+        """The counters a closed-loop result reports: ``n_backoff``, ``n_restore``, ``t_off``, ``t_rest`` (s)."""
+        return {"n_backoff": self.n_backoff, "n_restore": self.n_restore, "t_off": self.t_off, "t_rest": self.t_rest}

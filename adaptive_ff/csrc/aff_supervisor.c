@@ -1,0 +1,149 @@
+/* aff_supervisor.c -- the feedforward supervisor (see aff_supervisor.h). */
+#include <stddef.h>
+#include "aff_supervisor.h"
+
+aff_real aff_dob_raw(aff_real u_last, aff_real J_n, aff_real w, aff_real w_last, aff_real Tc)
+{
+    return u_last - J_n * (w - w_last) / Tc;
+}
+
+aff_real aff_lag_step(aff_real *x, aff_real a, aff_real input)
+{
+    *x += a * (input - *x);
+    return *x;
+}
+
+static int positive(aff_real x)
+{
+    return isfinite(x) && x > 0;
+}
+
+int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real omega, aff_real window,
+                        aff_real margin, aff_real settle, aff_real rest_band, long delay)
+{
+    if (!positive(Tc) || !positive(J_n) || !positive(omega) || !positive(window) || !(margin >= 0 && margin < 1)
+        || !(isfinite(settle) && settle >= 0) || !(isfinite(rest_band) && rest_band >= -1) || delay < 0
+        || delay > AFF_SUPERVISOR_DELAY_MAX)
+        return -1;
+    s->Tc = Tc;
+    s->J_n = J_n;
+    s->omega = omega;
+    s->window = window;
+    s->margin = margin;
+    s->settle = settle;
+    s->rest_band = rest_band;
+    s->rest = 0;
+    s->rest_last = 0;
+    s->n_rest = 0;
+    s->delay = delay;
+    s->a = (aff_real)1.0 - AFF_EXP(-Tc * omega);
+    s->b = (aff_real)1.0 - AFF_EXP(-Tc / window);
+    double ns = ceil(5.0 / ((double)omega * (double)Tc));
+    double nd = floor((double)settle / (double)Tc + 0.5);
+    s->n_start = (long)(ns < 1e9 ? ns : 1e9); /* bounded: a 32-bit long holds it (never reached in practice) */
+    s->n_decide = s->n_start + (long)(nd < 1e9 ? nd : 1e9);
+    s->on = 1;
+    s->applied_on = 1;
+    s->transfer = 0;
+    s->u_c = 0;
+    s->w_last = 0;
+    s->has_w_last = 0;
+    s->x_f = 0;
+    s->x_r = 0;
+    s->m_f = 0;
+    s->m_r = 0;
+    s->n = 0;
+    s->n_backoff = 0;
+    s->n_restore = 0;
+    s->n_off = 0;
+    s->n_skipped = 0;
+    s->pos = 0;
+    for (long i = 0; i <= AFF_SUPERVISOR_DELAY_MAX; i++) {
+        s->u_hist[i] = 0;
+        s->c_hist[i] = 0;
+    }
+    return 0;
+}
+
+double aff_supervisor_apply(aff_supervisor *s, double u_c, double w_ref)
+{
+    int still = AFF_FABS((aff_real)w_ref) <= s->rest_band;
+    s->rest = still && s->rest_last;
+    s->rest_last = still;
+    s->u_c = (aff_real)u_c;
+    s->transfer = 0;
+    if (s->rest) {
+        s->n_rest += 1;
+        return 0.0;
+    }
+    if (s->on != s->applied_on) {
+        s->transfer = s->on ? -s->u_c : s->u_c;
+        s->applied_on = s->on;
+    }
+    return s->on ? u_c : 0.0;
+}
+
+void aff_supervisor_observe(aff_supervisor *s, double u, double w)
+{
+    aff_real uu = (aff_real)u;
+    aff_real ww = (aff_real)w;
+    long k = s->n; /* this period's index, from 0 */
+    s->n += 1;
+    if (!s->on && !s->rest)
+        s->n_off += 1;
+    if (!isfinite(uu) || !isfinite(ww)) {
+        s->n_skipped += 1;
+        return;
+    }
+    /* ring of the last delay+1 torques: slot pos holds u(k-1-d), the oldest */
+    long len = s->delay + 1;
+    aff_real u_old = s->u_hist[s->pos];
+    aff_real c_old = s->c_hist[s->pos];
+    s->u_hist[s->pos] = uu;
+    s->c_hist[s->pos] = s->u_c;
+    s->pos = s->pos + 1 < len ? s->pos + 1 : 0;
+    if (!s->has_w_last) {
+        s->w_last = ww;
+        s->has_w_last = 1;
+        return;
+    }
+    aff_real v = aff_dob_raw(u_old, s->J_n, ww, s->w_last, s->Tc);
+    s->w_last = ww;
+    aff_real f = aff_lag_step(&s->x_f, s->a, v);
+    aff_real r = aff_lag_step(&s->x_r, s->a, v - c_old);
+    if (k < s->n_start || s->rest)
+        return;
+    aff_lag_step(&s->m_f, s->b, f * f);
+    aff_lag_step(&s->m_r, s->b, r * r);
+    if (k < s->n_decide)
+        return;
+    if (s->on && s->m_r > s->m_f) {
+        s->on = 0;
+        s->n_backoff += 1;
+    } else if (!s->on && s->m_r < ((aff_real)1.0 - s->margin) * s->m_f) {
+        s->on = 1;
+        s->n_restore += 1;
+    }
+}
+
+void aff_supervisor_run(aff_supervisor *s, const double *u_c, const double *w_ref, const double *u,
+                        const double *w, long n, double *applied, double *f_hat, double *r_hat, double *m_f,
+                        double *m_r, int *on)
+{
+    for (long k = 0; k < n; k++) {
+        double y = aff_supervisor_apply(s, u_c[k], w_ref[k]);
+        if (applied != NULL)
+            applied[k] = y;
+        aff_supervisor_observe(s, u[k], w[k]);
+        if (f_hat != NULL)
+            f_hat[k] = (double)s->x_f;
+        if (r_hat != NULL)
+            r_hat[k] = (double)s->x_r;
+        if (m_f != NULL)
+            m_f[k] = (double)s->m_f;
+        if (m_r != NULL)
+            m_r[k] = (double)s->m_r;
+        if (on != NULL)
+            on[k] = s->on;
+    }
+}

@@ -1,0 +1,127 @@
+/* aff_supervisor.h -- the feedforward supervisor: applies a compensator's torque only while it helps.
+ *
+ * Per controller period Tc the loop hands the compensator's candidate torque u_c (N*m) and the velocity
+ * reference w_ref (rad/s) to aff_supervisor_apply, which returns u_c while the supervisor is on and 0 (no
+ * compensation) while it is backed off or the reference is at rest; after the PI (and the drive) the loop hands
+ * the applied torque u (N*m) and the controller's velocity w (rad/s) to aff_supervisor_observe.
+ *
+ * Test statistic (a disturbance observer of the design inertia J_n, Ohnishi, Shibata, Murakami, "Motion
+ * control for advanced mechatronics", IEEE/ASME Trans. Mechatronics 1(1), 1996; the discrete form of ctl_dob:
+ * with u(k-1) held over the last period the raw disturbance sample is
+ *   v(k) = u(k-1-d) - J_n*(w(k) - w(k-1))/Tc            (aff_dob_raw; d: the measurement delay in periods)
+ * and Q the first-order lag x += a*(input - x), a = 1 - exp(-Tc*omega), the exact (zero-order-hold)
+ * discretisation of 1/(1 + s/omega) with unit gain at zero frequency (aff_lag_step; Franklin, Powell &
+ * Workman, Digital Control of Dynamic Systems, 3rd ed., 1998, Sec. 6.3)):
+ *   f_hat(k) = Q[v](k)                      the disturbance of the plant: the friction the PI would face alone;
+ *   r_hat(k) = Q[v - u_c(k-1-d)](k)         what the PI faces with the candidate applied: f - u_c.
+ * Exponentially weighted mean squares over the window T (s), m += b*(x^2 - m), b = 1 - exp(-Tc/T), from 0
+ * at period (index from 0) n_start = ceil(5/(omega*Tc)) on (the Q-filters start from 0: their start transient,
+ * e^-5 of it left then, is not evidence):
+ *   M_f = EWMA(f_hat^2), M_r = EWMA(r_hat^2).
+ * Because J*dw/dt = u - f whatever torque was applied, f_hat is the friction both while the candidate is
+ * applied and while it is not, and r_hat is the residual the candidate leaves (r_hat = f_hat - Q[u_c] by
+ * linearity); sample noise and the inertia error (J - J_n)*dw/dt enter both equally. Decision, once per
+ * period from n_decide = n_start + round(settle/Tc) on (settle: the evidence the first decision waits for): on
+ * and M_r > M_f (the feedforward makes the disturbance the PI sees larger than no compensation):
+ * back off (n_backoff += 1); off and M_r < (1 - margin)*M_f: switch back on (n_restore += 1). The hysteresis
+ * band [(1 - margin)*M_f, M_f] keeps it from chattering. Bumpless transfer (Astrom & Hagglund, Advanced PID
+ * Control, ISA 2006, Sec. 3.5, between manual and automatic modes): in the period the applied torque switches,
+ * transfer = (the torque the old mode would apply) - (the new mode's), +u_c off, -u_c on, is what the loop adds
+ * to its PI integrator, so the total command does not jump (0 in every other period). While on, the applied
+ * torque is the candidate itself, so a supervisor that never backs off leaves the loop bit for bit unchanged.
+ * The reference at rest (|w_ref| <= rest_band in this and the previous period): a velocity loop's friction then
+ * brakes the joint toward its setpoint w = 0 (the error is -w and friction opposes w), so a friction
+ * feedforward can only lift that brake; the supervisor applies none (no transfer: the brake is wanted) and
+ * those periods do not enter M_f, M_r (friction there is a reaction, not a disturbance). Measured on the open
+ * bench's point-to-point moves (docs/benchmarks/compensation.md, "The supervisor"): the adaptive feedforward's
+ * mean-square error at rest was 20-46 times the uncompensated loop's on joints where it was worse than none,
+ * while in motion it was at the frictionless loop's.
+ * Design notes. The statistic compares disturbance torques, not tracking errors: a prediction of the error
+ * without the feedforward by superposition through the linear loop (PI and J_n) was tried on the open bench's
+ * worse-than-none joints and on the multi-sine variants and predicted the uncompensated error 2 to 10 times too
+ * large (the linear model lacks the friction's braking); the torque comparison needs no loop model. It does not
+ * see every harm: a feedforward whose residual is small in mean square can still cost tracking where friction
+ * was helping (at rest, hence the rest rule, or where the PI's integrator rejected the friction anyway, a joint
+ * whose friction raises the uncompensated error by 2 %), or change the loop's motion (the eq. 4 feedforward's
+ * limit cycle on the static and small-inertia variants, docs/benchmarks/compensation.md).
+ * A non-finite u or w is skipped (the statistics hold; n_skipped counted); the first finite w only starts the
+ * difference. No allocation, bounded work. Python: adaptive_ff.compensation.supervisor.FeedforwardSupervisor.
+ */
+#ifndef AFF_SUPERVISOR_H
+#define AFF_SUPERVISOR_H
+#include "aff_real.h"
+
+/* Largest measurement delay (periods) the statistic aligns (the Python wrapper refuses more). */
+#define AFF_SUPERVISOR_DELAY_MAX 32
+
+/* Configuration, then state. */
+typedef struct aff_supervisor {
+    aff_real Tc;          /* controller period (s), > 0 */
+    aff_real J_n;         /* design inertia (kg*m^2), > 0 */
+    aff_real omega;       /* Q-filter cut-off (rad/s), > 0 */
+    aff_real window;      /* EWMA time constant T (s), > 0 */
+    aff_real margin;      /* hysteresis: back on when M_r < (1 - margin)*M_f (-), in [0, 1) */
+    aff_real settle;      /* time from n_start to the first decision (s), >= 0 */
+    aff_real rest_band;   /* the reference is at rest where |w_ref| <= rest_band (rad/s), >= 0; -1: never */
+    long delay;           /* measurement delay d (periods), 0..AFF_SUPERVISOR_DELAY_MAX */
+    aff_real a;           /* Q-filter factor 1 - exp(-Tc*omega) */
+    aff_real b;           /* EWMA factor 1 - exp(-Tc/window) */
+    long n_start;         /* first period (index from 0) whose filtered samples enter the mean squares,
+                             ceil(5/(omega*Tc)) */
+    long n_decide;        /* first period (index from 0) that decides, n_start + round(settle/Tc) */
+    int on;               /* 1: the candidate is applied (decided by the last observe) */
+    int applied_on;       /* the mode of the last apply outside rest */
+    int rest;             /* 1: the reference is at rest in this period (nothing applied) */
+    int rest_last;        /* |w_ref| <= rest_band in the previous period */
+    long n_rest;          /* periods at rest */
+    aff_real transfer;    /* torque to add to the PI integrator in this period (N*m), 0 unless the mode switched */
+    aff_real u_c;         /* the candidate of this period (N*m) */
+    aff_real w_last;      /* last finite velocity (rad/s; valid if has_w_last) */
+    int has_w_last;
+    aff_real x_f;         /* f_hat (N*m) */
+    aff_real x_r;         /* r_hat (N*m) */
+    aff_real m_f;         /* M_f, EWMA of f_hat^2 (N^2*m^2) */
+    aff_real m_r;         /* M_r, EWMA of r_hat^2 (N^2*m^2) */
+    long n;               /* periods observed */
+    long n_backoff;       /* switches on -> off */
+    long n_restore;       /* switches off -> on */
+    long n_off;           /* periods backed off */
+    long n_skipped;       /* non-finite samples skipped */
+    long pos;             /* ring position of the torque history */
+    aff_real u_hist[AFF_SUPERVISOR_DELAY_MAX + 1];   /* applied torques u(k-1-d..k-1) (N*m) */
+    aff_real c_hist[AFF_SUPERVISOR_DELAY_MAX + 1];   /* candidates of the same periods (N*m) */
+} aff_supervisor;
+
+/* The raw disturbance sample of a disturbance observer of inertia J_n (kg*m^2): u_last - J_n*(w - w_last)/Tc
+ * (N*m), u_last (N*m) the torque held over the period Tc (s) from w_last to w (rad/s). Source: Ohnishi et al.
+ * 1996 (above); the one implementation, also ctl_dob's. */
+aff_real aff_dob_raw(aff_real u_last, aff_real J_n, aff_real w, aff_real w_last, aff_real Tc);
+
+/* One step of the first-order lag x += a*(input - x) (a in (0, 1], 1 - exp(-Tc*omega)); returns the new x.
+ * The one implementation of the Q-filter's stage, also ctl_dob's. */
+aff_real aff_lag_step(aff_real *x, aff_real a, aff_real input);
+
+/* Configure s and clear its state (on, statistics and counters 0, no velocity yet, the previous reference
+ * moving). Returns 0, or -1 (s untouched) for Tc, J_n, omega or window not finite and > 0, margin outside
+ * [0, 1), settle not finite and >= 0, rest_band not finite or below -1 (< 0: no rest rule) or delay outside
+ * 0..AFF_SUPERVISOR_DELAY_MAX. */
+int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real omega, aff_real window,
+                        aff_real margin, aff_real settle, aff_real rest_band, long delay);
+
+/* This period's compensation: keeps the candidate u_c (N*m); returns it while on and the reference w_ref
+ * (rad/s) is moving, else 0; sets transfer (N*m; bumpless transfer, header comment): outside rest, u_c when it
+ * switched off since the last apply outside rest, -u_c when on, else 0. */
+double aff_supervisor_apply(aff_supervisor *s, double u_c, double w_ref);
+
+/* After the PI: advance the statistics with the applied torque u (N*m) and the controller's velocity w (rad/s)
+ * of this period and decide (header comment). Non-finite u or w: skipped (counted). */
+void aff_supervisor_observe(aff_supervisor *s, double u, double w);
+
+/* Run s over n periods: apply(u_c[k], w_ref[k]) into applied[k] (may be NULL), then observe(u[k], w[k]); the
+ * state after each period into f_hat, r_hat, m_f, m_r (each may be NULL) and on[k] (may be NULL). For tests and offline
+ * replay of a log. */
+void aff_supervisor_run(aff_supervisor *s, const double *u_c, const double *w_ref, const double *u,
+                        const double *w, long n,
+                        double *applied, double *f_hat, double *r_hat, double *m_f, double *m_r, int *on);
+
+#endif

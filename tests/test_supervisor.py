@@ -1,0 +1,235 @@
+"""The feedforward supervisor (adaptive_ff/csrc/aff_supervisor.c, FeedforwardSupervisor, the engine's composition).
+
+The statistics against an independent numpy/scipy computation; a harmful compensator backed off and the run no
+worse than none; a good one never touched (bit for bit); the open bench's case; batch = single run.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+from adaptive_ff.compensation.supervisor import DELAY_MAX, FeedforwardSupervisor
+from controllers import ModeOptions, design_pi, run_mode
+from controllers.experiments.compare import compare, eta
+from controllers.simulation.batch import run_batch
+from controllers.simulation.closed_loop import run_own
+from plant.errors import ParameterError
+from plant.excitation import multisine_reference
+from plant.friction import preset
+from plant.motion import point_to_point_reference
+from plant.variant_plants import variant
+
+
+def _oracle(u_c, u, w, *, Tc, J_n, omega, window, margin, settle, delay):
+    """The statistics and decisions of aff_supervisor written independently: the raw DOB sample as an array
+    expression, the Q-filter by scipy's lfilter, the EWMA as its closed-form weighted sum."""
+    n = u.shape[0]
+    a = 1.0 - math.exp(-Tc * omega)
+    b = 1.0 - math.exp(-Tc / window)
+    ud = np.concatenate([np.zeros(delay + 1), u])[:n]   # u(k-1-d), 0 before the start
+    cd = np.concatenate([np.zeros(delay + 1), u_c])[:n]
+    v = np.zeros(n)
+    v[1:] = ud[1:] - J_n * np.diff(w) / Tc              # period 0 only starts the difference
+    f = np.zeros(n)
+    r = np.zeros(n)
+    f[1:] = lfilter([a], [1.0, -(1.0 - a)], v[1:])
+    r[1:] = lfilter([a], [1.0, -(1.0 - a)], v[1:] - cd[1:])
+    n0 = max(math.ceil(5.0 / (omega * Tc)), 1)
+    nd = n0 + int(math.floor(settle / Tc + 0.5))
+    mf, mr = np.zeros(n), np.zeros(n)
+    for k in range(n0, n):
+        wts = b * (1.0 - b) ** (k - np.arange(n0, k + 1))
+        mf[k] = np.dot(wts, f[n0:k + 1] ** 2)
+        mr[k] = np.dot(wts, r[n0:k + 1] ** 2)
+    on = np.ones(n, dtype=bool)
+    state = True
+    for k in range(n):
+        if k >= nd:
+            if state and mr[k] > mf[k]:
+                state = False
+            elif not state and mr[k] < (1.0 - margin) * mf[k]:
+                state = True
+        on[k] = state
+    return f, r, mf, mr, on
+
+
+@pytest.mark.parametrize("delay", [0, 2])
+def test_statistics_equal_an_independent_computation(delay):
+    rng = np.random.default_rng(7)
+    Tc, J_n, n = 1e-3, 0.5, 3000
+    t = np.arange(n) * Tc
+    w = np.cumsum(rng.normal(0.0, 0.02, n)) + 0.3 * np.sin(2 * np.pi * 1.5 * t)
+    fr = 2.0 * np.sign(np.sin(2 * np.pi * 2.0 * t)) + rng.normal(0.0, 0.3, n)  # the disturbance
+    u = np.empty(n)
+    u[:-1] = J_n * np.diff(w) / Tc + fr[1:]                                       # J_n*dw/dt = u - f
+    u[-1] = u[-2]
+    u = np.roll(u, -delay) if delay else u
+    u_c = np.where((t > 1.0) & (t < 2.0), -2.0, 1.0) * np.roll(fr, -1 - delay)   # good, harmful, good
+    kw = dict(Tc=Tc, J_n=J_n, omega=40.0, window=0.2, margin=0.1, settle=0.05, delay=delay)
+    s = FeedforwardSupervisor(**kw)
+    got = s.run(u_c, u, w)
+    f, r, mf, mr, on = _oracle(u_c, u, w, **kw)
+    for name, want in (("f_hat", f), ("r_hat", r), ("ms_friction", mf), ("ms_residual", mr)):
+        scale = np.max(np.abs(want))
+        np.testing.assert_allclose(got[name], want, rtol=0, atol=1e-12 * scale, err_msg=name)
+    np.testing.assert_array_equal(got["on"], on)
+    np.testing.assert_array_equal(got["applied"], np.where(np.concatenate([[True], on[:-1]]), u_c, 0.0))
+    # it backed off in the harmful second and came back in the third
+    assert not on[(t > 1.3) & (t < 2.0)].any() and on[t > 2.6].all() and on[t < 1.0].all()
+    assert s.n_backoff == 1 and s.n_restore == 1
+    assert s.t_off == pytest.approx(Tc * np.count_nonzero(~on[:-1]), abs=1e-12)
+
+
+def test_bumpless_transfer_is_the_candidate_at_a_switch():
+    s = FeedforwardSupervisor(Tc=1e-3, J_n=1.0, omega=50.0, window=0.1, settle=0.0)
+    w = np.zeros(400)
+    s.run(np.full(400, 3.0), np.zeros(400), w)  # no disturbance, a feedforward of 3 N*m: harmful
+    assert not s.on and s.n_backoff == 1
+    assert s.apply(3.0) == 0.0 and s.cdata.transfer == 0.0  # already off in the last apply of run
+    s2 = FeedforwardSupervisor(Tc=1e-3, J_n=1.0, omega=50.0, window=0.1, settle=0.0)
+    for _ in range(400):
+        assert s2.apply(3.0) == 3.0 and s2.cdata.transfer == 0.0
+        s2.observe(0.0, 0.0)
+        if not s2.on:  # decided off: the next apply switches and moves the candidate into the PI's integrator
+            assert s2.apply(2.5) == 0.0 and s2.cdata.transfer == 2.5
+            assert s2.apply(2.5) == 0.0 and s2.cdata.transfer == 0.0
+            break
+    else:
+        pytest.fail("never backed off")
+
+
+@pytest.mark.parametrize("kw, name", [(dict(margin=1.0), "margin"), (dict(delay=DELAY_MAX + 1), "delay"),
+                                      (dict(window=0.0), "window"), (dict(omega=-1.0), "omega"),
+                                      (dict(settle=-1.0), "settle"), (dict(window=math.inf), "finite")])
+def test_bad_settings_are_refused(kw, name):
+    base = dict(Tc=1e-3, J_n=1.0, omega=20.0)
+    with pytest.raises(ParameterError, match=name):
+        FeedforwardSupervisor(**{**base, **kw})
+
+
+def test_mode_options_check_the_supervisor_settings():
+    with pytest.raises(ParameterError, match="supervise_margin"):
+        ModeOptions(Kp=1.0, Ki=1.0, supervise_margin=-0.1)
+    with pytest.raises(ParameterError, match="supervise_window"):
+        ModeOptions(Kp=1.0, Ki=1.0, supervise_window=0.0)
+    with pytest.raises(ParameterError, match="supervise must"):
+        ModeOptions(Kp=1.0, Ki=1.0, supervise=1)
+
+
+def _paper_loop(duration=20.0):
+    p = preset("paper")
+    d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
+    ref = multisine_reference(duration, rng=np.random.default_rng(1))
+    o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
+    return p, ref, o
+
+
+def _eta(p, ref, o, res):
+    rms = {m: run_mode(p, ref, m, o, rng=np.random.default_rng(0)).metrics.rms_second_half
+           for m in ("none", "frictionless")}
+    return eta(rms["none"], res.metrics.rms_second_half, rms["frictionless"])
+
+
+class _Harmful:
+    """Feeds forward twice the Coulomb level against the measured motion: -2*Fc*sign(w)."""
+
+    def __init__(self, Fc):
+        self.Fc = Fc
+
+    def compensate(self, w_meas, w_ref):
+        return -2.0 * self.Fc * math.copysign(1.0, w_meas) if w_meas != 0.0 else 0.0
+
+    def observe(self, u, w_meas):
+        pass
+
+
+def test_a_harmful_compensator_is_backed_off_and_the_loop_is_no_worse_than_none():
+    p, ref, o = _paper_loop()
+    bare = run_own(p, ref, _Harmful(p.Fc), o, rng=np.random.default_rng(0))
+    sup = run_own(p, ref, _Harmful(p.Fc), o, rng=np.random.default_rng(0), supervise=True)
+    e_bare, e_sup = _eta(p, ref, o, bare), _eta(p, ref, o, sup)
+    assert e_bare < -0.2  # clearly worse than none
+    assert e_sup >= -0.02
+    assert sup.info["n_backoff"] == 1 and sup.info["n_restore"] == 0
+    # backed off within the Q-filter's start, the settling time and one window (defaults: 2 s, settle 1 s)
+    omega = o.Kp / p.J
+    first_off = sup.t[np.flatnonzero((sup.u_ff == 0.0) & (sup.t > 0.1))[0]]
+    assert first_off <= 5.0 / omega + 1.0 + 2.0
+    assert sup.info["t_off"] == pytest.approx(ref.t[-1] + 1e-3 - first_off, abs=2e-3)
+    assert "n_backoff" not in bare.info
+
+
+def test_a_good_compensator_is_never_backed_off_and_unchanged():
+    p, ref, o = _paper_loop()
+    on = run_mode(p, ref, "adaptive", o, rng=np.random.default_rng(0))
+    off = run_mode(p, ref, "adaptive", replace(o, supervise=False), rng=np.random.default_rng(0))
+    assert on.info["n_backoff"] == 0 and on.info["t_off"] == 0.0
+    for k in ("w", "u", "u_ff", "theta"):
+        np.testing.assert_array_equal(getattr(on, k), getattr(off, k))
+    assert on.metrics == off.metrics
+
+
+def test_open_bench_case_adaptive_not_worse_than_none():
+    ref = point_to_point_reference([0.5, -0.2, 0.4, 0.0, 0.6, -0.3] * 3, v_max=0.5, a_max=4.0, dwell=0.5)
+    c = compare(preset("paper"), reference=ref, encoder_counts=2 ** 17, delay=1, noise_std=0.0, u_max=150.0,
+                seed=0, modes=("none", "adaptive"), progress=False)
+    assert c.eta["adaptive"] >= -0.02
+
+
+def test_batch_supervises_as_a_single_run():
+    p, ref, o = _paper_loop(6.0)
+    k = variant("karnopp")
+    d = design_pi(k.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
+    from adaptive_ff.identification.regression import RegressionModel
+    ok = replace(o, Kp=d.Kp, Ki=d.Ki, estimator="eq4", model=RegressionModel(k.Vs, k.delta), warmup=50)
+    b = run_batch([k, p], ref, "adaptive", [ok, replace(ok, model=RegressionModel(p.Vs, p.delta))], seeds=[3, 4])
+    for i, (plant, oi) in enumerate(((k, ok), (p, replace(ok, model=RegressionModel(p.Vs, p.delta))))):
+        one = run_mode(plant, ref, "adaptive", oi, rng=np.random.default_rng(3 + i))
+        assert b.rms_second_half[i] == one.metrics.rms_second_half
+        assert b.supervisors[i].n_backoff == one.info["n_backoff"]
+        assert b.supervisors[i].t_off == one.info["t_off"]
+
+
+def test_zoo_table_counts_the_joints_worse_than_none():
+    from controllers.experiments.zoo import ZooResult
+
+    nan = math.nan
+    eta_ad = np.array([0.5, -0.019, -0.021, nan, -3.0])
+    rms = {m: np.ones(5) for m in ("none", "adaptive", "frictionless")}
+    r = ZooResult(plants=[{"model": "karnopp"}] * 5, modes=("none", "adaptive", "frictionless"),
+                  eta={"none": np.zeros(5), "adaptive": eta_ad, "frictionless": np.ones(5)}, rms=rms, refused={},
+                  mode_refused={}, diverged={m: np.zeros(5, dtype=bool) for m in rms}, min_degradation=0.0,
+                  seconds=0.0)
+    assert r.worse_than_none() == {"none": 0, "adaptive": 2, "frictionless": 0}
+    assert r.worse_than_none(-1.0) == {"none": 0, "adaptive": 1, "frictionless": 0}
+    assert r.to_dict()["worse_than_none"]["adaptive"] == 2
+    lines = r.summary().splitlines()
+    assert "<none" in lines[1]
+    row = next(ln for ln in lines if ln.startswith("adaptive"))
+    assert row.split()[7] == "2"  # mode, ok, refused, diverged, undefined, no reference, invalid, <none
+
+
+def test_nothing_is_applied_with_the_reference_at_rest_and_the_statistics_hold():
+    rng = np.random.default_rng(3)
+    n = 600
+    w_ref = np.where((np.arange(n) >= 200) & (np.arange(n) < 400), 0.0, 0.5)
+    u_c, u, w = rng.normal(size=n), rng.normal(size=n), rng.normal(size=n)
+    kw = dict(Tc=1e-3, J_n=0.5, omega=40.0, window=0.2, settle=0.0)
+    s = FeedforwardSupervisor(**kw)
+    out = s.run(u_c, u, w, w_ref)
+    rest = np.zeros(n, dtype=bool)
+    rest[201:400] = True  # at rest in this and the previous period
+    np.testing.assert_array_equal(out["applied"][rest], 0.0)
+    assert s.t_rest == pytest.approx(199 * 1e-3, abs=1e-12)
+    # the mean squares do not move at rest (the Q-filters do)
+    assert np.all(np.diff(out["ms_friction"][200:400]) == 0.0) and np.all(np.diff(out["ms_residual"][200:400]) == 0.0)
+    assert np.any(np.diff(out["f_hat"][200:400]) != 0.0)
+    # without the rest rule it is the plain supervisor
+    s2 = FeedforwardSupervisor(**kw, rest_band=None)
+    np.testing.assert_array_equal(s2.run(u_c, u, w, w_ref)["applied"],
+                                  FeedforwardSupervisor(**kw).run(u_c, u, w)["applied"])
