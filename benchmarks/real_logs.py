@@ -1,4 +1,4 @@
-"""Real joint logs beyond EMPS: fetch, identify with ``adaptive-ff identify --form auto``, compare to the published model.
+"""Real joint logs beyond EMPS: fetch, identify (``adaptive-ff identify --form auto``), compare to the published curve.
 
 The logs are two of the "Comparative data" files of the NNFM repository (S. Long et al., "NNFM: A Novel Neural
 Network Modeling Approach for Robot Flexible Joints Friction Considering Abrupt Non-smooth Properties";
@@ -15,9 +15,9 @@ of the paper's identified models on the same samples; the column ``CV`` is its C
 uniform grid of the log's velocity range (1st to 99th percentile of ``|w|``, both signs), relative to the RMS of
 ``F_published`` on the same grid.
 
-Run (about 2 min on one core)::
+Run (about 20 min of wall time on a shared 2-core machine, most of it the two `--form auto` searches)::
 
-    python benchmarks/real_logs.py --repo-dir PATH_TO_CLONE     # or without it: download (needs network)
+    python benchmarks/real_logs.py --repo-dir PATH_TO_CLONE/.git   # or without it: download (needs network)
 """
 
 from __future__ import annotations
