@@ -389,7 +389,7 @@ def fit_idim(data: MeasuredData, *, asymmetric: bool = False, offset: bool | Non
         axis moves (both EMPS records do) ends in the transient of the
         zero-phase filters: the forward-backward filter extrapolates the
         position past the last sample, which bends the velocity and puts an
-        acceleration spike in the last few samples (0.5 m/s², 47 N of inertia
+        acceleration spike in the last few samples (0.5 m/s², 48 N of inertia
         force, on ``DATA_EMPS_PULSES.mat``). The start transient is left out
         by the caller (:func:`~adaptive_ff.io.data.load_emps` ``skip``); 0
         keeps every sample (the benchmark's selection).
