@@ -180,7 +180,8 @@ class ModeOptions:
         :func:`build_supervisor`).
     supervise_rest_band : float or None
         The reference is at rest where ``|w_ref|`` is at most this (rad/s): the supervisor applies no compensation
-        there (a velocity loop's friction then brakes the joint toward ``w = 0``); default 0 (exactly at rest, the
+        there once it has been for one loop time constant (a velocity loop's friction then brakes the joint toward
+        ``w = 0``); default 0 (exactly at rest, the
         dwells of a point-to-point reference); None: no rest rule.
 
     Raises
