@@ -18,7 +18,7 @@ import pytest
 from scipy.signal import dlsim, lfilter
 
 from controllers._cctl import ffi, lib
-from controllers.experiments.compare import CompareOptions, prepare_comparison
+from controllers.experiments.compare import CompareOptions, prepare_comparison, run_notes
 from controllers.peers.adaptive_dob import AdaptiveDOBCompensator, ResidualSwitchIn
 from controllers.simulation.closed_loop import ModeOptions, run_mode
 from plant.errors import ParameterError
@@ -148,11 +148,15 @@ def test_where_the_feedforward_misses_the_observer_is_switched_in_and_closes_the
     assert e_in >= 0.99  # switched in: 0.996, 0.999 (adaptive-dob: 0.996, 0.999)
     assert 4.0 < r.info["t_switch_in"] < 10.0  # after two windows of the estimate in use (5.35 s, 5.27 s)
     assert r.info["residual_ratio"] > 0.1
+    (note,) = run_notes({"adaptive": r})  # compare's notes say so
+    assert note.startswith(f"adaptive: the residual observer (as in adaptive-dob) switched in at "
+                           f"{r.info['t_switch_in']:.2f} s") and f"{r.info['residual_ratio']:.2f} times" in note
 
 
 def test_where_the_feedforward_suffices_nothing_changes():
     e_in, e_plain, r, r_plain = _etas(preset("paper"))
     assert r.info["t_switch_in"] is None and r.info["residual_ratio"] < 0.1  # 0.019
+    assert run_notes({"adaptive": r}) == ()
     np.testing.assert_array_equal(r.u, r_plain.u)  # bit for bit the feedforward alone
     assert e_in == e_plain and e_in > 0.99
 
