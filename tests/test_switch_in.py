@@ -5,7 +5,7 @@ simulated by :func:`scipy.signal.dlsim` (the matrices written out from the backw
 inertia), the exponentially weighted mean squares by :func:`scipy.signal.lfilter` on the samples that count, and the
 decision as the first index of a vectorised comparison. The closed-loop checks use the project's variants, where
 the feedforward alone misses sticking (``karnopp``) and a small, fast joint (``small-inertia``): eta measured at
-commit-to-be on the multi-sine, 60 s, seed 0 (docs/benchmarks/compensation.md, "The residual switch-in").
+commit fb1e50f on the multi-sine, 60 s, seed 0 (docs/benchmarks/compensation.md, "The residual switch-in").
 """
 
 from __future__ import annotations
