@@ -11,7 +11,8 @@ Kalman filter on the counts at its default 100 Hz; no further noise), one period
 the torque limit ``u_max`` of ``compare`` (three times the measured friction level plus the design inertia times
 the peak acceleration; 150 N·m for the variants). Printed: eta of fixed, DOB, adaptive, adaptive-dob, the best
 adaptive mode and its margin over the better of fixed and DOB; the zoo as quantiles, the joints where a mode is
-worse than no compensation (eta < -0.02) and the joints where the best adaptive mode loses by more than 0.02. Results: docs/benchmarks/scenarios.md ("The open bench").
+worse than no compensation (eta < -0.02) and the joints where the best adaptive mode loses by more than 0.02.
+Results: docs/benchmarks/scenarios.md ("The open bench").
 """
 
 from __future__ import annotations
