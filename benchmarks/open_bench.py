@@ -10,8 +10,9 @@ reference) run ``compare`` on: the pick-and-place reference of ``benchmarks/poin
 Kalman filter on the counts at its default 100 Hz; no further noise), one period of measurement delay, and
 the torque limit ``u_max`` of ``compare`` (three times the measured friction level plus the design inertia times
 the peak acceleration; 150 N·m for the variants). Printed: eta of fixed, DOB, adaptive, adaptive-dob, the best
-adaptive mode and its margin over the better of fixed and DOB; the zoo as quantiles and the joints where the best
-adaptive mode loses by more than 0.02. Results: docs/benchmarks/compensation.md ("The open bench").
+adaptive mode and its margin over the better of fixed and DOB; the zoo as quantiles, the joints where a mode is
+worse than no compensation (eta < -0.02) and the joints where the best adaptive mode loses by more than 0.02.
+Results: docs/benchmarks/scenarios.md ("The open bench").
 """
 
 from __future__ import annotations
@@ -75,6 +76,10 @@ def zoo_table(n: int, seed: int, workers, velocity: str) -> None:
     for m, v in (*((m, r.eta[m]) for m in MODES[1:]), ("best adaptive", best)):
         qs = np.nanquantile(v, q) if np.any(np.isfinite(v)) else [math.nan] * 3
         print(f"| {m} | " + " | ".join(f"{x:.3f}" for x in qs) + " |")
+    worse = r.worse_than_none()
+    print("\nworse than none (eta < -0.02): " + ", ".join(f"{m} {worse[m]}" for m in MODES[1:]) + "; joints: "
+          + "; ".join(f"{m} {np.flatnonzero(np.isfinite(r.eta[m]) & (r.eta[m] < -0.02)).tolist()}"
+                      for m in MODES[1:] if worse[m]))
     deg = r.degradation()
     lose = np.flatnonzero(best < rival - LOSS)
     material = [i for i in lose if deg[i] >= MATERIAL]

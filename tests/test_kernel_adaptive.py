@@ -42,9 +42,11 @@ def _close(a, b, rel=1e-9):
 
 def _both(p, ref, **kw):
     """The engine's run and the oracle's replay of it (tests/loop_oracle.py): the loop without the feedforward
-    supervisor (``supervise=False``; the supervisor's own oracle: tests/test_supervisor.py)."""
+    supervisor (``supervise=False``; the supervisor's own oracle: tests/test_supervisor.py) and ``adaptive`` without
+    the residual switch-in (``switch_in=False``; its own oracle: tests/test_switch_in.py)."""
     seed = kw.pop("seed", 1)
     kw.setdefault("supervise", False)
+    kw.setdefault("switch_in", False)
     b = run_named(p, ref, rng=np.random.default_rng(seed), **kw)
     a = oracle_replay(b, p, ref, rng=np.random.default_rng(seed), **kw)
     return a, b

@@ -223,12 +223,15 @@ def test_nothing_is_applied_with_the_reference_at_rest_and_the_statistics_hold()
     s = FeedforwardSupervisor(**kw)
     out = s.run(u_c, u, w, w_ref)
     rest = np.zeros(n, dtype=bool)
-    rest[201:400] = True  # at rest in this and the previous period
+    rest[224:400] = True  # at rest for 1/(omega*Tc) = 25 periods in a row (the joint stops behind the reference)
     np.testing.assert_array_equal(out["applied"][rest], 0.0)
-    assert s.t_rest == pytest.approx(199 * 1e-3, abs=1e-12)
+    plain = FeedforwardSupervisor(**kw, rest_band=None).run(u_c, u, w, w_ref)["applied"]
+    np.testing.assert_array_equal(out["applied"][:224], plain[:224])  # not yet at rest in 200..223
+    assert s.t_rest == pytest.approx(176 * 1e-3, abs=1e-12)
     # the mean squares do not move at rest (the Q-filters do)
-    assert np.all(np.diff(out["ms_friction"][200:400]) == 0.0) and np.all(np.diff(out["ms_residual"][200:400]) == 0.0)
-    assert np.any(np.diff(out["f_hat"][200:400]) != 0.0)
+    assert np.all(np.diff(out["ms_friction"][224:400]) == 0.0) and np.all(np.diff(out["ms_residual"][224:400]) == 0.0)
+    assert np.any(np.diff(out["ms_friction"][200:225]) != 0.0)
+    assert np.any(np.diff(out["f_hat"][224:400]) != 0.0)
     # without the rest rule it is the plain supervisor
     s2 = FeedforwardSupervisor(**kw, rest_band=None)
     np.testing.assert_array_equal(s2.run(u_c, u, w, w_ref)["applied"],

@@ -53,8 +53,9 @@ class FeedforwardSupervisor(Component):
         Evidence (s) the first decision waits for, >= 0, after the Q-filter's start transient ``5/omega``; default
         None: ``window/2``.
     rest_band : float or None, keyword-only
-        The reference is at rest where ``|w_ref| <= rest_band`` (rad/s) in this and the previous period: nothing is
-        applied then (Notes); default 0 (a reference exactly at rest, e.g. the dwells of
+        The reference is at rest where ``|w_ref| <= rest_band`` (rad/s) for ``max(2, ceil(1/(omega*Tc)))`` periods
+        in a row (one time constant of the loop: the joint has stopped behind the reference): nothing is applied
+        then (Notes); default 0 (a reference exactly at rest, e.g. the dwells of
         :func:`plant.motion.point_to_point_reference`); None: no rest rule.
     delay : int, keyword-only
         Measurement delay of the velocity (periods), 0..:data:`DELAY_MAX`; default 0. The statistic pairs the

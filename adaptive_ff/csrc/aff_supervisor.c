@@ -33,14 +33,16 @@ int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real o
     s->settle = settle;
     s->rest_band = rest_band;
     s->rest = 0;
-    s->rest_last = 0;
+    s->n_still = 0;
     s->n_rest = 0;
     s->delay = delay;
     s->a = (aff_real)1.0 - AFF_EXP(-Tc * omega);
     s->b = (aff_real)1.0 - AFF_EXP(-Tc / window);
     double ns = ceil(5.0 / ((double)omega * (double)Tc));
     double nd = floor((double)settle / (double)Tc + 0.5);
-    s->n_start = (long)(ns < 1e9 ? ns : 1e9); /* bounded: a 32-bit long holds it (never reached in practice) */
+    s->n_start = (long)(ns < 1e9 ? ns : 1e9);
+    double nh = ceil(1.0 / ((double)omega * (double)Tc));
+    s->n_hold = nh < 2.0 ? 2 : (long)(nh < 1e9 ? nh : 1e9); /* bounded: a 32-bit long holds it (never reached in practice) */
     s->n_decide = s->n_start + (long)(nd < 1e9 ? nd : 1e9);
     s->on = 1;
     s->applied_on = 1;
@@ -68,8 +70,8 @@ int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real o
 double aff_supervisor_apply(aff_supervisor *s, double u_c, double w_ref)
 {
     int still = AFF_FABS((aff_real)w_ref) <= s->rest_band;
-    s->rest = still && s->rest_last;
-    s->rest_last = still;
+    s->n_still = still ? (s->n_still < s->n_hold ? s->n_still + 1 : s->n_hold) : 0;
+    s->rest = s->n_still >= s->n_hold;
     s->u_c = (aff_real)u_c;
     s->transfer = 0;
     if (s->rest) {

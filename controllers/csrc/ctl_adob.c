@@ -1,12 +1,88 @@
 /* ctl_adob.c -- adaptive feedforward plus disturbance observer on the residual (see ctl_adob.h). */
+#include <math.h>
 #include "ctl_adob.h"
 
 void ctl_adob_init(ctl_adob *a, const aff_robust_ff *ff, const ctl_dob *dob, aff_real u_max)
 {
     a->u_max = u_max;
     a->u_ff = 0;
+    a->use_switch_in = 0;
+    a->sw.g = 1;
+    a->sw.k_in = -1;
     a->ff = *ff;
     a->dob = *dob;
+}
+
+static int adob_positive(aff_real x)
+{
+    return isfinite(x) && x > 0;
+}
+
+int ctl_adob_set_switch_in(ctl_adob *a, aff_real Tc, aff_real J_n, aff_real Kp, aff_real Ki, aff_real window,
+                           aff_real ratio, aff_real fade_in)
+{
+    if (!adob_positive(Tc) || !adob_positive(J_n) || !adob_positive(Kp) || !adob_positive(window)
+        || !adob_positive(ratio) || !(isfinite(Ki) && Ki >= 0) || !(isfinite(fade_in) && fade_in >= 0))
+        return -1;
+    ctl_switch_in *s = &a->sw;
+    s->Tc = Tc;
+    s->J_n = J_n;
+    s->Kp = Kp;
+    s->Ki = Ki;
+    s->ratio = ratio;
+    s->b = (aff_real)1.0 - AFF_EXP(-Tc / window);
+    s->fade = fade_in > Tc ? Tc / fade_in : (aff_real)1.0;
+    double ne = floor((double)window / (double)Tc + 0.5);
+    ne = ne < 1.0 ? 1.0 : (ne > 1e8 ? 1e8 : ne); /* bounded: 5*n_evidence fits a 32-bit long */
+    s->n_evidence = (long)ne;
+    s->n_wait = 5 * s->n_evidence;
+    s->w_l = 0;
+    s->I_l = 0;
+    s->w_r = 0;
+    s->I_r = 0;
+    s->m_r = 0;
+    s->m_l = 0;
+    s->n = 0;
+    s->n_used = 0;
+    s->k_in = -1;
+    s->rest_last = 0;
+    s->g = 0;
+    a->use_switch_in = 1;
+    return 0;
+}
+
+double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_ref, int acting)
+{
+    long k = s->n;
+    s->n += 1;
+    int still = w_ref == 0.0;
+    int rest = still && s->rest_last;
+    s->rest_last = still;
+    if (s->k_in >= 0) {
+        s->g = s->g + s->fade < 1 ? s->g + s->fade : (aff_real)1.0;
+        return (double)s->g;
+    }
+    if (!isfinite(d_hat) || !isfinite(u_ff) || !isfinite(w_ref))
+        return 0.0;
+    aff_real c = s->Tc / s->J_n;
+    aff_real e_l = (aff_real)w_ref - s->w_l; /* the frictionless loop on the reference */
+    s->I_l += s->Ki * s->Tc * e_l;
+    s->w_l += c * (s->Kp * e_l + s->I_l);
+    aff_real w_r = s->w_r; /* the loop's response to the residual */
+    s->I_r -= s->Ki * s->Tc * w_r;
+    s->w_r += c * (-s->Kp * w_r + s->I_r - (aff_real)d_hat);
+    if (acting && !rest) {
+        aff_lag_step(&s->m_r, s->b, w_r * w_r);
+        aff_lag_step(&s->m_l, s->b, e_l * e_l);
+        s->n_used += 1;
+    }
+    int residual = s->n_used >= 2 * s->n_evidence && s->m_r > s->ratio * s->m_l;
+    int idle = s->n_used == 0 && k + 1 >= s->n_wait;
+    if (residual || idle) {
+        s->k_in = k;
+        s->g = s->fade;
+    }
+    return (double)s->g;
 }
 
 double ctl_adob_compensate(void *self, double w_ctrl, double w_meas, double w_ref)
@@ -15,7 +91,9 @@ double ctl_adob_compensate(void *self, double w_ctrl, double w_meas, double w_re
     double uff = aff_robust_ff_compensate(&a->ff, w_ctrl, w_meas, w_ref);
     a->u_ff = (aff_real)uff;
     double d = ctl_dob_compensate(&a->dob, w_ctrl, w_meas, w_ref);
-    double out = uff + d;
+    int acting = a->ff.ff.has && !a->ff.provisional; /* its own estimate in use */
+    double g = a->use_switch_in ? ctl_switch_in_step(&a->sw, uff, d, w_ref, acting) : 1.0;
+    double out = g > 0.0 ? uff + g * d : uff; /* before the switch-in exactly the feedforward */
     double lim = (double)a->u_max;
     double y = -lim > out ? -lim : out; /* Python's min(max(out, -lim), lim) */
     return lim < y ? lim : y;

@@ -9,6 +9,27 @@
  * arrangement of a model-based feedforward with a disturbance observer for the model error (Umeno & Hori
  * 1991; Ohnishi, Shibata, Murakami 1996; for friction: Olsson, Astrom, Canudas de Wit, Gafvert, Lischinsky,
  * "Friction models and friction compensation", Eur. J. Control 4(3), 1998, Sec. 7).
+ * Residual switch-in (mode "adaptive", ctl_adob_set_switch_in): the same composite with the observer's d_hat
+ * computed from the start but applied only once a residual test finds that what the feedforward leaves costs
+ * tracking. The test predicts two velocity errors with the loop's own linear model (the design inertia J_n and
+ * the PI gains Kp, Ki, the backward-Euler PI of ctl_pi; Franklin, Powell & Workman, Digital Control of Dynamic
+ * Systems, 3rd ed., 1998, Sec. 6.3, the plant w(k+1) = w(k) + Tc/J_n*u(k) exact for a torque held over the period):
+ *   e_l: the frictionless loop's error on the reference, e_l = w_ref - w_l, I_l += Ki*Tc*e_l,
+ *        w_l += Tc/J_n*(Kp*e_l + I_l);
+ *   w_r: the velocity the residual d_hat (the observer's estimate of f - u_ff) adds to it, I_r -= Ki*Tc*w_r,
+ *        w_r += Tc/J_n*(-Kp*w_r + I_r - d_hat),
+ * and compares their exponentially weighted mean squares over the window T, m += b*(x^2 - m), b = 1 - exp(-Tc/T),
+ * taken over the periods in which the feedforward acts (its estimate or its provisional start in use) and the
+ * reference moves (w_ref != 0 in this and the previous period: at rest the friction is a reaction,
+ * aff_supervisor.h): the observer is switched in, for good, in the first period with at least round(T/Tc) such
+ * periods and M_r > ratio*M_l (the residual raises the loop's mean-square error by more than ratio over the
+ * frictionless loop's); if the feedforward has not acted by 5*T the observer is switched in then. After the
+ * switch-in the share g of d_hat applied rises from 0 to 1 by Tc/fade_in per period (no torque step; the PI's
+ * integrator unwinds what the observer takes over). The prediction of the residual's error is linear because
+ * with the feedforward on the loop sees the residual, not the friction's braking (a prediction of the
+ * uncompensated error this way is 2-10 times too large, aff_supervisor.h): on the variants, multi-sine, 60 s,
+ * seed 0, M_r/M_l predicted 1.96, 4.25, 0.25 where the measured (rms^2 - rms_fl^2)/rms_fl^2 of `adaptive` was
+ * 2.65 (karnopp), 4.36 (small-inertia), 0.44 (lugre); docs/benchmarks/compensation.md ("The residual switch-in").
  * Python: controllers.peers.adaptive_dob.AdaptiveDOBCompensator.
  */
 #ifndef CTL_ADOB_H
@@ -18,21 +39,58 @@
 #include "aff_robust_ff.h"
 #include "ctl_dob.h"
 
+/* The residual switch-in test (header comment): configuration, then state. */
+typedef struct ctl_switch_in {
+    aff_real Tc;          /* controller period (s), > 0 */
+    aff_real J_n;         /* design inertia of the loop model (kg*m^2), > 0 */
+    aff_real Kp;          /* the loop's PI gains: proportional (N*m*s/rad), > 0 */
+    aff_real Ki;          /* integral (N*m/rad), >= 0 */
+    aff_real ratio;       /* switch in when M_r > ratio*M_l (-), > 0 */
+    aff_real b;           /* EWMA factor, 1 - exp(-Tc/window) */
+    aff_real fade;        /* increment of g per period after the switch-in, Tc/fade_in (1: a step) */
+    long n_evidence;      /* periods of evidence before a decision, round(window/Tc) (at least 1) */
+    long n_wait;          /* periods after which a feedforward that has not acted is replaced, 5*n_evidence */
+    aff_real w_l;         /* the frictionless loop model's velocity (rad/s) */
+    aff_real I_l;         /* its PI integrator (N*m) */
+    aff_real w_r;         /* the velocity the residual adds (rad/s) */
+    aff_real I_r;         /* its PI integrator (N*m) */
+    aff_real m_r;         /* M_r, EWMA of w_r^2 (rad^2/s^2) */
+    aff_real m_l;         /* M_l, EWMA of e_l^2 (rad^2/s^2) */
+    long n;               /* periods */
+    long n_used;          /* periods that entered M_r, M_l */
+    long k_in;            /* period (index from 0) of the switch-in, -1: not switched in */
+    int rest_last;        /* w_ref = 0 in the previous period */
+    aff_real g;           /* share of d_hat applied, 0..1 */
+} ctl_switch_in;
+
 /* Configuration, then state; the parts embedded. */
 typedef struct ctl_adob {
     aff_real u_max;       /* bound on |u_ff + d_hat| (N*m), INFINITY = none (each part keeps its own bound) */
     aff_real u_ff;        /* feedforward part of the last output (N*m) */
+    int use_switch_in;    /* 1: d_hat applied after the residual switch-in (mode "adaptive"), 0: always */
+    ctl_switch_in sw;     /* the switch-in test (valid if use_switch_in) */
     aff_robust_ff ff;     /* the adaptive feedforward with its estimator */
     ctl_dob dob;          /* the observer of the residual f - u_ff */
 } ctl_adob;
 
 /* Configure a from the configured parts ff (aff_robust_ff_init) and dob (ctl_dob_init), both copied by value,
- * with the bound u_max (N*m, >= 0); u_ff = 0. */
+ * with the bound u_max (N*m, >= 0); u_ff = 0; the observer always applied (no switch-in). */
 void ctl_adob_init(ctl_adob *a, const aff_robust_ff *ff, const ctl_dob *dob, aff_real u_max);
 
+/* Turn on the residual switch-in of a (header comment): Tc (s), J_n (kg*m^2), Kp (N*m*s/rad), Ki (N*m/rad, >= 0)
+ * of the loop, window T (s), ratio (-), fade_in (s, >= 0; 0: a step); clears its state (g = 0, not switched in).
+ * Returns 0, or -1 (a untouched) for Tc, J_n, Kp, window, ratio not finite and > 0, or Ki, fade_in not finite and
+ * >= 0. */
+int ctl_adob_set_switch_in(ctl_adob *a, aff_real Tc, aff_real J_n, aff_real Kp, aff_real Ki, aff_real window,
+                           aff_real ratio, aff_real fade_in);
+
+/* One period of the switch-in test s with the feedforward u_ff (N*m), the observer's d_hat (N*m), the reference
+ * w_ref (rad/s) and whether the feedforward acts (acting, 0/1); returns the share g of d_hat to apply (0..1). */
+double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_ref, int acting);
+
 /* Compensator interface (aff_compensator.h), self a ctl_adob: u_ff = aff_robust_ff_compensate, d_hat =
- * ctl_dob_compensate (each with w_ctrl, w_meas, w_ref in rad/s); returns u_ff + d_hat clipped to +-u_max (N*m)
- * and keeps u_ff. */
+ * ctl_dob_compensate (each with w_ctrl, w_meas, w_ref in rad/s); returns u_ff + g*d_hat clipped to +-u_max (N*m;
+ * g = 1 without the switch-in, else ctl_switch_in_step's share) and keeps u_ff. */
 double ctl_adob_compensate(void *self, double w_ctrl, double w_meas, double w_ref);
 
 /* Compensator interface: the observer records u - u_ff (N*m), then the feedforward observes (u, w_meas);

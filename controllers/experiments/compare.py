@@ -32,7 +32,7 @@ from plant.sampling import sample
 
 __all__ = ["Comparison", "CompareOptions", "ComparisonSetup", "compare", "comparison_reference", "eta",
            "FIXED_METHODS", "PREFIT_MODES", "compensator_context", "number_text", "friction_scale",
-           "measurement_noise", "prefit_stribeck", "prepare_comparison", "residual_cutoff"]
+           "measurement_noise", "prefit_stribeck", "prepare_comparison", "residual_cutoff", "run_notes"]
 
 #: Offline identification behind the ``fixed`` mode: the sliding-regime
 #: inverse-dynamics LS (:func:`adaptive_ff.compensation.sliding_estimator.fit_sliding`,
@@ -567,8 +567,40 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
     rf = results["frictionless"].metrics.rms_second_half
     etas = {mode: _eta_or_none(rn, r.metrics.rms_second_half, rf) for mode, r in results.items()}
     return Comparison(plant=p, design=s.design, results=results, eta=etas, prefit=s.prefit, offline=s.offline,
-                      model=s.model, experiment=s.experiment, J_design=s.J_design, notes=s.notes,
-                      **_whole_run_metrics(results))
+                      model=s.model, experiment=s.experiment, J_design=s.J_design,
+                      notes=tuple(s.notes) + run_notes(results), **_whole_run_metrics(results))
+
+
+def run_notes(results: dict) -> tuple:
+    """What the adaptive modes decided by themselves during their runs, one note per event kind and mode: the
+    residual switch-in of ``adaptive`` (:class:`controllers.peers.adaptive_dob.ResidualSwitchIn`, ``info``
+    ``t_switch_in``, ``residual_ratio``) and the supervisor's back-offs (``n_backoff``, ``n_restore``, ``t_off``;
+    :class:`adaptive_ff.compensation.supervisor.FeedforwardSupervisor`).
+
+    Parameters
+    ----------
+    results : dict of str to ClosedLoopResult
+        The runs by mode.
+
+    Returns
+    -------
+    tuple of str
+    """
+    notes = []
+    for mode, r in results.items():
+        info = r.info or {}
+        t_in = info.get("t_switch_in")
+        if t_in is not None:
+            ratio = info.get("residual_ratio")
+            why = "" if ratio is None else (f"; the tracking error the loop's model predicts from what the feedforward "
+                                            f"leaves had {ratio:.2f} times the mean square of the frictionless "
+                                            f"loop's error")
+            notes.append(f"{mode}: the residual observer (as in adaptive-dob) switched in at {t_in:.2f} s{why}")
+        n_off = info.get("n_backoff") or 0
+        if n_off:
+            notes.append(f"{mode}: the supervisor backed the compensation off {n_off} time(s), restored it "
+                         f"{info.get('n_restore') or 0} time(s); {info.get('t_off', 0.0):.2f} s without it")
+    return tuple(notes)
 
 
 def number_text(x: float, width: int, digits: int = 4) -> str:

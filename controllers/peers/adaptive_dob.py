@@ -26,19 +26,72 @@ and the observer's ``ctl_dob``; ``ctl_adob_compensate`` and
 the parts' C functions on them (``aff_robust_ff_compensate``/``_observe``,
 ``ctl_dob_compensate``/``_observe``) and are the one implementation, called by
 :class:`AdaptiveDOBCompensator`'s methods and by the closed-loop engine.
+
+Mode ``adaptive`` is the same composite with a :class:`ResidualSwitchIn`: the observer runs from the start, but
+its estimate is applied only once a residual test finds that the feedforward leaves too much of the friction
+in the loop's band (sticking joints, small fast joints, LuGre pre-sliding: where the sliding model misses), and
+then for good, faded in; ``info()["t_switch_in"]`` says when (``controllers/csrc/ctl_adob.h``).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
 from controllers._cctl import ffi, lib
 from controllers.peers.dob import DisturbanceObserver
 from plant.component import Component
-from plant.errors import ParameterError, check_nonnegative
+from plant.errors import ParameterError, check_nonnegative, check_positive
 
-__all__ = ["AdaptiveDOBCompensator"]
+__all__ = ["AdaptiveDOBCompensator", "ResidualSwitchIn"]
+
+
+@dataclass(frozen=True)
+class ResidualSwitchIn:
+    """Settings of the residual switch-in of mode ``adaptive`` (C ``ctl_switch_in``, ``controllers/csrc/ctl_adob.h``).
+
+    The loop's linear model (design inertia ``J_n``, PI gains ``Kp``, ``Ki``) predicts the velocity error the
+    observer's residual estimate ``d_hat`` adds and the frictionless loop's error on the reference; the observer's
+    estimate is applied once the first, in mean square (time constant ``window``, over at least ``window`` of
+    periods in which the feedforward acts and the reference moves), exceeds ``ratio`` times the second; or after
+    ``5*window`` without the feedforward acting. It then fades in over ``fade_in`` and stays.
+
+    Parameters
+    ----------
+    Tc : float
+        Controller period (s), > 0.
+    J_n : float
+        Design inertia (kg·m²), > 0.
+    Kp, Ki : float
+        The loop's PI gains (N·m·s/rad, > 0; N·m/rad, >= 0).
+    window : float
+        Time constant of the mean squares and the evidence needed (s), > 0; default 2.
+    ratio : float
+        Threshold (-), > 0; default 0.1: the residual raises the loop's mean-square error by 10 % over the
+        frictionless loop's (5 % in RMS).
+    fade_in : float
+        Time over which the observer's share rises from 0 to 1 (s), >= 0 (0: a step); default 0.5.
+
+    Raises
+    ------
+    ParameterError
+        A value out of range (named).
+    """
+
+    Tc: float
+    J_n: float
+    Kp: float
+    Ki: float
+    window: float = 2.0
+    ratio: float = 0.1
+    fade_in: float = 0.5
+
+    def __post_init__(self):
+        for name in ("Tc", "J_n", "Kp", "window", "ratio"):
+            check_positive(name, getattr(self, name))
+        check_nonnegative("Ki", self.Ki)
+        check_nonnegative("fade_in", self.fade_in)
 
 
 class AdaptiveDOBCompensator(Component):
@@ -53,6 +106,9 @@ class AdaptiveDOBCompensator(Component):
         The observer of the residual ``f - u_ff`` (nominal inertia: the design inertia).
     u_max : float, keyword-only
         Bound on |u_ff + d_hat| (N·m), default inf (each part keeps its own bound as well).
+    switch_in : ResidualSwitchIn or None, keyword-only
+        None (default): the observer's estimate is always applied (mode ``adaptive-dob``); else it is applied after
+        the residual switch-in (mode ``adaptive``).
 
     Attributes
     ----------
@@ -74,7 +130,7 @@ class AdaptiveDOBCompensator(Component):
     Raises
     ------
     ParameterError
-        Parts of the wrong type, or ``u_max < 0``.
+        Parts of the wrong type, ``u_max < 0`` or ``switch_in`` not a :class:`ResidualSwitchIn`.
 
     Notes
     -----
@@ -92,7 +148,7 @@ class AdaptiveDOBCompensator(Component):
     _ctype = "ctl_adob"
 
     def __init__(self, feedforward: RobustAdaptiveFeedforward, observer: DisturbanceObserver, *,
-                 u_max: float = math.inf):
+                 u_max: float = math.inf, switch_in: ResidualSwitchIn | None = None):
         if not isinstance(feedforward, RobustAdaptiveFeedforward):
             raise ParameterError(f"feedforward must be a RobustAdaptiveFeedforward, got {type(feedforward).__name__}")
         if not isinstance(observer, DisturbanceObserver):
@@ -101,8 +157,17 @@ class AdaptiveDOBCompensator(Component):
         self.feedforward = feedforward
         self.observer = observer
         self.n_theta = feedforward.n_theta
+        if switch_in is not None and not isinstance(switch_in, ResidualSwitchIn):
+            raise ParameterError(f"switch_in must be a ResidualSwitchIn or None, got {type(switch_in).__name__}")
+        self.switch_in = switch_in
+        if switch_in is not None:
+            self.MODE = "adaptive"  # the mode it is (run_closed_loop's default result name)
         self._new_struct()
         lib.ctl_adob_init(self._c, feedforward.cdata, observer.cdata, u_max)
+        if switch_in is not None:
+            s = switch_in
+            if lib.ctl_adob_set_switch_in(self._c, s.Tc, s.J_n, s.Kp, s.Ki, s.window, s.ratio, s.fade_in) != 0:
+                raise ParameterError(f"switch_in refused by ctl_adob_set_switch_in: {s!r}")
         self._attached()
 
     def _attached(self) -> None:
@@ -136,11 +201,24 @@ class AdaptiveDOBCompensator(Component):
         """Whether the feedforward part is switched on (the observer always is)."""
         return self.feedforward.active
 
+    @property
+    def t_switch_in(self) -> float | None:
+        """Time of the residual switch-in from the first period (s; ``k*Tc``), None without it or before."""
+        if self.switch_in is None or self._c.sw.k_in < 0:
+            return None
+        return float(self._c.sw.k_in) * self.switch_in.Tc
+
     def info(self) -> dict:
         """The feedforward's counters (:meth:`RobustAdaptiveFeedforward.info`) plus the observer's, prefixed
-        ``dob_`` (``dob_n_rejected``, ``dob_J_n`` kg·m², ``dob_omega_q`` rad/s)."""
+        ``dob_`` (``dob_n_rejected``, ``dob_J_n`` kg·m², ``dob_omega_q`` rad/s); with the switch-in also
+        ``t_switch_in`` (s or None) and ``residual_ratio`` (``M_r/M_l`` when last updated, or None before any
+        evidence)."""
         d = self.feedforward.info()
         d.update({f"dob_{k}": v for k, v in self.observer.info().items()})
+        if self.switch_in is not None:
+            m_l = float(self._c.sw.m_l)
+            d["t_switch_in"] = self.t_switch_in
+            d["residual_ratio"] = float(self._c.sw.m_r) / m_l if m_l > 0.0 else None
         return d
 
     def compensate(self, w_meas: float, w_ref: float) -> float:

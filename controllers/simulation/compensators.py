@@ -36,7 +36,7 @@ from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
 from adaptive_ff.compensation.supervisor import FeedforwardSupervisor
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from controllers.design.pi import PIController
-from controllers.peers.adaptive_dob import AdaptiveDOBCompensator
+from controllers.peers.adaptive_dob import AdaptiveDOBCompensator, ResidualSwitchIn
 from controllers.peers.canudas import CanudasCompensator
 from controllers.peers.dob import DisturbanceObserver
 from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive
@@ -171,6 +171,15 @@ class ModeOptions:
         ``adaptive-dob``) through a :class:`adaptive_ff.compensation.supervisor.FeedforwardSupervisor`, which backs
         it off to none while it makes the torque disturbance the PI sees larger than the friction alone (default
         True; the result's ``info`` then has ``n_backoff``, ``n_restore`` and ``t_off``, s). Other modes ignore it.
+    switch_in : bool
+        Mode ``adaptive`` (sliding estimator, ``Kp > 0``): run the residual observer of ``adaptive-dob`` (cut-off
+        ``omega_r``) from the start and switch it in, for good, once the loop's model predicts that what the
+        feedforward leaves raises the mean-square tracking error by more than ``switch_in_ratio`` over the
+        frictionless loop's (:class:`controllers.peers.adaptive_dob.ResidualSwitchIn`, window 2 s, fade-in 0.5 s;
+        the result's ``info["t_switch_in"]`` says when); default True. False: the feedforward alone, as before
+        2026-11-23.
+    switch_in_ratio : float
+        Its threshold (-), > 0; default 0.1 (5 % in RMS).
     supervise_window : float
         Time constant of the supervisor's mean squares (s), default 2.
     supervise_margin : float
@@ -180,7 +189,8 @@ class ModeOptions:
         :func:`build_supervisor`).
     supervise_rest_band : float or None
         The reference is at rest where ``|w_ref|`` is at most this (rad/s): the supervisor applies no compensation
-        there (a velocity loop's friction then brakes the joint toward ``w = 0``); default 0 (exactly at rest, the
+        there once it has been for one loop time constant (a velocity loop's friction then brakes the joint toward
+        ``w = 0``); default 0 (exactly at rest, the
         dwells of a point-to-point reference); None: no rest rule.
 
     Raises
@@ -239,6 +249,8 @@ class ModeOptions:
     velocity: str = "difference"
     velocity_bandwidth: float | None = None
     velocity_model: str = "cv"
+    switch_in: bool = True
+    switch_in_ratio: float = 0.1
     supervise: bool = True
     supervise_window: float = 2.0
     supervise_margin: float = 0.1
@@ -259,6 +271,9 @@ class ModeOptions:
             raise ParameterError(f"sign_input must be 'observer' or 'measured', got {self.sign_input!r}")
         if self.observer_bandwidth is not None:
             check_positive("observer_bandwidth", self.observer_bandwidth)
+        if not isinstance(self.switch_in, bool):
+            raise ParameterError(f"switch_in must be True or False, got {self.switch_in!r}")
+        check_positive("switch_in_ratio", self.switch_in_ratio)
         if not isinstance(self.supervise, bool):
             raise ParameterError(f"supervise must be True or False, got {self.supervise!r}")
         check_positive("supervise_window", self.supervise_window)
@@ -363,6 +378,18 @@ def _fixed(plant, o):
 
 
 def _adaptive(plant, o):
+    _, ff = _adaptive_feedforward(plant, o)
+    if o.estimator != "sliding" or not o.switch_in or o.Kp <= 0.0:
+        return plant, ff
+    J, ff_max = _ctx(plant, o)
+    _, dob = _dob(plant, replace(o, omega_q=o.omega_r))
+    sw = ResidualSwitchIn(Tc=o.Tc, J_n=J, Kp=o.Kp, Ki=o.Ki, ratio=o.switch_in_ratio)
+    return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max, switch_in=sw)
+
+
+def _adaptive_feedforward(plant, o):
+    """The adaptive feedforward alone (either estimator): ``adaptive`` without the switch-in, the feedforward part
+    of ``adaptive-dob``."""
     J, ff_max = _ctx(plant, o)
     lam = 0.995 if o.lam is None else o.lam
     if o.estimator == "eq4":
@@ -391,7 +418,7 @@ def _adaptive(plant, o):
 def _adaptive_dob(plant, o):
     if o.estimator != "sliding":
         raise ParameterError(f"mode 'adaptive-dob' needs estimator 'sliding', got {o.estimator!r}")
-    _, ff = _adaptive(plant, o)
+    _, ff = _adaptive_feedforward(plant, o)
     _, dob = _dob(plant, replace(o, omega_q=o.omega_r))
     _, ff_max = _ctx(plant, o)
     return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max)

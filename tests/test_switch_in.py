@@ -1,0 +1,174 @@
+"""The residual switch-in of mode ``adaptive`` (C ``ctl_switch_in``, controllers/csrc/ctl_adob.h).
+
+The oracle here is derived differently from the C recursion: the two loop models as state-space systems
+simulated by :func:`scipy.signal.dlsim` (the matrices written out from the backward-Euler PI and the held-torque
+inertia), the exponentially weighted mean squares by :func:`scipy.signal.lfilter` on the samples that count, and the
+decision as the first index of a vectorised comparison. The closed-loop checks use the project's variants, where
+the feedforward alone misses sticking (``karnopp``) and a small, fast joint (``small-inertia``): eta measured at
+commit fb1e50f on the multi-sine, 60 s, seed 0 (docs/benchmarks/compensation.md, "The residual switch-in").
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from scipy.signal import dlsim, lfilter
+
+from controllers._cctl import ffi, lib
+from controllers.experiments.compare import CompareOptions, prepare_comparison, run_notes
+from controllers.peers.adaptive_dob import AdaptiveDOBCompensator, ResidualSwitchIn
+from controllers.simulation.closed_loop import ModeOptions, run_mode
+from plant.errors import ParameterError
+from plant.friction import preset
+from plant.variant_plants import variant
+
+TC, JN, KP, KI = 1e-3, 0.5, 10.0, 60.0
+
+
+def _c_switch_in(window=0.05, ratio=0.1, fade_in=0.01):
+    a = ffi.new("ctl_adob *")
+    assert lib.ctl_adob_set_switch_in(a, TC, JN, KP, KI, window, ratio, fade_in) == 0
+    return a
+
+
+def _oracle(u_ff, d_hat, w_ref, acting, window, ratio, fade_in):
+    """Share g per period, the mean squares per period, and the switch-in index (or None)."""
+    n = len(d_hat)
+    c, kt = TC / JN, KI * TC
+    # residual model: x = [w, I_prev], I = I_prev - Ki*Tc*w, w+ = w + c*(-Kp*w + I - d); output w before the update
+    a_r = np.array([[1.0 - c * KP - c * kt, c], [-kt, 1.0]])
+    _, w_r, _ = dlsim((a_r, np.array([[-c], [0.0]]), np.array([[1.0, 0.0]]), np.array([[0.0]]), TC), d_hat)
+    # frictionless loop on the reference: e = r - w, I = I_prev + Ki*Tc*e, w+ = w + c*(Kp*e + I); output e
+    a_l = np.array([[1.0 - c * (KP + kt), c], [-kt, 1.0]])
+    b_l = np.array([[c * (KP + kt)], [kt]])
+    _, e_l, _ = dlsim((a_l, b_l, np.array([[-1.0, 0.0]]), np.array([[1.0]]), TC), w_ref)
+    w_r, e_l = w_r[:, 0], e_l[:, 0]
+    still = w_ref == 0.0
+    rest = still & np.concatenate([[False], still[:-1]])
+    used = acting & ~rest
+    b = 1.0 - math.exp(-TC / window)
+    m_r_u = lfilter([b], [1.0, -(1.0 - b)], w_r[used] ** 2)
+    m_l_u = lfilter([b], [1.0, -(1.0 - b)], e_l[used] ** 2)
+    count = np.arange(1, used.sum() + 1)
+    n_ev = round(window / TC)
+    hit = np.flatnonzero((count >= 2 * n_ev) & (m_r_u > ratio * m_l_u))
+    k_in = int(np.flatnonzero(used)[hit[0]]) if hit.size else None
+    g = np.zeros(n)
+    if k_in is not None:
+        g[k_in:] = np.minimum(1.0, TC / fade_in * np.arange(1, n - k_in + 1))
+    # the mean squares per period (held where a period does not count)
+    idx = np.cumsum(used) - 1
+    m_r = np.where(idx >= 0, m_r_u[np.maximum(idx, 0)], 0.0)
+    m_l = np.where(idx >= 0, m_l_u[np.maximum(idx, 0)], 0.0)
+    return g, m_r, m_l, k_in
+
+
+def _inputs(n=600, seed=5, grow_at=300):
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * TC
+    w_ref = 0.5 * np.sin(2 * np.pi * 3.0 * t)
+    w_ref[100:140] = 0.0  # a dwell
+    u_ff = 2.0 * np.sign(w_ref) + 0.1 * rng.normal(size=n)
+    d_hat = 0.02 * rng.normal(size=n)
+    d_hat[grow_at:] += 1.5 * np.sign(w_ref[grow_at:])  # what the feedforward misses from here on
+    acting = np.ones(n, dtype=bool)
+    acting[:50] = False  # not yet acting
+    return u_ff, d_hat, w_ref, acting
+
+
+def _run_c(a, u_ff, d_hat, w_ref, acting):
+    sw = ffi.addressof(a, "sw")
+    g, m_r, m_l = (np.empty(len(d_hat)) for _ in range(3))
+    for k in range(len(d_hat)):
+        g[k] = lib.ctl_switch_in_step(sw, u_ff[k], d_hat[k], w_ref[k], int(acting[k]))
+        m_r[k], m_l[k] = a.sw.m_r, a.sw.m_l
+    return g, m_r, m_l
+
+
+def test_the_c_test_equals_the_state_space_oracle():
+    u_ff, d_hat, w_ref, acting = _inputs()
+    a = _c_switch_in()
+    g, m_r, m_l = _run_c(a, u_ff, d_hat, w_ref, acting)
+    g_o, m_r_o, m_l_o, k_in = _oracle(u_ff, d_hat, w_ref, acting, 0.05, 0.1, 0.01)
+    assert k_in is not None and 300 < k_in < 500  # the residual appears at 300: switched in after it (435), not before
+    assert a.sw.k_in == k_in
+    np.testing.assert_allclose(m_r[:k_in + 1], m_r_o[:k_in + 1], rtol=1e-10, atol=1e-18)
+    np.testing.assert_allclose(m_l[:k_in + 1], m_l_o[:k_in + 1], rtol=1e-10, atol=1e-18)
+    np.testing.assert_allclose(g, g_o, rtol=0, atol=1e-12)
+    assert np.all(g[:k_in] == 0.0) and g[-1] == 1.0
+
+
+def test_no_residual_no_switch_in_and_an_idle_feedforward_is_replaced():
+    u_ff, d_hat, w_ref, acting = _inputs(grow_at=600)  # the residual never appears
+    a = _c_switch_in()
+    g, _, _ = _run_c(a, u_ff, d_hat, w_ref, acting)
+    assert a.sw.k_in == -1 and np.all(g == 0.0)
+    assert _oracle(u_ff, d_hat, w_ref, acting, 0.05, 0.1, 0.01)[3] is None
+    # a feedforward that never acts: the observer is switched in after 5 windows (250 periods)
+    a = _c_switch_in()
+    _run_c(a, u_ff, d_hat, w_ref, np.zeros(len(d_hat), dtype=bool))
+    assert a.sw.k_in == 249 and a.sw.n_used == 0
+
+
+def test_settings_are_checked():
+    for bad in (dict(ratio=0.0), dict(window=-1.0), dict(Kp=math.nan), dict(Ki=-1.0), dict(fade_in=-0.1)):
+        with pytest.raises(ParameterError):
+            ResidualSwitchIn(**{**dict(Tc=TC, J_n=JN, Kp=KP, Ki=KI), **bad})
+    a = ffi.new("ctl_adob *")
+    assert lib.ctl_adob_set_switch_in(a, TC, JN, KP, KI, 0.05, 0.0, 0.01) == -1 and a.use_switch_in == 0
+    with pytest.raises(ParameterError, match="switch_in"):
+        ModeOptions(Kp=KP, Ki=KI, switch_in="yes")
+    with pytest.raises(ParameterError, match="switch_in_ratio"):
+        ModeOptions(Kp=KP, Ki=KI, switch_in_ratio=0.0)
+
+
+def _etas(p, duration=60.0):
+    s = prepare_comparison(p, CompareOptions(duration=duration, seed=0, modes=("none", "adaptive", "frictionless")))
+
+    def run(mode, **kw):
+        return run_mode(p, s.reference, mode, replace(s.mode_options[mode], **kw),
+                        rng=np.random.default_rng(s.noise_seed))
+
+    rn, rf = run("none").metrics.rms_second_half, run("frictionless").metrics.rms_second_half
+    with_in, without = run("adaptive"), run("adaptive", switch_in=False)
+
+    def eta(r):
+        return (rn - r.metrics.rms_second_half) / (rn - rf)
+
+    return eta(with_in), eta(without), with_in, without
+
+
+@pytest.mark.parametrize("name, plain_max", [("karnopp", 0.82), ("small-inertia", 0.86)])
+def test_where_the_feedforward_misses_the_observer_is_switched_in_and_closes_the_gap(name, plain_max):
+    e_in, e_plain, r, _ = _etas(variant(name))
+    assert e_plain < plain_max  # the feedforward alone: 0.798 (karnopp), 0.843 (small-inertia)
+    assert e_in >= 0.99  # switched in: 0.996, 0.999 (adaptive-dob: 0.996, 0.999)
+    assert 4.0 < r.info["t_switch_in"] < 10.0  # after two windows of the estimate in use (5.35 s, 5.27 s)
+    assert r.info["residual_ratio"] > 0.1
+    (note,) = run_notes({"adaptive": r})  # compare's notes say so
+    assert note.startswith(f"adaptive: the residual observer (as in adaptive-dob) switched in at "
+                           f"{r.info['t_switch_in']:.2f} s") and f"{r.info['residual_ratio']:.2f} times" in note
+
+
+def test_where_the_feedforward_suffices_nothing_changes():
+    e_in, e_plain, r, r_plain = _etas(preset("paper"))
+    assert r.info["t_switch_in"] is None and r.info["residual_ratio"] < 0.1  # 0.019
+    assert run_notes({"adaptive": r}) == ()
+    np.testing.assert_array_equal(r.u, r_plain.u)  # bit for bit the feedforward alone
+    assert e_in == e_plain and e_in > 0.99
+
+
+def test_the_composite_reports_its_mode_and_switch_in():
+    p = preset("paper")
+    o = ModeOptions(Kp=KP, Ki=KI, Vs=p.Vs, delta=p.delta)
+    from controllers.simulation.compensators import build_mode
+
+    _, _, comp = build_mode(p, "adaptive", o)
+    assert isinstance(comp, AdaptiveDOBCompensator) and comp.MODE == "adaptive" and comp.t_switch_in is None
+    _, _, comp2 = build_mode(p, "adaptive", replace(o, switch_in=False))
+    assert not isinstance(comp2, AdaptiveDOBCompensator)
+    _, _, comp3 = build_mode(p, "adaptive-dob", o)
+    assert comp3.MODE == "adaptive-dob" and "t_switch_in" not in comp3.info()
