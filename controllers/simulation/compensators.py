@@ -48,9 +48,9 @@ __all__ = ["MODES", "ESTIMATORS", "ModeOptions", "TrueFriction", "build_mode", "
 #: ``ModeOptions.supervise`` (the adaptive ones: their estimate may be wrong).
 SUPERVISED_MODES = ("adaptive", "adaptive-dob")
 
-#: Estimators of the ``adaptive`` mode: the sliding-regime inverse-dynamics RLS (default) or the paper's eq. 4
-#: RLS at Ts (baseline).
-ESTIMATORS = ("sliding", "eq4")
+#: Estimators of the ``adaptive`` mode: the sliding-regime inverse-dynamics RLS (default), the paper's eq. 4
+#: RLS at Ts (baseline) or eq. 4 by recursive IV on the sliding samples (``eq4-iv``, docs/theory.md).
+ESTIMATORS = ("sliding", "eq4", "eq4-iv")
 
 
 class TrueFriction:
@@ -91,14 +91,17 @@ class ModeOptions:
     estimate : FrictionEstimate or None
         Offline estimate for ``fixed``.
     model : RegressionModel or None
-        Regression structure for ``estimator="eq4"``; for ``"sliding"`` its Vs, delta are used when
-        ``Vs``/``delta`` are not given.
-    estimator : {"sliding", "eq4"}
-        Estimator of the ``adaptive`` mode.
+        Regression structure for ``estimator="eq4"`` and ``"eq4-iv"``; for ``"sliding"`` its Vs, delta are used
+        when ``Vs``/``delta`` are not given.
+    estimator : {"sliding", "eq4", "eq4-iv"}
+        Estimator of the ``adaptive`` mode; ``eq4-iv``: eq. 4 by recursive IV with delayed instruments on the
+        samples above ``model.Vs`` (:class:`adaptive_ff.AdaptiveFrictionFeedforward` with ``iv=True``,
+        ``w_band=model.Vs``).
     Vs, delta : float or None
         Stribeck factors for the sliding estimator (pre-fit).
     lam : float or None
-        Forgetting factor per update; default 0.995 (``sliding``, ``eq4``), 0.999 (``canudas``).
+        Forgetting factor per update; default 0.995 (``sliding``, ``eq4``), 0.999 (``eq4-iv``: the IV estimate's
+        variance exceeds the LS one's, so it needs the longer memory; ``canudas``).
     P0, warmup, lag, forgetting, T_filter, initial, dwell_max, offset
         Estimator settings (see :class:`adaptive_ff.SlidingFrictionEstimator`,
         :class:`adaptive_ff.RobustAdaptiveFeedforward`).
@@ -365,11 +368,20 @@ def _fixed(plant, o):
 def _adaptive(plant, o):
     J, ff_max = _ctx(plant, o)
     lam = 0.995 if o.lam is None else o.lam
-    if o.estimator == "eq4":
+    if o.estimator == "eq4-iv" and o.lam is None:
+        lam = 0.999
+    if o.estimator in ("eq4", "eq4-iv"):
         if o.model is None:
-            raise ParameterError("mode 'adaptive' with estimator 'eq4' needs model=RegressionModel(Vs, delta, ...)")
+            raise ParameterError(f"mode 'adaptive' with estimator {o.estimator!r} needs model=RegressionModel(Vs, "
+                                 f"delta, ...)")
+        if o.estimator == "eq4":  # the paper's prototype: RLS on every sample, the bare feedforward
+            return plant, AdaptiveFrictionFeedforward(o.model, Ts=o.Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup,
+                                                      lag=o.lag, ff_max=ff_max, ff_input=o.ff_input)
         return plant, AdaptiveFrictionFeedforward(o.model, Ts=o.Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup,
-                                                  lag=o.lag, ff_max=ff_max, ff_input=o.ff_input)
+                                                  lag=o.lag, ff_max=ff_max, ff_input=o.ff_input, iv=True,
+                                                  w_band=o.model.Vs, sign_width=o.sign_width,
+                                                  stick_band=o.stick_band, stick_samples=o.stick_samples,
+                                                  loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
     Vs = o.Vs if o.Vs is not None else (o.model.Vs if o.model is not None else None)
     delta = o.delta if o.delta is not None else (o.model.delta if o.model is not None else None)
     if Vs is None or delta is None:
