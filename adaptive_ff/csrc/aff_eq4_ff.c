@@ -63,7 +63,7 @@ int aff_eq4_ff_sample(aff_eq4_ff *e, aff_real u, aff_real w)
 {
     int uok = aff_range_gate_ok(&e->u_range, u);
     int wok = aff_range_gate_ok(&e->w_range, w);
-    int updated = 0;
+    int updated = 0, refused = 0;
     long n0;
     if (!(uok && wok)) {
         if (!uok)
@@ -99,11 +99,11 @@ int aff_eq4_ff_sample(aff_eq4_ff *e, aff_real u, aff_real w)
         aff_eq4_phi(e->z, e->u2, e->u3, e->w3, e->w4, e->Vs, e->delta, e->lag, e->stribeck, e->offset);
         n0 = e->ivrls.n_updates;
         aff_ivrls_update(&e->ivrls, e->phi, e->z, w);
-        if (e->ivrls.n_updates == n0) { /* non-finite, s <= 0 or an update that would overflow: refused */
+        if (e->ivrls.n_updates == n0) /* s <= 0 or an update that would overflow: the sample still enters the past */
             e->n_rejected++;
-            return 0;
-        }
-        updated = 1;
+        else
+            updated = 1;
+        refused = !updated;
     }
     aff_range_gate_commit(&e->u_range, u, 1);
     aff_range_gate_commit(&e->w_range, w, 1);
@@ -118,7 +118,7 @@ int aff_eq4_ff_sample(aff_eq4_ff *e, aff_real u, aff_real w)
         e->n_past++;
     if (updated && (e->iv ? e->ivrls.n_updates : e->rls.n_updates) >= e->warmup)
         use_estimate(e);
-    return 1;
+    return !refused;
 }
 
 double aff_eq4_ff_compensate(void *self, double w_ctrl, double w_meas, double w_ref)

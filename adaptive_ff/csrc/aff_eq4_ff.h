@@ -78,8 +78,9 @@ int aff_eq4_ff_init(aff_eq4_ff *e, const aff_fixed_ff *ff, long m, aff_real Ts, 
                     const aff_range_gate *u_range, const aff_range_gate *w_range, const aff_rls *rls, int iv,
                     aff_real w_band, const aff_ivrls *ivrls);
 
-/* One sample (u(k) N*m, w(k) rad/s) of the stream: returns 0 if refused (a range gate, or the estimator refused the
- * update: only counters change), else 1 (the first sample, with iv the first four, only fill the past; a sample the
+/* One sample (u(k) N*m, w(k) rad/s) of the stream: returns 0 if refused (a range gate, or the RLS refused the
+ * update: only counters change; the IV refused the update, s <= 0 or overflow: counters change and the sample
+ * enters the past, whose instruments stay consecutive), else 1 (the first sample, with iv the first four, only fill the past; a sample the
  * sliding-regime gate keeps from the estimator only shifts the past and counts in n_gated). Python:
  * AdaptiveFrictionFeedforward.observe (was eq4_sample). */
 int aff_eq4_ff_sample(aff_eq4_ff *e, aff_real u, aff_real w);
