@@ -7,8 +7,8 @@ is estimated online by recursive least squares on the (u, w) stream sampled
 at ``Ts``, every estimate is mapped to physical parameters (inverse map of
 eq. 4), projected onto the admissible set and, after the warm-up, put into a
 :class:`adaptive_ff.compensation.feedforward.FrictionFeedforward`. With ``iv=True`` the estimator is the recursive
-instrumental-variable method (:class:`adaptive_ff.compensation.ivrls.RecursiveIV`) with the regressor of two samples
-back as instruments, consistent in the closed loop where the RLS is biased, and ``w_band`` keeps stick and creep
+instrumental-variable method (:class:`adaptive_ff.compensation.ivrls.RecursiveIV`) with the velocities of the regressor
+delayed by two samples as instruments, consistent in the closed loop where the RLS is biased, and ``w_band`` keeps stick and creep
 samples (where eq. 4 does not hold) from the estimator (docs/theory.md, "Instrumental variables for eq. 4 in the
 closed loop").
 
@@ -71,8 +71,9 @@ class AdaptiveFrictionFeedforward(Component):
         ones is refused (:class:`adaptive_ff.compensation.gate.RangeGate`).
     iv : bool, keyword-only
         Estimate with recursive IV (:class:`adaptive_ff.compensation.ivrls.RecursiveIV`, same ``lam``, ``P0``, trace
-        bound ``p*P0``) and the instruments ``z(k) = phi(k-2)`` (eq. 4's regressor of ``u(k-2)``, ``u(k-3)``,
-        ``w(k-3)``, ``w(k-4)``) instead of the RLS; default False (the paper's RLS).
+        bound ``p*P0``) and the instruments ``z(k)``, eq. 4's regressor of ``u(k)``, ``u(k-1)``, ``w(k-3)``,
+        ``w(k-4)`` (the velocities two samples older than in ``phi(k)``), instead of the RLS; default False (the
+        paper's RLS). A sample whose IV update is refused (``s <= 0``) still enters the stored past.
     w_band : float, keyword-only
         Sliding-regime gate (rad/s, >= 0): only samples with ``|w(k)|``, ``|w(k-1)|``, ``|w(k-2)|`` above it and of
         one sign update the estimator; default 0 (every sample, the paper).

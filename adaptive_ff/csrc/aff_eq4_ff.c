@@ -96,7 +96,7 @@ int aff_eq4_ff_sample(aff_eq4_ff *e, aff_real u, aff_real w)
         updated = 1;
     } else if (e->n_past >= 4) { /* the instruments need u(k-3), w(k-4) */
         aff_eq4_phi(e->phi, u, e->u1, e->w1, e->w2, e->Vs, e->delta, e->lag, e->stribeck, e->offset);
-        aff_eq4_phi(e->z, e->u2, e->u3, e->w3, e->w4, e->Vs, e->delta, e->lag, e->stribeck, e->offset);
+        aff_eq4_phi(e->z, u, e->u1, e->w3, e->w4, e->Vs, e->delta, e->lag, e->stribeck, e->offset);
         n0 = e->ivrls.n_updates;
         aff_ivrls_update(&e->ivrls, e->phi, e->z, w);
         if (e->ivrls.n_updates == n0) /* s <= 0 or an update that would overflow: the sample still enters the past */

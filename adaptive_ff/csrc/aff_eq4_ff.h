@@ -6,12 +6,14 @@
  * parameters (inverse map of eq. 4), projected (aff_project_levels) and, if admissible, put into the feedforward.
  * Samples pass a torque and a velocity range gate first. Estimators:
  *  - iv == 0: the RLS of eqs. 10-13 (aff_rls.h), the paper's estimator: biased in the closed loop (docs/theory.md);
- *  - iv == 1: recursive IV (aff_ivrls.h) with the instruments z(k) = phi(k-2), the regressor of eq. 4 two samples
- *    back (u(k-2), u(k-3), w(k-3), w(k-4)): the equation error of eq. 4 under white measurement noise n is
- *    n(k) - a1 n(k-1) + a2 n(k-2) (plus the noise in g, h of w(k-1)), and u(k-2), taken in the period before
- *    sample k-2, and w(k-3), w(k-4) hold no noise of samples k-2..k: E[z(k) e(k)] = 0 (Soderstrom & Stoica, System
- *    Identification, 1989, Ch. 8: delayed regressors as instruments for an equation error of finite moving-average
- *    order, which in closed loop must be delayed past the noise the feedback returns into u).
+ *  - iv == 1: recursive IV (aff_ivrls.h) with the instruments z(k) = phi(k) of eq. 4 evaluated at u(k), u(k-1),
+ *    w(k-3), w(k-4): under white measurement noise n (per controller period) the equation error of eq. 4 is
+ *    n(k) - a1 n(k-1) + a2 n(k-2) plus the noise in g, h of w(k-1), so w(k-1), w(k-2), g, h are correlated with it
+ *    and w(k-3), w(k-4) are not; u(k), u(k-1) are the torques of the periods before samples k, k-1, which react to
+ *    the noise of samples k-1, k-2 only through the PI's integral (Ki*Tc per sample, against Kp on the current
+ *    measurement), so they are their own instruments. E[z(k) e(k)] = 0 up to that leak (Soderstrom & Stoica, System
+ *    Identification, 1989, Ch. 8: delayed outputs as instruments for an equation error of finite moving-average
+ *    order; docs/theory.md, "Instrumental variables for eq. 4 in the closed loop").
  * With w_band > 0 (the sliding-regime gate) only samples with |w(k)|, |w(k-1)|, |w(k-2)| > w_band of one sign update
  * the estimator: eq. 4 describes sliding (the paper's Sec. II-B); stick and creep rows bias it whatever the estimator.
  * The first prototype of the paper's future work, kept as a baseline (iv = 0, w_band = 0).

@@ -377,9 +377,11 @@ def _adaptive(plant, o):
         if o.estimator == "eq4":  # the paper's prototype: RLS on every sample, the bare feedforward
             return plant, AdaptiveFrictionFeedforward(o.model, Ts=o.Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup,
                                                       lag=o.lag, ff_max=ff_max, ff_input=o.ff_input)
-        return plant, AdaptiveFrictionFeedforward(o.model, Ts=o.Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup,
+        m = o.model  # with the constant-torque column (offset), as the sliding estimator's
+        model = RegressionModel(m.Vs, m.delta, lag=m.lag, stribeck=m.stribeck, offset=bool(o.offset))
+        return plant, AdaptiveFrictionFeedforward(model, Ts=o.Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup,
                                                   lag=o.lag, ff_max=ff_max, ff_input=o.ff_input, iv=True,
-                                                  w_band=o.model.Vs, sign_width=o.sign_width,
+                                                  w_band=m.Vs if m.stribeck else 0.0, sign_width=o.sign_width,
                                                   stick_band=o.stick_band, stick_samples=o.stick_samples,
                                                   loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
     Vs = o.Vs if o.Vs is not None else (o.model.Vs if o.model is not None else None)
