@@ -73,7 +73,9 @@ class AdaptiveFrictionFeedforward(Component):
         Estimate with recursive IV (:class:`adaptive_ff.compensation.ivrls.RecursiveIV`, same ``lam``, ``P0``, trace
         bound ``p*P0``) and the instruments ``z(k)``, eq. 4's regressor of ``u(k)``, ``u(k-1)``, ``w(k-3)``,
         ``w(k-4)`` (the velocities two samples older than in ``phi(k)``), instead of the RLS; default False (the
-        paper's RLS). A sample whose IV update is refused (``s <= 0``) still enters the stored past.
+        paper's RLS). A sample whose IV update is refused (``s <= 0``) still enters the stored past. In the
+        closed loop (:meth:`compensate`) the torque of a sample is then the mean of the torques applied since the
+        previous sample, not the last one (docs/theory.md).
     w_band : float, keyword-only
         Sliding-regime gate (rad/s, >= 0): only samples with ``|w(k)|``, ``|w(k-1)|``, ``|w(k-2)|`` above it and of
         one sign update the estimator; default 0 (every sample, the paper).

@@ -125,7 +125,9 @@ double aff_eq4_ff_compensate(void *self, double w_ctrl, double w_meas, double w_
 {
     aff_eq4_ff *e = (aff_eq4_ff *)self;
     if (e->due == 0) { /* period k > 0 with k % m == 0 (a countdown: no integer division per period) */
-        aff_eq4_ff_sample(e, e->u_prev, (aff_real)w_meas);
+        /* with iv the torque of the sample is the mean over the m periods since the previous one */
+        aff_eq4_ff_sample(e, e->iv ? e->u_sum / (aff_real)e->m : e->u_prev, (aff_real)w_meas);
+        e->u_sum = 0;
         e->sampled = 1;
         e->due = e->m;
     } else {
@@ -141,6 +143,7 @@ int aff_eq4_ff_observe(void *self, double u, double w_meas, double *theta_out)
     long i;
     aff_fixed_ff_observe(&e->ff, u, w_meas, NULL); /* the feedforward's sign observer, if it has one */
     e->u_prev = (aff_real)u;
+    e->u_sum += (aff_real)u;
     if (!e->sampled)
         return 0;
     if (theta_out)

@@ -13,7 +13,9 @@
  *    the noise of samples k-1, k-2 only through the PI's integral (Ki*Tc per sample, against Kp on the current
  *    measurement), so they are their own instruments. E[z(k) e(k)] = 0 up to that leak (Soderstrom & Stoica, System
  *    Identification, 1989, Ch. 8: delayed outputs as instruments for an equation error of finite moving-average
- *    order; docs/theory.md, "Instrumental variables for eq. 4 in the closed loop").
+ *    order; docs/theory.md, "Instrumental variables for eq. 4 in the closed loop"). In the compensator interface
+ *    the torque u(k) of a sample is then the mean of the m torques applied since the previous sample (the input
+ *    that moved the joint over the interval; the last one alone leads it by Ts/2 and biases tau by about -Ts/2).
  * With w_band > 0 (the sliding-regime gate) only samples with |w(k)|, |w(k-1)|, |w(k-2)| > w_band of one sign update
  * the estimator: eq. 4 describes sliding (the paper's Sec. II-B); stick and creep rows bias it whatever the estimator.
  * The first prototype of the paper's future work, kept as a baseline (iv = 0, w_band = 0).
@@ -67,6 +69,7 @@ typedef struct aff_eq4_ff {
     aff_real w4;                  /* w(k-4) (rad/s) */
     long n_gated;                 /* samples the sliding-regime gate kept from the estimator */
     aff_real z[AFF_RLS_NMAX];     /* instruments of the last IV update */
+    aff_real u_sum;               /* sum of the torques applied since the last sample (N*m) */
     aff_ivrls ivrls;              /* the estimator of theta with iv == 1 (p = the structure's n_params) */
 } aff_eq4_ff;
 
