@@ -6,15 +6,16 @@ regression model of eq. 4 (:class:`adaptive_ff.identification.regression.Regress
 is estimated online by recursive least squares on the (u, w) stream sampled
 at ``Ts``, every estimate is mapped to physical parameters (inverse map of
 eq. 4), projected onto the admissible set and, after the warm-up, put into a
-:class:`adaptive_ff.compensation.feedforward.FrictionFeedforward`. With ``iv=True`` the estimator is the recursive
-instrumental-variable method (:class:`adaptive_ff.compensation.ivrls.RecursiveIV`) with the velocities of the regressor
-delayed by two samples as instruments, consistent in the closed loop where the RLS is biased, and ``w_band`` keeps stick and creep
-samples (where eq. 4 does not hold) from the estimator (docs/theory.md, "Instrumental variables for eq. 4 in the
-closed loop").
+:class:`adaptive_ff.compensation.feedforward.FrictionFeedforward`. With ``iv=True`` the estimator is
+the recursive instrumental-variable method (:class:`adaptive_ff.compensation.ivrls.RecursiveIV`) with the
+velocities of the regressor delayed by two samples as instruments, consistent in the closed loop where the RLS is
+biased, and ``w_band`` keeps stick and creep samples (where eq. 4 does not hold) from the estimator
+(docs/theory.md, "Instrumental variables for eq. 4 in the closed loop").
 
 Compensator component (ops table ``aff_eq4_ff_ops``): the configuration and state are the C struct ``aff_eq4_ff``
 (``adaptive_ff/csrc/aff_eq4_ff.h``), which embeds the feedforward's (``aff_fixed_ff``), the two range gates' and the
-RLS's (``aff_rls``) and the IV estimator's (``aff_ivrls``) structs. C is the one implementation: ``aff_eq4_ff_sample`` (one sample of the stream,
+RLS's (``aff_rls``) and the IV estimator's (``aff_ivrls``) structs. C is the one implementation:
+``aff_eq4_ff_sample`` (one sample of the stream,
 :meth:`AdaptiveFrictionFeedforward.observe`) and the compensator interface ``aff_eq4_ff_compensate`` /
 ``aff_eq4_ff_observe`` (ops table ``aff_eq4_ff_ops``), called by the class's methods and by the closed-loop engine.
 """
@@ -71,9 +72,9 @@ class AdaptiveFrictionFeedforward(Component):
         ones is refused (:class:`adaptive_ff.compensation.gate.RangeGate`).
     iv : bool, keyword-only
         Estimate with recursive IV (:class:`adaptive_ff.compensation.ivrls.RecursiveIV`, same ``lam``, ``P0``, trace
-        bound ``p*P0``) and the instruments ``z(k)``, eq. 4's regressor of ``u(k)``, ``u(k-1)``, ``w(k-3)``,
+        bound ``p*P0``, ``guard``) and the instruments ``z(k)``, eq. 4's regressor of ``u(k)``, ``u(k-1)``, ``w(k-3)``,
         ``w(k-4)`` (the velocities two samples older than in ``phi(k)``), instead of the RLS; default False (the
-        paper's RLS). A sample whose IV update is refused (``s <= 0``) still enters the stored past. In the
+        paper's RLS). A sample whose IV update is refused (``phi @ P @ z < 0``) still enters the stored past. In the
         closed loop (:meth:`compensate`) the torque of a sample is then the mean of the torques applied since the
         previous sample, not the last one (docs/theory.md).
     w_band : float, keyword-only
@@ -115,7 +116,8 @@ class AdaptiveFrictionFeedforward(Component):
     Notes
     -----
     At each sample ``k``: ``phi(k)`` from eq. 4 with the stored ``u(k-1)``,
-    ``w(k-1)``, ``w(k-2)``; RLS (or IV) update unless the sliding-regime gate refuses the sample; ``theta`` mapped to physical
+    ``w(k-1)``, ``w(k-2)``; RLS (or IV) update unless the sliding-regime gate refuses the sample; ``theta``
+    mapped to physical
     parameters (inverse map in :mod:`adaptive_ff.identification.regression`), projected
     (:func:`~adaptive_ff.compensation.feedforward.project_levels`); the feedforward uses the last admissible estimate.
     """
@@ -145,7 +147,7 @@ class AdaptiveFrictionFeedforward(Component):
         w_band = check_nonnegative("w_band", w_band)
         p = model.n_params
         rls = RecursiveLeastSquares(p, lam=lam, P0=P0)
-        ivrls = RecursiveIV(p, lam=lam, P0=P0)
+        ivrls = RecursiveIV(p, lam=lam, P0=P0, guard=True)
         self.model = model
         self.n_theta = p
         u_range = RangeGate() if u_range is None else u_range

@@ -45,6 +45,8 @@ class RecursiveIV(Component):
     P_max : float or None, keyword-only
         Bound on ``trace(P)`` (windup protection, as :class:`adaptive_ff.identification.rls.RecursiveLeastSquares`):
         an update that would exceed it forgets nothing. Default ``p*P0``; ``math.inf``: none.
+    guard : bool, keyword-only
+        Also refuse an update with ``phi @ P @ z < 0`` (see Notes); default False (the plain recursion).
 
     Attributes
     ----------
@@ -53,15 +55,16 @@ class RecursiveIV(Component):
     P : ndarray, shape (p, p)
         Inverse of the weighted instrument-regressor moment matrix (a view; not symmetric).
     lam, P_max : float
+    guard : bool
     n_updates, n_rejected : int
-        Accepted updates; refused samples (non-finite, ``s <= 0`` or an update that would overflow), which leave
-        ``theta`` and ``P`` unchanged.
+        Accepted updates; refused samples (non-finite, ``s <= 0``, with ``guard`` ``phi @ P @ z < 0``, or an update
+        that would overflow), which leave ``theta`` and ``P`` unchanged.
 
     Raises
     ------
     ParameterError
-        ``n_params`` not an integer in 1..:data:`IVRLS_NMAX`, ``lam`` outside (0, 1], ``P0`` or ``P_max`` not > 0
-        (the message names the argument and its value).
+        ``n_params`` not an integer in 1..:data:`IVRLS_NMAX`, ``lam`` outside (0, 1], ``P0`` or ``P_max`` not > 0,
+        ``guard`` not a bool (the message names the argument and its value).
 
     Notes
     -----
@@ -74,13 +77,18 @@ class RecursiveIV(Component):
 
     which gives, while no update hits ``P_max``, the weighted batch IV estimate ``theta_N = P_N (lam**N
     theta_0/P0 + sum_k lam**(N-k) z_k y_k)`` with ``P_N^-1 = lam**N I/P0 + sum_k lam**(N-k) z_k phi_k^T``.
-    ``z = phi`` is the RLS of Ruderman's eqs. 10-13.
+    ``z = phi`` is the RLS of Ruderman's eqs. 10-13. ``P`` is not symmetric and ``phi @ P @ z`` may be negative
+    (never ``phi @ P @ phi`` in the RLS): ``s`` then falls below ``lam`` and the gain ``v/s`` grows without bound as
+    ``s -> 0``. An update with ``s <= 0`` is always refused; with ``guard`` every update with ``phi @ P @ z < 0``, so
+    that the estimate is the batch IV estimate of the accepted samples (the eq. 4 feedforward uses it: without it
+    its estimate made rare excursions, tau 0.37 s or sigma -385, that cost eta; docs/theory.md).
     """
 
     _ffi = ffi
     _ctype = "aff_ivrls"
 
-    def __init__(self, n_params: int, *, lam: float = 1.0, P0: float = 1e4, P_max: float | None = None):
+    def __init__(self, n_params: int, *, lam: float = 1.0, P0: float = 1e4, P_max: float | None = None,
+                 guard: bool = False):
         if isinstance(n_params, bool) or not isinstance(n_params, (int, np.integer)) or not 1 <= n_params <= IVRLS_NMAX:
             raise ParameterError(f"n_params must be an integer in 1..{IVRLS_NMAX}, got {n_params!r}")
         p = int(n_params)
@@ -93,12 +101,15 @@ class RecursiveIV(Component):
         P_max = p * P0 if P_max is None else float(P_max)
         if not P_max > 0.0:
             raise ParameterError(f"P_max must be > 0, got {P_max!r}")
+        if not isinstance(guard, (bool, np.bool_)):
+            raise ParameterError(f"guard must be True or False, got {guard!r}")
         self._new_struct()
-        lib.aff_ivrls_init(self._c, p, lam, P_max, P0)
+        lib.aff_ivrls_init(self._c, p, lam, P_max, P0, int(bool(guard)))
 
     p = property(lambda self: int(self._c.p), doc="Number of parameters.")
     lam = property(lambda self: float(self._c.lam), doc="Forgetting factor.")
     P_max = property(lambda self: float(self._c.P_max), doc="Bound on trace(P).")
+    guard = property(lambda self: bool(self._c.guard), doc="Refuse updates with phi'P z < 0 too.")
     n_updates = property(lambda self: int(self._c.n_updates), doc="Accepted updates.")
     n_rejected = property(lambda self: int(self._c.n_rejected), doc="Refused samples.")
 
@@ -136,15 +147,15 @@ class RecursiveIV(Component):
         ParameterError
             ``phi`` or ``z`` of the wrong shape.
         SignalError
-            The sample was refused (non-finite entry, ``s <= 0``, or an update that would overflow); the state is
-            unchanged but :attr:`n_rejected`.
+            The sample was refused (non-finite entry, ``s <= 0``, with :attr:`guard` ``phi @ P @ z < 0``, or an
+            update that would overflow); the state is unchanged but :attr:`n_rejected`.
         """
         p = self.p
         a, b = _row("phi", phi, p), _row("z", z, p)
         e = lib.aff_ivrls_update(self._c, ffi.from_buffer("double[]", a), ffi.from_buffer("double[]", b), float(y))
         if math.isnan(e):
             raise SignalError(f"RecursiveIV.update refused the sample (phi={a!r}, z={b!r}, y={y!r}): non-finite, "
-                              f"s <= 0 or an update that would overflow")
+                              f"s <= 0, phi'P z < 0 with guard, or an update that would overflow")
         return float(e)
 
     def update_many(self, Phi, Z, Y) -> np.ndarray:
@@ -160,8 +171,8 @@ class RecursiveIV(Component):
         Returns
         -------
         ndarray, shape (n, p)
-            ``theta`` after each sample (a refused row, ``s <= 0`` or overflow, repeats the previous one and counts
-            in :attr:`n_rejected`).
+            ``theta`` after each sample (a refused row, ``s <= 0``, the guard or overflow, repeats the previous one
+            and counts in :attr:`n_rejected`).
 
         Raises
         ------

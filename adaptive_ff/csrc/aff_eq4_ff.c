@@ -99,7 +99,7 @@ int aff_eq4_ff_sample(aff_eq4_ff *e, aff_real u, aff_real w)
         aff_eq4_phi(e->z, u, e->u1, e->w3, e->w4, e->Vs, e->delta, e->lag, e->stribeck, e->offset);
         n0 = e->ivrls.n_updates;
         aff_ivrls_update(&e->ivrls, e->phi, e->z, w);
-        if (e->ivrls.n_updates == n0) /* s <= 0 or an update that would overflow: the sample still enters the past */
+        if (e->ivrls.n_updates == n0) /* guard, s <= 0 or overflow: the sample still enters the past */
             e->n_rejected++;
         else
             updated = 1;

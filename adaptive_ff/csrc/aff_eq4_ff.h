@@ -84,9 +84,10 @@ int aff_eq4_ff_init(aff_eq4_ff *e, const aff_fixed_ff *ff, long m, aff_real Ts, 
                     aff_real w_band, const aff_ivrls *ivrls);
 
 /* One sample (u(k) N*m, w(k) rad/s) of the stream: returns 0 if refused (a range gate, or the RLS refused the
- * update: only counters change; the IV refused the update, s <= 0 or overflow: counters change and the sample
- * enters the past, whose instruments stay consecutive), else 1 (the first sample, with iv the first four, only fill the past; a sample the
- * sliding-regime gate keeps from the estimator only shifts the past and counts in n_gated). Python:
+ * update: only counters change; the IV refused the update, phi'P z < 0 or overflow: counters change and the sample
+ * enters the past, whose instruments stay consecutive), else 1 (the first sample, with iv the first four, only
+ * fill the past; a sample the sliding-regime gate keeps from the estimator only shifts the past and counts in
+ * n_gated). Python:
  * AdaptiveFrictionFeedforward.observe (was eq4_sample). */
 int aff_eq4_ff_sample(aff_eq4_ff *e, aff_real u, aff_real w);
 
@@ -96,7 +97,8 @@ double aff_eq4_ff_compensate(void *self, double w_ctrl, double w_meas, double w_
 
 /* Compensator interface: step the feedforward's sign observer (aff_fixed_ff_observe), store the applied torque u
  * (N*m) for the next sample; returns 1 in a period that took
- * a sample (refused ones included), then theta (of rls, with iv of ivrls) is written into theta_out[0..p-1] (if not NULL), else 0. */
+ * a sample (refused ones included), then theta (of rls, with iv of ivrls) is written into theta_out[0..p-1] (if
+ * not NULL), else 0. */
 int aff_eq4_ff_observe(void *self, double u, double w_meas, double *theta_out);
 
 /* The ops table of the eq. 4 feedforward (name "adaptive"). */

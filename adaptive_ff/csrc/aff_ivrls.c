@@ -1,7 +1,7 @@
 /* aff_ivrls.c -- recursive instrumental variables (see aff_ivrls.h). */
 #include "aff_ivrls.h"
 
-int aff_ivrls_init(aff_ivrls *r, long p, aff_real lam, aff_real P_max, aff_real P0)
+int aff_ivrls_init(aff_ivrls *r, long p, aff_real lam, aff_real P_max, aff_real P0, int guard)
 {
     long i, k;
     if (p < 1 || p > AFF_IVRLS_NMAX)
@@ -9,6 +9,7 @@ int aff_ivrls_init(aff_ivrls *r, long p, aff_real lam, aff_real P_max, aff_real 
     r->p = p;
     r->lam = lam;
     r->P_max = P_max;
+    r->guard = guard != 0;
     for (i = 0; i < AFF_IVRLS_NMAX; i++) {
         r->theta[i] = 0;
         r->v[i] = 0;
@@ -48,7 +49,8 @@ aff_real aff_ivrls_step(aff_ivrls *r, const aff_real *phi, const aff_real *z, af
         qq += acc2 * acc2;
     }
     s = r->lam + rr;
-    if (!(isfinite(e * e) && isfinite(s) && isfinite(vv) && isfinite(qq)) || !(s > 0)) {
+    if (!(isfinite(e * e) && isfinite(s) && isfinite(vv) && isfinite(qq)) || !(s > 0)
+        || (r->guard && !(rr >= 0))) {
         r->n_rejected++;
         return NAN;
     }
