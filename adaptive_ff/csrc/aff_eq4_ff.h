@@ -9,9 +9,8 @@
  *  - iv == 1: recursive IV (aff_ivrls.h) with the instruments z(k) = phi(k) of eq. 4 evaluated at u(k), u(k-1),
  *    w(k-3), w(k-4): under white measurement noise n (per controller period) the equation error of eq. 4 is
  *    n(k) - a1 n(k-1) + a2 n(k-2) plus the noise in g, h of w(k-1), so w(k-1), w(k-2), g, h are correlated with it
- *    and w(k-3), w(k-4) are not; u(k), u(k-1) are the torques of the periods before samples k, k-1, which react to
- *    the noise of samples k-1, k-2 only through the PI's integral (Ki*Tc per sample, against Kp on the current
- *    measurement), so they are their own instruments. E[z(k) e(k)] = 0 up to that leak (Soderstrom & Stoica, System
+ *    and w(k-3), w(k-4) are not; u(k), u(k-1) react to the noise of samples k-1, k-2 only through one period of
+ *    each interval and the PI's integral, negligible against the torque itself, so they are their own instruments. E[z(k) e(k)] = 0 up to that leak (Soderstrom & Stoica, System
  *    Identification, 1989, Ch. 8: delayed outputs as instruments for an equation error of finite moving-average
  *    order; docs/theory.md, "Instrumental variables for eq. 4 in the closed loop"). In the compensator interface
  *    the torque u(k) of a sample is then the mean of the m torques applied since the previous sample (the input
