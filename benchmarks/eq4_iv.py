@@ -32,6 +32,7 @@ ESTIMATORS = ("eq4", "eq4-iv", "sliding")
 
 
 def _seeds(text: str) -> list:
+    """``"0-9"`` or ``"0,3,5"`` as a list of ints."""
     out = []
     for part in text.split(","):
         a, _, b = part.partition("-")
@@ -40,7 +41,22 @@ def _seeds(text: str) -> list:
 
 
 def row(plant_name: str, seed: int, duration: float) -> dict:
-    """eta of ``adaptive`` with every estimator of :data:`ESTIMATORS` on one plant and seed."""
+    """eta of ``adaptive`` with every estimator of :data:`ESTIMATORS` on one plant and seed.
+
+    Parameters
+    ----------
+    plant_name : str
+        ``"paper"`` or a name of :data:`plant.variant_plants.VARIANT_NAMES`.
+    seed : int
+        Seed of the comparison (reference, pre-fit, noise).
+    duration : float
+        Run length (s).
+
+    Returns
+    -------
+    dict
+        ``plant``, ``seed`` and the second-half eta per estimator name.
+    """
     p = preset("paper") if plant_name == "paper" else variant(plant_name)
     s = prepare_comparison(p, CompareOptions(seed=seed, duration=duration, modes=("none", "adaptive")))
     rms = {}
@@ -56,6 +72,7 @@ def row(plant_name: str, seed: int, duration: float) -> dict:
 
 
 def main(argv=None) -> int:
+    """Print the table (one row per plant and seed) and the targets; returns the exit code 0."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--plants", default="paper," + ",".join(VARIANT_NAMES))
     ap.add_argument("--seeds", default="0", help="e.g. 0-9 or 0,3,5 (default 0)")
