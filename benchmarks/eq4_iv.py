@@ -2,7 +2,7 @@
 
 Run:  python benchmarks/eq4_iv.py [--plants paper,karnopp,...] [--seeds 0-9] [--duration 120] [--jobs N]
 
-For each plant (the ``paper`` preset or a variant of :mod:`plant.variant_plants`) and seed, one comparison is
+For each plant (the ``paper`` preset, a variant of :mod:`plant.variant_plants` or the drift case) and seed, one comparison is
 prepared (:func:`controllers.experiments.compare.prepare_comparison`: reference, PI, Stribeck pre-fit, noise) and
 the ``adaptive`` mode runs with each estimator on the same reference and noise: ``eq4`` (the paper's RLS on every
 sample, bare feedforward), ``eq4-iv`` (recursive IV with the instruments ``phi(k-2)`` on the sliding samples,
@@ -25,7 +25,7 @@ import numpy as np
 from controllers.experiments.compare import CompareOptions, eta, prepare_comparison
 from controllers.simulation.closed_loop import run_mode
 from plant.friction import preset
-from plant.variant_plants import VARIANT_NAMES, variant
+from plant.variant_plants import VARIANT_NAMES, drift_case, variant
 
 #: Estimators of the table, in column order.
 ESTIMATORS = ("eq4", "eq4-iv", "sliding")
@@ -46,7 +46,8 @@ def row(plant_name: str, seed: int, duration: float) -> dict:
     Parameters
     ----------
     plant_name : str
-        ``"paper"`` or a name of :data:`plant.variant_plants.VARIANT_NAMES`.
+        ``"paper"``, a name of :data:`plant.variant_plants.VARIANT_NAMES` or ``"drift"``
+        (:func:`plant.variant_plants.drift_case`).
     seed : int
         Seed of the comparison (reference, pre-fit, noise).
     duration : float
@@ -57,7 +58,10 @@ def row(plant_name: str, seed: int, duration: float) -> dict:
     dict
         ``plant``, ``seed`` and the second-half eta per estimator name.
     """
-    p = preset("paper") if plant_name == "paper" else variant(plant_name)
+    if plant_name == "drift":
+        p = drift_case(duration)
+    else:
+        p = preset("paper") if plant_name == "paper" else variant(plant_name)
     s = prepare_comparison(p, CompareOptions(seed=seed, duration=duration, modes=("none", "adaptive")))
     rms = {}
     for mode in ("none", "frictionless"):
@@ -74,7 +78,7 @@ def row(plant_name: str, seed: int, duration: float) -> dict:
 def main(argv=None) -> int:
     """Print the table (one row per plant and seed) and the targets; returns the exit code 0."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--plants", default="paper," + ",".join(VARIANT_NAMES))
+    ap.add_argument("--plants", default="paper," + ",".join(VARIANT_NAMES) + ",drift")
     ap.add_argument("--seeds", default="0", help="e.g. 0-9 or 0,3,5 (default 0)")
     ap.add_argument("--duration", type=float, default=120.0)
     ap.add_argument("--jobs", type=int, default=1)

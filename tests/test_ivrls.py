@@ -185,11 +185,11 @@ def test_eq4_component_rows_and_gate_match_numpy():
 
 
 def test_closed_loop_eta_paper_preset():
-    """Mode adaptive with eq4-iv on the paper preset (seed 0, 120 s): eta 0.985 measured (docs/benchmarks/
+    """Mode adaptive with eq4-iv on the paper preset (seed 0, 120 s): eta 1.002 measured (docs/benchmarks/
     compensation.md); the paper's RLS on the same scenario 0.15."""
     res = {e: compare(preset("paper"), modes=("none", "adaptive"), estimator=e, seed=0, progress=False)
            for e in ("eq4", "eq4-iv")}
-    assert res["eq4-iv"].eta["adaptive"] >= 0.96
+    assert res["eq4-iv"].eta["adaptive"] >= 0.98
     assert res["eq4"].eta["adaptive"] < 0.4
     info = res["eq4-iv"].results["adaptive"].info
-    assert info["estimator"] == "eq4-iv" and info["n_gated"] > 0 and info["lam"] == 0.999
+    assert info["estimator"] == "eq4-iv" and info["n_gated"] > 0 and info["lam"] == 1.0 - 0.002 / 5.0
