@@ -88,7 +88,7 @@ class ModeOptions:
         Controller period = integration step (s), default 1 ms.
     Ts : float
         Estimator sample time (s), a multiple of ``Tc``; default 10 ms (paper): the RLS update period of the
-        ``sliding`` estimator and of ``canudas``, the identification sample time of ``eq4``.
+        ``sliding`` estimator and of ``canudas``, the identification sample time of ``eq4`` (``eq4-iv``: ``iv_Ts``).
     noise_std : float
         White velocity-measurement noise (rad/s).
     J_design : float or None
