@@ -17,6 +17,7 @@ HEADERS = [
     "aff_compensator.h",
     "aff_gate.h",
     "aff_rls.h",
+    "aff_ivrls.h",
     "aff_regression.h",
     "aff_velocity_input.h",
     "aff_feedforward.h",

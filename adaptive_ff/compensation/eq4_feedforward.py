@@ -1,4 +1,4 @@
-"""The paper's eq. 4 adaptive feedforward as a compensator component: RLS (eqs. 10-13) at Ts drives the feedforward.
+"""The paper's eq. 4 adaptive feedforward as a compensator component: RLS (eqs. 10-13) or IV at Ts drives it.
 
 The first prototype of the paper's future work, kept as a baseline to
 :class:`adaptive_ff.compensation.adaptive_feedforward.RobustAdaptiveFeedforward`: the
@@ -6,11 +6,16 @@ regression model of eq. 4 (:class:`adaptive_ff.identification.regression.Regress
 is estimated online by recursive least squares on the (u, w) stream sampled
 at ``Ts``, every estimate is mapped to physical parameters (inverse map of
 eq. 4), projected onto the admissible set and, after the warm-up, put into a
-:class:`adaptive_ff.compensation.feedforward.FrictionFeedforward`.
+:class:`adaptive_ff.compensation.feedforward.FrictionFeedforward`. With ``iv=True`` the estimator is
+the recursive instrumental-variable method (:class:`adaptive_ff.compensation.ivrls.RecursiveIV`) with the
+velocities of the regressor delayed by two samples as instruments, consistent in the closed loop where the RLS is
+biased, and ``w_band`` keeps stick and creep samples (where eq. 4 does not hold) from the estimator
+(docs/theory.md, "Instrumental variables for eq. 4 in the closed loop").
 
 Compensator component (ops table ``aff_eq4_ff_ops``): the configuration and state are the C struct ``aff_eq4_ff``
 (``adaptive_ff/csrc/aff_eq4_ff.h``), which embeds the feedforward's (``aff_fixed_ff``), the two range gates' and the
-RLS's (``aff_rls``) structs. C is the one implementation: ``aff_eq4_ff_sample`` (one sample of the stream,
+RLS's (``aff_rls``) and the IV estimator's (``aff_ivrls``) structs. C is the one implementation:
+``aff_eq4_ff_sample`` (one sample of the stream,
 :meth:`AdaptiveFrictionFeedforward.observe`) and the compensator interface ``aff_eq4_ff_compensate`` /
 ``aff_eq4_ff_observe`` (ops table ``aff_eq4_ff_ops``), called by the class's methods and by the closed-loop engine.
 """
@@ -24,10 +29,11 @@ import numpy as np
 from adaptive_ff._caff import ffi, lib
 from adaptive_ff.compensation.feedforward import FrictionFeedforward
 from adaptive_ff.compensation.gate import RangeGate
+from adaptive_ff.compensation.ivrls import RecursiveIV
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from plant.component import Component
-from plant.errors import ParameterError, check_multiple, check_positive
+from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive
 
 __all__ = ["AdaptiveFrictionFeedforward"]
 
@@ -64,6 +70,19 @@ class AdaptiveFrictionFeedforward(Component):
         ``RangeGate()`` and ``RangeGate(floor=model.Vs)`` (or ``floor`` 0 without
         the Stribeck term): a sample above 100 times the envelope of the accepted
         ones is refused (:class:`adaptive_ff.compensation.gate.RangeGate`).
+    iv : bool, keyword-only
+        Estimate with recursive IV (:class:`adaptive_ff.compensation.ivrls.RecursiveIV`, same ``lam``, ``P0``, trace
+        bound ``p*P0``, ``guard``) and the instruments ``z(k)``, eq. 4's regressor of ``u(k)``, ``u(k-1)``, ``w(k-3)``,
+        ``w(k-4)`` (the velocities two samples older than in ``phi(k)``), instead of the RLS; default False (the
+        paper's RLS). A sample whose IV update is refused (``phi @ P @ z < 0``) still enters the stored past. In the
+        closed loop (:meth:`compensate`) the torque of a sample is then the mean of the torques applied since the
+        previous sample, not the last one (docs/theory.md).
+    w_band : float, keyword-only
+        Sliding-regime gate (rad/s, >= 0): only samples with ``|w(k)|``, ``|w(k-1)|``, ``|w(k-2)|`` above it and of
+        one sign update the estimator; default 0 (every sample, the paper).
+    sign_width, stick_band, stick_samples, loop_model, sign_observer : keyword-only
+        The feedforward's input near standstill (see :class:`FrictionFeedforward`); defaults: none of it (the
+        bare feedforward of the paper's prototype).
 
     Attributes
     ----------
@@ -76,7 +95,11 @@ class AdaptiveFrictionFeedforward(Component):
         ``model.n_params``.
     model : RegressionModel
     rls : RecursiveLeastSquares
-        The estimator (public ``theta``, ``P``); its struct is a field of this component's.
+        The estimator without ``iv`` (public ``theta``, ``P``); its struct is a field of this component's.
+    ivrls : RecursiveIV
+        The estimator with ``iv`` (its struct is a field of this component's).
+    n_gated : int
+        Samples the sliding-regime gate kept from the estimator.
     estimate : FrictionEstimate or None
         Estimate in use (projected), None before the first admissible one.
     n_rejected : int
@@ -93,7 +116,8 @@ class AdaptiveFrictionFeedforward(Component):
     Notes
     -----
     At each sample ``k``: ``phi(k)`` from eq. 4 with the stored ``u(k-1)``,
-    ``w(k-1)``, ``w(k-2)``; RLS update; ``theta`` mapped to physical
+    ``w(k-1)``, ``w(k-2)``; RLS (or IV) update unless the sliding-regime gate refuses the sample; ``theta``
+    mapped to physical
     parameters (inverse map in :mod:`adaptive_ff.identification.regression`), projected
     (:func:`~adaptive_ff.compensation.feedforward.project_levels`); the feedforward uses the last admissible estimate.
     """
@@ -105,8 +129,12 @@ class AdaptiveFrictionFeedforward(Component):
 
     def __init__(self, model: RegressionModel, *, Ts: float, dt: float, lam: float = 0.995, P0: float = 1e4,
                  warmup: int = 300, lag: bool = True, ff_max: float = math.inf, tau_max: float = 1.0,
-                 ff_input: str = "measured", u_range: RangeGate | None = None, w_range: RangeGate | None = None):
-        ff = FrictionFeedforward(None, dt=dt, lag=lag, ff_max=ff_max, ff_input=ff_input)
+                 ff_input: str = "measured", u_range: RangeGate | None = None, w_range: RangeGate | None = None,
+                 iv: bool = False, w_band: float = 0.0, sign_width: float = 0.0, stick_band: float = 0.0,
+                 stick_samples: int = 10, loop_model=None, sign_observer=None):
+        ff = FrictionFeedforward(None, dt=dt, lag=lag, ff_max=ff_max, ff_input=ff_input, sign_width=sign_width,
+                                 stick_band=stick_band, stick_samples=stick_samples, loop_model=loop_model,
+                                 sign_observer=sign_observer)
         if not isinstance(model, RegressionModel):
             raise ParameterError(f"model must be a RegressionModel, got {type(model).__name__}")
         Ts = check_positive("Ts", Ts)
@@ -114,8 +142,12 @@ class AdaptiveFrictionFeedforward(Component):
         if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
             raise ParameterError(f"warmup must be an integer >= 0, got {warmup!r}")
         tau_max = check_positive("tau_max", tau_max)
+        if not isinstance(iv, (bool, np.bool_)):
+            raise ParameterError(f"iv must be True or False, got {iv!r}")
+        w_band = check_nonnegative("w_band", w_band)
         p = model.n_params
         rls = RecursiveLeastSquares(p, lam=lam, P0=P0)
+        ivrls = RecursiveIV(p, lam=lam, P0=P0, guard=True)
         self.model = model
         self.n_theta = p
         u_range = RangeGate() if u_range is None else u_range
@@ -126,11 +158,13 @@ class AdaptiveFrictionFeedforward(Component):
         self._new_struct()
         lib.aff_eq4_ff_init(self._c, ff.cdata, m, Ts, int(warmup), tau_max, ff.ff_max,
                             model.Vs if model.stribeck else 1.0, model.delta if model.stribeck else 1.0,
-                            model.lag, model.stribeck, model.offset, u_range.cdata, w_range.cdata, rls.cdata)
+                            model.lag, model.stribeck, model.offset, u_range.cdata, w_range.cdata, rls.cdata,
+                            int(bool(iv)), w_band, ivrls.cdata)
         self._ff = ff
         self.u_range = u_range
         self.w_range = w_range
         self.rls = rls
+        self.ivrls = ivrls
         self._attached()
 
     def _attached(self) -> None:
@@ -139,33 +173,38 @@ class AdaptiveFrictionFeedforward(Component):
         self.u_range._use(ffi.addressof(self._c, "u_range"), self)
         self.w_range._use(ffi.addressof(self._c, "w_range"), self)
         self.rls._use(ffi.addressof(self._c, "rls"), self)
+        self.ivrls._use(ffi.addressof(self._c, "ivrls"), self)
 
     def __repr__(self) -> str:
         return (f"AdaptiveFrictionFeedforward({self.model!r}, Ts={self.Ts!r}, dt={self.dt!r}, "
-                f"warmup={self.warmup}, n_updates={self.rls.n_updates})")
+                f"warmup={self.warmup}, iv={self.iv}, w_band={self.w_band!r}, n_updates={self._est.n_updates})")
 
     # ---- configuration
     Ts = property(lambda self: float(self._c.Ts), doc="Sample time of the (u, w) stream (s).")
     m = property(lambda self: int(self._c.m), doc="Periods ``dt`` per sample ``Ts``.")
     warmup = property(lambda self: int(self._c.warmup), doc="RLS updates before switch-on.")
     tau_max = property(lambda self: float(self._c.tau_max), doc="Upper projection bound of tau (s).")
+    iv = property(lambda self: bool(self._c.iv), doc="Estimate with recursive IV (else the RLS).")
+    w_band = property(lambda self: float(self._c.w_band), doc="Sliding-regime gate (rad/s), 0 = none.")
+    _est = property(lambda self: self.ivrls if self.iv else self.rls)
     dt = property(lambda self: self._ff.dt, doc="Call period of :meth:`step` (s).")
     lag = property(lambda self: self._ff.lag, doc="Filter the feedforward through the estimated lag.")
     ff_max = property(lambda self: self._ff.ff_max, doc="Bound on |feedforward| (N·m).")
     ff_input = property(lambda self: self._ff.ff_input, doc="Velocity :meth:`compensate` evaluates at.")
-    sign_width = property(lambda self: self._ff.sign_width, doc="Sign ramp half-width (rad/s), 0.")
-    stick_band = property(lambda self: self._ff.stick_band, doc="Stick-detection band (rad/s), 0.")
+    sign_width = property(lambda self: self._ff.sign_width, doc="Sign ramp half-width (rad/s).")
+    stick_band = property(lambda self: self._ff.stick_band, doc="Stick-detection band (rad/s).")
     stick_samples = property(lambda self: self._ff.stick_samples, doc="In-band samples that declare sticking.")
 
     # ---- state
     u_ff = property(lambda self: self._ff.u_ff, doc="Feedforward before the clip (N·m).")
     n_rejected = property(lambda self: int(self._c.n_rejected), doc="Refused samples.")
     n_implausible = property(lambda self: int(self._c.n_implausible), doc="Estimates that failed the projection.")
+    n_gated = property(lambda self: int(self._c.n_gated), doc="Samples the sliding-regime gate kept out.")
 
     @property
     def theta(self) -> np.ndarray:
-        """Current RLS parameter vector, shape (p,)."""
-        return self.rls.theta
+        """Current parameter vector of the estimator in use (RLS, or IV with ``iv``), shape (p,)."""
+        return self._est.theta
 
     @property
     def estimate(self) -> FrictionEstimate | None:
@@ -182,11 +221,16 @@ class AdaptiveFrictionFeedforward(Component):
         Returns
         -------
         dict
-            ``estimator`` ("eq4"), ``n_rejected``, ``n_implausible``, ``n_updates`` (RLS), ``lam``,
-            ``names`` (the regression parameters, :attr:`RegressionModel.names`).
+            ``estimator`` ("eq4", "eq4-iv" with ``iv``), ``n_rejected``, ``n_implausible``, ``n_updates`` (of the
+            estimator in use), ``lam``, ``names`` (the regression parameters, :attr:`RegressionModel.names`); with
+            ``w_band > 0`` also ``n_gated`` and ``w_band``.
         """
-        return {"estimator": "eq4", "n_rejected": self.n_rejected, "n_implausible": self.n_implausible,
-                "n_updates": self.rls.n_updates, "lam": self.rls.lam, "names": list(self.model.names)}
+        d = {"estimator": "eq4-iv" if self.iv else "eq4", "n_rejected": self.n_rejected,
+             "n_implausible": self.n_implausible, "n_updates": self._est.n_updates, "lam": self._est.lam,
+             "names": list(self.model.names)}
+        if self.w_band > 0:
+            d.update(n_gated=self.n_gated, w_band=self.w_band)
+        return d
 
     def static(self, w: float) -> float:
         """Static friction of the estimate in use ``F_hat(w)`` (N·m), eq. 3 (no offset); 0 without one."""
@@ -200,7 +244,7 @@ class AdaptiveFrictionFeedforward(Component):
         w : float
             Velocity the friction map is evaluated at (rad/s).
         w_ref : float, optional
-            Used instead of ``w`` while the joint is detected as stuck (never here: ``stick_band`` is 0).
+            Used instead of ``w`` while the joint is detected as stuck (only with ``stick_band > 0``).
 
         Returns
         -------

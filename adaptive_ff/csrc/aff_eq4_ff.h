@@ -1,11 +1,24 @@
-/* aff_eq4_ff.h -- the paper's eq. 4 adaptive feedforward: RLS (eqs. 10-13) on the (u, w) stream sampled at Ts
- * drives the fixed feedforward.
+/* aff_eq4_ff.h -- the paper's eq. 4 adaptive feedforward: RLS (eqs. 10-13) or recursive IV on the (u, w) stream
+ * sampled at Ts drives the fixed feedforward.
  *
  * At each sample k (every m-th controller period): phi(k) of eq. 4 (aff_regression.h) from the stored u(k-1),
- * w(k-1), w(k-2); RLS update with the output w(k); after warmup updates theta is mapped to physical parameters
- * (inverse map of eq. 4), projected (aff_project_levels) and, if admissible, put into the feedforward. Samples
- * pass a torque and a velocity range gate first. The first prototype of the paper's future work, kept as a
- * baseline. Python: adaptive_ff.compensation.eq4_feedforward.AdaptiveFrictionFeedforward (mode "adaptive").
+ * w(k-1), w(k-2); an update of the estimator with the output w(k); after warmup updates theta is mapped to physical
+ * parameters (inverse map of eq. 4), projected (aff_project_levels) and, if admissible, put into the feedforward.
+ * Samples pass a torque and a velocity range gate first. Estimators:
+ *  - iv == 0: the RLS of eqs. 10-13 (aff_rls.h), the paper's estimator: biased in the closed loop (docs/theory.md);
+ *  - iv == 1: recursive IV (aff_ivrls.h) with the instruments z(k) = phi(k) of eq. 4 evaluated at u(k), u(k-1),
+ *    w(k-3), w(k-4): under white measurement noise n (per controller period) the equation error of eq. 4 is
+ *    n(k) - a1 n(k-1) + a2 n(k-2) plus the noise in g, h of w(k-1), so w(k-1), w(k-2), g, h are correlated with it
+ *    and w(k-3), w(k-4) are not; u(k), u(k-1) react to the noise of samples k-1, k-2 only through one period of
+ *    each interval and the PI's integral, negligible against the torque itself, so they are their own instruments. E[z(k) e(k)] = 0 up to that leak (Soderstrom & Stoica, System
+ *    Identification, 1989, Ch. 8: delayed outputs as instruments for an equation error of finite moving-average
+ *    order; docs/theory.md, "Instrumental variables for eq. 4 in the closed loop"). In the compensator interface
+ *    the torque u(k) of a sample is then the mean of the m torques applied since the previous sample (the input
+ *    that moved the joint over the interval; the last one alone leads it by Ts/2 and biases tau by about -Ts/2).
+ * With w_band > 0 (the sliding-regime gate) only samples with |w(k)|, |w(k-1)|, |w(k-2)| > w_band of one sign update
+ * the estimator: eq. 4 describes sliding (the paper's Sec. II-B); stick and creep rows bias it whatever the estimator.
+ * The first prototype of the paper's future work, kept as a baseline (iv = 0, w_band = 0).
+ * Python: adaptive_ff.compensation.eq4_feedforward.AdaptiveFrictionFeedforward (mode "adaptive").
  */
 #ifndef AFF_EQ4_FF_H
 #define AFF_EQ4_FF_H
@@ -15,9 +28,10 @@
 #include "aff_gate.h"
 #include "aff_regression.h"
 #include "aff_rls.h"
+#include "aff_ivrls.h"
 
 typedef struct aff_eq4_ff {
-    aff_fixed_ff ff;              /* the feedforward (no stick detection, loop model or sign observer) */
+    aff_fixed_ff ff;              /* the feedforward (the paper's prototype: no stick detection or sign observer) */
     /* configuration */
     long m;                       /* controller periods per sample, Ts/dt */
     aff_real Ts;                  /* sample time of the stream (s) */
@@ -44,18 +58,35 @@ typedef struct aff_eq4_ff {
     int has_estimate;             /* 1 once an estimate is in use */
     aff_physical est;             /* the estimate in use (projected) */
     aff_real phi[AFF_RLS_NMAX];   /* regressor of the last sample */
-    aff_rls rls;                  /* the estimator of theta (p = the structure's n_params) */
+    aff_rls rls;                  /* the estimator of theta with iv == 0 (p = the structure's n_params) */
+    int iv;                       /* 1: estimate with ivrls and the instruments z(k) = phi(k-2); 0: with rls */
+    aff_real w_band;              /* sliding-regime gate (rad/s), 0 = none (header comment) */
+    long n_past;                  /* samples held in the past, 0..5 */
+    aff_real u2;                  /* u(k-2) (N*m) */
+    aff_real u3;                  /* u(k-3) (N*m) */
+    aff_real w3;                  /* w(k-3) (rad/s) */
+    aff_real w4;                  /* w(k-4) (rad/s) */
+    long n_gated;                 /* samples the sliding-regime gate kept from the estimator */
+    aff_real z[AFF_RLS_NMAX];     /* instruments of the last IV update */
+    aff_real u_sum;               /* sum of the torques applied since the last sample (N*m) */
+    aff_ivrls ivrls;              /* the estimator of theta with iv == 1 (p = the structure's n_params) */
 } aff_eq4_ff;
 
-/* Configure e from the configured parts ff (aff_fixed_ff_init), u_range, w_range (aff_range_gate_init) and rls
- * (aff_rls_init with p = 3 + 2*lag + stribeck + offset), copied by value, and clear its state (due = m). Returns
- * 0, or -1 (e untouched) if rls->p does not fit the structure. Python: AdaptiveFrictionFeedforward.__init__. */
+/* Configure e from the configured parts ff (aff_fixed_ff_init), u_range, w_range (aff_range_gate_init), rls
+ * (aff_rls_init with p = 3 + 2*lag + stribeck + offset) and ivrls (aff_ivrls_init, same p; read only with iv,
+ * may be NULL without), copied by value, the estimator (iv) and the sliding-regime gate w_band (rad/s, >= 0), and
+ * clear its state (due = m). Returns 0, or -1 (e untouched) if rls->p (with iv ivrls->p) does not fit the
+ * structure. Python: AdaptiveFrictionFeedforward.__init__. */
 int aff_eq4_ff_init(aff_eq4_ff *e, const aff_fixed_ff *ff, long m, aff_real Ts, long warmup, aff_real tau_max,
                     aff_real F_max, aff_real Vs, aff_real delta, int lag, int stribeck, int offset,
-                    const aff_range_gate *u_range, const aff_range_gate *w_range, const aff_rls *rls);
+                    const aff_range_gate *u_range, const aff_range_gate *w_range, const aff_rls *rls, int iv,
+                    aff_real w_band, const aff_ivrls *ivrls);
 
 /* One sample (u(k) N*m, w(k) rad/s) of the stream: returns 0 if refused (a range gate, or the RLS refused the
- * update: only counters change), else 1 (the first sample only fills the past). Python:
+ * update: only counters change; the IV refused the update, phi'P z < 0 or overflow: counters change and the sample
+ * enters the past, whose instruments stay consecutive), else 1 (the first sample, with iv the first four, only
+ * fill the past; a sample the sliding-regime gate keeps from the estimator only shifts the past and counts in
+ * n_gated). Python:
  * AdaptiveFrictionFeedforward.observe (was eq4_sample). */
 int aff_eq4_ff_sample(aff_eq4_ff *e, aff_real u, aff_real w);
 
@@ -63,8 +94,10 @@ int aff_eq4_ff_sample(aff_eq4_ff *e, aff_real u, aff_real w);
  * sample (the previous period's torque, w_meas), then the feedforward (aff_fixed_ff_compensate at w_ctrl/w_ref). */
 double aff_eq4_ff_compensate(void *self, double w_ctrl, double w_meas, double w_ref);
 
-/* Compensator interface: store the applied torque u (N*m) for the next sample; returns 1 in a period that took
- * a sample (refused ones included), then theta is written into theta_out[0..p-1] (if not NULL), else 0. */
+/* Compensator interface: step the feedforward's sign observer (aff_fixed_ff_observe), store the applied torque u
+ * (N*m) for the next sample; returns 1 in a period that took
+ * a sample (refused ones included), then theta (of rls, with iv of ivrls) is written into theta_out[0..p-1] (if
+ * not NULL), else 0. */
 int aff_eq4_ff_observe(void *self, double u, double w_meas, double *theta_out);
 
 /* The ops table of the eq. 4 feedforward (name "adaptive"). */

@@ -246,8 +246,9 @@ def register(sub) -> None:
     c.add_argument("--modes", help="comma-separated subset of none,fixed,adaptive,adaptive-dob,canudas,dob,oracle,"
                                    "frictionless "
                                    "(default: all; none and frictionless always run)")
-    c.add_argument("--estimator", choices=("sliding", "eq4"), default="sliding",
-                   help="adaptive estimator: sliding-regime inverse-dynamics RLS (default) or the paper's eq. 4")
+    c.add_argument("--estimator", choices=("sliding", "eq4", "eq4-iv"), default="sliding",
+                   help="adaptive estimator: sliding-regime inverse-dynamics RLS (default), the paper's eq. 4 RLS or "
+                        "eq. 4 by recursive IV on the sliding samples")
     c.add_argument("--ff-input", choices=("measured", "reference"), default="measured",
                    help="velocity the friction feedforward is evaluated at (default: measured)")
     c.add_argument("--omega-q", type=float, default=500.0,

@@ -298,7 +298,7 @@ class CompareOptions:
         the DOB's nominal inertia. Default None: the plant's ``J``, as a data sheet would give it.
     lag : bool
         Filter the feedforward through the estimated lag.
-    estimator : {"sliding", "eq4"}
+    estimator : {"sliding", "eq4", "eq4-iv"}
         Estimator of the ``adaptive`` mode.
     fixed_method : {"sliding", "eq4"}
         Offline identification of the ``fixed`` mode (:data:`FIXED_METHODS`).

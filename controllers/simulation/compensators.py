@@ -48,9 +48,15 @@ __all__ = ["MODES", "ESTIMATORS", "ModeOptions", "TrueFriction", "build_mode", "
 #: ``ModeOptions.supervise`` (the adaptive ones: their estimate may be wrong).
 SUPERVISED_MODES = ("adaptive", "adaptive-dob")
 
-#: Estimators of the ``adaptive`` mode: the sliding-regime inverse-dynamics RLS (default) or the paper's eq. 4
-#: RLS at Ts (baseline).
-ESTIMATORS = ("sliding", "eq4")
+#: Default sample time (s) and memory (s, ``lam = 1 - Ts/memory``) of the ``eq4-iv`` estimator
+#: (``ModeOptions.iv_Ts``, ``lam``): the IV removes the noise bias that keeps eq. 4's LS at 10 ms, and at 2 ms the
+#: backward differences of eq. 4 misstate the lag less (docs/theory.md).
+_IV_TS = 0.002
+_IV_MEMORY = 5.0
+
+#: Estimators of the ``adaptive`` mode: the sliding-regime inverse-dynamics RLS (default), the paper's eq. 4
+#: RLS at Ts (baseline) or eq. 4 by recursive IV on the sliding samples (``eq4-iv``, docs/theory.md).
+ESTIMATORS = ("sliding", "eq4", "eq4-iv")
 
 
 class TrueFriction:
@@ -82,7 +88,7 @@ class ModeOptions:
         Controller period = integration step (s), default 1 ms.
     Ts : float
         Estimator sample time (s), a multiple of ``Tc``; default 10 ms (paper): the RLS update period of the
-        ``sliding`` estimator and of ``canudas``, the identification sample time of ``eq4``.
+        ``sliding`` estimator and of ``canudas``, the identification sample time of ``eq4`` (``eq4-iv``: ``iv_Ts``).
     noise_std : float
         White velocity-measurement noise (rad/s).
     J_design : float or None
@@ -91,14 +97,17 @@ class ModeOptions:
     estimate : FrictionEstimate or None
         Offline estimate for ``fixed``.
     model : RegressionModel or None
-        Regression structure for ``estimator="eq4"``; for ``"sliding"`` its Vs, delta are used when
-        ``Vs``/``delta`` are not given.
-    estimator : {"sliding", "eq4"}
-        Estimator of the ``adaptive`` mode.
+        Regression structure for ``estimator="eq4"`` and ``"eq4-iv"``; for ``"sliding"`` its Vs, delta are used
+        when ``Vs``/``delta`` are not given.
+    estimator : {"sliding", "eq4", "eq4-iv"}
+        Estimator of the ``adaptive`` mode; ``eq4-iv``: eq. 4 by recursive IV with delayed instruments on the
+        samples above ``model.Vs`` (:class:`adaptive_ff.AdaptiveFrictionFeedforward` with ``iv=True``,
+        ``w_band=model.Vs``).
     Vs, delta : float or None
         Stribeck factors for the sliding estimator (pre-fit).
     lam : float or None
-        Forgetting factor per update; default 0.995 (``sliding``, ``eq4``), 0.999 (``canudas``).
+        Forgetting factor per update; default 0.995 (``sliding``, ``eq4``), 0.999 (``canudas``), ``1 - iv_Ts/5``
+        for ``eq4-iv`` (a memory of 5 s: the IV estimate's variance exceeds the LS one's).
     P0, warmup, lag, forgetting, T_filter, initial, dwell_max, offset
         Estimator settings (see :class:`adaptive_ff.SlidingFrictionEstimator`,
         :class:`adaptive_ff.RobustAdaptiveFeedforward`).
@@ -187,6 +196,9 @@ class ModeOptions:
     supervise_omega : float or None
         Cut-off of its Q-filter (rad/s); default None: ``Kp/J_design``, the loop's crossover (``omega`` of
         :func:`build_supervisor`).
+    iv_Ts : float or None
+        Sample time (s) of the ``eq4-iv`` estimator, a multiple of ``Tc``; default None: 2 ms (rounded to a multiple
+        of ``Tc``, at least ``Tc``). ``Ts`` is that of the other estimators.
     supervise_rest_band : float or None
         The reference is at rest where ``|w_ref|`` is at most this (rad/s): the supervisor applies no compensation
         there once it has been for one loop time constant (a velocity loop's friction then brakes the joint toward
@@ -256,11 +268,14 @@ class ModeOptions:
     supervise_margin: float = 0.1
     supervise_omega: float | None = None
     supervise_rest_band: float | None = 0.0
+    iv_Ts: float | None = None
 
     def __post_init__(self):
         check_positive("Tc", self.Tc)
         check_multiple("Ts", self.Ts, "Tc", self.Tc)
         check_positive("omega_r", self.omega_r)
+        if self.iv_Ts is not None:
+            check_multiple("iv_Ts", self.iv_Ts, "Tc", self.Tc)
         if self.estimator not in ESTIMATORS:
             raise ParameterError(f"estimator must be one of {ESTIMATORS}, got {self.estimator!r}")
         if self.ff_input not in ("reference", "measured"):
@@ -392,11 +407,24 @@ def _adaptive_feedforward(plant, o):
     of ``adaptive-dob``."""
     J, ff_max = _ctx(plant, o)
     lam = 0.995 if o.lam is None else o.lam
-    if o.estimator == "eq4":
+    Ts = o.Ts
+    if o.estimator == "eq4-iv":
+        Ts = o.Tc * max(1, round(_IV_TS / o.Tc)) if o.iv_Ts is None else o.iv_Ts
+        lam = 1.0 - Ts / _IV_MEMORY if o.lam is None else o.lam
+    if o.estimator in ("eq4", "eq4-iv"):
         if o.model is None:
-            raise ParameterError("mode 'adaptive' with estimator 'eq4' needs model=RegressionModel(Vs, delta, ...)")
-        return plant, AdaptiveFrictionFeedforward(o.model, Ts=o.Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup,
-                                                  lag=o.lag, ff_max=ff_max, ff_input=o.ff_input)
+            raise ParameterError(f"mode 'adaptive' with estimator {o.estimator!r} needs model=RegressionModel(Vs, "
+                                 f"delta, ...)")
+        if o.estimator == "eq4":  # the paper's prototype: RLS on every sample, the bare feedforward
+            return plant, AdaptiveFrictionFeedforward(o.model, Ts=o.Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup,
+                                                      lag=o.lag, ff_max=ff_max, ff_input=o.ff_input)
+        m = o.model  # with the constant-torque column (offset), as the sliding estimator's
+        model = RegressionModel(m.Vs, m.delta, lag=m.lag, stribeck=m.stribeck, offset=bool(o.offset))
+        return plant, AdaptiveFrictionFeedforward(model, Ts=Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup,
+                                                  lag=o.lag, ff_max=ff_max, ff_input=o.ff_input, iv=True,
+                                                  w_band=m.Vs if m.stribeck else 0.0, sign_width=o.sign_width,
+                                                  stick_band=o.stick_band, stick_samples=o.stick_samples,
+                                                  loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
     Vs = o.Vs if o.Vs is not None else (o.model.Vs if o.model is not None else None)
     delta = o.delta if o.delta is not None else (o.model.delta if o.model is not None else None)
     if Vs is None or delta is None:
