@@ -240,7 +240,8 @@ class IdentificationReport:
         (:attr:`uncertainty`, or the physical method's ``info["interval95"]``), else ``value ± 1.96 stderr``."""
         if self.physical is None and self.uncertainty is not None and self.uncertainty.level == 0.95:
             return dict(self.uncertainty.interval)
-        iv = self.physical.info.get("interval95") if self.physical is not None else None
+        info = self.physical.info if self.physical is not None else {}
+        iv = info.get("interval95") or (info.get("bootstrap") or {}).get("interval95")
         if iv:
             return {k: (float(v[0]), float(v[1])) for k, v in iv.items()}
         vals = self.params
