@@ -61,7 +61,7 @@ from plant.results import axes_or_new, json_safe
 from plant.stribeck_map import stribeck
 
 __all__ = ["FrictionBand", "ParameterUncertainty", "friction_curves", "friction_band", "eq4_block_bootstrap",
-           "BAND_POINTS", "DEFAULT_N_BOOTSTRAP"]
+           "regression_block_bootstrap", "BAND_POINTS", "DEFAULT_N_BOOTSTRAP"]
 
 #: Points of the velocity grid of a friction band (odd: ``w = 0`` is one of them).
 BAND_POINTS = 101
@@ -265,6 +265,69 @@ def _check_count(name: str, v, lo: int) -> int:
     return int(v)
 
 
+def regression_block_bootstrap(X, y, theta, physical, names, *, w_max: float, Vs: float | None,
+                               delta: float | None, n: int = DEFAULT_N_BOOTSTRAP, seed: int = 0,
+                               block: int | None = None, level: float = 0.95) -> ParameterUncertainty:
+    """Residual block bootstrap of a linear regression ``y = X theta`` whose parameters map to physical ones.
+
+    Parameters
+    ----------
+    X : array_like, shape (m, p)
+        Regressors, rows in time order.
+    y : array_like, shape (m,)
+        Regressand.
+    theta : array_like, shape (p,)
+        The LS estimate.
+    physical : callable
+        ``physical(theta) -> object`` with the attributes ``names`` and ``Fc``, ``Fs``, ``sigma`` (e.g. a
+        :class:`adaptive_ff.identification.regression.FrictionEstimate`).
+    names : sequence of str
+        Physical parameters reported.
+    w_max : float, keyword-only
+        Half-width of the band's velocity grid (the record's largest ``|w|``); no band if not > 0.
+    Vs, delta : float or None, keyword-only
+        Stribeck velocity and shape of the band's curve; None: Coulomb + viscous.
+    n, seed, block, level : keyword-only
+        Replicates (>= 2), seed (>= 0), block length (default Politis-White of the residuals), nominal coverage.
+
+    Returns
+    -------
+    ParameterUncertainty
+
+    Raises
+    ------
+    ParameterError
+        ``n``, ``seed``, ``block`` or ``level`` invalid.
+    SignalError
+        Fewer than 8 rows, shapes that do not match, or non-finite data.
+    """
+    n, seed = _check_count("n", n, 2), _check_count("seed", seed, 0)
+    X, y = np.asarray(X, dtype=float), np.asarray(y, dtype=float).reshape(-1)
+    theta = np.asarray(theta, dtype=float).reshape(-1)
+    if X.ndim != 2 or X.shape != (y.shape[0], theta.shape[0]):
+        raise SignalError(f"X must be (m, p) with y (m,) and theta (p,), got {X.shape}, {y.shape}, {theta.shape}")
+    names = tuple(names)
+    fitted = X @ theta
+    pinv = np.linalg.pinv(X)
+
+    def vec(th) -> np.ndarray:
+        e = physical(th)
+        return np.array([getattr(e, k) for k in names + ("Fc", "Fs", "sigma")], dtype=float)
+
+    est = vec(theta)
+    b = residual_block_bootstrap(lambda ys: vec(pinv @ ys), fitted, y - fitted, est, n=n,
+                                 rng=np.random.default_rng(seed), block=block)
+    k = len(names)
+    t = bootstrap_t_quantile(max(b.n_valid, 1), level)
+    stderr = {nm: float(s) for nm, s in zip(names, b.stderr[:k])}
+    interval = {nm: (float(v - t * s), float(v + t * s)) for nm, v, s in zip(names, est[:k], b.stderr[:k])}
+    band = None
+    if b.n_valid >= 2 and math.isfinite(w_max) and w_max > 0:
+        band = friction_band(est[k:], b.replicates[:, k:], w_max=float(w_max), Vs=Vs, delta=delta, level=level)
+    return ParameterUncertainty(kind="residual block bootstrap", stderr=stderr, interval=interval, level=float(level),
+                                n=n, n_valid=b.n_valid, block=int(b.block), seed=seed, band=band)
+
+
 def eq4_block_bootstrap(model, u, w, theta, Ts: float, names, *, n: int = DEFAULT_N_BOOTSTRAP, seed: int = 0,
                         block: int | None = None, level: float = 0.95) -> ParameterUncertainty:
     """Residual block bootstrap of the paper's eq. 4 LS fit (module docstring).
@@ -282,14 +345,8 @@ def eq4_block_bootstrap(model, u, w, theta, Ts: float, names, *, n: int = DEFAUL
     names : sequence of str
         Physical parameters reported (attributes of
         :class:`adaptive_ff.identification.regression.FrictionEstimate`, e.g. ``("J", "sigma", "Fc", "offset")``).
-    n : int, keyword-only
-        Replicates, >= 2. Default :data:`DEFAULT_N_BOOTSTRAP`.
-    seed : int, keyword-only
-        Seed of the block starts (>= 0). Default 0.
-    block : int or None, keyword-only
-        Block length; default Politis-White of the LS residuals.
-    level : float, keyword-only
-        Nominal coverage of the intervals and the band. Default 0.95.
+    n, seed, block, level : keyword-only
+        As in :func:`regression_block_bootstrap`.
 
     Returns
     -------
@@ -303,27 +360,9 @@ def eq4_block_bootstrap(model, u, w, theta, Ts: float, names, *, n: int = DEFAUL
     SignalError
         Fewer than 8 regression rows, or non-finite data.
     """
-    n, seed = _check_count("n", n, 2), _check_count("seed", seed, 0)
     X, y = model.regressors(u, w)
-    theta = np.asarray(theta, dtype=float)
-    fitted = X @ theta
-    pinv = np.linalg.pinv(X)
-
-    def physical(th) -> np.ndarray:
-        e = model.to_physical(th, Ts)
-        return np.array([getattr(e, k) for k in tuple(names) + ("Fc", "Fs", "sigma")])
-
-    est = physical(theta)
-    b = residual_block_bootstrap(lambda ys: physical(pinv @ ys), fitted, y - fitted, est, n=n,
-                                 rng=np.random.default_rng(seed), block=block)
-    k = len(tuple(names))
-    t = bootstrap_t_quantile(max(b.n_valid, 1), level)
-    stderr = {nm: float(s) for nm, s in zip(names, b.stderr[:k])}
-    interval = {nm: (float(v - t * s), float(v + t * s)) for nm, v, s in zip(names, est[:k], b.stderr[:k])}
-    band = None
-    w_max = float(np.max(np.abs(w)))
-    if b.n_valid >= 2 and w_max > 0:
-        band = friction_band(est[k:], b.replicates[:, k:], w_max=w_max, Vs=model.Vs if model.stribeck else None,
-                             delta=model.delta if model.stribeck else None, level=level)
-    return ParameterUncertainty(kind="residual block bootstrap", stderr=stderr, interval=interval, level=float(level),
-                                n=n, n_valid=b.n_valid, block=int(b.block), seed=seed, band=band)
+    return regression_block_bootstrap(X, y, theta, lambda th: model.to_physical(th, Ts), names,
+                                      w_max=float(np.max(np.abs(np.asarray(w, dtype=float)))),
+                                      Vs=model.Vs if model.stribeck else None,
+                                      delta=model.delta if model.stribeck else None, n=n, seed=seed, block=block,
+                                      level=level)
