@@ -158,8 +158,8 @@ class FrictionBand:
         ax.fill_between(self.w, self.lower, self.upper, color="C0", alpha=0.25, lw=0,
                         label=f"{100 * self.level:g} % band ({self.n_replicates} bootstrap refits)")
         ax.plot(self.w, self.F, color="C0", lw=1.2, label="F(w) fitted")
-        ax.set_xlabel("velocity w")
-        ax.set_ylabel("friction F(w)")
+        ax.set_xlabel("velocity w (rad/s; m/s for a linear axis)")
+        ax.set_ylabel("friction F(w) (N·m; N for a linear axis)")
         ax.set_title("identified friction curve (eq. 3, offset excluded)")
         ax.legend(loc="best")
         ax.grid(True, alpha=0.3)
