@@ -186,3 +186,28 @@ def test_plot_draws_the_band_beside_the_rls_convergence(reports):
     assert len(bx.collections) == 1 and bx.lines[0].get_label() == "F(w) fitted"
     np.testing.assert_allclose(bx.lines[0].get_ydata(), rep.band.F)
     assert [ln.get_label() for ln in ax.lines if not ln.get_label().startswith("_")] == list(rep.model.names)
+
+
+def test_output_error_fit_reports_interval_and_band_of_its_bootstrap():
+    from adaptive_ff.identification.covariance import bootstrap_t_quantile
+    from adaptive_ff.identification.physical_id import fit_physical
+    from plant import preset
+
+    p = preset("paper")
+    rng = np.random.default_rng(4)
+    _, u = bandlimited_noise(8.0, dt=1e-3, cutoff=1.0, std=1.2 * (p.Fs + p.sigma * 0.35), rng=rng)
+    resp = simulate(p, u, dt=1e-3)
+    m = sample(resp, Ts=0.01, noise_std=0.01 * float(np.max(np.abs(resp.w))), rng=np.random.default_rng(5))
+    f = fit_physical(m.t, m.u, m.w, Vs=p.Vs, delta=p.delta, n_bootstrap=4, input_delay=5e-4)
+    n_valid = f.info["bootstrap"]["n_valid"]
+    t = bootstrap_t_quantile(n_valid, 0.95)
+    for k, (lo, hi) in f.info["interval95"].items():
+        assert lo == pytest.approx(f.params[k] - t * f.stderr[k], rel=1e-12, abs=1e-15)
+        assert hi == pytest.approx(f.params[k] + t * f.stderr[k], rel=1e-12, abs=1e-15)
+    band = f.info["band"]
+    F = stribeck(np.array(band["w"]), Fc=f.params["Fc"], Fs=f.params["Fs"], Vs=p.Vs, delta=p.delta,
+                 sigma=f.params["sigma"])
+    np.testing.assert_allclose(band["F"], F, rtol=1e-12)
+    assert np.all(np.array(band["lower"]) <= F) and np.all(F <= np.array(band["upper"]))
+    assert band["n_replicates"] == n_valid
+    json.dumps(f.to_dict(), allow_nan=False)
