@@ -496,6 +496,8 @@ class IdentificationReport:
             lines += _fixed_rows(m, "") if self.forms is None else _form_rows(self.forms, m)
             lines += ["-" * 70, f"fit ({ph.nrmse_kind}) {ph.nrmse:.3f} %, cond {ph.cond:.3g}, "
                                 f"{ph.n_samples} samples",
+                      f"std errors: {self.stderr_kind}; 95 % intervals: " + ", ".join(
+                          f"{k} [{lo:.6g}, {hi:.6g}]" for k, (lo, hi) in self.interval95.items()),
                       "", f"baselines: the paper's eq. 4 LS (eq. 9) and RLS (eqs. 10-13), not the answer; "
                           f"model: {m!r}, Ts = {self.Ts:.6g} s, {self.ls.w_one_step.shape[0]} samples"]
         else:
