@@ -13,6 +13,7 @@ errors of three runs (``none``, ``frictionless``, ``adaptive``) on the same refe
 """
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -32,7 +33,11 @@ def runs():
     d = design_pi(P.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
     o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=P.Vs, delta=P.delta, noise_std=1e-3)
     ref = point_to_point_reference(TARGETS, v_max=0.5, a_max=4.0, dwell=0.5)
-    return {m: run_mode(P, ref, m, o, rng=np.random.default_rng(0)) for m in ("none", "frictionless", "adaptive")}
+    r = {m: run_mode(P, ref, m, o, rng=np.random.default_rng(0)) for m in ("none", "frictionless", "adaptive")}
+    # the estimator alone, without the feedforward supervisor's rest rule (aff_supervisor.h): nothing applied at rest
+    # lets the joint stick between the moves, which changes the estimator's data (below)
+    r["unsupervised"] = run_mode(P, ref, "adaptive", replace(o, supervise=False), rng=np.random.default_rng(0))
+    return r
 
 
 def test_adaptive_switches_on_and_removes_the_friction_error_on_point_to_point_moves(runs):
@@ -47,15 +52,30 @@ def test_adaptive_switches_on_and_removes_the_friction_error_on_point_to_point_m
 
 
 def test_the_raw_estimate_is_the_true_friction_after_point_to_point_moves(runs):
-    e = runs["adaptive"].info["raw_estimate"]
+    e = runs["unsupervised"].info["raw_estimate"]
     assert e["Fc"] == pytest.approx(P.Fc, rel=0.02)
     assert e["Fs"] == pytest.approx(P.Fs, rel=0.05)
     assert e["sigma"] == pytest.approx(P.sigma, rel=0.05)
     assert e["tau"] == pytest.approx(P.tau, rel=0.10)
     assert e["J"] == pytest.approx(P.J, rel=0.05)  # +2.5 %: the discrete L[s w] (module docstring)
     assert abs(e["offset"]) <= 0.01 * P.Fc  # the joint has none
-    theta = runs["adaptive"].theta
+    theta = runs["unsupervised"].theta
     assert np.all(np.isfinite(theta)) and np.abs(theta).max() < 1e3  # no run-away on the way
+
+
+def test_the_supervised_loop_sticks_between_moves_and_its_estimate_of_the_peak_is_worse(runs):
+    """With the supervisor nothing is applied at rest, the joint sticks there (its friction brakes it toward the
+    setpoint), tracking improves, and the estimate of the Stribeck peak moves away from the truth: measured at commit
+    c02fbb0, Fs +5.4 % (unsupervised -0.5 %), tau +9 % (-1.3 %); stated on docs/benchmarks/compensation.md ("The
+    supervisor")."""
+    sup, uns = runs["adaptive"], runs["unsupervised"]
+    assert sup.info["n_backoff"] == 0 and sup.info["t_rest"] > 3.0  # the dwells: 3.5 s at rest, nothing applied
+    assert uns.info.get("t_rest") is None
+    rms = {m: runs[m].metrics.rms_second_half for m in ("none", "frictionless", "adaptive", "unsupervised")}
+    assert rms["adaptive"] < 0.95 * rms["unsupervised"]
+    e = sup.info["raw_estimate"]
+    assert e["Fc"] == pytest.approx(P.Fc, rel=0.01)
+    assert e["Fs"] == pytest.approx(P.Fs, rel=0.06)  # 5 % unsupervised: the worse number, named in the docstring
 
 
 def test_the_estimator_state_is_unconstrained_and_its_report_is_clipped_to_the_box():

@@ -439,7 +439,10 @@ def validate_emps(model: RigidAxisModel, path, *, cutoff: float = EMPS_CUTOFF, s
     skip : int, keyword-only
         First samples left out of the comparison (default 49, as the benchmark).
     decimate : int, keyword-only
-        Decimation of the inverse-dynamics error (default 10).
+        Decimation of the inverse-dynamics error (default 10; the last
+        :data:`~adaptive_ff.identification.idim.IDIM_TAIL` samples, the zero-phase
+        filters' end transient, are left out of it as by
+        :func:`~adaptive_ff.identification.idim.idim_force_error`).
     record, data : optional, keyword-only
         Already read :func:`read_emps_record` / :func:`load_emps` results of
         ``path`` (avoid reading the file twice).
@@ -456,9 +459,10 @@ def validate_emps(model: RigidAxisModel, path, *, cutoff: float = EMPS_CUTOFF, s
     Notes
     -----
     Errors are the benchmark's ``100*||y - y_sim||/||y||`` (Janot et al.,
-    2019; :func:`adaptive_ff.identification.idim.relative_error`). The reference model gets
-    0.23 % (velocity) and 5.85 % (force) on ``DATA_EMPS.mat``, 0.48 %, 8.94 %
-    (simulation) and 5.98 % (inverse dynamics) on ``DATA_EMPS_PULSES.mat``.
+    2019; :func:`adaptive_ff.identification.idim.relative_error`). The benchmark publishes for
+    its reference model 0.23 % (velocity) and 5.85 % (force) on ``DATA_EMPS.mat``, 0.48 %,
+    8.94 % (simulation) and 5.98 % (inverse dynamics) on ``DATA_EMPS_PULSES.mat``; the
+    figures of this function are on the EMPS benchmark page of the documentation.
     """
     record = read_emps_record(path) if record is None else record
     data = load_emps(path, cutoff=cutoff, skip=skip) if data is None else data

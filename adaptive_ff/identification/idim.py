@@ -19,10 +19,14 @@ high-frequency noise the differentiation amplified, and the parameters follow by
 ordinary least squares with standard errors from ``s**2 (W^T W)^{-1}`` (Ljung,
 *System Identification*, 2nd ed., Sec. 7.3 and 9.2).
 
-Measured on ``DATA_EMPS.mat`` (through :func:`adaptive_ff.io.data.load_emps`), see
-``tests/test_idim.py`` for the figures pinned: the symmetric fit lands within
-0.2 % of the published M, Fv, Fc and offset with the published condition number
-(26.0); the asymmetric fit within 0.5 % of the published M, Fv+, Fc+, Fv-, Fc-.
+Sample selection: the start of the record is left out by the caller (the
+zero-phase filter's start transient, :func:`adaptive_ff.io.data.load_emps`
+``skip``), the end by ``tail`` here (its end transient: a record that stops
+while the axis moves ends in an acceleration spike made by the filter's
+extrapolation). The figures pinned on ``DATA_EMPS.mat`` and the cross-test on
+``DATA_EMPS_PULSES.mat`` are in ``tests/test_idim.py`` and
+``tests/test_emps_crosstest.py``, the measurement on the EMPS benchmark page of
+the documentation.
 """
 
 from __future__ import annotations
@@ -32,16 +36,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from adaptive_ff.io.data import MeasuredData
+from adaptive_ff.io.data import EMPS_SKIP, MeasuredData
 from plant.errors import ExcitationError, ParameterError, SignalError, check_finite_scalar, check_nonnegative, \
     check_positive
 from plant.friction import stribeck
 from plant.results import json_safe
 
-__all__ = ["RigidAxisModel", "IDIMFit", "fit_idim", "idim_force_error", "relative_error", "IDIM_DECIMATE"]
+__all__ = ["RigidAxisModel", "IDIMFit", "fit_idim", "idim_force_error", "relative_error", "IDIM_DECIMATE",
+           "IDIM_TAIL"]
 
 #: Default decimation factor of the parallel filtering: the benchmark's 10 at 1 kHz.
 IDIM_DECIMATE = 10
+
+#: Default samples left out at the *end* of a record before the parallel filtering: the end transient of the
+#: zero-phase filters, as many as :func:`adaptive_ff.io.data.load_emps` drops at the start (49, the benchmark's).
+IDIM_TAIL = EMPS_SKIP
 
 
 def relative_error(y_meas, y_model) -> float:
@@ -248,6 +257,14 @@ def _check_decimate(decimate) -> int:
     return int(decimate)
 
 
+def _check_tail(tail, n: int, where: str) -> int:
+    if isinstance(tail, bool) or not isinstance(tail, (int, np.integer)) or tail < 0:
+        raise ParameterError(f"tail must be an integer >= 0, got {tail!r}")
+    if tail >= n:
+        raise SignalError(f"{where}: tail = {tail} leaves no sample of the {n} in the record")
+    return int(tail)
+
+
 def _uniform(data: MeasuredData, where: str) -> None:
     dt = np.diff(data.t)
     if np.max(np.abs(dt - data.Ts)) > 0.01 * data.Ts:
@@ -345,7 +362,7 @@ class IDIMFit:
 
 
 def fit_idim(data: MeasuredData, *, asymmetric: bool = False, offset: bool | None = None,
-             decimate: int = IDIM_DECIMATE) -> IDIMFit:
+             decimate: int = IDIM_DECIMATE, tail: int = IDIM_TAIL) -> IDIMFit:
     """Identify ``J`` and the friction of a rigid axis by the inverse dynamic model (IDIM-LS).
 
     Parameters
@@ -366,6 +383,16 @@ def fit_idim(data: MeasuredData, *, asymmetric: bool = False, offset: bool | Non
         ``u`` pass through ``scipy.signal.decimate`` (8th-order Chebyshev I,
         zero phase, as MATLAB's ``decimate`` used by the benchmark). Default 10
         (1 kHz to 100 Hz as the benchmark); 1 uses every sample unfiltered.
+    tail : int, keyword-only
+        Samples left out at the end of the record (>= 0, fewer than the
+        record), default :data:`IDIM_TAIL` (49). A record that stops while the
+        axis moves (both EMPS records do) ends in the transient of the
+        zero-phase filters: the forward-backward filter extrapolates the
+        position past the last sample, which bends the velocity and puts an
+        acceleration spike in the last few samples (0.5 m/s², 48 N of inertia
+        force, on ``DATA_EMPS_PULSES.mat``). The start transient is left out
+        by the caller (:func:`~adaptive_ff.io.data.load_emps` ``skip``); 0
+        keeps every sample (the benchmark's selection).
 
     Returns
     -------
@@ -376,9 +403,10 @@ def fit_idim(data: MeasuredData, *, asymmetric: bool = False, offset: bool | Non
     TypeError
         ``data`` is not a :class:`MeasuredData`.
     ParameterError
-        ``decimate`` not an integer >= 1.
+        ``decimate`` not an integer >= 1, ``tail`` not an integer >= 0.
     SignalError
-        Non-uniform time stamps, or fewer than ``3*p`` rows after decimation.
+        Non-uniform time stamps, ``tail`` not shorter than the record, or fewer
+        than ``3*p`` rows after decimation.
     ExcitationError
         ``W`` is rank deficient (e.g. no motion in one direction for the
         asymmetric structure, or no reversals with an offset), naming the
@@ -397,15 +425,16 @@ def fit_idim(data: MeasuredData, *, asymmetric: bool = False, offset: bool | Non
     asymmetric = bool(asymmetric)
     offset = (not asymmetric) if offset is None else bool(offset)
     _uniform(data, "fit_idim")
+    keep = data.n_samples - _check_tail(tail, data.n_samples, "fit_idim")
     names = _NAMES[(asymmetric, offset)]
     p = len(names)
     w = data.w
     acc = np.gradient(w, data.t)
-    W = _regressor(acc, w, asymmetric, offset)
+    W = _regressor(acc, w, asymmetric, offset)[:keep]
     if W.shape[0] // q < 3 * p:
         raise SignalError(f"fit_idim: {W.shape[0]} samples decimated by {q} leave fewer than {3 * p} rows")
     Wd = _decimate(W, q)
-    yd = _decimate(data.u, q)
+    yd = _decimate(data.u[:keep], q)
     scale = np.linalg.norm(Wd, axis=0)
     for j, s in enumerate(scale):
         if s == 0.0:
@@ -438,7 +467,8 @@ def fit_idim(data: MeasuredData, *, asymmetric: bool = False, offset: bool | Non
                    force_error=relative_error(yd, Wd @ theta), n_samples=int(n), decimate=q, asymmetric=asymmetric)
 
 
-def idim_force_error(model: RigidAxisModel, data: MeasuredData, *, decimate: int = IDIM_DECIMATE) -> float:
+def idim_force_error(model: RigidAxisModel, data: MeasuredData, *, decimate: int = IDIM_DECIMATE,
+                     tail: int = IDIM_TAIL) -> float:
     """Relative force error (%) of a model's inverse dynamics on a record (cross-validation).
 
     Parameters
@@ -449,6 +479,9 @@ def idim_force_error(model: RigidAxisModel, data: MeasuredData, *, decimate: int
         Uniform, zero-phase filtered ``t`` (s), ``u`` (N·m, N), ``w`` (rad/s, m/s), shape (N,).
     decimate : int, keyword-only
         Parallel-filtering factor as in :func:`fit_idim` (default 10).
+    tail : int, keyword-only
+        Samples left out at the end, as in :func:`fit_idim` (default 49, the
+        zero-phase filters' end transient; 0 keeps every sample).
 
     Returns
     -------
@@ -461,14 +494,15 @@ def idim_force_error(model: RigidAxisModel, data: MeasuredData, *, decimate: int
     TypeError
         ``model`` or ``data`` of the wrong type.
     ParameterError
-        ``decimate`` invalid.
+        ``decimate`` or ``tail`` invalid.
     SignalError
-        Non-uniform time stamps.
+        Non-uniform time stamps, ``tail`` not shorter than the record.
 
     Notes
     -----
-    The benchmark's ``Script_IDIM_LS_CVT.m`` (Janot et al., 2019): the
-    reference model scores 5.98 % on ``DATA_EMPS_PULSES.mat``.
+    The benchmark's cross-test (Janot et al., 2019): the reference model
+    scores 5.98 % on ``DATA_EMPS_PULSES.mat``; the figures of this function
+    with and without ``tail`` are on the EMPS benchmark page of the documentation.
     """
     if not isinstance(model, RigidAxisModel):
         raise TypeError(f"model must be a RigidAxisModel, got {type(model).__name__}")
@@ -476,6 +510,7 @@ def idim_force_error(model: RigidAxisModel, data: MeasuredData, *, decimate: int
         raise TypeError(f"data must be a MeasuredData, got {type(data).__name__}")
     q = _check_decimate(decimate)
     _uniform(data, "idim_force_error")
+    keep = data.n_samples - _check_tail(tail, data.n_samples, "idim_force_error")
     acc = np.gradient(data.w, data.t)
-    pred = _decimate(model.force(acc, data.w), q)
-    return relative_error(_decimate(data.u, q), pred)
+    pred = _decimate(model.force(acc, data.w)[:keep], q)
+    return relative_error(_decimate(data.u[:keep], q), pred)
