@@ -18,8 +18,8 @@ pinned value. Pinned values come from an independent source where one exists:
   tau -1.5 %, 3.8: a bias of the filtered regression common to every bootstrap refit); their distance to
   the truth is bounded separately (a few % of the true value).
 
-The measured values were measured at commit ``f4142d7`` (branch ``h/coverage``; the estimates do not depend
-on the bootstrap added there, only the standard errors do). A commit that moves a measured value by more
+The measured values were measured at commit ``f4142d7`` (branch ``h/coverage``, based on main ``c02fbb0``;
+the bootstrap added on that branch changes the standard errors, not the estimates). A commit that moves a measured value by more
 than one standard error must say why in its message and update the value here.
 """
 
