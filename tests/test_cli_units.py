@@ -57,7 +57,7 @@ def test_identify_tables_in_deg_and_rad(stribeck_log, capsys):
     s_rad, s_deg = _row(rad, "sigma"), _row(deg, "sigma")
     assert s_rad[-1] == "N·m·s/rad" and s_deg[-1] == "N·m·s/deg"
     assert "(m/s)" not in rad + deg and "(kg)" not in rad + deg and "(N)" not in rad + deg
-    truth = (report.estimate.sigma, report.std["sigma"], report.rls_estimate.sigma)  # value, std error, RLS
+    truth = (report.estimate.sigma, report.stderr["sigma"], report.rls_estimate.sigma)  # value, std error, RLS
     for i, (v, rel) in enumerate(zip(truth, (1e-5, 5e-3, 1e-5)), start=1):  # printed with 6, 3, 6 digits
         assert float(s_rad[i]) == pytest.approx(v, rel=rel)
         assert float(s_deg[i]) == pytest.approx(DEG * v, rel=rel)

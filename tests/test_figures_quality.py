@@ -224,7 +224,9 @@ COVERED = {"plot_tracking", "plot_error", "plot_friction", "plot_rls_convergence
            "StribeckExperiment.plot", "FormSelection.plot",
            "EMPSSimulation.plot", "EMPSValidation.plot", "VelocityEstimate.plot", "OnlineUKFResult.plot",
            # checked through the figures they return, by test_identification_figures below:
-           "IdentificationReport.plot", "LSResult.plot"}
+           "IdentificationReport.plot", "LSResult.plot",
+           # the band's axes of IdentificationReport.plot's figure
+           "FrictionBand.plot"}
 
 
 def _package_plots():

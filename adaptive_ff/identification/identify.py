@@ -12,8 +12,10 @@ lag stay within 0.5 % over cutoffs 50-300 Hz. Hence ``lag=False`` is the
 default. (The paper, whose robot joint does show a lag, fits it: pass
 ``lag=True``.)
 
-Quality figures: standard errors of every parameter (delta method), the
-condition number, and warnings that name what the record does not excite
+Quality figures: standard errors and 95 % intervals of every parameter and a 95 % band
+of the friction curve from a residual block bootstrap of the fit's own residuals
+(:mod:`adaptive_ff.identification.uncertainty`; the white-noise delta-method errors stay
+as ``std``), the condition number, and warnings that name what the record does not excite
 (:func:`adaptive_ff.identification.diagnostics.excitation_report`). :func:`cross_validate`
 judges the model on another record; for the EMPS benchmark see also
 :func:`adaptive_ff.identification.idim.fit_idim` (the benchmark's own IDIM-LS, symmetric and
@@ -38,6 +40,8 @@ from adaptive_ff.identification.physical_id import METHODS, PhysicalFit, fit_phy
 from adaptive_ff.identification.plausibility import IdentificationWarning, check_physical, warning_from_dict
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel, nrmse_fit
 from adaptive_ff.identification.rls import RecursiveLeastSquares
+from adaptive_ff.identification.uncertainty import (DEFAULT_N_BOOTSTRAP, ParameterUncertainty, eq4_block_bootstrap,
+                                                    regression_block_bootstrap)
 from plant.errors import ExcitationError, ParameterError, check_positive
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -131,7 +135,8 @@ class IdentificationReport:
     std : dict
         Standard errors of the LS physical parameters (same units), by the
         delta method from ``s**2 (X^T X)^{-1}``; they assume white equation
-        error and so understate the uncertainty on real (coloured) data.
+        error and so understate the uncertainty on real (coloured) data
+        (ten-fold on EMPS): the reported ones are :attr:`stderr`.
     Ts : float
         Sample time (s) used.
     lam, P0 : float
@@ -160,6 +165,10 @@ class IdentificationReport:
         The model-form selection (``identify(form=...)``,
         :func:`adaptive_ff.identification.model_forms.select_form`): every candidate form and the chosen one,
         whose output-error fit is then ``physical``; None without it.
+    uncertainty : ParameterUncertainty or None
+        The residual block bootstrap of the eq. 4 LS (:func:`adaptive_ff.identification.uncertainty.eq4_block_bootstrap`):
+        standard errors, 95 % intervals and the friction band when the eq. 4 LS is the answer; None otherwise
+        or with ``n_bootstrap = 0``.
     """
 
     ls: LSResult
@@ -178,6 +187,7 @@ class IdentificationReport:
     excitation: ExcitationReport | None = None
     physical: PhysicalFit | None = None
     forms: "FormSelection | None" = None
+    uncertainty: ParameterUncertainty | None = None
 
     @property
     def model(self) -> RegressionModel:
@@ -208,11 +218,43 @@ class IdentificationReport:
     @property
     def stderr(self) -> dict:
         """Standard errors of the fitted :attr:`params` (same keys and units; NaN where the method gives none):
-        the method's own (``physical.stderr``: bootstrap, HAC or regression errors, ``physical.info``), or the
-        eq. 4 LS delta-method errors (``std``) for ``"paper"``."""
+        the method's own (``physical.stderr``: bootstrap, HAC or regression errors, ``physical.info``), or for
+        ``"paper"`` the residual block bootstrap of the eq. 4 LS (:attr:`uncertainty`; the delta-method errors
+        ``std`` only with ``n_bootstrap = 0``)."""
         if self.physical is not None:
             return {k: float(v) for k, v in self.physical.stderr.items()}
+        if self.uncertainty is not None:
+            return dict(self.uncertainty.stderr)
         return dict(self.std)
+
+    @property
+    def stderr_kind(self) -> str:
+        """What :attr:`stderr` is: ``"residual block bootstrap"``, ``"delta method (white equation error)"``, or
+        the physical method's ``info["stderr_kind"]`` (``"method"`` if it names none)."""
+        if self.physical is not None:
+            return str(self.physical.info.get("stderr_kind", "method"))
+        return self.uncertainty.kind if self.uncertainty is not None else "delta method (white equation error)"
+
+    @property
+    def interval95(self) -> dict:
+        """Nominal 95 % intervals ``{name: (low, high)}`` of the fitted parameters: the bootstrap's
+        (:attr:`uncertainty`, or the physical method's ``info["interval95"]``), else ``value ± 1.96 stderr``."""
+        if self.physical is None and self.uncertainty is not None and self.uncertainty.level == 0.95:
+            return dict(self.uncertainty.interval)
+        info = self.physical.info if self.physical is not None else {}
+        iv = info.get("interval95") or (info.get("bootstrap") or {}).get("interval95")
+        if iv:
+            return {k: (float(v[0]), float(v[1])) for k, v in iv.items()}
+        vals = self.params
+        return {k: (vals[k] - _Z95 * s, vals[k] + _Z95 * s) for k, s in self.stderr.items() if k in vals}
+
+    @property
+    def band(self):
+        """The 95 % band of the friction curve F(w) (:class:`adaptive_ff.identification.uncertainty.FrictionBand`):
+        the eq. 4 bootstrap's or the physical method's (``info["band"]``, as a dict); None without one."""
+        if self.physical is None:
+            return None if self.uncertainty is None else self.uncertainty.band
+        return self.physical.info.get("band")
 
     @property
     def Vs(self) -> float | None:
@@ -355,6 +397,13 @@ class IdentificationReport:
         std = self.stderr
         out["std"] = std
         out["rel_std"] = _relative(std, params)
+        out["std_kind"] = self.stderr_kind
+        out["interval95"] = {k: list(v) for k, v in self.interval95.items()}
+        if self.physical is None:
+            out["std_delta"] = dict(self.std)
+            out["uncertainty"] = None if self.uncertainty is None else self.uncertainty.to_dict()
+        band = self.band
+        out["band"] = band.to_dict() if hasattr(band, "to_dict") else band
         if self.physical is not None:
             ph = self.physical
             out.update(fit_percent=ph.nrmse, fit_kind=ph.nrmse_kind, cond=ph.cond, n_samples=ph.n_samples,
@@ -378,21 +427,37 @@ class IdentificationReport:
         """The same as :meth:`to_dict` (the name the CLI uses)."""
         return self.to_dict()
 
-    def plot(self, ax=None):
-        """Convergence of the RLS (paper Fig. 5): each parameter's history relative to its LS value.
+    def plot(self, ax=None, *, band_ax=None):
+        """Convergence of the RLS (paper Fig. 5) and, beside it, the 95 % band of the friction curve F(w).
 
         Parameters
         ----------
         ax : matplotlib.axes.Axes, optional
-            Axes to draw into; default a new figure.
+            Axes of the RLS convergence; default a new figure, with a second axes for the band when the report
+            has one (:attr:`band`).
+        band_ax : matplotlib.axes.Axes, optional, keyword-only
+            Axes of the band when ``ax`` is given (default: the band is not drawn then).
 
         Returns
         -------
         matplotlib.axes.Axes
-            Time (s) against ``theta_RLS(t)/theta_LS`` per regression parameter (1 = the LS value);
-            parameters whose LS value is 0 are left out.
+            The RLS axes: time (s) against ``theta_RLS(t)/theta_LS`` per regression parameter (1 = the LS
+            value); parameters whose LS value is 0 are left out. Its figure holds the band's axes
+            (:meth:`adaptive_ff.identification.uncertainty.FrictionBand.plot`: fitted curve and shaded band).
         """
+        band = self.band
+        if isinstance(band, dict):
+            from adaptive_ff.identification.uncertainty import FrictionBand
+
+            band = FrictionBand(**{k: np.asarray(v, dtype=float) if isinstance(v, list) else v
+                                   for k, v in band.items()})
+        if ax is None and band is not None:
+            from matplotlib.figure import Figure
+
+            ax, band_ax = Figure(figsize=(12.0, 4.0), layout="constrained").subplots(1, 2)
         ax = axes_or_new(ax)
+        if band is not None and band_ax is not None:
+            band.plot(band_ax)
         for i, name in enumerate(self.model.names):
             ref = self.ls.theta[i]
             if ref != 0.0:
@@ -431,14 +496,17 @@ class IdentificationReport:
             lines += _fixed_rows(m, "") if self.forms is None else _form_rows(self.forms, m)
             lines += ["-" * 70, f"fit ({ph.nrmse_kind}) {ph.nrmse:.3f} %, cond {ph.cond:.3g}, "
                                 f"{ph.n_samples} samples",
+                      f"std errors: {self.stderr_kind}; 95 % intervals: " + ", ".join(
+                          f"{k} [{lo:.6g}, {hi:.6g}]" for k, (lo, hi) in self.interval95.items()),
                       "", f"baselines: the paper's eq. 4 LS (eq. 9) and RLS (eqs. 10-13), not the answer; "
                           f"model: {m!r}, Ts = {self.Ts:.6g} s, {self.ls.w_one_step.shape[0]} samples"]
         else:
             lines[-1:] = [f"model: {m!r}, Ts = {self.Ts:.6g} s, {self.ls.w_one_step.shape[0]} samples", ""]
         e, r = self.estimate, self.rls_estimate
+        std = self.std if self.physical is not None or self.uncertainty is None else self.uncertainty.stderr
         lines += [f"{'parameter':<10}{'value':>14}{'std error':>13}{'RLS':>14}  unit", "-" * 70]
         for nm in _parameter_names(m):
-            lines.append(f"{nm:<10}{getattr(e, nm):>14.6g}{self.std[nm]:>13.3g}{getattr(r, nm):>14.6g}"
+            lines.append(f"{nm:<10}{getattr(e, nm):>14.6g}{std[nm]:>13.3g}{getattr(r, nm):>14.6g}"
                          f"  {PARAM_UNITS[nm]}")
         if self.physical is None:
             lines += _fixed_rows(m, f"{'':>14}")
@@ -446,17 +514,32 @@ class IdentificationReport:
                   f"fit one-step {self.ls.fit_one_step:.3f} %, free-run {self.ls.fit_free_run:.2f} %, "
                   f"RLS one-step {self.rls_fit_percent:.3f} % (lam = {self.lam:g}), cond {self.ls.cond:.3g}",
                   "relative std errors: " + ", ".join(
-                      f"{nm} {100 * self.std[nm] / abs(getattr(e, nm)):.3g} %" if getattr(e, nm) != 0 else f"{nm} n/a"
-                      for nm in _parameter_names(m)),
-                  "std errors assume white equation error (optimistic on real data)"]
+                      f"{nm} {100 * std[nm] / abs(getattr(e, nm)):.3g} %" if getattr(e, nm) != 0 else f"{nm} n/a"
+                      for nm in _parameter_names(m))]
+        lines += self._uncertainty_lines()
         lines += [f"note: {n}" for n in self.notes]
         lines += [f"WARNING [{getattr(w, 'code', 'note')}: {getattr(w, 'parameter', 'all')}]: {w}"
                   for w in self.warnings]
         return "\n".join(lines)
 
 
+    def _uncertainty_lines(self) -> list:
+        """What the std errors of the eq. 4 table are, and the 95 % intervals of the answer."""
+        if self.physical is not None or self.uncertainty is None:
+            return ["eq. 4 std errors assume white equation error (optimistic on real data)"]
+        u = self.uncertainty
+        return [f"std errors: {u.kind} ({u.n_valid} refits, blocks of {u.block} samples; see the note); "
+                "white-noise delta-method ones (std_delta): "
+                + ", ".join(f"{k} {v:.3g}" for k, v in self.std.items()),
+                f"{100 * u.level:g} % intervals: " + ", ".join(f"{k} [{lo:.6g}, {hi:.6g}]"
+                                                                for k, (lo, hi) in u.interval.items())]
+
+
 #: The answer's keys, in the order of :attr:`IdentificationReport.params`.
 _ANSWER_KEYS = ("J", "Fc", "Fs", "sigma", "tau", "offset")
+
+#: Two-sided 95 % normal quantile (intervals of methods that give only a standard error).
+_Z95 = 1.959963984540054
 
 #: The function behind each method other than ``"paper"`` (the report's header and ``form["estimator"]``).
 _ESTIMATORS = {"sliding": "adaptive_ff.compensation.sliding_estimator.fit_sliding",
@@ -556,9 +639,14 @@ def choose_method(data: MeasuredData, *, Vs: float | None, controller_Tc: float 
                      "record by method 'output_error'")
 
 
-def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bool) -> PhysicalFit:
-    """The sliding-regime regression on a uniform controller-rate record, as a :class:`PhysicalFit`."""
-    from adaptive_ff.compensation.sliding_estimator import fit_sliding, sliding_regressors
+def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bool, options=None) -> PhysicalFit:
+    """The sliding-regime regression on a uniform controller-rate record, as a :class:`PhysicalFit`.
+
+    ``stderr`` is the residual block bootstrap of the regression rows
+    (:func:`adaptive_ff.identification.uncertainty.regression_block_bootstrap`; ``n_bootstrap``, ``bootstrap_seed``
+    of ``options``), the white OLS errors stay as ``info["stderr_ols"]`` (on a simulated 1 kHz PI log they put
+    the true J 95 of them away)."""
+    from adaptive_ff.compensation.sliding_estimator import estimate_from_theta, fit_sliding, sliding_regressors
 
     f = fit_sliding(uni.u, uni.w, Tc=uni.Ts, Vs=Vs, delta=delta, lag=True, offset=offset)
     X, y, *_ = sliding_regressors(uni.u, uni.w, Tc=uni.Ts, Vs=Vs, delta=delta, lag=True, offset=offset)
@@ -567,11 +655,21 @@ def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bo
     std = dict(zip(f.names, (float(x) for x in f.theta_std)))
     names = ("J", "Fc", "Fs", "sigma", "tau") + (("offset",) if offset else ())
     params = {k: float(getattr(e, k)) for k in names}
-    return PhysicalFit(method="sliding", params=params, stderr={k: std.get(k, float("nan")) for k in names},
+    ols = {k: std.get(k, float("nan")) for k in names}
+    n, seed = _bootstrap_options(options)
+    info = {"n_rows": f.n_rows, "n_gated": f.n_gated, "residual_rms": f.residual_rms, "Tc": uni.Ts, "J_alt": e.J_alt,
+            "stderr_kind": "ols (white residuals)", "stderr_ols": ols}
+    stderr = ols
+    if n > 0:
+        unc = regression_block_bootstrap(X, y, f.theta, lambda th: estimate_from_theta(f.names, th, Vs, delta), names,
+                                         w_max=float(np.max(np.abs(uni.w))), Vs=Vs, delta=delta, n=n, seed=seed)
+        stderr = dict(unc.stderr)
+        info.update(stderr_kind=unc.kind, interval95={k: list(v) for k, v in unc.interval.items()},
+                    bootstrap={"n": unc.n, "n_valid": unc.n_valid, "block": unc.block, "seed": unc.seed},
+                    band=None if unc.band is None else unc.band.to_dict())
+    return PhysicalFit(method="sliding", params=params, stderr=stderr,
                        cond=float(sv[0] / sv[-1]), nrmse=float(nrmse_fit(y, X @ f.theta)),
-                       n_samples=int(uni.n_samples), nrmse_kind="filtered torque L[u]",
-                       info={"n_rows": f.n_rows, "n_gated": f.n_gated, "residual_rms": f.residual_rms,
-                             "Tc": uni.Ts, "J_alt": e.J_alt},
+                       n_samples=int(uni.n_samples), nrmse_kind="filtered torque L[u]", info=info,
                        warnings=tuple(check_physical(params, source="sliding (fit_sliding)")))
 
 
@@ -617,7 +715,10 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
         warnings then become ``"method"`` notes, the answer's own warnings
         stay). ``"auto"``: the method of :func:`choose_method` (named in the notes).
     method_options : dict, keyword-only, optional
-        Extra keyword options of :func:`adaptive_ff.identification.physical_id.fit_physical`.
+        Extra keyword options of :func:`adaptive_ff.identification.physical_id.fit_physical`; for ``"paper"``
+        (also when ``"auto"`` chooses it) ``n_bootstrap`` (replicates of the residual block bootstrap of the
+        eq. 4 LS, integer >= 2, default 200; 0: none, the delta-method errors are reported) and
+        ``bootstrap_seed`` (integer >= 0, default 0) (:func:`adaptive_ff.identification.uncertainty.eq4_block_bootstrap`).
     form : str or None, keyword-only
         Model-form selection (:func:`adaptive_ff.identification.model_forms.select_form`). None (default):
         none, the structure is the one given (``Vs``, ``delta``, ``lag``). ``"auto"``: the candidate forms
@@ -635,6 +736,8 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
     Returns
     -------
     IdentificationReport
+        With :attr:`IdentificationReport.uncertainty` (standard errors, 95 % intervals, band of F(w)) when the
+        eq. 4 LS is the answer.
 
     Raises
     ------
@@ -687,6 +790,7 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
     excitation = excitation_report(u, w, Vs=Vs if stribeck else None)
     ls = _fit_ls_with_causes(model, u, w, Ts, excitation)
     std = _physical_std(model, u, w, ls, _parameter_names(model))
+    unc = _eq4_uncertainty(model, u, w, ls, method_options) if method == "paper" and form is None else None
     X, y = model.regressors(u, w)
     keep, hist = _rls_pass(rls, X, y, n_history)
     rls_theta = rls.theta.copy()
@@ -706,13 +810,15 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
     if method != "paper":
         if method == "sliding":
             try:
-                physical = _fit_sliding_physical(uni, Vs, delta, offset)
+                physical = _fit_sliding_physical(uni, Vs, delta, offset, method_options)
             except ExcitationError as exc:
                 if auto_reason is None:
                     raise
                 notes.append(f"method 'sliding' not possible ({exc}): the eq. 4 LS is the answer")
+                unc = _eq4_uncertainty(model, u, w, ls, method_options)
+                notes += [] if unc is None else [unc.note()]
                 return _report(ls, rls, rls_est, rls_fit, uni, keep, hist, std, P0, data, notes, warn, excitation,
-                               None)
+                               None, unc)
             notes.append(f"physical parameters by 'sliding' on {physical.info['n_rows']} sliding-regime rows "
                          f"({physical.info['n_gated']} near-zero-velocity rows gated out)")
         else:
@@ -724,7 +830,10 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
             warn = [w for w in warn if not (w.code == "identifiability" and w.parameter == "J")]
             warn += _sliding_band_warnings(uni, Vs, delta, excitation.noise_std, physical)
         warn = [_as_baseline(w) for w in warn] + list(physical.warnings)
-    report = _report(ls, rls, rls_est, rls_fit, uni, keep, hist, std, P0, data, notes, warn, excitation, physical)
+    if physical is None and unc is not None:
+        notes.append(unc.note())
+    report = _report(ls, rls, rls_est, rls_fit, uni, keep, hist, std, P0, data, notes, warn, excitation, physical,
+                     unc if physical is None else None)
     if form is not None:
         report = _attach_form(report, data, form, form_options, Vs, delta, offset)
     return report
@@ -867,12 +976,36 @@ def stderr_note(fit: PhysicalFit) -> str:
     return "standard errors as the method gives them"
 
 
-def _report(ls, rls, rls_est, rls_fit, uni, keep, hist, std, P0, data, notes, warn, excitation, physical):
+def _report(ls, rls, rls_est, rls_fit, uni, keep, hist, std, P0, data, notes, warn, excitation, physical, unc=None):
     return IdentificationReport(
         ls=ls, rls_theta=rls.theta.copy(), rls_estimate=rls_est, rls_fit_percent=rls_fit,
         theta_time=uni.t[2:][keep].copy(), theta_history=hist, std=std, Ts=uni.Ts, lam=rls.lam,
         P0=P0, source=data.source, notes=tuple(notes), warnings=tuple(warn), excitation=excitation,
-        physical=physical)
+        physical=physical, uncertainty=unc)
+
+
+#: Options of the eq. 4 bootstrap in ``method_options`` (method ``"paper"``).
+_EQ4_BOOT_OPTIONS = ("n_bootstrap", "bootstrap_seed")
+
+
+def _eq4_uncertainty(model, u, w, ls: LSResult, options) -> ParameterUncertainty | None:
+    """The residual block bootstrap of the eq. 4 LS with ``n_bootstrap``/``bootstrap_seed`` of ``options``;
+    None for ``n_bootstrap = 0``. Options of other methods in ``options`` are left to them."""
+    n, seed = _bootstrap_options(options)
+    if n == 0:
+        return None
+    return eq4_block_bootstrap(model, u, w, ls.theta, ls.Ts, _parameter_names(model), n=n, seed=seed)
+
+
+def _bootstrap_options(options) -> tuple[int, int]:
+    """``(n_bootstrap, bootstrap_seed)`` of ``options`` (defaults 200 and 0), checked; other keys ignored."""
+    o = {k: v for k, v in (options or {}).items() if k in _EQ4_BOOT_OPTIONS}
+    n, seed = o.get("n_bootstrap", DEFAULT_N_BOOTSTRAP), o.get("bootstrap_seed", 0)
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0 or n == 1:
+        raise ParameterError(f"n_bootstrap must be 0 (no bootstrap) or an integer >= 2, got {n!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ParameterError(f"bootstrap_seed must be an integer >= 0, got {seed!r}")
+    return int(n), int(seed)
 
 
 def _check_identify_args(data, Vs, delta, n_history, P0, method, method_options) -> float:
@@ -896,6 +1029,9 @@ def _check_identify_args(data, Vs, delta, n_history, P0, method, method_options)
                              f"(pre-fit, Sec. V-C), got Vs = {Vs!r}, delta = {delta!r}")
     if method_options is not None and not isinstance(method_options, dict):
         raise ParameterError(f"method_options must be a dict, got {method_options!r}")
+    if method in ("paper", "sliding") and set(method_options or {}) - set(_EQ4_BOOT_OPTIONS):
+        raise ParameterError(f"method {method!r} takes the options {list(_EQ4_BOOT_OPTIONS)}, got "
+                             f"{sorted(method_options)}")
     return P0
 
 

@@ -199,7 +199,10 @@ class PhysicalFit:
         ``stderr_white`` (white-noise Gauss-Newton errors), ``hac_lags``
         (Bartlett bandwidth), ``bootstrap`` (None, or ``n``, ``n_valid``,
         ``block``, ``seed``, ``start_spread``, ``n_simulations``, ``bias``:
-        mean deviation of the refits per parameter), ``start``, ``cost``,
+        mean deviation of the refits per parameter, ``interval95``: per
+        parameter ``[low, high]`` = value ± t stderr), ``interval95`` (the
+        same) and ``band`` (the 95 % band of F(w) from the refits, as
+        :meth:`adaptive_ff.identification.uncertainty.FrictionBand.to_dict`), ``start``, ``cost``,
         ``residual_rms``, ``n_simulations``, ``burn_samples``, ``loss``,
         ``f_scale``, ``h_max``, ``input_delay``, ``interp``, ``Ts_mean``,
         ``Ts_max``.
@@ -725,7 +728,24 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
                                    rng=np.random.default_rng(o.bootstrap_seed))
     details = {"n": o.n_bootstrap, "n_valid": b.n_valid, "block": int(b.block), "seed": o.bootstrap_seed,
                "start_spread": _BOOT_START, "n_simulations": n_sim[0]}
+    details.update(_oe_intervals(pb, names, est, b))
     return dict(zip(names, map(float, b.stderr))), dict(zip(names, map(float, b.bias))), details
+
+
+def _oe_intervals(pb: _OutputErrorProblem, names: tuple, est: np.ndarray, b) -> dict:
+    """``interval95`` (``value ± t stderr``, t of the valid refits) and ``band`` (the 95 % band of F(w) from the
+    refits, :func:`adaptive_ff.identification.uncertainty.friction_band`) of a bootstrap ``b``; empty with
+    fewer than 2 valid refits."""
+    from adaptive_ff.identification.uncertainty import friction_band
+
+    if b.n_valid < 2:
+        return {}
+    half = b.half_width(0.95)
+    cols = [names.index(k) for k in ("Fc", "Fs", "sigma")]
+    band = friction_band(est[cols], b.replicates[:, cols], w_max=float(np.max(np.abs(pb.w))), Vs=pb.Vs,
+                         delta=pb.delta)
+    return {"interval95": {k: [float(v - h), float(v + h)] for k, v, h in zip(names, est, half)},
+            "band": band.to_dict()}
 
 
 def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> PhysicalFit:
@@ -744,6 +764,9 @@ def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> P
     if opts.n_bootstrap > 0:
         stderr, bias, boot = _oe_bootstrap(pb, x, names, r)
         boot["bias"] = bias
+    top = {k: boot.pop(k) for k in ("interval95", "band") if boot and k in boot}
+    if "interval95" in top:
+        boot["interval95"] = top["interval95"]
     fit = nrmse_fit(pb.wm, pb.simulate(x)[pb.i0:])
     return PhysicalFit(method="output_error", params=params, stderr=stderr, cond=cond, nrmse=float(fit),
                        n_samples=int(t.shape[0]), nrmse_kind=pb.predictor,
@@ -755,7 +778,7 @@ def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> P
                              "n_simulations": int(pb.n_sim), "burn_samples": pb.i0, "loss": opts.loss,
                              "f_scale": float(pb.f_scale), "f_scale_global": float(pb.f_wide),
                              "h_max": opts.h_max, "input_delay": opts.input_delay, "interp": opts.interp,
-                             "Ts_mean": float(np.mean(np.diff(t))), "Ts_max": float(np.max(np.diff(t)))})
+                             "Ts_mean": float(np.mean(np.diff(t))), "Ts_max": float(np.max(np.diff(t))), **top})
 
 
 

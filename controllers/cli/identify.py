@@ -79,7 +79,8 @@ def _summary(report, units: _Units) -> str:
         if unit is not None and line.endswith(unit) and name == "sigma" and not units.si:
             ph = report.physical
             line = (units.row("sigma", ph.params["sigma"], ph.stderr.get("sigma", float("nan")))
-                    if physical else units.row("sigma", e.sigma, report.std["sigma"], r.sigma))
+                    if physical else units.row("sigma", e.sigma, (report.std if report.physical is not None
+                                                                  else report.stderr)["sigma"], r.sigma))
         elif unit is not None and line.endswith(unit):
             line = line[:-len(unit)] + units.units[name]
         elif name == "Vs" and line.endswith(VELOCITY_LABEL) and m.stribeck:
@@ -197,7 +198,7 @@ def _identify(args, data):
                                 ("--controller FILE (or --Kp, --Ki, --Tc, --u-max)", spec is not None)) if not ok]
         raise ParameterError(f"--method closed_loop simulates your velocity loop: add {' and '.join(need)}")
     if ref_name is None or spec is None or args.method not in ("auto", "closed_loop"):
-        mopts = boot if args.method in ("auto", "output_error") else None
+        mopts = boot if args.method in ("auto", "output_error", "paper", "sliding") else None
         return identify(data, Vs=args.Vs, delta=args.delta, method=args.method, method_options=mopts, **common)
     if args.Vs is None and args.method == "closed_loop":
         raise ParameterError("--method closed_loop fits the Stribeck model of eqs. 1-3: give --Vs and --delta "
@@ -272,6 +273,9 @@ def _bootstrap_lines(args, report) -> list:
         return []
     ph = report.physical
     kind = None if ph is None else ph.info.get("stderr_kind")
+    if ph is None or ph.method == "sliding":  # the residual block bootstrap of the regression (0: none)
+        return [] if args.bootstrap else [f"note: --bootstrap 0: the {report.method} standard errors assume white "
+                                          "residuals (optimistic on real data); use --bootstrap N >= 2"]
     if kind is None:
         used = "paper" if ph is None else ph.method
         return [f"note: --bootstrap {args.bootstrap} not used: method {used!r} has no bootstrap (output_error and "
@@ -447,9 +451,10 @@ def register(sub) -> None:
     c.add_argument("--Tc", type=float, default=None, help="controller period (s)")
     c.add_argument("--u-max", dest="u_max", type=float, default=None, help="torque limit (N·m), default none")
     i.add_argument("--bootstrap", metavar="N", type=int, default=None,
-                   help="refits of the parametric block bootstrap behind the standard errors of methods "
-                        "output_error and closed_loop (default 20 and 10; more: steadier errors, proportionally slower); "
-                        "0: HAC (Newey-West) errors instead, asymptotic and too small on these fits' rough cost")
+                   help="refits of the bootstrap behind the standard errors: the residual block bootstrap of "
+                        "methods paper and sliding (default 200, >= 2; 0: white-residual errors), the parametric "
+                        "block bootstrap of output_error and closed_loop (default 20 and 10; more: steadier errors, "
+                        "proportionally slower; 0: HAC (Newey-West) errors instead, too small on their rough cost)")
     i.add_argument("--axis", choices=("rotary", "linear"), default="rotary",
                    help="rotary (default): tables in N·m, kg·m², rad/s (or deg/s, --units); linear: a prismatic "
                         "axis, tables in N, kg, m/s (SI; --units does not apply). The values are the same numbers "
