@@ -556,6 +556,12 @@ class ZooResult:
         lines = [f"targets: runs refused {t['refused']}, diverged {t['diverged']} (target 0); best adaptive eta > 0 "
                  f"on {t['best_positive']:.1%} of {int(np.isfinite(best).sum())} joints (target 100 %)"
                  + (f"; >= dob on {t['best_ge_dob']:.1%} (target >= 95 %)" if "best_ge_dob" in t else "")]
+        if "adaptive" in self.eta and "adaptive-dob" in self.eta:  # plain adaptive where the composite succeeds
+            a, d = self.eta["adaptive"], self.eta["adaptive-dob"]
+            ok = np.isfinite(a) & np.isfinite(d) & (d >= 0.95)
+            gap = np.flatnonzero(ok & (a < 0.8))
+            lines.append(f"adaptive >= 0.8 where adaptive-dob >= 0.95: {int(ok.sum()) - gap.size} of {int(ok.sum())} "
+                         f"joints" + "".join(f"; #{i} {a[i]:.3f} (adaptive-dob {d[i]:.3f})" for i in gap[:10]))
         neg = np.array([p.get("delta", 1.0) < 0 for p in self.plants])
         fin = np.isfinite(best)
         if neg.any() and fin.any():
