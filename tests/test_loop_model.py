@@ -102,9 +102,10 @@ def paper_runs():
         o = s.mode_options["adaptive"]
         # the fallback is compared where it acts often: the measured sign, stuck after 5 samples (the defaults
         # before the sign observer, which takes a slow reversal for sticking far less often), and the estimate
-        # used as it was then (the lag estimate itself, before the determinacy test and the weighted lag)
+        # used as it was then (the lag estimate itself, before the determinacy test and the weighted lag), the
+        # feedforward alone (no residual switch-in: its observer would take over what the fallback is there for)
         old = replace(o, sign_input="measured", stick_samples=5, lag_margin=0.0, max_rel_stderr=math.inf,
-                      lag_memory=0.0)
+                      lag_memory=0.0, switch_in=False)
         out[seed] = {"frictionless": run("frictionless", o), "oracle": run("oracle", o), "model": run("adaptive", old),
                      "reference": run("adaptive", replace(old, stick_input="reference")), "default": run("adaptive", o)}
     return out

@@ -152,6 +152,9 @@ def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: fl
                                 Fs=joint.get("Fs", 0.0), offset=0.0, Vs=Vs, delta=delta, J_alt=math.nan)
     settings = {"ff_max": 0.5 * u_max, "stick_band": 3.0 * noise if noise is not None and noise >= 0 else 0.0,
                 "stick_samples": 50, "warmup": 50, **options}
+    # the exported library is the adaptive feedforward (aff_robust_ff); the residual switch-in of mode adaptive is the
+    # composite ctl_adob of the controllers layer, not part of it
+    settings.setdefault("switch_in", False)
     opts = ModeOptions(Kp=Kp, Ki=Ki, u_max=u_max, J_design=J_design, Vs=Vs, delta=delta, start=first, initial=init,
                        **settings)
     _, _, comp = build_mode(None, "adaptive", opts)  # None: no plant field is read with J_design given

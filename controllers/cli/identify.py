@@ -11,6 +11,7 @@ its PD position loop (:func:`adaptive_ff.identification.emps_validation.validate
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 __all__ = ["register"]
@@ -83,6 +84,10 @@ def _summary(report, units: _Units) -> str:
                                                                   else report.stderr)["sigma"], r.sigma))
         elif unit is not None and line.endswith(unit):
             line = line[:-len(unit)] + units.units[name]
+        elif "intervals: " in line and not units.si:  # sigma's interval in the printed velocity unit
+            c = units.scale.get("sigma", 1.0)
+            line = re.sub(r"sigma \[([^,\]]+), ([^\]]+)\]",
+                          lambda g: f"sigma [{c * float(g.group(1)):.6g}, {c * float(g.group(2)):.6g}]", line)
         elif name == "Vs" and line.endswith(VELOCITY_LABEL) and m.stribeck:
             k, label = units.Vs
             line = f"{'Vs':<10}{k * m.Vs:>14.6g}" + line[24:-len(VELOCITY_LABEL)] + label
