@@ -28,33 +28,36 @@ from plant.variant_plants import variant
 TC, JN, KP, KI = 1e-3, 0.5, 10.0, 60.0
 
 
-def _c_switch_in(window=0.05, ratio=0.1, fade_in=0.01):
+def _c_switch_in(window=0.05, ratio=0.1, fade_in=0.01, share=0.25):
     a = ffi.new("ctl_adob *")
-    assert lib.ctl_adob_set_switch_in(a, TC, JN, KP, KI, window, ratio, fade_in) == 0
+    assert lib.ctl_adob_set_switch_in(a, TC, JN, KP, KI, window, ratio, share, fade_in) == 0
     return a
 
 
-def _oracle(u_ff, d_hat, w_ref, acting, window, ratio, fade_in):
+def _oracle(u_ff, d_hat, w_ref, acting, window, ratio, fade_in, share=0.25):
     """Share g per period, the mean squares per period, and the switch-in index (or None)."""
     n = len(d_hat)
     c, kt = TC / JN, KI * TC
     # residual model: x = [w, I_prev], I = I_prev - Ki*Tc*w, w+ = w + c*(-Kp*w + I - d); output w before the update
     a_r = np.array([[1.0 - c * KP - c * kt, c], [-kt, 1.0]])
-    _, w_r, _ = dlsim((a_r, np.array([[-c], [0.0]]), np.array([[1.0, 0.0]]), np.array([[0.0]]), TC), d_hat)
+    sys_r = (a_r, np.array([[-c], [0.0]]), np.array([[1.0, 0.0]]), np.array([[0.0]]), TC)
+    _, w_r, _ = dlsim(sys_r, d_hat)
+    _, w_f, _ = dlsim(sys_r, d_hat + u_ff)  # the same loop driven by the whole friction estimate
     # frictionless loop on the reference: e = r - w, I = I_prev + Ki*Tc*e, w+ = w + c*(Kp*e + I); output e
     a_l = np.array([[1.0 - c * (KP + kt), c], [-kt, 1.0]])
     b_l = np.array([[c * (KP + kt)], [kt]])
     _, e_l, _ = dlsim((a_l, b_l, np.array([[-1.0, 0.0]]), np.array([[1.0]]), TC), w_ref)
-    w_r, e_l = w_r[:, 0], e_l[:, 0]
+    w_r, e_l, w_f = w_r[:, 0], e_l[:, 0], w_f[:, 0]
     still = w_ref == 0.0
     rest = still & np.concatenate([[False], still[:-1]])
     used = acting & ~rest
     b = 1.0 - math.exp(-TC / window)
     m_r_u = lfilter([b], [1.0, -(1.0 - b)], w_r[used] ** 2)
     m_l_u = lfilter([b], [1.0, -(1.0 - b)], e_l[used] ** 2)
+    m_f_u = lfilter([b], [1.0, -(1.0 - b)], w_f[used] ** 2)
     count = np.arange(1, used.sum() + 1)
     n_ev = round(window / TC)
-    hit = np.flatnonzero((count >= 2 * n_ev) & (m_r_u > ratio * m_l_u))
+    hit = np.flatnonzero((count >= 2 * n_ev) & ((m_r_u > ratio * m_l_u) | (m_r_u > share * m_f_u)))
     k_in = int(np.flatnonzero(used)[hit[0]]) if hit.size else None
     g = np.zeros(n)
     if k_in is not None:
@@ -101,6 +104,24 @@ def test_the_c_test_equals_the_state_space_oracle():
     assert np.all(g[:k_in] == 0.0) and g[-1] == 1.0
 
 
+def test_a_feedforward_doing_little_where_friction_hardly_matters_is_switched_by_the_share_test():
+    # the friction is small next to the loop's own error on the reference (the ratio test cannot fire) and the
+    # feedforward covers only half of it: the residual's predicted error is a quarter of the friction's or more
+    u_ff, d_hat, w_ref, acting = _inputs(grow_at=600)
+    friction = 0.02 * np.sign(w_ref)
+    u_ff, d_hat = 0.5 * friction, 0.5 * friction + 1e-4 * np.random.default_rng(1).normal(size=len(w_ref))
+    a = _c_switch_in()
+    g, m_r, m_l = _run_c(a, u_ff, d_hat, w_ref, acting)
+    g_o, _, m_l_o, k_in = _oracle(u_ff, d_hat, w_ref, acting, 0.05, 0.1, 0.01)
+    assert k_in is not None and a.sw.k_in == k_in
+    assert a.sw.m_r < 0.1 * a.sw.m_l and a.sw.m_r > 0.25 * a.sw.m_f  # the share test fired, not the ratio test
+    np.testing.assert_allclose(g, g_o, rtol=0, atol=1e-12)
+    # with a higher share the same feedforward is kept alone
+    a = _c_switch_in(share=0.5)
+    _run_c(a, u_ff, d_hat, w_ref, acting)
+    assert a.sw.k_in == -1 and _oracle(u_ff, d_hat, w_ref, acting, 0.05, 0.1, 0.01, share=0.5)[3] is None
+
+
 def test_no_residual_no_switch_in_and_an_idle_feedforward_is_replaced():
     u_ff, d_hat, w_ref, acting = _inputs(grow_at=600)  # the residual never appears
     a = _c_switch_in()
@@ -114,11 +135,13 @@ def test_no_residual_no_switch_in_and_an_idle_feedforward_is_replaced():
 
 
 def test_settings_are_checked():
-    for bad in (dict(ratio=0.0), dict(window=-1.0), dict(Kp=math.nan), dict(Ki=-1.0), dict(fade_in=-0.1)):
+    for bad in (dict(ratio=0.0), dict(share=-0.1), dict(window=-1.0), dict(Kp=math.nan), dict(Ki=-1.0),
+                dict(fade_in=-0.1)):
         with pytest.raises(ParameterError):
             ResidualSwitchIn(**{**dict(Tc=TC, J_n=JN, Kp=KP, Ki=KI), **bad})
     a = ffi.new("ctl_adob *")
-    assert lib.ctl_adob_set_switch_in(a, TC, JN, KP, KI, 0.05, 0.0, 0.01) == -1 and a.use_switch_in == 0
+    assert lib.ctl_adob_set_switch_in(a, TC, JN, KP, KI, 0.05, 0.0, 0.25, 0.01) == -1 and a.use_switch_in == 0
+    assert lib.ctl_adob_set_switch_in(a, TC, JN, KP, KI, 0.05, 0.1, 0.0, 0.01) == -1 and a.use_switch_in == 0
     with pytest.raises(ParameterError, match="switch_in"):
         ModeOptions(Kp=KP, Ki=KI, switch_in="yes")
     with pytest.raises(ParameterError, match="switch_in_ratio"):

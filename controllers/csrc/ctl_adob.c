@@ -19,10 +19,11 @@ static int adob_positive(aff_real x)
 }
 
 int ctl_adob_set_switch_in(ctl_adob *a, aff_real Tc, aff_real J_n, aff_real Kp, aff_real Ki, aff_real window,
-                           aff_real ratio, aff_real fade_in)
+                           aff_real ratio, aff_real share, aff_real fade_in)
 {
     if (!adob_positive(Tc) || !adob_positive(J_n) || !adob_positive(Kp) || !adob_positive(window)
-        || !adob_positive(ratio) || !(isfinite(Ki) && Ki >= 0) || !(isfinite(fade_in) && fade_in >= 0))
+        || !adob_positive(ratio) || !adob_positive(share) || !(isfinite(Ki) && Ki >= 0)
+        || !(isfinite(fade_in) && fade_in >= 0))
         return -1;
     ctl_switch_in *s = &a->sw;
     s->Tc = Tc;
@@ -30,6 +31,7 @@ int ctl_adob_set_switch_in(ctl_adob *a, aff_real Tc, aff_real J_n, aff_real Kp, 
     s->Kp = Kp;
     s->Ki = Ki;
     s->ratio = ratio;
+    s->share = share;
     s->b = (aff_real)1.0 - AFF_EXP(-Tc / window);
     s->fade = fade_in > Tc ? Tc / fade_in : (aff_real)1.0;
     double ne = floor((double)window / (double)Tc + 0.5);
@@ -40,6 +42,9 @@ int ctl_adob_set_switch_in(ctl_adob *a, aff_real Tc, aff_real J_n, aff_real Kp, 
     s->I_l = 0;
     s->w_r = 0;
     s->I_r = 0;
+    s->w_f = 0;
+    s->I_f = 0;
+    s->m_f = 0;
     s->m_r = 0;
     s->m_l = 0;
     s->n = 0;
@@ -71,12 +76,16 @@ double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_
     aff_real w_r = s->w_r; /* the loop's response to the residual */
     s->I_r -= s->Ki * s->Tc * w_r;
     s->w_r += c * (-s->Kp * w_r + s->I_r - (aff_real)d_hat);
+    aff_real w_f = s->w_f; /* the loop's response to the whole friction estimate */
+    s->I_f -= s->Ki * s->Tc * w_f;
+    s->w_f += c * (-s->Kp * w_f + s->I_f - (aff_real)(u_ff + d_hat));
     if (acting && !rest) {
+        aff_lag_step(&s->m_f, s->b, w_f * w_f);
         aff_lag_step(&s->m_r, s->b, w_r * w_r);
         aff_lag_step(&s->m_l, s->b, e_l * e_l);
         s->n_used += 1;
     }
-    int residual = s->n_used >= 2 * s->n_evidence && s->m_r > s->ratio * s->m_l;
+    int residual = s->n_used >= 2 * s->n_evidence && (s->m_r > s->ratio * s->m_l || s->m_r > s->share * s->m_f);
     int idle = s->n_used == 0 && k + 1 >= s->n_wait;
     if (residual || idle) {
         s->k_in = k;

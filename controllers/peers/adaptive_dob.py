@@ -53,8 +53,9 @@ class ResidualSwitchIn:
 
     The loop's linear model (design inertia ``J_n``, PI gains ``Kp``, ``Ki``) predicts the velocity error the
     observer's residual estimate ``d_hat`` adds and the frictionless loop's error on the reference; the observer's
-    estimate is applied once the first, in mean square (time constant ``window``, over at least ``window`` of
-    periods in which the feedforward acts and the reference moves), exceeds ``ratio`` times the second; or after
+    estimate is applied once the first, in mean square (time constant ``window``, over at least twice ``window`` of
+    periods in which the feedforward acts and the reference moves), exceeds ``ratio`` times the second or ``share``
+    times the error predicted from the whole friction estimate ``u_ff + d_hat``; or after
     ``5*window`` without the feedforward acting. It then fades in over ``fade_in`` and stays.
 
     Parameters
@@ -70,6 +71,11 @@ class ResidualSwitchIn:
     ratio : float
         Threshold (-), > 0; default 0.1: the residual raises the loop's mean-square error by 10 % over the
         frictionless loop's (5 % in RMS).
+    share : float
+        Second threshold (-), > 0; default 0.25: the observer is also switched in where the residual's predicted
+        error exceeds ``share`` times that of the whole friction estimate ``u_ff + d_hat`` (the feedforward removes
+        less than three quarters of the friction's effect in mean square) -- on joints whose friction hardly
+        matters next to the loop's own error the first test cannot fire.
     fade_in : float
         Time over which the observer's share rises from 0 to 1 (s), >= 0 (0: a step); default 0.5.
 
@@ -85,10 +91,11 @@ class ResidualSwitchIn:
     Ki: float
     window: float = 2.0
     ratio: float = 0.1
+    share: float = 0.25
     fade_in: float = 0.5
 
     def __post_init__(self):
-        for name in ("Tc", "J_n", "Kp", "window", "ratio"):
+        for name in ("Tc", "J_n", "Kp", "window", "ratio", "share"):
             check_positive(name, getattr(self, name))
         check_nonnegative("Ki", self.Ki)
         check_nonnegative("fade_in", self.fade_in)
@@ -166,7 +173,7 @@ class AdaptiveDOBCompensator(Component):
         lib.ctl_adob_init(self._c, feedforward.cdata, observer.cdata, u_max)
         if switch_in is not None:
             s = switch_in
-            if lib.ctl_adob_set_switch_in(self._c, s.Tc, s.J_n, s.Kp, s.Ki, s.window, s.ratio, s.fade_in) != 0:
+            if lib.ctl_adob_set_switch_in(self._c, s.Tc, s.J_n, s.Kp, s.Ki, s.window, s.ratio, s.share, s.fade_in) != 0:
                 raise ParameterError(f"switch_in refused by ctl_adob_set_switch_in: {s!r}")
         self._attached()
 
@@ -211,14 +218,15 @@ class AdaptiveDOBCompensator(Component):
     def info(self) -> dict:
         """The feedforward's counters (:meth:`RobustAdaptiveFeedforward.info`) plus the observer's, prefixed
         ``dob_`` (``dob_n_rejected``, ``dob_J_n`` kg·m², ``dob_omega_q`` rad/s); with the switch-in also
-        ``t_switch_in`` (s or None) and ``residual_ratio`` (``M_r/M_l`` when last updated, or None before any
-        evidence)."""
+        ``t_switch_in`` (s or None), ``residual_ratio`` (``M_r/M_l``) and ``residual_share`` (``M_r/M_f``), when
+        last updated (None before any evidence)."""
         d = self.feedforward.info()
         d.update({f"dob_{k}": v for k, v in self.observer.info().items()})
         if self.switch_in is not None:
-            m_l = float(self._c.sw.m_l)
+            m_l, m_f = float(self._c.sw.m_l), float(self._c.sw.m_f)
             d["t_switch_in"] = self.t_switch_in
             d["residual_ratio"] = float(self._c.sw.m_r) / m_l if m_l > 0.0 else None
+            d["residual_share"] = float(self._c.sw.m_r) / m_f if m_f > 0.0 else None
         return d
 
     def compensate(self, w_meas: float, w_ref: float) -> float:
