@@ -595,7 +595,7 @@ def run_notes(results: dict) -> tuple:
             why = "" if ratio is None else (f"; the tracking error the loop's model predicts from what the feedforward "
                                             f"leaves had {ratio:.2f} times the mean square of the frictionless "
                                             f"loop's error" + ("" if share is None else
-                                                               f" and {share:.2f} times that of the friction's"))
+                                                               f" and {share:.2g} times that of the friction's"))
             notes.append(f"{mode}: the residual observer (as in adaptive-dob) switched in at {t_in:.2f} s{why}")
         n_off = info.get("n_backoff") or 0
         if n_off:
