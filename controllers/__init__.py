@@ -21,7 +21,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(__name__, submod_attrs={
     "simulation.compensators": ["TrueFriction", "build_mode"],
     "peers.canudas": ["CanudasCompensator"],
     "peers.dob": ["DisturbanceObserver"],
-    "peers.adaptive_dob": ["AdaptiveDOBCompensator"],
+    "peers.adaptive_dob": ["AdaptiveDOBCompensator", "ResidualSwitchIn"],
     "experiments.compare": ["FIXED_METHODS", "Comparison", "CompareOptions", "compare", "eta", "friction_scale",
                             "prefit_stribeck"],
     "experiments.scenario": ["Scenario", "ScenarioError", "load_scenario"],
@@ -45,6 +45,6 @@ __all__ = [
     "quasi_static_log", "closed_loop_response",
     "ESTIMATORS", "FIXED_METHODS", "friction_scale", "prefit_stribeck",
     "BATCH_MODES", "BatchResult", "run_batch",
-    "CanudasCompensator", "DisturbanceObserver", "AdaptiveDOBCompensator", "assert_tracking_bound",
+    "CanudasCompensator", "DisturbanceObserver", "AdaptiveDOBCompensator", "ResidualSwitchIn", "assert_tracking_bound",
     "TrackingBoundError", "velocity_faults",
 ]
