@@ -349,23 +349,8 @@ def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int
             failures.append("non-finite simulation")
             continue
         y_star = base + e_star
-        try:
-            v = np.asarray(refit(y_star, rng), dtype=float).reshape(-1)
-        except (FrictionError, np.linalg.LinAlgError) as exc:
-            failures.append(f"{type(exc).__name__}: {exc}")
-            continue
-        if v.shape != est.shape or not np.all(np.isfinite(v)):
-            failures.append("non-finite")
-            continue
-        reps.append(v)
-    R = np.array(reps).reshape(len(reps), est.shape[0])
-    if R.shape[0] < 2:
-        nan = np.full(est.shape[0], math.nan)
-        return BootstrapResult(stderr=nan, bias=nan.copy(), replicates=R, n=int(n), block=int(block),
-                               failures=tuple(failures))
-    d = R - est
-    return BootstrapResult(stderr=np.sqrt(np.mean(d**2, axis=0)), bias=np.mean(d, axis=0), replicates=R, n=int(n),
-                           block=int(block), failures=tuple(failures))
+        _refit_into(lambda: refit(y_star, rng), est, reps, failures)
+    return _bootstrap_result(reps, est, n, block, failures)
 
 
 def circular_block_resample(r, n_out: int, *, block: int, rng: np.random.Generator) -> np.ndarray:
@@ -542,15 +527,27 @@ def residual_block_bootstrap(refit, fitted, residuals, estimate, *, n: int, rng:
         raise ParameterError(f"refit must be callable, got {type(refit).__name__}")
     for _ in range(int(n)):
         y_star = fit + circular_block_resample(res, fit.shape[0], block=block, rng=rng)
-        try:
-            v = np.asarray(refit(y_star), dtype=float).reshape(-1)
-        except (FrictionError, np.linalg.LinAlgError) as exc:
-            failures.append(f"{type(exc).__name__}: {exc}")
-            continue
-        if v.shape != est.shape or not np.all(np.isfinite(v)):
-            failures.append("non-finite")
-            continue
-        reps.append(v)
+        _refit_into(lambda: refit(y_star), est, reps, failures)
+    return _bootstrap_result(reps, est, n, block, failures)
+
+
+def _refit_into(call, est: np.ndarray, reps: list, failures: list) -> None:
+    """One bootstrap refit ``call()``: its parameter vector appended to ``reps`` if it has the shape of ``est`` and
+    is finite, else the reason appended to ``failures`` (a friction or linear-algebra error, or "non-finite")."""
+    try:
+        v = np.asarray(call(), dtype=float).reshape(-1)
+    except (FrictionError, np.linalg.LinAlgError) as exc:
+        failures.append(f"{type(exc).__name__}: {exc}")
+        return
+    if v.shape != est.shape or not np.all(np.isfinite(v)):
+        failures.append("non-finite")
+        return
+    reps.append(v)
+
+
+def _bootstrap_result(reps: list, est: np.ndarray, n, block, failures: list) -> "BootstrapResult":
+    """The :class:`BootstrapResult` of the refits ``reps`` around ``est``: RMS deviation (standard error) and mean
+    deviation (bias) per parameter, NaN with fewer than two valid refits."""
     R = np.array(reps).reshape(len(reps), est.shape[0])
     if R.shape[0] < 2:
         nan = np.full(est.shape[0], math.nan)
