@@ -13,15 +13,11 @@ aff_real aff_lag_step(aff_real *x, aff_real a, aff_real input)
     return *x;
 }
 
-static int positive(aff_real x)
-{
-    return isfinite(x) && x > 0;
-}
-
 int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real omega, aff_real window,
                         aff_real margin, aff_real settle, aff_real rest_band, long delay)
 {
-    if (!positive(Tc) || !positive(J_n) || !positive(omega) || !positive(window) || !(margin >= 0 && margin < 1)
+    if (!aff_positive(Tc) || !aff_positive(J_n) || !aff_positive(omega) || !aff_positive(window)
+        || !(margin >= 0 && margin < 1)
         || !(isfinite(settle) && settle >= 0) || !(isfinite(rest_band) && rest_band >= -1) || delay < 0
         || delay > AFF_SUPERVISOR_DELAY_MAX)
         return -1;

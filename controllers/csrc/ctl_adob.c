@@ -13,16 +13,11 @@ void ctl_adob_init(ctl_adob *a, const aff_robust_ff *ff, const ctl_dob *dob, aff
     a->dob = *dob;
 }
 
-static int adob_positive(aff_real x)
-{
-    return isfinite(x) && x > 0;
-}
-
 int ctl_adob_set_switch_in(ctl_adob *a, aff_real Tc, aff_real J_n, aff_real Kp, aff_real Ki, aff_real window,
                            aff_real ratio, aff_real share, aff_real fade_in)
 {
-    if (!adob_positive(Tc) || !adob_positive(J_n) || !adob_positive(Kp) || !adob_positive(window)
-        || !adob_positive(ratio) || !adob_positive(share) || !(isfinite(Ki) && Ki >= 0)
+    if (!aff_positive(Tc) || !aff_positive(J_n) || !aff_positive(Kp) || !aff_positive(window)
+        || !aff_positive(ratio) || !aff_positive(share) || !(isfinite(Ki) && Ki >= 0)
         || !(isfinite(fade_in) && fade_in >= 0))
         return -1;
     ctl_switch_in *s = &a->sw;
@@ -56,6 +51,16 @@ int ctl_adob_set_switch_in(ctl_adob *a, aff_real Tc, aff_real J_n, aff_real Kp, 
     return 0;
 }
 
+/* One period of the loop model's response to a disturbance torque d (N*m): the velocity w it adds (rad/s) and the
+ * PI integrator I (N*m), I -= Ki*Tc*w, w += Tc/J_n*(-Kp*w + I - d) (header comment); returns w before the step. */
+static aff_real disturbance_step(const ctl_switch_in *s, aff_real *w, aff_real *I, aff_real d)
+{
+    aff_real w0 = *w;
+    *I -= s->Ki * s->Tc * w0;
+    *w += s->Tc / s->J_n * (-s->Kp * w0 + *I - d);
+    return w0;
+}
+
 double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_ref, int acting)
 {
     long k = s->n;
@@ -73,12 +78,8 @@ double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_
     aff_real e_l = (aff_real)w_ref - s->w_l; /* the frictionless loop on the reference */
     s->I_l += s->Ki * s->Tc * e_l;
     s->w_l += c * (s->Kp * e_l + s->I_l);
-    aff_real w_r = s->w_r; /* the loop's response to the residual */
-    s->I_r -= s->Ki * s->Tc * w_r;
-    s->w_r += c * (-s->Kp * w_r + s->I_r - (aff_real)d_hat);
-    aff_real w_f = s->w_f; /* the loop's response to the whole friction estimate */
-    s->I_f -= s->Ki * s->Tc * w_f;
-    s->w_f += c * (-s->Kp * w_f + s->I_f - (aff_real)(u_ff + d_hat));
+    aff_real w_r = disturbance_step(s, &s->w_r, &s->I_r, (aff_real)d_hat); /* the residual's */
+    aff_real w_f = disturbance_step(s, &s->w_f, &s->I_f, (aff_real)(u_ff + d_hat)); /* the whole estimate's */
     if (acting && !rest) {
         aff_lag_step(&s->m_f, s->b, w_f * w_f);
         aff_lag_step(&s->m_r, s->b, w_r * w_r);

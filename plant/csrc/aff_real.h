@@ -38,4 +38,10 @@ static inline aff_real aff_max2(aff_real a, aff_real b)
     return b > a ? b : a;
 }
 
+/* 1 if x is finite and > 0 (a configuration value that must be a positive number), else 0. */
+static inline int aff_positive(aff_real x)
+{
+    return isfinite(x) && x > 0;
+}
+
 #endif
