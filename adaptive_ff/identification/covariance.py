@@ -166,6 +166,14 @@ def moving_block_resample(r, n_out: int, *, block: int, rng: np.random.Generator
     Künsch (1989), *Ann. Statist.* 17(3), 1217-1241; Lahiri, *Resampling Methods for Dependent Data*
     (Springer, 2003), Sec. 2.5.
     """
+    r, n, block = _resample_args(r, n_out, block, rng)
+    starts = rng.integers(0, n - block + 1, size=-(-int(n_out) // block))
+    return r[(starts[:, None] + np.arange(block)[None, :]).reshape(-1)[:n_out]]
+
+
+def _resample_args(r, n_out, block, rng) -> tuple:
+    """The checked arguments of a block resampling: ``r`` as a float array, its length ``n`` and the block length
+    cut to ``n``; the errors of :func:`moving_block_resample`."""
     r = np.asarray(r, dtype=float)
     if r.ndim == 0 or r.ndim > 2 or r.shape[0] < 1 or r.size < 1 or not np.all(np.isfinite(r)):
         raise SignalError(f"residuals must be >= 1 finite values of shape (n,) or (n, c), got shape {r.shape}")
@@ -174,9 +182,7 @@ def moving_block_resample(r, n_out: int, *, block: int, rng: np.random.Generator
             raise ParameterError(f"{name} must be an integer >= 1, got {v!r}")
     if not isinstance(rng, np.random.Generator):
         raise ParameterError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-    n, block = r.shape[0], int(min(block, r.shape[0]))
-    starts = rng.integers(0, n - block + 1, size=-(-int(n_out) // block))
-    return r[(starts[:, None] + np.arange(block)[None, :]).reshape(-1)[:n_out]]
+    return r, r.shape[0], int(min(block, r.shape[0]))
 
 
 @dataclass(frozen=True)
@@ -387,15 +393,7 @@ def circular_block_resample(r, n_out: int, *, block: int, rng: np.random.Generat
     Politis & Romano, "A circular block-resampling procedure for stationary data", in *Exploring the Limits
     of Bootstrap* (Wiley, 1992), 263-270; Lahiri (2003), Sec. 2.7.
     """
-    r = np.asarray(r, dtype=float)
-    if r.ndim == 0 or r.ndim > 2 or r.shape[0] < 1 or r.size < 1 or not np.all(np.isfinite(r)):
-        raise SignalError(f"residuals must be >= 1 finite values of shape (n,) or (n, c), got shape {r.shape}")
-    for name, v in (("n_out", n_out), ("block", block)):
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-            raise ParameterError(f"{name} must be an integer >= 1, got {v!r}")
-    if not isinstance(rng, np.random.Generator):
-        raise ParameterError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-    n, block = r.shape[0], int(min(block, r.shape[0]))
+    r, n, block = _resample_args(r, n_out, block, rng)
     starts = rng.integers(0, n, size=-(-int(n_out) // block))
     return r[((starts[:, None] + np.arange(block)[None, :]) % n).reshape(-1)[:n_out]]
 
