@@ -25,7 +25,7 @@ import time
 import numpy as np
 
 from controllers.experiments.compare import compare
-from controllers.experiments.zoo import ZooOptions, run_zoo
+from controllers.experiments.zoo import WORSE_THAN_NONE, ZooOptions, run_zoo
 from plant.friction import preset
 from plant.motion import point_to_point_reference
 from plant.variant_plants import VARIANT_NAMES, drift_case, variant
@@ -77,9 +77,9 @@ def zoo_table(n: int, seed: int, workers, velocity: str) -> None:
         qs = np.nanquantile(v, q) if np.any(np.isfinite(v)) else [math.nan] * 3
         print(f"| {m} | " + " | ".join(f"{x:.3f}" for x in qs) + " |")
     worse = r.worse_than_none()
-    print("\nworse than none (eta < -0.02): " + ", ".join(f"{m} {worse[m]}" for m in MODES[1:]) + "; joints: "
-          + "; ".join(f"{m} {np.flatnonzero(np.isfinite(r.eta[m]) & (r.eta[m] < -0.02)).tolist()}"
-                      for m in MODES[1:] if worse[m]))
+    joints = {m: np.flatnonzero(np.isfinite(r.eta[m]) & (r.eta[m] < WORSE_THAN_NONE)).tolist() for m in MODES[1:]}
+    print(f"\nworse than none (eta < {WORSE_THAN_NONE}): " + ", ".join(f"{m} {worse[m]}" for m in MODES[1:])
+          + "; joints: " + "; ".join(f"{m} {joints[m]}" for m in MODES[1:] if worse[m]))
     deg = r.degradation()
     lose = np.flatnonzero(best < rival - LOSS)
     material = [i for i in lose if deg[i] >= MATERIAL]
