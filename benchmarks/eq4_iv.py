@@ -1,12 +1,15 @@
 """The eq. 4 adaptive feedforward in closed loop: the paper's RLS against recursive IV, and the default estimator.
 
-Run:  python benchmarks/eq4_iv.py [--plants paper,karnopp,...] [--seeds 0-9] [--duration 120] [--jobs N]
+Run:  python benchmarks/eq4_iv.py [--plants paper,karnopp,...] [--seeds 0-9] [--duration 120] [--jobs N] [--bare]
 
 For each plant (the ``paper`` preset, a variant of :mod:`plant.variant_plants` or the drift case) and seed, one comparison is
 prepared (:func:`controllers.experiments.compare.prepare_comparison`: reference, PI, Stribeck pre-fit, noise) and
 the ``adaptive`` mode runs with each estimator on the same reference and noise: ``eq4`` (the paper's RLS on every
 sample, bare feedforward), ``eq4-iv`` (recursive IV with the instruments ``phi(k-2)`` on the sliding samples,
-docs/theory.md) and ``sliding`` (the default). Printed: ``eta`` over the second half,
+docs/theory.md) and ``sliding`` (the default), each as mode ``adaptive`` is by default: with the residual switch-in
+(:class:`controllers.peers.adaptive_dob.ResidualSwitchIn`; a ``*`` marks the runs in which it switched the observer
+in); with ``--bare`` the two eq. 4 estimators also run without it (``switch_in=False``, the feedforward alone, as
+``--no-switch-in``). Printed: ``eta`` over the second half,
 ``(RMS_none - RMS_adaptive)/(RMS_none - RMS_frictionless)``, as ``adaptive-ff compare --variant NAME --seed S
 --modes none,adaptive --estimator E`` prints it, and the targets: ``eq4-iv`` >= 0.9 on ``paper``, within 0.1 of
 the default on every plant.
@@ -29,6 +32,8 @@ from plant.variant_plants import VARIANT_NAMES, drift_case, variant
 
 #: Estimators of the table, in column order.
 ESTIMATORS = ("eq4", "eq4-iv", "sliding")
+#: The estimators also run without the switch-in with ``--bare``.
+BARE = ("eq4", "eq4-iv")
 
 
 def _seeds(text: str) -> list:
@@ -40,7 +45,7 @@ def _seeds(text: str) -> list:
     return out
 
 
-def row(plant_name: str, seed: int, duration: float) -> dict:
+def row(plant_name: str, seed: int, duration: float, bare: bool = False) -> dict:
     """eta of ``adaptive`` with every estimator of :data:`ESTIMATORS` on one plant and seed.
 
     Parameters
@@ -52,11 +57,14 @@ def row(plant_name: str, seed: int, duration: float) -> dict:
         Seed of the comparison (reference, pre-fit, noise).
     duration : float
         Run length (s).
+    bare : bool
+        Also run the estimators of :data:`BARE` without the switch-in.
 
     Returns
     -------
     dict
-        ``plant``, ``seed`` and the second-half eta per estimator name.
+        ``plant``, ``seed``, the second-half eta per estimator name, ``"<name> in"`` (whether the switch-in
+        fired) and with ``bare`` ``"<name> bare"``.
     """
     if plant_name == "drift":
         p = drift_case(duration)
@@ -68,10 +76,15 @@ def row(plant_name: str, seed: int, duration: float) -> dict:
         r = run_mode(p, s.reference, mode, s.mode_options[mode], rng=np.random.default_rng(s.noise_seed))
         rms[mode] = r.metrics.rms_second_half
     out = {"plant": plant_name, "seed": seed}
-    for est in ESTIMATORS:
-        r = run_mode(p, s.reference, "adaptive", replace(s.mode_options["adaptive"], estimator=est),
+    runs = [(est, True) for est in ESTIMATORS] + ([(est, False) for est in BARE] if bare else [])
+    for est, switch_in in runs:
+        r = run_mode(p, s.reference, "adaptive", replace(s.mode_options["adaptive"], estimator=est,
+                                                         switch_in=switch_in),
                      rng=np.random.default_rng(s.noise_seed))
-        out[est] = eta(rms["none"], r.metrics.rms_second_half, rms["frictionless"])
+        key = est if switch_in else f"{est} bare"
+        out[key] = eta(rms["none"], r.metrics.rms_second_half, rms["frictionless"])
+        if switch_in:
+            out[f"{est} in"] = r.info.get("t_switch_in") is not None
     return out
 
 
@@ -82,14 +95,19 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", default="0", help="e.g. 0-9 or 0,3,5 (default 0)")
     ap.add_argument("--duration", type=float, default=120.0)
     ap.add_argument("--jobs", type=int, default=1)
+    ap.add_argument("--bare", action="store_true", help="also the eq. 4 estimators without the switch-in")
     a = ap.parse_args(argv)
     jobs = [(pl, sd) for pl in a.plants.split(",") for sd in _seeds(a.seeds)]
     t0 = time.perf_counter()
     with ProcessPoolExecutor(a.jobs) as ex:
-        rows = list(ex.map(row, *zip(*jobs), [a.duration] * len(jobs)))
-    print(f"{'plant':<16}{'seed':>5}{'eq4 RLS':>10}{'eq4 IV':>10}{'default':>10}")
+        rows = list(ex.map(row, *zip(*jobs), [a.duration] * len(jobs), [a.bare] * len(jobs)))
+    heads = ["eq4 RLS", "eq4 IV", "default"] + (["RLS bare", "IV bare"] if a.bare else [])
+    keys = list(ESTIMATORS) + ([f"{e} bare" for e in BARE] if a.bare else [])
+    print(f"{'plant':<16}{'seed':>5}" + "".join(f"{h:>10}" for h in heads))
     for r in rows:
-        print(f"{r['plant']:<16}{r['seed']:>5}" + "".join(f"{r[e]:>10.3f}" for e in ESTIMATORS))
+        cells = [f"{r[k]:.3f}" + ("*" if r.get(f"{k} in") else " ") for k in keys]
+        print(f"{r['plant']:<16}{r['seed']:>5}" + "".join(f"{c:>10}" for c in cells))
+    print("*: the residual switch-in brought the observer in during the run")
     paper = [r["eq4-iv"] for r in rows if r["plant"] == "paper"]
     if paper:
         print(f"paper: eq4 IV eta min {min(paper):.3f}, mean {np.mean(paper):.3f} over {len(paper)} seeds "

@@ -4,6 +4,7 @@ engine equals the single run, the parts compose as specified, and the mode holds
 each friction model (the margin target of docs/benchmarks/variants.md)."""
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -97,7 +98,27 @@ def test_validation():
         AdaptiveDOBCompensator(ff, ff)
     with pytest.raises(ParameterError, match="u_max"):
         AdaptiveDOBCompensator(ff, dob, u_max=-1.0)
-    with pytest.raises(ParameterError, match="sliding"):
-        run_named(P, multisine_reference(1.0, rng=np.random.default_rng(0)), mode="adaptive-dob", Kp=1.0, Ki=1.0,
-                  estimator="eq4")
+    with pytest.raises(ParameterError, match="AdaptiveFrictionFeedforward"):  # the kinds it takes, named
+        AdaptiveDOBCompensator(est, dob)
     assert math.isinf(AdaptiveDOBCompensator(ff, dob).u_max)
+
+
+@pytest.mark.parametrize("mode,estimator", [("adaptive-dob", "eq4"), ("adaptive", "eq4-iv"), ("adaptive", "sliding")])
+def test_every_estimator_builds_the_composite(mode, estimator):
+    """``adaptive-dob``, and ``adaptive`` with its switch-in, compose the observer with the feedforward of any
+    estimator: the eq. 4 ones in ``ctl_eq4_dob``, the sliding one in ``ctl_adob``; ``switch_in=False`` leaves
+    ``adaptive`` the feedforward alone."""
+    from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
+    from adaptive_ff.identification.regression import RegressionModel
+    from controllers.simulation.compensators import build_mode
+
+    o = ModeOptions(Kp=20.0, Ki=200.0, J_design=P.J, Vs=P.Vs, delta=P.delta, estimator=estimator,
+                    model=RegressionModel(P.Vs, P.delta))
+    _, _, comp = build_mode(P, mode, o)
+    assert isinstance(comp, AdaptiveDOBCompensator) and comp.MODE == mode
+    eq4 = estimator != "sliding"
+    assert comp.C_OPS == ("ctl_eq4_dob_ops" if eq4 else "ctl_adob_ops")
+    assert isinstance(comp.feedforward, AdaptiveFrictionFeedforward if eq4 else RobustAdaptiveFeedforward)
+    assert (comp.switch_in is not None) == (mode == "adaptive")
+    _, _, alone = build_mode(P, "adaptive", replace(o, switch_in=False))
+    assert isinstance(alone, AdaptiveFrictionFeedforward if eq4 else RobustAdaptiveFeedforward)

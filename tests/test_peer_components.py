@@ -323,7 +323,7 @@ def test_adaptive_dob_is_its_parts_composed_and_moves_as_one_struct(u_max, start
 
     p, ff, dob = _adob_parts(u_max, start)
     c = AdaptiveDOBCompensator(ff, dob, u_max=u_max)
-    assert ff.cdata == ffi.addressof(c.cdata, "ff") and dob.cdata == ffi.addressof(c.cdata, "dob")
+    assert ff.cdata == ffi.addressof(c.cdata, "ff") and dob.cdata == ffi.addressof(c.cdata.res, "dob")
     assert ff.estimator.cdata == ffi.addressof(c.cdata.ff, "est") and ffi.string(c.ops.name) == b"adaptive-dob"
     assert c.n_theta == ff.n_theta and c.u_max == u_max
     _, ff2, dob2 = _adob_parts(u_max, start)  # the reference: the parts on their own
@@ -350,7 +350,7 @@ def test_adaptive_dob_is_its_parts_composed_and_moves_as_one_struct(u_max, start
             arr = ffi.new("ctl_adob[2]")
             c._use(ffi.addressof(arr, 1), arr)
             cp = c.cdata
-            assert ff.estimator.cdata == ffi.addressof(arr[1].ff, "est") and dob.cdata == ffi.addressof(arr[1], "dob")
+            assert ff.estimator.cdata == ffi.addressof(arr[1].ff, "est") and dob.cdata == ffi.addressof(arr[1].res, "dob")
     assert n_upd > 50 and c.active and ff2.active
     assert dob.struct_bytes() == dob2.struct_bytes() and ff.estimator.theta.tolist() == ff2.estimator.theta.tolist()
     d = pickle.loads(pickle.dumps(c))
@@ -361,3 +361,53 @@ def test_adaptive_dob_is_its_parts_composed_and_moves_as_one_struct(u_max, start
         c.observe(x, w)
         d.observe(x, w)
     assert d.struct_bytes() == c.struct_bytes()
+
+
+def _eq4_parts(iv):
+    """The eq. 4 feedforward (RLS or IV) and an observer for the ``paper`` joint, built twice from the same settings."""
+    from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
+    from adaptive_ff.identification.regression import RegressionModel
+    from plant.friction import preset
+
+    p = preset("paper")
+    ff = AdaptiveFrictionFeedforward(RegressionModel(p.Vs, p.delta), Ts=2e-3, dt=1e-3, warmup=50, iv=iv,
+                                     w_band=p.Vs if iv else 0.0)
+    return p, ff, DisturbanceObserver(J_n=0.9 * p.J, Tc=1e-3, omega_q=400.0, d_max=60.0)
+
+
+@pytest.mark.parametrize("iv", [False, True])
+def test_the_eq4_composite_is_its_parts_composed_with_the_switch_in(iv):
+    """Over the eq. 4 feedforward the composite (``ctl_eq4_dob``) is the same arrangement: before the residual
+    switch-in exactly the feedforward's torque, after it ``u_ff + g*d_hat`` (both clipped to u_max) with g rising by Tc/fade_in per period
+    from the switch-in on; the observer records u - u_ff, the feedforward (u, w); it survives a pickle."""
+    from controllers._cctl import lib
+    from controllers.peers.adaptive_dob import AdaptiveDOBCompensator, ResidualSwitchIn
+
+    p, ff, dob = _eq4_parts(iv)
+    sw = ResidualSwitchIn(Tc=1e-3, J_n=p.J, Kp=20.0, Ki=200.0, window=0.05, fade_in=0.02)
+    c = AdaptiveDOBCompensator(ff, dob, u_max=80.0, switch_in=sw)
+    assert c.C_OPS == "ctl_eq4_dob_ops" and ff.cdata == ffi.addressof(c.cdata, "ff")
+    assert dob.cdata == ffi.addressof(c.cdata.res, "dob") and c.estimator is ff and c.MODE == "adaptive"
+    _, ff2, dob2 = _eq4_parts(iv)
+    wm, wr, u_in = _adob_stream(p, 4000, 5)
+    ops, cp = c.ops, c.cdata
+    k_in, n_samples, n_samples2 = None, 0, 0
+    for k, (w, r, x) in enumerate(zip(wm.tolist(), wr.tolist(), u_in.tolist())):
+        out = ops.compensate(cp, w, w, r)
+        uff = lib.aff_eq4_ff_compensate(ff2.cdata, w, w, r)
+        d = dob2.compensate(w, r)
+        if k_in is None and c.t_switch_in is not None:
+            k_in = round(c.t_switch_in / 1e-3)
+            assert k_in == k
+        g = 0.0 if k_in is None else min(1.0, (k - k_in + 1) * 0.05)
+        ref = min(max(uff if g == 0.0 else uff + g * d, -80.0), 80.0)  # the bound holds throughout
+        assert out == pytest.approx(ref, rel=1e-12, abs=1e-12) or (math.isnan(out) and math.isnan(ref)), k
+        uk = x + 0.3 * out
+        n_samples += ops.observe(cp, uk, w, ffi.NULL)
+        dob2.observe(uk - uff, w)
+        n_samples2 += lib.aff_eq4_ff_observe(ff2.cdata, uk, w, ffi.NULL)
+    assert k_in is not None and n_samples == n_samples2 > 1900 and ff.active == ff2.active
+    assert dob.struct_bytes() == dob2.struct_bytes() and ff.struct_bytes() == ff2.struct_bytes()
+    d = pickle.loads(pickle.dumps(c))
+    assert d.struct_bytes() == c.struct_bytes() and d.feedforward.cdata == ffi.addressof(d.cdata, "ff")
+    assert d.C_OPS == "ctl_eq4_dob_ops" and d.info()["t_switch_in"] == c.t_switch_in

@@ -29,8 +29,8 @@ TC, JN, KP, KI = 1e-3, 0.5, 10.0, 60.0
 
 
 def _c_switch_in(window=0.05, ratio=0.1, fade_in=0.01, share=0.25):
-    a = ffi.new("ctl_adob *")
-    assert lib.ctl_adob_set_switch_in(a, TC, JN, KP, KI, window, ratio, share, fade_in) == 0
+    a = ffi.new("ctl_residual *")
+    assert lib.ctl_residual_set_switch_in(a, TC, JN, KP, KI, window, ratio, share, fade_in) == 0
     return a
 
 
@@ -139,9 +139,9 @@ def test_settings_are_checked():
                 dict(fade_in=-0.1)):
         with pytest.raises(ParameterError):
             ResidualSwitchIn(**{**dict(Tc=TC, J_n=JN, Kp=KP, Ki=KI), **bad})
-    a = ffi.new("ctl_adob *")
-    assert lib.ctl_adob_set_switch_in(a, TC, JN, KP, KI, 0.05, 0.0, 0.25, 0.01) == -1 and a.use_switch_in == 0
-    assert lib.ctl_adob_set_switch_in(a, TC, JN, KP, KI, 0.05, 0.1, 0.0, 0.01) == -1 and a.use_switch_in == 0
+    a = ffi.new("ctl_residual *")
+    assert lib.ctl_residual_set_switch_in(a, TC, JN, KP, KI, 0.05, 0.0, 0.25, 0.01) == -1 and a.use_switch_in == 0
+    assert lib.ctl_residual_set_switch_in(a, TC, JN, KP, KI, 0.05, 0.1, 0.0, 0.01) == -1 and a.use_switch_in == 0
     with pytest.raises(ParameterError, match="switch_in"):
         ModeOptions(Kp=KP, Ki=KI, switch_in="yes")
     with pytest.raises(ParameterError, match="switch_in_ratio"):

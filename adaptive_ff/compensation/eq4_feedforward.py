@@ -207,6 +207,11 @@ class AdaptiveFrictionFeedforward(Component):
         return self._est.theta
 
     @property
+    def active(self) -> bool:
+        """Whether the feedforward is switched on (an admissible estimate is in use)."""
+        return bool(self._c.has_estimate)
+
+    @property
     def estimate(self) -> FrictionEstimate | None:
         """Estimate in use (projected onto the admissible set), or None before the first one."""
         if not self._c.has_estimate:

@@ -34,6 +34,7 @@ _SCENARIO_SETS = {"preset": "[plant] preset", "plant": "[plant] file", "variant"
                   "Ts": "[controller] Ts", "noise": "[sensor] noise_std", "lam": "[compensation] lam",
                   "crossover": "[controller] crossover", "phase_margin": "[controller] phase_margin",
                   "no_prefit": "[compensation] prefit", "no_fast_start": "[compensation] adaptive_start",
+                  "no_switch_in": "[compensation] switch_in",
                   "Vs": "[compensation] Vs", "delta": "[compensation] delta", "J_design": "[controller] J_design"}
 
 
@@ -113,7 +114,7 @@ def _compare_and_print(args, p, modes, out_dir) -> int:
                    lam=args.lam, crossover=args.crossover, phase_margin=args.phase_margin, progress=progress,
                    estimator=args.estimator, ff_input=args.ff_input, omega_q=args.omega_q,
                    prefit=not args.no_prefit, Vs=args.Vs, delta=args.delta, J_design=args.J_design,
-                   adaptive_start=not args.no_fast_start)
+                   adaptive_start=not args.no_fast_start, switch_in=not args.no_switch_in)
     src = args.plant if args.plant else (f"variant '{args.variant}'" if args.variant else f"preset '{args.preset}'")
     header = [f"plant: {src}: {parameter_text(plant_to_dict(p))}"] + _time_varying_lines(p)
     return _print_comparison(args, comp, out_dir, header, None, run=f"run: {args.duration:g} s, seed {args.seed}")
@@ -268,6 +269,9 @@ def register(sub) -> None:
     c.add_argument("--no-fast-start", action="store_true",
                    help="adaptive, adaptive-dob: no provisional feedforward from the pre-fit before the estimator's "
                         "first trusted estimate (CompareOptions.adaptive_start = False)")
+    c.add_argument("--no-switch-in", action="store_true",
+                   help="adaptive: the feedforward alone, never the residual observer (with --estimator eq4 the "
+                        "paper's bare prototype; CompareOptions.switch_in = False)")
     c.add_argument("--Vs", type=float, default=None,
                    help="Stribeck velocity in rad/s, if known (with --delta; no pre-fit then)")
     c.add_argument("--delta", type=float, default=None, help="Stribeck shape factor, if known (with --Vs)")

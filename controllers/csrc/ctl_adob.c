@@ -2,25 +2,23 @@
 #include <math.h>
 #include "ctl_adob.h"
 
-void ctl_adob_init(ctl_adob *a, const aff_robust_ff *ff, const ctl_dob *dob, aff_real u_max)
+void ctl_residual_init(ctl_residual *r, const ctl_dob *dob, aff_real u_max)
 {
-    a->u_max = u_max;
-    a->u_ff = 0;
-    a->use_switch_in = 0;
-    a->sw.g = 1;
-    a->sw.k_in = -1;
-    a->ff = *ff;
-    a->dob = *dob;
+    r->u_max = u_max;
+    r->u_ff = 0;
+    r->use_switch_in = 0;
+    r->sw.g = 1;
+    r->sw.k_in = -1;
+    r->dob = *dob;
 }
 
-int ctl_adob_set_switch_in(ctl_adob *a, aff_real Tc, aff_real J_n, aff_real Kp, aff_real Ki, aff_real window,
-                           aff_real ratio, aff_real share, aff_real fade_in)
+static int switch_in_init(ctl_switch_in *s, aff_real Tc, aff_real J_n, aff_real Kp, aff_real Ki, aff_real window,
+                          aff_real ratio, aff_real share, aff_real fade_in)
 {
     if (!aff_positive(Tc) || !aff_positive(J_n) || !aff_positive(Kp) || !aff_positive(window)
         || !aff_positive(ratio) || !aff_positive(share) || !(isfinite(Ki) && Ki >= 0)
         || !(isfinite(fade_in) && fade_in >= 0))
         return -1;
-    ctl_switch_in *s = &a->sw;
     s->Tc = Tc;
     s->J_n = J_n;
     s->Kp = Kp;
@@ -47,7 +45,15 @@ int ctl_adob_set_switch_in(ctl_adob *a, aff_real Tc, aff_real J_n, aff_real Kp, 
     s->k_in = -1;
     s->rest_last = 0;
     s->g = 0;
-    a->use_switch_in = 1;
+    return 0;
+}
+
+int ctl_residual_set_switch_in(ctl_residual *r, aff_real Tc, aff_real J_n, aff_real Kp, aff_real Ki, aff_real window,
+                               aff_real ratio, aff_real share, aff_real fade_in)
+{
+    if (switch_in_init(&r->sw, Tc, J_n, Kp, Ki, window, ratio, share, fade_in) != 0)
+        return -1;
+    r->use_switch_in = 1;
     return 0;
 }
 
@@ -95,25 +101,63 @@ double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_
     return (double)s->g;
 }
 
+double ctl_residual_compensate(ctl_residual *r, double u_ff, int acting, double w_ctrl, double w_meas, double w_ref)
+{
+    r->u_ff = (aff_real)u_ff;
+    double d = ctl_dob_compensate(&r->dob, w_ctrl, w_meas, w_ref);
+    double g = r->use_switch_in ? ctl_switch_in_step(&r->sw, u_ff, d, w_ref, acting) : 1.0;
+    double out = g > 0.0 ? u_ff + g * d : u_ff; /* before the switch-in exactly the feedforward */
+    double lim = (double)r->u_max;
+    double y = -lim > out ? -lim : out; /* Python's min(max(out, -lim), lim) */
+    return lim < y ? lim : y;
+}
+
+void ctl_residual_observe(ctl_residual *r, double u, double w_meas, double *theta_out)
+{
+    ctl_dob_observe(&r->dob, u - (double)r->u_ff, w_meas, theta_out);
+}
+
+void ctl_adob_init(ctl_adob *a, const aff_robust_ff *ff, const ctl_dob *dob, aff_real u_max)
+{
+    ctl_residual_init(&a->res, dob, u_max);
+    a->ff = *ff;
+}
+
 double ctl_adob_compensate(void *self, double w_ctrl, double w_meas, double w_ref)
 {
     ctl_adob *a = (ctl_adob *)self;
     double uff = aff_robust_ff_compensate(&a->ff, w_ctrl, w_meas, w_ref);
-    a->u_ff = (aff_real)uff;
-    double d = ctl_dob_compensate(&a->dob, w_ctrl, w_meas, w_ref);
     int acting = a->ff.ff.has && !a->ff.provisional; /* its own estimate in use */
-    double g = a->use_switch_in ? ctl_switch_in_step(&a->sw, uff, d, w_ref, acting) : 1.0;
-    double out = g > 0.0 ? uff + g * d : uff; /* before the switch-in exactly the feedforward */
-    double lim = (double)a->u_max;
-    double y = -lim > out ? -lim : out; /* Python's min(max(out, -lim), lim) */
-    return lim < y ? lim : y;
+    return ctl_residual_compensate(&a->res, uff, acting, w_ctrl, w_meas, w_ref);
 }
 
 int ctl_adob_observe(void *self, double u, double w_meas, double *theta_out)
 {
     ctl_adob *a = (ctl_adob *)self;
-    ctl_dob_observe(&a->dob, u - (double)a->u_ff, w_meas, theta_out);
+    ctl_residual_observe(&a->res, u, w_meas, theta_out);
     return aff_robust_ff_observe(&a->ff, u, w_meas, theta_out);
 }
 
 const aff_compensator_ops ctl_adob_ops = {"adaptive-dob", ctl_adob_compensate, ctl_adob_observe};
+
+void ctl_eq4_dob_init(ctl_eq4_dob *a, const aff_eq4_ff *ff, const ctl_dob *dob, aff_real u_max)
+{
+    ctl_residual_init(&a->res, dob, u_max);
+    a->ff = *ff;
+}
+
+double ctl_eq4_dob_compensate(void *self, double w_ctrl, double w_meas, double w_ref)
+{
+    ctl_eq4_dob *a = (ctl_eq4_dob *)self;
+    double uff = aff_eq4_ff_compensate(&a->ff, w_ctrl, w_meas, w_ref);
+    return ctl_residual_compensate(&a->res, uff, a->ff.has_estimate, w_ctrl, w_meas, w_ref);
+}
+
+int ctl_eq4_dob_observe(void *self, double u, double w_meas, double *theta_out)
+{
+    ctl_eq4_dob *a = (ctl_eq4_dob *)self;
+    ctl_residual_observe(&a->res, u, w_meas, theta_out);
+    return aff_eq4_ff_observe(&a->ff, u, w_meas, theta_out);
+}
+
+const aff_compensator_ops ctl_eq4_dob_ops = {"adaptive-dob", ctl_eq4_dob_compensate, ctl_eq4_dob_observe};

@@ -1,5 +1,7 @@
 /* ctl_adob.h -- the adaptive friction feedforward plus a disturbance observer on the residual (mode
- * "adaptive-dob").
+ * "adaptive-dob"; with the residual switch-in, mode "adaptive"), for either feedforward: ctl_adob embeds the
+ * sliding estimator's aff_robust_ff, ctl_eq4_dob the paper's eq. 4 feedforward aff_eq4_ff (estimator "eq4" or
+ * "eq4-iv"). Both compose their parts the same way, through their shared part ctl_residual (the observer, the switch-in, the bound).
  *
  * Per period: u_ff from the robust adaptive feedforward (aff_robust_ff, 0 before its switch-on, faded in
  * after), d_hat from the disturbance observer (ctl_dob), output u_ff + d_hat clipped to +-u_max. The observer
@@ -9,7 +11,7 @@
  * arrangement of a model-based feedforward with a disturbance observer for the model error (Umeno & Hori
  * 1991; Ohnishi, Shibata, Murakami 1996; for friction: Olsson, Astrom, Canudas de Wit, Gafvert, Lischinsky,
  * "Friction models and friction compensation", Eur. J. Control 4(3), 1998, Sec. 7).
- * Residual switch-in (mode "adaptive", ctl_adob_set_switch_in): the same composite with the observer's d_hat
+ * Residual switch-in (mode "adaptive", ctl_residual_set_switch_in): the same composite with the observer's d_hat
  * computed from the start but applied only once a residual test finds that what the feedforward leaves costs
  * tracking. The test predicts two velocity errors with the loop's own linear model (the design inertia J_n and
  * the PI gains Kp, Ki, the backward-Euler PI of ctl_pi; Franklin, Powell & Workman, Digital Control of Dynamic
@@ -37,13 +39,14 @@
  * 2.65 (karnopp), 4.36 (small-inertia), 0.44 (lugre); docs/benchmarks/compensation.md ("The residual switch-in").
  * The share test (share 0.25) added on the 100-joint zoo: `adaptive >= 0.8` wherever `adaptive-dob >= 0.95` on 85
  * of 85 joints (84 with the first test alone), variants unchanged.
- * Python: controllers.peers.adaptive_dob.AdaptiveDOBCompensator.
+ * Python: controllers.peers.adaptive_dob.AdaptiveDOBCompensator (either composite).
  */
 #ifndef CTL_ADOB_H
 #define CTL_ADOB_H
 #include "aff_real.h"
 #include "aff_compensator.h"
 #include "aff_robust_ff.h"
+#include "aff_eq4_ff.h"
 #include "ctl_dob.h"
 
 /* The residual switch-in test (header comment): configuration, then state. */
@@ -74,42 +77,82 @@ typedef struct ctl_switch_in {
     aff_real g;           /* share of d_hat applied, 0..1 */
 } ctl_switch_in;
 
-/* Configuration, then state; the parts embedded. */
-typedef struct ctl_adob {
+/* The part both composites share: the observer of the residual, the switch-in, the output's bound. Configuration,
+ * then state; the parts embedded. */
+typedef struct ctl_residual {
     aff_real u_max;       /* bound on |u_ff + d_hat| (N*m), INFINITY = none (each part keeps its own bound) */
     aff_real u_ff;        /* feedforward part of the last output (N*m) */
     int use_switch_in;    /* 1: d_hat applied after the residual switch-in (mode "adaptive"), 0: always */
     ctl_switch_in sw;     /* the switch-in test (valid if use_switch_in) */
-    aff_robust_ff ff;     /* the adaptive feedforward with its estimator */
     ctl_dob dob;          /* the observer of the residual f - u_ff */
+} ctl_residual;
+
+/* The composite over the sliding estimator's robust feedforward. */
+typedef struct ctl_adob {
+    ctl_residual res;     /* the observer, the switch-in, the bound */
+    aff_robust_ff ff;     /* the adaptive feedforward with its estimator */
 } ctl_adob;
 
-/* Configure a from the configured parts ff (aff_robust_ff_init) and dob (ctl_dob_init), both copied by value,
- * with the bound u_max (N*m, >= 0); u_ff = 0; the observer always applied (no switch-in). */
-void ctl_adob_init(ctl_adob *a, const aff_robust_ff *ff, const ctl_dob *dob, aff_real u_max);
+/* The same composite over the paper's eq. 4 feedforward (estimators "eq4", "eq4-iv"). */
+typedef struct ctl_eq4_dob {
+    ctl_residual res;     /* the observer, the switch-in, the bound */
+    aff_eq4_ff ff;        /* the eq. 4 adaptive feedforward with its estimator (RLS or IV) */
+} ctl_eq4_dob;
 
-/* Turn on the residual switch-in of a (header comment): Tc (s), J_n (kg*m^2), Kp (N*m*s/rad), Ki (N*m/rad, >= 0)
+/* Configure r from the configured observer dob (ctl_dob_init, copied by value) with the bound u_max (N*m, >= 0);
+ * u_ff = 0; the observer always applied (no switch-in). */
+void ctl_residual_init(ctl_residual *r, const ctl_dob *dob, aff_real u_max);
+
+/* Turn on the residual switch-in of r (header comment): Tc (s), J_n (kg*m^2), Kp (N*m*s/rad), Ki (N*m/rad, >= 0)
  * of the loop, window T (s), ratio (-), share (-), fade_in (s, >= 0; 0: a step); clears its state (g = 0, not
- * switched in). Returns 0, or -1 (a untouched) for Tc, J_n, Kp, window, ratio, share not finite and > 0, or Ki,
+ * switched in). Returns 0, or -1 (r untouched) for Tc, J_n, Kp, window, ratio, share not finite and > 0, or Ki,
  * fade_in not finite and >= 0. */
-int ctl_adob_set_switch_in(ctl_adob *a, aff_real Tc, aff_real J_n, aff_real Kp, aff_real Ki, aff_real window,
-                           aff_real ratio, aff_real share, aff_real fade_in);
+int ctl_residual_set_switch_in(ctl_residual *r, aff_real Tc, aff_real J_n, aff_real Kp, aff_real Ki, aff_real window,
+                               aff_real ratio, aff_real share, aff_real fade_in);
 
 /* One period of the switch-in test s with the feedforward u_ff (N*m), the observer's d_hat (N*m), the reference
  * w_ref (rad/s) and whether the feedforward acts (acting, 0/1); returns the share g of d_hat to apply (0..1). */
 double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_ref, int acting);
 
-/* Compensator interface (aff_compensator.h), self a ctl_adob: u_ff = aff_robust_ff_compensate, d_hat =
- * ctl_dob_compensate (each with w_ctrl, w_meas, w_ref in rad/s); returns u_ff + g*d_hat clipped to +-u_max (N*m;
- * g = 1 without the switch-in, else ctl_switch_in_step's share) and keeps u_ff. */
+/* The composite's output for the feedforward's torque u_ff (N*m; kept in r->u_ff) and whether it acts (0/1): d_hat
+ * = ctl_dob_compensate(w_ctrl, w_meas, w_ref, rad/s); returns u_ff + g*d_hat clipped to +-u_max (N*m), g = 1
+ * without the switch-in, else ctl_switch_in_step's share (before the switch-in exactly u_ff). */
+double ctl_residual_compensate(ctl_residual *r, double u_ff, int acting, double w_ctrl, double w_meas, double w_ref);
+
+/* The observer records the torque without the feedforward, u - u_ff (N*m), and w_meas (rad/s). */
+void ctl_residual_observe(ctl_residual *r, double u, double w_meas, double *theta_out);
+
+/* Configure a from the configured parts ff (aff_robust_ff_init) and dob (ctl_dob_init), both copied by value,
+ * with the bound u_max (N*m, >= 0): ctl_residual_init on a->res. */
+void ctl_adob_init(ctl_adob *a, const aff_robust_ff *ff, const ctl_dob *dob, aff_real u_max);
+
+/* Compensator interface (aff_compensator.h), self a ctl_adob: u_ff = aff_robust_ff_compensate (w_ctrl, w_meas,
+ * w_ref in rad/s), then ctl_residual_compensate (acting: the feedforward's own estimate in use, not its
+ * provisional start). */
 double ctl_adob_compensate(void *self, double w_ctrl, double w_meas, double w_ref);
 
-/* Compensator interface: the observer records u - u_ff (N*m), then the feedforward observes (u, w_meas);
- * returns aff_robust_ff_observe's result (1 after an RLS update of the estimator, theta then written into
+/* Compensator interface: ctl_residual_observe, then the feedforward observes (u, w_meas); returns
+ * aff_robust_ff_observe's result (1 after an RLS update of the estimator, theta then written into
  * theta_out[0..p-1] if not NULL). */
 int ctl_adob_observe(void *self, double u, double w_meas, double *theta_out);
 
 /* The ops table of ctl_adob (name "adaptive-dob"). */
 extern const aff_compensator_ops ctl_adob_ops;
+
+/* Configure a from the configured parts ff (aff_eq4_ff_init) and dob (ctl_dob_init), both copied by value, with the
+ * bound u_max (N*m, >= 0): ctl_residual_init on a->res. */
+void ctl_eq4_dob_init(ctl_eq4_dob *a, const aff_eq4_ff *ff, const ctl_dob *dob, aff_real u_max);
+
+/* Compensator interface, self a ctl_eq4_dob: u_ff = aff_eq4_ff_compensate, then ctl_residual_compensate (acting:
+ * the feedforward has an estimate in use). */
+double ctl_eq4_dob_compensate(void *self, double w_ctrl, double w_meas, double w_ref);
+
+/* Compensator interface: ctl_residual_observe, then the feedforward observes (u, w_meas); returns
+ * aff_eq4_ff_observe's result (1 in a period that took a sample, theta then written into theta_out[0..p-1] if
+ * not NULL). */
+int ctl_eq4_dob_observe(void *self, double u, double w_meas, double *theta_out);
+
+/* The ops table of ctl_eq4_dob (name "adaptive-dob"). */
+extern const aff_compensator_ops ctl_eq4_dob_ops;
 
 #endif

@@ -341,6 +341,11 @@ class CompareOptions:
         form a stick-slip cycle with the joint. Under the PI alone the joint sticks and the estimator gets no
         sliding data for seconds; until the hand-over the start's lag decides how far the joint strays from
         the frictionless run at every reversal (docs/benchmarks/variants.md).
+    switch_in : bool
+        Mode ``adaptive`` with any estimator: the residual observer of ``adaptive-dob`` switched in by itself where
+        the feedforward leaves too much of the friction (:class:`controllers.simulation.compensators.ModeOptions`
+        ``switch_in``); default True. False: the feedforward alone (with ``estimator="eq4"`` the paper's bare
+        prototype).
     faults : mapping int -> float or None
         Measurement faults injected in every mode (see :func:`controllers.simulation.closed_loop.run_closed_loop`).
     reference : Reference or None
@@ -398,6 +403,7 @@ class CompareOptions:
     omega_q: float = 500.0
     adaptive_initial: bool = True
     adaptive_start: bool = True
+    switch_in: bool = True
     faults: dict | None = None
     dwell_max: float = 0.01
     offset: bool = True
@@ -781,7 +787,8 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
                      omega_r=residual_cutoff(J, noise, o.Tc, _friction_level(exp, F_peak),
                                              omega_max=_observer_max(o)),
                      encoder_counts=o.encoder_counts, delay=o.delay, slew_rate=o.slew_rate, velocity=o.velocity,
-                     velocity_bandwidth=o.velocity_bandwidth, velocity_model=o.velocity_model)
+                     velocity_bandwidth=o.velocity_bandwidth, velocity_model=o.velocity_model,
+                     switch_in=o.switch_in)
     opts = {mode: replace(mo, ff_input=o.canudas_input if mode == "canudas" else o.ff_input) for mode in run_modes}
     return ComparisonSetup(modes=tuple(run_modes), reference=ref, design=design, mode_options=opts,
                            noise_seed=noise_ss, prefit=fit, offline=offline, model=model, experiment=exp,

@@ -285,6 +285,9 @@ class ZooOptions:
         the encoder's velocity (``"difference"`` or ``"kalman"``, at its default bandwidth) in every run, as :class:`controllers.experiments.compare.CompareOptions`; default none of them. The
         torque limit is each joint's ``u_max`` of ``compare``: three times its measured friction level plus
         its design inertia times the reference's peak acceleration.
+    estimator : {"sliding", "eq4", "eq4-iv"}
+        Estimator of the ``adaptive`` and ``adaptive-dob`` modes, as :class:`controllers.experiments.compare.CompareOptions`;
+        default ``"sliding"``.
     compensators : dict or None
         Your own compensators beside the modes, by import path (picklable, resolved in every worker):
         ``{name: "module:factory"}`` or ``{name: {"factory": "path/file.py:factory", **keywords}}`` as the
@@ -321,6 +324,7 @@ class ZooOptions:
     slew_rate: float = math.inf
     compensators: dict | None = None
     velocity: str = "difference"
+    estimator: str = "sliding"
 
     def __post_init__(self):
         if self.reference is not None:  # its length sets the duration (checked with the step by CompareOptions)
@@ -762,7 +766,8 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
     o = ZooOptions() if options is None else options
     t0 = time.perf_counter()
     co = CompareOptions(duration=float(o.duration), seed=int(o.seed), modes=o.modes, reference=o.reference,
-                        encoder_counts=o.encoder_counts, delay=o.delay, slew_rate=o.slew_rate, velocity=o.velocity)
+                        encoder_counts=o.encoder_counts, delay=o.delay, slew_rate=o.slew_rate, velocity=o.velocity,
+                        estimator=o.estimator)
     n = o.n
     bounds = _group_bounds(n, o.group, o.workers or os.cpu_count() or 1)
     processes = 1 if o.scheduler is not None else min(o.workers or os.cpu_count() or 1, len(bounds))

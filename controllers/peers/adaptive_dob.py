@@ -21,11 +21,14 @@ torque, so the inverse-dynamics regression is unchanged).
 
 Compensator component: the C struct ``ctl_adob``
 (``controllers/csrc/ctl_adob.h``) embeds the feedforward's ``aff_robust_ff``
-and the observer's ``ctl_dob``; ``ctl_adob_compensate`` and
-``ctl_adob_observe`` (the ``aff_compensator_ops`` table ``ctl_adob_ops``) call
-the parts' C functions on them (``aff_robust_ff_compensate``/``_observe``,
-``ctl_dob_compensate``/``_observe``) and are the one implementation, called by
-:class:`AdaptiveDOBCompensator`'s methods and by the closed-loop engine.
+and the shared part ``ctl_residual`` (the observer's ``ctl_dob``, the switch-in,
+the bound); ``ctl_adob_compensate`` and ``ctl_adob_observe`` (the
+``aff_compensator_ops`` table ``ctl_adob_ops``) call the parts' C functions on
+them and are the one implementation, called by
+:class:`AdaptiveDOBCompensator`'s methods and by the closed-loop engine. Over
+the paper's eq. 4 feedforward (:class:`adaptive_ff.AdaptiveFrictionFeedforward`,
+estimators ``eq4`` and ``eq4-iv``) the struct is ``ctl_eq4_dob``, the same
+composite with ``aff_eq4_ff`` in place of ``aff_robust_ff``.
 
 Mode ``adaptive`` is the same composite with a :class:`ResidualSwitchIn`: the observer runs from the start, but
 its estimate is applied only once a residual test finds that the feedforward leaves too much of the friction
@@ -39,6 +42,7 @@ import math
 from dataclasses import dataclass
 
 from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
+from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
 from controllers._cctl import ffi, lib
 from controllers.peers.dob import DisturbanceObserver
 from plant.component import Component
@@ -106,9 +110,9 @@ class AdaptiveDOBCompensator(Component):
 
     Parameters
     ----------
-    feedforward : RobustAdaptiveFeedforward
-        The adaptive feedforward (with its estimator); its struct is copied into the composite's, and the
-        object points there from now on (as ``observer``).
+    feedforward : RobustAdaptiveFeedforward or AdaptiveFrictionFeedforward
+        The adaptive feedforward (with its estimator: the sliding estimator, or the paper's eq. 4 by RLS or IV);
+        its struct is copied into the composite's, and the object points there from now on (as ``observer``).
     observer : DisturbanceObserver
         The observer of the residual ``f - u_ff`` (nominal inertia: the design inertia).
     u_max : float, keyword-only
@@ -120,15 +124,16 @@ class AdaptiveDOBCompensator(Component):
     Attributes
     ----------
     C_OPS : str
-        ``"ctl_adob_ops"``, the C ops table (``aff_compensator_ops``) the engine calls with :attr:`cdata`.
-    cdata : cffi ``ctl_adob *``
-        The composite's struct; the parts' structs are its fields ``ff`` and ``dob``.
-    feedforward : RobustAdaptiveFeedforward
-        Points into the field ``ff`` (its estimator into ``ff.est``).
+        ``"ctl_adob_ops"`` (``"ctl_eq4_dob_ops"`` over the eq. 4 feedforward), the C ops table
+        (``aff_compensator_ops``) the engine calls with :attr:`cdata`.
+    cdata : cffi ``ctl_adob *`` or ``ctl_eq4_dob *``
+        The composite's struct; the parts' structs are its fields ``ff`` and ``res.dob``.
+    feedforward : RobustAdaptiveFeedforward or AdaptiveFrictionFeedforward
+        Points into the field ``ff``.
     observer : DisturbanceObserver
-        Points into the field ``dob``.
-    estimator : SlidingFrictionEstimator
-        The feedforward's estimator.
+        Points into the field ``res.dob``.
+    estimator : SlidingFrictionEstimator or AdaptiveFrictionFeedforward
+        The feedforward's estimator (the eq. 4 feedforward is its own).
     n_theta : int
         Length of the estimator's parameter vector.
     u_ff : float
@@ -153,11 +158,15 @@ class AdaptiveDOBCompensator(Component):
     C_OPS = "ctl_adob_ops"
     _ffi = ffi
     _ctype = "ctl_adob"
+    #: The C struct of the composite over each kind of feedforward.
+    _CTYPES = {RobustAdaptiveFeedforward: "ctl_adob", AdaptiveFrictionFeedforward: "ctl_eq4_dob"}
 
-    def __init__(self, feedforward: RobustAdaptiveFeedforward, observer: DisturbanceObserver, *,
-                 u_max: float = math.inf, switch_in: ResidualSwitchIn | None = None):
-        if not isinstance(feedforward, RobustAdaptiveFeedforward):
-            raise ParameterError(f"feedforward must be a RobustAdaptiveFeedforward, got {type(feedforward).__name__}")
+    def __init__(self, feedforward: RobustAdaptiveFeedforward | AdaptiveFrictionFeedforward,
+                 observer: DisturbanceObserver, *, u_max: float = math.inf, switch_in: ResidualSwitchIn | None = None):
+        ctype = self._CTYPES.get(type(feedforward))
+        if ctype is None:
+            raise ParameterError("feedforward must be a RobustAdaptiveFeedforward or an AdaptiveFrictionFeedforward, "
+                                 f"got {type(feedforward).__name__}")
         if not isinstance(observer, DisturbanceObserver):
             raise ParameterError(f"observer must be a DisturbanceObserver, got {type(observer).__name__}")
         u_max = math.inf if u_max == math.inf else check_nonnegative("u_max", u_max)
@@ -169,34 +178,39 @@ class AdaptiveDOBCompensator(Component):
         self.switch_in = switch_in
         if switch_in is not None:
             self.MODE = "adaptive"  # the mode it is (run_closed_loop's default result name)
+        self._ctype = ctype
+        self.C_OPS = f"{ctype}_ops"
         self._new_struct()
-        lib.ctl_adob_init(self._c, feedforward.cdata, observer.cdata, u_max)
+        getattr(lib, f"{ctype}_init")(self._c, feedforward.cdata, observer.cdata, u_max)
         if switch_in is not None:
             s = switch_in
-            if lib.ctl_adob_set_switch_in(self._c, s.Tc, s.J_n, s.Kp, s.Ki, s.window, s.ratio, s.share, s.fade_in) != 0:
-                raise ParameterError(f"switch_in refused by ctl_adob_set_switch_in: {s!r}")
+            if lib.ctl_residual_set_switch_in(ffi.addressof(self._c, "res"), s.Tc, s.J_n, s.Kp, s.Ki, s.window,
+                                              s.ratio, s.share, s.fade_in) != 0:
+                raise ParameterError(f"switch_in refused by ctl_residual_set_switch_in: {s!r}")
         self._attached()
 
     def _attached(self) -> None:
         """Point the feedforward (with its estimator) and the observer (with its gates) into this struct."""
         self.feedforward._use(ffi.addressof(self._c, "ff"), self)  # its estimator follows its struct
-        self.observer._use(ffi.addressof(self._c, "dob"), self)
+        self.observer._use(ffi.addressof(self._c.res, "dob"), self)
 
     def __repr__(self) -> str:
-        return f"AdaptiveDOBCompensator({self.feedforward.estimator!r}, {self.observer!r})"
+        return f"AdaptiveDOBCompensator({self.estimator!r}, {self.observer!r})"
 
     @property
     def ops(self):
-        """Pointer to the C ops table ``ctl_adob_ops`` (``aff_compensator_ops *``)."""
+        """Pointer to the C ops table :attr:`C_OPS` (``aff_compensator_ops *``)."""
         return ffi.addressof(getattr(lib, self.C_OPS))
 
-    u_max = property(lambda self: float(self._c.u_max), doc="Bound on the total output (N·m).")
-    u_ff = property(lambda self: float(self._c.u_ff), doc="Feedforward part of the last output (N·m).")
+    u_max = property(lambda self: float(self._c.res.u_max), doc="Bound on the total output (N·m).")
+    u_ff = property(lambda self: float(self._c.res.u_ff), doc="Feedforward part of the last output (N·m).")
 
     @property
     def estimator(self):
-        """The feedforward's :class:`adaptive_ff.SlidingFrictionEstimator`."""
-        return self.feedforward.estimator
+        """The feedforward's estimator: :class:`adaptive_ff.SlidingFrictionEstimator`, or the eq. 4 feedforward
+        itself (:class:`adaptive_ff.AdaptiveFrictionFeedforward`, which holds its RLS or IV)."""
+        ff = self.feedforward
+        return ff.estimator if isinstance(ff, RobustAdaptiveFeedforward) else ff
 
     @property
     def estimate(self):
@@ -211,9 +225,9 @@ class AdaptiveDOBCompensator(Component):
     @property
     def t_switch_in(self) -> float | None:
         """Time of the residual switch-in from the first period (s; ``k*Tc``), None without it or before."""
-        if self.switch_in is None or self._c.sw.k_in < 0:
+        if self.switch_in is None or self._c.res.sw.k_in < 0:
             return None
-        return float(self._c.sw.k_in) * self.switch_in.Tc
+        return float(self._c.res.sw.k_in) * self.switch_in.Tc
 
     def info(self) -> dict:
         """The feedforward's counters (:meth:`RobustAdaptiveFeedforward.info`) plus the observer's, prefixed
@@ -223,14 +237,16 @@ class AdaptiveDOBCompensator(Component):
         d = self.feedforward.info()
         d.update({f"dob_{k}": v for k, v in self.observer.info().items()})
         if self.switch_in is not None:
-            m_l, m_f = float(self._c.sw.m_l), float(self._c.sw.m_f)
+            sw = self._c.res.sw
+            m_l, m_f = float(sw.m_l), float(sw.m_f)
             d["t_switch_in"] = self.t_switch_in
-            d["residual_ratio"] = float(self._c.sw.m_r) / m_l if m_l > 0.0 else None
-            d["residual_share"] = float(self._c.sw.m_r) / m_f if m_f > 0.0 else None
+            d["residual_ratio"] = float(sw.m_r) / m_l if m_l > 0.0 else None
+            d["residual_share"] = float(sw.m_r) / m_f if m_f > 0.0 else None
         return d
 
     def compensate(self, w_meas: float, w_ref: float) -> float:
-        """Compensator protocol: ``u_ff + d_hat`` for this period (N·m), C ``ctl_adob_compensate``.
+        """Compensator protocol: ``u_ff + d_hat`` for this period (N·m), C ``ctl_adob_compensate`` (or
+        ``ctl_eq4_dob_compensate``).
 
         Parameters
         ----------
@@ -238,10 +254,11 @@ class AdaptiveDOBCompensator(Component):
             Measured and reference velocity (rad/s).
         """
         w_meas = float(w_meas)
-        return float(lib.ctl_adob_compensate(self._c, w_meas, w_meas, float(w_ref)))
+        return float(getattr(lib, f"{self._ctype}_compensate")(self._c, w_meas, w_meas, float(w_ref)))
 
     def observe(self, u: float, w: float) -> bool:
-        """Compensator protocol: record the applied torque and the measurement (C ``ctl_adob_observe``).
+        """Compensator protocol: record the applied torque and the measurement (C ``ctl_adob_observe`` or
+        ``ctl_eq4_dob_observe``).
 
         Parameters
         ----------
@@ -255,4 +272,4 @@ class AdaptiveDOBCompensator(Component):
         bool
             True after an RLS update of the estimator.
         """
-        return bool(lib.ctl_adob_observe(self._c, float(u), float(w), ffi.NULL))
+        return bool(getattr(lib, f"{self._ctype}_observe")(self._c, float(u), float(w), ffi.NULL))

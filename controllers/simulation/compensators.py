@@ -181,7 +181,7 @@ class ModeOptions:
         it off to none while it makes the torque disturbance the PI sees larger than the friction alone (default
         True; the result's ``info`` then has ``n_backoff``, ``n_restore`` and ``t_off``, s). Other modes ignore it.
     switch_in : bool
-        Mode ``adaptive`` (sliding estimator, ``Kp > 0``): run the residual observer of ``adaptive-dob`` (cut-off
+        Mode ``adaptive`` (any estimator, ``Kp > 0``): run the residual observer of ``adaptive-dob`` (cut-off
         ``omega_r``) from the start and switch it in, for good, once the loop's model predicts that what the
         feedforward leaves raises the mean-square tracking error by more than ``switch_in_ratio`` over the
         frictionless loop's (:class:`controllers.peers.adaptive_dob.ResidualSwitchIn`, window 2 s, fade-in 0.5 s;
@@ -394,7 +394,7 @@ def _fixed(plant, o):
 
 def _adaptive(plant, o):
     _, ff = _adaptive_feedforward(plant, o)
-    if o.estimator != "sliding" or not o.switch_in or o.Kp <= 0.0:
+    if not o.switch_in or o.Kp <= 0.0:
         return plant, ff
     J, ff_max = _ctx(plant, o)
     _, dob = _dob(plant, replace(o, omega_q=o.omega_r))
@@ -444,8 +444,6 @@ def _adaptive_feedforward(plant, o):
 
 
 def _adaptive_dob(plant, o):
-    if o.estimator != "sliding":
-        raise ParameterError(f"mode 'adaptive-dob' needs estimator 'sliding', got {o.estimator!r}")
     _, ff = _adaptive_feedforward(plant, o)
     _, dob = _dob(plant, replace(o, omega_q=o.omega_r))
     _, ff_max = _ctx(plant, o)
