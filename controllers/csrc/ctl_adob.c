@@ -116,4 +116,11 @@ int ctl_adob_observe(void *self, double u, double w_meas, double *theta_out)
     return aff_robust_ff_observe(&a->ff, u, w_meas, theta_out);
 }
 
-const aff_compensator_ops ctl_adob_ops = {"adaptive-dob", ctl_adob_compensate, ctl_adob_observe};
+void ctl_adob_at_rest(void *self)
+{
+    ctl_adob *a = (ctl_adob *)self;
+    if (!a->use_switch_in || a->sw.g > 0)
+        a->u_ff = 0;
+}
+
+const aff_compensator_ops ctl_adob_ops = {"adaptive-dob", ctl_adob_compensate, ctl_adob_observe, ctl_adob_at_rest};

@@ -109,6 +109,16 @@ double ctl_adob_compensate(void *self, double w_ctrl, double w_meas, double w_re
  * theta_out[0..p-1] if not NULL). */
 int ctl_adob_observe(void *self, double u, double w_meas, double *theta_out);
 
+/* Compensator interface: the loop withheld this period's output because the reference is at rest (the supervisor's
+ * rest rule, aff_supervisor.h). While the observer's estimate is applied (g > 0; always without the switch-in) the
+ * observer then records the torque as applied, u - 0 (u_ff = 0): it measures the friction itself, as ctl_dob does,
+ * not the residual f - u_ff of a feedforward that was not applied. At rest that feedforward is the friction map at
+ * a measured velocity of noise and quantisation, and the residual's estimate carried it into the next move's start
+ * (the open bench's zoo joints #83 and #98, docs/benchmarks/scenarios.md). Before the switch-in u_ff stays: the
+ * switch-in test wants the feedforward's residual. Outside rest nothing changes (a supervisor that backed off keeps
+ * the candidate's residual, consistent at its restore). */
+void ctl_adob_at_rest(void *self);
+
 /* The ops table of ctl_adob (name "adaptive-dob"). */
 extern const aff_compensator_ops ctl_adob_ops;
 
