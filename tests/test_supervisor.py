@@ -254,9 +254,10 @@ def _rest_end_runs(mode):
 
 def test_at_rest_the_composites_observer_measures_the_friction_itself():
     """With the reference at rest nothing is applied and the engine tells the compensator (ctl_adob_at_rest): the
-    residual observer of ``adaptive-dob`` then takes the torque as applied, u, not u - u_ff. At the end of the final dwell (0.5 s) its
-    estimate is that of a plain disturbance observer with its settings run on the recorded torque and measurement
-    (the difference of their states before the rest decays as (1 + omega*t)*exp(-omega*t), omega 1000 rad/s)."""
+    residual observer of ``adaptive-dob`` then takes the torque as applied, u, not u - u_ff. At the end of the final
+    dwell (0.5 s) its estimate is that of a plain disturbance observer with its settings run on the recorded torque
+    and measurement (the difference of their states before the rest decays as (1 + omega*t)*exp(-omega*t), omega
+    1000 rad/s)."""
     p, ref, o, rec, comp = _rest_end_runs("adaptive-dob")
     n_end = rec.w_ref.shape[0] - 1 - np.flatnonzero(rec.w_ref != 0.0)[-1]  # periods of the final dwell
     assert n_end >= 400 and rec.info["t_rest"] > 1.0
