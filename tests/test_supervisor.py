@@ -15,6 +15,7 @@ from scipy.signal import lfilter
 
 from adaptive_ff.compensation.supervisor import DELAY_MAX, FeedforwardSupervisor
 from controllers import ModeOptions, design_pi, run_mode
+from controllers.simulation.compensators import build_mode
 from controllers.experiments.compare import compare, eta
 from controllers.simulation.batch import run_batch
 from controllers.simulation.closed_loop import run_own
@@ -236,3 +237,42 @@ def test_nothing_is_applied_with_the_reference_at_rest_and_the_statistics_hold()
     s2 = FeedforwardSupervisor(**kw, rest_band=None)
     np.testing.assert_array_equal(s2.run(u_c, u, w, w_ref)["applied"],
                                   FeedforwardSupervisor(**kw).run(u_c, u, w)["applied"])
+
+
+def _rest_end_runs(mode):
+    """The paper joint on three point-to-point moves ending in a 0.5 s dwell (noise 1e-3 rad/s, seed 0): the
+    recorded run of ``mode`` and its compensator's final state from the same run through ``run_batch``."""
+    p = preset("paper")
+    d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
+    o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
+    ref = point_to_point_reference([0.5, -0.2, 0.4], v_max=0.5, a_max=4.0, dwell=0.5)
+    rec = run_mode(p, ref, mode, o, rng=np.random.default_rng(0))
+    b = run_batch([p], ref, mode, o, seeds=[0])
+    assert b.rms_second_half[0] == rec.metrics.rms_second_half  # the same run
+    return p, ref, o, rec, b.compensators[0]
+
+
+def test_at_rest_the_composites_observer_measures_the_friction_itself():
+    """With the reference at rest nothing is applied and the engine tells the compensator (ctl_adob_at_rest): the
+    residual observer of ``adaptive-dob`` then takes the torque as applied, u, not u - u_ff. At the end of the final
+    dwell (0.5 s) its estimate is that of a plain disturbance observer with its settings run on the recorded torque
+    and measurement (the difference of their states before the rest decays as (1 + omega*t)*exp(-omega*t), omega
+    1000 rad/s)."""
+    p, ref, o, rec, comp = _rest_end_runs("adaptive-dob")
+    n_end = rec.w_ref.shape[0] - 1 - np.flatnonzero(rec.w_ref != 0.0)[-1]  # periods of the final dwell
+    assert n_end >= 400 and rec.info["t_rest"] > 1.0
+    _, _, dob = build_mode(p, "dob", replace(o, omega_q=o.omega_r))  # J_n = J, Q cut-off and bound as the composite's
+    for k in range(rec.t.shape[0]):
+        dob.compensate(rec.w_meas[k], rec.w_ref[k])
+        dob.observe(rec.u[k], rec.w_meas[k])
+    assert comp.u_ff == 0.0  # told: the feedforward part of the last period was not applied
+    assert abs(dob.d_hat) > 0.1 * p.Fc  # the friction holding the joint at rest, not a trivial zero
+    assert comp.observer.d_hat == pytest.approx(dob.d_hat, rel=1e-9, abs=1e-12 * p.Fc)
+
+
+def test_before_its_switch_in_the_observer_of_adaptive_keeps_the_feedforwards_residual():
+    """Plain ``adaptive`` before its residual switch-in applies no observer estimate; its switch-in test wants the
+    residual f - u_ff of the feedforward, so at rest its observer still records u - u_ff (ctl_adob_at_rest)."""
+    _, _, _, rec, comp = _rest_end_runs("adaptive")
+    assert comp.t_switch_in is None and rec.info["t_rest"] > 1.0
+    assert comp.u_ff != 0.0 and comp.u_ff == comp.cdata.ff.ff.u_out

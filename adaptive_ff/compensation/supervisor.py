@@ -97,8 +97,10 @@ class FeedforwardSupervisor(Component):
     ``-u_c`` (on) to its PI integrator (bumpless transfer, Åström & Hägglund, *Advanced PID Control*, ISA 2006,
     Sec. 3.5). With the reference at rest a velocity loop's friction brakes the joint toward its setpoint
     ``w = 0``; a friction feedforward can only lift that brake, so nothing is applied there (no transfer) and those
-    periods do not enter the statistics. While on and moving, the applied torque is the candidate itself (bit for
-    bit).
+    periods do not enter the statistics; the closed-loop engine then tells the compensator (the C ops table's
+    ``at_rest``: the residual observer of :class:`controllers.peers.adaptive_dob.AdaptiveDOBCompensator` records the
+    torque as applied, without the feedforward it did not get). While on and moving, the applied torque is the
+    candidate itself (bit for bit).
     C: ``adaptive_ff/csrc/aff_supervisor.c``.
     """
 

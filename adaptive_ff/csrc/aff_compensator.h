@@ -9,6 +9,9 @@
  * reference (rad/s). observe returns 1 after an update of the estimate and then writes the estimate
  * (the compensator's own parameter vector, its length known to the caller) into theta_out (may be
  * NULL), else 0.
+ * With the feedforward supervisor's rest rule (aff_supervisor.h) the loop applies none of the output while the
+ * reference is at rest; it then calls ops->at_rest(self) between compensate and observe (NULL: nothing to do), so
+ * that a compensator whose observe assumes its output was applied can correct that (ctl_adob).
  * The closed-loop engine (controllers/csrc/ctl_engine.h) holds a (self, ops) pair per scenario;
  * each compensator's header declares its const ops table (aff_fixed_ff_ops, aff_robust_ff_ops,
  * aff_eq4_ff_ops; the peers ctl_canudas_ops, ctl_dob_ops, ctl_adob_ops).
@@ -20,6 +23,7 @@ typedef struct aff_compensator_ops {
     const char *name;  /* the mode's name, e.g. "adaptive" */
     double (*compensate)(void *self, double w_ctrl, double w_meas, double w_ref);
     int (*observe)(void *self, double u, double w_meas, double *theta_out);
+    void (*at_rest)(void *self);  /* optional (NULL: none): this period's output was withheld at rest */
 } aff_compensator_ops;
 
 #endif

@@ -35,7 +35,9 @@
  * when the feedforward was withdrawn; docs/benchmarks/compensation.md, "The rest rule's hold"): a velocity loop's friction then
  * brakes the joint toward its setpoint w = 0 (the error is -w and friction opposes w), so a friction
  * feedforward can only lift that brake; the supervisor applies none (no transfer: the brake is wanted) and
- * those periods do not enter M_f, M_r (friction there is a reaction, not a disturbance). Measured on the open
+ * those periods do not enter M_f, M_r (friction there is a reaction, not a disturbance); rest = 1 tells the loop,
+ * which tells the compensator (aff_compensator_ops.at_rest: the composite ctl_adob's residual observer then
+ * records the torque as applied, without the feedforward it did not get, ctl_adob.h). Measured on the open
  * bench's point-to-point moves (docs/benchmarks/compensation.md, "The supervisor"): the adaptive feedforward's
  * mean-square error at rest was 20-46 times the uncompensated loop's on joints where it was worse than none,
  * while in motion it was at the frictionless loop's.

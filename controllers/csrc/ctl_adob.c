@@ -117,6 +117,12 @@ void ctl_residual_observe(ctl_residual *r, double u, double w_meas, double *thet
     ctl_dob_observe(&r->dob, u - (double)r->u_ff, w_meas, theta_out);
 }
 
+void ctl_residual_at_rest(ctl_residual *r)
+{
+    if (!r->use_switch_in || r->sw.g > 0)
+        r->u_ff = 0;
+}
+
 void ctl_adob_init(ctl_adob *a, const aff_robust_ff *ff, const ctl_dob *dob, aff_real u_max)
 {
     ctl_residual_init(&a->res, dob, u_max);
@@ -138,7 +144,12 @@ int ctl_adob_observe(void *self, double u, double w_meas, double *theta_out)
     return aff_robust_ff_observe(&a->ff, u, w_meas, theta_out);
 }
 
-const aff_compensator_ops ctl_adob_ops = {"adaptive-dob", ctl_adob_compensate, ctl_adob_observe};
+void ctl_adob_at_rest(void *self)
+{
+    ctl_residual_at_rest(&((ctl_adob *)self)->res);
+}
+
+const aff_compensator_ops ctl_adob_ops = {"adaptive-dob", ctl_adob_compensate, ctl_adob_observe, ctl_adob_at_rest};
 
 void ctl_eq4_dob_init(ctl_eq4_dob *a, const aff_eq4_ff *ff, const ctl_dob *dob, aff_real u_max)
 {
@@ -160,4 +171,10 @@ int ctl_eq4_dob_observe(void *self, double u, double w_meas, double *theta_out)
     return aff_eq4_ff_observe(&a->ff, u, w_meas, theta_out);
 }
 
-const aff_compensator_ops ctl_eq4_dob_ops = {"adaptive-dob", ctl_eq4_dob_compensate, ctl_eq4_dob_observe};
+void ctl_eq4_dob_at_rest(void *self)
+{
+    ctl_residual_at_rest(&((ctl_eq4_dob *)self)->res);
+}
+
+const aff_compensator_ops ctl_eq4_dob_ops = {"adaptive-dob", ctl_eq4_dob_compensate, ctl_eq4_dob_observe,
+                                             ctl_eq4_dob_at_rest};

@@ -66,6 +66,8 @@ static int period(const ctl_run *run, ctl_scenario *sc, long k, int where, const
         uff = aff_supervisor_apply(&sc->sup, uff, wrk);
         if (sc->sup.transfer != 0.0) /* bumpless transfer into the PI's integrator (aff_supervisor.h) */
             sc->pi.I += (double)sc->sup.transfer;
+        if (sc->sup.rest && sc->ops != NULL && sc->ops->at_rest != NULL) /* nothing applied: tell it */
+            sc->ops->at_rest(sc->comp);
     }
     double u = ctl_pi_step(&sc->pi, wrk - wc, uff);
     if (sc->use_drive)
