@@ -128,6 +128,7 @@ from scipy.optimize import least_squares
 
 from adaptive_ff.identification.covariance import andrews_bandwidth, hac_covariance, parametric_block_bootstrap
 from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
+from adaptive_ff.identification.lag_profile import lag_profile_search
 from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.plausibility import check_physical
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
@@ -380,6 +381,11 @@ class OutputErrorOptions:
         (too small on the rough free-run cost). Default 20.
     bootstrap_seed : int, keyword-only
         Seed of the bootstrap's residual blocks and start points, >= 0. Default 0.
+    lag_profile : bool, keyword-only
+        Run the profile search over tau after the local stage
+        (:func:`adaptive_ff.identification.lag_profile.lag_profile_search`: ten values of tau, J on a grid
+        and the others refitted at each; about 1000 simulations). Default True; False gives the fit
+        without it (found tau 9-70 % off on joints with a lag near the sample time).
 
     Raises
     ------
@@ -408,6 +414,7 @@ class OutputErrorOptions:
     start: dict | None = None
     n_bootstrap: int = 20
     bootstrap_seed: int = 0
+    lag_profile: bool = True
 
     def __post_init__(self):
         def put(name, value):
@@ -426,6 +433,9 @@ class OutputErrorOptions:
         put("max_nfev", _check_int("max_nfev", self.max_nfev, 1))
         put("n_bootstrap", _check_int("n_bootstrap", self.n_bootstrap, 0))
         put("bootstrap_seed", _check_int("bootstrap_seed", self.bootstrap_seed, 0))
+        if not isinstance(self.lag_profile, (bool, np.bool_)):
+            raise ParameterError(f"lag_profile must be True or False, got {self.lag_profile!r}")
+        put("lag_profile", bool(self.lag_profile))
         put("start", _check_start(self.start))
         for name, allowed in (("loss", ("linear", "soft_l1")), ("predictor", ("auto", "free-run", "one-step")),
                               ("interp", ("linear", "cubic"))):
@@ -754,7 +764,11 @@ def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> P
     names = _names(offset)
     s0 = dict(opts.start) if opts.start is not None else _start_from_paper(t, u, w, Vs, delta, offset)
     x = _oe_global_stage(pb, pb.start_vector(s0), profiled=opts.start is None)
-    best = _oe_fs_profile(pb, _oe_coordinate_search(pb, _oe_local_stage(pb, x)))
+    best = _oe_coordinate_search(pb, _oe_local_stage(pb, x))
+    lag_prof = None
+    if opts.lag_profile:
+        best, lag_prof = lag_profile_search(pb, best)
+    best = _oe_fs_profile(pb, best)
     x = best[1]
     J, Fc, Fs, sigma, tau, off = pb.unpack(x)
     vals = {"J": J, "Fc": Fc, "Fs": Fs, "sigma": sigma, "tau": tau, "offset": off}
@@ -774,6 +788,7 @@ def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> P
                              "stderr_kind": "bootstrap" if boot is not None else "hac", "stderr_hac": stderr_hac,
                              "stderr_white": stderr_white, "hac_lags": int(lags), "bootstrap": boot,
                              "start": {k: float(v) for k, v in s0.items()}, "cost": float(best[0]),
+                             "lag_profile": lag_prof,
                              "residual_rms": float(math.sqrt(float(r @ r) / r.shape[0])),
                              "n_simulations": int(pb.n_sim), "burn_samples": pb.i0, "loss": opts.loss,
                              "f_scale": float(pb.f_scale), "f_scale_global": float(pb.f_wide),
@@ -809,7 +824,7 @@ def fit_physical(t, u, w, *, Vs: float, delta: float, method: str = "output_erro
         :class:`OutputErrorOptions` (``predictor``, ``h_max``,
         ``input_delay``, ``interp``, ``burn``, ``fs_grid``, ``fs_max_ratio``,
         ``diff_step``, ``max_nfev``, ``loss``, ``f_scale``, ``start``,
-        ``n_bootstrap``, ``bootstrap_seed``; units and defaults there),
+        ``n_bootstrap``, ``bootstrap_seed``, ``lag_profile``; units and defaults there),
         validated by it.
 
     Returns
