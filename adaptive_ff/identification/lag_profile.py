@@ -33,6 +33,8 @@ import math
 
 import numpy as np
 
+from plant.errors import ParameterError
+
 __all__ = ["TAU_FACTORS", "J_SPAN", "J_GRID", "lag_profile_search"]
 
 #: Values of tau tried, as multiples of the current estimate (log-spaced on each side; 0.9 and 1.1 because
@@ -72,8 +74,8 @@ def lag_profile_search(pb, best: tuple, *, factors=TAU_FACTORS, j_tau: int = 4, 
 
     Raises
     ------
-    ValueError
-        A factor that is not a finite number > 0.
+    plant.errors.ParameterError
+        ``factors`` empty, or a factor that is not a finite number > 0.
 
     Notes
     -----
@@ -82,7 +84,7 @@ def lag_profile_search(pb, best: tuple, *, factors=TAU_FACTORS, j_tau: int = 4, 
     """
     fac = np.asarray(factors, dtype=float).reshape(-1)
     if fac.size == 0 or not np.all(np.isfinite(fac)) or np.any(fac <= 0):
-        raise ValueError(f"factors must be finite numbers > 0, got {factors!r}")
+        raise ParameterError(f"factors must be finite numbers > 0, got {factors!r}")
     c0, x0 = float(best[0]), np.asarray(best[1], dtype=float)
     ds = pb.opts.diff_step / 3.0
     free = [j for j in range(x0.shape[0]) if j != j_tau]
