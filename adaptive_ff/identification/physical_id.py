@@ -69,8 +69,12 @@ Methods
     graduated non-convexity), a second wide Fs profile and fit; then fits at
     the noise-level scale with a local Fs profile, a coordinate search
     (+-3 typical steps per parameter) that frees parameters the trust region
-    leaves stuck on the rough cost (measured: the offset), and a profile
-    likelihood over Fs (held at -8 .. +8 % in 2 % steps, the others
+    leaves stuck on the rough cost (measured: the offset), a profile search
+    over tau (tau held at 0.5 .. 2 times the estimate, J on a grid there, the
+    others refitted; :mod:`adaptive_ff.identification.lag_profile`: on joints
+    with a lag near the sample time the search otherwise stopped in a local
+    minimum of the valley where J trades against tau, tau 9-70 % off), and a
+    profile likelihood over Fs (held at -8 .. +8 % in 2 % steps, the others
     refitted; lowest cost kept), since Fc and Fs trade against each other at
     breakaway and the profile itself is rough at the 1-2 % level (a 4 % grid
     left one seed of the Fig. 10 case in a local minimum with Fs +5.3 %,
@@ -164,6 +168,9 @@ _FS_PROFILE = (-0.08, -0.06, -0.04, -0.02, 0.02, 0.04, 0.06, 0.08)
 # 100 % with J twice too wide; 3 chosen, checked on seeds 40-79
 _BOOT_BLOCK = 3
 _BOOT_START = 3.0
+# residual resampling of the bootstrap (module docstring, "Standard errors"): "wild" keeps each residual at its
+# instant (the large ones at breakaway, where Fs is identified), with a random sign per block of the block length
+_BOOT_SCHEME = "wild"
 
 
 @dataclass(frozen=True)
@@ -735,9 +742,9 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
     est = np.array(pb.unpack(x))[keep]
     b = parametric_block_bootstrap(refit, w_hat[pb.i0:], r, est, n=o.n_bootstrap,
                                    block=_BOOT_BLOCK * (andrews_bandwidth(r) + 1),
-                                   rng=np.random.default_rng(o.bootstrap_seed))
+                                   rng=np.random.default_rng(o.bootstrap_seed), scheme=_BOOT_SCHEME)
     details = {"n": o.n_bootstrap, "n_valid": b.n_valid, "block": int(b.block), "seed": o.bootstrap_seed,
-               "start_spread": _BOOT_START, "n_simulations": n_sim[0]}
+               "start_spread": _BOOT_START, "resampling": _BOOT_SCHEME, "n_simulations": n_sim[0]}
     details.update(_oe_intervals(pb, names, est, b))
     return dict(zip(names, map(float, b.stderr))), dict(zip(names, map(float, b.bias))), details
 
