@@ -8,9 +8,9 @@ On joints whose lag is about the sample time (5-15 ms at the 10 ms sampling of t
 (a heavier joint with a longer lag predicts nearly the same velocity). The staged search of the fit
 (global tau and Fs profiles at a wide robust scale, then local trust-region fits) stopped on such joints
 in a local minimum of that valley: on seeds 7, 11, 13, 17, 21, 30, 44, 57 and 58 of the zoo it reported
-tau 9-70 % and J 2-21 % off, 2.4-5.7 of its bootstrap standard errors, and a refit started at the true
-parameters ended at a *lower* cost each time (documentation, identification benchmark page, "Calibration
-on many joints"). The bootstrap intervals cannot cover an estimate that is off because the optimiser
+tau 9-70 % and J 2-21 % off, 2.4-5.7 of its bootstrap standard errors, and the cost near the truth (a refit
+started at the true parameters, or the profile point at the true tau) was *lower* each time
+(documentation, identification benchmark page, "Calibration on many joints"). The bootstrap intervals cannot cover an estimate that is off because the optimiser
 stopped early: the point fit has to find the valley's bottom.
 
 What
@@ -23,7 +23,7 @@ current one, all parameters are refitted from it. It is a profile of the cost ov
 Moolgavkar, *Appl. Statist.* 37(1), 1988; Bates & Watts, *Nonlinear Regression Analysis and its
 Applications*, Wiley 1988, Sec. 6.1) used as a search, not as an interval: the profile cost is rough at the
 level of the breakaway jitter (a chi-square threshold scaled by the residual variance, even with the
-long-run variance of coloured residuals, gave intervals narrower than the bootstrap's on every joint
+long-run variance of coloured residuals, gave intervals narrower than the bootstrap's on the six joints
 measured), so the intervals stay those of the bootstrap.
 """
 

@@ -101,12 +101,20 @@ white-noise Gauss-Newton ``s**2 (G^T G)^-1`` (Ljung, Sec. 9.3;
 in 25-50 % of simulated records (``benchmarks/coverage.py``).
 
 ``stderr`` is therefore (``n_bootstrap > 0``, default 20) a parametric
-moving-block bootstrap (Künsch, *Ann. Statist.* 17(3), 1989; Efron &
-Tibshirani, *An Introduction to the Bootstrap*, 1993, Sec. 9.5): each
-replicate record is the fitted model's own prediction on the same input and
-time stamps plus the fit's residuals resampled in blocks of
-``3 (L + 1)`` samples (``L`` the Andrews bandwidth: the colour of the
-residuals, including the input quantisation's effect, is kept), and is
+block wild bootstrap (Efron & Tibshirani, *An Introduction to the
+Bootstrap*, 1993, Sec. 9.5; Wu, *Ann. Statist.* 14(4), 1986; Shao,
+*J. Amer. Statist. Assoc.* 105(489), 2010): each replicate record is the
+fitted model's own prediction on the same input and time stamps plus the
+fit's residuals, each at its own instant, multiplied by a random sign per
+block of ``3 (L + 1)`` samples (``L`` the Andrews bandwidth: the colour of
+the residuals within a block, including the input quantisation's effect,
+is kept; :func:`adaptive_ff.identification.covariance.block_wild_resample`).
+The residuals are large at breakaway, where Fs is identified, and small
+while sliding; the moving-block resampling used before 2026-11-23 (Künsch,
+*Ann. Statist.* 17(3), 1989) carried them into the sliding stretches, and
+its Fs intervals covered 88 % of the zoo joints of
+``benchmarks/coverage_zoo.py`` (93 % now; the documentation's
+identification page, "Calibration on many joints"). Each replicate is
 refitted from a start drawn around the estimate (normal, three typical
 changes per parameter: 6 % of J, 9 % of tau, 3 % of the torques) by two
 trust-region passes as in the fit (at the wide robust scale of its global
@@ -206,11 +214,12 @@ class PhysicalFit:
         or ``"hac"``: what ``stderr`` is), ``stderr_hac`` (Newey-West),
         ``stderr_white`` (white-noise Gauss-Newton errors), ``hac_lags``
         (Bartlett bandwidth), ``bootstrap`` (None, or ``n``, ``n_valid``,
-        ``block``, ``seed``, ``start_spread``, ``n_simulations``, ``bias``:
+        ``block``, ``seed``, ``start_spread``, ``resampling``, ``n_simulations``, ``bias``:
         mean deviation of the refits per parameter, ``interval95``: per
         parameter ``[low, high]`` = value ± t stderr), ``interval95`` (the
         same) and ``band`` (the 95 % band of F(w) from the refits, as
         :meth:`adaptive_ff.identification.uncertainty.FrictionBand.to_dict`), ``start``, ``cost``,
+        ``lag_profile`` (None, or the profile over tau: ``tau``, ``cost``, ``n_simulations``, ``moved``),
         ``residual_rms``, ``n_simulations``, ``burn_samples``, ``loss``,
         ``f_scale``, ``h_max``, ``input_delay``, ``interp``, ``Ts_mean``,
         ``Ts_max``.
@@ -718,7 +727,7 @@ def _oe_stderr(pb: _OutputErrorProblem, x: np.ndarray, names: tuple) -> tuple[di
 
 
 def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.ndarray) -> tuple[dict, dict, dict]:
-    """Parametric moving-block bootstrap of the output-error fit (module docstring, "Standard errors") by
+    """Parametric block wild bootstrap of the output-error fit (module docstring, "Standard errors") by
     :func:`adaptive_ff.identification.covariance.parametric_block_bootstrap`.
 
     Returns ``(stderr, bias, details)``: per parameter the root-mean-square deviation of the refits from the
