@@ -7,7 +7,7 @@ nominal 95 % interval is checked against the true value, per parameter, for
 
 * ``boot``: the interval the fit reports (``info["bootstrap"]["interval95"]``: ``value ± t stderr`` with
   the Student-t quantile of the number of valid refits, closed loop), else ``value ± 1.96 stderr`` (``stderr``:
-  the parametric moving-block bootstrap,
+  the parametric block bootstrap: block wild for the output-error fit, moving blocks for the closed loop,
   :func:`adaptive_ff.identification.covariance.parametric_block_bootstrap`, ``--n-bootstrap`` refits),
 * ``boot z``: ``value ± 1.96 stderr`` of the same bootstrap errors (what the t quantile adds),
 * ``HAC``: the Newey-West ones (``info["stderr_hac"]``, :mod:`adaptive_ff.identification.covariance`), and

@@ -1,7 +1,7 @@
 """Do the 95 % intervals of ``identify`` cover the truth on many different joints?
 
 Run ``python benchmarks/coverage_zoo.py [--n 40] [--start 0] [--duration 15] [--n-bootstrap 20]
-[--jobs 1] [--out rows.jsonl]`` (or ``--table-from rows.jsonl``: the table of the records an earlier,
+[--no-lag-profile] [--jobs 1] [--out rows.jsonl]`` (or ``--table-from rows.jsonl``: the table of the records an earlier,
 possibly unfinished, run saved).
 
 Joints: ``n`` joints of eqs. 1-3 drawn per seed (``numpy.random.default_rng(seed)``) around the ``paper``
@@ -78,8 +78,9 @@ def _kind_row(rep, p, kind: str) -> dict:
                 "hi": iv[k][1] - rep.params[k]} for k in KEYS}
 
 
-def one(seed: int, duration: float, n_bootstrap: int) -> dict:
-    """Simulate, read out and identify joint ``seed`` by both methods; the per-kind rows and CPU times."""
+def one(seed: int, duration: float, n_bootstrap: int, lag_profile: bool = True) -> dict:
+    """Simulate, read out and identify joint ``seed`` by both methods; the per-kind rows and CPU times
+    (``lag_profile``: the output-error fit's profile search over tau, ``OutputErrorOptions.lag_profile``)."""
     p = draw_joint(seed)
     m = record(p, seed=seed, noise=0.01, quant=QUANT, irregular="scaled", duration=duration)
     d = MeasuredData(m.t, m.u, m.w, source=f"zoo joint {seed}")
@@ -87,7 +88,8 @@ def one(seed: int, duration: float, n_bootstrap: int) -> dict:
     t0 = time.process_time()
     try:
         rep = identify(d, Vs=p.Vs, delta=p.delta, lag=True, method="output_error",
-                       method_options={"input_delay": INPUT_DELAY, "n_bootstrap": n_bootstrap})
+                       method_options={"input_delay": INPUT_DELAY, "n_bootstrap": n_bootstrap,
+                                       "lag_profile": lag_profile})
         row["kinds"]["oe"] = _kind_row(rep, p, "oe")
     except Exception as exc:  # noqa: BLE001 - a failed fit is a row of the table, with its reason
         row["kinds"]["oe"] = {"failed": f"{type(exc).__name__}: {exc}"}
@@ -160,6 +162,8 @@ def main(argv=None) -> int:
     ap.add_argument("--start", type=int, default=0, help="first seed (default 0)")
     ap.add_argument("--duration", type=float, default=15.0, help="record length in s (default 15)")
     ap.add_argument("--n-bootstrap", type=int, default=20, help="output-error bootstrap refits (default 20)")
+    ap.add_argument("--no-lag-profile", action="store_true",
+                    help="output-error fit without its profile search over tau (the fit before 2026-11-23)")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
     ap.add_argument("--out", type=Path, default=None, help="append each joint's row to this JSON-lines file")
     ap.add_argument("--table-from", type=Path, default=None, help="print the table of these rows, fit nothing")
@@ -173,9 +177,10 @@ def main(argv=None) -> int:
             from concurrent.futures import ProcessPoolExecutor
 
             with ProcessPoolExecutor(a.jobs) as pool:
-                rows = [_save(a.out, r) for r in pool.map(one, seeds, [a.duration] * a.n, [a.n_bootstrap] * a.n)]
+                rows = [_save(a.out, r) for r in pool.map(one, seeds, [a.duration] * a.n, [a.n_bootstrap] * a.n,
+                                                           [not a.no_lag_profile] * a.n)]
         else:
-            rows = [_save(a.out, one(s, a.duration, a.n_bootstrap)) for s in seeds]
+            rows = [_save(a.out, one(s, a.duration, a.n_bootstrap, not a.no_lag_profile)) for s in seeds]
     seeds = [r["seed"] for r in rows]
     print(f"coverage of nominal 95 % intervals of identify on {len(rows)} zoo joints (seeds {min(seeds)}..{max(seeds)}), "
           f"noise 1 %, quantisation {QUANT} N·m, Fig. 10 sampling scaled to 10 ms, Vs and delta given, lag fitted")

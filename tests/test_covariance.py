@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from adaptive_ff.identification.covariance import (BootstrapResult, andrews_bandwidth, bootstrap_t_quantile,
-                                                     hac_covariance, moving_block_resample, parametric_block_bootstrap)
+                                                     block_wild_resample, hac_covariance, moving_block_resample,
+                                                     parametric_block_bootstrap)
 from plant.errors import ParameterError, SignalError
 
 
@@ -252,3 +253,60 @@ def test_simulate_sees_process_noise_the_fit_absorbs():
     b = parametric_block_bootstrap(refit, pred, res, est, n=4, block=1, rng=np.random.default_rng(2),
                                    simulate=lambda rng: next(draws))
     assert b.n_valid == 3 and b.failures == ("non-finite simulation",)
+
+
+def test_block_wild_keeps_each_residual_in_place_with_one_sign_per_block():
+    r = np.arange(1.0, 24.0) * np.where(np.arange(23) % 3 == 0, -1.0, 1.0)
+    e = block_wild_resample(r, 23, block=5, rng=np.random.default_rng(3))
+    s = e / r
+    assert np.all(np.abs(s) == 1.0)  # every residual at its own instant, its size kept
+    # the signs change only at block boundaries: the runs of equal signs, cut at the boundaries of some phase
+    # in 0..4, are constant
+    ok = []
+    for ph in range(5):
+        k = (np.arange(23) + ph) // 5
+        ok.append(all(np.unique(s[k == j]).size == 1 for j in np.unique(k)))
+    assert any(ok)
+    # two channels share the sign of their row; n_out cuts the series
+    e2 = block_wild_resample(np.column_stack([r, 2 * r]), 20, block=5, rng=np.random.default_rng(3))
+    np.testing.assert_array_equal(e2[:, 0], e[:20])
+    np.testing.assert_array_equal(e2[:, 1], 2 * e[:20])
+
+
+def test_block_wild_bad_input():
+    with pytest.raises(ParameterError, match="n_out"):
+        block_wild_resample(np.ones(5), 6, block=2, rng=np.random.default_rng(0))
+    with pytest.raises(ParameterError, match="block"):
+        block_wild_resample(np.ones(5), 5, block=0, rng=np.random.default_rng(0))
+    with pytest.raises(SignalError):
+        block_wild_resample(np.array([1.0, np.nan]), 2, block=1, rng=np.random.default_rng(0))
+
+
+def test_wild_bootstrap_of_ols_gives_whites_heteroscedastic_errors():
+    # white, heteroscedastic residuals (large where |x| is large): the wild bootstrap with block 1 and an OLS refit
+    # has the covariance of White (1980) over the signs, exactly (X^T X)^-1 X^T diag(r^2) X (X^T X)^-1; the
+    # moving-block (here i.i.d.) bootstrap moves the large residuals to small |x| and gives the homoscedastic
+    # s^2 (X^T X)^-1 instead
+    rng = np.random.default_rng(11)
+    n = 200
+    x = np.linspace(-1.0, 1.0, n)
+    X = np.column_stack([np.ones(n), x])
+    y = 1.0 + 2.0 * x + rng.normal(size=n) * (0.05 + 2.0 * x**2)
+    beta = np.linalg.lstsq(X, y, rcond=None)[0]
+    r = y - X @ beta
+    A = np.linalg.inv(X.T @ X)
+    white = np.sqrt(np.diag(A @ (X.T * r**2) @ X @ A))
+    homo = np.sqrt(np.diag(A) * (r @ r) / n)
+
+    def refit(ys, _rng):
+        return np.linalg.lstsq(X, ys, rcond=None)[0]
+
+    b = parametric_block_bootstrap(refit, X @ beta, r, beta, n=4000, block=1, rng=np.random.default_rng(5),
+                                   scheme="wild")
+    np.testing.assert_allclose(b.stderr, white, rtol=0.04)
+    m = parametric_block_bootstrap(refit, X @ beta, r, beta, n=4000, block=1, rng=np.random.default_rng(5))
+    np.testing.assert_allclose(m.stderr, homo, rtol=0.04)
+    assert b.stderr[1] > 1.3 * m.stderr[1]  # the slope's error is larger under the heteroscedasticity
+    with pytest.raises(ParameterError, match="scheme"):
+        parametric_block_bootstrap(refit, X @ beta, r, beta, n=2, block=1, rng=np.random.default_rng(5),
+                                   scheme="stationary")

@@ -41,7 +41,8 @@ import numpy as np
 
 from plant.errors import FrictionError, ParameterError, SignalError
 
-__all__ = ["hac_covariance", "andrews_bandwidth", "moving_block_resample", "parametric_block_bootstrap",
+__all__ = ["hac_covariance", "andrews_bandwidth", "moving_block_resample", "block_wild_resample",
+           "parametric_block_bootstrap",
            "BootstrapResult", "bootstrap_t_quantile", "circular_block_resample", "politis_white_block",
            "residual_block_bootstrap"]
 
@@ -171,6 +172,52 @@ def moving_block_resample(r, n_out: int, *, block: int, rng: np.random.Generator
     return r[(starts[:, None] + np.arange(block)[None, :]).reshape(-1)[:n_out]]
 
 
+def block_wild_resample(r, n_out: int, *, block: int, rng: np.random.Generator) -> np.ndarray:
+    """A block wild bootstrap series: the residuals kept in place, each block of them multiplied by a random sign.
+
+    Parameters
+    ----------
+    r : array_like, shape (n,) or (n, c)
+        Residuals in time order (any unit), finite, ``n >= 1``; with ``c`` channels a row's channels share its sign.
+    n_out : int
+        Length of the series returned, ``1 <= n_out <= n`` (the first ``n_out`` residuals are used).
+    block : int, keyword-only
+        Block length, >= 1 (clipped to ``n``; ``1``: the wild bootstrap of independent residuals).
+    rng : numpy.random.Generator, keyword-only
+        Source of the phase and the signs (seed it for a reproducible series).
+
+    Returns
+    -------
+    ndarray, shape (n_out,) or (n_out, c)
+        ``eta_k r_t`` for ``t < n_out``, ``k = floor((t + phase) / block)``, the ``eta_k`` independent signs
+        (+1 or -1 with probability 1/2 each, Rademacher) and ``phase`` uniform on ``0 .. block-1``. Each
+        residual stays at its own instant with its own size (the series keeps where the residuals are large,
+        e.g. a model's errors at breakaway, and their correlation within a block); its mean is zero.
+
+    Raises
+    ------
+    SignalError
+        ``r`` empty, not finite, or of more than two dimensions.
+    ParameterError
+        ``n_out`` or ``block`` not an integer >= 1, ``n_out > n``, or ``rng`` not a numpy Generator.
+
+    Notes
+    -----
+    The wild bootstrap (Wu, *Ann. Statist.* 14(4), 1986; Liu, *Ann. Statist.* 16(4), 1988; Rademacher weights:
+    Davidson & Flachaire, *J. Econometrics* 146(1), 2008) with weights constant over blocks for dependent
+    residuals (the block-wise dependent wild bootstrap, Shao, *J. Amer. Statist. Assoc.* 105(489), 2010).
+    With ``block = 1`` and a linear least-squares refit the covariance of the refits over the signs is
+    White's ``(X^T X)^-1 X^T diag(r**2) X (X^T X)^-1``.
+    """
+    r, n, block = _resample_args(r, n_out, block, rng)
+    if n_out > n:
+        raise ParameterError(f"n_out must be <= the number of residuals ({n}), got {n_out!r}")
+    phase = int(rng.integers(0, block))
+    k = (np.arange(int(n_out)) + phase) // block
+    eta = rng.choice(np.array([-1.0, 1.0]), size=int(k[-1]) + 1)[k]
+    return r[:n_out] * (eta if r.ndim == 1 else eta[:, None])
+
+
 def _resample_args(r, n_out, block, rng) -> tuple:
     """The checked arguments of a block resampling: ``r`` as a float array, its length ``n`` and the block length
     cut to ``n``; the errors of :func:`moving_block_resample`."""
@@ -275,7 +322,7 @@ def bootstrap_t_quantile(n: int, level: float = 0.95) -> float:
 
 
 def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int, block: int,
-                               rng: np.random.Generator, simulate=None) -> BootstrapResult:
+                               rng: np.random.Generator, simulate=None, scheme: str = "moving") -> BootstrapResult:
     """Standard errors of a fit by refitting re-simulated records: the parametric moving-block bootstrap.
 
     Each replicate record is ``prediction + moving_block_resample(residuals)`` (the fitted model's own output on
@@ -311,6 +358,10 @@ def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int
         ``simulate(rng) -> array_like``, shape of ``prediction``: one realisation of the fitted model's output
         with fresh process noise drawn from ``rng``, used instead of ``prediction`` (whose shape it must have and
         which then only sets the shape); None (default): ``prediction``.
+    scheme : {"moving", "wild"}, keyword-only
+        How the residuals are resampled: ``"moving"`` (default) in moving blocks
+        (:func:`moving_block_resample`), ``"wild"`` kept in place with a random sign per block
+        (:func:`block_wild_resample`: where the residuals are large stays where they are large).
 
     Returns
     -------
@@ -323,7 +374,8 @@ def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int
         ``prediction`` and ``residuals`` differ in shape, or are not finite; ``estimate`` not finite.
     ParameterError
         ``n`` or ``block`` not an integer >= 1, ``rng`` not a numpy Generator, ``refit`` or ``simulate`` (when
-        given) not callable, or ``simulate`` returning another shape (a non-finite one drops the replicate).
+        given) not callable, ``simulate`` returning another shape (a non-finite one drops the replicate), or
+        ``scheme`` not ``"moving"`` or ``"wild"``.
 
     Notes
     -----
@@ -345,9 +397,12 @@ def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int
     if not callable(refit) or not (simulate is None or callable(simulate)):
         raise ParameterError(f"refit and simulate must be callable, got {type(refit).__name__} and "
                              f"{type(simulate).__name__}")
+    if scheme not in ("moving", "wild"):
+        raise ParameterError(f"scheme must be 'moving' or 'wild', got {scheme!r}")
+    resample = moving_block_resample if scheme == "moving" else block_wild_resample
     reps, failures = [], []
     for _ in range(int(n)):
-        e_star = moving_block_resample(res, pred.shape[0], block=block, rng=rng)
+        e_star = resample(res, pred.shape[0], block=block, rng=rng)
         base = pred if simulate is None else np.asarray(simulate(rng), dtype=float)
         if base.shape != pred.shape:
             raise ParameterError(f"simulate must return an array of shape {pred.shape}, got {base.shape}")

@@ -69,8 +69,12 @@ Methods
     graduated non-convexity), a second wide Fs profile and fit; then fits at
     the noise-level scale with a local Fs profile, a coordinate search
     (+-3 typical steps per parameter) that frees parameters the trust region
-    leaves stuck on the rough cost (measured: the offset), and a profile
-    likelihood over Fs (held at -8 .. +8 % in 2 % steps, the others
+    leaves stuck on the rough cost (measured: the offset), a profile search
+    over tau (tau held at 0.5 .. 2 times the estimate, J on a grid there, the
+    others refitted; :mod:`adaptive_ff.identification.lag_profile`: on joints
+    with a lag near the sample time the search otherwise stopped in a local
+    minimum of the valley where J trades against tau, tau 9-70 % off), and a
+    profile likelihood over Fs (held at -8 .. +8 % in 2 % steps, the others
     refitted; lowest cost kept), since Fc and Fs trade against each other at
     breakaway and the profile itself is rough at the 1-2 % level (a 4 % grid
     left one seed of the Fig. 10 case in a local minimum with Fs +5.3 %,
@@ -97,12 +101,20 @@ white-noise Gauss-Newton ``s**2 (G^T G)^-1`` (Ljung, Sec. 9.3;
 in 25-50 % of simulated records (``benchmarks/coverage.py``).
 
 ``stderr`` is therefore (``n_bootstrap > 0``, default 20) a parametric
-moving-block bootstrap (Künsch, *Ann. Statist.* 17(3), 1989; Efron &
-Tibshirani, *An Introduction to the Bootstrap*, 1993, Sec. 9.5): each
-replicate record is the fitted model's own prediction on the same input and
-time stamps plus the fit's residuals resampled in blocks of
-``3 (L + 1)`` samples (``L`` the Andrews bandwidth: the colour of the
-residuals, including the input quantisation's effect, is kept), and is
+block wild bootstrap (Efron & Tibshirani, *An Introduction to the
+Bootstrap*, 1993, Sec. 9.5; Wu, *Ann. Statist.* 14(4), 1986; Shao,
+*J. Amer. Statist. Assoc.* 105(489), 2010): each replicate record is the
+fitted model's own prediction on the same input and time stamps plus the
+fit's residuals, each at its own instant, multiplied by a random sign per
+block of ``3 (L + 1)`` samples (``L`` the Andrews bandwidth: the colour of
+the residuals within a block, including the input quantisation's effect,
+is kept; :func:`adaptive_ff.identification.covariance.block_wild_resample`).
+The residuals are large at breakaway, where Fs is identified, and small
+while sliding; the moving-block resampling used before 2026-11-23 (Künsch,
+*Ann. Statist.* 17(3), 1989) carried them into the sliding stretches, and
+its Fs intervals covered 88 % of the zoo joints of
+``benchmarks/coverage_zoo.py`` (93 % now; the documentation's
+identification page, "Calibration on many joints"). Each replicate is
 refitted from a start drawn around the estimate (normal, three typical
 changes per parameter: 6 % of J, 9 % of tau, 3 % of the torques) by two
 trust-region passes as in the fit (at the wide robust scale of its global
@@ -128,6 +140,7 @@ from scipy.optimize import least_squares
 
 from adaptive_ff.identification.covariance import andrews_bandwidth, hac_covariance, parametric_block_bootstrap
 from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
+from adaptive_ff.identification.lag_profile import lag_profile_search
 from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.plausibility import check_physical
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
@@ -163,6 +176,9 @@ _FS_PROFILE = (-0.08, -0.06, -0.04, -0.02, 0.02, 0.04, 0.06, 0.08)
 # 100 % with J twice too wide; 3 chosen, checked on seeds 40-79
 _BOOT_BLOCK = 3
 _BOOT_START = 3.0
+# residual resampling of the bootstrap (module docstring, "Standard errors"): "wild" keeps each residual at its
+# instant (the large ones at breakaway, where Fs is identified), with a random sign per block of the block length
+_BOOT_SCHEME = "wild"
 
 
 @dataclass(frozen=True)
@@ -198,11 +214,12 @@ class PhysicalFit:
         or ``"hac"``: what ``stderr`` is), ``stderr_hac`` (Newey-West),
         ``stderr_white`` (white-noise Gauss-Newton errors), ``hac_lags``
         (Bartlett bandwidth), ``bootstrap`` (None, or ``n``, ``n_valid``,
-        ``block``, ``seed``, ``start_spread``, ``n_simulations``, ``bias``:
+        ``block``, ``seed``, ``start_spread``, ``resampling``, ``n_simulations``, ``bias``:
         mean deviation of the refits per parameter, ``interval95``: per
         parameter ``[low, high]`` = value ± t stderr), ``interval95`` (the
         same) and ``band`` (the 95 % band of F(w) from the refits, as
         :meth:`adaptive_ff.identification.uncertainty.FrictionBand.to_dict`), ``start``, ``cost``,
+        ``lag_profile`` (None, or the profile over tau: ``tau``, ``cost``, ``n_simulations``, ``moved``),
         ``residual_rms``, ``n_simulations``, ``burn_samples``, ``loss``,
         ``f_scale``, ``h_max``, ``input_delay``, ``interp``, ``Ts_mean``,
         ``Ts_max``.
@@ -380,6 +397,11 @@ class OutputErrorOptions:
         (too small on the rough free-run cost). Default 20.
     bootstrap_seed : int, keyword-only
         Seed of the bootstrap's residual blocks and start points, >= 0. Default 0.
+    lag_profile : bool, keyword-only
+        Run the profile search over tau after the local stage
+        (:func:`adaptive_ff.identification.lag_profile.lag_profile_search`: ten values of tau, J on a grid
+        and the others refitted at each; about 1000 simulations). Default True; False gives the fit
+        without it (found tau 9-70 % off on joints with a lag near the sample time).
 
     Raises
     ------
@@ -408,6 +430,7 @@ class OutputErrorOptions:
     start: dict | None = None
     n_bootstrap: int = 20
     bootstrap_seed: int = 0
+    lag_profile: bool = True
 
     def __post_init__(self):
         def put(name, value):
@@ -426,6 +449,9 @@ class OutputErrorOptions:
         put("max_nfev", _check_int("max_nfev", self.max_nfev, 1))
         put("n_bootstrap", _check_int("n_bootstrap", self.n_bootstrap, 0))
         put("bootstrap_seed", _check_int("bootstrap_seed", self.bootstrap_seed, 0))
+        if not isinstance(self.lag_profile, (bool, np.bool_)):
+            raise ParameterError(f"lag_profile must be True or False, got {self.lag_profile!r}")
+        put("lag_profile", bool(self.lag_profile))
         put("start", _check_start(self.start))
         for name, allowed in (("loss", ("linear", "soft_l1")), ("predictor", ("auto", "free-run", "one-step")),
                               ("interp", ("linear", "cubic"))):
@@ -701,7 +727,7 @@ def _oe_stderr(pb: _OutputErrorProblem, x: np.ndarray, names: tuple) -> tuple[di
 
 
 def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.ndarray) -> tuple[dict, dict, dict]:
-    """Parametric moving-block bootstrap of the output-error fit (module docstring, "Standard errors") by
+    """Parametric block wild bootstrap of the output-error fit (module docstring, "Standard errors") by
     :func:`adaptive_ff.identification.covariance.parametric_block_bootstrap`.
 
     Returns ``(stderr, bias, details)``: per parameter the root-mean-square deviation of the refits from the
@@ -725,9 +751,9 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
     est = np.array(pb.unpack(x))[keep]
     b = parametric_block_bootstrap(refit, w_hat[pb.i0:], r, est, n=o.n_bootstrap,
                                    block=_BOOT_BLOCK * (andrews_bandwidth(r) + 1),
-                                   rng=np.random.default_rng(o.bootstrap_seed))
+                                   rng=np.random.default_rng(o.bootstrap_seed), scheme=_BOOT_SCHEME)
     details = {"n": o.n_bootstrap, "n_valid": b.n_valid, "block": int(b.block), "seed": o.bootstrap_seed,
-               "start_spread": _BOOT_START, "n_simulations": n_sim[0]}
+               "start_spread": _BOOT_START, "resampling": _BOOT_SCHEME, "n_simulations": n_sim[0]}
     details.update(_oe_intervals(pb, names, est, b))
     return dict(zip(names, map(float, b.stderr))), dict(zip(names, map(float, b.bias))), details
 
@@ -754,7 +780,11 @@ def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> P
     names = _names(offset)
     s0 = dict(opts.start) if opts.start is not None else _start_from_paper(t, u, w, Vs, delta, offset)
     x = _oe_global_stage(pb, pb.start_vector(s0), profiled=opts.start is None)
-    best = _oe_fs_profile(pb, _oe_coordinate_search(pb, _oe_local_stage(pb, x)))
+    best = _oe_coordinate_search(pb, _oe_local_stage(pb, x))
+    lag_prof = None
+    if opts.lag_profile:
+        best, lag_prof = lag_profile_search(pb, best)
+    best = _oe_fs_profile(pb, best)
     x = best[1]
     J, Fc, Fs, sigma, tau, off = pb.unpack(x)
     vals = {"J": J, "Fc": Fc, "Fs": Fs, "sigma": sigma, "tau": tau, "offset": off}
@@ -774,6 +804,7 @@ def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> P
                              "stderr_kind": "bootstrap" if boot is not None else "hac", "stderr_hac": stderr_hac,
                              "stderr_white": stderr_white, "hac_lags": int(lags), "bootstrap": boot,
                              "start": {k: float(v) for k, v in s0.items()}, "cost": float(best[0]),
+                             "lag_profile": lag_prof,
                              "residual_rms": float(math.sqrt(float(r @ r) / r.shape[0])),
                              "n_simulations": int(pb.n_sim), "burn_samples": pb.i0, "loss": opts.loss,
                              "f_scale": float(pb.f_scale), "f_scale_global": float(pb.f_wide),
@@ -809,7 +840,7 @@ def fit_physical(t, u, w, *, Vs: float, delta: float, method: str = "output_erro
         :class:`OutputErrorOptions` (``predictor``, ``h_max``,
         ``input_delay``, ``interp``, ``burn``, ``fs_grid``, ``fs_max_ratio``,
         ``diff_step``, ``max_nfev``, ``loss``, ``f_scale``, ``start``,
-        ``n_bootstrap``, ``bootstrap_seed``; units and defaults there),
+        ``n_bootstrap``, ``bootstrap_seed``, ``lag_profile``; units and defaults there),
         validated by it.
 
     Returns
