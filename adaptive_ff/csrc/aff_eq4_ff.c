@@ -152,4 +152,4 @@ int aff_eq4_ff_observe(void *self, double u, double w_meas, double *theta_out)
     return 1;
 }
 
-const aff_compensator_ops aff_eq4_ff_ops = {"adaptive", aff_eq4_ff_compensate, aff_eq4_ff_observe};
+const aff_compensator_ops aff_eq4_ff_ops = {"adaptive", aff_eq4_ff_compensate, aff_eq4_ff_observe, NULL};

@@ -123,7 +123,7 @@ int aff_fixed_ff_observe(void *self, double u, double w_meas, double *theta_out)
     return 0;
 }
 
-const aff_compensator_ops aff_fixed_ff_ops = {"fixed", aff_fixed_ff_compensate, aff_fixed_ff_observe};
+const aff_compensator_ops aff_fixed_ff_ops = {"fixed", aff_fixed_ff_compensate, aff_fixed_ff_observe, NULL};
 
 int aff_project_levels(aff_physical *e, aff_real tau_max, aff_real F_max)
 {

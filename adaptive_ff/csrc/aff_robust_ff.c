@@ -412,4 +412,4 @@ int aff_robust_ff_observe(void *self, double u, double w_meas, double *theta_out
     return 1;
 }
 
-const aff_compensator_ops aff_robust_ff_ops = {"adaptive", aff_robust_ff_compensate, aff_robust_ff_observe};
+const aff_compensator_ops aff_robust_ff_ops = {"adaptive", aff_robust_ff_compensate, aff_robust_ff_observe, NULL};

@@ -143,4 +143,4 @@ int ctl_canudas_observe(void *self, double u, double w_meas, double *theta_out)
     return upd;
 }
 
-const aff_compensator_ops ctl_canudas_ops = {"canudas", ctl_canudas_compensate, ctl_canudas_observe};
+const aff_compensator_ops ctl_canudas_ops = {"canudas", ctl_canudas_compensate, ctl_canudas_observe, NULL};

@@ -1,4 +1,5 @@
 /* ctl_dob.c -- the disturbance observer (see ctl_dob.h). */
+#include <stddef.h>
 #include "ctl_dob.h"
 
 int ctl_dob_init(ctl_dob *d, aff_real Tc, aff_real J_n, aff_real omega_q, long order, aff_real d_max)
@@ -66,4 +67,4 @@ int ctl_dob_observe(void *self, double u, double w_meas, double *theta_out)
     return 0;
 }
 
-const aff_compensator_ops ctl_dob_ops = {"dob", ctl_dob_compensate, ctl_dob_observe};
+const aff_compensator_ops ctl_dob_ops = {"dob", ctl_dob_compensate, ctl_dob_observe, NULL};
