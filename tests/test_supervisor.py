@@ -326,5 +326,5 @@ def test_after_a_rest_the_feedforward_part_is_held_until_the_joint_moves_in_the_
     assert held.sum() < 20 * starts.shape[0]  # for a few periods, not for the move
     assert comp.cdata.res.n_held == held.sum() and comp.n_held == held.sum()
     np.testing.assert_allclose(rec.u_ff[held], expected[held], rtol=1e-9, atol=1e-12 * p.Fc)  # d_hat alone
-    np.testing.assert_allclose(rec.u_ff[~held], expected[~held], rtol=1e-9, atol=1e-12 * p.Fc)  # 0 at rest, u_ff + d_hat
+    np.testing.assert_allclose(rec.u_ff[~held], expected[~held], rtol=1e-9, atol=1e-12 * p.Fc)  # 0 / u_ff + d_hat
     assert np.max(np.abs(withheld)) > 0.05 * p.Fc  # the hold left out a feedforward part (2.1 N*m here)

@@ -147,7 +147,7 @@ void ctl_residual_observe(ctl_residual *r, double u, double w_meas, double *thet
  * pushed against the move or lifted the friction's brake. No band: the difference velocity of a stuck joint is
  * exactly 0 (the first count in the reference's direction ends the hold), a noisy velocity may only end it early,
  * which is the behaviour without the hold; a band of 0.05 rad/s (one count per period of the 2^17 encoder) on
- * the Kalman velocity moved the open bench's variants by -0.008..+0.008, its zoo losses unchanged (none), and
+ * the Kalman velocity moved the open bench's variants by -0.008..+0.010, its zoo losses unchanged (none), and
  * would need the sensor's resolution as a setting. Measured on the open bench (docs/benchmarks/compensation.md,
  * "The composite's observer at rest"): zoo #25 (difference velocity), the one remaining loss, best adaptive 1.032
  * -> 1.120 against `fixed` 1.100, no loss > 0.02 and none worse than none with either velocity, every variant's
