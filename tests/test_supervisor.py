@@ -328,3 +328,41 @@ def test_after_a_rest_the_feedforward_part_is_held_until_the_joint_moves_in_the_
     np.testing.assert_allclose(rec.u_ff[held], expected[held], rtol=1e-9, atol=1e-12 * p.Fc)  # d_hat alone
     np.testing.assert_allclose(rec.u_ff[~held], expected[~held], rtol=1e-9, atol=1e-12 * p.Fc)  # 0 / u_ff + d_hat
     assert np.max(np.abs(withheld)) > 0.05 * p.Fc  # the hold left out a feedforward part (2.1 N*m here)
+
+
+def test_before_its_switch_in_adaptive_applies_nothing_while_held():
+    """Plain ``adaptive`` before its residual switch-in (g = 0) holds too: after a rest its output is 0 until
+    w_ctrl*w_ref > 0, otherwise exactly the feedforward's u_ff (against a separate feedforward replayed on the
+    recorded torque and measurement); its observer keeps u - u_ff as at rest (the switch-in test's residual)."""
+    targets = [0.5, -0.2, 0.4, 0.0, 0.6, -0.3] * 2
+    p, ref, o, rec, comp = _rest_end_runs("adaptive", targets, sensor_gate=False)
+    assert rec.info["n_backoff"] == 0 and rec.info["n_sensor_rejected"] == 0
+    n = rec.t.shape[0]
+    k_in = n if comp.t_switch_in is None else int(round(comp.t_switch_in / 1e-3))
+    n_hold = int(build_supervisor(p, "adaptive", o).cdata.n_hold)
+    run = np.zeros(n, dtype=int)
+    for k in np.flatnonzero(rec.w_ref == 0.0):
+        run[k] = (run[k - 1] if k > 0 else 0) + 1
+    rest = run >= n_hold
+    _, _, fresh = build_mode(p, "adaptive", o)
+    ff = fresh.feedforward
+    expected = np.zeros(n)
+    withheld = np.zeros(n)
+    held = np.zeros(n, dtype=bool)
+    hold = False
+    for k in range(k_in):
+        wm, wr = rec.w_meas[k], rec.w_ref[k]
+        u_ff = ff.compensate(wm, wr)
+        if hold and wm * wr > 0.0:
+            hold = False
+        if rest[k]:
+            hold = True
+        elif hold:
+            held[k], withheld[k] = True, u_ff
+        else:
+            expected[k] = u_ff
+        ff.observe(rec.u[k], wm)
+    assert held.sum() >= 1 and k_in > n // 4  # switched in at 9.4 s; one move before begins held
+    assert np.max(np.abs(withheld)) > 0.05 * p.Fc  # what the hold left out (4.4 N*m here)
+    np.testing.assert_allclose(rec.u_ff[:k_in], expected[:k_in], rtol=1e-9, atol=1e-12 * p.Fc)
+    assert np.all(rec.u_ff[:k_in][held[:k_in]] == 0.0)
