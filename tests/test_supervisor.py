@@ -15,7 +15,7 @@ from scipy.signal import lfilter
 
 from adaptive_ff.compensation.supervisor import DELAY_MAX, FeedforwardSupervisor
 from controllers import ModeOptions, design_pi, run_mode
-from controllers.simulation.compensators import build_mode
+from controllers.simulation.compensators import build_mode, build_supervisor
 from controllers.experiments.compare import compare, eta
 from controllers.simulation.batch import run_batch
 from controllers.simulation.closed_loop import run_own
@@ -239,13 +239,14 @@ def test_nothing_is_applied_with_the_reference_at_rest_and_the_statistics_hold()
                                   FeedforwardSupervisor(**kw).run(u_c, u, w)["applied"])
 
 
-def _rest_end_runs(mode):
-    """The paper joint on three point-to-point moves ending in a 0.5 s dwell (noise 1e-3 rad/s, seed 0): the
-    recorded run of ``mode`` and its compensator's final state from the same run through ``run_batch``."""
+def _rest_end_runs(mode, targets=(0.5, -0.2, 0.4), **options):
+    """The paper joint on point-to-point moves to ``targets`` (rad) ending in a 0.5 s dwell (noise 1e-3 rad/s, seed
+    0; ``options`` replace ModeOptions' fields): the recorded run of ``mode`` and its compensator's final state from
+    the same run through ``run_batch``."""
     p = preset("paper")
     d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
-    o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
-    ref = point_to_point_reference([0.5, -0.2, 0.4], v_max=0.5, a_max=4.0, dwell=0.5)
+    o = replace(ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=1e-3), **options)
+    ref = point_to_point_reference(list(targets), v_max=0.5, a_max=4.0, dwell=0.5)
     rec = run_mode(p, ref, mode, o, rng=np.random.default_rng(0))
     b = run_batch([p], ref, mode, o, seeds=[0])
     assert b.rms_second_half[0] == rec.metrics.rms_second_half  # the same run
@@ -276,3 +277,92 @@ def test_before_its_switch_in_the_observer_of_adaptive_keeps_the_feedforwards_re
     _, _, _, rec, comp = _rest_end_runs("adaptive")
     assert comp.t_switch_in is None and rec.info["t_rest"] > 1.0
     assert comp.u_ff != 0.0 and comp.u_ff == comp.cdata.ff.ff.u_out
+
+
+def test_after_a_rest_the_feedforward_part_is_held_until_the_joint_moves_in_the_references_direction():
+    """After a rest the composite (``adaptive-dob``) leaves its feedforward part out and applies the observer's
+    estimate alone, the observer told that nothing of the feedforward was applied (ctl_residual_at_rest,
+    ctl_residual_compensate), until the measured velocity has the reference's sign (w_ctrl*w_ref > 0); then u_ff +
+    d_hat again. Checked against an independent replay: the rest periods by the supervisor's rule (|w_ref| = 0 for
+    n_hold periods in a row), a separate feedforward and a plain disturbance observer run on the recorded torque and
+    measurement, composed by that rule in Python."""
+    targets = [0.5, -0.2, 0.4, 0.0, 0.6, -0.3] * 2  # the open bench's moves (the feedforward on after a few)
+    # the measurement's noise (1e-3 rad/s) gives the velocity at a rest's end either sign: some moves begin held
+    p, ref, o, rec, comp = _rest_end_runs("adaptive-dob", targets, sensor_gate=False)
+    assert rec.info["n_backoff"] == 0 and rec.info["n_sensor_rejected"] == 0  # applied outside rest; w_ctrl = w_meas
+    n_hold = int(build_supervisor(p, "adaptive-dob", o).cdata.n_hold)
+    zero = rec.w_ref == 0.0
+    run = np.zeros(zero.shape[0], dtype=int)  # length of the run of zero reference ending at k
+    for k in np.flatnonzero(zero):
+        run[k] = (run[k - 1] if k > 0 else 0) + 1
+    rest = run >= n_hold
+    assert rest.sum() * 1e-3 == pytest.approx(rec.info["t_rest"], abs=1e-9)
+    _, _, fresh = build_mode(p, "adaptive-dob", o)
+    ff = fresh.feedforward  # the feedforward part alone (its own struct's field; the residual part is not called)
+    _, _, dob = build_mode(p, "dob", replace(o, omega_q=o.omega_r))  # the composite's observer settings, J_n = J
+    n = rec.t.shape[0]
+    expected = np.zeros(n)
+    withheld = np.zeros(n)  # the feedforward part left out
+    held = np.zeros(n, dtype=bool)
+    hold = False
+    for k in range(n):
+        wm, wr = rec.w_meas[k], rec.w_ref[k]
+        u_ff = ff.compensate(wm, wr)
+        d = dob.compensate(wm, wr)
+        if hold and wm * wr > 0.0:
+            hold = False
+        if rest[k]:
+            told, hold = 0.0, True      # nothing applied (the supervisor's rest rule)
+        elif hold:
+            told, expected[k], held[k], withheld[k] = 0.0, d, True, u_ff
+        else:
+            told, expected[k] = u_ff, u_ff + d
+        ff.observe(rec.u[k], wm)
+        dob.observe(rec.u[k] - told, wm)
+    assert np.max(np.abs(expected)) < o.u_max  # the bound never acts
+    starts = np.flatnonzero(held & ~np.roll(held, 1))
+    ends = np.flatnonzero(rest[:-1] & ~rest[1:]) + 1  # first period after each rest
+    assert starts.shape[0] >= 3 and np.all(np.isin(starts, ends))  # a hold begins only at a rest's end
+    assert held.sum() < 20 * starts.shape[0]  # for a few periods, not for the move
+    assert comp.cdata.res.n_held == held.sum() and comp.n_held == held.sum()
+    np.testing.assert_allclose(rec.u_ff[held], expected[held], rtol=1e-9, atol=1e-12 * p.Fc)  # d_hat alone
+    np.testing.assert_allclose(rec.u_ff[~held], expected[~held], rtol=1e-9, atol=1e-12 * p.Fc)  # 0 / u_ff + d_hat
+    assert np.max(np.abs(withheld)) > 0.05 * p.Fc  # the hold left out a feedforward part (2.1 N*m here)
+
+
+def test_before_its_switch_in_adaptive_applies_nothing_while_held():
+    """Plain ``adaptive`` before its residual switch-in (g = 0) holds too: after a rest its output is 0 until
+    w_ctrl*w_ref > 0, otherwise exactly the feedforward's u_ff (against a separate feedforward replayed on the
+    recorded torque and measurement); its observer keeps u - u_ff as at rest (the switch-in test's residual)."""
+    targets = [0.5, -0.2, 0.4, 0.0, 0.6, -0.3] * 2
+    p, ref, o, rec, comp = _rest_end_runs("adaptive", targets, sensor_gate=False)
+    assert rec.info["n_backoff"] == 0 and rec.info["n_sensor_rejected"] == 0
+    n = rec.t.shape[0]
+    k_in = n if comp.t_switch_in is None else int(round(comp.t_switch_in / 1e-3))
+    n_hold = int(build_supervisor(p, "adaptive", o).cdata.n_hold)
+    run = np.zeros(n, dtype=int)
+    for k in np.flatnonzero(rec.w_ref == 0.0):
+        run[k] = (run[k - 1] if k > 0 else 0) + 1
+    rest = run >= n_hold
+    _, _, fresh = build_mode(p, "adaptive", o)
+    ff = fresh.feedforward
+    expected = np.zeros(n)
+    withheld = np.zeros(n)
+    held = np.zeros(n, dtype=bool)
+    hold = False
+    for k in range(k_in):
+        wm, wr = rec.w_meas[k], rec.w_ref[k]
+        u_ff = ff.compensate(wm, wr)
+        if hold and wm * wr > 0.0:
+            hold = False
+        if rest[k]:
+            hold = True
+        elif hold:
+            held[k], withheld[k] = True, u_ff
+        else:
+            expected[k] = u_ff
+        ff.observe(rec.u[k], wm)
+    assert held.sum() >= 1 and k_in > n // 4  # switched in at 9.4 s; one move before begins held
+    assert np.max(np.abs(withheld)) > 0.05 * p.Fc  # what the hold left out (4.4 N*m here)
+    np.testing.assert_allclose(rec.u_ff[:k_in], expected[:k_in], rtol=1e-9, atol=1e-12 * p.Fc)
+    assert np.all(rec.u_ff[:k_in][held[:k_in]] == 0.0)

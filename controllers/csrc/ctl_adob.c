@@ -6,6 +6,8 @@ void ctl_residual_init(ctl_residual *r, const ctl_dob *dob, aff_real u_max)
 {
     r->u_max = u_max;
     r->u_ff = 0;
+    r->held = 0;
+    r->n_held = 0;
     r->use_switch_in = 0;
     r->sw.g = 1;
     r->sw.k_in = -1;
@@ -103,10 +105,19 @@ double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_
 
 double ctl_residual_compensate(ctl_residual *r, double u_ff, int acting, double w_ctrl, double w_meas, double w_ref)
 {
-    r->u_ff = (aff_real)u_ff;
     double d = ctl_dob_compensate(&r->dob, w_ctrl, w_meas, w_ref);
     double g = r->use_switch_in ? ctl_switch_in_step(&r->sw, u_ff, d, w_ref, acting) : 1.0;
-    double out = g > 0.0 ? u_ff + g * d : u_ff; /* before the switch-in exactly the feedforward */
+    if (r->held && w_ctrl * w_ref > 0.0) /* the joint moves in the reference's direction: the hold ends */
+        r->held = 0;
+    double out;
+    if (r->held) {
+        r->n_held += 1;
+        r->u_ff = g > 0.0 ? 0 : (aff_real)u_ff; /* not applied; before the switch-in the residual as at rest */
+        out = g > 0.0 ? g * d : 0.0;
+    } else {
+        r->u_ff = (aff_real)u_ff;
+        out = g > 0.0 ? u_ff + g * d : u_ff; /* before the switch-in exactly the feedforward */
+    }
     double lim = (double)r->u_max;
     double y = -lim > out ? -lim : out; /* Python's min(max(out, -lim), lim) */
     return lim < y ? lim : y;
@@ -119,8 +130,11 @@ void ctl_residual_observe(ctl_residual *r, double u, double w_meas, double *thet
 
 void ctl_residual_at_rest(ctl_residual *r)
 {
+    if (r->held)
+        r->n_held -= 1; /* this period is a rest, not a hold */
     if (!r->use_switch_in || r->sw.g > 0)
         r->u_ff = 0;
+    r->held = 1;
 }
 
 void ctl_adob_init(ctl_adob *a, const aff_robust_ff *ff, const ctl_dob *dob, aff_real u_max)

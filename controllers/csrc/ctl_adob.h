@@ -39,6 +39,8 @@
  * 2.65 (karnopp), 4.36 (small-inertia), 0.44 (lugre); docs/benchmarks/compensation.md ("The residual switch-in").
  * The share test (share 0.25) added on the 100-joint zoo: `adaptive >= 0.8` wherever `adaptive-dob >= 0.95` on 85
  * of 85 joints (84 with the first test alone), variants unchanged.
+ * After a rest the feedforward part is held back until the joint moves in the reference's direction, the
+ * observer's estimate applied from the rest's end (ctl_residual_at_rest).
  * Python: controllers.peers.adaptive_dob.AdaptiveDOBCompensator (either composite).
  */
 #ifndef CTL_ADOB_H
@@ -81,7 +83,11 @@ typedef struct ctl_switch_in {
  * then state; the parts embedded. */
 typedef struct ctl_residual {
     aff_real u_max;       /* bound on |u_ff + d_hat| (N*m), INFINITY = none (each part keeps its own bound) */
-    aff_real u_ff;        /* feedforward part of the last output (N*m) */
+    aff_real u_ff;        /* feedforward part of the last output as the observer is told it (N*m; 0 at rest and
+                             while held once d_hat is applied, ctl_residual_at_rest) */
+    int held;             /* 1: after a rest the feedforward part is held back until the joint moves in the
+                             reference's direction (w_ctrl*w_ref > 0), ctl_residual_at_rest */
+    long n_held;          /* periods, outside rest, in which the feedforward part was held back */
     int use_switch_in;    /* 1: d_hat applied after the residual switch-in (mode "adaptive"), 0: always */
     ctl_switch_in sw;     /* the switch-in test (valid if use_switch_in) */
     ctl_dob dob;          /* the observer of the residual f - u_ff */
@@ -114,9 +120,12 @@ int ctl_residual_set_switch_in(ctl_residual *r, aff_real Tc, aff_real J_n, aff_r
  * w_ref (rad/s) and whether the feedforward acts (acting, 0/1); returns the share g of d_hat to apply (0..1). */
 double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_ref, int acting);
 
-/* The composite's output for the feedforward's torque u_ff (N*m; kept in r->u_ff) and whether it acts (0/1): d_hat
- * = ctl_dob_compensate(w_ctrl, w_meas, w_ref, rad/s); returns u_ff + g*d_hat clipped to +-u_max (N*m), g = 1
- * without the switch-in, else ctl_switch_in_step's share (before the switch-in exactly u_ff). */
+/* The composite's output for the feedforward's torque u_ff (N*m) and whether it acts (0/1): d_hat =
+ * ctl_dob_compensate(w_ctrl, w_meas, w_ref, rad/s); returns u_ff + g*d_hat clipped to +-u_max (N*m), g = 1
+ * without the switch-in, else ctl_switch_in_step's share (before the switch-in exactly u_ff), and keeps u_ff in
+ * r->u_ff for the observer. While held after a rest (ctl_residual_at_rest) until w_ctrl*w_ref > 0: g*d_hat alone
+ * and r->u_ff = 0 (the feedforward not applied; before the switch-in 0, r->u_ff = u_ff as at rest); a non-finite
+ * w_ctrl keeps the hold. The switch-in test sees u_ff and acting unchanged by the hold. */
 double ctl_residual_compensate(ctl_residual *r, double u_ff, int acting, double w_ctrl, double w_meas, double w_ref);
 
 /* The observer records the torque without the feedforward, u - u_ff (N*m), and w_meas (rad/s). */
@@ -129,7 +138,21 @@ void ctl_residual_observe(ctl_residual *r, double u, double w_meas, double *thet
  * a measured velocity of noise and quantisation, and the residual's estimate carried it into the next move's start
  * (the open bench's zoo joints #83 and #98, docs/benchmarks/scenarios.md). Before the switch-in u_ff stays: the
  * switch-in test wants the feedforward's residual. Outside rest nothing changes (a supervisor that backed off keeps
- * the candidate's residual, consistent at its restore). */
+ * the candidate's residual, consistent at its restore).
+ * The hold: from here on (held = 1) ctl_residual_compensate leaves the feedforward part out until the controller's
+ * velocity moves in the reference's direction, w_ctrl*w_ref > 0 (the observer's estimate g*d_hat applied from the
+ * rest's end, the observer told u_ff = 0 as at rest; before the switch-in the output is 0 and the observer keeps
+ * u_ff, as at rest). At a rest's end the map's value is again that of a velocity of noise and quantisation, or of
+ * a joint still moving back from its stop, in either sign; applied before the joint follows the reference it
+ * pushed against the move or lifted the friction's brake. No band: the difference velocity of a stuck joint is
+ * exactly 0 (the first count in the reference's direction ends the hold), a noisy velocity may only end it early,
+ * which is the behaviour without the hold; a band of 0.05 rad/s (one count per period of the 2^17 encoder) on
+ * the Kalman velocity moved the open bench's variants by -0.008..+0.010, its zoo losses unchanged (none), and
+ * would need the sensor's resolution as a setting. Measured on the open bench (docs/benchmarks/compensation.md,
+ * "The composite's observer at rest"): zoo #25 (difference velocity), the one remaining loss, best adaptive 1.032
+ * -> 1.120 against `fixed` 1.100, no loss > 0.02 and none worse than none with either velocity, every variant's
+ * adaptive modes within -0.018; holding plain `adaptive` before its switch-in too was needed (without it #25
+ * reached 1.065). n_held counts the periods held outside rest (at_rest takes back a period it counted). */
 void ctl_residual_at_rest(ctl_residual *r);
 
 /* Configure a from the configured parts ff (aff_robust_ff_init) and dob (ctl_dob_init), both copied by value,

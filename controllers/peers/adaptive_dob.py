@@ -34,6 +34,12 @@ Mode ``adaptive`` is the same composite with a :class:`ResidualSwitchIn`: the ob
 its estimate is applied only once a residual test finds that the feedforward leaves too much of the friction
 in the loop's band (sticking joints, small fast joints, LuGre pre-sliding: where the sliding model misses), and
 then for good, faded in; ``info()["t_switch_in"]`` says when (``controllers/csrc/ctl_adob.h``).
+
+After a rest of the reference (the supervisor's rest rule withheld the output; the engine calls the ops table's
+``at_rest``) the feedforward part is held back until the measured velocity moves in the reference's direction
+(``w_ctrl*w_ref > 0``), the observer's estimate applied from the rest's end and the observer told that no
+feedforward was applied; before the switch-in of mode ``adaptive`` the output is then 0 (C ``ctl_residual_at_rest``;
+the open bench's zoo joint #25, docs/benchmarks/compensation.md, "The composite's observer at rest").
 """
 
 from __future__ import annotations
@@ -203,7 +209,14 @@ class AdaptiveDOBCompensator(Component):
         return ffi.addressof(getattr(lib, self.C_OPS))
 
     u_max = property(lambda self: float(self._c.res.u_max), doc="Bound on the total output (N·m).")
-    u_ff = property(lambda self: float(self._c.res.u_ff), doc="Feedforward part of the last output (N·m).")
+    u_ff = property(lambda self: float(self._c.res.u_ff),
+                    doc="Feedforward part of the last output as its observer is told it (N·m; 0 at rest and while "
+                        "held after a rest, once the observer's estimate is applied).")
+    held = property(lambda self: bool(self._c.res.held),
+                    doc="Whether the feedforward part is held back after a rest until the joint moves in the "
+                        "reference's direction (C ``ctl_residual_at_rest``).")
+    n_held = property(lambda self: int(self._c.res.n_held),
+                      doc="Periods outside rest in which the feedforward part was held back after a rest.")
 
     @property
     def estimator(self):
