@@ -122,3 +122,39 @@ def test_every_estimator_builds_the_composite(mode, estimator):
     assert (comp.switch_in is not None) == (mode == "adaptive")
     _, _, alone = build_mode(P, "adaptive", replace(o, switch_in=False))
     assert isinstance(alone, AdaptiveFrictionFeedforward if eq4 else RobustAdaptiveFeedforward)
+
+
+def test_at_rest_by_hand_arms_the_hold_and_the_hold_ends_when_the_joint_follows():
+    """Stepped by hand: after ``at_rest()`` the output is the observer's part alone (``u_ff`` left out, the observer
+    told 0) until the velocity has the reference's sign, then ``u_ff + d_hat`` again; a twin observer fed the
+    torques without what was applied of the feedforward agrees to rounding."""
+    from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
+    from adaptive_ff.identification.regression import FrictionEstimate
+
+    init = FrictionEstimate(J=P.J, tau=0.0, sigma=P.sigma, Fc=P.Fc, Fs=P.Fs, offset=0.0, Vs=P.Vs, delta=P.delta,
+                            J_alt=math.nan)
+    est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, initial=init, J_guess=P.J)
+    ff = RobustAdaptiveFeedforward(est, dt=1e-3, start=FeedforwardStart(init))
+    c = AdaptiveDOBCompensator(ff, DisturbanceObserver(J_n=P.J, Tc=1e-3, omega_q=300.0))
+    twin = DisturbanceObserver(J_n=P.J, Tc=1e-3, omega_q=300.0)
+    rng = np.random.default_rng(3)
+    w_seq = [0.0] * 5 + [-1e-4, -2e-4, 0.0, 2e-4, 5e-3, 1e-2]  # at rest, creeps back, then follows w_ref > 0
+    held_seen, ff_held = [], []
+    for k, w in enumerate(w_seq):
+        w_ref = 0.0 if k < 5 else 0.05
+        out = c.compensate(w, w_ref)
+        d = twin.compensate(w, w_ref)
+        if k < 5:
+            c.at_rest()
+            applied_ff = 0.0
+        else:
+            applied_ff = 0.0 if c.held else c.u_ff
+            assert out == pytest.approx(applied_ff + d, rel=1e-12, abs=1e-12), k
+            if c.held:
+                ff_held.append(c.feedforward.u_ff)
+        held_seen.append(c.held)
+        u = 2.0 + rng.normal(0.0, 0.1)
+        c.observe(u, w)
+        twin.observe(u - applied_ff, w)
+    assert held_seen[:8] == [True] * 8 and held_seen[8] is False and c.n_held == 3
+    assert min(abs(x) for x in ff_held) > 1.0  # the feedforward had a torque to apply, and it was left out

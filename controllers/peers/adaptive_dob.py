@@ -269,6 +269,13 @@ class AdaptiveDOBCompensator(Component):
         w_meas = float(w_meas)
         return float(getattr(lib, f"{self._ctype}_compensate")(self._c, w_meas, w_meas, float(w_ref)))
 
+    def at_rest(self) -> None:
+        """Compensator protocol, optional: the loop withheld this period's output because the reference rests (the
+        supervisor's rest rule), called between :meth:`compensate` and :meth:`observe` (C ``ctl_residual_at_rest``:
+        the observer told that the feedforward was not applied, and the hold after the rest armed). The engine
+        calls it itself; call it when you step the compensator by hand with a rest rule of your own."""
+        lib.ctl_residual_at_rest(ffi.addressof(self._c, "res"))
+
     def observe(self, u: float, w: float) -> bool:
         """Compensator protocol: record the applied torque and the measurement (C ``ctl_adob_observe`` or
         ``ctl_eq4_dob_observe``).
