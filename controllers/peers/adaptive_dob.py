@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
 from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
@@ -55,6 +56,25 @@ from plant.component import Component
 from plant.errors import ParameterError, check_nonnegative, check_positive
 
 __all__ = ["AdaptiveDOBCompensator", "ResidualSwitchIn"]
+
+
+class _Composite(NamedTuple):
+    """The C struct of the composite over one kind of feedforward, and its functions."""
+
+    ctype: str
+    init: object
+    compensate: object
+    observe: object
+
+
+#: The composite over each kind of feedforward (``controllers/csrc/ctl_adob.h``).
+_COMPOSITES = {
+    RobustAdaptiveFeedforward: _Composite("ctl_adob", lib.ctl_adob_init, lib.ctl_adob_compensate,
+                                          lib.ctl_adob_observe),
+    AdaptiveFrictionFeedforward: _Composite("ctl_eq4_dob", lib.ctl_eq4_dob_init, lib.ctl_eq4_dob_compensate,
+                                            lib.ctl_eq4_dob_observe),
+}
+_BY_CTYPE = {c.ctype: c for c in _COMPOSITES.values()}
 
 
 @dataclass(frozen=True)
@@ -164,13 +184,11 @@ class AdaptiveDOBCompensator(Component):
     C_OPS = "ctl_adob_ops"
     _ffi = ffi
     _ctype = "ctl_adob"
-    #: The C struct of the composite over each kind of feedforward.
-    _CTYPES = {RobustAdaptiveFeedforward: "ctl_adob", AdaptiveFrictionFeedforward: "ctl_eq4_dob"}
 
     def __init__(self, feedforward: RobustAdaptiveFeedforward | AdaptiveFrictionFeedforward,
                  observer: DisturbanceObserver, *, u_max: float = math.inf, switch_in: ResidualSwitchIn | None = None):
-        ctype = self._CTYPES.get(type(feedforward))
-        if ctype is None:
+        composite = _COMPOSITES.get(type(feedforward))
+        if composite is None:
             raise ParameterError("feedforward must be a RobustAdaptiveFeedforward or an AdaptiveFrictionFeedforward, "
                                  f"got {type(feedforward).__name__}")
         if not isinstance(observer, DisturbanceObserver):
@@ -184,10 +202,10 @@ class AdaptiveDOBCompensator(Component):
         self.switch_in = switch_in
         if switch_in is not None:
             self.MODE = "adaptive"  # the mode it is (run_closed_loop's default result name)
-        self._ctype = ctype
-        self.C_OPS = f"{ctype}_ops"
+        self._ctype = composite.ctype
+        self.C_OPS = f"{composite.ctype}_ops"
         self._new_struct()
-        getattr(lib, f"{ctype}_init")(self._c, feedforward.cdata, observer.cdata, u_max)
+        composite.init(self._c, feedforward.cdata, observer.cdata, u_max)
         if switch_in is not None:
             s = switch_in
             if lib.ctl_residual_set_switch_in(ffi.addressof(self._c, "res"), s.Tc, s.J_n, s.Kp, s.Ki, s.window,
@@ -267,7 +285,7 @@ class AdaptiveDOBCompensator(Component):
             Measured and reference velocity (rad/s).
         """
         w_meas = float(w_meas)
-        return float(getattr(lib, f"{self._ctype}_compensate")(self._c, w_meas, w_meas, float(w_ref)))
+        return float(_BY_CTYPE[self._ctype].compensate(self._c, w_meas, w_meas, float(w_ref)))
 
     def at_rest(self) -> None:
         """Compensator protocol, optional: the loop withheld this period's output because the reference rests (the
@@ -292,4 +310,4 @@ class AdaptiveDOBCompensator(Component):
         bool
             True after an RLS update of the estimator.
         """
-        return bool(getattr(lib, f"{self._ctype}_observe")(self._c, float(u), float(w), ffi.NULL))
+        return bool(_BY_CTYPE[self._ctype].observe(self._c, float(u), float(w), ffi.NULL))
