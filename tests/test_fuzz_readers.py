@@ -5,7 +5,9 @@ Readers: drive-log CSV (:func:`adaptive_ff.io.logs.load_log`), plant JSON
 then :func:`~controllers.experiments.sweep.check_case` on every case it expands to).
 """
 
+import atexit
 import json
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -20,7 +22,8 @@ from plant.models import load_plant
 
 SETTINGS = settings(derandomize=True, max_examples=150, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
-_DIR = Path(tempfile.mkdtemp(prefix="fuzz_readers_"))
+_DIR = Path(tempfile.mkdtemp(prefix="fuzz_readers_"))  # one folder for every example, removed at exit
+atexit.register(shutil.rmtree, _DIR, ignore_errors=True)
 
 cell = st.one_of(st.floats(allow_nan=True, allow_infinity=True).map(repr), st.integers(-10**30, 10**30).map(str),
                  st.sampled_from(["", "t", "u", "w", "nan", "1e308", "-1e308", "#", " ", "1,5", '"', "x"]))
