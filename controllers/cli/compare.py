@@ -34,7 +34,7 @@ _SCENARIO_SETS = {"preset": "[plant] preset", "plant": "[plant] file", "variant"
                   "Ts": "[controller] Ts", "noise": "[sensor] noise_std", "lam": "[compensation] lam",
                   "crossover": "[controller] crossover", "phase_margin": "[controller] phase_margin",
                   "no_prefit": "[compensation] prefit", "no_fast_start": "[compensation] adaptive_start",
-                  "no_switch_in": "[compensation] switch_in",
+                  "no_switch_in": "[compensation] switch_in", "estimator_rows": "[compensation] estimator_rows",
                   "Vs": "[compensation] Vs", "delta": "[compensation] delta", "J_design": "[controller] J_design"}
 
 
@@ -103,6 +103,11 @@ def _modes(args) -> tuple:
     return modes
 
 
+def _estimator_rows(args) -> tuple:
+    """The estimators of ``--estimator-rows`` (comma-separated; CompareOptions checks them)."""
+    return tuple(e.strip() for e in (args.estimator_rows or "").split(",") if e.strip())
+
+
 def _compare_and_print(args, p, modes, out_dir) -> int:
     """The comparison, its figures and report, and the output of :func:`run`."""
     from controllers.experiments.compare import compare
@@ -114,7 +119,8 @@ def _compare_and_print(args, p, modes, out_dir) -> int:
                    lam=args.lam, crossover=args.crossover, phase_margin=args.phase_margin, progress=progress,
                    estimator=args.estimator, ff_input=args.ff_input, omega_q=args.omega_q,
                    prefit=not args.no_prefit, Vs=args.Vs, delta=args.delta, J_design=args.J_design,
-                   adaptive_start=not args.no_fast_start, switch_in=not args.no_switch_in)
+                   adaptive_start=not args.no_fast_start, switch_in=not args.no_switch_in,
+                   estimator_rows=_estimator_rows(args))
     src = args.plant if args.plant else (f"variant '{args.variant}'" if args.variant else f"preset '{args.preset}'")
     header = [f"plant: {src}: {parameter_text(plant_to_dict(p))}"] + _time_varying_lines(p)
     return _print_comparison(args, comp, out_dir, header, None, run=f"run: {args.duration:g} s, seed {args.seed}")
@@ -205,15 +211,17 @@ def comparison_table(comp, args) -> str:
 
     k, unit = table_unit(args)
     stops = getattr(comp, "has_stops", False)
-    head = (f"{'mode':<13}{f'RMS [{unit}]':>14}{f'max [{unit}]':>14}{f'reversal RMS [{unit}]':>23}"
+    rows = comp.rows()
+    wm = max([13] + [len(row["mode"]) + 1 for row in rows])  # the mode column: 13, or wider for a longer name
+    head = (f"{'mode':<{wm}}{f'RMS [{unit}]':>14}{f'max [{unit}]':>14}{f'reversal RMS [{unit}]':>23}"
             f"{'u RMS [N·m]':>13}{'eta [-]':>9}")
     if stops:
         head += f"{f'motion RMS [{unit}]':>22}{'settle max [s]':>16}{f'reversal max [{unit}]':>23}"
     lines = [head, "-" * len(head)]
-    for row in comp.rows():
+    for row in rows:
         eta = row["eta"]
         eta_text = f"{eta:>9.3f}" if eta is not None and eta == eta else f"{'n/a':>9}"
-        line = (f"{row['mode']:<13}{k * row['rms']:>14.4f}{k * row['max']:>14.4f}"
+        line = (f"{row['mode']:<{wm}}{k * row['rms']:>14.4f}{k * row['max']:>14.4f}"
                 f"{number_text(k * row['rms_reversal'], 23)}{row['u_rms']:>13.2f}{eta_text}")
         if stops:
             line += (f"{k * row['rms_motion']:>22.4f}{settling_text(row['settling_max'], row['n_unsettled']):>16}"
@@ -272,6 +280,10 @@ def register(sub) -> None:
     c.add_argument("--no-switch-in", action="store_true",
                    help="adaptive: the feedforward alone, never the residual observer (with --estimator eq4 the "
                         "paper's bare prototype; CompareOptions.switch_in = False)")
+    c.add_argument("--estimator-rows", dest="estimator_rows", default=None, metavar="LIST",
+                   help="further estimators whose adaptive mode runs beside the others, each a row adaptive[E], "
+                        "e.g. eq4-iv,eq4: the paper's eq. 4 by instrumental variables and by its RLS beside the "
+                        "default (CompareOptions.estimator_rows)")
     c.add_argument("--Vs", type=float, default=None,
                    help="Stribeck velocity in rad/s, if known (with --delta; no pre-fit then)")
     c.add_argument("--delta", type=float, default=None, help="Stribeck shape factor, if known (with --Vs)")

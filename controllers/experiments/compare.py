@@ -174,7 +174,8 @@ class Comparison:
         in the reference three more columns: the RMS error in motion, the longest settling time (``no (k)``: k
         stops did not settle into the band) and the largest error at a reversal (second half)."""
         stops = self.has_stops
-        head = (f"{'mode':<13}{'RMS [deg/s]':>12}{'max [deg/s]':>13}{'reversal RMS':>14}{'u RMS [N·m]':>13}"
+        wm = max([13] + [len(m) + 1 for m in self.results])  # the mode column: 13, or wider for a longer name
+        head = (f"{'mode':<{wm}}{'RMS [deg/s]':>12}{'max [deg/s]':>13}{'reversal RMS':>14}{'u RMS [N·m]':>13}"
                 f"{'eta':>8}{'eta full':>9}{'dev [deg/s]':>12}{'t_on [s]':>9}")
         if stops:
             head += f"{'motion RMS':>12}{'settle max [s]':>16}{'rev. max':>10}"
@@ -183,7 +184,7 @@ class Comparison:
             d = np.rad2deg
             ton = "-" if row["t_ff_on"] is None else f"{row['t_ff_on']:.3f}"
             e, ef = ("-" if row[k] is None else f"{row[k]:.3f}" for k in ("eta", "eta_full"))
-            line = (f"{row['mode']:<13}{d(row['rms']):>12.4f}{d(row['max']):>13.4f}"
+            line = (f"{row['mode']:<{wm}}{d(row['rms']):>12.4f}{d(row['max']):>13.4f}"
                     f"{number_text(d(row['rms_reversal']), 14)}{row['u_rms']:>13.2f}{e:>8}"
                     f"{ef:>9}{d(row['rms_dev']):>12.4f}{ton:>9}")
             if stops:
@@ -300,6 +301,12 @@ class CompareOptions:
         Filter the feedforward through the estimated lag.
     estimator : {"sliding", "eq4", "eq4-iv"}
         Estimator of the ``adaptive`` mode.
+    estimator_rows : tuple of str
+        Further estimators of :data:`controllers.simulation.compensators.ESTIMATORS` whose mode ``adaptive`` runs
+        beside the others, each a row ``adaptive[E]`` of the table (right after ``adaptive``, or where it would
+        stand in the registry's order), with the settings of ``adaptive`` but the estimator, on the same
+        reference and noise: e.g. ``("eq4-iv", "eq4")`` puts the paper's eq. 4 by instrumental variables and by
+        its RLS beside the default. Default ``()``. Each differs from ``estimator`` and from the others.
     fixed_method : {"sliding", "eq4"}
         Offline identification of the ``fixed`` mode (:data:`FIXED_METHODS`).
     ff_input : {"measured", "reference"}
@@ -404,6 +411,7 @@ class CompareOptions:
     adaptive_initial: bool = True
     adaptive_start: bool = True
     switch_in: bool = True
+    estimator_rows: tuple = ()
     faults: dict | None = None
     dwell_max: float = 0.01
     offset: bool = True
@@ -432,6 +440,7 @@ class CompareOptions:
                                     ("canudas_input", self.canudas_input, ("measured", "reference"))):
             if value not in allowed:
                 raise ParameterError(f"{key} must be one of {allowed}, got {value!r}")
+        self._check_estimator_rows()
         if self.u_max is not None:
             check_positive("u_max", self.u_max)
         c = self.encoder_counts
@@ -466,13 +475,32 @@ class CompareOptions:
         if self.fixed_method not in FIXED_METHODS:
             raise ParameterError(f"fixed_method must be one of {FIXED_METHODS}, got {self.fixed_method!r}")
         for name, factory in (self.compensators or {}).items():
-            if not isinstance(name, str) or not name.strip() or name in MODES:
+            if not isinstance(name, str) or not name.strip() or name in MODES or name in self.row_labels:
                 raise ParameterError(f"compensators: a name must be a non-empty string other than a built-in mode "
                                      f"{MODES}, got {name!r}")
             if not callable(factory):
                 raise ParameterError(f"compensators[{name!r}] must be a callable factory(context) -> compensator, "
                                      f"got {type(factory).__name__}")
         self.check_memory()
+
+    def _check_estimator_rows(self) -> None:
+        """``estimator_rows``: a tuple of distinct estimators other than ``estimator`` (ParameterError)."""
+        rows = self.estimator_rows
+        if isinstance(rows, str) or not isinstance(rows, (tuple, list)):
+            raise ParameterError(f"estimator_rows must be a tuple of estimators {ESTIMATORS}, got {rows!r}")
+        for e in rows:
+            if e not in ESTIMATORS:
+                raise ParameterError(f"estimator_rows: unknown estimator {e!r}; known: {ESTIMATORS}")
+            if e == self.estimator:
+                raise ParameterError(f"estimator_rows: {e!r} is the estimator of the adaptive mode's own row")
+        if len(set(rows)) != len(rows):
+            raise ParameterError(f"estimator_rows: an estimator given twice, {tuple(rows)!r}")
+        object.__setattr__(self, "estimator_rows", tuple(rows))
+
+    @property
+    def row_labels(self) -> dict:
+        """``{label: estimator}`` of :attr:`estimator_rows`, the label ``adaptive[E]`` (the table's row)."""
+        return {f"adaptive[{e}]": e for e in self.estimator_rows}
 
     def check_memory(self, *, processes: int = 1) -> int:
         """Refuse a :func:`compare` of these settings that does not fit into the memory available; its samples.
@@ -498,7 +526,7 @@ class CompareOptions:
         ParameterError
             The runs do not fit (:func:`controllers.simulation.memory.check_run_memory`).
         """
-        run = set(self.modes) | {"none", "frictionless"} | set(self.compensators or {})
+        run = set(self.modes) | {"none", "frictionless"} | set(self.compensators or {}) | set(self.row_labels)
         ident = "fixed" in run or (self.adaptive_start and bool(run & {"adaptive", "adaptive-dob"}))
         signals = max(SHARED_SIGNALS + MODE_SIGNALS * len(run), PREPARATION_SIGNALS if ident else 0)
         return check_run_memory(self.duration, self.Tc, signals=signals, detail=f"{len(run)} modes",
@@ -557,10 +585,13 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
             raise ParameterError(f"compare: {exc}") from None
     s = prepare_comparison(p, o, progress=progress)
     results = {}
-    for mode in s.modes:
-        s.bar.set_postfix_str(mode)
-        results[mode] = run_mode(p, s.reference, mode, s.mode_options[mode], rng=np.random.default_rng(s.noise_seed),
-                                 faults=o.faults)
+    runs = [(mode, mode, s.mode_options[mode]) for mode in s.modes]
+    after = MODES.index("adaptive")  # the rows where adaptive stands in the registry's order, right after it
+    at = next((k for k, mode in enumerate(s.modes) if MODES.index(mode) > after), len(runs))
+    runs[at:at] = [(label, "adaptive", mo) for label, mo in s.estimator_rows.items()]
+    for label, mode, mo in runs:
+        s.bar.set_postfix_str(label)
+        results[label] = run_mode(p, s.reference, mode, mo, rng=np.random.default_rng(s.noise_seed), faults=o.faults)
         s.bar.update()
     if o.compensators:
         ctx = compensator_context(s, o)
@@ -651,6 +682,9 @@ class ComparisonSetup:
     prefit, offline, model, experiment, J_design, notes
         As in :class:`Comparison`.
     bar : tqdm progress bar (the caller updates and closes it)
+    estimator_rows : dict
+        ``{label: ModeOptions}`` of ``CompareOptions.estimator_rows``: mode ``adaptive`` with another estimator,
+        label ``adaptive[E]``; empty without.
     """
 
     modes: tuple
@@ -665,6 +699,7 @@ class ComparisonSetup:
     J_design: float
     notes: tuple
     bar: object
+    estimator_rows: dict = field(default_factory=dict)
 
 
 def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, reference=None) -> ComparisonSetup:
@@ -720,11 +755,12 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     ref = comparison_reference(o) if reference is None else _checked_reference(reference, o)
     noise = measurement_noise(o)
     peak_w, peak_a = float(np.max(np.abs(ref.w))), float(np.max(np.abs(ref.dw)))
-    needs_prefit = (any(m in PREFIT_MODES for m in run_modes) or bool(o.compensators)) and o.Vs is None
+    adaptive_rows = ["adaptive"] * bool(o.estimator_rows)  # the estimator rows run mode adaptive
+    needs_prefit = (any(m in PREFIT_MODES for m in run_modes + adaptive_rows) or bool(o.compensators)) and o.Vs is None
     if needs_prefit and not o.prefit:
         raise ParameterError(f"modes {[m for m in run_modes if m in PREFIT_MODES]} need Vs and delta: give them "
                              f"(Vs=..., delta=...; --Vs/--delta) or allow the Stribeck pre-fit")
-    bar = tqdm(total=len(run_modes) + ("fixed" in run_modes) + needs_prefit, desc="compare",
+    bar = tqdm(total=len(run_modes) + len(o.estimator_rows) + ("fixed" in run_modes) + needs_prefit, desc="compare",
                disable=(None if progress is None else not progress), leave=False)
     exp = None
     if needs_prefit or o.u_max is None:
@@ -747,7 +783,8 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     notes = list(exp.notes) if fit is not None else []
     if no_friction:
         notes.append(_no_friction_note(exp, run_modes, Vs, o.Vs is None))
-    wants_start = o.adaptive_start and fit is not None and any(m in run_modes for m in ("adaptive", "adaptive-dob"))
+    wants_start = o.adaptive_start and fit is not None and any(m in run_modes + adaptive_rows
+                                                               for m in ("adaptive", "adaptive-dob"))
     if no_friction and "fixed" in run_modes:  # nothing to identify: the fixed map is zero friction
         estimate = FrictionEstimate(J=J, tau=0.0, sigma=0.0, Fc=0.0, Fs=0.0, offset=0.0, Vs=Vs, delta=delta,
                                     J_alt=float("nan"))
@@ -790,9 +827,10 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
                      velocity_bandwidth=o.velocity_bandwidth, velocity_model=o.velocity_model,
                      switch_in=o.switch_in)
     opts = {mode: replace(mo, ff_input=o.canudas_input if mode == "canudas" else o.ff_input) for mode in run_modes}
+    rows = {label: replace(mo, ff_input=o.ff_input, estimator=e) for label, e in o.row_labels.items()}
     return ComparisonSetup(modes=tuple(run_modes), reference=ref, design=design, mode_options=opts,
                            noise_seed=noise_ss, prefit=fit, offline=offline, model=model, experiment=exp,
-                           J_design=J, notes=tuple(notes), bar=bar)
+                           J_design=J, notes=tuple(notes), bar=bar, estimator_rows=rows)
 
 
 def _no_friction_note(exp: StribeckExperiment, run_modes, Vs: float, placeholders: bool) -> str:

@@ -1,0 +1,86 @@
+"""The estimator rows of ``compare`` (``CompareOptions.estimator_rows``, ``--estimator-rows``): mode ``adaptive`` with
+another estimator beside the others, on the same reference and noise.
+
+Each row is checked against an independent comparison that runs that estimator as the ``adaptive`` mode's own: the
+two must agree to the last bit (same preparation, same seed, same noise), and the rows must not disturb the others.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from controllers.cli.main import main
+from controllers.experiments.compare import CompareOptions, compare
+from plant.errors import ParameterError
+from plant.friction import preset
+
+_BASE = dict(duration=4.0, seed=3, progress=False)
+
+
+@pytest.fixture(scope="module")
+def paper_with_rows():
+    return compare(preset("paper"), modes=("none", "adaptive", "dob", "frictionless"),
+                   estimator_rows=("eq4-iv", "eq4"), **_BASE)
+
+
+@pytest.mark.parametrize("estimator", ["eq4-iv", "eq4"])
+def test_a_row_is_the_adaptive_mode_of_its_estimator_bit_for_bit(paper_with_rows, estimator):
+    alone = compare(preset("paper"), modes=("none", "adaptive", "frictionless"), estimator=estimator, **_BASE)
+    row, own = paper_with_rows.results[f"adaptive[{estimator}]"], alone.results["adaptive"]
+    np.testing.assert_array_equal(row.w, own.w)
+    np.testing.assert_array_equal(row.u_ff, own.u_ff)
+    assert paper_with_rows.eta[f"adaptive[{estimator}]"] == alone.eta["adaptive"]
+    assert row.info["estimator"] == estimator
+
+
+def test_the_rows_leave_the_other_modes_as_they_were(paper_with_rows):
+    plain = compare(preset("paper"), modes=("none", "adaptive", "dob", "frictionless"), **_BASE)
+    for mode in ("none", "adaptive", "dob", "frictionless"):
+        np.testing.assert_array_equal(paper_with_rows.results[mode].w, plain.results[mode].w)
+    assert paper_with_rows.results["adaptive"].info["estimator"] == "sliding"
+
+
+def test_rows_stand_right_after_adaptive_in_table_and_json(paper_with_rows):
+    order = ["none", "adaptive", "adaptive[eq4-iv]", "adaptive[eq4]", "dob", "frictionless"]
+    assert list(paper_with_rows.results) == order
+    assert [r["mode"] for r in paper_with_rows.rows()] == order
+    d = json.loads(json.dumps(paper_with_rows.to_dict(), allow_nan=False))
+    assert list(d["modes"]) == order
+    lines = paper_with_rows.table().splitlines()
+    assert [ln.split()[0] for ln in lines[2:]] == order
+
+
+def test_without_adaptive_a_row_stands_where_adaptive_would():
+    c = compare(preset("paper"), modes=("none", "dob", "frictionless"), estimator_rows=("eq4-iv",), **_BASE)
+    assert list(c.results) == ["none", "adaptive[eq4-iv]", "dob", "frictionless"]
+
+
+@pytest.mark.parametrize("rows, why", [
+    (("magic",), "unknown estimator 'magic'"),
+    (("sliding",), "'sliding' is the estimator of the adaptive mode's own row"),
+    (("eq4", "eq4"), "given twice"),
+    ("eq4", "must be a tuple"),
+])
+def test_bad_rows_are_refused_by_name(rows, why):
+    with pytest.raises(ParameterError, match="estimator_rows") as exc:
+        CompareOptions(estimator_rows=rows)
+    assert why in str(exc.value)
+
+
+def test_a_compensator_may_not_take_a_row_label():
+    with pytest.raises(ParameterError, match="compensators"):
+        CompareOptions(estimator_rows=("eq4",), compensators={"adaptive[eq4]": lambda ctx: None})
+
+
+def test_cli_prints_the_row_and_refuses_it_beside_a_scenario(tmp_path, capsys):
+    assert main(["compare", "--duration", "4", "--seed", "3", "--modes", "none,adaptive,frictionless",
+                 "--estimator-rows", "eq4-iv", "--no-figures", "--quiet", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert list(d["modes"]) == ["none", "adaptive", "adaptive[eq4-iv]", "frictionless"]
+    sc = tmp_path / "s.toml"
+    sc.write_text('modes = ["none", "adaptive"]\n[plant]\npreset = "paper"\n[reference]\nduration = 4.0\n')
+    assert main(["compare", "--scenario", str(sc), "--estimator-rows", "eq4", "--no-figures", "--quiet"]) == 2
+    assert "--estimator-rows cannot be combined with --scenario" in capsys.readouterr().err
