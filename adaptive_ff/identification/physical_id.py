@@ -413,8 +413,11 @@ class OutputErrorOptions:
         the eq. 4 start and the start profiles. Default None.
     n_bootstrap : int, keyword-only
         Refits of re-simulated records behind ``stderr`` (module docstring,
-        "Standard errors"), >= 0; each costs about one trust-region fit
-        (a few tens of simulations). 0: ``stderr`` is the HAC sandwich
+        "Standard errors"), >= 0; each costs a wide trust-region fit, the
+        fit's local stage and one coordinate-search round (about 180
+        simulations on the zoo of ``benchmarks/coverage_zoo.py``: 20 refits
+        3300-3900 against the fit's own 1200-2100).
+        0: ``stderr`` is the HAC sandwich
         (too small on the rough free-run cost). Default 20.
     bootstrap_seed : int, keyword-only
         Seed of the bootstrap's residual blocks and start points, >= 0. Default 0.
