@@ -175,3 +175,37 @@ def test_bootstrap_is_seeded_keeps_the_estimate_and_falls_back_to_hac():
 def test_bootstrap_options_are_validated(clean, opt):
     with pytest.raises(ParameterError, match=next(iter(opt))):
         fit_physical(clean.t[:300], clean.u[:300], clean.w[:300], Vs=P.Vs, delta=P.delta, **opt)
+
+
+def test_bootstrap_refit_runs_the_fits_later_steps_and_ends_below_the_two_pass_refit():
+    # each bootstrap refit (physical_id._oe_refit) is the wide trust-region pass, the fit's local stage and one
+    # round of its coordinate search; it replaced two trust-region passes (wide, then noise-level scale), written
+    # out here from the problem's own trust-region fit. Both start with the same wide pass and the local stage
+    # begins with the same noise-level pass and keeps the better point, the coordinate search only accepts lower
+    # costs: the refit can only end at or below the two passes' cost, and on this replicate it ends below it
+    from adaptive_ff.identification import physical_id as pid
+
+    m = _record(2, noise=0.01, quant=0.6, irregular=True, duration=12.0)
+    opts = pid.OutputErrorOptions(input_delay=0.5 * DT, n_bootstrap=0)
+    t, u, w, Vs, delta = pid._check_inputs(m.t, m.u, m.w, P.Vs, P.delta)
+    pb = pid._OutputErrorProblem(t, u, w, Vs, delta, True, opts)
+    x = pb.start_vector({k: getattr(P, k) for k in KEYS})
+    rng = np.random.default_rng(3)
+    w_star = pb.simulate(x)  # the bootstrap world: the model at x (its truth) plus white noise at the record's level
+    w_star[pb.i0:] += rng.normal(0.0, pb.noise, w_star.shape[0] - pb.i0)
+    rp = pb.replicate(w_star)
+    ds = opts.diff_step
+    drops = []
+    for _ in range(3):
+        x0 = x + rng.normal(size=x.shape) * pid._BOOT_START * pb.typical(x)
+        two_pass = rp.refine(rp.refine(x0, ds, rp.f_wide).x, ds / 3.0).x
+        n0 = rp.n_sim
+        refit = pid._oe_refit(rp, x0)
+        assert rp.n_sim - n0 > 100  # the local stage's Fs profile alone is 15 simulations, the coordinate round 36
+        c_two, c_new = rp.cost(two_pass), rp.cost(refit)
+        assert c_new <= c_two
+        drops.append(c_two - c_new)
+    assert max(drops) > 0.0, drops
+    f = fit_physical(m.t, m.u, m.w, Vs=P.Vs, delta=P.delta, input_delay=0.5 * DT, n_bootstrap=2,
+                     start={k: getattr(P, k) for k in KEYS})
+    assert f.info["bootstrap"]["refit"] == "wide trust region, local stage, 1 coordinate-search round(s)"
