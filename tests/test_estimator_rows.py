@@ -84,3 +84,9 @@ def test_cli_prints_the_row_and_refuses_it_beside_a_scenario(tmp_path, capsys):
     sc.write_text('modes = ["none", "adaptive"]\n[plant]\npreset = "paper"\n[reference]\nduration = 4.0\n')
     assert main(["compare", "--scenario", str(sc), "--estimator-rows", "eq4", "--no-figures", "--quiet"]) == 2
     assert "--estimator-rows cannot be combined with --scenario" in capsys.readouterr().err
+
+
+def test_rows_alone_need_the_prefit_and_the_refusal_names_their_mode():
+    with pytest.raises(ParameterError, match=r"modes \['adaptive'\] need Vs and delta"):
+        compare(preset("paper"), modes=("none", "dob", "frictionless"), estimator_rows=("eq4",), prefit=False,
+                **_BASE)

@@ -207,12 +207,12 @@ def comparison_table(comp, args) -> str:
     error at a reversal (``MotionMetrics``).
     """
     from controllers.cli.data import table_unit
-    from controllers.experiments.compare import number_text, settling_text
+    from controllers.experiments.compare import mode_width, number_text, settling_text
 
     k, unit = table_unit(args)
     stops = getattr(comp, "has_stops", False)
     rows = comp.rows()
-    wm = max([13] + [len(row["mode"]) + 1 for row in rows])  # the mode column: 13, or wider for a longer name
+    wm = mode_width(row["mode"] for row in rows)
     head = (f"{'mode':<{wm}}{f'RMS [{unit}]':>14}{f'max [{unit}]':>14}{f'reversal RMS [{unit}]':>23}"
             f"{'u RMS [N·m]':>13}{'eta [-]':>9}")
     if stops:

@@ -31,7 +31,7 @@ from plant.results import axes_or_new, json_safe
 from plant.sampling import sample
 
 __all__ = ["Comparison", "CompareOptions", "ComparisonSetup", "compare", "comparison_reference", "eta",
-           "FIXED_METHODS", "PREFIT_MODES", "compensator_context", "number_text", "friction_scale",
+           "FIXED_METHODS", "PREFIT_MODES", "compensator_context", "mode_width", "number_text", "friction_scale",
            "measurement_noise", "prefit_stribeck", "prepare_comparison", "residual_cutoff", "run_notes"]
 
 #: Offline identification behind the ``fixed`` mode: the sliding-regime
@@ -174,7 +174,7 @@ class Comparison:
         in the reference three more columns: the RMS error in motion, the longest settling time (``no (k)``: k
         stops did not settle into the band) and the largest error at a reversal (second half)."""
         stops = self.has_stops
-        wm = max([13] + [len(m) + 1 for m in self.results])  # the mode column: 13, or wider for a longer name
+        wm = mode_width(self.results)
         head = (f"{'mode':<{wm}}{'RMS [deg/s]':>12}{'max [deg/s]':>13}{'reversal RMS':>14}{'u RMS [N·m]':>13}"
                 f"{'eta':>8}{'eta full':>9}{'dev [deg/s]':>12}{'t_on [s]':>9}")
         if stops:
@@ -477,7 +477,7 @@ class CompareOptions:
         for name, factory in (self.compensators or {}).items():
             if not isinstance(name, str) or not name.strip() or name in MODES or name in self.row_labels:
                 raise ParameterError(f"compensators: a name must be a non-empty string other than a built-in mode "
-                                     f"{MODES}, got {name!r}")
+                                     f"{MODES} or an estimator row's label {tuple(self.row_labels)}, got {name!r}")
             if not callable(factory):
                 raise ParameterError(f"compensators[{name!r}] must be a callable factory(context) -> compensator, "
                                      f"got {type(factory).__name__}")
@@ -527,7 +527,8 @@ class CompareOptions:
             The runs do not fit (:func:`controllers.simulation.memory.check_run_memory`).
         """
         run = set(self.modes) | {"none", "frictionless"} | set(self.compensators or {}) | set(self.row_labels)
-        ident = "fixed" in run or (self.adaptive_start and bool(run & {"adaptive", "adaptive-dob"}))
+        adaptive = bool(run & {"adaptive", "adaptive-dob"} or self.estimator_rows)  # estimator rows run adaptive
+        ident = "fixed" in run or (self.adaptive_start and adaptive)
         signals = max(SHARED_SIGNALS + MODE_SIGNALS * len(run), PREPARATION_SIGNALS if ident else 0)
         return check_run_memory(self.duration, self.Tc, signals=signals, detail=f"{len(run)} modes",
                                 processes=processes)
@@ -639,6 +640,12 @@ def run_notes(results: dict) -> tuple:
             notes.append(f"{mode}: the supervisor backed the compensation off {n_off} time(s), restored it "
                          f"{info.get('n_restore') or 0} time(s); {info.get('t_off', 0.0):.2f} s without it")
     return tuple(notes)
+
+
+def mode_width(names) -> int:
+    """Width of a comparison table's mode column: 13 characters, or one more than the longest of ``names``
+    (an estimator row ``adaptive[eq4-iv]``, a long name of your own compensator)."""
+    return max([13] + [len(n) + 1 for n in names])
 
 
 def number_text(x: float, width: int, digits: int = 4) -> str:
@@ -758,7 +765,8 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     adaptive_rows = ["adaptive"] * bool(o.estimator_rows)  # the estimator rows run mode adaptive
     needs_prefit = (any(m in PREFIT_MODES for m in run_modes + adaptive_rows) or bool(o.compensators)) and o.Vs is None
     if needs_prefit and not o.prefit:
-        raise ParameterError(f"modes {[m for m in run_modes if m in PREFIT_MODES]} need Vs and delta: give them "
+        wanting = [m for m in run_modes + adaptive_rows if m in PREFIT_MODES]
+        raise ParameterError(f"modes {wanting} need Vs and delta: give them "
                              f"(Vs=..., delta=...; --Vs/--delta) or allow the Stribeck pre-fit")
     bar = tqdm(total=len(run_modes) + len(o.estimator_rows) + ("fixed" in run_modes) + needs_prefit, desc="compare",
                disable=(None if progress is None else not progress), leave=False)
