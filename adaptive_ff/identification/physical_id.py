@@ -121,18 +121,12 @@ fit's own later steps (``_oe_refit``; ``info["bootstrap"]["refit"]``): a
 trust-region pass at the wide robust scale of its global stage, its local
 stage (a pass at the noise-level scale, the local Fs profile, a pass; the
 better point kept) and one round of its coordinate search. Until 2026-11-23
-a refit was the two trust-region passes alone; it then ended above the cost
-of the bootstrap world's truth (the estimate) on every replicate measured
-(zoo seeds 0, 1, 7, 18, 32, 33: 58 of 58 refits), i.e. it stopped short of where
-the fit itself stops, and its scatter carried the memory of its start (in
-sigma, Fc and Fs it grew in proportion to the start spread): the J, tau,
-sigma and Fc intervals were 1.1-1.2 times wider, and those of sigma and Fc
-covered 98.3 % of the zoo joints 0..59 of ``benchmarks/coverage_zoo.py``
-(96.7 and 95.0 % now; J and tau are still covered on every one of them,
-and on the held-out joints 60..99 Fs fell from 97.5 to 90 %: the
-documentation's identification page, "Calibration on many joints"). The
-lag profile and the final Fs profile are not run in the refits (about 1000
-simulations per refit against about 180 now). A refit started at the
+a refit was the two trust-region passes alone, which stopped short of where
+the fit itself stops, so that their scatter carried the memory of their
+start (measurements and coverage before and after: the documentation's
+identification page, "Refits that run the fit's own later steps"). The
+lag profile and the final Fs profile are not run in the refits (they cost
+several times the rest of a refit). A refit started at the
 estimate itself stays there on the rough cost (measured: spreads 10-100
 times too small); from a spread start it has to find the valley again as
 the real fit does. The standard error is the root-mean-square deviation of
