@@ -256,8 +256,9 @@ def register(sub) -> None:
                                    "frictionless "
                                    "(default: all; none and frictionless always run)")
     c.add_argument("--estimator", choices=("sliding", "eq4", "eq4-iv"), default="sliding",
-                   help="adaptive estimator: sliding-regime inverse-dynamics RLS (default), the paper's eq. 4 RLS or "
-                        "eq. 4 by recursive IV on the sliding samples")
+                   help="adaptive estimator: sliding-regime inverse-dynamics RLS (default), the paper's eq. 4 RLS "
+                        "(eqs. 10-13 as printed: biased on the loop's own data, docs/theory.md) or eq. 4 by "
+                        "recursive IV on the sliding samples (the same model, estimated consistently in closed loop)")
     c.add_argument("--ff-input", choices=("measured", "reference"), default="measured",
                    help="velocity the friction feedforward is evaluated at (default: measured)")
     c.add_argument("--omega-q", type=float, default=500.0,

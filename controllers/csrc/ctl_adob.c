@@ -41,6 +41,8 @@ static int switch_in_init(ctl_switch_in *s, aff_real Tc, aff_real J_n, aff_real 
     s->I_f = 0;
     s->m_f = 0;
     s->m_r = 0;
+    s->c_f = 0;
+    s->c_r = 0;
     s->m_l = 0;
     s->n = 0;
     s->n_used = 0;
@@ -69,6 +71,13 @@ static aff_real disturbance_step(const ctl_switch_in *s, aff_real *w, aff_real *
     return w0;
 }
 
+int ctl_switch_in_fires(const ctl_switch_in *s)
+{
+    aff_real x_r = s->m_r - 2 * s->c_r, x_f = s->m_f - 2 * s->c_f; /* what each raises the loop's mean square by */
+    aff_real rise = x_r > s->m_r ? x_r : s->m_r;                     /* the cross term only where it adds */
+    return rise > s->ratio * s->m_l || s->m_r > s->share * s->m_f || (x_f > 0 && x_r > s->share * x_f);
+}
+
 double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_ref, int acting)
 {
     long k = s->n;
@@ -92,9 +101,11 @@ double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_
         aff_lag_step(&s->m_f, s->b, w_f * w_f);
         aff_lag_step(&s->m_r, s->b, w_r * w_r);
         aff_lag_step(&s->m_l, s->b, e_l * e_l);
+        aff_lag_step(&s->c_f, s->b, e_l * w_f);
+        aff_lag_step(&s->c_r, s->b, e_l * w_r);
         s->n_used += 1;
     }
-    int residual = s->n_used >= 2 * s->n_evidence && (s->m_r > s->ratio * s->m_l || s->m_r > s->share * s->m_f);
+    int residual = s->n_used >= 2 * s->n_evidence && ctl_switch_in_fires(s);
     int idle = s->n_used == 0 && k + 1 >= s->n_wait;
     if (residual || idle) {
         s->k_in = k;

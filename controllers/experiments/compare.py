@@ -630,10 +630,10 @@ def run_notes(results: dict) -> tuple:
         t_in = info.get("t_switch_in")
         if t_in is not None:
             ratio, share = info.get("residual_ratio"), info.get("residual_share")
-            why = "" if ratio is None else (f"; the tracking error the loop's model predicts from what the feedforward "
-                                            f"leaves had {ratio:.2f} times the mean square of the frictionless "
-                                            f"loop's error" + ("" if share is None else
-                                                               f" and {share:.2g} times that of the friction's"))
+            why = "" if ratio is None else (f"; what the feedforward leaves raised the loop's mean-square error, as "
+                                            f"its model predicts, by {ratio:.2f} times the frictionless loop's"
+                                            + ("" if share is None else
+                                               f" and {share:.2g} times what the friction would raise it by"))
             notes.append(f"{mode}: the residual observer (as in adaptive-dob) switched in at {t_in:.2f} s{why}")
         n_off = info.get("n_backoff") or 0
         if n_off:
