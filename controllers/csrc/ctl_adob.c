@@ -74,8 +74,9 @@ static aff_real disturbance_step(const ctl_switch_in *s, aff_real *w, aff_real *
 int ctl_switch_in_fires(const ctl_switch_in *s)
 {
     aff_real x_r = s->m_r - 2 * s->c_r, x_f = s->m_f - 2 * s->c_f; /* what each raises the loop's mean square by */
-    aff_real rise = x_r > s->m_r ? x_r : s->m_r;                     /* the cross term only where it adds */
-    return rise > s->ratio * s->m_l || s->m_r > s->share * s->m_f || (x_f > 0 && x_r > s->share * x_f);
+    aff_real rise_r = x_r > s->m_r ? x_r : s->m_r;                   /* the cross terms only where they add */
+    aff_real rise_f = x_f > s->m_f ? x_f : s->m_f;
+    return rise_r > s->ratio * s->m_l || rise_r > s->share * rise_f;
 }
 
 double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_ref, int acting)

@@ -29,29 +29,30 @@
  * X_r = EWMA((e_l - w_r)^2) - M_l = M_r - 2*C_r: the residual's own error and its correlation with the loop's
  * error on the reference (a static map that misses the same phase of every cycle, e.g. the bristles' pre-sliding
  * after each reversal of a LuGre joint, adds its error where the loop already lags); likewise X_f = M_f - 2*C_f for
- * the friction uncompensated. The observer is switched in, for good, in the first period with at least
- * 2*round(T/Tc) such periods and (ctl_switch_in_fires)
- *   max(M_r, X_r) > ratio*M_l (the residual raises the loop's mean-square error by more than ratio over the
- *        frictionless loop's; the cross term counted only where it adds: a residual whose predicted correlation
- *        with the loop's error lowers the error keeps its own M_r as evidence, since that correlation rests on the
- *        residual's phase against the loop's error, which the linear model gets wrong where the loop is not
- *        linear, e.g. the open bench's 17-bit encoder, delay and rests: on its asymmetric variant plain
- *        `adaptive` was 0.915 with X_r alone, never switched in, against 1.273 with M_r kept, switched in),
- *   or M_r > share*M_f or (X_f > 0 and X_r > share*X_f) (the feedforward removes less than 1 - share of what the
- *        friction would cost in mean square: a joint whose friction hardly matters next to the loop's own error,
- *        where the first test cannot fire, but the feedforward is doing little; M_f and X_f, predictions of the
- *        uncompensated error, are too large by 1.5-10 times, so this test errs toward keeping the feedforward
- *        alone);
+ * the friction uncompensated. The cross terms count only where they add: R_r = max(M_r, X_r), R_f = max(M_f, X_f).
+ * A correlation that lowers the predicted error rests on the residual's phase against the loop's error, which the
+ * linear model gets wrong where the loop is not linear (on the open bench's asymmetric variant, 17-bit encoder,
+ * delay and rests, plain `adaptive` was 0.915 with X_r alone, never switched in, against 1.273 switched in; on
+ * joints of the 1000-joint zoo whose feedforward takes the loop beyond the frictionless one, #319, #604, #893,
+ * #944, a share test of X_r against X_f near 0 switched in and took eta from 1.4-5.5 to 0.88-0.99). The observer
+ * is switched in, for good, in the first period
+ * with at least 2*round(T/Tc) such periods and (ctl_switch_in_fires)
+ *   R_r > ratio*M_l (the residual raises the loop's mean-square error by more than ratio over the frictionless
+ *        loop's)
+ *   or R_r > share*R_f (the feedforward removes less than 1 - share of what the friction would cost in mean
+ *        square: a joint whose friction hardly matters next to the loop's own error, where the first test cannot
+ *        fire, but the feedforward is doing little; R_f, the prediction for the uncompensated loop, is too large by
+ *        1.5-10 times, so this test errs toward keeping the feedforward alone);
  * if the feedforward has not acted by 5*T the observer is switched in then. After the switch-in the share g of
  * d_hat applied rises from 0 to 1 by Tc/fade_in per period (no torque step; the PI's integrator unwinds what the
  * observer takes over). The prediction of the residual's error is linear because with the feedforward on the loop
  * sees the residual, not the friction's braking (a prediction of the uncompensated error this way is too large,
  * aff_supervisor.h): on the variants, multi-sine, 60 s, seed 0, M_r/M_l predicted 1.96, 4.25, 0.25 where the
  * measured (rms^2 - rms_fl^2)/rms_fl^2 of `adaptive` was 2.65 (karnopp), 4.36 (small-inertia), 0.44 (lugre);
- * docs/benchmarks/compensation.md ("The residual switch-in"). The cross terms were added on 2026-11-24: without
- * them the test predicted 0.012-0.06 of M_l on the zoo's light LuGre joints with stiff bristles where the measured
- * rise was 0.08-0.18 (#195, #476, #777 of the 1000-joint zoo, seed 0), kept the eq. 4 feedforward alone there and
- * lost 0.1-0.4 eta to adaptive-dob (docs/benchmarks/compensation.md, "The switch-in's test with the cross term").
+ * docs/benchmarks/compensation.md ("The residual switch-in"). The cross terms were added on 2026-11-24: on the
+ * zoo's light LuGre joints with stiff bristles (#195, #476, #777 of the 1000-joint zoo, seed 0, eq4-iv) M_r is
+ * 0.05-0.08 of M_l and X_r 0.19-0.29; without them the eq. 4 feedforward was kept alone there and lost 0.1-0.4 eta
+ * to adaptive-dob (docs/benchmarks/compensation.md, "The switch-in's test with the cross term").
  * After a rest the feedforward part is held back until the joint moves in the reference's direction, the
  * observer's estimate applied from the rest's end (ctl_residual_at_rest).
  * Python: controllers.peers.adaptive_dob.AdaptiveDOBCompensator (either composite).
@@ -70,8 +71,8 @@ typedef struct ctl_switch_in {
     aff_real J_n;         /* design inertia of the loop model (kg*m^2), > 0 */
     aff_real Kp;          /* the loop's PI gains: proportional (N*m*s/rad), > 0 */
     aff_real Ki;          /* integral (N*m/rad), >= 0 */
-    aff_real ratio;       /* switch in when max(M_r, X_r) > ratio*M_l (-), > 0 */
-    aff_real share;       /* ... or when M_r > share*M_f or X_f > 0 and X_r > share*X_f (-), > 0 */
+    aff_real ratio;       /* switch in when R_r > ratio*M_l (-), > 0 */
+    aff_real share;       /* ... or when R_r > share*R_f (-), > 0 */
     aff_real b;           /* EWMA factor, 1 - exp(-Tc/window) */
     aff_real fade;        /* increment of g per period after the switch-in, Tc/fade_in (1: a step) */
     long n_evidence;      /* periods of evidence before a decision, round(window/Tc) (at least 1) */
@@ -131,9 +132,8 @@ void ctl_residual_init(ctl_residual *r, const ctl_dob *dob, aff_real u_max);
 int ctl_residual_set_switch_in(ctl_residual *r, aff_real Tc, aff_real J_n, aff_real Kp, aff_real Ki, aff_real window,
                                aff_real ratio, aff_real share, aff_real fade_in);
 
-/* Whether the test's means in s fire (header comment: max(M_r, X_r) > ratio*M_l, M_r > share*M_f, or X_f > 0 and
- * X_r > share*X_f; 1/0), whatever the evidence counted so far; ctl_switch_in_step asks it once 2*n_evidence periods
- * entered the means. */
+/* Whether the test's means in s fire (header comment: R_r > ratio*M_l or R_r > share*R_f, R = max(M, M - 2*C); 1/0),
+ * whatever the evidence counted so far; ctl_switch_in_step asks it once 2*n_evidence periods entered the means. */
 int ctl_switch_in_fires(const ctl_switch_in *s);
 
 /* One period of the switch-in test s with the feedforward u_ff (N*m), the observer's d_hat (N*m), the reference

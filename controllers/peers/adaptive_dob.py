@@ -86,8 +86,8 @@ class ResidualSwitchIn:
     linear, its error with the residual is the difference of the two. The observer's estimate is applied once what the
     residual raises the loop's mean-square error by (its own mean square, or with its correlation with the loop's
     error where that adds; time constant ``window``, over at least twice ``window`` of periods in which the
-    feedforward acts and the reference moves) exceeds ``ratio`` times the frictionless loop's mean square, or the
-    residual's share of what the whole friction estimate ``u_ff + d_hat`` would cost exceeds ``share``; or after
+    feedforward acts and the reference moves) exceeds ``ratio`` times the frictionless loop's mean square, or
+    ``share`` times what the whole friction estimate ``u_ff + d_hat`` would raise it by; or after
     ``5*window`` without the feedforward acting. It then fades in over ``fade_in`` and stays. The C header
     ``controllers/csrc/ctl_adob.h`` gives the equations.
 
@@ -105,11 +105,11 @@ class ResidualSwitchIn:
         Threshold (-), > 0; default 0.1: the residual raises the loop's mean-square error by 10 % of the
         frictionless loop's (5 % in RMS).
     share : float
-        Second threshold (-), > 0; default 0.25: the observer is also switched in where the residual's predicted
-        error exceeds ``share`` times that of the whole friction estimate ``u_ff + d_hat``, by their own mean
-        squares or by what each raises the loop's mean-square error by (the feedforward removes less than three
-        quarters of the friction's effect in mean square) -- on joints whose friction hardly matters next to the
-        loop's own error the first test cannot fire.
+        Second threshold (-), > 0; default 0.25: the observer is also switched in where what the residual raises
+        the loop's mean-square error by exceeds ``share`` times what the whole friction estimate ``u_ff + d_hat``
+        would raise it by (the feedforward removes less than three quarters of the friction's effect in mean
+        square) -- on joints whose friction hardly matters next to the loop's own error the first test cannot
+        fire.
     fade_in : float
         Time over which the observer's share rises from 0 to 1 (s), >= 0 (0: a step); default 0.5.
 
@@ -267,21 +267,20 @@ class AdaptiveDOBCompensator(Component):
     def info(self) -> dict:
         """The feedforward's counters (:meth:`RobustAdaptiveFeedforward.info`) plus the observer's, prefixed
         ``dob_`` (``dob_n_rejected``, ``dob_J_n`` kg·m², ``dob_omega_q`` rad/s); with the switch-in also
-        ``t_switch_in`` (s or None), ``residual_ratio`` (``max(M_r, X_r)/M_l``, what the test compares with
-        ``ratio``) and ``residual_share`` (``max(M_r/M_f, X_r/X_f)``, the second ratio only where ``X_f > 0``: what
-        it compares with ``share``), when last updated (None before any evidence); C ``ctl_switch_in``, whose
-        header names the means."""
+        ``t_switch_in`` (s or None), ``residual_ratio`` (``R_r/M_l``, what the test compares with ``ratio``) and
+        ``residual_share`` (``R_r/R_f``, what it compares with ``share``), ``R = max(M, M - 2*C)`` the rise of the
+        loop's mean-square error with the cross term where it adds, when last updated (None before any evidence); C
+        ``ctl_switch_in``, whose header names the means."""
         d = self.feedforward.info()
         d.update({f"dob_{k}": v for k, v in self.observer.info().items()})
         if self.switch_in is not None:
             sw = self._c.res.sw
             m_l, m_r, m_f = float(sw.m_l), float(sw.m_r), float(sw.m_f)
             x_r, x_f = m_r - 2.0 * float(sw.c_r), m_f - 2.0 * float(sw.c_f)
-            shares = [m_r / m_f] if m_f > 0.0 else []
-            shares += [x_r / x_f] if x_f > 0.0 else []
+            rise_r, rise_f = max(m_r, x_r), max(m_f, x_f)  # the cross terms only where they add
             d["t_switch_in"] = self.t_switch_in
-            d["residual_ratio"] = max(m_r, x_r) / m_l if m_l > 0.0 else None
-            d["residual_share"] = max(shares) if shares else None
+            d["residual_ratio"] = rise_r / m_l if m_l > 0.0 else None
+            d["residual_share"] = rise_r / rise_f if rise_f > 0.0 else None
         return d
 
     def compensate(self, w_meas: float, w_ref: float) -> float:
