@@ -71,12 +71,18 @@ static aff_real disturbance_step(const ctl_switch_in *s, aff_real *w, aff_real *
     return w0;
 }
 
-int ctl_switch_in_fires(const ctl_switch_in *s)
+void ctl_switch_in_rises(const ctl_switch_in *s, double *rise_r, double *rise_f)
 {
     aff_real x_r = s->m_r - 2 * s->c_r, x_f = s->m_f - 2 * s->c_f; /* what each raises the loop's mean square by */
-    aff_real rise_r = x_r > s->m_r ? x_r : s->m_r;                   /* the cross terms only where they add */
-    aff_real rise_f = x_f > s->m_f ? x_f : s->m_f;
-    return rise_r > s->ratio * s->m_l || rise_r > s->share * rise_f;
+    *rise_r = (double)(x_r > s->m_r ? x_r : s->m_r);                 /* the cross terms only where they add */
+    *rise_f = (double)(x_f > s->m_f ? x_f : s->m_f);
+}
+
+int ctl_switch_in_fires(const ctl_switch_in *s)
+{
+    double rise_r, rise_f;
+    ctl_switch_in_rises(s, &rise_r, &rise_f);
+    return rise_r > (double)(s->ratio * s->m_l) || rise_r > (double)s->share * rise_f;
 }
 
 double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_ref, int acting)

@@ -132,6 +132,10 @@ void ctl_residual_init(ctl_residual *r, const ctl_dob *dob, aff_real u_max);
 int ctl_residual_set_switch_in(ctl_residual *r, aff_real Tc, aff_real J_n, aff_real Kp, aff_real Ki, aff_real window,
                                aff_real ratio, aff_real share, aff_real fade_in);
 
+/* The rises of the loop's mean-square error the test compares (header comment; rad^2/s^2): *rise_r = R_r =
+ * max(M_r, M_r - 2*C_r), *rise_f = R_f = max(M_f, M_f - 2*C_f), from the means in s as last updated. */
+void ctl_switch_in_rises(const ctl_switch_in *s, double *rise_r, double *rise_f);
+
 /* Whether the test's means in s fire (header comment: R_r > ratio*M_l or R_r > share*R_f, R = max(M, M - 2*C); 1/0),
  * whatever the evidence counted so far; ctl_switch_in_step asks it once 2*n_evidence periods entered the means. */
 int ctl_switch_in_fires(const ctl_switch_in *s);

@@ -275,9 +275,9 @@ class AdaptiveDOBCompensator(Component):
         d.update({f"dob_{k}": v for k, v in self.observer.info().items()})
         if self.switch_in is not None:
             sw = self._c.res.sw
-            m_l, m_r, m_f = float(sw.m_l), float(sw.m_r), float(sw.m_f)
-            x_r, x_f = m_r - 2.0 * float(sw.c_r), m_f - 2.0 * float(sw.c_f)
-            rise_r, rise_f = max(m_r, x_r), max(m_f, x_f)  # the cross terms only where they add
+            m_l, rises = float(sw.m_l), ffi.new("double[2]")
+            lib.ctl_switch_in_rises(ffi.addressof(self._c.res, "sw"), rises, rises + 1)
+            rise_r, rise_f = float(rises[0]), float(rises[1])
             d["t_switch_in"] = self.t_switch_in
             d["residual_ratio"] = rise_r / m_l if m_l > 0.0 else None
             d["residual_share"] = rise_r / rise_f if rise_f > 0.0 else None
