@@ -12,7 +12,8 @@ file and adaptive mode, over the joints where eta is defined in both:
   the eq. 4 estimator ("within 0.1 of the default on the zoo"; beyond the frictionless loop, eta > 1, the default's
   excess is not asked of the others), with the worst of them listed;
 - ``below raw``: the same against the reference's eta itself;
-- ``<none``: eta < -0.02 (worse than no compensation, the zoo's own count);
+- ``<none``: eta below ``controllers.experiments.zoo.WORSE_THAN_NONE`` (worse than no compensation, the zoo's own
+  count);
 - ``>= 0.8 where adaptive-dob >= 0.95``: plain ``adaptive`` where its composite succeeds.
 """
 
@@ -23,8 +24,7 @@ import json
 import math
 import sys
 
-#: Worse than none: eta below this (the zoo's own threshold, controllers.experiments.zoo).
-WORSE_THAN_NONE = -0.02
+from controllers.experiments.zoo import WORSE_THAN_NONE
 
 
 def _etas(path: str) -> tuple:

@@ -128,10 +128,6 @@ def test_a_feedforward_doing_little_where_friction_hardly_matters_is_switched_by
     assert a.sw.k_in == -1 and _oracle(u_ff, d_hat, w_ref, acting, 0.05, 0.1, 0.01, share=0.5)[3] is None
 
 
-def _residual_at_phase(phi, w_ref, t, amp):
-    return amp * np.sin(2 * np.pi * 3.0 * t + phi)
-
-
 def test_a_residual_that_adds_to_the_loops_own_error_is_switched_in_by_its_cross_term():
     # a small residual (its own mean square under 1 % of the frictionless loop's: the residual's own error alone
     # cannot fire) at the phase where the velocity it adds opposes the loop's velocity and so adds to its error:
@@ -141,22 +137,22 @@ def test_a_residual_that_adds_to_the_loops_own_error_is_switched_in_by_its_cross
     w_ref = 0.5 * np.sin(2 * np.pi * 3.0 * t)
     acting = np.ones(n, dtype=bool)
     u_ff = 2.0 * np.sign(w_ref)  # a feedforward that does most of the work: the share test stays quiet
-    phases = np.linspace(0.0, 2 * np.pi, 24, endpoint=False)
 
-    def rise(phi, amp):  # the oracle's mean squares at the end: (M_r, rise with the cross term, M_l)
-        d = _residual_at_phase(phi, w_ref, t, amp)
-        _, m_r, m_l, _ = _oracle(u_ff, d, w_ref, acting, 0.05, 1e9, 0.01, share=1e9)  # thresholds never reached
+    def residual(phi, amp=1.0):
+        return amp * np.sin(2 * np.pi * 3.0 * t + phi)
+
+    def cross(phi):  # -2*C_r/M_r of a residual at phase phi, the C means with thresholds never reached
         c = _c_switch_in(ratio=1e9, share=1e9)
-        _run_c(c, u_ff, d, w_ref, acting)
-        return m_r[-1], c.sw.m_r - 2 * c.sw.c_r, m_l[-1]
+        _run_c(c, u_ff, residual(phi), w_ref, acting)
+        return -2.0 * c.sw.c_r / c.sw.m_r
 
-    worst = max(phases, key=lambda phi: rise(phi, 1.0)[1] - rise(phi, 1.0)[0])
-    m_r, x_r, m_l = rise(worst, 1.0)
-    amp = math.sqrt(0.005 * m_l / m_r)  # scale the residual to M_r = 0.005 M_l
-    d_add, d_opp = _residual_at_phase(worst, w_ref, t, amp), _residual_at_phase(worst + np.pi, w_ref, t, amp)
+    worst = max(np.linspace(0.0, 2 * np.pi, 24, endpoint=False), key=cross)
+    _, m_r, m_l, _ = _oracle(u_ff, residual(worst), w_ref, acting, 0.05, 1e9, 0.01, share=1e9)
+    amp = math.sqrt(0.005 * m_l[-1] / m_r[-1])  # scale the residual to M_r = 0.005 M_l
+    d_add, d_opp = residual(worst, amp), residual(worst + np.pi, amp)
     a = _c_switch_in()
     g, _, _ = _run_c(a, u_ff, d_add, w_ref, acting)
-    g_o, m_r_o, m_l_o, k_in = _oracle(u_ff, d_add, w_ref, acting, 0.05, 0.1, 0.01)
+    g_o, _, _, k_in = _oracle(u_ff, d_add, w_ref, acting, 0.05, 0.1, 0.01)
     assert k_in is not None and a.sw.k_in == k_in
     np.testing.assert_allclose(g, g_o, rtol=0, atol=1e-12)
     assert a.sw.m_r < 0.01 * a.sw.m_l  # the residual's own error is small ...

@@ -31,12 +31,11 @@
  * after each reversal of a LuGre joint, adds its error where the loop already lags); likewise X_f = M_f - 2*C_f for
  * the friction uncompensated. The cross terms count only where they add: R_r = max(M_r, X_r), R_f = max(M_f, X_f).
  * A correlation that lowers the predicted error rests on the residual's phase against the loop's error, which the
- * linear model gets wrong where the loop is not linear (on the open bench's asymmetric variant, 17-bit encoder,
- * delay and rests, plain `adaptive` was 0.915 with X_r alone, never switched in, against 1.273 switched in; on
- * joints of the 1000-joint zoo whose feedforward takes the loop beyond the frictionless one, #319, #604, #893,
- * #944, a share test of X_r against X_f near 0 switched in and took eta from 1.4-5.5 to 0.88-0.99). The observer
- * is switched in, for good, in the first period
- * with at least 2*round(T/Tc) such periods and (ctl_switch_in_fires)
+ * linear model gets wrong where the loop is not linear (an encoder, a delay, the hold after rest; a feedforward
+ * that takes the loop beyond the frictionless one): trusted, it kept the observer out where it was needed and
+ * brought it in where the feedforward alone did better (docs/benchmarks/compensation.md, "The switch-in's test
+ * with the cross term"). The observer is switched in, for good, in the first period with at least 2*round(T/Tc)
+ * such periods and (ctl_switch_in_fires)
  *   R_r > ratio*M_l (the residual raises the loop's mean-square error by more than ratio over the frictionless
  *        loop's)
  *   or R_r > share*R_f (the feedforward removes less than 1 - share of what the friction would cost in mean
@@ -50,9 +49,10 @@
  * aff_supervisor.h): on the variants, multi-sine, 60 s, seed 0, M_r/M_l predicted 1.96, 4.25, 0.25 where the
  * measured (rms^2 - rms_fl^2)/rms_fl^2 of `adaptive` was 2.65 (karnopp), 4.36 (small-inertia), 0.44 (lugre);
  * docs/benchmarks/compensation.md ("The residual switch-in"). The cross terms were added on 2026-11-24: on the
- * zoo's light LuGre joints with stiff bristles (#195, #476, #777 of the 1000-joint zoo, seed 0, eq4-iv) M_r is
- * 0.05-0.08 of M_l and X_r 0.19-0.29; without them the eq. 4 feedforward was kept alone there and lost 0.1-0.4 eta
- * to adaptive-dob (docs/benchmarks/compensation.md, "The switch-in's test with the cross term").
+ * zoo's light LuGre joints with stiff bristles a static map misses the bristles' pre-sliding at every reversal,
+ * where the loop already lags; the residual's own mean square is small there, the rise with the cross term is not,
+ * and without it the eq. 4 feedforward was kept alone (docs/benchmarks/compensation.md, "The switch-in's test with
+ * the cross term").
  * After a rest the feedforward part is held back until the joint moves in the reference's direction, the
  * observer's estimate applied from the rest's end (ctl_residual_at_rest).
  * Python: controllers.peers.adaptive_dob.AdaptiveDOBCompensator (either composite).
