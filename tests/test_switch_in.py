@@ -35,20 +35,33 @@ def _c_switch_in(window=0.05, ratio=0.1, fade_in=0.01, share=0.25):
     return a
 
 
-def _oracle(u_ff, d_hat, w_ref, acting, window, ratio, fade_in, share=0.25):
-    """Share g per period, the mean squares per period, and the switch-in index (or None)."""
+def _frictionless_error(w_ref):
+    """The frictionless loop's error on the reference: e = r - w, I = I_prev + Ki*Tc*e, w+ = w + c*(Kp*e + I)."""
+    c, kt = TC / JN, KI * TC
+    a_l = np.array([[1.0 - c * (KP + kt), c], [-kt, 1.0]])
+    b_l = np.array([[c * (KP + kt)], [kt]])
+    _, e_l, _ = dlsim((a_l, b_l, np.array([[-1.0, 0.0]]), np.array([[1.0]]), TC), w_ref)
+    return e_l[:, 0]
+
+
+def _far(w_ref):
+    """A controller velocity whose error is twice the frictionless loop's (M_e = 4 M_l): the measured error never
+    holds the test back."""
+    return w_ref - 2.0 * _frictionless_error(w_ref)
+
+
+def _oracle(u_ff, d_hat, w_ref, acting, window, ratio, fade_in, share=0.25, w_ctrl=None):
+    """Share g per period, the mean squares per period, and the switch-in index (or None); ``w_ctrl`` the
+    controller's velocity (default :func:`_far`)."""
     n = len(d_hat)
+    w_ctrl = _far(w_ref) if w_ctrl is None else w_ctrl
     c, kt = TC / JN, KI * TC
     # residual model: x = [w, I_prev], I = I_prev - Ki*Tc*w, w+ = w + c*(-Kp*w + I - d); output w before the update
     a_r = np.array([[1.0 - c * KP - c * kt, c], [-kt, 1.0]])
     sys_r = (a_r, np.array([[-c], [0.0]]), np.array([[1.0, 0.0]]), np.array([[0.0]]), TC)
     _, w_r, _ = dlsim(sys_r, d_hat)
     _, w_f, _ = dlsim(sys_r, d_hat + u_ff)  # the same loop driven by the whole friction estimate
-    # frictionless loop on the reference: e = r - w, I = I_prev + Ki*Tc*e, w+ = w + c*(Kp*e + I); output e
-    a_l = np.array([[1.0 - c * (KP + kt), c], [-kt, 1.0]])
-    b_l = np.array([[c * (KP + kt)], [kt]])
-    _, e_l, _ = dlsim((a_l, b_l, np.array([[-1.0, 0.0]]), np.array([[1.0]]), TC), w_ref)
-    w_r, e_l, w_f = w_r[:, 0], e_l[:, 0], w_f[:, 0]
+    w_r, w_f, e_l = w_r[:, 0], w_f[:, 0], _frictionless_error(w_ref)
     still = w_ref == 0.0
     rest = still & np.concatenate([[False], still[:-1]])
     used = acting & ~rest
@@ -61,7 +74,8 @@ def _oracle(u_ff, d_hat, w_ref, acting, window, ratio, fade_in, share=0.25):
     count = np.arange(1, used.sum() + 1)
     n_ev = round(window / TC)
     rise_r, rise_f = np.maximum(m_r_u, x_r), np.maximum(m_f_u, x_f)  # the cross terms only where they add
-    fires = (rise_r > ratio * m_l_u) | (rise_r > share * rise_f)
+    m_e_u = ewma((w_ref - w_ctrl)[used] ** 2)  # the loop's measured error with the feedforward alone
+    fires = ((rise_r > ratio * m_l_u) | (rise_r > share * rise_f)) & (m_e_u > m_l_u)
     hit = np.flatnonzero((count >= 2 * n_ev) & fires)
     k_in = int(np.flatnonzero(used)[hit[0]]) if hit.size else None
     g = np.zeros(n)
@@ -87,11 +101,12 @@ def _inputs(n=600, seed=5, grow_at=300):
     return u_ff, d_hat, w_ref, acting
 
 
-def _run_c(a, u_ff, d_hat, w_ref, acting):
+def _run_c(a, u_ff, d_hat, w_ref, acting, w_ctrl=None):
     sw = ffi.addressof(a, "sw")
+    w_ctrl = _far(w_ref) if w_ctrl is None else w_ctrl
     g, m_r, m_l = (np.empty(len(d_hat)) for _ in range(3))
     for k in range(len(d_hat)):
-        g[k] = lib.ctl_switch_in_step(sw, u_ff[k], d_hat[k], w_ref[k], int(acting[k]))
+        g[k] = lib.ctl_switch_in_step(sw, u_ff[k], d_hat[k], w_ref[k], w_ctrl[k], int(acting[k]))
         m_r[k], m_l[k] = a.sw.m_r, a.sw.m_l
     return g, m_r, m_l
 
@@ -107,6 +122,25 @@ def test_the_c_test_equals_the_state_space_oracle():
     np.testing.assert_allclose(m_l[:k_in + 1], m_l_o[:k_in + 1], rtol=1e-10, atol=1e-18)
     np.testing.assert_allclose(g, g_o, rtol=0, atol=1e-12)
     assert np.all(g[:k_in] == 0.0) and g[-1] == 1.0
+
+
+def test_a_loop_that_tracks_at_the_frictionless_loops_error_keeps_the_feedforward_alone():
+    # the residual of _inputs switches the observer in when the loop's measured error is large; with the
+    # loop's measured error 0.9 times the frictionless loop's predicted one (M_e = 0.81 M_l) the feedforward alone
+    # already tracks as well as the frictionless loop and is kept alone; at 1.1 times (M_e = 1.21 M_l) the test is
+    # the residual's again
+    u_ff, d_hat, w_ref, acting = _inputs()
+    k_big = _oracle(u_ff, d_hat, w_ref, acting, 0.05, 0.1, 0.01)[3]
+    assert k_big is not None and 300 < k_big < 500  # the residual's test fires after the residual appears
+    e_l = _frictionless_error(w_ref)
+    for scale, expect in ((0.9, None), (1.1, k_big)):
+        w_ctrl = w_ref - scale * e_l
+        a = _c_switch_in()
+        g, _, _ = _run_c(a, u_ff, d_hat, w_ref, acting, w_ctrl=w_ctrl)
+        g_o, _, _, k_in = _oracle(u_ff, d_hat, w_ref, acting, 0.05, 0.1, 0.01, w_ctrl=w_ctrl)
+        assert k_in == expect and a.sw.k_in == (-1 if expect is None else expect)
+        np.testing.assert_allclose(g, g_o, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(a.sw.m_e / a.sw.m_l, scale**2, rtol=1e-9)
 
 
 def test_a_feedforward_doing_little_where_friction_hardly_matters_is_switched_by_the_share_test():

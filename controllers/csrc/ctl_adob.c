@@ -82,10 +82,10 @@ int ctl_switch_in_fires(const ctl_switch_in *s)
 {
     double rise_r, rise_f;
     ctl_switch_in_rises(s, &rise_r, &rise_f);
-    return rise_r > (double)(s->ratio * s->m_l) || rise_r > (double)s->share * rise_f;
+    return (rise_r > (double)(s->ratio * s->m_l) || rise_r > (double)s->share * rise_f) && s->m_e > s->m_l;
 }
 
-double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_ref, int acting)
+double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_ref, double w_ctrl, int acting)
 {
     long k = s->n;
     s->n += 1;
@@ -110,6 +110,9 @@ double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_
         aff_lag_step(&s->m_l, s->b, e_l * e_l);
         aff_lag_step(&s->c_f, s->b, e_l * w_f);
         aff_lag_step(&s->c_r, s->b, e_l * w_r);
+        aff_real e_m = (aff_real)w_ref - (aff_real)w_ctrl; /* the loop's measured error */
+        if (isfinite(e_m))
+            aff_lag_step(&s->m_e, s->b, e_m * e_m);
         s->n_used += 1;
     }
     int residual = s->n_used >= 2 * s->n_evidence && ctl_switch_in_fires(s);
@@ -124,7 +127,7 @@ double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_
 double ctl_residual_compensate(ctl_residual *r, double u_ff, int acting, double w_ctrl, double w_meas, double w_ref)
 {
     double d = ctl_dob_compensate(&r->dob, w_ctrl, w_meas, w_ref);
-    double g = r->use_switch_in ? ctl_switch_in_step(&r->sw, u_ff, d, w_ref, acting) : 1.0;
+    double g = r->use_switch_in ? ctl_switch_in_step(&r->sw, u_ff, d, w_ref, w_ctrl, acting) : 1.0;
     if (r->held && w_ctrl * w_ref > 0.0) /* the joint moves in the reference's direction: the hold ends */
         r->held = 0;
     double out;

@@ -42,6 +42,12 @@
  *        square: a joint whose friction hardly matters next to the loop's own error, where the first test cannot
  *        fire, but the feedforward is doing little; R_f, the prediction for the uncompensated loop, is too large by
  *        1.5-10 times, so this test errs toward keeping the feedforward alone);
+ * and only while M_e > M_l, M_e = EWMA((w_ref - w_ctrl)^2) over the same periods: the loop's measured error with the
+ * feedforward alone is above the frictionless loop's predicted one. A loop that already tracks as well as the
+ * frictionless one has nothing to gain from the observer, whatever the residual's predicted rise (counted without
+ * the correlations that would lower it, above): the measurement settles what the prediction cannot. It includes
+ * the sensor's noise, which M_l does not, so on a noisy sensor the condition holds and the test is the prediction's
+ * alone (docs/benchmarks/compensation.md, "The switch-in asks the measured error");
  * if the feedforward has not acted by 5*T the observer is switched in then. After the switch-in the share g of
  * d_hat applied rises from 0 to 1 by Tc/fade_in per period (no torque step; the PI's integrator unwinds what the
  * observer takes over). The prediction of the residual's error is linear because with the feedforward on the loop
@@ -88,6 +94,7 @@ typedef struct ctl_switch_in {
     aff_real m_f;         /* M_f, EWMA of w_f^2 (rad^2/s^2) */
     aff_real c_r;         /* C_r, EWMA of e_l*w_r (rad^2/s^2) */
     aff_real c_f;         /* C_f, EWMA of e_l*w_f (rad^2/s^2) */
+    aff_real m_e;         /* M_e, EWMA of the loop's measured error (w_ref - w_ctrl)^2 (rad^2/s^2) */
     long n;               /* periods */
     long n_used;          /* periods that entered the means */
     long k_in;            /* period (index from 0) of the switch-in, -1: not switched in */
@@ -136,13 +143,15 @@ int ctl_residual_set_switch_in(ctl_residual *r, aff_real Tc, aff_real J_n, aff_r
  * max(M_r, M_r - 2*C_r), *rise_f = R_f = max(M_f, M_f - 2*C_f), from the means in s as last updated. */
 void ctl_switch_in_rises(const ctl_switch_in *s, double *rise_r, double *rise_f);
 
-/* Whether the test's means in s fire (header comment: R_r > ratio*M_l or R_r > share*R_f, R = max(M, M - 2*C); 1/0),
+/* Whether the test's means in s fire (header comment: R_r > ratio*M_l or R_r > share*R_f, R = max(M, M - 2*C), and
+ * M_e > M_l; 1/0),
  * whatever the evidence counted so far; ctl_switch_in_step asks it once 2*n_evidence periods entered the means. */
 int ctl_switch_in_fires(const ctl_switch_in *s);
 
 /* One period of the switch-in test s with the feedforward u_ff (N*m), the observer's d_hat (N*m), the reference
- * w_ref (rad/s) and whether the feedforward acts (acting, 0/1); returns the share g of d_hat to apply (0..1). */
-double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_ref, int acting);
+ * w_ref and the controller's velocity w_ctrl (rad/s; a non-finite one leaves M_e as it is) and whether the
+ * feedforward acts (acting, 0/1); returns the share g of d_hat to apply (0..1). */
+double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_ref, double w_ctrl, int acting);
 
 /* The composite's output for the feedforward's torque u_ff (N*m) and whether it acts (0/1): d_hat =
  * ctl_dob_compensate(w_ctrl, w_meas, w_ref, rad/s); returns u_ff + g*d_hat clipped to +-u_max (N*m), g = 1

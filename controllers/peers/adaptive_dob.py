@@ -87,7 +87,9 @@ class ResidualSwitchIn:
     residual raises the loop's mean-square error by (its own mean square, or with its correlation with the loop's
     error where that adds; time constant ``window``, over at least twice ``window`` of periods in which the
     feedforward acts and the reference moves) exceeds ``ratio`` times the frictionless loop's mean square, or
-    ``share`` times what the whole friction estimate ``u_ff + d_hat`` would raise it by; or after
+    ``share`` times what the whole friction estimate ``u_ff + d_hat`` would raise it by, while the loop's measured
+    mean-square error (of ``w_ref - w_ctrl`` over the same periods) exceeds the frictionless loop's predicted one (a
+    loop that already tracks as well as the frictionless one with the feedforward alone keeps it alone); or after
     ``5*window`` without the feedforward acting. It then fades in over ``fade_in`` and stays. The C header
     ``controllers/csrc/ctl_adob.h`` gives the equations.
 
@@ -269,8 +271,9 @@ class AdaptiveDOBCompensator(Component):
         ``dob_`` (``dob_n_rejected``, ``dob_J_n`` kg·m², ``dob_omega_q`` rad/s); with the switch-in also
         ``t_switch_in`` (s or None), ``residual_ratio`` (``R_r/M_l``, what the test compares with ``ratio``) and
         ``residual_share`` (``R_r/R_f``, what it compares with ``share``), ``R = max(M, M - 2*C)`` the rise of the
-        loop's mean-square error with the cross term where it adds, when last updated (None before any evidence); C
-        ``ctl_switch_in``, whose header names the means."""
+        loop's mean-square error with the cross term where it adds, and ``measured_ratio`` (``M_e/M_l``, the loop's
+        measured mean-square error against the frictionless loop's predicted one: the test fires only above 1), when
+        last updated (None before any evidence); C ``ctl_switch_in``, whose header names the means."""
         d = self.feedforward.info()
         d.update({f"dob_{k}": v for k, v in self.observer.info().items()})
         if self.switch_in is not None:
@@ -281,6 +284,7 @@ class AdaptiveDOBCompensator(Component):
             d["t_switch_in"] = self.t_switch_in
             d["residual_ratio"] = rise_r / m_l if m_l > 0.0 else None
             d["residual_share"] = rise_r / rise_f if rise_f > 0.0 else None
+            d["measured_ratio"] = float(sw.m_e) / m_l if m_l > 0.0 else None
         return d
 
     def compensate(self, w_meas: float, w_ref: float) -> float:
