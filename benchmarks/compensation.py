@@ -38,8 +38,8 @@ EST_KEYS = ("J", "tau", "Fc", "Fs", "sigma")
 #: design alternatives: (scenario, label, compare options, mode)
 ALTERNATIVES = [
     ("paper", "eq. 4 RLS at Ts = 10 ms, FF at w_ref (vertical slice)",
-     dict(estimator="eq4", ff_input="reference", stick_band=0.0), "adaptive"),
-    ("paper", "eq. 4 RLS, FF at w_meas", dict(estimator="eq4", stick_band=0.0), "adaptive"),
+     dict(estimator="eq4-rls", ff_input="reference", stick_band=0.0), "adaptive"),
+    ("paper", "eq. 4 RLS, FF at w_meas", dict(estimator="eq4-rls", stick_band=0.0), "adaptive"),
     ("paper", "sliding RLS, FF at w_ref", dict(ff_input="reference"), "adaptive"),
     ("paper", "sliding RLS, FF at w_meas, no lag filter", dict(lag=False), "adaptive"),
     ("paper", "sliding RLS, FF at w_meas, lag, sgn", dict(stick_band=0.0), "adaptive"),
@@ -63,7 +63,7 @@ ALTERNATIVES = [
     ("drift", "sliding RLS, lam 0.995 (default)", dict(), "adaptive"),
     ("drift", "sliding RLS, lam 0.999 (10 s memory)", dict(lam=0.999), "adaptive"),
     ("drift", "sliding RLS, directional forgetting", dict(forgetting="directional"), "adaptive"),
-    ("drift", "eq. 4 RLS, FF at w_ref (vertical slice)", dict(estimator="eq4", ff_input="reference",
+    ("drift", "eq. 4 RLS, FF at w_ref (vertical slice)", dict(estimator="eq4-rls", ff_input="reference",
                                                              stick_band=0.0), "adaptive"),
 ]
 

@@ -4,14 +4,14 @@ Run:  python benchmarks/eq4_iv.py [--plants paper,karnopp,...] [--seeds 0-9] [--
 
 For each plant (the ``paper`` preset, a variant of :mod:`plant.variant_plants` or the drift case) and seed, one comparison is
 prepared (:func:`controllers.experiments.compare.prepare_comparison`: reference, PI, Stribeck pre-fit, noise) and
-the ``adaptive`` mode runs with each estimator on the same reference and noise: ``eq4`` (the paper's RLS on every
-sample, bare feedforward), ``eq4-iv`` (recursive IV with the instruments ``phi(k-2)`` on the sliding samples,
+the ``adaptive`` mode runs with each estimator on the same reference and noise: ``eq4-rls`` (the paper's RLS on
+every sample, bare feedforward), ``eq4`` (recursive IV with the instruments ``phi(k-2)`` on the sliding samples,
 docs/theory.md) and ``sliding`` (the default), each as mode ``adaptive`` is by default: with the residual switch-in
 (:class:`controllers.peers.adaptive_dob.ResidualSwitchIn`; a ``*`` marks the runs in which it switched the observer
 in); with ``--bare`` the two eq. 4 estimators also run without it (``switch_in=False``, the feedforward alone, as
 ``--no-switch-in``). Printed: ``eta`` over the second half,
 ``(RMS_none - RMS_adaptive)/(RMS_none - RMS_frictionless)``, as ``adaptive-ff compare --variant NAME --seed S
---modes none,adaptive --estimator E`` prints it, and the targets: ``eq4-iv`` >= 0.9 on ``paper``, within 0.1 of
+--modes none,adaptive --estimator E`` prints it, and the targets: ``eq4`` >= 0.9 on ``paper``, within 0.1 of
 the default on every plant.
 """
 
@@ -31,9 +31,9 @@ from plant.friction import preset
 from plant.variant_plants import VARIANT_NAMES, drift_case, variant
 
 #: Estimators of the table, in column order.
-ESTIMATORS = ("eq4", "eq4-iv", "sliding")
+ESTIMATORS = ("eq4-rls", "eq4", "sliding")
 #: The estimators also run without the switch-in with ``--bare``.
-BARE = ("eq4", "eq4-iv")
+BARE = ("eq4-rls", "eq4")
 
 
 def _seeds(text: str) -> list:
@@ -101,20 +101,20 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     with ProcessPoolExecutor(a.jobs) as ex:
         rows = list(ex.map(row, *zip(*jobs), [a.duration] * len(jobs), [a.bare] * len(jobs)))
-    heads = ["eq4 RLS", "eq4 IV", "default"] + (["RLS bare", "IV bare"] if a.bare else [])
+    heads = ["eq4-rls", "eq4", "default"] + (["rls bare", "eq4 bare"] if a.bare else [])
     keys = list(ESTIMATORS) + ([f"{e} bare" for e in BARE] if a.bare else [])
     print(f"{'plant':<16}{'seed':>5}" + "".join(f"{h:>10}" for h in heads))
     for r in rows:
         cells = [f"{r[k]:.3f}" + ("*" if r.get(f"{k} in") else " ") for k in keys]
         print(f"{r['plant']:<16}{r['seed']:>5}" + "".join(f"{c:>10}" for c in cells))
     print("*: the residual switch-in brought the observer in during the run")
-    paper = [r["eq4-iv"] for r in rows if r["plant"] == "paper"]
+    paper = [r["eq4"] for r in rows if r["plant"] == "paper"]
     if paper:
-        print(f"paper: eq4 IV eta min {min(paper):.3f}, mean {np.mean(paper):.3f} over {len(paper)} seeds "
+        print(f"paper: eq4 eta min {min(paper):.3f}, mean {np.mean(paper):.3f} over {len(paper)} seeds "
               f"(target >= 0.9 each)")
-    gap = [(r["sliding"] - r["eq4-iv"], r["plant"], r["seed"]) for r in rows]
+    gap = [(r["sliding"] - r["eq4"], r["plant"], r["seed"]) for r in rows]
     worst = max(gap)
-    print(f"largest shortfall of eq4 IV below the default: {worst[0]:.3f} ({worst[1]}, seed {worst[2]}; "
+    print(f"largest shortfall of eq4 below the default: {worst[0]:.3f} ({worst[1]}, seed {worst[2]}; "
           f"target <= 0.1)")
     print(f"{len(rows)} rows, {time.perf_counter() - t0:.0f} s")
     return 0

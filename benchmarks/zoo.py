@@ -2,7 +2,7 @@
 
 Run:  python benchmarks/zoo.py [--n 100] [--duration 120] [--seed 0] [--modes none,fixed,adaptive,dob,...]
                                [--group 8] [--workers 2] [--scheduler tcp://host:8786]
-                               [--min-degradation 0.01] [--estimator sliding|eq4|eq4-iv] [--json out.json]
+                               [--min-degradation 0.01] [--estimator sliding|eq4|eq4-rls] [--json out.json]
 
 Draws the joints with :func:`controllers.experiments.zoo.draw_plants` (the box of
 :class:`controllers.experiments.zoo.ZooBox`), prepares each as ``compare`` does
@@ -43,7 +43,7 @@ def main(argv=None) -> int:
                     help="Dask: 'synchronous', 'threads', 'processes' (local schedulers) or a scheduler address")
     ap.add_argument("--min-degradation", type=float, default=0.01,
                     help="eta is undefined where friction raises the uncompensated RMS error by less than this share")
-    ap.add_argument("--estimator", default="sliding", choices=("sliding", "eq4", "eq4-iv"),
+    ap.add_argument("--estimator", default="sliding", choices=("sliding", "eq4", "eq4-rls"),
                     help="estimator of the adaptive modes (default sliding)")
     ap.add_argument("--json", default=None, help="write the full result (strict JSON) to this file")
     args = ap.parse_args(argv)

@@ -1,8 +1,8 @@
 """The zoo joint by joint: each estimator's adaptive modes against the default estimator's.
 
 Run:  python benchmarks/zoo.py --n 1000 --duration 60 --workers 2 --modes none,adaptive,adaptive-dob \
-          --estimator E --json E.json                      # once for each of sliding, eq4-iv, eq4
-      python benchmarks/zoo_estimators.py sliding.json eq4-iv.json eq4.json [--gap 0.1] [--list 12]
+          --estimator E --json E.json                      # once for each of sliding, eq4, eq4-rls
+      python benchmarks/zoo_estimators.py sliding.json eq4.json eq4-rls.json [--gap 0.1] [--list 12]
 
 Reads the strict-JSON results that ``benchmarks/zoo.py --json`` writes (the same joints, reference and seed in
 each file, one estimator each; the first file is the reference, normally the default ``sliding``) and prints, per

@@ -203,7 +203,7 @@ def mode_options(p, u_max: float, mode: str, *, noise_std: float = NOISE, **chan
                     warmup=50, stick_band=3.0 * max(noise_std, 1e-4), stick_samples=50, estimate=est,
                     initial=est, start=FeedforwardStart(est), model=RegressionModel(v["Vs"], v["delta"]))
     if mode == "adaptive-eq4":
-        mode, o = "adaptive", replace(o, estimator="eq4")
+        mode, o = "adaptive", replace(o, estimator="eq4-rls")  # the paper's RLS (named "eq4" until 2026-11-24)
     return mode, replace(o, **changes)
 
 
@@ -514,7 +514,7 @@ def compare_paper_stickslip():
 def compare_lugre_eq4_faults():
     """compare() on the LuGre variant with the eq. 4 estimator and fixed method, measured canudas, sensor faults,
     no noise (with noise the fixed mode's peak error moves by 5e-10 under a last-bit change of the reference)."""
-    c = compare(variant("lugre"), duration=3.0, seed=1, progress=False, noise_std=0.0, estimator="eq4",
+    c = compare(variant("lugre"), duration=3.0, seed=1, progress=False, noise_std=0.0, estimator="eq4-rls",
                 fixed_method="eq4",
                 canudas_input="measured", faults={1000: 2.0, 1001: math.nan},
                 modes=("none", "fixed", "adaptive", "canudas", "frictionless"))

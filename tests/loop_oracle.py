@@ -124,7 +124,7 @@ def _compensation(mode, kw, *, J, J_d, Tc, m, u_max, ff_max, t, wr, wc, WM, U, F
         r = po.dob_path(wc, U, J_n=J if J_n is None else J_n, omega_q=kw.get("omega_q", 500.0), Tc=Tc, d_max=ff_max)
         rep["peer"] = SimpleNamespace(n_rejected=r["n_rejected"], estimate=None)
         return r["d_hat"], rep
-    if mode == "adaptive" and kw.get("estimator", "sliding") == "eq4":
+    if mode == "adaptive" and kw.get("estimator", "sliding") == "eq4-rls":
         u_prev = np.concatenate([[0.0], U[:-1]])
         r = po.eq4_path(u_prev, WM, wc, wr, kw["model"], Ts=m * Tc, dt=Tc, lam=0.995 if lam is None else lam,
                         P0=kw.get("P0", 1e4), warmup=kw.get("warmup", 200), lag=kw.get("lag", True), ff_max=ff_max,

@@ -103,7 +103,7 @@ def test_validation():
     assert math.isinf(AdaptiveDOBCompensator(ff, dob).u_max)
 
 
-@pytest.mark.parametrize("mode,estimator", [("adaptive-dob", "eq4"), ("adaptive", "eq4-iv"), ("adaptive", "sliding")])
+@pytest.mark.parametrize("mode,estimator", [("adaptive-dob", "eq4-rls"), ("adaptive", "eq4"), ("adaptive", "sliding")])
 def test_every_estimator_builds_the_composite(mode, estimator):
     """``adaptive-dob``, and ``adaptive`` with its switch-in, compose the observer with the feedforward of any
     estimator: the eq. 4 ones in ``ctl_eq4_dob``, the sliding one in ``ctl_adob``; ``switch_in=False`` leaves

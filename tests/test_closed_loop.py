@@ -69,7 +69,7 @@ def test_eq4_adaptive_mode_improves_tracking_and_stays_plausible(ref):
     ratios, peaks = [], []
     for seed in range(1, 6):
         none = run_named(P, ref, mode="none", rng=np.random.default_rng(seed), **kw).metrics.rms_second_half
-        r = run_named(P, ref, mode="adaptive", estimator="eq4", ff_input="reference", model=model,
+        r = run_named(P, ref, mode="adaptive", estimator="eq4-rls", ff_input="reference", model=model,
                       rng=np.random.default_rng(seed), **kw)
         ratios.append(r.metrics.rms_second_half / none)
         peaks.append(float(np.max(np.abs(r.u_ff))))

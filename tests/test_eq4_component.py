@@ -276,7 +276,7 @@ def test_layout_properties_pickle_and_validation():
         assert c.step(0.2) == d.step(0.2)
     assert d.struct_bytes() == c.struct_bytes() and _same_estimate(d.estimate, c.estimate)
     info = c.info()
-    assert info == {"estimator": "eq4", "n_rejected": c.n_rejected, "n_implausible": c.n_implausible,
+    assert info == {"estimator": "eq4-rls", "n_rejected": c.n_rejected, "n_implausible": c.n_implausible,
                     "n_updates": c.rls.n_updates, "lam": 0.995, "names": list(model.names)}
     assert info["n_updates"] == 399 - c.n_rejected and json.dumps(info, allow_nan=False)
     with pytest.raises(ParameterError, match="multiple"):

@@ -23,10 +23,10 @@ _BASE = dict(duration=4.0, seed=3, progress=False)
 @pytest.fixture(scope="module")
 def paper_with_rows():
     return compare(preset("paper"), modes=("none", "adaptive", "dob", "frictionless"),
-                   estimator_rows=("eq4-iv", "eq4"), **_BASE)
+                   estimator_rows=("eq4", "eq4-rls"), **_BASE)
 
 
-@pytest.mark.parametrize("estimator", ["eq4-iv", "eq4"])
+@pytest.mark.parametrize("estimator", ["eq4", "eq4-rls"])
 def test_a_row_is_the_adaptive_mode_of_its_estimator_bit_for_bit(paper_with_rows, estimator):
     alone = compare(preset("paper"), modes=("none", "adaptive", "frictionless"), estimator=estimator, **_BASE)
     row, own = paper_with_rows.results[f"adaptive[{estimator}]"], alone.results["adaptive"]
@@ -44,7 +44,7 @@ def test_the_rows_leave_the_other_modes_as_they_were(paper_with_rows):
 
 
 def test_rows_stand_right_after_adaptive_in_table_and_json(paper_with_rows):
-    order = ["none", "adaptive", "adaptive[eq4-iv]", "adaptive[eq4]", "dob", "frictionless"]
+    order = ["none", "adaptive", "adaptive[eq4]", "adaptive[eq4-rls]", "dob", "frictionless"]
     assert list(paper_with_rows.results) == order
     assert [r["mode"] for r in paper_with_rows.rows()] == order
     d = json.loads(json.dumps(paper_with_rows.to_dict(), allow_nan=False))
@@ -54,15 +54,16 @@ def test_rows_stand_right_after_adaptive_in_table_and_json(paper_with_rows):
 
 
 def test_without_adaptive_a_row_stands_where_adaptive_would():
-    c = compare(preset("paper"), modes=("none", "dob", "frictionless"), estimator_rows=("eq4-iv",), **_BASE)
-    assert list(c.results) == ["none", "adaptive[eq4-iv]", "dob", "frictionless"]
+    c = compare(preset("paper"), modes=("none", "dob", "frictionless"), estimator_rows=("eq4",), **_BASE)
+    assert list(c.results) == ["none", "adaptive[eq4]", "dob", "frictionless"]
 
 
 @pytest.mark.parametrize("rows, why", [
-    (("magic",), "unknown estimator 'magic'"),
+    (("magic",), "must be one of ('sliding', 'eq4', 'eq4-rls'), got 'magic'"),
+    (("eq4-iv",), "'eq4-iv' is now 'eq4'"),  # the name until 2026-11-24
     (("sliding",), "'sliding' is the estimator of the adaptive mode's own row"),
-    (("eq4", "eq4"), "given twice"),
-    ("eq4", "must be a tuple"),
+    (("eq4-rls", "eq4-rls"), "given twice"),
+    ("eq4-rls", "must be a tuple"),
 ])
 def test_bad_rows_are_refused_by_name(rows, why):
     with pytest.raises(ParameterError, match="estimator_rows") as exc:
@@ -72,21 +73,21 @@ def test_bad_rows_are_refused_by_name(rows, why):
 
 def test_a_compensator_may_not_take_a_row_label():
     with pytest.raises(ParameterError, match="compensators"):
-        CompareOptions(estimator_rows=("eq4",), compensators={"adaptive[eq4]": lambda ctx: None})
+        CompareOptions(estimator_rows=("eq4-rls",), compensators={"adaptive[eq4-rls]": lambda ctx: None})
 
 
 def test_cli_prints_the_row_and_refuses_it_beside_a_scenario(tmp_path, capsys):
     assert main(["compare", "--duration", "4", "--seed", "3", "--modes", "none,adaptive,frictionless",
-                 "--estimator-rows", "eq4-iv", "--no-figures", "--quiet", "--json"]) == 0
+                 "--estimator-rows", "eq4", "--no-figures", "--quiet", "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
-    assert list(d["modes"]) == ["none", "adaptive", "adaptive[eq4-iv]", "frictionless"]
+    assert list(d["modes"]) == ["none", "adaptive", "adaptive[eq4]", "frictionless"]
     sc = tmp_path / "s.toml"
     sc.write_text('modes = ["none", "adaptive"]\n[plant]\npreset = "paper"\n[reference]\nduration = 4.0\n')
-    assert main(["compare", "--scenario", str(sc), "--estimator-rows", "eq4", "--no-figures", "--quiet"]) == 2
+    assert main(["compare", "--scenario", str(sc), "--estimator-rows", "eq4-rls", "--no-figures", "--quiet"]) == 2
     assert "--estimator-rows cannot be combined with --scenario" in capsys.readouterr().err
 
 
 def test_rows_alone_need_the_prefit_and_the_refusal_names_their_mode():
     with pytest.raises(ParameterError, match=r"modes \['adaptive'\] need Vs and delta"):
-        compare(preset("paper"), modes=("none", "dob", "frictionless"), estimator_rows=("eq4",), prefit=False,
+        compare(preset("paper"), modes=("none", "dob", "frictionless"), estimator_rows=("eq4-rls",), prefit=False,
                 **_BASE)

@@ -1,4 +1,4 @@
-"""Recursive IV (adaptive_ff/csrc/aff_ivrls.c) and the eq4-iv estimator: the recursion against the batch weighted IV
+"""Recursive IV (adaptive_ff/csrc/aff_ivrls.c) and the eq4 estimator: the recursion against the batch weighted IV
 estimate, consistency in a closed-loop ARX where least squares is biased, input rejection, the eq. 4 component's
 instruments against rows built with numpy, and the closed-loop compensation on the paper preset."""
 
@@ -185,16 +185,16 @@ def test_eq4_component_rows_and_gate_match_numpy():
 
 
 def test_closed_loop_eta_paper_preset():
-    """Mode adaptive with eq4-iv on the paper preset (seed 0, 120 s), the feedforward alone (no residual switch-in):
+    """Mode adaptive with eq4 (IV) on the paper preset (seed 0, 120 s), the feedforward alone (no residual switch-in):
     eta 1.002 measured (docs/benchmarks/compensation.md); the paper's RLS alone on the same scenario 0.15. With
     the switch-in (the default) the paper's RLS hands over to the residual observer and reaches 0.996."""
     res = {(e, sw): compare(preset("paper"), modes=("none", "adaptive"), estimator=e, seed=0, switch_in=sw,
                             progress=False)
-           for e, sw in (("eq4", False), ("eq4-iv", False), ("eq4", True))}
-    assert res["eq4-iv", False].eta["adaptive"] >= 0.98
-    assert res["eq4", False].eta["adaptive"] < 0.4
-    assert res["eq4", True].eta["adaptive"] >= 0.98
-    assert res["eq4", True].results["adaptive"].info["t_switch_in"] is not None
-    assert res["eq4", False].results["adaptive"].info.get("t_switch_in") is None
-    info = res["eq4-iv", False].results["adaptive"].info
-    assert info["estimator"] == "eq4-iv" and info["n_gated"] > 0 and info["lam"] == 1.0 - 0.002 / 5.0
+           for e, sw in (("eq4-rls", False), ("eq4", False), ("eq4-rls", True))}
+    assert res["eq4", False].eta["adaptive"] >= 0.98
+    assert res["eq4-rls", False].eta["adaptive"] < 0.4
+    assert res["eq4-rls", True].eta["adaptive"] >= 0.98
+    assert res["eq4-rls", True].results["adaptive"].info["t_switch_in"] is not None
+    assert res["eq4-rls", False].results["adaptive"].info.get("t_switch_in") is None
+    info = res["eq4", False].results["adaptive"].info
+    assert info["estimator"] == "eq4" and info["n_gated"] > 0 and info["lam"] == 1.0 - 0.002 / 5.0

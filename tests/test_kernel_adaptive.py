@@ -173,7 +173,7 @@ def test_eq4_adaptive_mode_equals_the_replay(ref):
     3e-13 on the signals and 8e-14 on theta, relative."""
     model = RegressionModel(P.Vs, P.delta)
     for ff_input in ("measured", "reference"):
-        a, b = _both(P, ref, mode="adaptive", estimator="eq4", model=model, Kp=DESIGN.Kp, Ki=DESIGN.Ki,
+        a, b = _both(P, ref, mode="adaptive", estimator="eq4-rls", model=model, Kp=DESIGN.Kp, Ki=DESIGN.Ki,
                      noise_std=1e-3, warmup=300, ff_input=ff_input)
         _assert_same(a, b)
         _close(a["t_theta"], b.t_theta, rel=0.0)

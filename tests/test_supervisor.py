@@ -187,7 +187,7 @@ def test_batch_supervises_as_a_single_run():
     k = variant("karnopp")
     d = design_pi(k.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
     from adaptive_ff.identification.regression import RegressionModel
-    ok = replace(o, Kp=d.Kp, Ki=d.Ki, estimator="eq4", model=RegressionModel(k.Vs, k.delta), warmup=50)
+    ok = replace(o, Kp=d.Kp, Ki=d.Ki, estimator="eq4-rls", model=RegressionModel(k.Vs, k.delta), warmup=50)
     b = run_batch([k, p], ref, "adaptive", [ok, replace(ok, model=RegressionModel(p.Vs, p.delta))], seeds=[3, 4])
     for i, (plant, oi) in enumerate(((k, ok), (p, replace(ok, model=RegressionModel(p.Vs, p.delta))))):
         one = run_mode(plant, ref, "adaptive", oi, rng=np.random.default_rng(3 + i))

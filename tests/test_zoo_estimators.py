@@ -28,9 +28,9 @@ def test_counts_follow_the_definitions(tmp_path):
     # joint 1: 0.85 against 0.99: below by 0.14 both ways; joint 2: eta undefined (None): not counted
     # joint 3: worse than none (-0.05) against 0.9, and adaptive-dob >= 0.95 there with adaptive < 0.8
     ref = _write(tmp_path / "s.json", "sliding", [1.5, 0.99, None, 0.9], [0.99, 0.99, None, 0.96])
-    other = _write(tmp_path / "e.json", "eq4-iv", [0.95, 0.85, 0.5, -0.05], [0.99, 0.97, 0.4, 0.96])
+    other = _write(tmp_path / "e.json", "eq4", [0.95, 0.85, 0.5, -0.05], [0.99, 0.97, 0.4, 0.96])
     lines = zoo_estimators.compare_files([ref, other], gap=0.1)
-    row = next(x for x in lines if x.startswith("eq4-iv") and " adaptive " in x)
+    row = next(x for x in lines if x.startswith("eq4") and " adaptive " in x)
     cells = row.split()
     assert cells[2:6] == ["3", "2", "3", "1"]  # joints, below min(ref, 1) - 0.1, below raw, worse than none
     assert "2 of 3" in row  # adaptive >= 0.8 where adaptive-dob >= 0.95: joints 0 and 1 of 0, 1, 3

@@ -226,11 +226,11 @@ class AdaptiveFrictionFeedforward(Component):
         Returns
         -------
         dict
-            ``estimator`` ("eq4", "eq4-iv" with ``iv``), ``n_rejected``, ``n_implausible``, ``n_updates`` (of the
-            estimator in use), ``lam``, ``names`` (the regression parameters, :attr:`RegressionModel.names`); with
-            ``w_band > 0`` also ``n_gated`` and ``w_band``.
+            ``estimator`` ("eq4-rls", "eq4" with ``iv``: the names of ``ModeOptions.estimator``), ``n_rejected``,
+            ``n_implausible``, ``n_updates`` (of the estimator in use), ``lam``, ``names`` (the regression
+            parameters, :attr:`RegressionModel.names`); with ``w_band > 0`` also ``n_gated`` and ``w_band``.
         """
-        d = {"estimator": "eq4-iv" if self.iv else "eq4", "n_rejected": self.n_rejected,
+        d = {"estimator": "eq4" if self.iv else "eq4-rls", "n_rejected": self.n_rejected,
              "n_implausible": self.n_implausible, "n_updates": self._est.n_updates, "lam": self._est.lam,
              "names": list(self.model.names)}
         if self.w_band > 0:

@@ -255,10 +255,11 @@ def register(sub) -> None:
     c.add_argument("--modes", help="comma-separated subset of none,fixed,adaptive,adaptive-dob,canudas,dob,oracle,"
                                    "frictionless "
                                    "(default: all; none and frictionless always run)")
-    c.add_argument("--estimator", choices=("sliding", "eq4", "eq4-iv"), default="sliding",
-                   help="adaptive estimator: sliding-regime inverse-dynamics RLS (default), the paper's eq. 4 RLS "
-                        "(eqs. 10-13 as printed: biased on the loop's own data, docs/theory.md) or eq. 4 by "
-                        "recursive IV on the sliding samples (the same model, estimated consistently in closed loop)")
+    c.add_argument("--estimator", choices=("sliding", "eq4", "eq4-rls"), default="sliding",
+                   help="adaptive estimator: sliding-regime inverse-dynamics RLS (default); eq4: the paper's eq. 4 "
+                        "by recursive IV on the sliding samples (the model estimated consistently in closed loop, "
+                        "docs/theory.md); eq4-rls: eq. 4 by the paper's RLS, eqs. 10-13 as printed (biased on the "
+                        "loop's own data; until 2026-11-24 named eq4, and the IV eq4-iv)")
     c.add_argument("--ff-input", choices=("measured", "reference"), default="measured",
                    help="velocity the friction feedforward is evaluated at (default: measured)")
     c.add_argument("--omega-q", type=float, default=500.0,
@@ -279,11 +280,11 @@ def register(sub) -> None:
                    help="adaptive, adaptive-dob: no provisional feedforward from the pre-fit before the estimator's "
                         "first trusted estimate (CompareOptions.adaptive_start = False)")
     c.add_argument("--no-switch-in", action="store_true",
-                   help="adaptive: the feedforward alone, never the residual observer (with --estimator eq4 the "
-                        "paper's bare prototype; CompareOptions.switch_in = False)")
+                   help="adaptive: the feedforward alone, never the residual observer (with --estimator eq4-rls "
+                        "the paper's bare prototype; CompareOptions.switch_in = False)")
     c.add_argument("--estimator-rows", dest="estimator_rows", default=None, metavar="LIST",
                    help="further estimators whose adaptive mode runs beside the others, each a row adaptive[E], "
-                        "e.g. eq4-iv,eq4: the paper's eq. 4 by instrumental variables and by its RLS beside the "
+                        "e.g. eq4,eq4-rls: the paper's eq. 4 by instrumental variables and by its RLS beside the "
                         "default (CompareOptions.estimator_rows)")
     c.add_argument("--Vs", type=float, default=None,
                    help="Stribeck velocity in rad/s, if known (with --delta; no pre-fit then)")

@@ -1,7 +1,7 @@
 /* ctl_adob.h -- the adaptive friction feedforward plus a disturbance observer on the residual (mode
  * "adaptive-dob"; with the residual switch-in, mode "adaptive"), for either feedforward: ctl_adob embeds the
  * sliding estimator's aff_robust_ff, ctl_eq4_dob the paper's eq. 4 feedforward aff_eq4_ff (estimator "eq4" or
- * "eq4-iv"). Both compose their parts the same way, through their shared part ctl_residual (the observer, the switch-in, the bound).
+ * "eq4-rls"). Both compose their parts the same way, through their shared part ctl_residual (the observer, the switch-in, the bound).
  *
  * Per period: u_ff from the robust adaptive feedforward (aff_robust_ff, 0 before its switch-on, faded in
  * after), d_hat from the disturbance observer (ctl_dob), output u_ff + d_hat clipped to +-u_max. The observer
@@ -122,7 +122,7 @@ typedef struct ctl_adob {
     aff_robust_ff ff;     /* the adaptive feedforward with its estimator */
 } ctl_adob;
 
-/* The same composite over the paper's eq. 4 feedforward (estimators "eq4", "eq4-iv"). */
+/* The same composite over the paper's eq. 4 feedforward (estimators "eq4", "eq4-rls"). */
 typedef struct ctl_eq4_dob {
     ctl_residual res;     /* the observer, the switch-in, the bound */
     aff_eq4_ff ff;        /* the eq. 4 adaptive feedforward with its estimator (RLS or IV) */

@@ -15,7 +15,7 @@ from adaptive_ff.identification.regression import FrictionEstimate, RegressionMo
 from adaptive_ff.compensation.sliding_estimator import SlidingFit, fit_sliding
 from adaptive_ff.identification.stribeck_fit import StribeckFit
 from controllers.simulation.closed_loop import ModeOptions, run_mode, run_own
-from controllers.simulation.compensators import ESTIMATORS, MODES
+from controllers.simulation.compensators import ESTIMATORS, MODES, check_estimator
 from controllers.simulation.memory import MODE_SIGNALS, PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
 from controllers.simulation.metrics import deviation_rms, first_active_time
 from controllers.simulation.user_compensator import CompensatorContext
@@ -299,13 +299,14 @@ class CompareOptions:
         the DOB's nominal inertia. Default None: the plant's ``J``, as a data sheet would give it.
     lag : bool
         Filter the feedforward through the estimated lag.
-    estimator : {"sliding", "eq4", "eq4-iv"}
-        Estimator of the ``adaptive`` mode.
+    estimator : {"sliding", "eq4", "eq4-rls"}
+        Estimator of the ``adaptive`` mode: ``eq4`` the paper's eq. 4 by instrumental variables (consistent in the
+        closed loop), ``eq4-rls`` by the paper's RLS as printed (biased there; the baseline).
     estimator_rows : tuple of str
         Further estimators of :data:`controllers.simulation.compensators.ESTIMATORS` whose mode ``adaptive`` runs
         beside the others, each a row ``adaptive[E]`` of the table (right after ``adaptive``, or where it would
         stand in the registry's order), with the settings of ``adaptive`` but the estimator, on the same
-        reference and noise: e.g. ``("eq4-iv", "eq4")`` puts the paper's eq. 4 by instrumental variables and by
+        reference and noise: e.g. ``("eq4", "eq4-rls")`` puts the paper's eq. 4 by instrumental variables and by
         its RLS beside the default. Default ``()``. Each differs from ``estimator`` and from the others.
     fixed_method : {"sliding", "eq4"}
         Offline identification of the ``fixed`` mode (:data:`FIXED_METHODS`).
@@ -316,8 +317,8 @@ class CompareOptions:
         for that scheme, see the benchmark pages).
     sign_width, T_filter, forgetting, warmup, dwell_max, offset
         Adaptive feedforward settings (:class:`controllers.simulation.compensators.ModeOptions`). ``warmup``
-        (sliding-regime RLS updates before the feedforward switches on; also the ``canudas`` and ``eq4``
-        warm-up) defaults to 50: on every plant of ``benchmarks/variants.py`` the second-half eta of
+        (sliding-regime RLS updates before the feedforward switches on; also the ``canudas``, ``eq4`` and
+        ``eq4-rls`` warm-up) defaults to 50: on every plant of ``benchmarks/variants.py`` the second-half eta of
         ``adaptive`` is that of 200 updates (the pre-fit start and the plausibility tests carry the
         safety), and the feedforward acts about twice as early (docs/benchmarks/variants.md).
     sign_input : {"observer", "measured"}
@@ -351,8 +352,8 @@ class CompareOptions:
     switch_in : bool
         Mode ``adaptive`` with any estimator: the residual observer of ``adaptive-dob`` switched in by itself where
         the feedforward leaves too much of the friction (:class:`controllers.simulation.compensators.ModeOptions`
-        ``switch_in``); default True. False: the feedforward alone (with ``estimator="eq4"`` the paper's bare
-        prototype).
+        ``switch_in``); default True. False: the feedforward alone (with ``estimator="eq4-rls"`` the paper's
+        bare prototype).
     faults : mapping int -> float or None
         Measurement faults injected in every mode (see :func:`controllers.simulation.closed_loop.run_closed_loop`).
     reference : Reference or None
@@ -435,8 +436,8 @@ class CompareOptions:
             object.__setattr__(self, "duration", _reference_duration(self.reference, self.Tc))
         check_positive("duration", self.duration)
         check_nonnegative("noise_std", self.noise_std)
-        for key, value, allowed in (("estimator", self.estimator, ESTIMATORS),
-                                    ("ff_input", self.ff_input, ("measured", "reference")),
+        check_estimator("estimator", self.estimator)
+        for key, value, allowed in (("ff_input", self.ff_input, ("measured", "reference")),
                                     ("canudas_input", self.canudas_input, ("measured", "reference"))):
             if value not in allowed:
                 raise ParameterError(f"{key} must be one of {allowed}, got {value!r}")
@@ -489,8 +490,7 @@ class CompareOptions:
         if isinstance(rows, str) or not isinstance(rows, (tuple, list)):
             raise ParameterError(f"estimator_rows must be a tuple of estimators {ESTIMATORS}, got {rows!r}")
         for e in rows:
-            if e not in ESTIMATORS:
-                raise ParameterError(f"estimator_rows: unknown estimator {e!r}; known: {ESTIMATORS}")
+            check_estimator("estimator_rows", e)
             if e == self.estimator:
                 raise ParameterError(f"estimator_rows: {e!r} is the estimator of the adaptive mode's own row")
         if len(set(rows)) != len(rows):
@@ -644,7 +644,7 @@ def run_notes(results: dict) -> tuple:
 
 def mode_width(names) -> int:
     """Width of a comparison table's mode column: 13 characters, or one more than the longest of ``names``
-    (an estimator row ``adaptive[eq4-iv]``, a long name of your own compensator)."""
+    (an estimator row ``adaptive[eq4-rls]``, a long name of your own compensator)."""
     return max([13] + [len(n) + 1 for n in names])
 
 

@@ -285,7 +285,7 @@ class ZooOptions:
         the encoder's velocity (``"difference"`` or ``"kalman"``, at its default bandwidth) in every run, as :class:`controllers.experiments.compare.CompareOptions`; default none of them. The
         torque limit is each joint's ``u_max`` of ``compare``: three times its measured friction level plus
         its design inertia times the reference's peak acceleration.
-    estimator : {"sliding", "eq4", "eq4-iv"}
+    estimator : {"sliding", "eq4", "eq4-rls"}
         Estimator of the ``adaptive`` and ``adaptive-dob`` modes, as :class:`controllers.experiments.compare.CompareOptions`;
         default ``"sliding"``.
     compensators : dict or None

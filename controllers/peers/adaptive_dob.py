@@ -27,7 +27,7 @@ the bound); ``ctl_adob_compensate`` and ``ctl_adob_observe`` (the
 them and are the one implementation, called by
 :class:`AdaptiveDOBCompensator`'s methods and by the closed-loop engine. Over
 the paper's eq. 4 feedforward (:class:`adaptive_ff.AdaptiveFrictionFeedforward`,
-estimators ``eq4`` and ``eq4-iv``) the struct is ``ctl_eq4_dob``, the same
+estimators ``eq4`` and ``eq4-rls``) the struct is ``ctl_eq4_dob``, the same
 composite with ``aff_eq4_ff`` in place of ``aff_robust_ff``.
 
 Mode ``adaptive`` is the same composite with a :class:`ResidualSwitchIn`: the observer runs from the start, but

@@ -7,7 +7,7 @@ mode              objects (:func:`build_mode`)
 ``fixed``         :class:`adaptive_ff.FrictionFeedforward` of an offline estimate (``options.estimate``)
 ``adaptive``      :class:`adaptive_ff.RobustAdaptiveFeedforward` on a
                   :class:`adaptive_ff.SlidingFrictionEstimator` (``estimator="sliding"``), or the paper's eq. 4
-                  RLS feedforward (``estimator="eq4"``)
+                  RLS feedforward (``estimator="eq4-rls"``) or eq. 4 by instrumental variables (``"eq4"``)
 ``adaptive-dob``  :class:`controllers.peers.adaptive_dob.AdaptiveDOBCompensator`: the sliding ``adaptive``
                   feedforward plus a :class:`controllers.DisturbanceObserver` on the residual
 ``canudas``       :class:`controllers.CanudasCompensator` (Canudas de Wit, Åström, Braun 1987)
@@ -41,22 +41,34 @@ from controllers.peers.canudas import CanudasCompensator
 from controllers.peers.dob import DisturbanceObserver
 from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive
 
-__all__ = ["MODES", "ESTIMATORS", "ModeOptions", "TrueFriction", "build_mode", "build_modes", "REGISTRY",
-           "SUPERVISED_MODES", "build_supervisor"]
+__all__ = ["MODES", "ESTIMATORS", "check_estimator", "ModeOptions", "TrueFriction", "build_mode", "build_modes",
+           "REGISTRY", "SUPERVISED_MODES", "build_supervisor"]
 
 #: Modes whose compensation a :class:`adaptive_ff.compensation.supervisor.FeedforwardSupervisor` watches when
 #: ``ModeOptions.supervise`` (the adaptive ones: their estimate may be wrong).
 SUPERVISED_MODES = ("adaptive", "adaptive-dob")
 
-#: Default sample time (s) and memory (s, ``lam = 1 - Ts/memory``) of the ``eq4-iv`` estimator
+#: Default sample time (s) and memory (s, ``lam = 1 - Ts/memory``) of the ``eq4`` estimator
 #: (``ModeOptions.iv_Ts``, ``lam``): the IV removes the noise bias that keeps eq. 4's LS at 10 ms, and at 2 ms the
 #: backward differences of eq. 4 misstate the lag less (docs/theory.md).
 _IV_TS = 0.002
 _IV_MEMORY = 5.0
 
 #: Estimators of the ``adaptive`` mode: the sliding-regime inverse-dynamics RLS (default), the paper's eq. 4
-#: RLS at Ts (baseline) or eq. 4 by recursive IV on the sliding samples (``eq4-iv``, docs/theory.md).
-ESTIMATORS = ("sliding", "eq4", "eq4-iv")
+#: estimated consistently in the closed loop by recursive IV on the sliding samples (``eq4``, docs/theory.md), or
+#: eq. 4 by the paper's RLS as printed (eqs. 10-13) at Ts (``eq4-rls``, the baseline: biased in the closed loop).
+ESTIMATORS = ("sliding", "eq4", "eq4-rls")
+
+
+def check_estimator(name: str, value) -> None:
+    """Raise :class:`plant.errors.ParameterError` naming ``name`` unless ``value`` is one of :data:`ESTIMATORS`;
+    the former name ``"eq4-iv"`` (until 2026-11-24; then ``"eq4"`` was the paper's RLS, now ``"eq4-rls"``) is
+    refused with its new name."""
+    if value == "eq4-iv":
+        raise ParameterError(f"{name}: the estimator 'eq4-iv' is now 'eq4' (and the paper's RLS as printed, "
+                             f"formerly 'eq4', is 'eq4-rls')")
+    if value not in ESTIMATORS:
+        raise ParameterError(f"{name} must be one of {ESTIMATORS}, got {value!r}")
 
 
 class TrueFriction:
@@ -88,7 +100,7 @@ class ModeOptions:
         Controller period = integration step (s), default 1 ms.
     Ts : float
         Estimator sample time (s), a multiple of ``Tc``; default 10 ms (paper): the RLS update period of the
-        ``sliding`` estimator and of ``canudas``, the identification sample time of ``eq4`` (``eq4-iv``: ``iv_Ts``).
+        ``sliding`` estimator and of ``canudas``, the identification sample time of ``eq4-rls`` (``eq4``: ``iv_Ts``).
     noise_std : float
         White velocity-measurement noise (rad/s).
     J_design : float or None
@@ -97,17 +109,17 @@ class ModeOptions:
     estimate : FrictionEstimate or None
         Offline estimate for ``fixed``.
     model : RegressionModel or None
-        Regression structure for ``estimator="eq4"`` and ``"eq4-iv"``; for ``"sliding"`` its Vs, delta are used
+        Regression structure for ``estimator="eq4"`` and ``"eq4-rls"``; for ``"sliding"`` its Vs, delta are used
         when ``Vs``/``delta`` are not given.
-    estimator : {"sliding", "eq4", "eq4-iv"}
-        Estimator of the ``adaptive`` mode; ``eq4-iv``: eq. 4 by recursive IV with delayed instruments on the
+    estimator : {"sliding", "eq4", "eq4-rls"}
+        Estimator of the ``adaptive`` mode; ``eq4``: eq. 4 by recursive IV with delayed instruments on the
         samples above ``model.Vs`` (:class:`adaptive_ff.AdaptiveFrictionFeedforward` with ``iv=True``,
         ``w_band=model.Vs``).
     Vs, delta : float or None
         Stribeck factors for the sliding estimator (pre-fit).
     lam : float or None
-        Forgetting factor per update; default 0.995 (``sliding``, ``eq4``), 0.999 (``canudas``), ``1 - iv_Ts/5``
-        for ``eq4-iv`` (a memory of 5 s: the IV estimate's variance exceeds the LS one's).
+        Forgetting factor per update; default 0.995 (``sliding``, ``eq4-rls``), 0.999 (``canudas``), ``1 - iv_Ts/5``
+        for ``eq4`` (a memory of 5 s: the IV estimate's variance exceeds the LS one's).
     P0, warmup, lag, forgetting, T_filter, initial, dwell_max, offset
         Estimator settings (see :class:`adaptive_ff.SlidingFrictionEstimator`,
         :class:`adaptive_ff.RobustAdaptiveFeedforward`).
@@ -197,7 +209,7 @@ class ModeOptions:
         Cut-off of its Q-filter (rad/s); default None: ``Kp/J_design``, the loop's crossover (``omega`` of
         :func:`build_supervisor`).
     iv_Ts : float or None
-        Sample time (s) of the ``eq4-iv`` estimator, a multiple of ``Tc``; default None: 2 ms (rounded to a multiple
+        Sample time (s) of the ``eq4`` estimator, a multiple of ``Tc``; default None: 2 ms (rounded to a multiple
         of ``Tc``, at least ``Tc``). ``Ts`` is that of the other estimators.
     supervise_rest_band : float or None
         The reference is at rest where ``|w_ref|`` is at most this (rad/s): the supervisor applies no compensation
@@ -276,8 +288,7 @@ class ModeOptions:
         check_positive("omega_r", self.omega_r)
         if self.iv_Ts is not None:
             check_multiple("iv_Ts", self.iv_Ts, "Tc", self.Tc)
-        if self.estimator not in ESTIMATORS:
-            raise ParameterError(f"estimator must be one of {ESTIMATORS}, got {self.estimator!r}")
+        check_estimator("estimator", self.estimator)
         if self.ff_input not in ("reference", "measured"):
             raise ParameterError(f"ff_input must be 'reference' or 'measured', got {self.ff_input!r}")
         if self.stick_input not in ("model", "reference"):
@@ -408,14 +419,14 @@ def _adaptive_feedforward(plant, o):
     J, ff_max = _ctx(plant, o)
     lam = 0.995 if o.lam is None else o.lam
     Ts = o.Ts
-    if o.estimator == "eq4-iv":
+    if o.estimator == "eq4":
         Ts = o.Tc * max(1, round(_IV_TS / o.Tc)) if o.iv_Ts is None else o.iv_Ts
         lam = 1.0 - Ts / _IV_MEMORY if o.lam is None else o.lam
-    if o.estimator in ("eq4", "eq4-iv"):
+    if o.estimator in ("eq4", "eq4-rls"):
         if o.model is None:
             raise ParameterError(f"mode 'adaptive' with estimator {o.estimator!r} needs model=RegressionModel(Vs, "
                                  f"delta, ...)")
-        if o.estimator == "eq4":  # the paper's prototype: RLS on every sample, the bare feedforward
+        if o.estimator == "eq4-rls":  # the paper's prototype: RLS on every sample, the bare feedforward
             return plant, AdaptiveFrictionFeedforward(o.model, Ts=o.Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup,
                                                       lag=o.lag, ff_max=ff_max, ff_input=o.ff_input)
         m = o.model  # with the constant-torque column (offset), as the sliding estimator's
