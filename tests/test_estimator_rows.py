@@ -16,6 +16,7 @@ from controllers.cli.main import main
 from controllers.experiments.compare import CompareOptions, compare
 from plant.errors import ParameterError
 from plant.friction import preset
+from plant.variant_plants import variant
 
 _BASE = dict(duration=4.0, seed=3, progress=False)
 
@@ -91,3 +92,34 @@ def test_rows_alone_need_the_prefit_and_the_refusal_names_their_mode():
     with pytest.raises(ParameterError, match=r"modes \['adaptive'\] need Vs and delta"):
         compare(preset("paper"), modes=("none", "dob", "frictionless"), estimator_rows=("eq4-rls",), prefit=False,
                 **_BASE)
+
+
+def test_a_mode_worse_than_none_gets_a_note_that_names_the_missing_switch_in():
+    # the paper's RLS as printed, as the feedforward alone, on the Karnopp variant: its biased estimate makes the
+    # loop stick and slip (eta -2.0 at 120 s, docs/benchmarks/compensation.md); with the switch-in, the default, the
+    # same estimator is at the frictionless loop (0.995) and no note is given
+    base = dict(modes=("none", "adaptive", "frictionless"), estimator="eq4-rls", duration=30.0, seed=0, progress=False)
+    bare = compare(variant("karnopp"), switch_in=False, **base)
+    assert bare.eta["adaptive"] < -0.5
+    (note,) = [n for n in bare.notes if "worse than no compensation" in n]
+    assert note.startswith(f"adaptive: worse than no compensation (eta {bare.eta['adaptive']:.2f} ")
+    assert "feedforward alone (switch_in=False, --no-switch-in), with estimator 'eq4-rls'" in note
+    guarded = compare(variant("karnopp"), **base)
+    assert guarded.eta["adaptive"] > 0.9
+    assert not [n for n in guarded.notes if "worse than no compensation" in n]
+
+
+def test_worse_than_none_notes_threshold_and_modes():
+    from types import SimpleNamespace
+
+    from controllers.experiments.compare import WORSE_THAN_NONE, worse_than_none_notes
+
+    results = {m: SimpleNamespace(info=info) for m, info in (
+        ("fixed", {}), ("adaptive", {"estimator": "sliding", "t_switch_in": None}),
+        ("adaptive[eq4-rls]", {"estimator": "eq4-rls"}), ("dob", {}))}
+    etas = {"fixed": WORSE_THAN_NONE, "adaptive": -0.5, "adaptive[eq4-rls]": -0.03, "dob": None}
+    notes = worse_than_none_notes(etas, results)
+    # fixed at the threshold itself is not worse than none; undefined eta gives no note
+    assert [n.split(":")[0] for n in notes] == ["adaptive", "adaptive[eq4-rls]"]
+    assert "feedforward alone" not in notes[0]  # adaptive ran with its switch-in
+    assert "with estimator 'eq4-rls'" in notes[1]

@@ -32,7 +32,13 @@ from plant.sampling import sample
 
 __all__ = ["Comparison", "CompareOptions", "ComparisonSetup", "compare", "comparison_reference", "eta",
            "FIXED_METHODS", "PREFIT_MODES", "compensator_context", "mode_width", "number_text", "friction_scale",
-           "measurement_noise", "prefit_stribeck", "prepare_comparison", "residual_cutoff", "run_notes"]
+           "measurement_noise", "prefit_stribeck", "prepare_comparison", "residual_cutoff", "run_notes",
+           "WORSE_THAN_NONE", "worse_than_none_notes"]
+
+#: eta below this is "worse than none" (:func:`worse_than_none_notes`, the zoo's
+#: :meth:`controllers.experiments.zoo.ZooResult.worse_than_none`): a compensation that raises the tracking error above
+#: the uncompensated loop's by more than 2 % of what friction costs it.
+WORSE_THAN_NONE = -0.02
 
 #: Offline identification behind the ``fixed`` mode: the sliding-regime
 #: inverse-dynamics LS (:func:`adaptive_ff.compensation.sliding_estimator.fit_sliding`,
@@ -606,7 +612,38 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
     etas = {mode: _eta_or_none(rn, r.metrics.rms_second_half, rf) for mode, r in results.items()}
     return Comparison(plant=p, design=s.design, results=results, eta=etas, prefit=s.prefit, offline=s.offline,
                       model=s.model, experiment=s.experiment, J_design=s.J_design,
-                      notes=tuple(s.notes) + run_notes(results), **_whole_run_metrics(results))
+                      notes=tuple(s.notes) + run_notes(results) + worse_than_none_notes(etas, results),
+                      **_whole_run_metrics(results))
+
+
+def worse_than_none_notes(etas: dict, results: dict) -> tuple:
+    """One note per mode whose eta is below :data:`WORSE_THAN_NONE`: it tracked worse than no compensation; for mode
+    ``adaptive`` (and its estimator rows) run as the feedforward alone (``switch_in=False``: no ``t_switch_in`` in its
+    ``info``) the note says that the residual switch-in, the default, is what guards against it.
+
+    Parameters
+    ----------
+    etas : dict of str to float or None
+        eta (second half) by mode, None where undefined.
+    results : dict of str to ClosedLoopResult
+        The runs by mode.
+
+    Returns
+    -------
+    tuple of str
+    """
+    notes = []
+    for mode, e in etas.items():
+        if e is None or not e < WORSE_THAN_NONE:
+            continue
+        text = f"{mode}: worse than no compensation (eta {e:.2f} over the second half)"
+        info = results[mode].info or {}
+        if (mode == "adaptive" or mode.startswith("adaptive[")) and "t_switch_in" not in info:
+            text += (f"; it ran as the feedforward alone (switch_in=False, --no-switch-in), with estimator "
+                     f"{info.get('estimator')!r}: the residual switch-in, the default, hands over to the observer "
+                     f"where the feedforward misses")
+        notes.append(text)
+    return tuple(notes)
 
 
 def run_notes(results: dict) -> tuple:

@@ -63,8 +63,8 @@ from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
-from controllers.experiments.compare import (CompareOptions, compensator_context, comparison_reference, eta,
-                                             prepare_comparison)
+from controllers.experiments.compare import (WORSE_THAN_NONE, CompareOptions, compensator_context,
+                                             comparison_reference, eta, prepare_comparison)
 from controllers.experiments.scenario import compensator_factories
 from controllers.simulation.batch import run_batch
 from controllers.simulation.memory import PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
@@ -355,9 +355,6 @@ class ZooOptions:
 
 #: Outcome of one (joint, mode), :meth:`ZooResult.status`.
 STATUSES = ("ok", "refused", "diverged", "undefined", "no reference", "invalid")
-#: eta below this is "worse than none" (:meth:`ZooResult.worse_than_none`): a compensation that raises the tracking
-#: error above the uncompensated loop's by more than 2 % of what friction costs it.
-WORSE_THAN_NONE = -0.02
 
 
 @dataclass(frozen=True)
