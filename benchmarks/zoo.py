@@ -2,7 +2,8 @@
 
 Run:  python benchmarks/zoo.py [--n 100] [--duration 120] [--seed 0] [--modes none,fixed,adaptive,dob,...]
                                [--group 8] [--workers 2] [--scheduler tcp://host:8786]
-                               [--min-degradation 0.01] [--estimator sliding|eq4|eq4-rls] [--json out.json]
+                               [--min-degradation 0.01] [--estimator sliding|eq4|eq4-rls] [--J-design-factor 1]
+                               [--json out.json]
 
 Draws the joints with :func:`controllers.experiments.zoo.draw_plants` (the box of
 :class:`controllers.experiments.zoo.ZooBox`), prepares each as ``compare`` does
@@ -45,13 +46,19 @@ def main(argv=None) -> int:
                     help="eta is undefined where friction raises the uncompensated RMS error by less than this share")
     ap.add_argument("--estimator", default="sliding", choices=("sliding", "eq4", "eq4-rls"),
                     help="estimator of the adaptive modes (default sliding)")
+    ap.add_argument("--J-design-factor", dest="J_design_factor", type=float, default=1.0,
+                    help="every joint's design inertia as this factor times its J (a data sheet off by it; default 1)")
     ap.add_argument("--json", default=None, help="write the full result (strict JSON) to this file")
     args = ap.parse_args(argv)
     o = ZooOptions(n=args.n, duration=args.duration, seed=args.seed, modes=tuple(args.modes.split(",")),
                    group=args.group, workers=args.workers, scheduler=args.scheduler,
-                   min_degradation=args.min_degradation, estimator=args.estimator)
+                   min_degradation=args.min_degradation, estimator=args.estimator,
+                   J_design_factor=args.J_design_factor)
     try:
         commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,
+                               text=True).stdout.strip()
+        commit += "+dirty" * bool(dirty)  # uncommitted changes: the numbers are not those of the commit alone
     except OSError:
         commit = "?"
     print(f"# {' '.join(['python benchmarks/zoo.py', *(argv if argv is not None else sys.argv[1:])])}")

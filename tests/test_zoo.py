@@ -251,3 +251,20 @@ def test_own_compensators_run_on_every_zoo_joint_in_worker_processes(tmp_path, m
     np.testing.assert_array_equal(r.eta["zero"], 0.0)
     with pytest.raises(ParameterError, match=r"\[compensators.x\] factory = 'no_such_file.py:Zero': no such file"):
         ZooOptions(n=1, compensators={"x": "no_such_file.py:Zero"})
+
+
+def test_a_design_inertia_off_by_a_factor_is_compare_with_that_J_design_on_each_joint():
+    # ZooOptions(J_design_factor=2): every joint designed with twice its inertia, as compare(J_design=2*J) on it
+    modes = ("none", "adaptive", "frictionless")
+    r = run_zoo(ZooOptions(n=2, duration=6.0, seed=2, modes=modes, workers=1, J_design_factor=2.0))
+    plain = run_zoo(ZooOptions(n=2, duration=6.0, seed=2, modes=modes, workers=1))
+    for j in range(2):
+        p = plant_from_dict(r.plants[j])
+        c = compare(p, duration=6.0, seed=2, modes=modes, progress=False, J_design=2.0 * p.J)
+        for m in modes:
+            assert r.rms[m][j] == pytest.approx(c.results[m].metrics.rms_second_half, rel=1e-12)
+        assert r.rms["adaptive"][j] != plain.rms["adaptive"][j]  # the design inertia reached the runs
+    assert zoo_options_dict(ZooOptions(J_design_factor=2.0))["J_design_factor"] == 2.0  # on the benchmark page
+    for bad in (0.0, -1.0, math.inf, math.nan):
+        with pytest.raises(ParameterError, match="J_design_factor"):
+            ZooOptions(J_design_factor=bad)

@@ -295,6 +295,10 @@ class ZooOptions:
         a relative file is relative to the working folder). Each runs on every joint with ``compare``'s context
         (:func:`controllers.experiments.compare.compensator_context`) and the joint's noise, one run per joint
         through the Python protocol (about ten times the engine's time per step), and appears among the modes.
+    J_design_factor : float
+        Every joint's design inertia (``CompareOptions.J_design``: the PI design, the estimators' start, the gates,
+        the observers' nominal inertia) is this factor times its true ``J``: a data sheet off by that factor. Default
+        1 (the joint's own ``J``, ``compare``'s default); finite, > 0.
     min_degradation : float
         eta of a joint is *undefined* (``None`` in JSON) where friction raises the second-half RMS error of the
         uncompensated loop by less than this share of the frictionless loop's, ``rms_none < (1 +
@@ -325,6 +329,7 @@ class ZooOptions:
     compensators: dict | None = None
     velocity: str = "difference"
     estimator: str = "sliding"
+    J_design_factor: float = 1.0
 
     def __post_init__(self):
         if self.reference is not None:  # its length sets the duration (checked with the step by CompareOptions)
@@ -351,6 +356,10 @@ class ZooOptions:
         if not (math.isfinite(md) and md >= 0.0):
             raise ParameterError(f"min_degradation must be a finite number >= 0, got {self.min_degradation!r}")
         object.__setattr__(self, "min_degradation", md)
+        f = float(self.J_design_factor)
+        if not (math.isfinite(f) and f > 0.0):
+            raise ParameterError(f"J_design_factor must be a finite number > 0, got {self.J_design_factor!r}")
+        object.__setattr__(self, "J_design_factor", f)
 
 
 #: Outcome of one (joint, mode), :meth:`ZooResult.status`.
@@ -588,11 +597,14 @@ class ZooResult:
         return lines
 
 
-def _prepare(spec, o: CompareOptions, ref) -> tuple:
+def _prepare(spec, o: CompareOptions, ref, J_design_factor: float = 1.0) -> tuple:
     """(mode options, noise seed, {mode: reason it cannot be built}, notes, the context of own compensators) of
-    one joint on the comparison reference ``ref`` of ``o``, or the reason it was refused (last item)."""
+    one joint on the comparison reference ``ref`` of ``o`` with the design inertia ``J_design_factor`` times its
+    ``J`` (1: ``o``'s own), or the reason it was refused (last item)."""
     try:
         p = plant_from_dict(spec)
+        if J_design_factor != 1.0:
+            o = replace(o, J_design=J_design_factor * p.J)
         plant_table(p, ref.t, o.Tc)  # refuses a plant the engine cannot integrate (every row)
         s = prepare_comparison(p, o, reference=ref)
         s.bar.close()
@@ -619,10 +631,10 @@ def _group_task(args) -> dict:
     """
     import time
 
-    specs, co, modes, own = args
+    specs, co, modes, own, J_design_factor = args
     t0 = time.process_time()
     ref = _reference(co)  # once per group: the same reference for every joint
-    prepared = [_prepare(s, co, ref) for s in specs]
+    prepared = [_prepare(s, co, ref, J_design_factor) for s in specs]
     t1 = time.process_time()
     n = len(specs)
     noise = {}
@@ -773,7 +785,7 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
     specs = draw_plants(o.n, _reference(co), seed=o.seed, box=o.box)
     starts = [a for a, _ in bounds]
     own = tuple(o.compensators or ())
-    out = _map(_group_task, [(specs[a:b], co, o.modes, o.compensators) for a, b in bounds], o)
+    out = _map(_group_task, [(specs[a:b], co, o.modes, o.compensators, o.J_design_factor) for a, b in bounds], o)
     refused, mode_refused, notes = {}, {}, {}
     modes = o.modes + own
     rms = {m: np.full(n, math.nan) for m in modes}
