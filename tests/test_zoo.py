@@ -268,3 +268,43 @@ def test_a_design_inertia_off_by_a_factor_is_compare_with_that_J_design_on_each_
     for bad in (0.0, -1.0, math.inf, math.nan):
         with pytest.raises(ParameterError, match="J_design_factor"):
             ZooOptions(J_design_factor=bad)
+
+
+def test_observers_take_the_identified_inertia_where_the_design_inertia_is_contradicted():
+    # paper preset designed for twice its inertia: the identification run finds 4.08 kg·m² (true 4), the observers
+    # take it and say so; with the design inertia (8) as their nominal one dob and adaptive-dob track worse
+    # (measured 30 s, seed 0: dob 0.931 against 0.788, adaptive-dob 0.996 against 0.833)
+    from dataclasses import replace
+
+    from controllers.experiments.compare import J_CONTRADICTED, observer_inertia
+    from controllers.simulation.closed_loop import run_mode
+    from plant.friction import preset
+
+    p = preset("paper")
+    s = prepare_comparison(p, CompareOptions(duration=30.0, seed=0, modes=("none", "fixed", "dob", "adaptive-dob"),
+                                             J_design=2.0 * p.J))
+    s.bar.close()
+    J_n = s.mode_options["dob"].J_n
+    assert J_n == s.offline.estimate.J and abs(J_n / p.J - 1.0) < 0.05
+    assert all(o.J_n == J_n for o in s.mode_options.values())
+    (note,) = [n for n in s.notes if n.startswith("the design inertia 8 kg·m² is ")]
+    assert f"{J_n:.4g} kg·m² of the identification run" in note
+
+    def eta_of(mode, **kw):
+        r = {m: run_mode(p, s.reference, m, replace(s.mode_options[m], **(kw if m == mode else {})),
+                         rng=np.random.default_rng(s.noise_seed)).metrics.rms_second_half
+             for m in ("none", "frictionless", mode)}
+        return (r["none"] - r[mode]) / (r["none"] - r["frictionless"])
+
+    for mode in ("dob", "adaptive-dob"):
+        assert eta_of(mode) > eta_of(mode, J_n=None) + 0.1
+    # the rule itself: contradicted beyond J_CONTRADICTED either way, never without an accepted estimate
+    est = s.offline.estimate
+    assert observer_inertia(est.J, est) is None and observer_inertia(est.J * J_CONTRADICTED * 0.99, est) is None
+    assert observer_inertia(est.J * J_CONTRADICTED * 1.01, est) == est.J
+    assert observer_inertia(est.J / (J_CONTRADICTED * 1.01), est) == est.J
+    assert observer_inertia(8.0, None) is None and observer_inertia(8.0, replace(est, J=math.nan)) is None
+    # with the right design inertia nothing changes
+    s1 = prepare_comparison(p, CompareOptions(duration=30.0, seed=0, modes=("none", "fixed", "dob")))
+    s1.bar.close()
+    assert s1.mode_options["dob"].J_n is None and not [n for n in s1.notes if "design inertia" in n]

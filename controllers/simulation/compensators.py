@@ -157,8 +157,10 @@ class ModeOptions:
         (observer poles a few times faster than the loop's, Franklin, Powell & Workman, *Digital Control of
         Dynamic Systems*, 3rd ed., 1998, Sec. 8.3).
     J_n, omega_q : float or None, float
-        Disturbance observer (``dob`` and the residual observer of ``adaptive-dob``): nominal inertia
-        (default ``J_design``) and Q-filter cut-off (rad/s).
+        Nominal inertia of every observer (kg·m²; default ``J_design``): the disturbance observer of ``dob``, the
+        residual observer of ``adaptive`` and ``adaptive-dob`` with the switch-in's loop model, and the supervisor's
+        statistic; an observer enforces its nominal inertia (docs/benchmarks/compensation.md, "A design inertia off
+        by a factor"). ``omega_q``: the Q-filter cut-off of ``dob`` (rad/s).
     omega_r : float
         Q-filter cut-off (rad/s) of the residual observer of ``adaptive-dob``; default 1000 (its input is
         the small residual ``f - u_ff``; measured on ``paper``: RMS deviation from the frictionless run
@@ -286,6 +288,8 @@ class ModeOptions:
         check_positive("Tc", self.Tc)
         check_multiple("Ts", self.Ts, "Tc", self.Tc)
         check_positive("omega_r", self.omega_r)
+        if self.J_n is not None:
+            check_positive("J_n", self.J_n)
         if self.iv_Ts is not None:
             check_multiple("iv_Ts", self.iv_Ts, "Tc", self.Tc)
         check_estimator("estimator", self.estimator)
@@ -334,8 +338,8 @@ def build_supervisor(plant, mode: str, options: ModeOptions, *, force: bool = Fa
     one of :data:`SUPERVISED_MODES` (or ``force``: any compensator, e.g. your own in
     :func:`controllers.simulation.closed_loop.run_own`), else None.
 
-    Its settings: ``Tc``, ``J_n = J_design`` (default the plant's J), ``omega = supervise_omega`` (default
-    ``Kp/J_n``, the loop's crossover; ``10/supervise_window`` rad/s where ``Kp`` is 0), ``window =
+    Its settings: ``Tc``, ``J_n`` (default ``J_design``, the plant's J where that is None), ``omega =
+    supervise_omega`` (default ``Kp/J_design``, the loop's design crossover; ``10/supervise_window`` rad/s where ``Kp`` is 0), ``window =
     supervise_window``, ``margin = supervise_margin``, ``rest_band = supervise_rest_band``, ``delay`` = the options'
     measurement delay (periods).
 
@@ -365,7 +369,8 @@ def build_supervisor(plant, mode: str, options: ModeOptions, *, force: bool = Fa
     omega = options.supervise_omega
     if omega is None:
         omega = options.Kp / J if options.Kp > 0 else 10.0 / options.supervise_window
-    return FeedforwardSupervisor(Tc=options.Tc, J_n=J, omega=omega, window=options.supervise_window,
+    J_n = J if options.J_n is None else options.J_n
+    return FeedforwardSupervisor(Tc=options.Tc, J_n=J_n, omega=omega, window=options.supervise_window,
                                  margin=options.supervise_margin, rest_band=options.supervise_rest_band,
                                  delay=int(options.delay))
 
@@ -409,7 +414,7 @@ def _adaptive(plant, o):
         return plant, ff
     J, ff_max = _ctx(plant, o)
     _, dob = _dob(plant, replace(o, omega_q=o.omega_r))
-    sw = ResidualSwitchIn(Tc=o.Tc, J_n=J, Kp=o.Kp, Ki=o.Ki, ratio=o.switch_in_ratio)
+    sw = ResidualSwitchIn(Tc=o.Tc, J_n=J if o.J_n is None else o.J_n, Kp=o.Kp, Ki=o.Ki, ratio=o.switch_in_ratio)
     return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max, switch_in=sw)
 
 
