@@ -29,7 +29,7 @@ import sys
 import time
 
 from controllers.experiments.zoo import ZooOptions, run_zoo, zoo_options_dict
-from controllers.simulation.compensators import MODES
+from controllers.simulation.compensators import ESTIMATORS, MODES
 
 
 def main(argv=None) -> int:
@@ -44,7 +44,7 @@ def main(argv=None) -> int:
                     help="Dask: 'synchronous', 'threads', 'processes' (local schedulers) or a scheduler address")
     ap.add_argument("--min-degradation", type=float, default=0.01,
                     help="eta is undefined where friction raises the uncompensated RMS error by less than this share")
-    ap.add_argument("--estimator", default="sliding", choices=("sliding", "eq4", "eq4-rls"),
+    ap.add_argument("--estimator", default="sliding", choices=ESTIMATORS,
                     help="estimator of the adaptive modes (default sliding)")
     ap.add_argument("--J-design-factor", dest="J_design_factor", type=float, default=1.0,
                     help="every joint's design inertia as this factor times its J (a data sheet off by it; default 1)")

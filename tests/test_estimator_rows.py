@@ -123,3 +123,13 @@ def test_worse_than_none_notes_threshold_and_modes():
     assert [n.split(":")[0] for n in notes] == ["adaptive", "adaptive[eq4-rls]"]
     assert "feedforward alone" not in notes[0]  # adaptive ran with its switch-in
     assert "with estimator 'eq4-rls'" in notes[1]
+
+
+def test_the_cli_offers_exactly_the_package_estimators():
+    # the CLI's parser names the choices itself (it is built without importing the compiled core)
+    from controllers.cli.main import build_parser
+    from controllers.simulation.compensators import ESTIMATORS
+
+    sub = next(a for a in build_parser()._subparsers._group_actions[0].choices["compare"]._actions
+               if a.dest == "estimator")
+    assert tuple(sub.choices) == ESTIMATORS

@@ -1,7 +1,8 @@
 /* ctl_adob.h -- the adaptive friction feedforward plus a disturbance observer on the residual (mode
  * "adaptive-dob"; with the residual switch-in, mode "adaptive"), for either feedforward: ctl_adob embeds the
  * sliding estimator's aff_robust_ff, ctl_eq4_dob the paper's eq. 4 feedforward aff_eq4_ff (estimator "eq4" or
- * "eq4-rls"). Both compose their parts the same way, through their shared part ctl_residual (the observer, the switch-in, the bound).
+ * "eq4-rls"). Both compose their parts the same way, through their shared part ctl_residual (the observer, the
+ * switch-in, the bound).
  *
  * Per period: u_ff from the robust adaptive feedforward (aff_robust_ff, 0 before its switch-on, faded in
  * after), d_hat from the disturbance observer (ctl_dob), output u_ff + d_hat clipped to +-u_max. The observer

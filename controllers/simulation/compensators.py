@@ -333,15 +333,20 @@ def _ctx(plant, o: ModeOptions) -> tuple:
     return J, ff_max
 
 
+def _nominal_inertia(plant, o: ModeOptions) -> float:
+    """The nominal inertia of every observer (kg·m²): ``o.J_n``, else the design inertia (``ModeOptions.J_n``)."""
+    return _ctx(plant, o)[0] if o.J_n is None else float(o.J_n)
+
+
 def build_supervisor(plant, mode: str, options: ModeOptions, *, force: bool = False) -> FeedforwardSupervisor | None:
     """The supervisor of one scenario: a :class:`FeedforwardSupervisor` where ``options.supervise`` and ``mode`` is
     one of :data:`SUPERVISED_MODES` (or ``force``: any compensator, e.g. your own in
     :func:`controllers.simulation.closed_loop.run_own`), else None.
 
-    Its settings: ``Tc``, ``J_n`` (default ``J_design``, the plant's J where that is None), ``omega =
-    supervise_omega`` (default ``Kp/J_design``, the loop's design crossover; ``10/supervise_window`` rad/s where ``Kp`` is 0), ``window =
-    supervise_window``, ``margin = supervise_margin``, ``rest_band = supervise_rest_band``, ``delay`` = the options'
-    measurement delay (periods).
+    Its settings: ``Tc``, ``J_n`` (``options.J_n``, else the design inertia), ``omega =
+    supervise_omega`` (default ``Kp/J_design``, the loop's design crossover; ``10/supervise_window`` rad/s where
+    ``Kp`` is 0), ``window = supervise_window``, ``margin = supervise_margin``, ``rest_band = supervise_rest_band``,
+    ``delay`` = the options' measurement delay (periods).
 
     Parameters
     ----------
@@ -369,8 +374,8 @@ def build_supervisor(plant, mode: str, options: ModeOptions, *, force: bool = Fa
     omega = options.supervise_omega
     if omega is None:
         omega = options.Kp / J if options.Kp > 0 else 10.0 / options.supervise_window
-    J_n = J if options.J_n is None else options.J_n
-    return FeedforwardSupervisor(Tc=options.Tc, J_n=J_n, omega=omega, window=options.supervise_window,
+    return FeedforwardSupervisor(Tc=options.Tc, J_n=_nominal_inertia(plant, options), omega=omega,
+                                 window=options.supervise_window,
                                  margin=options.supervise_margin, rest_band=options.supervise_rest_band,
                                  delay=int(options.delay))
 
@@ -412,9 +417,9 @@ def _adaptive(plant, o):
     _, ff = _adaptive_feedforward(plant, o)
     if not o.switch_in or o.Kp <= 0.0:
         return plant, ff
-    J, ff_max = _ctx(plant, o)
+    _, ff_max = _ctx(plant, o)
     _, dob = _dob(plant, replace(o, omega_q=o.omega_r))
-    sw = ResidualSwitchIn(Tc=o.Tc, J_n=J if o.J_n is None else o.J_n, Kp=o.Kp, Ki=o.Ki, ratio=o.switch_in_ratio)
+    sw = ResidualSwitchIn(Tc=o.Tc, J_n=_nominal_inertia(plant, o), Kp=o.Kp, Ki=o.Ki, ratio=o.switch_in_ratio)
     return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max, switch_in=sw)
 
 
@@ -474,8 +479,8 @@ def _canudas(plant, o):
 
 
 def _dob(plant, o):
-    J, ff_max = _ctx(plant, o)
-    return plant, DisturbanceObserver(J_n=J if o.J_n is None else o.J_n, omega_q=o.omega_q, Tc=o.Tc, d_max=ff_max)
+    _, ff_max = _ctx(plant, o)
+    return plant, DisturbanceObserver(J_n=_nominal_inertia(plant, o), omega_q=o.omega_q, Tc=o.Tc, d_max=ff_max)
 
 
 #: Mode name -> builder ``(plant, options) -> (plant to simulate, compensator or None)``.
