@@ -41,6 +41,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(__name__, submod_attrs={
     "identification.simulator": ["simulate_sampled"],
     "identification.steady_state": ["SupportPoints", "binned_steady_state", "constant_velocity_segments",
                                     "support_points"],
+    "identification.steady_state_check": ["SteadyStateCheck", "steady_state_check"],
     "identification.stribeck_fit": ["StribeckFit", "fit_stribeck", "plot_stribeck_fit"],
 })
 
@@ -57,6 +58,7 @@ __all__ = [
     "load_log", "load_reference", "read_columns", "parse_column_map", "velocity_from_position", "VelocityEstimate",
     "LogUnits", "KalmanSettings",
     "SupportPoints", "support_points", "constant_velocity_segments", "binned_steady_state",
+    "SteadyStateCheck", "steady_state_check",
     "RobustAdaptiveFeedforward", "OutlierGate", "RangeGate", "FORGETTING", "export_c", "CExport",
     "SlidingFrictionEstimator", "SlidingFit", "fit_sliding", "sliding_regressors", "SLIDING_NAMES",
     "excitation_report", "ExcitationReport", "velocity_noise_std",

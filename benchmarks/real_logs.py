@@ -15,7 +15,13 @@ of the paper's identified models on the same samples; the column ``CV`` is its C
 uniform grid of the log's velocity range (1st to 99th percentile of ``|w|``, both signs), relative to the RMS of
 ``F_published`` on the same grid.
 
-Run (about 20 min of wall time on a shared 2-core machine, most of it the two `--form auto` searches)::
+Each log is identified as a user would: ``adaptive-ff identify LOG`` (the default: eq. 4 LS with residual
+block-bootstrap intervals), the same with ``--no-offset`` (the published model's form: no constant torque), and
+with ``--form auto`` (the model-form selection by output error); each answer's steady-state check (its line in
+the report, :mod:`adaptive_ff.identification.steady_state_check`) is printed with the published values against
+its static line's intervals. The static-curve path (support points, eq. 3 with fallback) is the last row.
+
+Run (the ``--form auto`` searches take most of it: several minutes per log)::
 
     python benchmarks/real_logs.py --repo-dir PATH_TO_CLONE/.git   # or without it: download (needs network)
 """
@@ -89,12 +95,42 @@ def curve_error(pkg: dict, Fc_pub: float, fv_pub: float, w: np.ndarray) -> float
     return 100.0 * float(np.sqrt(np.mean((ours - pub) ** 2)) / np.sqrt(np.mean(pub**2)))
 
 
-def identify(csv: Path) -> dict:
-    """``adaptive-ff identify CSV --form auto --units rad --json`` (the CLI, as a user runs it)."""
-    cmd = [sys.executable, "-m", "controllers.cli.main", "identify", str(csv), "--form", "auto", "--units", "rad",
-           "--json", "--quiet"]
+#: The ``adaptive-ff identify`` runs of each log: name -> extra CLI arguments.
+PATHS = {"identify": [], "identify --no-offset": ["--no-offset"], "identify --form auto": ["--form", "auto"]}
+
+
+def identify(csv: Path, extra: list) -> dict:
+    """``adaptive-ff identify CSV --units rad --json --quiet`` plus ``extra`` (the CLI, as a user runs it)."""
+    cmd = [sys.executable, "-m", "controllers.cli.main", "identify", str(csv), "--units", "rad", "--json", "--quiet",
+           *extra]
     res = subprocess.run(cmd, check=True, capture_output=True, text=True)
     return json.loads(res.stdout)
+
+
+def _inside(interval, value) -> bool | None:
+    """Whether ``value`` lies in ``[lo, hi]`` (None without an interval)."""
+    return None if not interval or None in interval else bool(interval[0] <= value <= interval[1])
+
+
+def path_row(name: str, path: str, rep: dict, log: dict) -> dict:
+    """One table row of an ``identify`` run: the answer, its intervals against the published values, and the
+    steady-state check (its flag, its static line and whether that line's intervals hold the published values)."""
+    iv = rep.get("interval95", {})
+    row = {"log": name, "path": path, "method": rep["method"], "form": (rep.get("form") or {}).get("label") or (rep.get("form") or {}).get("name", ""),
+           "Fc": rep["Fc"], "sigma": rep["sigma"], "offset": rep.get("offset"), "J": rep.get("J"),
+           "std": rep.get("std", {}), "Fc_inside_95": _inside(iv.get("Fc"), log["Fc"]),
+           "sigma_inside_95": _inside(iv.get("sigma"), log["fv"]),
+           "warnings": [w.get("code", "") if isinstance(w, dict) else str(w) for w in rep.get("warnings", [])]}
+    pkg = {"Fc": rep["Fc"], "Fs": rep.get("Fs") or rep["Fc"], "sigma": rep["sigma"], "Vs": rep.get("Vs"),
+           "delta": rep.get("delta")}
+    row["curve_error_percent"] = curve_error(pkg, log["Fc"], log["fv"], log["w"])
+    ss = rep.get("steady_state") or {}
+    line = ss.get("static") or {}
+    row["steady_state"] = {"flagged": ss.get("flagged"), "relative_miss": ss.get("relative_miss"),
+                           "n_points": ss.get("n_points"), "line": line,
+                           "Fc_inside_95": _inside(line.get("interval95", {}).get("Fc"), log["Fc"]),
+                           "sigma_inside_95": _inside(line.get("interval95", {}).get("sigma"), log["fv"])}
+    return row
 
 
 def static_fit(log: dict) -> dict:
@@ -116,48 +152,61 @@ def static_fit(log: dict) -> dict:
             "point_method": pts.method}
 
 
-def run(name: str, repo_dir: Path | None, cache: Path) -> dict:
-    """Fetch, convert to ``t,u,w``, identify, compare; returns one table row as a dict."""
+def run(name: str, repo_dir: Path | None, cache: Path, paths=tuple(PATHS)) -> dict:
+    """Fetch, convert to ``t,u,w``, identify by each of ``paths`` and by the static-curve path, compare."""
     log = read_log(name, raw_log(name, repo_dir, cache))
     csv = cache / f"{name}_tuw.csv"
     np.savetxt(csv, np.column_stack([log["t"], log["u"], log["w"]]), delimiter=",", header="t,u,w", comments="")
-    rep = identify(csv)
-    std = rep.get("std", {})
-    row = {"log": name, "form": rep["form"]["label"], "n": int(log["t"].size),
-           "Fc_pub": log["Fc"], "fv_pub": log["fv"], "cv_residual": log["cv_residual"],
-           "Fc": rep["Fc"], "sigma": rep["sigma"], "Fs": rep.get("Fs"), "J": rep.get("J"), "offset": rep.get("offset"),
-           "std_Fc": std.get("Fc"), "std_sigma": std.get("sigma"), "fit_percent": rep.get("fit_percent"),
-           "warnings": [w.get("subject", "") if isinstance(w, dict) else str(w) for w in rep.get("warnings", [])]}
-    pkg = {"Fc": rep["Fc"], "Fs": rep.get("Fs") or rep["Fc"], "sigma": rep["sigma"],
-           "Vs": rep.get("Vs"), "delta": rep.get("delta")}
-    row["curve_error_percent"] = curve_error(pkg, log["Fc"], log["fv"], log["w"])
+    out = {"log": name, "n": int(log["t"].size), "Fc_pub": log["Fc"], "fv_pub": log["fv"],
+           "cv_residual": log["cv_residual"], "paths": [path_row(name, p, identify(csv, PATHS[p]), log) for p in paths]}
     st = static_fit(log)
-    row["static"] = st
-    row["static_curve_error_percent"] = curve_error(st, log["Fc"], log["fv"], log["w"])
-    for k, pub in (("Fc", log["Fc"]), ("sigma", log["fv"])):
-        s = row[f"std_{k}"]
-        row[f"{k}_inside_95"] = None if s is None else bool(abs(row[k] - pub) <= 1.96 * s)
-    return row
+    st["curve_error_percent"] = curve_error(st, log["Fc"], log["fv"], log["w"])
+    out["static"] = st
+    return out
+
+
+def _yes(v) -> str:
+    return "-" if v is None else ("yes" if v else "**no**")
 
 
 def main(argv=None) -> int:
-    """Command line: ``--repo-dir``, ``--cache``, ``--only NAME``; prints one Markdown table row per log."""
+    """Command line: ``--repo-dir``, ``--cache``, ``--only NAME``, ``--paths``; prints a Markdown table (one row per
+    log and path) and the JSON of each log on stderr."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repo-dir", type=Path, default=None, help="git directory of a clone of " + REPO)
     ap.add_argument("--cache", type=Path, default=Path.home() / ".cache" / "adaptive-ff" / "real_logs")
     ap.add_argument("--only", choices=sorted(LOGS), default=None)
+    ap.add_argument("--paths", default=",".join(PATHS),
+                    help=f"comma-separated identify runs, of {list(PATHS)} (the --form auto search takes minutes)")
     args = ap.parse_args(argv)
-    print("| log | chosen form | Fc package ± std | Fc published | sigma package ± std | fv published | "
-          "curve error | inside 95 % (Fc, sigma) |")
-    print("|---|---|---|---|---|---|---|---|")
+    paths = [p.strip() for p in args.paths.split(",") if p.strip()]
+    bad = [p for p in paths if p not in PATHS]
+    if bad:
+        ap.error(f"--paths: unknown {bad}; choose from {list(PATHS)}")
+    print("| log, path | answer (form) | Fc ± std | sigma ± std | offset | curve error | published inside 95 % "
+          "(Fc, sigma) | steady-state check: miss, flag | its static line: Fc [95 %], sigma [95 %] | published "
+          "inside the line's 95 % |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for name in ([args.only] if args.only else LOGS):
-        r = run(name, args.repo_dir, args.cache)
-        print(f"| {name} | {r['form']} | {r['Fc']:.4g} ± {r['std_Fc']:.2g} | {r['Fc_pub']:.4g} | "
-              f"{r['sigma']:.4g} ± {r['std_sigma']:.2g} | {r['fv_pub']:.4g} | {r['curve_error_percent']:.1f} % | "
-              f"{r['Fc_inside_95']}, {r['sigma_inside_95']} |")
+        r = run(name, args.repo_dir, args.cache, paths)
+        for p in r["paths"]:
+            s, ss = p["std"], p["steady_state"]
+            ln = ss["line"]
+            liv = ln.get("interval95", {})
+            line = ("-" if not ln else f"{ln['Fc']:.4g} [{liv['Fc'][0]:.4g}, {liv['Fc'][1]:.4g}], {ln['sigma']:.4g} "
+                    f"[{liv['sigma'][0]:.4g}, {liv['sigma'][1]:.4g}]")
+            miss = "-" if ss["relative_miss"] is None else (f"{100 * ss['relative_miss']:.1f} %, "
+                                                           f"{'**flagged**' if ss['flagged'] else 'passed'}")
+            print(f"| `{name}`, `{p['path']}` | {p['method']} ({p['form']}) | {p['Fc']:.4g} ± {s.get('Fc', float('nan')):.2g} | "
+                  f"{p['sigma']:.4g} ± {s.get('sigma', float('nan')):.2g} | {p['offset'] or 0:.3g} | "
+                  f"{p['curve_error_percent']:.1f} % | {_yes(p['Fc_inside_95'])}, {_yes(p['sigma_inside_95'])} | "
+                  f"{miss} | {line} | {_yes(ss['Fc_inside_95'])}, {_yes(ss['sigma_inside_95'])} |")
         st = r["static"]
-        print(f"| {name} (static curve) | {st['fallback'] or 'Stribeck'} | {st['Fc']:.4g} | {r['Fc_pub']:.4g} | "
-              f"{st['sigma']:.4g} | {r['fv_pub']:.4g} | {r['static_curve_error_percent']:.1f} % | |")
+        print(f"| `{name}`, static curve | {st['fallback'] or 'Stribeck'} | {st['Fc']:.4g} ± {st['std'].get('Fc', 0):.2g} | "
+              f"{st['sigma']:.4g} ± {st['std'].get('sigma', 0):.2g} | - | {st['curve_error_percent']:.1f} % | "
+              f"{_yes(abs(st['Fc'] - r['Fc_pub']) <= 1.96 * st['std'].get('Fc', 0))}, "
+              f"{_yes(abs(st['sigma'] - r['fv_pub']) <= 1.96 * st['std'].get('sigma', 0))} | - | - | - |")
+        print(f"published: Fc = {r['Fc_pub']:.4g}, fv = {r['fv_pub']:.4g} ({name}, {r['n']} samples)", file=sys.stderr)
         print(json.dumps(r, default=str), file=sys.stderr)
     return 0
 

@@ -46,10 +46,11 @@ from plant.errors import ExcitationError, ParameterError, check_positive
 
 if TYPE_CHECKING:  # pragma: no cover
     from adaptive_ff.identification.model_forms import FormSelection
+    from adaptive_ff.identification.steady_state_check import SteadyStateCheck
 from plant.results import axes_or_new, json_safe
 
 __all__ = ["IdentificationReport", "identify", "PARAM_UNITS", "CrossValidation", "cross_validate", "stderr_note",
-           "IDENTIFY_METHODS", "choose_method", "attach_physical"]
+           "IDENTIFY_METHODS", "choose_method", "attach_physical", "with_steady_state_check"]
 
 #: Methods of :func:`identify`: ``"auto"`` chooses among the others from the record (:func:`choose_method`).
 #: ``"closed_loop"`` simulates the user's controller and lives in ``controllers``
@@ -165,6 +166,10 @@ class IdentificationReport:
         The model-form selection (``identify(form=...)``,
         :func:`adaptive_ff.identification.model_forms.select_form`): every candidate form and the chosen one,
         whose output-error fit is then ``physical``; None without it.
+    steady_state : SteadyStateCheck or None
+        The answer's friction curve against the log's own steady-state support points
+        (:func:`adaptive_ff.identification.steady_state_check.steady_state_check`; its line is among the notes, and
+        a ``"model_form"`` warning when it flags the answer); None when the log has too few support points.
     uncertainty : ParameterUncertainty or None
         The residual block bootstrap of the eq. 4 LS (:func:`adaptive_ff.identification.uncertainty.eq4_block_bootstrap`):
         standard errors, 95 % intervals and the friction band when the eq. 4 LS is the answer; None otherwise
@@ -188,6 +193,7 @@ class IdentificationReport:
     physical: PhysicalFit | None = None
     forms: "FormSelection | None" = None
     uncertainty: ParameterUncertainty | None = None
+    steady_state: "SteadyStateCheck | None" = None
 
     @property
     def model(self) -> RegressionModel:
@@ -415,6 +421,7 @@ class IdentificationReport:
         out["baselines"] = self.baselines
         if self.forms is not None:
             out["forms"] = self.forms.to_dict()
+        out["steady_state"] = None if self.steady_state is None else self.steady_state.to_dict()
         if self.excitation is not None:
             x = self.excitation
             out["excitation"] = {"noise_std": x.noise_std, "n_reversals": int(x.n_reversals),
@@ -817,8 +824,8 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
                 notes.append(f"method 'sliding' not possible ({exc}): the eq. 4 LS is the answer")
                 unc = _eq4_uncertainty(model, u, w, ls, method_options)
                 notes += [] if unc is None else [unc.note()]
-                return _report(ls, rls, rls_est, rls_fit, uni, keep, hist, std, P0, data, notes, warn, excitation,
-                               None, unc)
+                return with_steady_state_check(_report(ls, rls, rls_est, rls_fit, uni, keep, hist, std, P0, data,
+                                                       notes, warn, excitation, None, unc), data)
             notes.append(f"physical parameters by 'sliding' on {physical.info['n_rows']} sliding-regime rows "
                          f"({physical.info['n_gated']} near-zero-velocity rows gated out)")
         else:
@@ -836,7 +843,40 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
                      unc if physical is None else None)
     if form is not None:
         report = _attach_form(report, data, form, form_options, Vs, delta, offset)
-    return report
+    return with_steady_state_check(report, data)
+
+
+def with_steady_state_check(report: IdentificationReport, data: MeasuredData) -> IdentificationReport:
+    """The report with its answer checked against the log's steady state (:attr:`IdentificationReport.steady_state`).
+
+    Parameters
+    ----------
+    report : IdentificationReport
+        Any report; its answer (:attr:`IdentificationReport.params`, ``Vs``, ``delta``) is checked.
+    data : MeasuredData
+        The log it was identified from.
+
+    Returns
+    -------
+    IdentificationReport
+        ``steady_state`` set (:func:`adaptive_ff.identification.steady_state_check.steady_state_check`), its line
+        appended to the notes and, when it flags the answer, a ``"model_form"`` warning; a report checked before
+        (e.g. for an earlier answer) loses that check's note and warning first. Unchanged but for
+        ``steady_state = None`` when the log has too few support points.
+    """
+    from dataclasses import replace
+
+    from adaptive_ff.identification.steady_state_check import steady_state_check
+
+    old = report.steady_state
+    notes = [n for n in report.notes if old is None or n != f"{old.message}"]
+    warn = [w for w in report.warnings if not (old is not None and getattr(w, "code", "") == "model_form")]
+    check = steady_state_check(data, report.params, Vs=report.Vs, delta=report.delta)
+    if check is not None:
+        notes.append(check.message)
+        if check.flagged:
+            warn.append(IdentificationWarning("model_form", "all", check.message))
+    return replace(report, steady_state=check, notes=tuple(notes), warnings=tuple(warn))
 
 
 def _check_form_args(form, form_options, method, method_options) -> dict:
@@ -913,7 +953,7 @@ def _not_in_form(w, cand, unfitted: set):
 
 
 def attach_physical(report: IdentificationReport, physical: PhysicalFit, *, note: str,
-                    auto_reason: str | None = None) -> IdentificationReport:
+                    auto_reason: str | None = None, data: MeasuredData | None = None) -> IdentificationReport:
     """The report with a physical fit computed outside :func:`identify` as its answer (e.g. ``"closed_loop"``).
 
     Parameters
@@ -926,6 +966,9 @@ def attach_physical(report: IdentificationReport, physical: PhysicalFit, *, note
         One line for the notes (how the fit was made).
     auto_reason : str or None, keyword-only
         Why ``"auto"`` chose this method (:func:`choose_method`); None if it was asked for by name.
+    data : MeasuredData or None, keyword-only
+        The log: the new answer is checked against its steady state (:func:`with_steady_state_check`); without
+        it the check of the former answer is dropped.
 
     Returns
     -------
@@ -943,12 +986,15 @@ def attach_physical(report: IdentificationReport, physical: PhysicalFit, *, note
     if not isinstance(report, IdentificationReport) or not isinstance(physical, PhysicalFit):
         raise TypeError("attach_physical needs an IdentificationReport and a PhysicalFit, got "
                         f"{type(report).__name__} and {type(physical).__name__}")
-    notes = list(report.notes)
+    old = report.steady_state
+    notes = [n for n in report.notes if old is None or n != old.message]
     if auto_reason is not None:
         notes.append(f"method {physical.method!r} chosen automatically: {auto_reason}")
     notes.append(note)
-    warn = [_as_baseline(w) for w in report.warnings] + list(physical.warnings)
-    return replace(report, physical=physical, notes=tuple(notes), warnings=tuple(warn))
+    warn = [_as_baseline(w) for w in report.warnings if old is None or getattr(w, "code", "") != "model_form"]
+    out = replace(report, physical=physical, notes=tuple(notes), warnings=tuple(warn) + tuple(physical.warnings),
+                  steady_state=None)
+    return out if data is None else with_steady_state_check(out, data)
 
 
 def stderr_note(fit: PhysicalFit) -> str:

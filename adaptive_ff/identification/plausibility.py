@@ -24,6 +24,12 @@ Codes (:data:`WARNING_CODES`):
     not supported by the data (e.g. the redundant inertia of the lag structure).
 ``"conditioning"``
     The regressor matrix is ill-conditioned: the estimates are sensitive to noise.
+``"model_form"``
+    The answer's friction curve does not reproduce the log's own steady state (the mean torque of its
+    constant-velocity stretches), while a static line through those points does
+    (:mod:`adaptive_ff.identification.steady_state_check`): the model form or the log's signals do not fit
+    the fit's assumptions (e.g. a torque log with the inertia already removed). Not refusing: the report
+    names the static line, and the user decides.
 ``"method"``
     A note on the method (e.g. the eq. 4 regression on a closed-loop log with
     slow torque readouts is biased); informative, not a verdict on a value.
@@ -43,7 +49,7 @@ __all__ = ["IdentificationWarning", "WARNING_CODES", "REFUSING_CODES", "check_ph
            "PHYSICAL_BOUNDS"]
 
 #: Allowed warning codes (module docstring).
-WARNING_CODES = ("implausible", "identifiability", "conditioning", "method")
+WARNING_CODES = ("implausible", "identifiability", "conditioning", "model_form", "method")
 
 #: Codes that make ``adaptive-ff design --from`` refuse the identification (exit status 3).
 REFUSING_CODES = ("implausible", "identifiability", "conditioning")

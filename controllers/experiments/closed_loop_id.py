@@ -837,4 +837,4 @@ def identify_closed_loop(data, w_ref, *, controller: ControllerSpec, Vs: float, 
     note = (f"physical parameters by 'closed_loop': the PI loop (Kp = {c.Kp:.6g}, Ki = {c.Ki:.6g}, Tc = "
             f"{c.Tc * 1e3:.4g} ms, u_max = {c.u_max:.6g}) simulated on the reference and fitted to w and u at the "
             f"{fit.n_samples} stamps as read ({fit.info['n_simulations']} simulations); {stderr_note(fit)}")
-    return attach_physical(report, fit, note=note, auto_reason=reason)
+    return attach_physical(report, fit, note=note, auto_reason=reason, data=data)
