@@ -131,3 +131,20 @@ def test_bad_arguments_are_named():
         steady_state_check(d, {"Fc": 1.0})
     with pytest.raises(ParameterError, match="Fc"):
         steady_state_check(d, {"Fc": math.nan, "sigma": 1.0})
+
+
+def test_attach_physical_checks_the_new_answer_or_drops_the_old_check():
+    from adaptive_ff.identification.identify import attach_physical
+    from adaptive_ff.identification.physical_id import PhysicalFit
+
+    d = _friction_only_log()
+    rep = identify(d, Vs=VS, delta=DELTA)
+    bad = PhysicalFit(method="output_error", params={"J": 480.0, "Fc": FC / 5, "Fs": FC / 5, "sigma": 5 * SIGMA,
+                                                     "tau": 0.0, "offset": OFFSET},
+                      stderr={}, cond=float("nan"), nrmse=50.0, n_samples=d.t.size, nrmse_kind="free-run", info={})
+    checked = attach_physical(rep, bad, note="a fit made elsewhere", data=d)
+    assert checked.steady_state.flagged and rep.steady_state.message not in checked.notes
+    assert [w.code for w in checked.warnings].count("model_form") == 1
+    dropped = attach_physical(checked, bad, note="again, without the log")
+    assert dropped.steady_state is None and "model_form" not in [w.code for w in dropped.warnings]
+    assert checked.steady_state.message not in dropped.notes

@@ -868,15 +868,25 @@ def with_steady_state_check(report: IdentificationReport, data: MeasuredData) ->
 
     from adaptive_ff.identification.steady_state_check import steady_state_check
 
-    old = report.steady_state
-    notes = [n for n in report.notes if old is None or n != f"{old.message}"]
-    warn = [w for w in report.warnings if not (old is not None and getattr(w, "code", "") == "model_form")]
+    report = _without_steady_state_check(report)
+    notes, warn = list(report.notes), list(report.warnings)
     check = steady_state_check(data, report.params, Vs=report.Vs, delta=report.delta)
     if check is not None:
         notes.append(check.message)
         if check.flagged:
             warn.append(IdentificationWarning("model_form", "all", check.message))
     return replace(report, steady_state=check, notes=tuple(notes), warnings=tuple(warn))
+
+
+def _without_steady_state_check(report: IdentificationReport) -> IdentificationReport:
+    """The report without its steady-state check, the check's note and its ``"model_form"`` warning."""
+    from dataclasses import replace
+
+    old = report.steady_state
+    if old is None:
+        return report
+    return replace(report, steady_state=None, notes=tuple(n for n in report.notes if n != old.message),
+                   warnings=tuple(w for w in report.warnings if getattr(w, "code", "") != "model_form"))
 
 
 def _check_form_args(form, form_options, method, method_options) -> dict:
@@ -986,14 +996,13 @@ def attach_physical(report: IdentificationReport, physical: PhysicalFit, *, note
     if not isinstance(report, IdentificationReport) or not isinstance(physical, PhysicalFit):
         raise TypeError("attach_physical needs an IdentificationReport and a PhysicalFit, got "
                         f"{type(report).__name__} and {type(physical).__name__}")
-    old = report.steady_state
-    notes = [n for n in report.notes if old is None or n != old.message]
+    report = _without_steady_state_check(report)
+    notes = list(report.notes)
     if auto_reason is not None:
         notes.append(f"method {physical.method!r} chosen automatically: {auto_reason}")
     notes.append(note)
-    warn = [_as_baseline(w) for w in report.warnings if old is None or getattr(w, "code", "") != "model_form"]
-    out = replace(report, physical=physical, notes=tuple(notes), warnings=tuple(warn) + tuple(physical.warnings),
-                  steady_state=None)
+    warn = [_as_baseline(w) for w in report.warnings] + list(physical.warnings)
+    out = replace(report, physical=physical, notes=tuple(notes), warnings=tuple(warn))
     return out if data is None else with_steady_state_check(out, data)
 
 
