@@ -78,9 +78,10 @@ def _kind_row(rep, p, kind: str) -> dict:
                 "hi": iv[k][1] - rep.params[k]} for k in KEYS}
 
 
-def one(seed: int, duration: float, n_bootstrap: int, lag_profile: bool = True) -> dict:
+def one(seed: int, duration: float, n_bootstrap: int, lag_profile: bool = True, refit: str = "partial") -> dict:
     """Simulate, read out and identify joint ``seed`` by both methods; the per-kind rows and CPU times
-    (``lag_profile``: the output-error fit's profile search over tau, ``OutputErrorOptions.lag_profile``)."""
+    (``lag_profile``: the output-error fit's profile search over tau, ``OutputErrorOptions.lag_profile``;
+    ``refit``: ``OutputErrorOptions.bootstrap_refit``)."""
     p = draw_joint(seed)
     m = record(p, seed=seed, noise=0.01, quant=QUANT, irregular="scaled", duration=duration)
     d = MeasuredData(m.t, m.u, m.w, source=f"zoo joint {seed}")
@@ -89,7 +90,7 @@ def one(seed: int, duration: float, n_bootstrap: int, lag_profile: bool = True) 
     try:
         rep = identify(d, Vs=p.Vs, delta=p.delta, lag=True, method="output_error",
                        method_options={"input_delay": INPUT_DELAY, "n_bootstrap": n_bootstrap,
-                                       "lag_profile": lag_profile})
+                                       "lag_profile": lag_profile, "bootstrap_refit": refit})
         row["kinds"]["oe"] = _kind_row(rep, p, "oe")
     except Exception as exc:  # noqa: BLE001 - a failed fit is a row of the table, with its reason
         row["kinds"]["oe"] = {"failed": f"{type(exc).__name__}: {exc}"}
@@ -164,6 +165,8 @@ def main(argv=None) -> int:
     ap.add_argument("--n-bootstrap", type=int, default=20, help="output-error bootstrap refits (default 20)")
     ap.add_argument("--no-lag-profile", action="store_true",
                     help="output-error fit without its profile search over tau (the fit before 2026-11-23)")
+    ap.add_argument("--bootstrap-refit", choices=("partial", "full"), default="partial",
+                    help="how the output-error bootstrap refits each replicate (OutputErrorOptions.bootstrap_refit)")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
     ap.add_argument("--out", type=Path, default=None, help="append each joint's row to this JSON-lines file")
     ap.add_argument("--table-from", type=Path, default=None, help="print the table of these rows, fit nothing")
@@ -178,9 +181,10 @@ def main(argv=None) -> int:
 
             with ProcessPoolExecutor(a.jobs) as pool:
                 rows = [_save(a.out, r) for r in pool.map(one, seeds, [a.duration] * a.n, [a.n_bootstrap] * a.n,
-                                                           [not a.no_lag_profile] * a.n)]
+                                                           [not a.no_lag_profile] * a.n, [a.bootstrap_refit] * a.n)]
         else:
-            rows = [_save(a.out, one(s, a.duration, a.n_bootstrap, not a.no_lag_profile)) for s in seeds]
+            rows = [_save(a.out, one(s, a.duration, a.n_bootstrap, not a.no_lag_profile, a.bootstrap_refit))
+                    for s in seeds]
     seeds = [r["seed"] for r in rows]
     print(f"coverage of nominal 95 % intervals of identify on {len(rows)} zoo joints (seeds {min(seeds)}..{max(seeds)}), "
           f"noise 1 %, quantisation {QUANT} N·m, Fig. 10 sampling scaled to 10 ms, Vs and delta given, lag fitted")

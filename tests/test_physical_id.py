@@ -170,6 +170,33 @@ def test_bootstrap_is_seeded_keeps_the_estimate_and_falls_back_to_hac():
     json.dumps(a.to_dict(), allow_nan=False)
 
 
+def test_full_bootstrap_refit_is_the_fit_itself_on_the_replicate(monkeypatch):
+    # bootstrap_refit="full": each replicate is analysed by the same estimator as the record (Efron & Tibshirani
+    # 1993, Ch. 6): the replicate's refit equals fit_physical on that replicate, run independently here
+    from adaptive_ff.identification import physical_id as pid
+
+    m = _record(2, noise=0.01, quant=0.6, irregular=True, duration=8.0)
+    kw = dict(Vs=P.Vs, delta=P.delta, input_delay=0.5 * DT, start={k: getattr(P, k) for k in KEYS})
+    seen = []
+    search = pid._oe_search
+
+    def spy(pb, s0):
+        seen.append(pb.w.copy())
+        return search(pb, s0)
+
+    monkeypatch.setattr(pid, "_oe_search", spy)
+    f = fit_physical(m.t, m.u, m.w, n_bootstrap=2, bootstrap_refit="full", **kw)
+    monkeypatch.setattr(pid, "_oe_search", search)
+    assert len(seen) == 3 and f.info["bootstrap"]["refit"] == "the fit's own search from the replicate's start"
+    g = [fit_physical(m.t, m.u, w_star, n_bootstrap=0, **kw).params for w_star in seen[1:]]  # fitted as records
+    for k in f.params:
+        dev = np.array([gb[k] - f.params[k] for gb in g])
+        assert f.info["bootstrap"]["bias"][k] == pytest.approx(dev.mean(), rel=1e-9, abs=1e-12)
+        assert f.stderr[k] == pytest.approx(math.sqrt(np.mean(dev**2)), rel=1e-9, abs=1e-12)
+    with pytest.raises(ParameterError, match="bootstrap_refit"):
+        fit_physical(m.t, m.u, m.w, bootstrap_refit="all", **kw)
+
+
 @pytest.mark.parametrize("opt", [{"n_bootstrap": -1}, {"n_bootstrap": 2.5}, {"bootstrap_seed": -3},
                                  {"bootstrap_seed": True}])
 def test_bootstrap_options_are_validated(clean, opt):
