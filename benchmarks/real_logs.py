@@ -116,7 +116,8 @@ def path_row(name: str, path: str, rep: dict, log: dict) -> dict:
     """One table row of an ``identify`` run: the answer, its intervals against the published values, and the
     steady-state check (its flag, its static line and whether that line's intervals hold the published values)."""
     iv = rep.get("interval95", {})
-    row = {"log": name, "path": path, "method": rep["method"], "form": (rep.get("form") or {}).get("label") or (rep.get("form") or {}).get("name", ""),
+    form = rep.get("form") or {}
+    row = {"log": name, "path": path, "method": rep["method"], "form": form.get("label") or form.get("name", ""),
            "Fc": rep["Fc"], "sigma": rep["sigma"], "offset": rep.get("offset"), "J": rep.get("J"),
            "std": rep.get("std", {}), "Fc_inside_95": _inside(iv.get("Fc"), log["Fc"]),
            "sigma_inside_95": _inside(iv.get("sigma"), log["fv"]),
@@ -197,13 +198,15 @@ def main(argv=None) -> int:
                     f"[{liv['sigma'][0]:.4g}, {liv['sigma'][1]:.4g}]")
             miss = "-" if ss["relative_miss"] is None else (f"{100 * ss['relative_miss']:.1f} %, "
                                                            f"{'**flagged**' if ss['flagged'] else 'passed'}")
-            print(f"| `{name}`, `{p['path']}` | {p['method']} ({p['form']}) | {p['Fc']:.4g} ± {s.get('Fc', float('nan')):.2g} | "
+            print(f"| `{name}`, `{p['path']}` | {p['method']} ({p['form']}) | "
+                  f"{p['Fc']:.4g} ± {s.get('Fc', float('nan')):.2g} | "
                   f"{p['sigma']:.4g} ± {s.get('sigma', float('nan')):.2g} | {p['offset'] or 0:.3g} | "
                   f"{p['curve_error_percent']:.1f} % | {_yes(p['Fc_inside_95'])}, {_yes(p['sigma_inside_95'])} | "
                   f"{miss} | {line} | {_yes(ss['Fc_inside_95'])}, {_yes(ss['sigma_inside_95'])} |")
         st = r["static"]
-        print(f"| `{name}`, static curve | {st['fallback'] or 'Stribeck'} | {st['Fc']:.4g} ± {st['std'].get('Fc', 0):.2g} | "
-              f"{st['sigma']:.4g} ± {st['std'].get('sigma', 0):.2g} | - | {st['curve_error_percent']:.1f} % | "
+        print(f"| `{name}`, static curve | {st['fallback'] or 'Stribeck'} | "
+              f"{st['Fc']:.4g} ± {st['std'].get('Fc', 0):.2g} | {st['sigma']:.4g} ± {st['std'].get('sigma', 0):.2g} | "
+              f"- | {st['curve_error_percent']:.1f} % | "
               f"{_yes(abs(st['Fc'] - r['Fc_pub']) <= 1.96 * st['std'].get('Fc', 0))}, "
               f"{_yes(abs(st['sigma'] - r['fv_pub']) <= 1.96 * st['std'].get('sigma', 0))} | - | - | - |")
         print(f"published: Fc = {r['Fc_pub']:.4g}, fv = {r['fv_pub']:.4g} ({name}, {r['n']} samples)", file=sys.stderr)

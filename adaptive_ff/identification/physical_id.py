@@ -801,7 +801,8 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
                                    rng=np.random.default_rng(o.bootstrap_seed), scheme=_BOOT_SCHEME)
     details = {"n": o.n_bootstrap, "n_valid": b.n_valid, "block": int(b.block), "seed": o.bootstrap_seed,
                "start_spread": _BOOT_START, "resampling": _BOOT_SCHEME,
-               "refit": _BOOT_REFIT if o.bootstrap_refit == "partial" else "the fit's own search from the replicate's start",
+               "refit": (_BOOT_REFIT if o.bootstrap_refit == "partial"
+                         else "the fit's own search from the replicate's start"),
                "n_simulations": n_sim[0]}
     details.update(_oe_intervals(pb, names, est, b))
     return dict(zip(names, map(float, b.stderr))), dict(zip(names, map(float, b.bias))), details

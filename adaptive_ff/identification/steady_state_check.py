@@ -20,9 +20,9 @@ those points gives, so that the difference is explained in the report rather tha
 
 Rule (:data:`MISS_LIMIT`, :data:`MISS_RATIO`): the check *flags* the answer when its RMS miss of the points is
 more than ``MISS_LIMIT`` (10 %) of the points' RMS torque **and** more than ``MISS_RATIO`` (2) times the static
-line's RMS miss (or the line is not determined by the points: their speeds spread over less than :data:`SPEED_SPREAD` of the
-top speed, or all in one direction). A flagged
-check becomes an ``IdentificationWarning`` with code ``"model_form"``.
+line's RMS miss (or the line is not determined by the points: their speeds spread over less than
+:data:`SPEED_SPREAD` of the top speed, or all in one direction). A flagged check becomes an
+``IdentificationWarning`` with code ``"model_form"``.
 """
 
 from __future__ import annotations
