@@ -108,3 +108,18 @@ def test_report_to_dict_notes_equal_the_report_notes(report):
     boot = report.physical.info["bootstrap"]
     assert report.physical.info["stderr_kind"] == "bootstrap" and f"({boot['n_valid']} refits" in note
     assert f"± is the bootstrap standard error ({boot['n_valid']} refits" in report.physical.summary()
+
+
+def test_cli_bootstrap_refit_reaches_the_output_error_fit_and_is_refused_elsewhere(record, tmp_path, capsys):
+    from controllers.cli.main import main
+
+    csv = tmp_path / "log.csv"
+    short = record.t < 8.0
+    np.savetxt(csv, np.column_stack([record.t[short], record.u[short], record.w[short]]), delimiter=",",
+               header="t,u,w", comments="")
+    args = ["identify", str(csv), "--Vs", repr(P.Vs), "--delta", repr(P.delta), "--json", "--quiet"]
+    assert main(args + ["--method", "output_error", "--bootstrap", "2", "--bootstrap-refit", "full"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["info"]["bootstrap"]["refit"] == "the fit's own search from the replicate's start"
+    assert main(args + ["--method", "paper", "--bootstrap-refit", "full"]) == 2
+    assert "--bootstrap-refit applies to --method output_error" in capsys.readouterr().err

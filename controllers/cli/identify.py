@@ -196,6 +196,11 @@ def _identify(args, data):
     ref_name, spec = args.reference_name, _controller_spec(args)
     common = {"lag": args.lag, "offset": not args.no_offset, "lam": args.lam}
     boot = {} if args.bootstrap is None else {"n_bootstrap": args.bootstrap}
+    if args.bootstrap_refit is not None:
+        if args.method != "output_error" or args.form is not None:
+            raise ParameterError(f"--bootstrap-refit applies to --method output_error (without --form), got "
+                                 f"--method {args.method}" + (f" --form {args.form}" if args.form else ""))
+        boot["bootstrap_refit"] = args.bootstrap_refit
     if args.form is not None:
         return _identify_form(args, data, ref_name, spec, common)
     if args.method == "closed_loop" and (ref_name is None or spec is None):
@@ -460,6 +465,11 @@ def register(sub) -> None:
                         "methods paper and sliding (default 200, >= 2; 0: white-residual errors), the parametric "
                         "block bootstrap of output_error and closed_loop (default 20 and 10; more: steadier errors, "
                         "proportionally slower; 0: HAC (Newey-West) errors instead, too small on their rough cost)")
+    i.add_argument("--bootstrap-refit", dest="bootstrap_refit", choices=("partial", "full"), default=None,
+                   help="how the output_error bootstrap refits each replicate: partial (default; the fit's later "
+                        "steps from a spread start: conservative intervals) or full (the fit itself on each "
+                        "replicate: intervals calibrated on the zoo of benchmarks/coverage_zoo.py, about 3 times "
+                        "slower); --method output_error only")
     i.add_argument("--axis", choices=("rotary", "linear"), default="rotary",
                    help="rotary (default): tables in N·m, kg·m², rad/s (or deg/s, --units); linear: a prismatic "
                         "axis, tables in N, kg, m/s (SI; --units does not apply). The values are the same numbers "
