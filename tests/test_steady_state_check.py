@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from scipy.optimize import curve_fit
 
-from adaptive_ff.identification.identify import identify, with_steady_state_check
-from adaptive_ff.identification.steady_state_check import MISS_LIMIT, steady_state_check
+from adaptive_ff.identification.identify import identify
+from adaptive_ff.identification.steady_state_check import MISS_LIMIT, steady_state_check, with_steady_state_check
 from adaptive_ff.io.data import MeasuredData
 from plant.errors import ParameterError
 from plant.friction import stribeck

@@ -40,17 +40,18 @@ from adaptive_ff.identification.physical_id import METHODS, PhysicalFit, fit_phy
 from adaptive_ff.identification.plausibility import IdentificationWarning, check_physical, warning_from_dict
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel, nrmse_fit
 from adaptive_ff.identification.rls import RecursiveLeastSquares
+from adaptive_ff.identification.steady_state_check import (SteadyStateCheck, with_steady_state_check,
+                                                            without_steady_state_check)
 from adaptive_ff.identification.uncertainty import (DEFAULT_N_BOOTSTRAP, ParameterUncertainty, eq4_block_bootstrap,
                                                     regression_block_bootstrap)
 from plant.errors import ExcitationError, ParameterError, check_positive
 
 if TYPE_CHECKING:  # pragma: no cover
     from adaptive_ff.identification.model_forms import FormSelection
-    from adaptive_ff.identification.steady_state_check import SteadyStateCheck
 from plant.results import axes_or_new, json_safe
 
 __all__ = ["IdentificationReport", "identify", "PARAM_UNITS", "CrossValidation", "cross_validate", "stderr_note",
-           "IDENTIFY_METHODS", "choose_method", "attach_physical", "with_steady_state_check"]
+           "IDENTIFY_METHODS", "choose_method", "attach_physical"]
 
 #: Methods of :func:`identify`: ``"auto"`` chooses among the others from the record (:func:`choose_method`).
 #: ``"closed_loop"`` simulates the user's controller and lives in ``controllers``
@@ -193,7 +194,7 @@ class IdentificationReport:
     physical: PhysicalFit | None = None
     forms: "FormSelection | None" = None
     uncertainty: ParameterUncertainty | None = None
-    steady_state: "SteadyStateCheck | None" = None
+    steady_state: SteadyStateCheck | None = None
 
     @property
     def model(self) -> RegressionModel:
@@ -846,49 +847,6 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
     return with_steady_state_check(report, data)
 
 
-def with_steady_state_check(report: IdentificationReport, data: MeasuredData) -> IdentificationReport:
-    """The report with its answer checked against the log's steady state (:attr:`IdentificationReport.steady_state`).
-
-    Parameters
-    ----------
-    report : IdentificationReport
-        Any report; its answer (:attr:`IdentificationReport.params`, ``Vs``, ``delta``) is checked.
-    data : MeasuredData
-        The log it was identified from.
-
-    Returns
-    -------
-    IdentificationReport
-        ``steady_state`` set (:func:`adaptive_ff.identification.steady_state_check.steady_state_check`), its line
-        appended to the notes and, when it flags the answer, a ``"model_form"`` warning; a report checked before
-        (e.g. for an earlier answer) loses that check's note and warning first. Unchanged but for
-        ``steady_state = None`` when the log has too few support points.
-    """
-    from dataclasses import replace
-
-    from adaptive_ff.identification.steady_state_check import steady_state_check
-
-    report = _without_steady_state_check(report)
-    notes, warn = list(report.notes), list(report.warnings)
-    check = steady_state_check(data, report.params, Vs=report.Vs, delta=report.delta)
-    if check is not None:
-        notes.append(check.message)
-        if check.flagged:
-            warn.append(IdentificationWarning("model_form", "all", check.message))
-    return replace(report, steady_state=check, notes=tuple(notes), warnings=tuple(warn))
-
-
-def _without_steady_state_check(report: IdentificationReport) -> IdentificationReport:
-    """The report without its steady-state check, the check's note and its ``"model_form"`` warning."""
-    from dataclasses import replace
-
-    old = report.steady_state
-    if old is None:
-        return report
-    return replace(report, steady_state=None, notes=tuple(n for n in report.notes if n != old.message),
-                   warnings=tuple(w for w in report.warnings if getattr(w, "code", "") != "model_form"))
-
-
 def _check_form_args(form, form_options, method, method_options) -> dict:
     """The checks of ``identify(form=...)``; returns the options of ``select_form`` as a dict."""
     from adaptive_ff.identification.model_forms import FORMS
@@ -977,7 +935,8 @@ def attach_physical(report: IdentificationReport, physical: PhysicalFit, *, note
     auto_reason : str or None, keyword-only
         Why ``"auto"`` chose this method (:func:`choose_method`); None if it was asked for by name.
     data : MeasuredData or None, keyword-only
-        The log: the new answer is checked against its steady state (:func:`with_steady_state_check`); without
+        The log: the new answer is checked against its steady state
+        (:func:`adaptive_ff.identification.steady_state_check.with_steady_state_check`); without
         it the check of the former answer is dropped.
 
     Returns
@@ -996,7 +955,7 @@ def attach_physical(report: IdentificationReport, physical: PhysicalFit, *, note
     if not isinstance(report, IdentificationReport) or not isinstance(physical, PhysicalFit):
         raise TypeError("attach_physical needs an IdentificationReport and a PhysicalFit, got "
                         f"{type(report).__name__} and {type(physical).__name__}")
-    report = _without_steady_state_check(report)
+    report = without_steady_state_check(report)
     notes = list(report.notes)
     if auto_reason is not None:
         notes.append(f"method {physical.method!r} chosen automatically: {auto_reason}")

@@ -28,7 +28,7 @@ line's RMS miss (or the line is not determined by the points: their speeds sprea
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy import stats
@@ -38,7 +38,8 @@ from plant.errors import ExcitationError, ParameterError
 from plant.friction import stribeck
 from plant.results import json_safe
 
-__all__ = ["SteadyStateCheck", "steady_state_check", "MISS_LIMIT", "MISS_RATIO", "SPEED_SPREAD"]
+__all__ = ["SteadyStateCheck", "steady_state_check", "with_steady_state_check", "without_steady_state_check",
+           "MISS_LIMIT", "MISS_RATIO", "SPEED_SPREAD"]
 
 #: Relative RMS miss of the support points (fraction of their RMS torque) above which an answer can be flagged.
 MISS_LIMIT = 0.10
@@ -196,3 +197,44 @@ def steady_state_check(data: MeasuredData, params: dict, *, Vs: float | None = N
                 "the steady state supports")
     return SteadyStateCheck(n_points=int(pts.n_points), point_method=pts.method, w=w, u=u, answer_miss=answer_miss,
                             scale=scale, static=line, flagged=bool(flagged), message=msg)
+
+
+def with_steady_state_check(report, data: MeasuredData):
+    """The report with its answer checked against the log's steady state (its ``steady_state``).
+
+    Parameters
+    ----------
+    report : IdentificationReport
+        Any report of :func:`adaptive_ff.identification.identify.identify` (a dataclass with ``params``, ``Vs``,
+        ``delta``, ``notes``, ``warnings`` and ``steady_state``); its answer is checked.
+    data : MeasuredData
+        The log it was identified from.
+
+    Returns
+    -------
+    IdentificationReport
+        ``steady_state`` set (:func:`steady_state_check`), its line appended to the notes and, when it flags the
+        answer, a ``"model_form"`` warning; a report checked before (e.g. for an earlier answer) loses that
+        check's note and warning first (:func:`without_steady_state_check`). ``steady_state = None`` when the
+        log has too few support points.
+    """
+    from adaptive_ff.identification.plausibility import IdentificationWarning
+
+    report = without_steady_state_check(report)
+    notes, warn = list(report.notes), list(report.warnings)
+    check = steady_state_check(data, report.params, Vs=report.Vs, delta=report.delta)
+    if check is not None:
+        notes.append(check.message)
+        if check.flagged:
+            warn.append(IdentificationWarning("model_form", "all", check.message))
+    return replace(report, steady_state=check, notes=tuple(notes), warnings=tuple(warn))
+
+
+def without_steady_state_check(report):
+    """The report (as for :func:`with_steady_state_check`) without its steady-state check, the check's note and
+    its ``"model_form"`` warning; unchanged when it has none."""
+    old = report.steady_state
+    if old is None:
+        return report
+    return replace(report, steady_state=None, notes=tuple(n for n in report.notes if n != old.message),
+                   warnings=tuple(w for w in report.warnings if getattr(w, "code", "") != "model_form"))
