@@ -144,10 +144,10 @@ Carlo did (J 0.38 % against 0.38 % on joint 5; the partial refits 0.87 %).
 ``bootstrap_refit="full"`` refits each replicate by the fit itself, the
 replicate taken as a record of its own (its noise level, robust scales and
 eq. 4 start, every stage including the profile searches): the bootstrap of
-the estimator as it is (Efron & Tibshirani, Ch. 6), at about four times the
-cost of the partial refits (28-42 s against 7-11 s of CPU per 15 s zoo
-record with 20 refits); its coverage on the zoo: the identification page,
-"The bootstrap of the fit itself".
+the estimator as it is (Efron & Tibshirani, Ch. 6), at about three times the
+cost of the partial refits (a median 34 s, 22-68 s, against 11 s of CPU per
+15 s zoo record with 20 refits); its coverage on the zoo: the identification
+page, "The bootstrap of the fit itself".
 """
 
 from __future__ import annotations
@@ -436,7 +436,7 @@ class OutputErrorOptions:
         estimate by the fit's later steps (above; ``_oe_refit``), with the record's noise level and robust
         scales. ``"full"``: by the fit itself, the replicate taken as a record of its own (its noise level,
         scales and eq. 4 start; every stage including the profile searches: the same estimator on every
-        replicate, Efron & Tibshirani 1993, Ch. 6), about 4-8 times the cost of ``"partial"``; its
+        replicate, Efron & Tibshirani 1993, Ch. 6), about three times the CPU time of ``"partial"``; its
         intervals are narrower where the partial refits stop short of where the fit stops (module docstring,
         "Standard errors").
     lag_profile : bool, keyword-only
