@@ -162,6 +162,9 @@ def run(name: str, repo_dir: Path | None, cache: Path, paths=tuple(PATHS)) -> di
            "cv_residual": log["cv_residual"], "paths": [path_row(name, p, identify(csv, PATHS[p]), log) for p in paths]}
     st = static_fit(log)
     st["curve_error_percent"] = curve_error(st, log["Fc"], log["fv"], log["w"])
+    for k, pub in (("Fc", log["Fc"]), ("sigma", log["fv"])):  # normal 95 % interval of the fit's standard error
+        half = 1.96 * st["std"].get(k, 0.0)
+        st[f"{k}_inside_95"] = _inside([st[k] - half, st[k] + half], pub)
     out["static"] = st
     return out
 
@@ -206,9 +209,8 @@ def main(argv=None) -> int:
         st = r["static"]
         print(f"| `{name}`, static curve | {st['fallback'] or 'Stribeck'} | "
               f"{st['Fc']:.4g} ± {st['std'].get('Fc', 0):.2g} | {st['sigma']:.4g} ± {st['std'].get('sigma', 0):.2g} | "
-              f"- | {st['curve_error_percent']:.1f} % | "
-              f"{_yes(abs(st['Fc'] - r['Fc_pub']) <= 1.96 * st['std'].get('Fc', 0))}, "
-              f"{_yes(abs(st['sigma'] - r['fv_pub']) <= 1.96 * st['std'].get('sigma', 0))} | - | - | - |")
+              f"- | {st['curve_error_percent']:.1f} % | {_yes(st['Fc_inside_95'])}, {_yes(st['sigma_inside_95'])} | "
+              f"- | - | - |")
         print(f"published: Fc = {r['Fc_pub']:.4g}, fv = {r['fv_pub']:.4g} ({name}, {r['n']} samples)", file=sys.stderr)
         print(json.dumps(r, default=str), file=sys.stderr)
     return 0

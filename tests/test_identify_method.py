@@ -123,3 +123,13 @@ def test_cli_bootstrap_refit_reaches_the_output_error_fit_and_is_refused_elsewhe
     assert d["info"]["bootstrap"]["refit"] == "the fit's own search from the replicate's start"
     assert main(args + ["--method", "paper", "--bootstrap-refit", "full"]) == 2
     assert "--bootstrap-refit applies to --method output_error" in capsys.readouterr().err
+
+
+def test_the_cli_offers_exactly_the_package_bootstrap_refits():
+    # the CLI's parser names the choices itself (it is built without importing the compiled core)
+    from adaptive_ff.identification.physical_id import BOOTSTRAP_REFITS
+    from controllers.cli.main import build_parser
+
+    sub = next(a for a in build_parser()._subparsers._group_actions[0].choices["identify"]._actions
+               if a.dest == "bootstrap_refit")
+    assert tuple(sub.choices) == BOOTSTRAP_REFITS

@@ -179,7 +179,7 @@ def steady_state_check(data: MeasuredData, params: dict, *, Vs: float | None = N
     scale = float(np.sqrt(np.mean(u ** 2)))
     se = np.asarray(pts.u_std, float) / np.sqrt(np.maximum(np.asarray(pts.n_samples, float), 1.0))
     wt = 1.0 / np.maximum(se, 1e-12 * max(scale, 1e-300))
-    line = _static_line(w, u, wt / np.max(wt), offset=params.get("offset") is not None and off != 0.0)
+    line = _static_line(w, u, wt / np.max(wt), offset=off != 0.0)
     rel = answer_miss / scale if scale > 0 else math.inf
     flagged = rel > MISS_LIMIT and (line is None or answer_miss > MISS_RATIO * line["miss"])
     msg = (f"steady state ({pts.n_points} support points by {pts.method}, Sec. V-C): the answer's F(w) misses the "
