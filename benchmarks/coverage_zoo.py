@@ -78,10 +78,11 @@ def _kind_row(rep, p, kind: str) -> dict:
                 "hi": iv[k][1] - rep.params[k]} for k in KEYS}
 
 
-def one(seed: int, duration: float, n_bootstrap: int, lag_profile: bool = True, refit: str = "partial") -> dict:
+def one(seed: int, duration: float, n_bootstrap: int, lag_profile: bool = True, refit: str = "full") -> dict:
     """Simulate, read out and identify joint ``seed`` by both methods; the per-kind rows and CPU times
     (``lag_profile``: the output-error fit's profile search over tau, ``OutputErrorOptions.lag_profile``;
-    ``refit``: ``OutputErrorOptions.bootstrap_refit``)."""
+    ``refit``: ``OutputErrorOptions.bootstrap_refit``). The bootstrap refits run in this thread (``--jobs``
+    spreads the joints over processes; the result does not depend on it)."""
     p = draw_joint(seed)
     m = record(p, seed=seed, noise=0.01, quant=QUANT, irregular="scaled", duration=duration)
     d = MeasuredData(m.t, m.u, m.w, source=f"zoo joint {seed}")
@@ -90,7 +91,8 @@ def one(seed: int, duration: float, n_bootstrap: int, lag_profile: bool = True, 
     try:
         rep = identify(d, Vs=p.Vs, delta=p.delta, lag=True, method="output_error",
                        method_options={"input_delay": INPUT_DELAY, "n_bootstrap": n_bootstrap,
-                                       "lag_profile": lag_profile, "bootstrap_refit": refit})
+                                       "lag_profile": lag_profile, "bootstrap_refit": refit,
+                                       "bootstrap_workers": 1})
         row["kinds"]["oe"] = _kind_row(rep, p, "oe")
     except Exception as exc:  # noqa: BLE001 - a failed fit is a row of the table, with its reason
         row["kinds"]["oe"] = {"failed": f"{type(exc).__name__}: {exc}"}
@@ -165,8 +167,9 @@ def main(argv=None) -> int:
     ap.add_argument("--n-bootstrap", type=int, default=20, help="output-error bootstrap refits (default 20)")
     ap.add_argument("--no-lag-profile", action="store_true",
                     help="output-error fit without its profile search over tau (the fit before 2026-11-23)")
-    ap.add_argument("--bootstrap-refit", choices=("partial", "full"), default="partial",
-                    help="how the output-error bootstrap refits each replicate (OutputErrorOptions.bootstrap_refit)")
+    ap.add_argument("--bootstrap-refit", choices=("full", "partial"), default="full",
+                    help="how the output-error bootstrap refits each replicate (OutputErrorOptions.bootstrap_refit; "
+                         "default full, the package's)")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
     ap.add_argument("--out", type=Path, default=None, help="append each joint's row to this JSON-lines file")
     ap.add_argument("--table-from", type=Path, default=None, help="print the table of these rows, fit nothing")

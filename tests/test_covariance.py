@@ -8,7 +8,7 @@ import pytest
 from adaptive_ff.identification.covariance import (BootstrapResult, andrews_bandwidth, bootstrap_t_quantile,
                                                      block_wild_resample, hac_covariance, moving_block_resample,
                                                      parametric_block_bootstrap)
-from plant.errors import ParameterError, SignalError
+from plant.errors import ExcitationError, ParameterError, SignalError
 
 
 def _sandwich(G, r, L):
@@ -155,8 +155,6 @@ def test_parametric_block_bootstrap_matches_the_spread_over_seeds():
 
 
 def test_parametric_block_bootstrap_counts_failed_refits_and_is_seeded():
-    from plant.errors import ExcitationError
-
     pred, res = np.zeros(30), np.sin(np.arange(30.0))
     calls = []
 
@@ -182,6 +180,25 @@ def test_parametric_block_bootstrap_counts_failed_refits_and_is_seeded():
     assert few.n_valid == 0 and math.isnan(few.stderr[0]) and len(few.failures) == 3
 
 
+def test_parametric_block_bootstrap_threads_give_the_one_thread_result():
+    # each refit gets a generator of its own, seeded after every replicate is drawn: the refits' order of
+    # completion cannot change a draw; failures keep the replicates' order
+    pred, res = np.zeros(40), np.cos(np.arange(40.0))
+
+    def refit(y, rng):
+        if y[0] > 0.9:  # the replicates whose first block keeps its sign
+            raise ExcitationError("first sample high")
+        return np.array([y.mean() + rng.normal(), np.mean(y**2)])
+
+    runs = [parametric_block_bootstrap(refit, pred, res, [0.0, 0.0], n=25, block=3, rng=np.random.default_rng(4),
+                                       workers=k, scheme="wild") for k in (1, 4)]
+    np.testing.assert_array_equal(runs[0].replicates, runs[1].replicates)
+    assert runs[0].failures == runs[1].failures and 0 < len(runs[0].failures) < 25
+    assert runs[0].stderr.tolist() == runs[1].stderr.tolist()
+    # each refit sees a whole replicate: the residuals in place, one sign per block (mean square unchanged)
+    assert np.allclose(runs[0].replicates[:, 1], np.mean(res**2), rtol=1e-12)
+
+
 @pytest.mark.parametrize("kwargs, err, match", [
     ({"prediction": np.zeros(5)}, SignalError, "prediction"),
     ({"estimate": [np.nan]}, SignalError, "estimate"),
@@ -191,6 +208,8 @@ def test_parametric_block_bootstrap_counts_failed_refits_and_is_seeded():
     ({"rng": 1}, ParameterError, "rng"),
     ({"refit": None}, ParameterError, "refit"),
     ({"simulate": 3.0}, ParameterError, "simulate must be callable"),
+    ({"workers": 0}, ParameterError, "workers"),
+    ({"workers": 2.0}, ParameterError, "workers"),
     ({"simulate": lambda rng: np.zeros(9)}, ParameterError, r"simulate must return an array of shape \(10,\)"),
 ])
 def test_parametric_block_bootstrap_bad_input(kwargs, err, match):

@@ -31,13 +31,13 @@ def record():
 @pytest.fixture(scope="module")
 def report(record):
     return identify(record, Vs=P.Vs, delta=P.delta, lag=True, method="output_error",
-                    method_options={"input_delay": 0.5 * DT})
+                    method_options={"input_delay": 0.5 * DT, "n_bootstrap": 4})  # few refits: the time budget
 
 
 def test_report_carries_the_physical_fit_equal_to_fit_physical(record, report):
     # the same call directly: identify must pass the record's own (irregular) time stamps, not the resampled grid
     ref = fit_physical(record.t, record.u, record.w, Vs=P.Vs, delta=P.delta, method="output_error",
-                       input_delay=0.5 * DT)
+                       input_delay=0.5 * DT, n_bootstrap=0)  # the bootstrap only adds the errors (test_physical_id)
     assert report.physical is not None and report.physical.method == "output_error"
     assert report.physical.n_samples == record.t.shape[0]
     for k, v in ref.params.items():
@@ -118,9 +118,12 @@ def test_cli_bootstrap_refit_reaches_the_output_error_fit_and_is_refused_elsewhe
     np.savetxt(csv, np.column_stack([record.t[short], record.u[short], record.w[short]]), delimiter=",",
                header="t,u,w", comments="")
     args = ["identify", str(csv), "--Vs", repr(P.Vs), "--delta", repr(P.delta), "--json", "--quiet"]
-    assert main(args + ["--method", "output_error", "--bootstrap", "2", "--bootstrap-refit", "full"]) == 0
+    assert main(args + ["--method", "output_error", "--bootstrap", "2"]) == 0
     d = json.loads(capsys.readouterr().out)
-    assert d["info"]["bootstrap"]["refit"] == "the fit's own search from the replicate's start"
+    assert d["info"]["bootstrap"]["refit"] == "the fit's own search from the replicate's start"  # the default
+    assert main(args + ["--method", "output_error", "--bootstrap", "2", "--bootstrap-refit", "partial"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["info"]["bootstrap"]["refit"] == "wide trust region, local stage, 1 coordinate-search round(s)"
     assert main(args + ["--method", "paper", "--bootstrap-refit", "full"]) == 2
     assert "--bootstrap-refit applies to --method output_error" in capsys.readouterr().err
 

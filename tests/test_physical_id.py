@@ -36,7 +36,9 @@ def clean():
 
 
 def test_output_error_recovers_noise_free_parameters_at_10_ms(clean):
-    fit = fit_physical(clean.t, clean.u, clean.w, Vs=P.Vs, delta=P.delta, input_delay=0.5 * DT)
+    # the estimate is the point here (HAC errors: no bootstrap); the intervals of the default bootstrap are
+    # test_output_error_one_noisy_quantised_irregular_seed's
+    fit = fit_physical(clean.t, clean.u, clean.w, Vs=P.Vs, delta=P.delta, input_delay=0.5 * DT, n_bootstrap=0)
     e = _rel(fit)
     # targets: Fc, Fs, sigma within 2 %, J, tau within 5 % (measured: all within 0.6 %)
     for k, tol in (("Fc", 2.0), ("Fs", 2.0), ("sigma", 2.0), ("J", 5.0), ("tau", 5.0)):
@@ -185,9 +187,10 @@ def test_full_bootstrap_refit_is_the_fit_itself_on_the_replicate(monkeypatch):
         return search(pb, s0)
 
     monkeypatch.setattr(pid, "_oe_search", spy)
-    f = fit_physical(m.t, m.u, m.w, n_bootstrap=2, bootstrap_refit="full", **kw)
+    f = fit_physical(m.t, m.u, m.w, n_bootstrap=2, **kw)  # "full" is the default
     monkeypatch.setattr(pid, "_oe_search", search)
     assert len(seen) == 3 and f.info["bootstrap"]["refit"] == "the fit's own search from the replicate's start"
+    assert pid.OutputErrorOptions().bootstrap_refit == "full"
     g = [fit_physical(m.t, m.u, w_star, n_bootstrap=0, **kw).params for w_star in seen[1:]]  # fitted as records
     for k in f.params:
         dev = np.array([gb[k] - f.params[k] for gb in g])
@@ -197,8 +200,23 @@ def test_full_bootstrap_refit_is_the_fit_itself_on_the_replicate(monkeypatch):
         fit_physical(m.t, m.u, m.w, bootstrap_refit="all", **kw)
 
 
+@pytest.mark.parametrize("refit", ["full", "partial"])
+def test_bootstrap_threads_do_not_change_the_result(refit):
+    # every replicate and each refit's generator are drawn before any refit runs (parametric_block_bootstrap):
+    # one thread or three, the same refits bit for bit, in replicate order
+    m = _record(2, noise=0.01, quant=0.6, irregular=True, duration=8.0)
+    kw = dict(Vs=P.Vs, delta=P.delta, input_delay=0.5 * DT, start={k: getattr(P, k) for k in KEYS}, n_bootstrap=3,
+              bootstrap_refit=refit)
+    one = fit_physical(m.t, m.u, m.w, bootstrap_workers=1, **kw)
+    three = fit_physical(m.t, m.u, m.w, bootstrap_workers=3, **kw)
+    assert one.info["bootstrap"]["n_valid"] == 3
+    assert one.stderr == three.stderr and one.info["bootstrap"]["bias"] == three.info["bootstrap"]["bias"]
+    assert one.info["bootstrap"]["interval95"] == three.info["bootstrap"]["interval95"]
+    assert one.info["bootstrap"]["n_simulations"] == three.info["bootstrap"]["n_simulations"] > 0
+
+
 @pytest.mark.parametrize("opt", [{"n_bootstrap": -1}, {"n_bootstrap": 2.5}, {"bootstrap_seed": -3},
-                                 {"bootstrap_seed": True}])
+                                 {"bootstrap_seed": True}, {"bootstrap_workers": 0}, {"bootstrap_workers": 1.5}])
 def test_bootstrap_options_are_validated(clean, opt):
     with pytest.raises(ParameterError, match=next(iter(opt))):
         fit_physical(clean.t[:300], clean.u[:300], clean.w[:300], Vs=P.Vs, delta=P.delta, **opt)
@@ -234,5 +252,5 @@ def test_bootstrap_refit_runs_the_fits_later_steps_and_ends_below_the_two_pass_r
         drops.append(c_two - c_new)
     assert max(drops) > 0.0, drops
     f = fit_physical(m.t, m.u, m.w, Vs=P.Vs, delta=P.delta, input_delay=0.5 * DT, n_bootstrap=2,
-                     start={k: getattr(P, k) for k in KEYS})
+                     start={k: getattr(P, k) for k in KEYS}, bootstrap_refit="partial")
     assert f.info["bootstrap"]["refit"] == "wide trust region, local stage, 1 coordinate-search round(s)"

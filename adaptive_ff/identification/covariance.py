@@ -35,6 +35,7 @@ estimate with those residuals added, used by
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -322,7 +323,8 @@ def bootstrap_t_quantile(n: int, level: float = 0.95) -> float:
 
 
 def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int, block: int,
-                               rng: np.random.Generator, simulate=None, scheme: str = "moving") -> BootstrapResult:
+                               rng: np.random.Generator, simulate=None, scheme: str = "moving",
+                               workers: int = 1) -> BootstrapResult:
     """Standard errors of a fit by refitting re-simulated records: the parametric moving-block bootstrap.
 
     Each replicate record is ``prediction + moving_block_resample(residuals)`` (the fitted model's own output on
@@ -337,7 +339,8 @@ def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int
     ----------
     refit : callable
         ``refit(y_star, rng) -> array_like (p,)``: the fit of one replicate ``y_star`` (shape of ``prediction``),
-        in the units of ``estimate``; it may draw from ``rng`` (e.g. a start spread around the estimate). A
+        in the units of ``estimate``; it may draw from ``rng``, a generator of its own per replicate (e.g. a start
+        spread around the estimate). A
         :class:`plant.errors.FrictionError` or :class:`numpy.linalg.LinAlgError` it raises, or a non-finite
         result, drops the replicate (counted, with the reason).
     prediction : array_like, shape (m,) or (m, c)
@@ -352,8 +355,9 @@ def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int
         Block length (samples), >= 1 (:func:`moving_block_resample`); e.g. a few times the Andrews bandwidth of
         the residuals plus one.
     rng : numpy.random.Generator, keyword-only
-        Source of the block starts and of ``refit``'s draws (seed it for reproducible errors); per replicate the
-        blocks are drawn first, then ``simulate`` and ``refit`` run.
+        Source of every draw (seed it for reproducible errors): per replicate in turn its blocks, then
+        ``simulate``'s draws; after the last replicate, one seed per replicate for the generator its ``refit``
+        gets. Every replicate is drawn before any refit runs, so the result does not depend on ``workers``.
     simulate : callable or None, keyword-only
         ``simulate(rng) -> array_like``, shape of ``prediction``: one realisation of the fitted model's output
         with fresh process noise drawn from ``rng``, used instead of ``prediction`` (whose shape it must have and
@@ -362,6 +366,11 @@ def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int
         How the residuals are resampled: ``"moving"`` (default) in moving blocks
         (:func:`moving_block_resample`), ``"wild"`` kept in place with a random sign per block
         (:func:`block_wild_resample`: where the residuals are large stays where they are large).
+    workers : int, keyword-only
+        Refits run at once, >= 1, in threads (:class:`concurrent.futures.ThreadPoolExecutor`): worth it where
+        ``refit`` spends its time in code that releases the GIL (the C simulations of the output-error fit), and
+        only for a ``refit`` that is safe to run in several threads at once (no shared mutable state). Default 1
+        (one after another, in this thread).
 
     Returns
     -------
@@ -375,7 +384,7 @@ def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int
     ParameterError
         ``n`` or ``block`` not an integer >= 1, ``rng`` not a numpy Generator, ``refit`` or ``simulate`` (when
         given) not callable, ``simulate`` returning another shape (a non-finite one drops the replicate), or
-        ``scheme`` not ``"moving"`` or ``"wild"``.
+        ``scheme`` not ``"moving"`` or ``"wild"``, or ``workers`` not an integer >= 1.
 
     Notes
     -----
@@ -399,18 +408,30 @@ def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int
                              f"{type(simulate).__name__}")
     if scheme not in ("moving", "wild"):
         raise ParameterError(f"scheme must be 'moving' or 'wild', got {scheme!r}")
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
     resample = moving_block_resample if scheme == "moving" else block_wild_resample
-    reps, failures = [], []
+    replicates = []  # (y_star, or None for a non-finite simulation), every draw before any refit
     for _ in range(int(n)):
         e_star = resample(res, pred.shape[0], block=block, rng=rng)
         base = pred if simulate is None else np.asarray(simulate(rng), dtype=float)
         if base.shape != pred.shape:
             raise ParameterError(f"simulate must return an array of shape {pred.shape}, got {base.shape}")
-        if not np.all(np.isfinite(base)):
-            failures.append("non-finite simulation")
-            continue
-        y_star = base + e_star
-        _refit_into(lambda: refit(y_star, rng), est, reps, failures)
+        replicates.append(base + e_star if np.all(np.isfinite(base)) else None)
+    seeds = rng.integers(0, 2**63 - 1, size=int(n))
+
+    def one(k):
+        if replicates[k] is None:
+            return None, "non-finite simulation"
+        return _refit_one(lambda: refit(replicates[k], np.random.default_rng(seeds[k])), est)
+
+    if workers == 1 or n == 1:
+        outcomes = [one(k) for k in range(int(n))]
+    else:
+        with ThreadPoolExecutor(max_workers=min(int(workers), int(n))) as pool:
+            outcomes = list(pool.map(one, range(int(n))))  # in replicate order whatever finishes first
+    reps = [v for v, _ in outcomes if v is not None]
+    failures = [why for _, why in outcomes if why is not None]
     return _bootstrap_result(reps, est, n, block, failures)
 
 
@@ -584,18 +605,26 @@ def residual_block_bootstrap(refit, fitted, residuals, estimate, *, n: int, rng:
     return _bootstrap_result(reps, est, n, block, failures)
 
 
-def _refit_into(call, est: np.ndarray, reps: list, failures: list) -> None:
-    """One bootstrap refit ``call()``: its parameter vector appended to ``reps`` if it has the shape of ``est`` and
-    is finite, else the reason appended to ``failures`` (a friction or linear-algebra error, or "non-finite")."""
+def _refit_one(call, est: np.ndarray) -> tuple:
+    """One bootstrap refit ``call()``: ``(parameter vector, None)`` if it has the shape of ``est`` and is finite,
+    else ``(None, reason)`` (a friction or linear-algebra error, or "non-finite")."""
     try:
         v = np.asarray(call(), dtype=float).reshape(-1)
     except (FrictionError, np.linalg.LinAlgError) as exc:
-        failures.append(f"{type(exc).__name__}: {exc}")
-        return
+        return None, f"{type(exc).__name__}: {exc}"
     if v.shape != est.shape or not np.all(np.isfinite(v)):
-        failures.append("non-finite")
-        return
-    reps.append(v)
+        return None, "non-finite"
+    return v, None
+
+
+def _refit_into(call, est: np.ndarray, reps: list, failures: list) -> None:
+    """One bootstrap refit ``call()`` (:func:`_refit_one`): its parameter vector appended to ``reps``, or the
+    reason to ``failures``."""
+    v, why = _refit_one(call, est)
+    if v is None:
+        failures.append(why)
+    else:
+        reps.append(v)
 
 
 def _bootstrap_result(reps: list, est: np.ndarray, n, block, failures: list) -> "BootstrapResult":

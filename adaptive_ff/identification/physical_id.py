@@ -114,8 +114,9 @@ while sliding; the moving-block resampling used before 2026-11-23 (Künsch,
 *Ann. Statist.* 17(3), 1989) carried them into the sliding stretches, and
 its Fs intervals covered 88 % of the zoo joints of
 ``benchmarks/coverage_zoo.py`` (93 % with it; the documentation's
-identification page, "Calibration on many joints"). Each replicate is
-refitted from a start drawn around the estimate (normal, three typical
+identification page, "Calibration on many joints"). With
+``bootstrap_refit="partial"`` each replicate is refitted from a start drawn
+around the estimate (normal, three typical
 changes per parameter: 6 % of J, 9 % of tau, 3 % of the torques) by the
 fit's own later steps (``_oe_refit``; ``info["bootstrap"]["refit"]``): a
 trust-region pass at the wide robust scale of its global stage, its local
@@ -136,7 +137,8 @@ calibrated on simulated records and checked on others
 (``benchmarks/coverage.py``; the documentation's identification page has
 the table); the intervals widen with it.
 
-These partial refits are not the estimator: on zoo joints 0, 1, 5 and 7 of
+These partial refits (``bootstrap_refit="partial"``, the default until
+2026-11-24) are not the estimator: on zoo joints 0, 1, 5 and 7 of
 ``benchmarks/coverage_zoo.py`` their scatter was 1.3-2.9 times the fit's own
 error over ten records of each joint (new input, time stamps and noise), while
 the fit itself, run on the same bootstrap replicates, scattered as that Monte
@@ -147,13 +149,19 @@ eq. 4 start, every stage including the profile searches): the bootstrap of
 the estimator as it is (Efron & Tibshirani, Ch. 6), at about three times the
 cost of the partial refits (a median 34 s, 22-68 s, against 11 s of CPU per
 15 s zoo record with 20 refits); its coverage on the zoo: the identification
-page, "The bootstrap of the fit itself".
+page, "The bootstrap of the fit itself". It is the default: its 95 % intervals
+covered the truth on 91-94 % of 100 zoo joints per parameter, the partial
+refits' J and tau intervals on 99 % (twice too wide). The refits run in threads
+(``bootstrap_workers``; their time is in the C simulation, which releases the
+GIL); every replicate and the generator of each refit are drawn before any
+refit runs, so the result does not depend on the number of threads.
 """
 
 from __future__ import annotations
 
 import copy
 import math
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 
@@ -207,7 +215,7 @@ _BOOT_SCHEME = "wild"
 # lag profile and the final Fs profile are left out (about 1000 simulations per refit)
 _BOOT_POLISH = 1
 #: Refits of the output-error bootstrap (``OutputErrorOptions.bootstrap_refit``).
-BOOTSTRAP_REFITS = ("partial", "full")
+BOOTSTRAP_REFITS = ("full", "partial")
 _BOOT_REFIT = f"wide trust region, local stage, {_BOOT_POLISH} coordinate-search round(s)"
 
 
@@ -423,22 +431,25 @@ class OutputErrorOptions:
         the eq. 4 start and the start profiles. Default None.
     n_bootstrap : int, keyword-only
         Refits of re-simulated records behind ``stderr`` (module docstring,
-        "Standard errors"), >= 0; each costs a wide trust-region fit, the
-        fit's local stage and one coordinate-search round (about 180
-        simulations on the zoo of ``benchmarks/coverage_zoo.py``: 20 refits
-        3300-3900 against the fit's own 1200-2100).
-        0: ``stderr`` is the HAC sandwich
+        "Standard errors"), >= 0; each costs a fit of its own with
+        ``bootstrap_refit="full"`` (the fit runs 1200-2100 simulations on the
+        zoo of ``benchmarks/coverage_zoo.py``), about 180 simulations with
+        ``"partial"``. 0: ``stderr`` is the HAC sandwich
         (too small on the rough free-run cost). Default 20.
     bootstrap_seed : int, keyword-only
         Seed of the bootstrap's residual blocks and start points, >= 0. Default 0.
-    bootstrap_refit : {"partial", "full"}, keyword-only
-        How each bootstrap replicate is refitted. ``"partial"`` (default): from a start spread around the
-        estimate by the fit's later steps (above; ``_oe_refit``), with the record's noise level and robust
-        scales. ``"full"``: by the fit itself, the replicate taken as a record of its own (its noise level,
-        scales and eq. 4 start; every stage including the profile searches: the same estimator on every
-        replicate, Efron & Tibshirani 1993, Ch. 6), about three times the CPU time of ``"partial"``; its
-        intervals are narrower where the partial refits stop short of where the fit stops (module docstring,
-        "Standard errors").
+    bootstrap_refit : {"full", "partial"}, keyword-only
+        How each bootstrap replicate is refitted. ``"full"`` (default): by the fit itself, the replicate taken
+        as a record of its own (its noise level, scales and eq. 4 start; every stage including the profile
+        searches: the same estimator on every replicate, Efron & Tibshirani 1993, Ch. 6); its 95 % intervals
+        covered the truth on 91-94 % of 100 zoo joints (module docstring, "Standard errors"). ``"partial"``:
+        from a start spread around the estimate by the fit's later steps (above; ``_oe_refit``), with the
+        record's noise level and robust scales, about a third of the CPU time; its J and tau intervals are about
+        twice too wide (the partial refits stop short of where the fit stops).
+    bootstrap_workers : int or None, keyword-only
+        Threads the bootstrap refits run in, >= 1 (their time is in the C simulation, which releases the GIL;
+        :func:`adaptive_ff.identification.covariance.parametric_block_bootstrap`). None (default): the CPUs this
+        process may use, at most ``n_bootstrap``. The result does not depend on it.
     lag_profile : bool, keyword-only
         Run the profile search over tau after the local stage
         (:func:`adaptive_ff.identification.lag_profile.lag_profile_search`: ten values of tau, J on a grid
@@ -472,7 +483,8 @@ class OutputErrorOptions:
     start: dict | None = None
     n_bootstrap: int = 20
     bootstrap_seed: int = 0
-    bootstrap_refit: str = "partial"
+    bootstrap_refit: str = "full"
+    bootstrap_workers: int | None = None
     lag_profile: bool = True
 
     def __post_init__(self):
@@ -492,6 +504,8 @@ class OutputErrorOptions:
         put("max_nfev", _check_int("max_nfev", self.max_nfev, 1))
         put("n_bootstrap", _check_int("n_bootstrap", self.n_bootstrap, 0))
         put("bootstrap_seed", _check_int("bootstrap_seed", self.bootstrap_seed, 0))
+        if self.bootstrap_workers is not None:
+            put("bootstrap_workers", _check_int("bootstrap_workers", self.bootstrap_workers, 1))
         if not isinstance(self.lag_profile, (bool, np.bool_)):
             raise ParameterError(f"lag_profile must be True or False, got {self.lag_profile!r}")
         put("lag_profile", bool(self.lag_profile))
@@ -502,6 +516,15 @@ class OutputErrorOptions:
                 raise ParameterError(f"{name} must be one of {list(allowed)}, got {getattr(self, name)!r}")
         if self.f_scale is not None:
             put("f_scale", check_positive("f_scale", self.f_scale))
+
+    def workers(self) -> int:
+        """Threads of the bootstrap refits: ``bootstrap_workers``, or (None) the CPUs this process may use
+        (:func:`os.sched_getaffinity` where there is one, else :func:`os.cpu_count`), at most ``n_bootstrap``;
+        >= 1."""
+        if self.bootstrap_workers is not None:
+            return self.bootstrap_workers
+        cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        return max(1, min(cpus, self.n_bootstrap))
 
     @classmethod
     def from_options(cls, options: Mapping) -> "OutputErrorOptions":
@@ -791,12 +814,11 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
     o = pb.opts
     w_hat = pb.simulate(x)
     keep = [j for j, k in enumerate(PHYSICAL_NAMES) if k in names]
-    n_sim = [0]
+    n_sim = []  # per refit; list.append is atomic, the refits may run in threads
 
-    def refit(y_star, rng):
+    def refit(y_star, rng):  # safe in threads: every problem it runs is its own
         w_star = w_hat.copy()
         w_star[pb.i0:] = y_star
-        x0 = x + rng.normal(size=x.shape) * _BOOT_START * pb.typical(x)  # drawn either way: the same signs
         if o.bootstrap_refit == "full":  # the estimator itself: the replicate as a record of its own
             rp = _OutputErrorProblem(pb.t, pb.u, w_star, pb.Vs, pb.delta, pb.offset, o)
             s0 = dict(o.start) if o.start is not None else _start_from_paper(pb.t, pb.u, w_star, pb.Vs, pb.delta,
@@ -804,19 +826,20 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
             z = _oe_search(rp, s0)[0][1]
         else:
             rp = pb.replicate(w_star)
-            z = _oe_refit(rp, x0)
-        n_sim[0] += rp.n_sim
+            z = _oe_refit(rp, x + rng.normal(size=x.shape) * _BOOT_START * pb.typical(x))
+        n_sim.append(rp.n_sim)
         return np.array(rp.unpack(z))[keep]
 
     est = np.array(pb.unpack(x))[keep]
     b = parametric_block_bootstrap(refit, w_hat[pb.i0:], r, est, n=o.n_bootstrap,
                                    block=_BOOT_BLOCK * (andrews_bandwidth(r) + 1),
-                                   rng=np.random.default_rng(o.bootstrap_seed), scheme=_BOOT_SCHEME)
+                                   rng=np.random.default_rng(o.bootstrap_seed), scheme=_BOOT_SCHEME,
+                                   workers=o.workers())
     details = {"n": o.n_bootstrap, "n_valid": b.n_valid, "block": int(b.block), "seed": o.bootstrap_seed,
                "start_spread": _BOOT_START, "resampling": _BOOT_SCHEME,
                "refit": (_BOOT_REFIT if o.bootstrap_refit == "partial"
                          else "the fit's own search from the replicate's start"),
-               "n_simulations": n_sim[0]}
+               "n_simulations": int(sum(n_sim))}
     details.update(_oe_intervals(pb, names, est, b))
     return dict(zip(names, map(float, b.stderr))), dict(zip(names, map(float, b.bias))), details
 

@@ -465,11 +465,11 @@ def register(sub) -> None:
                         "methods paper and sliding (default 200, >= 2; 0: white-residual errors), the parametric "
                         "block bootstrap of output_error and closed_loop (default 20 and 10; more: steadier errors, "
                         "proportionally slower; 0: HAC (Newey-West) errors instead, too small on their rough cost)")
-    i.add_argument("--bootstrap-refit", dest="bootstrap_refit", choices=("partial", "full"), default=None,
-                   help="how the output_error bootstrap refits each replicate: partial (default; the fit's later "
-                        "steps from a spread start: conservative intervals) or full (the fit itself on each "
-                        "replicate: intervals calibrated on the zoo of benchmarks/coverage_zoo.py, about 3 times "
-                        "slower); --method output_error only")
+    i.add_argument("--bootstrap-refit", dest="bootstrap_refit", choices=("full", "partial"), default=None,
+                   help="how the output_error bootstrap refits each replicate: full (default; the fit itself on "
+                        "each replicate: intervals calibrated on the zoo of benchmarks/coverage_zoo.py; the "
+                        "refits run on every CPU) or partial (the fit's later steps from a spread start: about 3 "
+                        "times faster, J and tau intervals about twice too wide); --method output_error only")
     i.add_argument("--axis", choices=("rotary", "linear"), default="rotary",
                    help="rotary (default): tables in N·m, kg·m², rad/s (or deg/s, --units); linear: a prismatic "
                         "axis, tables in N, kg, m/s (SI; --units does not apply). The values are the same numbers "
