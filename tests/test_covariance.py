@@ -199,6 +199,33 @@ def test_parametric_block_bootstrap_threads_give_the_one_thread_result():
     assert np.allclose(runs[0].replicates[:, 1], np.mean(res**2), rtol=1e-12)
 
 
+def test_parametric_block_bootstrap_progress_bar_counts_the_refits_and_changes_nothing(capsys, monkeypatch):
+    import tqdm.auto
+
+    pred, res = np.zeros(40), np.cos(np.arange(40.0))
+
+    def refit(y, rng):
+        return np.array([y.mean() + rng.normal()])
+
+    quiet = parametric_block_bootstrap(refit, pred, res, [0.0], n=7, block=3, rng=np.random.default_rng(4))
+    assert capsys.readouterr().err == ""  # the default draws no bar
+    shown = parametric_block_bootstrap(refit, pred, res, [0.0], n=7, block=3, rng=np.random.default_rng(4),
+                                       workers=2, progress=True)
+    assert "bootstrap refits" in capsys.readouterr().err
+    np.testing.assert_array_equal(quiet.replicates, shown.replicates)
+    bars = []
+
+    class Recorder(tqdm.auto.tqdm):  # the bar's own count after the run: one update per refit
+        def __init__(self, *a, **k):
+            super().__init__(*a, **k)
+            bars.append(self)
+
+    monkeypatch.setattr(tqdm.auto, "tqdm", Recorder)
+    parametric_block_bootstrap(refit, pred, res, [0.0], n=7, block=3, rng=np.random.default_rng(4), workers=3,
+                               progress=True)
+    assert len(bars) == 1 and bars[0].n == bars[0].total == 7
+
+
 @pytest.mark.parametrize("kwargs, err, match", [
     ({"prediction": np.zeros(5)}, SignalError, "prediction"),
     ({"estimate": [np.nan]}, SignalError, "estimate"),
@@ -210,6 +237,7 @@ def test_parametric_block_bootstrap_threads_give_the_one_thread_result():
     ({"simulate": 3.0}, ParameterError, "simulate must be callable"),
     ({"workers": 0}, ParameterError, "workers"),
     ({"workers": 2.0}, ParameterError, "workers"),
+    ({"progress": 1}, ParameterError, "progress"),
     ({"simulate": lambda rng: np.zeros(9)}, ParameterError, r"simulate must return an array of shape \(10,\)"),
 ])
 def test_parametric_block_bootstrap_bad_input(kwargs, err, match):

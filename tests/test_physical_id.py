@@ -216,7 +216,8 @@ def test_bootstrap_threads_do_not_change_the_result(refit):
 
 
 @pytest.mark.parametrize("opt", [{"n_bootstrap": -1}, {"n_bootstrap": 2.5}, {"bootstrap_seed": -3},
-                                 {"bootstrap_seed": True}, {"bootstrap_workers": 0}, {"bootstrap_workers": 1.5}])
+                                 {"bootstrap_seed": True}, {"bootstrap_workers": 0}, {"bootstrap_workers": 1.5},
+                                 {"progress": "yes"}])
 def test_bootstrap_options_are_validated(clean, opt):
     with pytest.raises(ParameterError, match=next(iter(opt))):
         fit_physical(clean.t[:300], clean.u[:300], clean.w[:300], Vs=P.Vs, delta=P.delta, **opt)

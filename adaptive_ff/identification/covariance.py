@@ -324,7 +324,7 @@ def bootstrap_t_quantile(n: int, level: float = 0.95) -> float:
 
 def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int, block: int,
                                rng: np.random.Generator, simulate=None, scheme: str = "moving",
-                               workers: int = 1) -> BootstrapResult:
+                               workers: int = 1, progress: bool | None = False) -> BootstrapResult:
     """Standard errors of a fit by refitting re-simulated records: the parametric moving-block bootstrap.
 
     Each replicate record is ``prediction + moving_block_resample(residuals)`` (the fitted model's own output on
@@ -371,6 +371,9 @@ def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int
         ``refit`` spends its time in code that releases the GIL (the C simulations of the output-error fit), and
         only for a ``refit`` that is safe to run in several threads at once (no shared mutable state). Default 1
         (one after another, in this thread).
+    progress : bool or None, keyword-only
+        A tqdm bar over the refits on stderr: True, False (default: none) or None (only when stderr is a
+        terminal). It does not change the result.
 
     Returns
     -------
@@ -384,7 +387,8 @@ def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int
     ParameterError
         ``n`` or ``block`` not an integer >= 1, ``rng`` not a numpy Generator, ``refit`` or ``simulate`` (when
         given) not callable, ``simulate`` returning another shape (a non-finite one drops the replicate), or
-        ``scheme`` not ``"moving"`` or ``"wild"``, or ``workers`` not an integer >= 1.
+        ``scheme`` not ``"moving"`` or ``"wild"``, ``workers`` not an integer >= 1, or ``progress`` not True,
+        False or None.
 
     Notes
     -----
@@ -410,6 +414,8 @@ def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int
         raise ParameterError(f"scheme must be 'moving' or 'wild', got {scheme!r}")
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
+    if not (progress is None or isinstance(progress, (bool, np.bool_))):
+        raise ParameterError(f"progress must be True, False or None, got {progress!r}")
     resample = moving_block_resample if scheme == "moving" else block_wild_resample
     replicates = []  # (y_star, or None for a non-finite simulation), every draw before any refit
     for _ in range(int(n)):
@@ -425,11 +431,20 @@ def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int
             return None, "non-finite simulation"
         return _refit_one(lambda: refit(replicates[k], np.random.default_rng(seeds[k])), est)
 
-    if workers == 1 or n == 1:
-        outcomes = [one(k) for k in range(int(n))]
-    else:
-        with ThreadPoolExecutor(max_workers=min(int(workers), int(n))) as pool:
-            outcomes = list(pool.map(one, range(int(n))))  # in replicate order whatever finishes first
+    from tqdm.auto import tqdm
+
+    with tqdm(total=int(n), desc="bootstrap refits", unit="refit", leave=False,
+              disable=None if progress is None else not progress) as bar:
+        def counted(k):
+            out = one(k)
+            bar.update(1)  # tqdm's update holds its own lock: safe from the refit threads
+            return out
+
+        if workers == 1 or n == 1:
+            outcomes = [counted(k) for k in range(int(n))]
+        else:
+            with ThreadPoolExecutor(max_workers=min(int(workers), int(n))) as pool:
+                outcomes = list(pool.map(counted, range(int(n))))  # in replicate order whatever finishes first
     reps = [v for v, _ in outcomes if v is not None]
     failures = [why for _, why in outcomes if why is not None]
     return _bootstrap_result(reps, est, n, block, failures)

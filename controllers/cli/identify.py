@@ -191,6 +191,7 @@ def _identify(args, data):
     """The report: :func:`controllers.experiments.closed_loop_id.identify_closed_loop` when the reference and the
     controller are given (methods auto, closed_loop), else :func:`adaptive_ff.identification.identify.identify`."""
     from adaptive_ff.identification.identify import identify
+    from controllers.cli.data import progress_from_args
     from plant.errors import ParameterError
 
     ref_name, spec = args.reference_name, _controller_spec(args)
@@ -201,6 +202,8 @@ def _identify(args, data):
             raise ParameterError(f"--bootstrap-refit applies to --method output_error (without --form), got "
                                  f"--method {args.method}" + (f" --form {args.form}" if args.form else ""))
         boot["bootstrap_refit"] = args.bootstrap_refit
+    if args.method == "output_error" and args.form is None:  # its bootstrap takes minutes on a long log
+        boot["progress"] = progress_from_args(args)
     if args.form is not None:
         return _identify_form(args, data, ref_name, spec, common)
     if args.method == "closed_loop" and (ref_name is None or spec is None):
