@@ -150,8 +150,10 @@ the estimator as it is (Efron & Tibshirani, Ch. 6), at about three times the
 cost of the partial refits (a median 34 s, 22-68 s, against 11 s of CPU per
 15 s zoo record with 20 refits); its coverage on the zoo: the identification
 page, "The bootstrap of the fit itself". It is the default: its 95 % intervals
-covered the truth on 91-94 % of 100 zoo joints per parameter, the partial
-refits' J and tau intervals on 99 % (twice too wide). The refits run in threads
+covered the truth on 91-96 % of 100 zoo joints per parameter in two runs with
+different draws (commits ab5b463 and 6238154; the identification page, "The
+bootstrap of the fit itself, the default"), the partial refits' J and tau
+intervals on 99 % (twice too wide). The refits run in threads
 (``bootstrap_workers``; their time is in the C simulation, which releases the
 GIL); every replicate and the generator of each refit are drawn before any
 refit runs, so the result does not depend on the number of threads.
@@ -442,7 +444,7 @@ class OutputErrorOptions:
         How each bootstrap replicate is refitted. ``"full"`` (default): by the fit itself, the replicate taken
         as a record of its own (its noise level, scales and eq. 4 start; every stage including the profile
         searches: the same estimator on every replicate, Efron & Tibshirani 1993, Ch. 6); its 95 % intervals
-        covered the truth on 91-94 % of 100 zoo joints (module docstring, "Standard errors"). ``"partial"``:
+        covered the truth on 91-96 % of 100 zoo joints per parameter (module docstring, "Standard errors"). ``"partial"``:
         from a start spread around the estimate by the fit's later steps (above; ``_oe_refit``), with the
         record's noise level and robust scales, about a third of the CPU time; its J and tau intervals are about
         twice too wide (the partial refits stop short of where the fit stops).
