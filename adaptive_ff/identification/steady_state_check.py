@@ -31,8 +31,8 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy import stats
 
+from adaptive_ff.identification.covariance import bootstrap_t_quantile
 from adaptive_ff.io.data import MeasuredData
 from plant.errors import ExcitationError, ParameterError
 from plant.friction import stribeck
@@ -119,7 +119,7 @@ def _static_line(w: np.ndarray, u: np.ndarray, wt: np.ndarray, offset: bool) -> 
     dof = w.size - k
     cov = float(r @ r) / dof * np.linalg.pinv(Aw.T @ Aw)
     std = np.sqrt(np.maximum(np.diag(cov), 0.0))
-    q = float(stats.t.ppf(0.975, dof))
+    q = bootstrap_t_quantile(dof)  # Student-t, 95 %: scipy.stats loaded only here
     names = ("Fc", "sigma", "offset")[:k]
     out = {"Fc": float(x[0]), "sigma": float(x[1]), "offset": float(x[2]) if offset else 0.0,
            "std": {n: float(s) for n, s in zip(names, std)},

@@ -197,13 +197,14 @@ def _identify(args, data):
     ref_name, spec = args.reference_name, _controller_spec(args)
     common = {"lag": args.lag, "offset": not args.no_offset, "lam": args.lam}
     boot = {} if args.bootstrap is None else {"n_bootstrap": args.bootstrap}
-    if args.bootstrap_refit is not None:
-        if args.method != "output_error" or args.form is not None:
-            raise ParameterError(f"--bootstrap-refit applies to --method output_error (without --form), got "
-                                 f"--method {args.method}" + (f" --form {args.form}" if args.form else ""))
-        boot["bootstrap_refit"] = args.bootstrap_refit
-    if args.method == "output_error" and args.form is None:  # its bootstrap takes minutes on a long log
+    output_error = args.method == "output_error" and args.form is None
+    if args.bootstrap_refit is not None and not output_error:
+        raise ParameterError(f"--bootstrap-refit applies to --method output_error (without --form), got "
+                             f"--method {args.method}" + (f" --form {args.form}" if args.form else ""))
+    if output_error:  # its bootstrap takes minutes on a long log
         boot["progress"] = progress_from_args(args)
+        if args.bootstrap_refit is not None:
+            boot["bootstrap_refit"] = args.bootstrap_refit
     if args.form is not None:
         return _identify_form(args, data, ref_name, spec, common)
     if args.method == "closed_loop" and (ref_name is None or spec is None):
