@@ -29,9 +29,12 @@ from plant.variant_plants import variant
 TC, JN, KP, KI = 1e-3, 0.5, 10.0, 60.0
 
 
-def _c_switch_in(window=0.05, ratio=0.1, fade_in=0.01, share=0.25):
+MARGIN = 0.03  # the trial's default margin (ResidualSwitchIn.trial_margin)
+
+
+def _c_switch_in(window=0.05, ratio=0.1, fade_in=0.01, share=0.25, margin=MARGIN):
     a = ffi.new("ctl_residual *")
-    assert lib.ctl_residual_set_switch_in(a, TC, JN, KP, KI, window, ratio, share, fade_in) == 0
+    assert lib.ctl_residual_set_switch_in(a, TC, JN, KP, KI, window, ratio, share, fade_in, margin) == 0
     return a
 
 
@@ -45,14 +48,15 @@ def _frictionless_error(w_ref):
 
 
 def _far(w_ref):
-    """A controller velocity whose error is twice the frictionless loop's (M_e = 4 M_l): the measured error never
-    holds the test back."""
-    return w_ref - 2.0 * _frictionless_error(w_ref)
+    """A controller velocity whose error is twice the frictionless loop's (M_e = 4 M_l) at first, falling to 1.6
+    times by the end: the measured error never holds the test back, and a switch-in's trial finds the loop no worse
+    (a constant ratio would be a tie, decided by the last bit)."""
+    return w_ref - np.linspace(2.0, 1.6, len(w_ref)) * _frictionless_error(w_ref)
 
 
 def _oracle(u_ff, d_hat, w_ref, acting, window, ratio, fade_in, share=0.25, w_ctrl=None):
-    """Share g per period, the mean squares per period, and the switch-in index (or None); ``w_ctrl`` the
-    controller's velocity (default :func:`_far`)."""
+    """Share g per period, the mean squares per period, the switch-in index (or None) and the trial's switch-out
+    index (or None); ``w_ctrl`` the controller's velocity (default :func:`_far`)."""
     n = len(d_hat)
     w_ctrl = _far(w_ref) if w_ctrl is None else w_ctrl
     c, kt = TC / JN, KI * TC
@@ -79,13 +83,34 @@ def _oracle(u_ff, d_hat, w_ref, acting, window, ratio, fade_in, share=0.25, w_ct
     hit = np.flatnonzero((count >= 2 * n_ev) & fires)
     k_in = int(np.flatnonzero(used)[hit[0]]) if hit.size else None
     g = np.zeros(n)
+    k_out = None
     if k_in is not None:
-        g[k_in:] = np.minimum(1.0, TC / fade_in * np.arange(1, n - k_in + 1))
+        fade = TC / fade_in
+        g[k_in:] = np.minimum(1.0, np.cumsum(np.full(n - k_in, fade)))
+        # on trial only where the observer has at most `ratio` to gain: M_e <= (1 + ratio) M_l at the switch-in
+        if m_e_u[hit[0]] <= (1.0 + ratio) * m_l_u[hit[0]]:
+            k_out = _trial_verdict(w_ref, w_ctrl, e_l, ~rest, k_in, int(np.argmax(g >= 1.0)), ewma, 2 * n_ev)
+        if k_out is not None:
+            g[k_out:] = np.maximum(0.0, 1.0 - fade * np.arange(1, n - k_out + 1))
     # the mean squares per period (held where a period does not count)
     idx = np.cumsum(used) - 1
     m_r = np.where(idx >= 0, m_r_u[np.maximum(idx, 0)], 0.0)
     m_l = np.where(idx >= 0, m_l_u[np.maximum(idx, 0)], 0.0)
-    return g, m_r, m_l, k_in
+    return g, m_r, m_l, k_in, k_out
+
+
+def _trial_verdict(w_ref, w_ctrl, e_l, moving, k_in, k_full, ewma, n_needed):
+    """The trial's switch-out index or None: the measured mean square against the frictionless loop's, over the
+    moving periods up to the switch-in and again after the observer is wholly in (index ``k_full``)."""
+    e_m2, e_l2 = (w_ref - w_ctrl) ** 2, e_l ** 2
+    k = np.arange(len(w_ref))
+    before = moving & (k <= k_in)
+    ratio_in = ewma(e_m2[before])[-1] / ewma(e_l2[before])[-1]
+    after = np.flatnonzero(moving & (k > k_full))
+    if after.size < n_needed:
+        return None
+    ratio = ewma(e_m2[after])[n_needed - 1] / ewma(e_l2[after])[n_needed - 1]
+    return int(after[n_needed - 1]) if ratio > (1.0 + MARGIN) * ratio_in else None
 
 
 def _inputs(n=600, seed=5, grow_at=300):
@@ -111,17 +136,65 @@ def _run_c(a, u_ff, d_hat, w_ref, acting, w_ctrl=None):
     return g, m_r, m_l
 
 
+def _tracking(w_ref, before, after, k):
+    """A controller velocity whose error is ``before`` times the frictionless loop's up to period k, ``after`` times
+    from then on (the loop with the observer tracking better or worse than with the feedforward alone)."""
+    scale = np.where(np.arange(len(w_ref)) <= k, before, after)
+    return w_ref - scale * _frictionless_error(w_ref)
+
+
 def test_the_c_test_equals_the_state_space_oracle():
     u_ff, d_hat, w_ref, acting = _inputs()
+    k_far = _oracle(u_ff, d_hat, w_ref, acting, 0.05, 0.1, 0.01)[3]
+    # the loop's measured error 1.02 times the frictionless loop's with the feedforward alone (M_e = 1.04 M_l: at
+    # most ratio = 0.1 to gain, so on trial), 0.9 times with the observer: kept
+    w_ctrl = _tracking(w_ref, 1.02, 0.9, k_far)
     a = _c_switch_in()
-    g, m_r, m_l = _run_c(a, u_ff, d_hat, w_ref, acting)
-    g_o, m_r_o, m_l_o, k_in = _oracle(u_ff, d_hat, w_ref, acting, 0.05, 0.1, 0.01)
+    g, m_r, m_l = _run_c(a, u_ff, d_hat, w_ref, acting, w_ctrl=w_ctrl)
+    g_o, m_r_o, m_l_o, k_in, k_out = _oracle(u_ff, d_hat, w_ref, acting, 0.05, 0.1, 0.01, w_ctrl=w_ctrl)
     assert k_in is not None and 300 < k_in < 500  # the residual appears at 300: switched in after it (435), not before
-    assert a.sw.k_in == k_in
+    assert a.sw.k_in == k_in == k_far
     np.testing.assert_allclose(m_r[:k_in + 1], m_r_o[:k_in + 1], rtol=1e-10, atol=1e-18)
     np.testing.assert_allclose(m_l[:k_in + 1], m_l_o[:k_in + 1], rtol=1e-10, atol=1e-18)
     np.testing.assert_allclose(g, g_o, rtol=0, atol=1e-12)
     assert np.all(g[:k_in] == 0.0) and g[-1] == 1.0
+    assert a.sw.decided == 1 and a.sw.k_out == -1 and k_out is None  # the trial judged, and kept the observer
+
+
+def _trial_case(before, after):
+    """The switch-in of :func:`_inputs` with the loop's measured error ``before`` times the frictionless loop's up to
+    it and ``after`` times from then on: the C struct, its share per period, and the oracle's switch-in and switch-out
+    (None), after checking that both agree."""
+    u_ff, d_hat, w_ref, acting = _inputs()
+    k_far = _oracle(u_ff, d_hat, w_ref, acting, 0.05, 0.1, 0.01)[3]
+    w_ctrl = _tracking(w_ref, before, after, k_far)
+    a = _c_switch_in()
+    g, _, _ = _run_c(a, u_ff, d_hat, w_ref, acting, w_ctrl=w_ctrl)
+    g_o, _, _, k_in, k_out = _oracle(u_ff, d_hat, w_ref, acting, 0.05, 0.1, 0.01, w_ctrl=w_ctrl)
+    assert k_in == k_far == a.sw.k_in and a.sw.k_out == (-1 if k_out is None else k_out)
+    np.testing.assert_allclose(g, g_o, rtol=0, atol=1e-12)
+    assert a.sw.decided == 1
+    return a, g, k_in, k_out
+
+
+def test_the_trial_takes_out_an_observer_with_which_the_loop_tracks_worse():
+    # the same switch-in; with the observer in, the loop's measured error rises from 1.02 times the frictionless
+    # loop's to 1.2 times: the trial (two windows after the fade-in) takes the observer out and its share falls back
+    # to 0
+    a, g, k_in, k_out = _trial_case(1.02, 1.2)
+    assert k_out is not None
+    assert k_out - k_in >= 2 * 50 + 9  # the fade-in (10 periods) and two windows (100 periods) of evidence first
+    assert g[k_out - 1] == 1.0 and g[-1] == 0.0  # out, the share back to 0 over the fade
+    # the margin: 2 % worse in mean square is kept, 4 % worse taken out
+    for rise, out in ((1.02, False), (1.04, True)):
+        assert (_trial_case(1.02, 1.02 * math.sqrt(rise))[3] is not None) == out
+
+
+def test_a_switch_in_with_much_to_gain_is_not_on_trial():
+    # the loop's measured error twice the frictionless loop's with the feedforward alone (M_e = 4 M_l): friction
+    # clearly costs tracking, the observer stays whatever the error after (here three times the frictionless loop's)
+    a, g, _, k_out = _trial_case(2.0, 3.0)
+    assert k_out is None and math.isinf(a.sw.ratio_in) and g[-1] == 1.0
 
 
 def test_a_loop_that_tracks_at_the_frictionless_loops_error_keeps_the_feedforward_alone():
@@ -134,10 +207,10 @@ def test_a_loop_that_tracks_at_the_frictionless_loops_error_keeps_the_feedforwar
     assert k_big is not None and 300 < k_big < 500  # the residual's test fires after the residual appears
     e_l = _frictionless_error(w_ref)
     for scale, expect in ((0.9, None), (1.1, k_big)):
-        w_ctrl = w_ref - scale * e_l
+        w_ctrl = w_ref - scale * e_l if expect is None else _tracking(w_ref, scale, 0.9 * scale, k_big)
         a = _c_switch_in()
         g, _, _ = _run_c(a, u_ff, d_hat, w_ref, acting, w_ctrl=w_ctrl)
-        g_o, _, _, k_in = _oracle(u_ff, d_hat, w_ref, acting, 0.05, 0.1, 0.01, w_ctrl=w_ctrl)
+        g_o, _, _, k_in, _ = _oracle(u_ff, d_hat, w_ref, acting, 0.05, 0.1, 0.01, w_ctrl=w_ctrl)
         assert k_in == expect and a.sw.k_in == (-1 if expect is None else expect)
         np.testing.assert_allclose(g, g_o, rtol=0, atol=1e-12)
         np.testing.assert_allclose(a.sw.m_e / a.sw.m_l, scale**2, rtol=1e-9)
@@ -151,7 +224,7 @@ def test_a_feedforward_doing_little_where_friction_hardly_matters_is_switched_by
     u_ff, d_hat = 0.5 * friction, 0.5 * friction + 1e-4 * np.random.default_rng(1).normal(size=len(w_ref))
     a = _c_switch_in()
     g, m_r, m_l = _run_c(a, u_ff, d_hat, w_ref, acting)
-    g_o, _, m_l_o, k_in = _oracle(u_ff, d_hat, w_ref, acting, 0.05, 0.1, 0.01)
+    g_o, _, m_l_o, k_in, _ = _oracle(u_ff, d_hat, w_ref, acting, 0.05, 0.1, 0.01)
     assert k_in is not None and a.sw.k_in == k_in
     rise_r, rise_f = max(a.sw.m_r, a.sw.m_r - 2 * a.sw.c_r), max(a.sw.m_f, a.sw.m_f - 2 * a.sw.c_f)
     assert rise_r < 0.1 * a.sw.m_l and rise_r > 0.25 * rise_f  # the share test fired, not the ratio test
@@ -181,12 +254,12 @@ def test_a_residual_that_adds_to_the_loops_own_error_is_switched_in_by_its_cross
         return -2.0 * c.sw.c_r / c.sw.m_r
 
     worst = max(np.linspace(0.0, 2 * np.pi, 24, endpoint=False), key=cross)
-    _, m_r, m_l, _ = _oracle(u_ff, residual(worst), w_ref, acting, 0.05, 1e9, 0.01, share=1e9)
+    _, m_r, m_l, _, _ = _oracle(u_ff, residual(worst), w_ref, acting, 0.05, 1e9, 0.01, share=1e9)
     amp = math.sqrt(0.005 * m_l[-1] / m_r[-1])  # scale the residual to M_r = 0.005 M_l
     d_add, d_opp = residual(worst, amp), residual(worst + np.pi, amp)
     a = _c_switch_in()
     g, _, _ = _run_c(a, u_ff, d_add, w_ref, acting)
-    g_o, _, _, k_in = _oracle(u_ff, d_add, w_ref, acting, 0.05, 0.1, 0.01)
+    g_o, _, _, k_in, _ = _oracle(u_ff, d_add, w_ref, acting, 0.05, 0.1, 0.01)
     assert k_in is not None and a.sw.k_in == k_in
     np.testing.assert_allclose(g, g_o, rtol=0, atol=1e-12)
     assert a.sw.m_r < 0.01 * a.sw.m_l  # the residual's own error is small ...
@@ -204,19 +277,24 @@ def test_no_residual_no_switch_in_and_an_idle_feedforward_is_replaced():
     assert a.sw.k_in == -1 and np.all(g == 0.0)
     assert _oracle(u_ff, d_hat, w_ref, acting, 0.05, 0.1, 0.01)[3] is None
     # a feedforward that never acts: the observer is switched in after 5 windows (250 periods)
+    # and stays, whatever follows: no trial after the idle switch-in (the loop before it had no feedforward acting)
     a = _c_switch_in()
-    _run_c(a, u_ff, d_hat, w_ref, np.zeros(len(d_hat), dtype=bool))
+    g, _, _ = _run_c(a, u_ff, d_hat, w_ref, np.zeros(len(d_hat), dtype=bool), w_ctrl=_tracking(w_ref, 1.0, 5.0, 249))
     assert a.sw.k_in == 249 and a.sw.n_used == 0
+    assert math.isinf(a.sw.ratio_in) and a.sw.decided == 1 and a.sw.k_out == -1 and g[-1] == 1.0
 
 
 def test_settings_are_checked():
     for bad in (dict(ratio=0.0), dict(share=-0.1), dict(window=-1.0), dict(Kp=math.nan), dict(Ki=-1.0),
-                dict(fade_in=-0.1)):
+                dict(fade_in=-0.1), dict(trial_margin=math.nan), dict(trial_margin=True)):
         with pytest.raises(ParameterError):
             ResidualSwitchIn(**{**dict(Tc=TC, J_n=JN, Kp=KP, Ki=KI), **bad})
     a = ffi.new("ctl_residual *")
-    assert lib.ctl_residual_set_switch_in(a, TC, JN, KP, KI, 0.05, 0.0, 0.25, 0.01) == -1 and a.use_switch_in == 0
-    assert lib.ctl_residual_set_switch_in(a, TC, JN, KP, KI, 0.05, 0.1, 0.0, 0.01) == -1 and a.use_switch_in == 0
+    for ratio, share, margin in ((0.0, 0.25, 0.02), (0.1, 0.0, 0.02), (0.1, 0.25, -0.01), (0.1, 0.25, math.nan)):
+        assert lib.ctl_residual_set_switch_in(a, TC, JN, KP, KI, 0.05, ratio, share, 0.01, margin) == -1
+        assert a.use_switch_in == 0
+    with pytest.raises(ParameterError, match="trial_margin"):
+        ResidualSwitchIn(Tc=TC, J_n=JN, Kp=KP, Ki=KI, trial_margin=-0.1)
     with pytest.raises(ParameterError, match="switch_in"):
         ModeOptions(Kp=KP, Ki=KI, switch_in="yes")
     with pytest.raises(ParameterError, match="switch_in_ratio"):
@@ -261,6 +339,41 @@ def test_where_the_feedforward_suffices_nothing_changes():
     assert run_notes({"adaptive": r}) == ()
     np.testing.assert_array_equal(r.u, r_plain.u)  # bit for bit the feedforward alone
     assert e_in == e_plain and e_in > 0.99
+
+
+#: Zoo joint #116 of ``benchmarks/zoo.py --n 200 --duration 60 --J-design-factor 2`` (seed 0): a heavy lagged
+#: Stribeck joint designed with twice its inertia
+HEAVY_LAGGED = {"model": "lagged-stribeck", "J": 27.91554508467193, "Fc": 1.8581249630401238, "Fs": 7.220310387609766,
+                "Vs": 0.028503883980525196, "delta": -0.08740351011201897, "sigma": 4.129834855414604,
+                "tau": 0.03675393796983438}
+
+
+def test_an_observer_that_makes_the_loop_worse_is_taken_out_by_the_trial():
+    # designed with twice its inertia, the switch-in fired at 8.5 s (measured ratio 1.003) and the observer made
+    # the loop worse than no compensation (eta -0.54 at commit 16fb9c2); the trial finds the loop's measured error
+    # 6 % higher with it against the frictionless loop's and takes it out 4.5 s later: eta that of the feedforward
+    # alone (3.235), to 1e-3
+    from plant.models import plant_from_dict
+
+    p = plant_from_dict(HEAVY_LAGGED)
+    o = CompareOptions(duration=60.0, seed=0, modes=("none", "adaptive", "frictionless"), J_design=2.0 * p.J)
+    s = prepare_comparison(p, o)
+
+    def run(mode, **kw):
+        return run_mode(p, s.reference, mode, replace(s.mode_options[mode], **kw),
+                        rng=np.random.default_rng(s.noise_seed))
+
+    rn, rf = run("none").metrics.rms_second_half, run("frictionless").metrics.rms_second_half
+    r, alone = run("adaptive"), run("adaptive", switch_in=False)
+    eta, eta_alone = ((rn - x.metrics.rms_second_half) / (rn - rf) for x in (r, alone))
+    t_in, t_out = r.info["t_switch_in"], r.info["t_switch_out"]
+    assert t_in is not None and t_out is not None
+    assert t_out - t_in == pytest.approx(0.5 + 2 * 2.0, abs=0.1)  # the fade-in, then two windows of evidence
+    assert r.info["trial_ratio"] > 1.03
+    assert eta > 1.0 and abs(eta - eta_alone) < 1e-3
+    notes = run_notes({"adaptive": r})
+    assert any(n.startswith(f"adaptive: the switch-in's trial took the residual observer out again at {t_out:.2f} s")
+               for n in notes)
 
 
 def test_the_composite_reports_its_mode_and_switch_in():

@@ -11,15 +11,17 @@ void ctl_residual_init(ctl_residual *r, const ctl_dob *dob, aff_real u_max)
     r->use_switch_in = 0;
     r->sw.g = 1;
     r->sw.k_in = -1;
+    r->sw.k_out = -1;
+    r->sw.decided = 0;
     r->dob = *dob;
 }
 
 static int switch_in_init(ctl_switch_in *s, aff_real Tc, aff_real J_n, aff_real Kp, aff_real Ki, aff_real window,
-                          aff_real ratio, aff_real share, aff_real fade_in)
+                          aff_real ratio, aff_real share, aff_real fade_in, aff_real margin)
 {
     if (!aff_positive(Tc) || !aff_positive(J_n) || !aff_positive(Kp) || !aff_positive(window)
         || !aff_positive(ratio) || !aff_positive(share) || !(isfinite(Ki) && Ki >= 0)
-        || !(isfinite(fade_in) && fade_in >= 0))
+        || !(isfinite(fade_in) && fade_in >= 0) || !(margin >= 0))
         return -1;
     s->Tc = Tc;
     s->J_n = J_n;
@@ -27,6 +29,7 @@ static int switch_in_init(ctl_switch_in *s, aff_real Tc, aff_real J_n, aff_real 
     s->Ki = Ki;
     s->ratio = ratio;
     s->share = share;
+    s->margin = margin;
     s->b = (aff_real)1.0 - AFF_EXP(-Tc / window);
     s->fade = fade_in > Tc ? Tc / fade_in : (aff_real)1.0;
     double ne = floor((double)window / (double)Tc + 0.5);
@@ -44,6 +47,13 @@ static int switch_in_init(ctl_switch_in *s, aff_real Tc, aff_real J_n, aff_real 
     s->c_f = 0;
     s->c_r = 0;
     s->m_l = 0;
+    s->m_e = 0;
+    s->v_e = 0;
+    s->v_l = 0;
+    s->ratio_in = (aff_real)INFINITY;
+    s->n_trial = 0;
+    s->decided = 0;
+    s->k_out = -1;
     s->n = 0;
     s->n_used = 0;
     s->k_in = -1;
@@ -53,9 +63,9 @@ static int switch_in_init(ctl_switch_in *s, aff_real Tc, aff_real J_n, aff_real 
 }
 
 int ctl_residual_set_switch_in(ctl_residual *r, aff_real Tc, aff_real J_n, aff_real Kp, aff_real Ki, aff_real window,
-                               aff_real ratio, aff_real share, aff_real fade_in)
+                               aff_real ratio, aff_real share, aff_real fade_in, aff_real margin)
 {
-    if (switch_in_init(&r->sw, Tc, J_n, Kp, Ki, window, ratio, share, fade_in) != 0)
+    if (switch_in_init(&r->sw, Tc, J_n, Kp, Ki, window, ratio, share, fade_in, margin) != 0)
         return -1;
     r->use_switch_in = 1;
     return 0;
@@ -85,6 +95,67 @@ int ctl_switch_in_fires(const ctl_switch_in *s)
     return (rise_r > (double)(s->ratio * s->m_l) || rise_r > (double)s->share * rise_f) && s->m_e > s->m_l;
 }
 
+/* One period of the frictionless loop model on the reference w_ref (finite): returns its error e_l before the step
+ * (header comment). */
+static aff_real frictionless_step(ctl_switch_in *s, double w_ref)
+{
+    aff_real e_l = (aff_real)w_ref - s->w_l;
+    s->I_l += s->Ki * s->Tc * e_l;
+    s->w_l += s->Tc / s->J_n * (s->Kp * e_l + s->I_l);
+    return e_l;
+}
+
+/* The trial's means over a period in which the reference moves: v_e of the measured error, v_l of the frictionless
+ * loop's error e_l; a non-finite w_ctrl enters neither. Returns 1 if the period entered them. */
+static int trial_means(ctl_switch_in *s, aff_real e_l, double w_ref, double w_ctrl)
+{
+    aff_real e_m = (aff_real)w_ref - (aff_real)w_ctrl;
+    if (!isfinite(e_m))
+        return 0;
+    aff_lag_step(&s->v_e, s->b, e_m * e_m);
+    aff_lag_step(&s->v_l, s->b, e_l * e_l);
+    return 1;
+}
+
+/* The share g rises by fade per period to 1; the period it reaches 1 the trial's means start again from 0. */
+static void fade_in_step(ctl_switch_in *s)
+{
+    s->g = s->g + s->fade < 1 ? s->g + s->fade : (aff_real)1.0;
+    if (s->g >= 1) {
+        s->v_e = 0;
+        s->v_l = 0;
+        s->n_trial = 0;
+    }
+}
+
+/* A period after the switch-in, k its index (header comment, "The trial"). */
+static double trial_step(ctl_switch_in *s, double w_ref, double w_ctrl, int rest, long k)
+{
+    if (s->k_out >= 0) { /* out: the share falls back to 0 as it rose */
+        s->g = s->g > s->fade ? s->g - s->fade : (aff_real)0.0;
+        return (double)s->g;
+    }
+    if (s->decided)
+        return (double)s->g;
+    if (!isfinite(w_ref))
+        return (double)s->g;
+    aff_real e_l = frictionless_step(s, w_ref);
+    if (s->g < 1) {
+        fade_in_step(s);
+        return (double)s->g;
+    }
+    if (!rest && trial_means(s, e_l, w_ref, w_ctrl))
+        s->n_trial += 1;
+    if (s->n_trial >= 2 * s->n_evidence) {
+        s->decided = 1;
+        if (s->v_e > (1 + s->margin) * s->ratio_in * s->v_l) { /* the loop tracks worse with the observer */
+            s->k_out = k;
+            s->g = s->g > s->fade ? s->g - s->fade : (aff_real)0.0;
+        }
+    }
+    return (double)s->g;
+}
+
 double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_ref, double w_ctrl, int acting)
 {
     long k = s->n;
@@ -92,16 +163,11 @@ double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_
     int still = w_ref == 0.0;
     int rest = still && s->rest_last;
     s->rest_last = still;
-    if (s->k_in >= 0) {
-        s->g = s->g + s->fade < 1 ? s->g + s->fade : (aff_real)1.0;
-        return (double)s->g;
-    }
+    if (s->k_in >= 0)
+        return trial_step(s, w_ref, w_ctrl, rest, k);
     if (!isfinite(d_hat) || !isfinite(u_ff) || !isfinite(w_ref))
         return 0.0;
-    aff_real c = s->Tc / s->J_n;
-    aff_real e_l = (aff_real)w_ref - s->w_l; /* the frictionless loop on the reference */
-    s->I_l += s->Ki * s->Tc * e_l;
-    s->w_l += c * (s->Kp * e_l + s->I_l);
+    aff_real e_l = frictionless_step(s, w_ref); /* the frictionless loop on the reference */
     aff_real w_r = disturbance_step(s, &s->w_r, &s->I_r, (aff_real)d_hat); /* the residual's */
     aff_real w_f = disturbance_step(s, &s->w_f, &s->I_f, (aff_real)(u_ff + d_hat)); /* the whole estimate's */
     if (acting && !rest) {
@@ -115,11 +181,16 @@ double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_
             aff_lag_step(&s->m_e, s->b, e_m * e_m);
         s->n_used += 1;
     }
+    if (!rest)
+        trial_means(s, e_l, w_ref, w_ctrl);
     int residual = s->n_used >= 2 * s->n_evidence && ctl_switch_in_fires(s);
     int idle = s->n_used == 0 && k + 1 >= s->n_wait;
     if (residual || idle) {
         s->k_in = k;
-        s->g = s->fade;
+        int marginal = !idle && s->m_e <= (1 + s->ratio) * s->m_l; /* at most ratio to gain: on trial */
+        s->ratio_in = s->v_l > 0 && marginal ? s->v_e / s->v_l : (aff_real)INFINITY;
+        s->g = 0;
+        fade_in_step(s);
     }
     return (double)s->g;
 }

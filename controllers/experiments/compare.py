@@ -653,7 +653,8 @@ def worse_than_none_notes(etas: dict, results: dict) -> tuple:
 def run_notes(results: dict) -> tuple:
     """What the adaptive modes decided by themselves during their runs, one note per event kind and mode: the
     residual switch-in of ``adaptive`` (:class:`controllers.peers.adaptive_dob.ResidualSwitchIn`, ``info``
-    ``t_switch_in``, ``residual_ratio``) and the supervisor's back-offs (``n_backoff``, ``n_restore``, ``t_off``;
+    ``t_switch_in``, ``residual_ratio``), its trial's switch-out (``t_switch_out``, ``trial_ratio``) and the
+    supervisor's back-offs (``n_backoff``, ``n_restore``, ``t_off``;
     :class:`adaptive_ff.compensation.supervisor.FeedforwardSupervisor`).
 
     Parameters
@@ -676,6 +677,14 @@ def run_notes(results: dict) -> tuple:
                                             + ("" if share is None else
                                                f" and {share:.2g} times what the friction would raise it by"))
             notes.append(f"{mode}: the residual observer (as in adaptive-dob) switched in at {t_in:.2f} s{why}")
+            t_out = info.get("t_switch_out")
+            if t_out is not None:
+                rise = info.get("trial_ratio")
+                rise = "" if rise is None else f" {100.0 * (rise - 1.0):.1f} % higher in mean square"
+                notes.append(f"{mode}: the switch-in's trial took the residual observer out again at {t_out:.2f} s: "
+                             f"with it the loop's measured error, relative to the frictionless loop's, was{rise} "
+                             f"than with the feedforward alone before the switch-in; the feedforward alone from then "
+                             f"on")
         n_off = info.get("n_backoff") or 0
         if n_off:
             notes.append(f"{mode}: the supervisor backed the compensation off {n_off} time(s), restored it "

@@ -32,8 +32,10 @@ composite with ``aff_eq4_ff`` in place of ``aff_robust_ff``.
 
 Mode ``adaptive`` is the same composite with a :class:`ResidualSwitchIn`: the observer runs from the start, but
 its estimate is applied only once a residual test finds that the feedforward leaves too much of the friction
-in the loop's band (sticking joints, small fast joints, LuGre pre-sliding: where the sliding model misses), and
-then for good, faded in; ``info()["t_switch_in"]`` says when (``controllers/csrc/ctl_adob.h``).
+in the loop's band (sticking joints, small fast joints, LuGre pre-sliding: where the sliding model misses), faded
+in; ``info()["t_switch_in"]`` says when (``controllers/csrc/ctl_adob.h``). A trial then keeps it only if the loop's
+measured error, against the frictionless loop's, is no worse with it than before, where the observer had little to
+gain (``info()["t_switch_out"]``).
 
 After a rest of the reference (the supervisor's rest rule withheld the output; the engine calls the ops table's
 ``at_rest``) the feedforward part is held back until the measured velocity moves in the reference's direction
@@ -90,8 +92,12 @@ class ResidualSwitchIn:
     ``share`` times what the whole friction estimate ``u_ff + d_hat`` would raise it by, while the loop's measured
     mean-square error (of ``w_ref - w_ctrl`` over the same periods) exceeds the frictionless loop's predicted one (a
     loop that already tracks as well as the frictionless one with the feedforward alone keeps it alone); or after
-    ``5*window`` without the feedforward acting. It then fades in over ``fade_in`` and stays. The C header
-    ``controllers/csrc/ctl_adob.h`` gives the equations.
+    ``5*window`` without the feedforward acting. It then fades in over ``fade_in``. A switch-in with little to gain
+    (the measured mean-square error at most ``1 + ratio`` times the frictionless loop's; not the idle switch-in) is
+    put on trial: over two windows of moving reference after the fade-in, the loop's measured mean-square error with
+    the observer, relative to the frictionless loop's predicted one, is compared with the same ratio over the last
+    window before the switch-in; where it is higher by more than ``trial_margin`` the observer fades out again, for
+    good (``t_switch_out``), else it stays. The C header ``controllers/csrc/ctl_adob.h`` gives the equations.
 
     Parameters
     ----------
@@ -114,6 +120,12 @@ class ResidualSwitchIn:
         fire.
     fade_in : float
         Time over which the observer's share rises from 0 to 1 (s), >= 0 (0: a step); default 0.5.
+    trial_margin : float
+        The trial (of a switch-in with little to gain) takes the observer out where the measured mean-square error
+        with it, relative to the frictionless loop's, is more than ``1 + trial_margin`` times what it was before the
+        switch-in (-), >= 0; ``math.inf``: no trial (the switch-in for good, as before the trial of 2026-11-24).
+        Default 0.03: below it the observers the trial took out on the zoos had helped as often as hurt (the
+        sampling noise of two ratios over two windows; docs/benchmarks/compensation.md, "The switch-in on trial").
 
     Raises
     ------
@@ -129,12 +141,16 @@ class ResidualSwitchIn:
     ratio: float = 0.1
     share: float = 0.25
     fade_in: float = 0.5
+    trial_margin: float = 0.03
 
     def __post_init__(self):
         for name in ("Tc", "J_n", "Kp", "window", "ratio", "share"):
             check_positive(name, getattr(self, name))
         check_nonnegative("Ki", self.Ki)
         check_nonnegative("fade_in", self.fade_in)
+        m = self.trial_margin
+        if not (isinstance(m, (int, float)) and not isinstance(m, bool) and m >= 0.0):
+            raise ParameterError(f"trial_margin must be >= 0 (math.inf: no trial), got {m!r}")
 
 
 class AdaptiveDOBCompensator(Component):
@@ -215,7 +231,7 @@ class AdaptiveDOBCompensator(Component):
         if switch_in is not None:
             s = switch_in
             if lib.ctl_residual_set_switch_in(ffi.addressof(self._c, "res"), s.Tc, s.J_n, s.Kp, s.Ki, s.window,
-                                              s.ratio, s.share, s.fade_in) != 0:
+                                              s.ratio, s.share, s.fade_in, s.trial_margin) != 0:
                 raise ParameterError(f"switch_in refused by ctl_residual_set_switch_in: {s!r}")
         self._attached()
 
@@ -266,6 +282,14 @@ class AdaptiveDOBCompensator(Component):
             return None
         return float(self._c.res.sw.k_in) * self.switch_in.Tc
 
+    @property
+    def t_switch_out(self) -> float | None:
+        """Time at which the switch-in's trial took the observer out again (s; ``k*Tc``), None if it did not (no
+        switch-in, the trial pending, or the observer kept)."""
+        if self.switch_in is None or self._c.res.sw.k_out < 0:
+            return None
+        return float(self._c.res.sw.k_out) * self.switch_in.Tc
+
     def info(self) -> dict:
         """The feedforward's counters (:meth:`RobustAdaptiveFeedforward.info`) plus the observer's, prefixed
         ``dob_`` (``dob_n_rejected``, ``dob_J_n`` kg·m², ``dob_omega_q`` rad/s); with the switch-in also
@@ -273,7 +297,11 @@ class AdaptiveDOBCompensator(Component):
         ``residual_share`` (``R_r/R_f``, what it compares with ``share``), ``R = max(M, M - 2*C)`` the rise of the
         loop's mean-square error with the cross term where it adds, and ``measured_ratio`` (``M_e/M_l``, the loop's
         measured mean-square error against the frictionless loop's predicted one: the test fires only above 1), when
-        last updated (None before any evidence); C ``ctl_switch_in``, whose header names the means."""
+        last updated (None before any evidence); and the trial's ``t_switch_out`` (s or None: the observer kept or
+        not yet judged) and ``trial_ratio`` (the loop's measured mean-square error against the frictionless loop's
+        with the observer in, over the same ratio at the switch-in; the observer is taken out above ``1 +
+        trial_margin``; None until the trial has judged, and where there is no trial: after the idle switch-in and
+        after one with more than ``ratio`` to gain). C ``ctl_switch_in``, whose header names the means."""
         d = self.feedforward.info()
         d.update({f"dob_{k}": v for k, v in self.observer.info().items()})
         if self.switch_in is not None:
@@ -285,6 +313,10 @@ class AdaptiveDOBCompensator(Component):
             d["residual_ratio"] = rise_r / m_l if m_l > 0.0 else None
             d["residual_share"] = rise_r / rise_f if rise_f > 0.0 else None
             d["measured_ratio"] = float(sw.m_e) / m_l if m_l > 0.0 else None
+            d["t_switch_out"] = self.t_switch_out
+            ratio_in, v_l = float(sw.ratio_in), float(sw.v_l)
+            d["trial_ratio"] = (float(sw.v_e) / v_l / ratio_in if sw.decided and v_l > 0.0 and math.isfinite(ratio_in)
+                                else None)
         return d
 
     def compensate(self, w_meas: float, w_ref: float) -> float:

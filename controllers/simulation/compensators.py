@@ -196,11 +196,12 @@ class ModeOptions:
         True; the result's ``info`` then has ``n_backoff``, ``n_restore`` and ``t_off``, s). Other modes ignore it.
     switch_in : bool
         Mode ``adaptive`` (any estimator, ``Kp > 0``): run the residual observer of ``adaptive-dob`` (cut-off
-        ``omega_r``) from the start and switch it in, for good, once the loop's model predicts that what the
-        feedforward leaves raises the mean-square tracking error by more than ``switch_in_ratio`` over the
-        frictionless loop's (:class:`controllers.peers.adaptive_dob.ResidualSwitchIn`, window 2 s, fade-in 0.5 s;
-        the result's ``info["t_switch_in"]`` says when); default True. False: the feedforward alone, as before
-        2026-11-23.
+        ``omega_r``) from the start and switch it in once the loop's model predicts that what the feedforward
+        leaves raises the mean-square tracking error by more than ``switch_in_ratio`` over the frictionless loop's,
+        then keep it unless its trial finds the loop tracking worse with it
+        (:class:`controllers.peers.adaptive_dob.ResidualSwitchIn`, window 2 s, fade-in 0.5 s; the result's
+        ``info["t_switch_in"]`` and ``info["t_switch_out"]`` say when); default True. False: the feedforward
+        alone, as before 2026-11-23.
     switch_in_ratio : float
         Its threshold (-), > 0; default 0.1 (5 % in RMS).
     supervise_window : float
