@@ -300,8 +300,9 @@ def test_settings_are_checked():
         ModeOptions(Kp=KP, Ki=KI, switch_in_ratio=0.0)
 
 
-def _etas(p, duration=60.0):
-    s = prepare_comparison(p, CompareOptions(duration=duration, seed=0, modes=("none", "adaptive", "frictionless")))
+def _etas(p, duration=60.0, J_design=None):
+    o = CompareOptions(duration=duration, seed=0, modes=("none", "adaptive", "frictionless"), J_design=J_design)
+    s = prepare_comparison(p, o)
 
     def run(mode, **kw):
         return run_mode(p, s.reference, mode, replace(s.mode_options[mode], **kw),
@@ -355,16 +356,7 @@ def test_an_observer_that_makes_the_loop_worse_is_taken_out_by_the_trial():
     from plant.models import plant_from_dict
 
     p = plant_from_dict(HEAVY_LAGGED)
-    o = CompareOptions(duration=60.0, seed=0, modes=("none", "adaptive", "frictionless"), J_design=2.0 * p.J)
-    s = prepare_comparison(p, o)
-
-    def run(mode, **kw):
-        return run_mode(p, s.reference, mode, replace(s.mode_options[mode], **kw),
-                        rng=np.random.default_rng(s.noise_seed))
-
-    rn, rf = run("none").metrics.rms_second_half, run("frictionless").metrics.rms_second_half
-    r, alone = run("adaptive"), run("adaptive", switch_in=False)
-    eta, eta_alone = ((rn - x.metrics.rms_second_half) / (rn - rf) for x in (r, alone))
+    eta, eta_alone, r, _ = _etas(p, J_design=2.0 * p.J)
     t_in, t_out = r.info["t_switch_in"], r.info["t_switch_out"]
     assert t_in is not None and t_out is not None
     assert t_out - t_in == pytest.approx(0.5 + 2 * 2.0, abs=0.1)  # the fade-in, then two windows of evidence

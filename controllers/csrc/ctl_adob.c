@@ -128,15 +128,25 @@ static void fade_in_step(ctl_switch_in *s)
     }
 }
 
-/* A period after the switch-in, k its index (header comment, "The trial"). */
+/* The share g falls by fade per period to 0 (the observer out, as it came in). */
+static void fade_out_step(ctl_switch_in *s)
+{
+    s->g = s->g > s->fade ? s->g - s->fade : (aff_real)0.0;
+}
+
+/* A period after the switch-in, k its index (header comment, "The trial"); a switch-in without a trial is decided
+ * at once. */
 static double trial_step(ctl_switch_in *s, double w_ref, double w_ctrl, int rest, long k)
 {
-    if (s->k_out >= 0) { /* out: the share falls back to 0 as it rose */
-        s->g = s->g > s->fade ? s->g - s->fade : (aff_real)0.0;
+    if (s->k_out >= 0) {
+        fade_out_step(s);
         return (double)s->g;
     }
-    if (s->decided)
+    if (s->decided) {
+        if (s->g < 1)
+            fade_in_step(s);
         return (double)s->g;
+    }
     if (!isfinite(w_ref))
         return (double)s->g;
     aff_real e_l = frictionless_step(s, w_ref);
@@ -150,7 +160,7 @@ static double trial_step(ctl_switch_in *s, double w_ref, double w_ctrl, int rest
         s->decided = 1;
         if (s->v_e > (1 + s->margin) * s->ratio_in * s->v_l) { /* the loop tracks worse with the observer */
             s->k_out = k;
-            s->g = s->g > s->fade ? s->g - s->fade : (aff_real)0.0;
+            fade_out_step(s);
         }
     }
     return (double)s->g;
@@ -189,6 +199,7 @@ double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_
         s->k_in = k;
         int marginal = !idle && s->m_e <= (1 + s->ratio) * s->m_l; /* at most ratio to gain: on trial */
         s->ratio_in = s->v_l > 0 && marginal ? s->v_e / s->v_l : (aff_real)INFINITY;
+        s->decided = !isfinite(s->ratio_in); /* no trial: the observer stays */
         s->g = 0;
         fade_in_step(s);
     }

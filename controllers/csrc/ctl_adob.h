@@ -126,7 +126,7 @@ typedef struct ctl_switch_in {
     aff_real ratio_in;    /* v_e/v_l at the switch-in, the trial's yardstick (INFINITY: no trial; v_l = 0, the idle
                              switch-in, or M_e > (1 + ratio)*M_l) */
     long n_trial;         /* periods in the trial's means since the observer is wholly in (g = 1) */
-    int decided;          /* 1 once the trial has judged (observer kept, or out) */
+    int decided;          /* 1 once the trial has judged (observer kept, or out), or at a switch-in without trial */
     long k_out;           /* period of the switch-out by the trial, -1: not out */
     long n;               /* periods */
     long n_used;          /* periods that entered the means */
