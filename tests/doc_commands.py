@@ -355,6 +355,18 @@ def update_page(path: Path) -> int:
 # the 190 quoted lines to the character, the others in the compare tables (none RMS -0.4 %, canudas
 # max +4.9 %, fixed max -14 %, oracle eta -0.001) and the JSON floats (relative 5e-13).
 
+# The note of the residual switch-in of `adaptive` ("switched in at 5.28 s; ... raised the loop's mean-square
+# error ... by 0.17 times the frictionless loop's and 0.00036 times what the friction would raise it by") reports
+# the observer's estimate at the moment the test fired: the residual of a joint that sticks at its reversals, as
+# sensitive as fixed's max. Evidence (2026-11-24, an AMD EPYC machine, numpy 2.4.6, scipy 1.17.1): there the
+# page's `identify` printed my_joint.json's J, Fc, ... a few units in the last place from the quoted ones, and
+# `compare --plant my_joint.json` printed 0.29 and 0.00062 for the quoted 0.17 and 0.00036; the quoted joint
+# with each of J, Fc, Fs, sigma, tau moved by k*2**-48 relative, k = 0..5 (30 runs of the adaptive mode), switched
+# in at 5.109-5.279 s with the two ratios 0.165-0.341 and 0.00036-0.00077 (a factor 2.1). The switch-in time is
+# allowed 0.4 s, each ratio a factor 3 (the last place's units do not bound either).
+SWITCH_IN_NOTE = re.compile(r"^note: \S+: the residual observer \(as in adaptive-dob\) switched in at ")
+SWITCH_IN_TOL = (Tol(abs=0.4), Tol(factor=3.0), Tol(factor=3.0))
+
 #: compare table: tolerance per column (RMS, max, reversal RMS, u RMS, eta) of a row
 COMPARE_TOL = {
     "none": (Tol(rel=0.01), Tol(rel=0.01), Tol(rel=0.015), Tol(rel=0.005), Tol(abs=0.001)),
@@ -373,6 +385,8 @@ def stable_digits(line: str, k: int) -> Tol:
     m = COMPARE_ROW.match(line)
     if m is not None:
         return COMPARE_TOL.get(m.group("mode"), SMOOTH_TOL)[k]
+    if SWITCH_IN_NOTE.match(line) and k < len(SWITCH_IN_TOL):
+        return SWITCH_IN_TOL[k]
     number = NUMBER.findall(line)[k]
     if len(re.sub(r"[eE].*|\D", "", number).lstrip("0")) >= 12:
         return FULL_PRECISION_TOL

@@ -99,6 +99,15 @@ def test_the_comparison_tells_stable_digits_from_a_wrong_number():
                   quoted.replace("Vs=", "Vs:")):  # text
         assert len(mismatches(quoted, wrong, stable_digits)) == 1, wrong
     assert mismatches(quoted, quoted + "x\n", stable_digits) == ["7 lines printed, 6 quoted"]
+    # the switch-in note: its time and ratios within the spread of k*2**-48 moves of the joint (doc_commands), not
+    # a switch-in seconds later or a residual five times larger
+    note = ("note: adaptive: the residual observer (as in adaptive-dob) switched in at 5.28 s; what the feedforward "
+            "leaves raised the loop's mean-square error, as its model predicts, by 0.17 times the frictionless "
+            "loop's and 0.00036 times what the friction would raise it by\n")
+    assert mismatches(note, note.replace("5.28", "5.11").replace("0.17", "0.34").replace("0.00036", "0.00077"),
+                      stable_digits) == []
+    for wrong in (note.replace("5.28", "6.28"), note.replace("0.17", "0.85"), note.replace("0.00036", "0.0018")):
+        assert len(mismatches(note, wrong, stable_digits)) == 1, wrong
     assert Tol(units=2).allows("0.5120", "0.5122") and not Tol(units=2).allows("0.5120", "0.5123")
     assert not Tol(units=2).allows("4", "5")  # integers are exact
 
