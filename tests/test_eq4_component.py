@@ -309,3 +309,46 @@ def test_rejected_samples_leave_the_state_unchanged():
     # only counters changed: n_rejected, and the held/rejected counts of the torque and velocity range gates
     c.n_rejected, c.u_range.n_held, c.u_range.n_rejected, c.w_range.n_held, c.w_range.n_rejected = n0
     assert ff.struct_bytes() == before
+
+
+def test_the_provisional_start_acts_until_the_first_estimate_then_the_estimate_alone():
+    """With a start (at the reference, gain 0.5) the feedforward is half of eq. 3 at the reference (its closed form,
+    numpy) until the first admissible estimate; from that period on it is, bit for bit, what the same feedforward
+    without a start gives on the same record (the estimator sees the same samples)."""
+    from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
+    from adaptive_ff.identification.regression import FrictionEstimate
+
+    kw = dict(Ts=0.01, lam=0.99, warmup=50, ff_max=60.0, tau_max=0.5, lag=False)
+    model = RegressionModel(PLANT.Vs, PLANT.delta)
+    Fc, Fs, Vs, dl, sg = 5.0, 7.5, 0.025, 1.1, 2.0
+    start = FeedforwardStart(FrictionEstimate(J=0.8, tau=0.0, sigma=sg, Fc=Fc, Fs=Fs, offset=0.0, Vs=Vs, delta=dl,
+                                              J_alt=math.nan), gain=0.5, ff_input="reference")
+    c = AdaptiveFrictionFeedforward(model, dt=TC, start=start, **kw)
+    bare = AdaptiveFrictionFeedforward(model, dt=TC, **kw)
+    assert c.active and c.provisional and c.estimate is None and not bare.active and not bare.provisional
+    provisional = []
+
+    def comp(k, wc, wm, wr):
+        y = lib.aff_eq4_ff_compensate(c.cdata, wc, wm, wr)
+        provisional.append(c.provisional)
+        return y
+
+    rec = _closed_loop(6000, 4, comp, lambda k, u, wm: lib.aff_eq4_ff_observe(c.cdata, u, wm, ffi.NULL))
+    provisional = np.array(provisional)
+    k0 = int(np.argmin(provisional))  # the period of the hand-over
+    assert 100 < k0 < 5000 and not provisional[k0:].any() and c.estimate is not None
+    wr = np.array(_reference(6000))
+    closed_form = np.sign(wr) * (Fc + (Fs - Fc) * np.exp(-np.abs(wr / Vs) ** dl)) + sg * wr
+    np.testing.assert_allclose(rec[:k0, 2], 0.5 * closed_form[:k0], rtol=1e-12, atol=1e-12)
+    twin = np.empty(len(wr))
+    for k, ((_, u, _, wm, wc), r) in enumerate(zip(rec, wr)):  # the loop's calling sequence on its record
+        twin[k] = lib.aff_eq4_ff_compensate(bare.cdata, wc, wm, r)
+        lib.aff_eq4_ff_observe(bare.cdata, u, wm, ffi.NULL)
+    assert not np.any(twin[:k0]) and np.array_equal(twin[k0:], rec[k0:, 2])
+    assert _same_estimate(bare.estimate, c.estimate)
+    # the Python step of the start: the map at the reference, times the gain
+    d = AdaptiveFrictionFeedforward(model, dt=TC, start=start, **kw)
+    assert d.step(0.3, 0.02) == pytest.approx(0.5 * (Fc + (Fs - Fc) * math.exp(-((0.02 / Vs) ** dl)) + sg * 0.02),
+                                              rel=1e-12)
+    with pytest.raises(ParameterError, match="start"):
+        AdaptiveFrictionFeedforward(model, dt=TC, start=start.estimate, **kw)

@@ -27,6 +27,7 @@ import math
 import numpy as np
 
 from adaptive_ff._caff import ffi, lib
+from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
 from adaptive_ff.compensation.feedforward import FrictionFeedforward
 from adaptive_ff.compensation.gate import RangeGate
 from adaptive_ff.compensation.ivrls import RecursiveIV
@@ -83,6 +84,14 @@ class AdaptiveFrictionFeedforward(Component):
     sign_width, stick_band, stick_samples, loop_model, sign_observer : keyword-only
         The feedforward's input near standstill (see :class:`FrictionFeedforward`); defaults: none of it (the
         bare feedforward of the paper's prototype).
+    start : FeedforwardStart or None, keyword-only
+        Provisional start: the prior map (the Stribeck pre-fit's, Sec. V-C, through a lag) acts from the first
+        period, times its gain, until the first estimate is put into use, which replaces it at once (this
+        feedforward has no fade-in); the start of
+        :class:`~adaptive_ff.compensation.adaptive_feedforward.RobustAdaptiveFeedforward`. Default None: no
+        feedforward before the first estimate (the paper's prototype). With the joint stuck under the PI alone
+        the estimator may get no sliding sample for seconds, or never on a small joint that hardly leaves the
+        stick band (docs/benchmarks/compensation.md, "The eq. 4 feedforward's provisional start").
 
     Attributes
     ----------
@@ -131,7 +140,7 @@ class AdaptiveFrictionFeedforward(Component):
                  warmup: int = 300, lag: bool = True, ff_max: float = math.inf, tau_max: float = 1.0,
                  ff_input: str = "measured", u_range: RangeGate | None = None, w_range: RangeGate | None = None,
                  iv: bool = False, w_band: float = 0.0, sign_width: float = 0.0, stick_band: float = 0.0,
-                 stick_samples: int = 10, loop_model=None, sign_observer=None):
+                 stick_samples: int = 10, loop_model=None, sign_observer=None, start: FeedforwardStart | None = None):
         ff = FrictionFeedforward(None, dt=dt, lag=lag, ff_max=ff_max, ff_input=ff_input, sign_width=sign_width,
                                  stick_band=stick_band, stick_samples=stick_samples, loop_model=loop_model,
                                  sign_observer=sign_observer)
@@ -145,6 +154,8 @@ class AdaptiveFrictionFeedforward(Component):
         if not isinstance(iv, (bool, np.bool_)):
             raise ParameterError(f"iv must be True or False, got {iv!r}")
         w_band = check_nonnegative("w_band", w_band)
+        if start is not None and not isinstance(start, FeedforwardStart):
+            raise ParameterError(f"start must be a FeedforwardStart or None, got {type(start).__name__}")
         p = model.n_params
         rls = RecursiveLeastSquares(p, lam=lam, P0=P0)
         ivrls = RecursiveIV(p, lam=lam, P0=P0, guard=True)
@@ -165,7 +176,14 @@ class AdaptiveFrictionFeedforward(Component):
         self.w_range = w_range
         self.rls = rls
         self.ivrls = ivrls
+        self.start = start
         self._attached()
+        if start is not None:
+            e = start.estimate
+            if lib.aff_eq4_ff_start(self._c, e.Fc, e.Fs, model.Vs if e.Vs is None else e.Vs,
+                                    model.delta if e.delta is None else e.delta, e.sigma, e.tau, start.gain,
+                                    start.ff_input == "reference") != 0:
+                raise ParameterError(f"start refused by aff_eq4_ff_start (Vs > 0, finite delta): {start!r}")
 
     def _attached(self) -> None:
         """Point the parts (feedforward, range gates, RLS) into this component's struct."""
@@ -208,8 +226,11 @@ class AdaptiveFrictionFeedforward(Component):
 
     @property
     def active(self) -> bool:
-        """Whether the feedforward is switched on (an admissible estimate is in use)."""
-        return bool(self._c.has_estimate)
+        """Whether the feedforward acts: an admissible estimate, or the provisional start map, is in use."""
+        return bool(self._c.has_estimate or self._c.provisional)
+
+    provisional = property(lambda self: bool(self._c.provisional),
+                           doc="Whether the provisional start map (``start``) is in use.")
 
     @property
     def estimate(self) -> FrictionEstimate | None:
@@ -254,8 +275,14 @@ class AdaptiveFrictionFeedforward(Component):
         Returns
         -------
         float
-            Feedforward torque (N·m), bounded by ``ff_max``; 0 before the first admissible estimate.
+            Feedforward torque (N·m), bounded by ``ff_max``; 0 before the first admissible estimate, but during the
+            provisional start the start map times its gain (at ``w_ref``, when given, for a start at the reference).
         """
+        c = self._c
+        if c.provisional:  # as aff_fixed_ff_start_output in compensate
+            if c.start_at_ref and w_ref is not None:
+                return self._ff.step(w_ref) * float(c.start_gain)
+            return self._ff.step(w, w_ref) * float(c.start_gain)
         return self._ff.step(w, w_ref)
 
     def observe(self, u: float, w: float) -> bool:

@@ -1,4 +1,5 @@
 /* aff_eq4_ff.c -- the eq. 4 adaptive feedforward (see aff_eq4_ff.h). */
+#include <math.h>
 #include <string.h>
 #include "aff_eq4_ff.h"
 
@@ -30,6 +31,20 @@ int aff_eq4_ff_init(aff_eq4_ff *e, const aff_fixed_ff *ff, long m, aff_real Ts, 
     if (ivrls != NULL)
         e->ivrls = *ivrls;
     e->due = m;
+    e->start_gain = 1;
+    return 0;
+}
+
+int aff_eq4_ff_start(aff_eq4_ff *e, aff_real Fc, aff_real Fs, aff_real Vs, aff_real delta, aff_real sigma,
+                     aff_real tau, aff_real gain, int at_ref)
+{
+    if (!(isfinite(Fc) && Fc >= 0 && isfinite(Fs) && Fs >= 0 && isfinite(sigma) && sigma >= 0 && isfinite(tau)
+          && tau >= 0 && aff_positive(Vs) && isfinite(delta) && gain > 0 && gain <= 1))
+        return -1;
+    aff_fixed_ff_set_estimate(&e->ff, Fc, Fs, Vs, delta, sigma, tau, 1);
+    e->provisional = 1;
+    e->start_at_ref = at_ref != 0;
+    e->start_gain = gain;
     return 0;
 }
 
@@ -44,6 +59,7 @@ static void use_estimate(aff_eq4_ff *e)
     }
     aff_fixed_ff_set_estimate(&e->ff, x.Fc, x.Fs, e->Vs, e->delta, x.sigma, x.tau, e->stribeck);
     e->has_estimate = 1;
+    e->provisional = 0; /* the estimate replaces the start map */
     e->est = x;
 }
 
@@ -134,6 +150,13 @@ double aff_eq4_ff_compensate(void *self, double w_ctrl, double w_meas, double w_
         e->sampled = 0;
     }
     e->due--;
+    if (e->provisional) {
+        aff_fixed_ff *f = &e->ff;
+        aff_real w_stuck = aff_loop_model_step(&f->lm, (aff_real)w_ctrl, (aff_real)w_ref);
+        f->u_out = aff_fixed_ff_start_output(f, (aff_real)w_ctrl, w_stuck, (aff_real)w_ref, e->start_at_ref,
+                                             e->start_gain);
+        return f->u_out;
+    }
     return aff_fixed_ff_compensate(&e->ff, w_ctrl, w_meas, w_ref);
 }
 

@@ -17,7 +17,11 @@
  *    that moved the joint over the interval; the last one alone leads it by Ts/2 and biases tau by about -Ts/2).
  * With w_band > 0 (the sliding-regime gate) only samples with |w(k)|, |w(k-1)|, |w(k-2)| > w_band of one sign update
  * the estimator: eq. 4 describes sliding (the paper's Sec. II-B); stick and creep rows bias it whatever the estimator.
- * The first prototype of the paper's future work, kept as a baseline (iv = 0, w_band = 0).
+ * Provisional start (aff_eq4_ff_start): a prior map (the Stribeck pre-fit's, Sec. V-C, through a lag) acts from the
+ * first period, times its gain, until the first estimate is put into use, which then replaces it at once (this
+ * feedforward has no fade-in); the same start as the robust feedforward's (aff_robust_ff_start, the output by
+ * aff_fixed_ff_start_output). Without it the feedforward is 0 until then.
+ * The first prototype of the paper's future work, kept as a baseline (iv = 0, w_band = 0, no start).
  * Python: adaptive_ff.compensation.eq4_feedforward.AdaptiveFrictionFeedforward (mode "adaptive").
  */
 #ifndef AFF_EQ4_FF_H
@@ -70,6 +74,9 @@ typedef struct aff_eq4_ff {
     aff_real z[AFF_RLS_NMAX];     /* instruments of the last IV update */
     aff_real u_sum;               /* sum of the torques applied since the last sample (N*m) */
     aff_ivrls ivrls;              /* the estimator of theta with iv == 1 (p = the structure's n_params) */
+    int provisional;              /* 1 while the start map is in use (aff_eq4_ff_start), until the first estimate */
+    int start_at_ref;             /* 1: the start map is evaluated at the reference */
+    aff_real start_gain;          /* factor on the start map, in (0, 1] (1 without a start) */
 } aff_eq4_ff;
 
 /* Configure e from the configured parts ff (aff_fixed_ff_init), u_range, w_range (aff_range_gate_init), rls
@@ -82,6 +89,14 @@ int aff_eq4_ff_init(aff_eq4_ff *e, const aff_fixed_ff *ff, long m, aff_real Ts, 
                     const aff_range_gate *u_range, const aff_range_gate *w_range, const aff_rls *rls, int iv,
                     aff_real w_band, const aff_ivrls *ivrls);
 
+/* Put the provisional start map into use until the first estimate (header comment): levels Fc, Fs (N*m), Vs
+ * (rad/s), delta, sigma (N*m*s/rad), lag tau (s) of eq. 3 through eq. 1, times gain (in (0, 1]), evaluated at the
+ * reference (at_ref) or as the feedforward's input says. Returns 0, or -1 (e untouched) for a level, sigma or tau
+ * not finite and >= 0, Vs not finite and > 0, delta not finite, or gain outside (0, 1]. Python:
+ * AdaptiveFrictionFeedforward(start=FeedforwardStart(...)). */
+int aff_eq4_ff_start(aff_eq4_ff *e, aff_real Fc, aff_real Fs, aff_real Vs, aff_real delta, aff_real sigma,
+                     aff_real tau, aff_real gain, int at_ref);
+
 /* One sample (u(k) N*m, w(k) rad/s) of the stream: returns 0 if refused (a range gate, or the RLS refused the
  * update: only counters change; the IV refused the update, phi'P z < 0 or overflow: counters change and the sample
  * enters the past, whose instruments stay consecutive), else 1 (the first sample, with iv the first four, only
@@ -91,7 +106,8 @@ int aff_eq4_ff_init(aff_eq4_ff *e, const aff_fixed_ff *ff, long m, aff_real Ts, 
 int aff_eq4_ff_sample(aff_eq4_ff *e, aff_real u, aff_real w);
 
 /* Compensator interface (aff_compensator.h), self an aff_eq4_ff: in every m-th period (from the m-th on) a
- * sample (the previous period's torque, w_meas), then the feedforward (aff_fixed_ff_compensate at w_ctrl/w_ref). */
+ * sample (the previous period's torque, w_meas), then the feedforward (aff_fixed_ff_compensate at w_ctrl/w_ref;
+ * during the provisional start aff_fixed_ff_start_output). */
 double aff_eq4_ff_compensate(void *self, double w_ctrl, double w_meas, double w_ref);
 
 /* Compensator interface: step the feedforward's sign observer (aff_fixed_ff_observe), store the applied torque u

@@ -104,6 +104,16 @@ aff_real aff_fixed_ff_at(aff_fixed_ff *f, aff_real w_ctrl, aff_real w_stuck, aff
     return aff_fixed_ff_step(f, aff_sign_observer_signed(&f->ob, w_ctrl, f->stick_band), w_stuck, 1);
 }
 
+aff_real aff_fixed_ff_start_output(aff_fixed_ff *f, aff_real w_ctrl, aff_real w_stuck, aff_real w_ref, int at_ref,
+                                   aff_real gain)
+{
+    if (at_ref) {
+        aff_sign_observer_signed(&f->ob, w_ctrl, f->stick_band);
+        return aff_fixed_ff_step(f, w_ref, w_ref, 0) * gain;
+    }
+    return aff_fixed_ff_at(f, w_ctrl, w_stuck, w_ref) * gain;
+}
+
 double aff_fixed_ff_compensate(void *self, double w_ctrl, double w_meas, double w_ref)
 {
     aff_fixed_ff *f = (aff_fixed_ff *)self;

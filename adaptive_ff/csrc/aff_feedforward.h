@@ -72,6 +72,12 @@ aff_real aff_fixed_ff_step(aff_fixed_ff *f, aff_real w, aff_real w_ref, int has_
  * Was ff_at. */
 aff_real aff_fixed_ff_at(aff_fixed_ff *f, aff_real w_ctrl, aff_real w_stuck, aff_real w_ref);
 
+/* The period's output of a provisional start map (the estimate in f): at the reference w_ref (at_ref; the sign
+ * observer still follows w_ctrl) or as aff_fixed_ff_at with w_stuck, times gain (N*m). The start of both adaptive
+ * feedforwards (aff_robust_ff_start, aff_eq4_ff_start) until their first estimate. */
+aff_real aff_fixed_ff_start_output(aff_fixed_ff *f, aff_real w_ctrl, aff_real w_stuck, aff_real w_ref, int at_ref,
+                                   aff_real gain);
+
 /* Compensator interface (aff_compensator.h), self an aff_fixed_ff: the loop model's period, then
  * aff_fixed_ff_at; the output is recorded in u_out. Python: FrictionFeedforward.compensate. */
 double aff_fixed_ff_compensate(void *self, double w_ctrl, double w_meas, double w_ref);

@@ -50,13 +50,8 @@ static aff_real output(aff_robust_ff *r, aff_real w_ctrl, aff_real w_ref)
         aff_sign_observer_signed(&f->ob, w_ctrl, f->stick_band); /* the sign observer follows the joint too */
         return 0.0;
     }
-    if (r->provisional) {
-        if (r->start_at_ref) {
-            aff_sign_observer_signed(&f->ob, w_ctrl, f->stick_band);
-            return aff_fixed_ff_step(f, w_ref, w_ref, 0) * r->start_gain;
-        }
-        return aff_fixed_ff_at(f, w_ctrl, w_stuck, w_ref) * r->start_gain;
-    }
+    if (r->provisional)
+        return aff_fixed_ff_start_output(f, w_ctrl, w_stuck, w_ref, r->start_at_ref, r->start_gain);
     out = aff_fixed_ff_at(f, w_ctrl, w_stuck, w_ref);
     if (r->gain < (aff_real)1.0) {
         r->gain = aff_min2(r->gain + r->fade, 1.0);

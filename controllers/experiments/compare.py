@@ -350,8 +350,8 @@ class CompareOptions:
         Start the adaptive estimator from the pre-fit's Fc, Fs, sigma and the design inertia (default)
         instead of zero friction.
     adaptive_start : bool
-        Provisional start of the adaptive feedforward (``adaptive``, ``adaptive-dob``;
-        :class:`adaptive_ff.compensation.adaptive_feedforward.FeedforwardStart`), default True: from the first period
+        Provisional start of the adaptive feedforward (``adaptive``, ``adaptive-dob``, estimators ``sliding`` and
+        ``eq4``; :class:`adaptive_ff.compensation.adaptive_feedforward.FeedforwardStart`), default True: from the first period
         the pre-fit's static map through the lag identified in the identification run (the offline fit of the
         Sec. IV-A experiment, run for this even without ``fixed``), evaluated as ``ff_input`` says, until the
         estimator's first trusted estimate. When that fit is rejected (implausible levels) the lag is unknown:

@@ -134,8 +134,9 @@ class ModeOptions:
     project : bool
         Use the estimate projected onto the plausible box (P^-1 metric) instead of refusing it (default True).
     start : FeedforwardStart or None
-        Provisional start of the sliding ``adaptive`` feedforward (e.g. the pre-fit map at the reference): it
-        acts from the first period until the estimator's first trusted estimate; default None.
+        Provisional start of the adaptive feedforward with estimator ``"sliding"`` or ``"eq4"`` (e.g. the pre-fit
+        map at the reference): it acts from the first period until the estimator's first trusted (``sliding``) or
+        admissible (``eq4``) estimate; default None. ``"eq4-rls"``, the paper's bare prototype, has none.
     ff_max : float or None
         Bound on |compensation| (N·m); default ``u_max``.
     ff_input : {"measured", "reference"}
@@ -446,7 +447,8 @@ def _adaptive_feedforward(plant, o):
                                                   lag=o.lag, ff_max=ff_max, ff_input=o.ff_input, iv=True,
                                                   w_band=m.Vs if m.stribeck else 0.0, sign_width=o.sign_width,
                                                   stick_band=o.stick_band, stick_samples=o.stick_samples,
-                                                  loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
+                                                  loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o),
+                                                  start=o.start)
     Vs = o.Vs if o.Vs is not None else (o.model.Vs if o.model is not None else None)
     delta = o.delta if o.delta is not None else (o.model.delta if o.model is not None else None)
     if Vs is None or delta is None:
