@@ -277,8 +277,9 @@ def register(sub) -> None:
     c.add_argument("--no-prefit", action="store_true",
                    help="do not run the Stribeck pre-fit (then fixed/adaptive need --Vs and --delta)")
     c.add_argument("--no-fast-start", action="store_true",
-                   help="adaptive, adaptive-dob: no provisional feedforward from the pre-fit before the estimator's "
-                        "first trusted estimate (CompareOptions.adaptive_start = False)")
+                   help="adaptive, adaptive-dob (estimators sliding and eq4): no provisional feedforward from the "
+                        "pre-fit before the estimator's first trusted estimate (CompareOptions.adaptive_start = "
+                        "False)")
     c.add_argument("--no-switch-in", action="store_true",
                    help="adaptive: the feedforward alone, never the residual observer (with --estimator eq4-rls "
                         "the paper's bare prototype; CompareOptions.switch_in = False)")
