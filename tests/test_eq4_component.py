@@ -10,6 +10,7 @@ differences over thousands of updates: the comparisons are to ``RTOL`` relative 
 fed the loop's recorded signals.
 """
 
+import dataclasses
 import json
 import math
 import pickle
@@ -352,3 +353,9 @@ def test_the_provisional_start_acts_until_the_first_estimate_then_the_estimate_a
                                               rel=1e-12)
     with pytest.raises(ParameterError, match="start"):
         AdaptiveFrictionFeedforward(model, dt=TC, start=start.estimate, **kw)
+    no_shape = FeedforwardStart(dataclasses.replace(start.estimate, Vs=None, delta=None))
+    with pytest.raises(ParameterError, match="start: a start map needs Vs and delta"):
+        AdaptiveFrictionFeedforward(RegressionModel(None, None, stribeck=False), dt=TC, start=no_shape, **kw)
+    with pytest.raises(ParameterError, match="start: refused"):
+        AdaptiveFrictionFeedforward(model, dt=TC, start=dataclasses.replace(start, estimate=dataclasses.replace(
+            start.estimate, Vs=-0.01)), **kw)

@@ -180,10 +180,14 @@ class AdaptiveFrictionFeedforward(Component):
         self._attached()
         if start is not None:
             e = start.estimate
-            if lib.aff_eq4_ff_start(self._c, e.Fc, e.Fs, model.Vs if e.Vs is None else e.Vs,
-                                    model.delta if e.delta is None else e.delta, e.sigma, e.tau, start.gain,
+            Vs, delta = (model.Vs if e.Vs is None else e.Vs), (model.delta if e.delta is None else e.delta)
+            if Vs is None or delta is None:
+                raise ParameterError("start: a start map needs Vs and delta, its own or the model's (the model has no "
+                                     "Stribeck term)")
+            if lib.aff_eq4_ff_start(self._c, e.Fc, e.Fs, Vs, delta, e.sigma, e.tau, start.gain,
                                     start.ff_input == "reference") != 0:
-                raise ParameterError(f"start refused by aff_eq4_ff_start (Vs > 0, finite delta): {start!r}")
+                raise ParameterError(f"start: refused by aff_eq4_ff_start (Vs > 0 and a finite delta needed): "
+                                     f"Vs={Vs!r}, delta={delta!r}")
 
     def _attached(self) -> None:
         """Point the parts (feedforward, range gates, RLS) into this component's struct."""
