@@ -18,6 +18,7 @@ is :mod:`adaptive_ff.compensation.eq4_feedforward`.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
 
@@ -31,8 +32,8 @@ from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RLS_NMAX
 from plant.errors import ParameterError, check_nonnegative, check_positive
 
-__all__ = ["RobustAdaptiveFeedforward", "FeedforwardStart", "lag_weighted", "fc_determined", "project_box",
-           "FC_INFO_FRACTION"]
+__all__ = ["RobustAdaptiveFeedforward", "FeedforwardStart", "start_output", "lag_weighted", "fc_determined",
+           "project_box", "FC_INFO_FRACTION"]
 
 
 #: Fraction of the RLS prior variance below which the data have determined ``Fc`` (see :func:`fc_determined`;
@@ -177,6 +178,33 @@ class FeedforwardStart:
             raise ParameterError(f"start gain must be in (0, 1], got {self.gain!r}")
         if self.ff_input not in ("reference", "measured"):
             raise ParameterError(f"start ff_input must be 'reference' or 'measured', got {self.ff_input!r}")
+
+    def map_args(self, Vs: float | None, delta: float | None) -> tuple:
+        """``(Fc, Fs, Vs, delta, sigma, tau)`` of the start map for the C start of a feedforward
+        (``aff_robust_ff_start``, ``aff_eq4_ff_start``): its own ``Vs`` and ``delta``, else the feedforward's
+        ``Vs``, ``delta`` given here (rad/s, -).
+
+        Raises
+        ------
+        ParameterError
+            Neither gives ``Vs`` and ``delta`` (a feedforward without the Stribeck term and a start without them).
+        """
+        e = self.estimate
+        Vs, delta = (Vs if e.Vs is None else e.Vs), (delta if e.delta is None else e.delta)
+        if Vs is None or delta is None:
+            raise ParameterError("start: a start map needs Vs and delta, its own or the model's (the model has no "
+                                 "Stribeck term)")
+        return e.Fc, e.Fs, Vs, delta, e.sigma, e.tau
+
+
+def start_output(step, w: float, w_ref: float | None, *, at_ref: bool, gain: float) -> float:
+    """One period of a provisional start map in a feedforward's Python ``step`` (N·m): ``step(w_ref)`` for a start
+    at the reference (``at_ref``) when ``w_ref`` is given, else ``step(w, w_ref)``, times ``gain``; ``step`` is the
+    feedforward's :meth:`FrictionFeedforward.step` with the start map in use, ``at_ref`` and ``gain`` its struct's
+    ``start_at_ref`` and ``start_gain`` (the Python side of C ``aff_fixed_ff_start_output``)."""
+    if at_ref and w_ref is not None:
+        return step(w_ref) * gain
+    return step(w, w_ref) * gain
 
 
 class RobustAdaptiveFeedforward(FrictionFeedforward):
@@ -423,9 +451,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         self.start = start
         self._attached()
         if start is not None:
-            e = start.estimate
-            lib.aff_robust_ff_start(self._c, e.Fc, e.Fs, estimator.Vs if e.Vs is None else e.Vs,
-                                    estimator.delta if e.delta is None else e.delta, e.sigma, e.tau)
+            lib.aff_robust_ff_start(self._c, *start.map_args(estimator.Vs, estimator.delta))
 
     def _attached(self) -> None:
         """The feedforward part and the estimator (with its parts) point into this component's struct."""
@@ -496,9 +522,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         if not self._f.has:
             return 0.0
         if c.provisional:  # the start map, at the reference when the start says so (as in compensate)
-            if c.start_at_ref and w_ref is not None:
-                return FrictionFeedforward.step(self, w_ref) * float(c.start_gain)
-            return FrictionFeedforward.step(self, w, w_ref) * float(c.start_gain)
+            return start_output(functools.partial(FrictionFeedforward.step, self), w, w_ref,
+                                at_ref=bool(c.start_at_ref), gain=float(c.start_gain))
         out = FrictionFeedforward.step(self, w, w_ref)
         if c.gain < 1.0:
             c.gain = min(c.gain + c.fade, 1.0)

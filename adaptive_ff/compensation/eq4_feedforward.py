@@ -27,7 +27,7 @@ import math
 import numpy as np
 
 from adaptive_ff._caff import ffi, lib
-from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
+from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart, start_output
 from adaptive_ff.compensation.feedforward import FrictionFeedforward
 from adaptive_ff.compensation.gate import RangeGate
 from adaptive_ff.compensation.ivrls import RecursiveIV
@@ -179,15 +179,10 @@ class AdaptiveFrictionFeedforward(Component):
         self.start = start
         self._attached()
         if start is not None:
-            e = start.estimate
-            Vs, delta = (model.Vs if e.Vs is None else e.Vs), (model.delta if e.delta is None else e.delta)
-            if Vs is None or delta is None:
-                raise ParameterError("start: a start map needs Vs and delta, its own or the model's (the model has no "
-                                     "Stribeck term)")
-            if lib.aff_eq4_ff_start(self._c, e.Fc, e.Fs, Vs, delta, e.sigma, e.tau, start.gain,
-                                    start.ff_input == "reference") != 0:
+            args = start.map_args(model.Vs, model.delta)
+            if lib.aff_eq4_ff_start(self._c, *args, start.gain, start.ff_input == "reference") != 0:
                 raise ParameterError(f"start: refused by aff_eq4_ff_start (Vs > 0 and a finite delta needed): "
-                                     f"Vs={Vs!r}, delta={delta!r}")
+                                     f"Vs={args[2]!r}, delta={args[3]!r}")
 
     def _attached(self) -> None:
         """Point the parts (feedforward, range gates, RLS) into this component's struct."""
@@ -284,9 +279,7 @@ class AdaptiveFrictionFeedforward(Component):
         """
         c = self._c
         if c.provisional:  # as aff_fixed_ff_start_output in compensate
-            if c.start_at_ref and w_ref is not None:
-                return self._ff.step(w_ref) * float(c.start_gain)
-            return self._ff.step(w, w_ref) * float(c.start_gain)
+            return start_output(self._ff.step, w, w_ref, at_ref=bool(c.start_at_ref), gain=float(c.start_gain))
         return self._ff.step(w, w_ref)
 
     def observe(self, u: float, w: float) -> bool:
