@@ -81,6 +81,16 @@ class AdaptiveFrictionFeedforward(Component):
     w_band : float, keyword-only
         Sliding-regime gate (rad/s, >= 0): only samples with ``|w(k)|``, ``|w(k-1)|``, ``|w(k-2)|`` above it and of
         one sign update the estimator; default 0 (every sample, the paper).
+    map_rel_stderr : float, keyword-only
+        Determinacy test of the estimates, with ``iv`` only (> 0; default ``inf``: none, every admissible estimate
+        after the warm-up is used): an estimate is put into use (the first replacing the start map) only if, at the
+        largest ``|w|`` of the IV updates and (with the Stribeck term, if below it) at ``Vs``, the standard error of
+        its static map ``F(w)`` of eq. 3 is at most ``map_rel_stderr`` times its ``max(Fc, Fs)`` and the projection
+        moved the map there by no more than that; else the estimate in use stays. The covariance of the IV estimate
+        is ``e2 * P @ Szz @ P.T`` (Söderström & Stoica, System Identification, 1989, Sec. 8.2) with ``Szz`` the
+        forgotten sum of ``z z'`` and ``e2`` the mean of the normalised a-priori errors. The counterpart of the
+        sliding estimator's "Fc determined"
+        (:func:`~adaptive_ff.compensation.adaptive_feedforward.fc_determined`); C ``aff_eq4_ff_require_determined``.
     sign_width, stick_band, stick_samples, loop_model, sign_observer : keyword-only
         The feedforward's input near standstill (see :class:`FrictionFeedforward`); defaults: none of it (the
         bare feedforward of the paper's prototype).
@@ -140,7 +150,8 @@ class AdaptiveFrictionFeedforward(Component):
                  warmup: int = 300, lag: bool = True, ff_max: float = math.inf, tau_max: float = 1.0,
                  ff_input: str = "measured", u_range: RangeGate | None = None, w_range: RangeGate | None = None,
                  iv: bool = False, w_band: float = 0.0, sign_width: float = 0.0, stick_band: float = 0.0,
-                 stick_samples: int = 10, loop_model=None, sign_observer=None, start: FeedforwardStart | None = None):
+                 stick_samples: int = 10, loop_model=None, sign_observer=None, start: FeedforwardStart | None = None,
+                 map_rel_stderr: float = math.inf):
         ff = FrictionFeedforward(None, dt=dt, lag=lag, ff_max=ff_max, ff_input=ff_input, sign_width=sign_width,
                                  stick_band=stick_band, stick_samples=stick_samples, loop_model=loop_model,
                                  sign_observer=sign_observer)
@@ -154,6 +165,16 @@ class AdaptiveFrictionFeedforward(Component):
         if not isinstance(iv, (bool, np.bool_)):
             raise ParameterError(f"iv must be True or False, got {iv!r}")
         w_band = check_nonnegative("w_band", w_band)
+        try:
+            rel = math.nan if isinstance(map_rel_stderr, bool) else float(map_rel_stderr)
+        except (TypeError, ValueError):
+            rel = math.nan
+        if not rel > 0.0:  # inf allowed: no determinacy test
+            raise ParameterError(f"map_rel_stderr must be > 0 (inf: no test), got {map_rel_stderr!r}")
+        map_rel_stderr = rel
+        if math.isfinite(map_rel_stderr) and not iv:
+            raise ParameterError(f"map_rel_stderr={map_rel_stderr!r} needs iv=True (the test is on the IV estimate's "
+                                 f"covariance)")
         if start is not None and not isinstance(start, FeedforwardStart):
             raise ParameterError(f"start must be a FeedforwardStart or None, got {type(start).__name__}")
         p = model.n_params
@@ -178,6 +199,8 @@ class AdaptiveFrictionFeedforward(Component):
         self.ivrls = ivrls
         self.start = start
         self._attached()
+        if math.isfinite(map_rel_stderr):
+            lib.aff_eq4_ff_require_determined(self._c, map_rel_stderr)
         if start is not None:
             args = start.map_args(model.Vs, model.delta)
             if lib.aff_eq4_ff_start(self._c, *args, start.gain, start.ff_input == "reference") != 0:
@@ -217,6 +240,10 @@ class AdaptiveFrictionFeedforward(Component):
     n_rejected = property(lambda self: int(self._c.n_rejected), doc="Refused samples.")
     n_implausible = property(lambda self: int(self._c.n_implausible), doc="Estimates that failed the projection.")
     n_gated = property(lambda self: int(self._c.n_gated), doc="Samples the sliding-regime gate kept out.")
+    n_undetermined = property(lambda self: int(self._c.n_undetermined),
+                              doc="Admissible estimates not put into use: the map not determined.")
+    map_rel_stderr = property(lambda self: float(self._c.map_rel_stderr),
+                              doc="The estimates' determinacy bound (relative to max(Fc, Fs)), ``inf`` = no test.")
 
     @property
     def theta(self) -> np.ndarray:
@@ -248,13 +275,16 @@ class AdaptiveFrictionFeedforward(Component):
         dict
             ``estimator`` ("eq4-rls", "eq4" with ``iv``: the names of ``ModeOptions.estimator``), ``n_rejected``,
             ``n_implausible``, ``n_updates`` (of the estimator in use), ``lam``, ``names`` (the regression
-            parameters, :attr:`RegressionModel.names`); with ``w_band > 0`` also ``n_gated`` and ``w_band``.
+            parameters, :attr:`RegressionModel.names`); with ``w_band > 0`` also ``n_gated`` and ``w_band``; with
+            a finite ``map_rel_stderr`` also it and ``n_undetermined``.
         """
         d = {"estimator": "eq4" if self.iv else "eq4-rls", "n_rejected": self.n_rejected,
              "n_implausible": self.n_implausible, "n_updates": self._est.n_updates, "lam": self._est.lam,
              "names": list(self.model.names)}
         if self.w_band > 0:
             d.update(n_gated=self.n_gated, w_band=self.w_band)
+        if math.isfinite(self.map_rel_stderr):
+            d.update(n_undetermined=self.n_undetermined, map_rel_stderr=self.map_rel_stderr)
         return d
 
     def static(self, w: float) -> float:

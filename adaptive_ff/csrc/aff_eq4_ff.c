@@ -2,6 +2,7 @@
 #include <math.h>
 #include <string.h>
 #include "aff_eq4_ff.h"
+#include "plant_stribeck.h"
 
 int aff_eq4_ff_init(aff_eq4_ff *e, const aff_fixed_ff *ff, long m, aff_real Ts, long warmup, aff_real tau_max,
                     aff_real F_max, aff_real Vs, aff_real delta, int lag, int stribeck, int offset,
@@ -32,6 +33,15 @@ int aff_eq4_ff_init(aff_eq4_ff *e, const aff_fixed_ff *ff, long m, aff_real Ts, 
         e->ivrls = *ivrls;
     e->due = m;
     e->start_gain = 1;
+    e->map_rel_stderr = INFINITY;
+    return 0;
+}
+
+int aff_eq4_ff_require_determined(aff_eq4_ff *e, aff_real map_rel_stderr)
+{
+    if (!(map_rel_stderr > 0))
+        return -1;
+    e->map_rel_stderr = map_rel_stderr;
     return 0;
 }
 
@@ -48,6 +58,41 @@ int aff_eq4_ff_start(aff_eq4_ff *e, aff_real Fc, aff_real Fs, aff_real Vs, aff_r
     return 0;
 }
 
+/* The standard error of the IV estimate's static map at w (rad/s) is at most bound (N*m): the delta method on the
+ * covariance e2*P*Szz*P' (aff_eq4_ff_require_determined), g'P Szz P'g = q'Szz q with q = P'g. */
+static int map_sd_within(const aff_eq4_ff *e, const aff_physical *x, aff_real w, aff_real bound)
+{
+    const aff_ivrls *r = &e->ivrls;
+    long p = r->p, i, j;
+    aff_real g[AFF_RLS_NMAX], q[AFF_RLS_NMAX], var = 0;
+    aff_real shape = e->stribeck ? plant_stribeck_shape(w, e->Vs, e->delta) : (aff_real)0.0;
+    aff_real F = aff_eq4_static_gradient(r->theta, e->lag, e->stribeck, e->offset, w, shape, g);
+    aff_real F_used = x->Fc * ((aff_real)1.0 - shape) + x->Fs * shape + x->sigma * w;
+    if (!(AFF_FABS(F_used - F) <= bound)) /* the projection moved the map: not the estimate's */
+        return 0;
+    for (i = 0; i < p; i++) {
+        aff_real acc = 0;
+        for (j = 0; j < p; j++)
+            acc += r->P[j * p + i] * g[j];
+        q[i] = acc;
+    }
+    for (i = 0; i < p; i++)
+        for (j = 0; j < p; j++)
+            var += q[i] * e->Szz[i * p + j] * q[j];
+    return AFF_SQRT(aff_max2(e->e2 * var, 0.0)) <= bound; /* NaN: not within */
+}
+
+/* The determinacy test of an estimate (aff_eq4_ff_require_determined) with the projected levels x. */
+static int map_determined(const aff_eq4_ff *e, const aff_physical *x)
+{
+    aff_real bound = e->map_rel_stderr * aff_max2(x->Fc, x->Fs);
+    if (!(e->map_rel_stderr < INFINITY) || !e->iv)
+        return 1;
+    if (!(bound > 0) || !map_sd_within(e, x, e->w_max, bound))
+        return 0;
+    return !(e->stribeck && e->Vs < e->w_max) || map_sd_within(e, x, e->Vs, bound);
+}
+
 /* Map theta to physical parameters, project, and put an admissible estimate into use (else count it). */
 static void use_estimate(aff_eq4_ff *e)
 {
@@ -55,6 +100,10 @@ static void use_estimate(aff_eq4_ff *e)
     aff_eq4_to_physical(e->iv ? e->ivrls.theta : e->rls.theta, e->Ts, e->lag, e->stribeck, e->offset, &x);
     if (!aff_project_levels(&x, e->tau_max, e->F_max)) {
         e->n_implausible++;
+        return;
+    }
+    if (!map_determined(e, &x)) {
+        e->n_undetermined++;
         return;
     }
     aff_fixed_ff_set_estimate(&e->ff, x.Fc, x.Fs, e->Vs, e->delta, x.sigma, x.tau, e->stribeck);
@@ -75,12 +124,33 @@ static int eq4_in_stick(const aff_eq4_ff *e, aff_real w)
     return (w > 0) != (e->w1 > 0) || (w > 0) != (e->w2 > 0);
 }
 
+/* After an accepted IV update with the a-priori error err (rad/s) of the sample w(k): the moments of the
+ * determinacy test, e2 (gain max(1 - lam, 1/n)), Szz (forgetting lam) and w_max. phi'P z of the update is phi'v
+ * (v = P z before the update, aff_ivrls.h), >= 0 under the guard. */
+static void track_moments(aff_eq4_ff *e, aff_real err, aff_real w)
+{
+    const aff_ivrls *r = &e->ivrls;
+    long p = r->p, i, j;
+    aff_real rr = 0, lam = r->lam, gain = (aff_real)1.0 / (aff_real)r->n_updates;
+    for (i = 0; i < p; i++)
+        rr += e->phi[i] * r->v[i];
+    if (gain < (aff_real)1.0 - lam)
+        gain = (aff_real)1.0 - lam;
+    e->e2 += gain * (err * err / ((aff_real)1.0 + aff_max2(rr, 0.0)) - e->e2);
+    for (i = 0; i < p; i++)
+        for (j = 0; j < p; j++)
+            e->Szz[i * p + j] = lam * e->Szz[i * p + j] + e->z[i] * e->z[j];
+    if (AFF_FABS(w) > e->w_max)
+        e->w_max = AFF_FABS(w);
+}
+
 int aff_eq4_ff_sample(aff_eq4_ff *e, aff_real u, aff_real w)
 {
     int uok = aff_range_gate_ok(&e->u_range, u);
     int wok = aff_range_gate_ok(&e->w_range, w);
     int updated = 0, refused = 0;
     long n0;
+    aff_real err;
     if (!(uok && wok)) {
         if (!uok)
             aff_range_gate_commit(&e->u_range, u, 0);
@@ -114,11 +184,14 @@ int aff_eq4_ff_sample(aff_eq4_ff *e, aff_real u, aff_real w)
         aff_eq4_phi(e->phi, u, e->u1, e->w1, e->w2, e->Vs, e->delta, e->lag, e->stribeck, e->offset);
         aff_eq4_phi(e->z, u, e->u1, e->w3, e->w4, e->Vs, e->delta, e->lag, e->stribeck, e->offset);
         n0 = e->ivrls.n_updates;
-        aff_ivrls_update(&e->ivrls, e->phi, e->z, w);
-        if (e->ivrls.n_updates == n0) /* guard, s <= 0 or overflow: the sample still enters the past */
+        err = aff_ivrls_update(&e->ivrls, e->phi, e->z, w);
+        if (e->ivrls.n_updates == n0) { /* guard, s <= 0 or overflow: the sample still enters the past */
             e->n_rejected++;
-        else
+        } else {
             updated = 1;
+            if (e->map_rel_stderr < INFINITY)
+                track_moments(e, err, w);
+        }
         refused = !updated;
     }
     aff_range_gate_commit(&e->u_range, u, 1);

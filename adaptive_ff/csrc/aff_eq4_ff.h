@@ -17,6 +17,8 @@
  *    that moved the joint over the interval; the last one alone leads it by Ts/2 and biases tau by about -Ts/2).
  * With w_band > 0 (the sliding-regime gate) only samples with |w(k)|, |w(k-1)|, |w(k-2)| > w_band of one sign update
  * the estimator: eq. 4 describes sliding (the paper's Sec. II-B); stick and creep rows bias it whatever the estimator.
+ * Determinacy test (opt-in, with iv; aff_eq4_ff_require_determined): an estimate is used only if the standard error
+ * of its static map is within a bound of its level.
  * Provisional start (aff_eq4_ff_start): a prior map (the Stribeck pre-fit's, Sec. V-C, through a lag) acts from the
  * first period, times its gain, until the first estimate is put into use, which then replaces it at once (this
  * feedforward has no fade-in); the same start as the robust feedforward's (aff_robust_ff_start, the output by
@@ -77,6 +79,12 @@ typedef struct aff_eq4_ff {
     int provisional;              /* 1 while the start map is in use (aff_eq4_ff_start), until the first estimate */
     int start_at_ref;             /* 1: the start map is evaluated at the reference */
     aff_real start_gain;          /* factor on the start map, in (0, 1] (1 without a start) */
+    aff_real map_rel_stderr;      /* the estimates' determinacy test (aff_eq4_ff_require_determined),
+                                   * INFINITY = none */
+    aff_real e2;                  /* running mean of e^2/(1 + phi'P z) of the IV updates (rad^2/s^2) */
+    aff_real Szz[AFF_RLS_NMAX * AFF_RLS_NMAX]; /* sum of lam^(N-k) z(k) z(k)' of the IV updates (p*p, row-major) */
+    aff_real w_max;               /* largest |w(k)| of the IV updates (rad/s) */
+    long n_undetermined;          /* admissible estimates not put into use: the map not determined */
 } aff_eq4_ff;
 
 /* Configure e from the configured parts ff (aff_fixed_ff_init), u_range, w_range (aff_range_gate_init), rls
@@ -96,6 +104,23 @@ int aff_eq4_ff_init(aff_eq4_ff *e, const aff_fixed_ff *ff, long m, aff_real Ts, 
  * AdaptiveFrictionFeedforward(start=FeedforwardStart(...)). */
 int aff_eq4_ff_start(aff_eq4_ff *e, aff_real Fc, aff_real Fs, aff_real Vs, aff_real delta, aff_real sigma,
                      aff_real tau, aff_real gain, int at_ref);
+
+/* The determinacy test of the estimates (the counterpart of the sliding estimator's "Fc determined",
+ * aff_fc_determined), with iv only: an admissible estimate is put into use (the first one replacing the start map,
+ * if any; a later one the estimate in use) only if, at w_max, the largest |w| of the IV updates, and, with the
+ * Stribeck term and Vs < w_max, at Vs, the standard error of its static map F(w) (aff_eq4_static_gradient) is at
+ * most map_rel_stderr times max(Fc, Fs) of the projected estimate, and the projection (aff_project_levels) moved
+ * the map there by no more than that either (the map in use is the one tested). Else the estimate in use stays. An
+ * IV estimate's first hundreds of updates swing far (on a zoo joint sigma 3 to 70 times the joint's, and once 1000
+ * times with its Stribeck level clipped by the projection: docs/benchmarks/compensation.md, "The eq. 4 estimate's
+ * determinacy test", where the test, opt-in, is measured). The covariance of the IV estimate is e2*P*Szz*P'
+ * (Soderstrom & Stoica, System Identification, 1989, Sec. 8.2: the asymptotic covariance of the basic IV estimate,
+ * sigma^2*R^-1*E[z z']*R^-T with R = E[z phi'], here with the forgetting of the recursion;
+ * e2 the running mean of the normalised a-priori errors with the gain max(1 - lam, 1/n), the sliding estimator's
+ * e2 for the IV; P the recursion's P, which contains the prior P0 and so keeps an unexcited direction undetermined).
+ * Refused estimates count in n_undetermined. Returns 0, or -1 (e untouched) for map_rel_stderr not > 0
+ * (INFINITY: no test, the state at init). Python: AdaptiveFrictionFeedforward(map_rel_stderr=...). */
+int aff_eq4_ff_require_determined(aff_eq4_ff *e, aff_real map_rel_stderr);
 
 /* One sample (u(k) N*m, w(k) rad/s) of the stream: returns 0 if refused (a range gate, or the RLS refused the
  * update: only counters change; the IV refused the update, phi'P z < 0 or overflow: counters change and the sample

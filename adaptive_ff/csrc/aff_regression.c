@@ -58,3 +58,40 @@ void aff_eq4_to_physical(const aff_real *theta, aff_real Ts, int lag, int stribe
     out->offset = o1 * inv;
     out->J_alt = b1 != 0 ? Ts * a2 / b1 : NAN;
 }
+
+aff_real aff_eq4_static_gradient(const aff_real *theta, int lag, int stribeck, int offset, aff_real w, aff_real shape,
+                                 aff_real *grad)
+{
+    long j = 0, ia1, ia2 = -1, ib0, ib1 = -1, ic1, id1 = -1;
+    aff_real a2 = 0, b1 = 0, d1, g, num, inv;
+    ia1 = j++;
+    if (lag)
+        ia2 = j++;
+    ib0 = j++;
+    if (lag)
+        ib1 = j++;
+    ic1 = j++;
+    if (stribeck)
+        id1 = j++;
+    if (offset)
+        grad[j++] = 0.0;
+    if (lag) {
+        a2 = theta[ia2];
+        b1 = theta[ib1];
+    }
+    d1 = stribeck ? theta[id1] : theta[ic1];
+    g = theta[ib0] - b1;
+    num = stribeck ? theta[ic1] * ((aff_real)1.0 - shape) + d1 * shape : theta[ic1];
+    num += ((aff_real)1.0 - theta[ia1] + a2) * w;
+    inv = (aff_real)1.0 / g;
+    grad[ia1] = -w * inv;
+    if (lag) {
+        grad[ia2] = w * inv;
+        grad[ib1] = num * inv * inv;
+    }
+    grad[ib0] = -num * inv * inv;
+    grad[ic1] = (stribeck ? (aff_real)1.0 - shape : (aff_real)1.0) * inv;
+    if (stribeck)
+        grad[id1] = shape * inv;
+    return num * inv;
+}

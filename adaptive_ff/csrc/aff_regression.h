@@ -33,4 +33,13 @@ long aff_eq4_phi(aff_real *phi, aff_real u_k, aff_real u_km1, aff_real w_km1, af
  * time Ts (s) into out; +-inf/NaN where b0 == b1, J_alt NaN where b1 == 0. */
 void aff_eq4_to_physical(const aff_real *theta, aff_real Ts, int lag, int stribeck, int offset, aff_physical *out);
 
+/* The static friction map of theta (order as aff_eq4_to_physical) at the velocity w (rad/s), through the inverse
+ * map: F(w) = Fc*(1 - shape) + Fs*shape + sigma*w = (c1*(1 - shape) + d1*shape + (1 - a1 + a2)*w)/(b0 - b1) (N*m;
+ * shape = exp(-|w/Vs|^delta) of the structure's Vs, delta, plant_stribeck_shape; without stribeck d1 = c1, so F =
+ * (c1 + (1 - a1 + a2)*w)/(b0 - b1)), and its gradient with respect to theta into grad[0..p-1] (N*m per unit of each
+ * parameter; 0 for o1: the offset is not friction). The delta method's Jacobian (Ljung, System Identification,
+ * 2nd ed., 1999, Sec. 9.3) for the standard error of the estimated map. Returns F(w); NaN/inf where b0 == b1. */
+aff_real aff_eq4_static_gradient(const aff_real *theta, int lag, int stribeck, int offset, aff_real w, aff_real shape,
+                                 aff_real *grad);
+
 #endif

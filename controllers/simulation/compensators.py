@@ -215,6 +215,13 @@ class ModeOptions:
     iv_Ts : float or None
         Sample time (s) of the ``eq4`` estimator, a multiple of ``Tc``; default None: 2 ms (rounded to a multiple
         of ``Tc``, at least ``Tc``). ``Ts`` is that of the other estimators.
+    iv_map_stderr : float
+        The ``eq4`` estimator's determinacy test in mode ``adaptive`` (> 0; default ``inf``: none): an estimate is
+        put into use (the first replacing the start map) only once the standard error of its static map is at most
+        this times its ``max(Fc, Fs)`` (:class:`~adaptive_ff.compensation.eq4_feedforward.AdaptiveFrictionFeedforward`
+        ``map_rel_stderr``). Opt-in: on the zoos it moved as many joints below the default as it lifted
+        (docs/benchmarks/compensation.md, "The eq. 4 estimate's determinacy test"). Mode ``adaptive-dob`` uses no
+        test: its observer, always applied, takes what an early estimate misses.
     supervise_rest_band : float or None
         The reference is at rest where ``|w_ref|`` is at most this (rad/s): the supervisor applies no compensation
         there once it has been for one loop time constant (a velocity loop's friction then brakes the joint toward
@@ -285,6 +292,7 @@ class ModeOptions:
     supervise_omega: float | None = None
     supervise_rest_band: float | None = 0.0
     iv_Ts: float | None = None
+    iv_map_stderr: float = math.inf
 
     def __post_init__(self):
         check_positive("Tc", self.Tc)
@@ -294,6 +302,9 @@ class ModeOptions:
             check_positive("J_n", self.J_n)
         if self.iv_Ts is not None:
             check_multiple("iv_Ts", self.iv_Ts, "Tc", self.Tc)
+        if isinstance(self.iv_map_stderr, bool) or not (isinstance(self.iv_map_stderr, (int, float))
+                                                         and self.iv_map_stderr > 0):
+            raise ParameterError(f"iv_map_stderr must be > 0 (inf: no test), got {self.iv_map_stderr!r}")
         check_estimator("estimator", self.estimator)
         if self.ff_input not in ("reference", "measured"):
             raise ParameterError(f"ff_input must be 'reference' or 'measured', got {self.ff_input!r}")
@@ -448,7 +459,7 @@ def _adaptive_feedforward(plant, o):
                                                   w_band=m.Vs if m.stribeck else 0.0, sign_width=o.sign_width,
                                                   stick_band=o.stick_band, stick_samples=o.stick_samples,
                                                   loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o),
-                                                  start=o.start)
+                                                  start=o.start, map_rel_stderr=o.iv_map_stderr)
     Vs = o.Vs if o.Vs is not None else (o.model.Vs if o.model is not None else None)
     delta = o.delta if o.delta is not None else (o.model.delta if o.model is not None else None)
     if Vs is None or delta is None:
@@ -468,7 +479,9 @@ def _adaptive_feedforward(plant, o):
 
 
 def _adaptive_dob(plant, o):
-    _, ff = _adaptive_feedforward(plant, o)
+    # the eq. 4 estimates without the determinacy test: the observer, always applied, takes what an early estimate
+    # misses (docs/benchmarks/compensation.md, "The eq. 4 estimate's determinacy test")
+    _, ff = _adaptive_feedforward(plant, replace(o, iv_map_stderr=math.inf))
     _, dob = _dob(plant, replace(o, omega_q=o.omega_r))
     _, ff_max = _ctx(plant, o)
     return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max)
