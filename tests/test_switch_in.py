@@ -53,9 +53,10 @@ def _far(w_ref):
     return w_ref - 2.0 * _frictionless_error(w_ref)
 
 
-def _oracle(u_ff, d_hat, w_ref, acting, window, ratio, fade_in, share=0.25, w_ctrl=None):
+def _oracle(u_ff, d_hat, w_ref, acting, window, ratio, fade_in, share=0.25, w_ctrl=None, started=None):
     """Share g per period, the mean squares per period, the switch-in index (or None) and the trial's switch-out
-    index (or None); ``w_ctrl`` the controller's velocity (default :func:`_far`)."""
+    index (or None); ``w_ctrl`` the controller's velocity (default :func:`_far`); ``started`` where the
+    feedforward's start map acts (default nowhere): its periods count from the fifth window on."""
     n = len(d_hat)
     w_ctrl = _far(w_ref) if w_ctrl is None else w_ctrl
     c, kt = TC / JN, KI * TC
@@ -67,7 +68,9 @@ def _oracle(u_ff, d_hat, w_ref, acting, window, ratio, fade_in, share=0.25, w_ct
     w_r, w_f, e_l = w_r[:, 0], w_f[:, 0], _frictionless_error(w_ref)
     still = w_ref == 0.0
     rest = still & np.concatenate([[False], still[:-1]])
-    used = acting & ~rest
+    n_ev = round(window / TC)
+    late = np.zeros(n, dtype=bool) if started is None else started & (np.arange(n) + 1 >= 5 * n_ev)
+    used = (acting | late) & ~rest
     b = 1.0 - math.exp(-TC / window)
     ewma = partial(lfilter, [b], [1.0, -(1.0 - b)])
     m_r_u, m_l_u, m_f_u = ewma(w_r[used] ** 2), ewma(e_l[used] ** 2), ewma(w_f[used] ** 2)
@@ -75,7 +78,6 @@ def _oracle(u_ff, d_hat, w_ref, acting, window, ratio, fade_in, share=0.25, w_ct
     # loop's mean square by
     x_r, x_f = ewma((e_l - w_r)[used] ** 2) - m_l_u, ewma((e_l - w_f)[used] ** 2) - m_l_u
     count = np.arange(1, used.sum() + 1)
-    n_ev = round(window / TC)
     rise_r, rise_f = np.maximum(m_r_u, x_r), np.maximum(m_f_u, x_f)  # the cross terms only where they add
     m_e_u = ewma((w_ref - w_ctrl)[used] ** 2)  # the loop's measured error with the feedforward alone
     fires = ((rise_r > ratio * m_l_u) | (rise_r > share * rise_f)) & (m_e_u > m_l_u)
@@ -125,12 +127,13 @@ def _inputs(n=600, seed=5, grow_at=300):
     return u_ff, d_hat, w_ref, acting
 
 
-def _run_c(a, u_ff, d_hat, w_ref, acting, w_ctrl=None):
+def _run_c(a, u_ff, d_hat, w_ref, acting, w_ctrl=None, started=None):
     sw = ffi.addressof(a, "sw")
     w_ctrl = _far(w_ref) if w_ctrl is None else w_ctrl
+    started = np.zeros(len(d_hat), dtype=bool) if started is None else started
     g, m_r, m_l = (np.empty(len(d_hat)) for _ in range(3))
     for k in range(len(d_hat)):
-        g[k] = lib.ctl_switch_in_step(sw, u_ff[k], d_hat[k], w_ref[k], w_ctrl[k], int(acting[k]))
+        g[k] = lib.ctl_switch_in_step(sw, u_ff[k], d_hat[k], w_ref[k], w_ctrl[k], int(acting[k]), int(started[k]))
         m_r[k], m_l[k] = a.sw.m_r, a.sw.m_l
     return g, m_r, m_l
 
@@ -281,6 +284,26 @@ def test_no_residual_no_switch_in_and_an_idle_feedforward_is_replaced():
     g, _, _ = _run_c(a, u_ff, d_hat, w_ref, np.zeros(len(d_hat), dtype=bool), w_ctrl=_tracking(w_ref, 1.0, 5.0, 249))
     assert a.sw.k_in == 249 and a.sw.n_used == 0
     assert math.isinf(a.sw.ratio_in) and a.sw.decided == 1 and a.sw.k_out == -1 and g[-1] == 1.0
+
+
+def test_a_start_map_acting_alone_is_judged_from_the_fifth_window_not_replaced():
+    """While the feedforward's provisional start map acts (started) there is no idle switch-in; from the fifth
+    window on its periods enter the means, and the switch-in falls where the oracle's does on those periods."""
+    u_ff, d_hat, w_ref, _ = _inputs(n=900, grow_at=600)  # the start map misses nothing until 600
+    never = np.zeros(len(d_hat), dtype=bool)
+    started = np.ones(len(d_hat), dtype=bool)
+    a = _c_switch_in()
+    g, _, _ = _run_c(a, u_ff, d_hat, w_ref, never, started=started)
+    k_in = _oracle(u_ff, d_hat, w_ref, never, 0.05, 0.1, 0.01, started=started)[3]
+    assert k_in is not None and 600 < k_in < 800  # after the residual appears, not the idle switch-in at 249
+    assert a.sw.k_in == k_in and a.sw.n_used > 0 and np.all(g[:k_in] == 0.0)
+    # the start map acting until 400, its own estimate from then on (acting): the periods of both count from 249
+    acting = np.arange(len(d_hat)) >= 400
+    started = ~acting
+    a = _c_switch_in()
+    _run_c(a, u_ff, d_hat, w_ref, acting, started=started)
+    assert a.sw.k_in == _oracle(u_ff, d_hat, w_ref, acting, 0.05, 0.1, 0.01, started=started)[3] == k_in
+    assert a.sw.n_used == k_in - 249 + 1  # every period from the fifth window on (no rest after the dwell)
 
 
 def test_settings_are_checked():

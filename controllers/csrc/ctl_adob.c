@@ -166,7 +166,8 @@ static double trial_step(ctl_switch_in *s, double w_ref, double w_ctrl, int rest
     return (double)s->g;
 }
 
-double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_ref, double w_ctrl, int acting)
+double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_ref, double w_ctrl, int acting,
+                          int started)
 {
     long k = s->n;
     s->n += 1;
@@ -180,7 +181,8 @@ double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_
     aff_real e_l = frictionless_step(s, w_ref); /* the frictionless loop on the reference */
     aff_real w_r = disturbance_step(s, &s->w_r, &s->I_r, (aff_real)d_hat); /* the residual's */
     aff_real w_f = disturbance_step(s, &s->w_f, &s->I_f, (aff_real)(u_ff + d_hat)); /* the whole estimate's */
-    if (acting && !rest) {
+    int late = started && k + 1 >= s->n_wait; /* the start map has acted alone for 5*T: its evidence from now */
+    if ((acting || late) && !rest) {
         aff_lag_step(&s->m_f, s->b, w_f * w_f);
         aff_lag_step(&s->m_r, s->b, w_r * w_r);
         aff_lag_step(&s->m_l, s->b, e_l * e_l);
@@ -194,7 +196,7 @@ double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_
     if (!rest)
         trial_means(s, e_l, w_ref, w_ctrl);
     int residual = s->n_used >= 2 * s->n_evidence && ctl_switch_in_fires(s);
-    int idle = s->n_used == 0 && k + 1 >= s->n_wait;
+    int idle = s->n_used == 0 && k + 1 >= s->n_wait && !started;
     if (residual || idle) {
         s->k_in = k;
         int marginal = !idle && s->m_e <= (1 + s->ratio) * s->m_l; /* at most ratio to gain: on trial */
@@ -206,10 +208,12 @@ double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_
     return (double)s->g;
 }
 
-double ctl_residual_compensate(ctl_residual *r, double u_ff, int acting, double w_ctrl, double w_meas, double w_ref)
+double ctl_residual_compensate(ctl_residual *r, double u_ff, int acting, int started, double w_ctrl, double w_meas,
+                               double w_ref)
 {
     double d = ctl_dob_compensate(&r->dob, w_ctrl, w_meas, w_ref);
-    double g = r->use_switch_in ? ctl_switch_in_step(&r->sw, u_ff, d, w_ref, w_ctrl, acting) : 1.0;
+    double g = r->use_switch_in ? ctl_switch_in_step(&r->sw, u_ff, d, w_ref, w_ctrl, acting, started)
+                                : 1.0;
     if (r->held && w_ctrl * w_ref > 0.0) /* the joint moves in the reference's direction: the hold ends */
         r->held = 0;
     double out;
@@ -251,7 +255,7 @@ double ctl_adob_compensate(void *self, double w_ctrl, double w_meas, double w_re
     ctl_adob *a = (ctl_adob *)self;
     double uff = aff_robust_ff_compensate(&a->ff, w_ctrl, w_meas, w_ref);
     int acting = a->ff.ff.has && !a->ff.provisional; /* its own estimate in use */
-    return ctl_residual_compensate(&a->res, uff, acting, w_ctrl, w_meas, w_ref);
+    return ctl_residual_compensate(&a->res, uff, acting, a->ff.provisional, w_ctrl, w_meas, w_ref);
 }
 
 int ctl_adob_observe(void *self, double u, double w_meas, double *theta_out)
@@ -278,7 +282,7 @@ double ctl_eq4_dob_compensate(void *self, double w_ctrl, double w_meas, double w
 {
     ctl_eq4_dob *a = (ctl_eq4_dob *)self;
     double uff = aff_eq4_ff_compensate(&a->ff, w_ctrl, w_meas, w_ref);
-    return ctl_residual_compensate(&a->res, uff, a->ff.has_estimate, w_ctrl, w_meas, w_ref);
+    return ctl_residual_compensate(&a->res, uff, a->ff.has_estimate, a->ff.provisional, w_ctrl, w_meas, w_ref);
 }
 
 int ctl_eq4_dob_observe(void *self, double u, double w_meas, double *theta_out)

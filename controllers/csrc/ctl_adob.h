@@ -24,9 +24,9 @@
  *   w_f: the velocity the whole friction estimate u_ff + d_hat adds, by the same recursion as w_r,
  * and their exponentially weighted means over the window T, m += b*(x - m), b = 1 - exp(-Tc/T): M_l of e_l^2, M_r of
  * w_r^2, M_f of w_f^2, C_r of e_l*w_r, C_f of e_l*w_f, taken over the periods in which the feedforward acts (its
- * estimate or its provisional start in use) and the reference moves (w_ref != 0 in this and the previous period: at
- * rest the friction is a reaction, aff_supervisor.h). The loop is linear, so its error with the residual is
- * e_l - w_r (w = w_l + w_r), and what the residual raises the loop's mean square by is
+ * own estimate in use, or from 5*T on its provisional start map, below) and the reference moves (w_ref != 0 in
+ * this and the previous period: at rest the friction is a reaction, aff_supervisor.h). The loop is linear, so its
+ * error with the residual is e_l - w_r (w = w_l + w_r), and what the residual raises the loop's mean square by is
  * X_r = EWMA((e_l - w_r)^2) - M_l = M_r - 2*C_r: the residual's own error and its correlation with the loop's
  * error on the reference (a static map that misses the same phase of every cycle, e.g. the bristles' pre-sliding
  * after each reversal of a LuGre joint, adds its error where the loop already lags); likewise X_f = M_f - 2*C_f for
@@ -49,9 +49,13 @@
  * the correlations that would lower it, above): the measurement settles what the prediction cannot. It includes
  * the sensor's noise, which M_l does not, so on a noisy sensor the condition holds and the test is the prediction's
  * alone (docs/benchmarks/compensation.md, "The switch-in asks the measured error");
- * if the feedforward has not acted by 5*T the observer is switched in then. After the switch-in the share g of
- * d_hat applied rises from 0 to 1 by Tc/fade_in per period (no torque step; the PI's integrator unwinds what the
- * observer takes over).
+ * if the feedforward has not acted by 5*T the observer is switched in then (the idle switch-in), unless its
+ * provisional start map acts: then the periods in which the start map acts enter the means from 5*T on, and the
+ * test judges the start map as it judges an estimate (the eq. 4 estimate, held back until determined, may take
+ * tens of seconds; an idle switch-in at 5*T kept the observer on zoo joints where the estimate, once in, tracked
+ * better alone: docs/benchmarks/compensation.md, "The eq. 4 estimate's determinacy test"). After the
+ * switch-in the share g of d_hat applied rises from 0 to 1 by Tc/fade_in per period (no torque step; the PI's
+ * integrator unwinds what the observer takes over).
  * The trial: a switch-in with little to gain must show that the loop tracks no worse with the observer. From the
  * start the test keeps, over the periods the reference moves (w_ref != 0 here and in the previous period), v_e =
  * EWMA((w_ref - w_ctrl)^2) and v_l = EWMA(e_l^2); the model keeps running after the switch-in. A switch-in with
@@ -182,17 +186,22 @@ void ctl_switch_in_rises(const ctl_switch_in *s, double *rise_r, double *rise_f)
 int ctl_switch_in_fires(const ctl_switch_in *s);
 
 /* One period of the switch-in test s with the feedforward u_ff (N*m), the observer's d_hat (N*m), the reference
- * w_ref and the controller's velocity w_ctrl (rad/s; a non-finite one leaves M_e as it is) and whether the
- * feedforward acts (acting, 0/1); returns the share g of d_hat to apply (0..1). */
-double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_ref, double w_ctrl, int acting);
+ * w_ref and the controller's velocity w_ctrl (rad/s; a non-finite one leaves M_e as it is), whether the
+ * feedforward's own estimate acts (acting, 0/1) and whether its provisional start map does (started, 0/1: the
+ * start's evidence from n_wait on, no idle switch-in; header comment); returns the share g of d_hat to apply
+ * (0..1). */
+double ctl_switch_in_step(ctl_switch_in *s, double u_ff, double d_hat, double w_ref, double w_ctrl, int acting,
+                          int started);
 
-/* The composite's output for the feedforward's torque u_ff (N*m) and whether it acts (0/1): d_hat =
+/* The composite's output for the feedforward's torque u_ff (N*m), whether its own estimate acts and whether its
+ * start map does (acting, started, 0/1, for ctl_switch_in_step): d_hat =
  * ctl_dob_compensate(w_ctrl, w_meas, w_ref, rad/s); returns u_ff + g*d_hat clipped to +-u_max (N*m), g = 1
  * without the switch-in, else ctl_switch_in_step's share (before the switch-in exactly u_ff), and keeps u_ff in
  * r->u_ff for the observer. While held after a rest (ctl_residual_at_rest) until w_ctrl*w_ref > 0: g*d_hat alone
  * and r->u_ff = 0 (the feedforward not applied; before the switch-in 0, r->u_ff = u_ff as at rest); a non-finite
  * w_ctrl keeps the hold. The switch-in test sees u_ff and acting unchanged by the hold. */
-double ctl_residual_compensate(ctl_residual *r, double u_ff, int acting, double w_ctrl, double w_meas, double w_ref);
+double ctl_residual_compensate(ctl_residual *r, double u_ff, int acting, int started, double w_ctrl, double w_meas,
+                               double w_ref);
 
 /* The observer records the torque without the feedforward, u - u_ff (N*m), and w_meas (rad/s). */
 void ctl_residual_observe(ctl_residual *r, double u, double w_meas, double *theta_out);
@@ -226,8 +235,8 @@ void ctl_residual_at_rest(ctl_residual *r);
 void ctl_adob_init(ctl_adob *a, const aff_robust_ff *ff, const ctl_dob *dob, aff_real u_max);
 
 /* Compensator interface (aff_compensator.h), self a ctl_adob: u_ff = aff_robust_ff_compensate (w_ctrl, w_meas,
- * w_ref in rad/s), then ctl_residual_compensate (acting: the feedforward's own estimate in use, not its
- * provisional start). */
+ * w_ref in rad/s), then ctl_residual_compensate (acting: the feedforward's own estimate in use; started: its
+ * provisional start map in use). */
 double ctl_adob_compensate(void *self, double w_ctrl, double w_meas, double w_ref);
 
 /* Compensator interface: ctl_residual_observe, then the feedforward observes (u, w_meas); returns
@@ -246,7 +255,7 @@ extern const aff_compensator_ops ctl_adob_ops;
 void ctl_eq4_dob_init(ctl_eq4_dob *a, const aff_eq4_ff *ff, const ctl_dob *dob, aff_real u_max);
 
 /* Compensator interface, self a ctl_eq4_dob: u_ff = aff_eq4_ff_compensate, then ctl_residual_compensate (acting:
- * the feedforward has an estimate in use). */
+ * the feedforward has an estimate in use; started: its provisional start map). */
 double ctl_eq4_dob_compensate(void *self, double w_ctrl, double w_meas, double w_ref);
 
 /* Compensator interface: ctl_residual_observe, then the feedforward observes (u, w_meas); returns

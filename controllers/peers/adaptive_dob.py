@@ -92,7 +92,8 @@ class ResidualSwitchIn:
     ``share`` times what the whole friction estimate ``u_ff + d_hat`` would raise it by, while the loop's measured
     mean-square error (of ``w_ref - w_ctrl`` over the same periods) exceeds the frictionless loop's predicted one (a
     loop that already tracks as well as the frictionless one with the feedforward alone keeps it alone); or after
-    ``5*window`` without the feedforward acting. It then fades in over ``fade_in``. A switch-in with little to gain
+    ``5*window`` without the feedforward acting (a provisional start map acting alone is not replaced so: from then
+    on its periods count as the estimate's would). It then fades in over ``fade_in``. A switch-in with little to gain
     (the measured mean-square error at most ``1 + ratio`` times the frictionless loop's; not the idle switch-in) is
     put on trial: over two windows of moving reference after the fade-in, the loop's measured mean-square error with
     the observer, relative to the frictionless loop's predicted one, is compared with the same ratio over the last
