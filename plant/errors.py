@@ -19,6 +19,7 @@ __all__ = [
     "SignalError",
     "ExcitationError",
     "check_positive",
+    "check_positive_or_inf",
     "check_nonnegative",
     "check_finite_scalar",
     "check_signal",
@@ -67,6 +68,16 @@ def check_positive(name: str, value) -> float:
     if value <= 0.0:
         raise ParameterError(f"{name} must be > 0, got {value!r}")
     return value
+
+
+def check_positive_or_inf(name: str, value) -> float:
+    """Return ``value`` as a float, or raise :class:`ParameterError` unless it is > 0 (``inf`` allowed: a bound
+    that disables its test); a bool, a string or NaN is refused by name."""
+    real = isinstance(value, (Real, np.floating, np.integer)) and not isinstance(value, (bool, np.bool_))
+    x = float(value) if real else math.nan
+    if not x > 0.0:
+        raise ParameterError(f"{name} must be > 0 (inf: no test), got {value!r}")
+    return x
 
 
 def check_nonnegative(name: str, value) -> float:

@@ -63,6 +63,18 @@ def _map(theta, model, w):
     return Fc * (1.0 - s) + Fs * s + sigma * w
 
 
+def _map_gradient(theta, model, w, rel):
+    """Central differences of :func:`_map` in each parameter, steps ``rel * max(1, |theta_i|)``."""
+    g = np.empty(len(theta))
+    for i in range(len(theta)):
+        h = rel * max(1.0, abs(theta[i]))
+        tp, tm = theta.copy(), theta.copy()
+        tp[i] += h
+        tm[i] -= h
+        g[i] = (_map(tp, model, w) - _map(tm, model, w)) / (2 * h)
+    return g
+
+
 @pytest.mark.parametrize("lag,stribeck,offset", [(True, True, True), (True, True, False), (False, True, False),
                                                  (True, False, True)])
 def test_static_gradient_is_the_derivative_of_the_inverse_map(lag, stribeck, offset):
@@ -79,13 +91,7 @@ def test_static_gradient_is_the_derivative_of_the_inverse_map(lag, stribeck, off
             grad = ffi.new("aff_real[]", 16)
             F = lib.aff_eq4_static_gradient(ffi.new("aff_real[]", theta.tolist()), lag, stribeck, offset, w, s, grad)
             assert F == pytest.approx(_map(theta, model, w), rel=1e-12)
-            fd = np.empty(p)
-            for i in range(p):
-                h = 1e-6 * max(1.0, abs(theta[i]))
-                tp, tm = theta.copy(), theta.copy()
-                tp[i] += h
-                tm[i] -= h
-                fd[i] = (_map(tp, model, w) - _map(tm, model, w)) / (2 * h)
+            fd = _map_gradient(theta, model, w, 1e-6)
             np.testing.assert_allclose(np.array(list(grad)[:p]), fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max())
 
 
@@ -129,13 +135,7 @@ def _reference_decisions(rows, model, r, warmup, tau_max, F_max, lam):
         sd_margin, moved_margin = math.inf, math.inf
         ws = [w_max] + ([model.Vs] if model.stribeck and model.Vs < w_max else [])
         for w in ws:
-            g = np.empty(p)
-            for i in range(p):
-                h = 1e-7 * max(1.0, abs(theta[i]))
-                tp, tm = theta.copy(), theta.copy()
-                tp[i] += h
-                tm[i] -= h
-                g[i] = (_map(tp, model, w) - _map(tm, model, w)) / (2 * h)
+            g = _map_gradient(theta, model, w, 1e-7)
             s = math.exp(-abs(w / model.Vs) ** model.delta) if model.stribeck else 0.0
             used = est.Fc * (1 - s) + est.Fs * s + est.sigma * w
             sd = math.sqrt(max(g @ cov @ g, 0.0))

@@ -30,7 +30,7 @@ from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator,
 from adaptive_ff.compensation.velocity_input import LoopModel, SignObserver
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RLS_NMAX
-from plant.errors import ParameterError, check_nonnegative, check_positive
+from plant.errors import ParameterError, check_nonnegative, check_positive, check_positive_or_inf
 
 __all__ = ["RobustAdaptiveFeedforward", "FeedforwardStart", "start_output", "lag_weighted", "fc_determined",
            "project_box", "FC_INFO_FRACTION"]
@@ -425,13 +425,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         lag_margin = check_nonnegative("lag_margin", lag_margin)
         lag_margin_max = (math.inf if isinstance(lag_margin_max, (int, float)) and lag_margin_max == math.inf
                           else check_nonnegative("lag_margin_max", lag_margin_max))  # inf: no cap
-        try:
-            rel = math.nan if isinstance(max_rel_stderr, bool) else float(max_rel_stderr)
-        except (TypeError, ValueError):
-            rel = math.nan
-        if not rel > 0.0:  # inf allowed: no determinacy test
-            raise ParameterError(f"max_rel_stderr must be > 0 (inf: no test), got {max_rel_stderr!r}")
-        max_rel_stderr = rel
+        max_rel_stderr = check_positive_or_inf("max_rel_stderr", max_rel_stderr)  # inf: no determinacy test
         lag_memory = check_nonnegative("lag_memory", lag_memory)
         lag_zero = (math.inf if isinstance(lag_zero, (int, float)) and lag_zero == math.inf
                     else check_nonnegative("lag_zero", lag_zero))  # inf: every negative lag is 0

@@ -34,7 +34,7 @@ from adaptive_ff.compensation.ivrls import RecursiveIV
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from plant.component import Component
-from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive
+from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive, check_positive_or_inf
 
 __all__ = ["AdaptiveFrictionFeedforward"]
 
@@ -165,13 +165,7 @@ class AdaptiveFrictionFeedforward(Component):
         if not isinstance(iv, (bool, np.bool_)):
             raise ParameterError(f"iv must be True or False, got {iv!r}")
         w_band = check_nonnegative("w_band", w_band)
-        try:
-            rel = math.nan if isinstance(map_rel_stderr, bool) else float(map_rel_stderr)
-        except (TypeError, ValueError):
-            rel = math.nan
-        if not rel > 0.0:  # inf allowed: no determinacy test
-            raise ParameterError(f"map_rel_stderr must be > 0 (inf: no test), got {map_rel_stderr!r}")
-        map_rel_stderr = rel
+        map_rel_stderr = check_positive_or_inf("map_rel_stderr", map_rel_stderr)
         if math.isfinite(map_rel_stderr) and not iv:
             raise ParameterError(f"map_rel_stderr={map_rel_stderr!r} needs iv=True (the test is on the IV estimate's "
                                  f"covariance)")

@@ -39,7 +39,7 @@ from controllers.design.pi import PIController
 from controllers.peers.adaptive_dob import AdaptiveDOBCompensator, ResidualSwitchIn
 from controllers.peers.canudas import CanudasCompensator
 from controllers.peers.dob import DisturbanceObserver
-from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive
+from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive, check_positive_or_inf
 
 __all__ = ["MODES", "ESTIMATORS", "check_estimator", "ModeOptions", "TrueFriction", "build_mode", "build_modes",
            "REGISTRY", "SUPERVISED_MODES", "build_supervisor"]
@@ -302,9 +302,7 @@ class ModeOptions:
             check_positive("J_n", self.J_n)
         if self.iv_Ts is not None:
             check_multiple("iv_Ts", self.iv_Ts, "Tc", self.Tc)
-        if isinstance(self.iv_map_stderr, bool) or not (isinstance(self.iv_map_stderr, (int, float))
-                                                         and self.iv_map_stderr > 0):
-            raise ParameterError(f"iv_map_stderr must be > 0 (inf: no test), got {self.iv_map_stderr!r}")
+        check_positive_or_inf("iv_map_stderr", self.iv_map_stderr)
         check_estimator("estimator", self.estimator)
         if self.ff_input not in ("reference", "measured"):
             raise ParameterError(f"ff_input must be 'reference' or 'measured', got {self.ff_input!r}")
