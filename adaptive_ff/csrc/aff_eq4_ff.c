@@ -58,8 +58,9 @@ int aff_eq4_ff_start(aff_eq4_ff *e, aff_real Fc, aff_real Fs, aff_real Vs, aff_r
     return 0;
 }
 
-/* The standard error of the IV estimate's static map at w (rad/s) is at most bound (N*m): the delta method on the
- * covariance e2*P*Szz*P' (aff_eq4_ff_require_determined), g'P Szz P'g = q'Szz q with q = P'g. */
+/* The standard error of the IV estimate's static map at w > 0 (rad/s) is at most bound (N*m): the delta method on
+ * the covariance e2*P*Szz*P' (aff_eq4_ff_require_determined), g'P Szz P'g = q'Szz q with q = P'g. The map in use,
+ * eq. 3 of the projected levels x (plant_stribeck_eval; without the Stribeck term Fs = Fc, so dF = 0), first. */
 static int map_sd_within(const aff_eq4_ff *e, const aff_physical *x, aff_real w, aff_real bound)
 {
     const aff_ivrls *r = &e->ivrls;
@@ -67,8 +68,14 @@ static int map_sd_within(const aff_eq4_ff *e, const aff_physical *x, aff_real w,
     aff_real g[AFF_RLS_NMAX], q[AFF_RLS_NMAX], var = 0;
     aff_real shape = e->stribeck ? plant_stribeck_shape(w, e->Vs, e->delta) : (aff_real)0.0;
     aff_real F = aff_eq4_static_gradient(r->theta, e->lag, e->stribeck, e->offset, w, shape, g);
-    aff_real F_used = x->Fc * ((aff_real)1.0 - shape) + x->Fs * shape + x->sigma * w;
-    if (!(AFF_FABS(F_used - F) <= bound)) /* the projection moved the map: not the estimate's */
+    plant_stribeck m;
+    m.Fc = x->Fc;
+    m.dF = x->Fs - x->Fc;
+    m.Vs = e->Vs;
+    m.delta = e->delta;
+    m.sigma = x->sigma;
+    m.wcut = INFINITY;
+    if (!(AFF_FABS(plant_stribeck_eval(&m, w) - F) <= bound)) /* the projection moved the map: not the estimate's */
         return 0;
     for (i = 0; i < p; i++) {
         aff_real acc = 0;
@@ -85,10 +92,11 @@ static int map_sd_within(const aff_eq4_ff *e, const aff_physical *x, aff_real w,
 /* The determinacy test of an estimate (aff_eq4_ff_require_determined) with the projected levels x. */
 static int map_determined(const aff_eq4_ff *e, const aff_physical *x)
 {
-    aff_real bound = e->map_rel_stderr * aff_max2(x->Fc, x->Fs);
+    aff_real bound;
     if (!(e->map_rel_stderr < INFINITY) || !e->iv)
         return 1;
-    if (!(bound > 0) || !map_sd_within(e, x, e->w_max, bound))
+    bound = e->map_rel_stderr * aff_max2(x->Fc, x->Fs);
+    if (!(bound > 0) || !(e->w_max > 0) || !map_sd_within(e, x, e->w_max, bound)) /* no motion: nothing determined */
         return 0;
     return !(e->stribeck && e->Vs < e->w_max) || map_sd_within(e, x, e->Vs, bound);
 }

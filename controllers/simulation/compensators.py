@@ -219,9 +219,9 @@ class ModeOptions:
         The ``eq4`` estimator's determinacy test in mode ``adaptive`` (> 0; default ``inf``: none): an estimate is
         put into use (the first replacing the start map) only once the standard error of its static map is at most
         this times its ``max(Fc, Fs)`` (:class:`~adaptive_ff.compensation.eq4_feedforward.AdaptiveFrictionFeedforward`
-        ``map_rel_stderr``). Opt-in: on the zoos it moved as many joints below the default as it lifted
-        (docs/benchmarks/compensation.md, "The eq. 4 estimate's determinacy test"). Mode ``adaptive-dob`` uses no
-        test: its observer, always applied, takes what an early estimate misses.
+        ``map_rel_stderr``). Opt-in; measured on docs/benchmarks/compensation.md, "The eq. 4 estimate's
+        determinacy test". Mode ``adaptive-dob`` uses no test: its observer, always applied, takes what an early
+        estimate misses.
     supervise_rest_band : float or None
         The reference is at rest where ``|w_ref|`` is at most this (rad/s): the supervisor applies no compensation
         there once it has been for one loop time constant (a velocity loop's friction then brakes the joint toward
