@@ -3,7 +3,7 @@
 Run:  python benchmarks/zoo.py [--n 100] [--duration 120] [--seed 0] [--modes none,fixed,adaptive,dob,...]
                                [--group 8] [--workers 2] [--scheduler tcp://host:8786]
                                [--min-degradation 0.01] [--estimator sliding|eq4|eq4-rls] [--J-design-factor 1]
-                               [--json out.json]
+                               [--iv-map-stderr inf] [--json out.json]
 
 Draws the joints with :func:`controllers.experiments.zoo.draw_plants` (the box of
 :class:`controllers.experiments.zoo.ZooBox`), prepares each as ``compare`` does
@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import platform
 import subprocess
 import sys
@@ -48,12 +49,15 @@ def main(argv=None) -> int:
                     help="estimator of the adaptive modes (default sliding)")
     ap.add_argument("--J-design-factor", dest="J_design_factor", type=float, default=1.0,
                     help="every joint's design inertia as this factor times its J (a data sheet off by it; default 1)")
+    ap.add_argument("--iv-map-stderr", dest="iv_map_stderr", type=float, default=math.inf,
+                    help="the eq4 estimator's determinacy test in mode adaptive, relative to max(Fc, Fs) (default inf: "
+                         "none; ModeOptions.iv_map_stderr)")
     ap.add_argument("--json", default=None, help="write the full result (strict JSON) to this file")
     args = ap.parse_args(argv)
     o = ZooOptions(n=args.n, duration=args.duration, seed=args.seed, modes=tuple(args.modes.split(",")),
                    group=args.group, workers=args.workers, scheduler=args.scheduler,
                    min_degradation=args.min_degradation, estimator=args.estimator,
-                   J_design_factor=args.J_design_factor)
+                   J_design_factor=args.J_design_factor, iv_map_stderr=args.iv_map_stderr)
     try:
         commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
         dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,

@@ -221,3 +221,39 @@ def test_mode_options_pass_the_bound_to_adaptive_and_not_to_adaptive_dob():
     for bad in (0.0, -1.0, math.nan, True, "0.2"):
         with pytest.raises(ParameterError, match="iv_map_stderr"):
             replace(o, iv_map_stderr=bad)
+
+
+def test_compare_zoo_and_cli_pass_the_bound_to_mode_adaptive(capsys, monkeypatch):
+    """``CompareOptions.iv_map_stderr`` (and the zoo's and ``compare --iv-map-stderr``, which set it) reaches mode
+    ``adaptive``'s options; ``adaptive-dob`` builds its feedforward without the test; a bound not > 0 is refused by
+    name, by the CLI with exit code 2 and no traceback."""
+    from controllers.cli import main
+    from controllers.experiments.compare import CompareOptions, prepare_comparison
+    from controllers.experiments.zoo import ZooOptions
+    from controllers.simulation.compensators import build_mode
+    from plant.friction import preset
+
+    P = preset("paper")
+    s = prepare_comparison(P, CompareOptions(duration=2.0, modes=("none", "adaptive", "adaptive-dob"),
+                                             estimator="eq4", iv_map_stderr=0.15))
+    s.bar.close()
+    assert s.mode_options["adaptive"].iv_map_stderr == 0.15
+    assert build_mode(P, "adaptive", s.mode_options["adaptive"])[2].feedforward.map_rel_stderr == 0.15
+    assert math.isinf(build_mode(P, "adaptive-dob", s.mode_options["adaptive-dob"])[2].feedforward.map_rel_stderr)
+    assert math.isinf(CompareOptions().iv_map_stderr) and math.isinf(ZooOptions().iv_map_stderr)
+    # the zoo prepares each joint with its CompareOptions: the bound is there (the joint refused here, to be quick)
+    import controllers.experiments.zoo as zoo
+
+    seen = []
+    monkeypatch.setattr(zoo, "_prepare", lambda spec, co, ref, f=1.0: seen.append(co.iv_map_stderr)
+                        or (None, None, None, (), None, "refused by the test"))
+    zoo.run_zoo(ZooOptions(n=1, duration=2.0, modes=("none", "adaptive"), estimator="eq4", iv_map_stderr=0.15,
+                           workers=1))
+    assert seen == [0.15]
+    for bad in (0.0, -1.0, math.nan, "0.2"):
+        with pytest.raises(ParameterError, match="iv_map_stderr"):
+            CompareOptions(iv_map_stderr=bad)
+    assert main(["compare", "--preset", "paper", "--iv-map-stderr", "0", "--duration", "1", "--no-figures",
+                 "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "iv_map_stderr" in err and "Traceback" not in err

@@ -117,7 +117,8 @@ def _compare_and_print(args, p, modes, out_dir) -> int:
     progress = None if not args.quiet else False
     comp = compare(p, duration=args.duration, seed=args.seed, modes=modes, Ts=args.Ts, noise_std=args.noise,
                    lam=args.lam, crossover=args.crossover, phase_margin=args.phase_margin, progress=progress,
-                   estimator=args.estimator, ff_input=args.ff_input, omega_q=args.omega_q,
+                   estimator=args.estimator, iv_map_stderr=args.iv_map_stderr, ff_input=args.ff_input,
+                   omega_q=args.omega_q,
                    prefit=not args.no_prefit, Vs=args.Vs, delta=args.delta, J_design=args.J_design,
                    adaptive_start=not args.no_fast_start, switch_in=not args.no_switch_in,
                    estimator_rows=_estimator_rows(args))
@@ -260,6 +261,10 @@ def register(sub) -> None:
                         "by recursive IV on the sliding samples (the model estimated consistently in closed loop, "
                         "docs/theory.md); eq4-rls: eq. 4 by the paper's RLS, eqs. 10-13 as printed (biased on the "
                         "loop's own data; until 2026-11-24 named eq4, and the IV eq4-iv)")
+    c.add_argument("--iv-map-stderr", type=float, default=float("inf"),
+                   help="eq4 in mode adaptive: put an estimate into use only once the standard error of its static "
+                        "map is at most this times its max(Fc, Fs) (default inf: no test; docs/benchmarks/"
+                        "compensation.md, \"The eq. 4 estimate's determinacy test\")")
     c.add_argument("--ff-input", choices=("measured", "reference"), default="measured",
                    help="velocity the friction feedforward is evaluated at (default: measured)")
     c.add_argument("--omega-q", type=float, default=500.0,

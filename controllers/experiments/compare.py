@@ -23,7 +23,8 @@ from controllers.design.pi import PIDesign, design_pi
 from controllers.experiments.quasi_static import (StribeckDesign, StribeckExperiment, prefit_stribeck,
                                                   stribeck_experiment)
 from controllers.simulation.sensor_drive import DELAY_MAX
-from plant.errors import ExcitationError, ParameterError, check_finite_scalar, check_nonnegative, check_positive
+from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, check_nonnegative, check_positive,
+                          check_positive_or_inf)
 from plant.excitation import bandlimited_noise, multisine_reference
 from plant.joint import simulate
 from plant.models import plant_to_dict
@@ -312,6 +313,9 @@ class CompareOptions:
     estimator : {"sliding", "eq4", "eq4-rls"}
         Estimator of the ``adaptive`` mode: ``eq4`` the paper's eq. 4 by instrumental variables (consistent in the
         closed loop), ``eq4-rls`` by the paper's RLS as printed (biased there; the baseline).
+    iv_map_stderr : float
+        The ``eq4`` estimator's determinacy test in mode ``adaptive`` (:class:`ModeOptions` ``iv_map_stderr``;
+        > 0, default ``inf``: none).
     estimator_rows : tuple of str
         Further estimators of :data:`controllers.simulation.compensators.ESTIMATORS` whose mode ``adaptive`` runs
         beside the others, each a row ``adaptive[E]`` of the table (right after ``adaptive``, or where it would
@@ -409,6 +413,7 @@ class CompareOptions:
     prefit: bool = True
     lag: bool = True
     estimator: str = "sliding"
+    iv_map_stderr: float = math.inf
     fixed_method: str = "sliding"
     ff_input: str = "measured"
     canudas_input: str = "reference"
@@ -447,6 +452,7 @@ class CompareOptions:
         check_positive("duration", self.duration)
         check_nonnegative("noise_std", self.noise_std)
         check_estimator("estimator", self.estimator)
+        check_positive_or_inf("iv_map_stderr", self.iv_map_stderr)
         for key, value, allowed in (("ff_input", self.ff_input, ("measured", "reference")),
                                     ("canudas_input", self.canudas_input, ("measured", "reference"))):
             if value not in allowed:
@@ -889,7 +895,7 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
                                              omega_max=_observer_max(o)),
                      encoder_counts=o.encoder_counts, delay=o.delay, slew_rate=o.slew_rate, velocity=o.velocity,
                      velocity_bandwidth=o.velocity_bandwidth, velocity_model=o.velocity_model,
-                     switch_in=o.switch_in, J_n=J_n)
+                     switch_in=o.switch_in, J_n=J_n, iv_map_stderr=o.iv_map_stderr)
     opts = {mode: replace(mo, ff_input=o.canudas_input if mode == "canudas" else o.ff_input) for mode in run_modes}
     rows = {label: replace(mo, ff_input=o.ff_input, estimator=e) for label, e in o.row_labels.items()}
     return ComparisonSetup(modes=tuple(run_modes), reference=ref, design=design, mode_options=opts,

@@ -288,6 +288,9 @@ class ZooOptions:
     estimator : {"sliding", "eq4", "eq4-rls"}
         Estimator of the ``adaptive`` and ``adaptive-dob`` modes, as :class:`controllers.experiments.compare.CompareOptions`;
         default ``"sliding"``.
+    iv_map_stderr : float
+        The ``eq4`` estimator's determinacy test in mode ``adaptive``, as
+        :class:`controllers.experiments.compare.CompareOptions`; default ``inf`` (none).
     compensators : dict or None
         Your own compensators beside the modes, by import path (picklable, resolved in every worker):
         ``{name: "module:factory"}`` or ``{name: {"factory": "path/file.py:factory", **keywords}}`` as the
@@ -329,6 +332,7 @@ class ZooOptions:
     compensators: dict | None = None
     velocity: str = "difference"
     estimator: str = "sliding"
+    iv_map_stderr: float = math.inf
     J_design_factor: float = 1.0
 
     def __post_init__(self):
@@ -776,7 +780,7 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
     t0 = time.perf_counter()
     co = CompareOptions(duration=float(o.duration), seed=int(o.seed), modes=o.modes, reference=o.reference,
                         encoder_counts=o.encoder_counts, delay=o.delay, slew_rate=o.slew_rate, velocity=o.velocity,
-                        estimator=o.estimator)
+                        estimator=o.estimator, iv_map_stderr=o.iv_map_stderr)
     n = o.n
     bounds = _group_bounds(n, o.group, o.workers or os.cpu_count() or 1)
     processes = 1 if o.scheduler is not None else min(o.workers or os.cpu_count() or 1, len(bounds))
