@@ -31,6 +31,7 @@ import time
 
 from controllers.experiments.zoo import ZooOptions, run_zoo, zoo_options_dict
 from controllers.simulation.compensators import ESTIMATORS, MODES
+from plant.errors import ParameterError
 
 
 def main(argv=None) -> int:
@@ -54,10 +55,13 @@ def main(argv=None) -> int:
                          "none; ModeOptions.iv_map_stderr)")
     ap.add_argument("--json", default=None, help="write the full result (strict JSON) to this file")
     args = ap.parse_args(argv)
-    o = ZooOptions(n=args.n, duration=args.duration, seed=args.seed, modes=tuple(args.modes.split(",")),
-                   group=args.group, workers=args.workers, scheduler=args.scheduler,
-                   min_degradation=args.min_degradation, estimator=args.estimator,
-                   J_design_factor=args.J_design_factor, iv_map_stderr=args.iv_map_stderr)
+    try:
+        o = ZooOptions(n=args.n, duration=args.duration, seed=args.seed, modes=tuple(args.modes.split(",")),
+                       group=args.group, workers=args.workers, scheduler=args.scheduler,
+                       min_degradation=args.min_degradation, estimator=args.estimator,
+                       J_design_factor=args.J_design_factor, iv_map_stderr=args.iv_map_stderr)
+    except ParameterError as exc:  # a setting out of range: argparse's message and exit code 2, no traceback
+        ap.error(str(exc))
     try:
         commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
         dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,

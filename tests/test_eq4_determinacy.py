@@ -251,8 +251,9 @@ def test_compare_zoo_and_cli_pass_the_bound_to_mode_adaptive(capsys, monkeypatch
                            workers=1))
     assert seen == [0.15]
     for bad in (0.0, -1.0, math.nan, "0.2"):
-        with pytest.raises(ParameterError, match="iv_map_stderr"):
-            CompareOptions(iv_map_stderr=bad)
+        for options in (CompareOptions, ZooOptions):
+            with pytest.raises(ParameterError, match="iv_map_stderr"):
+                options(iv_map_stderr=bad)
     assert main(["compare", "--preset", "paper", "--iv-map-stderr", "0", "--duration", "1", "--no-figures",
                  "--quiet"]) == 2
     err = capsys.readouterr().err

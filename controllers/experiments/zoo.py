@@ -70,7 +70,7 @@ from controllers.simulation.batch import run_batch
 from controllers.simulation.memory import PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
 from controllers.simulation.closed_loop import plant_table, run_own
 from controllers.simulation.compensators import MODES, build_mode
-from plant.errors import ParameterError
+from plant.errors import ParameterError, check_positive_or_inf
 from plant.models import plant_from_dict
 from plant.results import json_safe
 from plant.stribeck_map import stribeck
@@ -364,6 +364,7 @@ class ZooOptions:
         if not (math.isfinite(f) and f > 0.0):
             raise ParameterError(f"J_design_factor must be a finite number > 0, got {self.J_design_factor!r}")
         object.__setattr__(self, "J_design_factor", f)
+        check_positive_or_inf("iv_map_stderr", self.iv_map_stderr)
 
 
 #: Outcome of one (joint, mode), :meth:`ZooResult.status`.
