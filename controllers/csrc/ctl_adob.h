@@ -76,9 +76,9 @@
  * the next (the eq. 4 feedforward alone drifted after the probe, and idle switch-ins the composite needed were
  * taken out; a probe of the switch-ins with more to gain only, with or without the test armed again after an out,
  * and a switch-in held back until the measured error stops falling: docs/benchmarks/compensation.md, "What is left
- * between eq4 and the default on the zoo"). Why the trial: with a design inertia twice the joint's the test switched the observer in on 11 of
- * 183 zoo joints where it made the loop worse than without compensation, 8 of them at M_e/M_l of 1.00-1.03
- * (docs/benchmarks/compensation.md, "The switch-in on trial").
+ * between eq4 and the default on the zoo"). Why the trial: with a design inertia twice the joint's the test
+ * switched the observer in on 11 of 183 zoo joints where it made the loop worse than without compensation, 8 of
+ * them at M_e/M_l of 1.00-1.03 (docs/benchmarks/compensation.md, "The switch-in on trial").
  * The prediction of the residual's error is linear because with the feedforward on the loop
  * sees the residual, not the friction's braking (a prediction of the uncompensated error this way is too large,
  * aff_supervisor.h): on the variants, multi-sine, 60 s, seed 0, M_r/M_l predicted 1.96, 4.25, 0.25 where the
