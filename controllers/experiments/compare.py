@@ -806,8 +806,8 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     would come from the rejected fit), with a note in ``notes``. The identification run is also made for the
     adaptive modes' provisional start (its lag, see ``CompareOptions.adaptive_start``). The residual observer of
     ``adaptive-dob`` gets the cut-off :func:`residual_cutoff` of the design inertia, the noise estimate and the
-    friction level of the quasi-static runs that held (1000 rad/s unless its noise torque would exceed that
-    level). Where the identification run's inertia contradicts the design inertia (:func:`observer_inertia`), every
+    friction level of the quasi-static runs that held (1000 rad/s unless its noise torque would exceed half
+    that level). Where the identification run's inertia contradicts the design inertia (:func:`observer_inertia`), every
     observer takes the identified one (``ModeOptions.J_n``) and a note says so; the PI keeps its design.
     """
     run_modes = [m for m in MODES if m in set(o.modes) | {"none", "frictionless"}]
@@ -1050,7 +1050,7 @@ def _observer_max(o: CompareOptions) -> float:
     return min(1000.0, 2.0 * math.pi * bw)
 
 
-def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, share: float = 1.0,
+def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, share: float = 0.5,
                     omega_max: float = 1000.0) -> float:
     """Q-filter cut-off (rad/s) of the residual observer of ``adaptive-dob``: ``omega_max``, or lower where its
     noise torque would exceed the measured friction level (times ``share``).
@@ -1066,9 +1066,10 @@ def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, sh
     F_level : float
         Friction level the user measured (N·m), e.g. :attr:`StribeckExperiment.torque_scale`.
     share, omega_max : float, keyword-only
-        Largest noise torque (standard deviation) as a share of ``F_level`` (default 1: an observer that injects
-        more noise torque than the friction it cancels does harm) and the cut-off without that bound (rad/s,
-        default 1000, :class:`controllers.simulation.compensators.ModeOptions`).
+        Largest noise torque (standard deviation) as a share of ``F_level`` (default 0.5: beside the feedforward
+        the observer cancels the residual ``f - u_ff``, a part of the friction, so its noise torque must stay
+        below the friction level; Notes) and the cut-off without that bound (rad/s, default 1000,
+        :class:`controllers.simulation.compensators.ModeOptions`).
 
     Returns
     -------
@@ -1082,7 +1083,13 @@ def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, sh
     ``J**2*noise_std**2*Tc/(2*pi) * integral of x**2*w**4/(w**2 + x**2)**2 dx = J**2*noise_std**2*Tc*w**3/4``
     (Papoulis & Pillai, *Probability, Random Variables and Stochastic Processes*, 4th ed., 2002, Sec. 9-3). A
     residual observer whose noise torque is larger than the friction it cancels does harm (light joints with
-    little friction: the zoo's Karnopp joint #550, docs/benchmarks/zoo.md).
+    little friction: the zoo's Karnopp joint #550, docs/benchmarks/zoo.md). At the friction level itself
+    (``share`` 1, the default until 2026-11-25) it still did harm on heavy Karnopp joints: in the stick band,
+    where the friction is the reaction to the applied torque, its estimate swung by several times the friction
+    from one period to the next (zoo joint #249, J 1.5 kg·m², 0.76 N·m of noise torque against 0.68-0.84 N·m of
+    friction). Half the level lifted both 1000-joint zoos and both estimators (docs/benchmarks/compensation.md,
+    "The residual observer's noise at half the friction level"); a tenth lost up to 0.035 eta on joints where
+    the observer's noise is near the friction level and it still helps (docs/benchmarks/zoo.md, 2026-11-22).
     """
     if noise_std <= 0.0 or not (F_level > 0.0):
         return float(omega_max)
