@@ -69,14 +69,14 @@ def test_zoo_joint_550_adaptive_dob_no_longer_worse_than_no_compensation():
     assert c.rms_dev["adaptive-dob"] < 0.9 * c.rms_dev["none"]
 
 
-@pytest.mark.parametrize("joint, J, tol", [(249, 1.5215, 0.1), (448, 0.3446, 0.1)])
-def test_zoo_karnopp_joints_eq4_within_a_tenth_of_the_default(joint, J, tol):
+@pytest.mark.parametrize("joint, J", [(249, 1.5215), (448, 0.3446)])
+def test_zoo_karnopp_joints_eq4_within_a_tenth_of_the_default(joint, J):
     # Zoo seed 0, 60 s, as benchmarks/zoo.py runs it. At the cut-off where the residual observer's noise torque is
     # the friction level (1000 rad/s on #249, 766 rad/s on #448) its estimate swung by several times the friction
-    # in the stick band; eq4's plain adaptive switched it in with much to gain and kept it: eta 0.572 / 0.754
-    # against the default's 0.826 / 0.862 (the default's trial took it out), adaptive-dob 0.572 / 0.749. At half
-    # the level: eq4 0.827 / 0.917, the default 0.826 / 0.862, adaptive-dob 0.83 / 0.92 with either estimator
-    # (docs/benchmarks/compensation.md, "The residual observer's noise at half the friction level").
+    # within 5 ms in the stick band; eq4's plain adaptive switched it in with much to gain and kept it: eta
+    # 0.572 / 0.754 against the default's 0.826 / 0.862 (the default's trial took it out), adaptive-dob 0.572 /
+    # 0.749. At half the level: eq4 0.827 / 0.917, the default 0.826 / 0.862, adaptive-dob 0.83 / 0.92 with either
+    # estimator (docs/benchmarks/compensation.md, "The residual observer's noise at half the friction level").
     o = CompareOptions(seed=0, duration=60.0)
     spec = draw_plants(1000, comparison_reference(o), seed=0)[joint]
     assert spec["model"] == "karnopp" and math.isclose(spec["J"], J, rel_tol=1e-4)
@@ -85,6 +85,6 @@ def test_zoo_karnopp_joints_eq4_within_a_tenth_of_the_default(joint, J, tol):
         c = compare(plant_from_dict(spec), replace(o, estimator=est), modes=("adaptive", "adaptive-dob"),
                     progress=False)
         eta[est] = c.eta
-    assert eta["eq4"]["adaptive"] >= min(eta["sliding"]["adaptive"], 1.0) - tol
+    assert eta["eq4"]["adaptive"] >= min(eta["sliding"]["adaptive"], 1.0) - 0.1
     for est in ("sliding", "eq4"):
         assert eta[est]["adaptive-dob"] > 0.8

@@ -1086,7 +1086,7 @@ def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, sh
     little friction: the zoo's Karnopp joint #550, docs/benchmarks/zoo.md). At the friction level itself
     (``share`` 1, the default until 2026-11-25) it still did harm on heavy Karnopp joints: in the stick band,
     where the friction is the reaction to the applied torque, its estimate swung by several times the friction
-    from one period to the next (zoo joint #249, J 1.5 kg·m², 0.76 N·m of noise torque against 0.68-0.84 N·m of
+    within 5 ms (zoo joint #249, J 1.5 kg·m², 0.76 N·m of noise torque against 0.68-0.84 N·m of
     friction). Half the level lifted both 1000-joint zoos and both estimators (docs/benchmarks/compensation.md,
     "The residual observer's noise at half the friction level"); a tenth lost up to 0.035 eta on joints where
     the observer's noise is near the friction level and it still helps (docs/benchmarks/zoo.md, 2026-11-22).
