@@ -118,9 +118,8 @@ def _compare_and_print(args, p, modes, out_dir) -> int:
     comp = compare(p, duration=args.duration, seed=args.seed, modes=modes, Ts=args.Ts, noise_std=args.noise,
                    lam=args.lam, crossover=args.crossover, phase_margin=args.phase_margin, progress=progress,
                    estimator=args.estimator, iv_map_stderr=args.iv_map_stderr, ff_input=args.ff_input,
-                   omega_q=args.omega_q,
-                   prefit=not args.no_prefit, Vs=args.Vs, delta=args.delta, J_design=args.J_design,
-                   adaptive_start=not args.no_fast_start, switch_in=not args.no_switch_in,
+                   omega_q=args.omega_q, prefit=not args.no_prefit, Vs=args.Vs, delta=args.delta,
+                   J_design=args.J_design, adaptive_start=not args.no_fast_start, switch_in=not args.no_switch_in,
                    estimator_rows=_estimator_rows(args))
     src = args.plant if args.plant else (f"variant '{args.variant}'" if args.variant else f"preset '{args.preset}'")
     header = [f"plant: {src}: {parameter_text(plant_to_dict(p))}"] + _time_varying_lines(p)

@@ -1052,8 +1052,8 @@ def _observer_max(o: CompareOptions) -> float:
 
 def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, share: float = 0.5,
                     omega_max: float = 1000.0) -> float:
-    """Q-filter cut-off (rad/s) of the residual observer of ``adaptive-dob``: ``omega_max``, or lower where its
-    noise torque would exceed the measured friction level (times ``share``).
+    """Q-filter cut-off (rad/s) of the residual observer of ``adaptive`` and ``adaptive-dob``: ``omega_max``, or
+    lower where its noise torque would exceed the measured friction level (times ``share``).
 
     Parameters
     ----------
@@ -1084,12 +1084,9 @@ def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, sh
     (Papoulis & Pillai, *Probability, Random Variables and Stochastic Processes*, 4th ed., 2002, Sec. 9-3). A
     residual observer whose noise torque is larger than the friction it cancels does harm (light joints with
     little friction: the zoo's Karnopp joint #550, docs/benchmarks/zoo.md). At the friction level itself
-    (``share`` 1, the default until 2026-11-25) it still did harm on heavy Karnopp joints: in the stick band,
-    where the friction is the reaction to the applied torque, its estimate swung by several times the friction
-    within 5 ms (zoo joint #249, J 1.5 kg·m², 0.76 N·m of noise torque against 0.68-0.84 N·m of
-    friction). Half the level lifted both 1000-joint zoos and both estimators (docs/benchmarks/compensation.md,
-    "The residual observer's noise at half the friction level"); a tenth lost up to 0.035 eta on joints where
-    the observer's noise is near the friction level and it still helps (docs/benchmarks/zoo.md, 2026-11-22).
+    (``share`` 1 until 2026-11-25) it still did harm on heavy Karnopp joints, whose friction in the stick band is
+    the reaction to the applied torque; the shares measured, on three zoos and both estimators, are on
+    docs/benchmarks/compensation.md, "The residual observer's noise at half the friction level".
     """
     if noise_std <= 0.0 or not (F_level > 0.0):
         return float(omega_max)
