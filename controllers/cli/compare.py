@@ -207,7 +207,7 @@ def comparison_table(comp, args) -> str:
     error at a reversal (``MotionMetrics``).
     """
     from controllers.cli.data import table_unit
-    from controllers.experiments.compare import mode_width, number_text, settling_text
+    from controllers.experiments.comparison import mode_width, number_text, settling_text
 
     k, unit = table_unit(args)
     stops = getattr(comp, "has_stops", False)

@@ -1,4 +1,11 @@
-"""The main job: run every friction-compensation mode on the same scenario and compare tracking."""
+"""The main job: run every friction-compensation mode on the same scenario and compare tracking.
+
+:func:`compare` prepares the comparison from what a user has (:func:`prepare_comparison`: the reference, the PI
+design, the quasi-static runs and the Stribeck pre-fit, the identification run) and runs every mode on it. Its
+result, :class:`controllers.experiments.comparison.Comparison`, with eta and the notes, is in
+:mod:`controllers.experiments.comparison`; the observers' nominal inertia and the residual observer's cut-off in
+:mod:`controllers.experiments.observer_design` (both names are importable from here too).
+"""
 
 from __future__ import annotations
 
@@ -10,16 +17,19 @@ from tqdm.auto import tqdm
 
 from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
 from adaptive_ff.compensation.feedforward import project_estimate
-from adaptive_ff.identification.ls import LSResult, fit_ls
+from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
-from adaptive_ff.compensation.sliding_estimator import SlidingFit, fit_sliding
-from adaptive_ff.identification.stribeck_fit import StribeckFit
+from adaptive_ff.compensation.sliding_estimator import fit_sliding
 from controllers.simulation.closed_loop import ModeOptions, run_mode, run_own
 from controllers.simulation.compensators import ESTIMATORS, MODES, check_estimator
 from controllers.simulation.memory import MODE_SIGNALS, PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
 from controllers.simulation.metrics import deviation_rms, first_active_time
 from controllers.simulation.user_compensator import CompensatorContext
 from controllers.design.pi import PIDesign, design_pi
+from controllers.experiments.comparison import (WORSE_THAN_NONE, Comparison, eta, eta_or_none, mode_width,
+                                                number_text, run_notes, worse_than_none_notes)
+from controllers.experiments.observer_design import (J_CONTRADICTED, friction_level, observer_inertia, observer_max,
+                                                     residual_cutoff)
 from controllers.experiments.quasi_static import (StribeckDesign, StribeckExperiment, prefit_stribeck,
                                                   stribeck_experiment)
 from controllers.simulation.sensor_drive import DELAY_MAX
@@ -27,23 +37,12 @@ from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, 
                           check_positive_or_inf)
 from plant.excitation import bandlimited_noise, multisine_reference
 from plant.joint import simulate
-from plant.models import plant_to_dict
-from plant.results import axes_or_new, json_safe
 from plant.sampling import sample
 
 __all__ = ["Comparison", "CompareOptions", "ComparisonSetup", "compare", "comparison_reference", "eta",
            "FIXED_METHODS", "PREFIT_MODES", "compensator_context", "mode_width", "number_text", "friction_scale",
            "measurement_noise", "prefit_stribeck", "prepare_comparison", "residual_cutoff", "run_notes",
            "WORSE_THAN_NONE", "worse_than_none_notes", "J_CONTRADICTED", "observer_inertia"]
-
-#: eta below this is "worse than none" (:func:`worse_than_none_notes`, the zoo's
-#: :meth:`controllers.experiments.zoo.ZooResult.worse_than_none`): a compensation that raises the tracking error above
-#: the uncompensated loop's by more than 2 % of what friction costs it.
-WORSE_THAN_NONE = -0.02
-
-#: The design inertia is trusted unless the identification run's inertia differs from it by more than this factor
-#: (either way); then every observer takes the identified one (:func:`observer_inertia`).
-J_CONTRADICTED = 1.2
 
 #: Offline identification behind the ``fixed`` mode: the sliding-regime
 #: inverse-dynamics LS (:func:`adaptive_ff.compensation.sliding_estimator.fit_sliding`,
@@ -66,204 +65,6 @@ def friction_scale(p, peak_w: float) -> float:
     """
     wg = np.geomspace(1e-4 * peak_w, peak_w, 400)
     return float(np.max(np.abs(np.concatenate([p.friction(wg), p.friction(-wg)]))))
-
-
-def eta(rms_none: float, rms_mode: float, rms_frictionless: float) -> float:
-    """Compensation efficiency ``(RMS_none - RMS_mode) / (RMS_none - RMS_frictionless)``.
-
-    1 means the mode reaches the frictionless limit, 0 no improvement, < 0 worse
-    than no compensation. NaN (the numeric form, for arrays: the zoo) where it is
-    undefined: friction does not degrade the loop at all (``RMS_none <=
-    RMS_frictionless``, e.g. a joint without friction, where it is 0/0) or an RMS
-    is NaN (a diverged run); :class:`Comparison` reports it as None.
-    """
-    den = rms_none - rms_frictionless
-    return float((rms_none - rms_mode) / den) if den > 0 else float("nan")
-
-
-def settling_text(settling_max: float, n_unsettled: int) -> str:
-    """A table cell for the longest settling time (s): ``"0.123"``, ``"no (k)"`` when k stops did not settle into
-    their band, ``"-"`` without stops in the second half (NaN)."""
-    if math.isinf(settling_max):
-        return f"no ({n_unsettled})"
-    return "-" if math.isnan(settling_max) else f"{settling_max:.3f}"
-
-
-def _eta_or_none(rms_none: float, rms_mode: float, rms_frictionless: float) -> float | None:
-    """:func:`eta`, None where it is undefined (not finite)."""
-    e = eta(rms_none, rms_mode, rms_frictionless)
-    return e if np.isfinite(e) else None
-
-
-@dataclass(frozen=True)
-class Comparison:
-    """All modes on one scenario.
-
-    Attributes
-    ----------
-    plant : JointParams or another plant model
-        True plant (see :mod:`plant.models`).
-    design : PIDesign
-        The PI design used in every mode.
-    results : dict[str, ClosedLoopResult]
-        One run per mode, same reference and noise.
-    eta : dict[str, float or None]
-        Compensation efficiency per mode (second half of the run, :func:`eta`); None where it is undefined:
-        friction does not degrade the loop (a joint without friction: 0/0) or a run diverged.
-    eta_full : dict[str, float or None]
-        The same over the whole run (start-up included).
-    rms_dev : dict[str, float]
-        RMS of ``w - w_frictionless`` over the whole run (rad/s): the distance of the mode's trajectory from
-        the frictionless run with the same reference and noise (does not saturate near the limit as eta does).
-    t_ff_on : dict[str, float or None]
-        Time (s) at which the mode's compensation first acts (non-zero torque); None for ``none`` and
-        ``frictionless`` and for a compensator that never switched on.
-    prefit : StribeckFit or None
-        Stribeck pre-fit (Sec. V-C) that gave Vs, delta to the regression model.
-    offline : SlidingFit or LSResult or None
-        The offline identification behind the ``fixed`` mode.
-    model : RegressionModel
-        Regression structure of eq. 4 with the pre-fitted Vs, delta (used by
-        the ``eq4`` alternatives).
-    experiment : StribeckExperiment or None
-        The quasi-static runs (designed from the joint's response) behind the
-        pre-fit and the measured torque scale; None when neither was needed.
-    J_design : float or None
-        Design inertia used (kg·m²).
-    notes : tuple of str
-        What the pre-fit could not do as asked (e.g. the Coulomb + viscous
-        fallback of a joint without Stribeck effect, runs that did not hold),
-        and the fallback of ``fixed`` when its offline fit was rejected (a
-        note starting with ``"fixed:"``).
-    """
-
-    plant: object
-    design: PIDesign
-    results: dict
-    eta: dict
-    prefit: StribeckFit | None
-    offline: SlidingFit | LSResult | None
-    model: RegressionModel
-    experiment: StribeckExperiment | None = None
-    J_design: float | None = None
-    notes: tuple = ()
-    eta_full: dict = field(default_factory=dict)
-    rms_dev: dict = field(default_factory=dict)
-    t_ff_on: dict = field(default_factory=dict)
-
-    @property
-    def has_stops(self) -> bool:
-        """Whether the reference comes to rest (point-to-point moves): :meth:`rows`, :meth:`table` and
-        :meth:`to_dict` then carry the motion metrics (:class:`controllers.simulation.metrics.MotionMetrics`)."""
-        return any(getattr(r, "has_stops", False) for r in self.results.values())
-
-    def rows(self) -> list[dict]:
-        """One dict per mode: mode, rms, max, rms_reversal (second half, rad/s), u_rms (N·m), eta, eta_full,
-        rms_dev (whole run, rad/s) and t_ff_on (s or None); when the reference has stops (:attr:`has_stops`) also
-        rms_motion (RMS error in motion, second half, rad/s), settling_max (longest settling time of the
-        second-half stops, s; inf when one did not settle), n_unsettled (those stops) and max_reversal (largest
-        error at the second-half reversals, rad/s; NaN without reversals)."""
-        out = []
-        nan = float("nan")
-        stops = self.has_stops
-        for mode, r in self.results.items():
-            m = r.metrics
-            row = {"mode": mode, "rms": m.rms_second_half, "max": m.max_second_half,
-                   "rms_reversal": m.rms_reversal, "u_rms": m.u_rms, "eta": self.eta[mode],
-                   "eta_full": self.eta_full.get(mode), "rms_dev": self.rms_dev.get(mode, nan),
-                   "t_ff_on": self.t_ff_on.get(mode)}
-            if stops:
-                mm = r.motion
-                row.update(rms_motion=mm.rms_motion, settling_max=mm.settling_max, n_unsettled=mm.n_unsettled,
-                           max_reversal=mm.max_reversal)
-            out.append(row)
-        return out
-
-    def table(self) -> str:
-        """The comparison as a fixed-width text table (velocities in deg/s; eta full, deviation and switch-on
-        time over the whole run; an undefined eta and a compensation that never acts print as ``-``). With stops
-        in the reference three more columns: the RMS error in motion, the longest settling time (``no (k)``: k
-        stops did not settle into the band) and the largest error at a reversal (second half)."""
-        stops = self.has_stops
-        wm = mode_width(self.results)
-        head = (f"{'mode':<{wm}}{'RMS [deg/s]':>12}{'max [deg/s]':>13}{'reversal RMS':>14}{'u RMS [N·m]':>13}"
-                f"{'eta':>8}{'eta full':>9}{'dev [deg/s]':>12}{'t_on [s]':>9}")
-        if stops:
-            head += f"{'motion RMS':>12}{'settle max [s]':>16}{'rev. max':>10}"
-        lines = [head, "-" * len(head)]
-        for row in self.rows():
-            d = np.rad2deg
-            ton = "-" if row["t_ff_on"] is None else f"{row['t_ff_on']:.3f}"
-            e, ef = ("-" if row[k] is None else f"{row[k]:.3f}" for k in ("eta", "eta_full"))
-            line = (f"{row['mode']:<{wm}}{d(row['rms']):>12.4f}{d(row['max']):>13.4f}"
-                    f"{number_text(d(row['rms_reversal']), 14)}{row['u_rms']:>13.2f}{e:>8}"
-                    f"{ef:>9}{d(row['rms_dev']):>12.4f}{ton:>9}")
-            if stops:
-                line += (f"{d(row['rms_motion']):>12.4f}{settling_text(row['settling_max'], row['n_unsettled']):>16}"
-                         f"{number_text(d(row['max_reversal']), 10)}")
-            lines.append(line)
-        return "\n".join(lines)
-
-    def to_dict(self) -> dict:
-        """:meth:`to_json_dict` as strict JSON (an undefined eta is None, ``null``; any NaN becomes None)."""
-        return json_safe(self.to_json_dict())
-
-    def summary(self) -> str:
-        """The comparison table (:meth:`table`), then the notes of the pre-fit, one per line."""
-        return "\n".join([self.table()] + [f"note: {n}" for n in self.notes])
-
-    def plot(self, ax=None):
-        """Bar chart of eta per mode on ``ax`` (a new figure when None; an undefined eta an empty bar); returns
-        the Axes."""
-        ax = axes_or_new(ax, figsize=(6.0, 3.0))
-        modes = list(self.eta)
-        vals = [self.eta[m] for m in modes]
-        ax.bar(modes, [0.0 if v is None else v for v in vals], color="C0")
-        ax.axhline(1.0, color="k", lw=0.8, ls="--")
-        ax.set_ylabel("eta [-] (1 = frictionless)")
-        ax.set_xlabel("compensation mode")
-        return ax
-
-    def to_json_dict(self) -> dict:
-        """``{"modes": {mode: {"rms", "max", "rms_reversal", "u_rms", "eta", "eta_full", "rms_dev", "t_ff_on"}},
-        ...}`` in SI units (rad/s, N·m, s; ``t_ff_on`` None where no compensation acts, ``eta`` and ``eta_full``
-        None where undefined); ``no_friction`` (when quasi-static runs were made: True where they measured no
-        friction, ``StribeckExperiment.no_friction``); ``offline_ls`` (when
-        ``fixed`` ran): its offline fit's J, tau, sigma, Fc, Fs with ``accepted`` (False when the fit was rejected
-        and ``fixed`` used a fallback) and ``reason`` (the ``"fixed:"`` note, or None). When the reference has stops
-        (:attr:`has_stops`) each mode's row also holds ``rms_motion``, ``settling_max`` (None when a stop did not
-        settle: ``n_unsettled`` > 0, or without second-half stops), ``n_unsettled`` and ``max_reversal``, and
-        ``motion`` holds each mode's :meth:`controllers.simulation.metrics.MotionMetrics.to_dict` (every stop and
-        reversal)."""
-        modes = {r["mode"]: {k: (None if v is None else (v if k == "n_unsettled" else float(v)))
-                             for k, v in r.items() if k != "mode"} for r in self.rows()}
-        out = {"modes": modes, "plant": plant_to_dict(self.plant),
-               "controller": {"Kp": self.design.Kp, "Ki": self.design.Ki, "Tc": self.design.Tc,
-                              "phase_margin_deg": self.design.phase_margin,
-                              "gain_margin": self.design.gain_margin}}
-        if self.prefit is not None:
-            out["prefit"] = {k: float(getattr(self.prefit, k)) for k in ("Fc", "Fs", "Vs", "delta", "sigma")}
-            out["prefit"]["fallback"] = self.prefit.fallback
-        if self.J_design is not None:
-            out["J_design"] = float(self.J_design)
-        if self.experiment is not None:
-            out["no_friction"] = bool(self.experiment.no_friction)
-        out["notes"] = list(self.notes)
-        if self.offline is not None:
-            e = self.offline.estimate
-            out["offline_ls"] = {k: float(getattr(e, k)) for k in ("J", "tau", "sigma", "Fc", "Fs")}
-            rejected = [n for n in self.notes if n.startswith("fixed: the offline fit")]
-            out["offline_ls"].update(accepted=not rejected, reason=rejected[0] if rejected else None)
-        for mode, r in self.results.items():
-            if r.info.get("diverged"):
-                out["modes"][mode]["diverged"] = True
-        if self.has_stops:
-            out["motion"] = {mode: r.motion.to_dict() for mode, r in self.results.items()}
-        adaptive = self.results.get("adaptive")
-        if adaptive is not None and adaptive.estimate is not None:
-            e = adaptive.estimate
-            out["adaptive_final"] = {k: float(getattr(e, k)) for k in ("J", "tau", "sigma", "Fc", "Fs")}
-        return out
 
 
 @dataclass(frozen=True)
@@ -619,95 +420,11 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
     s.bar.close()
     rn = results["none"].metrics.rms_second_half
     rf = results["frictionless"].metrics.rms_second_half
-    etas = {mode: _eta_or_none(rn, r.metrics.rms_second_half, rf) for mode, r in results.items()}
+    etas = {mode: eta_or_none(rn, r.metrics.rms_second_half, rf) for mode, r in results.items()}
     return Comparison(plant=p, design=s.design, results=results, eta=etas, prefit=s.prefit, offline=s.offline,
                       model=s.model, experiment=s.experiment, J_design=s.J_design,
                       notes=tuple(s.notes) + run_notes(results) + worse_than_none_notes(etas, results),
                       **_whole_run_metrics(results))
-
-
-def worse_than_none_notes(etas: dict, results: dict) -> tuple:
-    """One note per mode whose eta is below :data:`WORSE_THAN_NONE`: it tracked worse than no compensation; for mode
-    ``adaptive`` (and its estimator rows) run as the feedforward alone (``switch_in=False``: no ``t_switch_in`` in its
-    ``info``) the note says that the residual switch-in, the default, is what guards against it.
-
-    Parameters
-    ----------
-    etas : dict of str to float or None
-        eta (second half) by mode, None where undefined.
-    results : dict of str to ClosedLoopResult
-        The runs by mode.
-
-    Returns
-    -------
-    tuple of str
-    """
-    notes = []
-    for mode, e in etas.items():
-        if e is None or not e < WORSE_THAN_NONE:
-            continue
-        text = f"{mode}: worse than no compensation (eta {e:.2f} over the second half)"
-        info = results[mode].info or {}
-        if (mode == "adaptive" or mode.startswith("adaptive[")) and "t_switch_in" not in info:
-            text += (f"; it ran as the feedforward alone (switch_in=False, --no-switch-in), with estimator "
-                     f"{info.get('estimator')!r}: the residual switch-in, the default, hands over to the observer "
-                     f"where the feedforward misses")
-        notes.append(text)
-    return tuple(notes)
-
-
-def run_notes(results: dict) -> tuple:
-    """What the adaptive modes decided by themselves during their runs, one note per event kind and mode: the
-    residual switch-in of ``adaptive`` (:class:`controllers.peers.adaptive_dob.ResidualSwitchIn`, ``info``
-    ``t_switch_in``, ``residual_ratio``), its trial's switch-out (``t_switch_out``, ``trial_ratio``) and the
-    supervisor's back-offs (``n_backoff``, ``n_restore``, ``t_off``;
-    :class:`adaptive_ff.compensation.supervisor.FeedforwardSupervisor`).
-
-    Parameters
-    ----------
-    results : dict of str to ClosedLoopResult
-        The runs by mode.
-
-    Returns
-    -------
-    tuple of str
-    """
-    notes = []
-    for mode, r in results.items():
-        info = r.info or {}
-        t_in = info.get("t_switch_in")
-        if t_in is not None:
-            ratio, share = info.get("residual_ratio"), info.get("residual_share")
-            why = "" if ratio is None else (f"; what the feedforward leaves raised the loop's mean-square error, as "
-                                            f"its model predicts, by {ratio:.2f} times the frictionless loop's"
-                                            + ("" if share is None else
-                                               f" and {share:.2g} times what the friction would raise it by"))
-            notes.append(f"{mode}: the residual observer (as in adaptive-dob) switched in at {t_in:.2f} s{why}")
-            t_out = info.get("t_switch_out")
-            if t_out is not None:
-                rise = info.get("trial_ratio")
-                rise = "" if rise is None else f" {100.0 * (rise - 1.0):.1f} % higher in mean square"
-                notes.append(f"{mode}: the switch-in's trial took the residual observer out again at {t_out:.2f} s: "
-                             f"with it the loop's measured error, relative to the frictionless loop's, was{rise} "
-                             f"than with the feedforward alone before the switch-in; the feedforward alone from then "
-                             f"on")
-        n_off = info.get("n_backoff") or 0
-        if n_off:
-            notes.append(f"{mode}: the supervisor backed the compensation off {n_off} time(s), restored it "
-                         f"{info.get('n_restore') or 0} time(s); {info.get('t_off', 0.0):.2f} s without it")
-    return tuple(notes)
-
-
-def mode_width(names) -> int:
-    """Width of a comparison table's mode column: 13 characters, or one more than the longest of ``names``
-    (an estimator row ``adaptive[eq4-rls]``, a long name of your own compensator)."""
-    return max([13] + [len(n) + 1 for n in names])
-
-
-def number_text(x: float, width: int, digits: int = 4) -> str:
-    """``x`` right-aligned in ``width`` characters with ``digits`` decimals, ``n/a`` where it is NaN (e.g. the
-    reversal RMS of a run without a reversal in its second half)."""
-    return f"{'n/a':>{width}}" if x != x else f"{x:>{width}.{digits}f}"
 
 
 def compensator_context(s: ComparisonSetup, o: CompareOptions) -> CompensatorContext:
@@ -891,8 +608,10 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
                      stick_samples=o.stick_samples, dwell_max=o.dwell_max, offset=o.offset, warmup=o.warmup,
                      omega_q=o.omega_q, initial=initial, start=start, sign_input=o.sign_input,
                      observer_bandwidth=o.observer_bandwidth,
-                     omega_r=residual_cutoff(J, noise, o.Tc, _friction_level(exp, F_peak),
-                                             omega_max=_observer_max(o)),
+                     omega_r=residual_cutoff(J, noise, o.Tc, friction_level(exp, F_peak),
+                                             omega_max=observer_max(Tc=o.Tc, encoder_counts=o.encoder_counts,
+                                                                    velocity=o.velocity,
+                                                                    velocity_bandwidth=o.velocity_bandwidth)),
                      encoder_counts=o.encoder_counts, delay=o.delay, slew_rate=o.slew_rate, velocity=o.velocity,
                      velocity_bandwidth=o.velocity_bandwidth, velocity_model=o.velocity_model,
                      switch_in=o.switch_in, J_n=J_n, iv_map_stderr=o.iv_map_stderr)
@@ -901,39 +620,6 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     return ComparisonSetup(modes=tuple(run_modes), reference=ref, design=design, mode_options=opts,
                            noise_seed=noise_ss, prefit=fit, offline=offline, model=model, experiment=exp,
                            J_design=J, notes=tuple(notes), bar=bar, estimator_rows=rows)
-
-
-def observer_inertia(J_design: float, identified) -> float | None:
-    """The observers' nominal inertia (kg·m²) where the identification run contradicts the design inertia, else None
-    (they keep ``J_design``).
-
-    An observer enforces its nominal inertia: with twice the joint's it adds the missing inertia as a virtual one
-    and made the loop worse than no compensation on most zoo joints (docs/benchmarks/compensation.md, "A design
-    inertia off by a factor"). The identification run's inertia (the offline fit of ``compare``'s preparation)
-    came within 11 % of the joint's on 287 of 300 zoo joints (median +2.5 %), whatever the design inertia, so a
-    design inertia more than :data:`J_CONTRADICTED` times off it (either way) is taken as contradicted. The fit's
-    inertia is used even where its friction levels are rejected (a Stribeck term the pre-fit cannot separate, a
-    negative lag): it rests on the accelerations, not on the friction map (within 3 % on the seven such joints of
-    200 with twice the design inertia).
-
-    Parameters
-    ----------
-    J_design : float
-        The design inertia (kg·m², > 0).
-    identified : FrictionEstimate or None
-        The estimate of the identification run, accepted or not (None: no run; ``J_design`` stays).
-
-    Returns
-    -------
-    float or None
-        ``identified.J`` where ``max(J_design/J, J/J_design) > J_CONTRADICTED`` and ``J`` is finite and > 0, else None.
-    """
-    if identified is None:
-        return None
-    J = float(identified.J)
-    if not (math.isfinite(J) and J > 0.0):
-        return None
-    return J if max(J_design / J, J / J_design) > J_CONTRADICTED else None
 
 
 def _no_friction_note(exp: StribeckExperiment, run_modes, Vs: float, placeholders: bool) -> str:
@@ -1036,72 +722,6 @@ def _fixed_fallback(why: str, fit, J: float, F_max: float) -> tuple:
     return est, note
 
 
-def _observer_max(o: CompareOptions) -> float:
-    """Fastest residual observer (rad/s) the loop's velocity supports: 1000, or with the encoder's Kalman velocity
-    its bandwidth ``2*pi*fb`` (the filter's lag, about ``sqrt(2)/(2*pi*fb)`` for cv, turns the observer's
-    ``J*s*w`` into a phase error above it). Measured on the open bench (2^17 encoder, Kalman cv 100 Hz, one period
-    of delay, point-to-point moves; 2026-11-23): ``adaptive-dob`` on ``small-inertia`` 0.68 at 1000 rad/s, 1.00 at
-    600; ``long-lag``, ``paper``, ``karnopp`` 0.99 -> 1.03-1.04 (docs/benchmarks/scenarios.md)."""
-    if o.encoder_counts is None or o.velocity != "kalman":
-        return 1000.0
-    from controllers.simulation.sensor_drive import default_velocity_bandwidth
-
-    bw = o.velocity_bandwidth if o.velocity_bandwidth is not None else default_velocity_bandwidth(o.Tc)
-    return min(1000.0, 2.0 * math.pi * bw)
-
-
-def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, share: float = 0.5,
-                    omega_max: float = 1000.0) -> float:
-    """Q-filter cut-off (rad/s) of the residual observer of ``adaptive`` and ``adaptive-dob``: ``omega_max``, or
-    lower where its noise torque would exceed the measured friction level (times ``share``).
-
-    Parameters
-    ----------
-    J : float
-        Design inertia (kg·m²), > 0 (the observer's nominal inertia).
-    noise_std : float
-        Velocity measurement noise (rad/s, white at ``Tc``), >= 0.
-    Tc : float
-        Controller period (s), > 0.
-    F_level : float
-        Friction level the user measured (N·m), e.g. :attr:`StribeckExperiment.torque_scale`.
-    share, omega_max : float, keyword-only
-        Largest noise torque (standard deviation) as a share of ``F_level`` (default 0.5: beside the feedforward
-        the observer cancels the residual ``f - u_ff``, a part of the friction, so its noise torque must stay
-        below the friction level; Notes) and the cut-off without that bound (rad/s, default 1000,
-        :class:`controllers.simulation.compensators.ModeOptions`).
-
-    Returns
-    -------
-    float
-        ``min(omega_max, (4*(share*F_level)**2/(J**2*noise_std**2*Tc))**(1/3))`` (``omega_max`` without noise).
-
-    Notes
-    -----
-    The observer's estimate ``Q(s)*(u - J*s*w_meas)`` with the binomial ``Q = 1/(1 + s/w)**2`` passes white
-    measurement noise (two-sided density ``noise_std**2*Tc``) through ``J*s*Q(s)``; its variance is
-    ``J**2*noise_std**2*Tc/(2*pi) * integral of x**2*w**4/(w**2 + x**2)**2 dx = J**2*noise_std**2*Tc*w**3/4``
-    (Papoulis & Pillai, *Probability, Random Variables and Stochastic Processes*, 4th ed., 2002, Sec. 9-3). A
-    residual observer whose noise torque is larger than the friction it cancels does harm (light joints with
-    little friction: the zoo's Karnopp joint #550, docs/benchmarks/zoo.md). At the friction level itself
-    (``share`` 1 until 2026-11-25) it still did harm on heavy Karnopp joints, whose friction in the stick band is
-    the reaction to the applied torque; the shares measured, on three zoos and both estimators, are on
-    docs/benchmarks/compensation.md, "The residual observer's noise at half the friction level".
-    """
-    if noise_std <= 0.0 or not (F_level > 0.0):
-        return float(omega_max)
-    w = (4.0 * (share * F_level) ** 2 / (J * J * noise_std * noise_std * Tc)) ** (1.0 / 3.0)
-    return float(min(omega_max, w))
-
-
-def _friction_level(exp, default: float) -> float:
-    """The friction level on the measured curve (N·m): the largest mean torque of the quasi-static runs that held
-    their setpoint (a run in stick-slip is not a point of the curve); ``default`` without such runs."""
-    if exp is None or not np.any(exp.held):
-        return float(default)
-    return float(np.max(np.abs(exp.u_mean[exp.held])))
-
-
 def _adaptive_start(fit, J: float, design: PIDesign, identified: FrictionEstimate | None,
                     ff_input: str) -> FeedforwardStart:
     """The provisional start of the adaptive feedforward: the pre-fit's static map (eq. 3) through a lag.
@@ -1127,7 +747,7 @@ def _whole_run_metrics(results: dict) -> dict:
     w_lim = results["frictionless"].w
     out = {"eta_full": {}, "rms_dev": {}, "t_ff_on": {}}
     for mode, r in results.items():
-        out["eta_full"][mode] = _eta_or_none(rn, r.metrics.rms, rf)
+        out["eta_full"][mode] = eta_or_none(rn, r.metrics.rms, rf)
         out["rms_dev"][mode] = deviation_rms(r.w, w_lim)
         out["t_ff_on"][mode] = None if mode in ("none", "frictionless") else first_active_time(r.t, r.u_ff)
     return out

@@ -282,7 +282,7 @@ def _section_design(analysis) -> str:
 
 
 def _section_comparison(comp) -> str:
-    from controllers.experiments.compare import settling_text
+    from controllers.experiments.comparison import settling_text
 
     stops = getattr(comp, "has_stops", False)
     rows = []
