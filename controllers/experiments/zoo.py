@@ -70,7 +70,7 @@ from controllers.simulation.batch import run_batch
 from controllers.simulation.memory import PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
 from controllers.simulation.closed_loop import plant_table, run_own
 from controllers.simulation.compensators import MODES, build_mode
-from plant.errors import ParameterError, check_positive_or_inf
+from plant.errors import ParameterError, check_nonnegative, check_positive, check_positive_or_inf
 from plant.models import plant_from_dict
 from plant.results import json_safe
 from plant.stribeck_map import stribeck
@@ -356,15 +356,19 @@ class ZooOptions:
             compensator_factories(self.compensators, source="ZooOptions.compensators")  # importable, named well
         if self.workers is not None and (int(self.workers) != self.workers or self.workers < 1):
             raise ParameterError(f"workers must be an integer >= 1, got {self.workers!r}")
-        md = float(self.min_degradation)
-        if not (math.isfinite(md) and md >= 0.0):
-            raise ParameterError(f"min_degradation must be a finite number >= 0, got {self.min_degradation!r}")
-        object.__setattr__(self, "min_degradation", md)
-        f = float(self.J_design_factor)
-        if not (math.isfinite(f) and f > 0.0):
-            raise ParameterError(f"J_design_factor must be a finite number > 0, got {self.J_design_factor!r}")
-        object.__setattr__(self, "J_design_factor", f)
+        object.__setattr__(self, "min_degradation", check_nonnegative("min_degradation", self.min_degradation))
+        object.__setattr__(self, "J_design_factor", check_positive("J_design_factor", self.J_design_factor))
         check_positive_or_inf("iv_map_stderr", self.iv_map_stderr)
+
+    def compare_options(self) -> CompareOptions:
+        """The :class:`controllers.experiments.compare.CompareOptions` every joint is prepared and run with: this
+        zoo's duration, seed, modes, reference, sensor and drive (encoder, delay, slew rate, velocity), estimator
+        and ``iv_map_stderr``; the rest ``compare``'s defaults (the design inertia is set per joint from
+        ``J_design_factor``)."""
+        return CompareOptions(duration=float(self.duration), seed=int(self.seed), modes=self.modes,
+                              reference=self.reference, encoder_counts=self.encoder_counts, delay=self.delay,
+                              slew_rate=self.slew_rate, velocity=self.velocity, estimator=self.estimator,
+                              iv_map_stderr=self.iv_map_stderr)
 
 
 #: Outcome of one (joint, mode), :meth:`ZooResult.status`.
@@ -779,9 +783,7 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
 
     o = ZooOptions() if options is None else options
     t0 = time.perf_counter()
-    co = CompareOptions(duration=float(o.duration), seed=int(o.seed), modes=o.modes, reference=o.reference,
-                        encoder_counts=o.encoder_counts, delay=o.delay, slew_rate=o.slew_rate, velocity=o.velocity,
-                        estimator=o.estimator, iv_map_stderr=o.iv_map_stderr)
+    co = o.compare_options()
     n = o.n
     bounds = _group_bounds(n, o.group, o.workers or os.cpu_count() or 1)
     processes = 1 if o.scheduler is not None else min(o.workers or os.cpu_count() or 1, len(bounds))
