@@ -1,8 +1,10 @@
 /* aff_drive.h -- the adaptive friction feedforward for a drive's velocity loop: four calls.
  *
- * The compensator of the package's "adaptive" mode (aff_robust_ff: the sliding-regime estimator's estimates
+ * The feedforward of the package's "adaptive" mode (aff_robust_ff: the sliding-regime estimator's estimates
  * fed forward through the estimated lag, after warm-up and plausibility tests), behind the calls a drive's
- * periodic task makes. Per controller period Tc, in this order (docs/your_loop.md):
+ * periodic task makes. It is the feedforward alone: the residual observer that mode "adaptive" switches in
+ * (controllers/csrc/ctl_adob.h) and the supervisor that backs the compensation off (aff_supervisor.h) run in
+ * the package's engine around it, not here. Per controller period Tc, in this order (docs/your_loop.md):
  *   u_ff = aff_step(&c, w, w_ref);      feedforward torque of this period (N*m), 0 until switch-on
  *   u    = your controller(w_ref - w) + u_ff, saturated: the torque applied in this period (N*m)
  *   aff_observe(&c, u, w);              learn from the applied torque and the measured velocity

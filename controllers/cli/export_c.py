@@ -11,11 +11,13 @@ from pathlib import Path
 __all__ = ["register", "run", "compensator_from_file"]
 
 _EPILOG = """\
-The compensator is the 'adaptive' mode's (adaptive_ff.RobustAdaptiveFeedforward on a
-SlidingFrictionEstimator), configured as 'compare' configures it: the identification's Stribeck factors
-Vs and delta ('identify --Vs --delta ... --json'), its inertia as the design inertia, its friction
-levels as the estimator's start, a feedforward bound of half your drive's torque limit and a stick band
-of three times the identified velocity noise. The PI gains of the example loop (and of the
+The compensator is the feedforward of the 'adaptive' mode (adaptive_ff.RobustAdaptiveFeedforward on a
+SlidingFrictionEstimator) alone: not the residual observer that 'adaptive' switches in where the feedforward
+misses, nor the supervisor that backs the compensation off where it hurts (the package's engine adds both; in
+'compare', '--no-switch-in' leaves the first out). It is configured as 'compare' configures it: the
+identification's Stribeck factors Vs and delta ('identify --Vs --delta ... --json'), its inertia as the
+design inertia, its friction levels as the estimator's start, a feedforward bound of half your drive's
+torque limit and a stick band of three times the identified velocity noise. The PI gains of the example loop (and of the
 compensator's stick fallback, the nominal loop model) are --Kp/--Ki, or designed as 'design --from'
 does (--crossover, --phase-margin).
 
