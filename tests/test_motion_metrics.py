@@ -277,15 +277,15 @@ def test_plot_marks_dwells_settling_and_reversals(p2p_runs):
 
 def _comparison(ref, modes=("none", "adaptive", "frictionless")):
     from adaptive_ff.identification.regression import RegressionModel
-    from controllers.experiments.compare import Comparison, _eta_or_none, _whole_run_metrics
+    from controllers.experiments.comparison import Comparison, eta_or_none, whole_run_metrics
 
     p, o = _loop()
     d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=DT)
     res = {m: run_mode(p, ref, m, o, rng=np.random.default_rng(3)) for m in modes}
     rn, rf = res["none"].metrics.rms_second_half, res["frictionless"].metrics.rms_second_half
-    etas = {m: _eta_or_none(rn, r.metrics.rms_second_half, rf) for m, r in res.items()}
+    etas = {m: eta_or_none(rn, r.metrics.rms_second_half, rf) for m, r in res.items()}
     return Comparison(plant=p, design=d, results=res, eta=etas, prefit=None, offline=None,
-                      model=RegressionModel(p.Vs, p.delta, lag=True), **_whole_run_metrics(res))
+                      model=RegressionModel(p.Vs, p.delta, lag=True), **whole_run_metrics(res))
 
 
 BASE_KEYS = {"mode", "rms", "max", "rms_reversal", "u_rms", "eta", "eta_full", "rms_dev", "t_ff_on"}

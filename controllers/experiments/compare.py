@@ -23,11 +23,11 @@ from adaptive_ff.compensation.sliding_estimator import fit_sliding
 from controllers.simulation.closed_loop import ModeOptions, run_mode, run_own
 from controllers.simulation.compensators import ESTIMATORS, MODES, check_estimator
 from controllers.simulation.memory import MODE_SIGNALS, PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
-from controllers.simulation.metrics import deviation_rms, first_active_time
 from controllers.simulation.user_compensator import CompensatorContext
 from controllers.design.pi import PIDesign, design_pi
 from controllers.experiments.comparison import (WORSE_THAN_NONE, Comparison, eta, eta_or_none, mode_width,
-                                                number_text, run_notes, worse_than_none_notes)
+                                                number_text, run_notes, whole_run_metrics,
+                                                worse_than_none_notes)
 from controllers.experiments.observer_design import (J_CONTRADICTED, friction_level, observer_inertia, observer_max,
                                                      residual_cutoff)
 from controllers.experiments.quasi_static import (StribeckDesign, StribeckExperiment, prefit_stribeck,
@@ -424,7 +424,7 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
     return Comparison(plant=p, design=s.design, results=results, eta=etas, prefit=s.prefit, offline=s.offline,
                       model=s.model, experiment=s.experiment, J_design=s.J_design,
                       notes=tuple(s.notes) + run_notes(results) + worse_than_none_notes(etas, results),
-                      **_whole_run_metrics(results))
+                      **whole_run_metrics(results))
 
 
 def compensator_context(s: ComparisonSetup, o: CompareOptions) -> CompensatorContext:
@@ -739,18 +739,6 @@ def _adaptive_start(fit, J: float, design: PIDesign, identified: FrictionEstimat
     return FeedforwardStart(FrictionEstimate(J=J, tau=tau, sigma=max(fit.sigma, 0.0), Fc=max(fit.Fc, 0.0),
                                              Fs=max(fit.Fs, 0.0), offset=0.0, Vs=fit.Vs, delta=fit.delta,
                                              J_alt=float("nan")), ff_input=where)
-
-
-def _whole_run_metrics(results: dict) -> dict:
-    """``eta_full``, ``rms_dev`` and ``t_ff_on`` per mode from the recorded runs."""
-    rn, rf = results["none"].metrics.rms, results["frictionless"].metrics.rms
-    w_lim = results["frictionless"].w
-    out = {"eta_full": {}, "rms_dev": {}, "t_ff_on": {}}
-    for mode, r in results.items():
-        out["eta_full"][mode] = eta_or_none(rn, r.metrics.rms, rf)
-        out["rms_dev"][mode] = deviation_rms(r.w, w_lim)
-        out["t_ff_on"][mode] = None if mode in ("none", "frictionless") else first_active_time(r.t, r.u_ff)
-    return out
 
 
 def _quasi_static(p0, o: CompareOptions, J: float, peak_w: float, rng, *, fit: bool,

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from controllers.simulation.metrics import deviation_rms, first_active_time
 from plant.models import plant_to_dict
 from plant.results import axes_or_new, json_safe
 
@@ -27,7 +28,7 @@ if TYPE_CHECKING:  # annotations only
     from controllers.experiments.quasi_static import StribeckExperiment
 
 __all__ = ["Comparison", "WORSE_THAN_NONE", "eta", "eta_or_none", "mode_width", "number_text", "run_notes",
-           "settling_text", "worse_than_none_notes"]
+           "settling_text", "whole_run_metrics", "worse_than_none_notes"]
 
 #: eta below this is "worse than none" (:func:`worse_than_none_notes`, the zoo's
 #: :meth:`controllers.experiments.zoo.ZooResult.worse_than_none`): a compensation that raises the tracking error above
@@ -61,6 +62,21 @@ def eta_or_none(rms_none: float, rms_mode: float, rms_frictionless: float) -> fl
     """:func:`eta`, None where it is undefined (not finite)."""
     e = eta(rms_none, rms_mode, rms_frictionless)
     return e if np.isfinite(e) else None
+
+
+def whole_run_metrics(results: dict) -> dict:
+    """The whole-run fields of a :class:`Comparison` from its recorded runs ``results`` (``{mode:
+    ClosedLoopResult}``, ``"none"`` and ``"frictionless"`` among them): ``{"eta_full": {mode: eta over the whole
+    run or None}, "rms_dev": {mode: RMS deviation from the frictionless run's velocity (rad/s)}, "t_ff_on": {mode:
+    first time its feedforward acts (s), None for none and frictionless}}``."""
+    rn, rf = results["none"].metrics.rms, results["frictionless"].metrics.rms
+    w_lim = results["frictionless"].w
+    out = {"eta_full": {}, "rms_dev": {}, "t_ff_on": {}}
+    for mode, r in results.items():
+        out["eta_full"][mode] = eta_or_none(rn, r.metrics.rms, rf)
+        out["rms_dev"][mode] = deviation_rms(r.w, w_lim)
+        out["t_ff_on"][mode] = None if mode in ("none", "frictionless") else first_active_time(r.t, r.u_ff)
+    return out
 
 
 @dataclass(frozen=True)
