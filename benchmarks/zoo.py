@@ -3,7 +3,7 @@
 Run:  python benchmarks/zoo.py [--n 100] [--duration 120] [--seed 0] [--modes none,fixed,adaptive,dob,...]
                                [--group 8] [--workers 2] [--scheduler tcp://host:8786]
                                [--min-degradation 0.01] [--estimator sliding|eq4|eq4-rls] [--J-design-factor 1]
-                               [--iv-map-stderr inf] [--json out.json]
+                               [--iv-map-stderr inf] [--no-switch-in] [--json out.json]
 
 Draws the joints with :func:`controllers.experiments.zoo.draw_plants` (the box of
 :class:`controllers.experiments.zoo.ZooBox`), prepares each as ``compare`` does
@@ -53,13 +53,17 @@ def main(argv=None) -> int:
     ap.add_argument("--iv-map-stderr", dest="iv_map_stderr", type=float, default=math.inf,
                     help="the eq4 estimator's determinacy test in mode adaptive, relative to max(Fc, Fs) (default inf: "
                          "none; ModeOptions.iv_map_stderr)")
+    ap.add_argument("--no-switch-in", dest="switch_in", action="store_false",
+                    help="mode adaptive as the feedforward alone, without the residual switch-in (as export-c writes "
+                         "it; ZooOptions.switch_in)")
     ap.add_argument("--json", default=None, help="write the full result (strict JSON) to this file")
     args = ap.parse_args(argv)
     try:
         o = ZooOptions(n=args.n, duration=args.duration, seed=args.seed, modes=tuple(args.modes.split(",")),
                        group=args.group, workers=args.workers, scheduler=args.scheduler,
                        min_degradation=args.min_degradation, estimator=args.estimator,
-                       J_design_factor=args.J_design_factor, iv_map_stderr=args.iv_map_stderr)
+                       J_design_factor=args.J_design_factor, iv_map_stderr=args.iv_map_stderr,
+                       switch_in=args.switch_in)
     except ParameterError as exc:  # a setting out of range: argparse's message and exit code 2, no traceback
         ap.error(str(exc))
     try:

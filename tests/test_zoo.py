@@ -308,3 +308,24 @@ def test_observers_take_the_identified_inertia_where_the_design_inertia_is_contr
     s1 = prepare_comparison(p, CompareOptions(duration=30.0, seed=0, modes=("none", "fixed", "dob")))
     s1.bar.close()
     assert s1.mode_options["dob"].J_n is None and not [n for n in s1.notes if "design inertia" in n]
+
+
+def test_a_zoo_without_the_switch_in_is_compare_with_switch_in_false_on_each_joint():
+    # ZooOptions(switch_in=False): mode adaptive as the feedforward alone (what export-c writes for a drive), as
+    # compare(switch_in=False) on each joint; zoo seed 1's joint #0 is one where the residual observer switches in
+    # within 10 s, so the option reaches the runs
+    modes = ("none", "adaptive", "frictionless")
+    o = ZooOptions(n=1, duration=10.0, seed=1, modes=modes, workers=1, switch_in=False)
+    assert o.compare_options().switch_in is False and ZooOptions().compare_options().switch_in is True
+    r = run_zoo(o)
+    p = plant_from_dict(r.plants[0])
+    bare = compare(p, duration=10.0, seed=1, modes=modes, progress=False, switch_in=False)
+    full = compare(p, duration=10.0, seed=1, modes=modes, progress=False)
+    assert "t_switch_in" not in bare.results["adaptive"].info and "t_switch_in" in full.results["adaptive"].info
+    for m in modes:
+        assert r.rms[m][0] == pytest.approx(bare.results[m].metrics.rms_second_half, rel=1e-12)
+    assert r.rms["adaptive"][0] != full.results["adaptive"].metrics.rms_second_half
+    assert zoo_options_dict(o)["switch_in"] is False  # on the benchmark page
+    for bad in (0, "no", None):
+        with pytest.raises(ParameterError, match="switch_in"):
+            ZooOptions(switch_in=bad)

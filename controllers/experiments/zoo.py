@@ -298,6 +298,10 @@ class ZooOptions:
         a relative file is relative to the working folder). Each runs on every joint with ``compare``'s context
         (:func:`controllers.experiments.compare.compensator_context`) and the joint's noise, one run per joint
         through the Python protocol (about ten times the engine's time per step), and appears among the modes.
+    switch_in : bool
+        Mode ``adaptive`` with the residual switch-in (default True), as
+        :class:`controllers.experiments.compare.CompareOptions`; False: the feedforward alone, as ``adaptive-ff
+        export-c`` writes it for a drive.
     J_design_factor : float
         Every joint's design inertia (``CompareOptions.J_design``: the PI design, the estimators' start, the gates,
         the observers' nominal inertia) is this factor times its true ``J``: a data sheet off by that factor. Default
@@ -333,6 +337,7 @@ class ZooOptions:
     velocity: str = "difference"
     estimator: str = "sliding"
     iv_map_stderr: float = math.inf
+    switch_in: bool = True
     J_design_factor: float = 1.0
 
     def __post_init__(self):
@@ -359,16 +364,18 @@ class ZooOptions:
         object.__setattr__(self, "min_degradation", check_nonnegative("min_degradation", self.min_degradation))
         object.__setattr__(self, "J_design_factor", check_positive("J_design_factor", self.J_design_factor))
         check_positive_or_inf("iv_map_stderr", self.iv_map_stderr)
+        if not isinstance(self.switch_in, bool):
+            raise ParameterError(f"switch_in must be True or False, got {self.switch_in!r}")
 
     def compare_options(self) -> CompareOptions:
         """The :class:`controllers.experiments.compare.CompareOptions` every joint is prepared and run with: this
-        zoo's duration, seed, modes, reference, sensor and drive (encoder, delay, slew rate, velocity), estimator
-        and ``iv_map_stderr``; the rest ``compare``'s defaults (the design inertia is set per joint from
+        zoo's duration, seed, modes, reference, sensor and drive (encoder, delay, slew rate, velocity), estimator,
+        ``iv_map_stderr`` and ``switch_in``; the rest ``compare``'s defaults (the design inertia is set per joint from
         ``J_design_factor``)."""
         return CompareOptions(duration=float(self.duration), seed=int(self.seed), modes=self.modes,
                               reference=self.reference, encoder_counts=self.encoder_counts, delay=self.delay,
                               slew_rate=self.slew_rate, velocity=self.velocity, estimator=self.estimator,
-                              iv_map_stderr=self.iv_map_stderr)
+                              iv_map_stderr=self.iv_map_stderr, switch_in=self.switch_in)
 
 
 #: Outcome of one (joint, mode), :meth:`ZooResult.status`.
