@@ -5,7 +5,7 @@ friction fit of the EMPS benchmark (IDIM-LS, :func:`adaptive_ff.identification.i
 an EMPS record (variables ``t, qm, qg, vir, gtau, kp, kv``) is re-simulated in
 its PD position loop (:func:`adaptive_ff.identification.emps_validation.validate_emps`);
 ``--validate FILE`` judges the model(s) on a second record
-(:func:`adaptive_ff.identification.identify.cross_validate`, plus the closed loop for EMPS).
+(:func:`adaptive_ff.identification.cross_validation.cross_validate`, plus the closed loop for EMPS).
 """
 
 from __future__ import annotations
@@ -303,7 +303,7 @@ def _bootstrap_lines(args, report) -> list:
 def run(args) -> int:
     """Execute ``adaptive-ff identify`` with parsed ``args``; return the exit status."""
     from adaptive_ff.identification.emps_validation import is_emps_record, validate_emps
-    from adaptive_ff.identification.identify import cross_validate
+    from adaptive_ff.identification.cross_validation import cross_validate
     from adaptive_ff.io.data import to_uniform
     from adaptive_ff.identification.idim import fit_idim
     from controllers.cli.data import command_line, load_data_from_args

@@ -809,7 +809,7 @@ def identify_closed_loop(data, w_ref, *, controller: ControllerSpec, Vs: float, 
 
     Returns
     -------
-    adaptive_ff.identification.identify.IdentificationReport
+    adaptive_ff.identification.identification_report.IdentificationReport
         With ``physical`` the closed-loop fit (``method "closed_loop"``), the choice named in ``notes``.
 
     Raises

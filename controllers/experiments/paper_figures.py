@@ -516,7 +516,7 @@ def identification_figures(report, data) -> dict:
 
     Parameters
     ----------
-    report : adaptive_ff.identification.identify.IdentificationReport
+    report : adaptive_ff.identification.identification_report.IdentificationReport
         Result of :func:`adaptive_ff.identification.identify.identify` on ``data``.
     data : adaptive_ff.io.data.MeasuredData
         The record as loaded (time stamps may be non-uniform).

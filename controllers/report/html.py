@@ -2,7 +2,7 @@
 
 :func:`report_html` renders whatever pieces it is given — a
 :class:`adaptive_ff.io.data.MeasuredData` record, an
-:class:`adaptive_ff.identification.identify.IdentificationReport`, a
+:class:`adaptive_ff.identification.identification_report.IdentificationReport`, a
 :class:`adaptive_ff.identification.stribeck_fit.StribeckFit` (with its support points), a
 :class:`controllers.design.pi.PIDesign` (or a :class:`controllers.design.loop_analysis.LoopAnalysis`),
 a :class:`controllers.experiments.compare.Comparison`, figures and free key/value tables —
@@ -325,7 +325,7 @@ def report_html(*, title: str = "adaptive-ff report", summary: Mapping | None = 
         Parameters with standard errors and 95 % intervals.
     support_points : adaptive_ff.identification.steady_state.SupportPoints, keyword-only, optional
         Shown (collapsed) under the Stribeck fit.
-    identification : adaptive_ff.identification.identify.IdentificationReport, keyword-only, optional
+    identification : adaptive_ff.identification.identification_report.IdentificationReport, keyword-only, optional
         Parameter table with standard errors, RLS values and units; fits; notes; warnings.
     design : controllers.design.pi.PIDesign or controllers.design.loop_analysis.LoopAnalysis, keyword-only, optional
         Gains, margins, bandwidth, step metrics.
@@ -425,7 +425,7 @@ def identify_report(out_dir, report, data, *, design=None, figures=None, command
     ----------
     out_dir : str or os.PathLike
         Report directory.
-    report : adaptive_ff.identification.identify.IdentificationReport
+    report : adaptive_ff.identification.identification_report.IdentificationReport
         The identification.
     data : adaptive_ff.io.data.MeasuredData
         The record it was identified from.
