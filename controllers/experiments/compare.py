@@ -29,7 +29,7 @@ from controllers.experiments.comparison import (WORSE_THAN_NONE, Comparison, eta
                                                 number_text, run_notes, whole_run_metrics,
                                                 worse_than_none_notes)
 from controllers.experiments.observer_design import (J_CONTRADICTED, friction_level, observer_inertia, observer_max,
-                                                     residual_cutoff)
+                                                     residual_cutoff, residual_share)
 from controllers.experiments.quasi_static import (StribeckDesign, StribeckExperiment, prefit_stribeck,
                                                   stribeck_experiment)
 from controllers.simulation.sensor_drive import DELAY_MAX
@@ -600,15 +600,17 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
         notes.append(f"the design inertia {J:.4g} kg·m² is {J / J_n:.3g} times the {J_n:.4g} kg·m² of the "
                      f"identification run: the observers (dob, the residual observer and switch-in of adaptive and "
                      f"adaptive-dob, the supervisor) take the identified one; the PI keeps its design")
+    stick_band = 3.0 * noise if o.stick_band is None else o.stick_band
     # the feedforward may use at most half the actuator range; friction levels above it are implausible
     mo = ModeOptions(Kp=design.Kp, Ki=design.Ki, u_max=u_max, ff_max=0.5 * u_max, Tc=o.Tc, Ts=o.Ts,
                      noise_std=o.noise_std, J_design=J, lag=o.lag, model=model, estimate=estimate, lam=o.lam,
                      estimator=o.estimator, Vs=Vs, delta=delta, sign_width=o.sign_width, T_filter=o.T_filter,
-                     forgetting=o.forgetting, stick_band=3.0 * noise if o.stick_band is None else o.stick_band,
+                     forgetting=o.forgetting, stick_band=stick_band,
                      stick_samples=o.stick_samples, dwell_max=o.dwell_max, offset=o.offset, warmup=o.warmup,
                      omega_q=o.omega_q, initial=initial, start=start, sign_input=o.sign_input,
                      observer_bandwidth=o.observer_bandwidth,
                      omega_r=residual_cutoff(J, noise, o.Tc, friction_level(exp, F_peak),
+                                             share=residual_share(exp, stick_band),
                                              omega_max=observer_max(Tc=o.Tc, encoder_counts=o.encoder_counts,
                                                                     velocity=o.velocity,
                                                                     velocity_bandwidth=o.velocity_bandwidth)),

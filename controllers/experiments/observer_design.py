@@ -3,7 +3,8 @@
 :func:`controllers.experiments.compare.prepare_comparison` gives every observer (the ``dob`` peer, the residual
 observer and switch-in of ``adaptive`` and ``adaptive-dob``, the supervisor) the nominal inertia
 :func:`observer_inertia`, and the residual observer the Q-filter cut-off :func:`residual_cutoff` of the friction
-level the quasi-static runs measured (:func:`friction_level`), at most :func:`observer_max`. Only what a user has
+level the quasi-static runs measured (:func:`friction_level`), with the share :func:`residual_share` of whether
+they found the joint sticking, at most :func:`observer_max`. Only what a user has
 enters: the design inertia, the identification run's estimate, the design's noise level and the measured curve.
 """
 
@@ -13,7 +14,15 @@ import math
 
 import numpy as np
 
-__all__ = ["J_CONTRADICTED", "friction_level", "observer_inertia", "observer_max", "residual_cutoff"]
+__all__ = ["J_CONTRADICTED", "RESIDUAL_SHARE", "STICK_SHARE", "friction_level", "observer_inertia", "observer_max",
+           "residual_cutoff", "residual_share", "stick_speed"]
+
+#: The residual observer's noise torque as a share of the measured friction level (:func:`residual_cutoff`) on a
+#: joint that slides through its quasi-static runs (:func:`residual_share`).
+RESIDUAL_SHARE = 0.5
+
+#: The same share on a joint that sticks in them (:func:`residual_share`).
+STICK_SHARE = 0.35
 
 #: The design inertia is trusted unless the identification run's inertia differs from it by more than this factor
 #: (either way); then every observer takes the identified one (:func:`observer_inertia`).
@@ -88,7 +97,7 @@ def observer_max(*, Tc: float, encoder_counts, velocity: str, velocity_bandwidth
     return min(1000.0, 2.0 * math.pi * bw)
 
 
-def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, share: float = 0.5,
+def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, share: float = RESIDUAL_SHARE,
                     omega_max: float = 1000.0) -> float:
     """Q-filter cut-off (rad/s) of the residual observer of ``adaptive`` and ``adaptive-dob``: ``omega_max``, or
     lower where its noise torque would exceed the measured friction level (times ``share``).
@@ -104,9 +113,9 @@ def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, sh
     F_level : float
         Friction level the user measured (N·m), e.g. :attr:`StribeckExperiment.torque_scale`.
     share, omega_max : float, keyword-only
-        Largest noise torque (standard deviation) as a share of ``F_level`` (default 0.5: beside the feedforward
-        the observer cancels the residual ``f - u_ff``, a part of the friction, so its noise torque must stay
-        below the friction level; Notes) and the cut-off without that bound (rad/s, default 1000,
+        Largest noise torque (standard deviation) as a share of ``F_level`` (default :data:`RESIDUAL_SHARE`, 0.5:
+        beside the feedforward the observer cancels the residual ``f - u_ff``, a part of the friction, so its noise
+        torque must stay below the friction level; Notes; ``compare`` passes :func:`residual_share`) and the cut-off without that bound (rad/s, default 1000,
         :class:`controllers.simulation.compensators.ModeOptions`).
 
     Returns
@@ -124,12 +133,60 @@ def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, sh
     little friction: the zoo's Karnopp joint #550, docs/benchmarks/zoo.md). At the friction level itself
     (``share`` 1 until 2026-11-25) it still did harm on heavy Karnopp joints, whose friction in the stick band is
     the reaction to the applied torque; the shares measured, on three zoos and both estimators, are on
-    docs/benchmarks/compensation.md, "The residual observer's noise at half the friction level".
+    docs/benchmarks/compensation.md, "The residual observer's noise at half the friction level". On a joint whose
+    quasi-static runs stick (:func:`residual_share`) half the level still broke it loose at random (zoo seed 2's
+    #867), hence :data:`STICK_SHARE` there.
     """
     if noise_std <= 0.0 or not (F_level > 0.0):
         return float(omega_max)
     w = (4.0 * (share * F_level) ** 2 / (J * J * noise_std * noise_std * Tc)) ** (1.0 / 3.0)
     return float(min(omega_max, w))
+
+
+def stick_speed(exp) -> float:
+    """The largest speed at which a quasi-static run did not hold its setpoint (rad/s): the joint's stick-slip as the
+    user measured it; 0 where every run held or there are no runs.
+
+    Parameters
+    ----------
+    exp : controllers.experiments.quasi_static.StribeckExperiment or None
+        The quasi-static runs (their ``setpoints``, rad/s, and ``held`` flags).
+
+    Returns
+    -------
+    float
+        ``max |setpoint|`` over the runs that did not hold (rad/s, >= 0).
+    """
+    if exp is None:
+        return 0.0
+    bad = ~np.asarray(exp.held, dtype=bool)
+    return float(np.max(np.abs(np.asarray(exp.setpoints, dtype=float)[bad]))) if np.any(bad) else 0.0
+
+
+def residual_share(exp, band: float) -> float:
+    """The share of the friction level the residual observer's noise torque may take (:func:`residual_cutoff`):
+    :data:`STICK_SHARE` on a joint that sticks, :data:`RESIDUAL_SHARE` on one that slides.
+
+    A joint sticks where a quasi-static run did not hold its setpoint at a speed beyond ``band`` (:func:`stick_speed`
+    above the band): at that speed the run is not lost in the sensor's noise, it stuck and slipped. In a stick band
+    the friction is the reaction to the applied torque up to the breakaway level, and the observer's noise torque
+    decides when the joint breaks loose; beside the sliding joints' half of the level it stays at about a third
+    there (docs/benchmarks/compensation.md, "The residual observer on a joint that sticks").
+
+    Parameters
+    ----------
+    exp : controllers.experiments.quasi_static.StribeckExperiment or None
+        The quasi-static runs (None: no runs, the joint is taken as sliding).
+    band : float
+        The velocity below which a run may fail by the sensor's noise alone (rad/s, >= 0): ``compare``'s stick band,
+        three times the velocity noise by default.
+
+    Returns
+    -------
+    float
+        :data:`STICK_SHARE` or :data:`RESIDUAL_SHARE`.
+    """
+    return STICK_SHARE if stick_speed(exp) > band else RESIDUAL_SHARE
 
 
 def friction_level(exp, default: float) -> float:
