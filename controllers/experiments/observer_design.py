@@ -115,8 +115,8 @@ def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, sh
     share, omega_max : float, keyword-only
         Largest noise torque (standard deviation) as a share of ``F_level`` (default :data:`RESIDUAL_SHARE`, 0.5:
         beside the feedforward the observer cancels the residual ``f - u_ff``, a part of the friction, so its noise
-        torque must stay below the friction level; Notes; ``compare`` passes :func:`residual_share`) and the cut-off without that bound (rad/s, default 1000,
-        :class:`controllers.simulation.compensators.ModeOptions`).
+        torque must stay below the friction level; Notes; ``compare`` passes :func:`residual_share`) and the
+        cut-off without that bound (rad/s, default 1000, :class:`controllers.simulation.compensators.ModeOptions`).
 
     Returns
     -------
@@ -170,8 +170,8 @@ def residual_share(exp, band: float) -> float:
     A joint sticks where a quasi-static run did not hold its setpoint at a speed beyond ``band`` (:func:`stick_speed`
     above the band): at that speed the run is not lost in the sensor's noise, it stuck and slipped. In a stick band
     the friction is the reaction to the applied torque up to the breakaway level, and the observer's noise torque
-    decides when the joint breaks loose; beside the sliding joints' half of the level it stays at about a third
-    there (docs/benchmarks/compensation.md, "The residual observer on a joint that sticks").
+    decides when the joint breaks loose: there it is held at about a third of the level, against half on a joint
+    that slides (docs/benchmarks/compensation.md, "The residual observer on a joint that sticks").
 
     Parameters
     ----------

@@ -370,8 +370,8 @@ class ZooOptions:
     def compare_options(self) -> CompareOptions:
         """The :class:`controllers.experiments.compare.CompareOptions` every joint is prepared and run with: this
         zoo's duration, seed, modes, reference, sensor and drive (encoder, delay, slew rate, velocity), estimator,
-        ``iv_map_stderr`` and ``switch_in``; the rest ``compare``'s defaults (the design inertia is set per joint from
-        ``J_design_factor``)."""
+        ``iv_map_stderr`` and ``switch_in``; the rest ``compare``'s defaults (the design inertia is set per joint
+        from ``J_design_factor``)."""
         return CompareOptions(duration=float(self.duration), seed=int(self.seed), modes=self.modes,
                               reference=self.reference, encoder_counts=self.encoder_counts, delay=self.delay,
                               slew_rate=self.slew_rate, velocity=self.velocity, estimator=self.estimator,
