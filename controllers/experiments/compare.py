@@ -524,7 +524,7 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     adaptive modes' provisional start (its lag, see ``CompareOptions.adaptive_start``). The residual observer of
     ``adaptive-dob`` gets the cut-off :func:`residual_cutoff` of the design inertia, the noise estimate and the
     friction level of the quasi-static runs that held (1000 rad/s unless its noise torque would exceed half
-    that level). Where the identification run's inertia contradicts the design inertia (:func:`observer_inertia`), every
+    that level, a third where the runs found the joint sticking: :func:`residual_share`). Where the identification run's inertia contradicts the design inertia (:func:`observer_inertia`), every
     observer takes the identified one (``ModeOptions.J_n``) and a note says so; the PI keeps its design.
     """
     run_modes = [m for m in MODES if m in set(o.modes) | {"none", "frictionless"}]
