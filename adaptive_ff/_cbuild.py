@@ -27,8 +27,11 @@ HEADERS = [
     "aff_stribeck_fit.h",
     "aff_simulator.h",
     "aff_online_ukf.h",
-    "aff_drive.h",
     "aff_supervisor.h",
+    "aff_dob.h",
+    "aff_residual.h",
+    "aff_adaptive.h",
+    "aff_drive.h",
 ]
 
 

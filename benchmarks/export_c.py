@@ -1,6 +1,8 @@
 """Benchmark of ``adaptive-ff export-c``: the exported C library's float deviation, time and instructions per period.
 
 Run: ``python benchmarks/export_c.py [--periods 1000000] [--repeat 5] [--callgrind-periods 100000]``.
+Two exports: mode ``adaptive`` (the default: the feedforward, the residual observer, the supervisor) and the
+feedforward alone (``--feedforward-only``), each in double and float.
 ``benchmarks/perf.py`` prints the time, tick and instruction rows of this script (``perf_rows``) in its table.
 
 The setup is that of tests/test_export_c.py (tests/export_c_helpers.py): the paper joint's identification
@@ -87,7 +89,7 @@ int main(int argc, char **argv)
     fclose(f);
     for (r = 0; r < reps; r++) {
         double t0, k0;
-        aff_init(&c, &AFF_INITIAL);
+        if (aff_init(&c, &AFF_INITIAL, &AFF_GUARD) != AFF_OK) return 4;
         k0 = TICKS();
         t0 = now();
         for (k = 0; k < n; k++) {
@@ -97,7 +99,7 @@ int main(int argc, char **argv)
         ns[r] = (now() - t0) / (double)n;
         tk[r] = (TICKS() - k0) / (double)n;
     }
-    aff_init(&c, &AFF_INITIAL);
+    aff_init(&c, &AFF_INITIAL, &AFF_GUARD);
     for (k = 0; k < n; k++) {
         double t0 = now();
         sink += (double)aff_step(&c, (aff_real)buf[n + k], (aff_real)buf[2 * n + k]);
@@ -114,17 +116,20 @@ int main(int argc, char **argv)
 """
 
 
-def _package_ff(path, log):
-    """The package's feedforward for the log: aff_replay of the package's C core (cffi)."""
+def _package_ff(path, log, feedforward_only: bool = False):
+    """The package's compensation for the log: aff_replay of the package's C core (cffi)."""
     from adaptive_ff._caff import ffi, lib
     from controllers.cli.export_c import compensator_from_file
 
-    comp, _ = compensator_from_file(path, u_max=U_MAX)
+    comp, _ = compensator_from_file(path, u_max=U_MAX, feedforward_only=feedforward_only)
     u, w, wr = (np.ascontiguousarray(x, dtype=np.float64) for x in log[:3])
     c = ffi.new("aff *")
-    lib.aff_init(c, comp.cdata)
+    if lib.aff_init(c, comp.cdata, ffi.NULL) != lib.AFF_OK:
+        raise RuntimeError("aff_init refused the package's compensator")
     uff = np.empty(len(u))
-    lib.aff_replay(c, *(ffi.from_buffer("double[]", x) for x in (u, w, wr, uff)), len(u))
+    buf = ffi.from_buffer
+    lib.aff_replay(c, buf("double[]", u), buf("double[]", w), ffi.NULL, buf("double[]", wr), buf("double[]", uff),
+                   ffi.NULL, len(u))
     return uff
 
 
@@ -147,14 +152,20 @@ def _callgrind(exe: pathlib.Path, log_file: pathlib.Path, out: pathlib.Path, n: 
 BUDGETS_NS = {"1 kHz drive (1 µs)": 1000.0, "32 kHz drive (31 µs period)": 31_250.0}
 
 
-def measure(periods: int = 10**6, repeat: int = 5, callgrind_periods: int = 100_000) -> dict:
-    """Export the paper joint's compensator, replay a closed-loop log through the double and float builds.
+#: The two exports measured: label -> export-c's extra arguments.
+EXPORTS = {"mode": [], "feedforward only": ["--feedforward-only"]}
 
-    Returns ``{"periods", "compiler", "max_uff", "Fc", "builds": {"double": {...}, "float": {...}}}``; each build
-    has the deviation from the package's feedforward (``deviation``: max, rms, max_shift, n_over, argmax in N·m),
-    ``ns`` (median ns per period over ``repeat`` whole replays), ``p999``/``p9999`` (percentiles of single
-    periods, timer included), ``ticks`` (time-stamp-counter ticks per period, x86-64 only, else None) and
-    ``instr`` (instructions per period under callgrind, None without valgrind).
+
+def measure(periods: int = 10**6, repeat: int = 5, callgrind_periods: int = 100_000) -> dict:
+    """Export the paper joint's compensator (mode ``adaptive``, and the feedforward alone), replay a closed-loop log
+    of mode ``adaptive`` through the double and float builds of each.
+
+    Returns ``{"periods", "compiler", "max_uff", "Fc", "builds": {"mode double": {...}, "mode float": {...},
+    "feedforward only double": {...}, ...}}``; each build has the deviation from the package's compensation of the
+    same export (``deviation``: max, rms, max_shift, n_over, argmax in N·m), ``ns`` (median ns per period over
+    ``repeat`` whole replays), ``p999``/``p9999`` (percentiles of single periods, timer included), ``ticks``
+    (time-stamp-counter ticks per period, x86-64 only, else None) and ``instr`` (instructions per period under
+    callgrind, None without valgrind).
 
     Raises
     ------
@@ -171,29 +182,34 @@ def measure(periods: int = 10**6, repeat: int = 5, callgrind_periods: int = 100_
         tmp = pathlib.Path(tmp)
         id_file = tmp / "id.json"
         id_file.write_text(json.dumps(ID_JSON))
-        out = tmp / "drive_ff"
-        if cli(["export-c", "--from", str(id_file), "--u-max", str(U_MAX), "--out", str(out), "--quiet"]) != 0:
-            raise RuntimeError("adaptive-ff export-c failed on the benchmark's identification")
         _, s = compensator_from_file(id_file, u_max=U_MAX)
         log = closed_loop_log(s["options"], periods)
         log_file = tmp / "log.bin"
         np.concatenate([np.asarray(x, dtype=np.float64) for x in log[:3]]).tofile(log_file)
-        ref = _package_ff(id_file, log)
-        res = {"periods": periods, "compiler": cc, "max_uff": float(np.max(np.abs(ref))), "Fc": IDENTIFIED["Fc"],
-               "builds": {}}
-        for label, flags in (("double", []), ("float", ["-DAFF_FLOAT"])):
-            rep = compile_export(cc, out, REPLAY_C, tmp / f"replay_{label}", *flags)
-            uff_out = tmp / f"uff_{label}.bin"
-            subprocess.run([str(rep), str(log_file), str(uff_out)], check=True, capture_output=True)
-            d = deviation(np.fromfile(uff_out, dtype=np.float64), ref, IDENTIFIED["Fc"])
-            timer = compile_export(cc, out, TIMING_C, tmp / f"time_{label}", *flags)
-            r = subprocess.run([str(timer), str(log_file), str(repeat)], check=True, capture_output=True, text=True)
-            fields = r.stdout.split()
-            ns, _, p999, p9999 = (float(x) for x in fields[:4])
-            ticks = float(fields[6])
-            res["builds"][label] = {"deviation": d, "ns": ns, "p999": p999, "p9999": p9999,
-                                    "ticks": None if ticks < 0 else ticks,
-                                    "instr": _callgrind(rep, log_file, tmp / f"cg_{label}.out", callgrind_periods)}
+        res = {"periods": periods, "compiler": cc, "Fc": IDENTIFIED["Fc"], "builds": {}}
+        for kind, extra in EXPORTS.items():
+            out = tmp / kind.replace(" ", "_")
+            if cli(["export-c", "--from", str(id_file), "--u-max", str(U_MAX), "--out", str(out), "--quiet",
+                    *extra]) != 0:
+                raise RuntimeError("adaptive-ff export-c failed on the benchmark's identification")
+            ref = _package_ff(id_file, log, feedforward_only=bool(extra))
+            res.setdefault("max_uff", float(np.max(np.abs(ref))))
+            for label, flags in (("double", []), ("float", ["-DAFF_FLOAT"])):
+                name = f"{kind} {label}"
+                stem = name.replace(" ", "_")
+                rep = compile_export(cc, out, REPLAY_C, tmp / f"replay_{stem}", *flags)
+                uff_out = tmp / f"uff_{stem}.bin"
+                subprocess.run([str(rep), str(log_file), str(uff_out)], check=True, capture_output=True)
+                d = deviation(np.fromfile(uff_out, dtype=np.float64), ref, IDENTIFIED["Fc"])
+                timer = compile_export(cc, out, TIMING_C, tmp / f"time_{stem}", *flags)
+                r = subprocess.run([str(timer), str(log_file), str(repeat)], check=True, capture_output=True,
+                                   text=True)
+                fields = r.stdout.split()
+                ns, _, p999, p9999 = (float(x) for x in fields[:4])
+                ticks = float(fields[6])
+                res["builds"][name] = {"deviation": d, "ns": ns, "p999": p999, "p9999": p9999,
+                                       "ticks": None if ticks < 0 else ticks,
+                                       "instr": _callgrind(rep, log_file, tmp / f"cg_{stem}.out", callgrind_periods)}
     return res
 
 
@@ -207,11 +223,11 @@ def perf_rows(quick: bool = False) -> list[tuple]:
     try:
         res = measure(*((10**5, 3, 20_000) if quick else (10**6, 5, 100_000)))
     except (RuntimeError, OSError, subprocess.CalledProcessError) as exc:
-        return [(f"C compensator alone (aff_step + aff_observe): not measured ({exc})", None, "")]
+        return [(f"C compensator (aff_step + aff_observe): not measured ({exc})", None, "")]
     rows = []
     for label, b in res["builds"].items():
         share = ", ".join(f"{100 * b['ns'] / ns:.2g} % of {name}" for name, ns in BUDGETS_NS.items())
-        rows.append((f"C compensator alone, {label} build, aff_step + aff_observe per period ({share}); "
+        rows.append((f"C compensator, {label} build, aff_step + aff_observe per period ({share}); "
                      f"2nd column: 99.99th percentile of single periods", b["ns"], "ns", b["p9999"]))
         if b["ticks"] is not None:
             rows.append(("  the same, time-stamp-counter ticks per period (x86 __rdtsc, the CPU's nominal clock)",
@@ -236,15 +252,16 @@ def main(argv=None) -> int:
     fc = res["Fc"]
     print(f"log: {res['periods']} periods of the adaptive mode on the paper joint (noise 1e-3 rad/s); "
           f"compiler {res['compiler']} -O2; max |u_ff| {res['max_uff']:.4g} N·m, Fc {fc:.4g} N·m")
-    print(f"{'build':<8}{'max dev':>10}{'of Fc':>8}{'±1 period':>11}{'of Fc':>8}{'RMS dev':>10}{'> 1 % Fc':>10}"
+    print(f"{'build':<24}{'max dev':>10}{'of Fc':>8}{'±1 period':>11}{'of Fc':>8}{'RMS dev':>10}{'> 1 % Fc':>10}"
           f"{'ns/period':>11}{'p99.9 ns':>10}{'p99.99 ns':>12}{'ticks':>8}{'instr/period':>14}")
     for label, b in res["builds"].items():
         d, ir = b["deviation"], b["instr"]
         ticks = "n/a" if b["ticks"] is None else f"{b['ticks']:.0f}"
-        print(f"{label:<8}{d['max']:>10.3g}{100 * d['max'] / fc:>7.3g}%{d['max_shift']:>11.3g}"
+        print(f"{label:<24}{d['max']:>10.3g}{100 * d['max'] / fc:>7.3g}%{d['max_shift']:>11.3g}"
               f"{100 * d['max_shift'] / fc:>7.3g}%{d['rms']:>10.3g}{d['n_over']:>10d}{b['ns']:>11.1f}"
               f"{b['p999']:>10.0f}{b['p9999']:>12.0f}{ticks:>8}{'n/a' if ir is None else f'{ir:.0f}':>14}")
-    print("deviations in N·m from the package's feedforward (aff_replay of the package's C core); '±1 period': "
+    print("deviations in N·m from the package's compensation of the same export (aff_replay of the package's C core); "
+          "'mode': mode adaptive (the default export), 'feedforward only': --feedforward-only; '±1 period': "
           "each period may also match its neighbour (a threshold decision one period later); '> 1 % Fc': "
           "periods whose plain deviation exceeds 1 % of Fc; 'ticks': time-stamp-counter ticks per period (x86)")
     return 0

@@ -16,7 +16,6 @@ CSRC = Path(__file__).resolve().parent / "csrc"
 HEADERS = [
     "ctl_pi.h",
     "ctl_metrics.h",
-    "ctl_dob.h",
     "ctl_canudas.h",
     "ctl_adob.h",
     "ctl_quasi_static.h",

@@ -50,10 +50,10 @@ int main(int argc, char **argv)
     u = buf;
     w = buf + total;
     w_ref = buf + 2 * total;
-    aff_init(&c, &AFF_INITIAL);
+    if (aff_init(&c, &AFF_INITIAL, &AFF_GUARD) != AFF_OK) return 5;
     for (k = 0; k < n; k++) {
         uff[k] = (double)aff_step(&c, (aff_real)w[k], (aff_real)w_ref[k]);
-        aff_observe(&c, (aff_real)u[k], (aff_real)w[k]);
+        if (aff_observe(&c, (aff_real)u[k], (aff_real)w[k]) != 1) return 6; /* a clean log: no period dropped */
     }
     f = fopen(argv[2], "wb");
     if (!f || fwrite(uff, sizeof(double), (size_t)n, f) != (size_t)n) return 4;
@@ -125,3 +125,74 @@ def deviation(uff: np.ndarray, ref: np.ndarray, level: float) -> dict:
     shifted[:-1] = np.minimum(shifted[:-1], np.abs(uff[:-1] - ref[1:]))
     return {"max": float(np.max(d)), "rms": float(np.sqrt(np.mean(d ** 2))), "max_shift": float(np.max(shifted)),
             "n_over": int(np.count_nonzero(d > 0.01 * level)), "argmax": int(np.argmax(d))}
+
+
+#: The strict warnings both precisions of an export build clean with, on gcc and clang.
+STRICT = ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-Wconversion", "-Wshadow", "-Wdouble-promotion", "-Werror"]
+
+#: A Cortex-M4F with its single-precision FPU (hard float ABI), the float build.
+CORTEX_M4F = ["-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard", "-O2", "-std=c99",
+              "-DAFF_FLOAT", "-ffp-contract=off"]
+
+#: Run-time helpers of the ARM EABI that emulate double arithmetic in software: none may be referenced by the float
+#: build (its arithmetic is float end to end).
+SOFT_DOUBLE = ("__aeabi_d", "__aeabi_f2d", "__aeabi_d2f", "__aeabi_l2d", "__aeabi_i2d", "__aeabi_ui2d")
+
+#: The drive's calls whose worst stack is measured.
+ENTRY_POINTS = ("aff_init", "aff_step", "aff_step_gated", "aff_transfer", "aff_observe", "aff_status")
+
+
+def worst_stack(ci_text: str, entries=ENTRY_POINTS) -> dict:
+    """The worst stack depth (bytes) of each entry point from gcc's ``-fcallgraph-info=su`` output: the largest sum
+    of the static frame sizes along a call path (the functions of the C library, e.g. ``expf``, count 0: they are
+    outside the export). Raises ValueError on a dynamic or unknown frame, or on recursion."""
+    import re
+
+    size, calls = {}, {}
+    for m in re.finditer(r'node: \{ title: "([^"]+)" label: "([^"]*)"', ci_text):
+        title, label = m.group(1), m.group(2)
+        fr = re.search(r"\\n(\d+) bytes \((\w+)\)", label)
+        if fr and fr.group(2) != "static":
+            raise ValueError(f"{title}: a {fr.group(2)} stack frame")
+        size[title.split(":")[-1]] = int(fr.group(1)) if fr else 0
+    for m in re.finditer(r'edge: \{ sourcename: "([^"]+)" targetname: "([^"]+)"', ci_text):
+        calls.setdefault(m.group(1).split(":")[-1], set()).add(m.group(2).split(":")[-1])
+
+    def depth(f: str, path: tuple) -> int:
+        if f in path:
+            raise ValueError("recursion: " + " -> ".join(path + (f,)))
+        return size.get(f, 0) + max((depth(g, path + (f,)) for g in calls.get(f, ())), default=0)
+
+    return {e: depth(e, ()) for e in entries}
+
+
+#: The libFuzzer harness of the exported C API (tests/fuzz_aff.c).
+FUZZ_C = Path(__file__).resolve().parent / "fuzz_aff.c"
+
+
+def build_fuzzer(clang: str, src: Path, exe: Path, *flags: str) -> Path:
+    """Compile :data:`FUZZ_C` against the export in ``src`` with libFuzzer, AddressSanitizer and UBSan (any sanitizer
+    finding aborts) into ``exe``; ``flags``: e.g. ``-DAFF_FLOAT``."""
+    cmd = [clang, "-O1", "-g", *flags, "-fsanitize=fuzzer,address,undefined", "-fno-sanitize-recover=all",
+           f"-I{src}", str(src / "aff.c"), str(src / "aff_config.c"), str(FUZZ_C), "-o", str(exe), "-lm"]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    assert r.returncode == 0, f"{' '.join(cmd)}\n{r.stderr}"
+    return exe
+
+
+def run_fuzzer(exe: Path, corpus: Path, seconds: float, *, seed: int = 1) -> dict:
+    """Run a fuzzer of :func:`build_fuzzer` for ``seconds`` from ``corpus`` (a folder, created; new inputs are
+    kept there). Returns ``{"returncode", "executions", "coverage", "features", "log"}`` (coverage: libFuzzer's
+    covered edges ``cov``, features ``ft``; the log's tail holds a crash's report)."""
+    import re
+
+    corpus.mkdir(parents=True, exist_ok=True)
+    r = subprocess.run([str(exe), f"-max_total_time={max(1, int(round(seconds)))}", f"-seed={seed}",
+                        "-print_final_stats=1", str(corpus)], capture_output=True, text=True,
+                       timeout=seconds + 120, cwd=corpus.parent)
+    log = r.stdout + r.stderr
+    runs = re.search(r"stat::number_of_executed_units: (\d+)", log)
+    cov = re.findall(r"cov: (\d+) ft: (\d+)", log)
+    return {"returncode": r.returncode, "executions": int(runs.group(1)) if runs else 0,
+            "coverage": int(cov[-1][0]) if cov else 0, "features": int(cov[-1][1]) if cov else 0,
+            "log": log[-4000:]}

@@ -106,8 +106,9 @@ def test_validation():
 @pytest.mark.parametrize("mode,estimator", [("adaptive-dob", "eq4-rls"), ("adaptive", "eq4"), ("adaptive", "sliding")])
 def test_every_estimator_builds_the_composite(mode, estimator):
     """``adaptive-dob``, and ``adaptive`` with its switch-in, compose the observer with the feedforward of any
-    estimator: the eq. 4 ones in ``ctl_eq4_dob``, the sliding one in ``ctl_adob``; ``switch_in=False`` leaves
-    ``adaptive`` the feedforward alone."""
+    estimator: the eq. 4 ones in ``ctl_eq4_dob``, the sliding one in ``ctl_adob`` (``adaptive-dob``) or in the mode's
+    one struct ``aff_adaptive`` with its supervisor (``adaptive``); ``switch_in=False`` leaves ``adaptive`` the
+    feedforward alone (in ``aff_adaptive`` without the observer over the sliding estimator)."""
     from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
     from adaptive_ff.identification.regression import RegressionModel
     from controllers.simulation.compensators import build_mode
@@ -117,11 +118,17 @@ def test_every_estimator_builds_the_composite(mode, estimator):
     _, _, comp = build_mode(P, mode, o)
     assert isinstance(comp, AdaptiveDOBCompensator) and comp.MODE == mode
     eq4 = estimator != "sliding"
-    assert comp.C_OPS == ("ctl_eq4_dob_ops" if eq4 else "ctl_adob_ops")
+    whole = mode == "adaptive" and not eq4
+    assert comp.C_OPS == ("ctl_eq4_dob_ops" if eq4 else "aff_adaptive_ops" if whole else "ctl_adob_ops")
     assert isinstance(comp.feedforward, AdaptiveFrictionFeedforward if eq4 else RobustAdaptiveFeedforward)
     assert (comp.switch_in is not None) == (mode == "adaptive")
+    assert (getattr(comp, "supervisor", None) is not None) == whole  # the engine supervises the others
     _, _, alone = build_mode(P, "adaptive", replace(o, switch_in=False))
-    assert isinstance(alone, AdaptiveFrictionFeedforward if eq4 else RobustAdaptiveFeedforward)
+    if eq4:
+        assert isinstance(alone, AdaptiveFrictionFeedforward)
+    else:
+        assert alone.C_OPS == "aff_adaptive_ops" and alone.observer is None
+        assert isinstance(alone.feedforward, RobustAdaptiveFeedforward)
 
 
 def test_at_rest_by_hand_arms_the_hold_and_the_hold_ends_when_the_joint_follows():

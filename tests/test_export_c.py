@@ -1,11 +1,12 @@
-"""``adaptive-ff export-c``: the exported C library is the package's compensator.
+"""``adaptive-ff export-c``: the exported C library is the package's mode ``adaptive``.
 
 The proof: the export is compiled with the system C compiler alone (no Python headers, no package), a closed-loop
-log of 10^6 periods of the ``adaptive`` mode on the ``paper`` joint with measurement noise is replayed through
-it by a small C program (``aff_step``, ``aff_observe`` per period), and its feedforward sequence is compared
-with the package's (the same log through the package's compensator, built from the same identification:
-``aff_replay`` through cffi, itself checked against the Python methods ``compensate``/``observe``, and the
-feedforward the closed loop applied). Double: equal within 1e-12 of ``max|u_ff|``. Float (``-DAFF_FLOAT``):
+log of 10^6 periods of the ``adaptive`` mode (the feedforward, the residual observer it switches in, the
+supervisor) on the ``paper`` joint with measurement noise is replayed through it by a small C program
+(``aff_step``, ``aff_observe`` per period), and its compensation sequence is compared with the package's (the same
+log through the package's compensator, built from the same identification: ``aff_replay`` through cffi, itself
+checked against the Python methods ``compensate``/``observe``, and the compensation the closed loop applied).
+Double: bit for bit. Float (``-DAFF_FLOAT``):
 the deviation is measured and printed; it must stay within 1 % of the friction level ``Fc`` except where a
 threshold decision falls on the neighbouring period (docs/benchmarks/export_c.md). Also: ``AFF_INITIAL`` is the
 package's struct byte for byte, the library references nothing but ``<math.h>`` functions and
@@ -75,10 +76,10 @@ def reference_ff(package, log):
     comp, _ = package()
     u, w, wr, _ = (np.ascontiguousarray(x, dtype=np.float64) for x in log)
     c = ffi.new("aff *")
-    lib.aff_init(c, comp.cdata)
+    assert lib.aff_init(c, comp.cdata, ffi.NULL) == lib.AFF_OK
     uff = np.empty(N)
-    lib.aff_replay(c, ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", w),
-                   ffi.from_buffer("double[]", wr), ffi.from_buffer("double[]", uff), N)
+    lib.aff_replay(c, ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", w), ffi.NULL,
+                   ffi.from_buffer("double[]", wr), ffi.from_buffer("double[]", uff), ffi.NULL, N)
     return uff
 
 
@@ -113,9 +114,7 @@ def test_package_replay_is_the_python_compensator_and_the_closed_loop(package, l
 def test_exported_double_build_replays_the_package_feedforward(exported, log_file, reference_ff, tmp_path):
     uff, (active, n_updates, _) = _replay(exported, log_file, tmp_path)
     assert uff.shape == (N,) and active == "1" and int(n_updates) > 1000
-    rel = np.max(np.abs(uff - reference_ff)) / np.max(np.abs(reference_ff))
-    print(f"\nexported double build: max |u_ff - package| / max |u_ff| = {rel:.3g} over {N} periods")
-    assert rel <= 1e-12
+    np.testing.assert_array_equal(uff, reference_ff)  # bit for bit: the engine's mode adaptive is the export
 
 
 @needs_cc
@@ -155,7 +154,7 @@ def test_initial_struct_is_the_package_struct_byte_for_byte(exported, package, t
 def test_library_needs_only_the_math_library(exported, tmp_path):
     text = (exported / "aff.h").read_text() + (exported / "aff.c").read_text()
     includes = {line.split()[1] for line in text.splitlines() if line.lstrip().startswith("#include")}
-    assert includes <= {"<math.h>", "<string.h>", '"aff.h"'}, includes
+    assert includes <= {"<math.h>", "<string.h>", "<stdint.h>", "<stddef.h>", '"aff.h"'}, includes
     for word in ("malloc", "free(", "printf", "FILE", "Python.h", "static aff_real s_", "errno"):
         assert word not in text, word
     nm = shutil.which("nm")
@@ -166,7 +165,7 @@ def test_library_needs_only_the_math_library(exported, tmp_path):
         subprocess.run([CC, *WARN, *flags, "-c", str(exported / "aff.c"), "-o", str(obj)], check=True)
         undefined = set(subprocess.run([nm, "-u", str(obj)], capture_output=True, text=True,
                                        check=True).stdout.split()) - {"U"}
-        math_fns = {"exp", "pow", "sqrt", "fabs", "log", "expf", "powf", "sqrtf", "fabsf", "logf"}
+        math_fns = {f + s for f in ("exp", "pow", "sqrt", "fabs", "log", "floor", "ceil", "copysign") for s in ("", "f")}
         assert undefined <= math_fns | {"memmove", "memcpy", "memset"}, undefined
 
 
@@ -183,7 +182,9 @@ def test_make_builds_the_library_and_runs_the_example(exported, tmp_path, flt):
     assert (build / "libaff.a").is_file() and (build / "example_loop").is_file()
     assert "warning" not in r.stderr
     lines = [x for x in r.stdout.splitlines() if x.startswith(("after ", "estimate in use:"))]
-    assert lines[0].startswith("after 60 s: feedforward on,"), r.stdout  # the stub joint taught it the friction
+    # the stub joint taught it the friction; the residual observer switched in on the stub's stiction
+    assert lines[0].startswith("after 60 s: observer, feedforward on,"), r.stdout
+    assert "0 refused by the input guard" in lines[0]
     fc = float(lines[1].split("Fc ")[1].split()[0])  # the example's stub joint has the identified Fc
     assert abs(fc - IDENTIFIED["Fc"]) <= 0.05 * IDENTIFIED["Fc"], lines[1]
 
@@ -211,7 +212,8 @@ def test_exported_files_and_configuration(exported, package):
         line = next(x for x in cfg.splitlines() if x.startswith(f"#define {macro} "))
         assert float(line.split()[2]) == value, line
     init = (exported / "aff_config.c").read_text()
-    assert ".dt = AFF_TC," in init and ".ff_max = AFF_FF_MAX," in init and ".Vs = AFF_VS," in init
+    assert ".dt = (aff_real)AFF_TC," in init and ".ff_max = (aff_real)AFF_FF_MAX," in init
+    assert ".Vs = (aff_real)AFF_VS," in init and ".Tc = (aff_real)AFF_TC," in init
     assert "export again" in init or "new export" in init
     # the headers and sources are those #include reaches from aff_drive.h, each once, dependencies first
     h = (exported / "aff.h").read_text()
@@ -230,7 +232,8 @@ def test_json_output_lists_the_files(id_file, tmp_path, capsys):
                                                   "example_loop.c", "Makefile"]
     assert d["config"]["AFF_KP"] == 50.0 and d["config"]["AFF_START_FC"] == IDENTIFIED["Fc"]
     assert d["float_default"] and "FLOAT ?= 1" in (out / "Makefile").read_text()
-    assert "aff_drive.c" in d["sources"] and "aff_robust_ff.c" in d["sources"]
+    assert "aff_drive.c" in d["sources"] and "aff_robust_ff.c" in d["sources"] and "aff_residual.c" in d["sources"]
+    assert d["config"]["AFF_OBSERVER"] == 1 and d["config"]["AFF_SUPERVISOR"] == 1
 
 
 def test_python_api_refuses_other_compensators_and_bad_numbers(package, tmp_path):
@@ -240,8 +243,14 @@ def test_python_api_refuses_other_compensators_and_bad_numbers(package, tmp_path
 
     comp, s = package()
     kw = {"J_design": s["J_design"], "u_max": U_MAX, "Kp": s["Kp"], "Ki": s["Ki"]}
-    with pytest.raises(ParameterError, match="must be a RobustAdaptiveFeedforward"):
+    with pytest.raises(ParameterError, match="must be mode adaptive's compensator .*got FrictionFeedforward"):
         export_c(FrictionFeedforward(None, dt=1e-3), tmp_path / "a", **kw)
+    with pytest.raises(ParameterError, match="got RobustAdaptiveFeedforward"):  # a part of the mode, not the mode
+        export_c(comp.feedforward, tmp_path / "a", **kw)
+    with pytest.raises(ParameterError, match="twice it .* beyond the float range"):
+        export_c(comp, tmp_path / "b", **{**kw, "u_max": 1e300})
+    with pytest.raises(ParameterError, match="hold_time = 0.0001 s is below the controller period"):
+        export_c(comp, tmp_path / "b", hold_time=1e-4, **kw)
     with pytest.raises(ParameterError, match="u_max must be a finite number > 0, got inf"):
         export_c(comp, tmp_path / "b", **{**kw, "u_max": float("inf")})
     with pytest.raises(ParameterError, match="joint: unknown key 'Fv'"):
@@ -287,6 +296,10 @@ def test_errors_name_the_file_and_the_key(id_file, tmp_path, capsys):
     assert "--Kp and --Ki" in _err(capsys)
     assert main(["export-c", "--from", str(id_file), "--u-max", "0", "--out", out]) == 2
     assert "--u-max must be a finite torque > 0" in _err(capsys)
+    assert main(["export-c", "--from", str(id_file), "--u-max", "1e300", "--out", out]) == 2
+    assert "--u-max 1e+300 N·m: twice it" in _err(capsys)
+    assert main(base + ["--from", str(id_file), "--w-max", "nan"]) == 2
+    assert "--w-max must be a finite number > 0" in _err(capsys)
     assert main(base + ["--from", str(id_file), "--Ts", "0.0015"]) == 2
     assert "Ts" in _err(capsys)
     assert not (tmp_path / "o").exists()  # nothing written on an error

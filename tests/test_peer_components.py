@@ -244,7 +244,7 @@ def test_dob_equals_the_oracle(order, omega_q, d_max):
 
 def test_dob_layout_and_properties():
     c = DisturbanceObserver(J_n=2.0, omega_q=400.0, Tc=1e-3, order=3, d_max=9.0)
-    assert c.C_OPS == "ctl_dob_ops" and c.n_theta == 0 and ffi.string(c.ops.name) == b"dob"
+    assert c.C_OPS == "aff_dob_ops" and c.n_theta == 0 and ffi.string(c.ops.name) == b"dob"
     # the two range gates (torque, velocity) live in the observer's struct
     assert c.u_range.cdata == ffi.addressof(c.cdata, "u_range") and c.w_range.cdata == ffi.addressof(c.cdata, "w_range")
     assert (c.J_n, c.omega_q, c.Tc, c.order, c.d_max) == (2.0, 400.0, 1e-3, 3, 9.0)

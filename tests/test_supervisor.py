@@ -281,8 +281,8 @@ def test_before_its_switch_in_the_observer_of_adaptive_keeps_the_feedforwards_re
 
 def test_after_a_rest_the_feedforward_part_is_held_until_the_joint_moves_in_the_references_direction():
     """After a rest the composite (``adaptive-dob``) leaves its feedforward part out and applies the observer's
-    estimate alone, the observer told that nothing of the feedforward was applied (ctl_residual_at_rest,
-    ctl_residual_compensate), until the measured velocity has the reference's sign (w_ctrl*w_ref > 0); then u_ff +
+    estimate alone, the observer told that nothing of the feedforward was applied (aff_residual_at_rest,
+    aff_residual_compensate), until the measured velocity has the reference's sign (w_ctrl*w_ref > 0); then u_ff +
     d_hat again. Checked against an independent replay: the rest periods by the supervisor's rule (|w_ref| = 0 for
     n_hold periods in a row), a separate feedforward and a plain disturbance observer run on the recorded torque and
     measurement, composed by that rule in Python."""

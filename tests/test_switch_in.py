@@ -1,4 +1,4 @@
-"""The residual switch-in of mode ``adaptive`` (C ``ctl_switch_in``, controllers/csrc/ctl_adob.h).
+"""The residual switch-in of mode ``adaptive`` (C ``aff_switch_in``, controllers/csrc/ctl_adob.h).
 
 The oracle here is derived differently from the C recursion: the two loop models as state-space systems
 simulated by :func:`scipy.signal.dlsim` (the matrices written out from the backward-Euler PI and the held-torque
@@ -33,8 +33,8 @@ MARGIN = 0.03  # the trial's default margin (ResidualSwitchIn.trial_margin)
 
 
 def _c_switch_in(window=0.05, ratio=0.1, fade_in=0.01, share=0.25, margin=MARGIN):
-    a = ffi.new("ctl_residual *")
-    assert lib.ctl_residual_set_switch_in(a, TC, JN, KP, KI, window, ratio, share, fade_in, margin) == 0
+    a = ffi.new("aff_residual *")
+    assert lib.aff_residual_set_switch_in(a, TC, JN, KP, KI, window, ratio, share, fade_in, margin) == 0
     return a
 
 
@@ -133,7 +133,7 @@ def _run_c(a, u_ff, d_hat, w_ref, acting, w_ctrl=None, started=None):
     started = np.zeros(len(d_hat), dtype=bool) if started is None else started
     g, m_r, m_l = (np.empty(len(d_hat)) for _ in range(3))
     for k in range(len(d_hat)):
-        g[k] = lib.ctl_switch_in_step(sw, u_ff[k], d_hat[k], w_ref[k], w_ctrl[k], int(acting[k]), int(started[k]))
+        g[k] = lib.aff_switch_in_step(sw, u_ff[k], d_hat[k], w_ref[k], w_ctrl[k], int(acting[k]), int(started[k]))
         m_r[k], m_l[k] = a.sw.m_r, a.sw.m_l
     return g, m_r, m_l
 
@@ -311,9 +311,9 @@ def test_settings_are_checked():
                 dict(fade_in=-0.1), dict(trial_margin=math.nan), dict(trial_margin=True)):
         with pytest.raises(ParameterError):
             ResidualSwitchIn(**{**dict(Tc=TC, J_n=JN, Kp=KP, Ki=KI), **bad})
-    a = ffi.new("ctl_residual *")
+    a = ffi.new("aff_residual *")
     for ratio, share, margin in ((0.0, 0.25, 0.02), (0.1, 0.0, 0.02), (0.1, 0.25, -0.01), (0.1, 0.25, math.nan)):
-        assert lib.ctl_residual_set_switch_in(a, TC, JN, KP, KI, 0.05, ratio, share, 0.01, margin) == -1
+        assert lib.aff_residual_set_switch_in(a, TC, JN, KP, KI, 0.05, ratio, share, 0.01, margin) == -1
         assert a.use_switch_in == 0
     with pytest.raises(ParameterError, match="trial_margin"):
         ResidualSwitchIn(Tc=TC, J_n=JN, Kp=KP, Ki=KI, trial_margin=-0.1)
@@ -397,8 +397,9 @@ def test_the_composite_reports_its_mode_and_switch_in():
 
     _, _, comp = build_mode(p, "adaptive", o)
     assert isinstance(comp, AdaptiveDOBCompensator) and comp.MODE == "adaptive" and comp.t_switch_in is None
+    assert comp.C_OPS == "aff_adaptive_ops" and comp.observer is not None and comp.supervisor is not None
     _, _, comp2 = build_mode(p, "adaptive", replace(o, switch_in=False))
-    assert not isinstance(comp2, AdaptiveDOBCompensator)
+    assert comp2.observer is None and comp2.switch_in is None and "dob_J_n" not in comp2.info()
     _, _, comp3 = build_mode(p, "adaptive-dob", o)
     assert comp3.MODE == "adaptive-dob" and "t_switch_in" not in comp3.info()
 

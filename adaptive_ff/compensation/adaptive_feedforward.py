@@ -129,7 +129,7 @@ def project_box(P, theta, lower, upper) -> tuple:
     x = np.empty(p)
     n = lib.aff_project_box(p, ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", theta),
                             ffi.from_buffer("double[]", lo), ffi.from_buffer("double[]", hi),
-                            ffi.from_buffer("double[]", x))
+                            ffi.from_buffer("double[]", x), ffi.new("double[]", p * (p + 3)))
     if n < 0:
         raise ParameterError("project_box: P is not positive definite on the active bounds")
     return x, int(n)

@@ -1,7 +1,9 @@
-"""The adaptive feedforward as a drop-in C library for a drive: :func:`export_c` (``adaptive-ff export-c``).
+"""Mode ``adaptive`` as a drop-in C library for a drive: :func:`export_c` (``adaptive-ff export-c``).
 
-The exported folder holds the package's own C code of the compensator, the same functions the Python
-classes call, so a drive runs the compensator that was simulated:
+The exported folder holds the package's own C code of the compensator, the struct ``aff_adaptive`` that the
+package's closed-loop engine runs for mode ``adaptive`` (the feedforward, the residual observer it switches in and
+the supervisor; or, exported from a compensator without them, the feedforward alone), so a drive runs the
+compensator that was simulated:
 
 ==================  ===================================================================================
 file                content
@@ -11,16 +13,18 @@ file                content
                     (an amalgamation, as SQLite ships; local ``#include`` lines removed, guards kept)
 ``aff.c``           the matching ``.c`` files, in dependency order
 ``aff_config.h``    the settings of this export as documented macros (``AFF_TC``, ``AFF_VS``, ...) and
-                    ``extern const aff_robust_ff AFF_INITIAL``
-``aff_config.c``    ``AFF_INITIAL``: every field of the configured compensator, a C99 designated initializer
-``example_loop.c``  a 1 kHz velocity loop: read the velocity, ``aff_step``, a PI, write the torque,
-                    ``aff_observe`` (stub I/O to replace)
+                    ``extern const aff_adaptive AFF_INITIAL``, ``extern const aff_guard_config AFF_GUARD``
+``aff_config.c``    ``AFF_INITIAL``: every field of the configured compensator, a C99 designated initializer;
+                    ``AFF_GUARD``: the input guard's settings (``aff_drive.h``)
+``example_loop.c``  a 1 kHz velocity loop: read the velocity, ``aff_step``, ``aff_transfer`` into a PI, write
+                    the torque, ``aff_observe``, ``aff_status`` (stub I/O to replace)
 ``Makefile``        ``make``: ``libaff.a`` and the example (``$(CC) -std=c99``, ``-lm``); ``make FLOAT=1``:
                     the single-precision build (``-DAFF_FLOAT``, ``plant/csrc/aff_real.h``)
 ==================  ===================================================================================
 
-The library uses ``<math.h>`` (and ``<string.h>``: the compiler's ``memmove`` for struct copies) and nothing
-else: no ``malloc``, no I/O, no global state, bounded work per call. A ``static`` helper that two sources
+The library uses ``<math.h>`` (and ``<string.h>``: the compiler's ``memmove`` for struct copies; the
+freestanding ``<stdint.h>``, ``<stddef.h>``) and nothing else: no ``malloc``, no I/O, no global state, bounded
+work per call. A ``static`` helper that two sources
 both define (``min2``) is prefixed by its file's stem in ``aff.c``, the one scope they share there. The
 compensator's derived fields (filter coefficients, forgetting factors, bounds) are computed here by the Python
 constructors, which validate the hyperparameters, and written as numbers into ``aff_config.c``; a changed
@@ -223,7 +227,8 @@ def struct_initializer(ffi, value, ctype, *, macros=None, indent: str = "    ", 
         Its type (``ffi.typeof(ptr).item``).
     macros : dict, keyword-only
         ``{macro name: (value, field names)}``: a scalar field whose name is among the field names and whose
-        value equals the macro's is written as the macro.
+        value equals the macro's is written as the macro. Every floating field (``aff_real`` in the C core) is
+        written with a cast, ``(aff_real)0.001``: a constant that the float build converts at compile time.
     indent : str, keyword-only
         Indentation of the fields.
     path : str, keyword-only
@@ -234,7 +239,7 @@ def struct_initializer(ffi, value, ctype, *, macros=None, indent: str = "    ", 
     Returns
     -------
     str
-        ``{\\n    .a = 1.0,\\n    .b = {...},\\n}`` (no trailing semicolon).
+        ``{\\n    .a = (aff_real)1.0,\\n    .b = {...},\\n}`` (no trailing semicolon).
 
     Raises
     ------
@@ -270,8 +275,8 @@ def _initializer(ffi, v, t, name, here, macros, indent, big) -> str:
                 big.append(here)
             for macro, (mv, names) in macros.items():
                 if name in names and isinstance(mv, float) and (x == mv or (math.isnan(x) and math.isnan(mv))):
-                    return macro
-            return c_literal(x)
+                    return f"(aff_real){macro}"
+            return f"(aff_real){c_literal(x)}"  # a constant converted at compile time (float build: no warning)
         return str(int(v))
     raise ParameterError(f"field {here} of type {t.cname} cannot be exported (a C-core struct holds values only)")
 
@@ -314,7 +319,9 @@ class CExport:
 
     def summary(self) -> str:
         """A few lines: the folder, the files, the configuration and how to build."""
-        lines = [f"C library of the adaptive feedforward written to {self.out}"]
+        parts = ["the feedforward"] + (["the residual observer"] if self.config.get("AFF_OBSERVER") else []) \
+            + (["the supervisor"] if self.config.get("AFF_SUPERVISOR") else [])
+        lines = [f"C library of mode adaptive's compensator ({', '.join(parts)}) written to {self.out}"]
         lines += [f"  {p.name}" for p in self.files]
         lines.append("configuration (aff_config.h):")
         lines += [f"  {k:<16}{v:.6g}" for k, v in self.config.items()]
@@ -342,6 +349,11 @@ _MACRO_DOC = {
     "AFF_START_FS": ("N*m", "static level Fs of the provisional start map"),
     "AFF_START_SIGMA": ("N*m*s/rad", "viscous coefficient sigma of the provisional start map"),
     "AFF_START_TAU": ("s", "lag tau of the provisional start map (eq. 1)"),
+    "AFF_W_MAX": ("rad/s", "the input guard's largest plausible |w| and |w_ref|: beyond it a sample is refused"),
+    "AFF_U_GUARD": ("N*m", "the input guard's largest plausible |u| (twice AFF_U_MAX): beyond it a sample is refused"),
+    "AFF_HOLD_TIME": ("s", "a held output (refused inputs) older than this fades to 0 over the same time"),
+    "AFF_OBSERVER": ("1", "1: the residual observer and its switch-in are part of the compensator (mode adaptive)"),
+    "AFF_SUPERVISOR": ("1", "1: the supervisor and its rest rule are part of the compensator (mode adaptive)"),
 }
 _START_FIELDS = {"AFF_START_FC": ("Fc",), "AFF_START_FS": ("Fs",), "AFF_START_SIGMA": ("sigma",),
                  "AFF_START_TAU": ("tau",)}
@@ -356,32 +368,36 @@ def _config_header(config: dict, source: str, ctype: str) -> str:
         unit, what = _MACRO_DOC[k]
         lines += ["", f"/* {what[0].upper() + what[1:]} ({unit}). */", f"#define {k} {c_literal(v)}"]
     lines += ["",
-              "/* The configured compensator with its initial state (aff_config.c): aff_init(&c, &AFF_INITIAL). */",
-              f"extern const {ctype} AFF_INITIAL;", "", "#endif", ""]
+              "/* The configured compensator with its initial state and the input guard's settings (aff_config.c):",
+              " * aff_init(&c, &AFF_INITIAL, &AFF_GUARD). */",
+              f"extern const {ctype} AFF_INITIAL;", "extern const aff_guard_config AFF_GUARD;", "", "#endif", ""]
     return "\n".join(lines)
 
 
-def _config_source(init: str, source: str, ctype: str, big: list) -> str:
-    guard = ""
+def _config_source(init: str, guard: str, source: str, ctype: str, big: list) -> str:
+    no_float = ""
     if big:
-        guard = ("#ifdef AFF_FLOAT\n#error \"fields beyond the float range (" + ", ".join(big[:4])
+        no_float = ("#ifdef AFF_FLOAT\n#error \"fields beyond the float range (" + ", ".join(big[:4])
                  + "): this export cannot be built with AFF_FLOAT\"\n#endif\n\n")
-    return (_banner("aff_config.c", "AFF_INITIAL, the compensator as configured by the export.", source)
-            + '#include "aff_config.h"\n\n' + guard
+    return (_banner("aff_config.c", "AFF_INITIAL and AFF_GUARD, the compensator as configured by the export.", source)
+            + '#include "aff_config.h"\n\n' + no_float
             + f"/* Every field of {ctype}: its configuration and its initial (cleared) state, as the package's\n"
               " * Python constructors computed them from validated settings. Fields written with a macro of\n"
               " * aff_config.h take that setting as it is; the derived fields (filter coefficients, forgetting\n"
               " * factors, bounds, ...) are numbers computed from the settings by the export: a changed macro\n"
               " * needs a new export (adaptive-ff export-c). Numbers have 17 significant digits at most\n"
               " * (the shortest that give back the same double). */\n"
-            + f"const {ctype} AFF_INITIAL = {init};\n")
+            + f"const {ctype} AFF_INITIAL = {init};\n\n"
+            + "/* The input guard (aff_drive.h): the controller period and the plausible bounds of the inputs. */\n"
+            + f"const aff_guard_config AFF_GUARD = {guard};\n")
 
 
-_EXAMPLE = r"""/* example_loop.c -- the adaptive friction feedforward in a 1 kHz velocity loop.
+_EXAMPLE = r"""/* example_loop.c -- the adaptive friction compensator in a 1 kHz velocity loop.
  *
  * Written by `adaptive-ff export-c`; yours to change. Per period AFF_TC, in this order:
- *   w    = read_velocity();               the measured velocity (rad/s), raw: NaN or a spike is gated
- *   u_ff = aff_step(&comp, w, w_ref);     the feedforward torque of this period (N*m), 0 until switch-on
+ *   w    = read_velocity();               the measured velocity (rad/s), raw: NaN or a spike is refused
+ *   u_ff = aff_step(&comp, w, w_ref);     the compensation torque of this period (N*m), 0 until switch-on
+ *   I   += aff_transfer(&comp);           the supervisor's bumpless transfer into the PI's integrator
  *   u    = your PI on w_ref - w, plus u_ff, saturated to the drive's limit
  *   write_torque(u);                      the torque applied in this period (N*m)
  *   aff_observe(&comp, u, w);             learn from the applied torque and the measured velocity
@@ -448,19 +464,30 @@ static aff_real pi_step(pi *p, aff_real e, aff_real u_ff)
 int main(void)
 {
     static aff comp; /* the compensator's state (a few kB): static, not on a small stack */
+    static const char *const state[] = {"learning", "feedforward", "observer", "backed off", "fault"};
     pi ctl = {0};
     long n = (long)(EXAMPLE_SECONDS / AFF_TC + 0.5);
-    aff_init(&comp, &AFF_INITIAL);
+    aff_error err = aff_init(&comp, &AFF_INITIAL, &AFF_GUARD);
+    if (err != AFF_OK) {
+        printf("aff_init: %s\n", aff_error_message(err));
+        return 1;
+    }
     for (long k = 0; k < n; k++) { /* in a drive: the body of the AFF_TC task */
         aff_real w_ref = reference(k);
         aff_real w = read_velocity();
         aff_real u_ff = aff_step(&comp, w, w_ref);
+        ctl.I += aff_transfer(&comp); /* 0 except where the supervisor switches: no torque step */
         aff_real u = pi_step(&ctl, w_ref - w, u_ff);
         write_torque(u);
         aff_observe(&comp, u, w);
     }
-    printf("after %g s: feedforward %s, %ld estimator updates, %ld samples rejected\n", EXAMPLE_SECONDS,
-           aff_active(&comp) ? "on" : "off", aff_n_updates(&comp), aff_n_rejected(&comp));
+    {
+        aff_status_report s = aff_status(&comp);
+        printf("after %g s: %s, feedforward %s, %ld estimator updates, %ld samples rejected by its gates, "
+               "%lu refused by the input guard\n", EXAMPLE_SECONDS, state[s.state], aff_active(&comp) ? "on" : "off",
+               aff_n_updates(&comp), aff_n_rejected(&comp),
+               (unsigned long)s.n_refused_w_meas + s.n_refused_w_ref + s.n_refused_u);
+    }
     {
         aff_real Fc, Fs, sigma, tau;
         if (aff_estimate(&comp, &Fc, &Fs, &sigma, &tau))
@@ -473,7 +500,7 @@ int main(void)
 """
 
 _MAKEFILE = """\
-# Makefile -- libaff.a and example_loop, the adaptive friction feedforward (written by adaptive-ff export-c).
+# Makefile -- libaff.a and example_loop, the adaptive friction compensator (written by adaptive-ff export-c).
 #
 #   make            double precision: build/double/libaff.a, build/double/example_loop
 #   make FLOAT=1    single precision (-DAFF_FLOAT: float and the f-functions of <math.h>), for an MCU with a
@@ -541,15 +568,39 @@ def _prepare_out(out, force: bool) -> Path:
     return out
 
 
+#: Defaults of the input guard (aff_drive.h, aff_guard_default_config): the largest plausible velocity (rad/s) and the
+#: time after which a held output fades (s).
+W_MAX_DEFAULT = 1e4
+HOLD_TIME_DEFAULT = 0.1
+
+
+def _mode_struct(compensator):
+    """The ``aff_adaptive`` struct of ``compensator`` (its ``cdata``), or ParameterError naming what it is."""
+    from adaptive_ff._caff import ffi
+
+    c = getattr(compensator, "cdata", None)
+    try:
+        ok = c is not None and ffi.typeof(c).item.cname.replace("struct ", "") == "aff_adaptive"
+    except (TypeError, ffi.error):
+        ok = False
+    if not ok:
+        raise ParameterError("compensator must be mode adaptive's compensator (a struct aff_adaptive: "
+                             "controllers.peers.adaptive_dob.AdaptiveCompensator, e.g. from "
+                             f"controllers.simulation.compensators.build_mode), got {type(compensator).__name__}")
+    return c
+
+
 def export_c(compensator, out, *, J_design: float, u_max: float, Kp: float, Ki: float, joint=None,
-             float_default: bool = False, force: bool = False, origin: str = "") -> CExport:
+             w_max: float = W_MAX_DEFAULT, hold_time: float = HOLD_TIME_DEFAULT, float_default: bool = False,
+             force: bool = False, origin: str = "") -> CExport:
     """Write the compensator as a C library for a drive: sources, one header, its configuration, an example loop
     and a Makefile (the files: module docstring of :mod:`adaptive_ff.compensation.export_c`).
 
     Parameters
     ----------
-    compensator : RobustAdaptiveFeedforward
-        The configured compensator (the ``adaptive`` mode's, e.g. from
+    compensator : AdaptiveCompensator
+        The configured compensator of mode ``adaptive`` (C struct ``aff_adaptive``: the feedforward, with or
+        without the residual observer and the supervisor; from
         :func:`controllers.simulation.compensators.build_mode`); its C struct, as it is now, becomes
         ``AFF_INITIAL`` (export it before it observes anything, so that the drive starts from a cleared state).
     out : str or os.PathLike
@@ -558,12 +609,17 @@ def export_c(compensator, out, *, J_design: float, u_max: float, Kp: float, Ki: 
         Design inertia (kg·m²) the compensator was built with (documented as ``AFF_J_DESIGN``; the example's
         stub joint).
     u_max : float, keyword-only
-        The drive's torque limit (N·m), the example loop's saturation (``AFF_U_MAX``).
+        The drive's torque limit (N·m), the example loop's saturation (``AFF_U_MAX``); the input guard refuses a
+        torque beyond twice it (``AFF_U_GUARD``). Within the float range.
     Kp, Ki : float, keyword-only
         Gains of the example loop's PI (N·m·s/rad, N·m/rad; ``AFF_KP``, ``AFF_KI``), >= 0.
     joint : mapping, optional, keyword-only
         ``Fc``, ``Fs`` (N·m) and ``sigma`` (N·m·s/rad) of the example's stub joint (e.g. the identified ones);
         default a joint without friction.
+    w_max : float, keyword-only
+        The input guard's largest plausible velocity (rad/s, ``AFF_W_MAX``), default 1e4.
+    hold_time : float, keyword-only
+        A held output older than this fades to 0 (s, ``AFF_HOLD_TIME``), default 0.1, at least the period.
     float_default : bool, keyword-only
         ``make`` builds the single-precision variant unless ``FLOAT=0`` (default False: double).
     force : bool, keyword-only
@@ -579,46 +635,53 @@ def export_c(compensator, out, *, J_design: float, u_max: float, Kp: float, Ki: 
     Raises
     ------
     ParameterError
-        Not a :class:`~adaptive_ff.compensation.adaptive_feedforward.RobustAdaptiveFeedforward`, a bad number,
-        or ``out`` an existing file or a non-empty folder without ``force``.
+        Not mode adaptive's compensator, a bad number, ``u_max`` beyond the float range, or ``out`` an existing
+        file or a non-empty folder without ``force``.
     FileNotFoundError
         The package's C sources are missing (an installation without ``csrc``).
     """
-    from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
-
-    if not isinstance(compensator, RobustAdaptiveFeedforward):
-        raise ParameterError(f"compensator must be a RobustAdaptiveFeedforward (the adaptive mode's), "
-                             f"got {type(compensator).__name__}")
+    ptr = _mode_struct(compensator)
     J_design = _check_number("J_design", J_design)
     u_max = _check_number("u_max", u_max)
+    if 2.0 * u_max > _FLT_MAX:
+        raise ParameterError(f"u_max = {u_max!r} N·m: twice it (the input guard's bound) is beyond the float range "
+                             f"({_FLT_MAX:.4g}); give the drive's real torque limit")
     Kp = _check_number("Kp", Kp, positive=False)
     Ki = _check_number("Ki", Ki, positive=False)
+    w_max = _check_number("w_max", w_max)
+    hold_time = _check_number("hold_time", hold_time)
     jd = {"Fc": 0.0, "Fs": 0.0, "sigma": 0.0}
     for k, v in dict(joint or {}).items():
         if k not in jd:
             raise ParameterError(f"joint: unknown key {k!r}; allowed {sorted(jd)}")
         jd[k] = _check_number(f"joint {k}", v, positive=False)
     jd["Fs"] = max(jd["Fs"], jd["Fc"])
-    est = compensator.estimator
+    ff = compensator.feedforward
+    est = ff.estimator
+    if hold_time < float(est.Tc):
+        raise ParameterError(f"hold_time = {hold_time!r} s is below the controller period Tc = {est.Tc!r} s")
     config = {"AFF_TC": float(est.Tc), "AFF_TS": float(est.Ts), "AFF_VS": float(est.Vs),
               "AFF_DELTA": float(est.delta), "AFF_J_DESIGN": J_design, "AFF_U_MAX": u_max,
-              "AFF_FF_MAX": float(compensator.ff_max), "AFF_KP": Kp, "AFF_KI": Ki}
+              "AFF_FF_MAX": float(ff.ff_max), "AFF_KP": Kp, "AFF_KI": Ki}
     fields = dict(_MACRO_FIELDS)
-    if compensator.start is not None:
-        e = compensator.start.estimate
+    if ff.start is not None:
+        e = ff.start.estimate
         config.update({"AFF_START_FC": float(e.Fc), "AFF_START_FS": float(e.Fs), "AFF_START_SIGMA": float(e.sigma),
                        "AFF_START_TAU": float(e.tau)})
         fields.update(_START_FIELDS)
+    config.update({"AFF_W_MAX": w_max, "AFF_U_GUARD": 2.0 * u_max, "AFF_HOLD_TIME": hold_time,
+                   "AFF_OBSERVER": int(ptr.use_residual), "AFF_SUPERVISOR": int(ptr.use_supervisor)})
     macros = {k: (config[k], fields[k]) for k in fields if k in config}
     headers, sources = c_closure()
     out = _prepare_out(out, force)
     from adaptive_ff._caff import ffi
 
-    ptr = compensator.cdata
     ctype = ffi.typeof(ptr).item
     cname = ctype.cname.replace("struct ", "")  # the typedef of the C core: typedef struct x {...} x;
     big: list = []
     init = struct_initializer(ffi, ptr[0], ctype, macros=macros, too_large_for_float=big)
+    guard = ("{\n    .Tc = (aff_real)AFF_TC,\n    .w_max = (aff_real)AFF_W_MAX,\n    .u_max = (aff_real)AFF_U_GUARD,\n"
+             "    .hold_time = (aff_real)AFF_HOLD_TIME,\n}")
     h_text, c_text = amalgamate(headers, sources, origin)
     notes = []
     if big:
@@ -631,7 +694,7 @@ def export_c(compensator, out, *, J_design: float, u_max: float, Kp: float, Ki: 
         example = example.replace(key, c_literal(v))
     texts = {"aff.h": h_text, "aff.c": c_text,
              "aff_config.h": _config_header(config, origin, cname),
-             "aff_config.c": _config_source(init, origin, cname, big),
+             "aff_config.c": _config_source(init, guard, origin, cname, big),
              "example_loop.c": example, "Makefile": _MAKEFILE.replace("@FLOAT@", "1" if float_default else "0")}
     files = []
     for name in EXPORT_FILES:

@@ -218,7 +218,7 @@ int aff_eq4_ff_sample(aff_eq4_ff *e, aff_real u, aff_real w)
     return !refused;
 }
 
-double aff_eq4_ff_compensate(void *self, double w_ctrl, double w_meas, double w_ref)
+aff_real aff_eq4_ff_compensate(void *self, aff_real w_ctrl, aff_real w_meas, aff_real w_ref)
 {
     aff_eq4_ff *e = (aff_eq4_ff *)self;
     if (e->due == 0) { /* period k > 0 with k % m == 0 (a countdown: no integer division per period) */
@@ -241,7 +241,7 @@ double aff_eq4_ff_compensate(void *self, double w_ctrl, double w_meas, double w_
     return aff_fixed_ff_compensate(&e->ff, w_ctrl, w_meas, w_ref);
 }
 
-int aff_eq4_ff_observe(void *self, double u, double w_meas, double *theta_out)
+int aff_eq4_ff_observe(void *self, aff_real u, aff_real w_meas, aff_real *theta_out)
 {
     aff_eq4_ff *e = (aff_eq4_ff *)self;
     long i;
@@ -256,4 +256,4 @@ int aff_eq4_ff_observe(void *self, double u, double w_meas, double *theta_out)
     return 1;
 }
 
-const aff_compensator_ops aff_eq4_ff_ops = {"adaptive", aff_eq4_ff_compensate, aff_eq4_ff_observe, NULL};
+const aff_compensator_ops aff_eq4_ff_ops = {"adaptive", aff_eq4_ff_compensate, aff_eq4_ff_observe, NULL, NULL};

@@ -133,13 +133,13 @@ int aff_eq4_ff_sample(aff_eq4_ff *e, aff_real u, aff_real w);
 /* Compensator interface (aff_compensator.h), self an aff_eq4_ff: in every m-th period (from the m-th on) a
  * sample (the previous period's torque, w_meas), then the feedforward (aff_fixed_ff_compensate at w_ctrl/w_ref;
  * during the provisional start aff_fixed_ff_start_output). */
-double aff_eq4_ff_compensate(void *self, double w_ctrl, double w_meas, double w_ref);
+aff_real aff_eq4_ff_compensate(void *self, aff_real w_ctrl, aff_real w_meas, aff_real w_ref);
 
 /* Compensator interface: step the feedforward's sign observer (aff_fixed_ff_observe), store the applied torque u
  * (N*m) for the next sample; returns 1 in a period that took
  * a sample (refused ones included), then theta (of rls, with iv of ivrls) is written into theta_out[0..p-1] (if
  * not NULL), else 0. */
-int aff_eq4_ff_observe(void *self, double u, double w_meas, double *theta_out);
+int aff_eq4_ff_observe(void *self, aff_real u, aff_real w_meas, aff_real *theta_out);
 
 /* The ops table of the eq. 4 feedforward (name "adaptive"). */
 extern const aff_compensator_ops aff_eq4_ff_ops;

@@ -50,7 +50,7 @@ aff_real aff_fixed_ff_static(const aff_fixed_ff *f, aff_real w)
         m.Vs = f->Vs;
         m.delta = f->delta;
         m.sigma = 0.0;
-        m.wcut = INFINITY;
+        m.wcut = (aff_real)INFINITY;
         mag = plant_stribeck_eval(&m, aw);
     } else {
         mag = f->Fc;
@@ -58,7 +58,7 @@ aff_real aff_fixed_ff_static(const aff_fixed_ff *f, aff_real w)
     sw = f->sign_width;
     if (sw > 0 && aw < sw)
         return mag * (w / sw) + f->sigma * w;
-    return (aff_real)copysign(mag, w) + f->sigma * w;
+    return AFF_COPYSIGN(mag, w) + f->sigma * w;
 }
 
 static aff_real held(const aff_fixed_ff *f)
@@ -114,7 +114,7 @@ aff_real aff_fixed_ff_start_output(aff_fixed_ff *f, aff_real w_ctrl, aff_real w_
     return aff_fixed_ff_at(f, w_ctrl, w_stuck, w_ref) * gain;
 }
 
-double aff_fixed_ff_compensate(void *self, double w_ctrl, double w_meas, double w_ref)
+aff_real aff_fixed_ff_compensate(void *self, aff_real w_ctrl, aff_real w_meas, aff_real w_ref)
 {
     aff_fixed_ff *f = (aff_fixed_ff *)self;
     aff_real w_stuck = aff_loop_model_step(&f->lm, (aff_real)w_ctrl, (aff_real)w_ref);
@@ -124,7 +124,7 @@ double aff_fixed_ff_compensate(void *self, double w_ctrl, double w_meas, double 
     return out;
 }
 
-int aff_fixed_ff_observe(void *self, double u, double w_meas, double *theta_out)
+int aff_fixed_ff_observe(void *self, aff_real u, aff_real w_meas, aff_real *theta_out)
 {
     aff_fixed_ff *f = (aff_fixed_ff *)self;
     (void)w_meas;
@@ -133,7 +133,7 @@ int aff_fixed_ff_observe(void *self, double u, double w_meas, double *theta_out)
     return 0;
 }
 
-const aff_compensator_ops aff_fixed_ff_ops = {"fixed", aff_fixed_ff_compensate, aff_fixed_ff_observe, NULL};
+const aff_compensator_ops aff_fixed_ff_ops = {"fixed", aff_fixed_ff_compensate, aff_fixed_ff_observe, NULL, NULL};
 
 int aff_project_levels(aff_physical *e, aff_real tau_max, aff_real F_max)
 {

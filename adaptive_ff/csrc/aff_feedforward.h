@@ -80,11 +80,11 @@ aff_real aff_fixed_ff_start_output(aff_fixed_ff *f, aff_real w_ctrl, aff_real w_
 
 /* Compensator interface (aff_compensator.h), self an aff_fixed_ff: the loop model's period, then
  * aff_fixed_ff_at; the output is recorded in u_out. Python: FrictionFeedforward.compensate. */
-double aff_fixed_ff_compensate(void *self, double w_ctrl, double w_meas, double w_ref);
+aff_real aff_fixed_ff_compensate(void *self, aff_real w_ctrl, aff_real w_meas, aff_real w_ref);
 
 /* Compensator interface: nothing to learn (returns 0, theta_out untouched); the sign observer takes the applied
  * torque u (N*m). Python: FrictionFeedforward.observe. */
-int aff_fixed_ff_observe(void *self, double u, double w_meas, double *theta_out);
+int aff_fixed_ff_observe(void *self, aff_real u, aff_real w_meas, aff_real *theta_out);
 
 /* The ops table of the fixed feedforward (name "fixed"). */
 extern const aff_compensator_ops aff_fixed_ff_ops;

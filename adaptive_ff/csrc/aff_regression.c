@@ -49,14 +49,14 @@ void aff_eq4_to_physical(const aff_real *theta, aff_real Ts, int lag, int stribe
         d1 = theta[j++];
     o1 = offset ? theta[j] : (aff_real)0.0;
     gain = b0 - b1;
-    inv = gain != 0 ? (aff_real)1.0 / gain : (aff_real)copysign(INFINITY, gain);
+    inv = gain != 0 ? (aff_real)1.0 / gain : AFF_COPYSIGN((aff_real)INFINITY, gain);
     out->J = Ts * (a1 - (aff_real)2.0 * a2) * inv;
     out->tau = Ts * b1 * inv;
     out->sigma = ((aff_real)1.0 - a1 + a2) * inv;
     out->Fc = c1 * inv;
     out->Fs = d1 * inv;
     out->offset = o1 * inv;
-    out->J_alt = b1 != 0 ? Ts * a2 / b1 : NAN;
+    out->J_alt = b1 != 0 ? Ts * a2 / b1 : (aff_real)NAN;
 }
 
 aff_real aff_eq4_static_gradient(const aff_real *theta, int lag, int stribeck, int offset, aff_real w, aff_real shape,

@@ -12,8 +12,8 @@ int aff_rls_init(aff_rls *r, long p, int scheme, aff_real lam, aff_real P_max, a
     r->P_max = P_max;
     r->has_bounds = 0;
     for (i = 0; i < AFF_RLS_NMAX; i++) {
-        r->lower[i] = -INFINITY;
-        r->upper[i] = INFINITY;
+        r->lower[i] = -(aff_real)INFINITY;
+        r->upper[i] = (aff_real)INFINITY;
         r->theta[i] = 0;
         r->v[i] = 0;
     }
@@ -117,7 +117,7 @@ aff_real aff_rls_step(aff_rls *r, const aff_real *phi, aff_real y)
     }
     if (!(isfinite(e * e) && isfinite(rr) && isfinite(vv))) {
         r->n_rejected++;
-        return NAN;
+        return (aff_real)NAN;
     }
     if (scheme == AFF_RLS_VECTOR) {
         /* inflate P <- D.P (unless that exceeds the trace bound), then a unit-weight update */
@@ -213,7 +213,7 @@ aff_real aff_rls_update(aff_rls *r, const aff_real *phi, aff_real y)
 {
     if (nonfinite(phi, y, r->p)) {
         r->n_rejected++;
-        return NAN;
+        return (aff_real)NAN;
     }
     return aff_rls_step(r, phi, y);
 }

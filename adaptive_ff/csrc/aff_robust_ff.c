@@ -3,7 +3,7 @@
 #include "aff_robust_ff.h"
 
 /* Fraction of the RLS prior variance below which the data have determined Fc (Python: FC_INFO_FRACTION). */
-static const aff_real FC_INFO_FRACTION = 0.01;
+static const aff_real FC_INFO_FRACTION = (aff_real)0.01;
 
 void aff_robust_ff_init(aff_robust_ff *r, const aff_fixed_ff *ff, const aff_sliding *est, long warmup,
                         aff_real fade, aff_real J_lo, aff_real J_hi, aff_real tau_max, aff_real consistency,
@@ -29,7 +29,7 @@ void aff_robust_ff_init(aff_robust_ff *r, const aff_fixed_ff *ff, const aff_slid
     r->lag_zero = lag_zero;
     r->project = project != 0;
     for (i = 0; i < AFF_RLS_NMAX; i++)
-        r->theta_used[i] = NAN;
+        r->theta_used[i] = (aff_real)NAN;
 }
 
 void aff_robust_ff_start(aff_robust_ff *r, aff_real Fc, aff_real Fs, aff_real Vs, aff_real delta, aff_real sigma,
@@ -60,7 +60,7 @@ static aff_real output(aff_robust_ff *r, aff_real w_ctrl, aff_real w_ref)
     return out;
 }
 
-double aff_robust_ff_compensate(void *self, double w_ctrl, double w_meas, double w_ref)
+aff_real aff_robust_ff_compensate(void *self, aff_real w_ctrl, aff_real w_meas, aff_real w_ref)
 {
     aff_robust_ff *r = (aff_robust_ff *)self;
     aff_real out = output(r, (aff_real)w_ctrl, (aff_real)w_ref);
@@ -72,7 +72,7 @@ double aff_robust_ff_compensate(void *self, double w_ctrl, double w_meas, double
 int aff_fc_determined(aff_real max_rel_stderr, aff_real e2, aff_real P_FcFc, aff_real P_prior, aff_real eFc,
                       aff_real eFs)
 {
-    if (!(max_rel_stderr < INFINITY))
+    if (!(max_rel_stderr < (aff_real)INFINITY))
         return 1;
     return AFF_SQRT(aff_max2(e2 * P_FcFc, 0.0)) <= max_rel_stderr * aff_max2(eFc, eFs)
            && P_FcFc <= FC_INFO_FRACTION * P_prior;
@@ -135,14 +135,14 @@ aff_real aff_robust_ff_lag_weighted(aff_robust_ff *r, aff_real tau, aff_real sd)
 }
 
 int aff_project_box(long p, const aff_real *P, const aff_real *theta, const aff_real *lo, const aff_real *hi,
-                    aff_real *x)
+                    aff_real *x, aff_real *work)
 {
     int side[AFF_RLS_NMAX];      /* working set: 0 free, -1 held at lo, +1 held at hi */
     long W[AFF_RLS_NMAX];        /* indices of the working set */
-    aff_real th[AFF_RLS_NMAX];   /* theta (x may alias it) */
-    aff_real L[AFF_RLS_NMAX * AFF_RLS_NMAX]; /* Cholesky factor of P[W, W], row-major, row length p */
-    aff_real mu[AFF_RLS_NMAX];   /* multipliers: P[W, W] mu = b_W - theta_W */
-    aff_real z[AFF_RLS_NMAX];    /* minimiser with W held */
+    aff_real *L = work;          /* Cholesky factor of P[W, W], row-major, row length p (p*p) */
+    aff_real *th = L + p * p;    /* theta (x may alias it) */
+    aff_real *mu = th + p;       /* multipliers: P[W, W] mu = b_W - theta_W */
+    aff_real *z = mu + p;        /* minimiser with W held */
     long i, j, k, nw, it, blk;
     int bside, nact;
     aff_real alpha, worst;
@@ -150,7 +150,7 @@ int aff_project_box(long p, const aff_real *P, const aff_real *theta, const aff_
         return -1;
     nact = 0;
     for (i = 0; i < p; i++) {
-        if (!(lo[i] <= hi[i] && lo[i] < INFINITY && hi[i] > -INFINITY))
+        if (!(lo[i] <= hi[i] && lo[i] < (aff_real)INFINITY && hi[i] > -(aff_real)INFINITY))
             return -1;
         th[i] = theta[i];
         x[i] = th[i];
@@ -278,8 +278,8 @@ static void plausible_box(const aff_robust_ff *r, aff_real *lo, aff_real *hi)
     long p = r->est.p;
     long i, k = 1;
     for (i = 0; i < p; i++) {
-        lo[i] = -INFINITY;
-        hi[i] = INFINITY;
+        lo[i] = -(aff_real)INFINITY;
+        hi[i] = (aff_real)INFINITY;
     }
     if (r->est.lag) {
         lo[1] = 0.0;
@@ -312,7 +312,8 @@ int aff_robust_ff_decide(aff_robust_ff *r)
          * Kalman-filter form of RLS: Ljung, System Identification, 2nd ed., 1999, Sec. 11.2; at least two periods,
          * the shortest lag lag_consistent tests) */
         aff_real sd = AFF_SQRT(aff_max2(e2 * aff_rls_P(rls, 2, 2), 0.0));
-        aff_real tol = r->lag_zero < INFINITY ? aff_max2(r->lag_zero * sd, (aff_real)2.0 * r->ff.dt) : INFINITY;
+        aff_real tol = r->lag_zero < (aff_real)INFINITY ? aff_max2(r->lag_zero * sd, (aff_real)2.0 * r->ff.dt)
+                                                        : (aff_real)INFINITY;
         if (!(x[2] >= -tol)) {
             r->n_implausible++;
             return 0;
@@ -329,8 +330,8 @@ int aff_robust_ff_decide(aff_robust_ff *r)
         int nb;
         plausible_box(r, lo, hi);
         if (lag && !(r->lag_zero > 0))
-            lo[2] = -INFINITY; /* lag_zero 0: a negative lag is refused below, not projected */
-        nb = aff_project_box(p, rls->P, rls->theta, lo, hi, x);
+            lo[2] = -(aff_real)INFINITY; /* lag_zero 0: a negative lag is refused below, not projected */
+        nb = aff_project_box(p, rls->P, rls->theta, lo, hi, x, r->work);
         if (nb < 0) {
             r->n_implausible++;
             return 0;
@@ -341,11 +342,11 @@ int aff_robust_ff_decide(aff_robust_ff *r)
     eJ = x[0];
     if (lag) {
         etau = x[2];
-        eJalt = etau > 0 ? x[1] / etau : NAN;
+        eJalt = etau > 0 ? x[1] / etau : (aff_real)NAN;
         iFc = 3;
     } else {
         etau = 0.0;
-        eJalt = NAN;
+        eJalt = (aff_real)NAN;
         iFc = 1;
     }
     eFc = x[iFc];
@@ -387,7 +388,7 @@ int aff_robust_ff_decide(aff_robust_ff *r)
     return r->held ? 2 : 1;
 }
 
-int aff_robust_ff_observe(void *self, double u, double w_meas, double *theta_out)
+int aff_robust_ff_observe(void *self, aff_real u, aff_real w_meas, aff_real *theta_out)
 {
     aff_robust_ff *r = (aff_robust_ff *)self;
     aff_sliding *est = &r->est;
@@ -407,4 +408,4 @@ int aff_robust_ff_observe(void *self, double u, double w_meas, double *theta_out
     return 1;
 }
 
-const aff_compensator_ops aff_robust_ff_ops = {"adaptive", aff_robust_ff_compensate, aff_robust_ff_observe, NULL};
+const aff_compensator_ops aff_robust_ff_ops = {"adaptive", aff_robust_ff_compensate, aff_robust_ff_observe, NULL, NULL};

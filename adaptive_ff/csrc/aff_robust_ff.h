@@ -22,6 +22,10 @@
 #include "aff_feedforward.h"
 #include "aff_sliding.h"
 
+/* Entries of aff_project_box's workspace for p parameters, and for the largest p (AFF_RLS_NMAX). */
+#define AFF_PROJECT_WORK(p) ((p) * ((p) + 3))
+#define AFF_PROJECT_WORK_NMAX (AFF_RLS_NMAX * (AFF_RLS_NMAX + 3))
+
 typedef struct aff_robust_ff {
     aff_fixed_ff ff;              /* the feedforward; its estimate is the one in use */
     /* configuration */
@@ -52,6 +56,7 @@ typedef struct aff_robust_ff {
     aff_real lag_mean;            /* weighted mean of the lag estimates (s) */
     aff_real lag_info;            /* its total weight (1/s^2) */
     aff_real theta_used[AFF_RLS_NMAX]; /* the estimate in use as a theta (the projected copy; NaN before) */
+    aff_real work[AFF_PROJECT_WORK_NMAX]; /* scratch of aff_project_box (not state: off the stack of a drive) */
     aff_sliding est;              /* the online estimator */
 } aff_robust_ff;
 
@@ -76,10 +81,11 @@ void aff_robust_ff_init(aff_robust_ff *r, const aff_fixed_ff *ff, const aff_slid
  * conditional mean x = theta + P[:, W] mu, P[W, W] mu = b_W - theta_W (Cholesky), and mu is the bound's multiplier
  * (>= 0 at a lower, <= 0 at an upper bound). Work: at most 8*p + 8 iterations of O(p^3). Returns the number of
  * bounds active at x (0: x = theta), or -1 (x undefined) if p is outside 1..AFF_RLS_NMAX, a bound pair is empty (or lo +inf, hi -inf),
- * a P[W, W] is not numerically positive definite, or the iterations run out. Python:
+ * a P[W, W] is not numerically positive definite, or the iterations run out. work: scratch of at least
+ * AFF_PROJECT_WORK(p) entries (the caller's, so that a drive's stack stays small). Python:
  * adaptive_ff.compensation.adaptive_feedforward.project_box. */
 int aff_project_box(long p, const aff_real *P, const aff_real *theta, const aff_real *lo, const aff_real *hi,
-                    aff_real *x);
+                    aff_real *x, aff_real *work);
 
 /* The estimator's current theta through the tests of the safety chain (what aff_robust_ff_observe does after an
  * RLS update past warm-up): the lag-zero test, the projection, range checks, determinacy of Fc, lag consistency;
@@ -111,12 +117,12 @@ aff_real aff_robust_ff_lag_weighted(aff_robust_ff *r, aff_real tau, aff_real sd)
 /* Compensator interface (aff_compensator.h), self an aff_robust_ff: the loop model's period; 0 before
  * switch-on; the start map times start_gain during the provisional start; else the feedforward, faded in.
  * Python: RobustAdaptiveFeedforward.compensate. */
-double aff_robust_ff_compensate(void *self, double w_ctrl, double w_meas, double w_ref);
+aff_real aff_robust_ff_compensate(void *self, aff_real w_ctrl, aff_real w_meas, aff_real w_ref);
 
 /* Compensator interface: the sign observer takes u, the estimator the sample (u N*m, w_meas rad/s), then the
  * tests and the estimate in use. Returns 1 after an RLS update (theta written into theta_out[0..p-1] if not
  * NULL), else 0. Python: RobustAdaptiveFeedforward.observe. */
-int aff_robust_ff_observe(void *self, double u, double w_meas, double *theta_out);
+int aff_robust_ff_observe(void *self, aff_real u, aff_real w_meas, aff_real *theta_out);
 
 /* The ops table of the robust adaptive feedforward (name "adaptive"). */
 extern const aff_compensator_ops aff_robust_ff_ops;

@@ -4,7 +4,7 @@
 #include "plant_stribeck.h"
 
 /* E|second difference|/sigma for white noise: sqrt(6)*sqrt(2/pi) (the double nearest, as Python computes it). */
-static const aff_real NOISE_GAIN = 1.9544100476116797;
+static const aff_real NOISE_GAIN = (aff_real)1.9544100476116797;
 /* the near-zero band in noise standard deviations */
 static const aff_real BAND_SIGMAS = 4.0;
 

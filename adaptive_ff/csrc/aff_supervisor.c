@@ -34,12 +34,13 @@ int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real o
     s->delay = delay;
     s->a = (aff_real)1.0 - AFF_EXP(-Tc * omega);
     s->b = (aff_real)1.0 - AFF_EXP(-Tc / window);
-    double ns = ceil(5.0 / ((double)omega * (double)Tc));
-    double nd = floor((double)settle / (double)Tc + 0.5);
-    s->n_start = (long)(ns < 1e9 ? ns : 1e9);
-    double nh = ceil(1.0 / ((double)omega * (double)Tc));
-    s->n_hold = nh < 2.0 ? 2 : (long)(nh < 1e9 ? nh : 1e9); /* bounded: a 32-bit long holds it (never reached in practice) */
-    s->n_decide = s->n_start + (long)(nd < 1e9 ? nd : 1e9);
+    const aff_real big = (aff_real)1e9; /* bounded: a 32-bit long holds it (never reached in practice) */
+    aff_real ns = AFF_CEIL((aff_real)5.0 / (omega * Tc));
+    aff_real nd = AFF_FLOOR(settle / Tc + (aff_real)0.5);
+    s->n_start = (long)(ns < big ? ns : big);
+    aff_real nh = AFF_CEIL((aff_real)1.0 / (omega * Tc));
+    s->n_hold = nh < 2 ? 2 : (long)(nh < big ? nh : big);
+    s->n_decide = s->n_start + (long)(nd < big ? nd : big);
     s->on = 1;
     s->applied_on = 1;
     s->transfer = 0;
@@ -63,7 +64,7 @@ int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real o
     return 0;
 }
 
-double aff_supervisor_apply(aff_supervisor *s, double u_c, double w_ref)
+aff_real aff_supervisor_apply(aff_supervisor *s, aff_real u_c, aff_real w_ref)
 {
     int still = AFF_FABS((aff_real)w_ref) <= s->rest_band;
     s->n_still = still ? (s->n_still < s->n_hold ? s->n_still + 1 : s->n_hold) : 0;
@@ -72,16 +73,16 @@ double aff_supervisor_apply(aff_supervisor *s, double u_c, double w_ref)
     s->transfer = 0;
     if (s->rest) {
         s->n_rest += 1;
-        return 0.0;
+        return 0;
     }
     if (s->on != s->applied_on) {
         s->transfer = s->on ? -s->u_c : s->u_c;
         s->applied_on = s->on;
     }
-    return s->on ? u_c : 0.0;
+    return s->on ? u_c : 0;
 }
 
-void aff_supervisor_observe(aff_supervisor *s, double u, double w)
+void aff_supervisor_observe(aff_supervisor *s, aff_real u, aff_real w)
 {
     aff_real uu = (aff_real)u;
     aff_real ww = (aff_real)w;
@@ -124,23 +125,23 @@ void aff_supervisor_observe(aff_supervisor *s, double u, double w)
     }
 }
 
-void aff_supervisor_run(aff_supervisor *s, const double *u_c, const double *w_ref, const double *u,
-                        const double *w, long n, double *applied, double *f_hat, double *r_hat, double *m_f,
-                        double *m_r, int *on)
+void aff_supervisor_run(aff_supervisor *s, const aff_real *u_c, const aff_real *w_ref, const aff_real *u,
+                        const aff_real *w, long n, aff_real *applied, aff_real *f_hat, aff_real *r_hat, aff_real *m_f,
+                        aff_real *m_r, int *on)
 {
     for (long k = 0; k < n; k++) {
-        double y = aff_supervisor_apply(s, u_c[k], w_ref[k]);
+        aff_real y = aff_supervisor_apply(s, u_c[k], w_ref[k]);
         if (applied != NULL)
             applied[k] = y;
         aff_supervisor_observe(s, u[k], w[k]);
         if (f_hat != NULL)
-            f_hat[k] = (double)s->x_f;
+            f_hat[k] = (aff_real)s->x_f;
         if (r_hat != NULL)
-            r_hat[k] = (double)s->x_r;
+            r_hat[k] = (aff_real)s->x_r;
         if (m_f != NULL)
-            m_f[k] = (double)s->m_f;
+            m_f[k] = (aff_real)s->m_f;
         if (m_r != NULL)
-            m_r[k] = (double)s->m_r;
+            m_r[k] = (aff_real)s->m_r;
         if (on != NULL)
             on[k] = s->on;
     }

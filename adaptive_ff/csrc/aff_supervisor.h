@@ -6,7 +6,7 @@
  * the applied torque u (N*m) and the controller's velocity w (rad/s) to aff_supervisor_observe.
  *
  * Test statistic (a disturbance observer of the design inertia J_n, Ohnishi, Shibata, Murakami, "Motion
- * control for advanced mechatronics", IEEE/ASME Trans. Mechatronics 1(1), 1996; the discrete form of ctl_dob:
+ * control for advanced mechatronics", IEEE/ASME Trans. Mechatronics 1(1), 1996; the discrete form of aff_dob:
  * with u(k-1) held over the last period the raw disturbance sample is
  *   v(k) = u(k-1-d) - J_n*(w(k) - w(k-1))/Tc            (aff_dob_raw; d: the measurement delay in periods)
  * and Q the first-order lag x += a*(input - x), a = 1 - exp(-Tc*omega), the exact (zero-order-hold)
@@ -101,11 +101,11 @@ typedef struct aff_supervisor {
 
 /* The raw disturbance sample of a disturbance observer of inertia J_n (kg*m^2): u_last - J_n*(w - w_last)/Tc
  * (N*m), u_last (N*m) the torque held over the period Tc (s) from w_last to w (rad/s). Source: Ohnishi et al.
- * 1996 (above); the one implementation, also ctl_dob's. */
+ * 1996 (above); the one implementation, also aff_dob's. */
 aff_real aff_dob_raw(aff_real u_last, aff_real J_n, aff_real w, aff_real w_last, aff_real Tc);
 
 /* One step of the first-order lag x += a*(input - x) (a in (0, 1], 1 - exp(-Tc*omega)); returns the new x.
- * The one implementation of the Q-filter's stage, also ctl_dob's. */
+ * The one implementation of the Q-filter's stage, also aff_dob's. */
 aff_real aff_lag_step(aff_real *x, aff_real a, aff_real input);
 
 /* Configure s and clear its state (on, statistics and counters 0, no velocity yet, the previous reference
@@ -118,17 +118,17 @@ int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real o
 /* This period's compensation: keeps the candidate u_c (N*m); returns it while on and the reference w_ref
  * (rad/s) is moving, else 0; sets transfer (N*m; bumpless transfer, header comment): outside rest, u_c when it
  * switched off since the last apply outside rest, -u_c when on, else 0. */
-double aff_supervisor_apply(aff_supervisor *s, double u_c, double w_ref);
+aff_real aff_supervisor_apply(aff_supervisor *s, aff_real u_c, aff_real w_ref);
 
 /* After the PI: advance the statistics with the applied torque u (N*m) and the controller's velocity w (rad/s)
  * of this period and decide (header comment). Non-finite u or w: skipped (counted). */
-void aff_supervisor_observe(aff_supervisor *s, double u, double w);
+void aff_supervisor_observe(aff_supervisor *s, aff_real u, aff_real w);
 
 /* Run s over n periods: apply(u_c[k], w_ref[k]) into applied[k] (may be NULL), then observe(u[k], w[k]); the
  * state after each period into f_hat, r_hat, m_f, m_r (each may be NULL) and on[k] (may be NULL). For tests and offline
  * replay of a log. */
-void aff_supervisor_run(aff_supervisor *s, const double *u_c, const double *w_ref, const double *u,
-                        const double *w, long n,
-                        double *applied, double *f_hat, double *r_hat, double *m_f, double *m_r, int *on);
+void aff_supervisor_run(aff_supervisor *s, const aff_real *u_c, const aff_real *w_ref, const aff_real *u,
+                        const aff_real *w, long n,
+                        aff_real *applied, aff_real *f_hat, aff_real *r_hat, aff_real *m_f, aff_real *m_r, int *on);
 
 #endif

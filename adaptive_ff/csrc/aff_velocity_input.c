@@ -55,7 +55,7 @@ aff_real aff_sign_observer_signed(aff_sign_observer *o, aff_real w_ctrl, aff_rea
         o->started = 1;
     }
     if (isfinite(w_ctrl) && -band < w_ctrl && w_ctrl < band)
-        return (aff_real)copysign(AFF_FABS(w_ctrl), o->w_hat);
+        return AFF_COPYSIGN(AFF_FABS(w_ctrl), o->w_hat);
     return w_ctrl;
 }
 

@@ -1,4 +1,4 @@
-"""``adaptive-ff export-c``: the adaptive feedforward, configured from an identification, as a C library for a drive."""
+"""``adaptive-ff export-c``: mode adaptive's compensator, configured from an identification, as a C library for a drive."""
 
 from __future__ import annotations
 
@@ -8,23 +8,30 @@ import math
 import sys
 from pathlib import Path
 
-__all__ = ["register", "run", "compensator_from_file"]
+__all__ = ["register", "run", "compensator_from_file", "FLOAT_MAX"]
+
+#: The largest finite float32 (N·m, rad/s): a setting of the export must fit the float build.
+FLOAT_MAX = 3.4028234663852886e38
 
 _EPILOG = """\
-The compensator is the feedforward of the 'adaptive' mode (adaptive_ff.RobustAdaptiveFeedforward on a
-SlidingFrictionEstimator) alone: not the residual observer that 'adaptive' switches in where the feedforward
-misses, nor the supervisor that backs the compensation off where it hurts (the package's engine adds both; in
-'compare', '--no-switch-in' leaves the first out). It is configured as 'compare' configures it: the
-identification's Stribeck factors Vs and delta ('identify --Vs --delta ... --json'), its inertia as the
-design inertia, its friction levels as the estimator's start, a feedforward bound of half your drive's
-torque limit and a stick band of three times the identified velocity noise. The PI gains of the example loop (and of the
-compensator's stick fallback, the nominal loop model) are --Kp/--Ki, or designed as 'design --from'
-does (--crossover, --phase-margin).
+The compensator is mode 'adaptive' as the package runs it (one C struct, aff_adaptive): the adaptive
+feedforward (adaptive_ff.RobustAdaptiveFeedforward on a SlidingFrictionEstimator), the residual observer it
+switches in where the feedforward misses (with the switch-in's trial) and the supervisor that backs the
+compensation off where it hurts, with its rest rule. --feedforward-only writes the feedforward alone (no
+observer, no supervisor). It is configured as 'compare' configures it: the identification's Stribeck factors
+Vs and delta ('identify --Vs --delta ... --json'), its inertia as the design inertia (of the estimator, the
+observer, the switch-in's loop model and the supervisor), its friction levels as the estimator's start, a
+feedforward bound of half your drive's torque limit, a stick band of three times the identified velocity
+noise and the residual observer's cut-off from that noise and the identified friction level. The PI gains of
+the example loop (and of the switch-in's loop model and the stick fallback) are --Kp/--Ki, or designed as
+'design --from' does (--crossover, --phase-margin). Every input of the drive's calls passes an input guard
+(--w-max, twice --u-max, --hold-time): a bad sample drops its period and holds the output.
 
 Writes into DIR: aff.h (the API, one header), aff.c (the package's C code of the compensator, one file),
 aff_config.h (the settings as macros: AFF_TC, AFF_TS, AFF_VS, AFF_DELTA, AFF_J_DESIGN, AFF_U_MAX,
-AFF_FF_MAX, AFF_KP, AFF_KI), aff_config.c (AFF_INITIAL, the configured compensator), example_loop.c (a
-1 kHz loop: read velocity, aff_step, PI, write torque, aff_observe) and a Makefile ('make': libaff.a and
+AFF_FF_MAX, AFF_KP, AFF_KI, AFF_W_MAX, AFF_HOLD_TIME, ...), aff_config.c (AFF_INITIAL, the configured
+compensator; AFF_GUARD, the input guard), example_loop.c (a 1 kHz loop: read velocity, aff_step,
+aff_transfer into the PI, write torque, aff_observe) and a Makefile ('make': libaff.a and
 the example in double; 'make FLOAT=1': single precision, -DAFF_FLOAT). C99 and <math.h> only: no malloc,
 no I/O, bounded work per call. An identification with plausibility or identifiability warnings is
 refused with exit status 3 (as 'design --from') unless --accept-warnings.
@@ -60,7 +67,7 @@ def _identified(path):
 
 def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: float | None = None,
                           crossover: float = 20.0, phase_margin: float = 60.0, start: bool = False,
-                          initial: bool = True, **options):
+                          initial: bool = True, feedforward_only: bool = False, **options):
     """The ``adaptive`` mode's compensator configured from an ``identify --json`` file, as ``compare`` configures it.
 
     Parameters
@@ -84,16 +91,21 @@ def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: fl
     initial : bool, keyword-only
         Start the estimator's RLS from the identified ``Fc``, ``Fs``, ``sigma`` and ``J_design`` (default, as
         ``compare`` starts it from its pre-fit) instead of zero friction.
+    feedforward_only : bool, keyword-only
+        The feedforward alone: no residual observer, no supervisor (default False: the whole mode).
     **options
         Fields of :class:`controllers.simulation.compensators.ModeOptions` that override the defaults: ``Tc``
         (1 ms), ``Ts`` (10 ms), ``J_design`` (the identified ``J``), ``Vs``, ``delta`` (the file's), ``ff_max``
         (``u_max/2``), ``stick_band`` (three times the identification's noise estimate, 0 without one),
-        ``stick_samples`` (50), ``warmup`` (50), ...
+        ``stick_samples`` (50), ``warmup`` (50), ``omega_r`` (the residual observer's cut-off,
+        :func:`controllers.experiments.observer_design.residual_cutoff` of the design inertia, the noise estimate
+        and the identified friction level ``max(Fc, Fs)``), ...
 
     Returns
     -------
-    compensator : RobustAdaptiveFeedforward
-        Not yet stepped.
+    compensator : AdaptiveCompensator
+        Mode ``adaptive``'s compensator (:class:`controllers.peers.adaptive_dob.AdaptiveCompensator`), not yet
+        stepped.
     settings : dict
         ``J_design, u_max, Kp, Ki`` and ``joint`` (the identified ``Fc``, ``Fs``, ``sigma`` that are finite and
         >= 0) for :func:`adaptive_ff.compensation.export_c.export_c`, and ``options`` (the ModeOptions used).
@@ -112,6 +124,8 @@ def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: fl
     from controllers.design.pi import design_pi
     from controllers.simulation.compensators import ModeOptions, build_mode
     from plant.errors import ParameterError
+
+    from controllers.experiments.observer_design import residual_cutoff
 
     known = {f.name for f in fields(ModeOptions)} - {"Kp", "Ki", "u_max", "start", "initial"}
     unknown = sorted(set(options) - known)
@@ -152,11 +166,12 @@ def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: fl
     if initial:
         init = FrictionEstimate(J=J_design, tau=0.0, sigma=joint.get("sigma", 0.0), Fc=joint.get("Fc", 0.0),
                                 Fs=joint.get("Fs", 0.0), offset=0.0, Vs=Vs, delta=delta, J_alt=math.nan)
+    level = max(joint.get("Fc", 0.0), joint.get("Fs", 0.0))
     settings = {"ff_max": 0.5 * u_max, "stick_band": 3.0 * noise if noise is not None and noise >= 0 else 0.0,
-                "stick_samples": 50, "warmup": 50, **options}
-    # the exported library is the adaptive feedforward (aff_robust_ff); the residual switch-in of mode adaptive is the
-    # composite ctl_adob of the controllers layer, not part of it
-    settings.setdefault("switch_in", False)
+                "stick_samples": 50, "warmup": 50,
+                "omega_r": residual_cutoff(J_design, noise or 0.0, Tc, level), **options}
+    if feedforward_only:  # the feedforward alone: aff_adaptive without the observer and the supervisor
+        settings.update(switch_in=False, supervise=False)
     opts = ModeOptions(Kp=Kp, Ki=Ki, u_max=u_max, J_design=J_design, Vs=Vs, delta=delta, start=first, initial=init,
                        **settings)
     _, _, comp = build_mode(None, "adaptive", opts)  # None: no plant field is read with J_design given
@@ -177,6 +192,12 @@ def run(args) -> int:
                              "overwrite the exported files in it")
     if not (math.isfinite(args.u_max) and args.u_max > 0.0):
         raise ParameterError(f"--u-max must be a finite torque > 0 (N·m), got {args.u_max!r}")
+    if not 2.0 * args.u_max <= FLOAT_MAX:
+        raise ParameterError(f"--u-max {args.u_max!r} N·m: twice it, the input guard's bound, is beyond what the float "
+                             f"build represents ({FLOAT_MAX:.4g}); give the drive's torque limit")
+    for name, v in (("--w-max", args.w_max), ("--hold-time", args.hold_time)):
+        if not (math.isfinite(v) and 0.0 < v <= FLOAT_MAX):
+            raise ParameterError(f"{name} must be a finite number > 0 (and within the float range), got {v!r}")
     _identified(args.from_file)  # read errors name the file as what it should be: an identification
     refusing = [w for w in warnings_from_file(args.from_file) if w.refusing]
     for w in refusing:
@@ -188,9 +209,11 @@ def run(args) -> int:
     extra = {k: getattr(args, k) for k in ("ff_max", "stick_band") if getattr(args, k) is not None}
     comp, s = compensator_from_file(args.from_file, u_max=args.u_max, Kp=args.Kp, Ki=args.Ki, crossover=args.crossover,
                                     phase_margin=args.phase_margin, start=args.start, Tc=args.Tc, Ts=args.Ts,
-                                    J_design=args.J_design, Vs=args.Vs, delta=args.delta, **extra)
+                                    J_design=args.J_design, Vs=args.Vs, delta=args.delta,
+                                    feedforward_only=args.feedforward_only, **extra)
     res = export_c(comp, out, J_design=s["J_design"], u_max=s["u_max"], Kp=s["Kp"], Ki=s["Ki"], joint=s["joint"],
-                   float_default=args.float, force=args.force, origin=f" for {Path(args.from_file).name}")
+                   w_max=args.w_max, hold_time=args.hold_time, float_default=args.float, force=args.force,
+                   origin=f" for {Path(args.from_file).name}")
     if args.json:
         print(json.dumps(res.to_dict(), indent=2))
     elif not args.quiet:
@@ -200,11 +223,12 @@ def run(args) -> int:
 
 def register(sub) -> None:
     """Add the ``export-c`` subcommand to an argparse subparsers object."""
-    e = sub.add_parser("export-c", help="write the adaptive feedforward as a C library for your drive (C99, "
+    e = sub.add_parser("export-c", help="write mode adaptive's compensator as a C library for your drive (C99, "
                                         "<math.h> only)",
-                       description="Write the adaptive friction feedforward, configured from an identification, as "
-                                   "C sources with one header, its configuration, an example 1 kHz loop and a "
-                                   "Makefile: the package's own C code of the compensator.",
+                       description="Write mode adaptive's friction compensator (the adaptive feedforward, the "
+                                   "residual observer it switches in, the supervisor), configured from an "
+                                   "identification, as C sources with one header, its configuration, an example "
+                                   "1 kHz loop and a Makefile: the package's own C code of the compensator.",
                        epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     e.add_argument("--from", dest="from_file", metavar="FILE", required=True,
                    help="'adaptive-ff identify --Vs ... --delta ... --json' output (Vs, delta, J, sigma)")
@@ -233,6 +257,14 @@ def register(sub) -> None:
     e.add_argument("--start", action="store_true",
                    help="feed the identified friction map forward from the first period until the first "
                         "trusted estimate (a provisional start; default: 0 until the estimator switches on)")
+    e.add_argument("--feedforward-only", action="store_true",
+                   help="export the adaptive feedforward alone, without the residual observer and the supervisor of "
+                        "mode adaptive")
+    e.add_argument("--w-max", type=float, default=1e4, metavar="RAD_S",
+                   help="the input guard's largest plausible velocity in rad/s: a sample beyond it is refused "
+                        "(default 1e4)")
+    e.add_argument("--hold-time", type=float, default=0.1, metavar="S",
+                   help="while inputs are refused the output is held; after this time it fades to 0 (s, default 0.1)")
     e.add_argument("--float", action="store_true",
                    help="make builds single precision by default (AFF_FLOAT; make FLOAT=0 for double)")
     e.add_argument("--accept-warnings", action="store_true",

@@ -43,7 +43,7 @@ int ctl_canudas_init(ctl_canudas *c, aff_real Tc, long m, aff_real w_dead, long 
     return 0;
 }
 
-double ctl_canudas_compensate(void *self, double w_ctrl, double w_meas, double w_ref)
+aff_real ctl_canudas_compensate(void *self, aff_real w_ctrl, aff_real w_meas, aff_real w_ref)
 {
     const ctl_canudas *c = (const ctl_canudas *)self;
     (void)w_meas;
@@ -105,7 +105,7 @@ static int canudas_update(ctl_canudas *c, aff_real w0, aff_real w1, aff_real uba
     return 1;
 }
 
-int ctl_canudas_observe(void *self, double u, double w_meas, double *theta_out)
+int ctl_canudas_observe(void *self, aff_real u, aff_real w_meas, aff_real *theta_out)
 {
     ctl_canudas *c = (ctl_canudas *)self;
     aff_real uu = (aff_real)u;
@@ -143,4 +143,4 @@ int ctl_canudas_observe(void *self, double u, double w_meas, double *theta_out)
     return upd;
 }
 
-const aff_compensator_ops ctl_canudas_ops = {"canudas", ctl_canudas_compensate, ctl_canudas_observe, NULL};
+const aff_compensator_ops ctl_canudas_ops = {"canudas", ctl_canudas_compensate, ctl_canudas_observe, NULL, NULL};

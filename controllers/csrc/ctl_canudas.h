@@ -57,7 +57,7 @@ int ctl_canudas_init(ctl_canudas *c, aff_real Tc, long m, aff_real w_dead, long 
  * period, Fc_pos + sigma_pos*w (w > 0), -Fc_neg + sigma_neg*w (w < 0), 0 at w = 0, clipped to +-ff_max, at
  * w = w_ctrl (ff_measured) or w_ref (rad/s); 0 before switch-on, for a non-finite w or where the map
  * overflows. w_meas unused. */
-double ctl_canudas_compensate(void *self, double w_ctrl, double w_meas, double w_ref);
+aff_real ctl_canudas_compensate(void *self, aff_real w_ctrl, aff_real w_meas, aff_real w_ref);
 
 /* Compensator interface: record the torque u (N*m) applied in this period and the velocity w_meas (rad/s)
  * measured at its start. Every m-th accepted call closes an interval: the row of its mean torque and end
@@ -65,7 +65,7 @@ double ctl_canudas_compensate(void *self, double w_ctrl, double w_meas, double w
  * updates the coefficients follow theta. A sample refused by a range gate is counted (in the failing
  * gate(s) and n_rejected) and spoils the current interval. Returns 1 after an RLS update, then writes theta
  * (5 entries) into theta_out (if not NULL); else 0. */
-int ctl_canudas_observe(void *self, double u, double w_meas, double *theta_out);
+int ctl_canudas_observe(void *self, aff_real u, aff_real w_meas, aff_real *theta_out);
 
 /* The ops table of ctl_canudas (name "canudas"). */
 extern const aff_compensator_ops ctl_canudas_ops;

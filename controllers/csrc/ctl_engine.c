@@ -58,9 +58,14 @@ static int period(const ctl_run *run, ctl_scenario *sc, long k, int where, const
     int rec = sc->rec != NULL && run->decimate > 0 && k % run->decimate == 0;
     double f = (rec || run->oracle) ? plant_friction(par, &sc->plant) : 0.0; /* LuGre: eq. 3 only if used */
     double uff = 0.0;
-    if (sc->ops != NULL)
+    if (sc->ops != NULL) {
         uff = sc->ops->compensate(sc->comp, wc, wm, wrk);
-    else if (run->oracle)
+        if (sc->ops->transfer != NULL) { /* a compensator with its own supervisor (aff_adaptive) */
+            double tr = sc->ops->transfer(sc->comp);
+            if (tr != 0.0)
+                sc->pi.I += tr;
+        }
+    } else if (run->oracle)
         uff = f;
     if (sc->use_supervisor) {
         uff = aff_supervisor_apply(&sc->sup, uff, wrk);

@@ -8,7 +8,9 @@
  *   u_ff = ops->compensate(comp, w_ctrl, w_meas, w_ref[k])  (or the plant's true friction: the oracle);
  *   with a supervisor (aff_supervisor) u_ff is applied only while it helps (else 0), a switch moved into the
  *   PI's integrator (bumpless transfer); with the reference at rest (its rest rule, nothing applied) the
- *   compensator is told, ops->at_rest(comp) (aff_compensator.h; if it has one);
+ *   compensator is told, ops->at_rest(comp) (aff_compensator.h; if it has one); a compensator that carries its
+ *   own supervisor (mode "adaptive", aff_adaptive) reports its transfer through ops->transfer, added to the PI's
+ *   integrator the same way;
  *   u = PI(w_ref[k] - w_ctrl, u_ff) (ctl_pi, saturated), then the drive's slew-rate limit (ctl_drive, if any);
  *   ops->observe(comp, u, w_meas, theta) (the estimate recorded after an update);
  *   the supervisor observes (u, w_ctrl);

@@ -21,7 +21,7 @@ torque, so the inverse-dynamics regression is unchanged).
 
 Compensator component: the C struct ``ctl_adob``
 (``controllers/csrc/ctl_adob.h``) embeds the feedforward's ``aff_robust_ff``
-and the shared part ``ctl_residual`` (the observer's ``ctl_dob``, the switch-in,
+and the shared part ``aff_residual`` (the observer's ``aff_dob``, the switch-in,
 the bound); ``ctl_adob_compensate`` and ``ctl_adob_observe`` (the
 ``aff_compensator_ops`` table ``ctl_adob_ops``) call the parts' C functions on
 them and are the one implementation, called by
@@ -40,7 +40,7 @@ gain (``info()["t_switch_out"]``).
 After a rest of the reference (the supervisor's rest rule withheld the output; the engine calls the ops table's
 ``at_rest``) the feedforward part is held back until the measured velocity moves in the reference's direction
 (``w_ctrl*w_ref > 0``), the observer's estimate applied from the rest's end and the observer told that no
-feedforward was applied; before the switch-in of mode ``adaptive`` the output is then 0 (C ``ctl_residual_at_rest``;
+feedforward was applied; before the switch-in of mode ``adaptive`` the output is then 0 (C ``aff_residual_at_rest``;
 the open bench's zoo joint #25, docs/benchmarks/compensation.md, "The composite's observer at rest").
 """
 
@@ -52,12 +52,13 @@ from typing import NamedTuple
 
 from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
 from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
+from adaptive_ff.compensation.supervisor import FeedforwardSupervisor
 from controllers._cctl import ffi, lib
 from controllers.peers.dob import DisturbanceObserver
 from plant.component import Component
 from plant.errors import ParameterError, check_nonnegative, check_positive
 
-__all__ = ["AdaptiveDOBCompensator", "ResidualSwitchIn"]
+__all__ = ["AdaptiveDOBCompensator", "AdaptiveCompensator", "ResidualSwitchIn"]
 
 
 class _Composite(NamedTuple):
@@ -81,7 +82,7 @@ _BY_CTYPE = {c.ctype: c for c in _COMPOSITES.values()}
 
 @dataclass(frozen=True)
 class ResidualSwitchIn:
-    """Settings of the residual switch-in of mode ``adaptive`` (C ``ctl_switch_in``, ``controllers/csrc/ctl_adob.h``).
+    """Settings of the residual switch-in of mode ``adaptive`` (C ``aff_switch_in``, ``controllers/csrc/ctl_adob.h``).
 
     The loop's linear model (design inertia ``J_n``, PI gains ``Kp``, ``Ki``) predicts the frictionless loop's error
     on the reference and the velocity that the observer's residual estimate ``d_hat`` adds to it; the loop being
@@ -231,9 +232,9 @@ class AdaptiveDOBCompensator(Component):
         composite.init(self._c, feedforward.cdata, observer.cdata, u_max)
         if switch_in is not None:
             s = switch_in
-            if lib.ctl_residual_set_switch_in(ffi.addressof(self._c, "res"), s.Tc, s.J_n, s.Kp, s.Ki, s.window,
+            if lib.aff_residual_set_switch_in(ffi.addressof(self._c, "res"), s.Tc, s.J_n, s.Kp, s.Ki, s.window,
                                               s.ratio, s.share, s.fade_in, s.trial_margin) != 0:
-                raise ParameterError(f"switch_in refused by ctl_residual_set_switch_in: {s!r}")
+                raise ParameterError(f"switch_in refused by aff_residual_set_switch_in: {s!r}")
         self._attached()
 
     def _attached(self) -> None:
@@ -255,7 +256,7 @@ class AdaptiveDOBCompensator(Component):
                         "held after a rest, once the observer's estimate is applied).")
     held = property(lambda self: bool(self._c.res.held),
                     doc="Whether the feedforward part is held back after a rest until the joint moves in the "
-                        "reference's direction (C ``ctl_residual_at_rest``).")
+                        "reference's direction (C ``aff_residual_at_rest``).")
     n_held = property(lambda self: int(self._c.res.n_held),
                       doc="Periods outside rest in which the feedforward part was held back after a rest.")
 
@@ -302,13 +303,13 @@ class AdaptiveDOBCompensator(Component):
         not yet judged) and ``trial_ratio`` (the loop's measured mean-square error against the frictionless loop's
         with the observer in, over the same ratio at the switch-in; the observer is taken out above ``1 +
         trial_margin``; None until the trial has judged, and where there is no trial: after the idle switch-in and
-        after one with more than ``ratio`` to gain). C ``ctl_switch_in``, whose header names the means."""
+        after one with more than ``ratio`` to gain). C ``aff_switch_in``, whose header names the means."""
         d = self.feedforward.info()
         d.update({f"dob_{k}": v for k, v in self.observer.info().items()})
         if self.switch_in is not None:
             sw = self._c.res.sw
             m_l, rises = float(sw.m_l), ffi.new("double[2]")
-            lib.ctl_switch_in_rises(ffi.addressof(self._c.res, "sw"), rises, rises + 1)
+            lib.aff_switch_in_rises(ffi.addressof(self._c.res, "sw"), rises, rises + 1)
             rise_r, rise_f = float(rises[0]), float(rises[1])
             d["t_switch_in"] = self.t_switch_in
             d["residual_ratio"] = rise_r / m_l if m_l > 0.0 else None
@@ -334,10 +335,10 @@ class AdaptiveDOBCompensator(Component):
 
     def at_rest(self) -> None:
         """Compensator protocol, optional: the loop withheld this period's output because the reference rests (the
-        supervisor's rest rule), called between :meth:`compensate` and :meth:`observe` (C ``ctl_residual_at_rest``:
+        supervisor's rest rule), called between :meth:`compensate` and :meth:`observe` (C ``aff_residual_at_rest``:
         the observer told that the feedforward was not applied, and the hold after the rest armed). The engine
         calls it itself; call it when you step the compensator by hand with a rest rule of your own."""
-        lib.ctl_residual_at_rest(ffi.addressof(self._c, "res"))
+        lib.aff_residual_at_rest(ffi.addressof(self._c, "res"))
 
     def observe(self, u: float, w: float) -> bool:
         """Compensator protocol: record the applied torque and the measurement (C ``ctl_adob_observe`` or
@@ -356,3 +357,119 @@ class AdaptiveDOBCompensator(Component):
             True after an RLS update of the estimator.
         """
         return bool(_BY_CTYPE[self._ctype].observe(self._c, float(u), float(w), ffi.NULL))
+
+
+class AdaptiveCompensator(AdaptiveDOBCompensator):
+    """Mode ``adaptive`` as one component: the feedforward, the residual observer it switches in and the supervisor.
+
+    The C struct ``aff_adaptive`` (``adaptive_ff/csrc/aff_adaptive.h``) holds the sliding estimator's robust
+    feedforward, the residual observer with its :class:`ResidualSwitchIn` and trial (``aff_residual``) and the
+    :class:`adaptive_ff.compensation.supervisor.FeedforwardSupervisor` with its rest rule; ``aff_adaptive_compensate``
+    and ``aff_adaptive_observe`` (the ops table ``aff_adaptive_ops``) compose them in the order the closed-loop
+    engine did around the composite, and are the one implementation the engine runs and ``adaptive-ff export-c``
+    writes for a drive (``aff_drive.h``).
+
+    Parameters
+    ----------
+    feedforward : RobustAdaptiveFeedforward
+        The adaptive feedforward with its sliding estimator (copied into the composite's struct; the object points
+        there from now on).
+    observer : DisturbanceObserver or None
+        The observer of the residual ``f - u_ff`` (with ``switch_in``); None: the feedforward without the observer.
+    u_max : float, keyword-only
+        Bound on |u_ff + d_hat| (N·m), default inf.
+    switch_in : ResidualSwitchIn or None, keyword-only
+        The observer's switch-in; None with an observer: the observer always applied (as ``adaptive-dob``).
+    supervisor : FeedforwardSupervisor or None, keyword-only
+        The supervisor of the compensation (copied into the struct; the object points there from now on); None:
+        none.
+
+    Attributes
+    ----------
+    C_OPS : str
+        ``"aff_adaptive_ops"``.
+    cdata : cffi ``aff_adaptive *``
+    supervisor : FeedforwardSupervisor or None
+        Points into the field ``sup``.
+    transfer : float
+        The supervisor's bumpless transfer of the last :meth:`compensate` (N·m): add it to your PI's integrator in
+        that period (0 unless the supervisor switched the compensation on or off).
+
+    Raises
+    ------
+    ParameterError
+        Parts of the wrong type, ``u_max < 0``, a ``switch_in`` without an observer or refused.
+    """
+
+    MODE = "adaptive"
+    C_OPS = "aff_adaptive_ops"
+    _ctype = "aff_adaptive"
+
+    def __init__(self, feedforward: RobustAdaptiveFeedforward, observer: DisturbanceObserver | None = None, *,
+                 u_max: float = math.inf, switch_in: ResidualSwitchIn | None = None,
+                 supervisor: FeedforwardSupervisor | None = None):
+        if not isinstance(feedforward, RobustAdaptiveFeedforward):
+            raise ParameterError(f"feedforward must be a RobustAdaptiveFeedforward, got {type(feedforward).__name__}")
+        if observer is not None and not isinstance(observer, DisturbanceObserver):
+            raise ParameterError(f"observer must be a DisturbanceObserver or None, got {type(observer).__name__}")
+        if switch_in is not None and not isinstance(switch_in, ResidualSwitchIn):
+            raise ParameterError(f"switch_in must be a ResidualSwitchIn or None, got {type(switch_in).__name__}")
+        if switch_in is not None and observer is None:
+            raise ParameterError("switch_in needs an observer (the residual observer it switches in)")
+        if supervisor is not None and not isinstance(supervisor, FeedforwardSupervisor):
+            raise ParameterError(f"supervisor must be a FeedforwardSupervisor or None, got {type(supervisor).__name__}")
+        u_max = math.inf if u_max == math.inf else check_nonnegative("u_max", u_max)
+        self.feedforward = feedforward
+        self.observer = observer
+        self.supervisor = supervisor
+        self.switch_in = switch_in
+        self.n_theta = feedforward.n_theta
+        res = ffi.NULL
+        if observer is not None:
+            res = ffi.new("aff_residual *")
+            lib.aff_residual_init(res, observer.cdata, u_max)
+            s = switch_in
+            if s is not None and lib.aff_residual_set_switch_in(res, s.Tc, s.J_n, s.Kp, s.Ki, s.window, s.ratio,
+                                                                s.share, s.fade_in, s.trial_margin) != 0:
+                raise ParameterError(f"switch_in refused by aff_residual_set_switch_in: {s!r}")
+        self._new_struct()
+        lib.aff_adaptive_init(self._c, feedforward.cdata, res, ffi.NULL if supervisor is None else supervisor.cdata)
+        if observer is None:
+            self._c.res.u_max = u_max
+        self._attached()
+
+    def _attached(self) -> None:
+        """Point the feedforward, the observer and the supervisor into this struct."""
+        self.feedforward._use(ffi.addressof(self._c, "ff"), self)
+        if self.observer is not None:
+            self.observer._use(ffi.addressof(self._c.res, "dob"), self)
+        if self.supervisor is not None:
+            self.supervisor._use(ffi.addressof(self._c, "sup"), self)
+
+    def __repr__(self) -> str:
+        return (f"AdaptiveCompensator({self.estimator!r}, observer={self.observer!r}, switch_in={self.switch_in!r}, "
+                f"supervisor={self.supervisor!r})")
+
+    transfer = property(lambda self: float(self._c.transfer),
+                        doc="The supervisor's bumpless transfer of the last compensate (N·m), for the PI's integrator.")
+
+    def info(self) -> dict:
+        """:meth:`AdaptiveDOBCompensator.info` (without the ``dob_`` keys where there is no observer); the
+        supervisor's counters are its own :meth:`FeedforwardSupervisor.info`."""
+        if self.observer is not None:
+            return super().info()
+        return self.feedforward.info()
+
+    def compensate(self, w_meas: float, w_ref: float) -> float:
+        """Compensator protocol: this period's compensation (N·m), C ``aff_adaptive_compensate`` (the measurement as
+        the controller's); then :attr:`transfer` holds the supervisor's bumpless transfer."""
+        w_meas = float(w_meas)
+        return float(lib.aff_adaptive_compensate(self._c, w_meas, w_meas, float(w_ref)))
+
+    def at_rest(self) -> None:
+        """Nothing to do: the composite's own supervisor tells the observer (C ``aff_adaptive_compensate``)."""
+
+    def observe(self, u: float, w: float) -> bool:
+        """Compensator protocol: the applied torque ``u`` (N·m) and the measured velocity ``w`` (rad/s), C
+        ``aff_adaptive_observe``; True after an RLS update of the estimator."""
+        return bool(lib.aff_adaptive_observe(self._c, float(u), float(w), ffi.NULL))

@@ -9,9 +9,9 @@ estimates the lumped disturbance torque from the nominal inverse plant and
 cancels it within the Q-filter bandwidth.
 
 Compensator component: configuration and state in the C struct
-``ctl_dob`` (``controllers/csrc/ctl_dob.h``, with its two range gates embedded
-as ``aff_range_gate`` fields); ``ctl_dob_compensate`` and ``ctl_dob_observe``
-(the ``aff_compensator_ops`` table ``ctl_dob_ops``) are the one implementation,
+``aff_dob`` (``adaptive_ff/csrc/aff_dob.h``, with its two range gates embedded
+as ``aff_range_gate`` fields); ``aff_dob_compensate`` and ``aff_dob_observe``
+(the ``aff_compensator_ops`` table ``aff_dob_ops``) are the one implementation,
 called by :class:`DisturbanceObserver`'s methods and by the closed-loop engine.
 """
 
@@ -26,8 +26,8 @@ from plant.errors import ParameterError, check_nonnegative, check_positive
 
 __all__ = ["DisturbanceObserver", "DOB_ORDER_MAX"]
 
-#: Highest order of the Q-filter (``CTL_DOB_ORDER_MAX`` of ``controllers/csrc/ctl_dob.h``).
-DOB_ORDER_MAX = len(ffi.new("ctl_dob *").x)
+#: Highest order of the Q-filter (``AFF_DOB_ORDER_MAX`` of ``adaptive_ff/csrc/aff_dob.h``).
+DOB_ORDER_MAX = len(ffi.new("aff_dob *").x)
 
 
 class DisturbanceObserver(Component):
@@ -57,8 +57,8 @@ class DisturbanceObserver(Component):
     Attributes
     ----------
     C_OPS : str
-        ``"ctl_dob_ops"``, the C ops table (``aff_compensator_ops``) the engine calls with :attr:`cdata`.
-    cdata : cffi ``ctl_dob *``
+        ``"aff_dob_ops"``, the C ops table (``aff_compensator_ops``) the engine calls with :attr:`cdata`.
+    cdata : cffi ``aff_dob *``
         Configuration and state (:class:`plant.component.Component`); the range gates' structs are its
         fields ``u_range`` and ``w_range`` (the :class:`RangeGate` objects point into it).
     n_theta : int
@@ -88,10 +88,10 @@ class DisturbanceObserver(Component):
     MODE = "dob"
     #: Name of the C ops table (``ffi.addressof(getattr(controllers._cctl.lib, C_OPS))``: the engine's compensator
     #: interface, see :attr:`ops`).
-    C_OPS = "ctl_dob_ops"
+    C_OPS = "aff_dob_ops"
     n_theta = 0
     _ffi = ffi
-    _ctype = "ctl_dob"
+    _ctype = "aff_dob"
 
     def __init__(self, *, J_n: float, omega_q: float = 500.0, Tc: float, order: int = 2, d_max: float = math.inf,
                  u_range: RangeGate | None = None, w_range: RangeGate | None = None):
@@ -101,7 +101,7 @@ class DisturbanceObserver(Component):
         if isinstance(order, bool) or not isinstance(order, int) or order < 1:
             raise ParameterError(f"order must be an integer >= 1, got {order!r}")
         if order > DOB_ORDER_MAX:
-            raise ParameterError(f"order must be at most {DOB_ORDER_MAX} (CTL_DOB_ORDER_MAX of the C core), "
+            raise ParameterError(f"order must be at most {DOB_ORDER_MAX} (AFF_DOB_ORDER_MAX of the C core), "
                                  f"got {order!r}")
         d_max = math.inf if d_max == math.inf else check_nonnegative("d_max", d_max)
         u_range = RangeGate() if u_range is None else u_range
@@ -110,7 +110,7 @@ class DisturbanceObserver(Component):
             if not isinstance(g, RangeGate):
                 raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
         self._new_struct()
-        lib.ctl_dob_init(self._c, Tc, J_n, omega_q, order, d_max)
+        lib.aff_dob_init(self._c, Tc, J_n, omega_q, order, d_max)
         self.u_range = u_range
         self.w_range = w_range
         self._attached()
@@ -126,7 +126,7 @@ class DisturbanceObserver(Component):
 
     @property
     def ops(self):
-        """Pointer to the C ops table ``ctl_dob_ops`` (``aff_compensator_ops *``)."""
+        """Pointer to the C ops table ``aff_dob_ops`` (``aff_compensator_ops *``)."""
         return ffi.addressof(getattr(lib, self.C_OPS))
 
     @property
@@ -203,7 +203,7 @@ class DisturbanceObserver(Component):
         return {"n_rejected": self.n_rejected, "J_n": self.J_n, "omega_q": self.omega_q}
 
     def compensate(self, w_meas: float, w_ref: float) -> float:
-        """Advance the observer with the measured velocity of this period (C ``ctl_dob_compensate``).
+        """Advance the observer with the measured velocity of this period (C ``aff_dob_compensate``).
 
         Parameters
         ----------
@@ -218,10 +218,10 @@ class DisturbanceObserver(Component):
             The bounded disturbance estimate ``d_hat`` (N·m).
         """
         w_meas = float(w_meas)
-        return lib.ctl_dob_compensate(self._c, w_meas, w_meas, float(w_ref))
+        return lib.aff_dob_compensate(self._c, w_meas, w_meas, float(w_ref))
 
     def observe(self, u: float, w: float) -> None:
-        """Record the torque applied in this period (it drives the next velocity sample; C ``ctl_dob_observe``).
+        """Record the torque applied in this period (it drives the next velocity sample; C ``aff_dob_observe``).
 
         Parameters
         ----------
@@ -230,4 +230,4 @@ class DisturbanceObserver(Component):
         w : float
             Measured velocity (rad/s), unused.
         """
-        lib.ctl_dob_observe(self._c, float(u), float(w), ffi.NULL)
+        lib.aff_dob_observe(self._c, float(u), float(w), ffi.NULL)

@@ -16,7 +16,8 @@ import numpy as np
 
 from adaptive_ff.compensation.gate import OutlierGate
 from controllers.simulation.closed_loop import plant_table, sensor_and_drive
-from controllers.simulation.compensators import MODES, ModeOptions, TrueFriction, build_modes, build_supervisor
+from controllers.simulation.compensators import (MODES, ModeOptions, TrueFriction, build_modes, build_supervisor,
+                                                 own_supervisor)
 from controllers.simulation.engine import EngineRun
 from controllers.simulation.metrics import METRIC_NAMES, metrics_columns, reversal_times, engine_motion
 from plant.errors import ParameterError
@@ -259,12 +260,14 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
         x.set_drive(b, drive)
         x.set_pi(b, ctrls[b])
         x.set_compensator(b, None if oracle else comps[b])
-        sups[b] = None if comps[b] is None or oracle else build_supervisor(plants[b], mode, o)
-        x.set_supervisor(b, sups[b])
+        own = own_supervisor(comps[b])  # applied by the compensator itself (mode adaptive)
+        sups[b] = own if own is not None else (None if comps[b] is None or oracle else
+                                               build_supervisor(plants[b], mode, o))
+        x.set_supervisor(b, None if own is not None else sups[b])
     x.keep(rows)
     x.run()
     for b in range(B):
-        if sups[b] is not None:
+        if sups[b] is not None and own_supervisor(comps[b]) is None:
             x.supervisor_state(b, sups[b])
     _, diverged, _ = x.outcome()
     states = x.metrics()

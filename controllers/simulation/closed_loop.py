@@ -19,7 +19,7 @@ from adaptive_ff.compensation.gate import OutlierGate
 from adaptive_ff.identification.regression import FrictionEstimate
 from controllers.design.pi import PIController
 from controllers.simulation.compensators import (MODES, ESTIMATORS, ModeOptions, TrueFriction, build_mode,
-                                                 build_supervisor)
+                                                 build_supervisor, own_supervisor)
 from controllers.simulation.engine import EngineRun
 from controllers.simulation.memory import MODE_SIGNALS, check_run_memory
 from controllers.simulation.metrics import (LoopMetrics, MotionMetrics, engine_motion, loop_metrics, metrics_result,
@@ -364,6 +364,9 @@ def _run_loop(plant, controller, compensator, reference, *, noise_std, rng, faul
     if supervisor is not None and x.scenarios[0].use_supervisor:
         x.supervisor_state(0, supervisor)
         res.info.update(supervisor.info())
+    own = own_supervisor(compensator)
+    if own is not None:  # the compensator's own (mode adaptive), advanced in its struct
+        res.info.update(own.info())
     return res
 
 
@@ -522,6 +525,7 @@ def run_mode(plant, reference: Reference, mode: str, options: ModeOptions, *, rn
     res = _run_loop(run_plant, controller, compensator, reference, noise_std=options.noise_std, rng=rng,
                     faults=faults, sensor_gate=gate, w_limit=options.w_limit, decimate=options.decimate,
                     reversal_window=options.reversal_window, friction0=None, sensor=sensor, drive=drive,
-                    supervisor=build_supervisor(plant, mode, options))
+                    supervisor=None if own_supervisor(compensator) is not None else
+                    build_supervisor(plant, mode, options))
     info = dict(res.info, Ts=options.Ts, ff_input=options.ff_input)
     return replace(res, mode=mode, info=info)

@@ -36,13 +36,13 @@ from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
 from adaptive_ff.compensation.supervisor import FeedforwardSupervisor
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from controllers.design.pi import PIController
-from controllers.peers.adaptive_dob import AdaptiveDOBCompensator, ResidualSwitchIn
+from controllers.peers.adaptive_dob import AdaptiveCompensator, AdaptiveDOBCompensator, ResidualSwitchIn
 from controllers.peers.canudas import CanudasCompensator
 from controllers.peers.dob import DisturbanceObserver
 from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive, check_positive_or_inf
 
 __all__ = ["MODES", "ESTIMATORS", "check_estimator", "ModeOptions", "TrueFriction", "build_mode", "build_modes",
-           "REGISTRY", "SUPERVISED_MODES", "build_supervisor"]
+           "REGISTRY", "SUPERVISED_MODES", "build_supervisor", "own_supervisor"]
 
 #: Modes whose compensation a :class:`adaptive_ff.compensation.supervisor.FeedforwardSupervisor` watches when
 #: ``ModeOptions.supervise`` (the adaptive ones: their estimate may be wrong).
@@ -391,6 +391,12 @@ def build_supervisor(plant, mode: str, options: ModeOptions, *, force: bool = Fa
                                  delay=int(options.delay))
 
 
+def own_supervisor(comp) -> FeedforwardSupervisor | None:
+    """The supervisor a compensator carries in its own struct (an :class:`AdaptiveCompensator`'s, which it applies
+    itself: the engine then supervises nothing more), else None."""
+    return comp.supervisor if isinstance(comp, AdaptiveCompensator) else None
+
+
 def _loop_model(J: float, o: ModeOptions) -> LoopModel | None:
     """The nominal loop of the stick-detection fallback (``stick_input`` model), from the PI and the design J."""
     return LoopModel(Kp=o.Kp, Ki=o.Ki, J=J) if o.stick_input == "model" else None
@@ -425,12 +431,21 @@ def _fixed(plant, o):
 
 
 def _adaptive(plant, o):
+    """Mode ``adaptive``: over the sliding estimator one :class:`AdaptiveCompensator` (the feedforward, the residual
+    observer it switches in and the supervisor in one C struct, the one a drive runs); over the eq. 4 estimators the
+    composite :class:`AdaptiveDOBCompensator` with the switch-in, supervised by the engine."""
     _, ff = _adaptive_feedforward(plant, o)
-    if not o.switch_in or o.Kp <= 0.0:
-        return plant, ff
+    switch_in = o.switch_in and o.Kp > 0.0
     _, ff_max = _ctx(plant, o)
-    _, dob = _dob(plant, replace(o, omega_q=o.omega_r))
-    sw = ResidualSwitchIn(Tc=o.Tc, J_n=_nominal_inertia(plant, o), Kp=o.Kp, Ki=o.Ki, ratio=o.switch_in_ratio)
+    dob = sw = None
+    if switch_in:
+        _, dob = _dob(plant, replace(o, omega_q=o.omega_r))
+        sw = ResidualSwitchIn(Tc=o.Tc, J_n=_nominal_inertia(plant, o), Kp=o.Kp, Ki=o.Ki, ratio=o.switch_in_ratio)
+    if isinstance(ff, RobustAdaptiveFeedforward):
+        return plant, AdaptiveCompensator(ff, dob, u_max=ff_max if switch_in else math.inf, switch_in=sw,
+                                          supervisor=build_supervisor(plant, "adaptive", o))
+    if not switch_in:
+        return plant, ff
     return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max, switch_in=sw)
 
 

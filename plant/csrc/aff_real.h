@@ -16,6 +16,9 @@ typedef float aff_real;
 #define AFF_FABS fabsf
 #define AFF_SQRT sqrtf
 #define AFF_LOG logf
+#define AFF_FLOOR floorf
+#define AFF_CEIL ceilf
+#define AFF_COPYSIGN copysignf
 #else
 typedef double aff_real;
 #define AFF_EXP exp
@@ -23,6 +26,9 @@ typedef double aff_real;
 #define AFF_FABS fabs
 #define AFF_SQRT sqrt
 #define AFF_LOG log
+#define AFF_FLOOR floor
+#define AFF_CEIL ceil
+#define AFF_COPYSIGN copysign
 #endif
 
 /* Python's min(a, b) and max(a, b) (the first argument unless the second compares smaller/larger): the

@@ -1,10 +1,10 @@
-/* ctl_dob.c -- the disturbance observer (see ctl_dob.h). */
+/* aff_dob.c -- the disturbance observer (see aff_dob.h). */
 #include <stddef.h>
-#include "ctl_dob.h"
+#include "aff_dob.h"
 
-int ctl_dob_init(ctl_dob *d, aff_real Tc, aff_real J_n, aff_real omega_q, long order, aff_real d_max)
+int aff_dob_init(aff_dob *d, aff_real Tc, aff_real J_n, aff_real omega_q, long order, aff_real d_max)
 {
-    if (order < 1 || order > CTL_DOB_ORDER_MAX)
+    if (order < 1 || order > AFF_DOB_ORDER_MAX)
         return -1;
     d->Tc = Tc;
     d->J_n = J_n;
@@ -20,14 +20,14 @@ int ctl_dob_init(ctl_dob *d, aff_real Tc, aff_real J_n, aff_real omega_q, long o
     d->w_last = 0;
     d->has_w_last = 0;
     d->n_rejected = 0;
-    for (long i = 0; i < CTL_DOB_ORDER_MAX; i++)
+    for (long i = 0; i < AFF_DOB_ORDER_MAX; i++)
         d->x[i] = 0;
     return 0;
 }
 
-double ctl_dob_compensate(void *self, double w_ctrl, double w_meas, double w_ref)
+aff_real aff_dob_compensate(void *self, aff_real w_ctrl, aff_real w_meas, aff_real w_ref)
 {
-    ctl_dob *d = (ctl_dob *)self;
+    aff_dob *d = (aff_dob *)self;
     aff_real w = (aff_real)w_ctrl;
     (void)w_meas;
     (void)w_ref;
@@ -52,9 +52,9 @@ double ctl_dob_compensate(void *self, double w_ctrl, double w_meas, double w_ref
     return d->d_hat;
 }
 
-int ctl_dob_observe(void *self, double u, double w_meas, double *theta_out)
+int aff_dob_observe(void *self, aff_real u, aff_real w_meas, aff_real *theta_out)
 {
-    ctl_dob *d = (ctl_dob *)self;
+    aff_dob *d = (aff_dob *)self;
     aff_real uu = (aff_real)u;
     (void)w_meas;
     (void)theta_out;
@@ -67,4 +67,4 @@ int ctl_dob_observe(void *self, double u, double w_meas, double *theta_out)
     return 0;
 }
 
-const aff_compensator_ops ctl_dob_ops = {"dob", ctl_dob_compensate, ctl_dob_observe, NULL};
+const aff_compensator_ops aff_dob_ops = {"dob", aff_dob_compensate, aff_dob_observe, NULL, NULL};

@@ -1,4 +1,4 @@
-/* ctl_dob.h -- the disturbance observer with a binomial Q-filter (peer "dob" of the comparison).
+/* aff_dob.h -- the disturbance observer with a binomial Q-filter (peer "dob" of the comparison).
  *
  * Plant J*dw/dt = u - d (d: friction and load). With the torque u(k-1) held over
  * the last period, the raw disturbance sample is
@@ -15,22 +15,22 @@
  * controller design", IEEE Trans. Ind. Electron. 38(5), 1991.
  * Python: controllers.peers.dob.DisturbanceObserver.
  */
-#ifndef CTL_DOB_H
-#define CTL_DOB_H
+#ifndef AFF_DOB_H
+#define AFF_DOB_H
 #include "aff_real.h"
 #include "aff_gate.h"
 #include "aff_compensator.h"
 #include "aff_supervisor.h"
 
 /* Highest order of the binomial Q-filter (the Python wrapper refuses more with a ParameterError). */
-#define CTL_DOB_ORDER_MAX 8
+#define AFF_DOB_ORDER_MAX 8
 
 /* Configuration, then state. */
-typedef struct ctl_dob {
+typedef struct aff_dob {
     aff_real Tc;                    /* controller period (s), > 0 */
     aff_real J_n;                   /* nominal inertia (kg*m^2), > 0 */
     aff_real omega_q;               /* Q-filter cut-off (rad/s), > 0 */
-    long order;                     /* order of the binomial Q-filter, 1..CTL_DOB_ORDER_MAX */
+    long order;                     /* order of the binomial Q-filter, 1..AFF_DOB_ORDER_MAX */
     aff_real a;                     /* smoothing factor of each lag, 1 - exp(-Tc*omega_q) */
     aff_real d_max;                 /* bound on |d_hat| (N*m), INFINITY = none */
     aff_range_gate u_range;         /* range gate of the torque samples (N*m) */
@@ -40,26 +40,26 @@ typedef struct ctl_dob {
     aff_real w_last;                /* last accepted velocity (rad/s; valid if has_w_last) */
     int has_w_last;                 /* 1 after the first accepted velocity */
     long n_rejected;                /* refused velocity and torque samples */
-    aff_real x[CTL_DOB_ORDER_MAX];  /* states of the cascaded lags (N*m), order valid */
-} ctl_dob;
+    aff_real x[AFF_DOB_ORDER_MAX];  /* states of the cascaded lags (N*m), order valid */
+} aff_dob;
 
 /* Configure d (a = 1 - exp(-Tc*omega_q)) and clear its state (d_hat, u_last, x = 0, no velocity yet, counter
  * 0); both range gates get the defaults of adaptive_ff.compensation.gate.RangeGate() (x_max INFINITY, factor
  * 100, floor 0, memory 10000 samples, max_consecutive 20): reconfigure them with aff_range_gate_init after.
- * Returns 0, or -1 (d untouched) for order outside 1..CTL_DOB_ORDER_MAX. */
-int ctl_dob_init(ctl_dob *d, aff_real Tc, aff_real J_n, aff_real omega_q, long order, aff_real d_max);
+ * Returns 0, or -1 (d untouched) for order outside 1..AFF_DOB_ORDER_MAX. */
+int aff_dob_init(aff_dob *d, aff_real Tc, aff_real J_n, aff_real omega_q, long order, aff_real d_max);
 
-/* Compensator interface (aff_compensator.h), self a ctl_dob: advance the observer with the controller's
+/* Compensator interface (aff_compensator.h), self a aff_dob: advance the observer with the controller's
  * velocity w_ctrl (rad/s) of this period and return the bounded d_hat (N*m). A w_ctrl refused by w_range is
  * counted and d_hat held; the first accepted one only starts the difference. w_meas, w_ref unused. */
-double ctl_dob_compensate(void *self, double w_ctrl, double w_meas, double w_ref);
+aff_real aff_dob_compensate(void *self, aff_real w_ctrl, aff_real w_meas, aff_real w_ref);
 
 /* Compensator interface: record the torque u (N*m) applied in this period (it drives the next velocity
  * sample); a u refused by u_range is counted and the last one kept. w_meas, theta_out unused; returns 0
  * (no parameter vector). */
-int ctl_dob_observe(void *self, double u, double w_meas, double *theta_out);
+int aff_dob_observe(void *self, aff_real u, aff_real w_meas, aff_real *theta_out);
 
-/* The ops table of ctl_dob (name "dob"). */
-extern const aff_compensator_ops ctl_dob_ops;
+/* The ops table of aff_dob (name "dob"). */
+extern const aff_compensator_ops aff_dob_ops;
 
 #endif

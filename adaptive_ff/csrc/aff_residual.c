@@ -1,0 +1,246 @@
+/* aff_residual.c -- the disturbance observer on the residual, its switch-in and the bound (see aff_residual.h). */
+#include <math.h>
+#include "aff_residual.h"
+
+void aff_residual_init(aff_residual *r, const aff_dob *dob, aff_real u_max)
+{
+    r->u_max = u_max;
+    r->u_ff = 0;
+    r->held = 0;
+    r->n_held = 0;
+    r->use_switch_in = 0;
+    r->sw.g = 1;
+    r->sw.k_in = -1;
+    r->sw.k_out = -1;
+    r->sw.decided = 0;
+    r->dob = *dob;
+}
+
+static int switch_in_init(aff_switch_in *s, aff_real Tc, aff_real J_n, aff_real Kp, aff_real Ki, aff_real window,
+                          aff_real ratio, aff_real share, aff_real fade_in, aff_real margin)
+{
+    if (!aff_positive(Tc) || !aff_positive(J_n) || !aff_positive(Kp) || !aff_positive(window)
+        || !aff_positive(ratio) || !aff_positive(share) || !(isfinite(Ki) && Ki >= 0)
+        || !(isfinite(fade_in) && fade_in >= 0) || !(margin >= 0))
+        return -1;
+    s->Tc = Tc;
+    s->J_n = J_n;
+    s->Kp = Kp;
+    s->Ki = Ki;
+    s->ratio = ratio;
+    s->share = share;
+    s->margin = margin;
+    s->b = (aff_real)1.0 - AFF_EXP(-Tc / window);
+    s->fade = fade_in > Tc ? Tc / fade_in : (aff_real)1.0;
+    aff_real ne = AFF_FLOOR(window / Tc + (aff_real)0.5);
+    ne = ne < 1 ? (aff_real)1 : (ne > (aff_real)1e8 ? (aff_real)1e8 : ne); /* bounded: 5*n_evidence fits a 32-bit long */
+    s->n_evidence = (long)ne;
+    s->n_wait = 5 * s->n_evidence;
+    s->w_l = 0;
+    s->I_l = 0;
+    s->w_r = 0;
+    s->I_r = 0;
+    s->w_f = 0;
+    s->I_f = 0;
+    s->m_f = 0;
+    s->m_r = 0;
+    s->c_f = 0;
+    s->c_r = 0;
+    s->m_l = 0;
+    s->m_e = 0;
+    s->v_e = 0;
+    s->v_l = 0;
+    s->ratio_in = (aff_real)INFINITY;
+    s->n_trial = 0;
+    s->decided = 0;
+    s->k_out = -1;
+    s->n = 0;
+    s->n_used = 0;
+    s->k_in = -1;
+    s->rest_last = 0;
+    s->g = 0;
+    return 0;
+}
+
+int aff_residual_set_switch_in(aff_residual *r, aff_real Tc, aff_real J_n, aff_real Kp, aff_real Ki, aff_real window,
+                               aff_real ratio, aff_real share, aff_real fade_in, aff_real margin)
+{
+    if (switch_in_init(&r->sw, Tc, J_n, Kp, Ki, window, ratio, share, fade_in, margin) != 0)
+        return -1;
+    r->use_switch_in = 1;
+    return 0;
+}
+
+/* One period of the loop model's response to a disturbance torque d (N*m): the velocity w it adds (rad/s) and the
+ * PI integrator I (N*m), I -= Ki*Tc*w, w += Tc/J_n*(-Kp*w + I - d) (header comment); returns w before the step. */
+static aff_real disturbance_step(const aff_switch_in *s, aff_real *w, aff_real *I, aff_real d)
+{
+    aff_real w0 = *w;
+    *I -= s->Ki * s->Tc * w0;
+    *w += s->Tc / s->J_n * (-s->Kp * w0 + *I - d);
+    return w0;
+}
+
+void aff_switch_in_rises(const aff_switch_in *s, aff_real *rise_r, aff_real *rise_f)
+{
+    aff_real x_r = s->m_r - 2 * s->c_r, x_f = s->m_f - 2 * s->c_f; /* what each raises the loop's mean square by */
+    *rise_r = x_r > s->m_r ? x_r : s->m_r;                           /* the cross terms only where they add */
+    *rise_f = x_f > s->m_f ? x_f : s->m_f;
+}
+
+int aff_switch_in_fires(const aff_switch_in *s)
+{
+    aff_real rise_r, rise_f;
+    aff_switch_in_rises(s, &rise_r, &rise_f);
+    return (rise_r > s->ratio * s->m_l || rise_r > s->share * rise_f) && s->m_e > s->m_l;
+}
+
+/* One period of the frictionless loop model on the reference w_ref (finite): returns its error e_l before the step
+ * (header comment). */
+static aff_real frictionless_step(aff_switch_in *s, aff_real w_ref)
+{
+    aff_real e_l = (aff_real)w_ref - s->w_l;
+    s->I_l += s->Ki * s->Tc * e_l;
+    s->w_l += s->Tc / s->J_n * (s->Kp * e_l + s->I_l);
+    return e_l;
+}
+
+/* The trial's means over a period in which the reference moves: v_e of the measured error, v_l of the frictionless
+ * loop's error e_l; a non-finite w_ctrl enters neither. Returns 1 if the period entered them. */
+static int trial_means(aff_switch_in *s, aff_real e_l, aff_real w_ref, aff_real w_ctrl)
+{
+    aff_real e_m = (aff_real)w_ref - (aff_real)w_ctrl;
+    if (!isfinite(e_m))
+        return 0;
+    aff_lag_step(&s->v_e, s->b, e_m * e_m);
+    aff_lag_step(&s->v_l, s->b, e_l * e_l);
+    return 1;
+}
+
+/* The share g rises by fade per period to 1; the period it reaches 1 the trial's means start again from 0. */
+static void fade_in_step(aff_switch_in *s)
+{
+    s->g = s->g + s->fade < 1 ? s->g + s->fade : (aff_real)1.0;
+    if (s->g >= 1) {
+        s->v_e = 0;
+        s->v_l = 0;
+        s->n_trial = 0;
+    }
+}
+
+/* The share g falls by fade per period to 0 (the observer out, as it came in). */
+static void fade_out_step(aff_switch_in *s)
+{
+    s->g = s->g > s->fade ? s->g - s->fade : (aff_real)0.0;
+}
+
+/* A period after the switch-in, k its index (header comment, "The trial"); a switch-in without a trial is decided
+ * at once. */
+static aff_real trial_step(aff_switch_in *s, aff_real w_ref, aff_real w_ctrl, int rest, long k)
+{
+    if (s->k_out >= 0) {
+        fade_out_step(s);
+        return (aff_real)s->g;
+    }
+    if (s->decided) {
+        if (s->g < 1)
+            fade_in_step(s);
+        return (aff_real)s->g;
+    }
+    if (!isfinite(w_ref))
+        return (aff_real)s->g;
+    aff_real e_l = frictionless_step(s, w_ref);
+    if (s->g < 1) {
+        fade_in_step(s);
+        return (aff_real)s->g;
+    }
+    if (!rest && trial_means(s, e_l, w_ref, w_ctrl))
+        s->n_trial += 1;
+    if (s->n_trial >= 2 * s->n_evidence) {
+        s->decided = 1;
+        if (s->v_e > (1 + s->margin) * s->ratio_in * s->v_l) { /* the loop tracks worse with the observer */
+            s->k_out = k;
+            fade_out_step(s);
+        }
+    }
+    return (aff_real)s->g;
+}
+
+aff_real aff_switch_in_step(aff_switch_in *s, aff_real u_ff, aff_real d_hat, aff_real w_ref, aff_real w_ctrl, int acting,
+                          int started)
+{
+    long k = s->n;
+    s->n += 1;
+    int still = w_ref == 0;
+    int rest = still && s->rest_last;
+    s->rest_last = still;
+    if (s->k_in >= 0)
+        return trial_step(s, w_ref, w_ctrl, rest, k);
+    if (!isfinite(d_hat) || !isfinite(u_ff) || !isfinite(w_ref))
+        return 0;
+    aff_real e_l = frictionless_step(s, w_ref); /* the frictionless loop on the reference */
+    aff_real w_r = disturbance_step(s, &s->w_r, &s->I_r, (aff_real)d_hat); /* the residual's */
+    aff_real w_f = disturbance_step(s, &s->w_f, &s->I_f, (aff_real)(u_ff + d_hat)); /* the whole estimate's */
+    int late = started && k + 1 >= s->n_wait; /* the start map has acted alone for 5*T: its evidence from now */
+    if ((acting || late) && !rest) {
+        aff_lag_step(&s->m_f, s->b, w_f * w_f);
+        aff_lag_step(&s->m_r, s->b, w_r * w_r);
+        aff_lag_step(&s->m_l, s->b, e_l * e_l);
+        aff_lag_step(&s->c_f, s->b, e_l * w_f);
+        aff_lag_step(&s->c_r, s->b, e_l * w_r);
+        aff_real e_m = (aff_real)w_ref - (aff_real)w_ctrl; /* the loop's measured error */
+        if (isfinite(e_m))
+            aff_lag_step(&s->m_e, s->b, e_m * e_m);
+        s->n_used += 1;
+    }
+    if (!rest)
+        trial_means(s, e_l, w_ref, w_ctrl);
+    int residual = s->n_used >= 2 * s->n_evidence && aff_switch_in_fires(s);
+    int idle = s->n_used == 0 && k + 1 >= s->n_wait && !started;
+    if (residual || idle) {
+        s->k_in = k;
+        int marginal = !idle && s->m_e <= (1 + s->ratio) * s->m_l; /* at most ratio to gain: on trial */
+        s->ratio_in = s->v_l > 0 && marginal ? s->v_e / s->v_l : (aff_real)INFINITY;
+        s->decided = !isfinite(s->ratio_in); /* no trial: the observer stays */
+        s->g = 0;
+        fade_in_step(s);
+    }
+    return (aff_real)s->g;
+}
+
+aff_real aff_residual_compensate(aff_residual *r, aff_real u_ff, int acting, int started, aff_real w_ctrl, aff_real w_meas,
+                               aff_real w_ref)
+{
+    aff_real d = aff_dob_compensate(&r->dob, w_ctrl, w_meas, w_ref);
+    aff_real g = r->use_switch_in ? aff_switch_in_step(&r->sw, u_ff, d, w_ref, w_ctrl, acting, started)
+                                : (aff_real)1;
+    if (r->held && w_ctrl * w_ref > 0) /* the joint moves in the reference's direction: the hold ends */
+        r->held = 0;
+    aff_real out;
+    if (r->held) {
+        r->n_held += 1;
+        r->u_ff = g > 0 ? 0 : u_ff; /* not applied; before the switch-in the residual as at rest */
+        out = g > 0 ? g * d : 0;
+    } else {
+        r->u_ff = (aff_real)u_ff;
+        out = g > 0 ? u_ff + g * d : u_ff; /* before the switch-in exactly the feedforward */
+    }
+    aff_real lim = (aff_real)r->u_max;
+    aff_real y = -lim > out ? -lim : out; /* Python's min(max(out, -lim), lim) */
+    return lim < y ? lim : y;
+}
+
+void aff_residual_observe(aff_residual *r, aff_real u, aff_real w_meas, aff_real *theta_out)
+{
+    aff_dob_observe(&r->dob, u - (aff_real)r->u_ff, w_meas, theta_out);
+}
+
+void aff_residual_at_rest(aff_residual *r)
+{
+    if (r->held)
+        r->n_held -= 1; /* this period is a rest, not a hold */
+    if (!r->use_switch_in || r->sw.g > 0)
+        r->u_ff = 0;
+    r->held = 1;
+}
+
