@@ -165,7 +165,8 @@ def test_library_needs_only_the_math_library(exported, tmp_path):
         subprocess.run([CC, *WARN, *flags, "-c", str(exported / "aff.c"), "-o", str(obj)], check=True)
         undefined = set(subprocess.run([nm, "-u", str(obj)], capture_output=True, text=True,
                                        check=True).stdout.split()) - {"U"}
-        math_fns = {f + s for f in ("exp", "pow", "sqrt", "fabs", "log", "floor", "ceil", "copysign") for s in ("", "f")}
+        math_fns = {f + s for f in ("exp", "pow", "sqrt", "fabs", "log", "floor", "ceil", "copysign")
+                    for s in ("", "f")}
         assert undefined <= math_fns | {"memmove", "memcpy", "memset"}, undefined
 
 

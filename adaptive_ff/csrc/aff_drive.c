@@ -145,7 +145,6 @@ aff_real aff_step_gated(aff *c, aff_real w_ctrl, aff_real w_meas, aff_real w_ref
         if (bad_ref)
             guard_refuse(c, AFF_INPUT_W_REF);
         c->dropped = 1;
-        c->mode.transfer = 0;
         return guard_hold(c);
     }
     c->dropped = 0;

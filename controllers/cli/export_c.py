@@ -1,4 +1,5 @@
-"""``adaptive-ff export-c``: mode adaptive's compensator, configured from an identification, as a C library for a drive."""
+"""``adaptive-ff export-c``: mode adaptive's compensator, configured from an identification, as a C library for a
+drive."""
 
 from __future__ import annotations
 
@@ -193,8 +194,8 @@ def run(args) -> int:
     if not (math.isfinite(args.u_max) and args.u_max > 0.0):
         raise ParameterError(f"--u-max must be a finite torque > 0 (N·m), got {args.u_max!r}")
     if not 2.0 * args.u_max <= FLOAT_MAX:
-        raise ParameterError(f"--u-max {args.u_max!r} N·m: twice it, the input guard's bound, is beyond what the float "
-                             f"build represents ({FLOAT_MAX:.4g}); give the drive's torque limit")
+        raise ParameterError(f"--u-max {args.u_max!r} N·m: twice it, the input guard's bound, is beyond what the "
+                             f"float build represents ({FLOAT_MAX:.4g}); give the drive's torque limit")
     for name, v in (("--w-max", args.w_max), ("--hold-time", args.hold_time)):
         if not (math.isfinite(v) and 0.0 < v <= FLOAT_MAX):
             raise ParameterError(f"{name} must be a finite number > 0 (and within the float range), got {v!r}")

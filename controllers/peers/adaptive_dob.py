@@ -451,7 +451,8 @@ class AdaptiveCompensator(AdaptiveDOBCompensator):
                 f"supervisor={self.supervisor!r})")
 
     transfer = property(lambda self: float(self._c.transfer),
-                        doc="The supervisor's bumpless transfer of the last compensate (N·m), for the PI's integrator.")
+                        doc="The supervisor's bumpless transfer of the last compensate (N·m), for the PI's "
+                            "integrator.")
 
     def info(self) -> dict:
         """:meth:`AdaptiveDOBCompensator.info` (without the ``dob_`` keys where there is no observer); the
