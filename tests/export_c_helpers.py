@@ -58,7 +58,7 @@ int main(int argc, char **argv)
     f = fopen(argv[2], "wb");
     if (!f || fwrite(uff, sizeof(double), (size_t)n, f) != (size_t)n) return 4;
     fclose(f);
-    printf("%d %ld %ld\n", aff_active(&c), aff_n_updates(&c), aff_n_rejected(&c));
+    printf("%d %lld %lld\n", aff_active(&c), (long long)aff_n_updates(&c), (long long)aff_n_rejected(&c));
     free(buf);
     free(uff);
     return 0;

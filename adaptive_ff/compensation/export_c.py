@@ -483,9 +483,9 @@ int main(void)
     }
     {
         aff_status_report s = aff_status(&comp);
-        printf("after %g s: %s, feedforward %s, %ld estimator updates, %ld samples rejected by its gates, "
+        printf("after %g s: %s, feedforward %s, %lld estimator updates, %lld samples rejected by its gates, "
                "%lu refused by the input guard\n", EXAMPLE_SECONDS, state[s.state], aff_active(&comp) ? "on" : "off",
-               aff_n_updates(&comp), aff_n_rejected(&comp),
+               (long long)aff_n_updates(&comp), (long long)aff_n_rejected(&comp),
                (unsigned long)s.n_refused_w_meas + s.n_refused_w_ref + s.n_refused_u);
     }
     {

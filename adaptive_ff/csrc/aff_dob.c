@@ -34,7 +34,7 @@ aff_real aff_dob_compensate(void *self, aff_real w_ctrl, aff_real w_meas, aff_re
     int ok = aff_range_gate_ok(&d->w_range, w);
     aff_range_gate_commit(&d->w_range, w, ok);
     if (!ok) {
-        d->n_rejected++;
+        d->n_rejected = aff_count_up(d->n_rejected);
         return d->d_hat;
     }
     if (!d->has_w_last) {
@@ -63,7 +63,7 @@ int aff_dob_observe(void *self, aff_real u, aff_real w_meas, aff_real *theta_out
     if (ok)
         d->u_last = uu;
     else
-        d->n_rejected++;
+        d->n_rejected = aff_count_up(d->n_rejected);
     return 0;
 }
 

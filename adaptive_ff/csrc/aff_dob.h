@@ -39,7 +39,7 @@ typedef struct aff_dob {
     aff_real u_last;                /* last accepted torque (N*m) */
     aff_real w_last;                /* last accepted velocity (rad/s; valid if has_w_last) */
     int has_w_last;                 /* 1 after the first accepted velocity */
-    long n_rejected;                /* refused velocity and torque samples */
+    int64_t n_rejected;             /* refused velocity and torque samples */
     aff_real x[AFF_DOB_ORDER_MAX];  /* states of the cascaded lags (N*m), order valid */
 } aff_dob;
 

@@ -218,12 +218,12 @@ int aff_estimate(const aff *c, aff_real *Fc, aff_real *Fs, aff_real *sigma, aff_
     return 1;
 }
 
-long aff_n_updates(const aff *c)
+int64_t aff_n_updates(const aff *c)
 {
     return c->mode.ff.est.rls.n_updates;
 }
 
-long aff_n_rejected(const aff *c)
+int64_t aff_n_rejected(const aff *c)
 {
     return c->mode.ff.est.n_rejected;
 }

@@ -145,11 +145,11 @@ int aff_active(const aff *c);
  * use; 0 and nothing written before that (also while the provisional start map acts). */
 int aff_estimate(const aff *c, aff_real *Fc, aff_real *Fs, aff_real *sigma, aff_real *tau);
 
-/* RLS updates of the estimator so far. */
-long aff_n_updates(const aff *c);
+/* RLS updates of the estimator so far (saturating at INT64_MAX, as every counter of the compensator). */
+int64_t aff_n_updates(const aff *c);
 
-/* Samples the estimator's own gates rejected so far (the guard's refusals: aff_status). */
-long aff_n_rejected(const aff *c);
+/* Samples the estimator's own gates rejected so far (the guard's refusals: aff_status), saturating at INT64_MAX. */
+int64_t aff_n_rejected(const aff *c);
 
 /* Replay a log of n periods through c: for k < n, uff[k] = aff_step_gated(c, w_ctrl[k], w[k], w_ref[k]) (w_ctrl
  * NULL: w), transfer[k] = aff_transfer(c) (transfer may be NULL), then aff_observe(c, u[k], w[k]). u (N*m), w, w_ref

@@ -157,7 +157,7 @@ int aff_eq4_ff_sample(aff_eq4_ff *e, aff_real u, aff_real w)
     int uok = aff_range_gate_ok(&e->u_range, u);
     int wok = aff_range_gate_ok(&e->w_range, w);
     int updated = 0, refused = 0;
-    long n0;
+    int64_t n0;
     aff_real err;
     if (!(uok && wok)) {
         if (!uok)

@@ -70,17 +70,17 @@ aff_real aff_fixed_ff_step(aff_fixed_ff *f, aff_real w, aff_real w_ref, int has_
 {
     aff_real wmax = f->w_max;
     aff_real x, fx;
-    long nib;
+    int64_t nib;
     if (!(isfinite(w) && -wmax <= w && w <= wmax)
         || (has_ref && !(isfinite(w_ref) && -wmax <= w_ref && w_ref <= wmax))) {
-        f->n_rejected++;
+        f->n_rejected = aff_count_up(f->n_rejected);
         return held(f);
     }
     x = w;
     nib = f->n_in_band;
     if (has_ref) {
         if (-f->stick_band < w && w < f->stick_band) {
-            nib += 1;
+            nib = aff_count_up(nib);
             if (nib >= f->stick_samples)
                 x = w_ref;
         } else {
@@ -89,7 +89,7 @@ aff_real aff_fixed_ff_step(aff_fixed_ff *f, aff_real w, aff_real w_ref, int has_
     }
     fx = aff_fixed_ff_static(f, x);
     if (!isfinite(fx)) {
-        f->n_rejected++;
+        f->n_rejected = aff_count_up(f->n_rejected);
         return held(f);
     }
     f->n_in_band = nib;

@@ -41,8 +41,8 @@ typedef struct aff_fixed_ff {
     aff_real alpha;           /* lag filter gain 1 - exp(-dt/tau), 1 = no filter */
     /* state */
     aff_real u_ff;            /* filter output before the clip (N*m) */
-    long n_in_band;           /* consecutive samples inside the stick band */
-    long n_rejected;          /* calls whose input was rejected (the output was held) */
+    int64_t n_in_band;        /* consecutive samples inside the stick band */
+    int64_t n_rejected;       /* calls whose input was rejected (the output was held) */
     aff_real u_out;           /* the compensator's output of this period (N*m), for the sign observer */
 } aff_fixed_ff;
 

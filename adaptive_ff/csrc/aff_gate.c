@@ -19,9 +19,9 @@ void aff_gate_init(aff_gate *g, aff_real max_step, aff_real n_sigma, aff_real al
 int aff_gate_check(aff_gate *g, aff_real x)
 {
     if (!isfinite(x)) {
-        g->n_rejected++;
-        g->n_nonfinite++;
-        g->n_held++;
+        g->n_rejected = aff_count_up(g->n_rejected);
+        g->n_nonfinite = aff_count_up(g->n_nonfinite);
+        g->n_held = aff_count_up(g->n_held);
         return 0;
     }
     if (!g->has_last) {
@@ -33,9 +33,9 @@ int aff_gate_check(aff_gate *g, aff_real x)
     aff_real bound = (g->max_step + g->n_sigma * g->scale) * ((aff_real)1.0 + (aff_real)g->n_held);
     if (d > bound) {
         if (g->n_held < g->max_consecutive) {
-            g->n_rejected++;
-            g->n_outliers++;
-            g->n_held++;
+            g->n_rejected = aff_count_up(g->n_rejected);
+            g->n_outliers = aff_count_up(g->n_outliers);
+            g->n_held = aff_count_up(g->n_held);
             return 0;
         }
     } else {
@@ -80,7 +80,7 @@ void aff_range_gate_commit(aff_range_gate *g, aff_real x, int ok)
         g->env = ax > e ? ax : e;
         g->n_held = 0;
     } else {
-        g->n_held++;
-        g->n_rejected++;
+        g->n_held = aff_count_up(g->n_held);
+        g->n_rejected = aff_count_up(g->n_rejected);
     }
 }

@@ -23,10 +23,10 @@ typedef struct aff_gate {
     aff_real last;            /* last accepted sample (valid if has_last) */
     int has_last;             /* 1 after the first accepted sample */
     aff_real scale;           /* running mean of |x(k) - x(k-1)| over accepted samples */
-    long n_held;              /* samples rejected since the last accepted one */
-    long n_rejected;          /* rejections in total */
-    long n_nonfinite;         /* of them non-finite */
-    long n_outliers;          /* of them outlier spikes */
+    int64_t n_held;           /* samples rejected since the last accepted one */
+    int64_t n_rejected;       /* rejections in total */
+    int64_t n_nonfinite;      /* of them non-finite */
+    int64_t n_outliers;       /* of them outlier spikes */
 } aff_gate;
 
 /* Configure g and clear its state (no sample yet, zero scale and counters). */
@@ -43,8 +43,8 @@ typedef struct aff_range_gate {
     aff_real decay;           /* envelope release per sample, exp(-1/memory) */
     long max_consecutive;     /* rejections after which a sample is accepted again, >= 1 */
     aff_real env;             /* peak envelope of the accepted |x| */
-    long n_held;              /* samples rejected since the last accepted one */
-    long n_rejected;          /* rejections in total */
+    int64_t n_held;           /* samples rejected since the last accepted one */
+    int64_t n_rejected;       /* rejections in total */
 } aff_range_gate;
 
 /* Configure g (decay = exp(-1/memory)) and clear its state. */

@@ -136,7 +136,7 @@ static void fade_out_step(aff_switch_in *s)
 
 /* A period after the switch-in, k its index (header comment, "The trial"); a switch-in without a trial is decided
  * at once. */
-static aff_real trial_step(aff_switch_in *s, aff_real w_ref, aff_real w_ctrl, int rest, long k)
+static aff_real trial_step(aff_switch_in *s, aff_real w_ref, aff_real w_ctrl, int rest, int64_t k)
 {
     if (s->k_out >= 0) {
         fade_out_step(s);
@@ -155,7 +155,7 @@ static aff_real trial_step(aff_switch_in *s, aff_real w_ref, aff_real w_ctrl, in
         return (aff_real)s->g;
     }
     if (!rest && trial_means(s, e_l, w_ref, w_ctrl))
-        s->n_trial += 1;
+        s->n_trial = aff_count_up(s->n_trial);
     if (s->n_trial >= 2 * s->n_evidence) {
         s->decided = 1;
         if (s->v_e > (1 + s->margin) * s->ratio_in * s->v_l) { /* the loop tracks worse with the observer */
@@ -169,8 +169,8 @@ static aff_real trial_step(aff_switch_in *s, aff_real w_ref, aff_real w_ctrl, in
 aff_real aff_switch_in_step(aff_switch_in *s, aff_real u_ff, aff_real d_hat, aff_real w_ref, aff_real w_ctrl, int acting,
                           int started)
 {
-    long k = s->n;
-    s->n += 1;
+    int64_t k = s->n; /* this period's index, from 0 (INT64_MAX once s->n saturated) */
+    s->n = aff_count_up(s->n);
     int still = w_ref == 0;
     int rest = still && s->rest_last;
     s->rest_last = still;
@@ -181,7 +181,7 @@ aff_real aff_switch_in_step(aff_switch_in *s, aff_real u_ff, aff_real d_hat, aff
     aff_real e_l = frictionless_step(s, w_ref); /* the frictionless loop on the reference */
     aff_real w_r = disturbance_step(s, &s->w_r, &s->I_r, (aff_real)d_hat); /* the residual's */
     aff_real w_f = disturbance_step(s, &s->w_f, &s->I_f, (aff_real)(u_ff + d_hat)); /* the whole estimate's */
-    int late = started && k + 1 >= s->n_wait; /* the start map has acted alone for 5*T: its evidence from now */
+    int late = started && k >= s->n_wait - 1; /* the start map has acted alone for 5*T: its evidence from now */
     if ((acting || late) && !rest) {
         aff_lag_step(&s->m_f, s->b, w_f * w_f);
         aff_lag_step(&s->m_r, s->b, w_r * w_r);
@@ -191,12 +191,12 @@ aff_real aff_switch_in_step(aff_switch_in *s, aff_real u_ff, aff_real d_hat, aff
         aff_real e_m = (aff_real)w_ref - (aff_real)w_ctrl; /* the loop's measured error */
         if (isfinite(e_m))
             aff_lag_step(&s->m_e, s->b, e_m * e_m);
-        s->n_used += 1;
+        s->n_used = aff_count_up(s->n_used);
     }
     if (!rest)
         trial_means(s, e_l, w_ref, w_ctrl);
     int residual = s->n_used >= 2 * s->n_evidence && aff_switch_in_fires(s);
-    int idle = s->n_used == 0 && k + 1 >= s->n_wait && !started;
+    int idle = s->n_used == 0 && k >= s->n_wait - 1 && !started;
     if (residual || idle) {
         s->k_in = k;
         int marginal = !idle && s->m_e <= (1 + s->ratio) * s->m_l; /* at most ratio to gain: on trial */
@@ -218,7 +218,7 @@ aff_real aff_residual_compensate(aff_residual *r, aff_real u_ff, int acting, int
         r->held = 0;
     aff_real out;
     if (r->held) {
-        r->n_held += 1;
+        r->n_held = aff_count_up(r->n_held);
         r->u_ff = g > 0 ? 0 : u_ff; /* not applied; before the switch-in the residual as at rest */
         out = g > 0 ? g * d : 0;
     } else {
@@ -237,8 +237,8 @@ void aff_residual_observe(aff_residual *r, aff_real u, aff_real w_meas, aff_real
 
 void aff_residual_at_rest(aff_residual *r)
 {
-    if (r->held)
-        r->n_held -= 1; /* this period is a rest, not a hold */
+    if (r->held && r->n_held < INT64_MAX)
+        r->n_held -= 1; /* this period is a rest, not a hold (a saturated count stays at the maximum) */
     if (!r->use_switch_in || r->sw.g > 0)
         r->u_ff = 0;
     r->held = 1;

@@ -128,12 +128,12 @@ typedef struct aff_switch_in {
                              in (g = 1) */
     aff_real ratio_in;    /* v_e/v_l at the switch-in, the trial's yardstick (INFINITY: no trial; v_l = 0, the idle
                              switch-in, or M_e > (1 + ratio)*M_l) */
-    long n_trial;         /* periods in the trial's means since the observer is wholly in (g = 1) */
+    int64_t n_trial;      /* periods in the trial's means since the observer is wholly in (g = 1) */
     int decided;          /* 1 once the trial has judged (observer kept, or out), or at a switch-in without trial */
-    long k_out;           /* period of the switch-out by the trial, -1: not out */
-    long n;               /* periods */
-    long n_used;          /* periods that entered the means */
-    long k_in;            /* period (index from 0) of the switch-in, -1: not switched in */
+    int64_t k_out;        /* period of the switch-out by the trial, -1: not out */
+    int64_t n;            /* periods */
+    int64_t n_used;       /* periods that entered the means */
+    int64_t k_in;         /* period (index from 0) of the switch-in, -1: not switched in */
     int rest_last;        /* w_ref = 0 in the previous period */
     aff_real g;           /* share of d_hat applied, 0..1 */
 } aff_switch_in;
@@ -146,7 +146,7 @@ typedef struct aff_residual {
                              while held once d_hat is applied, aff_residual_at_rest) */
     int held;             /* 1: after a rest the feedforward part is held back until the joint moves in the
                              reference's direction (w_ctrl*w_ref > 0), aff_residual_at_rest */
-    long n_held;          /* periods, outside rest, in which the feedforward part was held back */
+    int64_t n_held;       /* periods, outside rest, in which the feedforward part was held back */
     int use_switch_in;    /* 1: d_hat applied after the residual switch-in (mode "adaptive"), 0: always */
     aff_switch_in sw;     /* the switch-in test (valid if use_switch_in) */
     aff_dob dob;          /* the observer of the residual f - u_ff */

@@ -54,7 +54,7 @@ static void project(aff_rls *r)
     }
     if (!any_viol)
         return;
-    r->n_projected++;
+    r->n_projected = aff_count_up(r->n_projected);
     for (it = 0; it < p; it++) {
         aff_real best = -1.0;
         long ib = -1;
@@ -116,7 +116,7 @@ aff_real aff_rls_step(aff_rls *r, const aff_real *phi, aff_real y)
         tr += P[i * p + i];
     }
     if (!(isfinite(e * e) && isfinite(rr) && isfinite(vv))) {
-        r->n_rejected++;
+        r->n_rejected = aff_count_up(r->n_rejected);
         return (aff_real)NAN;
     }
     if (scheme == AFF_RLS_VECTOR) {
@@ -195,7 +195,7 @@ aff_real aff_rls_step(aff_rls *r, const aff_real *phi, aff_real y)
         r->theta[i] += v[i] * g;
     if (r->has_bounds)
         project(r);
-    r->n_updates++;
+    r->n_updates = aff_count_up(r->n_updates);
     return e;
 }
 
@@ -212,7 +212,7 @@ static int nonfinite(const aff_real *phi, aff_real y, long p)
 aff_real aff_rls_update(aff_rls *r, const aff_real *phi, aff_real y)
 {
     if (nonfinite(phi, y, r->p)) {
-        r->n_rejected++;
+        r->n_rejected = aff_count_up(r->n_rejected);
         return (aff_real)NAN;
     }
     return aff_rls_step(r, phi, y);

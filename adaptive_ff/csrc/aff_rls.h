@@ -37,9 +37,9 @@ typedef struct aff_rls {
     aff_real theta[AFF_RLS_NMAX];                /* estimate */
     aff_real P[AFF_RLS_NMAX * AFF_RLS_NMAX];     /* covariance, p*p row-major, exactly symmetric */
     aff_real v[AFF_RLS_NMAX];                    /* scratch: P phi of the last update */
-    long n_updates;                              /* accepted updates */
-    long n_projected;                            /* updates after which theta was projected onto the box */
-    long n_rejected;                             /* refused samples (non-finite, or an update that would overflow) */
+    int64_t n_updates;                           /* accepted updates */
+    int64_t n_projected;                         /* updates after which theta was projected onto the box */
+    int64_t n_rejected;                          /* refused samples (non-finite, or an update that would overflow) */
 } aff_rls;
 
 /* Configure r with p parameters (1..AFF_RLS_NMAX), scheme, lam and P_max and clear it: theta = 0,

@@ -315,10 +315,10 @@ int aff_robust_ff_decide(aff_robust_ff *r)
         aff_real tol = r->lag_zero < (aff_real)INFINITY ? aff_max2(r->lag_zero * sd, (aff_real)2.0 * r->ff.dt)
                                                         : (aff_real)INFINITY;
         if (!(x[2] >= -tol)) {
-            r->n_implausible++;
+            r->n_implausible = aff_count_up(r->n_implausible);
             return 0;
         }
-        r->n_lag_zero++;
+        r->n_lag_zero = aff_count_up(r->n_lag_zero);
         if (!r->project) {
             x[2] = 0.0;
             if (x[1] < 0)
@@ -333,11 +333,11 @@ int aff_robust_ff_decide(aff_robust_ff *r)
             lo[2] = -(aff_real)INFINITY; /* lag_zero 0: a negative lag is refused below, not projected */
         nb = aff_project_box(p, rls->P, rls->theta, lo, hi, x, r->work);
         if (nb < 0) {
-            r->n_implausible++;
+            r->n_implausible = aff_count_up(r->n_implausible);
             return 0;
         }
         if (nb > 0)
-            r->n_boxed++;
+            r->n_boxed = aff_count_up(r->n_boxed);
     }
     eJ = x[0];
     if (lag) {
@@ -353,12 +353,13 @@ int aff_robust_ff_decide(aff_robust_ff *r)
     eFs = x[iFc + 1];
     esig = x[iFc + 2];
     if (!levels_plausible(r, eJ, etau, eFc, eFs, esig)) {
-        r->n_implausible++;
+        r->n_implausible = aff_count_up(r->n_implausible);
         return 0;
     }
     if (!aff_fc_determined(r->max_rel_stderr, e2, aff_rls_P(rls, iFc, iFc), aff_rls_prior_variance(rls), eFc,
                            eFs)) {
-        r->n_undetermined++; /* Fc not determined yet (e.g. one direction of motion only: Fc and the offset agree) */
+        /* Fc not determined yet (e.g. one direction of motion only: Fc and the offset agree) */
+        r->n_undetermined = aff_count_up(r->n_undetermined);
         return 0;
     }
     if (lag_consistent(r, rls, eJ, etau, eJalt, e2, r->ff.dt, lag)) {
@@ -371,11 +372,11 @@ int aff_robust_ff_decide(aff_robust_ff *r)
             etau = aff_min2(etau + m, r->tau_max);
         }
     } else if (r->ff.has && !r->provisional) {
-        r->n_lag_held++;
+        r->n_lag_held = aff_count_up(r->n_lag_held);
         etau = r->ff.tau;
         r->held = 1;
     } else {
-        r->n_implausible++;
+        r->n_implausible = aff_count_up(r->n_implausible);
         return 0;
     }
     if (r->provisional) { /* hand-over from the provisional start: fade from the start gain to 1 */

@@ -48,11 +48,11 @@ typedef struct aff_robust_ff {
     aff_real gain;                /* fade-in gain of the output */
     int provisional;              /* 1 while the start map is in use */
     int held;                     /* 1 if the lag in use was held from the previous estimate */
-    long n_implausible;           /* estimates after warm-up that failed the tests */
-    long n_lag_held;              /* estimates used with the previous lag */
-    long n_undetermined;          /* plausible estimates not used because Fc was not determined */
-    long n_lag_zero;              /* estimates whose negative lag estimate was taken as lag 0 */
-    long n_boxed;                 /* estimates the projection moved onto the box */
+    int64_t n_implausible;        /* estimates after warm-up that failed the tests */
+    int64_t n_lag_held;           /* estimates used with the previous lag */
+    int64_t n_undetermined;       /* plausible estimates not used because Fc was not determined */
+    int64_t n_lag_zero;           /* estimates whose negative lag estimate was taken as lag 0 */
+    int64_t n_boxed;              /* estimates the projection moved onto the box */
     aff_real lag_mean;            /* weighted mean of the lag estimates (s) */
     aff_real lag_info;            /* its total weight (1/s^2) */
     aff_real theta_used[AFF_RLS_NMAX]; /* the estimate in use as a theta (the projected copy; NaN before) */

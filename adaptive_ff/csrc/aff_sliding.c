@@ -66,24 +66,25 @@ int aff_sliding_observe(aff_sliding *e, aff_real u, aff_real w)
 {
     int uok, wok;
     aff_real band, nb, aw, gg, hh, dz, a, T, s, err;
-    long k, j;
+    int64_t k;
+    long j;
     e->updated = 0;
     /* input rejection: torque range, velocity range (finite velocities; the gate counts non-finite ones), then
      * the velocity gate; the range gates record their decision only once the whole sample is accepted */
     uok = aff_range_gate_ok(&e->u_range, u);
     if (!uok) {
         aff_range_gate_commit(&e->u_range, u, 0);
-        e->n_rejected++;
+        e->n_rejected = aff_count_up(e->n_rejected);
         return 0;
     }
     wok = aff_range_gate_ok(&e->w_range, w);
     if (isfinite(w) && !wok) {
         aff_range_gate_commit(&e->w_range, w, 0);
-        e->n_rejected++;
+        e->n_rejected = aff_count_up(e->n_rejected);
         return 0;
     }
     if (!aff_gate_check(&e->gate, w)) {
-        e->n_rejected++;
+        e->n_rejected = aff_count_up(e->n_rejected);
         return 0;
     }
     aff_range_gate_commit(&e->u_range, u, 1);
@@ -94,7 +95,7 @@ int aff_sliding_observe(aff_sliding *e, aff_real u, aff_real w)
     }
     e->w2 = e->w1;
     e->w1 = w;
-    e->n_acc++;
+    e->n_acc = aff_count_up(e->n_acc);
     band = e->w_band_min;
     nb = BAND_SIGMAS * e->d2 / NOISE_GAIN;
     if (nb > band)
@@ -118,12 +119,12 @@ int aff_sliding_observe(aff_sliding *e, aff_real u, aff_real w)
     svf3(e->xg, a, gg);
     svf3(e->xh, a, hh);
     svf3(e->xd, a, dz);
-    e->n_samples++;
+    e->n_samples = aff_count_up(e->n_samples);
     k = e->n_samples;
     if (k % e->m != 0 || k < e->settle)
         return 1;
     if (e->xd[2] > e->dwell_max) {
-        e->n_gated++;
+        e->n_gated = aff_count_up(e->n_gated);
         return 1;
     }
     T = e->T;

@@ -42,12 +42,12 @@ typedef struct aff_sliding {
     aff_real xd[3];           /* of the near-zero indicator */
     aff_real w1;              /* last accepted velocity (rad/s) */
     aff_real w2;              /* the one before (rad/s) */
-    long n_acc;               /* accepted samples (noise scale starts at 2) */
+    int64_t n_acc;            /* accepted samples (noise scale starts at 2) */
     aff_real d2;              /* running mean of |w(k) - 2 w(k-1) + w(k-2)| (rad/s) */
     aff_real e2;              /* running mean of err^2/(1 + phi'P phi) of the RLS (N*m^2) */
-    long n_samples;           /* samples accepted */
-    long n_rejected;          /* samples rejected (range gates, outlier gate) */
-    long n_gated;             /* update instants skipped by the sliding-regime gate */
+    int64_t n_samples;        /* samples accepted */
+    int64_t n_rejected;       /* samples rejected (range gates, outlier gate) */
+    int64_t n_gated;          /* update instants skipped by the sliding-regime gate */
     int updated;              /* 1 if the last observe updated the RLS */
     aff_real phi[AFF_RLS_NMAX]; /* regressor of the last update (p entries) */
     aff_gate gate;            /* outlier gate of w */

@@ -72,7 +72,7 @@ aff_real aff_supervisor_apply(aff_supervisor *s, aff_real u_c, aff_real w_ref)
     s->u_c = (aff_real)u_c;
     s->transfer = 0;
     if (s->rest) {
-        s->n_rest += 1;
+        s->n_rest = aff_count_up(s->n_rest);
         return 0;
     }
     if (s->on != s->applied_on) {
@@ -86,12 +86,12 @@ void aff_supervisor_observe(aff_supervisor *s, aff_real u, aff_real w)
 {
     aff_real uu = (aff_real)u;
     aff_real ww = (aff_real)w;
-    long k = s->n; /* this period's index, from 0 */
-    s->n += 1;
+    int64_t k = s->n; /* this period's index, from 0 (INT64_MAX once s->n saturated) */
+    s->n = aff_count_up(s->n);
     if (!s->on && !s->rest)
-        s->n_off += 1;
+        s->n_off = aff_count_up(s->n_off);
     if (!isfinite(uu) || !isfinite(ww)) {
-        s->n_skipped += 1;
+        s->n_skipped = aff_count_up(s->n_skipped);
         return;
     }
     /* ring of the last delay+1 torques: slot pos holds u(k-1-d), the oldest */
@@ -118,10 +118,10 @@ void aff_supervisor_observe(aff_supervisor *s, aff_real u, aff_real w)
         return;
     if (s->on && s->m_r > s->m_f) {
         s->on = 0;
-        s->n_backoff += 1;
+        s->n_backoff = aff_count_up(s->n_backoff);
     } else if (!s->on && s->m_r < ((aff_real)1.0 - s->margin) * s->m_f) {
         s->on = 1;
-        s->n_restore += 1;
+        s->n_restore = aff_count_up(s->n_restore);
     }
 }
 

@@ -79,8 +79,8 @@ typedef struct aff_supervisor {
     int rest;             /* 1: the reference is at rest in this period (nothing applied) */
     long n_hold;          /* periods with |w_ref| <= rest_band before the reference counts as at rest,
                              max(2, ceil(1/(omega*Tc))) */
-    long n_still;         /* periods in a row with |w_ref| <= rest_band, up to this one */
-    long n_rest;          /* periods at rest */
+    int64_t n_still;      /* periods in a row with |w_ref| <= rest_band, up to this one, at most n_hold */
+    int64_t n_rest;       /* periods at rest */
     aff_real transfer;    /* torque to add to the PI integrator in this period (N*m), 0 unless the mode switched */
     aff_real u_c;         /* the candidate of this period (N*m) */
     aff_real w_last;      /* last finite velocity (rad/s; valid if has_w_last) */
@@ -89,11 +89,11 @@ typedef struct aff_supervisor {
     aff_real x_r;         /* r_hat (N*m) */
     aff_real m_f;         /* M_f, EWMA of f_hat^2 (N^2*m^2) */
     aff_real m_r;         /* M_r, EWMA of r_hat^2 (N^2*m^2) */
-    long n;               /* periods observed */
-    long n_backoff;       /* switches on -> off */
-    long n_restore;       /* switches off -> on */
-    long n_off;           /* periods backed off */
-    long n_skipped;       /* non-finite samples skipped */
+    int64_t n;            /* periods observed */
+    int64_t n_backoff;    /* switches on -> off */
+    int64_t n_restore;    /* switches off -> on */
+    int64_t n_off;        /* periods backed off */
+    int64_t n_skipped;    /* non-finite samples skipped */
     long pos;             /* ring position of the torque history */
     aff_real u_hist[AFF_SUPERVISOR_DELAY_MAX + 1];   /* applied torques u(k-1-d..k-1) (N*m) */
     aff_real c_hist[AFF_SUPERVISOR_DELAY_MAX + 1];   /* candidates of the same periods (N*m) */

@@ -86,9 +86,9 @@ static int canudas_update(ctl_canudas *c, aff_real w0, aff_real w1, aff_real uba
     } else {
         return 0;
     }
-    long n0 = c->rls.n_updates;
+    int64_t n0 = c->rls.n_updates;
     aff_rls_update(&c->rls, phi, w1 - w0);
-    long n1 = c->rls.n_updates;
+    int64_t n1 = c->rls.n_updates;
     if (n1 == n0) { /* a non-finite row (overflow of finite samples) is refused and counted */
         c->n_rejected++;
         return 0;

@@ -4,10 +4,14 @@
  * single-precision FPU: `-DAFF_FLOAT`). The AFF_EXP/AFF_FABS/... macros pick
  * the matching <math.h> function, so the same source compiles in both
  * precisions. The simulation (plant integrators, engine) is double only.
+ * Counters of the drive's code (periods, updates, rejections: everything that grows with time) are int64_t and
+ * count up by aff_count_up, saturating at INT64_MAX: on a 32-bit MCU a `long` period counter overflows after
+ * 24.9 days at 1 kHz (2^31 periods), an int64_t one saturates after 2.9e8 years, and none ever overflows.
  */
 #ifndef AFF_REAL_H
 #define AFF_REAL_H
 #include <math.h>
+#include <stdint.h>
 
 #ifdef AFF_FLOAT
 typedef float aff_real;
@@ -48,6 +52,12 @@ static inline aff_real aff_max2(aff_real a, aff_real b)
 static inline int aff_positive(aff_real x)
 {
     return isfinite(x) && x > 0;
+}
+
+/* n + 1, or n if n is INT64_MAX: a counter that reached the maximum stays there (no signed overflow). */
+static inline int64_t aff_count_up(int64_t n)
+{
+    return n < INT64_MAX ? n + 1 : n;
 }
 
 #endif
