@@ -66,7 +66,6 @@ int aff_sliding_observe(aff_sliding *e, aff_real u, aff_real w)
 {
     int uok, wok;
     aff_real band, nb, aw, gg, hh, dz, a, T, s, err;
-    int64_t k;
     long j;
     e->updated = 0;
     /* input rejection: torque range, velocity range (finite velocities; the gate counts non-finite ones), then
@@ -120,8 +119,8 @@ int aff_sliding_observe(aff_sliding *e, aff_real u, aff_real w)
     svf3(e->xh, a, hh);
     svf3(e->xd, a, dz);
     e->n_samples = aff_count_up(e->n_samples);
-    k = e->n_samples;
-    if (k % e->m != 0 || k < e->settle)
+    e->n_phase = e->n_phase + 1 < e->m ? e->n_phase + 1 : 0; /* n_samples mod m, also once n_samples saturated */
+    if (e->n_phase != 0 || e->n_samples < e->settle)
         return 1;
     if (e->xd[2] > e->dwell_max) {
         e->n_gated = aff_count_up(e->n_gated);

@@ -48,6 +48,8 @@ typedef struct aff_sliding {
     int64_t n_samples;        /* samples accepted */
     int64_t n_rejected;       /* samples rejected (range gates, outlier gate) */
     int64_t n_gated;          /* update instants skipped by the sliding-regime gate */
+    long n_phase;             /* n_samples mod m (0..m-1; 0: an update instant), counted on its own so that the
+                                 updates go on every m-th sample after n_samples saturated at INT64_MAX */
     int updated;              /* 1 if the last observe updated the RLS */
     aff_real phi[AFF_RLS_NMAX]; /* regressor of the last update (p entries) */
     aff_gate gate;            /* outlier gate of w */
