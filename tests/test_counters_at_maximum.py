@@ -20,7 +20,10 @@ the stick band) and five velocity spikes within the guard's bound (the estimator
   estimator's schedule, every Ts/Tc-th sample, is counted apart from its saturating sample count) and the estimate
   in use keeps changing;
 * the counters of faults the guard refuses first (non-finite samples, torques beyond the range gates), fed straight
-  into the component, stay at INT64_MAX too while an untouched copy counts them.
+  into the component, stay at INT64_MAX too while an untouched copy counts them;
+* the drive's sources built with clang's UndefinedBehaviorSanitizer (``-fsanitize=undefined
+  -fno-sanitize-recover=all``) replay the run-ons from the states with every counter at INT64_MAX without a finding
+  (no signed overflow anywhere, also in comparisons such as the switch-in's with n_wait).
 22 of the 30 counters count in these runs (the switch-in's n_used before the switch-in); the others (the RLS's
 projections and refusals, the robust feedforward's refused estimates, the supervisor's restores) count decisions
 this joint does not take, and are checked to stay at the maximum.
@@ -28,7 +31,12 @@ this joint does not take, and are checked to stay at the maximum.
 
 from __future__ import annotations
 
+import os
+import shutil
+import subprocess
+import sys
 from collections import Counter
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -267,3 +275,68 @@ def test_fault_counters_at_the_maximum_without_the_guard(log):
             assert v == MAX, p
         elif kinds[p] == "run":
             assert 0 <= v <= MAX, p
+
+
+ROOT = Path(__file__).resolve().parent.parent
+DRIVE = ["aff_adaptive", "aff_residual", "aff_dob", "aff_supervisor", "aff_robust_ff", "aff_sliding", "aff_feedforward",
+         "aff_rls", "aff_gate", "aff_velocity_input", "aff_regression", "aff_drive"]
+HARNESS = r"""
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include "aff_drive.h"
+/* argv: the bytes of an aff (the cffi module's layout), a log of n periods (u[n], w[n], w_ref[n], doubles) */
+int main(int argc, char **argv)
+{
+    static aff c;
+    FILE *f = argc == 3 ? fopen(argv[1], "rb") : NULL;
+    if (!f || fread(&c, sizeof c, 1, f) != 1 || fgetc(f) != EOF)
+        return 2;
+    fclose(f);
+    f = fopen(argv[2], "rb");
+    if (!f || fseek(f, 0, SEEK_END) != 0)
+        return 3;
+    long n = ftell(f) / (3 * (long)sizeof(double));
+    rewind(f);
+    double *log = malloc((size_t)(3 * n) * sizeof(double)), *uff = malloc((size_t)n * sizeof(double));
+    if (!log || !uff || fread(log, sizeof(double), (size_t)(3 * n), f) != (size_t)(3 * n))
+        return 4;
+    fclose(f);
+    aff_replay(&c, log, log + n, NULL, log + 2 * n, uff, NULL, n);
+    double m = 0;
+    for (long k = 0; k < n; k++)
+        m = isfinite(uff[k]) && fabs(uff[k]) > m ? fabs(uff[k]) : (isfinite(uff[k]) ? m : INFINITY);
+    printf("%.17g %lld %lld %lld\n", m, (long long)aff_n_updates(&c), (long long)c.mode.sup.n,
+           (long long)c.mode.res.sw.k_in);
+    return 0;
+}
+"""
+
+
+def test_no_undefined_behaviour_at_the_maximum_under_ubsan(log, tmp_path):
+    """The drive's sources under UBSan (clang) replay the run-ons of the states with every counter at INT64_MAX."""
+    clang = shutil.which("clang")
+    if clang is None or sys.platform == "win32":
+        if os.environ.get("CI"):
+            pytest.fail("clang is missing: .ci/run installs it")
+        pytest.skip("clang is not installed (apt-get install clang)")
+    (tmp_path / "harness.c").write_text(HARNESS)
+    exe = tmp_path / "harness"
+    src = [str(ROOT / "adaptive_ff" / "csrc" / f"{f}.c") for f in DRIVE] + [str(ROOT / "plant" / "csrc" /
+                                                                            "plant_stribeck.c")]
+    subprocess.run([clang, "-std=c99", "-O1", "-g", "-fsanitize=undefined", "-fno-sanitize-recover=all",
+                    f"-I{ROOT / 'adaptive_ff' / 'csrc'}", f"-I{ROOT / 'plant' / 'csrc'}", *src,
+                    str(tmp_path / "harness.c"), "-lm", "-o", str(exe)], check=True, capture_output=True)
+    for cut, k_in in ((6_000, MAX), (10_000, 8369)):  # before the switch-in (then at INT64_MAX), after it
+        c = _fresh()
+        _run(c, log, 0, cut)
+        for _, s, n, kind in _counters(c[0]):
+            if kind != "index":
+                setattr(s, n, MAX)
+        (tmp_path / "aff.bin").write_bytes(bytes(ffi.buffer(c)))
+        np.stack([x[cut:N] for x in log]).astype(float).tofile(tmp_path / "log.bin")
+        r = subprocess.run([str(exe), str(tmp_path / "aff.bin"), str(tmp_path / "log.bin")], capture_output=True,
+                           text=True, timeout=120)
+        assert r.returncode == 0 and r.stderr == "", r.stderr
+        m, n_updates, n_sup, k = r.stdout.split()
+        assert float(m) <= FF_MAX and int(n_updates) == MAX and int(n_sup) == MAX and int(k) == k_in

@@ -214,7 +214,8 @@ void aff_residual_observe(aff_residual *r, aff_real u, aff_real w_meas, aff_real
  * "The composite's observer at rest"): zoo #25 (difference velocity), the one remaining loss, best adaptive 1.032
  * -> 1.120 against `fixed` 1.100, no loss > 0.02 and none worse than none with either velocity, every variant's
  * adaptive modes within -0.018; holding plain `adaptive` before its switch-in too was needed (without it #25
- * reached 1.065). n_held counts the periods held outside rest (at_rest takes back a period it counted). */
+ * reached 1.065). n_held counts the periods held outside rest (at_rest takes back a period it counted, unless the
+ * count saturated at INT64_MAX). */
 void aff_residual_at_rest(aff_residual *r);
 
 #endif
