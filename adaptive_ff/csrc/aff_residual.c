@@ -33,7 +33,8 @@ static int switch_in_init(aff_switch_in *s, aff_real Tc, aff_real J_n, aff_real 
     s->b = (aff_real)1.0 - AFF_EXP(-Tc / window);
     s->fade = fade_in > Tc ? Tc / fade_in : (aff_real)1.0;
     aff_real ne = AFF_FLOOR(window / Tc + (aff_real)0.5);
-    ne = ne < 1 ? (aff_real)1 : (ne > (aff_real)1e8 ? (aff_real)1e8 : ne); /* bounded: 5*n_evidence fits a 32-bit long */
+    /* bounded: 5*n_evidence fits a 32-bit long */
+    ne = ne < 1 ? (aff_real)1 : (ne > (aff_real)1e8 ? (aff_real)1e8 : ne);
     s->n_evidence = (long)ne;
     s->n_wait = 5 * s->n_evidence;
     s->w_l = 0;
@@ -166,8 +167,8 @@ static aff_real trial_step(aff_switch_in *s, aff_real w_ref, aff_real w_ctrl, in
     return (aff_real)s->g;
 }
 
-aff_real aff_switch_in_step(aff_switch_in *s, aff_real u_ff, aff_real d_hat, aff_real w_ref, aff_real w_ctrl, int acting,
-                          int started)
+aff_real aff_switch_in_step(aff_switch_in *s, aff_real u_ff, aff_real d_hat, aff_real w_ref, aff_real w_ctrl,
+                            int acting, int started)
 {
     int64_t k = s->n; /* this period's index, from 0 (INT64_MAX once s->n saturated) */
     s->n = aff_count_up(s->n);
@@ -208,8 +209,8 @@ aff_real aff_switch_in_step(aff_switch_in *s, aff_real u_ff, aff_real d_hat, aff
     return (aff_real)s->g;
 }
 
-aff_real aff_residual_compensate(aff_residual *r, aff_real u_ff, int acting, int started, aff_real w_ctrl, aff_real w_meas,
-                               aff_real w_ref)
+aff_real aff_residual_compensate(aff_residual *r, aff_real u_ff, int acting, int started, aff_real w_ctrl,
+                                 aff_real w_meas, aff_real w_ref)
 {
     aff_real d = aff_dob_compensate(&r->dob, w_ctrl, w_meas, w_ref);
     aff_real g = r->use_switch_in ? aff_switch_in_step(&r->sw, u_ff, d, w_ref, w_ctrl, acting, started)

@@ -177,8 +177,8 @@ int aff_switch_in_fires(const aff_switch_in *s);
  * feedforward's own estimate acts (acting, 0/1) and whether its provisional start map does (started, 0/1: the
  * start's evidence from n_wait on, no idle switch-in; header comment); returns the share g of d_hat to apply
  * (0..1). */
-aff_real aff_switch_in_step(aff_switch_in *s, aff_real u_ff, aff_real d_hat, aff_real w_ref, aff_real w_ctrl, int acting,
-                          int started);
+aff_real aff_switch_in_step(aff_switch_in *s, aff_real u_ff, aff_real d_hat, aff_real w_ref, aff_real w_ctrl,
+                            int acting, int started);
 
 /* The composite's output for the feedforward's torque u_ff (N*m), whether its own estimate acts and whether its
  * start map does (acting, started, 0/1, for aff_switch_in_step): d_hat =
@@ -187,8 +187,8 @@ aff_real aff_switch_in_step(aff_switch_in *s, aff_real u_ff, aff_real d_hat, aff
  * r->u_ff for the observer. While held after a rest (aff_residual_at_rest) until w_ctrl*w_ref > 0: g*d_hat alone
  * and r->u_ff = 0 (the feedforward not applied; before the switch-in 0, r->u_ff = u_ff as at rest); a non-finite
  * w_ctrl keeps the hold. The switch-in test sees u_ff and acting unchanged by the hold. */
-aff_real aff_residual_compensate(aff_residual *r, aff_real u_ff, int acting, int started, aff_real w_ctrl, aff_real w_meas,
-                               aff_real w_ref);
+aff_real aff_residual_compensate(aff_residual *r, aff_real u_ff, int acting, int started, aff_real w_ctrl,
+                                 aff_real w_meas, aff_real w_ref);
 
 /* The observer records the torque without the feedforward, u - u_ff (N*m), and w_meas (rad/s). */
 void aff_residual_observe(aff_residual *r, aff_real u, aff_real w_meas, aff_real *theta_out);
