@@ -30,12 +30,14 @@ the paper's eq. 4 feedforward (:class:`adaptive_ff.AdaptiveFrictionFeedforward`,
 estimators ``eq4`` and ``eq4-rls``) the struct is ``ctl_eq4_dob``, the same
 composite with ``aff_eq4_ff`` in place of ``aff_robust_ff``.
 
-Mode ``adaptive`` is the same composite with a :class:`ResidualSwitchIn`: the observer runs from the start, but
+Mode ``adaptive`` is the same arrangement with a :class:`ResidualSwitchIn`: the observer runs from the start, but
 its estimate is applied only once a residual test finds that the feedforward leaves too much of the friction
 in the loop's band (sticking joints, small fast joints, LuGre pre-sliding: where the sliding model misses), faded
-in; ``info()["t_switch_in"]`` says when (``controllers/csrc/ctl_adob.h``). A trial then keeps it only if the loop's
-measured error, against the frictionless loop's, is no worse with it than before, where the observer had little to
-gain (``info()["t_switch_out"]``).
+in; ``info()["t_switch_in"]`` says when (``adaptive_ff/csrc/aff_residual.h``). Over the sliding estimator it is
+one component with its supervisor, :class:`AdaptiveCompensator` (C ``aff_adaptive``, the struct ``export-c``
+writes for a drive); over the eq. 4 estimators the composite ``ctl_eq4_dob`` with the switch-in. A trial then
+keeps it only if the loop's measured error, against the frictionless loop's, is no worse with it than before, where
+the observer had little to gain (``info()["t_switch_out"]``).
 
 After a rest of the reference (the supervisor's rest rule withheld the output; the engine calls the ops table's
 ``at_rest``) the feedforward part is held back until the measured velocity moves in the reference's direction
@@ -82,7 +84,7 @@ _BY_CTYPE = {c.ctype: c for c in _COMPOSITES.values()}
 
 @dataclass(frozen=True)
 class ResidualSwitchIn:
-    """Settings of the residual switch-in of mode ``adaptive`` (C ``aff_switch_in``, ``controllers/csrc/ctl_adob.h``).
+    """Settings of the residual switch-in of mode ``adaptive`` (C ``aff_switch_in``, adaptive_ff/csrc/aff_residual.h).
 
     The loop's linear model (design inertia ``J_n``, PI gains ``Kp``, ``Ki``) predicts the frictionless loop's error
     on the reference and the velocity that the observer's residual estimate ``d_hat`` adds to it; the loop being

@@ -260,14 +260,16 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
         x.set_drive(b, drive)
         x.set_pi(b, ctrls[b])
         x.set_compensator(b, None if oracle else comps[b])
-        own = own_supervisor(comps[b])  # applied by the compensator itself (mode adaptive)
-        sups[b] = own if own is not None else (None if comps[b] is None or oracle else
-                                               build_supervisor(plants[b], mode, o))
-        x.set_supervisor(b, None if own is not None else sups[b])
+        own = own_supervisor(comps[b])  # applied by the compensator itself (mode adaptive), advanced in its struct
+        if own is not None:
+            sups[b] = own
+        else:
+            sups[b] = None if comps[b] is None or oracle else build_supervisor(plants[b], mode, o)
+            x.set_supervisor(b, sups[b])
     x.keep(rows)
     x.run()
     for b in range(B):
-        if sups[b] is not None and own_supervisor(comps[b]) is None:
+        if sups[b] is not None and x.scenarios[b].use_supervisor:  # the engine's copy of it, read back
             x.supervisor_state(b, sups[b])
     _, diverged, _ = x.outcome()
     states = x.metrics()
