@@ -259,7 +259,7 @@ def register(sub) -> None:
                    help="adaptive estimator: sliding-regime inverse-dynamics RLS (default); eq4: the paper's eq. 4 "
                         "by recursive IV on the sliding samples (the model estimated consistently in closed loop, "
                         "docs/theory.md); eq4-rls: eq. 4 by the paper's RLS, eqs. 10-13 as printed (biased on the "
-                        "loop's own data; until 2026-11-24 named eq4, and the IV eq4-iv)")
+                        "loop's own data); export-c exports mode adaptive with the sliding estimator only")
     c.add_argument("--iv-map-stderr", type=float, default=float("inf"),
                    help="eq4 in mode adaptive: put an estimate into use only once the standard error of its static "
                         "map is at most this times its max(Fc, Fs) (default inf: no test; docs/benchmarks/"
