@@ -20,8 +20,8 @@ aff_real aff_adaptive_compensate(void *self, aff_real w_ctrl, aff_real w_meas, a
     aff_adaptive *a = (aff_adaptive *)self;
     aff_real out = aff_robust_ff_compensate(&a->ff, w_ctrl, w_meas, w_ref);
     if (a->use_residual) {
-        int acting = a->ff.ff.has && !a->ff.provisional; /* its own estimate in use */
-        out = aff_residual_compensate(&a->res, out, acting, a->ff.provisional, w_ctrl, w_meas, w_ref);
+        out = aff_residual_compensate(&a->res, out, aff_robust_ff_estimate_in_use(&a->ff), a->ff.provisional, w_ctrl,
+                                      w_meas, w_ref);
     }
     a->w_ctrl = w_ctrl;
     a->transfer = 0;

@@ -205,7 +205,7 @@ int aff_active(const aff *c)
 int aff_estimate(const aff *c, aff_real *Fc, aff_real *Fs, aff_real *sigma, aff_real *tau)
 {
     const aff_fixed_ff *f = &c->mode.ff.ff;
-    if (!f->has || c->mode.ff.provisional)
+    if (!aff_robust_ff_estimate_in_use(&c->mode.ff))
         return 0;
     if (Fc)
         *Fc = f->Fc;

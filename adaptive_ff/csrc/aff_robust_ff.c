@@ -294,6 +294,11 @@ static void plausible_box(const aff_robust_ff *r, aff_real *lo, aff_real *hi)
     lo[k + 2] = 0.0;
 }
 
+int aff_robust_ff_estimate_in_use(const aff_robust_ff *r)
+{
+    return r->ff.has && !r->provisional;
+}
+
 int aff_robust_ff_decide(aff_robust_ff *r)
 {
     aff_sliding *est = &r->est;
@@ -371,7 +376,7 @@ int aff_robust_ff_decide(aff_robust_ff *r)
             m = aff_min2(r->lag_margin * sd, r->lag_margin_max * etau);
             etau = aff_min2(etau + m, r->tau_max);
         }
-    } else if (r->ff.has && !r->provisional) {
+    } else if (aff_robust_ff_estimate_in_use(r)) {
         r->n_lag_held = aff_count_up(r->n_lag_held);
         etau = r->ff.tau;
         r->held = 1;

@@ -109,6 +109,10 @@ int aff_fc_determined(aff_real max_rel_stderr, aff_real e2, aff_real P_FcFc, aff
 int aff_robust_ff_plausible(const aff_robust_ff *r, aff_real J, aff_real tau, aff_real J_alt, aff_real Fc,
                             aff_real Fs, aff_real sigma);
 
+/* 1 if the feedforward acts on an estimate of its own estimator (not before switch-on, not while the provisional
+ * start map acts), else 0: the condition the composites pass to the switch-in as "acting". */
+int aff_robust_ff_estimate_in_use(const aff_robust_ff *r);
+
 /* Take the lag estimate tau (s) with standard error sd (s) into the weighted mean and return the mean:
  * lag_mean += (w/info)*(tau - lag_mean), info = lag_forget*info + w, w = 1/sd^2 (the first: tau itself); tau
  * itself, the mean unchanged, where lag_forget is 0 or sd is not > 0. Python: adaptive_feedforward.lag_weighted. */

@@ -11,8 +11,8 @@ aff_real ctl_adob_compensate(void *self, aff_real w_ctrl, aff_real w_meas, aff_r
 {
     ctl_adob *a = (ctl_adob *)self;
     double uff = aff_robust_ff_compensate(&a->ff, w_ctrl, w_meas, w_ref);
-    int acting = a->ff.ff.has && !a->ff.provisional; /* its own estimate in use */
-    return aff_residual_compensate(&a->res, uff, acting, a->ff.provisional, w_ctrl, w_meas, w_ref);
+    return aff_residual_compensate(&a->res, uff, aff_robust_ff_estimate_in_use(&a->ff), a->ff.provisional, w_ctrl,
+                                   w_meas, w_ref);
 }
 
 int ctl_adob_observe(void *self, aff_real u, aff_real w_meas, aff_real *theta_out)
