@@ -3,7 +3,7 @@
 Run:  python benchmarks/zoo.py [--n 100] [--duration 120] [--seed 0] [--modes none,fixed,adaptive,dob,...]
                                [--group 8] [--workers 2] [--scheduler tcp://host:8786]
                                [--min-degradation 0.01] [--estimator sliding|eq4|eq4-rls] [--J-design-factor 1]
-                               [--iv-map-stderr inf] [--no-switch-in] [--json out.json]
+                               [--iv-map-stderr inf] [--no-switch-in] [--scenario FILE] [--json out.json]
 
 Draws the joints with :func:`controllers.experiments.zoo.draw_plants` (the box of
 :class:`controllers.experiments.zoo.ZooBox`), prepares each as ``compare`` does
@@ -15,7 +15,12 @@ prints eta (second half) per mode as quantiles with the count of every outcome
 adaptive modes against fixed, DOB and Canudas, the targets (no run refused or
 diverged; best adaptive eta > 0 on every joint with a defined eta; best adaptive
 at or above the DOB on at least 95 %) with the joints that miss them, and the
-wall time split into preparation and runs. A new mode
+wall time split into preparation and runs, and the joints where an adaptive mode's largest velocity error
+exceeds the larger of ``none``'s and twice ``frictionless``'s (target: none).
+
+``--scenario FILE`` places every joint into a scenario file's comparison (``ZooOptions.base``): its
+reference (the joints are drawn for its peak speed and acceleration; ``--duration`` is refused), sensor,
+slew limit and controller design; each joint keeps its own torque limit and design inertia. A new mode
 of the registry is picked up by default (``--modes`` lists the registry).
 """
 
@@ -29,6 +34,7 @@ import subprocess
 import sys
 import time
 
+from controllers.experiments.scenario import load_scenario
 from controllers.experiments.zoo import ZooOptions, run_zoo, zoo_options_dict
 from controllers.simulation.compensators import ESTIMATORS, MODES
 from plant.errors import ParameterError
@@ -56,11 +62,21 @@ def main(argv=None) -> int:
     ap.add_argument("--no-switch-in", dest="switch_in", action="store_false",
                     help="mode adaptive as the feedforward alone, without the residual switch-in (as export-c writes "
                          "it; ZooOptions.switch_in)")
+    ap.add_argument("--scenario", default=None,
+                    help="place every joint into this scenario file's reference, sensor and controller")
     ap.add_argument("--json", default=None, help="write the full result (strict JSON) to this file")
     args = ap.parse_args(argv)
+    base = None
+    if args.scenario is not None:
+        if any(a == "--duration" or a.startswith("--duration=") for a in (argv if argv is not None else sys.argv[1:])):
+            ap.error("--duration: the scenario's reference sets the duration")
+        try:
+            base = load_scenario(args.scenario).options
+        except ParameterError as exc:
+            ap.error(str(exc))
     try:
-        o = ZooOptions(n=args.n, duration=args.duration, seed=args.seed, modes=tuple(args.modes.split(",")),
-                       group=args.group, workers=args.workers, scheduler=args.scheduler,
+        o = ZooOptions(base=base, n=args.n, duration=args.duration, seed=args.seed,
+                       modes=tuple(args.modes.split(",")), group=args.group, workers=args.workers, scheduler=args.scheduler,
                        min_degradation=args.min_degradation, estimator=args.estimator,
                        J_design_factor=args.J_design_factor, iv_map_stderr=args.iv_map_stderr,
                        switch_in=args.switch_in)
@@ -80,7 +96,7 @@ def main(argv=None) -> int:
     print(r.summary())
     tm = r.timing
     print(f"wall {r.seconds:.1f} s, {60.0 * len(r.plants) / r.seconds:.1f} joints/min ({len(r.modes)} modes, "
-          f"{args.duration:g} s each); CPU in the workers: preparation {tm['prepare_cpu']:.1f} s, runs of every "
+          f"{o.duration:g} s each); CPU in the workers: preparation {tm['prepare_cpu']:.1f} s, runs of every "
           f"mode {tm['runs_cpu']:.1f} s")
     if args.json:
         d = r.to_dict()

@@ -253,6 +253,31 @@ def _rest_end_runs(mode, targets=(0.5, -0.2, 0.4), **options):
     return p, ref, o, rec, b.compensators[0]
 
 
+def test_at_rest_the_compensation_is_withdrawn_through_the_lag_in_use():
+    """At rest the last applied torque decays as u(k) = exp(-Tc/tau)*u(k-1) (eq. 2 with F(0) = 0): the closed form
+    u_last*exp(-n*Tc/tau) after n rest periods; a tau of 0 (alpha 1) or an alpha outside [0, 1] withdraws at once."""
+    n, k0 = 300, 100
+    w_ref = np.where(np.arange(n) >= k0, 0.0, 0.5)
+    kw = dict(Tc=1e-3, J_n=0.5, omega=40.0, window=0.2, settle=0.0)
+    tau = 0.02
+    s = FeedforwardSupervisor(**kw)
+    s.set_rest_lag(1.0 - math.exp(-1e-3 / tau))
+    n_hold = int(s.cdata.n_hold)
+    applied = []
+    for k in range(n):
+        applied.append(s.apply(7.5, w_ref[k]))
+        s.observe(0.0, 0.0)
+    applied = np.array(applied)
+    np.testing.assert_array_equal(applied[:k0 + n_hold - 1], 7.5)  # moving, and the hold before the rest
+    rest_n = np.arange(1, n - (k0 + n_hold - 1) + 1)
+    np.testing.assert_allclose(applied[k0 + n_hold - 1:], 7.5 * np.exp(-rest_n * 1e-3 / tau), rtol=1e-12)
+    for alpha in (1.0, 1.5, math.nan, -0.1):
+        s = FeedforwardSupervisor(**kw)
+        s.set_rest_lag(alpha)
+        out = [s.apply(7.5, w_ref[k]) for k in range(n)]
+        np.testing.assert_array_equal(out[k0 + n_hold - 1:], 0.0)
+
+
 def test_at_rest_the_composites_observer_measures_the_friction_itself():
     """With the reference at rest nothing is applied and the engine tells the compensator (ctl_adob_at_rest): the
     residual observer of ``adaptive-dob`` then takes the torque as applied, u, not u - u_ff. At the end of the final
@@ -285,7 +310,8 @@ def test_after_a_rest_the_feedforward_part_is_held_until_the_joint_moves_in_the_
     aff_residual_compensate), until the measured velocity has the reference's sign (w_ctrl*w_ref > 0); then u_ff +
     d_hat again. Checked against an independent replay: the rest periods by the supervisor's rule (|w_ref| = 0 for
     n_hold periods in a row), a separate feedforward and a plain disturbance observer run on the recorded torque and
-    measurement, composed by that rule in Python."""
+    measurement, composed by that rule in Python. At rest the last applied torque decays through the feedforward's
+    lag in use, ``u(k) = exp(-Tc/tau)*u(k-1)`` (the paper joint's lag, 3.2 ms)."""
     targets = [0.5, -0.2, 0.4, 0.0, 0.6, -0.3] * 2  # the open bench's moves (the feedforward on after a few)
     # the measurement's noise (1e-3 rad/s) gives the velocity at a rest's end either sign: some moves begin held
     p, ref, o, rec, comp = _rest_end_runs("adaptive-dob", targets, sensor_gate=False)
@@ -305,6 +331,7 @@ def test_after_a_rest_the_feedforward_part_is_held_until_the_joint_moves_in_the_
     withheld = np.zeros(n)  # the feedforward part left out
     held = np.zeros(n, dtype=bool)
     hold = False
+    decays = 0
     for k in range(n):
         wm, wr = rec.w_meas[k], rec.w_ref[k]
         u_ff = ff.compensate(wm, wr)
@@ -312,7 +339,11 @@ def test_after_a_rest_the_feedforward_part_is_held_until_the_joint_moves_in_the_
         if hold and wm * wr > 0.0:
             hold = False
         if rest[k]:
-            told, hold = 0.0, True      # nothing applied (the supervisor's rest rule)
+            e = ff.estimate  # the lag in use: eq. 2's decay with F(0) = 0 from the last applied torque
+            keep = math.exp(-1e-3 / e.tau) if e is not None and e.tau > 0 else 0.0
+            decays += keep > 0
+            expected[k] = keep * expected[k - 1]
+            told, hold = 0.0, True      # the feedforward not applied (the supervisor's rest rule)
         elif hold:
             told, expected[k], held[k], withheld[k] = 0.0, d, True, u_ff
         else:
@@ -320,6 +351,7 @@ def test_after_a_rest_the_feedforward_part_is_held_until_the_joint_moves_in_the_
         ff.observe(rec.u[k], wm)
         dob.observe(rec.u[k] - told, wm)
     assert np.max(np.abs(expected)) < o.u_max  # the bound never acts
+    assert decays > 1000  # the rests after the feedforward's switch-on withdraw it through its lag
     starts = np.flatnonzero(held & ~np.roll(held, 1))
     ends = np.flatnonzero(rest[:-1] & ~rest[1:]) + 1  # first period after each rest
     assert starts.shape[0] >= 3 and np.all(np.isin(starts, ends))  # a hold begins only at a rest's end
@@ -333,7 +365,8 @@ def test_after_a_rest_the_feedforward_part_is_held_until_the_joint_moves_in_the_
 def test_before_its_switch_in_adaptive_applies_nothing_while_held():
     """Plain ``adaptive`` before its residual switch-in (g = 0) holds too: after a rest its output is 0 until
     w_ctrl*w_ref > 0, otherwise exactly the feedforward's u_ff (against a separate feedforward replayed on the
-    recorded torque and measurement); its observer keeps u - u_ff as at rest (the switch-in test's residual)."""
+    recorded torque and measurement); its observer keeps u - u_ff as at rest (the switch-in test's residual). At rest
+    the last applied torque decays through the feedforward's lag in use."""
     targets = [0.5, -0.2, 0.4, 0.0, 0.6, -0.3] * 2
     p, ref, o, rec, comp = _rest_end_runs("adaptive", targets, sensor_gate=False)
     assert rec.info["n_backoff"] == 0 and rec.info["n_sensor_rejected"] == 0
@@ -356,6 +389,8 @@ def test_before_its_switch_in_adaptive_applies_nothing_while_held():
         if hold and wm * wr > 0.0:
             hold = False
         if rest[k]:
+            e = ff.estimate
+            expected[k] = (math.exp(-1e-3 / e.tau) if e is not None and e.tau > 0 else 0.0) * expected[k - 1]
             hold = True
         elif hold:
             held[k], withheld[k] = True, u_ff

@@ -329,3 +329,36 @@ def test_a_zoo_without_the_switch_in_is_compare_with_switch_in_false_on_each_joi
     for bad in (0, "no", None):
         with pytest.raises(ParameterError, match="switch_in"):
             ZooOptions(switch_in=bad)
+
+
+def test_a_zoo_placed_into_a_scenario_is_compare_on_each_joint_with_the_scenarios_settings():
+    """ZooOptions(base=scenario.options): every joint runs with the scenario's reference, sensor and controller, its
+    own torque limit and design inertia (compare() with the scenario's options, u_max and J_design left to the
+    joint); the largest errors are compare()'s second-half maxima and tracking_harm compares them as it says."""
+    from dataclasses import replace
+    from pathlib import Path
+
+    from controllers.experiments.scenario import load_scenario
+
+    sc = load_scenario(Path(__file__).resolve().parent.parent / "examples" / "scenarios" / "linear_axis.toml")
+    modes = ("none", "adaptive", "frictionless")
+    with pytest.raises(ParameterError, match="delay"):
+        ZooOptions(n=2, base=sc.options, delay=1)
+    o = ZooOptions(n=2, seed=5, modes=modes, base=sc.options, workers=1)
+    assert o.duration == pytest.approx(sc.options.reference.t.shape[0] * 1e-3)
+    co = o.compare_options()
+    assert co.reference is sc.options.reference and co.u_max is None and co.crossover == sc.options.crossover
+    assert (co.delay, co.noise_std, co.seed) == (sc.options.delay, sc.options.noise_std, 5)
+    r = run_zoo(o)
+    assert r.plants == draw_plants(2, sc.options.reference, seed=5)
+    json.loads(json.dumps(zoo_options_dict(o), allow_nan=False))
+    for j in range(2):
+        c = compare(plant_from_dict(r.plants[j]), replace(sc.options, seed=5, modes=modes, u_max=None,
+                                                          compensators=None), progress=False)
+        for m in modes:
+            assert r.rms[m][j] == pytest.approx(c.results[m].metrics.rms_second_half, rel=1e-12), (j, m)
+            assert r.max_error[m][j] == pytest.approx(c.results[m].metrics.max_second_half, rel=1e-12), (j, m)
+    fake = replace(r, max_error={"none": np.array([1.0, 1.0]), "frictionless": np.array([0.4, 0.7]),
+                                 "adaptive": np.array([1.01, 1.3])})
+    assert fake.tracking_harm() == {"adaptive": [0]}  # bounds 1.0 and 1.4
+    assert fake.targets()["tracking_harm"] == {"adaptive": [0]}

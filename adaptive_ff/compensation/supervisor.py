@@ -55,7 +55,7 @@ class FeedforwardSupervisor(Component):
     rest_band : float or None, keyword-only
         The reference is at rest where ``|w_ref| <= rest_band`` (rad/s) for ``max(2, ceil(1/(omega*Tc)))`` periods
         in a row (one time constant of the loop: the joint has stopped behind the reference): nothing is applied
-        then (Notes); default 0 (a reference exactly at rest, e.g. the dwells of
+        then, through the lag of :meth:`set_rest_lag` (Notes); default 0 (a reference exactly at rest, e.g. the dwells of
         :func:`plant.motion.point_to_point_reference`); None: no rest rule.
     delay : int, keyword-only
         Measurement delay of the velocity (periods), 0..:data:`DELAY_MAX`; default 0. The statistic pairs the
@@ -70,7 +70,7 @@ class FeedforwardSupervisor(Component):
     t_off : float
         Time backed off (s), the reference moving.
     t_rest : float
-        Time the reference was at rest (s): nothing applied.
+        Time the reference was at rest (s): the compensation withdrawn.
     f_hat, r_hat : float
         Filtered disturbance without and with the candidate (N·m).
     ms_friction, ms_residual : float
@@ -96,8 +96,12 @@ class FeedforwardSupervisor(Component):
     the inertia error enter ``f_hat`` and ``r_hat`` alike. In the period the applied torque switches the loop adds ``+u_c`` (off) or
     ``-u_c`` (on) to its PI integrator (bumpless transfer, Åström & Hägglund, *Advanced PID Control*, ISA 2006,
     Sec. 3.5). With the reference at rest a velocity loop's friction brakes the joint toward its setpoint
-    ``w = 0``; a friction feedforward can only lift that brake, so nothing is applied there (no transfer) and those
-    periods do not enter the statistics; the closed-loop engine then tells the compensator (the C ops table's
+    ``w = 0``; a friction feedforward can only lift that brake, so it is withdrawn there (no transfer) and those
+    periods do not enter the statistics. It is withdrawn through the compensator's lag in use (:meth:`set_rest_lag`;
+    at once without a lag), as a lagged friction decays once the joint stops (eq. 2 with ``F(0) = 0``): a lagged
+    friction withdrawn in one period keeps acting for its lag and drives the stopped joint backward (a joint of
+    ``J`` 0.5 kg·m², ``tau`` 50 ms, 20 N·m: 33 deg/s where the reference is at rest and no compensation errs by
+    1.5 deg/s, docs/benchmarks/export_c.md); the closed-loop engine then tells the compensator (the C ops table's
     ``at_rest``: the residual observer of :class:`controllers.peers.adaptive_dob.AdaptiveDOBCompensator` records the
     torque as applied, without the feedforward it did not get). While on and moving, the applied torque is the
     candidate itself (bit for bit).
@@ -169,8 +173,16 @@ class FeedforwardSupervisor(Component):
 
     def apply(self, u_c: float, w_ref: float = math.inf) -> float:
         """This period's compensation (N·m): the candidate ``u_c`` (N·m) while on and the reference ``w_ref`` (rad/s;
-        default moving) is not at rest, else 0."""
+        default moving) is not at rest, 0 while backed off; at rest the last applied torque decays through the lag
+        of :meth:`set_rest_lag` (at once by default)."""
         return float(lib.aff_supervisor_apply(self._c, float(u_c), float(w_ref)))
+
+    def set_rest_lag(self, alpha: float) -> None:
+        """The lag through which the compensation is withdrawn at rest, as the gain ``alpha = 1 - exp(-Tc/tau)`` of the
+        compensator's lag in use ``tau`` (1: no lag, withdrawn at once; outside [0, 1]: at once): at rest the
+        applied torque decays as ``u(k) = (1 - alpha)*u(k-1)``, eq. 2's lag with the model friction ``F(0) = 0``
+        (C ``aff_supervisor_set_rest_lag``)."""
+        lib.aff_supervisor_set_rest_lag(self._c, float(alpha))
 
     def observe(self, u: float, w: float) -> None:
         """After the PI: the applied torque ``u`` (N·m) and the controller's velocity ``w`` (rad/s) of this period

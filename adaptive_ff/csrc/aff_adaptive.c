@@ -26,6 +26,7 @@ aff_real aff_adaptive_compensate(void *self, aff_real w_ctrl, aff_real w_meas, a
     a->w_ctrl = w_ctrl;
     a->transfer = 0;
     if (a->use_supervisor) {
+        aff_supervisor_set_rest_lag(&a->sup, aff_robust_ff_rest_lag(&a->ff));
         out = aff_supervisor_apply(&a->sup, out, w_ref);
         a->transfer = a->sup.transfer;
         if (a->sup.rest && a->use_residual) /* nothing applied: the observer is told (aff_residual_at_rest) */
@@ -51,4 +52,4 @@ aff_real aff_adaptive_transfer(void *self)
 }
 
 const aff_compensator_ops aff_adaptive_ops = {"adaptive", aff_adaptive_compensate, aff_adaptive_observe, NULL,
-                                              aff_adaptive_transfer};
+                                              aff_adaptive_transfer, NULL}; /* its supervisor is its own */

@@ -5,9 +5,13 @@
  *   u_c  = aff_robust_ff_compensate(ff, w_ctrl, w_meas, w_ref)           the feedforward (aff_robust_ff.h)
  *   u_c  = aff_residual_compensate(res, u_c, ...)                        + the residual observer's share
  *                                                                          (aff_residual.h; if use_residual)
- *   out  = aff_supervisor_apply(sup, u_c, w_ref)                         0 while backed off or at rest
- *                                                                          (aff_supervisor.h; if use_supervisor)
- *          at rest: aff_residual_at_rest(res)                            the observer told nothing was applied
+ *   aff_supervisor_set_rest_lag(sup, aff_robust_ff_rest_lag(ff))         withdrawn at rest through the
+ *                                                                          feedforward's lag in use
+ *   out  = aff_supervisor_apply(sup, u_c, w_ref)                         0 while backed off; at rest the
+ *                                                                          withdrawn torque (aff_supervisor.h;
+ *                                                                          if use_supervisor)
+ *          at rest: aff_residual_at_rest(res)                            the observer told its output was
+ *                                                                          not applied
  *   transfer = sup.transfer                                              what the loop adds to its PI's
  *                                                                          integrator this period (bumpless
  *                                                                          transfer; 0 unless the supervisor

@@ -10,8 +10,10 @@
  * (the compensator's own parameter vector, its length known to the caller) into theta_out (may be
  * NULL), else 0. The values are aff_real (aff_real.h): double in the package, float in a drive's float build.
  * With the feedforward supervisor's rest rule (aff_supervisor.h) the loop applies none of the output while the
- * reference is at rest; it then calls ops->at_rest(self) between compensate and observe (NULL: nothing to do), so
- * that a compensator whose observe assumes its output was applied can correct that (ctl_adob).
+ * reference is at rest (it withdraws the last applied torque through the compensator's lag in use,
+ * ops->rest_lag(self) before each apply: alpha = 1 - exp(-Tc/tau), NULL: at once); it then calls ops->at_rest(self)
+ * between compensate and observe (NULL: nothing to do), so that a compensator whose observe assumes its output was
+ * applied can correct that (ctl_adob).
  * A compensator that carries its own supervisor (aff_adaptive) reports the supervisor's bumpless transfer through
  * ops->transfer(self) after compensate: the torque the loop adds to its PI's integrator in this period (NULL: none).
  * The closed-loop engine (controllers/csrc/ctl_engine.h) holds a (self, ops) pair per scenario;
@@ -28,6 +30,7 @@ typedef struct aff_compensator_ops {
     int (*observe)(void *self, aff_real u, aff_real w_meas, aff_real *theta_out);
     void (*at_rest)(void *self);  /* optional (NULL: none): this period's output was withheld at rest */
     aff_real (*transfer)(void *self); /* optional (NULL: none): this period's bumpless transfer into the PI (N*m) */
+    aff_real (*rest_lag)(void *self); /* optional (NULL: none): the gain 1 - exp(-Tc/tau) of its lag in use */
 } aff_compensator_ops;
 
 #endif

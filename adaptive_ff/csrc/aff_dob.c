@@ -67,4 +67,4 @@ int aff_dob_observe(void *self, aff_real u, aff_real w_meas, aff_real *theta_out
     return 0;
 }
 
-const aff_compensator_ops aff_dob_ops = {"dob", aff_dob_compensate, aff_dob_observe, NULL, NULL};
+const aff_compensator_ops aff_dob_ops = {"dob", aff_dob_compensate, aff_dob_observe, NULL, NULL, NULL};

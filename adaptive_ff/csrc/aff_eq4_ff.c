@@ -256,4 +256,4 @@ int aff_eq4_ff_observe(void *self, aff_real u, aff_real w_meas, aff_real *theta_
     return 1;
 }
 
-const aff_compensator_ops aff_eq4_ff_ops = {"adaptive", aff_eq4_ff_compensate, aff_eq4_ff_observe, NULL, NULL};
+const aff_compensator_ops aff_eq4_ff_ops = {"adaptive", aff_eq4_ff_compensate, aff_eq4_ff_observe, NULL, NULL, NULL};

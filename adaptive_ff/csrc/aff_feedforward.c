@@ -133,7 +133,7 @@ int aff_fixed_ff_observe(void *self, aff_real u, aff_real w_meas, aff_real *thet
     return 0;
 }
 
-const aff_compensator_ops aff_fixed_ff_ops = {"fixed", aff_fixed_ff_compensate, aff_fixed_ff_observe, NULL, NULL};
+const aff_compensator_ops aff_fixed_ff_ops = {"fixed", aff_fixed_ff_compensate, aff_fixed_ff_observe, NULL, NULL, NULL};
 
 int aff_project_levels(aff_physical *e, aff_real tau_max, aff_real F_max)
 {

@@ -414,4 +414,10 @@ int aff_robust_ff_observe(void *self, aff_real u, aff_real w_meas, aff_real *the
     return 1;
 }
 
-const aff_compensator_ops aff_robust_ff_ops = {"adaptive", aff_robust_ff_compensate, aff_robust_ff_observe, NULL, NULL};
+aff_real aff_robust_ff_rest_lag(void *self)
+{
+    return ((const aff_robust_ff *)self)->ff.alpha;
+}
+
+const aff_compensator_ops aff_robust_ff_ops = {"adaptive", aff_robust_ff_compensate, aff_robust_ff_observe, NULL, NULL,
+                                               aff_robust_ff_rest_lag};

@@ -128,6 +128,10 @@ aff_real aff_robust_ff_compensate(void *self, aff_real w_ctrl, aff_real w_meas, 
  * NULL), else 0. Python: RobustAdaptiveFeedforward.observe. */
 int aff_robust_ff_observe(void *self, aff_real u, aff_real w_meas, aff_real *theta_out);
 
+/* Compensator interface (aff_compensator.h, optional rest_lag), self an aff_robust_ff: the feedforward's lag filter
+ * gain in use, alpha = 1 - exp(-Tc/tau) of the lag in use (1: no lag; aff_fixed_ff_set_estimate). */
+aff_real aff_robust_ff_rest_lag(void *self);
+
 /* The ops table of the robust adaptive feedforward (name "adaptive"). */
 extern const aff_compensator_ops aff_robust_ff_ops;
 

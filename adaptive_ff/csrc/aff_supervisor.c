@@ -45,6 +45,8 @@ int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real o
     s->applied_on = 1;
     s->transfer = 0;
     s->u_c = 0;
+    s->rest_keep = 0;
+    s->u_applied = 0;
     s->w_last = 0;
     s->has_w_last = 0;
     s->x_f = 0;
@@ -73,13 +75,20 @@ aff_real aff_supervisor_apply(aff_supervisor *s, aff_real u_c, aff_real w_ref)
     s->transfer = 0;
     if (s->rest) {
         s->n_rest = aff_count_up(s->n_rest);
-        return 0;
+        s->u_applied *= s->rest_keep;
+        return s->u_applied;
     }
     if (s->on != s->applied_on) {
         s->transfer = s->on ? -s->u_c : s->u_c;
         s->applied_on = s->on;
     }
-    return s->on ? u_c : 0;
+    s->u_applied = s->on ? s->u_c : 0;
+    return s->u_applied;
+}
+
+void aff_supervisor_set_rest_lag(aff_supervisor *s, aff_real alpha)
+{
+    s->rest_keep = alpha >= 0 && alpha <= 1 ? 1 - alpha : 0;
 }
 
 void aff_supervisor_observe(aff_supervisor *s, aff_real u, aff_real w)

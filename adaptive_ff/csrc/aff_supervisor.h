@@ -1,9 +1,10 @@
 /* aff_supervisor.h -- the feedforward supervisor: applies a compensator's torque only while it helps.
  *
  * Per controller period Tc the loop hands the compensator's candidate torque u_c (N*m) and the velocity
- * reference w_ref (rad/s) to aff_supervisor_apply, which returns u_c while the supervisor is on and 0 (no
- * compensation) while it is backed off or the reference is at rest; after the PI (and the drive) the loop hands
- * the applied torque u (N*m) and the controller's velocity w (rad/s) to aff_supervisor_observe.
+ * reference w_ref (rad/s) to aff_supervisor_apply, which returns u_c while the supervisor is on, 0 (no
+ * compensation) while it is backed off and the withdrawn torque while the reference is at rest; after the PI
+ * (and the drive) the loop hands the applied torque u (N*m) and the controller's velocity w (rad/s) to
+ * aff_supervisor_observe.
  *
  * Test statistic (a disturbance observer of the design inertia J_n, Ohnishi, Shibata, Murakami, "Motion
  * control for advanced mechatronics", IEEE/ASME Trans. Mechatronics 1(1), 1996; the discrete form of aff_dob:
@@ -34,8 +35,12 @@
  * the `long-lag` joint (tau 80 ms) eta 1.10 -> 0.95 on the open bench, the friction still decaying through its lag
  * when the feedforward was withdrawn; docs/benchmarks/compensation.md, "The rest rule's hold"): a velocity loop's friction then
  * brakes the joint toward its setpoint w = 0 (the error is -w and friction opposes w), so a friction
- * feedforward can only lift that brake; the supervisor applies none (no transfer: the brake is wanted) and
- * those periods do not enter M_f, M_r (friction there is a reaction, not a disturbance); rest = 1 tells the loop,
+ * feedforward can only lift that brake; the supervisor withdraws it (no transfer: the brake is wanted) through
+ * the compensator's lag in use (aff_supervisor_set_rest_lag: u(k) = (1 - alpha)*u(k-1) from the last applied
+ * torque, eq. 2's lag with the model friction F(0) = 0 as its input; at once without a lag: a lagged friction
+ * withdrawn in one period keeps acting for its lag and drives the stopped joint backward, 33 deg/s on a joint
+ * of J 0.5 kg*m^2, tau 50 ms and 20 N*m where no compensation errs by 1.5 deg/s) and those periods do not enter
+ * M_f, M_r (friction there is a reaction, not a disturbance); rest = 1 tells the loop,
  * which tells the compensator (aff_compensator_ops.at_rest: the composite ctl_adob's residual observer then
  * records the torque as applied, without the feedforward it did not get, ctl_adob.h). Measured on the open
  * bench's point-to-point moves (docs/benchmarks/compensation.md, "The supervisor"): the adaptive feedforward's
@@ -76,13 +81,16 @@ typedef struct aff_supervisor {
     long n_decide;        /* first period (index from 0) that decides, n_start + round(settle/Tc) */
     int on;               /* 1: the candidate is applied (decided by the last observe) */
     int applied_on;       /* the mode of the last apply outside rest */
-    int rest;             /* 1: the reference is at rest in this period (nothing applied) */
+    int rest;             /* 1: the reference is at rest in this period (the candidate not applied) */
     long n_hold;          /* periods with |w_ref| <= rest_band before the reference counts as at rest,
                              max(2, ceil(1/(omega*Tc))) */
     int64_t n_still;      /* periods in a row with |w_ref| <= rest_band, up to this one, at most n_hold */
     int64_t n_rest;       /* periods at rest */
     aff_real transfer;    /* torque to add to the PI integrator in this period (N*m), 0 unless the mode switched */
     aff_real u_c;         /* the candidate of this period (N*m) */
+    aff_real rest_keep;   /* at rest the applied torque decays by this factor per period, in [0, 1)
+                             (aff_supervisor_set_rest_lag; 0: withdrawn at once) */
+    aff_real u_applied;   /* the torque returned by the last apply (N*m) */
     aff_real w_last;      /* last finite velocity (rad/s; valid if has_w_last) */
     int has_w_last;
     aff_real x_f;         /* f_hat (N*m) */
@@ -119,6 +127,12 @@ int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real o
  * (rad/s) is moving, else 0; sets transfer (N*m; bumpless transfer, header comment): outside rest, u_c when it
  * switched off since the last apply outside rest, -u_c when on, else 0. */
 aff_real aff_supervisor_apply(aff_supervisor *s, aff_real u_c, aff_real w_ref);
+
+/* The lag through which the compensation is withdrawn at rest: alpha = 1 - exp(-Tc/tau) of the compensator's lag
+ * in use tau (s; 1: no lag, withdrawn at once); at rest the applied torque then decays as
+ * u(k) = (1 - alpha)*u(k-1), the first-order lag of eq. 2 with the model friction F(0) = 0 as its input. An
+ * alpha outside [0, 1] (or NaN) withdraws at once. */
+void aff_supervisor_set_rest_lag(aff_supervisor *s, aff_real alpha);
 
 /* After the PI: advance the statistics with the applied torque u (N*m) and the controller's velocity w (rad/s)
  * of this period and decide (header comment). Non-finite u or w: skipped (counted). */

@@ -27,8 +27,13 @@ void ctl_adob_at_rest(void *self)
     aff_residual_at_rest(&((ctl_adob *)self)->res);
 }
 
+aff_real ctl_adob_rest_lag(void *self)
+{
+    return aff_robust_ff_rest_lag(&((ctl_adob *)self)->ff);
+}
+
 const aff_compensator_ops ctl_adob_ops = {"adaptive-dob", ctl_adob_compensate, ctl_adob_observe, ctl_adob_at_rest,
-                                          NULL};
+                                          NULL, ctl_adob_rest_lag};
 
 void ctl_eq4_dob_init(ctl_eq4_dob *a, const aff_eq4_ff *ff, const aff_dob *dob, aff_real u_max)
 {
@@ -56,4 +61,4 @@ void ctl_eq4_dob_at_rest(void *self)
 }
 
 const aff_compensator_ops ctl_eq4_dob_ops = {"adaptive-dob", ctl_eq4_dob_compensate, ctl_eq4_dob_observe,
-                                             ctl_eq4_dob_at_rest, NULL};
+                                             ctl_eq4_dob_at_rest, NULL, NULL};

@@ -42,6 +42,9 @@ int ctl_adob_observe(void *self, aff_real u, aff_real w_meas, aff_real *theta_ou
 /* Compensator interface: aff_residual_at_rest on a->res. */
 void ctl_adob_at_rest(void *self);
 
+/* Compensator interface (optional rest_lag): aff_robust_ff_rest_lag of a->ff. */
+aff_real ctl_adob_rest_lag(void *self);
+
 /* The ops table of ctl_adob (name "adaptive-dob"). */
 extern const aff_compensator_ops ctl_adob_ops;
 

@@ -143,4 +143,4 @@ int ctl_canudas_observe(void *self, aff_real u, aff_real w_meas, aff_real *theta
     return upd;
 }
 
-const aff_compensator_ops ctl_canudas_ops = {"canudas", ctl_canudas_compensate, ctl_canudas_observe, NULL, NULL};
+const aff_compensator_ops ctl_canudas_ops = {"canudas", ctl_canudas_compensate, ctl_canudas_observe, NULL, NULL, NULL};

@@ -68,6 +68,8 @@ static int period(const ctl_run *run, ctl_scenario *sc, long k, int where, const
     } else if (run->oracle)
         uff = f;
     if (sc->use_supervisor) {
+        if (sc->ops != NULL && sc->ops->rest_lag != NULL) /* withdrawn at rest through its lag in use */
+            aff_supervisor_set_rest_lag(&sc->sup, sc->ops->rest_lag(sc->comp));
         uff = aff_supervisor_apply(&sc->sup, uff, wrk);
         if (sc->sup.transfer != 0.0) /* bumpless transfer into the PI's integrator (aff_supervisor.h) */
             sc->pi.I += (double)sc->sup.transfer;

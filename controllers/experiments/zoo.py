@@ -302,6 +302,15 @@ class ZooOptions:
         Mode ``adaptive`` with the residual switch-in (default True), as
         :class:`controllers.experiments.compare.CompareOptions`; False: the feedforward alone, as ``adaptive-ff
         export-c`` writes it for a drive.
+    base : CompareOptions or None
+        A comparison every joint is placed into, e.g. a scenario file's
+        (:attr:`controllers.experiments.scenario.Scenario.options`): its reference (which sets the duration and
+        the draw's peak speed and acceleration), sensor (encoder, velocity, delay, noise), drive slew rate, step
+        and controller design are every joint's. Its settings of one plant are not: the torque limit is each
+        joint's ``compare`` default (see ``encoder_counts`` above), the design inertia comes from
+        ``J_design_factor``, own compensators from ``compensators``; ``seed``, ``modes``, ``estimator``,
+        ``iv_map_stderr`` and ``switch_in`` are this zoo's. Given, ``reference``, ``encoder_counts``, ``delay``,
+        ``slew_rate`` and ``velocity`` must stay at their defaults. Default None: ``compare``'s defaults.
     J_design_factor : float
         Every joint's design inertia (``CompareOptions.J_design``: the PI design, the estimators' start, the gates,
         the observers' nominal inertia) is this factor times its true ``J``: a data sheet off by that factor. Default
@@ -339,8 +348,22 @@ class ZooOptions:
     iv_map_stderr: float = math.inf
     switch_in: bool = True
     J_design_factor: float = 1.0
+    base: CompareOptions | None = None
 
     def __post_init__(self):
+        if self.base is not None:
+            if not isinstance(self.base, CompareOptions):
+                raise ParameterError(f"base must be a CompareOptions (e.g. a scenario's options), got "
+                                     f"{type(self.base).__name__}")
+            set_too = [k for k, v in (("reference", self.reference is not None), ("encoder_counts",
+                       self.encoder_counts is not None), ("delay", self.delay != 0), ("slew_rate",
+                       self.slew_rate != math.inf), ("velocity", self.velocity != "difference")) if v]
+            if set_too:
+                raise ParameterError(f"{', '.join(set_too)}: set by base (the comparison every joint is placed "
+                                     f"into); leave them at their defaults")
+            object.__setattr__(self, "reference", self.base.reference)
+            if self.base.reference is None:
+                object.__setattr__(self, "duration", float(self.base.duration))
         if self.reference is not None:  # its length sets the duration (checked with the step by CompareOptions)
             t = np.asarray(getattr(self.reference, "t", ()), dtype=float)
             if t.ndim != 1 or t.shape[0] < 2:
@@ -371,7 +394,12 @@ class ZooOptions:
         """The :class:`controllers.experiments.compare.CompareOptions` every joint is prepared and run with: this
         zoo's duration, seed, modes, reference, sensor and drive (encoder, delay, slew rate, velocity), estimator,
         ``iv_map_stderr`` and ``switch_in``; the rest ``compare``'s defaults (the design inertia is set per joint
-        from ``J_design_factor``)."""
+        from ``J_design_factor``); with ``base``, that comparison with this zoo's seed, modes and estimator
+        settings and no torque limit, design inertia or own compensators of its own."""
+        if self.base is not None:
+            return replace(self.base, seed=int(self.seed), modes=self.modes, estimator=self.estimator,
+                           iv_map_stderr=self.iv_map_stderr, switch_in=self.switch_in, u_max=None, J_design=None,
+                           compensators=None)
         return CompareOptions(duration=float(self.duration), seed=int(self.seed), modes=self.modes,
                               reference=self.reference, encoder_counts=self.encoder_counts, delay=self.delay,
                               slew_rate=self.slew_rate, velocity=self.velocity, estimator=self.estimator,
@@ -415,6 +443,9 @@ class ZooResult:
         ``{index: [note, ...]}``: what the preparation of a joint could not do as asked (e.g. the pre-fit's
         Coulomb + viscous fallback, or the ``fixed`` mode's fallback to the pre-fit's static map), as
         :attr:`controllers.experiments.compare.Comparison.notes`.
+    max_error : dict
+        ``{mode: ndarray (n,)}``: the largest |velocity error| over the second half (rad/s, as eta and ``compare``'s
+        max column); NaN where the run was refused or diverged.
     """
 
     plants: list
@@ -428,6 +459,7 @@ class ZooResult:
     seconds: float
     timing: dict = field(default_factory=dict)
     notes: dict = field(default_factory=dict)
+    max_error: dict = field(default_factory=dict)
 
     def degradation(self) -> np.ndarray:
         """``rms_none / rms_frictionless - 1`` per joint (second half), shape (n,): how much friction degrades the
@@ -478,6 +510,16 @@ class ZooResult:
         """The modes named ``adaptive*`` (the adaptive friction feedforward and its composites)."""
         return tuple(m for m in self.modes if m.startswith("adaptive"))
 
+    def tracking_harm(self) -> dict:
+        """``{adaptive mode: [index, ...]}``: joints where the mode's largest velocity error exceeds the larger of
+        ``none``'s and twice ``frictionless``'s (second halves, :attr:`max_error`; joints where one is missing are
+        not judged): the compensation made a tracking error the loop would not make without it."""
+        if not self.max_error:
+            return {}
+        bound = np.fmax(self.max_error["none"], 2.0 * self.max_error["frictionless"])
+        with np.errstate(invalid="ignore"):
+            return {m: [int(i) for i in np.flatnonzero(self.max_error[m] > bound)] for m in self.adaptive_modes()}
+
     def quantiles(self, q=(0.05, 0.25, 0.5, 0.75, 0.95)) -> dict:
         """``{mode: [min, quantiles..., max]}`` of eta over the joints where it is defined (the others are
         counted by :meth:`counts`); NaN where none is."""
@@ -527,7 +569,8 @@ class ZooResult:
             ``refused``/``diverged``: numbers of (joint, mode) runs; ``best_positive``: share of the joints with a
             defined best-adaptive eta where it is > 0, and ``best_not_positive`` their indices;
             ``best_ge_dob``: share where the best adaptive eta >= the DOB's (both defined), ``best_below_dob``
-            the indices; ``undefined``: joints without a defined eta.
+            the indices; ``undefined``: joints without a defined eta; ``tracking_harm``: :meth:`tracking_harm`
+            (target: none).
         """
         best = self.best_adaptive()
         fin = np.isfinite(best)
@@ -535,7 +578,8 @@ class ZooResult:
                "diverged": int(sum(np.count_nonzero(v) for v in self.diverged.values())),
                "undefined": [int(i) for i in np.flatnonzero(self.undefined())],
                "best_positive": float(np.mean(best[fin] > 0)) if fin.any() else math.nan,
-               "best_not_positive": [int(i) for i in np.flatnonzero(fin & ~(best > 0))]}
+               "best_not_positive": [int(i) for i in np.flatnonzero(fin & ~(best > 0))],
+               "tracking_harm": self.tracking_harm()}
         if "dob" in self.eta:
             both = fin & np.isfinite(self.eta["dob"])
             out["best_ge_dob"] = float(np.mean(best[both] >= self.eta["dob"][both])) if both.any() else math.nan
@@ -548,6 +592,7 @@ class ZooResult:
         return json_safe({"plants": self.plants, "modes": list(self.modes),
                           "eta": {m: v.tolist() for m, v in self.eta.items()},
                           "rms_second_half": {m: v.tolist() for m, v in self.rms.items()},
+                          "max_error": {m: v.tolist() for m, v in self.max_error.items()},
                           "status": {m: self.status(m).tolist() for m in self.modes}, "counts": self.counts(),
                           "worse_than_none": self.worse_than_none(),
                           "refused": {str(k): v for k, v in self.refused.items()},
@@ -582,6 +627,11 @@ class ZooResult:
         lines = [f"targets: runs refused {t['refused']}, diverged {t['diverged']} (target 0); best adaptive eta > 0 "
                  f"on {t['best_positive']:.1%} of {int(np.isfinite(best).sum())} joints (target 100 %)"
                  + (f"; >= dob on {t['best_ge_dob']:.1%} (target >= 95 %)" if "best_ge_dob" in t else "")]
+        harm = t["tracking_harm"]
+        if harm:
+            lines.append("largest error above max(none, 2 x frictionless) (target: none): " + ", ".join(
+                f"{m} {len(ix)}" + (f" (#{', #'.join(str(i) for i in ix[:10])})" if ix else "")
+                for m, ix in harm.items()))
         if "adaptive" in self.eta and "adaptive-dob" in self.eta:  # plain adaptive where the composite succeeds
             a, d = self.eta["adaptive"], self.eta["adaptive-dob"]
             ok = np.isfinite(a) & np.isfinite(d) & (d >= 0.95)
@@ -642,7 +692,7 @@ def _group_task(args) -> dict:
 
     The measurement noise of a joint is drawn once and shared by its modes (the numbers of
     ``run_batch(..., seeds=...)``, which would draw the same noise once per mode). Returns the preparation
-    outcome per joint, ``{mode: (rms_second_half, diverged)}`` over the group (NaN/False where not run) and the
+    outcome per joint, ``{mode: (rms_second_half, max_error, diverged)}`` over the group (NaN/False where not run) and the
     CPU seconds of the two phases.
     """
     import time
@@ -660,7 +710,7 @@ def _group_task(args) -> dict:
             noise[j] = np.random.default_rng(seed).normal(0.0, sd, size=ref.t.shape[0])
     runs = {}
     for m in modes:
-        rms, div = np.full(n, math.nan), np.zeros(n, dtype=bool)
+        rms, mx, div = np.full(n, math.nan), np.full(n, math.nan), np.zeros(n, dtype=bool)
         ok = [j for j, p in enumerate(prepared) if p[-1] is None and m not in p[2]]
         if ok:
             plants = [plant_from_dict(specs[j]) for j in ok]
@@ -670,8 +720,9 @@ def _group_task(args) -> dict:
             else:
                 r = run_batch(plants, ref, m, opts, seeds=[prepared[j][1] for j in ok])
             rms[ok] = np.where(r.diverged, math.nan, r.rms_second_half)
+            mx[ok] = np.where(r.diverged, math.nan, r.max_second_half)
             div[ok] = r.diverged
-        runs[m] = (rms, div)
+        runs[m] = (rms, mx, div)
     if own:
         runs.update(_own_runs(specs, prepared, ref, own))
     outcome = [(p[2] or {}, p[3], p[-1]) for p in prepared]
@@ -684,7 +735,7 @@ def _reference(co: CompareOptions):
 
 
 def _own_runs(specs, prepared, ref, own: dict) -> dict:
-    """``{name: (rms_second_half, diverged)}`` of the user's compensators ``own`` (import paths, resolved here in
+    """``{name: (rms_second_half, max_error, diverged)}`` of the user's compensators ``own`` (import paths, resolved here in
     the worker) on the prepared joints, one :func:`run_own` each with the joint's context, options and noise; an
     error of the compensator is recorded as that joint's refusal of ``name`` (in the joint's ``bad``)."""
     from controllers.simulation.user_compensator import CompensatorError
@@ -692,7 +743,7 @@ def _own_runs(specs, prepared, ref, own: dict) -> dict:
     factories = compensator_factories(own, source="ZooOptions.compensators")
     out = {}
     for name, factory in factories.items():
-        rms, div = np.full(len(specs), math.nan), np.zeros(len(specs), dtype=bool)
+        rms, mx, div = np.full(len(specs), math.nan), np.full(len(specs), math.nan), np.zeros(len(specs), dtype=bool)
         for j, (opts, seed, bad, _notes, ctx, why) in enumerate(prepared):
             if why is not None:
                 continue
@@ -704,7 +755,8 @@ def _own_runs(specs, prepared, ref, own: dict) -> dict:
                 continue
             div[j] = bool(r.info.get("diverged"))
             rms[j] = math.nan if div[j] else r.metrics.rms_second_half
-        out[name] = (rms, div)
+            mx[j] = math.nan if div[j] else r.metrics.max_second_half
+        out[name] = (rms, mx, div)
     return out
 
 
@@ -803,6 +855,7 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
     refused, mode_refused, notes = {}, {}, {}
     modes = o.modes + own
     rms = {m: np.full(n, math.nan) for m in modes}
+    max_error = {m: np.full(n, math.nan) for m in modes}
     div = {m: np.zeros(n, dtype=bool) for m in modes}
     cpu = [0.0, 0.0]
     for a, res in zip(starts, out):
@@ -813,15 +866,16 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
                 mode_refused.setdefault(m, {})[a + j] = reason
             if nts:
                 notes[a + j] = list(nts)
-        for m, (r, d) in res["runs"].items():
+        for m, (r, mx, d) in res["runs"].items():
             rms[m][a:a + len(r)] = r
+            max_error[m][a:a + len(mx)] = mx
             div[m][a:a + len(d)] = d
         cpu = [cpu[0] + res["cpu"][0], cpu[1] + res["cpu"][1]]
     mode_refused = {m: mode_refused[m] for m in modes if m in mode_refused}
     timing = {"prepare_cpu": cpu[0], "runs_cpu": cpu[1]}
     res = ZooResult(plants=specs, modes=modes, eta={}, rms=rms, refused=refused, mode_refused=mode_refused,
                     diverged=div, min_degradation=o.min_degradation, seconds=time.perf_counter() - t0, timing=timing,
-                    notes=notes)
+                    notes=notes, max_error=max_error)
     undefined = res.undefined()
     for m in modes:
         res.eta[m] = np.array([math.nan if undefined[i] else eta(rms["none"][i], rms[m][i], rms["frictionless"][i])
@@ -831,11 +885,13 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
 
 def zoo_options_dict(o: ZooOptions) -> dict:
     """The settings of a zoo run as a JSON-ready dict (for the benchmark page)."""
-    ref = o.reference
-    o = replace(o, reference=None)
+    ref, base = o.reference, o.base
+    o = replace(o, reference=None, base=None)
     d = asdict(o) if isinstance(o.scheduler, (str, type(None))) else asdict(replace(o, scheduler=str(o.scheduler)))
     d["box"] = asdict(o.box)
     if ref is not None:
         d["reference"] = {"samples": int(ref.t.shape[0]), "stops": int(len(ref.stops())),
                           "reversals": int(len(ref.reversals()))}
+    if base is not None:  # the comparison's settings; its reference above, its own compensators not run here
+        d["base"] = {k: v for k, v in asdict(replace(base, compensators=None)).items() if k != "reference"}
     return json_safe(d)
