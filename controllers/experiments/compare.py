@@ -25,8 +25,8 @@ from controllers.simulation.compensators import ESTIMATORS, MODES, check_estimat
 from controllers.simulation.memory import MODE_SIGNALS, PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
 from controllers.simulation.user_compensator import CompensatorContext
 from controllers.design.pi import PIDesign, design_pi
-from controllers.experiments.comparison import (WORSE_THAN_NONE, Comparison, eta, eta_or_none, mode_width,
-                                                number_text, run_notes, whole_run_metrics,
+from controllers.experiments.comparison import (WORSE_THAN_NONE, Comparison, diverged_notes, eta, eta_or_none,
+                                                mode_width, number_text, run_notes, whole_run_metrics,
                                                 worse_than_none_notes)
 from controllers.experiments.observer_design import (J_CONTRADICTED, friction_level, observer_inertia, observer_max,
                                                      residual_cutoff, residual_share)
@@ -39,8 +39,9 @@ from plant.excitation import bandlimited_noise, multisine_reference
 from plant.joint import simulate
 from plant.sampling import sample
 
-__all__ = ["Comparison", "CompareOptions", "ComparisonSetup", "compare", "comparison_reference", "eta",
-           "FIXED_METHODS", "PREFIT_MODES", "compensator_context", "mode_width", "number_text", "friction_scale",
+__all__ = ["Comparison", "CompareOptions", "ComparisonSetup", "DriveLimitError", "check_drive_moves", "compare",
+           "comparison_reference", "eta", "FIXED_METHODS", "PREFIT_MODES", "compensator_context", "mode_width",
+           "number_text", "friction_scale",
            "measurement_noise", "prefit_stribeck", "prepare_comparison", "residual_cutoff", "run_notes",
            "WORSE_THAN_NONE", "worse_than_none_notes", "J_CONTRADICTED", "observer_inertia"]
 
@@ -423,7 +424,8 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
     etas = {mode: eta_or_none(rn, r.metrics.rms_second_half, rf) for mode, r in results.items()}
     return Comparison(plant=p, design=s.design, results=results, eta=etas, prefit=s.prefit, offline=s.offline,
                       model=s.model, experiment=s.experiment, J_design=s.J_design,
-                      notes=tuple(s.notes) + run_notes(results) + worse_than_none_notes(etas, results),
+                      notes=(tuple(s.notes) + diverged_notes(results) + run_notes(results)
+                             + worse_than_none_notes(etas, results)),
                       **whole_run_metrics(results))
 
 
@@ -529,6 +531,8 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     """
     run_modes = [m for m in MODES if m in set(o.modes) | {"none", "frictionless"}]
     p0 = p.at(0.0) if hasattr(p, "at") else p
+    if o.u_max is not None:
+        check_drive_moves(p0, o.u_max)
     J = float(p0.J) if o.J_design is None else float(o.J_design)  # the design inertia: no other plant field is read
     _, id_ss, noise_ss, qs_ss = np.random.SeedSequence(o.seed).spawn(4)
     if reference is None:
@@ -558,6 +562,8 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     # the measured friction level (largest mean torque of the quasi-static runs) bounds the torques
     F_peak = exp.torque_scale if exp is not None else None
     u_max = o.u_max if o.u_max is not None else 3.0 * (F_peak + J * peak_a)
+    if o.u_max is None:
+        check_drive_moves(p0, u_max, derived=True)
     F_peak = F_peak if F_peak is not None else u_max / 3.0
     design = design_pi(J, crossover=o.crossover, phase_margin=o.phase_margin, Tc=o.Tc)
     model = RegressionModel(1.0 if Vs is None else Vs, 1.0 if delta is None else delta, lag=True)
@@ -622,6 +628,43 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     return ComparisonSetup(modes=tuple(run_modes), reference=ref, design=design, mode_options=opts,
                            noise_seed=noise_ss, prefit=fit, offline=offline, model=model, experiment=exp,
                            J_design=J, notes=tuple(notes), bar=bar, estimator_rows=rows)
+
+
+class DriveLimitError(ParameterError):
+    """The plant's friction is above the drive's torque limit: the drive cannot move the joint
+    (:func:`check_drive_moves`)."""
+
+
+#: The friction levels of the plant models (N·m) that the drive must overcome.
+_LEVELS = ("Fc", "Fs", "Fc_pos", "Fc_neg", "Fs_pos", "Fs_neg")
+
+
+def check_drive_moves(p0, u_max: float, *, derived: bool = False) -> None:
+    """Refuse a plant whose friction the drive cannot overcome: a level (``Fc``, ``Fs``, or an asymmetric model's
+    ``Fc_pos`` ...) above the torque limit ``u_max`` (N·m). Such a joint never moves (or never breaks away), and
+    every mode's run would be a run of NaN: refused before any run instead.
+
+    Parameters
+    ----------
+    p0 : plant model
+        The plant at ``t = 0`` (its friction levels are read, nothing else).
+    u_max : float
+        The drive's torque limit (N·m).
+    derived : bool, keyword-only
+        ``u_max`` was derived from the quasi-static runs (the message says so), not given.
+
+    Raises
+    ------
+    DriveLimitError
+        Naming the level, its value and ``u_max``.
+    """
+    for name in _LEVELS:
+        v = getattr(p0, name, None)
+        if isinstance(v, (int, float)) and v > u_max:
+            how = (" (derived from the quasi-static runs: three times the torque they measured plus the "
+                   "reference's peak inertial torque)" if derived else "")
+            raise DriveLimitError(f"{name} = {v:g} N·m is above u_max = {u_max:.4g} N·m{how}: the drive cannot move "
+                                  f"the joint; check the plant's units")
 
 
 def _no_friction_note(exp: StribeckExperiment, run_modes, Vs: float, placeholders: bool) -> str:
