@@ -60,7 +60,7 @@ from pathlib import Path
 
 from controllers.experiments.compare import CompareOptions, Comparison, compare
 from controllers.simulation.compensators import MODES
-from plant.errors import ParameterError
+from plant.errors import ParameterError, check_not_special
 
 __all__ = ["Scenario", "ScenarioError", "TrackingBounds", "compensator_factories", "load_scenario",
            "scenario_from_dict", "REFERENCE_KINDS"]
@@ -190,6 +190,7 @@ def load_scenario(path) -> Scenario:
         the file, the table and key, and the value.
     """
     p = Path(os.fspath(path))
+    check_not_special(p, "scenario file (TOML)", error=ScenarioError)
     try:
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
@@ -434,6 +435,7 @@ def _import_factory(ctx: _Ctx, table: str, ref):
     try:
         if mod_name.endswith(".py"):
             path = ctx.path(table, "factory", mod_name)
+            check_not_special(path, f"Python file ([{table}] factory in {ctx.source})", error=ScenarioError)
             if not path.is_file():
                 raise ctx.error(table, "factory", ref, f"no such file {path}")
             key = f"_adaptive_ff_scenario_{abs(hash(str(path.resolve())))}"
