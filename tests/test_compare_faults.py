@@ -60,7 +60,7 @@ def test_a_given_drive_limit_is_checked_against_the_friction_up_front(tmp_path, 
     sc = _scenario(tmp_path, u_max=30.0, push=False)  # the paper joint: Fc 25, Fs 35 N·m
     assert main(["compare", "--scenario", str(sc), "--no-figures", "--quiet"]) == 2
     err = capsys.readouterr().err
-    assert f"{sc}: [plant]: Fs = 35 N·m is above u_max = 30 N·m" in err
+    assert f"{sc}: [plant] Fs = 35 N·m is above u_max = 30 N·m" in err
 
 
 def test_a_diverged_run_is_named_in_the_table_and_the_notes_and_exits_3(tmp_path, capsys):
@@ -113,3 +113,22 @@ def test_columns_keep_their_widths_for_any_value(diverged, eta, rms):
                                                   (None, 4, 2, " n/a"), (1e300, 9, 3, "   1e+300")])
 def test_number_text_fits_its_width(x, width, digits, text):
     assert number_text(x, width, digits) == text
+
+
+def test_a_factory_that_fails_or_returns_no_compensator_is_named():
+    from controllers import CompareOptions, CompensatorError, compare
+    from plant import ParameterError, preset
+
+    class OnlyCompensate:
+        def compensate(self, w_meas, w_ref):
+            return 0.0
+
+    def broken(ctx):
+        raise KeyError("prefit")
+
+    o = CompareOptions(duration=0.5, modes=("none",), Vs=0.02, delta=1.0, u_max=150.0)
+    with pytest.raises(ParameterError, match=r"compensators\['half'\]: its factory returned a OnlyCompensate without "
+                                             r"observe"):
+        compare(preset("paper"), o, compensators={"half": lambda ctx: OnlyCompensate()}, progress=False)
+    with pytest.raises(CompensatorError, match=r"compensator 'broken': its factory failed: KeyError: 'prefit'"):
+        compare(preset("paper"), o, compensators={"broken": broken}, progress=False)
