@@ -35,6 +35,7 @@ from controllers.experiments.quasi_static import (StribeckDesign, StribeckExperi
 from controllers.simulation.sensor_drive import DELAY_MAX
 from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, check_multiple, check_nonnegative,
                           check_positive, check_positive_or_inf)
+from plant.dynamics import plant_params
 from plant.excitation import bandlimited_noise, multisine_reference
 from plant.joint import simulate
 from plant.sampling import sample
@@ -694,19 +695,19 @@ class DriveLimitError(ParameterError):
     (:func:`check_drive_moves`)."""
 
 
-#: The friction levels of the plant models (N·m) that the drive must overcome.
-_LEVELS = ("Fc", "Fs", "Fc_pos", "Fc_neg", "Fs_pos", "Fs_neg")
-
-
 def check_drive_moves(p0, u_max: float, *, derived: bool = False) -> None:
     """Refuse a plant whose friction the drive cannot overcome: a level (``Fc``, ``Fs``, or an asymmetric model's
     ``Fc_pos`` ...) above the torque limit ``u_max`` (N·m). Such a joint never moves (or never breaks away), and
     every mode's run would be a run of NaN: refused before any run instead.
 
+    A check of the simulated world, as the engine's own bounds: the levels are read from the plant step's packing
+    (:func:`plant.dynamics.plant_params`, what the engine integrates), and the answer only refuses; nothing of it
+    reaches a design, an estimator or a compensator.
+
     Parameters
     ----------
     p0 : plant model
-        The plant at ``t = 0`` (its friction levels are read, nothing else).
+        The plant at ``t = 0``.
     u_max : float
         The drive's torque limit (N·m).
     derived : bool, keyword-only
@@ -717,13 +718,17 @@ def check_drive_moves(p0, u_max: float, *, derived: bool = False) -> None:
     DriveLimitError
         Naming the level, its value and ``u_max``.
     """
-    for name in _LEVELS:
-        v = getattr(p0, name, None)
-        if isinstance(v, (int, float)) and v > u_max:
-            how = (" (derived from the quasi-static runs: three times the torque they measured plus the "
-                   "reference's peak inertial torque)" if derived else "")
-            raise DriveLimitError(f"{name} = {v:g} N·m is above u_max = {u_max:.4g} N·m{how}: the drive cannot move "
-                                  f"the joint; check the plant's units")
+    par = plant_params(p0)[0]
+    pos, neg = par.pos, par.neg
+    sides = ((("Fc", "Fs"), pos),) if (pos.Fc, pos.dF) == (neg.Fc, neg.dF) else \
+        ((("Fc_pos", "Fs_pos"), pos), (("Fc_neg", "Fs_neg"), neg))
+    for (fc, fs), side in sides:
+        for name, v in ((fc, float(side.Fc)), (fs, float(side.Fc + side.dF))):
+            if v > u_max:
+                how = (" (derived from the quasi-static runs: three times the torque they measured plus the "
+                       "reference's peak inertial torque)" if derived else "")
+                raise DriveLimitError(f"{name} = {v:g} N·m is above u_max = {u_max:.4g} N·m{how}: the drive cannot "
+                                      f"move the joint; check the plant's units")
 
 
 def _no_friction_note(exp: StribeckExperiment, run_modes, Vs: float, placeholders: bool) -> str:
