@@ -8,7 +8,10 @@ so the exceptions live here and are re-exported by :mod:`adaptive_ff`.
 
 from __future__ import annotations
 
+import errno
 import math
+import os
+import stat
 from numbers import Real
 
 import numpy as np
@@ -25,6 +28,7 @@ __all__ = [
     "check_signal",
     "check_time",
     "check_multiple",
+    "check_not_special",
 ]
 
 
@@ -163,3 +167,41 @@ def check_multiple(name: str, value: float, base_name: str, base: float) -> int:
     if abs(m - round(m)) > 1e-9 * max(1.0, m) or round(m) < 1:
         raise ParameterError(f"{name} = {value!r} s must be a positive multiple of {base_name} = {base!r} s")
     return int(round(m))
+
+
+def check_not_special(path, what: str, *, error: type = ParameterError) -> None:
+    """Refuse a path that exists but is not a regular file, for what it is: a directory, a loop of symbolic
+    links, a symbolic link to nothing, a named pipe (FIFO, whose reading would wait for a writer), a device
+    (``/dev/zero`` would be read for ever), a socket. A missing path, or one that cannot be examined, is left to
+    the caller (its own "not found" or read error).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The path given.
+    what : str
+        What the file should be, for the message (``"plant file"``, ``"scenario file"``).
+    error : type, keyword-only
+        The exception raised (default :class:`ParameterError`).
+
+    Raises
+    ------
+    error
+        ``"{path}: is a named pipe (FIFO), not a regular file; expected a {what}"`` and the like.
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise error(f"{path}: is a loop of symbolic links, not a regular file; expected a {what}") from None
+        if exc.errno == errno.ENOENT and os.path.islink(path):
+            raise error(f"{path}: is a symbolic link to {os.readlink(path)!r}, which does not exist; expected a "
+                        f"{what}") from None
+        return
+    if stat.S_ISREG(mode):
+        return
+    kinds = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a named pipe (FIFO)"),
+             (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+    kind = next((name for test, name in kinds if test(mode)), "not a regular file")
+    link = f" (a symbolic link to {os.readlink(path)!r})" if os.path.islink(path) else ""
+    raise error(f"{path}: is {kind}{link}, not a regular file; expected a {what}")

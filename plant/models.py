@@ -36,7 +36,7 @@ from pathlib import Path
 
 from plant.asymmetric import AsymmetricParams
 from plant.drift import FrictionDrift
-from plant.errors import ParameterError
+from plant.errors import ParameterError, check_not_special
 from plant.friction import JointParams
 from plant.karnopp import KarnoppParams
 from plant.lugre import LuGreParams
@@ -159,6 +159,7 @@ def read_json(path, *, what: str = "JSON file"):
     path = Path(path)
     if path.is_dir():
         raise ParameterError(f"{path}: is a directory, expected a {what}")
+    check_not_special(path, what)
     if not path.exists():
         raise FileNotFoundError(f"{what} not found: {path}")
     try:

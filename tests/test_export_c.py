@@ -300,7 +300,7 @@ def test_errors_name_the_file_and_the_key(id_file, tmp_path, capsys):
     assert main(["export-c", "--from", str(id_file), "--u-max", "1e300", "--out", out]) == 2
     assert "--u-max 1e+300 N·m: twice it" in _err(capsys)
     assert main(base + ["--from", str(id_file), "--w-max", "nan"]) == 2
-    assert "--w-max must be a finite number > 0" in _err(capsys)
+    assert "--w-max nan rad/s: must be a finite number in the plausible range" in _err(capsys)
     assert main(base + ["--from", str(id_file), "--Ts", "0.0015"]) == 2
     assert "Ts" in _err(capsys)
     assert not (tmp_path / "o").exists()  # nothing written on an error

@@ -155,7 +155,7 @@ BAD = [
     ("[plant]\npreset = 'paper'\n[sensor]\nencoders = 5", "[sensor] encoders = 5: unknown key"),
     ("[plant]\npreset = 'nope'", "[plant] preset = 'nope': unknown preset"),
     ("[plant]\nmodel = 'lagged-stribeck'\nJ = -1.0\nFc = 1.0\nFs = 1.0\nVs = 0.1\ndelta = 1.0\nsigma = 0.0\n"
-     "tau = 0.0", "[plant]: J must be"),
+     "tau = 0.0", "[plant] J = -1.0: J must be"),
     ("[plant]\npreset = 'paper'\n[sensor]\nencoder_counts = 0", "[sensor] encoder_counts must be an integer >= 1"),
     ("[plant]\npreset = 'paper'\n[sensor]\ndelay = 40", "[sensor] delay must be an integer number of periods"),
     ("[plant]\npreset = 'paper'\n[drive]\nu_max = -3.0", "[drive] u_max must be"),
@@ -178,6 +178,23 @@ BAD = [
     ("[plant]\npreset = 'paper'\n[compensation]\nestimator = 'magic'", "estimator must be one of"),
     ("seed = -1\n[plant]\npreset = 'paper'", "seed = -1: must be an integer >= 0"),
     ("[reference]\nkind = 'multisine'", "missing table [plant]"),
+    # wrong types in [plant], unknown factory keywords and the derived checks: named, before any simulation
+    ("[plant]\nmodel = 'lagged-stribeck'\nJ = 'six'\nFc = 1.0\nFs = 1.0\nVs = 0.1\ndelta = 1.0\nsigma = 0.0\n"
+     "tau = 0.0", "[plant] J = 'six': J must be a real number"),
+    ("[plant]\nmodel = 'lagged-stribeck'\nJ = 4.0\nFc = 1.0\nFs = 1.0\nVs = 0.1\ndelta = 1.0\nsigma = 0.0\n"
+     "tau = 0.0\ndrift = {Fc_change = 'x', Fs_change = 0.1, t_start = 0.0, t_end = 1.0}",
+     "[plant] drift.Fc_change = 'x': Fc_change must be a real number"),
+    ("[plant]\npreset = 'paper'\n[sensor]\nencoder_counts = 1", "[sensor] encoder_counts = 1: its quantisation"),
+    ("[plant]\npreset = 'paper'\n[sensor]\nnoise_std = 10.0", "[sensor] noise_std = 10.0 rad/s: the measured"),
+    ("[plant]\npreset = 'paper'\n[controller]\ncrossover = 0", "[controller] crossover must be > 0, got 0"),
+    ("[plant]\npreset = 'paper'\n[controller]\nTs = 0.0015",
+     "[controller] Ts = 0.0015 s must be a positive multiple of Tc = 0.001 s"),
+    ("[plant]\npreset = 'paper'\n[drive]\nu_max = 30.0", "[plant] Fs = 35 N·m is above u_max = 30 N·m"),
+    ("[plant]\npreset = 'paper'\n[compensators.x]\nfactory = 'math:sin'\nbogus = 3",
+     "[compensators.x] bogus = 3: math:sin takes no keyword 'bogus'"),
+    ("[plant]\npreset = 'paper'\n[compensators.x]\nfactory = 'fractions:Fraction'",
+     "[compensators.x] factory = 'fractions:Fraction': the class Fraction has no method compensate and no method "
+     "observe"),
     ("[plant\npreset = 'paper'", "not valid TOML"),
 ]
 

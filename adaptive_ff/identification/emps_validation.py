@@ -46,7 +46,7 @@ import numpy as np
 
 from adaptive_ff.io.data import EMPS_CUTOFF, EMPS_SKIP, MeasuredData, load_emps
 from adaptive_ff.identification.idim import IDIM_DECIMATE, RigidAxisModel, idim_force_error, relative_error
-from plant.errors import ParameterError, SignalError, check_signal, check_time
+from plant.errors import ParameterError, SignalError, check_not_special, check_signal, check_time
 from plant.results import axes_or_new, json_safe
 
 __all__ = ["EMPSRecord", "read_emps_record", "is_emps_record", "EMPSSimulation", "simulate_emps_loop",
@@ -163,6 +163,7 @@ def read_emps_record(path) -> EMPSRecord:
 
     path = Path(path)
     where = str(path)
+    check_not_special(path, "EMPS file (.mat)", error=SignalError)
     if not path.is_file():
         raise FileNotFoundError(f"EMPS file not found: {where}")
     try:

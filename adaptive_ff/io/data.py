@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from plant.errors import ParameterError, SignalError, check_positive, check_signal, check_time
+from plant.errors import ParameterError, SignalError, check_not_special, check_positive, check_signal, check_time
 from plant.results import axes_or_new, json_safe
 
 __all__ = [
@@ -406,6 +406,7 @@ def load_emps(path, *, cutoff: float = EMPS_CUTOFF, order: int = 4, skip: int = 
         raise ParameterError(f"skip must be an integer >= 0, got {skip!r}")
     path = Path(path)
     where = str(path)
+    check_not_special(path, "EMPS file (.mat)", error=SignalError)
     if not path.is_file():
         raise FileNotFoundError(f"EMPS file not found: {where}")
     try:

@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from adaptive_ff.io.units import ROLES
-from plant.errors import ParameterError, SignalError
+from plant.errors import ParameterError, SignalError, check_not_special
 
 __all__ = ["Table", "CsvFormat", "DELIMITER_NAMES", "parse_column_map", "read_columns"]
 
@@ -480,6 +480,7 @@ def read_columns(path, names: Mapping, *, optional=(), csv_format: CsvFormat | N
     path = Path(path)
     if path.is_dir():
         raise SignalError(f"{path}: is a directory, expected a data file")
+    check_not_special(path, "data file", error=SignalError)
     if not path.is_file():
         raise FileNotFoundError(f"no such file: {path}")
     if csv_format is not None and not isinstance(csv_format, CsvFormat):

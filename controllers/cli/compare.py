@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 
 __all__ = ["register", "run", "comparison_table"]
@@ -49,7 +50,8 @@ def _scenario_and_print(args, out_dir) -> int:
         raise ParameterError(f"--{k.replace('_', '-')} cannot be combined with --scenario: the scenario file "
                              f"sets it ({_SCENARIO_SETS[k]})")
     sc = load_scenario(args.scenario)
-    comp = sc.compare(progress=None if not args.quiet else False)
+    with _plant_named(f"{args.scenario}: [plant]"):
+        comp = sc.compare(progress=None if not args.quiet else False)
     header = [sc.summary()] + ([sc.description] if sc.description else [])
     return _print_comparison(args, comp, out_dir, header, sc.to_dict())
 
@@ -115,15 +117,28 @@ def _compare_and_print(args, p, modes, out_dir) -> int:
     from plant.models import plant_to_dict
 
     progress = None if not args.quiet else False
-    comp = compare(p, duration=args.duration, seed=args.seed, modes=modes, Ts=args.Ts, noise_std=args.noise,
-                   lam=args.lam, crossover=args.crossover, phase_margin=args.phase_margin, progress=progress,
-                   estimator=args.estimator, iv_map_stderr=args.iv_map_stderr, ff_input=args.ff_input,
-                   omega_q=args.omega_q, prefit=not args.no_prefit, Vs=args.Vs, delta=args.delta,
-                   J_design=args.J_design, adaptive_start=not args.no_fast_start, switch_in=not args.no_switch_in,
-                   estimator_rows=_estimator_rows(args))
     src = args.plant if args.plant else (f"variant '{args.variant}'" if args.variant else f"preset '{args.preset}'")
+    with _plant_named(f"--plant {src}" if args.plant else src):
+        comp = compare(p, duration=args.duration, seed=args.seed, modes=modes, Ts=args.Ts, noise_std=args.noise,
+                       lam=args.lam, crossover=args.crossover, phase_margin=args.phase_margin, progress=progress,
+                       estimator=args.estimator, iv_map_stderr=args.iv_map_stderr, ff_input=args.ff_input,
+                       omega_q=args.omega_q, prefit=not args.no_prefit, Vs=args.Vs, delta=args.delta,
+                       J_design=args.J_design, adaptive_start=not args.no_fast_start,
+                       switch_in=not args.no_switch_in, estimator_rows=_estimator_rows(args))
     header = [f"plant: {src}: {parameter_text(plant_to_dict(p))}"] + _time_varying_lines(p)
     return _print_comparison(args, comp, out_dir, header, None, run=f"run: {args.duration:g} s, seed {args.seed}")
+
+
+@contextlib.contextmanager
+def _plant_named(where: str):
+    """Prefix a :class:`controllers.experiments.compare.DriveLimitError` (a friction level above the drive's limit)
+    with where the plant comes from (the file, the scenario's ``[plant]``)."""
+    from controllers.experiments.compare import DriveLimitError
+
+    try:
+        yield
+    except DriveLimitError as exc:
+        raise DriveLimitError(f"{where}: {exc}") from None
 
 
 def _time_varying_lines(p) -> list:
@@ -165,7 +180,7 @@ def _print_comparison(args, comp, out_dir, header, scenario, run: str = "") -> i
         if scenario is not None:
             d["scenario"] = scenario
         print(json.dumps(d, indent=2))
-        return 0
+        return _diverged_status(comp)
     d = comp.design
     for line in header:
         print(line)
@@ -191,7 +206,20 @@ def _print_comparison(args, comp, out_dir, header, scenario, run: str = "") -> i
         print("\nfigures: " + ", ".join(str(x) for x in paths))
     if report is not None:
         print(f"report: {report}")
-    return 0
+    return _diverged_status(comp)
+
+
+def _diverged_status(comp) -> int:
+    """0, or 3 (a refusal to call the comparison a success, one line on stderr) where a run diverged."""
+    import sys
+
+    from controllers.cli.design import EXIT_REFUSED
+
+    diverged = [mode for mode in comp.results if _diverged(comp, mode)]
+    if not diverged:
+        return 0
+    print(f"adaptive-ff: {', '.join(diverged)} diverged (see the notes): exit status {EXIT_REFUSED}", file=sys.stderr)
+    return EXIT_REFUSED
 
 
 def comparison_table(comp, args) -> str:
@@ -200,7 +228,8 @@ def comparison_table(comp, args) -> str:
     Velocities (RMS, max and reversal RMS of the tracking error over the second
     half) in deg/s or rad/s, the torque RMS in N·m, eta dimensionless; each
     header names its unit. Undefined values (eta without friction degradation)
-    print as ``n/a``. When the reference has stops (point-to-point moves,
+    print as ``n/a``, a run that diverged as ``diverged`` and ``-``; every
+    column keeps its width for any value (e.g. eta <= -100). When the reference has stops (point-to-point moves,
     ``Comparison.has_stops``) three more columns, over the second half: the
     RMS error while the reference moves, the longest settling time after a stop
     (s; ``no (k)`` when k stops did not settle into their band) and the largest
@@ -215,19 +244,31 @@ def comparison_table(comp, args) -> str:
     wm = mode_width(row["mode"] for row in rows)
     head = (f"{'mode':<{wm}}{f'RMS [{unit}]':>14}{f'max [{unit}]':>14}{f'reversal RMS [{unit}]':>23}"
             f"{'u RMS [N·m]':>13}{'eta [-]':>9}")
+    widths = [14, 14, 23, 13, 9]
     if stops:
         head += f"{f'motion RMS [{unit}]':>22}{'settle max [s]':>16}{f'reversal max [{unit}]':>23}"
+        widths += [22, 16, 23]
     lines = [head, "-" * len(head)]
     for row in rows:
-        eta = row["eta"]
-        eta_text = f"{eta:>9.3f}" if eta is not None and eta == eta else f"{'n/a':>9}"
-        line = (f"{row['mode']:<{wm}}{k * row['rms']:>14.4f}{k * row['max']:>14.4f}"
-                f"{number_text(k * row['rms_reversal'], 23)}{row['u_rms']:>13.2f}{eta_text}")
+        if _diverged(comp, row["mode"]):
+            lines.append(f"{row['mode']:<{wm}}" + "".join(f"{'diverged' if i == 0 else '-':>{w}}"
+                                                          for i, w in enumerate(widths)))
+            continue
+        line = (f"{row['mode']:<{wm}}{number_text(k * row['rms'], 14)}{number_text(k * row['max'], 14)}"
+                f"{number_text(k * row['rms_reversal'], 23)}{number_text(row['u_rms'], 13, 2)}"
+                f"{number_text(row['eta'], 9, 3)}")
         if stops:
-            line += (f"{k * row['rms_motion']:>22.4f}{settling_text(row['settling_max'], row['n_unsettled']):>16}"
+            line += (f"{number_text(k * row['rms_motion'], 22)}"
+                     f"{settling_text(row['settling_max'], row['n_unsettled']):>16}"
                      f"{number_text(k * row['max_reversal'], 23)}")
         lines.append(line)
     return "\n".join(lines)
+
+
+def _diverged(comp, mode: str) -> bool:
+    """Whether ``mode``'s run of the comparison ``comp`` diverged (its ``info``)."""
+    r = getattr(comp, "results", {}).get(mode)
+    return bool(r is not None and (r.info or {}).get("diverged"))
 
 
 def register(sub) -> None:

@@ -9,7 +9,7 @@ import math
 import sys
 from pathlib import Path
 
-__all__ = ["register", "run", "compensator_from_file", "FLOAT_MAX"]
+__all__ = ["register", "run", "check_options", "compensator_from_file", "FLOAT_MAX", "PLAUSIBLE"]
 
 #: The largest finite float32 (N·m, rad/s): a setting of the export must fit the float build.
 FLOAT_MAX = 3.4028234663852886e38
@@ -179,6 +179,58 @@ def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: fl
     return comp, {"J_design": J_design, "u_max": u_max, "Kp": Kp, "Ki": Ki, "joint": joint, "options": opts}
 
 
+#: The plausible range of a physical setting (SI units), as plant files have it (docs/cli.md).
+PLAUSIBLE = (1e-9, 1e9)
+#: The options of the export that are physical settings: (option, attribute, unit, zero allowed), each checked
+#: against :data:`PLAUSIBLE` (None: not given, the default applies).
+_SETTINGS = (("--u-max", "u_max", "N·m", False), ("--Tc", "Tc", "s", False), ("--Ts", "Ts", "s", False),
+             ("--J-design", "J_design", "kg·m²", False), ("--ff-max", "ff_max", "N·m", False),
+             ("--stick-band", "stick_band", "rad/s", True), ("--Vs", "Vs", "rad/s", False),
+             ("--Kp", "Kp", "N·m·s/rad", True), ("--Ki", "Ki", "N·m/rad", True),
+             ("--crossover", "crossover", "rad/s", False), ("--w-max", "w_max", "rad/s", False),
+             ("--hold-time", "hold_time", "s", False))
+
+
+def check_options(args) -> None:
+    """Refuse, naming the option, a setting of ``export-c`` that the float build cannot represent or that is
+    physically absurd: ``--u-max`` (twice it, the input guard's bound, must be a float), every physical setting
+    finite and within :data:`PLAUSIBLE` (zero allowed for ``--stick-band``, ``--Kp``, ``--Ki``), ``--delta``
+    finite, non-zero and of magnitude within 1e-3..1e3 (``|w/Vs|**delta`` must stay a number in float), ``--Tc``
+    at most 1 s and ``--Ts`` at most 1000 periods of it.
+
+    Raises
+    ------
+    ParameterError
+        ``--NAME VALUE UNIT: ...`` with what the value must be.
+    """
+    from plant.errors import ParameterError
+
+    u = args.u_max
+    if not (math.isfinite(u) and u > 0.0):
+        raise ParameterError(f"--u-max must be a finite torque > 0 (N·m), got {u!r}")
+    if not 2.0 * u <= FLOAT_MAX:
+        raise ParameterError(f"--u-max {u!r} N·m: twice it, the input guard's bound, is beyond what the "
+                             f"float build represents ({FLOAT_MAX:.4g}); give the drive's torque limit")
+    lo, hi = PLAUSIBLE
+    for option, attr, unit, zero in _SETTINGS:
+        v = getattr(args, attr, None)
+        if v is None or (zero and v == 0.0):
+            continue
+        if not (math.isfinite(v) and lo <= v <= hi):
+            raise ParameterError(f"{option} {v!r} {unit}: must be a finite number in the plausible range "
+                                 f"{lo:g}..{hi:g}{' (or 0)' if zero else ''} in SI units; a unit slip?")
+    d = args.delta
+    if d is not None and not (math.isfinite(d) and 1e-3 <= abs(d) <= 1e3):
+        raise ParameterError(f"--delta {d!r}: the Stribeck shape factor must be finite with 1e-3 <= |delta| <= 1e3 "
+                             f"(|w/Vs|**delta must stay a number in the float build)")
+    if args.Tc > 1.0:
+        raise ParameterError(f"--Tc {args.Tc!r} s: a drive's controller period is at most 1 s")
+    if args.Ts > 1000.0 * args.Tc:
+        raise ParameterError(f"--Ts {args.Ts!r} s: at most 1000 periods --Tc ({1000.0 * args.Tc:g} s)")
+    if not 0.0 < args.phase_margin < 90.0:
+        raise ParameterError(f"--phase-margin {args.phase_margin!r} deg: must lie in (0, 90) degrees")
+
+
 def run(args) -> int:
     """Execute ``adaptive-ff export-c`` with parsed ``args``; return the exit status."""
     from adaptive_ff.compensation.export_c import export_c
@@ -191,14 +243,7 @@ def run(args) -> int:
     if out.is_dir() and any(out.iterdir()) and not args.force:
         raise ParameterError(f"--out {out}: the folder exists and is not empty; give a new folder, or --force to "
                              "overwrite the exported files in it")
-    if not (math.isfinite(args.u_max) and args.u_max > 0.0):
-        raise ParameterError(f"--u-max must be a finite torque > 0 (N·m), got {args.u_max!r}")
-    if not 2.0 * args.u_max <= FLOAT_MAX:
-        raise ParameterError(f"--u-max {args.u_max!r} N·m: twice it, the input guard's bound, is beyond what the "
-                             f"float build represents ({FLOAT_MAX:.4g}); give the drive's torque limit")
-    for name, v in (("--w-max", args.w_max), ("--hold-time", args.hold_time)):
-        if not (math.isfinite(v) and 0.0 < v <= FLOAT_MAX):
-            raise ParameterError(f"{name} must be a finite number > 0 (and within the float range), got {v!r}")
+    check_options(args)
     _identified(args.from_file)  # read errors name the file as what it should be: an identification
     refusing = [w for w in warnings_from_file(args.from_file) if w.refusing]
     for w in refusing:

@@ -53,9 +53,11 @@ def main(argv=None) -> int:
     memory: refused before it starts, or a ``MemoryError`` on the way), printed as
     ``adaptive-ff: error: ...`` naming the file, argument, row or value; 3 a
     refusal by a command (e.g. ``design --from`` on a warned identification);
-    130 interrupted by Ctrl-C (SIGINT); 1 an unexpected internal error, printed
-    on one line (set ``ADAPTIVE_FF_DEBUG=1`` for the traceback). No traceback
-    otherwise.
+    130 interrupted by Ctrl-C (SIGINT), also where the ``KeyboardInterrupt``
+    comes from your own compensator; a ``SystemExit`` raised there exits with
+    its code; 1 an unexpected internal error (a ``GeneratorExit`` from your
+    compensator among them), printed on one line (set ``ADAPTIVE_FF_DEBUG=1``
+    for the traceback). No traceback otherwise.
     """
     args = build_parser().parse_args(argv)  # --help and usage errors exit here, before numpy is imported
     try:
@@ -66,11 +68,13 @@ def main(argv=None) -> int:
     except BrokenPipeError:  # output piped into e.g. head: stop quietly
         sys.stderr.close()
         return 0
-    except Exception as exc:  # noqa: BLE001 - the top-level guard: one line, never a traceback
+    except SystemExit:  # argparse's, or one raised by a user's compensator: its code
+        raise
+    except BaseException as exc:  # noqa: BLE001 - the top-level guard: one line, never a traceback
         return _report_error(exc)
 
 
-def _report_error(exc: Exception) -> int:
+def _report_error(exc: BaseException) -> int:
     """Print ``exc`` as one ``adaptive-ff: error:`` line; 2 for package/file errors and lack of memory, 1 for
     anything else."""
     import os

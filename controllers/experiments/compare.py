@@ -23,25 +23,27 @@ from adaptive_ff.compensation.sliding_estimator import fit_sliding
 from controllers.simulation.closed_loop import ModeOptions, run_mode, run_own
 from controllers.simulation.compensators import ESTIMATORS, MODES, check_estimator
 from controllers.simulation.memory import MODE_SIGNALS, PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
-from controllers.simulation.user_compensator import CompensatorContext
+from controllers.simulation.user_compensator import CompensatorContext, CompensatorError
 from controllers.design.pi import PIDesign, design_pi
-from controllers.experiments.comparison import (WORSE_THAN_NONE, Comparison, eta, eta_or_none, mode_width,
-                                                number_text, run_notes, whole_run_metrics,
+from controllers.experiments.comparison import (WORSE_THAN_NONE, Comparison, diverged_notes, eta, eta_or_none,
+                                                mode_width, number_text, run_notes, whole_run_metrics,
                                                 worse_than_none_notes)
 from controllers.experiments.observer_design import (J_CONTRADICTED, friction_level, observer_inertia, observer_max,
                                                      residual_cutoff, residual_share)
 from controllers.experiments.quasi_static import (StribeckDesign, StribeckExperiment, prefit_stribeck,
                                                   stribeck_experiment)
 from controllers.simulation.sensor_drive import DELAY_MAX
-from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, check_nonnegative, check_positive,
-                          check_positive_or_inf)
+from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, check_multiple, check_nonnegative,
+                          check_positive, check_positive_or_inf)
+from plant.dynamics import plant_params
 from plant.excitation import bandlimited_noise, multisine_reference
 from plant.joint import simulate
 from plant.sampling import sample
 
-__all__ = ["Comparison", "CompareOptions", "ComparisonSetup", "compare", "comparison_reference", "eta",
-           "FIXED_METHODS", "PREFIT_MODES", "compensator_context", "mode_width", "number_text", "friction_scale",
-           "measurement_noise", "prefit_stribeck", "prepare_comparison", "residual_cutoff", "run_notes",
+__all__ = ["Comparison", "CompareOptions", "ComparisonSetup", "DriveLimitError", "check_comparison",
+           "check_drive_moves", "compare", "comparison_reference", "eta", "FIXED_METHODS", "PREFIT_MODES",
+           "compensator_context", "mode_width", "number_text", "friction_scale", "measurement_noise", "prefit_stribeck",
+           "prepare_comparison", "residual_cutoff", "run_notes",
            "WORSE_THAN_NONE", "worse_than_none_notes", "J_CONTRADICTED", "observer_inertia"]
 
 #: Offline identification behind the ``fixed`` mode: the sliding-regime
@@ -415,16 +417,39 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
         ctx = compensator_context(s, o)
         for name, factory in o.compensators.items():
             s.bar.set_postfix_str(name)
-            results[name] = run_own(p, s.reference, factory(ctx), s.mode_options["none"], name=name,
-                                    rng=np.random.default_rng(s.noise_seed), faults=o.faults)
+            results[name] = run_own(p, s.reference, own_compensator(name, factory, ctx), s.mode_options["none"],
+                                    name=name, rng=np.random.default_rng(s.noise_seed), faults=o.faults)
     s.bar.close()
     rn = results["none"].metrics.rms_second_half
     rf = results["frictionless"].metrics.rms_second_half
     etas = {mode: eta_or_none(rn, r.metrics.rms_second_half, rf) for mode, r in results.items()}
     return Comparison(plant=p, design=s.design, results=results, eta=etas, prefit=s.prefit, offline=s.offline,
                       model=s.model, experiment=s.experiment, J_design=s.J_design,
-                      notes=tuple(s.notes) + run_notes(results) + worse_than_none_notes(etas, results),
+                      notes=(tuple(s.notes) + diverged_notes(results) + run_notes(results)
+                             + worse_than_none_notes(etas, results)),
                       **whole_run_metrics(results))
+
+
+def own_compensator(name: str, factory, ctx: CompensatorContext):
+    """``factory(ctx)``, the compensator of ``compensators[name]``, checked for the protocol before its run.
+
+    Raises
+    ------
+    CompensatorError
+        The factory raised (an ``Exception``; an interrupt propagates as it is), naming the compensator.
+    ParameterError
+        What it returned lacks ``compensate`` or ``observe`` (the missing ones named).
+    """
+    try:
+        obj = factory(ctx)
+    except Exception as exc:  # noqa: BLE001 -- the user's code may raise anything
+        raise CompensatorError(f"compensator {name!r}: its factory failed: {type(exc).__name__}: {exc}") from exc
+    missing = [m for m in ("compensate", "observe") if not callable(getattr(obj, m, None))]
+    if missing and getattr(obj, "C_OPS", None) is None:
+        raise ParameterError(f"compensators[{name!r}]: its factory returned a {type(obj).__name__} without "
+                             f"{' and '.join(missing)} (a compensator needs compensate(w_meas, w_ref) and "
+                             f"observe(u, w_meas))")
+    return obj
 
 
 def compensator_context(s: ComparisonSetup, o: CompareOptions) -> CompensatorContext:
@@ -536,6 +561,7 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     ref = comparison_reference(o) if reference is None else _checked_reference(reference, o)
     noise = measurement_noise(o)
     peak_w, peak_a = float(np.max(np.abs(ref.w))), float(np.max(np.abs(ref.dw)))
+    design = _preflight(p0, o, J, peak_w, noise)
     adaptive_rows = ["adaptive"] * bool(o.estimator_rows)  # the estimator rows run mode adaptive
     needs_prefit = (any(m in PREFIT_MODES for m in run_modes + adaptive_rows) or bool(o.compensators)) and o.Vs is None
     if needs_prefit and not o.prefit:
@@ -558,8 +584,9 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     # the measured friction level (largest mean torque of the quasi-static runs) bounds the torques
     F_peak = exp.torque_scale if exp is not None else None
     u_max = o.u_max if o.u_max is not None else 3.0 * (F_peak + J * peak_a)
+    if o.u_max is None:
+        check_drive_moves(p0, u_max, derived=True)
     F_peak = F_peak if F_peak is not None else u_max / 3.0
-    design = design_pi(J, crossover=o.crossover, phase_margin=o.phase_margin, Tc=o.Tc)
     model = RegressionModel(1.0 if Vs is None else Vs, 1.0 if delta is None else delta, lag=True)
     offline = estimate = accepted = None
     notes = list(exp.notes) if fit is not None else []
@@ -622,6 +649,86 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     return ComparisonSetup(modes=tuple(run_modes), reference=ref, design=design, mode_options=opts,
                            noise_seed=noise_ss, prefit=fit, offline=offline, model=model, experiment=exp,
                            J_design=J, notes=tuple(notes), bar=bar, estimator_rows=rows)
+
+
+def check_comparison(p, o: CompareOptions) -> None:
+    """The checks of :func:`compare` that need no simulation, made before any (a scenario file runs them when it
+    is read): the PI design of the crossover and phase margin at ``Tc``, ``Ts`` a multiple of ``Tc``, a velocity
+    measurement (its noise, an encoder's quantisation) that resolves the reference, and a given ``u_max`` above
+    the plant's friction levels (:func:`check_drive_moves`).
+
+    Parameters
+    ----------
+    p : plant model
+        The true plant (its ``J`` where ``o.J_design`` is None; its friction levels against ``o.u_max``).
+    o : CompareOptions
+
+    Raises
+    ------
+    ParameterError
+        The message starts with the option's name (``crossover``, ``Ts``, ``encoder_counts``, ``noise_std``) and
+        names its value; :class:`DriveLimitError` for ``u_max``.
+    """
+    p0 = p.at(0.0) if hasattr(p, "at") else p
+    J = float(p0.J) if o.J_design is None else float(o.J_design)
+    ref = comparison_reference(o) if o.reference is None else _checked_reference(o.reference, o)
+    _preflight(p0, o, J, float(np.max(np.abs(ref.w))), measurement_noise(o))
+
+
+def _preflight(p0, o: CompareOptions, J: float, peak_w: float, noise: float) -> PIDesign:
+    """:func:`check_comparison` on the plant at ``t = 0``, the design inertia, the reference's peak velocity
+    (rad/s) and the measurement's noise (rad/s); returns the PI design."""
+    check_multiple("Ts", o.Ts, "Tc", o.Tc)
+    if noise / 2.0 >= 1.2 * peak_w:
+        what = (f"encoder_counts = {o.encoder_counts!r}: its quantisation makes the measured velocity's noise"
+                if o.encoder_counts is not None else f"noise_std = {o.noise_std!r} rad/s: the measured velocity's "
+                                                     f"noise")
+        raise ParameterError(f"{what} {noise:.4g} rad/s, more than twice 1.2 times the reference's peak velocity "
+                             f"{peak_w:.4g} rad/s: no speed of the reference can be measured")
+    if o.u_max is not None:
+        check_drive_moves(p0, o.u_max)
+    return design_pi(J, crossover=o.crossover, phase_margin=o.phase_margin, Tc=o.Tc)
+
+
+class DriveLimitError(ParameterError):
+    """The plant's friction is above the drive's torque limit: the drive cannot move the joint
+    (:func:`check_drive_moves`)."""
+
+
+def check_drive_moves(p0, u_max: float, *, derived: bool = False) -> None:
+    """Refuse a plant whose friction the drive cannot overcome: a level (``Fc``, ``Fs``, or an asymmetric model's
+    ``Fc_pos`` ...) above the torque limit ``u_max`` (N·m). Such a joint never moves (or never breaks away), and
+    every mode's run would be a run of NaN: refused before any run instead.
+
+    A check of the simulated world, as the engine's own bounds: the levels are read from the plant step's packing
+    (:func:`plant.dynamics.plant_params`, what the engine integrates), and the answer only refuses; nothing of it
+    reaches a design, an estimator or a compensator.
+
+    Parameters
+    ----------
+    p0 : plant model
+        The plant at ``t = 0``.
+    u_max : float
+        The drive's torque limit (N·m).
+    derived : bool, keyword-only
+        ``u_max`` was derived from the quasi-static runs (the message says so), not given.
+
+    Raises
+    ------
+    DriveLimitError
+        Naming the level, its value and ``u_max``.
+    """
+    par = plant_params(p0)[0]
+    pos, neg = par.pos, par.neg
+    sides = ((("Fc", "Fs"), pos),) if (pos.Fc, pos.dF) == (neg.Fc, neg.dF) else \
+        ((("Fc_pos", "Fs_pos"), pos), (("Fc_neg", "Fs_neg"), neg))
+    for (fc, fs), side in sides:
+        for name, v in ((fc, float(side.Fc)), (fs, float(side.Fc + side.dF))):
+            if v > u_max:
+                how = (" (derived from the quasi-static runs: three times the torque they measured plus the "
+                       "reference's peak inertial torque)" if derived else "")
+                raise DriveLimitError(f"{name} = {v:g} N·m is above u_max = {u_max:.4g} N·m{how}: the drive cannot "
+                                      f"move the joint; check the plant's units")
 
 
 def _no_friction_note(exp: StribeckExperiment, run_modes, Vs: float, placeholders: bool) -> str:

@@ -27,8 +27,8 @@ if TYPE_CHECKING:  # annotations only
     from controllers.design.pi import PIDesign
     from controllers.experiments.quasi_static import StribeckExperiment
 
-__all__ = ["Comparison", "WORSE_THAN_NONE", "eta", "eta_or_none", "mode_width", "number_text", "run_notes",
-           "settling_text", "whole_run_metrics", "worse_than_none_notes"]
+__all__ = ["Comparison", "WORSE_THAN_NONE", "diverged_notes", "eta", "eta_or_none", "mode_width", "number_text",
+           "run_notes", "settling_text", "whole_run_metrics", "worse_than_none_notes"]
 
 #: eta below this is "worse than none" (:func:`worse_than_none_notes`, the zoo's
 #: :meth:`controllers.experiments.zoo.ZooResult.worse_than_none`): a compensation that raises the tracking error above
@@ -165,25 +165,32 @@ class Comparison:
 
     def table(self) -> str:
         """The comparison as a fixed-width text table (velocities in deg/s; eta full, deviation and switch-on
-        time over the whole run; an undefined eta and a compensation that never acts print as ``-``). With stops
-        in the reference three more columns: the RMS error in motion, the longest settling time (``no (k)``: k
-        stops did not settle into the band) and the largest error at a reversal (second half)."""
+        time over the whole run; an undefined eta and a compensation that never acts print as ``-``; a run that
+        diverged prints ``diverged`` and ``-``). With stops in the reference three more columns: the RMS error in
+        motion, the longest settling time (``no (k)``: k stops did not settle into the band) and the largest
+        error at a reversal (second half). Every column keeps its width for any value (:func:`number_text`)."""
         stops = self.has_stops
         wm = mode_width(self.results)
         head = (f"{'mode':<{wm}}{'RMS [deg/s]':>12}{'max [deg/s]':>13}{'reversal RMS':>14}{'u RMS [N·m]':>13}"
                 f"{'eta':>8}{'eta full':>9}{'dev [deg/s]':>12}{'t_on [s]':>9}")
+        widths = [12, 13, 14, 13, 8, 9, 12, 9]
         if stops:
             head += f"{'motion RMS':>12}{'settle max [s]':>16}{'rev. max':>10}"
+            widths += [12, 16, 10]
         lines = [head, "-" * len(head)]
+        d = np.rad2deg
         for row in self.rows():
-            d = np.rad2deg
-            ton = "-" if row["t_ff_on"] is None else f"{row['t_ff_on']:.3f}"
-            e, ef = ("-" if row[k] is None else f"{row[k]:.3f}" for k in ("eta", "eta_full"))
-            line = (f"{row['mode']:<{wm}}{d(row['rms']):>12.4f}{d(row['max']):>13.4f}"
-                    f"{number_text(d(row['rms_reversal']), 14)}{row['u_rms']:>13.2f}{e:>8}"
-                    f"{ef:>9}{d(row['rms_dev']):>12.4f}{ton:>9}")
+            if self.results[row["mode"]].info.get("diverged"):
+                lines.append(f"{row['mode']:<{wm}}" + "".join(f"{'diverged' if i == 0 else '-':>{w}}"
+                                                              for i, w in enumerate(widths)))
+                continue
+            line = (f"{row['mode']:<{wm}}{number_text(d(row['rms']), 12)}{number_text(d(row['max']), 13)}"
+                    f"{number_text(d(row['rms_reversal']), 14)}{number_text(row['u_rms'], 13, 2)}"
+                    f"{number_text(row['eta'], 8, 3, missing='-')}{number_text(row['eta_full'], 9, 3, missing='-')}"
+                    f"{number_text(d(row['rms_dev']), 12)}{number_text(row['t_ff_on'], 9, 3, missing='-')}")
             if stops:
-                line += (f"{d(row['rms_motion']):>12.4f}{settling_text(row['settling_max'], row['n_unsettled']):>16}"
+                line += (f"{number_text(d(row['rms_motion']), 12)}"
+                         f"{settling_text(row['settling_max'], row['n_unsettled']):>16}"
                          f"{number_text(d(row['max_reversal']), 10)}")
             lines.append(line)
         return "\n".join(lines)
@@ -328,7 +335,40 @@ def mode_width(names) -> int:
     return max([13] + [len(n) + 1 for n in names])
 
 
-def number_text(x: float, width: int, digits: int = 4) -> str:
-    """``x`` right-aligned in ``width`` characters with ``digits`` decimals, ``n/a`` where it is NaN (e.g. the
-    reversal RMS of a run without a reversal in its second half)."""
-    return f"{'n/a':>{width}}" if x != x else f"{x:>{width}.{digits}f}"
+def number_text(x: float, width: int, digits: int = 4, *, missing: str = "n/a") -> str:
+    """``x`` right-aligned in ``width`` characters with ``digits`` decimals, ``missing`` where it is NaN or None
+    (e.g. the reversal RMS of a run without a reversal in its second half). A value whose fixed-point form would
+    not leave one blank before it (eta <= -100, a huge RMS) prints in fewer significant digits or in exponent
+    form instead: a table's columns keep their widths for any value."""
+    if x is None or x != x:
+        return f"{missing:>{width}}"
+    text = f"{x:.{digits}f}"
+    for sig in range(max(digits, 1) + 2, 0, -1):
+        if len(text) < width:
+            break
+        text = f"{x:.{sig}g}"
+    return f"{text:>{width}}"
+
+
+def diverged_notes(results: dict) -> tuple:
+    """One note per run that diverged (its velocity left the engine's bound, ``info["diverged"]``): when, and that
+    its metrics are undefined.
+
+    Parameters
+    ----------
+    results : dict of str to ClosedLoopResult
+        The runs by mode.
+
+    Returns
+    -------
+    tuple of str
+    """
+    notes = []
+    for mode, r in results.items():
+        if not (r.info or {}).get("diverged"):
+            continue
+        lost = np.flatnonzero(~np.isfinite(r.w))
+        when = f" at t = {float(r.t[lost[0]]):.4g} s" if lost.size else ""
+        notes.append(f"{mode}: diverged{when}: its velocity left the run's bound w_limit (by default 100 times the "
+                     f"reference's peak plus 1 rad/s); its metrics are undefined")
+    return tuple(notes)

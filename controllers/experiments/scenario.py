@@ -51,6 +51,7 @@ from __future__ import annotations
 import functools
 import importlib
 import importlib.util
+import inspect
 import math
 import os
 import sys
@@ -58,9 +59,9 @@ import tomllib
 from dataclasses import dataclass, fields
 from pathlib import Path
 
-from controllers.experiments.compare import CompareOptions, Comparison, compare
+from controllers.experiments.compare import CompareOptions, Comparison, check_comparison, compare
 from controllers.simulation.compensators import MODES
-from plant.errors import ParameterError
+from plant.errors import ParameterError, check_not_special
 
 __all__ = ["Scenario", "ScenarioError", "TrackingBounds", "compensator_factories", "load_scenario",
            "scenario_from_dict", "REFERENCE_KINDS"]
@@ -190,6 +191,7 @@ def load_scenario(path) -> Scenario:
         the file, the table and key, and the value.
     """
     p = Path(os.fspath(path))
+    check_not_special(p, "scenario file (TOML)", error=ScenarioError)
     try:
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
@@ -254,8 +256,9 @@ def scenario_from_dict(d: dict, *, base_dir=".", source: str = "<scenario>", def
         kw["duration"] = duration
     try:
         options = CompareOptions(**kw)
+        check_comparison(plant, options)  # what needs no simulation: before any
     except (ParameterError, TypeError, ValueError) as exc:
-        raise ScenarioError(f"{source}: {_where_option(str(exc))}{exc}") from None
+        raise ScenarioError(f"{source}: {_where_option(str(exc), plant=True)}{exc}") from None
     bounds = _bounds(ctx, d, modes, compensators)
     return Scenario(name=name, plant=plant, options=options, bounds=bounds, description=description, source=source)
 
@@ -296,10 +299,12 @@ class _Ctx:
         return p if p.is_absolute() else self.base / p
 
 
-def _where_option(msg: str) -> str:
+def _where_option(msg: str, *, plant: bool = False) -> str:
     """The table of the CompareOptions field a ParameterError message starts with ("u_max must ..."), for the
-    error message."""
+    error message; with ``plant``, ``[plant]`` for a friction level (:func:`check_drive_moves`)."""
     key = msg.split(" ", 1)[0].strip("'\":,")
+    if plant and key in ("Fc", "Fs", "Fc_pos", "Fc_neg", "Fs_pos", "Fs_neg"):
+        return "[plant] "
     for table, keys in (("sensor", _SENSOR), ("drive", _DRIVE), ("controller", _CONTROLLER)):
         if key in keys:
             return f"[{table}] "
@@ -341,8 +346,20 @@ def _plant(ctx: _Ctx, t: dict):
         return plant_from_dict(t)
     except ScenarioError:
         raise
-    except (ParameterError, OSError) as exc:
-        raise ScenarioError(f"{ctx.source}: [plant]: {exc}") from None
+    except (ParameterError, OSError, TypeError, ValueError, OverflowError) as exc:
+        raise ScenarioError(f"{ctx.source}: [plant]{_plant_key(t, str(exc))}: {exc}") from None
+
+
+def _plant_key(t: dict, msg: str) -> str:
+    """`` KEY = VALUE`` of the ``[plant]`` key a plant's error message starts with (``"J must be a real number,
+    ..."``; a key of its ``drift``, ``ripple`` or ``payload`` table as ``drift.KEY``), else ``""``."""
+    key = msg.split(" ", 1)[0].strip("'\":,")
+    if key in t and not isinstance(t[key], dict):
+        return f" {key} = {t[key]!r}"
+    for sub, table in t.items():
+        if isinstance(table, dict) and key in table:
+            return f" {sub}.{key} = {table[key]!r}"
+    return ""
 
 
 def _reference(ctx: _Ctx, t: dict, Tc, seed: int):
@@ -422,8 +439,33 @@ def _compensators(ctx: _Ctx, t: dict) -> dict:
                                 f"\"file.py:name\", got {spec!r}")
         kwargs = {k: v for k, v in spec.items() if k != "factory"}
         factory = _import_factory(ctx, table, spec["factory"])
+        _check_factory(ctx, table, spec["factory"], factory, kwargs)
         out[name] = functools.partial(factory, **kwargs) if kwargs else factory
     return out
+
+
+def _check_factory(ctx: _Ctx, table: str, ref: str, factory, kwargs: dict) -> None:
+    """Refuse, before any run, a factory that cannot be called as ``factory(context, **kwargs)`` (an unknown or a
+    missing keyword) and a class without the methods ``compensate`` and ``observe``."""
+    if inspect.isclass(factory):
+        missing = [m for m in ("compensate", "observe") if not callable(getattr(factory, m, None))]
+        if missing:
+            raise ctx.error(table, "factory", ref, f"the class {factory.__name__} has no method "
+                                                   f"{' and no method '.join(missing)} (a compensator needs "
+                                                   f"compensate(w_meas, w_ref) and observe(u, w_meas))")
+    try:
+        sig = inspect.signature(factory)
+    except (TypeError, ValueError):  # a builtin without a signature: called as it is
+        return
+    try:
+        sig.bind(None, **kwargs)
+    except TypeError as exc:
+        keys = [k for k in kwargs if k not in sig.parameters]
+        if keys and not any(q.kind is q.VAR_KEYWORD for q in sig.parameters.values()):
+            raise ctx.error(table, keys[0], kwargs[keys[0]], f"{ref} takes no keyword {keys[0]!r} (it takes: "
+                                                             f"{', '.join(list(sig.parameters)[1:]) or 'none'})")
+        raise ctx.error(table, "factory", ref, f"cannot be called as factory(context, **the table's other keys): "
+                                               f"{exc}") from None
 
 
 def _import_factory(ctx: _Ctx, table: str, ref):
@@ -434,6 +476,7 @@ def _import_factory(ctx: _Ctx, table: str, ref):
     try:
         if mod_name.endswith(".py"):
             path = ctx.path(table, "factory", mod_name)
+            check_not_special(path, f"Python file ([{table}] factory in {ctx.source})", error=ScenarioError)
             if not path.is_file():
                 raise ctx.error(table, "factory", ref, f"no such file {path}")
             key = f"_adaptive_ff_scenario_{abs(hash(str(path.resolve())))}"

@@ -18,13 +18,17 @@ result) and ``info()`` (a dict merged into the result's ``info``). The package's
 (:meth:`controllers.simulation.engine.EngineRun.set_compensator`): the engine's C loop calls it through an ops
 table whose functions call back into Python (cffi ``extern "Python"``; ``controllers/_cbuild.py``), so a
 user's compensator runs in the same loop, with the same plant, sensor, PI and metrics, as the built-in
-modes; each call costs a Python call (docs/benchmarks/perf.md). An exception in the user's code, or a
-non-finite ``u_ff``, ends the run at that period and is raised as :class:`CompensatorError` after it.
+modes; each call costs a Python call (docs/benchmarks/perf.md). An exception in the user's code, a ``u_ff``
+that is not a real number (a string, None, an array) or a non-finite one ends the run at that period and is
+raised as :class:`CompensatorError` after it. A :class:`BaseException` that is not an :class:`Exception`
+(``KeyboardInterrupt`` from Ctrl-C, ``SystemExit``, ``GeneratorExit``) ends the run at once as well and is raised
+as it is after it: an interrupted run gives no result.
 """
 
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 
 from controllers._cctl import ffi, lib
@@ -62,8 +66,9 @@ class UserCompensator:
         Its name.
     n_calls : int
         Periods it was called for (``compensate`` and ``observe`` once each).
-    error : CompensatorError or None
-        The first failure of the run, if any.
+    error : CompensatorError, BaseException or None
+        The first failure of the run, if any: a CompensatorError, or the interrupt (``KeyboardInterrupt``,
+        ``SystemExit``, ``GeneratorExit``) that ended it.
 
     Raises
     ------
@@ -85,7 +90,7 @@ class UserCompensator:
         self.obj = obj
         self.name = name
         self.n_calls = 0
-        self.error: CompensatorError | None = None
+        self.error: BaseException | None = None
         self._handle = ffi.new_handle(self)
         self._name_c = ffi.new("char[]", name.encode())
         self._ops = ffi.new("aff_compensator_ops *", {"name": self._name_c, "compensate": lib.ctl_py_compensate,
@@ -118,8 +123,11 @@ class UserCompensator:
         return {**dict(extra), "user_compensator": self.name, "n_calls": self.n_calls}
 
     def fail(self, where: str, exc: BaseException | None, detail: str = "") -> None:
-        """Record the first failure (later ones are consequences of the first)."""
-        if self.error is None:
+        """Record the first failure (later ones are consequences of the first): an interrupt (a BaseException that
+        is not an Exception) as it is, anything else as a :class:`CompensatorError` naming ``where``."""
+        if self.error is None and exc is not None and not isinstance(exc, Exception):
+            self.error = exc
+        elif self.error is None:
             self.error = CompensatorError(f"compensator {self.name!r}: {where} failed at period {self.n_calls} "
                                           f"(call {self.n_calls + 1}){': ' + detail if detail else ''}"
                                           f"{': ' + repr(exc) if exc is not None else ''}")
@@ -131,15 +139,38 @@ class UserCompensator:
             raise self.error
 
 
-@ffi.def_extern(error=math.nan)
+def _real(v) -> bool:
+    """Whether ``v`` is a real number (int, float, numpy scalar or 0-d array of a real dtype; not a bool)."""
+    if isinstance(v, bool):
+        return False
+    if isinstance(v, numbers.Real):
+        return True
+    return getattr(v, "shape", None) == () and getattr(getattr(v, "dtype", None), "kind", "") in "fiu"
+
+
+def _on_callback_error(exc_type, exc_value, tb):
+    """cffi's ``onerror`` of the callbacks: an exception that escaped their own ``try`` (an interrupt that landed
+    between two of their statements) is recorded on the compensator, so that it ends the run and is raised after
+    it, instead of being printed and dropped by cffi."""
+    handle = tb.tb_frame.f_locals.get("handle") if tb is not None else None
+    if handle is not None:
+        ffi.from_handle(handle).fail("callback", exc_value)
+
+
+@ffi.def_extern(error=math.nan, onerror=_on_callback_error)
 def ctl_py_compensate(handle, w_ctrl, w_meas, w_ref):
     """Engine callback: ``u_ff`` of the user's compensator for this period (NaN after a failure: the run ends)."""
     c = ffi.from_handle(handle)
     if c.error is not None:
         return math.nan
     try:
-        v = float(c.obj.compensate(w_ctrl, w_ref))
-    except Exception as exc:  # noqa: BLE001 -- any failure of user code ends the run and is raised after it
+        raw = c.obj.compensate(w_ctrl, w_ref)
+        if not _real(raw):
+            c.fail("compensate", None, f"returned {raw!r} of type {type(raw).__name__} (w_meas={w_ctrl!r}, "
+                                       f"w_ref={w_ref!r}); u_ff must be a real number (N·m)")
+            return math.nan
+        v = float(raw)
+    except BaseException as exc:  # noqa: BLE001 -- any failure of user code ends the run and is raised after it
         c.fail("compensate", exc)
         return math.nan
     if not math.isfinite(v):
@@ -148,15 +179,16 @@ def ctl_py_compensate(handle, w_ctrl, w_meas, w_ref):
     return v
 
 
-@ffi.def_extern(error=0)
+@ffi.def_extern(error=0, onerror=_on_callback_error)
 def ctl_py_observe(handle, u, w_meas, theta_out):
-    """Engine callback: the user's compensator observes ``(u, w_meas)``; reports no parameter vector (0)."""
+    """Engine callback: the user's compensator observes ``(u, w_meas)``; reports no parameter vector (0). After a
+    failure the next ``compensate`` returns NaN: the run ends there."""
     c = ffi.from_handle(handle)
-    if c.error is None:
-        try:
+    try:
+        if c.error is None:
             c.obj.observe(u, w_meas)
-        except Exception as exc:  # noqa: BLE001
-            c.fail("observe", exc)
+    except BaseException as exc:  # noqa: BLE001
+        c.fail("observe", exc)
     c.n_calls += 1
     return 0
 
