@@ -60,6 +60,12 @@ class FeedforwardSupervisor(Component):
     delay : int, keyword-only
         Measurement delay of the velocity (periods), 0..:data:`DELAY_MAX`; default 0. The statistic pairs the
         velocity difference with the torques of ``delay`` periods before.
+    Kp, Ki : float or None, keyword-only
+        The loop's PI gains (N·m·s/rad, > 0; N·m/rad, >= 0) for the tracking test (Notes); default None: no tracking
+        test, the torque test alone.
+    track_margin : float, keyword-only
+        The tracking test backs off where the loop's mean-square velocity error with the candidate exceeds ``1 +
+        track_margin`` times the error without it (-), >= 0; default 1 (twice).
 
     Attributes
     ----------
@@ -75,6 +81,11 @@ class FeedforwardSupervisor(Component):
         Filtered disturbance without and with the candidate (N·m).
     ms_friction, ms_residual : float
         Their exponentially weighted mean squares ``M_f``, ``M_r`` (N²·m²).
+    ms_error_none, ms_error_comp : float
+        The tracking test's mean squares ``M_e0``, ``M_e1`` of the velocity error the nominal loop makes from the
+        disturbance without and with the candidate ((rad/s)²; 0 without the test).
+    n_backoff_tracking : int
+        Back-offs the tracking test made where the torque test would not have.
 
     Raises
     ------
@@ -105,6 +116,17 @@ class FeedforwardSupervisor(Component):
     ``at_rest``: the residual observer of :class:`controllers.peers.adaptive_dob.AdaptiveDOBCompensator` records the
     torque as applied, without the feedforward it did not get). While on and moving, the applied torque is the
     candidate itself (bit for bit).
+
+    The tracking test (with ``Kp``, ``Ki``) weighs the same residual by what it does to the loop's tracking: the
+    nominal loop (the PI on the error, its integrator updated first, and ``J_n`` over ``Tc``) turns a torque ``d``
+    into the velocity error ``G[d]`` (``y(k+1) = y(k) + Tc/J_n*(Kp*e + I(k+1) + d(k))``, ``I(k+1) = I(k) + Ki*Tc*e``,
+    ``e = -y(k)``); ``e0 = G[v]`` is the error the disturbance makes without compensation, ``e1 = G[v - u_c]`` with
+    the candidate. A constant residual the PI's integrator rejects costs no tracking; a ripple at the loop's
+    bandwidth costs most. With ``M_e0``, ``M_e1`` their mean squares (as ``M_f``, ``M_r``): on and ``M_e1 > (1 +
+    track_margin)*M_e0``: back off; off: on again only where both tests clear ``margin``. The measured error is not
+    compared: it holds the reference's own tracking error, which dwarfs the friction's share where the friction
+    costs little. Without ``track_margin`` the test backed the ``paper`` joint off during its feedforward's fade-in
+    (the models' integrators still held the friction's rejection, ``M_e1`` 1.13 times ``M_e0`` for a second).
     C: ``adaptive_ff/csrc/aff_supervisor.c``.
     """
 
@@ -112,7 +134,8 @@ class FeedforwardSupervisor(Component):
     _ctype = "aff_supervisor"
 
     def __init__(self, *, Tc: float, J_n: float, omega: float, window: float = 2.0, margin: float = 0.1,
-                 settle: float | None = None, rest_band: float | None = 0.0, delay: int = 0):
+                 settle: float | None = None, rest_band: float | None = 0.0, delay: int = 0,
+                 Kp: float | None = None, Ki: float = 0.0, track_margin: float = 1.0):
         Tc, J_n = check_positive("Tc", Tc), check_positive("J_n", J_n)
         omega, window = check_positive("omega", omega), check_positive("window", window)
         margin = float(margin)
@@ -128,12 +151,21 @@ class FeedforwardSupervisor(Component):
         self._new_struct()
         if lib.aff_supervisor_init(self._c, Tc, J_n, omega, window, margin, settle, band, int(delay)) != 0:
             raise ParameterError("aff_supervisor_init refused the settings")  # unreachable after the checks
+        if Kp is not None:
+            Kp, Ki = check_positive("Kp", Kp), check_nonnegative("Ki", Ki)
+            track_margin = check_nonnegative("track_margin", track_margin)
+            for name, v in (("Kp", Kp), ("Ki", Ki), ("track_margin", track_margin)):
+                if not math.isfinite(v):
+                    raise ParameterError(f"{name} must be finite, got {v!r}")
+            lib.aff_supervisor_set_loop(self._c, Kp, Ki, track_margin)
 
     def __repr__(self) -> str:
         c = self._c
         return (f"FeedforwardSupervisor(Tc={c.Tc!r}, J_n={c.J_n!r}, omega={c.omega!r}, window={c.window!r}, "
                 f"margin={c.margin!r}, settle={c.settle!r}, "
-                f"rest_band={None if c.rest_band < 0 else c.rest_band!r}, delay={c.delay!r})")
+                f"rest_band={None if c.rest_band < 0 else c.rest_band!r}, delay={c.delay!r}, "
+                f"Kp={c.Kp if c.track else None!r}, Ki={c.KiTc / c.Tc if c.track else 0.0!r}, "
+                f"track_margin={c.track_margin if c.track else 1.0!r})")
 
     @property
     def on(self) -> bool:
@@ -223,6 +255,20 @@ class FeedforwardSupervisor(Component):
         out["on"] = on.astype(bool)
         return out
 
+    @property
+    def n_backoff_tracking(self) -> int:
+        return int(self._c.n_backoff_tracking)
+
+    @property
+    def ms_error_none(self) -> float:
+        return float(self._c.m_e0)
+
+    @property
+    def ms_error_comp(self) -> float:
+        return float(self._c.m_e1)
+
     def info(self) -> dict:
-        """The counters a closed-loop result reports: ``n_backoff``, ``n_restore``, ``t_off``, ``t_rest`` (s)."""
-        return {"n_backoff": self.n_backoff, "n_restore": self.n_restore, "t_off": self.t_off, "t_rest": self.t_rest}
+        """The counters a closed-loop result reports: ``n_backoff``, ``n_backoff_tracking`` (of them, decided by the
+        tracking test alone), ``n_restore``, ``t_off``, ``t_rest`` (s)."""
+        return {"n_backoff": self.n_backoff, "n_backoff_tracking": self.n_backoff_tracking,
+                "n_restore": self.n_restore, "t_off": self.t_off, "t_rest": self.t_rest}

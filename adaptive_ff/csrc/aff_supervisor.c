@@ -58,6 +58,18 @@ int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real o
     s->n_restore = 0;
     s->n_off = 0;
     s->n_skipped = 0;
+    s->track = 0;
+    s->track_margin = 0;
+    s->Kp = 0;
+    s->KiTc = 0;
+    s->TcJ = Tc / J_n;
+    s->y_a = 0;
+    s->I_a = 0;
+    s->y_c = 0;
+    s->I_c = 0;
+    s->m_e0 = 0;
+    s->m_e1 = 0;
+    s->n_backoff_tracking = 0;
     s->pos = 0;
     for (long i = 0; i <= AFF_SUPERVISOR_DELAY_MAX; i++) {
         s->u_hist[i] = 0;
@@ -91,6 +103,29 @@ void aff_supervisor_set_rest_lag(aff_supervisor *s, aff_real alpha)
     s->rest_keep = alpha >= 0 && alpha <= 1 ? 1 - alpha : 0;
 }
 
+void aff_supervisor_set_loop(aff_supervisor *s, aff_real Kp, aff_real Ki, aff_real track_margin)
+{
+    s->track = isfinite(Kp) && Kp > 0 && isfinite(Ki) && Ki >= 0 && isfinite(track_margin) && track_margin >= 0;
+    s->track_margin = s->track ? track_margin : 0;
+    s->Kp = s->track ? Kp : 0;
+    s->KiTc = s->track ? Ki * s->Tc : 0;
+    s->y_a = 0;
+    s->I_a = 0;
+    s->y_c = 0;
+    s->I_c = 0;
+    s->m_e0 = 0;
+    s->m_e1 = 0;
+}
+
+/* One period of the nominal loop's response to an added torque d (N*m): the PI on the error -y (its integrator
+ * first, as the loop's PI), then the inertia J_n over Tc; y the velocity (rad/s), I the integrator (N*m). */
+static void loop_model_step(aff_real *y, aff_real *I, aff_real Kp, aff_real KiTc, aff_real TcJ, aff_real d)
+{
+    aff_real e = -*y;
+    *I += KiTc * e;
+    *y += TcJ * (Kp * e + *I + d);
+}
+
 void aff_supervisor_observe(aff_supervisor *s, aff_real u, aff_real w)
 {
     aff_real uu = (aff_real)u;
@@ -119,16 +154,35 @@ void aff_supervisor_observe(aff_supervisor *s, aff_real u, aff_real w)
     s->w_last = ww;
     aff_real f = aff_lag_step(&s->x_f, s->a, v);
     aff_real r = aff_lag_step(&s->x_r, s->a, v - c_old);
+    /* the tracking test: the velocity error the nominal loop makes from the disturbance v without the compensation,
+     * e0 = G[v], and with the candidate, e1 = G[v - u_c] = e0 - G[u_c] (two loop models, v and the candidate as
+     * their inputs) */
+    aff_real e0 = 0, e1 = 0;
+    if (s->track) {
+        loop_model_step(&s->y_a, &s->I_a, s->Kp, s->KiTc, s->TcJ, v);
+        loop_model_step(&s->y_c, &s->I_c, s->Kp, s->KiTc, s->TcJ, c_old);
+        e0 = s->y_a;
+        e1 = s->y_a - s->y_c;
+    }
     if (k < s->n_start || s->rest)
         return;
     aff_lag_step(&s->m_f, s->b, f * f);
     aff_lag_step(&s->m_r, s->b, r * r);
+    if (s->track) {
+        aff_lag_step(&s->m_e0, s->b, e0 * e0);
+        aff_lag_step(&s->m_e1, s->b, e1 * e1);
+    }
     if (k < s->n_decide)
         return;
-    if (s->on && s->m_r > s->m_f) {
+    aff_real keep = (aff_real)1.0 - s->margin;
+    int worse_torque = s->m_r > s->m_f;
+    int worse_tracking = s->track && s->m_e1 > ((aff_real)1.0 + s->track_margin) * s->m_e0;
+    if (s->on && (worse_torque || worse_tracking)) {
+        if (!worse_torque)
+            s->n_backoff_tracking = aff_count_up(s->n_backoff_tracking);
         s->on = 0;
         s->n_backoff = aff_count_up(s->n_backoff);
-    } else if (!s->on && s->m_r < ((aff_real)1.0 - s->margin) * s->m_f) {
+    } else if (!s->on && s->m_r < keep * s->m_f && (!s->track || s->m_e1 < keep * s->m_e0)) {
         s->on = 1;
         s->n_restore = aff_count_up(s->n_restore);
     }
