@@ -143,10 +143,10 @@ def test_the_counters_are_int64_and_the_run_on_counts(log):
     c = _fresh()
     found = {p: kind for p, _, _, kind in _counters(c[0])}
     kinds = Counter((p.split(".")[0], kind) for p, kind in found.items())
-    # mode: 30 totals, 8 run lengths (5 gates, stick band, still periods, trial), k_in and k_out; saved: the copies
+    # mode: 31 totals, 8 run lengths (5 gates, stick band, still periods, trial), k_in and k_out; saved: the copies
     # of the fixed feedforward's, the residual's and the supervisor's
-    assert kinds == {("mode", "total"): 30, ("mode", "run"): 8, ("mode", "index"): 2,
-                     ("saved", "total"): 13, ("saved", "run"): 5, ("saved", "index"): 2}
+    assert kinds == {("mode", "total"): 31, ("mode", "run"): 8, ("mode", "index"): 2,
+                     ("saved", "total"): 14, ("saved", "run"): 5, ("saved", "index"): 2}
     for p in ("mode.sup.n", "mode.sup.n_rest", "mode.res.sw.n", "mode.res.n_held", "mode.ff.est.rls.n_updates",
               "mode.ff.est.gate.n_outliers", "mode.ff.n_implausible", "mode.res.dob.n_rejected"):
         assert found[p] == "total"
