@@ -60,9 +60,26 @@
 #ifndef AFF_SUPERVISOR_H
 #define AFF_SUPERVISOR_H
 #include "aff_real.h"
+#include "aff_error.h"
 
 /* Largest measurement delay (periods) the statistic aligns (the Python wrapper refuses more). */
 #define AFF_SUPERVISOR_DELAY_MAX 32
+
+/* The supervisor's settings (Python: FeedforwardSupervisor's arguments of the same names). */
+typedef struct aff_supervisor_config {
+    aff_real Tc;          /* controller period (s), finite, > 0; default 0.001 */
+    aff_real J_n;         /* design inertia of the statistic's disturbance observer (kg*m^2), finite, > 0: set it;
+                             default 0 */
+    aff_real omega;       /* Q-filter cut-off (rad/s), finite, > 0: set it (e.g. the loop's crossover Kp/J_n);
+                             default 0 */
+    aff_real window;      /* EWMA time constant T of the mean squares (s), finite, > 0; default 2 */
+    aff_real margin;      /* hysteresis: back on when M_r < (1 - margin)*M_f (-), in [0, 1); default 0.1 */
+    aff_real settle;      /* evidence the first decision waits for after the Q-filter's start (s), finite, >= 0;
+                             < 0 (default -1): window/2 */
+    aff_real rest_band;   /* the reference is at rest where |w_ref| <= rest_band (rad/s), finite, >= 0 (default 0);
+                             -1: no rest rule (>= -1) */
+    long delay;           /* measurement delay of the velocity (periods), 0..AFF_SUPERVISOR_DELAY_MAX; default 0 */
+} aff_supervisor_config;
 
 /* Configuration, then state. */
 typedef struct aff_supervisor {
@@ -116,12 +133,19 @@ aff_real aff_dob_raw(aff_real u_last, aff_real J_n, aff_real w, aff_real w_last,
  * The one implementation of the Q-filter's stage, also aff_dob's. */
 aff_real aff_lag_step(aff_real *x, aff_real a, aff_real input);
 
-/* Configure s and clear its state (on, statistics and counters 0, no velocity yet, the previous reference
- * moving). Returns 0, or -1 (s untouched) for Tc, J_n, omega or window not finite and > 0, margin outside
- * [0, 1), settle not finite and >= 0, rest_band not finite or below -1 (< 0: no rest rule) or delay outside
- * 0..AFF_SUPERVISOR_DELAY_MAX. */
-int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real omega, aff_real window,
-                        aff_real margin, aff_real settle, aff_real rest_band, long delay);
+/* The supervisor's defaults (FeedforwardSupervisor's: Tc 0.001 s, window 2 s, margin 0.1, settle window/2,
+ * rest_band 0, delay 0); J_n and omega are 0: set them (the design inertia, the loop's crossover). */
+aff_supervisor_config aff_supervisor_default_config(void);
+
+/* Configure s from *cfg and clear its state (on, statistics and counters 0, no velocity yet, the previous reference
+ * moving): a = 1 - exp(-Tc*omega), b = 1 - exp(-Tc/window), n_start = ceil(5/(omega*Tc)), n_decide = n_start +
+ * round(settle/Tc), n_hold = max(2, ceil(1/(omega*Tc))) (header comment; the counts at most 1e9). Returns AFF_OK,
+ * or AFF_ERR_NULL, AFF_ERR_SUPERVISOR_TC, _J_N, _OMEGA, _WINDOW, _MARGIN, _SETTLE, _REST_BAND, _DELAY (s
+ * untouched). Python: FeedforwardSupervisor.__init__. */
+aff_error aff_supervisor_init(aff_supervisor *s, const aff_supervisor_config *cfg);
+
+/* The checks of aff_supervisor_init alone: AFF_OK or the code it would return for *cfg. */
+aff_error aff_supervisor_check_config(const aff_supervisor_config *cfg);
 
 /* This period's compensation: keeps the candidate u_c (N*m); returns it while on and the reference w_ref
  * (rad/s) is moving, else 0; sets transfer (N*m; bumpless transfer, header comment): outside rest, u_c when it
