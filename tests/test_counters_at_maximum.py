@@ -89,7 +89,7 @@ def log():
 def _fresh():
     _, _, comp = build_mode(P, "adaptive", _options())
     c = ffi.new("aff *")
-    assert lib.aff_init(c, comp.cdata, ffi.NULL) == lib.AFF_OK
+    assert lib.aff_init(c, comp.drive_config()) == lib.AFF_OK
     return c
 
 
@@ -279,7 +279,7 @@ def test_fault_counters_at_the_maximum_without_the_guard(log):
 
 ROOT = Path(__file__).resolve().parent.parent
 DRIVE = ["aff_adaptive", "aff_residual", "aff_dob", "aff_supervisor", "aff_robust_ff", "aff_sliding", "aff_feedforward",
-         "aff_rls", "aff_gate", "aff_velocity_input", "aff_regression", "aff_drive"]
+         "aff_rls", "aff_gate", "aff_velocity_input", "aff_regression", "aff_error", "aff_drive"]
 HARNESS = r"""
 #include <math.h>
 #include <stdio.h>

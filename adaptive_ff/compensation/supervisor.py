@@ -1,6 +1,7 @@
 """The feedforward supervisor: a compensator's torque is applied only while it makes the loop's disturbance smaller.
 
-:class:`FeedforwardSupervisor` wraps the C struct ``aff_supervisor`` (``adaptive_ff/csrc/aff_supervisor.h``).
+:class:`FeedforwardSupervisor` wraps the C struct ``aff_supervisor`` (``adaptive_ff/csrc/aff_supervisor.h``),
+configured from its settings ``aff_supervisor_config`` by ``aff_supervisor_init``.
 The closed-loop engine composes it like the sensor gate and the drive
 (:meth:`controllers.simulation.engine.EngineRun.set_supervisor`): each period it passes the compensator's
 candidate torque through :meth:`FeedforwardSupervisor.apply` and, after the PI, hands it the applied torque and the
@@ -141,23 +142,20 @@ class FeedforwardSupervisor(Component):
         margin = float(margin)
         if not (0.0 <= margin < 1.0):
             raise ParameterError(f"margin must be in [0, 1), got {margin!r}")
-        settle = 0.5 * window if settle is None else check_nonnegative("settle", settle)
+        settle = -1.0 if settle is None else check_nonnegative("settle", settle)  # -1: window/2
         band = -1.0 if rest_band is None else check_nonnegative("rest_band", rest_band)
         if isinstance(delay, bool) or not isinstance(delay, (int, np.integer)) or not 0 <= delay <= DELAY_MAX:
             raise ParameterError(f"delay must be an integer in 0..{DELAY_MAX} (periods), got {delay!r}")
-        if not all(math.isfinite(v) for v in (Tc, J_n, omega, window, settle, band)):
-            raise ParameterError(f"Tc, J_n, omega, window, settle and rest_band must be finite, got {Tc!r}, {J_n!r}, "
-                                 f"{omega!r}, {window!r}, {settle!r}, {rest_band!r}")
-        self._new_struct()
-        if lib.aff_supervisor_init(self._c, Tc, J_n, omega, window, margin, settle, band, int(delay)) != 0:
-            raise ParameterError("aff_supervisor_init refused the settings")  # unreachable after the checks
-        if Kp is not None:
+        if Kp is None:
+            Kp, Ki = 0.0, 0.0  # no tracking test
+        else:
             Kp, Ki = check_positive("Kp", Kp), check_nonnegative("Ki", Ki)
-            track_margin = check_nonnegative("track_margin", track_margin)
-            for name, v in (("Kp", Kp), ("Ki", Ki), ("track_margin", track_margin)):
-                if not math.isfinite(v):
-                    raise ParameterError(f"{name} must be finite, got {v!r}")
-            lib.aff_supervisor_set_loop(self._c, Kp, Ki, track_margin)
+        track_margin = check_nonnegative("track_margin", track_margin)
+        cfg = self._settings("aff_supervisor_config", lib.aff_supervisor_default_config(),
+                             {"Tc": Tc, "J_n": J_n, "omega": omega, "window": window, "margin": margin,
+                              "settle": settle, "rest_band": band, "delay": int(delay), "Kp": Kp, "Ki": Ki,
+                              "track_margin": track_margin})
+        self._configure(lib.aff_supervisor_init, cfg, lib.aff_error_message)
 
     def __repr__(self) -> str:
         c = self._c

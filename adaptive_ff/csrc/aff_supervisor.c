@@ -1,5 +1,6 @@
 /* aff_supervisor.c -- the feedforward supervisor (see aff_supervisor.h). */
 #include <stddef.h>
+#include <string.h>
 #include "aff_supervisor.h"
 
 aff_real aff_dob_raw(aff_real u_last, aff_real J_n, aff_real w, aff_real w_last, aff_real Tc)
@@ -13,25 +14,71 @@ aff_real aff_lag_step(aff_real *x, aff_real a, aff_real input)
     return *x;
 }
 
-int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real omega, aff_real window,
-                        aff_real margin, aff_real settle, aff_real rest_band, long delay)
+aff_supervisor_config aff_supervisor_default_config(void)
 {
-    if (!aff_positive(Tc) || !aff_positive(J_n) || !aff_positive(omega) || !aff_positive(window)
-        || !(margin >= 0 && margin < 1)
-        || !(isfinite(settle) && settle >= 0) || !(isfinite(rest_band) && rest_band >= -1) || delay < 0
-        || delay > AFF_SUPERVISOR_DELAY_MAX)
-        return -1;
+    aff_supervisor_config c;
+    c.Tc = (aff_real)1e-3;
+    c.J_n = 0;
+    c.omega = 0;
+    c.window = (aff_real)2.0;
+    c.margin = (aff_real)0.1;
+    c.settle = -1;
+    c.rest_band = 0;
+    c.delay = 0;
+    c.Kp = 0;
+    c.Ki = 0;
+    c.track_margin = (aff_real)1.0;
+    return c;
+}
+
+aff_error aff_supervisor_check_config(const aff_supervisor_config *cfg)
+{
+    if (cfg == NULL)
+        return AFF_ERR_NULL;
+    if (!aff_positive(cfg->Tc))
+        return AFF_ERR_SUPERVISOR_TC;
+    if (!aff_positive(cfg->J_n))
+        return AFF_ERR_SUPERVISOR_J_N;
+    if (!aff_positive(cfg->omega))
+        return AFF_ERR_SUPERVISOR_OMEGA;
+    if (!aff_positive(cfg->window))
+        return AFF_ERR_SUPERVISOR_WINDOW;
+    if (!(cfg->margin >= 0 && cfg->margin < 1))
+        return AFF_ERR_SUPERVISOR_MARGIN;
+    if (!isfinite(cfg->settle))
+        return AFF_ERR_SUPERVISOR_SETTLE;
+    if (!(isfinite(cfg->rest_band) && cfg->rest_band >= -1))
+        return AFF_ERR_SUPERVISOR_REST_BAND;
+    if (cfg->delay < 0 || cfg->delay > AFF_SUPERVISOR_DELAY_MAX)
+        return AFF_ERR_SUPERVISOR_DELAY;
+    if (!(isfinite(cfg->Kp) && cfg->Kp >= 0))
+        return AFF_ERR_SUPERVISOR_KP;
+    if (!(isfinite(cfg->Ki) && cfg->Ki >= 0))
+        return AFF_ERR_SUPERVISOR_KI;
+    if (!(isfinite(cfg->track_margin) && cfg->track_margin >= 0))
+        return AFF_ERR_SUPERVISOR_TRACK_MARGIN;
+    return AFF_OK;
+}
+
+aff_error aff_supervisor_init(aff_supervisor *s, const aff_supervisor_config *cfg)
+{
+    aff_error e = s == NULL ? AFF_ERR_NULL : aff_supervisor_check_config(cfg);
+    if (e != AFF_OK)
+        return e;
+    aff_real Tc = cfg->Tc, omega = cfg->omega, window = cfg->window;
+    aff_real settle = cfg->settle < 0 ? (aff_real)0.5 * window : cfg->settle;
+    memset(s, 0, sizeof *s);
     s->Tc = Tc;
-    s->J_n = J_n;
+    s->J_n = cfg->J_n;
     s->omega = omega;
     s->window = window;
-    s->margin = margin;
+    s->margin = cfg->margin;
     s->settle = settle;
-    s->rest_band = rest_band;
+    s->rest_band = cfg->rest_band;
     s->rest = 0;
     s->n_still = 0;
     s->n_rest = 0;
-    s->delay = delay;
+    s->delay = cfg->delay;
     s->a = (aff_real)1.0 - AFF_EXP(-Tc * omega);
     s->b = (aff_real)1.0 - AFF_EXP(-Tc / window);
     const aff_real big = (aff_real)1e9; /* bounded: a 32-bit long holds it (never reached in practice) */
@@ -58,11 +105,11 @@ int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real o
     s->n_restore = 0;
     s->n_off = 0;
     s->n_skipped = 0;
-    s->track = 0;
-    s->track_margin = 0;
-    s->Kp = 0;
-    s->KiTc = 0;
-    s->TcJ = Tc / J_n;
+    s->track = cfg->Kp > 0;
+    s->track_margin = cfg->track_margin;
+    s->Kp = cfg->Kp;
+    s->KiTc = cfg->Ki * Tc;
+    s->TcJ = Tc / cfg->J_n;
     s->y_a = 0;
     s->I_a = 0;
     s->y_c = 0;
@@ -75,7 +122,7 @@ int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real o
         s->u_hist[i] = 0;
         s->c_hist[i] = 0;
     }
-    return 0;
+    return AFF_OK;
 }
 
 aff_real aff_supervisor_apply(aff_supervisor *s, aff_real u_c, aff_real w_ref)
@@ -101,20 +148,6 @@ aff_real aff_supervisor_apply(aff_supervisor *s, aff_real u_c, aff_real w_ref)
 void aff_supervisor_set_rest_lag(aff_supervisor *s, aff_real alpha)
 {
     s->rest_keep = alpha >= 0 && alpha <= 1 ? 1 - alpha : 0;
-}
-
-void aff_supervisor_set_loop(aff_supervisor *s, aff_real Kp, aff_real Ki, aff_real track_margin)
-{
-    s->track = isfinite(Kp) && Kp > 0 && isfinite(Ki) && Ki >= 0 && isfinite(track_margin) && track_margin >= 0;
-    s->track_margin = s->track ? track_margin : 0;
-    s->Kp = s->track ? Kp : 0;
-    s->KiTc = s->track ? Ki * s->Tc : 0;
-    s->y_a = 0;
-    s->I_a = 0;
-    s->y_c = 0;
-    s->I_c = 0;
-    s->m_e0 = 0;
-    s->m_e1 = 0;
 }
 
 /* One period of the nominal loop's response to an added torque d (N*m): the PI on the error -y (its integrator

@@ -46,7 +46,7 @@
  * bench's point-to-point moves (docs/benchmarks/compensation.md, "The supervisor"): the adaptive feedforward's
  * mean-square error at rest was 20-46 times the uncompensated loop's on joints where it was worse than none,
  * while in motion it was at the frictionless loop's.
- * The tracking test (aff_supervisor_set_loop: the loop's PI gains Kp, Ki; off without them). The torque test weighs
+ * The tracking test (the config's Kp, Ki: the loop's PI gains; off with Kp = 0). The torque test weighs
  * every frequency of the residual alike; the loop's tracking weighs it by its disturbance sensitivity: a constant
  * the PI's integrator rejects costs no tracking, a ripple at the loop's bandwidth costs most. The nominal loop (the
  * PI on the error, its integrator first, and J_n over Tc) turns a torque d into the velocity error G[d]:
@@ -74,9 +74,31 @@
 #ifndef AFF_SUPERVISOR_H
 #define AFF_SUPERVISOR_H
 #include "aff_real.h"
+#include "aff_error.h"
 
 /* Largest measurement delay (periods) the statistic aligns (the Python wrapper refuses more). */
 #define AFF_SUPERVISOR_DELAY_MAX 32
+
+/* The supervisor's settings (Python: FeedforwardSupervisor's arguments of the same names). */
+typedef struct aff_supervisor_config {
+    aff_real Tc;          /* controller period (s), finite, > 0; default 0.001 */
+    aff_real J_n;         /* design inertia of the statistic's disturbance observer (kg*m^2), finite, > 0: set it;
+                             default 0 */
+    aff_real omega;       /* Q-filter cut-off (rad/s), finite, > 0: set it (e.g. the loop's crossover Kp/J_n);
+                             default 0 */
+    aff_real window;      /* EWMA time constant T of the mean squares (s), finite, > 0; default 2 */
+    aff_real margin;      /* hysteresis: back on when M_r < (1 - margin)*M_f (-), in [0, 1); default 0.1 */
+    aff_real settle;      /* evidence the first decision waits for after the Q-filter's start (s), finite, >= 0;
+                             < 0 (default -1): window/2 */
+    aff_real rest_band;   /* the reference is at rest where |w_ref| <= rest_band (rad/s), finite, >= 0 (default 0);
+                             -1: no rest rule (>= -1) */
+    long delay;           /* measurement delay of the velocity (periods), 0..AFF_SUPERVISOR_DELAY_MAX; default 0 */
+    aff_real Kp;          /* the loop's PI proportional gain for the tracking test (N*m*s/rad), finite, >= 0;
+                             default 0: no tracking test */
+    aff_real Ki;          /* its integral gain (N*m/rad), finite, >= 0; default 0 */
+    aff_real track_margin; /* the tracking test backs off where M_e1 > (1 + track_margin)*M_e0 (-), finite, >= 0;
+                              default 1 */
+} aff_supervisor_config;
 
 /* Configuration, then state. */
 typedef struct aff_supervisor {
@@ -116,7 +138,7 @@ typedef struct aff_supervisor {
     int64_t n_restore;    /* switches off -> on */
     int64_t n_off;        /* periods backed off */
     int64_t n_skipped;    /* non-finite samples skipped */
-    int track;            /* 1: the tracking test acts too (aff_supervisor_set_loop) */
+    int track;            /* 1: the tracking test acts too (Kp > 0) */
     aff_real track_margin; /* it backs off where M_e1 > (1 + track_margin)*M_e0 (-), >= 0 */
     aff_real Kp;          /* the loop's PI: proportional gain (N*m*s/rad), of the tracking test's loop model */
     aff_real KiTc;        /* its integral gain times Tc (N*m/rad) */
@@ -142,12 +164,20 @@ aff_real aff_dob_raw(aff_real u_last, aff_real J_n, aff_real w, aff_real w_last,
  * The one implementation of the Q-filter's stage, also aff_dob's. */
 aff_real aff_lag_step(aff_real *x, aff_real a, aff_real input);
 
-/* Configure s and clear its state (on, statistics and counters 0, no velocity yet, the previous reference
- * moving). Returns 0, or -1 (s untouched) for Tc, J_n, omega or window not finite and > 0, margin outside
- * [0, 1), settle not finite and >= 0, rest_band not finite or below -1 (< 0: no rest rule) or delay outside
- * 0..AFF_SUPERVISOR_DELAY_MAX. */
-int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real omega, aff_real window,
-                        aff_real margin, aff_real settle, aff_real rest_band, long delay);
+/* The supervisor's defaults (FeedforwardSupervisor's: Tc 0.001 s, window 2 s, margin 0.1, settle window/2,
+ * rest_band 0, delay 0, no tracking test (Kp 0, Ki 0), track_margin 1); J_n and omega are 0: set them (the design
+ * inertia, the loop's crossover), and Kp, Ki for the tracking test (the loop's PI). */
+aff_supervisor_config aff_supervisor_default_config(void);
+
+/* Configure s from *cfg and clear its state (on, statistics and counters 0, no velocity yet, the previous reference
+ * moving): a = 1 - exp(-Tc*omega), b = 1 - exp(-Tc/window), n_start = ceil(5/(omega*Tc)), n_decide = n_start +
+ * round(settle/Tc), n_hold = max(2, ceil(1/(omega*Tc))) (header comment; the counts at most 1e9); the tracking
+ * test with Kp > 0 (KiTc = Ki*Tc, TcJ = Tc/J_n). Returns AFF_OK, or AFF_ERR_NULL, AFF_ERR_SUPERVISOR_TC, _J_N,
+ * _OMEGA, _WINDOW, _MARGIN, _SETTLE, _REST_BAND, _DELAY, _KP, _KI, _TRACK_MARGIN (s untouched). Python: FeedforwardSupervisor.__init__. */
+aff_error aff_supervisor_init(aff_supervisor *s, const aff_supervisor_config *cfg);
+
+/* The checks of aff_supervisor_init alone: AFF_OK or the code it would return for *cfg. */
+aff_error aff_supervisor_check_config(const aff_supervisor_config *cfg);
 
 /* This period's compensation: keeps the candidate u_c (N*m); returns it while on and the reference w_ref
  * (rad/s) is moving, else 0; sets transfer (N*m; bumpless transfer, header comment): outside rest, u_c when it
@@ -159,12 +189,6 @@ aff_real aff_supervisor_apply(aff_supervisor *s, aff_real u_c, aff_real w_ref);
  * u(k) = (1 - alpha)*u(k-1), the first-order lag of eq. 2 with the model friction F(0) = 0 as its input. An
  * alpha outside [0, 1] (or NaN) withdraws at once. */
 void aff_supervisor_set_rest_lag(aff_supervisor *s, aff_real alpha);
-
-/* The tracking test: the loop's PI gains Kp (N*m*s/rad) and Ki (N*m/rad), for its nominal loop model (PI and J_n,
- * header comment), and its margin track_margin (-): back off where M_e1 > (1 + track_margin)*M_e0. Kp > 0, Ki >= 0
- * and track_margin >= 0, all finite, turn it on, anything else off (the default). Clears the models and their
- * statistics. */
-void aff_supervisor_set_loop(aff_supervisor *s, aff_real Kp, aff_real Ki, aff_real track_margin);
 
 /* After the PI: advance the statistics with the applied torque u (N*m) and the controller's velocity w (rad/s)
  * of this period and decide (header comment). Non-finite u or w: skipped (counted). */
