@@ -169,7 +169,9 @@ aff_real aff_transfer(const aff *c)
     return c->dropped ? (aff_real)0 : c->mode.transfer;
 }
 
-int aff_observe(aff *c, aff_real u, aff_real w_meas)
+/* The guard's half of aff_observe: 1 if the period is taken, else 0 (a refused input of this call, counted, the
+ * state put back as before this period's aff_step; or a period aff_step already dropped). */
+static int guard_take(aff *c, aff_real u, aff_real w_meas)
 {
     if (c->dropped)
         return 0;
@@ -185,9 +187,37 @@ int aff_observe(aff *c, aff_real u, aff_real w_meas)
         c->status.n_held = guard_count_up(c->status.n_held);
         return 0;
     }
+    return 1;
+}
+
+int aff_observe(aff *c, aff_real u, aff_real w_meas)
+{
+    if (!guard_take(c, u, w_meas))
+        return 0;
     aff_adaptive_observe(&c->mode, u, w_meas, NULL);
     return 1;
 }
+
+/* The drive's calls behind the compensator interface (aff_drive_ops). */
+static aff_real drive_compensate(void *self, aff_real w_ctrl, aff_real w_meas, aff_real w_ref)
+{
+    return aff_step_gated((aff *)self, w_ctrl, w_meas, w_ref);
+}
+
+static int drive_observe(void *self, aff_real u, aff_real w_meas, aff_real *theta_out)
+{
+    aff *c = (aff *)self;
+    if (!guard_take(c, u, w_meas))
+        return 0;
+    return aff_adaptive_observe(&c->mode, u, w_meas, theta_out);
+}
+
+static aff_real drive_transfer(void *self)
+{
+    return aff_transfer((const aff *)self);
+}
+
+const aff_compensator_ops aff_drive_ops = {"adaptive", drive_compensate, drive_observe, NULL, drive_transfer, NULL};
 
 aff_status_report aff_status(const aff *c)
 {

@@ -167,4 +167,11 @@ int64_t aff_n_rejected(const aff *c);
 void aff_replay(aff *c, const aff_real *u, const aff_real *w, const aff_real *w_ctrl, const aff_real *w_ref,
                 aff_real *uff, aff_real *transfer, long n);
 
+/* The drive's compensator (self an aff, configured by aff_init) behind the compensator interface
+ * (aff_compensator.h), for a simulation that calls compensators through that table, as the package's closed-loop
+ * engine does: compensate is aff_step_gated, observe the guard's check of aff_observe and then aff_adaptive_observe
+ * (its return value and theta_out: 1 after an RLS update of the estimator, 0 also for a dropped period), transfer
+ * aff_transfer. Python: controllers.simulation.exported.ExportedLibrary runs a compiled export through it. */
+extern const aff_compensator_ops aff_drive_ops;
+
 #endif

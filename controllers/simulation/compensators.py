@@ -407,7 +407,9 @@ def build_supervisor(plant, mode: str, options: ModeOptions, *, force: bool = Fa
 
 def own_supervisor(comp) -> FeedforwardSupervisor | None:
     """The supervisor a compensator carries in its own struct (an :class:`AdaptiveCompensator`'s, which it applies
-    itself: the engine then supervises nothing more), else None."""
+    itself: the engine then supervises nothing more; also one run by a compiled export,
+    :class:`controllers.simulation.exported.ExportedCompensator`, whose ``compensator`` it is), else None."""
+    comp = getattr(comp, "compensator", comp)
     return comp.supervisor if isinstance(comp, AdaptiveCompensator) else None
 
 
