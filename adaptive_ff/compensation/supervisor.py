@@ -104,7 +104,10 @@ class FeedforwardSupervisor(Component):
     is the friction whatever torque was applied (``J*dw/dt = u - f``), ``r_hat = Q[v - u_c]`` the residual
     the candidate ``u_c`` leaves. With ``M = EWMA(x^2)`` (``m += b*(x^2 - m)``, ``b = 1 - exp(-Tc/window)``, from
     0 at period ``n_start = ceil(5/(omega*Tc))`` on, past the Q-filter's start transient), from period ``n_start +
-    round(settle/Tc)`` on: on and ``M_r > M_f``: back off; off and ``M_r < (1 - margin)*M_f``: on again. Noise and
+    round(settle/Tc)`` on: on and ``M_r > M_f``: back off; off and ``M_r < (1 - margin)*M_f``, with the joint moving
+    in the reference's direction at half its speed or more (``w*w_ref > 0``, ``|w| >= |w_ref|/2``; any ``w`` where
+    ``w_ref`` is not finite): on again (a feedforward switched on at a joint stuck at a reversal takes the sign of
+    the sensor's noise). Noise and
     the inertia error enter ``f_hat`` and ``r_hat`` alike. In the period the applied torque switches the loop adds ``+u_c`` (off) or
     ``-u_c`` (on) to its PI integrator (bumpless transfer, Åström & Hägglund, *Advanced PID Control*, ISA 2006,
     Sec. 3.5). With the reference at rest a velocity loop's friction brakes the joint toward its setpoint

@@ -131,6 +131,7 @@ aff_real aff_supervisor_apply(aff_supervisor *s, aff_real u_c, aff_real w_ref)
     s->n_still = still ? (s->n_still < s->n_hold ? s->n_still + 1 : s->n_hold) : 0;
     s->rest = s->n_still >= s->n_hold;
     s->u_c = (aff_real)u_c;
+    s->w_ref = w_ref;
     s->transfer = 0;
     if (s->rest) {
         s->n_rest = aff_count_up(s->n_rest);
@@ -215,7 +216,8 @@ void aff_supervisor_observe(aff_supervisor *s, aff_real u, aff_real w)
             s->n_backoff_tracking = aff_count_up(s->n_backoff_tracking);
         s->on = 0;
         s->n_backoff = aff_count_up(s->n_backoff);
-    } else if (!s->on && s->m_r < keep * s->m_f && (!s->track || s->m_e1 < keep * s->m_e0)) {
+    } else if (!s->on && s->m_r < keep * s->m_f && (!s->track || s->m_e1 < keep * s->m_e0)
+               && (!isfinite(s->w_ref) || (ww * s->w_ref > 0 && AFF_FABS(ww) >= (aff_real)0.5 * AFF_FABS(s->w_ref)))) {
         s->on = 1;
         s->n_restore = aff_count_up(s->n_restore);
     }

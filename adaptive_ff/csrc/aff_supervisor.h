@@ -24,8 +24,12 @@
  * linearity); sample noise and the inertia error (J - J_n)*dw/dt enter both equally. Decision, once per
  * period from n_decide = n_start + round(settle/Tc) on (settle: the evidence the first decision waits for): on
  * and M_r > M_f (the feedforward makes the disturbance the PI sees larger than no compensation):
- * back off (n_backoff += 1); off and M_r < (1 - margin)*M_f: switch back on (n_restore += 1). The hysteresis
- * band [(1 - margin)*M_f, M_f] keeps it from chattering. Bumpless transfer (Astrom & Hagglund, Advanced PID
+ * back off (n_backoff += 1); off and M_r < (1 - margin)*M_f, with the joint moving in the reference's direction at
+ * half its speed or more (w*w_ref > 0, |w| >= |w_ref|/2; any w where w_ref is not finite): switch back on
+ * (n_restore += 1). The hysteresis band [(1 - margin)*M_f, M_f] keeps it from chattering. The motion condition:
+ * a friction feedforward evaluated at a joint that sticks at a reversal takes the sign of the sensor's noise, and
+ * switched on there, the transfer below moves one noise-signed sample into the integrator while the next period's
+ * flips the command (a zoo joint of the linear axis: 3 times the uncompensated loop's largest error). Bumpless transfer (Astrom & Hagglund, Advanced PID
  * Control, ISA 2006, Sec. 3.5, between manual and automatic modes): in the period the applied torque switches,
  * transfer = (the torque the old mode would apply) - (the new mode's), +u_c off, -u_c on, is what the loop adds
  * to its PI integrator, so the total command does not jump (0 in every other period). While on, the applied
@@ -124,6 +128,7 @@ typedef struct aff_supervisor {
     int64_t n_rest;       /* periods at rest */
     aff_real transfer;    /* torque to add to the PI integrator in this period (N*m), 0 unless the mode switched */
     aff_real u_c;         /* the candidate of this period (N*m) */
+    aff_real w_ref;       /* the reference of this period (rad/s) */
     aff_real rest_keep;   /* at rest the applied torque decays by this factor per period, in [0, 1)
                              (aff_supervisor_set_rest_lag; 0: withdrawn at once) */
     aff_real u_applied;   /* the torque returned by the last apply (N*m) */
