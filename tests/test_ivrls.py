@@ -186,13 +186,14 @@ def test_eq4_component_rows_and_gate_match_numpy():
 
 def test_closed_loop_eta_paper_preset():
     """Mode adaptive with eq4 (IV) on the paper preset (seed 0, 120 s), the feedforward alone (no residual switch-in):
-    eta 1.002 measured (docs/benchmarks/compensation.md); the paper's RLS alone on the same scenario 0.15. With
-    the switch-in (the default) the paper's RLS hands over to the residual observer and reaches 0.996."""
+    eta 1.002 measured (docs/benchmarks/compensation.md); the paper's RLS alone on the same scenario 0.68 (its
+    biased estimate is backed off by the supervisor for 11 s, 0.15 where it was switched back on at a stuck joint).
+    With the switch-in (the default) the paper's RLS hands over to the residual observer and reaches 0.996."""
     res = {(e, sw): compare(preset("paper"), modes=("none", "adaptive"), estimator=e, seed=0, switch_in=sw,
                             progress=False)
            for e, sw in (("eq4-rls", False), ("eq4", False), ("eq4-rls", True))}
     assert res["eq4", False].eta["adaptive"] >= 0.98
-    assert res["eq4-rls", False].eta["adaptive"] < 0.4
+    assert res["eq4-rls", False].eta["adaptive"] < 0.8
     assert res["eq4-rls", True].eta["adaptive"] >= 0.98
     assert res["eq4-rls", True].results["adaptive"].info["t_switch_in"] is not None
     assert res["eq4-rls", False].results["adaptive"].info.get("t_switch_in") is None
