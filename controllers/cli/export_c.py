@@ -232,9 +232,12 @@ def check_options(args) -> None:
 
 
 def run(args) -> int:
-    """Execute ``adaptive-ff export-c`` with parsed ``args``; return the exit status."""
-    from adaptive_ff.compensation.export_c import export_c
-    from controllers.cli.design import EXIT_REFUSED, warnings_from_file
+    """Execute ``adaptive-ff export-c`` with parsed ``args``; return the exit status.
+
+    The files appear together at the end, or the folder keeps its previous content; a second export into the same
+    folder while one runs is refused (:mod:`adaptive_ff.io.output`).
+    """
+    from adaptive_ff.io.output import output_lock
     from controllers.cli.data import check_output_dir
     from plant.errors import ParameterError
 
@@ -244,6 +247,15 @@ def run(args) -> int:
         raise ParameterError(f"--out {out}: the folder exists and is not empty; give a new folder, or --force to "
                              "overwrite the exported files in it")
     check_options(args)
+    with output_lock(out, "--out"):  # held from the start; export_c writes the files together at its end
+        return _export(args, out)
+
+
+def _export(args, out: Path) -> int:
+    """The export of :func:`run` once its options are checked and ``out`` is locked; the exit status."""
+    from adaptive_ff.compensation.export_c import export_c
+    from controllers.cli.design import EXIT_REFUSED, warnings_from_file
+
     _identified(args.from_file)  # read errors name the file as what it should be: an identification
     refusing = [w for w in warnings_from_file(args.from_file) if w.refusing]
     for w in refusing:
