@@ -3,7 +3,7 @@
 Run:  python benchmarks/zoo.py [--n 100] [--duration 120] [--seed 0] [--modes none,fixed,adaptive,dob,...]
                                [--group 8] [--workers 2] [--scheduler tcp://host:8786]
                                [--min-degradation 0.01] [--estimator sliding|eq4|eq4-rls] [--J-design-factor 1]
-                               [--iv-map-stderr inf] [--no-switch-in] [--scenario FILE] [--json out.json]
+                               [--iv-map-stderr inf] [--no-switch-in] [--scenario FILE] [--json out.json] [--yes]
 
 Draws the joints with :func:`controllers.experiments.zoo.draw_plants` (the box of
 :class:`controllers.experiments.zoo.ZooBox`), prepares each as ``compare`` does
@@ -22,6 +22,9 @@ exceeds the larger of ``none``'s and twice ``frictionless``'s (target: none).
 reference (the joints are drawn for its peak speed and acceleration; ``--duration`` is refused), sensor,
 slew limit and controller design; each joint keeps its own torque limit and design inertia. A new mode
 of the registry is picked up by default (``--modes`` lists the registry).
+
+A zoo estimated beyond 10 minutes or 4 GiB (``--n`` joints of ``--duration`` s in every mode,
+:func:`controllers.cli.budget.zoo_estimate`) is refused with what it would cost unless ``--yes``.
 """
 
 from __future__ import annotations
@@ -34,6 +37,7 @@ import subprocess
 import sys
 import time
 
+from controllers.cli.budget import add_yes_argument, check_work, zoo_estimate
 from controllers.experiments.scenario import load_scenario
 from controllers.experiments.zoo import ZooOptions, run_zoo, zoo_options_dict
 from controllers.simulation.compensators import ESTIMATORS, MODES
@@ -65,6 +69,7 @@ def main(argv=None) -> int:
     ap.add_argument("--scenario", default=None,
                     help="place every joint into this scenario file's reference, sensor and controller")
     ap.add_argument("--json", default=None, help="write the full result (strict JSON) to this file")
+    add_yes_argument(ap)
     args = ap.parse_args(argv)
     base = None
     if args.scenario is not None:
@@ -81,6 +86,10 @@ def main(argv=None) -> int:
                        J_design_factor=args.J_design_factor, iv_map_stderr=args.iv_map_stderr,
                        switch_in=args.switch_in)
     except ParameterError as exc:  # a setting out of range: argparse's message and exit code 2, no traceback
+        ap.error(str(exc))
+    try:  # --n and --duration bounded up front: beyond 10 min or 4 GiB only with --yes
+        check_work(zoo_estimate(o.n, o.duration, len(o.modes), o.workers), yes=args.yes)
+    except ParameterError as exc:
         ap.error(str(exc))
     try:
         commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
