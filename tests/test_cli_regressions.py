@@ -1,0 +1,48 @@
+"""Defects found by fuzzing the command line (tests/test_fuzz_cli.py, benchmarks/fuzz_cli.py), one test each: the
+command now exits 2 with a message naming the file, key or option instead of running out of memory, hanging or
+failing with an internal error (exit 1).
+"""
+
+from pathlib import Path
+
+from controllers.cli.main import main
+from plant.errors import ParameterError
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _never(*args, **kwargs):
+    raise ParameterError("the reference was made")
+
+
+def test_a_scenario_reference_beyond_the_memory_is_refused_before_it_is_made(tmp_path, monkeypatch, capsys):
+    """``n_reversals = 1e6`` made the reference of 1.7e9 samples at load (the process was killed for its memory);
+    ``1e300`` looped without end."""
+    text = (ROOT / "examples" / "scenarios" / "linear_axis.toml").read_text()
+    huge = tmp_path / "huge.toml"
+    huge.write_text(text.replace("n_reversals = 16", "n_reversals = 1e300"))
+    monkeypatch.setattr("plant.motion.reversing_reference", _never)
+    assert main(["compare", "--scenario", str(huge), "--no-figures", "--quiet", "--yes"]) == 2
+    err = capsys.readouterr().err
+    assert f"{huge}: [reference]: its length = 1.7e+300 s is 1.7e303 samples" in err and "was made" not in err
+
+
+def test_a_point_to_point_reference_of_too_many_moves_is_refused(tmp_path, capsys):
+    """``repeat = 1e9`` built a list of 2e9 targets before anything was checked."""
+    f = tmp_path / "p2p.toml"
+    f.write_text('[plant]\npreset = "paper"\n[reference]\nkind = "point-to-point"\ntargets = [0.0, 1.0]\n'
+                 'repeat = 1000000000\nv_max = 1.0\na_max = 10.0\n')
+    assert main(["compare", "--scenario", str(f), "--no-figures", "--quiet"]) == 2
+    assert f"{f}: [reference] repeat = 1000000000: 2 targets times it are more than 1,000,000 moves" in \
+        capsys.readouterr().err
+
+
+def test_a_reference_file_spanning_too_long_is_refused_before_resampling(tmp_path, capsys):
+    """Two rows 1e9 s apart were resampled onto 1e12 samples."""
+    csv = tmp_path / "ref.csv"
+    csv.write_text("t,w\n0,0\n1e9,1\n")
+    f = tmp_path / "file.toml"
+    f.write_text(f'[plant]\npreset = "paper"\n[reference]\nkind = "file"\npath = "{csv.name}"\nvelocity = "w"\n')
+    assert main(["compare", "--scenario", str(f), "--no-figures", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert f"{csv}: the file spans 1e+09 s, 1e+12 samples at dt = 0.001 s: more than the" in err
