@@ -46,3 +46,9 @@ def test_a_reference_file_spanning_too_long_is_refused_before_resampling(tmp_pat
     assert main(["compare", "--scenario", str(f), "--no-figures", "--quiet"]) == 2
     err = capsys.readouterr().err
     assert f"{csv}: the file spans 1e+09 s, 1e+12 samples at dt = 0.001 s: more than the" in err
+
+
+def test_design_refuses_a_crossover_too_low_for_its_margins(capsys):
+    """A crossover of 1e-4 rad/s at 1 kHz made python-control's margin search fail (an internal error, exit 1)."""
+    assert main(["design", "--J", "4", "--crossover", "1e-4", "--no-figures"]) == 2
+    assert "crossover must be at least 1e-06/Tc = 0.001 rad/s" in capsys.readouterr().err

@@ -38,12 +38,18 @@ __all__ = [
     "PIController",
     "pi_step",
     "MAX_CROSSOVER_FRACTION",
+    "MIN_CROSSOVER_TC",
 ]
 
 #: Largest allowed crossover as a fraction of the Nyquist frequency ``pi/Tc``.
 #: At ``0.2*pi/Tc`` the hold and the sampling already cost about 18 degrees of
 #: phase (``wc*Tc/2``); beyond it the continuous-time picture is meaningless.
 MAX_CROSSOVER_FRACTION = 0.2
+
+#: Smallest allowed ``crossover*Tc``: below about 8e-7 the loop's poles sit so close to ``z = 1`` that the margins
+#: cannot be computed (python-control's frequency grid fails), and a crossover of 1e-3 rad/s at 1 kHz (a loop
+#: that settles in hours) is no velocity loop.
+MIN_CROSSOVER_TC = 1e-6
 
 
 _TF_PREFIX = "_tf_"
@@ -340,8 +346,8 @@ def design_pi(
     Raises
     ------
     ParameterError
-        An argument is out of range (the message names it and quotes the value),
-        or the target cannot be met by a PI controller with ``Kp > 0, Ki > 0``
+        An argument is out of range (the message names it and quotes the value; ``crossover`` must lie between
+        ``MIN_CROSSOVER_TC/Tc`` and ``MAX_CROSSOVER_FRACTION*pi/Tc``), or the target cannot be met by a PI controller with ``Kp > 0, Ki > 0``
         (``phase_margin`` larger than the plant leaves room for, e.g. when
         ``sigma`` dominates ``J*crossover``), or the resulting closed loop is
         not stable.
@@ -382,6 +388,9 @@ def design_pi(
             f"crossover must be well below the Nyquist frequency pi/Tc = {math.pi / Tc:.6g} rad/s "
             f"(<= {MAX_CROSSOVER_FRACTION}*pi/Tc = {w_max:.6g} rad/s), got {wc!r}"
         )
+    if wc * Tc < MIN_CROSSOVER_TC:
+        raise ParameterError(f"crossover must be at least {MIN_CROSSOVER_TC:g}/Tc = {MIN_CROSSOVER_TC / Tc:.6g} rad/s "
+                             f"(a velocity loop that settles within hours), got {wc!r}")
     pm = check_finite_scalar("phase_margin", phase_margin)
     if not 0.0 < pm < 90.0:
         raise ParameterError(f"phase_margin must be in (0, 90) degrees, got {pm!r}")
