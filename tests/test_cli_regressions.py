@@ -52,3 +52,13 @@ def test_design_refuses_a_crossover_too_low_for_its_margins(capsys):
     """A crossover of 1e-4 rad/s at 1 kHz made python-control's margin search fail (an internal error, exit 1)."""
     assert main(["design", "--J", "4", "--crossover", "1e-4", "--no-figures"]) == 2
     assert "crossover must be at least 1e-06/Tc = 0.001 rad/s" in capsys.readouterr().err
+
+
+def test_design_of_a_few_degrees_of_phase_margin_reports_its_margins(capsys):
+    """At 20 rad/s and 1 to 3 deg python-control found no gain crossover (an internal error, exit 1)."""
+    import json
+
+    assert main(["design", "--J", "1", "--phase-margin", "1", "--no-figures", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert abs(d["phase_margin"] - 1.0) < 1e-6 and abs(d["crossover"] - 20.0) < 1e-6
+    assert abs(d["stability_margin"] - 1.0 / d["sensitivity_peak"]) < 1e-3

@@ -306,11 +306,22 @@ def _margins(loop, wc: float, pm: float, Tc: float) -> tuple[float, float, float
         # finite differences warn about inf - inf; the margins it returns are unaffected
         warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"scipy\.optimize\._numdiff")
         gm_all, pm_all, sm_all, wpc_all, wgc_all, _ = control.stability_margins(loop, returnall=True)
-    i = int(np.argmin(np.abs(np.atleast_1d(wgc_all) - wc)))
-    wgc = float(np.atleast_1d(wgc_all)[i])
-    pm_ach = float(np.atleast_1d(pm_all)[i])
+    if np.size(wgc_all):
+        i = int(np.argmin(np.abs(np.atleast_1d(wgc_all) - wc)))
+        wgc = float(np.atleast_1d(wgc_all)[i])
+        pm_ach = float(np.atleast_1d(pm_all)[i])
+    else:  # python-control finds no gain crossover for some loops of a few degrees of margin: the design point's
+        L = complex(loop(np.exp(1j * wc * Tc)))
+        if not abs(abs(L) - 1.0) <= 1e-6:
+            raise ParameterError(f"crossover={wc!r} rad/s, phase_margin={pm!r} deg at Tc={Tc!r} s: the margins of "
+                                 f"the designed loop cannot be computed (|L| = {abs(L):.6g} at the crossover)")
+        wgc, pm_ach = wc, math.degrees(math.pi + math.atan2(L.imag, L.real))
     gm, wpc = _upper_gain_margin(loop, wgc, gm_all, wpc_all, Tc)
-    sm = float(np.min(sm_all)) if np.size(sm_all) else math.nan
+    if np.size(sm_all):
+        sm = float(np.min(sm_all))
+    else:  # not reported with the crossover above: min |1 + L| on a frequency grid up to Nyquist
+        w = np.geomspace(1e-3 * wc, math.pi / Tc, 4000)
+        sm = float(np.min(np.abs(1.0 + np.asarray(loop(np.exp(1j * w * Tc)), dtype=complex).reshape(-1))))
     return wgc, pm_ach, gm, wpc, sm
 
 
