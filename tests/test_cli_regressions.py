@@ -62,3 +62,13 @@ def test_design_of_a_few_degrees_of_phase_margin_reports_its_margins(capsys):
     d = json.loads(capsys.readouterr().out)
     assert abs(d["phase_margin"] - 1.0) < 1e-6 and abs(d["crossover"] - 20.0) < 1e-6
     assert abs(d["stability_margin"] - 1.0 / d["sensitivity_peak"]) < 1e-3
+
+
+def test_a_velocity_noise_whose_square_underflows_designs_no_observer_cutoff_from_it(capsys):
+    """``--noise 2.2e-311``: its square is 0 and the residual observer's cut-off divided by it (an internal error,
+    ZeroDivisionError); it is the noise-free cut-off now, as for ``--noise 0``."""
+    from controllers.experiments.observer_design import residual_cutoff
+
+    assert residual_cutoff(4.0, 2.2e-311, 1e-3, 25.0) == residual_cutoff(4.0, 0.0, 1e-3, 25.0)
+    assert main(["compare", "--variant", "lugre", "--duration", "2", "--modes", "none,dob", "--noise", "2.2e-311",
+                 "--no-figures", "--quiet"]) == 0
