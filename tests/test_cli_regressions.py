@@ -72,3 +72,40 @@ def test_a_velocity_noise_whose_square_underflows_designs_no_observer_cutoff_fro
     assert residual_cutoff(4.0, 2.2e-311, 1e-3, 25.0) == residual_cutoff(4.0, 0.0, 1e-3, 25.0)
     assert main(["compare", "--variant", "lugre", "--duration", "2", "--modes", "none,dob", "--noise", "2.2e-311",
                  "--no-figures", "--quiet"]) == 0
+
+
+def _stribeck_log(tmp_path):
+    import numpy as np
+
+    from plant import preset, simulate
+
+    t = np.arange(0.0, 1.5, 1e-3)
+    u = 45.0 * np.sin(2 * np.pi * t) + 10.0 * np.sin(2 * np.pi * 7.1 * t)
+    w = simulate(preset("paper"), u, dt=1e-3).w[:-1]
+    path = tmp_path / "log.csv"
+    np.savetxt(path, np.column_stack([t, u, w]), delimiter=",", header="t,u,w", comments="")
+    return path
+
+
+def test_stribeck_options_of_the_other_method_are_refused_naming_them(tmp_path, capsys):
+    """``--method segments --J 1`` and ``--method bins --settle 0.1`` reached the other method's function (an
+    internal error, TypeError)."""
+    log = _stribeck_log(tmp_path)
+    assert main(["stribeck", str(log), "--method", "segments", "--J", "1", "--no-figures"]) == 2
+    assert "--J applies to --method bins or auto, not segments" in capsys.readouterr().err
+    assert main(["stribeck", str(log), "--method", "bins", "--settle", "0.1", "--no-figures"]) == 2
+    assert "--settle applies to --method segments or auto, not bins" in capsys.readouterr().err
+
+
+def test_stribeck_huge_bins_and_durations_are_refused_naming_the_file(tmp_path, capsys):
+    """``--bins 1e22`` asked numpy for an array beyond its size, ``--min-duration 1e300`` for an integer beyond
+    C's (internal errors); the data's own errors did not name the file."""
+    log = _stribeck_log(tmp_path)
+    assert main(["stribeck", str(log), "--bins", "10000000000000000000000", "--no-figures"]) == 2
+    assert f"{log}: n_bins = 10000000000000000000000 is more than the log's 1500 samples" in capsys.readouterr().err
+    assert main(["stribeck", str(log), "--method", "segments", "--min-duration", "1e300", "--no-figures"]) == 2
+    assert f"{log}: only 0 support point(s) found by 'segments'" in capsys.readouterr().err
+    points = tmp_path / "points.csv"
+    points.write_text("w,F\n0.1,30\n0.2,32\n0.3,35\n")
+    assert main(["stribeck", str(points), "--points", "--no-figures"]) == 2
+    assert capsys.readouterr().err.startswith(f"adaptive-ff: error: {points}: ")

@@ -73,6 +73,28 @@ def run(args) -> int:
     return _print_fit(args, fit, pts, data, paths, report_path)
 
 
+#: The options of the support points' methods: (option, argument of support_points, methods it applies to).
+_METHOD_OPTIONS = (("--min-duration", "min_duration", ("segments", "auto")), ("--settle", "settle", ("segments", "auto")),
+                   ("--rel-tol", "rel_tol", ("segments", "auto")), ("--bins", "n_bins", ("bins", "auto")),
+                   ("--J", "J", ("bins", "auto")), ("--max-accel", "max_accel", ("bins", "auto")))
+
+
+def _method_options(args) -> dict:
+    """The options given for the support points, checked against ``--method`` (ParameterError naming an option
+    that the method does not take, or with ``--points``)."""
+    from plant.errors import ParameterError
+
+    options = {}
+    for option, key, methods in _METHOD_OPTIONS:
+        value = getattr(args, key if key != "n_bins" else "bins")
+        if value is None:
+            continue
+        if args.method not in methods:
+            raise ParameterError(f"{option} applies to --method {' or '.join(methods)}, not {args.method}")
+        options[key] = value
+    return options
+
+
 def _fit_and_write(args, fig_dir, report_dir) -> tuple:
     """The support points and the Stribeck fit of ``args``, the figure and the points written into ``fig_dir``
     and the report into ``report_dir`` (None: not asked for); ``(fit, points, data, paths, report path)``."""
@@ -80,25 +102,25 @@ def _fit_and_write(args, fig_dir, report_dir) -> tuple:
 
     from adaptive_ff.identification.steady_state import support_points
     from adaptive_ff.identification.stribeck_fit import fit_stribeck
-    from controllers.cli.data import command_line, load_data_from_args
+    from controllers.cli.data import command_line, load_data_from_args, named_by
     from controllers.experiments.paper_figures import plot_stribeck_figure
     from plant.errors import ParameterError
 
     if args.points:
         pts, data = _read_points(args)
     else:
+        options = _method_options(args)
         data = load_data_from_args(args)
-        options = {"min_duration": args.min_duration, "settle": args.settle, "rel_tol": args.rel_tol,
-                   "n_bins": args.bins, "J": args.J, "max_accel": args.max_accel}
-        options = {k: v for k, v in options.items() if v is not None}
-        pts = support_points(data, method=args.method, **options)
+        with named_by(args.file):
+            pts = support_points(data, method=args.method, **options)
     F_std = None
     if args.weighted:
         if not np.all(pts.u_std > 0):
             raise ParameterError("--weighted needs a positive torque spread at every support point; "
                                  f"got {pts.u_std.tolist()}")
         F_std = pts.u_std
-    fit = fit_stribeck(pts.w_mean, pts.u_mean, F_std=F_std)
+    with named_by(args.file):
+        fit = fit_stribeck(pts.w_mean, pts.u_mean, F_std=F_std)
     show_std = pts.u_std if np.any(pts.u_std > 0) else None
 
     paths = []
