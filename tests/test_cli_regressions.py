@@ -109,3 +109,30 @@ def test_stribeck_huge_bins_and_durations_are_refused_naming_the_file(tmp_path, 
     points.write_text("w,F\n0.1,30\n0.2,32\n0.3,35\n")
     assert main(["stribeck", str(points), "--points", "--no-figures"]) == 2
     assert capsys.readouterr().err.startswith(f"adaptive-ff: error: {points}: ")
+
+
+def test_paper_figures_errors_name_the_options(tmp_path, capsys, monkeypatch):
+    """``--sim-duration 1e300 --yes`` asked numpy for an array beyond its size (an internal error); a setting's
+    error named the field (``n_speeds``), not the option; ``--quantization 100`` failed naming nothing."""
+    out = str(tmp_path / "out")
+    assert main(["paper-figures", "--sim-duration", "1e300", "--yes", "--out", out, "--quiet"]) == 2
+    assert "--sim-duration = 1e+300 s is 1e303 samples at 1 kHz" in capsys.readouterr().err
+    assert main(["paper-figures", "--speeds", "2", "--out", out, "--quiet"]) == 2
+    assert "adaptive-ff: error: --speeds must be an integer >= 3, got 2" in capsys.readouterr().err
+
+    from plant.errors import ExcitationError
+
+    def unexcited(*args, **kwargs):
+        raise ExcitationError("regressor column of 'b0' is identically zero: the data do not excite it")
+
+    monkeypatch.setattr("controllers.experiments.paper_figures.paper_figures", unexcited)
+    assert main(["paper-figures", "--quantization", "100", "--out", out, "--quiet"]) == 2
+    assert ("the simulated experiments (--sim-duration 30, --exp-duration 60, --noise 0.001, --quantization 100) "
+            "cannot be identified: regressor column of 'b0'") in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
+def test_design_step_duration_not_positive_names_the_option(capsys):
+    """``--step-duration -0`` was refused as ``t_end must be > 0``, a name the command line does not have."""
+    assert main(["design", "--J", "1", "--step-duration", "-0", "--no-figures"]) == 2
+    assert "--step-duration must be a finite time > 0 s, got -0.0" in capsys.readouterr().err

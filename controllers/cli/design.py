@@ -166,12 +166,15 @@ def _check_work(args, design) -> None:
     """Refuse a step response whose estimated time or memory is beyond the limits without ``--yes``."""
     from controllers.cli.budget import check_work, design_estimate
     from controllers.design.loop_analysis import default_step_duration
+    from plant.errors import ParameterError
 
     if args.step_duration is None:
         t_end = default_step_duration(design)
         what = f"the step response of 15/--crossover = {t_end:g} s"
     else:
         t_end, what = args.step_duration, f"--step-duration {args.step_duration:g}"
+        if not (math.isfinite(t_end) and t_end > 0.0):
+            raise ParameterError(f"--step-duration must be a finite time > 0 s, got {t_end!r}")
     check_work(design_estimate(t_end, design.Tc, what=what), yes=args.yes)
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 
@@ -82,6 +83,33 @@ def estimates_table(numbers: dict, args) -> str:
     return "\n".join(lines)
 
 
+#: The options of the settings of :class:`controllers.experiments.paper_figures.PaperFigureOptions`.
+_OPTIONS = {"sim_duration": "--sim-duration", "exp_duration": "--exp-duration", "n_speeds": "--speeds",
+            "noise_std": "--noise", "quantization": "--quantization", "lam_sim": "--lam-sim", "lam_exp": "--lam",
+            "crossover": "--crossover", "seed": "--seed", "units": "--axis-units"}
+
+
+@contextlib.contextmanager
+def _options_named(args=None):
+    """Name the options in an error of the paper's experiments: a setting's message (``n_speeds must be ...``)
+    with its option (``--speeds must be ...``); with ``args``, an error of the simulated data (a fit the data do
+    not excite) prefixed with the options that shaped them."""
+    from plant.errors import FrictionError, ParameterError
+
+    try:
+        yield
+    except FrictionError as exc:
+        text = str(exc)
+        for name, option in _OPTIONS.items():
+            if text.startswith(name + " ") or text.startswith(name + " ="):
+                raise ParameterError(option + text[len(name):]) from None
+        if args is None or any(option in text for option in _OPTIONS.values()):
+            raise
+        shaped = ", ".join(f"{o} {getattr(args, a):g}" for a, o in (("sim_duration", "--sim-duration"),
+                           ("exp_duration", "--exp-duration"), ("noise", "--noise"), ("quantization", "--quantization")))
+        raise type(exc)(f"the simulated experiments ({shaped}) cannot be identified: {text}") from None
+
+
 def run(args) -> int:
     """Execute ``adaptive-ff paper-figures`` with parsed ``args``; return the exit status."""
     from controllers.cli.data import command_line, per_angle, progress_from_args, table_unit
@@ -102,16 +130,18 @@ def run(args) -> int:
     if not isinstance(p, JointParams):
         raise ParameterError(f"{args.plant}: paper-figures needs the paper's lagged-stribeck model, "
                              f"got model {p.MODEL!r}")
-    options = PaperFigureOptions(seed=args.seed, sim_duration=args.sim_duration, exp_duration=args.exp_duration,
-                                 n_speeds=args.speeds, noise_std=args.noise, quantization=args.quantization,
-                                 lam_sim=args.lam_sim, lam_exp=args.lam, crossover=args.crossover,
-                                 units=args.axis_units)
+    with _options_named():
+        options = PaperFigureOptions(seed=args.seed, sim_duration=args.sim_duration, exp_duration=args.exp_duration,
+                                     n_speeds=args.speeds, noise_std=args.noise, quantization=args.quantization,
+                                     lam_sim=args.lam_sim, lam_exp=args.lam, crossover=args.crossover,
+                                     units=args.axis_units)
     check_work(paper_figures_estimate(args.sim_duration, args.exp_duration, args.speeds), yes=args.yes)
     with StagedOutputs() as staged:  # the figures, the data and the report appear together at the end
         fig_dir = staged.folder(out_dir, "--out")
         report_dir = staged.folder(args.report, "--report") if args.report else None
-        res = paper_figures(fig_dir, p=p, options=options, save_data=args.save_data,
-                            progress=progress_from_args(args))
+        with _options_named(args):
+            res = paper_figures(fig_dir, p=p, options=options, save_data=args.save_data,
+                                progress=progress_from_args(args))
         report_path = None
         if report_dir is not None:
             from controllers.report.html import write_report

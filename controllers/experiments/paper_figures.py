@@ -452,6 +452,9 @@ def paper_figures(out_dir, *, p: JointParams | None = None, options: PaperFigure
         ``p`` not a JointParams or ``options`` not a PaperFigureOptions.
     ExcitationError
         A fit fails for lack of excitation (too short runs).
+    ParameterError
+        ``sim_duration`` or ``exp_duration`` whose run does not fit into the memory available
+        (:func:`controllers.simulation.memory.check_run_memory`).
 
     Notes
     -----
@@ -468,6 +471,10 @@ def paper_figures(out_dir, *, p: JointParams | None = None, options: PaperFigure
     opt = PaperFigureOptions() if options is None else options
     if not isinstance(opt, PaperFigureOptions):
         raise TypeError(f"options must be a PaperFigureOptions, got {type(opt).__name__}")
+    from controllers.simulation.memory import PREPARATION_SIGNALS, check_run_memory
+
+    for name in ("sim_duration", "exp_duration"):  # refused before anything is allocated when it cannot fit
+        check_run_memory(getattr(opt, name), 1e-3, signals=PREPARATION_SIGNALS, what=name, detail="its run")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     ss = np.random.SeedSequence(opt.seed)
