@@ -136,3 +136,25 @@ def test_design_step_duration_not_positive_names_the_option(capsys):
     """``--step-duration -0`` was refused as ``t_end must be > 0``, a name the command line does not have."""
     assert main(["design", "--J", "1", "--step-duration", "-0", "--no-figures"]) == 2
     assert "--step-duration must be a finite time > 0 s, got -0.0" in capsys.readouterr().err
+
+
+def test_design_errors_name_the_options_and_where_j_comes_from(capsys):
+    """The targets' errors named ``phase_margin=`` and ``crossover=``, not the options; a crossover at the lower
+    bound with a high phase margin made python-control's margin search fail (an internal error)."""
+    assert main(["design", "--J", "0.1", "--sigma", "40", "--no-figures"]) == 2
+    assert ("--phase-margin 60.0 deg cannot be reached by a PI (Kp > 0, Ki > 0) at --crossover 20.0 rad/s"
+            in capsys.readouterr().err)
+    assert main(["design", "--J", "0.001", "--phase-margin", "77.4311", "--crossover", "0.001", "--no-figures"]) == 2
+    err = capsys.readouterr().err
+    assert "the margins of the designed loop cannot be computed" in err and "Warning" not in err
+
+
+def test_identify_errors_of_the_data_name_the_file(tmp_path, capsys):
+    """A log that never reverses failed with ``regressor column of 'a1' is identically zero``, naming no file."""
+    import numpy as np
+
+    t = np.arange(0.0, 0.5, 1e-3)
+    log = tmp_path / "still.csv"
+    np.savetxt(log, np.column_stack([t, 10.0 * t, 0.0 * t]), delimiter=",", header="t,u,w", comments="")
+    assert main(["identify", str(log), "--quiet"]) == 2
+    assert capsys.readouterr().err.startswith(f"adaptive-ff: error: {log}: ")

@@ -159,7 +159,8 @@ def command_line() -> str | None:
 
 @contextlib.contextmanager
 def named_by(path):
-    """Prefix an error of the package raised in the ``with`` block with the file it concerns, unless it names it.
+    """Prefix an error of the package raised in the ``with`` block with the file it concerns, unless it names it or
+    an option (a message starting with ``--``).
 
     For what is computed from a file's data (support points, fits): ``"w has only 3 distinct speeds"`` becomes
     ``"log.csv: w has only 3 distinct speeds"``, so that every error of a command names its file or option.
@@ -181,7 +182,7 @@ def named_by(path):
         yield
     except FrictionError as exc:
         text = str(exc)
-        if str(path) in text:
+        if str(path) in text or text.startswith("--"):
             raise
         try:
             new = type(exc)(f"{path}: {text}")

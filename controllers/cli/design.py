@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import sys
 from pathlib import Path
 
@@ -209,7 +210,13 @@ def _design_and_write(args, fig_dir, report_dir):
             raise ParameterError(f"sigma must be >= 0, got {sigma!r}")
         sigma = 0.0  # an identified negative viscous term: design for the inertia alone
     _check_range(J, sigma, source)
-    design = design_pi(J, sigma=sigma, crossover=args.crossover, phase_margin=args.phase_margin, Tc=args.Tc)
+    try:
+        design = design_pi(J, sigma=sigma, crossover=args.crossover, phase_margin=args.phase_margin, Tc=args.Tc)
+    except ParameterError as exc:  # the targets' names as the options that set them, and where J, sigma come from
+        text = re.sub(r"\b(crossover|phase_margin|Tc)(=| must)",
+                      lambda m: "--" + m.group(1).replace("_", "-") + (" " if m.group(2) == "=" else m.group(2)),
+                      str(exc))
+        raise ParameterError(f"{text} (J = {J:g} kg·m², sigma = {sigma:g} N·m·s/rad from {source})") from None
     _check_work(args, design)
     analysis = analyse_design(design, t_end=args.step_duration)
     paths = []

@@ -324,10 +324,11 @@ def _identify_and_write(args, data, plot_dir, report_dir) -> tuple:
     from adaptive_ff.identification.cross_validation import cross_validate
     from adaptive_ff.io.data import to_uniform
     from adaptive_ff.identification.idim import fit_idim
-    from controllers.cli.data import command_line, load_data_from_args
+    from controllers.cli.data import command_line, load_data_from_args, named_by
     from plant.errors import ParameterError
 
-    report = _identify(args, data)
+    with named_by(args.file):  # what the data cannot tell names the file
+        report = _identify(args, data)
     used = report.physical.method if report.physical is not None else "paper"  # what --method auto chose
     extra: dict = {"time_stamps": _time_stamps(data, used, args.asymmetric)}
     lines: list[str] = []

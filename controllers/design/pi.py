@@ -305,7 +305,13 @@ def _margins(loop, wc: float, pm: float, Tc: float) -> tuple[float, float, float
         # its frequency-grid search probes points where the response is inf (z = 1) and scipy's
         # finite differences warn about inf - inf; the margins it returns are unaffected
         warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"scipy\.optimize\._numdiff")
-        gm_all, pm_all, sm_all, wpc_all, wgc_all, _ = control.stability_margins(loop, returnall=True)
+        warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"control\.xferfcn")  # the same at z = 1
+        try:
+            gm_all, pm_all, sm_all, wpc_all, wgc_all, _ = control.stability_margins(loop, returnall=True)
+        except (ValueError, ZeroDivisionError, np.linalg.LinAlgError) as exc:  # its frequency-grid search fails
+            raise ParameterError(f"crossover={wc!r} rad/s, phase_margin={pm!r} deg at Tc={Tc!r} s: the margins of "
+                                 f"the designed loop cannot be computed ({exc}); its poles are too close to z = 1: "
+                                 "a higher crossover") from None
     if np.size(wgc_all):
         i = int(np.argmin(np.abs(np.atleast_1d(wgc_all) - wc)))
         wgc = float(np.atleast_1d(wgc_all)[i])
