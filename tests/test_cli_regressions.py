@@ -118,7 +118,7 @@ def test_paper_figures_errors_name_the_options(tmp_path, capsys, monkeypatch):
     assert main(["paper-figures", "--sim-duration", "1e300", "--yes", "--out", out, "--quiet"]) == 2
     assert "--sim-duration = 1e+300 s is 1e303 samples at 1 kHz" in capsys.readouterr().err
     assert main(["paper-figures", "--speeds", "2", "--out", out, "--quiet"]) == 2
-    assert "adaptive-ff: error: --speeds must be an integer >= 3, got 2" in capsys.readouterr().err
+    assert "adaptive-ff: error: --speeds must be an integer in 3..10000, got 2" in capsys.readouterr().err
 
     from plant.errors import ExcitationError
 
@@ -158,3 +158,27 @@ def test_identify_errors_of_the_data_name_the_file(tmp_path, capsys):
     np.savetxt(log, np.column_stack([t, 10.0 * t, 0.0 * t]), delimiter=",", header="t,u,w", comments="")
     assert main(["identify", str(log), "--quiet"]) == 2
     assert capsys.readouterr().err.startswith(f"adaptive-ff: error: {log}: ")
+
+
+def test_paper_figures_speeds_are_bounded(tmp_path, capsys):
+    """``--speeds 1e22 --yes`` asked numpy for an array beyond its size (an internal error)."""
+    assert main(["paper-figures", "--speeds", "10000000000000000000000", "--yes", "--out", str(tmp_path / "o")]) == 2
+    assert "--speeds must be an integer in 3..10000, got 10000000000000000000000" in capsys.readouterr().err
+
+
+def test_export_c_names_the_options_of_the_example_loops_design(tmp_path, capsys):
+    """An identification whose J the default targets cannot serve failed with ``phase_margin=60.0 deg cannot be
+    reached``, naming neither an option nor the file."""
+    import json
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tests"))
+    from export_c_helpers import ID_JSON
+
+    f = tmp_path / "id.json"
+    f.write_text(json.dumps({**ID_JSON, "J": 0.001}))
+    assert main(["export-c", "--from", str(f), "--u-max", "10", "--out", str(tmp_path / "c")]) == 2
+    err = capsys.readouterr().err
+    assert "--phase-margin 60.0 deg cannot be reached" in err and f"the J and sigma of {f}; --Kp and --Ki" in err
+    assert main(["export-c", "--from", str(f), "--u-max", "10", "--out", str(tmp_path / "c"), "--Kp", "1", "--Ki",
+                 "10", "--quiet"]) == 0

@@ -9,7 +9,7 @@ import re
 import sys
 from pathlib import Path
 
-__all__ = ["register", "run", "plant_from_file", "warnings_from_file", "EXIT_REFUSED"]
+__all__ = ["register", "run", "plant_from_file", "warnings_from_file", "target_options", "EXIT_REFUSED"]
 
 #: Exit status of ``design --from`` refusing an identification with plausibility/identifiability warnings.
 EXIT_REFUSED = 3
@@ -163,6 +163,24 @@ def run(args) -> int:
     return _print_design(args, analysis, source, paths, report_path)
 
 
+def target_options(text: str) -> str:
+    """A message of :func:`controllers.design.pi.design_pi` with its targets named as the options that set them:
+    ``phase_margin=60.0 deg`` becomes ``--phase-margin 60.0 deg``, ``crossover must`` ``--crossover must``
+    (``crossover``, ``phase_margin``, ``Tc``).
+
+    Parameters
+    ----------
+    text : str
+        The message.
+
+    Returns
+    -------
+    str
+    """
+    return re.sub(r"\b(crossover|phase_margin|Tc)(=| must)",
+                  lambda m: "--" + m.group(1).replace("_", "-") + (" " if m.group(2) == "=" else m.group(2)), text)
+
+
 def _check_work(args, design) -> None:
     """Refuse a step response whose estimated time or memory is beyond the limits without ``--yes``."""
     from controllers.cli.budget import check_work, design_estimate
@@ -213,10 +231,8 @@ def _design_and_write(args, fig_dir, report_dir):
     try:
         design = design_pi(J, sigma=sigma, crossover=args.crossover, phase_margin=args.phase_margin, Tc=args.Tc)
     except ParameterError as exc:  # the targets' names as the options that set them, and where J, sigma come from
-        text = re.sub(r"\b(crossover|phase_margin|Tc)(=| must)",
-                      lambda m: "--" + m.group(1).replace("_", "-") + (" " if m.group(2) == "=" else m.group(2)),
-                      str(exc))
-        raise ParameterError(f"{text} (J = {J:g} kg·m², sigma = {sigma:g} N·m·s/rad from {source})") from None
+        raise ParameterError(f"{target_options(str(exc))} (J = {J:g} kg·m², sigma = {sigma:g} N·m·s/rad from "
+                             f"{source})") from None
     _check_work(args, design)
     analysis = analyse_design(design, t_end=args.step_duration)
     paths = []
