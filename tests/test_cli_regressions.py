@@ -182,3 +182,22 @@ def test_export_c_names_the_options_of_the_example_loops_design(tmp_path, capsys
     assert "--phase-margin 60.0 deg cannot be reached" in err and f"the J and sigma of {f}; --Kp and --Ki" in err
     assert main(["export-c", "--from", str(f), "--u-max", "10", "--out", str(tmp_path / "c"), "--Kp", "1", "--Ki",
                  "10", "--quiet"]) == 0
+
+
+def test_identify_asymmetric_on_a_short_log_names_the_file(tmp_path, capsys):
+    """``--asymmetric`` on the first 30 rows of a log failed with ``fit_idim: tail = 49 leaves no sample``, naming no
+    file."""
+    import numpy as np
+
+    from plant import preset, simulate
+
+    t = np.arange(0.0, 1.5, 1e-3)
+    u = 45.0 * np.sin(2 * np.pi * 1.0 * t) + 10.0 * np.sin(2 * np.pi * 7.1 * t)
+    w = simulate(preset("paper"), u, dt=1e-3).w[:-1]
+    log = tmp_path / "short.csv"
+    np.savetxt(log, np.column_stack([t, u, w])[:30], delimiter=",", header="t,u,w", comments="")
+    assert main(["identify", str(log), "--quiet"]) == 0
+    capsys.readouterr()
+    assert main(["identify", str(log), "--asymmetric", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"adaptive-ff: error: {log}: fit_idim: tail = 49 leaves no sample"), err

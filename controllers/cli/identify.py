@@ -342,7 +342,8 @@ def _identify_and_write(args, data, plot_dir, report_dir) -> tuple:
     lines += _bootstrap_lines(args, report)
     if args.asymmetric:
         uni = to_uniform(data)
-        asym = fit_idim(uni, asymmetric=True, decimate=max(1, int(round(0.01 / uni.Ts))))
+        with named_by(args.file):
+            asym = fit_idim(uni, asymmetric=True, decimate=max(1, int(round(0.01 / uni.Ts))))
     if asym is not None:
         extra["asymmetric"] = asym.to_json_dict()
         lines += _asymmetric_lines(asym, units)
