@@ -415,6 +415,8 @@ def _reversing_length(kw: dict) -> float | None:
     """An upper bound of the length (s) of a ``reversing`` reference from its keys; None where a key is not a
     number (the reference names it)."""
     try:
+        if not all(float(kw[k]) > 0.0 for k in ("speed", "accel", "hold")):
+            return None  # the reference names the key
         ramp = 2.0 * float(kw["speed"]) / float(kw["accel"])
         return (float(kw.get("start_dwell", 0.5)) + float(kw.get("end_dwell", 0.5))
                 + (float(kw["n_reversals"]) + 1.0) * (float(kw["hold"]) + ramp))
@@ -427,6 +429,8 @@ def _moves_length(moves: list, kw: dict) -> float | None:
     try:
         v, a = float(kw["v_max"]), float(kw["a_max"])
         j = kw.get("j_max")
+        if not (v > 0.0 and a > 0.0 and (j is None or float(j) > 0.0)):
+            return None  # the reference names the key
         ramp = 2.0 * v / a + (0.0 if j is None else 2.0 * a / float(j))
         path = abs(moves[0] - float(kw.get("q0", 0.0))) + sum(abs(y - x) for x, y in zip(moves, moves[1:]))
         return float(kw.get("start_dwell", 0.5)) + path / v + len(moves) * (ramp + float(kw.get("dwell", 0.5)))
@@ -438,7 +442,7 @@ def _check_reference_length(ctx: _Ctx, length: float | None, Tc) -> None:
     """ScenarioError when a reference of ``length`` s at the step ``Tc`` does not fit into the memory available."""
     from controllers.simulation.memory import check_run_memory
 
-    if length is None or not isinstance(Tc, (int, float)) or isinstance(Tc, bool) or not Tc > 0:
+    if length is None or not length > 0 or not isinstance(Tc, (int, float)) or isinstance(Tc, bool) or not Tc > 0:
         return
     if not math.isfinite(length):
         raise ScenarioError(f"{ctx.source}: [reference]: its length is not finite ({length!r} s)")
