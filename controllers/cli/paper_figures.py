@@ -105,9 +105,15 @@ def _options_named(args=None):
                 raise ParameterError(option + text[len(name):]) from None
         if args is None or any(option in text for option in _OPTIONS.values()):
             raise
-        shaped = ", ".join(f"{o} {getattr(args, a):g}" for a, o in (("sim_duration", "--sim-duration"),
-                           ("exp_duration", "--exp-duration"), ("noise", "--noise"), ("quantization", "--quantization")))
-        raise type(exc)(f"the simulated experiments ({shaped}) cannot be identified: {text}") from None
+        shaped = ", ".join(f"{o} {getattr(args, a):g}" for a, o in (
+            ("sim_duration", "--sim-duration"), ("exp_duration", "--exp-duration"), ("noise", "--noise"),
+            ("quantization", "--quantization")))
+        message = f"the simulated experiments ({shaped}) cannot be identified: {text}"
+        try:
+            new = type(exc)(message)
+        except TypeError:
+            new = ParameterError(message)
+        raise new from None
 
 
 def run(args) -> int:

@@ -74,9 +74,10 @@ def run(args) -> int:
 
 
 #: The options of the support points' methods: (option, argument of support_points, methods it applies to).
-_METHOD_OPTIONS = (("--min-duration", "min_duration", ("segments", "auto")), ("--settle", "settle", ("segments", "auto")),
-                   ("--rel-tol", "rel_tol", ("segments", "auto")), ("--bins", "n_bins", ("bins", "auto")),
-                   ("--J", "J", ("bins", "auto")), ("--max-accel", "max_accel", ("bins", "auto")))
+_METHOD_OPTIONS = (("--min-duration", "min_duration", ("segments", "auto")),
+                   ("--settle", "settle", ("segments", "auto")), ("--rel-tol", "rel_tol", ("segments", "auto")),
+                   ("--bins", "n_bins", ("bins", "auto")), ("--J", "J", ("bins", "auto")),
+                   ("--max-accel", "max_accel", ("bins", "auto")))
 
 
 def _method_options(args) -> dict:
