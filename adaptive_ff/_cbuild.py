@@ -14,6 +14,7 @@ CSRC = Path(__file__).resolve().parent / "csrc"
 
 #: Headers read by cffi, in dependency order.
 HEADERS = [
+    "aff_error.h",
     "aff_compensator.h",
     "aff_gate.h",
     "aff_rls.h",

@@ -89,7 +89,7 @@ int main(int argc, char **argv)
     fclose(f);
     for (r = 0; r < reps; r++) {
         double t0, k0;
-        if (aff_init(&c, &AFF_INITIAL, &AFF_GUARD) != AFF_OK) return 4;
+        if (aff_init(&c, &AFF_CONFIG) != AFF_OK) return 4;
         k0 = TICKS();
         t0 = now();
         for (k = 0; k < n; k++) {
@@ -99,7 +99,7 @@ int main(int argc, char **argv)
         ns[r] = (now() - t0) / (double)n;
         tk[r] = (TICKS() - k0) / (double)n;
     }
-    aff_init(&c, &AFF_INITIAL, &AFF_GUARD);
+    aff_init(&c, &AFF_CONFIG);
     for (k = 0; k < n; k++) {
         double t0 = now();
         sink += (double)aff_step(&c, (aff_real)buf[n + k], (aff_real)buf[2 * n + k]);
@@ -124,7 +124,7 @@ def _package_ff(path, log, feedforward_only: bool = False):
     comp, _ = compensator_from_file(path, u_max=U_MAX, feedforward_only=feedforward_only)
     u, w, wr = (np.ascontiguousarray(x, dtype=np.float64) for x in log[:3])
     c = ffi.new("aff *")
-    if lib.aff_init(c, comp.cdata, ffi.NULL) != lib.AFF_OK:
+    if lib.aff_init(c, comp.drive_config()) != lib.AFF_OK:
         raise RuntimeError("aff_init refused the package's compensator")
     uff = np.empty(len(u))
     buf = ffi.from_buffer

@@ -3,7 +3,8 @@
 Run:  python benchmarks/zoo.py [--n 100] [--duration 120] [--seed 0] [--modes none,fixed,adaptive,dob,...]
                                [--group 8] [--workers 2] [--scheduler tcp://host:8786]
                                [--min-degradation 0.01] [--estimator sliding|eq4|eq4-rls] [--J-design-factor 1]
-                               [--iv-map-stderr inf] [--no-switch-in] [--scenario FILE] [--json out.json] [--yes]
+                               [--iv-map-stderr inf] [--no-switch-in] [--scenario FILE] [--export DIR]
+                               [--json out.json] [--yes]
 
 Draws the joints with :func:`controllers.experiments.zoo.draw_plants` (the box of
 :class:`controllers.experiments.zoo.ZooBox`), prepares each as ``compare`` does
@@ -20,7 +21,12 @@ exceeds the larger of ``none``'s and twice ``frictionless``'s (target: none).
 
 ``--scenario FILE`` places every joint into a scenario file's comparison (``ZooOptions.base``): its
 reference (the joints are drawn for its peak speed and acceleration; ``--duration`` is refused), sensor,
-slew limit and controller design; each joint keeps its own torque limit and design inertia. A new mode
+slew limit and controller design; each joint keeps its own torque limit and design inertia.
+
+``--export DIR`` runs mode ``adaptive`` on every joint through an ``adaptive-ff export-c`` folder's C code,
+compiled in each worker (``ZooOptions.export``, :class:`controllers.simulation.exported.ExportedLibrary`), each joint
+configured by the library's own ``aff_init`` with the settings the package gives it: the zoo of what a drive
+runs. A new mode
 of the registry is picked up by default (``--modes`` lists the registry).
 
 A zoo estimated beyond 10 minutes or 4 GiB (``--n`` joints of ``--duration`` s in every mode,
@@ -68,6 +74,8 @@ def main(argv=None) -> int:
                          "it; ZooOptions.switch_in)")
     ap.add_argument("--scenario", default=None,
                     help="place every joint into this scenario file's reference, sensor and controller")
+    ap.add_argument("--export", default=None, metavar="DIR",
+                    help="run mode adaptive through this export-c folder's compiled C (ZooOptions.export)")
     ap.add_argument("--json", default=None, help="write the full result (strict JSON) to this file")
     add_yes_argument(ap)
     args = ap.parse_args(argv)
@@ -84,7 +92,7 @@ def main(argv=None) -> int:
                        modes=tuple(args.modes.split(",")), group=args.group, workers=args.workers, scheduler=args.scheduler,
                        min_degradation=args.min_degradation, estimator=args.estimator,
                        J_design_factor=args.J_design_factor, iv_map_stderr=args.iv_map_stderr,
-                       switch_in=args.switch_in)
+                       switch_in=args.switch_in, export=args.export)
     except ParameterError as exc:  # a setting out of range: argparse's message and exit code 2, no traceback
         ap.error(str(exc))
     try:  # --n and --duration bounded up front: beyond 10 min or 4 GiB only with --yes
@@ -101,6 +109,8 @@ def main(argv=None) -> int:
     print(f"# {' '.join(['python benchmarks/zoo.py', *(argv if argv is not None else sys.argv[1:])])}")
     print(f"# {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, commit {commit}, {platform.machine()}, "
           f"cores {__import__('os').cpu_count()}")
+    if o.export is not None:
+        print(f"# mode adaptive runs through the compiled C of the export folder {o.export}")
     r = run_zoo(o)
     print(r.summary())
     tm = r.timing

@@ -4,7 +4,9 @@ Every piece of the closed loop that runs at the controller rate (friction
 model, PI, gate, estimator, RLS, feedforward, peers, metrics) is a C99 struct
 with named fields (configuration and state) and ``*_init`` / ``*_step`` /
 ``*_observe`` functions in the ``csrc`` folder of its package (``plant/csrc``,
-``adaptive_ff/csrc``, ``controllers/csrc``). Those functions are the only
+``adaptive_ff/csrc``, ``controllers/csrc``); the components a drive runs are configured from
+a config struct of settings (``aff_X_config``, checked and turned into the derived fields by
+``aff_X_init``: :meth:`Component._configure`). Those functions are the only
 implementation of the component's equations: the Python methods call them
 through cffi, and so does the closed-loop engine (``controllers/csrc/ctl_engine.c``),
 which composes components by holding their structs. A composite component
@@ -18,6 +20,8 @@ C workspace behind a thin Python object.
 from __future__ import annotations
 
 from typing import Any
+
+from plant.errors import ParameterError
 
 __all__ = ["Component"]
 
@@ -43,6 +47,9 @@ class Component:
 
     _ffi: Any = None
     _ctype: str = ""
+    #: The bytes and the C type name of the configuration struct the component was configured from (None: none).
+    _config_bytes: bytes | None = None
+    _config_ctype: str = ""
 
     def _new_struct(self) -> None:
         """Allocate a zeroed struct of type ``_ctype`` owned by this object."""
@@ -63,6 +70,58 @@ class Component:
     def cdata(self):
         """Pointer to the component's C struct (cffi)."""
         return self._c
+
+    def _settings(self, ctype: str, defaults, fields: dict):
+        """New settings ``ctype`` (a C config struct, cffi pointer): the C ``defaults`` (e.g.
+        ``lib.aff_gate_default_config()``), then the ``fields`` given (name -> value; a struct field takes a dict or a
+        struct)."""
+        cfg = self._ffi.new(f"{ctype} *", defaults)
+        for k, v in fields.items():
+            setattr(cfg, k, v)
+        return cfg
+
+    def _configure(self, init, cfg, message, *, names: dict | None = None, keep: bool = True) -> None:
+        """Allocate the struct and configure it from the settings ``cfg`` by the C ``init``, which checks every field
+        and computes the derived ones; keep a copy of ``cfg`` (:attr:`config`) unless ``keep`` is False.
+
+        Parameters
+        ----------
+        init : callable
+            ``init(struct pointer, cfg) -> int``, a C ``aff_error aff_X_init(aff_X *, const aff_X_config *)``.
+        cfg : cffi pointer
+            The settings, e.g. ``ffi.new("aff_gate_config *", {...})``.
+        message : callable
+            ``message(code) -> char *``: the C ``aff_error_message`` (a sentence naming the field, its unit and
+            range).
+        names : dict, keyword-only
+            Error code -> the Python argument, where it is not the field the sentence names.
+        keep : bool, keyword-only
+            Keep ``cfg`` as :attr:`config`.
+
+        Raises
+        ------
+        ParameterError
+            ``init`` refused a field: the class, the sentence and, from ``names``, the argument.
+        """
+        self._new_struct()
+        code = int(init(self._c, cfg))
+        if code != 0:
+            arg = (names or {}).get(code)
+            raise ParameterError(f"{type(self).__name__}: {self._ffi.string(message(code)).decode()}"
+                                 + (f" (argument {arg})" if arg else ""))
+        if keep:
+            self._config_bytes = bytes(self._ffi.buffer(cfg))
+            self._config_ctype = self._ffi.typeof(cfg).item.cname.replace("struct ", "")
+
+    @property
+    def config(self):
+        """A copy of the settings the component was configured from (cffi ``aff_X_config *``, the C struct of
+        ``aff_X_init``; a composite's holds its parts'), or None for a component without one."""
+        if self._config_bytes is None:
+            return None
+        c = self._ffi.new(f"{self._config_ctype} *")
+        self._ffi.buffer(c)[:] = self._config_bytes
+        return c
 
     def struct_bytes(self) -> bytes:
         """The struct's bytes (a snapshot of configuration and state)."""

@@ -50,7 +50,7 @@ int main(int argc, char **argv)
     u = buf;
     w = buf + total;
     w_ref = buf + 2 * total;
-    if (aff_init(&c, &AFF_INITIAL, &AFF_GUARD) != AFF_OK) return 5;
+    if (aff_init(&c, &AFF_CONFIG) != AFF_OK) return 5;
     for (k = 0; k < n; k++) {
         uff[k] = (double)aff_step(&c, (aff_real)w[k], (aff_real)w_ref[k]);
         if (aff_observe(&c, (aff_real)u[k], (aff_real)w[k]) != 1) return 6; /* a clean log: no period dropped */
@@ -65,16 +65,20 @@ int main(int argc, char **argv)
 }
 """
 
-#: Writes the bytes of AFF_INITIAL.
+#: Configures an ``aff`` from AFF_CONFIG and writes the bytes of its mode ``adaptive`` (``c.mode``).
 DUMP_C = r"""
 #include <stdio.h>
 #include "aff_config.h"
 
 int main(int argc, char **argv)
 {
-    FILE *f = fopen(argv[1], "wb");
+    static aff c;
+    FILE *f;
     (void)argc;
-    return !(f && fwrite(&AFF_INITIAL, sizeof AFF_INITIAL, 1, f) == 1 && fclose(f) == 0);
+    if (aff_init(&c, &AFF_CONFIG) != AFF_OK)
+        return 2;
+    f = fopen(argv[1], "wb");
+    return !(f && fwrite(&c.mode, sizeof c.mode, 1, f) == 1 && fclose(f) == 0);
 }
 """
 

@@ -44,7 +44,7 @@ static void warm_up(void)
     static aff c;
     double w = 0.0, I = 0.0;
     long k = 0;
-    if (aff_init(&c, &AFF_INITIAL, &AFF_GUARD) != AFF_OK)
+    if (aff_init(&c, &AFF_CONFIG) != AFF_OK)
         abort();
     for (int s = 0; s < N_START; s++) {
         for (; k < at[s]; k++) {
@@ -141,7 +141,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             break;
         }
         default:
-            if (op == 255 && aff_init(&c, &AFF_INITIAL, &AFF_GUARD) != AFF_OK)
+            if (op == 255 && aff_init(&c, &AFF_CONFIG) != AFF_OK)
                 abort();
             break;
         }

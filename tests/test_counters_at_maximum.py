@@ -89,7 +89,7 @@ def log():
 def _fresh():
     _, _, comp = build_mode(P, "adaptive", _options())
     c = ffi.new("aff *")
-    assert lib.aff_init(c, comp.cdata, ffi.NULL) == lib.AFF_OK
+    assert lib.aff_init(c, comp.drive_config()) == lib.AFF_OK
     return c
 
 
@@ -143,10 +143,10 @@ def test_the_counters_are_int64_and_the_run_on_counts(log):
     c = _fresh()
     found = {p: kind for p, _, _, kind in _counters(c[0])}
     kinds = Counter((p.split(".")[0], kind) for p, kind in found.items())
-    # mode: 30 totals, 8 run lengths (5 gates, stick band, still periods, trial), k_in and k_out; saved: the copies
+    # mode: 31 totals, 8 run lengths (5 gates, stick band, still periods, trial), k_in and k_out; saved: the copies
     # of the fixed feedforward's, the residual's and the supervisor's
-    assert kinds == {("mode", "total"): 30, ("mode", "run"): 8, ("mode", "index"): 2,
-                     ("saved", "total"): 13, ("saved", "run"): 5, ("saved", "index"): 2}
+    assert kinds == {("mode", "total"): 31, ("mode", "run"): 8, ("mode", "index"): 2,
+                     ("saved", "total"): 14, ("saved", "run"): 5, ("saved", "index"): 2}
     for p in ("mode.sup.n", "mode.sup.n_rest", "mode.res.sw.n", "mode.res.n_held", "mode.ff.est.rls.n_updates",
               "mode.ff.est.gate.n_outliers", "mode.ff.n_implausible", "mode.res.dob.n_rejected"):
         assert found[p] == "total"
@@ -279,7 +279,7 @@ def test_fault_counters_at_the_maximum_without_the_guard(log):
 
 ROOT = Path(__file__).resolve().parent.parent
 DRIVE = ["aff_adaptive", "aff_residual", "aff_dob", "aff_supervisor", "aff_robust_ff", "aff_sliding", "aff_feedforward",
-         "aff_rls", "aff_gate", "aff_velocity_input", "aff_regression", "aff_drive"]
+         "aff_rls", "aff_gate", "aff_velocity_input", "aff_regression", "aff_error", "aff_drive"]
 HARNESS = r"""
 #include <math.h>
 #include <stdio.h>

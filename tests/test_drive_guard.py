@@ -50,8 +50,7 @@ def _fresh():
     """A drive's ``aff`` of mode adaptive (built as the loop's), the guard of an export for a 150 N·m drive."""
     _, _, comp = build_mode(P, "adaptive", _options())
     c = ffi.new("aff *")
-    guard = ffi.new("aff_guard_config *", {"Tc": TC, "w_max": 1e4, "u_max": 300.0, "hold_time": 0.1})
-    assert lib.aff_init(c, comp.cdata, guard) == lib.AFF_OK
+    assert lib.aff_init(c, comp.drive_config(Tc=TC, w_max=1e4, u_max=300.0, hold_time=0.1)) == lib.AFF_OK
     return c
 
 
@@ -160,13 +159,13 @@ def test_init_refuses_bad_settings_with_a_named_error():
     c = ffi.new("aff *")
     g = lib.aff_guard_default_config()
     assert (g.Tc, g.w_max, g.u_max, g.hold_time) == (1e-3, 1e4, 1e6, 0.1)
-    for field, value, code in (("Tc", 0.0, lib.AFF_ERR_TC), ("w_max", math.inf, lib.AFF_ERR_W_MAX),
-                               ("u_max", -1.0, lib.AFF_ERR_U_MAX), ("hold_time", 1e-4, lib.AFF_ERR_HOLD_TIME)):
-        bad = ffi.new("aff_guard_config *", lib.aff_guard_default_config())
-        setattr(bad, field, value)
-        assert lib.aff_init(c, comp.cdata, bad) == code
+    for field, value, code in (("Tc", 0.0, lib.AFF_ERR_GUARD_TC), ("w_max", math.inf, lib.AFF_ERR_GUARD_W_MAX),
+                               ("u_max", -1.0, lib.AFF_ERR_GUARD_U_MAX), ("hold_time", 1e-4, lib.AFF_ERR_GUARD_HOLD_TIME),
+                               ("Tc", 2e-3, lib.AFF_ERR_DRIVE_TC)):
+        assert lib.aff_init(c, comp.drive_config(**{field: value})) == code
         assert field.split("_")[0] in ffi.string(lib.aff_error_message(code)).decode()
-    assert lib.aff_init(c, ffi.NULL, ffi.NULL) == lib.AFF_ERR_NULL
+    assert lib.aff_init(c, ffi.NULL) == lib.AFF_ERR_NULL
+    assert lib.aff_init(ffi.NULL, comp.drive_config()) == lib.AFF_ERR_NULL
     assert ffi.string(lib.aff_error_message(lib.AFF_OK)) == b"configured"
 
 
@@ -179,7 +178,7 @@ def test_feedforward_only_is_the_feedforward_alone(log):
     _, _, ff_only = build_mode(P, "adaptive", o)
     ff = ff_only.feedforward
     c = ffi.new("aff *")
-    assert lib.aff_init(c, comp.cdata, ffi.NULL) == lib.AFF_OK
+    assert lib.aff_init(c, comp.drive_config()) == lib.AFF_OK
     for k in range(4000):
         a = lib.aff_step(c, w[k], wr[k])
         lib.aff_observe(c, u[k], w[k])

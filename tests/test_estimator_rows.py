@@ -51,7 +51,12 @@ def test_rows_stand_right_after_adaptive_in_table_and_json(paper_with_rows):
     d = json.loads(json.dumps(paper_with_rows.to_dict(), allow_nan=False))
     assert list(d["modes"]) == order
     lines = paper_with_rows.table().splitlines()
-    assert [ln.split()[0] for ln in lines[2:]] == order
+    # the rows of an estimator export-c does not write are marked, with a footnote: no drive runs them
+    marked = [m + "*" if m in ("adaptive[eq4]", "adaptive[eq4-rls]") else m for m in order]
+    assert [ln.split()[0] for ln in lines[2:-1]] == marked
+    assert lines[-1] == ("* estimator 'eq4' (adaptive[eq4]); estimator 'eq4-rls' (adaptive[eq4-rls]): research "
+                         "variants; export-c writes mode adaptive with the sliding estimator")
+    assert paper_with_rows.research_rows() == {"adaptive[eq4]": "eq4", "adaptive[eq4-rls]": "eq4-rls"}
 
 
 def test_without_adaptive_a_row_stands_where_adaptive_would():
@@ -94,16 +99,17 @@ def test_rows_alone_need_the_prefit_and_the_refusal_names_their_mode():
                 **_BASE)
 
 
-def test_a_mode_worse_than_none_gets_a_note_that_names_the_missing_switch_in():
+def test_the_feedforward_alone_that_makes_the_joint_stick_and_slip_is_kept_off_by_the_tracking_test():
     # the paper's RLS as printed, as the feedforward alone, on the Karnopp variant: its biased estimate makes the
-    # loop stick and slip (eta -2.0 at 120 s, docs/benchmarks/compensation.md); with the switch-in, the default, the
-    # same estimator is at the frictionless loop (0.995) and no note is given
+    # loop stick and slip (eta -1.96 over 30 s where the torque test alone restores it twice); the supervisor's
+    # tracking test refuses to restore it (the velocity error with it stays far above the error without), so the
+    # mode ends no worse than none; with the switch-in, the default, the same estimator is at the frictionless loop
     base = dict(modes=("none", "adaptive", "frictionless"), estimator="eq4-rls", duration=30.0, seed=0, progress=False)
     bare = compare(variant("karnopp"), switch_in=False, **base)
-    assert bare.eta["adaptive"] < -0.5
-    (note,) = [n for n in bare.notes if "worse than no compensation" in n]
-    assert note.startswith(f"adaptive: worse than no compensation (eta {bare.eta['adaptive']:.2f} ")
-    assert "feedforward alone (switch_in=False, --no-switch-in), with estimator 'eq4-rls'" in note
+    info = bare.results["adaptive"].info
+    assert info["n_backoff"] == 1 and info["n_restore"] == 0 and info["t_off"] > 25.0
+    assert abs(bare.eta["adaptive"]) < 0.02
+    assert not [n for n in bare.notes if "worse than no compensation" in n]
     guarded = compare(variant("karnopp"), **base)
     assert guarded.eta["adaptive"] > 0.9
     assert not [n for n in guarded.notes if "worse than no compensation" in n]
@@ -122,7 +128,9 @@ def test_worse_than_none_notes_threshold_and_modes():
     # fixed at the threshold itself is not worse than none; undefined eta gives no note
     assert [n.split(":")[0] for n in notes] == ["adaptive", "adaptive[eq4-rls]"]
     assert "feedforward alone" not in notes[0]  # adaptive ran with its switch-in
-    assert "with estimator 'eq4-rls'" in notes[1]
+    assert notes[1] == ("adaptive[eq4-rls]: worse than no compensation (eta -0.03 over the second half); it ran as "
+                        "the feedforward alone (switch_in=False, --no-switch-in), with estimator 'eq4-rls': the "
+                        "residual switch-in, the default, hands over to the observer where the feedforward misses")
 
 
 def test_the_cli_offers_exactly_the_package_estimators():

@@ -8,10 +8,11 @@ log through the package's compensator, built from the same identification: ``aff
 checked against the Python methods ``compensate``/``observe``, and the compensation the closed loop applied).
 Double: bit for bit. Float (``-DAFF_FLOAT``):
 the deviation is measured and printed; it must stay within 1 % of the friction level ``Fc`` except where a
-threshold decision falls on the neighbouring period (docs/benchmarks/export_c.md). Also: ``AFF_INITIAL`` is the
-package's struct byte for byte, the library references nothing but ``<math.h>`` functions and
-``memmove``/``memset``/``memcpy``, ``make`` builds and runs the example in both precisions, a sanitizer build
-replays cleanly, and the command's errors.
+threshold decision falls on the neighbouring period (docs/benchmarks/export_c.md). Also: ``aff_init`` of the
+exported settings ``AFF_CONFIG`` builds the package's struct byte for byte, a setting edited in ``aff_config.c``
+gives the package's compensator with that setting (replay equality), the library references nothing but
+``<math.h>`` functions and ``memmove``/``memset``/``memcpy``, ``make`` builds and runs the example in both
+precisions, a sanitizer build replays cleanly, and the command's errors.
 """
 
 from __future__ import annotations
@@ -76,7 +77,7 @@ def reference_ff(package, log):
     comp, _ = package()
     u, w, wr, _ = (np.ascontiguousarray(x, dtype=np.float64) for x in log)
     c = ffi.new("aff *")
-    assert lib.aff_init(c, comp.cdata, ffi.NULL) == lib.AFF_OK
+    assert lib.aff_init(c, comp.drive_config()) == lib.AFF_OK
     uff = np.empty(N)
     lib.aff_replay(c, ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", w), ffi.NULL,
                    ffi.from_buffer("double[]", wr), ffi.from_buffer("double[]", uff), ffi.NULL, N)
@@ -141,13 +142,49 @@ def test_exported_float_build_stays_within_one_percent_of_the_friction_level(exp
 
 
 @needs_cc
-def test_initial_struct_is_the_package_struct_byte_for_byte(exported, package, tmp_path):
-    from adaptive_ff._caff import ffi
-
+def test_the_exported_settings_configure_the_package_struct_byte_for_byte(exported, package, tmp_path):
+    """aff_init of AFF_CONFIG, compiled without Python, builds the struct the package's classes built: every derived
+    field computed in C from the settings, the same bits."""
     exe = _compile(exported, DUMP_C, tmp_path / "dump")
     subprocess.run([str(exe), str(tmp_path / "init.bin")], check=True, timeout=30)
     comp, _ = package()
-    assert (tmp_path / "init.bin").read_bytes() == bytes(ffi.buffer(comp.cdata))
+    assert (tmp_path / "init.bin").read_bytes() == comp.struct_bytes()
+
+
+def _edit(text: str, block: str, old: str, new: str) -> str:
+    """``text`` with the first ``old`` after the line that opens ``block`` (``.sup = {``) replaced by ``new``."""
+    i = text.index(block)
+    j = text.index(old, i)
+    return text[:j] + new + text[j + len(old):]
+
+
+@needs_cc
+def test_a_setting_edited_in_aff_config_c_is_the_package_with_that_setting(exported, id_file, log, log_file,
+                                                                           reference_ff, tmp_path):
+    """A drive engineer edits two values of AFF_CONFIG (the supervisor's window, the feedforward's warm-up) and
+    rebuilds, without Python: the library replays the log as the package's compensator configured with those settings
+    (built by its classes from the same identification, compensator_from_file), bit for bit, and not as before."""
+    from adaptive_ff._caff import ffi, lib
+    from controllers.cli.export_c import compensator_from_file
+
+    work = tmp_path / "edited"
+    shutil.copytree(exported, work)
+    text = (work / "aff_config.c").read_text()
+    text = _edit(text, "        .sup = {", ".window = (aff_real)2.0,", ".window = (aff_real)0.5,")
+    text = _edit(text, "        .ff = {", ".warmup = 50,", ".warmup = 400,")
+    (work / "aff_config.c").write_text(text)
+    uff, _ = _replay(work, log_file, tmp_path)
+    comp, _ = compensator_from_file(id_file, u_max=U_MAX, supervise_window=0.5, warmup=400)
+    assert comp.supervisor.config.window == 0.5 and comp.feedforward.warmup == 400
+    c = ffi.new("aff *")
+    assert lib.aff_init(c, comp.drive_config()) == lib.AFF_OK
+    assert bytes(ffi.buffer(ffi.addressof(c, "mode"))) == comp.struct_bytes()  # the classes' struct
+    u, w, wr, _ = (np.ascontiguousarray(x, dtype=np.float64) for x in log)
+    ref = np.empty(N)
+    lib.aff_replay(c, ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", w), ffi.NULL,
+                   ffi.from_buffer("double[]", wr), ffi.from_buffer("double[]", ref), ffi.NULL, N)
+    np.testing.assert_array_equal(uff, ref)
+    assert np.count_nonzero(uff != reference_ff) > 1000  # the edit changed the compensation
 
 
 @needs_cc
@@ -215,7 +252,8 @@ def test_exported_files_and_configuration(exported, package):
     init = (exported / "aff_config.c").read_text()
     assert ".dt = (aff_real)AFF_TC," in init and ".ff_max = (aff_real)AFF_FF_MAX," in init
     assert ".Vs = (aff_real)AFF_VS," in init and ".Tc = (aff_real)AFF_TC," in init
-    assert "export again" in init or "new export" in init
+    assert "const aff_config AFF_CONFIG = {" in init and "AFF_INITIAL" not in init and "yours to edit" in init
+    assert ".window = (aff_real)2.0," in init and "/* EWMA time constant T of the mean squares (s)" in init
     # the headers and sources are those #include reaches from aff_drive.h, each once, dependencies first
     h = (exported / "aff.h").read_text()
     order = [line.split()[2] for line in h.splitlines() if line.startswith("/* ==== ")]

@@ -5,7 +5,7 @@
 * The float build, cross-compiled for a Cortex-M4F (``-mcpu=cortex-m4 -mthumb -mfpu=fpv4-sp-d16
   -mfloat-abi=hard``, Debian's ``gcc-arm-none-eabi``), references no soft-double helper of the ARM EABI
   (``__aeabi_d*``, ``__aeabi_f2d``, ``__aeabi_d2f``): its arithmetic is float end to end.
-* The code size, the size of ``AFF_INITIAL`` and of ``aff``, and the worst stack of the drive's calls (gcc's
+* The code size, the size of ``AFF_CONFIG`` and of ``aff``, and the worst stack of the drive's calls (gcc's
   ``-fcallgraph-info=su``: the largest sum of static frames along a call path) of the double build (the host's gcc,
   x86-64) and of the float build (Cortex-M4F) are those of the table in docs/api_c.md, within 10 %; the worst
   stack is at most 1 kB.
@@ -116,9 +116,9 @@ def test_size_and_worst_stack_are_the_documented_ones(exported, tmp_path):
     arm = _arm(exported, tmp_path / "arm", "float")
     for build, m in (("double", host), ("float", arm)):
         got = (m["code"], m["config"], m["sizeof"], m["stack"])
-        print(f"\n{build}: code {got[0]} B, AFF_INITIAL {got[1]} B, sizeof(aff) {got[2]} B, worst stack {got[3]} B "
+        print(f"\n{build}: code {got[0]} B, AFF_CONFIG {got[1]} B, sizeof(aff) {got[2]} B, worst stack {got[3]} B "
               f"({m['stacks']})")
         assert set(m["stacks"]) == set(ENTRY_POINTS)
         assert m["stack"] <= 1024, (build, m["stacks"])
-        for name, g, d in zip(("code", "AFF_INITIAL", "sizeof(aff)", "worst stack"), got, doc[build]):
+        for name, g, d in zip(("code", "AFF_CONFIG", "sizeof(aff)", "worst stack"), got, doc[build]):
             assert abs(g - d) <= 0.1 * d, f"{build} {name}: measured {g} B, docs/api_c.md says {d} B"

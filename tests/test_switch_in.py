@@ -32,9 +32,17 @@ TC, JN, KP, KI = 1e-3, 0.5, 10.0, 60.0
 MARGIN = 0.03  # the trial's default margin (ResidualSwitchIn.trial_margin)
 
 
-def _c_switch_in(window=0.05, ratio=0.1, fade_in=0.01, share=0.25, margin=MARGIN):
+def _residual_config(window=0.05, ratio=0.1, fade_in=0.01, share=0.25, margin=MARGIN):
+    cfg = ffi.new("aff_residual_config *", lib.aff_residual_default_config())
+    cfg.dob.J_n = JN
+    cfg.switch_in = dict(Tc=TC, J_n=JN, Kp=KP, Ki=KI, window=window, ratio=ratio, share=share, fade_in=fade_in,
+                         trial_margin=margin)
+    return cfg
+
+
+def _c_switch_in(**settings):
     a = ffi.new("aff_residual *")
-    assert lib.aff_residual_set_switch_in(a, TC, JN, KP, KI, window, ratio, share, fade_in, margin) == 0
+    assert lib.aff_residual_init(a, _residual_config(**settings)) == lib.AFF_OK
     return a
 
 
@@ -312,8 +320,11 @@ def test_settings_are_checked():
         with pytest.raises(ParameterError):
             ResidualSwitchIn(**{**dict(Tc=TC, J_n=JN, Kp=KP, Ki=KI), **bad})
     a = ffi.new("aff_residual *")
-    for ratio, share, margin in ((0.0, 0.25, 0.02), (0.1, 0.0, 0.02), (0.1, 0.25, -0.01), (0.1, 0.25, math.nan)):
-        assert lib.aff_residual_set_switch_in(a, TC, JN, KP, KI, 0.05, ratio, share, 0.01, margin) == -1
+    for ratio, share, margin, code in ((0.0, 0.25, 0.02, lib.AFF_ERR_SWITCH_IN_RATIO),
+                                       (0.1, 0.0, 0.02, lib.AFF_ERR_SWITCH_IN_SHARE),
+                                       (0.1, 0.25, -0.01, lib.AFF_ERR_SWITCH_IN_TRIAL_MARGIN),
+                                       (0.1, 0.25, math.nan, lib.AFF_ERR_SWITCH_IN_TRIAL_MARGIN)):
+        assert lib.aff_residual_init(a, _residual_config(ratio=ratio, share=share, margin=margin)) == code
         assert a.use_switch_in == 0
     with pytest.raises(ParameterError, match="trial_margin"):
         ResidualSwitchIn(Tc=TC, J_n=JN, Kp=KP, Ki=KI, trial_margin=-0.1)

@@ -362,3 +362,30 @@ def test_a_zoo_placed_into_a_scenario_is_compare_on_each_joint_with_the_scenario
                                  "adaptive": np.array([1.01, 1.3])})
     assert fake.tracking_harm() == {"adaptive": [0]}  # bounds 1.0 and 1.4
     assert fake.targets()["tracking_harm"] == {"adaptive": [0]}
+
+
+def test_a_zoo_through_a_compiled_export_gives_the_packages_numbers(tmp_path):
+    # ZooOptions(export=DIR): mode adaptive on every joint runs the export folder's C, compiled in the worker and
+    # configured per joint by its own aff_init; the numbers are the package's, bit for bit
+    import shutil
+
+    from adaptive_ff.compensation.export_c import export_c
+    from controllers import ModeOptions, design_pi
+    from controllers.simulation.compensators import build_mode
+    from plant.friction import preset
+
+    if shutil.which("cc") is None:
+        pytest.skip("no C compiler")
+    p = preset("paper")
+    d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
+    _, _, comp = build_mode(p, "adaptive", ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta,
+                                                       J_design=p.J))
+    export_c(comp, tmp_path / "drive_ff", J_design=p.J, u_max=150.0, Kp=d.Kp, Ki=d.Ki)
+    modes = ("none", "adaptive", "frictionless")
+    pkg = run_zoo(ZooOptions(n=3, duration=10.0, seed=1, modes=modes, workers=1))
+    exp = run_zoo(ZooOptions(n=3, duration=10.0, seed=1, modes=modes, workers=1, export=tmp_path / "drive_ff"))
+    for m in modes:
+        np.testing.assert_array_equal(exp.rms[m], pkg.rms[m])
+    assert np.isfinite(exp.rms["adaptive"]).all()
+    with pytest.raises(ParameterError, match="not an export-c folder"):
+        ZooOptions(export=tmp_path)

@@ -8,7 +8,8 @@ plausibility tests, faded in after switch-on; optionally a provisional start map
 until its first trusted estimate.
 
 Its configuration and state are the C struct ``aff_robust_ff`` (``adaptive_ff/csrc/aff_robust_ff.h``), which
-embeds the fixed feedforward's struct and the estimator's (with its gates and RLS). C is the one
+embeds the fixed feedforward's struct and the estimator's (with its gates and RLS), configured from the settings
+``aff_robust_ff_config`` (the parts' settings and the provisional start) by ``aff_robust_ff_init``. C is the one
 implementation, called by the class's methods and by the closed-loop engine: the compensator interface
 ``aff_robust_ff_compensate`` / ``aff_robust_ff_observe`` (ops table ``aff_robust_ff_ops``), the plausibility test
 ``aff_robust_ff_plausible``, the determinacy test ``aff_fc_determined`` (:func:`fc_determined`) and the weighted
@@ -181,8 +182,8 @@ class FeedforwardStart:
 
     def map_args(self, Vs: float | None, delta: float | None) -> tuple:
         """``(Fc, Fs, Vs, delta, sigma, tau)`` of the start map for the C start of a feedforward
-        (``aff_robust_ff_start``, ``aff_eq4_ff_start``): its own ``Vs`` and ``delta``, else the feedforward's
-        ``Vs``, ``delta`` given here (rad/s, -).
+        (``aff_start_config`` of ``aff_robust_ff_config``, ``aff_eq4_ff_start``): its own ``Vs`` and ``delta``, else
+        the feedforward's ``Vs``, ``delta`` given here (rad/s, -).
 
         Raises
         ------
@@ -436,16 +437,19 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
             raise ParameterError(f"start must be a FeedforwardStart or None, got {type(start).__name__}")
         self.estimator = estimator
         self.n_theta = len(estimator.names)
-        self._new_struct()
-        lib.aff_robust_ff_init(self._c, ff.cdata, estimator.cdata, int(warmup), 1.0 if fade_in == 0.0 else dt / fade_in,
-                               J_lo, J_hi, tau_max, consistency, 1.0 if start is None else start.gain,
-                               start is not None and start.ff_input == "reference", lag_margin, max_rel_stderr,
-                               lag_margin_max, math.exp(-estimator.Ts / lag_memory) if lag_memory > 0.0 else 0.0,
-                               lag_zero, bool(project))
+        cfg = self._settings("aff_robust_ff_config", lib.aff_robust_ff_default_config(), {
+            "warmup": int(warmup), "fade_in": fade_in, "J_lo": J_lo, "J_hi": J_hi, "tau_max": tau_max,
+            "consistency": consistency, "lag_margin": lag_margin, "lag_margin_max": lag_margin_max,
+            "max_rel_stderr": max_rel_stderr, "lag_memory": lag_memory, "lag_zero": lag_zero,
+            "project": bool(project)})
+        cfg.ff, cfg.est = ff.config[0], estimator.config[0]
+        if start is not None:
+            Fc, Fs, Vs, delta, sigma, tau = start.map_args(estimator.Vs, estimator.delta)
+            cfg.start = {"on": True, "Fc": Fc, "Fs": Fs, "Vs": Vs, "delta": delta, "sigma": sigma, "tau": tau,
+                         "gain": start.gain, "at_ref": start.ff_input == "reference"}  # else off, the C defaults
+        self._configure(lib.aff_robust_ff_init, cfg, lib.aff_error_message)
         self.start = start
         self._attached()
-        if start is not None:
-            lib.aff_robust_ff_start(self._c, *start.map_args(estimator.Vs, estimator.delta))
 
     def _attached(self) -> None:
         """The feedforward part and the estimator (with its parts) point into this component's struct."""

@@ -2,8 +2,8 @@
 
 The exported folder holds the package's own C code of the compensator, the struct ``aff_adaptive`` that the
 package's closed-loop engine runs for mode ``adaptive`` (the feedforward, the residual observer it switches in and
-the supervisor; or, exported from a compensator without them, the feedforward alone), so a drive runs the
-compensator that was simulated:
+the supervisor; or, exported from a compensator without them, the feedforward alone), and its settings, so a drive
+runs the compensator that was simulated:
 
 ==================  ===================================================================================
 file                content
@@ -13,9 +13,9 @@ file                content
                     (an amalgamation, as SQLite ships; local ``#include`` lines removed, guards kept)
 ``aff.c``           the matching ``.c`` files, in dependency order
 ``aff_config.h``    the settings of this export as documented macros (``AFF_TC``, ``AFF_VS``, ...) and
-                    ``extern const aff_adaptive AFF_INITIAL``, ``extern const aff_guard_config AFF_GUARD``
-``aff_config.c``    ``AFF_INITIAL``: every field of the configured compensator, a C99 designated initializer;
-                    ``AFF_GUARD``: the input guard's settings (``aff_drive.h``)
+                    ``extern const aff_config AFF_CONFIG``
+``aff_config.c``    ``AFF_CONFIG``: the drive's settings (``aff_config`` of ``aff_drive.h``: mode ``adaptive``'s
+                    and the input guard's), a C99 designated initializer of its fields, each with its comment
 ``example_loop.c``  a 1 kHz velocity loop: read the velocity, ``aff_step``, ``aff_transfer`` into a PI, write
                     the torque, ``aff_observe``, ``aff_status`` (stub I/O to replace)
 ``Makefile``        ``make``: ``libaff.a`` and the example (``$(CC) -std=c99``, ``-lm``); ``make FLOAT=1``:
@@ -25,11 +25,13 @@ file                content
 The library uses ``<math.h>`` (and ``<string.h>``: the compiler's ``memmove`` for struct copies; the
 freestanding ``<stdint.h>``, ``<stddef.h>``) and nothing else: no ``malloc``, no I/O, no global state, bounded
 work per call. A ``static`` helper that two sources
-both define (``min2``) is prefixed by its file's stem in ``aff.c``, the one scope they share there. The
-compensator's derived fields (filter coefficients, forgetting factors, bounds) are computed here by the Python
-constructors, which validate the hyperparameters, and written as numbers into ``aff_config.c``; a changed
-macro of ``aff_config.h`` therefore needs a new export. The files to ship are found by following the
-``#include`` lines from ``adaptive_ff/csrc/aff_drive.h`` (:func:`c_closure`), not from a list.
+both define (``min2``) is prefixed by its file's stem in ``aff.c``, the one scope they share there. ``aff_config.c``
+holds the settings only (SI units); ``aff_init`` checks each and computes the derived fields (filter coefficients,
+forgetting factors, counts) in C, the functions the package's Python classes call with the same settings, so a
+drive engineer edits a value (or a macro of ``aff_config.h``: the fields equal to it are written with it) and
+rebuilds, without Python. The export refuses a compensator whose struct its settings would not rebuild (one that
+has observed samples). The files to ship are found by following the ``#include`` lines from
+``adaptive_ff/csrc/aff_drive.h`` (:func:`c_closure`), not from a list.
 """
 
 from __future__ import annotations
@@ -43,8 +45,8 @@ from pathlib import Path
 from adaptive_ff.io.output import staged_folder
 from plant.errors import ParameterError
 
-__all__ = ["export_c", "CExport", "c_closure", "amalgamate", "struct_initializer", "c_literal", "EXPORT_FILES",
-           "CSRC_DIRS", "ROOT_HEADER"]
+__all__ = ["export_c", "CExport", "c_closure", "amalgamate", "struct_initializer", "field_comments", "c_literal",
+           "EXPORT_FILES", "CSRC_DIRS", "ROOT_HEADER"]
 
 #: The folders the compensator's C sources live in, searched in this order for a quoted ``#include``.
 CSRC_DIRS = (Path(__file__).resolve().parents[1] / "csrc", Path(__file__).resolve().parents[2] / "plant" / "csrc")
@@ -57,16 +59,54 @@ EXPORT_FILES = ("aff.h", "aff.c", "aff_config.h", "aff_config.c", "example_loop.
 
 _LOCAL_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$', re.MULTILINE)
 
-#: Macros of aff_config.h and the struct fields that take their value (a field of that name whose initial value
-#: equals the macro's is written as the macro in aff_config.c).
+#: Macros of aff_config.h and the fields of AFF_CONFIG that take their value: a field whose dotted path ends with
+#: one of the names (``Tc``, ``guard.u_max``) and whose value equals the macro's is written as the macro in
+#: aff_config.c.
 _MACRO_FIELDS = {
     "AFF_TC": ("dt", "Tc"),
     "AFF_TS": ("Ts",),
-    "AFF_VS": ("Vs",),
+    "AFF_VS": ("Vs", "est.w_range.floor"),
     "AFF_DELTA": ("delta",),
-    "AFF_FF_MAX": ("ff_max",),
+    "AFF_J_DESIGN": ("J", "J_n", "initial_J"),
+    "AFF_FF_MAX": ("ff_max", "d_max", "res.u_max"),
     "AFF_KP": ("Kp",),
+    "AFF_KI": ("Ki",),
+    "AFF_START_FC": ("start.Fc",),
+    "AFF_START_FS": ("start.Fs",),
+    "AFF_START_SIGMA": ("start.sigma",),
+    "AFF_START_TAU": ("start.tau",),
+    "AFF_W_MAX": ("guard.w_max",),
+    "AFF_U_GUARD": ("guard.u_max",),
+    "AFF_HOLD_TIME": ("guard.hold_time",),
+    "AFF_OBSERVER": ("mode.use_residual",),
+    "AFF_SUPERVISOR": ("mode.use_supervisor",),
 }
+
+_STRUCT_BLOCK = re.compile(r"typedef struct (\w+) \{(.*?)\n\} \1;", re.DOTALL)
+_FIELD = re.compile(r"^\s+[\w ]+?\b(\w+)(?:\[[^\]]*\])?;\s*/\*(.*)$")
+
+
+def field_comments(headers) -> dict:
+    """The comments of the struct fields in ``headers`` (paths): ``{struct name: {field: comment}}``, a comment
+    joined from its lines (the text of each ``/* ... */`` after a field, as the header states unit, range and
+    default)."""
+    out: dict = {}
+    for h in headers:
+        for m in _STRUCT_BLOCK.finditer(Path(h).read_text()):
+            fields, name, text = {}, None, None
+            for line in m.group(2).splitlines():
+                f = _FIELD.match(line)
+                if f:
+                    name, text = f.group(1), f.group(2).strip()
+                elif name is not None and text is not None and not text.endswith("*/"):
+                    text += " " + line.strip()
+                else:
+                    continue
+                if text.endswith("*/"):
+                    fields[name] = " ".join(text[:-2].split())
+                    name = text = None
+            out[m.group(1)] = fields
+    return out
 
 
 def _find_header(name: str, dirs) -> Path:
@@ -133,9 +173,9 @@ def _strip_local_includes(text: str) -> str:
     return _LOCAL_INCLUDE.sub("", text).strip("\n") + "\n"
 
 
-def _banner(name: str, what: str, source: str) -> str:
+def _banner(name: str, what: str, source: str, edit: str = "do not edit: export again") -> str:
     return (f"/* {name} -- {what}\n *\n * Written by `adaptive-ff export-c` (adaptive_ff.compensation.export_c) "
-            f"from the\n * C sources of the adaptive-ff package{source}; do not edit: export again.\n */\n")
+            f"from the\n * C sources of the adaptive-ff package{source}; {edit}.\n */\n")
 
 
 _STATIC = re.compile(r"^static\b([^;=(\[{]*?)\b([A-Za-z_]\w*)\s*[(=\[;]", re.MULTILINE)
@@ -215,7 +255,7 @@ _FLT_MAX = struct.unpack("<f", b"\xff\xff\x7f\x7f")[0]
 
 
 def struct_initializer(ffi, value, ctype, *, macros=None, indent: str = "    ", path: str = "",
-                       too_large_for_float: list | None = None) -> str:
+                       too_large_for_float: list | None = None, comments: dict | None = None) -> str:
     """A C99 designated initializer of every field of the struct ``value`` (a cffi struct object).
 
     Parameters
@@ -227,15 +267,18 @@ def struct_initializer(ffi, value, ctype, *, macros=None, indent: str = "    ", 
     ctype : cffi CType
         Its type (``ffi.typeof(ptr).item``).
     macros : dict, keyword-only
-        ``{macro name: (value, field names)}``: a scalar field whose name is among the field names and whose
-        value equals the macro's is written as the macro. Every floating field (``aff_real`` in the C core) is
-        written with a cast, ``(aff_real)0.001``: a constant that the float build converts at compile time.
+        ``{macro name: (value, field names)}``: a scalar field whose dotted path ends with one of the field names
+        (``"Tc"``, ``"guard.u_max"``) and whose value equals the macro's is written as the macro. Every floating
+        field (``aff_real`` in the C core) is written with a cast, ``(aff_real)0.001``: a constant that the float
+        build converts at compile time. An array of zeros is written ``{0}``.
     indent : str, keyword-only
         Indentation of the fields.
     path : str, keyword-only
         Dotted field path of ``value`` (for messages).
     too_large_for_float : list, keyword-only
         Receives the dotted names of finite fields beyond the float range (a float build would overflow them).
+    comments : dict, keyword-only
+        ``{struct name: {field: comment}}`` (:func:`field_comments`): each field with a comment is preceded by it.
 
     Returns
     -------
@@ -248,22 +291,49 @@ def struct_initializer(ffi, value, ctype, *, macros=None, indent: str = "    ", 
         A field is a pointer (a struct of the C core holds values only).
     """
     macros = macros or {}
+    notes = (comments or {}).get(ctype.cname.replace("struct ", ""), {})
     lines = ["{"]
     for name, f in ctype.fields:
         here = f"{path}.{name}" if path else name
-        lines.append(f"{indent}.{name} = " + _initializer(ffi, getattr(value, name), f.type, name, here, macros,
-                                                          indent, too_large_for_float) + ",")
+        if name in notes:
+            lines += _comment_lines(notes[name], indent)
+        lines.append(f"{indent}.{name} = " + _initializer(ffi, getattr(value, name), f.type, here, macros,
+                                                          indent, too_large_for_float, comments) + ",")
     lines.append(indent[:-4] + "}")
     return "\n".join(lines)
 
 
-def _initializer(ffi, v, t, name, here, macros, indent, big) -> str:
+def _comment_lines(text: str, indent: str, width: int = 116) -> list:
+    """``text`` as a C comment of lines at most ``width`` wide."""
+    out, cur = [], ""
+    for w in text.split():
+        if cur and len(indent) + 3 + len(cur) + 1 + len(w) + 3 > width:
+            out.append(cur)
+            cur = w
+        else:
+            cur = f"{cur} {w}" if cur else w
+    out.append(cur)
+    return [f"{indent}{'/* ' if i == 0 else '   '}{s}{' */' if i == len(out) - 1 else ''}" for i, s in enumerate(out)]
+
+
+def _macro_for(here: str, x: float, macros: dict) -> str | None:
+    """The macro whose value ``x`` is and one of whose field names ends the path ``here``, or None."""
+    for macro, (mv, names) in macros.items():
+        if any(here == n or here.endswith("." + n) for n in names) and isinstance(mv, (int, float)) and (
+                x == mv or (math.isnan(x) and math.isnan(mv))):
+            return macro
+    return None
+
+
+def _initializer(ffi, v, t, here, macros, indent, big, comments=None) -> str:
     if t.kind == "struct":
         return struct_initializer(ffi, v, t, macros=macros, indent=indent + "    ", path=here,
-                                  too_large_for_float=big)
+                                  too_large_for_float=big, comments=comments)
     if t.kind == "array":
-        items = [_initializer(ffi, v[i], t.item, name, f"{here}[{i}]", {}, indent + "    ", big)
+        items = [_initializer(ffi, v[i], t.item, f"{here}[{i}]", {}, indent + "    ", big)
                  for i in range(t.length)]
+        if t.item.kind == "primitive" and all(float(v[i]) == 0.0 for i in range(t.length)):
+            return "{0}"
         rows = [", ".join(items[i:i + 6]) for i in range(0, len(items), 6)]
         if len(rows) <= 1:
             return "{" + (rows[0] if rows else "") + "}"
@@ -274,11 +344,12 @@ def _initializer(ffi, v, t, name, here, macros, indent, big) -> str:
             x = float(v)
             if big is not None and math.isfinite(x) and abs(x) > _FLT_MAX:
                 big.append(here)
-            for macro, (mv, names) in macros.items():
-                if name in names and isinstance(mv, float) and (x == mv or (math.isnan(x) and math.isnan(mv))):
-                    return f"(aff_real){macro}"
+            macro = _macro_for(here, x, macros)
+            if macro is not None:
+                return f"(aff_real){macro}"
             return f"(aff_real){c_literal(x)}"  # a constant converted at compile time (float build: no warning)
-        return str(int(v))
+        macro = _macro_for(here, int(v), {k: m for k, m in macros.items() if isinstance(m[0], int)})
+        return macro if macro is not None else str(int(v))
     raise ParameterError(f"field {here} of type {t.cname} cannot be exported (a C-core struct holds values only)")
 
 
@@ -339,13 +410,15 @@ class CExport:
 _MACRO_DOC = {
     "AFF_TC": ("s", "controller period: call aff_step and aff_observe once per AFF_TC"),
     "AFF_TS": ("s", "update period of the estimator's RLS, a multiple of AFF_TC"),
-    "AFF_VS": ("rad/s", "Stribeck velocity Vs of eq. 3 (the identification's, fixed)"),
-    "AFF_DELTA": ("1", "Stribeck shape factor delta of eq. 3 (the identification's, fixed)"),
-    "AFF_J_DESIGN": ("kg*m^2", "design inertia: the estimator's start and its velocity gate"),
-    "AFF_U_MAX": ("N*m", "the drive's torque limit (the example's saturation; the velocity gate's bound)"),
+    "AFF_VS": ("rad/s", "Stribeck velocity Vs of eq. 3 (the identification's; the estimator does not adapt it)"),
+    "AFF_DELTA": ("1", "Stribeck shape factor delta of eq. 3 (the identification's; not adapted)"),
+    "AFF_J_DESIGN": ("kg*m^2", "design inertia: the estimator's start, the loop model's, sign observer's, "
+                               "residual observer's, switch-in's and supervisor's inertia, the example's stub joint"),
+    "AFF_U_MAX": ("N*m", "the drive's torque limit (the example's saturation; the estimator's velocity gate bound "
+                         "2*AFF_U_MAX*AFF_TC/AFF_J_DESIGN is a number in aff_config.c)"),
     "AFF_FF_MAX": ("N*m", "bound on |feedforward|; estimates with Fc or Fs above it are not used"),
-    "AFF_KP": ("N*m*s/rad", "proportional gain of the example loop's PI"),
-    "AFF_KI": ("N*m/rad", "integral gain of the example loop's PI"),
+    "AFF_KP": ("N*m*s/rad", "proportional gain of the loop's PI (the loop model's, the switch-in's, the example's)"),
+    "AFF_KI": ("N*m/rad", "integral gain of the loop's PI (the loop model's, the switch-in's, the example's)"),
     "AFF_START_FC": ("N*m", "Coulomb level Fc of the provisional start map (acts until the first trusted estimate)"),
     "AFF_START_FS": ("N*m", "static level Fs of the provisional start map"),
     "AFF_START_SIGMA": ("N*m*s/rad", "viscous coefficient sigma of the provisional start map"),
@@ -356,41 +429,39 @@ _MACRO_DOC = {
     "AFF_OBSERVER": ("1", "1: the residual observer and its switch-in are part of the compensator (mode adaptive)"),
     "AFF_SUPERVISOR": ("1", "1: the supervisor and its rest rule are part of the compensator (mode adaptive)"),
 }
-_START_FIELDS = {"AFF_START_FC": ("Fc",), "AFF_START_FS": ("Fs",), "AFF_START_SIGMA": ("sigma",),
-                 "AFF_START_TAU": ("tau",)}
 
 
-def _config_header(config: dict, source: str, ctype: str) -> str:
-    lines = [_banner("aff_config.h", "the settings of this export and the compensator's initial struct.", source),
+def _config_header(config: dict, source: str) -> str:
+    lines = [_banner("aff_config.h", "the settings of this export: macros and the drive's AFF_CONFIG.", source,
+                     "yours to edit (a value, then rebuild)"),
              "#ifndef AFF_CONFIG_H", "#define AFF_CONFIG_H", '#include "aff.h"', "",
-             "/* SI units; the values the compensator in aff_config.c was configured with. Changing one here",
-             " * does not reconfigure it (its derived fields were computed by the export): export again. */"]
+             "/* SI units; the values this export was configured with. The fields of AFF_CONFIG (aff_config.c) equal",
+             " * to a macro are written with it: change the macro (or any value in aff_config.c) and rebuild, and",
+             " * aff_init checks the settings and computes the compensator's derived fields from them. */"]
     for k, v in config.items():
         unit, what = _MACRO_DOC[k]
         lines += ["", f"/* {what[0].upper() + what[1:]} ({unit}). */", f"#define {k} {c_literal(v)}"]
     lines += ["",
-              "/* The configured compensator with its initial state and the input guard's settings (aff_config.c):",
-              " * aff_init(&c, &AFF_INITIAL, &AFF_GUARD). */",
-              f"extern const {ctype} AFF_INITIAL;", "extern const aff_guard_config AFF_GUARD;", "", "#endif", ""]
+              "/* The drive's settings (aff_config.c): aff_init(&c, &AFF_CONFIG). */",
+              "extern const aff_config AFF_CONFIG;", "", "#endif", ""]
     return "\n".join(lines)
 
 
-def _config_source(init: str, guard: str, source: str, ctype: str, big: list) -> str:
+def _config_source(init: str, source: str, big: list) -> str:
     no_float = ""
     if big:
         no_float = ("#ifdef AFF_FLOAT\n#error \"fields beyond the float range (" + ", ".join(big[:4])
-                 + "): this export cannot be built with AFF_FLOAT\"\n#endif\n\n")
-    return (_banner("aff_config.c", "AFF_INITIAL and AFF_GUARD, the compensator as configured by the export.", source)
+                    + "): this export cannot be built with AFF_FLOAT\"\n#endif\n\n")
+    return (_banner("aff_config.c", "AFF_CONFIG, the drive's settings as the package configured them.", source,
+                    "yours to edit (a value, then rebuild)")
             + '#include "aff_config.h"\n\n' + no_float
-            + f"/* Every field of {ctype}: its configuration and its initial (cleared) state, as the package's\n"
-              " * Python constructors computed them from validated settings. Fields written with a macro of\n"
-              " * aff_config.h take that setting as it is; the derived fields (filter coefficients, forgetting\n"
-              " * factors, bounds, ...) are numbers computed from the settings by the export: a changed macro\n"
-              " * needs a new export (adaptive-ff export-c). Numbers have 17 significant digits at most\n"
-              " * (the shortest that give back the same double). */\n"
-            + f"const {ctype} AFF_INITIAL = {init};\n\n"
-            + "/* The input guard (aff_drive.h): the controller period and the plausible bounds of the inputs. */\n"
-            + f"const aff_guard_config AFF_GUARD = {guard};\n")
+            + "/* The settings of mode adaptive (mode) and of the input guard (guard), SI units, each field with its\n"
+              " * header's comment (unit, range, default). aff_init checks them (a field out of its range: an\n"
+              " * aff_error naming it, aff_error_message) and computes the derived fields (filter coefficients,\n"
+              " * forgetting factors, counts). Edit a value and rebuild; the fields written with a macro take it from\n"
+              " * aff_config.h. Numbers have 17 significant digits at most (the shortest that give back the same\n"
+              " * double). */\n"
+            + f"const aff_config AFF_CONFIG = {init};\n")
 
 
 _EXAMPLE = r"""/* example_loop.c -- the adaptive friction compensator in a 1 kHz velocity loop.
@@ -468,7 +539,7 @@ int main(void)
     static const char *const state[] = {"learning", "feedforward", "observer", "backed off", "fault"};
     pi ctl = {0};
     long n = (long)(EXAMPLE_SECONDS / AFF_TC + 0.5);
-    aff_error err = aff_init(&comp, &AFF_INITIAL, &AFF_GUARD);
+    aff_error err = aff_init(&comp, &AFF_CONFIG);
     if (err != AFF_OK) {
         printf("aff_init: %s\n", aff_error_message(err));
         return 1;
@@ -590,6 +661,22 @@ def _mode_struct(compensator):
     return c
 
 
+def _drive_config(compensator, **guard):
+    """The drive's settings of ``compensator`` with the guard's fields ``guard`` (``aff_config *``), checked: the
+    struct ``aff_init`` builds from them is the compensator's, byte for byte; ParameterError otherwise."""
+    from adaptive_ff._caff import ffi, lib
+
+    cfg = compensator.drive_config(**guard)
+    c = ffi.new("aff *")
+    code = lib.aff_init(c, cfg)
+    if code != lib.AFF_OK:
+        raise ParameterError(f"aff_init refuses the settings: {ffi.string(lib.aff_error_message(code)).decode()}")
+    if bytes(ffi.buffer(ffi.addressof(c, "mode"))) != compensator.struct_bytes():
+        raise ParameterError("the compensator is not what its settings configure (it has observed samples, or a part "
+                             "was changed after it was configured): export a fresh compensator")
+    return cfg
+
+
 def export_c(compensator, out, *, J_design: float, u_max: float, Kp: float, Ki: float, joint=None,
              w_max: float = W_MAX_DEFAULT, hold_time: float = HOLD_TIME_DEFAULT, float_default: bool = False,
              force: bool = False, origin: str = "") -> CExport:
@@ -601,8 +688,8 @@ def export_c(compensator, out, *, J_design: float, u_max: float, Kp: float, Ki: 
     compensator : AdaptiveCompensator
         The configured compensator of mode ``adaptive`` (C struct ``aff_adaptive``: the feedforward, with or
         without the residual observer and the supervisor; from
-        :func:`controllers.simulation.compensators.build_mode`); its C struct, as it is now, becomes
-        ``AFF_INITIAL`` (export it before it observes anything, so that the drive starts from a cleared state).
+        :func:`controllers.simulation.compensators.build_mode`), before it observes anything: its settings
+        (:attr:`~controllers.peers.adaptive_dob.AdaptiveCompensator.config`) become ``AFF_CONFIG.mode``.
     out : str or os.PathLike
         Folder to write into (created; must be empty unless ``force``). The files are written beside it first and
         moved into it together at the end (:func:`adaptive_ff.io.output.staged_folder`): a failure leaves the
@@ -637,9 +724,9 @@ def export_c(compensator, out, *, J_design: float, u_max: float, Kp: float, Ki: 
     Raises
     ------
     ParameterError
-        Not mode adaptive's compensator, a bad number, ``u_max`` beyond the float range, or ``out`` an existing
-        file or a non-empty folder without ``force``; ``out`` in use by another export
-        (:class:`adaptive_ff.io.output.OutputInUseError`).
+        Not mode adaptive's compensator or not what its settings configure (it has observed samples), a bad
+        number, ``u_max`` beyond the float range, or ``out`` an existing file or a non-empty folder without
+        ``force``; ``out`` in use by another export (:class:`adaptive_ff.io.output.OutputInUseError`).
     FileNotFoundError
         The package's C sources are missing (an installation without ``csrc``).
     """
@@ -666,25 +753,21 @@ def export_c(compensator, out, *, J_design: float, u_max: float, Kp: float, Ki: 
     config = {"AFF_TC": float(est.Tc), "AFF_TS": float(est.Ts), "AFF_VS": float(est.Vs),
               "AFF_DELTA": float(est.delta), "AFF_J_DESIGN": J_design, "AFF_U_MAX": u_max,
               "AFF_FF_MAX": float(ff.ff_max), "AFF_KP": Kp, "AFF_KI": Ki}
-    fields = dict(_MACRO_FIELDS)
     if ff.start is not None:
         e = ff.start.estimate
         config.update({"AFF_START_FC": float(e.Fc), "AFF_START_FS": float(e.Fs), "AFF_START_SIGMA": float(e.sigma),
                        "AFF_START_TAU": float(e.tau)})
-        fields.update(_START_FIELDS)
     config.update({"AFF_W_MAX": w_max, "AFF_U_GUARD": 2.0 * u_max, "AFF_HOLD_TIME": hold_time,
                    "AFF_OBSERVER": int(ptr.use_residual), "AFF_SUPERVISOR": int(ptr.use_supervisor)})
-    macros = {k: (config[k], fields[k]) for k in fields if k in config}
+    macros = {k: (config[k], names) for k, names in _MACRO_FIELDS.items() if k in config}
+    drive = _drive_config(compensator, w_max=w_max, u_max=2.0 * u_max, hold_time=hold_time)
     headers, sources = c_closure()
     out = _prepare_out(out, force)
     from adaptive_ff._caff import ffi
 
-    ctype = ffi.typeof(ptr).item
-    cname = ctype.cname.replace("struct ", "")  # the typedef of the C core: typedef struct x {...} x;
     big: list = []
-    init = struct_initializer(ffi, ptr[0], ctype, macros=macros, too_large_for_float=big)
-    guard = ("{\n    .Tc = (aff_real)AFF_TC,\n    .w_max = (aff_real)AFF_W_MAX,\n    .u_max = (aff_real)AFF_U_GUARD,\n"
-             "    .hold_time = (aff_real)AFF_HOLD_TIME,\n}")
+    init = struct_initializer(ffi, drive[0], ffi.typeof(drive).item, macros=macros, too_large_for_float=big,
+                              comments=field_comments(headers))
     h_text, c_text = amalgamate(headers, sources, origin)
     notes = []
     if big:
@@ -696,8 +779,8 @@ def export_c(compensator, out, *, J_design: float, u_max: float, Kp: float, Ki: 
                    ("@AMP@", 50.0 * float(est.Vs))):
         example = example.replace(key, c_literal(v))
     texts = {"aff.h": h_text, "aff.c": c_text,
-             "aff_config.h": _config_header(config, origin, cname),
-             "aff_config.c": _config_source(init, guard, origin, cname, big),
+             "aff_config.h": _config_header(config, origin),
+             "aff_config.c": _config_source(init, origin, big),
              "example_loop.c": example, "Makefile": _MAKEFILE.replace("@FLOAT@", "1" if float_default else "0")}
     with staged_folder(out, "out") as staged:  # all files appear at once, or the previous ones stay
         for name in EXPORT_FILES:

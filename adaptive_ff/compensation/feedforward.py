@@ -1,8 +1,9 @@
 """Fixed friction feedforward (a friction estimate, fed forward through the estimated lag) and the estimate projection.
 
 :class:`FrictionFeedforward` is a compensator component (mode ``fixed``): its configuration and state are the C
-struct ``aff_fixed_ff`` (``adaptive_ff/csrc/aff_feedforward.h``), advanced by C, the one implementation, called
-by the class's methods and by the closed-loop engine: ``aff_fixed_ff_set_estimate`` (put an estimate into use),
+struct ``aff_fixed_ff`` (``adaptive_ff/csrc/aff_feedforward.h``), configured from its settings ``aff_fixed_ff_config``
+by ``aff_fixed_ff_init`` and advanced by C, the one implementation, called by the class's methods and by the
+closed-loop engine: ``aff_fixed_ff_set_estimate`` (put an estimate into use),
 ``aff_fixed_ff_static`` (the static map, eq. 3), ``aff_fixed_ff_step`` (stick detection, the lag of eq. 1, the
 clip) and the compensator interface ``aff_fixed_ff_compensate`` / ``aff_fixed_ff_observe``
 (``adaptive_ff/csrc/aff_compensator.h``, ops table ``aff_fixed_ff_ops``). Near standstill its velocity input comes
@@ -209,17 +210,15 @@ class FrictionFeedforward(Component):
             raise ParameterError(f"stick_samples must be an integer >= 1, got {stick_samples!r}")
         if ff_input not in ("measured", "reference"):
             raise ParameterError(f"ff_input must be 'measured' or 'reference', got {ff_input!r}")
-        lm = ffi.NULL
+        cfg = self._settings("aff_fixed_ff_config", lib.aff_fixed_ff_default_config(), {
+            "dt": dt, "lag": bool(lag), "ff_max": ff_max, "sign_width": sign_width, "stick_band": stick_band,
+            "stick_samples": int(stick_samples), "at_ref": ff_input == "reference", "w_max": w_max,
+            "use_loop_model": loop_model is not None, "use_sign_observer": sign_observer is not None})
         if loop_model is not None:
-            lm = ffi.new("aff_loop_model *")
-            lib.aff_loop_model_init(lm, *loop_model.coefficients(dt))
-        ob = ffi.NULL
+            cfg.loop_model = loop_model.config_fields()
         if sign_observer is not None:
-            ob = ffi.new("aff_sign_observer *")
-            lib.aff_sign_observer_init(ob, dt / float(sign_observer.J), *sign_observer.gains(dt))
-        self._new_struct()
-        lib.aff_fixed_ff_init(self._c, dt, bool(lag), ff_max, sign_width, stick_band, int(stick_samples),
-                              ff_input == "reference", w_max, lm, ob)
+            cfg.sign_observer = sign_observer.config_fields()
+        self._configure(lib.aff_fixed_ff_init, cfg, lib.aff_error_message)
         self.loop_model = loop_model
         self.sign_observer = sign_observer
         self._attached()

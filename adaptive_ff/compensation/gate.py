@@ -3,9 +3,10 @@
 :class:`OutlierGate` judges the change from the last accepted sample (a velocity cannot jump);
 :class:`RangeGate` judges the magnitude against the signal's own running envelope (a torque or a velocity
 sample far above anything seen recently is a fault, not a measurement). Both are C structs
-(``adaptive_ff/csrc/aff_gate.h``: ``aff_gate``, ``aff_range_gate``) advanced by ``aff_gate_check``,
-``aff_range_gate_ok`` and ``aff_range_gate_commit``, the one implementation, which the C components that embed
-a gate (estimator, closed-loop engine, peers) call as well.
+(``adaptive_ff/csrc/aff_gate.h``: ``aff_gate``, ``aff_range_gate``), configured from their settings
+(``aff_gate_config``, ``aff_range_gate_config``: :attr:`plant.component.Component.config`) by ``aff_gate_init`` and
+``aff_range_gate_init`` and advanced by ``aff_gate_check``, ``aff_range_gate_ok`` and ``aff_range_gate_commit``, the
+one implementation, which the C components that embed a gate (estimator, closed-loop engine, peers) call as well.
 """
 
 from __future__ import annotations
@@ -78,8 +79,10 @@ class OutlierGate(Component):
             raise ParameterError(f"alpha must be in (0, 1], got {alpha!r}")
         if isinstance(max_consecutive, bool) or not isinstance(max_consecutive, int) or max_consecutive < 1:
             raise ParameterError(f"max_consecutive must be an integer >= 1, got {max_consecutive!r}")
-        self._new_struct()
-        lib.aff_gate_init(self._c, float(max_step), n_sigma, alpha, max_consecutive)
+        cfg = self._settings("aff_gate_config", lib.aff_gate_default_config(),
+                             {"max_step": float(max_step), "n_sigma": n_sigma, "alpha": alpha,
+                              "max_consecutive": max_consecutive})
+        self._configure(lib.aff_gate_init, cfg, lib.aff_error_message)
 
     def __repr__(self) -> str:
         return (f"OutlierGate(max_step={self.max_step!r}, n_sigma={self.n_sigma!r}, "
@@ -196,8 +199,10 @@ class RangeGate(Component):
         memory = check_positive("memory", memory)
         if isinstance(max_consecutive, bool) or not isinstance(max_consecutive, int) or max_consecutive < 1:
             raise ParameterError(f"max_consecutive must be an integer >= 1, got {max_consecutive!r}")
-        self._new_struct()
-        lib.aff_range_gate_init(self._c, float(x_max), factor, floor, math.exp(-1.0 / memory), max_consecutive)
+        cfg = self._settings("aff_range_gate_config", lib.aff_range_gate_default_config(),
+                             {"x_max": float(x_max), "factor": factor, "floor": floor, "memory": memory,
+                              "max_consecutive": max_consecutive})
+        self._configure(lib.aff_range_gate_init, cfg, lib.aff_error_message)
 
     def __repr__(self) -> str:
         return (f"RangeGate(x_max={self.x_max!r}, factor={self.factor!r}, floor={self.floor!r}, "
@@ -206,7 +211,12 @@ class RangeGate(Component):
     x_max = property(lambda self: float(self._c.x_max), doc="Absolute bound on |x| (signal unit).")
     factor = property(lambda self: float(self._c.factor), doc="Relative bound (times the reference scale).")
     floor = property(lambda self: float(self._c.floor), doc="Smallest reference scale (signal unit).")
-    memory = property(lambda self: -1.0 / math.log(float(self._c.decay)), doc="Decay time of the envelope (samples).")
+    @property
+    def memory(self) -> float:
+        """Decay time of the envelope (samples), as configured."""
+        cfg = self.config
+        return float(cfg.memory) if cfg is not None else -1.0 / math.log(float(self._c.decay))
+
     max_consecutive = property(lambda self: int(self._c.max_consecutive),
                                doc="Consecutive rejections after which a sample is accepted again.")
     envelope = property(lambda self: float(self._c.env), doc="Envelope of the accepted |x| (signal unit).")

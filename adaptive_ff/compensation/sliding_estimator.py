@@ -290,20 +290,16 @@ class SlidingFrictionEstimator(Component):
         upper = {"J": J_max, "J_tau": J_max * self.tau_max, "tau": self.tau_max, "Fc": math.inf, "Fs": math.inf,
                  "sigma": math.inf, "offset": math.inf}
         if initial is None:
-            J0 = check_positive("J_guess", J_guess)
-            start = {"J": J0, "J_tau": 0.0, "tau": 0.0, "Fc": 0.0, "Fs": 0.0, "sigma": 0.0, "offset": 0.0}
-        else:
-            tau0 = min(max(initial.tau, 0.0), self.tau_max) if self.lag else 0.0
-            J0 = min(max(initial.J, 1e-9), J_max)
-            start = {"J": J0, "J_tau": J0 * tau0, "tau": tau0, "Fc": max(initial.Fc, 0.0),
-                     "Fs": max(initial.Fs, 0.0), "sigma": max(initial.sigma, 0.0), "offset": initial.offset}
-            if not all(math.isfinite(v) for v in start.values()):
-                raise ParameterError(f"initial estimate must be finite, got {initial!r}")
+            first = {"J": check_positive("J_guess", J_guess), "tau": 0.0, "Fc": 0.0, "Fs": 0.0, "sigma": 0.0,
+                     "offset": 0.0}
+        else:  # clipped to the box by aff_sliding_init, which refuses a start that is not finite then
+            first = {k: float(getattr(initial, k)) for k in ("J", "tau", "Fc", "Fs", "sigma", "offset")}
         P0 = check_positive("P0", P0)
-        # no bounds on the RLS state: the box applies to the reported estimate only (class Notes)
-        rls = RecursiveLeastSquares(len(self.names), lam=lam, P0=P0, forgetting=forgetting,
-                                    P_max=len(self.names) * P0 if P_max is None else P_max,
-                                    theta0=[start[n] for n in self.names])
+        p = len(self.names)
+        # the RLS object checks lam, forgetting and P_max; the struct is the one aff_sliding_init builds (no bounds
+        # on the RLS state: the box applies to the reported estimate only, class Notes), its start the clipped
+        # initial estimate
+        rls = RecursiveLeastSquares(p, lam=lam, P0=P0, forgetting=forgetting, P_max=p * P0 if P_max is None else P_max)
         self._box = (np.array([lower[n] for n in self.names]), np.array([upper[n] for n in self.names]))
         gate = OutlierGate() if gate is None else gate
         if not isinstance(gate, OutlierGate):
@@ -315,16 +311,19 @@ class SlidingFrictionEstimator(Component):
                 raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
         if w_range.floor == 0.0:
             w_range = w_range.with_floor(self.Vs)
-        p = len(self.names)
-        a = 1.0 - math.exp(-self.Tc / self.T)
-        settle = int(math.ceil(8.0 * self.T / self.Tc))  # filter transients (Erlang-3 tail < 1.5 %)
-        lam_min = float(np.min(rls.lam))
-        e2_rate = 1.0 - lam_min if lam_min < 1.0 else 0.01  # running mean square error, same memory
-        self._new_struct()
-        if lib.aff_sliding_init(self._c, self.Vs, self.delta, a, self.T, self.m, settle, self.w_band_min,
-                                self.dwell_max, e2_rate, self.lag, self.offset, gate.cdata, u_range.cdata,
-                                w_range.cdata, rls.cdata) != 0:
-            raise ParameterError(f"the RLS has {rls.n_params} parameters, the structure {p}")  # cannot happen
+        vector = np.ndim(rls.lam) > 0
+        cfg = self._settings("aff_sliding_config", lib.aff_sliding_default_config(), {
+            "Vs": self.Vs, "delta": self.delta, "Tc": self.Tc, "Ts": float(Ts), "T_filter": self.T,
+            "forgetting": lib.AFF_RLS_VECTOR if vector else (lib.AFF_RLS_DIRECTIONAL if rls.forgetting == "directional"
+                                                             else lib.AFF_RLS_EXPONENTIAL),
+            "lam": 1.0 if vector else rls.lam, "lam_each": [float(x) for x in rls.lam] if vector else [0.0],
+            "P0": P0, "P_max": rls.P_max, "lag": self.lag, "offset": self.offset, "w_band_min": self.w_band_min,
+            "dwell_max": self.dwell_max, "J_max": J_max, "tau_max": self.tau_max,
+            **{f"initial_{k}": v for k, v in first.items()}})
+        cfg.gate, cfg.u_range, cfg.w_range = gate.config[0], u_range.config[0], w_range.config[0]
+        self._configure(lib.aff_sliding_init, cfg, lib.aff_error_message,
+                        names={lib.AFF_ERR_SLIDING_INITIAL: f"initial = {initial!r}"})
+        rls.theta = ffi.unpack(self._c.rls.theta, p)  # the start aff_sliding_init computed
         self.gate = gate
         self.u_range = u_range
         self.w_range = w_range

@@ -1,6 +1,7 @@
 """The feedforward supervisor: a compensator's torque is applied only while it makes the loop's disturbance smaller.
 
-:class:`FeedforwardSupervisor` wraps the C struct ``aff_supervisor`` (``adaptive_ff/csrc/aff_supervisor.h``).
+:class:`FeedforwardSupervisor` wraps the C struct ``aff_supervisor`` (``adaptive_ff/csrc/aff_supervisor.h``),
+configured from its settings ``aff_supervisor_config`` by ``aff_supervisor_init``.
 The closed-loop engine composes it like the sensor gate and the drive
 (:meth:`controllers.simulation.engine.EngineRun.set_supervisor`): each period it passes the compensator's
 candidate torque through :meth:`FeedforwardSupervisor.apply` and, after the PI, hands it the applied torque and the
@@ -60,6 +61,12 @@ class FeedforwardSupervisor(Component):
     delay : int, keyword-only
         Measurement delay of the velocity (periods), 0..:data:`DELAY_MAX`; default 0. The statistic pairs the
         velocity difference with the torques of ``delay`` periods before.
+    Kp, Ki : float or None, keyword-only
+        The loop's PI gains (N·m·s/rad, > 0; N·m/rad, >= 0) for the tracking test (Notes); default None: no tracking
+        test, the torque test alone.
+    track_margin : float, keyword-only
+        The tracking test backs off where the loop's mean-square velocity error with the candidate exceeds ``1 +
+        track_margin`` times the error without it (-), >= 0; default 1 (twice).
 
     Attributes
     ----------
@@ -75,6 +82,11 @@ class FeedforwardSupervisor(Component):
         Filtered disturbance without and with the candidate (N·m).
     ms_friction, ms_residual : float
         Their exponentially weighted mean squares ``M_f``, ``M_r`` (N²·m²).
+    ms_error_none, ms_error_comp : float
+        The tracking test's mean squares ``M_e0``, ``M_e1`` of the velocity error the nominal loop makes from the
+        disturbance without and with the candidate ((rad/s)²; 0 without the test).
+    n_backoff_tracking : int
+        Back-offs the tracking test made where the torque test would not have.
 
     Raises
     ------
@@ -92,7 +104,10 @@ class FeedforwardSupervisor(Component):
     is the friction whatever torque was applied (``J*dw/dt = u - f``), ``r_hat = Q[v - u_c]`` the residual
     the candidate ``u_c`` leaves. With ``M = EWMA(x^2)`` (``m += b*(x^2 - m)``, ``b = 1 - exp(-Tc/window)``, from
     0 at period ``n_start = ceil(5/(omega*Tc))`` on, past the Q-filter's start transient), from period ``n_start +
-    round(settle/Tc)`` on: on and ``M_r > M_f``: back off; off and ``M_r < (1 - margin)*M_f``: on again. Noise and
+    round(settle/Tc)`` on: on and ``M_r > M_f``: back off; off and ``M_r < (1 - margin)*M_f``, with the joint moving
+    in the reference's direction at half its speed or more (``w*w_ref > 0``, ``|w| >= |w_ref|/2``; any ``w`` where
+    ``w_ref`` is not finite): on again (a feedforward switched on at a joint stuck at a reversal takes the sign of
+    the sensor's noise). Noise and
     the inertia error enter ``f_hat`` and ``r_hat`` alike. In the period the applied torque switches the loop adds ``+u_c`` (off) or
     ``-u_c`` (on) to its PI integrator (bumpless transfer, Åström & Hägglund, *Advanced PID Control*, ISA 2006,
     Sec. 3.5). With the reference at rest a velocity loop's friction brakes the joint toward its setpoint
@@ -105,6 +120,17 @@ class FeedforwardSupervisor(Component):
     ``at_rest``: the residual observer of :class:`controllers.peers.adaptive_dob.AdaptiveDOBCompensator` records the
     torque as applied, without the feedforward it did not get). While on and moving, the applied torque is the
     candidate itself (bit for bit).
+
+    The tracking test (with ``Kp``, ``Ki``) weighs the same residual by what it does to the loop's tracking: the
+    nominal loop (the PI on the error, its integrator updated first, and ``J_n`` over ``Tc``) turns a torque ``d``
+    into the velocity error ``G[d]`` (``y(k+1) = y(k) + Tc/J_n*(Kp*e + I(k+1) + d(k))``, ``I(k+1) = I(k) + Ki*Tc*e``,
+    ``e = -y(k)``); ``e0 = G[v]`` is the error the disturbance makes without compensation, ``e1 = G[v - u_c]`` with
+    the candidate. A constant residual the PI's integrator rejects costs no tracking; a ripple at the loop's
+    bandwidth costs most. With ``M_e0``, ``M_e1`` their mean squares (as ``M_f``, ``M_r``): on and ``M_e1 > (1 +
+    track_margin)*M_e0``: back off; off: on again only where both tests clear ``margin``. The measured error is not
+    compared: it holds the reference's own tracking error, which dwarfs the friction's share where the friction
+    costs little. Without ``track_margin`` the test backed the ``paper`` joint off during its feedforward's fade-in
+    (the models' integrators still held the friction's rejection, ``M_e1`` 1.13 times ``M_e0`` for a second).
     C: ``adaptive_ff/csrc/aff_supervisor.c``.
     """
 
@@ -112,28 +138,35 @@ class FeedforwardSupervisor(Component):
     _ctype = "aff_supervisor"
 
     def __init__(self, *, Tc: float, J_n: float, omega: float, window: float = 2.0, margin: float = 0.1,
-                 settle: float | None = None, rest_band: float | None = 0.0, delay: int = 0):
+                 settle: float | None = None, rest_band: float | None = 0.0, delay: int = 0,
+                 Kp: float | None = None, Ki: float = 0.0, track_margin: float = 1.0):
         Tc, J_n = check_positive("Tc", Tc), check_positive("J_n", J_n)
         omega, window = check_positive("omega", omega), check_positive("window", window)
         margin = float(margin)
         if not (0.0 <= margin < 1.0):
             raise ParameterError(f"margin must be in [0, 1), got {margin!r}")
-        settle = 0.5 * window if settle is None else check_nonnegative("settle", settle)
+        settle = -1.0 if settle is None else check_nonnegative("settle", settle)  # -1: window/2
         band = -1.0 if rest_band is None else check_nonnegative("rest_band", rest_band)
         if isinstance(delay, bool) or not isinstance(delay, (int, np.integer)) or not 0 <= delay <= DELAY_MAX:
             raise ParameterError(f"delay must be an integer in 0..{DELAY_MAX} (periods), got {delay!r}")
-        if not all(math.isfinite(v) for v in (Tc, J_n, omega, window, settle, band)):
-            raise ParameterError(f"Tc, J_n, omega, window, settle and rest_band must be finite, got {Tc!r}, {J_n!r}, "
-                                 f"{omega!r}, {window!r}, {settle!r}, {rest_band!r}")
-        self._new_struct()
-        if lib.aff_supervisor_init(self._c, Tc, J_n, omega, window, margin, settle, band, int(delay)) != 0:
-            raise ParameterError("aff_supervisor_init refused the settings")  # unreachable after the checks
+        if Kp is None:
+            Kp, Ki = 0.0, 0.0  # no tracking test
+        else:
+            Kp, Ki = check_positive("Kp", Kp), check_nonnegative("Ki", Ki)
+        track_margin = check_nonnegative("track_margin", track_margin)
+        cfg = self._settings("aff_supervisor_config", lib.aff_supervisor_default_config(),
+                             {"Tc": Tc, "J_n": J_n, "omega": omega, "window": window, "margin": margin,
+                              "settle": settle, "rest_band": band, "delay": int(delay), "Kp": Kp, "Ki": Ki,
+                              "track_margin": track_margin})
+        self._configure(lib.aff_supervisor_init, cfg, lib.aff_error_message)
 
     def __repr__(self) -> str:
         c = self._c
         return (f"FeedforwardSupervisor(Tc={c.Tc!r}, J_n={c.J_n!r}, omega={c.omega!r}, window={c.window!r}, "
                 f"margin={c.margin!r}, settle={c.settle!r}, "
-                f"rest_band={None if c.rest_band < 0 else c.rest_band!r}, delay={c.delay!r})")
+                f"rest_band={None if c.rest_band < 0 else c.rest_band!r}, delay={c.delay!r}, "
+                f"Kp={c.Kp if c.track else None!r}, Ki={c.KiTc / c.Tc if c.track else 0.0!r}, "
+                f"track_margin={c.track_margin if c.track else 1.0!r})")
 
     @property
     def on(self) -> bool:
@@ -223,6 +256,20 @@ class FeedforwardSupervisor(Component):
         out["on"] = on.astype(bool)
         return out
 
+    @property
+    def n_backoff_tracking(self) -> int:
+        return int(self._c.n_backoff_tracking)
+
+    @property
+    def ms_error_none(self) -> float:
+        return float(self._c.m_e0)
+
+    @property
+    def ms_error_comp(self) -> float:
+        return float(self._c.m_e1)
+
     def info(self) -> dict:
-        """The counters a closed-loop result reports: ``n_backoff``, ``n_restore``, ``t_off``, ``t_rest`` (s)."""
-        return {"n_backoff": self.n_backoff, "n_restore": self.n_restore, "t_off": self.t_off, "t_rest": self.t_rest}
+        """The counters a closed-loop result reports: ``n_backoff``, ``n_backoff_tracking`` (of them, decided by the
+        tracking test alone), ``n_restore``, ``t_off``, ``t_rest`` (s)."""
+        return {"n_backoff": self.n_backoff, "n_backoff_tracking": self.n_backoff_tracking,
+                "n_restore": self.n_restore, "t_off": self.t_off, "t_rest": self.t_rest}

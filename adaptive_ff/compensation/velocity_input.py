@@ -10,8 +10,9 @@ better input there:
 * :class:`SignObserver`, a velocity observer driven by the applied torque: the sign of the map inside the stick
   band before the joint counts as stuck.
 
-The classes hold the settings. Their configuration and state are C structs embedded in the feedforward's
-(``adaptive_ff/csrc/aff_velocity_input.h``: ``aff_loop_model``, ``aff_sign_observer``), advanced once per
+The classes hold the settings (the C ``aff_loop_model_config``, ``aff_sign_observer_config``). Their configuration
+and state are C structs embedded in the feedforward's (``adaptive_ff/csrc/aff_velocity_input.h``: ``aff_loop_model``,
+``aff_sign_observer``, configured by ``aff_loop_model_init``, ``aff_sign_observer_init``), advanced once per
 controller period by C (``aff_loop_model_step``, ``aff_sign_observer_signed``, ``aff_sign_observer_step``) inside
 the feedforwards' compensate/observe (``adaptive_ff/csrc/aff_feedforward.c`` and the adaptive feedforwards).
 """
@@ -89,11 +90,13 @@ class LoopModel:
         """The tracking bandwidth in use (rad/s): ``track``, or ``Kp/J`` when it is None."""
         return float(self.Kp) / float(self.J) if self.track is None else float(self.track)
 
-    def coefficients(self, dt: float) -> tuple:
-        """``(Kp, Ki*dt, dt/J, 1 - exp(-bandwidth*dt))`` at the period ``dt`` (s): the configuration of the C
-        ``aff_loop_model`` (``aff_loop_model_init``; one period: ``e = w_ref - w_m``, ``I += Ki*dt*e``,
-        ``w_m += dt/J*(Kp*e + I)``, the deviation tracked with the last gain, class Notes)."""
-        return (float(self.Kp), float(self.Ki) * dt, dt / float(self.J), 1.0 - math.exp(-self.bandwidth * dt))
+    def config_fields(self) -> dict:
+        """The fields of the C settings ``aff_loop_model_config`` (``aff_loop_model_init`` computes from them and the
+        period ``dt`` the gains ``Ki*dt``, ``dt/J`` and ``1 - exp(-bandwidth*dt)``; one period: ``e = w_ref - w_m``,
+        ``I += Ki*dt*e``, ``w_m += dt/J*(Kp*e + I)``, the deviation tracked with the last gain, class Notes):
+        ``Kp``, ``Ki``, ``J`` and ``track`` (-1 for None: ``Kp/J``)."""
+        return {"Kp": float(self.Kp), "Ki": float(self.Ki), "J": float(self.J),
+                "track": -1.0 if self.track is None else float(self.track)}
 
 
 @dataclass(frozen=True)
@@ -149,10 +152,9 @@ class SignObserver:
         if self.residual_bandwidth is not None:
             check_nonnegative("residual_bandwidth", self.residual_bandwidth)
 
-    def gains(self, dt: float) -> tuple:
-        """``(l1, l2)`` of the observer at the period ``dt`` (s): error poles at ``exp(-bandwidth*dt)`` and
-        ``exp(-residual_bandwidth*dt)`` (class Notes)."""
-        p1 = math.exp(-float(self.bandwidth) * dt)
-        rb = 0.1 * float(self.bandwidth) if self.residual_bandwidth is None else float(self.residual_bandwidth)
-        p2 = math.exp(-rb * dt)
-        return 1.0 - p1 * p2, (1.0 - p1) * (1.0 - p2)
+    def config_fields(self) -> dict:
+        """The fields of the C settings ``aff_sign_observer_config`` (``aff_sign_observer_init`` computes from them
+        and the period the gains ``l1``, ``l2`` of the class Notes and ``Tc/J``): ``J``, ``bandwidth`` and
+        ``residual_bandwidth`` (-1 for None: ``0.1*bandwidth``)."""
+        return {"J": float(self.J), "bandwidth": float(self.bandwidth),
+                "residual_bandwidth": -1.0 if self.residual_bandwidth is None else float(self.residual_bandwidth)}

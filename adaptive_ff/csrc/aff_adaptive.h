@@ -31,6 +31,16 @@
 #include "aff_robust_ff.h"
 #include "aff_residual.h"
 #include "aff_supervisor.h"
+#include "aff_error.h"
+
+/* Mode "adaptive"'s settings: which parts act and each part's (Python: AdaptiveCompensator's parts). */
+typedef struct aff_adaptive_config {
+    int use_residual;         /* 1 (default): the residual observer res acts; 0: the feedforward alone */
+    int use_supervisor;       /* 1 (default): the supervisor sup judges the compensation; 0: none */
+    aff_robust_ff_config ff;  /* the adaptive feedforward with its estimator */
+    aff_residual_config res;  /* the residual observer with its switch-in (read if use_residual; its u_max always) */
+    aff_supervisor_config sup; /* the supervisor (read if use_supervisor) */
+} aff_adaptive_config;
 
 /* Configuration (which parts act), then the parts and the state. */
 typedef struct aff_adaptive {
@@ -44,10 +54,18 @@ typedef struct aff_adaptive {
                              supervisor switched the compensation on or off */
 } aff_adaptive;
 
-/* Configure a from the configured parts, each copied by value: ff (aff_robust_ff_init), res (aff_residual_init,
- * aff_residual_set_switch_in; NULL: the feedforward without the observer) and sup (aff_supervisor_init; NULL: no
- * supervisor). */
-void aff_adaptive_init(aff_adaptive *a, const aff_robust_ff *ff, const aff_residual *res, const aff_supervisor *sup);
+/* Mode "adaptive"'s defaults: all parts acting, each with its defaults (set the joint's: ff.est.Vs, ff.est.delta,
+ * res.dob.J_n, res.switch_in.J_n, .Kp, .Ki, sup.J_n, sup.omega). */
+aff_adaptive_config aff_adaptive_default_config(void);
+
+/* Configure a from *cfg and clear its state: the feedforward (aff_robust_ff_init), with use_residual the residual
+ * observer (aff_residual_init; else res cleared but its u_max), with use_supervisor the supervisor
+ * (aff_supervisor_init; else sup cleared). Returns AFF_OK, or AFF_ERR_NULL, AFF_ERR_ADAPTIVE_USE_RESIDUAL,
+ * _USE_SUPERVISOR or a code of the parts' (a untouched). Python: AdaptiveCompensator.__init__. */
+aff_error aff_adaptive_init(aff_adaptive *a, const aff_adaptive_config *cfg);
+
+/* The checks of aff_adaptive_init alone: AFF_OK or the code it would return for *cfg. */
+aff_error aff_adaptive_check_config(const aff_adaptive_config *cfg);
 
 /* Compensator interface (aff_compensator.h), self an aff_adaptive: this period's compensation (N*m) for the
  * controller's velocity w_ctrl, the raw sample w_meas and the reference w_ref (rad/s), in the order of the header

@@ -1,20 +1,55 @@
 /* aff_dob.c -- the disturbance observer (see aff_dob.h). */
 #include <stddef.h>
+#include <string.h>
 #include "aff_dob.h"
 
-int aff_dob_init(aff_dob *d, aff_real Tc, aff_real J_n, aff_real omega_q, long order, aff_real d_max)
+aff_dob_config aff_dob_default_config(void)
 {
-    if (order < 1 || order > AFF_DOB_ORDER_MAX)
-        return -1;
-    d->Tc = Tc;
-    d->J_n = J_n;
-    d->omega_q = omega_q;
-    d->order = order;
-    d->a = (aff_real)1.0 - AFF_EXP(-Tc * omega_q);
-    d->d_max = d_max;
-    aff_range_gate_init(&d->u_range, (aff_real)INFINITY, (aff_real)100.0, (aff_real)0.0,
-                        AFF_EXP((aff_real)-1.0 / (aff_real)10000.0), 20);
-    d->w_range = d->u_range;
+    aff_dob_config c;
+    c.Tc = (aff_real)1e-3;
+    c.J_n = 0;
+    c.omega_q = (aff_real)500.0;
+    c.order = 2;
+    c.d_max = (aff_real)INFINITY;
+    c.u_range = aff_range_gate_default_config();
+    c.w_range = aff_range_gate_default_config();
+    return c;
+}
+
+aff_error aff_dob_check_config(const aff_dob_config *cfg)
+{
+    aff_error e;
+    if (cfg == NULL)
+        return AFF_ERR_NULL;
+    if (!aff_positive(cfg->Tc))
+        return AFF_ERR_DOB_TC;
+    if (!aff_positive(cfg->J_n))
+        return AFF_ERR_DOB_J_N;
+    if (!aff_positive(cfg->omega_q))
+        return AFF_ERR_DOB_OMEGA_Q;
+    if (cfg->order < 1 || cfg->order > AFF_DOB_ORDER_MAX)
+        return AFF_ERR_DOB_ORDER;
+    if (!aff_nonnegative_or_inf(cfg->d_max))
+        return AFF_ERR_DOB_D_MAX;
+    if ((e = aff_range_gate_check_config(&cfg->u_range)) != AFF_OK)
+        return e;
+    return aff_range_gate_check_config(&cfg->w_range);
+}
+
+aff_error aff_dob_init(aff_dob *d, const aff_dob_config *cfg)
+{
+    aff_error e = d == NULL ? AFF_ERR_NULL : aff_dob_check_config(cfg);
+    if (e != AFF_OK)
+        return e;
+    memset(d, 0, sizeof *d);
+    d->Tc = cfg->Tc;
+    d->J_n = cfg->J_n;
+    d->omega_q = cfg->omega_q;
+    d->order = cfg->order;
+    d->a = (aff_real)1.0 - AFF_EXP(-cfg->Tc * cfg->omega_q);
+    d->d_max = cfg->d_max;
+    aff_range_gate_init(&d->u_range, &cfg->u_range);
+    aff_range_gate_init(&d->w_range, &cfg->w_range);
     d->d_hat = 0;
     d->u_last = 0;
     d->w_last = 0;
@@ -22,7 +57,7 @@ int aff_dob_init(aff_dob *d, aff_real Tc, aff_real J_n, aff_real omega_q, long o
     d->n_rejected = 0;
     for (long i = 0; i < AFF_DOB_ORDER_MAX; i++)
         d->x[i] = 0;
-    return 0;
+    return AFF_OK;
 }
 
 aff_real aff_dob_compensate(void *self, aff_real w_ctrl, aff_real w_meas, aff_real w_ref)

@@ -21,9 +21,21 @@
 #include "aff_gate.h"
 #include "aff_compensator.h"
 #include "aff_supervisor.h"
+#include "aff_error.h"
 
 /* Highest order of the binomial Q-filter (the Python wrapper refuses more with a ParameterError). */
 #define AFF_DOB_ORDER_MAX 8
+
+/* The observer's settings (Python: DisturbanceObserver's arguments of the same names). */
+typedef struct aff_dob_config {
+    aff_real Tc;                    /* controller period (s), finite, > 0; default 0.001 */
+    aff_real J_n;                   /* nominal inertia (kg*m^2), finite, > 0: set it (the design inertia); default 0 */
+    aff_real omega_q;               /* Q-filter cut-off (rad/s), finite, > 0; default 500 */
+    long order;                     /* order of the binomial Q-filter, 1..AFF_DOB_ORDER_MAX; default 2 */
+    aff_real d_max;                 /* bound on |d_hat| (N*m), >= 0; INFINITY (default): none */
+    aff_range_gate_config u_range;  /* range gate of the torque samples (N*m); default: aff_range_gate_default_config */
+    aff_range_gate_config w_range;  /* range gate of the velocity samples (rad/s); the same default */
+} aff_dob_config;
 
 /* Configuration, then state. */
 typedef struct aff_dob {
@@ -43,11 +55,17 @@ typedef struct aff_dob {
     aff_real x[AFF_DOB_ORDER_MAX];  /* states of the cascaded lags (N*m), order valid */
 } aff_dob;
 
-/* Configure d (a = 1 - exp(-Tc*omega_q)) and clear its state (d_hat, u_last, x = 0, no velocity yet, counter
- * 0); both range gates get the defaults of adaptive_ff.compensation.gate.RangeGate() (x_max INFINITY, factor
- * 100, floor 0, memory 10000 samples, max_consecutive 20): reconfigure them with aff_range_gate_init after.
- * Returns 0, or -1 (d untouched) for order outside 1..AFF_DOB_ORDER_MAX. */
-int aff_dob_init(aff_dob *d, aff_real Tc, aff_real J_n, aff_real omega_q, long order, aff_real d_max);
+/* The observer's defaults (DisturbanceObserver's: Tc 0.001 s, omega_q 500 rad/s, order 2, no bound, the default
+ * range gates); J_n is 0: set it (the design inertia). */
+aff_dob_config aff_dob_default_config(void);
+
+/* Configure d from *cfg (a = 1 - exp(-Tc*omega_q), the range gates) and clear its state (d_hat, u_last, x = 0, no
+ * velocity yet, counter 0). Returns AFF_OK, or AFF_ERR_NULL, AFF_ERR_DOB_TC, _J_N, _OMEGA_Q, _ORDER, _D_MAX or a
+ * range gate's code (d untouched). Python: DisturbanceObserver.__init__. */
+aff_error aff_dob_init(aff_dob *d, const aff_dob_config *cfg);
+
+/* The checks of aff_dob_init alone: AFF_OK or the code it would return for *cfg. */
+aff_error aff_dob_check_config(const aff_dob_config *cfg);
 
 /* Compensator interface (aff_compensator.h), self a aff_dob: advance the observer with the controller's
  * velocity w_ctrl (rad/s) of this period and return the bounded d_hat (N*m). A w_ctrl refused by w_range is

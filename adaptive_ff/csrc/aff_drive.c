@@ -34,23 +34,51 @@ aff_guard_config aff_guard_default_config(void)
     return g;
 }
 
-aff_error aff_init(aff *c, const aff_adaptive *initial, const aff_guard_config *guard)
+aff_config aff_default_config(void)
 {
-    aff_guard_config g = guard != NULL ? *guard : aff_guard_default_config();
-    if (c == NULL || initial == NULL)
+    aff_config c;
+    c.mode = aff_adaptive_default_config();
+    c.guard = aff_guard_default_config();
+    return c;
+}
+
+aff_error aff_check_config(const aff_config *cfg)
+{
+    const aff_guard_config *g;
+    const aff_adaptive_config *m;
+    aff_real Tc;
+    aff_error e;
+    if (cfg == NULL)
         return AFF_ERR_NULL;
-    if (!aff_positive(g.Tc))
-        return AFF_ERR_TC;
-    if (!aff_positive(g.w_max))
-        return AFF_ERR_W_MAX;
-    if (!aff_positive(g.u_max))
-        return AFF_ERR_U_MAX;
-    if (!(isfinite(g.hold_time) && g.hold_time >= g.Tc))
-        return AFF_ERR_HOLD_TIME;
-    c->mode = *initial;
+    g = &cfg->guard;
+    m = &cfg->mode;
+    if (!aff_positive(g->Tc))
+        return AFF_ERR_GUARD_TC;
+    if (!aff_positive(g->w_max))
+        return AFF_ERR_GUARD_W_MAX;
+    if (!aff_positive(g->u_max))
+        return AFF_ERR_GUARD_U_MAX;
+    if (!(isfinite(g->hold_time) && g->hold_time >= g->Tc))
+        return AFF_ERR_GUARD_HOLD_TIME;
+    if ((e = aff_adaptive_check_config(m)) != AFF_OK)
+        return e;
+    Tc = g->Tc;
+    if (m->ff.ff.dt != Tc || m->ff.est.Tc != Tc
+        || (m->use_residual && (m->res.dob.Tc != Tc || (m->res.use_switch_in && m->res.switch_in.Tc != Tc)))
+        || (m->use_supervisor && m->sup.Tc != Tc))
+        return AFF_ERR_DRIVE_TC;
+    return AFF_OK;
+}
+
+aff_error aff_init(aff *c, const aff_config *cfg)
+{
+    aff_error e = c == NULL ? AFF_ERR_NULL : aff_check_config(cfg);
+    if (e != AFF_OK)
+        return e;
+    aff_adaptive_init(&c->mode, &cfg->mode);
     guard_save(c);
-    c->guard = g;
-    aff_real nh = AFF_FLOOR(g.hold_time / g.Tc + (aff_real)0.5);
+    c->guard = cfg->guard;
+    aff_real nh = AFF_FLOOR(c->guard.hold_time / c->guard.Tc + (aff_real)0.5);
     c->n_hold = nh < 1 ? 1u : (nh > (aff_real)4e9 ? 4000000000u : (uint32_t)nh);
     c->out = 0;
     c->fade_step = 0;
@@ -65,25 +93,6 @@ aff_error aff_init(aff *c, const aff_adaptive *initial, const aff_guard_config *
     c->status.n_held = 0;
     c->status.faded = 0;
     return AFF_OK;
-}
-
-const char *aff_error_message(aff_error e)
-{
-    switch (e) {
-    case AFF_OK:
-        return "configured";
-    case AFF_ERR_NULL:
-        return "a NULL pointer was given for the compensator or its initial configuration";
-    case AFF_ERR_TC:
-        return "the guard's Tc (controller period, s) must be finite and > 0";
-    case AFF_ERR_W_MAX:
-        return "the guard's w_max (largest plausible velocity, rad/s) must be finite and > 0";
-    case AFF_ERR_U_MAX:
-        return "the guard's u_max (largest plausible torque, N*m) must be finite and > 0";
-    case AFF_ERR_HOLD_TIME:
-        return "the guard's hold_time (s) must be finite and at least Tc";
-    }
-    return "unknown error code";
 }
 
 /* 1 if x is a plausible sample: finite, not subnormal, |x| <= bound. */
@@ -160,7 +169,9 @@ aff_real aff_transfer(const aff *c)
     return c->dropped ? (aff_real)0 : c->mode.transfer;
 }
 
-int aff_observe(aff *c, aff_real u, aff_real w_meas)
+/* The guard's half of aff_observe: 1 if the period is taken, else 0 (a refused input of this call, counted, the
+ * state put back as before this period's aff_step; or a period aff_step already dropped). */
+static int guard_take(aff *c, aff_real u, aff_real w_meas)
 {
     if (c->dropped)
         return 0;
@@ -176,9 +187,37 @@ int aff_observe(aff *c, aff_real u, aff_real w_meas)
         c->status.n_held = guard_count_up(c->status.n_held);
         return 0;
     }
+    return 1;
+}
+
+int aff_observe(aff *c, aff_real u, aff_real w_meas)
+{
+    if (!guard_take(c, u, w_meas))
+        return 0;
     aff_adaptive_observe(&c->mode, u, w_meas, NULL);
     return 1;
 }
+
+/* The drive's calls behind the compensator interface (aff_drive_ops). */
+static aff_real drive_compensate(void *self, aff_real w_ctrl, aff_real w_meas, aff_real w_ref)
+{
+    return aff_step_gated((aff *)self, w_ctrl, w_meas, w_ref);
+}
+
+static int drive_observe(void *self, aff_real u, aff_real w_meas, aff_real *theta_out)
+{
+    aff *c = (aff *)self;
+    if (!guard_take(c, u, w_meas))
+        return 0;
+    return aff_adaptive_observe(&c->mode, u, w_meas, theta_out);
+}
+
+static aff_real drive_transfer(void *self)
+{
+    return aff_transfer((const aff *)self);
+}
+
+const aff_compensator_ops aff_drive_ops = {"adaptive", drive_compensate, drive_observe, NULL, drive_transfer, NULL};
 
 aff_status_report aff_status(const aff *c)
 {

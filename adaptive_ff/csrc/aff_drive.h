@@ -21,34 +21,36 @@
  * the guard changes nothing: aff_step/aff_observe give the engine's numbers bit for bit (double build).
  *
  * No allocation, no I/O, no global state; every call does a bounded amount of work (one RLS update of at most
- * AFF_RLS_NMAX parameters every Ts/Tc calls at most; one copy of aff_saved). The configured compensator comes from the
- * package (its Python constructors validate the settings and compute the derived fields): `adaptive-ff export-c`
- * writes it as AFF_INITIAL and the guard's settings as AFF_GUARD. Python: the same functions through cffi
- * (adaptive_ff._caff); controllers.peers.adaptive_dob.AdaptiveCompensator wraps aff_adaptive.
+ * AFF_RLS_NMAX parameters every Ts/Tc calls at most; one copy of aff_saved). The compensator is configured from an
+ * aff_config (settings in SI units; aff_default_config, or AFF_CONFIG of `adaptive-ff export-c`): aff_init checks
+ * every field and computes the derived ones (filter coefficients, forgetting factors, counts), the same functions the
+ * package's Python classes call with the same settings. Python: the same functions through cffi (adaptive_ff._caff);
+ * controllers.peers.adaptive_dob.AdaptiveCompensator wraps aff_adaptive.
  */
 #ifndef AFF_DRIVE_H
 #define AFF_DRIVE_H
 #include <stdint.h>
 #include "aff_real.h"
 #include "aff_adaptive.h"
-
-/* Error codes of aff_init (aff_error_message: a sentence). */
-typedef enum aff_error {
-    AFF_OK = 0,           /* configured */
-    AFF_ERR_NULL = 1,     /* a NULL pointer */
-    AFF_ERR_TC = 2,       /* Tc not finite and > 0 */
-    AFF_ERR_W_MAX = 3,    /* w_max not finite and > 0 */
-    AFF_ERR_U_MAX = 4,    /* u_max not finite and > 0 */
-    AFF_ERR_HOLD_TIME = 5 /* hold_time not finite and >= Tc */
-} aff_error;
+#include "aff_error.h"
 
 /* The input guard's settings (SI units). */
 typedef struct aff_guard_config {
-    aff_real Tc;          /* controller period (s), > 0 */
-    aff_real w_max;       /* largest plausible |w|, |w_ref| (rad/s), > 0 */
-    aff_real u_max;       /* largest plausible |u| (N*m), > 0 (e.g. twice the drive's torque limit) */
-    aff_real hold_time;   /* a held output older than this fades to 0 over the same time (s), >= Tc */
+    aff_real Tc;          /* controller period (s), finite, > 0; default 0.001 */
+    aff_real w_max;       /* largest plausible |w|, |w_ref| (rad/s), finite, > 0; default 1e4 (a few times your top
+                             speed) */
+    aff_real u_max;       /* largest plausible |u| (N*m), finite, > 0; default 1e6 (twice your torque limit) */
+    aff_real hold_time;   /* a held output older than this fades to 0 over the same time (s), finite, >= Tc;
+                             default 0.1 */
 } aff_guard_config;
+
+/* The drive's settings: mode "adaptive" and the input guard. `adaptive-ff export-c` writes them as AFF_CONFIG
+ * (aff_config.c, a designated initializer of this struct). */
+typedef struct aff_config {
+    aff_adaptive_config mode; /* mode "adaptive" (aff_adaptive.h): the feedforward, the residual observer, the
+                                 supervisor */
+    aff_guard_config guard;   /* the input guard */
+} aff_config;
 
 /* The compensator's state as a drive reports it. */
 typedef enum aff_state {
@@ -108,13 +110,20 @@ typedef struct aff {
  * drive's: twice its torque limit, a few times its top speed). */
 aff_guard_config aff_guard_default_config(void);
 
-/* Start c from the configured compensator *initial (copied; e.g. &AFF_INITIAL of an export, or the cdata of an
- * AdaptiveCompensator before it observed anything) with the guard *guard (checked; NULL: the defaults). Returns
- * AFF_OK, or an error (c untouched). Re-initialising restarts the learning. */
-aff_error aff_init(aff *c, const aff_adaptive *initial, const aff_guard_config *guard);
+/* The drive's defaults: aff_adaptive_default_config() and aff_guard_default_config(). Set the joint's fields
+ * (aff_adaptive_default_config's comment) before aff_init. */
+aff_config aff_default_config(void);
 
-/* A sentence for an aff_error (never NULL). */
-const char *aff_error_message(aff_error e);
+/* Configure c from *cfg: check every field (aff_check_config), then build mode "adaptive" (aff_adaptive_init: the
+ * derived fields computed from the settings) and clear the learning and the guard's state. Returns AFF_OK, or the
+ * code of the first field out of its range (aff_error.h; aff_error_message: a sentence), c untouched.
+ * Re-initialising restarts the learning. Python: AdaptiveCompensator (mode), adaptive_ff._caff.lib.aff_init. */
+aff_error aff_init(aff *c, const aff_config *cfg);
+
+/* The checks of aff_init alone: the guard (AFF_ERR_GUARD_TC, _W_MAX, _U_MAX, _HOLD_TIME), mode "adaptive"
+ * (aff_adaptive_check_config) and one controller period for all (AFF_ERR_DRIVE_TC: guard.Tc, mode.ff.ff.dt,
+ * mode.ff.est.Tc and, where the part acts, mode.res.dob.Tc, mode.res.switch_in.Tc, mode.sup.Tc equal). */
+aff_error aff_check_config(const aff_config *cfg);
 
 /* The compensation torque (N*m) of this period for the raw measured velocity w_meas (rad/s), used as the
  * controller's too, and the reference w_ref (rad/s): aff_step_gated(c, w_meas, w_meas, w_ref). */
@@ -157,5 +166,12 @@ int64_t aff_n_rejected(const aff *c);
  * recorded logs. */
 void aff_replay(aff *c, const aff_real *u, const aff_real *w, const aff_real *w_ctrl, const aff_real *w_ref,
                 aff_real *uff, aff_real *transfer, long n);
+
+/* The drive's compensator (self an aff, configured by aff_init) behind the compensator interface
+ * (aff_compensator.h), for a simulation that calls compensators through that table, as the package's closed-loop
+ * engine does: compensate is aff_step_gated, observe the guard's check of aff_observe and then aff_adaptive_observe
+ * (its return value and theta_out: 1 after an RLS update of the estimator, 0 also for a dropped period), transfer
+ * aff_transfer. Python: controllers.simulation.exported.ExportedLibrary runs a compiled export through it. */
+extern const aff_compensator_ops aff_drive_ops;
 
 #endif

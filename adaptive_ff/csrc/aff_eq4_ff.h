@@ -21,7 +21,7 @@
  * of its static map is within a bound of its level.
  * Provisional start (aff_eq4_ff_start): a prior map (the Stribeck pre-fit's, Sec. V-C, through a lag) acts from the
  * first period, times its gain, until the first estimate is put into use, which then replaces it at once (this
- * feedforward has no fade-in); the same start as the robust feedforward's (aff_robust_ff_start, the output by
+ * feedforward has no fade-in); the same start as the robust feedforward's (aff_start_config, the output by
  * aff_fixed_ff_start_output). Without it the feedforward is 0 until then.
  * The first prototype of the paper's future work, kept as a baseline (iv = 0, w_band = 0, no start).
  * Python: adaptive_ff.compensation.eq4_feedforward.AdaptiveFrictionFeedforward (mode "adaptive").

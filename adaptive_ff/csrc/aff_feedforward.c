@@ -1,26 +1,79 @@
 /* aff_feedforward.c -- the fixed friction feedforward (see aff_feedforward.h). */
+#include <stddef.h>
 #include <string.h>
 #include "aff_feedforward.h"
 #include "plant_stribeck.h"
 
-void aff_fixed_ff_init(aff_fixed_ff *f, aff_real dt, int lag, aff_real ff_max, aff_real sign_width,
-                       aff_real stick_band, long stick_samples, int at_ref, aff_real w_max,
-                       const aff_loop_model *lm, const aff_sign_observer *ob)
+aff_fixed_ff_config aff_fixed_ff_default_config(void)
 {
+    aff_fixed_ff_config c;
+    c.dt = (aff_real)1e-3;
+    c.lag = 1;
+    c.ff_max = (aff_real)INFINITY;
+    c.sign_width = 0;
+    c.stick_band = 0;
+    c.stick_samples = 10;
+    c.at_ref = 0;
+    c.w_max = (aff_real)INFINITY;
+    c.use_loop_model = 0;
+    c.loop_model = aff_loop_model_default_config();
+    c.use_sign_observer = 0;
+    c.sign_observer = aff_sign_observer_default_config();
+    return c;
+}
+
+aff_error aff_fixed_ff_check_config(const aff_fixed_ff_config *cfg)
+{
+    aff_error e;
+    if (cfg == NULL)
+        return AFF_ERR_NULL;
+    if (!aff_positive(cfg->dt))
+        return AFF_ERR_FIXED_FF_DT;
+    if (!aff_flag(cfg->lag))
+        return AFF_ERR_FIXED_FF_LAG;
+    if (!aff_nonnegative_or_inf(cfg->ff_max))
+        return AFF_ERR_FIXED_FF_FF_MAX;
+    if (!aff_nonnegative(cfg->sign_width))
+        return AFF_ERR_FIXED_FF_SIGN_WIDTH;
+    if (!aff_nonnegative(cfg->stick_band))
+        return AFF_ERR_FIXED_FF_STICK_BAND;
+    if (cfg->stick_samples < 1)
+        return AFF_ERR_FIXED_FF_STICK_SAMPLES;
+    if (!aff_flag(cfg->at_ref))
+        return AFF_ERR_FIXED_FF_AT_REF;
+    if (!aff_positive_or_inf(cfg->w_max))
+        return AFF_ERR_FIXED_FF_W_MAX;
+    if (!aff_flag(cfg->use_loop_model))
+        return AFF_ERR_FIXED_FF_USE_LOOP_MODEL;
+    if (!aff_flag(cfg->use_sign_observer))
+        return AFF_ERR_FIXED_FF_USE_SIGN_OBSERVER;
+    if (cfg->use_loop_model && (e = aff_loop_model_check_config(&cfg->loop_model, cfg->dt)) != AFF_OK)
+        return e;
+    if (cfg->use_sign_observer && (e = aff_sign_observer_check_config(&cfg->sign_observer, cfg->dt)) != AFF_OK)
+        return e;
+    return AFF_OK;
+}
+
+aff_error aff_fixed_ff_init(aff_fixed_ff *f, const aff_fixed_ff_config *cfg)
+{
+    aff_error e = f == NULL ? AFF_ERR_NULL : aff_fixed_ff_check_config(cfg);
+    if (e != AFF_OK)
+        return e;
     memset(f, 0, sizeof *f);
-    f->dt = dt;
-    f->lag = lag;
-    f->ff_max = ff_max;
-    f->sign_width = sign_width;
-    f->stick_band = stick_band;
-    f->stick_samples = stick_samples;
-    f->at_ref = at_ref;
-    f->w_max = w_max;
-    if (lm)
-        f->lm = *lm;
-    if (ob)
-        f->ob = *ob;
+    f->dt = cfg->dt;
+    f->lag = cfg->lag;
+    f->ff_max = cfg->ff_max;
+    f->sign_width = cfg->sign_width;
+    f->stick_band = cfg->stick_band;
+    f->stick_samples = cfg->stick_samples;
+    f->at_ref = cfg->at_ref;
+    f->w_max = cfg->w_max;
+    if (cfg->use_loop_model)
+        aff_loop_model_init(&f->lm, &cfg->loop_model, cfg->dt);
+    if (cfg->use_sign_observer)
+        aff_sign_observer_init(&f->ob, &cfg->sign_observer, cfg->dt);
     f->alpha = 1.0;
+    return AFF_OK;
 }
 
 void aff_fixed_ff_set_estimate(aff_fixed_ff *f, aff_real Fc, aff_real Fs, aff_real Vs, aff_real delta,

@@ -16,6 +16,23 @@
 #include "aff_compensator.h"
 #include "aff_velocity_input.h"
 #include "aff_regression.h"
+#include "aff_error.h"
+
+/* The fixed feedforward's settings (the estimate is put into use after init: aff_fixed_ff_set_estimate). */
+typedef struct aff_fixed_ff_config {
+    aff_real dt;              /* call period (s), finite, > 0; default 0.001 */
+    int lag;                  /* 1 (default): filter the map through the estimated lag tau (eq. 1); 0: no filter */
+    aff_real ff_max;          /* bound on |feedforward| (N*m), >= 0; INFINITY (default): none */
+    aff_real sign_width;      /* half-width of the sign ramp (rad/s), finite, >= 0; 0 (default): sgn(w) */
+    aff_real stick_band;      /* stick-detection band (rad/s), finite, >= 0; 0 (default): off */
+    long stick_samples;       /* in-band samples that declare sticking, >= 1; default 10 */
+    int at_ref;               /* 1: the map at the reference; 0 (default): at the measurement (ff_input) */
+    aff_real w_max;           /* largest plausible speed (rad/s), > 0; INFINITY (default): none */
+    int use_loop_model;       /* 1: loop_model is the stick fallback; 0 (default): the reference is */
+    aff_loop_model_config loop_model;       /* the loop model (read if use_loop_model) */
+    int use_sign_observer;    /* 1: sign_observer signs the map inside the stick band; 0 (default): none */
+    aff_sign_observer_config sign_observer; /* the sign observer (read if use_sign_observer) */
+} aff_fixed_ff_config;
 
 typedef struct aff_fixed_ff {
     /* configuration */
@@ -46,11 +63,19 @@ typedef struct aff_fixed_ff {
     aff_real u_out;           /* the compensator's output of this period (N*m), for the sign observer */
 } aff_fixed_ff;
 
-/* Configure f and clear its state (no estimate: output 0, alpha = 1). lm, ob: configured parts copied into f
- * (aff_loop_model_init, aff_sign_observer_init), or NULL for none. Python: FrictionFeedforward.__init__. */
-void aff_fixed_ff_init(aff_fixed_ff *f, aff_real dt, int lag, aff_real ff_max, aff_real sign_width,
-                       aff_real stick_band, long stick_samples, int at_ref, aff_real w_max,
-                       const aff_loop_model *lm, const aff_sign_observer *ob);
+/* The fixed feedforward's defaults (FrictionFeedforward's: dt 0.001 s, with the lag, no bound, sgn(w), no stick
+ * detection, 10 samples, at the measurement, no speed bound, no loop model, no sign observer). */
+aff_fixed_ff_config aff_fixed_ff_default_config(void);
+
+/* Configure f from *cfg and clear its state (no estimate: output 0, alpha = 1); the loop model and the sign
+ * observer (if used) at the period dt (aff_loop_model_init, aff_sign_observer_init). Returns AFF_OK, or AFF_ERR_NULL,
+ * AFF_ERR_FIXED_FF_DT, _LAG, _FF_MAX, _SIGN_WIDTH, _STICK_BAND, _STICK_SAMPLES, _AT_REF, _W_MAX, _USE_LOOP_MODEL,
+ * _USE_SIGN_OBSERVER, or a code of the loop model's or the sign observer's (f untouched). Python:
+ * FrictionFeedforward.__init__. */
+aff_error aff_fixed_ff_init(aff_fixed_ff *f, const aff_fixed_ff_config *cfg);
+
+/* The checks of aff_fixed_ff_init alone: AFF_OK or the code it would return for *cfg. */
+aff_error aff_fixed_ff_check_config(const aff_fixed_ff_config *cfg);
 
 /* Put an estimate into use: levels Fc, Fs (N*m), Vs (rad/s), delta, sigma (N*m*s/rad), lag tau (s); has_vs 0
  * drops the Stribeck term. alpha = 1 - exp(-dt/tau) if the feedforward filters through the lag and tau > 0,
@@ -74,7 +99,7 @@ aff_real aff_fixed_ff_at(aff_fixed_ff *f, aff_real w_ctrl, aff_real w_stuck, aff
 
 /* The period's output of a provisional start map (the estimate in f): at the reference w_ref (at_ref; the sign
  * observer still follows w_ctrl) or as aff_fixed_ff_at with w_stuck, times gain (N*m). The start of both adaptive
- * feedforwards (aff_robust_ff_start, aff_eq4_ff_start) until their first estimate. */
+ * feedforwards (aff_robust_ff_config.start, aff_eq4_ff_start) until their first estimate. */
 aff_real aff_fixed_ff_start_output(aff_fixed_ff *f, aff_real w_ctrl, aff_real w_stuck, aff_real w_ref, int at_ref,
                                    aff_real gain);
 

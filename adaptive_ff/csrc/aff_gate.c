@@ -1,12 +1,43 @@
 /* aff_gate.c -- the plausibility gates (see aff_gate.h). */
+#include <stddef.h>
+#include <string.h>
 #include "aff_gate.h"
 
-void aff_gate_init(aff_gate *g, aff_real max_step, aff_real n_sigma, aff_real alpha, long max_consecutive)
+aff_gate_config aff_gate_default_config(void)
 {
-    g->max_step = max_step;
-    g->n_sigma = n_sigma;
-    g->alpha = alpha;
-    g->max_consecutive = max_consecutive;
+    aff_gate_config c;
+    c.max_step = (aff_real)INFINITY;
+    c.n_sigma = (aff_real)8.0;
+    c.alpha = (aff_real)0.01;
+    c.max_consecutive = 20;
+    return c;
+}
+
+aff_error aff_gate_check_config(const aff_gate_config *cfg)
+{
+    if (cfg == NULL)
+        return AFF_ERR_NULL;
+    if (!(cfg->max_step == (aff_real)INFINITY || aff_nonnegative(cfg->max_step)))
+        return AFF_ERR_GATE_MAX_STEP;
+    if (!aff_positive(cfg->n_sigma))
+        return AFF_ERR_GATE_N_SIGMA;
+    if (!(cfg->alpha > 0 && cfg->alpha <= 1))
+        return AFF_ERR_GATE_ALPHA;
+    if (cfg->max_consecutive < 1)
+        return AFF_ERR_GATE_MAX_CONSECUTIVE;
+    return AFF_OK;
+}
+
+aff_error aff_gate_init(aff_gate *g, const aff_gate_config *cfg)
+{
+    aff_error e = g == NULL ? AFF_ERR_NULL : aff_gate_check_config(cfg);
+    if (e != AFF_OK)
+        return e;
+    memset(g, 0, sizeof *g);
+    g->max_step = cfg->max_step;
+    g->n_sigma = cfg->n_sigma;
+    g->alpha = cfg->alpha;
+    g->max_consecutive = cfg->max_consecutive;
     g->last = 0;
     g->has_last = 0;
     g->scale = 0;
@@ -14,6 +45,7 @@ void aff_gate_init(aff_gate *g, aff_real max_step, aff_real n_sigma, aff_real al
     g->n_rejected = 0;
     g->n_nonfinite = 0;
     g->n_outliers = 0;
+    return AFF_OK;
 }
 
 int aff_gate_check(aff_gate *g, aff_real x)
@@ -46,17 +78,49 @@ int aff_gate_check(aff_gate *g, aff_real x)
     return 1;
 }
 
-void aff_range_gate_init(aff_range_gate *g, aff_real x_max, aff_real factor, aff_real floor, aff_real decay,
-                         long max_consecutive)
+aff_range_gate_config aff_range_gate_default_config(void)
 {
-    g->x_max = x_max;
-    g->factor = factor;
-    g->floor = floor;
-    g->decay = decay;
-    g->max_consecutive = max_consecutive;
+    aff_range_gate_config c;
+    c.x_max = (aff_real)INFINITY;
+    c.factor = (aff_real)100.0;
+    c.floor = 0;
+    c.memory = (aff_real)10000.0;
+    c.max_consecutive = 20;
+    return c;
+}
+
+aff_error aff_range_gate_check_config(const aff_range_gate_config *cfg)
+{
+    if (cfg == NULL)
+        return AFF_ERR_NULL;
+    if (!aff_positive_or_inf(cfg->x_max))
+        return AFF_ERR_RANGE_GATE_X_MAX;
+    if (!(isfinite(cfg->factor) && cfg->factor > 1))
+        return AFF_ERR_RANGE_GATE_FACTOR;
+    if (!aff_nonnegative(cfg->floor))
+        return AFF_ERR_RANGE_GATE_FLOOR;
+    if (!aff_positive(cfg->memory))
+        return AFF_ERR_RANGE_GATE_MEMORY;
+    if (cfg->max_consecutive < 1)
+        return AFF_ERR_RANGE_GATE_MAX_CONSECUTIVE;
+    return AFF_OK;
+}
+
+aff_error aff_range_gate_init(aff_range_gate *g, const aff_range_gate_config *cfg)
+{
+    aff_error e = g == NULL ? AFF_ERR_NULL : aff_range_gate_check_config(cfg);
+    if (e != AFF_OK)
+        return e;
+    memset(g, 0, sizeof *g);
+    g->x_max = cfg->x_max;
+    g->factor = cfg->factor;
+    g->floor = cfg->floor;
+    g->decay = AFF_EXP(-(aff_real)1.0 / cfg->memory);
+    g->max_consecutive = cfg->max_consecutive;
     g->env = 0;
     g->n_held = 0;
     g->n_rejected = 0;
+    return AFF_OK;
 }
 
 int aff_range_gate_ok(const aff_range_gate *g, aff_real x)

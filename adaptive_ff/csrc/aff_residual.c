@@ -1,35 +1,69 @@
 /* aff_residual.c -- the disturbance observer on the residual, its switch-in and the bound (see aff_residual.h). */
 #include <math.h>
+#include <stddef.h>
+#include <string.h>
 #include "aff_residual.h"
 
-void aff_residual_init(aff_residual *r, const aff_dob *dob, aff_real u_max)
+aff_switch_in_config aff_switch_in_default_config(void)
 {
-    r->u_max = u_max;
-    r->u_ff = 0;
-    r->held = 0;
-    r->n_held = 0;
-    r->use_switch_in = 0;
-    r->sw.g = 1;
-    r->sw.k_in = -1;
-    r->sw.k_out = -1;
-    r->sw.decided = 0;
-    r->dob = *dob;
+    aff_switch_in_config c;
+    c.Tc = (aff_real)1e-3;
+    c.J_n = 0;
+    c.Kp = 0;
+    c.Ki = 0;
+    c.window = (aff_real)2.0;
+    c.ratio = (aff_real)0.1;
+    c.share = (aff_real)0.25;
+    c.fade_in = (aff_real)0.5;
+    c.trial_margin = (aff_real)0.03;
+    return c;
 }
 
-static int switch_in_init(aff_switch_in *s, aff_real Tc, aff_real J_n, aff_real Kp, aff_real Ki, aff_real window,
-                          aff_real ratio, aff_real share, aff_real fade_in, aff_real margin)
+aff_residual_config aff_residual_default_config(void)
 {
-    if (!aff_positive(Tc) || !aff_positive(J_n) || !aff_positive(Kp) || !aff_positive(window)
-        || !aff_positive(ratio) || !aff_positive(share) || !(isfinite(Ki) && Ki >= 0)
-        || !(isfinite(fade_in) && fade_in >= 0) || !(margin >= 0))
-        return -1;
+    aff_residual_config c;
+    c.u_max = (aff_real)INFINITY;
+    c.dob = aff_dob_default_config();
+    c.use_switch_in = 1;
+    c.switch_in = aff_switch_in_default_config();
+    return c;
+}
+
+/* The checks of the switch-in's settings. */
+static aff_error switch_in_check(const aff_switch_in_config *c)
+{
+    if (!aff_positive(c->Tc))
+        return AFF_ERR_SWITCH_IN_TC;
+    if (!aff_positive(c->J_n))
+        return AFF_ERR_SWITCH_IN_J_N;
+    if (!aff_positive(c->Kp))
+        return AFF_ERR_SWITCH_IN_KP;
+    if (!aff_nonnegative(c->Ki))
+        return AFF_ERR_SWITCH_IN_KI;
+    if (!aff_positive(c->window))
+        return AFF_ERR_SWITCH_IN_WINDOW;
+    if (!aff_positive(c->ratio))
+        return AFF_ERR_SWITCH_IN_RATIO;
+    if (!aff_positive(c->share))
+        return AFF_ERR_SWITCH_IN_SHARE;
+    if (!aff_nonnegative(c->fade_in))
+        return AFF_ERR_SWITCH_IN_FADE_IN;
+    if (!aff_nonnegative_or_inf(c->trial_margin))
+        return AFF_ERR_SWITCH_IN_TRIAL_MARGIN;
+    return AFF_OK;
+}
+
+/* Configure the switch-in s from *cfg (checked) and clear its state (g = 0, not switched in). */
+static void switch_in_init(aff_switch_in *s, const aff_switch_in_config *cfg)
+{
+    aff_real Tc = cfg->Tc, window = cfg->window, fade_in = cfg->fade_in;
     s->Tc = Tc;
-    s->J_n = J_n;
-    s->Kp = Kp;
-    s->Ki = Ki;
-    s->ratio = ratio;
-    s->share = share;
-    s->margin = margin;
+    s->J_n = cfg->J_n;
+    s->Kp = cfg->Kp;
+    s->Ki = cfg->Ki;
+    s->ratio = cfg->ratio;
+    s->share = cfg->share;
+    s->margin = cfg->trial_margin;
     s->b = (aff_real)1.0 - AFF_EXP(-Tc / window);
     s->fade = fade_in > Tc ? Tc / fade_in : (aff_real)1.0;
     aff_real ne = AFF_FLOOR(window / Tc + (aff_real)0.5);
@@ -60,16 +94,43 @@ static int switch_in_init(aff_switch_in *s, aff_real Tc, aff_real J_n, aff_real 
     s->k_in = -1;
     s->rest_last = 0;
     s->g = 0;
-    return 0;
 }
 
-int aff_residual_set_switch_in(aff_residual *r, aff_real Tc, aff_real J_n, aff_real Kp, aff_real Ki, aff_real window,
-                               aff_real ratio, aff_real share, aff_real fade_in, aff_real margin)
+aff_error aff_residual_check_config(const aff_residual_config *cfg)
 {
-    if (switch_in_init(&r->sw, Tc, J_n, Kp, Ki, window, ratio, share, fade_in, margin) != 0)
-        return -1;
-    r->use_switch_in = 1;
-    return 0;
+    aff_error e;
+    if (cfg == NULL)
+        return AFF_ERR_NULL;
+    if (!aff_nonnegative_or_inf(cfg->u_max))
+        return AFF_ERR_RESIDUAL_U_MAX;
+    if ((e = aff_dob_check_config(&cfg->dob)) != AFF_OK)
+        return e;
+    if (!aff_flag(cfg->use_switch_in))
+        return AFF_ERR_RESIDUAL_USE_SWITCH_IN;
+    return cfg->use_switch_in ? switch_in_check(&cfg->switch_in) : AFF_OK;
+}
+
+aff_error aff_residual_init(aff_residual *r, const aff_residual_config *cfg)
+{
+    aff_error e = r == NULL ? AFF_ERR_NULL : aff_residual_check_config(cfg);
+    if (e != AFF_OK)
+        return e;
+    memset(r, 0, sizeof *r);
+    r->u_max = cfg->u_max;
+    r->u_ff = 0;
+    r->held = 0;
+    r->n_held = 0;
+    r->use_switch_in = cfg->use_switch_in;
+    if (cfg->use_switch_in) {
+        switch_in_init(&r->sw, &cfg->switch_in);
+    } else { /* the observer always applied */
+        r->sw.g = 1;
+        r->sw.k_in = -1;
+        r->sw.k_out = -1;
+        r->sw.decided = 0;
+    }
+    aff_dob_init(&r->dob, &cfg->dob);
+    return AFF_OK;
 }
 
 /* One period of the loop model's response to a disturbance torque d (N*m): the velocity w it adds (rad/s) and the

@@ -11,7 +11,7 @@
  * arrangement of a model-based feedforward with a disturbance observer for the model error (Umeno & Hori
  * 1991; Ohnishi, Shibata, Murakami 1996; for friction: Olsson, Astrom, Canudas de Wit, Gafvert, Lischinsky,
  * "Friction models and friction compensation", Eur. J. Control 4(3), 1998, Sec. 7).
- * Residual switch-in (mode "adaptive", aff_residual_set_switch_in): the same composite with the observer's d_hat
+ * Residual switch-in (mode "adaptive", aff_residual_config.use_switch_in): the same composite with the observer's d_hat
  * computed from the start but applied only once a residual test finds that what the feedforward leaves costs
  * tracking. The test predicts two velocity errors with the loop's own linear model (the design inertia J_n and
  * the PI gains Kp, Ki, the backward-Euler PI of ctl_pi; Franklin, Powell & Workman, Digital Control of Dynamic
@@ -96,6 +96,22 @@
 #define AFF_RESIDUAL_H
 #include "aff_real.h"
 #include "aff_dob.h"
+#include "aff_error.h"
+
+/* The switch-in's settings (Python: ResidualSwitchIn's fields of the same names). */
+typedef struct aff_switch_in_config {
+    aff_real Tc;          /* controller period (s), finite, > 0; default 0.001 */
+    aff_real J_n;         /* design inertia of the loop model (kg*m^2), finite, > 0: set it; default 0 */
+    aff_real Kp;          /* the loop's PI: proportional gain (N*m*s/rad), finite, > 0: set it; default 0 */
+    aff_real Ki;          /* integral gain (N*m/rad), finite, >= 0: set it; default 0 */
+    aff_real window;      /* time constant of the means and the evidence needed (s), finite, > 0; default 2 */
+    aff_real ratio;       /* switch in when R_r > ratio*M_l (-), finite, > 0; default 0.1 */
+    aff_real share;       /* ... or when R_r > share*R_f (-), finite, > 0; default 0.25 */
+    aff_real fade_in;     /* the observer's share rises from 0 to 1 over this time (s), finite, >= 0 (0: a step);
+                             default 0.5 */
+    aff_real trial_margin; /* the trial takes the observer out where a ratio rose by more than 1 + trial_margin (-),
+                              >= 0, INFINITY: no trial; default 0.03 */
+} aff_switch_in_config;
 
 /* The residual switch-in test (header comment): configuration, then state. */
 typedef struct aff_switch_in {
@@ -138,6 +154,14 @@ typedef struct aff_switch_in {
     aff_real g;           /* share of d_hat applied, 0..1 */
 } aff_switch_in;
 
+/* The residual part's settings. */
+typedef struct aff_residual_config {
+    aff_real u_max;       /* bound on |u_ff + d_hat| (N*m), >= 0; INFINITY (default): none */
+    aff_dob_config dob;   /* the observer of the residual f - u_ff */
+    int use_switch_in;    /* 1 (default): d_hat applied after the switch-in (mode "adaptive"); 0: always */
+    aff_switch_in_config switch_in; /* the switch-in (read if use_switch_in) */
+} aff_residual_config;
+
 /* The part both composites share: the observer of the residual, the switch-in, the output's bound. Configuration,
  * then state; the parts embedded. */
 typedef struct aff_residual {
@@ -152,16 +176,22 @@ typedef struct aff_residual {
     aff_dob dob;          /* the observer of the residual f - u_ff */
 } aff_residual;
 
-/* Configure r from the configured observer dob (aff_dob_init, copied by value) with the bound u_max (N*m, >= 0);
- * u_ff = 0; the observer always applied (no switch-in). */
-void aff_residual_init(aff_residual *r, const aff_dob *dob, aff_real u_max);
+/* The switch-in's defaults (ResidualSwitchIn's: window 2 s, ratio 0.1, share 0.25, fade_in 0.5 s, trial_margin
+ * 0.03; Tc 0.001 s); J_n, Kp, Ki are 0: set them (the design inertia, the loop's PI). */
+aff_switch_in_config aff_switch_in_default_config(void);
 
-/* Turn on the residual switch-in of r (header comment): Tc (s), J_n (kg*m^2), Kp (N*m*s/rad), Ki (N*m/rad, >= 0)
- * of the loop, window T (s), ratio (-), share (-), fade_in (s, >= 0; 0: a step), the trial's margin (-, >= 0;
- * INFINITY: no trial); clears its state (g = 0, not switched in). Returns 0, or -1 (r untouched) for Tc, J_n, Kp,
- * window, ratio, share not finite and > 0, Ki, fade_in not finite and >= 0, or margin not >= 0. */
-int aff_residual_set_switch_in(aff_residual *r, aff_real Tc, aff_real J_n, aff_real Kp, aff_real Ki, aff_real window,
-                               aff_real ratio, aff_real share, aff_real fade_in, aff_real margin);
+/* The residual part's defaults: no bound, the observer's defaults, the switch-in on with its defaults. */
+aff_residual_config aff_residual_default_config(void);
+
+/* Configure r from *cfg and clear its state: the bound u_max, u_ff = 0, the observer (aff_dob_init), and with
+ * use_switch_in the switch-in (header comment; b = 1 - exp(-Tc/window), fade = Tc/fade_in (1 for fade_in <= Tc),
+ * n_evidence = round(window/Tc) (1..1e8), n_wait = 5*n_evidence; g = 0, not switched in), else the observer always
+ * applied (g = 1). Returns AFF_OK, or AFF_ERR_NULL, AFF_ERR_RESIDUAL_U_MAX, _USE_SWITCH_IN, an AFF_ERR_SWITCH_IN_
+ * code or the observer's (r untouched). Python: AdaptiveDOBCompensator, ResidualSwitchIn. */
+aff_error aff_residual_init(aff_residual *r, const aff_residual_config *cfg);
+
+/* The checks of aff_residual_init alone: AFF_OK or the code it would return for *cfg. */
+aff_error aff_residual_check_config(const aff_residual_config *cfg);
 
 /* The rises of the loop's mean-square error the test compares (header comment; rad^2/s^2): *rise_r = R_r =
  * max(M_r, M_r - 2*C_r), *rise_f = R_f = max(M_f, M_f - 2*C_f), from the means in s as last updated. */

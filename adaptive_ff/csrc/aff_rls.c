@@ -1,15 +1,56 @@
 /* aff_rls.c -- recursive least squares (see aff_rls.h). */
+#include <stddef.h>
+#include <string.h>
 #include "aff_rls.h"
 
-int aff_rls_init(aff_rls *r, long p, int scheme, aff_real lam, aff_real P_max, aff_real P0)
+aff_rls_config aff_rls_default_config(void)
 {
-    long i, k;
-    if (p < 1 || p > AFF_RLS_NMAX)
-        return -1;
+    aff_rls_config c;
+    c.n_params = 1;
+    c.forgetting = AFF_RLS_EXPONENTIAL;
+    c.lam = 1;
+    c.P0 = (aff_real)1e4;
+    c.P_max = 0;
+    return c;
+}
+
+aff_error aff_rls_check_config(const aff_rls_config *cfg)
+{
+    int scheme;
+    if (cfg == NULL)
+        return AFF_ERR_NULL;
+    scheme = cfg->forgetting;
+    if (cfg->n_params < 1 || cfg->n_params > AFF_RLS_NMAX)
+        return AFF_ERR_RLS_N_PARAMS;
+    if (scheme != AFF_RLS_EXPONENTIAL && scheme != AFF_RLS_DIRECTIONAL && scheme != AFF_RLS_VECTOR)
+        return AFF_ERR_RLS_FORGETTING;
+    if (scheme != AFF_RLS_VECTOR && !(cfg->lam > 0 && cfg->lam <= 1))
+        return AFF_ERR_RLS_LAM;
+    if (!aff_positive(cfg->P0))
+        return AFF_ERR_RLS_P0;
+    if (!(cfg->P_max == 0 || aff_positive_or_inf(cfg->P_max)))
+        return AFF_ERR_RLS_P_MAX;
+    return AFF_OK;
+}
+
+aff_error aff_rls_init(aff_rls *r, const aff_rls_config *cfg)
+{
+    long i, k, p;
+    int scheme;
+    aff_real trace;
+    aff_error e = r == NULL ? AFF_ERR_NULL : aff_rls_check_config(cfg);
+    if (e != AFF_OK)
+        return e;
+    p = cfg->n_params;
+    scheme = cfg->forgetting;
+    trace = cfg->P0; /* trace(P0*I), summed in order (numpy's trace) */
+    for (i = 1; i < p; i++)
+        trace += cfg->P0;
+    memset(r, 0, sizeof *r);
     r->p = p;
     r->scheme = scheme;
-    r->lam = lam;
-    r->P_max = P_max;
+    r->lam = scheme == AFF_RLS_VECTOR ? (aff_real)1.0 : cfg->lam;
+    r->P_max = cfg->P_max == 0 ? trace : cfg->P_max;
     r->has_bounds = 0;
     for (i = 0; i < AFF_RLS_NMAX; i++) {
         r->lower[i] = -(aff_real)INFINITY;
@@ -22,11 +63,30 @@ int aff_rls_init(aff_rls *r, long p, int scheme, aff_real lam, aff_real P_max, a
         r->P[k] = 0;
     }
     for (i = 0; i < p; i++)
-        r->P[i * p + i] = P0;
+        r->P[i * p + i] = cfg->P0;
     r->n_updates = 0;
     r->n_projected = 0;
     r->n_rejected = 0;
-    return 0;
+    return AFF_OK;
+}
+
+aff_error aff_rls_set_lam_each(aff_rls *r, const aff_real *lam)
+{
+    long p, i, j;
+    if (r == NULL || lam == NULL)
+        return AFF_ERR_NULL;
+    if (r->scheme != AFF_RLS_VECTOR)
+        return AFF_ERR_RLS_FORGETTING;
+    p = r->p;
+    for (i = 0; i < p; i++)
+        if (!(lam[i] > 0 && lam[i] <= 1))
+            return AFF_ERR_RLS_LAM_EACH;
+    for (i = 0; i < p; i++) { /* d_i*d_j, each d a power of its own (no array of d on a drive's stack) */
+        aff_real di = AFF_POW(lam[i], (aff_real)-0.5);
+        for (j = 0; j < p; j++)
+            r->D[i * p + j] = di * AFF_POW(lam[j], (aff_real)-0.5);
+    }
+    return AFF_OK;
 }
 
 /* How far theta[i] lies outside [lower[i], upper[i]] (0 inside). */

@@ -16,12 +16,24 @@
 #ifndef AFF_RLS_H
 #define AFF_RLS_H
 #include "aff_real.h"
+#include "aff_error.h"
 
 /* Most parameters an aff_rls holds (the Python wrapper refuses more with a ParameterError). */
 #define AFF_RLS_NMAX 16
 
 /* Forgetting schemes (field scheme). */
 enum { AFF_RLS_EXPONENTIAL = 0, AFF_RLS_DIRECTIONAL = 1, AFF_RLS_VECTOR = 2 };
+
+/* The estimator's settings. The start theta (0 after init), the box of the projection and the per-parameter factors
+ * of the vector scheme are set after aff_rls_init: the fields theta, lower/upper with has_bounds = 1, and
+ * aff_rls_set_lam_each. */
+typedef struct aff_rls_config {
+    long n_params;        /* number of parameters p, 1..AFF_RLS_NMAX; default 1 */
+    int forgetting;       /* AFF_RLS_EXPONENTIAL (default), AFF_RLS_DIRECTIONAL or AFF_RLS_VECTOR */
+    aff_real lam;         /* forgetting factor per update (-), in (0, 1]; default 1 (AFF_RLS_VECTOR: unused, 1) */
+    aff_real P0;          /* initial covariance P = P0*I (units of theta squared), finite, > 0; default 1e4 */
+    aff_real P_max;       /* bound on trace(P), > 0, INFINITY: none; 0 (default): trace(P0*I), P0 summed p times */
+} aff_rls_config;
 
 /* Configuration, then state. Units are those of phi and y (theta: y per unit of phi). Arrays hold p (p*p,
  * row-major with row length p) valid entries at their start. */
@@ -42,11 +54,25 @@ typedef struct aff_rls {
     int64_t n_rejected;                          /* refused samples (non-finite, or an update that would overflow) */
 } aff_rls;
 
-/* Configure r with p parameters (1..AFF_RLS_NMAX), scheme, lam and P_max and clear it: theta = 0,
- * P = P0*I (P0 > 0), no bounds (lower -inf, upper +inf), D = 1, counters 0. A caller with a full P0, theta0,
- * bounds or vector factors writes the fields theta, P, lower/upper (has_bounds = 1) and D afterwards.
- * Returns 0, or -1 (r untouched) for p outside 1..AFF_RLS_NMAX. Python: RecursiveLeastSquares.__init__. */
-int aff_rls_init(aff_rls *r, long p, int scheme, aff_real lam, aff_real P_max, aff_real P0);
+/* The defaults of aff_rls_config (one parameter, exponential forgetting with lam 1: ordinary RLS, P0 1e4, the
+ * trace bound trace(P0*I)). */
+aff_rls_config aff_rls_default_config(void);
+
+/* Configure r from *cfg and clear it: theta = 0, P = P0*I, no bounds (lower -inf, upper +inf), D = 1, counters
+ * 0; lam 1 for the vector scheme. A caller with a start theta0, a full P0 or bounds writes the fields theta, P,
+ * lower/upper (has_bounds = 1) afterwards; the vector scheme's factors: aff_rls_set_lam_each. Returns AFF_OK, or
+ * AFF_ERR_NULL, AFF_ERR_RLS_N_PARAMS, _FORGETTING, _LAM, _P0, _P_MAX (r untouched). Python:
+ * RecursiveLeastSquares.__init__. */
+aff_error aff_rls_init(aff_rls *r, const aff_rls_config *cfg);
+
+/* The checks of aff_rls_init alone: AFF_OK or the code it would return for *cfg. */
+aff_error aff_rls_check_config(const aff_rls_config *cfg);
+
+/* The vector scheme's factors, one per parameter, lam[0..p-1] in (0, 1]: D = d d' with d_i = lam_i^(-1/2) (the
+ * product of two powers, exactly symmetric). Returns AFF_OK, or AFF_ERR_RLS_FORGETTING (r not of the vector
+ * scheme) or AFF_ERR_RLS_LAM_EACH (a factor outside (0, 1]); r untouched then. Python: RecursiveLeastSquares with
+ * a vector lam. */
+aff_error aff_rls_set_lam_each(aff_rls *r, const aff_real *lam);
 
 /* One update with the finite sample (phi[0..p-1], y) (unchecked: aff_rls_update checks); returns the a-priori
  * error y - phi'theta (unit of y). An update that would overflow (e*e, phi'P phi or |P phi|^2 not finite) is

@@ -1,43 +1,143 @@
 /* aff_robust_ff.c -- the robust adaptive feedforward (see aff_robust_ff.h). */
+#include <stddef.h>
 #include <string.h>
 #include "aff_robust_ff.h"
 
 /* Fraction of the RLS prior variance below which the data have determined Fc (Python: FC_INFO_FRACTION). */
 static const aff_real FC_INFO_FRACTION = (aff_real)0.01;
 
-void aff_robust_ff_init(aff_robust_ff *r, const aff_fixed_ff *ff, const aff_sliding *est, long warmup,
-                        aff_real fade, aff_real J_lo, aff_real J_hi, aff_real tau_max, aff_real consistency,
-                        aff_real start_gain, int start_at_ref, aff_real lag_margin, aff_real max_rel_stderr,
-                        aff_real lag_margin_max, aff_real lag_forget, aff_real lag_zero, int project)
+aff_start_config aff_start_default_config(void)
 {
-    long i;
-    memset(r, 0, sizeof *r);
-    r->ff = *ff;
-    r->est = *est;
-    r->warmup = warmup;
-    r->fade = fade;
-    r->J_lo = J_lo;
-    r->J_hi = J_hi;
-    r->tau_max = tau_max;
-    r->consistency = consistency;
-    r->start_gain = start_gain;
-    r->start_at_ref = start_at_ref;
-    r->lag_margin = lag_margin;
-    r->max_rel_stderr = max_rel_stderr;
-    r->lag_margin_max = lag_margin_max;
-    r->lag_forget = lag_forget;
-    r->lag_zero = lag_zero;
-    r->project = project != 0;
-    for (i = 0; i < AFF_RLS_NMAX; i++)
-        r->theta_used[i] = (aff_real)NAN;
+    aff_start_config c;
+    c.on = 0;
+    c.Fc = 0;
+    c.Fs = 0;
+    c.sigma = 0;
+    c.tau = 0;
+    c.Vs = 0;
+    c.delta = 0;
+    c.gain = (aff_real)1.0;
+    c.at_ref = 1;
+    return c;
 }
 
-void aff_robust_ff_start(aff_robust_ff *r, aff_real Fc, aff_real Fs, aff_real Vs, aff_real delta, aff_real sigma,
-                         aff_real tau)
+aff_robust_ff_config aff_robust_ff_default_config(void)
 {
-    aff_fixed_ff_set_estimate(&r->ff, Fc, Fs, Vs, delta, sigma, tau, 1);
-    r->provisional = 1;
-    r->gain = 1.0;
+    aff_robust_ff_config c;
+    c.ff = aff_fixed_ff_default_config();
+    c.est = aff_sliding_default_config();
+    c.warmup = 200;
+    c.fade_in = (aff_real)1.0;
+    c.J_lo = 0;
+    c.J_hi = (aff_real)INFINITY;
+    c.tau_max = (aff_real)1.0;
+    c.consistency = (aff_real)0.5;
+    c.lag_margin = (aff_real)1.0;
+    c.lag_margin_max = (aff_real)0.05;
+    c.max_rel_stderr = (aff_real)0.05;
+    c.lag_memory = (aff_real)10.0;
+    c.lag_zero = (aff_real)3.0;
+    c.project = 1;
+    c.start = aff_start_default_config();
+    return c;
+}
+
+/* The checks of the start map (its Vs and delta the estimator's where 0). */
+static aff_error robust_start_check(const aff_start_config *s, const aff_sliding_config *est)
+{
+    if (!aff_flag(s->on))
+        return AFF_ERR_START_ON;
+    if (!s->on)
+        return AFF_OK;
+    if (!aff_nonnegative(s->Fc))
+        return AFF_ERR_START_FC;
+    if (!aff_nonnegative(s->Fs))
+        return AFF_ERR_START_FS;
+    if (!aff_nonnegative(s->sigma))
+        return AFF_ERR_START_SIGMA;
+    if (!aff_nonnegative(s->tau))
+        return AFF_ERR_START_TAU;
+    if (!aff_positive(s->Vs != 0 ? s->Vs : est->Vs))
+        return AFF_ERR_START_VS;
+    if (!isfinite(s->delta != 0 ? s->delta : est->delta))
+        return AFF_ERR_START_DELTA;
+    if (!(s->gain > 0 && s->gain <= 1))
+        return AFF_ERR_START_GAIN;
+    if (!aff_flag(s->at_ref))
+        return AFF_ERR_START_AT_REF;
+    return AFF_OK;
+}
+
+aff_error aff_robust_ff_check_config(const aff_robust_ff_config *cfg)
+{
+    aff_error e;
+    if (cfg == NULL)
+        return AFF_ERR_NULL;
+    if ((e = aff_fixed_ff_check_config(&cfg->ff)) != AFF_OK)
+        return e;
+    if ((e = aff_sliding_check_config(&cfg->est)) != AFF_OK)
+        return e;
+    if (cfg->warmup < 0)
+        return AFF_ERR_ROBUST_FF_WARMUP;
+    if (!aff_nonnegative(cfg->fade_in))
+        return AFF_ERR_ROBUST_FF_FADE_IN;
+    if (!(aff_nonnegative(cfg->J_lo) && cfg->J_lo < cfg->J_hi))
+        return AFF_ERR_ROBUST_FF_J_RANGE;
+    if (!aff_positive(cfg->tau_max))
+        return AFF_ERR_ROBUST_FF_TAU_MAX;
+    if (!aff_positive(cfg->consistency))
+        return AFF_ERR_ROBUST_FF_CONSISTENCY;
+    if (!aff_nonnegative(cfg->lag_margin))
+        return AFF_ERR_ROBUST_FF_LAG_MARGIN;
+    if (!aff_nonnegative_or_inf(cfg->lag_margin_max))
+        return AFF_ERR_ROBUST_FF_LAG_MARGIN_MAX;
+    if (!aff_positive_or_inf(cfg->max_rel_stderr))
+        return AFF_ERR_ROBUST_FF_MAX_REL_STDERR;
+    if (!aff_nonnegative(cfg->lag_memory))
+        return AFF_ERR_ROBUST_FF_LAG_MEMORY;
+    if (!aff_nonnegative_or_inf(cfg->lag_zero))
+        return AFF_ERR_ROBUST_FF_LAG_ZERO;
+    if (!aff_flag(cfg->project))
+        return AFF_ERR_ROBUST_FF_PROJECT;
+    return robust_start_check(&cfg->start, &cfg->est);
+}
+
+aff_error aff_robust_ff_init(aff_robust_ff *r, const aff_robust_ff_config *cfg)
+{
+    long i;
+    aff_real Ts;
+    const aff_start_config *s;
+    aff_error e = r == NULL ? AFF_ERR_NULL : aff_robust_ff_check_config(cfg);
+    if (e != AFF_OK)
+        return e;
+    s = &cfg->start;
+    memset(r, 0, sizeof *r);
+    aff_fixed_ff_init(&r->ff, &cfg->ff);
+    aff_sliding_init(&r->est, &cfg->est);
+    Ts = (aff_real)r->est.m * cfg->est.Tc; /* the estimator's update period, m*Tc */
+    r->warmup = cfg->warmup;
+    r->fade = cfg->fade_in == 0 ? (aff_real)1.0 : cfg->ff.dt / cfg->fade_in;
+    r->J_lo = cfg->J_lo;
+    r->J_hi = cfg->J_hi;
+    r->tau_max = cfg->tau_max;
+    r->consistency = cfg->consistency;
+    r->start_gain = s->on ? s->gain : (aff_real)1.0;
+    r->start_at_ref = s->on ? s->at_ref : 0;
+    r->lag_margin = cfg->lag_margin;
+    r->max_rel_stderr = cfg->max_rel_stderr;
+    r->lag_margin_max = cfg->lag_margin_max;
+    r->lag_forget = cfg->lag_memory > 0 ? AFF_EXP(-Ts / cfg->lag_memory) : (aff_real)0.0;
+    r->lag_zero = cfg->lag_zero;
+    r->project = cfg->project;
+    for (i = 0; i < AFF_RLS_NMAX; i++)
+        r->theta_used[i] = (aff_real)NAN;
+    if (s->on) { /* the provisional start map in use from the first period */
+        aff_fixed_ff_set_estimate(&r->ff, s->Fc, s->Fs, s->Vs != 0 ? s->Vs : cfg->est.Vs,
+                                  s->delta != 0 ? s->delta : cfg->est.delta, s->sigma, s->tau, 1);
+        r->provisional = 1;
+        r->gain = 1.0;
+    }
+    return AFF_OK;
 }
 
 /* The output of aff_robust_ff_compensate (N*m). */

@@ -21,6 +21,43 @@
 #include "aff_compensator.h"
 #include "aff_feedforward.h"
 #include "aff_sliding.h"
+#include "aff_error.h"
+
+/* The provisional start map: eq. 3 with these levels through the lag tau (eq. 1), times gain, in use from the first
+ * period until the first trusted estimate (Python: FeedforwardStart). */
+typedef struct aff_start_config {
+    int on;                   /* 1: a start map; 0 (default): none (the output is 0 until the first estimate) */
+    aff_real Fc;              /* Coulomb level (N*m), finite, >= 0; default 0 */
+    aff_real Fs;              /* static level (N*m), finite, >= 0; default 0 */
+    aff_real sigma;           /* viscous coefficient (N*m*s/rad), finite, >= 0; default 0 */
+    aff_real tau;             /* lag (s), finite, >= 0; default 0 */
+    aff_real Vs;              /* Stribeck velocity (rad/s), finite, > 0; 0 (default): the estimator's */
+    aff_real delta;           /* Stribeck shape factor (1), finite; 0 (default): the estimator's */
+    aff_real gain;            /* factor on the start map (-), in (0, 1]; default 1 */
+    int at_ref;               /* 1 (default): evaluated at the reference; 0: as the feedforward's at_ref says */
+} aff_start_config;
+
+/* The robust adaptive feedforward's settings (Python: RobustAdaptiveFeedforward's arguments of the same names). */
+typedef struct aff_robust_ff_config {
+    aff_fixed_ff_config ff;   /* the feedforward (its dt the period of the calls) */
+    aff_sliding_config est;   /* the online estimator */
+    long warmup;              /* RLS updates before switch-on, >= 0; default 200 */
+    aff_real fade_in;         /* the output's ramp from 0 to full after switch-on (s), finite, >= 0 (0: a step);
+                                 default 1 */
+    aff_real J_lo;            /* plausible inertia interval, exclusive (kg*m^2): 0 <= J_lo < J_hi; default 0 */
+    aff_real J_hi;            /* its upper end (kg*m^2), INFINITY (default): none */
+    aff_real tau_max;         /* largest plausible lag (s), finite, > 0; default 1 */
+    aff_real consistency;     /* relative tolerance of the two lag estimates (-), finite, > 0; default 0.5 */
+    aff_real lag_margin;      /* standard errors added to the weighted lag (-), finite, >= 0; default 1 */
+    aff_real lag_margin_max;  /* largest margin as a fraction of the lag (-), >= 0, INFINITY: no cap; default 0.05 */
+    aff_real max_rel_stderr;  /* largest standard error of Fc relative to max(Fc, Fs) (-), > 0, INFINITY: no test;
+                                 default 0.05 */
+    aff_real lag_memory;      /* memory of the weighted lag (s), finite, >= 0 (0: the latest estimate); default 10 */
+    aff_real lag_zero;        /* a lag estimate >= -max(lag_zero*sd, 2*dt) is lag 0 (standard errors), >= 0
+                                 (0: none), INFINITY: every negative lag; default 3 */
+    int project;              /* 1 (default): the estimate used is theta projected onto the plausible box */
+    aff_start_config start;   /* the provisional start map (start.on 0: none) */
+} aff_robust_ff_config;
 
 /* Entries of aff_project_box's workspace for p parameters, and for the largest p (AFF_RLS_NMAX). */
 #define AFF_PROJECT_WORK(p) ((p) * ((p) + 3))
@@ -60,16 +97,24 @@ typedef struct aff_robust_ff {
     aff_sliding est;              /* the online estimator */
 } aff_robust_ff;
 
-/* Configure r from the configured parts ff (aff_fixed_ff_init, no estimate) and est (aff_sliding_init), both
- * copied by value, and clear its state (gain 1, no estimate in use, theta_used NaN). warmup >= 0; fade = dt/fade_in
- * (1 for fade_in 0); J_lo < J_hi; tau_max > 0; consistency > 0; start_gain in (0, 1]; lag_margin >= 0;
- * max_rel_stderr > 0; lag_margin_max >= 0; lag_forget in [0, 1); lag_zero >= 0 (INFINITY allowed); project 0 or
- * 1 (lag_zero 0 and project 0: the tests on the raw theta, as before 2026-11-23). Python:
+/* The start map's defaults: off; gain 1, at the reference, the estimator's Vs and delta (FeedforwardStart's). */
+aff_start_config aff_start_default_config(void);
+
+/* The robust feedforward's defaults (RobustAdaptiveFeedforward's: warmup 200, fade_in 1 s, J in (0, inf), tau_max
+ * 1 s, consistency 0.5, lag_margin 1, lag_margin_max 0.05, max_rel_stderr 0.05, lag_memory 10 s, lag_zero 3,
+ * project 1, no start map) with the feedforward's and the estimator's defaults (set est.Vs and est.delta). */
+aff_robust_ff_config aff_robust_ff_default_config(void);
+
+/* Configure r from *cfg and clear its state (gain 1, no estimate in use, theta_used NaN): the feedforward
+ * (aff_fixed_ff_init) and the estimator (aff_sliding_init), fade = dt/fade_in (1 for fade_in 0), lag_forget =
+ * exp(-Ts/lag_memory) (Ts = m*Tc of the estimator; 0 for lag_memory 0); with start.on the start map put into use
+ * (the feedforward's estimate, provisional = 1, its Vs and delta the estimator's where 0). Returns AFF_OK, or
+ * AFF_ERR_NULL, an AFF_ERR_ROBUST_FF_ or AFF_ERR_START_ code, or a code of the parts' (r untouched). Python:
  * RobustAdaptiveFeedforward.__init__. */
-void aff_robust_ff_init(aff_robust_ff *r, const aff_fixed_ff *ff, const aff_sliding *est, long warmup,
-                        aff_real fade, aff_real J_lo, aff_real J_hi, aff_real tau_max, aff_real consistency,
-                        aff_real start_gain, int start_at_ref, aff_real lag_margin, aff_real max_rel_stderr,
-                        aff_real lag_margin_max, aff_real lag_forget, aff_real lag_zero, int project);
+aff_error aff_robust_ff_init(aff_robust_ff *r, const aff_robust_ff_config *cfg);
+
+/* The checks of aff_robust_ff_init alone: AFF_OK or the code it would return for *cfg. */
+aff_error aff_robust_ff_check_config(const aff_robust_ff_config *cfg);
 
 /* Projection of theta onto the box lo <= x <= hi in the metric of P^-1: x minimises (x - theta)' P^-1 (x - theta)
  * subject to the bounds (P, p*p row-major, symmetric positive definite; lo[i] = -INFINITY / hi[i] = INFINITY for
@@ -92,11 +137,6 @@ int aff_project_box(long p, const aff_real *P, const aff_real *theta, const aff_
  * an estimate that passes is put into the feedforward (theta_used, the lag in use). Returns 1 if the estimate is
  * in use (2 with the previous lag held), 0 if refused (counted). Python: RobustAdaptiveFeedforward.decide. */
 int aff_robust_ff_decide(aff_robust_ff *r);
-
-/* Put the provisional start map into use (levels N*m, Vs rad/s, sigma N*m*s/rad, lag s): the feedforward's
- * estimate, provisional = 1, gain 1. Python: RobustAdaptiveFeedforward(start=FeedforwardStart(...)). */
-void aff_robust_ff_start(aff_robust_ff *r, aff_real Fc, aff_real Fs, aff_real Vs, aff_real delta, aff_real sigma,
-                         aff_real tau);
 
 /* The determinacy test of Fc: 1 if max_rel_stderr is INFINITY, else 1 iff sqrt(max(e2*P_FcFc, 0)) <=
  * max_rel_stderr*max(eFc, eFs) and P_FcFc <= 0.01*P_prior (the data have determined Fc; e2 the noise variance,

@@ -19,6 +19,38 @@
 #include "aff_real.h"
 #include "aff_gate.h"
 #include "aff_rls.h"
+#include "aff_error.h"
+
+/* The estimator's settings (Python: SlidingFrictionEstimator's arguments of the same names). */
+typedef struct aff_sliding_config {
+    aff_real Vs;              /* Stribeck velocity of g, h (rad/s), finite, > 0: set it (the identification's);
+                                 default 0 */
+    aff_real delta;           /* Stribeck shape factor (1), finite, != 0: set it (the identification's); default 0 */
+    aff_real Tc;              /* controller period, the period of observe (s), finite, > 0; default 0.001 */
+    aff_real Ts;              /* period of the RLS updates (s), a multiple of Tc (at most 1e9 times); default 0.01 */
+    aff_real T_filter;        /* time constant T of each filter stage (s), finite, >= 2*Tc; default 0.02 */
+    int forgetting;           /* the RLS's scheme: AFF_RLS_EXPONENTIAL (default), _DIRECTIONAL or _VECTOR */
+    aff_real lam;             /* forgetting factor per update (-), in (0, 1]; default 0.995 (unused by _VECTOR) */
+    aff_real lam_each[AFF_RLS_NMAX]; /* _VECTOR: one factor per parameter in theta order, in (0, 1]; default 0 */
+    aff_real P0;              /* initial covariance scale of the RLS, finite, > 0; default 1e4 */
+    aff_real P_max;           /* bound on trace(P), > 0, INFINITY: none; 0 (default): p*P0 */
+    int lag;                  /* 1 (default): estimate the lag (the columns L[s^2 w], -L[s u]); 0: not */
+    int offset;               /* 1 (default): estimate a constant torque offset; 0: not */
+    aff_real w_band_min;      /* smallest near-zero band (rad/s), finite, >= 0; 0 (default): 0.1*Vs */
+    aff_real dwell_max;       /* largest filtered near-zero indicator of a row (-), in [0, 1]; default 0.01 */
+    aff_real J_max;           /* upper bound of the start's J (kg*m^2), > 0; INFINITY (default): none */
+    aff_real tau_max;         /* upper bound of the start's tau (s), finite, > 0; default 1 */
+    aff_real initial_J;       /* the RLS's start: J (kg*m^2), clipped to [1e-9, J_max]; default 1 (set the design
+                                 inertia) */
+    aff_real initial_tau;     /* tau (s), clipped to [0, tau_max] (0 without the lag); default 0 */
+    aff_real initial_Fc;      /* Fc (N*m), clipped to >= 0; default 0 */
+    aff_real initial_Fs;      /* Fs (N*m), clipped to >= 0; default 0 */
+    aff_real initial_sigma;   /* sigma (N*m*s/rad), clipped to >= 0; default 0 */
+    aff_real initial_offset;  /* offset (N*m); default 0 (the start must be finite after the clips) */
+    aff_gate_config gate;            /* the outlier gate of w (rad/s); default aff_gate_default_config() */
+    aff_range_gate_config u_range;   /* the range gate of u (N*m); default aff_range_gate_default_config() */
+    aff_range_gate_config w_range;   /* the range gate of w (rad/s); default the same, a floor of 0 taken as Vs */
+} aff_sliding_config;
 
 typedef struct aff_sliding {
     /* configuration */
@@ -58,15 +90,22 @@ typedef struct aff_sliding {
     aff_rls rls;              /* the estimator of theta */
 } aff_sliding;
 
-/* Configure e and clear its state (filters, noise scale and counters 0); gate, u_range, w_range and rls are
- * configured parts (aff_gate_init, aff_range_gate_init, aff_rls_init with its theta0; the Python class gives the
- * RLS no bounds: a projection of its state diverges after one-sided motion, see SlidingFrictionEstimator's Notes)
- * copied into e by value. Returns 0, or -1 (e untouched) if rls->p differs from 4 + 2*lag + offset. Python:
- * SlidingFrictionEstimator.__init__. */
-int aff_sliding_init(aff_sliding *e, aff_real Vs, aff_real delta, aff_real a, aff_real T, long m, long settle,
-                     aff_real w_band_min, aff_real dwell_max, aff_real e2_rate, int lag, int offset,
-                     const aff_gate *gate, const aff_range_gate *u_range, const aff_range_gate *w_range,
-                     const aff_rls *rls);
+/* The estimator's defaults (SlidingFrictionEstimator's: Ts 10 ms, T_filter 20 ms, exponential forgetting 0.995,
+ * P0 1e4, the lag and the offset estimated, dwell_max 0.01, a start J of 1 kg*m^2, the default gates); Vs and
+ * delta are 0: set them (the identification's). */
+aff_sliding_config aff_sliding_default_config(void);
+
+/* Configure e from *cfg and clear its state (filters, noise scale and counters 0): p = 4 + 2*lag + offset, m =
+ * round(Ts/Tc), filter gain a = 1 - exp(-Tc/T_filter), settle = ceil(8*T_filter/Tc) samples (the filters' start
+ * transient, an Erlang-3 tail below 1.5 %), w_band_min (0.1*Vs for 0), e2_rate = 1 - lam (the smallest lam_each
+ * for _VECTOR; 0.01 for lam 1), the gates, the RLS (P = P0*I, no bounds: a projection of its state diverges after
+ * one-sided motion, see SlidingFrictionEstimator's Notes) started at theta = (J, [J*tau, tau], Fc, Fs, sigma,
+ * [offset]) of the clipped start. Returns AFF_OK, or AFF_ERR_NULL, an AFF_ERR_SLIDING_ code, or a code of the
+ * gates' (e untouched). Python: SlidingFrictionEstimator.__init__. */
+aff_error aff_sliding_init(aff_sliding *e, const aff_sliding_config *cfg);
+
+/* The checks of aff_sliding_init alone: AFF_OK or the code it would return for *cfg. */
+aff_error aff_sliding_check_config(const aff_sliding_config *cfg);
 
 /* One controller-period sample: torque u (N*m) applied over the period, velocity w (rad/s) measured at its
  * start. Returns 1 if accepted, 0 if rejected (only counters change). After an RLS update e->updated is 1 and

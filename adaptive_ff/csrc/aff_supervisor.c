@@ -1,5 +1,6 @@
 /* aff_supervisor.c -- the feedforward supervisor (see aff_supervisor.h). */
 #include <stddef.h>
+#include <string.h>
 #include "aff_supervisor.h"
 
 aff_real aff_dob_raw(aff_real u_last, aff_real J_n, aff_real w, aff_real w_last, aff_real Tc)
@@ -13,25 +14,71 @@ aff_real aff_lag_step(aff_real *x, aff_real a, aff_real input)
     return *x;
 }
 
-int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real omega, aff_real window,
-                        aff_real margin, aff_real settle, aff_real rest_band, long delay)
+aff_supervisor_config aff_supervisor_default_config(void)
 {
-    if (!aff_positive(Tc) || !aff_positive(J_n) || !aff_positive(omega) || !aff_positive(window)
-        || !(margin >= 0 && margin < 1)
-        || !(isfinite(settle) && settle >= 0) || !(isfinite(rest_band) && rest_band >= -1) || delay < 0
-        || delay > AFF_SUPERVISOR_DELAY_MAX)
-        return -1;
+    aff_supervisor_config c;
+    c.Tc = (aff_real)1e-3;
+    c.J_n = 0;
+    c.omega = 0;
+    c.window = (aff_real)2.0;
+    c.margin = (aff_real)0.1;
+    c.settle = -1;
+    c.rest_band = 0;
+    c.delay = 0;
+    c.Kp = 0;
+    c.Ki = 0;
+    c.track_margin = (aff_real)1.0;
+    return c;
+}
+
+aff_error aff_supervisor_check_config(const aff_supervisor_config *cfg)
+{
+    if (cfg == NULL)
+        return AFF_ERR_NULL;
+    if (!aff_positive(cfg->Tc))
+        return AFF_ERR_SUPERVISOR_TC;
+    if (!aff_positive(cfg->J_n))
+        return AFF_ERR_SUPERVISOR_J_N;
+    if (!aff_positive(cfg->omega))
+        return AFF_ERR_SUPERVISOR_OMEGA;
+    if (!aff_positive(cfg->window))
+        return AFF_ERR_SUPERVISOR_WINDOW;
+    if (!(cfg->margin >= 0 && cfg->margin < 1))
+        return AFF_ERR_SUPERVISOR_MARGIN;
+    if (!isfinite(cfg->settle))
+        return AFF_ERR_SUPERVISOR_SETTLE;
+    if (!(isfinite(cfg->rest_band) && cfg->rest_band >= -1))
+        return AFF_ERR_SUPERVISOR_REST_BAND;
+    if (cfg->delay < 0 || cfg->delay > AFF_SUPERVISOR_DELAY_MAX)
+        return AFF_ERR_SUPERVISOR_DELAY;
+    if (!(isfinite(cfg->Kp) && cfg->Kp >= 0))
+        return AFF_ERR_SUPERVISOR_KP;
+    if (!(isfinite(cfg->Ki) && cfg->Ki >= 0))
+        return AFF_ERR_SUPERVISOR_KI;
+    if (!(isfinite(cfg->track_margin) && cfg->track_margin >= 0))
+        return AFF_ERR_SUPERVISOR_TRACK_MARGIN;
+    return AFF_OK;
+}
+
+aff_error aff_supervisor_init(aff_supervisor *s, const aff_supervisor_config *cfg)
+{
+    aff_error e = s == NULL ? AFF_ERR_NULL : aff_supervisor_check_config(cfg);
+    if (e != AFF_OK)
+        return e;
+    aff_real Tc = cfg->Tc, omega = cfg->omega, window = cfg->window;
+    aff_real settle = cfg->settle < 0 ? (aff_real)0.5 * window : cfg->settle;
+    memset(s, 0, sizeof *s);
     s->Tc = Tc;
-    s->J_n = J_n;
+    s->J_n = cfg->J_n;
     s->omega = omega;
     s->window = window;
-    s->margin = margin;
+    s->margin = cfg->margin;
     s->settle = settle;
-    s->rest_band = rest_band;
+    s->rest_band = cfg->rest_band;
     s->rest = 0;
     s->n_still = 0;
     s->n_rest = 0;
-    s->delay = delay;
+    s->delay = cfg->delay;
     s->a = (aff_real)1.0 - AFF_EXP(-Tc * omega);
     s->b = (aff_real)1.0 - AFF_EXP(-Tc / window);
     const aff_real big = (aff_real)1e9; /* bounded: a 32-bit long holds it (never reached in practice) */
@@ -58,12 +105,24 @@ int aff_supervisor_init(aff_supervisor *s, aff_real Tc, aff_real J_n, aff_real o
     s->n_restore = 0;
     s->n_off = 0;
     s->n_skipped = 0;
+    s->track = cfg->Kp > 0;
+    s->track_margin = cfg->track_margin;
+    s->Kp = cfg->Kp;
+    s->KiTc = cfg->Ki * Tc;
+    s->TcJ = Tc / cfg->J_n;
+    s->y_a = 0;
+    s->I_a = 0;
+    s->y_c = 0;
+    s->I_c = 0;
+    s->m_e0 = 0;
+    s->m_e1 = 0;
+    s->n_backoff_tracking = 0;
     s->pos = 0;
     for (long i = 0; i <= AFF_SUPERVISOR_DELAY_MAX; i++) {
         s->u_hist[i] = 0;
         s->c_hist[i] = 0;
     }
-    return 0;
+    return AFF_OK;
 }
 
 aff_real aff_supervisor_apply(aff_supervisor *s, aff_real u_c, aff_real w_ref)
@@ -72,6 +131,7 @@ aff_real aff_supervisor_apply(aff_supervisor *s, aff_real u_c, aff_real w_ref)
     s->n_still = still ? (s->n_still < s->n_hold ? s->n_still + 1 : s->n_hold) : 0;
     s->rest = s->n_still >= s->n_hold;
     s->u_c = (aff_real)u_c;
+    s->w_ref = w_ref;
     s->transfer = 0;
     if (s->rest) {
         s->n_rest = aff_count_up(s->n_rest);
@@ -89,6 +149,15 @@ aff_real aff_supervisor_apply(aff_supervisor *s, aff_real u_c, aff_real w_ref)
 void aff_supervisor_set_rest_lag(aff_supervisor *s, aff_real alpha)
 {
     s->rest_keep = alpha >= 0 && alpha <= 1 ? 1 - alpha : 0;
+}
+
+/* One period of the nominal loop's response to an added torque d (N*m): the PI on the error -y (its integrator
+ * first, as the loop's PI), then the inertia J_n over Tc; y the velocity (rad/s), I the integrator (N*m). */
+static void loop_model_step(aff_real *y, aff_real *I, aff_real Kp, aff_real KiTc, aff_real TcJ, aff_real d)
+{
+    aff_real e = -*y;
+    *I += KiTc * e;
+    *y += TcJ * (Kp * e + *I + d);
 }
 
 void aff_supervisor_observe(aff_supervisor *s, aff_real u, aff_real w)
@@ -119,16 +188,36 @@ void aff_supervisor_observe(aff_supervisor *s, aff_real u, aff_real w)
     s->w_last = ww;
     aff_real f = aff_lag_step(&s->x_f, s->a, v);
     aff_real r = aff_lag_step(&s->x_r, s->a, v - c_old);
+    /* the tracking test: the velocity error the nominal loop makes from the disturbance v without the compensation,
+     * e0 = G[v], and with the candidate, e1 = G[v - u_c] = e0 - G[u_c] (two loop models, v and the candidate as
+     * their inputs) */
+    aff_real e0 = 0, e1 = 0;
+    if (s->track) {
+        loop_model_step(&s->y_a, &s->I_a, s->Kp, s->KiTc, s->TcJ, v);
+        loop_model_step(&s->y_c, &s->I_c, s->Kp, s->KiTc, s->TcJ, c_old);
+        e0 = s->y_a;
+        e1 = s->y_a - s->y_c;
+    }
     if (k < s->n_start || s->rest)
         return;
     aff_lag_step(&s->m_f, s->b, f * f);
     aff_lag_step(&s->m_r, s->b, r * r);
+    if (s->track) {
+        aff_lag_step(&s->m_e0, s->b, e0 * e0);
+        aff_lag_step(&s->m_e1, s->b, e1 * e1);
+    }
     if (k < s->n_decide)
         return;
-    if (s->on && s->m_r > s->m_f) {
+    aff_real keep = (aff_real)1.0 - s->margin;
+    int worse_torque = s->m_r > s->m_f;
+    int worse_tracking = s->track && s->m_e1 > ((aff_real)1.0 + s->track_margin) * s->m_e0;
+    if (s->on && (worse_torque || worse_tracking)) {
+        if (!worse_torque)
+            s->n_backoff_tracking = aff_count_up(s->n_backoff_tracking);
         s->on = 0;
         s->n_backoff = aff_count_up(s->n_backoff);
-    } else if (!s->on && s->m_r < ((aff_real)1.0 - s->margin) * s->m_f) {
+    } else if (!s->on && s->m_r < keep * s->m_f && (!s->track || s->m_e1 < keep * s->m_e0)
+               && (!isfinite(s->w_ref) || (ww * s->w_ref > 0 && AFF_FABS(ww) >= (aff_real)0.5 * AFF_FABS(s->w_ref)))) {
         s->on = 1;
         s->n_restore = aff_count_up(s->n_restore);
     }

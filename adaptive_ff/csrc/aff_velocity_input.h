@@ -9,12 +9,32 @@
  *  - the sign observer: a Luenberger velocity observer with a constant-disturbance state driven by the applied
  *    torque (Franklin, Powell & Workman, Digital Control of Dynamic Systems, 3rd ed., 1998, Secs. 8.2, 8.5);
  *    its sign replaces the measured one inside the stick band.
- * A zeroed struct (on == 0) is "none". Python: adaptive_ff.compensation.velocity_input.LoopModel / SignObserver
- * (settings), held by adaptive_ff.compensation.feedforward.FrictionFeedforward.
+ * A zeroed struct (on == 0) is "none". Each is configured from its settings (aff_loop_model_config,
+ * aff_sign_observer_config) and the period of the feedforward that holds it. Python:
+ * adaptive_ff.compensation.velocity_input.LoopModel / SignObserver (settings), held by
+ * adaptive_ff.compensation.feedforward.FrictionFeedforward.
  */
 #ifndef AFF_VELOCITY_INPUT_H
 #define AFF_VELOCITY_INPUT_H
 #include "aff_real.h"
+#include "aff_error.h"
+
+/* The loop model's settings: the loop's PI and the design inertia. No defaults: Kp, Ki and J are the loop's. */
+typedef struct aff_loop_model_config {
+    aff_real Kp;     /* proportional gain of the loop's PI (N*m*s/rad), finite, >= 0: set it; default 0 */
+    aff_real Ki;     /* integral gain of the loop's PI (N*m/rad), finite, >= 0 (not both gains 0): set it; default 0 */
+    aff_real J;      /* design inertia (kg*m^2), finite, > 0: set it (what you know, not the plant's); default 0 */
+    aff_real track;  /* bandwidth at which the model follows the measured deviation (rad/s), finite, >= 0 (0: the
+                        model alone); < 0 (default -1): Kp/J */
+} aff_loop_model_config;
+
+/* The sign observer's settings. No defaults for J and bandwidth: the joint's and the loop's. */
+typedef struct aff_sign_observer_config {
+    aff_real J;                  /* design inertia (kg*m^2), finite, > 0: set it; default 0 */
+    aff_real bandwidth;          /* observer bandwidth (rad/s), finite, > 0: set it (e.g. 5*Kp/J); default 0 */
+    aff_real residual_bandwidth; /* bandwidth of the constant-residual state (rad/s), finite, >= 0 (0: none);
+                                    < 0 (default -1): 0.1*bandwidth */
+} aff_sign_observer_config;
 
 /* The loop model: configuration, then state. */
 typedef struct aff_loop_model {
@@ -29,8 +49,16 @@ typedef struct aff_loop_model {
     aff_real dw;     /* tracked deviation of the joint from the model (rad/s) */
 } aff_loop_model;
 
-/* Configure m (on = 1) and clear its state. Python computes the gains from LoopModel and the period. */
-void aff_loop_model_init(aff_loop_model *m, aff_real Kp, aff_real KiTc, aff_real TcJ, aff_real a);
+/* The loop model's defaults (Kp, Ki, J 0: to be set; track -1: Kp/J). */
+aff_loop_model_config aff_loop_model_default_config(void);
+
+/* Configure m (on = 1) from *cfg at the period Tc (s) of the feedforward that holds it and clear its state: KiTc
+ * = Ki*Tc, TcJ = Tc/J, a = 1 - exp(-bw*Tc) with bw = track (Kp/J for track < 0). Returns AFF_OK, or AFF_ERR_NULL,
+ * AFF_ERR_LOOP_MODEL_TC, _KP, _KI, _GAINS (both 0), _J, _TRACK (m untouched). Python: LoopModel. */
+aff_error aff_loop_model_init(aff_loop_model *m, const aff_loop_model_config *cfg, aff_real Tc);
+
+/* The checks of aff_loop_model_init alone: AFF_OK or the code it would return for *cfg and Tc (s). */
+aff_error aff_loop_model_check_config(const aff_loop_model_config *cfg, aff_real Tc);
 
 /* One period: e = w_ref - w, I += KiTc*e, w += TcJ*(Kp*e + I); returns the model velocity of this period plus
  * the tracked deviation, dw += a*(w0 - w - dw) (a non-finite w0 leaves dw) (rad/s). The model starts at w0 (the
@@ -50,8 +78,17 @@ typedef struct aff_sign_observer {
     aff_real w_ctrl; /* the controller's measurement of this period (rad/s) */
 } aff_sign_observer;
 
-/* Configure o (on = 1) with the gains of SignObserver.gains(Tc) and clear its state. */
-void aff_sign_observer_init(aff_sign_observer *o, aff_real TcJ, aff_real l1, aff_real l2);
+/* The sign observer's defaults (J, bandwidth 0: to be set; residual_bandwidth -1: 0.1*bandwidth). */
+aff_sign_observer_config aff_sign_observer_default_config(void);
+
+/* Configure o (on = 1) from *cfg at the period Tc (s) of the feedforward that holds it and clear its state: TcJ =
+ * Tc/J, the error poles p1 = exp(-bandwidth*Tc), p2 = exp(-residual_bandwidth*Tc) (0.1*bandwidth for a negative
+ * one), l1 = 1 - p1*p2, l2 = (1 - p1)*(1 - p2). Returns AFF_OK, or AFF_ERR_NULL, AFF_ERR_SIGN_OBSERVER_TC, _J,
+ * _BANDWIDTH, _RESIDUAL_BANDWIDTH (o untouched). Python: SignObserver. */
+aff_error aff_sign_observer_init(aff_sign_observer *o, const aff_sign_observer_config *cfg, aff_real Tc);
+
+/* The checks of aff_sign_observer_init alone: AFF_OK or the code it would return for *cfg and Tc (s). */
+aff_error aff_sign_observer_check_config(const aff_sign_observer_config *cfg, aff_real Tc);
 
 /* The measurement w_ctrl (rad/s) with the observer's sign if it is finite and inside (-band, band): copysign(|w|,
  * w_hat); else unchanged. Records w_ctrl for aff_sign_observer_step and starts the observer at the first

@@ -192,9 +192,7 @@ class RecursiveLeastSquares(Component):
                 raise ParameterError(f"lam must be a number or {p} numbers in (0, 1], got {lam!r}")
             if forgetting != "exponential":
                 raise ParameterError("a vector lam needs forgetting='exponential'")
-            d = lam ** -0.5
             scheme = lib.AFF_RLS_VECTOR
-            D = np.outer(d, d)  # exactly symmetric inflation factors
         if np.ndim(P0) == 0:
             p0 = check_finite_scalar("P0", P0)
             if p0 <= 0:
@@ -237,16 +235,22 @@ class RecursiveLeastSquares(Component):
         self.n_params = p
         self._lam = lam
         self._forgetting = forgetting
-        self._new_struct()
-        lib.aff_rls_init(self._c, p, scheme, lam if scheme != lib.AFF_RLS_VECTOR else 1.0, float(P_max), 1.0)
+        # the settings (P0 the scalar, 1 for a matrix P0: P is written below); theta0, a matrix P0 and the bounds are
+        # written into the struct after aff_rls_init, the vector scheme's factors by aff_rls_set_lam_each
+        cfg = self._settings("aff_rls_config", lib.aff_rls_default_config(),
+                             {"n_params": p, "forgetting": scheme, "lam": lam if scheme != lib.AFF_RLS_VECTOR else 1.0,
+                              "P0": float(P0) if np.ndim(P0) == 0 else 1.0, "P_max": float(P_max)})
+        self._configure(lib.aff_rls_init, cfg, lib.aff_error_message)
+        if scheme == lib.AFF_RLS_VECTOR:  # D = d d', d = lam**-0.5 (exactly symmetric inflation factors)
+            code = lib.aff_rls_set_lam_each(self._c, ffi.new("double[]", [float(x) for x in lam]))
+            if code != lib.AFF_OK:
+                raise ParameterError(f"lam: {ffi.string(lib.aff_error_message(code)).decode()}")
         self._bind()
         self.theta = theta
         self.P = P
         self._c.has_bounds = int(has_bounds)
         self._lower[:] = lower
         self._upper[:] = upper
-        if scheme == lib.AFF_RLS_VECTOR:
-            self._D[:] = D
 
     def _bind(self) -> None:
         """Make the numpy views of the struct's arrays (again, after the struct moved: :meth:`_use`, unpickling)."""

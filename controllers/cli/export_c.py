@@ -30,8 +30,9 @@ the example loop (and of the switch-in's loop model and the stick fallback) are 
 
 Writes into DIR: aff.h (the API, one header), aff.c (the package's C code of the compensator, one file),
 aff_config.h (the settings as macros: AFF_TC, AFF_TS, AFF_VS, AFF_DELTA, AFF_J_DESIGN, AFF_U_MAX,
-AFF_FF_MAX, AFF_KP, AFF_KI, AFF_W_MAX, AFF_HOLD_TIME, ...), aff_config.c (AFF_INITIAL, the configured
-compensator; AFF_GUARD, the input guard), example_loop.c (a 1 kHz loop: read velocity, aff_step,
+AFF_FF_MAX, AFF_KP, AFF_KI, AFF_W_MAX, AFF_HOLD_TIME, ...), aff_config.c (AFF_CONFIG, the settings of the
+compensator and the input guard, every field commented: edit one and rebuild, aff_init checks them and computes
+the rest), example_loop.c (a 1 kHz loop: read velocity, aff_step,
 aff_transfer into the PI, write torque, aff_observe) and a Makefile ('make': libaff.a and
 the example in double; 'make FLOAT=1': single precision, -DAFF_FLOAT). C99 and <math.h> only: no malloc,
 no I/O, bounded work per call. An identification with plausibility or identifiability warnings is

@@ -1,10 +1,12 @@
 /* ctl_adob.c -- adaptive feedforward plus disturbance observer on the residual (see ctl_adob.h). */
 #include "ctl_adob.h"
 
-void ctl_adob_init(ctl_adob *a, const aff_robust_ff *ff, const aff_dob *dob, aff_real u_max)
+aff_error ctl_adob_init(ctl_adob *a, const aff_robust_ff *ff, const aff_residual_config *res)
 {
-    aff_residual_init(&a->res, dob, u_max);
-    a->ff = *ff;
+    aff_error e = aff_residual_init(&a->res, res);
+    if (e == AFF_OK)
+        a->ff = *ff;
+    return e;
 }
 
 aff_real ctl_adob_compensate(void *self, aff_real w_ctrl, aff_real w_meas, aff_real w_ref)
@@ -35,10 +37,12 @@ aff_real ctl_adob_rest_lag(void *self)
 const aff_compensator_ops ctl_adob_ops = {"adaptive-dob", ctl_adob_compensate, ctl_adob_observe, ctl_adob_at_rest,
                                           NULL, ctl_adob_rest_lag};
 
-void ctl_eq4_dob_init(ctl_eq4_dob *a, const aff_eq4_ff *ff, const aff_dob *dob, aff_real u_max)
+aff_error ctl_eq4_dob_init(ctl_eq4_dob *a, const aff_eq4_ff *ff, const aff_residual_config *res)
 {
-    aff_residual_init(&a->res, dob, u_max);
-    a->ff = *ff;
+    aff_error e = aff_residual_init(&a->res, res);
+    if (e == AFF_OK)
+        a->ff = *ff;
+    return e;
 }
 
 aff_real ctl_eq4_dob_compensate(void *self, aff_real w_ctrl, aff_real w_meas, aff_real w_ref)

@@ -25,9 +25,10 @@ typedef struct ctl_eq4_dob {
     aff_eq4_ff ff;        /* the eq. 4 adaptive feedforward with its estimator (RLS or IV) */
 } ctl_eq4_dob;
 
-/* Configure a from the configured parts ff (aff_robust_ff_init) and dob (aff_dob_init), both copied by value,
- * with the bound u_max (N*m, >= 0): aff_residual_init on a->res. */
-void ctl_adob_init(ctl_adob *a, const aff_robust_ff *ff, const aff_dob *dob, aff_real u_max);
+/* Configure a from the configured feedforward ff (aff_robust_ff_init), copied by value, and the residual part's
+ * settings res (aff_residual_init on a->res: the observer, the bound, the switch-in). Returns AFF_OK, or
+ * aff_residual_init's code (a untouched). */
+aff_error ctl_adob_init(ctl_adob *a, const aff_robust_ff *ff, const aff_residual_config *res);
 
 /* Compensator interface (aff_compensator.h), self a ctl_adob: u_ff = aff_robust_ff_compensate (w_ctrl, w_meas,
  * w_ref in rad/s), then aff_residual_compensate (acting: the feedforward's own estimate in use; started: its
@@ -48,9 +49,9 @@ aff_real ctl_adob_rest_lag(void *self);
 /* The ops table of ctl_adob (name "adaptive-dob"). */
 extern const aff_compensator_ops ctl_adob_ops;
 
-/* Configure a from the configured parts ff (aff_eq4_ff_init) and dob (aff_dob_init), both copied by value, with the
- * bound u_max (N*m, >= 0): aff_residual_init on a->res. */
-void ctl_eq4_dob_init(ctl_eq4_dob *a, const aff_eq4_ff *ff, const aff_dob *dob, aff_real u_max);
+/* Configure a from the configured feedforward ff (aff_eq4_ff_init), copied by value, and the residual part's settings
+ * res (aff_residual_init on a->res). Returns AFF_OK, or aff_residual_init's code (a untouched). */
+aff_error ctl_eq4_dob_init(ctl_eq4_dob *a, const aff_eq4_ff *ff, const aff_residual_config *res);
 
 /* Compensator interface, self a ctl_eq4_dob: u_ff = aff_eq4_ff_compensate, then aff_residual_compensate (acting:
  * the feedforward has an estimate in use; started: its provisional start map). */

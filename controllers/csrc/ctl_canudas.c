@@ -6,7 +6,16 @@
 int ctl_canudas_init(ctl_canudas *c, aff_real Tc, long m, aff_real w_dead, long warmup, aff_real ff_max,
                      int ff_measured, int scheme, aff_real lam, aff_real P0, aff_real J_guess)
 {
-    if (m < 1)
+    aff_range_gate_config ug = aff_range_gate_default_config(); /* RangeGate() */
+    aff_range_gate_config wg = ug;                               /* RangeGate(floor=w_dead) */
+    aff_rls_config rc = aff_rls_default_config();
+    wg.floor = w_dead;
+    rc.n_params = 5;
+    rc.forgetting = scheme;
+    rc.lam = lam;
+    rc.P0 = P0;
+    rc.P_max = 0; /* trace(P0*I), P0 summed in order (numpy's trace) */
+    if (m < 1 || aff_range_gate_check_config(&wg) != AFF_OK || aff_rls_check_config(&rc) != AFF_OK)
         return -1;
     c->Tc = Tc;
     c->Ts = (aff_real)m * Tc;
@@ -15,13 +24,9 @@ int ctl_canudas_init(ctl_canudas *c, aff_real Tc, long m, aff_real w_dead, long 
     c->warmup = warmup;
     c->ff_max = ff_max;
     c->ff_measured = ff_measured;
-    aff_real decay = AFF_EXP((aff_real)-1.0 / (aff_real)10000.0);
-    aff_range_gate_init(&c->u_range, (aff_real)INFINITY, (aff_real)100.0, (aff_real)0.0, decay, 20);
-    aff_range_gate_init(&c->w_range, (aff_real)INFINITY, (aff_real)100.0, w_dead, decay, 20);
-    aff_real trace = P0;
-    for (int i = 1; i < 5; i++)
-        trace += P0; /* np.trace(P0*I), summed in order */
-    aff_rls_init(&c->rls, 5, scheme, lam, trace, P0);
+    aff_range_gate_init(&c->u_range, &ug);
+    aff_range_gate_init(&c->w_range, &wg);
+    aff_rls_init(&c->rls, &rc);
     c->rls.theta[0] = c->Ts / J_guess;
     c->rls.has_bounds = 1;
     for (int i = 0; i < 5; i++) {

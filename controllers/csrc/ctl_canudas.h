@@ -49,7 +49,8 @@ typedef struct ctl_canudas {
 /* Configure c and clear its state: Ts = m*Tc; the RLS with 5 parameters, scheme (AFF_RLS_DIRECTIONAL or
  * AFF_RLS_EXPONENTIAL), lam, P = P0*I, P_max = trace(P), theta = (Ts/J_guess, 0, 0, 0, 0), bounds
  * [1e-12, inf) x [0, inf)^4; the gates with the defaults of RangeGate() and RangeGate(floor=w_dead);
- * not on, no interval started, counters 0. Returns 0, or -1 (c untouched) for m < 1. */
+ * not on, no interval started, counters 0. Returns 0, or -1 (c untouched) for m < 1, a w_dead the gate refuses
+ * (aff_range_gate_init) or an RLS setting out of range (aff_rls_init). */
 int ctl_canudas_init(ctl_canudas *c, aff_real Tc, long m, aff_real w_dead, long warmup, aff_real ff_max,
                      int ff_measured, int scheme, aff_real lam, aff_real P0, aff_real J_guess);
 

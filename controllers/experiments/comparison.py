@@ -170,7 +170,9 @@ class Comparison:
         motion, the longest settling time (``no (k)``: k stops did not settle into the band) and the largest
         error at a reversal (second half). Every column keeps its width for any value (:func:`number_text`)."""
         stops = self.has_stops
-        wm = mode_width(self.results)
+        research = self.research_rows()
+        names = {m: m + ("*" if m in research else "") for m in self.results}
+        wm = mode_width(names.values())
         head = (f"{'mode':<{wm}}{'RMS [deg/s]':>12}{'max [deg/s]':>13}{'reversal RMS':>14}{'u RMS [N·m]':>13}"
                 f"{'eta':>8}{'eta full':>9}{'dev [deg/s]':>12}{'t_on [s]':>9}")
         widths = [12, 13, 14, 13, 8, 9, 12, 9]
@@ -180,11 +182,12 @@ class Comparison:
         lines = [head, "-" * len(head)]
         d = np.rad2deg
         for row in self.rows():
+            name = names[row["mode"]]
             if self.results[row["mode"]].info.get("diverged"):
-                lines.append(f"{row['mode']:<{wm}}" + "".join(f"{'diverged' if i == 0 else '-':>{w}}"
+                lines.append(f"{name:<{wm}}" + "".join(f"{'diverged' if i == 0 else '-':>{w}}"
                                                               for i, w in enumerate(widths)))
                 continue
-            line = (f"{row['mode']:<{wm}}{number_text(d(row['rms']), 12)}{number_text(d(row['max']), 13)}"
+            line = (f"{name:<{wm}}{number_text(d(row['rms']), 12)}{number_text(d(row['max']), 13)}"
                     f"{number_text(d(row['rms_reversal']), 14)}{number_text(row['u_rms'], 13, 2)}"
                     f"{number_text(row['eta'], 8, 3, missing='-')}{number_text(row['eta_full'], 9, 3, missing='-')}"
                     f"{number_text(d(row['rms_dev']), 12)}{number_text(row['t_ff_on'], 9, 3, missing='-')}")
@@ -193,7 +196,23 @@ class Comparison:
                          f"{settling_text(row['settling_max'], row['n_unsettled']):>16}"
                          f"{number_text(d(row['max_reversal']), 10)}")
             lines.append(line)
+        if research:
+            by = {}
+            for m, e in research.items():
+                by.setdefault(e, []).append(m)
+            lines.append("* " + "; ".join(f"estimator {e!r} ({', '.join(ms)})" for e, ms in by.items())
+                         + ": research variants; export-c writes mode adaptive with the sliding estimator")
         return "\n".join(lines)
+
+    def research_rows(self) -> dict:
+        """``{mode: estimator}`` of the adaptive rows whose estimator is not the one ``export-c`` writes for a drive
+        (``sliding``): the table marks them with ``*`` and a footnote, as no drive runs them."""
+        out = {}
+        for m, r in self.results.items():
+            e = (r.info or {}).get("estimator")
+            if (m.startswith("adaptive")) and e is not None and e != "sliding":
+                out[m] = e
+        return out
 
     def to_dict(self) -> dict:
         """:meth:`to_json_dict` as strict JSON (an undefined eta is None, ``null``; any NaN becomes None)."""

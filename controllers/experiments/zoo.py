@@ -57,9 +57,11 @@ mode on the joint's group with :func:`controllers.simulation.batch.run_batch`
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -302,6 +304,11 @@ class ZooOptions:
         Mode ``adaptive`` with the residual switch-in (default True), as
         :class:`controllers.experiments.compare.CompareOptions`; False: the feedforward alone, as ``adaptive-ff
         export-c`` writes it for a drive.
+    export : str or None
+        An ``adaptive-ff export-c`` folder: mode ``adaptive`` runs on every joint through its code, compiled in
+        each worker (:class:`controllers.simulation.exported.ExportedLibrary`: the drive's library, input guard
+        included, configured with each joint's settings by its own ``aff_init``) instead of the package's module;
+        default None. Needs a C compiler where the workers run.
     base : CompareOptions or None
         A comparison every joint is placed into, e.g. a scenario file's
         (:attr:`controllers.experiments.scenario.Scenario.options`): its reference (which sets the duration and
@@ -349,8 +356,15 @@ class ZooOptions:
     switch_in: bool = True
     J_design_factor: float = 1.0
     base: CompareOptions | None = None
+    export: str | None = None
 
     def __post_init__(self):
+        if self.export is not None:
+            missing = [f for f in ("aff.h", "aff.c", "aff_config.h", "aff_config.c")
+                       if not (Path(self.export) / f).is_file()]
+            if missing:
+                raise ParameterError(f"export: {self.export} is not an export-c folder (missing {', '.join(missing)})")
+            object.__setattr__(self, "export", str(self.export))
         if self.base is not None:
             if not isinstance(self.base, CompareOptions):
                 raise ParameterError(f"base must be a CompareOptions (e.g. a scenario's options), got "
@@ -617,7 +631,8 @@ class ZooResult:
             lines.append(f"{m:<14}{c['ok']:>5}{c['refused']:>5}{c['diverged']:>5}{c['undefined']:>6}"
                          f"{c['no reference']:>6}{c['invalid']:>6}{worse[m]:>6}" + "".join(f"{v:>8.3f}" for v in qs))
         for name, rivals in self.win_rates().items():
-            lines.append(f"{name} >= " + ", ".join(f"{r}: {v:.1%}" for r, v in rivals.items()))
+            if rivals:
+                lines.append(f"{name} >= " + ", ".join(f"{r}: {v:.1%}" for r, v in rivals.items()))
         lines += self._target_lines()
         return "\n".join(lines)
 
@@ -697,7 +712,8 @@ def _group_task(args) -> dict:
     """
     import time
 
-    specs, co, modes, own, J_design_factor = args
+    specs, co, modes, own, J_design_factor, export = args
+    through = None if export is None else _exported_library(export)
     t0 = time.process_time()
     ref = _reference(co)  # once per group: the same reference for every joint
     prepared = [_prepare(s, co, ref, J_design_factor) for s in specs]
@@ -716,9 +732,9 @@ def _group_task(args) -> dict:
             plants = [plant_from_dict(specs[j]) for j in ok]
             opts = [prepared[j][0][m] for j in ok]
             if all(j in noise for j in ok):
-                r = run_batch(plants, ref, m, opts, noise=np.stack([noise[j] for j in ok]))
+                r = run_batch(plants, ref, m, opts, noise=np.stack([noise[j] for j in ok]), through=through)
             else:
-                r = run_batch(plants, ref, m, opts, seeds=[prepared[j][1] for j in ok])
+                r = run_batch(plants, ref, m, opts, seeds=[prepared[j][1] for j in ok], through=through)
             rms[ok] = np.where(r.diverged, math.nan, r.rms_second_half)
             mx[ok] = np.where(r.diverged, math.nan, r.max_second_half)
             div[ok] = r.diverged
@@ -727,6 +743,14 @@ def _group_task(args) -> dict:
         runs.update(_own_runs(specs, prepared, ref, own))
     outcome = [(p[2] or {}, p[3], p[-1]) for p in prepared]
     return {"prepared": outcome, "runs": runs, "cpu": (t1 - t0, time.process_time() - t1)}
+
+
+@functools.lru_cache(maxsize=4)
+def _exported_library(folder: str):
+    """The export folder compiled once per worker process (the same sources give the same library)."""
+    from controllers.simulation.exported import ExportedLibrary
+
+    return ExportedLibrary(folder)
 
 
 def _reference(co: CompareOptions):
@@ -851,7 +875,8 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
     specs = draw_plants(o.n, _reference(co), seed=o.seed, box=o.box)
     starts = [a for a, _ in bounds]
     own = tuple(o.compensators or ())
-    out = _map(_group_task, [(specs[a:b], co, o.modes, o.compensators, o.J_design_factor) for a, b in bounds], o)
+    out = _map(_group_task, [(specs[a:b], co, o.modes, o.compensators, o.J_design_factor, o.export)
+                             for a, b in bounds], o)
     refused, mode_refused, notes = {}, {}, {}
     modes = o.modes + own
     rms = {m: np.full(n, math.nan) for m in modes}

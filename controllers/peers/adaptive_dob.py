@@ -60,7 +60,7 @@ from controllers.peers.dob import DisturbanceObserver
 from plant.component import Component
 from plant.errors import ParameterError, check_nonnegative, check_positive
 
-__all__ = ["AdaptiveDOBCompensator", "AdaptiveCompensator", "ResidualSwitchIn"]
+__all__ = ["AdaptiveDOBCompensator", "AdaptiveCompensator", "ResidualSwitchIn", "residual_config"]
 
 
 class _Composite(NamedTuple):
@@ -156,6 +156,22 @@ class ResidualSwitchIn:
         if not (isinstance(m, (int, float)) and not isinstance(m, bool) and m >= 0.0):
             raise ParameterError(f"trial_margin must be >= 0 (math.inf: no trial), got {m!r}")
 
+    def config_fields(self) -> dict:
+        """The fields of the C settings ``aff_switch_in_config`` (``aff_residual_init`` computes the EWMA factor, the
+        fade step and the evidence count from them)."""
+        return {k: float(getattr(self, k)) for k in ("Tc", "J_n", "Kp", "Ki", "window", "ratio", "share", "fade_in",
+                                                    "trial_margin")}
+
+
+def residual_config(observer: DisturbanceObserver, u_max: float, switch_in: ResidualSwitchIn | None):
+    """The settings of the residual part (C ``aff_residual_config``) of a composite: the observer's, the bound
+    ``u_max`` (N·m) and the switch-in (None: the observer always applied)."""
+    cfg = ffi.new("aff_residual_config *", lib.aff_residual_default_config())
+    cfg.u_max, cfg.dob, cfg.use_switch_in = u_max, observer.config[0], switch_in is not None
+    if switch_in is not None:
+        cfg.switch_in = switch_in.config_fields()
+    return cfg
+
 
 class AdaptiveDOBCompensator(Component):
     """Adaptive friction feedforward with a disturbance observer on the residual (mode ``adaptive-dob``).
@@ -230,13 +246,8 @@ class AdaptiveDOBCompensator(Component):
             self.MODE = "adaptive"  # the mode it is (run_closed_loop's default result name)
         self._ctype = composite.ctype
         self.C_OPS = f"{composite.ctype}_ops"
-        self._new_struct()
-        composite.init(self._c, feedforward.cdata, observer.cdata, u_max)
-        if switch_in is not None:
-            s = switch_in
-            if lib.aff_residual_set_switch_in(ffi.addressof(self._c, "res"), s.Tc, s.J_n, s.Kp, s.Ki, s.window,
-                                              s.ratio, s.share, s.fade_in, s.trial_margin) != 0:
-                raise ParameterError(f"switch_in refused by aff_residual_set_switch_in: {s!r}")
+        self._configure(lambda c, cfg: composite.init(c, feedforward.cdata, cfg),
+                        residual_config(observer, u_max, switch_in), lib.aff_error_message, keep=False)
         self._attached()
 
     def _attached(self) -> None:
@@ -426,18 +437,16 @@ class AdaptiveCompensator(AdaptiveDOBCompensator):
         self.supervisor = supervisor
         self.switch_in = switch_in
         self.n_theta = feedforward.n_theta
-        res = ffi.NULL
+        cfg = self._settings("aff_adaptive_config", lib.aff_adaptive_default_config(),
+                             {"use_residual": observer is not None, "use_supervisor": supervisor is not None,
+                              "ff": feedforward.config[0]})  # the parts not used keep the C defaults
         if observer is not None:
-            res = ffi.new("aff_residual *")
-            lib.aff_residual_init(res, observer.cdata, u_max)
-            s = switch_in
-            if s is not None and lib.aff_residual_set_switch_in(res, s.Tc, s.J_n, s.Kp, s.Ki, s.window, s.ratio,
-                                                                s.share, s.fade_in, s.trial_margin) != 0:
-                raise ParameterError(f"switch_in refused by aff_residual_set_switch_in: {s!r}")
-        self._new_struct()
-        lib.aff_adaptive_init(self._c, feedforward.cdata, res, ffi.NULL if supervisor is None else supervisor.cdata)
-        if observer is None:
-            self._c.res.u_max = u_max
+            cfg.res = residual_config(observer, u_max, switch_in)[0]
+        else:
+            cfg.res.u_max = u_max
+        if supervisor is not None:
+            cfg.sup = supervisor.config[0]
+        self._configure(lib.aff_adaptive_init, cfg, lib.aff_error_message)
         self._attached()
 
     def _attached(self) -> None:
@@ -451,6 +460,18 @@ class AdaptiveCompensator(AdaptiveDOBCompensator):
     def __repr__(self) -> str:
         return (f"AdaptiveCompensator({self.estimator!r}, observer={self.observer!r}, switch_in={self.switch_in!r}, "
                 f"supervisor={self.supervisor!r})")
+
+    def drive_config(self, **guard):
+        """The drive's settings (C ``aff_config``, for ``aff_init`` of ``adaptive_ff/csrc/aff_drive.h``): this
+        compensator's (:attr:`config`) and the input guard's, ``aff_guard_default_config()`` at the feedforward's
+        period with the fields given in ``guard`` (``Tc`` s, ``w_max`` rad/s, ``u_max`` N·m, ``hold_time`` s)."""
+        cfg = ffi.new("aff_config *")
+        cfg.mode = self.config[0]
+        cfg.guard = lib.aff_guard_default_config()
+        cfg.guard.Tc = self.feedforward.dt
+        for k, v in guard.items():
+            setattr(cfg.guard, k, v)
+        return cfg
 
     transfer = property(lambda self: float(self._c.transfer),
                         doc="The supervisor's bumpless transfer of the last compensate (N·m), for the PI's "

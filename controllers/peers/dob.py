@@ -10,7 +10,8 @@ cancels it within the Q-filter bandwidth.
 
 Compensator component: configuration and state in the C struct
 ``aff_dob`` (``adaptive_ff/csrc/aff_dob.h``, with its two range gates embedded
-as ``aff_range_gate`` fields); ``aff_dob_compensate`` and ``aff_dob_observe``
+as ``aff_range_gate`` fields), configured from its settings ``aff_dob_config`` by
+``aff_dob_init``; ``aff_dob_compensate`` and ``aff_dob_observe``
 (the ``aff_compensator_ops`` table ``aff_dob_ops``) are the one implementation,
 called by :class:`DisturbanceObserver`'s methods and by the closed-loop engine.
 """
@@ -109,8 +110,10 @@ class DisturbanceObserver(Component):
         for name, g in (("u_range", u_range), ("w_range", w_range)):
             if not isinstance(g, RangeGate):
                 raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
-        self._new_struct()
-        lib.aff_dob_init(self._c, Tc, J_n, omega_q, order, d_max)
+        cfg = self._settings("aff_dob_config", lib.aff_dob_default_config(),
+                             {"Tc": Tc, "J_n": J_n, "omega_q": omega_q, "order": order, "d_max": d_max,
+                              "u_range": u_range.config[0], "w_range": w_range.config[0]})
+        self._configure(lib.aff_dob_init, cfg, lib.aff_error_message)
         self.u_range = u_range
         self.w_range = w_range
         self._attached()

@@ -189,7 +189,8 @@ def _sensor_gate(p, o, Tc: float):
     return OutlierGate(max_step=2.0 * o.u_max * Tc / J if math.isfinite(o.u_max) else math.inf)
 
 
-def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, noise=None) -> BatchResult:
+def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, noise=None,
+              through=None) -> BatchResult:
     """Run B closed loops (one per plant) on a common reference with the C engine.
 
     Parameters
@@ -209,6 +210,10 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
         rng=np.random.default_rng(seeds[b]))`` (memory B*N).
     noise : ndarray, shape (N,) or (B, N), keyword-only
         Explicit measurement noise (rad/s), overrides ``noise_std``/``seeds``.
+    through : ExportedLibrary or None, keyword-only
+        Run mode ``adaptive``'s compensator of each scenario by this compiled export
+        (:class:`controllers.simulation.exported.ExportedLibrary`: the library's code, configured with the
+        package's settings) instead of the package's module; default None. Other modes are not affected.
 
     Returns
     -------
@@ -238,6 +243,8 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
     if n > 1 and not math.isclose(t[1] - t[0], Tc, rel_tol=1e-9):
         raise ParameterError(f"reference step {t[1] - t[0]!r} s differs from Tc = {Tc!r} s")
     run_plants, ctrls, comps = build_modes(plants, mode, opts)
+    if through is not None and mode == "adaptive":
+        comps = [through.compensator(c) for c in comps]
     (rows, tables, n_rows, row_ks, states), idx, gates = _plants_arrays(run_plants, plants, opts, t, wr, Tc)
     oracle = isinstance(comps[0], TrueFriction)
     nz, nrows = _noise(noise, seeds, opts, B, n)

@@ -212,6 +212,13 @@ class ModeOptions:
     supervise_omega : float or None
         Cut-off of its Q-filter (rad/s); default None: ``Kp/J_design``, the loop's crossover (``omega`` of
         :func:`build_supervisor`).
+    supervise_tracking : bool
+        The supervisor's tracking test (:class:`adaptive_ff.compensation.supervisor.FeedforwardSupervisor` ``Kp``,
+        ``Ki``): it also backs the compensation off while the loop's velocity error with it is larger in mean square
+        than ``1 + supervise_track_margin`` times the error the loop's nominal model (PI, ``J_design``) makes from the
+        disturbance without it; default True (needs ``Kp > 0``).
+    supervise_track_margin : float
+        That margin (-), >= 0; default 1 (twice the mean square).
     iv_Ts : float or None
         Sample time (s) of the ``eq4`` estimator, a multiple of ``Tc``; default None: 2 ms (rounded to a multiple
         of ``Tc``, at least ``Tc``). ``Ts`` is that of the other estimators.
@@ -290,6 +297,8 @@ class ModeOptions:
     supervise_window: float = 2.0
     supervise_margin: float = 0.1
     supervise_omega: float | None = None
+    supervise_tracking: bool = True
+    supervise_track_margin: float = 1.0
     supervise_rest_band: float | None = 0.0
     iv_Ts: float | None = None
     iv_map_stderr: float = math.inf
@@ -318,6 +327,9 @@ class ModeOptions:
         if not isinstance(self.supervise, bool):
             raise ParameterError(f"supervise must be True or False, got {self.supervise!r}")
         check_positive("supervise_window", self.supervise_window)
+        if not isinstance(self.supervise_tracking, bool):
+            raise ParameterError(f"supervise_tracking must be True or False, got {self.supervise_tracking!r}")
+        check_nonnegative("supervise_track_margin", self.supervise_track_margin)
         if not (0.0 <= self.supervise_margin < 1.0):
             raise ParameterError(f"supervise_margin must be in [0, 1), got {self.supervise_margin!r}")
         if self.supervise_omega is not None:
@@ -388,12 +400,16 @@ def build_supervisor(plant, mode: str, options: ModeOptions, *, force: bool = Fa
     return FeedforwardSupervisor(Tc=options.Tc, J_n=_nominal_inertia(plant, options), omega=omega,
                                  window=options.supervise_window,
                                  margin=options.supervise_margin, rest_band=options.supervise_rest_band,
-                                 delay=int(options.delay))
+                                 delay=int(options.delay),
+                                 Kp=options.Kp if options.supervise_tracking and options.Kp > 0 else None,
+                                 Ki=options.Ki, track_margin=options.supervise_track_margin)
 
 
 def own_supervisor(comp) -> FeedforwardSupervisor | None:
     """The supervisor a compensator carries in its own struct (an :class:`AdaptiveCompensator`'s, which it applies
-    itself: the engine then supervises nothing more), else None."""
+    itself: the engine then supervises nothing more; also one run by a compiled export,
+    :class:`controllers.simulation.exported.ExportedCompensator`, whose ``compensator`` it is), else None."""
+    comp = getattr(comp, "compensator", comp)
     return comp.supervisor if isinstance(comp, AdaptiveCompensator) else None
 
 

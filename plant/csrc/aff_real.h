@@ -54,6 +54,30 @@ static inline int aff_positive(aff_real x)
     return isfinite(x) && x > 0;
 }
 
+/* 1 if x is finite and >= 0, else 0. */
+static inline int aff_nonnegative(aff_real x)
+{
+    return isfinite(x) && x >= 0;
+}
+
+/* 1 if x > 0, INFINITY included (a bound that INFINITY turns off), else 0 (NaN: 0). */
+static inline int aff_positive_or_inf(aff_real x)
+{
+    return x > 0;
+}
+
+/* 1 if x >= 0, INFINITY included, else 0 (NaN: 0). */
+static inline int aff_nonnegative_or_inf(aff_real x)
+{
+    return x >= 0;
+}
+
+/* 1 if the flag i of a configuration is 0 or 1, else 0. */
+static inline int aff_flag(int i)
+{
+    return i == 0 || i == 1;
+}
+
 /* n + 1, or n if n is INT64_MAX: a counter that reached the maximum stays there (no signed overflow). */
 static inline int64_t aff_count_up(int64_t n)
 {
