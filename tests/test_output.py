@@ -93,10 +93,15 @@ def test_ctrl_c_during_the_moves_is_held_until_all_moved(previous, monkeypatch):
         real(src, dst)
 
     monkeypatch.setattr(os, "replace", replace)
-    with pytest.raises(KeyboardInterrupt):
-        with staged_folder(previous) as tmp:
-            for name in ("a.txt", "b.txt", "c.txt"):
-                (tmp / name).write_bytes(b"new " + name[0].encode())
+    # Python's own Ctrl-C handler (a worker of pytest-xdist may run with SIGINT ignored)
+    old_handler = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            with staged_folder(previous) as tmp:
+                for name in ("a.txt", "b.txt", "c.txt"):
+                    (tmp / name).write_bytes(b"new " + name[0].encode())
+    finally:
+        signal.signal(signal.SIGINT, old_handler)
     assert len(calls) == 3  # every file moved, then the interrupt
     assert {k: v for k, v in _tree(previous).items() if k != "mine.txt"} == {"a.txt": b"new a", "b.txt": b"new b",
                                                                              "c.txt": b"new c"}
