@@ -4,7 +4,7 @@ Run:  python benchmarks/zoo.py [--n 100] [--duration 120] [--seed 0] [--modes no
                                [--group 8] [--workers 2] [--scheduler tcp://host:8786]
                                [--min-degradation 0.01] [--estimator sliding|eq4|eq4-rls] [--J-design-factor 1]
                                [--iv-map-stderr inf] [--no-switch-in] [--scenario FILE] [--export DIR]
-                               [--json out.json]
+                               [--json out.json] [--yes]
 
 Draws the joints with :func:`controllers.experiments.zoo.draw_plants` (the box of
 :class:`controllers.experiments.zoo.ZooBox`), prepares each as ``compare`` does
@@ -28,6 +28,9 @@ compiled in each worker (``ZooOptions.export``, :class:`controllers.simulation.e
 configured by the library's own ``aff_init`` with the settings the package gives it: the zoo of what a drive
 runs. A new mode
 of the registry is picked up by default (``--modes`` lists the registry).
+
+A zoo estimated beyond 10 minutes or 4 GiB (``--n`` joints of ``--duration`` s in every mode,
+:func:`controllers.cli.budget.zoo_estimate`) is refused with what it would cost unless ``--yes``.
 """
 
 from __future__ import annotations
@@ -40,6 +43,7 @@ import subprocess
 import sys
 import time
 
+from controllers.cli.budget import add_yes_argument, check_work, zoo_estimate
 from controllers.experiments.scenario import load_scenario
 from controllers.experiments.zoo import ZooOptions, run_zoo, zoo_options_dict
 from controllers.simulation.compensators import ESTIMATORS, MODES
@@ -73,6 +77,7 @@ def main(argv=None) -> int:
     ap.add_argument("--export", default=None, metavar="DIR",
                     help="run mode adaptive through this export-c folder's compiled C (ZooOptions.export)")
     ap.add_argument("--json", default=None, help="write the full result (strict JSON) to this file")
+    add_yes_argument(ap)
     args = ap.parse_args(argv)
     base = None
     if args.scenario is not None:
@@ -89,6 +94,10 @@ def main(argv=None) -> int:
                        J_design_factor=args.J_design_factor, iv_map_stderr=args.iv_map_stderr,
                        switch_in=args.switch_in, export=args.export)
     except ParameterError as exc:  # a setting out of range: argparse's message and exit code 2, no traceback
+        ap.error(str(exc))
+    try:  # --n and --duration bounded up front: beyond 10 min or 4 GiB only with --yes
+        check_work(zoo_estimate(o.n, o.duration, len(o.modes), o.workers), yes=args.yes)
+    except ParameterError as exc:
         ap.error(str(exc))
     try:
         commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()

@@ -79,7 +79,7 @@ def test_from_identify_json_with_override_and_report(tmp_path, capsys):
 def test_errors(tmp_path):
     with pytest.raises(ParameterError, match="--J"):
         run(["--no-figures"])
-    with pytest.raises(ParameterError, match="phase_margin must be in \\(0, 90\\) degrees, got 95.0"):
+    with pytest.raises(ParameterError, match="--phase-margin must be in \\(0, 90\\) degrees, got 95.0"):
         run(["--J", "1", "--phase-margin", "95", "--no-figures"])
     bad = tmp_path / "bad.json"
     bad.write_text("[1, 2]")

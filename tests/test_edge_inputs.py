@@ -45,7 +45,7 @@ def _fake_memory(monkeypatch, n_bytes):
 # ------------------------------------------------------------------------------------------- run length and memory
 def test_cli_refuses_a_duration_too_long_for_the_memory_with_the_numbers(monkeypatch, capsys):
     _fake_memory(monkeypatch, 16e9)
-    code = main(["compare", "--duration", "1e9", "--no-figures", "--quiet"])
+    code = main(["compare", "--duration", "1e9", "--no-figures", "--quiet", "--yes"])  # --yes: past the work bound
     err = capsys.readouterr().err
     assert code == 2 and "Traceback" not in err and len(err.strip().splitlines()) == 1
     samples = 1e9 / 1e-3  # 1 kHz
@@ -59,7 +59,7 @@ def test_cli_refuses_a_duration_too_long_for_the_memory_with_the_numbers(monkeyp
 
 def test_cli_message_in_a_fresh_process_has_no_traceback_and_consistent_numbers():
     cli = "import sys; from controllers.cli.main import main; sys.exit(main())"  # the console script's body
-    r = subprocess.run([sys.executable, "-c", cli, "compare", "--duration", "1e9", "--quiet", "--no-figures"],
+    r = subprocess.run([sys.executable, "-c", cli, "compare", "--duration", "1e9", "--quiet", "--no-figures", "--yes"],
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 2 and "Traceback" not in r.stderr and r.stdout == ""
     m = re.fullmatch(r"adaptive-ff: error: duration = 1e\+09 s is 1e12 samples at 1 kHz \(Tc = 0\.001 s\): about "

@@ -42,6 +42,7 @@ import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from adaptive_ff.io.output import staged_folder
 from plant.errors import ParameterError
 
 __all__ = ["export_c", "CExport", "c_closure", "amalgamate", "struct_initializer", "field_comments", "c_literal",
@@ -635,7 +636,6 @@ def _prepare_out(out, force: bool) -> Path:
     if out.is_dir() and any(out.iterdir()) and not force:
         raise ParameterError(f"out {out}: the folder exists and is not empty; give a new folder, or force=True "
                              "(--force) to overwrite the exported files in it")
-    out.mkdir(parents=True, exist_ok=True)
     return out
 
 
@@ -691,7 +691,9 @@ def export_c(compensator, out, *, J_design: float, u_max: float, Kp: float, Ki: 
         :func:`controllers.simulation.compensators.build_mode`), before it observes anything: its settings
         (:attr:`~controllers.peers.adaptive_dob.AdaptiveCompensator.config`) become ``AFF_CONFIG.mode``.
     out : str or os.PathLike
-        Folder to write into (created; must be empty unless ``force``).
+        Folder to write into (created; must be empty unless ``force``). The files are written beside it first and
+        moved into it together at the end (:func:`adaptive_ff.io.output.staged_folder`): a failure leaves the
+        folder as it was, and a second export into the same folder while one runs is refused.
     J_design : float, keyword-only
         Design inertia (kg·m²) the compensator was built with (documented as ``AFF_J_DESIGN``; the example's
         stub joint).
@@ -724,7 +726,7 @@ def export_c(compensator, out, *, J_design: float, u_max: float, Kp: float, Ki: 
     ParameterError
         Not mode adaptive's compensator or not what its settings configure (it has observed samples), a bad
         number, ``u_max`` beyond the float range, or ``out`` an existing file or a non-empty folder without
-        ``force``.
+        ``force``; ``out`` in use by another export (:class:`adaptive_ff.io.output.OutputInUseError`).
     FileNotFoundError
         The package's C sources are missing (an installation without ``csrc``).
     """
@@ -780,9 +782,9 @@ def export_c(compensator, out, *, J_design: float, u_max: float, Kp: float, Ki: 
              "aff_config.h": _config_header(config, origin),
              "aff_config.c": _config_source(init, origin, big),
              "example_loop.c": example, "Makefile": _MAKEFILE.replace("@FLOAT@", "1" if float_default else "0")}
-    files = []
-    for name in EXPORT_FILES:
-        (out / name).write_text(texts[name])
-        files.append(out / name)
+    with staged_folder(out, "out") as staged:  # all files appear at once, or the previous ones stay
+        for name in EXPORT_FILES:
+            (staged / name).write_text(texts[name])
+    files = [out / name for name in EXPORT_FILES]
     return CExport(out=out, files=tuple(files), config=config, headers=tuple(p.name for p in headers),
                    sources=tuple(p.name for p in sources), float_default=bool(float_default), notes=tuple(notes))

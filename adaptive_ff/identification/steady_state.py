@@ -224,7 +224,7 @@ def constant_velocity_segments(t, u, w, *, min_duration: float = 0.5, settle: fl
     settle = check_nonnegative("settle", settle)
     rel_tol = check_positive("rel_tol", rel_tol)
     sd = noise_std_estimate(w)
-    m_avg = max(1, int(round(0.1 * min_duration / float(np.median(np.diff(t))))))
+    m_avg = max(1, int(round(min(0.1 * min_duration / float(np.median(np.diff(t))), t.shape[0]))))
     if abs_tol is None:
         abs_tol = max(4.0 * sd / math.sqrt(m_avg), 1e-6 * float(np.max(np.abs(w))))
     else:
@@ -272,7 +272,8 @@ def binned_steady_state(t, u, w, *, n_bins: int = 12, w_min: float | None = None
     t, u, w : array_like, shape (N,)
         Time (s), input torque (N·m), velocity (rad/s).
     n_bins : int, keyword-only
-        Logarithmic velocity bins per direction (>= 1), between ``w_min`` and ``max|w|``.
+        Logarithmic velocity bins per direction (>= 1, at most the samples of the log), between ``w_min`` and
+        ``max|w|``.
     w_min : float, keyword-only, optional
         Smallest speed binned (rad/s), > 0. Default ``max(4*noise, 1e-3*max|w|)``
         with the noise of :func:`noise_std_estimate`: slower samples are
@@ -319,6 +320,8 @@ def binned_steady_state(t, u, w, *, n_bins: int = 12, w_min: float | None = None
     t, u, w = _check_log(t, u, w)
     if isinstance(n_bins, bool) or not isinstance(n_bins, (int, np.integer)) or n_bins < 1:
         raise ParameterError(f"n_bins must be an integer >= 1, got {n_bins!r}")
+    if n_bins > t.shape[0]:  # more bins than samples cannot hold a sample each
+        raise ParameterError(f"n_bins = {n_bins!r} is more than the log's {t.shape[0]} samples")
     if isinstance(min_count, bool) or not isinstance(min_count, (int, np.integer)) or min_count < 2:
         raise ParameterError(f"min_count must be an integer >= 2, got {min_count!r}")
     a = _smoothed_acceleration(t, w, smooth_time)

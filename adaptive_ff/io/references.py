@@ -31,7 +31,8 @@ def _unit(name: str, value: str, table: dict) -> float:
 
 def load_reference(path, *, time: str = "t", velocity: str | None = None, position: str | None = None,
                    dt: float = 1e-3, time_unit: str = "s", velocity_unit: str = "rad/s",
-                   position_unit: str = "rad", csv_format: CsvFormat | None = None) -> Reference:
+                   position_unit: str = "rad", csv_format: CsvFormat | None = None,
+                   max_samples: int | None = None) -> Reference:
     """Read a velocity reference from a file of time and velocity, or time and position.
 
     Parameters
@@ -52,6 +53,9 @@ def load_reference(path, *, time: str = "t", velocity: str | None = None, positi
         ``"s"``, ``"ms"``, ``"us"``; ``"rad/s"``, ``"deg/s"``, ``"rpm"``; ``"rad"``, ``"deg"``.
     csv_format : CsvFormat, keyword-only, optional
         Layout of a text file (lines to skip, delimiter, ...).
+    max_samples : int, keyword-only, optional
+        Most samples of the resampled reference: a file that spans longer is refused before anything is
+        allocated (e.g. the samples that fit into the memory available); default no limit.
 
     Returns
     -------
@@ -67,8 +71,8 @@ def load_reference(path, *, time: str = "t", velocity: str | None = None, positi
         The file's own errors (a missing column, a cell that is not a finite number, naming the file, column
         and row), fewer than two rows, or time stamps not strictly increasing (naming the row and the value).
     ParameterError
-        Neither or both of ``velocity`` and ``position``, an unknown unit, ``dt`` not > 0, or a file shorter
-        than two steps of ``dt``.
+        Neither or both of ``velocity`` and ``position``, an unknown unit, ``dt`` not > 0, a file shorter
+        than two steps of ``dt``, or one longer than ``max_samples`` steps.
     """
     if (velocity is None) == (position is None):
         raise ParameterError(f"give exactly one of velocity= and position= (the column's name), got "
@@ -90,7 +94,11 @@ def load_reference(path, *, time: str = "t", velocity: str | None = None, positi
                           f"{float(table.columns['t'][i])!r} after {float(table.columns['t'][i - 1])!r}")
     w = np.gradient(x, t) if role == "q" else x
     span = float(t[-1] - t[0])
-    n = int(math.floor(span / dt * (1.0 + 1e-12))) + 1
+    steps = span / dt * (1.0 + 1e-12)
+    if max_samples is not None and not steps < max_samples:
+        raise ParameterError(f"{table.source}: the file spans {span:g} s, {steps:.3g} samples at dt = {dt:g} s: "
+                             f"more than the {max_samples:,} that fit")
+    n = int(math.floor(steps)) + 1
     if n < 2:
         raise ParameterError(f"{table.source}: the file spans {span!r} s, shorter than two steps of dt = {dt!r} s")
     tr = np.arange(n) * dt

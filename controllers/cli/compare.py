@@ -16,6 +16,7 @@ def run(args) -> int:
     after the other in this process) and writes the report, then prints the
     table (or the JSON).
     """
+    from adaptive_ff.io.output import StagedOutputs
     from controllers.cli.data import check_output_dir
 
     out_dir = args.out if args.out is not None else (args.report or "out")
@@ -23,9 +24,17 @@ def run(args) -> int:
         check_output_dir(out_dir, "--out")
     if args.report:
         check_output_dir(args.report, "--report")
-    if args.scenario:
-        return _scenario_and_print(args, out_dir)
-    return _compare_and_print(args, _load_plant(args), _modes(args), out_dir)
+    with StagedOutputs() as staged:  # the figures and the report appear together at the end, or not at all
+        fig_dir = None if args.no_figures else staged.folder(out_dir, "--out")
+        report_dir = staged.folder(args.report, "--report") if args.report else None
+        if args.scenario:
+            comp, header, scenario, run_line = _scenario_comparison(args)
+        else:
+            comp, header, scenario, run_line = _comparison(args, _load_plant(args), _modes(args))
+        paths, report = _write_outputs(args, comp, fig_dir, report_dir)
+    paths = [staged.final(x) for x in paths]
+    report = None if report is None else staged.final(report)
+    return _print_comparison(args, comp, header, scenario, run_line, paths, report)
 
 
 #: Options the scenario file sets, with the table that holds each: refused beside ``--scenario``.
@@ -39,8 +48,9 @@ _SCENARIO_SETS = {"preset": "[plant] preset", "plant": "[plant] file", "variant"
                   "Vs": "[compensation] Vs", "delta": "[compensation] delta", "J_design": "[controller] J_design"}
 
 
-def _scenario_and_print(args, out_dir) -> int:
-    """``compare --scenario FILE``: the file's comparison, its figures, report and table (or JSON)."""
+def _scenario_comparison(args) -> tuple:
+    """``compare --scenario FILE``: the file's comparison, the header lines, the scenario's ``to_dict`` and the run
+    line (empty)."""
     from controllers.experiments.scenario import load_scenario
     from plant.errors import ParameterError
 
@@ -50,10 +60,13 @@ def _scenario_and_print(args, out_dir) -> int:
         raise ParameterError(f"--{k.replace('_', '-')} cannot be combined with --scenario: the scenario file "
                              f"sets it ({_SCENARIO_SETS[k]})")
     sc = load_scenario(args.scenario)
+    o = sc.options
+    _check_work(args, o.duration, o.modes, o.estimator_rows, o.compensators, o.adaptive_start, o.Tc,
+                f"{args.scenario}: the reference of {o.duration:g} s")
     with _plant_named(f"{args.scenario}: [plant]"):
         comp = sc.compare(progress=None if not args.quiet else False)
     header = [sc.summary()] + ([sc.description] if sc.description else [])
-    return _print_comparison(args, comp, out_dir, header, sc.to_dict())
+    return comp, header, sc.to_dict(), ""
 
 
 def _load_plant(args):
@@ -110,12 +123,15 @@ def _estimator_rows(args) -> tuple:
     return tuple(e.strip() for e in (args.estimator_rows or "").split(",") if e.strip())
 
 
-def _compare_and_print(args, p, modes, out_dir) -> int:
-    """The comparison, its figures and report, and the output of :func:`run`."""
+def _comparison(args, p, modes) -> tuple:
+    """The comparison of the plant ``p`` in ``modes`` with the options of ``args``, the header lines, None (no
+    scenario) and the run line."""
     from controllers.experiments.compare import compare
     from adaptive_ff.io.units import parameter_text
     from plant.models import plant_to_dict
 
+    _check_work(args, args.duration, modes, _estimator_rows(args), (), not args.no_fast_start, 1e-3,
+                f"--duration {args.duration:g}")
     progress = None if not args.quiet else False
     src = args.plant if args.plant else (f"variant '{args.variant}'" if args.variant else f"preset '{args.preset}'")
     with _plant_named(f"--plant {src}" if args.plant else src):
@@ -126,7 +142,17 @@ def _compare_and_print(args, p, modes, out_dir) -> int:
                        J_design=args.J_design, adaptive_start=not args.no_fast_start,
                        switch_in=not args.no_switch_in, estimator_rows=_estimator_rows(args))
     header = [f"plant: {src}: {parameter_text(plant_to_dict(p))}"] + _time_varying_lines(p)
-    return _print_comparison(args, comp, out_dir, header, None, run=f"run: {args.duration:g} s, seed {args.seed}")
+    return comp, header, None, f"run: {args.duration:g} s, seed {args.seed}"
+
+
+def _check_work(args, duration, modes, rows, compensators, adaptive_start, Tc, what) -> None:
+    """Refuse a comparison whose estimated time or memory is beyond the limits without ``--yes``
+    (:func:`controllers.cli.budget.check_work`)."""
+    from controllers.cli.budget import check_work, compare_estimate, compare_runs
+
+    n_runs, ident = compare_runs(modes, estimator_rows=rows, compensators=compensators or (),
+                                 adaptive_start=adaptive_start)
+    check_work(compare_estimate(duration, n_runs, identification=ident, Tc=Tc, what=what), yes=args.yes)
 
 
 @contextlib.contextmanager
@@ -154,24 +180,30 @@ def _time_varying_lines(p) -> list:
     return lines
 
 
-def _print_comparison(args, comp, out_dir, header, scenario, run: str = "") -> int:
-    """The figures, the report and the printed table (or JSON) of a comparison; ``header``: lines printed
-    before the design; ``scenario``: the scenario's ``to_dict`` for the JSON (None without one)."""
-    from adaptive_ff.io.units import parameter_text
-    from plant.models import plant_to_dict
-
-    if args.no_figures:
-        paths = []
-    else:
+def _write_outputs(args, comp, fig_dir, report_dir) -> tuple:
+    """The figures (into ``fig_dir``, None: none) and the report (into ``report_dir``, None: none) of a comparison;
+    ``(figure paths, report path or None)``."""
+    paths = []
+    if fig_dir is not None:
         from controllers.report.figures import plot_comparison
 
-        paths = plot_comparison(comp, out_dir)
+        paths = plot_comparison(comp, fig_dir)
     report = None
-    if args.report:
+    if report_dir is not None:
         from controllers.cli.data import command_line
         from controllers.report.html import compare_report
 
-        report = compare_report(args.report, comp, figures=paths, command=command_line())
+        report = compare_report(report_dir, comp, figures=paths, command=command_line())
+    return paths, report
+
+
+def _print_comparison(args, comp, header, scenario, run, paths, report) -> int:
+    """The printed table (or JSON) of a comparison; ``header``: lines printed before the design; ``scenario``: the
+    scenario's ``to_dict`` for the JSON (None without one); ``run``: the run line (may be empty); ``paths``,
+    ``report``: the figures and the report written."""
+    from adaptive_ff.io.units import parameter_text
+    from plant.models import plant_to_dict
+
     if args.json:
         d = comp.to_dict()
         d["figures"] = [str(x) for x in paths]
@@ -273,6 +305,7 @@ def _diverged(comp, mode: str) -> bool:
 
 def register(sub) -> None:
     """Add the ``compare`` subcommand to an argparse subparsers object."""
+    from controllers.cli.budget import add_yes_argument
     from controllers.cli.data import PRESET_NAMES, add_units_argument, seed_type
 
     c = sub.add_parser("compare", help="run all compensation modes on a plant and compare tracking error",
@@ -348,5 +381,6 @@ def register(sub) -> None:
                         "modes and your own compensators (controllers.experiments.scenario); the output options "
                         "(--out, --report, --json, --no-figures, --quiet, --units) still apply")
     add_units_argument(c)
+    add_yes_argument(c)
     c.set_defaults(func=run, scenario_defaults={k: c.get_default(k) for k in _SCENARIO_SETS})
 

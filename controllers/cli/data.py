@@ -9,6 +9,7 @@ goes through :func:`adaptive_ff.io.data.load_measurements` as before).
 
 from __future__ import annotations
 
+import contextlib
 import shlex
 import sys
 from pathlib import Path
@@ -18,7 +19,7 @@ from adaptive_ff.io.units import TABLE_UNITS
 __all__ = ["add_data_arguments", "load_data_from_args", "io_options_from_args", "progress_from_args",
            "command_line", "DATA_EPILOG", "seed_type", "positive_int", "nonnegative_int", "check_output_dir",
            "check_output_file", "PRESET_NAMES", "TABLE_UNITS", "add_units_argument", "table_unit",
-           "per_angle"]
+           "per_angle", "named_by"]
 
 #: Text for a subcommand's ``--help`` epilog: how to map columns and units.
 DATA_EPILOG = """\
@@ -154,6 +155,40 @@ def command_line() -> str | None:
     if not sys.argv or Path(sys.argv[0]).name not in ("adaptive-ff", "cli.py"):
         return None
     return shlex.join(["adaptive-ff", *sys.argv[1:]])
+
+
+@contextlib.contextmanager
+def named_by(path):
+    """Prefix an error of the package raised in the ``with`` block with the file it concerns, unless it names it or
+    an option (a message starting with ``--``).
+
+    For what is computed from a file's data (support points, fits): ``"w has only 3 distinct speeds"`` becomes
+    ``"log.csv: w has only 3 distinct speeds"``, so that every error of a command names its file or option.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The input file.
+
+    Raises
+    ------
+    FrictionError
+        The error raised in the block, of the same type (a ParameterError when that type cannot be rebuilt from a
+        message), its message prefixed with ``path``.
+    """
+    from plant.errors import FrictionError, ParameterError
+
+    try:
+        yield
+    except FrictionError as exc:
+        text = str(exc)
+        if str(path) in text or text.startswith("--"):
+            raise
+        try:
+            new = type(exc)(f"{path}: {text}")
+        except TypeError:
+            new = ParameterError(f"{path}: {text}")
+        raise new from None
 
 
 # --------------------------------------------------------------------------- argument types and output checks

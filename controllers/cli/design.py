@@ -5,10 +5,11 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import sys
 from pathlib import Path
 
-__all__ = ["register", "run", "plant_from_file", "warnings_from_file", "EXIT_REFUSED"]
+__all__ = ["register", "run", "plant_from_file", "warnings_from_file", "target_options", "EXIT_REFUSED"]
 
 #: Exit status of ``design --from`` refusing an identification with plausibility/identifiability warnings.
 EXIT_REFUSED = 3
@@ -137,12 +138,12 @@ def _method_of(path) -> str:
 
 
 def run(args) -> int:
-    """Execute ``adaptive-ff design`` with parsed ``args``; return the exit status."""
-    from controllers.cli.data import command_line
-    from controllers.design.loop_analysis import analyse_design, plot_bode, plot_step
-    from controllers.design.pi import design_pi
-    from plant.errors import ParameterError
+    """Execute ``adaptive-ff design`` with parsed ``args``; return the exit status.
 
+    The figures (``--out``) and the report (``--report``) are staged and appear together at the end
+    (:class:`adaptive_ff.io.output.StagedOutputs`).
+    """
+    from adaptive_ff.io.output import StagedOutputs
     from controllers.cli.data import check_output_dir
 
     out_dir = args.out if args.out is not None else (args.report or "out/design")
@@ -150,6 +151,61 @@ def run(args) -> int:
         check_output_dir(out_dir, "--out")
     if args.report:
         check_output_dir(args.report, "--report")
+    with StagedOutputs() as staged:
+        fig_dir = None if args.no_figures else staged.folder(out_dir, "--out")
+        report_dir = staged.folder(args.report, "--report") if args.report else None
+        done = _design_and_write(args, fig_dir, report_dir)
+    if isinstance(done, int):
+        return done
+    analysis, source, paths, report_path = done
+    paths = [staged.final(x) for x in paths]
+    report_path = None if report_path is None else staged.final(report_path)
+    return _print_design(args, analysis, source, paths, report_path)
+
+
+def target_options(text: str) -> str:
+    """A message of :func:`controllers.design.pi.design_pi` with its targets named as the options that set them:
+    ``phase_margin=60.0 deg`` becomes ``--phase-margin 60.0 deg``, ``crossover must`` ``--crossover must``
+    (``crossover``, ``phase_margin``, ``Tc``).
+
+    Parameters
+    ----------
+    text : str
+        The message.
+
+    Returns
+    -------
+    str
+    """
+    return re.sub(r"\b(crossover|phase_margin|Tc)(=| must)",
+                  lambda m: "--" + m.group(1).replace("_", "-") + (" " if m.group(2) == "=" else m.group(2)), text)
+
+
+def _check_work(args, design) -> None:
+    """Refuse a step response whose estimated time or memory is beyond the limits without ``--yes``."""
+    from controllers.cli.budget import check_work, design_estimate
+    from controllers.design.loop_analysis import default_step_duration
+    from plant.errors import ParameterError
+
+    if args.step_duration is None:
+        t_end = default_step_duration(design)
+        what = f"the step response of 15/--crossover = {t_end:g} s"
+    else:
+        t_end, what = args.step_duration, f"--step-duration {args.step_duration:g}"
+        if not (math.isfinite(t_end) and t_end > 0.0):
+            raise ParameterError(f"--step-duration must be a finite time > 0 s, got {t_end!r}")
+    check_work(design_estimate(t_end, design.Tc, what=what), yes=args.yes)
+
+
+def _design_and_write(args, fig_dir, report_dir):
+    """The design of ``args``, its figures written into ``fig_dir`` and its report into ``report_dir`` (None: not
+    asked for); ``(analysis, source of J and sigma, figure paths, report path or None)``, or the exit status of a
+    refusal."""
+    from controllers.cli.data import command_line
+    from controllers.design.loop_analysis import analyse_design, plot_bode, plot_step
+    from controllers.design.pi import design_pi
+    from plant.errors import ParameterError
+
     J, sigma = args.J, args.sigma
     source = "command line"
     if args.from_file:
@@ -172,27 +228,36 @@ def run(args) -> int:
             raise ParameterError(f"sigma must be >= 0, got {sigma!r}")
         sigma = 0.0  # an identified negative viscous term: design for the inertia alone
     _check_range(J, sigma, source)
-    design = design_pi(J, sigma=sigma, crossover=args.crossover, phase_margin=args.phase_margin, Tc=args.Tc)
+    try:
+        design = design_pi(J, sigma=sigma, crossover=args.crossover, phase_margin=args.phase_margin, Tc=args.Tc)
+    except ParameterError as exc:  # the targets' names as the options that set them, and where J, sigma come from
+        raise ParameterError(f"{target_options(str(exc))} (J = {J:g} kg·m², sigma = {sigma:g} N·m·s/rad from "
+                             f"{source})") from None
+    _check_work(args, design)
     analysis = analyse_design(design, t_end=args.step_duration)
     paths = []
     figs = None
-    if not args.no_figures or args.report:
+    if fig_dir is not None or report_dir is not None:
         figs = {"Bode plot of the open loop with gain and phase margins, |S| and |T|": plot_bode(design),
                 "closed-loop response to a 1 rad/s velocity step": plot_step(analysis)}
-    if not args.no_figures:
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
+    if fig_dir is not None:
         for name, fig in zip(("bode.png", "step.png"), figs.values()):
-            fig.savefig(out / name, dpi=110)
-            paths.append(out / name)
+            fig.savefig(fig_dir / name, dpi=110)
+            paths.append(fig_dir / name)
     report_path = None
-    if args.report:
+    if report_dir is not None:
         from controllers.report.html import write_report
 
         report_path = write_report(
-            args.report, title="PI velocity-loop design", design=analysis, figures=figs, command=command_line(),
+            report_dir, title="PI velocity-loop design", design=analysis, figures=figs, command=command_line(),
             summary={"source of J, sigma": source,
                      "targets": {"crossover (rad/s)": args.crossover, "phase margin (deg)": args.phase_margin}})
+    return analysis, source, paths, report_path
+
+
+def _print_design(args, analysis, source, paths, report_path) -> int:
+    """The printed design (or its JSON) and the files written; the exit status (0)."""
+    design = analysis.design
     if args.json:
         d = analysis.to_json_dict()
         d["targets"] = {"crossover": args.crossover, "phase_margin": args.phase_margin}
@@ -281,6 +346,7 @@ def _linear_summary(analysis) -> str:
 
 def register(sub) -> None:
     """Add the ``design`` subcommand to an argparse subparsers object."""
+    from controllers.cli.budget import add_yes_argument
     from controllers.cli.data import add_units_argument
 
     d = sub.add_parser("design", help="design the discrete PI velocity controller (gains, margins, Bode, step)",
@@ -314,4 +380,5 @@ def register(sub) -> None:
                         "prismatic axis, the same SI numbers in kg, N·s/m, N/m, N (--units does not apply)")
     add_units_argument(d, extra="Converts sigma, Kp (N·m·s/deg), Ki (N·m/deg) and the step's peak torque; "
                                 "crossover and bandwidth are angular frequencies and stay in rad/s, J in kg·m²")
+    add_yes_argument(d)
     d.set_defaults(func=run)

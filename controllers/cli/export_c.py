@@ -233,9 +233,12 @@ def check_options(args) -> None:
 
 
 def run(args) -> int:
-    """Execute ``adaptive-ff export-c`` with parsed ``args``; return the exit status."""
-    from adaptive_ff.compensation.export_c import export_c
-    from controllers.cli.design import EXIT_REFUSED, warnings_from_file
+    """Execute ``adaptive-ff export-c`` with parsed ``args``; return the exit status.
+
+    The files appear together at the end, or the folder keeps its previous content; a second export into the same
+    folder while one runs is refused (:mod:`adaptive_ff.io.output`).
+    """
+    from adaptive_ff.io.output import output_lock
     from controllers.cli.data import check_output_dir
     from plant.errors import ParameterError
 
@@ -245,6 +248,16 @@ def run(args) -> int:
         raise ParameterError(f"--out {out}: the folder exists and is not empty; give a new folder, or --force to "
                              "overwrite the exported files in it")
     check_options(args)
+    with output_lock(out, "--out"):  # held from the start; export_c writes the files together at its end
+        return _export(args, out)
+
+
+def _export(args, out: Path) -> int:
+    """The export of :func:`run` once its options are checked and ``out`` is locked; the exit status."""
+    from adaptive_ff.compensation.export_c import export_c
+    from controllers.cli.design import EXIT_REFUSED, target_options, warnings_from_file
+    from plant.errors import ParameterError
+
     _identified(args.from_file)  # read errors name the file as what it should be: an identification
     refusing = [w for w in warnings_from_file(args.from_file) if w.refusing]
     for w in refusing:
@@ -254,10 +267,17 @@ def run(args) -> int:
               "warning(s); fix the identification, or export anyway with --accept-warnings", file=sys.stderr)
         return EXIT_REFUSED
     extra = {k: getattr(args, k) for k in ("ff_max", "stick_band") if getattr(args, k) is not None}
-    comp, s = compensator_from_file(args.from_file, u_max=args.u_max, Kp=args.Kp, Ki=args.Ki, crossover=args.crossover,
-                                    phase_margin=args.phase_margin, start=args.start, Tc=args.Tc, Ts=args.Ts,
-                                    J_design=args.J_design, Vs=args.Vs, delta=args.delta,
-                                    feedforward_only=args.feedforward_only, **extra)
+    try:
+        comp, s = compensator_from_file(args.from_file, u_max=args.u_max, Kp=args.Kp, Ki=args.Ki,
+                                        crossover=args.crossover, phase_margin=args.phase_margin, start=args.start,
+                                        Tc=args.Tc, Ts=args.Ts, J_design=args.J_design, Vs=args.Vs,
+                                        delta=args.delta, feedforward_only=args.feedforward_only, **extra)
+    except ParameterError as exc:
+        text = target_options(str(exc))
+        if text == str(exc):
+            raise
+        raise ParameterError(f"{text} (the example loop's PI designed for the J and sigma of {args.from_file}; "
+                             "--Kp and --Ki give it instead)") from None
     res = export_c(comp, out, J_design=s["J_design"], u_max=s["u_max"], Kp=s["Kp"], Ki=s["Ki"], joint=s["joint"],
                    w_max=args.w_max, hold_time=args.hold_time, float_default=args.float, force=args.force,
                    origin=f" for {Path(args.from_file).name}")

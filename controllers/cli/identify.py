@@ -300,24 +300,35 @@ def _bootstrap_lines(args, report) -> list:
     return []
 
 
-def run(args) -> int:
-    """Execute ``adaptive-ff identify`` with parsed ``args``; return the exit status."""
+def _check_work(args, data) -> None:
+    """Refuse an identification whose estimated time or memory is beyond the limits without ``--yes``: the refits
+    of ``--bootstrap`` or the fits of ``--form``/``--folds`` on the log's samples
+    (:func:`controllers.cli.budget.identify_estimate`)."""
+    from adaptive_ff.identification.identify import choose_method
+    from controllers.cli.budget import check_work, identify_estimate
+
+    method = args.method
+    if args.form is None and method == "auto":
+        controller = args.controller is not None or args.Kp is not None
+        method = "closed_loop" if args.reference_name and controller and args.Vs is not None else \
+            choose_method(data, Vs=args.Vs)[0]
+    folds = args.folds if args.form is not None else None
+    check_work(identify_estimate(data.n_samples, method, bootstrap=args.bootstrap, refit=args.bootstrap_refit,
+                                 folds=folds), yes=args.yes)
+
+
+def _identify_and_write(args, data, plot_dir, report_dir) -> tuple:
+    """The identification of ``data`` with every check ``args`` asks for, its figures written into ``plot_dir`` and
+    its report into ``report_dir`` (None: not asked for); ``(report, extra JSON, printed lines, units)``."""
     from adaptive_ff.identification.emps_validation import is_emps_record, validate_emps
     from adaptive_ff.identification.cross_validation import cross_validate
     from adaptive_ff.io.data import to_uniform
     from adaptive_ff.identification.idim import fit_idim
-    from controllers.cli.data import command_line, load_data_from_args
+    from controllers.cli.data import command_line, load_data_from_args, named_by
     from plant.errors import ParameterError
 
-    from controllers.cli.data import check_output_dir
-
-    for option, value in (("--plot", args.plot), ("--report", args.report)):
-        if value:
-            check_output_dir(value, option)
-    _check_bootstrap(args)
-    args.reference_name, args.columns = _split_reference(args)
-    data = load_data_from_args(args)
-    report = _identify(args, data)
+    with named_by(args.file):  # what the data cannot tell names the file
+        report = _identify(args, data)
     used = report.physical.method if report.physical is not None else "paper"  # what --method auto chose
     extra: dict = {"time_stamps": _time_stamps(data, used, args.asymmetric)}
     lines: list[str] = []
@@ -331,7 +342,8 @@ def run(args) -> int:
     lines += _bootstrap_lines(args, report)
     if args.asymmetric:
         uni = to_uniform(data)
-        asym = fit_idim(uni, asymmetric=True, decimate=max(1, int(round(0.01 / uni.Ts))))
+        with named_by(args.file):
+            asym = fit_idim(uni, asymmetric=True, decimate=max(1, int(round(0.01 / uni.Ts))))
     if asym is not None:
         extra["asymmetric"] = asym.to_json_dict()
         lines += _asymmetric_lines(asym, units)
@@ -371,18 +383,42 @@ def run(args) -> int:
                 extra["asymmetric"]["validation"] = aval.to_json_dict()
                 lines.append(_loop_line("validation closed loop, asymmetric model", aval))
 
-    if args.plot or args.report:
+    if plot_dir is not None or report_dir is not None:
         from controllers.experiments.paper_figures import identification_figures, save_figures
 
         figures = identification_figures(report, data)
-        if args.plot:
-            extra["figures"] = [str(x) for x in save_figures(figures, args.plot)]
+        if plot_dir is not None:
+            extra["figures"] = [str(x) for x in save_figures(figures, plot_dir)]
             if report.forms is not None:
-                extra["figures"].append(_forms_figure(report.forms, args.plot))
-    if args.report:
+                extra["figures"].append(_forms_figure(report.forms, plot_dir))
+    if report_dir is not None:
         from controllers.report.html import identify_report
 
-        extra["report"] = str(identify_report(args.report, report, data, command=command_line()))
+        extra["report"] = str(identify_report(report_dir, report, data, command=command_line()))
+    return report, extra, lines, units
+
+
+def run(args) -> int:
+    """Execute ``adaptive-ff identify`` with parsed ``args``; return the exit status.
+
+    The figures (``--plot``) and the report (``--report``) are staged and appear together when the whole command
+    has succeeded (:class:`adaptive_ff.io.output.StagedOutputs`).
+    """
+    from adaptive_ff.io.output import StagedOutputs
+    from controllers.cli.data import check_output_dir, load_data_from_args
+
+    for option, value in (("--plot", args.plot), ("--report", args.report)):
+        if value:
+            check_output_dir(value, option)
+    _check_bootstrap(args)
+    args.reference_name, args.columns = _split_reference(args)
+    with StagedOutputs() as staged:
+        plot_dir = staged.folder(args.plot, "--plot") if args.plot else None
+        report_dir = staged.folder(args.report, "--report") if args.report else None
+        data = load_data_from_args(args)
+        _check_work(args, data)
+        report, extra, lines, units = _identify_and_write(args, data, plot_dir, report_dir)
+    extra = staged.relocate(extra)
     if args.json:
         from adaptive_ff.io.units import VELOCITY_LABEL
 
@@ -402,6 +438,7 @@ def run(args) -> int:
 
 def register(sub) -> None:
     """Add the ``identify`` subcommand to an argparse subparsers object."""
+    from controllers.cli.budget import add_yes_argument
     from controllers.cli.data import DATA_EPILOG, add_data_arguments, add_units_argument
 
     i = sub.add_parser("identify", help="identify friction parameters from measured data", epilog=DATA_EPILOG,
@@ -488,5 +525,6 @@ def register(sub) -> None:
     i.add_argument("--quiet", action="store_true", help="no progress bar")
     add_units_argument(i, extra="Converts sigma (N·m·s/deg) and Vs (deg/s); a prismatic axis (m/s) takes "
                                 "--units rad (an EMPS record always prints in SI)")
+    add_yes_argument(i)
     add_data_arguments(i)
     i.set_defaults(func=run)

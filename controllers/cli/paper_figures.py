@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 
@@ -82,11 +83,46 @@ def estimates_table(numbers: dict, args) -> str:
     return "\n".join(lines)
 
 
+#: The options of the settings of :class:`controllers.experiments.paper_figures.PaperFigureOptions`.
+_OPTIONS = {"sim_duration": "--sim-duration", "exp_duration": "--exp-duration", "n_speeds": "--speeds",
+            "noise_std": "--noise", "quantization": "--quantization", "lam_sim": "--lam-sim", "lam_exp": "--lam",
+            "crossover": "--crossover", "seed": "--seed", "units": "--axis-units"}
+
+
+@contextlib.contextmanager
+def _options_named(args=None):
+    """Name the options in an error of the paper's experiments: a setting's message (``n_speeds must be ...``)
+    with its option (``--speeds must be ...``); with ``args``, an error of the simulated data (a fit the data do
+    not excite) prefixed with the options that shaped them."""
+    from plant.errors import FrictionError, ParameterError
+
+    try:
+        yield
+    except FrictionError as exc:
+        text = str(exc)
+        for name, option in _OPTIONS.items():
+            if text.startswith(name + " ") or text.startswith(name + " ="):
+                raise ParameterError(option + text[len(name):]) from None
+        if args is None or any(option in text for option in _OPTIONS.values()):
+            raise
+        shaped = ", ".join(f"{o} {getattr(args, a):g}" for a, o in (
+            ("sim_duration", "--sim-duration"), ("exp_duration", "--exp-duration"), ("noise", "--noise"),
+            ("quantization", "--quantization")))
+        message = f"the simulated experiments ({shaped}) cannot be identified: {text}"
+        try:
+            new = type(exc)(message)
+        except TypeError:
+            new = ParameterError(message)
+        raise new from None
+
+
 def run(args) -> int:
     """Execute ``adaptive-ff paper-figures`` with parsed ``args``; return the exit status."""
     from controllers.cli.data import command_line, per_angle, progress_from_args, table_unit
     from controllers.experiments.paper_figures import PaperFigureOptions, paper_figures
     from adaptive_ff.io.units import parameter_text
+    from adaptive_ff.io.output import StagedOutputs
+    from controllers.cli.budget import check_work, paper_figures_estimate
     from controllers.cli.data import check_output_dir
     from plant.errors import ParameterError
     from plant.friction import JointParams, preset
@@ -100,22 +136,30 @@ def run(args) -> int:
     if not isinstance(p, JointParams):
         raise ParameterError(f"{args.plant}: paper-figures needs the paper's lagged-stribeck model, "
                              f"got model {p.MODEL!r}")
-    options = PaperFigureOptions(seed=args.seed, sim_duration=args.sim_duration, exp_duration=args.exp_duration,
-                                 n_speeds=args.speeds, noise_std=args.noise, quantization=args.quantization,
-                                 lam_sim=args.lam_sim, lam_exp=args.lam, crossover=args.crossover,
-                                 units=args.axis_units)
-    res = paper_figures(out_dir, p=p, options=options, save_data=args.save_data,
-                        progress=progress_from_args(args))
-    report_path = None
-    if args.report:
-        from controllers.report.html import write_report
+    with _options_named():
+        options = PaperFigureOptions(seed=args.seed, sim_duration=args.sim_duration, exp_duration=args.exp_duration,
+                                     n_speeds=args.speeds, noise_std=args.noise, quantization=args.quantization,
+                                     lam_sim=args.lam_sim, lam_exp=args.lam, crossover=args.crossover,
+                                     units=args.axis_units)
+    check_work(paper_figures_estimate(args.sim_duration, args.exp_duration, args.speeds), yes=args.yes)
+    with StagedOutputs() as staged:  # the figures, the data and the report appear together at the end
+        fig_dir = staged.folder(out_dir, "--out")
+        report_dir = staged.folder(args.report, "--report") if args.report else None
+        with _options_named(args):
+            res = paper_figures(fig_dir, p=p, options=options, save_data=args.save_data,
+                                progress=progress_from_args(args))
+        report_path = None
+        if report_dir is not None:
+            from controllers.report.html import write_report
 
-        report_path = write_report(
-            args.report, title="Figures of Ruderman's paper, regenerated from the simulation",
-            tables=report_tables(res.numbers), figures={res.captions[k]: v for k, v in res.figures.items()},
-            command=command_line(), notes=["All numbers in SI units; the full set is in --json."])
+            report_path = write_report(
+                report_dir,
+                title="Figures of Ruderman's paper, regenerated from the simulation",
+                tables=report_tables(res.numbers), figures={res.captions[k]: v for k, v in res.figures.items()},
+                command=command_line(), notes=["All numbers in SI units; the full set is in --json."])
+    report_path = None if report_path is None else staged.final(report_path)
     if args.json:
-        d = res.to_dict()
+        d = staged.relocate(res.to_dict())
         d["report"] = str(report_path) if report_path else None
         print(json.dumps(d, indent=2))
         return 0
@@ -138,9 +182,9 @@ def run(args) -> int:
     print(f"Fig. 9  experiment LS fit one-step {ex['ls_fit_one_step']:.2f} %, free run {ex['ls_fit_free_run']:.2f} %")
     print(f"Fig. 11 RLS (lambda = {ex['rls_lam']:g}) a-priori fit {ex['rls_fit']:.2f} %")
     print(estimates_table(s, args))
-    print("figures: " + ", ".join(str(v) for v in res.figures.values()))
+    print("figures: " + ", ".join(str(staged.final(v)) for v in res.figures.values()))
     if res.data_files:
-        print("data: " + ", ".join(str(v) for v in res.data_files.values()))
+        print("data: " + ", ".join(str(staged.final(v)) for v in res.data_files.values()))
     if report_path:
         print(f"report: {report_path}")
     return 0
@@ -148,6 +192,7 @@ def run(args) -> int:
 
 def register(sub) -> None:
     """Add the ``paper-figures`` subcommand to an argparse subparsers object."""
+    from controllers.cli.budget import add_yes_argument
     from controllers.cli.data import PRESET_NAMES, add_units_argument, seed_type
 
     f = sub.add_parser("paper-figures", help="regenerate the paper's Figs. 4, 5, 7, 8, 9, 10, 11, 12 from simulation",
@@ -186,4 +231,5 @@ def register(sub) -> None:
     f.add_argument("--report", metavar="DIR", default=None, help="write a self-contained HTML report to DIR")
     f.add_argument("--json", action="store_true", help="print the numbers behind the figures as JSON")
     f.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_yes_argument(f)
     f.set_defaults(func=run)

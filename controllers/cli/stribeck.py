@@ -51,47 +51,86 @@ def _read_points(args):
 
 
 def run(args) -> int:
-    """Execute ``adaptive-ff stribeck`` with parsed ``args``; return the exit status."""
-    import numpy as np
+    """Execute ``adaptive-ff stribeck`` with parsed ``args``; return the exit status.
 
-    from adaptive_ff.identification.steady_state import support_points
-    from adaptive_ff.identification.stribeck_fit import fit_stribeck
-    from controllers.cli.data import command_line, load_data_from_args
-    from controllers.experiments.paper_figures import plot_stribeck_figure
-    from plant.errors import ParameterError
-
-    from controllers.cli.data import check_output_dir, table_unit
+    The figure and ``support_points.csv`` (``--out``) and the report (``--report``) are staged and appear together
+    at the end (:class:`adaptive_ff.io.output.StagedOutputs`).
+    """
+    from adaptive_ff.io.output import StagedOutputs
+    from controllers.cli.data import check_output_dir
 
     out_dir = args.out if args.out is not None else (args.report or "out/stribeck")
     if not args.no_figures:
         check_output_dir(out_dir, "--out")
     if args.report:
         check_output_dir(args.report, "--report")
+    with StagedOutputs() as staged:
+        fig_dir = None if args.no_figures else staged.folder(out_dir, "--out")
+        report_dir = staged.folder(args.report, "--report") if args.report else None
+        fit, pts, data, paths, report_path = _fit_and_write(args, fig_dir, report_dir)
+    paths = [staged.final(x) for x in paths]
+    report_path = None if report_path is None else staged.final(report_path)
+    return _print_fit(args, fit, pts, data, paths, report_path)
+
+
+#: The options of the support points' methods: (option, argument of support_points, methods it applies to).
+_METHOD_OPTIONS = (("--min-duration", "min_duration", ("segments", "auto")),
+                   ("--settle", "settle", ("segments", "auto")), ("--rel-tol", "rel_tol", ("segments", "auto")),
+                   ("--bins", "n_bins", ("bins", "auto")), ("--J", "J", ("bins", "auto")),
+                   ("--max-accel", "max_accel", ("bins", "auto")))
+
+
+def _method_options(args) -> dict:
+    """The options given for the support points, checked against ``--method`` (ParameterError naming an option
+    that the method does not take, or with ``--points``)."""
+    from plant.errors import ParameterError
+
+    options = {}
+    for option, key, methods in _METHOD_OPTIONS:
+        value = getattr(args, key if key != "n_bins" else "bins")
+        if value is None:
+            continue
+        if args.method not in methods:
+            raise ParameterError(f"{option} applies to --method {' or '.join(methods)}, not {args.method}")
+        options[key] = value
+    return options
+
+
+def _fit_and_write(args, fig_dir, report_dir) -> tuple:
+    """The support points and the Stribeck fit of ``args``, the figure and the points written into ``fig_dir``
+    and the report into ``report_dir`` (None: not asked for); ``(fit, points, data, paths, report path)``."""
+    import numpy as np
+
+    from adaptive_ff.identification.steady_state import support_points
+    from adaptive_ff.identification.stribeck_fit import fit_stribeck
+    from controllers.cli.data import command_line, load_data_from_args, named_by
+    from controllers.experiments.paper_figures import plot_stribeck_figure
+    from plant.errors import ParameterError
+
     if args.points:
         pts, data = _read_points(args)
     else:
+        options = _method_options(args)
         data = load_data_from_args(args)
-        options = {"min_duration": args.min_duration, "settle": args.settle, "rel_tol": args.rel_tol,
-                   "n_bins": args.bins, "J": args.J, "max_accel": args.max_accel}
-        options = {k: v for k, v in options.items() if v is not None}
-        pts = support_points(data, method=args.method, **options)
+        with named_by(args.file):
+            pts = support_points(data, method=args.method, **options)
     F_std = None
     if args.weighted:
         if not np.all(pts.u_std > 0):
             raise ParameterError("--weighted needs a positive torque spread at every support point; "
                                  f"got {pts.u_std.tolist()}")
         F_std = pts.u_std
-    fit = fit_stribeck(pts.w_mean, pts.u_mean, F_std=F_std)
+    with named_by(args.file):
+        fit = fit_stribeck(pts.w_mean, pts.u_mean, F_std=F_std)
     show_std = pts.u_std if np.any(pts.u_std > 0) else None
 
     paths = []
     figure = None
-    if not args.no_figures or args.report:
+    if fig_dir is not None or report_dir is not None:
         figure = plot_stribeck_figure(fit, pts.w_mean, pts.u_mean, F_std=show_std,
                                       title=f"Stribeck curve over the measured support points: {Path(args.file).name}")
-    if not args.no_figures:
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
+    if fig_dir is not None:
+        out = Path(fig_dir)
         png = out / "fig08_stribeck.png"
         figure.savefig(png, dpi=110)
         csv_path = out / "support_points.csv"
@@ -99,14 +138,23 @@ def run(args) -> int:
                    delimiter=",", header="w_mean,w_std,u_mean,u_std,n_samples", comments="", fmt="%.10g")
         paths = [png, csv_path]
     report_path = None
-    if args.report:
+    if report_dir is not None:
         from controllers.report.html import write_report
 
         report_path = write_report(
-            args.report, title=f"Stribeck pre-fit: {args.file}", data=data, stribeck=fit, support_points=pts,
+            report_dir, title=f"Stribeck pre-fit: {args.file}", data=data, stribeck=fit, support_points=pts,
             figures={"Stribeck curve over the measured means and spread (cf. paper Fig. 8)": figure},
             command=command_line(),
             notes=[f"next step: adaptive-ff identify LOG --Vs {fit.Vs:.6g} --delta {fit.delta:.6g}"])
+    return fit, pts, data, paths, report_path
+
+
+def _print_fit(args, fit, pts, data, paths, report_path) -> int:
+    """The printed fit (or its JSON) and the files written; the exit status (0)."""
+    import numpy as np
+
+    from controllers.cli.data import table_unit
+
     ci = fit.confidence_intervals(0.95)
     if args.json:
         d = fit.to_dict()

@@ -32,6 +32,8 @@ def run(args) -> int:
     import sys
     import time
 
+    from adaptive_ff.io.output import atomic_file, output_lock
+    from controllers.cli.budget import check_work, sweep_estimate
     from controllers.cli.data import check_output_file
     from controllers.experiments.sweep import SweepInterrupted, expand_cases, load_spec, run_sweep
     from plant.results import json_safe
@@ -40,20 +42,25 @@ def run(args) -> int:
     check_output_file(args.out, "--out")
     check_output_file(summary_path, "--out (summary)")
     spec = load_spec(args.spec)
+
+    def bound(todo) -> None:  # the cases still to run, before the first of them
+        check_work(sweep_estimate(todo, None if args.scheduler else args.workers), yes=args.yes)
+
     t0 = time.perf_counter()
-    try:
-        summary = run_sweep(spec, args.out, workers=args.workers, scheduler=args.scheduler,
-                            progress=False if args.quiet else None)
-    except SweepInterrupted as exc:
-        print(f"adaptive-ff: {exc}", file=sys.stderr)
-        return 130
-    wall = time.perf_counter() - t0
-    summary["wall_s"] = wall
-    summary["cases_per_s"] = summary["n_run"] / wall if summary["n_run"] else None
-    summary["results"] = str(args.out)
-    summary = json_safe(summary)
-    with open(summary_path, "w") as fh:
-        json.dump(summary, fh, indent=2, allow_nan=False)
+    with output_lock(args.out, "--out"):  # a second sweep into the same results refuses instead of interleaving
+        try:
+            summary = run_sweep(spec, args.out, workers=args.workers, scheduler=args.scheduler,
+                                progress=False if args.quiet else None, check=bound)
+        except SweepInterrupted as exc:
+            print(f"adaptive-ff: {exc}", file=sys.stderr)
+            return 130
+        wall = time.perf_counter() - t0
+        summary["wall_s"] = wall
+        summary["cases_per_s"] = summary["n_run"] / wall if summary["n_run"] else None
+        summary["results"] = str(args.out)
+        summary = json_safe(summary)
+        with atomic_file(summary_path, "--out (summary)") as tmp, open(tmp, "w", encoding="utf-8") as fh:
+            json.dump(summary, fh, indent=2, allow_nan=False)
     if args.json:
         print(json.dumps(summary, indent=2, allow_nan=False))
         return 0
@@ -67,6 +74,7 @@ def run(args) -> int:
 
 def register(sub) -> None:
     """Add the ``sweep`` subcommand to an argparse subparsers object."""
+    from controllers.cli.budget import add_yes_argument
     from controllers.cli.data import add_units_argument, positive_int
 
     s = sub.add_parser("sweep", help="grid or Monte-Carlo study of the closed loop (resumable, parallel)",
@@ -84,4 +92,5 @@ def register(sub) -> None:
     s.add_argument("--json", action="store_true", help="print the summary as JSON (SI units)")
     s.add_argument("--quiet", action="store_true", help="no progress bar")
     add_units_argument(s)
+    add_yes_argument(s)
     s.set_defaults(func=run)

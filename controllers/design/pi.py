@@ -38,12 +38,18 @@ __all__ = [
     "PIController",
     "pi_step",
     "MAX_CROSSOVER_FRACTION",
+    "MIN_CROSSOVER_TC",
 ]
 
 #: Largest allowed crossover as a fraction of the Nyquist frequency ``pi/Tc``.
 #: At ``0.2*pi/Tc`` the hold and the sampling already cost about 18 degrees of
 #: phase (``wc*Tc/2``); beyond it the continuous-time picture is meaningless.
 MAX_CROSSOVER_FRACTION = 0.2
+
+#: Smallest allowed ``crossover*Tc``: below about 8e-7 the loop's poles sit so close to ``z = 1`` that the margins
+#: cannot be computed (python-control's frequency grid fails), and a crossover of 1e-3 rad/s at 1 kHz (a loop
+#: that settles in hours) is no velocity loop.
+MIN_CROSSOVER_TC = 1e-6
 
 
 _TF_PREFIX = "_tf_"
@@ -299,12 +305,29 @@ def _margins(loop, wc: float, pm: float, Tc: float) -> tuple[float, float, float
         # its frequency-grid search probes points where the response is inf (z = 1) and scipy's
         # finite differences warn about inf - inf; the margins it returns are unaffected
         warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"scipy\.optimize\._numdiff")
-        gm_all, pm_all, sm_all, wpc_all, wgc_all, _ = control.stability_margins(loop, returnall=True)
-    i = int(np.argmin(np.abs(np.atleast_1d(wgc_all) - wc)))
-    wgc = float(np.atleast_1d(wgc_all)[i])
-    pm_ach = float(np.atleast_1d(pm_all)[i])
+        warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"control\.xferfcn")  # the same at z = 1
+        try:
+            gm_all, pm_all, sm_all, wpc_all, wgc_all, _ = control.stability_margins(loop, returnall=True)
+        except (ValueError, ZeroDivisionError, np.linalg.LinAlgError) as exc:  # its frequency-grid search fails
+            raise ParameterError(f"crossover={wc!r} rad/s, phase_margin={pm!r} deg at Tc={Tc!r} s: the margins of "
+                                 f"the designed loop cannot be computed ({exc}); its poles are too close to z = 1: "
+                                 "a higher crossover") from None
+    if np.size(wgc_all):
+        i = int(np.argmin(np.abs(np.atleast_1d(wgc_all) - wc)))
+        wgc = float(np.atleast_1d(wgc_all)[i])
+        pm_ach = float(np.atleast_1d(pm_all)[i])
+    else:  # python-control finds no gain crossover for some loops of a few degrees of margin: the design point's
+        L = complex(loop(np.exp(1j * wc * Tc)))
+        if not abs(abs(L) - 1.0) <= 1e-6:
+            raise ParameterError(f"crossover={wc!r} rad/s, phase_margin={pm!r} deg at Tc={Tc!r} s: the margins of "
+                                 f"the designed loop cannot be computed (|L| = {abs(L):.6g} at the crossover)")
+        wgc, pm_ach = wc, math.degrees(math.pi + math.atan2(L.imag, L.real))
     gm, wpc = _upper_gain_margin(loop, wgc, gm_all, wpc_all, Tc)
-    sm = float(np.min(sm_all)) if np.size(sm_all) else math.nan
+    if np.size(sm_all):
+        sm = float(np.min(sm_all))
+    else:  # not reported with the crossover above: min |1 + L| on a frequency grid up to Nyquist
+        w = np.geomspace(1e-3 * wc, math.pi / Tc, 4000)
+        sm = float(np.min(np.abs(1.0 + np.asarray(loop(np.exp(1j * w * Tc)), dtype=complex).reshape(-1))))
     return wgc, pm_ach, gm, wpc, sm
 
 
@@ -340,8 +363,8 @@ def design_pi(
     Raises
     ------
     ParameterError
-        An argument is out of range (the message names it and quotes the value),
-        or the target cannot be met by a PI controller with ``Kp > 0, Ki > 0``
+        An argument is out of range (the message names it and quotes the value; ``crossover`` must lie between
+        ``MIN_CROSSOVER_TC/Tc`` and ``MAX_CROSSOVER_FRACTION*pi/Tc``), or the target cannot be met by a PI controller with ``Kp > 0, Ki > 0``
         (``phase_margin`` larger than the plant leaves room for, e.g. when
         ``sigma`` dominates ``J*crossover``), or the resulting closed loop is
         not stable.
@@ -382,6 +405,9 @@ def design_pi(
             f"crossover must be well below the Nyquist frequency pi/Tc = {math.pi / Tc:.6g} rad/s "
             f"(<= {MAX_CROSSOVER_FRACTION}*pi/Tc = {w_max:.6g} rad/s), got {wc!r}"
         )
+    if wc * Tc < MIN_CROSSOVER_TC:
+        raise ParameterError(f"crossover must be at least {MIN_CROSSOVER_TC:g}/Tc = {MIN_CROSSOVER_TC / Tc:.6g} rad/s "
+                             f"(a velocity loop that settles within hours), got {wc!r}")
     pm = check_finite_scalar("phase_margin", phase_margin)
     if not 0.0 < pm < 90.0:
         raise ParameterError(f"phase_margin must be in (0, 90) degrees, got {pm!r}")

@@ -137,9 +137,10 @@ def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, sh
     quasi-static runs stick (:func:`residual_share`) half the level still broke it loose at random (zoo seed 2's
     #867), hence :data:`STICK_SHARE` there.
     """
-    if noise_std <= 0.0 or not (F_level > 0.0):
+    density = J * J * noise_std * noise_std * Tc  # 0 also where a tiny noise_std**2 underflows
+    if noise_std <= 0.0 or not (density > 0.0) or not (F_level > 0.0):
         return float(omega_max)
-    w = (4.0 * (share * F_level) ** 2 / (J * J * noise_std * noise_std * Tc)) ** (1.0 / 3.0)
+    w = (4.0 * (share * F_level) ** 2 / density) ** (1.0 / 3.0)
     return float(min(omega_max, w))
 
 

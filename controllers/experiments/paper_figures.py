@@ -58,6 +58,7 @@ if TYPE_CHECKING:  # annotations only: matplotlib is imported by the plotting fu
     from matplotlib.figure import Figure
 
 __all__ = [
+    "MAX_SPEEDS",
     "PaperFigures",
     "PaperFigureOptions",
     "paper_figures",
@@ -180,6 +181,10 @@ def rls_pass(model: RegressionModel, u, w, *, lam: float = 1.0, P0: float = 1e4)
 # --------------------------------------------------------------------------- the paper's figures
 
 
+#: Most quasi-static speeds per direction of Fig. 8 (``--speeds``): each is a run of a few seconds.
+MAX_SPEEDS = 10_000
+
+
 @dataclass(frozen=True, kw_only=True)
 class PaperFigureOptions:
     """Settings of the experiments behind :func:`paper_figures` (keyword-only, validated).
@@ -193,7 +198,7 @@ class PaperFigureOptions:
     exp_duration : float
         Length (s) of the closed-loop "robot" experiment (Figs. 9-12), >= 2.
     n_speeds : int
-        Quasi-static speeds per direction (Fig. 8), >= 3, log-spaced from
+        Quasi-static speeds per direction (Fig. 8), 3 to :data:`MAX_SPEEDS`, log-spaced from
         ``0.2*Vs`` to 0.4 rad/s.
     noise_std : float
         Velocity measurement noise (rad/s), >= 0, of the quasi-static runs and the
@@ -239,8 +244,8 @@ class PaperFigureOptions:
                 raise TypeError(f"{name} must be an integer, got {v!r} ({type(v).__name__})")
         if self.seed < 0:
             raise ParameterError(f"seed must be >= 0, got {self.seed!r}")
-        if self.n_speeds < 3:
-            raise ParameterError(f"n_speeds must be an integer >= 3, got {self.n_speeds!r}")
+        if not 3 <= self.n_speeds <= MAX_SPEEDS:
+            raise ParameterError(f"n_speeds must be an integer in 3..{MAX_SPEEDS}, got {self.n_speeds!r}")
         for name in ("sim_duration", "exp_duration"):
             if check_positive(name, getattr(self, name)) < 2.0:
                 raise ParameterError(f"{name} must be >= 2 s, got {getattr(self, name)!r}")
@@ -452,6 +457,9 @@ def paper_figures(out_dir, *, p: JointParams | None = None, options: PaperFigure
         ``p`` not a JointParams or ``options`` not a PaperFigureOptions.
     ExcitationError
         A fit fails for lack of excitation (too short runs).
+    ParameterError
+        ``sim_duration`` or ``exp_duration`` whose run does not fit into the memory available
+        (:func:`controllers.simulation.memory.check_run_memory`).
 
     Notes
     -----
@@ -468,6 +476,10 @@ def paper_figures(out_dir, *, p: JointParams | None = None, options: PaperFigure
     opt = PaperFigureOptions() if options is None else options
     if not isinstance(opt, PaperFigureOptions):
         raise TypeError(f"options must be a PaperFigureOptions, got {type(opt).__name__}")
+    from controllers.simulation.memory import PREPARATION_SIGNALS, check_run_memory
+
+    for name in ("sim_duration", "exp_duration"):  # refused before anything is allocated when it cannot fit
+        check_run_memory(getattr(opt, name), 1e-3, signals=PREPARATION_SIGNALS, what=name, detail="its run")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     ss = np.random.SeedSequence(opt.seed)

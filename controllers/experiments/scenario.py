@@ -63,7 +63,7 @@ from controllers.experiments.compare import CompareOptions, Comparison, check_co
 from controllers.simulation.compensators import MODES
 from plant.errors import ParameterError, check_not_special
 
-__all__ = ["Scenario", "ScenarioError", "TrackingBounds", "compensator_factories", "load_scenario",
+__all__ = ["Scenario", "ScenarioError", "TrackingBounds", "compensator_factories", "load_scenario", "MAX_MOVES",
            "scenario_from_dict", "REFERENCE_KINDS"]
 
 #: Kinds of ``[reference]`` and their keys (besides ``kind``).
@@ -383,18 +383,82 @@ def _reference(ctx: _Ctx, t: dict, Tc, seed: int):
             repeat = kw.pop("repeat", 1)
             if isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
                 raise ctx.error("reference", "repeat", repeat, "must be an integer >= 1")
+            if len(targets) * repeat > MAX_MOVES:
+                raise ctx.error("reference", "repeat", repeat, f"{len(targets)} targets times it are more than "
+                                f"{MAX_MOVES:,} moves")
             for k in ("v_max", "a_max"):
                 if k not in kw:
                     raise ScenarioError(f"{ctx.source}: [reference] {k}: missing (kind = 'point-to-point')")
-            return point_to_point_reference([float(x) for x in targets] * repeat, dt=Tc, **kw)
+            moves = [float(x) for x in targets] * repeat
+            _check_reference_length(ctx, _moves_length(moves, kw), Tc)
+            return point_to_point_reference(moves, dt=Tc, **kw)
         if kind == "reversing":
+            _check_reference_length(ctx, _reversing_length(kw), Tc)
             return reversing_reference(dt=Tc, **kw)
         path = ctx.path("reference", "path", kw.pop("path", None))
-        return load_reference(path, dt=Tc, **kw)
+        return load_reference(path, dt=Tc, max_samples=_max_reference_samples(), **kw)
     except ScenarioError:
         raise
     except (ParameterError, TypeError, ValueError, OSError) as exc:
         raise ScenarioError(f"{ctx.source}: [reference] (kind = {kind!r}): {exc}") from None
+
+
+#: Most moves of a point-to-point reference (its targets times ``repeat``).
+MAX_MOVES = 10**6
+#: Float64 signals of the reference's length that making it holds at once (time, velocity, acceleration, the
+#: interpolation's temporaries): a reference that does not fit into the memory available is refused before it is
+#: made (the comparison's own check follows, :meth:`controllers.experiments.compare.CompareOptions.check_memory`).
+_REFERENCE_SIGNALS = 6
+
+
+def _reversing_length(kw: dict) -> float | None:
+    """An upper bound of the length (s) of a ``reversing`` reference from its keys; None where a key is not a
+    number (the reference names it)."""
+    try:
+        if not all(float(kw[k]) > 0.0 for k in ("speed", "accel", "hold")):
+            return None  # the reference names the key
+        ramp = 2.0 * float(kw["speed"]) / float(kw["accel"])
+        return (float(kw.get("start_dwell", 0.5)) + float(kw.get("end_dwell", 0.5))
+                + (float(kw["n_reversals"]) + 1.0) * (float(kw["hold"]) + ramp))
+    except (KeyError, TypeError, ValueError, ZeroDivisionError, OverflowError):
+        return None
+
+
+def _moves_length(moves: list, kw: dict) -> float | None:
+    """An upper bound of the length (s) of a ``point-to-point`` reference through ``moves`` from its keys."""
+    try:
+        v, a = float(kw["v_max"]), float(kw["a_max"])
+        j = kw.get("j_max")
+        if not (v > 0.0 and a > 0.0 and (j is None or float(j) > 0.0)):
+            return None  # the reference names the key
+        ramp = 2.0 * v / a + (0.0 if j is None else 2.0 * a / float(j))
+        path = abs(moves[0] - float(kw.get("q0", 0.0))) + sum(abs(y - x) for x, y in zip(moves, moves[1:]))
+        return float(kw.get("start_dwell", 0.5)) + path / v + len(moves) * (ramp + float(kw.get("dwell", 0.5)))
+    except (KeyError, TypeError, ValueError, ZeroDivisionError, OverflowError):
+        return None
+
+
+def _check_reference_length(ctx: _Ctx, length: float | None, Tc) -> None:
+    """ScenarioError when a reference of ``length`` s at the step ``Tc`` does not fit into the memory available."""
+    from controllers.simulation.memory import check_run_memory
+
+    if length is None or not length > 0 or not isinstance(Tc, (int, float)) or isinstance(Tc, bool) or not Tc > 0:
+        return
+    if not math.isfinite(length):
+        raise ScenarioError(f"{ctx.source}: [reference]: its length is not finite ({length!r} s)")
+    try:
+        check_run_memory(length, Tc, signals=_REFERENCE_SIGNALS, what="its length",
+                         detail="making the reference")
+    except ParameterError as exc:
+        raise ScenarioError(f"{ctx.source}: [reference]: {exc}") from None
+
+
+def _max_reference_samples() -> int | None:
+    """The samples of a reference that fit into the memory available (None: unknown)."""
+    from controllers.simulation.memory import available_memory, run_bytes
+
+    found = available_memory()
+    return None if found is None else max(int(found[0] // run_bytes(1, _REFERENCE_SIGNALS)), 2)
 
 
 def compensator_factories(table: dict, *, base_dir=".", source: str = "compensators") -> dict:

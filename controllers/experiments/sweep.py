@@ -654,7 +654,7 @@ class _Sigint:
 
 
 def run_sweep(spec: SweepSpec, out_csv, *, workers: int | None = None, scheduler: str | None = None,
-              progress: bool | None = None) -> dict:
+              progress: bool | None = None, check=None) -> dict:
     """Run every unfinished case of ``spec``, appending rows to ``out_csv``; return the summary.
 
     Parameters
@@ -670,6 +670,9 @@ def run_sweep(spec: SweepSpec, out_csv, *, workers: int | None = None, scheduler
         (needs the ``dask`` extra: ``pip install adaptive-ff[dask]``).
     progress : bool, keyword-only
         Progress bar; default when stderr is a terminal.
+    check : callable, keyword-only, optional
+        ``check(cases)``, called with the cases still to run before any of them runs (e.g. ``adaptive-ff sweep``'s
+        work bound); an exception it raises stops the sweep there.
 
     Returns
     -------
@@ -711,6 +714,8 @@ def run_sweep(spec: SweepSpec, out_csv, *, workers: int | None = None, scheduler
     path.parent.mkdir(parents=True, exist_ok=True)
     done = _finished(path, cases)
     todo = [c for c in cases if c["id"] not in done]
+    if check is not None:
+        check(todo)
     if todo:  # every worker holds one comparison at a time: refused before any case runs if they do not fit
         from controllers.experiments.compare import CompareOptions
 
