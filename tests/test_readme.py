@@ -64,17 +64,18 @@ def test_main_job_output_is_what_the_command_prints(ran):
 
 
 def test_your_drive_block_runs_in_an_empty_folder(ran):
-    """The 'Your drive in ten lines' block writes every file it reads (id.json, my_joint.json) itself."""
+    """The 'Your drive in ten lines' block writes every file it reads (id.json) itself, and its comparison runs the
+    identified joint with the PI that its design step printed."""
     for f in ("out/paper/controller_log.csv", "out/stribeck/report.html", "id.json", "out/design/report.html",
-              "my_joint.json", "out/compare/report.html"):
+              "out/compare/report.html"):
         assert (ran.folder / f).is_file(), f
-    plant = json.loads((ran.folder / "my_joint.json").read_text(encoding="utf-8"))
     ident = json.loads((ran.folder / "id.json").read_text(encoding="utf-8"))
-    assert plant == {**{k: ident[k] for k in ("J", "Fc", "Fs", "sigma", "tau")},
-                     "Vs": 0.0197756, "delta": 1.01582}
     compare = ran.steps[-1]
-    assert compare.command.startswith("adaptive-ff compare --plant my_joint.json")
-    assert "plant: my_joint.json: model=lagged-stribeck" in compare.printed
+    assert compare.command.startswith("adaptive-ff compare --from id.json")
+    assert f"plant: the joint identified in id.json: model=lagged-stribeck, J={ident['J']:g} kg·m²" in compare.printed
+    design = next(s for s in ran.steps if s.command.startswith("adaptive-ff design --from id.json"))
+    gains = re.search(r"PI: Kp = \S+ N·m·s/deg, Ki = \S+ N·m/deg", design.printed).group(0)
+    assert gains in compare.printed
 
 
 def test_the_comparison_tells_stable_digits_from_a_wrong_number():
@@ -153,8 +154,8 @@ def test_your_drive_recipe_is_ten_lines():
     assert m is not None, "README: no '## Your drive in ten lines' bash block"
     lines = m.group("body").strip().splitlines()
     assert 4 <= len(lines) <= 10, len(lines)
-    for step in ("adaptive-ff stribeck", "adaptive-ff identify", "adaptive-ff design", "python -c",
-                 "adaptive-ff compare --plant my_joint.json"):
+    for step in ("adaptive-ff stribeck", "adaptive-ff identify", "adaptive-ff design",
+                 "adaptive-ff compare --from id.json"):
         assert any(ln.startswith(step) for ln in lines), step
 
 

@@ -10,6 +10,7 @@ Refresh the quoted outputs after a change of the code (one command, from the rep
 from __future__ import annotations
 
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -37,7 +38,7 @@ def test_the_page_quotes_the_output_of_its_commands():
     assert not page.skipped, page.skipped  # nothing on this page installs anything
     recipe = [s.command for s in page.steps if s.kind == "bash"]
     for step in ("adaptive-ff paper-figures", "adaptive-ff stribeck", "adaptive-ff identify", "adaptive-ff design",
-                 "python -c", "adaptive-ff compare --plant my_joint.json"):
+                 "adaptive-ff compare --from id.json"):
         assert any(c.startswith(step) for c in recipe), step
 
 
@@ -60,9 +61,15 @@ def test_the_commands_make_what_the_page_says(ran):
 
 
 def test_the_plant_file_is_the_identification(ran):
-    """my_joint.json holds the sliding-regime estimate of id.json and the pre-fit's Vs, delta (as step 5 says)."""
-    plant = json.loads(next(s for s in ran.steps if s.command == "cat my_joint.json").printed)
+    """my_joint.json holds the sliding-regime estimate of id.json and the pre-fit's Vs, delta (as step 5 says), and
+    ``compare --from id.json`` runs the PI of ``design --from id.json`` (design.json), printed per degree."""
+    plant = json.loads((ran.folder / "my_joint.json").read_text(encoding="utf-8"))
     ident = json.loads((ran.folder / "id.json").read_text(encoding="utf-8"))
+    design = json.loads((ran.folder / "design.json").read_text(encoding="utf-8"))
+    compare = next(s for s in ran.steps if s.command.startswith("adaptive-ff compare --from id.json --report"))
+    deg = math.pi / 180.0
+    assert f"PI: Kp = {design['Kp'] * deg:.6g} N·m·s/deg, Ki = {design['Ki'] * deg:.6g} N·m/deg" in compare.printed
+    assert design["J"] == ident["J"] and design["sigma"] == ident["sigma"]
     assert plant == {**{k: ident[k] for k in ("J", "Fc", "Fs", "sigma", "tau")},
                      "Vs": 0.0197756, "delta": 1.01582}
     # the demonstration logs are the paper preset's: the page says the fit is within 2.3 % of it

@@ -5,7 +5,7 @@ from __future__ import annotations
 import contextlib
 import json
 
-__all__ = ["register", "run", "comparison_table"]
+__all__ = ["register", "run", "comparison_table", "pi_text"]
 
 
 def run(args) -> int:
@@ -19,6 +19,9 @@ def run(args) -> int:
     from adaptive_ff.io.output import StagedOutputs
     from controllers.cli.data import check_output_dir
 
+    refused = _refused_identification(args)
+    if refused:
+        return refused
     out_dir = args.out if args.out is not None else (args.report or "out")
     if not args.no_figures:
         check_output_dir(out_dir, "--out")
@@ -45,7 +48,8 @@ _SCENARIO_SETS = {"preset": "[plant] preset", "plant": "[plant] file", "variant"
                   "crossover": "[controller] crossover", "phase_margin": "[controller] phase_margin",
                   "no_prefit": "[compensation] prefit", "no_fast_start": "[compensation] adaptive_start",
                   "no_switch_in": "[compensation] switch_in", "estimator_rows": "[compensation] estimator_rows",
-                  "Vs": "[compensation] Vs", "delta": "[compensation] delta", "J_design": "[controller] J_design"}
+                  "Vs": "[compensation] Vs", "delta": "[compensation] delta", "J_design": "[controller] J_design",
+                  "controller": "[controller]", "from_file": "[plant] and [controller]"}
 
 
 def _scenario_comparison(args) -> tuple:
@@ -70,7 +74,8 @@ def _scenario_comparison(args) -> tuple:
 
 
 def _load_plant(args):
-    """The plant of ``adaptive-ff compare`` (``--plant``, ``--variant`` or ``--preset``)."""
+    """The plant of ``adaptive-ff compare`` (``--plant``, ``--variant`` or ``--preset``; with ``--from`` alone, the
+    identified joint)."""
     from plant.friction import preset
     from plant.variant_plants import drift_case, variant
 
@@ -80,9 +85,68 @@ def _load_plant(args):
         p = drift_case(args.duration)
     elif args.variant:
         p = variant(args.variant)
+    elif args.preset is None and args.from_file:
+        p = _plant_or_identification(args.from_file)
     else:
-        p = preset(args.preset)
+        p = preset(args.preset or "paper")
     return p
+
+
+def _refused_identification(args) -> int:
+    """``--from FILE`` as ``design --from`` takes it: its refusing warnings echoed on stderr and the exit status
+    3 unless ``--accept-warnings``; else 0."""
+    import sys
+
+    from controllers.cli.design import EXIT_REFUSED, warnings_from_file
+
+    if not args.from_file:
+        return 0
+    refusing = [w for w in warnings_from_file(args.from_file) if w.refusing]
+    for w in refusing:
+        print(f"adaptive-ff: {args.from_file}: {w.code} warning on {w.parameter}: {w}", file=sys.stderr)
+    if refusing and not args.accept_warnings:
+        print(f"adaptive-ff: refused: {args.from_file} carries {len(refusing)} plausibility/identifiability "
+              "warning(s); fix the identification, or compare anyway with --accept-warnings", file=sys.stderr)
+        return EXIT_REFUSED
+    return 0
+
+
+def _user_loop(args) -> tuple:
+    """``(J_design or None, PIDesign or None, source line or None)`` of ``--J-design``, ``--from`` and
+    ``--controller``: the design inertia a user has and the PI they run.
+
+    ``--controller FILE`` (a ``design --json`` output) is run as given. ``--from FILE`` (an ``identify --json``
+    output) gives the design inertia (``--J-design`` overrides it) and, without ``--controller``, the PI that
+    ``design --from FILE`` designs: on the identified ``J`` and ``sigma`` (a negative sigma taken as 0) at
+    ``--crossover`` and ``--phase-margin``.
+    """
+    from controllers.cli.design import plant_from_file, target_options
+    from controllers.design.controller_file import read_controller
+    from controllers.design.pi import design_pi
+    from plant.errors import ParameterError
+
+    J, controller, source = args.J_design, None, None
+    given = [o for o, k in (("--crossover", "crossover"), ("--phase-margin", "phase_margin"))
+             if getattr(args, k) != args.loop_defaults[k]]
+    if args.controller:
+        if given:
+            raise ParameterError(f"{given[0]} cannot be combined with --controller: the controller file's gains "
+                                 f"are run as they are")
+        controller = read_controller(args.controller)
+        source = f"PI from {args.controller} (run as given)"
+    if args.from_file:
+        Jf, sf = plant_from_file(args.from_file)
+        J = Jf if J is None else J
+        if controller is None:
+            sigma = max(sf, 0.0)
+            try:
+                controller = design_pi(J, sigma=sigma, crossover=args.crossover, phase_margin=args.phase_margin)
+            except ParameterError as exc:
+                raise ParameterError(f"{target_options(str(exc))} (J = {J:g} kg·m², sigma = {sigma:g} N·m·s/rad "
+                                     f"from {args.from_file})") from None
+            source = f"PI designed as 'design --from {args.from_file}' designs it (J = {J:g} kg·m², sigma = " \
+                     f"{sigma:g} N·m·s/rad)"
+    return J, controller, source
 
 
 def _plant_or_identification(path):
@@ -133,15 +197,25 @@ def _comparison(args, p, modes) -> tuple:
     _check_work(args, args.duration, modes, _estimator_rows(args), (), not args.no_fast_start, 1e-3,
                 f"--duration {args.duration:g}")
     progress = None if not args.quiet else False
-    src = args.plant if args.plant else (f"variant '{args.variant}'" if args.variant else f"preset '{args.preset}'")
+    J_design, controller, loop_source = _user_loop(args)
+    if args.plant:
+        src = args.plant
+    elif args.variant:
+        src = f"variant '{args.variant}'"
+    elif args.preset is None and args.from_file:
+        src = f"the joint identified in {args.from_file}"
+    else:
+        src = f"preset '{args.preset or 'paper'}'"
     with _plant_named(f"--plant {src}" if args.plant else src):
         comp = compare(p, duration=args.duration, seed=args.seed, modes=modes, Ts=args.Ts, noise_std=args.noise,
                        lam=args.lam, crossover=args.crossover, phase_margin=args.phase_margin, progress=progress,
                        estimator=args.estimator, iv_map_stderr=args.iv_map_stderr, ff_input=args.ff_input,
                        omega_q=args.omega_q, prefit=not args.no_prefit, Vs=args.Vs, delta=args.delta,
-                       J_design=args.J_design, adaptive_start=not args.no_fast_start,
+                       J_design=J_design, controller=controller, adaptive_start=not args.no_fast_start,
                        switch_in=not args.no_switch_in, estimator_rows=_estimator_rows(args))
     header = [f"plant: {src}: {parameter_text(plant_to_dict(p))}"] + _time_varying_lines(p)
+    if loop_source:
+        header.append(loop_source)
     return comp, header, None, f"run: {args.duration:g} s, seed {args.seed}"
 
 
@@ -220,8 +294,7 @@ def _print_comparison(args, comp, header, scenario, run, paths, report) -> int:
         print(f"plant: {parameter_text(plant_to_dict(comp.plant))}")
         for line in _time_varying_lines(comp.plant):
             print(line)
-    print(f"PI: Kp={d.Kp:.4g} N·m·s/rad, Ki={d.Ki:.4g} N·m/rad, Tc={d.Tc:g} s; "
-          f"phase margin {d.phase_margin:.1f} deg, gain margin {d.gain_margin:.3g}")
+    print(pi_text(d, args))
     print(f"design inertia J_design={comp.J_design:g} kg·m²")
     if comp.prefit is not None:
         fb = comp.prefit.fallback
@@ -239,6 +312,16 @@ def _print_comparison(args, comp, header, scenario, run, paths, report) -> int:
     if report is not None:
         print(f"report: {report}")
     return _diverged_status(comp)
+
+
+def pi_text(d, args) -> str:
+    """The PI line of ``compare``: the gains per the ``--units`` angle, as ``design`` prints them (``Kp = ...
+    N·m·s/deg, Ki = ... N·m/deg`` by default; ``--units rad``: per rad), the period and the margins."""
+    from controllers.cli.data import per_angle
+
+    c, angle = per_angle(args)
+    return (f"PI: Kp = {c * d.Kp:.6g} N·m·s/{angle}, Ki = {c * d.Ki:.6g} N·m/{angle}, Tc = {d.Tc:g} s; crossover "
+            f"{d.crossover:.4g} rad/s, phase margin {d.phase_margin:.1f} deg, gain margin {d.gain_margin:.3g}")
 
 
 def _diverged_status(comp) -> int:
@@ -314,8 +397,9 @@ def register(sub) -> None:
                                    "disturbance observer on its residual), canudas (Canudas de Wit et al. 1987), dob "
                                    "(disturbance observer), oracle and frictionless; print the metrics table and "
                                    "write PNG figures.")
-    c.add_argument("--preset", default="paper", choices=PRESET_NAMES,
-                   help="named plant parameter set: %(choices)s (default: paper)")
+    c.add_argument("--preset", default=None, choices=PRESET_NAMES,
+                   help="named plant parameter set: %(choices)s (default: paper; with --from alone, the identified "
+                        "joint)")
     c.add_argument("--plant", metavar="FILE",
                    help='JSON plant file (SI units): "model" = "lagged-stribeck" (default; J, Fc, Fs, Vs, delta, '
                         'sigma, tau), "lugre" (J, Fc, Fs, Vs, delta, sigma0, sigma1, sigma2), "karnopp" (... tau, dv) '
@@ -370,7 +454,17 @@ def register(sub) -> None:
     c.add_argument("--delta", type=float, default=None, help="Stribeck shape factor, if known (with --Vs)")
     c.add_argument("--J-design", dest="J_design", type=float, default=None,
                    help="design inertia in kg·m² for the PI, the estimator start, the gates and the DOB "
-                        "(default: the plant's J, as a data sheet gives it)")
+                        "(default: the J of --from, else the plant's J, as a data sheet gives it)")
+    c.add_argument("--from", dest="from_file", metavar="FILE", default=None,
+                   help="an 'identify --json' output: the design inertia is its J and the PI the one 'design --from "
+                        "FILE' designs (on J and sigma, at --crossover and --phase-margin); without --plant, "
+                        "--variant or --preset the simulated plant is the identified joint")
+    c.add_argument("--controller", metavar="FILE", default=None,
+                   help="run this PI as given: a 'design --json' output (Kp, Ki, Tc, J, sigma, SI units); "
+                        "--crossover and --phase-margin do not apply")
+    c.add_argument("--accept-warnings", action="store_true",
+                   help="use a --from identification even if it carries plausibility or identifiability warnings "
+                        "(otherwise refused with exit status 3, as 'design --from')")
     c.add_argument("--json", action="store_true", help="print the metrics as JSON instead of the table")
     c.add_argument("--no-figures", action="store_true", help="do not write figures")
     c.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -382,5 +476,6 @@ def register(sub) -> None:
                         "(--out, --report, --json, --no-figures, --quiet, --units) still apply")
     add_units_argument(c)
     add_yes_argument(c)
-    c.set_defaults(func=run, scenario_defaults={k: c.get_default(k) for k in _SCENARIO_SETS})
+    c.set_defaults(func=run, scenario_defaults={k: c.get_default(k) for k in _SCENARIO_SETS},
+                   loop_defaults={k: c.get_default(k) for k in ("crossover", "phase_margin")})
 

@@ -33,6 +33,7 @@ from plant.results import axes_or_new, json_safe
 __all__ = [
     "PIDesign",
     "design_pi",
+    "analyse_gains",
     "ClosedLoopStep",
     "closed_loop_step",
     "PIController",
@@ -423,6 +424,73 @@ def design_pi(
     return PIDesign(Kp=Kp, Ki=Ki, Tc=Tc, crossover=wgc, phase_margin=pm_ach, gain_margin=gm,
                     phase_crossover=wpc, stability_margin=sm, J=J, sigma=sigma, C=C,
                     plant=plant, loop=loop)
+
+
+def analyse_gains(Kp: float, Ki: float, *, J: float, sigma: float = 0.0, Tc: float = 1e-3) -> PIDesign:
+    """The margins of a given discrete PI on ``1/(J s + sigma)``: the :class:`PIDesign` of gains a user already has
+    (``adaptive-ff design --json``, a drive's parameters), as :func:`design_pi` reports its own.
+
+    Parameters
+    ----------
+    Kp : float
+        Proportional gain (N·m·s/rad), > 0.
+    Ki : float
+        Integral gain (N·m/rad), >= 0.
+    J : float, keyword-only
+        Inertia of the loop model (kg·m²), > 0.
+    sigma : float, keyword-only
+        Viscous coefficient of the loop model (N·m·s/rad), >= 0.
+    Tc : float, keyword-only
+        Controller period (s), > 0.
+
+    Returns
+    -------
+    PIDesign
+        The gains as given; ``crossover`` where ``|L| = 1`` (rad/s), the phase, gain and stability margins of the
+        discrete loop, as :func:`design_pi` computes them (its step 3).
+
+    Raises
+    ------
+    ParameterError
+        A value out of range (named), a closed loop that is unstable (its pole moduli quoted), or a loop gain that
+        never falls to 1 below the Nyquist frequency.
+
+    Notes
+    -----
+    ``|L(exp(j w Tc))|`` decreases monotonically on ``(0, pi/Tc)`` for this plant and controller (:func:`design_pi`,
+    Notes), so the crossover is the one root of ``|L| = 1`` there (``scipy.optimize.brentq``).
+    """
+    Kp = check_positive("Kp", Kp)
+    Ki = check_nonnegative("Ki", Ki)
+    J = check_positive("J", J)
+    sigma = check_nonnegative("sigma", sigma)
+    Tc = check_positive("Tc", Tc)
+
+    import control
+    from scipy.optimize import brentq
+
+    plant = control.sample_system(control.tf([1.0], [J, sigma]), Tc, method="zoh")
+    C = _pi_tf(Kp, Ki, Tc)
+    loop = control.series(C, plant)
+    poles = control.poles(control.feedback(loop, 1))
+    if np.any(np.abs(poles) >= 1.0):
+        raise ParameterError(f"Kp = {Kp!r} N·m·s/rad, Ki = {Ki!r} N·m/rad give an unstable discrete closed loop on "
+                             f"J = {J!r} kg·m², sigma = {sigma!r} N·m·s/rad at Tc = {Tc!r} s (pole moduli "
+                             f"{np.abs(poles).round(6).tolist()})")
+
+    def log_gain(w: float) -> float:
+        return math.log(abs(complex(loop(np.exp(1j * w * Tc)))))
+
+    lo, hi = 1e-5 / Tc, 0.999 * math.pi / Tc  # w*Tc >= 1e-5: (z - 1)**2 expanded keeps its digits
+    if not (log_gain(lo) > 0.0 > log_gain(hi)):
+        raise ParameterError(f"Kp = {Kp!r} N·m·s/rad, Ki = {Ki!r} N·m/rad on J = {J!r} kg·m² at Tc = {Tc!r} s: the "
+                             f"loop gain does not cross 1 below the Nyquist frequency")
+    wc = brentq(log_gain, lo, hi, xtol=1e-12 / Tc, rtol=1e-12)
+    L = complex(loop(np.exp(1j * wc * Tc)))
+    pm = math.degrees(math.pi + math.atan2(L.imag, L.real))
+    wgc, pm_ach, gm, wpc, sm = _margins(loop, wc, pm, Tc)
+    return PIDesign(Kp=Kp, Ki=Ki, Tc=Tc, crossover=wgc, phase_margin=pm_ach, gain_margin=gm,
+                    phase_crossover=wpc, stability_margin=sm, J=J, sigma=sigma, C=C, plant=plant, loop=loop)
 
 
 @dataclass(frozen=True)

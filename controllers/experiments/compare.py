@@ -25,7 +25,8 @@ from controllers.simulation.compensators import ESTIMATORS, MODES, check_estimat
 from controllers.simulation.memory import MODE_SIGNALS, PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
 from controllers.simulation.user_compensator import CompensatorContext, CompensatorError
 from controllers.design.pi import PIDesign, design_pi
-from controllers.experiments.comparison import (WORSE_THAN_NONE, Comparison, diverged_notes, eta, eta_or_none,
+from controllers.experiments.comparison import (WORSE_THAN_NONE, Comparison, beyond_frictionless_notes,
+                                                diverged_notes, eta, eta_or_none,
                                                 mode_width, number_text, run_notes, whole_run_metrics,
                                                 worse_than_none_notes)
 from controllers.experiments.observer_design import (J_CONTRADICTED, friction_level, observer_inertia, observer_max,
@@ -90,6 +91,11 @@ class CompareOptions:
         the table, the figures and the JSON under ``name`` (not a built-in mode's name).
     crossover, phase_margin : float
         PI design targets (rad/s, deg) for :func:`controllers.design.pi.design_pi` on ``1/(J s)``.
+    controller : controllers.design.pi.PIDesign or None
+        The loop's PI as the user has it (``adaptive-ff design --json``, read by
+        :func:`controllers.design.controller_file.read_controller`, or :func:`controllers.design.pi.design_pi` /
+        :func:`controllers.design.pi.analyse_gains`), run as given: ``crossover`` and ``phase_margin`` are then not
+        used. Its ``Tc`` must equal ``Tc``. Default None: designed from ``J_design`` and the targets.
     Tc, Ts : float
         Controller period and estimator sample time (s).
     u_max : float or None
@@ -208,6 +214,7 @@ class CompareOptions:
     modes: tuple = MODES
     crossover: float = 20.0
     phase_margin: float = 60.0
+    controller: PIDesign | None = None
     Tc: float = 1e-3
     Ts: float = 0.01
     u_max: float | None = None
@@ -250,6 +257,13 @@ class CompareOptions:
 
     def __post_init__(self):
         check_positive("Tc", self.Tc)
+        if self.controller is not None:
+            if not isinstance(self.controller, PIDesign):
+                raise ParameterError(f"controller must be a PIDesign (controllers.design.controller_file."
+                                     f"read_controller), got {type(self.controller).__name__}")
+            if not math.isclose(self.controller.Tc, self.Tc, rel_tol=1e-9):
+                raise ParameterError(f"controller: its period Tc = {self.controller.Tc!r} s differs from the loop's "
+                                     f"Tc = {self.Tc!r} s")
         if self.reference is not None:  # the reference sets the duration
             object.__setattr__(self, "duration", _reference_duration(self.reference, self.Tc))
         check_positive("duration", self.duration)
@@ -426,7 +440,7 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
     return Comparison(plant=p, design=s.design, results=results, eta=etas, prefit=s.prefit, offline=s.offline,
                       model=s.model, experiment=s.experiment, J_design=s.J_design,
                       notes=(tuple(s.notes) + diverged_notes(results) + run_notes(results)
-                             + worse_than_none_notes(etas, results)),
+                             + worse_than_none_notes(etas, results) + beyond_frictionless_notes(etas, results)),
                       **whole_run_metrics(results))
 
 
@@ -687,6 +701,8 @@ def _preflight(p0, o: CompareOptions, J: float, peak_w: float, noise: float) -> 
                              f"{peak_w:.4g} rad/s: no speed of the reference can be measured")
     if o.u_max is not None:
         check_drive_moves(p0, o.u_max)
+    if o.controller is not None:
+        return o.controller
     return design_pi(J, crossover=o.crossover, phase_margin=o.phase_margin, Tc=o.Tc)
 
 

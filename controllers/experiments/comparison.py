@@ -28,7 +28,7 @@ if TYPE_CHECKING:  # annotations only
     from controllers.experiments.quasi_static import StribeckExperiment
 
 __all__ = ["Comparison", "WORSE_THAN_NONE", "diverged_notes", "eta", "eta_or_none", "mode_width", "number_text",
-           "run_notes", "settling_text", "whole_run_metrics", "worse_than_none_notes"]
+           "run_notes", "settling_text", "whole_run_metrics", "worse_than_none_notes", "beyond_frictionless_notes"]
 
 #: eta below this is "worse than none" (:func:`worse_than_none_notes`, the zoo's
 #: :meth:`controllers.experiments.zoo.ZooResult.worse_than_none`): a compensation that raises the tracking error above
@@ -274,6 +274,40 @@ class Comparison:
             e = adaptive.estimate
             out["adaptive_final"] = {k: float(getattr(e, k)) for k in ("J", "tau", "sigma", "Fc", "Fs")}
         return out
+
+
+def beyond_frictionless_notes(etas: dict, results: dict) -> tuple:
+    """One note per mode whose eta, as the table prints it (three decimals), is above 1: why a compensation can track
+    better than the frictionless loop.
+
+    The frictionless loop is the PI alone on the reference; its error is the PI's own (the reference's
+    acceleration against the loop's bandwidth, and the sensor's noise). A compensator evaluated at the measured
+    velocity, and an observer, are feedback too: they change that loop (a map's slope adds to or takes from the
+    loop's damping, an observer rejects the loop's own model error as a disturbance), and eta then counts what
+    they do to the loop's own error beside the friction.
+
+    Parameters
+    ----------
+    etas : dict of str to float or None
+        eta (second half) by mode, None where undefined.
+    results : dict of str to ClosedLoopResult
+        The runs by mode (``"frictionless"`` among them).
+
+    Returns
+    -------
+    tuple of str
+    """
+    notes = []
+    rf = results["frictionless"].metrics.rms_second_half
+    for mode, e in etas.items():
+        if mode == "frictionless" or e is None or not round(e, 3) > 1.0:
+            continue
+        rm = results[mode].metrics.rms_second_half
+        notes.append(f"{mode}: eta {e:.3f} > 1: it tracks better than the frictionless loop (second-half RMS "
+                     f"{rm:.4g} against {rf:.4g} rad/s), whose error is the PI's own on the reference: a "
+                     f"compensator evaluated at the measured velocity, or an observer, is feedback too and changes "
+                     f"that loop, and eta counts that beside the friction")
+    return tuple(notes)
 
 
 def worse_than_none_notes(etas: dict, results: dict) -> tuple:

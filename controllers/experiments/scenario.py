@@ -80,7 +80,7 @@ _DRIVE = ("u_max", "slew_rate")
 _CONTROLLER = ("crossover", "phase_margin", "Tc", "Ts", "J_design")
 _BOUNDS = ("mode", "min_eta", "max_rms", "max_error")
 #: CompareOptions fields a scenario sets elsewhere (or not at all): not allowed under ``[compensation]``.
-_NOT_COMPENSATION = ("duration", "seed", "modes", "compensators", "reference", "faults", "u_max",
+_NOT_COMPENSATION = ("duration", "seed", "modes", "compensators", "reference", "faults", "u_max", "controller",
                      "slew_rate") + _SENSOR + _CONTROLLER
 
 

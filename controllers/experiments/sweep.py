@@ -107,7 +107,7 @@ _PLANT_KEYS = ("J", "Fc", "Fs", "Vs", "delta", "sigma", "tau")
 _CONTROLLER_KEYS = ("crossover", "phase_margin")
 _SPEC_KEYS = {"preset", "plant", "grid", "controller", "monte_carlo", "modes", "seeds", "duration", "options"}
 #: Fields of CompareOptions that the spec sets by its own keys (not through "options").
-_OWN_OPTIONS = ("duration", "seed", "modes", "crossover", "phase_margin", "compensators", "reference")
+_OWN_OPTIONS = ("duration", "seed", "modes", "crossover", "phase_margin", "controller", "compensators", "reference")
 
 
 #: Most cases one spec may expand to (a typo like "n": 1e9 fails at once instead of exhausting memory).

@@ -409,11 +409,12 @@ class ZooOptions:
         zoo's duration, seed, modes, reference, sensor and drive (encoder, delay, slew rate, velocity), estimator,
         ``iv_map_stderr`` and ``switch_in``; the rest ``compare``'s defaults (the design inertia is set per joint
         from ``J_design_factor``); with ``base``, that comparison with this zoo's seed, modes and estimator
-        settings and no torque limit, design inertia or own compensators of its own."""
+        settings and no torque limit, design inertia, given PI (each joint's PI is designed on its own design
+        inertia with the base's targets) or own compensators of its own."""
         if self.base is not None:
             return replace(self.base, seed=int(self.seed), modes=self.modes, estimator=self.estimator,
                            iv_map_stderr=self.iv_map_stderr, switch_in=self.switch_in, u_max=None, J_design=None,
-                           compensators=None)
+                           controller=None, compensators=None)
         return CompareOptions(duration=float(self.duration), seed=int(self.seed), modes=self.modes,
                               reference=self.reference, encoder_counts=self.encoder_counts, delay=self.delay,
                               slew_rate=self.slew_rate, velocity=self.velocity, estimator=self.estimator,
@@ -918,5 +919,6 @@ def zoo_options_dict(o: ZooOptions) -> dict:
         d["reference"] = {"samples": int(ref.t.shape[0]), "stops": int(len(ref.stops())),
                           "reversals": int(len(ref.reversals()))}
     if base is not None:  # the comparison's settings; its reference above, its own compensators not run here
-        d["base"] = {k: v for k, v in asdict(replace(base, compensators=None)).items() if k != "reference"}
+        d["base"] = {k: v for k, v in asdict(replace(base, compensators=None, controller=None)).items()
+                     if k != "reference"}
     return json_safe(d)
