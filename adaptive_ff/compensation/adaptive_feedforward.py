@@ -277,7 +277,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         0: a lag-free joint's estimate scatters around 0 and half of it
         falls below. A lower lag estimate refuses the estimate. Default 3;
         inf: every negative lag is 0; 0: a negative lag refuses the
-        estimate (as before 2026-11-23).
+        estimate.
     project : bool, keyword-only
         Use the projection of a copy of the estimator's ``theta`` onto the
         plausible box in the metric of ``P^-1`` (:func:`project_box`: the

@@ -68,7 +68,7 @@
  * had hurt. No trial (ratio at the switch-in INFINITY) after a switch-in
  * with more to gain, where friction clearly costs tracking: there the comparison with the window before conflates
  * the feedforward's own evolution (an eq. 4 estimate still settling, then drifting), and it took out observers the
- * loop needed (1000-joint zoo with eq4, #76: 1.121 -> 0.000); and none after the idle switch-in, whose window
+ * loop needed (on the 1000-joint zoo with eq4, one joint from eta 1.121 to 0.000); and none after the idle switch-in, whose window
  * before had no feedforward acting. Also tried and not kept: a second yardstick, the model's prediction for the
  * feedforward alone EWMA((e_l - w_r)^2) (after the switch-in the observer's d_hat, which drives w_r, changes with
  * the observer applied); and a probe, the observer faded out after its window to measure the feedforward alone in
@@ -228,7 +228,7 @@ void aff_residual_observe(aff_residual *r, aff_real u, aff_real w_meas, aff_real
  * observer then records the torque as applied, u - 0 (u_ff = 0): it measures the friction itself, as aff_dob does,
  * not the residual f - u_ff of a feedforward that was not applied. At rest that feedforward is the friction map at
  * a measured velocity of noise and quantisation, and the residual's estimate carried it into the next move's start
- * (the open bench's zoo joints #83 and #98, docs/benchmarks/scenarios.md). Before the switch-in u_ff stays: the
+ * (two joints of the open bench's zoo, docs/benchmarks/scenarios.md). Before the switch-in u_ff stays: the
  * switch-in test wants the feedforward's residual. Outside rest nothing changes (a supervisor that backed off keeps
  * the candidate's residual, consistent at its restore).
  * The hold: from here on (held = 1) aff_residual_compensate leaves the feedforward part out until the controller's
@@ -241,10 +241,8 @@ void aff_residual_observe(aff_residual *r, aff_real u, aff_real w_meas, aff_real
  * which is the behaviour without the hold; a band of 0.05 rad/s (one count per period of the 2^17 encoder) on
  * the Kalman velocity moved the open bench's variants by -0.008..+0.010, its zoo losses unchanged (none), and
  * would need the sensor's resolution as a setting. Measured on the open bench (docs/benchmarks/compensation.md,
- * "The composite's observer at rest"): zoo #25 (difference velocity), the one remaining loss, best adaptive 1.032
- * -> 1.120 against `fixed` 1.100, no loss > 0.02 and none worse than none with either velocity, every variant's
- * adaptive modes within -0.018; holding plain `adaptive` before its switch-in too was needed (without it #25
- * reached 1.065). n_held counts the periods held outside rest (at_rest takes back a period it counted, unless the
+ * "The composite's observer at rest"): no loss above 0.02 and none worse than none with either velocity; holding
+ * plain `adaptive` before its switch-in too is part of it. n_held counts the periods held outside rest (at_rest takes back a period it counted, unless the
  * count saturated at INT64_MAX). */
 void aff_residual_at_rest(aff_residual *r);
 

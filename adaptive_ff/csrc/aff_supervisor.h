@@ -29,7 +29,7 @@
  * (n_restore += 1). The hysteresis band [(1 - margin)*M_f, M_f] keeps it from chattering. The motion condition:
  * a friction feedforward evaluated at a joint that sticks at a reversal takes the sign of the sensor's noise, and
  * switched on there, the transfer below moves one noise-signed sample into the integrator while the next period's
- * flips the command (a zoo joint of the linear axis: 3 times the uncompensated loop's largest error). Bumpless transfer (Astrom & Hagglund, Advanced PID
+ * flips the command (on the linear axis's zoo: 3 times the uncompensated loop's largest error). Bumpless transfer (Astrom & Hagglund, Advanced PID
  * Control, ISA 2006, Sec. 3.5, between manual and automatic modes): in the period the applied torque switches,
  * transfer = (the torque the old mode would apply) - (the new mode's), +u_c off, -u_c on, is what the loop adds
  * to its PI integrator, so the total command does not jump (0 in every other period). While on, the applied

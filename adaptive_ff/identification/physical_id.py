@@ -110,8 +110,8 @@ block of ``3 (L + 1)`` samples (``L`` the Andrews bandwidth: the colour of
 the residuals within a block, including the input quantisation's effect,
 is kept; :func:`adaptive_ff.identification.covariance.block_wild_resample`).
 The residuals are large at breakaway, where Fs is identified, and small
-while sliding; the moving-block resampling used before 2026-11-23 (Künsch,
-*Ann. Statist.* 17(3), 1989) carried them into the sliding stretches, and
+while sliding; a moving-block resampling (Künsch,
+*Ann. Statist.* 17(3), 1989) carries them into the sliding stretches, and
 its Fs intervals covered 88 % of the zoo joints of
 ``benchmarks/coverage_zoo.py`` (93 % with it; the documentation's
 identification page, "Calibration on many joints"). With
@@ -121,10 +121,9 @@ changes per parameter: 6 % of J, 9 % of tau, 3 % of the torques) by the
 fit's own later steps (``_oe_refit``; ``info["bootstrap"]["refit"]``): a
 trust-region pass at the wide robust scale of its global stage, its local
 stage (a pass at the noise-level scale, the local Fs profile, a pass; the
-better point kept) and one round of its coordinate search. Until 2026-11-23
-a refit was the two trust-region passes alone, which stopped short of where
-the fit itself stops, so that their scatter carried the memory of their
-start (measurements and coverage before and after: the documentation's
+better point kept) and one round of its coordinate search. The two
+trust-region passes alone stop short of where the fit itself stops, so that
+their scatter carries the memory of their start (measurements and coverage before and after: the documentation's
 identification page, "Refits that run the fit's own later steps"). The
 lag profile and the final Fs profile are not run in the refits (they cost
 several times the rest of a refit). A refit started at the
@@ -137,12 +136,11 @@ calibrated on simulated records and checked on others
 (``benchmarks/coverage.py``; the documentation's identification page has
 the table); the intervals widen with it.
 
-These partial refits (``bootstrap_refit="partial"``, the default until
-2026-11-24) are not the estimator: on zoo joints 0, 1, 5 and 7 of
-``benchmarks/coverage_zoo.py`` their scatter was 1.3-2.9 times the fit's own
+These partial refits (``bootstrap_refit="partial"``) are not the
+estimator: on four joints of ``benchmarks/coverage_zoo.py`` their scatter was 1.3-2.9 times the fit's own
 error over ten records of each joint (new input, time stamps and noise), while
 the fit itself, run on the same bootstrap replicates, scattered as that Monte
-Carlo did (J 0.38 % against 0.38 % on joint 5; the partial refits 0.87 %).
+Carlo did (J 0.38 % against 0.38 % on one of them; the partial refits 0.87 %).
 ``bootstrap_refit="full"`` refits each replicate by the fit itself, the
 replicate taken as a record of its own (its noise level, robust scales and
 eq. 4 start, every stage including the profile searches): the bootstrap of
@@ -151,8 +149,8 @@ cost of the partial refits (a median 34 s, 22-68 s, against 11 s of CPU per
 15 s zoo record with 20 refits); its coverage on the zoo: the identification
 page, "The bootstrap of the fit itself". It is the default: its 95 % intervals
 covered the truth on 91-96 % of 100 zoo joints per parameter in two runs with
-different draws (commits ab5b463 and 6238154; the identification page, "The
-bootstrap of the fit itself, the default"), the partial refits' J and tau
+different draws (the identification page, "The bootstrap of the fit itself,
+the default"), the partial refits' J and tau
 intervals on 99 % (twice too wide). The refits run in threads
 (``bootstrap_workers``; their time is in the C simulation, which releases the
 GIL); every replicate and the generator of each refit are drawn before any

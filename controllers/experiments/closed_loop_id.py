@@ -107,8 +107,8 @@ was and fitted as the log was:
   realisations the simulated predictor averages (a simulated likelihood's own
   error, Gouriéroux & Monfort, 1996, Ch. 1), but refits that drew their own
   level and realisations covered the truth less often over 40 simulated
-  records (``docs/benchmarks/output_error.md``, "2026-11-22, commit 041944d"), so the refits keep
-  the fit's.
+  records (``docs/benchmarks/output_error.md``, "Closed-loop fit: coverage of the bootstrap intervals"), so the
+  refits keep the fit's.
 * Each replicate is refitted by the whole estimator: the start search of
   step 4 on the replicate, then the two trust-region passes (Efron &
   Tibshirani, *An Introduction to the Bootstrap*, 1993, Sec. 6.4: the

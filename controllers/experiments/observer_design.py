@@ -85,8 +85,8 @@ def observer_max(*, Tc: float, encoder_counts, velocity: str, velocity_bandwidth
 
     Notes
     -----
-    Measured on the open bench (2^17 encoder, Kalman cv 100 Hz, one period of delay, point-to-point moves;
-    2026-11-23): ``adaptive-dob`` on ``small-inertia`` 0.68 at 1000 rad/s, 1.00 at 600; ``long-lag``, ``paper``,
+    Measured on the open bench (2^17 encoder, Kalman cv 100 Hz, one period of delay, point-to-point moves):
+    ``adaptive-dob`` on ``small-inertia`` 0.68 at 1000 rad/s, 1.00 at 600; ``long-lag``, ``paper``,
     ``karnopp`` 0.99 -> 1.03-1.04 (docs/benchmarks/scenarios.md).
     """
     if encoder_counts is None or velocity != "kalman":
@@ -130,12 +130,12 @@ def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, sh
     ``J**2*noise_std**2*Tc/(2*pi) * integral of x**2*w**4/(w**2 + x**2)**2 dx = J**2*noise_std**2*Tc*w**3/4``
     (Papoulis & Pillai, *Probability, Random Variables and Stochastic Processes*, 4th ed., 2002, Sec. 9-3). A
     residual observer whose noise torque is larger than the friction it cancels does harm (light joints with
-    little friction: the zoo's Karnopp joint #550, docs/benchmarks/zoo.md). At the friction level itself
-    (``share`` 1 until 2026-11-25) it still did harm on heavy Karnopp joints, whose friction in the stick band is
+    little friction: light Karnopp joints of the zoo, docs/benchmarks/zoo.md). At the friction level itself
+    (``share`` 1) it still did harm on heavy Karnopp joints, whose friction in the stick band is
     the reaction to the applied torque; the shares measured, on three zoos and both estimators, are on
     docs/benchmarks/compensation.md, "The residual observer's noise at half the friction level". On a joint whose
-    quasi-static runs stick (:func:`residual_share`) half the level still broke it loose at random (zoo seed 2's
-    #867), hence :data:`STICK_SHARE` there.
+    quasi-static runs stick (:func:`residual_share`) half the level still broke it loose at random (a joint of
+    the zoo of seed 2), hence :data:`STICK_SHARE` there.
     """
     density = J * J * noise_std * noise_std * Tc  # 0 also where a tiny noise_std**2 underflows
     if noise_std <= 0.0 or not (density > 0.0) or not (F_level > 0.0):

@@ -18,9 +18,8 @@ optional drift) from the box of :class:`ZooBox` (docs/benchmarks/zoo.md):
 - lag ``tau``: 0 with probability ``p_static``, else log-uniform in 1e-3-0.1 s
   (LuGre has no lag: its pre-sliding deflection ``Fc/sigma0`` is log-uniform
   in 1e-6-1e-3 rad, ``sigma1 = zeta*2*sqrt(sigma0*J)`` with the bristle damping
-  ratio ``zeta`` uniform in 0.1-2 (lightly damped up to twice critical damping;
-  until 2026-11-23 ``sigma1 = zeta*sqrt(sigma0*J)`` with ``zeta`` in 0.1-1, i.e.
-  damping ratios 0.05-0.5), ``sigma2 = sigma``; Karnopp's stick band ``dv`` is 5-50 % of ``Vs``; the
+  ratio ``zeta`` uniform in 0.1-2 (lightly damped up to twice critical damping),
+  ``sigma2 = sigma``; Karnopp's stick band ``dv`` is 5-50 % of ``Vs``; the
   asymmetric model scales the negative direction's levels by 0.6-1.4);
 - models drawn evenly from the four of :mod:`plant.models`; with probability
   ``p_drift`` a :class:`plant.drift.FrictionDrift` ramps ``Fc`` and ``Fs`` by

@@ -43,7 +43,7 @@ After a rest of the reference (the supervisor's rest rule withheld the output; t
 ``at_rest``) the feedforward part is held back until the measured velocity moves in the reference's direction
 (``w_ctrl*w_ref > 0``), the observer's estimate applied from the rest's end and the observer told that no
 feedforward was applied; before the switch-in of mode ``adaptive`` the output is then 0 (C ``aff_residual_at_rest``;
-the open bench's zoo joint #25, docs/benchmarks/compensation.md, "The composite's observer at rest").
+docs/benchmarks/compensation.md, "The composite's observer at rest").
 """
 
 from __future__ import annotations
@@ -127,7 +127,7 @@ class ResidualSwitchIn:
     trial_margin : float
         The trial (of a switch-in with little to gain) takes the observer out where the measured mean-square error
         with it, relative to the frictionless loop's, is more than ``1 + trial_margin`` times what it was before the
-        switch-in (-), >= 0; ``math.inf``: no trial (the switch-in for good, as before the trial of 2026-11-24).
+        switch-in (-), >= 0; ``math.inf``: no trial (the switch-in for good).
         Default 0.03: below it the observers the trial took out on the zoos had helped as often as hurt (the
         sampling noise of two ratios over two windows; docs/benchmarks/compensation.md, "The switch-in on trial").
 

@@ -62,8 +62,8 @@ ESTIMATORS = ("sliding", "eq4", "eq4-rls")
 
 def check_estimator(name: str, value) -> None:
     """Raise :class:`plant.errors.ParameterError` naming ``name`` unless ``value`` is one of :data:`ESTIMATORS`;
-    the former name ``"eq4-iv"`` (until 2026-11-24; then ``"eq4"`` was the paper's RLS, now ``"eq4-rls"``) is
-    refused with its new name."""
+    the former name ``"eq4-iv"`` (the instrumental-variable estimator, now ``"eq4"``; the paper's RLS is
+    ``"eq4-rls"``) is refused with its new name."""
     if value == "eq4-iv":
         raise ParameterError(f"{name}: the estimator 'eq4-iv' is now 'eq4' (and the paper's RLS as printed, "
                              f"formerly 'eq4', is 'eq4-rls')")
@@ -202,7 +202,7 @@ class ModeOptions:
         then keep it unless its trial finds the loop tracking worse with it
         (:class:`controllers.peers.adaptive_dob.ResidualSwitchIn`, window 2 s, fade-in 0.5 s; the result's
         ``info["t_switch_in"]`` and ``info["t_switch_out"]`` say when); default True. False: the feedforward
-        alone, as before 2026-11-23.
+        alone.
     switch_in_ratio : float
         Its threshold (-), > 0; default 0.1 (5 % in RMS).
     supervise_window : float

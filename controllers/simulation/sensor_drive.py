@@ -52,7 +52,7 @@ def default_velocity_bandwidth(Tc: float) -> float:
         Its lag stays out of the loop (cv: about ``sqrt(2)/(2*pi*fb)`` = 2.3 ms, 2.6 degrees of phase at a
         20 rad/s crossover), its velocity noise from the counts is 0.21 of the backward difference's RMS for white
         quantisation noise (cv; 0.15 on a constant-velocity ramp, tests/test_kalman_loop.py). Measured on the
-        ``paper`` preset with a 17-bit encoder (benchmarks/encoder_velocity.py, 2026-11-23, means over 8 noise
+        ``paper`` preset with a 17-bit encoder (benchmarks/encoder_velocity.py, means over 8 noise
         seeds): ``adaptive`` eta 0.91 at 100 Hz (0.92 at 80, 0.89 at 120, 0.73 at 150 Hz; 0.00 with the difference); ``adaptive-dob``
         0.96 at 80-120 Hz and below zero at 50 Hz, where the filter's lag reaches its residual observer
         (``omega_r`` 1000 rad/s): keep the bandwidth above about 80 Hz there.
