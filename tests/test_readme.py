@@ -148,6 +148,12 @@ def test_python_example_runs(tmp_path):
     assert "frictionless" in r.stdout and "adaptive" in r.stdout
 
 
+def test_a_newcomer_reads_it_in_two_minutes():
+    """At most 700 words outside code blocks (about two minutes at a reading pace of 350 words a minute)."""
+    text = re.sub(r"```.*?```", "", README.read_text(encoding="utf-8"), flags=re.S)
+    assert len(text.split()) <= 700, len(text.split())
+
+
 def test_your_drive_recipe_is_ten_lines():
     text = README.read_text(encoding="utf-8")
     m = re.search(r"## Your drive in ten lines\n\n```bash\n(?P<body>.*?)```", text, re.S)
