@@ -1,0 +1,42 @@
+"""The suite's configuration: the ``slow`` marker and ``--run-slow``.
+
+``python -m pytest`` runs the quick part of the suite (a few minutes on two cores); ``python -m pytest --run-slow``
+runs the whole suite, as CI does (``.ci/run``, the README's test command). A test is slow when it simulates or fits
+for many seconds (output-error fits with their bootstrap, the documentation pages run command by command, the
+fuzzers); such a test carries ``@pytest.mark.slow``, or its file is in :data:`SLOW_FILES`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+#: Test files whose every test is slow (tens of seconds to minutes each; together about two thirds of the suite's
+#: time): the output-error and closed-loop fits, the documentation pages run as written, the fuzzers.
+SLOW_FILES = frozenset({
+    "test_closed_loop_id.py", "test_physical_id.py", "test_your_drive.py", "test_docs.py", "test_readme.py",
+    "test_identify_method.py", "test_fuzz_c.py", "test_fuzz_cli.py", "test_properties.py", "test_stiff_lugre.py",
+    "test_figures_quality.py", "test_stiff_lagged.py", "test_examples.py",
+})
+
+
+def pytest_addoption(parser):
+    parser.addoption("--run-slow", action="store_true", default=False,
+                     help="also run the tests marked slow: the whole suite, as CI runs it")
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "slow: a test of many seconds; run only with --run-slow (tests/conftest.py)")
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if Path(str(item.fspath)).name in SLOW_FILES:
+            item.add_marker(pytest.mark.slow)
+    if config.getoption("--run-slow"):
+        return
+    skip = pytest.mark.skip(reason="slow: run with --run-slow (the whole suite, as CI does)")
+    for item in items:
+        if "slow" in item.keywords:
+            item.add_marker(skip)
