@@ -42,6 +42,7 @@ from adaptive_ff.identification.identification_report import IdentificationRepor
 from adaptive_ff.identification.identify_warnings import (as_baseline, estimate_warnings, ls_simex_judgment,
                                                           sliding_band_warnings)
 from adaptive_ff.identification.ls import LSResult, fit_ls
+from adaptive_ff.identification.model_error import assess_model_error, eq4_model_error, widened
 from adaptive_ff.identification.physical_id import PhysicalFit, fit_physical
 from adaptive_ff.identification.plausibility import IdentificationWarning, check_physical
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
@@ -166,17 +167,24 @@ def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bo
     info = {"n_rows": f.n_rows, "n_gated": f.n_gated, "residual_rms": f.residual_rms, "Tc": uni.Ts, "J_alt": e.J_alt,
             "stderr_kind": "ols (white residuals)", "stderr_ols": ols}
     stderr = ols
+    extra_warn = []
     if n > 0:
-        unc = regression_block_bootstrap(X, y, f.theta, lambda th: estimate_from_theta(f.names, th, Vs, delta), names,
-                                         w_max=float(np.max(np.abs(uni.w))), Vs=Vs, delta=delta, n=n, seed=seed)
+        phys = lambda th: estimate_from_theta(f.names, th, Vs, delta)  # noqa: E731
+        unc = regression_block_bootstrap(X, y, f.theta, phys, names, w_max=float(np.max(np.abs(uni.w))), Vs=Vs,
+                                         delta=delta, n=n, seed=seed)
+        check = assess_model_error(X, y, f.theta, lambda th: np.array([getattr(phys(th), k) for k in names]), names,
+                                   base_half_width={k: 0.5 * (hi - lo) for k, (lo, hi) in unc.interval.items()},
+                                   min_lags=int(unc.block), level=float(unc.level))
+        unc = widened(unc, check)
+        extra_warn = check.warnings("the sliding regression")
         stderr = dict(unc.stderr)
         info.update(stderr_kind=unc.kind, interval95={k: list(v) for k, v in unc.interval.items()},
                     bootstrap={"n": unc.n, "n_valid": unc.n_valid, "block": unc.block, "seed": unc.seed},
-                    band=None if unc.band is None else unc.band.to_dict())
+                    band=None if unc.band is None else unc.band.to_dict(), model_error=check.to_dict())
     return PhysicalFit(method="sliding", params=params, stderr=stderr,
                        cond=float(sv[0] / sv[-1]), nrmse=float(nrmse_fit(y, X @ f.theta)),
                        n_samples=int(uni.n_samples), nrmse_kind="filtered torque L[u]", info=info,
-                       warnings=tuple(check_physical(params, source="sliding (fit_sliding)")))
+                       warnings=tuple(check_physical(params, source="sliding (fit_sliding)")) + tuple(extra_warn))
 
 
 def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None = None, lag: bool = False,
@@ -322,7 +330,9 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
                     raise
                 notes.append(f"method 'sliding' not possible ({exc}): the eq. 4 LS is the answer")
                 unc = _eq4_uncertainty(model, u, w, ls, method_options)
-                notes += [] if unc is None else [unc.note()]
+                if unc is not None:
+                    notes += [unc.note(), unc.model_error.note()]
+                    warn += unc.model_error.warnings("the eq. 4 LS")
                 return with_steady_state_check(_report(ls, rls, rls_est, rls_fit, uni, keep, hist, std, P0, data,
                                                        notes, warn, excitation, None, unc), data)
             notes.append(f"physical parameters by 'sliding' on {physical.info['n_rows']} sliding-regime rows "
@@ -337,7 +347,8 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
             warn += sliding_band_warnings(uni, Vs, delta, excitation.noise_std, physical)
         warn = [as_baseline(w) for w in warn] + list(physical.warnings)
     if physical is None and unc is not None:
-        notes.append(unc.note())
+        notes += [unc.note(), unc.model_error.note()]
+        warn += unc.model_error.warnings("the eq. 4 LS")
     report = _report(ls, rls, rls_est, rls_fit, uni, keep, hist, std, P0, data, notes, warn, excitation, physical,
                      unc if physical is None else None)
     if form is not None:
@@ -501,12 +512,15 @@ _EQ4_BOOT_OPTIONS = ("n_bootstrap", "bootstrap_seed")
 
 
 def _eq4_uncertainty(model, u, w, ls: LSResult, options) -> ParameterUncertainty | None:
-    """The residual block bootstrap of the eq. 4 LS with ``n_bootstrap``/``bootstrap_seed`` of ``options``;
-    None for ``n_bootstrap = 0``. Options of other methods in ``options`` are left to them."""
+    """The residual block bootstrap of the eq. 4 LS with ``n_bootstrap``/``bootstrap_seed`` of ``options``, its
+    intervals widened where the model-error check finds model error
+    (:func:`adaptive_ff.identification.model_error.eq4_model_error`); None for ``n_bootstrap = 0``. Options of
+    other methods in ``options`` are left to them."""
     n, seed = _bootstrap_options(options)
     if n == 0:
         return None
-    return eq4_block_bootstrap(model, u, w, ls.theta, ls.Ts, parameter_names(model), n=n, seed=seed)
+    unc = eq4_block_bootstrap(model, u, w, ls.theta, ls.Ts, parameter_names(model), n=n, seed=seed)
+    return widened(unc, eq4_model_error(model, u, w, ls.theta, ls.Ts, parameter_names(model), unc))
 
 
 def _bootstrap_options(options) -> tuple[int, int]:
