@@ -146,13 +146,13 @@ class ModelErrorCheck:
                 for k in self.names}
 
     def to_dict(self) -> dict:
-        """Strict JSON of every attribute and ``interval`` (NaN as None)."""
+        """Strict JSON of every attribute, ``interval`` and ``note`` (:meth:`note`; NaN as None)."""
         return json_safe({"names": list(self.names), "estimate": self.estimate, "stderr_white": self.stderr_white,
                           "stderr_hac": self.stderr_hac, "stderr_jackknife": self.stderr_jackknife,
                           "hac_lags": self.hac_lags, "blocks": self.blocks, "instability": self.instability,
                           "alternatives": list(self.alternatives), "whiteness": self.whiteness,
                           "half_width": self.half_width, "base_half_width": self.base_half_width,
-                          "affected": self.affected, "level": self.level,
+                          "affected": self.affected, "level": self.level, "note": self.note(),
                           "interval": {k: list(v) for k, v in self.interval.items()}})
 
     def note(self) -> str:
