@@ -221,7 +221,7 @@ def hac_covariance_fft(X, r, lags: int) -> np.ndarray:
             neg = c[m - L:][::-1] if L else c[:0]  # sum_t s_i[t] s_j[t+l]
             v = g0 + float(wts @ (pos + neg))
             S[i, j] = S[j, i] = v
-    A = np.linalg.inv(X.T @ X)
+    A = np.linalg.pinv(X.T @ X)
     return A @ S @ A * (n / max(n - p, 1))
 
 
@@ -296,7 +296,7 @@ def assess_model_error(X, y, theta, physical, names, *, base_half_width: dict | 
     alternatives : sequence of Alternative, keyword-only
         Richer structures to try (module docstring); a singular one is skipped.
     blocks : int, keyword-only
-        Parts of the jackknife (>= 3).
+        Parts of the jackknife (>= 3); fewer on a short fit (parts of at least ``max(4, 2p)`` rows), none below 3.
     level : float, keyword-only
         Nominal coverage in (0, 1); the interval quantiles are normal (HAC), Student-t with ``blocks - 1``
         degrees of freedom (jackknife).
@@ -308,7 +308,7 @@ def assess_model_error(X, y, theta, physical, names, *, base_half_width: dict | 
     Raises
     ------
     SignalError
-        Shapes that do not match, non-finite values, or fewer than ``4 blocks`` rows.
+        Shapes that do not match, non-finite values, or fewer than ``2p + 2`` rows.
     ParameterError
         ``blocks`` < 3 or ``level`` not in (0, 1).
     """
@@ -326,8 +326,9 @@ def assess_model_error(X, y, theta, physical, names, *, base_half_width: dict | 
     if not (isinstance(level, float) and 0.0 < level < 1.0):
         raise ParameterError(f"level must be a float in (0, 1), got {level!r}")
     m, p = X.shape
-    if m < 4 * blocks:
-        raise SignalError(f"{m} rows are too few for {blocks} jackknife parts")
+    if m < 2 * p + 2:
+        raise SignalError(f"{m} rows are too few to judge {p} parameters")
+    blocks = int(min(blocks, m // max(4, 2 * p)))  # parts of at least 2p rows; fewer than 3: no jackknife
     names = tuple(names)
     est = np.asarray(physical(theta), dtype=float)
     r = y - X @ theta
@@ -344,19 +345,21 @@ def assess_model_error(X, y, theta, physical, names, *, base_half_width: dict | 
     hw = base.copy()
     affected: dict = {}
     # delete-a-block jackknife
-    edges = np.linspace(0, m, blocks + 1).astype(int)
-    reps = []
-    for k in range(blocks):
-        keep = np.r_[0:edges[k], edges[k + 1]:m]
-        reps.append(np.asarray(physical(_lstsq(X[keep], y[keep])), dtype=float))
-    reps = np.array(reps)
-    se_jack = np.sqrt((blocks - 1) / blocks * np.sum((reps - reps.mean(axis=0)) ** 2, axis=0))
+    se_jack = np.full(len(names), math.nan)
+    if blocks >= 3:
+        edges = np.linspace(0, m, blocks + 1).astype(int)
+        reps = []
+        for k in range(blocks):
+            keep = np.r_[0:edges[k], edges[k + 1]:m]
+            reps.append(np.asarray(physical(_lstsq(X[keep], y[keep])), dtype=float))
+        reps = np.array(reps)
+        se_jack = np.sqrt((blocks - 1) / blocks * np.sum((reps - reps.mean(axis=0)) ** 2, axis=0))
     base_var = (base / z) ** 2
     ratio = np.where(base_var > 0, se_jack**2 / np.where(base_var > 0, base_var, 1.0), math.inf)
-    crit = float(chi2.ppf(1.0 - WALD_LEVEL, blocks - 1) / (blocks - 1))
-    tj = float(student_t.ppf(0.5 + 0.5 * level, blocks - 1))
+    crit = float(chi2.ppf(1.0 - WALD_LEVEL, max(blocks - 1, 1)) / max(blocks - 1, 1))
+    tj = float(student_t.ppf(0.5 + 0.5 * level, max(blocks - 1, 1)))
     for i, k in enumerate(names):
-        if ratio[i] > crit:
+        if blocks >= 3 and np.isfinite(ratio[i]) and ratio[i] > crit:
             hw[i] = max(hw[i], tj * se_jack[i])
             affected.setdefault(k, []).append(
                 f"its estimates with each of {blocks} parts of the log left out spread {math.sqrt(ratio[i]):.3g} "
