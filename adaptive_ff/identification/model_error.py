@@ -208,6 +208,9 @@ def hac_covariance_fft(X, r, lags: int) -> np.ndarray:
         raise ParameterError(f"lags must be an integer >= 0, got {lags!r}")
     n, p = X.shape
     L = int(min(lags, n - 1))
+    scale = np.linalg.norm(X, axis=0)
+    scale = np.where(scale > 0, scale, 1.0)
+    X = X / scale  # unit columns: the sandwich of columns of very different size stays accurate
     s = X * r[:, None]
     m = 1 << int(math.ceil(math.log2(2 * n)))
     F = np.fft.rfft(s, m, axis=0)
@@ -222,7 +225,7 @@ def hac_covariance_fft(X, r, lags: int) -> np.ndarray:
             v = g0 + float(wts @ (pos + neg))
             S[i, j] = S[j, i] = v
     A = np.linalg.pinv(X.T @ X)
-    return A @ S @ A * (n / max(n - p, 1))
+    return A @ S @ A * (n / max(n - p, 1)) / np.outer(scale, scale)
 
 
 def ljung_box(r, lags: int = LJUNG_BOX_LAGS) -> dict:
