@@ -170,10 +170,14 @@ class ModelErrorCheck:
         parameter, its text the reasons; ``source`` names the fit."""
         from adaptive_ff.identification.plausibility import IdentificationWarning
 
-        return [IdentificationWarning("model_form", k, f"{k} of {source}: " + "; ".join(why)
-                                      + f"; its {100 * self.level:g} % interval is widened to "
-                                      f"[{self.interval[k][0]:.6g}, {self.interval[k][1]:.6g}]")
-                for k, why in self.affected.items()]
+        out = []
+        for k, why in self.affected.items():
+            iv = f"[{self.interval[k][0]:.6g}, {self.interval[k][1]:.6g}]"
+            tail = (f"its {100 * self.level:g} % interval is widened to {iv}"
+                    if self.half_width[k] > self.base_half_width[k] else
+                    f"its {100 * self.level:g} % interval {iv} (the bootstrap's or the HAC one) carries the colour")
+            out.append(IdentificationWarning("model_form", k, f"{k} of {source}: " + "; ".join(why) + "; " + tail))
+        return out
 
 
 def hac_covariance_fft(X, r, lags: int) -> np.ndarray:
