@@ -15,7 +15,9 @@ Prints two tables (the identification benchmark page of the documentation opens 
 
 Run::
 
-    python benchmarks/identification_truth.py [--nnfm-dir PATH/.git | --cache DIR]
+    python benchmarks/identification_truth.py [--nnfm-dir PATH/.git | --cache DIR] [--zoo N]
+
+``--zoo N`` adds the coverage of the default eq. 4 LS on ``N`` joints of ``benchmarks/coverage_zoo.py``.
 """
 
 from __future__ import annotations
@@ -135,10 +137,35 @@ def simulated_rows() -> list:
     return rows
 
 
+def zoo_rows(n: int) -> list:
+    """Coverage of the default eq. 4 LS on the zoo of ``benchmarks/coverage_zoo.py`` (Stribeck + lag joints, ``Vs``
+    and ``delta`` given, ``lag=True``, irregular 10 ms readout): per parameter the coverage of the bootstrap alone,
+    of the default's interval, and the share where the truth is inside or the parameter is named."""
+    from coverage_zoo import draw_joint
+    from identification import KEYS, QUANT, record
+
+    hits = {k: [0, 0, 0] for k in KEYS}
+    for seed in range(n):
+        p = draw_joint(seed)
+        m = record(p, seed=seed, noise=0.01, quant=QUANT, irregular="scaled", duration=15.0)
+        rep = identify(MeasuredData(m.t, m.u, m.w), Vs=p.Vs, delta=p.delta, lag=True)
+        me = rep.uncertainty.model_error
+        named = {w.parameter for w in rep.warnings if w.code == "model_form"}
+        for k in KEYS:
+            v, e = getattr(p, k), rep.params[k]
+            old = abs(e - v) <= me.base_half_width[k]
+            new = rep.interval95[k][0] <= v <= rep.interval95[k][1]
+            hits[k][0] += old
+            hits[k][1] += new
+            hits[k][2] += new or k in named
+    return [(k, 100 * a / n, 100 * b / n, 100 * c / n) for k, (a, b, c) in hits.items()]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--nnfm-dir", type=Path, default=None, help="git directory of a clone of the NNFM repository")
     ap.add_argument("--cache", type=Path, default=None, help="folder of the downloaded NNFM logs")
+    ap.add_argument("--zoo", type=int, default=0, help="also the coverage of the default on this many zoo joints")
     args = ap.parse_args(argv)
     rows, extra = real_rows(args.nnfm_dir, args.cache)
     print("| log | method | parameter | published | estimate | 95 % interval | inside | warning names it | rule holds "
@@ -155,6 +182,12 @@ def main(argv=None) -> int:
     for label, s, k, v, e, lo0, hi0, in0, lo, hi, ins, nm in simulated_rows():
         print(f"| {label} | {s} | {k} | {v:g} | {e:.4g} | [{lo0:.4g}, {hi0:.4g}] | {'yes' if in0 else 'NO'} | "
               f"[{lo:.4g}, {hi:.4g}] | {'yes' if ins else 'NO'} | {'yes' if nm else '-'} |")
+    if args.zoo:
+        print(f"\n| zoo ({args.zoo} joints), eq. 4 default | base interval (bootstrap or HAC) cover % | default "
+              "cover % | inside or named % |")
+        print("|---|---|---|---|")
+        for k, a, b, c in zoo_rows(args.zoo):
+            print(f"| {k} | {a:.1f} | {b:.1f} | {c:.1f} |")
     return 0
 
 
