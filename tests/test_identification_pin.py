@@ -4,8 +4,8 @@ Each test fails when a parameter of ``identify`` moves by more than its *reporte
 (``report.stderr``: the residual block bootstrap, :mod:`adaptive_ff.identification.uncertainty`) from its
 pinned value. Pinned values come from an independent source where one exists:
 
-* EMPS (``data/emps/DATA_EMPS.mat``, ``identify(load_emps(...))``, the CLI's default: eq. 4 LS, Coulomb +
-  viscous, offset): sigma, Fc and the offset are pinned to the **published** IDIM-LS values (Janot, Gautier,
+* EMPS (``data/emps/DATA_EMPS.mat``, ``identify(load_emps(...))``, the Python default method ``"paper"``: eq. 4
+  LS, Coulomb + viscous, offset; the CLI's ``auto`` answers with the IDIM-LS there, tests/test_identify_idim.py): sigma, Fc and the offset are pinned to the **published** IDIM-LS values (Janot, Gautier,
   Brunot 2019; docs/benchmarks/emps.md). J is pinned to a **measured** value: the eq. 4 LS's J is 0.43 % above
   the published 95.1089 kg (2.1 bootstrap standard errors: a difference between the estimators, eq. 4 on
   the 100 Hz filtered velocity against IDIM-LS on the decimated record, that no resampling of the residuals
