@@ -47,9 +47,17 @@ CL_BIAS_MAX = {"J": 0.03, "Fs": 0.002, "tau": 0.03}
 
 
 def _pinned(report, pins: dict) -> list:
-    """``(name, value, pin, stderr)`` of every parameter further than one reported standard error from its pin."""
-    return [(k, report.params[k], v, report.stderr[k]) for k, v in pins.items()
-            if not abs(report.params[k] - v) <= report.stderr[k]]
+    """``(name, value, pin, stderr)`` of every parameter further than one standard error from its pin: the error
+    of the interval *before* the model-error check widened it (the wider of the bootstrap's and the HAC one,
+    ``base_half_width`` over the Student-t quantile), so that the widening does not loosen the pins."""
+    from adaptive_ff.identification.covariance import bootstrap_t_quantile
+
+    me = (report.uncertainty.model_error.to_dict() if report.physical is None
+          else report.physical.info["model_error"])
+    n = report.uncertainty.n_valid if report.physical is None else report.physical.info["bootstrap"]["n_valid"]
+    se = {k: me["base_half_width"][k] / bootstrap_t_quantile(n) for k in pins}
+    assert all(se[k] <= report.stderr[k] * (1 + 1e-12) for k in pins)  # the reported ones are at least these
+    return [(k, report.params[k], v, se[k]) for k, v in pins.items() if not abs(report.params[k] - v) <= se[k]]
 
 
 @pytest.fixture(scope="module")
