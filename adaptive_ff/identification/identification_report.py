@@ -125,9 +125,10 @@ class IdentificationReport:
         (:func:`adaptive_ff.identification.steady_state_check.steady_state_check`; its line is among the notes, and
         a ``"model_form"`` warning when it flags the answer); None when the log has too few support points.
     uncertainty : ParameterUncertainty or None
-        The residual block bootstrap of the eq. 4 LS (:func:`adaptive_ff.identification.uncertainty.eq4_block_bootstrap`):
-        standard errors, 95 % intervals and the friction band when the eq. 4 LS is the answer; None otherwise
-        or with ``n_bootstrap = 0``.
+        The residual block bootstrap of the eq. 4 LS (:func:`adaptive_ff.identification.uncertainty.eq4_block_bootstrap`),
+        its intervals widened where the model-error check finds model error (its ``model_error``,
+        :mod:`adaptive_ff.identification.model_error`): standard errors, 95 % intervals and the friction band when
+        the eq. 4 LS is the answer; None otherwise or with ``n_bootstrap = 0``.
     """
 
     ls: LSResult
