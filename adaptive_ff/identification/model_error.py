@@ -7,8 +7,8 @@ values and resamples the fit's residuals: it reproduces the residuals' size and 
 of a log. A model that is not the joint's (a friction lag, a Stribeck dip, a position-dependent torque, a
 compliance the fit does not have) leaves an error that is largely the *same* in every replicate: a bias no
 resampling of the residuals reproduces. On a simulated Coulomb + viscous joint with a 20 ms friction lag, fitted
-without lag at 1 kHz, the default's J interval was [1.879, 2.005] around 1.942 for a true 2.0, and nothing
-warned; on the real logs of the issue the published J and mass lay 2-5 interval half-widths away.
+without lag at 1 kHz, the bootstrap alone gives sigma [8.797, 9.615] and Fc [3.888, 4.300] for a true 8 and 5
+(``tests/test_model_error.py``); with the check below they are [7.25, 11.16] and [2.56, 5.63], and both are named.
 
 What :func:`assess_model_error` adds
 ------------------------------------
