@@ -221,16 +221,22 @@ def test_cli_identify_asymmetric_validate_json(capsys):
     for k, v in fit.params.items():
         assert d["asymmetric"][k] == pytest.approx(v, rel=1e-12)
         assert d["asymmetric"]["std"][k] == pytest.approx(fit.stderr[k], rel=1e-12)
-    rep = identify(load_emps(EMPS))
+    rep = identify(load_emps(EMPS), method="auto")  # the CLI's default: IDIM-LS on the encoder axis
+    assert rep.method == "idim" and d["method"] == "idim"
     loop = validate_emps(rep.rigid_axis_model(), EMPS)
     assert d["closed_loop"]["velocity_error_percent"] == pytest.approx(loop.velocity_error, rel=1e-12)
     assert d["closed_loop"]["force_error_percent"] == pytest.approx(loop.force_error, rel=1e-12)
     assert d["validation"]["closed_loop"]["force_error_percent"] < 8.5
-    assert d["validation"]["idim_force_error_percent"] == pytest.approx(6.09, abs=0.05)
+    # the default (IDIM-LS since issue 49; the eq. 4 LS scored 6.045 % here): the benchmark's own figure, <= 5.98 %
+    assert d["validation"]["idim_force_error_percent"] == pytest.approx(5.953, abs=0.002)
     assert d["asymmetric"]["validation"]["velocity_error_percent"] < 0.4
     for k, v in (("J", 95.1089), ("sigma", 203.5034), ("Fc", 20.3935)):
         assert d[k] == pytest.approx(v, rel=0.02)
-    assert d["warnings"] == [] and d["excitation"]["n_reversals"] == 7
+        lo, hi = d["interval95"][k]
+        assert lo < v < hi, k  # the published value inside the answer's 95 % interval
+    # the only warnings: the model-error check's, on the coloured residuals of the filtered log (not J)
+    assert {w["code"] for w in d["warnings"]} == {"model_form"} and d["excitation"]["n_reversals"] == 7
+    assert sorted(w["parameter"] for w in d["warnings"]) == ["Fc", "offset", "sigma"]
 
 
 def test_cli_identify_text_output(capsys):
@@ -252,4 +258,5 @@ def test_cli_validate_csv(tmp_path, capsys):
     assert main(["identify", str(EMPS), "--validate", str(csv), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert "closed_loop" not in out["validation"]
-    assert out["validation"]["idim_force_error_percent"] == pytest.approx(6.09, abs=0.05)
+    # the default on EMPS is the IDIM-LS since issue 49 (the eq. 4 LS: 6.09 ± 0.05 %)
+    assert out["validation"]["idim_force_error_percent"] == pytest.approx(5.953, abs=0.002)

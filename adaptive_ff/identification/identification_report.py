@@ -125,9 +125,10 @@ class IdentificationReport:
         (:func:`adaptive_ff.identification.steady_state_check.steady_state_check`; its line is among the notes, and
         a ``"model_form"`` warning when it flags the answer); None when the log has too few support points.
     uncertainty : ParameterUncertainty or None
-        The residual block bootstrap of the eq. 4 LS (:func:`adaptive_ff.identification.uncertainty.eq4_block_bootstrap`):
-        standard errors, 95 % intervals and the friction band when the eq. 4 LS is the answer; None otherwise
-        or with ``n_bootstrap = 0``.
+        The residual block bootstrap of the eq. 4 LS (:func:`adaptive_ff.identification.uncertainty.eq4_block_bootstrap`),
+        its intervals widened where the model-error check finds model error (its ``model_error``,
+        :mod:`adaptive_ff.identification.model_error`): standard errors, 95 % intervals and the friction band when
+        the eq. 4 LS is the answer; None otherwise or with ``n_bootstrap = 0``.
     """
 
     ls: LSResult
@@ -279,7 +280,12 @@ class IdentificationReport:
         if self.forms is not None:
             return _selected_form(self.forms, m, self.physical)
         fixed = {"Vs": m.Vs, "delta": m.delta} if m.stribeck else {}
-        if self.physical is not None:
+        if self.physical is not None and self.physical.method == "idim":
+            fitted = [k for k in _ANSWER_KEYS if k in self.physical.info.get("fitted", ())]
+            lag, stribeck, offset = False, False, "offset" in fitted
+            equations = "IDIM: u = J dw/dt + Fc sgn(w) + sigma w + offset (eqs. 1, 3 with Fs = Fc, tau = 0)"
+            estimator = _ESTIMATORS["idim"]
+        elif self.physical is not None:
             fitted = [k for k in _ANSWER_KEYS if k in self.physical.params]
             lag, stribeck, offset = "tau" in fitted, True, "offset" in fitted
             equations = "eqs. 1-3"
@@ -314,19 +320,23 @@ class IdentificationReport:
         return json_safe({"eq4_ls": ls, "eq4_rls": rls})
 
     def rigid_axis_model(self) -> RigidAxisModel:
-        """The LS estimate as a :class:`adaptive_ff.identification.idim.RigidAxisModel` (Coulomb + viscous + offset).
+        """The LS estimate, or the answer of method ``"idim"``, as a
+        :class:`adaptive_ff.identification.idim.RigidAxisModel` (Coulomb + viscous + offset).
 
         Returns
         -------
         RigidAxisModel
-            ``J, sigma, Fc, offset`` of the LS fit; a fitted ``Fs`` (Stribeck
-            structure) and ``tau`` (lag) are not part of that model and are dropped.
+            ``J, sigma, Fc, offset`` of the IDIM-LS answer (method ``"idim"``), else of the eq. 4 LS fit; a fitted
+            ``Fs`` (Stribeck structure) and ``tau`` (lag) are not part of that model and are dropped.
 
         Raises
         ------
         ParameterError
             The estimate is not physical (``J <= 0``, ``sigma < 0`` or ``Fc < 0``).
         """
+        if self.method == "idim":  # the answer is this very model
+            p = self.params
+            return RigidAxisModel.symmetric(p["J"], p["sigma"], p["Fc"], p["offset"])
         e = self.estimate
         return RigidAxisModel.symmetric(e.J, e.sigma, e.Fc, e.offset)
 
@@ -453,7 +463,11 @@ class IdentificationReport:
             ph = self.physical
             lines += [f"{'parameter':<10}{'value':>14}{'std error':>13}  unit", "-" * 70]
             for nm, v in ph.params.items():
+                if self.method == "idim" and nm in f["constrained"]:
+                    continue  # Fs = Fc and tau = 0 by the structure: one line below
                 lines.append(f"{nm:<10}{v:>14.6g}{ph.stderr.get(nm, float('nan')):>13.3g}  {PARAM_UNITS[nm]}")
+            if self.method == "idim":
+                lines.append("(" + ", ".join(f"{k} = {v}" for k, v in f["constrained"].items()) + ": not fitted)")
             lines += _fixed_rows(m, "") if self.forms is None else _form_rows(self.forms, m)
             lines += ["-" * 70, f"fit ({ph.nrmse_kind}) {ph.nrmse:.3f} %, cond {ph.cond:.3g}, "
                                 f"{ph.n_samples} samples",
@@ -504,6 +518,7 @@ _Z95 = 1.959963984540054
 
 #: The function behind each method other than ``"paper"`` (the report's header and ``form["estimator"]``).
 _ESTIMATORS = {"sliding": "adaptive_ff.compensation.sliding_estimator.fit_sliding",
+               "idim": "adaptive_ff.identification.idim.fit_idim",
                "closed_loop": "controllers.experiments.closed_loop_id.fit_closed_loop",
                "output_error": "adaptive_ff.identification.physical_id.fit_physical"}
 

@@ -41,7 +41,9 @@ from adaptive_ff.identification.diagnostics import excitation_report
 from adaptive_ff.identification.identification_report import IdentificationReport, parameter_names
 from adaptive_ff.identification.identify_warnings import (as_baseline, estimate_warnings, ls_simex_judgment,
                                                           sliding_band_warnings)
+from adaptive_ff.identification.idim_method import IDIM_ESTIMATOR, fit_idim_physical
 from adaptive_ff.identification.ls import LSResult, fit_ls
+from adaptive_ff.identification.model_error import assess_model_error, eq4_model_error, widened
 from adaptive_ff.identification.physical_id import PhysicalFit, fit_physical
 from adaptive_ff.identification.plausibility import IdentificationWarning, check_physical
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
@@ -58,7 +60,7 @@ __all__ = ["IdentificationReport", "identify", "PARAM_UNITS", "CrossValidation",
 #: ``"closed_loop"`` simulates the user's controller and lives in ``controllers``
 #: (:func:`controllers.experiments.closed_loop_id.identify_closed_loop`), which attaches its fit to the report
 #: of :func:`identify` by :func:`attach_physical`.
-IDENTIFY_METHODS = ("auto", "paper", "output_error", "sliding", "closed_loop")
+IDENTIFY_METHODS = ("auto", "paper", "output_error", "sliding", "idim", "closed_loop")
 
 #: Largest sample time (s) of a uniform record that ``"auto"`` treats as logged at the controller rate.
 CONTROLLER_RATE_TS = 2e-3
@@ -96,7 +98,8 @@ def _physical_std(model: RegressionModel, u, w, ls: LSResult, names: tuple[str, 
 
 
 
-def choose_method(data: MeasuredData, *, Vs: float | None, controller_Tc: float | None = None) -> tuple[str, str]:
+def choose_method(data: MeasuredData, *, Vs: float | None, controller_Tc: float | None = None,
+                  lag: bool = False) -> tuple[str, str]:
     """The identification method ``identify(method="auto")`` uses for a record, and why.
 
     Parameters
@@ -108,11 +111,16 @@ def choose_method(data: MeasuredData, *, Vs: float | None, controller_Tc: float 
     controller_Tc : float or None, keyword-only
         The period (s) of the user's velocity controller when the controller (gains, limit) and the
         commanded velocity of the log are known; None (default) if not.
+    lag : bool, keyword-only
+        A friction lag is asked for (IDIM fits none). Default False.
 
     Returns
     -------
     method : str
-        ``"sliding"`` for a uniform record at most :data:`CONTROLLER_RATE_TS` apart (a controller-rate
+        ``"idim"`` for a uniform record whose velocity was derived from a measured position
+        (``data.w_from_position``: an encoder axis such as EMPS) when neither ``Vs`` nor ``lag`` is asked for:
+        the inverse dynamic model (:mod:`adaptive_ff.identification.idim_method`), whose torque regression
+        the log calls for; ``"sliding"`` for a uniform record at most :data:`CONTROLLER_RATE_TS` apart (a controller-rate
         log: torque and measured velocity as the controller had them) when ``Vs`` is known;
         ``"closed_loop"`` for any other record read out slower than the controller (median interval above
         1.5 ``controller_Tc``) when ``Vs`` and ``controller_Tc`` are known (the loop is simulated:
@@ -130,6 +138,11 @@ def choose_method(data: MeasuredData, *, Vs: float | None, controller_Tc: float 
     d = np.diff(data.t)
     med = float(np.median(d))
     uniform = bool(np.all(np.abs(d - med) <= 0.01 * med))
+    if Vs is None and not lag and uniform and data.w_from_position:
+        return "idim", (f"the velocity is the derivative of a measured position (samples {med * 1e3:.3g} ms apart) "
+                        "and no Stribeck pre-fit or lag is asked for: the inverse dynamic model (IDIM-LS, the EMPS "
+                        "benchmark's estimator) regresses the torque, the signal such a log measures best, on the "
+                        "filtered, decimated acceleration and velocity")
     if Vs is None:
         return "paper", "no Stribeck pre-fit (Vs, delta) given: the eq. 4 LS of the paper"
     if uniform and med <= CONTROLLER_RATE_TS:
@@ -166,17 +179,24 @@ def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bo
     info = {"n_rows": f.n_rows, "n_gated": f.n_gated, "residual_rms": f.residual_rms, "Tc": uni.Ts, "J_alt": e.J_alt,
             "stderr_kind": "ols (white residuals)", "stderr_ols": ols}
     stderr = ols
+    extra_warn = []
     if n > 0:
-        unc = regression_block_bootstrap(X, y, f.theta, lambda th: estimate_from_theta(f.names, th, Vs, delta), names,
-                                         w_max=float(np.max(np.abs(uni.w))), Vs=Vs, delta=delta, n=n, seed=seed)
+        phys = lambda th: estimate_from_theta(f.names, th, Vs, delta)  # noqa: E731
+        unc = regression_block_bootstrap(X, y, f.theta, phys, names, w_max=float(np.max(np.abs(uni.w))), Vs=Vs,
+                                         delta=delta, n=n, seed=seed)
+        check = assess_model_error(X, y, f.theta, lambda th: np.array([getattr(phys(th), k) for k in names]), names,
+                                   base_half_width={k: 0.5 * (hi - lo) for k, (lo, hi) in unc.interval.items()},
+                                   min_lags=int(unc.block), level=float(unc.level))
+        unc = widened(unc, check)
+        extra_warn = check.warnings("the sliding regression")
         stderr = dict(unc.stderr)
         info.update(stderr_kind=unc.kind, interval95={k: list(v) for k, v in unc.interval.items()},
                     bootstrap={"n": unc.n, "n_valid": unc.n_valid, "block": unc.block, "seed": unc.seed},
-                    band=None if unc.band is None else unc.band.to_dict())
+                    band=None if unc.band is None else unc.band.to_dict(), model_error=check.to_dict())
     return PhysicalFit(method="sliding", params=params, stderr=stderr,
                        cond=float(sv[0] / sv[-1]), nrmse=float(nrmse_fit(y, X @ f.theta)),
                        n_samples=int(uni.n_samples), nrmse_kind="filtered torque L[u]", info=info,
-                       warnings=tuple(check_physical(params, source="sliding (fit_sliding)")))
+                       warnings=tuple(check_physical(params, source="sliding (fit_sliding)")) + tuple(extra_warn))
 
 
 def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None = None, lag: bool = False,
@@ -219,10 +239,16 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
         ``report.physical``, need ``Vs`` and ``delta``, and the eq. 4 LS/RLS
         still runs (the paper's baseline and the online estimate; its
         warnings then become ``"method"`` notes, the answer's own warnings
-        stay). ``"auto"``: the method of :func:`choose_method` (named in the notes).
+        stay). ``"idim"``: the inverse dynamic model (IDIM-LS, the torque regression of the EMPS
+        benchmark; :mod:`adaptive_ff.identification.idim_method`), Coulomb + viscous without ``Vs``,
+        ``delta`` or ``lag``, for a log whose velocity comes from a measured position. ``"auto"``: the
+        method of :func:`choose_method` (named in the notes and in ``physical.info["auto_reason"]``).
+        Where the eq. 4 LS, the sliding regression or the IDIM-LS is the answer, its 95 % intervals are
+        widened where the model-error check finds model error, which then names the parameters in
+        ``"model_form"`` warnings (:mod:`adaptive_ff.identification.model_error`).
     method_options : dict, keyword-only, optional
-        Extra keyword options of :func:`adaptive_ff.identification.physical_id.fit_physical`; for ``"paper"``
-        (also when ``"auto"`` chooses it) ``n_bootstrap`` (replicates of the residual block bootstrap of the
+        Extra keyword options of :func:`adaptive_ff.identification.physical_id.fit_physical`; for ``"paper"``,
+        ``"sliding"`` and ``"idim"`` (also when ``"auto"`` chooses them) ``n_bootstrap`` (replicates of the residual block bootstrap of the
         eq. 4 LS, integer >= 2, default 200; 0: none, the delta-method errors are reported) and
         ``bootstrap_seed`` (integer >= 0, default 0) (:func:`adaptive_ff.identification.uncertainty.eq4_block_bootstrap`).
     form : str or None, keyword-only
@@ -275,14 +301,15 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
     about -0.001 s (LS: 0.0175 s); ``P0`` of 1e8-1e10 brings RLS within 4 % of
     LS there, larger values lose accuracy to rounding.
     """
-    P0 = _check_identify_args(data, Vs, delta, n_history, P0, method if form is None else "paper", method_options)
+    P0 = _check_identify_args(data, Vs, delta, n_history, P0, method if form is None else "paper", method_options,
+                              lag)
     form_options = _check_form_args(form, form_options, method, method_options)
     auto_reason = None
     if form is not None:
         form_options.setdefault("method", "sliding" if method == "sliding" else "output_error")
         method = "paper"  # the eq. 4 LS/RLS baselines; the answer is the selected form's (below)
     if method == "auto":
-        method, auto_reason = choose_method(data, Vs=Vs)
+        method, auto_reason = choose_method(data, Vs=Vs, lag=lag)
     stribeck = Vs is not None
     model = RegressionModel(Vs, delta, lag=lag, stribeck=stribeck, offset=offset)
     rls = RecursiveLeastSquares(model.n_params, lam=lam, P0=P0)
@@ -322,11 +349,19 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
                     raise
                 notes.append(f"method 'sliding' not possible ({exc}): the eq. 4 LS is the answer")
                 unc = _eq4_uncertainty(model, u, w, ls, method_options)
-                notes += [] if unc is None else [unc.note()]
+                if unc is not None:
+                    notes += [unc.note(), unc.model_error.note()]
+                    warn += unc.model_error.warnings("the eq. 4 LS")
                 return with_steady_state_check(_report(ls, rls, rls_est, rls_fit, uni, keep, hist, std, P0, data,
                                                        notes, warn, excitation, None, unc), data)
             notes.append(f"physical parameters by 'sliding' on {physical.info['n_rows']} sliding-regime rows "
                          f"({physical.info['n_gated']} near-zero-velocity rows gated out)")
+        elif method == "idim":
+            n_boot, seed = _bootstrap_options(method_options)
+            physical = fit_idim_physical(uni, offset=offset, n_bootstrap=n_boot, seed=seed)
+            notes.append(f"physical parameters by 'idim' (IDIM-LS, {IDIM_ESTIMATOR}) on {physical.info['n_rows']} "
+                         f"rows decimated by {physical.info['decimate']}: force error "
+                         f"{physical.info['force_error_percent']:.3f} %")
         else:
             physical = fit_physical(data.t, data.u, data.w, Vs=Vs, delta=delta, method=method, offset=offset,
                                     **(method_options or {}))
@@ -336,8 +371,13 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
             warn = [w for w in warn if not (w.code == "identifiability" and w.parameter == "J")]
             warn += sliding_band_warnings(uni, Vs, delta, excitation.noise_std, physical)
         warn = [as_baseline(w) for w in warn] + list(physical.warnings)
+        if auto_reason is not None:
+            physical.info["auto_reason"] = auto_reason
+        if physical.info.get("model_error"):
+            notes.append(physical.info["model_error"]["note"])
     if physical is None and unc is not None:
-        notes.append(unc.note())
+        notes += [unc.note(), unc.model_error.note()]
+        warn += unc.model_error.warnings("the eq. 4 LS")
     report = _report(ls, rls, rls_est, rls_fit, uni, keep, hist, std, P0, data, notes, warn, excitation, physical,
                      unc if physical is None else None)
     if form is not None:
@@ -501,12 +541,15 @@ _EQ4_BOOT_OPTIONS = ("n_bootstrap", "bootstrap_seed")
 
 
 def _eq4_uncertainty(model, u, w, ls: LSResult, options) -> ParameterUncertainty | None:
-    """The residual block bootstrap of the eq. 4 LS with ``n_bootstrap``/``bootstrap_seed`` of ``options``;
-    None for ``n_bootstrap = 0``. Options of other methods in ``options`` are left to them."""
+    """The residual block bootstrap of the eq. 4 LS with ``n_bootstrap``/``bootstrap_seed`` of ``options``, its
+    intervals widened where the model-error check finds model error
+    (:func:`adaptive_ff.identification.model_error.eq4_model_error`); None for ``n_bootstrap = 0``. Options of
+    other methods in ``options`` are left to them."""
     n, seed = _bootstrap_options(options)
     if n == 0:
         return None
-    return eq4_block_bootstrap(model, u, w, ls.theta, ls.Ts, parameter_names(model), n=n, seed=seed)
+    unc = eq4_block_bootstrap(model, u, w, ls.theta, ls.Ts, parameter_names(model), n=n, seed=seed)
+    return widened(unc, eq4_model_error(model, u, w, ls.theta, ls.Ts, parameter_names(model), unc))
 
 
 def _bootstrap_options(options) -> tuple[int, int]:
@@ -520,7 +563,7 @@ def _bootstrap_options(options) -> tuple[int, int]:
     return int(n), int(seed)
 
 
-def _check_identify_args(data, Vs, delta, n_history, P0, method, method_options) -> float:
+def _check_identify_args(data, Vs, delta, n_history, P0, method, method_options, lag=False) -> float:
     """The argument checks of :func:`identify` that need no computation; returns ``P0`` as a float."""
     if not isinstance(data, MeasuredData):
         raise TypeError(f"data must be a MeasuredData, got {type(data).__name__}")
@@ -536,12 +579,15 @@ def _check_identify_args(data, Vs, delta, n_history, P0, method, method_options)
         raise ParameterError("method 'closed_loop' simulates the user's controller: use "
                              "controllers.experiments.closed_loop_id.identify_closed_loop (CLI: identify "
                              "--reference-column NAME --controller controller.json)")
+    if method == "idim" and (Vs is not None or lag):
+        raise ParameterError(f"method 'idim' fits Coulomb + viscous friction without lag (u = J dw/dt + Fc sgn(w) + "
+                             f"sigma w + offset): drop Vs, delta and lag, got Vs = {Vs!r}, lag = {lag!r}")
     if method in ("output_error", "sliding") and Vs is None:
         raise ParameterError(f"method {method!r} fits the Stribeck model of eqs. 1-3: give Vs and delta "
                              f"(pre-fit, Sec. V-C), got Vs = {Vs!r}, delta = {delta!r}")
     if method_options is not None and not isinstance(method_options, dict):
         raise ParameterError(f"method_options must be a dict, got {method_options!r}")
-    if method in ("paper", "sliding") and set(method_options or {}) - set(_EQ4_BOOT_OPTIONS):
+    if method in ("paper", "sliding", "idim") and set(method_options or {}) - set(_EQ4_BOOT_OPTIONS):
         raise ParameterError(f"method {method!r} takes the options {list(_EQ4_BOOT_OPTIONS)}, got "
                              f"{sorted(method_options)}")
     return P0

@@ -42,7 +42,7 @@ from plant.errors import ExcitationError, ParameterError, SignalError, check_fin
 from plant.friction import stribeck
 from plant.results import json_safe
 
-__all__ = ["RigidAxisModel", "IDIMFit", "fit_idim", "idim_force_error", "relative_error", "IDIM_DECIMATE",
+__all__ = ["RigidAxisModel", "IDIMFit", "fit_idim", "idim_rows", "idim_force_error", "relative_error", "IDIM_DECIMATE",
            "IDIM_TAIL"]
 
 #: Default decimation factor of the parallel filtering: the benchmark's 10 at 1 kHz.
@@ -361,6 +361,56 @@ class IDIMFit:
         return "\n".join(lines)
 
 
+def idim_rows(data: MeasuredData, *, asymmetric: bool = False, offset: bool | None = None,
+              decimate: int = IDIM_DECIMATE, tail: int = IDIM_TAIL, extra=None) -> tuple:
+    """The regression rows of :func:`fit_idim`: ``W`` and ``u`` filtered and decimated ("parallel filtering").
+
+    Parameters
+    ----------
+    data, asymmetric, offset, decimate, tail
+        As in :func:`fit_idim`.
+    extra : array_like, shape (N,) or (N, c), optional
+        Further columns at the record's rate (e.g. a term the model leaves out), filtered, decimated and
+        appended to ``W`` the same way.
+
+    Returns
+    -------
+    W : ndarray, shape (m, p [+ c])
+        Decimated regressors, columns ``names`` (then ``extra``).
+    y : ndarray, shape (m,)
+        Decimated torque/force.
+    names : tuple of str
+        The fitted parameters (columns of ``W`` before ``extra``).
+
+    Raises
+    ------
+    TypeError, ParameterError, SignalError
+        As :func:`fit_idim` (``extra`` of another length: SignalError).
+    """
+    if not isinstance(data, MeasuredData):
+        raise TypeError(f"data must be a MeasuredData, got {type(data).__name__}")
+    q = _check_decimate(decimate)
+    asymmetric = bool(asymmetric)
+    offset = (not asymmetric) if offset is None else bool(offset)
+    _uniform(data, "fit_idim")
+    keep = data.n_samples - _check_tail(tail, data.n_samples, "fit_idim")
+    names = _NAMES[(asymmetric, offset)]
+    p = len(names)
+    w = data.w
+    acc = np.gradient(w, data.t)
+    W = _regressor(acc, w, asymmetric, offset)
+    if extra is not None:
+        E = np.asarray(extra, dtype=float).reshape(data.n_samples, -1) if np.size(extra) % data.n_samples == 0 \
+            else None
+        if E is None or not np.all(np.isfinite(E)):
+            raise SignalError(f"extra columns must be finite, {data.n_samples} rows, got shape {np.shape(extra)}")
+        W = np.column_stack([W, E])
+    W = W[:keep]
+    if W.shape[0] // q < 3 * p:
+        raise SignalError(f"fit_idim: {W.shape[0]} samples decimated by {q} leave fewer than {3 * p} rows")
+    return _decimate(W, q), _decimate(data.u[:keep], q), names
+
+
 def fit_idim(data: MeasuredData, *, asymmetric: bool = False, offset: bool | None = None,
              decimate: int = IDIM_DECIMATE, tail: int = IDIM_TAIL) -> IDIMFit:
     """Identify ``J`` and the friction of a rigid axis by the inverse dynamic model (IDIM-LS).
@@ -419,22 +469,9 @@ def fit_idim(data: MeasuredData, *, asymmetric: bool = False, offset: bool | Non
     does, and the acceleration is ``numpy.gradient(w, t)``). Standard errors:
     Ljung (1999), Sec. 9.2.
     """
-    if not isinstance(data, MeasuredData):
-        raise TypeError(f"data must be a MeasuredData, got {type(data).__name__}")
-    q = _check_decimate(decimate)
+    Wd, yd, names = idim_rows(data, asymmetric=asymmetric, offset=offset, decimate=decimate, tail=tail)
+    q, p = _check_decimate(decimate), len(names)
     asymmetric = bool(asymmetric)
-    offset = (not asymmetric) if offset is None else bool(offset)
-    _uniform(data, "fit_idim")
-    keep = data.n_samples - _check_tail(tail, data.n_samples, "fit_idim")
-    names = _NAMES[(asymmetric, offset)]
-    p = len(names)
-    w = data.w
-    acc = np.gradient(w, data.t)
-    W = _regressor(acc, w, asymmetric, offset)[:keep]
-    if W.shape[0] // q < 3 * p:
-        raise SignalError(f"fit_idim: {W.shape[0]} samples decimated by {q} leave fewer than {3 * p} rows")
-    Wd = _decimate(W, q)
-    yd = _decimate(data.u[:keep], q)
     scale = np.linalg.norm(Wd, axis=0)
     for j, s in enumerate(scale):
         if s == 0.0:

@@ -232,9 +232,11 @@ def with_steady_state_check(report, data: MeasuredData):
 
 def without_steady_state_check(report):
     """The report (as for :func:`with_steady_state_check`) without its steady-state check, the check's note and
-    its ``"model_form"`` warning; unchanged when it has none."""
+    its ``"model_form"`` warning (the model-error check's own ``"model_form"`` warnings stay); unchanged when it
+    has none."""
     old = report.steady_state
     if old is None:
         return report
     return replace(report, steady_state=None, notes=tuple(n for n in report.notes if n != old.message),
-                   warnings=tuple(w for w in report.warnings if getattr(w, "code", "") != "model_form"))
+                   warnings=tuple(w for w in report.warnings
+                                  if not (getattr(w, "code", "") == "model_form" and str(w) == old.message)))

@@ -232,6 +232,10 @@ class ParameterUncertainty:
         Seed of the resampling.
     band : FrictionBand or None
         The band of the static friction curve.
+    model_error : ModelErrorCheck or None
+        The model-error check that widened ``interval`` (and ``stderr``, its half-width over the Student-t
+        quantile) where it found model error (:mod:`adaptive_ff.identification.model_error`); None: the
+        bootstrap's own.
     """
 
     kind: str
@@ -243,13 +247,16 @@ class ParameterUncertainty:
     block: int
     seed: int
     band: FrictionBand | None = None
+    model_error: object = None
 
     def to_dict(self) -> dict:
-        """Strict-JSON dict of every attribute (the band as :meth:`FrictionBand.to_dict`; NaN as None)."""
+        """Strict-JSON dict of every attribute (the band as :meth:`FrictionBand.to_dict`, the model-error check as
+        :meth:`adaptive_ff.identification.model_error.ModelErrorCheck.to_dict`; NaN as None)."""
         return json_safe({"kind": self.kind, "stderr": self.stderr,
                           "interval": {k: list(v) for k, v in self.interval.items()}, "level": self.level,
                           "n": self.n, "n_valid": self.n_valid, "block": self.block, "seed": self.seed,
-                          "band": None if self.band is None else self.band.to_dict()})
+                          "band": None if self.band is None else self.band.to_dict(),
+                          "model_error": None if self.model_error is None else self.model_error.to_dict()})
 
     def note(self) -> str:
         """One clause for a report's notes: what the errors are and how they were made."""

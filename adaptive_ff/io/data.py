@@ -78,6 +78,11 @@ class MeasuredData:
         Where the data come from (file path or description).
     notes : tuple of str, optional
         Preprocessing applied (filters, dropped samples, resampling).
+    w_from_position : bool, optional
+        True when ``w`` was derived from a measured position (an encoder: the EMPS records of :func:`load_emps`,
+        a log whose position column ``q`` :func:`adaptive_ff.io.logs.load_log` differentiated); False (default)
+        for a measured velocity. :func:`adaptive_ff.identification.identify.choose_method` picks the inverse
+        dynamic model (IDIM) for such a log.
 
     Raises
     ------
@@ -96,6 +101,7 @@ class MeasuredData:
     w: np.ndarray
     source: str = ""
     notes: tuple[str, ...] = field(default_factory=tuple)
+    w_from_position: bool = False
 
     def __post_init__(self):
         t = check_time("t", self.t)
@@ -106,6 +112,9 @@ class MeasuredData:
         object.__setattr__(self, "w", _frozen_copy(w))
         object.__setattr__(self, "source", str(self.source))
         object.__setattr__(self, "notes", tuple(str(n) for n in self.notes))
+        if not isinstance(self.w_from_position, (bool, np.bool_)):
+            raise TypeError(f"w_from_position must be a bool, got {self.w_from_position!r}")
+        object.__setattr__(self, "w_from_position", bool(self.w_from_position))
 
     @property
     def n_samples(self) -> int:
@@ -122,12 +131,12 @@ class MeasuredData:
 
         Keys: ``source``, ``notes``, ``n_samples``, ``duration`` (s), ``Ts``
         (median interval, s), ``Ts_min``, ``Ts_max`` (s), ``uniform``
-        (:func:`is_uniform` at 1 %).
+        (:func:`is_uniform` at 1 %), ``w_from_position``.
         """
         d = np.diff(self.t)
         out = {"source": self.source, "notes": list(self.notes), "n_samples": self.n_samples,
                "duration": float(self.t[-1] - self.t[0]), "Ts": self.Ts, "Ts_min": float(d.min()),
-               "Ts_max": float(d.max()), "uniform": is_uniform(self.t)}
+               "Ts_max": float(d.max()), "uniform": is_uniform(self.t), "w_from_position": self.w_from_position}
         if arrays:
             out.update(t=self.t, u=self.u, w=self.w)
         return json_safe(out)
@@ -231,7 +240,7 @@ def to_uniform(data: MeasuredData, *, rtol: float = 0.01) -> MeasuredData:
         return data
     tu, note = _uniform_grid(data.t, rtol)
     return MeasuredData(tu, np.interp(tu, data.t, data.u), np.interp(tu, data.t, data.w), source=data.source,
-                        notes=data.notes + (note + "; u, w linearly interpolated",))
+                        notes=data.notes + (note + "; u, w linearly interpolated",), w_from_position=data.w_from_position)
 
 
 def _uniform_grid(t: np.ndarray, rtol: float) -> tuple[np.ndarray, str]:
@@ -447,7 +456,7 @@ def load_emps(path, *, cutoff: float = EMPS_CUTOFF, order: int = 4, skip: int = 
               f"w = central difference of qm after a zero-phase (forward-backward) Butterworth low-pass, "
               f"order {int(order)}, cutoff {cutoff:g} Hz; u filtered by the same filter",
               f"first {int(skip)} samples dropped"]
-    return MeasuredData(t[skip:], u[skip:], w[skip:], source=where, notes=tuple(notes))
+    return MeasuredData(t[skip:], u[skip:], w[skip:], source=where, notes=tuple(notes), w_from_position=True)
 
 
 def load_measurements(path, **options) -> MeasuredData:

@@ -333,4 +333,4 @@ def load_log(path, *, columns: Mapping | str | None = None, units: LogUnits | No
     w = _velocity(table, t, units, kalman, progress, notes)
     if "w" in table.columns:
         _check_magnitude(table, "w", w, "rad/s")
-    return MeasuredData(t, u, w, source=table.source, notes=tuple(notes))
+    return MeasuredData(t, u, w, source=table.source, notes=tuple(notes), w_from_position="w" not in table.columns)

@@ -54,7 +54,7 @@ COSTS = {"loop": 2.7e-7, "prepare": 6e-7, "compare_fixed": 0.3, "step": 1.5e-5, 
          "refit_bytes": 2000.0, "output_error": 6e-3, "closed_loop": 6e-3, "form": 8e-4}
 
 #: Default bootstrap refits of each identification method (``identify --bootstrap``'s help).
-_DEFAULT_BOOTSTRAP = {"paper": 200, "sliding": 200, "output_error": 20, "closed_loop": 10}
+_DEFAULT_BOOTSTRAP = {"paper": 200, "sliding": 200, "idim": 200, "output_error": 20, "closed_loop": 10}
 #: Candidate forms of ``identify --form`` (adaptive_ff.identification.model_forms.FORMS).
 _N_FORMS = 6
 
@@ -221,7 +221,8 @@ def identify_estimate(n_samples: int, method: str, *, bootstrap: int | None = No
     n_samples : int
         Samples of the log.
     method : str
-        The method that runs (``auto`` resolved): ``paper``, ``sliding``, ``output_error`` or ``closed_loop``.
+        The method that runs (``auto`` resolved): ``paper``, ``sliding``, ``idim``, ``output_error`` or
+        ``closed_loop``.
     bootstrap : int or None, keyword-only
         ``--bootstrap`` (None: the method's default).
     refit : str or None, keyword-only
@@ -244,7 +245,7 @@ def identify_estimate(n_samples: int, method: str, *, bootstrap: int | None = No
         return WorkEstimate(f"--folds {folds} on {_count(n)} samples ({fits} fits)", seconds, memory)
     given = bootstrap is not None
     b = _DEFAULT_BOOTSTRAP.get(method, 0) if bootstrap is None else int(bootstrap)
-    if method in ("paper", "sliding"):
+    if method in ("paper", "sliding", "idim"):
         seconds += COSTS["linear_refit"] * n * b
         memory += COSTS["refit_bytes"] * b
     elif method in ("output_error", "closed_loop"):

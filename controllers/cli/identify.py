@@ -212,7 +212,7 @@ def _identify(args, data):
                                 ("--controller FILE (or --Kp, --Ki, --Tc, --u-max)", spec is not None)) if not ok]
         raise ParameterError(f"--method closed_loop simulates your velocity loop: add {' and '.join(need)}")
     if ref_name is None or spec is None or args.method not in ("auto", "closed_loop"):
-        mopts = boot if args.method in ("auto", "output_error", "paper", "sliding") else None
+        mopts = boot if args.method in ("auto", "output_error", "paper", "sliding", "idim") else None
         return identify(data, Vs=args.Vs, delta=args.delta, method=args.method, method_options=mopts, **common)
     if args.Vs is None and args.method == "closed_loop":
         raise ParameterError("--method closed_loop fits the Stribeck model of eqs. 1-3: give --Vs and --delta "
@@ -287,7 +287,7 @@ def _bootstrap_lines(args, report) -> list:
         return []
     ph = report.physical
     kind = None if ph is None else ph.info.get("stderr_kind")
-    if ph is None or ph.method == "sliding":  # the residual block bootstrap of the regression (0: none)
+    if ph is None or ph.method in ("sliding", "idim"):  # the residual block bootstrap of the regression (0: none)
         return [] if args.bootstrap else [f"note: --bootstrap 0: the {report.method} standard errors assume white "
                                           "residuals (optimistic on real data); use --bootstrap N >= 2"]
     if kind is None:
@@ -311,7 +311,7 @@ def _check_work(args, data) -> None:
     if args.form is None and method == "auto":
         controller = args.controller is not None or args.Kp is not None
         method = "closed_loop" if args.reference_name and controller and args.Vs is not None else \
-            choose_method(data, Vs=args.Vs)[0]
+            choose_method(data, Vs=args.Vs, lag=args.lag)[0]
     folds = args.folds if args.form is not None else None
     check_work(identify_estimate(data.n_samples, method, bootstrap=args.bootstrap, refit=args.bootstrap_refit,
                                  folds=folds), yes=args.yes)
@@ -455,9 +455,11 @@ def register(sub) -> None:
                                                       "EMPS the fitted tau follows the velocity filter, not the plant)")
     i.add_argument("--no-offset", action="store_true", help="no constant torque offset regressor")
     i.add_argument("--lam", type=float, default=1.0, help="RLS forgetting factor (default 1)")
-    i.add_argument("--method", choices=("auto", "paper", "output_error", "sliding", "closed_loop"), default="auto",
-                   help="auto (default): sliding for a uniform log at the controller rate (<= 2 ms) with --Vs, "
-                        "--delta; closed_loop for a slower log when its reference (--reference-column) and the "
+    i.add_argument("--method", choices=("auto", "paper", "output_error", "sliding", "idim", "closed_loop"),
+                   default="auto",
+                   help="auto (default): idim for a uniform log whose velocity comes from a measured position (the "
+                        "EMPS .mat files, a log mapping q) without --Vs or --lag; sliding for a uniform log at the "
+                        "controller rate (<= 2 ms) with --Vs, --delta; closed_loop for a slower log when its reference (--reference-column) and the "
                         "controller (--controller or --Kp/--Ki/--Tc) are given; else paper; the choice is named in "
                         "the notes. closed_loop: output-error fit of J, Fc, Fs, sigma, tau that simulates the known "
                         "PI loop on the reference (closed-loop log read out slower than the loop; needs --Vs, "
@@ -465,7 +467,9 @@ def register(sub) -> None:
                         "printed; output_error: also fit the physical J, tau, sigma, Fc, Fs of eqs. 1-3 by "
                         "simulation-error minimisation on the record's own time stamps (open-loop records; robust "
                         "to noise and irregular sampling; needs --Vs, --delta); sliding: the sliding-regime "
-                        "inverse-dynamics regression on a controller-rate log (closed loop; needs --Vs, --delta)")
+                        "inverse-dynamics regression on a controller-rate log (closed loop; needs --Vs, --delta); idim: the "
+                        "inverse dynamic model (IDIM-LS, the EMPS benchmark's torque regression: Coulomb + viscous + "
+                        "offset, no --Vs, no --lag)")
     f = i.add_argument_group("model-form selection (adaptive_ff.identification.model_forms.select_form)")
     f.add_argument("--form", default=None, metavar="auto|NAME",
                    help="auto: fit the candidate forms (Coulomb + viscous; Stribeck with --Vs, --delta; Stribeck "
