@@ -5,7 +5,7 @@ columns; its J and J*tau estimates, and with them tau, are pulled towards zero (
 forgetting drops the well-excited past. Measured on ``paper``, seed 0-19 of the benchmark, seed 5: tau fell from
 20.0 ms to 14.4 ms over 85-89.6 s (its relative standard error rose from 0.9 % to 5.9 %), and at the reversal at
 89.55 s the feedforward, reversing before the friction, kicked the joint to 2.6x the oracle's largest error of the
-second half (docs/benchmarks/compensation.md, "2026-11-23, commit 28abafb").
+second half (docs/benchmarks/compensation.md, "The lag in use weighted by its information").
 """
 
 import math
