@@ -32,6 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from plant.errors import ParameterError, SignalError
+from plant.stribeck_map import stribeck_shape
 
 from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states
 from adaptive_ff.arm.result import ArmIdentification, ArmJoint
@@ -62,7 +63,7 @@ class _Problem:
         A[:, :, : self.r] = self.Yb
         for j in range(self.n):
             w = self.dq[:, j]
-            s = np.exp(-np.abs(w / Vs[j]) ** delta[j]) if np.isfinite(Vs[j]) else np.zeros(self.m)
+            s = stribeck_shape(w, Vs[j], delta[j]) if np.isfinite(Vs[j]) else np.zeros(self.m)
             A[:, j, self.r + 4 * j: self.r + 4 * j + 4] = np.column_stack(
                 [np.sign(w) * (1 - s), np.sign(w) * s, w, np.ones(self.m)])
         return A.reshape(self.m * self.n, -1)

@@ -47,9 +47,11 @@ class ArmJoint:
 
     def friction(self, w) -> np.ndarray:
         """The identified static friction ``F(w)`` (eq. 3) plus the offset, at velocities ``w`` (rad/s)."""
+        from plant.stribeck_map import stribeck_shape
+
         p = self.params
         w = np.asarray(w, dtype=float)
-        s = np.exp(-np.abs(w / p["Vs"]) ** p["delta"])
+        s = stribeck_shape(w, p["Vs"], p["delta"]) if math.isfinite(p["Vs"]) else np.zeros_like(w)
         return np.sign(w) * (p["Fc"] + (p["Fs"] - p["Fc"]) * s) + p["sigma"] * w + p["offset"]
 
     def to_dict(self) -> dict:

@@ -64,8 +64,12 @@ def friction_torque(w, fr) -> np.ndarray:
     """The static map ``F(w)`` (eq. 3) of each joint: ``w`` shape (N,) or (n, N), ``fr`` a sequence of N
     :class:`JointFriction`."""
     w = np.asarray(w, dtype=float)
-    Fc, Fs, Vs, d, s = (np.array([getattr(f, k) for f in fr]) for k in ("Fc", "Fs", "Vs", "delta", "sigma"))
-    return np.sign(w) * (Fc + (Fs - Fc) * np.exp(-np.abs(w / Vs) ** d)) + s * w
+    from plant.stribeck_map import stribeck
+
+    w = np.atleast_2d(w)
+    out = np.column_stack([stribeck(w[:, j], Fc=f.Fc, Fs=f.Fs, Vs=f.Vs, delta=f.delta, sigma=f.sigma)
+                           for j, f in enumerate(fr)])
+    return out.reshape(-1) if out.shape[0] == 1 else out
 
 
 def _reference(n: int, duration: float, dt: float, rng, amplitude: float):
