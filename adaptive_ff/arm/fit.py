@@ -166,7 +166,7 @@ def _refine(prob: _Problem, Vs, delta, j: int, best, grid) -> tuple:
     return float(np.exp(r.x)), best[1], rss, x
 
 
-def _bootstrap(prob: _Problem, A, x, n_boot: int, seed: int):
+def _bootstrap(prob: _Problem, A, x, n_boot: int, seed: int, progress=False):
     """The circular block bootstrap of the samples (rows of the regressor and torques of all joints resampled
     together, in blocks of consecutive samples) refitted at the profiled ``Vs, delta``: BootstrapResult over ``x``,
     and the residuals (m, N)."""
@@ -180,8 +180,11 @@ def _bootstrap(prob: _Problem, A, x, n_boot: int, seed: int):
     Aw = (A * sw[:, None]).reshape(prob.m, prob.n, -1)
     yw = (prob.tau.reshape(-1) * sw).reshape(prob.m, prob.n)
     rng = np.random.default_rng(seed)
+    from tqdm.auto import tqdm
+
     reps = []
-    for _ in range(n_boot):
+    for _ in tqdm(range(n_boot), desc="arm bootstrap", unit="refit", leave=False,
+                  disable=(None if progress is None else not progress)):
         idx = circular_block_resample(np.arange(prob.m), prob.m, block=block, rng=rng).astype(int)
         k = keep2[idx].reshape(-1)
         reps.append(_scaled_lstsq(Aw[idx].reshape(prob.m * prob.n, -1)[k], yw[idx].reshape(-1)[k]))
@@ -249,7 +252,7 @@ def _joint_warnings(arm, j, q, dq, keep_j, Vs, rel) -> list:
 
 
 def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, n_bootstrap: int = 200,
-                 seed: int = 0, rigid_body: str = "fit") -> ArmIdentification:
+                 seed: int = 0, rigid_body: str = "fit", progress: bool | None = False) -> ArmIdentification:
     """Identify the rigid body and every joint's friction of ``arm`` from ``log`` (module docstring: the method).
 
     Parameters
@@ -267,6 +270,8 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     rigid_body : {"fit", "urdf"}, keyword-only
         ``"fit"``: the base parameters identified with the friction (the URDF's inertias only set which
         combinations exist); ``"urdf"``: the URDF's inertias used as given, only the friction fitted.
+    progress : bool or None, keyword-only
+        A progress bar of the bootstrap on stderr (tqdm): True, False (default), None (only on a terminal).
 
     Returns
     -------
@@ -308,7 +313,7 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     rss0 = float(np.sum((e0 * prob.w) ** 2 * keep_j))
     Vs, delta, table = _profile(prob, grids, 5.99 * block0 * rss0 / max(int(keep_j.sum()), 1))
     x, rss, A = prob.solve(Vs, delta)
-    boot, resid = _bootstrap(prob, A, x, int(n_bootstrap), seed)
+    boot, resid = _bootstrap(prob, A, x, int(n_bootstrap), seed, progress)
     half = boot.half_width(0.95)
     a_J = _inertia_rows(arm, base, q.mean(axis=0))
     r = Yb.shape[2]
