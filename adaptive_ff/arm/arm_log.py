@@ -9,6 +9,7 @@ then decimated to about 5 times the cutoff (the filter has removed what lies abo
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -112,12 +113,13 @@ def read_arm_log(path, n_joints: int, *, columns: str | None = None, joint_names
     try:
         table = read_columns(path, names, optional=dq_roles)
     except SignalError as exc:
-        text = str(exc)
-        for j in range(n_joints):
-            for p in ("q", "dq", "tau"):
-                if repr(names[f"{p}{j + 1}"]) in text and "joint" not in text:
-                    raise SignalError(f"{text} [{label(j)} of the URDF]") from None
-        raise
+        m = re.search(r"column '[^']*' \(role (\w+):", str(exc))
+        if m is None or m.group(1) == "t":
+            raise
+        j = int(re.sub(r"\D", "", m.group(1))) - 1
+        text = str(exc).split(". Choose the header")[0]
+        raise SignalError(f"{text}: the {m.group(1)} column of {label(j)} of the URDF (map yours with --columns "
+                          f"{m.group(1)}=NAME)") from None
     extra = _extra_joint_column(path, n_joints, columns)
     if extra is not None:
         raise SignalError(f"{path}: the log has a column {extra!r} but the URDF has {n_joints} joints: the log and "
