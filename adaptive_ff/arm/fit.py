@@ -11,20 +11,26 @@ with ``Y_b`` the joint-torque regressor (Pinocchio) reduced to the base paramete
 (:meth:`adaptive_ff.arm.robot.ArmModel.base_parameters`; armatures included) and the Stribeck regressors of eqs.
 5-6, ``g = sgn(w) (1 - s(w))``, ``h = sgn(w) s(w)``, ``s(w) = exp(-|w/V_s|^delta)``, is linear in ``beta`` and the
 friction for given ``V_s, delta``; those are profiled per joint on a grid (coordinate descent over the joints,
-two sweeps), the best grid point refined in ``V_s`` by a bounded scalar search. The rows come from the zero-phase filtered, decimated log (:func:`adaptive_ff.arm.arm_log.filtered_states`);
-samples where a joint moves slower than 2 % of its 99th-percentile speed, or lie within one cutoff period of one of
-its velocity reversals, are left out of that joint's rows (the sign of the velocity is not known there, and the
-filter spreads the friction's jump at a reversal over that period). Each joint's rows are weighted by the inverse of its residual standard
-deviation from an unweighted first fit (IDIM-WLS; Gautier & Poignet, IFAC SYSID 2001).
+two sweeps), the best grid point refined in ``V_s`` by a bounded scalar search. A joint keeps the Stribeck term
+only where it lowers the weighted residual beyond the 95 % likelihood-ratio bound (else ``Fs = Fc``).
+
+The rows come from the zero-phase filtered, decimated log (:func:`adaptive_ff.arm.arm_log.filtered_states`).
+Samples where a joint moves slower than 2 % of its 99th-percentile speed, or lie within one cutoff period of one
+of its velocity reversals, are left out of that joint's rows (the sign of the velocity is not known there, and
+the filter spreads the friction's jump at a reversal over that period). Each joint's rows are weighted by the
+inverse of its residual standard deviation from an unweighted first fit (IDIM-WLS; Gautier & Poignet, IFAC SYSID
+2001).
 
 Intervals: the circular block bootstrap of the samples (each sample's rows of all joints, regressor and torque,
 resampled together in blocks of consecutive samples, the block by the Politis-White rule on the residuals,
 :mod:`adaptive_ff.identification.covariance`; a resampling of cases, so that the model's error near reversals and
-at low speed, which depends on the motion, counts as well as the noise), refitted at the profiled ``V_s, delta``; a
-parameter's interval is its estimate ``± t`` times the bootstrap standard error (Student-t quantile of the
-number of refits); a joint's friction intervals are widened to cover that band around the estimates at every
-``(V_s, delta)`` of the grid the profile accepts (below). ``V_s, delta``: the range of the grid values whose profiled weighted residual sum of squares is
-within the 95 % likelihood-ratio bound of the best, with the residuals' correlation counted by the block length.
+at low speed, which depends on the motion, counts as well as the noise), refitted at the profiled ``V_s, delta``;
+a parameter's interval is its estimate ``± t`` times the bootstrap standard error (Student-t quantile of the
+number of refits). A joint's friction intervals are widened to cover that band around the estimates at every
+``(V_s, delta)`` of the grid the profile accepts; those accepted values are the intervals of ``V_s`` and
+``delta``: the grid points whose profiled weighted residual sum of squares is within the 95 % likelihood-ratio
+bound of the best, the residuals' correlation counted by the block length. The friction lag ``tau`` (eq. 1) is not
+identified (NaN).
 """
 
 from __future__ import annotations
