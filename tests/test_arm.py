@@ -129,6 +129,8 @@ def test_to_dict_is_strict_json_in_the_issue_layout(result):
         assert set(entry) >= {"name", "J", "Fc", "Fs", "Vs", "delta", "sigma", "tau", "offset", "interval95",
                               "warnings"}
         assert entry["tau"] is None and entry["interval95"]["tau"] == [None, None]
+        assert {"code": "method", "parameter": "tau", "message": "tau (the friction lag, eq. 1) is not identified "
+                "by identify-arm: null"} in entry["warnings"]
         assert entry["Fc"] == joint.params["Fc"]
         read = identification_from_dict(entry, where="arm.json")  # the reader of identify --json takes an entry
         assert read.J == joint.params["J"] and read.sigma == joint.params["sigma"] and np.isnan(read.tau)
@@ -161,7 +163,7 @@ def test_a_joint_that_barely_moves_is_warned(arm, log):
     dq = log.dq.copy()
     dq[:, 2] = np.gradient(q[:, 2], log.t)
     res = identify_arm(dataclasses.replace(log, q=q, dq=dq), arm, n_bootstrap=10)
-    assert any("barely moves" in w and "'wrist'" in w for w in res.joints[2].warnings)
+    assert any("barely moves" in w and "'wrist'" in w and w.code == "identifiability" for w in res.joints[2].warnings)
 
 
 # ------------------------------------------------------------------------------------------------ bad input

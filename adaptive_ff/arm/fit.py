@@ -235,27 +235,29 @@ def _check(log: ArmLog, arm: ArmModel, n_bootstrap, rigid_body: str) -> None:
 
 
 def _joint_warnings(arm, j, q, dq, keep_j, Vs, rel) -> list:
-    """What the log does not determine for joint ``j``."""
-    out = []
+    """What the log does not determine for joint ``j``: IdentificationWarning objects (the codes of
+    :mod:`adaptive_ff.identification.plausibility`, so that ``design --from`` reads them as it reads identify's)."""
+    from adaptive_ff.identification.plausibility import IdentificationWarning as W
+
+    name, out = arm.names[j], []
     span = float(np.ptp(q[:, j]))
     speed = float(np.percentile(np.abs(dq[:, j]), 99))
     if span < 0.05 or speed < 0.05:
-        out.append(f"joint {arm.names[j]!r} barely moves (range {span:.3g} rad, 99th-percentile speed "
-                   f"{speed:.3g} rad/s): its friction is not determined by this log")
+        out.append(W("identifiability", "all", f"joint {name!r} barely moves (range {span:.3g} rad, "
+                     f"99th-percentile speed {speed:.3g} rad/s): its friction is not determined by this log"))
     if not np.isfinite(Vs):
-        out.append(f"no Stribeck term for joint {arm.names[j]!r} (Fs = Fc, Vs and delta null): it does not lower the "
-                   "residual beyond the 95 % likelihood-ratio bound; slow constant-speed segments in the log "
-                   "determine it")
+        out.append(W("model_form", "Fs", f"no Stribeck term for joint {name!r} (Fs = Fc, Vs and delta null): it "
+                     "does not lower the residual beyond the 95 % likelihood-ratio bound; slow constant-speed "
+                     "segments in the log determine it"))
     elif np.mean(np.abs(dq[keep_j[:, j], j]) < 3.0 * Vs) < 0.02:
-        out.append(f"fewer than 2 % of joint {arm.names[j]!r}'s kept samples are slower than 3 Vs: Fs, Vs and "
-                   "delta rest on few low-speed samples")
+        out.append(W("identifiability", "Vs", f"fewer than 2 % of joint {name!r}'s kept samples are slower than "
+                     "3 Vs: Fs, Vs and delta rest on few low-speed samples"))
     for k in ("Fc", "sigma"):
         if rel[k] > 0.5:
-            out.append(f"{k} of joint {arm.names[j]!r} is poorly determined (95 % half-width {100 * rel[k]:.0f} % "
-                       "of the value)")
-    out.append("tau (the friction lag, eq. 1) is not identified by identify-arm: null")
+            out.append(W("identifiability", k, f"{k} of joint {name!r} is poorly determined (95 % half-width "
+                         f"{100 * rel[k]:.0f} % of the value)"))
+    out.append(W("method", "tau", "tau (the friction lag, eq. 1) is not identified by identify-arm: null"))
     return out
-
 
 def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, n_bootstrap: int = 200,
                  seed: int = 0, rigid_body: str = "fit", progress: bool | None = False) -> ArmIdentification:

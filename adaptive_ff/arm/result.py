@@ -35,8 +35,8 @@ class ArmJoint:
         ``{name: (low, high)}`` for each of ``params`` (NaN where there is none).
     std : dict
         Bootstrap standard errors of ``J, Fc, Fs, sigma, offset``.
-    warnings : tuple of str
-        What the log does not determine for this joint.
+    warnings : tuple of adaptive_ff.identification.plausibility.IdentificationWarning
+        What the log does not determine for this joint (``code``, ``parameter``, message).
     """
 
     name: str
@@ -56,11 +56,12 @@ class ArmJoint:
 
     def to_dict(self) -> dict:
         """The joint's entry: the layout of ``adaptive-ff identify --json``'s top level (``method`` ``"arm"``) plus
-        ``name`` and ``interval95``; non-finite values are null."""
+        ``name`` and ``interval95``; warnings as ``{"code", "parameter", "message"}``; non-finite values are
+        null."""
         return {"name": self.name, "method": "arm", **{k: _num(self.params[k]) for k in JOINT_PARAMETERS},
                 "std": {k: _num(v) for k, v in self.std.items()},
                 "interval95": {k: [_num(lo), _num(hi)] for k, (lo, hi) in self.interval95.items()},
-                "warnings": list(self.warnings)}
+                "warnings": [w.to_dict() for w in self.warnings]}
 
 
 @dataclass(frozen=True)
