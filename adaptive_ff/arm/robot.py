@@ -149,7 +149,7 @@ class ArmModel:
                 k = int(bad[0])
                 raise ParameterError(f"{where}: joint {j + 1} ({name!r}) position {q[k, j]:.6g} at sample {k} is "
                                      f"beyond the URDF limits [{self.lower[j]:.6g}, {self.upper[j]:.6g}] "
-                                     f"({self.source}); {bad.size} samples out of range")
+                                     f"({self.source}); {bad.size} of {q.shape[0]} samples out of range")
 
 
 def reduce_columns(W, names) -> BaseParameters:
