@@ -250,3 +250,24 @@ def test_cli_bad_input_exits_2_naming_file_and_joint(case, log_csv, tmp_path, ca
     assert "Traceback" not in err and err.startswith("adaptive-ff: error:"), err
     for w in want:
         assert w in err, (w, err)
+
+
+def test_design_from_an_arm_joint(log_csv, tmp_path, capsys):
+    """design --from arm.json --joint NAME designs what design --J J --sigma sigma designs with that entry's
+    numbers; a joint the file does not have exits 2 naming the file, the joint and the joints it has."""
+    assert main(["identify-arm", str(log_csv), "--urdf", str(URDF), "--json", "--quiet", "--bootstrap", "20"]) == 0
+    arm_json = tmp_path / "arm.json"
+    arm_json.write_text(capsys.readouterr().out)
+    entry = json.loads(arm_json.read_text())["joints"][1]
+    common = ["--crossover", "20", "--phase-margin", "60", "--no-figures", "--json"]
+    assert main(["design", "--from", str(arm_json), "--joint", "elbow", *common]) == 0
+    by_joint = json.loads(capsys.readouterr().out)
+    assert main(["design", "--J", repr(entry["J"]), "--sigma", repr(entry["sigma"]), *common]) == 0
+    by_numbers = json.loads(capsys.readouterr().out)
+    assert by_joint["J"] == entry["J"] and by_joint["sigma"] == entry["sigma"]
+    assert (by_joint["Kp"], by_joint["Ki"]) == (by_numbers["Kp"], by_numbers["Ki"])
+    assert main(["design", "--from", str(arm_json), "--joint", "knee", *common]) == 2
+    err = capsys.readouterr().err
+    assert "arm.json" in err and "'knee'" in err and "'elbow'" in err and "Traceback" not in err
+    assert main(["design", "--joint", "elbow", *common]) == 2
+    assert "--from ARM.json" in capsys.readouterr().err

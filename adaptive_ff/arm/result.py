@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["ArmJoint", "ArmIdentification", "JOINT_PARAMETERS"]
+__all__ = ["ArmJoint", "ArmIdentification", "JOINT_PARAMETERS", "read_arm_joint"]
 
 #: A joint's parameters in its JSON entry (the top-level keys of ``adaptive-ff identify --json``).
 JOINT_PARAMETERS = ("J", "Fc", "Fs", "Vs", "delta", "sigma", "tau", "offset")
@@ -164,3 +164,40 @@ class ArmIdentification:
             a.grid(True, alpha=0.3)
         axes[0].legend(loc="best", fontsize="small")
         return axes
+
+
+def read_arm_joint(path, name: str) -> dict:
+    """One joint's entry of an ``adaptive-ff identify-arm --json`` file (the layout of ``identify --json``'s top
+    level, read by :func:`adaptive_ff.identification.result_file.identification_from_dict`).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The JSON file.
+    name : str
+        The joint's URDF name.
+
+    Returns
+    -------
+    dict
+
+    Raises
+    ------
+    FileNotFoundError
+        No such file.
+    ParameterError
+        Not JSON, no ``joints`` list of objects (not an ``identify-arm`` output), or no joint ``name`` (the joints
+        of the file listed).
+    """
+    from plant.errors import ParameterError
+    from plant.models import read_json
+
+    d = read_json(path, what="JSON arm identification (adaptive-ff identify-arm --json)")
+    joints = d.get("joints") if isinstance(d, dict) else None
+    if not isinstance(joints, list) or not all(isinstance(j, dict) for j in joints):
+        raise ParameterError(f"{path}: no 'joints' list of objects: not an identify-arm --json output (--joint "
+                             "picks one of its joints)")
+    for j in joints:
+        if j.get("name") == name:
+            return j
+    raise ParameterError(f"{path}: no joint {name!r}; its joints are {[j.get('name') for j in joints]}")
