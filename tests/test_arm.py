@@ -136,6 +136,7 @@ def test_to_dict_is_strict_json_in_the_issue_layout(result):
         assert read.J == joint.params["J"] and read.sigma == joint.params["sigma"] and np.isnan(read.tau)
     assert set(d["rigid_body"]) == {"mode", "base_parameters", "interval95", "cond"}
     assert len(d["rigid_body"]["base_parameters"]) == 11 and d["rigid_body"]["cond"] == result.cond
+    assert result.cond < 1e3 and d["warnings"] == []  # cond 164 on this log: no conditioning warning
 
 
 def test_summary_and_plot(result):
@@ -164,6 +165,7 @@ def test_a_joint_that_barely_moves_is_warned(arm, log):
     dq[:, 2] = np.gradient(q[:, 2], log.t)
     res = identify_arm(dataclasses.replace(log, q=q, dq=dq), arm, n_bootstrap=10)
     assert any("barely moves" in w and "'wrist'" in w and w.code == "identifiability" for w in res.joints[2].warnings)
+    assert res.cond > 1e3 and [w.code for w in res.warnings] == ["conditioning"]
 
 
 # ------------------------------------------------------------------------------------------------ bad input

@@ -51,6 +51,8 @@ DELTA_GRID = (0.5, 1.0, 2.0)
 #: Stribeck velocities per joint in the profile grid (geometric, from the slowest kept speed to a third of the
 #: median speed).
 N_VS = 8
+#: Condition number of the column-scaled weighted regressor above which the result carries a conditioning warning.
+COND_WARN = 1e3
 #: Friction columns per joint: Fc (g), Fs (h), sigma (w), offset (1).
 _FRICTION = ("Fc", "Fs", "sigma", "offset")
 
@@ -272,7 +274,7 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     cutoff : float, keyword-only
         Cutoff (Hz) of the zero-phase low-pass before differentiation (default 20 Hz).
     n_bootstrap : int, keyword-only
-        Refits of the residual block bootstrap (>= 2; default 200).
+        Refits of the block bootstrap of the samples (>= 2; default 200).
     seed : int, keyword-only
         Seeds the bootstrap.
     rigid_body : {"fit", "urdf"}, keyword-only
@@ -340,8 +342,22 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
             "bootstrap": {"n": int(n_bootstrap), "valid": boot.n_valid, "block": boot.block, "seed": int(seed)},
             "rms": [float(np.sqrt(np.mean(resid[keep_j[:, j], j] ** 2))) for j in range(arm.n)],
             "J": "the joint's own diagonal inertia M_jj at the log's mean configuration"}
+    cond = float(np.linalg.cond(scaled))
     return ArmIdentification(joints=tuple(joints), base_names=base.names, base_values=beta, base_interval=ival,
-                             cond=float(np.linalg.cond(scaled)), rigid_body=rigid_body, info=info, curves=curves)
+                             cond=cond, rigid_body=rigid_body, info=info, curves=curves,
+                             warnings=tuple(_arm_warnings(cond)))
+
+
+def _arm_warnings(cond: float) -> list:
+    """A conditioning warning when the column-scaled regressor's condition number exceeds ``COND_WARN``."""
+    from adaptive_ff.identification.plausibility import IdentificationWarning
+
+    if cond <= COND_WARN:
+        return []
+    return [IdentificationWarning("conditioning", "rigid_body", f"the weighted regressor (column-scaled) has "
+                                  f"condition number {cond:.3g} > {COND_WARN:g}: the log does not excite every base "
+                                  "parameter and friction term apart; a richer trajectory (more joints moving at "
+                                  "once, wider ranges) separates them")]
 
 
 def _joint(arm, j, x, half, boot, a_J, r, base, profile, data) -> ArmJoint:

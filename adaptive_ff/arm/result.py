@@ -88,6 +88,8 @@ class ArmIdentification:
     curves : tuple
         Per joint ``(dq, friction torque)`` of the log: the torque minus the identified rigid body (for
         :meth:`plot`).
+    warnings : tuple of adaptive_ff.identification.plausibility.IdentificationWarning
+        What concerns the whole arm (a badly conditioned regressor: the log does not excite every base parameter).
     """
 
     joints: tuple
@@ -98,6 +100,7 @@ class ArmIdentification:
     rigid_body: str = "fit"
     info: dict = field(default_factory=dict)
     curves: tuple = ()
+    warnings: tuple = ()
 
     def joint(self, name: str) -> ArmJoint:
         """The joint called ``name``; KeyError listing the joints otherwise."""
@@ -115,7 +118,8 @@ class ArmIdentification:
               "base_parameters": {n: _num(v) for n, v in zip(self.base_names, self.base_values)},
               "interval95": {n: [_num(lo), _num(hi)] for n, (lo, hi) in zip(self.base_names, self.base_interval)},
               "cond": _num(self.cond)}
-        return {"joints": [j.to_dict() for j in self.joints], "rigid_body": rb, "info": json_safe(self.info)}
+        return {"joints": [j.to_dict() for j in self.joints], "rigid_body": rb, "info": json_safe(self.info),
+                "warnings": [w.to_dict() for w in self.warnings]}
 
     def summary(self) -> str:
         """A table per joint (value and 95 % interval of each parameter, SI), the base parameters, the warnings."""
@@ -130,6 +134,7 @@ class ArmIdentification:
                 lines.append(f"  {k:<9}{v:>12.5g}  {iv:<27}{units[k]}")
             lines += [f"  WARNING: {w}" for w in j.warnings]
         lines += ["", f"rigid body ({self.rigid_body}): {len(self.base_names)} base parameters, cond {self.cond:.3g}"]
+        lines += [f"WARNING: {w}" for w in self.warnings]
         for n, v, (lo, hi) in zip(self.base_names, self.base_values, self.base_interval):
             iv = f"[{lo:.4g}, {hi:.4g}]" if math.isfinite(lo) else "-"
             lines.append(f"  {v:>12.5g}  {iv:<27}{n}")
