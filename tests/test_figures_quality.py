@@ -226,7 +226,9 @@ COVERED = {"plot_tracking", "plot_error", "plot_friction", "plot_rls_convergence
            # checked through the figures they return, by test_identification_figures below:
            "IdentificationReport.plot", "LSResult.plot",
            # the band's axes of IdentificationReport.plot's figure
-           "FrictionBand.plot"}
+           "FrictionBand.plot",
+           # the whole arm's per-joint friction figure (needs the [arm] extra: skipped without Pinocchio)
+           "ArmIdentification.plot"}
 
 
 def _package_plots():
@@ -246,6 +248,20 @@ def _package_plots():
 def test_registry_covers_every_plot():
     missing = _package_plots() - COVERED
     assert not missing, f"figures not checked by this module: {sorted(missing)}"
+
+
+def test_arm_figure():
+    pytest.importorskip("pinocchio", reason="the [arm] extra is not installed")
+    from adaptive_ff.arm.fit import identify_arm
+    from adaptive_ff.arm.robot import load_urdf
+    from adaptive_ff.arm.simulate import JointFriction, simulate_arm
+
+    arm = load_urdf(Path(__file__).resolve().parents[1] / "examples" / "planar3.urdf")
+    fr = [JointFriction(Fc=2.0, Fs=2.6, Vs=0.1, delta=1.0, sigma=0.8), JointFriction(Fc=1.2, Fs=1.5, Vs=0.08,
+          delta=1.0, sigma=0.5), JointFriction(Fc=0.5, Fs=0.7, Vs=0.1, delta=1.0, sigma=0.2)]
+    res = identify_arm(simulate_arm(arm, fr, duration=8.0, seed=0, substeps=1, armature=[0.2, 0.1, 0.05]), arm,
+                       n_bootstrap=10)
+    assert check_figure(res.plot()[0].figure, "ArmIdentification.plot") == 3
 
 
 def test_compare_figures(comp):

@@ -197,6 +197,28 @@ def _check_work(args, design) -> None:
     check_work(design_estimate(t_end, design.Tc, what=what), yes=args.yes)
 
 
+def _identified(args) -> tuple:
+    """``(warnings, (J, sigma), where, source)`` of ``--from FILE``, or of its joint ``--joint NAME`` (an
+    ``identify-arm --json`` output, :func:`adaptive_ff.arm.result.read_arm_joint`)."""
+    from adaptive_ff.arm.result import read_arm_joint
+    from adaptive_ff.identification.plausibility import warning_from_dict
+    from adaptive_ff.identification.result_file import identification_from_dict
+    from plant.errors import ParameterError
+
+    if getattr(args, "joint", None) is None:
+        return (warnings_from_file(args.from_file), plant_from_file(args.from_file), str(args.from_file),
+                str(args.from_file) + _method_of(args.from_file))
+    entry = read_arm_joint(args.from_file, args.joint)
+    where = f"{args.from_file} joint {args.joint!r}"
+    joint = identification_from_dict(entry, where=where)
+    raw = entry.get("warnings", [])
+    try:
+        warns = [warning_from_dict(w) for w in (raw if isinstance(raw, list) else [raw])]
+    except ParameterError as exc:
+        raise ParameterError(f"{where}: {exc}") from None
+    return warns, (joint.J, joint.sigma), where, f"{where} (method {joint.method!r})"
+
+
 def _design_and_write(args, fig_dir, report_dir):
     """The design of ``args``, its figures written into ``fig_dir`` and its report into ``report_dir`` (None: not
     asked for); ``(analysis, source of J and sigma, figure paths, report path or None)``, or the exit status of a
@@ -208,16 +230,18 @@ def _design_and_write(args, fig_dir, report_dir):
 
     J, sigma = args.J, args.sigma
     source = "command line"
+    if getattr(args, "joint", None) is not None and not args.from_file:
+        raise ParameterError(f"--joint {args.joint} picks a joint of an identify-arm --json output: give it with "
+                             "--from ARM.json")
     if args.from_file:
-        refusing = [w for w in warnings_from_file(args.from_file) if w.refusing]
+        warns, (Jf, sf), where, source = _identified(args)
+        refusing = [w for w in warns if w.refusing]
         for w in refusing:
-            print(f"adaptive-ff: {args.from_file}: {w.code} warning on {w.parameter}: {w}", file=sys.stderr)
+            print(f"adaptive-ff: {where}: {w.code} warning on {w.parameter}: {w}", file=sys.stderr)
         if refusing and not args.accept_warnings:
-            print(f"adaptive-ff: refused: {args.from_file} carries {len(refusing)} plausibility/identifiability "
+            print(f"adaptive-ff: refused: {where} carries {len(refusing)} plausibility/identifiability "
                   "warning(s); fix the identification, or design anyway with --accept-warnings", file=sys.stderr)
             return EXIT_REFUSED
-        Jf, sf = plant_from_file(args.from_file)
-        source = str(args.from_file) + _method_of(args.from_file)
         J = Jf if J is None else J
         sigma = sf if sigma is None else sigma
     if J is None:
@@ -359,6 +383,8 @@ def register(sub) -> None:
                    help="viscous coefficient in N·m·s/rad (default 0, or from --from)")
     d.add_argument("--from", dest="from_file", metavar="FILE", default=None,
                    help="JSON with J (and sigma): 'identify --json' output or a plant file; --J/--sigma override it")
+    d.add_argument("--joint", metavar="NAME", default=None,
+                   help="with --from ARM.json (identify-arm --json): design for that joint's entry")
     d.add_argument("--accept-warnings", action="store_true",
                    help="design even if the --from identification carries plausibility or identifiability warnings "
                         "(otherwise refused with exit status 3, the warnings echoed)")

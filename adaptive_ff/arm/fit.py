@@ -1,0 +1,396 @@
+r"""The whole-arm identification: rigid body and every joint's friction from one log, by weighted least squares.
+
+The inverse dynamic model of the arm, per sample ``k`` and joint ``j``,
+
+.. math::
+
+    \tau_{kj} = Y_b(q_k, \dot q_k, \ddot q_k)_j\, \beta + F_{c,j}\, g_j + F_{s,j}\, h_j + \sigma_j \dot q_{kj}
+        + o_j + e_{kj},
+
+with ``Y_b`` the joint-torque regressor (Pinocchio) reduced to the base parameters ``beta``
+(:meth:`adaptive_ff.arm.robot.ArmModel.base_parameters`; armatures included) and the Stribeck regressors of eqs.
+5-6, ``g = sgn(w) (1 - s(w))``, ``h = sgn(w) s(w)``, ``s(w) = exp(-|w/V_s|^delta)``, is linear in ``beta`` and the
+friction for given ``V_s, delta``; those are profiled per joint on a grid (coordinate descent over the joints,
+two sweeps), the best grid point refined in ``V_s`` by a bounded scalar search. A joint keeps the Stribeck term
+only where it lowers the weighted residual beyond the 95 % likelihood-ratio bound (else ``Fs = Fc``).
+
+The rows come from the zero-phase filtered, decimated log (:func:`adaptive_ff.arm.arm_log.filtered_states`).
+Samples where a joint moves slower than 2 % of its 99th-percentile speed, or lie within one cutoff period of one
+of its velocity reversals, are left out of that joint's rows (the sign of the velocity is not known there, and
+the filter spreads the friction's jump at a reversal over that period). Each joint's rows are weighted by the
+inverse of its residual standard deviation from an unweighted first fit (IDIM-WLS; Gautier & Poignet, IFAC SYSID
+2001).
+
+Intervals: the circular block bootstrap of the samples (each sample's rows of all joints, regressor and torque,
+resampled together in blocks of consecutive samples, the block by the Politis-White rule on the residuals,
+:mod:`adaptive_ff.identification.covariance`; a resampling of cases, so that the model's error near reversals and
+at low speed, which depends on the motion, counts as well as the noise), refitted at the profiled ``V_s, delta``;
+a parameter's interval is its estimate ``± t`` times the bootstrap standard error (Student-t quantile of the
+number of refits). A joint's friction intervals are widened to cover that band around the estimates at every
+``(V_s, delta)`` of the grid the profile accepts; those accepted values are the intervals of ``V_s`` and
+``delta``: the grid points whose profiled weighted residual sum of squares is within the 95 % likelihood-ratio
+bound of the best, the residuals' correlation counted by the block length. The friction lag ``tau`` (eq. 1) is not
+identified (NaN).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from plant.errors import ParameterError, SignalError
+from plant.stribeck_map import stribeck_shape
+
+from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states
+from adaptive_ff.arm.result import ArmIdentification, ArmJoint
+from adaptive_ff.arm.robot import ArmModel
+
+__all__ = ["identify_arm", "DELTA_GRID", "N_VS"]
+
+#: Stribeck shape factors of the profile grid.
+DELTA_GRID = (0.5, 1.0, 2.0)
+#: Stribeck velocities per joint in the profile grid (geometric, from the slowest kept speed to a third of the
+#: median speed).
+N_VS = 8
+#: Condition number of the column-scaled weighted regressor above which the result carries a conditioning warning.
+COND_WARN = 1e3
+#: Friction columns per joint: Fc (g), Fs (h), sigma (w), offset (1).
+_FRICTION = ("Fc", "Fs", "sigma", "offset")
+
+
+class _Problem:
+    """The stacked rows of one log: the rigid-body block, the velocities, the kept rows, the weights."""
+
+    def __init__(self, Yb, dq, tau, keep):
+        self.m, self.n, self.r = Yb.shape
+        self.Yb, self.dq, self.tau, self.keep = Yb, dq, tau, keep
+        self.w = np.ones(self.n)
+
+    def design(self, Vs, delta) -> np.ndarray:
+        """Rows (m*N, r + 4N): the rigid-body block and each joint's friction columns in its own rows."""
+        A = np.zeros((self.m, self.n, self.r + 4 * self.n))
+        A[:, :, : self.r] = self.Yb
+        for j in range(self.n):
+            w = self.dq[:, j]
+            s = stribeck_shape(w, Vs[j], delta[j]) if np.isfinite(Vs[j]) else np.zeros(self.m)
+            A[:, j, self.r + 4 * j: self.r + 4 * j + 4] = np.column_stack(
+                [np.sign(w) * (1 - s), np.sign(w) * s, w, np.ones(self.m)])
+        return A.reshape(self.m * self.n, -1)
+
+    def solve(self, Vs, delta):
+        """``(x, weighted RSS, A)`` of the weighted fit at ``Vs, delta``."""
+        A = self.design(Vs, delta)
+        sw = np.tile(self.w, self.m)[self.keep]
+        x = _scaled_lstsq(A[self.keep] * sw[:, None], self.tau.reshape(-1)[self.keep] * sw)
+        e = (self.tau.reshape(-1) - A @ x)[self.keep] * sw
+        return x, float(e @ e), A
+
+
+def _scaled_lstsq(A, b) -> np.ndarray:
+    """Least squares by the normal equations of the unit-norm columns: a small p x p solve, the products by einsum
+    (no threaded BLAS call, which costs a hundred times more where other processes hold the cores); a zero column
+    gets 0."""
+    norm = np.linalg.norm(A, axis=0)
+    on = norm > 0
+    As = A[:, on] / norm[on]
+    x = np.zeros(A.shape[1])
+    try:
+        x[on] = np.linalg.solve(np.einsum("ki,kj->ij", As, As), np.einsum("ki,k->i", As, b)) / norm[on]
+    except np.linalg.LinAlgError:
+        x[on] = np.linalg.lstsq(As.T @ As, As.T @ b, rcond=None)[0] / norm[on]
+    return x
+
+
+def _near_reversal(t, dq, window: float) -> np.ndarray:
+    """(m, N) True within ``window`` seconds of a sign change of the joint's velocity: the low-pass spreads the
+    friction's jump at a reversal over about one period of its cutoff, where no row of a static friction map
+    holds."""
+    out = np.zeros(dq.shape, dtype=bool)
+    for j in range(dq.shape[1]):
+        flips = t[1:][np.diff(np.sign(dq[:, j])) != 0]
+        if flips.size:
+            idx = np.searchsorted(flips, t)
+            lo = np.abs(t - flips[np.clip(idx - 1, 0, flips.size - 1)])
+            hi = np.abs(flips[np.clip(idx, 0, flips.size - 1)] - t)
+            out[:, j] = np.minimum(lo, hi) < window
+    return out
+
+
+def _grids(dq, keep_j, vmin):
+    """Per joint, the Stribeck velocity grid (N_VS values)."""
+    out = []
+    for j in range(dq.shape[1]):
+        speed = np.abs(dq[keep_j[:, j], j])
+        hi = max(np.median(speed) / 3.0, 2.0 * vmin[j])
+        out.append(np.geomspace(vmin[j], hi, N_VS))
+    return out
+
+
+def _profile(prob: _Problem, grids, bound: float):
+    """Coordinate descent over the joints' ``(Vs, delta)`` grids (two sweeps); ``(Vs, delta, table)`` with
+    ``table[j]`` the ``(Vs, delta, weighted RSS, estimate)`` of joint ``j``'s last sweep. A joint keeps no Stribeck term
+    (``Vs`` NaN: ``Fs = Fc``) unless its best grid point lowers the weighted RSS by more than ``bound``."""
+    Vs = np.full(prob.n, np.nan)
+    delta = np.ones(prob.n)
+    table = [[] for _ in range(prob.n)]
+    for _ in range(2):
+        for j in range(prob.n):
+            Vs_off = Vs.copy()
+            Vs_off[j] = np.nan
+            rss_off = prob.solve(Vs_off, delta)[1]
+            rows = []
+            for d in DELTA_GRID:
+                for v in grids[j]:
+                    Vs_try, d_try = Vs.copy(), delta.copy()
+                    Vs_try[j], d_try[j] = v, d
+                    x_try, rss_try, _ = prob.solve(Vs_try, d_try)
+                    rows.append((v, d, rss_try, x_try))
+            best = _refine(prob, Vs, delta, j, min(rows, key=lambda x: x[2]), grids[j])
+            rows.append(best)
+            on = rss_off - best[2] > bound
+            Vs[j], delta[j] = (best[0], best[1]) if on else (np.nan, 1.0)
+            table[j] = rows
+    return Vs, delta, table
+
+
+def _refine(prob: _Problem, Vs, delta, j: int, best, grid) -> tuple:
+    """The grid's best ``(Vs, delta, rss)`` of joint ``j`` refined in ``log Vs`` between its grid neighbours (bounded
+    Brent search, :func:`scipy.optimize.minimize_scalar`), ``delta`` kept."""
+    from scipy.optimize import minimize_scalar
+
+    k = int(np.argmin(np.abs(grid - best[0])))
+    lo, hi = np.log(grid[max(k - 1, 0)]), np.log(grid[min(k + 1, grid.shape[0] - 1)])
+    Vs_try, d_try = Vs.copy(), delta.copy()
+    d_try[j] = best[1]
+
+    def cost(lv):
+        Vs_try[j] = np.exp(lv)
+        return prob.solve(Vs_try, d_try)[1]
+
+    r = minimize_scalar(cost, bounds=(lo, hi), method="bounded", options={"xatol": 0.01, "maxiter": 20})
+    if r.fun >= best[2]:
+        return best
+    Vs_try[j] = np.exp(r.x)
+    x, rss, _ = prob.solve(Vs_try, d_try)
+    return float(np.exp(r.x)), best[1], rss, x
+
+
+def _bootstrap(prob: _Problem, A, x, n_boot: int, seed: int, progress=False):
+    """The circular block bootstrap of the samples (rows of the regressor and torques of all joints resampled
+    together, in blocks of consecutive samples) refitted at the profiled ``Vs, delta``: BootstrapResult over ``x``,
+    and the residuals (m, N)."""
+    from adaptive_ff.identification.covariance import (BootstrapResult, circular_block_resample,
+                                                       politis_white_block)
+
+    sw = np.tile(prob.w, prob.m)
+    keep2 = prob.keep.reshape(prob.m, prob.n)
+    resid = prob.tau - (A @ x).reshape(prob.m, prob.n)
+    block = max(politis_white_block(resid[keep2[:, j], j]) for j in range(prob.n))
+    Aw = (A * sw[:, None]).reshape(prob.m, prob.n, -1)
+    yw = (prob.tau.reshape(-1) * sw).reshape(prob.m, prob.n)
+    rng = np.random.default_rng(seed)
+    from tqdm.auto import tqdm
+
+    reps = []
+    for _ in tqdm(range(n_boot), desc="arm bootstrap", unit="refit", leave=False,
+                  disable=(None if progress is None else not progress)):
+        idx = circular_block_resample(np.arange(prob.m), prob.m, block=block, rng=rng).astype(int)
+        k = keep2[idx].reshape(-1)
+        reps.append(_scaled_lstsq(Aw[idx].reshape(prob.m * prob.n, -1)[k], yw[idx].reshape(-1)[k]))
+    reps = np.array(reps)
+    d = reps - x
+    return BootstrapResult(stderr=np.sqrt(np.mean(d**2, axis=0)), bias=np.mean(d, axis=0), replicates=reps,
+                           n=n_boot, block=block), resid
+
+
+def _profile_interval(table_j, rss_min: float, n_rows: int, block: int, cols: slice) -> tuple:
+    """The ``(Vs range, delta range, (low, high) of the estimates[cols])`` over the grid points within the 95 %
+    likelihood-ratio bound of the best (the residuals' correlation counted by the block length)."""
+    bound = rss_min * (1.0 + 3.84 * block / max(n_rows, 1))
+    inside = [row for row in table_j if row[2] <= bound]
+    vs, ds = [r[0] for r in inside], [r[1] for r in inside]
+    xs = np.array([r[3][cols] for r in inside])
+    return (min(vs), max(vs)), (min(ds), max(ds)), (xs.min(axis=0), xs.max(axis=0))
+
+
+def _inertia_rows(arm: ArmModel, base, q_mean) -> np.ndarray:
+    """Rows ``a_j`` (N, r) with ``a_j @ beta = M_jj`` at ``q_mean`` (rigid body and armature)."""
+    n = arm.n
+    Y0 = arm.regressor(q_mean[None, :], np.zeros((1, n)), np.zeros((1, n)))[0]
+    rows = np.empty((n, base.independent.shape[0]))
+    for j in range(n):
+        e = np.zeros((1, n))
+        e[0, j] = 1.0
+        Yj = arm.regressor(q_mean[None, :], np.zeros((1, n)), e)[0] - Y0
+        rows[j] = Yj[j, base.independent]
+    return rows
+
+
+def _check(log: ArmLog, arm: ArmModel, n_bootstrap, rigid_body: str) -> None:
+    if log.n_joints != arm.n:
+        raise SignalError(f"{log.source}: {log.n_joints} joints in the log, {arm.n} in {arm.source} "
+                          f"({', '.join(arm.names)})")
+    if rigid_body not in ("fit", "urdf"):
+        raise ParameterError(f"rigid_body must be 'fit' or 'urdf', got {rigid_body!r}")
+    if isinstance(n_bootstrap, bool) or not isinstance(n_bootstrap, (int, np.integer)) or n_bootstrap < 2:
+        raise ParameterError(f"n_bootstrap must be an integer >= 2, got {n_bootstrap!r}")
+    arm.check_positions(log.q, log.source)
+
+
+def _joint_warnings(arm, j, q, dq, keep_j, Vs, rel) -> list:
+    """What the log does not determine for joint ``j``: IdentificationWarning objects (the codes of
+    :mod:`adaptive_ff.identification.plausibility`, so that ``design --from`` reads them as it reads identify's)."""
+    from adaptive_ff.identification.plausibility import IdentificationWarning as W
+
+    name, out = arm.names[j], []
+    span = float(np.ptp(q[:, j]))
+    speed = float(np.percentile(np.abs(dq[:, j]), 99))
+    if span < 0.05 or speed < 0.05:
+        out.append(W("identifiability", "all", f"joint {name!r} barely moves (range {span:.3g} rad, "
+                     f"99th-percentile speed {speed:.3g} rad/s): its friction is not determined by this log"))
+    if not np.isfinite(Vs):
+        out.append(W("model_form", "Fs", f"no Stribeck term for joint {name!r} (Fs = Fc, Vs and delta null): it "
+                     "does not lower the residual beyond the 95 % likelihood-ratio bound; slow constant-speed "
+                     "segments in the log determine it"))
+    elif np.mean(np.abs(dq[keep_j[:, j], j]) < 3.0 * Vs) < 0.02:
+        out.append(W("identifiability", "Vs", f"fewer than 2 % of joint {name!r}'s kept samples are slower than "
+                     "3 Vs: Fs, Vs and delta rest on few low-speed samples"))
+    for k in ("Fc", "sigma"):
+        if rel[k] > 0.5:
+            out.append(W("identifiability", k, f"{k} of joint {name!r} is poorly determined (95 % half-width "
+                         f"{100 * rel[k]:.0f} % of the value)"))
+    out.append(W("method", "tau", "tau (the friction lag, eq. 1) is not identified by identify-arm: null"))
+    return out
+
+def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, n_bootstrap: int = 200,
+                 seed: int = 0, rigid_body: str = "fit", progress: bool | None = False) -> ArmIdentification:
+    """Identify the rigid body and every joint's friction of ``arm`` from ``log`` (module docstring: the method).
+
+    Parameters
+    ----------
+    log : ArmLog
+        The log (:func:`adaptive_ff.arm.arm_log.read_arm_log`), joints in the URDF's order.
+    arm : ArmModel
+        The arm (:func:`adaptive_ff.arm.robot.load_urdf`).
+    cutoff : float, keyword-only
+        Cutoff (Hz) of the zero-phase low-pass before differentiation (default 20 Hz).
+    n_bootstrap : int, keyword-only
+        Refits of the block bootstrap of the samples (>= 2; default 200).
+    seed : int, keyword-only
+        Seeds the bootstrap.
+    rigid_body : {"fit", "urdf"}, keyword-only
+        ``"fit"``: the base parameters identified with the friction (the URDF's inertias only set which
+        combinations exist); ``"urdf"``: the URDF's inertias used as given, only the friction fitted.
+    progress : bool or None, keyword-only
+        A progress bar of the bootstrap on stderr (tqdm): True, False (default), None (only on a terminal).
+
+    Returns
+    -------
+    ArmIdentification
+        Per joint ``J`` (its own diagonal inertia ``M_jj`` at the log's mean configuration, from the identified
+        base parameters), ``Fc, Fs, Vs, delta, sigma, offset`` with 95 % intervals and warnings, ``tau`` NaN
+        (the lag is not identified here); the base parameters with intervals and the condition number.
+
+    Raises
+    ------
+    SignalError
+        The log's joint count differs from the URDF's; irregular time stamps; too few rows.
+    ParameterError
+        A position beyond the URDF's limits (file, joint, sample and value named); ``cutoff``, ``n_bootstrap``
+        or ``rigid_body`` invalid; a joint with no row fast enough to fit.
+    """
+    _check(log, arm, n_bootstrap, rigid_body)
+    t, q, dq, ddq, tau = filtered_states(log, cutoff)
+    base = arm.base_parameters()
+    Y = arm.regressor(q, dq, ddq)
+    Yb = Y[:, :, base.independent]  # the dependent columns are Y_ind @ K: spanned already
+    if rigid_body == "urdf":
+        tau = tau - Y @ arm.theta_urdf
+        Yb = Yb[:, :, :0]
+    vmin = 0.02 * np.percentile(np.abs(dq), 99, axis=0)
+    keep_j = (np.abs(dq) >= np.maximum(vmin, 1e-9)) & ~_near_reversal(t, dq, 1.0 / cutoff)
+    for j in np.flatnonzero(keep_j.sum(axis=0) < 10):
+        raise ParameterError(f"{log.source}: joint {arm.names[j]!r} moves in fewer than 10 of the filtered samples: "
+                             "nothing to fit its friction on")
+    prob = _Problem(Yb, dq, tau, keep_j.reshape(-1))
+    grids = _grids(dq, keep_j, vmin)
+    mid = np.array([g[N_VS // 2] for g in grids])
+    x0, _, A0 = prob.solve(mid, np.ones(arm.n))
+    e0 = (tau.reshape(-1) - A0 @ x0).reshape(tau.shape)
+    prob.w = 1.0 / np.array([max(np.std(e0[keep_j[:, j], j]), 1e-12) for j in range(arm.n)])
+    from adaptive_ff.identification.covariance import politis_white_block
+
+    block0 = max(politis_white_block(e0[keep_j[:, j], j] * prob.w[j]) for j in range(arm.n))
+    rss0 = float(np.sum((e0 * prob.w) ** 2 * keep_j))
+    Vs, delta, table = _profile(prob, grids, 5.99 * block0 * rss0 / max(int(keep_j.sum()), 1))
+    x, rss, A = prob.solve(Vs, delta)
+    boot, resid = _bootstrap(prob, A, x, int(n_bootstrap), seed, progress)
+    half = boot.half_width(0.95)
+    a_J = _inertia_rows(arm, base, q.mean(axis=0))
+    r = Yb.shape[2]
+    joints = []
+    for j in range(arm.n):
+        joints.append(_joint(arm, j, x, half, boot, a_J, r, base, (Vs, delta, table, rss, int(prob.keep.sum())),
+                             (q, dq, keep_j)))
+    scaled = A[prob.keep] * np.tile(prob.w, prob.m)[prob.keep][:, None]
+    scaled = scaled / np.maximum(np.linalg.norm(scaled, axis=0), 1e-300)
+    beta = x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf)
+    ival = (np.column_stack([x[:r] - half[:r], x[:r] + half[:r]]) if rigid_body == "fit"
+            else np.full((beta.shape[0], 2), np.nan))
+    rigid = (Yb @ x[:r]) if rigid_body == "fit" else np.zeros_like(tau)
+    curves = tuple((dq[:, j], tau[:, j] - rigid[:, j]) for j in range(arm.n))
+    info = {"cutoff": float(cutoff), "rows": [int(v) for v in keep_j.sum(axis=0)],
+            "bootstrap": {"n": int(n_bootstrap), "valid": boot.n_valid, "block": boot.block, "seed": int(seed)},
+            "rms": [float(np.sqrt(np.mean(resid[keep_j[:, j], j] ** 2))) for j in range(arm.n)],
+            "J": "the joint's own diagonal inertia M_jj at the log's mean configuration"}
+    cond = float(np.linalg.cond(scaled))
+    return ArmIdentification(joints=tuple(joints), base_names=base.names, base_values=beta, base_interval=ival,
+                             cond=cond, rigid_body=rigid_body, info=info, curves=curves,
+                             warnings=tuple(_arm_warnings(cond)))
+
+
+def _arm_warnings(cond: float) -> list:
+    """A conditioning warning when the column-scaled regressor's condition number exceeds ``COND_WARN``."""
+    from adaptive_ff.identification.plausibility import IdentificationWarning
+
+    if cond <= COND_WARN:
+        return []
+    return [IdentificationWarning("conditioning", "rigid_body", f"the weighted regressor (column-scaled) has "
+                                  f"condition number {cond:.3g} > {COND_WARN:g}: the log does not excite every base "
+                                  "parameter and friction term apart; a richer trajectory (more joints moving at "
+                                  "once, wider ranges) separates them")]
+
+
+def _joint(arm, j, x, half, boot, a_J, r, base, profile, data) -> ArmJoint:
+    """Joint ``j``'s parameters, intervals, standard errors and warnings from the fit."""
+    from adaptive_ff.identification.covariance import bootstrap_t_quantile
+
+    Vs, delta, table, rss, n_rows = profile
+    q, dq, keep_j = data
+    c = r + 4 * j
+    p = dict(zip(_FRICTION, x[c: c + 4]))
+    hw = dict(zip(_FRICTION, half[c: c + 4]))
+    std = {k: float(v) for k, v in zip(_FRICTION, boot.stderr[c: c + 4])}
+    if r:
+        reps_J = boot.replicates[:, :r] @ a_J[j]
+        J = float(a_J[j] @ x[:r])
+        std["J"] = float(np.sqrt(np.mean((reps_J - J) ** 2)))
+        hw["J"] = bootstrap_t_quantile(boot.n_valid, 0.95) * std["J"]
+    else:
+        J = float(a_J[j] @ base.of(arm.theta_urdf))
+        hw["J"] = np.nan
+    stribeck = bool(np.isfinite(Vs[j]))
+    lo = {k: params_k - hw[k] for k, params_k in (("J", J), *p.items())}
+    hi = {k: params_k + hw[k] for k, params_k in (("J", J), *p.items())}
+    if stribeck:  # the friction's intervals cover the bootstrap around every (Vs, delta) the profile accepts
+        vs_iv, d_iv, (x_lo, x_hi) = _profile_interval(table[j], rss, n_rows, boot.block, slice(c, c + 4))
+        for i, k in enumerate(_FRICTION):
+            lo[k], hi[k] = min(lo[k], x_lo[i] - hw[k]), max(hi[k], x_hi[i] + hw[k])
+    else:  # no Stribeck term: Fs = Fc
+        p["Fs"], hw["Fs"], std["Fs"], lo["Fs"], hi["Fs"] = p["Fc"], hw["Fc"], std["Fc"], lo["Fc"], hi["Fc"]
+        vs_iv = d_iv = (np.nan, np.nan)
+    params = {"J": J, **p, "Vs": float(Vs[j]), "delta": float(delta[j]) if stribeck else np.nan, "tau": np.nan}
+    interval = {k: (lo[k], hi[k]) for k in ("J", *_FRICTION)}
+    interval.update({"Vs": vs_iv, "delta": d_iv, "tau": (np.nan, np.nan)})
+    rel = {k: hw[k] / max(abs(p[k]), 1e-12) for k in ("Fc", "sigma")}
+    warn = _joint_warnings(arm, j, q, dq, keep_j, Vs[j], rel)
+    return ArmJoint(name=arm.names[j], params=params, interval95=interval, std=std, warnings=tuple(warn))
