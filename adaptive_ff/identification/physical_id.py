@@ -169,6 +169,7 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 from scipy.optimize import least_squares
+from threadpoolctl import threadpool_limits
 
 from adaptive_ff.identification.covariance import andrews_bandwidth, hac_covariance, parametric_block_bootstrap
 from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
@@ -991,5 +992,10 @@ def fit_physical(t, u, w, *, Vs: float, delta: float, method: str = "output_erro
             raise ParameterError(f"inverse must be 'corrected' or 'printed', got {inverse!r}")
         fit = _fit_paper(t, u, w, Vs, delta, offset, inverse)
     else:
-        fit = _fit_output_error(t, u, w, Vs, delta, offset, OutputErrorOptions.from_options(options))
+        opts = OutputErrorOptions.from_options(options)
+        # one BLAS thread: the trust-region steps multiply N x 6 matrices, which a multi-threaded BLAS splits
+        # over threads that spin against the C simulation and the bootstrap's own threads (measured on a
+        # 20 k-sample record: 7.9 s of CPU per fit with OpenBLAS's default threads, 2.7 s with one)
+        with threadpool_limits(limits=1, user_api="blas"):
+            fit = _fit_output_error(t, u, w, Vs, delta, offset, opts)
     return replace(fit, warnings=tuple(check_physical(fit.params, source=f"{method} (fit_physical)")))
