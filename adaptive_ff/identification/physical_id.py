@@ -83,6 +83,22 @@ Methods
     gives every parameter a finite-difference step visible past the jitter.
     A fit runs several hundred simulations (C, ``aff_simulator.c``).
 
+Jacobian
+--------
+The trust-region fits take forward differences (``jacobian="difference"``, default): one simulation per
+parameter and iteration, a step of ``diff_step`` (1 %) relative. ``jacobian="sensitivity"`` gives them the
+exact Jacobian of the discrete simulation instead: the RK4 stages' tangents along ``(J, Fc, Fs, sigma, tau,
+offset, Vs, delta)``, propagated in C with the simulation (``aff_simulate_on_grid_sens``; at about 2.5 times
+the cost of one simulation). With the one-step predictor the prediction is smooth in the parameters over a
+sample and the exact Jacobian is the better one (measured on the noise-free 20 s, 1 kHz record of
+``benchmarks/output_error_speed.py``: a lower cost, 0.443 against 0.556, Fs +0.02 % against +0.49 %, 1186
+simulations against 2070). The free-run output is not smooth: at standstill the RK4 steps chatter around
+``w = 0`` and every sign change of a stage velocity is a jump of eq. 3, so the output is piecewise smooth in
+the parameters with a jump wherever a parameter moves a sign change across a stage. The exact Jacobian is that
+of the smooth pieces and misses the jumps, which the 1 % secant averages; on the same record with 1 % noise
+(free run) it stopped at a higher cost (1097.8 against 1018.1, J -2 %) for the same CPU time. The default
+therefore stays the difference Jacobian.
+
 Accuracy and cost against the paper's eq. 4 on simulated records are measured
 by ``benchmarks/identification.py``; its tables are on the documentation's
 benchmark pages (docs/benchmarks/).
@@ -177,7 +193,7 @@ from adaptive_ff.identification.lag_profile import lag_profile_search
 from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.plausibility import check_physical
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
-from adaptive_ff.identification.simulator import H_MAX_DEFAULT, input_grid, simulate_on_grid
+from adaptive_ff.identification.simulator import H_MAX_DEFAULT, input_grid, simulate_on_grid, simulate_on_grid_sens
 from plant.dynamics import lagged_params
 from plant.errors import (ExcitationError, ParameterError, SignalError, check_finite_scalar, check_positive,
                           check_signal, check_time)
@@ -217,6 +233,8 @@ _BOOT_SCHEME = "wild"
 # pass, the fit's local stage and this many rounds of its coordinate search (the fit runs up to _N_POLISH); the
 # lag profile and the final Fs profile are left out (about 1000 simulations per refit)
 _BOOT_POLISH = 1
+#: Jacobians of the output-error trust-region fits (``OutputErrorOptions.jacobian``).
+JACOBIANS = ("difference", "sensitivity")
 #: Refits of the output-error bootstrap (``OutputErrorOptions.bootstrap_refit``).
 BOOTSTRAP_REFITS = ("full", "partial")
 _BOOT_REFIT = f"wide trust region, local stage, {_BOOT_POLISH} coordinate-search round(s)"
@@ -376,7 +394,7 @@ def _start_from_paper(t, u, w, Vs, delta, offset):
     Ts = float(np.median(np.diff(t)))
     model = RegressionModel(Vs, delta, lag=True, stribeck=True, offset=offset)
     try:
-        est = fit_ls(model, u, w, Ts=Ts).estimate
+        est = fit_ls(model, u, w, Ts=Ts, free_run=False).estimate  # the estimate only: no free-run simulation
         J, Fc, sigma, tau = est.J, est.Fc, est.sigma, est.tau
         off = est.offset if offset else 0.0
     except ExcitationError:
@@ -462,6 +480,12 @@ class OutputErrorOptions:
         (:func:`adaptive_ff.identification.lag_profile.lag_profile_search`: ten values of tau, J on a grid
         and the others refitted at each; about 1000 simulations). Default True; False gives the fit
         without it (found tau 9-70 % off on joints with a lag near the sample time).
+    jacobian : {"difference", "sensitivity"}, keyword-only
+        Jacobian of the trust-region fits. ``"difference"`` (default): forward differences with the relative
+        step ``diff_step`` (a secant over 1 % of each parameter, which sees past the breakaway jitter of the
+        free-run output). ``"sensitivity"``: the exact Jacobian of the discrete simulation, its forward
+        sensitivities computed alongside it in C
+        (:func:`adaptive_ff.identification.simulator.simulate_on_grid_sens`; module docstring, "Jacobian").
 
     Raises
     ------
@@ -494,6 +518,7 @@ class OutputErrorOptions:
     bootstrap_workers: int | None = None
     progress: bool | None = False
     lag_profile: bool = True
+    jacobian: str = "difference"
 
     def __post_init__(self):
         def put(name, value):
@@ -521,7 +546,8 @@ class OutputErrorOptions:
         put("lag_profile", bool(self.lag_profile))
         put("start", _check_start(self.start))
         for name, allowed in (("loss", ("linear", "soft_l1")), ("predictor", ("auto", "free-run", "one-step")),
-                              ("interp", ("linear", "cubic")), ("bootstrap_refit", BOOTSTRAP_REFITS)):
+                              ("interp", ("linear", "cubic")), ("bootstrap_refit", BOOTSTRAP_REFITS),
+                              ("jacobian", JACOBIANS)):
             if getattr(self, name) not in allowed:
                 raise ParameterError(f"{name} must be one of {list(allowed)}, got {getattr(self, name)!r}")
         if self.f_scale is not None:
@@ -642,6 +668,22 @@ class _OutputErrorProblem:
         r = self.simulate(x)[self.i0:] - self.wm
         return np.where(np.isfinite(r), r, self.big)
 
+    def jac(self, x) -> np.ndarray:
+        """Exact Jacobian of :meth:`res` at ``x`` (rows after the burn-in, columns of ``x``): the forward
+        sensitivities of the discrete simulation (:func:`adaptive_ff.identification.simulator.simulate_on_grid_sens`)
+        with the chain rule for log J, log tau and the offset scale; zero rows where :meth:`res` is its constant."""
+        self.n_sim += 1
+        ncol = x.shape[0]
+        if math.exp(x[4]) < 0.4 * self.opts.h_max:
+            return np.zeros((self.wm.shape[0], ncol))
+        J, Fc, Fs, sigma, tau, off = self.unpack(x)
+        par = lagged_params(J, Fc, Fs, self.Vs, self.delta, sigma, tau)
+        w, dw = simulate_on_grid_sens(par, self.grid, w0=self.w0, f0=self.f0, offset=off, gain=self.gain,
+                                      w_meas=self.w)
+        G = dw[self.i0:, :ncol] * np.array([J, 1.0, 1.0, 1.0, tau] + ([self.torque] if self.offset else []))
+        G[~np.isfinite(w[self.i0:])] = 0.0
+        return G
+
     def cost(self, x, fsc=None) -> float:
         """Loss of ``x`` at robust scale ``fsc`` (default the noise-level scale)."""
         fsc = self.f_scale if fsc is None else fsc
@@ -672,16 +714,24 @@ class _OutputErrorProblem:
         fsc = self.f_scale if fsc is None else fsc
         # explicit scales (typical changes) instead of x_scale="jac": the offset column, large in norm, was
         # otherwise held nearly fixed
+        sens = self.opts.jacobian == "sensitivity"
         if free is None:
             fun, z0, scale = self.res, x, self.typical(x)
+            jac = self.jac if sens else "2-point"
         else:
             def fun(z, xs=x):
                 xx = xs.copy()
                 xx[free] = z
                 return self.res(xx)
 
+            def jac(z, xs=x):
+                xx = xs.copy()
+                xx[free] = z
+                return self.jac(xx)[:, free]
+
             z0, scale = x[free], self.typical(x)[free]
-        return least_squares(fun, z0, diff_step=ds, x_scale=scale, method="trf", xtol=1e-8, ftol=1e-10,
+            jac = jac if sens else "2-point"
+        return least_squares(fun, z0, jac=jac, diff_step=ds, x_scale=scale, method="trf", xtol=1e-8, ftol=1e-10,
                              max_nfev=self.opts.max_nfev, loss=self.opts.loss, f_scale=fsc)
 
 
