@@ -237,7 +237,7 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
         and no ``method_options``.
     form_options : dict, keyword-only, optional
         Options of :func:`adaptive_ff.identification.model_forms.select_form`: ``folds``, ``criterion``,
-        ``forms``, ``h_max``, ``input_delay``, ``predictor``.
+        ``forms``, ``h_max``, ``input_delay``, ``predictor``, ``progress``.
 
     Returns
     -------
@@ -366,7 +366,7 @@ def _check_form_args(form, form_options, method, method_options) -> dict:
         return {}
     if not isinstance(form_options, dict):
         raise ParameterError(f"form_options must be a dict, got {form_options!r}")
-    allowed = ("folds", "criterion", "forms", "h_max", "input_delay", "predictor")
+    allowed = ("folds", "criterion", "forms", "h_max", "input_delay", "predictor", "progress")
     unknown = sorted(set(form_options) - set(allowed))
     if unknown:
         raise ParameterError(f"unknown form_options {unknown}; allowed: {list(allowed)}")

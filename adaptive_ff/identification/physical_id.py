@@ -90,8 +90,8 @@ parameter and iteration, a step of ``diff_step`` (1 %) relative. ``jacobian="sen
 exact Jacobian of the discrete simulation instead: the RK4 stages' tangents along ``(J, Fc, Fs, sigma, tau,
 offset, Vs, delta)``, propagated in C with the simulation (``aff_simulate_on_grid_sens``; at about 2.5 times
 the cost of one simulation). With the one-step predictor the prediction is smooth in the parameters over a
-sample and the exact Jacobian is the better one (measured on the noise-free 20 s, 1 kHz record of
-``benchmarks/output_error_speed.py``: a lower cost, 0.443 against 0.556, Fs +0.02 % against +0.49 %, 1186
+sample and the exact Jacobian is the better one (measured on the log of ``benchmarks/output_error_speed.py``
+without its noise, 20 s at 1 kHz: a lower cost, 0.443 against 0.556, Fs +0.02 % against +0.49 %, 1186
 simulations against 2070). The free-run output is not smooth: at standstill the RK4 steps chatter around
 ``w = 0`` and every sign change of a stage velocity is a jump of eq. 3, so the output is piecewise smooth in
 the parameters with a jump wherever a parameter moves a sign change across a stage. The exact Jacobian is that

@@ -249,7 +249,10 @@ def _identify_form(args, data, ref_name, spec, common):
         if args.predictor != "auto":
             raise ParameterError("--predictor applies to the output-error fits of --form, not to --method sliding")
     else:
+        from controllers.cli.data import progress_from_args
+
         options["predictor"] = args.predictor
+        options["progress"] = progress_from_args(args)  # the output-error searches take a minute on a long log
     return identify(data, Vs=args.Vs, delta=args.delta, method=args.method if args.method == "sliding" else
                     "output_error", form=args.form, form_options=options, **common)
 
