@@ -536,7 +536,7 @@ def _check_identify_args(data, Vs, delta, n_history, P0, method, method_options)
         raise ParameterError("method 'closed_loop' simulates the user's controller: use "
                              "controllers.experiments.closed_loop_id.identify_closed_loop (CLI: identify "
                              "--reference-column NAME --controller controller.json)")
-    if method in ("output_error", "sliding") and Vs is None:
+    if method == "sliding" and Vs is None:  # output_error without them fits Vs and delta (fit_physical)
         raise ParameterError(f"method {method!r} fits the Stribeck model of eqs. 1-3: give Vs and delta "
                              f"(pre-fit, Sec. V-C), got Vs = {Vs!r}, delta = {delta!r}")
     if method_options is not None and not isinstance(method_options, dict):

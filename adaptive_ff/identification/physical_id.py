@@ -200,13 +200,20 @@ from plant.errors import (ExcitationError, ParameterError, SignalError, check_fi
 from plant.results import json_safe
 
 __all__ = ["PhysicalFit", "OutputErrorOptions", "fit_physical", "METHODS", "PHYSICAL_NAMES", "MIN_SAMPLES",
-           "BOOTSTRAP_REFITS"]
+           "BOOTSTRAP_REFITS", "SHAPE_NAMES"]
 
 #: Identification methods of :func:`fit_physical`.
 METHODS = ("paper", "output_error")
 
 #: Physical parameter names, in the order of ``PhysicalFit.params`` (``offset`` only when fitted).
 PHYSICAL_NAMES = ("J", "Fc", "Fs", "sigma", "tau", "offset")
+
+#: The Stribeck shape parameters the output-error fit adds where no pre-fit gives them (``Vs=None, delta=None``).
+SHAPE_NAMES = ("Vs", "delta")
+#: Points of the start profile over log Vs when Vs is fitted (``max(noise, 1e-3*peak)`` to ``0.3*peak`` |w|; at
+#: each an Fs profile, at delta = 1).
+_VS_GRID = 9
+_DELTA_MIN = 0.05  # a fitted shape factor below this is not admitted (eq. 3's decay vanishes)
 
 #: Fewest samples accepted (eq. 4 has up to 7 parameters and loses 2 rows).
 MIN_SAMPLES = 20
@@ -320,14 +327,21 @@ class PhysicalFit:
         return "\n".join(lines)
 
 
-def _check_inputs(t, u, w, Vs, delta):
+def _check_inputs(t, u, w, Vs, delta, method="paper"):
     t = check_time("t", t, min_len=MIN_SAMPLES)
     u = check_signal("u", u, n=t.shape[0])
     w = check_signal("w", w, n=t.shape[0])
-    Vs = check_positive("Vs", Vs)
-    delta = check_finite_scalar("delta", delta)
-    if delta == 0.0:
-        raise ParameterError("delta must be non-zero, got 0.0")
+    if (Vs is None) != (delta is None):
+        raise ParameterError("give both Vs and delta (the Stribeck pre-fit), or neither (method 'output_error' "
+                             f"then fits them), got Vs = {Vs!r}, delta = {delta!r}")
+    if Vs is None and method != "output_error":
+        raise ParameterError(f"method {method!r} needs Vs and delta (the Stribeck pre-fit, Sec. V-C); method "
+                             "'output_error' fits them where they are not given")
+    if Vs is not None:
+        Vs = check_positive("Vs", Vs)
+        delta = check_finite_scalar("delta", delta)
+        if delta == 0.0:
+            raise ParameterError("delta must be non-zero, got 0.0")
     if np.ptp(u) == 0.0:
         raise ExcitationError("u is constant: the input does not excite J (nor any parameter)")
     sgn = np.sign(w[np.abs(w) > 0])
@@ -337,8 +351,9 @@ def _check_inputs(t, u, w, Vs, delta):
     return t, u, w, Vs, delta
 
 
-def _names(offset: bool) -> tuple:
-    return PHYSICAL_NAMES if offset else PHYSICAL_NAMES[:-1]
+def _names(offset: bool, shape: bool = False) -> tuple:
+    """Names of the fitted parameters: ``PHYSICAL_NAMES`` (without the offset), then ``Vs, delta`` if fitted."""
+    return (PHYSICAL_NAMES if offset else PHYSICAL_NAMES[:-1]) + (SHAPE_NAMES if shape else ())
 
 
 def _printed_inverse(theta_full, Ts: float) -> dict:
@@ -618,6 +633,14 @@ class _OutputErrorProblem:
         if t.shape[0] - self.i0 < MIN_SAMPLES:
             raise SignalError(f"the record ({t[-1] - t[0]:.4g} s) is too short for burn = {opts.burn!r} s; "
                               f"need at least {MIN_SAMPLES} samples after it")
+        # Vs, delta None: fitted, as log Vs and delta after the other coordinates (j_shape); self.Vs, self.delta
+        # are then their start values (the middle of the log Vs start profile, delta = 1)
+        self.free_shape = Vs is None
+        if self.free_shape:
+            peak0 = float(np.max(np.abs(w)))
+            self.vs_grid = np.geomspace(max(velocity_noise_std_irregular(t, w), 1e-3 * peak0), 0.3 * peak0, _VS_GRID)
+            Vs, delta = float(self.vs_grid[_VS_GRID // 2]), 1.0
+        self.j_shape = 5 + int(bool(offset))
         self.t, self.u, self.w, self.Vs, self.delta, self.offset, self.opts = t, u, w, Vs, delta, offset, opts
         self.wm = w[self.i0:]
         self.w0, self.f0 = float(w[0]), float(u[0])  # friction balances the input at the start (quasi-steady)
@@ -642,7 +665,9 @@ class _OutputErrorProblem:
         # ds*Fc (a step of 0.01 N·m would not be seen past the breakaway jitter of the free-run output)
         self.torque = max(abs(s0["Fc"]), 1e-3 * float(np.std(self.u)))
         return np.array([math.log(s0["J"]), s0["Fc"], s0.get("Fs", s0["Fc"]), s0["sigma"], math.log(s0["tau"])]
-                        + ([s0.get("offset", 0.0) / self.torque] if self.offset else []), dtype=float)
+                        + ([s0.get("offset", 0.0) / self.torque] if self.offset else [])
+                        + ([math.log(s0.get("Vs", self.Vs)), s0.get("delta", self.delta)] if self.free_shape
+                           else []), dtype=float)
 
     def replicate(self, w_star: np.ndarray) -> "_OutputErrorProblem":
         """The same problem (input grid, predictor, robust scales, offset scale) on another velocity record."""
@@ -654,16 +679,33 @@ class _OutputErrorProblem:
         """``(J, Fc, Fs, sigma, tau, offset)`` of ``x``."""
         return math.exp(x[0]), x[1], x[2], x[3], math.exp(x[4]), (x[5] * self.torque if self.offset else 0.0)
 
+    def shape(self, x) -> tuple:
+        """``(Vs, delta)`` at ``x``: the given ones, or the fitted ones."""
+        if self.free_shape:
+            return math.exp(x[self.j_shape]), float(x[self.j_shape + 1])
+        return self.Vs, self.delta
+
+    def values(self, x) -> dict:
+        """Every fitted parameter at ``x`` in physical units, by name (:func:`_names`)."""
+        vals = dict(zip(PHYSICAL_NAMES, self.unpack(x)))
+        vals.update(zip(SHAPE_NAMES, self.shape(x)))
+        return {k: float(vals[k]) for k in _names(self.offset, self.free_shape)}
+
+    def admissible(self, x) -> bool:
+        """The RK4 sub-step resolves the lag (tau > 0.4 h_max) and a fitted delta is >= ``_DELTA_MIN``."""
+        return math.exp(x[4]) >= 0.4 * self.opts.h_max and not (self.free_shape and x[self.j_shape + 1] < _DELTA_MIN)
+
     def simulate(self, x) -> np.ndarray:
         """Predicted velocity at every sample (rad/s)."""
         J, Fc, Fs, sigma, tau, off = self.unpack(x)
-        par = lagged_params(J, Fc, Fs, self.Vs, self.delta, sigma, tau)
+        Vs, delta = self.shape(x)
+        par = lagged_params(J, Fc, Fs, Vs, delta, sigma, tau)
         return simulate_on_grid(par, self.grid, w0=self.w0, f0=self.f0, offset=off, gain=self.gain, w_meas=self.w)
 
     def res(self, x) -> np.ndarray:
         """Prediction errors after the burn-in (rad/s); a large constant where the model is not admissible."""
         self.n_sim += 1
-        if math.exp(x[4]) < 0.4 * self.opts.h_max:
+        if not self.admissible(x):
             return np.full(self.wm.shape[0], self.big)
         r = self.simulate(x)[self.i0:] - self.wm
         return np.where(np.isfinite(r), r, self.big)
@@ -674,13 +716,15 @@ class _OutputErrorProblem:
         with the chain rule for log J, log tau and the offset scale; zero rows where :meth:`res` is its constant."""
         self.n_sim += 1
         ncol = x.shape[0]
-        if math.exp(x[4]) < 0.4 * self.opts.h_max:
+        if not self.admissible(x):
             return np.zeros((self.wm.shape[0], ncol))
         J, Fc, Fs, sigma, tau, off = self.unpack(x)
-        par = lagged_params(J, Fc, Fs, self.Vs, self.delta, sigma, tau)
+        Vs, delta = self.shape(x)
+        par = lagged_params(J, Fc, Fs, Vs, delta, sigma, tau)
         w, dw = simulate_on_grid_sens(par, self.grid, w0=self.w0, f0=self.f0, offset=off, gain=self.gain,
                                       w_meas=self.w)
-        G = dw[self.i0:, :ncol] * np.array([J, 1.0, 1.0, 1.0, tau] + ([self.torque] if self.offset else []))
+        cols = [0, 1, 2, 3, 4] + ([5] if self.offset else []) + ([6, 7] if self.free_shape else [])
+        G = dw[self.i0:, cols] * self.chain(x)
         G[~np.isfinite(w[self.i0:])] = 0.0
         return G
 
@@ -705,9 +749,16 @@ class _OutputErrorProblem:
         return x
 
     def typical(self, x) -> np.ndarray:
-        """Typical changes of ``x``: 2 % of J, 1 % of the torques, 3 % of tau, offset 1 % of Fc."""
+        """Typical changes of ``x``: 2 % of J, 1 % of the torques, 3 % of tau, offset 1 % of Fc; a fitted Vs
+        5 %, delta 0.02."""
         return np.array([0.02, 0.01 * abs(x[1]) + 1e-9, 0.01 * abs(x[2]) + 1e-9, 0.01 * abs(x[3]) + 1e-9, 0.03]
-                        + ([0.01] if self.offset else []))
+                        + ([0.01] if self.offset else []) + ([0.05, 0.02] if self.free_shape else []))
+
+    def chain(self, x) -> np.ndarray:
+        """d(physical parameter)/dx of each coordinate (log J, log tau, the offset scale, log Vs)."""
+        J, _, _, _, tau, _ = self.unpack(x)
+        return np.array([J, 1.0, 1.0, 1.0, tau] + ([self.torque] if self.offset else [])
+                        + ([self.shape(x)[0], 1.0] if self.free_shape else []))
 
     def refine(self, x, ds, fsc=None, free=None):
         """Trust-region fit from ``x`` (``free``: indices fitted, the others held; default all)."""
@@ -741,7 +792,16 @@ def _oe_global_stage(pb: _OutputErrorProblem, x: np.ndarray, profiled: bool) -> 
     if profiled:
         Ts = float(np.median(np.diff(pb.t)))
         x = pb.profile(x, math.log(max(0.5 * Ts, 1.2 * o.h_max)), math.log(20.0 * Ts), 13, j=4, fsc=pb.f_wide)
-        x = pb.profile(x, x[1], o.fs_max_ratio * x[1], o.fs_grid, fsc=pb.f_wide)
+        if pb.free_shape:  # Vs not given: a profile over log Vs at delta = 1, each point with its Fs profile
+            pts = []
+            for v in pb.vs_grid:
+                xx = x.copy()
+                xx[pb.j_shape] = math.log(v)
+                xx = pb.profile(xx, xx[1], o.fs_max_ratio * xx[1], o.fs_grid, fsc=pb.f_wide)
+                pts.append((pb.cost(xx, pb.f_wide), xx))
+            x = min(pts, key=lambda p: p[0])[1]
+        else:
+            x = pb.profile(x, x[1], o.fs_max_ratio * x[1], o.fs_grid, fsc=pb.f_wide)
     sol = pb.refine(x, o.diff_step, pb.f_wide)
     best = (pb.cost(sol.x, pb.f_wide), sol)
     xb = best[1].x
@@ -840,8 +900,7 @@ def _oe_stderr(pb: _OutputErrorProblem, x: np.ndarray, names: tuple) -> tuple[di
     Gs = G / sc
     sv = np.linalg.svd(Gs, compute_uv=False)
     cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
-    J, _, _, _, tau, _ = pb.unpack(x)
-    chain = np.array([J, 1.0, 1.0, 1.0, tau] + ([pb.torque] if pb.offset else []))
+    chain = pb.chain(x)
     lags = 0
     try:
         white = np.sqrt(np.clip(np.diag(s2 * np.linalg.inv(Gs.T @ Gs)), 0.0, None)) / sc
@@ -873,24 +932,26 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
     """
     o = pb.opts
     w_hat = pb.simulate(x)
-    keep = [j for j, k in enumerate(PHYSICAL_NAMES) if k in names]
     n_sim = []  # per refit; list.append is atomic, the refits may run in threads
 
     def refit(y_star, rng):  # safe in threads: every problem it runs is its own
         w_star = w_hat.copy()
         w_star[pb.i0:] = y_star
         if o.bootstrap_refit == "full":  # the estimator itself: the replicate as a record of its own
-            rp = _OutputErrorProblem(pb.t, pb.u, w_star, pb.Vs, pb.delta, pb.offset, o)
-            s0 = dict(o.start) if o.start is not None else _start_from_paper(pb.t, pb.u, w_star, pb.Vs, pb.delta,
+            given = (None, None) if pb.free_shape else (pb.Vs, pb.delta)
+            rp = _OutputErrorProblem(pb.t, pb.u, w_star, *given, pb.offset, o)
+            s0 = dict(o.start) if o.start is not None else _start_from_paper(pb.t, pb.u, w_star, rp.Vs, rp.delta,
                                                                               pb.offset)
             z = _oe_search(rp, s0)[0][1]
         else:
             rp = pb.replicate(w_star)
             z = _oe_refit(rp, x + rng.normal(size=x.shape) * _BOOT_START * pb.typical(x))
         n_sim.append(rp.n_sim)
-        return np.array(rp.unpack(z))[keep]
+        v = rp.values(z)
+        return np.array([v[k] for k in names])
 
-    est = np.array(pb.unpack(x))[keep]
+    v = pb.values(x)
+    est = np.array([v[k] for k in names])
     b = parametric_block_bootstrap(refit, w_hat[pb.i0:], r, est, n=o.n_bootstrap,
                                    block=_BOOT_BLOCK * (andrews_bandwidth(r) + 1),
                                    rng=np.random.default_rng(o.bootstrap_seed), scheme=_BOOT_SCHEME,
@@ -914,8 +975,9 @@ def _oe_intervals(pb: _OutputErrorProblem, names: tuple, est: np.ndarray, b) -> 
         return {}
     half = b.half_width(0.95)
     cols = [names.index(k) for k in ("Fc", "Fs", "sigma")]
-    band = friction_band(est[cols], b.replicates[:, cols], w_max=float(np.max(np.abs(pb.w))), Vs=pb.Vs,
-                         delta=pb.delta)
+    Vs, delta = (est[names.index("Vs")], est[names.index("delta")]) if pb.free_shape else (pb.Vs, pb.delta)
+    band = friction_band(est[cols], b.replicates[:, cols], w_max=float(np.max(np.abs(pb.w))), Vs=float(Vs),
+                         delta=float(delta))
     return {"interval95": {k: [float(v - h), float(v + h)] for k, v, h in zip(names, est, half)},
             "band": band.to_dict()}
 
@@ -935,13 +997,11 @@ def _oe_search(pb: _OutputErrorProblem, s0: dict) -> tuple[tuple[float, np.ndarr
 def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> PhysicalFit:
     """The output-error fit of eqs. 1-3 (module docstring): staged search, then Gauss-Newton errors."""
     pb = _OutputErrorProblem(t, u, w, Vs, delta, offset, opts)
-    names = _names(offset)
-    s0 = dict(opts.start) if opts.start is not None else _start_from_paper(t, u, w, Vs, delta, offset)
+    names = _names(offset, pb.free_shape)
+    s0 = dict(opts.start) if opts.start is not None else _start_from_paper(t, u, w, pb.Vs, pb.delta, offset)
     best, lag_prof = _oe_search(pb, s0)
     x = best[1]
-    J, Fc, Fs, sigma, tau, off = pb.unpack(x)
-    vals = {"J": J, "Fc": Fc, "Fs": Fs, "sigma": sigma, "tau": tau, "offset": off}
-    params = {k: float(vals[k]) for k in names}
+    params = pb.values(x)
     stderr_hac, stderr_white, cond, r, lags = _oe_stderr(pb, x, names)
     stderr, boot = stderr_hac, None
     if opts.n_bootstrap > 0:
@@ -957,7 +1017,8 @@ def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> P
                              "stderr_kind": "bootstrap" if boot is not None else "hac", "stderr_hac": stderr_hac,
                              "stderr_white": stderr_white, "hac_lags": int(lags), "bootstrap": boot,
                              "start": {k: float(v) for k, v in s0.items()}, "cost": float(best[0]),
-                             "lag_profile": lag_prof,
+                             "lag_profile": lag_prof, "fitted": list(names),
+                             "fixed": {} if pb.free_shape else {"Vs": float(Vs), "delta": float(delta)},
                              "residual_rms": float(math.sqrt(float(r @ r) / r.shape[0])),
                              "n_simulations": int(pb.n_sim), "burn_samples": pb.i0, "loss": opts.loss,
                              "f_scale": float(pb.f_scale), "f_scale_global": float(pb.f_wide),
@@ -966,7 +1027,7 @@ def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> P
 
 
 
-def fit_physical(t, u, w, *, Vs: float, delta: float, method: str = "output_error", offset: bool = True,
+def fit_physical(t, u, w, *, Vs: float | None, delta: float | None, method: str = "output_error", offset: bool = True,
                  **options) -> PhysicalFit:
     """Identify J, tau, sigma, Fc, Fs (and a torque offset) of eqs. 1-3 from a sampled record.
 
@@ -979,10 +1040,14 @@ def fit_physical(t, u, w, *, Vs: float, delta: float, method: str = "output_erro
         Input torque (N·m) at ``t``.
     w : array_like, shape (N,)
         Measured velocity (rad/s) at ``t``.
-    Vs : float, keyword-only
-        Stribeck velocity (rad/s), > 0, pre-estimated (Sec. V-C; held fixed).
-    delta : float, keyword-only
-        Stribeck shape factor, non-zero, pre-estimated (held fixed).
+    Vs : float or None, keyword-only
+        Stribeck velocity (rad/s), > 0, pre-estimated (Sec. V-C; held fixed). None (with ``delta`` None, method
+        ``"output_error"`` only): fitted with the others, where the quasi-static pre-fit is absent or refused
+        (a profile over log Vs at ``delta = 1`` in the global stage, then every stage with ``log Vs`` and
+        ``delta`` free); ``params`` then hold ``Vs`` and ``delta``, and ``info["fitted"]``/``info["fixed"]``
+        say which parameters were fitted and which held.
+    delta : float or None, keyword-only
+        Stribeck shape factor, non-zero, pre-estimated (held fixed); None with ``Vs`` None: fitted (>= 0.05).
     method : {"paper", "output_error"}, keyword-only
         See the module docstring. Default ``"output_error"``.
     offset : bool, keyword-only
@@ -1032,7 +1097,7 @@ def fit_physical(t, u, w, *, Vs: float, delta: float, method: str = "output_erro
     if method not in METHODS:
         raise ParameterError(f"method must be one of {METHODS}, got {method!r}")
     offset = bool(offset)
-    t, u, w, Vs, delta = _check_inputs(t, u, w, Vs, delta)
+    t, u, w, Vs, delta = _check_inputs(t, u, w, Vs, delta, method)
     if method == "paper":
         unknown = set(options) - {"inverse"}
         if unknown:
