@@ -194,6 +194,7 @@ def fit_ls(model: RegressionModel, u, w, *, Ts: float, ridge: float = 0.0, free_
     return LSResult(
         model=model, Ts=Ts, theta=theta, theta_std=theta_std, estimate=model.to_physical(theta, Ts),
         residual_rms=float(np.sqrt(np.mean(resid**2))), cond=cond,
-        fit_one_step=nrmse_fit(w[2:], w_one[2:]), fit_free_run=nrmse_fit(w[2:], w_free[2:]) if free_run else float("nan"),
+        fit_one_step=nrmse_fit(w[2:], w_one[2:]),
+        fit_free_run=nrmse_fit(w[2:], w_free[2:]) if free_run else float("nan"),
         w_one_step=w_one, w_free_run=w_free,
     )

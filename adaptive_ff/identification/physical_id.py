@@ -287,6 +287,8 @@ class PhysicalFit:
         same) and ``band`` (the 95 % band of F(w) from the refits, as
         :meth:`adaptive_ff.identification.uncertainty.FrictionBand.to_dict`), ``start``, ``cost``,
         ``lag_profile`` (None, or the profile over tau: ``tau``, ``cost``, ``n_simulations``, ``moved``),
+        ``fitted`` (names of the fitted parameters; ``Vs``, ``delta`` among them where they were not given),
+        ``fixed`` (``{"Vs", "delta"}`` as given, or empty),
         ``residual_rms``, ``n_simulations``, ``burn_samples``, ``loss``,
         ``f_scale``, ``h_max``, ``input_delay``, ``interp``, ``Ts_mean``,
         ``Ts_max``.
@@ -624,8 +626,11 @@ def _check_start(start) -> dict | None:
 class _OutputErrorProblem:
     """The prediction errors of eqs. 1-3 on a record and the search tools over them (``fit_physical``).
 
-    Parameter vector ``x = (log J, Fc, Fs, sigma, log tau[, offset/torque])``.
+    Parameter vector ``x = (log J, Fc, Fs, sigma, log tau[, offset/torque][, log Vs, delta])``.
     """
+
+    free_shape = False  # Vs, delta fitted (set by __init__; a subclass with its own residual keeps them given)
+    j_shape = 6
 
     def __init__(self, t, u, w, Vs, delta, offset, opts: OutputErrorOptions):
         self.grid = input_grid(t, u, h_max=opts.h_max, input_delay=opts.input_delay, interp=opts.interp)

@@ -210,9 +210,12 @@ def simulate_on_grid_sens(par: np.ndarray, grid: InputGrid, *, w0: float, f0: fl
 
     Parameters
     ----------
-    par, grid, w0, f0, offset, gain, w_meas
-        As :func:`simulate_on_grid`; ``par`` a lagged Stribeck joint from :func:`plant.dynamics.lagged_params`
-        with ``tau > 0``.
+    par : cffi ``plant_params *``
+        A lagged Stribeck joint from :func:`plant.dynamics.lagged_params` with ``tau > 0``.
+    grid : InputGrid
+        From :func:`input_grid`.
+    w0, f0, offset, gain, w_meas : keyword-only
+        As :func:`simulate_on_grid`.
 
     Returns
     -------

@@ -467,7 +467,8 @@ def register(sub) -> None:
                         "--delta). paper: the eq. 4 LS/RLS as "
                         "printed; output_error: also fit the physical J, tau, sigma, Fc, Fs of eqs. 1-3 by "
                         "simulation-error minimisation on the record's own time stamps (open-loop records; robust "
-                        "to noise and irregular sampling; needs --Vs, --delta); sliding: the sliding-regime "
+                        "to noise and irregular sampling; without --Vs, --delta it fits Vs and delta too); "
+                        "sliding: the sliding-regime "
                         "inverse-dynamics regression on a controller-rate log (closed loop; needs --Vs, --delta)")
     f = i.add_argument_group("model-form selection (adaptive_ff.identification.model_forms.select_form)")
     f.add_argument("--form", default=None, metavar="auto|NAME",
