@@ -460,7 +460,8 @@ class IdentificationReport:
             ph = self.physical
             lines += [f"{'parameter':<10}{'value':>14}{'std error':>13}  unit", "-" * 70]
             for nm, v in ph.params.items():
-                lines.append(f"{nm:<10}{v:>14.6g}{ph.stderr.get(nm, float('nan')):>13.3g}  {PARAM_UNITS[nm]}")
+                unit = PARAM_UNITS.get(nm, VELOCITY_LABEL if nm == "Vs" else "-")  # Vs, delta: fitted by output error
+                lines.append(f"{nm:<10}{v:>14.6g}{ph.stderr.get(nm, float('nan')):>13.3g}  {unit}")
             lines += _fixed_rows(m, "") if self.forms is None else _form_rows(self.forms, m)
             lines += ["-" * 70, f"fit ({ph.nrmse_kind}) {ph.nrmse:.3f} %, cond {ph.cond:.3g}, "
                                 f"{ph.n_samples} samples",
