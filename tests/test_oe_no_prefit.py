@@ -73,3 +73,20 @@ def test_identify_output_error_without_prefit_reports_vs_delta_fitted(log):
     assert "Vs" in form["fitted"] and "delta" in form["fitted"]
     assert form["fixed"] == {}
     assert rep.Vs == rep.physical.params["Vs"] and rep.delta == rep.physical.params["delta"]
+
+
+def test_cli_output_error_without_vs_prints_and_reports_them_fitted(log, tmp_path, capsys):
+    import json
+
+    from controllers.cli.main import main
+
+    n = 4001
+    csv = tmp_path / "log.csv"
+    np.savetxt(csv, np.column_stack([log.t[:n], log.u[:n], log.w[:n]]), delimiter=",", header="t,u,w", comments="")
+    assert main(["identify", str(csv), "--method", "output_error", "--lag", "--bootstrap", "0", "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "fitted J, Fc, Fs, sigma, tau, offset, Vs, delta" in text
+    assert main(["identify", str(csv), "--method", "output_error", "--lag", "--bootstrap", "0", "--quiet",
+                 "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert {"Vs", "delta"} <= set(d["form"]["fitted"]) and d["form"]["fixed"] == {}
