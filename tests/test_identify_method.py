@@ -66,7 +66,7 @@ def test_paper_method_has_no_physical_fit(record):
 
 @pytest.mark.parametrize("kwargs, match", [
     ({"method": "ols"}, "method must be one of"),
-    ({"method": "output_error", "Vs": None, "delta": None}, "give Vs and delta"),
+    ({"method": "sliding", "Vs": None, "delta": None}, "give Vs and delta"),  # output_error fits them where not given
     ({"method": "output_error", "method_options": [1]}, "method_options must be a dict"),
 ])
 def test_bad_method_arguments_raise_naming_them(record, kwargs, match):

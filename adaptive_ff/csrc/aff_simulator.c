@@ -32,3 +32,140 @@ void aff_simulate_on_grid(const plant_params *p, const double *tg, const double 
         }
     }
 }
+
+/* F(w) of eq. 3 (plant_target, the one implementation) and its derivatives: *dw = dF/dw, dp[AFF_SENS_*] = dF/d
+ * (Fc, Fs, sigma, Vs, delta) at the stored positions (J, tau, offset: 0). The discrete map's own derivative: 0 at
+ * w == 0 (F(0) = 0), the Stribeck term's past the cut-off speed wcut (where the map drops it). */
+static double target_derivs(const plant_params *p, double w, double *dw, double *dp)
+{
+    const plant_stribeck *m = w > 0.0 ? &p->pos : &p->neg;
+    double F = plant_target(p, w, 0.0);
+    double aw = fabs(w);
+    double sg = w > 0.0 ? 1.0 : (w < 0.0 ? -1.0 : 0.0);
+    double S = 0.0, x = 0.0, xd = 0.0;
+    for (int j = 0; j < AFF_SENS_NP; j++)
+        dp[j] = 0.0;
+    if (sg == 0.0) {
+        *dw = 0.0;
+        return F;
+    }
+    if (aw <= m->wcut) {
+        x = aw / m->Vs;
+        xd = m->delta != 1.0 ? pow(x, m->delta) : x;
+        S = exp(-xd);
+    }
+    dp[AFF_SENS_FC] = sg * (1.0 - S);
+    dp[AFF_SENS_FS] = sg * S;
+    dp[AFF_SENS_SIGMA] = w;
+    *dw = m->sigma;
+    if (S != 0.0 && x > 0.0) {
+        *dw += -m->dF * S * m->delta * xd / x / m->Vs;       /* d/d|w| of dF*S, times sg*sg */
+        dp[AFF_SENS_VS] = sg * m->dF * S * m->delta * xd / m->Vs;
+        dp[AFF_SENS_DELTA] = -sg * m->dF * S * xd * log(x);
+    }
+    return F;
+}
+
+/* Right-hand side of eqs. 1-2 (state w, f; input u, offset removed) and its tangent along (Dw, Df). */
+static void rhs_tangent(const plant_params *p, double w, double f, double u, const double *Dw, const double *Df,
+                        double *kw, double *kf, double *Dkw, double *Dkf)
+{
+    double dFdw, dFp[AFF_SENS_NP];
+    double F = target_derivs(p, w, &dFdw, dFp);
+    *kw = (u - f) * p->inv_J;
+    *kf = (F - f) * p->inv_tau;
+    for (int j = 0; j < AFF_SENS_NP; j++) {
+        Dkw[j] = -Df[j] * p->inv_J;
+        Dkf[j] = (dFdw * Dw[j] - Df[j] + dFp[j]) * p->inv_tau;
+    }
+    Dkw[AFF_SENS_J] -= (u - f) * p->inv_J * p->inv_J;
+    Dkw[AFF_SENS_OFFSET] -= p->inv_J; /* u enters as u - offset */
+    Dkf[AFF_SENS_TAU] -= (F - f) * p->inv_tau * p->inv_tau;
+}
+
+void aff_simulate_on_grid_sens(const plant_params *p, const double *tg, const double *ug, const long *idx, long n,
+                               double offset, double w0, double f0, double Kw, double Kf, const double *w_meas,
+                               int inject, double *out, double *dout)
+{
+    double J = p->J;
+    double w = w0;
+    double f = f0 - offset;
+    double Dw[AFF_SENS_NP], Df[AFF_SENS_NP];
+    if (n <= 0)
+        return;
+    for (int j = 0; j < AFF_SENS_NP; j++) {
+        Dw[j] = 0.0;
+        Df[j] = 0.0;
+        dout[j] = 0.0;
+    }
+    Df[AFF_SENS_OFFSET] = -1.0; /* the state is f - offset */
+    out[0] = w0;
+    for (long s = 1; s < n; s++) {
+        long a = idx[s - 1];
+        long b = idx[s];
+        for (long i = a; i < b; i++) {
+            double u0 = ug[i] - offset;
+            double u1 = ug[i + 1] - offset;
+            double um = 0.5 * (u0 + u1);
+            double h = tg[i + 1] - tg[i];
+            double h2 = 0.5 * h;
+            double h6 = h / 6.0;
+            double k1w, k1f, k2w, k2f, k3w, k3f, k4w, k4f, wa, fa, wb, fb, wc, fc;
+            double D1w[AFF_SENS_NP], D1f[AFF_SENS_NP], D2w[AFF_SENS_NP], D2f[AFF_SENS_NP];
+            double D3w[AFF_SENS_NP], D3f[AFF_SENS_NP], D4w[AFF_SENS_NP], D4f[AFF_SENS_NP];
+            double Daw[AFF_SENS_NP], Daf[AFF_SENS_NP];
+            int j;
+            /* the stages of plant_rk4 (plant_dynamics.c) in its order of operations, with their tangents */
+            rhs_tangent(p, w, f, u0, Dw, Df, &k1w, &k1f, D1w, D1f);
+            wa = w + h2 * k1w;
+            fa = f + h2 * k1f;
+            for (j = 0; j < AFF_SENS_NP; j++) {
+                Daw[j] = Dw[j] + h2 * D1w[j];
+                Daf[j] = Df[j] + h2 * D1f[j];
+            }
+            rhs_tangent(p, wa, fa, um, Daw, Daf, &k2w, &k2f, D2w, D2f);
+            wb = w + h2 * k2w;
+            fb = f + h2 * k2f;
+            for (j = 0; j < AFF_SENS_NP; j++) {
+                Daw[j] = Dw[j] + h2 * D2w[j];
+                Daf[j] = Df[j] + h2 * D2f[j];
+            }
+            rhs_tangent(p, wb, fb, um, Daw, Daf, &k3w, &k3f, D3w, D3f);
+            wc = w + h * k3w;
+            fc = f + h * k3f;
+            for (j = 0; j < AFF_SENS_NP; j++) {
+                Daw[j] = Dw[j] + h * D3w[j];
+                Daf[j] = Df[j] + h * D3f[j];
+            }
+            rhs_tangent(p, wc, fc, u1, Daw, Daf, &k4w, &k4f, D4w, D4f);
+            w = w + h6 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w);
+            f = f + h6 * (k1f + 2.0 * k2f + 2.0 * k3f + k4f);
+            for (j = 0; j < AFF_SENS_NP; j++) {
+                Dw[j] = Dw[j] + h6 * (D1w[j] + 2.0 * D2w[j] + 2.0 * D3w[j] + D4w[j]);
+                Df[j] = Df[j] + h6 * (D1f[j] + 2.0 * D2f[j] + 2.0 * D3f[j] + D4f[j]);
+            }
+        }
+        if (!(isfinite(w) && isfinite(f))) {
+            for (long r = s; r < n; r++) {
+                out[r] = NAN;
+                for (int j = 0; j < AFF_SENS_NP; j++)
+                    dout[r * AFF_SENS_NP + j] = NAN;
+            }
+            return;
+        }
+        out[s] = w;
+        for (int j = 0; j < AFF_SENS_NP; j++)
+            dout[s * AFF_SENS_NP + j] = Dw[j];
+        if (inject) {
+            double e = w_meas[s] - w;
+            double g = Kf / (tg[b] - tg[a]);
+            for (int j = 0; j < AFF_SENS_NP; j++) {
+                Df[j] += g * J * Dw[j]; /* f -= g*J*e, de = -Dw */
+                Dw[j] *= 1.0 - Kw;
+            }
+            Df[AFF_SENS_J] -= g * e;
+            w += Kw * e;
+            f -= Kf * J / (tg[b] - tg[a]) * e;
+        }
+    }
+}

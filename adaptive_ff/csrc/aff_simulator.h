@@ -23,4 +23,30 @@ void aff_simulate_on_grid(const plant_params *p, const double *tg, const double 
                           double offset, double w0, double f0, double Kw, double Kf, const double *w_meas,
                           int inject, double *out);
 
+/* Positions of the parameters in the sensitivities of aff_simulate_on_grid_sens (AFF_SENS_NP of them). */
+#define AFF_SENS_NP 8
+#define AFF_SENS_J 0
+#define AFF_SENS_FC 1
+#define AFF_SENS_FS 2
+#define AFF_SENS_SIGMA 3
+#define AFF_SENS_TAU 4
+#define AFF_SENS_OFFSET 5
+#define AFF_SENS_VS 6
+#define AFF_SENS_DELTA 7
+
+/* aff_simulate_on_grid (the same out, the same operations on w and f) with the forward sensitivities of the
+ * discrete simulation: dout[s*AFF_SENS_NP + j] = d out[s] / d theta_j for theta = (J, Fc, Fs, sigma, tau, offset,
+ * Vs, delta) (SI units; n*AFF_SENS_NP entries, row s = sample s, row 0 zero). The tangent of each RK4 stage is
+ * propagated with the stage (the variational equations of the discretised model, not of the ODE: the exact
+ * Jacobian of out, for a Gauss-Newton or trust-region fit). Eq. 3's derivatives are those of the discrete map:
+ * zero at w == 0 and for the Stribeck term past its cut-off speed (plant_stribeck.h); delta: d/d delta of
+ * exp(-(|w|/Vs)^delta). Output injection: w += Kw*e, f -= Kf*J/h_i*e differentiated alike. A non-finite state
+ * makes out and dout NaN from that sample on. Needs p lagged (PLANT_LAGGED_STRIBECK, no Karnopp band, no
+ * ripple), J > 0, tau > 0. No checks. Source: Ruderman eqs. 1-3; forward sensitivity analysis of a one-step
+ * method (Hairer, Norsett, Wanner, Solving ODEs I, Sec. II.1 and I.14: the derivative of the numerical solution
+ * with respect to parameters is the numerical solution of the variational equation by the same RK method). */
+void aff_simulate_on_grid_sens(const plant_params *p, const double *tg, const double *ug, const long *idx, long n,
+                               double offset, double w0, double f0, double Kw, double Kf, const double *w_meas,
+                               int inject, double *out, double *dout);
+
 #endif

@@ -224,6 +224,8 @@ class IdentificationReport:
         one, without effect since ``Fs = Fc``, for Coulomb + viscous)."""
         if self.forms is not None and self.forms.best.stribeck == "free":
             return self.forms.best.params["Vs"]
+        if self.physical is not None and "Vs" in self.physical.params:  # fitted by output error (no pre-fit)
+            return self.physical.params["Vs"]
         return self.model.Vs if self.model.stribeck else None
 
     @property
@@ -231,6 +233,8 @@ class IdentificationReport:
         """Stribeck shape factor of the fitted model, fixed by the pre-fit; None without Stribeck (as :attr:`Vs`)."""
         if self.forms is not None and self.forms.best.stribeck == "free":
             return self.forms.best.params["delta"]
+        if self.physical is not None and "delta" in self.physical.params:
+            return self.physical.params["delta"]
         return self.model.delta if self.model.stribeck else None
 
     @property
@@ -272,7 +276,8 @@ class IdentificationReport:
         dict
             ``name`` (e.g. ``"lagged Stribeck"``, ``"Coulomb + viscous"``), ``equations`` (the paper's),
             ``stribeck``, ``lag``, ``offset`` (bool), ``fitted`` (names of the fitted parameters), ``fixed``
-            (``{"Vs", "delta"}`` from the Stribeck pre-fit; empty without Stribeck), ``constrained``
+            (``{"Vs", "delta"}`` from the Stribeck pre-fit; empty without Stribeck, and where output error
+            fitted Vs and delta, which are then in ``fitted``), ``constrained``
             (``{"Fs": "Fc"}`` for the Coulomb structure, ``{"tau": 0.0}`` without lag, ``{"offset": 0.0}``
             without offset) and ``estimator`` (the function that fitted it).
         """
@@ -286,7 +291,9 @@ class IdentificationReport:
             equations = "IDIM: u = J dw/dt + Fc sgn(w) + sigma w + offset (eqs. 1, 3 with Fs = Fc, tau = 0)"
             estimator = _ESTIMATORS["idim"]
         elif self.physical is not None:
-            fitted = [k for k in _ANSWER_KEYS if k in self.physical.params]
+            fitted = [k for k in _ANSWER_KEYS + ("Vs", "delta") if k in self.physical.params]
+            if "Vs" in fitted:  # output error without the pre-fit: Vs and delta fitted, none fixed
+                fixed = {}
             lag, stribeck, offset = "tau" in fitted, True, "offset" in fitted
             equations = "eqs. 1-3"
             estimator = _ESTIMATORS.get(self.method, _ESTIMATORS["output_error"])
@@ -465,7 +472,8 @@ class IdentificationReport:
             for nm, v in ph.params.items():
                 if self.method == "idim" and nm in f["constrained"]:
                     continue  # Fs = Fc and tau = 0 by the structure: one line below
-                lines.append(f"{nm:<10}{v:>14.6g}{ph.stderr.get(nm, float('nan')):>13.3g}  {PARAM_UNITS[nm]}")
+                unit = PARAM_UNITS.get(nm, VELOCITY_LABEL if nm == "Vs" else "-")  # Vs, delta: fitted by output error
+                lines.append(f"{nm:<10}{v:>14.6g}{ph.stderr.get(nm, float('nan')):>13.3g}  {unit}")
             if self.method == "idim":
                 lines.append("(" + ", ".join(f"{k} = {v}" for k, v in f["constrained"].items()) + ": not fitted)")
             lines += _fixed_rows(m, "") if self.forms is None else _form_rows(self.forms, m)

@@ -263,7 +263,7 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
         and no ``method_options``.
     form_options : dict, keyword-only, optional
         Options of :func:`adaptive_ff.identification.model_forms.select_form`: ``folds``, ``criterion``,
-        ``forms``, ``h_max``, ``input_delay``, ``predictor``.
+        ``forms``, ``h_max``, ``input_delay``, ``predictor``, ``progress``.
 
     Returns
     -------
@@ -406,7 +406,7 @@ def _check_form_args(form, form_options, method, method_options) -> dict:
         return {}
     if not isinstance(form_options, dict):
         raise ParameterError(f"form_options must be a dict, got {form_options!r}")
-    allowed = ("folds", "criterion", "forms", "h_max", "input_delay", "predictor")
+    allowed = ("folds", "criterion", "forms", "h_max", "input_delay", "predictor", "progress")
     unknown = sorted(set(form_options) - set(allowed))
     if unknown:
         raise ParameterError(f"unknown form_options {unknown}; allowed: {list(allowed)}")
@@ -582,7 +582,7 @@ def _check_identify_args(data, Vs, delta, n_history, P0, method, method_options,
     if method == "idim" and (Vs is not None or lag):
         raise ParameterError(f"method 'idim' fits Coulomb + viscous friction without lag (u = J dw/dt + Fc sgn(w) + "
                              f"sigma w + offset): drop Vs, delta and lag, got Vs = {Vs!r}, lag = {lag!r}")
-    if method in ("output_error", "sliding") and Vs is None:
+    if method == "sliding" and Vs is None:  # output_error without them fits Vs and delta (fit_physical)
         raise ParameterError(f"method {method!r} fits the Stribeck model of eqs. 1-3: give Vs and delta "
                              f"(pre-fit, Sec. V-C), got Vs = {Vs!r}, delta = {delta!r}")
     if method_options is not None and not isinstance(method_options, dict):

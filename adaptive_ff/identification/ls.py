@@ -110,7 +110,7 @@ class LSResult:
         return ax
 
 
-def fit_ls(model: RegressionModel, u, w, *, Ts: float, ridge: float = 0.0) -> LSResult:
+def fit_ls(model: RegressionModel, u, w, *, Ts: float, ridge: float = 0.0, free_run: bool = True) -> LSResult:
     """Fit the regression model of eq. 4 by linear least squares (eq. 9), with an SVD-based solver.
 
     Parameters
@@ -126,6 +126,10 @@ def fit_ls(model: RegressionModel, u, w, *, Ts: float, ridge: float = 0.0) -> LS
     ridge : float, keyword-only
         Tikhonov weight ``r >= 0``: minimises ``||X theta - y||**2 + r*||theta||**2``.
         ``r = 1/p0`` reproduces RLS started from ``theta = 0``, ``P = p0*I`` with ``lam = 1``.
+    free_run : bool, keyword-only
+        Simulate the fitted model free-running on ``u`` for ``w_free_run`` and ``fit_free_run`` (default
+        True). False leaves them NaN: a caller that needs only ``theta`` and ``estimate`` (the start values
+        of the output-error fit) skips the simulation, a loop over the samples.
 
     Returns
     -------
@@ -186,10 +190,11 @@ def fit_ls(model: RegressionModel, u, w, *, Ts: float, ridge: float = 0.0) -> LS
         theta_std = np.sqrt(s2 * np.diag(cov_s)) / scale
     resid = y - X @ theta
     w_one = model.predict(theta, u, w)
-    w_free = model.simulate(theta, u, w[:2])
+    w_free = model.simulate(theta, u, w[:2]) if free_run else np.full(u.shape[0], np.nan)
     return LSResult(
         model=model, Ts=Ts, theta=theta, theta_std=theta_std, estimate=model.to_physical(theta, Ts),
         residual_rms=float(np.sqrt(np.mean(resid**2))), cond=cond,
-        fit_one_step=nrmse_fit(w[2:], w_one[2:]), fit_free_run=nrmse_fit(w[2:], w_free[2:]),
+        fit_one_step=nrmse_fit(w[2:], w_one[2:]),
+        fit_free_run=nrmse_fit(w[2:], w_free[2:]) if free_run else float("nan"),
         w_one_step=w_one, w_free_run=w_free,
     )

@@ -99,6 +99,7 @@ import math
 
 import numpy as np
 from scipy.optimize import least_squares
+from threadpoolctl import threadpool_limits
 
 from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
@@ -444,8 +445,12 @@ def _not_fitted(name: str, status: str, offset: bool, k: int | None = None) -> F
                          n_params=len(_Problem.layout(name, offset)) if k is None else k)
 
 
-def _select_output_error(data, Vs, delta, offset: bool, folds: int, names, h_max, input_delay, predictor):
-    """The candidates of :func:`select_form` by output error: ``(candidates, blocks, predictor, noise, n)``."""
+def _select_output_error(data, Vs, delta, offset: bool, folds: int, names, h_max, input_delay, predictor,
+                         progress=False):
+    """The candidates of :func:`select_form` by output error: ``(candidates, blocks, predictor, noise, n)``;
+    ``progress``: a tqdm bar on stderr over the whole-record search and the ``folds`` held-out searches."""
+    from tqdm.auto import tqdm
+
     pb = _Problem(data, Vs, delta, offset, h_max, input_delay, predictor)
     n = data.t.shape[0]
     scored = np.zeros(n, dtype=bool)
@@ -464,7 +469,10 @@ def _select_output_error(data, Vs, delta, offset: bool, folds: int, names, h_max
             status[f] = "not run: needs Vs and delta (the Stribeck pre-fit, adaptive-ff stribeck)"
         else:
             run.append(f)
+    bar = tqdm(total=1 + folds, desc="form fits", unit="search", leave=False,
+               disable=None if progress is None else not progress)
     fits = _full_fits(pb, run, start, scored)
+    bar.update(1)
     keep = []
     for f in run:
         if FORMS[f][1] == "free":
@@ -483,6 +491,8 @@ def _select_output_error(data, Vs, delta, offset: bool, folds: int, names, h_max
         fold_fits.append(_full_fits(pb, keep, _ls_start(uni, offset, (data.t[a], data.t[b - 1])), train,
                                     warm=fits, cold=cold))
         fold_cold.append(cold)
+        bar.update(1)
+    bar.close()
     cands = []
     for f in names:
         if f in status:
@@ -642,7 +652,7 @@ def _sliding_candidate(name, k, full, r, y, X, fold_mse, ns, ests, offset) -> Fo
 def select_form(data: MeasuredData, *, Vs: float | None = None, delta: float | None = None,
                 method: str = "output_error", folds: int = 5, criterion: str = "cv", offset: bool = True,
                 forms=None, h_max: float = H_MAX_DEFAULT, input_delay: float = 0.0,
-                predictor: str = "auto") -> FormSelection:
+                predictor: str = "auto", progress: bool | None = False) -> FormSelection:
     """Fit the candidate friction forms to a record and choose one by blocked cross-validation (or AIC/BIC).
 
     Parameters
@@ -674,6 +684,11 @@ def select_form(data: MeasuredData, *, Vs: float | None = None, delta: float | N
     predictor : {"auto", "free-run", "one-step"}, keyword-only
         The prediction fitted and judged: ``"auto"`` (default) chooses as ``fit_physical`` does (one-step
         below a velocity noise of 0.03 % of the peak ``|w|``, else free run).
+
+    progress : bool or None, keyword-only
+        A tqdm bar on stderr over the output-error searches (the whole record, then each held-out block):
+        True, False (default) or None (only when stderr is a terminal; the CLI's choice unless ``--quiet``).
+        The result does not depend on it.
 
     Returns
     -------
@@ -736,8 +751,11 @@ def select_form(data: MeasuredData, *, Vs: float | None = None, delta: float | N
     if method == "sliding":
         cands, blocks, pred, noise, n = _select_sliding(data, Vs, delta, bool(offset), folds, names)
     else:
-        cands, blocks, pred, noise, n = _select_output_error(data, Vs, delta, bool(offset), folds, names, h_max,
-                                                             input_delay, predictor)
+        if not (progress is None or isinstance(progress, (bool, np.bool_))):
+            raise ParameterError(f"progress must be True, False or None, got {progress!r}")
+        with threadpool_limits(limits=1, user_api="blas"):  # as the output-error fit (physical_id.fit_physical)
+            cands, blocks, pred, noise, n = _select_output_error(data, Vs, delta, bool(offset), folds, names, h_max,
+                                                                 input_delay, predictor, progress)
     ok = [c for c in cands if c.ok]
     if not ok:
         raise ExcitationError("no candidate form could be fitted and cross-validated on this record: "

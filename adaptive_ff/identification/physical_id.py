@@ -83,6 +83,22 @@ Methods
     gives every parameter a finite-difference step visible past the jitter.
     A fit runs several hundred simulations (C, ``aff_simulator.c``).
 
+Jacobian
+--------
+The trust-region fits take forward differences (``jacobian="difference"``, default): one simulation per
+parameter and iteration, a step of ``diff_step`` (1 %) relative. ``jacobian="sensitivity"`` gives them the
+exact Jacobian of the discrete simulation instead: the RK4 stages' tangents along ``(J, Fc, Fs, sigma, tau,
+offset, Vs, delta)``, propagated in C with the simulation (``aff_simulate_on_grid_sens``; at about 2.5 times
+the cost of one simulation). With the one-step predictor the prediction is smooth in the parameters over a
+sample and the exact Jacobian is the better one (measured on the log of ``benchmarks/output_error_speed.py``
+without its noise, 20 s at 1 kHz: a lower cost, 0.443 against 0.556, Fs +0.02 % against +0.49 %, 1186
+simulations against 2070). The free-run output is not smooth: at standstill the RK4 steps chatter around
+``w = 0`` and every sign change of a stage velocity is a jump of eq. 3, so the output is piecewise smooth in
+the parameters with a jump wherever a parameter moves a sign change across a stage. The exact Jacobian is that
+of the smooth pieces and misses the jumps, which the 1 % secant averages; on the same record with 1 % noise
+(free run) it stopped at a higher cost (1097.8 against 1018.1, J -2 %) for the same CPU time. The default
+therefore stays the difference Jacobian.
+
 Accuracy and cost against the paper's eq. 4 on simulated records are measured
 by ``benchmarks/identification.py``; its tables are on the documentation's
 benchmark pages (docs/benchmarks/).
@@ -161,33 +177,40 @@ from __future__ import annotations
 
 import copy
 import math
-import os
-from collections.abc import Mapping
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import least_squares
+from threadpoolctl import threadpool_limits
 
 from adaptive_ff.identification.covariance import andrews_bandwidth, hac_covariance, parametric_block_bootstrap
 from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
 from adaptive_ff.identification.lag_profile import lag_profile_search
 from adaptive_ff.identification.ls import fit_ls
+from adaptive_ff.identification.oe_options import BOOTSTRAP_REFITS, JACOBIANS, OutputErrorOptions
 from adaptive_ff.identification.plausibility import check_physical
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
-from adaptive_ff.identification.simulator import H_MAX_DEFAULT, input_grid, simulate_on_grid
+from adaptive_ff.identification.simulator import input_grid, simulate_on_grid, simulate_on_grid_sens
 from plant.dynamics import lagged_params
 from plant.errors import (ExcitationError, ParameterError, SignalError, check_finite_scalar, check_positive,
                           check_signal, check_time)
 from plant.results import json_safe
 
 __all__ = ["PhysicalFit", "OutputErrorOptions", "fit_physical", "METHODS", "PHYSICAL_NAMES", "MIN_SAMPLES",
-           "BOOTSTRAP_REFITS"]
+           "BOOTSTRAP_REFITS", "JACOBIANS", "SHAPE_NAMES"]
 
 #: Identification methods of :func:`fit_physical`.
 METHODS = ("paper", "output_error")
 
 #: Physical parameter names, in the order of ``PhysicalFit.params`` (``offset`` only when fitted).
 PHYSICAL_NAMES = ("J", "Fc", "Fs", "sigma", "tau", "offset")
+
+#: The Stribeck shape parameters the output-error fit adds where no pre-fit gives them (``Vs=None, delta=None``).
+SHAPE_NAMES = ("Vs", "delta")
+#: Points of the start profile over log Vs when Vs is fitted (``max(noise, 1e-3*peak)`` to ``0.3*peak`` |w|; at
+#: each an Fs profile, at delta = 1).
+_VS_GRID = 9
+_DELTA_MIN = 0.05  # a fitted shape factor below this is not admitted (eq. 3's decay vanishes)
 
 #: Fewest samples accepted (eq. 4 has up to 7 parameters and loses 2 rows).
 MIN_SAMPLES = 20
@@ -214,8 +237,6 @@ _BOOT_SCHEME = "wild"
 # pass, the fit's local stage and this many rounds of its coordinate search (the fit runs up to _N_POLISH); the
 # lag profile and the final Fs profile are left out (about 1000 simulations per refit)
 _BOOT_POLISH = 1
-#: Refits of the output-error bootstrap (``OutputErrorOptions.bootstrap_refit``).
-BOOTSTRAP_REFITS = ("full", "partial")
 _BOOT_REFIT = f"wide trust region, local stage, {_BOOT_POLISH} coordinate-search round(s)"
 
 
@@ -259,6 +280,8 @@ class PhysicalFit:
         same) and ``band`` (the 95 % band of F(w) from the refits, as
         :meth:`adaptive_ff.identification.uncertainty.FrictionBand.to_dict`), ``start``, ``cost``,
         ``lag_profile`` (None, or the profile over tau: ``tau``, ``cost``, ``n_simulations``, ``moved``),
+        ``fitted`` (names of the fitted parameters; ``Vs``, ``delta`` among them where they were not given),
+        ``fixed`` (``{"Vs", "delta"}`` as given, or empty),
         ``residual_rms``, ``n_simulations``, ``burn_samples``, ``loss``,
         ``f_scale``, ``h_max``, ``input_delay``, ``interp``, ``Ts_mean``,
         ``Ts_max``.
@@ -299,14 +322,21 @@ class PhysicalFit:
         return "\n".join(lines)
 
 
-def _check_inputs(t, u, w, Vs, delta):
+def _check_inputs(t, u, w, Vs, delta, method="paper"):
     t = check_time("t", t, min_len=MIN_SAMPLES)
     u = check_signal("u", u, n=t.shape[0])
     w = check_signal("w", w, n=t.shape[0])
-    Vs = check_positive("Vs", Vs)
-    delta = check_finite_scalar("delta", delta)
-    if delta == 0.0:
-        raise ParameterError("delta must be non-zero, got 0.0")
+    if (Vs is None) != (delta is None):
+        raise ParameterError("give both Vs and delta (the Stribeck pre-fit), or neither (method 'output_error' "
+                             f"then fits them), got Vs = {Vs!r}, delta = {delta!r}")
+    if Vs is None and method != "output_error":
+        raise ParameterError(f"method {method!r} needs Vs and delta (the Stribeck pre-fit, Sec. V-C); method "
+                             "'output_error' fits them where they are not given")
+    if Vs is not None:
+        Vs = check_positive("Vs", Vs)
+        delta = check_finite_scalar("delta", delta)
+        if delta == 0.0:
+            raise ParameterError("delta must be non-zero, got 0.0")
     if np.ptp(u) == 0.0:
         raise ExcitationError("u is constant: the input does not excite J (nor any parameter)")
     sgn = np.sign(w[np.abs(w) > 0])
@@ -316,8 +346,9 @@ def _check_inputs(t, u, w, Vs, delta):
     return t, u, w, Vs, delta
 
 
-def _names(offset: bool) -> tuple:
-    return PHYSICAL_NAMES if offset else PHYSICAL_NAMES[:-1]
+def _names(offset: bool, shape: bool = False) -> tuple:
+    """Names of the fitted parameters: ``PHYSICAL_NAMES`` (without the offset), then ``Vs, delta`` if fitted."""
+    return (PHYSICAL_NAMES if offset else PHYSICAL_NAMES[:-1]) + (SHAPE_NAMES if shape else ())
 
 
 def _printed_inverse(theta_full, Ts: float) -> dict:
@@ -373,7 +404,7 @@ def _start_from_paper(t, u, w, Vs, delta, offset):
     Ts = float(np.median(np.diff(t)))
     model = RegressionModel(Vs, delta, lag=True, stribeck=True, offset=offset)
     try:
-        est = fit_ls(model, u, w, Ts=Ts).estimate
+        est = fit_ls(model, u, w, Ts=Ts, free_run=False).estimate  # the estimate only: no free-run simulation
         J, Fc, sigma, tau = est.J, est.Fc, est.sigma, est.tau
         off = est.offset if offset else 0.0
     except ExcitationError:
@@ -394,194 +425,14 @@ def _start_from_paper(t, u, w, Vs, delta, offset):
     return {"J": J, "Fc": Fc, "sigma": sigma, "tau": tau, "offset": off}
 
 
-@dataclass(frozen=True)
-class OutputErrorOptions:
-    """Settings of the output-error method of :func:`fit_physical` (validated on construction).
-
-    Parameters
-    ----------
-    predictor : {"auto", "free-run", "one-step"}, keyword-only
-        Prediction used in the cost. ``"auto"`` (default): one-step below a
-        velocity noise of 0.03 % of the peak ``|w|``, else free-run (module docstring).
-    h_max : float, keyword-only
-        Largest RK4 sub-step (s), > 0. Default 1e-3 (the paper's simulation rate).
-    input_delay : float, keyword-only
-        Time (s) by which each input sample precedes its time stamp. Default 0;
-        0.5e-3 for :func:`plant.sampling.sample` at 1 kHz.
-    interp : {"linear", "cubic"}, keyword-only
-        Input reconstruction between the samples. Default ``"linear"``.
-    burn : float, keyword-only
-        Time (s) at the start excluded from the cost, >= 0. Default 0.5.
-    fs_grid : int, keyword-only
-        Points of the global ``Fs`` profile, >= 3. Default 31.
-    fs_max_ratio : float, keyword-only
-        Upper end of the global ``Fs`` profile as a multiple of ``Fc``, > 1. Default 2.5.
-    diff_step : float, keyword-only
-        Relative finite-difference step of the Jacobian, > 0. Default 1e-2.
-    max_nfev : int, keyword-only
-        Largest number of residual evaluations per trust-region fit, >= 1. Default 200.
-    loss : {"soft_l1", "linear"}, keyword-only
-        Loss of ``scipy.optimize.least_squares``. Default ``"soft_l1"``.
-    f_scale : float or None, keyword-only
-        Robust scale of the loss (rad/s), > 0. Default None:
-        ``max(3*noise, 1e-3*peak |w|)``.
-    start : mapping or None, keyword-only
-        Start values ``J`` (kg·m², > 0), ``Fc``, ``Fs`` (N·m), ``sigma``
-        (N·m·s/rad), ``tau`` (s, > 0) and optionally ``offset`` (N·m); skips
-        the eq. 4 start and the start profiles. Default None.
-    n_bootstrap : int, keyword-only
-        Refits of re-simulated records behind ``stderr`` (module docstring,
-        "Standard errors"), >= 0; each costs a fit of its own with
-        ``bootstrap_refit="full"`` (the fit runs 1200-2100 simulations on the
-        zoo of ``benchmarks/coverage_zoo.py``), about 180 simulations with
-        ``"partial"``. 0: ``stderr`` is the HAC sandwich
-        (too small on the rough free-run cost). Default 20.
-    bootstrap_seed : int, keyword-only
-        Seed of the bootstrap's residual blocks and start points, >= 0. Default 0.
-    bootstrap_refit : {"full", "partial"}, keyword-only
-        How each bootstrap replicate is refitted. ``"full"`` (default): by the fit itself, the replicate taken
-        as a record of its own (its noise level, scales and eq. 4 start; every stage including the profile
-        searches: the same estimator on every replicate, Efron & Tibshirani 1993, Ch. 6); its 95 % intervals
-        covered the truth on 91-96 % of 100 zoo joints per parameter (module docstring, "Standard errors"). ``"partial"``:
-        from a start spread around the estimate by the fit's later steps (above; ``_oe_refit``), with the
-        record's noise level and robust scales, about a third of the CPU time; its J and tau intervals are about
-        twice too wide (the partial refits stop short of where the fit stops).
-    bootstrap_workers : int or None, keyword-only
-        Threads the bootstrap refits run in, >= 1 (their time is in the C simulation, which releases the GIL;
-        :func:`adaptive_ff.identification.covariance.parametric_block_bootstrap`). None (default): the CPUs this
-        process may use, at most ``n_bootstrap``. The result does not depend on it.
-    progress : bool or None, keyword-only
-        A tqdm bar over the bootstrap refits on stderr (a 60 s record at 1 kHz takes minutes): True, False
-        (default) or None (only when stderr is a terminal; the CLI's choice unless ``--quiet``). The result
-        does not depend on it.
-    lag_profile : bool, keyword-only
-        Run the profile search over tau after the local stage
-        (:func:`adaptive_ff.identification.lag_profile.lag_profile_search`: ten values of tau, J on a grid
-        and the others refitted at each; about 1000 simulations). Default True; False gives the fit
-        without it (found tau 9-70 % off on joints with a lag near the sample time).
-
-    Raises
-    ------
-    ParameterError
-        A value out of range (the message names it).
-    TypeError
-        A number that is not a real number.
-
-    Notes
-    -----
-    The staging these settings control is described in the module docstring
-    (prediction-error method, Ljung, *System Identification*, 2nd ed., Sec. 7.2).
-    """
-
-    predictor: str = "auto"
-    h_max: float = H_MAX_DEFAULT
-    input_delay: float = 0.0
-    interp: str = "linear"
-    burn: float = 0.5
-    fs_grid: int = 31
-    fs_max_ratio: float = 2.5
-    diff_step: float = 1e-2
-    max_nfev: int = 200
-    loss: str = "soft_l1"
-    f_scale: float | None = None
-    start: dict | None = None
-    n_bootstrap: int = 20
-    bootstrap_seed: int = 0
-    bootstrap_refit: str = "full"
-    bootstrap_workers: int | None = None
-    progress: bool | None = False
-    lag_profile: bool = True
-
-    def __post_init__(self):
-        def put(name, value):
-            object.__setattr__(self, name, value)
-
-        put("h_max", check_positive("h_max", self.h_max))
-        put("input_delay", check_finite_scalar("input_delay", self.input_delay))
-        put("burn", check_finite_scalar("burn", self.burn))
-        if self.burn < 0:
-            raise ParameterError(f"burn must be >= 0, got {self.burn!r}")
-        put("fs_grid", _check_int("fs_grid", self.fs_grid, 3))
-        put("fs_max_ratio", check_finite_scalar("fs_max_ratio", self.fs_max_ratio))
-        if self.fs_max_ratio <= 1.0:
-            raise ParameterError(f"fs_max_ratio must be > 1, got {self.fs_max_ratio!r}")
-        put("diff_step", check_positive("diff_step", self.diff_step))
-        put("max_nfev", _check_int("max_nfev", self.max_nfev, 1))
-        put("n_bootstrap", _check_int("n_bootstrap", self.n_bootstrap, 0))
-        put("bootstrap_seed", _check_int("bootstrap_seed", self.bootstrap_seed, 0))
-        if self.bootstrap_workers is not None:
-            put("bootstrap_workers", _check_int("bootstrap_workers", self.bootstrap_workers, 1))
-        if not (self.progress is None or isinstance(self.progress, (bool, np.bool_))):
-            raise ParameterError(f"progress must be True, False or None, got {self.progress!r}")
-        if not isinstance(self.lag_profile, (bool, np.bool_)):
-            raise ParameterError(f"lag_profile must be True or False, got {self.lag_profile!r}")
-        put("lag_profile", bool(self.lag_profile))
-        put("start", _check_start(self.start))
-        for name, allowed in (("loss", ("linear", "soft_l1")), ("predictor", ("auto", "free-run", "one-step")),
-                              ("interp", ("linear", "cubic")), ("bootstrap_refit", BOOTSTRAP_REFITS)):
-            if getattr(self, name) not in allowed:
-                raise ParameterError(f"{name} must be one of {list(allowed)}, got {getattr(self, name)!r}")
-        if self.f_scale is not None:
-            put("f_scale", check_positive("f_scale", self.f_scale))
-
-    def workers(self) -> int:
-        """Threads of the bootstrap refits: ``bootstrap_workers``, or (None) the CPUs this process may use
-        (:func:`os.sched_getaffinity` where there is one, else :func:`os.cpu_count`), at most ``n_bootstrap``;
-        >= 1."""
-        if self.bootstrap_workers is not None:
-            return self.bootstrap_workers
-        cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-        return max(1, min(cpus, self.n_bootstrap))
-
-    @classmethod
-    def from_options(cls, options: Mapping) -> "OutputErrorOptions":
-        """Build from a ``{name: value}`` mapping (the ``**options`` of :func:`fit_physical`).
-
-        Parameters
-        ----------
-        options : mapping
-            Keys among the fields of this class.
-
-        Returns
-        -------
-        OutputErrorOptions
-
-        Raises
-        ------
-        ParameterError
-            An unknown key, or a value out of range.
-        """
-        unknown = set(options) - {f.name for f in fields(cls)}
-        if unknown:
-            raise ParameterError(f"unknown option(s) for method 'output_error': {sorted(unknown)}")
-        return cls(**options)
-
-
-def _check_int(name: str, value, low: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-        raise ParameterError(f"{name} must be an integer >= {low}, got {value!r}")
-    return int(value)
-
-
-def _check_start(start) -> dict | None:
-    if start is None:
-        return None
-    if not isinstance(start, Mapping):
-        raise ParameterError(f"start must be a dict of J, Fc, Fs, sigma, tau, got {type(start).__name__}")
-    missing = {"J", "Fc", "Fs", "sigma", "tau"} - set(start)
-    if missing:
-        raise ParameterError(f"start is missing {sorted(missing)}")
-    start = {k: check_finite_scalar(f"start[{k!r}]", v) for k, v in start.items()}
-    check_positive("start['J']", start["J"])
-    check_positive("start['tau']", start["tau"])
-    return start
-
-
 class _OutputErrorProblem:
     """The prediction errors of eqs. 1-3 on a record and the search tools over them (``fit_physical``).
 
-    Parameter vector ``x = (log J, Fc, Fs, sigma, log tau[, offset/torque])``.
+    Parameter vector ``x = (log J, Fc, Fs, sigma, log tau[, offset/torque][, log Vs, delta])``.
     """
+
+    free_shape = False  # Vs, delta fitted (set by __init__; a subclass with its own residual keeps them given)
+    j_shape = 6
 
     def __init__(self, t, u, w, Vs, delta, offset, opts: OutputErrorOptions):
         self.grid = input_grid(t, u, h_max=opts.h_max, input_delay=opts.input_delay, interp=opts.interp)
@@ -589,6 +440,14 @@ class _OutputErrorProblem:
         if t.shape[0] - self.i0 < MIN_SAMPLES:
             raise SignalError(f"the record ({t[-1] - t[0]:.4g} s) is too short for burn = {opts.burn!r} s; "
                               f"need at least {MIN_SAMPLES} samples after it")
+        # Vs, delta None: fitted, as log Vs and delta after the other coordinates (j_shape); self.Vs, self.delta
+        # are then their start values (the middle of the log Vs start profile, delta = 1)
+        self.free_shape = Vs is None
+        if self.free_shape:
+            peak0 = float(np.max(np.abs(w)))
+            self.vs_grid = np.geomspace(max(velocity_noise_std_irregular(t, w), 1e-3 * peak0), 0.3 * peak0, _VS_GRID)
+            Vs, delta = float(self.vs_grid[_VS_GRID // 2]), 1.0
+        self.j_shape = 5 + int(bool(offset))
         self.t, self.u, self.w, self.Vs, self.delta, self.offset, self.opts = t, u, w, Vs, delta, offset, opts
         self.wm = w[self.i0:]
         self.w0, self.f0 = float(w[0]), float(u[0])  # friction balances the input at the start (quasi-steady)
@@ -613,7 +472,9 @@ class _OutputErrorProblem:
         # ds*Fc (a step of 0.01 N·m would not be seen past the breakaway jitter of the free-run output)
         self.torque = max(abs(s0["Fc"]), 1e-3 * float(np.std(self.u)))
         return np.array([math.log(s0["J"]), s0["Fc"], s0.get("Fs", s0["Fc"]), s0["sigma"], math.log(s0["tau"])]
-                        + ([s0.get("offset", 0.0) / self.torque] if self.offset else []), dtype=float)
+                        + ([s0.get("offset", 0.0) / self.torque] if self.offset else [])
+                        + ([math.log(s0.get("Vs", self.Vs)), s0.get("delta", self.delta)] if self.free_shape
+                           else []), dtype=float)
 
     def replicate(self, w_star: np.ndarray) -> "_OutputErrorProblem":
         """The same problem (input grid, predictor, robust scales, offset scale) on another velocity record."""
@@ -625,19 +486,54 @@ class _OutputErrorProblem:
         """``(J, Fc, Fs, sigma, tau, offset)`` of ``x``."""
         return math.exp(x[0]), x[1], x[2], x[3], math.exp(x[4]), (x[5] * self.torque if self.offset else 0.0)
 
+    def shape(self, x) -> tuple:
+        """``(Vs, delta)`` at ``x``: the given ones, or the fitted ones."""
+        if self.free_shape:
+            return math.exp(x[self.j_shape]), float(x[self.j_shape + 1])
+        return self.Vs, self.delta
+
+    def values(self, x) -> dict:
+        """Every fitted parameter at ``x`` in physical units, by name (:func:`_names`)."""
+        vals = dict(zip(PHYSICAL_NAMES, self.unpack(x)))
+        vals.update(zip(SHAPE_NAMES, self.shape(x)))
+        return {k: float(vals[k]) for k in _names(self.offset, self.free_shape)}
+
+    def admissible(self, x) -> bool:
+        """The RK4 sub-step resolves the lag (tau > 0.4 h_max) and a fitted delta is >= ``_DELTA_MIN``."""
+        return math.exp(x[4]) >= 0.4 * self.opts.h_max and not (self.free_shape and x[self.j_shape + 1] < _DELTA_MIN)
+
     def simulate(self, x) -> np.ndarray:
         """Predicted velocity at every sample (rad/s)."""
         J, Fc, Fs, sigma, tau, off = self.unpack(x)
-        par = lagged_params(J, Fc, Fs, self.Vs, self.delta, sigma, tau)
+        Vs, delta = self.shape(x)
+        par = lagged_params(J, Fc, Fs, Vs, delta, sigma, tau)
         return simulate_on_grid(par, self.grid, w0=self.w0, f0=self.f0, offset=off, gain=self.gain, w_meas=self.w)
 
     def res(self, x) -> np.ndarray:
         """Prediction errors after the burn-in (rad/s); a large constant where the model is not admissible."""
         self.n_sim += 1
-        if math.exp(x[4]) < 0.4 * self.opts.h_max:
+        if not self.admissible(x):
             return np.full(self.wm.shape[0], self.big)
         r = self.simulate(x)[self.i0:] - self.wm
         return np.where(np.isfinite(r), r, self.big)
+
+    def jac(self, x) -> np.ndarray:
+        """Exact Jacobian of :meth:`res` at ``x`` (rows after the burn-in, columns of ``x``): the forward
+        sensitivities of the discrete simulation (:func:`adaptive_ff.identification.simulator.simulate_on_grid_sens`)
+        with the chain rule for log J, log tau and the offset scale; zero rows where :meth:`res` is its constant."""
+        self.n_sim += 1
+        ncol = x.shape[0]
+        if not self.admissible(x):
+            return np.zeros((self.wm.shape[0], ncol))
+        J, Fc, Fs, sigma, tau, off = self.unpack(x)
+        Vs, delta = self.shape(x)
+        par = lagged_params(J, Fc, Fs, Vs, delta, sigma, tau)
+        w, dw = simulate_on_grid_sens(par, self.grid, w0=self.w0, f0=self.f0, offset=off, gain=self.gain,
+                                      w_meas=self.w)
+        cols = [0, 1, 2, 3, 4] + ([5] if self.offset else []) + ([6, 7] if self.free_shape else [])
+        G = dw[self.i0:, cols] * self.chain(x)
+        G[~np.isfinite(w[self.i0:])] = 0.0
+        return G
 
     def cost(self, x, fsc=None) -> float:
         """Loss of ``x`` at robust scale ``fsc`` (default the noise-level scale)."""
@@ -660,25 +556,40 @@ class _OutputErrorProblem:
         return x
 
     def typical(self, x) -> np.ndarray:
-        """Typical changes of ``x``: 2 % of J, 1 % of the torques, 3 % of tau, offset 1 % of Fc."""
+        """Typical changes of ``x``: 2 % of J, 1 % of the torques, 3 % of tau, offset 1 % of Fc; a fitted Vs
+        5 %, delta 0.02."""
         return np.array([0.02, 0.01 * abs(x[1]) + 1e-9, 0.01 * abs(x[2]) + 1e-9, 0.01 * abs(x[3]) + 1e-9, 0.03]
-                        + ([0.01] if self.offset else []))
+                        + ([0.01] if self.offset else []) + ([0.05, 0.02] if self.free_shape else []))
+
+    def chain(self, x) -> np.ndarray:
+        """d(physical parameter)/dx of each coordinate (log J, log tau, the offset scale, log Vs)."""
+        J, _, _, _, tau, _ = self.unpack(x)
+        return np.array([J, 1.0, 1.0, 1.0, tau] + ([self.torque] if self.offset else [])
+                        + ([self.shape(x)[0], 1.0] if self.free_shape else []))
 
     def refine(self, x, ds, fsc=None, free=None):
         """Trust-region fit from ``x`` (``free``: indices fitted, the others held; default all)."""
         fsc = self.f_scale if fsc is None else fsc
         # explicit scales (typical changes) instead of x_scale="jac": the offset column, large in norm, was
         # otherwise held nearly fixed
+        sens = self.opts.jacobian == "sensitivity"
         if free is None:
             fun, z0, scale = self.res, x, self.typical(x)
+            jac = self.jac if sens else "2-point"
         else:
             def fun(z, xs=x):
                 xx = xs.copy()
                 xx[free] = z
                 return self.res(xx)
 
+            def jac(z, xs=x):
+                xx = xs.copy()
+                xx[free] = z
+                return self.jac(xx)[:, free]
+
             z0, scale = x[free], self.typical(x)[free]
-        return least_squares(fun, z0, diff_step=ds, x_scale=scale, method="trf", xtol=1e-8, ftol=1e-10,
+            jac = jac if sens else "2-point"
+        return least_squares(fun, z0, jac=jac, diff_step=ds, x_scale=scale, method="trf", xtol=1e-8, ftol=1e-10,
                              max_nfev=self.opts.max_nfev, loss=self.opts.loss, f_scale=fsc)
 
 
@@ -688,7 +599,16 @@ def _oe_global_stage(pb: _OutputErrorProblem, x: np.ndarray, profiled: bool) -> 
     if profiled:
         Ts = float(np.median(np.diff(pb.t)))
         x = pb.profile(x, math.log(max(0.5 * Ts, 1.2 * o.h_max)), math.log(20.0 * Ts), 13, j=4, fsc=pb.f_wide)
-        x = pb.profile(x, x[1], o.fs_max_ratio * x[1], o.fs_grid, fsc=pb.f_wide)
+        if pb.free_shape:  # Vs not given: a profile over log Vs at delta = 1, each point with its Fs profile
+            pts = []
+            for v in pb.vs_grid:
+                xx = x.copy()
+                xx[pb.j_shape] = math.log(v)
+                xx = pb.profile(xx, xx[1], o.fs_max_ratio * xx[1], o.fs_grid, fsc=pb.f_wide)
+                pts.append((pb.cost(xx, pb.f_wide), xx))
+            x = min(pts, key=lambda p: p[0])[1]
+        else:
+            x = pb.profile(x, x[1], o.fs_max_ratio * x[1], o.fs_grid, fsc=pb.f_wide)
     sol = pb.refine(x, o.diff_step, pb.f_wide)
     best = (pb.cost(sol.x, pb.f_wide), sol)
     xb = best[1].x
@@ -787,8 +707,7 @@ def _oe_stderr(pb: _OutputErrorProblem, x: np.ndarray, names: tuple) -> tuple[di
     Gs = G / sc
     sv = np.linalg.svd(Gs, compute_uv=False)
     cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
-    J, _, _, _, tau, _ = pb.unpack(x)
-    chain = np.array([J, 1.0, 1.0, 1.0, tau] + ([pb.torque] if pb.offset else []))
+    chain = pb.chain(x)
     lags = 0
     try:
         white = np.sqrt(np.clip(np.diag(s2 * np.linalg.inv(Gs.T @ Gs)), 0.0, None)) / sc
@@ -820,24 +739,26 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
     """
     o = pb.opts
     w_hat = pb.simulate(x)
-    keep = [j for j, k in enumerate(PHYSICAL_NAMES) if k in names]
     n_sim = []  # per refit; list.append is atomic, the refits may run in threads
 
     def refit(y_star, rng):  # safe in threads: every problem it runs is its own
         w_star = w_hat.copy()
         w_star[pb.i0:] = y_star
         if o.bootstrap_refit == "full":  # the estimator itself: the replicate as a record of its own
-            rp = _OutputErrorProblem(pb.t, pb.u, w_star, pb.Vs, pb.delta, pb.offset, o)
-            s0 = dict(o.start) if o.start is not None else _start_from_paper(pb.t, pb.u, w_star, pb.Vs, pb.delta,
+            given = (None, None) if pb.free_shape else (pb.Vs, pb.delta)
+            rp = _OutputErrorProblem(pb.t, pb.u, w_star, *given, pb.offset, o)
+            s0 = dict(o.start) if o.start is not None else _start_from_paper(pb.t, pb.u, w_star, rp.Vs, rp.delta,
                                                                               pb.offset)
             z = _oe_search(rp, s0)[0][1]
         else:
             rp = pb.replicate(w_star)
             z = _oe_refit(rp, x + rng.normal(size=x.shape) * _BOOT_START * pb.typical(x))
         n_sim.append(rp.n_sim)
-        return np.array(rp.unpack(z))[keep]
+        v = rp.values(z)
+        return np.array([v[k] for k in names])
 
-    est = np.array(pb.unpack(x))[keep]
+    v = pb.values(x)
+    est = np.array([v[k] for k in names])
     b = parametric_block_bootstrap(refit, w_hat[pb.i0:], r, est, n=o.n_bootstrap,
                                    block=_BOOT_BLOCK * (andrews_bandwidth(r) + 1),
                                    rng=np.random.default_rng(o.bootstrap_seed), scheme=_BOOT_SCHEME,
@@ -861,8 +782,9 @@ def _oe_intervals(pb: _OutputErrorProblem, names: tuple, est: np.ndarray, b) -> 
         return {}
     half = b.half_width(0.95)
     cols = [names.index(k) for k in ("Fc", "Fs", "sigma")]
-    band = friction_band(est[cols], b.replicates[:, cols], w_max=float(np.max(np.abs(pb.w))), Vs=pb.Vs,
-                         delta=pb.delta)
+    Vs, delta = (est[names.index("Vs")], est[names.index("delta")]) if pb.free_shape else (pb.Vs, pb.delta)
+    band = friction_band(est[cols], b.replicates[:, cols], w_max=float(np.max(np.abs(pb.w))), Vs=float(Vs),
+                         delta=float(delta))
     return {"interval95": {k: [float(v - h), float(v + h)] for k, v, h in zip(names, est, half)},
             "band": band.to_dict()}
 
@@ -882,13 +804,11 @@ def _oe_search(pb: _OutputErrorProblem, s0: dict) -> tuple[tuple[float, np.ndarr
 def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> PhysicalFit:
     """The output-error fit of eqs. 1-3 (module docstring): staged search, then Gauss-Newton errors."""
     pb = _OutputErrorProblem(t, u, w, Vs, delta, offset, opts)
-    names = _names(offset)
-    s0 = dict(opts.start) if opts.start is not None else _start_from_paper(t, u, w, Vs, delta, offset)
+    names = _names(offset, pb.free_shape)
+    s0 = dict(opts.start) if opts.start is not None else _start_from_paper(t, u, w, pb.Vs, pb.delta, offset)
     best, lag_prof = _oe_search(pb, s0)
     x = best[1]
-    J, Fc, Fs, sigma, tau, off = pb.unpack(x)
-    vals = {"J": J, "Fc": Fc, "Fs": Fs, "sigma": sigma, "tau": tau, "offset": off}
-    params = {k: float(vals[k]) for k in names}
+    params = pb.values(x)
     stderr_hac, stderr_white, cond, r, lags = _oe_stderr(pb, x, names)
     stderr, boot = stderr_hac, None
     if opts.n_bootstrap > 0:
@@ -904,7 +824,8 @@ def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> P
                              "stderr_kind": "bootstrap" if boot is not None else "hac", "stderr_hac": stderr_hac,
                              "stderr_white": stderr_white, "hac_lags": int(lags), "bootstrap": boot,
                              "start": {k: float(v) for k, v in s0.items()}, "cost": float(best[0]),
-                             "lag_profile": lag_prof,
+                             "lag_profile": lag_prof, "fitted": list(names),
+                             "fixed": {} if pb.free_shape else {"Vs": float(Vs), "delta": float(delta)},
                              "residual_rms": float(math.sqrt(float(r @ r) / r.shape[0])),
                              "n_simulations": int(pb.n_sim), "burn_samples": pb.i0, "loss": opts.loss,
                              "f_scale": float(pb.f_scale), "f_scale_global": float(pb.f_wide),
@@ -913,7 +834,7 @@ def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> P
 
 
 
-def fit_physical(t, u, w, *, Vs: float, delta: float, method: str = "output_error", offset: bool = True,
+def fit_physical(t, u, w, *, Vs: float | None, delta: float | None, method: str = "output_error", offset: bool = True,
                  **options) -> PhysicalFit:
     """Identify J, tau, sigma, Fc, Fs (and a torque offset) of eqs. 1-3 from a sampled record.
 
@@ -926,10 +847,14 @@ def fit_physical(t, u, w, *, Vs: float, delta: float, method: str = "output_erro
         Input torque (N·m) at ``t``.
     w : array_like, shape (N,)
         Measured velocity (rad/s) at ``t``.
-    Vs : float, keyword-only
-        Stribeck velocity (rad/s), > 0, pre-estimated (Sec. V-C; held fixed).
-    delta : float, keyword-only
-        Stribeck shape factor, non-zero, pre-estimated (held fixed).
+    Vs : float or None, keyword-only
+        Stribeck velocity (rad/s), > 0, pre-estimated (Sec. V-C; held fixed). None (with ``delta`` None, method
+        ``"output_error"`` only): fitted with the others, where the quasi-static pre-fit is absent or refused
+        (a profile over log Vs at ``delta = 1`` in the global stage, then every stage with ``log Vs`` and
+        ``delta`` free); ``params`` then hold ``Vs`` and ``delta``, and ``info["fitted"]``/``info["fixed"]``
+        say which parameters were fitted and which held.
+    delta : float or None, keyword-only
+        Stribeck shape factor, non-zero, pre-estimated (held fixed); None with ``Vs`` None: fitted (>= 0.05).
     method : {"paper", "output_error"}, keyword-only
         See the module docstring. Default ``"output_error"``.
     offset : bool, keyword-only
@@ -979,7 +904,7 @@ def fit_physical(t, u, w, *, Vs: float, delta: float, method: str = "output_erro
     if method not in METHODS:
         raise ParameterError(f"method must be one of {METHODS}, got {method!r}")
     offset = bool(offset)
-    t, u, w, Vs, delta = _check_inputs(t, u, w, Vs, delta)
+    t, u, w, Vs, delta = _check_inputs(t, u, w, Vs, delta, method)
     if method == "paper":
         unknown = set(options) - {"inverse"}
         if unknown:
@@ -989,5 +914,10 @@ def fit_physical(t, u, w, *, Vs: float, delta: float, method: str = "output_erro
             raise ParameterError(f"inverse must be 'corrected' or 'printed', got {inverse!r}")
         fit = _fit_paper(t, u, w, Vs, delta, offset, inverse)
     else:
-        fit = _fit_output_error(t, u, w, Vs, delta, offset, OutputErrorOptions.from_options(options))
+        opts = OutputErrorOptions.from_options(options)
+        # one BLAS thread: the trust-region steps multiply N x 6 matrices, which a multi-threaded BLAS splits
+        # over threads that spin against the C simulation and the bootstrap's own threads (measured on a
+        # 20 k-sample record: 7.9 s of CPU per fit with OpenBLAS's default threads, 2.7 s with one)
+        with threadpool_limits(limits=1, user_api="blas"):
+            fit = _fit_output_error(t, u, w, Vs, delta, offset, opts)
     return replace(fit, warnings=tuple(check_physical(fit.params, source=f"{method} (fit_physical)")))

@@ -47,7 +47,11 @@ from plant.dynamics import lagged_params
 from plant.errors import ParameterError, SignalError, check_finite_scalar, check_positive, check_signal, check_time
 from plant.friction import JointParams
 
-__all__ = ["InputGrid", "input_grid", "simulate_on_grid", "simulate_sampled", "H_MAX_DEFAULT"]
+__all__ = ["InputGrid", "input_grid", "simulate_on_grid", "simulate_on_grid_sens", "simulate_sampled", "H_MAX_DEFAULT",
+           "SENS_NAMES"]
+
+#: Parameters of the sensitivities of :func:`simulate_on_grid_sens`, in the order of its columns.
+SENS_NAMES = ("J", "Fc", "Fs", "sigma", "tau", "offset", "Vs", "delta")
 
 #: Default largest RK4 sub-step (s): the paper's 1 kHz integration rate.
 H_MAX_DEFAULT = 1e-3
@@ -191,6 +195,60 @@ def simulate_on_grid(par: np.ndarray, grid: InputGrid, *, w0: float, f0: float, 
                              ffi.from_buffer("long[]", idx), n, float(offset), float(w0), float(f0), Kw, Kf,
                              ffi.from_buffer("double[]", wm), int(inject), ffi.from_buffer("double[]", out))
     return out
+
+
+def simulate_on_grid_sens(par: np.ndarray, grid: InputGrid, *, w0: float, f0: float, offset: float = 0.0,
+                          gain=(0.0, 0.0), w_meas=None) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`simulate_on_grid` with the exact Jacobian of its output (no validation: inner loop of the fits).
+
+    C (``aff_simulator.c``, ``aff_simulate_on_grid_sens``): the same RK4 stages as :func:`simulate_on_grid`
+    (the same velocity, bit for bit), each with its tangent along the parameters (forward sensitivities of the
+    discretised model: the derivative of the numerical solution, which is the RK4 solution of the variational
+    equations; Hairer, Norsett & Wanner, *Solving Ordinary Differential Equations I*, Secs. I.14, II.1).
+    Eq. 3 is differentiated as the simulation evaluates it: zero slope at ``w == 0`` and no Stribeck term past
+    its cut-off speed. Releases the GIL.
+
+    Parameters
+    ----------
+    par : cffi ``plant_params *``
+        A lagged Stribeck joint from :func:`plant.dynamics.lagged_params` with ``tau > 0``.
+    grid : InputGrid
+        From :func:`input_grid`.
+    w0, f0, offset, gain, w_meas : keyword-only
+        As :func:`simulate_on_grid`.
+
+    Returns
+    -------
+    w : ndarray, shape (N,)
+        Predicted velocity at the sample instants (rad/s), equal to :func:`simulate_on_grid`'s.
+    dw : ndarray, shape (N, 8)
+        ``dw[i, j]`` = derivative of ``w[i]`` with respect to parameter ``j`` of :data:`SENS_NAMES`
+        (``J, Fc, Fs, sigma, tau, offset, Vs, delta``; SI units); row 0 is zero. NaN where ``w`` is NaN.
+
+    Raises
+    ------
+    SignalError
+        ``w_meas`` missing or not of shape (N,) while a gain is non-zero.
+    """
+    Kw, Kf = float(gain[0]), float(gain[1])
+    inject = Kw != 0.0 or Kf != 0.0
+    n = grid.idx.shape[0]
+    out = np.empty(n)
+    dout = np.empty((n, len(SENS_NAMES)))
+    if inject:
+        wm = np.ascontiguousarray(w_meas, dtype=float)
+        if wm.shape != (n,):
+            raise SignalError(f"w_meas must have shape ({n},) with a non-zero gain, got {wm.shape}")
+    else:
+        wm = out  # not read
+    tg = np.ascontiguousarray(grid.tg, dtype=float)
+    ug = np.ascontiguousarray(grid.ug, dtype=float)
+    idx = np.ascontiguousarray(grid.idx, dtype=_LONG)
+    lib.aff_simulate_on_grid_sens(par, ffi.from_buffer("double[]", tg), ffi.from_buffer("double[]", ug),
+                                  ffi.from_buffer("long[]", idx), n, float(offset), float(w0), float(f0), Kw, Kf,
+                                  ffi.from_buffer("double[]", wm), int(inject), ffi.from_buffer("double[]", out),
+                                  ffi.from_buffer("double[]", dout))
+    return out, dout
 
 
 def simulate_sampled(p: JointParams, t, u, *, w0: float = 0.0, f0: float | None = None, offset: float = 0.0,

@@ -249,7 +249,10 @@ def _identify_form(args, data, ref_name, spec, common):
         if args.predictor != "auto":
             raise ParameterError("--predictor applies to the output-error fits of --form, not to --method sliding")
     else:
+        from controllers.cli.data import progress_from_args
+
         options["predictor"] = args.predictor
+        options["progress"] = progress_from_args(args)  # the output-error searches take a minute on a long log
     return identify(data, Vs=args.Vs, delta=args.delta, method=args.method if args.method == "sliding" else
                     "output_error", form=args.form, form_options=options, **common)
 
@@ -466,7 +469,8 @@ def register(sub) -> None:
                         "--delta). paper: the eq. 4 LS/RLS as "
                         "printed; output_error: also fit the physical J, tau, sigma, Fc, Fs of eqs. 1-3 by "
                         "simulation-error minimisation on the record's own time stamps (open-loop records; robust "
-                        "to noise and irregular sampling; needs --Vs, --delta); sliding: the sliding-regime "
+                        "to noise and irregular sampling; without --Vs, --delta it fits Vs and delta too); "
+                        "sliding: the sliding-regime "
                         "inverse-dynamics regression on a controller-rate log (closed loop; needs --Vs, --delta); idim: the "
                         "inverse dynamic model (IDIM-LS, the EMPS benchmark's torque regression: Coulomb + viscous + "
                         "offset, no --Vs, no --lag)")
