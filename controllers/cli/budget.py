@@ -47,11 +47,12 @@ MEMORY_LIMIT = 4 * 2**30
 #: ``linear_refit``: one refit of their residual bootstrap, per sample; ``refit_bytes``: the memory a replicate
 #: keeps (its parameters and its friction curve on the band's grid);
 #: ``output_error``/``closed_loop``: one output-error fit (or bootstrap refit) of the physical parameters, per
-#: sample (``partial`` refits of ``--bootstrap-refit partial``: a third of it); ``form``: one fit of a candidate form
-#: in ``--form``, per sample.
+#: sample (``partial`` refits of ``--bootstrap-refit partial``: a third of it; ``output_error`` as measured by
+#: benchmarks/output_error_speed.py, 2.7 s of CPU per fit of a 20 k-sample log, with a margin); ``form``: one fit of
+#: a candidate form in ``--form``, per sample.
 COSTS = {"loop": 2.7e-7, "prepare": 6e-7, "compare_fixed": 0.3, "step": 1.5e-5, "step_bytes": 130.0,
          "paper_sim": 3e-6, "paper_exp": 4e-6, "paper_speed": 0.02, "eq4": 8e-5, "linear_refit": 1e-8,
-         "refit_bytes": 2000.0, "output_error": 6e-3, "closed_loop": 6e-3, "form": 8e-4}
+         "refit_bytes": 2000.0, "output_error": 2e-4, "closed_loop": 6e-3, "form": 8e-4}
 
 #: Default bootstrap refits of each identification method (``identify --bootstrap``'s help).
 _DEFAULT_BOOTSTRAP = {"paper": 200, "sliding": 200, "idim": 200, "output_error": 20, "closed_loop": 10}
