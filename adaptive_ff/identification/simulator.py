@@ -139,6 +139,27 @@ def input_grid(t, u, *, h_max: float = H_MAX_DEFAULT, input_delay: float = 0.0, 
     return InputGrid(tg=np.ascontiguousarray(tg), ug=np.ascontiguousarray(ug), idx=idx.astype(np.int64))
 
 
+def _grid_args(grid: InputGrid, offset: float, w0: float, f0: float, gain, w_meas, out: np.ndarray) -> tuple:
+    """The arguments after ``par`` of the C grid simulations (``aff_simulate_on_grid`` and its ``_sens``), ``out``
+    (shape (N,)) the velocity they write; SignalError where a non-zero gain comes without ``w_meas`` of shape
+    (N,). Each ``ffi.from_buffer`` keeps its array alive while the returned tuple lives (the call)."""
+    Kw, Kf = float(gain[0]), float(gain[1])
+    inject = Kw != 0.0 or Kf != 0.0
+    n = grid.idx.shape[0]
+    if inject:
+        wm = np.ascontiguousarray(w_meas, dtype=float)
+        if wm.shape != (n,):
+            raise SignalError(f"w_meas must have shape ({n},) with a non-zero gain, got {wm.shape}")
+    else:
+        wm = out  # not read
+    tg = np.ascontiguousarray(grid.tg, dtype=float)
+    ug = np.ascontiguousarray(grid.ug, dtype=float)
+    idx = np.ascontiguousarray(grid.idx, dtype=_LONG)
+    return (ffi.from_buffer("double[]", tg), ffi.from_buffer("double[]", ug), ffi.from_buffer("long[]", idx), n,
+            float(offset), float(w0), float(f0), Kw, Kf, ffi.from_buffer("double[]", wm), int(inject),
+            ffi.from_buffer("double[]", out))
+
+
 def simulate_on_grid(par: np.ndarray, grid: InputGrid, *, w0: float, f0: float, offset: float = 0.0,
                      gain=(0.0, 0.0), w_meas=None) -> np.ndarray:
     """Fast RK4 simulation of eqs. 1-3 on an :class:`InputGrid` (no validation: inner loop of the fits).
@@ -178,22 +199,8 @@ def simulate_on_grid(par: np.ndarray, grid: InputGrid, *, w0: float, f0: float, 
     SignalError
         ``w_meas`` missing or not of shape (N,) while a gain is non-zero.
     """
-    Kw, Kf = float(gain[0]), float(gain[1])
-    inject = Kw != 0.0 or Kf != 0.0
-    n = grid.idx.shape[0]
-    out = np.empty(n)
-    if inject:
-        wm = np.ascontiguousarray(w_meas, dtype=float)
-        if wm.shape != (n,):
-            raise SignalError(f"w_meas must have shape ({n},) with a non-zero gain, got {wm.shape}")
-    else:
-        wm = out  # not read
-    tg = np.ascontiguousarray(grid.tg, dtype=float)
-    ug = np.ascontiguousarray(grid.ug, dtype=float)
-    idx = np.ascontiguousarray(grid.idx, dtype=_LONG)
-    lib.aff_simulate_on_grid(par, ffi.from_buffer("double[]", tg), ffi.from_buffer("double[]", ug),
-                             ffi.from_buffer("long[]", idx), n, float(offset), float(w0), float(f0), Kw, Kf,
-                             ffi.from_buffer("double[]", wm), int(inject), ffi.from_buffer("double[]", out))
+    out = np.empty(grid.idx.shape[0])
+    lib.aff_simulate_on_grid(par, *_grid_args(grid, offset, w0, f0, gain, w_meas, out))
     return out
 
 
@@ -230,23 +237,9 @@ def simulate_on_grid_sens(par: np.ndarray, grid: InputGrid, *, w0: float, f0: fl
     SignalError
         ``w_meas`` missing or not of shape (N,) while a gain is non-zero.
     """
-    Kw, Kf = float(gain[0]), float(gain[1])
-    inject = Kw != 0.0 or Kf != 0.0
-    n = grid.idx.shape[0]
-    out = np.empty(n)
-    dout = np.empty((n, len(SENS_NAMES)))
-    if inject:
-        wm = np.ascontiguousarray(w_meas, dtype=float)
-        if wm.shape != (n,):
-            raise SignalError(f"w_meas must have shape ({n},) with a non-zero gain, got {wm.shape}")
-    else:
-        wm = out  # not read
-    tg = np.ascontiguousarray(grid.tg, dtype=float)
-    ug = np.ascontiguousarray(grid.ug, dtype=float)
-    idx = np.ascontiguousarray(grid.idx, dtype=_LONG)
-    lib.aff_simulate_on_grid_sens(par, ffi.from_buffer("double[]", tg), ffi.from_buffer("double[]", ug),
-                                  ffi.from_buffer("long[]", idx), n, float(offset), float(w0), float(f0), Kw, Kf,
-                                  ffi.from_buffer("double[]", wm), int(inject), ffi.from_buffer("double[]", out),
+    out = np.empty(grid.idx.shape[0])
+    dout = np.empty((out.shape[0], len(SENS_NAMES)))
+    lib.aff_simulate_on_grid_sens(par, *_grid_args(grid, offset, w0, f0, gain, w_meas, out),
                                   ffi.from_buffer("double[]", dout))
     return out, dout
 

@@ -95,20 +95,12 @@ def _load_plant(args):
 def _refused_identification(args) -> int:
     """``--from FILE`` as ``design --from`` takes it: its refusing warnings echoed on stderr and the exit status
     3 unless ``--accept-warnings``; else 0."""
-    import sys
-
-    from controllers.cli.design import EXIT_REFUSED, warnings_from_file
+    from controllers.cli.design import refused_warnings, warnings_from_file
 
     if not args.from_file:
         return 0
-    refusing = [w for w in warnings_from_file(args.from_file) if w.refusing]
-    for w in refusing:
-        print(f"adaptive-ff: {args.from_file}: {w.code} warning on {w.parameter}: {w}", file=sys.stderr)
-    if refusing and not args.accept_warnings:
-        print(f"adaptive-ff: refused: {args.from_file} carries {len(refusing)} plausibility/identifiability "
-              "warning(s); fix the identification, or compare anyway with --accept-warnings", file=sys.stderr)
-        return EXIT_REFUSED
-    return 0
+    return refused_warnings(warnings_from_file(args.from_file), str(args.from_file), accept=args.accept_warnings,
+                            command="compare")
 
 
 def _user_loop(args) -> tuple:

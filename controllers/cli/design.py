@@ -9,7 +9,8 @@ import re
 import sys
 from pathlib import Path
 
-__all__ = ["register", "run", "plant_from_file", "warnings_from_file", "target_options", "EXIT_REFUSED"]
+__all__ = ["register", "run", "plant_from_file", "warnings_from_file", "target_options", "refused_warnings",
+           "EXIT_REFUSED"]
 
 #: Exit status of ``design --from`` refusing an identification with plausibility/identifiability warnings.
 EXIT_REFUSED = 3
@@ -197,6 +198,31 @@ def _check_work(args, design) -> None:
     check_work(design_estimate(t_end, design.Tc, what=what), yes=args.yes)
 
 
+def refused_warnings(warns, where: str, *, accept: bool, command: str) -> int:
+    """An identification's refusing warnings (:attr:`IdentificationWarning.refusing`) echoed on stderr, one line each,
+    and :data:`EXIT_REFUSED` unless ``accept`` (``--accept-warnings``); else 0.
+
+    Parameters
+    ----------
+    warns : list of adaptive_ff.identification.plausibility.IdentificationWarning
+        The identification's warnings.
+    where : str
+        The file (and joint) they come from, for the messages.
+    accept : bool
+        ``--accept-warnings`` given: echo them, go on.
+    command : str
+        What is refused (``"design"``, ``"compare"``), for the message.
+    """
+    refusing = [w for w in warns if w.refusing]
+    for w in refusing:
+        print(f"adaptive-ff: {where}: {w.code} warning on {w.parameter}: {w}", file=sys.stderr)
+    if refusing and not accept:
+        print(f"adaptive-ff: refused: {where} carries {len(refusing)} plausibility/identifiability "
+              f"warning(s); fix the identification, or {command} anyway with --accept-warnings", file=sys.stderr)
+        return EXIT_REFUSED
+    return 0
+
+
 def _identified(args) -> tuple:
     """``(warnings, (J, sigma), where, source)`` of ``--from FILE``, or of its joint ``--joint NAME`` (an
     ``identify-arm --json`` output, :func:`adaptive_ff.arm.result.read_arm_joint`)."""
@@ -235,13 +261,9 @@ def _design_and_write(args, fig_dir, report_dir):
                              "--from ARM.json")
     if args.from_file:
         warns, (Jf, sf), where, source = _identified(args)
-        refusing = [w for w in warns if w.refusing]
-        for w in refusing:
-            print(f"adaptive-ff: {where}: {w.code} warning on {w.parameter}: {w}", file=sys.stderr)
-        if refusing and not args.accept_warnings:
-            print(f"adaptive-ff: refused: {where} carries {len(refusing)} plausibility/identifiability "
-                  "warning(s); fix the identification, or design anyway with --accept-warnings", file=sys.stderr)
-            return EXIT_REFUSED
+        status = refused_warnings(warns, where, accept=args.accept_warnings, command="design")
+        if status:
+            return status
         J = Jf if J is None else J
         sigma = sf if sigma is None else sigma
     if J is None:
