@@ -6,38 +6,12 @@ The error is the benchmark's ``100*||y - y_model||/||y||`` of the low-pass filte
 recomputed here from the raw .mat file with scipy alone, independent of the package's pipeline.
 """
 
-from pathlib import Path
-
 import numpy as np
 import pytest
-from scipy.io import loadmat
-from scipy.signal import butter, decimate, filtfilt
 
 from adaptive_ff.io.data import load_emps
 from adaptive_ff.identification.idim import IDIM_TAIL, fit_idim, idim_force_error
-
-ROOT = Path(__file__).resolve().parents[1]
-EMPS = ROOT / "data" / "emps" / "DATA_EMPS.mat"
-PULSES = ROOT / "data" / "emps" / "DATA_EMPS_PULSES.mat"
-PUB = {"J": 95.1089, "sigma": 203.5034, "Fc": 20.3935, "offset": -3.1648}
-PUB_CROSS = 5.98
-
-
-def _raw(path):
-    """Force, filtered velocity and acceleration from the raw file (benchmark steps, scipy only)."""
-    m = loadmat(path)
-    t, qm = m["t"].ravel(), m["qm"].ravel()
-    b, a = butter(4, 100.0 / (0.5 / np.median(np.diff(t))))
-    dq = np.gradient(filtfilt(b, a, qm), t)
-    return m["gtau"].item() * m["vir"].ravel(), dq, np.gradient(dq, t)
-
-
-def _independent_error(theta, path, stop):
-    force, dq, ddq = _raw(path)
-    sel = slice(49, stop)
-    W = np.column_stack([ddq, dq, np.sign(dq), np.ones_like(dq)])[sel]
-    yd = decimate(force[sel], 10)
-    return 100 * np.linalg.norm(yd - decimate(W, 10, axis=0) @ theta) / np.linalg.norm(yd)
+from emps_reference import EMPS, PUB, PUB_CROSS, PULSES, independent_error, raw
 
 
 @pytest.fixture(scope="module")
@@ -50,7 +24,7 @@ def test_cross_test_error_at_or_below_the_published_reference(fit):
     theta = np.array([fit.params[k] for k in ("J", "sigma", "Fc", "offset")])
     # measured 5.953 % (package) against the published 5.98 %; the scipy-only recomputation agrees
     assert cross <= PUB_CROSS
-    assert cross == pytest.approx(_independent_error(theta, PULSES, -IDIM_TAIL), abs=0.005)
+    assert cross == pytest.approx(independent_error(theta, PULSES, -IDIM_TAIL), abs=0.005)
     # parameters within 2 % of the published ones (measured +0.008, -0.074, +0.088, +0.136 %)
     for k, v in PUB.items():
         assert abs(fit.params[k] / v - 1) < 0.02, k
@@ -64,7 +38,7 @@ def test_the_end_transient_is_what_lifted_the_error(fit):
     # the record stops while the axis moves (about -0.04 m/s): the forward-backward filter's extrapolation
     # bends the velocity there and the acceleration of the last samples jumps to about +0.5 m/s^2 while the
     # force changes by less than 1 N
-    force, dq, ddq = _raw(PULSES)
+    force, dq, ddq = raw(PULSES)
     assert abs(dq[-1]) > 0.03
     assert np.max(np.abs(ddq[-6:])) > 10 * np.max(np.abs(ddq[-100:-50]))
     assert np.ptp(force[-6:]) < 2.0

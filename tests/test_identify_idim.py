@@ -1,58 +1,24 @@
 """identify(method="idim"), chosen by "auto" for a position-measured axis: the EMPS cross-test at the benchmark's
 own figure.
 
-Before (issue 49): the default (``auto`` -> the eq. 4 LS) scored 6.045 % on the benchmark's cross-test
-(identify on ``DATA_EMPS.mat``, inverse-model force error on ``DATA_EMPS_PULSES.mat``), above the published
-5.98 % of the reference IDIM-LS; the package's ``fit_idim`` reached 5.953 % but the CLI did not offer it.
-The error is recomputed here with scipy alone from the raw .mat files (as tests/test_emps_crosstest.py).
+The eq. 4 LS (``--method paper``) scores 6.045 % on the benchmark's cross-test (identify on ``DATA_EMPS.mat``,
+inverse-model force error on ``DATA_EMPS_PULSES.mat``), above the published 5.98 % of the reference IDIM-LS.
+The error is recomputed here with scipy alone from the raw .mat files (tests/emps_reference.py).
 """
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
-from scipy.io import loadmat
-from scipy.signal import butter, decimate, filtfilt
 
 from adaptive_ff.identification.cross_validation import cross_validate
 from adaptive_ff.identification.identify import choose_method, identify
+from adaptive_ff.identification.idim import IDIM_TAIL
 from adaptive_ff.io.data import MeasuredData, load_emps, to_uniform
 from adaptive_ff.io.logs import LogUnits, load_log
 from controllers.cli.main import main
+from emps_reference import EMPS, PUB, PUB_CROSS, PULSES, independent_error, independent_fit
 from plant.errors import ParameterError
-
-ROOT = Path(__file__).resolve().parents[1]
-EMPS = ROOT / "data" / "emps" / "DATA_EMPS.mat"
-PULSES = ROOT / "data" / "emps" / "DATA_EMPS_PULSES.mat"
-PUB = {"J": 95.1089, "sigma": 203.5034, "Fc": 20.3935, "offset": -3.1648}
-PUB_CROSS = 5.98
-TAIL = 49
-
-
-def _raw(path):
-    m = loadmat(path)
-    t, qm = m["t"].ravel(), m["qm"].ravel()
-    b, a = butter(4, 100.0 / (0.5 / np.median(np.diff(t))))
-    dq = np.gradient(filtfilt(b, a, qm), t)
-    return m["gtau"].item() * m["vir"].ravel(), dq, np.gradient(dq, t)
-
-
-def _scipy_cross_error(theta) -> float:
-    """The benchmark's relative force error of ``(J, sigma, Fc, offset)`` on DATA_EMPS_PULSES.mat, scipy only."""
-    force, dq, ddq = _raw(PULSES)
-    sel = slice(49, -TAIL)
-    W = np.column_stack([ddq, dq, np.sign(dq), np.ones_like(dq)])[sel]
-    yd = decimate(force[sel], 10)
-    return 100 * np.linalg.norm(yd - decimate(W, 10, axis=0) @ theta) / np.linalg.norm(yd)
-
-
-def _scipy_idim_fit():
-    """The IDIM-LS of DATA_EMPS.mat by numpy's lstsq on the scipy-filtered rows."""
-    force, dq, ddq = _raw(EMPS)
-    sel = slice(49, -TAIL)
-    W = np.column_stack([ddq, dq, np.sign(dq), np.ones_like(dq)])[sel]
-    return np.linalg.lstsq(decimate(W, 10, axis=0), decimate(force[sel], 10), rcond=None)[0]
 
 
 @pytest.fixture(scope="module")
@@ -78,8 +44,8 @@ def test_emps_cross_test_at_or_below_the_published_reference(report):
     theta = np.array([report.params[k] for k in ("J", "sigma", "Fc", "offset")])
     # measured 5.953 % (the eq. 4 LS default before: 6.045 %), published 5.98 %
     assert cv.idim_force_error <= PUB_CROSS
-    assert cv.idim_force_error == pytest.approx(_scipy_cross_error(theta), abs=0.005)
-    np.testing.assert_allclose(theta, _scipy_idim_fit(), rtol=2e-3)
+    assert cv.idim_force_error == pytest.approx(independent_error(theta, PULSES, -IDIM_TAIL), abs=0.005)
+    np.testing.assert_allclose(theta, independent_fit(EMPS, -IDIM_TAIL), rtol=2e-3)
     for k, v in PUB.items():
         lo, hi = report.interval95[k]
         assert lo < v < hi, k  # the published values inside the answer's 95 % intervals
