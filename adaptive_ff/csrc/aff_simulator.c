@@ -83,6 +83,16 @@ static void rhs_tangent(const plant_params *p, double w, double f, double u, con
     Dkf[AFF_SENS_TAU] -= (F - f) * p->inv_tau * p->inv_tau;
 }
 
+/* The tangent of an RK4 stage's state, D + h*Dk, for the velocity and the friction state (AFF_SENS_NP each). */
+static void stage_tangent(const double *Dw, const double *Df, double h, const double *Dkw, const double *Dkf,
+                          double *Daw, double *Daf)
+{
+    for (int j = 0; j < AFF_SENS_NP; j++) {
+        Daw[j] = Dw[j] + h * Dkw[j];
+        Daf[j] = Df[j] + h * Dkf[j];
+    }
+}
+
 void aff_simulate_on_grid_sens(const plant_params *p, const double *tg, const double *ug, const long *idx, long n,
                                double offset, double w0, double f0, double Kw, double Kf, const double *w_meas,
                                int inject, double *out, double *dout)
@@ -119,24 +129,15 @@ void aff_simulate_on_grid_sens(const plant_params *p, const double *tg, const do
             rhs_tangent(p, w, f, u0, Dw, Df, &k1w, &k1f, D1w, D1f);
             wa = w + h2 * k1w;
             fa = f + h2 * k1f;
-            for (j = 0; j < AFF_SENS_NP; j++) {
-                Daw[j] = Dw[j] + h2 * D1w[j];
-                Daf[j] = Df[j] + h2 * D1f[j];
-            }
+            stage_tangent(Dw, Df, h2, D1w, D1f, Daw, Daf);
             rhs_tangent(p, wa, fa, um, Daw, Daf, &k2w, &k2f, D2w, D2f);
             wb = w + h2 * k2w;
             fb = f + h2 * k2f;
-            for (j = 0; j < AFF_SENS_NP; j++) {
-                Daw[j] = Dw[j] + h2 * D2w[j];
-                Daf[j] = Df[j] + h2 * D2f[j];
-            }
+            stage_tangent(Dw, Df, h2, D2w, D2f, Daw, Daf);
             rhs_tangent(p, wb, fb, um, Daw, Daf, &k3w, &k3f, D3w, D3f);
             wc = w + h * k3w;
             fc = f + h * k3f;
-            for (j = 0; j < AFF_SENS_NP; j++) {
-                Daw[j] = Dw[j] + h * D3w[j];
-                Daf[j] = Df[j] + h * D3f[j];
-            }
+            stage_tangent(Dw, Df, h, D3w, D3f, Daw, Daf);
             rhs_tangent(p, wc, fc, u1, Daw, Daf, &k4w, &k4f, D4w, D4f);
             w = w + h6 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w);
             f = f + h6 * (k1f + 2.0 * k2f + 2.0 * k3f + k4f);
