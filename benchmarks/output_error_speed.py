@@ -5,7 +5,7 @@ Run ``python benchmarks/output_error_speed.py [--duration S] [--methods NAME ...
 white velocity noise of 1 % of the peak velocity: 20 001 samples for 20 s) into a temporary folder, runs
 ``adaptive-ff identify`` on it once per method in a child process (``python -m controllers.cli.main``) and
 prints a table: CPU seconds of the child (user + system, all its threads: ``resource.getrusage`` of the
-children), wall seconds, the budget of issue 49 (output error <= 30 s, ``--form auto`` <= 60 s) and whether
+children), wall seconds, the project's budget (output error <= 30 s, ``--form auto`` <= 60 s) and whether
 it holds, and the fitted J, Fc, Fs against the truth.
 
 Methods:
@@ -41,7 +41,7 @@ sys.path.insert(0, str(ROOT))
 from plant import bandlimited_noise, preset, sample, simulate  # noqa: E402
 
 DT = 1e-3
-#: CPU budgets (s) of issue 49 for a 20 k-sample log.
+#: CPU budgets (s) for a 20 k-sample log.
 BUDGET = {"output_error": 30.0, "form_auto": 60.0, "default": float("nan")}
 ARGS = {"output_error": ["--method", "output_error"], "form_auto": ["--form", "auto"], "default": []}
 

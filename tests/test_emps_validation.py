@@ -227,7 +227,7 @@ def test_cli_identify_asymmetric_validate_json(capsys):
     assert d["closed_loop"]["velocity_error_percent"] == pytest.approx(loop.velocity_error, rel=1e-12)
     assert d["closed_loop"]["force_error_percent"] == pytest.approx(loop.force_error, rel=1e-12)
     assert d["validation"]["closed_loop"]["force_error_percent"] < 8.5
-    # the default (IDIM-LS since issue 49; the eq. 4 LS scored 6.045 % here): the benchmark's own figure, <= 5.98 %
+    # the default (the IDIM-LS; the eq. 4 LS scores 6.045 % here): the benchmark's own figure, <= 5.98 %
     assert d["validation"]["idim_force_error_percent"] == pytest.approx(5.953, abs=0.002)
     assert d["asymmetric"]["validation"]["velocity_error_percent"] < 0.4
     for k, v in (("J", 95.1089), ("sigma", 203.5034), ("Fc", 20.3935)):
@@ -258,5 +258,5 @@ def test_cli_validate_csv(tmp_path, capsys):
     assert main(["identify", str(EMPS), "--validate", str(csv), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert "closed_loop" not in out["validation"]
-    # the default on EMPS is the IDIM-LS since issue 49 (the eq. 4 LS: 6.09 ± 0.05 %)
+    # the default on EMPS is the IDIM-LS (the eq. 4 LS: 6.09 ± 0.05 %)
     assert out["validation"]["idim_force_error_percent"] == pytest.approx(5.953, abs=0.002)

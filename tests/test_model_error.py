@@ -1,8 +1,7 @@
 """Intervals that carry model error (adaptive_ff.identification.model_error) in the default identify methods.
 
-Before (issue 49): the eq. 4 LS's 95 % intervals were the residual block bootstrap's alone: they carried the
-noise, not the model error, and a fit whose model is not the joint's reported a narrow interval around a biased
-value with no warning. Each simulated log below has a deliberate model error; the truth is the simulation's.
+The residual block bootstrap's intervals alone carry the noise, not the model error: a fit whose model is not
+the joint's gets a narrow interval around a biased value and no warning. Each simulated log below has a deliberate model error; the truth is the simulation's.
 """
 
 import json
@@ -92,7 +91,7 @@ def test_lagged_friction_the_old_interval_misses_the_new_covers_and_warns():
     d = _lag_log(0)
     rep = identify(d)  # the default structure: Coulomb + viscous, no lag
     truth = {"J": 2.0, "sigma": 8.0, "Fc": 5.0}
-    # the residual block bootstrap alone (the default's intervals before issue 49): sigma and Fc out
+    # the residual block bootstrap alone (without the model-error checks): sigma and Fc out
     # (measured sigma 9.206 [8.797, 9.615], Fc 4.094 [3.888, 4.300])
     old = eq4_block_bootstrap(rep.model, d.u, d.w, rep.ls.theta, rep.Ts, ("J", "sigma", "Fc", "offset"))
     for k in ("sigma", "Fc"):
