@@ -13,7 +13,7 @@ aff_switch_in_config aff_switch_in_default_config(void)
     c.Ki = 0;
     c.window = (aff_real)2.0;
     c.ratio = (aff_real)0.1;
-    c.share = (aff_real)0.25;
+    c.share = (aff_real)0.1;
     c.fade_in = (aff_real)0.5;
     c.trial_margin = (aff_real)0.03;
     return c;

@@ -41,7 +41,10 @@
  *   or R_r > share*R_f (the feedforward removes less than 1 - share of what the friction would cost in mean
  *        square: a joint whose friction hardly matters next to the loop's own error, where the first test cannot
  *        fire, but the feedforward is doing little; R_f, the prediction for the uncompensated loop, is too large by
- *        1.5-10 times, so this test errs toward keeping the feedforward alone);
+ *        1.5-10 times, so this test errs toward keeping the feedforward alone: the threshold on the true ratio of
+ *        the residual's cost to the friction's is share times that factor, 0.15-1 at share 0.1; at 0.25 (0.375-2.5)
+ *        it kept the feedforward alone on lightly rubbing LuGre and asymmetric zoo joints that the observer takes to
+ *        eta 0.98-1.02, docs/benchmarks/export_c.md);
  * and only while M_e > M_l, M_e = EWMA((w_ref - w_ctrl)^2) over the same periods: the loop's measured error with the
  * feedforward alone is above the frictionless loop's predicted one. A loop that already tracks as well as the
  * frictionless one has nothing to gain from the observer, whatever the residual's predicted rise (counted without
@@ -106,7 +109,7 @@ typedef struct aff_switch_in_config {
     aff_real Ki;          /* integral gain (N*m/rad), finite, >= 0: set it; default 0 */
     aff_real window;      /* time constant of the means and the evidence needed (s), finite, > 0; default 2 */
     aff_real ratio;       /* switch in when R_r > ratio*M_l (-), finite, > 0; default 0.1 */
-    aff_real share;       /* ... or when R_r > share*R_f (-), finite, > 0; default 0.25 */
+    aff_real share;       /* ... or when R_r > share*R_f (-), finite, > 0; default 0.1 */
     aff_real fade_in;     /* the observer's share rises from 0 to 1 over this time (s), finite, >= 0 (0: a step);
                              default 0.5 */
     aff_real trial_margin; /* the trial takes the observer out where a ratio rose by more than 1 + trial_margin (-),
@@ -176,7 +179,7 @@ typedef struct aff_residual {
     aff_dob dob;          /* the observer of the residual f - u_ff */
 } aff_residual;
 
-/* The switch-in's defaults (ResidualSwitchIn's: window 2 s, ratio 0.1, share 0.25, fade_in 0.5 s, trial_margin
+/* The switch-in's defaults (ResidualSwitchIn's: window 2 s, ratio 0.1, share 0.1, fade_in 0.5 s, trial_margin
  * 0.03; Tc 0.001 s); J_n, Kp, Ki are 0: set them (the design inertia, the loop's PI). */
 aff_switch_in_config aff_switch_in_default_config(void);
 

@@ -117,11 +117,12 @@ class ResidualSwitchIn:
         Threshold (-), > 0; default 0.1: the residual raises the loop's mean-square error by 10 % of the
         frictionless loop's (5 % in RMS).
     share : float
-        Second threshold (-), > 0; default 0.25: the observer is also switched in where what the residual raises
+        Second threshold (-), > 0; default 0.1: the observer is also switched in where what the residual raises
         the loop's mean-square error by exceeds ``share`` times what the whole friction estimate ``u_ff + d_hat``
-        would raise it by (the feedforward removes less than three quarters of the friction's effect in mean
-        square) -- on joints whose friction hardly matters next to the loop's own error the first test cannot
-        fire.
+        would raise it by (as predicted, the feedforward removes less than nine tenths of the friction's effect in
+        mean square; that prediction for the uncompensated loop is 1.5-10 times too large, so the test errs toward
+        keeping the feedforward alone) -- on joints whose friction hardly matters next to the loop's own error the
+        first test cannot fire.
     fade_in : float
         Time over which the observer's share rises from 0 to 1 (s), >= 0 (0: a step); default 0.5.
     trial_margin : float
@@ -143,7 +144,7 @@ class ResidualSwitchIn:
     Ki: float
     window: float = 2.0
     ratio: float = 0.1
-    share: float = 0.25
+    share: float = 0.1
     fade_in: float = 0.5
     trial_margin: float = 0.03
 
