@@ -165,7 +165,9 @@ def test_a_joint_that_barely_moves_is_warned(arm, log):
     dq[:, 2] = np.gradient(q[:, 2], log.t)
     res = identify_arm(dataclasses.replace(log, q=q, dq=dq), arm, n_bootstrap=10)
     assert any("barely moves" in w and "'wrist'" in w and w.code == "identifiability" for w in res.joints[2].warnings)
-    assert res.cond > 1e3 and [w.code for w in res.warnings] == ["conditioning"]
+    # its own warning names it; its columns, scaled to unit norm, stay apart from the others' (the zero Fs column of
+    # a joint without Stribeck term is no fitted column and counts in no condition number)
+    assert np.isfinite(res.cond) and res.cond < 1e3 and res.warnings == ()
 
 
 # ------------------------------------------------------------------------------------------------ bad input
