@@ -73,7 +73,11 @@ def identify(bootstrap: int = 200, seed: int = 0, cutoff: float = CUTOFF_ARM, pr
 
 def _without_motor6(log, cutoff):
     """The log with the reference motor-6 terms taken out of joints 5 and 6 (velocities and accelerations of the
-    positions through the same zero-phase low-pass as identify-arm's)."""
+    positions through the same zero-phase low-pass as identify-arm's). Motor 6 turns at ``32 (dq5 + dq6)``: through
+    ``G^T`` its inertia, viscous and Coulomb friction act on both joints as ``Iam6 (ddq5 + ddq6) + fvm6 (dq5 + dq6)
+    + fsm6 sgn(dq5 + dq6)``. The source's regressor gives joint 5 the columns ``ddq6, dq6, sgn(dq5 + dq6)`` and
+    joint 6 ``ddq5, dq5, sgn(dq5 + dq6)``: each joint's own ``Ia`` and ``fv`` hold the rest, so its ``fv5`` and
+    ``fv6`` include ``fvm6``; without the motor's terms the joints' viscous friction is ``fv - fvm6``."""
     import dataclasses
 
     from scipy.signal import butter, filtfilt
@@ -204,8 +208,9 @@ def _motor6(bootstrap: int, seed: int) -> None:
     print(f"\nthe reference motor-6 terms subtracted from joints 5 and 6 first ({bootstrap} bootstrap refits):")
     for i in (4, 5):
         j = res.joints[i]
-        print(f"{j.name}: sigma {_iv(j, 'sigma')} (ref {REFERENCE['fv'][i]:.3g}), Fc {_iv(j, 'Fc')} "
-              f"(ref {REFERENCE['fs'][i]:.3g}), residual rms {res.info['rms'][i]:.3g} N·m")
+        fv = REFERENCE["fv"][i] - REFERENCE["fvm6"]
+        print(f"{j.name}: sigma {_iv(j, 'sigma')} (ref fv{i + 1} - fvm6 = {fv:.3g}), Fc {_iv(j, 'Fc')} "
+              f"(ref fs{i + 1} {REFERENCE['fs'][i]:.3g}), residual rms {res.info['rms'][i]:.3g} N·m")
 
 
 def main(argv=None) -> None:

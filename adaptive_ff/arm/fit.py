@@ -329,7 +329,8 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
         ``"fit"``: the base parameters identified with the friction (the URDF's inertias only set which
         combinations exist); ``"urdf"``: the URDF's inertias used as given, only the friction fitted.
     progress : bool or None, keyword-only
-        Progress bars of the Stribeck profile and the bootstrap on stderr (tqdm): True, False (default), None (only on a terminal).
+        Progress bars of the Stribeck profile and the bootstrap on stderr (tqdm): True, False (default), None
+        (only on a terminal).
 
     Returns
     -------

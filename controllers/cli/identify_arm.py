@@ -97,7 +97,7 @@ def register(sub) -> None:
     i.add_argument("--transmission", metavar="FILE.toml", default=None,
                    help="the log is motor-side: convert it to the joint side with the gear ratios, coupling matrix, "
                         "offsets and torque constants of FILE.toml (q = G^-1 q_m + offset, tau = G^T tau_m, "
-                        "G = diag(ratio) coupling; docs/your_arm.md)")
+                        "G = diag(ratio) coupling; the keys below)")
     i.add_argument("--cutoff", type=float, default=20.0, metavar="HZ",
                    help="cutoff of the zero-phase low-pass before differentiation (default 20 Hz)")
     i.add_argument("--bootstrap", type=at_least_2, default=200, metavar="N",
