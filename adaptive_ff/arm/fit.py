@@ -308,6 +308,7 @@ def _joint_warnings(arm, j, q, dq, keep_j, Vs, rel) -> list:
     out.append(W("method", "tau", "tau (the friction lag, eq. 1) is not identified by identify-arm: null"))
     return out
 
+
 @threadpool_limits.wrap(limits=1, user_api="blas")  # the many small products of the fits: one thread each
 def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, n_bootstrap: int = 200,
                  seed: int = 0, rigid_body: str = "fit", progress: bool | None = False) -> ArmIdentification:
