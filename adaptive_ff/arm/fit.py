@@ -177,7 +177,6 @@ def _profile(prob: _Problem, grids, bound: float, progress=False):
                disable=(None if progress is None else not progress))
     for _ in range(2):
         for j in range(prob.n):
-            bar.update()
             Vs_off = Vs.copy()
             Vs_off[j] = np.nan
             rss_off = prob.fit(Vs_off, delta)[1]
@@ -193,6 +192,7 @@ def _profile(prob: _Problem, grids, bound: float, progress=False):
             on = rss_off - best[2] > bound
             Vs[j], delta[j] = (best[0], best[1]) if on else (np.nan, 1.0)
             table[j] = rows
+            bar.update()
     bar.close()
     return Vs, delta, table
 
