@@ -38,7 +38,7 @@ def run(args) -> int:
     if args.plot:
         check_output_dir(args.plot, "--plot")
     arm = load_urdf(args.urdf)
-    log = read_arm_log(args.file, arm.n, columns=args.columns, joint_names=arm.names)
+    log = read_arm_log(args.file, arm.n, columns=args.columns, joint_names=arm.names, urdf=args.urdf)
     with named_by(args.file):
         result = identify_arm(log, arm, cutoff=args.cutoff, n_bootstrap=args.bootstrap, seed=args.seed,
                               rigid_body=args.rigid_body, progress=progress_from_args(args))
