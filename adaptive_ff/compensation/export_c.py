@@ -408,7 +408,7 @@ class CExport:
         lines = [f"C library of mode adaptive's compensator ({', '.join(parts)}){each} written to {self.out}"]
         lines += [f"  {p.name}" for p in self.files]
         lines.append("configuration (aff_config.h):")
-        width = max([16] + [len(k) + 2 for k in self.config])
+        width = max([16] + [len(k) + 2 for k in self.config]) if self.joints else 16
         lines += [f"  {k:<{width}}{v:.6g}" for k, v in self.config.items()]
         lines.append(f"from {len(self.headers)} headers and {len(self.sources)} sources of the package: "
                      + ", ".join(self.sources))
