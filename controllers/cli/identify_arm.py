@@ -45,7 +45,7 @@ def run(args) -> int:
         from adaptive_ff.arm.transmission import read_transmission
 
         gear = read_transmission(args.transmission, arm.n)
-    log = read_arm_log(args.file, arm.n, columns=args.columns, joint_names=arm.names)
+    log = read_arm_log(args.file, arm.n, columns=args.columns, joint_names=arm.names, urdf=args.urdf)
     if gear is not None:
         log = gear.to_joint(log)
     with named_by(args.file):
