@@ -17,7 +17,7 @@ import pytest
 SLOW_FILES = frozenset({
     "test_closed_loop_id.py", "test_physical_id.py", "test_your_drive.py", "test_docs.py", "test_readme.py",
     "test_identify_method.py", "test_fuzz_c.py", "test_fuzz_cli.py", "test_properties.py", "test_stiff_lugre.py",
-    "test_figures_quality.py", "test_stiff_lagged.py", "test_examples.py", "test_arm.py",
+    "test_figures_quality.py", "test_stiff_lagged.py", "test_examples.py", "test_arm.py", "test_arm_tx40.py",
 })
 
 

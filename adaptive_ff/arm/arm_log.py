@@ -78,8 +78,12 @@ def column_names(n: int, columns: str | None = None) -> dict:
     return roles
 
 
-def read_arm_log(path, n_joints: int, *, columns: str | None = None, joint_names=None) -> ArmLog:
+def read_arm_log(path, n_joints: int, *, columns: str | None = None, joint_names=None, urdf=None) -> ArmLog:
     """Read an N-joint log (CSV/TXT with a header, .mat, .npz; :func:`adaptive_ff.io.tables.read_columns`).
+
+    The columns are ``t, q1..qN, [dq1..dqN], tau1..tauN`` (joints in the URDF's order), or named after the
+    joints: ``q_<joint>``, ``[dq_<joint>]``, ``tau_<joint>`` with the URDF's joint names (any order, names
+    matched without case; CSV/TXT and .npz), or mapped by ``columns``.
 
     Parameters
     ----------
@@ -90,7 +94,9 @@ def read_arm_log(path, n_joints: int, *, columns: str | None = None, joint_names
     columns : str, optional
         Column map ``role=name,...`` (roles ``t``, ``qJ``, ``dqJ``, ``tauJ``).
     joint_names : sequence of str, optional
-        The URDF's joint names, for messages.
+        The URDF's joint names, for messages and for columns named after joints.
+    urdf : str or os.PathLike, optional
+        The URDF, for messages.
 
     Returns
     -------
@@ -102,12 +108,16 @@ def read_arm_log(path, n_joints: int, *, columns: str | None = None, joint_names
     FileNotFoundError, SignalError
         From the reader: a missing column (named, with the joint), a cell that is not a number.
     SignalError
-        Fewer than 50 rows, time not strictly increasing, some but not all velocity columns, or more joint
-        columns in the log than the URDF has joints (``q{N+1}`` present: named).
+        Fewer than 50 rows, time not strictly increasing, some but not all velocity columns; the log and the URDF
+        disagree: more or fewer joint columns than the URDF has joints, a column named after a joint the URDF
+        does not have, a URDF joint without its named column (file, column and joint named).
     """
     from adaptive_ff.io.tables import read_columns
 
+    header = None if columns else _header(path)
     names = column_names(n_joints, columns)
+    if header is not None and joint_names:
+        names = _joint_named_columns(path, header, joint_names, urdf) or names
     dq_roles = [f"dq{j + 1}" for j in range(n_joints)]
     label = (lambda j: f"joint {j + 1} ({joint_names[j]!r})") if joint_names else (lambda j: f"joint {j + 1}")
     try:
@@ -117,13 +127,14 @@ def read_arm_log(path, n_joints: int, *, columns: str | None = None, joint_names
         if m is None or m.group(1) == "t":
             raise
         j = int(re.sub(r"\D", "", m.group(1))) - 1
+        _check_joint_count(path, header, n_joints, joint_names, urdf, j)
         text = str(exc).split(". Choose the header")[0]
         raise SignalError(f"{text}: the {m.group(1)} column of {label(j)} of the URDF (map yours with --columns "
                           f"{m.group(1)}=NAME)") from None
-    extra = _extra_joint_column(path, n_joints, columns)
+    extra = _extra_joint_column(header, n_joints)
     if extra is not None:
-        raise SignalError(f"{path}: the log has a column {extra!r} but the URDF has {n_joints} joints: the log and "
-                          "the URDF disagree on the joint count")
+        raise SignalError(f"{path}: the log has a column {extra!r} but the URDF{_of(urdf)} has {n_joints} joints: "
+                          "the log and the URDF disagree on the joint count")
     c = table.columns
     t = c["t"]
     if t.shape[0] < 50:
@@ -140,20 +151,87 @@ def read_arm_log(path, n_joints: int, *, columns: str | None = None, joint_names
     return ArmLog(t=t, q=stack("q"), tau=stack("tau"), dq=stack("dq") if have else None, source=str(path))
 
 
-def _extra_joint_column(path, n: int, columns) -> str | None:
-    """``q{n+1}`` or ``tau{n+1}`` when a CSV header has it and no column map is given (the log has more joints)."""
+def _of(urdf) -> str:
+    return f" ({urdf})" if urdf else ""
+
+
+def _header(path) -> list | None:
+    """The column names of a CSV/TXT log's header (the first line that is neither blank nor a comment) or the
+    arrays of an .npz; None for other files or a file that does not open (the reader says why)."""
     path = Path(path)
-    if columns or path.suffix.lower() not in (".csv", ".txt"):
-        return None
-    with open(path, encoding="utf-8", errors="replace") as fh:
-        for line in fh:
-            if line.strip() and not line.lstrip().startswith("#"):
-                header = {x.strip().lower() for x in line.replace(";", ",").replace("\t", ",").split(",")}
-                break
-        else:
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".npz":
+            with np.load(path, allow_pickle=False) as npz:
+                return list(npz.files)
+        if suffix not in (".csv", ".txt"):
             return None
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            for line in fh:
+                if line.strip() and not line.lstrip().startswith("#"):
+                    return [x.strip() for x in re.split(r"[,;\t]|\s+", line.strip()) if x.strip()]
+    except (OSError, ValueError, AttributeError, TypeError):
+        return None
+    return None
+
+
+_NAMED = re.compile(r"^(q|dq|tau)_(.+)$", re.IGNORECASE)
+
+
+def _joint_named_columns(path, header, joint_names, urdf) -> dict | None:
+    """The role map of a log whose columns are named after joints (``q_<joint>``, ``dq_<joint>``,
+    ``tau_<joint>``), None when they are not (no ``q_<name>`` column, or numbered ``q1`` columns)."""
+    named = {}
+    for h in header:
+        m = _NAMED.match(h)
+        if m:
+            named[(m.group(1).lower(), m.group(2).lower())] = h
+    log_joints = [j for (p, j) in named if p == "q"]
+    if not log_joints or "q1" in {h.lower() for h in header}:
+        return None
+    urdf_names = [n.lower() for n in joint_names]
+    for j in log_joints:
+        if j not in urdf_names:
+            raise SignalError(f"{path}: column {named[('q', j)]!r} names joint {j!r}, which the URDF{_of(urdf)} "
+                              f"does not have (its joints: {', '.join(joint_names)}): the log and the URDF disagree "
+                              "on the joint names")
+    roles = {"t": "t"}
+    for k, n in enumerate(joint_names):
+        for p in ("q", "dq", "tau"):
+            if (p, n.lower()) in named:
+                roles[f"{p}{k + 1}"] = named[(p, n.lower())]
+            elif p != "dq":
+                raise SignalError(f"{path}: no column '{p}_{n}' for joint {k + 1} ({n!r}) of the URDF{_of(urdf)}; "
+                                  f"the log's columns name the joints {log_joints}: the log and the URDF disagree "
+                                  "on the joints")
+            else:
+                roles[f"{p}{k + 1}"] = f"dq_{n}"  # absent: optional
+    return roles
+
+
+def _check_joint_count(path, header, n, joint_names, urdf, j) -> None:
+    """A SignalError naming the joint count when the log's numbered columns stop before the URDF's joints do
+    (``q1..qm``, ``tau1..taum`` with ``m < n``, and the missing column is of joint ``j >= m``)."""
+    if header is None:
+        return
+    lower = {h.lower() for h in header}
+    m = 0
+    while f"q{m + 1}" in lower or f"tau{m + 1}" in lower:
+        m += 1
+    if 0 < m < n and j >= m and not any(f"{p}{k + 1}" in lower for p in ("q", "tau") for k in range(m, n)):
+        missing = f" ({joint_names[m]!r})" if joint_names else ""
+        raise SignalError(f"{path}: the log has the columns of {m} joint{'s' if m > 1 else ''} (q1..q{m}, "
+                          f"tau1..tau{m}), the URDF{_of(urdf)} has {n}: the log and the URDF disagree on the joint "
+                          f"count (joint {m + 1}{missing} has no column)")
+
+
+def _extra_joint_column(header, n: int) -> str | None:
+    """``q{n+1}`` or ``tau{n+1}`` when the log's header has it (the log has more joints than the URDF)."""
+    if header is None:
+        return None
+    lower = {h.lower() for h in header}
     for p in ("q", "tau"):
-        if f"{p}{n + 1}" in header:
+        if f"{p}{n + 1}" in lower:
             return f"{p}{n + 1}"
     return None
 

@@ -36,6 +36,7 @@ identified (NaN).
 from __future__ import annotations
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from plant.errors import ParameterError, SignalError
 from plant.stribeck_map import stribeck_shape
@@ -64,6 +65,46 @@ class _Problem:
         self.m, self.n, self.r = Yb.shape
         self.Yb, self.dq, self.tau, self.keep = Yb, dq, tau, keep
         self.w = np.ones(self.n)
+        self._cache = (None, {})  # the weights the products below were made with, and the products
+
+    def _joint_rows(self, j: int, Vs_j, delta_j) -> tuple:
+        """Joint ``j``'s kept, weighted rows: rigid-body block ``Y`` (m_j, r), friction columns ``F`` (m_j, 4),
+        torque ``y`` (m_j,), and their products ``(Y^T F, F^T F, F^T y)``, kept per ``(j, Vs_j, delta_j)``: the
+        profile changes one joint's ``(Vs, delta)`` at a time."""
+        w_seen, store = self._cache
+        if w_seen is None or not np.array_equal(w_seen, self.w):
+            store = {}
+            self._cache = (self.w.copy(), store)
+        if j not in store:
+            k = self.keep.reshape(self.m, self.n)[:, j]
+            Y, y = self.Yb[k, j, :] * self.w[j], self.tau[k, j] * self.w[j]
+            store[j] = (k, Y, y, Y.T @ Y, Y.T @ y)
+        key = (j, float(Vs_j), float(delta_j)) if np.isfinite(Vs_j) else (j, None, None)  # NaN: no Stribeck term
+        if key not in store:
+            k, Y, y = store[j][:3]
+            w = self.dq[k, j]
+            s = stribeck_shape(w, Vs_j, delta_j) if np.isfinite(Vs_j) else np.zeros(w.shape[0])
+            F = np.column_stack([np.sign(w) * (1 - s), np.sign(w) * s, w, np.ones(w.shape[0])]) * self.w[j]
+            store[key] = (F, Y.T @ F, F.T @ F, F.T @ y)
+        return store[j] + store[key]
+
+    def fit(self, Vs, delta):
+        """``(x, weighted RSS)`` of the weighted fit at ``Vs, delta``: the normal equations of :meth:`design`'s kept,
+        weighted rows assembled from the joints' blocks, solved for unit-norm columns (:func:`_scaled_solve`)."""
+        r, p = self.r, self.r + 4 * self.n
+        G, b = np.zeros((p, p)), np.zeros(p)
+        rows = [self._joint_rows(j, Vs[j], delta[j]) for j in range(self.n)]
+        for j, (_, _, _, YY, Yy, _, YF, FF, Fy) in enumerate(rows):
+            c = slice(r + 4 * j, r + 4 * j + 4)
+            G[:r, :r] += YY
+            b[:r] += Yy
+            G[:r, c], G[c, :r], G[c, c], b[c] = YF, YF.T, FF, Fy
+        x = _scaled_solve(G, b)
+        rss = 0.0
+        for j, (_, Y, y, _, _, F, _, _, _) in enumerate(rows):
+            e = y - Y @ x[:r] - F @ x[r + 4 * j: r + 4 * j + 4]
+            rss += float(e @ e)
+        return x, rss
 
     def design(self, Vs, delta) -> np.ndarray:
         """Rows (m*N, r + 4N): the rigid-body block and each joint's friction columns in its own rows."""
@@ -77,26 +118,24 @@ class _Problem:
         return A.reshape(self.m * self.n, -1)
 
     def solve(self, Vs, delta):
-        """``(x, weighted RSS, A)`` of the weighted fit at ``Vs, delta``."""
-        A = self.design(Vs, delta)
-        sw = np.tile(self.w, self.m)[self.keep]
-        x = _scaled_lstsq(A[self.keep] * sw[:, None], self.tau.reshape(-1)[self.keep] * sw)
-        e = (self.tau.reshape(-1) - A @ x)[self.keep] * sw
-        return x, float(e @ e), A
+        """``(x, weighted RSS, A)`` of the weighted fit at ``Vs, delta`` (:meth:`fit`, and :meth:`design`)."""
+        x, rss = self.fit(Vs, delta)
+        return x, rss, self.design(Vs, delta)
 
 
-def _scaled_lstsq(A, b) -> np.ndarray:
-    """Least squares by the normal equations of the unit-norm columns: a small p x p solve, the products by einsum
-    (no threaded BLAS call, which costs a hundred times more where other processes hold the cores); a zero column
-    gets 0."""
-    norm = np.linalg.norm(A, axis=0)
+def _scaled_solve(G, b) -> np.ndarray:
+    """Least squares from its normal equations ``G x = b`` (``G = A^T A``, ``b = A^T y``) solved for the unit-norm
+    columns of ``A`` (norms ``sqrt(diag G)``): a small p x p solve; a zero column gets 0. The products that make
+    ``G`` run on one BLAS thread (:func:`identify_arm` holds the BLAS to one: a threaded call costs a hundred times
+    more where other processes hold the cores)."""
+    norm = np.sqrt(np.maximum(np.diag(G), 0.0))
     on = norm > 0
-    As = A[:, on] / norm[on]
-    x = np.zeros(A.shape[1])
+    Gs = G[np.ix_(on, on)] / np.outer(norm[on], norm[on])
+    x = np.zeros(G.shape[0])
     try:
-        x[on] = np.linalg.solve(np.einsum("ki,kj->ij", As, As), np.einsum("ki,k->i", As, b)) / norm[on]
+        x[on] = np.linalg.solve(Gs, b[on] / norm[on]) / norm[on]
     except np.linalg.LinAlgError:
-        x[on] = np.linalg.lstsq(As.T @ As, As.T @ b, rcond=None)[0] / norm[on]
+        x[on] = np.linalg.lstsq(Gs, b[on] / norm[on], rcond=None)[0] / norm[on]
     return x
 
 
@@ -125,30 +164,36 @@ def _grids(dq, keep_j, vmin):
     return out
 
 
-def _profile(prob: _Problem, grids, bound: float):
+def _profile(prob: _Problem, grids, bound: float, progress=False):
     """Coordinate descent over the joints' ``(Vs, delta)`` grids (two sweeps); ``(Vs, delta, table)`` with
     ``table[j]`` the ``(Vs, delta, weighted RSS, estimate)`` of joint ``j``'s last sweep. A joint keeps no Stribeck term
     (``Vs`` NaN: ``Fs = Fc``) unless its best grid point lowers the weighted RSS by more than ``bound``."""
+    from tqdm.auto import tqdm
+
     Vs = np.full(prob.n, np.nan)
     delta = np.ones(prob.n)
     table = [[] for _ in range(prob.n)]
+    bar = tqdm(total=2 * prob.n, desc="arm Stribeck profile", unit="joint", leave=False,
+               disable=(None if progress is None else not progress))
     for _ in range(2):
         for j in range(prob.n):
             Vs_off = Vs.copy()
             Vs_off[j] = np.nan
-            rss_off = prob.solve(Vs_off, delta)[1]
+            rss_off = prob.fit(Vs_off, delta)[1]
             rows = []
             for d in DELTA_GRID:
                 for v in grids[j]:
                     Vs_try, d_try = Vs.copy(), delta.copy()
                     Vs_try[j], d_try[j] = v, d
-                    x_try, rss_try, _ = prob.solve(Vs_try, d_try)
+                    x_try, rss_try = prob.fit(Vs_try, d_try)
                     rows.append((v, d, rss_try, x_try))
             best = _refine(prob, Vs, delta, j, min(rows, key=lambda x: x[2]), grids[j])
             rows.append(best)
             on = rss_off - best[2] > bound
             Vs[j], delta[j] = (best[0], best[1]) if on else (np.nan, 1.0)
             table[j] = rows
+            bar.update()
+    bar.close()
     return Vs, delta, table
 
 
@@ -164,13 +209,13 @@ def _refine(prob: _Problem, Vs, delta, j: int, best, grid) -> tuple:
 
     def cost(lv):
         Vs_try[j] = np.exp(lv)
-        return prob.solve(Vs_try, d_try)[1]
+        return prob.fit(Vs_try, d_try)[1]
 
     r = minimize_scalar(cost, bounds=(lo, hi), method="bounded", options={"xatol": 0.01, "maxiter": 20})
     if r.fun >= best[2]:
         return best
     Vs_try[j] = np.exp(r.x)
-    x, rss, _ = prob.solve(Vs_try, d_try)
+    x, rss = prob.fit(Vs_try, d_try)
     return float(np.exp(r.x)), best[1], rss, x
 
 
@@ -185,8 +230,9 @@ def _bootstrap(prob: _Problem, A, x, n_boot: int, seed: int, progress=False):
     keep2 = prob.keep.reshape(prob.m, prob.n)
     resid = prob.tau - (A @ x).reshape(prob.m, prob.n)
     block = max(politis_white_block(resid[keep2[:, j], j]) for j in range(prob.n))
-    Aw = (A * sw[:, None]).reshape(prob.m, prob.n, -1)
-    yw = (prob.tau.reshape(-1) * sw).reshape(prob.m, prob.n)
+    Aw = (A * sw[:, None])[prob.keep]  # the kept rows; a resample counts each as often as its sample is drawn
+    yw = (prob.tau.reshape(-1) * sw)[prob.keep]
+    sample = np.repeat(np.arange(prob.m), prob.n)[prob.keep]
     rng = np.random.default_rng(seed)
     from tqdm.auto import tqdm
 
@@ -194,8 +240,9 @@ def _bootstrap(prob: _Problem, A, x, n_boot: int, seed: int, progress=False):
     for _ in tqdm(range(n_boot), desc="arm bootstrap", unit="refit", leave=False,
                   disable=(None if progress is None else not progress)):
         idx = circular_block_resample(np.arange(prob.m), prob.m, block=block, rng=rng).astype(int)
-        k = keep2[idx].reshape(-1)
-        reps.append(_scaled_lstsq(Aw[idx].reshape(prob.m * prob.n, -1)[k], yw[idx].reshape(-1)[k]))
+        c = np.bincount(idx, minlength=prob.m)[sample].astype(float)
+        cA = Aw * c[:, None]
+        reps.append(_scaled_solve(Aw.T @ cA, cA.T @ yw))
     reps = np.array(reps)
     d = reps - x
     return BootstrapResult(stderr=np.sqrt(np.mean(d**2, axis=0)), bias=np.mean(d, axis=0), replicates=reps,
@@ -261,6 +308,8 @@ def _joint_warnings(arm, j, q, dq, keep_j, Vs, rel) -> list:
     out.append(W("method", "tau", "tau (the friction lag, eq. 1) is not identified by identify-arm: null"))
     return out
 
+
+@threadpool_limits.wrap(limits=1, user_api="blas")  # the many small products of the fits: one thread each
 def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, n_bootstrap: int = 200,
                  seed: int = 0, rigid_body: str = "fit", progress: bool | None = False) -> ArmIdentification:
     """Identify the rigid body and every joint's friction of ``arm`` from ``log`` (module docstring: the method).
@@ -281,7 +330,8 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
         ``"fit"``: the base parameters identified with the friction (the URDF's inertias only set which
         combinations exist); ``"urdf"``: the URDF's inertias used as given, only the friction fitted.
     progress : bool or None, keyword-only
-        A progress bar of the bootstrap on stderr (tqdm): True, False (default), None (only on a terminal).
+        Progress bars of the Stribeck profile and the bootstrap on stderr (tqdm): True, False (default), None
+        (only on a terminal).
 
     Returns
     -------
@@ -321,7 +371,7 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
 
     block0 = max(politis_white_block(e0[keep_j[:, j], j] * prob.w[j]) for j in range(arm.n))
     rss0 = float(np.sum((e0 * prob.w) ** 2 * keep_j))
-    Vs, delta, table = _profile(prob, grids, 5.99 * block0 * rss0 / max(int(keep_j.sum()), 1))
+    Vs, delta, table = _profile(prob, grids, 5.99 * block0 * rss0 / max(int(keep_j.sum()), 1), progress)
     x, rss, A = prob.solve(Vs, delta)
     boot, resid = _bootstrap(prob, A, x, int(n_bootstrap), seed, progress)
     half = boot.half_width(0.95)
@@ -332,7 +382,8 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
         joints.append(_joint(arm, j, x, half, boot, a_J, r, base, (Vs, delta, table, rss, int(prob.keep.sum())),
                              (q, dq, keep_j)))
     scaled = A[prob.keep] * np.tile(prob.w, prob.m)[prob.keep][:, None]
-    scaled = scaled / np.maximum(np.linalg.norm(scaled, axis=0), 1e-300)
+    norm = np.linalg.norm(scaled, axis=0)
+    scaled = scaled[:, norm > 0] / norm[norm > 0]  # a zero column (Fs of a joint without Stribeck term) is no fit
     beta = x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf)
     ival = (np.column_stack([x[:r] - half[:r], x[:r] + half[:r]]) if rigid_body == "fit"
             else np.full((beta.shape[0], 2), np.nan))

@@ -8,7 +8,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["ArmJoint", "ArmIdentification", "JOINT_PARAMETERS", "read_arm_joint"]
+__all__ = ["ArmJoint", "ArmIdentification", "JOINT_PARAMETERS", "read_arm_joint", "read_arm_entries",
+           "is_arm_identification"]
 
 #: A joint's parameters in its JSON entry (the top-level keys of ``adaptive-ff identify --json``).
 JOINT_PARAMETERS = ("J", "Fc", "Fs", "Vs", "delta", "sigma", "tau", "offset")
@@ -171,6 +172,47 @@ class ArmIdentification:
         return axes
 
 
+def read_arm_entries(path) -> list:
+    """The joints' entries of an ``adaptive-ff identify-arm --json`` file, in its order (each in the layout of
+    ``identify --json``'s top level, with its ``name``).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The JSON file.
+
+    Returns
+    -------
+    list of dict
+
+    Raises
+    ------
+    FileNotFoundError
+        No such file.
+    ParameterError
+        Not JSON, no ``joints`` list of objects (not an ``identify-arm`` output), or a joint without a string
+        ``name``.
+    """
+    from plant.errors import ParameterError
+    from plant.models import read_json
+
+    d = read_json(path, what="JSON arm identification (adaptive-ff identify-arm --json)")
+    joints = d.get("joints") if isinstance(d, dict) else None
+    if not isinstance(joints, list) or not joints or not all(isinstance(j, dict) for j in joints):
+        raise ParameterError(f"{path}: no 'joints' list of objects: not an identify-arm --json output (--joint "
+                             "picks one of its joints)")
+    for k, j in enumerate(joints):
+        if not isinstance(j.get("name"), str):
+            raise ParameterError(f"{path}: joint {k + 1} has no 'name' (a string)")
+    return joints
+
+
+def is_arm_identification(d) -> bool:
+    """True if ``d`` (a parsed JSON value) is an ``identify-arm --json`` output: an object with a ``joints`` list and
+    a ``rigid_body`` object."""
+    return isinstance(d, dict) and isinstance(d.get("joints"), list) and isinstance(d.get("rigid_body"), dict)
+
+
 def read_arm_joint(path, name: str) -> dict:
     """One joint's entry of an ``adaptive-ff identify-arm --json`` file (the layout of ``identify --json``'s top
     level, read by :func:`adaptive_ff.identification.result_file.identification_from_dict`).
@@ -195,13 +237,8 @@ def read_arm_joint(path, name: str) -> dict:
         of the file listed).
     """
     from plant.errors import ParameterError
-    from plant.models import read_json
 
-    d = read_json(path, what="JSON arm identification (adaptive-ff identify-arm --json)")
-    joints = d.get("joints") if isinstance(d, dict) else None
-    if not isinstance(joints, list) or not all(isinstance(j, dict) for j in joints):
-        raise ParameterError(f"{path}: no 'joints' list of objects: not an identify-arm --json output (--joint "
-                             "picks one of its joints)")
+    joints = read_arm_entries(path)
     for j in joints:
         if j.get("name") == name:
             return j

@@ -45,8 +45,9 @@ from pathlib import Path
 from adaptive_ff.io.output import staged_folder
 from plant.errors import ParameterError
 
-__all__ = ["export_c", "CExport", "c_closure", "amalgamate", "struct_initializer", "field_comments", "c_literal",
-           "EXPORT_FILES", "CSRC_DIRS", "ROOT_HEADER"]
+__all__ = ["export_c", "export_settings", "ExportSettings", "CExport", "c_closure", "amalgamate", "struct_initializer",
+           "field_comments", "c_literal", "banner", "prepare_out", "EXPORT_FILES", "CSRC_DIRS", "ROOT_HEADER", "MACRO_DOC",
+           "MACRO_FIELDS", "MAKEFILE", "W_MAX_DEFAULT", "HOLD_TIME_DEFAULT"]
 
 #: The folders the compensator's C sources live in, searched in this order for a quoted ``#include``.
 CSRC_DIRS = (Path(__file__).resolve().parents[1] / "csrc", Path(__file__).resolve().parents[2] / "plant" / "csrc")
@@ -62,7 +63,7 @@ _LOCAL_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$', re.MULTILINE)
 #: Macros of aff_config.h and the fields of AFF_CONFIG that take their value: a field whose dotted path ends with
 #: one of the names (``Tc``, ``guard.u_max``) and whose value equals the macro's is written as the macro in
 #: aff_config.c.
-_MACRO_FIELDS = {
+MACRO_FIELDS = {
     "AFF_TC": ("dt", "Tc"),
     "AFF_TS": ("Ts",),
     "AFF_VS": ("Vs", "est.w_range.floor"),
@@ -173,7 +174,9 @@ def _strip_local_includes(text: str) -> str:
     return _LOCAL_INCLUDE.sub("", text).strip("\n") + "\n"
 
 
-def _banner(name: str, what: str, source: str, edit: str = "do not edit: export again") -> str:
+def banner(name: str, what: str, source: str, edit: str = "do not edit: export again") -> str:
+    """The comment that opens an exported file: its ``name``, ``what`` it holds, where the settings come from
+    (``source``, e.g. ``" for id.json"``) and whether to ``edit`` it."""
     return (f"/* {name} -- {what}\n *\n * Written by `adaptive-ff export-c` (adaptive_ff.compensation.export_c) "
             f"from the\n * C sources of the adaptive-ff package{source}; {edit}.\n */\n")
 
@@ -224,10 +227,10 @@ def amalgamate(headers, sources, origin: str = "") -> tuple[str, str]:
     (str, str)
         The header and the source text.
     """
-    h = [_banner("aff.h", "the adaptive friction feedforward's C API (one header).", origin)]
+    h = [banner("aff.h", "the adaptive friction feedforward's C API (one header).", origin)]
     for p in headers:
         h.append(f"\n/* ==== {p.name} ==== */\n" + _strip_local_includes(p.read_text()))
-    c = [_banner("aff.c", "the adaptive friction feedforward's C implementation (one file).", origin),
+    c = [banner("aff.c", "the adaptive friction feedforward's C implementation (one file).", origin),
          '#include "aff.h"\n']
     texts = _unique_statics({p.name: _strip_local_includes(p.read_text()) for p in sources})
     for p in sources:
@@ -371,6 +374,9 @@ class CExport:
         Whether ``make`` builds the single-precision variant by default.
     notes : tuple of str
         Caveats (e.g. values that a float build cannot represent).
+    joints : tuple of str
+        The joints of an arm's export (:func:`adaptive_ff.compensation.export_c_arm.export_c_arm`), one
+        compensator each, in the order of ``AFF_CONFIGS``; empty for one compensator.
     """
 
     out: Path
@@ -380,23 +386,30 @@ class CExport:
     sources: tuple
     float_default: bool = False
     notes: tuple = field(default_factory=tuple)
+    joints: tuple = ()
 
     def to_dict(self) -> dict:
-        """Strict-JSON dict: ``out, files, config, headers, sources, float_default, notes`` (inf as None)."""
+        """Strict-JSON dict: ``out, files, config, headers, sources, float_default, notes`` (inf as None), and
+        ``joints`` for an arm's export."""
         from plant.results import json_safe
 
-        return json_safe({"out": str(self.out), "files": [str(p) for p in self.files], "config": dict(self.config),
-                          "headers": list(self.headers), "sources": list(self.sources),
-                          "float_default": self.float_default, "notes": list(self.notes)})
+        d = {"out": str(self.out), "files": [str(p) for p in self.files], "config": dict(self.config),
+             "headers": list(self.headers), "sources": list(self.sources), "float_default": self.float_default,
+             "notes": list(self.notes)}
+        if self.joints:
+            d["joints"] = list(self.joints)
+        return json_safe(d)
 
     def summary(self) -> str:
         """A few lines: the folder, the files, the configuration and how to build."""
         parts = ["the feedforward"] + (["the residual observer"] if self.config.get("AFF_OBSERVER") else []) \
             + (["the supervisor"] if self.config.get("AFF_SUPERVISOR") else [])
-        lines = [f"C library of mode adaptive's compensator ({', '.join(parts)}) written to {self.out}"]
+        each = f", one per joint ({', '.join(self.joints)})," if self.joints else ""
+        lines = [f"C library of mode adaptive's compensator ({', '.join(parts)}){each} written to {self.out}"]
         lines += [f"  {p.name}" for p in self.files]
         lines.append("configuration (aff_config.h):")
-        lines += [f"  {k:<16}{v:.6g}" for k, v in self.config.items()]
+        width = max([16] + [len(k) + 2 for k in self.config]) if self.joints else 16
+        lines += [f"  {k:<{width}}{v:.6g}" for k, v in self.config.items()]
         lines.append(f"from {len(self.headers)} headers and {len(self.sources)} sources of the package: "
                      + ", ".join(self.sources))
         lines.append(f"build: make -C {self.out}" + (" (single precision: AFF_FLOAT)" if self.float_default else
@@ -407,7 +420,7 @@ class CExport:
 
 # ------------------------------------------------------------------------------------------------------- the files
 #: Documentation of each macro of aff_config.h: (unit, meaning).
-_MACRO_DOC = {
+MACRO_DOC = {
     "AFF_TC": ("s", "controller period: call aff_step and aff_observe once per AFF_TC"),
     "AFF_TS": ("s", "update period of the estimator's RLS, a multiple of AFF_TC"),
     "AFF_VS": ("rad/s", "Stribeck velocity Vs of eq. 3 (the identification's; the estimator does not adapt it)"),
@@ -432,14 +445,14 @@ _MACRO_DOC = {
 
 
 def _config_header(config: dict, source: str) -> str:
-    lines = [_banner("aff_config.h", "the settings of this export: macros and the drive's AFF_CONFIG.", source,
+    lines = [banner("aff_config.h", "the settings of this export: macros and the drive's AFF_CONFIG.", source,
                      "yours to edit (a value, then rebuild)"),
              "#ifndef AFF_CONFIG_H", "#define AFF_CONFIG_H", '#include "aff.h"', "",
              "/* SI units; the values this export was configured with. The fields of AFF_CONFIG (aff_config.c) equal",
              " * to a macro are written with it: change the macro (or any value in aff_config.c) and rebuild, and",
              " * aff_init checks the settings and computes the compensator's derived fields from them. */"]
     for k, v in config.items():
-        unit, what = _MACRO_DOC[k]
+        unit, what = MACRO_DOC[k]
         lines += ["", f"/* {what[0].upper() + what[1:]} ({unit}). */", f"#define {k} {c_literal(v)}"]
     lines += ["",
               "/* The drive's settings (aff_config.c): aff_init(&c, &AFF_CONFIG). */",
@@ -452,7 +465,7 @@ def _config_source(init: str, source: str, big: list) -> str:
     if big:
         no_float = ("#ifdef AFF_FLOAT\n#error \"fields beyond the float range (" + ", ".join(big[:4])
                     + "): this export cannot be built with AFF_FLOAT\"\n#endif\n\n")
-    return (_banner("aff_config.c", "AFF_CONFIG, the drive's settings as the package configured them.", source,
+    return (banner("aff_config.c", "AFF_CONFIG, the drive's settings as the package configured them.", source,
                     "yours to edit (a value, then rebuild)")
             + '#include "aff_config.h"\n\n' + no_float
             + "/* The settings of mode adaptive (mode) and of the input guard (guard), SI units, each field with its\n"
@@ -571,7 +584,8 @@ int main(void)
 }
 """
 
-_MAKEFILE = """\
+#: The exported Makefile (``@FLOAT@``: 1 where ``make`` builds single precision by default).
+MAKEFILE = """\
 # Makefile -- libaff.a and example_loop, the adaptive friction compensator (written by adaptive-ff export-c).
 #
 #   make            double precision: build/double/libaff.a, build/double/example_loop
@@ -629,7 +643,9 @@ def _check_number(name: str, x, *, positive: bool = True) -> float:
     return v
 
 
-def _prepare_out(out, force: bool) -> Path:
+def prepare_out(out, force: bool) -> Path:
+    """``out`` as a Path, checked: not an existing file, not a non-empty folder unless ``force``
+    (ParameterError)."""
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ParameterError(f"out {out}: an existing file, not a directory; give a directory name")
@@ -675,6 +691,84 @@ def _drive_config(compensator, **guard):
         raise ParameterError("the compensator is not what its settings configure (it has observed samples, or a part "
                              "was changed after it was configured): export a fresh compensator")
     return cfg
+
+
+@dataclass(frozen=True)
+class ExportSettings:
+    """The settings of one compensator's export (:func:`export_settings`).
+
+    Attributes
+    ----------
+    config : dict
+        The macros of ``aff_config.h``: name -> value (SI units; :data:`MACRO_DOC`).
+    macros : dict
+        ``{macro: (value, field names)}`` for :func:`struct_initializer` (the fields written with a macro).
+    drive : cffi cdata
+        The drive's settings (``aff_config *``), checked: ``aff_init`` builds the compensator from them.
+    stub : dict
+        ``Fc``, ``Fs``, ``sigma`` of the example's stub joint (``Fs >= Fc``).
+    """
+
+    config: dict
+    macros: dict
+    drive: object
+    stub: dict
+
+
+def export_settings(compensator, *, J_design: float, u_max: float, Kp: float, Ki: float, joint=None,
+                    w_max: float = W_MAX_DEFAULT, hold_time: float = HOLD_TIME_DEFAULT) -> ExportSettings:
+    """The checked settings of an export of ``compensator``: what :func:`export_c` writes for it
+    (:mod:`adaptive_ff.compensation.export_c_arm` writes several).
+
+    Parameters
+    ----------
+    compensator : AdaptiveCompensator
+        Mode ``adaptive``'s compensator before it observes anything (as :func:`export_c` takes it).
+    J_design, u_max, Kp, Ki, joint, w_max, hold_time : keyword-only
+        As :func:`export_c` takes them (SI units).
+
+    Returns
+    -------
+    ExportSettings
+
+    Raises
+    ------
+    ParameterError
+        Not mode adaptive's compensator or not what its settings configure, a bad number, ``u_max`` beyond the
+        float range, ``hold_time`` below the controller period.
+    """
+    ptr = _mode_struct(compensator)
+    J_design = _check_number("J_design", J_design)
+    u_max = _check_number("u_max", u_max)
+    if 2.0 * u_max > _FLT_MAX:
+        raise ParameterError(f"u_max = {u_max!r} N·m: twice it (the input guard's bound) is beyond the float range "
+                             f"({_FLT_MAX:.4g}); give the drive's real torque limit")
+    Kp = _check_number("Kp", Kp, positive=False)
+    Ki = _check_number("Ki", Ki, positive=False)
+    w_max = _check_number("w_max", w_max)
+    hold_time = _check_number("hold_time", hold_time)
+    jd = {"Fc": 0.0, "Fs": 0.0, "sigma": 0.0}
+    for k, v in dict(joint or {}).items():
+        if k not in jd:
+            raise ParameterError(f"joint: unknown key {k!r}; allowed {sorted(jd)}")
+        jd[k] = _check_number(f"joint {k}", v, positive=False)
+    jd["Fs"] = max(jd["Fs"], jd["Fc"])
+    ff = compensator.feedforward
+    est = ff.estimator
+    if hold_time < float(est.Tc):
+        raise ParameterError(f"hold_time = {hold_time!r} s is below the controller period Tc = {est.Tc!r} s")
+    config = {"AFF_TC": float(est.Tc), "AFF_TS": float(est.Ts), "AFF_VS": float(est.Vs),
+              "AFF_DELTA": float(est.delta), "AFF_J_DESIGN": J_design, "AFF_U_MAX": u_max,
+              "AFF_FF_MAX": float(ff.ff_max), "AFF_KP": Kp, "AFF_KI": Ki}
+    if ff.start is not None:
+        e = ff.start.estimate
+        config.update({"AFF_START_FC": float(e.Fc), "AFF_START_FS": float(e.Fs), "AFF_START_SIGMA": float(e.sigma),
+                       "AFF_START_TAU": float(e.tau)})
+    config.update({"AFF_W_MAX": w_max, "AFF_U_GUARD": 2.0 * u_max, "AFF_HOLD_TIME": hold_time,
+                   "AFF_OBSERVER": int(ptr.use_residual), "AFF_SUPERVISOR": int(ptr.use_supervisor)})
+    macros = {k: (config[k], names) for k, names in MACRO_FIELDS.items() if k in config}
+    drive = _drive_config(compensator, w_max=w_max, u_max=2.0 * u_max, hold_time=hold_time)
+    return ExportSettings(config=config, macros=macros, drive=drive, stub=jd)
 
 
 def export_c(compensator, out, *, J_design: float, u_max: float, Kp: float, Ki: float, joint=None,
@@ -730,43 +824,15 @@ def export_c(compensator, out, *, J_design: float, u_max: float, Kp: float, Ki: 
     FileNotFoundError
         The package's C sources are missing (an installation without ``csrc``).
     """
-    ptr = _mode_struct(compensator)
-    J_design = _check_number("J_design", J_design)
-    u_max = _check_number("u_max", u_max)
-    if 2.0 * u_max > _FLT_MAX:
-        raise ParameterError(f"u_max = {u_max!r} N·m: twice it (the input guard's bound) is beyond the float range "
-                             f"({_FLT_MAX:.4g}); give the drive's real torque limit")
-    Kp = _check_number("Kp", Kp, positive=False)
-    Ki = _check_number("Ki", Ki, positive=False)
-    w_max = _check_number("w_max", w_max)
-    hold_time = _check_number("hold_time", hold_time)
-    jd = {"Fc": 0.0, "Fs": 0.0, "sigma": 0.0}
-    for k, v in dict(joint or {}).items():
-        if k not in jd:
-            raise ParameterError(f"joint: unknown key {k!r}; allowed {sorted(jd)}")
-        jd[k] = _check_number(f"joint {k}", v, positive=False)
-    jd["Fs"] = max(jd["Fs"], jd["Fc"])
-    ff = compensator.feedforward
-    est = ff.estimator
-    if hold_time < float(est.Tc):
-        raise ParameterError(f"hold_time = {hold_time!r} s is below the controller period Tc = {est.Tc!r} s")
-    config = {"AFF_TC": float(est.Tc), "AFF_TS": float(est.Ts), "AFF_VS": float(est.Vs),
-              "AFF_DELTA": float(est.delta), "AFF_J_DESIGN": J_design, "AFF_U_MAX": u_max,
-              "AFF_FF_MAX": float(ff.ff_max), "AFF_KP": Kp, "AFF_KI": Ki}
-    if ff.start is not None:
-        e = ff.start.estimate
-        config.update({"AFF_START_FC": float(e.Fc), "AFF_START_FS": float(e.Fs), "AFF_START_SIGMA": float(e.sigma),
-                       "AFF_START_TAU": float(e.tau)})
-    config.update({"AFF_W_MAX": w_max, "AFF_U_GUARD": 2.0 * u_max, "AFF_HOLD_TIME": hold_time,
-                   "AFF_OBSERVER": int(ptr.use_residual), "AFF_SUPERVISOR": int(ptr.use_supervisor)})
-    macros = {k: (config[k], names) for k, names in _MACRO_FIELDS.items() if k in config}
-    drive = _drive_config(compensator, w_max=w_max, u_max=2.0 * u_max, hold_time=hold_time)
+    st = export_settings(compensator, J_design=J_design, u_max=u_max, Kp=Kp, Ki=Ki, joint=joint, w_max=w_max,
+                         hold_time=hold_time)
+    config, jd, est = st.config, st.stub, compensator.feedforward.estimator
     headers, sources = c_closure()
-    out = _prepare_out(out, force)
+    out = prepare_out(out, force)
     from adaptive_ff._caff import ffi
 
     big: list = []
-    init = struct_initializer(ffi, drive[0], ffi.typeof(drive).item, macros=macros, too_large_for_float=big,
+    init = struct_initializer(ffi, st.drive[0], ffi.typeof(st.drive).item, macros=st.macros, too_large_for_float=big,
                               comments=field_comments(headers))
     h_text, c_text = amalgamate(headers, sources, origin)
     notes = []
@@ -781,7 +847,7 @@ def export_c(compensator, out, *, J_design: float, u_max: float, Kp: float, Ki: 
     texts = {"aff.h": h_text, "aff.c": c_text,
              "aff_config.h": _config_header(config, origin),
              "aff_config.c": _config_source(init, origin, big),
-             "example_loop.c": example, "Makefile": _MAKEFILE.replace("@FLOAT@", "1" if float_default else "0")}
+             "example_loop.c": example, "Makefile": MAKEFILE.replace("@FLOAT@", "1" if float_default else "0")}
     with staged_folder(out, "out") as staged:  # all files appear at once, or the previous ones stay
         for name in EXPORT_FILES:
             (staged / name).write_text(texts[name])

@@ -49,7 +49,8 @@ _SCENARIO_SETS = {"preset": "[plant] preset", "plant": "[plant] file", "variant"
                   "no_prefit": "[compensation] prefit", "no_fast_start": "[compensation] adaptive_start",
                   "no_switch_in": "[compensation] switch_in", "estimator_rows": "[compensation] estimator_rows",
                   "Vs": "[compensation] Vs", "delta": "[compensation] delta", "J_design": "[controller] J_design",
-                  "controller": "[controller]", "from_file": "[plant] and [controller]"}
+                  "controller": "[controller]", "from_file": "[plant] and [controller]",
+                  "joint": "[plant] and [controller]"}
 
 
 def _scenario_comparison(args) -> tuple:
@@ -86,21 +87,58 @@ def _load_plant(args):
     elif args.variant:
         p = variant(args.variant)
     elif args.preset is None and args.from_file:
-        p = _plant_or_identification(args.from_file)
+        p = _plant_or_identification(args.from_file) if args.joint is None else _joint_plant(args)
     else:
         p = preset(args.preset or "paper")
     return p
 
 
 def _refused_identification(args) -> int:
-    """``--from FILE`` as ``design --from`` takes it: its refusing warnings echoed on stderr and the exit status
-    3 unless ``--accept-warnings``; else 0."""
-    from controllers.cli.design import refused_warnings, warnings_from_file
+    """``--from FILE`` (its joint ``--joint NAME``) as ``design --from`` takes it: its refusing warnings echoed on
+    stderr and the exit status 3 unless ``--accept-warnings``; else 0."""
+    from adaptive_ff.arm.result import read_arm_joint
+    from controllers.cli.design import entry_warnings, refused_warnings, warnings_from_file
+    from plant.errors import ParameterError
 
+    if args.joint is not None and not args.from_file:
+        raise ParameterError(f"--joint {args.joint} picks a joint of an identify-arm --json output: give it with "
+                             "--from ARM.json")
     if not args.from_file:
         return 0
-    return refused_warnings(warnings_from_file(args.from_file), str(args.from_file), accept=args.accept_warnings,
-                            command="compare")
+    if args.joint is None:
+        warns = warnings_from_file(args.from_file)
+    else:
+        warns = entry_warnings(read_arm_joint(args.from_file, args.joint), _where(args))
+    return refused_warnings(warns, _where(args), accept=args.accept_warnings, command="compare")
+
+
+def _where(args) -> str:
+    """The ``--from`` file, with its joint ``--joint NAME`` if given: what the messages name."""
+    return str(args.from_file) + ("" if args.joint is None else f" joint {args.joint!r}")
+
+
+def _joint_identified(args):
+    """The :class:`adaptive_ff.identification.result_file.IdentifiedJoint` of the joint ``--joint`` of the
+    ``identify-arm --json`` output ``--from``."""
+    from adaptive_ff.arm.result import read_arm_joint
+    from adaptive_ff.identification.result_file import identification_from_dict
+
+    return identification_from_dict(read_arm_joint(args.from_file, args.joint), where=_where(args))
+
+
+def _joint_plant(args):
+    """The plant of ``--from ARM.json --joint NAME`` alone: the identified joint (its lag ``tau`` needed)."""
+    from plant.errors import ParameterError
+    from plant.models import check_plausible, plant_from_dict
+
+    joint = _joint_identified(args)
+    try:
+        p = plant_from_dict(joint.plant_dict())
+    except (ParameterError, TypeError, OverflowError) as exc:
+        raise ParameterError(f"{exc} (the simulated plant is the identified joint without --plant, --variant or "
+                             "--preset)") from None
+    check_plausible(p, where=_where(args))
+    return p
 
 
 def _user_loop(args) -> tuple:
@@ -127,7 +165,11 @@ def _user_loop(args) -> tuple:
         controller = read_controller(args.controller)
         source = f"PI from {args.controller} (run as given)"
     if args.from_file:
-        Jf, sf = plant_from_file(args.from_file)
+        if args.joint is None:
+            Jf, sf = plant_from_file(args.from_file)
+        else:
+            joint = _joint_identified(args)
+            Jf, sf = joint.J, joint.sigma
         J = Jf if J is None else J
         if controller is None:
             sigma = max(sf, 0.0)
@@ -135,8 +177,9 @@ def _user_loop(args) -> tuple:
                 controller = design_pi(J, sigma=sigma, crossover=args.crossover, phase_margin=args.phase_margin)
             except ParameterError as exc:
                 raise ParameterError(f"{target_options(str(exc))} (J = {J:g} kg·m², sigma = {sigma:g} N·m·s/rad "
-                                     f"from {args.from_file})") from None
-            source = f"PI designed as 'design --from {args.from_file}' designs it (J = {J:g} kg·m², sigma = " \
+                                     f"from {_where(args)})") from None
+            design_from = args.from_file if args.joint is None else f"{args.from_file} --joint {args.joint}"
+            source = f"PI designed as 'design --from {design_from}' designs it (J = {J:g} kg·m², sigma = " \
                      f"{sigma:g} N·m·s/rad)"
     return J, controller, source
 
@@ -195,7 +238,7 @@ def _comparison(args, p, modes) -> tuple:
     elif args.variant:
         src = f"variant '{args.variant}'"
     elif args.preset is None and args.from_file:
-        src = f"the joint identified in {args.from_file}"
+        src = f"the joint identified in {_where(args)}"
     else:
         src = f"preset '{args.preset or 'paper'}'"
     with _plant_named(f"--plant {src}" if args.plant else src):
@@ -451,6 +494,8 @@ def register(sub) -> None:
                    help="an 'identify --json' output: the design inertia is its J and the PI the one 'design --from "
                         "FILE' designs (on J and sigma, at --crossover and --phase-margin); without --plant, "
                         "--variant or --preset the simulated plant is the identified joint")
+    c.add_argument("--joint", metavar="NAME", default=None,
+                   help="with --from ARM.json (identify-arm --json): that joint's entry is the identification")
     c.add_argument("--controller", metavar="FILE", default=None,
                    help="run this PI as given: a 'design --json' output (Kp, Ki, Tc, J, sigma, SI units); "
                         "--crossover and --phase-margin do not apply")

@@ -9,8 +9,8 @@ import re
 import sys
 from pathlib import Path
 
-__all__ = ["register", "run", "plant_from_file", "warnings_from_file", "target_options", "refused_warnings",
-           "EXIT_REFUSED"]
+__all__ = ["register", "run", "plant_from_file", "warnings_from_file", "entry_warnings", "target_options",
+           "refused_warnings", "EXIT_REFUSED"]
 
 #: Exit status of ``design --from`` refusing an identification with plausibility/identifiability warnings.
 EXIT_REFUSED = 3
@@ -227,9 +227,7 @@ def _identified(args) -> tuple:
     """``(warnings, (J, sigma), where, source)`` of ``--from FILE``, or of its joint ``--joint NAME`` (an
     ``identify-arm --json`` output, :func:`adaptive_ff.arm.result.read_arm_joint`)."""
     from adaptive_ff.arm.result import read_arm_joint
-    from adaptive_ff.identification.plausibility import warning_from_dict
     from adaptive_ff.identification.result_file import identification_from_dict
-    from plant.errors import ParameterError
 
     if getattr(args, "joint", None) is None:
         return (warnings_from_file(args.from_file), plant_from_file(args.from_file), str(args.from_file),
@@ -237,12 +235,36 @@ def _identified(args) -> tuple:
     entry = read_arm_joint(args.from_file, args.joint)
     where = f"{args.from_file} joint {args.joint!r}"
     joint = identification_from_dict(entry, where=where)
+    return entry_warnings(entry, where), (joint.J, joint.sigma), where, f"{where} (method {joint.method!r})"
+
+
+def entry_warnings(entry: dict, where: str) -> list:
+    """The warnings of one joint's entry of an ``identify-arm --json`` output (or of an ``identify --json`` object).
+
+    Parameters
+    ----------
+    entry : dict
+        The parsed entry: its ``"warnings"`` list of ``{"code", "parameter", "message"}`` objects.
+    where : str
+        The file and the joint, for the messages.
+
+    Returns
+    -------
+    list of adaptive_ff.identification.plausibility.IdentificationWarning
+
+    Raises
+    ------
+    ParameterError
+        A warning that is not a warning object (``where`` named).
+    """
+    from adaptive_ff.identification.plausibility import warning_from_dict
+    from plant.errors import ParameterError
+
     raw = entry.get("warnings", [])
     try:
-        warns = [warning_from_dict(w) for w in (raw if isinstance(raw, list) else [raw])]
+        return [warning_from_dict(w) for w in (raw if isinstance(raw, list) else [raw])]
     except ParameterError as exc:
         raise ParameterError(f"{where}: {exc}") from None
-    return warns, (joint.J, joint.sigma), where, f"{where} (method {joint.method!r})"
 
 
 def _design_and_write(args, fig_dir, report_dir):

@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 from pathlib import Path
 
 __all__ = ["register", "run", "check_options", "compensator_from_file", "FLOAT_MAX", "PLAUSIBLE"]
@@ -38,9 +37,17 @@ the example in double; 'make FLOAT=1': single precision, -DAFF_FLOAT). C99 and <
 no I/O, bounded work per call. An identification with plausibility or identifiability warnings is
 refused with exit status 3 (as 'design --from') unless --accept-warnings.
 
+From an arm's identification ('identify-arm --json'): one library with a compensator per joint, each
+configured from its joint's entry as above; aff_config.h names the joints (AFF_N_JOINTS, the enum
+AFF_JOINT_<NAME>, AFF_JOINT_NAMES_INIT) and aff_config.c holds AFF_CONFIGS[AFF_N_JOINTS], one configuration
+per joint (aff_init(&c[j], &AFF_CONFIGS[j])); the example loop runs an array of compensators. --joint NAME
+exports that joint alone, in the one-joint layout. --J-design, --Vs, --delta, --Kp, --Ki set one joint's
+value: with an arm, only with --joint.
+
 examples:
   adaptive-ff export-c --from id.json --u-max 150 --out drive_ff && make -C drive_ff run
   adaptive-ff export-c --from id.json --u-max 150 --Kp 80 --Ki 1600 --float --out drive_ff
+  adaptive-ff export-c --from arm.json --u-max 50 --out arm_ff && make -C arm_ff run
 """
 
 
@@ -59,17 +66,22 @@ def _number(d: dict, key: str, path, *, required: bool = True):
     return float(v)
 
 
-def _identified(path):
+def _identified(path, arm_joint=None):
     """The :class:`adaptive_ff.identification.result_file.IdentifiedJoint` of an ``identify --json`` output (the
-    parameters of the method that gave the answer, in either file layout)."""
-    from adaptive_ff.identification.result_file import read_identification
+    parameters of the method that gave the answer, in either file layout), or of the joint ``arm_joint`` of an
+    ``identify-arm --json`` output."""
+    from adaptive_ff.arm.result import read_arm_joint
+    from adaptive_ff.identification.result_file import identification_from_dict, read_identification
 
-    return read_identification(path)
+    if arm_joint is None:
+        return read_identification(path)
+    return identification_from_dict(read_arm_joint(path, arm_joint), where=f"{path} joint {arm_joint!r}")
 
 
 def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: float | None = None,
                           crossover: float = 20.0, phase_margin: float = 60.0, start: bool = False,
-                          initial: bool = True, feedforward_only: bool = False, **options):
+                          initial: bool = True, feedforward_only: bool = False, arm_joint: str | None = None,
+                          **options):
     """The ``adaptive`` mode's compensator configured from an ``identify --json`` file, as ``compare`` configures it.
 
     Parameters
@@ -95,6 +107,9 @@ def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: fl
         ``compare`` starts it from its pre-fit) instead of zero friction.
     feedforward_only : bool, keyword-only
         The feedforward alone: no residual observer, no supervisor (default False: the whole mode).
+    arm_joint : str, keyword-only
+        ``path`` is an ``identify-arm --json`` output: the compensator of this joint's entry (the layout of
+        ``identify --json``; :func:`adaptive_ff.arm.result.read_arm_joint`).
     **options
         Fields of :class:`controllers.simulation.compensators.ModeOptions` that override the defaults: ``Tc``
         (1 ms), ``Ts`` (10 ms), ``J_design`` (the identified ``J``), ``Vs``, ``delta`` (the file's), ``ff_max``
@@ -133,8 +148,9 @@ def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: fl
     unknown = sorted(set(options) - known)
     if unknown:
         raise ParameterError(f"unknown option(s) {unknown}; allowed: the fields of ModeOptions {sorted(known)}")
-    ident = _identified(path)
-    top = {"Vs": ident.Vs, "delta": ident.delta}
+    ident = _identified(path, arm_joint)
+    path = ident.source  # the file, or the file and the joint: what the messages name
+    top = {k: v for k, v in (("Vs", ident.Vs), ("delta", ident.delta)) if v is not None and math.isfinite(v)}
     params = {k: v for k, v in ident.params.items() if math.isfinite(v)}  # a null (non-finite) value: absent
     Vs = options.pop("Vs", None)
     delta = options.pop("delta", None)
@@ -254,33 +270,96 @@ def run(args) -> int:
 
 def _export(args, out: Path) -> int:
     """The export of :func:`run` once its options are checked and ``out`` is locked; the exit status."""
+    from adaptive_ff.arm.result import read_arm_joint
     from adaptive_ff.compensation.export_c import export_c
-    from controllers.cli.design import EXIT_REFUSED, target_options, warnings_from_file
+    from controllers.cli.design import entry_warnings, refused_warnings, warnings_from_file
+
+    if args.joint is None and _is_arm_file(args.from_file):
+        return _export_arm(args, out)
+    _identified(args.from_file, args.joint)  # read errors name the file as what it should be: an identification
+    if args.joint is None:
+        where, warns = str(args.from_file), warnings_from_file(args.from_file)
+    else:
+        where = f"{args.from_file} joint {args.joint!r}"
+        warns = entry_warnings(read_arm_joint(args.from_file, args.joint), where)
+    status = refused_warnings(warns, where, accept=args.accept_warnings, command="export")
+    if status:
+        return status
+    comp, s = _compensator(args, args.joint)
+    origin = f" for {Path(args.from_file).name}" + ("" if args.joint is None else f" joint {args.joint!r}")
+    res = export_c(comp, out, J_design=s["J_design"], u_max=s["u_max"], Kp=s["Kp"], Ki=s["Ki"], joint=s["joint"],
+                   w_max=args.w_max, hold_time=args.hold_time, float_default=args.float, force=args.force,
+                   origin=origin)
+    return _print_export(args, res)
+
+
+def _is_arm_file(path) -> bool:
+    """Whether ``path`` is an ``identify-arm --json`` output (False where it does not parse: the identification's
+    reader names what is wrong)."""
+    from adaptive_ff.arm.result import is_arm_identification
+    from plant.errors import ParameterError
+    from plant.models import read_json
+
+    try:
+        return is_arm_identification(read_json(path, what="JSON identification"))
+    except (ParameterError, OSError):
+        return False
+
+
+def _compensator(args, arm_joint=None) -> tuple:
+    """:func:`compensator_from_file` of ``args`` (of the joint ``arm_joint`` of an ``identify-arm`` output)."""
+    from controllers.cli.design import target_options
     from plant.errors import ParameterError
 
-    _identified(args.from_file)  # read errors name the file as what it should be: an identification
-    refusing = [w for w in warnings_from_file(args.from_file) if w.refusing]
-    for w in refusing:
-        print(f"adaptive-ff: {args.from_file}: {w.code} warning on {w.parameter}: {w}", file=sys.stderr)
-    if refusing and not args.accept_warnings:
-        print(f"adaptive-ff: refused: {args.from_file} carries {len(refusing)} plausibility/identifiability "
-              "warning(s); fix the identification, or export anyway with --accept-warnings", file=sys.stderr)
-        return EXIT_REFUSED
     extra = {k: getattr(args, k) for k in ("ff_max", "stick_band") if getattr(args, k) is not None}
     try:
-        comp, s = compensator_from_file(args.from_file, u_max=args.u_max, Kp=args.Kp, Ki=args.Ki,
-                                        crossover=args.crossover, phase_margin=args.phase_margin, start=args.start,
-                                        Tc=args.Tc, Ts=args.Ts, J_design=args.J_design, Vs=args.Vs,
-                                        delta=args.delta, feedforward_only=args.feedforward_only, **extra)
+        return compensator_from_file(args.from_file, u_max=args.u_max, Kp=args.Kp, Ki=args.Ki,
+                                     crossover=args.crossover, phase_margin=args.phase_margin, start=args.start,
+                                     Tc=args.Tc, Ts=args.Ts, J_design=args.J_design, Vs=args.Vs, delta=args.delta,
+                                     feedforward_only=args.feedforward_only, arm_joint=arm_joint, **extra)
     except ParameterError as exc:
         text = target_options(str(exc))
         if text == str(exc):
             raise
-        raise ParameterError(f"{text} (the example loop's PI designed for the J and sigma of {args.from_file}; "
+        where = args.from_file if arm_joint is None else f"{args.from_file} joint {arm_joint!r}"
+        raise ParameterError(f"{text} (the example loop's PI designed for the J and sigma of {where}; "
                              "--Kp and --Ki give it instead)") from None
-    res = export_c(comp, out, J_design=s["J_design"], u_max=s["u_max"], Kp=s["Kp"], Ki=s["Ki"], joint=s["joint"],
-                   w_max=args.w_max, hold_time=args.hold_time, float_default=args.float, force=args.force,
-                   origin=f" for {Path(args.from_file).name}")
+
+
+#: The options that set one joint's value, refused for a whole arm's export (each joint has its own).
+_ONE_JOINT = (("--J-design", "J_design"), ("--Vs", "Vs"), ("--delta", "delta"), ("--Kp", "Kp"), ("--Ki", "Ki"))
+
+
+def _export_arm(args, out: Path) -> int:
+    """``export-c --from ARM.json`` without ``--joint``: a compensator per joint in one library
+    (:func:`adaptive_ff.compensation.export_c_arm.export_c_arm`); the exit status."""
+    from adaptive_ff.arm.result import read_arm_entries
+    from adaptive_ff.compensation.export_c_arm import JointExport, export_c_arm
+    from controllers.cli.design import EXIT_REFUSED, entry_warnings, refused_warnings
+    from plant.errors import ParameterError
+
+    given = [o for o, k in _ONE_JOINT if getattr(args, k) is not None]
+    if given:
+        raise ParameterError(f"{given[0]} sets one joint's value; {args.from_file} is an arm's identification, each "
+                             "of whose joints has its own: export one joint with --joint NAME to set it")
+    entries = read_arm_entries(args.from_file)
+    refused = [refused_warnings(entry_warnings(e, f"{args.from_file} joint {e['name']!r}"),
+                                f"{args.from_file} joint {e['name']!r}", accept=args.accept_warnings, command="export")
+               for e in entries]
+    if any(refused):
+        return EXIT_REFUSED
+    joints = []
+    for e in entries:
+        comp, s = _compensator(args, e["name"])
+        joints.append(JointExport(name=e["name"], compensator=comp, J_design=s["J_design"], u_max=s["u_max"],
+                                  Kp=s["Kp"], Ki=s["Ki"], friction=s["joint"]))
+    res = export_c_arm(joints, out, w_max=args.w_max, hold_time=args.hold_time, float_default=args.float,
+                       force=args.force, origin=f" for {Path(args.from_file).name}")
+    return _print_export(args, res)
+
+
+def _print_export(args, res) -> int:
+    """Print what an export wrote (``--json``: its ``to_dict``; ``--quiet``: nothing); 0."""
     if args.json:
         print(json.dumps(res.to_dict(), indent=2))
     elif not args.quiet:
@@ -298,7 +377,11 @@ def register(sub) -> None:
                                    "1 kHz loop and a Makefile: the package's own C code of the compensator.",
                        epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     e.add_argument("--from", dest="from_file", metavar="FILE", required=True,
-                   help="'adaptive-ff identify --Vs ... --delta ... --json' output (Vs, delta, J, sigma)")
+                   help="'adaptive-ff identify --Vs ... --delta ... --json' output (Vs, delta, J, sigma), or an "
+                        "'identify-arm --json' output (a compensator per joint; --joint picks one)")
+    e.add_argument("--joint", metavar="NAME", default=None,
+                   help="with --from ARM.json (identify-arm --json): export only that joint's compensator (the "
+                        "layout of a one-joint export); without it, one library with a compensator per joint")
     e.add_argument("--out", metavar="DIR", required=True, help="folder to write (new or empty; see --force)")
     e.add_argument("--u-max", type=float, required=True, metavar="NM",
                    help="the drive's torque limit in N·m: the velocity gate's bound, twice the feedforward's (unless "

@@ -16,7 +16,9 @@ _EPILOG = """\
 The log: columns t, q1..qN (rad or m), optional dq1..dqN (rad/s), tau1..tauN (N·m), joints in the URDF's
 order (SI units; --columns maps roles to your column names, e.g. --columns t=time,q1=j1_pos,tau1=j1_torque).
 Velocities and accelerations come from the positions (or the given velocities) by a zero-phase Butterworth
-low-pass (--cutoff) and central differences; the torques pass the same filter.
+low-pass (--cutoff) and central differences; the torques pass the same filter. A motor-side log (motor
+angles and torques) with --transmission FILE.toml: ratio = [...] (one per joint), optional coupling (N x N),
+offset (rad) and torque_constant (N·m per log unit) turn it into the joint side first.
 
 Output: per joint J (its own diagonal inertia at the log's mean configuration), Fc, Fs, Vs, delta, sigma,
 offset with 95 % intervals and warnings; tau (the friction lag) is not identified (null). --json prints
@@ -38,10 +40,19 @@ def run(args) -> int:
     if args.plot:
         check_output_dir(args.plot, "--plot")
     arm = load_urdf(args.urdf)
-    log = read_arm_log(args.file, arm.n, columns=args.columns, joint_names=arm.names)
+    gear = None
+    if args.transmission:
+        from adaptive_ff.arm.transmission import read_transmission
+
+        gear = read_transmission(args.transmission, arm.n)
+    log = read_arm_log(args.file, arm.n, columns=args.columns, joint_names=arm.names, urdf=args.urdf)
+    if gear is not None:
+        log = gear.to_joint(log)
     with named_by(args.file):
         result = identify_arm(log, arm, cutoff=args.cutoff, n_bootstrap=args.bootstrap, seed=args.seed,
                               rigid_body=args.rigid_body, progress=progress_from_args(args))
+    if gear is not None:
+        result = gear.with_coupling_warnings(result)
     out = result.to_dict()
     with StagedOutputs() as staged:
         if args.plot:
@@ -83,6 +94,10 @@ def register(sub) -> None:
                                                                         "or prismatic joints)")
     i.add_argument("--columns", metavar="MAP", default=None,
                    help="column map role=name,... with roles t, qJ, dqJ, tauJ (J = 1..N in the URDF's order)")
+    i.add_argument("--transmission", metavar="FILE.toml", default=None,
+                   help="the log is motor-side: convert it to the joint side with the gear ratios, coupling matrix, "
+                        "offsets and torque constants of FILE.toml (q = G^-1 q_m + offset, tau = G^T tau_m, "
+                        "G = diag(ratio) coupling; the keys below)")
     i.add_argument("--cutoff", type=float, default=20.0, metavar="HZ",
                    help="cutoff of the zero-phase low-pass before differentiation (default 20 Hz)")
     i.add_argument("--bootstrap", type=at_least_2, default=200, metavar="N",
