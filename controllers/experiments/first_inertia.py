@@ -6,7 +6,8 @@ quasi-static runs of :mod:`controllers.experiments.quasi_static` run under a PI)
 
 1. **Breakaway ramp.** The torque grows exponentially from a tiny value (a factor ``e`` every ``growth_time``) until
    the measured velocity reaches the switching speed ``w_switch`` (``compare``: 1.2 times the reference's peak
-   speed), and the drive stops it there. The torque then reached, ``u_ramp``, is a torque that moves the joint
+   speed), and the drive stops it there (or at its torque limit ``u_max``, held five growth times, where the joint
+   then moves faster than ``w_switch/10``). The torque then reached, ``u_ramp``, is a torque that moves the joint
    through the speed range it is to run in: friction, stiction and inertia together, as measured. Scale-free: the
    ramp needs no guess of the friction level (from 1e-6 N·m it breaks 1 N·m loose after 2.8 s, 1000 N·m after
    4.1 s).
@@ -198,17 +199,22 @@ def inertia_experiment(p, *, w_switch: float, Tc: float = 1e-3, noise_std: float
 
 
 def _ramp(p, w_switch: float, Tc: float, noise_std: float, rng, o: InertiaDesign) -> tuple:
-    """The breakaway ramp: ``(torque when the measured velocity first reached w_switch, its sample index)``."""
+    """The breakaway ramp: ``(torque when the measured velocity first reached w_switch, its sample index)``; at the
+    torque limit, ``(u_max, index)`` once the limit has been held for five growth times with the joint moving faster
+    than ``w_switch/10`` (a drive that cannot reach the speed range still moves the joint through part of it)."""
     par, st = plant_params(p), plant_state(p, 0.0)
     n_max = int(round(o.max_ramp / Tc))
     noise = noise_std * rng.standard_normal(n_max) if noise_std > 0.0 else np.zeros(n_max)
     grow, u = math.exp(Tc / o.growth_time), min(o.u_start, o.u_max)
+    n_limit, at_limit = int(round(5.0 * o.growth_time / Tc)), 0
     for k in range(n_max):
-        if st.w + noise[k] >= w_switch:
+        wm = st.w + noise[k]
+        if wm >= w_switch or (at_limit >= n_limit and wm > 0.1 * w_switch):
             return float(u), k
         plant_step(par, st, u, Tc)
         if not math.isfinite(st.w):
             break
         u = min(u * grow, o.u_max)
+        at_limit = at_limit + 1 if u == o.u_max else 0
     raise ExcitationError(f"first inertia: a torque ramp to {u:.4g} N·m (u_max = {o.u_max:g} N·m) did not bring the "
                           f"joint to {w_switch:.4g} rad/s within max_ramp = {o.max_ramp:g} s")
