@@ -23,8 +23,8 @@ Why not a relay on the velocity (bang-bang between ``±w_switch``): its torque i
 then the friction lag's ``-tau*sigma*dw/dt`` is collinear with ``J*dw/dt``: the relay gave ``J - tau*sigma``
 (-20 % on the ``paper`` preset, whose ``tau*sigma`` is 0.8 kg·m²), and on a light joint (``small-inertia``) the
 cycles between the two speeds lasted a few samples. The noise torque varies continuously (its ``-tau*du/dt``
-separates the lag): +2.1 % on ``paper``, within 6 % on every variant of :mod:`plant.variant_plants` and within 3 %
-on 60 zoo joints (docs/benchmarks/compensation.md, "The design inertia a user has").
+separates the lag): +2.0 % on ``paper``, within 9 % on every variant of :mod:`plant.variant_plants` (LuGre
++8.8 %) and within 3 % on 100 zoo joints (docs/benchmarks/compensation.md, "The design inertia a user has").
 """
 
 from __future__ import annotations
