@@ -2,7 +2,7 @@
 
 Run:  python benchmarks/zoo.py [--n 100] [--duration 120] [--seed 0] [--modes none,fixed,adaptive,dob,...]
                                [--group 8] [--workers 2] [--scheduler tcp://host:8786]
-                               [--min-degradation 0.01] [--estimator sliding|eq4|eq4-rls] [--J-design-factor 1]
+                               [--min-degradation 0.01] [--estimator sliding|eq4|eq4-rls] [--J-design-factor F]
                                [--iv-map-stderr inf] [--no-switch-in] [--scenario FILE] [--export DIR]
                                [--json out.json] [--yes]
 
@@ -64,8 +64,9 @@ def main(argv=None) -> int:
                     help="eta is undefined where friction raises the uncompensated RMS error by less than this share")
     ap.add_argument("--estimator", default="sliding", choices=ESTIMATORS,
                     help="estimator of the adaptive modes (default sliding)")
-    ap.add_argument("--J-design-factor", dest="J_design_factor", type=float, default=1.0,
-                    help="every joint's design inertia as this factor times its J (a data sheet off by it; default 1)")
+    ap.add_argument("--J-design-factor", dest="J_design_factor", type=float, default=None,
+                    help="every joint's design inertia as this factor times its true J (a data sheet off by it; 1: "
+                         "an exact one); default: identified on each joint, as compare does")
     ap.add_argument("--iv-map-stderr", dest="iv_map_stderr", type=float, default=math.inf,
                     help="the eq4 estimator's determinacy test in mode adaptive, relative to max(Fc, Fs) (default inf: "
                          "none; ModeOptions.iv_map_stderr)")

@@ -47,7 +47,8 @@ class PayloadStep:
     ``t >= t_step``. Attribute access not defined here (``Vs``, ``friction``, a drift's ``Fc_change``, ...) is
     delegated to ``base`` (and so to the plant at ``t = 0``, as :class:`plant.drift.FrictionDrift`), ``J`` is
     ``at(0.0).J``: the design inertia ``J_design`` a compensator gets
-    by default is the plant's ``J`` at ``t = 0`` (``at(0.0).J``; with ``t_step = 0`` that is ``J_after``): nothing
+    by default is the plant's ``J`` at ``t = 0`` in a single run (``at(0.0).J``; with ``t_step = 0`` that is
+    ``J_after``; ``compare`` identifies it on the plant at ``t = 0``): nothing
     of the true plant after ``t = 0`` reaches a compensator, which must cope with the new inertia itself. The plant
     file (:mod:`plant.models`) carries it as ``"payload": {"t_step": t, "J_after": J}``.
     """

@@ -72,7 +72,8 @@ class FrictionRipple:
     ``t = 0``, as :class:`plant.drift.FrictionDrift`); ``friction(w)`` there is the map without the ripple (its
     mean over a revolution). The plant file (:mod:`plant.models`) carries it as
     ``"ripple": {"amplitude": a, "harmonic": n, "phase": phase}``. The design inertia a compensator gets
-    (``J_design``) is the plant's ``J`` at ``t = 0``; nothing of the ripple reaches a compensator.
+    (``J_design``) is by default the plant's ``J`` at ``t = 0`` in a single run (``compare`` identifies it on the plant
+    at ``t = 0``); nothing of the ripple reaches a compensator.
 
     The open-loop :func:`plant.joint.simulate` and the closed-loop engine
     (:func:`controllers.simulation.closed_loop.run_closed_loop`, ``run_mode``, ``run_own``, ``run_batch``,

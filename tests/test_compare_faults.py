@@ -46,8 +46,14 @@ def diverged(tmp_path_factory):
 def test_a_plant_the_drive_cannot_move_is_refused_before_any_run(tmp_path, capsys):
     plant = tmp_path / "stuck.json"
     plant.write_text(json.dumps({**PAPER, "Fc": 1e9, "Fs": 1e9}))
+    # without a design inertia the first experiment already fails on it (refused, exit 2, no traceback)
     assert main(["compare", "--plant", str(plant), "--duration", "1", "--modes", "none", "--no-figures",
                  "--quiet"]) == 2
+    cap = capsys.readouterr()
+    assert cap.out == "" and "Traceback" not in cap.err and "first inertia" in cap.err
+    # with one (a data sheet's), the drive's check refuses it by the limit derived from the quasi-static runs
+    assert main(["compare", "--plant", str(plant), "--duration", "1", "--modes", "none", "--no-figures",
+                 "--quiet", "--J-design", "4"]) == 2
     cap = capsys.readouterr()
     assert cap.out == "" and "Traceback" not in cap.err
     assert f"--plant {plant}: Fc = 1e+09 N·m is above u_max = " in cap.err

@@ -88,7 +88,7 @@ def test_compare_runs_the_given_pi():
     c = compare(p, duration=4.0, modes=("none",), controller=given, progress=False)
     own = compare(p, duration=4.0, modes=("none",), progress=False)
     assert (c.design.Kp, c.design.Ki) == (30.0, 600.0)
-    assert own.design.Kp == pytest.approx(design_pi(p.J, crossover=20.0, phase_margin=60.0).Kp, rel=1e-12)
+    assert own.design.Kp == pytest.approx(design_pi(own.J_design, crossover=20.0, phase_margin=60.0).Kp, rel=1e-12)
     # the loop ran the given gains: the frictionless loop's error differs from the own design's
     r_given, r_own = c.results["frictionless"].metrics.rms, own.results["frictionless"].metrics.rms
     assert abs(r_given - r_own) > 0.05 * r_own

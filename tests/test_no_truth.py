@@ -1,7 +1,6 @@
 """Nothing from the true plant reaches an estimator, compensator or experiment design.
 
-The plant object of these tests raises :class:`TruthLeak` when a friction field (or ``J``, when a design inertia
-is given) is read anywhere but in the plant step's packing (:func:`plant.dynamics.plant_params`,
+The plant object of these tests raises :class:`TruthLeak` when a friction field (or ``J``) is read anywhere but in the plant step's packing (:func:`plant.dynamics.plant_params`,
 :func:`plant.dynamics.plant_state`), the open-loop simulator (:func:`plant.joint.simulate`) or the frictionless
 reference. ``compare`` then runs every adaptive-path mode
 on it: the pre-fit's experiment, the identification run of ``fixed``, the estimators, the gates and the DOB see
@@ -84,7 +83,13 @@ def test_the_guard_catches_a_read():
         _ = g.Vs
     with pytest.raises(TruthLeak):
         g.friction(np.array([0.1]))
-    assert g.J == 4.0  # the default design inertia (a data-sheet value) may be read
+    assert g.J == 4.0  # unguarded by default (the guard of J is switched on by the tests that need it)
+    GuardedJoint.guard_J = True
+    try:
+        with pytest.raises(TruthLeak):
+            _ = g.J
+    finally:
+        GuardedJoint.guard_J = False
 
 
 def test_compare_runs_every_adaptive_path_mode_without_reading_the_true_friction(guarded, monkeypatch):
@@ -98,3 +103,11 @@ def test_compare_runs_every_adaptive_path_mode_without_reading_the_true_friction
     for mode in ("fixed", "dob"):
         assert comp.eta[mode] > 0.5, mode
     assert all(np.isfinite(comp.eta[m]) for m in ("adaptive", "canudas"))  # 6 s: the adaptive mode is still warming up
+
+
+def test_compare_identifies_its_design_inertia_without_reading_the_true_one(guarded, monkeypatch):
+    monkeypatch.setattr(GuardedJoint, "guard_J", True)  # no J_design: the default never reads J either
+    comp = compare(guarded, duration=6.0, seed=1, modes=("none", "adaptive", "dob"), progress=False)
+    assert comp.inertia is not None and comp.J_design == comp.inertia.J
+    assert comp.J_design == pytest.approx(P.J, rel=0.03)  # identified, not read
+    assert all(np.isfinite(comp.eta[m]) for m in ("adaptive", "dob"))

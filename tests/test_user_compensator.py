@@ -125,4 +125,4 @@ def test_compare_runs_a_user_compensator_beside_the_modes():
     assert c.eta["adaptive"] == compare(P, o, progress=False).eta["adaptive"]
     assert "mine" in c.table() and c.to_dict()["modes"]["mine"]["eta"] == c.eta["adaptive"]
     ctx = seen["ctx"]
-    assert ctx.J == P.J and ctx.Kp == c.design.Kp and ctx.prefit is c.prefit and ctx.u_max == 2 * ctx.ff_max
+    assert ctx.J == c.J_design and ctx.Kp == c.design.Kp and ctx.prefit is c.prefit and ctx.u_max == 2 * ctx.ff_max

@@ -330,7 +330,10 @@ def _print_comparison(args, comp, header, scenario, run, paths, report) -> int:
         for line in _time_varying_lines(comp.plant):
             print(line)
     print(pi_text(d, args))
-    print(f"design inertia J_design={comp.J_design:g} kg·m²")
+    i = comp.inertia
+    how = "given" if i is None else (f"identified: a torque ramp to {i.u_ramp:.4g} N·m reached {i.w_switch:.4g} rad/s, "
+                                     f"then {i.duration:g} s of open-loop noise torque of {i.u_std:.4g} N·m")
+    print(f"design inertia J_design={comp.J_design:g} kg·m² ({how})")
     if comp.prefit is not None:
         fb = comp.prefit.fallback
         kind = "Coulomb + viscous (no Stribeck effect)" if fb == "coulomb-viscous" else f"Vs={comp.prefit.Vs:.4g} " \
@@ -488,8 +491,9 @@ def register(sub) -> None:
                    help="Stribeck velocity in rad/s, if known (with --delta; no pre-fit then)")
     c.add_argument("--delta", type=float, default=None, help="Stribeck shape factor, if known (with --Vs)")
     c.add_argument("--J-design", dest="J_design", type=float, default=None,
-                   help="design inertia in kg·m² for the PI, the estimator start, the gates and the DOB "
-                        "(default: the J of --from, else the plant's J, as a data sheet gives it)")
+                   help="design inertia in kg·m² (a data sheet's) for the PI, the experiments, the estimator start, "
+                        "the gates and the observers (default: the J of --from, else identified on the joint by a "
+                        "torque ramp and 20 s of open-loop noise torque, before any loop)")
     c.add_argument("--from", dest="from_file", metavar="FILE", default=None,
                    help="an 'identify --json' output: the design inertia is its J and the PI the one 'design --from "
                         "FILE' designs (on J and sigma, at --crossover and --phase-margin); without --plant, "

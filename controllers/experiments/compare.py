@@ -25,6 +25,7 @@ from controllers.simulation.compensators import ESTIMATORS, MODES, check_estimat
 from controllers.simulation.memory import MODE_SIGNALS, PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
 from controllers.simulation.user_compensator import CompensatorContext, CompensatorError
 from controllers.design.pi import PIDesign, design_pi
+from controllers.experiments.first_inertia import InertiaDesign, InertiaExperiment, inertia_experiment
 from controllers.experiments.comparison import (WORSE_THAN_NONE, Comparison, beyond_frictionless_notes,
                                                 diverged_notes, eta, eta_or_none,
                                                 mode_width, number_text, run_notes, whole_run_metrics,
@@ -115,8 +116,11 @@ class CompareOptions:
     Vs, delta : float or None
         Stribeck velocity (rad/s, > 0) and shape factor (non-zero) the user knows; given (both), no pre-fit runs.
     J_design : float or None
-        Design inertia (kg·m², > 0): the PI design, the quasi-static loops, the estimator start, the gates and
-        the DOB's nominal inertia. Default None: the plant's ``J``, as a data sheet would give it.
+        Design inertia (kg·m², > 0), e.g. a data sheet's: the PI design, the quasi-static loops, the estimator
+        start, the gates and the observers' nominal inertia. Default None: identified on the joint before anything
+        else by :func:`controllers.experiments.first_inertia.inertia_experiment` (a breakaway ramp to 1.2 times the
+        reference's peak speed, then 20 s of open-loop noise torque, the sliding-regime regression; no controller
+        needed), as a user would on their drive; the plant's own ``J`` is never read.
     lag : bool
         Filter the feedforward through the estimated lag.
     estimator : {"sliding", "eq4", "eq4-rls"}
@@ -405,11 +409,11 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
     is the RMS distance of each run's velocity from the frictionless run's (same reference and noise), and
     ``t_ff_on`` the first time the mode's compensation torque is non-zero.
 
-    No field of the true plant other than ``J`` (the default design inertia,
-    when ``J_design`` is not given) reaches the design, the estimators, the
+    No field of the true plant reaches the design, the estimators, the
     compensators or the experiments: they see the plant only through its
-    simulated response (the plant step). ``oracle`` and ``frictionless`` are
-    the references, not compensators a user could build.
+    simulated response (the plant step); without ``J_design`` the design
+    inertia is identified (:func:`controllers.experiments.first_inertia.inertia_experiment`).
+    ``oracle`` and ``frictionless`` are the references, not compensators a user could build.
     """
     o = options if options is not None else CompareOptions()
     if changes:
@@ -438,7 +442,7 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
     rf = results["frictionless"].metrics.rms_second_half
     etas = {mode: eta_or_none(rn, r.metrics.rms_second_half, rf) for mode, r in results.items()}
     return Comparison(plant=p, design=s.design, results=results, eta=etas, prefit=s.prefit, offline=s.offline,
-                      model=s.model, experiment=s.experiment, J_design=s.J_design,
+                      model=s.model, experiment=s.experiment, J_design=s.J_design, inertia=s.inertia,
                       notes=(tuple(s.notes) + diverged_notes(results) + run_notes(results)
                              + worse_than_none_notes(etas, results) + beyond_frictionless_notes(etas, results)),
                       **whole_run_metrics(results))
@@ -498,7 +502,7 @@ class ComparisonSetup:
         ``{mode: ModeOptions}``.
     noise_seed : numpy.random.SeedSequence
         Seed of the measurement noise (the same noise in every mode).
-    prefit, offline, model, experiment, J_design, notes
+    prefit, offline, model, experiment, J_design, notes, inertia
         As in :class:`Comparison`.
     bar : tqdm progress bar (the caller updates and closes it)
     estimator_rows : dict
@@ -519,6 +523,7 @@ class ComparisonSetup:
     notes: tuple
     bar: object
     estimator_rows: dict = field(default_factory=dict)
+    inertia: InertiaExperiment | None = None
 
 
 def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, reference=None) -> ComparisonSetup:
@@ -528,7 +533,7 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     Parameters
     ----------
     p : plant model or FrictionDrift
-        True plant (only simulated experiments on it are used, and ``J`` when ``o.J_design`` is None).
+        True plant (only simulated experiments on it are used).
     o : CompareOptions
     progress : bool, keyword-only
         Progress bar over the preparation and the runs (:attr:`ComparisonSetup.bar`).
@@ -555,6 +560,10 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     their ``Vs``, ``delta`` the given ones or placeholders (the lowest speed of the runs and 1, as the pre-fit's
     Coulomb + viscous fallback); a note says so. ``eta`` is then undefined (0/0).
 
+    Without ``o.J_design`` the design inertia is identified first
+    (:func:`controllers.experiments.first_inertia.inertia_experiment`, :attr:`ComparisonSetup.inertia`): every loop
+    of the preparation needs it, and it needs no loop.
+
     ``fixed`` never fails on its own identification: when the offline fit of its identification run is
     rejected as implausible (:func:`adaptive_ff.compensation.feedforward.project_estimate`: a level above half
     the actuator range, a negative inertia, e.g. a Stribeck term the pre-fit's ``Vs``, ``delta`` cannot
@@ -568,14 +577,17 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     """
     run_modes = [m for m in MODES if m in set(o.modes) | {"none", "frictionless"}]
     p0 = p.at(0.0) if hasattr(p, "at") else p
-    J = float(p0.J) if o.J_design is None else float(o.J_design)  # the design inertia: no other plant field is read
-    _, id_ss, noise_ss, qs_ss = np.random.SeedSequence(o.seed).spawn(4)
+    _, id_ss, noise_ss, qs_ss, J_ss = np.random.SeedSequence(o.seed).spawn(5)
     if reference is None:
         reference = o.reference
     ref = comparison_reference(o) if reference is None else _checked_reference(reference, o)
     noise = measurement_noise(o)
     peak_w, peak_a = float(np.max(np.abs(ref.w))), float(np.max(np.abs(ref.dw)))
-    design = _preflight(p0, o, J, peak_w, noise)
+    _preflight(p0, o, peak_w, noise)
+    first = None if o.J_design is not None else _first_inertia(p0, o, peak_w, noise, np.random.default_rng(J_ss))
+    J = float(o.J_design) if first is None else first.J  # the design inertia: what the user has
+    design = o.controller if o.controller is not None else design_pi(J, crossover=o.crossover,
+                                                                      phase_margin=o.phase_margin, Tc=o.Tc)
     adaptive_rows = ["adaptive"] * bool(o.estimator_rows)  # the estimator rows run mode adaptive
     needs_prefit = (any(m in PREFIT_MODES for m in run_modes + adaptive_rows) or bool(o.compensators)) and o.Vs is None
     if needs_prefit and not o.prefit:
@@ -662,7 +674,7 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     rows = {label: replace(mo, ff_input=o.ff_input, estimator=e) for label, e in o.row_labels.items()}
     return ComparisonSetup(modes=tuple(run_modes), reference=ref, design=design, mode_options=opts,
                            noise_seed=noise_ss, prefit=fit, offline=offline, model=model, experiment=exp,
-                           J_design=J, notes=tuple(notes), bar=bar, estimator_rows=rows)
+                           J_design=J, notes=tuple(notes), bar=bar, estimator_rows=rows, inertia=first)
 
 
 def check_comparison(p, o: CompareOptions) -> None:
@@ -674,7 +686,7 @@ def check_comparison(p, o: CompareOptions) -> None:
     Parameters
     ----------
     p : plant model
-        The true plant (its ``J`` where ``o.J_design`` is None; its friction levels against ``o.u_max``).
+        The true plant (its friction levels against ``o.u_max``, the drive's check of the simulated world).
     o : CompareOptions
 
     Raises
@@ -684,14 +696,15 @@ def check_comparison(p, o: CompareOptions) -> None:
         names its value; :class:`DriveLimitError` for ``u_max``.
     """
     p0 = p.at(0.0) if hasattr(p, "at") else p
-    J = float(p0.J) if o.J_design is None else float(o.J_design)
     ref = comparison_reference(o) if o.reference is None else _checked_reference(o.reference, o)
-    _preflight(p0, o, J, float(np.max(np.abs(ref.w))), measurement_noise(o))
+    _preflight(p0, o, float(np.max(np.abs(ref.w))), measurement_noise(o))
 
 
-def _preflight(p0, o: CompareOptions, J: float, peak_w: float, noise: float) -> PIDesign:
-    """:func:`check_comparison` on the plant at ``t = 0``, the design inertia, the reference's peak velocity
-    (rad/s) and the measurement's noise (rad/s); returns the PI design."""
+def _preflight(p0, o: CompareOptions, peak_w: float, noise: float) -> None:
+    """:func:`check_comparison` on the plant at ``t = 0``, the reference's peak velocity (rad/s) and the
+    measurement's noise (rad/s). The PI targets are checked on a unit inertia: with ``sigma = 0`` the loop of
+    ``1/(J s)`` scales with ``J`` (the gains do, the margins do not), so they are reachable for every ``J`` or
+    none."""
     check_multiple("Ts", o.Ts, "Tc", o.Tc)
     if noise / 2.0 >= 1.2 * peak_w:
         what = (f"encoder_counts = {o.encoder_counts!r}: its quantisation makes the measured velocity's noise"
@@ -701,9 +714,21 @@ def _preflight(p0, o: CompareOptions, J: float, peak_w: float, noise: float) -> 
                              f"{peak_w:.4g} rad/s: no speed of the reference can be measured")
     if o.u_max is not None:
         check_drive_moves(p0, o.u_max)
-    if o.controller is not None:
-        return o.controller
-    return design_pi(J, crossover=o.crossover, phase_margin=o.phase_margin, Tc=o.Tc)
+    if o.controller is None:
+        design_pi(1.0, crossover=o.crossover, phase_margin=o.phase_margin, Tc=o.Tc)
+
+
+def _first_inertia(p0, o: CompareOptions, peak_w: float, noise: float, rng) -> InertiaExperiment:
+    """The design inertia's experiment (:func:`controllers.experiments.first_inertia.inertia_experiment`): the
+    ramp to ``1.2*peak_w`` (at least ten times the noise, rad/s), the drive's limit ``o.u_max``, the regression's
+    ``Ts`` and ``T_filter`` of ``o``; refused where it gives no positive inertia."""
+    first = inertia_experiment(p0, w_switch=max(1.2 * peak_w, 10.0 * noise), Tc=o.Tc, noise_std=noise, rng=rng,
+                               options=InertiaDesign(u_max=math.inf if o.u_max is None else o.u_max, Ts=o.Ts,
+                                                     T_filter=o.T_filter))
+    if not (math.isfinite(first.J) and first.J > 0.0):
+        raise ExcitationError(f"the design inertia's experiment gave J = {first.J!r} kg·m² ({first.summary()}); "
+                              f"give the design inertia (J_design, --J-design)")
+    return first
 
 
 class DriveLimitError(ParameterError):

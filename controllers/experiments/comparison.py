@@ -25,6 +25,7 @@ if TYPE_CHECKING:  # annotations only
     from adaptive_ff.identification.regression import RegressionModel
     from adaptive_ff.identification.stribeck_fit import StribeckFit
     from controllers.design.pi import PIDesign
+    from controllers.experiments.first_inertia import InertiaExperiment
     from controllers.experiments.quasi_static import StribeckExperiment
 
 __all__ = ["Comparison", "WORSE_THAN_NONE", "diverged_notes", "eta", "eta_or_none", "mode_width", "number_text",
@@ -114,6 +115,9 @@ class Comparison:
         pre-fit and the measured torque scale; None when neither was needed.
     J_design : float or None
         Design inertia used (kg·m²).
+    inertia : InertiaExperiment or None
+        The experiment that identified the design inertia
+        (:func:`controllers.experiments.first_inertia.inertia_experiment`); None where it was given.
     notes : tuple of str
         What the pre-fit could not do as asked (e.g. the Coulomb + viscous
         fallback of a joint without Stribeck effect, runs that did not hold),
@@ -134,6 +138,7 @@ class Comparison:
     eta_full: dict = field(default_factory=dict)
     rms_dev: dict = field(default_factory=dict)
     t_ff_on: dict = field(default_factory=dict)
+    inertia: InertiaExperiment | None = None
 
     @property
     def has_stops(self) -> bool:
@@ -237,7 +242,9 @@ class Comparison:
     def to_json_dict(self) -> dict:
         """``{"modes": {mode: {"rms", "max", "rms_reversal", "u_rms", "eta", "eta_full", "rms_dev", "t_ff_on"}},
         ...}`` in SI units (rad/s, N·m, s; ``t_ff_on`` None where no compensation acts, ``eta`` and ``eta_full``
-        None where undefined); ``no_friction`` (when quasi-static runs were made: True where they measured no
+        None where undefined); ``J_design`` and ``inertia`` (where it was identified:
+        :meth:`controllers.experiments.first_inertia.InertiaExperiment.to_dict`);
+        ``no_friction`` (when quasi-static runs were made: True where they measured no
         friction, ``StribeckExperiment.no_friction``); ``offline_ls`` (when
         ``fixed`` ran): its offline fit's J, tau, sigma, Fc, Fs with ``accepted`` (False when the fit was rejected
         and ``fixed`` used a fallback) and ``reason`` (the ``"fixed:"`` note, or None). When the reference has stops
@@ -256,6 +263,8 @@ class Comparison:
             out["prefit"]["fallback"] = self.prefit.fallback
         if self.J_design is not None:
             out["J_design"] = float(self.J_design)
+        if self.inertia is not None:
+            out["inertia"] = self.inertia.to_dict()
         if self.experiment is not None:
             out["no_friction"] = bool(self.experiment.no_friction)
         out["notes"] = list(self.notes)

@@ -317,10 +317,12 @@ class ZooOptions:
         ``J_design_factor``, own compensators from ``compensators``; ``seed``, ``modes``, ``estimator``,
         ``iv_map_stderr`` and ``switch_in`` are this zoo's. Given, ``reference``, ``encoder_counts``, ``delay``,
         ``slew_rate`` and ``velocity`` must stay at their defaults. Default None: ``compare``'s defaults.
-    J_design_factor : float
-        Every joint's design inertia (``CompareOptions.J_design``: the PI design, the estimators' start, the gates,
-        the observers' nominal inertia) is this factor times its true ``J``: a data sheet off by that factor. Default
-        1 (the joint's own ``J``, ``compare``'s default); finite, > 0.
+    J_design_factor : float or None
+        Default None: every joint's design inertia (``CompareOptions.J_design``: the PI design, the estimators'
+        start, the gates, the observers' nominal inertia) is identified on it, ``compare``'s default
+        (:func:`controllers.experiments.first_inertia.inertia_experiment`). A factor (finite, > 0) makes it that
+        factor times the joint's true ``J`` instead: a data sheet off by that factor (1: an exact one), a benchmark
+        of what a wrong or a perfect design inertia does, never what a user has.
     min_degradation : float
         eta of a joint is *undefined* (``None`` in JSON) where friction raises the second-half RMS error of the
         uncompensated loop by less than this share of the frictionless loop's, ``rms_none < (1 +
@@ -353,7 +355,7 @@ class ZooOptions:
     estimator: str = "sliding"
     iv_map_stderr: float = math.inf
     switch_in: bool = True
-    J_design_factor: float = 1.0
+    J_design_factor: float | None = None
     base: CompareOptions | None = None
     export: str | None = None
 
@@ -398,7 +400,8 @@ class ZooOptions:
         if self.workers is not None and (int(self.workers) != self.workers or self.workers < 1):
             raise ParameterError(f"workers must be an integer >= 1, got {self.workers!r}")
         object.__setattr__(self, "min_degradation", check_nonnegative("min_degradation", self.min_degradation))
-        object.__setattr__(self, "J_design_factor", check_positive("J_design_factor", self.J_design_factor))
+        if self.J_design_factor is not None:
+            object.__setattr__(self, "J_design_factor", check_positive("J_design_factor", self.J_design_factor))
         check_positive_or_inf("iv_map_stderr", self.iv_map_stderr)
         if not isinstance(self.switch_in, bool):
             raise ParameterError(f"switch_in must be True or False, got {self.switch_in!r}")
@@ -406,8 +409,8 @@ class ZooOptions:
     def compare_options(self) -> CompareOptions:
         """The :class:`controllers.experiments.compare.CompareOptions` every joint is prepared and run with: this
         zoo's duration, seed, modes, reference, sensor and drive (encoder, delay, slew rate, velocity), estimator,
-        ``iv_map_stderr`` and ``switch_in``; the rest ``compare``'s defaults (the design inertia is set per joint
-        from ``J_design_factor``); with ``base``, that comparison with this zoo's seed, modes and estimator
+        ``iv_map_stderr`` and ``switch_in``; the rest ``compare``'s defaults (the design inertia is identified on each
+        joint, or set from ``J_design_factor``); with ``base``, that comparison with this zoo's seed, modes and estimator
         settings and no torque limit, design inertia, given PI (each joint's PI is designed on its own design
         inertia with the base's targets) or own compensators of its own."""
         if self.base is not None:
@@ -678,13 +681,13 @@ class ZooResult:
         return lines
 
 
-def _prepare(spec, o: CompareOptions, ref, J_design_factor: float = 1.0) -> tuple:
+def _prepare(spec, o: CompareOptions, ref, J_design_factor: float | None = None) -> tuple:
     """(mode options, noise seed, {mode: reason it cannot be built}, notes, the context of own compensators) of
     one joint on the comparison reference ``ref`` of ``o`` with the design inertia ``J_design_factor`` times its
-    ``J`` (1: ``o``'s own), or the reason it was refused (last item)."""
+    ``J`` (None: identified, ``o``'s default), or the reason it was refused (last item)."""
     try:
         p = plant_from_dict(spec)
-        if J_design_factor != 1.0:
+        if J_design_factor is not None:
             o = replace(o, J_design=J_design_factor * p.J)
         plant_table(p, ref.t, o.Tc)  # refuses a plant the engine cannot integrate (every row)
         s = prepare_comparison(p, o, reference=ref)
