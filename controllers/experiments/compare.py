@@ -526,6 +526,18 @@ class ComparisonSetup:
     inertia: InertiaExperiment | None = None
 
 
+def _drive_limit(p0, o: CompareOptions, exp, J: float, peak_a: float) -> tuple:
+    """``(u_max, F_peak)``: the torque limit (``o.u_max``, or ``3*(F_peak + J*peak_a)`` checked against the joint's
+    breakaway, :func:`check_drive_moves`) and the measured friction level ``F_peak`` (N·m; the largest mean torque
+    of the quasi-static runs ``exp``, else ``u_max/3``), for the design inertia ``J`` (kg·m²) and the reference's
+    peak acceleration ``peak_a`` (rad/s²)."""
+    F_peak = exp.torque_scale if exp is not None else None
+    u_max = o.u_max if o.u_max is not None else 3.0 * (F_peak + J * peak_a)
+    if o.u_max is None:
+        check_drive_moves(p0, u_max, derived=True)
+    return u_max, (F_peak if F_peak is not None else u_max / 3.0)
+
+
 def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, reference=None) -> ComparisonSetup:
     """The preparation of :func:`compare`: reference, PI design, Stribeck experiment and pre-fit, offline fit of
     ``fixed``, the options of every mode.
@@ -607,12 +619,7 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
         Vs, delta = float(np.min(np.abs(exp.setpoints))), 1.0
     if needs_prefit:
         bar.update()
-    # the measured friction level (largest mean torque of the quasi-static runs) bounds the torques
-    F_peak = exp.torque_scale if exp is not None else None
-    u_max = o.u_max if o.u_max is not None else 3.0 * (F_peak + J * peak_a)
-    if o.u_max is None:
-        check_drive_moves(p0, u_max, derived=True)
-    F_peak = F_peak if F_peak is not None else u_max / 3.0
+    u_max, F_peak = _drive_limit(p0, o, exp, J, peak_a)
     model = RegressionModel(1.0 if Vs is None else Vs, 1.0 if delta is None else delta, lag=True)
     offline = estimate = accepted = None
     notes = list(exp.notes) if fit is not None else []
