@@ -546,13 +546,18 @@ class _OutputErrorProblem:
         shape (K, samples after the burn-in)."""
         X = np.asarray(X, dtype=float)
         self.n_sim += X.shape[0]
-        out = np.full((X.shape[0], self.wm.shape[0]), self.big)
         ok = [k for k in range(X.shape[0]) if self.admissible(X[k])]
-        if ok:
-            pars, offs = zip(*(self.plant(X[k]) for k in ok))
-            r = simulate_on_grid_batch(list(pars), self.grid, w0=self.w0, f0=self.f0, offsets=offs, gain=self.gain,
-                                       w_meas=self.w)[:, self.i0:] - self.wm
-            out[ok] = np.where(np.isfinite(r), r, self.big)
+        if not ok:
+            return np.full((X.shape[0], self.wm.shape[0]), self.big)
+        pars, offs = zip(*(self.plant(X[k]) for k in ok))
+        r = simulate_on_grid_batch(list(pars), self.grid, w0=self.w0, f0=self.f0, offsets=offs, gain=self.gain,
+                                   w_meas=self.w)[:, self.i0:] - self.wm
+        if not np.isfinite(r).all():
+            r = np.where(np.isfinite(r), r, self.big)
+        if len(ok) == X.shape[0]:
+            return r
+        out = np.full((X.shape[0], self.wm.shape[0]), self.big)
+        out[ok] = r
         return out
 
     def jac(self, x) -> np.ndarray:
