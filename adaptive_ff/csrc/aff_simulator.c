@@ -6,7 +6,7 @@ const long aff_sim_batch_max = AFF_SIM_BATCH_MAX;
 /* The simulations inline the RK4 step and eq. 3 (plant_rk4, plant_target: one translation unit, the unity build
  * of _cbuild.py) where the compiler can: GCC and Clang's flatten. The operations and their order are those of the
  * calls (no contraction, no reassociation: plant/_cbuild.py's flags), so the numbers are the same; measured with
- * callgrind on a 20 001-sample grid, 8.6e6 instructions per simulation instead of 13.2e6. */
+ * callgrind on a 20 001-sample grid, 8.5e6 instructions per simulation instead of 13.2e6. */
 #if defined(__GNUC__)
 #define AFF_SIM_FLATTEN __attribute__((flatten))
 #else

@@ -5,8 +5,8 @@
  * (first-order hold: u at the start, the mean in the middle, u at the end). A constant torque offset enters as
  * u - offset and f - offset. Optional output injection after each sample (Ljung, System Identification, 2nd ed.,
  * Secs. 3.2, 5.7): with e = w_meas - w, w += Kw*e and f -= Kf*J/h_i*e (h_i the sample interval).
- * Python: adaptive_ff.identification.simulator.simulate_on_grid (the inner loop of the output-error fits of
- * adaptive_ff.identification.physical_id).
+ * Python: adaptive_ff.identification.simulator.simulate_on_grid and simulate_on_grid_batch (several parameter
+ * sets in one pass; the inner loop of the output-error fits of adaptive_ff.identification.physical_id).
  */
 #ifndef AFF_SIMULATOR_H
 #define AFF_SIMULATOR_H
@@ -32,8 +32,8 @@ extern const long aff_sim_batch_max;
  * and offset offset[k] (k < K, 1 <= K <= AFF_SIM_BATCH_MAX; else nothing is written): out[k*n + s] is
  * simulation k's velocity at sample s (K*n entries), each the same numbers as aff_simulate_on_grid's (the same
  * operations in the same order; the simulations advance side by side, sub-step by sub-step, so that the CPU
- * overlaps their independent dependency chains: 12-25 % less CPU time per simulation than one at a time for
- * K >= 2, measured on a 20 001-sample grid). A simulation whose state turns non-finite is NaN from that sample
+ * overlaps their independent dependency chains: about 15 % less CPU time per simulation than one at a time
+ * for K = 6, the median of 15 paired timings on a 20 001-sample grid). A simulation whose state turns non-finite is NaN from that sample
  * on and is not advanced further. aff_simulate_on_grid is this with K = 1. Used for the finite-difference
  * Jacobians and the grid searches of the output-error fits (each needs several simulations at once). No checks.
  * Source: as aff_simulate_on_grid. */

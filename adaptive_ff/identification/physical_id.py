@@ -86,7 +86,10 @@ Methods
 Jacobian
 --------
 The trust-region fits take forward differences (``jacobian="difference"``, default): one simulation per
-parameter and iteration, a step of ``diff_step`` (1 %) relative. ``jacobian="sensitivity"`` gives them the
+parameter and iteration, a step of ``diff_step`` (1 %) relative (scipy's ``"2-point"`` rule). The perturbed
+parameter vectors of one Jacobian are simulated in one C call (``aff_simulate_on_grid_batch``, side by side; with
+scipy >= 1.16, through ``least_squares``' ``workers``), as are the points of the grid searches; the numbers are
+those of one simulation at a time. ``jacobian="sensitivity"`` gives them the
 exact Jacobian of the discrete simulation instead: the RK4 stages' tangents along ``(J, Fc, Fs, sigma, tau,
 offset, Vs, delta)``, propagated in C with the simulation (``aff_simulate_on_grid_sens``; at about 2.5 times
 the cost of one simulation). With the one-step predictor the prediction is smooth in the parameters over a

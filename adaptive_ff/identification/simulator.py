@@ -214,7 +214,7 @@ def simulate_on_grid_batch(pars, grid: InputGrid, *, w0: float, f0: float, offse
 
     C (``aff_simulator.c``, ``aff_simulate_on_grid_batch``): the simulations advance side by side, sub-step by
     sub-step, up to :data:`BATCH_MAX` per call (more are chunked); each row is the same numbers, bit for bit, as
-    :func:`simulate_on_grid` of its parameters, at 12-25 % less CPU time per simulation (the CPU overlaps the
+    :func:`simulate_on_grid` of its parameters, at about 15 % less CPU time per simulation (the CPU overlaps the
     independent simulations). Releases the GIL.
 
     Parameters
