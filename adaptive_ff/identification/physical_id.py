@@ -194,7 +194,7 @@ from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.oe_options import BOOTSTRAP_REFITS, JACOBIANS, OutputErrorOptions
 from adaptive_ff.identification.plausibility import check_physical
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
-from adaptive_ff.identification.simulator import (input_grid, simulate_on_grid, simulate_on_grid_batch,
+from adaptive_ff.identification.simulator import (BATCH_MAX, input_grid, simulate_on_grid, simulate_on_grid_batch,
                                                   simulate_on_grid_sens)
 from plant.dynamics import lagged_params
 from plant.errors import (ExcitationError, ParameterError, SignalError, check_finite_scalar, check_positive,
@@ -595,11 +595,14 @@ class _OutputErrorProblem:
     def best_of(self, X, fsc=None) -> tuple[int, float]:
         """Index and cost of the first row of ``X`` of lowest :meth:`cost`, the rows simulated together
         (:meth:`res_many`); its residual vector is kept (:meth:`remember`: the search goes on from there)."""
-        R = self.res_many(X)
-        c = [self.loss(r, fsc) for r in R]
-        i = int(np.argmin(c))
-        self.remember(X[i], R[i].copy())
-        return i, c[i]
+        c, best = [], None
+        for a in range(0, X.shape[0], BATCH_MAX):  # at most one C call's rows at a time (memory)
+            for r in self.res_many(X[a:a + BATCH_MAX]):
+                c.append(self.loss(r, fsc))
+                if best is None or c[-1] < c[best[0]]:
+                    best = (len(c) - 1, r.copy())
+        self.remember(X[best[0]], best[1])
+        return best[0], c[best[0]]
 
     def profile(self, x, lo, hi, n, j=2, fsc=None) -> np.ndarray:
         """``x`` with coordinate ``j`` set to the best of ``n`` values on ``[lo, hi]`` (grid search)."""
