@@ -30,12 +30,16 @@ class _Analytic(_OutputErrorProblem):
         self.opts = OutputErrorOptions(loss="linear")
         self.offset, self.torque, self.n_sim = True, 1.0, 0
         self.f_scale = self.f_wide = 1.0
+        self.memo, self.fd_memo = {}, None
 
     def res(self, x):
         self.n_sim += 1
         x = np.asarray(x, dtype=float)
         return np.array([(x[4] - A) * (x[4] - B) / (B - A) ** 2, 0.2 * (x[4] - A),
                          10.0 * (x[0] - LOG_J - SLOPE * (x[4] - A)), x[1] - FC, x[2] - FS, x[3] - SIGMA, x[5]])
+
+    def res_many(self, X):
+        return np.array([self.res(x) for x in X])
 
 
 def _local_minimum(pb):

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from adaptive_ff.identification.simulator import input_grid, simulate_on_grid, simulate_sampled
+from adaptive_ff.identification.simulator import (BATCH_MAX, input_grid, simulate_on_grid, simulate_on_grid_batch,
+                                                  simulate_sampled)
 from plant.dynamics import lagged_params
 from plant.errors import ParameterError, SignalError
 from plant.friction import JointParams
@@ -110,3 +111,27 @@ def test_injection_needs_a_measured_velocity_of_the_sample_length():
         simulate_on_grid(par, g, w0=0.0, f0=0.0, gain=(1.0, 0.0), w_meas=np.zeros(t.size - 1))
     with pytest.raises(SignalError, match="w_meas"):
         simulate_on_grid(par, g, w0=0.0, f0=0.0, gain=(1.0, 0.0))
+
+
+def test_batch_is_each_simulation_bit_for_bit():
+    # more parameter sets than one C call takes (chunked), irregular sub-steps, every injection, and one set that
+    # diverges (tau far below the RK4 limit): each row must be exactly the one-at-a-time simulation
+    rng = np.random.default_rng(8)
+    t = np.concatenate([[0.0], np.cumsum(rng.uniform(0.5e-3, 2.5e-3, size=1500))])
+    u = 45.0 * np.sin(2.0 * np.pi * 0.7 * t) + rng.normal(0.0, 2.0, t.size)
+    g = input_grid(t, u, h_max=1e-3)
+    n = BATCH_MAX + 5
+    sets = [(4.0 * (1 + 0.05 * k), 25.0 + 0.3 * k, 35.0 - 0.2 * k, 0.02, 1.0 + 0.1 * (k % 3), 40.0, 0.02 + 1e-3 * k)
+            for k in range(n - 1)] + [(4.0, 25.0, 35.0, 0.02, 1.0, 40.0, 1e-5)]
+    pars = [lagged_params(*p) for p in sets]
+    offsets = np.linspace(-0.5, 0.5, n)
+    w_meas = simulate_on_grid(pars[0], g, w0=0.0, f0=0.0) + rng.normal(0.0, 0.01, t.size)
+    for gain in ((0.0, 0.0), (1.0, 0.0), (1.0, 1.0)):
+        out = simulate_on_grid_batch(pars, g, w0=0.05, f0=3.0, offsets=offsets, gain=gain, w_meas=w_meas)
+        assert out.shape == (n, t.size)
+        for k in range(n):
+            one = simulate_on_grid(pars[k], g, w0=0.05, f0=3.0, offset=offsets[k], gain=gain, w_meas=w_meas)
+            np.testing.assert_array_equal(out[k], one)
+        assert np.all(np.isfinite(out[:-1])) and np.isnan(out[-1, -1]) and out[-1, 0] == 0.05
+    with pytest.raises(SignalError, match="offsets"):
+        simulate_on_grid_batch(pars, g, w0=0.0, f0=0.0, offsets=offsets[:-1])

@@ -86,7 +86,10 @@ Methods
 Jacobian
 --------
 The trust-region fits take forward differences (``jacobian="difference"``, default): one simulation per
-parameter and iteration, a step of ``diff_step`` (1 %) relative. ``jacobian="sensitivity"`` gives them the
+parameter and iteration, a step of ``diff_step`` (1 %) relative (scipy's ``"2-point"`` rule). The perturbed
+parameter vectors of one Jacobian are simulated in one C call (``aff_simulate_on_grid_batch``, side by side; with
+scipy >= 1.16, through ``least_squares``' ``workers``), as are the points of the grid searches; the numbers are
+those of one simulation at a time. ``jacobian="sensitivity"`` gives them the
 exact Jacobian of the discrete simulation instead: the RK4 stages' tangents along ``(J, Fc, Fs, sigma, tau,
 offset, Vs, delta)``, propagated in C with the simulation (``aff_simulate_on_grid_sens``; at about 2.5 times
 the cost of one simulation). With the one-step predictor the prediction is smooth in the parameters over a
@@ -176,6 +179,7 @@ refit runs, so the result does not depend on the number of threads.
 from __future__ import annotations
 
 import copy
+import inspect
 import math
 from dataclasses import dataclass, field, replace
 
@@ -190,7 +194,8 @@ from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.oe_options import BOOTSTRAP_REFITS, JACOBIANS, OutputErrorOptions
 from adaptive_ff.identification.plausibility import check_physical
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
-from adaptive_ff.identification.simulator import input_grid, simulate_on_grid, simulate_on_grid_sens
+from adaptive_ff.identification.simulator import (BATCH_MAX, input_grid, simulate_on_grid, simulate_on_grid_batch,
+                                                  simulate_on_grid_sens)
 from plant.dynamics import lagged_params
 from plant.errors import (ExcitationError, ParameterError, SignalError, check_finite_scalar, check_positive,
                           check_signal, check_time)
@@ -238,6 +243,12 @@ _BOOT_SCHEME = "wild"
 # lag profile and the final Fs profile are left out (about 1000 simulations per refit)
 _BOOT_POLISH = 1
 _BOOT_REFIT = f"wide trust region, local stage, {_BOOT_POLISH} coordinate-search round(s)"
+# residual vectors a problem keeps by their parameter vector (_OutputErrorProblem.res): the fit asks again for the
+# cost at the point a trust-region pass returned, and at grid points it has been at
+_MEMO = 8
+# scipy >= 1.16: least_squares evaluates its finite differences through a map-like ``workers`` (the perturbed
+# parameter vectors of one Jacobian, simulated together: _OutputErrorProblem.refine)
+_LSQ_WORKERS = "workers" in inspect.signature(least_squares).parameters
 
 
 @dataclass(frozen=True)
@@ -452,6 +463,7 @@ class _OutputErrorProblem:
         self.wm = w[self.i0:]
         self.w0, self.f0 = float(w[0]), float(u[0])  # friction balances the input at the start (quasi-steady)
         self.n_sim = 0
+        self.memo, self.fd_memo = {}, None  # residual vectors by parameter vector (res, refine)
         self.big = 10.0 * (np.max(np.abs(w)) + 1.0)
         self.noise = velocity_noise_std_irregular(t, w)
         peak = float(np.max(np.abs(w)))
@@ -479,7 +491,7 @@ class _OutputErrorProblem:
     def replicate(self, w_star: np.ndarray) -> "_OutputErrorProblem":
         """The same problem (input grid, predictor, robust scales, offset scale) on another velocity record."""
         pb = copy.copy(self)
-        pb.w, pb.wm, pb.n_sim = w_star, w_star[self.i0:], 0
+        pb.w, pb.wm, pb.n_sim, pb.memo, pb.fd_memo = w_star, w_star[self.i0:], 0, {}, None
         return pb
 
     def unpack(self, x):
@@ -502,20 +514,54 @@ class _OutputErrorProblem:
         """The RK4 sub-step resolves the lag (tau > 0.4 h_max) and a fitted delta is >= ``_DELTA_MIN``."""
         return math.exp(x[4]) >= 0.4 * self.opts.h_max and not (self.free_shape and x[self.j_shape + 1] < _DELTA_MIN)
 
-    def simulate(self, x) -> np.ndarray:
-        """Predicted velocity at every sample (rad/s)."""
+    def plant(self, x) -> tuple:
+        """``(plant_params, offset)`` of ``x`` for the C simulation."""
         J, Fc, Fs, sigma, tau, off = self.unpack(x)
         Vs, delta = self.shape(x)
-        par = lagged_params(J, Fc, Fs, Vs, delta, sigma, tau)
+        return lagged_params(J, Fc, Fs, Vs, delta, sigma, tau), off
+
+    def simulate(self, x) -> np.ndarray:
+        """Predicted velocity at every sample (rad/s)."""
+        par, off = self.plant(x)
         return simulate_on_grid(par, self.grid, w0=self.w0, f0=self.f0, offset=off, gain=self.gain, w_meas=self.w)
 
     def res(self, x) -> np.ndarray:
-        """Prediction errors after the burn-in (rad/s); a large constant where the model is not admissible."""
-        self.n_sim += 1
-        if not self.admissible(x):
-            return np.full(self.wm.shape[0], self.big)
-        r = self.simulate(x)[self.i0:] - self.wm
-        return np.where(np.isfinite(r), r, self.big)
+        """Prediction errors after the burn-in (rad/s); a large constant where the model is not admissible.
+
+        The last ``_MEMO`` vectors asked for are kept (:meth:`remember`): asking again for one of them returns a
+        copy of the same numbers without a simulation."""
+        x = np.asarray(x, dtype=float)
+        r = self.memo.get(x.tobytes())
+        if r is None:
+            r = self.res_many(x[None, :])[0]
+            self.remember(x, r)
+        return r.copy()
+
+    def remember(self, x, r) -> None:
+        """Keep ``r`` as the residual vector at ``x`` (the oldest of more than ``_MEMO`` is dropped)."""
+        self.memo[np.asarray(x, dtype=float).tobytes()] = r
+        if len(self.memo) > _MEMO:
+            del self.memo[next(iter(self.memo))]
+
+    def res_many(self, X) -> np.ndarray:
+        """:meth:`res` of each row of ``X`` (shape (K, len(x))), the admissible ones simulated together
+        (:func:`adaptive_ff.identification.simulator.simulate_on_grid_batch`: the same numbers as one at a time);
+        shape (K, samples after the burn-in)."""
+        X = np.asarray(X, dtype=float)
+        self.n_sim += X.shape[0]
+        ok = [k for k in range(X.shape[0]) if self.admissible(X[k])]
+        if not ok:
+            return np.full((X.shape[0], self.wm.shape[0]), self.big)
+        pars, offs = zip(*(self.plant(X[k]) for k in ok))
+        r = simulate_on_grid_batch(list(pars), self.grid, w0=self.w0, f0=self.f0, offsets=offs, gain=self.gain,
+                                   w_meas=self.w)[:, self.i0:] - self.wm
+        if not np.isfinite(r).all():
+            r = np.where(np.isfinite(r), r, self.big)
+        if len(ok) == X.shape[0]:
+            return r
+        out = np.full((X.shape[0], self.wm.shape[0]), self.big)
+        out[ok] = r
+        return out
 
     def jac(self, x) -> np.ndarray:
         """Exact Jacobian of :meth:`res` at ``x`` (rows after the burn-in, columns of ``x``): the forward
@@ -535,25 +581,35 @@ class _OutputErrorProblem:
         G[~np.isfinite(w[self.i0:])] = 0.0
         return G
 
-    def cost(self, x, fsc=None) -> float:
-        """Loss of ``x`` at robust scale ``fsc`` (default the noise-level scale)."""
+    def loss(self, r, fsc=None) -> float:
+        """Loss of the residual vector ``r`` at robust scale ``fsc`` (default the noise-level scale)."""
         fsc = self.f_scale if fsc is None else fsc
-        r = self.res(x)
         if self.opts.loss == "linear":
             return float(r @ r)
         return float(np.sum(np.sqrt(1.0 + (r / fsc) ** 2) - 1.0))
 
+    def cost(self, x, fsc=None) -> float:
+        """Loss of ``x`` at robust scale ``fsc`` (default the noise-level scale)."""
+        return self.loss(self.res(x), fsc)
+
+    def best_of(self, X, fsc=None) -> tuple[int, float]:
+        """Index and cost of the first row of ``X`` of lowest :meth:`cost`, the rows simulated together
+        (:meth:`res_many`); its residual vector is kept (:meth:`remember`: the search goes on from there)."""
+        c, best = [], None
+        for a in range(0, X.shape[0], BATCH_MAX):  # at most one C call's rows at a time (memory)
+            for r in self.res_many(X[a:a + BATCH_MAX]):
+                c.append(self.loss(r, fsc))
+                if best is None or c[-1] < c[best[0]]:
+                    best = (len(c) - 1, r.copy())
+        self.remember(X[best[0]], best[1])
+        return best[0], c[best[0]]
+
     def profile(self, x, lo, hi, n, j=2, fsc=None) -> np.ndarray:
         """``x`` with coordinate ``j`` set to the best of ``n`` values on ``[lo, hi]`` (grid search)."""
         g = np.linspace(lo, hi, n)
-        c = []
-        for v in g:
-            xx = x.copy()
-            xx[j] = v
-            c.append(self.cost(xx, fsc))
-        x = x.copy()
-        x[j] = g[int(np.argmin(c))]
-        return x
+        X = np.repeat(np.asarray(x, dtype=float)[None, :], n, axis=0)
+        X[:, j] = g
+        return X[self.best_of(X, fsc)[0]].copy()
 
     def typical(self, x) -> np.ndarray:
         """Typical changes of ``x``: 2 % of J, 1 % of the torques, 3 % of tau, offset 1 % of Fc; a fitted Vs
@@ -573,24 +629,33 @@ class _OutputErrorProblem:
         # explicit scales (typical changes) instead of x_scale="jac": the offset column, large in norm, was
         # otherwise held nearly fixed
         sens = self.opts.jacobian == "sensitivity"
-        if free is None:
-            fun, z0, scale = self.res, x, self.typical(x)
-            jac = self.jac if sens else "2-point"
-        else:
-            def fun(z, xs=x):
-                xx = xs.copy()
-                xx[free] = z
-                return self.res(xx)
+        cols = slice(None) if free is None else free
 
-            def jac(z, xs=x):
-                xx = xs.copy()
-                xx[free] = z
-                return self.jac(xx)[:, free]
+        def full(z, xs=np.asarray(x, dtype=float)):
+            xx = xs.copy()
+            xx[cols] = z
+            return xx
 
-            z0, scale = x[free], self.typical(x)[free]
-            jac = jac if sens else "2-point"
-        return least_squares(fun, z0, jac=jac, diff_step=ds, x_scale=scale, method="trf", xtol=1e-8, ftol=1e-10,
-                             max_nfev=self.opts.max_nfev, loss=self.opts.loss, f_scale=fsc)
+        def fun(z):
+            return self.res(full(z))
+
+        def jac(z):
+            return self.jac(full(z))[:, cols]
+
+        def batch(_, zs):  # the perturbed vectors of a finite-difference Jacobian, simulated together
+            Z = np.array([full(z) for z in zs])
+            key = Z.tobytes()
+            if self.fd_memo is None or self.fd_memo[0] != key:  # the last one is kept: a pass may start where
+                self.fd_memo = (key, self.res_many(Z))           # the one before stopped
+            return list(self.fd_memo[1])
+
+        z0, scale = (x, self.typical(x)) if free is None else (x[free], self.typical(x)[free])
+        extra = {"workers": batch} if _LSQ_WORKERS and not sens else {}
+        sol = least_squares(fun, z0, jac=jac if sens else "2-point", diff_step=ds, x_scale=scale, method="trf",
+                            xtol=1e-8, ftol=1e-10, max_nfev=self.opts.max_nfev, loss=self.opts.loss, f_scale=fsc,
+                            **extra)
+        self.remember(full(sol.x), sol.fun)  # the residual at the point returned, which the caller costs next
+        return sol
 
 
 def _oe_global_stage(pb: _OutputErrorProblem, x: np.ndarray, profiled: bool) -> np.ndarray:
@@ -642,12 +707,7 @@ def _oe_coordinate_search(pb: _OutputErrorProblem, best: tuple[float, np.ndarray
     for _ in range(rounds):
         x, c0 = best[1].copy(), best[0]
         for j in range(x.shape[0]):
-            for k in (-3, -2, -1, 1, 2, 3):
-                xx = x.copy()
-                xx[j] += k * pb.typical(x)[j]
-                c = pb.cost(xx)
-                if c < c0:
-                    x, c0 = xx, c
+            x, c0 = _oe_coordinate_moves(pb, x, c0, j)
         sol = pb.refine(x, ds)
         c = pb.cost(sol.x)
         x, c0 = (sol.x, c) if c < c0 else (x, c0)
@@ -655,6 +715,29 @@ def _oe_coordinate_search(pb: _OutputErrorProblem, best: tuple[float, np.ndarray
             break
         best = (c0, x)
     return best
+
+
+def _oe_coordinate_moves(pb: _OutputErrorProblem, x: np.ndarray, c0: float, j: int) -> tuple[np.ndarray, float]:
+    """Coordinate ``j`` moved by -3 .. 3 typical changes in turn, each move that lowers the cost taken before the
+    next is tried (the later moves then start from it); returns ``(x, cost)``. The moves still to try are
+    simulated together from the current point and tried in order; after a move is taken the rest are simulated
+    again from the new point (the same points and costs as one at a time)."""
+    ks = [-3, -2, -1, 1, 2, 3]
+    while ks:
+        step = pb.typical(x)[j]
+        cand = []
+        for k in ks:
+            xx = x.copy()
+            xx[j] += k * step
+            cand.append(xx)
+        R = pb.res_many(np.array(cand))
+        taken = next((i for i, r in enumerate(R) if pb.loss(r) < c0), None)
+        if taken is None:
+            break
+        x, c0 = cand[taken], pb.loss(R[taken])
+        pb.remember(x, R[taken].copy())
+        ks = ks[taken + 1:]
+    return x, c0
 
 
 def _oe_fs_profile(pb: _OutputErrorProblem, best: tuple[float, np.ndarray]) -> tuple[float, np.ndarray]:
@@ -693,11 +776,12 @@ def _oe_stderr(pb: _OutputErrorProblem, x: np.ndarray, names: tuple) -> tuple[di
     """
     r = pb.res(x)
     G = np.empty((r.shape[0], x.shape[0]))
+    h = [pb.opts.diff_step * max(1.0, abs(x[j])) for j in range(x.shape[0])]
+    X = np.repeat(x[None, :], x.shape[0], axis=0)
     for j in range(x.shape[0]):
-        hj = pb.opts.diff_step * max(1.0, abs(x[j]))
-        xx = x.copy()
-        xx[j] += hj
-        G[:, j] = (pb.res(xx) - r) / hj
+        X[j, j] += h[j]
+    for j, rj in enumerate(pb.res_many(X)):
+        G[:, j] = (rj - r) / h[j]
     dof = max(r.shape[0] - x.shape[0], 1)
     s2 = float(r @ r) / dof
     sc = np.linalg.norm(G, axis=0)

@@ -43,15 +43,19 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from adaptive_ff._caff import ffi, lib
-from plant.dynamics import lagged_params
+from plant.dynamics import lagged_params, stack_params
 from plant.errors import ParameterError, SignalError, check_finite_scalar, check_positive, check_signal, check_time
 from plant.friction import JointParams
 
-__all__ = ["InputGrid", "input_grid", "simulate_on_grid", "simulate_on_grid_sens", "simulate_sampled", "H_MAX_DEFAULT",
-           "SENS_NAMES"]
+__all__ = ["InputGrid", "input_grid", "simulate_on_grid", "simulate_on_grid_batch", "simulate_on_grid_sens",
+           "simulate_sampled", "H_MAX_DEFAULT", "SENS_NAMES", "BATCH_MAX"]
 
 #: Parameters of the sensitivities of :func:`simulate_on_grid_sens`, in the order of its columns.
 SENS_NAMES = ("J", "Fc", "Fs", "sigma", "tau", "offset", "Vs", "delta")
+
+#: Most simulations of one C call of :func:`simulate_on_grid_batch` (``AFF_SIM_BATCH_MAX`` of ``aff_simulator.h``);
+#: more are chunked.
+BATCH_MAX = int(lib.aff_sim_batch_max)
 
 #: Default largest RK4 sub-step (s): the paper's 1 kHz integration rate.
 H_MAX_DEFAULT = 1e-3
@@ -201,6 +205,51 @@ def simulate_on_grid(par: np.ndarray, grid: InputGrid, *, w0: float, f0: float, 
     """
     out = np.empty(grid.idx.shape[0])
     lib.aff_simulate_on_grid(par, *_grid_args(grid, offset, w0, f0, gain, w_meas, out))
+    return out
+
+
+def simulate_on_grid_batch(pars, grid: InputGrid, *, w0: float, f0: float, offsets, gain=(0.0, 0.0),
+                           w_meas=None) -> np.ndarray:
+    """:func:`simulate_on_grid` of several parameter sets at once (no validation: inner loop of the fits).
+
+    C (``aff_simulator.c``, ``aff_simulate_on_grid_batch``): the simulations advance side by side, sub-step by
+    sub-step, up to :data:`BATCH_MAX` per call (more are chunked); each row is the same numbers, bit for bit, as
+    :func:`simulate_on_grid` of its parameters, at about 15 % less CPU time per simulation (the CPU overlaps the
+    independent simulations). Releases the GIL.
+
+    Parameters
+    ----------
+    pars : sequence of cffi ``plant_params *``, length K
+        Lagged Stribeck joints from :func:`plant.dynamics.lagged_params` (as :func:`simulate_on_grid`).
+    grid : InputGrid
+        From :func:`input_grid`.
+    w0, f0 : float, keyword-only
+        Initial velocity (rad/s) and friction state (N·m) at ``t[0]``, the same for every simulation.
+    offsets : array_like, shape (K,), keyword-only
+        Constant torque bias (N·m) of each simulation.
+    gain, w_meas : keyword-only
+        As :func:`simulate_on_grid` (the same for every simulation).
+
+    Returns
+    -------
+    ndarray, shape (K, N)
+        Row ``k``: :func:`simulate_on_grid` of ``pars[k]`` with ``offset=offsets[k]``.
+
+    Raises
+    ------
+    SignalError
+        ``w_meas`` missing or not of shape (N,) while a gain is non-zero; ``offsets`` not of length K.
+    """
+    offsets = np.ascontiguousarray(offsets, dtype=float).reshape(-1)
+    if offsets.shape[0] != len(pars):
+        raise SignalError(f"offsets must have one entry per parameter set ({len(pars)}), got {offsets.shape[0]}")
+    n = grid.idx.shape[0]
+    out = np.empty((len(pars), n))
+    args = _grid_args(grid, 0.0, w0, f0, gain, w_meas, out[0] if len(pars) else np.empty(n))
+    for a in range(0, len(pars), BATCH_MAX):
+        b = min(a + BATCH_MAX, len(pars))
+        lib.aff_simulate_on_grid_batch(stack_params(pars[a:b]), ffi.from_buffer("double[]", offsets[a:b]), b - a,
+                                       *args[:4], *args[5:11], ffi.from_buffer("double[]", out[a:b]))
     return out
 
 
