@@ -1,13 +1,14 @@
 """Performance table: the closed loop against python-control's input_output_response, RLS, batch, memory, compare.
 
 Run:  python benchmarks/perf.py [--seconds 20] [--repeat 5] [--quick] [--compare-only] [--fresh-install]
-                                [--against TREE [--against-python PYTHON]]
+                                [--against TREE [--against-python PYTHON]] [--no-instructions]
 
 Prints median timings measured side by side in one run (µs per 1 kHz step of
 the C engine, µs per RLS update, µs per scenario-step of the batch engine for
 every mode and plant model, the C compensator alone, s per compare and per
 ``--help``), the peak memory of a simulated hour, and the speed-up over
-python-control (targets: :data:`RATIO_TARGET`, the former JIT engine's ratios).
+python-control (targets: :data:`RATIO_TARGET`, the former JIT engine's ratios), and the engine's
+instructions per step under callgrind (``benchmarks/engine_instructions.py``; if valgrind is installed).
 python-control simulates the same loop (RK4 lagged-Stribeck plant, discrete PI
 with saturation, no feedforward, no RLS) as a discrete ``nlsys``
 interconnection. Memory and compare timings run in fresh processes.
@@ -375,6 +376,16 @@ def _c_compensator_rows(args):
     return list(mod.perf_rows(quick=args.quick))
 
 
+def _instruction_rows(args):
+    """Instructions per step of ``run_mode none`` and ``adaptive`` under callgrind
+    (``benchmarks/engine_instructions.py`` beside this file, on this tree): the per-step work, whatever the load."""
+    import importlib
+
+    mod = importlib.import_module("engine_instructions")  # sys.path[0] is benchmarks/ when run as a script
+    return mod.perf_rows(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+                         seconds=1.0 if args.quick else 2.0)
+
+
 def _fresh_install_rows():
     """Install from an empty environment: a new virtual environment in a temporary folder, ``pip install -e``
     of this tree (the C build included), the C build alone, and the first ``adaptive-ff compare`` (with its
@@ -466,6 +477,9 @@ def main(argv=None) -> int:
                     help="only the warm adaptive-ff compare rows (median wall beside the targets, phases)")
     ap.add_argument("--only", choices=("batch",),
                     help="only the run_batch rows (batch: µs per scenario-step of every batch row, B=1000)")
+    ap.add_argument("--no-instructions", action="store_true",
+                    help="without the rows of instructions per step under callgrind "
+                         "(benchmarks/engine_instructions.py, a few minutes)")
     ap.add_argument("--against", metavar="TREE",
                     help="also compare the ratios to python-control with another source tree side by side "
                          "(benchmarks/tree_ab.py --ratio, 3 rounds) and judge the target against its ratios")
@@ -516,6 +530,9 @@ def main(argv=None) -> int:
         extra = " (noise 1e-3)" if label == "adaptive" else ""
         rows.append((f"run_mode {label}{extra}, C engine (ratio to python-control >= {RATIO_TARGET[label]}x)",
                      us[label], "µs/step", best / n * 1e6))
+
+    if not args.no_instructions:
+        rows += _instruction_rows(args)
 
     rls = RecursiveLeastSquares(7, lam=0.995)
     rng = np.random.default_rng(1)

@@ -100,7 +100,8 @@ static int period(const ctl_run *run, ctl_scenario *sc, long k, int where, const
     }
     ctl_metrics_add(&sc->metrics, where, wrk - w, u);
     ctl_metrics_add_motion(&sc->metrics, where, mo->rest, wrk - w);
-    ctl_events_add(&sc->events, mo, run->t[k], wrk - w);
+    if (mo->stop >= 0 || mo->rev >= 0) /* else no event in progress: nothing to add */
+        ctl_events_add(&sc->events, mo, run->t[k], wrk - w);
     plant_step(par, &sc->plant, u, run->dt);
     w = sc->plant.w;
     if (!(-sc->w_limit < w && w < sc->w_limit)) {
@@ -118,12 +119,14 @@ void ctl_run_chunk(const ctl_run *run, ctl_scenario *sc, long n_sc)
     for (long b = 0; b < n_sc; b++)
         n_alive += sc[b].diverged == 0;
     double tmid = n > 0 ? 0.5 * (run->t[0] + run->t[n - 1]) : 0.0;
-    long ip = 0;
     ctl_motion mo;
     ctl_motion_init(&mo, run->settle_share, run->settle_floor, run->window);
     for (long k = 0; k < n && n_alive > 0; k++) {
-        int where = ctl_metrics_where(run->t[k], tmid, run->revs, run->n_revs, run->window, &ip);
         ctl_motion_where(&mo, run->t, run->w_ref, n, k, run->revs, run->n_revs);
+        /* ctl_metrics_where's class: its reversal test is mo.rev's (the nearest reversal within the window) */
+        int where = !(run->t[k] >= tmid) ? CTL_METRICS_FIRST_HALF
+                    : mo.rev >= 0        ? CTL_METRICS_REVERSAL
+                                         : CTL_METRICS_SECOND_HALF;
         for (long b = 0; b < n_sc; b++)
             if (sc[b].diverged == 0 && !period(run, sc + b, k, where, &mo))
                 n_alive--;

@@ -6,19 +6,25 @@
 
 const double plant_rk4_rate_max = 2.5;
 
+/* GCC, Clang: inline every call of the function's body (eq. 3 in the RK4 stages); the compiler's own choice where
+ * unsupported. Inlining keeps every floating-point operation and its order (plant/_cbuild.py, compile_args). */
+#if defined(__GNUC__)
+#define PLANT_FLATTEN __attribute__((flatten))
+#else
+#define PLANT_FLATTEN
+#endif
+
 /* Sub-steps per unit of rate*dt of a LuGre step with a friction ripple (more than the 1 of stability). */
 static const double lugre_ripple_substeps = 4.0;
 
-/* (dw/dt, ds/dt) at (w, s, q) with input u and Fw = plant_target_at(p, w, q, .) (dq/dt = w: the caller's). */
-static void rhs(const plant_params *p, double w, double s, double q, double u, double Fw, double *dw, double *ds)
+/* (dw/dt, ds/dt) at (w, s) with input u, Fw = plant_target_at(p, w, q, .) and R = plant_ripple(p, q) (LuGre's
+ * viscous part rippled with g, plant_params.h; 1 without a ripple, and sigma2*1*w is sigma2*w exactly). */
+static void rhs(const plant_params *p, double w, double s, double R, double u, double Fw, double *dw, double *ds)
 {
     if (p->model == PLANT_LUGRE) {
         double aw = w >= 0.0 ? w : -w;
         double zdot = w - p->sigma0 * aw / Fw * s;
-        if (p->ripple_a != 0.0) /* the viscous part rippled with g (plant_params.h) */
-            *dw = (u - p->sigma0 * s - p->sigma1 * zdot - p->pos.sigma * plant_ripple(p, q) * w) / p->J;
-        else
-            *dw = (u - p->sigma0 * s - p->sigma1 * zdot - p->pos.sigma * w) / p->J;
+        *dw = (u - p->sigma0 * s - p->sigma1 * zdot - p->pos.sigma * R * w) / p->J;
         *ds = zdot;
         return;
     }
@@ -38,8 +44,22 @@ void plant_rk4(const plant_params *p, double *w_io, double *s_io, double Fw, dou
     plant_rk4_at(p, w_io, s_io, &q, Fw, u0, um, u1, h, sgn);
 }
 
-void plant_rk4_at(const plant_params *p, double *w_io, double *s_io, double *q_io, double Fw, double u0, double um,
-                  double u1, double h, double sgn)
+/* The map of an RK4 stage at (w, q): plant_target_at with a ripple, plant_target (the same value) without. */
+static double stage_target(const plant_params *p, double w, double q, double sgn, int ripple)
+{
+    return ripple ? plant_target_at(p, w, q, sgn) : plant_target(p, w, sgn);
+}
+
+/* The ripple factor an RK4 stage's right-hand side needs: R(q) for a rippled LuGre joint, else 1. */
+static double stage_ripple(const plant_params *p, double q, int ripple)
+{
+    return ripple && p->model == PLANT_LUGRE ? plant_ripple(p, q) : 1.0;
+}
+
+/* plant_rk4_at with ripple = (p->ripple_a != 0) given by the caller: a constant where it is inlined, so the step
+ * without a ripple carries none of the ripple's operations (its stage positions qa, qb, qc are then unused). */
+static void rk4_at(const plant_params *p, double *w_io, double *s_io, double *q_io, double Fw, double u0, double um,
+                   double u1, double h, double sgn, int ripple)
 {
     double w = *w_io;
     double s = *s_io;
@@ -47,22 +67,31 @@ void plant_rk4_at(const plant_params *p, double *w_io, double *s_io, double *q_i
     double h2 = 0.5 * h;
     double h6 = h / 6.0;
     double k1w, k1s, k2w, k2s, k3w, k3s, k4w, k4s, wa, sa, qa, wb, sb, qb, wc, sc, qc;
-    rhs(p, w, s, q, u0, Fw, &k1w, &k1s);
+    rhs(p, w, s, stage_ripple(p, q, ripple), u0, Fw, &k1w, &k1s);
     wa = w + h2 * k1w;
     sa = s + h2 * k1s;
     qa = q + h2 * w;
-    rhs(p, wa, sa, qa, um, plant_target_at(p, wa, qa, sgn), &k2w, &k2s);
+    rhs(p, wa, sa, stage_ripple(p, qa, ripple), um, stage_target(p, wa, qa, sgn, ripple), &k2w, &k2s);
     wb = w + h2 * k2w;
     sb = s + h2 * k2s;
     qb = q + h2 * wa;
-    rhs(p, wb, sb, qb, um, plant_target_at(p, wb, qb, sgn), &k3w, &k3s);
+    rhs(p, wb, sb, stage_ripple(p, qb, ripple), um, stage_target(p, wb, qb, sgn, ripple), &k3w, &k3s);
     wc = w + h * k3w;
     sc = s + h * k3s;
     qc = q + h * wb;
-    rhs(p, wc, sc, qc, u1, plant_target_at(p, wc, qc, sgn), &k4w, &k4s);
+    rhs(p, wc, sc, stage_ripple(p, qc, ripple), u1, stage_target(p, wc, qc, sgn, ripple), &k4w, &k4s);
     *w_io = w + h6 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w);
     *s_io = s + h6 * (k1s + 2.0 * k2s + 2.0 * k3s + k4s);
     *q_io = q + h6 * (w + 2.0 * wa + 2.0 * wb + wc);
+}
+
+void plant_rk4_at(const plant_params *p, double *w_io, double *s_io, double *q_io, double Fw, double u0, double um,
+                  double u1, double h, double sgn)
+{
+    if (p->ripple_a != 0.0)
+        rk4_at(p, w_io, s_io, q_io, Fw, u0, um, u1, h, sgn, 1);
+    else
+        rk4_at(p, w_io, s_io, q_io, Fw, u0, um, u1, h, sgn, 0);
 }
 
 /* The fastest mode (1/s) a lagged model's RK4 step at velocity w must resolve: p->rate; with a friction ripple
@@ -96,6 +125,20 @@ static int single_rk4(const plant_params *p, double w, double dt)
     return !(lagged_rate_at(p, w) * dt > plant_rk4_rate_max);
 }
 
+/* plant_step's common case (a lagged model, one RK4 step of dt, single_rk4) without a friction ripple: the map and
+ * RK4 inlined into one body. */
+PLANT_FLATTEN static void single_step_smooth(const plant_params *p, plant_state *st, double u, double dt)
+{
+    double w = st->w;
+    double s = st->s;
+    double q = st->q;
+    rk4_at(p, &w, &s, &q, plant_target(p, w, 0.0), u, u, u, dt, 0.0, 0);
+    st->w = w;
+    st->s = s;
+    st->q = q;
+    st->aux = NAN;
+}
+
 void plant_step(const plant_params *p, plant_state *st, double u, double dt)
 {
     double w = st->w;
@@ -106,7 +149,11 @@ void plant_step(const plant_params *p, plant_state *st, double u, double dt)
     long n = 1;
     int lugre, stat, cached;
     if (p->tau != 0.0 && single_rk4(p, w, dt)) { /* the common case: a lagged model, one RK4 step */
-        plant_rk4_at(p, &w, &s, &q, plant_target_at(p, w, q, 0.0), u, u, u, dt, 0.0);
+        if (p->ripple_a == 0.0) { /* the same numbers, none of the ripple's operations */
+            single_step_smooth(p, st, u, dt);
+            return;
+        }
+        rk4_at(p, &w, &s, &q, plant_target_at(p, w, q, 0.0), u, u, u, dt, 0.0, 1);
         st->w = w;
         st->s = s;
         st->q = q;
@@ -180,9 +227,16 @@ void plant_step(const plant_params *p, plant_state *st, double u, double dt)
     }
     stat = p->tau == 0.0 && !lugre;
     cached = stat && sgn == 0.0 && st->aux == p->key; /* s = F(w) of these parameters */
-    for (long i = 0; i < n; i++) {
-        double Fw = cached && i == 0 ? s : plant_target_at(p, w, q, sgn);
-        plant_rk4_at(p, &w, &s, &q, Fw, u, u, u, h, sgn);
+    if (p->ripple_a != 0.0) {
+        for (long i = 0; i < n; i++) {
+            double Fw = cached && i == 0 ? s : plant_target_at(p, w, q, sgn);
+            rk4_at(p, &w, &s, &q, Fw, u, u, u, h, sgn, 1);
+        }
+    } else { /* the same loop without the ripple's operations */
+        for (long i = 0; i < n; i++) {
+            double Fw = cached && i == 0 ? s : plant_target(p, w, sgn);
+            rk4_at(p, &w, &s, &q, Fw, u, u, u, h, sgn, 0);
+        }
     }
     if (stat) {
         s = plant_target_at(p, w, q, sgn);

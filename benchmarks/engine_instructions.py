@@ -1,0 +1,97 @@
+"""Instructions per 1 kHz step of the C engine (``run_mode none`` and ``adaptive``) under callgrind.
+
+Run:  python benchmarks/engine_instructions.py [--tree TREE ...] [--seconds 2]
+
+Each mode runs in one process under ``valgrind --tool=callgrind`` with collection on inside the engine call only
+(``--toggle-collect`` of its cffi wrapper ``_cffi_f_ctl_run_chunk``) and one profile dump after every call
+(``--dump-after``): a warm-up, then runs of ``seconds`` and ``3*seconds`` on the loop of ``benchmarks/perf.py``
+(paper preset, PI at 20 rad/s; ``adaptive`` with the noise 1e-3 rad/s and its Vs, delta). Instructions per step
+are the difference of the two runs' counts over the difference of their steps: the work per period, without the
+fixed cost of a call. Counts do not depend on the machine's load (timings on a shared machine do), only on the
+code and the compiler: the measure to compare two trees side by side (``--tree`` names one or more source trees
+with their extensions built in place; default this one).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+
+#: The script each measured process runs: mode, seconds; prints the steps of its three engine calls.
+_SCRIPT = r"""
+import sys
+from dataclasses import replace
+import numpy as np
+from controllers.simulation.closed_loop import ModeOptions, run_mode
+from controllers.design.pi import design_pi
+from plant.excitation import multisine_reference
+from plant.friction import preset
+mode, secs = sys.argv[1], float(sys.argv[2])
+p = preset("paper")
+d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
+o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0)
+if mode == "adaptive":
+    o = replace(o, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
+refs = [multisine_reference(s, rng=np.random.default_rng(0)) for s in (0.2, secs, 3 * secs)]
+for ref in refs:
+    run_mode(p, ref, mode, o, rng=np.random.default_rng(1))
+print(" ".join(str(r.t.size) for r in refs))
+"""
+
+MODES = ("none", "adaptive")
+
+
+def per_step(tree: str, mode: str, seconds: float = 2.0) -> float | None:
+    """Instructions per step of ``mode`` in the source tree ``tree`` (None without valgrind)."""
+    vg = shutil.which("valgrind")
+    if vg is None:
+        return None
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "cg.out")
+        env = dict(os.environ, PYTHONPATH=os.path.abspath(tree), ADAPTIVE_FF_THREADS="1")
+        res = subprocess.run([vg, "--tool=callgrind", f"--callgrind-out-file={out}", "--collect-atstart=no",
+                              "--toggle-collect=_cffi_f_ctl_run_chunk", "--dump-after=_cffi_f_ctl_run_chunk",
+                              sys.executable, "-c", _SCRIPT, mode, str(seconds)],
+                             capture_output=True, text=True, check=True, cwd=tree, env=env, timeout=3600)
+        steps = [int(x) for x in res.stdout.split()]
+        counts = []
+        for name in sorted(os.listdir(tmp), key=lambda f: int(f.rsplit(".", 1)[-1]) if f[-1].isdigit() else 0):
+            m = re.search(r"^(?:summary|totals):\s+(\d+)", open(os.path.join(tmp, name)).read(), re.M)
+            if name.startswith("cg.out.") and m:
+                counts.append(int(m.group(1)))
+    counts = counts[-3:]
+    return (counts[2] - counts[1]) / (steps[2] - steps[1])
+
+
+def perf_rows(tree: str, seconds: float = 2.0) -> list:
+    """Rows for ``benchmarks/perf.py``: instructions per step of each mode in ``tree``."""
+    rows = []
+    for mode in MODES:
+        n = per_step(tree, mode, seconds)
+        if n is None:
+            return [("instructions per step: valgrind not installed", None, "")]
+        rows.append((f"  run_mode {mode}, instructions per step (callgrind, in the engine call)", n, "instr"))
+    return rows
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--tree", action="append", default=None,
+                    help="source tree with its extensions built (repeatable; default this one)")
+    ap.add_argument("--seconds", type=float, default=2.0, help="length of the shorter measured run (s)")
+    args = ap.parse_args(argv)
+    trees = args.tree or [os.path.dirname(os.path.dirname(os.path.abspath(__file__)))]
+    print(f"{'tree':<40}" + "".join(f"{m:>12}" for m in MODES) + "   instructions per step")
+    for tree in trees:
+        vals = [per_step(tree, m, args.seconds) for m in MODES]
+        print(f"{tree:<40}" + "".join(f"{v:>12.1f}" if v is not None else f"{'n/a':>12}" for v in vals))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
