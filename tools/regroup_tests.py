@@ -61,7 +61,7 @@ FOLDER_OF = {name: folder for folder, names in {
         test_plant_variants test_results test_static_stick test_stiff_lagged test_stiff_lugre test_stiff_lugre_damping
         test_stribeck_slope""",
     "adaptive_ff_layer": """
-        test_arm test_bad_input_components test_closed_loop_id test_closed_loop_logs test_compensation_estimator
+        test_arm test_arm_export test_arm_tx40 test_bad_input_components test_closed_loop_id test_closed_loop_logs test_compensation_estimator
         test_compensation_faults test_configs test_counters_at_maximum test_covariance test_data test_diagnostics
         test_drive_guard test_emps_crosstest test_emps_validation test_eq4_component test_eq4_determinacy
         test_export_c test_export_c_drive_grade test_export_c_joints test_export_c_options test_fast_start
@@ -78,6 +78,7 @@ FOLDER_OF = {name: folder for folder, names in {
         test_adaptive_dob test_batch test_closed_loop test_compare_faults test_compare_offline_json
         test_compare_user_loop test_compensation_helper test_compensation_regression test_edge_inputs
         test_engine_golden test_engine_results test_estimator_rows test_exported_library test_figures_quality
+        test_first_inertia
         test_golden test_kalman_loop test_kernel_adaptive test_metrics test_metrics_whole_run test_motion_metrics
         test_paper_figures test_peer_components test_peers test_pi test_pi_pickle test_properties test_quasi_static
         test_regression_models test_report test_residual_cutoff test_scenario test_sensor_drive test_sweep
