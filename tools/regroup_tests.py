@@ -58,36 +58,37 @@ FOLDERS = {
 FOLDER_OF = {name: folder for folder, names in {
     "plant_layer": """
         test_batch_packing test_motion_references test_plant test_plant_kernels test_plant_options
-        test_plant_variants test_results test_static_stick test_stiff_lagged test_stiff_lugre test_stiff_lugre_damping
-        test_stribeck_slope""",
+        test_plant_variants test_results test_static_stick test_stiff_lagged test_stiff_lugre
+        test_stiff_lugre_damping test_stribeck_slope""",
     "adaptive_ff_layer": """
-        test_arm test_arm_export test_arm_tx40 test_bad_input_components test_closed_loop_id test_closed_loop_logs test_compensation_estimator
-        test_compensation_faults test_configs test_counters_at_maximum test_covariance test_data test_diagnostics
-        test_drive_guard test_emps_crosstest test_emps_validation test_eq4_component test_eq4_determinacy
-        test_export_c test_export_c_drive_grade test_export_c_joints test_export_c_options test_fast_start
-        test_fuzz_c test_fuzz_readers test_gates test_identification_file test_identification_pin
+        test_arm test_arm_export test_arm_tx40 test_bad_input_components test_closed_loop_id
+        test_closed_loop_logs test_compensation_estimator test_compensation_faults test_configs
+        test_counters_at_maximum test_covariance test_data test_diagnostics test_drive_guard
+        test_emps_crosstest test_emps_validation test_eq4_component test_eq4_determinacy test_export_c
+        test_export_c_drive_grade test_export_c_joints test_export_c_options test_fast_start test_fuzz_c
+        test_fuzz_readers test_gates test_identification_file test_identification_pin
         test_identification_results test_identify_emps test_identify_identifiability test_identify_idim
-        test_identify_method test_idim test_io test_ivrls test_lag_memory test_lag_profile test_lag_zero_projection
-        test_loop_model test_model_error test_model_forms test_oe_no_prefit test_oe_sensitivity test_online_ukf
-        test_output test_physical_id test_plausibility test_point_to_point_adaptive test_prefit_pipeline
-        test_prefit_robust test_real_logs test_regression test_residual_bootstrap test_rest_withdrawal test_rls
-        test_sign_observer test_simulator test_steady_state test_steady_state_check test_stribeck_fit
-        test_supervisor test_supervisor_restore test_supervisor_tracking test_switch_on_robust test_units_table
-        test_windup""",
+        test_identify_method test_idim test_io test_ivrls test_lag_memory test_lag_profile
+        test_lag_zero_projection test_loop_model test_model_error test_model_forms test_oe_no_prefit
+        test_oe_sensitivity test_online_ukf test_output test_physical_id test_plausibility
+        test_point_to_point_adaptive test_prefit_pipeline test_prefit_robust test_real_logs test_regression
+        test_residual_bootstrap test_rest_withdrawal test_rls test_sign_observer test_simulator
+        test_steady_state test_steady_state_check test_stribeck_fit test_supervisor test_supervisor_restore
+        test_supervisor_tracking test_switch_on_robust test_units_table test_windup""",
     "controllers_layer": """
         test_adaptive_dob test_batch test_closed_loop test_compare_faults test_compare_offline_json
         test_compare_user_loop test_compensation_helper test_compensation_regression test_edge_inputs
         test_engine_golden test_engine_results test_estimator_rows test_exported_library test_figures_quality
-        test_first_inertia
-        test_golden test_kalman_loop test_kernel_adaptive test_metrics test_metrics_whole_run test_motion_metrics
-        test_paper_figures test_peer_components test_peers test_pi test_pi_pickle test_properties test_quasi_static
-        test_regression_models test_report test_residual_cutoff test_scenario test_sensor_drive test_sweep
-        test_switch_in test_user_compensator test_user_compensator_faults test_zoo test_zoo_estimators""",
+        test_first_inertia test_golden test_kalman_loop test_kernel_adaptive test_metrics
+        test_metrics_whole_run test_motion_metrics test_paper_figures test_peer_components test_peers test_pi
+        test_pi_pickle test_properties test_quasi_static test_regression_models test_report
+        test_residual_cutoff test_scenario test_sensor_drive test_sweep test_switch_in test_user_compensator
+        test_user_compensator_faults test_zoo test_zoo_estimators""",
     "docs_cli": """
         test_architecture test_atomic_commands test_c_layers test_cli test_cli_design test_cli_errors
-        test_cli_regressions test_cli_stribeck test_cli_units test_docs test_examples test_fuzz_cli test_lazy_imports
-        test_no_truth test_own_loop_example test_present_tense test_readme test_runs_anywhere test_special_files
-        test_work_bounds test_your_drive""",
+        test_cli_regressions test_cli_stribeck test_cli_units test_docs test_examples test_fuzz_cli
+        test_lazy_imports test_no_truth test_own_loop_example test_present_tense test_readme
+        test_runs_anywhere test_special_files test_work_bounds test_your_drive""",
 }.items() for name in names.split()}
 
 #: The rule for a file not in the table, first match wins: a name prefix of the product-level tests; else the
