@@ -5,7 +5,7 @@ Two exports: mode ``adaptive`` (the default: the feedforward, the residual obser
 feedforward alone (``--feedforward-only``), each in double and float.
 ``benchmarks/perf.py`` prints the time, tick and instruction rows of this script (``perf_rows``) in its table.
 
-The setup is that of tests/test_export_c.py (tests/export_c_helpers.py): the paper joint's identification
+The setup is that of tests/adaptive_ff_layer/test_export_c.py (tests/export_c_helpers.py): the paper joint's identification
 exported with ``--u-max 150``, a closed-loop log of the ``adaptive`` mode (velocity noise 1e-3 rad/s) replayed
 through the export. Printed, for the double and the float (``-DAFF_FLOAT``) build:
 

@@ -2,10 +2,10 @@
 
 Run: ``python benchmarks/fuzz_c.py [--seconds 600] [--precision double|float|both] [--corpus DIR]``.
 
-Exports the paper joint's identification (tests/export_c_helpers.py, as tests/test_export_c.py), builds the harness
+Exports the paper joint's identification (tests/export_c_helpers.py, as tests/adaptive_ff_layer/test_export_c.py), builds the harness
 against it with ``clang -fsanitize=fuzzer,address,undefined`` and runs it (seed 1); prints, per precision, the
 executions, libFuzzer's coverage (covered edges ``cov`` and features ``ft``) and whether it found anything (the
-crash's report then). Needs clang with libFuzzer (Debian: ``apt-get install clang``). tests/test_fuzz_c.py runs the
+crash's report then). Needs clang with libFuzzer (Debian: ``apt-get install clang``). tests/adaptive_ff_layer/test_fuzz_c.py runs the
 same for 15 s per precision.
 """
 

@@ -5,7 +5,7 @@ Run: ``python benchmarks/fuzz_cli.py [--minutes 10] [--examples N] [--commands c
 
 Draws command lines of every subcommand with their input files (CSV logs, plant JSON, scenario TOML,
 identification JSON, sweep specs; valid, at the boundaries, broken) and runs each in a fresh folder
-(tests/test_fuzz_cli.py runs the same checks, bounded, in CI): exit status 0, 2, 3 or 130, no traceback, an error
+(tests/docs_cli/test_fuzz_cli.py runs the same checks, bounded, in CI): exit status 0, 2, 3 or 130, no traceback, an error
 naming the file or option, no partial output, strict JSON. Prints every case tried (exit status, seconds, the
 command line and the first line of its error) and, for each failure, the case, its input files and what broke;
 then a count by command and exit status. Stops after ``--minutes`` or ``--examples`` cases, whichever comes

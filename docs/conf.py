@@ -9,7 +9,7 @@ The API pages (``api/<package>.rst``) are written here at build time from each p
 ``__all__``, so every public name is documented without a hand-kept list; so are the module pages
 (``api/modules.rst`` and ``api/modules/<module>.rst``, every module's docstring, found by walking
 the packages). The gallery runs the scripts in ``examples/`` (``ADAPTIVE_FF_DOCS_PLOT_GALLERY=0``
-renders them without running, as ``tests/test_docs.py`` does). No network is needed: there is no intersphinx.
+renders them without running, as ``tests/docs_cli/test_docs.py`` does). No network is needed: there is no intersphinx.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ import sys
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-# The repository root; tests/test_docs.py builds a copy of docs/ elsewhere and points here.
+# The repository root; tests/docs_cli/test_docs.py builds a copy of docs/ elsewhere and points here.
 ROOT = Path(os.environ.get("ADAPTIVE_FF_DOCS_ROOT", HERE.parent)).resolve()
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(HERE / "_ext"))  # figure_scraper: the gallery's scraper of pyplot-free figures

@@ -8,7 +8,7 @@ The build scripts of the higher layers (``adaptive_ff/_cbuild.py``,
 ``controllers/_cbuild.py``) include this one (``ffi.include``: the same C
 types in every module) and compile these sources into their own module, so
 the layering ``plant <- adaptive_ff <- controllers`` holds for the C code too
-(a plant source never includes a higher layer's header; tests/test_c_layers.py).
+(a plant source never includes a higher layer's header; tests/docs_cli/test_c_layers.py).
 """
 
 from __future__ import annotations
@@ -49,7 +49,7 @@ def compile_args() -> list[str]:
     compiler and CPU (MSVC: its default ``/fp:precise`` does not contract either).
 
     ``-O3`` without ``-ffast-math`` keeps every floating-point operation and its order (vectorising or
-    inlining does not reassociate), so the results equal those of ``-O2`` (tests/test_golden.py); it made the
+    inlining does not reassociate), so the results equal those of ``-O2`` (tests/controllers_layer/test_golden.py); it made the
     engine 20-25 % faster per step (docs/benchmarks/perf.md). On Linux, ``-fno-semantic-interposition`` lets
     the compiler inline the components' exported functions into their callers inside the module (an ELF
     shared object otherwise keeps every exported call interposable).
@@ -75,7 +75,7 @@ def unity_source(layers: list[tuple[Path, list[str]]]) -> str:
     components' files as it does within one (the plant's RK4 step calls eq. 3 four times per period; the
     engine calls the compensator through its ops table): the same sources, no link-time optimiser needed,
     on every compiler. The components' file-local (``static``) names are therefore unique across all
-    layers (tests/test_c_layers.py).
+    layers (tests/docs_cli/test_c_layers.py).
     """
     includes = "".join(f'#include "{h}"\n' for _, hs in layers for h in hs)
     return includes + "".join(f'#include "{Path(s).name}"\n' for d, _ in layers for s in sources(d))

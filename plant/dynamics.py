@@ -70,7 +70,7 @@ def plant_rk4(par, w: float, s: float, Fw: float, u0: float, um: float, u1: floa
     Classic RK4 (Hairer, Nørsett, Wanner, *Solving ODEs I*, Sec. II.1) of
     eqs. 1-2 (lagged models, multiplying by ``inv_J`` and ``inv_tau``) or of the
     LuGre equations (module docstring of :mod:`plant.rows`): C (``plant/csrc/plant_dynamics.c``,
-    ``plant_rk4``, in place on ``double *w, *s``). tests/test_plant_kernels.py checks every step against
+    ``plant_rk4``, in place on ``double *w, *s``). tests/plant_layer/test_plant_kernels.py checks every step against
     an RK4 tableau on arrays written from the equations (tests/plant_oracle.py) to 1e-13.
     """
     ws = ffi.new("double[3]", (w, s, q))
@@ -106,8 +106,8 @@ def plant_step(par, st, u: float, dt: float) -> None:
     same Karnopp direction. LuGre: ``n`` equal RK4 sub-steps, ``n`` chosen from the stiffness at the step start so
     that each stays well inside RK4's stability region (:meth:`plant.lugre.LuGreParams.make_step`); with
     ``n > LUGRE_RK4_MAX`` (a stiff bristle) :func:`lugre_stiff_step` instead; a non-finite state or input gives
-    NaN. Checked step by step against the equations (tests/test_plant_kernels.py), the static steps that reach
-    the jump against a Radau + Filippov oracle (tests/test_static_stick.py).
+    NaN. Checked step by step against the equations (tests/plant_layer/test_plant_kernels.py), the static steps that reach
+    the jump against a Radau + Filippov oracle (tests/plant_layer/test_static_stick.py).
     """
     lib.plant_step(par, st, u, dt)
 

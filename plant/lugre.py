@@ -169,7 +169,7 @@ class LuGreParams:
         the Jacobian) takes the step, so any ``sigma0 > 0`` and ``sigma1, sigma2 >= 0``
         simulate at a 1 ms step (up to the pre-sliding frequency of
         :func:`plant.rows.check_integrable`). Where RK4 was chosen its results are bit for
-        bit those of before this note (tests/test_golden.py). The C
+        bit those of before this note (tests/controllers_layer/test_golden.py). The C
         :func:`plant.dynamics.plant_step` behind a Python call.
 
         Raises

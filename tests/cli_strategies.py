@@ -1,6 +1,6 @@
 """Hypothesis strategies of ``adaptive-ff`` command lines and their input files, and the checks every run must pass.
 
-Shared by tests/test_fuzz_cli.py (a bounded, derandomized run in CI) and benchmarks/fuzz_cli.py (longer runs that
+Shared by tests/docs_cli/test_fuzz_cli.py (a bounded, derandomized run in CI) and benchmarks/fuzz_cli.py (longer runs that
 print the cases tried). A case (:class:`CliCase`) is an argument vector with ``{dir}`` standing for a fresh working
 folder, the input files to write there first (CSV logs, plant JSON, scenario TOML, identification JSON, sweep
 specs: valid ones, ones at the boundaries, broken ones) and the outputs it names. :func:`run_case` runs it

@@ -17,7 +17,7 @@ tests and the estimate in use, and the adaptive-DOB composite, written from thei
   ``sum(l**(n-k) x_k/sd_k**2)/sum(l**(n-k)/sd_k**2)``, its margin), and :class:`RobustOutput`, the output (the
   start map, the fade-in) on the fixed feedforward of tests/peers_oracle.py.
 
-The RLS is the package's (checked against tests/rls_oracle.py by tests/test_rls.py and tests/test_properties.py).
+The RLS is the package's (checked against tests/rls_oracle.py by tests/adaptive_ff_layer/test_rls.py and tests/controllers_layer/test_properties.py).
 Not part of the package.
 """
 

@@ -8,9 +8,16 @@ fuzzers); such a test carries ``@pytest.mark.slow``, or its file is in :data:`SL
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import pytest
+
+#: tests/: the shared helpers (oracles, doc_commands, golden_cases, ...) and data beside this file. The test files are
+#: grouped in folders below (tools/regroup_tests.py); every one of them imports the helpers by module name.
+TESTS = Path(__file__).resolve().parent
+if str(TESTS) not in sys.path:
+    sys.path.insert(0, str(TESTS))
 
 #: Test files whose every test is slow (tens of seconds to minutes each; together about two thirds of the suite's
 #: time): the output-error and closed-loop fits, the documentation pages run as written, the fuzzers.

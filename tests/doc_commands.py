@@ -1,6 +1,6 @@
 """Run the shell commands of a Markdown page and compare the outputs it quotes with what they print now.
 
-Used by ``tests/test_readme.py`` (README.md) and ``tests/test_your_drive.py`` (docs/your_drive.md).
+Used by ``tests/docs_cli/test_readme.py`` (README.md) and ``tests/docs_cli/test_your_drive.py`` (docs/your_drive.md).
 A page's commands are found in two kinds of fenced blocks:
 
 * ``bash`` blocks: every logical line (backslash continuations joined) is a command, run through

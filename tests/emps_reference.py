@@ -1,5 +1,5 @@
 """The EMPS benchmark recomputed with scipy alone from the raw .mat files, independent of the package's pipeline
-(used by tests/test_emps_crosstest.py and tests/test_identify_idim.py).
+(used by tests/adaptive_ff_layer/test_emps_crosstest.py and tests/adaptive_ff_layer/test_identify_idim.py).
 
 Published (Janot, Gautier, Brunot 2019; data/emps/README.md): M = 95.1089 kg, Fv = 203.5034 N·s/m,
 Fc = 20.3935 N, offset = -3.1648 N; relative force error of that model on the validation record 5.98 %. The error

@@ -1,4 +1,4 @@
-"""Shared by tests/test_export_c.py and benchmarks/export_c.py: the identification, the closed-loop log and the C
+"""Shared by tests/adaptive_ff_layer/test_export_c.py and benchmarks/export_c.py: the identification, the closed-loop log and the C
 programs that replay it through an export of ``adaptive-ff export-c``."""
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ NOISE = 1e-3
 IDENTIFIED = {"J": 4.103424729656735, "Fc": 24.950807390864934, "Fs": 37.21688646402248,
               "sigma": 40.130682711238826, "tau": 0.020772473265106176, "offset": 0.001036172817080081}
 #: Its layout: the answer (method sliding) at the top level, the paper's eq. 4 LS/RLS (far off in closed loop)
-#: under ``baselines`` (tests/test_identification_file.py reads the former layout, answer under ``physical``).
+#: under ``baselines`` (tests/adaptive_ff_layer/test_identification_file.py reads the former layout, answer under ``physical``).
 ID_JSON = {"method": "sliding", **IDENTIFIED, "Vs": 0.02, "delta": 1.0, "std": {},
            "baselines": {"eq4_ls": {"J": 10.0, "sigma": 36.7, "Fc": 26.1, "Fs": 9.96, "tau": 0.0, "offset": 0.0},
                          "eq4_rls": {"J": 10.0, "sigma": 36.7, "Fc": 26.1, "Fs": 9.96, "tau": 0.0, "offset": 0.0}},

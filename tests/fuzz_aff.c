@@ -10,7 +10,7 @@
  * (learning, the feedforward fading in, acting, the residual observer switched in). Every output must be finite and
  * within +-AFF_FF_MAX (the composite's bound: the feedforward's and the observer's sum is clipped to it), every
  * transfer too, and the sanitizers must find nothing; a violation aborts (a crash for libFuzzer).
- * Run by tests/test_fuzz_c.py (a smoke of seconds) and benchmarks/fuzz_c.py (minutes, executions and coverage).
+ * Run by tests/adaptive_ff_layer/test_fuzz_c.py (a smoke of seconds) and benchmarks/fuzz_c.py (minutes, executions and coverage).
  */
 #include <stddef.h>
 #include <stdint.h>

@@ -6,7 +6,7 @@ closed loop :func:`controllers.simulation.closed_loop.run_mode` and :func:`run_c
 the identification functions of :mod:`adaptive_ff.identification`, the quasi-static experiments of
 :mod:`controllers.experiments.quasi_static`, the plant's open-loop simulation) and returns a record of
 strict-JSON values: metrics (everything of the result's ``to_dict()``), decimated signals, parameter
-histories and identified parameters. ``tests/test_golden.py`` recomputes every case and compares it with the
+histories and identified parameters. ``tests/controllers_layer/test_golden.py`` recomputes every case and compares it with the
 frozen record (``tests/golden/README.md`` says when and how the records were made, and the tolerances).
 
 The cases exist to hold the results fixed while the compiled kernels change their implementation (numba to
@@ -238,7 +238,7 @@ def batch_record(b) -> dict:
 
 #: Matrix cases run shorter or without noise, so that a change in the last bit of an input (the reference or
 #: ``Kp`` times ``1 + 2**-52``, measured for every case) moves no recorded number by more than 1e-10 of its scale
-#: (ten times below the tolerance of tests/test_golden.py): ``(plant, mode) -> (duration in s, noise in rad/s)``.
+#: (ten times below the tolerance of tests/controllers_layer/test_golden.py): ``(plant, mode) -> (duration in s, noise in rad/s)``.
 #: Two mechanisms amplify such a change. (1) A lagged joint (eqs. 1-3, ``tau > 0``) that sticks under a weak
 #: compensation chatters around ``w = 0`` (the sign of eq. 3 flips every step or two): a difference grows about
 #: e-fold per 25 ms of sticking, 1e-16 to 1e-10 within 0.3-0.4 s of the first stick. Those runs end before it.

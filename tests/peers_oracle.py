@@ -18,7 +18,7 @@ calling sequence and then check every output against the oracle fed with the sam
 * :class:`Range`, the range rule of :class:`adaptive_ff.compensation.gate.RangeGate`.
 
 The estimators' RLS is the package's :class:`~adaptive_ff.identification.rls.RecursiveLeastSquares`, which
-tests/test_rls.py and tests/test_properties.py check against tests/rls_oracle.py (closed form, information form):
+tests/adaptive_ff_layer/test_rls.py and tests/controllers_layer/test_properties.py check against tests/rls_oracle.py (closed form, information form):
 here it is a trusted part, and the oracles check what the components feed it and make of its estimates. Not
 part of the package.
 """

@@ -12,7 +12,7 @@ documentation: the Karnopp stick rule (:class:`plant.karnopp.KarnoppParams`) and
 
 One part is the package's own: with ``tau = 0`` the map of eq. 3 jumps at ``w = 0`` and a step that can reach the
 jump (:func:`plant.stiff.static_jump_in_reach`) is the package's set-valued step
-(:func:`plant.stiff.lagged_stiff_step`), which tests/test_static_stick.py checks against the independent Radau
+(:func:`plant.stiff.lagged_stiff_step`), which tests/plant_layer/test_static_stick.py checks against the independent Radau
 solution of tests/stiff_oracle.py; every other step here is the tableau's. Each period is one RK4 step (lagged
 models) as for the non-stiff plants of the tests; LuGre takes its sub-steps. :func:`simulate_foh` is the
 identification simulator (first-order hold of the input, output injection) on the same tableau. Not part of the

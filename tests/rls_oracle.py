@@ -15,7 +15,7 @@ downdates. The oracle reaches the same estimates by two other routes:
   ``trace(R_new^-1)``, and the projection onto the box solves the equality-constrained least-distance problem
   in the metric ``R`` through its KKT system.
 
-Used by tests/test_rls.py, tests/test_properties.py and benchmarks/rls.py (as ``NumpyRLS``). Not part of the
+Used by tests/adaptive_ff_layer/test_rls.py, tests/controllers_layer/test_properties.py and benchmarks/rls.py (as ``NumpyRLS``). Not part of the
 package.
 """
 

@@ -1,7 +1,7 @@
 """Test oracle: a tight-tolerance solution of the lagged plant models (eqs. 1-3, asymmetric, Karnopp) per step.
 
 Independent of :mod:`plant.dynamics` (its own eq. 3 in plain Python, scipy's Radau IIA): used by
-tests/test_stiff_lagged.py to check :func:`plant.dynamics.lagged_stiff_step` on stiff plants. Per step of ``dt``
+tests/plant_layer/test_stiff_lagged.py to check :func:`plant.dynamics.lagged_stiff_step` on stiff plants. Per step of ``dt``
 the torque is held, as in the engine; the Karnopp stick rule is applied at the step start (the model's
 definition, :class:`plant.karnopp.KarnoppParams`). The static map jumps (at ``w = 0``, or at the Karnopp band
 edges ``±dv``); Radau integrates each smooth piece (its formula continued past the jump, so the error control

@@ -83,7 +83,7 @@ typedef struct aff_status_report {
 } aff_status_report;
 
 /* What aff_adaptive_compensate changes (the parts of mode "adaptive" but its estimator ff.est, the estimate in use
- * and the projection's scratch: tests/test_drive_guard.py checks that nothing else changes), saved by aff_step and
+ * and the projection's scratch: tests/adaptive_ff_layer/test_drive_guard.py checks that nothing else changes), saved by aff_step and
  * put back by an aff_observe that refuses its period. */
 typedef struct aff_saved {
     aff_fixed_ff ff;            /* mode.ff.ff: the feedforward's filters, sign observer, loop model */

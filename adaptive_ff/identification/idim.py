@@ -24,8 +24,8 @@ zero-phase filter's start transient, :func:`adaptive_ff.io.data.load_emps`
 ``skip``), the end by ``tail`` here (its end transient: a record that stops
 while the axis moves ends in an acceleration spike made by the filter's
 extrapolation). The figures pinned on ``DATA_EMPS.mat`` and the cross-test on
-``DATA_EMPS_PULSES.mat`` are in ``tests/test_idim.py`` and
-``tests/test_emps_crosstest.py``, the measurement on the EMPS benchmark page of
+``DATA_EMPS_PULSES.mat`` are in ``tests/adaptive_ff_layer/test_idim.py`` and
+``tests/adaptive_ff_layer/test_emps_crosstest.py``, the measurement on the EMPS benchmark page of
 the documentation.
 """
 

@@ -6,7 +6,7 @@ torque is the clean signal and the velocity a smoothed derivative, and the torqu
 benchmark's own estimator (Janot, Gautier, Brunot 2019; :func:`adaptive_ff.identification.idim.fit_idim`) is
 the one the log calls for. On EMPS it gives the benchmark's cross-test error (5.953 % on
 ``DATA_EMPS_PULSES.mat``, published 5.98 %) where eq. 4 gives 6.045 %
-(``tests/test_identify_idim.py``).
+(``tests/adaptive_ff_layer/test_identify_idim.py``).
 
 The answer is Coulomb + viscous with an offset (``Fs = Fc``, ``tau = 0``): ``u = J dw/dt + Fc sgn(w) + sigma w +
 offset``, the columns and torque low-pass filtered and decimated to about 100 Hz (``decimate = round(0.01/Ts)``).

@@ -8,7 +8,7 @@ of a log. A model that is not the joint's (a friction lag, a Stribeck dip, a pos
 compliance the fit does not have) leaves an error that is largely the *same* in every replicate: a bias no
 resampling of the residuals reproduces. On a simulated Coulomb + viscous joint with a 20 ms friction lag, fitted
 without lag at 1 kHz, the bootstrap alone gives sigma [8.797, 9.615] and Fc [3.888, 4.300] for a true 8 and 5
-(``tests/test_model_error.py``); with the check below they are [7.25, 11.16] and [2.56, 5.63], and both are named.
+(``tests/adaptive_ff_layer/test_model_error.py``); with the check below they are [7.25, 11.16] and [2.56, 5.63], and both are named.
 
 What :func:`assess_model_error` adds
 ------------------------------------

@@ -311,7 +311,7 @@ def _check_parents(start: Path, option: str, path: Path) -> None:
 
 
 #: Named plant parameter sets of :data:`plant.friction.PRESETS`, listed here so that ``--help`` needs no
-#: C-module import (tests/test_cli_errors.py checks that the two agree).
+#: C-module import (tests/docs_cli/test_cli_errors.py checks that the two agree).
 PRESET_NAMES = ("paper",)
 
 

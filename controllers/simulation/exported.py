@@ -12,7 +12,7 @@ package's compensator object then reads its state from the library's struct (its
 counters in results and reports).
 
 Only a double build can run in the package's engine (its ``aff_real`` is ``double``); the float build of an export
-is checked against the package by replay (``tests/test_export_c.py``).
+is checked against the package by replay (``tests/adaptive_ff_layer/test_export_c.py``).
 """
 
 from __future__ import annotations

@@ -51,7 +51,7 @@ def default_velocity_bandwidth(Tc: float) -> float:
         ``0.1/Tc`` (100 Hz at 1 kHz): the default of :func:`adaptive_ff.io.kalman_velocity.velocity_from_position`.
         Its lag stays out of the loop (cv: about ``sqrt(2)/(2*pi*fb)`` = 2.3 ms, 2.6 degrees of phase at a
         20 rad/s crossover), its velocity noise from the counts is 0.21 of the backward difference's RMS for white
-        quantisation noise (cv; 0.15 on a constant-velocity ramp, tests/test_kalman_loop.py). Measured on the
+        quantisation noise (cv; 0.15 on a constant-velocity ramp, tests/controllers_layer/test_kalman_loop.py). Measured on the
         ``paper`` preset with a 17-bit encoder (benchmarks/encoder_velocity.py, means over 8 noise
         seeds): ``adaptive`` eta 0.91 at 100 Hz (0.92 at 80, 0.89 at 120, 0.73 at 150 Hz; 0.00 with the difference); ``adaptive-dob``
         0.96 at 80-120 Hz and below zero at 50 Hz, where the filter's lag reaches its residual observer

@@ -188,7 +188,7 @@ void plant_step(const plant_params *p, plant_state *st, double u, double dt)
         }
         if (p->ripple_a != 0.0) { /* accuracy: the ripple forces the bristle's fast mode at n*|w|, and RK4's
                                      forced response errs by about (rate*h)^4*(n*|w|*h)/120: a quarter of the
-                                     sub-step keeps the friction within 1e-6 of its peak (tests/test_plant_options) */
+                                     sub-step keeps the friction within 1e-6 of its peak (tests/plant_layer/test_plant_options) */
             n = (long)(lugre_ripple_substeps * x) + 1;
             h = dt / (double)n;
         }
