@@ -476,7 +476,7 @@ def batch_common_options_noise_array():
 
 #: The compare cases run with a data sheet's exact inertia (``J_design``, the preset's ``J``), as they were frozen:
 #: they hold the engine's results fixed; the design inertia's own experiment (``compare``'s default) is tested in
-#: tests/test_first_inertia.py.
+#: tests/controllers_layer/test_first_inertia.py.
 @functools.lru_cache(maxsize=1)
 def _compare_paper():
     p = preset("paper")

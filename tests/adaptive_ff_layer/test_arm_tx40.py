@@ -23,7 +23,7 @@ from adaptive_ff.arm.transmission import read_transmission  # noqa: E402
 from controllers.cli.main import main  # noqa: E402
 from plant.errors import ParameterError  # noqa: E402
 
-DATA = Path(__file__).resolve().parents[1] / "data" / "tx40"
+DATA = Path(__file__).resolve().parents[2] / "data" / "tx40"
 LOG, URDF, TOML = DATA / "tx40_motor.npz", DATA / "tx40.urdf", DATA / "transmission.toml"
 RATIO = np.array([32.0, 32.0, 45.0, -48.0, 45.0, 32.0])
 FV = np.array([8.05, 5.53, 1.97, 1.11, 1.86, 0.65])  # TX40_config.yaml: viscous, N·m·s/rad
