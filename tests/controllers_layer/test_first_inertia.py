@@ -19,13 +19,16 @@ from plant.friction import JointParams, preset
 P = preset("paper")
 
 
-@pytest.mark.parametrize("plant", [P, P.replace(tau=0.0), P.replace(Fc=0.0, Fs=0.0)],
-                         ids=["paper", "no-lag", "viscous-only"])
-def test_the_first_inertia_is_within_three_percent_of_the_joint(plant):
-    # +2.0 %, +2.3 %, -2.6 % measured (the regression's discrete filters at 1 kHz); two noise seeds agree to 0.3 %
+@pytest.mark.parametrize("plant, rel", [(P, 0.01), (P.replace(tau=0.0), 0.01), (P.replace(Fc=0.0, Fs=0.0, tau=0.0), 0.01),
+                                         (P.replace(Fc=0.0, Fs=0.0), 0.06)],
+                         ids=["paper", "no-lag", "viscous-only", "viscous-only-lagged"])
+def test_the_first_inertia_is_within_one_percent_of_the_joint(plant, rel):
+    # measured -0.6 %, -0.3 %, -0.7 % (the regression's filter gain divided out, InertiaExperiment.J: +2.0 to +2.6 %
+    # without); a lagged viscous-only joint -5.1 %: its lagged sigma*w is nearly collinear with J*dw/dt and the lag
+    # column takes part of the inertia. Two noise seeds agree to 0.3 %
     Js = [inertia_experiment(plant, w_switch=0.5, noise_std=1e-3, rng=np.random.default_rng(s)).J for s in (0, 1)]
     for J in Js:
-        assert J == pytest.approx(plant.J, rel=0.03)
+        assert J == pytest.approx(plant.J, rel=rel)
     assert Js[0] == pytest.approx(Js[1], rel=0.003)
 
 
@@ -41,7 +44,7 @@ def test_the_ramp_on_a_frictionless_joint_stops_where_the_integrated_torque_reac
     assert r.t_ramp == pytest.approx(n * Tc, abs=1e-12)
     assert r.u_ramp == pytest.approx(u0 * g**n, rel=1e-9)
     assert r.u_std == pytest.approx(1.2 * r.u_ramp, rel=1e-12)
-    assert r.J == pytest.approx(J, rel=0.03)
+    assert r.J == pytest.approx(J, rel=0.01)
 
 
 def test_the_ramp_breaks_the_joint_loose_above_its_static_friction():
@@ -80,7 +83,7 @@ def test_bad_arguments_are_named():
 def test_compare_designs_on_the_identified_inertia_by_default():
     comp = compare(P, duration=6.0, modes=("none",), progress=False)
     assert comp.inertia is not None and comp.J_design == comp.inertia.J
-    assert comp.J_design == pytest.approx(P.J, rel=0.03)
+    assert comp.J_design == pytest.approx(P.J, rel=0.01)
     assert comp.design.Kp == pytest.approx(design_pi(comp.J_design, crossover=20.0, phase_margin=60.0).Kp, rel=1e-12)
     assert comp.to_dict()["inertia"]["J"] == comp.J_design
 
