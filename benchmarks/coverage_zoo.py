@@ -166,7 +166,7 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=15.0, help="record length in s (default 15)")
     ap.add_argument("--n-bootstrap", type=int, default=20, help="output-error bootstrap refits (default 20)")
     ap.add_argument("--no-lag-profile", action="store_true",
-                    help="output-error fit without its profile search over tau (the fit before 2026-11-23)")
+                    help="output-error fit without its profile search over tau (the former fit)")
     ap.add_argument("--bootstrap-refit", choices=("full", "partial"), default="full",
                     help="how the output-error bootstrap refits each replicate (OutputErrorOptions.bootstrap_refit; "
                          "default full, the package's)")

@@ -34,8 +34,7 @@ from plant import preset
 #: Lag factors of the true-parameter rows.
 TAU_FACTORS = (0.97, 0.99, 1.0, 1.01, 1.03, 1.05, 1.1, 1.3)
 #: (lag_margin, lag_margin_max, max_rel_stderr, lag_memory) of the adaptive rows; the first is the package's default,
-#: the second the default of commit a42b9e9 (before ``lag_memory``), the fifth that of commit 88db4dc
-#: (before ``lag_margin``).
+#: the second the former default without ``lag_memory``, the fifth the former default without ``lag_margin``.
 ADAPTIVE = ((1.0, 0.05, 0.05, 10.0), (1.0, 0.05, 0.05, 0.0), (1.0, 0.05, 0.05, 3.0), (1.0, 0.05, 0.05, 30.0),
             (0.0, 0.0, math.inf, 0.0), (0.0, 0.0, 0.05, 10.0))
 

@@ -53,11 +53,8 @@ from plant.joint import make_rk4_step
 
 U_MAX = 150.0
 #: Speed targets: the warm engine's µs per step against python-control's on the same loop (mode: at least this
-#: ratio): the ratios of the former JIT engine (numba, commit 5724d15) measured side by side with python-control,
-#: median of five alternating rounds of ``benchmarks/tree_ab.py --ratio`` on 2026-11-23 (docs/benchmarks/perf.md,
-#: "Why the targets are ratios"). The 2500x/1200x of the first statement came from a run whose python-control row
-#: read ~434 µs/step; side by side the same loop takes 72-84 µs/step (a cold JIT cache puts the compilation of
-#: the loop's plant step inside that row: 4345 µs/step).
+#: ratio): the ratios of the former JIT engine (numba) measured side by side with python-control, median of five
+#: alternating rounds of ``benchmarks/tree_ab.py --ratio`` (docs/benchmarks/perf.md, "Why the targets are ratios").
 RATIO_TARGET = {"none": 630, "adaptive": 325}
 #: Targets of an install from an empty environment (s): pip install -e . plus the first compare, the compare alone.
 FRESH_TARGET, FIRST_COMPARE_TARGET = 60.0, 10.0
