@@ -143,7 +143,7 @@ stage (a pass at the noise-level scale, the local Fs profile, a pass; the
 better point kept) and one round of its coordinate search. The two
 trust-region passes alone stop short of where the fit itself stops, so that
 their scatter carries the memory of their start (measurements and coverage before and after: the documentation's
-identification page, "Refits that run the fit's own later steps"). The
+identification page, "Alternatives measured"). The
 lag profile and the final Fs profile are not run in the refits (they cost
 several times the rest of a refit). A refit started at the
 estimate itself stays there on the rough cost (measured: spreads 10-100
@@ -166,7 +166,7 @@ eq. 4 start, every stage including the profile searches): the bootstrap of
 the estimator as it is (Efron & Tibshirani, Ch. 6), at about three times the
 cost of the partial refits (a median 34 s, 22-68 s, against 11 s of CPU per
 15 s zoo record with 20 refits); its coverage on the zoo: the identification
-page, "The bootstrap of the fit itself". It is the default: its 95 % intervals
+page, "The bootstrap of the fit itself, the default". It is the default: its 95 % intervals
 covered the truth on 91-96 % of 100 zoo joints per parameter in two runs with
 different draws (the identification page, "The bootstrap of the fit itself,
 the default"), the partial refits' J and tau
