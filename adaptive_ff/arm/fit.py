@@ -309,6 +309,15 @@ def _joint_warnings(arm, j, q, dq, keep_j, Vs, rel) -> list:
     return out
 
 
+def _sign_warnings(name: str, params: dict) -> list:
+    """The sign constraints of eqs. 1-3 (``J > 0``; ``Fc, Fs, sigma >= 0``) on joint ``name``'s ``params``: one
+    ``implausible`` warning per failing parameter (:func:`adaptive_ff.identification.plausibility.check_physical`, as
+    ``identify``'s), so that ``design``, ``compare`` and ``export-c --from`` refuse such a joint by name."""
+    from adaptive_ff.identification.plausibility import check_physical
+
+    return check_physical({k: params[k] for k in ("J", "Fc", "Fs", "sigma")}, source=f"identify-arm, joint {name!r}")
+
+
 @threadpool_limits.wrap(limits=1, user_api="blas")  # the many small products of the fits: one thread each
 def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, n_bootstrap: int = 200,
                  seed: int = 0, rigid_body: str = "fit", progress: bool | None = False) -> ArmIdentification:
@@ -443,5 +452,5 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data) -> ArmJoint:
     interval = {k: (lo[k], hi[k]) for k in ("J", *_FRICTION)}
     interval.update({"Vs": vs_iv, "delta": d_iv, "tau": (np.nan, np.nan)})
     rel = {k: hw[k] / max(abs(p[k]), 1e-12) for k in ("Fc", "sigma")}
-    warn = _joint_warnings(arm, j, q, dq, keep_j, Vs[j], rel)
+    warn = _joint_warnings(arm, j, q, dq, keep_j, Vs[j], rel) + _sign_warnings(arm.names[j], params)
     return ArmJoint(name=arm.names[j], params=params, interval95=interval, std=std, warnings=tuple(warn))

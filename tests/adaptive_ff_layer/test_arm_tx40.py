@@ -157,3 +157,15 @@ def test_a_transmission_for_another_joint_count(arm, motor_log, tmp_path):
     short = dataclasses.replace(motor_log, q=motor_log.q[:, :5], tau=motor_log.tau[:, :5])
     with pytest.raises(ParameterError, match="a transmission of 6 joints for a log of 5"):
         gear.to_joint(short)
+
+
+def test_a_negative_level_is_named(arm, motor_log):
+    # at the default 20 Hz cutoff the profile gives joint 2 a Stribeck term whose Fs comes out negative (eq. 3 needs
+    # Fs >= 0): its entry carries an `implausible` warning naming Fs, which design/compare/export-c --from refuse
+    gear = read_transmission(TOML, arm.n)
+    r = identify_arm(gear.to_joint(motor_log), arm, n_bootstrap=20, seed=0)
+    for joint in r.joints:
+        signs = {w.parameter for w in joint.warnings if w.code == "implausible"}
+        assert signs == {k for k in ("J", "Fc", "Fs", "sigma") if joint.params[k] < (1e-300 if k == "J" else 0.0)}
+    assert r.joints[1].params["Fs"] < 0.0 and "Fs" in {w.parameter for w in r.joints[1].warnings
+                                                         if w.code == "implausible"}
