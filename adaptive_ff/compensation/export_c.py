@@ -46,7 +46,7 @@ from adaptive_ff.io.output import staged_folder
 from plant.errors import ParameterError
 
 __all__ = ["export_c", "export_settings", "ExportSettings", "CExport", "c_closure", "amalgamate", "struct_initializer",
-           "field_comments", "c_literal", "banner", "prepare_out", "EXPORT_FILES", "CSRC_DIRS", "ROOT_HEADER", "MACRO_DOC",
+           "field_comments", "c_literal", "macro_lines", "banner", "prepare_out", "EXPORT_FILES", "CSRC_DIRS", "ROOT_HEADER", "MACRO_DOC",
            "MACRO_FIELDS", "MAKEFILE", "W_MAX_DEFAULT", "HOLD_TIME_DEFAULT"]
 
 #: The folders the compensator's C sources live in, searched in this order for a quoted ``#include``.
@@ -236,6 +236,14 @@ def amalgamate(headers, sources, origin: str = "") -> tuple[str, str]:
     for p in sources:
         c.append(f"\n/* ==== {p.name} ==== */\n" + texts[p.name])
     return "".join(h), "".join(c)
+
+
+def macro_lines(macro: str, value, field: str | None = None, scope: str = "") -> list:
+    """The two lines of one setting's macro in ``aff_config.h``: the comment of :data:`MACRO_DOC` for ``field``
+    (default ``macro``; what it is and its unit, then ``scope``, e.g. ``"; every joint"``) and ``#define macro
+    value`` (:func:`c_literal`)."""
+    unit, what = MACRO_DOC[macro if field is None else field]
+    return [f"/* {what[0].upper() + what[1:]} ({unit}){scope}. */", f"#define {macro} {c_literal(value)}"]
 
 
 def c_literal(x) -> str:
@@ -452,8 +460,7 @@ def _config_header(config: dict, source: str) -> str:
              " * to a macro are written with it: change the macro (or any value in aff_config.c) and rebuild, and",
              " * aff_init checks the settings and computes the compensator's derived fields from them. */"]
     for k, v in config.items():
-        unit, what = MACRO_DOC[k]
-        lines += ["", f"/* {what[0].upper() + what[1:]} ({unit}). */", f"#define {k} {c_literal(v)}"]
+        lines += ["", *macro_lines(k, v)]
     lines += ["",
               "/* The drive's settings (aff_config.c): aff_init(&c, &AFF_CONFIG). */",
               "extern const aff_config AFF_CONFIG;", "", "#endif", ""]

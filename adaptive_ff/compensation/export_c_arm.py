@@ -28,9 +28,10 @@ from dataclasses import dataclass
 
 from plant.errors import ParameterError
 
-from adaptive_ff.compensation.export_c import (EXPORT_FILES, HOLD_TIME_DEFAULT, MACRO_DOC, MACRO_FIELDS, MAKEFILE,
+from adaptive_ff.compensation.export_c import (EXPORT_FILES, HOLD_TIME_DEFAULT, MACRO_FIELDS, MAKEFILE,
                                                W_MAX_DEFAULT, CExport, amalgamate, banner, c_closure, c_literal,
-                                               export_settings, field_comments, prepare_out, struct_initializer)
+                                               export_settings, field_comments, macro_lines, prepare_out,
+                                               struct_initializer)
 
 __all__ = ["JointExport", "export_c_arm", "c_identifier"]
 
@@ -113,14 +114,12 @@ def _config_header(names, ids, common, per_joint, origin) -> str:
               " * macro are written with it: change the macro (or any value in aff_config.c) and rebuild, and",
               " * aff_init checks the settings and computes the compensator's derived fields from them. */"]
     for k, v in common.items():
-        unit, what = MACRO_DOC[k]
-        lines += ["", f"/* {what[0].upper() + what[1:]} ({unit}); every joint. */", f"#define {k} {c_literal(v)}"]
+        lines += ["", *macro_lines(k, v, scope="; every joint")]
     for name, macros in zip(names, per_joint):
         if macros:
             lines += ["", f"/* Joint {_string_literal(name)}. */"]
         for k, (v, orig) in macros.items():
-            unit, what = MACRO_DOC[orig]
-            lines += [f"/* {what[0].upper() + what[1:]} ({unit}). */", f"#define {k} {c_literal(v)}"]
+            lines += macro_lines(k, v, field=orig)
     lines += ["", "/* The joints' names and the drive's settings per joint (aff_config.c):",
               " * aff_init(&c[j], &AFF_CONFIGS[j]). */",
               "extern const char *const AFF_JOINT_NAMES[AFF_N_JOINTS];",
