@@ -31,7 +31,7 @@ from scipy import signal
 
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RecursiveLeastSquares
-from lti_oracle import combine, lag, power
+from lti_oracle import lag, power
 from peers_oracle import Feedforward, Range, rls_try
 
 __all__ = ["OutlierGate", "sliding_path", "reported_estimate", "robust_decisions", "RobustOutput", "SLIDING_NAMES"]
@@ -69,14 +69,14 @@ class OutlierGate:
 
 
 def _svf(T: float, dt: float) -> dict:
-    """``(b, a)`` of ``L``, ``L s`` and ``L s^2`` over the common denominator of the three-stage cascade."""
+    """``(b, a)`` in powers of ``z^-1`` of ``L``, of its first and second backward differences ``(1 - z^-1)/dt``
+    (the derivatives ``L s``, ``L s^2``) and of ``L`` half a period back, ``(1 + z^-1)/2`` (the regressand)."""
     b, a = lag(1.0 / T, dt)  # one stage, the input of this period applied at once
-    b1, b2, b3 = b, np.polymul(b, b), power((b, a), 3)[0]
-    a2, a3 = np.polymul(a, a), power((b, a), 3)[1]
-    return {"L": (b3, a3),
-            "Ls": combine([(1.0 / T, np.polymul(b2, a)), (-1.0 / T, b3)], a3),
-            "Ls2": combine([(1.0 / T**2, np.polymul(b1, a2)), (-2.0 / T**2, np.polymul(b2, a)),
-                            (1.0 / T**2, b3)], a3)}
+    b3, a3 = power((b, a), 3)
+    a3 = np.concatenate((a3, [0.0, 0.0]))  # room for the difference's two extra numerator powers
+    diff = np.array([1.0, -1.0]) / dt
+    return {"L": (b3, a3[:-2]), "Ls": (np.polymul(b3, diff), a3[:-1]),
+            "Ls2": (np.polymul(np.polymul(b3, diff), diff), a3), "Lhalf": (np.polymul(b3, [0.5, 0.5]), a3[:-1])}
 
 
 def sliding_path(u, w, *, Vs, delta, Tc, Ts=0.01, T_filter=0.02, lam=0.995, forgetting="exponential", P0=1e4,
@@ -137,7 +137,7 @@ def sliding_path(u, w, *, Vs, delta, Tc, Ts=0.01, T_filter=0.02, lam=0.995, forg
     cols += [L("L", sgn * (1.0 - shape)), L("L", sgn * shape), L("L", wa)]  # L[g], L[h], L[w] (eqs. 5, 6)
     if offset:
         cols.append(np.ones_like(wa))
-    X, y = np.column_stack(cols), L("L", ua)
+    X, y = np.column_stack(cols), L("Lhalf", ua)
     dwell = L("L", (np.abs(wa) < band).astype(float))
     m = int(round(Ts / Tc))
     count = np.arange(1, idx.size + 1)  # accepted samples so far

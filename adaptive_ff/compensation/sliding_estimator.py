@@ -33,7 +33,14 @@ numerical differentiation of noisy data::
 
 ``L`` is realised as three cascaded first-order lags ``x1 -> x2 -> x3`` (each
 ``x_i += a*(x_{i-1} - x_i)``, ``a = 1 - exp(-Tc/T)``) so that ``L[x] = x3``,
-``L[s x] = (x2 - x3)/T`` and ``L[s^2 x] = (x1 - 2*x2 + x3)/T**2``.
+``L[s x] = D*(x2 - x3)`` and ``L[s^2 x] = D**2*(x1 - 2*x2 + x3)`` with
+``D = a/((1 - a)*Tc) = (exp(Tc/T) - 1)/Tc``: ``D*(x2 - x3)`` is exactly the
+backward difference ``(x3(k) - x3(k-1))/Tc`` of the discrete stage (with ``1/T``
+in place of ``D`` the fitted J and tau would be ``T*(exp(Tc/T) - 1)/Tc`` times
+the joint's, +2.5 % at 1 kHz and ``T`` 20 ms). The difference at sample ``k``
+is the motion under the torque held over the period before it, so ``y`` is the
+mean of ``L[u]`` before and after the sample (half a period back, as the
+difference).
 
 Sliding-regime gate (the closed-loop bias, and its fix)
 -------------------------------------------------------
@@ -42,19 +49,13 @@ velocity the sign of the *measured* velocity is decided by the noise, the
 joint may creep or stick, and in closed loop the torque reacts to that same
 noise (the PI, and a feedforward evaluated at the measured velocity). Rows of
 the regression whose filter memory contains near-zero samples are therefore
-correlated with the noise in ``g``, ``h``: measured on the ``paper`` preset in
-closed loop without compensation (noise 1e-3 rad/s, 10 seeds x 120 s), plain
-LS on all rows gave Fs = 60.2 N·m (true 35), sigma = 54.2 (40), tau = -0.010 s,
-while the same data with the true (noise-free) velocity gave Fs = 33.7,
-sigma = 38.9, tau = 0.017 (what remains is the creep, where the sliding model
-does not hold). The estimator therefore filters the indicator
-``d = 1(|w| < w_band)`` with the same ``L`` and uses a row only while
-``L[d] <= dwell_max``: a row whose filter memory held no near-zero sample
-(within ``dwell_max``). With the gate the same data gave Fc = 25.006,
-Fs = 34.94, sigma = 39.96, tau = 0.0196 s (true 25, 35, 40, 0.02) and
-J = 4.10 (+2.5 %: the discrete realisation of ``L[s x]``, ``L[s^2 x]`` is
-approximate at 1 kHz; J does not enter the feedforward). The benchmark
-``benchmarks/compensation.py`` prints the comparison.
+correlated with the noise in ``g``, ``h``: in closed loop without compensation
+plain LS on all rows overestimates Fs and sigma and gets tau's sign wrong on the
+``paper`` preset, while the same rows with the noise-free velocity do not
+(docs/benchmarks/compensation.md, ``benchmarks/compensation.py``). The estimator
+therefore filters the indicator ``d = 1(|w| < w_band)`` with the same ``L`` and
+uses a row only while ``L[d] <= dwell_max``: a row whose filter memory held no
+near-zero sample (within ``dwell_max``).
 
 ``w_band`` adapts to the noise: ``max(w_band_min, 4*sigma_n)`` with the
 noise level ``sigma_n`` estimated from the running mean of ``|w(k) - 2 w(k-1)
@@ -358,8 +359,8 @@ class SlidingFrictionEstimator(Component):
 
     @property
     def y(self) -> float:
-        """Output of the last RLS update: the filtered torque ``L[u]`` (N·m)."""
-        return float(self._c.xu[2])
+        """Output of the last RLS update: the filtered torque ``L[u]`` half a period back (N·m; module docstring)."""
+        return float(lib.aff_sliding_regressand(self._c))
 
     @property
     def n_updates(self) -> int:
@@ -497,7 +498,7 @@ def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | 
                                    offset=offset, w_band_min=w_band_min, dwell_max=dwell_max)
     from scipy import signal  # lazy: scipy.signal is heavy to import
 
-    a, T = float(est.cdata.a), est.T
+    a, D = float(est.cdata.a), float(est.cdata.D)
     lf = lambda x: signal.lfilter([a], [1.0, -(1.0 - a)], x)  # noqa: E731  x_i += a*(x_{i-1} - x_i)
 
     def cascade(x):
@@ -517,9 +518,9 @@ def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | 
     *_, g3 = cascade(sg * (1.0 - e))
     *_, h3 = cascade(sg * e)
     *_, d3 = cascade((aw < band).astype(float))
-    cols = [(w2 - w3) / T]
+    cols = [D * (w2 - w3)]
     if lag:
-        cols += [(w1 - 2.0 * w2 + w3) / T**2, -(u2 - u3) / T]
+        cols += [D * D * (w1 - 2.0 * w2 + w3), -D * (u2 - u3)]
     cols += [g3, h3, w3]
     if offset:
         cols.append(np.ones_like(w))
@@ -527,7 +528,8 @@ def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | 
     k = np.arange(1, w.shape[0] + 1)
     rows = (k % est.m == 0) & (k >= est.cdata.settle)
     keep = rows & (d3 <= est.dwell_max)
-    return X[keep], u3[keep], np.flatnonzero(keep), int(np.count_nonzero(rows & ~keep)), est.names
+    y = 0.5 * (np.concatenate(([0.0], u3[:-1])) + u3)  # L[u] half a period back, as the differences (module doc)
+    return X[keep], y[keep], np.flatnonzero(keep), int(np.count_nonzero(rows & ~keep)), est.names
 
 
 def fit_sliding(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | None = None, T_filter: float = 0.02,

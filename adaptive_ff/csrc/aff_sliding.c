@@ -148,7 +148,7 @@ aff_error aff_sliding_init(aff_sliding *e, const aff_sliding_config *cfg)
     e->Vs = cfg->Vs;
     e->delta = cfg->delta;
     e->a = (aff_real)1.0 - AFF_EXP(-cfg->Tc / cfg->T_filter);
-    e->T = cfg->T_filter;
+    e->D = e->a / (((aff_real)1.0 - e->a) * cfg->Tc);
     e->m = sliding_multiple(cfg->Ts, cfg->Tc);
     q = AFF_CEIL((aff_real)8.0 * cfg->T_filter / cfg->Tc);
     e->settle = (long)aff_min2(q, SLIDING_COUNT_MAX);
@@ -209,10 +209,16 @@ static aff_real phi_P_phi(const aff_rls *r, const aff_real *phi)
     return acc > 0 ? acc : (aff_real)0.0;
 }
 
+aff_real aff_sliding_regressand(const aff_sliding *e)
+{
+    /* x3(k-1) = x3(k) - (a/(1 - a))*(x2(k) - x3(k)) of the stage x3 += a*(x2 - x3) */
+    return e->xu[2] - (aff_real)0.5 * (e->a / ((aff_real)1.0 - e->a)) * (e->xu[1] - e->xu[2]);
+}
+
 int aff_sliding_observe(aff_sliding *e, aff_real u, aff_real w)
 {
     int uok, wok;
-    aff_real band, nb, aw, gg, hh, dz, a, T, s, err;
+    aff_real band, nb, aw, gg, hh, dz, a, D, s, err;
     long j;
     e->updated = 0;
     /* input rejection: torque range, velocity range (finite velocities; the gate counts non-finite ones), then
@@ -273,12 +279,12 @@ int aff_sliding_observe(aff_sliding *e, aff_real u, aff_real w)
         e->n_gated = aff_count_up(e->n_gated);
         return 1;
     }
-    T = e->T;
+    D = e->D;
     j = 0;
-    e->phi[j++] = (e->xw[1] - e->xw[2]) / T;
+    e->phi[j++] = D * (e->xw[1] - e->xw[2]);
     if (e->lag) {
-        e->phi[j] = (e->xw[0] - (aff_real)2.0 * e->xw[1] + e->xw[2]) / (T * T);
-        e->phi[j + 1] = -(e->xu[1] - e->xu[2]) / T;
+        e->phi[j] = D * D * (e->xw[0] - (aff_real)2.0 * e->xw[1] + e->xw[2]);
+        e->phi[j + 1] = -D * (e->xu[1] - e->xu[2]);
         j += 2;
     }
     e->phi[j] = e->xg[2];
@@ -288,7 +294,7 @@ int aff_sliding_observe(aff_sliding *e, aff_real u, aff_real w)
     if (e->offset)
         e->phi[j] = 1.0;
     s = phi_P_phi(&e->rls, e->phi); /* before the update: the a-priori error's variance is e2*(1 + s) */
-    err = aff_rls_update(&e->rls, e->phi, e->xu[2]);
+    err = aff_rls_update(&e->rls, e->phi, aff_sliding_regressand(e));
     if (err != err) /* refused by the RLS (an update that would overflow): counted there, nothing else changes */
         return 1;
     e->e2 += e->e2_rate * (err * err / ((aff_real)1.0 + s) - e->e2);

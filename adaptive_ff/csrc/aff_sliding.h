@@ -6,7 +6,13 @@
  * exp(-Tc/T): Young, Automatica 17(1), 1981; Garnier, Mensler, Richard, Int. J. Control 76(13), 2003), is linear
  * in theta = (J, [J*tau, tau], Fc, Fs, sigma, [offset]) with y = L[u] and
  *   phi = (L[s w], [L[s^2 w], -L[s u]], L[g], L[h], L[w], [1]),
- *   L[x] = x3, L[s x] = (x2 - x3)/T, L[s^2 x] = (x1 - 2*x2 + x3)/T^2.
+ *   L[x] = x3, L[s x] = D*(x2 - x3), L[s^2 x] = D^2*(x1 - 2*x2 + x3), D = a/((1 - a)*Tc) = (exp(Tc/T) - 1)/Tc.
+ * D*(x2 - x3) is the backward difference (x3(k) - x3(k-1))/Tc of the discrete stage exactly (and D^2*(...) the
+ * second one), so the columns carry no gain of the discretisation (1/T in place of D would make the fitted J
+ * and tau T*(exp(Tc/T) - 1)/Tc times the joint's: +2.5 % at Tc 1 ms, T 20 ms). A backward difference at sample
+ * k is the motion under the torque held over the period before it: y is the mean of L[u] before and after the
+ * sample (the regressand half a period back, as the difference; with L[u] after it the fitted tau is about Tc/2
+ * short, before it Tc/2 long).
  * Every m-th accepted sample after the settling time, a row is given to the RLS if its filtered near-zero
  * indicator L[1(|w| < w_band)] is at most dwell_max (the sliding-regime gate); w_band = max(w_band_min,
  * 4*sigma_n) with the noise sigma_n from the running mean of |w(k) - 2 w(k-1) + w(k-2)|. Samples pass the torque
@@ -57,7 +63,7 @@ typedef struct aff_sliding {
     aff_real Vs;              /* Stribeck velocity of g, h (rad/s) */
     aff_real delta;           /* Stribeck shape factor (1) */
     aff_real a;               /* filter gain per stage, 1 - exp(-Tc/T) */
-    aff_real T;               /* filter time constant per stage (s) */
+    aff_real D;               /* the filtered derivative's gain (1/s), a/((1 - a)*Tc) = (exp(Tc/T) - 1)/Tc */
     long m;                   /* samples per RLS update (Ts/Tc) */
     long settle;              /* samples before the first update (filter transients) */
     aff_real w_band_min;      /* smallest near-zero band (rad/s) */
@@ -112,5 +118,10 @@ aff_error aff_sliding_check_config(const aff_sliding_config *cfg);
  * e->phi, e->rls hold the row and the new estimate. Python: SlidingFrictionEstimator.observe (was
  * sliding_observe). */
 int aff_sliding_observe(aff_sliding *e, aff_real u, aff_real w);
+
+/* The regressand y of the row the filters now hold (N*m): L[u] half a period back, the mean of the filtered torque
+ * before and after the last accepted sample, as the backward differences of the derivative columns (above).
+ * Python: SlidingFrictionEstimator.y. */
+aff_real aff_sliding_regressand(const aff_sliding *e);
 
 #endif

@@ -111,9 +111,6 @@ class InertiaExperiment:
         Length of the noise-torque run (s).
     fit : SlidingFit
         The sliding-regime regression of the noise-torque run.
-    svf_gain : float
-        ``T*(exp(Tc/T) - 1)/Tc`` (-) of the regression's filter time constant ``T`` and period ``Tc``: the factor by
-        which the regression's inertia exceeds the joint's (:attr:`J`).
     """
 
     u_ramp: float
@@ -122,21 +119,11 @@ class InertiaExperiment:
     u_std: float
     duration: float
     fit: SlidingFit
-    svf_gain: float = 1.0
 
     @property
     def J(self) -> float:
-        """The inertia identified (kg·m²): ``fit.estimate.J/svf_gain``.
-
-        The regression's acceleration column is ``(x2 - x3)/T`` of the discrete filter stages ``x3 += a*(x2 - x3)``,
-        ``a = 1 - exp(-Tc/T)`` (``aff_sliding.h``), taken after the update of the period and paired with that
-        period's torque. The held torque ``u(k)`` moves the filtered velocity by ``x3(k+1) - x3(k) = a*(x2(k+1) -
-        x3(k))``, and ``(x2(k) - x3(k))/T = (1 - a)/(a*T)*(x3(k) - x3(k-1))``: for signals slow against the
-        period the column is ``Tc*(1 - a)/(a*T)`` times the filtered acceleration, so the fitted inertia is
-        ``a*T/(Tc*(1 - a)) = T*(exp(Tc/T) - 1)/Tc`` times the joint's (1.025 at ``Tc`` 1 ms, ``T`` 20 ms; measured
-        +2.0 to +2.6 % on the ``paper`` preset and zoo joints before this division).
-        """
-        return float(self.fit.estimate.J) / self.svf_gain
+        """The inertia identified (kg·m²): the sliding-regime regression's (``fit.estimate.J``)."""
+        return float(self.fit.estimate.J)
 
     def to_dict(self) -> dict:
         """J, u_ramp, t_ramp, w_switch, u_std, duration and the fit's rows and residual, strict JSON."""
@@ -209,7 +196,7 @@ def inertia_experiment(p, *, w_switch: float, Tc: float = 1e-3, noise_std: float
     except ExcitationError as exc:
         raise ExcitationError(f"first inertia: the noise-torque run of {o.level:g} x {u_ramp:.4g} N·m: {exc}") from None
     return InertiaExperiment(u_ramp=u_ramp, t_ramp=k_ramp * Tc, w_switch=w_switch, u_std=o.level * u_ramp,
-                             duration=u.shape[0] * Tc, fit=fit, svf_gain=o.T_filter * math.expm1(Tc / o.T_filter) / Tc)
+                             duration=u.shape[0] * Tc, fit=fit)
 
 
 def _ramp(p, w_switch: float, Tc: float, noise_std: float, rng, o: InertiaDesign) -> tuple:
