@@ -22,7 +22,6 @@ import os
 import shutil
 import subprocess
 import tempfile
-import weakref
 from pathlib import Path
 
 from controllers._cctl import ffi, lib
@@ -57,8 +56,7 @@ class ExportedLibrary:
     Attributes
     ----------
     folder : Path
-    path : Path
-        The shared library (in a temporary folder of its own, removed with this object).
+        The export folder. The library is built in a temporary folder that is removed once it is loaded.
 
     Raises
     ------
@@ -76,15 +74,19 @@ class ExportedLibrary:
         if missing:
             raise ParameterError(f"{self.folder}: not an export-c folder (missing {', '.join(missing)})")
         compiler = _compiler(cc)
-        self._tmp = tempfile.mkdtemp(prefix="adaptive-ff-export-")
-        self._cleanup = weakref.finalize(self, shutil.rmtree, self._tmp, True)
-        self.path = Path(self._tmp) / "libaff_export.so"
-        cmd = [compiler, *COMPILE_FLAGS, f"-I{self.folder}", *(str(self.folder / f) for f in self.SOURCES),
-               "-o", str(self.path), "-lm"]
-        r = subprocess.run(cmd, capture_output=True, text=True)
-        if r.returncode != 0:
-            raise ParameterError(f"{self.folder}: the export does not compile ({' '.join(cmd)}):\n{r.stderr.strip()}")
-        self._dll = ctypes.CDLL(str(self.path))
+        tmp = tempfile.mkdtemp(prefix="adaptive-ff-export-")
+        try:
+            path = Path(tmp) / "libaff_export.so"
+            cmd = [compiler, *COMPILE_FLAGS, f"-I{self.folder}", *(str(self.folder / f) for f in self.SOURCES),
+                   "-o", str(path), "-lm"]
+            r = subprocess.run(cmd, capture_output=True, text=True)
+            if r.returncode != 0:
+                raise ParameterError(f"{self.folder}: the export does not compile ({' '.join(cmd)}):\n{r.stderr.strip()}")
+            self._dll = ctypes.CDLL(str(path))
+        finally:
+            # the loaded library stays mapped: the folder goes now, also in a worker process that ends without
+            # running finalizers (a pool's os._exit)
+            shutil.rmtree(tmp, ignore_errors=True)
         self._init = ffi.cast("aff_error (*)(aff *, const aff_config *)",
                               ctypes.cast(self._dll.aff_init, ctypes.c_void_p).value)
         self._ops = ffi.cast("aff_compensator_ops *", ctypes.addressof(ctypes.c_char.in_dll(self._dll, "aff_drive_ops")))

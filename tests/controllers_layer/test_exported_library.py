@@ -86,6 +86,27 @@ def test_a_folder_that_is_not_an_export_or_does_not_compile_is_refused(tmp_path,
         ExportedLibrary(library.folder, cc="no-such-compiler-here")
 
 
+def test_the_build_folder_is_gone_once_the_library_is_loaded_or_refused(tmp_path, monkeypatch, library):
+    # a pool worker ends without running finalizers: nothing of the build may wait for one
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+    import tempfile
+    monkeypatch.setattr(tempfile, "tempdir", None)
+    again = ExportedLibrary(library.folder)
+    assert list(tmp_path.iterdir()) == []
+    p = preset("paper")  # the loaded library runs without its file
+    o = _options(p, design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3))
+    ref = multisine_reference(2.0, rng=np.random.default_rng(2))
+    a = run_batch([p], ref, "adaptive", o, seeds=[3])
+    b = run_batch([p], ref, "adaptive", o, seeds=[3], through=again)
+    assert type(b.compensators[0]).__name__ == "ExportedCompensator" and b.rms[0] == a.rms[0]
+    broken = tmp_path.parent / (tmp_path.name + "-broken")
+    shutil.copytree(library.folder, broken)
+    (broken / "aff.c").write_text("this is not C\n")
+    with pytest.raises(ParameterError, match="does not compile"):
+        ExportedLibrary(broken)
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_the_librarys_guard_refuses_what_the_package_module_passes_on(library):
     # the drive's input guard is part of what runs: a velocity beyond its bound drops the period (the package's
     # module would gate it itself), so a run through the export is the drive's, guard included
