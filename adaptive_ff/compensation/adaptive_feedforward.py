@@ -26,16 +26,22 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from adaptive_ff._caff import ffi, lib
-from adaptive_ff.compensation.feedforward import FrictionFeedforward
+from adaptive_ff.compensation.feedforward import FF_INPUTS, FrictionFeedforward
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, estimate_from_theta
 from adaptive_ff.compensation.velocity_input import LoopModel, SignObserver
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RLS_NMAX
-from plant.errors import ParameterError, check_nonnegative, check_positive, check_positive_or_inf
+from adaptive_ff.compensation.defaults import c_defaults
+from plant.errors import ParameterError
 
 __all__ = ["RobustAdaptiveFeedforward", "FeedforwardStart", "start_output", "lag_weighted", "fc_determined",
            "project_box", "FC_INFO_FRACTION"]
 
+#: The C defaults (``aff_fixed_ff_default_config``, ``aff_robust_ff_default_config``, ``aff_start_default_config``):
+#: the keywords' defaults.
+_FF = c_defaults("aff_fixed_ff_config")
+_ROBUST = c_defaults("aff_robust_ff_config")
+_START = c_defaults("aff_start_config")
 
 #: Fraction of the RLS prior variance below which the data have determined ``Fc`` (see :func:`fc_determined`;
 #: ``FC_INFO_FRACTION`` of ``adaptive_ff/csrc/aff_robust_ff.c``).
@@ -164,8 +170,8 @@ class FeedforwardStart:
     """
 
     estimate: FrictionEstimate
-    gain: float = 1.0
-    ff_input: str = "reference"
+    gain: float = _START["gain"]
+    ff_input: str = FF_INPUTS[_START["at_ref"]]
 
     def __post_init__(self):
         if not isinstance(self.estimate, FrictionEstimate):
@@ -177,8 +183,8 @@ class FeedforwardStart:
                 raise ParameterError(f"start estimate: {name} must be finite and >= 0, got {v!r}")
         if not (0.0 < self.gain <= 1.0):
             raise ParameterError(f"start gain must be in (0, 1], got {self.gain!r}")
-        if self.ff_input not in ("reference", "measured"):
-            raise ParameterError(f"start ff_input must be 'reference' or 'measured', got {self.ff_input!r}")
+        if self.ff_input not in FF_INPUTS:
+            raise ParameterError(f"start ff_input must be one of {FF_INPUTS}, got {self.ff_input!r}")
 
     def map_args(self, Vs: float | None, delta: float | None) -> tuple:
         """``(Fc, Fs, Vs, delta, sigma, tau)`` of the start map for the C start of a feedforward
@@ -399,12 +405,16 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     MODE = "adaptive"
     _ctype = "aff_robust_ff"
 
-    def __init__(self, estimator: SlidingFrictionEstimator, *, dt: float, lag: bool = True,
-                 ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0, stick_samples: int = 10,
-                 warmup: int = 200, fade_in: float = 1.0, J_range: tuple = (0.0, math.inf), tau_max: float = 1.0,
-                 consistency: float = 0.5, lag_margin: float = 1.0, lag_margin_max: float = 0.05,
-                 max_rel_stderr: float = 0.05, lag_memory: float = 10.0, lag_zero: float = 3.0,
-                 project: bool = True, ff_input: str = "measured", w_max: float = math.inf, start: FeedforwardStart | None = None,
+    def __init__(self, estimator: SlidingFrictionEstimator, *, dt: float, lag: bool = bool(_FF["lag"]),
+                 ff_max: float = _FF["ff_max"], sign_width: float = _FF["sign_width"],
+                 stick_band: float = _FF["stick_band"], stick_samples: int = _FF["stick_samples"],
+                 warmup: int = _ROBUST["warmup"], fade_in: float = _ROBUST["fade_in"],
+                 J_range: tuple = (_ROBUST["J_lo"], _ROBUST["J_hi"]), tau_max: float = _ROBUST["tau_max"],
+                 consistency: float = _ROBUST["consistency"], lag_margin: float = _ROBUST["lag_margin"],
+                 lag_margin_max: float = _ROBUST["lag_margin_max"], max_rel_stderr: float = _ROBUST["max_rel_stderr"],
+                 lag_memory: float = _ROBUST["lag_memory"], lag_zero: float = _ROBUST["lag_zero"],
+                 project: bool = bool(_ROBUST["project"]), ff_input: str = FF_INPUTS[_FF["at_ref"]],
+                 w_max: float = _FF["w_max"], start: FeedforwardStart | None = None,
                  loop_model: LoopModel | None = None, sign_observer: SignObserver | None = None):
         if not isinstance(estimator, SlidingFrictionEstimator):
             raise TypeError(f"estimator must be a SlidingFrictionEstimator, got {type(estimator).__name__}")
@@ -413,41 +423,28 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
                                  loop_model=loop_model, sign_observer=sign_observer)
         self.loop_model = loop_model
         self.sign_observer = sign_observer
-        if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
-            raise ParameterError(f"warmup must be an integer >= 0, got {warmup!r}")
         try:
-            J_lo, J_hi = (float(x) for x in J_range)
+            J_lo, J_hi = J_range
         except (TypeError, ValueError):
             raise ParameterError(f"J_range must be a pair (low, high), got {J_range!r}") from None
-        if not (0.0 <= J_lo < J_hi):
-            raise ParameterError(f"J_range must satisfy 0 <= low < high, got {J_range!r}")
-        tau_max = check_positive("tau_max", tau_max)
-        consistency = check_positive("consistency", consistency)
-        lag_margin = check_nonnegative("lag_margin", lag_margin)
-        lag_margin_max = (math.inf if isinstance(lag_margin_max, (int, float)) and lag_margin_max == math.inf
-                          else check_nonnegative("lag_margin_max", lag_margin_max))  # inf: no cap
-        max_rel_stderr = check_positive_or_inf("max_rel_stderr", max_rel_stderr)  # inf: no determinacy test
-        lag_memory = check_nonnegative("lag_memory", lag_memory)
-        lag_zero = (math.inf if isinstance(lag_zero, (int, float)) and lag_zero == math.inf
-                    else check_nonnegative("lag_zero", lag_zero))  # inf: every negative lag is 0
         if not isinstance(project, (bool, np.bool_)):
             raise ParameterError(f"project must be True or False, got {project!r}")
-        fade_in = check_nonnegative("fade_in", fade_in)
         if start is not None and not isinstance(start, FeedforwardStart):
             raise ParameterError(f"start must be a FeedforwardStart or None, got {type(start).__name__}")
         self.estimator = estimator
         self.n_theta = len(estimator.names)
         cfg = self._settings("aff_robust_ff_config", lib.aff_robust_ff_default_config(), {
-            "warmup": int(warmup), "fade_in": fade_in, "J_lo": J_lo, "J_hi": J_hi, "tau_max": tau_max,
+            "warmup": warmup, "fade_in": fade_in, "J_lo": J_lo, "J_hi": J_hi, "tau_max": tau_max,
             "consistency": consistency, "lag_margin": lag_margin, "lag_margin_max": lag_margin_max,
             "max_rel_stderr": max_rel_stderr, "lag_memory": lag_memory, "lag_zero": lag_zero,
-            "project": bool(project)})
+            "project": bool(project)}, counts=("warmup",))
         cfg.ff, cfg.est = ff.config[0], estimator.config[0]
         if start is not None:
             Fc, Fs, Vs, delta, sigma, tau = start.map_args(estimator.Vs, estimator.delta)
             cfg.start = {"on": True, "Fc": Fc, "Fs": Fs, "Vs": Vs, "delta": delta, "sigma": sigma, "tau": tau,
                          "gain": start.gain, "at_ref": start.ff_input == "reference"}  # else off, the C defaults
-        self._configure(lib.aff_robust_ff_init, cfg, lib.aff_error_message)
+        self._configure(lib.aff_robust_ff_init, cfg, lib.aff_error_message,
+                        names={lib.AFF_ERR_ROBUST_FF_J_RANGE: "J_range"})
         self.start = start
         self._attached()
 

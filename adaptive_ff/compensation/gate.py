@@ -14,10 +14,14 @@ from __future__ import annotations
 import math
 
 from adaptive_ff._caff import ffi, lib
+from adaptive_ff.compensation.defaults import c_defaults
 from plant.component import Component
-from plant.errors import ParameterError, check_nonnegative, check_positive
 
 __all__ = ["OutlierGate", "RangeGate"]
+
+#: The C defaults (``aff_gate_default_config``, ``aff_range_gate_default_config``): the keywords' defaults.
+_GATE = c_defaults("aff_gate_config")
+_RANGE = c_defaults("aff_range_gate_config")
 
 
 class OutlierGate(Component):
@@ -69,19 +73,11 @@ class OutlierGate(Component):
     _ffi = ffi
     _ctype = "aff_gate"
 
-    def __init__(self, *, max_step: float = math.inf, n_sigma: float = 8.0, alpha: float = 0.01,
-                 max_consecutive: int = 20):
-        if max_step != math.inf:
-            max_step = check_nonnegative("max_step", max_step)
-        n_sigma = check_positive("n_sigma", n_sigma)
-        alpha = check_positive("alpha", alpha)
-        if alpha > 1.0:
-            raise ParameterError(f"alpha must be in (0, 1], got {alpha!r}")
-        if isinstance(max_consecutive, bool) or not isinstance(max_consecutive, int) or max_consecutive < 1:
-            raise ParameterError(f"max_consecutive must be an integer >= 1, got {max_consecutive!r}")
+    def __init__(self, *, max_step: float = _GATE["max_step"], n_sigma: float = _GATE["n_sigma"],
+                 alpha: float = _GATE["alpha"], max_consecutive: int = _GATE["max_consecutive"]):
         cfg = self._settings("aff_gate_config", lib.aff_gate_default_config(),
-                             {"max_step": float(max_step), "n_sigma": n_sigma, "alpha": alpha,
-                              "max_consecutive": max_consecutive})
+                             {"max_step": max_step, "n_sigma": n_sigma, "alpha": alpha,
+                              "max_consecutive": max_consecutive}, counts=("max_consecutive",))
         self._configure(lib.aff_gate_init, cfg, lib.aff_error_message)
 
     def __repr__(self) -> str:
@@ -188,20 +184,12 @@ class RangeGate(Component):
     _ffi = ffi
     _ctype = "aff_range_gate"
 
-    def __init__(self, *, x_max: float = math.inf, factor: float = 100.0, floor: float = 0.0,
-                 memory: float = 10000.0, max_consecutive: int = 20):
-        if x_max != math.inf:
-            x_max = check_positive("x_max", x_max)
-        factor = check_positive("factor", factor)
-        if factor <= 1.0:
-            raise ParameterError(f"factor must be > 1, got {factor!r}")
-        floor = check_nonnegative("floor", floor)
-        memory = check_positive("memory", memory)
-        if isinstance(max_consecutive, bool) or not isinstance(max_consecutive, int) or max_consecutive < 1:
-            raise ParameterError(f"max_consecutive must be an integer >= 1, got {max_consecutive!r}")
+    def __init__(self, *, x_max: float = _RANGE["x_max"], factor: float = _RANGE["factor"],
+                 floor: float = _RANGE["floor"], memory: float = _RANGE["memory"],
+                 max_consecutive: int = _RANGE["max_consecutive"]):
         cfg = self._settings("aff_range_gate_config", lib.aff_range_gate_default_config(),
-                             {"x_max": float(x_max), "factor": factor, "floor": floor, "memory": memory,
-                              "max_consecutive": max_consecutive})
+                             {"x_max": x_max, "factor": factor, "floor": floor, "memory": memory,
+                              "max_consecutive": max_consecutive}, counts=("max_consecutive",))
         self._configure(lib.aff_range_gate_init, cfg, lib.aff_error_message)
 
     def __repr__(self) -> str:

@@ -16,10 +16,15 @@ import math
 import numpy as np
 
 from adaptive_ff._caff import ffi, lib
+from adaptive_ff.compensation.defaults import c_defaults
 from plant.component import Component
-from plant.errors import ParameterError, check_nonnegative, check_positive
+from plant.errors import ParameterError, check_nonnegative
 
 __all__ = ["FeedforwardSupervisor", "DELAY_MAX"]
+
+#: The C defaults of the supervisor's settings (``aff_supervisor_default_config``): the keywords' defaults; its
+#: ``settle`` -1 (half the window) and ``Kp`` 0 (no tracking test) are the keywords' None.
+_SUP = c_defaults("aff_supervisor_config")
 
 #: Largest measurement delay (periods) the statistic aligns (``AFF_SUPERVISOR_DELAY_MAX``).
 DELAY_MAX = len(ffi.new("aff_supervisor *").u_hist) - 1
@@ -137,27 +142,21 @@ class FeedforwardSupervisor(Component):
     _ffi = ffi
     _ctype = "aff_supervisor"
 
-    def __init__(self, *, Tc: float, J_n: float, omega: float, window: float = 2.0, margin: float = 0.1,
-                 settle: float | None = None, rest_band: float | None = 0.0, delay: int = 0,
-                 Kp: float | None = None, Ki: float = 0.0, track_margin: float = 1.0):
-        Tc, J_n = check_positive("Tc", Tc), check_positive("J_n", J_n)
-        omega, window = check_positive("omega", omega), check_positive("window", window)
-        margin = float(margin)
-        if not (0.0 <= margin < 1.0):
-            raise ParameterError(f"margin must be in [0, 1), got {margin!r}")
-        settle = -1.0 if settle is None else check_nonnegative("settle", settle)  # -1: window/2
+    def __init__(self, *, Tc: float, J_n: float, omega: float, window: float = _SUP["window"],
+                 margin: float = _SUP["margin"], settle: float | None = None, rest_band: float | None = _SUP["rest_band"],
+                 delay: int = _SUP["delay"], Kp: float | None = None, Ki: float = _SUP["Ki"],
+                 track_margin: float = _SUP["track_margin"]):
+        # None is the C sentinel -1 (settle: window/2; rest_band: no rest rule); a negative value would alias it
+        settle = -1.0 if settle is None else check_nonnegative("settle", settle)
         band = -1.0 if rest_band is None else check_nonnegative("rest_band", rest_band)
-        if isinstance(delay, bool) or not isinstance(delay, (int, np.integer)) or not 0 <= delay <= DELAY_MAX:
-            raise ParameterError(f"delay must be an integer in 0..{DELAY_MAX} (periods), got {delay!r}")
         if Kp is None:
-            Kp, Ki = 0.0, 0.0  # no tracking test
-        else:
-            Kp, Ki = check_positive("Kp", Kp), check_nonnegative("Ki", Ki)
-        track_margin = check_nonnegative("track_margin", track_margin)
+            Kp, Ki = 0.0, 0.0  # Kp 0: no tracking test
+        elif not isinstance(Kp, (bool, np.bool_, str)) and Kp == 0:  # 0 would alias None; the range is C's
+            raise ParameterError("FeedforwardSupervisor: Kp must be > 0 (None: no tracking test), got 0")
         cfg = self._settings("aff_supervisor_config", lib.aff_supervisor_default_config(),
                              {"Tc": Tc, "J_n": J_n, "omega": omega, "window": window, "margin": margin,
-                              "settle": settle, "rest_band": band, "delay": int(delay), "Kp": Kp, "Ki": Ki,
-                              "track_margin": track_margin})
+                              "settle": settle, "rest_band": band, "delay": delay, "Kp": Kp, "Ki": Ki,
+                              "track_margin": track_margin}, counts=("delay",))
         self._configure(lib.aff_supervisor_init, cfg, lib.aff_error_message)
 
     def __repr__(self) -> str:

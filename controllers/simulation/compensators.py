@@ -29,10 +29,11 @@ from dataclasses import dataclass, replace
 
 from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
 from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart, RobustAdaptiveFeedforward
-from adaptive_ff.compensation.feedforward import FrictionFeedforward
+from adaptive_ff.compensation.defaults import c_defaults
+from adaptive_ff.compensation.feedforward import FF_INPUTS, FrictionFeedforward
 from adaptive_ff.compensation.velocity_input import LoopModel, SignObserver
 from adaptive_ff.compensation.gate import OutlierGate
-from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
+from adaptive_ff.compensation.sliding_estimator import FORGETTINGS, SlidingFrictionEstimator
 from adaptive_ff.compensation.supervisor import FeedforwardSupervisor
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from controllers.design.pi import PIController
@@ -47,6 +48,16 @@ __all__ = ["MODES", "ESTIMATORS", "check_estimator", "ModeOptions", "TrueFrictio
 #: Modes whose compensation a :class:`adaptive_ff.compensation.supervisor.FeedforwardSupervisor` watches when
 #: ``ModeOptions.supervise`` (the adaptive ones: their estimate may be wrong).
 SUPERVISED_MODES = ("adaptive", "adaptive-dob")
+
+#: The C defaults (``aff_X_default_config()``) of the components whose settings :class:`ModeOptions` carries: the
+#: one statement of those knobs' defaults (the experiment's own choices are :class:`controllers.experiments.compare.
+#: CompareOptions`'s, named there as its overrides).
+_FF = c_defaults("aff_fixed_ff_config")
+_ROBUST = c_defaults("aff_robust_ff_config")
+_SLIDING = c_defaults("aff_sliding_config")
+_SUP = c_defaults("aff_supervisor_config")
+_DOB = c_defaults("aff_dob_config")
+_SWITCH_IN = c_defaults("aff_switch_in_config")
 
 #: Default sample time (s) and memory (s, ``lam = 1 - Ts/memory``) of the ``eq4`` estimator
 #: (``ModeOptions.iv_Ts``, ``lam``): the IV removes the noise bias that keeps eq. 4's LS at 10 ms, and at 2 ms the
@@ -246,7 +257,7 @@ class ModeOptions:
     Ki: float
     u_max: float = math.inf
     Tc: float = 1e-3
-    Ts: float = 0.01
+    Ts: float = _SLIDING["Ts"]
     noise_std: float = 0.0
     J_design: float | None = None
     estimate: FrictionEstimate | None = None
@@ -255,28 +266,28 @@ class ModeOptions:
     Vs: float | None = None
     delta: float | None = None
     lam: float | None = None
-    P0: float = 1e4
-    warmup: int = 200
-    lag: bool = True
-    forgetting: str = "exponential"
-    T_filter: float = 0.02
+    P0: float = _SLIDING["P0"]
+    warmup: int = _ROBUST["warmup"]
+    lag: bool = bool(_FF["lag"])
+    forgetting: str = FORGETTINGS[_SLIDING["forgetting"]]
+    T_filter: float = _SLIDING["T_filter"]
     initial: FrictionEstimate | None = None
-    dwell_max: float = 0.01
-    offset: bool = True
-    lag_margin: float = 1.0
-    lag_margin_max: float = 0.05
-    max_rel_stderr: float = 0.05
-    lag_memory: float = 10.0
-    lag_zero: float = 3.0
-    project: bool = True
+    dwell_max: float = _SLIDING["dwell_max"]
+    offset: bool = bool(_SLIDING["offset"])
+    lag_margin: float = _ROBUST["lag_margin"]
+    lag_margin_max: float = _ROBUST["lag_margin_max"]
+    max_rel_stderr: float = _ROBUST["max_rel_stderr"]
+    lag_memory: float = _ROBUST["lag_memory"]
+    lag_zero: float = _ROBUST["lag_zero"]
+    project: bool = bool(_ROBUST["project"])
     start: FeedforwardStart | None = None
     ff_max: float | None = None
-    ff_input: str = "measured"
-    sign_width: float = 0.0
-    stick_band: float = 0.0
-    stick_samples: int = 10
+    ff_input: str = FF_INPUTS[_FF["at_ref"]]
+    sign_width: float = _FF["sign_width"]
+    stick_band: float = _FF["stick_band"]
+    stick_samples: int = _FF["stick_samples"]
     J_n: float | None = None
-    omega_q: float = 500.0
+    omega_q: float = _DOB["omega_q"]
     omega_r: float = 1000.0
     sensor_gate: bool = True
     w_limit: float | None = None
@@ -292,14 +303,14 @@ class ModeOptions:
     velocity_bandwidth: float | None = None
     velocity_model: str = "cv"
     switch_in: bool = True
-    switch_in_ratio: float = 0.1
+    switch_in_ratio: float = _SWITCH_IN["ratio"]
     supervise: bool = True
-    supervise_window: float = 2.0
-    supervise_margin: float = 0.1
+    supervise_window: float = _SUP["window"]
+    supervise_margin: float = _SUP["margin"]
     supervise_omega: float | None = None
     supervise_tracking: bool = True
-    supervise_track_margin: float = 1.0
-    supervise_rest_band: float | None = 0.0
+    supervise_track_margin: float = _SUP["track_margin"]
+    supervise_rest_band: float | None = _SUP["rest_band"]
     iv_Ts: float | None = None
     iv_map_stderr: float = math.inf
 
@@ -313,8 +324,8 @@ class ModeOptions:
             check_multiple("iv_Ts", self.iv_Ts, "Tc", self.Tc)
         check_positive_or_inf("iv_map_stderr", self.iv_map_stderr)
         check_estimator("estimator", self.estimator)
-        if self.ff_input not in ("reference", "measured"):
-            raise ParameterError(f"ff_input must be 'reference' or 'measured', got {self.ff_input!r}")
+        if self.ff_input not in FF_INPUTS:
+            raise ParameterError(f"ff_input must be one of {FF_INPUTS}, got {self.ff_input!r}")
         if self.stick_input not in ("model", "reference"):
             raise ParameterError(f"stick_input must be 'model' or 'reference', got {self.stick_input!r}")
         if self.sign_input not in ("observer", "measured"):
@@ -469,7 +480,7 @@ def _adaptive_feedforward(plant, o):
     """The adaptive feedforward alone (either estimator): ``adaptive`` without the switch-in, the feedforward part
     of ``adaptive-dob``."""
     J, ff_max = _ctx(plant, o)
-    lam = 0.995 if o.lam is None else o.lam
+    lam = _SLIDING["lam"] if o.lam is None else o.lam
     Ts = o.Ts
     if o.estimator == "eq4":
         Ts = o.Tc * max(1, round(_IV_TS / o.Tc)) if o.iv_Ts is None else o.iv_Ts
