@@ -27,6 +27,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+import numpy as np
+
 from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
 from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart, RobustAdaptiveFeedforward
 from adaptive_ff.compensation.defaults import c_defaults
@@ -317,6 +319,14 @@ class ModeOptions:
     def __post_init__(self):
         check_positive("Tc", self.Tc)
         check_multiple("Ts", self.Ts, "Tc", self.Tc)
+        check_nonnegative("noise_std", self.noise_std)
+        c = self.encoder_counts
+        if c is not None and (isinstance(c, bool) or not isinstance(c, (int, np.integer)) or c < 1):
+            raise ParameterError(f"encoder_counts must be an integer >= 1 (counts per joint revolution, the sensor's "
+                                 f"counts_per_rev) or None, got {c!r}")
+        if isinstance(self.slew_rate, bool) or not isinstance(self.slew_rate, (int, float)) \
+                or not self.slew_rate > 0:
+            raise ParameterError(f"slew_rate must be a number > 0 (N·m/s; inf for none), got {self.slew_rate!r}")
         check_positive("omega_r", self.omega_r)
         if self.J_n is not None:
             check_positive("J_n", self.J_n)
