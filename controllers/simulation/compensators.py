@@ -42,9 +42,11 @@ from controllers.design.pi import PIController
 from controllers.peers.adaptive_dob import AdaptiveCompensator, AdaptiveDOBCompensator, ResidualSwitchIn
 from controllers.peers.canudas import CanudasCompensator
 from controllers.peers.dob import DisturbanceObserver
+from controllers.simulation.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
 from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive, check_positive_or_inf
 
-__all__ = ["MODES", "ESTIMATORS", "check_estimator", "ModeOptions", "TrueFriction", "build_mode", "build_modes",
+__all__ = ["MODES", "ESTIMATORS", "ESTIMATOR_BUILDERS", "check_estimator", "ModeOptions", "TrueFriction",
+           "build_mode", "build_modes",
            "REGISTRY", "SUPERVISED_MODES", "build_supervisor", "own_supervisor"]
 
 #: Modes whose compensation a :class:`adaptive_ff.compensation.supervisor.FeedforwardSupervisor` watches when
@@ -66,12 +68,6 @@ _SWITCH_IN = c_defaults("aff_switch_in_config")
 #: backward differences of eq. 4 misstate the lag less (docs/theory.md).
 _IV_TS = 0.002
 _IV_MEMORY = 5.0
-
-#: Estimators of the ``adaptive`` mode: the sliding-regime inverse-dynamics RLS (default), the paper's eq. 4
-#: estimated consistently in the closed loop by recursive IV on the sliding samples (``eq4``, docs/theory.md), or
-#: eq. 4 by the paper's RLS as printed (eqs. 10-13) at Ts (``eq4-rls``, the baseline: biased in the closed loop).
-ESTIMATORS = ("sliding", "eq4", "eq4-rls")
-
 
 def check_estimator(name: str, value) -> None:
     """Raise :class:`plant.errors.ParameterError` naming ``name`` unless ``value`` is one of :data:`ESTIMATORS`;
@@ -264,7 +260,7 @@ class ModeOptions:
     J_design: float | None = None
     estimate: FrictionEstimate | None = None
     model: RegressionModel | None = None
-    estimator: str = "sliding"
+    estimator: str = DEFAULT_ESTIMATOR
     Vs: float | None = None
     delta: float | None = None
     lam: float | None = None
@@ -487,29 +483,45 @@ def _adaptive(plant, o):
 
 
 def _adaptive_feedforward(plant, o):
-    """The adaptive feedforward alone (either estimator): ``adaptive`` without the switch-in, the feedforward part
-    of ``adaptive-dob``."""
+    """The adaptive feedforward alone (the estimator of ``o.estimator``, :data:`ESTIMATOR_BUILDERS`): ``adaptive``
+    without the switch-in, the feedforward part of ``adaptive-dob``."""
     J, ff_max = _ctx(plant, o)
+    return plant, ESTIMATOR_BUILDERS[o.estimator](o, J, ff_max)
+
+
+def _eq4_model(o) -> RegressionModel:
+    """The regression structure of the eq. 4 estimators (``o.model``; ParameterError without it)."""
+    if o.model is None:
+        raise ParameterError(f"mode 'adaptive' with estimator {o.estimator!r} needs model=RegressionModel(Vs, "
+                             f"delta, ...)")
+    return o.model
+
+
+def _eq4_rls(o, J: float, ff_max: float) -> AdaptiveFrictionFeedforward:
+    """Estimator ``eq4-rls``: the paper's prototype, RLS on every sample at ``Ts``, the bare feedforward."""
     lam = _SLIDING["lam"] if o.lam is None else o.lam
-    Ts = o.Ts
-    if o.estimator == "eq4":
-        Ts = o.Tc * max(1, round(_IV_TS / o.Tc)) if o.iv_Ts is None else o.iv_Ts
-        lam = 1.0 - Ts / _IV_MEMORY if o.lam is None else o.lam
-    if o.estimator in ("eq4", "eq4-rls"):
-        if o.model is None:
-            raise ParameterError(f"mode 'adaptive' with estimator {o.estimator!r} needs model=RegressionModel(Vs, "
-                                 f"delta, ...)")
-        if o.estimator == "eq4-rls":  # the paper's prototype: RLS on every sample, the bare feedforward
-            return plant, AdaptiveFrictionFeedforward(o.model, Ts=o.Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup,
-                                                      lag=o.lag, ff_max=ff_max, ff_input=o.ff_input)
-        m = o.model  # with the constant-torque column (offset), as the sliding estimator's
-        model = RegressionModel(m.Vs, m.delta, lag=m.lag, stribeck=m.stribeck, offset=bool(o.offset))
-        return plant, AdaptiveFrictionFeedforward(model, Ts=Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup,
-                                                  lag=o.lag, ff_max=ff_max, ff_input=o.ff_input, iv=True,
-                                                  w_band=m.Vs if m.stribeck else 0.0, sign_width=o.sign_width,
-                                                  stick_band=o.stick_band, stick_samples=o.stick_samples,
-                                                  loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o),
-                                                  start=o.start, map_rel_stderr=o.iv_map_stderr)
+    return AdaptiveFrictionFeedforward(_eq4_model(o), Ts=o.Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup, lag=o.lag,
+                                       ff_max=ff_max, ff_input=o.ff_input)
+
+
+def _eq4_iv(o, J: float, ff_max: float) -> AdaptiveFrictionFeedforward:
+    """Estimator ``eq4``: eq. 4 by recursive IV at ``iv_Ts`` on the sliding samples, with the constant-torque column
+    (offset) as the sliding estimator's."""
+    m = _eq4_model(o)
+    Ts = o.Tc * max(1, round(_IV_TS / o.Tc)) if o.iv_Ts is None else o.iv_Ts
+    lam = 1.0 - Ts / _IV_MEMORY if o.lam is None else o.lam
+    model = RegressionModel(m.Vs, m.delta, lag=m.lag, stribeck=m.stribeck, offset=bool(o.offset))
+    return AdaptiveFrictionFeedforward(model, Ts=Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup, lag=o.lag,
+                                       ff_max=ff_max, ff_input=o.ff_input, iv=True,
+                                       w_band=m.Vs if m.stribeck else 0.0, sign_width=o.sign_width,
+                                       stick_band=o.stick_band, stick_samples=o.stick_samples,
+                                       loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o),
+                                       start=o.start, map_rel_stderr=o.iv_map_stderr)
+
+
+def _sliding(o, J: float, ff_max: float) -> RobustAdaptiveFeedforward:
+    """Estimator ``sliding``: the sliding-regime inverse-dynamics RLS under the robust feedforward."""
+    lam = _SLIDING["lam"] if o.lam is None else o.lam
     Vs = o.Vs if o.Vs is not None else (o.model.Vs if o.model is not None else None)
     delta = o.delta if o.delta is not None else (o.model.delta if o.model is not None else None)
     if Vs is None or delta is None:
@@ -518,14 +530,20 @@ def _adaptive_feedforward(plant, o):
     est = SlidingFrictionEstimator(Vs, delta, Tc=o.Tc, Ts=o.Ts, T_filter=o.T_filter, lam=lam,
                                    forgetting=o.forgetting, P0=o.P0, initial=o.initial, J_guess=J, lag=o.lag,
                                    dwell_max=o.dwell_max, offset=o.offset, gate=OutlierGate(max_step=gate_step))
-    return plant, RobustAdaptiveFeedforward(est, dt=o.Tc, lag=o.lag, ff_max=ff_max, sign_width=o.sign_width,
-                                            stick_band=o.stick_band, stick_samples=o.stick_samples,
-                                            warmup=o.warmup, lag_margin=o.lag_margin,
-                                            lag_margin_max=o.lag_margin_max,
-                                            max_rel_stderr=o.max_rel_stderr, lag_memory=o.lag_memory,
-                                            lag_zero=o.lag_zero, project=o.project,
-                                            ff_input=o.ff_input, start=o.start,
-                                            loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
+    return RobustAdaptiveFeedforward(est, dt=o.Tc, lag=o.lag, ff_max=ff_max, sign_width=o.sign_width,
+                                     stick_band=o.stick_band, stick_samples=o.stick_samples, warmup=o.warmup,
+                                     lag_margin=o.lag_margin, lag_margin_max=o.lag_margin_max,
+                                     max_rel_stderr=o.max_rel_stderr, lag_memory=o.lag_memory, lag_zero=o.lag_zero,
+                                     project=o.project, ff_input=o.ff_input, start=o.start,
+                                     loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
+
+
+#: Estimator name (:data:`controllers.simulation.estimators.ESTIMATORS`, the one list of names: the options' check,
+#: the compare CLI's ``--estimator`` choices) -> builder ``(options, design inertia J, feedforward bound) -> adaptive
+#: feedforward`` of mode ``adaptive``.
+ESTIMATOR_BUILDERS = {"sliding": _sliding, "eq4": _eq4_iv, "eq4-rls": _eq4_rls}
+if tuple(ESTIMATOR_BUILDERS) != ESTIMATORS:  # pragma: no cover - a builder per registered name, in its order
+    raise ImportError(f"ESTIMATOR_BUILDERS {tuple(ESTIMATOR_BUILDERS)} differ from ESTIMATORS {ESTIMATORS}")
 
 
 def _adaptive_dob(plant, o):

@@ -1,16 +1,23 @@
 """One default and one check per knob across the option bundles: the loop's options (``ModeOptions``), the
-comparison's (``CompareOptions``) and the zoo's (``ZooOptions``).
+comparison's (``CompareOptions``) and the zoo's (``ZooOptions``); one registry of the adaptive mode's estimators.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import inspect
 
 import pytest
 
+from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
+from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
+from adaptive_ff.identification.regression import RegressionModel
 from controllers.experiments.compare import EXPERIMENT_DEFAULTS, LOOP_KNOBS, CompareOptions
 from controllers.experiments.zoo import SHARED_FIELDS, ZooOptions
-from controllers.simulation.compensators import ModeOptions
+from controllers.simulation import compensators
+from controllers.simulation.compensators import ESTIMATOR_BUILDERS, ModeOptions, build_mode
+from controllers.simulation.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
+from plant import preset
 from plant.errors import ParameterError
 
 
@@ -63,3 +70,28 @@ def test_each_shared_knob_is_checked_by_the_loops_options_for_every_bundle(kw, m
             assert match in str(e), str(e)
             continue
         raise AssertionError(f"{kw} accepted")
+
+
+def test_the_estimators_have_one_registry_used_by_options_builders_and_the_cli():
+    from controllers.cli.main import build_parser
+
+    assert tuple(ESTIMATOR_BUILDERS) == ESTIMATORS and DEFAULT_ESTIMATOR == "sliding"
+    assert _defaults(ModeOptions)["estimator"] == _defaults(CompareOptions)["estimator"] == DEFAULT_ESTIMATOR
+    compare = next(a for a in build_parser()._subparsers._group_actions[0].choices["compare"]._actions
+                   if "--estimator" in a.option_strings)
+    assert tuple(compare.choices) == ESTIMATORS and compare.default == DEFAULT_ESTIMATOR
+    # construction is a lookup: no branch on an estimator's name in the builders
+    src = inspect.getsource(compensators)
+    assert "estimator ==" not in src and "estimator in (" not in src
+    P = preset("paper")
+    model = RegressionModel(P.Vs, P.delta)
+    kinds = {"sliding": (RobustAdaptiveFeedforward, None), "eq4": (AdaptiveFrictionFeedforward, True),
+             "eq4-rls": (AdaptiveFrictionFeedforward, False)}
+    assert set(kinds) == set(ESTIMATORS)
+    for e, (cls, iv) in kinds.items():
+        o = ModeOptions(Kp=69.28, Ki=786.1, J_design=P.J, Vs=P.Vs, delta=P.delta, model=model, estimator=e,
+                        switch_in=False, supervise=False)
+        ff = ESTIMATOR_BUILDERS[e](o, P.J, 75.0)
+        assert type(ff) is cls and (iv is None or ff.iv is iv)
+        _, _, comp = build_mode(P, "adaptive", o)
+        assert type(getattr(comp, "feedforward", comp)) is cls  # over the sliding estimator: in AdaptiveCompensator
