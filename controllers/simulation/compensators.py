@@ -320,8 +320,7 @@ class ModeOptions:
         if c is not None and (isinstance(c, bool) or not isinstance(c, (int, np.integer)) or c < 1):
             raise ParameterError(f"encoder_counts must be an integer >= 1 (counts per joint revolution, the sensor's "
                                  f"counts_per_rev) or None, got {c!r}")
-        if isinstance(self.slew_rate, bool) or not isinstance(self.slew_rate, (int, float)) \
-                or not self.slew_rate > 0:
+        if isinstance(self.slew_rate, bool) or not (isinstance(self.slew_rate, (int, float)) and self.slew_rate > 0):
             raise ParameterError(f"slew_rate must be a number > 0 (N·m/s; inf for none), got {self.slew_rate!r}")
         check_positive("omega_r", self.omega_r)
         if self.J_n is not None:
