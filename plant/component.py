@@ -26,7 +26,7 @@ import numpy as np
 
 from plant.errors import ParameterError
 
-__all__ = ["Component", "config_defaults", "SettingTypeError"]
+__all__ = ["Component", "config_defaults", "SettingTypeError", "struct_field"]
 
 
 class SettingTypeError(ParameterError, TypeError):
@@ -75,6 +75,38 @@ def config_defaults(ffi, lib, ctype: str) -> dict:
     if fn is None:
         raise ParameterError(f"{ctype}: the library has no {ctype[:-len('_config')]}_default_config()")
     return _value(ffi, fn())
+
+
+def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c") -> property:
+    """A read-only public attribute that reads one field of a component's C struct: the one accessor of the
+    wrappers (``n_rejected = struct_field("n_rejected", int, "Samples rejected.")``).
+
+    Parameters
+    ----------
+    field : str
+        The C field, a dotted path for a nested one (``"res.u_max"``).
+    kind : callable
+        Conversion of the C value (``float``, ``int``, ``bool``), default float.
+    doc : str
+        The attribute's docstring (with its unit).
+    via : str, keyword-only
+        The attribute that holds the struct pointer, default ``"_c"`` (:attr:`Component.cdata`; a part's, e.g.
+        ``"_f"``, where the struct is a field of a composite's).
+
+    Returns
+    -------
+    property
+    """
+    path = tuple(field.split("."))
+
+    def get(self):
+        v = getattr(self, via)
+        for name in path:
+            v = getattr(v, name)
+        return kind(v)
+
+    get.__name__ = path[-1]
+    return property(get, doc=doc)
 
 
 class Component:

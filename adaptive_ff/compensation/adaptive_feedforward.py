@@ -32,6 +32,7 @@ from adaptive_ff.compensation.velocity_input import LoopModel, SignObserver
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RLS_NMAX
 from adaptive_ff.compensation.defaults import c_defaults
+from plant.component import struct_field
 from plant.errors import ParameterError
 
 __all__ = ["RobustAdaptiveFeedforward", "FeedforwardStart", "start_output", "lag_weighted", "fc_determined",
@@ -453,34 +454,26 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         self._f = ffi.addressof(self._c, "ff")
         self.estimator._use(ffi.addressof(self._c, "est"), self)
 
-    warmup = property(lambda self: int(self._c.warmup), doc="RLS updates before switch-on.")
+    warmup = struct_field("warmup", int, "RLS updates before switch-on.")
     J_range = property(lambda self: (float(self._c.J_lo), float(self._c.J_hi)),
                        doc="Plausible inertia interval (kg·m²).")
-    tau_max = property(lambda self: float(self._c.tau_max), doc="Largest plausible lag (s).")
-    consistency = property(lambda self: float(self._c.consistency), doc="Relative lag-consistency tolerance.")
-    n_implausible = property(lambda self: int(self._c.n_implausible),
-                             doc="Estimates that failed the plausibility test.")
-    n_lag_held = property(lambda self: int(self._c.n_lag_held), doc="Estimates used with the previous lag.")
-    n_undetermined = property(lambda self: int(self._c.n_undetermined),
-                              doc="Plausible estimates not used because ``Fc`` was not determined yet.")
-    lag_margin = property(lambda self: float(self._c.lag_margin),
-                          doc="Standard errors added to the estimated lag in use.")
-    lag_margin_max = property(lambda self: float(self._c.lag_margin_max),
-                              doc="Largest lag margin, as a fraction of the estimated lag.")
-    max_rel_stderr = property(lambda self: float(self._c.max_rel_stderr),
-                              doc="Largest standard error of ``Fc`` in use, relative to ``max(Fc, Fs)``.")
+    tau_max = struct_field("tau_max", float, "Largest plausible lag (s).")
+    consistency = struct_field("consistency", float, "Relative lag-consistency tolerance.")
+    n_implausible = struct_field("n_implausible", int, "Estimates that failed the plausibility test.")
+    n_lag_held = struct_field("n_lag_held", int, "Estimates used with the previous lag.")
+    n_undetermined = struct_field("n_undetermined", int,
+                                  "Plausible estimates not used because ``Fc`` was not determined yet.")
+    lag_margin = struct_field("lag_margin", float, "Standard errors added to the estimated lag in use.")
+    lag_margin_max = struct_field("lag_margin_max", float, "Largest lag margin, as a fraction of the estimated lag.")
+    max_rel_stderr = struct_field("max_rel_stderr", float,
+                                  "Largest standard error of ``Fc`` in use, relative to ``max(Fc, Fs)``.")
 
-    lag_zero = property(lambda self: float(self._c.lag_zero),
-                        doc="Standard errors below 0 within which a lag estimate is lag 0.")
-    project = property(lambda self: bool(self._c.project),
-                       doc="Whether the estimate used is theta projected onto the plausible box.")
-    n_lag_zero = property(lambda self: int(self._c.n_lag_zero),
-                          doc="Estimates whose negative lag estimate was taken as lag 0.")
-    n_boxed = property(lambda self: int(self._c.n_boxed),
-                       doc="Estimates the projection moved onto the plausible box.")
+    lag_zero = struct_field("lag_zero", float, "Standard errors below 0 within which a lag estimate is lag 0.")
+    project = struct_field("project", bool, "Whether the estimate used is theta projected onto the plausible box.")
+    n_lag_zero = struct_field("n_lag_zero", int, "Estimates whose negative lag estimate was taken as lag 0.")
+    n_boxed = struct_field("n_boxed", int, "Estimates the projection moved onto the plausible box.")
 
-    provisional = property(lambda self: bool(self._c.provisional),
-                           doc="Whether the provisional start map (``start``) is in use.")
+    provisional = struct_field("provisional", bool, "Whether the provisional start map (``start``) is in use.")
 
     @property
     def lag_memory(self) -> float:

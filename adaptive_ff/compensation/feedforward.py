@@ -28,7 +28,7 @@ from adaptive_ff._caff import ffi, lib
 from adaptive_ff.compensation.velocity_input import LoopModel, SignObserver
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.compensation.defaults import c_defaults
-from plant.component import Component
+from plant.component import Component, struct_field
 from plant.errors import ParameterError
 
 __all__ = ["FrictionFeedforward", "project_estimate", "project_levels", "FF_INPUTS", "at_ref"]
@@ -241,18 +241,18 @@ class FrictionFeedforward(Component):
         d.pop("_f", None)
         return d
 
-    dt = property(lambda self: float(self._f.dt), doc="Call period of :meth:`step` (s).")
-    lag = property(lambda self: bool(self._f.lag), doc="Filter through the estimated lag.")
-    ff_max = property(lambda self: float(self._f.ff_max), doc="Bound on |feedforward| (N·m).")
-    sign_width = property(lambda self: float(self._f.sign_width), doc="Sign ramp half-width (rad/s).")
-    stick_band = property(lambda self: float(self._f.stick_band), doc="Stick-detection band (rad/s).")
-    stick_samples = property(lambda self: int(self._f.stick_samples), doc="In-band samples that declare sticking.")
+    dt = struct_field("dt", float, "Call period of :meth:`step` (s).", via="_f")
+    lag = struct_field("lag", bool, "Filter through the estimated lag.", via="_f")
+    ff_max = struct_field("ff_max", float, "Bound on |feedforward| (N·m).", via="_f")
+    sign_width = struct_field("sign_width", float, "Sign ramp half-width (rad/s).", via="_f")
+    stick_band = struct_field("stick_band", float, "Stick-detection band (rad/s).", via="_f")
+    stick_samples = struct_field("stick_samples", int, "In-band samples that declare sticking.", via="_f")
     ff_input = property(lambda self: "reference" if self._f.at_ref else "measured",
                         doc="Velocity the engine evaluates the feedforward at (``compensate``).")
-    u_ff = property(lambda self: float(self._f.u_ff), doc="Feedforward before the clip (N·m).")
-    w_max = property(lambda self: float(self._f.w_max), doc="Largest plausible speed (rad/s).")
-    n_step_rejected = property(lambda self: int(self._f.n_rejected),
-                               doc="Calls of step() whose input was rejected (the output was held).")
+    u_ff = struct_field("u_ff", float, "Feedforward before the clip (N·m).", via="_f")
+    w_max = struct_field("w_max", float, "Largest plausible speed (rad/s).", via="_f")
+    n_step_rejected = struct_field("n_rejected", int,
+                                   "Calls of step() whose input was rejected (the output was held).", via="_f")
 
     def _set(self, est: FrictionEstimate | None) -> None:
         self.estimate = est

@@ -15,7 +15,7 @@ import math
 
 from adaptive_ff._caff import ffi, lib
 from adaptive_ff.compensation.defaults import c_defaults
-from plant.component import Component
+from plant.component import Component, struct_field
 
 __all__ = ["OutlierGate", "RangeGate"]
 
@@ -84,11 +84,11 @@ class OutlierGate(Component):
         return (f"OutlierGate(max_step={self.max_step!r}, n_sigma={self.n_sigma!r}, "
                 f"n_rejected={self.n_rejected})")
 
-    max_step = property(lambda self: float(self._c.max_step), doc="Largest plausible step (signal unit).")
-    n_sigma = property(lambda self: float(self._c.n_sigma), doc="Noise allowance in running-scale units.")
-    alpha = property(lambda self: float(self._c.alpha), doc="Smoothing factor of the running scale.")
-    max_consecutive = property(lambda self: int(self._c.max_consecutive),
-                               doc="Consecutive outlier rejections after which a sample is accepted again.")
+    max_step = struct_field("max_step", float, "Largest plausible step (signal unit).")
+    n_sigma = struct_field("n_sigma", float, "Noise allowance in running-scale units.")
+    alpha = struct_field("alpha", float, "Smoothing factor of the running scale.")
+    max_consecutive = struct_field("max_consecutive", int,
+                                   "Consecutive outlier rejections after which a sample is accepted again.")
 
     @property
     def last(self) -> float | None:
@@ -112,10 +112,10 @@ class OutlierGate(Component):
     def scale(self, value) -> None:
         self._c.scale = float(value)
 
-    n_held = property(lambda self: int(self._c.n_held), doc="Samples rejected since the last accepted one.")
-    n_rejected = property(lambda self: int(self._c.n_rejected), doc="Rejections in total.")
-    n_nonfinite = property(lambda self: int(self._c.n_nonfinite), doc="Non-finite samples rejected.")
-    n_outliers = property(lambda self: int(self._c.n_outliers), doc="Outlier spikes rejected.")
+    n_held = struct_field("n_held", int, "Samples rejected since the last accepted one.")
+    n_rejected = struct_field("n_rejected", int, "Rejections in total.")
+    n_nonfinite = struct_field("n_nonfinite", int, "Non-finite samples rejected.")
+    n_outliers = struct_field("n_outliers", int, "Outlier spikes rejected.")
 
     def check(self, x: float) -> bool:
         """Return True and accept ``x`` if it is plausible; False (counted) if it is rejected.
@@ -196,20 +196,20 @@ class RangeGate(Component):
         return (f"RangeGate(x_max={self.x_max!r}, factor={self.factor!r}, floor={self.floor!r}, "
                 f"n_rejected={self.n_rejected})")
 
-    x_max = property(lambda self: float(self._c.x_max), doc="Absolute bound on |x| (signal unit).")
-    factor = property(lambda self: float(self._c.factor), doc="Relative bound (times the reference scale).")
-    floor = property(lambda self: float(self._c.floor), doc="Smallest reference scale (signal unit).")
+    x_max = struct_field("x_max", float, "Absolute bound on |x| (signal unit).")
+    factor = struct_field("factor", float, "Relative bound (times the reference scale).")
+    floor = struct_field("floor", float, "Smallest reference scale (signal unit).")
     @property
     def memory(self) -> float:
         """Decay time of the envelope (samples), as configured."""
         cfg = self.config
         return float(cfg.memory) if cfg is not None else -1.0 / math.log(float(self._c.decay))
 
-    max_consecutive = property(lambda self: int(self._c.max_consecutive),
-                               doc="Consecutive rejections after which a sample is accepted again.")
-    envelope = property(lambda self: float(self._c.env), doc="Envelope of the accepted |x| (signal unit).")
-    n_held = property(lambda self: int(self._c.n_held), doc="Samples rejected since the last accepted one.")
-    n_rejected = property(lambda self: int(self._c.n_rejected), doc="Samples rejected in total.")
+    max_consecutive = struct_field("max_consecutive", int,
+                                   "Consecutive rejections after which a sample is accepted again.")
+    envelope = struct_field("env", float, "Envelope of the accepted |x| (signal unit).")
+    n_held = struct_field("n_held", int, "Samples rejected since the last accepted one.")
+    n_rejected = struct_field("n_rejected", int, "Samples rejected in total.")
 
     def with_floor(self, floor: float) -> "RangeGate":
         """A copy with another ``floor`` (signal unit) and this gate's state; components set it from what they

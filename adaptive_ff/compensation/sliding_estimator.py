@@ -80,7 +80,7 @@ from adaptive_ff.compensation.gate import OutlierGate, RangeGate
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from adaptive_ff.compensation.defaults import c_defaults
-from plant.component import Component
+from plant.component import Component, struct_field
 from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, check_multiple, check_positive,
                           check_signal)
 from plant.stribeck_map import stribeck_shape
@@ -353,10 +353,10 @@ class SlidingFrictionEstimator(Component):
         return (f"SlidingFrictionEstimator(Vs={self.Vs!r}, delta={self.delta!r}, Ts={self.Ts!r}, "
                 f"T_filter={self.T!r}, n_updates={self.rls.n_updates})")
 
-    n_samples = property(lambda self: int(self._c.n_samples), doc="Samples accepted.")
-    n_rejected = property(lambda self: int(self._c.n_rejected), doc="Samples rejected (non-finite or outliers).")
-    n_gated = property(lambda self: int(self._c.n_gated), doc="Update instants skipped by the sliding gate.")
-    updated = property(lambda self: bool(self._c.updated), doc="Whether the last observe() updated the RLS.")
+    n_samples = struct_field("n_samples", int, "Samples accepted.")
+    n_rejected = struct_field("n_rejected", int, "Samples rejected (non-finite or outliers).")
+    n_gated = struct_field("n_gated", int, "Update instants skipped by the sliding gate.")
+    updated = struct_field("updated", bool, "Whether the last observe() updated the RLS.")
 
     @property
     def theta(self) -> np.ndarray:

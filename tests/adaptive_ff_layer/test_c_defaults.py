@@ -207,3 +207,26 @@ def test_a_value_of_the_wrong_type_is_refused_naming_the_field(make, key, bad):
         return  # a real number is of the right type there
     with pytest.raises(SettingTypeError, match=key):  # a ParameterError and a TypeError
         make(**{key: bad})
+
+
+def test_the_wrappers_public_fields_read_their_structs():
+    """The one accessor (``plant.component.struct_field``): each public field reads its C struct's value, under its
+    old name."""
+    from adaptive_ff.compensation import adaptive_feedforward, feedforward, gate, sliding_estimator, supervisor
+
+    g = OutlierGate(max_step=0.25, n_sigma=6.5, alpha=0.125, max_consecutive=7)
+    assert (g.max_step, g.n_sigma, g.alpha, g.max_consecutive, g.n_rejected) == (0.25, 6.5, 0.125, 7, 0)
+    assert not g.check(float("nan")) and (g.n_rejected, g.n_nonfinite) == (1, 1)
+    r = RangeGate(x_max=3.0, factor=4.0, floor=0.5, memory=99.0, max_consecutive=3)
+    assert (r.x_max, r.factor, r.floor, r.max_consecutive, r.memory) == (3.0, 4.0, 0.5, 3, 99.0)
+    assert r.check(2.0) and r.envelope == 2.0
+    ff = RobustAdaptiveFeedforward(SlidingFrictionEstimator(0.02, 1.0, Tc=TC), dt=TC, stick_samples=12, warmup=33,
+                                   lag_zero=2.5, project=False, ff_max=9.0, lag=False)
+    assert (ff.dt, ff.stick_samples, ff.warmup, ff.lag_zero, ff.project, ff.ff_max, ff.lag) == (
+        TC, 12, 33, 2.5, False, 9.0, False)
+    assert type(ff.warmup) is int and type(ff.project) is bool and type(ff.dt) is float
+    s = FeedforwardSupervisor(**SUP)
+    assert (s.on, s.n_backoff, s.f_hat, s.ms_error_comp) == (True, 0, 0.0, 0.0) and type(s.on) is bool
+    src = "".join(inspect.getsource(m) for m in (adaptive_feedforward, feedforward, gate, sliding_estimator,
+                                                 supervisor))
+    assert "= property(lambda self: float(self._c." not in src and "= property(lambda self: int(self._c." not in src
