@@ -99,6 +99,10 @@ class TrueFriction:
 class ModeOptions:
     """Settings of a closed-loop run in a named mode (:func:`controllers.simulation.closed_loop.run_mode`).
 
+    A field that sets a component's C setting takes that setting's C default (``aff_X_default_config()``, read by
+    :func:`adaptive_ff.compensation.defaults.c_defaults`) and leaves its range to the component; ``estimator`` is a
+    name of :data:`ESTIMATORS`, built by :data:`ESTIMATOR_BUILDERS`.
+
     Parameters
     ----------
     Kp, Ki : float
