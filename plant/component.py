@@ -19,11 +19,94 @@ C workspace behind a thin Python object.
 
 from __future__ import annotations
 
+from numbers import Integral, Real
 from typing import Any
+
+import numpy as np
 
 from plant.errors import ParameterError
 
-__all__ = ["Component"]
+__all__ = ["Component", "config_defaults", "SettingTypeError", "struct_field"]
+
+
+class SettingTypeError(ParameterError, TypeError):
+    """A setting of the wrong type (a string or a bool for a number, a float for a count): a
+    :class:`plant.errors.ParameterError` and a TypeError, naming the class and the field."""
+
+
+def _value(ffi, x):
+    """A C value as Python: a struct as a dict of its fields, an array as a list, a number as itself."""
+    t = ffi.typeof(x) if isinstance(x, ffi.CData) else None
+    if t is None:
+        return x
+    if t.kind == "struct":
+        return {name: _value(ffi, getattr(x, name)) for name, _ in t.fields}
+    if t.kind == "array":
+        return [_value(ffi, v) for v in x]
+    return x
+
+
+def config_defaults(ffi, lib, ctype: str) -> dict:
+    """The defaults of the C settings ``ctype`` (``"aff_X_config"``), as ``aff_X_default_config()`` returns them.
+
+    The one statement of a component's defaults is its C ``aff_X_default_config()``; a Python class that offers
+    a field of it as a keyword takes the keyword's default from here (read once, at import).
+
+    Parameters
+    ----------
+    ffi, lib : cffi FFI and library
+        The extension module of the package that owns the struct (e.g. ``adaptive_ff._caff``).
+    ctype : str
+        The config struct's C name, ending in ``_config`` (``"aff_config"``: the drive's, ``aff_default_config``).
+
+    Returns
+    -------
+    dict
+        Field name -> default: a float or an int (a flag is 0 or 1), a nested struct as a dict, an array as a list.
+
+    Raises
+    ------
+    ParameterError
+        ``ctype`` is no config struct with a ``*_default_config`` function in ``lib``.
+    """
+    if not ctype.endswith("_config"):
+        raise ParameterError(f"ctype must name a config struct (…_config), got {ctype!r}")
+    fn = getattr(lib, f"{ctype[:-len('_config')]}_default_config", None)
+    if fn is None:
+        raise ParameterError(f"{ctype}: the library has no {ctype[:-len('_config')]}_default_config()")
+    return _value(ffi, fn())
+
+
+def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c") -> property:
+    """A read-only public attribute that reads one field of a component's C struct: the one accessor of the
+    wrappers (``n_rejected = struct_field("n_rejected", int, "Samples rejected.")``).
+
+    Parameters
+    ----------
+    field : str
+        The C field, a dotted path for a nested one (``"res.u_max"``).
+    kind : callable
+        Conversion of the C value (``float``, ``int``, ``bool``), default float.
+    doc : str
+        The attribute's docstring (with its unit).
+    via : str, keyword-only
+        The attribute that holds the struct pointer, default ``"_c"`` (:attr:`Component.cdata`; a part's, e.g.
+        ``"_f"``, where the struct is a field of a composite's).
+
+    Returns
+    -------
+    property
+    """
+    path = tuple(field.split("."))
+
+    def get(self):
+        v = getattr(self, via)
+        for name in path:
+            v = getattr(v, name)
+        return kind(v)
+
+    get.__name__ = path[-1]
+    return property(get, doc=doc)
 
 
 class Component:
@@ -71,12 +154,35 @@ class Component:
         """Pointer to the component's C struct (cffi)."""
         return self._c
 
-    def _settings(self, ctype: str, defaults, fields: dict):
+    def _settings(self, ctype: str, defaults, fields: dict, *, counts: tuple = ()):
         """New settings ``ctype`` (a C config struct, cffi pointer): the C ``defaults`` (e.g.
         ``lib.aff_gate_default_config()``), then the ``fields`` given (name -> value; a struct field takes a dict or a
-        struct)."""
+        struct).
+
+        Only the type of a value is checked here (a C ``double`` takes a real number, not a bool; an integer field an
+        integer or a flag's bool, a field named in ``counts`` an integer and not a bool); its range is the C
+        ``aff_X_init``'s to check (:meth:`_configure`), the one validator of each field.
+
+        Raises
+        ------
+        SettingTypeError
+            A value of the wrong type (a ParameterError and a TypeError), naming the class and the field.
+        """
         cfg = self._ffi.new(f"{ctype} *", defaults)
+        kinds = dict(self._ffi.typeof(cfg).item.fields)
         for k, v in fields.items():
+            cname = kinds[k].type.cname
+            if cname in ("double", "float"):
+                ok = isinstance(v, (Real, np.floating, np.integer)) and not isinstance(v, (bool, np.bool_))
+                if not ok:
+                    raise SettingTypeError(f"{type(self).__name__}: {k} must be a real number, got {v!r} "
+                                           f"({type(v).__name__})")
+                v = float(v)
+            elif kinds[k].type.kind == "primitive":
+                if not isinstance(v, (Integral, np.integer, np.bool_)) or (
+                        k in counts and isinstance(v, (bool, np.bool_))):
+                    raise SettingTypeError(f"{type(self).__name__}: {k} must be an integer, got {v!r}")
+                v = int(v)
             setattr(cfg, k, v)
         return cfg
 

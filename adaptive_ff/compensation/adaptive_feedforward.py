@@ -26,16 +26,23 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from adaptive_ff._caff import ffi, lib
-from adaptive_ff.compensation.feedforward import FrictionFeedforward
+from adaptive_ff.compensation.feedforward import FF_INPUTS, FrictionFeedforward
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, estimate_from_theta
 from adaptive_ff.compensation.velocity_input import LoopModel, SignObserver
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RLS_NMAX
-from plant.errors import ParameterError, check_nonnegative, check_positive, check_positive_or_inf
+from adaptive_ff.compensation.defaults import c_defaults
+from plant.component import struct_field
+from plant.errors import ParameterError
 
 __all__ = ["RobustAdaptiveFeedforward", "FeedforwardStart", "start_output", "lag_weighted", "fc_determined",
            "project_box", "FC_INFO_FRACTION"]
 
+#: The C defaults (``aff_fixed_ff_default_config``, ``aff_robust_ff_default_config``, ``aff_start_default_config``):
+#: the keywords' defaults.
+_FF = c_defaults("aff_fixed_ff_config")
+_ROBUST = c_defaults("aff_robust_ff_config")
+_START = c_defaults("aff_start_config")
 
 #: Fraction of the RLS prior variance below which the data have determined ``Fc`` (see :func:`fc_determined`;
 #: ``FC_INFO_FRACTION`` of ``adaptive_ff/csrc/aff_robust_ff.c``).
@@ -164,8 +171,8 @@ class FeedforwardStart:
     """
 
     estimate: FrictionEstimate
-    gain: float = 1.0
-    ff_input: str = "reference"
+    gain: float = _START["gain"]
+    ff_input: str = FF_INPUTS[_START["at_ref"]]
 
     def __post_init__(self):
         if not isinstance(self.estimate, FrictionEstimate):
@@ -177,8 +184,8 @@ class FeedforwardStart:
                 raise ParameterError(f"start estimate: {name} must be finite and >= 0, got {v!r}")
         if not (0.0 < self.gain <= 1.0):
             raise ParameterError(f"start gain must be in (0, 1], got {self.gain!r}")
-        if self.ff_input not in ("reference", "measured"):
-            raise ParameterError(f"start ff_input must be 'reference' or 'measured', got {self.ff_input!r}")
+        if self.ff_input not in FF_INPUTS:
+            raise ParameterError(f"start ff_input must be one of {FF_INPUTS}, got {self.ff_input!r}")
 
     def map_args(self, Vs: float | None, delta: float | None) -> tuple:
         """``(Fc, Fs, Vs, delta, sigma, tau)`` of the start map for the C start of a feedforward
@@ -399,12 +406,16 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     MODE = "adaptive"
     _ctype = "aff_robust_ff"
 
-    def __init__(self, estimator: SlidingFrictionEstimator, *, dt: float, lag: bool = True,
-                 ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0, stick_samples: int = 10,
-                 warmup: int = 200, fade_in: float = 1.0, J_range: tuple = (0.0, math.inf), tau_max: float = 1.0,
-                 consistency: float = 0.5, lag_margin: float = 1.0, lag_margin_max: float = 0.05,
-                 max_rel_stderr: float = 0.05, lag_memory: float = 10.0, lag_zero: float = 3.0,
-                 project: bool = True, ff_input: str = "measured", w_max: float = math.inf, start: FeedforwardStart | None = None,
+    def __init__(self, estimator: SlidingFrictionEstimator, *, dt: float, lag: bool = bool(_FF["lag"]),
+                 ff_max: float = _FF["ff_max"], sign_width: float = _FF["sign_width"],
+                 stick_band: float = _FF["stick_band"], stick_samples: int = _FF["stick_samples"],
+                 warmup: int = _ROBUST["warmup"], fade_in: float = _ROBUST["fade_in"],
+                 J_range: tuple = (_ROBUST["J_lo"], _ROBUST["J_hi"]), tau_max: float = _ROBUST["tau_max"],
+                 consistency: float = _ROBUST["consistency"], lag_margin: float = _ROBUST["lag_margin"],
+                 lag_margin_max: float = _ROBUST["lag_margin_max"], max_rel_stderr: float = _ROBUST["max_rel_stderr"],
+                 lag_memory: float = _ROBUST["lag_memory"], lag_zero: float = _ROBUST["lag_zero"],
+                 project: bool = bool(_ROBUST["project"]), ff_input: str = FF_INPUTS[_FF["at_ref"]],
+                 w_max: float = _FF["w_max"], start: FeedforwardStart | None = None,
                  loop_model: LoopModel | None = None, sign_observer: SignObserver | None = None):
         if not isinstance(estimator, SlidingFrictionEstimator):
             raise TypeError(f"estimator must be a SlidingFrictionEstimator, got {type(estimator).__name__}")
@@ -413,41 +424,28 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
                                  loop_model=loop_model, sign_observer=sign_observer)
         self.loop_model = loop_model
         self.sign_observer = sign_observer
-        if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
-            raise ParameterError(f"warmup must be an integer >= 0, got {warmup!r}")
         try:
-            J_lo, J_hi = (float(x) for x in J_range)
+            J_lo, J_hi = J_range
         except (TypeError, ValueError):
             raise ParameterError(f"J_range must be a pair (low, high), got {J_range!r}") from None
-        if not (0.0 <= J_lo < J_hi):
-            raise ParameterError(f"J_range must satisfy 0 <= low < high, got {J_range!r}")
-        tau_max = check_positive("tau_max", tau_max)
-        consistency = check_positive("consistency", consistency)
-        lag_margin = check_nonnegative("lag_margin", lag_margin)
-        lag_margin_max = (math.inf if isinstance(lag_margin_max, (int, float)) and lag_margin_max == math.inf
-                          else check_nonnegative("lag_margin_max", lag_margin_max))  # inf: no cap
-        max_rel_stderr = check_positive_or_inf("max_rel_stderr", max_rel_stderr)  # inf: no determinacy test
-        lag_memory = check_nonnegative("lag_memory", lag_memory)
-        lag_zero = (math.inf if isinstance(lag_zero, (int, float)) and lag_zero == math.inf
-                    else check_nonnegative("lag_zero", lag_zero))  # inf: every negative lag is 0
         if not isinstance(project, (bool, np.bool_)):
             raise ParameterError(f"project must be True or False, got {project!r}")
-        fade_in = check_nonnegative("fade_in", fade_in)
         if start is not None and not isinstance(start, FeedforwardStart):
             raise ParameterError(f"start must be a FeedforwardStart or None, got {type(start).__name__}")
         self.estimator = estimator
         self.n_theta = len(estimator.names)
         cfg = self._settings("aff_robust_ff_config", lib.aff_robust_ff_default_config(), {
-            "warmup": int(warmup), "fade_in": fade_in, "J_lo": J_lo, "J_hi": J_hi, "tau_max": tau_max,
+            "warmup": warmup, "fade_in": fade_in, "J_lo": J_lo, "J_hi": J_hi, "tau_max": tau_max,
             "consistency": consistency, "lag_margin": lag_margin, "lag_margin_max": lag_margin_max,
             "max_rel_stderr": max_rel_stderr, "lag_memory": lag_memory, "lag_zero": lag_zero,
-            "project": bool(project)})
+            "project": bool(project)}, counts=("warmup",))
         cfg.ff, cfg.est = ff.config[0], estimator.config[0]
         if start is not None:
             Fc, Fs, Vs, delta, sigma, tau = start.map_args(estimator.Vs, estimator.delta)
             cfg.start = {"on": True, "Fc": Fc, "Fs": Fs, "Vs": Vs, "delta": delta, "sigma": sigma, "tau": tau,
                          "gain": start.gain, "at_ref": start.ff_input == "reference"}  # else off, the C defaults
-        self._configure(lib.aff_robust_ff_init, cfg, lib.aff_error_message)
+        self._configure(lib.aff_robust_ff_init, cfg, lib.aff_error_message,
+                        names={lib.AFF_ERR_ROBUST_FF_J_RANGE: "J_range"})
         self.start = start
         self._attached()
 
@@ -456,34 +454,26 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         self._f = ffi.addressof(self._c, "ff")
         self.estimator._use(ffi.addressof(self._c, "est"), self)
 
-    warmup = property(lambda self: int(self._c.warmup), doc="RLS updates before switch-on.")
+    warmup = struct_field("warmup", int, "RLS updates before switch-on.")
     J_range = property(lambda self: (float(self._c.J_lo), float(self._c.J_hi)),
                        doc="Plausible inertia interval (kg·m²).")
-    tau_max = property(lambda self: float(self._c.tau_max), doc="Largest plausible lag (s).")
-    consistency = property(lambda self: float(self._c.consistency), doc="Relative lag-consistency tolerance.")
-    n_implausible = property(lambda self: int(self._c.n_implausible),
-                             doc="Estimates that failed the plausibility test.")
-    n_lag_held = property(lambda self: int(self._c.n_lag_held), doc="Estimates used with the previous lag.")
-    n_undetermined = property(lambda self: int(self._c.n_undetermined),
-                              doc="Plausible estimates not used because ``Fc`` was not determined yet.")
-    lag_margin = property(lambda self: float(self._c.lag_margin),
-                          doc="Standard errors added to the estimated lag in use.")
-    lag_margin_max = property(lambda self: float(self._c.lag_margin_max),
-                              doc="Largest lag margin, as a fraction of the estimated lag.")
-    max_rel_stderr = property(lambda self: float(self._c.max_rel_stderr),
-                              doc="Largest standard error of ``Fc`` in use, relative to ``max(Fc, Fs)``.")
+    tau_max = struct_field("tau_max", float, "Largest plausible lag (s).")
+    consistency = struct_field("consistency", float, "Relative lag-consistency tolerance.")
+    n_implausible = struct_field("n_implausible", int, "Estimates that failed the plausibility test.")
+    n_lag_held = struct_field("n_lag_held", int, "Estimates used with the previous lag.")
+    n_undetermined = struct_field("n_undetermined", int,
+                                  "Plausible estimates not used because ``Fc`` was not determined yet.")
+    lag_margin = struct_field("lag_margin", float, "Standard errors added to the estimated lag in use.")
+    lag_margin_max = struct_field("lag_margin_max", float, "Largest lag margin, as a fraction of the estimated lag.")
+    max_rel_stderr = struct_field("max_rel_stderr", float,
+                                  "Largest standard error of ``Fc`` in use, relative to ``max(Fc, Fs)``.")
 
-    lag_zero = property(lambda self: float(self._c.lag_zero),
-                        doc="Standard errors below 0 within which a lag estimate is lag 0.")
-    project = property(lambda self: bool(self._c.project),
-                       doc="Whether the estimate used is theta projected onto the plausible box.")
-    n_lag_zero = property(lambda self: int(self._c.n_lag_zero),
-                          doc="Estimates whose negative lag estimate was taken as lag 0.")
-    n_boxed = property(lambda self: int(self._c.n_boxed),
-                       doc="Estimates the projection moved onto the plausible box.")
+    lag_zero = struct_field("lag_zero", float, "Standard errors below 0 within which a lag estimate is lag 0.")
+    project = struct_field("project", bool, "Whether the estimate used is theta projected onto the plausible box.")
+    n_lag_zero = struct_field("n_lag_zero", int, "Estimates whose negative lag estimate was taken as lag 0.")
+    n_boxed = struct_field("n_boxed", int, "Estimates the projection moved onto the plausible box.")
 
-    provisional = property(lambda self: bool(self._c.provisional),
-                           doc="Whether the provisional start map (``start``) is in use.")
+    provisional = struct_field("provisional", bool, "Whether the provisional start map (``start``) is in use.")
 
     @property
     def lag_memory(self) -> float:

@@ -27,10 +27,24 @@ import numpy as np
 from adaptive_ff._caff import ffi, lib
 from adaptive_ff.compensation.velocity_input import LoopModel, SignObserver
 from adaptive_ff.identification.regression import FrictionEstimate
-from plant.component import Component
-from plant.errors import ParameterError, check_nonnegative, check_positive
+from adaptive_ff.compensation.defaults import c_defaults
+from plant.component import Component, struct_field
+from plant.errors import ParameterError
 
-__all__ = ["FrictionFeedforward", "project_estimate", "project_levels"]
+__all__ = ["FrictionFeedforward", "project_estimate", "project_levels", "FF_INPUTS", "at_ref"]
+
+#: The C defaults of the fixed feedforward's settings (``aff_fixed_ff_default_config``): the keywords' defaults.
+_FF = c_defaults("aff_fixed_ff_config")
+
+#: The velocity the feedforward is evaluated at, by the C flag ``at_ref`` (0: the measured, 1: the reference).
+FF_INPUTS = ("measured", "reference")
+
+
+def at_ref(ff_input: str) -> int:
+    """The C flag ``at_ref`` of ``ff_input`` (one of :data:`FF_INPUTS`); ParameterError naming ``ff_input`` else."""
+    if ff_input not in FF_INPUTS:
+        raise ParameterError(f"ff_input must be one of {FF_INPUTS}, got {ff_input!r}")
+    return FF_INPUTS.index(ff_input)
 
 
 def project_levels(J, tau, sigma, Fc, Fs, offset, tau_max, F_max) -> tuple:
@@ -193,27 +207,20 @@ class FrictionFeedforward(Component):
     _ffi = ffi
     _ctype = "aff_fixed_ff"
 
-    def __init__(self, estimate: FrictionEstimate | None, *, dt: float, lag: bool = True,
-                 ff_max: float = math.inf, sign_width: float = 0.0, stick_band: float = 0.0,
-                 stick_samples: int = 10, ff_input: str = "measured", w_max: float = math.inf,
+    def __init__(self, estimate: FrictionEstimate | None, *, dt: float, lag: bool = bool(_FF["lag"]),
+                 ff_max: float = _FF["ff_max"], sign_width: float = _FF["sign_width"],
+                 stick_band: float = _FF["stick_band"], stick_samples: int = _FF["stick_samples"],
+                 ff_input: str = FF_INPUTS[_FF["at_ref"]], w_max: float = _FF["w_max"],
                  loop_model: LoopModel | None = None, sign_observer: SignObserver | None = None):
-        dt = check_positive("dt", dt)
         if loop_model is not None and not isinstance(loop_model, LoopModel):
             raise ParameterError(f"loop_model must be a LoopModel or None, got {type(loop_model).__name__}")
         if sign_observer is not None and not isinstance(sign_observer, SignObserver):
             raise ParameterError(f"sign_observer must be a SignObserver or None, got {type(sign_observer).__name__}")
-        w_max = float(w_max) if w_max == math.inf else check_positive("w_max", w_max)
-        ff_max = float(ff_max) if ff_max == math.inf else check_nonnegative("ff_max", ff_max)
-        sign_width = check_nonnegative("sign_width", sign_width)
-        stick_band = check_nonnegative("stick_band", stick_band)
-        if isinstance(stick_samples, bool) or not isinstance(stick_samples, (int, np.integer)) or stick_samples < 1:
-            raise ParameterError(f"stick_samples must be an integer >= 1, got {stick_samples!r}")
-        if ff_input not in ("measured", "reference"):
-            raise ParameterError(f"ff_input must be 'measured' or 'reference', got {ff_input!r}")
         cfg = self._settings("aff_fixed_ff_config", lib.aff_fixed_ff_default_config(), {
             "dt": dt, "lag": bool(lag), "ff_max": ff_max, "sign_width": sign_width, "stick_band": stick_band,
-            "stick_samples": int(stick_samples), "at_ref": ff_input == "reference", "w_max": w_max,
-            "use_loop_model": loop_model is not None, "use_sign_observer": sign_observer is not None})
+            "stick_samples": stick_samples, "at_ref": at_ref(ff_input), "w_max": w_max,
+            "use_loop_model": loop_model is not None, "use_sign_observer": sign_observer is not None},
+            counts=("stick_samples",))
         if loop_model is not None:
             cfg.loop_model = loop_model.config_fields()
         if sign_observer is not None:
@@ -234,18 +241,18 @@ class FrictionFeedforward(Component):
         d.pop("_f", None)
         return d
 
-    dt = property(lambda self: float(self._f.dt), doc="Call period of :meth:`step` (s).")
-    lag = property(lambda self: bool(self._f.lag), doc="Filter through the estimated lag.")
-    ff_max = property(lambda self: float(self._f.ff_max), doc="Bound on |feedforward| (N·m).")
-    sign_width = property(lambda self: float(self._f.sign_width), doc="Sign ramp half-width (rad/s).")
-    stick_band = property(lambda self: float(self._f.stick_band), doc="Stick-detection band (rad/s).")
-    stick_samples = property(lambda self: int(self._f.stick_samples), doc="In-band samples that declare sticking.")
+    dt = struct_field("dt", float, "Call period of :meth:`step` (s).", via="_f")
+    lag = struct_field("lag", bool, "Filter through the estimated lag.", via="_f")
+    ff_max = struct_field("ff_max", float, "Bound on |feedforward| (N·m).", via="_f")
+    sign_width = struct_field("sign_width", float, "Sign ramp half-width (rad/s).", via="_f")
+    stick_band = struct_field("stick_band", float, "Stick-detection band (rad/s).", via="_f")
+    stick_samples = struct_field("stick_samples", int, "In-band samples that declare sticking.", via="_f")
     ff_input = property(lambda self: "reference" if self._f.at_ref else "measured",
                         doc="Velocity the engine evaluates the feedforward at (``compensate``).")
-    u_ff = property(lambda self: float(self._f.u_ff), doc="Feedforward before the clip (N·m).")
-    w_max = property(lambda self: float(self._f.w_max), doc="Largest plausible speed (rad/s).")
-    n_step_rejected = property(lambda self: int(self._f.n_rejected),
-                               doc="Calls of step() whose input was rejected (the output was held).")
+    u_ff = struct_field("u_ff", float, "Feedforward before the clip (N·m).", via="_f")
+    w_max = struct_field("w_max", float, "Largest plausible speed (rad/s).", via="_f")
+    n_step_rejected = struct_field("n_rejected", int,
+                                   "Calls of step() whose input was rejected (the output was held).", via="_f")
 
     def _set(self, est: FrictionEstimate | None) -> None:
         self.estimate = est

@@ -14,10 +14,14 @@ from __future__ import annotations
 import math
 
 from adaptive_ff._caff import ffi, lib
-from plant.component import Component
-from plant.errors import ParameterError, check_nonnegative, check_positive
+from adaptive_ff.compensation.defaults import c_defaults
+from plant.component import Component, struct_field
 
 __all__ = ["OutlierGate", "RangeGate"]
+
+#: The C defaults (``aff_gate_default_config``, ``aff_range_gate_default_config``): the keywords' defaults.
+_GATE = c_defaults("aff_gate_config")
+_RANGE = c_defaults("aff_range_gate_config")
 
 
 class OutlierGate(Component):
@@ -69,30 +73,22 @@ class OutlierGate(Component):
     _ffi = ffi
     _ctype = "aff_gate"
 
-    def __init__(self, *, max_step: float = math.inf, n_sigma: float = 8.0, alpha: float = 0.01,
-                 max_consecutive: int = 20):
-        if max_step != math.inf:
-            max_step = check_nonnegative("max_step", max_step)
-        n_sigma = check_positive("n_sigma", n_sigma)
-        alpha = check_positive("alpha", alpha)
-        if alpha > 1.0:
-            raise ParameterError(f"alpha must be in (0, 1], got {alpha!r}")
-        if isinstance(max_consecutive, bool) or not isinstance(max_consecutive, int) or max_consecutive < 1:
-            raise ParameterError(f"max_consecutive must be an integer >= 1, got {max_consecutive!r}")
+    def __init__(self, *, max_step: float = _GATE["max_step"], n_sigma: float = _GATE["n_sigma"],
+                 alpha: float = _GATE["alpha"], max_consecutive: int = _GATE["max_consecutive"]):
         cfg = self._settings("aff_gate_config", lib.aff_gate_default_config(),
-                             {"max_step": float(max_step), "n_sigma": n_sigma, "alpha": alpha,
-                              "max_consecutive": max_consecutive})
+                             {"max_step": max_step, "n_sigma": n_sigma, "alpha": alpha,
+                              "max_consecutive": max_consecutive}, counts=("max_consecutive",))
         self._configure(lib.aff_gate_init, cfg, lib.aff_error_message)
 
     def __repr__(self) -> str:
         return (f"OutlierGate(max_step={self.max_step!r}, n_sigma={self.n_sigma!r}, "
                 f"n_rejected={self.n_rejected})")
 
-    max_step = property(lambda self: float(self._c.max_step), doc="Largest plausible step (signal unit).")
-    n_sigma = property(lambda self: float(self._c.n_sigma), doc="Noise allowance in running-scale units.")
-    alpha = property(lambda self: float(self._c.alpha), doc="Smoothing factor of the running scale.")
-    max_consecutive = property(lambda self: int(self._c.max_consecutive),
-                               doc="Consecutive outlier rejections after which a sample is accepted again.")
+    max_step = struct_field("max_step", float, "Largest plausible step (signal unit).")
+    n_sigma = struct_field("n_sigma", float, "Noise allowance in running-scale units.")
+    alpha = struct_field("alpha", float, "Smoothing factor of the running scale.")
+    max_consecutive = struct_field("max_consecutive", int,
+                                   "Consecutive outlier rejections after which a sample is accepted again.")
 
     @property
     def last(self) -> float | None:
@@ -116,10 +112,10 @@ class OutlierGate(Component):
     def scale(self, value) -> None:
         self._c.scale = float(value)
 
-    n_held = property(lambda self: int(self._c.n_held), doc="Samples rejected since the last accepted one.")
-    n_rejected = property(lambda self: int(self._c.n_rejected), doc="Rejections in total.")
-    n_nonfinite = property(lambda self: int(self._c.n_nonfinite), doc="Non-finite samples rejected.")
-    n_outliers = property(lambda self: int(self._c.n_outliers), doc="Outlier spikes rejected.")
+    n_held = struct_field("n_held", int, "Samples rejected since the last accepted one.")
+    n_rejected = struct_field("n_rejected", int, "Rejections in total.")
+    n_nonfinite = struct_field("n_nonfinite", int, "Non-finite samples rejected.")
+    n_outliers = struct_field("n_outliers", int, "Outlier spikes rejected.")
 
     def check(self, x: float) -> bool:
         """Return True and accept ``x`` if it is plausible; False (counted) if it is rejected.
@@ -188,40 +184,32 @@ class RangeGate(Component):
     _ffi = ffi
     _ctype = "aff_range_gate"
 
-    def __init__(self, *, x_max: float = math.inf, factor: float = 100.0, floor: float = 0.0,
-                 memory: float = 10000.0, max_consecutive: int = 20):
-        if x_max != math.inf:
-            x_max = check_positive("x_max", x_max)
-        factor = check_positive("factor", factor)
-        if factor <= 1.0:
-            raise ParameterError(f"factor must be > 1, got {factor!r}")
-        floor = check_nonnegative("floor", floor)
-        memory = check_positive("memory", memory)
-        if isinstance(max_consecutive, bool) or not isinstance(max_consecutive, int) or max_consecutive < 1:
-            raise ParameterError(f"max_consecutive must be an integer >= 1, got {max_consecutive!r}")
+    def __init__(self, *, x_max: float = _RANGE["x_max"], factor: float = _RANGE["factor"],
+                 floor: float = _RANGE["floor"], memory: float = _RANGE["memory"],
+                 max_consecutive: int = _RANGE["max_consecutive"]):
         cfg = self._settings("aff_range_gate_config", lib.aff_range_gate_default_config(),
-                             {"x_max": float(x_max), "factor": factor, "floor": floor, "memory": memory,
-                              "max_consecutive": max_consecutive})
+                             {"x_max": x_max, "factor": factor, "floor": floor, "memory": memory,
+                              "max_consecutive": max_consecutive}, counts=("max_consecutive",))
         self._configure(lib.aff_range_gate_init, cfg, lib.aff_error_message)
 
     def __repr__(self) -> str:
         return (f"RangeGate(x_max={self.x_max!r}, factor={self.factor!r}, floor={self.floor!r}, "
                 f"n_rejected={self.n_rejected})")
 
-    x_max = property(lambda self: float(self._c.x_max), doc="Absolute bound on |x| (signal unit).")
-    factor = property(lambda self: float(self._c.factor), doc="Relative bound (times the reference scale).")
-    floor = property(lambda self: float(self._c.floor), doc="Smallest reference scale (signal unit).")
+    x_max = struct_field("x_max", float, "Absolute bound on |x| (signal unit).")
+    factor = struct_field("factor", float, "Relative bound (times the reference scale).")
+    floor = struct_field("floor", float, "Smallest reference scale (signal unit).")
     @property
     def memory(self) -> float:
         """Decay time of the envelope (samples), as configured."""
         cfg = self.config
         return float(cfg.memory) if cfg is not None else -1.0 / math.log(float(self._c.decay))
 
-    max_consecutive = property(lambda self: int(self._c.max_consecutive),
-                               doc="Consecutive rejections after which a sample is accepted again.")
-    envelope = property(lambda self: float(self._c.env), doc="Envelope of the accepted |x| (signal unit).")
-    n_held = property(lambda self: int(self._c.n_held), doc="Samples rejected since the last accepted one.")
-    n_rejected = property(lambda self: int(self._c.n_rejected), doc="Samples rejected in total.")
+    max_consecutive = struct_field("max_consecutive", int,
+                                   "Consecutive rejections after which a sample is accepted again.")
+    envelope = struct_field("env", float, "Envelope of the accepted |x| (signal unit).")
+    n_held = struct_field("n_held", int, "Samples rejected since the last accepted one.")
+    n_rejected = struct_field("n_rejected", int, "Samples rejected in total.")
 
     def with_floor(self, floor: float) -> "RangeGate":
         """A copy with another ``floor`` (signal unit) and this gate's state; components set it from what they

@@ -80,19 +80,28 @@ from adaptive_ff._caff import ffi, lib
 from adaptive_ff.compensation.gate import OutlierGate, RangeGate
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RecursiveLeastSquares
-from plant.component import Component
+from adaptive_ff.compensation.defaults import c_defaults
+from plant.component import Component, struct_field
 from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, check_multiple, check_positive,
                           check_signal)
 from plant.stribeck_map import stribeck_shape
 
 __all__ = ["SlidingFrictionEstimator", "SlidingFit", "fit_sliding", "sliding_regressors", "SLIDING_NAMES",
-           "estimate_from_theta"]
+           "estimate_from_theta", "FORGETTINGS"]
 
 #: Parameter names of the full structure (lag and offset), in ``theta`` order.
 SLIDING_NAMES = ("J", "J_tau", "tau", "Fc", "Fs", "sigma", "offset")
 
 _NOISE_GAIN = math.sqrt(6.0) * math.sqrt(2.0 / math.pi)  # E|second difference| / sigma for white noise
 _BAND_SIGMAS = 4.0
+
+
+#: The C defaults of the estimator's settings (``aff_sliding_default_config``): the keywords' defaults; its ``P_max``
+#: 0 (``n*P0``) and ``w_band_min`` 0 (``Vs/10``) are the keywords' None, its ``initial_J`` is ``J_guess``.
+_SLIDING = c_defaults("aff_sliding_config")
+
+#: The forgetting of the RLS by its C code (``AFF_RLS_EXPONENTIAL``, ``AFF_RLS_DIRECTIONAL``).
+FORGETTINGS = {lib.AFF_RLS_EXPONENTIAL: "exponential", lib.AFF_RLS_DIRECTIONAL: "directional"}
 
 
 def _names(lag: bool, offset: bool) -> tuple:
@@ -261,12 +270,15 @@ class SlidingFrictionEstimator(Component):
     _ffi = ffi
     _ctype = "aff_sliding"
 
-    def __init__(self, Vs: float, delta: float, *, Tc: float, Ts: float = 0.01, T_filter: float = 0.02,
-                 lam: float = 0.995, forgetting: str = "exponential", P0: float = 1e4, P_max: float | None = None,
-                 initial: FrictionEstimate | None = None, J_guess: float = 1.0, J_max: float = math.inf,
-                 tau_max: float = 1.0, lag: bool = True, offset: bool = True, w_band_min: float | None = None,
-                 dwell_max: float = 0.01, gate: OutlierGate | None = None, u_range: RangeGate | None = None,
-                 w_range: RangeGate | None = None):
+    def __init__(self, Vs: float, delta: float, *, Tc: float, Ts: float = _SLIDING["Ts"],
+                 T_filter: float = _SLIDING["T_filter"], lam: float = _SLIDING["lam"],
+                 forgetting: str = FORGETTINGS[_SLIDING["forgetting"]], P0: float = _SLIDING["P0"],
+                 P_max: float | None = None, initial: FrictionEstimate | None = None,
+                 J_guess: float = _SLIDING["initial_J"], J_max: float = _SLIDING["J_max"],
+                 tau_max: float = _SLIDING["tau_max"], lag: bool = bool(_SLIDING["lag"]),
+                 offset: bool = bool(_SLIDING["offset"]), w_band_min: float | None = None,
+                 dwell_max: float = _SLIDING["dwell_max"], gate: OutlierGate | None = None,
+                 u_range: RangeGate | None = None, w_range: RangeGate | None = None):
         self.Vs = check_positive("Vs", Vs)
         self.delta = check_finite_scalar("delta", delta)
         if self.delta == 0.0:
@@ -342,10 +354,10 @@ class SlidingFrictionEstimator(Component):
         return (f"SlidingFrictionEstimator(Vs={self.Vs!r}, delta={self.delta!r}, Ts={self.Ts!r}, "
                 f"T_filter={self.T!r}, n_updates={self.rls.n_updates})")
 
-    n_samples = property(lambda self: int(self._c.n_samples), doc="Samples accepted.")
-    n_rejected = property(lambda self: int(self._c.n_rejected), doc="Samples rejected (non-finite or outliers).")
-    n_gated = property(lambda self: int(self._c.n_gated), doc="Update instants skipped by the sliding gate.")
-    updated = property(lambda self: bool(self._c.updated), doc="Whether the last observe() updated the RLS.")
+    n_samples = struct_field("n_samples", int, "Samples accepted.")
+    n_rejected = struct_field("n_rejected", int, "Samples rejected (non-finite or outliers).")
+    n_gated = struct_field("n_gated", int, "Update instants skipped by the sliding gate.")
+    updated = struct_field("updated", bool, "Whether the last observe() updated the RLS.")
 
     @property
     def theta(self) -> np.ndarray:

@@ -16,10 +16,15 @@ import math
 import numpy as np
 
 from adaptive_ff._caff import ffi, lib
-from plant.component import Component
-from plant.errors import ParameterError, check_nonnegative, check_positive
+from adaptive_ff.compensation.defaults import c_defaults
+from plant.component import Component, struct_field
+from plant.errors import ParameterError, check_nonnegative
 
 __all__ = ["FeedforwardSupervisor", "DELAY_MAX"]
+
+#: The C defaults of the supervisor's settings (``aff_supervisor_default_config``): the keywords' defaults; its
+#: ``settle`` -1 (half the window) and ``Kp`` 0 (no tracking test) are the keywords' None.
+_SUP = c_defaults("aff_supervisor_config")
 
 #: Largest measurement delay (periods) the statistic aligns (``AFF_SUPERVISOR_DELAY_MAX``).
 DELAY_MAX = len(ffi.new("aff_supervisor *").u_hist) - 1
@@ -137,27 +142,21 @@ class FeedforwardSupervisor(Component):
     _ffi = ffi
     _ctype = "aff_supervisor"
 
-    def __init__(self, *, Tc: float, J_n: float, omega: float, window: float = 2.0, margin: float = 0.1,
-                 settle: float | None = None, rest_band: float | None = 0.0, delay: int = 0,
-                 Kp: float | None = None, Ki: float = 0.0, track_margin: float = 1.0):
-        Tc, J_n = check_positive("Tc", Tc), check_positive("J_n", J_n)
-        omega, window = check_positive("omega", omega), check_positive("window", window)
-        margin = float(margin)
-        if not (0.0 <= margin < 1.0):
-            raise ParameterError(f"margin must be in [0, 1), got {margin!r}")
-        settle = -1.0 if settle is None else check_nonnegative("settle", settle)  # -1: window/2
+    def __init__(self, *, Tc: float, J_n: float, omega: float, window: float = _SUP["window"],
+                 margin: float = _SUP["margin"], settle: float | None = None,
+                 rest_band: float | None = _SUP["rest_band"], delay: int = _SUP["delay"], Kp: float | None = None,
+                 Ki: float = _SUP["Ki"], track_margin: float = _SUP["track_margin"]):
+        # None is the C sentinel -1 (settle: window/2; rest_band: no rest rule); a negative value would alias it
+        settle = -1.0 if settle is None else check_nonnegative("settle", settle)
         band = -1.0 if rest_band is None else check_nonnegative("rest_band", rest_band)
-        if isinstance(delay, bool) or not isinstance(delay, (int, np.integer)) or not 0 <= delay <= DELAY_MAX:
-            raise ParameterError(f"delay must be an integer in 0..{DELAY_MAX} (periods), got {delay!r}")
         if Kp is None:
-            Kp, Ki = 0.0, 0.0  # no tracking test
-        else:
-            Kp, Ki = check_positive("Kp", Kp), check_nonnegative("Ki", Ki)
-        track_margin = check_nonnegative("track_margin", track_margin)
+            Kp, Ki = 0.0, 0.0  # Kp 0: no tracking test
+        elif not isinstance(Kp, (bool, np.bool_, str)) and Kp == 0:  # 0 would alias None; the range is C's
+            raise ParameterError("FeedforwardSupervisor: Kp must be > 0 (None: no tracking test), got 0")
         cfg = self._settings("aff_supervisor_config", lib.aff_supervisor_default_config(),
                              {"Tc": Tc, "J_n": J_n, "omega": omega, "window": window, "margin": margin,
-                              "settle": settle, "rest_band": band, "delay": int(delay), "Kp": Kp, "Ki": Ki,
-                              "track_margin": track_margin})
+                              "settle": settle, "rest_band": band, "delay": delay, "Kp": Kp, "Ki": Ki,
+                              "track_margin": track_margin}, counts=("delay",))
         self._configure(lib.aff_supervisor_init, cfg, lib.aff_error_message)
 
     def __repr__(self) -> str:
@@ -168,17 +167,9 @@ class FeedforwardSupervisor(Component):
                 f"Kp={c.Kp if c.track else None!r}, Ki={c.KiTc / c.Tc if c.track else 0.0!r}, "
                 f"track_margin={c.track_margin if c.track else 1.0!r})")
 
-    @property
-    def on(self) -> bool:
-        return bool(self._c.on)
-
-    @property
-    def n_backoff(self) -> int:
-        return int(self._c.n_backoff)
-
-    @property
-    def n_restore(self) -> int:
-        return int(self._c.n_restore)
+    on = struct_field("on", bool, "Whether the candidate torque is applied.")
+    n_backoff = struct_field("n_backoff", int, "Switches off.")
+    n_restore = struct_field("n_restore", int, "Switches back on.")
 
     @property
     def t_off(self) -> float:
@@ -188,21 +179,10 @@ class FeedforwardSupervisor(Component):
     def t_rest(self) -> float:
         return float(self._c.n_rest) * float(self._c.Tc)
 
-    @property
-    def f_hat(self) -> float:
-        return float(self._c.x_f)
-
-    @property
-    def r_hat(self) -> float:
-        return float(self._c.x_r)
-
-    @property
-    def ms_friction(self) -> float:
-        return float(self._c.m_f)
-
-    @property
-    def ms_residual(self) -> float:
-        return float(self._c.m_r)
+    f_hat = struct_field("x_f", float, "Filtered disturbance without the candidate (N·m).")
+    r_hat = struct_field("x_r", float, "Filtered disturbance with the candidate (N·m).")
+    ms_friction = struct_field("m_f", float, "Mean square ``M_f`` of ``f_hat`` (N²·m²).")
+    ms_residual = struct_field("m_r", float, "Mean square ``M_r`` of ``r_hat`` (N²·m²).")
 
     def apply(self, u_c: float, w_ref: float = math.inf) -> float:
         """This period's compensation (N·m): the candidate ``u_c`` (N·m) while on and the reference ``w_ref`` (rad/s;
@@ -256,17 +236,14 @@ class FeedforwardSupervisor(Component):
         out["on"] = on.astype(bool)
         return out
 
-    @property
-    def n_backoff_tracking(self) -> int:
-        return int(self._c.n_backoff_tracking)
+    n_backoff_tracking = struct_field("n_backoff_tracking", int,
+                                      "Back-offs the tracking test made where the torque test would not have.")
 
-    @property
-    def ms_error_none(self) -> float:
-        return float(self._c.m_e0)
+    ms_error_none = struct_field("m_e0", float,
+                                 "Mean square ``M_e0`` of the nominal loop's error without the candidate ((rad/s)²).")
 
-    @property
-    def ms_error_comp(self) -> float:
-        return float(self._c.m_e1)
+    ms_error_comp = struct_field("m_e1", float,
+                                 "Mean square ``M_e1`` of the nominal loop's error with the candidate ((rad/s)²).")
 
     def info(self) -> dict:
         """The counters a closed-loop result reports: ``n_backoff``, ``n_backoff_tracking`` (of them, decided by the

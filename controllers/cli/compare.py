@@ -428,6 +428,7 @@ def register(sub) -> None:
     """Add the ``compare`` subcommand to an argparse subparsers object."""
     from controllers.cli.budget import add_yes_argument
     from controllers.cli.data import PRESET_NAMES, add_units_argument, seed_type
+    from controllers.simulation.estimators import DEFAULT_ESTIMATOR, ESTIMATORS  # no C import: --help stays light
 
     c = sub.add_parser("compare", help="run all compensation modes on a plant and compare tracking error",
                        description="Simulate the 1 kHz plant in closed loop with the PI velocity controller in the "
@@ -451,7 +452,7 @@ def register(sub) -> None:
     c.add_argument("--modes", help="comma-separated subset of none,fixed,adaptive,adaptive-dob,canudas,dob,oracle,"
                                    "frictionless "
                                    "(default: all; none and frictionless always run)")
-    c.add_argument("--estimator", choices=("sliding", "eq4", "eq4-rls"), default="sliding",
+    c.add_argument("--estimator", choices=ESTIMATORS, default=DEFAULT_ESTIMATOR,
                    help="adaptive estimator: sliding-regime inverse-dynamics RLS (default); eq4: the paper's eq. 4 "
                         "by recursive IV on the sliding samples (the model estimated consistently in closed loop, "
                         "docs/theory.md); eq4-rls: eq. 4 by the paper's RLS, eqs. 10-13 as printed (biased on the "

@@ -10,13 +10,13 @@ result, :class:`controllers.experiments.comparison.Comparison`, with eta and the
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import MISSING, dataclass, field, fields, replace
 
 import numpy as np
 from tqdm.auto import tqdm
 
 from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
-from adaptive_ff.compensation.feedforward import project_estimate
+from adaptive_ff.compensation.feedforward import FF_INPUTS, project_estimate
 from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from adaptive_ff.compensation.sliding_estimator import fit_sliding
@@ -34,9 +34,7 @@ from controllers.experiments.observer_design import (J_CONTRADICTED, friction_le
                                                      residual_cutoff, residual_share)
 from controllers.experiments.quasi_static import (StribeckDesign, StribeckExperiment, prefit_stribeck,
                                                   stribeck_experiment)
-from controllers.simulation.sensor_drive import DELAY_MAX
-from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, check_multiple, check_nonnegative,
-                          check_positive, check_positive_or_inf)
+from plant.errors import ExcitationError, ParameterError, check_finite_scalar, check_multiple, check_positive
 from plant.dynamics import plant_params
 from plant.excitation import bandlimited_noise, multisine_reference
 from plant.joint import simulate
@@ -46,7 +44,8 @@ __all__ = ["Comparison", "CompareOptions", "ComparisonSetup", "DriveLimitError",
            "check_drive_moves", "compare", "comparison_reference", "eta", "FIXED_METHODS", "PREFIT_MODES",
            "compensator_context", "mode_width", "number_text", "friction_scale", "measurement_noise", "prefit_stribeck",
            "prepare_comparison", "residual_cutoff", "run_notes",
-           "WORSE_THAN_NONE", "worse_than_none_notes", "J_CONTRADICTED", "observer_inertia"]
+           "WORSE_THAN_NONE", "worse_than_none_notes", "J_CONTRADICTED", "observer_inertia", "LOOP_KNOBS",
+           "EXPERIMENT_DEFAULTS"]
 
 #: Offline identification behind the ``fixed`` mode: the sliding-regime
 #: inverse-dynamics LS (:func:`adaptive_ff.compensation.sliding_estimator.fit_sliding`,
@@ -71,9 +70,39 @@ def friction_scale(p, peak_w: float) -> float:
     return float(np.max(np.abs(np.concatenate([p.friction(wg), p.friction(-wg)]))))
 
 
+#: The knobs :class:`CompareOptions` shares with the loop's options (:class:`ModeOptions`, the bare loop of
+#: :func:`controllers.simulation.closed_loop.run_mode`): one knob, one check (ModeOptions') and one default, the
+#: loop's, but for :data:`EXPERIMENT_DEFAULTS`.
+LOOP_KNOBS = ("Tc", "Ts", "u_max", "noise_std", "lam", "lag", "estimator", "iv_map_stderr", "ff_input", "sign_width",
+              "stick_band", "stick_samples", "T_filter", "forgetting", "warmup", "omega_q", "switch_in", "dwell_max",
+              "offset", "Vs", "delta", "J_design", "sign_input", "observer_bandwidth", "encoder_counts", "delay",
+              "slew_rate", "velocity", "velocity_bandwidth", "velocity_model")
+
+#: The experiment's own defaults of knobs the bare loop (:class:`ModeOptions`, the C components) defaults otherwise,
+#: the one place where they differ, each on purpose: ``noise_std`` 1e-3 rad/s (a real sensor's noise; the bare loop
+#: is noiseless); ``u_max`` None (three times the measured friction level plus the design inertia times the
+#: reference's peak acceleration; the bare loop is unbounded); ``warmup`` 50 sliding-regime RLS updates (the bare
+#: component's 200 give the same second-half eta on every plant of ``benchmarks/variants.py``, the feedforward
+#: acts about twice as early: docs/benchmarks/variants.md); ``stick_band`` None (``3*noise_std``, of the measured
+#: noise; the bare component's 0 detects no sticking) and ``stick_samples`` 50 (50 ms at 1 ms: with the observer's
+#: sign a slow reversal is not taken for sticking; the component's 10: docs/benchmarks/compensation.md).
+EXPERIMENT_DEFAULTS = {"noise_std": 1e-3, "u_max": None, "warmup": 50, "stick_band": None, "stick_samples": 50}
+_LOOP_DEFAULTS = {f.name: f.default for f in fields(ModeOptions) if f.default is not MISSING}
+
+
+def _knob(name: str):
+    """The default of the shared knob ``name``: the experiment's own (:data:`EXPERIMENT_DEFAULTS`), else the
+    loop's (:class:`ModeOptions`, whose component defaults are the C components')."""
+    return EXPERIMENT_DEFAULTS[name] if name in EXPERIMENT_DEFAULTS else _LOOP_DEFAULTS[name]
+
+
 @dataclass(frozen=True)
 class CompareOptions:
     """Settings of :func:`compare` (all keyword, validated; units SI).
+
+    The knobs it shares with the loop's options (:data:`LOOP_KNOBS`) take :class:`ModeOptions`' defaults (the C
+    components' where they mirror one), but for the experiment's own, :data:`EXPERIMENT_DEFAULTS`; ModeOptions checks
+    them (:meth:`loop_fields` passes them on).
 
     Parameters
     ----------
@@ -219,45 +248,45 @@ class CompareOptions:
     crossover: float = 20.0
     phase_margin: float = 60.0
     controller: PIDesign | None = None
-    Tc: float = 1e-3
-    Ts: float = 0.01
-    u_max: float | None = None
-    noise_std: float = 1e-3
-    lam: float | None = None
+    Tc: float = _knob("Tc")
+    Ts: float = _knob("Ts")
+    u_max: float | None = _knob("u_max")
+    noise_std: float = _knob("noise_std")
+    lam: float | None = _knob("lam")
     prefit: bool = True
-    lag: bool = True
-    estimator: str = "sliding"
-    iv_map_stderr: float = math.inf
+    lag: bool = _knob("lag")
+    estimator: str = _knob("estimator")
+    iv_map_stderr: float = _knob("iv_map_stderr")
     fixed_method: str = "sliding"
-    ff_input: str = "measured"
+    ff_input: str = _knob("ff_input")
     canudas_input: str = "reference"
-    sign_width: float = 0.0
-    stick_band: float | None = None
-    stick_samples: int = 50
-    T_filter: float = 0.02
-    forgetting: str = "exponential"
-    warmup: int = 50
-    omega_q: float = 500.0
+    sign_width: float = _knob("sign_width")
+    stick_band: float | None = _knob("stick_band")
+    stick_samples: int = _knob("stick_samples")
+    T_filter: float = _knob("T_filter")
+    forgetting: str = _knob("forgetting")
+    warmup: int = _knob("warmup")
+    omega_q: float = _knob("omega_q")
     adaptive_initial: bool = True
     adaptive_start: bool = True
-    switch_in: bool = True
+    switch_in: bool = _knob("switch_in")
     estimator_rows: tuple = ()
     faults: dict | None = None
-    dwell_max: float = 0.01
-    offset: bool = True
-    Vs: float | None = None
-    delta: float | None = None
-    J_design: float | None = None
-    sign_input: str = "observer"
-    observer_bandwidth: float | None = None
+    dwell_max: float = _knob("dwell_max")
+    offset: bool = _knob("offset")
+    Vs: float | None = _knob("Vs")
+    delta: float | None = _knob("delta")
+    J_design: float | None = _knob("J_design")
+    sign_input: str = _knob("sign_input")
+    observer_bandwidth: float | None = _knob("observer_bandwidth")
     compensators: dict | None = None
     reference: object = None
-    encoder_counts: int | None = None
-    delay: int = 0
-    slew_rate: float = math.inf
-    velocity: str = "difference"
-    velocity_bandwidth: float | None = None
-    velocity_model: str = "cv"
+    encoder_counts: int | None = _knob("encoder_counts")
+    delay: int = _knob("delay")
+    slew_rate: float = _knob("slew_rate")
+    velocity: str = _knob("velocity")
+    velocity_bandwidth: float | None = _knob("velocity_bandwidth")
+    velocity_model: str = _knob("velocity_model")
 
     def __post_init__(self):
         check_positive("Tc", self.Tc)
@@ -271,34 +300,14 @@ class CompareOptions:
         if self.reference is not None:  # the reference sets the duration
             object.__setattr__(self, "duration", _reference_duration(self.reference, self.Tc))
         check_positive("duration", self.duration)
-        check_nonnegative("noise_std", self.noise_std)
-        check_estimator("estimator", self.estimator)
-        check_positive_or_inf("iv_map_stderr", self.iv_map_stderr)
-        for key, value, allowed in (("ff_input", self.ff_input, ("measured", "reference")),
-                                    ("canudas_input", self.canudas_input, ("measured", "reference"))):
-            if value not in allowed:
-                raise ParameterError(f"{key} must be one of {allowed}, got {value!r}")
+        if self.canudas_input not in FF_INPUTS:
+            raise ParameterError(f"canudas_input must be one of {FF_INPUTS}, got {self.canudas_input!r}")
+        # the knobs the loop's options carry too: checked once, by ModeOptions (Ts with the design, check_comparison)
+        ModeOptions(**{**self.loop_fields(), "Kp": 0.0, "Ki": 0.0, "u_max": math.inf, "Ts": self.Tc, "Vs": None,
+                       "delta": None, "J_design": None})
         self._check_estimator_rows()
         if self.u_max is not None:
             check_positive("u_max", self.u_max)
-        c = self.encoder_counts
-        if c is not None and (isinstance(c, bool) or not isinstance(c, (int, np.integer)) or c < 1):
-            raise ParameterError(f"encoder_counts must be an integer >= 1 (counts per joint revolution) or None, "
-                                 f"got {c!r}")
-        if isinstance(self.delay, bool) or not isinstance(self.delay, (int, np.integer)) \
-                or not 0 <= self.delay <= DELAY_MAX:
-            raise ParameterError(f"delay must be an integer number of periods in 0..{DELAY_MAX}, got {self.delay!r}")
-        if isinstance(self.slew_rate, bool) or not isinstance(self.slew_rate, (int, float)) \
-                or not self.slew_rate > 0:
-            raise ParameterError(f"slew_rate must be a number > 0 (N·m/s; inf for none), got {self.slew_rate!r}")
-        # the sensor's velocity options, checked (with their names) as the modes will get them
-        ModeOptions(Kp=0.0, Ki=0.0, Tc=self.Tc, Ts=self.Tc, encoder_counts=self.encoder_counts,
-                    velocity=self.velocity, velocity_bandwidth=self.velocity_bandwidth,
-                    velocity_model=self.velocity_model)
-        if self.sign_input not in ("observer", "measured"):
-            raise ParameterError(f"sign_input must be 'observer' or 'measured', got {self.sign_input!r}")
-        if self.observer_bandwidth is not None:
-            check_positive("observer_bandwidth", self.observer_bandwidth)
         if (self.Vs is None) != (self.delta is None):
             raise ParameterError(f"give both Vs and delta, or neither; got Vs={self.Vs!r}, delta={self.delta!r}")
         if self.Vs is not None:
@@ -320,6 +329,11 @@ class CompareOptions:
                 raise ParameterError(f"compensators[{name!r}] must be a callable factory(context) -> compensator, "
                                      f"got {type(factory).__name__}")
         self.check_memory()
+
+    def loop_fields(self) -> dict:
+        """The knobs this comparison shares with the loop's options (:data:`LOOP_KNOBS`), name -> value: the
+        keywords :func:`prepare_comparison` passes on to :class:`ModeOptions` as they are."""
+        return {k: getattr(self, k) for k in LOOP_KNOBS}
 
     def _check_estimator_rows(self) -> None:
         """``estimator_rows``: a tuple of distinct estimators other than ``estimator`` (ParameterError)."""
@@ -662,21 +676,13 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
                      f"adaptive-dob, the supervisor) take the identified one; the PI keeps its design")
     stick_band = 3.0 * noise if o.stick_band is None else o.stick_band
     # the feedforward may use at most half the actuator range; friction levels above it are implausible
-    mo = ModeOptions(Kp=design.Kp, Ki=design.Ki, u_max=u_max, ff_max=0.5 * u_max, Tc=o.Tc, Ts=o.Ts,
-                     noise_std=o.noise_std, J_design=J, lag=o.lag, model=model, estimate=estimate, lam=o.lam,
-                     estimator=o.estimator, Vs=Vs, delta=delta, sign_width=o.sign_width, T_filter=o.T_filter,
-                     forgetting=o.forgetting, stick_band=stick_band,
-                     stick_samples=o.stick_samples, dwell_max=o.dwell_max, offset=o.offset, warmup=o.warmup,
-                     omega_q=o.omega_q, initial=initial, start=start, sign_input=o.sign_input,
-                     observer_bandwidth=o.observer_bandwidth,
-                     omega_r=residual_cutoff(J, noise, o.Tc, friction_level(exp, F_peak),
-                                             share=residual_share(exp, stick_band),
-                                             omega_max=observer_max(Tc=o.Tc, encoder_counts=o.encoder_counts,
-                                                                    velocity=o.velocity,
-                                                                    velocity_bandwidth=o.velocity_bandwidth)),
-                     encoder_counts=o.encoder_counts, delay=o.delay, slew_rate=o.slew_rate, velocity=o.velocity,
-                     velocity_bandwidth=o.velocity_bandwidth, velocity_model=o.velocity_model,
-                     switch_in=o.switch_in, J_n=J_n, iv_map_stderr=o.iv_map_stderr)
+    omega_r = residual_cutoff(J, noise, o.Tc, friction_level(exp, F_peak), share=residual_share(exp, stick_band),
+                              omega_max=observer_max(Tc=o.Tc, encoder_counts=o.encoder_counts, velocity=o.velocity,
+                                                     velocity_bandwidth=o.velocity_bandwidth))
+    # the shared knobs as given, then what the experiment measured or chose for this joint
+    mo = ModeOptions(**{**o.loop_fields(), "Kp": design.Kp, "Ki": design.Ki, "u_max": u_max, "ff_max": 0.5 * u_max,
+                        "J_design": J, "Vs": Vs, "delta": delta, "stick_band": stick_band, "model": model,
+                        "estimate": estimate, "initial": initial, "start": start, "omega_r": omega_r, "J_n": J_n})
     opts = {mode: replace(mo, ff_input=o.canudas_input if mode == "canudas" else o.ff_input) for mode in run_modes}
     rows = {label: replace(mo, ff_input=o.ff_input, estimator=e) for label, e in o.row_labels.items()}
     return ComparisonSetup(modes=tuple(run_modes), reference=ref, design=design, mode_options=opts,

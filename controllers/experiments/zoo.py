@@ -59,7 +59,7 @@ from __future__ import annotations
 import functools
 import math
 import os
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -71,7 +71,7 @@ from controllers.simulation.batch import run_batch
 from controllers.simulation.memory import PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
 from controllers.simulation.closed_loop import plant_table, run_own
 from controllers.simulation.compensators import MODES, build_mode
-from plant.errors import ParameterError, check_nonnegative, check_positive, check_positive_or_inf
+from plant.errors import ParameterError, check_nonnegative, check_positive
 from plant.models import plant_from_dict
 from plant.results import json_safe
 from plant.stribeck_map import stribeck
@@ -252,9 +252,22 @@ def draw_plants(n: int, reference, *, seed: int = 0, box: ZooBox | None = None) 
     return [_draw_one(rng, box, peak_w, peak_a, duration) for _ in range(int(n))]
 
 
+#: The fields :class:`ZooOptions` shares with :class:`controllers.experiments.compare.CompareOptions`, every joint's
+#: comparison: their defaults are CompareOptions' and CompareOptions checks them (:meth:`ZooOptions.compare_options`).
+SHARED_FIELDS = ("duration", "seed", "modes", "reference", "encoder_counts", "delay", "slew_rate", "velocity",
+                 "estimator", "iv_map_stderr", "switch_in")
+#: Those a ``base`` comparison sets (then left at their defaults here).
+BASE_FIELDS = ("reference", "encoder_counts", "delay", "slew_rate", "velocity")
+_COMPARE = {f.name: f.default for f in fields(CompareOptions) if f.name in SHARED_FIELDS}
+
+
 @dataclass(frozen=True)
 class ZooOptions:
     """Settings of :func:`run_zoo` (keyword-only, validated).
+
+    The fields it shares with every joint's comparison (:data:`SHARED_FIELDS`) take
+    :class:`controllers.experiments.compare.CompareOptions`' defaults and are checked by it
+    (:meth:`compare_options`).
 
     Parameters
     ----------
@@ -338,23 +351,23 @@ class ZooOptions:
     """
 
     n: int = 100
-    duration: float = 120.0
-    seed: int = 0
-    modes: tuple = MODES
+    duration: float = _COMPARE["duration"]
+    seed: int = _COMPARE["seed"]
+    modes: tuple = _COMPARE["modes"]
     box: ZooBox = field(default_factory=ZooBox)
     group: int = 8
     workers: int | None = None
     scheduler: object = None
     min_degradation: float = 0.01
-    reference: object = None
-    encoder_counts: int | None = None
-    delay: int = 0
-    slew_rate: float = math.inf
+    reference: object = _COMPARE["reference"]
+    encoder_counts: int | None = _COMPARE["encoder_counts"]
+    delay: int = _COMPARE["delay"]
+    slew_rate: float = _COMPARE["slew_rate"]
     compensators: dict | None = None
-    velocity: str = "difference"
-    estimator: str = "sliding"
-    iv_map_stderr: float = math.inf
-    switch_in: bool = True
+    velocity: str = _COMPARE["velocity"]
+    estimator: str = _COMPARE["estimator"]
+    iv_map_stderr: float = _COMPARE["iv_map_stderr"]
+    switch_in: bool = _COMPARE["switch_in"]
     J_design_factor: float | None = None
     base: CompareOptions | None = None
     export: str | None = None
@@ -370,9 +383,7 @@ class ZooOptions:
             if not isinstance(self.base, CompareOptions):
                 raise ParameterError(f"base must be a CompareOptions (e.g. a scenario's options), got "
                                      f"{type(self.base).__name__}")
-            set_too = [k for k, v in (("reference", self.reference is not None), ("encoder_counts",
-                       self.encoder_counts is not None), ("delay", self.delay != 0), ("slew_rate",
-                       self.slew_rate != math.inf), ("velocity", self.velocity != "difference")) if v]
+            set_too = [k for k in BASE_FIELDS if getattr(self, k) != _COMPARE[k]]
             if set_too:
                 raise ParameterError(f"{', '.join(set_too)}: set by base (the comparison every joint is placed "
                                      f"into); leave them at their defaults")
@@ -389,11 +400,7 @@ class ZooOptions:
             v = getattr(self, name)
             if isinstance(v, bool) or int(v) != v or v < 1:
                 raise ParameterError(f"{name} must be an integer >= 1, got {v!r}")
-        if not float(self.duration) > 0:
-            raise ParameterError(f"duration must be > 0, got {self.duration!r}")
-        bad = [m for m in self.modes if m not in MODES]
-        if bad:
-            raise ParameterError(f"unknown mode(s) {bad}; known {list(MODES)}")
+        self.compare_options()  # the fields it shares with compare: checked once, by CompareOptions
         object.__setattr__(self, "modes", tuple(m for m in MODES if m in set(self.modes) | {"none", "frictionless"}))
         if self.compensators:
             compensator_factories(self.compensators, source="ZooOptions.compensators")  # importable, named well
@@ -402,9 +409,6 @@ class ZooOptions:
         object.__setattr__(self, "min_degradation", check_nonnegative("min_degradation", self.min_degradation))
         if self.J_design_factor is not None:
             object.__setattr__(self, "J_design_factor", check_positive("J_design_factor", self.J_design_factor))
-        check_positive_or_inf("iv_map_stderr", self.iv_map_stderr)
-        if not isinstance(self.switch_in, bool):
-            raise ParameterError(f"switch_in must be True or False, got {self.switch_in!r}")
 
     def compare_options(self) -> CompareOptions:
         """The :class:`controllers.experiments.compare.CompareOptions` every joint is prepared and run with: this
@@ -417,10 +421,8 @@ class ZooOptions:
             return replace(self.base, seed=int(self.seed), modes=self.modes, estimator=self.estimator,
                            iv_map_stderr=self.iv_map_stderr, switch_in=self.switch_in, u_max=None, J_design=None,
                            controller=None, compensators=None)
-        return CompareOptions(duration=float(self.duration), seed=int(self.seed), modes=self.modes,
-                              reference=self.reference, encoder_counts=self.encoder_counts, delay=self.delay,
-                              slew_rate=self.slew_rate, velocity=self.velocity, estimator=self.estimator,
-                              iv_map_stderr=self.iv_map_stderr, switch_in=self.switch_in)
+        return CompareOptions(**{**{k: getattr(self, k) for k in SHARED_FIELDS}, "duration": float(self.duration),
+                                 "seed": int(self.seed)})
 
 
 #: Outcome of one (joint, mode), :meth:`ZooResult.status`.

@@ -54,6 +54,7 @@ from typing import NamedTuple
 
 from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
 from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
+from adaptive_ff.compensation.defaults import c_defaults
 from adaptive_ff.compensation.supervisor import FeedforwardSupervisor
 from controllers._cctl import ffi, lib
 from controllers.peers.dob import DisturbanceObserver
@@ -80,6 +81,7 @@ _COMPOSITES = {
                                             lib.ctl_eq4_dob_observe),
 }
 _BY_CTYPE = {c.ctype: c for c in _COMPOSITES.values()}
+_SWITCH_IN = c_defaults("aff_switch_in_config")
 
 
 @dataclass(frozen=True)
@@ -142,11 +144,11 @@ class ResidualSwitchIn:
     J_n: float
     Kp: float
     Ki: float
-    window: float = 2.0
-    ratio: float = 0.1
-    share: float = 0.1
-    fade_in: float = 0.5
-    trial_margin: float = 0.03
+    window: float = _SWITCH_IN["window"]  # the C defaults, aff_switch_in_default_config()
+    ratio: float = _SWITCH_IN["ratio"]
+    share: float = _SWITCH_IN["share"]
+    fade_in: float = _SWITCH_IN["fade_in"]
+    trial_margin: float = _SWITCH_IN["trial_margin"]
 
     def __post_init__(self):
         for name in ("Tc", "J_n", "Kp", "window", "ratio", "share"):

@@ -27,38 +27,47 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+import numpy as np
+
 from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
 from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart, RobustAdaptiveFeedforward
-from adaptive_ff.compensation.feedforward import FrictionFeedforward
+from adaptive_ff.compensation.defaults import c_defaults
+from adaptive_ff.compensation.feedforward import FF_INPUTS, FrictionFeedforward
 from adaptive_ff.compensation.velocity_input import LoopModel, SignObserver
 from adaptive_ff.compensation.gate import OutlierGate
-from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
+from adaptive_ff.compensation.sliding_estimator import FORGETTINGS, SlidingFrictionEstimator
 from adaptive_ff.compensation.supervisor import FeedforwardSupervisor
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from controllers.design.pi import PIController
 from controllers.peers.adaptive_dob import AdaptiveCompensator, AdaptiveDOBCompensator, ResidualSwitchIn
 from controllers.peers.canudas import CanudasCompensator
 from controllers.peers.dob import DisturbanceObserver
+from controllers.simulation.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
 from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive, check_positive_or_inf
 
-__all__ = ["MODES", "ESTIMATORS", "check_estimator", "ModeOptions", "TrueFriction", "build_mode", "build_modes",
+__all__ = ["MODES", "ESTIMATORS", "ESTIMATOR_BUILDERS", "check_estimator", "ModeOptions", "TrueFriction",
+           "build_mode", "build_modes",
            "REGISTRY", "SUPERVISED_MODES", "build_supervisor", "own_supervisor"]
 
 #: Modes whose compensation a :class:`adaptive_ff.compensation.supervisor.FeedforwardSupervisor` watches when
 #: ``ModeOptions.supervise`` (the adaptive ones: their estimate may be wrong).
 SUPERVISED_MODES = ("adaptive", "adaptive-dob")
 
+#: The C defaults (``aff_X_default_config()``) of the components whose settings :class:`ModeOptions` carries: the
+#: one statement of those knobs' defaults (the experiment's own choices are :class:`controllers.experiments.compare.
+#: CompareOptions`'s, named there as its overrides).
+_FF = c_defaults("aff_fixed_ff_config")
+_ROBUST = c_defaults("aff_robust_ff_config")
+_SLIDING = c_defaults("aff_sliding_config")
+_SUP = c_defaults("aff_supervisor_config")
+_DOB = c_defaults("aff_dob_config")
+_SWITCH_IN = c_defaults("aff_switch_in_config")
+
 #: Default sample time (s) and memory (s, ``lam = 1 - Ts/memory``) of the ``eq4`` estimator
 #: (``ModeOptions.iv_Ts``, ``lam``): the IV removes the noise bias that keeps eq. 4's LS at 10 ms, and at 2 ms the
 #: backward differences of eq. 4 misstate the lag less (docs/theory.md).
 _IV_TS = 0.002
 _IV_MEMORY = 5.0
-
-#: Estimators of the ``adaptive`` mode: the sliding-regime inverse-dynamics RLS (default), the paper's eq. 4
-#: estimated consistently in the closed loop by recursive IV on the sliding samples (``eq4``, docs/theory.md), or
-#: eq. 4 by the paper's RLS as printed (eqs. 10-13) at Ts (``eq4-rls``, the baseline: biased in the closed loop).
-ESTIMATORS = ("sliding", "eq4", "eq4-rls")
-
 
 def check_estimator(name: str, value) -> None:
     """Raise :class:`plant.errors.ParameterError` naming ``name`` unless ``value`` is one of :data:`ESTIMATORS`;
@@ -89,6 +98,10 @@ class TrueFriction:
 @dataclass(frozen=True)
 class ModeOptions:
     """Settings of a closed-loop run in a named mode (:func:`controllers.simulation.closed_loop.run_mode`).
+
+    A field that sets a component's C setting takes that setting's C default (``aff_X_default_config()``, read by
+    :func:`adaptive_ff.compensation.defaults.c_defaults`) and leaves its range to the component; ``estimator`` is a
+    name of :data:`ESTIMATORS`, built by :data:`ESTIMATOR_BUILDERS`.
 
     Parameters
     ----------
@@ -246,37 +259,37 @@ class ModeOptions:
     Ki: float
     u_max: float = math.inf
     Tc: float = 1e-3
-    Ts: float = 0.01
+    Ts: float = _SLIDING["Ts"]
     noise_std: float = 0.0
     J_design: float | None = None
     estimate: FrictionEstimate | None = None
     model: RegressionModel | None = None
-    estimator: str = "sliding"
+    estimator: str = DEFAULT_ESTIMATOR
     Vs: float | None = None
     delta: float | None = None
     lam: float | None = None
-    P0: float = 1e4
-    warmup: int = 200
-    lag: bool = True
-    forgetting: str = "exponential"
-    T_filter: float = 0.02
+    P0: float = _SLIDING["P0"]
+    warmup: int = _ROBUST["warmup"]
+    lag: bool = bool(_FF["lag"])
+    forgetting: str = FORGETTINGS[_SLIDING["forgetting"]]
+    T_filter: float = _SLIDING["T_filter"]
     initial: FrictionEstimate | None = None
-    dwell_max: float = 0.01
-    offset: bool = True
-    lag_margin: float = 1.0
-    lag_margin_max: float = 0.05
-    max_rel_stderr: float = 0.05
-    lag_memory: float = 10.0
-    lag_zero: float = 3.0
-    project: bool = True
+    dwell_max: float = _SLIDING["dwell_max"]
+    offset: bool = bool(_SLIDING["offset"])
+    lag_margin: float = _ROBUST["lag_margin"]
+    lag_margin_max: float = _ROBUST["lag_margin_max"]
+    max_rel_stderr: float = _ROBUST["max_rel_stderr"]
+    lag_memory: float = _ROBUST["lag_memory"]
+    lag_zero: float = _ROBUST["lag_zero"]
+    project: bool = bool(_ROBUST["project"])
     start: FeedforwardStart | None = None
     ff_max: float | None = None
-    ff_input: str = "measured"
-    sign_width: float = 0.0
-    stick_band: float = 0.0
-    stick_samples: int = 10
+    ff_input: str = FF_INPUTS[_FF["at_ref"]]
+    sign_width: float = _FF["sign_width"]
+    stick_band: float = _FF["stick_band"]
+    stick_samples: int = _FF["stick_samples"]
     J_n: float | None = None
-    omega_q: float = 500.0
+    omega_q: float = _DOB["omega_q"]
     omega_r: float = 1000.0
     sensor_gate: bool = True
     w_limit: float | None = None
@@ -292,20 +305,27 @@ class ModeOptions:
     velocity_bandwidth: float | None = None
     velocity_model: str = "cv"
     switch_in: bool = True
-    switch_in_ratio: float = 0.1
+    switch_in_ratio: float = _SWITCH_IN["ratio"]
     supervise: bool = True
-    supervise_window: float = 2.0
-    supervise_margin: float = 0.1
+    supervise_window: float = _SUP["window"]
+    supervise_margin: float = _SUP["margin"]
     supervise_omega: float | None = None
     supervise_tracking: bool = True
-    supervise_track_margin: float = 1.0
-    supervise_rest_band: float | None = 0.0
+    supervise_track_margin: float = _SUP["track_margin"]
+    supervise_rest_band: float | None = _SUP["rest_band"]
     iv_Ts: float | None = None
     iv_map_stderr: float = math.inf
 
     def __post_init__(self):
         check_positive("Tc", self.Tc)
         check_multiple("Ts", self.Ts, "Tc", self.Tc)
+        check_nonnegative("noise_std", self.noise_std)
+        c = self.encoder_counts
+        if c is not None and (isinstance(c, bool) or not isinstance(c, (int, np.integer)) or c < 1):
+            raise ParameterError(f"encoder_counts must be an integer >= 1 (counts per joint revolution, the sensor's "
+                                 f"counts_per_rev) or None, got {c!r}")
+        if isinstance(self.slew_rate, bool) or not (isinstance(self.slew_rate, (int, float)) and self.slew_rate > 0):
+            raise ParameterError(f"slew_rate must be a number > 0 (N·m/s; inf for none), got {self.slew_rate!r}")
         check_positive("omega_r", self.omega_r)
         if self.J_n is not None:
             check_positive("J_n", self.J_n)
@@ -313,8 +333,8 @@ class ModeOptions:
             check_multiple("iv_Ts", self.iv_Ts, "Tc", self.Tc)
         check_positive_or_inf("iv_map_stderr", self.iv_map_stderr)
         check_estimator("estimator", self.estimator)
-        if self.ff_input not in ("reference", "measured"):
-            raise ParameterError(f"ff_input must be 'reference' or 'measured', got {self.ff_input!r}")
+        if self.ff_input not in FF_INPUTS:
+            raise ParameterError(f"ff_input must be one of {FF_INPUTS}, got {self.ff_input!r}")
         if self.stick_input not in ("model", "reference"):
             raise ParameterError(f"stick_input must be 'model' or 'reference', got {self.stick_input!r}")
         if self.sign_input not in ("observer", "measured"):
@@ -466,29 +486,45 @@ def _adaptive(plant, o):
 
 
 def _adaptive_feedforward(plant, o):
-    """The adaptive feedforward alone (either estimator): ``adaptive`` without the switch-in, the feedforward part
-    of ``adaptive-dob``."""
+    """The adaptive feedforward alone (the estimator of ``o.estimator``, :data:`ESTIMATOR_BUILDERS`): ``adaptive``
+    without the switch-in, the feedforward part of ``adaptive-dob``."""
     J, ff_max = _ctx(plant, o)
-    lam = 0.995 if o.lam is None else o.lam
-    Ts = o.Ts
-    if o.estimator == "eq4":
-        Ts = o.Tc * max(1, round(_IV_TS / o.Tc)) if o.iv_Ts is None else o.iv_Ts
-        lam = 1.0 - Ts / _IV_MEMORY if o.lam is None else o.lam
-    if o.estimator in ("eq4", "eq4-rls"):
-        if o.model is None:
-            raise ParameterError(f"mode 'adaptive' with estimator {o.estimator!r} needs model=RegressionModel(Vs, "
-                                 f"delta, ...)")
-        if o.estimator == "eq4-rls":  # the paper's prototype: RLS on every sample, the bare feedforward
-            return plant, AdaptiveFrictionFeedforward(o.model, Ts=o.Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup,
-                                                      lag=o.lag, ff_max=ff_max, ff_input=o.ff_input)
-        m = o.model  # with the constant-torque column (offset), as the sliding estimator's
-        model = RegressionModel(m.Vs, m.delta, lag=m.lag, stribeck=m.stribeck, offset=bool(o.offset))
-        return plant, AdaptiveFrictionFeedforward(model, Ts=Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup,
-                                                  lag=o.lag, ff_max=ff_max, ff_input=o.ff_input, iv=True,
-                                                  w_band=m.Vs if m.stribeck else 0.0, sign_width=o.sign_width,
-                                                  stick_band=o.stick_band, stick_samples=o.stick_samples,
-                                                  loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o),
-                                                  start=o.start, map_rel_stderr=o.iv_map_stderr)
+    return plant, ESTIMATOR_BUILDERS[o.estimator](o, J, ff_max)
+
+
+def _eq4_model(o) -> RegressionModel:
+    """The regression structure of the eq. 4 estimators (``o.model``; ParameterError without it)."""
+    if o.model is None:
+        raise ParameterError(f"mode 'adaptive' with estimator {o.estimator!r} needs model=RegressionModel(Vs, "
+                             f"delta, ...)")
+    return o.model
+
+
+def _eq4_rls(o, J: float, ff_max: float) -> AdaptiveFrictionFeedforward:
+    """Estimator ``eq4-rls``: the paper's prototype, RLS on every sample at ``Ts``, the bare feedforward."""
+    lam = _SLIDING["lam"] if o.lam is None else o.lam
+    return AdaptiveFrictionFeedforward(_eq4_model(o), Ts=o.Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup, lag=o.lag,
+                                       ff_max=ff_max, ff_input=o.ff_input)
+
+
+def _eq4_iv(o, J: float, ff_max: float) -> AdaptiveFrictionFeedforward:
+    """Estimator ``eq4``: eq. 4 by recursive IV at ``iv_Ts`` on the sliding samples, with the constant-torque column
+    (offset) as the sliding estimator's."""
+    m = _eq4_model(o)
+    Ts = o.Tc * max(1, round(_IV_TS / o.Tc)) if o.iv_Ts is None else o.iv_Ts
+    lam = 1.0 - Ts / _IV_MEMORY if o.lam is None else o.lam
+    model = RegressionModel(m.Vs, m.delta, lag=m.lag, stribeck=m.stribeck, offset=bool(o.offset))
+    return AdaptiveFrictionFeedforward(model, Ts=Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup, lag=o.lag,
+                                       ff_max=ff_max, ff_input=o.ff_input, iv=True,
+                                       w_band=m.Vs if m.stribeck else 0.0, sign_width=o.sign_width,
+                                       stick_band=o.stick_band, stick_samples=o.stick_samples,
+                                       loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o),
+                                       start=o.start, map_rel_stderr=o.iv_map_stderr)
+
+
+def _sliding(o, J: float, ff_max: float) -> RobustAdaptiveFeedforward:
+    """Estimator ``sliding``: the sliding-regime inverse-dynamics RLS under the robust feedforward."""
+    lam = _SLIDING["lam"] if o.lam is None else o.lam
     Vs = o.Vs if o.Vs is not None else (o.model.Vs if o.model is not None else None)
     delta = o.delta if o.delta is not None else (o.model.delta if o.model is not None else None)
     if Vs is None or delta is None:
@@ -497,14 +533,20 @@ def _adaptive_feedforward(plant, o):
     est = SlidingFrictionEstimator(Vs, delta, Tc=o.Tc, Ts=o.Ts, T_filter=o.T_filter, lam=lam,
                                    forgetting=o.forgetting, P0=o.P0, initial=o.initial, J_guess=J, lag=o.lag,
                                    dwell_max=o.dwell_max, offset=o.offset, gate=OutlierGate(max_step=gate_step))
-    return plant, RobustAdaptiveFeedforward(est, dt=o.Tc, lag=o.lag, ff_max=ff_max, sign_width=o.sign_width,
-                                            stick_band=o.stick_band, stick_samples=o.stick_samples,
-                                            warmup=o.warmup, lag_margin=o.lag_margin,
-                                            lag_margin_max=o.lag_margin_max,
-                                            max_rel_stderr=o.max_rel_stderr, lag_memory=o.lag_memory,
-                                            lag_zero=o.lag_zero, project=o.project,
-                                            ff_input=o.ff_input, start=o.start,
-                                            loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
+    return RobustAdaptiveFeedforward(est, dt=o.Tc, lag=o.lag, ff_max=ff_max, sign_width=o.sign_width,
+                                     stick_band=o.stick_band, stick_samples=o.stick_samples, warmup=o.warmup,
+                                     lag_margin=o.lag_margin, lag_margin_max=o.lag_margin_max,
+                                     max_rel_stderr=o.max_rel_stderr, lag_memory=o.lag_memory, lag_zero=o.lag_zero,
+                                     project=o.project, ff_input=o.ff_input, start=o.start,
+                                     loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
+
+
+#: Estimator name (:data:`controllers.simulation.estimators.ESTIMATORS`, the one list of names: the options' check,
+#: the compare CLI's ``--estimator`` choices) -> builder ``(options, design inertia J, feedforward bound) -> adaptive
+#: feedforward`` of mode ``adaptive``.
+ESTIMATOR_BUILDERS = {"sliding": _sliding, "eq4": _eq4_iv, "eq4-rls": _eq4_rls}
+if tuple(ESTIMATOR_BUILDERS) != ESTIMATORS:  # pragma: no cover - a builder per registered name, in its order
+    raise ImportError(f"ESTIMATOR_BUILDERS {tuple(ESTIMATOR_BUILDERS)} differ from ESTIMATORS {ESTIMATORS}")
 
 
 def _adaptive_dob(plant, o):

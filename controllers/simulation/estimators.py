@@ -1,0 +1,26 @@
+"""The estimators of mode ``adaptive`` by name: the registry the options, the builders and the CLI share.
+
+This module imports no C extension, so that ``adaptive-ff compare --help`` lists the choices without loading the
+C core. :data:`controllers.simulation.compensators.ESTIMATOR_BUILDERS` holds the builder of each name (the same
+names, in this order, checked at its import); :class:`controllers.simulation.compensators.ModeOptions` checks a name
+against :data:`ESTIMATORS` and the compare CLI's ``--estimator`` offers them as its choices.
+"""
+
+from __future__ import annotations
+
+__all__ = ["ESTIMATORS", "ESTIMATOR_INFO", "DEFAULT_ESTIMATOR"]
+
+#: Estimator name -> what it is (one line). The sliding-regime inverse-dynamics RLS (the default); the paper's eq. 4
+#: estimated consistently in the closed loop by recursive IV on the sliding samples (``eq4``, docs/theory.md); eq. 4
+#: by the paper's RLS as printed (eqs. 10-13) at Ts (``eq4-rls``, the baseline: biased in the closed loop).
+ESTIMATOR_INFO = {
+    "sliding": "sliding-regime inverse-dynamics RLS",
+    "eq4": "the paper's eq. 4 by recursive IV on the sliding samples",
+    "eq4-rls": "eq. 4 by the paper's RLS, eqs. 10-13 as printed",
+}
+
+#: The names, in the registry's order.
+ESTIMATORS = tuple(ESTIMATOR_INFO)
+
+#: The default estimator (the first).
+DEFAULT_ESTIMATOR = ESTIMATORS[0]

@@ -1,0 +1,232 @@
+"""Each default of a component's settings is stated once, by its C ``aff_X_default_config()``, and each range is
+checked once, by its C ``aff_X_init``: the Python keywords and option fields that mirror a C field take their
+defaults from :func:`adaptive_ff.compensation.defaults.c_defaults`, and a value out of range raises the
+ParameterError whose sentence is the C code's, naming the field.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import math
+
+import pytest
+
+from adaptive_ff._caff import ffi, lib
+from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart, RobustAdaptiveFeedforward
+from adaptive_ff.compensation.defaults import c_defaults
+from adaptive_ff.compensation.feedforward import FF_INPUTS, FrictionFeedforward
+from adaptive_ff.compensation.gate import OutlierGate, RangeGate
+from adaptive_ff.compensation.sliding_estimator import FORGETTINGS, SlidingFrictionEstimator
+from adaptive_ff.compensation.supervisor import FeedforwardSupervisor
+from adaptive_ff.identification.regression import FrictionEstimate
+from controllers.peers.adaptive_dob import ResidualSwitchIn
+from controllers.simulation.compensators import ModeOptions
+from plant.component import SettingTypeError
+from plant.errors import ParameterError
+
+TC = 1e-3
+_flag = bool
+_same = float
+
+
+def _at(ctype: str, path: str):
+    v = c_defaults(ctype)
+    for k in path.split("."):
+        v = v[k]
+    return v
+
+
+def _defaults(obj) -> dict:
+    """Keyword -> default of a class's constructor (a dataclass's fields)."""
+    if dataclasses.is_dataclass(obj):
+        return {f.name: f.default for f in dataclasses.fields(obj) if f.default is not dataclasses.MISSING}
+    return {k: p.default for k, p in inspect.signature(obj).parameters.items() if p.default is not p.empty}
+
+
+#: (class, its keyword, the C settings, the C field it mirrors, the C value as the keyword's): every Python default
+#: that states a C default. The keywords whose None stands for a C sentinel (the supervisor's ``settle`` -1 and
+#: ``Kp`` 0, the estimator's ``P_max`` and ``w_band_min`` 0) are listed in SENTINELS.
+MIRRORS = [
+    *[(OutlierGate, k, "aff_gate_config", k, _same) for k in ("max_step", "n_sigma", "alpha")],
+    (OutlierGate, "max_consecutive", "aff_gate_config", "max_consecutive", int),
+    *[(RangeGate, k, "aff_range_gate_config", k, _same) for k in ("x_max", "factor", "floor", "memory")],
+    (RangeGate, "max_consecutive", "aff_range_gate_config", "max_consecutive", int),
+    *[(cls, k, "aff_fixed_ff_config", k, _same) for cls in (FrictionFeedforward, RobustAdaptiveFeedforward)
+      for k in ("ff_max", "sign_width", "stick_band", "w_max")],
+    *[(cls, "stick_samples", "aff_fixed_ff_config", "stick_samples", int)
+      for cls in (FrictionFeedforward, RobustAdaptiveFeedforward)],
+    *[(cls, "lag", "aff_fixed_ff_config", "lag", _flag) for cls in (FrictionFeedforward, RobustAdaptiveFeedforward)],
+    *[(cls, "ff_input", "aff_fixed_ff_config", "at_ref", FF_INPUTS.__getitem__)
+      for cls in (FrictionFeedforward, RobustAdaptiveFeedforward)],
+    *[(RobustAdaptiveFeedforward, k, "aff_robust_ff_config", k, _same)
+      for k in ("fade_in", "tau_max", "consistency", "lag_margin", "lag_margin_max", "max_rel_stderr", "lag_memory",
+                "lag_zero")],
+    (RobustAdaptiveFeedforward, "warmup", "aff_robust_ff_config", "warmup", int),
+    (RobustAdaptiveFeedforward, "project", "aff_robust_ff_config", "project", _flag),
+    (FeedforwardStart, "gain", "aff_start_config", "gain", _same),
+    (FeedforwardStart, "ff_input", "aff_start_config", "at_ref", FF_INPUTS.__getitem__),
+    *[(SlidingFrictionEstimator, k, "aff_sliding_config", k, _same)
+      for k in ("Ts", "T_filter", "lam", "P0", "J_max", "tau_max", "dwell_max")],
+    (SlidingFrictionEstimator, "J_guess", "aff_sliding_config", "initial_J", _same),
+    (SlidingFrictionEstimator, "forgetting", "aff_sliding_config", "forgetting", FORGETTINGS.__getitem__),
+    *[(SlidingFrictionEstimator, k, "aff_sliding_config", k, _flag) for k in ("lag", "offset")],
+    *[(FeedforwardSupervisor, k, "aff_supervisor_config", k, _same)
+      for k in ("window", "margin", "rest_band", "Ki", "track_margin")],
+    (FeedforwardSupervisor, "delay", "aff_supervisor_config", "delay", int),
+    *[(ResidualSwitchIn, k, "aff_switch_in_config", k, _same)
+      for k in ("window", "ratio", "share", "fade_in", "trial_margin")],
+    # the loop's options: the components' defaults (the experiment's own overrides are CompareOptions')
+    *[(ModeOptions, k, "aff_sliding_config", k, _same) for k in ("Ts", "P0", "T_filter", "dwell_max")],
+    (ModeOptions, "forgetting", "aff_sliding_config", "forgetting", FORGETTINGS.__getitem__),
+    (ModeOptions, "offset", "aff_sliding_config", "offset", _flag),
+    (ModeOptions, "warmup", "aff_robust_ff_config", "warmup", int),
+    (ModeOptions, "project", "aff_robust_ff_config", "project", _flag),
+    *[(ModeOptions, k, "aff_robust_ff_config", k, _same)
+      for k in ("lag_margin", "lag_margin_max", "max_rel_stderr", "lag_memory", "lag_zero")],
+    (ModeOptions, "lag", "aff_fixed_ff_config", "lag", _flag),
+    (ModeOptions, "ff_input", "aff_fixed_ff_config", "at_ref", FF_INPUTS.__getitem__),
+    *[(ModeOptions, k, "aff_fixed_ff_config", k, _same) for k in ("sign_width", "stick_band")],
+    (ModeOptions, "stick_samples", "aff_fixed_ff_config", "stick_samples", int),
+    (ModeOptions, "omega_q", "aff_dob_config", "omega_q", _same),
+    (ModeOptions, "switch_in_ratio", "aff_switch_in_config", "ratio", _same),
+    *[(ModeOptions, f"supervise_{k}", "aff_supervisor_config", k, _same)
+      for k in ("window", "margin", "track_margin", "rest_band")],
+]
+#: Keywords whose default None is a C sentinel: (class, keyword, C settings, C field, the sentinel).
+SENTINELS = [(FeedforwardSupervisor, "settle", "aff_supervisor_config", "settle", -1.0),
+             (FeedforwardSupervisor, "Kp", "aff_supervisor_config", "Kp", 0.0),
+             (SlidingFrictionEstimator, "P_max", "aff_sliding_config", "P_max", 0.0),
+             (SlidingFrictionEstimator, "w_band_min", "aff_sliding_config", "w_band_min", 0.0)]
+#: The classes and their settings: a keyword named as a field of these settings must be listed above.
+CLASSES = {OutlierGate: ("aff_gate_config",), RangeGate: ("aff_range_gate_config",),
+           FrictionFeedforward: ("aff_fixed_ff_config",),
+           RobustAdaptiveFeedforward: ("aff_fixed_ff_config", "aff_robust_ff_config"),
+           FeedforwardStart: ("aff_start_config",), SlidingFrictionEstimator: ("aff_sliding_config",),
+           FeedforwardSupervisor: ("aff_supervisor_config",), ResidualSwitchIn: ("aff_switch_in_config",)}
+
+
+@pytest.mark.parametrize("cls,key,ctype,path,conv", MIRRORS, ids=lambda x: getattr(x, "__name__", str(x)))
+def test_a_python_default_is_its_c_default(cls, key, ctype, path, conv):
+    got = _defaults(cls)[key]
+    want = conv(_at(ctype, path))
+    assert got == want and type(got) is type(want), (cls.__name__, key, got, want)
+
+
+def test_every_keyword_named_as_a_c_field_is_a_listed_mirror():
+    listed = {(c, k) for c, k, *_ in MIRRORS} | {(c, k) for c, k, *_ in SENTINELS}
+    for cls, ctypes in CLASSES.items():
+        fields = {k for t in ctypes for k, v in c_defaults(t).items() if not isinstance(v, dict)}  # not the parts
+        for key in _defaults(cls):
+            if key in fields:
+                assert (cls, key) in listed, f"{cls.__name__}.{key} mirrors a C field but is not checked here"
+
+
+@pytest.mark.parametrize("cls,key,ctype,path,sentinel", SENTINELS, ids=lambda x: getattr(x, "__name__", str(x)))
+def test_a_none_default_is_the_c_sentinel(cls, key, ctype, path, sentinel):
+    assert _defaults(cls)[key] is None and _at(ctype, path) == sentinel
+
+
+def test_c_defaults_are_the_bytes_of_every_default_config():
+    names = [n[:-len("_default_config")] for n in dir(lib) if n.endswith("_default_config")]
+    assert len(names) >= 15
+    for n in names:
+        ctype = f"{n}_config"
+        want = getattr(lib, f"{n}_default_config")()
+        got = ffi.new(f"{ctype} *", c_defaults(ctype))[0]
+        assert _leaves(got) == _leaves(want), ctype
+    assert c_defaults("aff_residual_config")["switch_in"]["share"] == 0.1
+    with pytest.raises(ParameterError, match="aff_nothing_config"):
+        c_defaults("aff_nothing_config")
+
+
+def _leaves(x, path=""):
+    """Every number of a C struct by its path (the padding between fields left out)."""
+    if not isinstance(x, ffi.CData):
+        return {path: x}
+    t = ffi.typeof(x)
+    if t.kind == "struct":
+        return {k: v for name, _ in t.fields for k, v in _leaves(getattr(x, name), f"{path}.{name}").items()}
+    if t.kind == "array":
+        return {f"{path}[{i}]": x[i] for i in range(len(x))}
+    raise AssertionError(t)
+
+
+def _msg(code: str) -> str:
+    return ffi.string(lib.aff_error_message(getattr(lib, code))).decode()
+
+
+EST = FrictionEstimate(J=0.5, tau=0.01, sigma=1.0, Fc=1.0, Fs=1.5, offset=0.0, Vs=0.02, delta=1.0, J_alt=math.nan)
+SUP = dict(Tc=TC, J_n=0.5, omega=20.0)
+#: (constructor, keyword, bad value, the C code whose sentence the error carries)
+REFUSED = [
+    (OutlierGate, "n_sigma", 0.0, "AFF_ERR_GATE_N_SIGMA"), (OutlierGate, "alpha", 1.5, "AFF_ERR_GATE_ALPHA"),
+    (OutlierGate, "max_step", -1.0, "AFF_ERR_GATE_MAX_STEP"),
+    (OutlierGate, "max_consecutive", 0, "AFF_ERR_GATE_MAX_CONSECUTIVE"),
+    (RangeGate, "factor", 1.0, "AFF_ERR_RANGE_GATE_FACTOR"), (RangeGate, "memory", 0.0, "AFF_ERR_RANGE_GATE_MEMORY"),
+    (RangeGate, "x_max", -2.0, "AFF_ERR_RANGE_GATE_X_MAX"), (RangeGate, "floor", -1.0, "AFF_ERR_RANGE_GATE_FLOOR"),
+    (lambda **k: FrictionFeedforward(EST, **{"dt": TC, **k}), "dt", 0.0, "AFF_ERR_FIXED_FF_DT"),
+    (lambda **k: FrictionFeedforward(EST, dt=TC, **k), "stick_samples", 0, "AFF_ERR_FIXED_FF_STICK_SAMPLES"),
+    (lambda **k: FrictionFeedforward(EST, dt=TC, **k), "w_max", -1.0, "AFF_ERR_FIXED_FF_W_MAX"),
+    (lambda **k: FrictionFeedforward(EST, dt=TC, **k), "ff_max", -1.0, "AFF_ERR_FIXED_FF_FF_MAX"),
+    *[(lambda **k: RobustAdaptiveFeedforward(SlidingFrictionEstimator(0.02, 1.0, Tc=TC), dt=TC, **k), key, bad, code)
+      for key, bad, code in (("warmup", -1, "AFF_ERR_ROBUST_FF_WARMUP"), ("tau_max", 0.0, "AFF_ERR_ROBUST_FF_TAU_MAX"),
+                             ("consistency", 0.0, "AFF_ERR_ROBUST_FF_CONSISTENCY"),
+                             ("lag_margin", -1.0, "AFF_ERR_ROBUST_FF_LAG_MARGIN"),
+                             ("lag_margin_max", -1.0, "AFF_ERR_ROBUST_FF_LAG_MARGIN_MAX"),
+                             ("max_rel_stderr", 0.0, "AFF_ERR_ROBUST_FF_MAX_REL_STDERR"),
+                             ("lag_memory", -1.0, "AFF_ERR_ROBUST_FF_LAG_MEMORY"),
+                             ("lag_zero", -1.0, "AFF_ERR_ROBUST_FF_LAG_ZERO"),
+                             ("fade_in", -1.0, "AFF_ERR_ROBUST_FF_FADE_IN"),
+                             ("J_range", (2.0, 1.0), "AFF_ERR_ROBUST_FF_J_RANGE"))],
+    *[(lambda **k: FeedforwardSupervisor(**{**SUP, **k}), key, bad, code)
+      for key, bad, code in (("Tc", 0.0, "AFF_ERR_SUPERVISOR_TC"), ("J_n", -1.0, "AFF_ERR_SUPERVISOR_J_N"),
+                             ("omega", math.inf, "AFF_ERR_SUPERVISOR_OMEGA"),
+                             ("window", 0.0, "AFF_ERR_SUPERVISOR_WINDOW"),
+                             ("margin", 1.0, "AFF_ERR_SUPERVISOR_MARGIN"), ("delay", 99, "AFF_ERR_SUPERVISOR_DELAY"),
+                             ("Kp", math.inf, "AFF_ERR_SUPERVISOR_KP"),
+                             ("track_margin", -1.0, "AFF_ERR_SUPERVISOR_TRACK_MARGIN"))],
+]
+
+
+@pytest.mark.parametrize("make,key,bad,code", REFUSED, ids=lambda x: str(x) if isinstance(x, str) else None)
+def test_a_range_is_checked_once_by_c_and_the_error_names_the_field(make, key, bad, code):
+    with pytest.raises(ParameterError) as e:
+        make(**{key: bad})
+    assert _msg(code) in str(e.value)
+    leaf = "J_lo" if key == "J_range" else key
+    assert leaf in _msg(code)
+
+
+@pytest.mark.parametrize("make,key", [(OutlierGate, "max_consecutive"), (OutlierGate, "n_sigma"),
+                                      (RangeGate, "memory"), (lambda **k: FeedforwardSupervisor(**SUP, **k), "delay"),
+                                      (lambda **k: FrictionFeedforward(EST, dt=TC, **k), "stick_samples")])
+@pytest.mark.parametrize("bad", [True, "1", None, 2.5])
+def test_a_value_of_the_wrong_type_is_refused_naming_the_field(make, key, bad):
+    if bad == 2.5 and key in ("n_sigma", "memory"):
+        return  # a real number is of the right type there
+    with pytest.raises(SettingTypeError, match=key):  # a ParameterError and a TypeError
+        make(**{key: bad})
+
+
+def test_the_wrappers_public_fields_read_their_structs():
+    """The one accessor (``plant.component.struct_field``): each public field reads its C struct's value, under its
+    old name."""
+    from adaptive_ff.compensation import adaptive_feedforward, feedforward, gate, sliding_estimator, supervisor
+
+    g = OutlierGate(max_step=0.25, n_sigma=6.5, alpha=0.125, max_consecutive=7)
+    assert (g.max_step, g.n_sigma, g.alpha, g.max_consecutive, g.n_rejected) == (0.25, 6.5, 0.125, 7, 0)
+    assert not g.check(float("nan")) and (g.n_rejected, g.n_nonfinite) == (1, 1)
+    r = RangeGate(x_max=3.0, factor=4.0, floor=0.5, memory=99.0, max_consecutive=3)
+    assert (r.x_max, r.factor, r.floor, r.max_consecutive, r.memory) == (3.0, 4.0, 0.5, 3, 99.0)
+    assert r.check(2.0) and r.envelope == 2.0
+    ff = RobustAdaptiveFeedforward(SlidingFrictionEstimator(0.02, 1.0, Tc=TC), dt=TC, stick_samples=12, warmup=33,
+                                   lag_zero=2.5, project=False, ff_max=9.0, lag=False)
+    assert (ff.dt, ff.stick_samples, ff.warmup, ff.lag_zero, ff.project, ff.ff_max, ff.lag) == (
+        TC, 12, 33, 2.5, False, 9.0, False)
+    assert type(ff.warmup) is int and type(ff.project) is bool and type(ff.dt) is float
+    s = FeedforwardSupervisor(**SUP)
+    assert (s.on, s.n_backoff, s.f_hat, s.ms_error_comp) == (True, 0, 0.0, 0.0) and type(s.on) is bool
+    src = "".join(inspect.getsource(m) for m in (adaptive_feedforward, feedforward, gate, sliding_estimator,
+                                                 supervisor))
+    assert "= property(lambda self: float(self._c." not in src and "= property(lambda self: int(self._c." not in src
