@@ -231,7 +231,7 @@ def test_cli_json_is_the_library_result(planar3, tmp_path, capsys):
 
 
 @pytest.mark.parametrize("case", ["missing_joint", "unknown_joint", "bad_value", "armature", "u_max", "urdf",
-                                  "identification"])
+                                  "identification", "no_stribeck", "duration"])
 def test_cli_bad_input_exits_2_naming_the_reason(case, planar3, tmp_path, capsys):
     _, path = planar3
     joints = _joints3()
@@ -254,13 +254,23 @@ def test_cli_bad_input_exits_2_naming_the_reason(case, planar3, tmp_path, capsys
     elif case == "urdf":
         urdf = tmp_path / "none.urdf"
         want = ["none.urdf"]
+    elif case == "no_stribeck":
+        d = json.loads(path.read_text())
+        d["joints"][1]["Vs"] = None
+        ident = tmp_path / "nostribeck.json"
+        ident.write_text(json.dumps(d))
+        want = ["nostribeck.json joint 'elbow'", "no 'Vs'"]
+    elif case == "duration":
+        extra = ["--duration", "-2"]
+        want = ["duration", "-2"]
     else:
         ident = tmp_path / "other.json"
         ident.write_text(json.dumps({"joints": [{"name": "shoulder"}]}))
         want = ["other.json", "no entry for joint(s) ['elbow', 'wrist']"]
     plant = _plant_file(tmp_path / "plant.json", joints, armature)
-    assert main(["compare-arm", "--urdf", str(urdf), "--from", str(ident), "--plant", str(plant), "--duration", "1",
-                 "--quiet", *extra]) == 2
+    args = ["--duration", "1", *extra] if case != "duration" else extra
+    assert main(["compare-arm", "--urdf", str(urdf), "--from", str(ident), "--plant", str(plant), "--quiet",
+                 *args]) == 2
     err = capsys.readouterr().err
     assert err.startswith("adaptive-ff: error:") and "Traceback" not in err
     for w in want:
