@@ -42,8 +42,8 @@ from controllers.simulation.compensators import build_mode, own_supervisor
 from controllers.simulation.metrics import LoopMetrics, loop_metrics, reversal_times
 from plant.errors import ParameterError, check_nonnegative, check_positive
 
-__all__ = ["ARM_MODES", "DEFAULT_MODES", "CompareArmOptions", "ArmComparison", "JointLoopDesign", "compare_arm",
-           "joint_designs"]
+__all__ = ["ARM_MODES", "DEFAULT_MODES", "ETA_NOTE", "CompareArmOptions", "ArmComparison", "ArmRun",
+           "JointLoopDesign", "compare_arm", "joint_designs"]
 
 #: The modes of :func:`compare_arm`, in table order (``none`` and ``frictionless`` always run: eta needs them):
 #: ``adaptive-ff`` is mode ``adaptive``'s feedforward alone (``export-c --feedforward-only``: no residual observer,
