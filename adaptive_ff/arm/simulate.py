@@ -18,7 +18,8 @@ from plant.errors import ParameterError
 from adaptive_ff.arm.arm_log import ArmLog
 from adaptive_ff.arm.robot import ArmModel, require_pinocchio
 
-__all__ = ["JointFriction", "SensorNoise", "simulate_arm", "friction_torque"]
+__all__ = ["ArmPlant", "JointFriction", "SensorNoise", "arm_reference", "load_arm_plant", "simulate_arm",
+           "friction_torque"]
 
 
 @dataclass(frozen=True)
@@ -72,9 +73,27 @@ def friction_torque(w, fr) -> np.ndarray:
     return out.reshape(-1) if out.shape[0] == 1 else out
 
 
-def _reference(n: int, duration: float, dt: float, rng, amplitude: float):
-    """Velocity references (n_t, n) of a multisine position trajectory per joint (5 sines, 0.1-1 Hz, random
-    phases) and its time grid."""
+def arm_reference(n: int, duration: float, dt: float, rng, amplitude: float) -> tuple:
+    """Velocity references of a multisine position trajectory per joint (5 sines, 0.1-1 Hz, random phases).
+
+    Parameters
+    ----------
+    n : int
+        Joints.
+    duration, dt : float
+        Length and sample time (s).
+    rng : numpy.random.Generator
+        Draws the phases and amplitudes (joint by joint).
+    amplitude : float
+        Position amplitude (rad) of each joint, summed over its 5 sines.
+
+    Returns
+    -------
+    t : ndarray, shape (n_t,)
+        ``k*dt`` for ``k = 0 .. round(duration/dt)``.
+    w : ndarray, shape (n_t, n)
+        Velocity reference (rad/s), the derivative of a position multisine that starts at 0 offset.
+    """
     t = np.arange(int(round(duration / dt)) + 1) * dt
     f = np.geomspace(0.1, 1.0, 5)
     w = np.zeros((t.shape[0], n))
@@ -83,6 +102,113 @@ def _reference(n: int, duration: float, dt: float, rng, amplitude: float):
         a = amplitude / f.shape[0] * rng.uniform(0.6, 1.0, f.shape[0])
         w[:, j] = np.sum(a * 2 * np.pi * f * np.cos(2 * np.pi * f * t[:, None] + ph), axis=1)
     return t, w
+
+
+class ArmPlant:
+    """The simulated arm as a plant stepped period by period: ``M(q) ddq + C(q, dq) dq + g(q) = u - f`` with the
+    friction ``f_j`` of eqs. 1-3 per joint, integrated by the classical Runge-Kutta method (4th order) at
+    ``dt/substeps`` with ``u`` held over the period.
+
+    Parameters
+    ----------
+    arm : ArmModel
+        The rigid body (its URDF inertias are the truth).
+    friction : sequence of JointFriction or None
+        One per joint, in the URDF's order; None: the frictionless arm (the same rigid body, ``f = 0``).
+    armature : array_like, shape (N,), optional
+        Rotor inertias reflected to the joints (kg·m²); default zero.
+
+    Attributes
+    ----------
+    q, dq : ndarray, shape (N,)
+        Positions (rad) and velocities (rad/s), zero at the start.
+    armature : ndarray, shape (N,)
+        The armatures in use (kg·m²).
+    f : ndarray, shape (N,)
+        The lagged friction states (N·m) of the joints with ``tau > 0`` (the others' entries unused).
+
+    Raises
+    ------
+    ParameterError
+        ``friction`` not one per joint, a non-positive ``Vs``/``delta`` or a negative ``tau``.
+
+    Notes
+    -----
+    A joint with ``tau = 0`` takes ``f = F(dq)`` in every Runge-Kutta stage (``F(0) = 0``): the map is
+    discontinuous at rest, and a joint near rest chatters by about ``F*h/M_jj`` (rad/s); give a lag (eq. 1) for a
+    smooth joint. With one joint whose inertia does not depend on ``q`` and no gravity torque, a lagged joint
+    steps as :func:`plant.joint.simulate` steps the one-joint plant (the same Runge-Kutta stages).
+    """
+
+    def __init__(self, arm: ArmModel, friction, *, armature=None):
+        self.pin = require_pinocchio()
+        self.arm = arm
+        self.n = arm.n
+        if friction is None:
+            self.friction = None
+        else:
+            fr = list(friction)
+            if len(fr) != arm.n:
+                raise ParameterError(f"friction: {len(fr)} entries for the {arm.n} joints of {arm.source}")
+            for j, f in enumerate(fr):
+                if not (f.Vs > 0 and f.delta > 0 and f.tau >= 0):
+                    raise ParameterError(f"friction of joint {arm.names[j]!r}: Vs, delta must be > 0 and tau >= 0, "
+                                         f"got {f}")
+            self.friction = fr
+        self.model = arm.model.copy()
+        if armature is not None:
+            self.model.armature = np.asarray(armature, dtype=float).reshape(arm.n)
+        self.armature = np.array(self.model.armature, dtype=float).reshape(arm.n)
+        self.data = self.model.createData()
+        self.lag = np.array([f.tau for f in self.friction]) if self.friction is not None else np.zeros(arm.n)
+        self._lagged = self.lag > 0
+        self._lag_div = np.where(self._lagged, self.lag, 1.0)
+        self.q = np.zeros(arm.n)
+        self.dq = np.zeros(arm.n)
+        self.f = np.zeros(arm.n)
+
+    def set_state(self, q, dq) -> None:
+        """Positions ``q`` (rad) and velocities ``dq`` (rad/s), shape (N,); each lagged friction state at its steady
+        value ``F(dq)`` (the joint has been moving at ``dq``)."""
+        self.q = np.array(q, dtype=float).reshape(self.n)
+        self.dq = np.array(dq, dtype=float).reshape(self.n)
+        F = friction_torque(self.dq, self.friction) if self.friction is not None else np.zeros(self.n)
+        self.f = np.where(self._lagged, F, 0.0)
+
+    def mass_matrix(self, q=None) -> np.ndarray:
+        """The joint-space inertia ``M(q)`` with the armatures (Pinocchio's CRBA), shape (N, N); default at the
+        current ``q``."""
+        q = self.q if q is None else np.asarray(q, dtype=float)
+        M = np.array(self.pin.crba(self.model, self.data, q))
+        return np.triu(M) + np.triu(M, 1).T
+
+    def friction_now(self) -> np.ndarray:
+        """The friction torque (N·m) acting now, shape (N,): the lagged state, or ``F(dq)`` where ``tau = 0``."""
+        if self.friction is None:
+            return np.zeros(self.n)
+        return np.where(self._lagged, self.f, friction_torque(self.dq, self.friction))
+
+    def _deriv(self, q, dq, fz, u):
+        if self.friction is None:
+            return dq, self.pin.aba(self.model, self.data, q, dq, u), np.zeros(self.n)
+        F = friction_torque(dq, self.friction)
+        f_now = np.where(self._lagged, fz, F)
+        return dq, self.pin.aba(self.model, self.data, q, dq, u - f_now), np.where(self._lagged, (F - fz) / self._lag_div, 0.0)
+
+    def step(self, u, dt: float, substeps: int = 1) -> None:
+        """Advance by ``dt`` (s) with the torques ``u`` (N·m, shape (N,)) held, in ``substeps`` Runge-Kutta steps."""
+        u = np.asarray(u, dtype=float)
+        h = dt / substeps
+        q, dq, fz = self.q, self.dq, self.f
+        for _ in range(substeps):
+            a1, b1, c1 = self._deriv(q, dq, fz, u)
+            a2, b2, c2 = self._deriv(q + 0.5 * h * a1, dq + 0.5 * h * b1, fz + 0.5 * h * c1, u)
+            a3, b3, c3 = self._deriv(q + 0.5 * h * a2, dq + 0.5 * h * b2, fz + 0.5 * h * c2, u)
+            a4, b4, c4 = self._deriv(q + h * a3, dq + h * b3, fz + h * c3, u)
+            q = q + h / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4)
+            dq = dq + h / 6.0 * (b1 + 2 * b2 + 2 * b3 + b4)
+            fz = fz + h / 6.0 * (c1 + 2 * c2 + 2 * c3 + c4)
+        self.q, self.dq, self.f = q, dq, fz
 
 
 def simulate_arm(arm: ArmModel, friction, *, duration: float = 20.0, dt: float = 1e-3, seed: int = 0,
@@ -129,50 +255,109 @@ def simulate_arm(arm: ArmModel, friction, *, duration: float = 20.0, dt: float =
     parameters of the log are ``arm.theta_urdf`` with its last N entries (the armatures) set to ``armature``.
     """
     pin = require_pinocchio()
-    fr = list(friction)
-    if len(fr) != arm.n:
-        raise ParameterError(f"friction: {len(fr)} entries for the {arm.n} joints of {arm.source}")
-    for j, f in enumerate(fr):
-        if not (f.Vs > 0 and f.delta > 0 and f.tau >= 0):
-            raise ParameterError(f"friction of joint {arm.names[j]!r}: Vs, delta must be > 0 and tau >= 0, got {f}")
+    plant = ArmPlant(arm, friction, armature=armature)
+    fr = plant.friction
     noise = SensorNoise() if noise is None else noise
-    model = arm.model.copy()
-    if armature is not None:
-        model.armature = np.asarray(armature, dtype=float).reshape(arm.n)
-    data = model.createData()
     rng = np.random.default_rng(seed)
-    t, w_ref = _reference(arm.n, duration, dt, rng, amplitude)
-    M0 = np.diag(pin.crba(model, data, np.zeros(arm.n)))
+    t, w_ref = arm_reference(arm.n, duration, dt, rng, amplitude)
+    M0 = np.diag(pin.crba(plant.model, plant.data, np.zeros(arm.n)))
     Kp = 2 * np.pi * 10.0 * M0
     Ki = 2 * np.pi * 2.0 * Kp
-    lag = np.array([f.tau for f in fr])
-    h = dt / substeps
-
-    def deriv(x, u):
-        q, dq, fz = x[: arm.n], x[arm.n: 2 * arm.n], x[2 * arm.n:]
-        F = friction_torque(dq, fr)
-        f_now = np.where(lag > 0, fz, F)
-        ddq = pin.aba(model, data, q, dq, u - f_now)
-        df = np.where(lag > 0, (F - fz) / np.where(lag > 0, lag, 1.0), 0.0)
-        return np.concatenate([dq, ddq, df])
-
-    x = np.zeros(3 * arm.n)
     Q, DQ, U = (np.empty((t.shape[0], arm.n)) for _ in range(3))
     integ = np.zeros(arm.n)
     for k in range(t.shape[0]):
-        Q[k], DQ[k] = x[: arm.n], x[arm.n: 2 * arm.n]
+        Q[k], DQ[k] = plant.q, plant.dq
         e = w_ref[k] - DQ[k]
         integ += e * dt
         U[k] = Kp * e + Ki * integ
-        for _ in range(substeps):
-            k1 = deriv(x, U[k])
-            k2 = deriv(x + 0.5 * h * k1, U[k])
-            k3 = deriv(x + 0.5 * h * k2, U[k])
-            k4 = deriv(x + h * k3, U[k])
-            x = x + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+        plant.step(U[k], dt, substeps)
     arm.check_positions(Q, "simulate_arm")
     offset = np.array([f.offset for f in fr])
     n_shape = Q.shape
     U[1:] = 0.5 * (U[1:] + U[:-1])  # the torque at the sampling instant (between the two held values)
     return ArmLog(t=t, q=Q + noise.q * rng.standard_normal(n_shape), dq=DQ + noise.dq * rng.standard_normal(n_shape),
                   tau=U + offset + noise.tau * rng.standard_normal(n_shape), source="simulate_arm")
+
+
+#: The keys of a joint's friction in an arm plant file (:func:`load_arm_plant`): required, then optional.
+PLANT_KEYS = ("Fc", "Fs", "Vs", "delta", "sigma")
+PLANT_OPTIONAL = ("tau", "offset")
+
+
+def load_arm_plant(path, arm: ArmModel) -> ArmPlant:
+    """The simulated arm of a JSON plant file: ``arm``'s rigid body, the file's armatures and friction per joint.
+
+    The file: ``{"armature": [Ia1, ..., IaN], "joints": [{"name": "shoulder", "Fc": 2.0, "Fs": 2.6, "Vs": 0.1,
+    "delta": 1.0, "sigma": 0.8, "tau": 0.002}, ...]}`` (SI units; ``armature`` optional, default zero; ``tau``
+    and ``offset`` optional, default 0; every joint of the URDF once, by name, in any order).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The JSON file.
+    arm : ArmModel
+        The arm whose joints the file names.
+
+    Returns
+    -------
+    ArmPlant
+
+    Raises
+    ------
+    FileNotFoundError
+        No such file.
+    ParameterError
+        Not JSON, a joint of the URDF missing or given twice, a name the URDF does not have, a key missing, a
+        value not a finite number, ``Vs``/``delta`` not > 0, ``tau`` < 0, ``Fc``/``Fs``/``sigma`` < 0, or
+        armatures not one finite value >= 0 per joint (the file, the joint and the key named).
+    """
+    import math
+
+    from plant.models import read_json
+
+    d = read_json(path, what="arm plant file")
+    joints = d.get("joints") if isinstance(d, dict) else None
+    if not isinstance(joints, list) or not all(isinstance(j, dict) for j in joints):
+        raise ParameterError(f"{path}: no 'joints' list of objects (an arm plant file: {{\"armature\": [...], "
+                             f"\"joints\": [{{\"name\", \"Fc\", \"Fs\", \"Vs\", \"delta\", \"sigma\", \"tau\"}}, ...]}})")
+    by_name = {}
+    for k, j in enumerate(joints):
+        name = j.get("name")
+        if name not in arm.names:
+            raise ParameterError(f"{path}: joint {k + 1} is named {name!r}, which the URDF ({arm.source}) does not "
+                                 f"have (its joints: {', '.join(arm.names)})")
+        if name in by_name:
+            raise ParameterError(f"{path}: joint {name!r} is given twice")
+        by_name[name] = j
+    missing = [n for n in arm.names if n not in by_name]
+    if missing:
+        raise ParameterError(f"{path}: no friction for joint(s) {missing} of the URDF ({arm.source})")
+
+    def number(j, name, key, default=None):
+        v = j.get(key, default)
+        if v is None:
+            raise ParameterError(f"{path}: joint {name!r} has no {key!r} (a number)")
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise ParameterError(f"{path}: joint {name!r}: {key!r} must be a finite number, got {v!r}")
+        return float(v)
+
+    fr = []
+    for name in arm.names:
+        j = by_name[name]
+        vals = {k: number(j, name, k) for k in PLANT_KEYS}
+        vals.update({k: number(j, name, k, 0.0) for k in PLANT_OPTIONAL})
+        for k in ("Fc", "Fs", "sigma", "tau"):
+            if vals[k] < 0:
+                raise ParameterError(f"{path}: joint {name!r}: {k!r} must be >= 0, got {vals[k]!r}")
+        for k in ("Vs", "delta"):
+            if not vals[k] > 0:
+                raise ParameterError(f"{path}: joint {name!r}: {k!r} must be > 0, got {vals[k]!r}")
+        fr.append(JointFriction(**vals))
+    arma = d.get("armature")
+    if arma is not None:
+        ok = isinstance(arma, list) and len(arma) == arm.n and all(
+            not isinstance(a, bool) and isinstance(a, (int, float)) and math.isfinite(a) and a >= 0 for a in arma)
+        if not ok:
+            raise ParameterError(f"{path}: 'armature' must be a list of {arm.n} finite numbers >= 0 (kg·m², one per "
+                                 f"joint of {arm.source}), got {arma!r}")
+    return ArmPlant(arm, fr, armature=arma)

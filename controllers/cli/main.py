@@ -4,6 +4,7 @@ Subcommands
 -----------
 compare   run the closed loop in all friction-compensation modes and compare tracking
 identify  identify friction (offline LS and RLS) from a measured log (CSV t,u,w or the EMPS .mat)
+compare-arm    every joint of a simulated arm in its velocity loop: the compensators per joint, eta per joint
 identify-arm   every joint's friction and the rigid body of an arm from a multi-joint log and its URDF
 stribeck       fit the Stribeck curve (Vs, delta) from quasi-static data, Fig. 8
 design         discrete PI velocity controller: gains, margins, Bode, step
@@ -34,15 +35,16 @@ def build_parser() -> argparse.ArgumentParser:
     """The ``adaptive-ff`` argument parser; each subcommand lives in its own module of :mod:`controllers.cli`."""
     from controllers.cli import compare as cli_compare, design as cli_design, identify as cli_identify
     from controllers.cli import paper_figures as cli_paper_figures, stribeck as cli_stribeck, sweep as cli_sweep
-    from controllers.cli import export_c as cli_export_c, identify_arm as cli_identify_arm
+    from controllers.cli import compare_arm as cli_compare_arm, export_c as cli_export_c
+    from controllers.cli import identify_arm as cli_identify_arm
 
     ap = argparse.ArgumentParser(prog="adaptive-ff", description=(
         "Identify sliding dynamic friction (Ruderman's discrete-time model: LS, RLS) and compare "
         "friction compensation modes in a PI velocity loop."))
     ap.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = ap.add_subparsers(dest="command", required=True)
-    for module in (cli_compare, cli_identify, cli_identify_arm, cli_stribeck, cli_design, cli_paper_figures, cli_sweep,
-                   cli_export_c):
+    for module in (cli_compare, cli_compare_arm, cli_identify, cli_identify_arm, cli_stribeck, cli_design,
+                   cli_paper_figures, cli_sweep, cli_export_c):
         module.register(sub)
     return ap
 

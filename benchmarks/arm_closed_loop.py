@@ -1,0 +1,84 @@
+"""The whole arm in closed loop: eta per joint of compare-arm on a simulated 6-axis arm (the Staubli TX40's URDF).
+
+Run:  python -m benchmarks.arm_closed_loop [--duration 20] [--seed 0] [--id-seed 1]
+
+The arm: ``data/tx40/tx40.urdf`` (the six links' inertias of the Staubli TX40) with the armatures of
+:data:`ARMATURE` and a lagged Stribeck friction per joint (:data:`FRICTION`: ``Fc`` and ``sigma`` near the
+reference values of ``docs/benchmarks/arm_tx40.md``, ``Fs = 1.3 Fc``, ``Vs`` 0.1-0.15 rad/s, ``delta = 1``, a lag
+``tau = 2 ms``). What the loops get is what a user has: a 20 s log of the arm (:func:`adaptive_ff.arm.simulate.
+simulate_arm`, seed ``--id-seed``) identified by :func:`adaptive_ff.arm.fit.identify_arm` (as ``identify-arm
+--json``; 20 bootstrap refits: the intervals do not enter the loops), then
+:func:`controllers.experiments.compare_arm.compare_arm` on the same arm in the modes none, fixed, adaptive,
+adaptive-ff and frictionless (``--duration`` s, seed ``--seed``, the drives' limits the URDF's effort limits).
+Printed: each joint's identified inertia and PI, the second-half RMS error per joint and mode, eta per joint, the
+adaptive compensator's switch-in time of its residual observer per joint, the CPU time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+URDF = ROOT / "data" / "tx40" / "tx40.urdf"
+#: Rotor inertias reflected to the joints (kg·m²): motors of 1e-4 to 3e-4 kg·m² behind ratios 32-48.
+ARMATURE = (0.3, 0.3, 0.2, 0.07, 0.06, 0.03)
+#: ``(Fc, sigma, Vs)`` per joint (N·m, N·m·s/rad, rad/s); ``Fs = 1.3 Fc``, ``delta = 1``, ``tau = 2 ms``.
+LEVELS = ((7.14, 8.05, 0.1), (8.26, 5.53, 0.1), (6.34, 1.97, 0.1), (2.48, 1.11, 0.15), (3.03, 1.24, 0.15),
+          (0.4, 0.05, 0.15))
+
+
+def friction():
+    """The simulated arm's :class:`adaptive_ff.arm.simulate.JointFriction` per joint."""
+    from adaptive_ff.arm.simulate import JointFriction
+
+    return [JointFriction(Fc=c, Fs=1.3 * c, Vs=v, delta=1.0, sigma=s, tau=0.002) for c, s, v in LEVELS]
+
+
+def identify(path, *, seed: int = 1, duration: float = 20.0, n_bootstrap: int = 20):
+    """Simulate the arm's identification log, identify it and write the ``identify-arm --json`` to ``path``;
+    returns the :class:`adaptive_ff.arm.robot.ArmModel`."""
+    from adaptive_ff.arm.fit import identify_arm
+    from adaptive_ff.arm.robot import load_urdf
+    from adaptive_ff.arm.simulate import simulate_arm
+
+    arm = load_urdf(URDF)
+    log = simulate_arm(arm, friction(), duration=duration, seed=seed, substeps=1, armature=ARMATURE)
+    Path(path).write_text(json.dumps(identify_arm(log, arm, n_bootstrap=n_bootstrap).to_dict()))
+    return arm
+
+
+def main(argv=None) -> int:
+    """Run the benchmark (module docstring) and print its table."""
+    from adaptive_ff.arm.simulate import ArmPlant
+    from controllers.experiments.compare_arm import ARM_MODES, compare_arm
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--duration", type=float, default=20.0, help="length of each closed-loop run (s, default 20)")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the references and the noise (default 0)")
+    ap.add_argument("--id-seed", dest="id_seed", type=int, default=1, help="seed of the identification log")
+    args = ap.parse_args(argv)
+    t0 = time.process_time()
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "arm.json"
+        arm = identify(path, seed=args.id_seed)
+        t1 = time.process_time()
+        res = compare_arm(ArmPlant(arm, friction(), armature=ARMATURE), path, duration=args.duration,
+                          seed=args.seed, modes=ARM_MODES)
+    t2 = time.process_time()
+    print(f"compare-arm on the simulated TX40 (6 joints): identification log seed {args.id_seed}, closed loop "
+          f"{args.duration:g} s seed {args.seed}")
+    for d in res.designs:
+        sw = res.runs["adaptive"].info[d.name].get("t_switch_in")
+        print(f"  {d.name}: J_design {d.J_design:.4g} kg·m², Kp {d.Kp:.4g}, Ki {d.Ki:.4g}, u_max {d.u_max:g} N·m; "
+              f"adaptive's residual observer switched in at {'-' if sw is None else f'{sw:.2f} s'}")
+    print(res.summary())
+    print(f"CPU: identification {t1 - t0:.0f} s, closed loop {t2 - t1:.0f} s ({len(res.runs)} modes)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
