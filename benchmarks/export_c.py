@@ -119,7 +119,7 @@ int main(int argc, char **argv)
 def _package_ff(path, log, feedforward_only: bool = False):
     """The package's compensation for the log: aff_replay of the package's C core (cffi)."""
     from adaptive_ff._caff import ffi, lib
-    from controllers.cli.export_c import compensator_from_file
+    from controllers.experiments.compensator_file import compensator_from_file
 
     comp, _ = compensator_from_file(path, u_max=U_MAX, feedforward_only=feedforward_only)
     u, w, wr = (np.ascontiguousarray(x, dtype=np.float64) for x in log[:3])
@@ -172,7 +172,7 @@ def measure(periods: int = 10**6, repeat: int = 5, callgrind_periods: int = 100_
     RuntimeError
         No C compiler (``cc`` or ``gcc``) on PATH.
     """
-    from controllers.cli.export_c import compensator_from_file
+    from controllers.experiments.compensator_file import compensator_from_file
     from controllers.cli.main import main as cli
 
     cc = shutil.which("cc") or shutil.which("gcc")

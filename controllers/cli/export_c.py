@@ -8,7 +8,7 @@ import json
 import math
 from pathlib import Path
 
-__all__ = ["register", "run", "check_options", "compensator_from_file", "FLOAT_MAX", "PLAUSIBLE"]
+__all__ = ["register", "run", "check_options", "FLOAT_MAX", "PLAUSIBLE"]
 
 #: The largest finite float32 (N·m, rad/s): a setting of the export must fit the float build.
 FLOAT_MAX = 3.4028234663852886e38
@@ -49,151 +49,6 @@ examples:
   adaptive-ff export-c --from id.json --u-max 150 --Kp 80 --Ki 1600 --float --out drive_ff
   adaptive-ff export-c --from arm.json --u-max 50 --out arm_ff && make -C arm_ff run
 """
-
-
-def _number(d: dict, key: str, path, *, required: bool = True):
-    """``d[key]`` as a finite float; ParameterError naming the file and the key otherwise (None if absent and not
-    ``required``)."""
-    from plant.errors import ParameterError
-
-    v = d.get(key)
-    if v is None:
-        if required:
-            raise ParameterError(f"{path}: no {key!r} (a number) in the identification")
-        return None
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise ParameterError(f"{path}: {key!r} must be a finite number, got {v!r}")
-    return float(v)
-
-
-def _identified(path, arm_joint=None):
-    """The :class:`adaptive_ff.identification.result_file.IdentifiedJoint` of an ``identify --json`` output (the
-    parameters of the method that gave the answer, in either file layout), or of the joint ``arm_joint`` of an
-    ``identify-arm --json`` output."""
-    from adaptive_ff.arm.result import read_arm_joint
-    from adaptive_ff.identification.result_file import identification_from_dict, read_identification
-
-    if arm_joint is None:
-        return read_identification(path)
-    return identification_from_dict(read_arm_joint(path, arm_joint), where=f"{path} joint {arm_joint!r}")
-
-
-def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: float | None = None,
-                          crossover: float = 20.0, phase_margin: float = 60.0, start: bool = False,
-                          initial: bool = True, feedforward_only: bool = False, arm_joint: str | None = None,
-                          **options):
-    """The ``adaptive`` mode's compensator configured from an ``identify --json`` file, as ``compare`` configures it.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The identification (``adaptive-ff identify ... --Vs --delta --json``): ``Vs``, ``delta`` at its top level,
-        ``J``, ``sigma``, ``Fc``, ``Fs``, ``tau`` of the chosen method at its top level (a file written before
-        that layout: in ``physical.params``; read by
-        :func:`adaptive_ff.identification.result_file.read_identification`), the velocity noise in
-        ``excitation.noise_std`` (optional).
-    u_max : float, keyword-only
-        The drive's torque limit (N·m): the velocity gate's bound; the feedforward's bound is half of it (as in
-        ``compare``) unless ``ff_max`` is given.
-    Kp, Ki : float, keyword-only
-        PI gains (both or neither; the nominal loop model of the stick fallback and the example loop); default
-        :func:`controllers.design.pi.design_pi` of the identified ``J`` and ``sigma`` at ``crossover`` (rad/s)
-        and ``phase_margin`` (deg), as ``design --from`` does.
-    start : bool, keyword-only
-        Use the identified map (``Fc``, ``Fs``, ``sigma``, ``tau``) as the provisional start
-        (:class:`adaptive_ff.compensation.adaptive_feedforward.FeedforwardStart`, at the measured velocity).
-    initial : bool, keyword-only
-        Start the estimator's RLS from the identified ``Fc``, ``Fs``, ``sigma`` and ``J_design`` (default, as
-        ``compare`` starts it from its pre-fit) instead of zero friction.
-    feedforward_only : bool, keyword-only
-        The feedforward alone: no residual observer, no supervisor (default False: the whole mode).
-    arm_joint : str, keyword-only
-        ``path`` is an ``identify-arm --json`` output: the compensator of this joint's entry (the layout of
-        ``identify --json``; :func:`adaptive_ff.arm.result.read_arm_joint`).
-    **options
-        Fields of :class:`controllers.simulation.compensators.ModeOptions` that override the defaults: ``Tc``
-        (1 ms), ``Ts`` (10 ms), ``J_design`` (the identified ``J``), ``Vs``, ``delta`` (the file's), ``ff_max``
-        (``u_max/2``), ``stick_band`` (three times the identification's noise estimate, 0 without one),
-        ``stick_samples`` (50), ``warmup`` (50), ``omega_r`` (the residual observer's cut-off,
-        :func:`controllers.experiments.observer_design.residual_cutoff` of the design inertia, the noise estimate
-        and the identified friction level ``max(Fc, Fs)``), ...
-
-    Returns
-    -------
-    compensator : AdaptiveCompensator
-        Mode ``adaptive``'s compensator (:class:`controllers.peers.adaptive_dob.AdaptiveCompensator`), not yet
-        stepped.
-    settings : dict
-        ``J_design, u_max, Kp, Ki`` and ``joint`` (the identified ``Fc``, ``Fs``, ``sigma`` that are finite and
-        >= 0) for :func:`adaptive_ff.compensation.export_c.export_c`, and ``options`` (the ModeOptions used).
-
-    Raises
-    ------
-    ParameterError
-        Unreadable or invalid file (the file and the key named), a bad setting, one of ``Kp``/``Ki`` alone.
-    FileNotFoundError
-        No such file.
-    """
-    from dataclasses import fields
-
-    from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
-    from adaptive_ff.identification.regression import FrictionEstimate
-    from controllers.design.pi import design_pi
-    from controllers.simulation.compensators import ModeOptions, build_mode
-    from plant.errors import ParameterError
-
-    from controllers.experiments.observer_design import residual_cutoff
-
-    known = {f.name for f in fields(ModeOptions)} - {"Kp", "Ki", "u_max", "start", "initial"}
-    unknown = sorted(set(options) - known)
-    if unknown:
-        raise ParameterError(f"unknown option(s) {unknown}; allowed: the fields of ModeOptions {sorted(known)}")
-    ident = _identified(path, arm_joint)
-    path = ident.source  # the file, or the file and the joint: what the messages name
-    top = {k: v for k, v in (("Vs", ident.Vs), ("delta", ident.delta)) if v is not None and math.isfinite(v)}
-    params = {k: v for k, v in ident.params.items() if math.isfinite(v)}  # a null (non-finite) value: absent
-    Vs = options.pop("Vs", None)
-    delta = options.pop("delta", None)
-    Vs = _number(top, "Vs", path) if Vs is None else Vs
-    delta = _number(top, "delta", path) if delta is None else delta
-    J_id, sigma_id = ident.J, ident.sigma
-    J_design = options.pop("J_design", None)
-    if J_design is None:
-        if not (math.isfinite(J_id) and J_id > 0.0):
-            raise ParameterError(f"{path}: the identified J = {J_id!r} kg·m² is not > 0; give --J-design")
-        J_design = J_id
-    if (Kp is None) != (Ki is None):
-        raise ParameterError("give both --Kp and --Ki, or neither (then the PI is designed from J and sigma)")
-    Tc = options.get("Tc", 1e-3)
-    if Kp is None:
-        d = design_pi(J_design, sigma=max(sigma_id, 0.0), crossover=crossover, phase_margin=phase_margin, Tc=Tc)
-        Kp, Ki = d.Kp, d.Ki
-    joint = {}
-    for k in ("Fc", "Fs", "sigma"):
-        v = _number(params, k, path, required=False)
-        if v is not None and v >= 0.0:
-            joint[k] = v
-    noise = ident.noise_std if ident.noise_std is not None and math.isfinite(ident.noise_std) else None
-    first = None
-    if start:
-        e = {k: _number(params, k, path) for k in ("Fc", "Fs", "sigma", "tau")}
-        first = FeedforwardStart(FrictionEstimate(J=J_design, tau=e["tau"], sigma=e["sigma"], Fc=e["Fc"], Fs=e["Fs"],
-                                                  offset=0.0, Vs=None, delta=None, J_alt=math.nan),
-                                 ff_input="measured")
-    init = None
-    if initial:
-        init = FrictionEstimate(J=J_design, tau=0.0, sigma=joint.get("sigma", 0.0), Fc=joint.get("Fc", 0.0),
-                                Fs=joint.get("Fs", 0.0), offset=0.0, Vs=Vs, delta=delta, J_alt=math.nan)
-    level = max(joint.get("Fc", 0.0), joint.get("Fs", 0.0))
-    settings = {"ff_max": 0.5 * u_max, "stick_band": 3.0 * noise if noise is not None and noise >= 0 else 0.0,
-                "stick_samples": 50, "warmup": 50,
-                "omega_r": residual_cutoff(J_design, noise or 0.0, Tc, level), **options}
-    if feedforward_only:  # the feedforward alone: aff_adaptive without the observer and the supervisor
-        settings.update(switch_in=False, supervise=False)
-    opts = ModeOptions(Kp=Kp, Ki=Ki, u_max=u_max, J_design=J_design, Vs=Vs, delta=delta, start=first, initial=init,
-                       **settings)
-    _, _, comp = build_mode(None, "adaptive", opts)  # None: no plant field is read with J_design given
-    return comp, {"J_design": J_design, "u_max": u_max, "Kp": Kp, "Ki": Ki, "joint": joint, "options": opts}
 
 
 #: The plausible range of a physical setting (SI units), as plant files have it (docs/cli.md).
@@ -276,7 +131,9 @@ def _export(args, out: Path) -> int:
 
     if args.joint is None and _is_arm_file(args.from_file):
         return _export_arm(args, out)
-    _identified(args.from_file, args.joint)  # read errors name the file as what it should be: an identification
+    from controllers.experiments.compensator_file import read_identified
+
+    read_identified(args.from_file, args.joint)  # read errors name the file as what it should be: an identification
     if args.joint is None:
         where, warns = str(args.from_file), warnings_from_file(args.from_file)
     else:
@@ -307,8 +164,10 @@ def _is_arm_file(path) -> bool:
 
 
 def _compensator(args, arm_joint=None) -> tuple:
-    """:func:`compensator_from_file` of ``args`` (of the joint ``arm_joint`` of an ``identify-arm`` output)."""
+    """:func:`controllers.experiments.compensator_file.compensator_from_file` of ``args`` (of the joint ``arm_joint``
+    of an ``identify-arm`` output)."""
     from controllers.cli.design import target_options
+    from controllers.experiments.compensator_file import compensator_from_file
     from plant.errors import ParameterError
 
     extra = {k: getattr(args, k) for k in ("ff_max", "stick_band") if getattr(args, k) is not None}

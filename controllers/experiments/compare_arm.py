@@ -9,7 +9,7 @@ joint (:func:`controllers.experiments.comparison.eta`, second-half RMS errors ag
 What each joint's loop has is what a user has from ``identify-arm --json``: the joint's entry (its identified
 diagonal inertia ``J``, ``sigma``, ``Fc``, ``Fs``, ``Vs``, ``delta``), never the simulated arm's values. Its PI is
 the one ``design --from ARM.json --joint NAME`` designs; its ``adaptive`` compensator is the one
-``export-c --from ARM.json`` writes for the joint (:func:`controllers.cli.export_c.compensator_from_file`: the
+``export-c --from ARM.json`` writes for the joint (:func:`controllers.experiments.compensator_file.compensator_from_file`: the
 C struct ``aff_adaptive`` a drive runs, stepped here through its ops table); its ``fixed`` compensator the
 identified static map (eq. 3, no lag: ``identify-arm`` identifies none) as
 :class:`adaptive_ff.FrictionFeedforward` with the same settings. The rigid-body torques of the other joints
@@ -176,7 +176,7 @@ class JointLoopDesign:
     options : ModeOptions
         The settings of the joint's compensators (``export-c``'s).
     settings : dict
-        What :func:`controllers.cli.export_c.compensator_from_file` is given beside the file and the joint (as
+        What :func:`controllers.experiments.compensator_file.compensator_from_file` is given beside the file and the joint (as
         ``export-c --u-max --Kp --Ki --stick-band`` would give it): ``u_max``, ``Kp``, ``Ki``, ``Tc``, ``Ts``,
         ``stick_band`` (three times the velocity noise, as ``compare``'s default) and ``omega_r`` (the residual
         observer's cut-off, :func:`controllers.experiments.observer_design.residual_cutoff` of ``J_design``, the
@@ -219,7 +219,7 @@ def joint_designs(identification, arm, options: CompareArmOptions) -> list:
         compensators need one) or a ``J`` not > 0 (the file and the joint named).
     """
     from adaptive_ff.arm.result import read_arm_entries
-    from controllers.cli.export_c import compensator_from_file
+    from controllers.experiments.compensator_file import compensator_from_file
     from controllers.experiments.observer_design import residual_cutoff
 
     names = [e["name"] for e in read_arm_entries(identification)]
@@ -256,7 +256,7 @@ class _JointLoop:
         self.held = float(w0)
         self.comp, self.ops, self.ptr = None, None, None
         if mode in ("adaptive", "adaptive-ff"):
-            from controllers.cli.export_c import compensator_from_file
+            from controllers.experiments.compensator_file import compensator_from_file
 
             self.comp, _ = compensator_from_file(identification, arm_joint=design.name,
                                                  feedforward_only=mode == "adaptive-ff", **design.settings)

@@ -98,7 +98,7 @@ def _joint_log(folder, k, path):
     from dataclasses import replace
 
     from adaptive_ff.identification.result_file import identification_from_dict
-    from controllers.cli.export_c import compensator_from_file
+    from controllers.experiments.compensator_file import compensator_from_file
     from controllers.simulation.closed_loop import run_mode
     from plant.excitation import multisine_reference
     from plant.models import plant_from_dict

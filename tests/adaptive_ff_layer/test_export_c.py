@@ -56,7 +56,7 @@ def exported(tmp_path_factory, id_file) -> Path:
 @pytest.fixture(scope="module")
 def package(id_file):
     """A fresh compensator of the identification (the one the export holds) and its settings."""
-    from controllers.cli.export_c import compensator_from_file
+    from controllers.experiments.compensator_file import compensator_from_file
 
     return lambda: compensator_from_file(id_file, u_max=U_MAX)
 
@@ -165,7 +165,7 @@ def test_a_setting_edited_in_aff_config_c_is_the_package_with_that_setting(expor
     rebuilds, without Python: the library replays the log as the package's compensator configured with those settings
     (built by its classes from the same identification, compensator_from_file), bit for bit, and not as before."""
     from adaptive_ff._caff import ffi, lib
-    from controllers.cli.export_c import compensator_from_file
+    from controllers.experiments.compensator_file import compensator_from_file
 
     work = tmp_path / "edited"
     shutil.copytree(exported, work)
@@ -302,7 +302,7 @@ def test_python_api_refuses_other_compensators_and_bad_numbers(package, tmp_path
                                                                          "aff_config.c", "example_loop.c",
                                                                          "Makefile")]
     assert "make -C" in res.summary() and "AFF_VS" in res.summary()
-    from controllers.cli.export_c import compensator_from_file
+    from controllers.experiments.compensator_file import compensator_from_file
 
     with pytest.raises(ParameterError, match=r"unknown option\(s\) \['turbo'\]"):
         compensator_from_file(tmp_path / "id.json", u_max=U_MAX, turbo=True)

@@ -17,7 +17,7 @@ import pytest
 
 from adaptive_ff.identification.result_file import (IdentificationFileError, identification_from_dict,
                                                     read_identification)
-from controllers.cli.export_c import compensator_from_file
+from controllers.experiments.compensator_file import compensator_from_file
 from controllers.cli.main import main
 from controllers.design.pi import design_pi
 from controllers.experiments.synthetic_logs import closed_loop_run, write_controller_log

@@ -101,7 +101,7 @@ def test_one_joint_arm_matches_the_one_joint_engine(one_joint, mode):
     joint = JointParams(J=ONE_J, Fc=f.Fc, Fs=f.Fs, Vs=f.Vs, delta=f.delta, sigma=f.sigma, tau=f.tau)
     mode_options = d.options if mode != "fixed" else replace(d.options, estimate=d.estimate)
     if mode == "adaptive":  # the settings compare-arm gives export-c's compensator (stick band, cut-off, gains)
-        from controllers.cli.export_c import compensator_from_file
+        from controllers.experiments.compensator_file import compensator_from_file
 
         mode_options = compensator_from_file(path, arm_joint="turn", **d.settings)[1]["options"]
     one = run_mode(joint, ref, mode, replace(mode_options, noise_std=o.noise_std),

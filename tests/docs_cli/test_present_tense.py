@@ -35,7 +35,7 @@ def test_no_dates_commits_or_joint_numbers_in_the_package():
     assert not found, "history in the product (move it to CHANGELOG.md):\n" + "\n".join(found)
 
 
-@pytest.mark.parametrize("command", ["compare", "identify", "identify-arm", "design", "stribeck", "export-c",
+@pytest.mark.parametrize("command", ["compare", "compare-arm", "identify", "identify-arm", "design", "stribeck", "export-c",
                                      "paper-figures", "sweep"])
 def test_no_history_in_help(command):
     out = subprocess.run([sys.executable, "-m", "controllers.cli.main", command, "--help"], capture_output=True,
