@@ -125,7 +125,7 @@ def one(seed: int, duration: float, n_bootstrap: int, lag_profile: bool = True, 
     return row
 
 
-def _covered(c: dict) -> bool:
+def covered(c: dict) -> bool:
     """Whether the interval ``[value - lo, value + hi]`` of one parameter holds the truth (``value - err``)."""
     return -c["lo"] <= -c["err"] <= c["hi"]
 
@@ -146,7 +146,7 @@ def table(rows: list) -> str:
     for k in KEYS:
         cells = []
         for kd in kinds:
-            cov = [_covered(r["kinds"][kd][k]) if "failed" not in r["kinds"][kd] else False for r in rows]
+            cov = [covered(r["kinds"][kd][k]) if "failed" not in r["kinds"][kd] else False for r in rows]
             cells.append(f"{100 * np.mean(cov):>19.1f}")
         for kd in kinds:
             ok = [r["kinds"][kd][k] for r in rows if "failed" not in r["kinds"][kd]]
@@ -180,7 +180,7 @@ def _coverage_ok(rows: list) -> bool:
     """Whether the coverage of every parameter is within :data:`TARGET` for ``oe`` and ``default``, those of the
     two the rows have (failed fits count as misses)."""
     kinds = [kd for kd in ("oe", "default") if kd in _present(rows)]
-    cov = [100 * np.mean([_covered(r["kinds"][kd][k]) if "failed" not in r["kinds"][kd] else False for r in rows])
+    cov = [100 * np.mean([covered(r["kinds"][kd][k]) if "failed" not in r["kinds"][kd] else False for r in rows])
            for kd in kinds for k in KEYS]
     return all(TARGET[0] <= c <= TARGET[1] for c in cov)
 
@@ -195,7 +195,7 @@ def _save(path: Path | None, row: dict) -> dict:
         c = row["kinds"][kd]
         print(f"seed {row['seed']} {kd}{' (' + row['default_method'] + ')' if 'default_method' in row else ''}: "
               + (", ".join(f"{k} {100 * c[k]['err'] / row['params'][k]:+.2f}% (se "
-                           f"{100 * c[k]['se'] / row['params'][k]:.2f}%{'' if _covered(c[k]) else ' MISS'})"
+                           f"{100 * c[k]['se'] / row['params'][k]:.2f}%{'' if covered(c[k]) else ' MISS'})"
                            for k in KEYS) if "failed" not in c else c["failed"])
               + f"  [{row['time'][kd]:.0f} s CPU]", file=sys.stderr, flush=True)
     return row
