@@ -141,7 +141,7 @@ def table(rows: list) -> str:
     kinds = _present(rows)
     head = (f"{'parameter':<10}" + "".join(f"{kd + ' cover %':>19}" for kd in kinds)
             + "".join(f"{'|e|/se ' + kd:>19}" for kd in kinds)
-            + "".join(f"{'med |e| % ' + kd:>17}" for kd in kinds if kd != "eq4 delta"))
+            + "".join(f"{'med |e| % ' + kd:>19}" for kd in kinds if kd != "eq4 delta"))
     lines = [head, "-" * len(head)]
     for k in KEYS:
         cells = []
@@ -155,7 +155,7 @@ def table(rows: list) -> str:
             if kd == "eq4 delta":
                 continue
             ok = [(r["kinds"][kd][k], r["params"][k]) for r in rows if "failed" not in r["kinds"][kd]]
-            cells.append(f"{np.median([100 * abs(c['err']) / v for c, v in ok]) if ok else math.nan:>17.2f}")
+            cells.append(f"{np.median([100 * abs(c['err']) / v for c, v in ok]) if ok else math.nan:>19.2f}")
         lines.append(f"{k:<10}" + "".join(cells))
     lines.append("-" * len(head))
     for kd in ("oe", "default"):

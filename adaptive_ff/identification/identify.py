@@ -179,8 +179,10 @@ def choose_method(data: MeasuredData, *, Vs: float | None, controller_Tc: float 
     run = "" if eq4_free_run is None else f" (the eq. 4 model runs freely: free-run fit {eq4_free_run:.1f} %)"
     return "output_error", (f"{spacing}, slower than the {CONTROLLER_RATE_TS * 1e3:g} ms the sliding regression needs "
                             f"or irregular, with the Stribeck pre-fit given{run}: the output-error fit of eqs. 1-3 "
-                            "on the record's own stamps; the eq. 4 LS is biased on such a readout (differences "
-                            "across the Stribeck hump, velocity noise in its regressors)")
+                            "on the record's own stamps, each torque sample taken at its stamp (method_options "
+                            "input_delay for a logger that stamps the torque of the period before); the eq. 4 LS is "
+                            "biased on such a readout (differences across the Stribeck hump, velocity noise in its "
+                            "regressors)")
 
 
 def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bool, options=None) -> PhysicalFit:
