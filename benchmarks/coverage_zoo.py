@@ -1,7 +1,7 @@
 """Do the 95 % intervals of ``identify`` cover the truth on many different joints?
 
 Run ``python benchmarks/coverage_zoo.py [--n 40] [--start 0] [--duration 15] [--n-bootstrap 20]
-[--no-lag-profile] [--jobs 1] [--out rows.jsonl]`` (or ``--table-from rows.jsonl``: the table of the records an earlier,
+[--no-lag-profile] [--kinds oe eq4 default] [--jobs 1] [--out rows.jsonl]`` (or ``--table-from rows.jsonl``: the table of the records an earlier,
 possibly unfinished, run saved).
 
 Joints: ``n`` joints of eqs. 1-3 drawn per seed (``numpy.random.default_rng(seed)``) around the ``paper``
@@ -13,14 +13,19 @@ own friction) and read out as in ``benchmarks/coverage.py``: white velocity nois
 input quantisation 0.6 N·m, the Fig. 10 sampling scaled to a 10 ms base (``record`` of
 ``benchmarks/identification.py``, same seed).
 
-Fits, both through :func:`adaptive_ff.identification.identify.identify` with ``Vs`` and ``delta`` given (the
+Fits, all through :func:`adaptive_ff.identification.identify.identify` with ``Vs`` and ``delta`` given (the
 pre-fit's values are the true ones: the intervals are conditional on them) and ``lag=True``:
 
 * ``oe``: ``method="output_error"`` (``fit_physical``: free-run fit on the record's own stamps, its
   bootstrap of the fit's residuals, ``--n-bootstrap`` refits), interval ``interval95`` of the report;
 * ``eq4``: ``method="paper"`` (eq. 4 LS on the record resampled to a uniform grid), interval from the
   residual block bootstrap of :mod:`adaptive_ff.identification.uncertainty` (200 refits), and ``eq4 delta``:
-  ``value ± 1.96 std_delta`` (the white-noise delta method).
+  ``value ± 1.96 std_delta`` (the white-noise delta method);
+* ``default``: ``identify`` as the CLI calls it by default (``method="auto"``, no options but ``bootstrap_workers=1``, which
+  does not change the result), interval ``interval95``; the method it chose and the parameters its
+  ``model_form`` warnings name are kept in the row (``default_method``, ``default_named``).
+
+``--kinds`` runs a subset (``eq4`` also gives ``eq4 delta``); a kind not run is left out of the table.
 
 Prints per parameter the coverage (%) of each kind of interval, the median of ``|error| / stderr`` (0.67 for
 exact normal intervals) and the median relative error. Target: ``oe`` coverage in 90-98 % for every
@@ -53,7 +58,7 @@ from adaptive_ff.io.data import MeasuredData  # noqa: E402
 from plant import preset  # noqa: E402
 
 Z95 = 1.959963984540054
-KINDS = ("oe", "eq4", "eq4 delta")
+KINDS = ("oe", "eq4", "eq4 delta", "default")
 TARGET = (90.0, 98.0)
 
 
@@ -78,72 +83,105 @@ def _kind_row(rep, p, kind: str) -> dict:
                 "hi": iv[k][1] - rep.params[k]} for k in KEYS}
 
 
-def one(seed: int, duration: float, n_bootstrap: int, lag_profile: bool = True, refit: str = "full") -> dict:
-    """Simulate, read out and identify joint ``seed`` by both methods; the per-kind rows and CPU times
-    (``lag_profile``: the output-error fit's profile search over tau, ``OutputErrorOptions.lag_profile``;
-    ``refit``: ``OutputErrorOptions.bootstrap_refit``). The bootstrap refits run in this thread (``--jobs``
-    spreads the joints over processes; the result does not depend on it)."""
+def one(seed: int, duration: float, n_bootstrap: int, lag_profile: bool = True, refit: str = "full",
+        kinds: tuple = ("oe", "eq4")) -> dict:
+    """Simulate, read out and identify joint ``seed`` by the methods of ``kinds`` (of :data:`KINDS`; ``"eq4"``
+    gives ``"eq4 delta"`` too); the per-kind rows and CPU times (``lag_profile``: the output-error fit's profile
+    search over tau, ``OutputErrorOptions.lag_profile``; ``refit``: ``OutputErrorOptions.bootstrap_refit``). The
+    bootstrap refits run in this thread (``--jobs`` spreads the joints over processes; the result does not
+    depend on it)."""
     p = draw_joint(seed)
     m = record(p, seed=seed, noise=0.01, quant=QUANT, irregular="scaled", duration=duration)
     d = MeasuredData(m.t, m.u, m.w, source=f"zoo joint {seed}")
     row = {"seed": seed, "params": dataclasses.asdict(p), "kinds": {}, "time": {}}
-    t0 = time.process_time()
-    try:
-        rep = identify(d, Vs=p.Vs, delta=p.delta, lag=True, method="output_error",
-                       method_options={"input_delay": INPUT_DELAY, "n_bootstrap": n_bootstrap,
-                                       "lag_profile": lag_profile, "bootstrap_refit": refit,
-                                       "bootstrap_workers": 1})
-        row["kinds"]["oe"] = _kind_row(rep, p, "oe")
-    except Exception as exc:  # noqa: BLE001 - a failed fit is a row of the table, with its reason
-        row["kinds"]["oe"] = {"failed": f"{type(exc).__name__}: {exc}"}
-    row["time"]["oe"] = time.process_time() - t0
-    t0 = time.process_time()
-    rep = identify(d, Vs=p.Vs, delta=p.delta, lag=True)
-    row["kinds"]["eq4"] = _kind_row(rep, p, "eq4")
-    row["kinds"]["eq4 delta"] = _kind_row(rep, p, "eq4 delta")
-    row["block"] = rep.uncertainty.block
-    row["time"]["eq4"] = time.process_time() - t0
+    if "oe" in kinds:
+        t0 = time.process_time()
+        try:
+            rep = identify(d, Vs=p.Vs, delta=p.delta, lag=True, method="output_error",
+                           method_options={"input_delay": INPUT_DELAY, "n_bootstrap": n_bootstrap,
+                                           "lag_profile": lag_profile, "bootstrap_refit": refit,
+                                           "bootstrap_workers": 1})
+            row["kinds"]["oe"] = _kind_row(rep, p, "oe")
+        except Exception as exc:  # noqa: BLE001 - a failed fit is a row of the table, with its reason
+            row["kinds"]["oe"] = {"failed": f"{type(exc).__name__}: {exc}"}
+        row["time"]["oe"] = time.process_time() - t0
+    if "eq4" in kinds:
+        t0 = time.process_time()
+        rep = identify(d, Vs=p.Vs, delta=p.delta, lag=True, method="paper")
+        row["kinds"]["eq4"] = _kind_row(rep, p, "eq4")
+        row["kinds"]["eq4 delta"] = _kind_row(rep, p, "eq4 delta")
+        row["block"] = rep.uncertainty.block
+        row["time"]["eq4"] = time.process_time() - t0
+    if "default" in kinds:
+        t0 = time.process_time()
+        try:
+            rep = identify(d, Vs=p.Vs, delta=p.delta, lag=True, method="auto", method_options={"bootstrap_workers": 1})
+            row["kinds"]["default"] = _kind_row(rep, p, "default")
+            row["default_method"] = rep.method
+            row["default_named"] = sorted({w.parameter for w in rep.warnings if w.code == "model_form"})
+        except Exception as exc:  # noqa: BLE001 - as for oe
+            row["kinds"]["default"] = {"failed": f"{type(exc).__name__}: {exc}"}
+        row["time"]["default"] = time.process_time() - t0
     return row
 
 
-def _covered(c: dict) -> bool:
+def covered(c: dict) -> bool:
     """Whether the interval ``[value - lo, value + hi]`` of one parameter holds the truth (``value - err``)."""
     return -c["lo"] <= -c["err"] <= c["hi"]
 
 
+def _present(rows: list) -> tuple:
+    """The kinds of :data:`KINDS` that every row of ``rows`` has."""
+    return tuple(kd for kd in KINDS if all(kd in r["kinds"] for r in rows))
+
+
 def table(rows: list) -> str:
-    """The coverage table of ``rows`` (of :func:`one`)."""
-    head = (f"{'parameter':<10}" + "".join(f"{kd + ' cover %':>19}" for kd in KINDS)
-            + "".join(f"{'|e|/se ' + kd:>19}" for kd in KINDS) + f"{'med |e| % oe':>14}{'med |e| % eq4':>15}")
+    """The coverage table of ``rows`` (of :func:`one`): per parameter the coverage of every kind the rows have (a
+    failed fit counts as not covered), the median ``|error| / stderr`` and the median relative error."""
+    kinds = _present(rows)
+    head = (f"{'parameter':<10}" + "".join(f"{kd + ' cover %':>19}" for kd in kinds)
+            + "".join(f"{'|e|/se ' + kd:>19}" for kd in kinds)
+            + "".join(f"{'med |e| % ' + kd:>19}" for kd in kinds if kd != "eq4 delta"))
     lines = [head, "-" * len(head)]
     for k in KEYS:
         cells = []
-        for kd in KINDS:
-            ok = [r["kinds"][kd] for r in rows if "failed" not in r["kinds"][kd]]
-            cells.append(f"{100 * np.mean([_covered(c[k]) for c in ok]) if ok else math.nan:>19.1f}")
-        for kd in KINDS:
+        for kd in kinds:
+            cov = [covered(r["kinds"][kd][k]) if "failed" not in r["kinds"][kd] else False for r in rows]
+            cells.append(f"{100 * np.mean(cov):>19.1f}")
+        for kd in kinds:
             ok = [r["kinds"][kd][k] for r in rows if "failed" not in r["kinds"][kd]]
             cells.append(f"{np.median([abs(c['err']) / c['se'] for c in ok]) if ok else math.nan:>19.2f}")
-        for kd in ("oe", "eq4"):
+        for kd in kinds:
+            if kd == "eq4 delta":
+                continue
             ok = [(r["kinds"][kd][k], r["params"][k]) for r in rows if "failed" not in r["kinds"][kd]]
-            w = 14 if kd == "oe" else 15
-            cells.append(f"{np.median([100 * abs(c['err']) / v for c, v in ok]) if ok else math.nan:>{w}.2f}")
+            cells.append(f"{np.median([100 * abs(c['err']) / v for c, v in ok]) if ok else math.nan:>19.2f}")
         lines.append(f"{k:<10}" + "".join(cells))
-    failed = [r["seed"] for r in rows if "failed" in r["kinds"]["oe"]]
-    blocks = [r["block"] for r in rows]
-    lines += ["-" * len(head),
-              f"{len(rows)} joints ({len(failed)} output-error fits failed{': seeds ' + str(failed) if failed else ''}"
-              f", counted as not covered); |e|/se: median over joints; eq. 4 bootstrap block median "
-              f"{int(np.median(blocks))}, range {min(blocks)}..{max(blocks)} samples; CPU time per joint median "
-              f"{np.median([r['time']['oe'] for r in rows]):.0f} s (oe), {np.median([r['time']['eq4'] for r in rows]):.1f}"
-              " s (eq4)", "coverage target of the oe intervals: 90-98 % per parameter"]
+    lines.append("-" * len(head))
+    for kd in ("oe", "default"):
+        if kd in kinds:
+            failed = [r["seed"] for r in rows if "failed" in r["kinds"][kd]]
+            lines.append(f"{kd}: {len(failed)} fits failed{': seeds ' + str(failed) if failed else ''} (counted as "
+                         f"not covered); CPU time per joint median {np.median([r['time'][kd] for r in rows]):.0f} s")
+    if "default" in kinds:
+        methods = [r.get("default_method") for r in rows]
+        lines.append("default: methods chosen " + ", ".join(f"{m} {methods.count(m)}" for m in sorted(
+            set(methods), key=str)) + "; parameters named by a model_form warning on "
+            f"{sum(bool(r.get('default_named')) for r in rows)} joints")
+    if "eq4" in kinds:
+        blocks = [r["block"] for r in rows]
+        lines.append(f"eq4: bootstrap block median {int(np.median(blocks))}, range {min(blocks)}..{max(blocks)} "
+                     f"samples; CPU time per joint median {np.median([r['time']['eq4'] for r in rows]):.1f} s")
+    lines += ["|e|/se: median over joints; coverage target of the oe and default intervals: 90-98 % per parameter"]
     return "\n".join(lines)
 
 
 def _coverage_ok(rows: list) -> bool:
-    """Whether the ``oe`` coverage of every parameter is within :data:`TARGET` (failed fits count as misses)."""
-    cov = [100 * np.mean([_covered(r["kinds"]["oe"][k]) if "failed" not in r["kinds"]["oe"] else False for r in rows])
-           for k in KEYS]
+    """Whether the coverage of every parameter is within :data:`TARGET` for ``oe`` and ``default``, those of the
+    two the rows have (failed fits count as misses)."""
+    kinds = [kd for kd in ("oe", "default") if kd in _present(rows)]
+    cov = [100 * np.mean([covered(r["kinds"][kd][k]) if "failed" not in r["kinds"][kd] else False for r in rows])
+           for kd in kinds for k in KEYS]
     return all(TARGET[0] <= c <= TARGET[1] for c in cov)
 
 
@@ -151,11 +189,15 @@ def _save(path: Path | None, row: dict) -> dict:
     if path is not None:
         with path.open("a") as fh:
             fh.write(json.dumps(row) + "\n")
-    oe = row["kinds"]["oe"]
-    print(f"seed {row['seed']}: " + (", ".join(
-        f"{k} {100 * oe[k]['err'] / row['params'][k]:+.2f}% (se {100 * oe[k]['se'] / row['params'][k]:.2f}%"
-        f"{'' if _covered(oe[k]) else ' MISS'})" for k in KEYS) if "failed" not in oe else oe["failed"])
-        + f"  [{row['time']['oe']:.0f} s CPU]", file=sys.stderr, flush=True)
+    for kd in ("oe", "default"):
+        if kd not in row["kinds"]:
+            continue
+        c = row["kinds"][kd]
+        print(f"seed {row['seed']} {kd}{' (' + row['default_method'] + ')' if 'default_method' in row else ''}: "
+              + (", ".join(f"{k} {100 * c[k]['err'] / row['params'][k]:+.2f}% (se "
+                           f"{100 * c[k]['se'] / row['params'][k]:.2f}%{'' if covered(c[k]) else ' MISS'})"
+                           for k in KEYS) if "failed" not in c else c["failed"])
+              + f"  [{row['time'][kd]:.0f} s CPU]", file=sys.stderr, flush=True)
     return row
 
 
@@ -170,6 +212,8 @@ def main(argv=None) -> int:
     ap.add_argument("--bootstrap-refit", choices=("full", "partial"), default="full",
                     help="how the output-error bootstrap refits each replicate (OutputErrorOptions.bootstrap_refit; "
                          "default full, the package's)")
+    ap.add_argument("--kinds", nargs="+", choices=("oe", "eq4", "default"), default=["oe", "eq4"],
+                    help="the fits to run (default: oe eq4; eq4 gives eq4 delta too)")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
     ap.add_argument("--out", type=Path, default=None, help="append each joint's row to this JSON-lines file")
     ap.add_argument("--table-from", type=Path, default=None, help="print the table of these rows, fit nothing")
@@ -184,10 +228,11 @@ def main(argv=None) -> int:
 
             with ProcessPoolExecutor(a.jobs) as pool:
                 rows = [_save(a.out, r) for r in pool.map(one, seeds, [a.duration] * a.n, [a.n_bootstrap] * a.n,
-                                                           [not a.no_lag_profile] * a.n, [a.bootstrap_refit] * a.n)]
+                                                           [not a.no_lag_profile] * a.n, [a.bootstrap_refit] * a.n,
+                                                           [tuple(a.kinds)] * a.n)]
         else:
-            rows = [_save(a.out, one(s, a.duration, a.n_bootstrap, not a.no_lag_profile, a.bootstrap_refit))
-                    for s in seeds]
+            rows = [_save(a.out, one(s, a.duration, a.n_bootstrap, not a.no_lag_profile, a.bootstrap_refit,
+                                     tuple(a.kinds))) for s in seeds]
     seeds = [r["seed"] for r in rows]
     print(f"coverage of nominal 95 % intervals of identify on {len(rows)} zoo joints (seeds {min(seeds)}..{max(seeds)}), "
           f"noise 1 %, quantisation {QUANT} N·m, Fig. 10 sampling scaled to 10 ms, Vs and delta given, lag fitted")

@@ -17,7 +17,9 @@ Run::
 
     python benchmarks/identification_truth.py [--nnfm-dir PATH/.git | --cache DIR] [--zoo N]
 
-``--zoo N`` adds the coverage of the default eq. 4 LS on ``N`` joints of ``benchmarks/coverage_zoo.py``.
+``--zoo N`` adds the coverage of the default (``method="auto"``: output error on this slow, irregular readout) on
+``N`` joints of ``benchmarks/coverage_zoo.py`` (about 35 s of CPU each); ``--zoo-from FILE`` reads them from the
+rows of ``coverage_zoo.py --kinds default --out FILE``.
 """
 
 from __future__ import annotations
@@ -126,7 +128,7 @@ def simulated_rows() -> list:
                         ("correct (log made by eq. 4)", eq4_log)):
         for seed in (0, 1):
             d = make(seed)
-            rep = identify(d)
+            rep = identify(d, method="auto")  # no Vs, not from a position: the eq. 4 LS
             old = eq4_block_bootstrap(rep.model, d.u, d.w, rep.ls.theta, rep.Ts, ("J", "sigma", "Fc", "offset"))
             named = {w.parameter for w in rep.warnings if w.code == "model_form"}
             for k, v in truth.items():
@@ -137,28 +139,29 @@ def simulated_rows() -> list:
     return rows
 
 
-def zoo_rows(n: int) -> list:
-    """Coverage of the default eq. 4 LS on the zoo of ``benchmarks/coverage_zoo.py`` (Stribeck + lag joints, ``Vs``
-    and ``delta`` given, ``lag=True``, irregular 10 ms readout): per parameter the coverage of the bootstrap alone,
-    of the default's interval, and the share where the truth is inside or the parameter is named."""
-    from coverage_zoo import draw_joint
-    from identification import KEYS, QUANT, record
+def zoo_rows(n: int, rows_from: Path | None = None) -> tuple[list, str]:
+    """Coverage of the default ``identify`` (``method="auto"``) on the zoo of ``benchmarks/coverage_zoo.py`` (lagged
+    Stribeck joints, ``Vs`` and ``delta`` given, ``lag=True``, irregular 10 ms readout): per parameter the coverage
+    of the default's interval and the share where the truth is inside or a ``model_form`` warning names the
+    parameter; and the methods chosen. ``rows_from``: the JSON lines of ``coverage_zoo.py --kinds default --out``
+    instead of fitting ``n`` joints here."""
+    import json
 
-    hits = {k: [0, 0, 0] for k in KEYS}
-    for seed in range(n):
-        p = draw_joint(seed)
-        m = record(p, seed=seed, noise=0.01, quant=QUANT, irregular="scaled", duration=15.0)
-        rep = identify(MeasuredData(m.t, m.u, m.w), Vs=p.Vs, delta=p.delta, lag=True)
-        me = rep.uncertainty.model_error
-        named = {w.parameter for w in rep.warnings if w.code == "model_form"}
-        for k in KEYS:
-            v, e = getattr(p, k), rep.params[k]
-            old = abs(e - v) <= me.base_half_width[k]
-            new = rep.interval95[k][0] <= v <= rep.interval95[k][1]
-            hits[k][0] += old
-            hits[k][1] += new
-            hits[k][2] += new or k in named
-    return [(k, 100 * a / n, 100 * b / n, 100 * c / n) for k, (a, b, c) in hits.items()]
+    from coverage_zoo import covered, one
+    from identification import KEYS
+
+    if rows_from is not None:
+        rows = [json.loads(x) for x in rows_from.read_text().splitlines() if x.strip()]
+        rows = [r for r in rows if "default" in r["kinds"]]
+    else:
+        rows = [one(seed, 15.0, 20, kinds=("default",)) for seed in range(n)]
+    out = []
+    for k in KEYS:
+        ins = [("failed" not in r["kinds"]["default"]) and covered(r["kinds"]["default"][k]) for r in rows]
+        named = [i or k in r.get("default_named", ()) for i, r in zip(ins, rows)]
+        out.append((k, 100 * float(np.mean(ins)), 100 * float(np.mean(named))))
+    methods = [r.get("default_method", "failed") for r in rows]
+    return out, f"{len(rows)} joints; methods chosen: " + ", ".join(f"{m} {methods.count(m)}" for m in sorted(set(methods)))
 
 
 def main(argv=None) -> int:
@@ -166,6 +169,8 @@ def main(argv=None) -> int:
     ap.add_argument("--nnfm-dir", type=Path, default=None, help="git directory of a clone of the NNFM repository")
     ap.add_argument("--cache", type=Path, default=None, help="folder of the downloaded NNFM logs")
     ap.add_argument("--zoo", type=int, default=0, help="also the coverage of the default on this many zoo joints")
+    ap.add_argument("--zoo-from", type=Path, default=None,
+                    help="the zoo rows of `coverage_zoo.py --kinds default --out FILE` instead of fitting them")
     args = ap.parse_args(argv)
     rows, extra = real_rows(args.nnfm_dir, args.cache)
     print("| log | method | parameter | published | estimate | 95 % interval | inside | warning names it | rule holds "
@@ -182,12 +187,13 @@ def main(argv=None) -> int:
     for label, s, k, v, e, lo0, hi0, in0, lo, hi, ins, nm in simulated_rows():
         print(f"| {label} | {s} | {k} | {v:g} | {e:.4g} | [{lo0:.4g}, {hi0:.4g}] | {'yes' if in0 else 'NO'} | "
               f"[{lo:.4g}, {hi:.4g}] | {'yes' if ins else 'NO'} | {'yes' if nm else '-'} |")
-    if args.zoo:
-        print(f"\n| zoo ({args.zoo} joints), eq. 4 default | base interval (bootstrap or HAC) cover % | default "
-              "cover % | inside or named % |")
-        print("|---|---|---|---|")
-        for k, a, b, c in zoo_rows(args.zoo):
-            print(f"| {k} | {a:.1f} | {b:.1f} | {c:.1f} |")
+    if args.zoo or args.zoo_from:
+        zrows, line = zoo_rows(args.zoo, args.zoo_from)
+        print(f"\n| zoo, default (auto) | default cover % | inside or named % |")
+        print("|---|---|---|")
+        for k, b, c in zrows:
+            print(f"| {k} | {b:.1f} | {c:.1f} |")
+        print(f"\n{line}")
     return 0
 
 

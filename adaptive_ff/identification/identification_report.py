@@ -199,7 +199,8 @@ class IdentificationReport:
     @property
     def interval95(self) -> dict:
         """Nominal 95 % intervals ``{name: (low, high)}`` of the fitted parameters: the bootstrap's
-        (:attr:`uncertainty`, or the physical method's ``info["interval95"]``), else ``value ± 1.96 stderr``."""
+        (:attr:`uncertainty`, or the physical method's ``info["interval95"]``), else ``value ± 1.96 stderr``
+        (with ``Vs`` and ``delta`` where the output-error fit fits them: its HAC errors)."""
         if self.physical is None and self.uncertainty is not None and self.uncertainty.level == 0.95:
             return dict(self.uncertainty.interval)
         info = self.physical.info if self.physical is not None else {}
@@ -207,6 +208,8 @@ class IdentificationReport:
         if iv:
             return {k: (float(v[0]), float(v[1])) for k, v in iv.items()}
         vals = self.params
+        if self.physical is not None:  # Vs and delta too where output error fits them
+            vals = {**vals, **{k: float(v) for k, v in self.physical.params.items() if k in ("Vs", "delta")}}
         return {k: (vals[k] - _Z95 * s, vals[k] + _Z95 * s) for k, s in self.stderr.items() if k in vals}
 
     @property

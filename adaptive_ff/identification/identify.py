@@ -37,10 +37,10 @@ import numpy as np
 from adaptive_ff.io.data import MeasuredData, to_uniform
 from adaptive_ff.io.units import PARAM_UNITS, VELOCITY_LABEL
 from adaptive_ff.identification.cross_validation import CrossValidation, cross_validate
-from adaptive_ff.identification.diagnostics import excitation_report
+from adaptive_ff.identification.diagnostics import FEEDBACK_MIN, excitation_report, feedback_correlation
 from adaptive_ff.identification.identification_report import IdentificationReport, parameter_names
-from adaptive_ff.identification.identify_warnings import (as_baseline, estimate_warnings, ls_simex_judgment,
-                                                          sliding_band_warnings)
+from adaptive_ff.identification.identify_warnings import (FREE_RUN_MIN, as_baseline, estimate_warnings,
+                                                          ls_simex_judgment, sliding_band_warnings)
 from adaptive_ff.identification.idim_method import IDIM_ESTIMATOR, fit_idim_physical
 from adaptive_ff.identification.ls import LSResult, fit_ls
 from adaptive_ff.identification.model_error import assess_model_error, eq4_model_error, widened
@@ -99,7 +99,7 @@ def _physical_std(model: RegressionModel, u, w, ls: LSResult, names: tuple[str, 
 
 
 def choose_method(data: MeasuredData, *, Vs: float | None, controller_Tc: float | None = None,
-                  lag: bool = False) -> tuple[str, str]:
+                  lag: bool = False, eq4_free_run: float | None = None) -> tuple[str, str]:
     """The identification method ``identify(method="auto")`` uses for a record, and why.
 
     Parameters
@@ -113,6 +113,10 @@ def choose_method(data: MeasuredData, *, Vs: float | None, controller_Tc: float 
         commanded velocity of the log are known; None (default) if not.
     lag : bool, keyword-only
         A friction lag is asked for (IDIM fits none). Default False.
+    eq4_free_run : float or None, keyword-only
+        The free-run fit (%) of the eq. 4 LS on the record (:attr:`adaptive_ff.identification.ls.LSResult.fit_free_run`;
+        :func:`identify` passes it); None (default): not known, the record is taken as one the eq. 4 model
+        simulates (an open-loop record).
 
     Returns
     -------
@@ -120,11 +124,16 @@ def choose_method(data: MeasuredData, *, Vs: float | None, controller_Tc: float 
         ``"idim"`` for a uniform record whose velocity was derived from a measured position
         (``data.w_from_position``: an encoder axis such as EMPS) when neither ``Vs`` nor ``lag`` is asked for:
         the inverse dynamic model (:mod:`adaptive_ff.identification.idim_method`), whose torque regression
-        the log calls for; ``"sliding"`` for a uniform record at most :data:`CONTROLLER_RATE_TS` apart (a controller-rate
-        log: torque and measured velocity as the controller had them) when ``Vs`` is known;
-        ``"closed_loop"`` for any other record read out slower than the controller (median interval above
-        1.5 ``controller_Tc``) when ``Vs`` and ``controller_Tc`` are known (the loop is simulated:
-        :mod:`controllers.experiments.closed_loop_id`); ``"paper"`` otherwise (eq. 4 LS).
+        the log calls for; ``"paper"`` (eq. 4 LS) for any other record without ``Vs``; ``"sliding"`` for a
+        uniform record at most :data:`CONTROLLER_RATE_TS` apart (a controller-rate log: torque and measured
+        velocity as the controller had them) when ``Vs`` is known (:func:`identify` replaces it by
+        ``"output_error"`` where the sliding regression's own simulation-extrapolation finds J or tau biased
+        by the record's noise and the torque does not follow the velocity noise: an open-loop record); ``"closed_loop"`` for any other record read out slower than the controller
+        (median interval above 1.5 ``controller_Tc``) when ``Vs`` and ``controller_Tc`` are known (the loop is
+        simulated: :mod:`controllers.experiments.closed_loop_id`); for any other record with ``Vs``
+        (slower than :data:`CONTROLLER_RATE_TS` or irregular) ``"output_error"``, unless ``eq4_free_run`` is
+        below :data:`adaptive_ff.identification.identify_warnings.FREE_RUN_MIN` (50 %): then ``"paper"``, whose
+        warning names the way out.
     reason : str
         One sentence for the report.
 
@@ -134,6 +143,13 @@ def choose_method(data: MeasuredData, *, Vs: float | None, controller_Tc: float 
     (:func:`adaptive_ff.compensation.sliding_estimator.fit_sliding`) regresses the torque, which the
     controller knows exactly at its own rate, on filtered velocity signals (Gautier & Khalil; Janot et
     al., IEEE TCST 22(1), 2014): unbiased in closed loop. It needs the samples at the controller rate.
+    On a slower or irregular readout the eq. 4 LS is biased (backward differences across the Stribeck
+    hump at the resampled grid, velocity noise in its regressors: J, tau and Fs miss their 95 % intervals on
+    most joints of ``benchmarks/coverage_zoo.py``), while the output-error fit simulates eqs. 1-3 on the
+    record's own stamps and its bootstrap intervals cover (docs/benchmarks/identification.md). A record the
+    eq. 4 model fits one step ahead but not in free run is the signature of a closed-loop log read out slower
+    than its loop: the torque between two readouts is not in the log, which no method that reconstructs the
+    input between readouts (eq. 4 or output error) can mend.
     """
     d = np.diff(data.t)
     med = float(np.median(d))
@@ -148,14 +164,25 @@ def choose_method(data: MeasuredData, *, Vs: float | None, controller_Tc: float 
     if uniform and med <= CONTROLLER_RATE_TS:
         return "sliding", (f"uniform samples {med * 1e3:.3g} ms apart (controller rate): the sliding-regime "
                            "inverse-dynamics regression, unbiased in closed loop")
+    spacing = f"samples {med * 1e3:.3g} ms apart{'' if uniform else ' (irregular)'}"
     if controller_Tc is not None and med > 1.5 * controller_Tc:
-        return "closed_loop", (f"samples {med * 1e3:.3g} ms apart{'' if uniform else ' (irregular)'}, slower than "
-                               f"the controller period {controller_Tc * 1e3:.3g} ms, with the reference and the "
-                               "controller given: the output-error fit that simulates the known PI loop")
-    return "paper", (f"samples {med * 1e3:.3g} ms apart{'' if uniform else ' (irregular)'}: the eq. 4 LS of the "
-                     "paper; a closed-loop drive identifies best from its controller-rate log (method 'sliding') "
-                     "or, read out slower, with its reference and controller (method 'closed_loop'), an open-loop "
-                     "record by method 'output_error'")
+        return "closed_loop", (f"{spacing}, slower than the controller period {controller_Tc * 1e3:.3g} ms, with the "
+                               "reference and the controller given: the output-error fit that simulates the known "
+                               "PI loop")
+    if eq4_free_run is not None and eq4_free_run < FREE_RUN_MIN:
+        return "paper", (f"{spacing}, and the eq. 4 model fits the record in free run by only {eq4_free_run:.1f} % "
+                         f"(< {FREE_RUN_MIN:g} %): the signature of a closed-loop log read out slower than its loop, "
+                         "whose torque between readouts is not in the log, so neither the eq. 4 LS nor the output-"
+                         "error fit determines J and tau; the eq. 4 LS of the paper, with the warning that names the "
+                         "way out (a controller-rate log, method 'sliding', or the reference and the controller, "
+                         "method 'closed_loop')")
+    run = "" if eq4_free_run is None else f" (the eq. 4 model runs freely: free-run fit {eq4_free_run:.1f} %)"
+    return "output_error", (f"{spacing}, slower than the {CONTROLLER_RATE_TS * 1e3:g} ms the sliding regression needs "
+                            f"or irregular, with the Stribeck pre-fit given{run}: the output-error fit of eqs. 1-3 "
+                            "on the record's own stamps, each torque sample taken at its stamp (method_options "
+                            "input_delay for a logger that stamps the torque of the period before); the eq. 4 LS is "
+                            "biased on such a readout (differences across the Stribeck hump, velocity noise in its "
+                            "regressors)")
 
 
 def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bool, options=None) -> PhysicalFit:
@@ -308,8 +335,6 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
     if form is not None:
         form_options.setdefault("method", "sliding" if method == "sliding" else "output_error")
         method = "paper"  # the eq. 4 LS/RLS baselines; the answer is the selected form's (below)
-    if method == "auto":
-        method, auto_reason = choose_method(data, Vs=Vs, lag=lag)
     stribeck = Vs is not None
     model = RegressionModel(Vs, delta, lag=lag, stribeck=stribeck, offset=offset)
     rls = RecursiveLeastSquares(model.n_params, lam=lam, P0=P0)
@@ -323,6 +348,8 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
     excitation = excitation_report(u, w, Vs=Vs if stribeck else None)
     ls = _fit_ls_with_causes(model, u, w, Ts, excitation)
     std = _physical_std(model, u, w, ls, parameter_names(model))
+    if method == "auto":
+        method, auto_reason = choose_method(data, Vs=Vs, lag=lag, eq4_free_run=ls.fit_free_run)
     unc = _eq4_uncertainty(model, u, w, ls, method_options) if method == "paper" and form is None else None
     X, y = model.regressors(u, w)
     keep, hist = _rls_pass(rls, X, y, n_history)
@@ -341,40 +368,10 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
                  f"{excitation.noise_std:.3g} {VELOCITY_LABEL} (robust, from third differences){low}")
     physical = None
     if method != "paper":
-        if method == "sliding":
-            try:
-                physical = _fit_sliding_physical(uni, Vs, delta, offset, method_options)
-            except ExcitationError as exc:
-                if auto_reason is None:
-                    raise
-                notes.append(f"method 'sliding' not possible ({exc}): the eq. 4 LS is the answer")
-                unc = _eq4_uncertainty(model, u, w, ls, method_options)
-                if unc is not None:
-                    notes += [unc.note(), unc.model_error.note()]
-                    warn += unc.model_error.warnings("the eq. 4 LS")
-                return with_steady_state_check(_report(ls, rls, rls_est, rls_fit, uni, keep, hist, std, P0, data,
-                                                       notes, warn, excitation, None, unc), data)
-            notes.append(f"physical parameters by 'sliding' on {physical.info['n_rows']} sliding-regime rows "
-                         f"({physical.info['n_gated']} near-zero-velocity rows gated out)")
-        elif method == "idim":
-            n_boot, seed = _bootstrap_options(method_options)
-            physical = fit_idim_physical(uni, offset=offset, n_bootstrap=n_boot, seed=seed)
-            notes.append(f"physical parameters by 'idim' (IDIM-LS, {IDIM_ESTIMATOR}) on {physical.info['n_rows']} "
-                         f"rows decimated by {physical.info['decimate']}: force error "
-                         f"{physical.info['force_error_percent']:.3f} %")
-        else:
-            physical = fit_physical(data.t, data.u, data.w, Vs=Vs, delta=delta, method=method, offset=offset,
-                                    **(method_options or {}))
-            notes.append(f"physical parameters by {method!r} on the record's own time stamps "
-                         f"({physical.n_samples} samples, fit {physical.nrmse_kind}); {stderr_note(physical)}")
-        if method == "sliding":  # judge J and tau in the band of the sliding regression, not sample to sample
-            warn = [w for w in warn if not (w.code == "identifiability" and w.parameter == "J")]
-            warn += sliding_band_warnings(uni, Vs, delta, excitation.noise_std, physical)
-        warn = [as_baseline(w) for w in warn] + list(physical.warnings)
-        if auto_reason is not None:
-            physical.info["auto_reason"] = auto_reason
-        if physical.info.get("model_error"):
-            notes.append(physical.info["model_error"]["note"])
+        physical, warn = _physical_answer(method, auto_reason, data, uni, Vs, delta, offset, method_options,
+                                          excitation.noise_std, notes, warn)
+        if physical is None:  # 'sliding' chosen automatically but not possible: the eq. 4 LS answers
+            unc = _eq4_uncertainty(model, u, w, ls, method_options)
     if physical is None and unc is not None:
         notes += [unc.note(), unc.model_error.note()]
         warn += unc.model_error.warnings("the eq. 4 LS")
@@ -383,6 +380,70 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
     if form is not None:
         report = _attach_form(report, data, form, form_options, Vs, delta, offset)
     return with_steady_state_check(report, data)
+
+
+def _physical_answer(method, auto_reason, data, uni, Vs, delta, offset, method_options, noise_std, notes,
+                     warn) -> tuple:
+    """The physical fit of ``method`` (not ``"paper"``) and the warnings of the report, its notes appended to
+    ``notes``. ``(None, warn)`` where ``"sliding"`` was chosen automatically and the record has too few
+    sliding rows (the eq. 4 LS answers). Where ``"sliding"`` was chosen automatically and its own
+    simulation-extrapolation finds J or tau biased by the record's noise by more than 10 % and the log shows no
+    feedback (:func:`adaptive_ff.identification.diagnostics.feedback_correlation` below
+    :data:`adaptive_ff.identification.diagnostics.FEEDBACK_MIN` in magnitude: an open-loop record), the
+    output-error fit answers instead (its residual is the velocity noise itself, not an error in its regressors)
+    and the sliding fit's judgment becomes a ``"method"`` note. In a closed loop the sliding regression stays,
+    with its warnings (the output-error fit of a 1 kHz PI log with 3e-3 rad/s noise gave J 4.9 [1.2, 8.6] and
+    tau 0.0007 s for 4 and 0.02 s)."""
+    if method == "sliding":
+        try:
+            physical = _fit_sliding_physical(uni, Vs, delta, offset, method_options)
+        except ExcitationError as exc:
+            if auto_reason is None:
+                raise
+            notes.append(f"method 'sliding' not possible ({exc}): the eq. 4 LS is the answer")
+            return None, warn
+        # judge J and tau in the band of the sliding regression, not sample to sample
+        warn = [w for w in warn if not (w.code == "identifiability" and w.parameter == "J")]
+        band = sliding_band_warnings(uni, Vs, delta, noise_std, physical)
+        rho = feedback_correlation(uni.u, uni.w) if auto_reason is not None and band else -1.0
+        if auto_reason is None or not band or abs(rho) >= FEEDBACK_MIN:
+            notes.append(f"physical parameters by 'sliding' on {physical.info['n_rows']} sliding-regime rows "
+                         f"({physical.info['n_gated']} near-zero-velocity rows gated out)")
+            return _with_auto_reason(physical, auto_reason, notes, warn + band)
+        named = " and ".join(sorted({w.parameter for w in band}, key=("J", "tau").index))
+        auto_reason += (f"; but on this record the sliding regression's own simulation-extrapolation moves {named} "
+                        "by more than 10 % (the velocity noise in its filtered regressors biases it; the numbers "
+                        "are in the 'method' warnings) and the torque does not follow the velocity noise (correlation "
+                        f"of their third differences {rho:+.3f}: no feedback loop in the log, an open-loop record), "
+                        "so the output-error fit of eqs. 1-3 answers instead")
+        i = next(i for i, n in enumerate(notes) if n.startswith("method 'sliding' chosen automatically"))
+        notes[i] = f"method 'output_error' chosen automatically: {auto_reason}"
+        warn += [IdentificationWarning("method", w.parameter, f"sliding regression, not the answer: {w}")
+                 for w in band]
+        method = "output_error"
+    if method == "idim":
+        n_boot, seed = _bootstrap_options(method_options)
+        physical = fit_idim_physical(uni, offset=offset, n_bootstrap=n_boot, seed=seed)
+        notes.append(f"physical parameters by 'idim' (IDIM-LS, {IDIM_ESTIMATOR}) on {physical.info['n_rows']} "
+                     f"rows decimated by {physical.info['decimate']}: force error "
+                     f"{physical.info['force_error_percent']:.3f} %")
+    else:
+        physical = fit_physical(data.t, data.u, data.w, Vs=Vs, delta=delta, method=method, offset=offset,
+                                **(method_options or {}))
+        notes.append(f"physical parameters by {method!r} on the record's own time stamps "
+                     f"({physical.n_samples} samples, fit {physical.nrmse_kind}); {stderr_note(physical)}")
+    return _with_auto_reason(physical, auto_reason, notes, warn)
+
+
+def _with_auto_reason(physical: PhysicalFit, auto_reason, notes: list, warn: list) -> tuple:
+    """``(physical, warnings)``: the eq. 4 warnings as baseline notes followed by the fit's own; the reason of
+    ``"auto"`` in ``physical.info`` and the model-error note in ``notes``."""
+    warn = [as_baseline(w) if w.code != "method" else w for w in warn] + list(physical.warnings)
+    if auto_reason is not None:
+        physical.info["auto_reason"] = auto_reason
+    if physical.info.get("model_error"):
+        notes.append(physical.info["model_error"]["note"])
+    return physical, warn
 
 
 def _check_form_args(form, form_options, method, method_options) -> dict:

@@ -24,10 +24,10 @@ from adaptive_ff.identification.plausibility import IdentificationWarning, check
 from adaptive_ff.identification.regression import FrictionEstimate
 from plant.errors import ExcitationError
 
-__all__ = ["as_baseline", "estimate_warnings", "ls_simex_judgment", "sliding_band_warnings"]
+__all__ = ["FREE_RUN_MIN", "as_baseline", "estimate_warnings", "ls_simex_judgment", "sliding_band_warnings"]
 
 #: Free-run fit (%) of the eq. 4 LS below which the dynamics (J, tau) are not determined by the record.
-_FREE_RUN_MIN = 50.0
+FREE_RUN_MIN = 50.0
 
 #: Condition number above which :func:`estimate_warnings` adds a warning (fit_ls refuses above 1e10).
 _COND_WARN = 1e6
@@ -174,7 +174,8 @@ def as_baseline(w):
     -------
     IdentificationWarning
         ``w`` itself for an ``"identifiability"`` warning on the record's own excitation (it concerns every
-        method); else a ``"method"`` warning on the same parameter whose message is ``w``'s after
+        method); else (also for the simulation-extrapolation judgment of the eq. 4 regression, which concerns
+        that regression only) a ``"method"`` warning on the same parameter whose message is ``w``'s after
         ``"eq. 4 baseline, not the answer: "``.
 
     Raises
@@ -182,7 +183,8 @@ def as_baseline(w):
     AttributeError
         ``w`` has no ``code`` or ``parameter`` (a plain str, not an :class:`IdentificationWarning`).
     """
-    if w.code == "identifiability" and not w.startswith(("redundant inertia", "the eq. 4 model")):
+    if w.code == "identifiability" and not w.startswith(("redundant inertia", "the eq. 4 model")) \
+            and "the eq. 4 regression" not in w:
         return w  # the record's own excitation: it concerns every method
     return IdentificationWarning("method", w.parameter, f"eq. 4 baseline, not the answer: {w}")
 
@@ -221,11 +223,11 @@ def estimate_warnings(ls: LSResult, rls_est: FrictionEstimate, lag: bool) -> lis
             "identifiability", "tau",
             f"redundant inertia Ts*a2/b1 = {ls.estimate.J_alt:.4g} differs from J = {ls.estimate.J:.4g} by more "
             "than 10 %: the data do not support the friction-lag structure well (J and tau are not trustworthy)"))
-    if ls.fit_free_run < _FREE_RUN_MIN:
+    if ls.fit_free_run < FREE_RUN_MIN:
         warn.append(IdentificationWarning(
             "identifiability", "J",
             f"the eq. 4 model fits one step ahead ({ls.fit_one_step:.1f} %) but not in free run "
-            f"({ls.fit_free_run:.1f} % < {_FREE_RUN_MIN:g} %): the record does not determine the dynamics (J, tau); "
+            f"({ls.fit_free_run:.1f} % < {FREE_RUN_MIN:g} %): the record does not determine the dynamics (J, tau); "
             "typical of a closed-loop log read out slower than the loop: log torque and velocity at the "
             "controller rate (method 'sliding'), or give the commanded velocity and the controller "
             "(identify --reference-column NAME --controller controller.json, or --Kp --Ki --Tc --u-max; "

@@ -99,7 +99,10 @@ def test_open_loop_output_error_misses_the_targets_on_the_same_record(record):
 def test_identify_closed_loop_auto_chooses_it_and_names_it(record):
     m, w_ref, spec = record
     data = MeasuredData(m.t, m.u, m.w, source="slow robot readout")
-    assert choose_method(data, Vs=VS)[0] == "paper"  # without reference and controller: today's behaviour
+    # without reference and controller: the eq. 4 LS, whose free run below 50 % marks the slow closed-loop readout
+    free_run = identify(data, Vs=VS, delta=DELTA, lag=True, method="paper",
+                        method_options={"n_bootstrap": 0}).ls.fit_free_run
+    assert free_run < 50.0 and choose_method(data, Vs=VS, eq4_free_run=free_run)[0] == "paper"
     method, reason = choose_method(data, Vs=VS, controller_Tc=spec.Tc)
     assert method == "closed_loop" and "slower than the controller period 1 ms" in reason
     rep = identify_closed_loop(data, w_ref, controller=spec, Vs=VS, delta=DELTA, lag=True,

@@ -13,6 +13,7 @@ import math
 import numpy as np
 import pytest
 
+from adaptive_ff.identification.diagnostics import feedback_correlation
 from adaptive_ff.identification.identify import choose_method, identify
 from adaptive_ff.io.data import MeasuredData
 from controllers.cli import design as cli_design
@@ -60,6 +61,9 @@ def test_controller_rate_log_is_identified_within_targets(run):
 def test_noisier_controller_log_warns_where_tau_is_not_recovered():
     log = _run(20.0, 3e-3).controller_log()
     rep = identify(log, Vs=VS, delta=DELTA, method="auto")
+    # the PI's torque follows the sensor noise at once: a closed loop, so the sliding regression stays the answer
+    # (its simulation-extrapolation flags tau; an open-loop record would go to output error)
+    assert feedback_correlation(log.u, log.w) < -0.99 and rep.method == "sliding"
     tau_err = abs(rep.physical.params["tau"] / P.tau - 1.0)
     assert tau_err > 0.1  # measured -34 %
     w = [x for x in rep.warnings if x.code == "identifiability" and x.parameter == "tau"]
@@ -74,9 +78,15 @@ def test_slow_irregular_readout_of_the_same_loop_is_refused(run):
     times = irregular_sample_times(float(run.response.t[-1]), dt=1e-3, rng=rng)
     m = sample(run.response, times=times, noise_std=1e-3, quantization=0.6, rng=rng)
     data = MeasuredData(m.t, m.u, m.w, source="slow readout")
-    method, reason = choose_method(data, Vs=VS)
-    assert method == "paper" and "controller-rate log" in reason
+    # without the eq. 4 free-run fit the slow readout is taken as open loop (output error) ...
+    assert choose_method(data, Vs=VS)[0] == "output_error"
     rep = identify(data, Vs=VS, delta=DELTA, method="auto")
+    # ... with it (measured 27.9 %, below 50 %) the closed-loop signature keeps the eq. 4 LS, whose warning names
+    # the way out (the output-error fit cannot mend the torque missing between readouts either)
+    assert 20.0 < rep.ls.fit_free_run < 35.0
+    method, reason = choose_method(data, Vs=VS, eq4_free_run=rep.ls.fit_free_run)
+    assert method == "paper" and "closed-loop log read out slower than its loop" in reason
+    assert rep.method == "paper" and any("'paper' chosen automatically" in n and "free run" in n for n in rep.notes)
     assert abs(rep.estimate.J / P.J - 1.0) > 0.5  # eq. 4 on this log is far off ...
     w = [x for x in rep.warnings if x.parameter == "J" and x.refusing and "free run" in x]
     assert len(w) == 1 and "method 'sliding'" in w[0]  # ... and says so, naming the way out
