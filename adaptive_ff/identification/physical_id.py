@@ -177,10 +177,12 @@ before it, and it moved 41 of their 42 refits back towards the estimate's
 tau (to 0.6-0.9 times the tau they had stopped at). That is
 about 270 instead of 745 of a refit's 1400 simulations on the log of
 ``benchmarks/output_error_speed.py``; the point estimate is the same bit for
-bit (the fit's own search refits at every value). It is the default: its 95 % intervals
-covered the truth on 91-96 % of 100 zoo joints per parameter in two runs with
-different draws (the identification page, "The bootstrap of the fit itself,
-the default"), the partial refits' J and tau
+bit (the fit's own search refits at every value). It is the default: with the
+whole profile in each refit its 95 % intervals covered the truth on 91-96 % of
+100 zoo joints per parameter in two runs with different draws (the
+identification page, "The bootstrap of the fit itself, the default"; on the
+joints run with the screened profile, each miss is a miss of the whole-profile
+refits too: "Calibration on many joints"), the partial refits' J and tau
 intervals on 99 % (twice too wide). The refits run in threads
 (``bootstrap_workers``; their time is in the C simulation, which releases the
 GIL); every replicate and the generator of each refit are drawn before any
