@@ -298,7 +298,8 @@ class PhysicalFit:
         ``stderr_white`` (white-noise Gauss-Newton errors), ``hac_lags``
         (Bartlett bandwidth), ``bootstrap`` (None, or ``n``, ``n_valid``,
         ``block``, ``seed``, ``start_spread``, ``resampling``, ``refit`` (what each refit
-        runs), ``n_simulations``, ``bias``:
+        runs), ``lag_refits`` (``OutputErrorOptions.bootstrap_lag_refits`` where the refits run the profile over
+        tau: at how many of its values they refit the others, None for all), ``n_simulations``, ``bias``:
         mean deviation of the refits per parameter, ``interval95``: per
         parameter ``[low, high]`` = value ± t stderr), ``interval95`` (the
         same) and ``band`` (the 95 % band of F(w) from the refits, as
@@ -862,18 +863,12 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
                                    workers=o.workers(), progress=o.progress)
     details = {"n": o.n_bootstrap, "n_valid": b.n_valid, "block": int(b.block), "seed": o.bootstrap_seed,
                "start_spread": _BOOT_START, "resampling": _BOOT_SCHEME,
-               "refit": (_BOOT_REFIT if o.bootstrap_refit == "partial" else _full_refit_text(o)),
+               "refit": (_BOOT_REFIT if o.bootstrap_refit == "partial"
+                         else "the fit's own search from the replicate's start"),
+               "lag_refits": (o.bootstrap_lag_refits if o.bootstrap_refit == "full" and o.lag_profile else None),
                "n_simulations": int(sum(n_sim))}
     details.update(_oe_intervals(pb, names, est, b))
     return dict(zip(names, map(float, b.stderr))), dict(zip(names, map(float, b.bias))), details
-
-
-def _full_refit_text(o: OutputErrorOptions) -> str:
-    """What a ``"full"`` bootstrap refit runs (``info["bootstrap"]["refit"]``)."""
-    if not o.lag_profile or o.bootstrap_lag_refits is None:
-        return "the fit's own search from the replicate's start"
-    return (f"the fit's own search from the replicate's start, the profile over tau refitted at its "
-            f"{o.bootstrap_lag_refits} value(s) of lowest J-grid cost")
 
 
 def _oe_intervals(pb: _OutputErrorProblem, names: tuple, est: np.ndarray, b) -> dict:
