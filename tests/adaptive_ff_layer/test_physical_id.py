@@ -173,7 +173,7 @@ def test_bootstrap_is_seeded_keeps_the_estimate_and_falls_back_to_hac():
 
 
 def test_full_bootstrap_refit_is_the_fit_itself_on_the_replicate(monkeypatch):
-    # bootstrap_refit="full" with the whole profile over tau in each refit (bootstrap_lag_refits=None): each
+    # bootstrap_refit="full" with the whole profile over tau in each refit (bootstrap_lag_refits=None, default): each
     # replicate is analysed by the same estimator as the record (Efron & Tibshirani 1993, Ch. 6): the replicate's
     # refit equals fit_physical on that replicate, run independently here
     from adaptive_ff.identification import physical_id as pid
