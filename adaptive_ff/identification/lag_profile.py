@@ -46,7 +46,8 @@ J_SPAN = 0.3
 J_GRID = 13
 
 
-def lag_profile_search(pb, best: tuple, *, factors=TAU_FACTORS, j_tau: int = 4, j_J: int = 0) -> tuple:
+def lag_profile_search(pb, best: tuple, *, factors=TAU_FACTORS, j_tau: int = 4, j_J: int = 0,
+                       n_refit: int | None = None) -> tuple:
     """Lowest-cost point of a profile of the output-error cost over the lag, refitted (module docstring).
 
     Parameters
@@ -62,6 +63,12 @@ def lag_profile_search(pb, best: tuple, *, factors=TAU_FACTORS, j_tau: int = 4, 
         Values of tau tried as multiples of the current one, each > 0. Default :data:`TAU_FACTORS`.
     j_tau, j_J : int, keyword-only
         Indices of ``log tau`` and ``log J`` in ``x``. Defaults 4 and 0 (``_OutputErrorProblem``).
+    n_refit : int or None, keyword-only
+        None (default): the other parameters are refitted at every value of tau. An integer >= 1: the J grid
+        is run at every value of tau first (its lowest cost at the wide robust scale screens the values) and
+        the others are refitted at the ``n_refit`` values of lowest screening cost only (the bootstrap refits'
+        shortcut, ``OutputErrorOptions.bootstrap_lag_refits``); the profile points not refitted keep their
+        screening point, and their ``cost`` in ``details`` is at the noise-level scale there.
 
     Returns
     -------
@@ -75,7 +82,8 @@ def lag_profile_search(pb, best: tuple, *, factors=TAU_FACTORS, j_tau: int = 4, 
     Raises
     ------
     plant.errors.ParameterError
-        ``factors`` empty, or a factor that is not a finite number > 0.
+        ``factors`` empty, or a factor that is not a finite number > 0; ``n_refit`` not None nor an integer
+        >= 1.
 
     Notes
     -----
@@ -85,21 +93,38 @@ def lag_profile_search(pb, best: tuple, *, factors=TAU_FACTORS, j_tau: int = 4, 
     fac = np.asarray(factors, dtype=float).reshape(-1)
     if fac.size == 0 or not np.all(np.isfinite(fac)) or np.any(fac <= 0):
         raise ParameterError(f"factors must be finite numbers > 0, got {factors!r}")
+    if n_refit is not None and (isinstance(n_refit, bool) or not isinstance(n_refit, (int, np.integer))
+                                or n_refit < 1):
+        raise ParameterError(f"n_refit must be None or an integer >= 1, got {n_refit!r}")
     c0, x0 = float(best[0]), np.asarray(best[1], dtype=float)
     ds = pb.opts.diff_step / 3.0
     free = [j for j in range(x0.shape[0]) if j != j_tau]
     n0 = pb.n_sim
-    taus, costs, points = [], [], []
-    for f in fac:
+
+    def grid(f):  # tau held at f times the current one, log J on its grid (wide robust scale)
         xs = x0.copy()
         xs[j_tau] = x0[j_tau] + math.log(f)
-        xs = pb.profile(xs, xs[j_J] - J_SPAN, xs[j_J] + J_SPAN, J_GRID, j=j_J, fsc=pb.f_wide)
+        return pb.profile(xs, xs[j_J] - J_SPAN, xs[j_J] + J_SPAN, J_GRID, j=j_J, fsc=pb.f_wide)
+
+    def refit(xs):  # the others refitted at that tau: a wide-scale and a noise-level trust-region pass
         xs[free] = pb.refine(xs, pb.opts.diff_step, pb.f_wide, free=free).x
         xs[free] = pb.refine(xs, ds, free=free).x
-        c = pb.cost(xs)
-        taus.append(math.exp(xs[j_tau]))
-        costs.append(c)
+        return xs
+
+    points, costs, screen = [], [], []
+    for f in fac:
+        xs = grid(f)
+        if n_refit is None:
+            xs = refit(xs)
+        else:  # its costs while its residual vector is at hand (the problem keeps the last few only)
+            screen.append(pb.cost(xs, pb.f_wide))
         points.append(xs)
+        costs.append(pb.cost(xs))
+    if n_refit is not None:
+        for k in sorted(np.argsort(screen, kind="stable")[:n_refit]):
+            points[k] = refit(points[k])
+            costs[k] = pb.cost(points[k])
+    taus = [math.exp(xs[j_tau]) for xs in points]
     k = int(np.argmin(costs))
     out = (c0, x0)
     if costs[k] < c0:

@@ -88,6 +88,15 @@ class OutputErrorOptions:
         (:func:`adaptive_ff.identification.lag_profile.lag_profile_search`: ten values of tau, J on a grid
         and the others refitted at each; about 1000 simulations). Default True; False gives the fit
         without it (found tau 9-70 % off on joints with a lag near the sample time).
+    bootstrap_lag_refits : int or None, keyword-only
+        The profile search over tau in each ``"full"`` bootstrap refit (``lag_profile`` True): None (default),
+        the fit's own (the other parameters refitted at each of its ten values of tau; the calibrated
+        intervals); an integer >= 1, the J grid at each of the ten values screens them by its cost and the
+        others are refitted at the ``bootstrap_lag_refits`` values of lowest screening cost only
+        (:func:`adaptive_ff.identification.lag_profile.lag_profile_search`, ``n_refit``; 2: about two thirds of
+        the bootstrap's simulations, its zoo coverage not yet established). The point estimate does not depend
+        on it (the fit's own search always refits at every value); the refits' scatter, and with it the
+        intervals, do (module docstring, "Standard errors").
     jacobian : {"difference", "sensitivity"}, keyword-only
         Jacobian of the trust-region fits. ``"difference"`` (default): forward differences with the relative
         step ``diff_step`` (a secant over 1 % of each parameter, which sees past the breakaway jitter of the
@@ -126,6 +135,7 @@ class OutputErrorOptions:
     bootstrap_workers: int | None = None
     progress: bool | None = False
     lag_profile: bool = True
+    bootstrap_lag_refits: int | None = None
     jacobian: str = "difference"
 
     def __post_init__(self):
@@ -152,6 +162,8 @@ class OutputErrorOptions:
         if not isinstance(self.lag_profile, (bool, np.bool_)):
             raise ParameterError(f"lag_profile must be True or False, got {self.lag_profile!r}")
         put("lag_profile", bool(self.lag_profile))
+        if self.bootstrap_lag_refits is not None:
+            put("bootstrap_lag_refits", _check_int("bootstrap_lag_refits", self.bootstrap_lag_refits, 1))
         put("start", _check_start(self.start))
         for name, allowed in (("loss", ("linear", "soft_l1")), ("predictor", ("auto", "free-run", "one-step")),
                               ("interp", ("linear", "cubic")), ("bootstrap_refit", BOOTSTRAP_REFITS),

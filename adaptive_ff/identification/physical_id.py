@@ -165,11 +165,24 @@ replicate taken as a record of its own (its noise level, robust scales and
 eq. 4 start, every stage including the profile searches): the bootstrap of
 the estimator as it is (Efron & Tibshirani, Ch. 6), at about three times the
 cost of the partial refits (a median 34 s, 22-68 s, against 11 s of CPU per
-15 s zoo record with 20 refits); its coverage on the zoo: the identification
-page, "The bootstrap of the fit itself, the default". It is the default: its 95 % intervals
-covered the truth on 91-96 % of 100 zoo joints per parameter in two runs with
-different draws (the identification page, "The bootstrap of the fit itself,
-the default"), the partial refits' J and tau
+15 s zoo record with 20 refits, when each refit runs the fit's whole profile
+search over tau); its coverage on the zoo: the identification
+page, "The bootstrap of the fit itself, the default". An opt-in shortcut of
+these refits is in that profile search (``bootstrap_lag_refits=2``): the J
+grid still runs at each of its ten values of tau, but the other parameters
+are refitted at the two values of lowest J-grid cost only. The profile is not
+dropped from the refits: on two zoo joints with lags of 5.1 and 7.7 ms the
+refits' search stopped 4-70 % high in tau before it, and it moved 41 of their
+42 refits back towards the estimate's tau (to 0.6-0.9 times the tau they had
+stopped at). The shortcut runs about 270 instead of 745 of a refit's 1400
+simulations on the log of ``benchmarks/output_error_speed.py``, where its
+intervals are those of the whole profile bit for bit; its zoo coverage is not
+established (32 joints: the documentation's output-error page, "Alternatives
+measured"), so the default stays the whole profile. The point estimate is the
+same either way (the fit's own search refits at every value). The full refits
+are the default: with the whole profile in each refit their 95 % intervals covered the truth on 91-96 % of
+100 zoo joints per parameter in two runs with different draws (the
+identification page, "The bootstrap of the fit itself, the default"), the partial refits' J and tau
 intervals on 99 % (twice too wide). The refits run in threads
 (``bootstrap_workers``; their time is in the C simulation, which releases the
 GIL); every replicate and the generator of each refit are drawn before any
@@ -285,7 +298,8 @@ class PhysicalFit:
         ``stderr_white`` (white-noise Gauss-Newton errors), ``hac_lags``
         (Bartlett bandwidth), ``bootstrap`` (None, or ``n``, ``n_valid``,
         ``block``, ``seed``, ``start_spread``, ``resampling``, ``refit`` (what each refit
-        runs), ``n_simulations``, ``bias``:
+        runs), ``lag_refits`` (``OutputErrorOptions.bootstrap_lag_refits`` where the refits run the profile over
+        tau: at how many of its values they refit the others, None for all), ``n_simulations``, ``bias``:
         mean deviation of the refits per parameter, ``interval95``: per
         parameter ``[low, high]`` = value ± t stderr), ``interval95`` (the
         same) and ``band`` (the 95 % band of F(w) from the refits, as
@@ -833,7 +847,7 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
             rp = _OutputErrorProblem(pb.t, pb.u, w_star, *given, pb.offset, o)
             s0 = dict(o.start) if o.start is not None else _start_from_paper(pb.t, pb.u, w_star, rp.Vs, rp.delta,
                                                                               pb.offset)
-            z = _oe_search(rp, s0)[0][1]
+            z = _oe_search(rp, s0, o.bootstrap_lag_refits)[0][1]
         else:
             rp = pb.replicate(w_star)
             z = _oe_refit(rp, x + rng.normal(size=x.shape) * _BOOT_START * pb.typical(x))
@@ -851,6 +865,7 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
                "start_spread": _BOOT_START, "resampling": _BOOT_SCHEME,
                "refit": (_BOOT_REFIT if o.bootstrap_refit == "partial"
                          else "the fit's own search from the replicate's start"),
+               "lag_refits": (o.bootstrap_lag_refits if o.bootstrap_refit == "full" and o.lag_profile else None),
                "n_simulations": int(sum(n_sim))}
     details.update(_oe_intervals(pb, names, est, b))
     return dict(zip(names, map(float, b.stderr))), dict(zip(names, map(float, b.bias))), details
@@ -873,15 +888,16 @@ def _oe_intervals(pb: _OutputErrorProblem, names: tuple, est: np.ndarray, b) -> 
             "band": band.to_dict()}
 
 
-def _oe_search(pb: _OutputErrorProblem, s0: dict) -> tuple[tuple[float, np.ndarray], dict | None]:
+def _oe_search(pb: _OutputErrorProblem, s0: dict, lag_refits: int | None = None
+               ) -> tuple[tuple[float, np.ndarray], dict | None]:
     """The output-error fit's search from the start values ``s0`` (module docstring): global stage, local stage,
-    coordinate search, the profile search over tau (``opts.lag_profile``) and the final Fs profile. Returns
-    ``((cost, x), lag profile details or None)``."""
+    coordinate search, the profile search over tau (``opts.lag_profile``; ``lag_refits``: its ``n_refit``, None
+    in the fit itself) and the final Fs profile. Returns ``((cost, x), lag profile details or None)``."""
     x = _oe_global_stage(pb, pb.start_vector(s0), profiled=pb.opts.start is None)
     best = _oe_coordinate_search(pb, _oe_local_stage(pb, x))
     lag_prof = None
     if pb.opts.lag_profile:
-        best, lag_prof = lag_profile_search(pb, best)
+        best, lag_prof = lag_profile_search(pb, best, n_refit=lag_refits)
     return _oe_fs_profile(pb, best), lag_prof
 
 
@@ -949,7 +965,8 @@ def fit_physical(t, u, w, *, Vs: float | None, delta: float | None, method: str 
         :class:`OutputErrorOptions` (``predictor``, ``h_max``,
         ``input_delay``, ``interp``, ``burn``, ``fs_grid``, ``fs_max_ratio``,
         ``diff_step``, ``max_nfev``, ``loss``, ``f_scale``, ``start``,
-        ``n_bootstrap``, ``bootstrap_seed``, ``lag_profile``; units and defaults there),
+        ``n_bootstrap``, ``bootstrap_seed``, ``bootstrap_refit``, ``bootstrap_lag_refits``, ``lag_profile``,
+        ``jacobian``; units and defaults there),
         validated by it.
 
     Returns

@@ -173,8 +173,9 @@ def test_bootstrap_is_seeded_keeps_the_estimate_and_falls_back_to_hac():
 
 
 def test_full_bootstrap_refit_is_the_fit_itself_on_the_replicate(monkeypatch):
-    # bootstrap_refit="full": each replicate is analysed by the same estimator as the record (Efron & Tibshirani
-    # 1993, Ch. 6): the replicate's refit equals fit_physical on that replicate, run independently here
+    # bootstrap_refit="full" with the whole profile over tau in each refit (bootstrap_lag_refits=None, default): each
+    # replicate is analysed by the same estimator as the record (Efron & Tibshirani 1993, Ch. 6): the replicate's
+    # refit equals fit_physical on that replicate, run independently here
     from adaptive_ff.identification import physical_id as pid
 
     m = _record(2, noise=0.01, quant=0.6, irregular=True, duration=8.0)
@@ -182,12 +183,12 @@ def test_full_bootstrap_refit_is_the_fit_itself_on_the_replicate(monkeypatch):
     seen = []
     search = pid._oe_search
 
-    def spy(pb, s0):
+    def spy(pb, s0, *args):
         seen.append(pb.w.copy())
-        return search(pb, s0)
+        return search(pb, s0, *args)
 
     monkeypatch.setattr(pid, "_oe_search", spy)
-    f = fit_physical(m.t, m.u, m.w, n_bootstrap=2, **kw)  # "full" is the default
+    f = fit_physical(m.t, m.u, m.w, n_bootstrap=2, bootstrap_lag_refits=None, **kw)  # "full" is the default
     monkeypatch.setattr(pid, "_oe_search", search)
     assert len(seen) == 3 and f.info["bootstrap"]["refit"] == "the fit's own search from the replicate's start"
     assert pid.OutputErrorOptions().bootstrap_refit == "full"
