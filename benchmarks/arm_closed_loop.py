@@ -1,6 +1,6 @@
 """The whole arm in closed loop: eta per joint of compare-arm on a simulated 6-axis arm (the Staubli TX40's URDF).
 
-Run:  python -m benchmarks.arm_closed_loop [--duration 20] [--seed 0] [--id-seed 1]
+Run:  python -m benchmarks.arm_closed_loop [--duration 40] [--seed 0] [--id-seed 1]
 
 The arm: ``data/tx40/tx40.urdf`` (the six links' inertias of the Staubli TX40) with the armatures of
 :data:`ARMATURE` and a lagged Stribeck friction per joint (:data:`FRICTION`: ``Fc`` and ``sigma`` near the
@@ -57,7 +57,7 @@ def main(argv=None) -> int:
     from controllers.experiments.compare_arm import ARM_MODES, compare_arm
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--duration", type=float, default=20.0, help="length of each closed-loop run (s, default 20)")
+    ap.add_argument("--duration", type=float, default=40.0, help="length of each closed-loop run (s, default 40)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the references and the noise (default 0)")
     ap.add_argument("--id-seed", dest="id_seed", type=int, default=1, help="seed of the identification log")
     args = ap.parse_args(argv)
