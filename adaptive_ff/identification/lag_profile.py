@@ -7,8 +7,7 @@ On joints whose lag is about the sample time (5-15 ms at the 10 ms sampling of t
 ``benchmarks/coverage_zoo.py``) the free-run cost has a long valley in which ``J`` trades against ``tau``
 (a heavier joint with a longer lag predicts nearly the same velocity). The staged search of the fit
 (global tau and Fs profiles at a wide robust scale, then local trust-region fits) stopped on such joints
-in a local minimum of that valley: on seeds 7, 11, 13, 17, 21, 30, 44, 57 and 58 of the zoo it reported
-tau 9-70 % and J 2-21 % off, 2.4-5.7 of its bootstrap standard errors, and the cost near the truth (a refit
+in a local minimum of that valley: on 9 of the zoo's first 60 joints it reported tau 9-70 % and J 2-21 % off, 2.4-5.7 of its bootstrap standard errors, and the cost near the truth (a refit
 started at the true parameters, or the profile point at the true tau) was *lower* each time
 (documentation, identification benchmark page, "Calibration on many joints"). The bootstrap intervals cannot cover an estimate that is off because the optimiser
 stopped early: the point fit has to find the valley's bottom.
@@ -38,7 +37,7 @@ from plant.errors import ParameterError
 __all__ = ["TAU_FACTORS", "J_SPAN", "J_GRID", "lag_profile_search"]
 
 #: Values of tau tried, as multiples of the current estimate (log-spaced on each side; 0.9 and 1.1 because
-#: the fit is often 8-25 % off in tau on joints with a lag near the sample time: zoo seeds 2, 3, 48).
+#: the fit is often 8-25 % off in tau on joints with a lag near the sample time).
 TAU_FACTORS = (0.5, 0.6, 0.7, 0.8, 0.9, 1.1, 1.25, 1.4, 1.7, 2.0)
 #: Half-width of the grid of log J at each tau (0.3: J -26 .. +35 %; the zoo's J-tau misses were within 21 %).
 J_SPAN = 0.3

@@ -119,8 +119,8 @@ def test_zoo_joint_with_a_lag_near_the_sample_time_is_fitted_near_its_lag():
     old = fit_physical(m.t, m.u, m.w, lag_profile=False, **kw)
     new = fit_physical(m.t, m.u, m.w, **kw)
     # without the profile the fit stops in a local minimum with tau far below the true one, where depends on the
-    # platform's last bits (measured -53 % on the machine of 2026-11-23, -30 % on an AMD EPYC machine with the same
-    # numpy and scipy on 2026-11-24): well outside the 15 % that the fit with the profile meets
+    # platform's last bits (measured -53 % on one x86-64 machine, -30 % on an AMD EPYC machine with the same numpy and
+    # scipy): well outside the 15 % that the fit with the profile meets
     assert old.params["tau"] / p.tau - 1.0 < -0.25 and old.info["lag_profile"] is None
     assert abs(new.params["tau"] / p.tau - 1.0) < 0.15 and abs(new.params["J"] / p.J - 1.0) < 0.02
     # a lower cost by the fit's own criterion; no profile point below the reported cost
