@@ -1,5 +1,6 @@
 /* ctl_engine.c -- the closed-loop engine (see ctl_engine.h). */
 #include "ctl_engine.h"
+#include "ctl_metrics_sample.h"
 
 void ctl_scenario_init(ctl_scenario *sc, double w0)
 {
@@ -16,9 +17,47 @@ void ctl_scenario_init(ctl_scenario *sc, double w0)
         sc->theta_buf[i] = 0.0;
 }
 
-/* The parameter row of period k (a time-varying plant moves to row j at period row_k[j]). */
-static const plant_params *row_at(ctl_scenario *sc, long k)
+/* What a scenario uses besides the plant, the PI and the metrics (bits of ctl_features): the period's code for a
+ * part no scenario of a chunk uses is left out (ctl_run_chunk picks a specialised loop once per call). */
+enum {
+    CTL_F_ROWS = 1 << 0,     /* a time-varying plant (more than one parameter row) */
+    CTL_F_SENSOR = 1 << 1,   /* a sensor model (use_sensor) */
+    CTL_F_FAULTS = 1 << 2,   /* injected faults (the run's) */
+    CTL_F_ORACLE = 1 << 3,   /* the oracle feedforward (the run's) */
+    CTL_F_OPS = 1 << 4,      /* a compensator */
+    CTL_F_TRANSFER = 1 << 5, /* a compensator with its own supervisor (ops->transfer) */
+    CTL_F_SUP = 1 << 6,      /* the engine's supervisor (use_supervisor) */
+    CTL_F_DRIVE = 1 << 7,    /* a drive model (use_drive) */
+    CTL_F_ALL = (1 << 8) - 1
+};
+
+/* The parts scenario sc of run uses (CTL_F_ bits). */
+static unsigned ctl_features(const ctl_run *run, const ctl_scenario *sc)
 {
+    unsigned f = 0;
+    f |= sc->n_rows > 1 ? CTL_F_ROWS : 0u;
+    f |= sc->use_sensor ? CTL_F_SENSOR : 0u;
+    f |= run->n_faults > 0 ? CTL_F_FAULTS : 0u;
+    f |= run->oracle ? CTL_F_ORACLE : 0u;
+    f |= sc->ops != NULL ? CTL_F_OPS : 0u;
+    f |= sc->ops != NULL && sc->ops->transfer != NULL ? CTL_F_TRANSFER : 0u;
+    f |= sc->use_supervisor ? CTL_F_SUP : 0u;
+    f |= sc->use_drive ? CTL_F_DRIVE : 0u;
+    return f;
+}
+
+/* GCC, Clang: inline the period into each specialised loop (its flags then constants). */
+#if defined(__GNUC__)
+#define CTL_ALWAYS_INLINE __attribute__((always_inline))
+#else
+#define CTL_ALWAYS_INLINE
+#endif
+
+/* The parameter row of period k (a time-varying plant moves to row j at period row_k[j]). */
+static inline CTL_ALWAYS_INLINE const plant_params *row_at(ctl_scenario *sc, long k, unsigned F)
+{
+    if (!(F & CTL_F_ROWS)) /* no scenario of the chunk has more than row 0 */
+        return sc->rows;
     while (sc->row + 1 < sc->n_rows && k >= sc->row_k[sc->row + 1])
         sc->row += 1;
     return sc->rows + sc->row;
@@ -26,11 +65,12 @@ static const plant_params *row_at(ctl_scenario *sc, long k)
 
 /* The sensor sample of period k (noise or an injected fault) into *wm; returns the controller's
  * measurement (the held value after a sample the gate rejected). */
-static double sense(const ctl_run *run, ctl_scenario *sc, long k, double w, double *wm)
+static inline CTL_ALWAYS_INLINE double sense(const ctl_run *run, ctl_scenario *sc, long k, double w, double *wm,
+                                              unsigned F)
 {
     double nk = sc->noise != NULL ? sc->noise[k] : 0.0;
-    double m = sc->use_sensor ? ctl_sensor_measure(&sc->sensor, w, nk) : w + nk;
-    if (run->n_faults > 0) { /* faults sorted by sample index */
+    double m = (F & CTL_F_SENSOR) && sc->use_sensor ? ctl_sensor_measure(&sc->sensor, w, nk) : w + nk;
+    if (F & CTL_F_FAULTS) { /* faults sorted by sample index */
         long fp = sc->fault_pos;
         while (fp < run->n_faults && run->fault_k[fp] < k)
             fp++;
@@ -47,27 +87,23 @@ static double sense(const ctl_run *run, ctl_scenario *sc, long k, double w, doub
     return m;
 }
 
-/* One period of scenario sc; 0 once it diverged (it then stays where it stopped). */
-static int period(const ctl_run *run, ctl_scenario *sc, long k, int where, const ctl_motion *mo)
+/* The feedforward of period k (the compensator's, through the supervisors, or the oracle's f); the transfers of
+ * the supervisors go into the PI's integrator. */
+static inline CTL_ALWAYS_INLINE double feedforward(const ctl_run *run, ctl_scenario *sc, double wc, double wm,
+                                                    double wrk, double f, unsigned F)
 {
-    const plant_params *par = row_at(sc, k);
-    double w = sc->plant.w;
-    double wm;
-    double wc = sense(run, sc, k, w, &wm);
-    double wrk = run->w_ref[k];
-    int rec = sc->rec != NULL && run->decimate > 0 && k % run->decimate == 0;
-    double f = (rec || run->oracle) ? plant_friction(par, &sc->plant) : 0.0; /* LuGre: eq. 3 only if used */
     double uff = 0.0;
-    if (sc->ops != NULL) {
+    if ((F & CTL_F_OPS) && sc->ops != NULL) {
         uff = sc->ops->compensate(sc->comp, wc, wm, wrk);
-        if (sc->ops->transfer != NULL) { /* a compensator with its own supervisor (aff_adaptive) */
+        /* a compensator with its own supervisor (aff_adaptive) */
+        if ((F & CTL_F_TRANSFER) && sc->ops->transfer != NULL) {
             double tr = sc->ops->transfer(sc->comp);
             if (tr != 0.0)
                 sc->pi.I += tr;
         }
-    } else if (run->oracle)
+    } else if ((F & CTL_F_ORACLE) && run->oracle)
         uff = f;
-    if (sc->use_supervisor) {
+    if ((F & CTL_F_SUP) && sc->use_supervisor) {
         if (sc->ops != NULL && sc->ops->rest_lag != NULL) /* withdrawn at rest through its lag in use */
             aff_supervisor_set_rest_lag(&sc->sup, sc->ops->rest_lag(sc->comp));
         uff = aff_supervisor_apply(&sc->sup, uff, wrk);
@@ -76,10 +112,28 @@ static int period(const ctl_run *run, ctl_scenario *sc, long k, int where, const
         if (sc->sup.rest && sc->ops != NULL && sc->ops->at_rest != NULL) /* nothing applied: tell it */
             sc->ops->at_rest(sc->comp);
     }
+    return uff;
+}
+
+/* One period of scenario sc; 0 once it diverged (it then stays where it stopped). r: the record index of the
+ * period (-1: not recorded). */
+static inline CTL_ALWAYS_INLINE int period(const ctl_run *run, ctl_scenario *sc, long k, long r, int where,
+                                            const ctl_motion *mo, unsigned F)
+{
+    const plant_params *par = row_at(sc, k, F);
+    double w = sc->plant.w;
+    double wm;
+    double wc = sense(run, sc, k, w, &wm, F);
+    double wrk = run->w_ref[k];
+    int rec = r >= 0 && sc->rec != NULL;
+    double f = (rec || ((F & CTL_F_ORACLE) && run->oracle)) ? plant_friction(par, &sc->plant)
+                                                            : 0.0; /* LuGre: eq. 3 only if used */
+    double uff = feedforward(run, sc, wc, wm, wrk, f, F);
     double u = ctl_pi_step(&sc->pi, wrk - wc, uff);
-    if (sc->use_drive)
+    if ((F & CTL_F_DRIVE) && sc->use_drive)
         u = ctl_drive_apply(&sc->drive, u);
-    if (sc->ops != NULL && sc->ops->observe(sc->comp, u, wm, sc->theta_buf) && sc->theta != NULL) {
+    if ((F & CTL_F_OPS) && sc->ops != NULL && sc->ops->observe(sc->comp, u, wm, sc->theta_buf)
+        && sc->theta != NULL) {
         long j = sc->n_theta_rec;
         if (j < run->m_theta) {
             for (long i = 0; i < run->n_theta; i++)
@@ -88,20 +142,19 @@ static int period(const ctl_run *run, ctl_scenario *sc, long k, int where, const
             sc->n_theta_rec += 1;
         }
     }
-    if (sc->use_supervisor)
+    if ((F & CTL_F_SUP) && sc->use_supervisor)
         aff_supervisor_observe(&sc->sup, u, wc);
     if (rec) {
-        long r = k / run->decimate;
         sc->rec[0 * run->n_rec + r] = w;
         sc->rec[1 * run->n_rec + r] = wm;
         sc->rec[2 * run->n_rec + r] = u;
         sc->rec[3 * run->n_rec + r] = uff;
         sc->rec[4 * run->n_rec + r] = f;
     }
-    ctl_metrics_add(&sc->metrics, where, wrk - w, u);
-    ctl_metrics_add_motion(&sc->metrics, where, mo->rest, wrk - w);
+    metrics_add_sample(&sc->metrics, where, wrk - w, u);
+    metrics_add_motion_sample(&sc->metrics, where, mo->rest, wrk - w);
     if (mo->stop >= 0 || mo->rev >= 0) /* else no event in progress: nothing to add */
-        ctl_events_add(&sc->events, mo, run->t[k], wrk - w);
+        events_add_sample(&sc->events, mo, run->t[k], wrk - w);
     plant_step(par, &sc->plant, u, run->dt);
     w = sc->plant.w;
     if (!(-sc->w_limit < w && w < sc->w_limit)) {
@@ -112,26 +165,53 @@ static int period(const ctl_run *run, ctl_scenario *sc, long k, int where, const
     return 1;
 }
 
-void ctl_run_chunk(const ctl_run *run, ctl_scenario *sc, long n_sc)
+/* ctl_run_chunk's loop over the periods with the parts F (CTL_F_ bits: a superset of what each scenario uses). */
+static inline CTL_ALWAYS_INLINE void run_periods(const ctl_run *run, ctl_scenario *sc, long n_sc, long n_alive,
+                                                  unsigned F)
 {
     long n = run->n;
-    long n_alive = 0;
-    for (long b = 0; b < n_sc; b++)
-        n_alive += sc[b].diverged == 0;
     double tmid = n > 0 ? 0.5 * (run->t[0] + run->t[n - 1]) : 0.0;
+    long dec = run->decimate;
+    long next_rec = 0; /* the next recorded period (k % dec == 0, without a division per period) */
+    long n_recs = 0;   /* its record index, k / dec */
     ctl_motion mo;
     ctl_motion_init(&mo, run->settle_share, run->settle_floor, run->window);
     for (long k = 0; k < n && n_alive > 0; k++) {
-        ctl_motion_where(&mo, run->t, run->w_ref, n, k, run->revs, run->n_revs);
+        long r = -1;
+        if (dec > 0 && k == next_rec) {
+            r = n_recs++;
+            next_rec += dec;
+        }
+        motion_where_sample(&mo, run->t, run->w_ref, n, k, run->revs, run->n_revs);
         /* ctl_metrics_where's class: its reversal test is mo.rev's (the nearest reversal within the window) */
         int where = !(run->t[k] >= tmid) ? CTL_METRICS_FIRST_HALF
                     : mo.rev >= 0        ? CTL_METRICS_REVERSAL
                                          : CTL_METRICS_SECOND_HALF;
         for (long b = 0; b < n_sc; b++)
-            if (sc[b].diverged == 0 && !period(run, sc + b, k, where, &mo))
+            if (sc[b].diverged == 0 && !period(run, sc + b, k, r, where, &mo, F))
                 n_alive--;
     }
+}
+
+void ctl_run_chunk(const ctl_run *run, ctl_scenario *sc, long n_sc)
+{
+    long n_alive = 0;
+    unsigned F = 0;
+    for (long b = 0; b < n_sc; b++) {
+        n_alive += sc[b].diverged == 0;
+        F |= ctl_features(run, sc + b);
+    }
+    /* the common runs without sensor and drive models, faults, oracle, engine supervisor or plant rows: no
+     * compensator, a compensator, one with its own supervisor; any other: every part's test in the loop */
+    if (F == 0)
+        run_periods(run, sc, n_sc, n_alive, 0);
+    else if (F == CTL_F_OPS)
+        run_periods(run, sc, n_sc, n_alive, CTL_F_OPS);
+    else if (F == (CTL_F_OPS | CTL_F_TRANSFER))
+        run_periods(run, sc, n_sc, n_alive, CTL_F_OPS | CTL_F_TRANSFER);
+    else
+        run_periods(run, sc, n_sc, n_alive, CTL_F_ALL);
     for (long b = 0; b < n_sc; b++)
         if (sc[b].diverged == 0)
-            sc[b].k_end = n;
+            sc[b].k_end = run->n;
 }

@@ -20,7 +20,10 @@
  * A single run is a batch of one. ctl_run_chunk advances scenarios sc[0..n_sc-1] time-major (every scenario
  * of the chunk one period before the next period), which lets the CPU overlap their independent RK4
  * chains; the Python side runs chunks on threads (cffi releases the GIL). A scenario's numbers do not depend
- * on the chunking. No allocation; the work per period is bounded by the plant's sub-steps.
+ * on the chunking. No allocation; the work per period is bounded by the plant's sub-steps. The loop is chosen once
+ * per call for the parts the chunk's scenarios use (a compensator, its own supervisor, the engine's supervisor,
+ * sensor and drive models, faults, the oracle, a time-varying plant): a part none of them uses costs nothing per
+ * period.
  * Python: controllers.simulation.engine.run_engine.
  */
 #ifndef CTL_ENGINE_H

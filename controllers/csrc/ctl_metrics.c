@@ -3,15 +3,7 @@
 #include <stddef.h>
 
 #include "ctl_metrics.h"
-
-/* Neumaier-compensated *sum += x, the compensation in *c. */
-static void neumaier_add(double *sum, double *c, double x)
-{
-    double s = *sum;
-    double q = s + x;
-    *c += fabs(s) >= fabs(x) ? (s - q) + x : (x - q) + s;
-    *sum = q;
-}
+#include "ctl_metrics_sample.h"
 
 void ctl_metrics_init(ctl_metrics *m)
 {
@@ -60,23 +52,7 @@ int ctl_metrics_where(double t, double tmid, const double *revs, long nrev, doub
 
 void ctl_metrics_add(ctl_metrics *m, int where, double e, double u)
 {
-    double e2 = e * e;
-    neumaier_add(&m->e2, &m->e2_c, e2);
-    double ae = fabs(e);
-    if (ae > m->e_max || ae != ae)
-        m->e_max = m->e_max == m->e_max ? ae : m->e_max;
-    m->n++;
-    if (where > 0) {
-        neumaier_add(&m->e2_half, &m->e2_half_c, e2);
-        m->n_half++;
-        if (ae > m->e_max_half || ae != ae)
-            m->e_max_half = m->e_max_half == m->e_max_half ? ae : m->e_max_half;
-        if (where == CTL_METRICS_REVERSAL) {
-            neumaier_add(&m->e2_rev, &m->e2_rev_c, e2);
-            m->n_rev++;
-        }
-    }
-    neumaier_add(&m->u2, &m->u2_c, u * u);
+    metrics_add_sample(m, where, e, u);
 }
 
 void ctl_metrics_update(ctl_metrics *m, double t, double tmid, const double *revs, long nrev, double window,
@@ -95,19 +71,7 @@ void ctl_metrics_accumulate(ctl_metrics *m, const double *t, const double *e, co
 
 void ctl_metrics_add_motion(ctl_metrics *m, int where, int rest, double e)
 {
-    if (where == CTL_METRICS_FIRST_HALF)
-        return;
-    double e2 = e * e;
-    if (rest) {
-        neumaier_add(&m->e2_rest, &m->e2_rest_c, e2);
-        m->n_rest++;
-        double ae = fabs(e);
-        if (ae > m->e_max_rest || ae != ae)
-            m->e_max_rest = m->e_max_rest == m->e_max_rest ? ae : m->e_max_rest;
-    } else {
-        neumaier_add(&m->e2_move, &m->e2_move_c, e2);
-        m->n_move++;
-    }
+    metrics_add_motion_sample(m, where, rest, e);
 }
 
 void ctl_motion_init(ctl_motion *c, double share, double band_floor, double window)
@@ -127,55 +91,11 @@ void ctl_motion_init(ctl_motion *c, double share, double band_floor, double wind
     c->ip = 0;
 }
 
-/* The reversal whose window holds time t: the nearest of revs (the earlier of two equally near, as
- * ctl_metrics_where) if within window, else -1; *ip as in ctl_metrics_where. */
-static long nearest_reversal(double t, const double *revs, long nrev, double window, long *ip)
-{
-    if (nrev <= 0)
-        return -1;
-    long i = *ip;
-    while (i < nrev && revs[i] < t)
-        i++;
-    *ip = i;
-    long jlo = i >= 1 ? i - 1 : 0;
-    long jhi = i < nrev ? i : nrev - 1;
-    double dlo = fabs(t - revs[jlo]);
-    double dhi = fabs(revs[jhi] - t);
-    long j = dhi < dlo ? jhi : jlo;
-    double d = dhi < dlo ? dhi : dlo;
-    return d <= window ? j : -1;
-}
 
 void ctl_motion_where(ctl_motion *c, const double *t, const double *w_ref, long n, long k, const double *revs,
                       long nrev)
 {
-    double w = w_ref[k];
-    int rest = w == 0.0 && (k == 0 || k == n - 1 || w_ref[k - 1] == 0.0 || w_ref[k + 1] == 0.0);
-    if (rest) {
-        if (k > 0 && !c->rest) { /* the first standstill sample after motion: a stop begins */
-            double b = c->share * c->peak;
-            c->stop = c->n_stops;
-            c->n_stops++;
-            c->t_stop = t[k];
-            c->band = b > c->band_floor ? b : c->band_floor;
-        }
-        c->stop_end = c->stop >= 0 && (k == n - 1 || w_ref[k + 1] != 0.0);
-        c->peak = 0.0;
-    } else {
-        double aw = fabs(w);
-        c->stop = -1;
-        c->stop_end = 0;
-        if (aw > c->peak)
-            c->peak = aw;
-    }
-    c->rest = rest;
-    c->rev = nearest_reversal(t[k], revs, nrev, c->window, &c->ip);
-    if (c->rev >= 0) {
-        long ip = c->ip;
-        c->rev_end = k == n - 1 || nearest_reversal(t[k + 1], revs, nrev, c->window, &ip) != c->rev;
-    } else {
-        c->rev_end = 0;
-    }
+    motion_where_sample(c, t, w_ref, n, k, revs, nrev);
 }
 
 long ctl_motion_stops(const double *t, const double *w_ref, long n, double share, double band_floor, double *t0,
@@ -220,50 +140,10 @@ void ctl_events_init(ctl_events *ev, double *settle, double *stop_max, long n_st
     ev->e_max_rev = 0.0;
 }
 
-/* *mx = max(*mx, a) with NaN sticky (as the maxima of ctl_metrics_add). */
-static void max_sticky(double *mx, double a)
-{
-    if (a > *mx || a != a)
-        *mx = *mx == *mx ? a : *mx;
-}
 
 void ctl_events_add(ctl_events *ev, const ctl_motion *c, double t, double e)
 {
-    double ae = fabs(e);
-    if (c->stop >= 0) {
-        if (c->stop != ev->stop) { /* the stop's first sample */
-            ev->stop = c->stop;
-            ev->out = 0;
-            ev->t_in = c->t_stop;
-            ev->e_max_stop = 0.0;
-        }
-        if (!(ae <= c->band)) {
-            ev->out = 1;
-        } else if (ev->out) {
-            ev->out = 0;
-            ev->t_in = t;
-        }
-        max_sticky(&ev->e_max_stop, ae);
-        if (c->stop_end) {
-            if (ev->stop < ev->n_stops) {
-                ev->settle[ev->stop] = ev->out ? INFINITY : ev->t_in - c->t_stop;
-                ev->stop_max[ev->stop] = ev->e_max_stop;
-            }
-            ev->stop = -1;
-        }
-    }
-    if (c->rev >= 0) {
-        if (c->rev != ev->rev) {
-            ev->rev = c->rev;
-            ev->e_max_rev = 0.0;
-        }
-        max_sticky(&ev->e_max_rev, ae);
-        if (c->rev_end) {
-            if (ev->rev < ev->n_revs)
-                ev->rev_max[ev->rev] = ev->e_max_rev;
-            ev->rev = -1;
-        }
-    }
+    events_add_sample(ev, c, t, e);
 }
 
 void ctl_motion_accumulate(ctl_metrics *m, ctl_motion *c, ctl_events *ev, const double *t, const double *w_ref,

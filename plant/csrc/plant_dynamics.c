@@ -6,21 +6,31 @@
 
 const double plant_rk4_rate_max = 2.5;
 
-/* GCC, Clang: inline every call of the function's body (eq. 3 in the RK4 stages); the compiler's own choice where
- * unsupported. Inlining keeps every floating-point operation and its order (plant/_cbuild.py, compile_args). */
+/* GCC, Clang: inline every call of the function's body (eq. 3 in the RK4 stages), or none (a rare path kept out of
+ * its caller); the compiler's own choice where unsupported. Inlining keeps every floating-point operation and its
+ * order (plant/_cbuild.py, compile_args). */
 #if defined(__GNUC__)
 #define PLANT_FLATTEN __attribute__((flatten))
+#define PLANT_NOINLINE __attribute__((noinline))
 #else
 #define PLANT_FLATTEN
+#define PLANT_NOINLINE
 #endif
 
 /* Sub-steps per unit of rate*dt of a LuGre step with a friction ripple (more than the 1 of stability). */
 static const double lugre_ripple_substeps = 4.0;
 
 /* (dw/dt, ds/dt) at (w, s) with input u, Fw = plant_target_at(p, w, q, .) and R = plant_ripple(p, q) (LuGre's
- * viscous part rippled with g, plant_params.h; 1 without a ripple, and sigma2*1*w is sigma2*w exactly). */
-static void rhs(const plant_params *p, double w, double s, double R, double u, double Fw, double *dw, double *ds)
+ * viscous part rippled with g, plant_params.h; 1 without a ripple, and sigma2*1*w is sigma2*w exactly). lag: 1 where
+ * the caller knows p is a lagged model with tau != 0 (a constant where inlined: no test of the model per stage). */
+static void rhs(const plant_params *p, double w, double s, double R, double u, double Fw, double *dw, double *ds,
+                int lag)
 {
+    if (lag) {
+        *dw = (u - s) * p->inv_J;
+        *ds = (Fw - s) * p->inv_tau;
+        return;
+    }
     if (p->model == PLANT_LUGRE) {
         double aw = w >= 0.0 ? w : -w;
         double zdot = w - p->sigma0 * aw / Fw * s;
@@ -57,9 +67,10 @@ static double stage_ripple(const plant_params *p, double q, int ripple)
 }
 
 /* plant_rk4_at with ripple = (p->ripple_a != 0) given by the caller: a constant where it is inlined, so the step
- * without a ripple carries none of the ripple's operations (its stage positions qa, qb, qc are then unused). */
+ * without a ripple carries none of the ripple's operations (its stage positions qa, qb, qc are then unused); lag as
+ * rhs's. */
 static void rk4_at(const plant_params *p, double *w_io, double *s_io, double *q_io, double Fw, double u0, double um,
-                   double u1, double h, double sgn, int ripple)
+                   double u1, double h, double sgn, int ripple, int lag)
 {
     double w = *w_io;
     double s = *s_io;
@@ -67,19 +78,19 @@ static void rk4_at(const plant_params *p, double *w_io, double *s_io, double *q_
     double h2 = 0.5 * h;
     double h6 = h / 6.0;
     double k1w, k1s, k2w, k2s, k3w, k3s, k4w, k4s, wa, sa, qa, wb, sb, qb, wc, sc, qc;
-    rhs(p, w, s, stage_ripple(p, q, ripple), u0, Fw, &k1w, &k1s);
+    rhs(p, w, s, stage_ripple(p, q, ripple), u0, Fw, &k1w, &k1s, lag);
     wa = w + h2 * k1w;
     sa = s + h2 * k1s;
     qa = q + h2 * w;
-    rhs(p, wa, sa, stage_ripple(p, qa, ripple), um, stage_target(p, wa, qa, sgn, ripple), &k2w, &k2s);
+    rhs(p, wa, sa, stage_ripple(p, qa, ripple), um, stage_target(p, wa, qa, sgn, ripple), &k2w, &k2s, lag);
     wb = w + h2 * k2w;
     sb = s + h2 * k2s;
     qb = q + h2 * wa;
-    rhs(p, wb, sb, stage_ripple(p, qb, ripple), um, stage_target(p, wb, qb, sgn, ripple), &k3w, &k3s);
+    rhs(p, wb, sb, stage_ripple(p, qb, ripple), um, stage_target(p, wb, qb, sgn, ripple), &k3w, &k3s, lag);
     wc = w + h * k3w;
     sc = s + h * k3s;
     qc = q + h * wb;
-    rhs(p, wc, sc, stage_ripple(p, qc, ripple), u1, stage_target(p, wc, qc, sgn, ripple), &k4w, &k4s);
+    rhs(p, wc, sc, stage_ripple(p, qc, ripple), u1, stage_target(p, wc, qc, sgn, ripple), &k4w, &k4s, lag);
     *w_io = w + h6 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w);
     *s_io = s + h6 * (k1s + 2.0 * k2s + 2.0 * k3s + k4s);
     *q_io = q + h6 * (w + 2.0 * wa + 2.0 * wb + wc);
@@ -89,9 +100,9 @@ void plant_rk4_at(const plant_params *p, double *w_io, double *s_io, double *q_i
                   double u1, double h, double sgn)
 {
     if (p->ripple_a != 0.0)
-        rk4_at(p, w_io, s_io, q_io, Fw, u0, um, u1, h, sgn, 1);
+        rk4_at(p, w_io, s_io, q_io, Fw, u0, um, u1, h, sgn, 1, 0);
     else
-        rk4_at(p, w_io, s_io, q_io, Fw, u0, um, u1, h, sgn, 0);
+        rk4_at(p, w_io, s_io, q_io, Fw, u0, um, u1, h, sgn, 0, 0);
 }
 
 /* The fastest mode (1/s) a lagged model's RK4 step at velocity w must resolve: p->rate; with a friction ripple
@@ -122,7 +133,8 @@ static int single_rk4(const plant_params *p, double w, double dt)
         return 0;
     if (-dv < w && w < dv)
         return 0;
-    return !(lagged_rate_at(p, w) * dt > plant_rk4_rate_max);
+    /* lagged_rate_at's value, without its call where there is no ripple */
+    return !((p->ripple_a == 0.0 ? p->rate : lagged_rate_at(p, w)) * dt > plant_rk4_rate_max);
 }
 
 /* plant_step's common case (a lagged model, one RK4 step of dt, single_rk4) without a friction ripple: the map and
@@ -132,14 +144,16 @@ PLANT_FLATTEN static void single_step_smooth(const plant_params *p, plant_state 
     double w = st->w;
     double s = st->s;
     double q = st->q;
-    rk4_at(p, &w, &s, &q, plant_target(p, w, 0.0), u, u, u, dt, 0.0, 0);
+    rk4_at(p, &w, &s, &q, plant_target(p, w, 0.0), u, u, u, dt, 0.0, 0, 1);
     st->w = w;
     st->s = s;
     st->q = q;
     st->aux = NAN;
 }
 
-void plant_step(const plant_params *p, plant_state *st, double u, double dt)
+/* plant_step past its common case without a ripple (plant_step): its own function, so the common case's call does
+ * not pay for the registers and the stack frame of the general one. */
+PLANT_NOINLINE static void step_general(const plant_params *p, plant_state *st, double u, double dt)
 {
     double w = st->w;
     double s = st->s;
@@ -148,12 +162,8 @@ void plant_step(const plant_params *p, plant_state *st, double u, double dt)
     double h = dt;
     long n = 1;
     int lugre, stat, cached;
-    if (p->tau != 0.0 && single_rk4(p, w, dt)) { /* the common case: a lagged model, one RK4 step */
-        if (p->ripple_a == 0.0) { /* the same numbers, none of the ripple's operations */
-            single_step_smooth(p, st, u, dt);
-            return;
-        }
-        rk4_at(p, &w, &s, &q, plant_target_at(p, w, q, 0.0), u, u, u, dt, 0.0, 1);
+    if (p->tau != 0.0 && single_rk4(p, w, dt)) { /* a lagged model, one RK4 step, with a ripple (plant_step) */
+        rk4_at(p, &w, &s, &q, plant_target_at(p, w, q, 0.0), u, u, u, dt, 0.0, 1, 1);
         st->w = w;
         st->s = s;
         st->q = q;
@@ -230,12 +240,12 @@ void plant_step(const plant_params *p, plant_state *st, double u, double dt)
     if (p->ripple_a != 0.0) {
         for (long i = 0; i < n; i++) {
             double Fw = cached && i == 0 ? s : plant_target_at(p, w, q, sgn);
-            rk4_at(p, &w, &s, &q, Fw, u, u, u, h, sgn, 1);
+            rk4_at(p, &w, &s, &q, Fw, u, u, u, h, sgn, 1, 0);
         }
     } else { /* the same loop without the ripple's operations */
         for (long i = 0; i < n; i++) {
             double Fw = cached && i == 0 ? s : plant_target(p, w, sgn);
-            rk4_at(p, &w, &s, &q, Fw, u, u, u, h, sgn, 0);
+            rk4_at(p, &w, &s, &q, Fw, u, u, u, h, sgn, 0, 0);
         }
     }
     if (stat) {
@@ -247,6 +257,16 @@ void plant_step(const plant_params *p, plant_state *st, double u, double dt)
     st->w = w;
     st->s = s;
     st->q = q;
+}
+
+void plant_step(const plant_params *p, plant_state *st, double u, double dt)
+{
+    /* the common case: a lagged model, one RK4 step (single_rk4), no ripple: the same numbers, none of the
+     * ripple's operations */
+    if (p->tau != 0.0 && p->ripple_a == 0.0 && single_rk4(p, st->w, dt))
+        single_step_smooth(p, st, u, dt);
+    else
+        step_general(p, st, u, dt);
 }
 
 double plant_friction(const plant_params *p, const plant_state *st)
