@@ -228,7 +228,9 @@ COVERED = {"plot_tracking", "plot_error", "plot_friction", "plot_rls_convergence
            # the band's axes of IdentificationReport.plot's figure
            "FrictionBand.plot",
            # the whole arm's per-joint friction figure (needs the [arm] extra: skipped without Pinocchio)
-           "ArmIdentification.plot"}
+           "ArmIdentification.plot",
+           # compare-arm's eta per joint and mode (test_arm_comparison_figure below)
+           "ArmComparison.plot"}
 
 
 def _package_plots():
@@ -262,6 +264,27 @@ def test_arm_figure():
     res = identify_arm(simulate_arm(arm, fr, duration=8.0, seed=0, substeps=1, armature=[0.2, 0.1, 0.05]), arm,
                        n_bootstrap=10)
     assert check_figure(res.plot()[0].figure, "ArmIdentification.plot") == 3
+
+
+def test_arm_comparison_figure():
+    pytest.importorskip("pinocchio", reason="the [arm] extra is not installed")
+    import json
+    import tempfile
+
+    from adaptive_ff.arm.fit import identify_arm
+    from adaptive_ff.arm.robot import load_urdf
+    from adaptive_ff.arm.simulate import ArmPlant, JointFriction, simulate_arm
+    from controllers.experiments.compare_arm import compare_arm
+
+    arm = load_urdf(Path(__file__).resolve().parents[2] / "examples" / "planar3.urdf")
+    fr = [JointFriction(Fc=2.0, Fs=2.6, Vs=0.1, delta=1.0, sigma=0.8), JointFriction(Fc=1.2, Fs=1.5, Vs=0.08,
+          delta=1.0, sigma=0.5), JointFriction(Fc=0.5, Fs=0.7, Vs=0.1, delta=1.0, sigma=0.2)]
+    log = simulate_arm(arm, fr, duration=20.0, seed=1, substeps=1, armature=[0.2, 0.1, 0.05])  # docs/your_arm.md's
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "arm.json"
+        path.write_text(json.dumps(identify_arm(log, arm, n_bootstrap=10).to_dict()))
+        res = compare_arm(ArmPlant(arm, fr, armature=[0.2, 0.1, 0.05]), path, duration=2.0, seed=0)
+    check_figure(res.plot().figure, "ArmComparison.plot")
 
 
 def test_compare_figures(comp):
