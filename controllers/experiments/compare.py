@@ -27,7 +27,7 @@ from controllers.simulation.user_compensator import CompensatorContext, Compensa
 from controllers.design.pi import PIDesign, design_pi
 from controllers.experiments.first_inertia import InertiaDesign, InertiaExperiment, inertia_experiment
 from controllers.experiments.comparison import (WORSE_THAN_NONE, Comparison, beyond_frictionless_notes,
-                                                diverged_notes, eta, eta_or_none,
+                                                diverged_notes, eta, eta_or_none, options_with_changes,
                                                 mode_width, number_text, run_notes, whole_run_metrics,
                                                 worse_than_none_notes)
 from controllers.experiments.observer_design import (J_CONTRADICTED, friction_level, observer_inertia, observer_max,
@@ -429,12 +429,7 @@ def compare(p, options: CompareOptions | None = None, *, progress: bool | None =
     inertia is identified (:func:`controllers.experiments.first_inertia.inertia_experiment`).
     ``oracle`` and ``frictionless`` are the references, not compensators a user could build.
     """
-    o = options if options is not None else CompareOptions()
-    if changes:
-        try:
-            o = replace(o, **changes)
-        except TypeError as exc:
-            raise ParameterError(f"compare: {exc}") from None
+    o = options_with_changes(options if options is not None else CompareOptions(), changes, where="compare")
     s = prepare_comparison(p, o, progress=progress)
     results = {}
     runs = [(mode, mode, s.mode_options[mode]) for mode in s.modes]

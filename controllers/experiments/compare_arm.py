@@ -37,7 +37,7 @@ from adaptive_ff.compensation.gate import OutlierGate
 from adaptive_ff.identification.regression import FrictionEstimate
 from controllers._cctl import ffi, lib
 from controllers.design.pi import PIController
-from controllers.experiments.comparison import eta_or_none
+from controllers.experiments.comparison import eta_or_none, options_with_changes
 from controllers.simulation.compensators import build_mode, own_supervisor
 from controllers.simulation.metrics import LoopMetrics, loop_metrics, reversal_times
 from plant.errors import ParameterError, check_nonnegative, check_positive
@@ -518,12 +518,7 @@ def compare_arm(plant: ArmPlant, identification, options: CompareArmOptions | No
     every mode. The arm starts at ``q = 0`` moving at the references' first velocities, each lagged friction
     at its steady value (as the one-joint engine starts a joint, :func:`plant.dynamics.plant_state`).
     """
-    o = options if options is not None else CompareArmOptions()
-    if changes:
-        try:
-            o = replace(o, **changes)
-        except TypeError as exc:
-            raise ParameterError(f"compare_arm: {exc}") from None
+    o = options_with_changes(options if options is not None else CompareArmOptions(), changes, where="compare_arm")
     if not isinstance(plant, ArmPlant) or plant.friction is None:
         raise ParameterError("plant must be an ArmPlant with a friction per joint (adaptive_ff.arm.simulate)")
     arm = plant.arm

@@ -10,7 +10,7 @@ decided during their runs and where a mode hurt.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -28,7 +28,7 @@ if TYPE_CHECKING:  # annotations only
     from controllers.experiments.first_inertia import InertiaExperiment
     from controllers.experiments.quasi_static import StribeckExperiment
 
-__all__ = ["Comparison", "WORSE_THAN_NONE", "diverged_notes", "eta", "eta_or_none", "mode_width", "number_text",
+__all__ = ["Comparison", "options_with_changes", "WORSE_THAN_NONE", "diverged_notes", "eta", "eta_or_none", "mode_width", "number_text",
            "run_notes", "settling_text", "whole_run_metrics", "worse_than_none_notes", "beyond_frictionless_notes"]
 
 #: eta below this is "worse than none" (:func:`worse_than_none_notes`, the zoo's
@@ -434,3 +434,22 @@ def diverged_notes(results: dict) -> tuple:
         notes.append(f"{mode}: diverged{when}: its velocity left the run's bound w_limit (by default 100 times the "
                      f"reference's peak plus 1 rad/s); its metrics are undefined")
     return tuple(notes)
+
+
+def options_with_changes(options, changes: dict, *, where: str):
+    """``options`` (a frozen options dataclass) with the fields ``changes`` replaced: the ``**changes`` of
+    :func:`controllers.experiments.compare.compare` and :func:`controllers.experiments.compare_arm.compare_arm`.
+
+    Raises
+    ------
+    ParameterError
+        A name that is no field of ``options`` (``where`` names the caller), or the options' own check of a value.
+    """
+    from plant.errors import ParameterError
+
+    if not changes:
+        return options
+    try:
+        return replace(options, **changes)
+    except TypeError as exc:
+        raise ParameterError(f"{where}: {exc}") from None

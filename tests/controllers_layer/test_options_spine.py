@@ -95,3 +95,19 @@ def test_the_estimators_have_one_registry_used_by_options_builders_and_the_cli()
         assert type(ff) is cls and (iv is None or ff.iv is iv)
         _, _, comp = build_mode(P, "adaptive", o)
         assert type(getattr(comp, "feedforward", comp)) is cls  # over the sliding estimator: in AdaptiveCompensator
+
+
+def test_compare_and_compare_arm_take_changes_through_one_helper():
+    from controllers.experiments.compare import compare
+    from controllers.experiments.comparison import options_with_changes
+
+    o = CompareOptions()
+    assert options_with_changes(o, {}, where="x") is o
+    assert options_with_changes(o, {"duration": 30.0}, where="x") == dataclasses.replace(o, duration=30.0)
+    with pytest.raises(ParameterError, match=r"^compare: .*no_such_field"):
+        compare(preset("paper"), no_such_field=1)
+    pytest.importorskip("pinocchio", reason="the [arm] extra is not installed")
+    from controllers.experiments.compare_arm import compare_arm
+
+    with pytest.raises(ParameterError, match=r"^compare_arm: .*no_such_field"):
+        compare_arm(None, "arm.json", no_such_field=1)
