@@ -1,7 +1,7 @@
 """Encoder velocity table: eta and tracking RMS of the adaptive modes with a 17-bit encoder, by the velocity's
 estimator (backward difference or the Kalman velocity of :class:`controllers.simulation.sensor_drive.Sensor`).
 
-Run:  python benchmarks/encoder_velocity.py [--counts 131072] [--duration 20] [--bandwidths 100] [--models cv,ca]
+Run:  python -m benchmarks.encoder_velocity [--counts 131072] [--duration 20] [--bandwidths 100] [--models cv,ca]
       [--seeds 1,2,3,4,5,6,7,8]
 
 The ``paper`` preset, the multi-sine reference of :func:`plant.excitation.multisine_reference` (``--duration`` s,
@@ -19,7 +19,6 @@ of the first seed's ``none`` run (the sensor's error in the loop: noise and lag)
 from __future__ import annotations
 
 import argparse
-import time
 
 import numpy as np
 
@@ -39,7 +38,6 @@ def main(argv=None) -> int:
     ap.add_argument("--models", default="cv,ca", help="comma-separated Kalman models (default cv,ca)")
     ap.add_argument("--seeds", default="1,2,3,4,5,6,7,8", help="comma-separated run seeds (default 1-8)")
     a = ap.parse_args(argv)
-    t0 = time.perf_counter()
     p = preset("paper")
     d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
     ref = multisine_reference(a.duration, rng=np.random.default_rng(0))
@@ -71,7 +69,6 @@ def main(argv=None) -> int:
             cells += [f"{e[0]:.2f}", f"{first[m].metrics.rms_second_half:.4f}",
                       f"{e.mean():.2f} ({e.min():.2f}..{e.max():.2f})"]
         print(f"| {label} | {sn:.4f} | " + " | ".join(cells) + " |", flush=True)
-    print(f"\nwall time {time.perf_counter() - t0:.0f} s")
     return 0
 
 
