@@ -28,12 +28,12 @@ import numpy as np
 
 from adaptive_ff._caff import ffi, lib
 from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart, start_output
-from adaptive_ff.compensation.feedforward import FrictionFeedforward
+from adaptive_ff.compensation.feedforward import FF_INPUTS, FrictionFeedforward
 from adaptive_ff.compensation.gate import RangeGate
 from adaptive_ff.compensation.ivrls import RecursiveIV
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from adaptive_ff.identification.rls import RecursiveLeastSquares
-from plant.component import Component
+from plant.component import Component, struct_field
 from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive, check_positive_or_inf
 
 __all__ = ["AdaptiveFrictionFeedforward"]
@@ -214,30 +214,30 @@ class AdaptiveFrictionFeedforward(Component):
                 f"warmup={self.warmup}, iv={self.iv}, w_band={self.w_band!r}, n_updates={self._est.n_updates})")
 
     # ---- configuration
-    Ts = property(lambda self: float(self._c.Ts), doc="Sample time of the (u, w) stream (s).")
-    m = property(lambda self: int(self._c.m), doc="Periods ``dt`` per sample ``Ts``.")
-    warmup = property(lambda self: int(self._c.warmup), doc="RLS updates before switch-on.")
-    tau_max = property(lambda self: float(self._c.tau_max), doc="Upper projection bound of tau (s).")
-    iv = property(lambda self: bool(self._c.iv), doc="Estimate with recursive IV (else the RLS).")
-    w_band = property(lambda self: float(self._c.w_band), doc="Sliding-regime gate (rad/s), 0 = none.")
+    Ts = struct_field("Ts", float, "Sample time of the (u, w) stream (s).")
+    m = struct_field("m", int, "Periods ``dt`` per sample ``Ts``.")
+    warmup = struct_field("warmup", int, "RLS updates before switch-on.")
+    tau_max = struct_field("tau_max", float, "Upper projection bound of tau (s).")
+    iv = struct_field("iv", bool, "Estimate with recursive IV (else the RLS).")
+    w_band = struct_field("w_band", float, "Sliding-regime gate (rad/s), 0 = none.")
     _est = property(lambda self: self.ivrls if self.iv else self.rls)
-    dt = property(lambda self: self._ff.dt, doc="Call period of :meth:`step` (s).")
-    lag = property(lambda self: self._ff.lag, doc="Filter the feedforward through the estimated lag.")
-    ff_max = property(lambda self: self._ff.ff_max, doc="Bound on |feedforward| (N·m).")
-    ff_input = property(lambda self: self._ff.ff_input, doc="Velocity :meth:`compensate` evaluates at.")
-    sign_width = property(lambda self: self._ff.sign_width, doc="Sign ramp half-width (rad/s).")
-    stick_band = property(lambda self: self._ff.stick_band, doc="Stick-detection band (rad/s).")
-    stick_samples = property(lambda self: self._ff.stick_samples, doc="In-band samples that declare sticking.")
+    dt = struct_field("ff.dt", float, "Call period of :meth:`step` (s).")
+    lag = struct_field("ff.lag", bool, "Filter the feedforward through the estimated lag.")
+    ff_max = struct_field("ff.ff_max", float, "Bound on |feedforward| (N·m).")
+    ff_input = struct_field("ff.at_ref", FF_INPUTS.__getitem__, "Velocity :meth:`compensate` evaluates at.")
+    sign_width = struct_field("ff.sign_width", float, "Sign ramp half-width (rad/s).")
+    stick_band = struct_field("ff.stick_band", float, "Stick-detection band (rad/s).")
+    stick_samples = struct_field("ff.stick_samples", int, "In-band samples that declare sticking.")
 
     # ---- state
-    u_ff = property(lambda self: self._ff.u_ff, doc="Feedforward before the clip (N·m).")
-    n_rejected = property(lambda self: int(self._c.n_rejected), doc="Refused samples.")
-    n_implausible = property(lambda self: int(self._c.n_implausible), doc="Estimates that failed the projection.")
-    n_gated = property(lambda self: int(self._c.n_gated), doc="Samples the sliding-regime gate kept out.")
-    n_undetermined = property(lambda self: int(self._c.n_undetermined),
-                              doc="Admissible estimates not put into use: the map not determined.")
-    map_rel_stderr = property(lambda self: float(self._c.map_rel_stderr),
-                              doc="The estimates' determinacy bound (relative to max(Fc, Fs)), ``inf`` = no test.")
+    u_ff = struct_field("ff.u_ff", float, "Feedforward before the clip (N·m).")
+    n_rejected = struct_field("n_rejected", int, "Refused samples.")
+    n_implausible = struct_field("n_implausible", int, "Estimates that failed the projection.")
+    n_gated = struct_field("n_gated", int, "Samples the sliding-regime gate kept out.")
+    n_undetermined = struct_field("n_undetermined", int,
+                                  "Admissible estimates not put into use: the map not determined.")
+    map_rel_stderr = struct_field("map_rel_stderr", float,
+                                  "The estimates' determinacy bound (relative to max(Fc, Fs)), ``inf`` = no test.")
 
     @property
     def theta(self) -> np.ndarray:
@@ -249,8 +249,7 @@ class AdaptiveFrictionFeedforward(Component):
         """Whether the feedforward acts: an admissible estimate, or the provisional start map, is in use."""
         return bool(self._c.has_estimate or self._c.provisional)
 
-    provisional = property(lambda self: bool(self._c.provisional),
-                           doc="Whether the provisional start map (``start``) is in use.")
+    provisional = struct_field("provisional", bool, "Whether the provisional start map (``start``) is in use.")
 
     @property
     def estimate(self) -> FrictionEstimate | None:
