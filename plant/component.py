@@ -93,8 +93,8 @@ def _field_comments(header, ctype: str) -> dict:
     return {name: " ".join(c.split()) for name, c in rows}
 
 
-def config_class(name: str, ffi, lib, ctype: str, *, module: str, summary: str, header=None, exclude=(),
-                 choices: dict | None = None, nested: dict | None = None) -> type:
+def config_class(name: str, ffi_lib: tuple, ctype: str, *, module: str, summary: str, header=None, exclude=(),
+                 fields: dict | None = None) -> type:
     """A frozen dataclass of the settings ``ctype`` (a C ``aff_X_config``): the one generic way to make the Python
     config classes of the components.
 
@@ -102,15 +102,15 @@ def config_class(name: str, ffi, lib, ctype: str, *, module: str, summary: str, 
     takes itself, and the parts given as objects); each field's default is the C ``aff_X_default_config()``'s
     (:func:`config_defaults`), its docstring row the field's comment in the C header (unit, range, default), its
     range the C ``aff_X_init``'s to check when a component is configured from it. A C ``double`` is a float, a
-    ``long`` an int, an ``int`` a flag (bool) or, named in ``choices``, a name (str); a struct field named in
-    ``nested`` is a field holding that config class (default: its defaults).
+    ``long`` an int, an ``int`` a flag (bool) or, given in ``fields`` as a choice, a name (str); a struct field
+    given in ``fields`` with a config class is a field holding that class (default: its defaults).
 
     Parameters
     ----------
     name : str
         The class's name (e.g. ``"FrictionFeedforwardConfig"``).
-    ffi, lib : cffi FFI and library
-        The extension module of the package that owns the struct.
+    ffi_lib : tuple
+        ``(ffi, lib)`` of the cffi extension module of the package that owns the struct (e.g. ``adaptive_ff._caff``'s).
     ctype : str
         The config struct's C name, ending in ``_config``.
     module : str
@@ -121,11 +121,10 @@ def config_class(name: str, ffi, lib, ctype: str, *, module: str, summary: str, 
         The C header that declares ``ctype`` (its field comments make the parameter docs).
     exclude : iterable of str
         C fields left out.
-    choices : dict, optional
-        C field -> ``(Python name, {C value: name})``: a C enum or flag offered as a name (``"at_ref"`` ->
-        ``("ff_input", {0: "measured", 1: "reference"})``).
-    nested : dict, optional
-        C struct field -> the config class of its settings.
+    fields : dict, optional
+        The fields that are not plain numbers: C field -> ``(Python name, {C value: name})``, a C enum or flag
+        offered as a name (``"at_ref"`` -> ``("ff_input", {0: "measured", 1: "reference"})``); or C struct field ->
+        the config class of its settings (a nested config).
 
     Returns
     -------
@@ -134,7 +133,9 @@ def config_class(name: str, ffi, lib, ctype: str, *, module: str, summary: str, 
         :meth:`Component._settings`, a nested config as its dict), ``replace(**changes)``; an unknown choice raises a
         ParameterError naming the field.
     """
-    choices, nested, exclude = dict(choices or {}), dict(nested or {}), set(exclude)
+    (ffi, lib), fields, exclude = ffi_lib, dict(fields or {}), set(exclude)
+    choices = {k: v for k, v in fields.items() if isinstance(v, tuple)}
+    nested = {k: v for k, v in fields.items() if isinstance(v, type)}
     defaults = config_defaults(ffi, lib, ctype)
     notes = _field_comments(header, ctype)
     specs, rows, to_c = [], [], {}

@@ -45,7 +45,7 @@ RobustAdaptiveFeedforwardConfig = c_config_class(
     "RobustAdaptiveFeedforwardConfig", "aff_robust_ff_config", "aff_robust_ff.h", module=__name__,
     summary="Settings of a :class:`RobustAdaptiveFeedforward`: its feedforward's (``ff``) and the use of the "
             "estimates (warm-up, fade-in, plausibility, the lag in use, the projection).",
-    nested={"ff": FrictionFeedforwardConfig})
+    fields={"ff": FrictionFeedforwardConfig})
 
 #: Fraction of the RLS prior variance below which the data have determined ``Fc`` (see :func:`fc_determined`;
 #: ``FC_INFO_FRACTION`` of ``adaptive_ff/csrc/aff_robust_ff.c``).

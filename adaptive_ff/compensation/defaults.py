@@ -49,7 +49,7 @@ _CSRC = Path(__file__).resolve().parent.parent / "csrc"
 
 
 def c_config_class(name: str, ctype: str, header: str, *, module: str, summary: str, exclude=(),
-                   choices: dict | None = None, nested: dict | None = None) -> type:
+                   fields: dict | None = None) -> type:
     """The config class of a component of this package (:func:`plant.component.config_class` on
     ``adaptive_ff._caff``): a frozen dataclass of the C settings ``ctype`` whose fields, defaults, units and ranges
     are the C struct's, declared in ``adaptive_ff/csrc/<header>``.
@@ -60,12 +60,12 @@ def c_config_class(name: str, ctype: str, header: str, *, module: str, summary: 
         The class's name and the config struct's C name.
     header : str
         The header's file name in ``adaptive_ff/csrc``.
-    module, summary, exclude, choices, nested
+    module, summary, exclude, fields
         As :func:`plant.component.config_class`.
 
     Returns
     -------
     type
     """
-    return config_class(name, ffi, lib, ctype, module=module, summary=summary, header=_CSRC / header,
-                        exclude=exclude, choices=choices, nested=nested)
+    return config_class(name, (ffi, lib), ctype, module=module, summary=summary, header=_CSRC / header,
+                        exclude=exclude, fields=fields)

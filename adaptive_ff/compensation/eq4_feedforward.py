@@ -44,7 +44,7 @@ AdaptiveFrictionFeedforwardConfig = c_config_class(
     summary="Settings of an :class:`AdaptiveFrictionFeedforward`: the sample time, the estimator (RLS or IV), the "
             "warm-up, the projection bound, the sliding-regime gate, the determinacy test and the feedforward's "
             "(``ff``).",
-    nested={"ff": FrictionFeedforwardConfig})
+    fields={"ff": FrictionFeedforwardConfig})
 
 
 class AdaptiveFrictionFeedforward(Component):

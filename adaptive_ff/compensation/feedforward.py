@@ -41,7 +41,8 @@ FrictionFeedforwardConfig = c_config_class(
     "FrictionFeedforwardConfig", "aff_fixed_ff_config", "aff_feedforward.h", module=__name__,
     summary="Settings of a :class:`FrictionFeedforward` (and of the feedforward part of the adaptive ones): the lag, "
             "the bound, the sign near standstill, the stick detection, the input velocity.",
-    exclude=("dt", "use_loop_model", "use_sign_observer"), choices={"at_ref": ("ff_input", dict(enumerate(FF_INPUTS)))})
+    exclude=("dt", "use_loop_model", "use_sign_observer"),
+    fields={"at_ref": ("ff_input", dict(enumerate(FF_INPUTS)))})
 
 
 def at_ref(ff_input: str) -> int:

@@ -109,7 +109,7 @@ SlidingFrictionEstimatorConfig = c_config_class(
             "one factor per parameter (an array, exponential forgetting); ``P_max`` 0 is ``p*P0``, ``w_band_min`` "
             "0 is ``0.1*Vs``; ``initial_J`` is the start's inertia where no ``initial`` estimate is given.",
     exclude=("Vs", "delta", "Tc", "initial_tau", "initial_Fc", "initial_Fs", "initial_sigma", "initial_offset"),
-    choices={"forgetting": ("forgetting", FORGETTINGS)})
+    fields={"forgetting": ("forgetting", FORGETTINGS)})
 
 
 def _names(lag: bool, offset: bool) -> tuple:

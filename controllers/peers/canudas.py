@@ -37,11 +37,11 @@ from plant.errors import ParameterError, check_multiple
 __all__ = ["CanudasCompensator", "CanudasCompensatorConfig", "CANUDAS_N_THETA"]
 
 CanudasCompensatorConfig = config_class(
-    "CanudasCompensatorConfig", ffi, lib, "ctl_canudas_config", module=__name__,
+    "CanudasCompensatorConfig", (ffi, lib), "ctl_canudas_config", module=__name__,
     summary="Settings of a :class:`CanudasCompensator`: the estimator's period, its RLS, the start's inertia, the "
             "dead zone, the warm-up, the bound and the input velocity.",
     header=Path(__file__).resolve().parent.parent / "csrc" / "ctl_canudas.h", exclude=("Tc",),
-    choices={"forgetting": ("forgetting", {lib.AFF_RLS_DIRECTIONAL: "directional",
+    fields={"forgetting": ("forgetting", {lib.AFF_RLS_DIRECTIONAL: "directional",
                                            lib.AFF_RLS_EXPONENTIAL: "exponential"}),
              "ff_measured": ("ff_input", {1: "measured", 0: "reference"})})
 
