@@ -32,8 +32,8 @@ from plant.dynamics import check_integrable, plant_params, plant_state
 from plant.rows import stack_params
 from plant.results import axes_or_new, json_safe
 
-__all__ = ["MODES", "ESTIMATORS", "ModeOptions", "LoopMetrics", "ClosedLoopResult", "Measurement", "RunSettings",
-           "run_closed_loop", "run_mode",
+__all__ = ["MODES", "ESTIMATORS", "ModeOptions", "LoopMetrics", "ClosedLoopResult", "MeasurementSettings",
+           "RunSettings", "run_closed_loop", "run_mode",
            "run_own", "loop_metrics", "plant_table", "mark_motion"]
 
 
@@ -230,7 +230,7 @@ def _update_period(compensator) -> int:
 
 
 @dataclass(frozen=True)
-class Measurement:
+class MeasurementSettings:
     """How the loop of :func:`run_closed_loop` measures the velocity.
 
     Parameters
@@ -279,7 +279,8 @@ class RunSettings:
 
 
 def run_closed_loop(plant, controller: PIController, compensator, reference: Reference, *,
-                    measurement: Measurement | None = None, settings: RunSettings | None = None) -> ClosedLoopResult:
+                    measurement: MeasurementSettings | None = None,
+                    settings: RunSettings | None = None) -> ClosedLoopResult:
     """Simulate the PI velocity loop on the plant at the controller rate with one compensator.
 
     Parameters
@@ -301,8 +302,8 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
         None (no compensation). Its state is advanced in place (read its counters and estimate afterwards).
     reference : Reference
         Velocity reference sampled at ``controller.Tc`` (e.g. :func:`plant.multisine_reference`).
-    measurement : Measurement, keyword-only
-        Noise, faults and the sensor gate (default: ``Measurement()``, noise-free, gated).
+    measurement : MeasurementSettings, keyword-only
+        Noise, faults and the sensor gate (default: ``MeasurementSettings()``, noise-free, gated).
     settings : RunSettings, keyword-only
         Divergence bound, records, reversal window, initial friction (default: ``RunSettings()``).
 
@@ -330,9 +331,9 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     a torque slew-rate limit: :func:`run_mode` / :func:`run_own` with ``ModeOptions(encoder_counts=...,
     delay=..., slew_rate=...)`` (:mod:`controllers.simulation.sensor_drive`).
     """
-    m = Measurement() if measurement is None else measurement
+    m = MeasurementSettings() if measurement is None else measurement
     r = RunSettings() if settings is None else settings
-    for name, v, cls in (("measurement", m, Measurement), ("settings", r, RunSettings)):
+    for name, v, cls in (("measurement", m, MeasurementSettings), ("settings", r, RunSettings)):
         if not isinstance(v, cls):
             raise ParameterError(f"{name} must be a {cls.__name__} or None, got {type(v).__name__}")
     return _run_loop(plant, controller, compensator, reference, noise_std=m.noise_std, rng=m.rng, faults=m.faults,

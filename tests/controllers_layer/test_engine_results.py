@@ -9,7 +9,7 @@ import pytest
 from controllers.design.pi import PIController, design_pi
 from controllers.experiments.compare import compare
 from controllers.simulation.batch import run_batch
-from controllers.simulation.closed_loop import Measurement, ModeOptions, RunSettings, run_closed_loop
+from controllers.simulation.closed_loop import MeasurementSettings, ModeOptions, RunSettings, run_closed_loop
 from controllers.simulation.compensators import TrueFriction
 from plant.excitation import multisine_reference
 from plant.friction import preset
@@ -58,8 +58,8 @@ def test_friction0_starts_the_lag_unloaded():
     n, w0 = 200, 0.1
     ref = Reference(t=np.arange(n) * 1e-3, w=np.full(n, w0), dw=np.zeros(n))
     pi = lambda: PIController(Kp=D.Kp, Ki=D.Ki, Tc=1e-3)  # noqa: E731
-    steady = run_closed_loop(P, pi(), None, ref, measurement=Measurement(sensor_gate=False))
-    cold = run_closed_loop(P, pi(), None, ref, measurement=Measurement(sensor_gate=False),
+    steady = run_closed_loop(P, pi(), None, ref, measurement=MeasurementSettings(sensor_gate=False))
+    cold = run_closed_loop(P, pi(), None, ref, measurement=MeasurementSettings(sensor_gate=False),
                            settings=RunSettings(friction0=0.0))
     F0 = float(P.friction(w0))
     assert steady.f[0] == F0 and cold.f[0] == 0.0

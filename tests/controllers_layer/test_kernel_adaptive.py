@@ -12,7 +12,7 @@ from adaptive_ff.identification.regression import FrictionEstimate, RegressionMo
 from adaptive_ff._caff import lib
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from controllers.design.pi import PIController, design_pi
-from controllers.simulation.closed_loop import Measurement, RunSettings, loop_metrics, run_closed_loop
+from controllers.simulation.closed_loop import MeasurementSettings, RunSettings, loop_metrics, run_closed_loop
 from controllers.simulation.metrics import reversal_times
 from loop_helpers import run_named
 from loop_oracle import oracle_replay
@@ -275,7 +275,7 @@ def test_validation(ref):
     with pytest.raises(ParameterError, match="differs from Tc"):
         run_closed_loop(P, PIController(Kp=1.0, Ki=1.0, Tc=2e-3), None, ref)
     with pytest.raises(ParameterError, match="rng"):
-        run_closed_loop(P, ctrl, None, ref, measurement=Measurement(noise_std=1e-3))
+        run_closed_loop(P, ctrl, None, ref, measurement=MeasurementSettings(noise_std=1e-3))
 
 
 def test_chunked_reversals_equal_reference_reversals():
