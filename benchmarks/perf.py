@@ -312,9 +312,10 @@ def _user_compensator_rows(p, design, args, ref, n):
 def _own_loop_rows(p, design, args):
     """Per-call cost of the feedforward object in a user's own Python loop (docs/your_loop.md): ``step(w, w_ref)``
     and ``observe(u, w)`` once per 1 kHz period, on the (u, w) record of a closed-loop run."""
-    from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
+    from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward, RobustAdaptiveFeedforwardConfig
+    from adaptive_ff.compensation.feedforward import FrictionFeedforwardConfig
     from adaptive_ff.compensation.gate import OutlierGate, RangeGate
-    from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
+    from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, SlidingFrictionEstimatorConfig
 
     ref = multisine_reference(min(args.seconds, 10.0), rng=np.random.default_rng(5))
     r = run_mode(p, ref, "none", ModeOptions(Kp=design.Kp, Ki=design.Ki, u_max=U_MAX, noise_std=1e-3),
@@ -323,9 +324,11 @@ def _own_loop_rows(p, design, args):
     n = len(us)
 
     def fresh():
-        est = SlidingFrictionEstimator(p.Vs, p.delta, Tc=1e-3, J_guess=p.J, u_range=RangeGate(x_max=U_MAX),
+        est = SlidingFrictionEstimator(p.Vs, p.delta, Tc=1e-3, config=SlidingFrictionEstimatorConfig(initial_J=p.J),
+                                       u_range=RangeGate(x_max=U_MAX),
                                        gate=OutlierGate(max_step=2.0 * U_MAX * 1e-3 / p.J))
-        return RobustAdaptiveFeedforward(est, dt=1e-3, ff_max=0.5 * U_MAX, warmup=50)
+        return RobustAdaptiveFeedforward(est, dt=1e-3, config=RobustAdaptiveFeedforwardConfig(
+            warmup=50, ff=FrictionFeedforwardConfig(ff_max=0.5 * U_MAX)))
 
     def loop(what):
         ff = fresh()

@@ -24,13 +24,14 @@ from dataclasses import replace
 
 import numpy as np
 
-from adaptive_ff.compensation.feedforward import FrictionFeedforward, ff_compensate, ff_static
+from adaptive_ff.compensation.feedforward import (FrictionFeedforward, FrictionFeedforwardConfig, ff_compensate,
+                                                  ff_static)
 from adaptive_ff.compensation.velocity_input import LoopModel
 from adaptive_ff.compensation.gate import gate_check
 from adaptive_ff.identification.regression import FrictionEstimate
 from controllers.design.pi import PIController, pi_step
 from controllers.experiments.compare import CompareOptions, prepare_comparison
-from controllers.simulation.closed_loop import _sensor_gate, run_closed_loop, run_mode  # noqa: PLC2701 (script)
+from controllers.simulation.closed_loop import _sensor_gate, MeasurementSettings, run_closed_loop, run_mode  # noqa: PLC2701 (script)
 from plant import preset
 from plant.dynamics import plant_step
 from plant.rows import plant_params, plant_state
@@ -113,15 +114,16 @@ def run_seed(seed, duration, noise_std):
     runs["true@model"] = run_mode(p, ref, "fixed", replace(mo, estimate=true, stick_band=1e9, stick_samples=1),
                                   rng=rng())
     lm0 = LoopModel(Kp=mo.Kp, Ki=mo.Ki, J=mo.J_design, track=0.0)
-    ff = FrictionFeedforward(true, dt=mo.Tc, ff_max=mo.ff_max, stick_band=1e9, stick_samples=1, loop_model=lm0)
-    runs["true@model0"] = run_closed_loop(p, PIController(Kp=mo.Kp, Ki=mo.Ki, Tc=mo.Tc, u_max=mo.u_max), ff, ref,
-                                          noise_std=noise_std, rng=rng(), sensor_gate=_sensor_gate(
-                                              True, PIController(Kp=mo.Kp, Ki=mo.Ki, Tc=mo.Tc, u_max=mo.u_max),
-                                              mo.J_design))
+    ff = FrictionFeedforward(true, dt=mo.Tc, config=FrictionFeedforwardConfig(ff_max=mo.ff_max, stick_band=1e9,
+                                                                              stick_samples=1), loop_model=lm0)
+    gate = _sensor_gate(True, PIController(Kp=mo.Kp, Ki=mo.Ki, Tc=mo.Tc, u_max=mo.u_max), mo.J_design)
+    runs["true@model0"] = run_closed_loop(
+        p, PIController(Kp=mo.Kp, Ki=mo.Ki, Tc=mo.Tc, u_max=mo.u_max), ff, ref,
+        measurement=MeasurementSettings(noise_std=noise_std, rng=rng(), sensor_gate=gate))
     noise = rng().normal(0.0, noise_std, size=ref.w.shape[0]) if noise_std > 0 else np.zeros(ref.w.shape[0])
-    mk = lambda band: FrictionFeedforward(true, dt=mo.Tc, ff_max=mo.ff_max, stick_band=band,  # noqa: E731
-                                          stick_samples=mo.stick_samples, loop_model=LoopModel(Kp=mo.Kp, Ki=mo.Ki,
-                                                                                               J=mo.J_design))
+    mk = lambda band: FrictionFeedforward(true, dt=mo.Tc, config=FrictionFeedforwardConfig(  # noqa: E731
+        ff_max=mo.ff_max, stick_band=band, stick_samples=mo.stick_samples),
+        loop_model=LoopModel(Kp=mo.Kp, Ki=mo.Ki, J=mo.J_design))
     w_py = python_loop(p, ref, mo, mk(mo.stick_band), noise, ff_at_true=False)
     w_true = python_loop(p, ref, mo, mk(0.0), noise, ff_at_true=True)
     extra = {

@@ -29,7 +29,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(__name__, submod_attrs={
     "experiments.synthetic_logs": ["closed_loop_response", "quasi_static_log"],
     "experiments.quasi_static": ["QuasiStaticData", "bidirectional_velocities", "quasi_static_runs"],
     "report.figures": ["plot_comparison"],
-    "report.html": ["compare_report", "identify_report", "report_html", "write_report"],
+    "report.html": ["ReportPage", "compare_report", "identify_report", "report_html", "write_report"],
     "testing": ["TrackingBoundError", "assert_tracking_bound", "velocity_faults"],
 })
 
@@ -41,7 +41,7 @@ __all__ = [
     "TrueFriction", "build_mode",
     "Comparison", "CompareOptions", "compare", "eta", "plot_comparison", "Scenario", "ScenarioError", "load_scenario",
     "LoopAnalysis", "analyse_design", "paper_figures", "identification_figures", "PaperFigureOptions",
-    "report_html", "write_report", "identify_report", "compare_report",
+    "ReportPage", "report_html", "write_report", "identify_report", "compare_report",
     "quasi_static_log", "closed_loop_response",
     "ESTIMATORS", "FIXED_METHODS", "friction_scale", "prefit_stribeck",
     "BATCH_MODES", "BatchResult", "run_batch",

@@ -26,9 +26,10 @@ import time
 
 import numpy as np
 
-from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
+from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward, RobustAdaptiveFeedforwardConfig
+from adaptive_ff.compensation.feedforward import FrictionFeedforwardConfig
 from adaptive_ff.compensation.gate import OutlierGate
-from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
+from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, SlidingFrictionEstimatorConfig
 
 TC = 1e-3  # your loop's period (s): 1 kHz
 
@@ -43,8 +44,10 @@ def make_feedforward(*, Vs: float, delta: float, J_guess: float, u_max: float) -
     from adaptive_ff.compensation.gate import RangeGate
 
     gate = OutlierGate(max_step=2.0 * u_max * TC / J_guess)  # a velocity cannot jump faster than u_max allows
-    est = SlidingFrictionEstimator(Vs, delta, Tc=TC, J_guess=J_guess, gate=gate, u_range=RangeGate(x_max=u_max))
-    return RobustAdaptiveFeedforward(est, dt=TC, ff_max=0.5 * u_max, stick_band=3e-3, stick_samples=5)
+    est = SlidingFrictionEstimator(Vs, delta, Tc=TC, config=SlidingFrictionEstimatorConfig(initial_J=J_guess),
+                                   gate=gate, u_range=RangeGate(x_max=u_max))
+    return RobustAdaptiveFeedforward(est, dt=TC, config=RobustAdaptiveFeedforwardConfig(
+        ff=FrictionFeedforwardConfig(ff_max=0.5 * u_max, stick_band=3e-3, stick_samples=5)))
 
 
 class PI:

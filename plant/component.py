@@ -19,14 +19,17 @@ C workspace behind a thin Python object.
 
 from __future__ import annotations
 
+import dataclasses
+import re
 from numbers import Integral, Real
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from plant.errors import ParameterError
 
-__all__ = ["Component", "config_defaults", "SettingTypeError", "struct_field"]
+__all__ = ["Component", "config_class", "config_defaults", "SettingTypeError", "struct_field"]
 
 
 class SettingTypeError(ParameterError, TypeError):
@@ -75,6 +78,129 @@ def config_defaults(ffi, lib, ctype: str) -> dict:
     if fn is None:
         raise ParameterError(f"{ctype}: the library has no {ctype[:-len('_config')]}_default_config()")
     return _value(ffi, fn())
+
+
+def _field_comments(header, ctype: str) -> dict:
+    """Field -> its comment (whitespace joined) in the C declaration of ``ctype`` in ``header`` ({} without one)."""
+    try:
+        text = Path(header).read_text()
+    except (OSError, TypeError):
+        return {}
+    m = re.search(r"typedef struct " + ctype + r" \{(.*?)\} " + ctype + ";", text, re.S)
+    if m is None:
+        return {}
+    rows = re.findall(r"(\w+)(?:\[[^\]]*\])?;\s*/\*(.*?)\*/", m.group(1), re.S)
+    return {name: " ".join(c.split()) for name, c in rows}
+
+
+def config_class(name: str, ffi_lib: tuple, ctype: str, *, module: str, summary: str, header=None, exclude=(),
+                 fields: dict | None = None) -> type:
+    """A frozen dataclass of the settings ``ctype`` (a C ``aff_X_config``): the one generic way to make the Python
+    config classes of the components.
+
+    Its fields are the struct's scalar fields in C order (less ``exclude``: the inputs the component's constructor
+    takes itself, and the parts given as objects); each field's default is the C ``aff_X_default_config()``'s
+    (:func:`config_defaults`), its docstring row the field's comment in the C header (unit, range, default), its
+    range the C ``aff_X_init``'s to check when a component is configured from it. A C ``double`` is a float, a
+    ``long`` an int, an ``int`` a flag (bool) or, given in ``fields`` as a choice, a name (str); a struct field
+    given in ``fields`` with a config class is a field holding that class (default: its defaults).
+
+    Parameters
+    ----------
+    name : str
+        The class's name (e.g. ``"FrictionFeedforwardConfig"``).
+    ffi_lib : tuple
+        ``(ffi, lib)`` of the cffi extension module of the package that owns the struct (e.g. ``adaptive_ff._caff``'s).
+    ctype : str
+        The config struct's C name, ending in ``_config``.
+    module : str
+        The module the class lives in (``__name__``; the class must be bound to ``name`` there to pickle).
+    summary : str
+        The docstring's first paragraph.
+    header : path-like, optional
+        The C header that declares ``ctype`` (its field comments make the parameter docs).
+    exclude : iterable of str
+        C fields left out.
+    fields : dict, optional
+        The fields that are not plain numbers: C field -> ``(Python name, {C value: name})``, a C enum or flag
+        offered as a name (``"at_ref"`` -> ``("ff_input", {0: "measured", 1: "reference"})``); or C struct field ->
+        the config class of its settings (a nested config).
+
+    Returns
+    -------
+    type
+        The frozen dataclass. Besides its fields: ``CTYPE`` (the C name), ``c_fields()`` (C field -> value for
+        :meth:`Component._settings`, a nested config as its dict), ``replace(**changes)``; an unknown choice raises a
+        ParameterError naming the field.
+    """
+    (ffi, lib), fields, exclude = ffi_lib, dict(fields or {}), set(exclude)
+    choices = {k: v for k, v in fields.items() if isinstance(v, tuple)}
+    nested = {k: v for k, v in fields.items() if isinstance(v, type)}
+    defaults = config_defaults(ffi, lib, ctype)
+    notes = _field_comments(header, ctype)
+    specs, rows, to_c = [], [], {}
+    for cname, f in ffi.typeof(ctype).fields:
+        if cname in exclude:
+            continue
+        if cname in nested:
+            cls = nested[cname]
+            specs.append((cname, cls, dataclasses.field(default_factory=cls)))
+            rows.append(f"{cname} : {cls.__name__}\n    {notes.get(cname, '')} (C ``{cname}``)")
+            to_c[cname] = cname
+            continue
+        if f.type.kind != "primitive":
+            continue  # a part (struct, array): given to the component as an object
+        key, kind, default = cname, None, defaults[cname]
+        if cname in choices:
+            key, names = choices[cname]
+            kind, default = str, dict(names)[default]
+        elif f.type.cname in ("double", "float"):
+            kind, default = float, float(default)
+        elif f.type.cname == "int":
+            kind, default = bool, bool(default)
+        else:
+            kind, default = int, int(default)
+        specs.append((key, kind, dataclasses.field(default=default)))
+        among = f"one of {tuple(dict(choices[cname][1]).values())}; " if cname in choices else ""
+        rows.append(f"{key} : {kind.__name__}, default {default!r}\n    {among}{notes.get(cname, '')} (C ``{cname}``)")
+        to_c[key] = cname
+    by_key = {choices[c][0]: dict(choices[c][1]) for c in choices}
+
+    def __post_init__(self):
+        for key, names in by_key.items():
+            if getattr(self, key) not in names.values():
+                raise ParameterError(f"{name}: {key} must be one of {tuple(names.values())}, "
+                                     f"got {getattr(self, key)!r}")
+        for key in nested:
+            if not isinstance(getattr(self, key), nested[key]):
+                raise ParameterError(f"{name}: {key} must be a {nested[key].__name__}, got "
+                                     f"{type(getattr(self, key)).__name__}")
+
+    def c_fields(self) -> dict:
+        """C field -> value: a choice as its C code, a nested config as its ``c_fields()``."""
+        out = {}
+        for key, cname in to_c.items():
+            v = getattr(self, key)
+            if key in by_key:
+                v = next(code for code, n in by_key[key].items() if n == v)
+            elif key in nested:
+                v = v.c_fields()
+            out[cname] = v
+        return out
+
+    def replace(self, **changes):
+        """A copy with ``changes`` (:func:`dataclasses.replace`)."""
+        return dataclasses.replace(self, **changes)
+
+    cls = dataclasses.make_dataclass(name, specs, frozen=True, namespace={
+        "__post_init__": __post_init__, "c_fields": c_fields, "replace": replace, "CTYPE": ctype,
+        "__module__": module})
+    where = "" if header is None else f", ``{'/'.join(Path(header).parts[-3:])}``"
+    cls.__doc__ = (f"{summary}\n\nThe fields and their defaults are those of the C settings ``{ctype}``{where} "
+                   f"(``{ctype[:-len('_config')]}_default_config()``); the ranges are checked by "
+                   f"``{ctype[:-len('_config')]}_init`` when a component is configured from them (a ParameterError "
+                   f"naming the field).\n\nParameters\n----------\n" + "\n".join(rows) + "\n")
+    return cls
 
 
 def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c") -> property:

@@ -36,27 +36,25 @@ __all__ = ["MODEL_CODES", "plant_params", "lagged_params", "plant_state", "plant
            "plant_states", "integrable_rows", "stack_params", "stack_states", "static_jump_in_reach"]
 
 
-def plant_rk4(par, w: float, s: float, Fw: float, u0: float, um: float, u1: float, h: float, sgn: float,
-              q: float = 0.0) -> tuple:
+def plant_rk4(par, state: tuple, Fw: float, u: tuple, h: float, sgn: float) -> tuple:
     """One classic fourth-order Runge-Kutta step of the plant, with the input given at three instants.
 
     Parameters
     ----------
     par : cffi ``plant_params *``
         Parameters of :func:`plant_params`.
-    w, s : float
-        Velocity (rad/s) and internal state (``f`` N·m, LuGre ``z`` rad) at the step start.
+    state : tuple of float
+        ``(w, s)`` or ``(w, s, q)`` at the step start: velocity (rad/s), internal state (``f`` N·m, LuGre ``z``
+        rad) and joint position (rad; read by a friction ripple only, ``Fw`` is then the map at ``q``; default 0).
     Fw : float
         ``plant_target(par, w, sgn)``, passed in so a caller can reuse a value it has.
-    u0, um, u1 : float
-        Input torque (N·m) at the start, the middle and the end of the step
+    u : tuple of float
+        ``(u0, um, u1)``: input torque (N·m) at the start, the middle and the end of the step
         (``u0 = um = u1``: zero-order hold; ``um = (u0 + u1)/2``: first-order hold).
     h : float
         Step (s), > 0.
     sgn : float
         Karnopp breakaway direction, see :func:`plant_target`.
-    q : float
-        Joint position (rad) at the step start (read by a friction ripple only; ``Fw`` is then the map at ``q``).
 
     Returns
     -------
@@ -73,6 +71,8 @@ def plant_rk4(par, w: float, s: float, Fw: float, u0: float, um: float, u1: floa
     ``plant_rk4``, in place on ``double *w, *s``). tests/plant_layer/test_plant_kernels.py checks every step against
     an RK4 tableau on arrays written from the equations (tests/plant_oracle.py) to 1e-13.
     """
+    w, s, q = (*state, 0.0) if len(state) == 2 else state
+    u0, um, u1 = u
     ws = ffi.new("double[3]", (w, s, q))
     lib.plant_rk4_at(par, ws, ws + 1, ws + 2, Fw, u0, um, u1, h, sgn)
     return ws[0], ws[1]

@@ -53,7 +53,7 @@ from controllers.experiments.compare import compare
 from controllers.experiments.quasi_static import (StribeckDesign, bidirectional_velocities, prefit_stribeck,
                                                   quasi_static_runs, stribeck_experiment)
 from controllers.simulation.batch import run_batch
-from controllers.simulation.closed_loop import ModeOptions, run_closed_loop, run_mode
+from controllers.simulation.closed_loop import MeasurementSettings, ModeOptions, RunSettings, run_closed_loop, run_mode
 from controllers.simulation.compensators import MODES, build_mode
 from plant.dynamics import plant_params
 from plant.excitation import Reference, bandlimited_noise, multisine_reference
@@ -389,8 +389,9 @@ def loop_engine_decimate_friction0():
     p, u_max = PLANTS["paper"]
     mode, o = mode_options(p, u_max, "adaptive")
     run_plant, ctrl, comp = build_mode(p, mode, o)
-    res = run_closed_loop(run_plant, ctrl, comp, reference(), noise_std=NOISE, rng=np.random.default_rng(8),
-                          decimate=20, reversal_window=0.1, friction0=0.0)
+    res = run_closed_loop(run_plant, ctrl, comp, reference(),
+                          measurement=MeasurementSettings(noise_std=NOISE, rng=np.random.default_rng(8)),
+                          settings=RunSettings(decimate=20, reversal_window=0.1, friction0=0.0))
     out = closed_loop_record(res, every=1, theta_every=1, inputs=True)
     out["controller_state"] = np.array([ctrl.integral, float(ctrl.saturated)])  # (I, saturated) of the PI
     return out

@@ -26,23 +26,26 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from adaptive_ff._caff import ffi, lib
-from adaptive_ff.compensation.feedforward import FF_INPUTS, FrictionFeedforward
+from adaptive_ff.compensation.feedforward import FF_INPUTS, FrictionFeedforward, FrictionFeedforwardConfig
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, estimate_from_theta
 from adaptive_ff.compensation.velocity_input import LoopModel, SignObserver
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RLS_NMAX
-from adaptive_ff.compensation.defaults import c_defaults
+from adaptive_ff.compensation.defaults import c_config_class, c_defaults
 from plant.component import struct_field
 from plant.errors import ParameterError
 
-__all__ = ["RobustAdaptiveFeedforward", "FeedforwardStart", "start_output", "lag_weighted", "fc_determined",
+__all__ = ["RobustAdaptiveFeedforward", "RobustAdaptiveFeedforwardConfig", "FeedforwardStart", "start_output", "lag_weighted", "fc_determined",
            "project_box", "FC_INFO_FRACTION"]
 
-#: The C defaults (``aff_fixed_ff_default_config``, ``aff_robust_ff_default_config``, ``aff_start_default_config``):
-#: the keywords' defaults.
-_FF = c_defaults("aff_fixed_ff_config")
-_ROBUST = c_defaults("aff_robust_ff_config")
+#: The C defaults of the provisional start (``aff_start_default_config``): :class:`FeedforwardStart`'s defaults.
 _START = c_defaults("aff_start_config")
+
+RobustAdaptiveFeedforwardConfig = c_config_class(
+    "RobustAdaptiveFeedforwardConfig", "aff_robust_ff_config", "aff_robust_ff.h", module=__name__,
+    summary="Settings of a :class:`RobustAdaptiveFeedforward`: its feedforward's (``ff``) and the use of the "
+            "estimates (warm-up, fade-in, plausibility, the lag in use, the projection).",
+    fields={"ff": FrictionFeedforwardConfig})
 
 #: Fraction of the RLS prior variance below which the data have determined ``Fc`` (see :func:`fc_determined`;
 #: ``FC_INFO_FRACTION`` of ``adaptive_ff/csrc/aff_robust_ff.c``).
@@ -226,75 +229,85 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         :meth:`observe` feeds it.
     dt : float, keyword-only
         Call period of :meth:`step` (s), normally the estimator's ``Tc``.
-    lag : bool, keyword-only
-        Filter the feedforward through the estimated lag ``tau`` (eq. 1);
-        default True. Without the lag a static map at the measured velocity
-        jumps by ``2*Fs`` at every reversal while the real friction takes
-        ``tau`` to follow (measured: docs/benchmarks/compensation.md).
-    ff_max : float, keyword-only
-        Bound on |feedforward| (N·m); estimates with ``Fc`` or ``Fs`` above it
-        are implausible. Default inf.
-    sign_width : float, keyword-only
-        Sign treatment near zero velocity, see :class:`FrictionFeedforward`.
-    warmup : int, keyword-only
-        RLS updates in the sliding regime before the feedforward is switched
-        on (excitation gate), default 200 (2 s of sliding at Ts = 10 ms).
-    fade_in : float, keyword-only
-        After switch-on the output is ramped from 0 to full over this time
-        (s), so that the PI integrator, which carried the friction so far,
-        unloads smoothly (bumpless transfer); default 1 s, 0 = step.
-    J_range : tuple of float, keyword-only
-        Plausible inertia interval (kg·m²); an estimate outside it is not
-        used. Default ``(0, inf)``.
-    tau_max : float, keyword-only
-        Largest plausible lag (s), default 1.
-    consistency : float, keyword-only
-        The lag is identified twice (``tau`` and ``J*tau``): the lag of an
-        estimate whose two values differ by more than ``consistency*J*tau``
-        and by more than three standard deviations (delta method on
-        :attr:`SlidingFrictionEstimator.theta_cov`) is not used (for
-        ``tau >= 2*dt``); default 0.5.
-    lag_margin : float, keyword-only
-        The lag in use is the estimated ``tau`` plus this many of its
-        standard errors (``sqrt`` of the ``tau`` diagonal element of
-        :attr:`SlidingFrictionEstimator.theta_cov`), at most
-        ``lag_margin_max*tau`` more, clipped to ``tau_max``: a one-sided
-        upper confidence bound (see Notes). Default 1; 0: the estimate
-        itself.
-    lag_margin_max : float, keyword-only
-        Largest margin as a fraction of the estimated lag (inf: no cap),
-        default 0.05: the cost of a lag error is lopsided only for small
-        errors (a lag far too long under-compensates every reversal), and
-        ``theta_cov`` of a weakly excited lag can exceed the lag itself.
-    max_rel_stderr : float, keyword-only
-        An estimate is used only once ``Fc`` is determined (:func:`fc_determined`): its
-        standard error (from :attr:`SlidingFrictionEstimator.theta_cov`) at most this
-        fraction of ``max(Fc, Fs)``, and its entry of the RLS ``P`` reduced by the data
-        to at most 1 % of the prior variance. Default 0.05; inf: no test.
-    lag_memory : float, keyword-only
-        Memory (s) of the lag in use: the lag estimates put in use are
-        averaged with the weights ``1/sd**2`` (``sd`` the standard error of
-        each, see ``lag_margin``), each weight forgotten by
-        ``exp(-Ts/lag_memory)`` per estimator update (see Notes); the margin
-        is added to that mean. Default 10 s (five memories of the default
-        RLS); 0: the latest estimate itself.
-    lag_zero : float, keyword-only
-        A lag estimate below 0 by at most ``max(lag_zero*sd, 2*dt)`` (``sd``
-        its standard error, see ``lag_margin``; in standard errors) is lag
-        0: a lag-free joint's estimate scatters around 0 and half of it
-        falls below. A lower lag estimate refuses the estimate. Default 3;
-        inf: every negative lag is 0; 0: a negative lag refuses the
-        estimate.
-    project : bool, keyword-only
-        Use the projection of a copy of the estimator's ``theta`` onto the
-        plausible box in the metric of ``P^-1`` (:func:`project_box`: the
-        least-squares estimate under the bounds ``J*tau >= 0``, ``0 <= tau
-        <= tau_max``, ``0 <= Fc, Fs <= ff_max``, ``sigma >= 0``) instead of
-        refusing an estimate outside it; the RLS state stays unconstrained.
-        Default True.
-    stick_band, stick_samples : keyword-only
-        Stick detection, see :class:`FrictionFeedforward`.
-    ff_input, w_max, loop_model, sign_observer : keyword-only
+    config : RobustAdaptiveFeedforwardConfig, keyword-only
+        The settings (default: the C defaults, :class:`RobustAdaptiveFeedforwardConfig`): its field ``ff`` holds
+        the feedforward's (:class:`~adaptive_ff.compensation.feedforward.FrictionFeedforwardConfig`), the others
+        the use of the estimates:
+
+        ``warmup``
+            RLS updates in the sliding regime before the feedforward is switched
+            on (excitation gate), default 200 (2 s of sliding at Ts = 10 ms).
+        ``fade_in``
+            After switch-on the output is ramped from 0 to full over this time
+            (s), so that the PI integrator, which carried the friction so far,
+            unloads smoothly (bumpless transfer); default 1 s, 0 = step.
+        ``J_lo``, ``J_hi``
+            Plausible inertia interval (kg·m²), exclusive; an estimate outside it is not
+            used. Default ``(0, inf)``.
+        ``tau_max``
+            Largest plausible lag (s), default 1.
+        ``consistency``
+            The lag is identified twice (``tau`` and ``J*tau``): the lag of an
+            estimate whose two values differ by more than ``consistency*J*tau``
+            and by more than three standard deviations (delta method on
+            :attr:`SlidingFrictionEstimator.theta_cov`) is not used (for
+            ``tau >= 2*dt``); default 0.5.
+        ``lag_margin``
+            The lag in use is the estimated ``tau`` plus this many of its
+            standard errors (``sqrt`` of the ``tau`` diagonal element of
+            :attr:`SlidingFrictionEstimator.theta_cov`), at most
+            ``lag_margin_max*tau`` more, clipped to ``tau_max``: a one-sided
+            upper confidence bound (see Notes). Default 1; 0: the estimate
+            itself.
+        ``lag_margin_max``
+            Largest margin as a fraction of the estimated lag (inf: no cap),
+            default 0.05: the cost of a lag error is lopsided only for small
+            errors (a lag far too long under-compensates every reversal), and
+            ``theta_cov`` of a weakly excited lag can exceed the lag itself.
+        ``max_rel_stderr``
+            An estimate is used only once ``Fc`` is determined (:func:`fc_determined`): its
+            standard error (from :attr:`SlidingFrictionEstimator.theta_cov`) at most this
+            fraction of ``max(Fc, Fs)``, and its entry of the RLS ``P`` reduced by the data
+            to at most 1 % of the prior variance. Default 0.05; inf: no test.
+        ``lag_memory``
+            Memory (s) of the lag in use: the lag estimates put in use are
+            averaged with the weights ``1/sd**2`` (``sd`` the standard error of
+            each, see ``lag_margin``), each weight forgotten by
+            ``exp(-Ts/lag_memory)`` per estimator update (see Notes); the margin
+            is added to that mean. Default 10 s (five memories of the default
+            RLS); 0: the latest estimate itself.
+        ``lag_zero``
+            A lag estimate below 0 by at most ``max(lag_zero*sd, 2*dt)`` (``sd``
+            its standard error, see ``lag_margin``; in standard errors) is lag
+            0: a lag-free joint's estimate scatters around 0 and half of it
+            falls below. A lower lag estimate refuses the estimate. Default 3;
+            inf: every negative lag is 0; 0: a negative lag refuses the
+            estimate.
+        ``project``
+            Use the projection of a copy of the estimator's ``theta`` onto the
+            plausible box in the metric of ``P^-1`` (:func:`project_box`: the
+            least-squares estimate under the bounds ``J*tau >= 0``, ``0 <= tau
+            <= tau_max``, ``0 <= Fc, Fs <= ff_max``, ``sigma >= 0``) instead of
+            refusing an estimate outside it; the RLS state stays unconstrained.
+            Default True.
+
+        The feedforward's, ``config.ff``:
+
+        ``lag``
+            Filter the feedforward through the estimated lag ``tau`` (eq. 1);
+            default True. Without the lag a static map at the measured velocity
+            jumps by ``2*Fs`` at every reversal while the real friction takes
+            ``tau`` to follow (measured: docs/benchmarks/compensation.md).
+        ``ff_max``
+            Bound on |feedforward| (N·m); estimates with ``Fc`` or ``Fs`` above it
+            are implausible. Default inf.
+        ``sign_width``
+            Sign treatment near zero velocity, see :class:`FrictionFeedforward`.
+        ``stick_band``, ``stick_samples``
+            Stick detection, see :class:`FrictionFeedforward`.
+        ``ff_input``, ``w_max``
+            See :class:`FrictionFeedforward`.
+    loop_model, sign_observer : keyword-only
         See :class:`FrictionFeedforward`.
     start : FeedforwardStart or None, keyword-only
         Provisional start: the prior map acts from the first period (times its gain) until the first
@@ -406,46 +419,33 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     MODE = "adaptive"
     _ctype = "aff_robust_ff"
 
-    def __init__(self, estimator: SlidingFrictionEstimator, *, dt: float, lag: bool = bool(_FF["lag"]),
-                 ff_max: float = _FF["ff_max"], sign_width: float = _FF["sign_width"],
-                 stick_band: float = _FF["stick_band"], stick_samples: int = _FF["stick_samples"],
-                 warmup: int = _ROBUST["warmup"], fade_in: float = _ROBUST["fade_in"],
-                 J_range: tuple = (_ROBUST["J_lo"], _ROBUST["J_hi"]), tau_max: float = _ROBUST["tau_max"],
-                 consistency: float = _ROBUST["consistency"], lag_margin: float = _ROBUST["lag_margin"],
-                 lag_margin_max: float = _ROBUST["lag_margin_max"], max_rel_stderr: float = _ROBUST["max_rel_stderr"],
-                 lag_memory: float = _ROBUST["lag_memory"], lag_zero: float = _ROBUST["lag_zero"],
-                 project: bool = bool(_ROBUST["project"]), ff_input: str = FF_INPUTS[_FF["at_ref"]],
-                 w_max: float = _FF["w_max"], start: FeedforwardStart | None = None,
+    #: The settings' class.
+    Config = RobustAdaptiveFeedforwardConfig
+
+    def __init__(self, estimator: SlidingFrictionEstimator, *, dt: float,
+                 config: RobustAdaptiveFeedforwardConfig | None = None, start: FeedforwardStart | None = None,
                  loop_model: LoopModel | None = None, sign_observer: SignObserver | None = None):
         if not isinstance(estimator, SlidingFrictionEstimator):
             raise TypeError(f"estimator must be a SlidingFrictionEstimator, got {type(estimator).__name__}")
-        ff = FrictionFeedforward(None, dt=dt, lag=lag, ff_max=ff_max, sign_width=sign_width,
-                                 stick_band=stick_band, stick_samples=stick_samples, ff_input=ff_input, w_max=w_max,
-                                 loop_model=loop_model, sign_observer=sign_observer)
+        config = RobustAdaptiveFeedforwardConfig() if config is None else config
+        if not isinstance(config, RobustAdaptiveFeedforwardConfig):
+            raise ParameterError(f"config must be a RobustAdaptiveFeedforwardConfig, got {type(config).__name__}")
+        ff = FrictionFeedforward(None, dt=dt, config=config.ff, loop_model=loop_model, sign_observer=sign_observer)
         self.loop_model = loop_model
         self.sign_observer = sign_observer
-        try:
-            J_lo, J_hi = J_range
-        except (TypeError, ValueError):
-            raise ParameterError(f"J_range must be a pair (low, high), got {J_range!r}") from None
-        if not isinstance(project, (bool, np.bool_)):
-            raise ParameterError(f"project must be True or False, got {project!r}")
         if start is not None and not isinstance(start, FeedforwardStart):
             raise ParameterError(f"start must be a FeedforwardStart or None, got {type(start).__name__}")
         self.estimator = estimator
         self.n_theta = len(estimator.names)
-        cfg = self._settings("aff_robust_ff_config", lib.aff_robust_ff_default_config(), {
-            "warmup": warmup, "fade_in": fade_in, "J_lo": J_lo, "J_hi": J_hi, "tau_max": tau_max,
-            "consistency": consistency, "lag_margin": lag_margin, "lag_margin_max": lag_margin_max,
-            "max_rel_stderr": max_rel_stderr, "lag_memory": lag_memory, "lag_zero": lag_zero,
-            "project": bool(project)}, counts=("warmup",))
+        own = {k: v for k, v in config.c_fields().items() if k != "ff"}
+        cfg = self._settings("aff_robust_ff_config", lib.aff_robust_ff_default_config(), own, counts=("warmup",))
         cfg.ff, cfg.est = ff.config[0], estimator.config[0]
         if start is not None:
             Fc, Fs, Vs, delta, sigma, tau = start.map_args(estimator.Vs, estimator.delta)
             cfg.start = {"on": True, "Fc": Fc, "Fs": Fs, "Vs": Vs, "delta": delta, "sigma": sigma, "tau": tau,
                          "gain": start.gain, "at_ref": start.ff_input == "reference"}  # else off, the C defaults
-        self._configure(lib.aff_robust_ff_init, cfg, lib.aff_error_message,
-                        names={lib.AFF_ERR_ROBUST_FF_J_RANGE: "J_range"})
+        self._configure(lib.aff_robust_ff_init, cfg, lib.aff_error_message)
+        self.settings = config
         self.start = start
         self._attached()
 

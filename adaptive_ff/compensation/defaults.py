@@ -10,10 +10,12 @@ sentence naming the field).
 
 from __future__ import annotations
 
-from adaptive_ff._caff import ffi, lib
-from plant.component import config_defaults
+from pathlib import Path
 
-__all__ = ["c_defaults"]
+from adaptive_ff._caff import ffi, lib
+from plant.component import config_class, config_defaults
+
+__all__ = ["c_defaults", "c_config_class"]
 
 
 def c_defaults(ctype: str) -> dict:
@@ -41,3 +43,29 @@ def c_defaults(ctype: str) -> dict:
     0.1
     """
     return config_defaults(ffi, lib, ctype)
+
+
+_CSRC = Path(__file__).resolve().parent.parent / "csrc"
+
+
+def c_config_class(name: str, ctype: str, header: str, *, module: str, summary: str, exclude=(),
+                   fields: dict | None = None) -> type:
+    """The config class of a component of this package (:func:`plant.component.config_class` on
+    ``adaptive_ff._caff``): a frozen dataclass of the C settings ``ctype`` whose fields, defaults, units and ranges
+    are the C struct's, declared in ``adaptive_ff/csrc/<header>``.
+
+    Parameters
+    ----------
+    name, ctype : str
+        The class's name and the config struct's C name.
+    header : str
+        The header's file name in ``adaptive_ff/csrc``.
+    module, summary, exclude, fields
+        As :func:`plant.component.config_class`.
+
+    Returns
+    -------
+    type
+    """
+    return config_class(name, (ffi, lib), ctype, module=module, summary=summary, header=_CSRC / header,
+                        exclude=exclude, fields=fields)

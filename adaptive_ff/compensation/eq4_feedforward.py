@@ -28,15 +28,23 @@ import numpy as np
 
 from adaptive_ff._caff import ffi, lib
 from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart, start_output
-from adaptive_ff.compensation.feedforward import FrictionFeedforward
+from adaptive_ff.compensation.defaults import c_config_class
+from adaptive_ff.compensation.feedforward import FF_INPUTS, FrictionFeedforward, FrictionFeedforwardConfig
 from adaptive_ff.compensation.gate import RangeGate
 from adaptive_ff.compensation.ivrls import RecursiveIV
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from adaptive_ff.identification.rls import RecursiveLeastSquares
-from plant.component import Component
-from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive, check_positive_or_inf
+from plant.component import Component, struct_field
+from plant.errors import ParameterError, check_multiple
 
-__all__ = ["AdaptiveFrictionFeedforward"]
+__all__ = ["AdaptiveFrictionFeedforward", "AdaptiveFrictionFeedforwardConfig"]
+
+AdaptiveFrictionFeedforwardConfig = c_config_class(
+    "AdaptiveFrictionFeedforwardConfig", "aff_eq4_ff_config", "aff_eq4_ff.h", module=__name__,
+    summary="Settings of an :class:`AdaptiveFrictionFeedforward`: the sample time, the estimator (RLS or IV), the "
+            "warm-up, the projection bound, the sliding-regime gate, the determinacy test and the feedforward's "
+            "(``ff``).",
+    fields={"ff": FrictionFeedforwardConfig})
 
 
 class AdaptiveFrictionFeedforward(Component):
@@ -46,54 +54,64 @@ class AdaptiveFrictionFeedforward(Component):
     ----------
     model : RegressionModel
         Regression structure, with Vs, delta from the pre-fit (Sec. V-C).
-    Ts : float, keyword-only
-        Sample time of the (u, w) stream fed to :meth:`observe` (s), a multiple of ``dt``.
     dt : float, keyword-only
         Call period of :meth:`step` (s).
-    lam : float, keyword-only
-        RLS forgetting factor in (0, 1]; default 0.995 (memory ``Ts/(1-lam)``,
-        2 s at Ts = 10 ms). The paper's 0.85 suits offline replay of noisy data,
-        not a loop that must hold its estimate through slow phases.
-    P0 : float, keyword-only
-        Initial RLS covariance scale, default 1e4.
-    warmup : int, keyword-only
-        Accepted samples before the feedforward is switched on, default 300
-        (the paper's RLS transient lasts about 4 s).
-    lag, ff_max : see :class:`FrictionFeedforward`; estimates with ``Fc`` or
-        ``Fs`` above ``ff_max`` are treated as implausible.
-    tau_max : float, keyword-only
-        Upper projection bound of ``tau`` (s), default 1.
-    ff_input : {"measured", "reference"}, keyword-only
-        Velocity the closed-loop engine evaluates the feedforward at
-        (:meth:`compensate`); default measured.
+    config : AdaptiveFrictionFeedforwardConfig, keyword-only
+        The settings (default: the C defaults, :class:`AdaptiveFrictionFeedforwardConfig`), its field ``ff`` the
+        feedforward's (:class:`~adaptive_ff.compensation.feedforward.FrictionFeedforwardConfig`), among them:
+
+        ``Ts``
+            Sample time of the (u, w) stream fed to :meth:`observe` (s), a multiple of ``dt``; default 10 ms.
+        ``lam``
+            RLS forgetting factor in (0, 1]; default 0.995 (memory ``Ts/(1-lam)``,
+            2 s at Ts = 10 ms). The paper's 0.85 suits offline replay of noisy data,
+            not a loop that must hold its estimate through slow phases.
+        ``P0``
+            Initial RLS covariance scale, default 1e4.
+        ``warmup``
+            Accepted samples before the feedforward is switched on, default 300
+            (the paper's RLS transient lasts about 4 s).
+        ``tau_max``
+            Upper projection bound of ``tau`` (s), default 1.
+        ``iv``
+            Estimate with recursive IV (:class:`adaptive_ff.compensation.ivrls.RecursiveIV`, same ``lam``, ``P0``, trace
+            bound ``p*P0``, ``guard``) and the instruments ``z(k)``, eq. 4's regressor of ``u(k)``, ``u(k-1)``, ``w(k-3)``,
+            ``w(k-4)`` (the velocities two samples older than in ``phi(k)``), instead of the RLS; default False (the
+            paper's RLS). A sample whose IV update is refused (``phi @ P @ z < 0``) still enters the stored past. In the
+            closed loop (:meth:`compensate`) the torque of a sample is then the mean of the torques applied since the
+            previous sample, not the last one (docs/theory.md).
+        ``w_band``
+            Sliding-regime gate (rad/s, >= 0): only samples with ``|w(k)|``, ``|w(k-1)|``, ``|w(k-2)|`` above it and of
+            one sign update the estimator; default 0 (every sample, the paper).
+        ``map_rel_stderr``
+            Determinacy test of the estimates, with ``iv`` only (> 0; default ``inf``: none, every admissible estimate
+            after the warm-up is used): an estimate is put into use (the first replacing the start map) only if, at the
+            largest ``|w|`` of the IV updates and (with the Stribeck term, if below it) at ``Vs``, the standard error of
+            its static map ``F(w)`` of eq. 3 is at most ``map_rel_stderr`` times its ``max(Fc, Fs)`` and the projection
+            moved the map there by no more than that; else the estimate in use stays. The covariance of the IV estimate
+            is ``e2 * P @ Szz @ P.T`` (Söderström & Stoica, System Identification, 1989, Sec. 8.2) with ``Szz`` the
+            forgotten sum of ``z z'`` and ``e2`` the mean of the normalised a-priori errors. The counterpart of the
+            sliding estimator's "Fc determined"
+            (:func:`~adaptive_ff.compensation.adaptive_feedforward.fc_determined`); C ``aff_eq4_ff_require_determined``.
+
+        The feedforward's, ``config.ff``:
+
+        ``lag``, ``ff_max``
+            See :class:`FrictionFeedforward`; estimates with ``Fc`` or
+            ``Fs`` above ``ff_max`` are treated as implausible.
+        ``ff_input``
+            Velocity the closed-loop engine evaluates the feedforward at
+            (:meth:`compensate`); default measured.
+        ``sign_width``, ``stick_band``, ``stick_samples``
+            The feedforward's input near standstill (see :class:`FrictionFeedforward`); defaults: none of it (the
+            bare feedforward of the paper's prototype).
     u_range, w_range : RangeGate, keyword-only
         Range gates of the torque (N·m) and velocity (rad/s) samples; defaults
         ``RangeGate()`` and ``RangeGate(floor=model.Vs)`` (or ``floor`` 0 without
         the Stribeck term): a sample above 100 times the envelope of the accepted
         ones is refused (:class:`adaptive_ff.compensation.gate.RangeGate`).
-    iv : bool, keyword-only
-        Estimate with recursive IV (:class:`adaptive_ff.compensation.ivrls.RecursiveIV`, same ``lam``, ``P0``, trace
-        bound ``p*P0``, ``guard``) and the instruments ``z(k)``, eq. 4's regressor of ``u(k)``, ``u(k-1)``, ``w(k-3)``,
-        ``w(k-4)`` (the velocities two samples older than in ``phi(k)``), instead of the RLS; default False (the
-        paper's RLS). A sample whose IV update is refused (``phi @ P @ z < 0``) still enters the stored past. In the
-        closed loop (:meth:`compensate`) the torque of a sample is then the mean of the torques applied since the
-        previous sample, not the last one (docs/theory.md).
-    w_band : float, keyword-only
-        Sliding-regime gate (rad/s, >= 0): only samples with ``|w(k)|``, ``|w(k-1)|``, ``|w(k-2)|`` above it and of
-        one sign update the estimator; default 0 (every sample, the paper).
-    map_rel_stderr : float, keyword-only
-        Determinacy test of the estimates, with ``iv`` only (> 0; default ``inf``: none, every admissible estimate
-        after the warm-up is used): an estimate is put into use (the first replacing the start map) only if, at the
-        largest ``|w|`` of the IV updates and (with the Stribeck term, if below it) at ``Vs``, the standard error of
-        its static map ``F(w)`` of eq. 3 is at most ``map_rel_stderr`` times its ``max(Fc, Fs)`` and the projection
-        moved the map there by no more than that; else the estimate in use stays. The covariance of the IV estimate
-        is ``e2 * P @ Szz @ P.T`` (Söderström & Stoica, System Identification, 1989, Sec. 8.2) with ``Szz`` the
-        forgotten sum of ``z z'`` and ``e2`` the mean of the normalised a-priori errors. The counterpart of the
-        sliding estimator's "Fc determined"
-        (:func:`~adaptive_ff.compensation.adaptive_feedforward.fc_determined`); C ``aff_eq4_ff_require_determined``.
-    sign_width, stick_band, stick_samples, loop_model, sign_observer : keyword-only
-        The feedforward's input near standstill (see :class:`FrictionFeedforward`); defaults: none of it (the
-        bare feedforward of the paper's prototype).
+    loop_model, sign_observer : keyword-only
+        The feedforward's velocity inputs near standstill (see :class:`FrictionFeedforward`); default None.
     start : FeedforwardStart or None, keyword-only
         Provisional start: the prior map (the Stribeck pre-fit's, Sec. V-C, through a lag) acts from the first
         period, times its gain, until the first estimate is put into use, which replaces it at once (this
@@ -146,34 +164,33 @@ class AdaptiveFrictionFeedforward(Component):
     _ffi = ffi
     _ctype = "aff_eq4_ff"
 
-    def __init__(self, model: RegressionModel, *, Ts: float, dt: float, lam: float = 0.995, P0: float = 1e4,
-                 warmup: int = 300, lag: bool = True, ff_max: float = math.inf, tau_max: float = 1.0,
-                 ff_input: str = "measured", u_range: RangeGate | None = None, w_range: RangeGate | None = None,
-                 iv: bool = False, w_band: float = 0.0, sign_width: float = 0.0, stick_band: float = 0.0,
-                 stick_samples: int = 10, loop_model=None, sign_observer=None, start: FeedforwardStart | None = None,
-                 map_rel_stderr: float = math.inf):
-        ff = FrictionFeedforward(None, dt=dt, lag=lag, ff_max=ff_max, ff_input=ff_input, sign_width=sign_width,
-                                 stick_band=stick_band, stick_samples=stick_samples, loop_model=loop_model,
-                                 sign_observer=sign_observer)
+    #: The settings' class.
+    Config = AdaptiveFrictionFeedforwardConfig
+
+    def __init__(self, model: RegressionModel, *, dt: float, config: AdaptiveFrictionFeedforwardConfig | None = None,
+                 u_range: RangeGate | None = None, w_range: RangeGate | None = None, loop_model=None,
+                 sign_observer=None, start: FeedforwardStart | None = None):
+        config = AdaptiveFrictionFeedforwardConfig() if config is None else config
+        if not isinstance(config, AdaptiveFrictionFeedforwardConfig):
+            raise ParameterError(f"config must be an AdaptiveFrictionFeedforwardConfig, got {type(config).__name__}")
+        ff = FrictionFeedforward(None, dt=dt, config=config.ff, loop_model=loop_model, sign_observer=sign_observer)
         if not isinstance(model, RegressionModel):
             raise ParameterError(f"model must be a RegressionModel, got {type(model).__name__}")
-        Ts = check_positive("Ts", Ts)
+        cfg = self._settings("aff_eq4_ff_config", lib.aff_eq4_ff_default_config(),
+                             {k: v for k, v in config.c_fields().items() if k != "ff"}, counts=("warmup",))
+        cfg.ff = ff.config[0]
+        code = lib.aff_eq4_ff_check_config(cfg)  # the one validator of the settings' ranges
+        if code != lib.AFF_OK:
+            raise ParameterError(f"{type(self).__name__}: {ffi.string(lib.aff_error_message(code)).decode()}")
+        Ts, warmup, tau_max, iv, w_band = cfg.Ts, cfg.warmup, cfg.tau_max, bool(cfg.iv), cfg.w_band
+        map_rel_stderr = cfg.map_rel_stderr
         m = check_multiple("Ts", Ts, "dt", ff.dt)
-        if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
-            raise ParameterError(f"warmup must be an integer >= 0, got {warmup!r}")
-        tau_max = check_positive("tau_max", tau_max)
-        if not isinstance(iv, (bool, np.bool_)):
-            raise ParameterError(f"iv must be True or False, got {iv!r}")
-        w_band = check_nonnegative("w_band", w_band)
-        map_rel_stderr = check_positive_or_inf("map_rel_stderr", map_rel_stderr)
-        if math.isfinite(map_rel_stderr) and not iv:
-            raise ParameterError(f"map_rel_stderr={map_rel_stderr!r} needs iv=True (the test is on the IV estimate's "
-                                 f"covariance)")
         if start is not None and not isinstance(start, FeedforwardStart):
             raise ParameterError(f"start must be a FeedforwardStart or None, got {type(start).__name__}")
         p = model.n_params
-        rls = RecursiveLeastSquares(p, lam=lam, P0=P0)
-        ivrls = RecursiveIV(p, lam=lam, P0=P0, guard=True)
+        rls = RecursiveLeastSquares(p, lam=config.lam, P0=config.P0)
+        ivrls = RecursiveIV(p, lam=config.lam, P0=config.P0, guard=True)
+        self.settings = config
         self.model = model
         self.n_theta = p
         u_range = RangeGate() if u_range is None else u_range
@@ -214,30 +231,30 @@ class AdaptiveFrictionFeedforward(Component):
                 f"warmup={self.warmup}, iv={self.iv}, w_band={self.w_band!r}, n_updates={self._est.n_updates})")
 
     # ---- configuration
-    Ts = property(lambda self: float(self._c.Ts), doc="Sample time of the (u, w) stream (s).")
-    m = property(lambda self: int(self._c.m), doc="Periods ``dt`` per sample ``Ts``.")
-    warmup = property(lambda self: int(self._c.warmup), doc="RLS updates before switch-on.")
-    tau_max = property(lambda self: float(self._c.tau_max), doc="Upper projection bound of tau (s).")
-    iv = property(lambda self: bool(self._c.iv), doc="Estimate with recursive IV (else the RLS).")
-    w_band = property(lambda self: float(self._c.w_band), doc="Sliding-regime gate (rad/s), 0 = none.")
+    Ts = struct_field("Ts", float, "Sample time of the (u, w) stream (s).")
+    m = struct_field("m", int, "Periods ``dt`` per sample ``Ts``.")
+    warmup = struct_field("warmup", int, "RLS updates before switch-on.")
+    tau_max = struct_field("tau_max", float, "Upper projection bound of tau (s).")
+    iv = struct_field("iv", bool, "Estimate with recursive IV (else the RLS).")
+    w_band = struct_field("w_band", float, "Sliding-regime gate (rad/s), 0 = none.")
     _est = property(lambda self: self.ivrls if self.iv else self.rls)
-    dt = property(lambda self: self._ff.dt, doc="Call period of :meth:`step` (s).")
-    lag = property(lambda self: self._ff.lag, doc="Filter the feedforward through the estimated lag.")
-    ff_max = property(lambda self: self._ff.ff_max, doc="Bound on |feedforward| (N·m).")
-    ff_input = property(lambda self: self._ff.ff_input, doc="Velocity :meth:`compensate` evaluates at.")
-    sign_width = property(lambda self: self._ff.sign_width, doc="Sign ramp half-width (rad/s).")
-    stick_band = property(lambda self: self._ff.stick_band, doc="Stick-detection band (rad/s).")
-    stick_samples = property(lambda self: self._ff.stick_samples, doc="In-band samples that declare sticking.")
+    dt = struct_field("ff.dt", float, "Call period of :meth:`step` (s).")
+    lag = struct_field("ff.lag", bool, "Filter the feedforward through the estimated lag.")
+    ff_max = struct_field("ff.ff_max", float, "Bound on |feedforward| (N·m).")
+    ff_input = struct_field("ff.at_ref", FF_INPUTS.__getitem__, "Velocity :meth:`compensate` evaluates at.")
+    sign_width = struct_field("ff.sign_width", float, "Sign ramp half-width (rad/s).")
+    stick_band = struct_field("ff.stick_band", float, "Stick-detection band (rad/s).")
+    stick_samples = struct_field("ff.stick_samples", int, "In-band samples that declare sticking.")
 
     # ---- state
-    u_ff = property(lambda self: self._ff.u_ff, doc="Feedforward before the clip (N·m).")
-    n_rejected = property(lambda self: int(self._c.n_rejected), doc="Refused samples.")
-    n_implausible = property(lambda self: int(self._c.n_implausible), doc="Estimates that failed the projection.")
-    n_gated = property(lambda self: int(self._c.n_gated), doc="Samples the sliding-regime gate kept out.")
-    n_undetermined = property(lambda self: int(self._c.n_undetermined),
-                              doc="Admissible estimates not put into use: the map not determined.")
-    map_rel_stderr = property(lambda self: float(self._c.map_rel_stderr),
-                              doc="The estimates' determinacy bound (relative to max(Fc, Fs)), ``inf`` = no test.")
+    u_ff = struct_field("ff.u_ff", float, "Feedforward before the clip (N·m).")
+    n_rejected = struct_field("n_rejected", int, "Refused samples.")
+    n_implausible = struct_field("n_implausible", int, "Estimates that failed the projection.")
+    n_gated = struct_field("n_gated", int, "Samples the sliding-regime gate kept out.")
+    n_undetermined = struct_field("n_undetermined", int,
+                                  "Admissible estimates not put into use: the map not determined.")
+    map_rel_stderr = struct_field("map_rel_stderr", float,
+                                  "The estimates' determinacy bound (relative to max(Fc, Fs)), ``inf`` = no test.")
 
     @property
     def theta(self) -> np.ndarray:
@@ -249,8 +266,7 @@ class AdaptiveFrictionFeedforward(Component):
         """Whether the feedforward acts: an admissible estimate, or the provisional start map, is in use."""
         return bool(self._c.has_estimate or self._c.provisional)
 
-    provisional = property(lambda self: bool(self._c.provisional),
-                           doc="Whether the provisional start map (``start``) is in use.")
+    provisional = struct_field("provisional", bool, "Whether the provisional start map (``start``) is in use.")
 
     @property
     def estimate(self) -> FrictionEstimate | None:

@@ -27,17 +27,22 @@ import numpy as np
 from adaptive_ff._caff import ffi, lib
 from adaptive_ff.compensation.velocity_input import LoopModel, SignObserver
 from adaptive_ff.identification.regression import FrictionEstimate
-from adaptive_ff.compensation.defaults import c_defaults
+from adaptive_ff.compensation.defaults import c_config_class
 from plant.component import Component, struct_field
 from plant.errors import ParameterError
 
-__all__ = ["FrictionFeedforward", "project_estimate", "project_levels", "FF_INPUTS", "at_ref"]
-
-#: The C defaults of the fixed feedforward's settings (``aff_fixed_ff_default_config``): the keywords' defaults.
-_FF = c_defaults("aff_fixed_ff_config")
+__all__ = ["FrictionFeedforward", "FrictionFeedforwardConfig", "project_estimate", "project_levels", "FF_INPUTS",
+           "at_ref"]
 
 #: The velocity the feedforward is evaluated at, by the C flag ``at_ref`` (0: the measured, 1: the reference).
 FF_INPUTS = ("measured", "reference")
+
+FrictionFeedforwardConfig = c_config_class(
+    "FrictionFeedforwardConfig", "aff_fixed_ff_config", "aff_feedforward.h", module=__name__,
+    summary="Settings of a :class:`FrictionFeedforward` (and of the feedforward part of the adaptive ones): the lag, "
+            "the bound, the sign near standstill, the stick detection, the input velocity.",
+    exclude=("dt", "use_loop_model", "use_sign_observer"),
+    fields={"at_ref": ("ff_input", dict(enumerate(FF_INPUTS)))})
 
 
 def at_ref(ff_input: str) -> int:
@@ -118,30 +123,33 @@ class FrictionFeedforward(Component):
         Friction parameters; ``None`` gives zero feedforward.
     dt : float, keyword-only
         Call period of :meth:`step` (s), e.g. the controller period.
-    lag : bool, keyword-only
-        Filter the static map through the estimated lag ``tau`` (eq. 1), default True.
-    ff_max : float, keyword-only
-        Bound on |feedforward| (N·m), default inf.
-    sign_width : float, keyword-only
-        Treatment of the sign near zero velocity (rad/s): 0 (default) uses
-        ``sgn(w)``; ``> 0`` the linear ramp ``clip(w/sign_width, -1, 1)``, which
-        stops measurement noise from flipping the full Coulomb torque.
-    stick_band : float, keyword-only
-        Velocity band (rad/s) for the stick detection: once the first velocity
-        given to :meth:`step` (the measurement) has stayed inside
-        ``±stick_band`` for ``stick_samples`` consecutive calls, the joint is
-        taken as stuck and the second velocity (the reference: the intended
-        direction of motion) is used instead, until the measurement leaves the
-        band. A stuck joint's measured velocity is noise; its sign says
-        nothing. Default 0 (off).
-    stick_samples : int, keyword-only
-        Consecutive in-band samples that declare sticking, >= 1; default 10.
-    ff_input : {"measured", "reference"}, keyword-only
-        Velocity the closed-loop engine evaluates the feedforward at (:meth:`compensate`): the
-        controller's measurement with stick detection (default), or the reference itself.
-    w_max : float, keyword-only
-        Largest plausible speed (rad/s), > 0: a velocity above it is rejected like a
-        non-finite one (see Notes); default inf.
+    config : FrictionFeedforwardConfig, keyword-only
+        The settings (default: the C defaults, :class:`FrictionFeedforwardConfig`), among them:
+
+        ``lag``
+            Filter the static map through the estimated lag ``tau`` (eq. 1), default True.
+        ``ff_max``
+            Bound on |feedforward| (N·m), default inf.
+        ``sign_width``
+            Treatment of the sign near zero velocity (rad/s): 0 (default) uses
+            ``sgn(w)``; ``> 0`` the linear ramp ``clip(w/sign_width, -1, 1)``, which
+            stops measurement noise from flipping the full Coulomb torque.
+        ``stick_band``
+            Velocity band (rad/s) for the stick detection: once the first velocity
+            given to :meth:`step` (the measurement) has stayed inside
+            ``±stick_band`` for ``stick_samples`` consecutive calls, the joint is
+            taken as stuck and the second velocity (the reference: the intended
+            direction of motion) is used instead, until the measurement leaves the
+            band. A stuck joint's measured velocity is noise; its sign says
+            nothing. Default 0 (off).
+        ``stick_samples``
+            Consecutive in-band samples that declare sticking, >= 1; default 10.
+        ``ff_input``
+            Velocity the closed-loop engine evaluates the feedforward at (:meth:`compensate`): the
+            controller's measurement with stick detection (default), or the reference itself.
+        ``w_max``
+            Largest plausible speed (rad/s), > 0: a velocity above it is rejected like a
+            non-finite one (see Notes); default inf.
     loop_model : LoopModel or None, keyword-only
         The nominal velocity loop. Given, :meth:`compensate` uses its velocity (driven by the
         reference) instead of the reference while the joint is detected as stuck (see Notes); default
@@ -207,25 +215,27 @@ class FrictionFeedforward(Component):
     _ffi = ffi
     _ctype = "aff_fixed_ff"
 
-    def __init__(self, estimate: FrictionEstimate | None, *, dt: float, lag: bool = bool(_FF["lag"]),
-                 ff_max: float = _FF["ff_max"], sign_width: float = _FF["sign_width"],
-                 stick_band: float = _FF["stick_band"], stick_samples: int = _FF["stick_samples"],
-                 ff_input: str = FF_INPUTS[_FF["at_ref"]], w_max: float = _FF["w_max"],
+    #: The settings' class.
+    Config = FrictionFeedforwardConfig
+
+    def __init__(self, estimate: FrictionEstimate | None, *, dt: float, config: FrictionFeedforwardConfig | None = None,
                  loop_model: LoopModel | None = None, sign_observer: SignObserver | None = None):
+        config = FrictionFeedforwardConfig() if config is None else config
+        if not isinstance(config, FrictionFeedforwardConfig):
+            raise ParameterError(f"config must be a FrictionFeedforwardConfig, got {type(config).__name__}")
         if loop_model is not None and not isinstance(loop_model, LoopModel):
             raise ParameterError(f"loop_model must be a LoopModel or None, got {type(loop_model).__name__}")
         if sign_observer is not None and not isinstance(sign_observer, SignObserver):
             raise ParameterError(f"sign_observer must be a SignObserver or None, got {type(sign_observer).__name__}")
         cfg = self._settings("aff_fixed_ff_config", lib.aff_fixed_ff_default_config(), {
-            "dt": dt, "lag": bool(lag), "ff_max": ff_max, "sign_width": sign_width, "stick_band": stick_band,
-            "stick_samples": stick_samples, "at_ref": at_ref(ff_input), "w_max": w_max,
-            "use_loop_model": loop_model is not None, "use_sign_observer": sign_observer is not None},
-            counts=("stick_samples",))
+            **config.c_fields(), "dt": dt, "use_loop_model": loop_model is not None,
+            "use_sign_observer": sign_observer is not None}, counts=("stick_samples",))
         if loop_model is not None:
             cfg.loop_model = loop_model.config_fields()
         if sign_observer is not None:
             cfg.sign_observer = sign_observer.config_fields()
         self._configure(lib.aff_fixed_ff_init, cfg, lib.aff_error_message)
+        self.settings = config
         self.loop_model = loop_model
         self.sign_observer = sign_observer
         self._attached()

@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from adaptive_ff._caff import ffi, lib
-from plant.component import Component
+from plant.component import Component, struct_field
 from plant.errors import ParameterError, SignalError, check_finite_scalar
 
 __all__ = ["RecursiveIV", "IVRLS_NMAX"]
@@ -106,12 +106,12 @@ class RecursiveIV(Component):
         self._new_struct()
         lib.aff_ivrls_init(self._c, p, lam, P_max, P0, int(bool(guard)))
 
-    p = property(lambda self: int(self._c.p), doc="Number of parameters.")
-    lam = property(lambda self: float(self._c.lam), doc="Forgetting factor.")
-    P_max = property(lambda self: float(self._c.P_max), doc="Bound on trace(P).")
-    guard = property(lambda self: bool(self._c.guard), doc="Refuse updates with phi'P z < 0 too.")
-    n_updates = property(lambda self: int(self._c.n_updates), doc="Accepted updates.")
-    n_rejected = property(lambda self: int(self._c.n_rejected), doc="Refused samples.")
+    p = struct_field("p", int, "Number of parameters.")
+    lam = struct_field("lam", float, "Forgetting factor.")
+    P_max = struct_field("P_max", float, "Bound on trace(P).")
+    guard = struct_field("guard", bool, "Refuse updates with phi'P z < 0 too.")
+    n_updates = struct_field("n_updates", int, "Accepted updates.")
+    n_rejected = struct_field("n_rejected", int, "Refused samples.")
 
     @property
     def theta(self) -> np.ndarray:

@@ -80,13 +80,13 @@ from adaptive_ff._caff import ffi, lib
 from adaptive_ff.compensation.gate import OutlierGate, RangeGate
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RecursiveLeastSquares
-from adaptive_ff.compensation.defaults import c_defaults
+from adaptive_ff.compensation.defaults import c_config_class, c_defaults
 from plant.component import Component, struct_field
 from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, check_multiple, check_positive,
                           check_signal)
 from plant.stribeck_map import stribeck_shape
 
-__all__ = ["SlidingFrictionEstimator", "SlidingFit", "fit_sliding", "sliding_regressors", "SLIDING_NAMES",
+__all__ = ["SlidingFrictionEstimator", "SlidingFrictionEstimatorConfig", "SlidingFit", "fit_sliding", "sliding_regressors", "SLIDING_NAMES",
            "estimate_from_theta", "FORGETTINGS"]
 
 #: Parameter names of the full structure (lag and offset), in ``theta`` order.
@@ -96,12 +96,20 @@ _NOISE_GAIN = math.sqrt(6.0) * math.sqrt(2.0 / math.pi)  # E|second difference| 
 _BAND_SIGMAS = 4.0
 
 
-#: The C defaults of the estimator's settings (``aff_sliding_default_config``): the keywords' defaults; its ``P_max``
-#: 0 (``n*P0``) and ``w_band_min`` 0 (``Vs/10``) are the keywords' None, its ``initial_J`` is ``J_guess``.
+#: The C defaults of the estimator's settings (``aff_sliding_default_config``).
 _SLIDING = c_defaults("aff_sliding_config")
 
 #: The forgetting of the RLS by its C code (``AFF_RLS_EXPONENTIAL``, ``AFF_RLS_DIRECTIONAL``).
 FORGETTINGS = {lib.AFF_RLS_EXPONENTIAL: "exponential", lib.AFF_RLS_DIRECTIONAL: "directional"}
+
+SlidingFrictionEstimatorConfig = c_config_class(
+    "SlidingFrictionEstimatorConfig", "aff_sliding_config", "aff_sliding.h", module=__name__,
+    summary="Settings of a :class:`SlidingFrictionEstimator`: the update period, the filters, the RLS, the "
+            "parameter structure, the sliding-regime gate, the bounds and the start's inertia. ``lam`` may also be "
+            "one factor per parameter (an array, exponential forgetting); ``P_max`` 0 is ``p*P0``, ``w_band_min`` "
+            "0 is ``0.1*Vs``; ``initial_J`` is the start's inertia where no ``initial`` estimate is given.",
+    exclude=("Vs", "delta", "Tc", "initial_tau", "initial_Fc", "initial_Fs", "initial_sigma", "initial_offset"),
+    fields={"forgetting": ("forgetting", FORGETTINGS)})
 
 
 def _names(lag: bool, offset: bool) -> tuple:
@@ -162,42 +170,45 @@ class SlidingFrictionEstimator(Component):
         Stribeck velocity (rad/s) and shape factor, pre-estimated (Sec. V-C).
     Tc : float, keyword-only
         Period (s) at which :meth:`observe` is called (the controller period).
-    Ts : float, keyword-only
-        Period of the RLS updates (s), a multiple of ``Tc``; default 10 ms
-        (the filtered signals have a bandwidth of a few Hz, so faster updates
-        add cost, not information).
-    T_filter : float, keyword-only
-        Time constant ``T`` of each of the three filter stages (s); default 20 ms
-        (about 8 Hz bandwidth for ``L``).
-    lam : float or array_like, keyword-only
-        Forgetting factor per RLS update, in (0, 1] (an array: one per
-        parameter); default 0.995 (memory ``Ts/(1 - lam)`` = 2 s of sliding
-        data at Ts = 10 ms); a longer memory lags behind drifting friction
-        (measured: docs/benchmarks/compensation.md).
-    forgetting : {"exponential", "directional"}, keyword-only
-        RLS forgetting scheme (:class:`adaptive_ff.identification.rls.RecursiveLeastSquares`).
-    P0 : float, keyword-only
-        Initial covariance scale, default 1e4.
-    P_max : float, keyword-only
-        Covariance bound ``trace(P) <= P_max`` (windup protection, see
-        :class:`adaptive_ff.identification.rls.RecursiveLeastSquares`); default ``trace(P0)``.
+    config : SlidingFrictionEstimatorConfig, keyword-only
+        The settings (default: the C defaults, :class:`SlidingFrictionEstimatorConfig`), among them:
+
+        ``Ts``
+            Period of the RLS updates (s), a multiple of ``Tc``; default 10 ms
+            (the filtered signals have a bandwidth of a few Hz, so faster updates
+            add cost, not information).
+        ``T_filter``
+            Time constant ``T`` of each of the three filter stages (s); default 20 ms
+            (about 8 Hz bandwidth for ``L``).
+        ``lam``
+            Forgetting factor per RLS update, in (0, 1] (an array: one per
+            parameter); default 0.995 (memory ``Ts/(1 - lam)`` = 2 s of sliding
+            data at Ts = 10 ms); a longer memory lags behind drifting friction
+            (measured: docs/benchmarks/compensation.md).
+        ``forgetting``
+            RLS forgetting scheme (:class:`adaptive_ff.identification.rls.RecursiveLeastSquares`).
+        ``P0``
+            Initial covariance scale, default 1e4.
+        ``P_max``
+            Covariance bound ``trace(P) <= P_max`` (windup protection, see
+            :class:`adaptive_ff.identification.rls.RecursiveLeastSquares`); default 0: ``trace(P0)``.
+        ``initial_J``
+            Inertia (kg·m²) of the start when ``initial`` is None, default 1.
+        ``J_max``, ``tau_max``
+            Upper bounds of the reported ``J`` (kg·m²) and ``tau`` (s) (:attr:`box`); defaults inf, 1.
+        ``lag``
+            Estimate the friction lag (columns ``L[s^2 w]``, ``-L[s u]``), default True.
+        ``offset``
+            Estimate a constant torque offset (captures e.g. the mean of
+            direction-dependent Coulomb levels), default True.
+        ``w_band_min``
+            Smallest near-zero band (rad/s); default 0: ``0.1*Vs``.
+        ``dwell_max``
+            Largest admissible filtered near-zero indicator of a row, in [0, 1];
+            default 0.01; 1 switches the sliding-regime gate off.
     initial : FrictionEstimate, keyword-only
         Starting point (e.g. the Stribeck pre-fit's Fc, Fs, sigma and the
-        design inertia); default: ``J = J_guess``, all friction 0.
-    J_guess : float, keyword-only
-        Inertia (kg·m²) used when ``initial`` is None, default 1.
-    J_max, tau_max : float, keyword-only
-        Upper bounds of the reported ``J`` (kg·m²) and ``tau`` (s) (:attr:`box`); defaults inf, 1.
-    lag : bool, keyword-only
-        Estimate the friction lag (columns ``L[s^2 w]``, ``-L[s u]``), default True.
-    offset : bool, keyword-only
-        Estimate a constant torque offset (captures e.g. the mean of
-        direction-dependent Coulomb levels), default True.
-    w_band_min : float, keyword-only
-        Smallest near-zero band (rad/s); default ``0.1*Vs``.
-    dwell_max : float, keyword-only
-        Largest admissible filtered near-zero indicator of a row, in [0, 1];
-        default 0.01; 1 switches the sliding-regime gate off.
+        design inertia); default: ``J = config.initial_J``, all friction 0.
     gate : OutlierGate, keyword-only
         Plausibility gate of the velocity samples (jumps); default: non-finite only.
     u_range : RangeGate, keyword-only
@@ -207,6 +218,7 @@ class SlidingFrictionEstimator(Component):
         bound it absolutely.
     w_range : RangeGate, keyword-only
         Range gate of the velocity samples (rad/s); default ``RangeGate(floor=Vs)``:
+
         ``|w|`` above 100 times ``max(envelope of the accepted |w|, Vs)`` is out
         of range (a floor of 0 is replaced by ``Vs``).
 
@@ -270,15 +282,20 @@ class SlidingFrictionEstimator(Component):
     _ffi = ffi
     _ctype = "aff_sliding"
 
-    def __init__(self, Vs: float, delta: float, *, Tc: float, Ts: float = _SLIDING["Ts"],
-                 T_filter: float = _SLIDING["T_filter"], lam: float = _SLIDING["lam"],
-                 forgetting: str = FORGETTINGS[_SLIDING["forgetting"]], P0: float = _SLIDING["P0"],
-                 P_max: float | None = None, initial: FrictionEstimate | None = None,
-                 J_guess: float = _SLIDING["initial_J"], J_max: float = _SLIDING["J_max"],
-                 tau_max: float = _SLIDING["tau_max"], lag: bool = bool(_SLIDING["lag"]),
-                 offset: bool = bool(_SLIDING["offset"]), w_band_min: float | None = None,
-                 dwell_max: float = _SLIDING["dwell_max"], gate: OutlierGate | None = None,
+    #: The settings' class.
+    Config = SlidingFrictionEstimatorConfig
+
+    def __init__(self, Vs: float, delta: float, *, Tc: float, config: SlidingFrictionEstimatorConfig | None = None,
+                 initial: FrictionEstimate | None = None, gate: OutlierGate | None = None,
                  u_range: RangeGate | None = None, w_range: RangeGate | None = None):
+        config = SlidingFrictionEstimatorConfig() if config is None else config
+        if not isinstance(config, SlidingFrictionEstimatorConfig):
+            raise ParameterError(f"config must be a SlidingFrictionEstimatorConfig, got {type(config).__name__}")
+        self.settings = c = config
+        Ts, T_filter, lam, forgetting, P0, J_guess = c.Ts, c.T_filter, c.lam, c.forgetting, c.P0, c.initial_J
+        P_max = None if c.P_max == 0 else c.P_max  # 0: p*P0 (C)
+        w_band_min = None if c.w_band_min == 0 else c.w_band_min  # 0: 0.1*Vs (C)
+        J_max, tau_max, lag, offset, dwell_max = c.J_max, c.tau_max, c.lag, c.offset, c.dwell_max
         self.Vs = check_positive("Vs", Vs)
         self.delta = check_finite_scalar("delta", delta)
         if self.delta == 0.0:
@@ -303,7 +320,7 @@ class SlidingFrictionEstimator(Component):
         upper = {"J": J_max, "J_tau": J_max * self.tau_max, "tau": self.tau_max, "Fc": math.inf, "Fs": math.inf,
                  "sigma": math.inf, "offset": math.inf}
         if initial is None:
-            first = {"J": check_positive("J_guess", J_guess), "tau": 0.0, "Fc": 0.0, "Fs": 0.0, "sigma": 0.0,
+            first = {"J": check_positive("initial_J", J_guess), "tau": 0.0, "Fc": 0.0, "Fs": 0.0, "sigma": 0.0,
                      "offset": 0.0}
         else:  # clipped to the box by aff_sliding_init, which refuses a start that is not finite then
             first = {k: float(getattr(initial, k)) for k in ("J", "tau", "Fc", "Fs", "sigma", "offset")}
@@ -506,8 +523,9 @@ def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | 
     """
     u = check_signal("u", u, min_len=10)
     w = check_signal("w", w, n=u.shape[0])
-    est = SlidingFrictionEstimator(Vs, delta, Tc=Tc, Ts=Tc if Ts is None else Ts, T_filter=T_filter, lag=lag,
-                                   offset=offset, w_band_min=w_band_min, dwell_max=dwell_max)
+    est = SlidingFrictionEstimator(Vs, delta, Tc=Tc, config=SlidingFrictionEstimatorConfig(
+        Ts=Tc if Ts is None else Ts, T_filter=T_filter, lag=lag, offset=offset,
+        w_band_min=0.0 if w_band_min is None else w_band_min, dwell_max=dwell_max))
     from scipy import signal  # lazy: scipy.signal is heavy to import
 
     a, D = float(est.cdata.a), float(est.cdata.D)

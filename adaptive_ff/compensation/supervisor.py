@@ -16,15 +16,19 @@ import math
 import numpy as np
 
 from adaptive_ff._caff import ffi, lib
-from adaptive_ff.compensation.defaults import c_defaults
+from adaptive_ff.compensation.defaults import c_config_class
 from plant.component import Component, struct_field
-from plant.errors import ParameterError, check_nonnegative
+from plant.errors import ParameterError
 
-__all__ = ["FeedforwardSupervisor", "DELAY_MAX"]
+__all__ = ["FeedforwardSupervisor", "FeedforwardSupervisorConfig", "DELAY_MAX"]
 
-#: The C defaults of the supervisor's settings (``aff_supervisor_default_config``): the keywords' defaults; its
-#: ``settle`` -1 (half the window) and ``Kp`` 0 (no tracking test) are the keywords' None.
-_SUP = c_defaults("aff_supervisor_config")
+FeedforwardSupervisorConfig = c_config_class(
+    "FeedforwardSupervisorConfig", "aff_supervisor_config", "aff_supervisor.h", module=__name__,
+    summary="Settings of a :class:`FeedforwardSupervisor`: the statistic's window and hysteresis, the first "
+            "decision's wait, the rest rule, the measurement delay and the tracking test (the loop's PI). Its "
+            "sentinels are C's: ``settle`` < 0 is ``window/2``, ``rest_band`` -1 no rest rule, ``Kp`` 0 no "
+            "tracking test.",
+    exclude=("Tc", "J_n", "omega"))
 
 #: Largest measurement delay (periods) the statistic aligns (``AFF_SUPERVISOR_DELAY_MAX``).
 DELAY_MAX = len(ffi.new("aff_supervisor *").u_hist) - 1
@@ -49,29 +53,32 @@ class FeedforwardSupervisor(Component):
         Design inertia of the disturbance observer (kg·m²), > 0.
     omega : float, keyword-only
         Cut-off of the first-order Q-filter (rad/s), > 0; e.g. the loop's crossover ``Kp/J_n``.
-    window : float, keyword-only
-        Time constant of the exponentially weighted mean squares (s), > 0; default 2. Longer: a lower variance of
-        the comparison, a slower reaction.
-    margin : float, keyword-only
-        Hysteresis (-), in [0, 1): a backed-off feedforward is applied again once its mean-square residual is below
-        ``(1 - margin)`` times the friction's; default 0.1.
-    settle : float or None, keyword-only
-        Evidence (s) the first decision waits for, >= 0, after the Q-filter's start transient ``5/omega``; default
-        None: ``window/2``.
-    rest_band : float or None, keyword-only
-        The reference is at rest where ``|w_ref| <= rest_band`` (rad/s) for ``max(2, ceil(1/(omega*Tc)))`` periods
-        in a row (one time constant of the loop: the joint has stopped behind the reference): nothing is applied
-        then, through the lag of :meth:`set_rest_lag` (Notes); default 0 (a reference exactly at rest, e.g. the dwells of
-        :func:`plant.motion.point_to_point_reference`); None: no rest rule.
-    delay : int, keyword-only
-        Measurement delay of the velocity (periods), 0..:data:`DELAY_MAX`; default 0. The statistic pairs the
-        velocity difference with the torques of ``delay`` periods before.
-    Kp, Ki : float or None, keyword-only
-        The loop's PI gains (N·m·s/rad, > 0; N·m/rad, >= 0) for the tracking test (Notes); default None: no tracking
-        test, the torque test alone.
-    track_margin : float, keyword-only
-        The tracking test backs off where the loop's mean-square velocity error with the candidate exceeds ``1 +
-        track_margin`` times the error without it (-), >= 0; default 1 (twice).
+    config : FeedforwardSupervisorConfig, keyword-only
+        The settings (default: the C defaults, :class:`FeedforwardSupervisorConfig`):
+
+        ``window``
+            Time constant of the exponentially weighted mean squares (s), > 0; default 2. Longer: a lower variance of
+            the comparison, a slower reaction.
+        ``margin``
+            Hysteresis (-), in [0, 1): a backed-off feedforward is applied again once its mean-square residual is below
+            ``(1 - margin)`` times the friction's; default 0.1.
+        ``settle``
+            Evidence (s) the first decision waits for, >= 0, after the Q-filter's start transient ``5/omega``; default
+            -1 (any value < 0): ``window/2``.
+        ``rest_band``
+            The reference is at rest where ``|w_ref| <= rest_band`` (rad/s) for ``max(2, ceil(1/(omega*Tc)))`` periods
+            in a row (one time constant of the loop: the joint has stopped behind the reference): nothing is applied
+            then, through the lag of :meth:`set_rest_lag` (Notes); default 0 (a reference exactly at rest, e.g. the dwells of
+            :func:`plant.motion.point_to_point_reference`); -1: no rest rule.
+        ``delay``
+            Measurement delay of the velocity (periods), 0..:data:`DELAY_MAX`; default 0. The statistic pairs the
+            velocity difference with the torques of ``delay`` periods before.
+        ``Kp``, ``Ki``
+            The loop's PI gains (N·m·s/rad, >= 0; N·m/rad, >= 0) for the tracking test (Notes); default ``Kp`` 0: no
+            tracking test, the torque test alone.
+        ``track_margin``
+            The tracking test backs off where the loop's mean-square velocity error with the candidate exceeds ``1 +
+            track_margin`` times the error without it (-), >= 0; default 1 (twice).
 
     Attributes
     ----------
@@ -142,30 +149,21 @@ class FeedforwardSupervisor(Component):
     _ffi = ffi
     _ctype = "aff_supervisor"
 
-    def __init__(self, *, Tc: float, J_n: float, omega: float, window: float = _SUP["window"],
-                 margin: float = _SUP["margin"], settle: float | None = None,
-                 rest_band: float | None = _SUP["rest_band"], delay: int = _SUP["delay"], Kp: float | None = None,
-                 Ki: float = _SUP["Ki"], track_margin: float = _SUP["track_margin"]):
-        # None is the C sentinel -1 (settle: window/2; rest_band: no rest rule); a negative value would alias it
-        settle = -1.0 if settle is None else check_nonnegative("settle", settle)
-        band = -1.0 if rest_band is None else check_nonnegative("rest_band", rest_band)
-        if Kp is None:
-            Kp, Ki = 0.0, 0.0  # Kp 0: no tracking test
-        elif not isinstance(Kp, (bool, np.bool_, str)) and Kp == 0:  # 0 would alias None; the range is C's
-            raise ParameterError("FeedforwardSupervisor: Kp must be > 0 (None: no tracking test), got 0")
+    #: The settings' class.
+    Config = FeedforwardSupervisorConfig
+
+    def __init__(self, *, Tc: float, J_n: float, omega: float, config: FeedforwardSupervisorConfig | None = None):
+        config = FeedforwardSupervisorConfig() if config is None else config
+        if not isinstance(config, FeedforwardSupervisorConfig):
+            raise ParameterError(f"config must be a FeedforwardSupervisorConfig, got {type(config).__name__}")
         cfg = self._settings("aff_supervisor_config", lib.aff_supervisor_default_config(),
-                             {"Tc": Tc, "J_n": J_n, "omega": omega, "window": window, "margin": margin,
-                              "settle": settle, "rest_band": band, "delay": delay, "Kp": Kp, "Ki": Ki,
-                              "track_margin": track_margin}, counts=("delay",))
+                             {**config.c_fields(), "Tc": Tc, "J_n": J_n, "omega": omega}, counts=("delay",))
         self._configure(lib.aff_supervisor_init, cfg, lib.aff_error_message)
+        self.settings = config
 
     def __repr__(self) -> str:
         c = self._c
-        return (f"FeedforwardSupervisor(Tc={c.Tc!r}, J_n={c.J_n!r}, omega={c.omega!r}, window={c.window!r}, "
-                f"margin={c.margin!r}, settle={c.settle!r}, "
-                f"rest_band={None if c.rest_band < 0 else c.rest_band!r}, delay={c.delay!r}, "
-                f"Kp={c.Kp if c.track else None!r}, Ki={c.KiTc / c.Tc if c.track else 0.0!r}, "
-                f"track_margin={c.track_margin if c.track else 1.0!r})")
+        return f"FeedforwardSupervisor(Tc={c.Tc!r}, J_n={c.J_n!r}, omega={c.omega!r}, config={self.settings!r})"
 
     on = struct_field("on", bool, "Whether the candidate torque is applied.")
     n_backoff = struct_field("n_backoff", int, "Switches off.")

@@ -1,8 +1,47 @@
 /* aff_eq4_ff.c -- the eq. 4 adaptive feedforward (see aff_eq4_ff.h). */
 #include <math.h>
+#include <stddef.h>
 #include <string.h>
 #include "aff_eq4_ff.h"
 #include "plant_stribeck.h"
+
+aff_eq4_ff_config aff_eq4_ff_default_config(void)
+{
+    aff_eq4_ff_config c;
+    c.Ts = 0.01;
+    c.lam = 0.995;
+    c.P0 = 1e4;
+    c.warmup = 300;
+    c.tau_max = 1;
+    c.iv = 0;
+    c.w_band = 0;
+    c.map_rel_stderr = INFINITY;
+    c.ff = aff_fixed_ff_default_config();
+    return c;
+}
+
+aff_error aff_eq4_ff_check_config(const aff_eq4_ff_config *cfg)
+{
+    if (cfg == NULL)
+        return AFF_ERR_NULL;
+    if (!aff_positive(cfg->Ts))
+        return AFF_ERR_EQ4_FF_TS;
+    if (!(cfg->lam > 0 && cfg->lam <= 1))
+        return AFF_ERR_EQ4_FF_LAM;
+    if (!aff_positive(cfg->P0))
+        return AFF_ERR_EQ4_FF_P0;
+    if (cfg->warmup < 0)
+        return AFF_ERR_EQ4_FF_WARMUP;
+    if (!aff_positive(cfg->tau_max))
+        return AFF_ERR_EQ4_FF_TAU_MAX;
+    if (!aff_flag(cfg->iv))
+        return AFF_ERR_EQ4_FF_IV;
+    if (!aff_nonnegative(cfg->w_band))
+        return AFF_ERR_EQ4_FF_W_BAND;
+    if (!aff_positive_or_inf(cfg->map_rel_stderr) || (isfinite(cfg->map_rel_stderr) && !cfg->iv))
+        return AFF_ERR_EQ4_FF_MAP_REL_STDERR;
+    return aff_fixed_ff_check_config(&cfg->ff);
+}
 
 int aff_eq4_ff_init(aff_eq4_ff *e, const aff_fixed_ff *ff, long m, aff_real Ts, long warmup, aff_real tau_max,
                     aff_real F_max, aff_real Vs, aff_real delta, int lag, int stribeck, int offset,

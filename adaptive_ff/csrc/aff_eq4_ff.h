@@ -87,6 +87,28 @@ typedef struct aff_eq4_ff {
     long n_undetermined;          /* admissible estimates not put into use: the map not determined */
 } aff_eq4_ff;
 
+/* The settings of an aff_eq4_ff (besides its regression structure and its parts' structs), with their defaults
+ * (aff_eq4_ff_default_config: the paper's prototype, the RLS on every sample, no start) and their ranges
+ * (aff_eq4_ff_check_config). Python: adaptive_ff.compensation.eq4_feedforward.AdaptiveFrictionFeedforwardConfig. */
+typedef struct aff_eq4_ff_config {
+    aff_real Ts;              /* sample time of the (u, w) stream (s), finite, > 0, a multiple of ff.dt; default 0.01 */
+    aff_real lam;             /* forgetting factor of the RLS (or IV) per sample (-), in (0, 1]; default 0.995 */
+    aff_real P0;              /* initial covariance scale of the estimator, finite, > 0; default 1e4 */
+    long warmup;              /* accepted samples before the feedforward is switched on, >= 0; default 300 */
+    aff_real tau_max;         /* upper projection bound of tau (s), finite, > 0; default 1 */
+    int iv;                   /* 1: recursive IV with delayed instruments; 0 (default): the paper's RLS */
+    aff_real w_band;          /* sliding-regime gate (rad/s), finite, >= 0; 0 (default): every sample */
+    aff_real map_rel_stderr;  /* determinacy test of the estimates (-), > 0 (a finite one needs iv), INFINITY
+                                 (default): none */
+    aff_fixed_ff_config ff;   /* the feedforward (its dt the period of the calls) */
+} aff_eq4_ff_config;
+
+/* The defaults of aff_eq4_ff_config (field comments). */
+aff_eq4_ff_config aff_eq4_ff_default_config(void);
+
+/* AFF_OK, or the code of the first field of *cfg out of its range (the feedforward's by aff_fixed_ff_check_config). */
+aff_error aff_eq4_ff_check_config(const aff_eq4_ff_config *cfg);
+
 /* Configure e from the configured parts ff (aff_fixed_ff_init), u_range, w_range (aff_range_gate_init), rls
  * (aff_rls_init with p = 3 + 2*lag + stribeck + offset) and ivrls (aff_ivrls_init, same p; read only with iv,
  * may be NULL without), copied by value, the estimator (iv) and the sliding-regime gate w_band (rad/s, >= 0), and

@@ -200,6 +200,43 @@ const char *aff_error_message(aff_error e)
         return "observer: order (of the binomial Q-filter) must be in 1..AFF_DOB_ORDER_MAX (8)";
     case AFF_ERR_DOB_D_MAX:
         return "observer: d_max (bound on the estimate, N*m) must be >= 0 (INFINITY: none)";
+    case AFF_ERR_EQ4_FF_TS:
+        return "eq. 4 feedforward: Ts (sample time of the stream, s) must be finite and > 0";
+    case AFF_ERR_EQ4_FF_LAM:
+        return "eq. 4 feedforward: lam (forgetting factor, -) must be in (0, 1]";
+    case AFF_ERR_EQ4_FF_P0:
+        return "eq. 4 feedforward: P0 (initial covariance scale) must be finite and > 0";
+    case AFF_ERR_EQ4_FF_WARMUP:
+        return "eq. 4 feedforward: warmup (accepted samples before switch-on) must be >= 0";
+    case AFF_ERR_EQ4_FF_TAU_MAX:
+        return "eq. 4 feedforward: tau_max (upper projection bound of tau, s) must be finite and > 0";
+    case AFF_ERR_EQ4_FF_IV:
+        return "eq. 4 feedforward: iv must be 0 or 1";
+    case AFF_ERR_EQ4_FF_W_BAND:
+        return "eq. 4 feedforward: w_band (sliding-regime gate, rad/s) must be finite and >= 0";
+    case AFF_ERR_EQ4_FF_MAP_REL_STDERR:
+        return "eq. 4 feedforward: map_rel_stderr (determinacy bound, -) must be > 0 (INFINITY: none), and a finite "
+               "one needs iv (the test is on the IV estimate's covariance)";
+    case AFF_ERR_CANUDAS_TC:
+        return "Canudas compensator: Tc (controller period, s) must be finite and > 0";
+    case AFF_ERR_CANUDAS_TS:
+        return "Canudas compensator: Ts (estimator period, s) must be finite and > 0";
+    case AFF_ERR_CANUDAS_FORGETTING:
+        return "Canudas compensator: forgetting must be AFF_RLS_EXPONENTIAL or AFF_RLS_DIRECTIONAL";
+    case AFF_ERR_CANUDAS_LAM:
+        return "Canudas compensator: lam (forgetting factor, -) must be in (0, 1]";
+    case AFF_ERR_CANUDAS_P0:
+        return "Canudas compensator: P0 (initial covariance scale) must be finite and > 0";
+    case AFF_ERR_CANUDAS_J_GUESS:
+        return "Canudas compensator: J_guess (initial inertia, kg*m^2) must be finite and > 0";
+    case AFF_ERR_CANUDAS_W_DEAD:
+        return "Canudas compensator: w_dead (estimation dead zone, rad/s) must be finite and >= 0";
+    case AFF_ERR_CANUDAS_WARMUP:
+        return "Canudas compensator: warmup (RLS updates before switch-on) must be >= 0";
+    case AFF_ERR_CANUDAS_FF_MAX:
+        return "Canudas compensator: ff_max (bound on the compensation, N*m) must be >= 0 (INFINITY: none)";
+    case AFF_ERR_CANUDAS_FF_MEASURED:
+        return "Canudas compensator: ff_measured must be 0 or 1";
     case AFF_ERR_SWITCH_IN_TC:
         return "switch-in: Tc (controller period, s) must be finite and > 0";
     case AFF_ERR_SWITCH_IN_J_N:

@@ -583,14 +583,14 @@ def _select_sliding(data, Vs, delta, offset: bool, folds: int, names):
     training rows leave out the block and the :data:`_SLIDING_GAP` filter time constants after it (rows whose
     filtered regressors still remember held-out samples: h-block cross-validation, Burman, Chow & Nolan 1994).
     """
-    from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
+    from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, SlidingFrictionEstimatorConfig
 
     uni = to_uniform(data)
     n = uni.n_samples
     noise = float(velocity_noise_std_irregular(uni.t, uni.w))
     peak = float(np.max(np.abs(uni.w)))
     blocks = cv_blocks(n, folds)
-    T = SlidingFrictionEstimator(1.0, 1.0, Tc=uni.Ts, Ts=uni.Ts).T
+    T = SlidingFrictionEstimator(1.0, 1.0, Tc=uni.Ts, config=SlidingFrictionEstimatorConfig(Ts=uni.Ts)).T
     gap = int(math.ceil(_SLIDING_GAP * T / uni.Ts))
     # the gate's least band: fit_sliding's 0.1*Vs of the pre-fit, else the noise's 4 sigma (its adaptive band)
     band = 0.1 * Vs if Vs is not None else max(4.0 * noise, 1e-6 * peak, 1e-12)

@@ -15,7 +15,7 @@ import numpy as np
 
 from adaptive_ff._caff import ffi, lib
 from plant.component import Component
-from plant.errors import ParameterError, SignalError, check_finite_scalar
+from plant.errors import ParameterError, SignalError
 
 __all__ = ["RecursiveLeastSquares", "FORGETTING", "RLS_NMAX"]
 
@@ -174,30 +174,31 @@ class RecursiveLeastSquares(Component):
 
     def __init__(self, n_params: int, *, lam: float = 1.0, P0=1e4, theta0=None, forgetting: str = "exponential",
                  P_max: float | None = None, bounds=None):
-        if isinstance(n_params, bool) or not isinstance(n_params, (int, np.integer)) or n_params < 1:
-            raise ParameterError(f"n_params must be an integer >= 1, got {n_params!r}")
-        if n_params > RLS_NMAX:
-            raise ParameterError(f"n_params must be at most {RLS_NMAX} (AFF_RLS_NMAX of the C core), got {n_params!r}")
-        p = int(n_params)
+        # the ranges of n_params, lam, P0 and P_max are aff_rls_init's to check (the one validator: a
+        # ParameterError with its sentence naming the field); here only what C does not see: the forgetting's
+        # name, a vector lam (its factors: aff_rls_set_lam_each) and a matrix P0
         if forgetting not in FORGETTING:
             raise ParameterError(f"forgetting must be one of {FORGETTING}, got {forgetting!r}")
-        if np.ndim(lam) == 0:
-            lam = check_finite_scalar("lam", lam)
-            if not 0.0 < lam <= 1.0:
-                raise ParameterError(f"lam must be in (0, 1], got {lam!r}")
-            scheme = _SCHEMES[forgetting]
-        else:
+        vector = np.ndim(lam) > 0
+        scheme = lib.AFF_RLS_VECTOR if vector else _SCHEMES[forgetting]
+        if vector and forgetting != "exponential":
+            raise ParameterError("a vector lam needs forgetting='exponential'")
+        cfg = self._settings("aff_rls_config", lib.aff_rls_default_config(),
+                             {"n_params": n_params, "forgetting": scheme, "lam": 1.0 if vector else lam,
+                              "P0": P0 if np.ndim(P0) == 0 else 1.0,
+                              "P_max": 0.0 if P_max is None else P_max}, counts=("n_params",))
+        code = lib.aff_rls_check_config(cfg)  # before the arrays of p entries are made
+        if code != lib.AFF_OK:
+            raise ParameterError(f"{type(self).__name__}: {ffi.string(lib.aff_error_message(code)).decode()}")
+        p = int(n_params)
+        if vector:
             lam = np.array(lam, dtype=float).reshape(-1)
-            if lam.shape != (p,) or not np.all((lam > 0.0) & (lam <= 1.0)):
+            if lam.shape != (p,):
                 raise ParameterError(f"lam must be a number or {p} numbers in (0, 1], got {lam!r}")
-            if forgetting != "exponential":
-                raise ParameterError("a vector lam needs forgetting='exponential'")
-            scheme = lib.AFF_RLS_VECTOR
+        else:
+            lam = float(lam)
         if np.ndim(P0) == 0:
-            p0 = check_finite_scalar("P0", P0)
-            if p0 <= 0:
-                raise ParameterError(f"P0 must be > 0, got {P0!r}")
-            P = p0 * np.eye(p)
+            P = float(P0) * np.eye(p)
         else:
             P = np.array(P0, dtype=float)
             if P.shape != (p, p):
@@ -213,11 +214,8 @@ class RecursiveLeastSquares(Component):
             theta = np.array(theta0, dtype=float).reshape(-1)
             if theta.shape != (p,) or not np.all(np.isfinite(theta)):
                 raise ParameterError(f"theta0 must be {p} finite values, got {theta0!r}")
-        if P_max is None:
-            P_max = float(np.trace(P))
-        elif not (isinstance(P_max, (int, float, np.integer, np.floating)) and not isinstance(P_max, bool)
-                  and P_max > 0):
-            raise ParameterError(f"P_max must be a number > 0, got {P_max!r}")
+        if P_max is None or (np.ndim(P0) > 0 and P_max == 0):  # the trace of the P0 given
+            cfg.P_max = float(np.trace(P))
         lower = np.full(p, -math.inf)
         upper = np.full(p, math.inf)
         has_bounds = bounds is not None
@@ -235,11 +233,6 @@ class RecursiveLeastSquares(Component):
         self.n_params = p
         self._lam = lam
         self._forgetting = forgetting
-        # the settings (P0 the scalar, 1 for a matrix P0: P is written below); theta0, a matrix P0 and the bounds are
-        # written into the struct after aff_rls_init, the vector scheme's factors by aff_rls_set_lam_each
-        cfg = self._settings("aff_rls_config", lib.aff_rls_default_config(),
-                             {"n_params": p, "forgetting": scheme, "lam": lam if scheme != lib.AFF_RLS_VECTOR else 1.0,
-                              "P0": float(P0) if np.ndim(P0) == 0 else 1.0, "P_max": float(P_max)})
         self._configure(lib.aff_rls_init, cfg, lib.aff_error_message)
         if scheme == lib.AFF_RLS_VECTOR:  # D = d d', d = lam**-0.5 (exactly symmetric inflation factors)
             code = lib.aff_rls_set_lam_each(self._c, ffi.new("double[]", [float(x) for x in lam]))

@@ -1,7 +1,51 @@
 /* ctl_canudas.c -- Canudas de Wit et al.'s adaptive friction compensation (see ctl_canudas.h). */
+#include <math.h>
 #include <stddef.h>
 
 #include "ctl_canudas.h"
+
+ctl_canudas_config ctl_canudas_default_config(void)
+{
+    ctl_canudas_config c;
+    c.Tc = 0.001;
+    c.Ts = 0.01;
+    c.forgetting = AFF_RLS_DIRECTIONAL;
+    c.lam = 0.999;
+    c.P0 = 1e4;
+    c.J_guess = 1;
+    c.w_dead = 5e-3;
+    c.warmup = 300;
+    c.ff_max = INFINITY;
+    c.ff_measured = 1;
+    return c;
+}
+
+aff_error ctl_canudas_check_config(const ctl_canudas_config *cfg)
+{
+    if (cfg == NULL)
+        return AFF_ERR_NULL;
+    if (!aff_positive(cfg->Tc))
+        return AFF_ERR_CANUDAS_TC;
+    if (!aff_positive(cfg->Ts))
+        return AFF_ERR_CANUDAS_TS;
+    if (cfg->forgetting != AFF_RLS_DIRECTIONAL && cfg->forgetting != AFF_RLS_EXPONENTIAL)
+        return AFF_ERR_CANUDAS_FORGETTING;
+    if (!(cfg->lam > 0 && cfg->lam <= 1))
+        return AFF_ERR_CANUDAS_LAM;
+    if (!aff_positive(cfg->P0))
+        return AFF_ERR_CANUDAS_P0;
+    if (!aff_positive(cfg->J_guess))
+        return AFF_ERR_CANUDAS_J_GUESS;
+    if (!aff_nonnegative(cfg->w_dead))
+        return AFF_ERR_CANUDAS_W_DEAD;
+    if (cfg->warmup < 0)
+        return AFF_ERR_CANUDAS_WARMUP;
+    if (!aff_nonnegative_or_inf(cfg->ff_max))
+        return AFF_ERR_CANUDAS_FF_MAX;
+    if (!aff_flag(cfg->ff_measured))
+        return AFF_ERR_CANUDAS_FF_MEASURED;
+    return AFF_OK;
+}
 
 int ctl_canudas_init(ctl_canudas *c, aff_real Tc, long m, aff_real w_dead, long warmup, aff_real ff_max,
                      int ff_measured, int scheme, aff_real lam, aff_real P0, aff_real J_guess)

@@ -46,6 +46,27 @@ typedef struct ctl_canudas {
     long phase;               /* k mod m */
 } ctl_canudas;
 
+/* The settings of a ctl_canudas, with their defaults (ctl_canudas_default_config) and ranges
+ * (ctl_canudas_check_config). Python: controllers.peers.canudas.CanudasCompensatorConfig. */
+typedef struct ctl_canudas_config {
+    aff_real Tc;              /* controller period (s), finite, > 0; default 0.001 */
+    aff_real Ts;              /* estimator period (s), finite, > 0, a multiple of Tc; default 0.01 */
+    int forgetting;           /* the RLS's scheme: AFF_RLS_DIRECTIONAL (default) or AFF_RLS_EXPONENTIAL */
+    aff_real lam;             /* forgetting factor per RLS update (-), in (0, 1]; default 0.999 */
+    aff_real P0;              /* initial covariance scale, finite, > 0; default 1e4 */
+    aff_real J_guess;         /* initial inertia of theta0 (kg*m^2), finite, > 0; default 1 */
+    aff_real w_dead;          /* estimation dead zone (rad/s), finite, >= 0; default 5e-3 */
+    long warmup;              /* RLS updates before the compensation switches on, >= 0; default 300 */
+    aff_real ff_max;          /* bound on |compensation| (N*m), >= 0; INFINITY (default): none */
+    int ff_measured;          /* 1 (default): compensate at the controller's velocity; 0: at the reference */
+} ctl_canudas_config;
+
+/* The defaults of ctl_canudas_config (field comments). */
+ctl_canudas_config ctl_canudas_default_config(void);
+
+/* AFF_OK, or the code (aff_error.h, AFF_ERR_CANUDAS_*) of the first field of *cfg out of its range. */
+aff_error ctl_canudas_check_config(const ctl_canudas_config *cfg);
+
 /* Configure c and clear its state: Ts = m*Tc; the RLS with 5 parameters, scheme (AFF_RLS_DIRECTIONAL or
  * AFF_RLS_EXPONENTIAL), lam, P = P0*I, P_max = trace(P), theta = (Ts/J_guess, 0, 0, 0, 0), bounds
  * [1e-12, inf) x [0, inf)^4; the gates with the defaults of RangeGate() and RangeGate(floor=w_dead);

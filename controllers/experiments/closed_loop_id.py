@@ -146,7 +146,7 @@ from adaptive_ff.identification.physical_id import PhysicalFit
 from adaptive_ff.identification.plausibility import IdentificationWarning, check_physical
 from adaptive_ff.identification.regression import nrmse_fit
 from controllers.design.pi import PIController
-from controllers.simulation.engine import EngineRun
+from controllers.simulation.engine import EngineMetrics, EngineRecord, EngineRun
 from controllers.simulation.metrics import reversal_times
 from plant.dynamics import check_integrable, plant_params, plant_state
 from plant.errors import ExcitationError, ParameterError, SignalError, check_finite_scalar, check_positive, \
@@ -401,8 +401,8 @@ class _LoopSimulator:
             rows += [(row, plant_state(p, self.w0))] * K
         ctrl = self.spec.controller(self.integral0)
         lim = 100.0 * float(np.max(np.abs(self.wr))) + 1.0
-        x = EngineRun(t=self.tg, w_ref=self.wr, revs=self.revs, window=0.0, dt=float(self.spec.Tc), n_scenarios=B,
-                      decimate=1)
+        x = EngineRun(t=self.tg, w_ref=self.wr, dt=float(self.spec.Tc), n_scenarios=B,
+                      metrics=EngineMetrics(revs=self.revs), record=EngineRecord(decimate=1))
         x.set_noise_table(np.tile(noise, (C, 1)) if self.noise_std > 0 else None)
         for b, (row, st) in enumerate(rows):
             x.set_plant(b, row, 1, 0, st, lim)

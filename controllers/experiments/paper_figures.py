@@ -339,14 +339,14 @@ def _figs45_simulation(p: JointParams, opt: PaperFigureOptions, model: Regressio
     meas_sim = sample(simulate(p, u_id, dt=Tc), Ts=Ts_sim)
     ls_sim = fit_ls(model, meas_sim.u, meas_sim.w, Ts=Ts_sim)
     figs = {"fig04_ls_simulation": plot_velocity_fit(
-        meas_sim.t, meas_sim.w, ls_sim.w_free_run, model_label="LS model, free run", fit_percent=ls_sim.fit_free_run,
-        w_model2=ls_sim.w_one_step, model2_label="LS model, one-step prediction", fit2_percent=ls_sim.fit_one_step,
+        meas_sim.t, meas_sim.w, (ls_sim.w_free_run, "LS model, free run", ls_sim.fit_free_run),
+        model2=(ls_sim.w_one_step, "LS model, one-step prediction", ls_sim.fit_one_step),
         measured_label="simulated (1 kHz RK4, sampled at 10 ms)", title=FIGURE_CAPTIONS["fig04_ls_simulation"], units=opt.units)}
     w_rls_sim, th_sim = rls_pass(model, meas_sim.u, meas_sim.w, lam=opt.lam_sim, P0=opt.P0)
     fit_rls_sim = nrmse_fit(meas_sim.w[2:], w_rls_sim[2:])
     figs["fig05_rls_simulation"] = plot_velocity_fit(
-        meas_sim.t, meas_sim.w, w_rls_sim, model_label=f"RLS a-priori prediction (λ = {opt.lam_sim:g})",
-        fit_percent=fit_rls_sim, measured_label="simulated", title=FIGURE_CAPTIONS["fig05_rls_simulation"], units=opt.units)
+        meas_sim.t, meas_sim.w, (w_rls_sim, f"RLS a-priori prediction (λ = {opt.lam_sim:g})", fit_rls_sim),
+        measured_label="simulated", title=FIGURE_CAPTIONS["fig05_rls_simulation"], units=opt.units)
     numbers = {"duration": opt.sim_duration, "Ts": Ts_sim, "n_samples": int(meas_sim.t.shape[0]),
                "ls_fit_one_step": ls_sim.fit_one_step, "ls_fit_free_run": ls_sim.fit_free_run,
                "ls_estimate": _estimate_dict(ls_sim.estimate), "rls_fit": fit_rls_sim, "rls_lam": opt.lam_sim,
@@ -359,16 +359,15 @@ def _figs9_12_experiment(p: JointParams, opt: PaperFigureOptions, model: Regress
     Ts_exp = meas.Ts
     ls_exp = fit_ls(model, meas.u, meas.w, Ts=Ts_exp)
     figs = {"fig09_ls_experiment": plot_velocity_fit(
-        meas.t, meas.w, ls_exp.w_one_step, model_label="LS model, one-step prediction",
-        fit_percent=ls_exp.fit_one_step, w_model2=ls_exp.w_free_run, model2_label="LS model, free run",
-        fit2_percent=ls_exp.fit_free_run, measured_label="measured (irregular readout, noise, quantised torque)",
+        meas.t, meas.w, (ls_exp.w_one_step, "LS model, one-step prediction", ls_exp.fit_one_step),
+        model2=(ls_exp.w_free_run, "LS model, free run", ls_exp.fit_free_run), measured_label="measured (irregular readout, noise, quantised torque)",
         title=FIGURE_CAPTIONS["fig09_ls_experiment"], units=opt.units)}
     figs["fig10_sample_time"] = plot_sample_times(meas.t)
     figs["fig07_input_torque"] = plot_input_torque(meas.t, meas.u, title=FIGURE_CAPTIONS["fig07_input_torque"])
     w_rls, th = rls_pass(model, meas.u, meas.w, lam=opt.lam_exp, P0=opt.P0)
     fit_rls = nrmse_fit(meas.w[2:], w_rls[2:])
     figs["fig11_rls_experiment"] = plot_velocity_fit(
-        meas.t, meas.w, w_rls, model_label=f"RLS a-priori prediction (λ = {opt.lam_exp:g})", fit_percent=fit_rls,
+        meas.t, meas.w, (w_rls, f"RLS a-priori prediction (λ = {opt.lam_exp:g})", fit_rls),
         title=FIGURE_CAPTIONS["fig11_rls_experiment"], units=opt.units)
     figs["fig12_rls_parameters"] = plot_parameter_convergence(
         meas.t[2:], th, model.names, true=model.theta_from_physical(p, Ts_exp),
@@ -554,13 +553,13 @@ def identification_figures(report, data) -> dict:
     ls = report.ls
     model = ls.model
     figs = {"ls_fit": plot_velocity_fit(
-        uni.t, uni.w, ls.w_one_step, model_label="LS model, one-step prediction", fit_percent=ls.fit_one_step,
-        w_model2=ls.w_free_run, model2_label="LS model, free run", fit2_percent=ls.fit_free_run,
+        uni.t, uni.w, (ls.w_one_step, "LS model, one-step prediction", ls.fit_one_step),
+        model2=(ls.w_free_run, "LS model, free run", ls.fit_free_run),
         title=f"measured and offline (LS) identified velocity: {data.source}")}
     w_rls, th = rls_pass(model, uni.u, uni.w, lam=report.lam, P0=report.P0)
     figs["rls_fit"] = plot_velocity_fit(
-        uni.t, uni.w, w_rls, model_label=f"RLS a-priori prediction (λ = {report.lam:g})",
-        fit_percent=nrmse_fit(uni.w[2:], w_rls[2:]), title="measured and online (RLS) identified velocity")
+        uni.t, uni.w, (w_rls, f"RLS a-priori prediction (λ = {report.lam:g})", nrmse_fit(uni.w[2:], w_rls[2:])),
+        title="measured and online (RLS) identified velocity")
     figs["rls_parameters"] = plot_parameter_convergence(uni.t[2:], th, model.names)
     figs["sample_time"] = plot_sample_times(data.t)
     return figs

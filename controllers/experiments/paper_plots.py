@@ -34,9 +34,21 @@ def _velocity_unit(units: str) -> tuple[float, str]:
 
 
 
-def plot_velocity_fit(t, w, w_model, *, model_label: str, measured_label: str = "measured", title: str = "",
-                      w_model2=None, model2_label: str = "", fit_percent: float | None = None,
-                      fit2_percent: float | None = None, units: str = "rad") -> Figure:
+def _model_curve(name: str, curve) -> tuple:
+    """``(w_model, label, fit_percent or None)`` of a model curve given as ``(w_model, label[, fit_percent])``."""
+    try:
+        w_model, label, *fit = curve
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be (w_model, label) or (w_model, label, fit_percent), got "
+                             f"{type(curve).__name__}") from None
+    if len(fit) > 1:
+        raise ParameterError(f"{name} must be (w_model, label) or (w_model, label, fit_percent), got {len(curve)} "
+                             f"entries")
+    return w_model, str(label), (fit[0] if fit else None)
+
+
+def plot_velocity_fit(t, w, model, *, model2=None, measured_label: str = "measured", title: str = "",
+                      units: str = "rad") -> Figure:
     """Measured (or simulated) velocity against a model's velocity over time (paper Figs. 4, 5, 9, 11).
 
     Parameters
@@ -45,14 +57,14 @@ def plot_velocity_fit(t, w, w_model, *, model_label: str, measured_label: str = 
         Time (s).
     w : array_like, shape (N,)
         Measured velocity (rad/s).
-    w_model : array_like, shape (N,)
-        Model velocity (rad/s), e.g. LS one-step or free-run, RLS a-priori prediction.
-    model_label, measured_label, title : str, keyword-only
-        Legend entries and title.
-    w_model2 : array_like, shape (N,), keyword-only, optional
-        A second model curve (dotted), with ``model2_label``.
-    fit_percent, fit2_percent : float, keyword-only, optional
-        NRMSE fits (%) appended to the legend entries.
+    model : tuple
+        ``(w_model, label)`` or ``(w_model, label, fit_percent)``: the model velocity (rad/s, array_like of shape
+        (N,); e.g. LS one-step or free-run, RLS a-priori prediction), its legend entry and its NRMSE fit (%),
+        appended to the entry.
+    model2 : tuple, keyword-only, optional
+        A second model curve (dotted), as ``model``.
+    measured_label, title : str, keyword-only
+        Legend entry of ``w`` and the title.
     units : {"rad", "deg"}, keyword-only
         Velocity axis in rad/s (SI, default) or deg/s (as the paper's robot figures).
 
@@ -66,8 +78,10 @@ def plot_velocity_fit(t, w, w_model, *, model_label: str, measured_label: str = 
     SignalError
         Arrays of different lengths or non-finite ``t``/``w``.
     ParameterError
-        ``w_model`` of another shape, unknown ``units``.
+        ``w_model`` of another shape, a model curve not ``(w_model, label[, fit_percent])``, unknown ``units``.
     """
+    w_model, model_label, fit_percent = _model_curve("model", model)
+    w_model2, model2_label, fit2_percent = (None, "", None) if model2 is None else _model_curve("model2", model2)
     t = check_signal("t", t)
     w = check_signal("w", w, n=t.shape[0])
     wm = np.asarray(w_model, dtype=float).reshape(-1)

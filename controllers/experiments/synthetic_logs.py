@@ -20,7 +20,7 @@ import numpy as np
 from adaptive_ff.io.data import MeasuredData
 from controllers.design.pi import PIController, PIDesign, design_pi
 from controllers.experiments.quasi_static import QS_CROSSOVER
-from controllers.simulation.closed_loop import run_closed_loop
+from controllers.simulation.closed_loop import MeasurementSettings, RunSettings, run_closed_loop
 from plant.errors import ParameterError, SignalError, check_nonnegative, check_positive, check_signal, check_time
 from plant.excitation import Reference, multisine_reference
 from plant.friction import JointParams
@@ -35,8 +35,9 @@ def _pi_loop(p: JointParams, ref: Reference, design: PIDesign, u_max: float, noi
     """The PI loop (no compensator, no sensor gate) on the closed-loop engine; ``(W, W_meas, U, F)`` per period.
 
     The joint starts at ``w_ref[0]`` with the friction lag unloaded (``F = 0`` where ``tau > 0``, else ``F(w)``)."""
-    res = run_closed_loop(p, PIController.from_design(design, u_max=u_max), None, ref, noise_std=noise_std, rng=rng,
-                          sensor_gate=False, friction0=0.0)
+    res = run_closed_loop(p, PIController.from_design(design, u_max=u_max), None, ref,
+                          measurement=MeasurementSettings(noise_std=noise_std, rng=rng, sensor_gate=False),
+                          settings=RunSettings(friction0=0.0))
     if res.info["diverged"]:
         raise ParameterError(f"the PI loop (Kp = {design.Kp!r}, Ki = {design.Ki!r}) diverged on {p!r}: "
                              "|w| exceeded 100 max|w_ref| + 1 rad/s")

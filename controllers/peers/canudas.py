@@ -26,16 +26,24 @@ called by :class:`CanudasCompensator`'s methods and by the closed-loop engine.
 from __future__ import annotations
 
 import math
-
-import numpy as np
+from pathlib import Path
 
 from adaptive_ff.compensation.gate import RangeGate
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from controllers._cctl import ffi, lib
-from plant.component import Component
-from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive
+from plant.component import Component, config_class
+from plant.errors import ParameterError, check_multiple
 
-__all__ = ["CanudasCompensator", "CANUDAS_N_THETA"]
+__all__ = ["CanudasCompensator", "CanudasCompensatorConfig", "CANUDAS_N_THETA"]
+
+CanudasCompensatorConfig = config_class(
+    "CanudasCompensatorConfig", (ffi, lib), "ctl_canudas_config", module=__name__,
+    summary="Settings of a :class:`CanudasCompensator`: the estimator's period, its RLS, the start's inertia, the "
+            "dead zone, the warm-up, the bound and the input velocity.",
+    header=Path(__file__).resolve().parent.parent / "csrc" / "ctl_canudas.h", exclude=("Tc",),
+    fields={"forgetting": ("forgetting", {lib.AFF_RLS_DIRECTIONAL: "directional",
+                                           lib.AFF_RLS_EXPONENTIAL: "exponential"}),
+             "ff_measured": ("ff_input", {1: "measured", 0: "reference"})})
 
 #: Length of the reported parameter vector ``theta``.
 CANUDAS_N_THETA = 5
@@ -48,27 +56,30 @@ class CanudasCompensator(Component):
     ----------
     Tc : float, keyword-only
         Controller period (s): :meth:`compensate` and :meth:`observe` are called once per period.
-    Ts : float, keyword-only
-        Sample time of the estimator (s), a multiple of ``Tc``; default 10 ms.
-    lam : float, keyword-only
-        Forgetting factor per RLS update; default 0.999.
-    forgetting : {"directional", "exponential"}, keyword-only
-        RLS forgetting scheme, default directional.
-    P0 : float, keyword-only
-        Initial covariance scale, default 1e4.
-    J_guess : float, keyword-only
-        Initial inertia (kg·m²) for ``theta0``; default 1.
-    w_dead : float, keyword-only
-        Estimation dead zone (rad/s): a sample interval is used only if the
-        velocity stays beyond ``±w_dead`` with one sign (no reversal, no
-        sticking); default 5e-3.
-    warmup : int, keyword-only
-        RLS updates before the compensation is switched on; default 300.
-    ff_max : float, keyword-only
-        Bound on |compensation| (N·m), default inf.
-    ff_input : {"measured", "reference"}, keyword-only
-        Velocity the compensation is evaluated at; default measured (the
-        velocity feedback of the original).
+    config : CanudasCompensatorConfig, keyword-only
+        The settings (default: the C defaults, :class:`CanudasCompensatorConfig`):
+
+        ``Ts``
+            Sample time of the estimator (s), a multiple of ``Tc``; default 10 ms.
+        ``lam``
+            Forgetting factor per RLS update; default 0.999.
+        ``forgetting``
+            RLS forgetting scheme, default directional.
+        ``P0``
+            Initial covariance scale, default 1e4.
+        ``J_guess``
+            Initial inertia (kg·m²) for ``theta0``; default 1.
+        ``w_dead``
+            Estimation dead zone (rad/s): a sample interval is used only if the
+            velocity stays beyond ``±w_dead`` with one sign (no reversal, no
+            sticking); default 5e-3.
+        ``warmup``
+            RLS updates before the compensation is switched on; default 300.
+        ``ff_max``
+            Bound on |compensation| (N·m), default inf.
+        ``ff_input``
+            Velocity the compensation is evaluated at; default measured (the
+            velocity feedback of the original).
     u_range, w_range : RangeGate, keyword-only
         Range gates of the torque (N·m) and velocity (rad/s) samples; defaults
         ``RangeGate()`` and ``RangeGate(floor=w_dead)``: a sample above
@@ -119,32 +130,34 @@ class CanudasCompensator(Component):
     _ffi = ffi
     _ctype = "ctl_canudas"
 
-    def __init__(self, *, Tc: float, Ts: float = 0.01, lam: float = 0.999, forgetting: str = "directional",
-                 P0: float = 1e4, J_guess: float = 1.0, w_dead: float = 5e-3, warmup: int = 300,
-                 ff_max: float = math.inf, ff_input: str = "measured", u_range: RangeGate | None = None,
-                 w_range: RangeGate | None = None):
-        Tc = check_positive("Tc", Tc)
-        m = check_multiple("Ts", Ts, "Tc", Tc)
-        w_dead = check_nonnegative("w_dead", w_dead)
-        if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
-            raise ParameterError(f"warmup must be an integer >= 0, got {warmup!r}")
-        ff_max = math.inf if ff_max == math.inf else check_nonnegative("ff_max", ff_max)
-        if ff_input not in ("measured", "reference"):
-            raise ParameterError(f"ff_input must be 'measured' or 'reference', got {ff_input!r}")
-        Ts = m * Tc
-        J_guess = check_positive("J_guess", J_guess)
-        b0 = Ts / J_guess
+    #: The settings' class.
+    Config = CanudasCompensatorConfig
+
+    def __init__(self, *, Tc: float, config: CanudasCompensatorConfig | None = None,
+                 u_range: RangeGate | None = None, w_range: RangeGate | None = None):
+        config = CanudasCompensatorConfig() if config is None else config
+        if not isinstance(config, CanudasCompensatorConfig):
+            raise ParameterError(f"config must be a CanudasCompensatorConfig, got {type(config).__name__}")
+        cfg = self._settings("ctl_canudas_config", lib.ctl_canudas_default_config(), {**config.c_fields(), "Tc": Tc},
+                             counts=("warmup",))
+        code = lib.ctl_canudas_check_config(cfg)  # the one validator of the settings' ranges
+        if code != lib.AFF_OK:
+            raise ParameterError(f"{type(self).__name__}: {ffi.string(lib.aff_error_message(code)).decode()}")
+        m = check_multiple("Ts", cfg.Ts, "Tc", cfg.Tc)
+        Ts = m * cfg.Tc
+        b0 = Ts / cfg.J_guess
         inf = math.inf
-        rls = RecursiveLeastSquares(5, lam=lam, P0=P0, forgetting=forgetting, theta0=[b0, 0, 0, 0, 0],
-                                    bounds=([1e-12, 0, 0, 0, 0], [inf, inf, inf, inf, inf]))
+        rls = RecursiveLeastSquares(5, lam=cfg.lam, P0=cfg.P0, forgetting=config.forgetting,
+                                    theta0=[b0, 0, 0, 0, 0], bounds=([1e-12, 0, 0, 0, 0], [inf, inf, inf, inf, inf]))
         u_range = RangeGate() if u_range is None else u_range
-        w_range = RangeGate(floor=w_dead) if w_range is None else w_range
+        w_range = RangeGate(floor=cfg.w_dead) if w_range is None else w_range
         for name, g in (("u_range", u_range), ("w_range", w_range)):
             if not isinstance(g, RangeGate):
                 raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
         self._new_struct()
-        lib.ctl_canudas_init(self._c, Tc, m, w_dead, int(warmup), ff_max, 1 if ff_input == "measured" else 0,
-                             rls.cdata.scheme, rls.cdata.lam, float(P0) if np.ndim(P0) == 0 else 1.0, J_guess)
+        lib.ctl_canudas_init(self._c, cfg.Tc, m, cfg.w_dead, int(cfg.warmup), cfg.ff_max, cfg.ff_measured,
+                             rls.cdata.scheme, rls.cdata.lam, cfg.P0, cfg.J_guess)
+        self.settings = config
         self.rls = rls
         self.u_range = u_range
         self.w_range = w_range

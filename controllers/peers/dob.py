@@ -23,7 +23,7 @@ import math
 from adaptive_ff.compensation.gate import RangeGate
 from controllers._cctl import ffi, lib
 from plant.component import Component
-from plant.errors import ParameterError, check_nonnegative, check_positive
+from plant.errors import ParameterError
 
 __all__ = ["DisturbanceObserver", "DOB_ORDER_MAX"]
 
@@ -96,15 +96,8 @@ class DisturbanceObserver(Component):
 
     def __init__(self, *, J_n: float, omega_q: float = 500.0, Tc: float, order: int = 2, d_max: float = math.inf,
                  u_range: RangeGate | None = None, w_range: RangeGate | None = None):
-        J_n = check_positive("J_n", J_n)
-        omega_q = check_positive("omega_q", omega_q)
-        Tc = check_positive("Tc", Tc)
-        if isinstance(order, bool) or not isinstance(order, int) or order < 1:
-            raise ParameterError(f"order must be an integer >= 1, got {order!r}")
-        if order > DOB_ORDER_MAX:
-            raise ParameterError(f"order must be at most {DOB_ORDER_MAX} (AFF_DOB_ORDER_MAX of the C core), "
-                                 f"got {order!r}")
-        d_max = math.inf if d_max == math.inf else check_nonnegative("d_max", d_max)
+        # the ranges of the settings are aff_dob_init's to check (the one validator: a ParameterError whose
+        # sentence names the field); a wrong type is _settings' SettingTypeError
         u_range = RangeGate() if u_range is None else u_range
         w_range = RangeGate() if w_range is None else w_range
         for name, g in (("u_range", u_range), ("w_range", w_range)):
@@ -112,7 +105,7 @@ class DisturbanceObserver(Component):
                 raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
         cfg = self._settings("aff_dob_config", lib.aff_dob_default_config(),
                              {"Tc": Tc, "J_n": J_n, "omega_q": omega_q, "order": order, "d_max": d_max,
-                              "u_range": u_range.config[0], "w_range": w_range.config[0]})
+                              "u_range": u_range.config[0], "w_range": w_range.config[0]}, counts=("order",))
         self._configure(lib.aff_dob_init, cfg, lib.aff_error_message)
         self.u_range = u_range
         self.w_range = w_range

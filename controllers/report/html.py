@@ -24,11 +24,12 @@ import html
 import io
 import math
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["report_html", "write_report", "identify_report", "compare_report", "figure_png", "PNG_MAGIC"]
+__all__ = ["ReportPage", "report_html", "write_report", "identify_report", "compare_report", "figure_png", "PNG_MAGIC"]
 
 #: First bytes of every PNG file.
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -308,41 +309,64 @@ def _section_comparison(comp) -> str:
 # --------------------------------------------------------------------------- public
 
 
-def report_html(*, title: str = "adaptive-ff report", summary: Mapping | None = None, data=None,
-                stribeck=None, support_points=None, identification=None, design=None, comparison=None,
-                tables=None, figures=None, notes: Sequence[str] = (), command: str | None = None) -> str:
-    """Render the given pieces of a run as one self-contained HTML page.
+@dataclass(frozen=True)
+class ReportPage:
+    """The pieces of one report page (:func:`report_html`); every piece is optional.
 
     Parameters
     ----------
-    title : str, keyword-only
+    title : str
         Page title.
-    summary : mapping, keyword-only, optional
+    summary : mapping, optional
         Free key/value table (nested mappings are flattened to ``a.b`` keys).
-    data : adaptive_ff.io.data.MeasuredData, keyword-only, optional
+    data : adaptive_ff.io.data.MeasuredData, optional
         Data summary: samples, duration, sample-time statistics, ranges, notes.
-    stribeck : adaptive_ff.identification.stribeck_fit.StribeckFit, keyword-only, optional
+    stribeck : adaptive_ff.identification.stribeck_fit.StribeckFit, optional
         Parameters with standard errors and 95 % intervals.
-    support_points : adaptive_ff.identification.steady_state.SupportPoints, keyword-only, optional
+    support_points : adaptive_ff.identification.steady_state.SupportPoints, optional
         Shown (collapsed) under the Stribeck fit.
-    identification : adaptive_ff.identification.identification_report.IdentificationReport, keyword-only, optional
+    identification : adaptive_ff.identification.identification_report.IdentificationReport, optional
         Parameter table with standard errors, RLS values and units; fits; notes; warnings.
-    design : controllers.design.pi.PIDesign or controllers.design.loop_analysis.LoopAnalysis, keyword-only, optional
+    design : controllers.design.pi.PIDesign or controllers.design.loop_analysis.LoopAnalysis, optional
         Gains, margins, bandwidth, step metrics.
-    comparison : controllers.experiments.compare.Comparison, keyword-only, optional
+    comparison : controllers.experiments.compare.Comparison, optional
         Tracking metrics per compensation mode.
-    tables : sequence, keyword-only, optional
+    tables : sequence, optional
         Free tables ``[(title, header, rows), ...]``: ``header`` a sequence of
         column names, ``rows`` sequences of cells (numbers are formatted with 6
         significant digits), shown under "Results".
-    figures : mapping or sequence, keyword-only, optional
+    figures : mapping or sequence, optional
         ``{caption: figure}`` or ``[(caption, figure), ...]``; a figure is a
         matplotlib Figure, a PNG path or PNG bytes (:func:`figure_png`);
         embedded as base64.
-    notes : sequence of str, keyword-only
+    notes : sequence of str
         Free notes at the end.
-    command : str, keyword-only, optional
+    command : str, optional
         The command line that produced the run, shown under the title.
+    """
+
+    title: str = "adaptive-ff report"
+    summary: Mapping | None = None
+    data: object = None
+    stribeck: object = None
+    support_points: object = None
+    identification: object = None
+    design: object = None
+    comparison: object = None
+    tables: Sequence | None = None
+    figures: object = None
+    notes: Sequence[str] = ()
+    command: str | None = None
+
+
+def report_html(page: ReportPage) -> str:
+    """Render the pieces of a run as one self-contained HTML page.
+
+    Parameters
+    ----------
+    page : ReportPage
+        The pieces (title, summary, data, Stribeck fit, identification, design, comparison, tables, figures,
+        notes, command line).
 
     Returns
     -------
@@ -352,8 +376,13 @@ def report_html(*, title: str = "adaptive-ff report", summary: Mapping | None = 
     Raises
     ------
     TypeError, ValueError
-        A figure of the wrong type or not PNG; ``design`` of the wrong type.
+        ``page`` not a ReportPage, a figure of the wrong type or not PNG; ``design`` of the wrong type.
     """
+    if not isinstance(page, ReportPage):
+        raise TypeError(f"page must be a ReportPage, got {type(page).__name__}")
+    title, summary, data, command, notes = page.title, page.summary, page.data, page.command, page.notes
+    stribeck, support_points, identification = page.stribeck, page.support_points, page.identification
+    design, comparison, tables, figures = page.design, page.comparison, page.tables, page.figures
     parts = [f"<h1>{_e(title)}</h1>"]
     stamp = _dt.datetime.now().strftime("%Y-%m-%d %H:%M")
     meta = f"generated {stamp} by adaptive-ff"
@@ -403,7 +432,7 @@ def write_report(out_dir, *, filename: str = "report.html", **pieces) -> Path:
     filename : str, keyword-only
         File name, default ``report.html``.
     **pieces
-        Keyword arguments of :func:`report_html`.
+        The fields of its :class:`ReportPage`.
 
     Returns
     -------
@@ -413,7 +442,7 @@ def write_report(out_dir, *, filename: str = "report.html", **pieces) -> Path:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     path = out / filename
-    path.write_text(report_html(**pieces), encoding="utf-8")
+    path.write_text(report_html(ReportPage(**pieces)), encoding="utf-8")
     return path
 
 

@@ -18,7 +18,7 @@ from adaptive_ff.compensation.gate import OutlierGate
 from controllers.simulation.closed_loop import plant_table, sensor_and_drive
 from controllers.simulation.compensators import (MODES, ModeOptions, TrueFriction, build_modes, build_supervisor,
                                                  own_supervisor)
-from controllers.simulation.engine import EngineRun
+from controllers.simulation.engine import EngineMetrics, EngineRun
 from controllers.simulation.metrics import METRIC_NAMES, metrics_columns, reversal_times, engine_motion
 from plant.errors import ParameterError
 from plant.excitation import Reference
@@ -250,8 +250,8 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
     nz, nrows = _noise(noise, seeds, opts, B, n)
     w_default = 100.0 * float(np.max(np.abs(wr))) + 1.0
     revs = reversal_times(t, wr)
-    x = EngineRun(t=t, w_ref=wr, revs=revs, window=float(opts[0].reversal_window), dt=float(Tc),
-                  n_scenarios=B, oracle=oracle)
+    x = EngineRun(t=t, w_ref=wr, dt=float(Tc), n_scenarios=B, oracle=oracle,
+                  metrics=EngineMetrics(revs=revs, window=float(opts[0].reversal_window)))
     x.set_noise_table(nz if nrows else None)
     sups = [None] * B
     for b in range(B):

@@ -20,7 +20,7 @@ from adaptive_ff.identification.regression import FrictionEstimate
 from controllers.design.pi import PIController
 from controllers.simulation.compensators import (MODES, ESTIMATORS, ModeOptions, TrueFriction, build_mode,
                                                  build_supervisor, own_supervisor)
-from controllers.simulation.engine import EngineRun
+from controllers.simulation.engine import EngineMetrics, EngineRecord, EngineRun
 from controllers.simulation.memory import MODE_SIGNALS, check_run_memory
 from controllers.simulation.metrics import (LoopMetrics, MotionMetrics, engine_motion, loop_metrics, metrics_result,
                                             reversal_times)
@@ -32,7 +32,8 @@ from plant.dynamics import check_integrable, plant_params, plant_state
 from plant.rows import stack_params
 from plant.results import axes_or_new, json_safe
 
-__all__ = ["MODES", "ESTIMATORS", "ModeOptions", "LoopMetrics", "ClosedLoopResult", "run_closed_loop", "run_mode",
+__all__ = ["MODES", "ESTIMATORS", "ModeOptions", "LoopMetrics", "ClosedLoopResult", "MeasurementSettings",
+           "RunSettings", "run_closed_loop", "run_mode",
            "run_own", "loop_metrics", "plant_table", "mark_motion"]
 
 
@@ -228,10 +229,58 @@ def _update_period(compensator) -> int:
     return max(int(m), 1) if m else 1
 
 
-def run_closed_loop(plant, controller: PIController, compensator, reference: Reference, *, noise_std: float = 0.0,
-                    rng: np.random.Generator | None = None, faults=None, sensor_gate=True,
-                    w_limit: float | None = None, decimate: int = 1, reversal_window: float = 0.2,
-                    friction0: float | None = None) -> ClosedLoopResult:
+@dataclass(frozen=True)
+class MeasurementSettings:
+    """How the loop of :func:`run_closed_loop` measures the velocity.
+
+    Parameters
+    ----------
+    noise_std : float
+        White velocity-measurement noise (rad/s), >= 0; default 0. Needs ``rng``.
+    rng : numpy.random.Generator or None
+        Noise source: ``rng.normal(0, noise_std, N)``.
+    faults : mapping int -> float or None
+        Measurement faults: the measured velocity of sample ``k`` is replaced by ``faults[k]``.
+    sensor_gate : bool or OutlierGate
+        Give the controller (and the peers) the last valid measurement when a sample is non-finite or a
+        physically impossible jump; True (default) builds :class:`adaptive_ff.OutlierGate` with ``max_step =
+        2*u_max*Tc/J``; an OutlierGate is used as given. The estimators get the raw sample and gate it themselves.
+    """
+
+    noise_std: float = 0.0
+    rng: np.random.Generator | None = None
+    faults: object = None
+    sensor_gate: object = True
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """The run's own settings of :func:`run_closed_loop`: divergence bound, records, metrics, initial friction.
+
+    Parameters
+    ----------
+    w_limit : float or None
+        |velocity| (rad/s) beyond which the run is declared diverged; default ``100*max|w_ref| + 1``.
+    decimate : int
+        Keep every ``decimate``-th sample of the signals (1 = all, default; 0 = none and no ``theta``
+        history). The metrics always cover every sample.
+    reversal_window : float
+        Half-width (s) of the reversal windows of the metrics; default 0.2.
+    friction0 : float or None
+        Initial friction state (N·m) of a lagged plant (``tau > 0``, eq. 3: the ``F`` of ``tau dF/dt = F(w) - F``),
+        e.g. 0 for a lag that starts unloaded; default (None) steady motion at ``w_ref[0]``
+        (:func:`plant.dynamics.plant_state`). Ignored where ``tau == 0``.
+    """
+
+    w_limit: float | None = None
+    decimate: int = 1
+    reversal_window: float = 0.2
+    friction0: float | None = None
+
+
+def run_closed_loop(plant, controller: PIController, compensator, reference: Reference, *,
+                    measurement: MeasurementSettings | None = None,
+                    settings: RunSettings | None = None) -> ClosedLoopResult:
     """Simulate the PI velocity loop on the plant at the controller rate with one compensator.
 
     Parameters
@@ -253,27 +302,10 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
         None (no compensation). Its state is advanced in place (read its counters and estimate afterwards).
     reference : Reference
         Velocity reference sampled at ``controller.Tc`` (e.g. :func:`plant.multisine_reference`).
-    noise_std : float, keyword-only
-        White velocity-measurement noise (rad/s); needs ``rng``.
-    rng : numpy.random.Generator, keyword-only
-        Noise source: ``rng.normal(0, noise_std, N)``.
-    faults : mapping int -> float, keyword-only
-        Measurement faults: the measured velocity of sample ``k`` is replaced by ``faults[k]``.
-    sensor_gate : bool or OutlierGate, keyword-only
-        Give the controller (and the peers) the last valid measurement when a sample is non-finite or a
-        physically impossible jump; True (default) builds :class:`adaptive_ff.OutlierGate` with ``max_step =
-        2*u_max*Tc/J``; an OutlierGate is used as given. The estimators get the raw sample and gate it themselves.
-    w_limit : float, keyword-only
-        |velocity| (rad/s) beyond which the run is declared diverged; default ``100*max|w_ref| + 1``.
-    decimate : int, keyword-only
-        Keep every ``decimate``-th sample of the signals (1 = all, default; 0 = none and no ``theta``
-        history). The metrics always cover every sample.
-    reversal_window : float, keyword-only
-        Half-width (s) of the reversal windows of the metrics.
-    friction0 : float, keyword-only, optional
-        Initial friction state (N·m) of a lagged plant (``tau > 0``, eq. 3: the ``F`` of ``tau dF/dt = F(w) - F``),
-        e.g. 0 for a lag that starts unloaded; default (None) steady motion at ``w_ref[0]``
-        (:func:`plant.dynamics.plant_state`). Ignored where ``tau == 0``.
+    measurement : MeasurementSettings, keyword-only
+        Noise, faults and the sensor gate (default: ``MeasurementSettings()``, noise-free, gated).
+    settings : RunSettings, keyword-only
+        Divergence bound, records, reversal window, initial friction (default: ``RunSettings()``).
 
     Returns
     -------
@@ -299,9 +331,14 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     a torque slew-rate limit: :func:`run_mode` / :func:`run_own` with ``ModeOptions(encoder_counts=...,
     delay=..., slew_rate=...)`` (:mod:`controllers.simulation.sensor_drive`).
     """
-    return _run_loop(plant, controller, compensator, reference, noise_std=noise_std, rng=rng, faults=faults,
-                     sensor_gate=sensor_gate, w_limit=w_limit, decimate=decimate, reversal_window=reversal_window,
-                     friction0=friction0, sensor=None, drive=None)
+    m = MeasurementSettings() if measurement is None else measurement
+    r = RunSettings() if settings is None else settings
+    for name, v, cls in (("measurement", m, MeasurementSettings), ("settings", r, RunSettings)):
+        if not isinstance(v, cls):
+            raise ParameterError(f"{name} must be a {cls.__name__} or None, got {type(v).__name__}")
+    return _run_loop(plant, controller, compensator, reference, noise_std=m.noise_std, rng=m.rng, faults=m.faults,
+                     sensor_gate=m.sensor_gate, w_limit=r.w_limit, decimate=r.decimate,
+                     reversal_window=r.reversal_window, friction0=r.friction0, sensor=None, drive=None)
 
 
 def _run_loop(plant, controller, compensator, reference, *, noise_std, rng, faults, sensor_gate, w_limit, decimate,
@@ -342,8 +379,9 @@ def _run_loop(plant, controller, compensator, reference, *, noise_std, rng, faul
         state0.s = check_finite_scalar("friction0", friction0)
     revs = reversal_times(t, wr)
     m_theta = n // _update_period(compensator) + 1 if (decimate and n_theta) else 0
-    x = EngineRun(t=t, w_ref=wr, revs=revs, window=float(reversal_window), dt=float(Tc), n_scenarios=1,
-                  faults=_faults(faults, n), oracle=oracle, decimate=decimate, n_theta=n_theta, m_theta=m_theta)
+    x = EngineRun(t=t, w_ref=wr, dt=float(Tc), n_scenarios=1, faults=_faults(faults, n), oracle=oracle,
+                  metrics=EngineMetrics(revs=revs, window=float(reversal_window)),
+                  record=EngineRecord(decimate=decimate, n_theta=n_theta, m_theta=m_theta))
     x.set_plant(0, table, len(table), row_k, state0, w_limit)
     if noise_std > 0:
         x.set_noise_table(rng.normal(0.0, noise_std, size=n)[None, :])

@@ -29,18 +29,20 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
-from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart, RobustAdaptiveFeedforward
+from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward, AdaptiveFrictionFeedforwardConfig
+from adaptive_ff.compensation.adaptive_feedforward import (FeedforwardStart, RobustAdaptiveFeedforward,
+                                                            RobustAdaptiveFeedforwardConfig)
 from adaptive_ff.compensation.defaults import c_defaults
-from adaptive_ff.compensation.feedforward import FF_INPUTS, FrictionFeedforward
+from adaptive_ff.compensation.feedforward import FF_INPUTS, FrictionFeedforward, FrictionFeedforwardConfig
 from adaptive_ff.compensation.velocity_input import LoopModel, SignObserver
 from adaptive_ff.compensation.gate import OutlierGate
-from adaptive_ff.compensation.sliding_estimator import FORGETTINGS, SlidingFrictionEstimator
-from adaptive_ff.compensation.supervisor import FeedforwardSupervisor
+from adaptive_ff.compensation.sliding_estimator import (FORGETTINGS, SlidingFrictionEstimator,
+                                                         SlidingFrictionEstimatorConfig)
+from adaptive_ff.compensation.supervisor import FeedforwardSupervisor, FeedforwardSupervisorConfig
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from controllers.design.pi import PIController
 from controllers.peers.adaptive_dob import AdaptiveCompensator, AdaptiveDOBCompensator, ResidualSwitchIn
-from controllers.peers.canudas import CanudasCompensator
+from controllers.peers.canudas import CanudasCompensator, CanudasCompensatorConfig
 from controllers.peers.dob import DisturbanceObserver
 from controllers.simulation.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
 from plant.errors import ParameterError, check_multiple, check_nonnegative, check_positive, check_positive_or_inf
@@ -381,6 +383,57 @@ def _nominal_inertia(plant, o: ModeOptions) -> float:
     return _ctx(plant, o)[0] if o.J_n is None else float(o.J_n)
 
 
+def _configs(o: ModeOptions, J: float, ff_max: float) -> dict:
+    """The one map from :class:`ModeOptions` onto the components' config objects (the C settings' dataclasses).
+
+    Parameters
+    ----------
+    o : ModeOptions
+        The loop's settings.
+    J : float
+        The design inertia (kg·m²): the sliding estimator's start.
+    ff_max : float
+        The compensation's bound (N·m).
+
+    Returns
+    -------
+    dict
+        ``"ff"`` (:class:`FrictionFeedforwardConfig`: ``fixed``'s, the adaptive ones' feedforward), ``"robust"``
+        (:class:`RobustAdaptiveFeedforwardConfig`, with that ``ff``), ``"sliding"``
+        (:class:`SlidingFrictionEstimatorConfig`), ``"supervisor"`` (:class:`FeedforwardSupervisorConfig`),
+        ``"canudas"`` (:class:`CanudasCompensatorConfig`) and, with ``o.model``, ``"eq4-rls"`` (the paper's
+        prototype: RLS at ``Ts``, the bare feedforward) and ``"eq4"`` (recursive IV at ``iv_Ts`` on the samples
+        above ``model.Vs``, with that ``ff``) (:class:`AdaptiveFrictionFeedforwardConfig`).
+    """
+    ff = FrictionFeedforwardConfig(lag=o.lag, ff_max=ff_max, sign_width=o.sign_width, stick_band=o.stick_band,
+                                   stick_samples=o.stick_samples, ff_input=o.ff_input)
+    robust = RobustAdaptiveFeedforwardConfig(ff=ff, warmup=o.warmup, lag_margin=o.lag_margin,
+                                             lag_margin_max=o.lag_margin_max, max_rel_stderr=o.max_rel_stderr,
+                                             lag_memory=o.lag_memory, lag_zero=o.lag_zero, project=o.project)
+    sliding = SlidingFrictionEstimatorConfig(Ts=o.Ts, T_filter=o.T_filter, lam=_SLIDING["lam"] if o.lam is None
+                                             else o.lam, forgetting=o.forgetting, P0=o.P0, initial_J=J, lag=o.lag,
+                                             dwell_max=o.dwell_max, offset=o.offset)
+    tracking = o.supervise_tracking and o.Kp > 0
+    supervisor = FeedforwardSupervisorConfig(
+        window=o.supervise_window, margin=o.supervise_margin,
+        rest_band=-1.0 if o.supervise_rest_band is None else o.supervise_rest_band, delay=int(o.delay),
+        Kp=o.Kp if tracking else 0.0, Ki=o.Ki if tracking else 0.0, track_margin=o.supervise_track_margin)
+    canudas = CanudasCompensatorConfig(Ts=o.Ts, lam=CanudasCompensatorConfig.lam if o.lam is None else o.lam,
+                                       forgetting=o.forgetting, P0=o.P0, J_guess=J, warmup=o.warmup, ff_max=ff_max,
+                                       ff_input=o.ff_input)
+    out = {"ff": ff, "robust": robust, "sliding": sliding, "supervisor": supervisor, "canudas": canudas}
+    if o.model is not None:
+        m = o.model
+        iv_Ts = o.Tc * max(1, round(_IV_TS / o.Tc)) if o.iv_Ts is None else o.iv_Ts
+        out["eq4-rls"] = AdaptiveFrictionFeedforwardConfig(
+            Ts=o.Ts, lam=sliding.lam, P0=o.P0, warmup=o.warmup,
+            ff=FrictionFeedforwardConfig(lag=o.lag, ff_max=ff_max, ff_input=o.ff_input))
+        out["eq4"] = AdaptiveFrictionFeedforwardConfig(
+            Ts=iv_Ts, lam=1.0 - iv_Ts / _IV_MEMORY if o.lam is None else o.lam, P0=o.P0, warmup=o.warmup, iv=True,
+            w_band=m.Vs if m.stribeck else 0.0, map_rel_stderr=o.iv_map_stderr, ff=ff)
+    return out
+
+
 def build_supervisor(plant, mode: str, options: ModeOptions, *, force: bool = False) -> FeedforwardSupervisor | None:
     """The supervisor of one scenario: a :class:`FeedforwardSupervisor` where ``options.supervise`` and ``mode`` is
     one of :data:`SUPERVISED_MODES` (or ``force``: any compensator, e.g. your own in
@@ -413,16 +466,12 @@ def build_supervisor(plant, mode: str, options: ModeOptions, *, force: bool = Fa
     """
     if not (options.supervise and (force or mode in SUPERVISED_MODES)):
         return None
-    J, _ = _ctx(plant, options)
+    J, ff_max = _ctx(plant, options)
     omega = options.supervise_omega
     if omega is None:
         omega = options.Kp / J if options.Kp > 0 else 10.0 / options.supervise_window
     return FeedforwardSupervisor(Tc=options.Tc, J_n=_nominal_inertia(plant, options), omega=omega,
-                                 window=options.supervise_window,
-                                 margin=options.supervise_margin, rest_band=options.supervise_rest_band,
-                                 delay=int(options.delay),
-                                 Kp=options.Kp if options.supervise_tracking and options.Kp > 0 else None,
-                                 Ki=options.Ki, track_margin=options.supervise_track_margin)
+                                 config=_configs(options, J, ff_max)["supervisor"])
 
 
 def own_supervisor(comp) -> FeedforwardSupervisor | None:
@@ -461,8 +510,7 @@ def _fixed(plant, o):
     if o.estimate is None:
         raise ParameterError("mode 'fixed' needs estimate=FrictionEstimate (an offline LS result)")
     J, ff_max = _ctx(plant, o)
-    return plant, FrictionFeedforward(o.estimate, dt=o.Tc, lag=o.lag, ff_max=ff_max, sign_width=o.sign_width,
-                                      stick_band=o.stick_band, stick_samples=o.stick_samples, ff_input=o.ff_input,
+    return plant, FrictionFeedforward(o.estimate, dt=o.Tc, config=_configs(o, J, ff_max)["ff"],
                                       loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
 
 
@@ -502,42 +550,30 @@ def _eq4_model(o) -> RegressionModel:
 
 def _eq4_rls(o, J: float, ff_max: float) -> AdaptiveFrictionFeedforward:
     """Estimator ``eq4-rls``: the paper's prototype, RLS on every sample at ``Ts``, the bare feedforward."""
-    lam = _SLIDING["lam"] if o.lam is None else o.lam
-    return AdaptiveFrictionFeedforward(_eq4_model(o), Ts=o.Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup, lag=o.lag,
-                                       ff_max=ff_max, ff_input=o.ff_input)
+    return AdaptiveFrictionFeedforward(_eq4_model(o), dt=o.Tc, config=_configs(o, J, ff_max)["eq4-rls"])
 
 
 def _eq4_iv(o, J: float, ff_max: float) -> AdaptiveFrictionFeedforward:
     """Estimator ``eq4``: eq. 4 by recursive IV at ``iv_Ts`` on the sliding samples, with the constant-torque column
     (offset) as the sliding estimator's."""
     m = _eq4_model(o)
-    Ts = o.Tc * max(1, round(_IV_TS / o.Tc)) if o.iv_Ts is None else o.iv_Ts
-    lam = 1.0 - Ts / _IV_MEMORY if o.lam is None else o.lam
     model = RegressionModel(m.Vs, m.delta, lag=m.lag, stribeck=m.stribeck, offset=bool(o.offset))
-    return AdaptiveFrictionFeedforward(model, Ts=Ts, dt=o.Tc, lam=lam, P0=o.P0, warmup=o.warmup, lag=o.lag,
-                                       ff_max=ff_max, ff_input=o.ff_input, iv=True,
-                                       w_band=m.Vs if m.stribeck else 0.0, sign_width=o.sign_width,
-                                       stick_band=o.stick_band, stick_samples=o.stick_samples,
+    return AdaptiveFrictionFeedforward(model, dt=o.Tc, config=_configs(o, J, ff_max)["eq4"],
                                        loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o),
-                                       start=o.start, map_rel_stderr=o.iv_map_stderr)
+                                       start=o.start)
 
 
 def _sliding(o, J: float, ff_max: float) -> RobustAdaptiveFeedforward:
     """Estimator ``sliding``: the sliding-regime inverse-dynamics RLS under the robust feedforward."""
-    lam = _SLIDING["lam"] if o.lam is None else o.lam
     Vs = o.Vs if o.Vs is not None else (o.model.Vs if o.model is not None else None)
     delta = o.delta if o.delta is not None else (o.model.delta if o.model is not None else None)
     if Vs is None or delta is None:
         raise ParameterError("mode 'adaptive' needs Vs and delta (from the Stribeck pre-fit) or model=")
     gate_step = 2.0 * o.u_max * o.Tc / J if math.isfinite(o.u_max) else math.inf
-    est = SlidingFrictionEstimator(Vs, delta, Tc=o.Tc, Ts=o.Ts, T_filter=o.T_filter, lam=lam,
-                                   forgetting=o.forgetting, P0=o.P0, initial=o.initial, J_guess=J, lag=o.lag,
-                                   dwell_max=o.dwell_max, offset=o.offset, gate=OutlierGate(max_step=gate_step))
-    return RobustAdaptiveFeedforward(est, dt=o.Tc, lag=o.lag, ff_max=ff_max, sign_width=o.sign_width,
-                                     stick_band=o.stick_band, stick_samples=o.stick_samples, warmup=o.warmup,
-                                     lag_margin=o.lag_margin, lag_margin_max=o.lag_margin_max,
-                                     max_rel_stderr=o.max_rel_stderr, lag_memory=o.lag_memory, lag_zero=o.lag_zero,
-                                     project=o.project, ff_input=o.ff_input, start=o.start,
+    configs = _configs(o, J, ff_max)
+    est = SlidingFrictionEstimator(Vs, delta, Tc=o.Tc, config=configs["sliding"], initial=o.initial,
+                                   gate=OutlierGate(max_step=gate_step))
+    return RobustAdaptiveFeedforward(est, dt=o.Tc, config=configs["robust"], start=o.start,
                                      loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
 
 
@@ -560,9 +596,7 @@ def _adaptive_dob(plant, o):
 
 def _canudas(plant, o):
     J, ff_max = _ctx(plant, o)
-    lam = 0.999 if o.lam is None else o.lam
-    return plant, CanudasCompensator(Tc=o.Tc, Ts=o.Ts, lam=lam, forgetting=o.forgetting, P0=o.P0, J_guess=J,
-                                     warmup=o.warmup, ff_max=ff_max, ff_input=o.ff_input)
+    return plant, CanudasCompensator(Tc=o.Tc, config=_configs(o, J, ff_max)["canudas"])
 
 
 def _dob(plant, o):

@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 import os
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -34,7 +35,7 @@ from controllers._cctl import ffi, lib
 from controllers.simulation.metrics import METRICS_DTYPE, SETTLE_SHARE, stop_intervals
 from plant.errors import ParameterError
 
-__all__ = ["EngineRun", "THETA_NMAX", "engine_threads"]
+__all__ = ["EngineRun", "EngineMetrics", "EngineRecord", "THETA_NMAX", "engine_threads"]
 
 #: Largest parameter vector a compensator may report (``CTL_THETA_NMAX`` of ctl_engine.h).
 THETA_NMAX = len(ffi.new("ctl_scenario *").theta_buf)
@@ -67,6 +68,44 @@ def _f8(a) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.float64)
 
 
+@dataclass(frozen=True)
+class EngineMetrics:
+    """What the engine's metrics of a run need besides the reference.
+
+    Parameters
+    ----------
+    revs : array_like, shape (R,)
+        Reversal times of the reference (s), increasing; default none.
+    window : float
+        Half-width (s) of the metrics' reversal windows; default 0.
+    settle_share, settle_floor : float
+        Settling band of the reference's stops: ``max(settle_share * move peak speed, settle_floor)`` (-, rad/s;
+        :class:`controllers.simulation.metrics.MotionMetrics`); default :data:`SETTLE_SHARE`, 0.
+    """
+
+    revs: object = ()
+    window: float = 0.0
+    settle_share: float = SETTLE_SHARE
+    settle_floor: float = 0.0
+
+
+@dataclass(frozen=True)
+class EngineRecord:
+    """What an engine run records of each scenario.
+
+    Parameters
+    ----------
+    decimate : int
+        Record every ``decimate``-th period (0, default: nothing recorded).
+    n_theta, m_theta : int
+        Length of the compensator's parameter vector and capacity of the estimate history (0, default: none).
+    """
+
+    decimate: int = 0
+    n_theta: int = 0
+    m_theta: int = 0
+
+
 class EngineRun:
     """The inputs of one engine call: what all scenarios share (a ``ctl_run``) and ``B`` scenarios
     (``ctl_scenario[B]``), with every array the C structs point to kept alive here.
@@ -75,10 +114,6 @@ class EngineRun:
     ----------
     t, w_ref : ndarray, shape (N,)
         Time (s) and velocity reference (rad/s) sampled at ``dt``.
-    revs : ndarray, shape (R,)
-        Reversal times of the reference (s), increasing.
-    window : float
-        Half-width (s) of the metrics' reversal windows.
     dt : float
         Controller period = integration step (s).
     n_scenarios : int
@@ -87,13 +122,11 @@ class EngineRun:
         Sorted sample indices whose measurement is replaced, and the values (rad/s); shared by all scenarios.
     oracle : bool
         Feed the plant's true friction forward (the ``oracle`` mode).
-    decimate : int
-        Record every ``decimate``-th period (0: nothing recorded).
-    n_theta, m_theta : int
-        Length of the compensator's parameter vector and capacity of the estimate history (0: none).
-    settle_share, settle_floor : float
-        Settling band of the reference's stops: ``max(settle_share * move peak speed, settle_floor)`` (-, rad/s;
-        :class:`controllers.simulation.metrics.MotionMetrics`).
+    metrics : EngineMetrics
+        The reference's reversal times, the reversal window and the stops' settling band (default: none, 0, the
+        default band).
+    record : EngineRecord
+        What is recorded (default: nothing).
 
     Attributes
     ----------
@@ -111,9 +144,11 @@ class EngineRun:
         (rad/s); written by the C engine (``ctl_events``), NaN where the event was not complete.
     """
 
-    def __init__(self, *, t, w_ref, revs, window: float, dt: float, n_scenarios: int, faults=None,
-                 oracle: bool = False, decimate: int = 0, n_theta: int = 0, m_theta: int = 0,
-                 settle_share: float = SETTLE_SHARE, settle_floor: float = 0.0):
+    def __init__(self, *, t, w_ref, dt: float, n_scenarios: int, faults=None, oracle: bool = False,
+                 metrics: EngineMetrics = EngineMetrics(), record: EngineRecord = EngineRecord()):
+        revs, window = metrics.revs, metrics.window
+        settle_share, settle_floor = metrics.settle_share, metrics.settle_floor
+        decimate, n_theta, m_theta = record.decimate, record.n_theta, record.m_theta
         if n_theta > THETA_NMAX:
             raise ParameterError(f"the compensator reports {n_theta} parameters, more than the engine's "
                                  f"{THETA_NMAX} (CTL_THETA_NMAX)")

@@ -581,8 +581,8 @@ def stop_intervals(t, w_ref, *, share: float = SETTLE_SHARE, floor: float = 0.0)
     return tuple(out)
 
 
-def motion_result(st, stops, settle, stop_max, revs, rev_max, *, t_mid: float, window: float, share: float,
-                  floor: float, diverged: bool = False) -> MotionMetrics:
+def motion_result(st, stops, events, *, t_mid: float, window: float, share: float, floor: float,
+                  diverged: bool = False) -> MotionMetrics:
     """:class:`MotionMetrics` of one accumulator and its event arrays (what the engine or
     :func:`motion_metrics` wrote).
 
@@ -592,10 +592,10 @@ def motion_result(st, stops, settle, stop_max, revs, rev_max, *, t_mid: float, w
         The accumulator (its motion sums).
     stops : (ndarray, ndarray, ndarray)
         :func:`stop_intervals` of the reference.
-    settle, stop_max : ndarray, shape (S,)
-        Settling time (s) and largest error (rad/s) of each stop (``ctl_events``).
-    revs, rev_max : ndarray, shape (R,)
-        Reversal times (s) and the largest error in each window (rad/s).
+    events : (ndarray, ndarray, ndarray, ndarray)
+        ``(settle, stop_max, revs, rev_max)``: settling time (s) and largest error (rad/s) of each stop
+        (``ctl_events``), shape (S,) each; reversal times (s) and the largest error in each window (rad/s), shape
+        (R,) each.
     t_mid, window, share, floor : float, keyword-only
         Start of the second half (s), reversal half-window (s), band share (-) and floor (rad/s).
     diverged : bool, keyword-only
@@ -606,6 +606,7 @@ def motion_result(st, stops, settle, stop_max, revs, rev_max, *, t_mid: float, w
     -------
     MotionMetrics
     """
+    settle, stop_max, revs, rev_max = events
     rec = _records(st)
     if rec.shape != (1,):
         raise ParameterError(f"st must be one accumulator, got {rec.shape[0]}")
@@ -717,5 +718,5 @@ def motion_metrics(t, w_ref, w, *, reversals, window: float = 0.2, share: float 
     t_mid = 0.5 * (t[0] + t[-1])
     lib.ctl_motion_accumulate(m, c, ev, ffi.from_buffer("double[]", t), ffi.from_buffer("double[]", w_ref),
                               ffi.from_buffer("double[]", e), n, t_mid, r, nrev)
-    return motion_result(m, stops, settle, stop_max, revs, rev_max, t_mid=t_mid, window=window, share=share,
+    return motion_result(m, stops, (settle, stop_max, revs, rev_max), t_mid=t_mid, window=window, share=share,
                          floor=floor)

@@ -11,15 +11,15 @@ import math
 import numpy as np
 import pytest
 
-from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
-from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
-from adaptive_ff.compensation.feedforward import FrictionFeedforward
+from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward, AdaptiveFrictionFeedforwardConfig
+from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward, RobustAdaptiveFeedforwardConfig
+from adaptive_ff.compensation.feedforward import FrictionFeedforward, FrictionFeedforwardConfig
 from adaptive_ff.compensation.gate import OutlierGate, RangeGate
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from controllers.design.pi import design_pi
-from controllers.peers.canudas import CanudasCompensator
+from controllers.peers.canudas import CanudasCompensator, CanudasCompensatorConfig
 from controllers.peers.dob import DisturbanceObserver
 from loop_helpers import run_named
 from plant import ParameterError, SignalError, multisine_reference, preset
@@ -146,8 +146,8 @@ def test_robust_feedforward_observe_and_step_reject_bad_inputs(log):
     u, w = log
     bad_u, bad_w = _faults(u.size, 4)
     us, ws, inserted = _with_faults(u, w, bad_u, bad_w)
-    mk = lambda: RobustAdaptiveFeedforward(SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3), dt=1e-3,  # noqa: E731
-                                           warmup=100)
+    mk = lambda: RobustAdaptiveFeedforward(SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3), dt=1e-3,
+                                           config=RobustAdaptiveFeedforwardConfig(warmup=100))
     clean, ff = mk(), mk()
     out_clean = [(clean.step(b), clean.observe(a, b))[0] for a, b in zip(u.tolist(), w.tolist())]
     out = []
@@ -167,8 +167,10 @@ def test_robust_feedforward_observe_and_step_reject_bad_inputs(log):
 def test_fixed_feedforward_step_rejects_non_finite_and_out_of_range_velocities():
     """Regression: FrictionFeedforward.step(nan) made every later output NaN."""
     ws = np.sin(np.linspace(0, 6, 600)) * 0.3
-    clean = FrictionFeedforward(EST, dt=1e-3, w_max=5.0, stick_band=0.003, stick_samples=3)
-    ff = FrictionFeedforward(EST, dt=1e-3, w_max=5.0, stick_band=0.003, stick_samples=3)
+    clean = FrictionFeedforward(EST, dt=1e-3,
+                                config=FrictionFeedforwardConfig(w_max=5.0, stick_band=0.003, stick_samples=3))
+    ff = FrictionFeedforward(EST, dt=1e-3,
+                             config=FrictionFeedforwardConfig(w_max=5.0, stick_band=0.003, stick_samples=3))
     y_clean = [clean.step(x, 0.1) for x in ws]
     y = []
     n_bad = 0
@@ -189,7 +191,7 @@ def test_fixed_feedforward_step_rejects_non_finite_and_out_of_range_velocities()
     u0 = free.u_ff
     assert free.step(1e308) == u0 and free.n_step_rejected == 1 and free.step(0.2) > 0
     with pytest.raises(ParameterError, match="w_max"):
-        FrictionFeedforward(EST, dt=1e-3, w_max=-1.0)
+        FrictionFeedforward(EST, dt=1e-3, config=FrictionFeedforwardConfig(w_max=-1.0))
 
 
 def test_eq4_feedforward_rejects_bad_samples_with_the_state_unchanged(log):
@@ -199,8 +201,8 @@ def test_eq4_feedforward_rejects_bad_samples_with_the_state_unchanged(log):
     bad_u, bad_w = _faults(us.size, 5)
     bu, bw, inserted = _with_faults(us, ws, bad_u, bad_w)
     model = RegressionModel(lag=True, stribeck=True, offset=False, Vs=P.Vs, delta=P.delta)
-    clean = AdaptiveFrictionFeedforward(model, Ts=0.01, dt=1e-3, warmup=50)
-    ff = AdaptiveFrictionFeedforward(model, Ts=0.01, dt=1e-3, warmup=50)
+    clean = AdaptiveFrictionFeedforward(model, dt=1e-3, config=AdaptiveFrictionFeedforwardConfig(Ts=0.01, warmup=50))
+    ff = AdaptiveFrictionFeedforward(model, dt=1e-3, config=AdaptiveFrictionFeedforwardConfig(Ts=0.01, warmup=50))
     for a, b in zip(us.tolist(), ws.tolist()):
         clean.observe(a, b)
     acc = np.array([ff.observe(a, b) for a, b in zip(bu, bw)])
@@ -217,7 +219,7 @@ def test_canudas_peer_rejects_bad_samples_and_stays_on_its_clean_estimate(log):
     us, ws, inserted = _with_faults(u, w, bad_u, bad_w)
 
     def run(us, ws):
-        c = CanudasCompensator(Tc=1e-3, warmup=100, w_dead=0.02)
+        c = CanudasCompensator(Tc=1e-3, config=CanudasCompensatorConfig(warmup=100, w_dead=0.02))
         for a, b in zip(us, ws):
             assert np.isfinite(c.compensate(b, 0.0))  # 0 at a non-finite velocity or one that overflows the map
             c.observe(a, b)

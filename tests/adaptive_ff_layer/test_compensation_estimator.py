@@ -6,11 +6,11 @@ import math
 import numpy as np
 import pytest
 
-from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
-from adaptive_ff.compensation.feedforward import FrictionFeedforward
+from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward, RobustAdaptiveFeedforwardConfig
+from adaptive_ff.compensation.feedforward import FrictionFeedforward, FrictionFeedforwardConfig
 from adaptive_ff.compensation.gate import OutlierGate
 from adaptive_ff.identification.regression import FrictionEstimate
-from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, fit_sliding, sliding_regressors
+from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, fit_sliding, sliding_regressors, SlidingFrictionEstimatorConfig
 from loop_helpers import run_named
 from controllers.design.pi import design_pi
 from plant import ParameterError, bandlimited_noise, multisine_reference, preset, simulate
@@ -44,7 +44,7 @@ def test_batch_fit_recovers_the_physical_parameters_from_noise_free_data(open_lo
 def test_online_estimator_builds_exactly_the_batch_rows(open_loop):
     u, w = open_loop
     X, y, idx, n_gated, names = sliding_regressors(u, w, Tc=1e-3, Vs=P.Vs, delta=P.delta, Ts=0.01)
-    est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, Ts=0.01)
+    est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, config=SlidingFrictionEstimatorConfig(Ts=0.01))
     rows = []
     for uk, wk in zip(u.tolist(), w.tolist()):
         est.observe(uk, wk)
@@ -100,10 +100,10 @@ def test_rejected_samples_leave_the_estimator_unchanged_and_are_counted(open_loo
 
 def test_feedforward_sign_treatments_and_stick_detection():
     est = FrictionEstimate(J=4.0, tau=0.0, sigma=40.0, Fc=25.0, Fs=25.0, offset=0.0, Vs=None, delta=None, J_alt=4.0)
-    ff = FrictionFeedforward(est, dt=1e-3, sign_width=0.01)
+    ff = FrictionFeedforward(est, dt=1e-3, config=FrictionFeedforwardConfig(sign_width=0.01))
     assert ff.static(0.005) == pytest.approx(0.5 * 25.0 + 40.0 * 0.005)  # inside the ramp
     assert ff.static(-0.02) == pytest.approx(-25.0 - 40.0 * 0.02)  # outside: the sign
-    ff = FrictionFeedforward(est, dt=1e-3, stick_band=0.003, stick_samples=3)
+    ff = FrictionFeedforward(est, dt=1e-3, config=FrictionFeedforwardConfig(stick_band=0.003, stick_samples=3))
     outs = [ff.step(0.001, -0.2) for _ in range(4)]  # measurement inside the band, reference negative
     assert outs[:2] == pytest.approx([25.0 + 0.04] * 2)  # not yet declared stuck: the measurement
     assert outs[2:] == pytest.approx([-25.0 - 8.0] * 2)  # stuck: the intended direction (reference)
@@ -112,9 +112,11 @@ def test_feedforward_sign_treatments_and_stick_detection():
 
 def test_robust_feedforward_waits_fades_in_and_holds_the_last_plausible_estimate(open_loop):
     u, w = open_loop
-    est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, Ts=0.01)
+    est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, config=SlidingFrictionEstimatorConfig(Ts=0.01))
     # the warm-up count alone (the determinacy test has its own tests below)
-    ff = RobustAdaptiveFeedforward(est, dt=1e-3, warmup=100, fade_in=0.5, max_rel_stderr=math.inf)
+    ff = RobustAdaptiveFeedforward(est, dt=1e-3,
+                                   config=RobustAdaptiveFeedforwardConfig(warmup=100, fade_in=0.5,
+                                                                          max_rel_stderr=math.inf))
     n_on = None
     for k, (uk, wk) in enumerate(zip(u.tolist(), w.tolist())):
         ff.observe(uk, wk)
@@ -129,8 +131,8 @@ def test_robust_feedforward_waits_fades_in_and_holds_the_last_plausible_estimate
     bad = FrictionEstimate(J=4.0, tau=0.05, sigma=40.0, Fc=25.0, Fs=35.0, offset=0.0, Vs=P.Vs, delta=P.delta,
                            J_alt=12.0)
     assert not ff.plausible(bad) and ff.plausible(full)
-    with pytest.raises(ParameterError, match="J_range"):
-        RobustAdaptiveFeedforward(est, dt=1e-3, J_range=(2.0, 1.0))
+    with pytest.raises(ParameterError, match="J_lo, J_hi"):
+        RobustAdaptiveFeedforward(est, dt=1e-3, config=RobustAdaptiveFeedforwardConfig(J_lo=2.0, J_hi=1.0))
 
 
 def _fc_stderr_ratio(est):
@@ -159,8 +161,9 @@ def test_feedforward_is_not_switched_on_while_Fc_and_the_offset_are_confounded(o
     start = FrictionEstimate(J=4.4, tau=0.0, sigma=38.0, Fc=24.0, Fs=33.0, offset=0.0, Vs=P.Vs, delta=P.delta,
                              J_alt=math.nan)
     mk = lambda **kw: RobustAdaptiveFeedforward(  # noqa: E731
-        SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, Ts=0.01, initial=start, J_guess=4.4), dt=1e-3,
-        warmup=100, fade_in=0.0, **kw)
+        SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, initial=start,
+                                 config=SlidingFrictionEstimatorConfig(Ts=0.01, initial_J=4.4)),
+        dt=1e-3, config=RobustAdaptiveFeedforwardConfig(warmup=100, fade_in=0.0, **kw))
     ff = mk()
     est = ff.estimator
     for uk, wk in zip(u1.tolist(), w1.tolist()):
@@ -193,9 +196,10 @@ def test_feedforward_is_not_switched_on_while_Fc_and_the_offset_are_confounded(o
 def test_the_lag_in_use_is_the_estimate_plus_lag_margin_standard_errors_up_to_the_cap(open_loop, lag_margin, cap,
                                                                                       lag_memory):
     u, w = open_loop
-    est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, Ts=0.01)
-    ff = RobustAdaptiveFeedforward(est, dt=1e-3, warmup=100, lag_margin=lag_margin, lag_margin_max=cap,
-                                   lag_memory=lag_memory)
+    est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, config=SlidingFrictionEstimatorConfig(Ts=0.01))
+    ff = RobustAdaptiveFeedforward(est, dt=1e-3,
+                                   config=RobustAdaptiveFeedforwardConfig(warmup=100, lag_margin=lag_margin,
+                                                                          lag_margin_max=cap, lag_memory=lag_memory))
     i = list(est.names).index("tau")
     n_capped = n_margin = 0
     lam = math.exp(-0.01 / lag_memory) if lag_memory > 0 else 0.0
@@ -226,7 +230,8 @@ def test_the_lag_in_use_is_the_estimate_plus_lag_margin_standard_errors_up_to_th
                                        (dict(lag_margin_max=math.nan), "lag_margin_max")])
 def test_lag_margin_and_max_rel_stderr_are_validated(kw, match):
     with pytest.raises(ParameterError, match=match):
-        RobustAdaptiveFeedforward(SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3), dt=1e-3, **kw)
+        RobustAdaptiveFeedforward(SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3), dt=1e-3,
+                                  config=RobustAdaptiveFeedforwardConfig(**kw))
 
 
 def test_outlier_gate_rules():

@@ -8,6 +8,7 @@ from controllers.experiments.compare import friction_scale
 from controllers.design.pi import design_pi
 from controllers.testing import velocity_faults
 from plant import multisine_reference, preset
+from adaptive_ff.compensation.feedforward import FrictionFeedforwardConfig
 
 P = preset("paper")
 N_NAN, N_INF, N_SPIKES = 50, 20, 100
@@ -57,5 +58,5 @@ def test_feedforward_stays_bounded_by_ff_max(runs):
     from adaptive_ff.identification.regression import FrictionEstimate
 
     big = FrictionEstimate(J=4.0, tau=0.0, sigma=40.0, Fc=25.0, Fs=35.0, offset=0.0, Vs=0.02, delta=1.0, J_alt=4.0)
-    ff = FrictionFeedforward(big, dt=1e-3, ff_max=10.0)
+    ff = FrictionFeedforward(big, dt=1e-3, config=FrictionFeedforwardConfig(ff_max=10.0))
     assert ff.step(5.0) == 10.0 and ff.step(-5.0) == -10.0

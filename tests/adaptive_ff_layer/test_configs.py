@@ -15,6 +15,7 @@ import pytest
 
 from adaptive_ff._caff import ffi, lib
 from plant.errors import ParameterError
+from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimatorConfig
 
 ROOT = Path(__file__).resolve().parents[2]
 TC = 1e-3
@@ -386,7 +387,9 @@ def test_python_composites_are_what_their_settings_configure(variant):
         from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
         from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
 
-        est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=TC, lam=np.linspace(0.99, 0.999, 7), J_guess=P.J)
+        est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=TC,
+                                       config=SlidingFrictionEstimatorConfig(lam=np.linspace(0.99, 0.999, 7),
+                                                                             initial_J=P.J))
         comp = AdaptiveCompensator(RobustAdaptiveFeedforward(est, dt=TC))
         assert comp.config.ff.est.forgetting == lib.AFF_RLS_VECTOR
     c = ffi.new("aff *")
@@ -404,4 +407,5 @@ def test_a_setting_only_c_refuses_raises_a_parameter_error_naming_the_argument()
         SlidingFrictionEstimator(0.02, 1.0, Tc=TC, initial=bad)
     # an infinite J is clipped to J_max first: finite then, accepted as before
     inf_J = FrictionEstimate(J=INF, tau=0.0, sigma=0.0, Fc=1.0, Fs=1.0, offset=0.0, Vs=None, delta=None, J_alt=NAN)
-    assert SlidingFrictionEstimator(0.02, 1.0, Tc=TC, initial=inf_J, J_max=5.0).theta[0] == 5.0
+    assert SlidingFrictionEstimator(0.02, 1.0, Tc=TC, initial=inf_J,
+                                    config=SlidingFrictionEstimatorConfig(J_max=5.0)).theta[0] == 5.0

@@ -20,8 +20,8 @@ import pytest
 
 import peers_oracle as oracle
 from adaptive_ff._caff import ffi, lib
-from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
-from adaptive_ff.compensation.feedforward import project_levels
+from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward, AdaptiveFrictionFeedforwardConfig
+from adaptive_ff.compensation.feedforward import FrictionFeedforwardConfig, project_levels
 from adaptive_ff.identification.regression import RegressionModel, eq4_phi, eq4_to_physical
 from plant.errors import ParameterError
 from plant.friction import JointParams
@@ -30,6 +30,17 @@ PLANT = JointParams(J=0.8, Fc=6.0, Fs=9.0, Vs=0.03, delta=1.2, sigma=4.0, tau=0.
 TC = 1e-3
 RTOL = 1e-9
 
+
+
+#: The fields of the feedforward's settings (the rest of a flat ``kw`` are the eq. 4 feedforward's own).
+_FF_FIELDS = {f.name for f in dataclasses.fields(FrictionFeedforwardConfig)}
+
+
+def _eq4(model, *, dt, start=None, **settings):
+    """The eq. 4 feedforward with the flat ``settings`` (the oracle's keywords) put into its config."""
+    ff = {k: settings.pop(k) for k in list(settings) if k in _FF_FIELDS}
+    return AdaptiveFrictionFeedforward(model, dt=dt, start=start, config=AdaptiveFrictionFeedforwardConfig(
+        ff=FrictionFeedforwardConfig(**ff), **settings))
 
 def _close(a, b, rtol) -> bool:
     """Equal (NaN = NaN), or within ``rtol`` times each column's largest magnitude (rows: time)."""
@@ -83,7 +94,7 @@ def test_standalone_observe_and_step_equal_the_oracle(struct):
     Vs, delta = (PLANT.Vs, PLANT.delta) if struct.get("stribeck", True) else (None, None)
     kw = dict(Ts=0.01, lam=0.99, warmup=50, ff_max=60.0, tau_max=0.5)
     model = RegressionModel(Vs, delta, **struct)
-    c = AdaptiveFrictionFeedforward(model, dt=TC, **kw)
+    c = _eq4(model, dt=TC, **kw)
     est = oracle.Eq4Estimator(model, **kw)
     ff = oracle.Feedforward(dt=TC, ff_max=60.0)
     u, w = _open_stream(3, 3000)
@@ -163,7 +174,7 @@ def test_closed_loop_protocol_equals_the_oracle_on_the_loop_record(measured, Ts,
     the loop's recorded torques and velocities."""
     model = RegressionModel(Vs=PLANT.Vs, delta=PLANT.delta)
     kw = dict(Ts=Ts, warmup=300, lag=True, ff_max=40.0)
-    c = AdaptiveFrictionFeedforward(model, dt=TC, ff_input="measured" if measured else "reference", **kw)
+    c = _eq4(model, dt=TC, **kw, ff_input="measured" if measured else "reference")
     m = int(round(Ts / TC))
     got, h_got = _component_loop(c, n, 5)
     u_prev = np.concatenate([[0.0], got[:-1, 1]])
@@ -189,7 +200,7 @@ def test_a_struct_copy_through_the_ops_table_continues_exactly_like_the_componen
     wr = 0.3 * np.sin(np.arange(n) * 2e-3)
     u = 10.0 * np.tanh(wm / 0.01) + rng.normal(0, 0.3, n)
     model = RegressionModel(PLANT.Vs, PLANT.delta)
-    a = AdaptiveFrictionFeedforward(model, Ts=0.004, dt=TC, warmup=20)
+    a = AdaptiveFrictionFeedforward(model, dt=TC, config=AdaptiveFrictionFeedforwardConfig(Ts=0.004, warmup=20))
     for k in range(n // 2):  # the copy is taken mid-run
         c = lib.aff_eq4_ff_compensate(a.cdata, wc[k], wm[k], wr[k])
         lib.aff_eq4_ff_observe(a.cdata, u[k] + c, wm[k], ffi.NULL)
@@ -200,7 +211,7 @@ def test_a_struct_copy_through_the_ops_table_continues_exactly_like_the_componen
     assert ffi.string(ops.name) == b"adaptive"
     self_ = ffi.addressof(store, 1)
     t_ops, t_fn = np.empty(a.n_theta), np.empty(a.n_theta)
-    b = AdaptiveFrictionFeedforward(model, Ts=0.004, dt=TC, warmup=20)
+    b = AdaptiveFrictionFeedforward(model, dt=TC, config=AdaptiveFrictionFeedforwardConfig(Ts=0.004, warmup=20))
     b.cdata[0] = a.cdata[0]
     upd = 0
     for k in range(n // 2, n):
@@ -260,7 +271,9 @@ def test_projection_equals_project_estimate():
 
 def test_layout_properties_pickle_and_validation():
     model = RegressionModel(PLANT.Vs, PLANT.delta, offset=True)
-    c = AdaptiveFrictionFeedforward(model, Ts=0.01, dt=TC, warmup=5, ff_max=30.0)
+    c = AdaptiveFrictionFeedforward(model, dt=TC,
+                                    config=AdaptiveFrictionFeedforwardConfig(Ts=0.01, warmup=5,
+                                                                             ff=FrictionFeedforwardConfig(ff_max=30.0)))
     assert c.C_OPS == "aff_eq4_ff_ops" and c.n_theta == 7 and c.m == 10 and c.Ts == 0.01 and c.dt == TC and c.tau_max == 1.0
     # the parts live inside the component's struct
     assert c.rls.cdata == ffi.addressof(c.cdata, "rls") and c.u_range.cdata == ffi.addressof(c.cdata, "u_range")
@@ -281,21 +294,24 @@ def test_layout_properties_pickle_and_validation():
                     "n_updates": c.rls.n_updates, "lam": 0.995, "names": list(model.names)}
     assert info["n_updates"] == 399 - c.n_rejected and json.dumps(info, allow_nan=False)
     with pytest.raises(ParameterError, match="multiple"):
-        AdaptiveFrictionFeedforward(model, Ts=0.0105, dt=TC)
+        AdaptiveFrictionFeedforward(model, dt=TC, config=AdaptiveFrictionFeedforwardConfig(Ts=0.0105))
     with pytest.raises(ParameterError, match="warmup"):
-        AdaptiveFrictionFeedforward(model, Ts=0.01, dt=TC, warmup=-1)
+        AdaptiveFrictionFeedforward(model, dt=TC, config=AdaptiveFrictionFeedforwardConfig(Ts=0.01, warmup=-1))
     with pytest.raises(ParameterError, match="tau_max"):
-        AdaptiveFrictionFeedforward(model, Ts=0.01, dt=TC, tau_max=0.0)
+        AdaptiveFrictionFeedforward(model, dt=TC, config=AdaptiveFrictionFeedforwardConfig(Ts=0.01, tau_max=0.0))
     with pytest.raises(ParameterError, match="ff_input"):
-        AdaptiveFrictionFeedforward(model, Ts=0.01, dt=TC, ff_input="predicted")
+        AdaptiveFrictionFeedforward(model, dt=TC,
+                                    config=AdaptiveFrictionFeedforwardConfig(Ts=0.01,
+                                                                             ff=FrictionFeedforwardConfig(ff_input="predicted")))
     with pytest.raises(ParameterError, match="lam"):
-        AdaptiveFrictionFeedforward(model, Ts=0.01, dt=TC, lam=1.5)
+        AdaptiveFrictionFeedforward(model, dt=TC, config=AdaptiveFrictionFeedforwardConfig(Ts=0.01, lam=1.5))
     with pytest.raises(ParameterError, match="model"):
-        AdaptiveFrictionFeedforward("eq4", Ts=0.01, dt=TC)
+        AdaptiveFrictionFeedforward("eq4", dt=TC, config=AdaptiveFrictionFeedforwardConfig(Ts=0.01))
 
 
 def test_rejected_samples_leave_the_state_unchanged():
-    ff = AdaptiveFrictionFeedforward(RegressionModel(PLANT.Vs, PLANT.delta), Ts=0.01, dt=TC, warmup=0)
+    ff = AdaptiveFrictionFeedforward(RegressionModel(PLANT.Vs, PLANT.delta), dt=TC,
+                                     config=AdaptiveFrictionFeedforwardConfig(Ts=0.01, warmup=0))
     rng = np.random.default_rng(0)
     for _ in range(50):
         ff.observe(rng.normal(30.0, 5.0), rng.normal(0.2, 0.05))
@@ -324,8 +340,8 @@ def test_the_provisional_start_acts_until_the_first_estimate_then_the_estimate_a
     Fc, Fs, Vs, dl, sg = 5.0, 7.5, 0.025, 1.1, 2.0
     start = FeedforwardStart(FrictionEstimate(J=0.8, tau=0.0, sigma=sg, Fc=Fc, Fs=Fs, offset=0.0, Vs=Vs, delta=dl,
                                               J_alt=math.nan), gain=0.5, ff_input="reference")
-    c = AdaptiveFrictionFeedforward(model, dt=TC, start=start, **kw)
-    bare = AdaptiveFrictionFeedforward(model, dt=TC, **kw)
+    c = _eq4(model, dt=TC, start=start, **kw)
+    bare = _eq4(model, dt=TC, **kw)
     assert c.active and c.provisional and c.estimate is None and not bare.active and not bare.provisional
     provisional = []
 
@@ -348,14 +364,14 @@ def test_the_provisional_start_acts_until_the_first_estimate_then_the_estimate_a
     assert not np.any(twin[:k0]) and np.array_equal(twin[k0:], rec[k0:, 2])
     assert _same_estimate(bare.estimate, c.estimate)
     # the Python step of the start: the map at the reference, times the gain
-    d = AdaptiveFrictionFeedforward(model, dt=TC, start=start, **kw)
+    d = _eq4(model, dt=TC, start=start, **kw)
     assert d.step(0.3, 0.02) == pytest.approx(0.5 * (Fc + (Fs - Fc) * math.exp(-((0.02 / Vs) ** dl)) + sg * 0.02),
                                               rel=1e-12)
     with pytest.raises(ParameterError, match="start"):
-        AdaptiveFrictionFeedforward(model, dt=TC, start=start.estimate, **kw)
+        _eq4(model, dt=TC, start=start.estimate, **kw)
     no_shape = FeedforwardStart(dataclasses.replace(start.estimate, Vs=None, delta=None))
     with pytest.raises(ParameterError, match="start: a start map needs Vs and delta"):
-        AdaptiveFrictionFeedforward(RegressionModel(None, None, stribeck=False), dt=TC, start=no_shape, **kw)
+        _eq4(RegressionModel(None, None, stribeck=False), dt=TC, start=no_shape, **kw)
     with pytest.raises(ParameterError, match="start: refused"):
-        AdaptiveFrictionFeedforward(model, dt=TC, start=dataclasses.replace(start, estimate=dataclasses.replace(
+        _eq4(model, dt=TC, start=dataclasses.replace(start, estimate=dataclasses.replace(
             start.estimate, Vs=-0.01)), **kw)

@@ -17,9 +17,10 @@ import pytest
 
 import peers_oracle as oracle
 from adaptive_ff._caff import ffi, lib
-from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
+from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward, AdaptiveFrictionFeedforwardConfig
 from adaptive_ff.identification.regression import RegressionModel
 from plant.errors import ParameterError
+from adaptive_ff.compensation.feedforward import FrictionFeedforwardConfig
 
 TS = 0.01
 P0 = 1e4
@@ -157,8 +158,11 @@ def test_the_first_estimate_waits_until_the_iv_covariance_determines_the_map(lag
     without viscous friction (sigma 0) the projection's clip of a negative sigma alone refuses some estimates."""
     model = _model(lag, stribeck, offset)
     r, warmup, tau_max, F_max = 0.05, 20, 1.0, 100.0
-    c = AdaptiveFrictionFeedforward(model, Ts=TS, dt=TS, lam=lam, P0=P0, warmup=warmup, tau_max=tau_max,
-                                    ff_max=F_max, iv=True, map_rel_stderr=r)
+    c = AdaptiveFrictionFeedforward(model, dt=TS,
+                                    config=AdaptiveFrictionFeedforwardConfig(Ts=TS, lam=lam, P0=P0, warmup=warmup,
+                                                                             tau_max=tau_max, iv=True,
+                                                                             map_rel_stderr=r,
+                                                                             ff=FrictionFeedforwardConfig(ff_max=F_max)))
     p = model.n_params
     rows, used = [], []
     for u, w in zip(*_stream(5, 1500, 0.001, sigma)):
@@ -191,15 +195,15 @@ def test_the_first_estimate_waits_until_the_iv_covariance_determines_the_map(lag
 
 def test_determinacy_validation_and_the_default():
     model = _model(True, True, True)
-    kw = dict(Ts=TS, dt=TS, iv=True)
-    assert math.isinf(AdaptiveFrictionFeedforward(model, **kw).map_rel_stderr)
-    assert "n_undetermined" not in AdaptiveFrictionFeedforward(model, **kw).info()
+    iv = AdaptiveFrictionFeedforwardConfig(Ts=TS, iv=True)
+    assert math.isinf(AdaptiveFrictionFeedforward(model, dt=TS, config=iv).map_rel_stderr)
+    assert "n_undetermined" not in AdaptiveFrictionFeedforward(model, dt=TS, config=iv).info()
     for bad in (0.0, -0.1, math.nan, "x", True):
         with pytest.raises(ParameterError, match="map_rel_stderr"):
-            AdaptiveFrictionFeedforward(model, map_rel_stderr=bad, **kw)
-    with pytest.raises(ParameterError, match="needs iv=True"):
-        AdaptiveFrictionFeedforward(model, Ts=TS, dt=TS, map_rel_stderr=0.2)
-    c = AdaptiveFrictionFeedforward(model, map_rel_stderr=0.2, **kw)
+            AdaptiveFrictionFeedforward(model, dt=TS, config=iv.replace(map_rel_stderr=bad))
+    with pytest.raises(ParameterError, match="needs iv"):
+        AdaptiveFrictionFeedforward(model, dt=TS, config=AdaptiveFrictionFeedforwardConfig(Ts=TS, map_rel_stderr=0.2))
+    c = AdaptiveFrictionFeedforward(model, dt=TS, config=iv.replace(map_rel_stderr=0.2))
     assert lib.aff_eq4_ff_require_determined(c.cdata, 0.0) == -1 and c.map_rel_stderr == 0.2
 
 

@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart, RobustAdaptiveFeedforward
+from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart, RobustAdaptiveFeedforward, RobustAdaptiveFeedforwardConfig
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
 from adaptive_ff.identification.regression import FrictionEstimate
 from controllers.experiments.compare import CompareOptions, eta, prepare_comparison
@@ -110,8 +110,10 @@ def test_fast_start_pins_switch_on_whole_run_eta_and_the_lag_in_use(runs):
 
 def test_start_map_acts_with_its_gain_until_the_hand_over_then_fades_to_one():
     est = SlidingFrictionEstimator(0.02, 1.0, Tc=1e-3)
-    ff = RobustAdaptiveFeedforward(est, dt=1e-3, warmup=0, fade_in=0.1, max_rel_stderr=math.inf,  # one direction
-                                   start=FeedforwardStart(_est(0.0, Fc=10.0, Fs=10.0, sigma=0.0), gain=0.5))
+    ff = RobustAdaptiveFeedforward(est, dt=1e-3, start=FeedforwardStart(_est(0.0, Fc=10.0, Fs=10.0, sigma=0.0),
+                                   gain=0.5),
+                                   config=RobustAdaptiveFeedforwardConfig(warmup=0, fade_in=0.1,
+                                                                          max_rel_stderr=math.inf))
     assert ff.active and ff.provisional and ff.estimate is None
     # tau 0: no lag filter; at the reference 0.2 rad/s the start map is Fc = 10 N·m, times the gain
     assert ff.compensate(-0.3, 0.2) == pytest.approx(5.0, rel=1e-12)

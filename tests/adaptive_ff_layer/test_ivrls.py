@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
+from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward, AdaptiveFrictionFeedforwardConfig
 from adaptive_ff.compensation.ivrls import IVRLS_NMAX, RecursiveIV
 from adaptive_ff.identification.regression import RegressionModel
 from adaptive_ff.identification.rls import RecursiveLeastSquares
@@ -148,8 +148,9 @@ def test_eq4_component_rows_and_gate_match_numpy():
     w = 0.3 * np.sin(2 * np.pi * 0.4 * t) + 1e-3 * rng.standard_normal(t.size)
     u = 30.0 * np.sign(w) + 40.0 * w + 2.0 * rng.standard_normal(t.size)
     ok = np.ones(t.size, bool)
-    c = AdaptiveFrictionFeedforward(RegressionModel(Vs, d, lag=True), Ts=0.01, dt=0.001, lam=lam, P0=P0, warmup=0,
-                                    iv=True, w_band=band)
+    c = AdaptiveFrictionFeedforward(RegressionModel(Vs, d, lag=True), dt=0.001,
+                                    config=AdaptiveFrictionFeedforwardConfig(Ts=0.01, lam=lam, P0=P0, warmup=0,
+                                                                             iv=True, w_band=band))
     ref = RecursiveIV(6, lam=lam, P0=P0, guard=True)
     n_gated = 0
     n_refused = 0
@@ -181,7 +182,8 @@ def test_eq4_component_rows_and_gate_match_numpy():
     assert c.n_rejected == n_refused + 2 and c.theta.tolist() == theta.tolist()
     assert len(before) == len(c.struct_bytes())
     with pytest.raises(ParameterError, match="w_band"):
-        AdaptiveFrictionFeedforward(RegressionModel(Vs, d), Ts=0.01, dt=0.001, w_band=-1.0)
+        AdaptiveFrictionFeedforward(RegressionModel(Vs, d), dt=0.001,
+                                    config=AdaptiveFrictionFeedforwardConfig(Ts=0.01, w_band=-1.0))
 
 
 def test_closed_loop_eta_paper_preset():

@@ -13,8 +13,8 @@ import math
 import numpy as np
 import pytest
 
-from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward, lag_weighted
-from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
+from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward, lag_weighted, RobustAdaptiveFeedforwardConfig
+from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, SlidingFrictionEstimatorConfig
 from controllers.experiments.compare import CompareOptions, prepare_comparison
 from controllers.simulation.closed_loop import run_mode
 from plant.errors import ParameterError
@@ -22,8 +22,8 @@ from plant.friction import preset
 
 
 def _component(lag_memory, Ts=0.01):
-    est = SlidingFrictionEstimator(0.02, 1.0, Tc=0.001, Ts=Ts)
-    return RobustAdaptiveFeedforward(est, dt=0.001, lag_memory=lag_memory)
+    est = SlidingFrictionEstimator(0.02, 1.0, Tc=0.001, config=SlidingFrictionEstimatorConfig(Ts=Ts))
+    return RobustAdaptiveFeedforward(est, dt=0.001, config=RobustAdaptiveFeedforwardConfig(lag_memory=lag_memory))
 
 
 def test_weighted_lag_is_the_forgotten_inverse_variance_mean():

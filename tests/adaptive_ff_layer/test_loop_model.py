@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from adaptive_ff.compensation.feedforward import FrictionFeedforward
+from adaptive_ff.compensation.feedforward import FrictionFeedforward, FrictionFeedforwardConfig
 from adaptive_ff.compensation.velocity_input import LoopModel
 from adaptive_ff.identification.regression import FrictionEstimate
 from controllers.experiments.compare import CompareOptions, prepare_comparison
@@ -46,8 +46,8 @@ def test_loop_model_is_the_closed_loop_of_the_pi_on_the_zoh_integrator():
     t = np.arange(3000) * TC
     r = np.sin(2 * np.pi * 1.3 * t) * 0.1 + 0.02
     _, y = signal.dlsim((num, den, TC), r)
-    ff = FrictionFeedforward(_est(), dt=TC, stick_band=1.0, stick_samples=1, lag=False,
-                             loop_model=LoopModel(Kp=KP, Ki=KI, J=J, track=0.0))
+    ff = FrictionFeedforward(_est(), dt=TC, loop_model=LoopModel(Kp=KP, Ki=KI, J=J, track=0.0),
+                             config=FrictionFeedforwardConfig(stick_band=1.0, stick_samples=1, lag=False))
     w_model = []
     for rk in r:  # measured velocity 0 (inside the band): the output is the map at the model's velocity
         out = ff.compensate(0.0, rk)
@@ -64,7 +64,8 @@ def test_tracked_fallback_follows_a_stuck_joint_at_the_loop_bandwidth():
     # the joint stays at rest (measurement 0) while the model moves: the fallback is w_m + d, d -> -w_m
     lm = LoopModel(Kp=KP, Ki=KI, J=J)
     assert lm.bandwidth == pytest.approx(KP / J, rel=1e-15)
-    ff = FrictionFeedforward(_est(), dt=TC, stick_band=1.0, stick_samples=1, lag=False, loop_model=lm)
+    ff = FrictionFeedforward(_est(), dt=TC, loop_model=lm,
+                             config=FrictionFeedforwardConfig(stick_band=1.0, stick_samples=1, lag=False))
     om = OracleLoopModel(KP, KI, J, TC)
     t = np.arange(2000) * TC
     r = 0.05 * np.ones_like(t)
@@ -80,10 +81,11 @@ def test_tracked_fallback_follows_a_stuck_joint_at_the_loop_bandwidth():
 
 
 def test_without_a_loop_model_the_fallback_is_the_reference():
-    ff = FrictionFeedforward(_est(), dt=TC, stick_band=1.0, stick_samples=1, lag=False)
+    ff = FrictionFeedforward(_est(), dt=TC,
+                             config=FrictionFeedforwardConfig(stick_band=1.0, stick_samples=1, lag=False))
     assert ff.compensate(0.0, 0.05) == pytest.approx(ff.static(0.05), rel=1e-12)
-    ffm = FrictionFeedforward(_est(), dt=TC, stick_band=1.0, stick_samples=1, lag=False,
-                              loop_model=LoopModel(Kp=KP, Ki=KI, J=J))
+    ffm = FrictionFeedforward(_est(), dt=TC, loop_model=LoopModel(Kp=KP, Ki=KI, J=J),
+                              config=FrictionFeedforwardConfig(stick_band=1.0, stick_samples=1, lag=False))
     assert ffm.compensate(0.0, 0.05) == 0.0  # the model starts at the measurement (0): no friction at rest
 
 

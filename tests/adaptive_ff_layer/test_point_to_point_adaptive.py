@@ -18,7 +18,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, estimate_from_theta
+from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, estimate_from_theta, SlidingFrictionEstimatorConfig
 from controllers.design.pi import design_pi
 from controllers.simulation.closed_loop import ModeOptions, run_mode
 from plant.friction import preset
@@ -80,7 +80,8 @@ def test_the_supervised_loop_sticks_between_moves_and_its_estimate_of_the_peak_i
 
 
 def test_the_estimator_state_is_unconstrained_and_its_report_is_clipped_to_the_box():
-    est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, J_max=10.0, tau_max=0.5)
+    est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3,
+                                   config=SlidingFrictionEstimatorConfig(J_max=10.0, tau_max=0.5))
     assert est.rls.bounds is None
     lo, hi = est.box
     assert est.names == ("J", "J_tau", "tau", "Fc", "Fs", "sigma", "offset")

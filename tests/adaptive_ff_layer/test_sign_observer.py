@@ -13,7 +13,7 @@ import pytest
 
 import peers_oracle as po
 from pi_oracle import OracleSignObserver
-from adaptive_ff.compensation.feedforward import FrictionFeedforward
+from adaptive_ff.compensation.feedforward import FrictionFeedforward, FrictionFeedforwardConfig
 from adaptive_ff.compensation.velocity_input import SignObserver
 from adaptive_ff.identification.regression import FrictionEstimate
 from controllers.experiments.compare import compare
@@ -28,8 +28,8 @@ def test_sign_observer_matches_oracle():
     """Feedforward outputs and observer path equal the oracle's over a noisy slow reversal (1e-12)."""
     rng = np.random.default_rng(3)
     Tc, J, band = 1e-3, 4.0, 3e-3
-    ff = FrictionFeedforward(EST, dt=Tc, stick_band=band, stick_samples=50,
-                             sign_observer=SignObserver(J=J, bandwidth=100.0))
+    ff = FrictionFeedforward(EST, dt=Tc, sign_observer=SignObserver(J=J, bandwidth=100.0),
+                             config=FrictionFeedforwardConfig(stick_band=band, stick_samples=50))
     ref_ff = po.Feedforward(dt=Tc, stick_band=band, stick_samples=50)
     ref_ff.use(EST)
     obs = OracleSignObserver(J, 100.0, Tc)
@@ -54,8 +54,8 @@ def test_ramp_with_constant_residual(rb):
     """A joint accelerating at a with a constant residual d: with the residual state the estimate has no steady
     error; without it, the analytic bias ``-d*Tc/(J*l1)`` with ``l1 = 1 - exp(-bandwidth*Tc)``."""
     Tc, J, bw, a, d = 1e-3, 2.0, 100.0, 3.0, 4.0
-    ff = FrictionFeedforward(None, dt=Tc, stick_band=1e9, stick_samples=10**9,
-                             sign_observer=SignObserver(J=J, bandwidth=bw, residual_bandwidth=rb))
+    ff = FrictionFeedforward(None, dt=Tc, sign_observer=SignObserver(J=J, bandwidth=bw, residual_bandwidth=rb),
+                             config=FrictionFeedforwardConfig(stick_band=1e9, stick_samples=10**9))
     w = -1.0
     for _ in range(5000):
         ff.compensate(w, 0.0)  # no estimate: output 0, so u - u_c = u

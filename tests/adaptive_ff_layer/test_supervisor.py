@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-from adaptive_ff.compensation.supervisor import DELAY_MAX, FeedforwardSupervisor
+from adaptive_ff.compensation.supervisor import DELAY_MAX, FeedforwardSupervisor, FeedforwardSupervisorConfig
 from controllers import ModeOptions, design_pi, run_mode
 from controllers.simulation.compensators import build_mode, build_supervisor
 from controllers.experiments.compare import compare, eta
@@ -25,6 +25,11 @@ from plant.friction import preset
 from plant.motion import point_to_point_reference
 from plant.variant_plants import variant
 
+
+
+def _supervisor(Tc, J_n, omega, **settings):
+    """A supervisor with the settings ``settings`` (fields of :class:`FeedforwardSupervisorConfig`)."""
+    return FeedforwardSupervisor(Tc=Tc, J_n=J_n, omega=omega, config=FeedforwardSupervisorConfig(**settings))
 
 def _oracle(u_c, u, w, *, Tc, J_n, omega, window, margin, settle, delay):
     """The statistics and decisions of aff_supervisor written independently: the raw DOB sample as an array
@@ -72,7 +77,7 @@ def test_statistics_equal_an_independent_computation(delay):
     u = np.roll(u, -delay) if delay else u
     u_c = np.where((t > 1.0) & (t < 2.0), -2.0, 1.0) * np.roll(fr, -1 - delay)   # good, harmful, good
     kw = dict(Tc=Tc, J_n=J_n, omega=40.0, window=0.2, margin=0.1, settle=0.05, delay=delay)
-    s = FeedforwardSupervisor(**kw)
+    s = _supervisor(**kw)
     got = s.run(u_c, u, w)
     f, r, mf, mr, on = _oracle(u_c, u, w, **kw)
     for name, want in (("f_hat", f), ("r_hat", r), ("ms_friction", mf), ("ms_residual", mr)):
@@ -87,12 +92,12 @@ def test_statistics_equal_an_independent_computation(delay):
 
 
 def test_bumpless_transfer_is_the_candidate_at_a_switch():
-    s = FeedforwardSupervisor(Tc=1e-3, J_n=1.0, omega=50.0, window=0.1, settle=0.0)
+    s = FeedforwardSupervisor(Tc=1e-3, J_n=1.0, omega=50.0, config=FeedforwardSupervisorConfig(window=0.1, settle=0.0))
     w = np.zeros(400)
     s.run(np.full(400, 3.0), np.zeros(400), w)  # no disturbance, a feedforward of 3 N*m: harmful
     assert not s.on and s.n_backoff == 1
     assert s.apply(3.0) == 0.0 and s.cdata.transfer == 0.0  # already off in the last apply of run
-    s2 = FeedforwardSupervisor(Tc=1e-3, J_n=1.0, omega=50.0, window=0.1, settle=0.0)
+    s2 = FeedforwardSupervisor(Tc=1e-3, J_n=1.0, omega=50.0, config=FeedforwardSupervisorConfig(window=0.1, settle=0.0))
     for _ in range(400):
         assert s2.apply(3.0) == 3.0 and s2.cdata.transfer == 0.0
         s2.observe(0.0, 0.0)
@@ -106,11 +111,11 @@ def test_bumpless_transfer_is_the_candidate_at_a_switch():
 
 @pytest.mark.parametrize("kw, name", [(dict(margin=1.0), "margin"), (dict(delay=DELAY_MAX + 1), "delay"),
                                       (dict(window=0.0), "window"), (dict(omega=-1.0), "omega"),
-                                      (dict(settle=-1.0), "settle"), (dict(window=math.inf), "finite")])
+                                      (dict(settle=math.nan), "settle"), (dict(window=math.inf), "finite")])
 def test_bad_settings_are_refused(kw, name):
     base = dict(Tc=1e-3, J_n=1.0, omega=20.0)
     with pytest.raises(ParameterError, match=name):
-        FeedforwardSupervisor(**{**base, **kw})
+        _supervisor(**{**base, **kw})
 
 
 def test_mode_options_check_the_supervisor_settings():
@@ -221,12 +226,12 @@ def test_nothing_is_applied_with_the_reference_at_rest_and_the_statistics_hold()
     w_ref = np.where((np.arange(n) >= 200) & (np.arange(n) < 400), 0.0, 0.5)
     u_c, u, w = rng.normal(size=n), rng.normal(size=n), rng.normal(size=n)
     kw = dict(Tc=1e-3, J_n=0.5, omega=40.0, window=0.2, settle=0.0)
-    s = FeedforwardSupervisor(**kw)
+    s = _supervisor(**kw)
     out = s.run(u_c, u, w, w_ref)
     rest = np.zeros(n, dtype=bool)
     rest[224:400] = True  # at rest for 1/(omega*Tc) = 25 periods in a row (the joint stops behind the reference)
     np.testing.assert_array_equal(out["applied"][rest], 0.0)
-    plain = FeedforwardSupervisor(**kw, rest_band=None).run(u_c, u, w, w_ref)["applied"]
+    plain = _supervisor(**kw, rest_band=-1.0).run(u_c, u, w, w_ref)["applied"]
     np.testing.assert_array_equal(out["applied"][:224], plain[:224])  # not yet at rest in 200..223
     assert s.t_rest == pytest.approx(176 * 1e-3, abs=1e-12)
     # the mean squares do not move at rest (the Q-filters do)
@@ -234,9 +239,9 @@ def test_nothing_is_applied_with_the_reference_at_rest_and_the_statistics_hold()
     assert np.any(np.diff(out["ms_friction"][200:225]) != 0.0)
     assert np.any(np.diff(out["f_hat"][224:400]) != 0.0)
     # without the rest rule it is the plain supervisor
-    s2 = FeedforwardSupervisor(**kw, rest_band=None)
+    s2 = _supervisor(**kw, rest_band=-1.0)
     np.testing.assert_array_equal(s2.run(u_c, u, w, w_ref)["applied"],
-                                  FeedforwardSupervisor(**kw).run(u_c, u, w)["applied"])
+                                  _supervisor(**kw).run(u_c, u, w)["applied"])
 
 
 def _rest_end_runs(mode, targets=(0.5, -0.2, 0.4), **options):
@@ -260,7 +265,7 @@ def test_at_rest_the_compensation_is_withdrawn_through_the_lag_in_use():
     w_ref = np.where(np.arange(n) >= k0, 0.0, 0.5)
     kw = dict(Tc=1e-3, J_n=0.5, omega=40.0, window=0.2, settle=0.0)
     tau = 0.02
-    s = FeedforwardSupervisor(**kw)
+    s = _supervisor(**kw)
     s.set_rest_lag(1.0 - math.exp(-1e-3 / tau))
     n_hold = int(s.cdata.n_hold)
     applied = []
@@ -272,7 +277,7 @@ def test_at_rest_the_compensation_is_withdrawn_through_the_lag_in_use():
     rest_n = np.arange(1, n - (k0 + n_hold - 1) + 1)
     np.testing.assert_allclose(applied[k0 + n_hold - 1:], 7.5 * np.exp(-rest_n * 1e-3 / tau), rtol=1e-12)
     for alpha in (1.0, 1.5, math.nan, -0.1):
-        s = FeedforwardSupervisor(**kw)
+        s = _supervisor(**kw)
         s.set_rest_lag(alpha)
         out = [s.apply(7.5, w_ref[k]) for k in range(n)]
         np.testing.assert_array_equal(out[k0 + n_hold - 1:], 0.0)

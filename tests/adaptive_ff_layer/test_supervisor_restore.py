@@ -11,8 +11,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from adaptive_ff.compensation.supervisor import FeedforwardSupervisor
+from adaptive_ff.compensation.supervisor import FeedforwardSupervisor, FeedforwardSupervisorConfig
 
+
+
+def _supervisor(Tc, J_n, omega, **settings):
+    """A supervisor with the settings ``settings`` (fields of :class:`FeedforwardSupervisorConfig`)."""
+    return FeedforwardSupervisor(Tc=Tc, J_n=J_n, omega=omega, config=FeedforwardSupervisorConfig(**settings))
 
 def _log(Tc=1e-3, J_n=0.5):
     n = 6000
@@ -30,8 +35,8 @@ def test_the_restore_waits_until_the_joint_moves_with_the_reference():
     Tc, J_n = 1e-3, 0.5
     t, u_c, u, w = _log(Tc, J_n)
     kw = dict(Tc=Tc, J_n=J_n, omega=40.0, window=0.2, margin=0.1, settle=0.05)
-    blind = FeedforwardSupervisor(**kw).run(u_c, u, w)                   # no reference: "moving" throughout
-    s = FeedforwardSupervisor(**kw)
+    blind = _supervisor(**kw).run(u_c, u, w)                   # no reference: "moving" throughout
+    s = _supervisor(**kw)
     got = s.run(u_c, u, w, np.full(t.shape[0], 1.0))
     k_blind = int(np.argmax(blind["on"] & (t > 2.0)))
     k = int(np.argmax(got["on"] & (t > 2.0)))
@@ -46,6 +51,7 @@ def test_the_restore_waits_until_the_joint_moves_with_the_reference():
 def test_against_the_reference_it_stays_off():
     Tc, J_n = 1e-3, 0.5
     t, u_c, u, w = _log(Tc, J_n)
-    s = FeedforwardSupervisor(Tc=Tc, J_n=J_n, omega=40.0, window=0.2, margin=0.1, settle=0.05)
+    s = FeedforwardSupervisor(Tc=Tc, J_n=J_n, omega=40.0,
+                              config=FeedforwardSupervisorConfig(window=0.2, margin=0.1, settle=0.05))
     got = s.run(u_c, u, w, np.full(t.shape[0], -1.0))  # the joint moves against the reference
     assert s.n_backoff == 1 and s.n_restore == 0 and not got["on"][t > 1.0].any()

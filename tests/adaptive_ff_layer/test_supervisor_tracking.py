@@ -1,4 +1,4 @@
-"""The supervisor's tracking test (aff_supervisor.c, FeedforwardSupervisor(Kp=, Ki=)).
+"""The supervisor's tracking test (aff_supervisor.c, FeedforwardSupervisorConfig(Kp=, Ki=)).
 
 Its statistics against a state-space computation written from the loop's equations (scipy's dlsim), a candidate
 that the torque test keeps but that raises the loop's velocity error backed off, and a good compensator kept.
@@ -12,9 +12,14 @@ import numpy as np
 import pytest
 from scipy.signal import dlsim, lfilter
 
-from adaptive_ff.compensation.supervisor import FeedforwardSupervisor
+from adaptive_ff.compensation.supervisor import FeedforwardSupervisor, FeedforwardSupervisorConfig
 from plant.errors import ParameterError
 
+
+
+def _supervisor(Tc, J_n, omega, **settings):
+    """A supervisor with the settings ``settings`` (fields of :class:`FeedforwardSupervisorConfig`)."""
+    return FeedforwardSupervisor(Tc=Tc, J_n=J_n, omega=omega, config=FeedforwardSupervisorConfig(**settings))
 
 def _loop_response(d, *, Kp, Ki, Tc, J_n):
     """The nominal loop's velocity after each period's torque d(k) enters (a PI on -y whose integrator is updated
@@ -45,7 +50,7 @@ def test_tracking_statistics_equal_a_state_space_computation():
     u = u_c + rng.normal(0.0, 0.3, n)
     w = _plant_samples(f, u, Tc=Tc, J_n=J_n)
     kw = dict(Tc=Tc, J_n=J_n, omega=Kp / J_n, window=0.3, settle=0.1)
-    s = FeedforwardSupervisor(**kw, Kp=Kp, Ki=Ki)
+    s = _supervisor(**kw, Kp=Kp, Ki=Ki)
     e0, e1, m0, m1 = (np.empty(n) for _ in range(4))
     for k in range(n):
         s.apply(u_c[k])
@@ -80,11 +85,11 @@ def test_a_candidate_that_raises_the_tracking_error_is_backed_off_where_the_torq
     u_c = 5.0 + 3.0 * ripple
     w = _plant_samples(f, u_c, Tc=Tc, J_n=J_n)
     kw = dict(Tc=Tc, J_n=J_n, omega=wb, window=0.5, settle=0.5)
-    torque_only = FeedforwardSupervisor(**kw)
+    torque_only = _supervisor(**kw)
     torque_only.run(u_c, u_c, w)
     assert torque_only.n_backoff == 0 and torque_only.on
     assert torque_only.ms_residual < 0.1 * torque_only.ms_friction
-    both = FeedforwardSupervisor(**kw, Kp=Kp, Ki=Ki)
+    both = _supervisor(**kw, Kp=Kp, Ki=Ki)
     got = both.run(u_c, u_c, w)
     assert both.n_backoff == 1 and both.n_backoff_tracking == 1 and not both.on
     assert both.ms_error_comp == pytest.approx(4.0 * both.ms_error_none, rel=0.05)
@@ -101,14 +106,21 @@ def test_a_candidate_that_cancels_the_friction_is_kept_by_both_tests():
     f = 2.0 * np.sign(np.sin(2 * np.pi * 0.7 * t)) + 0.3 * np.sin(Kp / J_n * t)
     u_c = f + rng.normal(0.0, 0.05, n)
     w = _plant_samples(f, u_c, Tc=Tc, J_n=J_n)
-    s = FeedforwardSupervisor(Tc=Tc, J_n=J_n, omega=Kp / J_n, window=0.5, settle=0.5, Kp=Kp, Ki=Ki)
+    s = FeedforwardSupervisor(Tc=Tc, J_n=J_n, omega=Kp / J_n,
+                              config=FeedforwardSupervisorConfig(window=0.5, settle=0.5, Kp=Kp, Ki=Ki))
     got = s.run(u_c, u_c, w)
     assert got["on"].all() and s.n_backoff == 0
     assert s.ms_error_comp < 0.01 * s.ms_error_none
 
 
-@pytest.mark.parametrize("kw, name", [(dict(Kp=0.0), "Kp"), (dict(Kp=-1.0), "Kp"), (dict(Kp=1.0, Ki=-1.0), "Ki"),
+@pytest.mark.parametrize("kw, name", [(dict(Kp=-1.0), "Kp"), (dict(Kp=1.0, Ki=-1.0), "Ki"),
                                       (dict(Kp=math.inf), "Kp"), (dict(Kp=1.0, Ki=math.nan), "Ki")])
 def test_bad_loop_gains_are_refused(kw, name):
     with pytest.raises(ParameterError, match=name):
-        FeedforwardSupervisor(Tc=1e-3, J_n=1.0, omega=20.0, **kw)
+        _supervisor(Tc=1e-3, J_n=1.0, omega=20.0, **kw)
+
+
+def test_a_zero_Kp_is_no_tracking_test():
+    """Kp 0 (the C default) is the sentinel of no tracking test, not an error."""
+    s = _supervisor(Tc=1e-3, J_n=1.0, omega=20.0, Kp=0.0, Ki=5.0)
+    assert not s.cdata.track

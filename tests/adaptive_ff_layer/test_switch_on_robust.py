@@ -13,20 +13,23 @@ seed 7 below, and on the log of tests/docs_cli/test_own_loop_example.py computed
 import numpy as np
 import pytest
 
-from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
+from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward, RobustAdaptiveFeedforwardConfig
 from adaptive_ff.compensation.gate import OutlierGate, RangeGate
-from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
+from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, SlidingFrictionEstimatorConfig
 from controllers.design.pi import design_pi
 from loop_helpers import run_named
 from plant import multisine_reference, preset
+from adaptive_ff.compensation.feedforward import FrictionFeedforwardConfig
 
 TC = 1e-3
 
 
 def _feedforward(J_guess=4.0, u_max=150.0):
     gate = OutlierGate(max_step=2.0 * u_max * TC / J_guess)
-    est = SlidingFrictionEstimator(0.02, 1.0, Tc=TC, J_guess=J_guess, gate=gate, u_range=RangeGate(x_max=u_max))
-    return RobustAdaptiveFeedforward(est, dt=TC, ff_max=0.5 * u_max, stick_band=3e-3, stick_samples=5)
+    est = SlidingFrictionEstimator(0.02, 1.0, Tc=TC, gate=gate, u_range=RangeGate(x_max=u_max),
+                                   config=SlidingFrictionEstimatorConfig(initial_J=J_guess))
+    return RobustAdaptiveFeedforward(est, dt=TC,
+                                     config=RobustAdaptiveFeedforwardConfig(ff=FrictionFeedforwardConfig(ff_max=0.5 * u_max, stick_band=3e-3, stick_samples=5)))
 
 
 @pytest.fixture(scope="module")

@@ -9,8 +9,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
-from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
+from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward, RobustAdaptiveFeedforwardConfig
+from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, SlidingFrictionEstimatorConfig
 from controllers.design.pi import design_pi
 from controllers.peers.adaptive_dob import AdaptiveDOBCompensator
 from controllers.peers.dob import DisturbanceObserver
@@ -54,9 +54,12 @@ def test_before_switch_on_it_is_the_observer_and_after_it_the_observer_sees_the_
     dob = run_named(P, ref, mode="dob", rng=np.random.default_rng(5), **kw)
     for name in ("w", "u", "u_ff"):
         np.testing.assert_array_equal(getattr(off, name), getattr(dob, name))
-    est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, initial=_initial(P, 1.0), J_guess=P.J)
+    est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, initial=_initial(P, 1.0),
+                                   config=SlidingFrictionEstimatorConfig(initial_J=P.J))
     # one direction of motion only: no determinacy test (max_rel_stderr inf), or Fc would never be determined
-    ff = RobustAdaptiveFeedforward(est, dt=1e-3, warmup=0, fade_in=0.0, max_rel_stderr=math.inf)
+    ff = RobustAdaptiveFeedforward(est, dt=1e-3,
+                                   config=RobustAdaptiveFeedforwardConfig(warmup=0, fade_in=0.0,
+                                                                          max_rel_stderr=math.inf))
     comp = AdaptiveDOBCompensator(ff, DisturbanceObserver(J_n=P.J, Tc=1e-3))
     rng = np.random.default_rng(2)
     for k in range(400):  # a sliding ramp: the estimator updates and the feedforward switches on
@@ -140,7 +143,8 @@ def test_at_rest_by_hand_arms_the_hold_and_the_hold_ends_when_the_joint_follows(
 
     init = FrictionEstimate(J=P.J, tau=0.0, sigma=P.sigma, Fc=P.Fc, Fs=P.Fs, offset=0.0, Vs=P.Vs, delta=P.delta,
                             J_alt=math.nan)
-    est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, initial=init, J_guess=P.J)
+    est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, initial=init,
+                                   config=SlidingFrictionEstimatorConfig(initial_J=P.J))
     ff = RobustAdaptiveFeedforward(est, dt=1e-3, start=FeedforwardStart(init))
     c = AdaptiveDOBCompensator(ff, DisturbanceObserver(J_n=P.J, Tc=1e-3, omega_q=300.0))
     twin = DisturbanceObserver(J_n=P.J, Tc=1e-3, omega_q=300.0)

@@ -6,7 +6,7 @@ import control
 import numpy as np
 import pytest
 
-from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
+from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward, AdaptiveFrictionFeedforwardConfig
 from adaptive_ff.compensation.feedforward import FrictionFeedforward, project_estimate
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from controllers.simulation.closed_loop import loop_metrics
@@ -92,7 +92,8 @@ def test_projection_rejects_nonfinite_and_clips_negative():
 
 
 def test_adaptive_feedforward_rejects_bad_samples_without_touching_state():
-    ff = AdaptiveFrictionFeedforward(RegressionModel(P.Vs, P.delta), Ts=0.01, dt=1e-3, warmup=0)
+    ff = AdaptiveFrictionFeedforward(RegressionModel(P.Vs, P.delta), dt=1e-3,
+                                     config=AdaptiveFrictionFeedforwardConfig(Ts=0.01, warmup=0))
     rng = np.random.default_rng(0)
     for _ in range(50):
         ff.observe(rng.normal(30.0, 5.0), rng.normal(0.2, 0.05))

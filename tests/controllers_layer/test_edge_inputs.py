@@ -24,7 +24,7 @@ from controllers.experiments.compare import compare
 from controllers.experiments.quasi_static import stribeck_experiment
 from controllers.experiments.sweep import load_spec, run_sweep
 from controllers.experiments.zoo import ZooOptions, run_zoo
-from controllers.simulation.closed_loop import run_closed_loop
+from controllers.simulation.closed_loop import MeasurementSettings, run_closed_loop
 from controllers.simulation.compensators import MODES
 from plant import JointParams
 from plant.errors import ParameterError
@@ -80,7 +80,8 @@ def test_python_entries_refuse_before_allocating(monkeypatch):
     _fake_memory(monkeypatch, 100_000)
     ctrl = PIController(Kp=1.0, Ki=10.0, Tc=1e-3)
     with pytest.raises(ParameterError) as info:
-        run_closed_loop(NO_FRICTION, ctrl, None, ref, noise_std=1e-3, rng=np.random.default_rng(0))
+        run_closed_loop(NO_FRICTION, ctrl, None, ref,
+                        measurement=MeasurementSettings(noise_std=1e-3, rng=np.random.default_rng(0)))
     need = 10_000 * 8 * (1 + 5)
     assert need == 480_000
     assert (f"the reference's duration = 10 s is 10,000 samples at 1 kHz (Tc = 0.001 s): about 480 kB for the "

@@ -9,7 +9,7 @@ import pytest
 from controllers.design.pi import PIController, design_pi
 from controllers.experiments.compare import compare
 from controllers.simulation.batch import run_batch
-from controllers.simulation.closed_loop import ModeOptions, run_closed_loop
+from controllers.simulation.closed_loop import MeasurementSettings, ModeOptions, RunSettings, run_closed_loop
 from controllers.simulation.compensators import TrueFriction
 from plant.excitation import multisine_reference
 from plant.friction import preset
@@ -58,12 +58,13 @@ def test_friction0_starts_the_lag_unloaded():
     n, w0 = 200, 0.1
     ref = Reference(t=np.arange(n) * 1e-3, w=np.full(n, w0), dw=np.zeros(n))
     pi = lambda: PIController(Kp=D.Kp, Ki=D.Ki, Tc=1e-3)  # noqa: E731
-    steady = run_closed_loop(P, pi(), None, ref, sensor_gate=False)
-    cold = run_closed_loop(P, pi(), None, ref, sensor_gate=False, friction0=0.0)
+    steady = run_closed_loop(P, pi(), None, ref, measurement=MeasurementSettings(sensor_gate=False))
+    cold = run_closed_loop(P, pi(), None, ref, measurement=MeasurementSettings(sensor_gate=False),
+                           settings=RunSettings(friction0=0.0))
     F0 = float(P.friction(w0))
     assert steady.f[0] == F0 and cold.f[0] == 0.0
     # first step of tau dF/dt = F(w) - F from F = 0 with w ~ w0: F = (1 - exp(-Tc/tau)) F(w0) = 1.418 N·m
     assert cold.f[1] == pytest.approx((1.0 - math.exp(-1e-3 / P.tau)) * F0, rel=0.01)
     assert steady.f[1] == pytest.approx(F0, rel=0.01)
     with pytest.raises(ParameterError, match="friction0"):
-        run_closed_loop(P, pi(), None, ref, friction0=math.nan)
+        run_closed_loop(P, pi(), None, ref, settings=RunSettings(friction0=math.nan))

@@ -130,8 +130,8 @@ def _paper_figures():
     fit = fit_stribeck(ws, P.friction(ws))
     out = {}
     for units in ("rad", "deg"):
-        out[f"plot_velocity_fit.{units}"] = pf.plot_velocity_fit(t, w, w + 0.01, model_label="LS", w_model2=w * 0.9,
-                                                                  model2_label="free run", units=units)
+        out[f"plot_velocity_fit.{units}"] = pf.plot_velocity_fit(t, w, (w + 0.01, "LS"), model2=(w * 0.9, "free run"),
+                                                                  units=units)
         out[f"plot_parameter_convergence.{units}"] = pf.plot_parameter_convergence(
             t, th, ["a1", "a2", "b0", "b1", "c1", "d1"], true=np.ones(6), units=units)
         out[f"plot_stribeck_figure.{units}"] = pf.plot_stribeck_figure(fit, ws, P.friction(ws), units=units)

@@ -12,7 +12,7 @@ from adaptive_ff.identification.regression import FrictionEstimate, RegressionMo
 from adaptive_ff._caff import lib
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from controllers.design.pi import PIController, design_pi
-from controllers.simulation.closed_loop import loop_metrics, run_closed_loop
+from controllers.simulation.closed_loop import MeasurementSettings, RunSettings, loop_metrics, run_closed_loop
 from controllers.simulation.metrics import reversal_times
 from loop_helpers import run_named
 from loop_oracle import oracle_replay
@@ -267,7 +267,7 @@ def test_divergence_is_detected_identically_and_streamed_metrics_are_nan(ref):
 def test_validation(ref):
     ctrl = PIController(Kp=DESIGN.Kp, Ki=DESIGN.Ki, Tc=1e-3)
     with pytest.raises(ParameterError, match="decimate"):
-        run_closed_loop(P, ctrl, None, ref, decimate=-1)
+        run_closed_loop(P, ctrl, None, ref, settings=RunSettings(decimate=-1))
     with pytest.raises(ParameterError, match="compensator"):
         run_closed_loop(P, ctrl, object(), ref)
     with pytest.raises(ParameterError, match="controller"):
@@ -275,7 +275,7 @@ def test_validation(ref):
     with pytest.raises(ParameterError, match="differs from Tc"):
         run_closed_loop(P, PIController(Kp=1.0, Ki=1.0, Tc=2e-3), None, ref)
     with pytest.raises(ParameterError, match="rng"):
-        run_closed_loop(P, ctrl, None, ref, noise_std=1e-3)
+        run_closed_loop(P, ctrl, None, ref, measurement=MeasurementSettings(noise_std=1e-3))
 
 
 def test_chunked_reversals_equal_reference_reversals():

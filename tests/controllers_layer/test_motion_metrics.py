@@ -12,7 +12,7 @@ import pytest
 
 from controllers.design.pi import PIController, design_pi
 from controllers.simulation.batch import run_batch
-from controllers.simulation.closed_loop import ModeOptions, run_closed_loop, run_mode
+from controllers.simulation.closed_loop import ModeOptions, RunSettings, run_closed_loop, run_mode
 from controllers.simulation.metrics import SETTLE_SHARE, motion_metrics, reversal_times, stop_intervals
 from plant.errors import ParameterError
 from plant.excitation import Reference, multisine_reference
@@ -218,7 +218,7 @@ def test_a_diverged_run_keeps_the_events_it_completed_and_nothing_else():
     w = np.concatenate([slow.w, fast.w])
     ref = Reference(t=np.arange(w.size) * DT, w=w, dw=np.gradient(w, DT))
     ctl = PIController(Kp=o.Kp, Ki=o.Ki, Tc=DT, u_max=150.0)
-    r = run_closed_loop(p, ctl, None, ref, w_limit=0.4)  # the third move exceeds 0.4 rad/s
+    r = run_closed_loop(p, ctl, None, ref, settings=RunSettings(w_limit=0.4))  # the third move exceeds 0.4 rad/s
     assert r.info["diverged"]
     m = r.motion
     assert m.n_stops == 3 and math.isnan(m.rms_motion) and math.isnan(m.max_standstill)

@@ -117,7 +117,7 @@ def test_rls_pass_equals_ridge_least_squares():
 
 def test_plots_have_units_on_the_axes():
     t = np.linspace(0, 1, 50)
-    f = plot_velocity_fit(t, np.sin(t), np.sin(t) + 0.01, model_label="m")
+    f = plot_velocity_fit(t, np.sin(t), (np.sin(t) + 0.01, "m"))
     assert f.axes[0].get_ylabel() == "velocity w (rad/s)" and f.axes[1].get_xlabel() == "time t (s)"
     f = plot_sample_times(np.cumsum(np.full(50, 0.02)))
     assert "(ms)" in f.axes[0].get_ylabel() and "(ms)" in f.axes[1].get_xlabel()
@@ -160,7 +160,7 @@ def test_deg_units_and_unclipped_windup():
 
     t = np.linspace(0, 10, 500)
     w = 0.3 * np.sin(t)
-    f = plot_velocity_fit(t, w, w + 0.01, model_label="m", units="deg")
+    f = plot_velocity_fit(t, w, (w + 0.01, "m"), units="deg")
     assert f.axes[0].get_ylabel() == "velocity w (deg/s)"
     assert max(abs(y) for y in f.axes[0].get_ylim()) >= np.rad2deg(0.3)  # data drawn in deg/s
     th = np.ones((500, 2))
@@ -172,4 +172,4 @@ def test_deg_units_and_unclipped_windup():
     f = plot_input_torque(t, np.round(30 * np.sign(w) / 0.6) * 0.6)
     assert len(f.axes) == 3 and all(a.get_ylabel() == "torque u (N·m)" for a in f.axes)
     with pytest.raises(Exception, match="units"):
-        plot_velocity_fit(t, w, w, model_label="m", units="grad")
+        plot_velocity_fit(t, w, (w, "m"), units="grad")

@@ -20,10 +20,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as hst
 
 import peers_oracle as oracle
-from controllers.peers.canudas import CanudasCompensator
+from controllers.peers.canudas import CanudasCompensator, CanudasCompensatorConfig
 from controllers._cctl import ffi
 from controllers.peers.dob import DOB_ORDER_MAX, DisturbanceObserver
 from plant.errors import ParameterError
+from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforwardConfig
+from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforwardConfig
+from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimatorConfig
 
 SETTINGS = dict(deadline=None, derandomize=True, database=None, max_examples=12,
                 suppress_health_check=[HealthCheck.too_slow])
@@ -92,6 +95,11 @@ def _check_canudas(c, kw, wc, wm, wr, out, u, upd, th):
     return o
 
 
+
+def _canudas(Tc, **settings):
+    """A Canudas compensator with the flat ``settings`` (fields of :class:`CanudasCompensatorConfig`)."""
+    return CanudasCompensator(Tc=Tc, config=CanudasCompensatorConfig(**settings))
+
 CANUDAS_CASES = [
     dict(Tc=1e-3, Ts=1e-3, warmup=0, w_dead=0.0),
     dict(Tc=1e-3, Ts=5e-3, warmup=40, w_dead=0.02, ff_max=21.0),
@@ -102,7 +110,7 @@ CANUDAS_CASES = [
 
 @pytest.mark.parametrize("kw", CANUDAS_CASES)
 def test_canudas_methods_equal_the_oracle(kw):
-    c = CanudasCompensator(**kw)
+    c = _canudas(**kw)
     wc, wm, wr, u_in = _stream(1, 12000)
     out, u, upd, th = _run_canudas(c, wc, wm, wr, u_in)
     o = _check_canudas(c, kw, wc, wm, wr, out, u, upd, th)
@@ -122,7 +130,7 @@ def test_canudas_property_equal_to_oracle(seed, m, w_dead, warmup, ff_max, meas,
     kw = dict(Tc=1e-3, Ts=m * 1e-3, w_dead=w_dead, warmup=warmup, ff_max=ff_max,
               ff_input="measured" if meas else "reference",
               forgetting="directional" if directional else "exponential", lam=0.999 if directional else 0.995)
-    c = CanudasCompensator(**kw)
+    c = _canudas(**kw)
     wc, wm, wr, u_in = _stream(seed, 3000, bad=0.01)
     _check_canudas(c, kw, wc, wm, wr, *_run_canudas(c, wc, wm, wr, u_in))
 
@@ -146,7 +154,7 @@ def _drive(c, wc, wm, wr, u_in):
 
 def test_canudas_ops_table_equals_the_oracle_and_reports_theta():
     kw = dict(Tc=1e-3, Ts=4e-3, warmup=25, w_dead=0.01, ff_max=30.0)
-    c = CanudasCompensator(**kw)
+    c = _canudas(**kw)
     wc, wm, wr, u_in = _stream(7, 20000)
     out, upd, th = _drive(c, wc, wm, wr, u_in)
     assert np.isnan(th[~upd]).all()  # theta is reported exactly when the RLS was updated
@@ -155,7 +163,7 @@ def test_canudas_ops_table_equals_the_oracle_and_reports_theta():
 
 
 def test_canudas_struct_pickle_and_coef_setter():
-    c = CanudasCompensator(Tc=1e-3, Ts=2e-3, warmup=3, w_dead=0.0)
+    c = CanudasCompensator(Tc=1e-3, config=CanudasCompensatorConfig(Ts=2e-3, warmup=3, w_dead=0.0))
     assert c.C_OPS == "ctl_canudas_ops" and c.n_theta == 5 and ffi.string(c.ops.name) == b"canudas"
     for part in ("rls", "u_range", "w_range"):  # the parts' structs are fields of the compensator's struct
         assert getattr(c, part).cdata == ffi.addressof(c.cdata, part)
@@ -198,7 +206,7 @@ def test_canudas_struct_pickle_and_coef_setter():
 
 def test_canudas_refuses_an_overflowing_row_without_touching_the_rls():
     """Finite samples whose torque sum overflows: the row is refused and counted, the RLS untouched."""
-    c = CanudasCompensator(Tc=1e-3, Ts=3e-3, warmup=0, w_dead=0.0)
+    c = CanudasCompensator(Tc=1e-3, config=CanudasCompensatorConfig(Ts=3e-3, warmup=0, w_dead=0.0))
     for u_, w_ in [(0.0, 1.0), (1.7e308, 1.0), (1.7e308, 1.0)]:  # u_sum = inf over the interval
         c.observe(u_, w_)
     rls_before = bytearray(c.rls.struct_bytes())
@@ -292,9 +300,11 @@ def _adob_parts(u_max=math.inf, start=False):
     p = preset("paper")
     init = FrictionEstimate(J=p.J, tau=0.0, sigma=0.8 * p.sigma, Fc=0.8 * p.Fc, Fs=0.8 * p.Fs, offset=0.0,
                             Vs=p.Vs, delta=p.delta, J_alt=math.nan)
-    est = SlidingFrictionEstimator(p.Vs, p.delta, Tc=1e-3, initial=init, J_guess=p.J)
-    ff = RobustAdaptiveFeedforward(est, dt=1e-3, warmup=20, fade_in=0.05, max_rel_stderr=math.inf,
-                                   start=FeedforwardStart(init) if start else None)
+    est = SlidingFrictionEstimator(p.Vs, p.delta, Tc=1e-3, initial=init,
+                                   config=SlidingFrictionEstimatorConfig(initial_J=p.J))
+    ff = RobustAdaptiveFeedforward(est, dt=1e-3, start=FeedforwardStart(init) if start else None,
+                                   config=RobustAdaptiveFeedforwardConfig(warmup=20, fade_in=0.05,
+                                                                          max_rel_stderr=math.inf))
     return p, ff, DisturbanceObserver(J_n=0.9 * p.J, Tc=1e-3, omega_q=400.0, d_max=60.0)
 
 
@@ -370,8 +380,9 @@ def _eq4_parts(iv):
     from plant.friction import preset
 
     p = preset("paper")
-    ff = AdaptiveFrictionFeedforward(RegressionModel(p.Vs, p.delta), Ts=2e-3, dt=1e-3, warmup=50, iv=iv,
-                                     w_band=p.Vs if iv else 0.0)
+    ff = AdaptiveFrictionFeedforward(RegressionModel(p.Vs, p.delta), dt=1e-3,
+                                     config=AdaptiveFrictionFeedforwardConfig(Ts=2e-3, warmup=50, iv=iv,
+                                                                              w_band=p.Vs if iv else 0.0))
     return p, ff, DisturbanceObserver(J_n=0.9 * p.J, Tc=1e-3, omega_q=400.0, d_max=60.0)
 
 

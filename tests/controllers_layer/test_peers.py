@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from controllers.peers.canudas import CanudasCompensator
+from controllers.peers.canudas import CanudasCompensator, CanudasCompensatorConfig
 from loop_helpers import run_named
 from controllers.peers.dob import DisturbanceObserver
 from controllers.design.pi import design_pi
@@ -31,13 +31,13 @@ def test_canudas_recovers_its_own_model_in_closed_loop():
 
 
 def test_canudas_compensation_is_the_direction_dependent_map():
-    c = CanudasCompensator(Tc=1e-3, Ts=1e-3, warmup=0, J_guess=1.0, w_dead=0.0)
+    c = CanudasCompensator(Tc=1e-3, config=CanudasCompensatorConfig(Ts=1e-3, warmup=0, J_guess=1.0, w_dead=0.0))
     assert c.compensate(0.5, 0.5) == 0.0  # nothing before the first estimate
     c.coef = (10.0, 6.0, 8.0, 5.0)
     assert c.compensate(0.5, -1.0) == pytest.approx(10.0 + 8.0 * 0.5)
     assert c.compensate(-0.5, 1.0) == pytest.approx(-6.0 - 5.0 * 0.5)
     assert c.compensate(0.0, 1.0) == 0.0
-    c2 = CanudasCompensator(Tc=1e-3, ff_input="reference", ff_max=12.0)
+    c2 = CanudasCompensator(Tc=1e-3, config=CanudasCompensatorConfig(ff_input="reference", ff_max=12.0))
     c2.coef = (10.0, 6.0, 8.0, 5.0)
     assert c2.compensate(-0.5, 1.0) == 12.0  # at the reference velocity, bounded
 
@@ -77,6 +77,6 @@ def test_peer_settings_are_validated():
     with pytest.raises(ParameterError, match="order"):
         DisturbanceObserver(J_n=1.0, Tc=1e-3, order=0)
     with pytest.raises(ParameterError, match="multiple"):
-        CanudasCompensator(Tc=1e-3, Ts=0.0015)
+        CanudasCompensator(Tc=1e-3, config=CanudasCompensatorConfig(Ts=0.0015))
     with pytest.raises(ParameterError, match="ff_input"):
-        CanudasCompensator(Tc=1e-3, ff_input="predicted")
+        CanudasCompensator(Tc=1e-3, config=CanudasCompensatorConfig(ff_input="predicted"))

@@ -14,7 +14,7 @@ from adaptive_ff.identification.stribeck_fit import fit_stribeck
 from controllers.experiments.compare import compare
 from controllers.design.loop_analysis import analyse_design
 from controllers.design.pi import design_pi
-from controllers.report.html import compare_report, figure_png, identify_report, report_html, write_report
+from controllers.report.html import ReportPage, compare_report, figure_png, identify_report, report_html, write_report
 from plant import bandlimited_noise, preset
 
 P = preset("paper")
@@ -63,9 +63,10 @@ def test_pieces_stribeck_design_comparison_tables(tmp_path):
     fig.add_subplot().plot([0, 1], [0, 1])
     png_path = tmp_path / "x.png"
     fig.savefig(png_path)
-    html = report_html(title="T & co", stribeck=fit, design=a, comparison=comp,
-                       tables=[("extra", ["a", "b"], [["row", 1.23456789]])],
-                       figures=[("from Figure", fig), ("from path", png_path), ("from bytes", png_path.read_bytes())])
+    html = report_html(ReportPage(title="T & co", stribeck=fit, design=a, comparison=comp,
+                                  tables=[("extra", ["a", "b"], [["row", 1.23456789]])],
+                                  figures=[("from Figure", fig), ("from path", png_path),
+                                           ("from bytes", png_path.read_bytes())]))
     assert "<title>T &amp; co</title>" in html
     assert f"<td>{fit.Vs:.6g}</td>" in html and f">{a.design.Kp:.6g}</td>" in html
     assert f">{a.bandwidth:.5g}</td>" in html

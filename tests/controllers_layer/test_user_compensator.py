@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from controllers import CompareOptions, CompensatorError, ModeOptions, compare, design_pi, run_closed_loop, run_mode
-from controllers.simulation.closed_loop import run_own
+from controllers.simulation.closed_loop import MeasurementSettings, run_own
 from controllers.simulation.compensators import build_mode
 from plant import ParameterError, preset
 from plant.excitation import multisine_reference
@@ -42,7 +42,9 @@ def test_the_package_compensator_through_python_equals_the_direct_run():
     direct = run_mode(P, REF, "adaptive", OPTS, rng=np.random.default_rng(1))
     plant, ctrl, comp = build_mode(P, "adaptive", OPTS)
     mine = Through(comp)
-    r = run_closed_loop(plant, ctrl, mine, REF, noise_std=1e-3, rng=np.random.default_rng(1), sensor_gate=False)
+    r = run_closed_loop(plant, ctrl, mine, REF,
+                        measurement=MeasurementSettings(noise_std=1e-3, rng=np.random.default_rng(1),
+                                                        sensor_gate=False))
     for k in ("w", "w_meas", "u", "u_ff"):
         np.testing.assert_array_equal(getattr(r, k), getattr(direct, k))
     assert r.mode == "Through" and r.info["n_calls"] == REF.t.size

@@ -15,7 +15,7 @@ from scipy.integrate import solve_ivp
 
 from controllers.design.pi import design_pi
 from controllers.simulation.batch import run_batch
-from controllers.simulation.closed_loop import plant_table, run_closed_loop, run_mode
+from controllers.simulation.closed_loop import MeasurementSettings, plant_table, run_closed_loop, run_mode
 from controllers.simulation.compensators import ModeOptions, TrueFriction
 from plant import (AsymmetricParams, FrictionDrift, FrictionRipple, JointParams, KarnoppParams, LuGreParams,
                    ParameterError, PayloadStep, load_plant, multisine_reference, plant_from_dict, plant_to_dict,
@@ -193,7 +193,8 @@ def test_ripple_at_constant_velocity_has_n_periods_per_revolution_and_amplitude_
     d = design_pi(p.J, crossover=40.0, phase_margin=60.0, Tc=DT)
     from controllers.design.pi import PIController
 
-    r = run_closed_loop(plant, PIController(Kp=d.Kp, Ki=d.Ki, Tc=DT), TrueFriction(), reference, sensor_gate=False)
+    r = run_closed_loop(plant, PIController(Kp=d.Kp, Ki=d.Ki, Tc=DT), TrueFriction(), reference,
+                        measurement=MeasurementSettings(sensor_gate=False))
     q = np.concatenate([[0.0], np.cumsum(r.w[:-1]) * DT])  # the position the friction of sample k sits at
     keep = t > 0.5
     assert np.max(np.abs(r.w[keep] - 2.0)) < 0.01  # constant velocity
