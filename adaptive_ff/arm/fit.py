@@ -29,8 +29,10 @@ a parameter's interval is its estimate ``± t`` times the bootstrap standard err
 number of refits). A joint's friction intervals are widened to cover that band around the estimates at every
 ``(V_s, delta)`` of the grid the profile accepts; those accepted values are the intervals of ``V_s`` and
 ``delta``: the grid points whose profiled weighted residual sum of squares is within the 95 % likelihood-ratio
-bound of the best, the residuals' correlation counted by the block length. The friction lag ``tau`` (eq. 1) is not
-identified (NaN).
+bound of the best, the residuals' correlation counted by the block length.
+
+Then each joint's friction lag ``tau`` (eq. 1) by the package's output-error fit on its rigid-body-removed record,
+where the log determines it, and each joint's velocity noise (:mod:`adaptive_ff.arm.lag`).
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ from plant.errors import ParameterError, SignalError
 from plant.stribeck_map import stribeck_shape
 
 from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states
+from adaptive_ff.arm.lag import LAG_BOOTSTRAP, JointLag, joint_lag, lag_records, velocity_noise
 from adaptive_ff.arm.result import ArmIdentification, ArmJoint
 from adaptive_ff.arm.robot import ArmModel
 
@@ -283,7 +286,7 @@ def _check(log: ArmLog, arm: ArmModel, n_bootstrap, rigid_body: str) -> None:
     arm.check_positions(log.q, log.source)
 
 
-def _joint_warnings(arm, j, q, dq, keep_j, Vs, rel) -> list:
+def _joint_warnings(arm, j, q, dq, keep_j, Vs, rel, lag) -> list:
     """What the log does not determine for joint ``j``: IdentificationWarning objects (the codes of
     :mod:`adaptive_ff.identification.plausibility`, so that ``design --from`` reads them as it reads identify's)."""
     from adaptive_ff.identification.plausibility import IdentificationWarning as W
@@ -305,7 +308,9 @@ def _joint_warnings(arm, j, q, dq, keep_j, Vs, rel) -> list:
         if rel[k] > 0.5:
             out.append(W("identifiability", k, f"{k} of joint {name!r} is poorly determined (95 % half-width "
                          f"{100 * rel[k]:.0f} % of the value)"))
-    out.append(W("method", "tau", "tau (the friction lag, eq. 1) is not identified by identify-arm: null"))
+    if lag.reason is not None:
+        out.append(W("method", "tau", f"no friction lag (tau, eq. 1) for joint {name!r}: {lag.reason}; "
+                     "tau is null"))
     return out
 
 
@@ -320,7 +325,8 @@ def _sign_warnings(name: str, params: dict) -> list:
 
 @threadpool_limits.wrap(limits=1, user_api="blas")  # the many small products of the fits: one thread each
 def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, n_bootstrap: int = 200,
-                 seed: int = 0, rigid_body: str = "fit", progress: bool | None = False) -> ArmIdentification:
+                 seed: int = 0, rigid_body: str = "fit", progress: bool | None = False,
+                 lag: bool = True, lag_bootstrap: int = LAG_BOOTSTRAP) -> ArmIdentification:
     """Identify the rigid body and every joint's friction of ``arm`` from ``log`` (module docstring: the method).
 
     Parameters
@@ -339,15 +345,21 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
         ``"fit"``: the base parameters identified with the friction (the URDF's inertias only set which
         combinations exist); ``"urdf"``: the URDF's inertias used as given, only the friction fitted.
     progress : bool or None, keyword-only
-        Progress bars of the Stribeck profile and the bootstrap on stderr (tqdm): True, False (default), None
-        (only on a terminal).
+        Progress bars of the Stribeck profile, the bootstrap and the lag fits on stderr (tqdm): True, False
+        (default), None (only on a terminal).
+    lag : bool, keyword-only
+        Identify each joint's friction lag ``tau`` by output error (default True; :mod:`adaptive_ff.arm.lag`);
+        False: ``tau`` NaN with a warning (the costliest stage skipped).
+    lag_bootstrap : int, keyword-only
+        Refits of each lag fit's bootstrap (>= 2; default :data:`adaptive_ff.arm.lag.LAG_BOOTSTRAP`).
 
     Returns
     -------
     ArmIdentification
         Per joint ``J`` (its own diagonal inertia ``M_jj`` at the log's mean configuration, from the identified
-        base parameters), ``Fc, Fs, Vs, delta, sigma, offset`` with 95 % intervals and warnings, ``tau`` NaN
-        (the lag is not identified here); the base parameters with intervals and the condition number.
+        base parameters), ``Fc, Fs, Vs, delta, sigma, offset``, ``tau`` (NaN where the log does not determine it)
+        with 95 % intervals and warnings, the velocity noise; the base parameters with intervals and the condition
+        number.
 
     Raises
     ------
@@ -358,6 +370,8 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
         or ``rigid_body`` invalid; a joint with no row fast enough to fit.
     """
     _check(log, arm, n_bootstrap, rigid_body)
+    if isinstance(lag_bootstrap, bool) or not isinstance(lag_bootstrap, (int, np.integer)) or lag_bootstrap < 2:
+        raise ParameterError(f"lag_bootstrap must be an integer >= 2, got {lag_bootstrap!r}")
     t, q, dq, ddq, tau = filtered_states(log, cutoff)
     base = arm.base_parameters()
     Y = arm.regressor(q, dq, ddq)
@@ -386,10 +400,13 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     half = boot.half_width(0.95)
     a_J = _inertia_rows(arm, base, q.mean(axis=0))
     r = Yb.shape[2]
+    J_all = a_J @ (x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf))
+    lags = _lags(log, arm, (base, x[:r], rigid_body), J_all, Vs, delta, cutoff, (lag, lag_bootstrap, seed, progress))
+    noise = velocity_noise(log)
     joints = []
     for j in range(arm.n):
         joints.append(_joint(arm, j, x, half, boot, a_J, r, base, (Vs, delta, table, rss, int(prob.keep.sum())),
-                             (q, dq, keep_j)))
+                             (q, dq, keep_j), (lags[j], noise[j])))
     scaled = A[prob.keep] * np.tile(prob.w, prob.m)[prob.keep][:, None]
     norm = np.linalg.norm(scaled, axis=0)
     scaled = scaled[:, norm > 0] / norm[norm > 0]  # a zero column (Fs of a joint without Stribeck term) is no fit
@@ -408,6 +425,29 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
                              warnings=tuple(_arm_warnings(cond)))
 
 
+def _lags(log, arm, rb, J, Vs, delta, cutoff, settings) -> list:
+    """Every joint's :class:`adaptive_ff.arm.lag.JointLag` (``settings``: ``(lag, lag_bootstrap, seed,
+    progress)``; ``rb``: ``(base, beta, rigid_body)``)."""
+    from tqdm.auto import tqdm
+
+    on, n_boot, seed, progress = settings
+    if not on:
+        return [JointLag(np.nan, (np.nan, np.nan), "not asked for (lag=False; identify-arm --no-lag)")] * arm.n
+    base, beta, mode = rb
+    theta = np.zeros(11 * arm.n)
+    if mode == "fit":
+        theta[base.independent] = beta  # the dependent columns are spanned by the independent ones
+    else:
+        theta = arm.theta_urdf
+    t, u, w = lag_records(log, arm, lambda Y: Y @ theta, J, cutoff)
+    out = []
+    for j in tqdm(range(arm.n), desc="arm friction lag", unit="joint", leave=False,
+                  disable=(None if progress is None else not progress)):
+        out.append(joint_lag(t, u[:, j], w[:, j], float(Vs[j]), float(delta[j]), n_bootstrap=n_boot,
+                             seed=seed + j))
+    return out
+
+
 def _arm_warnings(cond: float) -> list:
     """A conditioning warning when the column-scaled regressor's condition number exceeds ``COND_WARN``."""
     from adaptive_ff.identification.plausibility import IdentificationWarning
@@ -420,7 +460,7 @@ def _arm_warnings(cond: float) -> list:
                                   "once, wider ranges) separates them")]
 
 
-def _joint(arm, j, x, half, boot, a_J, r, base, profile, data) -> ArmJoint:
+def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> ArmJoint:
     """Joint ``j``'s parameters, intervals, standard errors and warnings from the fit."""
     from adaptive_ff.identification.covariance import bootstrap_t_quantile
 
@@ -448,9 +488,11 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data) -> ArmJoint:
     else:  # no Stribeck term: Fs = Fc
         p["Fs"], hw["Fs"], std["Fs"], lo["Fs"], hi["Fs"] = p["Fc"], hw["Fc"], std["Fc"], lo["Fc"], hi["Fc"]
         vs_iv = d_iv = (np.nan, np.nan)
-    params = {"J": J, **p, "Vs": float(Vs[j]), "delta": float(delta[j]) if stribeck else np.nan, "tau": np.nan}
+    lag, noise = lag_noise
+    params = {"J": J, **p, "Vs": float(Vs[j]), "delta": float(delta[j]) if stribeck else np.nan, "tau": lag.tau}
     interval = {k: (lo[k], hi[k]) for k in ("J", *_FRICTION)}
-    interval.update({"Vs": vs_iv, "delta": d_iv, "tau": (np.nan, np.nan)})
+    interval.update({"Vs": vs_iv, "delta": d_iv, "tau": lag.interval95})
     rel = {k: hw[k] / max(abs(p[k]), 1e-12) for k in ("Fc", "sigma")}
-    warn = _joint_warnings(arm, j, q, dq, keep_j, Vs[j], rel) + _sign_warnings(arm.names[j], params)
-    return ArmJoint(name=arm.names[j], params=params, interval95=interval, std=std, warnings=tuple(warn))
+    warn = _joint_warnings(arm, j, q, dq, keep_j, Vs[j], rel, lag) + _sign_warnings(arm.names[j], params)
+    return ArmJoint(name=arm.names[j], params=params, interval95=interval, std=std, warnings=tuple(warn),
+                    noise_std=float(noise), lag_info=lag.info or {})
