@@ -20,6 +20,8 @@ from adaptive_ff.arm.robot import load_urdf  # noqa: E402
 from adaptive_ff.arm.simulate import JointFriction, SensorNoise, simulate_arm  # noqa: E402
 from controllers.cli.main import main  # noqa: E402
 
+pytestmark = pytest.mark.slow  # output-error fits of three joints
+
 ROOT = Path(__file__).resolve().parents[2]
 URDF = ROOT / "examples" / "planar3.urdf"
 TAU = 0.01
