@@ -63,7 +63,8 @@ def run(args) -> int:
     for d in result.designs:
         print(f"  {d.name}: J_design {d.J_design:.6g} kg·m², PI Kp {d.Kp:.6g} N·m·s/rad, Ki {d.Ki:.6g} N·m/rad, "
               f"u_max {d.u_max:g} N·m, stick band {d.settings['stick_band']:.3g} rad/s "
-              f"({'3 x its noise estimate' if d.noise_source == 'identification' else '3 x --noise'})")
+              f"({'3 x its noise estimate' if d.noise_source == 'identification' else '3 x --noise'})"
+              + ("" if not args.start else ", start map" if d.settings["start"] else ", no start map (tau null)"))
     print(result.summary())
     if "figures" in out:
         print("figures: " + ", ".join(out["figures"]))
@@ -133,7 +134,7 @@ def register(sub) -> None:
                    help="position amplitude of each joint's multisine reference (default 0.5 rad)")
     c.add_argument("--start", action="store_true",
                    help="start the adaptive modes' feedforward from each joint's identified map with its lag "
-                        "(export-c --start; every entry needs a tau)")
+                        "(export-c --start) where the joint's entry has a tau")
     c.add_argument("--json", action="store_true", help="print the result as JSON")
     c.add_argument("--plot", metavar="DIR", default=None, help="write the eta-per-joint figure into DIR")
     c.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -88,8 +88,9 @@ class CompareArmOptions:
     decimate : int
         Keep every ``decimate``-th sample of the recorded signals (the metrics use every sample), default 10.
     start : bool
-        Start the adaptive modes' feedforward from the identified map with its lag (``export-c --start``: every
-        joint's entry needs a ``tau``), default False: off until the estimator's first trusted estimate.
+        Start the adaptive modes' feedforward from the identified map with its lag (``export-c --start``) on every
+        joint whose entry has a ``tau`` (the others wait, as without it; ``JointLoopDesign.settings["start"]`` says
+        which), default False: off until the estimator's first trusted estimate.
 
     Raises
     ------
@@ -247,12 +248,13 @@ def joint_designs(identification, arm, options: CompareArmOptions) -> list:
                                      Tc=options.Tc, Ts=options.Ts)
         fr = s["joint"]
         level = max(fr.get("Fc", 0.0), fr.get("Fs", 0.0))
-        noise, source = read_identified(identification, name).noise_std, "identification"
+        ident = read_identified(identification, name)
+        noise, source = ident.noise_std, "identification"
         if noise is None or not (math.isfinite(noise) and noise >= 0.0):
             noise, source = options.noise_std, "options"
         settings = {"u_max": float(u_max[j]), "Kp": s["Kp"], "Ki": s["Ki"], "Tc": options.Tc, "Ts": options.Ts,
                     "stick_band": 3.0 * noise, "omega_r": residual_cutoff(s["J_design"], noise, options.Tc, level),
-                    "start": bool(options.start)}
+                    "start": bool(options.start) and math.isfinite(ident.params.get("tau", math.nan))}
         o = compensator_from_file(identification, arm_joint=name, **settings)[1]["options"]
         est = FrictionEstimate(J=s["J_design"], tau=0.0, sigma=fr.get("sigma", 0.0), Fc=fr.get("Fc", 0.0),
                                Fs=fr.get("Fs", 0.0), offset=0.0, Vs=o.Vs, delta=o.delta, J_alt=math.nan)
