@@ -126,3 +126,21 @@ def test_lag_bootstrap_is_checked(arm):
     log = simulate_arm(arm, FRICTION, duration=2.0, seed=3, substeps=1, armature=ARMATURE)
     with pytest.raises(ParameterError, match="lag_bootstrap"):
         identify_arm(log, arm, lag_bootstrap=1)
+
+
+def test_compare_arm_designs_take_the_noise_and_start_per_joint(arm, result, arm_json, tmp_path):
+    """compare-arm's loops: the stick band three times each entry's noise estimate (``--noise`` where an entry has
+    none), and with ``start`` a start map on the joints that have a lag only."""
+    from controllers.experiments.compare_arm import CompareArmOptions, joint_designs
+
+    d = json.loads(arm_json.read_text())
+    d["joints"][1]["tau"] = None  # the elbow without a lag
+    del d["joints"][2]["excitation"]  # the wrist without a noise estimate
+    path = tmp_path / "mixed.json"
+    path.write_text(json.dumps(d))
+    designs = joint_designs(path, arm, CompareArmOptions(start=True, noise_std=1e-3, u_max=50.0))
+    assert [x.settings["start"] for x in designs] == [True, False, True]
+    assert [x.noise_source for x in designs] == ["identification", "identification", "options"]
+    assert designs[0].settings["stick_band"] == 3.0 * result.joints[0].noise_std
+    assert designs[2].settings["stick_band"] == 3.0 * 1e-3
+    assert designs[0].options.start is not None and designs[1].options.start is None
