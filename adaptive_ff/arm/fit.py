@@ -385,8 +385,8 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     SignalError
         The log's joint count differs from the URDF's; irregular time stamps; too few rows.
     ParameterError
-        A position beyond the URDF's limits (file, joint, sample and value named); ``cutoff``, ``n_bootstrap``
-        or ``rigid_body`` invalid; a joint with no row fast enough to fit.
+        A position beyond the URDF's limits (file, joint, sample and value named); ``cutoff``, ``n_bootstrap``,
+        ``lag_bootstrap`` or ``rigid_body`` invalid; a joint with no row fast enough to fit.
     """
     _check(log, arm, n_bootstrap, rigid_body)
     if isinstance(lag_bootstrap, bool) or not isinstance(lag_bootstrap, (int, np.integer)) or lag_bootstrap < 2:
