@@ -60,6 +60,8 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=40.0, help="length of each closed-loop run (s, default 40)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the references and the noise (default 0)")
     ap.add_argument("--id-seed", dest="id_seed", type=int, default=1, help="seed of the identification log")
+    ap.add_argument("--start", action="store_true",
+                    help="start the adaptive modes from each joint's identified map and lag (compare-arm --start)")
     args = ap.parse_args(argv)
     t0 = time.process_time()
     with tempfile.TemporaryDirectory() as tmp:
@@ -67,7 +69,7 @@ def main(argv=None) -> int:
         arm = identify(path, seed=args.id_seed)
         t1 = time.process_time()
         res = compare_arm(ArmPlant(arm, friction(), armature=ARMATURE), path, duration=args.duration,
-                          seed=args.seed, modes=ARM_MODES)
+                          seed=args.seed, modes=ARM_MODES, start=args.start)
     t2 = time.process_time()
     print(f"compare-arm on the simulated TX40 (6 joints): identification log seed {args.id_seed}, closed loop "
           f"{args.duration:g} s seed {args.seed}")

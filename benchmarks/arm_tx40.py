@@ -19,7 +19,8 @@ viscous ``sigma`` and Coulomb ``Fc`` with their 95 % intervals, beside
   ``dq_lim_def`` left out, columns of squared norm below 0.001 dropped, ordinary least squares; the ``±`` is
   FIGAROH's ``relative_stdev`` (the covariance's standard deviation, in % of the value).
 
-Then the CPU and wall time of the package's identification (the URDF, the log, the fit, the 200-refit bootstrap).
+Then each joint's friction lag and velocity noise, and the CPU and wall time of the package's identification (the
+URDF, the log, the fit, the 200-refit bootstrap, the lag fits), and of the same with ``--no-lag``.
 """
 
 from __future__ import annotations
@@ -51,10 +52,11 @@ DQ_LIM = (0.05009095, 0.05009095, 0.07504916, 0.0715585, 0.05585054, 0.12217305)
 
 
 def identify(bootstrap: int = 200, seed: int = 0, cutoff: float = CUTOFF_ARM, progress: bool | None = None,
-             motor6_removed: bool = False):
+             motor6_removed: bool = False, lag: bool = True):
     """``(ArmIdentification, cpu s, wall s)`` of the TX40 log as ``adaptive-ff identify-arm --cutoff CUTOFF``
     runs it; ``motor6_removed``: the reference values' terms of the motor of joint 6 (``Iam6, fvm6, fsm6`` on
-    ``ddq5 + ddq6``, ``dq5 + dq6``, ``sgn(dq5 + dq6)``) subtracted from the torques of joints 5 and 6 first."""
+    ``ddq5 + ddq6``, ``dq5 + dq6``, ``sgn(dq5 + dq6)``) subtracted from the torques of joints 5 and 6 first;
+    ``lag``: with the friction lag fits (``identify-arm``'s default; False: ``--no-lag``)."""
     from adaptive_ff.arm.arm_log import read_arm_log
     from adaptive_ff.arm.fit import identify_arm
     from adaptive_ff.arm.robot import load_urdf
@@ -67,7 +69,7 @@ def identify(bootstrap: int = 200, seed: int = 0, cutoff: float = CUTOFF_ARM, pr
     if motor6_removed:
         log = _without_motor6(log, cutoff)
     res = gear.with_coupling_warnings(identify_arm(log, arm, cutoff=cutoff, n_bootstrap=bootstrap, seed=seed,
-                                                   progress=progress))
+                                                   progress=progress, lag=lag))
     return res, time.process_time() - c0, time.perf_counter() - w0
 
 
@@ -196,7 +198,7 @@ def _sensitivity(cutoffs, bootstrap: int, seed: int) -> None:
     print(f"\nsigma / Fc per cutoff ({bootstrap} bootstrap refits; S: a Stribeck term kept, Fs then Stribeck's)")
     print(f"{'cutoff':>7}" + "".join(f"{f'joint_{i + 1}':>16}" for i in range(6)) + f"{'CPU [s]':>9}")
     for c in cutoffs:
-        res, cpu, _ = identify(bootstrap, seed, cutoff=c, progress=False)
+        res, cpu, _ = identify(bootstrap, seed, cutoff=c, progress=False, lag=False)
         cells = [f"{j.params['sigma']:.3g} / {j.params['Fc']:.3g}{' S' if np.isfinite(j.params['Vs']) else ''}"
                  for j in res.joints]
         print(f"{c:>7g}" + "".join(f"{x:>16}" for x in cells) + f"{cpu:>9.1f}")
@@ -204,7 +206,7 @@ def _sensitivity(cutoffs, bootstrap: int, seed: int) -> None:
 
 
 def _motor6(bootstrap: int, seed: int) -> None:
-    res, _, _ = identify(bootstrap, seed, motor6_removed=True, progress=False)
+    res, _, _ = identify(bootstrap, seed, motor6_removed=True, progress=False, lag=False)
     print(f"\nthe reference motor-6 terms subtracted from joints 5 and 6 first ({bootstrap} bootstrap refits):")
     for i in (4, 5):
         j = res.joints[i]
@@ -231,8 +233,15 @@ def main(argv=None) -> None:
                                          for j, r in zip(res.joints, REFERENCE["offset"])))
     print(f"rows per joint {res.info['rows']}, residual rms (N·m) "
           + ", ".join(f"{v:.3g}" for v in res.info["rms"]) + f", cond {res.cond:.3g}")
+    print("friction lag tau [95 %] (ms), velocity noise (mrad/s): " + "; ".join(
+        f"{j.name} " + (f"{1e3 * j.params['tau']:.3g} [{1e3 * j.interval95['tau'][0]:.3g}, "
+                        f"{1e3 * j.interval95['tau'][1]:.3g}]" if np.isfinite(j.params["tau"]) else "null")
+        + f", {1e3 * j.noise_std:.3g}" for j in res.joints))
     print(f"identify-arm on 45000 samples x 6 joints: {cpu:.1f} s CPU, {wall:.1f} s wall "
-          f"({args.bootstrap} bootstrap refits)" + ("" if fig is None else f"; FIGAROH replay {fig_cpu:.1f} s CPU"))
+          f"({args.bootstrap} bootstrap refits, the lag fits {sum(1 for j in res.joints if j.lag_info)} joints)"
+          + ("" if fig is None else f"; FIGAROH replay {fig_cpu:.1f} s CPU"))
+    _, cpu0, wall0 = identify(args.bootstrap, args.seed, progress=False, lag=False)
+    print(f"the same with --no-lag: {cpu0:.1f} s CPU, {wall0:.1f} s wall")
     if not args.quick:
         _sensitivity((20.0, 40.0, 80.0, 150.0), 20, args.seed)
         _motor6(50, args.seed)

@@ -14,7 +14,16 @@ friction for given ``V_s, delta``; those are profiled per joint on a grid (coord
 two sweeps), the best grid point refined in ``V_s`` by a bounded scalar search. A joint keeps the Stribeck term
 only where it lowers the weighted residual beyond the 95 % likelihood-ratio bound (else ``Fs = Fc``).
 
-The rows come from the zero-phase filtered, decimated log (:func:`adaptive_ff.arm.arm_log.filtered_states`).
+The rows come from the zero-phase filtered, decimated log (:func:`adaptive_ff.arm.arm_log.filtered_states`): the
+torque passes the filter of the positions (Gautier's parallel filtering), so that the rigid body sees the same
+filter on both sides. The friction columns take the filtered velocity, while the filtered torque holds the
+filtered friction ``F(w)``, which differs from ``F`` of the filtered velocity where the map is curved (the Stribeck
+hump, crossed in tens of milliseconds): over 8 arms of ``benchmarks/arm_coverage.py`` (24 joint fits) ``Fc`` came
+out 0.6 % high and ``sigma`` 1.2 % low on average. The torque as logged removes that (-0.15 %, -0.1 %) but not the
+rigid body's own mismatch: the fast response of a joint's torque to the other joints' reversals, which the filtered
+accelerations lack, moved a gravity parameter of ``docs/your_arm.md``'s arm 4 % (1.164 against 1.12, outside its
+interval). Filtering the friction columns as the torque is filtered would keep both; it is not done.
+
 Samples where a joint moves slower than 2 % of its 99th-percentile speed, or lie within one cutoff period of one
 of its velocity reversals, are left out of that joint's rows (the sign of the velocity is not known there, and
 the filter spreads the friction's jump at a reversal over that period). Each joint's rows are weighted by the
@@ -27,10 +36,13 @@ resampled together in blocks of consecutive samples, the block by the Politis-Wh
 at low speed, which depends on the motion, counts as well as the noise), refitted at the profiled ``V_s, delta``;
 a parameter's interval is its estimate ``± t`` times the bootstrap standard error (Student-t quantile of the
 number of refits). A joint's friction intervals are widened to cover that band around the estimates at every
-``(V_s, delta)`` of the grid the profile accepts; those accepted values are the intervals of ``V_s`` and
-``delta``: the grid points whose profiled weighted residual sum of squares is within the 95 % likelihood-ratio
-bound of the best, the residuals' correlation counted by the block length. The friction lag ``tau`` (eq. 1) is not
-identified (NaN).
+``(V_s, delta)`` of the grid the profile accepts and, where accepted, of the model without the Stribeck term
+(``Fs = Fc``), whether the joint keeps its Stribeck term or not; the accepted grid values are the intervals of
+``V_s`` and ``delta`` (also where the term is dropped and ``V_s`` itself is NaN): the grid points whose profiled weighted residual sum of squares is within the 95 % likelihood-ratio
+bound of the best, the residuals' correlation counted by the block length.
+
+Then each joint's friction lag ``tau`` (eq. 1) by the package's output-error fit on its rigid-body-removed record,
+where the log determines it, and each joint's velocity noise (:mod:`adaptive_ff.arm.lag`).
 """
 
 from __future__ import annotations
@@ -42,6 +54,7 @@ from plant.errors import ParameterError, SignalError
 from plant.stribeck_map import stribeck_shape
 
 from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states
+from adaptive_ff.arm.lag import LAG_BOOTSTRAP, JointLag, joint_lag, lag_records, velocity_noise
 from adaptive_ff.arm.result import ArmIdentification, ArmJoint
 from adaptive_ff.arm.robot import ArmModel
 
@@ -166,8 +179,9 @@ def _grids(dq, keep_j, vmin):
 
 def _profile(prob: _Problem, grids, bound: float, progress=False):
     """Coordinate descent over the joints' ``(Vs, delta)`` grids (two sweeps); ``(Vs, delta, table)`` with
-    ``table[j]`` the ``(Vs, delta, weighted RSS, estimate)`` of joint ``j``'s last sweep. A joint keeps no Stribeck term
-    (``Vs`` NaN: ``Fs = Fc``) unless its best grid point lowers the weighted RSS by more than ``bound``."""
+    ``table[j]`` the ``(Vs, delta, weighted RSS, estimate)`` of joint ``j``'s last sweep, the model without its Stribeck
+    term among them (``Vs, delta`` NaN). A joint keeps no Stribeck term (``Vs`` NaN: ``Fs = Fc``) unless its best grid
+    point lowers the weighted RSS by more than ``bound``."""
     from tqdm.auto import tqdm
 
     Vs = np.full(prob.n, np.nan)
@@ -179,7 +193,7 @@ def _profile(prob: _Problem, grids, bound: float, progress=False):
         for j in range(prob.n):
             Vs_off = Vs.copy()
             Vs_off[j] = np.nan
-            rss_off = prob.fit(Vs_off, delta)[1]
+            x_off, rss_off = prob.fit(Vs_off, delta)
             rows = []
             for d in DELTA_GRID:
                 for v in grids[j]:
@@ -188,7 +202,7 @@ def _profile(prob: _Problem, grids, bound: float, progress=False):
                     x_try, rss_try = prob.fit(Vs_try, d_try)
                     rows.append((v, d, rss_try, x_try))
             best = _refine(prob, Vs, delta, j, min(rows, key=lambda x: x[2]), grids[j])
-            rows.append(best)
+            rows += [best, (np.nan, np.nan, rss_off, x_off)]  # the last: no Stribeck term (Fs = Fc)
             on = rss_off - best[2] > bound
             Vs[j], delta[j] = (best[0], best[1]) if on else (np.nan, 1.0)
             table[j] = rows
@@ -250,13 +264,21 @@ def _bootstrap(prob: _Problem, A, x, n_boot: int, seed: int, progress=False):
 
 
 def _profile_interval(table_j, rss_min: float, n_rows: int, block: int, cols: slice) -> tuple:
-    """The ``(Vs range, delta range, (low, high) of the estimates[cols])`` over the grid points within the 95 %
-    likelihood-ratio bound of the best (the residuals' correlation counted by the block length)."""
+    """The ``(Vs range, delta range, (low, high) of the estimates[cols], estimates)`` over the grid points within the
+    95 % likelihood-ratio bound of the best (the residuals' correlation counted by the block length); ``estimates``
+    the accepted rows' whole estimates (k, p). The model without a Stribeck term (``Vs`` NaN) counts with
+    ``Fs = Fc``; the ranges of ``Vs`` and ``delta`` are NaN where no grid point is inside."""
     bound = rss_min * (1.0 + 3.84 * block / max(n_rows, 1))
     inside = [row for row in table_j if row[2] <= bound]
-    vs, ds = [r[0] for r in inside], [r[1] for r in inside]
+    vs = [r[0] for r in inside if np.isfinite(r[0])]
+    ds = [r[1] for r in inside if np.isfinite(r[0])]
     xs = np.array([r[3][cols] for r in inside])
-    return (min(vs), max(vs)), (min(ds), max(ds)), (xs.min(axis=0), xs.max(axis=0))
+    off = np.array([not np.isfinite(r[0]) for r in inside])
+    xs[off, 1] = xs[off, 0]  # Fs = Fc without the Stribeck term
+    nan = (np.nan, np.nan)
+    return ((min(vs), max(vs)) if vs else nan), ((min(ds), max(ds)) if ds else nan), (xs.min(axis=0),
+                                                                                        xs.max(axis=0)), \
+        np.array([r[3] for r in inside])
 
 
 def _inertia_rows(arm: ArmModel, base, q_mean) -> np.ndarray:
@@ -283,7 +305,7 @@ def _check(log: ArmLog, arm: ArmModel, n_bootstrap, rigid_body: str) -> None:
     arm.check_positions(log.q, log.source)
 
 
-def _joint_warnings(arm, j, q, dq, keep_j, Vs, rel) -> list:
+def _joint_warnings(arm, j, q, dq, keep_j, Vs, rel, lag) -> list:
     """What the log does not determine for joint ``j``: IdentificationWarning objects (the codes of
     :mod:`adaptive_ff.identification.plausibility`, so that ``design --from`` reads them as it reads identify's)."""
     from adaptive_ff.identification.plausibility import IdentificationWarning as W
@@ -305,7 +327,9 @@ def _joint_warnings(arm, j, q, dq, keep_j, Vs, rel) -> list:
         if rel[k] > 0.5:
             out.append(W("identifiability", k, f"{k} of joint {name!r} is poorly determined (95 % half-width "
                          f"{100 * rel[k]:.0f} % of the value)"))
-    out.append(W("method", "tau", "tau (the friction lag, eq. 1) is not identified by identify-arm: null"))
+    if lag.reason is not None:
+        out.append(W("method", "tau", f"no friction lag (tau, eq. 1) for joint {name!r}: {lag.reason}; "
+                     "tau is null"))
     return out
 
 
@@ -320,7 +344,8 @@ def _sign_warnings(name: str, params: dict) -> list:
 
 @threadpool_limits.wrap(limits=1, user_api="blas")  # the many small products of the fits: one thread each
 def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, n_bootstrap: int = 200,
-                 seed: int = 0, rigid_body: str = "fit", progress: bool | None = False) -> ArmIdentification:
+                 seed: int = 0, rigid_body: str = "fit", progress: bool | None = False,
+                 lag: bool = True, lag_bootstrap: int = LAG_BOOTSTRAP) -> ArmIdentification:
     """Identify the rigid body and every joint's friction of ``arm`` from ``log`` (module docstring: the method).
 
     Parameters
@@ -339,25 +364,33 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
         ``"fit"``: the base parameters identified with the friction (the URDF's inertias only set which
         combinations exist); ``"urdf"``: the URDF's inertias used as given, only the friction fitted.
     progress : bool or None, keyword-only
-        Progress bars of the Stribeck profile and the bootstrap on stderr (tqdm): True, False (default), None
-        (only on a terminal).
+        Progress bars of the Stribeck profile, the bootstrap and the lag fits on stderr (tqdm): True, False
+        (default), None (only on a terminal).
+    lag : bool, keyword-only
+        Identify each joint's friction lag ``tau`` by output error (default True; :mod:`adaptive_ff.arm.lag`);
+        False: ``tau`` NaN with a warning (the costliest stage skipped).
+    lag_bootstrap : int, keyword-only
+        Refits of each lag fit's bootstrap (>= 2; default :data:`adaptive_ff.arm.lag.LAG_BOOTSTRAP`).
 
     Returns
     -------
     ArmIdentification
         Per joint ``J`` (its own diagonal inertia ``M_jj`` at the log's mean configuration, from the identified
-        base parameters), ``Fc, Fs, Vs, delta, sigma, offset`` with 95 % intervals and warnings, ``tau`` NaN
-        (the lag is not identified here); the base parameters with intervals and the condition number.
+        base parameters), ``Fc, Fs, Vs, delta, sigma, offset``, ``tau`` (NaN where the log does not determine it)
+        with 95 % intervals and warnings, the velocity noise; the base parameters with intervals and the condition
+        number.
 
     Raises
     ------
     SignalError
         The log's joint count differs from the URDF's; irregular time stamps; too few rows.
     ParameterError
-        A position beyond the URDF's limits (file, joint, sample and value named); ``cutoff``, ``n_bootstrap``
-        or ``rigid_body`` invalid; a joint with no row fast enough to fit.
+        A position beyond the URDF's limits (file, joint, sample and value named); ``cutoff``, ``n_bootstrap``,
+        ``lag_bootstrap`` or ``rigid_body`` invalid; a joint with no row fast enough to fit.
     """
     _check(log, arm, n_bootstrap, rigid_body)
+    if isinstance(lag_bootstrap, bool) or not isinstance(lag_bootstrap, (int, np.integer)) or lag_bootstrap < 2:
+        raise ParameterError(f"lag_bootstrap must be an integer >= 2, got {lag_bootstrap!r}")
     t, q, dq, ddq, tau = filtered_states(log, cutoff)
     base = arm.base_parameters()
     Y = arm.regressor(q, dq, ddq)
@@ -384,12 +417,15 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     x, rss, A = prob.solve(Vs, delta)
     boot, resid = _bootstrap(prob, A, x, int(n_bootstrap), seed, progress)
     half = boot.half_width(0.95)
-    a_J = _inertia_rows(arm, base, q.mean(axis=0))
+    a_J = _inertia_rows(arm, base, log.q.mean(axis=0))  # the log's mean configuration (all its samples)
     r = Yb.shape[2]
+    J_all = a_J @ (x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf))
+    lags = _lags(log, arm, (base, x[:r], rigid_body), J_all, Vs, delta, cutoff, (lag, lag_bootstrap, seed, progress))
+    noise = velocity_noise(log)
     joints = []
     for j in range(arm.n):
         joints.append(_joint(arm, j, x, half, boot, a_J, r, base, (Vs, delta, table, rss, int(prob.keep.sum())),
-                             (q, dq, keep_j)))
+                             (q, dq, keep_j), (lags[j], noise[j])))
     scaled = A[prob.keep] * np.tile(prob.w, prob.m)[prob.keep][:, None]
     norm = np.linalg.norm(scaled, axis=0)
     scaled = scaled[:, norm > 0] / norm[norm > 0]  # a zero column (Fs of a joint without Stribeck term) is no fit
@@ -408,6 +444,29 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
                              warnings=tuple(_arm_warnings(cond)))
 
 
+def _lags(log, arm, rb, J, Vs, delta, cutoff, settings) -> list:
+    """Every joint's :class:`adaptive_ff.arm.lag.JointLag` (``settings``: ``(lag, lag_bootstrap, seed,
+    progress)``; ``rb``: ``(base, beta, rigid_body)``)."""
+    from tqdm.auto import tqdm
+
+    on, n_boot, seed, progress = settings
+    if not on:
+        return [JointLag(np.nan, (np.nan, np.nan), "not asked for (lag=False; identify-arm --no-lag)")] * arm.n
+    base, beta, mode = rb
+    theta = np.zeros(11 * arm.n)
+    if mode == "fit":
+        theta[base.independent] = beta  # the dependent columns are spanned by the independent ones
+    else:
+        theta = arm.theta_urdf
+    t, u, w = lag_records(log, arm, lambda Y: Y @ theta, J, cutoff)
+    out = []
+    for j in tqdm(range(arm.n), desc="arm friction lag", unit="joint", leave=False,
+                  disable=(None if progress is None else not progress)):
+        out.append(joint_lag(t, u[:, j], w[:, j], float(Vs[j]), float(delta[j]), n_bootstrap=n_boot,
+                             seed=seed + j))
+    return out
+
+
 def _arm_warnings(cond: float) -> list:
     """A conditioning warning when the column-scaled regressor's condition number exceeds ``COND_WARN``."""
     from adaptive_ff.identification.plausibility import IdentificationWarning
@@ -420,7 +479,7 @@ def _arm_warnings(cond: float) -> list:
                                   "once, wider ranges) separates them")]
 
 
-def _joint(arm, j, x, half, boot, a_J, r, base, profile, data) -> ArmJoint:
+def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> ArmJoint:
     """Joint ``j``'s parameters, intervals, standard errors and warnings from the fit."""
     from adaptive_ff.identification.covariance import bootstrap_t_quantile
 
@@ -441,16 +500,21 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data) -> ArmJoint:
     stribeck = bool(np.isfinite(Vs[j]))
     lo = {k: params_k - hw[k] for k, params_k in (("J", J), *p.items())}
     hi = {k: params_k + hw[k] for k, params_k in (("J", J), *p.items())}
-    if stribeck:  # the friction's intervals cover the bootstrap around every (Vs, delta) the profile accepts
-        vs_iv, d_iv, (x_lo, x_hi) = _profile_interval(table[j], rss, n_rows, boot.block, slice(c, c + 4))
-        for i, k in enumerate(_FRICTION):
-            lo[k], hi[k] = min(lo[k], x_lo[i] - hw[k]), max(hi[k], x_hi[i] + hw[k])
-    else:  # no Stribeck term: Fs = Fc
+    if not stribeck:  # no Stribeck term: Fs = Fc
         p["Fs"], hw["Fs"], std["Fs"], lo["Fs"], hi["Fs"] = p["Fc"], hw["Fc"], std["Fc"], lo["Fc"], hi["Fc"]
-        vs_iv = d_iv = (np.nan, np.nan)
-    params = {"J": J, **p, "Vs": float(Vs[j]), "delta": float(delta[j]) if stribeck else np.nan, "tau": np.nan}
+    # the friction's intervals cover the bootstrap band around every (Vs, delta) the profile accepts, the model
+    # without a Stribeck term among them: a dropped term's Fs interval reaches as far as the profile allows
+    vs_iv, d_iv, (x_lo, x_hi), xs = _profile_interval(table[j], rss, n_rows, boot.block, slice(c, c + 4))
+    for i, k in enumerate(_FRICTION):
+        lo[k], hi[k] = min(lo[k], x_lo[i] - hw[k]), max(hi[k], x_hi[i] + hw[k])
+    if r:  # J as well: the rigid body's estimate moves with the joint's (Vs, delta)
+        Js = xs[:, :r] @ a_J[j]
+        lo["J"], hi["J"] = min(lo["J"], Js.min() - hw["J"]), max(hi["J"], Js.max() + hw["J"])
+    lag, noise = lag_noise
+    params = {"J": J, **p, "Vs": float(Vs[j]), "delta": float(delta[j]) if stribeck else np.nan, "tau": lag.tau}
     interval = {k: (lo[k], hi[k]) for k in ("J", *_FRICTION)}
-    interval.update({"Vs": vs_iv, "delta": d_iv, "tau": (np.nan, np.nan)})
+    interval.update({"Vs": vs_iv, "delta": d_iv, "tau": lag.interval95})
     rel = {k: hw[k] / max(abs(p[k]), 1e-12) for k in ("Fc", "sigma")}
-    warn = _joint_warnings(arm, j, q, dq, keep_j, Vs[j], rel) + _sign_warnings(arm.names[j], params)
-    return ArmJoint(name=arm.names[j], params=params, interval95=interval, std=std, warnings=tuple(warn))
+    warn = _joint_warnings(arm, j, q, dq, keep_j, Vs[j], rel, lag) + _sign_warnings(arm.names[j], params)
+    return ArmJoint(name=arm.names[j], params=params, interval95=interval, std=std, warnings=tuple(warn),
+                    noise_std=float(noise), lag_info=lag.info or {})

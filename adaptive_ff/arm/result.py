@@ -31,13 +31,19 @@ class ArmJoint:
     params : dict
         ``{"J", "Fc", "Fs", "Vs", "delta", "sigma", "tau", "offset"}``; ``J`` the joint's own diagonal inertia
         ``M_jj`` at the log's mean configuration (rigid body and armature: what the joint's own PI sees), ``tau``
-        NaN (the lag is not identified).
+        the friction lag by output error on the joint's rigid-body-removed record (NaN where the log does not
+        determine it: :mod:`adaptive_ff.arm.lag`).
     interval95 : dict
         ``{name: (low, high)}`` for each of ``params`` (NaN where there is none).
     std : dict
         Bootstrap standard errors of ``J, Fc, Fs, sigma, offset``.
     warnings : tuple of adaptive_ff.identification.plausibility.IdentificationWarning
         What the log does not determine for this joint (``code``, ``parameter``, message).
+    noise_std : float
+        The joint's white velocity-noise estimate (rad/s; ``excitation.noise_std`` of ``identify --json``: the
+        stick band of its compensator is three times it); NaN if none.
+    lag_info : dict
+        The lag fit's ``samples``, ``rate``, ``n_simulations``, ``predictor``, ``estimate`` (empty where none ran).
     """
 
     name: str
@@ -45,6 +51,8 @@ class ArmJoint:
     interval95: dict
     std: dict
     warnings: tuple = ()
+    noise_std: float = math.nan
+    lag_info: dict = field(default_factory=dict)
 
     def friction(self, w) -> np.ndarray:
         """The identified static friction ``F(w)`` (eq. 3) plus the offset, at velocities ``w`` (rad/s)."""
@@ -57,11 +65,14 @@ class ArmJoint:
 
     def to_dict(self) -> dict:
         """The joint's entry: the layout of ``adaptive-ff identify --json``'s top level (``method`` ``"arm"``) plus
-        ``name`` and ``interval95``; warnings as ``{"code", "parameter", "message"}``; non-finite values are
-        null."""
+        ``name``, ``interval95``, ``excitation: {"noise_std"}`` (as ``identify --json``'s) and ``lag`` (the lag
+        fit's ``lag_info``); warnings as ``{"code", "parameter", "message"}``; non-finite values are null."""
+        from plant.results import json_safe
+
         return {"name": self.name, "method": "arm", **{k: _num(self.params[k]) for k in JOINT_PARAMETERS},
                 "std": {k: _num(v) for k, v in self.std.items()},
                 "interval95": {k: [_num(lo), _num(hi)] for k, (lo, hi) in self.interval95.items()},
+                "excitation": {"noise_std": _num(self.noise_std)}, "lag": json_safe(dict(self.lag_info)),
                 "warnings": [w.to_dict() for w in self.warnings]}
 
 

@@ -42,7 +42,8 @@ def run(args) -> int:
         check_output_dir(args.plot, "--plot")
     options = CompareArmOptions(duration=args.duration, seed=args.seed, modes=_modes(args.modes),
                                 crossover=args.crossover, phase_margin=args.phase_margin, Ts=args.Ts,
-                                u_max=_limits(args.u_max), noise_std=args.noise, amplitude=args.amplitude)
+                                u_max=_limits(args.u_max), noise_std=args.noise, amplitude=args.amplitude,
+                                start=args.start)
     arm = load_urdf(args.urdf)
     plant = load_arm_plant(args.plant, arm)
     result = compare_arm(plant, args.from_file, options, progress=None if not args.quiet else False)
@@ -61,7 +62,9 @@ def run(args) -> int:
     print(f"arm: {args.urdf} ({', '.join(arm.names)}); plant: {args.plant}; identification: {args.from_file}")
     for d in result.designs:
         print(f"  {d.name}: J_design {d.J_design:.6g} kg·m², PI Kp {d.Kp:.6g} N·m·s/rad, Ki {d.Ki:.6g} N·m/rad, "
-              f"u_max {d.u_max:g} N·m")
+              f"u_max {d.u_max:g} N·m, stick band {d.settings['stick_band']:.3g} rad/s "
+              f"({'3 x its noise estimate' if d.noise_source == 'identification' else '3 x --noise'})"
+              + ("" if not args.start else ", start map" if d.settings["start"] else ", no start map (tau null)"))
     print(result.summary())
     if "figures" in out:
         print("figures: " + ", ".join(out["figures"]))
@@ -125,9 +128,13 @@ def register(sub) -> None:
     c.add_argument("--Ts", type=float, default=0.01, metavar="S",
                    help="the adaptive estimator's sample time (default 0.01 s; a multiple of the 1 ms period)")
     c.add_argument("--noise", type=float, default=1e-3, metavar="RAD_S",
-                   help="velocity measurement noise per joint (default 0.001 rad/s)")
+                   help="velocity measurement noise per joint (default 0.001 rad/s); the stick band where an "
+                        "entry has no noise estimate is three times it")
     c.add_argument("--amplitude", type=float, default=0.5, metavar="RAD",
                    help="position amplitude of each joint's multisine reference (default 0.5 rad)")
+    c.add_argument("--start", action="store_true",
+                   help="start the adaptive modes' feedforward from each joint's identified map with its lag "
+                        "(export-c --start) where the joint's entry has a tau")
     c.add_argument("--json", action="store_true", help="print the result as JSON")
     c.add_argument("--plot", metavar="DIR", default=None, help="write the eta-per-joint figure into DIR")
     c.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -21,7 +21,9 @@ angles and torques) with --transmission FILE.toml: ratio = [...] (one per joint)
 offset (rad) and torque_constant (N·m per log unit) turn it into the joint side first.
 
 Output: per joint J (its own diagonal inertia at the log's mean configuration), Fc, Fs, Vs, delta, sigma,
-offset with 95 % intervals and warnings; tau (the friction lag) is not identified (null). --json prints
+offset, and tau (the friction lag of eq. 1, by output error on the joint's torque minus the identified rigid
+body; null with a warning where the log does not determine it) with 95 % intervals and warnings, and the
+joint's velocity noise (excitation.noise_std: export-c's stick band is three times it). --json prints
 {"joints": [...], "rigid_body": {...}}; each joint's entry has the layout of identify --json's top level.
 
 example:
@@ -50,7 +52,8 @@ def run(args) -> int:
         log = gear.to_joint(log)
     with named_by(args.file):
         result = identify_arm(log, arm, cutoff=args.cutoff, n_bootstrap=args.bootstrap, seed=args.seed,
-                              rigid_body=args.rigid_body, progress=progress_from_args(args))
+                              rigid_body=args.rigid_body, progress=progress_from_args(args), lag=not args.no_lag,
+                              lag_bootstrap=args.lag_bootstrap)
     if gear is not None:
         result = gear.with_coupling_warnings(result)
     out = result.to_dict()
@@ -106,6 +109,10 @@ def register(sub) -> None:
     i.add_argument("--rigid-body", dest="rigid_body", choices=("fit", "urdf"), default="fit",
                    help="fit (default): identify the base parameters with the friction; urdf: use the URDF's "
                         "inertias as given and fit only the friction")
+    i.add_argument("--no-lag", dest="no_lag", action="store_true",
+                   help="skip the friction lag (tau null): its output-error fits are most of the run's CPU time")
+    i.add_argument("--lag-bootstrap", dest="lag_bootstrap", type=at_least_2, default=10, metavar="N",
+                   help="refits of each joint's lag bootstrap (default 10, >= 2)")
     i.add_argument("--json", action="store_true", help="print the result as JSON")
     i.add_argument("--plot", metavar="DIR", default=None, help="write the per-joint friction figure into DIR")
     i.add_argument("--quiet", action="store_true", help="no progress bar")

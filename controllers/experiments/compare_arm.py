@@ -87,6 +87,10 @@ class CompareArmOptions:
         Half-width (s) of the metrics' reversal windows.
     decimate : int
         Keep every ``decimate``-th sample of the recorded signals (the metrics use every sample), default 10.
+    start : bool
+        Start the adaptive modes' feedforward from the identified map with its lag (``export-c --start``) on every
+        joint whose entry has a ``tau`` (the others wait, as without it; ``JointLoopDesign.settings["start"]`` says
+        which), default False: off until the estimator's first trusted estimate.
 
     Raises
     ------
@@ -107,6 +111,7 @@ class CompareArmOptions:
     substeps: int = 1
     reversal_window: float = 0.2
     decimate: int = 10
+    start: bool = False
 
     def __post_init__(self):
         for name in ("duration", "crossover", "phase_margin", "Tc", "Ts", "amplitude"):
@@ -177,10 +182,15 @@ class JointLoopDesign:
         The settings of the joint's compensators (``export-c``'s).
     settings : dict
         What :func:`controllers.experiments.compensator_file.compensator_from_file` is given beside the file and the joint (as
-        ``export-c --u-max --Kp --Ki --stick-band`` would give it): ``u_max``, ``Kp``, ``Ki``, ``Tc``, ``Ts``,
-        ``stick_band`` (three times the velocity noise, as ``compare``'s default) and ``omega_r`` (the residual
-        observer's cut-off, :func:`controllers.experiments.observer_design.residual_cutoff` of ``J_design``, the
-        noise and the identified level ``max(Fc, Fs)``): an ``identify-arm`` entry has no noise estimate of its own.
+        ``export-c --u-max --Kp --Ki`` would give it): ``u_max``, ``Kp``, ``Ki``, ``Tc``, ``Ts``, ``stick_band``
+        (three times the entry's velocity noise estimate ``excitation.noise_std``, as ``export-c`` sets it; three
+        times :attr:`CompareArmOptions.noise_std` where the entry has none) and ``omega_r`` (the residual
+        observer's cut-off, :func:`controllers.experiments.observer_design.residual_cutoff` of ``J_design``, that
+        noise and the identified level ``max(Fc, Fs)``); ``start`` with :attr:`CompareArmOptions.start`.
+    noise_std : float
+        The velocity noise (rad/s) behind ``stick_band`` and ``omega_r``.
+    noise_source : str
+        ``"identification"`` (the entry's estimate) or ``"options"`` (:attr:`CompareArmOptions.noise_std`).
     """
 
     name: str
@@ -191,10 +201,13 @@ class JointLoopDesign:
     estimate: FrictionEstimate
     options: object
     settings: dict
+    noise_std: float = math.nan
+    noise_source: str = "options"
 
     def to_dict(self) -> dict:
-        """``{"name", "J_design", "Kp", "Ki", "u_max"}``."""
-        return {"name": self.name, "J_design": self.J_design, "Kp": self.Kp, "Ki": self.Ki, "u_max": self.u_max}
+        """``{"name", "J_design", "Kp", "Ki", "u_max", "stick_band", "noise_source"}``."""
+        return {"name": self.name, "J_design": self.J_design, "Kp": self.Kp, "Ki": self.Ki, "u_max": self.u_max,
+                "stick_band": float(self.settings["stick_band"]), "noise_source": self.noise_source}
 
 
 def joint_designs(identification, arm, options: CompareArmOptions) -> list:
@@ -219,7 +232,7 @@ def joint_designs(identification, arm, options: CompareArmOptions) -> list:
         compensators need one) or a ``J`` not > 0 (the file and the joint named).
     """
     from adaptive_ff.arm.result import read_arm_entries
-    from controllers.experiments.compensator_file import compensator_from_file
+    from controllers.experiments.compensator_file import compensator_from_file, read_identified
     from controllers.experiments.observer_design import residual_cutoff
 
     names = [e["name"] for e in read_arm_entries(identification)]
@@ -235,14 +248,19 @@ def joint_designs(identification, arm, options: CompareArmOptions) -> list:
                                      Tc=options.Tc, Ts=options.Ts)
         fr = s["joint"]
         level = max(fr.get("Fc", 0.0), fr.get("Fs", 0.0))
+        ident = read_identified(identification, name)
+        noise, source = ident.noise_std, "identification"
+        if noise is None or not (math.isfinite(noise) and noise >= 0.0):
+            noise, source = options.noise_std, "options"
         settings = {"u_max": float(u_max[j]), "Kp": s["Kp"], "Ki": s["Ki"], "Tc": options.Tc, "Ts": options.Ts,
-                    "stick_band": 3.0 * options.noise_std,
-                    "omega_r": residual_cutoff(s["J_design"], options.noise_std, options.Tc, level)}
+                    "stick_band": 3.0 * noise, "omega_r": residual_cutoff(s["J_design"], noise, options.Tc, level),
+                    "start": bool(options.start) and math.isfinite(ident.params.get("tau", math.nan))}
         o = compensator_from_file(identification, arm_joint=name, **settings)[1]["options"]
         est = FrictionEstimate(J=s["J_design"], tau=0.0, sigma=fr.get("sigma", 0.0), Fc=fr.get("Fc", 0.0),
                                Fs=fr.get("Fs", 0.0), offset=0.0, Vs=o.Vs, delta=o.delta, J_alt=math.nan)
         out.append(JointLoopDesign(name=name, J_design=float(s["J_design"]), Kp=float(s["Kp"]), Ki=float(s["Ki"]),
-                                   u_max=float(u_max[j]), estimate=est, options=o, settings=settings))
+                                   u_max=float(u_max[j]), estimate=est, options=o, settings=settings,
+                                   noise_std=float(noise), noise_source=source))
     return out
 
 
@@ -414,6 +432,7 @@ class ArmComparison:
                 **per, "diverged": {mode: bool(r.diverged) for mode, r in self.runs.items()},
                 "pi": [d.to_dict() for d in self.designs],
                 "info": {"duration": o.duration, "seed": int(o.seed), "Tc": o.Tc, "Ts": o.Ts, "noise_std": o.noise_std,
+                         "start": bool(o.start),
                          "amplitude": o.amplitude, "crossover": o.crossover, "phase_margin": o.phase_margin}}
 
     def summary(self) -> str:

@@ -44,10 +44,11 @@ def test_wilson_interval_against_its_closed_form():
 
 @pytest.mark.slow
 def test_coverage_on_three_arms():
-    """Seeds 0-2 with 50 bootstrap refits (9 joints, 33 base parameters), measured inside: J 5, Fc 6, Fs 4, sigma 6,
-    offset 9 of 9, Vs 4 of the 7 joints that kept a Stribeck term, base 30 of 33. Below the nominal 95 % (the
-    benchmark's 50 arms: J 0.75, Fc 0.79, Fs 0.46, sigma 0.81, offset 0.94, base 0.88; docs/your_arm.md); the
-    bounds are one below the measured counts, so a change that narrows the intervals further fails."""
+    """Seeds 0-2 with 50 bootstrap refits (9 joints, 33 base parameters), measured inside: J 5, Fc 8, Fs 6, sigma 8,
+    offset 9 of 9, Vs 6 of 9 (every joint has a Vs interval: the profile's accepted range, also where the Stribeck
+    term is dropped), base 30 of 33. Below the nominal 95 % for J, Fs and Vs (the benchmark's 50 arms: J 0.75, Fc
+    0.89, Fs 0.65, sigma 0.90, offset 0.94, Vs 0.61, base 0.88; docs/your_arm.md); the bounds are one below the
+    measured counts, so a change that narrows the intervals further fails."""
     arm = load_urdf(arm_coverage.URDF)
     total = {}
     for seed in (0, 1, 2):
@@ -57,5 +58,5 @@ def test_coverage_on_three_arms():
             total[k][1] += c
     assert all(total[k][1] == 9 for k in ("J", "Fc", "Fs", "sigma", "offset")) and total["base"][1] == 33
     assert 6 <= total["Vs"][1] <= 9
-    low = {"J": 4, "Fc": 5, "Fs": 3, "sigma": 5, "offset": 9, "Vs": 3, "base": 29}
+    low = {"J": 4, "Fc": 7, "Fs": 5, "sigma": 7, "offset": 9, "Vs": 5, "base": 29}
     assert all(total[k][0] >= v for k, v in low.items()), total

@@ -46,7 +46,7 @@ def motor_log(arm):
 def result(arm, motor_log):
     gear = read_transmission(TOML, arm.n)
     return gear.with_coupling_warnings(identify_arm(gear.to_joint(motor_log), arm, cutoff=80.0, n_bootstrap=200,
-                                                    seed=0))
+                                                    seed=0, lag=False))  # the lags: benchmarks/arm_tx40.py
 
 
 def test_the_data_are_the_whole_log(motor_log):
@@ -108,7 +108,7 @@ def test_cli_on_a_window_of_the_log(tmp_path, capsys):
     path = tmp_path / "tx40_3s.npz"
     np.savez(path, **cut)
     assert main(["identify-arm", str(path), "--urdf", str(URDF), "--transmission", str(TOML), "--cutoff", "80",
-                 "--bootstrap", "20", "--json", "--quiet"]) == 0
+                 "--bootstrap", "20", "--json", "--quiet", "--no-lag"]) == 0
     d = json.loads(capsys.readouterr().out)
     names = [j["name"] for j in d["joints"]]
     assert names == [f"joint_{i}" for i in range(1, 7)]
@@ -163,7 +163,7 @@ def test_a_negative_level_is_named(arm, motor_log):
     # at the default 20 Hz cutoff the profile gives joint 2 a Stribeck term whose Fs comes out negative (eq. 3 needs
     # Fs >= 0): its entry carries an `implausible` warning naming Fs, which design/compare/export-c --from refuse
     gear = read_transmission(TOML, arm.n)
-    r = identify_arm(gear.to_joint(motor_log), arm, n_bootstrap=20, seed=0)
+    r = identify_arm(gear.to_joint(motor_log), arm, n_bootstrap=20, seed=0, lag=False)
     for joint in r.joints:
         signs = {w.parameter for w in joint.warnings if w.code == "implausible"}
         assert signs == {k for k in ("J", "Fc", "Fs", "sigma") if joint.params[k] < (1e-300 if k == "J" else 0.0)}

@@ -1,0 +1,179 @@
+r"""Each joint's friction lag ``tau`` (eq. 1) and velocity noise, from the whole-arm log once the rigid body is known.
+
+Joint ``j``'s row of the arm's dynamics, ``M(q) ddq + c(q, dq) + g(q) = u - f``, is a one-joint model of eqs. 1-3
+once everything but the joint's own constant inertia is moved to the input:
+
+.. math::
+
+    J_j \dot w_j + f_j = u_j - \big(Y_b(q, \dot q, \ddot q)_j \beta - J_j \ddot q_j\big),
+    \qquad \tau_j \dot f_j + f_j = F_j(w_j),
+
+``J_j`` the joint's ``M_jj`` at the log's mean configuration, ``Y_b \beta`` the identified rigid body (or the
+URDF's with ``rigid_body="urdf"``). That *rigid-body-removed* torque and the joint's velocity go through the
+package's output-error fit of eqs. 1-3 (:func:`adaptive_ff.identification.physical_id.fit_physical`, the fit of
+``identify --method output_error``; ``Vs``, ``delta`` the whole-arm fit's), of which the lag and its 95 % bootstrap
+interval are kept; ``J, Fc, Fs, sigma, offset`` stay the whole-arm fit's (every joint's rows in one fit).
+
+The record's positions, velocities, accelerations and torques come from a zero-phase low-pass (4th-order
+Butterworth, forwards and backwards: no lag of its own) at :data:`LAG_CUTOFF_FACTOR` times the identification's
+cutoff, at most a fifth of the record's rate, sampled at about :data:`LAG_RATE` Hz (every k-th sample of the log),
+the filter's start-up at both ends left out. Why that cutoff: a friction jump at a reversal accelerates every joint
+at once, and the coupling torque ``M_jk ddq_k`` of that step is what the output-error fit must not read as the
+joint's own lag; and velocity noise, which the fit reads as lag, is what the filter removes. Measured on the
+planar arm of ``docs/your_arm.md`` with a 10 ms lag on every joint and the sensor noise of
+:class:`adaptive_ff.arm.simulate.SensorNoise` (seed 1): the identification's own 20 Hz states with the log's raw
+velocity put ``tau`` at 4.6-8.0 ms (20 s log); states at 100 Hz with the raw velocity at 4.3-10.4 ms, with their
+filtered velocity at 9.7-10.3 ms (10 s logs). What stays: on the same arm without a lag the fit reads 1.6, 4.2 and
+7.3 ms, the last two with intervals that exclude zero (noise-free: 0.4-0.5 ms).
+
+A lag is reported where the log determines it: the fit runs, and its 95 % interval is finite and excludes zero.
+Elsewhere ``tau`` is NaN (null in JSON) and the joint carries a warning that says why.
+
+The velocity noise of each joint (``excitation.noise_std`` of ``identify --json``) is
+:func:`adaptive_ff.identification.diagnostics.velocity_noise_std` of the log's velocity as measured (or of the
+positions' central difference where the log has no velocities).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from plant.errors import ExcitationError, ParameterError, SignalError
+
+__all__ = ["JointLag", "LAG_RATE", "LAG_CUTOFF_FACTOR", "LAG_BOOTSTRAP", "lag_records", "joint_lag",
+           "velocity_noise"]
+
+#: Rate (Hz) at which the output-error record samples the log (every k-th sample; a slower log is taken as is).
+LAG_RATE = 1000.0
+#: Cutoff of the states of the removed rigid-body torque, as a multiple of the identification's cutoff.
+LAG_CUTOFF_FACTOR = 5.0
+#: Default bootstrap refits of the output-error fit behind the lag's interval.
+LAG_BOOTSTRAP = 10
+
+
+@dataclass(frozen=True)
+class JointLag:
+    """One joint's lag from its rigid-body-removed record.
+
+    Attributes
+    ----------
+    tau : float
+        The friction lag (s); NaN where the log does not determine it.
+    interval95 : tuple of float
+        Its 95 % interval (s), ``(nan, nan)`` where none.
+    reason : str or None
+        Why ``tau`` is NaN (None where it is reported).
+    info : dict
+        ``samples``, ``rate`` (Hz), ``n_simulations``, ``predictor``, ``estimate`` (the fit's ``tau`` even where it
+        is not reported).
+    """
+
+    tau: float
+    interval95: tuple
+    reason: str | None = None
+    info: dict | None = None
+
+
+def _filtered_full(log, cutoff: float, step: int) -> tuple:
+    """``(sel, q, dq, ddq)`` of ``log`` at every ``step``-th sample, low-passed (zero phase) at ``cutoff`` Hz."""
+    from scipy.signal import butter, filtfilt
+
+    Ts = float(np.median(np.diff(log.t)))
+    cutoff = min(cutoff, 0.2 / (Ts * step))  # at most a fifth of the record's rate
+    b, a = butter(4, cutoff / (0.5 / Ts))
+    q = filtfilt(b, a, log.q, axis=0)
+    dq = filtfilt(b, a, log.dq, axis=0) if log.dq is not None else np.gradient(q, Ts, axis=0)
+    ddq = np.gradient(dq, Ts, axis=0)
+    tau = filtfilt(b, a, log.tau, axis=0)
+    edge = min(int(round(1.0 / (cutoff * Ts))), log.t.shape[0] // 10)
+    sel = np.arange(edge, log.t.shape[0] - edge, step)
+    return sel, q[sel], dq[sel], ddq[sel], tau[sel]
+
+
+def lag_records(log, arm, rigid, J, cutoff: float) -> tuple:
+    """Every joint's output-error record: the rigid-body-removed torque and the measured velocity (module docstring).
+
+    Parameters
+    ----------
+    log : ArmLog
+        The log (joint side, SI).
+    arm : ArmModel
+        The arm (its joint-torque regressor).
+    rigid : callable
+        ``rigid(Y)`` with ``Y`` the regressor (n, N, 11 N) of :meth:`adaptive_ff.arm.robot.ArmModel.regressor`:
+        the identified rigid-body torque (n, N).
+    J : array_like, shape (N,)
+        Each joint's ``M_jj`` at the log's mean configuration (kg·m²).
+    cutoff : float
+        The identification's cutoff (Hz); the states here are filtered at :data:`LAG_CUTOFF_FACTOR` times it.
+
+    Returns
+    -------
+    t : ndarray, shape (n,)
+    u, w : ndarray, shape (n, N)
+        Removed torque (N·m) and velocity (rad/s) per joint, both from the zero-phase low-pass.
+    """
+    Ts = float(np.median(np.diff(log.t)))
+    step = max(1, int(round(1.0 / (LAG_RATE * Ts))))
+    sel, q, dq, ddq, tau = _filtered_full(log, LAG_CUTOFF_FACTOR * cutoff, step)
+    other = rigid(arm.regressor(q, dq, ddq)) - ddq * np.asarray(J, dtype=float)
+    return log.t[sel], tau - other, dq
+
+
+def velocity_noise(log) -> np.ndarray:
+    """Each joint's white velocity-noise estimate (rad/s), shape (N,): module docstring."""
+    from adaptive_ff.identification.diagnostics import velocity_noise_std
+
+    if log.dq is not None:
+        w = log.dq
+    else:
+        w = np.gradient(log.q, float(np.median(np.diff(log.t))), axis=0)
+    return np.array([velocity_noise_std(w[:, j]) for j in range(w.shape[1])])
+
+
+def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTSTRAP, seed: int = 0) -> JointLag:
+    """One joint's lag by the package's output-error fit on its rigid-body-removed record (module docstring).
+
+    Parameters
+    ----------
+    t, u, w : ndarray, shape (n,)
+        Time (s), removed torque (N·m), velocity (rad/s): one joint of :func:`lag_records`.
+    Vs, delta : float
+        The joint's Stribeck velocity (rad/s) and shape factor from the whole-arm fit; NaN (no Stribeck term kept):
+        the output-error fit fits them too.
+    n_bootstrap : int, keyword-only
+        Refits of the fit's bootstrap (``bootstrap_refit="partial"``), >= 2.
+    seed : int, keyword-only
+        The bootstrap's seed.
+
+    Returns
+    -------
+    JointLag
+        ``tau`` NaN with ``reason`` where the fit fails or its interval is not finite or reaches zero.
+    """
+    from adaptive_ff.identification.physical_id import fit_physical
+
+    stribeck = math.isfinite(Vs) and math.isfinite(delta)
+    try:
+        fit = fit_physical(t, u, w, Vs=Vs if stribeck else None, delta=delta if stribeck else None,
+                           n_bootstrap=int(n_bootstrap), bootstrap_refit="partial", bootstrap_seed=int(seed),
+                           bootstrap_workers=1)
+    except (ExcitationError, SignalError, ParameterError) as err:
+        return JointLag(math.nan, (math.nan, math.nan), f"the output-error fit on its rigid-body-removed record "
+                        f"failed ({err})", {"samples": int(t.shape[0])})
+    est = float(fit.params["tau"])
+    lo, hi = (fit.info.get("interval95") or {}).get("tau", (math.nan, math.nan))
+    info = {"samples": int(t.shape[0]), "rate": float(1.0 / np.median(np.diff(t))),
+            "n_simulations": int(fit.info.get("n_simulations", 0)), "predictor": fit.info.get("predictor"),
+            "estimate": est}
+    if not (lo is not None and hi is not None and math.isfinite(lo) and math.isfinite(hi)):
+        return JointLag(math.nan, (math.nan, math.nan), "the output-error fit gives no finite interval for it", info)
+    if lo <= 0.0:
+        return JointLag(math.nan, (math.nan, math.nan), f"the log does not determine it: the output-error estimate "
+                        f"{1e3 * est:.3g} ms has the 95 % interval [{1e3 * lo:.3g}, {1e3 * hi:.3g}] ms, which "
+                        "reaches zero (more velocity reversals, or a lag longer than the sample time, determine "
+                        "it)", info)
+    return JointLag(est, (float(lo), float(hi)), None, info)

@@ -1,0 +1,146 @@
+"""Each joint's friction lag and velocity noise from the whole-arm log (adaptive_ff.arm.lag, identify-arm), and what
+export-c makes of them (--start, the stick band), on a simulated three-link planar arm with a known lag.
+
+The truth: examples/planar3.urdf with armatures, a Stribeck friction with a 10 ms lag on every joint, the default
+sensor noise (velocity 2 mrad/s), a velocity PI per joint; 10 s at 1 kHz, seed 1.
+"""
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pinocchio", reason="the [arm] extra is not installed: pip install -e '.[arm]'")
+
+from adaptive_ff.arm.fit import identify_arm  # noqa: E402
+from adaptive_ff.arm.lag import joint_lag  # noqa: E402
+from adaptive_ff.arm.robot import load_urdf  # noqa: E402
+from adaptive_ff.arm.simulate import JointFriction, SensorNoise, simulate_arm  # noqa: E402
+from controllers.cli.main import main  # noqa: E402
+
+pytestmark = pytest.mark.slow  # output-error fits of three joints
+
+ROOT = Path(__file__).resolve().parents[2]
+URDF = ROOT / "examples" / "planar3.urdf"
+TAU = 0.01
+FRICTION = (JointFriction(Fc=2.0, Fs=2.6, Vs=0.1, delta=1.0, sigma=0.8, offset=0.1, tau=TAU),
+            JointFriction(Fc=1.2, Fs=1.5, Vs=0.08, delta=1.0, sigma=0.5, offset=-0.05, tau=TAU),
+            JointFriction(Fc=0.5, Fs=0.7, Vs=0.1, delta=1.0, sigma=0.2, tau=TAU))
+ARMATURE = [0.2, 0.1, 0.05]
+
+
+@pytest.fixture(scope="module")
+def arm():
+    return load_urdf(URDF)
+
+
+@pytest.fixture(scope="module")
+def log(arm):
+    return simulate_arm(arm, FRICTION, duration=10.0, seed=1, substeps=1, armature=ARMATURE)
+
+
+@pytest.fixture(scope="module")
+def result(arm, log):
+    return identify_arm(log, arm, n_bootstrap=20, seed=1)
+
+
+@pytest.fixture(scope="module")
+def arm_json(result, tmp_path_factory):
+    path = tmp_path_factory.mktemp("lag") / "arm.json"
+    path.write_text(json.dumps(result.to_dict(), allow_nan=False))
+    return path
+
+
+def test_each_joint_lag_inside_its_interval(result):
+    """Measured (ms): shoulder 9.74 [9.46, 10.01], elbow 10.27 [9.53, 11.02], wrist 9.72 [8.72, 10.71]; each
+    estimate within 4 % of the true 10 ms, the true lag inside every interval."""
+    for joint in result.joints:
+        lo, hi = joint.interval95["tau"]
+        assert lo <= TAU <= hi, (joint.name, joint.params["tau"], (lo, hi))
+        assert joint.params["tau"] == pytest.approx(TAU, rel=0.04)
+        assert hi - lo < 0.3 * TAU  # determined: an interval far from zero
+        assert joint.lag_info["samples"] > 9000 and joint.lag_info["rate"] == pytest.approx(1000.0)
+        assert not [w for w in joint.warnings if w.parameter == "tau"]
+
+
+def test_noise_estimate_per_joint(result, arm_json):
+    """The velocity noise of each joint against the simulated 2 mrad/s (measured 1.982, 1.986, 2.040 mrad/s), in
+    the entry as identify --json has it (excitation.noise_std)."""
+    noise = SensorNoise().dq
+    entries = json.loads(arm_json.read_text())["joints"]
+    for joint, entry in zip(result.joints, entries):
+        assert joint.noise_std == pytest.approx(noise, rel=0.03)
+        assert entry["excitation"] == {"noise_std": joint.noise_std}
+        assert entry["tau"] == joint.params["tau"] and entry["interval95"]["tau"] == list(joint.interval95["tau"])
+
+
+def test_export_c_start_from_an_arm_file(result, arm_json, tmp_path, capsys):
+    """export-c --from arm.json --start: every joint's start map carries its identified lag, and every joint's stick
+    band is three times its noise estimate (the export of an identify --json with that noise)."""
+    out = tmp_path / "arm_ff"
+    assert main(["export-c", "--from", str(arm_json), "--start", "--u-max", "50", "--out", str(out),
+                 "--accept-warnings"]) == 0
+    capsys.readouterr()
+    header = (out / "aff_config.h").read_text()
+    source = (out / "aff_config.c").read_text()
+    bands = [float(x) for x in re.findall(r"\.stick_band = \(aff_real\)([0-9.eE+-]+)", source)]
+    assert len(bands) == 3
+    for joint, band in zip(result.joints, bands):
+        m = re.search(rf"#define AFF_{joint.name.upper()}_START_TAU ([0-9.eE+-]+)", header)
+        assert m is not None and float(m.group(1)) == joint.params["tau"]
+        assert band == 3.0 * joint.noise_std
+
+
+def test_export_c_start_refuses_a_joint_without_lag(arm, log, tmp_path, capsys):
+    """identify_arm(lag=False): tau null with a method warning naming the joint (design and export still take the
+    entry); export-c --start exits 2 naming the file, the joint and tau."""
+    res = identify_arm(log, arm, n_bootstrap=20, seed=1, lag=False)
+    d = res.to_dict()
+    for entry in d["joints"]:
+        assert entry["tau"] is None and entry["interval95"]["tau"] == [None, None]
+        assert {"code": "method", "parameter": "tau", "message": f"no friction lag (tau, eq. 1) for joint "
+                f"{entry['name']!r}: not asked for (lag=False; identify-arm --no-lag); tau is null"} \
+            in entry["warnings"]
+    path = tmp_path / "nolag.json"
+    path.write_text(json.dumps(d))
+    assert main(["export-c", "--from", str(path), "--start", "--u-max", "50", "--out", str(tmp_path / "x"),
+                 "--accept-warnings"]) == 2
+    err = capsys.readouterr().err
+    assert "nolag.json" in err and "'shoulder'" in err and "tau" in err and "Traceback" not in err
+
+
+def test_no_reversal_gives_no_lag_and_says_why():
+    """A record whose velocity never changes sign determines no lag: NaN, and the output-error fit's reason."""
+    t = np.arange(3000) * 1e-3
+    lag = joint_lag(t, 1.0 + 0.3 * np.cos(2 * np.pi * t), 0.5 + 0.2 * np.sin(2 * np.pi * t), 0.1, 1.0,
+                    n_bootstrap=2)
+    assert np.isnan(lag.tau) and np.all(np.isnan(lag.interval95))
+    assert "failed" in lag.reason and "no reversals" in lag.reason
+
+
+def test_lag_bootstrap_is_checked(arm):
+    from plant.errors import ParameterError
+
+    log = simulate_arm(arm, FRICTION, duration=2.0, seed=3, substeps=1, armature=ARMATURE)
+    with pytest.raises(ParameterError, match="lag_bootstrap"):
+        identify_arm(log, arm, lag_bootstrap=1)
+
+
+def test_compare_arm_designs_take_the_noise_and_start_per_joint(arm, result, arm_json, tmp_path):
+    """compare-arm's loops: the stick band three times each entry's noise estimate (``--noise`` where an entry has
+    none), and with ``start`` a start map on the joints that have a lag only."""
+    from controllers.experiments.compare_arm import CompareArmOptions, joint_designs
+
+    d = json.loads(arm_json.read_text())
+    d["joints"][1]["tau"] = None  # the elbow without a lag
+    del d["joints"][2]["excitation"]  # the wrist without a noise estimate
+    path = tmp_path / "mixed.json"
+    path.write_text(json.dumps(d))
+    designs = joint_designs(path, arm, CompareArmOptions(start=True, noise_std=1e-3, u_max=50.0))
+    assert [x.settings["start"] for x in designs] == [True, False, True]
+    assert [x.noise_source for x in designs] == ["identification", "identification", "options"]
+    assert designs[0].settings["stick_band"] == 3.0 * result.joints[0].noise_std
+    assert designs[2].settings["stick_band"] == 3.0 * 1e-3
+    assert designs[0].options.start is not None and designs[1].options.start is None
