@@ -54,7 +54,7 @@ from adaptive_ff.identification.uncertainty import (DEFAULT_N_BOOTSTRAP, Paramet
 from plant.errors import ExcitationError, ParameterError, check_positive
 
 __all__ = ["IdentificationReport", "identify", "PARAM_UNITS", "CrossValidation", "cross_validate", "stderr_note",
-           "IDENTIFY_METHODS", "choose_method", "attach_physical"]
+           "IDENTIFY_METHODS", "choose_method", "auto_methods", "attach_physical"]
 
 #: Methods of :func:`identify`: ``"auto"`` chooses among the others from the record (:func:`choose_method`).
 #: ``"closed_loop"`` simulates the user's controller and lives in ``controllers``
@@ -185,6 +185,37 @@ def choose_method(data: MeasuredData, *, Vs: float | None, controller_Tc: float 
                             "regressors)")
 
 
+def auto_methods(data: MeasuredData, *, Vs: float | None, lag: bool = False) -> tuple[str, ...]:
+    """The methods ``identify(method="auto")`` may run on a record, in the order it runs them, known before any fit.
+
+    Parameters
+    ----------
+    data : MeasuredData
+        The record.
+    Vs : float or None, keyword-only
+        The pre-fitted Stribeck velocity (rad/s), None if not given.
+    lag : bool, keyword-only
+        A friction lag is asked for. Default False.
+
+    Returns
+    -------
+    tuple of str
+        ``(choose_method(...),)``, except for ``"sliding"`` on a record whose torque does not follow the velocity
+        noise (:func:`adaptive_ff.identification.diagnostics.feedback_correlation` below
+        :data:`adaptive_ff.identification.diagnostics.FEEDBACK_MIN` in magnitude: an open-loop record):
+        ``("sliding", "output_error")``, since :func:`identify` replaces the sliding regression by the output-error
+        fit there when the regression's own simulation-extrapolation finds J or tau biased, which only the fit tells.
+        An upper bound of the work: a record slower than the controller rate is counted as ``"output_error"``
+        (``identify`` takes the cheaper eq. 4 LS where its free-run fit is below 50 %, which needs that fit).
+        Used by the CLI's work estimate (:func:`controllers.cli.budget.identify_estimate`).
+    """
+    method = choose_method(data, Vs=Vs, lag=lag)[0]
+    if method != "sliding":
+        return (method,)
+    uni = to_uniform(data)
+    return ("sliding",) if abs(feedback_correlation(uni.u, uni.w)) >= FEEDBACK_MIN else ("sliding", "output_error")
+
+
 def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bool, options=None) -> PhysicalFit:
     """The sliding-regime regression on a uniform controller-rate record, as a :class:`PhysicalFit`.
 
@@ -228,7 +259,7 @@ def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bo
 
 def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None = None, lag: bool = False,
              offset: bool = True, lam: float = 1.0, P0: float = 1e4, n_history: int = 500,
-             method: str = "paper", method_options: dict | None = None, form: str | None = None,
+             method: str = "auto", method_options: dict | None = None, form: str | None = None,
              form_options: dict | None = None) -> IdentificationReport:
     """Identify the joint model of eq. 4 from a measured record, offline (LS) and online (RLS).
 
@@ -256,7 +287,10 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
     n_history : int, keyword-only
         At most this many rows of RLS history are kept (>= 2). Default 500.
     method : str, keyword-only
-        One of :data:`IDENTIFY_METHODS`. ``"paper"`` (default): the eq. 4
+        One of :data:`IDENTIFY_METHODS`. ``"auto"`` (default, as the CLI's ``--method``): the method of
+        :func:`choose_method` (named in the notes and in ``physical.info["auto_reason"]``): ``"idim"`` for a
+        uniform log whose velocity comes from a measured position without ``Vs``/``lag``, ``"paper"`` for any
+        other log without ``Vs``, ``"sliding"`` or ``"output_error"`` with ``Vs``. ``"paper"``: the eq. 4
         LS/RLS is the answer. ``"output_error"`` also fits the physical
         parameters of eqs. 1-3 by simulation-error minimisation on the record
         as measured (its own, possibly irregular, time stamps);
@@ -268,8 +302,7 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
         warnings then become ``"method"`` notes, the answer's own warnings
         stay). ``"idim"``: the inverse dynamic model (IDIM-LS, the torque regression of the EMPS
         benchmark; :mod:`adaptive_ff.identification.idim_method`), Coulomb + viscous without ``Vs``,
-        ``delta`` or ``lag``, for a log whose velocity comes from a measured position. ``"auto"``: the
-        method of :func:`choose_method` (named in the notes and in ``physical.info["auto_reason"]``).
+        ``delta`` or ``lag``, for a log whose velocity comes from a measured position.
         Where the eq. 4 LS, the sliding regression or the IDIM-LS is the answer, its 95 % intervals are
         widened where the model-error check finds model error, which then names the parameters in
         ``"model_form"`` warnings (:mod:`adaptive_ff.identification.model_error`).

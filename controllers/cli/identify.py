@@ -305,16 +305,17 @@ def _bootstrap_lines(args, report) -> list:
 
 def _check_work(args, data) -> None:
     """Refuse an identification whose estimated time or memory is beyond the limits without ``--yes``: the refits
-    of ``--bootstrap`` or the fits of ``--form``/``--folds`` on the log's samples
-    (:func:`controllers.cli.budget.identify_estimate`)."""
-    from adaptive_ff.identification.identify import choose_method
+    of ``--bootstrap`` or the fits of ``--form``/``--folds`` on the log's samples, for ``--method auto`` those of
+    every method it may run (:func:`adaptive_ff.identification.identify.auto_methods`;
+    :func:`controllers.cli.budget.identify_estimate`)."""
+    from adaptive_ff.identification.identify import auto_methods
     from controllers.cli.budget import check_work, identify_estimate
 
     method = args.method
-    if args.form is None and method == "auto":
+    if args.form is None and method == "auto":  # what auto runs: the sliding fit and the output-error fit after it
         controller = args.controller is not None or args.Kp is not None
         method = "closed_loop" if args.reference_name and controller and args.Vs is not None else \
-            choose_method(data, Vs=args.Vs, lag=args.lag)[0]
+            auto_methods(data, Vs=args.Vs, lag=args.lag)
     folds = args.folds if args.form is not None else None
     check_work(identify_estimate(data.n_samples, method, bootstrap=args.bootstrap, refit=args.bootstrap_refit,
                                  folds=folds), yes=args.yes)
