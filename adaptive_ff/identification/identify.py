@@ -54,7 +54,7 @@ from adaptive_ff.identification.uncertainty import (DEFAULT_N_BOOTSTRAP, Paramet
 from plant.errors import ExcitationError, ParameterError, check_positive
 
 __all__ = ["IdentificationReport", "identify", "PARAM_UNITS", "CrossValidation", "cross_validate", "stderr_note",
-           "IDENTIFY_METHODS", "choose_method", "auto_methods", "attach_physical"]
+           "IDENTIFY_METHODS", "choose_method", "auto_methods", "attach_physical", "input_delay_note"]
 
 #: Methods of :func:`identify`: ``"auto"`` chooses among the others from the record (:func:`choose_method`).
 #: ``"closed_loop"`` simulates the user's controller and lives in ``controllers``
@@ -179,8 +179,8 @@ def choose_method(data: MeasuredData, *, Vs: float | None, controller_Tc: float 
     run = "" if eq4_free_run is None else f" (the eq. 4 model runs freely: free-run fit {eq4_free_run:.1f} %)"
     return "output_error", (f"{spacing}, slower than the {CONTROLLER_RATE_TS * 1e3:g} ms the sliding regression needs "
                             f"or irregular, with the Stribeck pre-fit given{run}: the output-error fit of eqs. 1-3 "
-                            "on the record's own stamps, each torque sample taken at its stamp (method_options "
-                            "input_delay for a logger that stamps the torque of the period before); the eq. 4 LS is "
+                            "on the record's own stamps, the torque's delay to its stamps profiled where not given "
+                            "(method_options input_delay); the eq. 4 LS is "
                             "biased on such a readout (differences across the Stribeck hump, velocity noise in its "
                             "regressors)")
 
@@ -244,7 +244,7 @@ def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bo
                                          delta=delta, n=n, seed=seed)
         check = assess_model_error(X, y, f.theta, lambda th: np.array([getattr(phys(th), k) for k in names]), names,
                                    base_half_width={k: 0.5 * (hi - lo) for k, (lo, hi) in unc.interval.items()},
-                                   min_lags=int(unc.block), level=float(unc.level))
+                                   min_lags=int(unc.block), level=float(unc.level), colour_reference="shared")
         unc = widened(unc, check)
         extra_warn = check.warnings("the sliding regression")
         stderr = dict(unc.stderr)
@@ -438,12 +438,17 @@ def _physical_answer(method, auto_reason, data, uni, Vs, delta, offset, method_o
         # judge J and tau in the band of the sliding regression, not sample to sample
         warn = [w for w in warn if not (w.code == "identifiability" and w.parameter == "J")]
         band = sliding_band_warnings(uni, Vs, delta, noise_std, physical)
-        rho = feedback_correlation(uni.u, uni.w) if auto_reason is not None and band else -1.0
-        if auto_reason is None or not band or abs(rho) >= FEEDBACK_MIN:
+        biased = [w for w in band if w.code == "identifiability"]  # J or tau moved by > 10 %: the switch below
+        rho = feedback_correlation(uni.u, uni.w) if auto_reason is not None and biased else -1.0
+        if auto_reason is None or not biased or abs(rho) >= FEEDBACK_MIN:
             notes.append(f"physical parameters by 'sliding' on {physical.info['n_rows']} sliding-regime rows "
                          f"({physical.info['n_gated']} near-zero-velocity rows gated out)")
-            return _with_auto_reason(physical, auto_reason, notes, warn + band)
-        named = " and ".join(sorted({w.parameter for w in band}, key=("J", "tau").index))
+            from dataclasses import replace  # the answer's own model_form warnings: not eq. 4 baselines
+
+            physical = replace(physical, warnings=tuple(physical.warnings) + tuple(w for w in band
+                                                                                  if w.code == "model_form"))
+            return _with_auto_reason(physical, auto_reason, notes, warn + biased)
+        named = " and ".join(sorted({w.parameter for w in biased}, key=("J", "tau").index))
         auto_reason += (f"; but on this record the sliding regression's own simulation-extrapolation moves {named} "
                         "by more than 10 % (the velocity noise in its filtered regressors biases it; the numbers "
                         "are in the 'method' warnings) and the torque does not follow the velocity noise (correlation "
@@ -465,6 +470,8 @@ def _physical_answer(method, auto_reason, data, uni, Vs, delta, offset, method_o
                                 **(method_options or {}))
         notes.append(f"physical parameters by {method!r} on the record's own time stamps "
                      f"({physical.n_samples} samples, fit {physical.nrmse_kind}); {stderr_note(physical)}")
+        if method == "output_error":
+            notes.append(input_delay_note(physical))
     return _with_auto_reason(physical, auto_reason, notes, warn)
 
 
@@ -595,6 +602,31 @@ def attach_physical(report: IdentificationReport, physical: PhysicalFit, *, note
     warn = [as_baseline(w) for w in report.warnings] + list(physical.warnings)
     out = replace(report, physical=physical, notes=tuple(notes), warnings=tuple(warn))
     return out if data is None else with_steady_state_check(out, data)
+
+
+def input_delay_note(fit: PhysicalFit) -> str:
+    """How an output-error fit took the input's timing: one clause for the report's notes.
+
+    Parameters
+    ----------
+    fit : PhysicalFit
+        An output-error fit (``info["input_delay"]``, ``info["input_delay_profile"]``).
+
+    Returns
+    -------
+    str
+        E.g. ``"input delay 0.625 ms, profiled (cost 80.36 at 0 ms, 75.35 at 0.625 ms, ...; give it by
+        method_options input_delay, CLI --input-delay)"`` or ``"input delay 0.5 ms, given"``.
+    """
+    d = fit.info.get("input_delay")
+    prof = fit.info.get("input_delay_profile")
+    if d is None:
+        return "input delay: not reported"
+    if not prof:
+        return f"input delay {d * 1e3:.3g} ms, given"
+    pts = ", ".join(f"{c:.4g} at {t * 1e3:.3g} ms" for t, c in sorted(zip(prof["delay"], prof["cost"])))
+    return (f"input delay {d * 1e3:.3g} ms, profiled (each torque sample taken that long before its stamp; cost "
+            f"{pts}; give it by method_options input_delay, CLI --input-delay)")
 
 
 def stderr_note(fit: PhysicalFit) -> str:

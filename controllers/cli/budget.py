@@ -47,21 +47,21 @@ MEMORY_LIMIT = 4 * 2**30
 #: ``linear_refit``: one refit of their residual bootstrap, per sample; ``refit_bytes``: the memory a replicate
 #: keeps (its parameters and its friction curve on the band's grid);
 #: ``output_error``/``closed_loop``: one output-error fit (or bootstrap refit) of the physical parameters, per
-#: sample (``output_error`` as measured by benchmarks/output_error_speed.py, 2.3-2.7 s of CPU per fit of a
+#: sample (``output_error`` as measured by benchmarks/output_error_speed.py, 3.4 s of CPU per fit of a
 #: 20 k-sample log, with a margin; a bootstrap refit costs :data:`OE_REFIT_SHARE` of it); ``form``: one fit of
 #: a candidate form in ``--form``, per sample.
 COSTS = {"loop": 2.7e-7, "prepare": 6e-7, "compare_fixed": 0.3, "step": 1.5e-5, "step_bytes": 130.0,
          "paper_sim": 3e-6, "paper_exp": 4e-6, "paper_speed": 0.02, "eq4": 8e-5, "linear_refit": 1e-8,
-         "refit_bytes": 2000.0, "output_error": 2e-4, "closed_loop": 6e-3, "form": 8e-4}
+         "refit_bytes": 2000.0, "output_error": 2.5e-4, "closed_loop": 6e-3, "form": 8e-4}
 
-#: Simulations of the record in one output-error fit (its staged search, the profile over tau included, and the
-#: Jacobian of its HAC errors), whatever the record's length: 1346-1400 measured on 5-20 s of the open-loop log of
-#: benchmarks/output_error_speed.py (``physical.info["n_simulations"]``).
-OE_FIT_SIMULATIONS = 1400
+#: Simulations of the record in one output-error fit (its staged search, the profiles over tau and over the input
+#: delay included, and the Jacobian of its HAC errors), whatever the record's length: 1600-2070 measured on 5-20 s
+#: of the open-loop log of benchmarks/output_error_speed.py (``physical.info["n_simulations"]``).
+OE_FIT_SIMULATIONS = 2000
 #: A bootstrap refit's share of a fit, by ``--bootstrap-refit`` (measured on the same logs,
-#: ``info["bootstrap"]["n_simulations"]``): ``full`` runs the fit's own search on the replicate (1359-1381
-#: simulations a refit, one fit), ``partial`` the fit's later steps from a spread start (182-197: 0.13-0.15).
-OE_REFIT_SHARE = {"full": 1.0, "partial": 0.15}
+#: ``info["bootstrap"]["n_simulations"]``): ``full`` runs the fit's own search on the replicate (0.94-1.0 of the
+#: fit's simulations a refit), ``partial`` the fit's later steps from a spread start (182-197 simulations: 0.09-0.12).
+OE_REFIT_SHARE = {"full": 1.0, "partial": 0.12}
 
 #: Default bootstrap refits of each identification method (``identify --bootstrap``'s help).
 _DEFAULT_BOOTSTRAP = {"paper": 200, "sliding": 200, "idim": 200, "output_error": 20, "closed_loop": 10}
