@@ -81,3 +81,25 @@ def test_a_pi_log_names_only_the_parameter_outside_its_interval():
     assert "simulation-extrapolation" in str(w) and "which the interval does not hold" in str(w)
     me = rep.physical.info["model_error"]
     assert me["whiteness"]["rho1"] > 0.8 and me["whiteness"]["p"] < 1e-6  # far from white, yet no one stands out
+
+
+def test_a_pi_log_with_a_pre_fitted_shape_names_every_value_outside_its_interval():
+    """The Stribeck pre-fit of the README's quasi-static log (Vs -1.1 %, delta +1.6 %) moves Fs by +0.9 % and
+    sigma by -0.3 %, beyond their intervals: the freed shape names them (tests/adaptive_ff_layer/test_closed_loop_logs.py's
+    log, seed 1)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_closed_loop_logs import DELTA, VS, _run
+
+    rep = identify(_run(20.0, 1e-3, 1).controller_log(), Vs=VS, delta=DELTA, lag=True)
+    named = {w.parameter for w in rep.warnings if w.code == "model_form"}
+    outside = {k for k in ("J", "Fc", "Fs", "sigma", "tau")
+               if not rep.interval95[k][0] <= getattr(P, k) <= rep.interval95[k][1]}
+    assert rep.method == "sliding" and outside and outside <= named  # measured: Fc, sigma outside
+    shape = [w for w in rep.warnings if w.code == "model_form" and "Stribeck shape other than the given" in str(w)]
+    assert {w.parameter for w in shape} >= {"Fs"}
+    me = rep.physical.info["model_error"]
+    alt = next(a for a in me["alternatives"] if a["name"].startswith("Stribeck shape"))
+    assert alt["df"] == 2 and alt["p"] < 1e-6 and alt["shift"]["Fs"] == pytest.approx(-0.93, abs=0.05)
