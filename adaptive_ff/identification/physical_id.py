@@ -73,7 +73,10 @@ Methods
     over tau (tau held at 0.5 .. 2 times the estimate, J on a grid there, the
     others refitted; :mod:`adaptive_ff.identification.lag_profile`: on joints
     with a lag near the sample time the search otherwise stopped in a local
-    minimum of the valley where J trades against tau, tau 9-70 % off), and a
+    minimum of the valley where J trades against tau, tau 9-70 % off), where
+    ``input_delay`` is not given a profile over the input delay (sub-sample
+    delays, the local stage and a coordinate round at each;
+    :mod:`adaptive_ff.identification.delay_profile`), and a
     profile likelihood over Fs (held at -8 .. +8 % in 2 % steps, the others
     refitted; lowest cost kept), since Fc and Fs trade against each other at
     breakaway and the profile itself is rough at the 1-2 % level (a 4 % grid
@@ -309,8 +312,10 @@ class PhysicalFit:
         ``fitted`` (names of the fitted parameters; ``Vs``, ``delta`` among them where they were not given),
         ``fixed`` (``{"Vs", "delta"}`` as given, or empty),
         ``residual_rms``, ``n_simulations``, ``burn_samples``, ``loss``,
-        ``f_scale``, ``h_max``, ``input_delay``, ``interp``, ``Ts_mean``,
-        ``Ts_max``.
+        ``f_scale``, ``h_max``, ``input_delay`` (s: the one given, or the one the profile chose),
+        ``input_delay_profile`` (None where the delay was given, else ``delay``, ``cost``, ``chosen``,
+        ``n_simulations``: :func:`adaptive_ff.identification.delay_profile.delay_profile_search`), ``interp``,
+        ``Ts_mean``, ``Ts_max``.
     """
 
     method: str
