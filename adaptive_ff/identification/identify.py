@@ -54,7 +54,7 @@ from adaptive_ff.identification.uncertainty import (DEFAULT_N_BOOTSTRAP, Paramet
 from plant.errors import ExcitationError, ParameterError, check_positive
 
 __all__ = ["IdentificationReport", "identify", "PARAM_UNITS", "CrossValidation", "cross_validate", "stderr_note",
-           "IDENTIFY_METHODS", "choose_method", "attach_physical"]
+           "IDENTIFY_METHODS", "choose_method", "auto_methods", "attach_physical", "input_delay_note"]
 
 #: Methods of :func:`identify`: ``"auto"`` chooses among the others from the record (:func:`choose_method`).
 #: ``"closed_loop"`` simulates the user's controller and lives in ``controllers``
@@ -179,10 +179,41 @@ def choose_method(data: MeasuredData, *, Vs: float | None, controller_Tc: float 
     run = "" if eq4_free_run is None else f" (the eq. 4 model runs freely: free-run fit {eq4_free_run:.1f} %)"
     return "output_error", (f"{spacing}, slower than the {CONTROLLER_RATE_TS * 1e3:g} ms the sliding regression needs "
                             f"or irregular, with the Stribeck pre-fit given{run}: the output-error fit of eqs. 1-3 "
-                            "on the record's own stamps, each torque sample taken at its stamp (method_options "
-                            "input_delay for a logger that stamps the torque of the period before); the eq. 4 LS is "
+                            "on the record's own stamps, the torque's delay to its stamps profiled where not given "
+                            "(method_options input_delay); the eq. 4 LS is "
                             "biased on such a readout (differences across the Stribeck hump, velocity noise in its "
                             "regressors)")
+
+
+def auto_methods(data: MeasuredData, *, Vs: float | None, lag: bool = False) -> tuple[str, ...]:
+    """The methods ``identify(method="auto")`` may run on a record, in the order it runs them, known before any fit.
+
+    Parameters
+    ----------
+    data : MeasuredData
+        The record.
+    Vs : float or None, keyword-only
+        The pre-fitted Stribeck velocity (rad/s), None if not given.
+    lag : bool, keyword-only
+        A friction lag is asked for. Default False.
+
+    Returns
+    -------
+    tuple of str
+        ``(choose_method(...),)``, except for ``"sliding"`` on a record whose torque does not follow the velocity
+        noise (:func:`adaptive_ff.identification.diagnostics.feedback_correlation` below
+        :data:`adaptive_ff.identification.diagnostics.FEEDBACK_MIN` in magnitude: an open-loop record):
+        ``("sliding", "output_error")``, since :func:`identify` replaces the sliding regression by the output-error
+        fit there when the regression's own simulation-extrapolation finds J or tau biased, which only the fit tells.
+        An upper bound of the work: a record slower than the controller rate is counted as ``"output_error"``
+        (``identify`` takes the cheaper eq. 4 LS where its free-run fit is below 50 %, which needs that fit).
+        Used by the CLI's work estimate (:func:`controllers.cli.budget.identify_estimate`).
+    """
+    method = choose_method(data, Vs=Vs, lag=lag)[0]
+    if method != "sliding":
+        return (method,)
+    uni = to_uniform(data)
+    return ("sliding",) if abs(feedback_correlation(uni.u, uni.w)) >= FEEDBACK_MIN else ("sliding", "output_error")
 
 
 def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bool, options=None) -> PhysicalFit:
@@ -211,9 +242,12 @@ def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bo
         phys = lambda th: estimate_from_theta(f.names, th, Vs, delta)  # noqa: E731
         unc = regression_block_bootstrap(X, y, f.theta, phys, names, w_max=float(np.max(np.abs(uni.w))), Vs=Vs,
                                          delta=delta, n=n, seed=seed)
-        check = assess_model_error(X, y, f.theta, lambda th: np.array([getattr(phys(th), k) for k in names]), names,
+        vec = lambda th: np.array([getattr(phys(th), k) for k in names])  # noqa: E731
+        check = assess_model_error(X, y, f.theta, vec, names,
                                    base_half_width={k: 0.5 * (hi - lo) for k, (lo, hi) in unc.interval.items()},
-                                   min_lags=int(unc.block), level=float(unc.level))
+                                   min_lags=int(unc.block), level=float(unc.level), colour_reference="shared",
+                                   alternatives=(_stribeck_shape_alternative(uni, Vs, delta, offset, X, y, f.theta,
+                                                                             vec),))
         unc = widened(unc, check)
         extra_warn = check.warnings("the sliding regression")
         stderr = dict(unc.stderr)
@@ -226,9 +260,30 @@ def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bo
                        warnings=tuple(check_physical(params, source="sliding (fit_sliding)")) + tuple(extra_warn))
 
 
+def _stribeck_shape_alternative(uni: MeasuredData, Vs: float, delta: float, offset: bool, X, y, theta, vec):
+    """The sliding regression with the Stribeck shape freed to first order: the rows ``X`` with the derivatives of
+    the fitted prediction ``X theta`` along ``log Vs`` and ``delta`` as two extra columns (central differences of
+    the regressors at ``Vs (1 +- 1e-3)``, ``delta +- 1e-3``; the sliding gate does not depend on them), as an
+    :class:`adaptive_ff.identification.model_error.Alternative`: where the log supports another shape than the
+    pre-fit's, the Fc, Fs and sigma it moves are named (a pre-fit off by 1-2 % moved Fs by +0.5..+0.9 % and sigma
+    by -0.3 % on 1 kHz PI logs, beyond their intervals)."""
+    from adaptive_ff.compensation.sliding_estimator import sliding_regressors
+    from adaptive_ff.identification.model_error import Alternative
+
+    def rows(v, d):
+        return sliding_regressors(uni.u, uni.w, Tc=uni.Ts, Vs=v, delta=d, lag=True, offset=offset)[0]
+
+    h = 1e-3
+    cv = (rows(Vs * (1 + h), delta) - rows(Vs * (1 - h), delta)) @ theta / (2 * h)
+    cd = (rows(Vs, delta + h) - rows(Vs, delta - h)) @ theta / (2 * h)
+    p = X.shape[1]
+    return Alternative("Stribeck shape other than the given Vs, delta", np.column_stack([X, cv, cd]), y, (p, p + 1),
+                       lambda th: vec(th[:p]))
+
+
 def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None = None, lag: bool = False,
              offset: bool = True, lam: float = 1.0, P0: float = 1e4, n_history: int = 500,
-             method: str = "paper", method_options: dict | None = None, form: str | None = None,
+             method: str = "auto", method_options: dict | None = None, form: str | None = None,
              form_options: dict | None = None) -> IdentificationReport:
     """Identify the joint model of eq. 4 from a measured record, offline (LS) and online (RLS).
 
@@ -256,7 +311,10 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
     n_history : int, keyword-only
         At most this many rows of RLS history are kept (>= 2). Default 500.
     method : str, keyword-only
-        One of :data:`IDENTIFY_METHODS`. ``"paper"`` (default): the eq. 4
+        One of :data:`IDENTIFY_METHODS`. ``"auto"`` (default, as the CLI's ``--method``): the method of
+        :func:`choose_method` (named in the notes and in ``physical.info["auto_reason"]``): ``"idim"`` for a
+        uniform log whose velocity comes from a measured position without ``Vs``/``lag``, ``"paper"`` for any
+        other log without ``Vs``, ``"sliding"`` or ``"output_error"`` with ``Vs``. ``"paper"``: the eq. 4
         LS/RLS is the answer. ``"output_error"`` also fits the physical
         parameters of eqs. 1-3 by simulation-error minimisation on the record
         as measured (its own, possibly irregular, time stamps);
@@ -268,8 +326,7 @@ def identify(data: MeasuredData, *, Vs: float | None = None, delta: float | None
         warnings then become ``"method"`` notes, the answer's own warnings
         stay). ``"idim"``: the inverse dynamic model (IDIM-LS, the torque regression of the EMPS
         benchmark; :mod:`adaptive_ff.identification.idim_method`), Coulomb + viscous without ``Vs``,
-        ``delta`` or ``lag``, for a log whose velocity comes from a measured position. ``"auto"``: the
-        method of :func:`choose_method` (named in the notes and in ``physical.info["auto_reason"]``).
+        ``delta`` or ``lag``, for a log whose velocity comes from a measured position.
         Where the eq. 4 LS, the sliding regression or the IDIM-LS is the answer, its 95 % intervals are
         widened where the model-error check finds model error, which then names the parameters in
         ``"model_form"`` warnings (:mod:`adaptive_ff.identification.model_error`).
@@ -405,12 +462,17 @@ def _physical_answer(method, auto_reason, data, uni, Vs, delta, offset, method_o
         # judge J and tau in the band of the sliding regression, not sample to sample
         warn = [w for w in warn if not (w.code == "identifiability" and w.parameter == "J")]
         band = sliding_band_warnings(uni, Vs, delta, noise_std, physical)
-        rho = feedback_correlation(uni.u, uni.w) if auto_reason is not None and band else -1.0
-        if auto_reason is None or not band or abs(rho) >= FEEDBACK_MIN:
+        biased = [w for w in band if w.code == "identifiability"]  # J or tau moved by > 10 %: the switch below
+        rho = feedback_correlation(uni.u, uni.w) if auto_reason is not None and biased else -1.0
+        if auto_reason is None or not biased or abs(rho) >= FEEDBACK_MIN:
             notes.append(f"physical parameters by 'sliding' on {physical.info['n_rows']} sliding-regime rows "
                          f"({physical.info['n_gated']} near-zero-velocity rows gated out)")
-            return _with_auto_reason(physical, auto_reason, notes, warn + band)
-        named = " and ".join(sorted({w.parameter for w in band}, key=("J", "tau").index))
+            from dataclasses import replace  # the answer's own model_form warnings: not eq. 4 baselines
+
+            physical = replace(physical, warnings=tuple(physical.warnings) + tuple(w for w in band
+                                                                                  if w.code == "model_form"))
+            return _with_auto_reason(physical, auto_reason, notes, warn + biased)
+        named = " and ".join(sorted({w.parameter for w in biased}, key=("J", "tau").index))
         auto_reason += (f"; but on this record the sliding regression's own simulation-extrapolation moves {named} "
                         "by more than 10 % (the velocity noise in its filtered regressors biases it; the numbers "
                         "are in the 'method' warnings) and the torque does not follow the velocity noise (correlation "
@@ -432,6 +494,8 @@ def _physical_answer(method, auto_reason, data, uni, Vs, delta, offset, method_o
                                 **(method_options or {}))
         notes.append(f"physical parameters by {method!r} on the record's own time stamps "
                      f"({physical.n_samples} samples, fit {physical.nrmse_kind}); {stderr_note(physical)}")
+        if method == "output_error":
+            notes.append(input_delay_note(physical))
     return _with_auto_reason(physical, auto_reason, notes, warn)
 
 
@@ -562,6 +626,31 @@ def attach_physical(report: IdentificationReport, physical: PhysicalFit, *, note
     warn = [as_baseline(w) for w in report.warnings] + list(physical.warnings)
     out = replace(report, physical=physical, notes=tuple(notes), warnings=tuple(warn))
     return out if data is None else with_steady_state_check(out, data)
+
+
+def input_delay_note(fit: PhysicalFit) -> str:
+    """How an output-error fit took the input's timing: one clause for the report's notes.
+
+    Parameters
+    ----------
+    fit : PhysicalFit
+        An output-error fit (``info["input_delay"]``, ``info["input_delay_profile"]``).
+
+    Returns
+    -------
+    str
+        E.g. ``"input delay 0.625 ms, profiled (cost 80.36 at 0 ms, 75.35 at 0.625 ms, ...; give it by
+        method_options input_delay, CLI --input-delay)"`` or ``"input delay 0.5 ms, given"``.
+    """
+    d = fit.info.get("input_delay")
+    prof = fit.info.get("input_delay_profile")
+    if d is None:
+        return "input delay: not reported"
+    if not prof:
+        return f"input delay {d * 1e3:.3g} ms, given"
+    pts = ", ".join(f"{c:.4g} at {t * 1e3:.3g} ms" for t, c in sorted(zip(prof["delay"], prof["cost"])))
+    return (f"input delay {d * 1e3:.3g} ms, profiled (each torque sample taken that long before its stamp; cost "
+            f"{pts}; give it by method_options input_delay, CLI --input-delay)")
 
 
 def stderr_note(fit: PhysicalFit) -> str:

@@ -34,9 +34,11 @@ class OutputErrorOptions:
         velocity noise of 0.03 % of the peak ``|w|``, else free-run (module docstring).
     h_max : float, keyword-only
         Largest RK4 sub-step (s), > 0. Default 1e-3 (the paper's simulation rate).
-    input_delay : float, keyword-only
-        Time (s) by which each input sample precedes its time stamp. Default 0;
-        0.5e-3 for :func:`plant.sampling.sample` at 1 kHz.
+    input_delay : float or None, keyword-only
+        Time (s) by which each input sample precedes its time stamp, >= 0 (0.5e-3 for
+        :func:`plant.sampling.sample` at 1 kHz). None (default): not known, profiled by the fit
+        (:func:`adaptive_ff.identification.delay_profile.delay_profile_search`: sub-sample delays, the
+        parameters refitted at each, the lowest cost kept; reported in ``info["input_delay"]``).
     interp : {"linear", "cubic"}, keyword-only
         Input reconstruction between the samples. Default ``"linear"``.
     burn : float, keyword-only
@@ -119,7 +121,7 @@ class OutputErrorOptions:
 
     predictor: str = "auto"
     h_max: float = H_MAX_DEFAULT
-    input_delay: float = 0.0
+    input_delay: float | None = None
     interp: str = "linear"
     burn: float = 0.5
     fs_grid: int = 31
@@ -143,7 +145,10 @@ class OutputErrorOptions:
             object.__setattr__(self, name, value)
 
         put("h_max", check_positive("h_max", self.h_max))
-        put("input_delay", check_finite_scalar("input_delay", self.input_delay))
+        if self.input_delay is not None:
+            put("input_delay", check_finite_scalar("input_delay", self.input_delay))
+            if self.input_delay < 0:
+                raise ParameterError(f"input_delay must be >= 0 s (or None: profiled), got {self.input_delay!r}")
         put("burn", check_finite_scalar("burn", self.burn))
         if self.burn < 0:
             raise ParameterError(f"burn must be >= 0, got {self.burn!r}")

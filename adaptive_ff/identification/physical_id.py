@@ -73,7 +73,10 @@ Methods
     over tau (tau held at 0.5 .. 2 times the estimate, J on a grid there, the
     others refitted; :mod:`adaptive_ff.identification.lag_profile`: on joints
     with a lag near the sample time the search otherwise stopped in a local
-    minimum of the valley where J trades against tau, tau 9-70 % off), and a
+    minimum of the valley where J trades against tau, tau 9-70 % off), where
+    ``input_delay`` is not given a profile over the input delay (sub-sample
+    delays, the local stage and a coordinate round at each;
+    :mod:`adaptive_ff.identification.delay_profile`), and a
     profile likelihood over Fs (held at -8 .. +8 % in 2 % steps, the others
     refitted; lowest cost kept), since Fc and Fs trade against each other at
     breakaway and the profile itself is rough at the 1-2 % level (a 4 % grid
@@ -202,6 +205,7 @@ from threadpoolctl import threadpool_limits
 
 from adaptive_ff.identification.covariance import andrews_bandwidth, hac_covariance, parametric_block_bootstrap
 from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
+from adaptive_ff.identification.delay_profile import delay_profile_search
 from adaptive_ff.identification.lag_profile import lag_profile_search
 from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.oe_options import BOOTSTRAP_REFITS, JACOBIANS, OutputErrorOptions
@@ -308,8 +312,10 @@ class PhysicalFit:
         ``fitted`` (names of the fitted parameters; ``Vs``, ``delta`` among them where they were not given),
         ``fixed`` (``{"Vs", "delta"}`` as given, or empty),
         ``residual_rms``, ``n_simulations``, ``burn_samples``, ``loss``,
-        ``f_scale``, ``h_max``, ``input_delay``, ``interp``, ``Ts_mean``,
-        ``Ts_max``.
+        ``f_scale``, ``h_max``, ``input_delay`` (s: the one given, or the one the profile chose),
+        ``input_delay_profile`` (None where the delay was given, else ``delay``, ``cost``, ``chosen``,
+        ``n_simulations``: :func:`adaptive_ff.identification.delay_profile.delay_profile_search`), ``interp``,
+        ``Ts_mean``, ``Ts_max``.
     """
 
     method: str
@@ -460,7 +466,10 @@ class _OutputErrorProblem:
     j_shape = 6
 
     def __init__(self, t, u, w, Vs, delta, offset, opts: OutputErrorOptions):
-        self.grid = input_grid(t, u, h_max=opts.h_max, input_delay=opts.input_delay, interp=opts.interp)
+        # input_delay None: profiled by the search (delay_profile_search), from 0
+        self.input_delay = 0.0 if opts.input_delay is None else float(opts.input_delay)
+        self.delay_profile = None
+        self.grid = input_grid(t, u, h_max=opts.h_max, input_delay=self.input_delay, interp=opts.interp)
         self.i0 = int(np.searchsorted(t, t[0] + opts.burn))
         if t.shape[0] - self.i0 < MIN_SAMPLES:
             raise SignalError(f"the record ({t[-1] - t[0]:.4g} s) is too short for burn = {opts.burn!r} s; "
@@ -491,6 +500,13 @@ class _OutputErrorProblem:
         # the cost over the breakaway jitter; the final stage the noise-level scale
         self.f_wide = max(self.f_scale, 1e-2 * peak)
         self.torque = 1.0  # offset scale, set by start_vector
+
+    def set_delay(self, d: float) -> None:
+        """Take each input sample ``d`` s before its stamp from now on (the input grid rebuilt, the remembered
+        residuals dropped)."""
+        if d != self.input_delay:
+            self.grid = input_grid(self.t, self.u, h_max=self.opts.h_max, input_delay=d, interp=self.opts.interp)
+            self.input_delay, self.memo, self.fd_memo = float(d), {}, None
 
     def start_vector(self, s0: dict) -> np.ndarray:
         """``x`` of the start values; fixes the offset scale ``torque``."""
@@ -697,6 +713,12 @@ def _oe_global_stage(pb: _OutputErrorProblem, x: np.ndarray, profiled: bool) -> 
     return best[1].x
 
 
+def _oe_delay_refit(pb: _OutputErrorProblem, x: np.ndarray) -> tuple[float, np.ndarray]:
+    """The refit of the input-delay profile at each delay from the estimate ``x``: the local stage and one round
+    of the coordinate search; ``(cost, x)``."""
+    return _oe_coordinate_search(pb, _oe_local_stage(pb, x), rounds=1)
+
+
 def _oe_local_stage(pb: _OutputErrorProblem, x: np.ndarray) -> tuple[float, np.ndarray]:
     """Noise-level stage: fit, local Fs profile (+-``_FS_SPAN``), fit; the better ``(cost, x)``."""
     ds = pb.opts.diff_step / 3.0
@@ -898,6 +920,8 @@ def _oe_search(pb: _OutputErrorProblem, s0: dict, lag_refits: int | None = None
     lag_prof = None
     if pb.opts.lag_profile:
         best, lag_prof = lag_profile_search(pb, best, n_refit=lag_refits)
+    if pb.opts.input_delay is None:  # not given: profiled (pb.delay_profile), pb left at the delay chosen
+        best, pb.delay_profile = delay_profile_search(pb, best, lambda z: _oe_delay_refit(pb, z))
     return _oe_fs_profile(pb, best), lag_prof
 
 
@@ -929,7 +953,8 @@ def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> P
                              "residual_rms": float(math.sqrt(float(r @ r) / r.shape[0])),
                              "n_simulations": int(pb.n_sim), "burn_samples": pb.i0, "loss": opts.loss,
                              "f_scale": float(pb.f_scale), "f_scale_global": float(pb.f_wide),
-                             "h_max": opts.h_max, "input_delay": opts.input_delay, "interp": opts.interp,
+                             "h_max": opts.h_max, "input_delay": pb.input_delay,
+                             "input_delay_profile": pb.delay_profile, "interp": opts.interp,
                              "Ts_mean": float(np.mean(np.diff(t))), "Ts_max": float(np.max(np.diff(t))), **top})
 
 

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 from plant.errors import ParameterError
 
-__all__ = ["TIME_LIMIT", "MEMORY_LIMIT", "WorkEstimate", "WorkLimitError", "check_work", "add_yes_argument",
+__all__ = ["TIME_LIMIT", "MEMORY_LIMIT", "OE_FIT_SIMULATIONS", "OE_REFIT_SHARE", "WorkEstimate", "WorkLimitError", "check_work", "add_yes_argument",
            "compare_runs", "compare_estimate", "identify_estimate", "design_estimate", "paper_figures_estimate",
            "sweep_estimate", "zoo_estimate", "COSTS"]
 
@@ -47,12 +47,21 @@ MEMORY_LIMIT = 4 * 2**30
 #: ``linear_refit``: one refit of their residual bootstrap, per sample; ``refit_bytes``: the memory a replicate
 #: keeps (its parameters and its friction curve on the band's grid);
 #: ``output_error``/``closed_loop``: one output-error fit (or bootstrap refit) of the physical parameters, per
-#: sample (``partial`` refits of ``--bootstrap-refit partial``: a third of it; ``output_error`` as measured by
-#: benchmarks/output_error_speed.py, 2.7 s of CPU per fit of a 20 k-sample log, with a margin); ``form``: one fit of
+#: sample (``output_error`` as measured by benchmarks/output_error_speed.py, 3.4 s of CPU per fit of a
+#: 20 k-sample log, with a margin; a bootstrap refit costs :data:`OE_REFIT_SHARE` of it); ``form``: one fit of
 #: a candidate form in ``--form``, per sample.
 COSTS = {"loop": 2.7e-7, "prepare": 6e-7, "compare_fixed": 0.3, "step": 1.5e-5, "step_bytes": 130.0,
          "paper_sim": 3e-6, "paper_exp": 4e-6, "paper_speed": 0.02, "eq4": 8e-5, "linear_refit": 1e-8,
-         "refit_bytes": 2000.0, "output_error": 2e-4, "closed_loop": 6e-3, "form": 8e-4}
+         "refit_bytes": 2000.0, "output_error": 2.5e-4, "closed_loop": 6e-3, "form": 8e-4}
+
+#: Simulations of the record in one output-error fit (its staged search, the profiles over tau and over the input
+#: delay included, and the Jacobian of its HAC errors), whatever the record's length: 1600-2070 measured on 5-20 s
+#: of the open-loop log of benchmarks/output_error_speed.py (``physical.info["n_simulations"]``).
+OE_FIT_SIMULATIONS = 2000
+#: A bootstrap refit's share of a fit, by ``--bootstrap-refit`` (measured on the same logs,
+#: ``info["bootstrap"]["n_simulations"]``): ``full`` runs the fit's own search on the replicate (0.94-1.0 of the
+#: fit's simulations a refit), ``partial`` the fit's later steps from a spread start (182-197 simulations: 0.09-0.12).
+OE_REFIT_SHARE = {"full": 1.0, "partial": 0.12}
 
 #: Default bootstrap refits of each identification method (``identify --bootstrap``'s help).
 _DEFAULT_BOOTSTRAP = {"paper": 200, "sliding": 200, "idim": 200, "output_error": 20, "closed_loop": 10}
@@ -63,14 +72,17 @@ _N_FORMS = 6
 @dataclass(frozen=True)
 class WorkEstimate:
     """What a command's options ask for: ``what`` (the options and the units of work, for the message), about
-    ``seconds`` of wall time and ``bytes`` of peak memory."""
+    ``seconds`` of wall time and ``bytes`` of peak memory; ``simulations``: the simulations of the record the
+    output-error fits run (:data:`OE_FIT_SIMULATIONS` a fit), 0 where none (the count the estimate rests on)."""
 
     what: str
     seconds: float
     bytes: float
+    simulations: float = 0.0
 
     def __add__(self, other: WorkEstimate) -> WorkEstimate:
-        return WorkEstimate(f"{self.what}, {other.what}", self.seconds + other.seconds, max(self.bytes, other.bytes))
+        return WorkEstimate(f"{self.what}, {other.what}", self.seconds + other.seconds, max(self.bytes, other.bytes),
+                            self.simulations + other.simulations)
 
 
 class WorkLimitError(ParameterError):
@@ -213,7 +225,7 @@ def compare_estimate(duration: float, n_modes: int, *, identification: bool = Tr
     return WorkEstimate(f"{text} ({_count(n)} samples, {n_modes} runs)", seconds, memory)
 
 
-def identify_estimate(n_samples: int, method: str, *, bootstrap: int | None = None, refit: str | None = None,
+def identify_estimate(n_samples: int, method, *, bootstrap: int | None = None, refit: str | None = None,
                       folds: int | None = None, workers: int | None = None) -> WorkEstimate:
     """The work of ``identify`` on a log of ``n_samples`` samples.
 
@@ -221,13 +233,16 @@ def identify_estimate(n_samples: int, method: str, *, bootstrap: int | None = No
     ----------
     n_samples : int
         Samples of the log.
-    method : str
+    method : str or tuple of str
         The method that runs (``auto`` resolved): ``paper``, ``sliding``, ``idim``, ``output_error`` or
-        ``closed_loop``.
+        ``closed_loop``; or the methods ``auto`` may run one after the other
+        (:func:`adaptive_ff.identification.identify.auto_methods`, e.g. ``("sliding", "output_error")``: the
+        sliding regression, then the output-error fit where the record is open loop and the regression's own
+        simulation-extrapolation finds J or tau biased), each counted.
     bootstrap : int or None, keyword-only
-        ``--bootstrap`` (None: the method's default).
+        ``--bootstrap`` (None: each method's default).
     refit : str or None, keyword-only
-        ``--bootstrap-refit`` (``partial``: a third of a fit per refit).
+        ``--bootstrap-refit`` (``partial``: :data:`OE_REFIT_SHARE` of a fit per refit).
     folds : int or None, keyword-only
         ``--folds`` of ``--form`` (None: no form selection).
     workers : int or None, keyword-only
@@ -236,8 +251,11 @@ def identify_estimate(n_samples: int, method: str, *, bootstrap: int | None = No
     Returns
     -------
     WorkEstimate
+        With ``simulations``: the output-error fit's and its refits' simulations
+        (:data:`OE_FIT_SIMULATIONS` times ``1 + refits * share``).
     """
     n = float(n_samples)
+    methods = (method,) if isinstance(method, str) else tuple(method)
     seconds = COSTS["eq4"] * n
     memory = 64.0 * n  # the log, its uniform copy and the regressors
     if folds is not None:
@@ -245,18 +263,29 @@ def identify_estimate(n_samples: int, method: str, *, bootstrap: int | None = No
         seconds += COSTS["form"] * n * fits
         return WorkEstimate(f"--folds {folds} on {_count(n)} samples ({fits} fits)", seconds, memory)
     given = bootstrap is not None
-    b = _DEFAULT_BOOTSTRAP.get(method, 0) if bootstrap is None else int(bootstrap)
-    if method in ("paper", "sliding", "idim"):
-        seconds += COSTS["linear_refit"] * n * b
-        memory += COSTS["refit_bytes"] * b
-    elif method in ("output_error", "closed_loop"):
-        cpus = workers or _cpus()
-        per = COSTS[method] * n
-        share = (1.0 / 3.0 if refit == "partial" else 1.0) / (cpus if method == "output_error" else 1)
-        seconds += per * (1.0 + b * share)
-        memory += COSTS["refit_bytes"] * b
-    text = f"--bootstrap {b}{'' if given else ' (default)'} on {_count(n)} samples (method {method})"
-    return WorkEstimate(text, seconds, memory)
+    sims, texts = 0.0, []
+    for m in methods:
+        b = _DEFAULT_BOOTSTRAP.get(m, 0) if bootstrap is None else int(bootstrap)
+        texts.append(f"{m} {b}")
+        if m in ("paper", "sliding", "idim"):
+            seconds += COSTS["linear_refit"] * n * b
+            memory += COSTS["refit_bytes"] * b
+        elif m in ("output_error", "closed_loop"):
+            share = OE_REFIT_SHARE["partial" if refit == "partial" else "full"]
+            cpus = (workers or _cpus()) if m == "output_error" else 1
+            seconds += COSTS[m] * n * (1.0 + b * share / cpus)
+            memory += COSTS["refit_bytes"] * b
+            if m == "output_error":
+                sims += OE_FIT_SIMULATIONS * (1.0 + b * share)
+    if len(methods) == 1:
+        b = texts[0].split()[-1]
+        text = f"--bootstrap {b}{'' if given else ' (default)'} on {_count(n)} samples (method {methods[0]})"
+    else:
+        boot = f"--bootstrap {bootstrap}" if given else f"the default bootstraps ({', '.join(texts)})"
+        text = (f"{boot} on {_count(n)} samples (method auto: {' then '.join(methods)}, the {methods[-1]} fit "
+                f"where the {methods[0]} regression is biased on this open-loop log; --method {methods[0]} keeps "
+                "it)")
+    return WorkEstimate(text, seconds, memory, sims)
 
 
 def _cpus() -> int:

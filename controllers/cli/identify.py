@@ -11,6 +11,7 @@ its PD position loop (:func:`adaptive_ff.identification.emps_validation.validate
 from __future__ import annotations
 
 import json
+import math
 import re
 from pathlib import Path
 
@@ -201,6 +202,13 @@ def _identify(args, data):
     if args.bootstrap_refit is not None and not output_error:
         raise ParameterError(f"--bootstrap-refit applies to --method output_error (without --form), got "
                              f"--method {args.method}" + (f" --form {args.form}" if args.form else ""))
+    if args.input_delay is not None and args.form is None:
+        if args.method not in ("auto", "output_error") or (args.method == "auto" and ref_name and spec):
+            raise ParameterError(f"--input-delay applies to the output-error fit of the log (--method output_error, "
+                                 f"or auto where it answers by output error), got --method {args.method}"
+                                 + (" with the reference and the controller (closed_loop)" if args.method == "auto"
+                                    else ""))
+        boot["input_delay"] = args.input_delay
     if output_error:  # its bootstrap takes minutes on a long log
         boot["progress"] = progress_from_args(args)
         if args.bootstrap_refit is not None:
@@ -245,6 +253,8 @@ def _identify_form(args, data, ref_name, spec, common):
         raise ParameterError(f"--bootstrap does not apply to --form {args.form}: its standard errors are the "
                              "delete-a-block jackknife of the cross-validation")
     options = {"folds": args.folds, "criterion": args.criterion}
+    if args.input_delay is not None:
+        options["input_delay"] = args.input_delay
     if args.method == "sliding":
         if args.predictor != "auto":
             raise ParameterError("--predictor applies to the output-error fits of --form, not to --method sliding")
@@ -276,12 +286,16 @@ def _form_rigid_axis(report):
 
 
 def _check_bootstrap(args) -> None:
-    """``--bootstrap N``: an integer >= 0 (ParameterError naming the option otherwise), checked before the data
-    are read."""
+    """``--bootstrap N``: an integer >= 0, ``--input-delay SECONDS``: a finite time >= 0 (ParameterError naming the
+    option otherwise), checked before the data are read."""
     from plant.errors import ParameterError
 
     if args.bootstrap is not None and args.bootstrap < 0:
         raise ParameterError(f"--bootstrap must be an integer >= 0 (0: HAC standard errors), got {args.bootstrap}")
+    d = args.input_delay
+    if d is not None and not (math.isfinite(d) and d >= 0.0):
+        raise ParameterError(f"--input-delay must be a finite time >= 0 in seconds (the time by which each torque "
+                             f"sample precedes its stamp), got {d!r}")
 
 
 def _bootstrap_lines(args, report) -> list:
@@ -305,16 +319,17 @@ def _bootstrap_lines(args, report) -> list:
 
 def _check_work(args, data) -> None:
     """Refuse an identification whose estimated time or memory is beyond the limits without ``--yes``: the refits
-    of ``--bootstrap`` or the fits of ``--form``/``--folds`` on the log's samples
-    (:func:`controllers.cli.budget.identify_estimate`)."""
-    from adaptive_ff.identification.identify import choose_method
+    of ``--bootstrap`` or the fits of ``--form``/``--folds`` on the log's samples, for ``--method auto`` those of
+    every method it may run (:func:`adaptive_ff.identification.identify.auto_methods`;
+    :func:`controllers.cli.budget.identify_estimate`)."""
+    from adaptive_ff.identification.identify import auto_methods
     from controllers.cli.budget import check_work, identify_estimate
 
     method = args.method
-    if args.form is None and method == "auto":
+    if args.form is None and method == "auto":  # what auto runs: the sliding fit and the output-error fit after it
         controller = args.controller is not None or args.Kp is not None
         method = "closed_loop" if args.reference_name and controller and args.Vs is not None else \
-            choose_method(data, Vs=args.Vs, lag=args.lag)[0]
+            auto_methods(data, Vs=args.Vs, lag=args.lag)
     folds = args.folds if args.form is not None else None
     check_work(identify_estimate(data.n_samples, method, bootstrap=args.bootstrap, refit=args.bootstrap_refit,
                                  folds=folds), yes=args.yes)
@@ -343,6 +358,10 @@ def _identify_and_write(args, data, plot_dir, report_dir) -> tuple:
         what = "the EMPS record is a prismatic axis" if emps_file else "--axis linear"
         lines.append(f"units: {what}; its tables stay in SI (N, m/s)")
     lines += _bootstrap_lines(args, report)
+    if args.input_delay is not None and args.form is None and (report.physical is None
+                                                               or report.physical.method != "output_error"):
+        lines.append(f"note: --input-delay {args.input_delay:g} not used: method {report.method!r} is not the "
+                     "output-error fit")
     if args.asymmetric:
         uni = to_uniform(data)
         with named_by(args.file):
@@ -439,6 +458,26 @@ def run(args) -> int:
     return 0
 
 
+def _add_fit_options(i) -> None:
+    """``--bootstrap``, ``--input-delay`` and ``--bootstrap-refit``: the options of the fits' uncertainty and timing."""
+    i.add_argument("--bootstrap", metavar="N", type=int, default=None,
+                   help="refits of the bootstrap behind the standard errors: the residual block bootstrap of "
+                        "methods paper and sliding (default 200, >= 2; 0: white-residual errors), the parametric "
+                        "block bootstrap of output_error and closed_loop (default 20 and 10; more: steadier errors, "
+                        "proportionally slower; 0: HAC (Newey-West) errors instead, too small on their rough cost)")
+    i.add_argument("--input-delay", dest="input_delay", metavar="SECONDS", type=float, default=None,
+                   help="time (s, >= 0) by which each torque sample precedes its time stamp, for the output-error "
+                        "fit (--method output_error, or auto where it answers by output error; --form): e.g. "
+                        "0.0005 for a torque held over 1 ms and stamped at the end of its hold. Default: not "
+                        "known, profiled by the fit over sub-sample delays (0 to one median interval) and reported "
+                        "(JSON info.input_delay)")
+    i.add_argument("--bootstrap-refit", dest="bootstrap_refit", choices=("full", "partial"), default=None,
+                   help="how the output_error bootstrap refits each replicate: full (default; the fit itself on "
+                        "each replicate: intervals calibrated on the zoo of benchmarks/coverage_zoo.py; the "
+                        "refits run on every CPU) or partial (the fit's later steps from a spread start: about 3 "
+                        "times faster, J and tau intervals about twice too wide); --method output_error only")
+
+
 def register(sub) -> None:
     """Add the ``identify`` subcommand to an argparse subparsers object."""
     from controllers.cli.budget import add_yes_argument
@@ -512,16 +551,7 @@ def register(sub) -> None:
     c.add_argument("--Ki", type=float, default=None, help="PI integral gain (N·m/rad): C(z) = Kp + Ki*Tc*z/(z-1)")
     c.add_argument("--Tc", type=float, default=None, help="controller period (s)")
     c.add_argument("--u-max", dest="u_max", type=float, default=None, help="torque limit (N·m), default none")
-    i.add_argument("--bootstrap", metavar="N", type=int, default=None,
-                   help="refits of the bootstrap behind the standard errors: the residual block bootstrap of "
-                        "methods paper and sliding (default 200, >= 2; 0: white-residual errors), the parametric "
-                        "block bootstrap of output_error and closed_loop (default 20 and 10; more: steadier errors, "
-                        "proportionally slower; 0: HAC (Newey-West) errors instead, too small on their rough cost)")
-    i.add_argument("--bootstrap-refit", dest="bootstrap_refit", choices=("full", "partial"), default=None,
-                   help="how the output_error bootstrap refits each replicate: full (default; the fit itself on "
-                        "each replicate: intervals calibrated on the zoo of benchmarks/coverage_zoo.py; the "
-                        "refits run on every CPU) or partial (the fit's later steps from a spread start: about 3 "
-                        "times faster, J and tau intervals about twice too wide); --method output_error only")
+    _add_fit_options(i)
     i.add_argument("--axis", choices=("rotary", "linear"), default="rotary",
                    help="rotary (default): tables in N·m, kg·m², rad/s (or deg/s, --units); linear: a prismatic "
                         "axis, tables in N, kg, m/s (SI; --units does not apply). The values are the same numbers "

@@ -50,7 +50,7 @@ def test_low_speed_warning_names_fs_and_vs():
     assert len(rep.warnings) == 1 and "Fs and Vs are not identifiable" in rep.warnings[0]
     assert f"{100 * frac:.2f} %" in rep.warnings[0]
     # identify() passes the warning on (the noise-free record is still fitted exactly)
-    r = identify(d, Vs=p.Vs, delta=p.delta)
+    r = identify(d, Vs=p.Vs, delta=p.delta, method="paper")
     assert any("Fs and Vs are not identifiable" in w for w in r.warnings)
     assert r.estimate.Fs == pytest.approx(1.4, rel=1e-6)
     assert "Fs and Vs are not identifiable" in r.summary() and r.to_json_dict()["warnings"] == [w.to_dict() for w in r.warnings]
@@ -65,7 +65,7 @@ def test_no_low_speed_samples_at_all_names_the_cause_in_the_excitation_error():
     p, d = _stribeck_record(0.5, mean=3.0, w0=2.0)
     assert np.min(d.w) > 1.0
     with pytest.raises(ExcitationError, match="Fs and Vs are not identifiable") as exc:
-        identify(d, Vs=p.Vs, delta=p.delta)
+        identify(d, Vs=p.Vs, delta=p.delta, method="paper")
     assert "reversal" in str(exc.value)
 
 
@@ -82,12 +82,12 @@ def test_no_reversal_warning():
     m = RegressionModel(lag=False, stribeck=False, offset=False)
     u = 3.0 + 0.5 * np.sin(2 * np.pi * 0.9 * t)
     wsim = m.simulate(m.theta_from_physical(p, Ts), u, [2.0, 2.0])
-    r = identify(MeasuredData(t, u, wsim), offset=False)
+    r = identify(MeasuredData(t, u, wsim), offset=False, method="paper")
     assert np.all(wsim > 0)
     assert any("Fc is not separable from a constant torque offset" in x for x in r.warnings)
     # with an offset the Coulomb column is collinear with it: an error that names the cause
     with pytest.raises(ExcitationError, match="drive in both directions"):
-        identify(MeasuredData(t, u, wsim))
+        identify(MeasuredData(t, u, wsim), method="paper")
 
 
 def test_constant_speed_and_acceleration_warnings():

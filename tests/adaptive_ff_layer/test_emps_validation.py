@@ -29,7 +29,7 @@ def record():
 
 @pytest.fixture(scope="module")
 def report():
-    return identify(load_emps(EMPS))
+    return identify(load_emps(EMPS), method="paper")
 
 
 # ------------------------------------------------------------------ the exact plant step

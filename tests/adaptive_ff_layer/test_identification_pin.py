@@ -4,8 +4,8 @@ Each test fails when a parameter of ``identify`` moves by more than its *reporte
 (``report.stderr``: the residual block bootstrap, :mod:`adaptive_ff.identification.uncertainty`) from its
 pinned value. Pinned values come from an independent source where one exists:
 
-* EMPS (``data/emps/DATA_EMPS.mat``, ``identify(load_emps(...))``, the Python default method ``"paper"``: eq. 4
-  LS, Coulomb + viscous, offset; the CLI's ``auto`` answers with the IDIM-LS there, tests/adaptive_ff_layer/test_identify_idim.py): sigma, Fc and the offset are pinned to the **published** IDIM-LS values (Janot, Gautier,
+* EMPS (``data/emps/DATA_EMPS.mat``, ``identify(load_emps(...), method="paper")``: eq. 4
+  LS, Coulomb + viscous, offset; the default ``auto`` answers with the IDIM-LS there, tests/adaptive_ff_layer/test_identify_idim.py): sigma, Fc and the offset are pinned to the **published** IDIM-LS values (Janot, Gautier,
   Brunot 2019; docs/benchmarks/emps.md). J is pinned to a **measured** value: the eq. 4 LS's J is 0.43 % above
   the published 95.1089 kg (2.1 bootstrap standard errors: a difference between the estimators, eq. 4 on
   the 100 Hz filtered velocity against IDIM-LS on the decimated record, that no resampling of the residuals
@@ -62,7 +62,7 @@ def _pinned(report, pins: dict) -> list:
 
 @pytest.fixture(scope="module")
 def emps_report():
-    return identify(load_emps(EMPS))
+    return identify(load_emps(EMPS), method="paper")
 
 
 @pytest.fixture(scope="module")

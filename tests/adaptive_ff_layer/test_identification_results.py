@@ -73,7 +73,7 @@ def test_ls_result_protocol_with_nan_standard_errors(record):
 
 
 def test_identification_report_and_cross_validation(record):
-    rep = identify(record, Vs=P.Vs, delta=P.delta)
+    rep = identify(record, Vs=P.Vs, delta=P.delta, method="paper")
     d = strict(rep)
     assert d == rep.to_json_dict() and d["method"] == "paper"
     assert d["Fs"] == pytest.approx(1.4, rel=1e-6) and d["offset"] == pytest.approx(0.2, rel=1e-6)

@@ -28,7 +28,7 @@ def emps():
 
 @pytest.fixture(scope="module")
 def report(emps):
-    return identify(emps)
+    return identify(emps, method="paper")
 
 
 def test_emps_parameters_match_published(report):
@@ -130,7 +130,7 @@ def test_identify_recovers_exact_parameters(lag, stribeck):
     model = RegressionModel(*(kw.values()), lag=lag, stribeck=stribeck, offset=True)
     data = _synthetic(model, p, Ts, offset=0.3, rng=rng)
     assert np.ptp(np.sign(data.w)) == 2  # velocity reversals excite the friction columns
-    rep = identify(data, lag=lag, **kw)
+    rep = identify(data, lag=lag, **kw, method="paper")
     e = rep.estimate
     for k in ("J", "sigma", "Fc", "Fs") + (("tau",) if lag else ()):
         np.testing.assert_allclose(getattr(e, k), getattr(p, k), rtol=1e-6, err_msg=k)
@@ -150,25 +150,26 @@ def test_identify_resamples_non_uniform_time():
     idx = np.array([100, 1000, 2500])
     ins = lambda x: np.insert(x, idx + 1, 0.5 * (x[idx] + x[idx + 1]))  # noqa: E731
     jittery = MeasuredData(ins(data.t), ins(data.u), ins(data.w), source="jittery")
-    rep = identify(jittery)
+    rep = identify(jittery, method="paper")
     assert any("resampled" in n for n in rep.notes)
     assert rep.Ts == pytest.approx(Ts, rel=1e-12)
     for k in ("J", "sigma", "Fc", "offset"):
-        np.testing.assert_allclose(getattr(rep.estimate, k), getattr(identify(data).estimate, k), rtol=1e-6)
+        np.testing.assert_allclose(getattr(rep.estimate, k), getattr(identify(data, method="paper").estimate, k),
+                                   rtol=1e-6)
 
 
 def test_identify_rejects_bad_arguments(emps):
     with pytest.raises(ParameterError, match="Vs"):
-        identify(emps, Vs=0.01)
+        identify(emps, Vs=0.01, method="paper")
     with pytest.raises(ParameterError, match="lam"):
-        identify(emps, lam=1.5)
+        identify(emps, lam=1.5, method="paper")
     with pytest.raises(ParameterError, match="P0"):
-        identify(emps, P0=0.0)
+        identify(emps, P0=0.0, method="paper")
     with pytest.raises(ParameterError, match="n_history"):
-        identify(emps, n_history=1)
+        identify(emps, n_history=1, method="paper")
     with pytest.raises(TypeError, match="MeasuredData"):
-        identify((emps.t, emps.u, emps.w))
-    assert isinstance(identify(emps, n_history=2), IdentificationReport)
+        identify((emps.t, emps.u, emps.w), method="paper")
+    assert isinstance(identify(emps, n_history=2, method="paper"), IdentificationReport)
 
 
 def test_emps_quality_figures(report):

@@ -29,7 +29,7 @@ def response():
 def test_silent_where_j_is_recovered(response, noise):
     m = sample(response, Ts=1e-3, noise_std=noise, rng=np.random.default_rng(1))
     assert any(w.parameter == "J" for w in excitation_report(m.u, m.w).warnings)  # the old heuristic fires
-    rep = identify(MeasuredData(m.t, m.u, m.w))
+    rep = identify(MeasuredData(m.t, m.u, m.w), method="paper")
     assert abs(rep.estimate.J / P.J - 1.0) < 0.05  # measured +3.5 % and -0.9 %
     assert not any(w.parameter == "J" and w.code == "identifiability" for w in rep.warnings), rep.warnings
     # the fit leaves out the joint's lag and Stribeck dip: the model-error check names J (its own warning)
@@ -38,7 +38,7 @@ def test_silent_where_j_is_recovered(response, noise):
 
 def test_fires_where_j_is_not_recovered(response):
     m = sample(response, Ts=1e-3, noise_std=1e-2, rng=np.random.default_rng(1))
-    rep = identify(MeasuredData(m.t, m.u, m.w))
+    rep = identify(MeasuredData(m.t, m.u, m.w), method="paper")
     assert abs(rep.estimate.J / P.J - 1.0) > 0.1  # measured -11.3 %
     w = [x for x in rep.warnings if x.parameter == "J" and x.code != "model_form"]
     assert len(w) == 1 and w[0].code == "identifiability" and "simulation-extrapolation" in w[0]

@@ -23,7 +23,21 @@ from plant.errors import ParameterError
 
 @pytest.fixture(scope="module")
 def report():
-    return identify(load_emps(EMPS), method="auto")
+    return identify(load_emps(EMPS))  # the default method: "auto", as the CLI's
+
+
+def test_the_python_default_is_auto_as_the_cli(report):
+    import inspect
+
+    from controllers.cli.main import build_parser
+
+    assert inspect.signature(identify).parameters["method"].default == "auto"
+    args = build_parser().parse_args(["identify", str(EMPS)])
+    assert args.method == "auto"
+    named = identify(load_emps(EMPS), method="auto")
+    assert named.params == report.params and named.method == report.method == "idim"
+    paper = identify(load_emps(EMPS), method="paper")
+    assert paper.method == "paper" and abs(paper.params["J"] - report.params["J"]) > 0.3  # 95.521 against 95.117
 
 
 def test_auto_chooses_idim_for_emps_and_says_why(report):

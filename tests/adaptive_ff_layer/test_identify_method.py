@@ -60,7 +60,7 @@ def test_json_and_summary_name_the_method(report):
 
 
 def test_paper_method_has_no_physical_fit(record):
-    rep = identify(record, Vs=P.Vs, delta=P.delta, lag=True)
+    rep = identify(record, Vs=P.Vs, delta=P.delta, lag=True, method="paper")
     assert rep.physical is None and rep.to_json_dict()["method"] == "paper"
 
 

@@ -89,7 +89,7 @@ def test_ljung_box_against_its_formula():
 
 def test_lagged_friction_the_old_interval_misses_the_new_covers_and_warns():
     d = _lag_log(0)
-    rep = identify(d)  # the default structure: Coulomb + viscous, no lag
+    rep = identify(d, method="paper")  # the default structure: Coulomb + viscous, no lag
     truth = {"J": 2.0, "sigma": 8.0, "Fc": 5.0}
     # the residual block bootstrap alone (without the model-error checks): sigma and Fc out
     # (measured sigma 9.206 [8.797, 9.615], Fc 4.094 [3.888, 4.300])
@@ -112,7 +112,7 @@ def test_lagged_friction_the_old_interval_misses_the_new_covers_and_warns():
 
 def test_unmodelled_spring_the_old_interval_misses_j_the_new_covers_it_and_names_j():
     d = _eq4_log(0, spring=20.0)
-    rep = identify(d)
+    rep = identify(d, method="paper")
     me = rep.uncertainty.model_error
     lo0, hi0 = me.estimate["J"] - me.base_half_width["J"], me.estimate["J"] + me.base_half_width["J"]
     assert not lo0 < CV.J < hi0  # measured [2.441, 3.796] around 3.118: the bootstrap/HAC interval misses 2.0
@@ -134,7 +134,7 @@ def test_a_correctly_specified_log_keeps_its_intervals_and_covers_the_truth():
     ratios, named = [], 0
     seeds = range(6)
     for s in seeds:
-        rep = identify(_eq4_log(s), method_options={"n_bootstrap": 100, "bootstrap_seed": s})
+        rep = identify(_eq4_log(s), method_options={"n_bootstrap": 100, "bootstrap_seed": s}, method="paper")
         me = rep.uncertainty.model_error
         for k, v in truth.items():
             lo, hi = rep.interval95[k]

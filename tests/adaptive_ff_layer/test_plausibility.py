@@ -74,7 +74,7 @@ def test_output_error_negative_fs_is_flagged(frictionless_record):
 
 
 def test_identify_json_carries_typed_warnings(frictionless_record):
-    rep = identify(frictionless_record, Vs=0.05, delta=1.0, lag=True)
+    rep = identify(frictionless_record, Vs=0.05, delta=1.0, lag=True, method="paper")
     ls = rep.estimate
     bad = {k for k in ("J", "sigma", "Fc", "Fs", "tau") if getattr(ls, k) < 0}
     assert bad  # LS of eq. 4 gives tau < 0 here (and Fs or Fc < 0)

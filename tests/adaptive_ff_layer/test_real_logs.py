@@ -74,7 +74,7 @@ def test_fairino_log_identify_and_its_steady_state_line_hold_the_published_value
 
     log = real_logs.read_log("fairino_j3", original)
     d = MeasuredData(log["t"], log["u"], log["w"])
-    rep = identify(d)  # the default: eq. 4 LS, residual block-bootstrap intervals
+    rep = identify(d, method="paper")  # the default: eq. 4 LS, residual block-bootstrap intervals
     # measured: Fc 4.675 ± 0.24, sigma 205.4 ± 74 (published 4.666, 195.7); steady-state miss 8.6 %, not flagged
     for k, pub in (("Fc", log["Fc"]), ("sigma", log["fv"])):
         lo, hi = rep.interval95[k]

@@ -120,7 +120,7 @@ def _record(duration: float, seed: int = 0) -> MeasuredData:
 
 @pytest.fixture(scope="module")
 def reports():
-    return {d: identify(_record(d)) for d in (4.0, 16.0)}
+    return {d: identify(_record(d), method="paper") for d in (4.0, 16.0)}
 
 
 def test_identify_reports_the_bootstrap_and_keeps_the_delta_method(reports):
@@ -139,9 +139,9 @@ def test_identify_reports_the_bootstrap_and_keeps_the_delta_method(reports):
     assert d["std_kind"] == "residual block bootstrap" and d["uncertainty"]["n_valid"] == u.n_valid == 200
     text = rep.summary()
     assert "95 % intervals: J [" in text and f"{rep.stderr['Fc']:>13.3g}" in text and "std_delta" in text
-    none = identify(_record(4.0), method_options={"n_bootstrap": 0})
+    none = identify(_record(4.0), method_options={"n_bootstrap": 0}, method="paper")
     assert none.uncertainty is None and none.stderr == none.std and none.band is None
-    same = identify(_record(16.0), method_options={"bootstrap_seed": 0})
+    same = identify(_record(16.0), method_options={"bootstrap_seed": 0}, method="paper")
     assert same.stderr == rep.stderr  # seeded: the same errors
 
 
@@ -149,11 +149,11 @@ def test_identify_bootstrap_options_are_checked():
     data = _record(4.0)
     for bad in (1, -2, 2.5, True):
         with pytest.raises(ParameterError, match="n_bootstrap"):
-            identify(data, method_options={"n_bootstrap": bad})
+            identify(data, method_options={"n_bootstrap": bad}, method="paper")
     with pytest.raises(ParameterError, match="bootstrap_seed"):
-        identify(data, method_options={"bootstrap_seed": -1})
+        identify(data, method_options={"bootstrap_seed": -1}, method="paper")
     with pytest.raises(ParameterError, match="takes the options"):
-        identify(data, method_options={"inverse": "printed"})
+        identify(data, method_options={"inverse": "printed"}, method="paper")
 
 
 def test_band_contains_the_fitted_curve_and_shrinks_with_more_data(reports):

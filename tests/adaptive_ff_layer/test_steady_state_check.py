@@ -94,7 +94,8 @@ def test_points_at_one_speed_do_not_determine_the_line():
 
 def test_identify_attaches_the_check_and_its_json_is_strict():
     d = _friction_only_log()
-    rep = identify(d, Vs=VS, delta=DELTA)  # eq. 4 LS with the Stribeck structure: its curve passes the points
+    # eq. 4 LS with the Stribeck structure: its curve passes the points
+    rep = identify(d, Vs=VS, delta=DELTA, method="paper")
     c = rep.steady_state
     assert c is not None and not c.flagged
     assert c.message in rep.notes
@@ -122,7 +123,8 @@ def test_a_log_without_steady_state_has_no_check():
     t = np.arange(0.0, 5.0, 1e-3)
     w = np.r_[-1.0 + 0.36 * t[:2500], 0.1 + 0.36 * t[:2500]]  # two ramps: the acceleration is never small
     assert steady_state_check(MeasuredData(t, 3.0 * np.sign(w), w), TRUTH) is None
-    assert identify(MeasuredData(t, 3.0 * np.sign(w) + 0.5 * np.gradient(w, t), w)).to_dict()["steady_state"] is None
+    rep = identify(MeasuredData(t, 3.0 * np.sign(w) + 0.5 * np.gradient(w, t), w), method="paper")
+    assert rep.to_dict()["steady_state"] is None
 
 
 def test_bad_arguments_are_named():
@@ -140,7 +142,7 @@ def test_attach_physical_checks_the_new_answer_or_drops_the_old_check():
     from adaptive_ff.identification.physical_id import PhysicalFit
 
     d = _friction_only_log()
-    rep = identify(d, Vs=VS, delta=DELTA)
+    rep = identify(d, Vs=VS, delta=DELTA, method="paper")
     bad = PhysicalFit(method="output_error", params={"J": 480.0, "Fc": FC / 5, "Fs": FC / 5, "sigma": 5 * SIGMA,
                                                      "tau": 0.0, "offset": OFFSET},
                       stderr={}, cond=float("nan"), nrmse=50.0, n_samples=d.t.size, nrmse_kind="free-run", info={})

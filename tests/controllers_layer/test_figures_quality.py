@@ -315,7 +315,7 @@ def test_identification_figures():
     _, u = bandlimited_noise(20.0, dt=1e-3, cutoff=1.0, std=60.0, rng=np.random.default_rng(3))
     m = sample(simulate(P, u, dt=1e-3), Ts=0.01, noise_std=1e-3, rng=np.random.default_rng(4))
     data = MeasuredData(m.t, m.u, m.w, source="sim")
-    rep = identify(data)
+    rep = identify(data, method="paper")
     figs = {f"identification_figures.{k}": v for k, v in identification_figures(rep, data).items()}
     figs["IdentificationReport.plot"] = rep.plot().figure
     figs["LSResult.plot"] = fit_ls(RegressionModel(P.Vs, P.delta, lag=True), m.u, m.w, Ts=0.01).plot().figure

@@ -128,7 +128,7 @@ def test_plots_have_units_on_the_axes():
 def test_identification_figures_for_a_log(result):
     out, d = result
     data = load_log(d["data_files"]["quasi_static_log"])
-    rep = identify(data)
+    rep = identify(data, method="paper")
     figs = identification_figures(rep, data)
     assert set(figs) == {"ls_fit", "rls_fit", "rls_parameters", "sample_time"}
     assert len(figs["rls_parameters"].axes) >= len(rep.model.names)

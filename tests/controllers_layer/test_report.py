@@ -35,7 +35,7 @@ def identified():
     w = model.simulate([full[k] for k in model.names], u, [0.0, 0.0])
     data = MeasuredData(np.arange(u.size) * Ts, u, w, source="sim <script>alert(1)</script>.csv",
                         notes=("simulated by the discrete model",))
-    return data, identify(data, lag=True)
+    return data, identify(data, lag=True, method="paper")
 
 
 def test_identification_report_holds_the_table_values_and_images(identified, tmp_path):

@@ -1,0 +1,98 @@
+r"""Profile of the output-error cost over the input delay, for
+:func:`adaptive_ff.identification.physical_id.fit_physical` where the log's input timing is not given.
+
+Why
+---
+A logger stamps each torque sample at some instant of the period it was applied over: the simulated readout of
+:func:`plant.sampling.sample` at the end of the 1 ms step (half a millisecond after the middle of its hold), a
+controller often at the start of the next period. The output-error fit reconstructs the input between the
+stamps; taken at the wrong instant, the input leads or lags the velocity it drove, and the fit moves the lag,
+the Stribeck level and the Coulomb level to make up for it. On two joints of ``benchmarks/coverage_zoo.py``
+(10 ms readout of a 1 kHz hold) the fit taking each torque at its stamp missed sigma, Fc and Fs by 1.7-16 %; told
+the delay of 0.5 ms it missed them by 0.3-1.9 % (documentation, identification benchmark page). The cost told
+the delay apart: lowest at 0.5 ms on both (77.0 -> 71.5 and 72.1 -> 67.8 from 0 to 0.5 ms, back up at 1 ms).
+
+What
+----
+:func:`delay_profile_search` holds the delay at each of :data:`DELAY_FRACTIONS` times the median stamp interval
+(sub-sample: a logger's stamp is within the period it belongs to, or one period late), refits the parameters
+there by one trust-region pass at the noise-level robust scale from the current estimate, and keeps the delay of
+lowest cost; between the two neighbours of the lowest grid point the vertex of the parabola through the three
+costs is tried too (the cost is smooth enough in the delay at the grid's scale). The delay is reported with the
+fit (``info["input_delay"]`` and ``info["input_delay_profile"]``); the bootstrap's full refits profile it again
+on each replicate (the same estimator), so the parameters' intervals carry its uncertainty.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["DELAY_FRACTIONS", "delay_profile_search"]
+
+#: Input delays tried, as fractions of the median stamp interval.
+DELAY_FRACTIONS = (0.0, 1.0 / 16.0, 1.0 / 8.0, 1.0 / 4.0, 1.0 / 2.0, 1.0)
+
+
+def _vertex(d: np.ndarray, c: np.ndarray) -> float | None:
+    """The abscissa of the lowest point of the parabola through three points, if it is a minimum strictly between
+    the outer two; else None."""
+    a = np.polyfit(d, c, 2)
+    if not a[0] > 0:
+        return None
+    v = float(-a[1] / (2.0 * a[0]))
+    return v if d[0] < v < d[2] else None
+
+
+def delay_profile_search(pb, best, refit, *, fractions=DELAY_FRACTIONS) -> tuple:
+    """The input delay of lowest output-error cost on a grid of sub-sample delays, the parameters refitted at each
+    (module docstring).
+
+    Parameters
+    ----------
+    pb : adaptive_ff.identification.physical_id._OutputErrorProblem
+        The problem: ``t`` (stamps, s), ``set_delay(d)`` (the input taken ``d`` s before its stamps from then on),
+        ``n_sim`` (simulations so far). Left at the delay returned.
+    x : ndarray
+        The current parameter vector, the start of every refit.
+    refit : callable
+        ``refit(x) -> (cost, x)``: the parameters refitted from ``x`` at the problem's current delay, and the cost
+        there (the same stage and robust scale at every delay, so that the costs compare).
+    fractions : sequence of float, keyword-only
+        Delays tried, as fractions of the median stamp interval, >= 0, increasing. Default :data:`DELAY_FRACTIONS`.
+        The grid stops once two delays in a row cost more than the lowest so far (the cost rises away from its
+        minimum).
+
+    Returns
+    -------
+    x : ndarray
+        The refitted parameters at the delay chosen.
+    details : dict
+        JSON-able: ``delay`` (s) and ``cost`` of each point tried (the grid, then the parabola's vertex if tried),
+        ``chosen`` (s), ``n_simulations`` spent.
+    """
+    Ts = float(np.median(np.diff(pb.t)))
+    x0 = np.asarray(best[1], dtype=float)
+    n0 = pb.n_sim
+    tried = {}
+
+    def at(d):
+        pb.set_delay(d)
+        tried[d] = refit(x0)
+        return tried[d][0]
+
+    grid, costs = [], []
+    for f in fractions:
+        grid.append(float(f * Ts))
+        costs.append(at(grid[-1]))
+        if len(costs) >= 3 and costs[-1] > min(costs) and costs[-2] > min(costs):
+            break
+    k = int(np.argmin(costs))
+    if 0 < k < len(grid) - 1:
+        v = _vertex(np.array(grid[k - 1:k + 2]), np.array(costs[k - 1:k + 2]))
+        if v is not None:
+            at(v)
+    chosen = min(tried, key=lambda d: tried[d][0])
+    pb.set_delay(chosen)
+    details = {"delay": [float(d) for d in tried], "cost": [float(tried[d][0]) for d in tried],
+               "chosen": float(chosen), "n_simulations": int(pb.n_sim - n0)}
+    return tried[chosen], details
