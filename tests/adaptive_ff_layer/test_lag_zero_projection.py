@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 from scipy.optimize import lsq_linear
 
-from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward, project_box
+from adaptive_ff.compensation.adaptive_feedforward import (RobustAdaptiveFeedforward, RobustAdaptiveFeedforwardConfig,
+                                                           project_box)
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
 from controllers.design.pi import design_pi
 from controllers.experiments.compare import CompareOptions, comparison_reference
@@ -35,7 +36,7 @@ def _ff(**kw) -> RobustAdaptiveFeedforward:
     """A feedforward whose tests pass on a determined state: no warm-up, no Fc determinacy test, the latest lag."""
     est = SlidingFrictionEstimator(0.02, 1.0, Tc=DT)
     kw = {"warmup": 0, "max_rel_stderr": math.inf, "lag_memory": 0.0, **kw}
-    return RobustAdaptiveFeedforward(est, dt=DT, **kw)
+    return RobustAdaptiveFeedforward(est, dt=DT, config=RobustAdaptiveFeedforwardConfig(**kw))
 
 
 def _set_state(ff, theta, P, e2):
@@ -96,9 +97,10 @@ def test_bad_lag_zero_is_refused(bad, err):
         _ff(lag_zero=bad)
 
 
-def test_bad_project_is_refused():
-    with pytest.raises(ParameterError, match="project"):
-        _ff(project=1)
+@pytest.mark.parametrize("bad, err", [(2, ParameterError), (0.5, TypeError), ("yes", TypeError)])
+def test_bad_project_is_refused(bad, err):
+    with pytest.raises(err, match="project"):
+        _ff(project=bad)
 
 
 # --- (b) the projection, against independent constrained least squares ---------------------------------------
