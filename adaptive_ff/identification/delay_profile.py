@@ -19,8 +19,10 @@ What
 there by one trust-region pass at the noise-level robust scale from the current estimate, and keeps the delay of
 lowest cost; between the two neighbours of the lowest grid point the vertex of the parabola through the three
 costs is tried too (the cost is smooth enough in the delay at the grid's scale). The delay is reported with the
-fit (``info["input_delay"]`` and ``info["input_delay_profile"]``); the bootstrap's full refits profile it again
-on each replicate (the same estimator), so the parameters' intervals carry its uncertainty.
+fit (``info["input_delay"]`` and ``info["input_delay_profile"]``). The bootstrap's full refits hold the delay the
+fit chose (``info["bootstrap"]["input_delay"]``) and do not profile it again: the delay is a structural choice
+of the record's timing, resolved to a point of a coarse grid, and the profile was a third of each refit's
+simulations; the parameters' intervals carry the other parameters' uncertainty at that delay, not the delay's.
 """
 
 from __future__ import annotations
@@ -43,7 +45,7 @@ def _vertex(d: np.ndarray, c: np.ndarray) -> float | None:
     return v if d[0] < v < d[2] else None
 
 
-def delay_profile_search(pb, best, refit, *, fractions=DELAY_FRACTIONS) -> tuple:
+def delay_profile_search(pb, best, refit, *, fractions=DELAY_FRACTIONS, delays=None) -> tuple:
     """The input delay of lowest output-error cost on a grid of sub-sample delays, the parameters refitted at each
     (module docstring).
 
@@ -81,8 +83,8 @@ def delay_profile_search(pb, best, refit, *, fractions=DELAY_FRACTIONS) -> tuple
         return tried[d][0]
 
     grid, costs = [], []
-    for f in fractions:
-        grid.append(float(f * Ts))
+    for d in ([f * Ts for f in fractions] if delays is None else delays):
+        grid.append(float(d))
         costs.append(at(grid[-1]))
         if len(costs) >= 3 and costs[-1] > min(costs) and costs[-2] > min(costs):
             break

@@ -38,7 +38,8 @@ class OutputErrorOptions:
         Time (s) by which each input sample precedes its time stamp, >= 0 (0.5e-3 for
         :func:`plant.sampling.sample` at 1 kHz). None (default): not known, profiled by the fit
         (:func:`adaptive_ff.identification.delay_profile.delay_profile_search`: sub-sample delays, the
-        parameters refitted at each, the lowest cost kept; reported in ``info["input_delay"]``).
+        parameters refitted at each, the lowest cost kept; reported in ``info["input_delay"]``; the bootstrap's
+        refits hold the delay chosen).
     interp : {"linear", "cubic"}, keyword-only
         Input reconstruction between the samples. Default ``"linear"``.
     burn : float, keyword-only

@@ -15,6 +15,7 @@ import pytest
 from adaptive_ff.identification.delay_profile import DELAY_FRACTIONS, delay_profile_search
 from adaptive_ff.identification.oe_options import OutputErrorOptions
 from adaptive_ff.identification.physical_id import fit_physical
+from adaptive_ff.identification.simulator import input_grid
 from controllers.cli.main import main
 from plant import bandlimited_noise, irregular_sample_times, preset, sample, simulate
 from plant.errors import ParameterError
@@ -113,3 +114,33 @@ def test_cli_input_delay_is_refused_where_no_output_error_fit_runs(tmp_path, cap
     np.savetxt(path, np.column_stack([m.t, m.u, m.w]), delimiter=",", header="t,u,w", comments="")
     assert main(["identify", str(path), "--method", "paper", "--input-delay", "0.0005"]) == 2
     assert "--input-delay applies to the output-error fit of the log" in capsys.readouterr().err
+
+
+def test_the_bootstrap_refits_hold_the_delay_the_fit_chose(joint, monkeypatch):
+    import adaptive_ff.identification.physical_id as physical_id
+
+    p, m = joint
+    profiles, grids = [], []
+
+    def profile_spy(*args, **kwargs):
+        out = delay_profile_search(*args, **kwargs)
+        profiles.append(out[1]["chosen"])
+        return out
+
+    def grid_spy(*args, **kwargs):
+        if profiles:  # after the fit's profile: the refits' problems (and nothing else builds a grid)
+            grids.append(kwargs["input_delay"])
+        return input_grid(*args, **kwargs)
+
+    monkeypatch.setattr(physical_id, "delay_profile_search", profile_spy)
+    monkeypatch.setattr(physical_id, "input_grid", grid_spy)
+    f = fit_physical(m.t, m.u, m.w, Vs=p.Vs, delta=p.delta, n_bootstrap=3, bootstrap_workers=1)
+    boot, prof = f.info["bootstrap"], f.info["input_delay_profile"]
+    # the profile runs once, in the fit; each of the 3 refits builds its problem at the delay it chose (0.625 ms)
+    assert profiles == [f.info["input_delay"]] and boot["input_delay"] == f.info["input_delay"]
+    assert 0.5e-3 <= f.info["input_delay"] <= 1.0e-3 and grids == [f.info["input_delay"]] * 3
+    # measured: the fit 2085 simulations, 646 of them its delay profile; the 3 refits 4391 (1464 each) where they
+    # ran the fit's profile again 6170 (2057 each: about the fit's own count)
+    per_refit = boot["n_simulations"] / boot["n"]
+    assert per_refit < f.info["n_simulations"] - 0.8 * prof["n_simulations"]
+    assert per_refit > 0.5 * f.info["n_simulations"]
