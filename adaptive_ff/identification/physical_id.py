@@ -165,7 +165,8 @@ the fit itself, run on the same bootstrap replicates, scattered as that Monte
 Carlo did (J 0.38 % against 0.38 % on one of them; the partial refits 0.87 %).
 ``bootstrap_refit="full"`` refits each replicate by the fit itself, the
 replicate taken as a record of its own (its noise level, robust scales and
-eq. 4 start, every stage including the profile searches): the bootstrap of
+eq. 4 start, every stage including the profile search over tau; the input
+delay held at the fit's, not profiled again): the bootstrap of
 the estimator as it is (Efron & Tibshirani, Ch. 6), at about three times the
 cost of the partial refits (a median 34 s, 22-68 s, against 11 s of CPU per
 15 s zoo record with 20 refits, when each refit runs the fit's whole profile
@@ -303,7 +304,8 @@ class PhysicalFit:
         (Bartlett bandwidth), ``bootstrap`` (None, or ``n``, ``n_valid``,
         ``block``, ``seed``, ``start_spread``, ``resampling``, ``refit`` (what each refit
         runs), ``lag_refits`` (``OutputErrorOptions.bootstrap_lag_refits`` where the refits run the profile over
-        tau: at how many of its values they refit the others, None for all), ``n_simulations``, ``bias``:
+        tau: at how many of its values they refit the others, None for all), ``input_delay`` (s: the fit's, which
+        the full refits hold, :mod:`adaptive_ff.identification.delay_profile`), ``n_simulations``, ``bias``:
         mean deviation of the refits per parameter, ``interval95``: per
         parameter ``[low, high]`` = value ± t stderr), ``interval95`` (the
         same) and ``band`` (the 95 % band of F(w) from the refits, as
@@ -858,6 +860,9 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
     simulations). Refits that end non-finite are dropped (counted in ``details``).
     """
     o = pb.opts
+    # the full refits hold the delay the fit's profile chose (module docstring of delay_profile): their profile has
+    # that one point, the refit there from their search at delay 0 as in the fit
+    held = pb.input_delay if o.input_delay is None else None
     w_hat = pb.simulate(x)
     n_sim = []  # per refit; list.append is atomic, the refits may run in threads
 
@@ -869,7 +874,7 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
             rp = _OutputErrorProblem(pb.t, pb.u, w_star, *given, pb.offset, o)
             s0 = dict(o.start) if o.start is not None else _start_from_paper(pb.t, pb.u, w_star, rp.Vs, rp.delta,
                                                                               pb.offset)
-            z = _oe_search(rp, s0, o.bootstrap_lag_refits)[0][1]
+            z = _oe_search(rp, s0, o.bootstrap_lag_refits, held_delay=held)[0][1]
         else:
             rp = pb.replicate(w_star)
             z = _oe_refit(rp, x + rng.normal(size=x.shape) * _BOOT_START * pb.typical(x))
@@ -888,6 +893,7 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
                "refit": (_BOOT_REFIT if o.bootstrap_refit == "partial"
                          else "the fit's own search from the replicate's start"),
                "lag_refits": (o.bootstrap_lag_refits if o.bootstrap_refit == "full" and o.lag_profile else None),
+               "input_delay": float(pb.input_delay),
                "n_simulations": int(sum(n_sim))}
     details.update(_oe_intervals(pb, names, est, b))
     return dict(zip(names, map(float, b.stderr))), dict(zip(names, map(float, b.bias))), details
@@ -910,18 +916,22 @@ def _oe_intervals(pb: _OutputErrorProblem, names: tuple, est: np.ndarray, b) -> 
             "band": band.to_dict()}
 
 
-def _oe_search(pb: _OutputErrorProblem, s0: dict, lag_refits: int | None = None
+def _oe_search(pb: _OutputErrorProblem, s0: dict, lag_refits: int | None = None, held_delay: float | None = None
                ) -> tuple[tuple[float, np.ndarray], dict | None]:
     """The output-error fit's search from the start values ``s0`` (module docstring): global stage, local stage,
     coordinate search, the profile search over tau (``opts.lag_profile``; ``lag_refits``: its ``n_refit``, None
-    in the fit itself) and the final Fs profile. Returns ``((cost, x), lag profile details or None)``."""
+    in the fit itself), the profile over the input delay where it is not given (``held_delay``: a bootstrap
+    refit's, the fit's delay its one point; None in the fit itself) and the final Fs profile. Returns
+    ``((cost, x), lag profile details or None)``."""
     x = _oe_global_stage(pb, pb.start_vector(s0), profiled=pb.opts.start is None)
     best = _oe_coordinate_search(pb, _oe_local_stage(pb, x))
     lag_prof = None
     if pb.opts.lag_profile:
         best, lag_prof = lag_profile_search(pb, best, n_refit=lag_refits)
-    if pb.opts.input_delay is None:  # not given: profiled (pb.delay_profile), pb left at the delay chosen
-        best, pb.delay_profile = delay_profile_search(pb, best, lambda z: _oe_delay_refit(pb, z))
+    if pb.opts.input_delay is None:  # not given: profiled (pb.delay_profile), pb left at the delay chosen;
+        # a bootstrap refit (held_delay): the profile with the fit's delay as its one point
+        best, pb.delay_profile = delay_profile_search(pb, best, lambda z: _oe_delay_refit(pb, z),
+                                                      delays=None if held_delay is None else (held_delay,))
     return _oe_fs_profile(pb, best), lag_prof
 
 

@@ -59,9 +59,13 @@ COSTS = {"loop": 2.7e-7, "prepare": 6e-7, "compare_fixed": 0.3, "step": 1.5e-5, 
 #: of the open-loop log of benchmarks/output_error_speed.py (``physical.info["n_simulations"]``).
 OE_FIT_SIMULATIONS = 2000
 #: A bootstrap refit's share of a fit, by ``--bootstrap-refit`` (measured on the same logs,
-#: ``info["bootstrap"]["n_simulations"]``): ``full`` runs the fit's own search on the replicate (0.94-1.0 of the
-#: fit's simulations a refit), ``partial`` the fit's later steps from a spread start (182-197 simulations: 0.09-0.12).
-OE_REFIT_SHARE = {"full": 1.0, "partial": 0.12}
+#: ``info["bootstrap"]["n_simulations"]``): ``full`` runs the fit's own search on the replicate with the fit's input
+#: delay held (its delay profile one point instead of the fit's grid: 0.71 of the fit's simulations a refit on the
+#: 20 s log), ``partial`` the fit's later steps from a spread start (182-197 simulations: 0.09-0.12). The
+#: closed-loop fit's refits are that fit again (:data:`CLOSED_LOOP_REFIT_SHARE`).
+OE_REFIT_SHARE = {"full": 0.75, "partial": 0.12}
+#: A full bootstrap refit's share of the closed-loop fit (the fit again).
+CLOSED_LOOP_REFIT_SHARE = 1.0
 
 #: Default bootstrap refits of each identification method (``identify --bootstrap``'s help).
 _DEFAULT_BOOTSTRAP = {"paper": 200, "sliding": 200, "idim": 200, "output_error": 20, "closed_loop": 10}
@@ -272,6 +276,8 @@ def identify_estimate(n_samples: int, method, *, bootstrap: int | None = None, r
             memory += COSTS["refit_bytes"] * b
         elif m in ("output_error", "closed_loop"):
             share = OE_REFIT_SHARE["partial" if refit == "partial" else "full"]
+            if m == "closed_loop" and refit != "partial":
+                share = CLOSED_LOOP_REFIT_SHARE
             cpus = (workers or _cpus()) if m == "output_error" else 1
             seconds += COSTS[m] * n * (1.0 + b * share / cpus)
             memory += COSTS["refit_bytes"] * b
