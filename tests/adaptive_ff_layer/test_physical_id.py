@@ -183,9 +183,9 @@ def test_full_bootstrap_refit_is_the_fit_itself_on_the_replicate(monkeypatch):
     seen = []
     search = pid._oe_search
 
-    def spy(pb, s0, *args):
+    def spy(pb, s0, *args, **kwargs):
         seen.append(pb.w.copy())
-        return search(pb, s0, *args)
+        return search(pb, s0, *args, **kwargs)
 
     monkeypatch.setattr(pid, "_oe_search", spy)
     f = fit_physical(m.t, m.u, m.w, n_bootstrap=2, bootstrap_lag_refits=None, **kw)  # "full" is the default
