@@ -16,8 +16,9 @@ A page of ``docs/benchmarks/`` is made of measured sections, each in this form::
 
 (a bash block with one command; a paragraph that starts ``Measured at commit `HASH` on DATE``; the command's output:
 a plain fenced block, Markdown under a ``## Output`` heading up to the next level-2 heading, or Markdown between the
-lines ``<!-- output -->`` and ``<!-- end output -->``). Refreshing a
-section runs its command from the repository root (``python`` is this interpreter, ``adaptive-ff`` this checkout's
+lines ``<!-- output -->`` and ``<!-- end output -->``). Refreshing a section runs its command in a temporary folder
+that links each top-level entry of the repository root (what a command writes into its working folder stays out of
+the checkout; ``python`` is this interpreter, ``adaptive-ff`` this checkout's
 CLI, ``PYTHONPATH`` the root), replaces the output with what it printed (standard output; standard error goes to the
 terminal, where the progress bars are), and in the paragraph the commit, the date and a wall time given as ``N s
 wall`` or ``N min wall``. The rest of the paragraph (the machine, what the columns mean) is kept. A section whose
@@ -148,22 +149,34 @@ def rewritten(text: str, section: Section, printed: str, *, commit: str, dirty: 
     return text[:a] + para + text[b:c] + out + text[d:]
 
 
-def run(command: str, env: dict) -> tuple[int, str, float]:
-    """Run ``command`` through bash from the repository root: (exit status, standard output, wall s)."""
+def work_folder(folder: Path) -> Path:
+    """A folder that looks like the repository root (a link to each of its top-level entries) for the commands to run
+    in, so that what they write into their working folder (figures, ``out/``) stays out of the checkout."""
+    work = folder / "work"
+    work.mkdir()
+    for entry in ROOT.iterdir():
+        if entry.name not in (".git", "out"):
+            (work / entry.name).symlink_to(entry)
+    return work
+
+
+def run(command: str, env: dict, cwd: Path = ROOT) -> tuple[int, str, float]:
+    """Run ``command`` through bash in ``cwd``: (exit status, standard output, wall s)."""
     t0 = time.perf_counter()
-    r = subprocess.run(["bash", "-c", command], cwd=ROOT, env=env, stdout=subprocess.PIPE, text=True)
+    r = subprocess.run(["bash", "-c", command], cwd=cwd, env=env, stdout=subprocess.PIPE, text=True)
     return r.returncode, r.stdout, time.perf_counter() - t0
 
 
-def refresh(page: Path, env: dict, *, commit: str, dirty: bool, date: str) -> int:
-    """Refresh every refreshable section of ``page`` (last first, so that spans stay valid); the failures."""
+def refresh(page: Path, env: dict, *, commit: str, dirty: bool, date: str, cwd: Path = ROOT) -> int:
+    """Refresh every refreshable section of ``page`` (last first, so that spans stay valid), its commands run in
+    ``cwd`` (:func:`work_folder`); the failures."""
     failed = 0
     for s in reversed(sections(page)):
         if not s.refreshable:
             print(f"{page.name}:{s.line}: not refreshable ({len(s.commands)} commands)", file=sys.stderr)
             continue
         print(f"{page.name}:{s.line}: $ {s.commands[0]}", file=sys.stderr, flush=True)
-        code, printed, wall = run(s.commands[0], env)
+        code, printed, wall = run(s.commands[0], env, cwd)
         if code != 0:
             print(f"{page.name}:{s.line}: exit {code}; the section is left as it was", file=sys.stderr)
             failed += 1
@@ -202,7 +215,8 @@ def main(argv=None) -> int:
     date = datetime.datetime.now(datetime.timezone.utc).date().isoformat()
     with tempfile.TemporaryDirectory() as tmp:
         env = environment(Path(tmp))
-        failed = sum(refresh(page, env, commit=commit, dirty=dirty, date=date) for page in pages)
+        work = work_folder(Path(tmp))
+        failed = sum(refresh(page, env, commit=commit, dirty=dirty, date=date, cwd=work) for page in pages)
     return 1 if failed else 0
 
 

@@ -96,3 +96,12 @@ def test_the_benchmark_pages_have_refreshable_sections():
     refreshable = {name for name, found in pages.items() if any(s.refreshable for s in found)}
     assert {"tracking.md", "variants.md", "scenarios.md", "prefit.md", "emps.md", "online_ukf.md",
             "paper_figures.md", "compensation.md", "figures.md"} <= refreshable, sorted(refreshable)
+
+
+def test_the_commands_run_in_a_folder_that_looks_like_the_root_and_write_nothing_into_the_checkout(tmp_path):
+    work = rp.work_folder(tmp_path)
+    assert (work / "benchmarks" / "refresh_pages.py").is_file() and not (work / ".git").exists()
+    code, printed, _ = rp.run("python -c \"open('left_behind.txt', 'w').write('x'); print('ok')\"",
+                              rp.environment(tmp_path), work)
+    assert (code, printed) == (0, "ok\n")
+    assert (work / "left_behind.txt").is_file() and not (rp.ROOT / "left_behind.txt").exists()
