@@ -6,7 +6,6 @@ The experiment: :func:`controllers.experiments.compare_arm.compare_arm`. Needs t
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 __all__ = ["register", "run"]
 
@@ -34,8 +33,7 @@ def run(args) -> int:
     """Execute ``adaptive-ff compare-arm`` with parsed ``args``; return the exit status."""
     from adaptive_ff.arm.robot import load_urdf
     from adaptive_ff.arm.simulate import load_arm_plant
-    from adaptive_ff.io.output import StagedOutputs
-    from controllers.cli.data import check_output_dir
+    from controllers.cli.data import check_output_dir, write_plot
     from controllers.experiments.compare_arm import CompareArmOptions, compare_arm
 
     if args.plot:
@@ -47,15 +45,7 @@ def run(args) -> int:
     arm = load_urdf(args.urdf)
     plant = load_arm_plant(args.plant, arm)
     result = compare_arm(plant, args.from_file, options, progress=None if not args.quiet else False)
-    out = result.to_dict()
-    with StagedOutputs() as staged:
-        if args.plot:
-            folder = staged.folder(args.plot, "--plot")
-            ax = result.plot()
-            path = Path(folder) / "arm_eta.png"
-            ax.figure.savefig(path, dpi=120)
-            out["figures"] = [str(path)]
-    out = staged.relocate(out)
+    out = write_plot(result.to_dict(), args.plot, "arm_eta.png", lambda: result.plot().figure)
     if args.json:
         print(json.dumps(out, indent=2, allow_nan=False))
         return 0

@@ -257,6 +257,36 @@ def check_output_dir(path, option: str) -> Path:
     return path
 
 
+def write_plot(out: dict, plot_dir, name: str, draw) -> dict:
+    """Draw one figure into ``plot_dir`` (``--plot``) through a staged folder and list it in ``out["figures"]``.
+
+    Parameters
+    ----------
+    out : dict
+        The command's JSON output; a copy with ``"figures"`` (the PNG's final path) is returned.
+    plot_dir : str, os.PathLike or None
+        The ``--plot`` folder (checked up front with :func:`check_output_dir`); None: nothing is drawn.
+    name : str
+        The PNG's file name.
+    draw : callable
+        ``draw()`` returns the ``matplotlib.figure.Figure`` to save (120 dpi).
+
+    Returns
+    -------
+    dict
+        ``out`` with the staged paths moved to where the folder ends up
+        (:meth:`adaptive_ff.io.output.StagedOutputs.relocate`).
+    """
+    from adaptive_ff.io.output import StagedOutputs
+
+    with StagedOutputs() as staged:
+        if plot_dir:
+            path = Path(staged.folder(plot_dir, "--plot")) / name
+            draw().savefig(path, dpi=120)
+            out = {**out, "figures": [str(path)]}
+    return staged.relocate(out)
+
+
 def check_output_file(path, option: str, *, overwrite: bool = True) -> Path:
     """Check up front that file ``path`` can be written (before any simulation).
 

@@ -8,7 +8,6 @@ bootstrap intervals). Needs the ``[arm]`` extra (Pinocchio).
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 __all__ = ["register", "run"]
 
@@ -36,8 +35,7 @@ def run(args) -> int:
     from adaptive_ff.arm.arm_log import read_arm_log
     from adaptive_ff.arm.fit import identify_arm
     from adaptive_ff.arm.robot import load_urdf
-    from adaptive_ff.io.output import StagedOutputs
-    from controllers.cli.data import check_output_dir, named_by, progress_from_args
+    from controllers.cli.data import check_output_dir, named_by, progress_from_args, write_plot
 
     if args.plot:
         check_output_dir(args.plot, "--plot")
@@ -56,15 +54,7 @@ def run(args) -> int:
                               lag_bootstrap=args.lag_bootstrap)
     if gear is not None:
         result = gear.with_coupling_warnings(result)
-    out = result.to_dict()
-    with StagedOutputs() as staged:
-        if args.plot:
-            folder = staged.folder(args.plot, "--plot")
-            axes = result.plot()
-            path = Path(folder) / "arm_friction.png"
-            axes[0].figure.savefig(path, dpi=120)
-            out["figures"] = [str(path)]
-    out = staged.relocate(out)
+    out = write_plot(result.to_dict(), args.plot, "arm_friction.png", lambda: result.plot()[0].figure)
     if args.json:
         print(json.dumps(out, indent=2, allow_nan=False))
     else:

@@ -122,3 +122,21 @@ def test_compare_no_prefit_given_factors_and_design_inertia(tmp_path, capsys):
     assert main(base + ["--modes", "adaptive", "--J-design", "4", "--json"]) == 0
     d4 = json.loads(capsys.readouterr().out)
     assert d["controller"]["Kp"] == pytest.approx(0.5 * d4["controller"]["Kp"], rel=1e-12)  # PI designed for J_design
+
+
+def test_write_plot_draws_one_png_into_the_plot_folder_and_lists_it(tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from controllers.cli.data import write_plot
+
+    out = {"a": 1}
+    assert write_plot(out, None, "x.png", lambda: pytest.fail("drawn without --plot")) == {"a": 1}
+    fig = plt.figure()
+    new = write_plot(out, tmp_path / "p", "x.png", lambda: fig)
+    plt.close(fig)
+    assert new == {"a": 1, "figures": [str(tmp_path / "p" / "x.png")]} and out == {"a": 1}
+    png = (tmp_path / "p" / "x.png").read_bytes()
+    assert png.startswith(b"\x89PNG") and len(png) > 1000
