@@ -102,7 +102,11 @@ def sections(page: Path) -> list[Section]:
 
 
 def environment(bin_dir: Path) -> dict:
-    """The commands' environment: this interpreter as ``python``, this checkout's CLI as ``adaptive-ff``."""
+    """The environment of a documented command: this interpreter as ``python``, this checkout's CLI as
+    ``adaptive-ff`` (shims written into ``bin_dir``, first on ``PATH``; ``PYTHONPATH`` the repository root),
+    ``MPLBACKEND=Agg``, ``PYTHONUNBUFFERED=1`` and no ``COLUMNS`` (help texts at their default width). Also the
+    environment of the docs' command tests (``tests/doc_commands.py``)."""
+    bin_dir.mkdir(parents=True, exist_ok=True)
     exe = shlex.quote(sys.executable)
     cli = shlex.quote("import sys; from controllers.cli import main; sys.exit(main(sys.argv[1:]))")
     (bin_dir / "adaptive-ff").write_text(f'#!/bin/sh\nexec {exe} -c {cli} "$@"\n', encoding="utf-8")
@@ -113,6 +117,7 @@ def environment(bin_dir: Path) -> dict:
     env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONUNBUFFERED": "1"}
     env["PATH"] = os.pathsep.join([str(bin_dir), env.get("PATH", "")])
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    env.pop("COLUMNS", None)
     return env
 
 

@@ -29,17 +29,17 @@ are stable across platforms and package versions is the test's rule, with its ev
 
 from __future__ import annotations
 
-import os
 import re
 import resource
 import shlex
-import stat
 import subprocess
 import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
+
+from benchmarks.refresh_pages import environment  # the commands' environment, one implementation
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -160,23 +160,6 @@ def _console_steps(body: str, offset: int, first: int) -> list[Step]:
         quoted = body[start - offset:pos - offset]
         steps.append(Step(command="\n".join(cmd), kind="console", line=line, quoted=quoted, span=(start, pos)))
     return steps
-
-
-def environment(bin_dir: Path) -> dict:
-    """The environment of the page's commands: this checkout's ``adaptive-ff`` and ``python`` first on PATH."""
-    bin_dir.mkdir(parents=True, exist_ok=True)
-    exe = shlex.quote(sys.executable)
-    cli = shlex.quote("import sys; from controllers.cli import main; sys.exit(main(sys.argv[1:]))")
-    (bin_dir / "adaptive-ff").write_text(f'#!/bin/sh\nexec {exe} -c {cli} "$@"\n', encoding="utf-8")
-    for name in ("python", "python3"):  # a shim, not a link: a link outside the venv would not start the venv
-        (bin_dir / name).write_text(f'#!/bin/sh\nexec {exe} "$@"\n', encoding="utf-8")
-    for f in bin_dir.iterdir():
-        f.chmod(f.stat().st_mode | stat.S_IXUSR | stat.S_IXGRP | stat.S_IXOTH)
-    env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONUNBUFFERED": "1"}
-    env["PATH"] = os.pathsep.join([str(bin_dir), env.get("PATH", "")])
-    env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
-    env.pop("COLUMNS", None)
-    return env
 
 
 def run_page(page: Page, folder: Path, *, timeout: float = 900.0) -> Page:
