@@ -120,8 +120,8 @@ def check_oscillation(par, dt: float) -> None:
     Notes
     -----
     :func:`lagged_oscillation` (eqs. 1-3 linearised). Not part of :func:`plant.rows.check_integrable`: the rise of
-    a map with ``delta < 0`` is steep only near standstill, where such joints run well (tests/plant_layer/test_stiff_lagged.py,
-    zoo joints); a fit that proposes candidate plants (``controllers.experiments.closed_loop_id``) uses it to keep
+    a map with ``delta < 0`` is steep only near standstill, where such joints run well (tests/plant_layer/test_stiff_lagged.py);
+    a fit that proposes candidate plants (``controllers.experiments.closed_loop_id``) uses it to keep
     its candidates where the engine integrates them in bounded time.
     """
     om = lagged_oscillation(par)

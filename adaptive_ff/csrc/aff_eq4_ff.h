@@ -133,9 +133,8 @@ int aff_eq4_ff_start(aff_eq4_ff *e, aff_real Fc, aff_real Fs, aff_real Vs, aff_r
  * Stribeck term and Vs < w_max, at Vs, the standard error of its static map F(w) (aff_eq4_static_gradient) is at
  * most map_rel_stderr times max(Fc, Fs) of the projected estimate, and the projection (aff_project_levels) moved
  * the map there by no more than that either (the map in use is the one tested). Else the estimate in use stays. An
- * IV estimate's first hundreds of updates swing far (on a zoo joint sigma 3 to 70 times the joint's, and once 1000
- * times with its Stribeck level clipped by the projection: docs/benchmarks/compensation.md, "The eq. 4 estimate's
- * determinacy test", where the test, opt-in, is measured). The covariance of the IV estimate is e2*P*Szz*P'
+ * IV estimate's first hundreds of updates can swing far from the joint's values (docs/benchmarks/compensation.md,
+ * "The eq. 4 estimate's determinacy test", where the test, opt-in, is measured). The covariance of the IV estimate is e2*P*Szz*P'
  * (Soderstrom & Stoica, System Identification, 1989, Sec. 8.2: the asymptotic covariance of the basic IV estimate,
  * sigma^2*R^-1*E[z z']*R^-T with R = E[z phi'], here with the forgetting of the recursion;
  * e2 the running mean of the normalised a-priori errors with the gain max(1 - lam, 1/n), the sliding estimator's

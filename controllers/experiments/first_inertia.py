@@ -24,8 +24,8 @@ then the friction lag's ``-tau*sigma*dw/dt`` is collinear with ``J*dw/dt``: the 
 (-20 % on the ``paper`` preset, whose ``tau*sigma`` is 0.8 kg·m²), and on a light joint (``small-inertia``) the
 cycles between the two speeds lasted a few samples. The noise torque varies continuously (its ``-tau*du/dt``
 separates the lag). The regression's discrete filters make its inertia 1.025 times the joint's at 1 kHz
-(:attr:`InertiaExperiment.J` divides that gain out): with it, -0.3 to -0.6 % on ``paper`` and within 0.5 % on ten
-zoo joints; a lagged viscous-only joint -5 % (its lagged ``sigma*w`` nearly collinear with ``J*dw/dt``).
+(:attr:`InertiaExperiment.J` divides that gain out). A lagged viscous-only joint stays biased (its lagged
+``sigma*w`` is nearly collinear with ``J*dw/dt``).
 """
 
 from __future__ import annotations

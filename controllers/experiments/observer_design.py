@@ -34,13 +34,12 @@ def observer_inertia(J_design: float, identified) -> float | None:
     (they keep ``J_design``).
 
     An observer enforces its nominal inertia: with twice the joint's it adds the missing inertia as a virtual one
-    and made the loop worse than no compensation on most zoo joints (docs/benchmarks/compensation.md, "A design
-    inertia off by a factor"). The identification run's inertia (the offline fit of ``compare``'s preparation)
-    came within 11 % of the joint's on 287 of 300 zoo joints (median +2.5 %), whatever the design inertia, so a
-    design inertia more than :data:`J_CONTRADICTED` times off it (either way) is taken as contradicted. The fit's
-    inertia is used even where its friction levels are rejected (a Stribeck term the pre-fit cannot separate, a
-    negative lag): it rests on the accelerations, not on the friction map (within 3 % on the seven such joints of
-    200 with twice the design inertia).
+    and makes the loop worse than no compensation (docs/benchmarks/compensation.md, "A design inertia off by a
+    factor"). The identification run's inertia (the offline fit of ``compare``'s preparation) does not depend on
+    the design inertia and lies within about 11 % of the joint's on nearly every joint of the zoo
+    (docs/benchmarks/zoo.md), so a design inertia more than :data:`J_CONTRADICTED` times off it (either way) is
+    taken as contradicted. The fit's inertia is used even where its friction levels are rejected (a Stribeck term
+    the pre-fit cannot separate, a negative lag): it rests on the accelerations, not on the friction map.
 
     Parameters
     ----------
