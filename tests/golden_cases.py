@@ -633,7 +633,7 @@ def ident_eq4_kernels():
                 phis = []
                 for i in rows:
                     phi = np.empty(model.n_params)
-                    n = eq4_phi(phi, m.u[i], m.u[i - 1], m.w[i - 1], m.w[i - 2], p.Vs, p.delta, lag, stribeck, offset)
+                    n = eq4_phi(phi, model, m.u[i], m.u[i - 1], m.w[i - 1], m.w[i - 2])
                     phis.append(phi[:n])
                 theta = model.theta_from_physical(p, 0.01, offset=1.5)[:model.n_params] if stribeck else \
                     np.linspace(0.9, 0.1, model.n_params)
