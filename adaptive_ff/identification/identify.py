@@ -49,8 +49,8 @@ from adaptive_ff.identification.plausibility import IdentificationWarning, check
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from adaptive_ff.identification.steady_state_check import with_steady_state_check, without_steady_state_check
-from adaptive_ff.identification.uncertainty import (DEFAULT_N_BOOTSTRAP, ParameterUncertainty, eq4_block_bootstrap,
-                                                    regression_block_bootstrap)
+from adaptive_ff.identification.uncertainty import (DEFAULT_N_BOOTSTRAP, BootstrapSettings, ParameterUncertainty,
+                                                    eq4_block_bootstrap, regression_block_bootstrap)
 from plant.errors import ExcitationError, ParameterError, check_positive
 
 __all__ = ["IdentificationReport", "identify", "PARAM_UNITS", "CrossValidation", "cross_validate", "stderr_note",
@@ -240,8 +240,8 @@ def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bo
     extra_warn = []
     if n > 0:
         phys = lambda th: estimate_from_theta(f.names, th, Vs, delta)  # noqa: E731
-        unc = regression_block_bootstrap(X, y, f.theta, phys, names, w_max=float(np.max(np.abs(uni.w))), Vs=Vs,
-                                         delta=delta, n=n, seed=seed)
+        unc = regression_block_bootstrap(X, y, f.theta, phys, names, w_max=float(np.max(np.abs(uni.w))),
+                                         settings=BootstrapSettings(n=n, seed=seed))
         vec = lambda th: np.array([getattr(phys(th), k) for k in names])  # noqa: E731
         check = assess_model_error(X, y, f.theta, vec, names,
                                    base_half_width={k: 0.5 * (hi - lo) for k, (lo, hi) in unc.interval.items()},
@@ -698,7 +698,8 @@ def _eq4_uncertainty(model, u, w, ls: LSResult, options) -> ParameterUncertainty
     n, seed = _bootstrap_options(options)
     if n == 0:
         return None
-    unc = eq4_block_bootstrap(model, u, w, ls.theta, ls.Ts, parameter_names(model), n=n, seed=seed)
+    unc = eq4_block_bootstrap(model, u, w, ls.theta, ls.Ts, parameter_names(model),
+                              settings=BootstrapSettings(n=n, seed=seed))
     return widened(unc, eq4_model_error(model, u, w, ls.theta, ls.Ts, parameter_names(model), unc))
 
 

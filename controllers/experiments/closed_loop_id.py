@@ -139,8 +139,8 @@ from pathlib import Path
 
 import numpy as np
 
-from adaptive_ff.identification.covariance import (andrews_bandwidth, bootstrap_t_quantile, hac_covariance,
-                                                    parametric_block_bootstrap)
+from adaptive_ff.identification.covariance import (BootstrapSettings, andrews_bandwidth, bootstrap_t_quantile,
+                                                    hac_covariance, parametric_block_bootstrap)
 from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
 from adaptive_ff.identification.physical_id import PhysicalFit
 from adaptive_ff.identification.plausibility import IdentificationWarning, check_physical
@@ -628,8 +628,9 @@ def _bootstrap(sim: _LoopSimulator, pb: _Problem, x, fixed_start, ctx: tuple, op
         z, _ = _passes(pr, z0, opts)
         return np.array([math.exp(z[0]), z[1], z[2], z[3], math.exp(z[4])])
 
-    b = parametric_block_bootstrap(refit, pred, res * scale, est, n=opts.n_bootstrap, block=block,
-                                   rng=np.random.default_rng(opts.bootstrap_seed), simulate=simulate)
+    b = parametric_block_bootstrap(refit, pred, res * scale, est, simulate=simulate,
+                                   settings=BootstrapSettings(n=opts.n_bootstrap, block=block,
+                                                              seed=opts.bootstrap_seed, scheme="moving"))
     hw = b.half_width(0.95)
     details = {"n": opts.n_bootstrap, "n_valid": b.n_valid, "block": int(b.block), "seed": opts.bootstrap_seed,
                "loop_noise": "fresh realisation per replicate" if simulate is not None else "none (noise-free loop)",

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-from adaptive_ff.identification.covariance import (circular_block_resample, politis_white_block,
+from adaptive_ff.identification.covariance import (BootstrapSettings, circular_block_resample, politis_white_block,
                                                      residual_block_bootstrap)
 from adaptive_ff.identification.identify import identify
 from adaptive_ff.identification.uncertainty import (FrictionBand, ParameterUncertainty, friction_band,
@@ -73,8 +73,8 @@ def test_bootstrap_se_of_ols_on_white_residuals_matches_the_analytic_se():
     # OLS standard error with s^2 = RSS/m (the residual bootstrap's variance; Efron & Tibshirani Sec. 9.5)
     se_ols = np.sqrt(np.diag(float(res @ res) / m * np.linalg.inv(X.T @ X)))
     pinv = np.linalg.pinv(X)
-    b = residual_block_bootstrap(lambda ys: pinv @ ys, X @ beta, res, beta, n=4000, block=1,
-                                 rng=np.random.default_rng(2))
+    b = residual_block_bootstrap(lambda ys: pinv @ ys, X @ beta, res, beta,
+                                 settings=BootstrapSettings(n=4000, block=1, seed=2))
     assert b.n_valid == 4000 and b.block == 1
     np.testing.assert_allclose(b.stderr, se_ols, rtol=0.04)
     np.testing.assert_allclose(b.bias, 0.0, atol=0.1 * se_ols.max())
@@ -85,9 +85,10 @@ def test_block_bootstrap_keeps_the_colour_of_ar1_residuals():
     m, phi = 20_000, 0.8
     e = _ar1(phi, m, 9)
     se_true = 1.0 / (1 - phi) / math.sqrt(m)
-    b = residual_block_bootstrap(np.mean, np.zeros(m), e, [0.0], n=400, rng=np.random.default_rng(0))
+    b = residual_block_bootstrap(np.mean, np.zeros(m), e, [0.0], settings=BootstrapSettings(n=400, seed=0))
     assert b.stderr[0] == pytest.approx(se_true, rel=0.2)
-    white = residual_block_bootstrap(np.mean, np.zeros(m), e, [0.0], n=400, block=1, rng=np.random.default_rng(0))
+    white = residual_block_bootstrap(np.mean, np.zeros(m), e, [0.0],
+                                     settings=BootstrapSettings(n=400, block=1, seed=0))
     assert white.stderr[0] < 0.5 * se_true  # i.i.d. resampling loses the colour: far too small
 
 
