@@ -43,7 +43,8 @@ from adaptive_ff.identification.identify_warnings import (FREE_RUN_MIN, as_basel
                                                           ls_simex_judgment, sliding_band_warnings)
 from adaptive_ff.identification.idim_method import IDIM_ESTIMATOR, fit_idim_physical
 from adaptive_ff.identification.ls import LSResult, fit_ls
-from adaptive_ff.identification.model_error import assess_model_error, eq4_model_error, widened
+from adaptive_ff.identification.model_error import (ModelErrorSettings, assess_model_error, eq4_model_error,
+                                                    widened)
 from adaptive_ff.identification.physical_id import PhysicalFit, fit_physical
 from adaptive_ff.identification.plausibility import IdentificationWarning, check_physical
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
@@ -243,9 +244,8 @@ def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bo
         unc = regression_block_bootstrap(X, y, f.theta, phys, names, w_max=float(np.max(np.abs(uni.w))),
                                          settings=BootstrapSettings(n=n, seed=seed))
         vec = lambda th: np.array([getattr(phys(th), k) for k in names])  # noqa: E731
-        check = assess_model_error(X, y, f.theta, vec, names,
-                                   base_half_width={k: 0.5 * (hi - lo) for k, (lo, hi) in unc.interval.items()},
-                                   min_lags=int(unc.block), level=float(unc.level), colour_reference="shared",
+        check = assess_model_error(X, y, f.theta, vec, names, base=unc,
+                                   settings=ModelErrorSettings(level=float(unc.level), colour_reference="shared"),
                                    alternatives=(_stribeck_shape_alternative(uni, Vs, delta, offset, X, y, f.theta,
                                                                              vec),))
         unc = widened(unc, check)
