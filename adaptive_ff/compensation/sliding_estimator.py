@@ -487,9 +487,13 @@ class SlidingFit:
     residual_rms: float
 
 
-def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | None = None, T_filter: float = 0.02,
-                       lag: bool = True, offset: bool = True, w_band_min: float | None = None,
-                       dwell_max: float = 0.01) -> tuple:
+def _batch_config(config, Tc) -> SlidingFrictionEstimatorConfig:
+    """The settings of a batch fit: ``config``, or (None) the C defaults with a row every sample (``Ts = Tc``)."""
+    return SlidingFrictionEstimatorConfig(Ts=Tc) if config is None else config
+
+
+def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float,
+                       config: SlidingFrictionEstimatorConfig | None = None) -> tuple:
     """The regression rows of :class:`SlidingFrictionEstimator` for a whole record (vectorised, same recursions).
 
     Parameters
@@ -498,8 +502,14 @@ def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | 
         Torque (N·m) applied over each period of length ``Tc``.
     w : array_like, shape (N,)
         Velocity (rad/s) measured at the start of each period.
-    Tc, Vs, delta, Ts, T_filter, lag, offset, w_band_min, dwell_max
-        As in :class:`SlidingFrictionEstimator` (``Ts`` default: ``Tc``).
+    Tc : float, keyword-only
+        Sample period of ``u``, ``w`` (s).
+    Vs, delta : float, keyword-only
+        Stribeck velocity (rad/s) and shape factor (pre-fit, Sec. V-C).
+    config : SlidingFrictionEstimatorConfig, keyword-only, optional
+        The estimator's settings whose ``Ts`` (row spacing, s, a multiple of ``Tc``), ``T_filter``, ``lag``,
+        ``offset``, ``w_band_min`` and ``dwell_max`` make the rows, as in :class:`SlidingFrictionEstimator`
+        (the RLS settings do not enter). Default: the C defaults with ``Ts = Tc`` (a row every sample).
 
     Returns
     -------
@@ -523,9 +533,7 @@ def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | 
     """
     u = check_signal("u", u, min_len=10)
     w = check_signal("w", w, n=u.shape[0])
-    est = SlidingFrictionEstimator(Vs, delta, Tc=Tc, config=SlidingFrictionEstimatorConfig(
-        Ts=Tc if Ts is None else Ts, T_filter=T_filter, lag=lag, offset=offset,
-        w_band_min=0.0 if w_band_min is None else w_band_min, dwell_max=dwell_max))
+    est = SlidingFrictionEstimator(Vs, delta, Tc=Tc, config=_batch_config(config, Tc))
     from scipy import signal  # lazy: scipy.signal is heavy to import
 
     a, D = float(est.cdata.a), float(est.cdata.D)
@@ -549,10 +557,10 @@ def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | 
     *_, h3 = cascade(sg * e)
     *_, d3 = cascade((aw < band).astype(float))
     cols = [D * (w2 - w3)]
-    if lag:
+    if est.lag:
         cols += [D * D * (w1 - 2.0 * w2 + w3), -D * (u2 - u3)]
     cols += [g3, h3, w3]
-    if offset:
+    if est.offset:
         cols.append(np.ones_like(w))
     X = np.column_stack(cols)
     k = np.arange(1, w.shape[0] + 1)
@@ -562,9 +570,8 @@ def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | 
     return X[keep], y[keep], np.flatnonzero(keep), int(np.count_nonzero(rows & ~keep)), est.names
 
 
-def fit_sliding(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | None = None, T_filter: float = 0.02,
-                lag: bool = True, offset: bool = True, w_band_min: float | None = None,
-                dwell_max: float = 0.01) -> SlidingFit:
+def fit_sliding(u, w, *, Tc: float, Vs: float, delta: float,
+                config: SlidingFrictionEstimatorConfig | None = None) -> SlidingFit:
     """Batch least-squares fit of the sliding-regime inverse-dynamics regression (offline twin of the estimator).
 
     Parameters
@@ -576,11 +583,10 @@ def fit_sliding(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | None = 
     Tc : float, keyword-only
         Sample period of ``u``, ``w`` (s).
     Vs, delta : float, keyword-only
-        Stribeck factors (pre-fit, Sec. V-C).
-    Ts : float, keyword-only
-        Row spacing (s), a multiple of ``Tc``; default ``Tc`` (every sample).
-    T_filter, lag, offset, w_band_min, dwell_max
-        As in :class:`SlidingFrictionEstimator`; the rows are those of
+        Stribeck velocity (rad/s) and shape factor (pre-fit, Sec. V-C).
+    config : SlidingFrictionEstimatorConfig, keyword-only, optional
+        As in :func:`sliding_regressors` (``Ts``, ``T_filter``, ``lag``, ``offset``, ``w_band_min``,
+        ``dwell_max``; default the C defaults with ``Ts = Tc``); the rows are those of
         :func:`sliding_regressors`, identical to the estimator's.
 
     Returns
@@ -602,9 +608,7 @@ def fit_sliding(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | None = 
     (Golub & Van Loan, *Matrix Computations*, Sec. 5.3); standard errors from
     ``s**2 (X^T X)^-1``.
     """
-    X, y, _, n_gated, names = sliding_regressors(u, w, Tc=Tc, Vs=Vs, delta=delta, Ts=Ts, T_filter=T_filter,
-                                                 lag=lag, offset=offset, w_band_min=w_band_min,
-                                                 dwell_max=dwell_max)
+    X, y, _, n_gated, names = sliding_regressors(u, w, Tc=Tc, Vs=Vs, delta=delta, config=config)
     p = X.shape[1]
     if X.shape[0] < 2 * p:
         raise ExcitationError(f"only {X.shape[0]} regression rows in the sliding regime (need >= {2 * p}); "

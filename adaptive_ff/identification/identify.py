@@ -224,10 +224,12 @@ def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bo
     (:func:`adaptive_ff.identification.uncertainty.regression_block_bootstrap`; ``n_bootstrap``, ``bootstrap_seed``
     of ``options``), the white OLS errors stay as ``info["stderr_ols"]`` (on a simulated 1 kHz PI log they put
     the true J 95 of them away)."""
-    from adaptive_ff.compensation.sliding_estimator import estimate_from_theta, fit_sliding, sliding_regressors
+    from adaptive_ff.compensation.sliding_estimator import (SlidingFrictionEstimatorConfig, estimate_from_theta,
+                                                            fit_sliding, sliding_regressors)
 
-    f = fit_sliding(uni.u, uni.w, Tc=uni.Ts, Vs=Vs, delta=delta, lag=True, offset=offset)
-    X, y, *_ = sliding_regressors(uni.u, uni.w, Tc=uni.Ts, Vs=Vs, delta=delta, lag=True, offset=offset)
+    config = SlidingFrictionEstimatorConfig(Ts=uni.Ts, lag=True, offset=offset)
+    f = fit_sliding(uni.u, uni.w, Tc=uni.Ts, Vs=Vs, delta=delta, config=config)
+    X, y, *_ = sliding_regressors(uni.u, uni.w, Tc=uni.Ts, Vs=Vs, delta=delta, config=config)
     sv = np.linalg.svd(X / np.where(np.linalg.norm(X, axis=0) > 0, np.linalg.norm(X, axis=0), 1.0), compute_uv=False)
     e = f.estimate
     std = dict(zip(f.names, (float(x) for x in f.theta_std)))
@@ -267,11 +269,12 @@ def _stribeck_shape_alternative(uni: MeasuredData, Vs: float, delta: float, offs
     :class:`adaptive_ff.identification.model_error.Alternative`: where the log supports another shape than the
     pre-fit's, the Fc, Fs and sigma it moves are named (a pre-fit off by 1-2 % moved Fs by +0.5..+0.9 % and sigma
     by -0.3 % on 1 kHz PI logs, beyond their intervals)."""
-    from adaptive_ff.compensation.sliding_estimator import sliding_regressors
+    from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimatorConfig, sliding_regressors
     from adaptive_ff.identification.model_error import Alternative
 
     def rows(v, d):
-        return sliding_regressors(uni.u, uni.w, Tc=uni.Ts, Vs=v, delta=d, lag=True, offset=offset)[0]
+        return sliding_regressors(uni.u, uni.w, Tc=uni.Ts, Vs=v, delta=d,
+                                  config=SlidingFrictionEstimatorConfig(Ts=uni.Ts, lag=True, offset=offset))[0]
 
     h = 1e-3
     cv = (rows(Vs * (1 + h), delta) - rows(Vs * (1 - h), delta)) @ theta / (2 * h)
