@@ -168,13 +168,14 @@ def _compensator(args, arm_joint=None) -> tuple:
     """:func:`controllers.experiments.compensator_file.compensator_from_file` of ``args`` (of the joint ``arm_joint``
     of an ``identify-arm`` output)."""
     from controllers.cli.design import target_options
+    from controllers.design.pi import PITuning
     from controllers.experiments.compensator_file import compensator_from_file
     from plant.errors import ParameterError
 
     extra = {k: getattr(args, k) for k in ("ff_max", "stick_band") if getattr(args, k) is not None}
     try:
-        return compensator_from_file(args.from_file, u_max=args.u_max, Kp=args.Kp, Ki=args.Ki,
-                                     crossover=args.crossover, phase_margin=args.phase_margin, start=args.start,
+        pi = PITuning(Kp=args.Kp, Ki=args.Ki, crossover=args.crossover, phase_margin=args.phase_margin)
+        return compensator_from_file(args.from_file, u_max=args.u_max, pi=pi, start=args.start,
                                      Tc=args.Tc, Ts=args.Ts, J_design=args.J_design, Vs=args.Vs, delta=args.delta,
                                      feedforward_only=args.feedforward_only, arm_joint=arm_joint, **extra)
     except ParameterError as exc:
