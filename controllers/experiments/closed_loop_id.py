@@ -145,6 +145,7 @@ from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
 from adaptive_ff.identification.physical_id import PhysicalFit
 from adaptive_ff.identification.plausibility import IdentificationWarning, check_physical
 from adaptive_ff.identification.regression import nrmse_fit
+from adaptive_ff.io.data import MeasuredData
 from controllers.design.pi import PIController
 from controllers.simulation.engine import EngineMetrics, EngineRecord, EngineRun
 from controllers.simulation.metrics import reversal_times
@@ -685,18 +686,16 @@ def _warnings(params: dict, stderr: dict, cond: float, sol_status: int, kind: st
     return out
 
 
-def fit_closed_loop(t, u, w, w_ref, *, controller: ControllerSpec, Vs: float, delta: float,
+def fit_closed_loop(data: MeasuredData, w_ref, *, controller: ControllerSpec, Vs: float, delta: float,
                     options: ClosedLoopIdOptions | None = None, paper_start: dict | None = None) -> PhysicalFit:
     """Identify J, Fc, Fs, sigma, tau of eqs. 1-3 from a closed-loop log read out slower than the loop.
 
     Parameters
     ----------
-    t : array_like, shape (M,)
-        Readout stamps (s), strictly increasing, any spacing >= ``controller.Tc``; kept as read.
-    u : array_like, shape (M,)
-        Logged torque (N·m) at ``t``: the command of ``options.u_delay`` controller periods before the stamp.
-    w : array_like, shape (M,)
-        Logged (measured) velocity (rad/s) at ``t``.
+    data : adaptive_ff.io.data.MeasuredData
+        The log, ``M`` readouts: stamps ``t`` (s, strictly increasing, any spacing >= ``controller.Tc``; kept as
+        read), torque ``u`` (N·m) at ``t`` (the command of ``options.u_delay`` controller periods before the
+        stamp), measured velocity ``w`` (rad/s) at ``t``.
     w_ref : array_like, shape (M,)
         Commanded velocity (rad/s) at ``t``, smooth (interpolated onto the controller grid by PCHIP).
     controller : ControllerSpec, keyword-only
@@ -728,8 +727,10 @@ def fit_closed_loop(t, u, w, w_ref, *, controller: ControllerSpec, Vs: float, de
 
     Raises
     ------
+    TypeError
+        ``data`` not a :class:`adaptive_ff.io.data.MeasuredData`.
     SignalError
-        Non-finite or mismatched signals, stamps not increasing, fewer than 20 readouts after the burn-in.
+        Non-finite or mismatched signals, fewer than 20 readouts (after the burn-in).
     ParameterError
         Bad controller, ``Vs``, ``delta`` or options, or readouts faster than ``Tc``.
     ExcitationError
@@ -747,7 +748,9 @@ def fit_closed_loop(t, u, w, w_ref, *, controller: ControllerSpec, Vs: float, de
     opts = ClosedLoopIdOptions() if options is None else options
     if not isinstance(opts, ClosedLoopIdOptions):
         raise ParameterError(f"options must be a ClosedLoopIdOptions, got {type(opts).__name__}")
-    t, u, w, w_ref, Vs, delta = _check(t, u, w, w_ref, controller, Vs, delta)
+    if not isinstance(data, MeasuredData):
+        raise TypeError(f"data must be a MeasuredData, got {type(data).__name__}")
+    t, u, w, w_ref, Vs, delta = _check(data.t, data.u, data.w, w_ref, controller, Vs, delta)
     sim = _LoopSimulator(t, w_ref, w, u, controller, Vs, delta, opts)
     pb = _Problem(sim, w, u)
     ok = paper_start is not None and all(float(paper_start.get(k, -1.0)) > 0 for k in ("J", "Fc", "Fs", "sigma"))
@@ -832,8 +835,7 @@ def identify_closed_loop(data, w_ref, *, controller: ControllerSpec, Vs: float, 
     report = identify(data, Vs=Vs, delta=delta, method="paper", **identify_options)
     e = report.estimate
     start = {"J": e.J, "Fc": e.Fc, "Fs": e.Fs, "sigma": e.sigma, "tau": e.tau}
-    fit = fit_closed_loop(data.t, data.u, data.w, w_ref, controller=controller, Vs=Vs, delta=delta, options=options,
-                          paper_start=start)
+    fit = fit_closed_loop(data, w_ref, controller=controller, Vs=Vs, delta=delta, options=options, paper_start=start)
     c = controller
     note = (f"physical parameters by 'closed_loop': the PI loop (Kp = {c.Kp:.6g}, Ki = {c.Ki:.6g}, Tc = "
             f"{c.Tc * 1e3:.4g} ms, u_max = {c.u_max:.6g}) simulated on the reference and fitted to w and u at the "
