@@ -43,7 +43,7 @@ import numpy as np
 from plant.errors import FrictionError, ParameterError, SignalError
 
 __all__ = ["hac_covariance", "andrews_bandwidth", "moving_block_resample", "block_wild_resample",
-           "parametric_block_bootstrap", "BootstrapSettings", "BOOTSTRAP_SCHEMES",
+           "parametric_block_bootstrap", "BootstrapSettings", "BOOTSTRAP_SCHEMES", "DEFAULT_N_BOOTSTRAP",
            "BootstrapResult", "bootstrap_t_quantile", "circular_block_resample", "politis_white_block",
            "residual_block_bootstrap"]
 
@@ -233,6 +233,10 @@ def _resample_args(r, n_out, block, rng) -> tuple:
     return r, r.shape[0], int(min(block, r.shape[0]))
 
 
+#: Replicates of a block bootstrap by default (:class:`BootstrapSettings`; the eq. 4 residual block bootstrap of
+#: :func:`adaptive_ff.identification.identify.identify`).
+DEFAULT_N_BOOTSTRAP = 200
+
 #: How a block bootstrap resamples the residuals: circular blocks (:func:`circular_block_resample`), moving blocks
 #: (:func:`moving_block_resample`) or blocks kept in place with a random sign (:func:`block_wild_resample`).
 BOOTSTRAP_SCHEMES = ("circular", "moving", "wild")
@@ -253,7 +257,8 @@ class BootstrapSettings:
     Parameters
     ----------
     n : int
-        Number of replicates, >= 1 (default 200; a function may ask for more, e.g. 2 for intervals).
+        Number of replicates, >= 1 (default :data:`DEFAULT_N_BOOTSTRAP`, 200; a function may ask for more, e.g.
+        2 for intervals).
     block : int or None
         Block length (samples), >= 1; None (default): the Politis-White length of the residuals
         (:func:`politis_white_block`; :func:`parametric_block_bootstrap` needs it given).
@@ -269,7 +274,7 @@ class BootstrapSettings:
         unknown ``scheme`` (the message names the field and the value).
     """
 
-    n: int = 200
+    n: int = DEFAULT_N_BOOTSTRAP
     block: int | None = None
     seed: int = 0
     scheme: str = "circular"

@@ -55,7 +55,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from adaptive_ff.identification.covariance import BootstrapSettings, bootstrap_t_quantile, residual_block_bootstrap
+from adaptive_ff.identification.covariance import (DEFAULT_N_BOOTSTRAP, BootstrapSettings, bootstrap_t_quantile,
+                                                    residual_block_bootstrap)
 from plant.errors import ParameterError, SignalError
 from plant.results import axes_or_new, json_safe
 from plant.stribeck_map import stribeck
@@ -65,9 +66,6 @@ __all__ = ["FrictionBand", "ParameterUncertainty", "friction_curves", "friction_
 
 #: Points of the velocity grid of a friction band (odd: ``w = 0`` is one of them).
 BAND_POINTS = 101
-
-#: Replicates of the eq. 4 residual block bootstrap of :func:`adaptive_ff.identification.identify.identify`.
-DEFAULT_N_BOOTSTRAP = 200
 
 
 def friction_curves(P, w, *, Vs: float | None, delta: float | None) -> np.ndarray:

@@ -212,3 +212,19 @@ def test_output_error_fit_reports_interval_and_band_of_its_bootstrap():
     assert np.all(np.array(band["lower"]) <= F) and np.all(F <= np.array(band["upper"]))
     assert band["n_replicates"] == n_valid
     json.dumps(f.to_dict(), allow_nan=False)
+
+
+def test_residual_bootstrap_resamples_by_the_scheme_of_its_settings():
+    res, fitted = np.cos(np.arange(40.0)), np.zeros(40)
+    # circular (default): the replicates are fitted + circular_block_resample, drawn in turn from default_rng(seed)
+    b = residual_block_bootstrap(lambda ys: [ys.mean()], fitted, res, [0.0],
+                                 settings=BootstrapSettings(n=5, block=4, seed=1))
+    rng = np.random.default_rng(1)
+    expected = [circular_block_resample(res, 40, block=4, rng=rng).mean() for _ in range(5)]
+    assert b.replicates[:, 0].tolist() == expected and b.block == 4
+    # wild: each residual kept in place with one sign per block, so the mean square is the residuals' own
+    wild = residual_block_bootstrap(lambda ys: [np.mean(ys**2)], fitted, res, [0.0],
+                                    settings=BootstrapSettings(n=5, block=4, seed=1, scheme="wild"))
+    np.testing.assert_allclose(wild.replicates[:, 0], np.mean(res**2), rtol=1e-12)
+    with pytest.raises(ParameterError, match="settings must be a BootstrapSettings"):
+        residual_block_bootstrap(np.mean, fitted, res, [0.0], settings={"n": 5})

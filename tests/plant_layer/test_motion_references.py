@@ -166,3 +166,12 @@ def test_a_point_to_point_reference_runs_in_the_closed_loop():
         assert np.all(np.isfinite(r.w)), m
     rms = {m: float(np.sqrt(np.mean((r.w_ref - r.w) ** 2))) for m, r in res.items()}
     assert rms["adaptive"] < rms["none"]
+
+
+def test_load_reference_position_in_encoder_counts(tmp_path):
+    t = np.arange(0, 2001) * 1e-3
+    counts = 4096.0 * t  # a ramp of 4096 counts/s on a 4096-count encoder: one revolution per second
+    f = tmp_path / "enc.csv"
+    np.savetxt(f, np.column_stack([t, counts]), delimiter=",", header="t,q", comments="")
+    r = load_reference(f, position="q", units=LogUnits(position_unit="counts", counts_per_rev=4096.0))
+    np.testing.assert_allclose(r.w, 2.0 * np.pi, rtol=1e-9)
