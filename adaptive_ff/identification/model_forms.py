@@ -526,7 +526,7 @@ def _sliding_rows(uni, name, Vs, delta, offset, band):
     lag = FORMS[name][2]
     X, y, idx, _, names = sliding_regressors(uni.u, uni.w, Tc=uni.Ts, Vs=Vs, delta=delta,
                                              config=SlidingFrictionEstimatorConfig(Ts=uni.Ts, lag=lag, offset=offset,
-                                                                                   w_band_min=band or 0.0))
+                                                                                   w_band_min=band))
     names = list(names)
     if FORMS[name][1] == "none":
         i, j = names.index("Fc"), names.index("Fs")
