@@ -18,6 +18,7 @@ import argparse
 import time
 
 from adaptive_ff.identification.physical_id import fit_physical
+from adaptive_ff.io.data import MeasuredData
 from controllers.experiments.closed_loop_id import ClosedLoopIdOptions, ControllerSpec, fit_closed_loop
 from controllers.experiments.synthetic_logs import closed_loop_readout
 from plant import preset
@@ -55,7 +56,7 @@ def main() -> None:
     for seed in range(a.start, a.start + a.n):
         m, w_ref, spec = record(seed, a.duration)
         t0 = time.perf_counter()
-        f = fit_closed_loop(m.t, m.u, m.w, w_ref, controller=spec, Vs=VS, delta=DELTA, options=opts)
+        f = fit_closed_loop(MeasuredData(m.t, m.u, m.w), w_ref, controller=spec, Vs=VS, delta=DELTA, options=opts)
         print(_row(f"{seed} closed_loop", f.params, f.stderr, time.perf_counter() - t0), flush=True)
         if a.oe:
             t0 = time.perf_counter()

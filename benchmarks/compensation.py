@@ -26,7 +26,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 import numpy as np
 from tqdm.auto import tqdm
 
-from adaptive_ff.compensation.sliding_estimator import fit_sliding
+from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimatorConfig, fit_sliding
 from controllers.simulation.closed_loop import MODES
 from controllers.experiments.compare import compare
 from plant.friction import preset
@@ -95,10 +95,12 @@ def main_task(scenario: str, seed: int, duration: float) -> dict:
     out["adaptive_estimate"] = {k: getattr(est, k) for k in EST_KEYS} if est is not None else None
     if scenario == "paper":
         r = comp.results["none"]
-        kw = dict(Tc=r.info["Tc"], Vs=comp.model.Vs, delta=comp.model.delta, Ts=0.01)
-        fits = {"none run, all rows (no gate)": fit_sliding(r.u, r.w_meas, dwell_max=1.0, **kw),
-                "none run, sliding-regime gate": fit_sliding(r.u, r.w_meas, **kw),
-                "none run, noise-free w, no gate": fit_sliding(r.u, r.w, dwell_max=1.0, **kw)}
+        kw = dict(Tc=r.info["Tc"], Vs=comp.model.Vs, delta=comp.model.delta)
+        gate = SlidingFrictionEstimatorConfig(Ts=0.01)
+        no_gate = SlidingFrictionEstimatorConfig(Ts=0.01, dwell_max=1.0)
+        fits = {"none run, all rows (no gate)": fit_sliding(r.u, r.w_meas, config=no_gate, **kw),
+                "none run, sliding-regime gate": fit_sliding(r.u, r.w_meas, config=gate, **kw),
+                "none run, noise-free w, no gate": fit_sliding(r.u, r.w, config=no_gate, **kw)}
         out["bias"] = {k: {p: getattr(f.estimate, p) for p in EST_KEYS} for k, f in fits.items()}
         out["bias"]["adaptive run, online, final"] = out["adaptive_estimate"]
     return out

@@ -66,13 +66,14 @@ COVER = ("boot", "boot z", "hac", "white")
 def _fit(method: str, p, seed: int, duration: float, n_bootstrap: int):
     """The fit of one seeded record by ``method``."""
     if method == "closed_loop":
+        from adaptive_ff.io.data import MeasuredData
         from controllers.experiments.closed_loop_id import ClosedLoopIdOptions, ControllerSpec, fit_closed_loop
         from controllers.experiments.synthetic_logs import closed_loop_readout
 
         exp = closed_loop_readout(p, duration, seeds=seed)
         m = exp.measurement
-        return fit_closed_loop(m.t, m.u, m.w, exp.w_ref, controller=ControllerSpec(**exp.controller()), Vs=p.Vs,
-                               delta=p.delta, options=ClosedLoopIdOptions(n_bootstrap=n_bootstrap))
+        return fit_closed_loop(MeasuredData(m.t, m.u, m.w), exp.w_ref, controller=ControllerSpec(**exp.controller()),
+                               Vs=p.Vs, delta=p.delta, options=ClosedLoopIdOptions(n_bootstrap=n_bootstrap))
     m = record(p, seed=seed, noise=0.01, quant=QUANT, irregular="scaled", duration=duration)
     return fit_physical(m.t, m.u, m.w, Vs=p.Vs, delta=p.delta, method="output_error", input_delay=INPUT_DELAY,
                         n_bootstrap=n_bootstrap)

@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
-from adaptive_ff.compensation.sliding_estimator import fit_sliding
+from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimatorConfig, fit_sliding
 from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.online_ukf import run_online_ukf
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel, eq4_phi, eq4_to_physical
@@ -633,7 +633,7 @@ def ident_eq4_kernels():
                 phis = []
                 for i in rows:
                     phi = np.empty(model.n_params)
-                    n = eq4_phi(phi, m.u[i], m.u[i - 1], m.w[i - 1], m.w[i - 2], p.Vs, p.delta, lag, stribeck, offset)
+                    n = eq4_phi(phi, model, m.u[i], m.u[i - 1], m.w[i - 1], m.w[i - 2])
                     phis.append(phi[:n])
                 theta = model.theta_from_physical(p, 0.01, offset=1.5)[:model.n_params] if stribeck else \
                     np.linspace(0.9, 0.1, model.n_params)
@@ -649,8 +649,9 @@ def ident_sliding_fit():
     p, u, resp, _ = _open_loop_log(seconds=10.0)
     w = resp.w[:-1] + np.random.default_rng(40).normal(0.0, NOISE, u.shape[0])
     out = {}
-    for name, kw in (("default", {}), ("Ts10ms-nolag", dict(Ts=0.01, lag=False, offset=False))):
-        f = fit_sliding(u, w, Tc=TC, Vs=p.Vs, delta=p.delta, **kw)
+    for name, config in (("default", None),
+                         ("Ts10ms-nolag", SlidingFrictionEstimatorConfig(Ts=0.01, lag=False, offset=False))):
+        f = fit_sliding(u, w, Tc=TC, Vs=p.Vs, delta=p.delta, config=config)
         out[name] = {"names": list(f.names), "theta": f.theta, "theta_std": f.theta_std,
                      "estimate": f.estimate.to_dict(), "n_rows": f.n_rows, "n_gated": f.n_gated,
                      "residual_rms": f.residual_rms}

@@ -45,7 +45,7 @@ from pathlib import Path
 from adaptive_ff.io.output import staged_folder
 from plant.errors import ParameterError
 
-__all__ = ["export_c", "export_settings", "ExportSettings", "CExport", "c_closure", "amalgamate", "struct_initializer",
+__all__ = ["export_c", "export_settings", "ExportSettings", "JointExport", "CExport", "c_closure", "amalgamate", "struct_initializer",
            "field_comments", "c_literal", "macro_lines", "banner", "prepare_out", "EXPORT_FILES", "CSRC_DIRS", "ROOT_HEADER", "MACRO_DOC",
            "MACRO_FIELDS", "MAKEFILE", "W_MAX_DEFAULT", "HOLD_TIME_DEFAULT"]
 
@@ -722,16 +722,55 @@ class ExportSettings:
     stub: dict
 
 
-def export_settings(compensator, *, J_design: float, u_max: float, Kp: float, Ki: float, joint=None,
-                    w_max: float = W_MAX_DEFAULT, hold_time: float = HOLD_TIME_DEFAULT) -> ExportSettings:
-    """The checked settings of an export of ``compensator``: what :func:`export_c` writes for it
+@dataclass(frozen=True, kw_only=True)
+class JointExport:
+    """One joint of an export: its compensator and the settings of its drive and example loop (keyword-only).
+
+    :func:`export_c` writes one, :func:`adaptive_ff.compensation.export_c_arm.export_c_arm` several; the numbers
+    are checked by :func:`export_settings` (the message names the field).
+
+    Attributes
+    ----------
+    compensator : AdaptiveCompensator
+        The configured compensator of mode ``adaptive`` (C struct ``aff_adaptive``: the feedforward, with or
+        without the residual observer and the supervisor; from
+        :func:`controllers.simulation.compensators.build_mode`), before it observes anything: its settings
+        (:attr:`~controllers.peers.adaptive_dob.AdaptiveCompensator.config`) become ``AFF_CONFIG.mode``.
+    J_design : float
+        Design inertia (kg·m²) the compensator was built with (documented as ``AFF_J_DESIGN``; the example's
+        stub joint).
+    u_max : float
+        The drive's torque limit (N·m), the example loop's saturation (``AFF_U_MAX``); the input guard refuses a
+        torque beyond twice it (``AFF_U_GUARD``). Within the float range.
+    Kp, Ki : float
+        Gains of the example loop's PI (N·m·s/rad, N·m/rad; ``AFF_KP``, ``AFF_KI``), >= 0.
+    friction : mapping
+        ``Fc``, ``Fs`` (N·m) and ``sigma`` (N·m·s/rad) of the example's stub joint (e.g. the identified ones);
+        default empty: a joint without friction.
+    name : str
+        The joint's name (the identification's, e.g. the URDF's; an arm's export names its joints by it);
+        default ``"joint"``.
+    """
+
+    compensator: object
+    J_design: float
+    u_max: float
+    Kp: float
+    Ki: float
+    friction: dict = field(default_factory=dict)
+    name: str = "joint"
+
+
+def export_settings(joint: JointExport, *, w_max: float = W_MAX_DEFAULT,
+                    hold_time: float = HOLD_TIME_DEFAULT) -> ExportSettings:
+    """The checked settings of an export of ``joint``: what :func:`export_c` writes for it
     (:mod:`adaptive_ff.compensation.export_c_arm` writes several).
 
     Parameters
     ----------
-    compensator : AdaptiveCompensator
-        Mode ``adaptive``'s compensator before it observes anything (as :func:`export_c` takes it).
-    J_design, u_max, Kp, Ki, joint, w_max, hold_time : keyword-only
+    joint : JointExport
+        The compensator (mode ``adaptive``'s, before it observes anything) and its drive's settings.
+    w_max, hold_time : keyword-only
         As :func:`export_c` takes them (SI units).
 
     Returns
@@ -741,24 +780,27 @@ def export_settings(compensator, *, J_design: float, u_max: float, Kp: float, Ki
     Raises
     ------
     ParameterError
-        Not mode adaptive's compensator or not what its settings configure, a bad number, ``u_max`` beyond the
-        float range, ``hold_time`` below the controller period.
+        ``joint`` not a :class:`JointExport`, not mode adaptive's compensator or not what its settings configure,
+        a bad number, ``u_max`` beyond the float range, ``hold_time`` below the controller period.
     """
+    if not isinstance(joint, JointExport):
+        raise ParameterError(f"joint must be a JointExport, got {type(joint).__name__}")
+    compensator = joint.compensator
     ptr = _mode_struct(compensator)
-    J_design = _check_number("J_design", J_design)
-    u_max = _check_number("u_max", u_max)
+    J_design = _check_number("J_design", joint.J_design)
+    u_max = _check_number("u_max", joint.u_max)
     if 2.0 * u_max > _FLT_MAX:
         raise ParameterError(f"u_max = {u_max!r} N·m: twice it (the input guard's bound) is beyond the float range "
                              f"({_FLT_MAX:.4g}); give the drive's real torque limit")
-    Kp = _check_number("Kp", Kp, positive=False)
-    Ki = _check_number("Ki", Ki, positive=False)
+    Kp = _check_number("Kp", joint.Kp, positive=False)
+    Ki = _check_number("Ki", joint.Ki, positive=False)
     w_max = _check_number("w_max", w_max)
     hold_time = _check_number("hold_time", hold_time)
     jd = {"Fc": 0.0, "Fs": 0.0, "sigma": 0.0}
-    for k, v in dict(joint or {}).items():
+    for k, v in dict(joint.friction or {}).items():
         if k not in jd:
-            raise ParameterError(f"joint: unknown key {k!r}; allowed {sorted(jd)}")
-        jd[k] = _check_number(f"joint {k}", v, positive=False)
+            raise ParameterError(f"friction: unknown key {k!r}; allowed {sorted(jd)}")
+        jd[k] = _check_number(f"friction {k}", v, positive=False)
     jd["Fs"] = max(jd["Fs"], jd["Fc"])
     ff = compensator.feedforward
     est = ff.estimator
@@ -778,34 +820,22 @@ def export_settings(compensator, *, J_design: float, u_max: float, Kp: float, Ki
     return ExportSettings(config=config, macros=macros, drive=drive, stub=jd)
 
 
-def export_c(compensator, out, *, J_design: float, u_max: float, Kp: float, Ki: float, joint=None,
-             w_max: float = W_MAX_DEFAULT, hold_time: float = HOLD_TIME_DEFAULT, float_default: bool = False,
-             force: bool = False, origin: str = "") -> CExport:
+def export_c(joint: JointExport, out, *, w_max: float = W_MAX_DEFAULT, hold_time: float = HOLD_TIME_DEFAULT,
+             float_default: bool = False, force: bool = False, origin: str = "") -> CExport:
     """Write the compensator as a C library for a drive: sources, one header, its configuration, an example loop
     and a Makefile (the files: module docstring of :mod:`adaptive_ff.compensation.export_c`).
 
     Parameters
     ----------
-    compensator : AdaptiveCompensator
-        The configured compensator of mode ``adaptive`` (C struct ``aff_adaptive``: the feedforward, with or
-        without the residual observer and the supervisor; from
-        :func:`controllers.simulation.compensators.build_mode`), before it observes anything: its settings
-        (:attr:`~controllers.peers.adaptive_dob.AdaptiveCompensator.config`) become ``AFF_CONFIG.mode``.
+    joint : JointExport
+        The compensator of mode ``adaptive`` (before it observes anything: its settings become
+        ``AFF_CONFIG.mode``), the design inertia ``J_design`` (kg·m², ``AFF_J_DESIGN``), the drive's torque
+        limit ``u_max`` (N·m, ``AFF_U_MAX``; the input guard refuses twice it, ``AFF_U_GUARD``), the example
+        loop's PI gains ``Kp``, ``Ki`` (``AFF_KP``, ``AFF_KI``) and the ``friction`` of its stub joint.
     out : str or os.PathLike
         Folder to write into (created; must be empty unless ``force``). The files are written beside it first and
         moved into it together at the end (:func:`adaptive_ff.io.output.staged_folder`): a failure leaves the
         folder as it was, and a second export into the same folder while one runs is refused.
-    J_design : float, keyword-only
-        Design inertia (kg·m²) the compensator was built with (documented as ``AFF_J_DESIGN``; the example's
-        stub joint).
-    u_max : float, keyword-only
-        The drive's torque limit (N·m), the example loop's saturation (``AFF_U_MAX``); the input guard refuses a
-        torque beyond twice it (``AFF_U_GUARD``). Within the float range.
-    Kp, Ki : float, keyword-only
-        Gains of the example loop's PI (N·m·s/rad, N·m/rad; ``AFF_KP``, ``AFF_KI``), >= 0.
-    joint : mapping, optional, keyword-only
-        ``Fc``, ``Fs`` (N·m) and ``sigma`` (N·m·s/rad) of the example's stub joint (e.g. the identified ones);
-        default a joint without friction.
     w_max : float, keyword-only
         The input guard's largest plausible velocity (rad/s, ``AFF_W_MAX``), default 1e4.
     hold_time : float, keyword-only
@@ -825,15 +855,14 @@ def export_c(compensator, out, *, J_design: float, u_max: float, Kp: float, Ki: 
     Raises
     ------
     ParameterError
-        Not mode adaptive's compensator or not what its settings configure (it has observed samples), a bad
-        number, ``u_max`` beyond the float range, or ``out`` an existing file or a non-empty folder without
+        ``joint`` not a :class:`JointExport`, not mode adaptive's compensator or not what its settings configure
+        (it has observed samples), a bad number, ``u_max`` beyond the float range, or ``out`` an existing file or a non-empty folder without
         ``force``; ``out`` in use by another export (:class:`adaptive_ff.io.output.OutputInUseError`).
     FileNotFoundError
         The package's C sources are missing (an installation without ``csrc``).
     """
-    st = export_settings(compensator, J_design=J_design, u_max=u_max, Kp=Kp, Ki=Ki, joint=joint, w_max=w_max,
-                         hold_time=hold_time)
-    config, jd, est = st.config, st.stub, compensator.feedforward.estimator
+    st = export_settings(joint, w_max=w_max, hold_time=hold_time)
+    config, jd, est = st.config, st.stub, joint.compensator.feedforward.estimator
     headers, sources = c_closure()
     out = prepare_out(out, force)
     from adaptive_ff._caff import ffi

@@ -24,45 +24,15 @@ A drive runs ``aff_init(&comp[j], &AFF_CONFIGS[j])`` once per joint and then, pe
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
 
 from plant.errors import ParameterError
 
 from adaptive_ff.compensation.export_c import (EXPORT_FILES, HOLD_TIME_DEFAULT, MACRO_FIELDS, MAKEFILE,
                                                W_MAX_DEFAULT, CExport, amalgamate, banner, c_closure, c_literal,
-                                               export_settings, field_comments, macro_lines, prepare_out,
-                                               struct_initializer)
+                                               JointExport, export_settings, field_comments, macro_lines,
+                                               prepare_out, struct_initializer)
 
 __all__ = ["JointExport", "export_c_arm", "c_identifier"]
-
-
-@dataclass(frozen=True)
-class JointExport:
-    """One joint of an arm's export: its name, its compensator and the settings :func:`export_c` takes.
-
-    Attributes
-    ----------
-    name : str
-        The joint's name (the identification's, e.g. the URDF's).
-    compensator : AdaptiveCompensator
-        Mode ``adaptive``'s compensator of the joint, before it observes anything.
-    J_design : float
-        Design inertia (kg·m²).
-    u_max : float
-        The joint drive's torque limit (N·m).
-    Kp, Ki : float
-        The example loop's PI gains (N·m·s/rad, N·m/rad).
-    friction : dict
-        ``Fc``, ``Fs``, ``sigma`` of the example's stub joint (may be empty).
-    """
-
-    name: str
-    compensator: object
-    J_design: float
-    u_max: float
-    Kp: float
-    Ki: float
-    friction: dict
 
 
 def c_identifier(name: str) -> str:
@@ -208,8 +178,7 @@ def export_c_arm(joints, out, *, w_max: float = W_MAX_DEFAULT, hold_time: float 
     settings = []
     for j in joints:
         try:
-            settings.append(export_settings(j.compensator, J_design=j.J_design, u_max=j.u_max, Kp=j.Kp, Ki=j.Ki,
-                                            joint=j.friction, w_max=w_max, hold_time=hold_time))
+            settings.append(export_settings(j, w_max=w_max, hold_time=hold_time))
         except ParameterError as exc:
             raise ParameterError(f"joint {j.name!r}: {exc}") from None
     periods = {s.config["AFF_TC"] for s in settings}

@@ -82,8 +82,7 @@ from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from adaptive_ff.compensation.defaults import c_config_class, c_defaults
 from plant.component import Component, struct_field
-from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, check_multiple, check_positive,
-                          check_signal)
+from plant.errors import ExcitationError, ParameterError, check_positive, check_signal
 from plant.stribeck_map import stribeck_shape
 
 __all__ = ["SlidingFrictionEstimator", "SlidingFrictionEstimatorConfig", "SlidingFit", "fit_sliding", "sliding_regressors", "SLIDING_NAMES",
@@ -159,6 +158,20 @@ def estimate_from_theta(names, theta, Vs, delta, *, box=None) -> FrictionEstimat
     J_alt = d["J_tau"] / tau if ("J_tau" in d and tau > 0) else float("nan")
     return FrictionEstimate(J=d["J"], tau=tau, sigma=d["sigma"], Fc=d["Fc"], Fs=d["Fs"], offset=d.get("offset", 0.0),
                             Vs=Vs, delta=delta, J_alt=J_alt)
+
+
+def _parts(gate, u_range, w_range) -> tuple:
+    """The estimator's gates, defaults built and their types checked: ``(gate, u_range, w_range)`` (``w_range``'s
+    default floor 0 stands for ``Vs``)."""
+    gate = OutlierGate() if gate is None else gate
+    if not isinstance(gate, OutlierGate):
+        raise ParameterError(f"gate must be an OutlierGate, got {type(gate).__name__}")
+    u_range = RangeGate() if u_range is None else u_range
+    w_range = RangeGate() if w_range is None else w_range
+    for name, g in (("u_range", u_range), ("w_range", w_range)):
+        if not isinstance(g, RangeGate):
+            raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
+    return gate, u_range, w_range
 
 
 class SlidingFrictionEstimator(Component):
@@ -247,7 +260,11 @@ class SlidingFrictionEstimator(Component):
     Raises
     ------
     ParameterError
-        Invalid settings (the message quotes the value).
+        A setting out of range: C's ``aff_sliding_init`` refuses it, the message its sentence naming the field,
+        its unit and range (the one validator); a vector ``lam`` of the wrong length; ``initial_J`` not > 0; a
+        part of the wrong class.
+    SettingTypeError
+        ``Vs``, ``delta``, ``Tc`` or a field of ``config`` of the wrong type (a ParameterError and a TypeError).
 
     Notes
     -----
@@ -292,68 +309,52 @@ class SlidingFrictionEstimator(Component):
         if not isinstance(config, SlidingFrictionEstimatorConfig):
             raise ParameterError(f"config must be a SlidingFrictionEstimatorConfig, got {type(config).__name__}")
         self.settings = c = config
-        Ts, T_filter, lam, forgetting, P0, J_guess = c.Ts, c.T_filter, c.lam, c.forgetting, c.P0, c.initial_J
-        P_max = None if c.P_max == 0 else c.P_max  # 0: p*P0 (C)
-        w_band_min = None if c.w_band_min == 0 else c.w_band_min  # 0: 0.1*Vs (C)
-        J_max, tau_max, lag, offset, dwell_max = c.J_max, c.tau_max, c.lag, c.offset, c.dwell_max
-        self.Vs = check_positive("Vs", Vs)
-        self.delta = check_finite_scalar("delta", delta)
-        if self.delta == 0.0:
-            raise ParameterError("delta must be non-zero, got 0.0")
-        self.Tc = check_positive("Tc", Tc)
-        self.m = check_multiple("Ts", Ts, "Tc", self.Tc)
-        self.Ts = self.m * self.Tc
-        self.T = check_positive("T_filter", T_filter)
-        if self.T < 2 * self.Tc:
-            raise ParameterError(f"T_filter must be >= 2*Tc = {2 * self.Tc!r} s, got {T_filter!r}")
-        self.lag = bool(lag)
-        self.offset = bool(offset)
-        self.names = _names(self.lag, self.offset)
-        self.w_band_min = 0.1 * self.Vs if w_band_min is None else check_positive("w_band_min", w_band_min)
-        dwell_max = check_finite_scalar("dwell_max", dwell_max)
-        if not 0.0 <= dwell_max <= 1.0:
-            raise ParameterError(f"dwell_max must be in [0, 1], got {dwell_max!r}")
-        self.dwell_max = dwell_max
-        J_max = math.inf if J_max == math.inf else check_positive("J_max", J_max)
-        self.tau_max = check_positive("tau_max", tau_max)
-        lower = {"J": 1e-9, "J_tau": 0.0, "tau": 0.0, "Fc": 0.0, "Fs": 0.0, "sigma": 0.0, "offset": -math.inf}
-        upper = {"J": J_max, "J_tau": J_max * self.tau_max, "tau": self.tau_max, "Fc": math.inf, "Fs": math.inf,
-                 "sigma": math.inf, "offset": math.inf}
+        gate, u_range, w_range = _parts(gate, u_range, w_range)
+        # the ranges of Vs, delta, Tc and every field of config are aff_sliding_init's to check (the one validator:
+        # a ParameterError naming the field, its unit and range); here only what C does not see: a vector lam's
+        # length, and an initial_J that C would clip rather than refuse
+        vector = np.ndim(c.lam) > 0
+        p = len(_names(bool(c.lag), bool(c.offset)))
+        if vector and np.size(c.lam) != p:
+            raise ParameterError(f"lam must be a number or {p} numbers in (0, 1], got {c.lam!r}")
         if initial is None:
-            first = {"J": check_positive("initial_J", J_guess), "tau": 0.0, "Fc": 0.0, "Fs": 0.0, "sigma": 0.0,
+            first = {"J": check_positive("initial_J", c.initial_J), "tau": 0.0, "Fc": 0.0, "Fs": 0.0, "sigma": 0.0,
                      "offset": 0.0}
         else:  # clipped to the box by aff_sliding_init, which refuses a start that is not finite then
             first = {k: float(getattr(initial, k)) for k in ("J", "tau", "Fc", "Fs", "sigma", "offset")}
-        P0 = check_positive("P0", P0)
-        p = len(self.names)
-        # the RLS object checks lam, forgetting and P_max; the struct is the one aff_sliding_init builds (no bounds
-        # on the RLS state: the box applies to the reported estimate only, class Notes), its start the clipped
-        # initial estimate
-        rls = RecursiveLeastSquares(p, lam=lam, P0=P0, forgetting=forgetting, P_max=p * P0 if P_max is None else P_max)
-        self._box = (np.array([lower[n] for n in self.names]), np.array([upper[n] for n in self.names]))
-        gate = OutlierGate() if gate is None else gate
-        if not isinstance(gate, OutlierGate):
-            raise ParameterError(f"gate must be an OutlierGate, got {type(gate).__name__}")
-        u_range = RangeGate() if u_range is None else u_range
-        w_range = RangeGate(floor=self.Vs) if w_range is None else w_range
-        for name, g in (("u_range", u_range), ("w_range", w_range)):
-            if not isinstance(g, RangeGate):
-                raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
-        if w_range.floor == 0.0:
-            w_range = w_range.with_floor(self.Vs)
-        vector = np.ndim(rls.lam) > 0
         cfg = self._settings("aff_sliding_config", lib.aff_sliding_default_config(), {
-            "Vs": self.Vs, "delta": self.delta, "Tc": self.Tc, "Ts": float(Ts), "T_filter": self.T,
-            "forgetting": lib.AFF_RLS_VECTOR if vector else (lib.AFF_RLS_DIRECTIONAL if rls.forgetting == "directional"
+            "Vs": Vs, "delta": delta, "Tc": Tc, "Ts": c.Ts, "T_filter": c.T_filter,
+            "forgetting": lib.AFF_RLS_VECTOR if vector else (lib.AFF_RLS_DIRECTIONAL if c.forgetting == "directional"
                                                              else lib.AFF_RLS_EXPONENTIAL),
-            "lam": 1.0 if vector else rls.lam, "lam_each": [float(x) for x in rls.lam] if vector else [0.0],
-            "P0": P0, "P_max": rls.P_max, "lag": self.lag, "offset": self.offset, "w_band_min": self.w_band_min,
-            "dwell_max": self.dwell_max, "J_max": J_max, "tau_max": self.tau_max,
+            "lam": 1.0 if vector else c.lam, "lam_each": [float(x) for x in np.ravel(c.lam)] if vector else [0.0],
+            "P0": c.P0, "P_max": c.P_max, "lag": c.lag, "offset": c.offset, "w_band_min": c.w_band_min,
+            "dwell_max": c.dwell_max, "J_max": c.J_max, "tau_max": c.tau_max,
             **{f"initial_{k}": v for k, v in first.items()}})
+        # the defaults C resolves, written into the settings kept (C checks Vs and P0 before these fields)
+        cfg.P_max = p * cfg.P0 if cfg.P_max == 0 else cfg.P_max
+        cfg.w_band_min = 0.1 * cfg.Vs if cfg.w_band_min == 0 else cfg.w_band_min
         cfg.gate, cfg.u_range, cfg.w_range = gate.config[0], u_range.config[0], w_range.config[0]
+        if cfg.w_range.floor == 0.0:
+            cfg.w_range.floor = cfg.Vs
         self._configure(lib.aff_sliding_init, cfg, lib.aff_error_message,
                         names={lib.AFF_ERR_SLIDING_INITIAL: f"initial = {initial!r}"})
-        rls.theta = ffi.unpack(self._c.rls.theta, p)  # the start aff_sliding_init computed
+        self.Vs, self.delta, self.Tc, self.T = float(cfg.Vs), float(cfg.delta), float(cfg.Tc), float(cfg.T_filter)
+        self.m = int(self._c.m)
+        self.Ts = self.m * self.Tc
+        self.lag, self.offset = bool(cfg.lag), bool(cfg.offset)
+        self.names = _names(self.lag, self.offset)
+        self.w_band_min, self.dwell_max, self.tau_max = float(cfg.w_band_min), float(cfg.dwell_max), float(cfg.tau_max)
+        J_max = float(cfg.J_max)
+        lower = {"J": 1e-9, "J_tau": 0.0, "tau": 0.0, "Fc": 0.0, "Fs": 0.0, "sigma": 0.0, "offset": -math.inf}
+        upper = {"J": J_max, "J_tau": J_max * self.tau_max, "tau": self.tau_max, "Fc": math.inf, "Fs": math.inf,
+                 "sigma": math.inf, "offset": math.inf}
+        self._box = (np.array([lower[n] for n in self.names]), np.array([upper[n] for n in self.names]))
+        # the RLS part (no bounds on its state: the box applies to the reported estimate only, class Notes), its
+        # start the clipped initial estimate aff_sliding_init computed
+        rls = RecursiveLeastSquares(p, lam=c.lam, P0=float(cfg.P0), forgetting=c.forgetting, P_max=float(cfg.P_max))
+        rls.theta = ffi.unpack(self._c.rls.theta, p)
+        if w_range.floor == 0.0:
+            w_range = w_range.with_floor(self.Vs)
         self.gate = gate
         self.u_range = u_range
         self.w_range = w_range
@@ -487,9 +488,13 @@ class SlidingFit:
     residual_rms: float
 
 
-def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | None = None, T_filter: float = 0.02,
-                       lag: bool = True, offset: bool = True, w_band_min: float | None = None,
-                       dwell_max: float = 0.01) -> tuple:
+def _batch_config(config, Tc) -> SlidingFrictionEstimatorConfig:
+    """The settings of a batch fit: ``config``, or (None) the C defaults with a row every sample (``Ts = Tc``)."""
+    return SlidingFrictionEstimatorConfig(Ts=Tc) if config is None else config
+
+
+def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float,
+                       config: SlidingFrictionEstimatorConfig | None = None) -> tuple:
     """The regression rows of :class:`SlidingFrictionEstimator` for a whole record (vectorised, same recursions).
 
     Parameters
@@ -498,8 +503,14 @@ def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | 
         Torque (N·m) applied over each period of length ``Tc``.
     w : array_like, shape (N,)
         Velocity (rad/s) measured at the start of each period.
-    Tc, Vs, delta, Ts, T_filter, lag, offset, w_band_min, dwell_max
-        As in :class:`SlidingFrictionEstimator` (``Ts`` default: ``Tc``).
+    Tc : float, keyword-only
+        Sample period of ``u``, ``w`` (s).
+    Vs, delta : float, keyword-only
+        Stribeck velocity (rad/s) and shape factor (pre-fit, Sec. V-C).
+    config : SlidingFrictionEstimatorConfig, keyword-only, optional
+        The estimator's settings whose ``Ts`` (row spacing, s, a multiple of ``Tc``), ``T_filter``, ``lag``,
+        ``offset``, ``w_band_min`` and ``dwell_max`` make the rows, as in :class:`SlidingFrictionEstimator`
+        (the RLS settings do not enter). Default: the C defaults with ``Ts = Tc`` (a row every sample).
 
     Returns
     -------
@@ -523,9 +534,7 @@ def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | 
     """
     u = check_signal("u", u, min_len=10)
     w = check_signal("w", w, n=u.shape[0])
-    est = SlidingFrictionEstimator(Vs, delta, Tc=Tc, config=SlidingFrictionEstimatorConfig(
-        Ts=Tc if Ts is None else Ts, T_filter=T_filter, lag=lag, offset=offset,
-        w_band_min=0.0 if w_band_min is None else w_band_min, dwell_max=dwell_max))
+    est = SlidingFrictionEstimator(Vs, delta, Tc=Tc, config=_batch_config(config, Tc))
     from scipy import signal  # lazy: scipy.signal is heavy to import
 
     a, D = float(est.cdata.a), float(est.cdata.D)
@@ -549,10 +558,10 @@ def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | 
     *_, h3 = cascade(sg * e)
     *_, d3 = cascade((aw < band).astype(float))
     cols = [D * (w2 - w3)]
-    if lag:
+    if est.lag:
         cols += [D * D * (w1 - 2.0 * w2 + w3), -D * (u2 - u3)]
     cols += [g3, h3, w3]
-    if offset:
+    if est.offset:
         cols.append(np.ones_like(w))
     X = np.column_stack(cols)
     k = np.arange(1, w.shape[0] + 1)
@@ -562,9 +571,8 @@ def sliding_regressors(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | 
     return X[keep], y[keep], np.flatnonzero(keep), int(np.count_nonzero(rows & ~keep)), est.names
 
 
-def fit_sliding(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | None = None, T_filter: float = 0.02,
-                lag: bool = True, offset: bool = True, w_band_min: float | None = None,
-                dwell_max: float = 0.01) -> SlidingFit:
+def fit_sliding(u, w, *, Tc: float, Vs: float, delta: float,
+                config: SlidingFrictionEstimatorConfig | None = None) -> SlidingFit:
     """Batch least-squares fit of the sliding-regime inverse-dynamics regression (offline twin of the estimator).
 
     Parameters
@@ -576,11 +584,10 @@ def fit_sliding(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | None = 
     Tc : float, keyword-only
         Sample period of ``u``, ``w`` (s).
     Vs, delta : float, keyword-only
-        Stribeck factors (pre-fit, Sec. V-C).
-    Ts : float, keyword-only
-        Row spacing (s), a multiple of ``Tc``; default ``Tc`` (every sample).
-    T_filter, lag, offset, w_band_min, dwell_max
-        As in :class:`SlidingFrictionEstimator`; the rows are those of
+        Stribeck velocity (rad/s) and shape factor (pre-fit, Sec. V-C).
+    config : SlidingFrictionEstimatorConfig, keyword-only, optional
+        As in :func:`sliding_regressors` (``Ts``, ``T_filter``, ``lag``, ``offset``, ``w_band_min``,
+        ``dwell_max``; default the C defaults with ``Ts = Tc``); the rows are those of
         :func:`sliding_regressors`, identical to the estimator's.
 
     Returns
@@ -602,9 +609,7 @@ def fit_sliding(u, w, *, Tc: float, Vs: float, delta: float, Ts: float | None = 
     (Golub & Van Loan, *Matrix Computations*, Sec. 5.3); standard errors from
     ``s**2 (X^T X)^-1``.
     """
-    X, y, _, n_gated, names = sliding_regressors(u, w, Tc=Tc, Vs=Vs, delta=delta, Ts=Ts, T_filter=T_filter,
-                                                 lag=lag, offset=offset, w_band_min=w_band_min,
-                                                 dwell_max=dwell_max)
+    X, y, _, n_gated, names = sliding_regressors(u, w, Tc=Tc, Vs=Vs, delta=delta, config=config)
     p = X.shape[1]
     if X.shape[0] < 2 * p:
         raise ExcitationError(f"only {X.shape[0]} regression rows in the sliding regime (need >= {2 * p}); "

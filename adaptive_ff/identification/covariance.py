@@ -43,7 +43,7 @@ import numpy as np
 from plant.errors import FrictionError, ParameterError, SignalError
 
 __all__ = ["hac_covariance", "andrews_bandwidth", "moving_block_resample", "block_wild_resample",
-           "parametric_block_bootstrap",
+           "parametric_block_bootstrap", "BootstrapSettings", "BOOTSTRAP_SCHEMES", "DEFAULT_N_BOOTSTRAP",
            "BootstrapResult", "bootstrap_t_quantile", "circular_block_resample", "politis_white_block",
            "residual_block_bootstrap"]
 
@@ -233,6 +233,75 @@ def _resample_args(r, n_out, block, rng) -> tuple:
     return r, r.shape[0], int(min(block, r.shape[0]))
 
 
+#: Replicates of a block bootstrap by default (:class:`BootstrapSettings`; the eq. 4 residual block bootstrap of
+#: :func:`adaptive_ff.identification.identify.identify`).
+DEFAULT_N_BOOTSTRAP = 200
+
+#: How a block bootstrap resamples the residuals: circular blocks (:func:`circular_block_resample`), moving blocks
+#: (:func:`moving_block_resample`) or blocks kept in place with a random sign (:func:`block_wild_resample`).
+BOOTSTRAP_SCHEMES = ("circular", "moving", "wild")
+
+
+def _is_count(v, lo: int) -> bool:
+    return not isinstance(v, bool) and isinstance(v, (int, np.integer)) and v >= lo
+
+
+@dataclass(frozen=True, kw_only=True)
+class BootstrapSettings:
+    """The settings of a block bootstrap (keyword-only, validated): replicates, block length, seed, scheme.
+
+    Taken by :func:`residual_block_bootstrap`'s callers
+    (:func:`adaptive_ff.identification.uncertainty.regression_block_bootstrap`,
+    :func:`adaptive_ff.identification.uncertainty.eq4_block_bootstrap`) and by :func:`parametric_block_bootstrap`.
+
+    Parameters
+    ----------
+    n : int
+        Number of replicates, >= 1 (default :data:`DEFAULT_N_BOOTSTRAP`, 200; a function may ask for more, e.g.
+        2 for intervals).
+    block : int or None
+        Block length (samples), >= 1; None (default): the Politis-White length of the residuals
+        (:func:`politis_white_block`; :func:`parametric_block_bootstrap` needs it given).
+    seed : int
+        Seed (>= 0) of the ``numpy.random.default_rng`` every draw comes from; default 0.
+    scheme : {"circular", "moving", "wild"}
+        How the residuals are resampled (:data:`BOOTSTRAP_SCHEMES`); default ``"circular"``.
+
+    Raises
+    ------
+    ParameterError
+        ``n`` not an integer >= 1, ``block`` neither None nor an integer >= 1, ``seed`` not an integer >= 0,
+        unknown ``scheme`` (the message names the field and the value).
+    """
+
+    n: int = DEFAULT_N_BOOTSTRAP
+    block: int | None = None
+    seed: int = 0
+    scheme: str = "circular"
+
+    def __post_init__(self):
+        if not _is_count(self.n, 1):
+            raise ParameterError(f"n must be an integer >= 1, got {self.n!r}")
+        if not (self.block is None or _is_count(self.block, 1)):
+            raise ParameterError(f"block must be None or an integer >= 1, got {self.block!r}")
+        if not _is_count(self.seed, 0):
+            raise ParameterError(f"seed must be an integer >= 0, got {self.seed!r}")
+        if self.scheme not in BOOTSTRAP_SCHEMES:
+            raise ParameterError(f"scheme must be one of {BOOTSTRAP_SCHEMES}, got {self.scheme!r}")
+        object.__setattr__(self, "n", int(self.n))
+        object.__setattr__(self, "block", None if self.block is None else int(self.block))
+        object.__setattr__(self, "seed", int(self.seed))
+
+    def rng(self) -> np.random.Generator:
+        """A fresh ``numpy.random.default_rng(seed)``: the source of every draw of one bootstrap."""
+        return np.random.default_rng(self.seed)
+
+    def resample(self):
+        """The resampling function of ``scheme`` (signature of :func:`circular_block_resample`)."""
+        return {"circular": circular_block_resample, "moving": moving_block_resample,
+                "wild": block_wild_resample}[self.scheme]
+
+
 @dataclass(frozen=True)
 class BootstrapResult:
     """Result of :func:`parametric_block_bootstrap`.
@@ -322,13 +391,13 @@ def bootstrap_t_quantile(n: int, level: float = 0.95) -> float:
     return float(student_t.ppf(0.5 + 0.5 * lv, int(n)))
 
 
-def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int, block: int,
-                               rng: np.random.Generator, simulate=None, scheme: str = "moving",
-                               workers: int = 1, progress: bool | None = False) -> BootstrapResult:
+def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, settings: BootstrapSettings,
+                               simulate=None, workers: int = 1, progress: bool | None = False) -> BootstrapResult:
     """Standard errors of a fit by refitting re-simulated records: the parametric moving-block bootstrap.
 
-    Each replicate record is ``prediction + moving_block_resample(residuals)`` (the fitted model's own output on
-    the same input and stamps, plus the fit's residuals resampled in blocks: their colour is kept), refitted by
+    Each replicate record is ``prediction + resample(residuals)`` (the fitted model's own output on the same
+    input and stamps, plus the fit's residuals resampled in blocks of ``settings.scheme``: their colour is kept),
+    refitted by
     ``refit``; the standard error is the root-mean-square deviation of the refits from ``estimate`` (it includes
     their mean shift, the bias). With ``simulate``, the model's output is drawn afresh per replicate (a model
     with its own process noise, e.g. a loop whose controller reacts to sensor noise: the noise's effect through
@@ -349,23 +418,18 @@ def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int
         The fit's residuals (either sign, used as given), in time order, finite.
     estimate : array_like, shape (p,)
         The fit's parameters (any units, e.g. SI).
-    n : int, keyword-only
-        Number of replicates, >= 1.
-    block : int, keyword-only
-        Block length (samples), >= 1 (:func:`moving_block_resample`); e.g. a few times the Andrews bandwidth of
-        the residuals plus one.
-    rng : numpy.random.Generator, keyword-only
-        Source of every draw (seed it for reproducible errors): per replicate in turn its blocks, then
-        ``simulate``'s draws; after the last replicate, one seed per replicate for the generator its ``refit``
-        gets. Every replicate is drawn before any refit runs, so the result does not depend on ``workers``.
+    settings : BootstrapSettings, keyword-only
+        ``n`` replicates (>= 1); ``block`` (samples, given: e.g. a few times the Andrews bandwidth of the
+        residuals plus one); ``scheme`` ``"moving"`` (:func:`moving_block_resample`), ``"wild"`` (kept in place
+        with a random sign per block, :func:`block_wild_resample`: where the residuals are large stays where they
+        are large) or ``"circular"`` (:func:`circular_block_resample`); ``seed`` of the one generator every draw
+        comes from: per replicate in turn its blocks, then ``simulate``'s draws; after the last replicate, one
+        seed per replicate for the generator its ``refit`` gets. Every replicate is drawn before any refit runs,
+        so the result does not depend on ``workers``.
     simulate : callable or None, keyword-only
         ``simulate(rng) -> array_like``, shape of ``prediction``: one realisation of the fitted model's output
         with fresh process noise drawn from ``rng``, used instead of ``prediction`` (whose shape it must have and
         which then only sets the shape); None (default): ``prediction``.
-    scheme : {"moving", "wild"}, keyword-only
-        How the residuals are resampled: ``"moving"`` (default) in moving blocks
-        (:func:`moving_block_resample`), ``"wild"`` kept in place with a random sign per block
-        (:func:`block_wild_resample`: where the residuals are large stays where they are large).
     workers : int, keyword-only
         Refits run at once, >= 1, in threads (:class:`concurrent.futures.ThreadPoolExecutor`): worth it where
         ``refit`` spends its time in code that releases the GIL (the C simulations of the output-error fit), and
@@ -385,10 +449,9 @@ def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int
     SignalError
         ``prediction`` and ``residuals`` differ in shape, or are not finite; ``estimate`` not finite.
     ParameterError
-        ``n`` or ``block`` not an integer >= 1, ``rng`` not a numpy Generator, ``refit`` or ``simulate`` (when
-        given) not callable, ``simulate`` returning another shape (a non-finite one drops the replicate), or
-        ``scheme`` not ``"moving"`` or ``"wild"``, ``workers`` not an integer >= 1, or ``progress`` not True,
-        False or None.
+        ``settings`` not a :class:`BootstrapSettings` or without ``block``, ``refit`` or ``simulate`` (when
+        given) not callable, ``simulate`` returning another shape (a non-finite one drops the replicate),
+        ``workers`` not an integer >= 1, or ``progress`` not True, False or None.
 
     Notes
     -----
@@ -405,18 +468,16 @@ def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, n: int
                           f"{res.shape}")
     if not np.all(np.isfinite(est)):
         raise SignalError(f"estimate must be finite, got {est}")
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-        raise ParameterError(f"n must be an integer >= 1, got {n!r}")
+    if not isinstance(settings, BootstrapSettings) or settings.block is None:
+        raise ParameterError(f"settings must be a BootstrapSettings with a block length, got {settings!r}")
     if not callable(refit) or not (simulate is None or callable(simulate)):
         raise ParameterError(f"refit and simulate must be callable, got {type(refit).__name__} and "
                              f"{type(simulate).__name__}")
-    if scheme not in ("moving", "wild"):
-        raise ParameterError(f"scheme must be 'moving' or 'wild', got {scheme!r}")
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
     if not (progress is None or isinstance(progress, (bool, np.bool_))):
         raise ParameterError(f"progress must be True, False or None, got {progress!r}")
-    resample = moving_block_resample if scheme == "moving" else block_wild_resample
+    n, block, rng, resample = settings.n, settings.block, settings.rng(), settings.resample()
     replicates = []  # (y_star, or None for a non-finite simulation), every draw before any refit
     for _ in range(int(n)):
         e_star = resample(res, pred.shape[0], block=block, rng=rng)
@@ -553,12 +614,12 @@ def politis_white_block(r) -> int:
     return int(min(max(math.ceil(b), 1), max(1, int(min(3.0 * math.sqrt(n), n / 3.0)))))
 
 
-def residual_block_bootstrap(refit, fitted, residuals, estimate, *, n: int, rng: np.random.Generator,
-                             block: int | None = None) -> BootstrapResult:
-    """Standard errors of a fit from its own residuals: the circular block bootstrap of the residuals.
+def residual_block_bootstrap(refit, fitted, residuals, estimate, *,
+                             settings: BootstrapSettings = BootstrapSettings()) -> BootstrapResult:
+    """Standard errors of a fit from its own residuals: the (circular) block bootstrap of the residuals.
 
-    Each replicate record is ``fitted + circular_block_resample(residuals)`` (the fitted values kept, the
-    fit's own residuals resampled in blocks, so their colour and any model error in them is kept), refitted
+    Each replicate record is ``fitted + resample(residuals)`` (the fitted values kept, the fit's own residuals
+    resampled in blocks, by default circular ones, so their colour and any model error in them is kept), refitted
     by ``refit``; the standard error is the root-mean-square deviation of the refits from ``estimate``.
 
     Parameters
@@ -573,12 +634,9 @@ def residual_block_bootstrap(refit, fitted, residuals, estimate, *, n: int, rng:
         Data minus ``fitted``, in time order, finite.
     estimate : array_like, shape (p,)
         The fit's parameters (any units).
-    n : int, keyword-only
-        Number of replicates, >= 1.
-    rng : numpy.random.Generator, keyword-only
-        Source of the block starts (seed it for reproducible errors).
-    block : int or None, keyword-only
-        Block length (samples), >= 1; default :func:`politis_white_block` of ``residuals``.
+    settings : BootstrapSettings, keyword-only
+        ``n`` replicates, ``block`` length (default :func:`politis_white_block` of ``residuals``), ``seed`` of
+        the block starts, ``scheme`` (default ``"circular"``: :func:`circular_block_resample`).
 
     Returns
     -------
@@ -590,7 +648,7 @@ def residual_block_bootstrap(refit, fitted, residuals, estimate, *, n: int, rng:
     SignalError
         Shapes differ, non-finite values, or fewer than 8 residuals without ``block``.
     ParameterError
-        ``n`` or ``block`` invalid, ``rng`` not a Generator, ``refit`` not callable.
+        ``settings`` not a :class:`BootstrapSettings`, ``refit`` not callable.
 
     Notes
     -----
@@ -605,17 +663,18 @@ def residual_block_bootstrap(refit, fitted, residuals, estimate, *, n: int, rng:
     if fit.shape != res.shape or fit.ndim != 1 or not (np.all(np.isfinite(fit)) and np.all(np.isfinite(res))):
         raise SignalError(f"fitted and residuals must be finite and of one shape (m,), got {fit.shape} and "
                           f"{res.shape}")
-    block = politis_white_block(res) if block is None else block
+    if not isinstance(settings, BootstrapSettings):
+        raise ParameterError(f"settings must be a BootstrapSettings, got {type(settings).__name__}")
+    n, rng, resample = settings.n, settings.rng(), settings.resample()
+    block = politis_white_block(res) if settings.block is None else settings.block
     reps, failures = [], []
     est = np.asarray(estimate, dtype=float).reshape(-1)
     if not np.all(np.isfinite(est)):
         raise SignalError(f"estimate must be finite, got {est}")
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-        raise ParameterError(f"n must be an integer >= 1, got {n!r}")
     if not callable(refit):
         raise ParameterError(f"refit must be callable, got {type(refit).__name__}")
     for _ in range(int(n)):
-        y_star = fit + circular_block_resample(res, fit.shape[0], block=block, rng=rng)
+        y_star = fit + resample(res, fit.shape[0], block=block, rng=rng)
         _refit_into(lambda: refit(y_star), est, reps, failures)
     return _bootstrap_result(reps, est, n, block, failures)
 

@@ -43,14 +43,15 @@ from adaptive_ff.identification.identify_warnings import (FREE_RUN_MIN, as_basel
                                                           ls_simex_judgment, sliding_band_warnings)
 from adaptive_ff.identification.idim_method import IDIM_ESTIMATOR, fit_idim_physical
 from adaptive_ff.identification.ls import LSResult, fit_ls
-from adaptive_ff.identification.model_error import assess_model_error, eq4_model_error, widened
+from adaptive_ff.identification.model_error import (ModelErrorSettings, assess_model_error, eq4_model_error,
+                                                    widened)
 from adaptive_ff.identification.physical_id import PhysicalFit, fit_physical
 from adaptive_ff.identification.plausibility import IdentificationWarning, check_physical
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from adaptive_ff.identification.steady_state_check import with_steady_state_check, without_steady_state_check
-from adaptive_ff.identification.uncertainty import (DEFAULT_N_BOOTSTRAP, ParameterUncertainty, eq4_block_bootstrap,
-                                                    regression_block_bootstrap)
+from adaptive_ff.identification.uncertainty import (DEFAULT_N_BOOTSTRAP, BootstrapSettings, ParameterUncertainty,
+                                                    eq4_block_bootstrap, regression_block_bootstrap)
 from plant.errors import ExcitationError, ParameterError, check_positive
 
 __all__ = ["IdentificationReport", "identify", "PARAM_UNITS", "CrossValidation", "cross_validate", "stderr_note",
@@ -223,10 +224,12 @@ def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bo
     (:func:`adaptive_ff.identification.uncertainty.regression_block_bootstrap`; ``n_bootstrap``, ``bootstrap_seed``
     of ``options``), the white OLS errors stay as ``info["stderr_ols"]`` (on a simulated 1 kHz PI log they put
     the true J 95 of them away)."""
-    from adaptive_ff.compensation.sliding_estimator import estimate_from_theta, fit_sliding, sliding_regressors
+    from adaptive_ff.compensation.sliding_estimator import (SlidingFrictionEstimatorConfig, estimate_from_theta,
+                                                            fit_sliding, sliding_regressors)
 
-    f = fit_sliding(uni.u, uni.w, Tc=uni.Ts, Vs=Vs, delta=delta, lag=True, offset=offset)
-    X, y, *_ = sliding_regressors(uni.u, uni.w, Tc=uni.Ts, Vs=Vs, delta=delta, lag=True, offset=offset)
+    config = SlidingFrictionEstimatorConfig(Ts=uni.Ts, lag=True, offset=offset)
+    f = fit_sliding(uni.u, uni.w, Tc=uni.Ts, Vs=Vs, delta=delta, config=config)
+    X, y, *_ = sliding_regressors(uni.u, uni.w, Tc=uni.Ts, Vs=Vs, delta=delta, config=config)
     sv = np.linalg.svd(X / np.where(np.linalg.norm(X, axis=0) > 0, np.linalg.norm(X, axis=0), 1.0), compute_uv=False)
     e = f.estimate
     std = dict(zip(f.names, (float(x) for x in f.theta_std)))
@@ -240,12 +243,11 @@ def _fit_sliding_physical(uni: MeasuredData, Vs: float, delta: float, offset: bo
     extra_warn = []
     if n > 0:
         phys = lambda th: estimate_from_theta(f.names, th, Vs, delta)  # noqa: E731
-        unc = regression_block_bootstrap(X, y, f.theta, phys, names, w_max=float(np.max(np.abs(uni.w))), Vs=Vs,
-                                         delta=delta, n=n, seed=seed)
+        unc = regression_block_bootstrap(X, y, f.theta, phys, names, w_max=float(np.max(np.abs(uni.w))),
+                                         settings=BootstrapSettings(n=n, seed=seed))
         vec = lambda th: np.array([getattr(phys(th), k) for k in names])  # noqa: E731
-        check = assess_model_error(X, y, f.theta, vec, names,
-                                   base_half_width={k: 0.5 * (hi - lo) for k, (lo, hi) in unc.interval.items()},
-                                   min_lags=int(unc.block), level=float(unc.level), colour_reference="shared",
+        check = assess_model_error(X, y, f.theta, vec, names, base=unc,
+                                   settings=ModelErrorSettings(level=float(unc.level), colour_reference="shared"),
                                    alternatives=(_stribeck_shape_alternative(uni, Vs, delta, offset, X, y, f.theta,
                                                                              vec),))
         unc = widened(unc, check)
@@ -267,11 +269,12 @@ def _stribeck_shape_alternative(uni: MeasuredData, Vs: float, delta: float, offs
     :class:`adaptive_ff.identification.model_error.Alternative`: where the log supports another shape than the
     pre-fit's, the Fc, Fs and sigma it moves are named (a pre-fit off by 1-2 % moved Fs by +0.5..+0.9 % and sigma
     by -0.3 % on 1 kHz PI logs, beyond their intervals)."""
-    from adaptive_ff.compensation.sliding_estimator import sliding_regressors
+    from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimatorConfig, sliding_regressors
     from adaptive_ff.identification.model_error import Alternative
 
     def rows(v, d):
-        return sliding_regressors(uni.u, uni.w, Tc=uni.Ts, Vs=v, delta=d, lag=True, offset=offset)[0]
+        return sliding_regressors(uni.u, uni.w, Tc=uni.Ts, Vs=v, delta=d,
+                                  config=SlidingFrictionEstimatorConfig(Ts=uni.Ts, lag=True, offset=offset))[0]
 
     h = 1e-3
     cv = (rows(Vs * (1 + h), delta) - rows(Vs * (1 - h), delta)) @ theta / (2 * h)
@@ -698,7 +701,8 @@ def _eq4_uncertainty(model, u, w, ls: LSResult, options) -> ParameterUncertainty
     n, seed = _bootstrap_options(options)
     if n == 0:
         return None
-    unc = eq4_block_bootstrap(model, u, w, ls.theta, ls.Ts, parameter_names(model), n=n, seed=seed)
+    unc = eq4_block_bootstrap(model, u, w, ls.theta, ls.Ts, parameter_names(model),
+                              settings=BootstrapSettings(n=n, seed=seed))
     return widened(unc, eq4_model_error(model, u, w, ls.theta, ls.Ts, parameter_names(model), unc))
 
 

@@ -23,12 +23,12 @@ from types import SimpleNamespace
 import numpy as np
 
 from adaptive_ff.identification.idim import IDIM_TAIL, fit_idim, idim_rows
-from adaptive_ff.identification.model_error import (STRIBECK_FRACTION, Alternative, assess_model_error,
-                                                    position_column, widened)
+from adaptive_ff.identification.model_error import (STRIBECK_FRACTION, Alternative, ModelErrorSettings,
+                                                    assess_model_error, position_column, widened)
 from adaptive_ff.identification.physical_id import PhysicalFit
 from adaptive_ff.identification.plausibility import check_physical
 from adaptive_ff.identification.regression import h_regressor, nrmse_fit
-from adaptive_ff.identification.uncertainty import regression_block_bootstrap
+from adaptive_ff.identification.uncertainty import BootstrapSettings, regression_block_bootstrap
 from adaptive_ff.io.data import MeasuredData
 
 __all__ = ["fit_idim_physical", "idim_decimation", "IDIM_ESTIMATOR"]
@@ -87,14 +87,14 @@ def fit_idim_physical(uni: MeasuredData, *, offset: bool = True, n_bootstrap: in
     if n_bootstrap > 0:
         def phys(th):
             d = dict(zip(names, th))
-            return SimpleNamespace(J=d["J"], sigma=d["sigma"], Fc=d["Fc"], Fs=d["Fc"], offset=d.get("offset", 0.0))
+            return SimpleNamespace(J=d["J"], sigma=d["sigma"], Fc=d["Fc"], Fs=d["Fc"], offset=d.get("offset", 0.0),
+                                   Vs=None, delta=None)  # Coulomb + viscous: the band has no Stribeck term
 
-        unc = regression_block_bootstrap(W, y, fit.theta, phys, names, w_max=float(np.max(np.abs(uni.w))), Vs=None,
-                                         delta=None, n=n_bootstrap, seed=seed)
-        check = assess_model_error(W, y, fit.theta, lambda th: np.asarray(th, dtype=float), names,
-                                   base_half_width={k: 0.5 * (hi - lo) for k, (lo, hi) in unc.interval.items()},
-                                   min_lags=int(unc.block), alternatives=_alternatives(uni, offset, q, names),
-                                   level=float(unc.level))
+        unc = regression_block_bootstrap(W, y, fit.theta, phys, names, w_max=float(np.max(np.abs(uni.w))),
+                                         settings=BootstrapSettings(n=n_bootstrap, seed=seed))
+        check = assess_model_error(W, y, fit.theta, lambda th: np.asarray(th, dtype=float), names, base=unc,
+                                   alternatives=_alternatives(uni, offset, q, names),
+                                   settings=ModelErrorSettings(level=float(unc.level)))
         unc = widened(unc, check)
         stderr = dict(unc.stderr)
         warn = check.warnings("the IDIM-LS")

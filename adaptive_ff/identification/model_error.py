@@ -58,7 +58,7 @@ import numpy as np
 from plant.errors import ParameterError, SignalError
 from plant.results import json_safe
 
-__all__ = ["ModelErrorCheck", "Alternative", "assess_model_error", "hac_covariance_fft", "ljung_box",
+__all__ = ["ModelErrorCheck", "ModelErrorSettings", "Alternative", "assess_model_error", "hac_covariance_fft", "ljung_box",
            "JACKKNIFE_BLOCKS", "WALD_LEVEL", "COLOUR_RATIO", "LJUNG_BOX_LAGS"]
 
 #: Contiguous parts of the log of the delete-a-block jackknife.
@@ -283,9 +283,49 @@ def _lstsq(X, y):
     return np.linalg.lstsq(X / scale, y, rcond=None)[0] / scale
 
 
-def assess_model_error(X, y, theta, physical, names, *, base_half_width: dict | None = None, min_lags: int = 0,
-                       alternatives=(), blocks: int = JACKKNIFE_BLOCKS, level: float = 0.95,
-                       colour_reference: str = "white") -> ModelErrorCheck:
+@dataclass(frozen=True, kw_only=True)
+class ModelErrorSettings:
+    """How :func:`assess_model_error` judges a fit (keyword-only, validated).
+
+    Parameters
+    ----------
+    blocks : int
+        Parts of the jackknife (>= 3, default :data:`JACKKNIFE_BLOCKS`); fewer on a short fit (parts of at least
+        ``max(4, 2p)`` rows), none below 3.
+    level : float
+        Nominal coverage in (0, 1), default 0.95; the interval quantiles are normal (HAC), Student-t with
+        ``blocks - 1`` degrees of freedom (jackknife). Give the base interval's own level.
+    colour_reference : {"white", "shared"}
+        What far-from-white residuals judge each parameter's error against (module docstring). ``"white"``
+        (default): the white-noise error; a parameter is named where its error exceeds it :data:`COLOUR_RATIO`
+        times. ``"shared"``: the colour the fit's parameters share, the median over them of that ratio; a
+        parameter is named where its ratio exceeds the median :data:`COLOUR_RATIO` times. For a regression
+        whose rows are filtered by construction (the sliding regression: its residuals are coloured by its own
+        filters, every interval carries that colour), so that the check names the parameters the colour
+        affects more than the others, not all of them.
+
+    Raises
+    ------
+    ParameterError
+        ``blocks`` not an integer >= 3, ``level`` not a float in (0, 1), unknown ``colour_reference``.
+    """
+
+    blocks: int = JACKKNIFE_BLOCKS
+    level: float = 0.95
+    colour_reference: str = "white"
+
+    def __post_init__(self):
+        if isinstance(self.blocks, bool) or not isinstance(self.blocks, (int, np.integer)) or self.blocks < 3:
+            raise ParameterError(f"blocks must be an integer >= 3, got {self.blocks!r}")
+        if not (isinstance(self.level, float) and 0.0 < self.level < 1.0):
+            raise ParameterError(f"level must be a float in (0, 1), got {self.level!r}")
+        if self.colour_reference not in ("white", "shared"):
+            raise ParameterError(f"colour_reference must be 'white' or 'shared', got {self.colour_reference!r}")
+        object.__setattr__(self, "blocks", int(self.blocks))
+
+
+def assess_model_error(X, y, theta, physical, names, *, base=None, alternatives=(),
+                       settings: ModelErrorSettings = ModelErrorSettings()) -> ModelErrorCheck:
     """Judge a linear fit ``y = X theta`` for model error and widen its intervals where it finds some.
 
     Parameters
@@ -300,26 +340,15 @@ def assess_model_error(X, y, theta, physical, names, *, base_half_width: dict | 
         ``physical(theta) -> array_like (k,)``: the reported parameters ``names``.
     names : sequence of str
         Their names (``k`` of them).
-    base_half_width : dict or None, keyword-only
-        Half-widths of an interval already computed (e.g. the residual block bootstrap's); the base is the wider
-        of it and the HAC one.
-    min_lags : int, keyword-only
-        Least HAC bandwidth (e.g. the bootstrap's block length); the bandwidth is the larger of it and Andrews'.
+    base : ParameterUncertainty or None, keyword-only
+        An interval already computed (:class:`adaptive_ff.identification.uncertainty.ParameterUncertainty`, e.g.
+        the residual block bootstrap's): the base half-width is the wider of its half-width and the HAC one, and
+        its ``block`` length (samples) is the least HAC bandwidth (the bandwidth is the larger of it and
+        Andrews'). None (default): the HAC interval, Andrews' bandwidth.
     alternatives : sequence of Alternative, keyword-only
         Richer structures to try (module docstring); a singular one is skipped.
-    blocks : int, keyword-only
-        Parts of the jackknife (>= 3); fewer on a short fit (parts of at least ``max(4, 2p)`` rows), none below 3.
-    level : float, keyword-only
-        Nominal coverage in (0, 1); the interval quantiles are normal (HAC), Student-t with ``blocks - 1``
-        degrees of freedom (jackknife).
-    colour_reference : {"white", "shared"}, keyword-only
-        What far-from-white residuals judge each parameter's error against (module docstring). ``"white"``
-        (default): the white-noise error; a parameter is named where its error exceeds it :data:`COLOUR_RATIO`
-        times. ``"shared"``: the colour the fit's parameters share, the median over them of that ratio; a
-        parameter is named where its ratio exceeds the median :data:`COLOUR_RATIO` times. For a regression
-        whose rows are filtered by construction (the sliding regression: its residuals are coloured by its own
-        filters, every interval carries that colour), so that the check names the parameters the colour
-        affects more than the others, not all of them.
+    settings : ModelErrorSettings, keyword-only
+        Jackknife ``blocks``, coverage ``level``, ``colour_reference``.
 
     Returns
     -------
@@ -330,7 +359,7 @@ def assess_model_error(X, y, theta, physical, names, *, base_half_width: dict | 
     SignalError
         Shapes that do not match, non-finite values, or fewer than ``2p + 2`` rows.
     ParameterError
-        ``blocks`` < 3 or ``level`` not in (0, 1).
+        ``settings`` not a :class:`ModelErrorSettings`.
     """
     from scipy.stats import chi2, norm, t as student_t
 
@@ -341,10 +370,9 @@ def assess_model_error(X, y, theta, physical, names, *, base_half_width: dict | 
     if X.ndim != 2 or X.shape != (y.shape[0], theta.shape[0]) or not np.all(np.isfinite(X)):
         raise SignalError(f"X must be finite (m, p) with y (m,) and theta (p,), got {X.shape}, {y.shape}, "
                           f"{theta.shape}")
-    if isinstance(blocks, bool) or not isinstance(blocks, (int, np.integer)) or blocks < 3:
-        raise ParameterError(f"blocks must be an integer >= 3, got {blocks!r}")
-    if not (isinstance(level, float) and 0.0 < level < 1.0):
-        raise ParameterError(f"level must be a float in (0, 1), got {level!r}")
+    if not isinstance(settings, ModelErrorSettings):
+        raise ParameterError(f"settings must be a ModelErrorSettings, got {type(settings).__name__}")
+    blocks, level = settings.blocks, settings.level
     m, p = X.shape
     if m < 2 * p + 2:
         raise SignalError(f"{m} rows are too few to judge {p} parameters")
@@ -355,14 +383,15 @@ def assess_model_error(X, y, theta, physical, names, *, base_half_width: dict | 
     G = _jacobian(physical, theta)
     s2 = float(r @ r) / max(m - p, 1)
     white = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", G, s2 * np.linalg.pinv(X.T @ X), G), 0.0))
-    lags = int(max(andrews_bandwidth(r), int(min_lags)))
+    lags = int(max(andrews_bandwidth(r), 0 if base is None else int(base.block)))
     C = hac_covariance_fft(X, r, lags)
     se_hac = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", G, C, G), 0.0))
     z = float(norm.ppf(0.5 + 0.5 * level))
-    base = z * se_hac
-    if base_half_width is not None:
-        base = np.maximum(base, np.array([float(base_half_width.get(k, 0.0)) for k in names]))
-    hw = base.copy()
+    hw_base = z * se_hac
+    if base is not None:
+        hw_base = np.maximum(hw_base, np.array([0.5 * (base.interval[k][1] - base.interval[k][0])
+                                                if k in base.interval else 0.0 for k in names]))
+    hw = hw_base.copy()
     affected: dict = {}
     # delete-a-block jackknife
     se_jack = np.full(len(names), math.nan)
@@ -374,7 +403,7 @@ def assess_model_error(X, y, theta, physical, names, *, base_half_width: dict | 
             reps.append(np.asarray(physical(_lstsq(X[keep], y[keep])), dtype=float))
         reps = np.array(reps)
         se_jack = np.sqrt((blocks - 1) / blocks * np.sum((reps - reps.mean(axis=0)) ** 2, axis=0))
-    base_var = (base / z) ** 2
+    base_var = (hw_base / z) ** 2
     ratio = np.where(base_var > 0, se_jack**2 / np.where(base_var > 0, base_var, 1.0), math.inf)
     crit = float(chi2.ppf(1.0 - WALD_LEVEL, max(blocks - 1, 1)) / max(blocks - 1, 1))
     tj = float(student_t.ppf(0.5 + 0.5 * level, max(blocks - 1, 1)))
@@ -412,11 +441,11 @@ def assess_model_error(X, y, theta, physical, names, *, base_half_width: dict | 
                         f"beyond its interval")
                     hw[i] = abs(shift[i])
     wh = ljung_box(r)
-    _name_colour(affected, wh, hw / z, white, names, colour_reference)
+    _name_colour(affected, wh, hw / z, white, names, settings.colour_reference)
     d = lambda v: {k: float(x) for k, x in zip(names, v)}  # noqa: E731
     return ModelErrorCheck(names=names, estimate=d(est), stderr_white=d(white), stderr_hac=d(se_hac),
                            stderr_jackknife=d(se_jack), hac_lags=lags, blocks=int(blocks), instability=d(ratio),
-                           alternatives=tuple(alts), whiteness=wh, half_width=d(hw), base_half_width=d(base),
+                           alternatives=tuple(alts), whiteness=wh, half_width=d(hw), base_half_width=d(hw_base),
                            affected=affected, level=float(level))
 
 
@@ -424,8 +453,6 @@ def _name_colour(affected: dict, wh: dict, se, white, names, reference: str) -> 
     """Add the far-from-white reason to ``affected`` for each parameter whose error ``se`` exceeds its white-noise
     one ``white`` :data:`COLOUR_RATIO` times (``reference`` ``"white"``), or whose ratio exceeds the median ratio of
     the parameters :data:`COLOUR_RATIO` times (``"shared"``)."""
-    if reference not in ("white", "shared"):
-        raise ParameterError(f"colour_reference must be 'white' or 'shared', got {reference!r}")
     if not wh["p"] < 1e-3:
         return
     ok = np.asarray(white) > 0
@@ -534,15 +561,11 @@ def widened(unc, check: ModelErrorCheck):
     return replace(unc, interval=iv, stderr=se, model_error=check)
 
 
-def _half_widths(unc) -> dict:
-    return {k: 0.5 * (hi - lo) for k, (lo, hi) in unc.interval.items()}
-
-
 def eq4_model_error(model, u, w, theta, Ts: float, names, unc) -> ModelErrorCheck:
     """:func:`assess_model_error` of the paper's eq. 4 LS with :func:`eq4_alternatives`, its base the residual
     block bootstrap ``unc`` (its intervals and its block length as the least HAC bandwidth)."""
     names = tuple(names)
     X, y = model.regressors(u, w)
     return assess_model_error(X, y, theta, lambda th: np.array([getattr(model.to_physical(th, Ts), k) for k in names]),
-                              names, base_half_width=_half_widths(unc), min_lags=int(unc.block),
-                              alternatives=eq4_alternatives(model, u, w, Ts, names), level=float(unc.level))
+                              names, base=unc, alternatives=eq4_alternatives(model, u, w, Ts, names),
+                              settings=ModelErrorSettings(level=float(unc.level)))

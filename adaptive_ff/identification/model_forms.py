@@ -521,11 +521,12 @@ def _sliding_rows(uni, name, Vs, delta, offset, band):
     """``(X, y, index, names)`` of the sliding regression for a form; Coulomb + viscous sums the ``Fc`` and ``Fs``
     columns (``Fs = Fc``). ``band``: the gate's ``w_band_min`` (rad/s), the same for every form and ``Vs``, so
     that all fits see the same rows."""
-    from adaptive_ff.compensation.sliding_estimator import sliding_regressors
+    from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimatorConfig, sliding_regressors
 
     lag = FORMS[name][2]
-    X, y, idx, _, names = sliding_regressors(uni.u, uni.w, Tc=uni.Ts, Vs=Vs, delta=delta, lag=lag, offset=offset,
-                                             w_band_min=band)
+    X, y, idx, _, names = sliding_regressors(uni.u, uni.w, Tc=uni.Ts, Vs=Vs, delta=delta,
+                                             config=SlidingFrictionEstimatorConfig(Ts=uni.Ts, lag=lag, offset=offset,
+                                                                                   w_band_min=band))
     names = list(names)
     if FORMS[name][1] == "none":
         i, j = names.index("Fc"), names.index("Fs")

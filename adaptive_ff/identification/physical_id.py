@@ -204,7 +204,8 @@ import numpy as np
 from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
 
-from adaptive_ff.identification.covariance import andrews_bandwidth, hac_covariance, parametric_block_bootstrap
+from adaptive_ff.identification.covariance import (BootstrapSettings, andrews_bandwidth, hac_covariance,
+                                                   parametric_block_bootstrap)
 from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
 from adaptive_ff.identification.delay_profile import delay_profile_search
 from adaptive_ff.identification.lag_profile import lag_profile_search
@@ -884,10 +885,10 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
 
     v = pb.values(x)
     est = np.array([v[k] for k in names])
-    b = parametric_block_bootstrap(refit, w_hat[pb.i0:], r, est, n=o.n_bootstrap,
-                                   block=_BOOT_BLOCK * (andrews_bandwidth(r) + 1),
-                                   rng=np.random.default_rng(o.bootstrap_seed), scheme=_BOOT_SCHEME,
-                                   workers=o.workers(), progress=o.progress)
+    settings = BootstrapSettings(n=o.n_bootstrap, block=_BOOT_BLOCK * (andrews_bandwidth(r) + 1),
+                                 seed=o.bootstrap_seed, scheme=_BOOT_SCHEME)
+    b = parametric_block_bootstrap(refit, w_hat[pb.i0:], r, est, settings=settings, workers=o.workers(),
+                                   progress=o.progress)
     details = {"n": o.n_bootstrap, "n_valid": b.n_valid, "block": int(b.block), "seed": o.bootstrap_seed,
                "start_spread": _BOOT_START, "resampling": _BOOT_SCHEME,
                "refit": (_BOOT_REFIT if o.bootstrap_refit == "partial"

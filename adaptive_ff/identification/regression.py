@@ -521,22 +521,21 @@ def nrmse_fit(y, y_hat) -> float:
     return float(100.0 * (1.0 - num / den)) if np.isfinite(num) else float("-inf")
 
 
-def eq4_phi(phi, u_k, u_km1, w_km1, w_km2, Vs, delta, lag, stribeck, offset) -> int:
+def eq4_phi(phi, model: "RegressionModel", u_k, u_km1, w_km1, w_km2) -> int:
     """Regressor ``phi(k)`` of eq. 4 written into ``phi`` by C (``adaptive_ff/csrc/aff_regression.c``,
     ``aff_eq4_phi``): :meth:`RegressionModel.phi` as the C components compute it.
 
     Parameters
     ----------
     phi : ndarray, shape (>= p,), float64, C-contiguous, writable
-        Output, ``p`` as :attr:`RegressionModel.n_params` of the structure.
+        Output, ``p`` as :attr:`RegressionModel.n_params` of ``model``.
+    model : RegressionModel
+        The structure (``lag``, ``stribeck``, ``offset``) and, for the Stribeck structure, its ``Vs`` (rad/s) and
+        shape ``delta``.
     u_k, u_km1 : float
         Torque ``u(k)``, ``u(k-1)`` (N·m).
     w_km1, w_km2 : float
         Velocity ``w(k-1)``, ``w(k-2)`` (rad/s).
-    Vs, delta : float
-        Stribeck velocity (rad/s) and shape factor (used when ``stribeck``).
-    lag, stribeck, offset : bool
-        The structure (see :class:`RegressionModel`).
 
     Returns
     -------
@@ -554,12 +553,13 @@ def eq4_phi(phi, u_k, u_km1, w_km1, w_km2, Vs, delta, lag, stribeck, offset) -> 
     absent columns; the operations of :meth:`RegressionModel.phi`, with plant's one Stribeck decay of eq. 3
     (C ``plant_stribeck_shape``).
     """
-    p = 3 + 2 * bool(lag) + bool(stribeck) + bool(offset)
+    p = model.n_params
     if (not isinstance(phi, np.ndarray) or phi.dtype != np.float64 or phi.ndim != 1 or phi.shape[0] < p
             or not phi.flags.c_contiguous or not phi.flags.writeable):
         raise ParameterError(f"phi must be a writable C-contiguous float64 array of at least {p} entries")
+    Vs, delta = (model.Vs, model.delta) if model.stribeck else (1.0, 1.0)  # unused by C without the Stribeck term
     return int(lib.aff_eq4_phi(ffi.from_buffer("double[]", phi, require_writable=True), u_k, u_km1, w_km1, w_km2,
-                               Vs, delta, bool(lag), bool(stribeck), bool(offset)))
+                               Vs, delta, model.lag, model.stribeck, model.offset))
 
 
 def eq4_to_physical(theta, Ts, lag, stribeck, offset) -> tuple:

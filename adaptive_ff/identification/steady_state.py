@@ -262,15 +262,15 @@ def constant_velocity_segments(t, u, w, *, min_duration: float = 0.5, settle: fl
     return _points(rows, "segments", notes)
 
 
-def binned_steady_state(t, u, w, *, n_bins: int = 12, w_min: float | None = None, max_accel: float | None = None,
+def binned_steady_state(data: MeasuredData, *, n_bins: int = 12, w_min: float | None = None, max_accel: float | None = None,
                         J: float | None = None, min_count: int = 20, smooth_time: float | None = None
                         ) -> SupportPoints:
     """Support points by binning the (quasi-)steady-state samples of a long log by velocity.
 
     Parameters
     ----------
-    t, u, w : array_like, shape (N,)
-        Time (s), input torque (N·m), velocity (rad/s).
+    data : MeasuredData
+        The log: time ``t`` (s), input torque ``u`` (N·m), velocity ``w`` (rad/s), shape (N,) each.
     n_bins : int, keyword-only
         Logarithmic velocity bins per direction (>= 1, at most the samples of the log), between ``w_min`` and
         ``max|w|``.
@@ -300,8 +300,10 @@ def binned_steady_state(t, u, w, *, n_bins: int = 12, w_min: float | None = None
 
     Raises
     ------
+    TypeError
+        ``data`` not a :class:`MeasuredData`.
     SignalError
-        Bad ``t``, ``u``, ``w``.
+        Fewer than 6 samples in ``data``.
     ParameterError
         A setting out of range.
 
@@ -317,7 +319,9 @@ def binned_steady_state(t, u, w, *, n_bins: int = 12, w_min: float | None = None
     paper's quasi-static experiments (Sec. V-C); binning a long log is the
     usual substitute when no such experiments exist.
     """
-    t, u, w = _check_log(t, u, w)
+    if not isinstance(data, MeasuredData):
+        raise TypeError(f"data must be a MeasuredData, got {type(data).__name__}")
+    t, u, w = _check_log(data.t, data.u, data.w)
     if isinstance(n_bins, bool) or not isinstance(n_bins, (int, np.integer)) or n_bins < 1:
         raise ParameterError(f"n_bins must be an integer >= 1, got {n_bins!r}")
     if n_bins > t.shape[0]:  # more bins than samples cannot hold a sample each
@@ -424,7 +428,7 @@ def support_points(data: MeasuredData, *, method: str = "auto", **options) -> Su
     if method == "segments":
         pts = constant_velocity_segments(data.t, data.u, data.w, **options)
     elif method == "bins":
-        pts = binned_steady_state(data.t, data.u, data.w, **options)
+        pts = binned_steady_state(data, **options)
     else:
         unknown = set(options) - seg_keys - bin_keys
         if unknown:
@@ -432,7 +436,7 @@ def support_points(data: MeasuredData, *, method: str = "auto", **options) -> Su
         pts = constant_velocity_segments(data.t, data.u, data.w, **{k: v for k, v in options.items() if k in seg_keys})
         if pts.n_points < _MIN_POINTS:
             seg_note = pts.notes
-            pts = binned_steady_state(data.t, data.u, data.w, **{k: v for k, v in options.items() if k in bin_keys})
+            pts = binned_steady_state(data, **{k: v for k, v in options.items() if k in bin_keys})
             pts = replace(pts, notes=seg_note + ("too few runs; binned instead",) + pts.notes)
     if pts.n_points < _MIN_POINTS:
         raise ExcitationError(f"{data.source or 'data'}: only {pts.n_points} support point(s) found by "

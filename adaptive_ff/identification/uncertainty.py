@@ -55,19 +55,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from adaptive_ff.identification.covariance import bootstrap_t_quantile, residual_block_bootstrap
+from adaptive_ff.identification.covariance import (DEFAULT_N_BOOTSTRAP, BootstrapSettings, bootstrap_t_quantile,
+                                                    residual_block_bootstrap)
 from plant.errors import ParameterError, SignalError
 from plant.results import axes_or_new, json_safe
 from plant.stribeck_map import stribeck
 
 __all__ = ["FrictionBand", "ParameterUncertainty", "friction_curves", "friction_band", "eq4_block_bootstrap",
-           "regression_block_bootstrap", "BAND_POINTS", "DEFAULT_N_BOOTSTRAP"]
+           "regression_block_bootstrap", "BAND_POINTS", "DEFAULT_N_BOOTSTRAP", "BootstrapSettings"]
 
 #: Points of the velocity grid of a friction band (odd: ``w = 0`` is one of them).
 BAND_POINTS = 101
-
-#: Replicates of the eq. 4 residual block bootstrap of :func:`adaptive_ff.identification.identify.identify`.
-DEFAULT_N_BOOTSTRAP = 200
 
 
 def friction_curves(P, w, *, Vs: float | None, delta: float | None) -> np.ndarray:
@@ -272,9 +270,9 @@ def _check_count(name: str, v, lo: int) -> int:
     return int(v)
 
 
-def regression_block_bootstrap(X, y, theta, physical, names, *, w_max: float, Vs: float | None,
-                               delta: float | None, n: int = DEFAULT_N_BOOTSTRAP, seed: int = 0,
-                               block: int | None = None, level: float = 0.95) -> ParameterUncertainty:
+def regression_block_bootstrap(X, y, theta, physical, names, *, w_max: float,
+                               settings: BootstrapSettings = BootstrapSettings(),
+                               level: float = 0.95) -> ParameterUncertainty:
     """Residual block bootstrap of a linear regression ``y = X theta`` whose parameters map to physical ones.
 
     Parameters
@@ -286,16 +284,19 @@ def regression_block_bootstrap(X, y, theta, physical, names, *, w_max: float, Vs
     theta : array_like, shape (p,)
         The LS estimate.
     physical : callable
-        ``physical(theta) -> object`` with the attributes ``names`` and ``Fc``, ``Fs``, ``sigma`` (e.g. a
-        :class:`adaptive_ff.identification.regression.FrictionEstimate`).
+        ``physical(theta) -> FrictionEstimate``
+        (:class:`adaptive_ff.identification.regression.FrictionEstimate`): the attributes ``names`` and ``Fc``,
+        ``Fs``, ``sigma``, and the fixed Stribeck velocity ``Vs`` (rad/s) and shape ``delta`` of the band's
+        curve (None: Coulomb + viscous).
     names : sequence of str
         Physical parameters reported.
     w_max : float, keyword-only
-        Half-width of the band's velocity grid (the record's largest ``|w|``); no band if not > 0.
-    Vs, delta : float or None, keyword-only
-        Stribeck velocity and shape of the band's curve; None: Coulomb + viscous.
-    n, seed, block, level : keyword-only
-        Replicates (>= 2), seed (>= 0), block length (default Politis-White of the residuals), nominal coverage.
+        Half-width of the band's velocity grid (rad/s, the record's largest ``|w|``); no band if not > 0.
+    settings : BootstrapSettings, keyword-only
+        Replicates ``n`` (>= 2 here), ``seed``, ``block`` length (default Politis-White of the residuals),
+        resampling ``scheme`` (default circular blocks).
+    level : float, keyword-only
+        Nominal coverage of the intervals and the band, in (0, 1); default 0.95.
 
     Returns
     -------
@@ -304,11 +305,13 @@ def regression_block_bootstrap(X, y, theta, physical, names, *, w_max: float, Vs
     Raises
     ------
     ParameterError
-        ``n``, ``seed``, ``block`` or ``level`` invalid.
+        ``settings.n`` below 2, ``settings`` not a :class:`BootstrapSettings`, or ``level`` invalid.
     SignalError
         Fewer than 8 rows, shapes that do not match, or non-finite data.
     """
-    n, seed = _check_count("n", n, 2), _check_count("seed", seed, 0)
+    if not isinstance(settings, BootstrapSettings):
+        raise ParameterError(f"settings must be a BootstrapSettings, got {type(settings).__name__}")
+    n, seed = _check_count("n", settings.n, 2), settings.seed
     X, y = np.asarray(X, dtype=float), np.asarray(y, dtype=float).reshape(-1)
     theta = np.asarray(theta, dtype=float).reshape(-1)
     if X.ndim != 2 or X.shape != (y.shape[0], theta.shape[0]):
@@ -322,21 +325,22 @@ def regression_block_bootstrap(X, y, theta, physical, names, *, w_max: float, Vs
         return np.array([getattr(e, k) for k in names + ("Fc", "Fs", "sigma")], dtype=float)
 
     est = vec(theta)
-    b = residual_block_bootstrap(lambda ys: vec(pinv @ ys), fitted, y - fitted, est, n=n,
-                                 rng=np.random.default_rng(seed), block=block)
+    shape = physical(theta)
+    b = residual_block_bootstrap(lambda ys: vec(pinv @ ys), fitted, y - fitted, est, settings=settings)
     k = len(names)
     t = bootstrap_t_quantile(max(b.n_valid, 1), level)
     stderr = {nm: float(s) for nm, s in zip(names, b.stderr[:k])}
     interval = {nm: (float(v - t * s), float(v + t * s)) for nm, v, s in zip(names, est[:k], b.stderr[:k])}
     band = None
     if b.n_valid >= 2 and math.isfinite(w_max) and w_max > 0:
-        band = friction_band(est[k:], b.replicates[:, k:], w_max=float(w_max), Vs=Vs, delta=delta, level=level)
+        band = friction_band(est[k:], b.replicates[:, k:], w_max=float(w_max), Vs=shape.Vs, delta=shape.delta,
+                             level=level)
     return ParameterUncertainty(kind="residual block bootstrap", stderr=stderr, interval=interval, level=float(level),
                                 n=n, n_valid=b.n_valid, block=int(b.block), seed=seed, band=band)
 
 
-def eq4_block_bootstrap(model, u, w, theta, Ts: float, names, *, n: int = DEFAULT_N_BOOTSTRAP, seed: int = 0,
-                        block: int | None = None, level: float = 0.95) -> ParameterUncertainty:
+def eq4_block_bootstrap(model, u, w, theta, Ts: float, names, *, settings: BootstrapSettings = BootstrapSettings(),
+                        level: float = 0.95) -> ParameterUncertainty:
     """Residual block bootstrap of the paper's eq. 4 LS fit (module docstring).
 
     Parameters
@@ -352,8 +356,8 @@ def eq4_block_bootstrap(model, u, w, theta, Ts: float, names, *, n: int = DEFAUL
     names : sequence of str
         Physical parameters reported (attributes of
         :class:`adaptive_ff.identification.regression.FrictionEstimate`, e.g. ``("J", "sigma", "Fc", "offset")``).
-    n, seed, block, level : keyword-only
-        As in :func:`regression_block_bootstrap`.
+    settings, level : keyword-only
+        As in :func:`regression_block_bootstrap` (:class:`BootstrapSettings`; coverage in (0, 1)).
 
     Returns
     -------
@@ -363,13 +367,11 @@ def eq4_block_bootstrap(model, u, w, theta, Ts: float, names, *, n: int = DEFAUL
     Raises
     ------
     ParameterError
-        ``n``, ``seed``, ``block`` or ``level`` invalid.
+        ``settings.n`` below 2, ``settings`` not a :class:`BootstrapSettings`, or ``level`` invalid.
     SignalError
         Fewer than 8 regression rows, or non-finite data.
     """
     X, y = model.regressors(u, w)
     return regression_block_bootstrap(X, y, theta, lambda th: model.to_physical(th, Ts), names,
-                                      w_max=float(np.max(np.abs(np.asarray(w, dtype=float)))),
-                                      Vs=model.Vs if model.stribeck else None,
-                                      delta=model.delta if model.stribeck else None, n=n, seed=seed, block=block,
+                                      w_max=float(np.max(np.abs(np.asarray(w, dtype=float)))), settings=settings,
                                       level=level)

@@ -12,26 +12,24 @@ import math
 
 import numpy as np
 
+from adaptive_ff.io.logs import LogUnits
 from adaptive_ff.io.tables import CsvFormat, read_columns
 from adaptive_ff.io.units import TIME_UNITS, VELOCITY_UNITS
 from plant.errors import ParameterError, SignalError, check_positive
 from plant.excitation import Reference
 
-__all__ = ["load_reference", "REFERENCE_POSITION_UNITS"]
-
-#: Position units of a reference file and their factor to rad.
-REFERENCE_POSITION_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}
+__all__ = ["load_reference"]
 
 
-def _unit(name: str, value: str, table: dict) -> float:
-    if value not in table:
-        raise ParameterError(f"{name} must be one of {list(table)}, got {value!r}")
-    return table[value]
+def _position_to_rad(units: LogUnits) -> float:
+    """Factor from the position unit of ``units`` to rad (``counts``: ``2*pi/counts_per_rev``)."""
+    if units.position_unit == "counts":
+        return 2.0 * math.pi / units.counts_per_rev
+    return {"rad": 1.0, "deg": math.pi / 180.0}[units.position_unit]
 
 
 def load_reference(path, *, time: str = "t", velocity: str | None = None, position: str | None = None,
-                   dt: float = 1e-3, time_unit: str = "s", velocity_unit: str = "rad/s",
-                   position_unit: str = "rad", csv_format: CsvFormat | None = None,
+                   dt: float = 1e-3, units: LogUnits = LogUnits(), csv_format: CsvFormat | None = None,
                    max_samples: int | None = None) -> Reference:
     """Read a velocity reference from a file of time and velocity, or time and position.
 
@@ -49,8 +47,11 @@ def load_reference(path, *, time: str = "t", velocity: str | None = None, positi
     dt : float, keyword-only
         Step of the returned reference (s), > 0, default 1 ms: the file is resampled by linear interpolation
         from its first time stamp, which becomes ``t = 0``, to its last.
-    time_unit, velocity_unit, position_unit : str, keyword-only
-        ``"s"``, ``"ms"``, ``"us"``; ``"rad/s"``, ``"deg/s"``, ``"rpm"``; ``"rad"``, ``"deg"``.
+    units : LogUnits, keyword-only
+        Units of the file's columns (:class:`adaptive_ff.io.logs.LogUnits`, as a drive log's): ``time_unit``
+        ``"s"``, ``"ms"``, ``"us"``; ``velocity_unit`` ``"rad/s"``, ``"deg/s"``, ``"rpm"``; ``position_unit``
+        ``"rad"``, ``"deg"``, ``"counts"`` (with ``counts_per_rev``). Default SI. A reference has no torque
+        column: ``current_to_torque`` must be None.
     csv_format : CsvFormat, keyword-only, optional
         Layout of a text file (lines to skip, delimiter, ...).
     max_samples : int, keyword-only, optional
@@ -71,17 +72,20 @@ def load_reference(path, *, time: str = "t", velocity: str | None = None, positi
         The file's own errors (a missing column, a cell that is not a finite number, naming the file, column
         and row), fewer than two rows, or time stamps not strictly increasing (naming the row and the value).
     ParameterError
-        Neither or both of ``velocity`` and ``position``, an unknown unit, ``dt`` not > 0, a file shorter
-        than two steps of ``dt``, or one longer than ``max_samples`` steps.
+        Neither or both of ``velocity`` and ``position``, ``units`` not a :class:`LogUnits` or with a
+        ``current_to_torque``, ``dt`` not > 0, a file shorter than two steps of ``dt``, or one longer than
+        ``max_samples`` steps.
     """
     if (velocity is None) == (position is None):
         raise ParameterError(f"give exactly one of velocity= and position= (the column's name), got "
                              f"velocity={velocity!r}, position={position!r}")
+    if not isinstance(units, LogUnits) or units.current_to_torque is not None:
+        raise ParameterError(f"units must be a LogUnits without current_to_torque (a reference has no torque "
+                             f"column), got {units!r}")
     dt = check_positive("dt", dt)
-    kt = _unit("time_unit", time_unit, TIME_UNITS)
+    kt = TIME_UNITS[units.time_unit]
     role = "w" if velocity is not None else "q"
-    k = (_unit("velocity_unit", velocity_unit, VELOCITY_UNITS) if role == "w"
-         else _unit("position_unit", position_unit, REFERENCE_POSITION_UNITS))
+    k = VELOCITY_UNITS[units.velocity_unit] if role == "w" else _position_to_rad(units)
     table = read_columns(path, {"t": time, role: velocity if role == "w" else position}, csv_format=csv_format)
     t = table.columns["t"] * kt
     x = table.columns[role] * k

@@ -126,7 +126,7 @@ def run(args) -> int:
 def _export(args, out: Path) -> int:
     """The export of :func:`run` once its options are checked and ``out`` is locked; the exit status."""
     from adaptive_ff.arm.result import read_arm_joint
-    from adaptive_ff.compensation.export_c import export_c
+    from adaptive_ff.compensation.export_c import JointExport, export_c
     from controllers.cli.design import entry_warnings, refused_warnings, warnings_from_file
 
     if args.joint is None and _is_arm_file(args.from_file):
@@ -144,9 +144,10 @@ def _export(args, out: Path) -> int:
         return status
     comp, s = _compensator(args, args.joint)
     origin = f" for {Path(args.from_file).name}" + ("" if args.joint is None else f" joint {args.joint!r}")
-    res = export_c(comp, out, J_design=s["J_design"], u_max=s["u_max"], Kp=s["Kp"], Ki=s["Ki"], joint=s["joint"],
-                   w_max=args.w_max, hold_time=args.hold_time, float_default=args.float, force=args.force,
-                   origin=origin)
+    joint = JointExport(compensator=comp, J_design=s["J_design"], u_max=s["u_max"], Kp=s["Kp"], Ki=s["Ki"],
+                        friction=s["joint"])
+    res = export_c(joint, out, w_max=args.w_max, hold_time=args.hold_time, float_default=args.float,
+                   force=args.force, origin=origin)
     return _print_export(args, res)
 
 
@@ -167,13 +168,14 @@ def _compensator(args, arm_joint=None) -> tuple:
     """:func:`controllers.experiments.compensator_file.compensator_from_file` of ``args`` (of the joint ``arm_joint``
     of an ``identify-arm`` output)."""
     from controllers.cli.design import target_options
+    from controllers.design.pi import PITuning
     from controllers.experiments.compensator_file import compensator_from_file
     from plant.errors import ParameterError
 
     extra = {k: getattr(args, k) for k in ("ff_max", "stick_band") if getattr(args, k) is not None}
     try:
-        return compensator_from_file(args.from_file, u_max=args.u_max, Kp=args.Kp, Ki=args.Ki,
-                                     crossover=args.crossover, phase_margin=args.phase_margin, start=args.start,
+        pi = PITuning(Kp=args.Kp, Ki=args.Ki, crossover=args.crossover, phase_margin=args.phase_margin)
+        return compensator_from_file(args.from_file, u_max=args.u_max, pi=pi, start=args.start,
                                      Tc=args.Tc, Ts=args.Ts, J_design=args.J_design, Vs=args.Vs, delta=args.delta,
                                      feedforward_only=args.feedforward_only, arm_joint=arm_joint, **extra)
     except ParameterError as exc:

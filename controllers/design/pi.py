@@ -32,6 +32,7 @@ from plant.results import axes_or_new, json_safe
 
 __all__ = [
     "PIDesign",
+    "PITuning",
     "design_pi",
     "analyse_gains",
     "ClosedLoopStep",
@@ -424,6 +425,43 @@ def design_pi(
     return PIDesign(Kp=Kp, Ki=Ki, Tc=Tc, crossover=wgc, phase_margin=pm_ach, gain_margin=gm,
                     phase_crossover=wpc, stability_margin=sm, J=J, sigma=sigma, C=C,
                     plant=plant, loop=loop)
+
+
+@dataclass(frozen=True, kw_only=True)
+class PITuning:
+    """How a loop's PI is chosen (keyword-only): given gains, or designed by :func:`design_pi` for the plant.
+
+    Parameters
+    ----------
+    Kp, Ki : float or None
+        The gains (N·m·s/rad, N·m/rad): both, or neither (default) for a design.
+    crossover : float
+        Target gain-crossover frequency (rad/s) of the design, default 20.
+    phase_margin : float
+        Target phase margin (deg) of the design, default 60.
+
+    Raises
+    ------
+    ParameterError
+        One of ``Kp``/``Ki`` alone. The targets are checked by :func:`design_pi` where a design is made.
+    """
+
+    Kp: float | None = None
+    Ki: float | None = None
+    crossover: float = 20.0
+    phase_margin: float = 60.0
+
+    def __post_init__(self):
+        if (self.Kp is None) != (self.Ki is None):
+            raise ParameterError("give both --Kp and --Ki, or neither (then the PI is designed from J and sigma)")
+
+    def gains(self, J: float, *, sigma: float = 0.0, Tc: float = 1e-3) -> tuple[float, float]:
+        """``(Kp, Ki)``: the given gains, else those of :func:`design_pi` for ``1/(J s + sigma)`` (kg·m²,
+        N·m·s/rad) at the targets and the period ``Tc`` (s)."""
+        if self.Kp is not None:
+            return self.Kp, self.Ki
+        d = design_pi(J, sigma=sigma, crossover=self.crossover, phase_margin=self.phase_margin, Tc=Tc)
+        return d.Kp, d.Ki
 
 
 def analyse_gains(Kp: float, Ki: float, *, J: float, sigma: float = 0.0, Tc: float = 1e-3) -> PIDesign:

@@ -139,12 +139,13 @@ from pathlib import Path
 
 import numpy as np
 
-from adaptive_ff.identification.covariance import (andrews_bandwidth, bootstrap_t_quantile, hac_covariance,
-                                                    parametric_block_bootstrap)
+from adaptive_ff.identification.covariance import (BootstrapSettings, andrews_bandwidth, bootstrap_t_quantile,
+                                                    hac_covariance, parametric_block_bootstrap)
 from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
 from adaptive_ff.identification.physical_id import PhysicalFit
 from adaptive_ff.identification.plausibility import IdentificationWarning, check_physical
 from adaptive_ff.identification.regression import nrmse_fit
+from adaptive_ff.io.data import MeasuredData
 from controllers.design.pi import PIController
 from controllers.simulation.engine import EngineMetrics, EngineRecord, EngineRun
 from controllers.simulation.metrics import reversal_times
@@ -628,8 +629,9 @@ def _bootstrap(sim: _LoopSimulator, pb: _Problem, x, fixed_start, ctx: tuple, op
         z, _ = _passes(pr, z0, opts)
         return np.array([math.exp(z[0]), z[1], z[2], z[3], math.exp(z[4])])
 
-    b = parametric_block_bootstrap(refit, pred, res * scale, est, n=opts.n_bootstrap, block=block,
-                                   rng=np.random.default_rng(opts.bootstrap_seed), simulate=simulate)
+    b = parametric_block_bootstrap(refit, pred, res * scale, est, simulate=simulate,
+                                   settings=BootstrapSettings(n=opts.n_bootstrap, block=block,
+                                                              seed=opts.bootstrap_seed, scheme="moving"))
     hw = b.half_width(0.95)
     details = {"n": opts.n_bootstrap, "n_valid": b.n_valid, "block": int(b.block), "seed": opts.bootstrap_seed,
                "loop_noise": "fresh realisation per replicate" if simulate is not None else "none (noise-free loop)",
@@ -684,18 +686,16 @@ def _warnings(params: dict, stderr: dict, cond: float, sol_status: int, kind: st
     return out
 
 
-def fit_closed_loop(t, u, w, w_ref, *, controller: ControllerSpec, Vs: float, delta: float,
+def fit_closed_loop(data: MeasuredData, w_ref, *, controller: ControllerSpec, Vs: float, delta: float,
                     options: ClosedLoopIdOptions | None = None, paper_start: dict | None = None) -> PhysicalFit:
     """Identify J, Fc, Fs, sigma, tau of eqs. 1-3 from a closed-loop log read out slower than the loop.
 
     Parameters
     ----------
-    t : array_like, shape (M,)
-        Readout stamps (s), strictly increasing, any spacing >= ``controller.Tc``; kept as read.
-    u : array_like, shape (M,)
-        Logged torque (N·m) at ``t``: the command of ``options.u_delay`` controller periods before the stamp.
-    w : array_like, shape (M,)
-        Logged (measured) velocity (rad/s) at ``t``.
+    data : adaptive_ff.io.data.MeasuredData
+        The log, ``M`` readouts: stamps ``t`` (s, strictly increasing, any spacing >= ``controller.Tc``; kept as
+        read), torque ``u`` (N·m) at ``t`` (the command of ``options.u_delay`` controller periods before the
+        stamp), measured velocity ``w`` (rad/s) at ``t``.
     w_ref : array_like, shape (M,)
         Commanded velocity (rad/s) at ``t``, smooth (interpolated onto the controller grid by PCHIP).
     controller : ControllerSpec, keyword-only
@@ -727,8 +727,10 @@ def fit_closed_loop(t, u, w, w_ref, *, controller: ControllerSpec, Vs: float, de
 
     Raises
     ------
+    TypeError
+        ``data`` not a :class:`adaptive_ff.io.data.MeasuredData`.
     SignalError
-        Non-finite or mismatched signals, stamps not increasing, fewer than 20 readouts after the burn-in.
+        Non-finite or mismatched signals, fewer than 20 readouts (after the burn-in).
     ParameterError
         Bad controller, ``Vs``, ``delta`` or options, or readouts faster than ``Tc``.
     ExcitationError
@@ -746,7 +748,9 @@ def fit_closed_loop(t, u, w, w_ref, *, controller: ControllerSpec, Vs: float, de
     opts = ClosedLoopIdOptions() if options is None else options
     if not isinstance(opts, ClosedLoopIdOptions):
         raise ParameterError(f"options must be a ClosedLoopIdOptions, got {type(opts).__name__}")
-    t, u, w, w_ref, Vs, delta = _check(t, u, w, w_ref, controller, Vs, delta)
+    if not isinstance(data, MeasuredData):
+        raise TypeError(f"data must be a MeasuredData, got {type(data).__name__}")
+    t, u, w, w_ref, Vs, delta = _check(data.t, data.u, data.w, w_ref, controller, Vs, delta)
     sim = _LoopSimulator(t, w_ref, w, u, controller, Vs, delta, opts)
     pb = _Problem(sim, w, u)
     ok = paper_start is not None and all(float(paper_start.get(k, -1.0)) > 0 for k in ("J", "Fc", "Fs", "sigma"))
@@ -831,8 +835,7 @@ def identify_closed_loop(data, w_ref, *, controller: ControllerSpec, Vs: float, 
     report = identify(data, Vs=Vs, delta=delta, method="paper", **identify_options)
     e = report.estimate
     start = {"J": e.J, "Fc": e.Fc, "Fs": e.Fs, "sigma": e.sigma, "tau": e.tau}
-    fit = fit_closed_loop(data.t, data.u, data.w, w_ref, controller=controller, Vs=Vs, delta=delta, options=options,
-                          paper_start=start)
+    fit = fit_closed_loop(data, w_ref, controller=controller, Vs=Vs, delta=delta, options=options, paper_start=start)
     c = controller
     note = (f"physical parameters by 'closed_loop': the PI loop (Kp = {c.Kp:.6g}, Ki = {c.Ki:.6g}, Tc = "
             f"{c.Tc * 1e3:.4g} ms, u_max = {c.u_max:.6g}) simulated on the reference and fitted to w and u at the "

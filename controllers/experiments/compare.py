@@ -19,7 +19,7 @@ from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
 from adaptive_ff.compensation.feedforward import FF_INPUTS, project_estimate
 from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
-from adaptive_ff.compensation.sliding_estimator import fit_sliding
+from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimatorConfig, fit_sliding
 from controllers.simulation.closed_loop import ModeOptions, run_mode, run_own
 from controllers.simulation.compensators import ESTIMATORS, MODES, check_estimator
 from controllers.simulation.memory import MODE_SIGNALS, PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
@@ -919,6 +919,7 @@ def _offline_fit(p0, o: CompareOptions, model, F_peak, Vs, delta, id_rng, noise:
     if o.fixed_method == "sliding":
         n = u_id.shape[0]
         w_id = resp.w[:-1] + id_rng.normal(0.0, noise, size=n) if noise > 0 else resp.w[:-1]
-        return fit_sliding(u_id, w_id, Tc=o.Tc, Vs=Vs, delta=delta, Ts=o.Ts, T_filter=o.T_filter, lag=o.lag)
+        return fit_sliding(u_id, w_id, Tc=o.Tc, Vs=Vs, delta=delta,
+                           config=SlidingFrictionEstimatorConfig(Ts=o.Ts, T_filter=o.T_filter, lag=o.lag))
     meas = sample(resp, Ts=o.Ts, noise_std=noise, rng=id_rng)
     return fit_ls(model, meas.u, meas.w, Ts=o.Ts)

@@ -36,7 +36,7 @@ from adaptive_ff.arm.simulate import ArmPlant, arm_reference
 from adaptive_ff.compensation.gate import OutlierGate
 from adaptive_ff.identification.regression import FrictionEstimate
 from controllers._cctl import ffi, lib
-from controllers.design.pi import PIController
+from controllers.design.pi import PIController, PITuning
 from controllers.experiments.comparison import eta_or_none, options_with_changes
 from controllers.simulation.compensators import build_mode, own_supervisor
 from controllers.simulation.metrics import LoopMetrics, loop_metrics, reversal_times
@@ -244,7 +244,7 @@ def joint_designs(identification, arm, options: CompareArmOptions) -> list:
     out = []
     for j, name in enumerate(arm.names):
         _, s = compensator_from_file(identification, arm_joint=name, u_max=float(u_max[j]),
-                                     crossover=options.crossover, phase_margin=options.phase_margin,
+                                     pi=PITuning(crossover=options.crossover, phase_margin=options.phase_margin),
                                      Tc=options.Tc, Ts=options.Ts)
         fr = s["joint"]
         level = max(fr.get("Fc", 0.0), fr.get("Fs", 0.0))
@@ -252,7 +252,8 @@ def joint_designs(identification, arm, options: CompareArmOptions) -> list:
         noise, source = ident.noise_std, "identification"
         if noise is None or not (math.isfinite(noise) and noise >= 0.0):
             noise, source = options.noise_std, "options"
-        settings = {"u_max": float(u_max[j]), "Kp": s["Kp"], "Ki": s["Ki"], "Tc": options.Tc, "Ts": options.Ts,
+        settings = {"u_max": float(u_max[j]), "pi": PITuning(Kp=s["Kp"], Ki=s["Ki"]), "Tc": options.Tc,
+                    "Ts": options.Ts,
                     "stick_band": 3.0 * noise, "omega_r": residual_cutoff(s["J_design"], noise, options.Tc, level),
                     "start": bool(options.start) and math.isfinite(ident.params.get("tau", math.nan))}
         o = compensator_from_file(identification, arm_joint=name, **settings)[1]["options"]

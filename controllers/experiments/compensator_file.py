@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 
+from controllers.design.pi import PITuning
+
 __all__ = ["compensator_from_file", "read_identified"]
 
 
@@ -43,10 +45,8 @@ def read_identified(path, arm_joint=None):
     return identification_from_dict(read_arm_joint(path, arm_joint), where=f"{path} joint {arm_joint!r}")
 
 
-def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: float | None = None,
-                          crossover: float = 20.0, phase_margin: float = 60.0, start: bool = False,
-                          initial: bool = True, feedforward_only: bool = False, arm_joint: str | None = None,
-                          **options):
+def compensator_from_file(path, *, u_max: float, pi: PITuning = PITuning(), start: bool = False, initial: bool = True,
+                          feedforward_only: bool = False, arm_joint: str | None = None, **options):
     """The ``adaptive`` mode's compensator configured from an ``identify --json`` file, as ``compare`` configures it.
 
     Parameters
@@ -60,10 +60,11 @@ def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: fl
     u_max : float, keyword-only
         The drive's torque limit (N·m): the velocity gate's bound; the feedforward's bound is half of it (as in
         ``compare``) unless ``ff_max`` is given.
-    Kp, Ki : float, keyword-only
-        PI gains (both or neither; the nominal loop model of the stick fallback and the example loop); default
-        :func:`controllers.design.pi.design_pi` of the identified ``J`` and ``sigma`` at ``crossover`` (rad/s)
-        and ``phase_margin`` (deg), as ``design --from`` does.
+    pi : PITuning, keyword-only
+        The PI (the nominal loop model of the stick fallback and the example loop,
+        :class:`controllers.design.pi.PITuning`): its gains ``Kp``, ``Ki``, or (default) the
+        :func:`controllers.design.pi.design_pi` of the identified ``J`` and ``sigma`` at its ``crossover`` (rad/s,
+        default 20) and ``phase_margin`` (deg, default 60), as ``design --from`` does.
     start : bool, keyword-only
         Use the identified map (``Fc``, ``Fs``, ``sigma``, ``tau``) as the provisional start
         (:class:`adaptive_ff.compensation.adaptive_feedforward.FeedforwardStart`, at the measured velocity).
@@ -95,7 +96,7 @@ def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: fl
     Raises
     ------
     ParameterError
-        Unreadable or invalid file (the file and the key named), a bad setting, one of ``Kp``/``Ki`` alone.
+        Unreadable or invalid file (the file and the key named), a bad setting, ``pi`` not a :class:`PITuning`.
     FileNotFoundError
         No such file.
     """
@@ -103,7 +104,6 @@ def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: fl
 
     from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
     from adaptive_ff.identification.regression import FrictionEstimate
-    from controllers.design.pi import design_pi
     from controllers.simulation.compensators import ModeOptions, build_mode
     from plant.errors import ParameterError
 
@@ -127,12 +127,10 @@ def compensator_from_file(path, *, u_max: float, Kp: float | None = None, Ki: fl
         if not (math.isfinite(J_id) and J_id > 0.0):
             raise ParameterError(f"{path}: the identified J = {J_id!r} kg·m² is not > 0; give --J-design")
         J_design = J_id
-    if (Kp is None) != (Ki is None):
-        raise ParameterError("give both --Kp and --Ki, or neither (then the PI is designed from J and sigma)")
+    if not isinstance(pi, PITuning):
+        raise ParameterError(f"pi must be a PITuning, got {type(pi).__name__}")
     Tc = options.get("Tc", 1e-3)
-    if Kp is None:
-        d = design_pi(J_design, sigma=max(sigma_id, 0.0), crossover=crossover, phase_margin=phase_margin, Tc=Tc)
-        Kp, Ki = d.Kp, d.Ki
+    Kp, Ki = pi.gains(J_design, sigma=max(sigma_id, 0.0), Tc=Tc)
     joint = {}
     for k in ("Fc", "Fs", "sigma"):
         v = _number(params, k, path, required=False)

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from adaptive_ff.compensation.sliding_estimator import SlidingFit, fit_sliding
+from adaptive_ff.compensation.sliding_estimator import SlidingFit, SlidingFrictionEstimatorConfig, fit_sliding
 from plant.dynamics import plant_params, plant_state, plant_step
 from plant.errors import (ExcitationError, ParameterError, check_multiple, check_nonnegative, check_positive,
                           check_positive_or_inf)
@@ -191,8 +191,8 @@ def inertia_experiment(p, *, w_switch: float, Tc: float = 1e-3, noise_std: float
     if noise_std > 0.0:
         w = w + rng.normal(0.0, noise_std, size=w.shape[0])
     try:
-        fit = fit_sliding(u, w, Tc=Tc, Vs=0.1 * w_switch, delta=1.0, Ts=o.Ts, T_filter=o.T_filter, lag=True,
-                          offset=True)
+        fit = fit_sliding(u, w, Tc=Tc, Vs=0.1 * w_switch, delta=1.0,
+                          config=SlidingFrictionEstimatorConfig(Ts=o.Ts, T_filter=o.T_filter, lag=True, offset=True))
     except ExcitationError as exc:
         raise ExcitationError(f"first inertia: the noise-torque run of {o.level:g} x {u_ramp:.4g} N·m: {exc}") from None
     return InertiaExperiment(u_ramp=u_ramp, t_ramp=k_ramp * Tc, w_switch=w_switch, u_std=o.level * u_ramp,

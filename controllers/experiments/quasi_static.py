@@ -23,12 +23,14 @@ from plant.friction import JointParams
 from plant.results import axes_or_new, json_safe
 from plant.rows import plant_params
 
-__all__ = ["QuasiStaticData", "quasi_static_runs", "bidirectional_velocities", "QS_CROSSOVER", "StribeckDesign",
-           "StribeckExperiment", "stribeck_experiment", "prefit_stribeck"]
+__all__ = ["QuasiStaticData", "quasi_static_runs", "bidirectional_velocities", "QS_CROSSOVER", "QS_TC",
+           "StribeckDesign", "StribeckExperiment", "stribeck_experiment", "prefit_stribeck"]
 
 #: Default crossover (rad/s) of the velocity loop used for the runs: stiff enough that
 #: the PI dominates the negative slope of the Stribeck curve (see quasi_static_runs).
 QS_CROSSOVER = 150.0
+#: Default controller period (s) of the runs' loop (the paper's 1 kHz): the period of the default design.
+QS_TC = 1e-3
 
 
 @dataclass(frozen=True)
@@ -157,7 +159,6 @@ def quasi_static_runs(
     *,
     hold: float = 2.0,
     settle: float = 2.0,
-    Tc: float = 1e-3,
     noise_std: float = 0.0,
     rng: np.random.Generator | None = None,
     design: PIDesign | None = None,
@@ -173,11 +174,9 @@ def quasi_static_runs(
         Velocity setpoints (rad/s), non-zero; pass both signs for a
         bidirectional curve (see :func:`bidirectional_velocities`).
     hold : float, keyword-only
-        Averaging window (s) after the settling time, >= ``Tc``.
+        Averaging window (s) after the settling time, >= the controller period ``design.Tc``.
     settle : float, keyword-only
         Discarded settling time (s), >= 0.
-    Tc : float, keyword-only
-        Controller period and RK4 step (s), > 0 (paper: 1 ms).
     noise_std : float, keyword-only
         Standard deviation (rad/s) of white Gaussian noise on the measured
         velocity, >= 0. The controller sees it and ``w_mean``/``w_std`` are of
@@ -186,8 +185,8 @@ def quasi_static_runs(
         Noise source; required for reproducibility when ``noise_std > 0``
         (a fresh unseeded generator otherwise).
     design : PIDesign, keyword-only
-        Velocity-loop design with ``design.Tc == Tc``. Default
-        ``design_pi(p.J, sigma=0, crossover=QS_CROSSOVER, phase_margin=60, Tc=Tc)``:
+        Velocity-loop design; its period ``design.Tc`` (s) is the controller period and the RK4 step. Default
+        ``design_pi(p.J, sigma=0, crossover=QS_CROSSOVER, phase_margin=60, Tc=QS_TC)`` (1 ms, as the paper):
         the designer knows the inertia only.
     u_max : float, keyword-only
         Torque limit (N·m) of the controller, default none.
@@ -202,8 +201,9 @@ def quasi_static_runs(
     SignalError
         ``velocities`` not a finite 1-D array.
     ParameterError
-        A setpoint is 0, ``hold``/``settle``/``Tc``/``noise_std``/``u_max`` out
-        of range, or ``design.Tc != Tc``.
+        A setpoint is 0, or ``hold``/``settle``/``noise_std``/``u_max`` out of range.
+    TypeError
+        ``design`` not a :class:`controllers.design.pi.PIDesign`.
 
     Notes
     -----
@@ -243,7 +243,11 @@ def quasi_static_runs(
             f"velocities must be non-zero (sliding regime, F(0) is not a sliding friction), "
             f"got 0 at index {i}"
         )
-    Tc = check_positive("Tc", Tc)
+    if design is None:
+        design = design_pi(p.J, sigma=0.0, crossover=QS_CROSSOVER, phase_margin=60.0, Tc=QS_TC)
+    elif not isinstance(design, PIDesign):
+        raise TypeError(f"design must be a PIDesign, got {type(design).__name__}")
+    Tc = float(design.Tc)
     hold = check_positive("hold", hold)
     settle = check_nonnegative("settle", settle)
     noise_std = check_nonnegative("noise_std", noise_std)
@@ -251,12 +255,6 @@ def quasi_static_runs(
     if n_hold < 1:
         raise ParameterError(f"hold must be >= Tc = {Tc!r} s, got {hold!r}")
     n_settle = int(round(settle / Tc))
-    if design is None:
-        design = design_pi(p.J, sigma=0.0, crossover=QS_CROSSOVER, phase_margin=60.0, Tc=Tc)
-    elif not isinstance(design, PIDesign):
-        raise TypeError(f"design must be a PIDesign, got {type(design).__name__}")
-    elif not math.isclose(design.Tc, Tc, rel_tol=1e-12):
-        raise ParameterError(f"design.Tc = {design.Tc!r} s must equal Tc = {Tc!r} s")
     ctrl = PIController.from_design(design, u_max=u_max)
     if noise_std > 0.0 and rng is None:
         rng = np.random.default_rng()
@@ -583,8 +581,8 @@ class _Runner:
             by_settle.setdefault(float(st), []).append(s)
         out = []
         for st, sp in by_settle.items():
-            q = quasi_static_runs(self.p, np.array(sp), hold=self.o.hold, settle=st, Tc=self.Tc,
-                                  noise_std=self.noise_std, rng=self.rng, design=d)
+            q = quasi_static_runs(self.p, np.array(sp), hold=self.o.hold, settle=st, noise_std=self.noise_std,
+                                  rng=self.rng, design=d)
             out += list(zip(q.setpoints, q.w_mean, q.w_std, q.u_mean, q.u_std))
         out.sort(key=lambda r: -abs(r[0]))
         a = np.array(out)

@@ -364,6 +364,7 @@ def _plant_key(t: dict, msg: str) -> str:
 
 def _reference(ctx: _Ctx, t: dict, Tc, seed: int):
     """The Reference of ``[reference]``, or None for the multisine (made by compare from the seed)."""
+    from adaptive_ff.io.logs import LogUnits
     from adaptive_ff.io.references import load_reference
     from plant.motion import point_to_point_reference, reversing_reference
 
@@ -396,7 +397,8 @@ def _reference(ctx: _Ctx, t: dict, Tc, seed: int):
             _check_reference_length(ctx, _reversing_length(kw), Tc)
             return reversing_reference(dt=Tc, **kw)
         path = ctx.path("reference", "path", kw.pop("path", None))
-        return load_reference(path, dt=Tc, max_samples=_max_reference_samples(), **kw)
+        units = LogUnits(**{k: kw.pop(k) for k in ("time_unit", "velocity_unit", "position_unit") if k in kw})
+        return load_reference(path, dt=Tc, max_samples=_max_reference_samples(), units=units, **kw)
     except ScenarioError:
         raise
     except (ParameterError, TypeError, ValueError, OSError) as exc:

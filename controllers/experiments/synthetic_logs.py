@@ -19,7 +19,7 @@ import numpy as np
 
 from adaptive_ff.io.data import MeasuredData
 from controllers.design.pi import PIController, PIDesign, design_pi
-from controllers.experiments.quasi_static import QS_CROSSOVER
+from controllers.experiments.quasi_static import QS_CROSSOVER, QS_TC
 from controllers.simulation.closed_loop import MeasurementSettings, RunSettings, run_closed_loop
 from plant.errors import ParameterError, SignalError, check_nonnegative, check_positive, check_signal, check_time
 from plant.excitation import Reference, multisine_reference
@@ -250,8 +250,8 @@ def closed_loop_readout(p: JointParams, duration: float, *, seeds, crossover: fl
     return ClosedLoopReadout(run=run, measurement=meas, design=design, u_max=u_max)
 
 
-def quasi_static_log(p: JointParams, velocities, *, hold: float = 2.0, settle: float = 1.0, Tc: float = 1e-3,
-                     decimate: int = 10, noise_std: float = 0.0, rng: np.random.Generator | None = None,
+def quasi_static_log(p: JointParams, velocities, *, hold: float = 2.0, settle: float = 1.0, decimate: int = 10,
+                     noise_std: float = 0.0, rng: np.random.Generator | None = None,
                      design: PIDesign | None = None) -> MeasuredData:
     """A continuous log of bidirectional constant-velocity runs, as recorded on a drive (paper Sec. V-C).
 
@@ -265,18 +265,17 @@ def quasi_static_log(p: JointParams, velocities, *, hold: float = 2.0, settle: f
     hold, settle : float, keyword-only
         Time at each setpoint (s) is ``settle + hold``; both > 0 (the split
         only matters to the reader of the log).
-    Tc : float, keyword-only
-        Controller period and integration step (s).
     decimate : int, keyword-only
         Log every ``decimate``-th controller sample (>= 1): the log's sample
-        time is ``decimate*Tc``.
+        time is ``decimate*design.Tc``.
     noise_std : float, keyword-only
         Velocity measurement noise (rad/s), seen by the controller and logged.
     rng : numpy.random.Generator, keyword-only
         Needed when ``noise_std > 0``.
     design : PIDesign, keyword-only
-        Velocity loop; default ``design_pi(p.J, crossover=QS_CROSSOVER, phase_margin=60, Tc=Tc)``
-        (the stiff loop of :func:`controllers.experiments.quasi_static.quasi_static_runs`).
+        Velocity loop; its period ``design.Tc`` (s) is the controller period and the integration step. Default
+        ``design_pi(p.J, crossover=QS_CROSSOVER, phase_margin=60, Tc=QS_TC)`` (1 ms; the stiff loop of
+        :func:`controllers.experiments.quasi_static.quasi_static_runs`).
 
     Returns
     -------
@@ -290,17 +289,21 @@ def quasi_static_log(p: JointParams, velocities, *, hold: float = 2.0, settle: f
         ``velocities`` not finite 1-D.
     ParameterError
         A setpoint is 0, or a setting is out of range.
+    TypeError
+        ``design`` not a :class:`controllers.design.pi.PIDesign`.
     """
     v = check_signal("velocities", velocities)
     if np.any(v == 0.0):
         raise ParameterError(f"velocities must be non-zero, got 0 at index {int(np.flatnonzero(v == 0)[0])}")
     hold = check_positive("hold", hold)
     settle = check_positive("settle", settle)
-    Tc = check_positive("Tc", Tc)
     if isinstance(decimate, bool) or not isinstance(decimate, (int, np.integer)) or decimate < 1:
         raise ParameterError(f"decimate must be an integer >= 1, got {decimate!r}")
     if design is None:
-        design = design_pi(p.J, crossover=QS_CROSSOVER, phase_margin=60.0, Tc=Tc)
+        design = design_pi(p.J, crossover=QS_CROSSOVER, phase_margin=60.0, Tc=QS_TC)
+    elif not isinstance(design, PIDesign):
+        raise TypeError(f"design must be a PIDesign, got {type(design).__name__}")
+    Tc = float(design.Tc)
     n_each = int(round((hold + settle) / Tc))
     wr = np.repeat(v, n_each)
     if noise_std > 0 and rng is None:

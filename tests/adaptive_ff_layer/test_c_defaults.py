@@ -229,6 +229,13 @@ def _canudas(**k):
     return CanudasCompensator(Tc=TC, config=CanudasCompensatorConfig(**k))
 
 
+def _sliding(**k):
+    """The sliding estimator with ``Vs``, ``delta``, ``Tc`` or a config field of ``k``."""
+    args = {"Vs": 0.02, "delta": 1.0, "Tc": TC, **{a: k.pop(a) for a in ("Vs", "delta", "Tc") if a in k}}
+    return SlidingFrictionEstimator(args.pop("Vs"), args.pop("delta"), config=SlidingFrictionEstimatorConfig(**k),
+                                    **args)
+
+
 #: (constructor, keyword, bad value, the C code whose sentence the error carries)
 REFUSED = [
     (OutlierGate, "n_sigma", 0.0, "AFF_ERR_GATE_N_SIGMA"), (OutlierGate, "alpha", 1.5, "AFF_ERR_GATE_ALPHA"),
@@ -261,6 +268,14 @@ REFUSED = [
                              ("P0", -1.0, "AFF_ERR_EQ4_FF_P0"), ("warmup", -1, "AFF_ERR_EQ4_FF_WARMUP"),
                              ("tau_max", 0.0, "AFF_ERR_EQ4_FF_TAU_MAX"), ("w_band", -1.0, "AFF_ERR_EQ4_FF_W_BAND"),
                              ("map_rel_stderr", 0.0, "AFF_ERR_EQ4_FF_MAP_REL_STDERR"))],
+    *[(_sliding, key, bad, code)
+      for key, bad, code in (("Vs", 0.0, "AFF_ERR_SLIDING_VS"), ("delta", 0.0, "AFF_ERR_SLIDING_DELTA"),
+                             ("Tc", -1.0, "AFF_ERR_SLIDING_TC"), ("Ts", 1.5e-3, "AFF_ERR_SLIDING_TS"),
+                             ("T_filter", 1e-3, "AFF_ERR_SLIDING_T_FILTER"), ("lam", 0.0, "AFF_ERR_SLIDING_LAM"),
+                             ("P0", math.nan, "AFF_ERR_SLIDING_P0"), ("P_max", -1.0, "AFF_ERR_SLIDING_P_MAX"),
+                             ("w_band_min", -1.0, "AFF_ERR_SLIDING_W_BAND_MIN"),
+                             ("dwell_max", 1.5, "AFF_ERR_SLIDING_DWELL_MAX"), ("J_max", 0.0, "AFF_ERR_SLIDING_J_MAX"),
+                             ("tau_max", math.inf, "AFF_ERR_SLIDING_TAU_MAX"))],
     *[(_canudas, key, bad, code)
       for key, bad, code in (("Ts", 0.0, "AFF_ERR_CANUDAS_TS"), ("lam", 0.0, "AFF_ERR_CANUDAS_LAM"),
                              ("P0", math.nan, "AFF_ERR_CANUDAS_P0"), ("J_guess", 0.0, "AFF_ERR_CANUDAS_J_GUESS"),
@@ -279,10 +294,10 @@ def test_a_range_is_checked_once_by_c_and_the_error_names_the_field(make, key, b
 
 @pytest.mark.parametrize("make,key", [(OutlierGate, "max_consecutive"), (OutlierGate, "n_sigma"),
                                       (RangeGate, "memory"), (_sup, "delay"), (_ff, "stick_samples"),
-                                      (_eq4, "warmup"), (_canudas, "warmup")])
+                                      (_eq4, "warmup"), (_canudas, "warmup"), (_sliding, "Vs"), (_sliding, "Tc")])
 @pytest.mark.parametrize("bad", [True, "1", None, 2.5])
 def test_a_value_of_the_wrong_type_is_refused_naming_the_field(make, key, bad):
-    if bad == 2.5 and key in ("n_sigma", "memory"):
+    if bad == 2.5 and key in ("n_sigma", "memory", "Vs", "Tc"):
         return  # a real number is of the right type there
     with pytest.raises(SettingTypeError, match=key):  # a ParameterError and a TypeError
         make(**{key: bad})

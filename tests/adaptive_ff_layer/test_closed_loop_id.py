@@ -42,13 +42,14 @@ def record():
     """30 s of the robot experiment: the 1 kHz loop (sensor noise 1e-3 rad/s seen by the PI), read out at the
     irregular Fig. 10 stamps with noise and a 0.6 N·m torque quantum; the reference at the stamps."""
     exp = closed_loop_readout(P, 30.0, seeds=3)  # crossover 200 rad/s, noise 1e-3 rad/s, quantum 0.6 N·m
-    return exp.measurement, exp.w_ref, ControllerSpec(**exp.controller())
+    m = exp.measurement
+    return MeasuredData(m.t, m.u, m.w), exp.w_ref, ControllerSpec(**exp.controller())
 
 
 @pytest.fixture(scope="module")
 def fit(record):
     m, w_ref, spec = record
-    return fit_closed_loop(m.t, m.u, m.w, w_ref, controller=spec, Vs=VS, delta=DELTA,
+    return fit_closed_loop(m, w_ref, controller=spec, Vs=VS, delta=DELTA,
                            options=ClosedLoopIdOptions(n_bootstrap=4))  # few refits: the test's time budget
 
 
@@ -150,11 +151,13 @@ def test_controller_spec_validation(tmp_path):
 def test_fit_closed_loop_bad_input(record):
     m, w_ref, spec = record
     with pytest.raises(ParameterError, match="faster"):
-        fit_closed_loop(m.t, m.u, m.w, w_ref, controller=ControllerSpec(Kp=1.0, Ki=1.0, Tc=0.1), Vs=VS, delta=DELTA)
+        fit_closed_loop(m, w_ref, controller=ControllerSpec(Kp=1.0, Ki=1.0, Tc=0.1), Vs=VS, delta=DELTA)
     with pytest.raises(ParameterError, match="ControllerSpec"):
-        fit_closed_loop(m.t, m.u, m.w, w_ref, controller={"Kp": 1}, Vs=VS, delta=DELTA)
+        fit_closed_loop(m, w_ref, controller={"Kp": 1}, Vs=VS, delta=DELTA)
     with pytest.raises(Exception, match="reference never changes sign"):
-        fit_closed_loop(m.t, m.u, m.w, np.abs(w_ref) + 0.1, controller=spec, Vs=VS, delta=DELTA)
+        fit_closed_loop(m, np.abs(w_ref) + 0.1, controller=spec, Vs=VS, delta=DELTA)
+    with pytest.raises(TypeError, match="data must be a MeasuredData, got tuple"):
+        fit_closed_loop((m.t, m.u, m.w), w_ref, controller=spec, Vs=VS, delta=DELTA)
 
 
 def _write_robot_log(tmp_path, record) -> tuple:

@@ -10,7 +10,8 @@ from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforw
 from adaptive_ff.compensation.feedforward import FrictionFeedforward, FrictionFeedforwardConfig
 from adaptive_ff.compensation.gate import OutlierGate
 from adaptive_ff.identification.regression import FrictionEstimate
-from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, fit_sliding, sliding_regressors, SlidingFrictionEstimatorConfig
+from adaptive_ff.compensation.sliding_estimator import (SlidingFrictionEstimator, SlidingFrictionEstimatorConfig,
+                                                        fit_sliding, sliding_regressors)
 from loop_helpers import run_named
 from controllers.design.pi import design_pi
 from plant import ParameterError, bandlimited_noise, multisine_reference, preset, simulate
@@ -35,7 +36,7 @@ def closed_loop_none():
 
 def test_batch_fit_recovers_the_physical_parameters_from_noise_free_data(open_loop):
     u, w = open_loop
-    e = fit_sliding(u, w, Tc=1e-3, Vs=P.Vs, delta=P.delta, Ts=0.01).estimate
+    e = fit_sliding(u, w, Tc=1e-3, Vs=P.Vs, delta=P.delta, config=SlidingFrictionEstimatorConfig(Ts=0.01)).estimate
     assert e.Fc == pytest.approx(P.Fc, rel=0.005) and e.Fs == pytest.approx(P.Fs, rel=0.01)
     assert e.sigma == pytest.approx(P.sigma, rel=0.005) and e.tau == pytest.approx(P.tau, rel=0.03)
     assert e.J == pytest.approx(P.J, rel=0.03) and e.J_alt == pytest.approx(P.J, rel=0.1)
@@ -43,7 +44,8 @@ def test_batch_fit_recovers_the_physical_parameters_from_noise_free_data(open_lo
 
 def test_online_estimator_builds_exactly_the_batch_rows(open_loop):
     u, w = open_loop
-    X, y, idx, n_gated, names = sliding_regressors(u, w, Tc=1e-3, Vs=P.Vs, delta=P.delta, Ts=0.01)
+    X, y, idx, n_gated, names = sliding_regressors(u, w, Tc=1e-3, Vs=P.Vs, delta=P.delta,
+                                                   config=SlidingFrictionEstimatorConfig(Ts=0.01))
     est = SlidingFrictionEstimator(P.Vs, P.delta, Tc=1e-3, config=SlidingFrictionEstimatorConfig(Ts=0.01))
     rows = []
     for uk, wk in zip(u.tolist(), w.tolist()):
@@ -58,10 +60,11 @@ def test_online_estimator_builds_exactly_the_batch_rows(open_loop):
 def test_closed_loop_noise_bias_and_the_sliding_regime_gate(closed_loop_none):
     """In closed loop the torque reacts to the noise that decides sgn(w_meas) near zero."""
     r = closed_loop_none
-    kw = dict(Tc=1e-3, Vs=P.Vs, delta=P.delta, Ts=0.01)
-    ungated = fit_sliding(r.u, r.w_meas, dwell_max=1.0, **kw).estimate
-    gated = fit_sliding(r.u, r.w_meas, **kw).estimate
-    true_w = fit_sliding(r.u, r.w, dwell_max=1.0, **kw).estimate  # noise-free velocity: no bias source
+    kw = dict(Tc=1e-3, Vs=P.Vs, delta=P.delta)
+    gate, no_gate = SlidingFrictionEstimatorConfig(Ts=0.01), SlidingFrictionEstimatorConfig(Ts=0.01, dwell_max=1.0)
+    ungated = fit_sliding(r.u, r.w_meas, config=no_gate, **kw).estimate
+    gated = fit_sliding(r.u, r.w_meas, config=gate, **kw).estimate
+    true_w = fit_sliding(r.u, r.w, config=no_gate, **kw).estimate  # noise-free velocity: no bias source
     assert abs(ungated.Fs / P.Fs - 1) > 0.3 and abs(ungated.sigma / P.sigma - 1) > 0.15  # biased
     assert abs(true_w.Fs / P.Fs - 1) < 0.06
     assert gated.Fc == pytest.approx(P.Fc, rel=0.01) and gated.Fs == pytest.approx(P.Fs, rel=0.02)

@@ -7,7 +7,7 @@ import pytest
 
 from adaptive_ff.identification.covariance import (BootstrapResult, andrews_bandwidth, bootstrap_t_quantile,
                                                      block_wild_resample, hac_covariance, moving_block_resample,
-                                                     parametric_block_bootstrap)
+                                                     parametric_block_bootstrap, BootstrapSettings)
 from plant.errors import ExcitationError, ParameterError, SignalError
 
 
@@ -123,6 +123,11 @@ def _ar1(n, rho, rng):
     return r
 
 
+def _moving(**kw) -> BootstrapSettings:
+    """Bootstrap settings with moving blocks."""
+    return BootstrapSettings(scheme="moving", **kw)
+
+
 def test_parametric_block_bootstrap_matches_the_spread_over_seeds():
     # a straight line in AR(1) noise (rho 0.5), fitted by OLS: the spread of the OLS estimates over 100 seeded
     # records (computed here) against the bootstrap errors of 6 other records (blocks of 3 Andrews bandwidths);
@@ -142,8 +147,8 @@ def test_parametric_block_bootstrap_matches_the_spread_over_seeds():
         y = A @ truth + _ar1(n, rho, np.random.default_rng(1000 + s))
         x = ols(y)
         res = y - A @ x
-        b = parametric_block_bootstrap(lambda ys, rng: ols(ys), A @ x, res, x, n=200,
-                                       block=3 * (andrews_bandwidth(res) + 1), rng=np.random.default_rng(s))
+        b = parametric_block_bootstrap(lambda ys, rng: ols(ys), A @ x, res, x, settings=_moving(
+            n=200, block=3 * (andrews_bandwidth(res) + 1), seed=s))
         assert b.n == 200 and b.n_valid == 200 and b.failures == () and b.replicates.shape == (200, 2)
         ratios.append(b.stderr / spread)
         s2 = res @ res / (n - 2)
@@ -166,17 +171,16 @@ def test_parametric_block_bootstrap_counts_failed_refits_and_is_seeded():
             return np.array([np.nan])
         return np.array([y.mean() + rng.normal()])
 
-    b = parametric_block_bootstrap(refit, pred, res, [0.0], n=6, block=4, rng=np.random.default_rng(1))
+    b = parametric_block_bootstrap(refit, pred, res, [0.0], settings=_moving(n=6, block=4, seed=1))
     assert b.n_valid == 4 and len(b.failures) == 2
     assert b.failures[0].startswith("ExcitationError: no reversal") and b.failures[1] == "non-finite"
     assert b.stderr[0] == pytest.approx(math.sqrt(np.mean(b.replicates[:, 0] ** 2)))
     assert b.bias[0] == pytest.approx(np.mean(b.replicates[:, 0]))
     calls.clear()
-    again = parametric_block_bootstrap(refit, pred, res, [0.0], n=6, block=4, rng=np.random.default_rng(1))
+    again = parametric_block_bootstrap(refit, pred, res, [0.0], settings=_moving(n=6, block=4, seed=1))
     np.testing.assert_array_equal(again.replicates, b.replicates)
     # fewer than two valid refits: NaN errors, not a crash
-    few = parametric_block_bootstrap(lambda y, rng: [np.inf], pred, res, [0.0], n=3, block=4,
-                                     rng=np.random.default_rng(0))
+    few = parametric_block_bootstrap(lambda y, rng: [np.inf], pred, res, [0.0], settings=_moving(n=3, block=4, seed=0))
     assert few.n_valid == 0 and math.isnan(few.stderr[0]) and len(few.failures) == 3
 
 
@@ -190,8 +194,8 @@ def test_parametric_block_bootstrap_threads_give_the_one_thread_result():
             raise ExcitationError("first sample high")
         return np.array([y.mean() + rng.normal(), np.mean(y**2)])
 
-    runs = [parametric_block_bootstrap(refit, pred, res, [0.0, 0.0], n=25, block=3, rng=np.random.default_rng(4),
-                                       workers=k, scheme="wild") for k in (1, 4)]
+    wild = BootstrapSettings(n=25, block=3, seed=4, scheme="wild")
+    runs = [parametric_block_bootstrap(refit, pred, res, [0.0, 0.0], workers=k, settings=wild) for k in (1, 4)]
     np.testing.assert_array_equal(runs[0].replicates, runs[1].replicates)
     assert runs[0].failures == runs[1].failures and 0 < len(runs[0].failures) < 25
     assert runs[0].stderr.tolist() == runs[1].stderr.tolist()
@@ -207,9 +211,9 @@ def test_parametric_block_bootstrap_progress_bar_counts_the_refits_and_changes_n
     def refit(y, rng):
         return np.array([y.mean() + rng.normal()])
 
-    quiet = parametric_block_bootstrap(refit, pred, res, [0.0], n=7, block=3, rng=np.random.default_rng(4))
+    quiet = parametric_block_bootstrap(refit, pred, res, [0.0], settings=_moving(n=7, block=3, seed=4))
     assert capsys.readouterr().err == ""  # the default draws no bar
-    shown = parametric_block_bootstrap(refit, pred, res, [0.0], n=7, block=3, rng=np.random.default_rng(4),
+    shown = parametric_block_bootstrap(refit, pred, res, [0.0], settings=_moving(n=7, block=3, seed=4),
                                        workers=2, progress=True)
     assert "bootstrap refits" in capsys.readouterr().err
     np.testing.assert_array_equal(quiet.replicates, shown.replicates)
@@ -221,7 +225,7 @@ def test_parametric_block_bootstrap_progress_bar_counts_the_refits_and_changes_n
             bars.append(self)
 
     monkeypatch.setattr(tqdm.auto, "tqdm", Recorder)
-    parametric_block_bootstrap(refit, pred, res, [0.0], n=7, block=3, rng=np.random.default_rng(4), workers=3,
+    parametric_block_bootstrap(refit, pred, res, [0.0], settings=_moving(n=7, block=3, seed=4), workers=3,
                                progress=True)
     assert len(bars) == 1 and bars[0].n == bars[0].total == 7
 
@@ -229,10 +233,12 @@ def test_parametric_block_bootstrap_progress_bar_counts_the_refits_and_changes_n
 @pytest.mark.parametrize("kwargs, err, match", [
     ({"prediction": np.zeros(5)}, SignalError, "prediction"),
     ({"estimate": [np.nan]}, SignalError, "estimate"),
-    ({"n": 0}, ParameterError, "n must"),
-    ({"n": 2.0}, ParameterError, "n must"),
-    ({"block": 0}, ParameterError, "block"),
-    ({"rng": 1}, ParameterError, "rng"),
+    ({"settings": {"n": 0}}, ParameterError, "n must"),
+    ({"settings": {"n": 2.0}}, ParameterError, "n must"),
+    ({"settings": {"block": 0}}, ParameterError, "block"),
+    ({"settings": {"block": None}}, ParameterError, "block length"),
+    ({"settings": {"seed": -1}}, ParameterError, "seed must"),
+    ({"settings": {"scheme": "stationary"}}, ParameterError, "scheme must"),
     ({"refit": None}, ParameterError, "refit"),
     ({"simulate": 3.0}, ParameterError, "simulate must be callable"),
     ({"workers": 0}, ParameterError, "workers"),
@@ -241,11 +247,15 @@ def test_parametric_block_bootstrap_progress_bar_counts_the_refits_and_changes_n
     ({"simulate": lambda rng: np.zeros(9)}, ParameterError, r"simulate must return an array of shape \(10,\)"),
 ])
 def test_parametric_block_bootstrap_bad_input(kwargs, err, match):
+    kwargs = dict(kwargs)
+    settings = {"n": 2, "block": 2, "seed": 0, **kwargs.pop("settings", {})}
     args = {"refit": lambda y, rng: [0.0], "prediction": np.zeros(10), "residuals": np.ones(10), "estimate": [0.0],
-            "n": 2, "block": 2, "rng": np.random.default_rng(0), **kwargs}
+            **kwargs}
     with pytest.raises(err, match=match):
         parametric_block_bootstrap(args.pop("refit"), args.pop("prediction"), args.pop("residuals"),
-                                   args.pop("estimate"), **args)
+                                   args.pop("estimate"), settings=BootstrapSettings(**settings), **args)
+    with pytest.raises(ParameterError, match="settings must be a BootstrapSettings"):
+        parametric_block_bootstrap(lambda y, rng: [0.0], np.zeros(10), np.ones(10), [0.0], settings={"n": 2})
 
 
 def test_t_quantile_is_students_in_closed_form():
@@ -290,14 +300,14 @@ def test_simulate_sees_process_noise_the_fit_absorbs():
     def refit(ys, rng):
         return [ys.mean()]
 
-    plain = parametric_block_bootstrap(refit, pred, res, est, n=300, block=1, rng=np.random.default_rng(1))
-    fresh = parametric_block_bootstrap(refit, pred, res, est, n=300, block=1, rng=np.random.default_rng(1),
+    plain = parametric_block_bootstrap(refit, pred, res, est, settings=_moving(n=300, block=1, seed=1))
+    fresh = parametric_block_bootstrap(refit, pred, res, est, settings=_moving(n=300, block=1, seed=1),
                                        simulate=lambda rng: est[0] + rng.standard_normal() + np.zeros(n))
     assert plain.stderr[0] == pytest.approx(1.0 / math.sqrt(n), rel=0.15)
     assert fresh.stderr[0] == pytest.approx(math.sqrt(1.0 + 1.0 / n), rel=0.15)  # 300 refits: sd of s 4 %
     # a non-finite draw drops its replicate with the reason
     draws = iter([np.full(n, np.nan)] + [pred] * 3)
-    b = parametric_block_bootstrap(refit, pred, res, est, n=4, block=1, rng=np.random.default_rng(2),
+    b = parametric_block_bootstrap(refit, pred, res, est, settings=_moving(n=4, block=1, seed=2),
                                    simulate=lambda rng: next(draws))
     assert b.n_valid == 3 and b.failures == ("non-finite simulation",)
 
@@ -348,12 +358,11 @@ def test_wild_bootstrap_of_ols_gives_whites_heteroscedastic_errors():
     def refit(ys, _rng):
         return np.linalg.lstsq(X, ys, rcond=None)[0]
 
-    b = parametric_block_bootstrap(refit, X @ beta, r, beta, n=4000, block=1, rng=np.random.default_rng(5),
-                                   scheme="wild")
+    wild = BootstrapSettings(n=4000, block=1, seed=5, scheme="wild")
+    b = parametric_block_bootstrap(refit, X @ beta, r, beta, settings=wild)
     np.testing.assert_allclose(b.stderr, white, rtol=0.04)
-    m = parametric_block_bootstrap(refit, X @ beta, r, beta, n=4000, block=1, rng=np.random.default_rng(5))
+    m = parametric_block_bootstrap(refit, X @ beta, r, beta, settings=_moving(n=4000, block=1, seed=5))
     np.testing.assert_allclose(m.stderr, homo, rtol=0.04)
     assert b.stderr[1] > 1.3 * m.stderr[1]  # the slope's error is larger under the heteroscedasticity
     with pytest.raises(ParameterError, match="scheme"):
-        parametric_block_bootstrap(refit, X @ beta, r, beta, n=2, block=1, rng=np.random.default_rng(5),
-                                   scheme="stationary")
+        BootstrapSettings(n=2, block=1, seed=5, scheme="stationary")

@@ -235,7 +235,7 @@ def test_c_phi_and_inverse_map_against_the_model_the_oracle_and_the_analytic_the
         p = model.n_params
         phi = np.empty(p)
         for args in [(3.0, -1.0, 0.02, 0.01), (-2.0, 1.5, -0.5, 0.3), (0.0, 0.0, 0.0, -0.1)]:
-            n = eq4_phi(phi, *args, model.Vs or 1.0, model.delta or 1.0, model.lag, model.stribeck, model.offset)
+            n = eq4_phi(phi, model, *args)
             assert n == p and _close(phi, model.phi(*args), 1e-15)
             assert _close(phi, oracle.eq4_columns(*args, model), 1e-15)
         # the inverse map is RegressionModel.to_physical bit for bit and recovers the physical parameters

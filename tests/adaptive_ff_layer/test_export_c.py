@@ -276,28 +276,31 @@ def test_json_output_lists_the_files(id_file, tmp_path, capsys):
 
 
 def test_python_api_refuses_other_compensators_and_bad_numbers(package, tmp_path):
-    from adaptive_ff.compensation.export_c import export_c
+    from adaptive_ff.compensation.export_c import JointExport, export_c
     from adaptive_ff.compensation.feedforward import FrictionFeedforward
     from plant.errors import ParameterError
 
     comp, s = package()
     kw = {"J_design": s["J_design"], "u_max": U_MAX, "Kp": s["Kp"], "Ki": s["Ki"]}
     with pytest.raises(ParameterError, match="must be mode adaptive's compensator .*got FrictionFeedforward"):
-        export_c(FrictionFeedforward(None, dt=1e-3), tmp_path / "a", **kw)
+        export_c(JointExport(compensator=FrictionFeedforward(None, dt=1e-3), **kw), tmp_path / "a")
     with pytest.raises(ParameterError, match="got RobustAdaptiveFeedforward"):  # a part of the mode, not the mode
-        export_c(comp.feedforward, tmp_path / "a", **kw)
+        export_c(JointExport(compensator=comp.feedforward, **kw), tmp_path / "a")
     with pytest.raises(ParameterError, match="twice it .* beyond the float range"):
-        export_c(comp, tmp_path / "b", **{**kw, "u_max": 1e300})
+        export_c(JointExport(compensator=comp, **{**kw, "u_max": 1e300}), tmp_path / "b")
+    joint = JointExport(compensator=comp, **kw)
     with pytest.raises(ParameterError, match="hold_time = 0.0001 s is below the controller period"):
-        export_c(comp, tmp_path / "b", hold_time=1e-4, **kw)
+        export_c(joint, tmp_path / "b", hold_time=1e-4)
     with pytest.raises(ParameterError, match="u_max must be a finite number > 0, got inf"):
-        export_c(comp, tmp_path / "b", **{**kw, "u_max": float("inf")})
-    with pytest.raises(ParameterError, match="joint: unknown key 'Fv'"):
-        export_c(comp, tmp_path / "c", joint={"Fv": 1.0}, **kw)
+        export_c(JointExport(compensator=comp, **{**kw, "u_max": float("inf")}), tmp_path / "b")
+    with pytest.raises(ParameterError, match="friction: unknown key 'Fv'"):
+        export_c(JointExport(compensator=comp, friction={"Fv": 1.0}, **kw), tmp_path / "c")
+    with pytest.raises(ParameterError, match="joint must be a JointExport, got AdaptiveCompensator"):
+        export_c(comp, tmp_path / "c")
     (tmp_path / "file").write_text("x")
     with pytest.raises(ParameterError, match="an existing file, not a directory"):
-        export_c(comp, tmp_path / "file", **kw)
-    res = export_c(comp, tmp_path / "d", **kw)
+        export_c(joint, tmp_path / "file")
+    res = export_c(joint, tmp_path / "d")
     assert res.to_dict()["files"] == [str(tmp_path / "d" / f) for f in ("aff.h", "aff.c", "aff_config.h",
                                                                          "aff_config.c", "example_loop.c",
                                                                          "Makefile")]

@@ -17,7 +17,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from adaptive_ff.compensation.export_c import export_c
+from adaptive_ff.compensation.export_c import JointExport, export_c
 from controllers.simulation.closed_loop import run_mode
 from controllers.simulation.compensators import ModeOptions, build_mode
 from export_c_helpers import REPLAY_C, compile_export
@@ -62,7 +62,7 @@ def test_the_runs_exercise_the_observer_and_the_supervisor(runs):
 def test_a_compiled_export_replays_the_loop_bit_for_bit(runs, tmp_path, name):
     p, o, r = runs[name]
     _, _, comp = build_mode(p, "adaptive", o)
-    export_c(comp, tmp_path / "drive", J_design=p.J, u_max=o.u_max, Kp=o.Kp, Ki=o.Ki)
+    export_c(JointExport(compensator=comp, J_design=p.J, u_max=o.u_max, Kp=o.Kp, Ki=o.Ki), tmp_path / "drive")
     log = tmp_path / "log.bin"
     np.concatenate([np.asarray(x, dtype=np.float64) for x in (r.u, r.w_meas, r.w_ref)]).tofile(log)
     exe = compile_export(CC, tmp_path / "drive", REPLAY_C, tmp_path / "replay")

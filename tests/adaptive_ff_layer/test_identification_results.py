@@ -128,7 +128,7 @@ def test_support_points_protocol():
     t = np.arange(40000) * TS
     w = np.repeat(np.array([-0.4, -0.1, -0.02, 0.02, 0.1, 0.4]), 40000 // 6 + 1)[:40000]
     u = P.friction(w)
-    pts = binned_steady_state(t, u, w, n_bins=4, max_accel=1e9)
+    pts = binned_steady_state(MeasuredData(t, u, w), n_bins=4, max_accel=1e9)
     d = strict(pts)
     assert d["w_mean"] == pts.w_mean.tolist() and d["n_samples"] == pts.n_samples.tolist()
     assert f"{pts.n_points} support points" in pts.summary()

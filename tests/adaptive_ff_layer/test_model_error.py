@@ -13,7 +13,8 @@ from scipy.stats import chi2
 
 from adaptive_ff.identification.covariance import hac_covariance
 from adaptive_ff.identification.identify import identify
-from adaptive_ff.identification.model_error import assess_model_error, hac_covariance_fft, ljung_box
+from adaptive_ff.identification.model_error import (ModelErrorSettings, assess_model_error, hac_covariance_fft,
+                                                    ljung_box)
 from adaptive_ff.identification.regression import theta_from_physical
 from adaptive_ff.identification.uncertainty import eq4_block_bootstrap
 from adaptive_ff.io.data import MeasuredData
@@ -153,8 +154,12 @@ def test_a_correctly_specified_log_keeps_its_intervals_and_covers_the_truth():
 def test_assess_model_error_checks_its_arguments():
     X = np.column_stack([np.ones(50), np.arange(50.0)])
     y = X @ [1.0, 2.0]
-    with pytest.raises(ParameterError, match="blocks"):
-        assess_model_error(X, y, [1.0, 2.0], lambda th: th, ("a", "b"), blocks=2)
+    with pytest.raises(ParameterError, match="blocks must be an integer >= 3, got 2"):
+        ModelErrorSettings(blocks=2)
+    with pytest.raises(ParameterError, match=r"level must be a float in \(0, 1\), got 1"):
+        ModelErrorSettings(level=1)
+    with pytest.raises(ParameterError, match="settings must be a ModelErrorSettings"):
+        assess_model_error(X, y, [1.0, 2.0], lambda th: th, ("a", "b"), settings={"blocks": 3})
     with pytest.raises(SignalError, match="too few"):
         assess_model_error(X[:5], y[:5], [1.0, 2.0], lambda th: th, ("a", "b"))
     with pytest.raises(SignalError, match="X must be"):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-from adaptive_ff.identification.covariance import (circular_block_resample, politis_white_block,
+from adaptive_ff.identification.covariance import (BootstrapSettings, circular_block_resample, politis_white_block,
                                                      residual_block_bootstrap)
 from adaptive_ff.identification.identify import identify
 from adaptive_ff.identification.uncertainty import (FrictionBand, ParameterUncertainty, friction_band,
@@ -73,8 +73,8 @@ def test_bootstrap_se_of_ols_on_white_residuals_matches_the_analytic_se():
     # OLS standard error with s^2 = RSS/m (the residual bootstrap's variance; Efron & Tibshirani Sec. 9.5)
     se_ols = np.sqrt(np.diag(float(res @ res) / m * np.linalg.inv(X.T @ X)))
     pinv = np.linalg.pinv(X)
-    b = residual_block_bootstrap(lambda ys: pinv @ ys, X @ beta, res, beta, n=4000, block=1,
-                                 rng=np.random.default_rng(2))
+    b = residual_block_bootstrap(lambda ys: pinv @ ys, X @ beta, res, beta,
+                                 settings=BootstrapSettings(n=4000, block=1, seed=2))
     assert b.n_valid == 4000 and b.block == 1
     np.testing.assert_allclose(b.stderr, se_ols, rtol=0.04)
     np.testing.assert_allclose(b.bias, 0.0, atol=0.1 * se_ols.max())
@@ -85,9 +85,10 @@ def test_block_bootstrap_keeps_the_colour_of_ar1_residuals():
     m, phi = 20_000, 0.8
     e = _ar1(phi, m, 9)
     se_true = 1.0 / (1 - phi) / math.sqrt(m)
-    b = residual_block_bootstrap(np.mean, np.zeros(m), e, [0.0], n=400, rng=np.random.default_rng(0))
+    b = residual_block_bootstrap(np.mean, np.zeros(m), e, [0.0], settings=BootstrapSettings(n=400, seed=0))
     assert b.stderr[0] == pytest.approx(se_true, rel=0.2)
-    white = residual_block_bootstrap(np.mean, np.zeros(m), e, [0.0], n=400, block=1, rng=np.random.default_rng(0))
+    white = residual_block_bootstrap(np.mean, np.zeros(m), e, [0.0],
+                                     settings=BootstrapSettings(n=400, block=1, seed=0))
     assert white.stderr[0] < 0.5 * se_true  # i.i.d. resampling loses the colour: far too small
 
 
@@ -211,3 +212,19 @@ def test_output_error_fit_reports_interval_and_band_of_its_bootstrap():
     assert np.all(np.array(band["lower"]) <= F) and np.all(F <= np.array(band["upper"]))
     assert band["n_replicates"] == n_valid
     json.dumps(f.to_dict(), allow_nan=False)
+
+
+def test_residual_bootstrap_resamples_by_the_scheme_of_its_settings():
+    res, fitted = np.cos(np.arange(40.0)), np.zeros(40)
+    # circular (default): the replicates are fitted + circular_block_resample, drawn in turn from default_rng(seed)
+    b = residual_block_bootstrap(lambda ys: [ys.mean()], fitted, res, [0.0],
+                                 settings=BootstrapSettings(n=5, block=4, seed=1))
+    rng = np.random.default_rng(1)
+    expected = [circular_block_resample(res, 40, block=4, rng=rng).mean() for _ in range(5)]
+    assert b.replicates[:, 0].tolist() == expected and b.block == 4
+    # wild: each residual kept in place with one sign per block, so the mean square is the residuals' own
+    wild = residual_block_bootstrap(lambda ys: [np.mean(ys**2)], fitted, res, [0.0],
+                                    settings=BootstrapSettings(n=5, block=4, seed=1, scheme="wild"))
+    np.testing.assert_allclose(wild.replicates[:, 0], np.mean(res**2), rtol=1e-12)
+    with pytest.raises(ParameterError, match="settings must be a BootstrapSettings"):
+        residual_block_bootstrap(np.mean, fitted, res, [0.0], settings={"n": 5})

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from adaptive_ff.identification.identify import identify
-from adaptive_ff.identification.model_error import COLOUR_RATIO, assess_model_error
+from adaptive_ff.identification.model_error import COLOUR_RATIO, ModelErrorSettings, assess_model_error
 from plant import preset
 from plant.errors import ParameterError
 
@@ -46,9 +46,9 @@ def _ratios(check):
 @pytest.mark.parametrize("slow, white", [(3, 1), (1, 3)])
 def test_shared_colour_names_only_a_parameter_that_stands_out(slow, white):
     X, y, th, names = _regression(slow, white)
-    kw = dict(blocks=3)
-    by_white = assess_model_error(X, y, th, lambda v: v, names, **kw)
-    by_shared = assess_model_error(X, y, th, lambda v: v, names, colour_reference="shared", **kw)
+    by_white = assess_model_error(X, y, th, lambda v: v, names, settings=ModelErrorSettings(blocks=3))
+    by_shared = assess_model_error(X, y, th, lambda v: v, names,
+                                   settings=ModelErrorSettings(blocks=3, colour_reference="shared"))
     ratio = _ratios(by_white)
     assert by_white.whiteness["p"] < 1e-6 and by_white.whiteness["rho1"] > 0.9
     slow_names = {k for k in names if k.startswith("s")}
@@ -63,7 +63,7 @@ def test_shared_colour_names_only_a_parameter_that_stands_out(slow, white):
 def test_unknown_colour_reference_is_refused():
     X, y, th, names = _regression(1, 3)
     with pytest.raises(ParameterError, match="colour_reference must be 'white' or 'shared', got 'red'"):
-        assess_model_error(X, y, th, lambda v: v, names, colour_reference="red")
+        assess_model_error(X, y, th, lambda v: v, names, settings=ModelErrorSettings(colour_reference="red"))
 
 
 def test_a_pi_log_names_only_the_parameter_outside_its_interval():

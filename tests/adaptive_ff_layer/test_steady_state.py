@@ -64,9 +64,9 @@ def test_bins_with_inertia_correction_use_accelerating_samples():
     w = 0.4 * (2 * np.abs((t / 10) % 1 - 0.5) * 2 - 1)  # triangle, +-0.4 rad/s, slope 0.16 rad/s^2
     a = np.gradient(w, t)
     u = P.friction(w) + P.J * a
-    pts = binned_steady_state(t, u, w, J=P.J, n_bins=8, w_min=0.01)
+    pts = binned_steady_state(MeasuredData(t, u, w), J=P.J, n_bins=8, w_min=0.01)
     np.testing.assert_allclose(pts.u_mean, P.friction(pts.w_mean), rtol=0.02, atol=0.3)
-    plain = binned_steady_state(t, u, w, n_bins=8, w_min=0.01, max_accel=0.1)
+    plain = binned_steady_state(MeasuredData(t, u, w), n_bins=8, w_min=0.01, max_accel=0.1)
     assert np.all(np.abs(plain.w_mean) > 0.39)  # only the turning points of the sweep are slow enough
 
 

@@ -13,7 +13,7 @@ import shutil
 import numpy as np
 import pytest
 
-from adaptive_ff.compensation.export_c import export_c
+from adaptive_ff.compensation.export_c import JointExport, export_c
 from controllers import ModeOptions, design_pi
 from controllers._cctl import ffi
 from controllers.simulation.batch import run_batch
@@ -38,7 +38,7 @@ def library(tmp_path_factory):
     d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
     _, _, comp = build_mode(p, "adaptive", _options(p, d))
     out = tmp_path_factory.mktemp("export") / "drive_ff"
-    export_c(comp, out, J_design=p.J, u_max=150.0, Kp=d.Kp, Ki=d.Ki)
+    export_c(JointExport(compensator=comp, J_design=p.J, u_max=150.0, Kp=d.Kp, Ki=d.Ki), out)
     return ExportedLibrary(out)
 
 

@@ -319,3 +319,13 @@ def test_pi_pickles_and_copies_its_state():
     u = [c.step(x, 2.0) for x in e[100:]]
     for d in copies:
         assert [d.step(x, 2.0) for x in e[100:]] == u and d.integral == c.integral
+
+
+def test_pi_tuning_gives_its_gains_or_the_design_at_its_targets():
+    from controllers.design.pi import PITuning
+
+    assert PITuning(Kp=3.0, Ki=7.0).gains(4.0, sigma=1.0, Tc=1e-3) == (3.0, 7.0)
+    d = design_pi(4.0, sigma=1.0, crossover=35.0, phase_margin=55.0, Tc=2e-3)
+    assert PITuning(crossover=35.0, phase_margin=55.0).gains(4.0, sigma=1.0, Tc=2e-3) == (d.Kp, d.Ki)
+    with pytest.raises(ParameterError, match="give both --Kp and --Ki, or neither"):
+        PITuning(Kp=3.0)

@@ -112,10 +112,10 @@ def test_noise_reproducible_with_seed():
         (dict(velocities=[0.1], hold=0.0), ParameterError, "hold"),
         (dict(velocities=[0.1], hold=1e-5), ParameterError, "hold"),
         (dict(velocities=[0.1], settle=-1.0), ParameterError, "settle"),
-        (dict(velocities=[0.1], Tc=0.0), ParameterError, "Tc"),
         (dict(velocities=[0.1], noise_std=-1.0), ParameterError, "noise_std"),
         (dict(velocities=[0.1], u_max=-1.0), ParameterError, "u_max"),
-        (dict(velocities=[0.1], Tc=2e-3, design=design_pi(4.0, Tc=1e-3)), ParameterError, "Tc"),
+        (dict(velocities=[0.1], design={"Kp": 1.0, "Ki": 1.0, "Tc": 1e-3}), TypeError, "design must be a PIDesign"),
+        (dict(velocities=[0.1], hold=1e-3, design=design_pi(4.0, Tc=2e-3)), ParameterError, "hold must be >= Tc"),
     ],
 )
 def test_quasi_static_bad_inputs(kwargs, exc, name):

@@ -381,7 +381,7 @@ def test_a_zoo_through_a_compiled_export_gives_the_packages_numbers(tmp_path):
     # configured per joint by its own aff_init; the numbers are the package's, bit for bit
     import shutil
 
-    from adaptive_ff.compensation.export_c import export_c
+    from adaptive_ff.compensation.export_c import JointExport, export_c
     from controllers import ModeOptions, design_pi
     from controllers.simulation.compensators import build_mode
     from plant.friction import preset
@@ -392,7 +392,7 @@ def test_a_zoo_through_a_compiled_export_gives_the_packages_numbers(tmp_path):
     d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
     _, _, comp = build_mode(p, "adaptive", ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta,
                                                        J_design=p.J))
-    export_c(comp, tmp_path / "drive_ff", J_design=p.J, u_max=150.0, Kp=d.Kp, Ki=d.Ki)
+    export_c(JointExport(compensator=comp, J_design=p.J, u_max=150.0, Kp=d.Kp, Ki=d.Ki), tmp_path / "drive_ff")
     modes = ("none", "adaptive", "frictionless")
     pkg = run_zoo(ZooOptions(n=3, duration=10.0, seed=1, modes=modes, workers=1))
     exp = run_zoo(ZooOptions(n=3, duration=10.0, seed=1, modes=modes, workers=1, export=tmp_path / "drive_ff"))

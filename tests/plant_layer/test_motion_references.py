@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pytest
 
+from adaptive_ff.io.logs import LogUnits
 from adaptive_ff.io.references import load_reference
 from controllers.simulation.metrics import reversal_times
 from plant.errors import ParameterError, SignalError
@@ -114,7 +115,7 @@ def test_load_reference_velocity_in_other_units(tmp_path):
     wd = 30.0 * np.sin(2 * np.pi * 0.5 * ts * 1e-3)  # deg/s
     f = tmp_path / "traj.csv"
     np.savetxt(f, np.column_stack([ts, wd]), delimiter=",", header="time_ms,vel_deg", comments="")
-    r = load_reference(f, time="time_ms", velocity="vel_deg", time_unit="ms", velocity_unit="deg/s")
+    r = load_reference(f, time="time_ms", velocity="vel_deg", units=LogUnits(time_unit="ms", velocity_unit="deg/s"))
     assert r.t[0] == 0.0 and math.isclose(r.t[-1], 4.0) and r.t.size == 4001
     exact = np.deg2rad(30.0) * np.sin(np.pi * r.t)
     # linear interpolation between 2 ms samples: error <= (2 ms)^2/8 * max|w''|
@@ -143,7 +144,9 @@ def test_load_reference_errors_name_file_row_and_value(tmp_path):
     with pytest.raises(ParameterError, match="exactly one"):
         load_reference(f, velocity="w", position="w")
     with pytest.raises(ParameterError, match="velocity_unit"):
-        load_reference(f, velocity="w", velocity_unit="m/s")
+        LogUnits(velocity_unit="m/s")
+    with pytest.raises(ParameterError, match="no torque column"):
+        load_reference(f, velocity="w", units=LogUnits(current_to_torque=0.1))
     f.write_text("t,w\n0,0\n0.001,nan\n")
     with pytest.raises(SignalError, match=r"bad\.csv.*'w'.*row 2"):
         load_reference(f, velocity="w")
@@ -163,3 +166,12 @@ def test_a_point_to_point_reference_runs_in_the_closed_loop():
         assert np.all(np.isfinite(r.w)), m
     rms = {m: float(np.sqrt(np.mean((r.w_ref - r.w) ** 2))) for m, r in res.items()}
     assert rms["adaptive"] < rms["none"]
+
+
+def test_load_reference_position_in_encoder_counts(tmp_path):
+    t = np.arange(0, 2001) * 1e-3
+    counts = 4096.0 * t  # a ramp of 4096 counts/s on a 4096-count encoder: one revolution per second
+    f = tmp_path / "enc.csv"
+    np.savetxt(f, np.column_stack([t, counts]), delimiter=",", header="t,q", comments="")
+    r = load_reference(f, position="q", units=LogUnits(position_unit="counts", counts_per_rev=4096.0))
+    np.testing.assert_allclose(r.w, 2.0 * np.pi, rtol=1e-9)
