@@ -10,7 +10,7 @@ result, :class:`controllers.experiments.comparison.Comparison`, with eta and the
 from __future__ import annotations
 
 import math
-from dataclasses import MISSING, dataclass, field, fields, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -20,8 +20,9 @@ from adaptive_ff.compensation.feedforward import FF_INPUTS, project_estimate
 from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from adaptive_ff.compensation.sliding_estimator import fit_sliding
-from controllers.simulation.closed_loop import ModeOptions, run_mode, run_own
+from controllers.simulation.closed_loop import run_mode, run_own
 from controllers.simulation.compensators import ESTIMATORS, MODES, check_estimator
+from controllers.simulation.loop_config import LoopConfig
 from controllers.simulation.memory import MODE_SIGNALS, PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
 from controllers.simulation.user_compensator import CompensatorContext, CompensatorError
 from controllers.design.pi import PIDesign, design_pi
@@ -70,15 +71,15 @@ def friction_scale(p, peak_w: float) -> float:
     return float(np.max(np.abs(np.concatenate([p.friction(wg), p.friction(-wg)]))))
 
 
-#: The knobs :class:`CompareOptions` shares with the loop's options (:class:`ModeOptions`, the bare loop of
-#: :func:`controllers.simulation.closed_loop.run_mode`): one knob, one check (ModeOptions') and one default, the
+#: The knobs :class:`CompareOptions` shares with the loop's options (:class:`LoopConfig`, the bare loop of
+#: :func:`controllers.simulation.closed_loop.run_mode`): one knob, one check (LoopConfig's) and one default, the
 #: loop's, but for :data:`EXPERIMENT_DEFAULTS`.
 LOOP_KNOBS = ("Tc", "Ts", "u_max", "noise_std", "lam", "lag", "estimator", "iv_map_stderr", "ff_input", "sign_width",
               "stick_band", "stick_samples", "T_filter", "forgetting", "warmup", "omega_q", "switch_in", "dwell_max",
               "offset", "Vs", "delta", "J_design", "sign_input", "observer_bandwidth", "encoder_counts", "delay",
               "slew_rate", "velocity", "velocity_bandwidth", "velocity_model")
 
-#: The experiment's own defaults of knobs the bare loop (:class:`ModeOptions`, the C components) defaults otherwise,
+#: The experiment's own defaults of knobs the bare loop (:class:`LoopConfig`, the C components) defaults otherwise,
 #: the one place where they differ, each on purpose: ``noise_std`` 1e-3 rad/s (a real sensor's noise; the bare loop
 #: is noiseless); ``u_max`` None (three times the measured friction level plus the design inertia times the
 #: reference's peak acceleration; the bare loop is unbounded); ``warmup`` 50 sliding-regime RLS updates (the bare
@@ -87,12 +88,12 @@ LOOP_KNOBS = ("Tc", "Ts", "u_max", "noise_std", "lam", "lag", "estimator", "iv_m
 #: noise; the bare component's 0 detects no sticking) and ``stick_samples`` 50 (50 ms at 1 ms: with the observer's
 #: sign a slow reversal is not taken for sticking; the component's 10: docs/benchmarks/compensation.md).
 EXPERIMENT_DEFAULTS = {"noise_std": 1e-3, "u_max": None, "warmup": 50, "stick_band": None, "stick_samples": 50}
-_LOOP_DEFAULTS = {f.name: f.default for f in fields(ModeOptions) if f.default is not MISSING}
+_LOOP_DEFAULTS = LoopConfig().to_flat()
 
 
 def _knob(name: str):
     """The default of the shared knob ``name``: the experiment's own (:data:`EXPERIMENT_DEFAULTS`), else the
-    loop's (:class:`ModeOptions`, whose component defaults are the C components')."""
+    loop's (:class:`LoopConfig`, whose component defaults are the C components')."""
     return EXPERIMENT_DEFAULTS[name] if name in EXPERIMENT_DEFAULTS else _LOOP_DEFAULTS[name]
 
 
@@ -100,8 +101,8 @@ def _knob(name: str):
 class CompareOptions:
     """Settings of :func:`compare` (all keyword, validated; units SI).
 
-    The knobs it shares with the loop's options (:data:`LOOP_KNOBS`) take :class:`ModeOptions`' defaults (the C
-    components' where they mirror one), but for the experiment's own, :data:`EXPERIMENT_DEFAULTS`; ModeOptions checks
+    The knobs it shares with the loop's options (:data:`LOOP_KNOBS`) take :class:`LoopConfig`'s defaults (the C
+    components' where they mirror one), but for the experiment's own, :data:`EXPERIMENT_DEFAULTS`; LoopConfig checks
     them (:meth:`loop_fields` passes them on).
 
     Parameters
@@ -136,7 +137,7 @@ class CompareOptions:
         Velocity measurement noise (rad/s), default 1e-3.
     lam : float or None
         Forgetting factor of the adaptive estimators (default per estimator, see
-        :class:`controllers.simulation.compensators.ModeOptions`).
+        :class:`controllers.simulation.loop_config.LoopConfig`).
     prefit : bool
         Estimate Vs, delta by the Stribeck pre-fit from quasi-static runs designed from the joint's response
         (:func:`controllers.experiments.quasi_static.stribeck_experiment`, paper Sec. V-C). Run only for the
@@ -156,7 +157,7 @@ class CompareOptions:
         Estimator of the ``adaptive`` mode: ``eq4`` the paper's eq. 4 by instrumental variables (consistent in the
         closed loop), ``eq4-rls`` by the paper's RLS as printed (biased there; the baseline).
     iv_map_stderr : float
-        The ``eq4`` estimator's determinacy test in mode ``adaptive`` (:class:`ModeOptions` ``iv_map_stderr``;
+        The ``eq4`` estimator's determinacy test in mode ``adaptive`` (:class:`LoopConfig` ``iv_map_stderr``;
         > 0, default ``inf``: none).
     estimator_rows : tuple of str
         Further estimators of :data:`controllers.simulation.compensators.ESTIMATORS` whose mode ``adaptive`` runs
@@ -172,7 +173,7 @@ class CompareOptions:
         The same for the ``canudas`` peer; default reference (on the ``paper`` preset the better of the two
         for that scheme, see the benchmark pages).
     sign_width, T_filter, forgetting, warmup, dwell_max, offset
-        Adaptive feedforward settings (:class:`controllers.simulation.compensators.ModeOptions`). ``warmup``
+        Adaptive feedforward settings (:class:`controllers.simulation.loop_config.LoopConfig`). ``warmup``
         (sliding-regime RLS updates before the feedforward switches on; also the ``canudas``, ``eq4`` and
         ``eq4-rls`` warm-up) defaults to 50: on every plant of ``benchmarks/variants.py`` the second-half eta of
         ``adaptive`` is that of 200 updates (the pre-fit start and the plausibility tests carry the
@@ -181,7 +182,7 @@ class CompareOptions:
         Sign of the measured-velocity feedforward's friction map inside the stick band (``fixed``, ``adaptive``,
         ``adaptive-dob``): a velocity observer of the design inertia at ``observer_bandwidth`` (default ``None``:
         five times the crossover) or the measurement's own (see
-        :class:`controllers.simulation.compensators.ModeOptions`).
+        :class:`controllers.simulation.loop_config.LoopConfig`).
     observer_bandwidth : float or None
         See ``sign_input``.
     stick_band, stick_samples : float or None, int
@@ -207,7 +208,7 @@ class CompareOptions:
         the frictionless run at every reversal (docs/benchmarks/variants.md).
     switch_in : bool
         Mode ``adaptive`` with any estimator: the residual observer of ``adaptive-dob`` switched in by itself where
-        the feedforward leaves too much of the friction (:class:`controllers.simulation.compensators.ModeOptions`
+        the feedforward leaves too much of the friction (:class:`controllers.simulation.loop_config.LoopConfig`
         ``switch_in``); default True. False: the feedforward alone (with ``estimator="eq4-rls"`` the paper's
         bare prototype).
     faults : mapping int -> float or None
@@ -231,7 +232,7 @@ class CompareOptions:
     velocity, velocity_bandwidth, velocity_model
         The encoder's velocity: ``"difference"`` (default) or ``"kalman"`` (a causal steady-state Kalman filter
         on the counts, bandwidth in Hz, default ``0.1/Tc``; kinematic model ``"cv"`` or ``"ca"``), as
-        :class:`controllers.simulation.compensators.ModeOptions`.
+        :class:`controllers.simulation.loop_config.LoopConfig`.
 
     Raises
     ------
@@ -302,9 +303,9 @@ class CompareOptions:
         check_positive("duration", self.duration)
         if self.canudas_input not in FF_INPUTS:
             raise ParameterError(f"canudas_input must be one of {FF_INPUTS}, got {self.canudas_input!r}")
-        # the knobs the loop's options carry too: checked once, by ModeOptions (Ts with the design, check_comparison)
-        ModeOptions(**{**self.loop_fields(), "Kp": 0.0, "Ki": 0.0, "u_max": math.inf, "Ts": self.Tc, "Vs": None,
-                       "delta": None, "J_design": None})
+        # the knobs the loop's options carry too: checked once, by LoopConfig (Ts with the design, check_comparison)
+        LoopConfig.from_flat(**{**self.loop_fields(), "u_max": math.inf, "Ts": self.Tc, "Vs": None, "delta": None,
+                                "J_design": None})
         self._check_estimator_rows()
         if self.u_max is not None:
             check_positive("u_max", self.u_max)
@@ -332,7 +333,7 @@ class CompareOptions:
 
     def loop_fields(self) -> dict:
         """The knobs this comparison shares with the loop's options (:data:`LOOP_KNOBS`), name -> value: the
-        keywords :func:`prepare_comparison` passes on to :class:`ModeOptions` as they are."""
+        keywords :func:`prepare_comparison` passes on to :class:`LoopConfig` as they are."""
         return {k: getattr(self, k) for k in LOOP_KNOBS}
 
     def _check_estimator_rows(self) -> None:
@@ -484,8 +485,10 @@ def compensator_context(s: ComparisonSetup, o: CompareOptions) -> CompensatorCon
     ``s`` with options ``o``: the design inertia, the PI, the periods and limits, the design's noise level
     (:func:`measurement_noise`) and the Stribeck pre-fit; never the true plant."""
     mo = s.mode_options["none"]
-    return CompensatorContext(J=float(s.J_design), Tc=mo.Tc, Ts=mo.Ts, Kp=mo.Kp, Ki=mo.Ki, u_max=mo.u_max,
-                              ff_max=mo.ff_max, noise_std=measurement_noise(o), prefit=s.prefit)
+    c = mo.controller
+    return CompensatorContext(J=float(s.J_design), Tc=c.Tc, Ts=mo.estimator.Ts, Kp=c.Kp, Ki=c.Ki,
+                              u_max=mo.drive.u_max, ff_max=mo.feedforward.ff_max, noise_std=measurement_noise(o),
+                              prefit=s.prefit)
 
 
 def comparison_reference(o: CompareOptions):
@@ -498,7 +501,7 @@ def comparison_reference(o: CompareOptions):
 @dataclass(frozen=True)
 class ComparisonSetup:
     """What :func:`compare` prepares before its runs: the reference, the PI design, the experiments and fits and
-    every mode's :class:`ModeOptions` (all from what a user has: simulated experiments, never the true friction).
+    every mode's :class:`LoopConfig` (all from what a user has: simulated experiments, never the true friction).
 
     Attributes
     ----------
@@ -508,14 +511,14 @@ class ComparisonSetup:
         Velocity reference sampled at ``Tc``.
     design : PIDesign
     mode_options : dict
-        ``{mode: ModeOptions}``.
+        ``{mode: LoopConfig}``.
     noise_seed : numpy.random.SeedSequence
         Seed of the measurement noise (the same noise in every mode).
     prefit, offline, model, experiment, J_design, notes, inertia
         As in :class:`Comparison`.
     bar : tqdm progress bar (the caller updates and closes it)
     estimator_rows : dict
-        ``{label: ModeOptions}`` of ``CompareOptions.estimator_rows``: mode ``adaptive`` with another estimator,
+        ``{label: LoopConfig}`` of ``CompareOptions.estimator_rows``: mode ``adaptive`` with another estimator,
         label ``adaptive[E]``; empty without.
     """
 
@@ -594,7 +597,7 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     ``adaptive-dob`` gets the cut-off :func:`residual_cutoff` of the design inertia, the noise estimate and the
     friction level of the quasi-static runs that held (1000 rad/s unless its noise torque would exceed half
     that level, a third where the runs found the joint sticking: :func:`residual_share`). Where the identification run's inertia contradicts the design inertia (:func:`observer_inertia`), every
-    observer takes the identified one (``ModeOptions.J_n``) and a note says so; the PI keeps its design.
+    observer takes the identified one (``LoopConfig.J_n``) and a note says so; the PI keeps its design.
     """
     run_modes = [m for m in MODES if m in set(o.modes) | {"none", "frictionless"}]
     p0 = p.at(0.0) if hasattr(p, "at") else p
@@ -675,11 +678,12 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
                               omega_max=observer_max(Tc=o.Tc, encoder_counts=o.encoder_counts, velocity=o.velocity,
                                                      velocity_bandwidth=o.velocity_bandwidth))
     # the shared knobs as given, then what the experiment measured or chose for this joint
-    mo = ModeOptions(**{**o.loop_fields(), "Kp": design.Kp, "Ki": design.Ki, "u_max": u_max, "ff_max": 0.5 * u_max,
-                        "J_design": J, "Vs": Vs, "delta": delta, "stick_band": stick_band, "model": model,
-                        "estimate": estimate, "initial": initial, "start": start, "omega_r": omega_r, "J_n": J_n})
-    opts = {mode: replace(mo, ff_input=o.canudas_input if mode == "canudas" else o.ff_input) for mode in run_modes}
-    rows = {label: replace(mo, ff_input=o.ff_input, estimator=e) for label, e in o.row_labels.items()}
+    mo = LoopConfig.from_flat(**{**o.loop_fields(), "Kp": design.Kp, "Ki": design.Ki, "u_max": u_max,
+                                 "ff_max": 0.5 * u_max, "J_design": J, "Vs": Vs, "delta": delta,
+                                 "stick_band": stick_band, "model": model, "estimate": estimate, "initial": initial,
+                                 "start": start, "omega_r": omega_r, "J_n": J_n})
+    opts = {mode: mo.replace(ff_input=o.canudas_input if mode == "canudas" else o.ff_input) for mode in run_modes}
+    rows = {label: mo.replace(ff_input=o.ff_input, estimator=e) for label, e in o.row_labels.items()}
     return ComparisonSetup(modes=tuple(run_modes), reference=ref, design=design, mode_options=opts,
                            noise_seed=noise_ss, prefit=fit, offline=offline, model=model, experiment=exp,
                            J_design=J, notes=tuple(notes), bar=bar, estimator_rows=rows, inertia=first)

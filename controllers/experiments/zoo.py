@@ -726,7 +726,7 @@ def _group_task(args) -> dict:
     n = len(specs)
     noise = {}
     for j, (opts, seed, *_rest, why) in enumerate(prepared):
-        sd = opts["none"].noise_std if why is None else 0.0
+        sd = opts["none"].sensor.noise_std if why is None else 0.0
         if why is None and sd > 0:
             noise[j] = np.random.default_rng(seed).normal(0.0, sd, size=ref.t.shape[0])
     runs = {}

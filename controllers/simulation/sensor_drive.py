@@ -141,7 +141,7 @@ class Sensor(Component):
                                      f"got bandwidth={bandwidth!r} with velocity={velocity!r}")
         if velocity == "kalman" and counts_per_rev is None:
             raise ParameterError("velocity='kalman' filters an encoder's counts: give counts_per_rev too "
-                                 "(ModeOptions: encoder_counts)")
+                                 "(LoopConfig: sensor.encoder_counts)")
         self.counts_per_rev = None if counts_per_rev is None else int(counts_per_rev)
         self._new_struct()
         res = 0.0 if counts_per_rev is None else 2.0 * math.pi / int(counts_per_rev)

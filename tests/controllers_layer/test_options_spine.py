@@ -1,4 +1,4 @@
-"""One default and one check per knob across the option bundles: the loop's options (``ModeOptions``), the
+"""One default and one check per knob across the option bundles: the loop's options (``LoopConfig``), the
 comparison's (``CompareOptions``) and the zoo's (``ZooOptions``); one registry of the adaptive mode's estimators.
 """
 
@@ -15,18 +15,20 @@ from adaptive_ff.identification.regression import RegressionModel
 from controllers.experiments.compare import EXPERIMENT_DEFAULTS, LOOP_KNOBS, CompareOptions
 from controllers.experiments.zoo import SHARED_FIELDS, ZooOptions
 from controllers.simulation import compensators
-from controllers.simulation.compensators import ESTIMATOR_BUILDERS, ModeOptions, build_mode
+from controllers.simulation.compensators import ESTIMATOR_BUILDERS, LoopConfig, build_mode
 from controllers.simulation.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
 from plant import preset
 from plant.errors import ParameterError
 
 
 def _defaults(cls) -> dict:
+    if cls is LoopConfig:  # the nested config: its settings by their flat keywords
+        return LoopConfig().to_flat()
     return {f.name: f.default for f in dataclasses.fields(cls) if f.default is not dataclasses.MISSING}
 
 
 def test_a_knob_compare_shares_with_the_loop_has_the_loops_default_or_a_named_override():
-    loop, cmp = _defaults(ModeOptions), _defaults(CompareOptions)
+    loop, cmp = _defaults(LoopConfig), _defaults(CompareOptions)
     shared = set(loop) & set(cmp)
     assert shared == set(LOOP_KNOBS), "a knob both carry must be registered in LOOP_KNOBS (one default, one check)"
     differ = {k for k in shared if cmp[k] != loop[k] or type(cmp[k]) is not type(loop[k])}
@@ -60,7 +62,7 @@ def test_the_zoo_takes_the_knobs_it_shares_with_compare_from_compare():
                                       (dict(delay=-1), "delay"), (dict(encoder_counts=0), "encoder_counts"),
                                       (dict(slew_rate=0.0), "slew_rate"), (dict(sign_input="x"), "sign_input")])
 def test_each_shared_knob_is_checked_by_the_loops_options_for_every_bundle(kw, match):
-    for make in (lambda **k: ModeOptions(Kp=1.0, Ki=0.0, **k), lambda **k: CompareOptions(duration=2.0, **k),
+    for make in (lambda **k: LoopConfig.from_flat(Kp=1.0, Ki=0.0, **k), lambda **k: CompareOptions(duration=2.0, **k),
                  lambda **k: ZooOptions(n=1, duration=2.0, **k)):
         try:
             make(**kw)
@@ -76,7 +78,7 @@ def test_the_estimators_have_one_registry_used_by_options_builders_and_the_cli()
     from controllers.cli.main import build_parser
 
     assert tuple(ESTIMATOR_BUILDERS) == ESTIMATORS and DEFAULT_ESTIMATOR == "sliding"
-    assert _defaults(ModeOptions)["estimator"] == _defaults(CompareOptions)["estimator"] == DEFAULT_ESTIMATOR
+    assert _defaults(LoopConfig)["estimator"] == _defaults(CompareOptions)["estimator"] == DEFAULT_ESTIMATOR
     compare = next(a for a in build_parser()._subparsers._group_actions[0].choices["compare"]._actions
                    if "--estimator" in a.option_strings)
     assert tuple(compare.choices) == ESTIMATORS and compare.default == DEFAULT_ESTIMATOR
@@ -89,7 +91,7 @@ def test_the_estimators_have_one_registry_used_by_options_builders_and_the_cli()
              "eq4-rls": (AdaptiveFrictionFeedforward, False)}
     assert set(kinds) == set(ESTIMATORS)
     for e, (cls, iv) in kinds.items():
-        o = ModeOptions(Kp=69.28, Ki=786.1, J_design=P.J, Vs=P.Vs, delta=P.delta, model=model, estimator=e,
+        o = LoopConfig.from_flat(Kp=69.28, Ki=786.1, J_design=P.J, Vs=P.Vs, delta=P.delta, model=model, estimator=e,
                         switch_in=False, supervise=False)
         ff = ESTIMATOR_BUILDERS[e](o, P.J, 75.0)
         assert type(ff) is cls and (iv is None or ff.iv is iv)

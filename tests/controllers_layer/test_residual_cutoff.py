@@ -54,7 +54,7 @@ def test_cutoff_bounds():
 
 def test_compare_sets_the_cutoff_from_what_the_user_measured():
     s = prepare_comparison(preset("paper"), CompareOptions(duration=3.0, modes=("adaptive-dob",)))
-    assert s.mode_options["adaptive-dob"].omega_r == 1000.0
+    assert s.mode_options["adaptive-dob"].observer.omega_r == 1000.0
 
 
 def test_zoo_joint_550_adaptive_dob_no_longer_worse_than_no_compensation():
@@ -113,11 +113,11 @@ def test_compare_gives_a_joint_that_sticks_the_stick_share(seed, joint, sticks):
     s = prepare_comparison(plant_from_dict(spec), o)
     s.bar.close()
     mo = s.mode_options["adaptive"]
-    assert (stick_speed(s.experiment) > 3.0 * mo.noise_std) is sticks
+    assert (stick_speed(s.experiment) > 3.0 * mo.sensor.noise_std) is sticks
     share = STICK_SHARE if sticks else RESIDUAL_SHARE
-    assert mo.omega_r == residual_cutoff(s.J_design, mo.noise_std, mo.Tc, friction_level(s.experiment, math.nan),
+    assert mo.observer.omega_r == residual_cutoff(s.J_design, mo.sensor.noise_std, mo.controller.Tc, friction_level(s.experiment, math.nan),
                                          share=share)
-    assert mo.stick_band == 3.0 * mo.noise_std
+    assert mo.feedforward.stick_band == 3.0 * mo.sensor.noise_std
 
 
 def test_zoo_karnopp_joint_867_eq4_within_a_tenth_of_the_default():

@@ -317,8 +317,8 @@ def test_the_residual_observer_is_no_faster_than_the_kalman_velocity():
     kw = dict(reference=ref, encoder_counts=2 ** 17, delay=1, noise_std=0.0, u_max=150.0, modes=("none", "adaptive-dob"))
     p = variant("small-inertia")
     s = prepare_comparison(p, CompareOptions(velocity="kalman", **kw))
-    assert s.mode_options["adaptive-dob"].omega_r == pytest.approx(2 * math.pi * 100.0, rel=1e-12)
+    assert s.mode_options["adaptive-dob"].observer.omega_r == pytest.approx(2 * math.pi * 100.0, rel=1e-12)
     s2 = prepare_comparison(p, CompareOptions(velocity="difference", **kw))
-    assert s2.mode_options["adaptive-dob"].omega_r == 1000.0
+    assert s2.mode_options["adaptive-dob"].observer.omega_r == 1000.0
     c = compare(p, CompareOptions(velocity="kalman", **kw), progress=False)
     assert c.eta["adaptive-dob"] >= 0.95

@@ -182,8 +182,8 @@ def test_fixed_falls_back_to_the_prefit_map_where_its_offline_fit_is_rejected():
     p = plant_from_dict(spec)
     s = prepare_comparison(p, co)
     mo = s.mode_options["fixed"]
-    assert project_estimate(s.offline.estimate, F_max=0.5 * mo.u_max) is None
-    f, e = s.prefit, mo.estimate
+    assert project_estimate(s.offline.estimate, F_max=0.5 * mo.drive.u_max) is None
+    f, e = s.prefit, mo.feedforward.estimate
     # the pre-fit's static map, no lag (the lag would come from the rejected fit), the design inertia
     assert (e.Fc, e.Fs, e.sigma, e.Vs, e.delta, e.tau, e.J, e.offset) == (f.Fc, f.Fs, f.sigma, f.Vs, f.delta, 0.0,
                                                                           s.J_design, 0.0)
@@ -295,14 +295,14 @@ def test_observers_take_the_identified_inertia_where_the_design_inertia_is_contr
     s = prepare_comparison(p, CompareOptions(duration=30.0, seed=0, modes=("none", "fixed", "dob", "adaptive-dob"),
                                              J_design=2.0 * p.J))
     s.bar.close()
-    J_n = s.mode_options["dob"].J_n
+    J_n = s.mode_options["dob"].observer.J_n
     assert J_n == s.offline.estimate.J and abs(J_n / p.J - 1.0) < 0.05
-    assert all(o.J_n == J_n for o in s.mode_options.values())
+    assert all(o.observer.J_n == J_n for o in s.mode_options.values())
     (note,) = [n for n in s.notes if n.startswith("the design inertia 8 kg·m² is ")]
     assert f"{J_n:.4g} kg·m² of the identification run" in note
 
     def eta_of(mode, **kw):
-        r = {m: run_mode(p, s.reference, m, replace(s.mode_options[m], **(kw if m == mode else {})),
+        r = {m: run_mode(p, s.reference, m, s.mode_options[m].replace(**(kw if m == mode else {})),
                          rng=np.random.default_rng(s.noise_seed)).metrics.rms_second_half
              for m in ("none", "frictionless", mode)}
         return (r["none"] - r[mode]) / (r["none"] - r["frictionless"])
@@ -318,7 +318,7 @@ def test_observers_take_the_identified_inertia_where_the_design_inertia_is_contr
     # with the right design inertia nothing changes
     s1 = prepare_comparison(p, CompareOptions(duration=30.0, seed=0, modes=("none", "fixed", "dob")))
     s1.bar.close()
-    assert s1.mode_options["dob"].J_n is None and not [n for n in s1.notes if "design inertia" in n]
+    assert s1.mode_options["dob"].observer.J_n is None and not [n for n in s1.notes if "design inertia" in n]
 
 
 def test_a_zoo_without_the_switch_in_is_compare_with_switch_in_false_on_each_joint():
@@ -382,7 +382,7 @@ def test_a_zoo_through_a_compiled_export_gives_the_packages_numbers(tmp_path):
     import shutil
 
     from adaptive_ff.compensation.export_c import export_c
-    from controllers import ModeOptions, design_pi
+    from controllers import LoopConfig, design_pi
     from controllers.simulation.compensators import build_mode
     from plant.friction import preset
 
@@ -390,7 +390,7 @@ def test_a_zoo_through_a_compiled_export_gives_the_packages_numbers(tmp_path):
         pytest.skip("no C compiler")
     p = preset("paper")
     d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
-    _, _, comp = build_mode(p, "adaptive", ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta,
+    _, _, comp = build_mode(p, "adaptive", LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta,
                                                        J_design=p.J))
     export_c(comp, tmp_path / "drive_ff", J_design=p.J, u_max=150.0, Kp=d.Kp, Ki=d.Ki)
     modes = ("none", "adaptive", "frictionless")
