@@ -69,7 +69,7 @@ def row(plant_name: str, seed: int, duration: float, bare: bool = False) -> dict
         p = drift_case(duration)
     else:
         p = preset("paper") if plant_name == "paper" else variant(plant_name)
-    s = prepare_comparison(p, CompareOptions(seed=seed, duration=duration, modes=("none", "adaptive")))
+    s = prepare_comparison(p, CompareOptions.from_flat(seed=seed, duration=duration, modes=("none", "adaptive")))
     rms = {}
     for mode in ("none", "frictionless"):
         r = run_mode(p, s.reference, mode, s.mode_options[mode], rng=np.random.default_rng(s.noise_seed))

@@ -45,7 +45,7 @@ def _rms(a, b) -> float:
 def _one(args) -> dict:
     name, seed, duration = args
     p = preset(name)
-    s = prepare_comparison(p, CompareOptions(duration=duration, seed=seed, modes=("adaptive", "fixed", "oracle"),
+    s = prepare_comparison(p, CompareOptions.from_flat(duration=duration, seed=seed, modes=("adaptive", "fixed", "oracle"),
                                              noise_std=1e-3))
     s.bar.close()
     ref = s.reference

@@ -29,7 +29,7 @@ def _zoo_part(args) -> None:
     from controllers.experiments.zoo import draw_plants
     from plant.models import plant_from_dict
 
-    co = CompareOptions(duration=args.duration, seed=args.seed, modes=tuple(args.modes.split(",")))
+    co = CompareOptions.from_flat(duration=args.duration, seed=args.seed, modes=tuple(args.modes.split(",")))
     specs = draw_plants(args.n, comparison_reference(co), seed=args.seed)
     print(f"## zoo joints (n = {args.n}, seed {args.seed}), compare, {args.duration:g} s")
     for i in (int(s) for s in args.ids.split(",")):

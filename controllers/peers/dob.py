@@ -21,7 +21,7 @@ from __future__ import annotations
 from adaptive_ff.compensation.defaults import c_defaults
 from adaptive_ff.compensation.gate import RangeGate
 from controllers._cctl import ffi, lib
-from plant.component import Component
+from plant.component import Component, struct_field
 from plant.errors import ParameterError
 
 __all__ = ["DisturbanceObserver", "DOB_ORDER_MAX"]
@@ -128,30 +128,11 @@ class DisturbanceObserver(Component):
         """Pointer to the C ops table ``aff_dob_ops`` (``aff_compensator_ops *``)."""
         return ffi.addressof(getattr(lib, self.C_OPS))
 
-    @property
-    def J_n(self) -> float:
-        """Nominal inertia (kg·m²)."""
-        return float(self._c.J_n)
-
-    @property
-    def omega_q(self) -> float:
-        """Q-filter cut-off (rad/s)."""
-        return float(self._c.omega_q)
-
-    @property
-    def Tc(self) -> float:
-        """Controller period (s)."""
-        return float(self._c.Tc)
-
-    @property
-    def order(self) -> int:
-        """Order of the binomial Q-filter."""
-        return int(self._c.order)
-
-    @property
-    def d_max(self) -> float:
-        """Bound on |d_hat| (N·m)."""
-        return float(self._c.d_max)
+    J_n = struct_field("J_n", float, "Nominal inertia (kg·m²).")
+    omega_q = struct_field("omega_q", float, "Q-filter cut-off (rad/s).")
+    Tc = struct_field("Tc", float, "Controller period (s).")
+    order = struct_field("order", int, "Order of the binomial Q-filter.")
+    d_max = struct_field("d_max", float, "Bound on |d_hat| (N·m).")
 
     @property
     def _a(self) -> float:

@@ -357,6 +357,9 @@ def _controller(mode: str, options: LoopConfig) -> PIController:
         raise ParameterError(f"mode must be one of {MODES}, got {mode!r}")
     if not isinstance(options, LoopConfig):
         raise ParameterError(f"options must be LoopConfig, got {type(options).__name__}")
+    for name, value in (("u_max", options.drive.u_max), ("stick_band", options.feedforward.stick_band)):
+        if value is None:
+            raise ParameterError(f"{name} is None (a comparison sizes it): a loop run needs a number")
     c = options.controller
     return PIController(Kp=c.Kp, Ki=c.Ki, Tc=c.Tc, u_max=options.drive.u_max)
 

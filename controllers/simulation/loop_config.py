@@ -92,13 +92,14 @@ class DriveSettings:
 
     Parameters
     ----------
-    u_max : float
-        Torque saturation (N·m) of the PI and the drive, default inf.
+    u_max : float or None
+        Torque saturation (N·m) of the PI and the drive, default inf; None: sized by a comparison
+        (:class:`controllers.experiments.compare.CompareOptions`), which a run needs done.
     slew_rate : float
         The drive's torque slew-rate limit (N·m/s), > 0, default inf (none).
     """
 
-    u_max: float = math.inf
+    u_max: float | None = math.inf
     slew_rate: float = math.inf
 
     def __post_init__(self):
@@ -225,7 +226,8 @@ class FeedforwardSettings:
     ff_input : {"measured", "reference"}
         Velocity the friction feedforward is evaluated at.
     sign_width, stick_band, stick_samples
-        See :class:`adaptive_ff.FrictionFeedforward`.
+        See :class:`adaptive_ff.FrictionFeedforward`; ``stick_band`` None: sized by a comparison (three times the
+        measurement's noise level), which a run needs done.
     stick_input : {"model", "reference"}
         Velocity the measured-velocity feedforward uses while the joint is detected as stuck: the nominal loop's
         (:class:`adaptive_ff.compensation.velocity_input.LoopModel`; default) or the reference itself (measured
@@ -251,7 +253,7 @@ class FeedforwardSettings:
     ff_max: float | None = None
     ff_input: str = FF_INPUTS[_FF["at_ref"]]
     sign_width: float = _FF["sign_width"]
-    stick_band: float = _FF["stick_band"]
+    stick_band: float | None = _FF["stick_band"]
     stick_samples: int = _FF["stick_samples"]
     stick_input: str = "model"
     sign_input: str = "observer"

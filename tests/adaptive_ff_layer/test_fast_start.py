@@ -29,7 +29,7 @@ def _est(tau, Fc=25.0, Fs=35.0, sigma=40.0):
 
 @pytest.fixture(scope="module")
 def runs():
-    s = prepare_comparison(P, CompareOptions(duration=DUR, modes=("adaptive", "fixed")))
+    s = prepare_comparison(P, CompareOptions.from_flat(duration=DUR, modes=("adaptive", "fixed")))
     run = lambda mode, o: run_mode(P, s.reference, mode, o, rng=np.random.default_rng(s.noise_seed))  # noqa: E731
     out = {m: run(m, s.mode_options[m]) for m in ("none", "frictionless", "adaptive")}
     out["no_start"] = run("adaptive", s.mode_options["adaptive"].replace(start=None))
@@ -59,7 +59,7 @@ def test_compare_starts_from_the_prefit_map_with_the_identified_lag_at_the_measu
 def test_without_an_accepted_identification_the_start_uses_the_loop_time_constant_at_the_reference():
     # u_max = 40 N·m: levels above 20 N·m (half the range) are implausible, so the offline fit (Fc ~ 25 N·m) is
     # rejected and its lag cannot be used
-    s = prepare_comparison(P, CompareOptions(duration=3.0, modes=("adaptive",), u_max=40.0))
+    s = prepare_comparison(P, CompareOptions.from_flat(duration=3.0, modes=("adaptive",), u_max=40.0))
     assert s.offline is not None and s.offline.estimate.Fc > 20.0
     st = s.mode_options["adaptive"].feedforward.start
     assert st.ff_input == "reference" and st.estimate.tau == pytest.approx(1.0 / s.design.crossover, rel=1e-12)
@@ -73,7 +73,7 @@ def test_start_deviation_pins_the_identified_lag_over_seeds():
     n2 = 2000
     devs = {k: [] for k in (0.9, 1.0, 1.1)}
     for seed in (0, 1, 2):
-        s = prepare_comparison(P, CompareOptions(duration=DUR, seed=seed, modes=("adaptive",)))
+        s = prepare_comparison(P, CompareOptions.from_flat(duration=DUR, seed=seed, modes=("adaptive",)))
         run = lambda mode, o: run_mode(P, s.reference, mode, o, rng=np.random.default_rng(s.noise_seed))  # noqa: E731
         wl = run("frictionless", s.mode_options["frictionless"]).w
         mo = s.mode_options["adaptive"]

@@ -195,7 +195,7 @@ def static_runs():
     p = variant("static")
     d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=DT)
     o = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
-    ref = comparison_reference(CompareOptions(duration=20.0, seed=1))
+    ref = comparison_reference(CompareOptions.from_flat(duration=20.0, seed=1))
     runs = {m: run_mode(p, ref, m, o, rng=np.random.default_rng(0)) for m in ("none", "frictionless", "adaptive")}
 
     runs["refusing"] = run_mode(p, ref, "adaptive", o.replace(lag_zero=0.0, project=False),

@@ -334,7 +334,7 @@ def test_settings_are_checked():
 
 
 def _etas(p, duration=60.0, J_design=None):
-    o = CompareOptions(duration=duration, seed=0, modes=("none", "adaptive", "frictionless"), J_design=J_design)
+    o = CompareOptions.from_flat(duration=duration, seed=0, modes=("none", "adaptive", "frictionless"), J_design=J_design)
     s = prepare_comparison(p, o)
 
     def run(mode, **kw):

@@ -105,15 +105,15 @@ def test_objects_without_the_protocol_are_refused():
     with pytest.raises(ParameterError, match="compensate"):
         run_closed_loop(plant, ctrl, object(), REF)
     with pytest.raises(ParameterError, match="built-in mode"):
-        CompareOptions(compensators={"adaptive": lambda ctx: None})
+        CompareOptions.from_flat(compensators={"adaptive": lambda ctx: None})
     with pytest.raises(ParameterError, match="callable"):
-        CompareOptions(compensators={"mine": 3})
+        CompareOptions.from_flat(compensators={"mine": 3})
 
 
 def test_compare_runs_a_user_compensator_beside_the_modes():
     from controllers.experiments.compare import prepare_comparison
 
-    o = CompareOptions(duration=20.0, seed=2, modes=("none", "adaptive"))
+    o = CompareOptions.from_flat(duration=20.0, seed=2, modes=("none", "adaptive"))
     adaptive_opts = prepare_comparison(P, o, progress=False).mode_options["adaptive"]
     seen = {}
 

@@ -15,7 +15,7 @@ from controllers.experiments.zoo import (ZOO_MODELS, ZooBox, ZooOptions, ZooResu
 from plant.errors import ParameterError
 from plant.models import plant_from_dict
 
-REF = comparison_reference(CompareOptions(duration=4.0, seed=0))
+REF = comparison_reference(CompareOptions.from_flat(duration=4.0, seed=0))
 
 
 def test_draw_plants_fills_the_box_and_scales_friction_to_the_torque_demand():
@@ -61,7 +61,7 @@ def test_sweep_random_plants_spec_draws_every_model_with_all_its_keys():
                       "modes": ["none", "dob"]})
     cases = expand_cases(spec)
     assert len(cases) == 12 and len({c["id"] for c in cases}) == 12
-    ref = comparison_reference(CompareOptions(duration=4.0, seed=0))
+    ref = comparison_reference(CompareOptions.from_flat(duration=4.0, seed=0))
     drawn = draw_plants(12, ref, seed=4, box=zoo_box({"p_drift": 1.0}))  # the same drawing code
     assert [c["plant"] for c in cases] == drawn
     assert {c["plant"]["model"] for c in cases} == set(ZOO_MODELS) and all("drift" in c["plant"] for c in cases)
@@ -109,7 +109,7 @@ def test_eta_is_undefined_where_friction_does_not_degrade_the_loop_and_reported_
     # seed 1, 6 s: the reference does not reverse in the second half (|w_ref| >= 0.06 rad/s there), the PI
     # integrator absorbs the friction and the uncompensated loop tracks within 1 % of the frictionless one: eta,
     # a ratio over that difference, is undefined (it used to come out NaN or as a meaningless 5.1)
-    ref = comparison_reference(CompareOptions(duration=6.0, seed=1))
+    ref = comparison_reference(CompareOptions.from_flat(duration=6.0, seed=1))
     assert np.min(np.abs(ref.w[ref.w.size // 2:])) > 0.06
     modes = ("none", "dob", "frictionless")  # no pre-fit: a second or two
     r = run_zoo(ZooOptions(n=3, duration=6.0, seed=1, modes=modes, workers=1))
@@ -175,9 +175,9 @@ def test_fixed_falls_back_to_the_prefit_map_where_its_offline_fit_is_rejected():
     # Fs = 5.0 N·m (true 1.10 N·m), above half the actuator range, so `fixed` used to be refused on it
     # with its exact inertia as the data sheet's: on the identified one (-0.5 %) the offline fit's levels stay below
     # half the drive's range and `fixed` keeps its own fit
-    co = CompareOptions(duration=20.0, seed=0, modes=("none", "fixed", "frictionless"))
+    co = CompareOptions.from_flat(duration=20.0, seed=0, modes=("none", "fixed", "frictionless"))
     spec = draw_plants(19, comparison_reference(co), seed=0)[18]
-    co = replace(co, J_design=spec["J"])
+    co = co.replace(J_design=spec["J"])
     assert spec["model"] == "karnopp"
     p = plant_from_dict(spec)
     s = prepare_comparison(p, co)
@@ -292,7 +292,7 @@ def test_observers_take_the_identified_inertia_where_the_design_inertia_is_contr
     from plant.friction import preset
 
     p = preset("paper")
-    s = prepare_comparison(p, CompareOptions(duration=30.0, seed=0, modes=("none", "fixed", "dob", "adaptive-dob"),
+    s = prepare_comparison(p, CompareOptions.from_flat(duration=30.0, seed=0, modes=("none", "fixed", "dob", "adaptive-dob"),
                                              J_design=2.0 * p.J))
     s.bar.close()
     J_n = s.mode_options["dob"].observer.J_n
@@ -316,7 +316,7 @@ def test_observers_take_the_identified_inertia_where_the_design_inertia_is_contr
     assert observer_inertia(est.J / (J_CONTRADICTED * 1.01), est) == est.J
     assert observer_inertia(8.0, None) is None and observer_inertia(8.0, replace(est, J=math.nan)) is None
     # with the right design inertia nothing changes
-    s1 = prepare_comparison(p, CompareOptions(duration=30.0, seed=0, modes=("none", "fixed", "dob")))
+    s1 = prepare_comparison(p, CompareOptions.from_flat(duration=30.0, seed=0, modes=("none", "fixed", "dob")))
     s1.bar.close()
     assert s1.mode_options["dob"].observer.J_n is None and not [n for n in s1.notes if "design inertia" in n]
 
@@ -328,7 +328,8 @@ def test_a_zoo_without_the_switch_in_is_compare_with_switch_in_false_on_each_joi
     modes = ("none", "adaptive", "frictionless")
     # the joint's exact inertia (J_design_factor 1): with the identified one it does not switch in within 10 s
     o = ZooOptions(n=1, duration=10.0, seed=1, modes=modes, workers=1, switch_in=False, J_design_factor=1.0)
-    assert o.compare_options().switch_in is False and ZooOptions().compare_options().switch_in is True
+    assert o.compare_options().loop.observer.switch_in is False
+    assert ZooOptions().compare_options().loop.observer.switch_in is True
     r = run_zoo(o)
     p = plant_from_dict(r.plants[0])
     bare = compare(p, duration=10.0, seed=1, modes=modes, progress=False, switch_in=False, J_design=p.J)
@@ -359,13 +360,13 @@ def test_a_zoo_placed_into_a_scenario_is_compare_on_each_joint_with_the_scenario
     o = ZooOptions(n=2, seed=5, modes=modes, base=sc.options, workers=1)
     assert o.duration == pytest.approx(sc.options.reference.t.shape[0] * 1e-3)
     co = o.compare_options()
-    assert co.reference is sc.options.reference and co.u_max is None and co.crossover == sc.options.crossover
-    assert (co.delay, co.noise_std, co.seed) == (sc.options.delay, sc.options.noise_std, 5)
+    assert co.reference is sc.options.reference and co.loop.drive.u_max is None and co.crossover == sc.options.crossover
+    assert (co.loop.sensor, co.seed) == (sc.options.loop.sensor, 5)
     r = run_zoo(o)
     assert r.plants == draw_plants(2, sc.options.reference, seed=5)
     json.loads(json.dumps(zoo_options_dict(o), allow_nan=False))
     for j in range(2):
-        c = compare(plant_from_dict(r.plants[j]), replace(sc.options, seed=5, modes=modes, u_max=None,
+        c = compare(plant_from_dict(r.plants[j]), sc.options.replace(seed=5, modes=modes, u_max=None,
                                                           compensators=None), progress=False)
         for m in modes:
             assert r.rms[m][j] == pytest.approx(c.results[m].metrics.rms_second_half, rel=1e-12), (j, m)
