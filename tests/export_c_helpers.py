@@ -106,7 +106,7 @@ def closed_loop_log(options, n: int = N) -> tuple:
     from plant.excitation import multisine_reference
 
     opts = options.replace(noise_std=NOISE, decimate=1, sensor_gate=False)
-    ref = multisine_reference(n * opts.Tc, dt=opts.Tc, rng=np.random.default_rng(1))
+    ref = multisine_reference(n * opts.controller.Tc, dt=opts.controller.Tc, rng=np.random.default_rng(1))
     r = run_mode(preset("paper"), ref, "adaptive", opts, rng=np.random.default_rng(2))
     assert r.u.shape == (n,)
     return r.u, r.w_meas, r.w_ref, r.u_ff
