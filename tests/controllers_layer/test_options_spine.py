@@ -138,3 +138,27 @@ def test_the_compare_flags_are_paths_of_the_loops_config_with_the_registries_cho
             assert float(m.group(1)) == o.flat(name), flag
             checked += 1
     assert checked == 4  # --iv-map-stderr, --omega-q, --Ts, --noise
+
+
+def test_the_loops_config_has_one_path_per_setting_and_one_map_from_the_flat_names():
+    from controllers.simulation.loop_config import GROUPS
+
+    paths = [(g, f.name) for g, cls in GROUPS.items() for f in dataclasses.fields(cls)]
+    assert sorted(FLAT_PATHS.values()) == sorted(paths) and len(set(paths)) == len(paths) == len(FLAT_PATHS) == 61
+    assert FLAT_PATHS["estimator"] == ("estimator", "name") and FLAT_PATHS["supervise"] == ("supervisor", "enabled")
+    assert FLAT_PATHS["supervise_window"] == ("supervisor", "window") and FLAT_PATHS["sensor_gate"] == ("sensor", "gate")
+    o = LoopConfig.from_flat(Kp=2.0, Ki=30.0, estimator="eq4-rls", supervise_window=4.0, encoder_counts=4096)
+    assert (o.controller.Kp, o.controller.Ki, o.estimator.name, o.supervisor.window, o.sensor.encoder_counts) == \
+        (2.0, 30.0, "eq4-rls", 4.0, 4096)
+    assert LoopConfig.from_flat(**o.to_flat()) == o and o.flat("supervise_window") == 4.0
+    r = o.replace(lam=0.99, omega_r=800.0)
+    assert (r.estimator.lam, r.observer.omega_r, r.estimator.name, o.estimator.lam) == (0.99, 800.0, "eq4-rls", None)
+    assert r.controller is o.controller and r.sensor is o.sensor  # untouched groups are shared, not copied
+    with pytest.raises(ParameterError, match="unknown loop setting 'lamda'"):
+        LoopConfig.from_flat(lamda=0.9)
+    with pytest.raises(ParameterError, match=r"^Ts = 0.0105 s must be a positive multiple of Tc"):  # ties two groups
+        LoopConfig.from_flat(Tc=1e-3, Ts=0.0105)
+    with pytest.raises(ParameterError, match="estimator must be a EstimatorSettings"):
+        LoopConfig(estimator="eq4")
+    with pytest.raises(ParameterError, match="u_max is None"):  # sized by a comparison: a run needs a number
+        build_mode(preset("paper"), "none", LoopConfig.from_flat(u_max=None))
