@@ -1,22 +1,22 @@
 """The settings of a closed loop as one nested, frozen :class:`LoopConfig`: one group per part of the loop.
 
-==============  ================================================================================================
-group           settings (flat keyword of :meth:`LoopConfig.from_flat` where it differs: ``flat -> field``)
-==============  ================================================================================================
-``controller``  ``Kp``, ``Ki``, ``Tc``, ``J_design``
-``drive``       ``u_max``, ``slew_rate``
-``sensor``      ``noise_std``, ``encoder_counts``, ``delay``, ``velocity``, ``velocity_bandwidth``,
-                ``velocity_model``; ``sensor_gate -> gate``
-``estimator``   ``estimator -> name``, ``Ts``, ``lam``, ``P0``, ``forgetting``, ``T_filter``, ``initial``,
-                ``dwell_max``, ``offset``, ``Vs``, ``delta``, ``model``, ``iv_Ts``, ``iv_map_stderr``
-``feedforward`` ``estimate``, ``warmup``, ``lag``, ``lag_margin``, ``lag_margin_max``, ``max_rel_stderr``,
-                ``lag_memory``, ``lag_zero``, ``project``, ``start``, ``ff_max``, ``ff_input``, ``sign_width``,
-                ``stick_band``, ``stick_samples``, ``stick_input``, ``sign_input``, ``observer_bandwidth``
-``observer``    ``J_n``, ``omega_q``, ``omega_r``, ``switch_in``, ``switch_in_ratio``
-``supervisor``  ``supervise -> enabled``, ``supervise_X -> X`` (``window``, ``margin``, ``omega``, ``tracking``,
-                ``track_margin``, ``rest_band``)
-``run``         ``w_limit``, ``decimate``, ``reversal_window``, ``friction0``
-==============  ================================================================================================
+================  ==============================================================================================
+group             settings (flat keyword of :meth:`LoopConfig.from_flat` where it differs: ``flat -> field``)
+================  ==============================================================================================
+``controller``    ``Kp``, ``Ki``, ``Tc``, ``J_design``
+``drive``         ``u_max``, ``slew_rate``
+``sensor``        ``noise_std``, ``encoder_counts``, ``delay``, ``velocity``, ``velocity_bandwidth``,
+                  ``velocity_model``; ``sensor_gate -> gate``
+``estimator``     ``estimator -> name``, ``Ts``, ``lam``, ``P0``, ``forgetting``, ``T_filter``, ``initial``,
+                  ``dwell_max``, ``offset``, ``Vs``, ``delta``, ``model``, ``iv_Ts``, ``iv_map_stderr``
+``feedforward``   ``estimate``, ``warmup``, ``lag``, ``lag_margin``, ``lag_margin_max``, ``max_rel_stderr``,
+                  ``lag_memory``, ``lag_zero``, ``project``, ``start``, ``ff_max``, ``ff_input``, ``sign_width``,
+                  ``stick_band``, ``stick_samples``, ``stick_input``, ``sign_input``, ``observer_bandwidth``
+``observer``      ``J_n``, ``omega_q``, ``omega_r``, ``switch_in``, ``switch_in_ratio``
+``supervisor``    ``supervise -> enabled``, ``supervise_X -> X`` (``window``, ``margin``, ``omega``, ``tracking``,
+                  ``track_margin``, ``rest_band``)
+``run``           ``w_limit``, ``decimate``, ``reversal_window``, ``friction0``
+================  ==============================================================================================
 
 A setting that mirrors a component's C setting takes that setting's C default (``aff_X_default_config()``, read
 by :func:`adaptive_ff.compensation.defaults.c_defaults`) and leaves its range to the component: the group's
