@@ -23,7 +23,7 @@ import argparse
 import numpy as np
 
 from controllers.design.pi import design_pi
-from controllers.simulation.closed_loop import ModeOptions, run_mode
+from controllers.simulation.closed_loop import LoopConfig, run_mode
 from plant.excitation import multisine_reference
 from plant.friction import preset
 
@@ -53,7 +53,7 @@ def main(argv=None) -> int:
                        for m in MODES) + " |")
     print("|---|---:|" + "---:|---:|---:|" * len(MODES))
     for label, kw in rows:
-        o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=1e-3, **kw)
+        o = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=1e-3, **kw)
         eta = {m: [] for m in MODES}
         for i, seed in enumerate(seeds):
             runs = {m: run_mode(p, ref, m, o, rng=np.random.default_rng(seed)) for m in ("none", "frictionless") + MODES}

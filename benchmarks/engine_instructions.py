@@ -25,18 +25,17 @@ import tempfile
 #: The script each measured process runs: mode, seconds; prints the steps of its three engine calls.
 _SCRIPT = r"""
 import sys
-from dataclasses import replace
 import numpy as np
-from controllers.simulation.closed_loop import ModeOptions, run_mode
+from controllers.simulation.closed_loop import LoopConfig, run_mode
 from controllers.design.pi import design_pi
 from plant.excitation import multisine_reference
 from plant.friction import preset
 mode, secs = sys.argv[1], float(sys.argv[2])
 p = preset("paper")
 d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
-o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0)
+o = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0)
 if mode == "adaptive":
-    o = replace(o, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
+    o = o.replace(Vs=p.Vs, delta=p.delta, noise_std=1e-3)
 refs = [multisine_reference(s, rng=np.random.default_rng(0)) for s in (0.2, secs, 3 * secs)]
 for ref in refs:
     run_mode(p, ref, mode, o, rng=np.random.default_rng(1))

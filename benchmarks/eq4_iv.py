@@ -21,7 +21,6 @@ import argparse
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import replace
 
 import numpy as np
 
@@ -70,7 +69,7 @@ def row(plant_name: str, seed: int, duration: float, bare: bool = False) -> dict
         p = drift_case(duration)
     else:
         p = preset("paper") if plant_name == "paper" else variant(plant_name)
-    s = prepare_comparison(p, CompareOptions(seed=seed, duration=duration, modes=("none", "adaptive")))
+    s = prepare_comparison(p, CompareOptions.from_flat(seed=seed, duration=duration, modes=("none", "adaptive")))
     rms = {}
     for mode in ("none", "frictionless"):
         r = run_mode(p, s.reference, mode, s.mode_options[mode], rng=np.random.default_rng(s.noise_seed))
@@ -78,7 +77,7 @@ def row(plant_name: str, seed: int, duration: float, bare: bool = False) -> dict
     out = {"plant": plant_name, "seed": seed}
     runs = [(est, True) for est in ESTIMATORS] + ([(est, False) for est in BARE] if bare else [])
     for est, switch_in in runs:
-        r = run_mode(p, s.reference, "adaptive", replace(s.mode_options["adaptive"], estimator=est,
+        r = run_mode(p, s.reference, "adaptive", s.mode_options["adaptive"].replace(estimator=est,
                                                          switch_in=switch_in),
                      rng=np.random.default_rng(s.noise_seed))
         key = est if switch_in else f"{est} bare"

@@ -3,7 +3,7 @@
 Run:  python -m benchmarks.getting_started
 
 The page's setting: the ``paper`` preset, PI from :func:`controllers.design.pi.design_pi` (20 rad/s, 60 deg, 1 kHz),
-``ModeOptions(Kp, Ki, u_max=150, Vs, delta, noise_std=1e-3)``, the page's own run seeds. Printed, with eta over the
+``LoopConfig.from_flat(Kp, Ki, u_max=150, Vs, delta, noise_std=1e-3)``, the page's own run seeds. Printed, with eta over the
 second half, ``(RMS_none - RMS_mode)/(RMS_none - RMS_frictionless)`` (none and frictionless through the same
 sensor, drive and plant):
 
@@ -27,7 +27,7 @@ import argparse
 import numpy as np
 
 from controllers.design.pi import design_pi
-from controllers.simulation.closed_loop import ModeOptions, run_mode
+from controllers.simulation.closed_loop import LoopConfig, run_mode
 from plant import FrictionRipple, PayloadStep, preset
 from plant.excitation import multisine_reference
 from plant.motion import point_to_point_reference
@@ -59,17 +59,17 @@ def main(argv=None) -> int:
     for label, kw in (("ideal sensor", {}), ("17-bit encoder", dict(encoder_counts=2 ** 17)),
                       ("17-bit encoder, 1 period delay, slew", dict(encoder_counts=2 ** 17, delay=1,
                                                                    slew_rate=2000.0))):
-        print(_row(label, *_eta(p, ref, ModeOptions(**o, **kw), 1)))
+        print(_row(label, *_eta(p, ref, LoopConfig.from_flat(**o, **kw), 1)))
     print("\nplant (multi-sine 20 s, seed 1)\n" + head)
     for label, plant in (("payload step J 4 -> 6 at 10 s", PayloadStep(p, t_step=10.0, J_after=6.0)),
                          ("ripple 10 %, 240 per revolution", FrictionRipple(p, amplitude=0.1, harmonic=240.0)),
                          ("ripple 10 %, 24 per revolution", FrictionRipple(p, amplitude=0.1, harmonic=24.0))):
-        print(_row(label, *_eta(plant, ref, ModeOptions(**o), 1)))
+        print(_row(label, *_eta(plant, ref, LoopConfig.from_flat(**o), 1)))
     moves = point_to_point_reference([0.5, -0.2, 0.4], v_max=0.5, a_max=4.0, j_max=100.0, dwell=0.5)
     print("\nmoves (pick-and-place, seed 0)\n"
           f"{'':<13} {'RMS in motion (deg/s)':>22}  settling time per stop (s)")
     for m in ("none", "adaptive", "frictionless"):
-        r = run_mode(p, moves, m, ModeOptions(**o), rng=np.random.default_rng(0))
+        r = run_mode(p, moves, m, LoopConfig.from_flat(**o), rng=np.random.default_rng(0))
         settle = " ".join(f"{s:.3f}" if np.isfinite(s) else "inf" for s in r.motion.settling_time)
         print(f"{m:<13} {np.degrees(r.motion.rms_motion):>22.2f}  {settle}")
     return 0

@@ -22,7 +22,6 @@ import os
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import replace
 
 import numpy as np
 
@@ -46,7 +45,7 @@ def _rms(a, b) -> float:
 def _one(args) -> dict:
     name, seed, duration = args
     p = preset(name)
-    s = prepare_comparison(p, CompareOptions(duration=duration, seed=seed, modes=("adaptive", "fixed", "oracle"),
+    s = prepare_comparison(p, CompareOptions.from_flat(duration=duration, seed=seed, modes=("adaptive", "fixed", "oracle"),
                                              noise_std=1e-3))
     s.bar.close()
     ref = s.reference
@@ -60,9 +59,9 @@ def _one(args) -> dict:
     for k in TAU_FACTORS:
         est = FrictionEstimate(J=p.J, tau=k * p.tau, sigma=p.sigma, Fc=p.Fc, Fs=p.Fs, offset=0.0, Vs=p.Vs,
                                delta=p.delta, J_alt=math.nan)
-        out[f"true tau x {k:g}"] = _rms(run("fixed", replace(s.mode_options["fixed"], estimate=est)), wl) / ro
+        out[f"true tau x {k:g}"] = _rms(run("fixed", s.mode_options["fixed"].replace(estimate=est)), wl) / ro
     for z, cap, rel, mem in ADAPTIVE:
-        mo = replace(s.mode_options["adaptive"], lag_margin=z, lag_margin_max=cap, max_rel_stderr=rel, lag_memory=mem)
+        mo = s.mode_options["adaptive"].replace(lag_margin=z, lag_margin_max=cap, max_rel_stderr=rel, lag_memory=mem)
         out[f"adaptive z={z:g} cap={cap:g} rel={rel:g} mem={mem:g}"] = _rms(run("adaptive", mo), wl) / ro
     return out
 

@@ -38,14 +38,13 @@ import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import replace
 
 import control
 import numpy as np
 
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from controllers.simulation.batch import run_batch
-from controllers.simulation.closed_loop import ModeOptions, run_mode
+from controllers.simulation.closed_loop import LoopConfig, run_mode
 from controllers.design.pi import design_pi
 from plant.excitation import multisine_reference
 from plant.friction import preset
@@ -97,7 +96,7 @@ def timed(fn, repeat):
 _MEMORY_SCRIPT = r"""
 import json, os, sys, time, tracemalloc
 import numpy as np
-from controllers.simulation.closed_loop import ModeOptions, run_mode
+from controllers.simulation.closed_loop import LoopConfig, run_mode
 from controllers.design.pi import design_pi
 from plant.excitation import multisine_reference
 from plant.friction import preset
@@ -105,7 +104,7 @@ hours, decimate = float(sys.argv[1]), int(sys.argv[2])
 p = preset("paper")
 d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
 small = multisine_reference(1.0, rng=np.random.default_rng(0))
-o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta)
+o = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta)
 run_mode(p, small, "adaptive", o)  # warm-up
 def status(key):  # kB -> MB, Linux /proc
     with open("/proc/self/status") as fh:
@@ -119,8 +118,7 @@ with open("/proc/self/clear_refs", "w") as fh:  # reset the peak RSS (VmHWM) to 
     fh.write("5")
 rss0 = status("VmRSS")
 t0 = time.perf_counter()
-from dataclasses import replace
-r = run_mode(p, ref, "adaptive", replace(o, noise_std=1e-3, decimate=decimate), rng=np.random.default_rng(1))
+r = run_mode(p, ref, "adaptive", o.replace(noise_std=1e-3, decimate=decimate), rng=np.random.default_rng(1))
 wall = time.perf_counter() - t0
 peak = tracemalloc.get_traced_memory()[1]
 tracemalloc.stop()
@@ -222,7 +220,7 @@ def _batch_rows(p, design, B, args):
     brng = np.random.default_rng(2)
     plants = [p.replace(J=p.J * brng.uniform(0.7, 1.3), Fc=p.Fc * brng.uniform(0.7, 1.3),
                         tau=p.tau * brng.uniform(0.5, 2.0)) for _ in range(B)]
-    o = ModeOptions(Kp=design.Kp, Ki=design.Ki, u_max=U_MAX, Vs=p.Vs, delta=p.delta, sensor_gate=False)
+    o = LoopConfig.from_flat(Kp=design.Kp, Ki=design.Ki, u_max=U_MAX, Vs=p.Vs, delta=p.delta, sensor_gate=False)
     nb = B * bref.t.size
     rows = []
     cases = [(f"run_batch none, B={B} (target <= 0.05)", plants, "none"),
@@ -279,7 +277,7 @@ def _stiff_rows(args):
         p = LuGreParams(J=J, Fc=0.2 * J * 25.0, Fs=0.4 * J * 25.0, Vs=0.01, delta=2.0, sigma0=1e8,
                         sigma1=math.sqrt(1e8 * J), sigma2=0.01)
         d = design_pi(J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
-        o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=3.0 * (p.Fs + J * 3.0), noise_std=1e-3)
+        o = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=3.0 * (p.Fs + J * 3.0), noise_std=1e-3)
         for mode in ("none", "dob"):
             run = (lambda p=p, o=o, mode=mode: run_mode(p, ref, mode, o, rng=np.random.default_rng(1)))
             run_mode(p, multisine_reference(0.5, rng=np.random.default_rng(0)), mode, o,
@@ -302,7 +300,7 @@ def _user_compensator_rows(p, design, args, ref, n):
         def observe(self, u, w_meas):
             return None
 
-    o = ModeOptions(Kp=design.Kp, Ki=design.Ki, u_max=U_MAX)
+    o = LoopConfig.from_flat(Kp=design.Kp, Ki=design.Ki, u_max=U_MAX)
     run_own(p, ref, Zero(), o)  # warm-up
     med, best = timed(lambda: run_own(p, ref, Zero(), o), args.repeat)
     return [("run_own, your Python compensator (returns 0): the engine calling it back, per step", med / n * 1e6,
@@ -318,7 +316,7 @@ def _own_loop_rows(p, design, args):
     from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, SlidingFrictionEstimatorConfig
 
     ref = multisine_reference(min(args.seconds, 10.0), rng=np.random.default_rng(5))
-    r = run_mode(p, ref, "none", ModeOptions(Kp=design.Kp, Ki=design.Ki, u_max=U_MAX, noise_std=1e-3),
+    r = run_mode(p, ref, "none", LoopConfig.from_flat(Kp=design.Kp, Ki=design.Ki, u_max=U_MAX, noise_std=1e-3),
                  rng=np.random.default_rng(6))
     us, ws, wr = r.u.tolist(), r.w_meas.tolist(), np.asarray(ref.w, dtype=float).tolist()
     n = len(us)
@@ -514,12 +512,12 @@ def main(argv=None) -> int:
     rows.append(("python-control input_output_response, loop without RLS", us_pc, "µs/step",
                  b_pc / pc_ref.t.size * 1e6))
     res = control.input_output_response(loop, pc_ref.t, pc_ref.w)
-    base = ModeOptions(Kp=design.Kp, Ki=design.Ki, u_max=U_MAX)
+    base = LoopConfig.from_flat(Kp=design.Kp, Ki=design.Ki, u_max=U_MAX)
     ours = run_mode(p, pc_ref, "none", base)
     diff = np.abs(res.outputs[0] - ours.w)
     agree_first, agree = float(np.max(diff[:200])), float(np.max(diff))
 
-    adaptive = replace(base, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
+    adaptive = base.replace(Vs=p.Vs, delta=p.delta, noise_std=1e-3)
     us = {}
     for label, mode, o in (("none", "none", base), ("adaptive", "adaptive", adaptive)):
         def run(mode=mode, o=o):

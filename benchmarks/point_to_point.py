@@ -20,7 +20,7 @@ import time
 import numpy as np
 
 from controllers.design.pi import design_pi
-from controllers.simulation.closed_loop import ModeOptions, run_mode
+from controllers.simulation.closed_loop import LoopConfig, run_mode
 from plant.friction import preset
 from plant.motion import point_to_point_reference
 from plant.variant_plants import variant
@@ -43,7 +43,7 @@ def main(argv=None) -> int:
     for name in a.plants.split(","):
         p = preset("paper") if name == "paper" else variant(name)
         d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
-        o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
+        o = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
         for v, acc, j in PROFILES:
             if j is not None and name != "paper":
                 continue

@@ -29,7 +29,7 @@ def _zoo_part(args) -> None:
     from controllers.experiments.zoo import draw_plants
     from plant.models import plant_from_dict
 
-    co = CompareOptions(duration=args.duration, seed=args.seed, modes=tuple(args.modes.split(",")))
+    co = CompareOptions.from_flat(duration=args.duration, seed=args.seed, modes=tuple(args.modes.split(",")))
     specs = draw_plants(args.n, comparison_reference(co), seed=args.seed)
     print(f"## zoo joints (n = {args.n}, seed {args.seed}), compare, {args.duration:g} s")
     for i in (int(s) for s in args.ids.split(",")):
@@ -59,7 +59,7 @@ def _zoo_part(args) -> None:
 
 def _corners(args) -> None:
     from controllers.design.pi import design_pi
-    from controllers.simulation.closed_loop import ModeOptions, run_mode
+    from controllers.simulation.closed_loop import LoopConfig, run_mode
     from plant.asymmetric import AsymmetricParams
     from plant.dynamics import PLANT_SLOTS, plant_params
     from plant.excitation import multisine_reference
@@ -75,7 +75,7 @@ def _corners(args) -> None:
                                     delta=delta, sigma_pos=0.01, sigma_neg=0.007, tau=tau),
                    KarnoppParams(J=J, Fc=Fc, Fs=4 * Fc, Vs=Vs, delta=delta, sigma=0.01, tau=tau, dv=0.05 * Vs)]
     d = design_pi(J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
-    o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=10.0, noise_std=1e-3)
+    o = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=10.0, noise_std=1e-3)
     run_mode(plants[0], multisine_reference(1.0, rng=np.random.default_rng(0)), "none", o, rng=np.random.default_rng(0))  # warm-up
     print(f"\n## stiffest corners, mode none, {args.duration:g} s (wall, this machine)")
     for p in plants:

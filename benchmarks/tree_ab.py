@@ -37,7 +37,7 @@ import statistics, sys, time
 import numpy as np
 import controllers.simulation.batch as bm
 from controllers.simulation.engine import EngineRun
-from controllers.simulation.closed_loop import ModeOptions
+from controllers.simulation.closed_loop import LoopConfig
 from plant.excitation import multisine_reference
 from plant.friction import preset
 B, seconds, repeat, mode = int(sys.argv[1]), float(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
@@ -46,7 +46,7 @@ ref = multisine_reference(seconds, rng=np.random.default_rng(0))
 rng = np.random.default_rng(2)
 plants = [p.replace(J=p.J * rng.uniform(0.7, 1.3), Fc=p.Fc * rng.uniform(0.7, 1.3), tau=p.tau * rng.uniform(0.5, 2.0))
           for _ in range(B)]
-o = ModeOptions(Kp=69.28434179621937, Ki=786.1169272191827, u_max=150.0, Vs=p.Vs, delta=p.delta, sensor_gate=False)
+o = LoopConfig.from_flat(Kp=69.28434179621937, Ki=786.1169272191827, u_max=150.0, Vs=p.Vs, delta=p.delta, sensor_gate=False)
 run, spent = EngineRun.run, []
 def timed(self):
     t0 = time.thread_time(); run(self); spent.append(time.thread_time() - t0)
@@ -68,7 +68,7 @@ _RATIO_CHILD = r"""
 import json, statistics, sys, time
 import numpy as np
 import control
-from controllers.simulation.closed_loop import ModeOptions, run_mode
+from controllers.simulation.closed_loop import LoopConfig, run_mode
 from controllers.design.pi import design_pi
 from plant.excitation import multisine_reference
 from plant.friction import preset
@@ -97,8 +97,8 @@ pc_ref = multisine_reference(min(seconds, 2.0), rng=np.random.default_rng(0))
 us = {"python-control": cpu(lambda: control.input_output_response(loop, pc_ref.t, pc_ref.w),
                             max(1, repeat // 2)) / pc_ref.t.size * 1e6}
 ref = multisine_reference(seconds, rng=np.random.default_rng(0))
-base = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=u_max)
-adaptive = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=u_max, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
+base = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=u_max)
+adaptive = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=u_max, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
 for mode, o in (("none", base), ("adaptive", adaptive)):
     run = lambda: run_mode(p, ref, mode, o, rng=np.random.default_rng(1))
     run()  # warm-up (compiles where the other tree has a JIT)

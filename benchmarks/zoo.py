@@ -69,7 +69,7 @@ def main(argv=None) -> int:
                          "an exact one); default: identified on each joint, as compare does")
     ap.add_argument("--iv-map-stderr", dest="iv_map_stderr", type=float, default=math.inf,
                     help="the eq4 estimator's determinacy test in mode adaptive, relative to max(Fc, Fs) (default inf: "
-                         "none; ModeOptions.iv_map_stderr)")
+                         "none; LoopConfig.estimator.iv_map_stderr)")
     ap.add_argument("--no-switch-in", dest="switch_in", action="store_false",
                     help="mode adaptive as the feedforward alone, without the residual switch-in (as export-c writes "
                          "it; ZooOptions.switch_in)")

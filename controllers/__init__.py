@@ -15,7 +15,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(__name__, submod_attrs={
     "design.loop_analysis": ["LoopAnalysis", "analyse_design"],
     "simulation.batch": ["BATCH_MODES", "BatchResult", "run_batch"],
     "simulation.metrics": ["MotionMetrics", "motion_metrics"],
-    "simulation.closed_loop": ["ESTIMATORS", "MODES", "ModeOptions", "ClosedLoopResult", "LoopMetrics",
+    "simulation.closed_loop": ["ESTIMATORS", "MODES", "LoopConfig", "ClosedLoopResult", "LoopMetrics",
                                "loop_metrics", "run_closed_loop", "run_mode", "run_own"],
     "simulation.user_compensator": ["CompensatorContext", "CompensatorError", "UserCompensator"],
     "simulation.compensators": ["TrueFriction", "build_mode"],
@@ -36,7 +36,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(__name__, submod_attrs={
 __all__ = [
     "PIDesign", "design_pi", "PIController", "closed_loop_step", "pi_step",
     "QuasiStaticData", "quasi_static_runs", "bidirectional_velocities",
-    "MODES", "LoopMetrics", "MotionMetrics", "motion_metrics", "ClosedLoopResult", "run_closed_loop", "loop_metrics", "ModeOptions", "run_mode", "run_own",
+    "MODES", "LoopMetrics", "MotionMetrics", "motion_metrics", "ClosedLoopResult", "run_closed_loop", "loop_metrics", "LoopConfig", "run_mode", "run_own",
     "CompensatorContext", "CompensatorError", "UserCompensator",
     "TrueFriction", "build_mode",
     "Comparison", "CompareOptions", "compare", "eta", "plot_comparison", "Scenario", "ScenarioError", "load_scenario",

@@ -15,7 +15,7 @@ import math
 import numpy as np
 import pytest
 
-from controllers import ModeOptions, compare, design_pi, run_mode
+from controllers import LoopConfig, compare, design_pi, run_mode
 from plant import multisine_reference, preset
 
 # --- your joint and your requirements ------------------------------------------------------------
@@ -54,6 +54,6 @@ def test_uncompensated_loop_is_sane():
     ref = multisine_reference(DURATION, rng=np.random.default_rng(SEED))
     d = design_pi(PLANT.J, crossover=20.0, phase_margin=60.0)
     assert d.phase_margin == pytest.approx(60.0, abs=0.1)
-    r = run_mode(PLANT, ref, "none", ModeOptions(Kp=d.Kp, Ki=d.Ki, noise_std=1e-3), rng=np.random.default_rng(SEED))
+    r = run_mode(PLANT, ref, "none", LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, noise_std=1e-3), rng=np.random.default_rng(SEED))
     assert np.all(np.isfinite(r.w))
     assert r.metrics.rms_second_half < MAX_RMS_UNCOMPENSATED

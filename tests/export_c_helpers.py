@@ -97,17 +97,16 @@ def compile_export(cc: str, src: Path, main_c: str, exe: Path, *flags: str) -> P
 
 
 def closed_loop_log(options, n: int = N) -> tuple:
-    """``n`` periods of the adaptive mode of ``options`` (ModeOptions) on the ``paper`` joint, velocity noise
+    """``n`` periods of the adaptive mode of ``options`` (LoopConfig) on the ``paper`` joint, velocity noise
     :data:`NOISE`, no sensor gate (the loop's measurement is the raw sample the compensator gets), a multisine
     reference (seed 1; noise seed 2): ``(u, w_meas, w_ref, u_ff)``, arrays of ``n``."""
-    from dataclasses import replace
 
     from controllers.simulation.closed_loop import run_mode
     from plant import preset
     from plant.excitation import multisine_reference
 
-    opts = replace(options, noise_std=NOISE, decimate=1, sensor_gate=False)
-    ref = multisine_reference(n * opts.Tc, dt=opts.Tc, rng=np.random.default_rng(1))
+    opts = options.replace(noise_std=NOISE, decimate=1, sensor_gate=False)
+    ref = multisine_reference(n * opts.controller.Tc, dt=opts.controller.Tc, rng=np.random.default_rng(1))
     r = run_mode(preset("paper"), ref, "adaptive", opts, rng=np.random.default_rng(2))
     assert r.u.shape == (n,)
     return r.u, r.w_meas, r.w_ref, r.u_ff

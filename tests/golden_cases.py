@@ -35,7 +35,6 @@ import json
 import math
 import subprocess
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -53,7 +52,7 @@ from controllers.experiments.compare import compare
 from controllers.experiments.quasi_static import (StribeckDesign, bidirectional_velocities, prefit_stribeck,
                                                   quasi_static_runs, stribeck_experiment)
 from controllers.simulation.batch import run_batch
-from controllers.simulation.closed_loop import MeasurementSettings, ModeOptions, RunSettings, run_closed_loop, run_mode
+from controllers.simulation.closed_loop import MeasurementSettings, LoopConfig, RunSettings, run_closed_loop, run_mode
 from controllers.simulation.compensators import MODES, build_mode
 from plant.dynamics import plant_params
 from plant.excitation import Reference, bandlimited_noise, multisine_reference
@@ -192,19 +191,19 @@ def _design(J: float):
     return design_pi(J, crossover=20.0, phase_margin=60.0, Tc=TC)
 
 
-def mode_options(p, u_max: float, mode: str, *, noise_std: float = NOISE, **changes) -> tuple[str, ModeOptions]:
+def mode_options(p, u_max: float, mode: str, *, noise_std: float = NOISE, **changes) -> tuple[str, LoopConfig]:
     """The registry mode and its options for a matrix column: the PI designed for the plant's J (20 rad/s, 60
     deg), the settings :func:`controllers.experiments.compare.compare` uses (warm-up 50, stick band 3 noise
     levels, 50 stick samples, the pre-fit start) with the plant's own Stribeck factors."""
     v = _levels(p)
     d = _design(v["J"])
     est = rough_estimate(p)
-    o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=u_max, Tc=TC, noise_std=noise_std, Vs=v["Vs"], delta=v["delta"],
+    o = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=u_max, Tc=TC, noise_std=noise_std, Vs=v["Vs"], delta=v["delta"],
                     warmup=50, stick_band=3.0 * max(noise_std, 1e-4), stick_samples=50, estimate=est,
                     initial=est, start=FeedforwardStart(est), model=RegressionModel(v["Vs"], v["delta"]))
     if mode == "adaptive-eq4":
-        mode, o = "adaptive", replace(o, estimator="eq4-rls")  # the paper's RLS (named "eq4" until 2026-11-24)
-    return mode, replace(o, **changes)
+        mode, o = "adaptive", o.replace(estimator="eq4-rls")  # the paper's RLS (named "eq4" until 2026-11-24)
+    return mode, o.replace(**changes)
 
 
 # --------------------------------------------------------------------------- records

@@ -165,7 +165,7 @@ def oracle_replay(run, p, ref, *, mode, rng=None, faults=None, **kw) -> dict:
     Parameters
     ----------
     run : ClosedLoopResult
-        The engine's run of ``p`` on ``ref`` in ``mode`` with the settings ``kw`` (the ModeOptions fields).
+        The engine's run of ``p`` on ``ref`` in ``mode`` with the settings ``kw`` (the LoopConfig fields).
     p, ref, mode, rng, faults, kw
         What the run was made with (``rng`` a fresh generator of the same seed).
 
@@ -245,7 +245,7 @@ def oracle_replay(run, p, ref, *, mode, rng=None, faults=None, **kw) -> dict:
 
 
 def replayed_run(p, ref, *, mode, seed=0, faults=None, rel=1e-9, **kw) -> dict:
-    """The engine's run of one mode (``run_mode`` with ``ModeOptions(**kw)``) checked against its replay.
+    """The engine's run of one mode (``run_mode`` with ``LoopConfig.from_flat(**kw)``) checked against its replay.
 
     Returns
     -------

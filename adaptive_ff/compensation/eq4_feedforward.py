@@ -283,7 +283,7 @@ class AdaptiveFrictionFeedforward(Component):
         Returns
         -------
         dict
-            ``estimator`` ("eq4-rls", "eq4" with ``iv``: the names of ``ModeOptions.estimator``), ``n_rejected``,
+            ``estimator`` ("eq4-rls", "eq4" with ``iv``: the names of ``LoopConfig.estimator.name``), ``n_rejected``,
             ``n_implausible``, ``n_updates`` (of the estimator in use), ``lam``, ``names`` (the regression
             parameters, :attr:`RegressionModel.names`); with ``w_band > 0`` also ``n_gated`` and ``w_band``; with
             a finite ``map_rel_stderr`` also it and ``n_undetermined``.

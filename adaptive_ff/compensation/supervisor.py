@@ -6,7 +6,7 @@ The closed-loop engine composes it like the sensor gate and the drive
 (:meth:`controllers.simulation.engine.EngineRun.set_supervisor`): each period it passes the compensator's
 candidate torque through :meth:`FeedforwardSupervisor.apply` and, after the PI, hands it the applied torque and the
 controller's velocity (:meth:`FeedforwardSupervisor.observe`). The modes ``adaptive`` (either estimator) and
-``adaptive-dob`` are supervised by default (``ModeOptions(supervise=True)``).
+``adaptive-dob`` are supervised by default (``LoopConfig.supervisor.enabled``).
 """
 
 from __future__ import annotations

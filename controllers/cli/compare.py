@@ -5,7 +5,7 @@ from __future__ import annotations
 import contextlib
 import json
 
-__all__ = ["register", "run", "comparison_table", "pi_text"]
+__all__ = ["register", "run", "comparison_table", "pi_text", "loop_flags"]
 
 
 def run(args) -> int:
@@ -44,10 +44,10 @@ def run(args) -> int:
 _SCENARIO_SETS = {"preset": "[plant] preset", "plant": "[plant] file", "variant": "[plant] variant",
                   "modes": "modes", "estimator": "[compensation] estimator", "ff_input": "[compensation] ff_input",
                   "omega_q": "[compensation] omega_q", "duration": "[reference] (its length)", "seed": "seed",
-                  "Ts": "[controller] Ts", "noise": "[sensor] noise_std", "lam": "[compensation] lam",
+                  "Ts": "[controller] Ts", "noise_std": "[sensor] noise_std", "lam": "[compensation] lam",
                   "crossover": "[controller] crossover", "phase_margin": "[controller] phase_margin",
                   "no_prefit": "[compensation] prefit", "no_fast_start": "[compensation] adaptive_start",
-                  "no_switch_in": "[compensation] switch_in", "estimator_rows": "[compensation] estimator_rows",
+                  "switch_in": "[compensation] switch_in", "estimator_rows": "[compensation] estimator_rows",
                   "Vs": "[compensation] Vs", "delta": "[compensation] delta", "J_design": "[controller] J_design",
                   "controller": "[controller]", "from_file": "[plant] and [controller]",
                   "joint": "[plant] and [controller]"}
@@ -62,11 +62,12 @@ def _scenario_comparison(args) -> tuple:
     given = [k for k in _SCENARIO_SETS if getattr(args, k) != args.scenario_defaults[k]]
     if given:
         k = given[0]
-        raise ParameterError(f"--{k.replace('_', '-')} cannot be combined with --scenario: the scenario file "
+        flag = {name: f for f, (name, _) in loop_flags().items()}.get(k, "--" + k.replace("_", "-"))
+        raise ParameterError(f"{flag} cannot be combined with --scenario: the scenario file "
                              f"sets it ({_SCENARIO_SETS[k]})")
     sc = load_scenario(args.scenario)
     o = sc.options
-    _check_work(args, o.duration, o.modes, o.estimator_rows, o.compensators, o.adaptive_start, o.Tc,
+    _check_work(args, o.duration, o.modes, o.estimator_rows, o.compensators, o.adaptive_start, o.loop.controller.Tc,
                 f"{args.scenario}: the reference of {o.duration:g} s")
     with _plant_named(f"{args.scenario}: [plant]"):
         comp = sc.compare(progress=None if not args.quiet else False)
@@ -242,12 +243,11 @@ def _comparison(args, p, modes) -> tuple:
     else:
         src = f"preset '{args.preset or 'paper'}'"
     with _plant_named(f"--plant {src}" if args.plant else src):
-        comp = compare(p, duration=args.duration, seed=args.seed, modes=modes, Ts=args.Ts, noise_std=args.noise,
-                       lam=args.lam, crossover=args.crossover, phase_margin=args.phase_margin, progress=progress,
-                       estimator=args.estimator, iv_map_stderr=args.iv_map_stderr, ff_input=args.ff_input,
-                       omega_q=args.omega_q, prefit=not args.no_prefit, Vs=args.Vs, delta=args.delta,
+        loop = {name: getattr(args, name) for name, _ in loop_flags().values() if getattr(args, name) is not None}
+        comp = compare(p, duration=args.duration, seed=args.seed, modes=modes, crossover=args.crossover,
+                       phase_margin=args.phase_margin, progress=progress, prefit=not args.no_prefit,
                        J_design=J_design, controller=controller, adaptive_start=not args.no_fast_start,
-                       switch_in=not args.no_switch_in, estimator_rows=_estimator_rows(args))
+                       estimator_rows=_estimator_rows(args), **loop)
     header = [f"plant: {src}: {parameter_text(plant_to_dict(p))}"] + _time_varying_lines(p)
     if loop_source:
         header.append(loop_source)
@@ -424,11 +424,45 @@ def _diverged(comp, mode: str) -> bool:
     return bool(r is not None and (r.info or {}).get("diverged"))
 
 
+def loop_flags() -> dict:
+    """The flags of loop settings: flag -> (the setting's flat name, argparse keywords). The name is a keyword of
+    :meth:`controllers.experiments.compare.CompareOptions.from_flat` (its path in the loop's config:
+    :data:`controllers.simulation.loop_config.FLAT_PATHS`); a flag has no default of its own (None: not given, the
+    comparison's default, :data:`controllers.experiments.compare.EXPERIMENT_LOOP`) and its choices are the
+    registries'. No C import: ``--help`` stays light."""
+    from controllers.simulation.estimators import ESTIMATORS
+
+    return {
+        "--estimator": ("estimator", dict(choices=ESTIMATORS, help="adaptive estimator: sliding-regime "
+                                      "inverse-dynamics RLS (default); eq4: the paper's eq. 4 by recursive IV on the "
+                                      "sliding samples (the model estimated consistently in closed loop, "
+                                      "docs/theory.md); eq4-rls: eq. 4 by the paper's RLS, eqs. 10-13 as printed "
+                                      "(biased on the loop's own data); export-c exports mode adaptive with the "
+                                      "sliding estimator only")),
+        "--iv-map-stderr": ("iv_map_stderr", dict(type=float, help="eq4 in mode adaptive: put an estimate into use "
+                                                  "only once the standard error of its static map is at most this "
+                                                  "times its max(Fc, Fs) (default inf: no test; docs/benchmarks/"
+                                                  "compensation.md, \"The eq. 4 estimate's determinacy test\")")),
+        "--ff-input": ("ff_input", dict(choices=("measured", "reference"),
+                                        help="velocity the friction feedforward is evaluated at (default: measured)")),
+        "--omega-q": ("omega_q", dict(type=float, help="Q-filter cut-off of the disturbance observer in rad/s "
+                                                       "(default 500, the C default)")),
+        "--Ts": ("Ts", dict(type=float, help="estimator update period in s (default 0.01)")),
+        "--noise": ("noise_std", dict(type=float, help="velocity noise std in rad/s (default 1e-3)")),
+        "--lam": ("lam", dict(type=float, help="RLS forgetting factor per update (default 0.995; 0.999 for canudas)")),
+        "--no-switch-in": ("switch_in", dict(action="store_const", const=False,
+                                             help="adaptive: the feedforward alone, never the residual observer "
+                                                  "(with --estimator eq4-rls the paper's bare prototype; "
+                                                  "CompareOptions.loop.observer.switch_in = False)")),
+        "--Vs": ("Vs", dict(type=float, help="Stribeck velocity in rad/s, if known (with --delta; no pre-fit then)")),
+        "--delta": ("delta", dict(type=float, help="Stribeck shape factor, if known (with --Vs)")),
+    }
+
+
 def register(sub) -> None:
     """Add the ``compare`` subcommand to an argparse subparsers object."""
     from controllers.cli.budget import add_yes_argument
     from controllers.cli.data import PRESET_NAMES, add_units_argument, seed_type
-    from controllers.simulation.estimators import DEFAULT_ESTIMATOR, ESTIMATORS  # no C import: --help stays light
 
     c = sub.add_parser("compare", help="run all compensation modes on a plant and compare tracking error",
                        description="Simulate the 1 kHz plant in closed loop with the PI velocity controller in the "
@@ -452,27 +486,13 @@ def register(sub) -> None:
     c.add_argument("--modes", help="comma-separated subset of none,fixed,adaptive,adaptive-dob,canudas,dob,oracle,"
                                    "frictionless "
                                    "(default: all; none and frictionless always run)")
-    c.add_argument("--estimator", choices=ESTIMATORS, default=DEFAULT_ESTIMATOR,
-                   help="adaptive estimator: sliding-regime inverse-dynamics RLS (default); eq4: the paper's eq. 4 "
-                        "by recursive IV on the sliding samples (the model estimated consistently in closed loop, "
-                        "docs/theory.md); eq4-rls: eq. 4 by the paper's RLS, eqs. 10-13 as printed (biased on the "
-                        "loop's own data); export-c exports mode adaptive with the sliding estimator only")
-    c.add_argument("--iv-map-stderr", type=float, default=float("inf"),
-                   help="eq4 in mode adaptive: put an estimate into use only once the standard error of its static "
-                        "map is at most this times its max(Fc, Fs) (default inf: no test; docs/benchmarks/"
-                        "compensation.md, \"The eq. 4 estimate's determinacy test\")")
-    c.add_argument("--ff-input", choices=("measured", "reference"), default="measured",
-                   help="velocity the friction feedforward is evaluated at (default: measured)")
-    c.add_argument("--omega-q", type=float, default=500.0,
-                   help="Q-filter cut-off of the disturbance observer in rad/s (default 500)")
+    for flag, (name, kw) in loop_flags().items():  # default None: not given, the comparison's default
+        metavar = {"metavar": flag.lstrip("-").upper().replace("-", "_")} if "type" in kw else {}
+        c.add_argument(flag, dest=name, default=None, **metavar, **kw)
     c.add_argument("--duration", type=float, default=120.0, help="run length in s (default 120)")
     c.add_argument("--seed", type=seed_type, default=0, help="random seed, an integer >= 0 (default 0)")
     c.add_argument("--out", default=None, help="directory for the PNG figures (default: the --report "
                                                "directory, else ./out)")
-    c.add_argument("--Ts", type=float, default=0.01, help="estimator update period in s (default 0.01)")
-    c.add_argument("--noise", type=float, default=1e-3, help="velocity noise std in rad/s (default 1e-3)")
-    c.add_argument("--lam", type=float, default=None,
-                   help="RLS forgetting factor per update (default 0.995; 0.999 for canudas)")
     c.add_argument("--crossover", type=float, default=20.0, help="PI crossover in rad/s (default 20)")
     c.add_argument("--phase-margin", type=float, default=60.0, help="PI phase margin in deg (default 60)")
     c.add_argument("--no-prefit", action="store_true",
@@ -481,16 +501,10 @@ def register(sub) -> None:
                    help="adaptive, adaptive-dob (estimators sliding and eq4): no provisional feedforward from the "
                         "pre-fit before the estimator's first trusted estimate (CompareOptions.adaptive_start = "
                         "False)")
-    c.add_argument("--no-switch-in", action="store_true",
-                   help="adaptive: the feedforward alone, never the residual observer (with --estimator eq4-rls "
-                        "the paper's bare prototype; CompareOptions.switch_in = False)")
     c.add_argument("--estimator-rows", dest="estimator_rows", default=None, metavar="LIST",
                    help="further estimators whose adaptive mode runs beside the others, each a row adaptive[E], "
                         "e.g. eq4,eq4-rls: the paper's eq. 4 by instrumental variables and by its RLS beside the "
                         "default (CompareOptions.estimator_rows)")
-    c.add_argument("--Vs", type=float, default=None,
-                   help="Stribeck velocity in rad/s, if known (with --delta; no pre-fit then)")
-    c.add_argument("--delta", type=float, default=None, help="Stribeck shape factor, if known (with --Vs)")
     c.add_argument("--J-design", dest="J_design", type=float, default=None,
                    help="design inertia in kg·m² (a data sheet's) for the PI, the experiments, the estimator start, "
                         "the gates and the observers (default: the J of --from, else identified on the joint by a "

@@ -10,7 +10,8 @@ result, :class:`controllers.experiments.comparison.Comparison`, with eta and the
 from __future__ import annotations
 
 import math
-from dataclasses import MISSING, dataclass, field, fields, replace
+import dataclasses
+from dataclasses import dataclass, field
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -20,8 +21,9 @@ from adaptive_ff.compensation.feedforward import FF_INPUTS, project_estimate
 from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimatorConfig, fit_sliding
-from controllers.simulation.closed_loop import ModeOptions, run_mode, run_own
+from controllers.simulation.closed_loop import run_mode, run_own
 from controllers.simulation.compensators import ESTIMATORS, MODES, check_estimator
+from controllers.simulation.loop_config import FLAT_PATHS, LoopConfig
 from controllers.simulation.memory import MODE_SIGNALS, PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
 from controllers.simulation.user_compensator import CompensatorContext, CompensatorError
 from controllers.design.pi import PIDesign, design_pi
@@ -44,7 +46,8 @@ __all__ = ["Comparison", "CompareOptions", "ComparisonSetup", "DriveLimitError",
            "check_drive_moves", "compare", "comparison_reference", "eta", "FIXED_METHODS", "PREFIT_MODES",
            "compensator_context", "mode_width", "number_text", "friction_scale", "measurement_noise", "prefit_stribeck",
            "prepare_comparison", "residual_cutoff", "run_notes",
-           "WORSE_THAN_NONE", "worse_than_none_notes", "J_CONTRADICTED", "observer_inertia", "LOOP_KNOBS",
+           "WORSE_THAN_NONE", "worse_than_none_notes", "J_CONTRADICTED", "observer_inertia", "EXPERIMENT_LOOP",
+           "DESIGNED",
            "EXPERIMENT_DEFAULTS"]
 
 #: Offline identification behind the ``fixed`` mode: the sliding-regime
@@ -70,39 +73,30 @@ def friction_scale(p, peak_w: float) -> float:
     return float(np.max(np.abs(np.concatenate([p.friction(wg), p.friction(-wg)]))))
 
 
-#: The knobs :class:`CompareOptions` shares with the loop's options (:class:`ModeOptions`, the bare loop of
-#: :func:`controllers.simulation.closed_loop.run_mode`): one knob, one check (ModeOptions') and one default, the
-#: loop's, but for :data:`EXPERIMENT_DEFAULTS`.
-LOOP_KNOBS = ("Tc", "Ts", "u_max", "noise_std", "lam", "lag", "estimator", "iv_map_stderr", "ff_input", "sign_width",
-              "stick_band", "stick_samples", "T_filter", "forgetting", "warmup", "omega_q", "switch_in", "dwell_max",
-              "offset", "Vs", "delta", "J_design", "sign_input", "observer_bandwidth", "encoder_counts", "delay",
-              "slew_rate", "velocity", "velocity_bandwidth", "velocity_model")
-
-#: The experiment's own defaults of knobs the bare loop (:class:`ModeOptions`, the C components) defaults otherwise,
-#: the one place where they differ, each on purpose: ``noise_std`` 1e-3 rad/s (a real sensor's noise; the bare loop
-#: is noiseless); ``u_max`` None (three times the measured friction level plus the design inertia times the
+#: The experiment's own defaults of loop settings the bare loop (:class:`LoopConfig`, the C components) defaults
+#: otherwise, the one place where they differ, each on purpose: ``noise_std`` 1e-3 rad/s (a real sensor's noise; the
+#: bare loop is noiseless); ``u_max`` None (three times the measured friction level plus the design inertia times the
 #: reference's peak acceleration; the bare loop is unbounded); ``warmup`` 50 sliding-regime RLS updates (the bare
 #: component's 200 give the same second-half eta on every plant of ``benchmarks/variants.py``, the feedforward
 #: acts about twice as early: docs/benchmarks/variants.md); ``stick_band`` None (``3*noise_std``, of the measured
 #: noise; the bare component's 0 detects no sticking) and ``stick_samples`` 50 (50 ms at 1 ms: with the observer's
 #: sign a slow reversal is not taken for sticking; the component's 10: docs/benchmarks/compensation.md).
 EXPERIMENT_DEFAULTS = {"noise_std": 1e-3, "u_max": None, "warmup": 50, "stick_band": None, "stick_samples": 50}
-_LOOP_DEFAULTS = {f.name: f.default for f in fields(ModeOptions) if f.default is not MISSING}
-
-
-def _knob(name: str):
-    """The default of the shared knob ``name``: the experiment's own (:data:`EXPERIMENT_DEFAULTS`), else the
-    loop's (:class:`ModeOptions`, whose component defaults are the C components')."""
-    return EXPERIMENT_DEFAULTS[name] if name in EXPERIMENT_DEFAULTS else _LOOP_DEFAULTS[name]
+#: Loop settings a comparison sets itself for each joint (its PI design and what it measures,
+#: :func:`prepare_comparison`): no keyword of :meth:`CompareOptions.from_flat`.
+DESIGNED = ("Kp", "Ki", "ff_max", "model", "estimate", "initial", "start", "omega_r", "J_n")
+#: A comparison's loop by default (:attr:`CompareOptions.loop`): the loop's defaults with :data:`EXPERIMENT_DEFAULTS`.
+EXPERIMENT_LOOP = LoopConfig.from_flat(**EXPERIMENT_DEFAULTS)
 
 
 @dataclass(frozen=True)
 class CompareOptions:
-    """Settings of :func:`compare` (all keyword, validated; units SI).
+    """Settings of :func:`compare` (all keyword, validated; units SI): the experiment's own settings and the loop's
+    (:attr:`loop`, a :class:`controllers.simulation.loop_config.LoopConfig`).
 
-    The knobs it shares with the loop's options (:data:`LOOP_KNOBS`) take :class:`ModeOptions`' defaults (the C
-    components' where they mirror one), but for the experiment's own, :data:`EXPERIMENT_DEFAULTS`; ModeOptions checks
-    them (:meth:`loop_fields` passes them on).
+    :meth:`from_flat` takes both as flat keywords (``CompareOptions.from_flat(duration=30.0, estimator="eq4")``: a
+    loop setting by its name of :data:`controllers.simulation.loop_config.FLAT_PATHS`, the compare CLI's and the
+    TOML files' names); :meth:`replace` changes either kind.
 
     Parameters
     ----------
@@ -125,91 +119,38 @@ class CompareOptions:
         The loop's PI as the user has it (``adaptive-ff design --json``, read by
         :func:`controllers.design.controller_file.read_controller`, or :func:`controllers.design.pi.design_pi` /
         :func:`controllers.design.pi.analyse_gains`), run as given: ``crossover`` and ``phase_margin`` are then not
-        used. Its ``Tc`` must equal ``Tc``. Default None: designed from ``J_design`` and the targets.
-    Tc, Ts : float
-        Controller period and estimator sample time (s).
-    u_max : float or None
-        Torque saturation (N·m); default ``3*(F_peak + J_design*accel_peak)`` with ``F_peak`` the largest mean
-        torque measured in the quasi-static runs (:attr:`StribeckExperiment.torque_scale`; speeds up to 1.2
-        times the reference's peak).
-    noise_std : float
-        Velocity measurement noise (rad/s), default 1e-3.
-    lam : float or None
-        Forgetting factor of the adaptive estimators (default per estimator, see
-        :class:`controllers.simulation.compensators.ModeOptions`).
+        used. Its ``Tc`` must equal ``loop.controller.Tc``. Default None: designed from the design inertia and the
+        targets.
     prefit : bool
         Estimate Vs, delta by the Stribeck pre-fit from quasi-static runs designed from the joint's response
         (:func:`controllers.experiments.quasi_static.stribeck_experiment`, paper Sec. V-C). Run only for the
-        modes that use Vs, delta (``fixed``, ``adaptive``) and when ``Vs``/``delta`` are not given; False needs
-        ``Vs`` and ``delta`` for those modes.
-    Vs, delta : float or None
-        Stribeck velocity (rad/s, > 0) and shape factor (non-zero) the user knows; given (both), no pre-fit runs.
-    J_design : float or None
-        Design inertia (kg·m², > 0), e.g. a data sheet's: the PI design, the quasi-static loops, the estimator
-        start, the gates and the observers' nominal inertia. Default None: identified on the joint before anything
-        else by :func:`controllers.experiments.first_inertia.inertia_experiment` (a breakaway ramp to 1.2 times the
-        reference's peak speed, then 20 s of open-loop noise torque, the sliding-regime regression; no controller
-        needed), as a user would on their drive; the plant's own ``J`` is never read.
-    lag : bool
-        Filter the feedforward through the estimated lag.
-    estimator : {"sliding", "eq4", "eq4-rls"}
-        Estimator of the ``adaptive`` mode: ``eq4`` the paper's eq. 4 by instrumental variables (consistent in the
-        closed loop), ``eq4-rls`` by the paper's RLS as printed (biased there; the baseline).
-    iv_map_stderr : float
-        The ``eq4`` estimator's determinacy test in mode ``adaptive`` (:class:`ModeOptions` ``iv_map_stderr``;
-        > 0, default ``inf``: none).
+        modes that use Vs, delta (``fixed``, ``adaptive``) and when ``loop.estimator.Vs``/``delta`` are not given;
+        False needs them for those modes.
     estimator_rows : tuple of str
         Further estimators of :data:`controllers.simulation.compensators.ESTIMATORS` whose mode ``adaptive`` runs
         beside the others, each a row ``adaptive[E]`` of the table (right after ``adaptive``, or where it would
         stand in the registry's order), with the settings of ``adaptive`` but the estimator, on the same
         reference and noise: e.g. ``("eq4", "eq4-rls")`` puts the paper's eq. 4 by instrumental variables and by
-        its RLS beside the default. Default ``()``. Each differs from ``estimator`` and from the others.
+        its RLS beside the default. Default ``()``. Each differs from ``loop.estimator.name`` and from the others.
     fixed_method : {"sliding", "eq4"}
         Offline identification of the ``fixed`` mode (:data:`FIXED_METHODS`).
-    ff_input : {"measured", "reference"}
-        Velocity the ``fixed`` and ``adaptive`` feedforward is evaluated at.
     canudas_input : {"reference", "measured"}
-        The same for the ``canudas`` peer; default reference (on the ``paper`` preset the better of the two
-        for that scheme, see the benchmark pages).
-    sign_width, T_filter, forgetting, warmup, dwell_max, offset
-        Adaptive feedforward settings (:class:`controllers.simulation.compensators.ModeOptions`). ``warmup``
-        (sliding-regime RLS updates before the feedforward switches on; also the ``canudas``, ``eq4`` and
-        ``eq4-rls`` warm-up) defaults to 50: on every plant of ``benchmarks/variants.py`` the second-half eta of
-        ``adaptive`` is that of 200 updates (the pre-fit start and the plausibility tests carry the
-        safety), and the feedforward acts about twice as early (docs/benchmarks/variants.md).
-    sign_input : {"observer", "measured"}
-        Sign of the measured-velocity feedforward's friction map inside the stick band (``fixed``, ``adaptive``,
-        ``adaptive-dob``): a velocity observer of the design inertia at ``observer_bandwidth`` (default ``None``:
-        five times the crossover) or the measurement's own (see
-        :class:`controllers.simulation.compensators.ModeOptions`).
-    observer_bandwidth : float or None
-        See ``sign_input``.
-    stick_band, stick_samples : float or None, int
-        Stick detection of the measured-velocity feedforward (``fixed``, ``adaptive``, ``adaptive-dob``): after
-        ``stick_samples`` samples inside ``±stick_band`` the loop model's velocity is used; before that the map
-        takes its sign from the velocity observer (``sign_input``). Default ``stick_band = 3*noise_std`` and
-        ``stick_samples = 50`` (50 ms at 1 ms): with the observer's sign a slow reversal is no longer taken for
-        sticking (docs/benchmarks/compensation.md).
-    omega_q : float
-        Q-filter cut-off of the ``dob`` peer (rad/s); default 500.
+        The velocity the ``canudas`` peer's feedforward is evaluated at; default reference (on the ``paper``
+        preset the better of the two for that scheme, see the benchmark pages). The other modes':
+        ``loop.feedforward.ff_input``.
     adaptive_initial : bool
         Start the adaptive estimator from the pre-fit's Fc, Fs, sigma and the design inertia (default)
         instead of zero friction.
     adaptive_start : bool
         Provisional start of the adaptive feedforward (``adaptive``, ``adaptive-dob``, estimators ``sliding`` and
-        ``eq4``; :class:`adaptive_ff.compensation.adaptive_feedforward.FeedforwardStart`), default True: from the first period
-        the pre-fit's static map through the lag identified in the identification run (the offline fit of the
-        Sec. IV-A experiment, run for this even without ``fixed``), evaluated as ``ff_input`` says, until the
-        estimator's first trusted estimate. When that fit is rejected (implausible levels) the lag is unknown:
-        ``1/crossover`` (the loop's own time constant) with the map at the reference, where a wrong lag cannot
-        form a stick-slip cycle with the joint. Under the PI alone the joint sticks and the estimator gets no
-        sliding data for seconds; until the hand-over the start's lag decides how far the joint strays from
+        ``eq4``; :class:`adaptive_ff.compensation.adaptive_feedforward.FeedforwardStart`), default True: from the
+        first period the pre-fit's static map through the lag identified in the identification run (the offline
+        fit of the Sec. IV-A experiment, run for this even without ``fixed``), evaluated as ``ff_input`` says,
+        until the estimator's first trusted estimate. When that fit is rejected (implausible levels) the lag is
+        unknown: ``1/crossover`` (the loop's own time constant) with the map at the reference, where a wrong lag
+        cannot form a stick-slip cycle with the joint. Under the PI alone the joint sticks and the estimator gets
+        no sliding data for seconds; until the hand-over the start's lag decides how far the joint strays from
         the frictionless run at every reversal (docs/benchmarks/variants.md).
-    switch_in : bool
-        Mode ``adaptive`` with any estimator: the residual observer of ``adaptive-dob`` switched in by itself where
-        the feedforward leaves too much of the friction (:class:`controllers.simulation.compensators.ModeOptions`
-        ``switch_in``); default True. False: the feedforward alone (with ``estimator="eq4-rls"`` the paper's
-        bare prototype).
     faults : mapping int -> float or None
         Measurement faults injected in every mode (see :func:`controllers.simulation.closed_loop.run_closed_loop`).
     reference : Reference or None
@@ -218,26 +159,26 @@ class CompareOptions:
         :func:`plant.motion.reversing_reference`, a recorded trajectory of
         :func:`adaptive_ff.io.references.load_reference`); default None: the multisine of
         :func:`comparison_reference`. Given, ``duration`` becomes the reference's (``N*Tc``).
-    encoder_counts : int or None
-        The loop measures with an encoder of this many counts per joint revolution (quantised position,
-        velocity by backward difference, plus ``noise_std``; :class:`controllers.simulation.sensor_drive.Sensor`);
-        default None: a velocity sensor, ``w + noise``. What the user knows of it, the quantisation noise
-        (:func:`measurement_noise`), also sets the design's noise level: the stick band, the residual
-        observer's cut-off and the noise of the quasi-static and identification experiments.
-    delay : int
-        Measurement delay of the loop's sensor (periods, 0-32), default 0.
-    slew_rate : float
-        The drive's torque slew-rate limit (N·m/s), default inf (none). The torque limit is ``u_max``.
-    velocity, velocity_bandwidth, velocity_model
-        The encoder's velocity: ``"difference"`` (default) or ``"kalman"`` (a causal steady-state Kalman filter
-        on the counts, bandwidth in Hz, default ``0.1/Tc``; kinematic model ``"cv"`` or ``"ca"``), as
-        :class:`controllers.simulation.compensators.ModeOptions`.
+    loop : LoopConfig
+        The loop's settings (default :data:`EXPERIMENT_LOOP`: the loop's defaults but for the experiment's own,
+        :data:`EXPERIMENT_DEFAULTS`). What the comparison measures or designs for the joint replaces some of them
+        in every mode's config (:func:`prepare_comparison`): the PI gains; the design inertia where
+        ``controller.J_design`` is None (identified on the joint before anything else by
+        :func:`controllers.experiments.first_inertia.inertia_experiment`, a breakaway ramp to 1.2 times the
+        reference's peak speed, then 20 s of open-loop noise torque; the plant's own ``J`` is never read);
+        ``estimator.Vs``/``delta`` where None (the pre-fit; give both or neither, ``Vs > 0``, ``delta != 0``);
+        ``drive.u_max`` where None (``3*(F_peak + J_design*accel_peak)`` with ``F_peak`` the largest mean torque
+        measured in the quasi-static runs); ``feedforward.stick_band`` where None (``3*`` the measurement's noise
+        level, :func:`measurement_noise`, which an encoder's quantisation (``sensor.encoder_counts``) raises: it
+        also sets the residual observer's cut-off and the noise of the quasi-static and identification
+        experiments); ``feedforward.ff_max`` (half of ``u_max``); the observers' nominal inertia and the residual
+        observer's cut-off (:mod:`controllers.experiments.observer_design`).
 
     Raises
     ------
     ParameterError
-        Unknown mode or fixed method, duration not > 0, ``Vs``/``delta``/``J_design`` out of range or only
-        one of ``Vs``, ``delta`` given, or a duration whose runs do not fit into the memory available
+        Unknown mode or fixed method, duration not > 0, ``Vs``/``delta``/``J_design``/``u_max`` out of range or
+        only one of ``Vs``, ``delta`` given, or a duration whose runs do not fit into the memory available
         (:meth:`check_memory`: the message gives the samples, the memory they need and the longest duration
         that fits).
     """
@@ -248,74 +189,45 @@ class CompareOptions:
     crossover: float = 20.0
     phase_margin: float = 60.0
     controller: PIDesign | None = None
-    Tc: float = _knob("Tc")
-    Ts: float = _knob("Ts")
-    u_max: float | None = _knob("u_max")
-    noise_std: float = _knob("noise_std")
-    lam: float | None = _knob("lam")
     prefit: bool = True
-    lag: bool = _knob("lag")
-    estimator: str = _knob("estimator")
-    iv_map_stderr: float = _knob("iv_map_stderr")
     fixed_method: str = "sliding"
-    ff_input: str = _knob("ff_input")
     canudas_input: str = "reference"
-    sign_width: float = _knob("sign_width")
-    stick_band: float | None = _knob("stick_band")
-    stick_samples: int = _knob("stick_samples")
-    T_filter: float = _knob("T_filter")
-    forgetting: str = _knob("forgetting")
-    warmup: int = _knob("warmup")
-    omega_q: float = _knob("omega_q")
     adaptive_initial: bool = True
     adaptive_start: bool = True
-    switch_in: bool = _knob("switch_in")
     estimator_rows: tuple = ()
     faults: dict | None = None
-    dwell_max: float = _knob("dwell_max")
-    offset: bool = _knob("offset")
-    Vs: float | None = _knob("Vs")
-    delta: float | None = _knob("delta")
-    J_design: float | None = _knob("J_design")
-    sign_input: str = _knob("sign_input")
-    observer_bandwidth: float | None = _knob("observer_bandwidth")
     compensators: dict | None = None
     reference: object = None
-    encoder_counts: int | None = _knob("encoder_counts")
-    delay: int = _knob("delay")
-    slew_rate: float = _knob("slew_rate")
-    velocity: str = _knob("velocity")
-    velocity_bandwidth: float | None = _knob("velocity_bandwidth")
-    velocity_model: str = _knob("velocity_model")
+    loop: LoopConfig = field(default_factory=lambda: EXPERIMENT_LOOP)
 
     def __post_init__(self):
-        check_positive("Tc", self.Tc)
+        if not isinstance(self.loop, LoopConfig):
+            raise ParameterError(f"loop must be a LoopConfig (controllers.simulation.loop_config), got "
+                                 f"{type(self.loop).__name__}")
+        Tc, est = self.loop.controller.Tc, self.loop.estimator
         if self.controller is not None:
             if not isinstance(self.controller, PIDesign):
                 raise ParameterError(f"controller must be a PIDesign (controllers.design.controller_file."
                                      f"read_controller), got {type(self.controller).__name__}")
-            if not math.isclose(self.controller.Tc, self.Tc, rel_tol=1e-9):
+            if not math.isclose(self.controller.Tc, Tc, rel_tol=1e-9):
                 raise ParameterError(f"controller: its period Tc = {self.controller.Tc!r} s differs from the loop's "
-                                     f"Tc = {self.Tc!r} s")
+                                     f"Tc = {Tc!r} s")
         if self.reference is not None:  # the reference sets the duration
-            object.__setattr__(self, "duration", _reference_duration(self.reference, self.Tc))
+            object.__setattr__(self, "duration", _reference_duration(self.reference, Tc))
         check_positive("duration", self.duration)
         if self.canudas_input not in FF_INPUTS:
             raise ParameterError(f"canudas_input must be one of {FF_INPUTS}, got {self.canudas_input!r}")
-        # the knobs the loop's options carry too: checked once, by ModeOptions (Ts with the design, check_comparison)
-        ModeOptions(**{**self.loop_fields(), "Kp": 0.0, "Ki": 0.0, "u_max": math.inf, "Ts": self.Tc, "Vs": None,
-                       "delta": None, "J_design": None})
         self._check_estimator_rows()
-        if self.u_max is not None:
-            check_positive("u_max", self.u_max)
-        if (self.Vs is None) != (self.delta is None):
-            raise ParameterError(f"give both Vs and delta, or neither; got Vs={self.Vs!r}, delta={self.delta!r}")
-        if self.Vs is not None:
-            check_positive("Vs", self.Vs)
-            if check_finite_scalar("delta", self.delta) == 0.0:
+        if self.loop.drive.u_max is not None:
+            check_positive("u_max", self.loop.drive.u_max)
+        if (est.Vs is None) != (est.delta is None):
+            raise ParameterError(f"give both Vs and delta, or neither; got Vs={est.Vs!r}, delta={est.delta!r}")
+        if est.Vs is not None:
+            check_positive("Vs", est.Vs)
+            if check_finite_scalar("delta", est.delta) == 0.0:
                 raise ParameterError("delta must be non-zero (|w/Vs|**0 is constant), got 0.0")
-        if self.J_design is not None:
-            check_positive("J_design", self.J_design)
+        if self.loop.controller.J_design is not None:
+            check_positive("J_design", self.loop.controller.J_design)
         unknown = [m for m in self.modes if m not in MODES]
         if unknown:
             raise ParameterError(f"unknown mode(s) {unknown}; known: {MODES}")
@@ -330,10 +242,36 @@ class CompareOptions:
                                      f"got {type(factory).__name__}")
         self.check_memory()
 
-    def loop_fields(self) -> dict:
-        """The knobs this comparison shares with the loop's options (:data:`LOOP_KNOBS`), name -> value: the
-        keywords :func:`prepare_comparison` passes on to :class:`ModeOptions` as they are."""
-        return {k: getattr(self, k) for k in LOOP_KNOBS}
+    @classmethod
+    def from_flat(cls, **knobs) -> "CompareOptions":
+        """The options of flat keywords: this class's own fields by name, the loop's settings by their flat names
+        (:data:`controllers.simulation.loop_config.FLAT_PATHS`) on :data:`EXPERIMENT_LOOP`.
+
+        Raises
+        ------
+        ParameterError
+            A keyword that is neither (named), or a value a check refuses.
+        """
+        own, flat = _split(knobs)
+        return cls(**own, loop=EXPERIMENT_LOOP.replace(**flat) if flat else EXPERIMENT_LOOP)
+
+    @staticmethod
+    def flat_names() -> tuple:
+        """The keywords :meth:`from_flat` takes: the own fields (but ``loop``), then the loop's flat names
+        (:data:`controllers.simulation.loop_config.FLAT_PATHS`) but :data:`DESIGNED`."""
+        own = tuple(f.name for f in dataclasses.fields(CompareOptions) if f.name != "loop")
+        return own + tuple(k for k in FLAT_PATHS if k not in DESIGNED)
+
+    def flat(self, name: str):
+        """The value of the setting ``name`` as :meth:`from_flat` names it (own field or loop setting)."""
+        return getattr(self, name) if name in {f.name for f in dataclasses.fields(self)} else self.loop.flat(name)
+
+    def replace(self, **knobs) -> "CompareOptions":
+        """A copy with some settings changed, as :meth:`from_flat` names them (``loop=`` a whole
+        :class:`LoopConfig`), checked anew."""
+        own, flat = _split(knobs)
+        loop = own.pop("loop", self.loop)
+        return dataclasses.replace(self, **own, loop=loop.replace(**flat) if flat else loop)
 
     def _check_estimator_rows(self) -> None:
         """``estimator_rows``: a tuple of distinct estimators other than ``estimator`` (ParameterError)."""
@@ -342,7 +280,7 @@ class CompareOptions:
             raise ParameterError(f"estimator_rows must be a tuple of estimators {ESTIMATORS}, got {rows!r}")
         for e in rows:
             check_estimator("estimator_rows", e)
-            if e == self.estimator:
+            if e == self.loop.estimator.name:
                 raise ParameterError(f"estimator_rows: {e!r} is the estimator of the adaptive mode's own row")
         if len(set(rows)) != len(rows):
             raise ParameterError(f"estimator_rows: an estimator given twice, {tuple(rows)!r}")
@@ -381,8 +319,20 @@ class CompareOptions:
         adaptive = bool(run & {"adaptive", "adaptive-dob"} or self.estimator_rows)  # estimator rows run adaptive
         ident = "fixed" in run or (self.adaptive_start and adaptive)
         signals = max(SHARED_SIGNALS + MODE_SIGNALS * len(run), PREPARATION_SIGNALS if ident else 0)
-        return check_run_memory(self.duration, self.Tc, signals=signals, detail=f"{len(run)} modes",
+        return check_run_memory(self.duration, self.loop.controller.Tc, signals=signals, detail=f"{len(run)} modes",
                                 processes=processes)
+
+
+def _split(knobs: dict) -> tuple:
+    """``(own, flat)``: the keywords of :class:`CompareOptions`' own fields and the loop's flat ones
+    (ParameterError naming one the comparison sets itself, :data:`DESIGNED`; TypeError one that is neither)."""
+    names = {f.name for f in dataclasses.fields(CompareOptions)}
+    for k in knobs:
+        if k in DESIGNED:
+            raise ParameterError(f"{k}: the comparison sets it for each joint (its design and measurements)")
+        if k not in names and k not in FLAT_PATHS:  # a keyword no signature has: TypeError, as Python's own
+            raise TypeError(f"unknown option {k!r}; known: {', '.join(CompareOptions.flat_names())}")
+    return {k: v for k, v in knobs.items() if k in names}, {k: v for k, v in knobs.items() if k not in names}
 
 
 def compare(p, options: CompareOptions | None = None, *, progress: bool | None = None, **changes) -> Comparison:
@@ -484,21 +434,23 @@ def compensator_context(s: ComparisonSetup, o: CompareOptions) -> CompensatorCon
     ``s`` with options ``o``: the design inertia, the PI, the periods and limits, the design's noise level
     (:func:`measurement_noise`) and the Stribeck pre-fit; never the true plant."""
     mo = s.mode_options["none"]
-    return CompensatorContext(J=float(s.J_design), Tc=mo.Tc, Ts=mo.Ts, Kp=mo.Kp, Ki=mo.Ki, u_max=mo.u_max,
-                              ff_max=mo.ff_max, noise_std=measurement_noise(o), prefit=s.prefit)
+    c = mo.controller
+    return CompensatorContext(J=float(s.J_design), Tc=c.Tc, Ts=mo.estimator.Ts, Kp=c.Kp, Ki=c.Ki,
+                              u_max=mo.drive.u_max, ff_max=mo.feedforward.ff_max, noise_std=measurement_noise(o),
+                              prefit=s.prefit)
 
 
 def comparison_reference(o: CompareOptions):
-    """The velocity reference of :func:`compare` with options ``o`` (a multisine of ``o.duration`` s at ``o.Tc``
-    from the first child of ``SeedSequence(o.seed)``; :func:`plant.excitation.multisine_reference`)."""
+    """The velocity reference of :func:`compare` with options ``o`` (a multisine of ``o.duration`` s at
+    ``o.loop.controller.Tc`` from the first child of ``SeedSequence(o.seed)``; :func:`plant.excitation.multisine_reference`)."""
     ref_ss = np.random.SeedSequence(o.seed).spawn(4)[0]
-    return multisine_reference(o.duration, dt=o.Tc, rng=np.random.default_rng(ref_ss))
+    return multisine_reference(o.duration, dt=o.loop.controller.Tc, rng=np.random.default_rng(ref_ss))
 
 
 @dataclass(frozen=True)
 class ComparisonSetup:
     """What :func:`compare` prepares before its runs: the reference, the PI design, the experiments and fits and
-    every mode's :class:`ModeOptions` (all from what a user has: simulated experiments, never the true friction).
+    every mode's :class:`LoopConfig` (all from what a user has: simulated experiments, never the true friction).
 
     Attributes
     ----------
@@ -508,14 +460,14 @@ class ComparisonSetup:
         Velocity reference sampled at ``Tc``.
     design : PIDesign
     mode_options : dict
-        ``{mode: ModeOptions}``.
+        ``{mode: LoopConfig}``.
     noise_seed : numpy.random.SeedSequence
         Seed of the measurement noise (the same noise in every mode).
     prefit, offline, model, experiment, J_design, notes, inertia
         As in :class:`Comparison`.
     bar : tqdm progress bar (the caller updates and closes it)
     estimator_rows : dict
-        ``{label: ModeOptions}`` of ``CompareOptions.estimator_rows``: mode ``adaptive`` with another estimator,
+        ``{label: LoopConfig}`` of ``CompareOptions.estimator_rows``: mode ``adaptive`` with another estimator,
         label ``adaptive[E]``; empty without.
     """
 
@@ -536,13 +488,13 @@ class ComparisonSetup:
 
 
 def _drive_limit(p0, o: CompareOptions, exp, J: float, peak_a: float) -> tuple:
-    """``(u_max, F_peak)``: the torque limit (``o.u_max``, or ``3*(F_peak + J*peak_a)`` checked against the joint's
-    breakaway, :func:`check_drive_moves`) and the measured friction level ``F_peak`` (N·m; the largest mean torque
+    """``(u_max, F_peak)``: the torque limit (``o.loop.drive.u_max``, or ``3*(F_peak + J*peak_a)`` checked against the
+    joint's breakaway, :func:`check_drive_moves`) and the measured friction level ``F_peak`` (N·m; the largest mean torque
     of the quasi-static runs ``exp``, else ``u_max/3``), for the design inertia ``J`` (kg·m²) and the reference's
     peak acceleration ``peak_a`` (rad/s²)."""
     F_peak = exp.torque_scale if exp is not None else None
-    u_max = o.u_max if o.u_max is not None else 3.0 * (F_peak + J * peak_a)
-    if o.u_max is None:
+    u_max = o.loop.drive.u_max if o.loop.drive.u_max is not None else 3.0 * (F_peak + J * peak_a)
+    if o.loop.drive.u_max is None:
         check_drive_moves(p0, u_max, derived=True)
     return u_max, (F_peak if F_peak is not None else u_max / 3.0)
 
@@ -581,7 +533,7 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     their ``Vs``, ``delta`` the given ones or placeholders (the lowest speed of the runs and 1, as the pre-fit's
     Coulomb + viscous fallback); a note says so. ``eta`` is then undefined (0/0).
 
-    Without ``o.J_design`` the design inertia is identified first
+    Without ``o.loop.controller.J_design`` the design inertia is identified first
     (:func:`controllers.experiments.first_inertia.inertia_experiment`, :attr:`ComparisonSetup.inertia`): every loop
     of the preparation needs it, and it needs no loop.
 
@@ -593,8 +545,9 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     adaptive modes' provisional start (its lag, see ``CompareOptions.adaptive_start``). The residual observer of
     ``adaptive-dob`` gets the cut-off :func:`residual_cutoff` of the design inertia, the noise estimate and the
     friction level of the quasi-static runs that held (1000 rad/s unless its noise torque would exceed half
-    that level, a third where the runs found the joint sticking: :func:`residual_share`). Where the identification run's inertia contradicts the design inertia (:func:`observer_inertia`), every
-    observer takes the identified one (``ModeOptions.J_n``) and a note says so; the PI keeps its design.
+    that level, a third where the runs found the joint sticking: :func:`residual_share`). Where the identification
+    run's inertia contradicts the design inertia (:func:`observer_inertia`), every observer takes the identified one
+    (``LoopConfig.observer.J_n``) and a note says so; the PI keeps its design.
     """
     run_modes = [m for m in MODES if m in set(o.modes) | {"none", "frictionless"}]
     p0 = p.at(0.0) if hasattr(p, "at") else p
@@ -605,12 +558,14 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     noise = measurement_noise(o)
     peak_w, peak_a = float(np.max(np.abs(ref.w))), float(np.max(np.abs(ref.dw)))
     _preflight(p0, o, peak_w, noise)
-    first = None if o.J_design is not None else _first_inertia(p0, o, peak_w, noise, np.random.default_rng(J_ss))
-    J = float(o.J_design) if first is None else first.J  # the design inertia: what the user has
+    J_given, Tc = o.loop.controller.J_design, o.loop.controller.Tc
+    first = None if J_given is not None else _first_inertia(p0, o, peak_w, noise, np.random.default_rng(J_ss))
+    J = float(J_given) if first is None else first.J  # the design inertia: what the user has
     design = o.controller if o.controller is not None else design_pi(J, crossover=o.crossover,
-                                                                      phase_margin=o.phase_margin, Tc=o.Tc)
+                                                                      phase_margin=o.phase_margin, Tc=Tc)
     adaptive_rows = ["adaptive"] * bool(o.estimator_rows)  # the estimator rows run mode adaptive
-    needs_prefit = (any(m in PREFIT_MODES for m in run_modes + adaptive_rows) or bool(o.compensators)) and o.Vs is None
+    needs_prefit = ((any(m in PREFIT_MODES for m in run_modes + adaptive_rows) or bool(o.compensators))
+                    and o.loop.estimator.Vs is None)
     if needs_prefit and not o.prefit:
         wanting = [m for m in run_modes + adaptive_rows if m in PREFIT_MODES]
         raise ParameterError(f"modes {wanting} need Vs and delta: give them "
@@ -618,11 +573,11 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     bar = tqdm(total=len(run_modes) + len(o.estimator_rows) + ("fixed" in run_modes) + needs_prefit, desc="compare",
                disable=(None if progress is None else not progress), leave=False)
     exp = None
-    if needs_prefit or o.u_max is None:
+    if needs_prefit or o.loop.drive.u_max is None:
         bar.set_postfix_str("quasi-static runs")
         exp = _quasi_static(p0, o, J, peak_w, np.random.default_rng(qs_ss), fit=needs_prefit, noise=noise)
     fit = exp.fit if needs_prefit else None
-    Vs, delta = (fit.Vs, fit.delta) if fit is not None else (o.Vs, o.delta)
+    Vs, delta = (fit.Vs, fit.delta) if fit is not None else (o.loop.estimator.Vs, o.loop.estimator.delta)
     no_friction = exp is not None and exp.no_friction
     if no_friction and Vs is None:  # placeholders, as the pre-fit's without a Stribeck effect: the lowest speed, 1
         Vs, delta = float(np.min(np.abs(exp.setpoints))), 1.0
@@ -633,7 +588,7 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     offline = estimate = accepted = None
     notes = list(exp.notes) if fit is not None else []
     if no_friction:
-        notes.append(_no_friction_note(exp, run_modes, Vs, o.Vs is None))
+        notes.append(_no_friction_note(exp, run_modes, Vs, o.loop.estimator.Vs is None))
     wants_start = o.adaptive_start and fit is not None and any(m in run_modes + adaptive_rows
                                                                for m in ("adaptive", "adaptive-dob"))
     if no_friction and "fixed" in run_modes:  # nothing to identify: the fixed map is zero friction
@@ -663,23 +618,26 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     if o.adaptive_initial and fit is not None:
         initial = FrictionEstimate(J=J, tau=0.0, sigma=max(fit.sigma, 0.0), Fc=max(fit.Fc, 0.0),
                                    Fs=max(fit.Fs, 0.0), offset=0.0, Vs=Vs, delta=delta, J_alt=float("nan"))
-    start = _adaptive_start(fit, J, design, accepted, o.ff_input) if wants_start else None
+    start = _adaptive_start(fit, J, design, accepted, o.loop.feedforward.ff_input) if wants_start else None
     J_n = observer_inertia(J, offline.estimate if offline is not None else None)
     if J_n is not None:
         notes.append(f"the design inertia {J:.4g} kg·m² is {J / J_n:.3g} times the {J_n:.4g} kg·m² of the "
                      f"identification run: the observers (dob, the residual observer and switch-in of adaptive and "
                      f"adaptive-dob, the supervisor) take the identified one; the PI keeps its design")
-    stick_band = 3.0 * noise if o.stick_band is None else o.stick_band
+    stick_band = 3.0 * noise if o.loop.feedforward.stick_band is None else o.loop.feedforward.stick_band
     # the feedforward may use at most half the actuator range; friction levels above it are implausible
-    omega_r = residual_cutoff(J, noise, o.Tc, friction_level(exp, F_peak), share=residual_share(exp, stick_band),
-                              omega_max=observer_max(Tc=o.Tc, encoder_counts=o.encoder_counts, velocity=o.velocity,
-                                                     velocity_bandwidth=o.velocity_bandwidth))
+    sensor = o.loop.sensor
+    omega_r = residual_cutoff(J, noise, Tc, friction_level(exp, F_peak), share=residual_share(exp, stick_band),
+                              omega_max=observer_max(Tc=Tc, encoder_counts=sensor.encoder_counts,
+                                                     velocity=sensor.velocity,
+                                                     velocity_bandwidth=sensor.velocity_bandwidth))
     # the shared knobs as given, then what the experiment measured or chose for this joint
-    mo = ModeOptions(**{**o.loop_fields(), "Kp": design.Kp, "Ki": design.Ki, "u_max": u_max, "ff_max": 0.5 * u_max,
-                        "J_design": J, "Vs": Vs, "delta": delta, "stick_band": stick_band, "model": model,
-                        "estimate": estimate, "initial": initial, "start": start, "omega_r": omega_r, "J_n": J_n})
-    opts = {mode: replace(mo, ff_input=o.canudas_input if mode == "canudas" else o.ff_input) for mode in run_modes}
-    rows = {label: replace(mo, ff_input=o.ff_input, estimator=e) for label, e in o.row_labels.items()}
+    mo = o.loop.replace(Kp=design.Kp, Ki=design.Ki, u_max=u_max, ff_max=0.5 * u_max, J_design=J, Vs=Vs, delta=delta,
+                        stick_band=stick_band, model=model, estimate=estimate, initial=initial, start=start,
+                        omega_r=omega_r, J_n=J_n)
+    ff_input = o.loop.feedforward.ff_input
+    opts = {mode: mo.replace(ff_input=o.canudas_input if mode == "canudas" else ff_input) for mode in run_modes}
+    rows = {label: mo.replace(ff_input=ff_input, estimator=e) for label, e in o.row_labels.items()}
     return ComparisonSetup(modes=tuple(run_modes), reference=ref, design=design, mode_options=opts,
                            noise_seed=noise_ss, prefit=fit, offline=offline, model=model, experiment=exp,
                            J_design=J, notes=tuple(notes), bar=bar, estimator_rows=rows, inertia=first)
@@ -694,7 +652,7 @@ def check_comparison(p, o: CompareOptions) -> None:
     Parameters
     ----------
     p : plant model
-        The true plant (its friction levels against ``o.u_max``, the drive's check of the simulated world).
+        The true plant (its friction levels against ``o.loop.drive.u_max``, the drive's check of the simulated world).
     o : CompareOptions
 
     Raises
@@ -713,26 +671,28 @@ def _preflight(p0, o: CompareOptions, peak_w: float, noise: float) -> None:
     measurement's noise (rad/s). The PI targets are checked on a unit inertia: with ``sigma = 0`` the loop of
     ``1/(J s)`` scales with ``J`` (the gains do, the margins do not), so they are reachable for every ``J`` or
     none."""
-    check_multiple("Ts", o.Ts, "Tc", o.Tc)
+    check_multiple("Ts", o.loop.estimator.Ts, "Tc", o.loop.controller.Tc)
+    sensor = o.loop.sensor
     if noise / 2.0 >= 1.2 * peak_w:
-        what = (f"encoder_counts = {o.encoder_counts!r}: its quantisation makes the measured velocity's noise"
-                if o.encoder_counts is not None else f"noise_std = {o.noise_std!r} rad/s: the measured velocity's "
-                                                     f"noise")
+        what = (f"encoder_counts = {sensor.encoder_counts!r}: its quantisation makes the measured velocity's noise"
+                if sensor.encoder_counts is not None else f"noise_std = {sensor.noise_std!r} rad/s: the measured "
+                                                          f"velocity's noise")
         raise ParameterError(f"{what} {noise:.4g} rad/s, more than twice 1.2 times the reference's peak velocity "
                              f"{peak_w:.4g} rad/s: no speed of the reference can be measured")
-    if o.u_max is not None:
-        check_drive_moves(p0, o.u_max)
+    if o.loop.drive.u_max is not None:
+        check_drive_moves(p0, o.loop.drive.u_max)
     if o.controller is None:
-        design_pi(1.0, crossover=o.crossover, phase_margin=o.phase_margin, Tc=o.Tc)
+        design_pi(1.0, crossover=o.crossover, phase_margin=o.phase_margin, Tc=o.loop.controller.Tc)
 
 
 def _first_inertia(p0, o: CompareOptions, peak_w: float, noise: float, rng) -> InertiaExperiment:
     """The design inertia's experiment (:func:`controllers.experiments.first_inertia.inertia_experiment`): the
-    ramp to ``1.2*peak_w`` (at least ten times the noise, rad/s), the drive's limit ``o.u_max``, the regression's
-    ``Ts`` and ``T_filter`` of ``o``; refused where it gives no positive inertia."""
-    first = inertia_experiment(p0, w_switch=max(1.2 * peak_w, 10.0 * noise), Tc=o.Tc, noise_std=noise, rng=rng,
-                               options=InertiaDesign(u_max=math.inf if o.u_max is None else o.u_max, Ts=o.Ts,
-                                                     T_filter=o.T_filter))
+    ramp to ``1.2*peak_w`` (at least ten times the noise, rad/s), the drive's limit ``o.loop.drive.u_max``, the
+    regression's ``Ts`` and ``T_filter`` of ``o``; refused where it gives no positive inertia."""
+    u_max, est = o.loop.drive.u_max, o.loop.estimator
+    first = inertia_experiment(p0, w_switch=max(1.2 * peak_w, 10.0 * noise), Tc=o.loop.controller.Tc, noise_std=noise,
+                               rng=rng, options=InertiaDesign(u_max=math.inf if u_max is None else u_max, Ts=est.Ts,
+                                                              T_filter=est.T_filter))
     if not (math.isfinite(first.J) and first.J > 0.0):
         raise ExcitationError(f"the design inertia's experiment gave J = {first.J!r} kg·m² ({first.summary()}); "
                               f"give the design inertia (J_design, --J-design)")
@@ -833,26 +793,27 @@ def measurement_noise(o: CompareOptions) -> float:
     ``res**2/12`` (:func:`adaptive_ff.io.kalman_velocity.steady_state_kalman`; 0.0043 rad/s for 2^17 counts, cv,
     100 Hz). What a user knows of their sensor (its resolution, its filter), not a field of the plant.
     """
-    if o.encoder_counts is None:
-        return float(o.noise_std)
-    res = 2.0 * math.pi / o.encoder_counts
-    if o.velocity == "kalman":
+    s, Tc = o.loop.sensor, o.loop.controller.Tc
+    if s.encoder_counts is None:
+        return float(s.noise_std)
+    res = 2.0 * math.pi / s.encoder_counts
+    if s.velocity == "kalman":
         from adaptive_ff.io.kalman_velocity import steady_state_kalman
         from controllers.simulation.sensor_drive import default_velocity_bandwidth
 
-        bw = o.velocity_bandwidth if o.velocity_bandwidth is not None else default_velocity_bandwidth(o.Tc)
-        kf = steady_state_kalman(o.velocity_model, bandwidth=bw, position_noise=res / math.sqrt(12.0), T=o.Tc)
-        return math.sqrt(o.noise_std ** 2 + float(kf.P[1, 1]))
-    return math.sqrt(o.noise_std ** 2 + res * res / (6.0 * o.Tc * o.Tc))
+        bw = s.velocity_bandwidth if s.velocity_bandwidth is not None else default_velocity_bandwidth(Tc)
+        kf = steady_state_kalman(s.velocity_model, bandwidth=bw, position_noise=res / math.sqrt(12.0), T=Tc)
+        return math.sqrt(s.noise_std ** 2 + float(kf.P[1, 1]))
+    return math.sqrt(s.noise_std ** 2 + res * res / (6.0 * Tc * Tc))
 
 
 def _checked_reference(ref, o: CompareOptions):
     """``ref`` if it is on the grid of ``o`` (step ``Tc``, length ``duration``); raise otherwise."""
     t = np.asarray(getattr(ref, "t", None), dtype=float)
-    if t.ndim != 1 or t.shape[0] < 2 or not np.isclose(t[1] - t[0], o.Tc, rtol=1e-9) \
-            or not np.isclose(t[-1] - t[0], o.duration, rtol=1e-9, atol=o.Tc):
-        raise ParameterError(f"reference must be comparison_reference(options): step Tc = {o.Tc!r} s over "
-                             f"duration = {o.duration!r} s")
+    if t.ndim != 1 or t.shape[0] < 2 or not np.isclose(t[1] - t[0], o.loop.controller.Tc, rtol=1e-9) \
+            or not np.isclose(t[-1] - t[0], o.duration, rtol=1e-9, atol=o.loop.controller.Tc):
+        raise ParameterError(f"reference must be comparison_reference(options): step Tc = {o.loop.controller.Tc!r} s "
+                             f"over duration = {o.duration!r} s")
     return ref
 
 
@@ -903,7 +864,7 @@ def _quasi_static(p0, o: CompareOptions, J: float, peak_w: float, rng, *, fit: b
                   noise: float) -> StribeckExperiment:
     """The quasi-static runs of :func:`compare`: designed from the joint's response; coarse only without a fit.
     ``noise``: the velocity noise (rad/s) of the runs' measurement (:func:`measurement_noise`)."""
-    return stribeck_experiment(p0, J_design=J, noise_std=noise, Tc=o.Tc, rng=rng,
+    return stribeck_experiment(p0, J_design=J, noise_std=noise, Tc=o.loop.controller.Tc, rng=rng,
                                options=StribeckDesign(w_max=1.2 * peak_w), fit=fit)
 
 
@@ -914,12 +875,13 @@ def _offline_fit(p0, o: CompareOptions, model, F_peak, Vs, delta, id_rng, noise:
     the velocity is measured with white noise of ``noise`` (rad/s, :func:`measurement_noise`: an encoder's
     quantisation taken as white noise of its level).
     """
-    _, u_id = bandlimited_noise(o.duration, dt=o.Tc, cutoff=1.0, std=1.2 * F_peak, rng=id_rng)
-    resp = simulate(p0, u_id, dt=o.Tc)
+    _, u_id = bandlimited_noise(o.duration, dt=o.loop.controller.Tc, cutoff=1.0, std=1.2 * F_peak, rng=id_rng)
+    resp = simulate(p0, u_id, dt=o.loop.controller.Tc)
     if o.fixed_method == "sliding":
         n = u_id.shape[0]
         w_id = resp.w[:-1] + id_rng.normal(0.0, noise, size=n) if noise > 0 else resp.w[:-1]
-        return fit_sliding(u_id, w_id, Tc=o.Tc, Vs=Vs, delta=delta,
-                           config=SlidingFrictionEstimatorConfig(Ts=o.Ts, T_filter=o.T_filter, lag=o.lag))
-    meas = sample(resp, Ts=o.Ts, noise_std=noise, rng=id_rng)
-    return fit_ls(model, meas.u, meas.w, Ts=o.Ts)
+        return fit_sliding(u_id, w_id, Tc=o.loop.controller.Tc, Vs=Vs, delta=delta,
+                           config=SlidingFrictionEstimatorConfig(Ts=o.loop.estimator.Ts, T_filter=o.loop.estimator.T_filter,
+                                                                 lag=o.loop.feedforward.lag))
+    meas = sample(resp, Ts=o.loop.estimator.Ts, noise_std=noise, rng=id_rng)
+    return fit_ls(model, meas.u, meas.w, Ts=o.loop.estimator.Ts)

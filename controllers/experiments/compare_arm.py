@@ -27,7 +27,7 @@ coupling step is Python; every compensator, gate and PI step is the package's C.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -178,7 +178,7 @@ class JointLoopDesign:
         The drive's torque limit (N·m).
     estimate : FrictionEstimate
         The identified static map the ``fixed`` mode feeds forward (no lag).
-    options : ModeOptions
+    options : LoopConfig
         The settings of the joint's compensators (``export-c``'s).
     settings : dict
         What :func:`controllers.experiments.compensator_file.compensator_from_file` is given beside the file and the joint (as
@@ -258,7 +258,7 @@ def joint_designs(identification, arm, options: CompareArmOptions) -> list:
                     "start": bool(options.start) and math.isfinite(ident.params.get("tau", math.nan))}
         o = compensator_from_file(identification, arm_joint=name, **settings)[1]["options"]
         est = FrictionEstimate(J=s["J_design"], tau=0.0, sigma=fr.get("sigma", 0.0), Fc=fr.get("Fc", 0.0),
-                               Fs=fr.get("Fs", 0.0), offset=0.0, Vs=o.Vs, delta=o.delta, J_alt=math.nan)
+                               Fs=fr.get("Fs", 0.0), offset=0.0, Vs=o.estimator.Vs, delta=o.estimator.delta, J_alt=math.nan)
         out.append(JointLoopDesign(name=name, J_design=float(s["J_design"]), Kp=float(s["Kp"]), Ki=float(s["Ki"]),
                                    u_max=float(u_max[j]), estimate=est, options=o, settings=settings,
                                    noise_std=float(noise), noise_source=source))
@@ -280,7 +280,7 @@ class _JointLoop:
             self.comp, _ = compensator_from_file(identification, arm_joint=design.name,
                                                  feedforward_only=mode == "adaptive-ff", **design.settings)
         elif mode == "fixed":
-            _, _, self.comp = build_mode(None, "fixed", replace(o, estimate=design.estimate))
+            _, _, self.comp = build_mode(None, "fixed", o.replace(estimate=design.estimate))
         if self.comp is not None:
             # cffi reads a const table as a value: a copy, as the engine makes (EngineRun.set_compensator)
             self.ops = ffi.new("aff_compensator_ops *", getattr(lib, self.comp.C_OPS))

@@ -450,6 +450,6 @@ def options_with_changes(options, changes: dict, *, where: str):
     if not changes:
         return options
     try:
-        return replace(options, **changes)
+        return options.replace(**changes) if hasattr(options, "replace") else replace(options, **changes)
     except TypeError as exc:
         raise ParameterError(f"{where}: {exc}") from None

@@ -77,7 +77,7 @@ def compensator_from_file(path, *, u_max: float, pi: PITuning = PITuning(), star
         ``path`` is an ``identify-arm --json`` output: the compensator of this joint's entry (the layout of
         ``identify --json``; :func:`adaptive_ff.arm.result.read_arm_joint`).
     **options
-        Fields of :class:`controllers.simulation.compensators.ModeOptions` that override the defaults: ``Tc``
+        Flat settings of :meth:`controllers.simulation.loop_config.LoopConfig.from_flat` that override the defaults: ``Tc``
         (1 ms), ``Ts`` (10 ms), ``J_design`` (the identified ``J``), ``Vs``, ``delta`` (the file's), ``ff_max``
         (``u_max/2``), ``stick_band`` (three times the identification's noise estimate, 0 without one),
         ``stick_samples`` (50), ``warmup`` (50), ``omega_r`` (the residual observer's cut-off,
@@ -91,7 +91,7 @@ def compensator_from_file(path, *, u_max: float, pi: PITuning = PITuning(), star
         stepped.
     settings : dict
         ``J_design, u_max, Kp, Ki`` and ``joint`` (the identified ``Fc``, ``Fs``, ``sigma`` that are finite and
-        >= 0) for :func:`adaptive_ff.compensation.export_c.export_c`, and ``options`` (the ModeOptions used).
+        >= 0) for :func:`adaptive_ff.compensation.export_c.export_c`, and ``options`` (the LoopConfig used).
 
     Raises
     ------
@@ -100,19 +100,18 @@ def compensator_from_file(path, *, u_max: float, pi: PITuning = PITuning(), star
     FileNotFoundError
         No such file.
     """
-    from dataclasses import fields
-
     from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
     from adaptive_ff.identification.regression import FrictionEstimate
-    from controllers.simulation.compensators import ModeOptions, build_mode
+    from controllers.simulation.compensators import build_mode
+    from controllers.simulation.loop_config import FLAT_PATHS, LoopConfig
     from plant.errors import ParameterError
 
     from controllers.experiments.observer_design import residual_cutoff
 
-    known = {f.name for f in fields(ModeOptions)} - {"Kp", "Ki", "u_max", "start", "initial"}
+    known = set(FLAT_PATHS) - {"Kp", "Ki", "u_max", "start", "initial"}
     unknown = sorted(set(options) - known)
     if unknown:
-        raise ParameterError(f"unknown option(s) {unknown}; allowed: the fields of ModeOptions {sorted(known)}")
+        raise ParameterError(f"unknown option(s) {unknown}; allowed: the loop settings of LoopConfig.from_flat {sorted(known)}")
     ident = read_identified(path, arm_joint)
     path = ident.source  # the file, or the file and the joint: what the messages name
     top = {k: v for k, v in (("Vs", ident.Vs), ("delta", ident.delta)) if v is not None and math.isfinite(v)}
@@ -153,7 +152,7 @@ def compensator_from_file(path, *, u_max: float, pi: PITuning = PITuning(), star
                 "omega_r": residual_cutoff(J_design, noise or 0.0, Tc, level), **options}
     if feedforward_only:  # the feedforward alone: aff_adaptive without the observer and the supervisor
         settings.update(switch_in=False, supervise=False)
-    opts = ModeOptions(Kp=Kp, Ki=Ki, u_max=u_max, J_design=J_design, Vs=Vs, delta=delta, start=first, initial=init,
-                       **settings)
+    opts = LoopConfig.from_flat(Kp=Kp, Ki=Ki, u_max=u_max, J_design=J_design, Vs=Vs, delta=delta, start=first,
+                                initial=init, **settings)
     _, _, comp = build_mode(None, "adaptive", opts)  # None: no plant field is read with J_design given
     return comp, {"J_design": J_design, "u_max": u_max, "Kp": Kp, "Ki": Ki, "joint": joint, "options": opts}

@@ -115,7 +115,7 @@ def residual_cutoff(J: float, noise_std: float, Tc: float, F_level: float, *, sh
         Largest noise torque (standard deviation) as a share of ``F_level`` (default :data:`RESIDUAL_SHARE`, 0.5:
         beside the feedforward the observer cancels the residual ``f - u_ff``, a part of the friction, so its noise
         torque must stay below the friction level; Notes; ``compare`` passes :func:`residual_share`) and the
-        cut-off without that bound (rad/s, default 1000, :class:`controllers.simulation.compensators.ModeOptions`).
+        cut-off without that bound (rad/s, default 1000, :class:`controllers.simulation.loop_config.LoopConfig` ``observer.omega_r``).
 
     Returns
     -------

@@ -33,7 +33,7 @@ with the standard library's :mod:`tomllib`; SI units throughout)::
     [controller]       # crossover (rad/s), phase_margin (deg), Tc, Ts (s), J_design (kg·m²)
     crossover = 20.0
 
-    [compensation]     # further fields of controllers.experiments.compare.CompareOptions (estimator, lam, ...)
+    [compensation]     # further settings of CompareOptions.from_flat (estimator, lam, ...)
 
     [compensators.lugre-model]        # your compensator: factory(context, **the other keys) -> object with
     factory = "lugre_model.py:LuGreModel"   # compensate(w_meas, w_ref) and observe(u, w_meas); "module:name"
@@ -79,7 +79,8 @@ _SENSOR = ("encoder_counts", "delay", "noise_std", "velocity", "velocity_bandwid
 _DRIVE = ("u_max", "slew_rate")
 _CONTROLLER = ("crossover", "phase_margin", "Tc", "Ts", "J_design")
 _BOUNDS = ("mode", "min_eta", "max_rms", "max_error")
-#: CompareOptions fields a scenario sets elsewhere (or not at all): not allowed under ``[compensation]``.
+#: CompareOptions settings (:meth:`CompareOptions.flat_names`) a scenario sets elsewhere (or not at all): not
+#: allowed under ``[compensation]``.
 _NOT_COMPENSATION = ("duration", "seed", "modes", "compensators", "reference", "faults", "u_max", "controller",
                      "slew_rate") + _SENSOR + _CONTROLLER
 
@@ -143,12 +144,12 @@ class Scenario:
         """Strict-JSON summary: name, description, source, the reference's length and its stops and reversals,
         sensor, drive, seed, modes, own compensators' names, bounds."""
         o = self.options
-        ref = o.reference
+        ref, sensor, drive = o.reference, o.loop.sensor, o.loop.drive
         d = {"name": self.name, "description": self.description, "source": self.source, "seed": o.seed,
-             "modes": list(o.modes), "duration": o.duration, "Tc": o.Tc,
-             "sensor": {"encoder_counts": o.encoder_counts, "delay": o.delay, "noise_std": o.noise_std,
-                        "velocity": o.velocity if o.encoder_counts else None},
-             "drive": {"u_max": o.u_max, "slew_rate": None if math.isinf(o.slew_rate) else o.slew_rate},
+             "modes": list(o.modes), "duration": o.duration, "Tc": o.loop.controller.Tc,
+             "sensor": {"encoder_counts": sensor.encoder_counts, "delay": sensor.delay, "noise_std": sensor.noise_std,
+                        "velocity": sensor.velocity if sensor.encoder_counts else None},
+             "drive": {"u_max": drive.u_max, "slew_rate": None if math.isinf(drive.slew_rate) else drive.slew_rate},
              "compensators": sorted(o.compensators or {}),
              "bounds": None if self.bounds is None else {f.name: getattr(self.bounds, f.name)
                                                          for f in fields(self.bounds)}}
@@ -161,10 +162,11 @@ class Scenario:
         o = self.options
         ref = o.reference
         events = "multisine" if ref is None else f"{len(ref.stops())} stops, {len(ref.reversals())} reversals"
-        sensor = (f"{o.encoder_counts}-count encoder ({o.velocity})" if o.encoder_counts else "velocity sensor") + \
-            (f", {o.delay} period(s) delay" if o.delay else "") + f", noise {o.noise_std:g} rad/s"
-        drive = ("u_max from the quasi-static runs" if o.u_max is None else f"u_max {o.u_max:g} N·m") + \
-            ("" if math.isinf(o.slew_rate) else f", slew {o.slew_rate:g} N·m/s")
+        s, dr = o.loop.sensor, o.loop.drive
+        sensor = (f"{s.encoder_counts}-count encoder ({s.velocity})" if s.encoder_counts else "velocity sensor") + \
+            (f", {s.delay} period(s) delay" if s.delay else "") + f", noise {s.noise_std:g} rad/s"
+        drive = ("u_max from the quasi-static runs" if dr.u_max is None else f"u_max {dr.u_max:g} N·m") + \
+            ("" if math.isinf(dr.slew_rate) else f", slew {dr.slew_rate:g} N·m/s")
         own = f"; own: {', '.join(o.compensators)}" if o.compensators else ""
         return (f"scenario {self.name!r}: {o.duration:g} s ({events}), seed {o.seed}; {sensor}; {drive}; "
                 f"modes {', '.join(o.modes)}{own}")
@@ -243,7 +245,7 @@ def scenario_from_dict(d: dict, *, base_dir=".", source: str = "<scenario>", def
     ctx.known("drive", drive, _DRIVE)
     reference = _reference(ctx, ctx.table(d, "reference"), Tc, seed)
     compensation = ctx.table(d, "compensation")
-    allowed = tuple(f.name for f in fields(CompareOptions) if f.name not in _NOT_COMPENSATION)
+    allowed = tuple(k for k in CompareOptions.flat_names() if k not in _NOT_COMPENSATION)
     ctx.known("compensation", compensation, allowed)
     compensators = _compensators(ctx, ctx.table(d, "compensators"))
     noise = sensor.get("noise_std", 0.0 if sensor.get("encoder_counts") is not None else 1e-3)
@@ -255,7 +257,7 @@ def scenario_from_dict(d: dict, *, base_dir=".", source: str = "<scenario>", def
         duration = ctx.table(d, "reference").get("duration", 60.0)
         kw["duration"] = duration
     try:
-        options = CompareOptions(**kw)
+        options = CompareOptions.from_flat(**kw)
         check_comparison(plant, options)  # what needs no simulation: before any
     except (ParameterError, TypeError, ValueError) as exc:
         raise ScenarioError(f"{source}: {_where_option(str(exc), plant=True)}{exc}") from None
@@ -308,7 +310,7 @@ def _where_option(msg: str, *, plant: bool = False) -> str:
     for table, keys in (("sensor", _SENSOR), ("drive", _DRIVE), ("controller", _CONTROLLER)):
         if key in keys:
             return f"[{table}] "
-    return "[compensation] " if key in {f.name for f in fields(CompareOptions)} else ""
+    return "[compensation] " if key in CompareOptions.flat_names() else ""
 
 
 def _modes(ctx: _Ctx, d: dict) -> tuple:

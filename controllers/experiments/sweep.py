@@ -194,20 +194,18 @@ def _monte_carlo(where: str, value) -> dict:
 
 
 def _options(where: str, value) -> dict:
-    """The validated ``options`` section: keyword arguments of ``compare()`` (CompareOptions fields)."""
-    from dataclasses import fields
-
+    """The validated ``options`` section: keyword arguments of ``compare()`` (:meth:`CompareOptions.from_flat`'s)."""
     from controllers.experiments.compare import CompareOptions
 
     if not isinstance(value, dict):
         raise ParameterError(f"{where}: options must be an object of compare() settings, got {value!r}")
-    allowed = [f.name for f in fields(CompareOptions) if f.name not in _OWN_OPTIONS]
+    allowed = [k for k in CompareOptions.flat_names() if k not in _OWN_OPTIONS]
     unknown = [k for k in value if k not in allowed]
     if unknown:
         raise ParameterError(f"{where}: options key(s) {unknown} unknown; allowed {allowed} (duration, seeds, "
                              "modes and the controller targets have keys of their own)")
     try:
-        CompareOptions(**value)
+        CompareOptions.from_flat(**value)
     except (ParameterError, TypeError, ValueError) as exc:
         raise ParameterError(f"{where}: options: {exc}") from None
     return dict(value)
@@ -720,7 +718,8 @@ def run_sweep(spec: SweepSpec, out_csv, *, workers: int | None = None, scheduler
         from controllers.experiments.compare import CompareOptions
 
         parallel = 1 if scheduler is not None or workers == 1 else min(int(workers), len(todo))
-        CompareOptions(duration=spec.duration, modes=spec.modes, **spec.options).check_memory(processes=parallel)
+        CompareOptions.from_flat(duration=spec.duration, modes=spec.modes,
+                                 **spec.options).check_memory(processes=parallel)
     new_file = not path.exists() or path.stat().st_size == 0
     written = 0
     with path.open("a", newline="") as fh:

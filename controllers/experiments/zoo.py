@@ -59,7 +59,7 @@ from __future__ import annotations
 import functools
 import math
 import os
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -258,7 +258,7 @@ SHARED_FIELDS = ("duration", "seed", "modes", "reference", "encoder_counts", "de
                  "estimator", "iv_map_stderr", "switch_in")
 #: Those a ``base`` comparison sets (then left at their defaults here).
 BASE_FIELDS = ("reference", "encoder_counts", "delay", "slew_rate", "velocity")
-_COMPARE = {f.name: f.default for f in fields(CompareOptions) if f.name in SHARED_FIELDS}
+_COMPARE = {k: CompareOptions().flat(k) for k in SHARED_FIELDS}
 
 
 @dataclass(frozen=True)
@@ -418,11 +418,11 @@ class ZooOptions:
         settings and no torque limit, design inertia, given PI (each joint's PI is designed on its own design
         inertia with the base's targets) or own compensators of its own."""
         if self.base is not None:
-            return replace(self.base, seed=int(self.seed), modes=self.modes, estimator=self.estimator,
-                           iv_map_stderr=self.iv_map_stderr, switch_in=self.switch_in, u_max=None, J_design=None,
-                           controller=None, compensators=None)
-        return CompareOptions(**{**{k: getattr(self, k) for k in SHARED_FIELDS}, "duration": float(self.duration),
-                                 "seed": int(self.seed)})
+            return self.base.replace(seed=int(self.seed), modes=self.modes, estimator=self.estimator,
+                                     iv_map_stderr=self.iv_map_stderr, switch_in=self.switch_in, u_max=None,
+                                     J_design=None, controller=None, compensators=None)
+        return CompareOptions.from_flat(**{**{k: getattr(self, k) for k in SHARED_FIELDS},
+                                           "duration": float(self.duration), "seed": int(self.seed)})
 
 
 #: Outcome of one (joint, mode), :meth:`ZooResult.status`.
@@ -690,8 +690,8 @@ def _prepare(spec, o: CompareOptions, ref, J_design_factor: float | None = None)
     try:
         p = plant_from_dict(spec)
         if J_design_factor is not None:
-            o = replace(o, J_design=J_design_factor * p.J)
-        plant_table(p, ref.t, o.Tc)  # refuses a plant the engine cannot integrate (every row)
+            o = o.replace(J_design=J_design_factor * p.J)
+        plant_table(p, ref.t, o.loop.controller.Tc)  # refuses a plant the engine cannot integrate (every row)
         s = prepare_comparison(p, o, reference=ref)
         s.bar.close()
     except Exception as exc:  # noqa: BLE001 - any refusal is a result of the zoo, with its reason
@@ -726,7 +726,7 @@ def _group_task(args) -> dict:
     n = len(specs)
     noise = {}
     for j, (opts, seed, *_rest, why) in enumerate(prepared):
-        sd = opts["none"].noise_std if why is None else 0.0
+        sd = opts["none"].sensor.noise_std if why is None else 0.0
         if why is None and sd > 0:
             noise[j] = np.random.default_rng(seed).normal(0.0, sd, size=ref.t.shape[0])
     runs = {}
@@ -875,7 +875,7 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
     n = o.n
     bounds = _group_bounds(n, o.group, o.workers or os.cpu_count() or 1)
     processes = 1 if o.scheduler is not None else min(o.workers or os.cpu_count() or 1, len(bounds))
-    check_run_memory(co.duration, co.Tc, signals=SHARED_SIGNALS + PREPARATION_SIGNALS + o.group, processes=processes,
+    check_run_memory(co.duration, co.loop.controller.Tc, signals=SHARED_SIGNALS + PREPARATION_SIGNALS + o.group, processes=processes,
                      detail=f"a joint's preparation and the noise of {o.group} joint{'s' * (o.group > 1)}")
     specs = draw_plants(o.n, _reference(co), seed=o.seed, box=o.box)
     starts = [a for a, _ in bounds]
@@ -923,6 +923,6 @@ def zoo_options_dict(o: ZooOptions) -> dict:
         d["reference"] = {"samples": int(ref.t.shape[0]), "stops": int(len(ref.stops())),
                           "reversals": int(len(ref.reversals()))}
     if base is not None:  # the comparison's settings; its reference above, its own compensators not run here
-        d["base"] = {k: v for k, v in asdict(replace(base, compensators=None, controller=None)).items()
-                     if k != "reference"}
+        d["base"] = {k: base.flat(k) for k in CompareOptions.flat_names()
+                     if k not in ("reference", "compensators", "controller")}
     return json_safe(d)

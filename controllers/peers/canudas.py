@@ -31,7 +31,7 @@ from pathlib import Path
 from adaptive_ff.compensation.gate import RangeGate
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from controllers._cctl import ffi, lib
-from plant.component import Component, config_class
+from plant.component import Component, config_class, struct_field
 from plant.errors import ParameterError, check_multiple
 
 __all__ = ["CanudasCompensator", "CanudasCompensatorConfig", "CANUDAS_N_THETA"]
@@ -179,40 +179,14 @@ class CanudasCompensator(Component):
         return ffi.addressof(getattr(lib, self.C_OPS))
 
     # ---- configuration (read-only fields of the struct)
-    @property
-    def Tc(self) -> float:
-        """Controller period (s)."""
-        return float(self._c.Tc)
-
-    @property
-    def Ts(self) -> float:
-        """Estimator sample time ``m*Tc`` (s)."""
-        return float(self._c.Ts)
-
-    @property
-    def m(self) -> int:
-        """Controller periods per estimator sample."""
-        return int(self._c.m)
-
-    @property
-    def w_dead(self) -> float:
-        """Estimation dead zone (rad/s)."""
-        return float(self._c.w_dead)
-
-    @property
-    def warmup(self) -> int:
-        """RLS updates before the compensation is switched on."""
-        return int(self._c.warmup)
-
-    @property
-    def ff_max(self) -> float:
-        """Bound on |compensation| (N·m)."""
-        return float(self._c.ff_max)
-
-    @property
-    def ff_measured(self) -> bool:
-        """True: compensation at the controller's measured velocity; False: at the reference."""
-        return bool(self._c.ff_measured)
+    Tc = struct_field("Tc", float, "Controller period (s).")
+    Ts = struct_field("Ts", float, "Estimator sample time ``m*Tc`` (s).")
+    m = struct_field("m", int, "Controller periods per estimator sample.")
+    w_dead = struct_field("w_dead", float, "Estimation dead zone (rad/s).")
+    warmup = struct_field("warmup", int, "RLS updates before the compensation is switched on.")
+    ff_max = struct_field("ff_max", float, "Bound on |compensation| (N·m).")
+    ff_measured = struct_field("ff_measured", bool,
+                               "True: compensation at the controller's measured velocity; False: at the reference.")
 
     # ---- state (read/write fields of the struct)
     @property

@@ -18,17 +18,19 @@ called by :class:`DisturbanceObserver`'s methods and by the closed-loop engine.
 
 from __future__ import annotations
 
-import math
-
+from adaptive_ff.compensation.defaults import c_defaults
 from adaptive_ff.compensation.gate import RangeGate
 from controllers._cctl import ffi, lib
-from plant.component import Component
+from plant.component import Component, struct_field
 from plant.errors import ParameterError
 
 __all__ = ["DisturbanceObserver", "DOB_ORDER_MAX"]
 
 #: Highest order of the Q-filter (``AFF_DOB_ORDER_MAX`` of ``adaptive_ff/csrc/aff_dob.h``).
 DOB_ORDER_MAX = len(ffi.new("aff_dob *").x)
+
+#: The C defaults of the observer's settings (``aff_dob_default_config()``): the keywords' defaults.
+_DOB = c_defaults("aff_dob_config")
 
 
 class DisturbanceObserver(Component):
@@ -39,7 +41,8 @@ class DisturbanceObserver(Component):
     J_n : float, keyword-only
         Nominal inertia (kg·m²), > 0 (the same value the PI design uses).
     omega_q : float, keyword-only
-        Q-filter cut-off (rad/s), > 0; default 500 (25 times the default
+        Q-filter cut-off (rad/s), > 0; default 500, the C default (``aff_dob_default_config()``, as those of
+        ``order`` and ``d_max``; 25 times the default
         velocity-loop crossover, 80 Hz at the 1 kHz sampling rate; higher
         tracks better and injects more measurement noise into the torque,
         see docs/benchmarks/compensation.md).
@@ -94,8 +97,8 @@ class DisturbanceObserver(Component):
     _ffi = ffi
     _ctype = "aff_dob"
 
-    def __init__(self, *, J_n: float, omega_q: float = 500.0, Tc: float, order: int = 2, d_max: float = math.inf,
-                 u_range: RangeGate | None = None, w_range: RangeGate | None = None):
+    def __init__(self, *, J_n: float, omega_q: float = _DOB["omega_q"], Tc: float, order: int = _DOB["order"],
+                 d_max: float = _DOB["d_max"], u_range: RangeGate | None = None, w_range: RangeGate | None = None):
         # the ranges of the settings are aff_dob_init's to check (the one validator: a ParameterError whose
         # sentence names the field); a wrong type is _settings' SettingTypeError
         u_range = RangeGate() if u_range is None else u_range
@@ -125,30 +128,11 @@ class DisturbanceObserver(Component):
         """Pointer to the C ops table ``aff_dob_ops`` (``aff_compensator_ops *``)."""
         return ffi.addressof(getattr(lib, self.C_OPS))
 
-    @property
-    def J_n(self) -> float:
-        """Nominal inertia (kg·m²)."""
-        return float(self._c.J_n)
-
-    @property
-    def omega_q(self) -> float:
-        """Q-filter cut-off (rad/s)."""
-        return float(self._c.omega_q)
-
-    @property
-    def Tc(self) -> float:
-        """Controller period (s)."""
-        return float(self._c.Tc)
-
-    @property
-    def order(self) -> int:
-        """Order of the binomial Q-filter."""
-        return int(self._c.order)
-
-    @property
-    def d_max(self) -> float:
-        """Bound on |d_hat| (N·m)."""
-        return float(self._c.d_max)
+    J_n = struct_field("J_n", float, "Nominal inertia (kg·m²).")
+    omega_q = struct_field("omega_q", float, "Q-filter cut-off (rad/s).")
+    Tc = struct_field("Tc", float, "Controller period (s).")
+    order = struct_field("order", int, "Order of the binomial Q-filter.")
+    d_max = struct_field("d_max", float, "Bound on |d_hat| (N·m).")
 
     @property
     def _a(self) -> float:

@@ -16,7 +16,7 @@ import numpy as np
 
 from adaptive_ff.compensation.gate import OutlierGate
 from controllers.simulation.closed_loop import plant_table, sensor_and_drive
-from controllers.simulation.compensators import (MODES, ModeOptions, TrueFriction, build_modes, build_supervisor,
+from controllers.simulation.compensators import (MODES, LoopConfig, TrueFriction, build_modes, build_supervisor,
                                                  own_supervisor)
 from controllers.simulation.engine import EngineMetrics, EngineRun
 from controllers.simulation.metrics import METRIC_NAMES, metrics_columns, reversal_times, engine_motion
@@ -110,11 +110,11 @@ class BatchResult:
 
 
 def _options_list(options, B: int) -> list:
-    if isinstance(options, ModeOptions):
+    if isinstance(options, LoopConfig):
         return [options] * B
     opts = list(options)
-    if len(opts) != B or not all(isinstance(o, ModeOptions) for o in opts):
-        raise ParameterError(f"options must be one ModeOptions or {B} of them")
+    if len(opts) != B or not all(isinstance(o, LoopConfig) for o in opts):
+        raise ParameterError(f"options must be one LoopConfig or {B} of them")
     return opts
 
 
@@ -127,7 +127,7 @@ def _noise(noise, seeds, opts, B: int, n: int) -> tuple:
         if not np.all(np.isfinite(nz)):
             raise ParameterError("noise must be finite")
         return np.ascontiguousarray(nz), (B if nz.shape[0] == B and B > 1 else 1)
-    stds = [o.noise_std for o in opts]
+    stds = [o.sensor.noise_std for o in opts]
     if max(stds) > 0:
         if seeds is None or len(seeds) != B:
             raise ParameterError(f"noise_std > 0 needs seeds (length {B}) or noise=, got seeds={seeds!r}")
@@ -183,10 +183,11 @@ def _plants_arrays(run_plants, plants, opts, t, wr, Tc) -> tuple:
 
 def _sensor_gate(p, o, Tc: float):
     """The sensor plausibility gate of one scenario (None without ``sensor_gate``), sized by the design inertia."""
-    if not o.sensor_gate:
+    if not o.sensor.gate:
         return None
-    J = float((p.at(0.0) if hasattr(p, "at") else p).J) if o.J_design is None else float(o.J_design)
-    return OutlierGate(max_step=2.0 * o.u_max * Tc / J if math.isfinite(o.u_max) else math.inf)
+    J_design = o.controller.J_design
+    J = float((p.at(0.0) if hasattr(p, "at") else p).J) if J_design is None else float(J_design)
+    return OutlierGate(max_step=2.0 * o.drive.u_max * Tc / J if math.isfinite(o.drive.u_max) else math.inf)
 
 
 def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, noise=None,
@@ -201,7 +202,7 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
         Velocity reference sampled at ``Tc``, shared by all scenarios.
     mode : str
         One of :data:`BATCH_MODES` (every mode of :data:`controllers.simulation.compensators.MODES`).
-    options : ModeOptions or sequence of B ModeOptions
+    options : LoopConfig or sequence of B LoopConfig
         Settings, common or per scenario (gains, saturation, estimates, noise level ...); the controller
         period ``Tc`` and ``decimate`` of the first are used for all. No signals are recorded.
     seeds : sequence of int, length B, keyword-only
@@ -234,8 +235,8 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
     if B == 0:
         raise ParameterError("plants must contain at least one plant model, got an empty sequence")
     opts = _options_list(options, B)
-    Tc = opts[0].Tc
-    if any(not math.isclose(o.Tc, Tc) for o in opts):
+    Tc = opts[0].controller.Tc
+    if any(not math.isclose(o.controller.Tc, Tc) for o in opts):
         raise ParameterError("all options must share the controller period Tc")
     t = np.ascontiguousarray(reference.t, dtype=float)
     wr = np.ascontiguousarray(reference.w, dtype=float)
@@ -251,14 +252,14 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
     w_default = 100.0 * float(np.max(np.abs(wr))) + 1.0
     revs = reversal_times(t, wr)
     x = EngineRun(t=t, w_ref=wr, dt=float(Tc), n_scenarios=B, oracle=oracle,
-                  metrics=EngineMetrics(revs=revs, window=float(opts[0].reversal_window)))
+                  metrics=EngineMetrics(revs=revs, window=float(opts[0].run.reversal_window)))
     x.set_noise_table(nz if nrows else None)
     sups = [None] * B
     for b in range(B):
         k = idx[b]
         o = opts[b]
         x.set_plant(b, tables[k], n_rows[k], row_ks[k], states[k],
-                    w_default if o.w_limit is None else float(o.w_limit))
+                    w_default if o.run.w_limit is None else float(o.run.w_limit))
         if nrows:
             x.set_noise_row(b, b if nrows > 1 else 0)
         x.set_gate(b, gates[b])
@@ -283,6 +284,6 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
     cols = metrics_columns(states)
     for k in METRIC_NAMES:
         cols[k][diverged] = np.nan
-    motion = engine_motion(x, states, t, revs, window=float(opts[0].reversal_window), diverged=diverged)
+    motion = engine_motion(x, states, t, revs, window=float(opts[0].run.reversal_window), diverged=diverged)
     return BatchResult(mode=mode, diverged=diverged, compensators=tuple(comps), motion=motion,
                        supervisors=tuple(sups), **cols)

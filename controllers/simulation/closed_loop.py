@@ -4,7 +4,7 @@
 :mod:`plant.models`, a :class:`controllers.design.pi.PIController`, a
 compensator component or None) and runs them on the C engine
 (:mod:`controllers.simulation.engine`). :func:`run_mode` builds the objects of
-one named compensation mode from :class:`ModeOptions` through the registry
+one named compensation mode from :class:`LoopConfig` through the registry
 :mod:`controllers.simulation.compensators` (what ``compare`` does per mode).
 """
 
@@ -18,8 +18,9 @@ import numpy as np
 from adaptive_ff.compensation.gate import OutlierGate
 from adaptive_ff.identification.regression import FrictionEstimate
 from controllers.design.pi import PIController
-from controllers.simulation.compensators import (MODES, ESTIMATORS, ModeOptions, TrueFriction, build_mode,
-                                                 build_supervisor, own_supervisor)
+from controllers.simulation.compensators import (MODES, ESTIMATORS, TrueFriction, build_mode, build_supervisor,
+                                                 own_supervisor)
+from controllers.simulation.loop_config import LoopConfig, RunSettings
 from controllers.simulation.engine import EngineMetrics, EngineRecord, EngineRun
 from controllers.simulation.memory import MODE_SIGNALS, check_run_memory
 from controllers.simulation.metrics import (LoopMetrics, MotionMetrics, engine_motion, loop_metrics, metrics_result,
@@ -32,7 +33,7 @@ from plant.dynamics import check_integrable, plant_params, plant_state
 from plant.rows import stack_params
 from plant.results import axes_or_new, json_safe
 
-__all__ = ["MODES", "ESTIMATORS", "ModeOptions", "LoopMetrics", "ClosedLoopResult", "MeasurementSettings",
+__all__ = ["MODES", "ESTIMATORS", "LoopConfig", "LoopMetrics", "ClosedLoopResult", "MeasurementSettings",
            "RunSettings", "run_closed_loop", "run_mode",
            "run_own", "loop_metrics", "plant_table", "mark_motion"]
 
@@ -253,31 +254,6 @@ class MeasurementSettings:
     sensor_gate: object = True
 
 
-@dataclass(frozen=True)
-class RunSettings:
-    """The run's own settings of :func:`run_closed_loop`: divergence bound, records, metrics, initial friction.
-
-    Parameters
-    ----------
-    w_limit : float or None
-        |velocity| (rad/s) beyond which the run is declared diverged; default ``100*max|w_ref| + 1``.
-    decimate : int
-        Keep every ``decimate``-th sample of the signals (1 = all, default; 0 = none and no ``theta``
-        history). The metrics always cover every sample.
-    reversal_window : float
-        Half-width (s) of the reversal windows of the metrics; default 0.2.
-    friction0 : float or None
-        Initial friction state (N·m) of a lagged plant (``tau > 0``, eq. 3: the ``F`` of ``tau dF/dt = F(w) - F``),
-        e.g. 0 for a lag that starts unloaded; default (None) steady motion at ``w_ref[0]``
-        (:func:`plant.dynamics.plant_state`). Ignored where ``tau == 0``.
-    """
-
-    w_limit: float | None = None
-    decimate: int = 1
-    reversal_window: float = 0.2
-    friction0: float | None = None
-
-
 def run_closed_loop(plant, controller: PIController, compensator, reference: Reference, *,
                     measurement: MeasurementSettings | None = None,
                     settings: RunSettings | None = None) -> ClosedLoopResult:
@@ -328,7 +304,7 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     anti-windup; the compensator observes ``(u, w_meas)``; the plant advances one step with ``u`` held
     (RK4, Ruderman eqs. 1-3). All of it runs in the compiled engine (:mod:`controllers.simulation.engine`).
     The measurement is ``w + noise`` and the command is applied as it is; an encoder, a measurement delay and
-    a torque slew-rate limit: :func:`run_mode` / :func:`run_own` with ``ModeOptions(encoder_counts=...,
+    a torque slew-rate limit: :func:`run_mode` / :func:`run_own` with ``LoopConfig.from_flat(encoder_counts=...,
     delay=..., slew_rate=...)`` (:mod:`controllers.simulation.sensor_drive`).
     """
     m = MeasurementSettings() if measurement is None else measurement
@@ -415,13 +391,14 @@ def _checked(name: str, obj, cls):
     return obj
 
 
-def sensor_and_drive(options: ModeOptions) -> tuple:
+def sensor_and_drive(options: LoopConfig) -> tuple:
     """The :class:`Sensor` and :class:`Drive` of ``options`` (``encoder_counts``, ``delay``, ``slew_rate``), each
     None where the options ask for none."""
-    sensor = (Sensor(Tc=options.Tc, counts_per_rev=options.encoder_counts, delay=options.delay,
-                     velocity=options.velocity, bandwidth=options.velocity_bandwidth, model=options.velocity_model)
-              if options.encoder_counts is not None or options.delay else None)
-    drive = Drive(Tc=options.Tc, slew_rate=options.slew_rate) if math.isfinite(options.slew_rate) else None
+    Tc, s = options.controller.Tc, options.sensor
+    sensor = (Sensor(Tc=Tc, counts_per_rev=s.encoder_counts, delay=s.delay, velocity=s.velocity,
+                     bandwidth=s.velocity_bandwidth, model=s.velocity_model)
+              if s.encoder_counts is not None or s.delay else None)
+    drive = Drive(Tc=Tc, slew_rate=options.drive.slew_rate) if math.isfinite(options.drive.slew_rate) else None
     return sensor, drive
 
 
@@ -455,7 +432,7 @@ def _result(x: EngineRun, plant, compensator, t, wr, revs, gate, decimate, n_the
                             estimate=est, metrics=metrics, info=info, motion=motion)
 
 
-def run_own(plant, reference: Reference, compensator, options: ModeOptions, *, name: str | None = None,
+def run_own(plant, reference: Reference, compensator, options: LoopConfig, *, name: str | None = None,
             rng: np.random.Generator | None = None, faults=None, supervise: bool = False) -> ClosedLoopResult:
     """Run your own compensator in the loop of :func:`run_mode` (the PI, sensor gate and noise of ``options``).
 
@@ -464,11 +441,11 @@ def run_own(plant, reference: Reference, compensator, options: ModeOptions, *, n
     plant : plant model
         True plant (see :func:`run_closed_loop`).
     reference : Reference
-        Velocity reference sampled at ``options.Tc``.
+        Velocity reference sampled at ``options.controller.Tc``.
     compensator : object
         Has ``compensate(w_meas, w_ref)`` and ``observe(u, w_meas)``
         (:mod:`controllers.simulation.user_compensator`); its state advances in place.
-    options : ModeOptions
+    options : LoopConfig
         The loop's settings (gains, saturation, noise, sensor gate, ``J_design``); the compensation settings
         are not used.
     name : str, keyword-only, optional
@@ -496,15 +473,17 @@ def run_own(plant, reference: Reference, compensator, options: ModeOptions, *, n
     """
     comp = compensator if isinstance(compensator, UserCompensator) else UserCompensator(compensator, name=name)
     run_plant, controller, _ = build_mode(plant, "none", options)
-    gate = options.sensor_gate
+    gate = options.sensor.gate
     if gate is True:
         frozen = plant.at(0.0) if hasattr(plant, "at") else plant
-        gate = _sensor_gate(True, controller, float(frozen.J) if options.J_design is None else options.J_design)
+        J_design = options.controller.J_design
+        gate = _sensor_gate(True, controller, float(frozen.J) if J_design is None else J_design)
     sensor, drive = sensor_and_drive(options)
-    sup = build_supervisor(plant, "own", replace(options, supervise=True), force=True) if supervise else None
-    res = _run_loop(run_plant, controller, comp, reference, noise_std=options.noise_std, rng=rng,
-                    faults=faults, sensor_gate=gate, w_limit=options.w_limit, decimate=options.decimate,
-                    reversal_window=options.reversal_window, friction0=None, sensor=sensor, drive=drive,
+    sup = build_supervisor(plant, "own", options.replace(supervise=True), force=True) if supervise else None
+    res = _run_loop(run_plant, controller, comp, reference, noise_std=options.sensor.noise_std, rng=rng,
+                    faults=faults, sensor_gate=gate, w_limit=options.run.w_limit, decimate=options.run.decimate,
+                    reversal_window=options.run.reversal_window, friction0=options.run.friction0, sensor=sensor,
+                    drive=drive,
                     supervisor=sup)
     return replace(res, mode=comp.name)
 
@@ -523,7 +502,7 @@ def _window_after(t, revs, window, k_end) -> bool:
     return bool(np.any(np.minimum(lo, hi) <= window))
 
 
-def run_mode(plant, reference: Reference, mode: str, options: ModeOptions, *, rng: np.random.Generator | None = None,
+def run_mode(plant, reference: Reference, mode: str, options: LoopConfig, *, rng: np.random.Generator | None = None,
              faults=None) -> ClosedLoopResult:
     """Run one named compensation mode: build its objects (:func:`build_mode`) and :func:`run_closed_loop`.
 
@@ -532,13 +511,13 @@ def run_mode(plant, reference: Reference, mode: str, options: ModeOptions, *, rn
     plant : plant model
         True plant (see :func:`run_closed_loop`).
     reference : Reference
-        Velocity reference sampled at ``options.Tc``.
+        Velocity reference sampled at ``options.controller.Tc``.
     mode : str
         One of :data:`MODES`.
-    options : ModeOptions
+    options : LoopConfig
         Controller, compensator and simulation settings.
     rng : numpy.random.Generator, keyword-only
-        Noise source (needed when ``options.noise_std > 0``).
+        Noise source (needed when ``options.sensor.noise_std > 0``).
     faults : mapping int -> float, keyword-only
         Measurement faults (see :func:`run_closed_loop`).
 
@@ -546,7 +525,7 @@ def run_mode(plant, reference: Reference, mode: str, options: ModeOptions, *, rn
     -------
     ClosedLoopResult
         With ``mode`` set to the name given and ``info`` holding ``Ts`` and ``ff_input`` too, and for a supervised
-        mode (``options.supervise``, :data:`controllers.simulation.compensators.SUPERVISED_MODES`) the
+        mode (``options.supervisor.enabled``, :data:`controllers.simulation.compensators.SUPERVISED_MODES`) the
         supervisor's ``n_backoff``, ``n_restore`` and ``t_off`` (s).
 
     Raises
@@ -555,15 +534,17 @@ def run_mode(plant, reference: Reference, mode: str, options: ModeOptions, *, rn
         Unknown mode, settings missing for it, or invalid settings.
     """
     run_plant, controller, compensator = build_mode(plant, mode, options)
-    gate = options.sensor_gate
+    gate = options.sensor.gate
     if gate is True:  # the gate of the design inertia (default: the plant's J, a data-sheet value)
         frozen = plant.at(0.0) if hasattr(plant, "at") else plant
-        gate = _sensor_gate(True, controller, float(frozen.J) if options.J_design is None else options.J_design)
+        J_design = options.controller.J_design
+        gate = _sensor_gate(True, controller, float(frozen.J) if J_design is None else J_design)
     sensor, drive = sensor_and_drive(options)
-    res = _run_loop(run_plant, controller, compensator, reference, noise_std=options.noise_std, rng=rng,
-                    faults=faults, sensor_gate=gate, w_limit=options.w_limit, decimate=options.decimate,
-                    reversal_window=options.reversal_window, friction0=None, sensor=sensor, drive=drive,
+    res = _run_loop(run_plant, controller, compensator, reference, noise_std=options.sensor.noise_std, rng=rng,
+                    faults=faults, sensor_gate=gate, w_limit=options.run.w_limit, decimate=options.run.decimate,
+                    reversal_window=options.run.reversal_window, friction0=options.run.friction0, sensor=sensor,
+                    drive=drive,
                     supervisor=None if own_supervisor(compensator) is not None else
                     build_supervisor(plant, mode, options))
-    info = dict(res.info, Ts=options.Ts, ff_input=options.ff_input)
+    info = dict(res.info, Ts=options.estimator.Ts, ff_input=options.feedforward.ff_input)
     return replace(res, mode=mode, info=info)

@@ -25,7 +25,7 @@ import numpy as np
 from adaptive_ff.io.kalman_velocity import SteadyStateKalman, steady_state_kalman
 from adaptive_ff.io.units import KALMAN_MODELS
 from controllers._cctl import ffi, lib
-from plant.component import Component
+from plant.component import Component, struct_field
 from plant.errors import ParameterError, check_positive
 
 __all__ = ["Sensor", "Drive", "DELAY_MAX", "VELOCITIES", "default_velocity_bandwidth"]
@@ -141,7 +141,7 @@ class Sensor(Component):
                                      f"got bandwidth={bandwidth!r} with velocity={velocity!r}")
         if velocity == "kalman" and counts_per_rev is None:
             raise ParameterError("velocity='kalman' filters an encoder's counts: give counts_per_rev too "
-                                 "(ModeOptions: encoder_counts)")
+                                 "(LoopConfig: sensor.encoder_counts)")
         self.counts_per_rev = None if counts_per_rev is None else int(counts_per_rev)
         self._new_struct()
         res = 0.0 if counts_per_rev is None else 2.0 * math.pi / int(counts_per_rev)
@@ -170,15 +170,9 @@ class Sensor(Component):
             return None
         return np.frombuffer(ffi.buffer(self._c.K), dtype=np.float64)[: int(self._c.n_x)].copy()
 
-    @property
-    def resolution(self) -> float:
-        """Encoder resolution (rad per count); 0 for a velocity sensor."""
-        return float(self._c.res)
+    resolution = struct_field("res", float, "Encoder resolution (rad per count); 0 for a velocity sensor.")
 
-    @property
-    def delay(self) -> int:
-        """Measurement delay (periods)."""
-        return int(self._c.delay)
+    delay = struct_field("delay", int, "Measurement delay (periods).")
 
     def measure(self, w: float, noise: float = 0.0) -> float:
         """One period: the measurement (rad/s) for the true velocity ``w`` and the noise sample (rad/s)
@@ -218,10 +212,7 @@ class Drive(Component):
         self._new_struct()
         lib.ctl_drive_init(self._c, float(slew_rate), Tc)
 
-    @property
-    def slew_rate(self) -> float:
-        """Torque slew-rate limit (N·m/s)."""
-        return float(self._c.slew)
+    slew_rate = struct_field("slew", float, "Torque slew-rate limit (N·m/s).")
 
     def apply(self, u: float) -> float:
         """One period: the torque applied (N·m) for the command ``u`` (C ``ctl_drive_apply``)."""

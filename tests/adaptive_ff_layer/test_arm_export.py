@@ -95,7 +95,6 @@ def _joint_log(folder, k, path):
     """N periods of mode adaptive on joint ``k`` (its entry with a 10 ms lag as the plant), the compensator
     ``export-c`` configures from ``path`` (the arm file and the joint, or the joint's own file): the log file
     (u, w, w_ref) and the feedforward the loop applied."""
-    from dataclasses import replace
 
     from adaptive_ff.identification.result_file import identification_from_dict
     from controllers.experiments.compensator_file import compensator_from_file
@@ -107,8 +106,8 @@ def _joint_log(folder, k, path):
     plant = plant_from_dict(identification_from_dict(entry).plant_dict())
     arm_joint = ARM["joints"][k]["name"] if path.name == "arm.json" else None
     _, s = compensator_from_file(path, u_max=U_MAX, arm_joint=arm_joint)
-    opts = replace(s["options"], noise_std=1e-3, decimate=1, sensor_gate=False)
-    ref = multisine_reference(N * opts.Tc, dt=opts.Tc, rng=np.random.default_rng(10 + k))
+    opts = s["options"].replace(noise_std=1e-3, decimate=1, sensor_gate=False)
+    ref = multisine_reference(N * opts.controller.Tc, dt=opts.controller.Tc, rng=np.random.default_rng(10 + k))
     r = run_mode(plant, ref, "adaptive", opts, rng=np.random.default_rng(20 + k))
     log = folder / f"log{k}.bin"
     np.concatenate([np.asarray(x, dtype=np.float64) for x in (r.u, r.w_meas, r.w_ref)]).tofile(log)

@@ -143,4 +143,4 @@ def test_compare_arm_designs_take_the_noise_and_start_per_joint(arm, result, arm
     assert [x.noise_source for x in designs] == ["identification", "identification", "options"]
     assert designs[0].settings["stick_band"] == 3.0 * result.joints[0].noise_std
     assert designs[2].settings["stick_band"] == 3.0 * 1e-3
-    assert designs[0].options.start is not None and designs[1].options.start is None
+    assert designs[0].options.feedforward.start is not None and designs[1].options.feedforward.start is None

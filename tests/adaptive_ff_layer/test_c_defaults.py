@@ -26,7 +26,8 @@ from adaptive_ff.identification.regression import FrictionEstimate, RegressionMo
 from controllers._cctl import ffi as cffi_ctl, lib as lib_ctl
 from controllers.peers.adaptive_dob import ResidualSwitchIn
 from controllers.peers.canudas import CanudasCompensator, CanudasCompensatorConfig
-from controllers.simulation.compensators import ModeOptions
+from controllers.peers.dob import DisturbanceObserver
+from controllers.simulation.compensators import LoopConfig
 from plant.component import SettingTypeError, config_defaults
 from plant.errors import ParameterError
 
@@ -48,7 +49,9 @@ def _at(ctype: str, path: str):
 
 
 def _defaults(obj) -> dict:
-    """Keyword -> default of a class's constructor (a dataclass's fields)."""
+    """Keyword -> default of a class's constructor (a dataclass's fields; the loop's config: its flat keywords)."""
+    if obj is LoopConfig:
+        return LoopConfig().to_flat()
     if dataclasses.is_dataclass(obj):
         return {f.name: f.default for f in dataclasses.fields(obj) if f.default is not dataclasses.MISSING}
     return {k: p.default for k, p in inspect.signature(obj).parameters.items() if p.default is not p.empty}
@@ -91,23 +94,25 @@ MIRRORS = [
     (CanudasCompensatorConfig, "forgetting", "ctl_canudas_config", "forgetting",
      {lib.AFF_RLS_DIRECTIONAL: "directional", lib.AFF_RLS_EXPONENTIAL: "exponential"}.__getitem__),
     (CanudasCompensatorConfig, "ff_input", "ctl_canudas_config", "ff_measured", {1: "measured", 0: "reference"}.get),
+    *[(DisturbanceObserver, k, "aff_dob_config", k, _same) for k in ("omega_q", "d_max")],
+    (DisturbanceObserver, "order", "aff_dob_config", "order", int),
     *[(ResidualSwitchIn, k, "aff_switch_in_config", k, _same)
       for k in ("window", "ratio", "share", "fade_in", "trial_margin")],
     # the loop's options: the components' defaults (the experiment's own overrides are CompareOptions')
-    *[(ModeOptions, k, "aff_sliding_config", k, _same) for k in ("Ts", "P0", "T_filter", "dwell_max")],
-    (ModeOptions, "forgetting", "aff_sliding_config", "forgetting", FORGETTINGS.__getitem__),
-    (ModeOptions, "offset", "aff_sliding_config", "offset", _flag),
-    (ModeOptions, "warmup", "aff_robust_ff_config", "warmup", int),
-    (ModeOptions, "project", "aff_robust_ff_config", "project", _flag),
-    *[(ModeOptions, k, "aff_robust_ff_config", k, _same)
+    *[(LoopConfig, k, "aff_sliding_config", k, _same) for k in ("Ts", "P0", "T_filter", "dwell_max")],
+    (LoopConfig, "forgetting", "aff_sliding_config", "forgetting", FORGETTINGS.__getitem__),
+    (LoopConfig, "offset", "aff_sliding_config", "offset", _flag),
+    (LoopConfig, "warmup", "aff_robust_ff_config", "warmup", int),
+    (LoopConfig, "project", "aff_robust_ff_config", "project", _flag),
+    *[(LoopConfig, k, "aff_robust_ff_config", k, _same)
       for k in ("lag_margin", "lag_margin_max", "max_rel_stderr", "lag_memory", "lag_zero")],
-    (ModeOptions, "lag", "aff_fixed_ff_config", "lag", _flag),
-    (ModeOptions, "ff_input", "aff_fixed_ff_config", "at_ref", FF_INPUTS.__getitem__),
-    *[(ModeOptions, k, "aff_fixed_ff_config", k, _same) for k in ("sign_width", "stick_band")],
-    (ModeOptions, "stick_samples", "aff_fixed_ff_config", "stick_samples", int),
-    (ModeOptions, "omega_q", "aff_dob_config", "omega_q", _same),
-    (ModeOptions, "switch_in_ratio", "aff_switch_in_config", "ratio", _same),
-    *[(ModeOptions, f"supervise_{k}", "aff_supervisor_config", k, _same)
+    (LoopConfig, "lag", "aff_fixed_ff_config", "lag", _flag),
+    (LoopConfig, "ff_input", "aff_fixed_ff_config", "at_ref", FF_INPUTS.__getitem__),
+    *[(LoopConfig, k, "aff_fixed_ff_config", k, _same) for k in ("sign_width", "stick_band")],
+    (LoopConfig, "stick_samples", "aff_fixed_ff_config", "stick_samples", int),
+    (LoopConfig, "omega_q", "aff_dob_config", "omega_q", _same),
+    (LoopConfig, "switch_in_ratio", "aff_switch_in_config", "ratio", _same),
+    *[(LoopConfig, f"supervise_{k}", "aff_supervisor_config", k, _same)
       for k in ("window", "margin", "track_margin", "rest_band")],
 ]
 #: The classes and their settings: a keyword named as a field of these settings must be listed above.
@@ -117,7 +122,8 @@ CLASSES = {OutlierGate: ("aff_gate_config",), RangeGate: ("aff_range_gate_config
            FeedforwardStart: ("aff_start_config",), SlidingFrictionEstimatorConfig: ("aff_sliding_config",),
            FeedforwardSupervisorConfig: ("aff_supervisor_config",),
            AdaptiveFrictionFeedforwardConfig: ("aff_eq4_ff_config",),
-           CanudasCompensatorConfig: ("ctl_canudas_config",), ResidualSwitchIn: ("aff_switch_in_config",)}
+           CanudasCompensatorConfig: ("ctl_canudas_config",), ResidualSwitchIn: ("aff_switch_in_config",),
+           DisturbanceObserver: ("aff_dob_config",)}
 #: The components whose settings are one config object (the class's ``Config``), and the inputs they take besides.
 CONFIGURED = {FrictionFeedforward: ("estimate", "dt", "config", "loop_model", "sign_observer"),
               RobustAdaptiveFeedforward: ("estimator", "dt", "config", "start", "loop_model", "sign_observer"),

@@ -335,11 +335,11 @@ def test_python_classes_with_their_defaults_are_the_c_defaults():
 
 
 def test_python_classes_keep_their_settings_and_a_composite_holds_its_parts():
-    from controllers.simulation.compensators import ModeOptions, build_mode
+    from controllers.simulation.compensators import LoopConfig, build_mode
     from plant import preset
 
     P = preset("paper")
-    o = ModeOptions(Kp=69.28, Ki=786.1, u_max=150.0, ff_max=75.0, J_design=P.J, Vs=P.Vs, delta=P.delta,
+    o = LoopConfig.from_flat(Kp=69.28, Ki=786.1, u_max=150.0, ff_max=75.0, J_design=P.J, Vs=P.Vs, delta=P.delta,
                     stick_band=3e-3, stick_input="model")
     _, _, comp = build_mode(P, "adaptive", o)
     cfg = comp.config
@@ -362,26 +362,25 @@ def test_python_classes_keep_their_settings_and_a_composite_holds_its_parts():
 def test_python_composites_are_what_their_settings_configure(variant):
     """For the settings the classes offer beyond the defaults, aff_init of the compensator's settings builds its
     struct byte for byte (what the export checks before it writes them)."""
-    from dataclasses import replace
 
     from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
     from adaptive_ff.identification.regression import FrictionEstimate
     from controllers.peers.adaptive_dob import AdaptiveCompensator
-    from controllers.simulation.compensators import ModeOptions, build_mode
+    from controllers.simulation.compensators import LoopConfig, build_mode
     from plant import preset
 
     P = preset("paper")
-    o = ModeOptions(Kp=69.28, Ki=786.1, u_max=150.0, ff_max=75.0, J_design=P.J, Vs=P.Vs, delta=P.delta)
+    o = LoopConfig.from_flat(Kp=69.28, Ki=786.1, u_max=150.0, ff_max=75.0, J_design=P.J, Vs=P.Vs, delta=P.delta)
     if variant == "start":
-        o = replace(o, start=FeedforwardStart(FrictionEstimate(J=P.J, tau=0.02, sigma=40.0, Fc=25.0, Fs=35.0,
+        o = o.replace(start=FeedforwardStart(FrictionEstimate(J=P.J, tau=0.02, sigma=40.0, Fc=25.0, Fs=35.0,
                                                                offset=0.0, Vs=None, delta=None, J_alt=NAN),
                                               gain=0.7, ff_input="measured"))
     elif variant == "feedforward-only":
-        o = replace(o, switch_in=False, supervise=False)
+        o = o.replace(switch_in=False, supervise=False)
     elif variant == "sign-observer":
-        o = replace(o, sign_input="observer", stick_band=3e-3)
+        o = o.replace(sign_input="observer", stick_band=3e-3)
     elif variant == "directional":
-        o = replace(o, forgetting="directional", lam=0.99)
+        o = o.replace(forgetting="directional", lam=0.99)
     _, _, comp = build_mode(P, "adaptive", o)
     if variant == "vector-lam":
         from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator

@@ -43,7 +43,7 @@ import pytest
 
 from adaptive_ff._caff import ffi, lib
 from controllers.simulation.closed_loop import run_mode
-from controllers.simulation.compensators import ModeOptions, build_mode
+from controllers.simulation.compensators import LoopConfig, build_mode
 from plant import preset
 from plant.excitation import multisine_reference
 
@@ -57,9 +57,9 @@ RUN_LENGTHS = {"n_still", "n_in_band", "n_trial"}  # counters that go back to 0 
 GATES = {"aff_gate", "aff_range_gate"}
 
 
-def _options() -> ModeOptions:
+def _options() -> LoopConfig:
     # the loop of tests/adaptive_ff_layer/test_drive_guard.py (the README's main job)
-    return ModeOptions(Kp=69.28, Ki=786.1, u_max=150.0, ff_max=FF_MAX, J_design=P.J, Vs=P.Vs, delta=P.delta,
+    return LoopConfig.from_flat(Kp=69.28, Ki=786.1, u_max=150.0, ff_max=FF_MAX, J_design=P.J, Vs=P.Vs, delta=P.delta,
                        noise_std=1e-3, decimate=1, sensor_gate=False, stick_band=3e-3)
 
 

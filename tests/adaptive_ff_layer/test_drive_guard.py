@@ -14,14 +14,13 @@ output to 0 after ``hold_time``; the counters saturate.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from adaptive_ff._caff import ffi, lib
 from controllers.simulation.closed_loop import run_mode
-from controllers.simulation.compensators import ModeOptions, build_mode
+from controllers.simulation.compensators import LoopConfig, build_mode
 from plant import preset
 from plant.excitation import multisine_reference
 
@@ -31,9 +30,9 @@ N = 16_000  # 16 s: the switch-on (about 0.5 s) and the switch-in (about 5 s) of
 BAD = {"nan": math.nan, "+inf": math.inf, "-inf": -math.inf, "huge": 1e308, "subnormal": 5e-324, "spike": 1e5}
 
 
-def _options() -> ModeOptions:
+def _options() -> LoopConfig:
     # the loop of the README's main job, as compare configures it (the identified values here: the preset's)
-    return ModeOptions(Kp=69.28, Ki=786.1, u_max=150.0, ff_max=75.0, J_design=P.J, Vs=P.Vs, delta=P.delta,
+    return LoopConfig.from_flat(Kp=69.28, Ki=786.1, u_max=150.0, ff_max=75.0, J_design=P.J, Vs=P.Vs, delta=P.delta,
                        noise_std=1e-3, decimate=1, sensor_gate=False, stick_band=3e-3)
 
 
@@ -172,7 +171,7 @@ def test_init_refuses_bad_settings_with_a_named_error():
 def test_feedforward_only_is_the_feedforward_alone(log):
     """The composite without the observer and the supervisor is the feedforward, bit for bit."""
     u, w, wr, _ = log
-    o = replace(_options(), switch_in=False, supervise=False)
+    o = _options().replace(switch_in=False, supervise=False)
     _, _, comp = build_mode(P, "adaptive", o)
     assert comp.observer is None and comp.supervisor is None
     _, _, ff_only = build_mode(P, "adaptive", o)

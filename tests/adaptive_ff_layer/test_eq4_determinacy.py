@@ -10,7 +10,6 @@ the C recursion or its closed-form gradient.
 """
 
 import math
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -208,27 +207,27 @@ def test_determinacy_validation_and_the_default():
 
 
 def test_mode_options_pass_the_bound_to_adaptive_and_not_to_adaptive_dob():
-    """``ModeOptions.iv_map_stderr`` reaches the eq. 4 feedforward of mode ``adaptive`` (default: no test); the
+    """``LoopConfig.estimator.iv_map_stderr`` reaches the eq. 4 feedforward of mode ``adaptive`` (default: no test); the
     composite ``adaptive-dob`` builds its feedforward without the test; a bound that is not > 0 is refused."""
-    from controllers.simulation.closed_loop import ModeOptions
+    from controllers.simulation.closed_loop import LoopConfig
     from controllers.simulation.compensators import build_mode
     from plant.friction import preset
 
     P = preset("paper")
-    o = ModeOptions(Kp=20.0, Ki=200.0, J_design=P.J, Vs=P.Vs, delta=P.delta, estimator="eq4",
+    o = LoopConfig.from_flat(Kp=20.0, Ki=200.0, J_design=P.J, Vs=P.Vs, delta=P.delta, estimator="eq4",
                     model=RegressionModel(P.Vs, P.delta))
-    assert math.isinf(o.iv_map_stderr)
+    assert math.isinf(o.estimator.iv_map_stderr)
     assert math.isinf(build_mode(P, "adaptive", o)[2].feedforward.map_rel_stderr)
-    o = replace(o, iv_map_stderr=0.3)
+    o = o.replace(iv_map_stderr=0.3)
     assert build_mode(P, "adaptive", o)[2].feedforward.map_rel_stderr == 0.3
     assert math.isinf(build_mode(P, "adaptive-dob", o)[2].feedforward.map_rel_stderr)
     for bad in (0.0, -1.0, math.nan, True, "0.2"):
         with pytest.raises(ParameterError, match="iv_map_stderr"):
-            replace(o, iv_map_stderr=bad)
+            o.replace(iv_map_stderr=bad)
 
 
 def test_compare_zoo_and_cli_pass_the_bound_to_mode_adaptive(capsys):
-    """``CompareOptions.iv_map_stderr`` (and the zoo's and ``compare --iv-map-stderr``, which set it) reaches mode
+    """``CompareOptions.loop.estimator.iv_map_stderr`` (and the zoo's and ``compare --iv-map-stderr``, which set it) reaches mode
     ``adaptive``'s options; ``adaptive-dob`` builds its feedforward without the test; a bound not > 0 is refused by
     name, by the CLI with exit code 2 and no traceback."""
     from controllers.cli import main
@@ -238,17 +237,17 @@ def test_compare_zoo_and_cli_pass_the_bound_to_mode_adaptive(capsys):
     from plant.friction import preset
 
     P = preset("paper")
-    s = prepare_comparison(P, CompareOptions(duration=2.0, modes=("none", "adaptive", "adaptive-dob"),
+    s = prepare_comparison(P, CompareOptions.from_flat(duration=2.0, modes=("none", "adaptive", "adaptive-dob"),
                                              estimator="eq4", iv_map_stderr=0.15))
     s.bar.close()
-    assert s.mode_options["adaptive"].iv_map_stderr == 0.15
+    assert s.mode_options["adaptive"].estimator.iv_map_stderr == 0.15
     assert build_mode(P, "adaptive", s.mode_options["adaptive"])[2].feedforward.map_rel_stderr == 0.15
     assert math.isinf(build_mode(P, "adaptive-dob", s.mode_options["adaptive-dob"])[2].feedforward.map_rel_stderr)
-    assert math.isinf(CompareOptions().iv_map_stderr) and math.isinf(ZooOptions().iv_map_stderr)
+    assert math.isinf(CompareOptions().loop.estimator.iv_map_stderr) and math.isinf(ZooOptions().iv_map_stderr)
     # the zoo prepares and runs each joint with its CompareOptions: the bound is there
-    assert ZooOptions(iv_map_stderr=0.15, estimator="eq4").compare_options().iv_map_stderr == 0.15
+    assert ZooOptions(iv_map_stderr=0.15, estimator="eq4").compare_options().loop.estimator.iv_map_stderr == 0.15
     for bad in (0.0, -1.0, math.nan, "0.2"):
-        for options in (CompareOptions, ZooOptions):
+        for options in (CompareOptions.from_flat, ZooOptions):
             with pytest.raises(ParameterError, match="iv_map_stderr"):
                 options(iv_map_stderr=bad)
     assert main(["compare", "--preset", "paper", "--iv-map-stderr", "0", "--duration", "1", "--no-figures",

@@ -19,7 +19,7 @@ import pytest
 
 from adaptive_ff.compensation.export_c import JointExport, export_c
 from controllers.simulation.closed_loop import run_mode
-from controllers.simulation.compensators import ModeOptions, build_mode
+from controllers.simulation.compensators import LoopConfig, build_mode
 from export_c_helpers import REPLAY_C, compile_export
 from plant import variant
 from plant.excitation import multisine_reference
@@ -30,11 +30,11 @@ N = 30_000
 JOINTS = ("karnopp", "small-inertia", "lugre", "asymmetric")
 
 
-def _options(p) -> ModeOptions:
+def _options(p) -> LoopConfig:
     from controllers.design.pi import design_pi
 
     d = design_pi(p.J, sigma=0.0, crossover=20.0, phase_margin=60.0, Tc=TC)
-    return ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, ff_max=75.0, J_design=p.J, Vs=0.02, delta=1.0,
+    return LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0, ff_max=75.0, J_design=p.J, Vs=0.02, delta=1.0,
                        noise_std=1e-3, decimate=1, sensor_gate=False, stick_band=3e-3)
 
 
@@ -62,7 +62,8 @@ def test_the_runs_exercise_the_observer_and_the_supervisor(runs):
 def test_a_compiled_export_replays_the_loop_bit_for_bit(runs, tmp_path, name):
     p, o, r = runs[name]
     _, _, comp = build_mode(p, "adaptive", o)
-    export_c(JointExport(compensator=comp, J_design=p.J, u_max=o.u_max, Kp=o.Kp, Ki=o.Ki), tmp_path / "drive")
+    export_c(JointExport(compensator=comp, J_design=p.J, u_max=o.drive.u_max, Kp=o.controller.Kp, Ki=o.controller.Ki),
+             tmp_path / "drive")
     log = tmp_path / "log.bin"
     np.concatenate([np.asarray(x, dtype=np.float64) for x in (r.u, r.w_meas, r.w_ref)]).tofile(log)
     exe = compile_export(CC, tmp_path / "drive", REPLAY_C, tmp_path / "replay")

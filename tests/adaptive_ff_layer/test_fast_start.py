@@ -29,15 +29,15 @@ def _est(tau, Fc=25.0, Fs=35.0, sigma=40.0):
 
 @pytest.fixture(scope="module")
 def runs():
-    s = prepare_comparison(P, CompareOptions(duration=DUR, modes=("adaptive", "fixed")))
+    s = prepare_comparison(P, CompareOptions.from_flat(duration=DUR, modes=("adaptive", "fixed")))
     run = lambda mode, o: run_mode(P, s.reference, mode, o, rng=np.random.default_rng(s.noise_seed))  # noqa: E731
     out = {m: run(m, s.mode_options[m]) for m in ("none", "frictionless", "adaptive")}
-    out["no_start"] = run("adaptive", replace(s.mode_options["adaptive"], start=None))
+    out["no_start"] = run("adaptive", s.mode_options["adaptive"].replace(start=None))
     f = s.prefit
     for k in (0.9, 1.1):  # the pre-fit levels with the true lag off by 10 %: a defect the pin must see
         e = FrictionEstimate(J=s.J_design, tau=k * P.tau, sigma=f.sigma, Fc=f.Fc, Fs=f.Fs, offset=0.0, Vs=f.Vs,
                              delta=f.delta, J_alt=float("nan"))
-        out[f"fixed_{k}"] = run("fixed", replace(s.mode_options["fixed"], estimate=e))
+        out[f"fixed_{k}"] = run("fixed", s.mode_options["fixed"].replace(estimate=e))
     return s, out
 
 
@@ -47,10 +47,10 @@ def _eta_full(out, r):
 
 def test_compare_starts_from_the_prefit_map_with_the_identified_lag_at_the_measurement(runs):
     s, _ = runs
-    st = s.mode_options["adaptive"].start
+    st = s.mode_options["adaptive"].feedforward.start
     assert st is not None and st.ff_input == "measured" and st.gain == 1.0
     # the lag of the identification run's offline fit (Sec. IV-A), projected as fixed uses it: within 2 % of 20 ms
-    assert st.estimate.tau == pytest.approx(s.mode_options["fixed"].estimate.tau, rel=1e-12)
+    assert st.estimate.tau == pytest.approx(s.mode_options["fixed"].feedforward.estimate.tau, rel=1e-12)
     assert st.estimate.tau == pytest.approx(P.tau, rel=0.02)
     assert (st.estimate.Fc, st.estimate.Fs, st.estimate.sigma) == pytest.approx((s.prefit.Fc, s.prefit.Fs,
                                                                                    s.prefit.sigma), rel=1e-12)
@@ -59,9 +59,9 @@ def test_compare_starts_from_the_prefit_map_with_the_identified_lag_at_the_measu
 def test_without_an_accepted_identification_the_start_uses_the_loop_time_constant_at_the_reference():
     # u_max = 40 N·m: levels above 20 N·m (half the range) are implausible, so the offline fit (Fc ~ 25 N·m) is
     # rejected and its lag cannot be used
-    s = prepare_comparison(P, CompareOptions(duration=3.0, modes=("adaptive",), u_max=40.0))
+    s = prepare_comparison(P, CompareOptions.from_flat(duration=3.0, modes=("adaptive",), u_max=40.0))
     assert s.offline is not None and s.offline.estimate.Fc > 20.0
-    st = s.mode_options["adaptive"].start
+    st = s.mode_options["adaptive"].feedforward.start
     assert st.ff_input == "reference" and st.estimate.tau == pytest.approx(1.0 / s.design.crossover, rel=1e-12)
 
 
@@ -73,13 +73,14 @@ def test_start_deviation_pins_the_identified_lag_over_seeds():
     n2 = 2000
     devs = {k: [] for k in (0.9, 1.0, 1.1)}
     for seed in (0, 1, 2):
-        s = prepare_comparison(P, CompareOptions(duration=DUR, seed=seed, modes=("adaptive",)))
+        s = prepare_comparison(P, CompareOptions.from_flat(duration=DUR, seed=seed, modes=("adaptive",)))
         run = lambda mode, o: run_mode(P, s.reference, mode, o, rng=np.random.default_rng(s.noise_seed))  # noqa: E731
         wl = run("frictionless", s.mode_options["frictionless"]).w
         mo = s.mode_options["adaptive"]
         for k in devs:
-            st = replace(mo.start, estimate=replace(mo.start.estimate, tau=k * mo.start.estimate.tau))
-            devs[k].append(deviation_rms(run("adaptive", replace(mo, start=st)).w[:n2], wl[:n2]))
+            start = mo.feedforward.start
+            st = replace(start, estimate=replace(start.estimate, tau=k * start.estimate.tau))
+            devs[k].append(deviation_rms(run("adaptive", mo.replace(start=st)).w[:n2], wl[:n2]))
     mean = {k: float(np.mean(v)) for k, v in devs.items()}
     assert mean[1.0] <= 3.0e-3
     assert mean[0.9] > 3.0e-3 and mean[1.1] > 3.0e-3

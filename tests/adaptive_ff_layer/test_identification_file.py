@@ -83,7 +83,7 @@ def test_design_and_export_c_read_the_top_level(out, id_json, capsys):
     _, s = compensator_from_file(idj, u_max=150.0)
     assert s["J_design"] == out["J"] and s["joint"] == {k: out[k] for k in ("Fc", "Fs", "sigma")}
     assert s["Kp"] == pytest.approx(expect.Kp, rel=1e-12) and s["Ki"] == pytest.approx(expect.Ki, rel=1e-12)
-    assert s["options"].Vs == VS and s["options"].stick_band == pytest.approx(3 * out["excitation"]["noise_std"])
+    assert s["options"].estimator.Vs == VS and s["options"].feedforward.stick_band == pytest.approx(3 * out["excitation"]["noise_std"])
 
 
 def _former_layout(out: dict) -> dict:

@@ -60,7 +60,7 @@ def test_no_memory_or_no_standard_error_uses_the_estimate_itself():
 @pytest.fixture(scope="module")
 def seed5():
     p = preset("paper")
-    s = prepare_comparison(p, CompareOptions(duration=120.0, seed=5, modes=("adaptive", "oracle")))
+    s = prepare_comparison(p, CompareOptions.from_flat(duration=120.0, seed=5, modes=("adaptive", "oracle")))
     s.bar.close()
     out = {}
     for mode in ("adaptive", "oracle"):

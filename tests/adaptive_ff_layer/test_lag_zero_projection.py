@@ -24,7 +24,7 @@ from adaptive_ff.compensation.adaptive_feedforward import (RobustAdaptiveFeedfor
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator
 from controllers.design.pi import design_pi
 from controllers.experiments.compare import CompareOptions, comparison_reference
-from controllers.simulation.closed_loop import ModeOptions, run_mode
+from controllers.simulation.closed_loop import LoopConfig, run_mode
 from plant.errors import ParameterError
 from plant.variant_plants import variant
 
@@ -194,12 +194,11 @@ def test_decide_uses_the_projection_of_a_correlated_state():
 def static_runs():
     p = variant("static")
     d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=DT)
-    o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
-    ref = comparison_reference(CompareOptions(duration=20.0, seed=1))
+    o = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
+    ref = comparison_reference(CompareOptions.from_flat(duration=20.0, seed=1))
     runs = {m: run_mode(p, ref, m, o, rng=np.random.default_rng(0)) for m in ("none", "frictionless", "adaptive")}
-    from dataclasses import replace
 
-    runs["refusing"] = run_mode(p, ref, "adaptive", replace(o, lag_zero=0.0, project=False),
+    runs["refusing"] = run_mode(p, ref, "adaptive", o.replace(lag_zero=0.0, project=False),
                                 rng=np.random.default_rng(0))
     return p, runs
 

@@ -6,7 +6,6 @@
 """
 
 import math
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -17,7 +16,7 @@ from adaptive_ff.compensation.velocity_input import LoopModel
 from adaptive_ff.identification.regression import FrictionEstimate
 from controllers.experiments.compare import CompareOptions, prepare_comparison
 from controllers.simulation.closed_loop import run_mode
-from controllers.simulation.compensators import ModeOptions
+from controllers.simulation.compensators import LoopConfig
 from plant.errors import ParameterError
 from plant.friction import preset
 from pi_oracle import OracleLoopModel
@@ -91,7 +90,7 @@ def test_without_a_loop_model_the_fallback_is_the_reference():
 
 def test_mode_options_stick_input_validation():
     with pytest.raises(ParameterError):
-        ModeOptions(Kp=1.0, Ki=1.0, stick_input="measured")
+        LoopConfig.from_flat(Kp=1.0, Ki=1.0, stick_input="measured")
 
 
 @pytest.fixture(scope="module")
@@ -101,7 +100,7 @@ def paper_runs():
     for seed in (0, 1, 2):
         # with a data sheet's exact inertia (J_design = 4), as the claim was measured; with the identified 4.075
         # kg·m² the reference stick input no longer loses to the model on seed 0 (max 0.029 vs 0.037 rad/s)
-        s = prepare_comparison(p, CompareOptions(seed=seed, duration=120.0, modes=("adaptive", "oracle"),
+        s = prepare_comparison(p, CompareOptions.from_flat(seed=seed, duration=120.0, modes=("adaptive", "oracle"),
                                                  J_design=p.J))
         run = lambda m, o: run_mode(p, s.reference, m, o, rng=np.random.default_rng(s.noise_seed))  # noqa: E731
         o = s.mode_options["adaptive"]
@@ -109,10 +108,10 @@ def paper_runs():
         # before the sign observer, which takes a slow reversal for sticking far less often), and the estimate
         # used as it was then (the lag estimate itself, before the determinacy test and the weighted lag), the
         # feedforward alone (no residual switch-in: its observer would take over what the fallback is there for)
-        old = replace(o, sign_input="measured", stick_samples=5, lag_margin=0.0, max_rel_stderr=math.inf,
+        old = o.replace(sign_input="measured", stick_samples=5, lag_margin=0.0, max_rel_stderr=math.inf,
                       lag_memory=0.0, switch_in=False)
         out[seed] = {"frictionless": run("frictionless", o), "oracle": run("oracle", o), "model": run("adaptive", old),
-                     "reference": run("adaptive", replace(old, stick_input="reference")), "default": run("adaptive", o)}
+                     "reference": run("adaptive", old.replace(stick_input="reference")), "default": run("adaptive", o)}
     return out
 
 

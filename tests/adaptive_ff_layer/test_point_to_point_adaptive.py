@@ -13,14 +13,13 @@ errors of three runs (``none``, ``frictionless``, ``adaptive``) on the same refe
 """
 
 import math
-from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimator, estimate_from_theta, SlidingFrictionEstimatorConfig
 from controllers.design.pi import design_pi
-from controllers.simulation.closed_loop import ModeOptions, run_mode
+from controllers.simulation.closed_loop import LoopConfig, run_mode
 from plant.friction import preset
 from plant.motion import point_to_point_reference
 
@@ -31,12 +30,12 @@ TARGETS = [0.5, -0.2, 0.4, 0.0, 0.6, -0.3]  # rad: six moves, 11.65 s with the d
 @pytest.fixture(scope="module")
 def runs():
     d = design_pi(P.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
-    o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=P.Vs, delta=P.delta, noise_std=1e-3)
+    o = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=P.Vs, delta=P.delta, noise_std=1e-3)
     ref = point_to_point_reference(TARGETS, v_max=0.5, a_max=4.0, dwell=0.5)
     r = {m: run_mode(P, ref, m, o, rng=np.random.default_rng(0)) for m in ("none", "frictionless", "adaptive")}
     # the estimator alone, without the feedforward supervisor's rest rule (aff_supervisor.h): nothing applied at rest
     # lets the joint stick between the moves, which changes the estimator's data (below)
-    r["unsupervised"] = run_mode(P, ref, "adaptive", replace(o, supervise=False), rng=np.random.default_rng(0))
+    r["unsupervised"] = run_mode(P, ref, "adaptive", o.replace(supervise=False), rng=np.random.default_rng(0))
     return r
 
 

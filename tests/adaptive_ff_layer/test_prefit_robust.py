@@ -29,7 +29,7 @@ from plant.variant_plants import VARIANT_NAMES, variant
 
 P = preset("paper")
 #: the speed range compare() designs the quasi-static runs for (1.2 x the reference's peak speed)
-W_MAX = 1.2 * float(np.max(np.abs(comparison_reference(CompareOptions(duration=12.0)).w)))
+W_MAX = 1.2 * float(np.max(np.abs(comparison_reference(CompareOptions.from_flat(duration=12.0)).w)))
 
 
 def _experiment(p, seed=0):
@@ -70,7 +70,7 @@ def test_prefit_of_every_variant_is_the_true_curve(name):
 
 
 def test_random_zoo_plants_get_a_friction_curve():
-    specs = draw_plants(8, comparison_reference(CompareOptions(duration=12.0)), seed=3)
+    specs = draw_plants(8, comparison_reference(CompareOptions.from_flat(duration=12.0)), seed=3)
     assert {s["model"] for s in specs} == {"asymmetric", "lagged-stribeck", "lugre", "karnopp"}
     for i, spec in enumerate(specs):
         p = plant_from_dict(spec)

@@ -7,14 +7,13 @@ worse than none; a good one never touched (bit for bit); the open bench's case; 
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 import pytest
 from scipy.signal import lfilter
 
 from adaptive_ff.compensation.supervisor import DELAY_MAX, FeedforwardSupervisor, FeedforwardSupervisorConfig
-from controllers import ModeOptions, design_pi, run_mode
+from controllers import LoopConfig, design_pi, run_mode
 from controllers.simulation.compensators import build_mode, build_supervisor
 from controllers.experiments.compare import compare, eta
 from controllers.simulation.batch import run_batch
@@ -120,18 +119,18 @@ def test_bad_settings_are_refused(kw, name):
 
 def test_mode_options_check_the_supervisor_settings():
     with pytest.raises(ParameterError, match="supervise_margin"):
-        ModeOptions(Kp=1.0, Ki=1.0, supervise_margin=-0.1)
+        LoopConfig.from_flat(Kp=1.0, Ki=1.0, supervise_margin=-0.1)
     with pytest.raises(ParameterError, match="supervise_window"):
-        ModeOptions(Kp=1.0, Ki=1.0, supervise_window=0.0)
+        LoopConfig.from_flat(Kp=1.0, Ki=1.0, supervise_window=0.0)
     with pytest.raises(ParameterError, match="supervise must"):
-        ModeOptions(Kp=1.0, Ki=1.0, supervise=1)
+        LoopConfig.from_flat(Kp=1.0, Ki=1.0, supervise=1)
 
 
 def _paper_loop(duration=20.0):
     p = preset("paper")
     d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
     ref = multisine_reference(duration, rng=np.random.default_rng(1))
-    o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
+    o = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
     return p, ref, o
 
 
@@ -163,7 +162,7 @@ def test_a_harmful_compensator_is_backed_off_and_the_loop_is_no_worse_than_none(
     assert e_sup >= -0.02
     assert sup.info["n_backoff"] == 1 and sup.info["n_restore"] == 0
     # backed off within the Q-filter's start, the settling time and one window (defaults: 2 s, settle 1 s)
-    omega = o.Kp / p.J
+    omega = o.controller.Kp / p.J
     first_off = sup.t[np.flatnonzero((sup.u_ff == 0.0) & (sup.t > 0.1))[0]]
     assert first_off <= 5.0 / omega + 1.0 + 2.0
     assert sup.info["t_off"] == pytest.approx(ref.t[-1] + 1e-3 - first_off, abs=2e-3)
@@ -173,7 +172,7 @@ def test_a_harmful_compensator_is_backed_off_and_the_loop_is_no_worse_than_none(
 def test_a_good_compensator_is_never_backed_off_and_unchanged():
     p, ref, o = _paper_loop()
     on = run_mode(p, ref, "adaptive", o, rng=np.random.default_rng(0))
-    off = run_mode(p, ref, "adaptive", replace(o, supervise=False), rng=np.random.default_rng(0))
+    off = run_mode(p, ref, "adaptive", o.replace(supervise=False), rng=np.random.default_rng(0))
     assert on.info["n_backoff"] == 0 and on.info["t_off"] == 0.0
     for k in ("w", "u", "u_ff", "theta"):
         np.testing.assert_array_equal(getattr(on, k), getattr(off, k))
@@ -192,9 +191,9 @@ def test_batch_supervises_as_a_single_run():
     k = variant("karnopp")
     d = design_pi(k.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
     from adaptive_ff.identification.regression import RegressionModel
-    ok = replace(o, Kp=d.Kp, Ki=d.Ki, estimator="eq4-rls", model=RegressionModel(k.Vs, k.delta), warmup=50)
-    b = run_batch([k, p], ref, "adaptive", [ok, replace(ok, model=RegressionModel(p.Vs, p.delta))], seeds=[3, 4])
-    for i, (plant, oi) in enumerate(((k, ok), (p, replace(ok, model=RegressionModel(p.Vs, p.delta))))):
+    ok = o.replace(Kp=d.Kp, Ki=d.Ki, estimator="eq4-rls", model=RegressionModel(k.Vs, k.delta), warmup=50)
+    b = run_batch([k, p], ref, "adaptive", [ok, ok.replace(model=RegressionModel(p.Vs, p.delta))], seeds=[3, 4])
+    for i, (plant, oi) in enumerate(((k, ok), (p, ok.replace(model=RegressionModel(p.Vs, p.delta))))):
         one = run_mode(plant, ref, "adaptive", oi, rng=np.random.default_rng(3 + i))
         assert b.rms_second_half[i] == one.metrics.rms_second_half
         assert b.supervisors[i].n_backoff == one.info["n_backoff"]
@@ -246,11 +245,11 @@ def test_nothing_is_applied_with_the_reference_at_rest_and_the_statistics_hold()
 
 def _rest_end_runs(mode, targets=(0.5, -0.2, 0.4), **options):
     """The paper joint on point-to-point moves to ``targets`` (rad) ending in a 0.5 s dwell (noise 1e-3 rad/s, seed
-    0; ``options`` replace ModeOptions' fields): the recorded run of ``mode`` and its compensator's final state from
+    0; ``options`` replace LoopConfig' fields): the recorded run of ``mode`` and its compensator's final state from
     the same run through ``run_batch``."""
     p = preset("paper")
     d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
-    o = replace(ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=1e-3), **options)
+    o = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=1e-3).replace(**options)
     ref = point_to_point_reference(list(targets), v_max=0.5, a_max=4.0, dwell=0.5)
     rec = run_mode(p, ref, mode, o, rng=np.random.default_rng(0))
     b = run_batch([p], ref, mode, o, seeds=[0])
@@ -292,7 +291,7 @@ def test_at_rest_the_composites_observer_measures_the_friction_itself():
     p, ref, o, rec, comp = _rest_end_runs("adaptive-dob")
     n_end = rec.w_ref.shape[0] - 1 - np.flatnonzero(rec.w_ref != 0.0)[-1]  # periods of the final dwell
     assert n_end >= 400 and rec.info["t_rest"] > 1.0
-    _, _, dob = build_mode(p, "dob", replace(o, omega_q=o.omega_r))  # J_n = J, Q cut-off and bound as the composite's
+    _, _, dob = build_mode(p, "dob", o.replace(omega_q=o.observer.omega_r))  # J_n = J, Q cut-off and bound as the composite's
     for k in range(rec.t.shape[0]):
         dob.compensate(rec.w_meas[k], rec.w_ref[k])
         dob.observe(rec.u[k], rec.w_meas[k])
@@ -330,7 +329,7 @@ def test_after_a_rest_the_feedforward_part_is_held_until_the_joint_moves_in_the_
     assert rest.sum() * 1e-3 == pytest.approx(rec.info["t_rest"], abs=1e-9)
     _, _, fresh = build_mode(p, "adaptive-dob", o)
     ff = fresh.feedforward  # the feedforward part alone (its own struct's field; the residual part is not called)
-    _, _, dob = build_mode(p, "dob", replace(o, omega_q=o.omega_r))  # the composite's observer settings, J_n = J
+    _, _, dob = build_mode(p, "dob", o.replace(omega_q=o.observer.omega_r))  # the composite's observer settings, J_n = J
     n = rec.t.shape[0]
     expected = np.zeros(n)
     withheld = np.zeros(n)  # the feedforward part left out
@@ -355,7 +354,7 @@ def test_after_a_rest_the_feedforward_part_is_held_until_the_joint_moves_in_the_
             told, expected[k] = u_ff, u_ff + d
         ff.observe(rec.u[k], wm)
         dob.observe(rec.u[k] - told, wm)
-    assert np.max(np.abs(expected)) < o.u_max  # the bound never acts
+    assert np.max(np.abs(expected)) < o.drive.u_max  # the bound never acts
     assert decays > 1000  # the rests after the feedforward's switch-on withdraw it through its lag
     starts = np.flatnonzero(held & ~np.roll(held, 1))
     ends = np.flatnonzero(rest[:-1] & ~rest[1:]) + 1  # first period after each rest

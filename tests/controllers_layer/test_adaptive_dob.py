@@ -4,7 +4,6 @@ engine equals the single run, the parts compose as specified, and the mode holds
 each friction model (the margin target of docs/benchmarks/variants.md)."""
 
 import math
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -15,7 +14,7 @@ from controllers.design.pi import design_pi
 from controllers.peers.adaptive_dob import AdaptiveDOBCompensator
 from controllers.peers.dob import DisturbanceObserver
 from controllers.simulation.batch import run_batch
-from controllers.simulation.closed_loop import ModeOptions
+from controllers.simulation.closed_loop import LoopConfig
 from loop_helpers import run_named
 from plant.errors import ParameterError
 from plant.excitation import multisine_reference
@@ -77,11 +76,11 @@ def test_before_switch_on_it_is_the_observer_and_after_it_the_observer_sees_the_
 
 def test_batch_equals_single_runs(ref):
     plants = [P, variant("karnopp"), variant("lugre")]
-    opts = [ModeOptions(Kp=DESIGN.Kp, Ki=DESIGN.Ki, u_max=150.0, noise_std=1e-3, Vs=p.Vs, delta=p.delta, warmup=50,
+    opts = [LoopConfig.from_flat(Kp=DESIGN.Kp, Ki=DESIGN.Ki, u_max=150.0, noise_std=1e-3, Vs=p.Vs, delta=p.delta, warmup=50,
                         initial=_initial(P)) for p in plants]
     batch = run_batch(plants, ref, "adaptive-dob", opts, seeds=[1, 2, 3])
     for b, (p, o, s) in enumerate(zip(plants, opts, [1, 2, 3])):
-        single = run_named(p, ref, mode="adaptive-dob", rng=np.random.default_rng(s), **o.__dict__)
+        single = run_named(p, ref, mode="adaptive-dob", rng=np.random.default_rng(s), **o.to_flat())
         assert batch.rms[b] == pytest.approx(single.metrics.rms, rel=1e-12)
         assert batch.max_second_half[b] == pytest.approx(single.metrics.max_second_half, rel=1e-12)
         np.testing.assert_array_equal(batch.compensators[b].estimator.theta, single_theta(single))
@@ -116,7 +115,7 @@ def test_every_estimator_builds_the_composite(mode, estimator):
     from adaptive_ff.identification.regression import RegressionModel
     from controllers.simulation.compensators import build_mode
 
-    o = ModeOptions(Kp=20.0, Ki=200.0, J_design=P.J, Vs=P.Vs, delta=P.delta, estimator=estimator,
+    o = LoopConfig.from_flat(Kp=20.0, Ki=200.0, J_design=P.J, Vs=P.Vs, delta=P.delta, estimator=estimator,
                     model=RegressionModel(P.Vs, P.delta))
     _, _, comp = build_mode(P, mode, o)
     assert isinstance(comp, AdaptiveDOBCompensator) and comp.MODE == mode
@@ -126,7 +125,7 @@ def test_every_estimator_builds_the_composite(mode, estimator):
     assert isinstance(comp.feedforward, AdaptiveFrictionFeedforward if eq4 else RobustAdaptiveFeedforward)
     assert (comp.switch_in is not None) == (mode == "adaptive")
     assert (getattr(comp, "supervisor", None) is not None) == whole  # the engine supervises the others
-    _, _, alone = build_mode(P, "adaptive", replace(o, switch_in=False))
+    _, _, alone = build_mode(P, "adaptive", o.replace(switch_in=False))
     if eq4:
         assert isinstance(alone, AdaptiveFrictionFeedforward)
     else:

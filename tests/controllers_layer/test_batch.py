@@ -8,7 +8,7 @@ import pytest
 
 from adaptive_ff.identification.regression import FrictionEstimate
 from controllers.simulation.batch import run_batch
-from controllers.simulation.closed_loop import ModeOptions
+from controllers.simulation.closed_loop import LoopConfig
 from loop_oracle import replayed_run
 from plant.errors import ParameterError
 from plant.excitation import multisine_reference
@@ -18,11 +18,11 @@ FIELDS = ("rms", "max", "rms_second_half", "max_second_half", "rms_reversal", "u
 
 
 def _opts(Kp, Ki, u_max=math.inf, estimate=None, **kw):
-    """One ModeOptions per scenario (sensor gate off, as the batch runs were first defined)."""
+    """One LoopConfig per scenario (sensor gate off, as the batch runs were first defined)."""
     B = len(np.atleast_1d(Kp))
     per = lambda x, b: float(np.broadcast_to(np.asarray(x, dtype=float), (B,))[b])  # noqa: E731
     ests = estimate if isinstance(estimate, list) else [estimate] * B
-    return [ModeOptions(Kp=per(Kp, b), Ki=per(Ki, b), u_max=per(u_max, b), estimate=ests[b], sensor_gate=False,
+    return [LoopConfig.from_flat(Kp=per(Kp, b), Ki=per(Ki, b), u_max=per(u_max, b), estimate=ests[b], sensor_gate=False,
                         **kw) for b in range(B)]
 
 
@@ -70,19 +70,19 @@ def test_bad_inputs():
     rng = np.random.default_rng(1)
     ref = multisine_reference(0.5, rng=rng)
     p = [preset("paper")] * 2
-    o = ModeOptions(Kp=1.0, Ki=1.0)
+    o = LoopConfig.from_flat(Kp=1.0, Ki=1.0)
     with pytest.raises(ParameterError, match="mode"):
         run_batch(p, ref, "magic", o)
     with pytest.raises(ParameterError, match="options"):
         run_batch(p, ref, "none", [o, o, o])
     with pytest.raises(ParameterError, match="Ki"):
-        run_batch(p, ref, "none", ModeOptions(Kp=1.0, Ki=-1.0))
+        run_batch(p, ref, "none", LoopConfig.from_flat(Kp=1.0, Ki=-1.0))
     with pytest.raises(ParameterError, match="u_max"):
-        run_batch(p, ref, "none", ModeOptions(Kp=1.0, Ki=1.0, u_max=0.0))
+        run_batch(p, ref, "none", LoopConfig.from_flat(Kp=1.0, Ki=1.0, u_max=0.0))
     with pytest.raises(ParameterError, match="estimate"):
         run_batch(p, ref, "fixed", o)
     with pytest.raises(ParameterError, match="seeds"):
-        run_batch(p, ref, "none", ModeOptions(Kp=1.0, Ki=1.0, noise_std=0.1))
+        run_batch(p, ref, "none", LoopConfig.from_flat(Kp=1.0, Ki=1.0, noise_std=0.1))
     with pytest.raises(ParameterError, match="noise"):
         run_batch(p, ref, "none", o, noise=np.zeros(3))
     with pytest.raises(ParameterError, match="plants"):
@@ -133,7 +133,7 @@ def test_a_plant_given_many_times_equals_equal_copies_bit_for_bit():
     copies = [p.replace(), FrictionDrift(p, Fc_change=0.5, Fs_change=0.3, t_start=0.1, t_end=0.5, period=0.05),
               p.replace(), p.replace(tau=0.0), FrictionDrift(p, Fc_change=0.5, Fs_change=0.3, t_start=0.1, t_end=0.5,
                                                               period=0.05), p.replace()]
-    o = ModeOptions(Kp=8.0, Ki=40.0, u_max=150.0, noise_std=1e-3, sensor_gate=True)
+    o = LoopConfig.from_flat(Kp=8.0, Ki=40.0, u_max=150.0, noise_std=1e-3, sensor_gate=True)
     a = run_batch(shared, ref, "none", o, seeds=list(range(6)))
     b = run_batch(copies, ref, "none", o, seeds=list(range(6)))
     for name in FIELDS:

@@ -5,7 +5,6 @@ each joint's loop is configured from an identify-arm identification of a log of 
 """
 
 import json
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -99,12 +98,12 @@ def test_one_joint_arm_matches_the_one_joint_engine(one_joint, mode):
     ref = Reference(t=t, w=w[:, 0], dw=np.gradient(w[:, 0], t))
     f = ONE_FRICTION
     joint = JointParams(J=ONE_J, Fc=f.Fc, Fs=f.Fs, Vs=f.Vs, delta=f.delta, sigma=f.sigma, tau=f.tau)
-    mode_options = d.options if mode != "fixed" else replace(d.options, estimate=d.estimate)
+    mode_options = d.options if mode != "fixed" else d.options.replace(estimate=d.estimate)
     if mode == "adaptive":  # the settings compare-arm gives export-c's compensator (stick band, cut-off, gains)
         from controllers.experiments.compensator_file import compensator_from_file
 
         mode_options = compensator_from_file(path, arm_joint="turn", **d.settings)[1]["options"]
-    one = run_mode(joint, ref, mode, replace(mode_options, noise_std=o.noise_std),
+    one = run_mode(joint, ref, mode, mode_options.replace(noise_std=o.noise_std),
                    rng=np.random.default_rng([o.seed, 1]))
     w_arm = res.runs[mode].w[:, 0]
     assert w_arm.shape == one.w.shape

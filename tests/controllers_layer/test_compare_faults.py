@@ -132,7 +132,7 @@ def test_a_factory_that_fails_or_returns_no_compensator_is_named():
     def broken(ctx):
         raise KeyError("prefit")
 
-    o = CompareOptions(duration=0.5, modes=("none",), Vs=0.02, delta=1.0, u_max=150.0)
+    o = CompareOptions.from_flat(duration=0.5, modes=("none",), Vs=0.02, delta=1.0, u_max=150.0)
     with pytest.raises(ParameterError, match=r"compensators\['half'\]: its factory returned a OnlyCompensate without "
                                              r"observe"):
         compare(preset("paper"), o, compensators={"half": lambda ctx: OnlyCompensate()}, progress=False)

@@ -79,7 +79,7 @@ def test_unstable_gains_and_bad_files_are_refused_by_name(tmp_path):
     d = design_pi(4.0, crossover=20.0, phase_margin=60.0)
     with pytest.raises(ParameterError, match=r"controller: its period Tc = 0\.001 s differs from the loop's Tc = "
                                              r"0\.002 s"):
-        CompareOptions(controller=d, Tc=2e-3, Ts=0.01)
+        CompareOptions.from_flat(controller=d, Tc=2e-3, Ts=0.01)
 
 
 def test_compare_runs_the_given_pi():

@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 from controllers.simulation.batch import run_batch
-from controllers.simulation.closed_loop import ModeOptions
+from controllers.simulation.closed_loop import LoopConfig
 from plant.excitation import multisine_reference
 from plant.friction import preset
 from plant.variant_plants import variant
@@ -51,7 +51,7 @@ def golden_runs(label, mode, Kp=KP):
     ps = _plants(label)
     # the adaptive feedforward as it was then: the lag estimate itself, no determinacy test (both came later,
     # commit a42b9e9), no weighted lag (commit 28abafb); they change the algorithm, not the arithmetic this file checks
-    o = ModeOptions(Kp=Kp, Ki=KI, u_max=150.0, Vs=P.Vs, delta=P.delta, noise_std=1e-3, lag_margin=0.0,
+    o = LoopConfig.from_flat(Kp=Kp, Ki=KI, u_max=150.0, Vs=P.Vs, delta=P.delta, noise_std=1e-3, lag_margin=0.0,
                     max_rel_stderr=math.inf, lag_memory=0.0)
     return run_batch(ps, ref, mode, o, seeds=list(range(len(ps))))
 

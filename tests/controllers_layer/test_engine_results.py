@@ -9,7 +9,7 @@ import pytest
 from controllers.design.pi import PIController, design_pi
 from controllers.experiments.compare import compare
 from controllers.simulation.batch import run_batch
-from controllers.simulation.closed_loop import MeasurementSettings, ModeOptions, RunSettings, run_closed_loop
+from controllers.simulation.closed_loop import MeasurementSettings, LoopConfig, RunSettings, run_closed_loop
 from controllers.simulation.compensators import TrueFriction
 from plant.excitation import multisine_reference
 from plant.friction import preset
@@ -31,8 +31,8 @@ def test_closed_loop_result_protocol():
 
 def test_batch_result_protocol_with_a_diverged_scenario():
     ref = multisine_reference(1.0, rng=np.random.default_rng(2))
-    unstable = ModeOptions(Kp=5.0 * P.J / 1e-3, Ki=1.0, sensor_gate=False)  # Kp*Tc/J = 5 > 2
-    res = run_batch([P, P], ref, "none", [unstable, ModeOptions(Kp=1.0, Ki=1.0, sensor_gate=False)])
+    unstable = LoopConfig.from_flat(Kp=5.0 * P.J / 1e-3, Ki=1.0, sensor_gate=False)  # Kp*Tc/J = 5 > 2
+    res = run_batch([P, P], ref, "none", [unstable, LoopConfig.from_flat(Kp=1.0, Ki=1.0, sensor_gate=False)])
     d = res.to_dict()
     json.dumps(d, allow_nan=False)
     assert d["diverged"] == [True, False] and d["rms"][0] is None and d["rms"][1] == res.rms[1]

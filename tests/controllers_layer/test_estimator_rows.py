@@ -73,13 +73,13 @@ def test_without_adaptive_a_row_stands_where_adaptive_would():
 ])
 def test_bad_rows_are_refused_by_name(rows, why):
     with pytest.raises(ParameterError, match="estimator_rows") as exc:
-        CompareOptions(estimator_rows=rows)
+        CompareOptions.from_flat(estimator_rows=rows)
     assert why in str(exc.value)
 
 
 def test_a_compensator_may_not_take_a_row_label():
     with pytest.raises(ParameterError, match="compensators"):
-        CompareOptions(estimator_rows=("eq4-rls",), compensators={"adaptive[eq4-rls]": lambda ctx: None})
+        CompareOptions.from_flat(estimator_rows=("eq4-rls",), compensators={"adaptive[eq4-rls]": lambda ctx: None})
 
 
 def test_cli_prints_the_row_and_refuses_it_beside_a_scenario(tmp_path, capsys):

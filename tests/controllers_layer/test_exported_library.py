@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from adaptive_ff.compensation.export_c import JointExport, export_c
-from controllers import ModeOptions, design_pi
+from controllers import LoopConfig, design_pi
 from controllers._cctl import ffi
 from controllers.simulation.batch import run_batch
 from controllers.simulation.compensators import build_mode
@@ -28,7 +28,7 @@ pytestmark = pytest.mark.skipif(shutil.which("cc") is None, reason="no C compile
 
 
 def _options(p, d):
-    return ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=1e-3, J_design=p.J,
+    return LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=1e-3, J_design=p.J,
                        ff_max=75.0)
 
 

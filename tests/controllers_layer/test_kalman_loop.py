@@ -1,5 +1,5 @@
 """The encoder's Kalman velocity in the loop (controllers/csrc/ctl_sensor.c, ``Sensor(velocity="kalman")``,
-``ModeOptions(velocity="kalman")``).
+``LoopConfig.from_flat(velocity="kalman")``).
 
 Oracles: the gain against scipy's discrete algebraic Riccati solution built here from the textbook matrices
 (Bar-Shalom, Li, Kirubarajan 2001, Sec. 6.2-6.3) and against filterpy's covariance recursion run to
@@ -18,7 +18,7 @@ from filterpy.kalman import KalmanFilter
 from scipy.linalg import solve_discrete_are
 
 from adaptive_ff.io.kalman_velocity import velocity_from_position
-from controllers import ModeOptions, design_pi, run_batch, run_mode
+from controllers import LoopConfig, design_pi, run_batch, run_mode
 from controllers.simulation.sensor_drive import Sensor
 from plant import ParameterError
 from plant.excitation import multisine_reference
@@ -217,7 +217,7 @@ REF = multisine_reference(20.0, rng=np.random.default_rng(0))
 
 
 def _opts(**kw):
-    return ModeOptions(Kp=D.Kp, Ki=D.Ki, u_max=150.0, Vs=P.Vs, delta=P.delta, noise_std=1e-3, **kw)
+    return LoopConfig.from_flat(Kp=D.Kp, Ki=D.Ki, u_max=150.0, Vs=P.Vs, delta=P.delta, noise_std=1e-3, **kw)
 
 
 def test_closed_loop_with_the_kalman_velocity():

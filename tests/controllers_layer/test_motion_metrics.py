@@ -12,7 +12,7 @@ import pytest
 
 from controllers.design.pi import PIController, design_pi
 from controllers.simulation.batch import run_batch
-from controllers.simulation.closed_loop import ModeOptions, RunSettings, run_closed_loop, run_mode
+from controllers.simulation.closed_loop import LoopConfig, RunSettings, run_closed_loop, run_mode
 from controllers.simulation.metrics import SETTLE_SHARE, motion_metrics, reversal_times, stop_intervals
 from plant.errors import ParameterError
 from plant.excitation import Reference, multisine_reference
@@ -81,7 +81,7 @@ def assert_matches(m, o, rtol=1e-12):
 def _loop(noise=1e-3):
     p = preset("paper")
     d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=DT)
-    return p, ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=noise)
+    return p, LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=noise)
 
 
 @pytest.fixture(scope="module")
@@ -217,7 +217,7 @@ def test_a_diverged_run_keeps_the_events_it_completed_and_nothing_else():
     fast = point_to_point_reference([0.6], v_max=0.6, a_max=4.0, dwell=0.5, start_dwell=0.0)
     w = np.concatenate([slow.w, fast.w])
     ref = Reference(t=np.arange(w.size) * DT, w=w, dw=np.gradient(w, DT))
-    ctl = PIController(Kp=o.Kp, Ki=o.Ki, Tc=DT, u_max=150.0)
+    ctl = PIController(Kp=o.controller.Kp, Ki=o.controller.Ki, Tc=DT, u_max=150.0)
     r = run_closed_loop(p, ctl, None, ref, settings=RunSettings(w_limit=0.4))  # the third move exceeds 0.4 rad/s
     assert r.info["diverged"]
     m = r.motion
@@ -232,9 +232,8 @@ def test_a_diverged_run_keeps_the_events_it_completed_and_nothing_else():
     assert d["motion"]["stops"][2]["settled"] is None and d["motion"]["stops"][2]["settling_time"] is None
     assert d["motion"]["rms_motion"] is None and d["motion"]["settling_max"] is None
     # a batch with one diverging scenario: each scenario as its single run
-    from dataclasses import replace
 
-    opts = [replace(o, w_limit=0.4), o]
+    opts = [o.replace(w_limit=0.4), o]
     b = run_batch([p, p], ref, "none", opts)
     assert list(b.diverged) == [True, False]
     for i in range(2):

@@ -1,4 +1,4 @@
-"""One default and one check per knob across the option bundles: the loop's options (``ModeOptions``), the
+"""One default and one check per knob across the option bundles: the loop's options (``LoopConfig``), the
 comparison's (``CompareOptions``) and the zoo's (``ZooOptions``); one registry of the adaptive mode's estimators.
 """
 
@@ -12,45 +12,53 @@ import pytest
 from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward
 from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
 from adaptive_ff.identification.regression import RegressionModel
-from controllers.experiments.compare import EXPERIMENT_DEFAULTS, LOOP_KNOBS, CompareOptions
+from controllers.experiments.compare import DESIGNED, EXPERIMENT_DEFAULTS, EXPERIMENT_LOOP, CompareOptions
 from controllers.experiments.zoo import SHARED_FIELDS, ZooOptions
 from controllers.simulation import compensators
-from controllers.simulation.compensators import ESTIMATOR_BUILDERS, ModeOptions, build_mode
+from controllers.simulation.compensators import ESTIMATOR_BUILDERS, LoopConfig, build_mode
 from controllers.simulation.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
+from controllers.simulation.loop_config import FLAT_PATHS
 from plant import preset
 from plant.errors import ParameterError
 
 
 def _defaults(cls) -> dict:
+    if cls is LoopConfig:  # the nested config: its settings by their flat keywords
+        return LoopConfig().to_flat()
     return {f.name: f.default for f in dataclasses.fields(cls) if f.default is not dataclasses.MISSING}
 
 
-def test_a_knob_compare_shares_with_the_loop_has_the_loops_default_or_a_named_override():
-    loop, cmp = _defaults(ModeOptions), _defaults(CompareOptions)
-    shared = set(loop) & set(cmp)
-    assert shared == set(LOOP_KNOBS), "a knob both carry must be registered in LOOP_KNOBS (one default, one check)"
-    differ = {k for k in shared if cmp[k] != loop[k] or type(cmp[k]) is not type(loop[k])}
+def test_compare_carries_the_loops_config_with_the_loops_defaults_or_a_named_override():
+    loop, cmp = LoopConfig().to_flat(), CompareOptions().loop.to_flat()
+    differ = {k for k in loop if cmp[k] != loop[k] or type(cmp[k]) is not type(loop[k])}
     assert differ == set(EXPERIMENT_DEFAULTS), "the experiment's overrides are EXPERIMENT_DEFAULTS, and only they"
-    for k, v in EXPERIMENT_DEFAULTS.items():
-        assert cmp[k] == v
+    assert CompareOptions().loop == EXPERIMENT_LOOP == LoopConfig.from_flat(**EXPERIMENT_DEFAULTS)
     # the four that differ on purpose
     assert (cmp["warmup"], loop["warmup"]) == (50, 200) and (cmp["stick_samples"], loop["stick_samples"]) == (50, 10)
     assert (cmp["stick_band"], loop["stick_band"]) == (None, 0.0) and (cmp["noise_std"], loop["noise_std"]) == (1e-3, 0)
-    o = CompareOptions(duration=2.0, warmup=77, lam=0.99, estimator="eq4")
-    assert o.loop_fields() == {k: getattr(o, k) for k in LOOP_KNOBS} and o.loop_fields()["warmup"] == 77
+    # no setting is declared twice: the experiment's own fields and the loop's paths are apart
+    assert not {f.name for f in dataclasses.fields(CompareOptions)} & set(FLAT_PATHS)
+    o = CompareOptions.from_flat(duration=2.0, warmup=77, lam=0.99, estimator="eq4")
+    assert (o.duration, o.loop.feedforward.warmup, o.loop.estimator.lam, o.loop.estimator.name) == (2.0, 77, 0.99, "eq4")
+    r = o.replace(warmup=5, seed=3)
+    assert (r.loop.feedforward.warmup, r.seed, r.loop.estimator.name, o.loop.feedforward.warmup) == (5, 3, "eq4", 77)
+    assert all(o.flat(k) == o.loop.flat(k) for k in FLAT_PATHS if k not in DESIGNED)
+    with pytest.raises(ParameterError, match="^Kp: the comparison sets it"):
+        CompareOptions.from_flat(Kp=1.0)
+    with pytest.raises(TypeError, match="unknown option 'lamda'"):
+        CompareOptions.from_flat(lamda=0.9)
 
 
 def test_the_zoo_takes_the_knobs_it_shares_with_compare_from_compare():
-    zoo, cmp = _defaults(ZooOptions), _defaults(CompareOptions)
-    shared = set(zoo) & set(cmp)
-    assert shared - {"compensators"} == set(SHARED_FIELDS)  # the zoo's own compensators are import paths
+    zoo, cmp = _defaults(ZooOptions), CompareOptions()
     for k in SHARED_FIELDS:
-        assert zoo[k] == cmp[k] and type(zoo[k]) is type(cmp[k]), k
+        assert zoo[k] == cmp.flat(k) and type(zoo[k]) is type(cmp.flat(k)), k
     o = ZooOptions(n=3, duration=4.0, seed=5, estimator="eq4", iv_map_stderr=0.2, switch_in=False, delay=1)
     c = o.compare_options()
-    assert (c.duration, c.seed, c.estimator, c.iv_map_stderr, c.switch_in, c.delay) == (4.0, 5, "eq4", 0.2, False, 1)
-    assert {k: getattr(c, k) for k in LOOP_KNOBS if k not in SHARED_FIELDS} == \
-        {k: getattr(CompareOptions(duration=4.0), k) for k in LOOP_KNOBS if k not in SHARED_FIELDS}
+    assert (c.duration, c.seed, c.loop.estimator.name, c.loop.estimator.iv_map_stderr, c.loop.observer.switch_in,
+            c.loop.sensor.delay) == (4.0, 5, "eq4", 0.2, False, 1)
+    rest = [k for k in CompareOptions.flat_names() if k not in SHARED_FIELDS]
+    assert {k: c.flat(k) for k in rest} == {k: CompareOptions.from_flat(duration=4.0).flat(k) for k in rest}
 
 
 @pytest.mark.parametrize("kw,match", [(dict(estimator="kalman"), "estimator must be one of"),
@@ -60,7 +68,7 @@ def test_the_zoo_takes_the_knobs_it_shares_with_compare_from_compare():
                                       (dict(delay=-1), "delay"), (dict(encoder_counts=0), "encoder_counts"),
                                       (dict(slew_rate=0.0), "slew_rate"), (dict(sign_input="x"), "sign_input")])
 def test_each_shared_knob_is_checked_by_the_loops_options_for_every_bundle(kw, match):
-    for make in (lambda **k: ModeOptions(Kp=1.0, Ki=0.0, **k), lambda **k: CompareOptions(duration=2.0, **k),
+    for make in (lambda **k: LoopConfig.from_flat(Kp=1.0, Ki=0.0, **k), lambda **k: CompareOptions.from_flat(duration=2.0, **k),
                  lambda **k: ZooOptions(n=1, duration=2.0, **k)):
         try:
             make(**kw)
@@ -76,10 +84,10 @@ def test_the_estimators_have_one_registry_used_by_options_builders_and_the_cli()
     from controllers.cli.main import build_parser
 
     assert tuple(ESTIMATOR_BUILDERS) == ESTIMATORS and DEFAULT_ESTIMATOR == "sliding"
-    assert _defaults(ModeOptions)["estimator"] == _defaults(CompareOptions)["estimator"] == DEFAULT_ESTIMATOR
+    assert _defaults(LoopConfig)["estimator"] == CompareOptions().flat("estimator") == DEFAULT_ESTIMATOR
     compare = next(a for a in build_parser()._subparsers._group_actions[0].choices["compare"]._actions
                    if "--estimator" in a.option_strings)
-    assert tuple(compare.choices) == ESTIMATORS and compare.default == DEFAULT_ESTIMATOR
+    assert tuple(compare.choices) == ESTIMATORS and compare.default is None and compare.dest == "estimator"
     # construction is a lookup: no branch on an estimator's name in the builders
     src = inspect.getsource(compensators)
     assert "estimator ==" not in src and "estimator in (" not in src
@@ -89,7 +97,7 @@ def test_the_estimators_have_one_registry_used_by_options_builders_and_the_cli()
              "eq4-rls": (AdaptiveFrictionFeedforward, False)}
     assert set(kinds) == set(ESTIMATORS)
     for e, (cls, iv) in kinds.items():
-        o = ModeOptions(Kp=69.28, Ki=786.1, J_design=P.J, Vs=P.Vs, delta=P.delta, model=model, estimator=e,
+        o = LoopConfig.from_flat(Kp=69.28, Ki=786.1, J_design=P.J, Vs=P.Vs, delta=P.delta, model=model, estimator=e,
                         switch_in=False, supervise=False)
         ff = ESTIMATOR_BUILDERS[e](o, P.J, 75.0)
         assert type(ff) is cls and (iv is None or ff.iv is iv)
@@ -111,3 +119,46 @@ def test_compare_and_compare_arm_take_changes_through_one_helper():
 
     with pytest.raises(ParameterError, match=r"^compare_arm: .*no_such_field"):
         compare_arm(None, "arm.json", no_such_field=1)
+
+
+def test_the_compare_flags_are_paths_of_the_loops_config_with_the_registries_choices_and_its_defaults():
+    import re
+
+    from controllers.cli.compare import loop_flags
+
+    o = CompareOptions()
+    flags = loop_flags()
+    assert {name for name, _ in flags.values()} <= set(FLAT_PATHS) - set(DESIGNED)
+    assert flags["--estimator"] == ("estimator", flags["--estimator"][1]) and \
+        tuple(flags["--estimator"][1]["choices"]) == ESTIMATORS
+    checked = 0
+    for flag, (name, kw) in flags.items():  # a default the help states is the comparison's (no second default)
+        m = re.search(r"\(default (inf|[-+0-9.e]+)", kw["help"])
+        if m and o.flat(name) is not None:
+            assert float(m.group(1)) == o.flat(name), flag
+            checked += 1
+    assert checked == 4  # --iv-map-stderr, --omega-q, --Ts, --noise
+
+
+def test_the_loops_config_has_one_path_per_setting_and_one_map_from_the_flat_names():
+    from controllers.simulation.loop_config import GROUPS
+
+    paths = [(g, f.name) for g, cls in GROUPS.items() for f in dataclasses.fields(cls)]
+    assert sorted(FLAT_PATHS.values()) == sorted(paths) and len(set(paths)) == len(paths) == len(FLAT_PATHS) == 61
+    assert FLAT_PATHS["estimator"] == ("estimator", "name") and FLAT_PATHS["supervise"] == ("supervisor", "enabled")
+    assert FLAT_PATHS["supervise_window"] == ("supervisor", "window") and FLAT_PATHS["sensor_gate"] == ("sensor", "gate")
+    o = LoopConfig.from_flat(Kp=2.0, Ki=30.0, estimator="eq4-rls", supervise_window=4.0, encoder_counts=4096)
+    assert (o.controller.Kp, o.controller.Ki, o.estimator.name, o.supervisor.window, o.sensor.encoder_counts) == \
+        (2.0, 30.0, "eq4-rls", 4.0, 4096)
+    assert LoopConfig.from_flat(**o.to_flat()) == o and o.flat("supervise_window") == 4.0
+    r = o.replace(lam=0.99, omega_r=800.0)
+    assert (r.estimator.lam, r.observer.omega_r, r.estimator.name, o.estimator.lam) == (0.99, 800.0, "eq4-rls", None)
+    assert r.controller is o.controller and r.sensor is o.sensor  # untouched groups are shared, not copied
+    with pytest.raises(ParameterError, match="unknown loop setting 'lamda'"):
+        LoopConfig.from_flat(lamda=0.9)
+    with pytest.raises(ParameterError, match=r"^Ts = 0.0105 s must be a positive multiple of Tc"):  # ties two groups
+        LoopConfig.from_flat(Tc=1e-3, Ts=0.0105)
+    with pytest.raises(ParameterError, match="estimator must be a EstimatorSettings"):
+        LoopConfig(estimator="eq4")
+    with pytest.raises(ParameterError, match="u_max is None"):  # sized by a comparison: a run needs a number
+        build_mode(preset("paper"), "none", LoopConfig.from_flat(u_max=None))

@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from controllers.simulation.batch import run_batch
-from controllers.simulation.closed_loop import ModeOptions
+from controllers.simulation.closed_loop import LoopConfig
 from loop_oracle import replayed_run
 from plant.excitation import multisine_reference
 from plant.friction import JointParams
@@ -65,7 +65,7 @@ def test_batch_kernel_equals_run_closed_loop_one_by_one(case):
     ref = multisine_reference(1.5, f_min=0.5, peak=amp, rng=np.random.default_rng(ref_seed))
     est = [FrictionEstimate(J=p.J, tau=p.tau, sigma=p.sigma, Fc=p.Fc * err, Fs=p.Fs, offset=0.0, Vs=p.Vs,
                             delta=p.delta, J_alt=p.J) for p in ps]
-    opts = [ModeOptions(Kp=float(Kp[b]), Ki=float(Ki[b]), u_max=float(u_max[b]), noise_std=noise_std,
+    opts = [LoopConfig.from_flat(Kp=float(Kp[b]), Ki=float(Ki[b]), u_max=float(u_max[b]), noise_std=noise_std,
                         estimate=est[b], ff_input=ff_input, sensor_gate=False) for b in range(len(ps))]
     res = run_batch(ps, ref, mode, opts, seeds=seeds)
     for b, p in enumerate(ps):

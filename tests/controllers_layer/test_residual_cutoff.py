@@ -53,8 +53,8 @@ def test_cutoff_bounds():
 
 
 def test_compare_sets_the_cutoff_from_what_the_user_measured():
-    s = prepare_comparison(preset("paper"), CompareOptions(duration=3.0, modes=("adaptive-dob",)))
-    assert s.mode_options["adaptive-dob"].omega_r == 1000.0
+    s = prepare_comparison(preset("paper"), CompareOptions.from_flat(duration=3.0, modes=("adaptive-dob",)))
+    assert s.mode_options["adaptive-dob"].observer.omega_r == 1000.0
 
 
 def test_zoo_joint_550_adaptive_dob_no_longer_worse_than_no_compensation():
@@ -65,7 +65,7 @@ def test_zoo_joint_550_adaptive_dob_no_longer_worse_than_no_compensation():
     # deviation 0.78 / 0.73 / 0.72 times none's (seed 0 at 50 rad/s: 0.33, at 480 rad/s: -0.10); at half the
     # level (~150 rad/s): eta 0.53 / 0.72 / 0.62, deviation 0.68 / 0.63 / 0.63; at the stick share, a third of the
     # level (its quasi-static runs stick; ~115 rad/s): eta 0.54 / 0.74 / 0.59, deviation 0.67 / 0.61 / 0.64.
-    o = CompareOptions(seed=0)
+    o = CompareOptions.from_flat(seed=0)
     spec = draw_plants(1000, comparison_reference(o), seed=0)[550]
     assert spec["model"] == "karnopp" and math.isclose(spec["dv"], 0.0332, rel_tol=1e-3)
     # with a data sheet's exact inertia, as measured; with the identified one adaptive-dob gives eta 0.082 on seed 0
@@ -82,12 +82,12 @@ def test_zoo_karnopp_joints_eq4_within_a_tenth_of_the_default(joint, J):
     # 0.572 / 0.754 against the default's 0.826 / 0.862 (the default's trial took it out), adaptive-dob 0.572 /
     # 0.749. At half the level: eq4 0.827 / 0.917, the default 0.826 / 0.862, adaptive-dob 0.83 / 0.92 with either
     # estimator (docs/benchmarks/compensation.md, "The residual observer's noise at half the friction level").
-    o = CompareOptions(seed=0, duration=60.0)
+    o = CompareOptions.from_flat(seed=0, duration=60.0)
     spec = draw_plants(1000, comparison_reference(o), seed=0)[joint]
     assert spec["model"] == "karnopp" and math.isclose(spec["J"], J, rel_tol=1e-4)
     eta = {}
     for est in ("sliding", "eq4"):
-        c = compare(plant_from_dict(spec), replace(o, estimator=est, J_design=spec["J"]),  # exact, as measured
+        c = compare(plant_from_dict(spec), o.replace(estimator=est, J_design=spec["J"]),  # exact, as measured
                     modes=("adaptive", "adaptive-dob"), progress=False)
         eta[est] = c.eta
     assert eta["eq4"]["adaptive"] >= min(eta["sliding"]["adaptive"], 1.0) - 0.1
@@ -113,11 +113,11 @@ def test_compare_gives_a_joint_that_sticks_the_stick_share(seed, joint, sticks):
     s = prepare_comparison(plant_from_dict(spec), o)
     s.bar.close()
     mo = s.mode_options["adaptive"]
-    assert (stick_speed(s.experiment) > 3.0 * mo.noise_std) is sticks
+    assert (stick_speed(s.experiment) > 3.0 * mo.sensor.noise_std) is sticks
     share = STICK_SHARE if sticks else RESIDUAL_SHARE
-    assert mo.omega_r == residual_cutoff(s.J_design, mo.noise_std, mo.Tc, friction_level(s.experiment, math.nan),
+    assert mo.observer.omega_r == residual_cutoff(s.J_design, mo.sensor.noise_std, mo.controller.Tc, friction_level(s.experiment, math.nan),
                                          share=share)
-    assert mo.stick_band == 3.0 * mo.noise_std
+    assert mo.feedforward.stick_band == 3.0 * mo.sensor.noise_std
 
 
 def test_zoo_karnopp_joint_867_eq4_within_a_tenth_of_the_default():
@@ -132,7 +132,7 @@ def test_zoo_karnopp_joint_867_eq4_within_a_tenth_of_the_default():
     assert spec["model"] == "karnopp" and math.isclose(spec["J"], 7.645, rel_tol=1e-3)
     eta = {}
     for est in ("sliding", "eq4"):
-        eta[est] = compare(plant_from_dict(spec), replace(o, estimator=est), progress=False).eta
+        eta[est] = compare(plant_from_dict(spec), o.replace(estimator=est), progress=False).eta
     assert eta["eq4"]["adaptive"] >= min(eta["sliding"]["adaptive"], 1.0) - 0.1
     for est in ("sliding", "eq4"):
         assert eta[est]["adaptive-dob"] > 0.9

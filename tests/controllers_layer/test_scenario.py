@@ -59,7 +59,7 @@ def write(tmp_path, text, name="s.toml"):
 def test_a_scenario_is_the_comparison_built_by_hand(tmp_path):
     s = load_scenario(write(tmp_path, SMALL))
     ref = point_to_point_reference([0.3, -0.1] * 3, v_max=0.4, a_max=4.0, dwell=0.3)
-    o = CompareOptions(seed=2, modes=("none", "fixed", "adaptive"), reference=ref, encoder_counts=65536, delay=1,
+    o = CompareOptions.from_flat(seed=2, modes=("none", "fixed", "adaptive"), reference=ref, encoder_counts=65536, delay=1,
                        noise_std=0.0, u_max=150.0, slew_rate=1e5)
     by_hand = compare(preset("paper"), o, progress=False)
     mine = s.compare(progress=False)
@@ -86,11 +86,11 @@ def test_the_encoder_noise_level_of_the_design_is_the_quantised_difference_quoti
     w = 0.37 + 0.05 * rng.standard_normal()  # rad/s: positions sweep the counts evenly
     q = 0.123 + w * Tc * np.arange(200_001)
     v = np.diff(res * np.floor(q / res)) / Tc
-    o = CompareOptions(encoder_counts=counts, noise_std=0.0, Tc=Tc, duration=1.0)
+    o = CompareOptions.from_flat(encoder_counts=counts, noise_std=0.0, Tc=Tc, duration=1.0)
     assert np.std(v - w) == pytest.approx(measurement_noise(o), rel=0.02)
-    o2 = CompareOptions(encoder_counts=counts, noise_std=0.01, Tc=Tc, duration=1.0)
+    o2 = CompareOptions.from_flat(encoder_counts=counts, noise_std=0.01, Tc=Tc, duration=1.0)
     assert measurement_noise(o2) == pytest.approx(math.hypot(0.01, measurement_noise(o)), rel=1e-12)
-    assert measurement_noise(CompareOptions(noise_std=0.003, duration=1.0)) == 0.003
+    assert measurement_noise(CompareOptions.from_flat(noise_std=0.003, duration=1.0)) == 0.003
 
 
 def test_the_cli_runs_a_scenario_with_an_own_compensator(tmp_path, capsys):
@@ -221,18 +221,18 @@ def test_the_cli_refuses_options_the_file_sets_and_missing_files(tmp_path, capsy
 
 def test_compare_options_check_the_reference_and_the_sensor():
     ref = reversing_reference(0.3, hold=1.0, accel=3.0, n_reversals=2)
-    o = CompareOptions(reference=ref, duration=999.0)
+    o = CompareOptions.from_flat(reference=ref, duration=999.0)
     assert o.duration == pytest.approx(ref.t.size * 1e-3)  # the reference's length wins
     with pytest.raises(ParameterError, match=r"reference: the time step t\[1\] - t\[0\] = 0.002 s differs from Tc"):
-        CompareOptions(reference=reversing_reference(0.3, hold=1.0, accel=3.0, n_reversals=2, dt=2e-3))
+        CompareOptions.from_flat(reference=reversing_reference(0.3, hold=1.0, accel=3.0, n_reversals=2, dt=2e-3))
     bad = reversing_reference(0.3, hold=1.0, accel=3.0, n_reversals=2)
     bad.w[7] = math.nan
     with pytest.raises(ParameterError, match=r"reference.w\[7\] = nan is not a finite number"):
-        CompareOptions(reference=bad)
+        CompareOptions.from_flat(reference=bad)
     for kw, msg in (({"encoder_counts": 2.5}, "encoder_counts must be"), ({"delay": -1}, "delay must be"),
                     ({"slew_rate": 0.0}, "slew_rate must be"), ({"noise_std": -1.0}, "noise_std")):
         with pytest.raises(ParameterError, match=msg):
-            CompareOptions(**kw)
+            CompareOptions.from_flat(**kw)
 
 
 def test_scenario_to_dict_is_strict_json_and_the_summary_names_what_runs(tmp_path):
@@ -270,7 +270,8 @@ def test_the_kalman_velocity_reaches_the_runs_and_the_design_noise_level(tmp_pat
     text = SMALL.replace("delay = 1", 'delay = 0\nvelocity = "kalman"\nvelocity_bandwidth = 50.0')
     sc = load_scenario(write(tmp_path, text))
     o = sc.options
-    assert (o.velocity, o.velocity_bandwidth, o.velocity_model) == ("kalman", 50.0, "cv")
+    assert (o.loop.sensor.velocity, o.loop.sensor.velocity_bandwidth, o.loop.sensor.velocity_model) == ("kalman", 50.0,
+                                                                                                  "cv")
     res, Tc = 2 * math.pi / 65536, 1e-3
     r = res * res / 12
     wb = 2 * math.pi * 50.0
@@ -288,7 +289,7 @@ def test_the_kalman_velocity_reaches_the_runs_and_the_design_noise_level(tmp_pat
     wm = wm[np.abs(wm) > step]  # while the joint moves
     assert np.mean(np.abs(wm / step - np.round(wm / step)) > 1e-6) > 0.9  # not on the difference quotient's grid
     with pytest.raises(ParameterError, match="velocity_model must be 'cv' or 'ca'"):
-        CompareOptions(encoder_counts=65536, velocity="kalman", velocity_model="cj")
+        CompareOptions.from_flat(encoder_counts=65536, velocity="kalman", velocity_model="cj")
 
 
 def test_the_wrist_scenario_has_its_payload_step_and_the_cli_says_so(capsys, tmp_path):
@@ -316,9 +317,9 @@ def test_the_residual_observer_is_no_faster_than_the_kalman_velocity():
     ref = point_to_point_reference([0.5, -0.2, 0.4, 0.0, 0.6, -0.3] * 3, v_max=0.5, a_max=4.0, dwell=0.5)
     kw = dict(reference=ref, encoder_counts=2 ** 17, delay=1, noise_std=0.0, u_max=150.0, modes=("none", "adaptive-dob"))
     p = variant("small-inertia")
-    s = prepare_comparison(p, CompareOptions(velocity="kalman", **kw))
-    assert s.mode_options["adaptive-dob"].omega_r == pytest.approx(2 * math.pi * 100.0, rel=1e-12)
-    s2 = prepare_comparison(p, CompareOptions(velocity="difference", **kw))
-    assert s2.mode_options["adaptive-dob"].omega_r == 1000.0
-    c = compare(p, CompareOptions(velocity="kalman", **kw), progress=False)
+    s = prepare_comparison(p, CompareOptions.from_flat(velocity="kalman", **kw))
+    assert s.mode_options["adaptive-dob"].observer.omega_r == pytest.approx(2 * math.pi * 100.0, rel=1e-12)
+    s2 = prepare_comparison(p, CompareOptions.from_flat(velocity="difference", **kw))
+    assert s2.mode_options["adaptive-dob"].observer.omega_r == 1000.0
+    c = compare(p, CompareOptions.from_flat(velocity="kalman", **kw), progress=False)
     assert c.eta["adaptive-dob"] >= 0.95

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy.integrate import cumulative_trapezoid
 
-from controllers import ModeOptions, design_pi, run_batch, run_mode
+from controllers import LoopConfig, design_pi, run_batch, run_mode
 from controllers.simulation.sensor_drive import DELAY_MAX, Drive, Sensor
 from plant import ParameterError, preset
 from plant.excitation import multisine_reference
@@ -24,7 +24,7 @@ TC = 1e-3
 
 
 def _opts(**kw):
-    return ModeOptions(Kp=D.Kp, Ki=D.Ki, u_max=150.0, Vs=P.Vs, delta=P.delta, sensor_gate=False, **kw)
+    return LoopConfig.from_flat(Kp=D.Kp, Ki=D.Ki, u_max=150.0, Vs=P.Vs, delta=P.delta, sensor_gate=False, **kw)
 
 
 def _encoder(w, counts, Tc=TC):

@@ -11,7 +11,6 @@ commit fb1e50f on the multi-sine, 60 s, seed 0 (docs/benchmarks/compensation.md,
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 from functools import partial
 
 import numpy as np
@@ -21,7 +20,7 @@ from scipy.signal import dlsim, lfilter
 from controllers._cctl import ffi, lib
 from controllers.experiments.compare import CompareOptions, prepare_comparison, run_notes
 from controllers.peers.adaptive_dob import AdaptiveDOBCompensator, ResidualSwitchIn
-from controllers.simulation.closed_loop import ModeOptions, run_mode
+from controllers.simulation.closed_loop import LoopConfig, run_mode
 from plant.errors import ParameterError
 from plant.friction import preset
 from plant.variant_plants import variant
@@ -329,17 +328,17 @@ def test_settings_are_checked():
     with pytest.raises(ParameterError, match="trial_margin"):
         ResidualSwitchIn(Tc=TC, J_n=JN, Kp=KP, Ki=KI, trial_margin=-0.1)
     with pytest.raises(ParameterError, match="switch_in"):
-        ModeOptions(Kp=KP, Ki=KI, switch_in="yes")
+        LoopConfig.from_flat(Kp=KP, Ki=KI, switch_in="yes")
     with pytest.raises(ParameterError, match="switch_in_ratio"):
-        ModeOptions(Kp=KP, Ki=KI, switch_in_ratio=0.0)
+        LoopConfig.from_flat(Kp=KP, Ki=KI, switch_in_ratio=0.0)
 
 
 def _etas(p, duration=60.0, J_design=None):
-    o = CompareOptions(duration=duration, seed=0, modes=("none", "adaptive", "frictionless"), J_design=J_design)
+    o = CompareOptions.from_flat(duration=duration, seed=0, modes=("none", "adaptive", "frictionless"), J_design=J_design)
     s = prepare_comparison(p, o)
 
     def run(mode, **kw):
-        return run_mode(p, s.reference, mode, replace(s.mode_options[mode], **kw),
+        return run_mode(p, s.reference, mode, s.mode_options[mode].replace(**kw),
                         rng=np.random.default_rng(s.noise_seed))
 
     rn, rf = run("none").metrics.rms_second_half, run("frictionless").metrics.rms_second_half
@@ -409,13 +408,13 @@ def test_an_observer_that_makes_the_loop_worse_is_taken_out_by_the_trial():
 
 def test_the_composite_reports_its_mode_and_switch_in():
     p = preset("paper")
-    o = ModeOptions(Kp=KP, Ki=KI, Vs=p.Vs, delta=p.delta)
+    o = LoopConfig.from_flat(Kp=KP, Ki=KI, Vs=p.Vs, delta=p.delta)
     from controllers.simulation.compensators import build_mode
 
     _, _, comp = build_mode(p, "adaptive", o)
     assert isinstance(comp, AdaptiveDOBCompensator) and comp.MODE == "adaptive" and comp.t_switch_in is None
     assert comp.C_OPS == "aff_adaptive_ops" and comp.observer is not None and comp.supervisor is not None
-    _, _, comp2 = build_mode(p, "adaptive", replace(o, switch_in=False))
+    _, _, comp2 = build_mode(p, "adaptive", o.replace(switch_in=False))
     assert comp2.observer is None and comp2.switch_in is None and "dob_J_n" not in comp2.info()
     _, _, comp3 = build_mode(p, "adaptive-dob", o)
     assert comp3.MODE == "adaptive-dob" and "t_switch_in" not in comp3.info()

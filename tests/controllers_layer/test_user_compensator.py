@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from controllers import CompareOptions, CompensatorError, ModeOptions, compare, design_pi, run_closed_loop, run_mode
+from controllers import CompareOptions, CompensatorError, LoopConfig, compare, design_pi, run_closed_loop, run_mode
 from controllers.simulation.closed_loop import MeasurementSettings, run_own
 from controllers.simulation.compensators import build_mode
 from plant import ParameterError, preset
@@ -18,7 +18,7 @@ from plant.excitation import multisine_reference
 
 P = preset("paper")
 D = design_pi(P.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
-OPTS = ModeOptions(Kp=D.Kp, Ki=D.Ki, u_max=150.0, Vs=P.Vs, delta=P.delta, noise_std=1e-3, sensor_gate=False)
+OPTS = LoopConfig.from_flat(Kp=D.Kp, Ki=D.Ki, u_max=150.0, Vs=P.Vs, delta=P.delta, noise_std=1e-3, sensor_gate=False)
 REF = multisine_reference(6.0, rng=np.random.default_rng(0))
 
 
@@ -105,15 +105,15 @@ def test_objects_without_the_protocol_are_refused():
     with pytest.raises(ParameterError, match="compensate"):
         run_closed_loop(plant, ctrl, object(), REF)
     with pytest.raises(ParameterError, match="built-in mode"):
-        CompareOptions(compensators={"adaptive": lambda ctx: None})
+        CompareOptions.from_flat(compensators={"adaptive": lambda ctx: None})
     with pytest.raises(ParameterError, match="callable"):
-        CompareOptions(compensators={"mine": 3})
+        CompareOptions.from_flat(compensators={"mine": 3})
 
 
 def test_compare_runs_a_user_compensator_beside_the_modes():
     from controllers.experiments.compare import prepare_comparison
 
-    o = CompareOptions(duration=20.0, seed=2, modes=("none", "adaptive"))
+    o = CompareOptions.from_flat(duration=20.0, seed=2, modes=("none", "adaptive"))
     adaptive_opts = prepare_comparison(P, o, progress=False).mode_options["adaptive"]
     seen = {}
 

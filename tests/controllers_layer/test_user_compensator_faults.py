@@ -13,7 +13,7 @@ import sys
 import numpy as np
 import pytest
 
-from controllers import CompensatorError, ModeOptions, design_pi
+from controllers import CompensatorError, LoopConfig, design_pi
 from controllers.cli.main import main
 from controllers.simulation.closed_loop import run_own
 from plant import preset
@@ -21,7 +21,7 @@ from plant.excitation import multisine_reference
 
 P = preset("paper")
 D = design_pi(P.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
-OPTS = ModeOptions(Kp=D.Kp, Ki=D.Ki, u_max=150.0, Vs=P.Vs, delta=P.delta, noise_std=1e-3, sensor_gate=False)
+OPTS = LoopConfig.from_flat(Kp=D.Kp, Ki=D.Ki, u_max=150.0, Vs=P.Vs, delta=P.delta, noise_std=1e-3, sensor_gate=False)
 REF = multisine_reference(1.0, rng=np.random.default_rng(0))
 CLI = "import sys; from controllers.cli import main; sys.exit(main())"
 

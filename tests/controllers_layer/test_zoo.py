@@ -15,7 +15,7 @@ from controllers.experiments.zoo import (ZOO_MODELS, ZooBox, ZooOptions, ZooResu
 from plant.errors import ParameterError
 from plant.models import plant_from_dict
 
-REF = comparison_reference(CompareOptions(duration=4.0, seed=0))
+REF = comparison_reference(CompareOptions.from_flat(duration=4.0, seed=0))
 
 
 def test_draw_plants_fills_the_box_and_scales_friction_to_the_torque_demand():
@@ -61,7 +61,7 @@ def test_sweep_random_plants_spec_draws_every_model_with_all_its_keys():
                       "modes": ["none", "dob"]})
     cases = expand_cases(spec)
     assert len(cases) == 12 and len({c["id"] for c in cases}) == 12
-    ref = comparison_reference(CompareOptions(duration=4.0, seed=0))
+    ref = comparison_reference(CompareOptions.from_flat(duration=4.0, seed=0))
     drawn = draw_plants(12, ref, seed=4, box=zoo_box({"p_drift": 1.0}))  # the same drawing code
     assert [c["plant"] for c in cases] == drawn
     assert {c["plant"]["model"] for c in cases} == set(ZOO_MODELS) and all("drift" in c["plant"] for c in cases)
@@ -109,7 +109,7 @@ def test_eta_is_undefined_where_friction_does_not_degrade_the_loop_and_reported_
     # seed 1, 6 s: the reference does not reverse in the second half (|w_ref| >= 0.06 rad/s there), the PI
     # integrator absorbs the friction and the uncompensated loop tracks within 1 % of the frictionless one: eta,
     # a ratio over that difference, is undefined (it used to come out NaN or as a meaningless 5.1)
-    ref = comparison_reference(CompareOptions(duration=6.0, seed=1))
+    ref = comparison_reference(CompareOptions.from_flat(duration=6.0, seed=1))
     assert np.min(np.abs(ref.w[ref.w.size // 2:])) > 0.06
     modes = ("none", "dob", "frictionless")  # no pre-fit: a second or two
     r = run_zoo(ZooOptions(n=3, duration=6.0, seed=1, modes=modes, workers=1))
@@ -175,15 +175,15 @@ def test_fixed_falls_back_to_the_prefit_map_where_its_offline_fit_is_rejected():
     # Fs = 5.0 N·m (true 1.10 N·m), above half the actuator range, so `fixed` used to be refused on it
     # with its exact inertia as the data sheet's: on the identified one (-0.5 %) the offline fit's levels stay below
     # half the drive's range and `fixed` keeps its own fit
-    co = CompareOptions(duration=20.0, seed=0, modes=("none", "fixed", "frictionless"))
+    co = CompareOptions.from_flat(duration=20.0, seed=0, modes=("none", "fixed", "frictionless"))
     spec = draw_plants(19, comparison_reference(co), seed=0)[18]
-    co = replace(co, J_design=spec["J"])
+    co = co.replace(J_design=spec["J"])
     assert spec["model"] == "karnopp"
     p = plant_from_dict(spec)
     s = prepare_comparison(p, co)
     mo = s.mode_options["fixed"]
-    assert project_estimate(s.offline.estimate, F_max=0.5 * mo.u_max) is None
-    f, e = s.prefit, mo.estimate
+    assert project_estimate(s.offline.estimate, F_max=0.5 * mo.drive.u_max) is None
+    f, e = s.prefit, mo.feedforward.estimate
     # the pre-fit's static map, no lag (the lag would come from the rejected fit), the design inertia
     assert (e.Fc, e.Fs, e.sigma, e.Vs, e.delta, e.tau, e.J, e.offset) == (f.Fc, f.Fs, f.sigma, f.Vs, f.delta, 0.0,
                                                                           s.J_design, 0.0)
@@ -292,17 +292,17 @@ def test_observers_take_the_identified_inertia_where_the_design_inertia_is_contr
     from plant.friction import preset
 
     p = preset("paper")
-    s = prepare_comparison(p, CompareOptions(duration=30.0, seed=0, modes=("none", "fixed", "dob", "adaptive-dob"),
+    s = prepare_comparison(p, CompareOptions.from_flat(duration=30.0, seed=0, modes=("none", "fixed", "dob", "adaptive-dob"),
                                              J_design=2.0 * p.J))
     s.bar.close()
-    J_n = s.mode_options["dob"].J_n
+    J_n = s.mode_options["dob"].observer.J_n
     assert J_n == s.offline.estimate.J and abs(J_n / p.J - 1.0) < 0.05
-    assert all(o.J_n == J_n for o in s.mode_options.values())
+    assert all(o.observer.J_n == J_n for o in s.mode_options.values())
     (note,) = [n for n in s.notes if n.startswith("the design inertia 8 kg·m² is ")]
     assert f"{J_n:.4g} kg·m² of the identification run" in note
 
     def eta_of(mode, **kw):
-        r = {m: run_mode(p, s.reference, m, replace(s.mode_options[m], **(kw if m == mode else {})),
+        r = {m: run_mode(p, s.reference, m, s.mode_options[m].replace(**(kw if m == mode else {})),
                          rng=np.random.default_rng(s.noise_seed)).metrics.rms_second_half
              for m in ("none", "frictionless", mode)}
         return (r["none"] - r[mode]) / (r["none"] - r["frictionless"])
@@ -316,9 +316,9 @@ def test_observers_take_the_identified_inertia_where_the_design_inertia_is_contr
     assert observer_inertia(est.J / (J_CONTRADICTED * 1.01), est) == est.J
     assert observer_inertia(8.0, None) is None and observer_inertia(8.0, replace(est, J=math.nan)) is None
     # with the right design inertia nothing changes
-    s1 = prepare_comparison(p, CompareOptions(duration=30.0, seed=0, modes=("none", "fixed", "dob")))
+    s1 = prepare_comparison(p, CompareOptions.from_flat(duration=30.0, seed=0, modes=("none", "fixed", "dob")))
     s1.bar.close()
-    assert s1.mode_options["dob"].J_n is None and not [n for n in s1.notes if "design inertia" in n]
+    assert s1.mode_options["dob"].observer.J_n is None and not [n for n in s1.notes if "design inertia" in n]
 
 
 def test_a_zoo_without_the_switch_in_is_compare_with_switch_in_false_on_each_joint():
@@ -328,7 +328,8 @@ def test_a_zoo_without_the_switch_in_is_compare_with_switch_in_false_on_each_joi
     modes = ("none", "adaptive", "frictionless")
     # the joint's exact inertia (J_design_factor 1): with the identified one it does not switch in within 10 s
     o = ZooOptions(n=1, duration=10.0, seed=1, modes=modes, workers=1, switch_in=False, J_design_factor=1.0)
-    assert o.compare_options().switch_in is False and ZooOptions().compare_options().switch_in is True
+    assert o.compare_options().loop.observer.switch_in is False
+    assert ZooOptions().compare_options().loop.observer.switch_in is True
     r = run_zoo(o)
     p = plant_from_dict(r.plants[0])
     bare = compare(p, duration=10.0, seed=1, modes=modes, progress=False, switch_in=False, J_design=p.J)
@@ -359,13 +360,13 @@ def test_a_zoo_placed_into_a_scenario_is_compare_on_each_joint_with_the_scenario
     o = ZooOptions(n=2, seed=5, modes=modes, base=sc.options, workers=1)
     assert o.duration == pytest.approx(sc.options.reference.t.shape[0] * 1e-3)
     co = o.compare_options()
-    assert co.reference is sc.options.reference and co.u_max is None and co.crossover == sc.options.crossover
-    assert (co.delay, co.noise_std, co.seed) == (sc.options.delay, sc.options.noise_std, 5)
+    assert co.reference is sc.options.reference and co.loop.drive.u_max is None and co.crossover == sc.options.crossover
+    assert (co.loop.sensor, co.seed) == (sc.options.loop.sensor, 5)
     r = run_zoo(o)
     assert r.plants == draw_plants(2, sc.options.reference, seed=5)
     json.loads(json.dumps(zoo_options_dict(o), allow_nan=False))
     for j in range(2):
-        c = compare(plant_from_dict(r.plants[j]), replace(sc.options, seed=5, modes=modes, u_max=None,
+        c = compare(plant_from_dict(r.plants[j]), sc.options.replace(seed=5, modes=modes, u_max=None,
                                                           compensators=None), progress=False)
         for m in modes:
             assert r.rms[m][j] == pytest.approx(c.results[m].metrics.rms_second_half, rel=1e-12), (j, m)
@@ -382,7 +383,7 @@ def test_a_zoo_through_a_compiled_export_gives_the_packages_numbers(tmp_path):
     import shutil
 
     from adaptive_ff.compensation.export_c import JointExport, export_c
-    from controllers import ModeOptions, design_pi
+    from controllers import LoopConfig, design_pi
     from controllers.simulation.compensators import build_mode
     from plant.friction import preset
 
@@ -390,7 +391,7 @@ def test_a_zoo_through_a_compiled_export_gives_the_packages_numbers(tmp_path):
         pytest.skip("no C compiler")
     p = preset("paper")
     d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
-    _, _, comp = build_mode(p, "adaptive", ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta,
+    _, _, comp = build_mode(p, "adaptive", LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta,
                                                        J_design=p.J))
     export_c(JointExport(compensator=comp, J_design=p.J, u_max=150.0, Kp=d.Kp, Ki=d.Ki), tmp_path / "drive_ff")
     modes = ("none", "adaptive", "frictionless")

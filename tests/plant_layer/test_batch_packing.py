@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from controllers.simulation.batch import run_batch
-from controllers.simulation.closed_loop import ModeOptions
+from controllers.simulation.closed_loop import LoopConfig
 from controllers.simulation.compensators import build_mode, build_modes
 from plant.errors import ParameterError
 from plant.excitation import multisine_reference
@@ -130,7 +130,7 @@ def test_integrable_rows_equals_the_scalar_conditions_and_check_integrable_names
 
 def test_a_bad_plant_in_a_batch_is_named_by_its_index():
     ref = multisine_reference(0.2, rng=np.random.default_rng(0))
-    o = ModeOptions(Kp=1.0, Ki=1.0, u_max=5.0)
+    o = LoopConfig.from_flat(Kp=1.0, Ki=1.0, u_max=5.0)
     absurd = LuGreParams(J=1e-4, Fc=1.0, Fs=2.0, Vs=0.01, delta=2.0, sigma0=1e14, sigma1=0.0, sigma2=0.0)
     p = preset("paper")
     with pytest.raises(ParameterError, match=r"plants\[3\]: LuGre plant \(row 0\): the pre-sliding frequency"):
@@ -142,8 +142,8 @@ def test_a_bad_plant_in_a_batch_is_named_by_its_index():
 def test_build_modes_equals_build_mode_with_one_controller_per_options_object():
     p = preset("paper")
     plants = [p, p.replace(J=2 * p.J), p]
-    o1 = ModeOptions(Kp=2.0, Ki=40.0, u_max=5.0, Vs=p.Vs, delta=p.delta)
-    o2 = ModeOptions(Kp=3.0, Ki=40.0, u_max=5.0, Vs=p.Vs, delta=p.delta)
+    o1 = LoopConfig.from_flat(Kp=2.0, Ki=40.0, u_max=5.0, Vs=p.Vs, delta=p.delta)
+    o2 = LoopConfig.from_flat(Kp=3.0, Ki=40.0, u_max=5.0, Vs=p.Vs, delta=p.delta)
     for mode in ("none", "frictionless", "adaptive", "dob"):
         run_plants, ctrls, comps = build_modes(plants, mode, [o1, o2, o1])
         assert ctrls[0] is ctrls[2] and ctrls[1] is not ctrls[0]

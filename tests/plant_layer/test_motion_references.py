@@ -154,13 +154,13 @@ def test_load_reference_errors_name_file_row_and_value(tmp_path):
 
 def test_a_point_to_point_reference_runs_in_the_closed_loop():
     from controllers.design.pi import design_pi
-    from controllers.simulation.closed_loop import ModeOptions, run_mode
+    from controllers.simulation.closed_loop import LoopConfig, run_mode
     from plant.friction import preset
 
     p = preset("paper")
     d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=DT)
     ref = point_to_point_reference([0.5, -0.2, 0.4], v_max=0.5, a_max=4.0, j_max=100.0, dwell=0.5)
-    o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
+    o = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
     res = {m: run_mode(p, ref, m, o, rng=np.random.default_rng(3)) for m in ("none", "adaptive")}
     for m, r in res.items():
         assert np.all(np.isfinite(r.w)), m

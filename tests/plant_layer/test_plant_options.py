@@ -16,7 +16,7 @@ from scipy.integrate import solve_ivp
 from controllers.design.pi import design_pi
 from controllers.simulation.batch import run_batch
 from controllers.simulation.closed_loop import MeasurementSettings, plant_table, run_closed_loop, run_mode
-from controllers.simulation.compensators import ModeOptions, TrueFriction
+from controllers.simulation.compensators import LoopConfig, TrueFriction
 from plant import (AsymmetricParams, FrictionDrift, FrictionRipple, JointParams, KarnoppParams, LuGreParams,
                    ParameterError, PayloadStep, load_plant, multisine_reference, plant_from_dict, plant_to_dict,
                    preset)
@@ -160,7 +160,7 @@ def ref():
 
 def _options(p, **kw):
     d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=DT)
-    return ModeOptions(Kp=d.Kp, Ki=d.Ki, **kw)
+    return LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, **kw)
 
 
 def _signals(r):

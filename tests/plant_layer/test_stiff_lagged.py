@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from controllers.simulation.batch import run_batch
-from controllers.simulation.closed_loop import ModeOptions, run_mode
+from controllers.simulation.closed_loop import LoopConfig, run_mode
 from controllers.design.pi import design_pi
 from plant.asymmetric import AsymmetricParams
 from plant.dynamics import (LAGGED_RK4_MAX, check_integrable, lagged_implicit_step, plant_params,
@@ -119,7 +119,7 @@ def test_stiff_zoo_joints_run_in_the_closed_loop_engine():
     check_integrable(plant_params(p.base), DT)
     ref = multisine_reference(2.0, rng=np.random.default_rng(0))
     d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=DT)
-    o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=1e3, noise_std=1e-3)
+    o = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=1e3, noise_std=1e-3)
     r = run_mode(p, ref, "none", o, rng=np.random.default_rng(0))
     b = run_batch([p, p], ref, "none", o, seeds=[0, 1])
     assert np.all(np.isfinite(r.w)) and not np.any(b.diverged)

@@ -15,7 +15,7 @@ from scipy.integrate import solve_ivp
 
 from controllers.design.pi import design_pi
 from controllers.simulation.batch import run_batch
-from controllers.simulation.closed_loop import ModeOptions, run_mode
+from controllers.simulation.closed_loop import LoopConfig, run_mode
 from plant.dynamics import (LUGRE_RK4_MAX, LUGRE_STIFF_MAX, RK4_RATE_MAX,
                             check_integrable, plant_params, plant_simulate, plant_state)
 from plant.errors import ParameterError
@@ -70,7 +70,7 @@ def test_stiff_lugre_closed_loop_runs_and_tracks():
     p = LuGreParams(J=0.01, Fc=0.05, Fs=0.1, Vs=0.01, delta=2.0, sigma0=1e8, sigma1=1e3, sigma2=0.01)
     d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=DT)
     ref = multisine_reference(1.0, rng=np.random.default_rng(0))
-    o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=5.0)
+    o = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=5.0)
     r = run_mode(p, ref, "none", o)
     b = run_batch([p, p], ref, "none", o)
     assert np.all(np.isfinite(r.w)) and not np.any(b.diverged)
@@ -133,7 +133,7 @@ def test_refusal_of_unintegrable_plants_names_the_reason():
     with pytest.raises(ParameterError, match="pre-sliding frequency"):
         check_integrable(plant_params(absurd), DT)
     ref = multisine_reference(0.2, rng=np.random.default_rng(0))
-    o = ModeOptions(Kp=1.0, Ki=1.0, u_max=5.0)
+    o = LoopConfig.from_flat(Kp=1.0, Ki=1.0, u_max=5.0)
     with pytest.raises(ParameterError, match="pre-sliding"):
         run_mode(absurd, ref, "none", o)
     with pytest.raises(ParameterError, match="pre-sliding"):
