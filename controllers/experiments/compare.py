@@ -881,7 +881,7 @@ def _offline_fit(p0, o: CompareOptions, model, F_peak, Vs, delta, id_rng, noise:
         n = u_id.shape[0]
         w_id = resp.w[:-1] + id_rng.normal(0.0, noise, size=n) if noise > 0 else resp.w[:-1]
         return fit_sliding(u_id, w_id, Tc=o.loop.controller.Tc, Vs=Vs, delta=delta,
-                           config=SlidingFrictionEstimatorConfig(Ts=o.loop.estimator.Ts, T_filter=o.loop.estimator.T_filter,
-                                                                 lag=o.loop.feedforward.lag))
+                           config=SlidingFrictionEstimatorConfig(Ts=o.loop.estimator.Ts, lag=o.loop.feedforward.lag,
+                                                                 T_filter=o.loop.estimator.T_filter))
     meas = sample(resp, Ts=o.loop.estimator.Ts, noise_std=noise, rng=id_rng)
     return fit_ls(model, meas.u, meas.w, Ts=o.loop.estimator.Ts)
