@@ -561,7 +561,8 @@ def _attach_form(report: IdentificationReport, data, form: str, options: dict, V
                            nrmse=float(b.fit_percent), n_samples=int(sel.n_samples), nrmse_kind=sel.predictor,
                            info={"form": b.name, "stderr_kind": "jackknife", "cv_rms": b.cv_rms, "rms": b.rms,
                                  "noise_std": sel.noise_std, "Vs": b.params.get("Vs"),
-                                 "delta": b.params.get("delta"), "aic": b.aic, "bic": b.bic},
+                                 "delta": b.params.get("delta"), "aic": b.aic, "bic": b.bic,
+                                 "input_delay": sel.input_delay, "input_delay_profile": sel.input_delay_profile},
                            warnings=tuple(check_physical(params, source=f"form {b.name} (select_form)")))
     notes = list(report.notes) + [
         f"model form {b.label!r} ({b.name}, k = {b.n_params}) {'chosen' if form == 'auto' else 'asked for'} "
@@ -570,6 +571,8 @@ def _attach_form(report: IdentificationReport, data, form: str, options: dict, V
         + ("output-error fit on the record's own time stamps" if sel.method == "output_error" else
            "sliding-regime torque regression on the uniform grid") + ", standard errors the "
         "delete-a-block jackknife of the cross-validation refits"]
+    if sel.input_delay is not None:
+        notes.append(input_delay_note(physical))
     unfitted = {k for k in ("Fs", "tau", "Vs") if k not in b.fitted}
     warn = [_not_in_form(as_baseline(w), b, unfitted) for w in report.warnings] + list(physical.warnings)
     return replace(report, physical=physical, forms=sel, notes=tuple(notes), warnings=tuple(warn))

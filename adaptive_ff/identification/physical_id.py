@@ -205,7 +205,7 @@ from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
 
 from adaptive_ff.identification.covariance import andrews_bandwidth, hac_covariance, parametric_block_bootstrap
-from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
+from adaptive_ff.identification.diagnostics import noise_fit_weights, velocity_noise_std_irregular
 from adaptive_ff.identification.delay_profile import delay_profile_search
 from adaptive_ff.identification.lag_profile import lag_profile_search
 from adaptive_ff.identification.ls import fit_ls
@@ -467,7 +467,10 @@ class _OutputErrorProblem:
     free_shape = False  # Vs, delta fitted (set by __init__; a subclass with its own residual keeps them given)
     j_shape = 6
 
-    def __init__(self, t, u, w, Vs, delta, offset, opts: OutputErrorOptions):
+    def __init__(self, t, u, w, Vs, delta, offset, opts: OutputErrorOptions, noise_weights: tuple | None = None):
+        # noise_weights: noise_fit_weights(t), passed by the bootstrap's refits (the same stamps: computed once)
+        self.noise_weights = noise_fit_weights(t) if noise_weights is None else noise_weights
+        self.noise = velocity_noise_std_irregular(t, w, weights=self.noise_weights)
         # input_delay None: profiled by the search (delay_profile_search), from 0
         self.input_delay = 0.0 if opts.input_delay is None else float(opts.input_delay)
         self.delay_profile = None
@@ -481,7 +484,7 @@ class _OutputErrorProblem:
         self.free_shape = Vs is None
         if self.free_shape:
             peak0 = float(np.max(np.abs(w)))
-            self.vs_grid = np.geomspace(max(velocity_noise_std_irregular(t, w), 1e-3 * peak0), 0.3 * peak0, _VS_GRID)
+            self.vs_grid = np.geomspace(max(self.noise, 1e-3 * peak0), 0.3 * peak0, _VS_GRID)
             Vs, delta = float(self.vs_grid[_VS_GRID // 2]), 1.0
         self.j_shape = 5 + int(bool(offset))
         self.t, self.u, self.w, self.Vs, self.delta, self.offset, self.opts = t, u, w, Vs, delta, offset, opts
@@ -490,7 +493,6 @@ class _OutputErrorProblem:
         self.n_sim = 0
         self.memo, self.fd_memo = {}, None  # residual vectors by parameter vector (res, refine)
         self.big = 10.0 * (np.max(np.abs(w)) + 1.0)
-        self.noise = velocity_noise_std_irregular(t, w)
         peak = float(np.max(np.abs(w)))
         predictor = opts.predictor
         if predictor == "auto":
@@ -871,7 +873,7 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
         w_star[pb.i0:] = y_star
         if o.bootstrap_refit == "full":  # the estimator itself: the replicate as a record of its own
             given = (None, None) if pb.free_shape else (pb.Vs, pb.delta)
-            rp = _OutputErrorProblem(pb.t, pb.u, w_star, *given, pb.offset, o)
+            rp = _OutputErrorProblem(pb.t, pb.u, w_star, *given, pb.offset, o, noise_weights=pb.noise_weights)
             s0 = dict(o.start) if o.start is not None else _start_from_paper(pb.t, pb.u, w_star, rp.Vs, rp.delta,
                                                                               pb.offset)
             z = _oe_search(rp, s0, o.bootstrap_lag_refits, held_delay=held)[0][1]
