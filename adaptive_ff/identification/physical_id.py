@@ -171,22 +171,23 @@ the estimator as it is (Efron & Tibshirani, Ch. 6), at about three times the
 cost of the partial refits (a median 34 s, 22-68 s, against 11 s of CPU per
 15 s zoo record with 20 refits, when each refit runs the fit's whole profile
 search over tau); its coverage on the zoo: the identification
-page, "The bootstrap of the fit itself, the default". An opt-in shortcut of
-these refits is in that profile search (``bootstrap_lag_refits=2``): the J
-grid still runs at each of its ten values of tau, but the other parameters
-are refitted at the two values of lowest J-grid cost only. The profile is not
-dropped from the refits: on two zoo joints with lags of 5.1 and 7.7 ms the
-refits' search stopped 4-70 % high in tau before it, and it moved 41 of their
-42 refits back towards the estimate's tau (to 0.6-0.9 times the tau they had
-stopped at). The shortcut runs about 270 instead of 745 of a refit's 1400
-simulations on the log of ``benchmarks/output_error_speed.py``, where its
-intervals are those of the whole profile bit for bit; its zoo coverage is not
-established (32 joints: the documentation's output-error page, "Alternatives
-measured"), so the default stays the whole profile. The point estimate is the
+page, "The bootstrap of the fit itself, the default". The refits screen
+that profile search (``bootstrap_lag_refits=2``, the default): the J grid
+still runs at each of its ten values of tau, but the other parameters are
+refitted at the two values of lowest J-grid cost only (None: at all ten, as
+the fit itself). The profile is not dropped from the refits: on two zoo
+joints with lags of 5.1 and 7.7 ms the refits' search stopped 4-70 % high in
+tau before it, and it moved 41 of their 42 refits back towards the
+estimate's tau (to 0.6-0.9 times the tau they had stopped at). Screened, it
+runs about 230 instead of 745 of a refit's simulations on the log of
+``benchmarks/output_error_speed.py``, where the intervals are those of the
+whole profile bit for bit; the zoo coverage of both is on the identification
+page ("The default on a slow, irregular readout"). The point estimate is the
 same either way (the fit's own search refits at every value). The full refits
-are the default: with the whole profile in each refit their 95 % intervals covered the truth on 91-96 % of
-100 zoo joints per parameter in two runs with different draws (the
-identification page, "The bootstrap of the fit itself, the default"), the partial refits' J and tau
+are the default: their 95 % intervals covered the truth on 91-96 % of 100 zoo
+joints per parameter with the whole profile in each refit (two runs with
+different draws; the identification page, "The bootstrap of the fit itself,
+the default"), the partial refits' J and tau
 intervals on 99 % (twice too wide). The refits run in threads
 (``bootstrap_workers``; their time is in the C simulation, which releases the
 GIL); every replicate and the generator of each refit are drawn before any
