@@ -29,6 +29,11 @@ them). The predictor (``predictor="auto"``) is the one ``fit_physical`` chooses 
 run (output error, consistent under white noise) unless the record is nearly noise-free, then the one-step
 predictor with the velocity reset to the measurement after each sample.
 
+The input is taken ``input_delay`` before its stamps; where that delay is not given it is profiled as in
+``fit_physical`` (:mod:`adaptive_ff.identification.delay_profile`): after the whole-record searches at delay 0 the
+candidate of lowest whole-record cost among the identifiable ones is refitted at each sub-sample delay, and every
+search, the held-out ones too, then runs at the delay of lowest cost (``FormSelection.input_delay``).
+
 For these fits the out-of-sample error is that same prediction's error, because it is the error the fit minimises and the
 one the model is used for (predicting the joint's motion from its torque); a regression error (the eq. 4 or
 sliding-regime equation error) would judge a different, noise-biased predictor.
