@@ -461,7 +461,8 @@ def _not_fitted(name: str, status: str, offset: bool, k: int | None = None) -> F
 def _select_output_error(data, Vs, delta, offset: bool, folds: int, names, h_max, input_delay, predictor,
                          progress=False):
     """The candidates of :func:`select_form` by output error: ``(candidates, blocks, predictor, noise, n)``;
-    ``progress``: a tqdm bar on stderr over the whole-record search and the ``folds`` held-out searches."""
+    ``progress``: a tqdm bar on stderr over the whole-record search, the input-delay profile (``input_delay``
+    None) and the ``folds`` held-out searches."""
     from tqdm.auto import tqdm
 
     pb = _Problem(data, Vs, delta, offset, h_max, 0.0 if input_delay is None else input_delay, predictor)
@@ -528,12 +529,13 @@ def _identifiable(pb: _Problem, run, fits: dict, Vs) -> tuple[list, dict]:
 
 
 def _delay_fits(pb: _Problem, run, ok, start: dict, scored, fits: dict) -> tuple[dict, dict]:
-    """The input delay profiled on the whole record (:func:`adaptive_ff.identification.delay_profile.
-    delay_profile_search`, as in ``fit_physical``): the form of lowest whole-record cost among the identifiable
-    forms ``ok`` (their searches at delay 0, ``fits``) refitted from its estimate at each sub-sample delay (:meth:`_Problem.fit`), the delay of
-    lowest cost kept; then the whole-record searches of the forms ``run`` again at that delay with the fits at
-    delay 0 as one more start each (:func:`_full_fits`). Returns ``(fits, details)``: the fits at the delay chosen
-    (``pb`` left there) and the profile's details with the form it was run on (``form``)."""
+    """The input delay profiled on the whole record, as in ``fit_physical``
+    (:func:`adaptive_ff.identification.delay_profile.delay_profile_search`): the form of lowest whole-record cost
+    among the identifiable forms ``ok`` (their searches at delay 0, ``fits``) refitted from its estimate at each
+    sub-sample delay (:meth:`_Problem.fit`), the delay of lowest cost kept; then the whole-record searches of the
+    forms ``run`` again at that delay with the fits at delay 0 as one more start each (:func:`_full_fits`).
+    Returns ``(fits, details)``: the fits at the delay chosen (``pb`` left there) and the profile's details with
+    the form it was run on (``form``)."""
     costs = {f: pb.cost(f, fits[f], scored, pb.f_scale) for f in (ok or run)}
     ref = min(costs, key=costs.get)
 
