@@ -19,8 +19,8 @@ from adaptive_ff.io.units import VELOCITY_LABEL
 from plant.errors import ParameterError, check_positive, check_signal, check_time
 from plant.results import json_safe
 
-__all__ = ["velocity_noise_std", "velocity_noise_std_irregular", "feedback_correlation", "FEEDBACK_MIN",
-           "ExcitationReport", "excitation_report"]
+__all__ = ["velocity_noise_std", "velocity_noise_std_irregular", "noise_fit_weights", "feedback_correlation",
+           "FEEDBACK_MIN", "ExcitationReport", "excitation_report"]
 
 
 def velocity_noise_std(w) -> float:
@@ -97,7 +97,7 @@ def feedback_correlation(u, w) -> float:
     return float(np.dot(du, dw) / den) if den > 0 else 0.0
 
 
-def velocity_noise_std_irregular(t, w) -> float:
+def velocity_noise_std_irregular(t, w, *, weights: tuple | None = None) -> float:
     """Robust white-noise standard deviation of a velocity record sampled at any times ``t``.
 
     Parameters
@@ -106,6 +106,9 @@ def velocity_noise_std_irregular(t, w) -> float:
         Sample times (s), strictly increasing, any spacing; N >= 5.
     w : array_like, shape (N,)
         Velocity samples (rad/s) at ``t``.
+    weights : tuple or None, keyword-only
+        :func:`noise_fit_weights` of ``t``, computed once for many records on the same stamps (the output-error
+        bootstrap's replicates): the same number as without them. Default None: computed here.
 
     Returns
     -------
@@ -131,15 +134,50 @@ def velocity_noise_std_irregular(t, w) -> float:
     """
     t = check_time("t", t, min_len=5)
     w = check_signal("w", w, n=t.shape[0])
-    n = t.shape[0]
-    idx = np.arange(2, n - 2)[:, None] + np.arange(-2, 3)[None, :]
+    row, scale = noise_fit_weights(t) if weights is None else weights
+    if row.shape != (t.shape[0] - 4, 5) or scale.shape != (t.shape[0] - 4,):
+        raise ParameterError(f"weights must be noise_fit_weights(t) of these {t.shape[0]} stamps, got shapes "
+                             f"{row.shape}, {scale.shape}")
+    idx = _neighbourhoods(t.shape[0])
+    r = w[idx[:, 2]] - np.einsum("mj,mj->m", row, w[idx])
+    r = r / scale
+    return float(1.4826 * np.median(np.abs(r - np.median(r))))
+
+
+def _neighbourhoods(n: int) -> np.ndarray:
+    """Indices of the 5-point neighbourhood of each sample 2 .. n-3, shape (n-4, 5)."""
+    return np.arange(2, n - 2)[:, None] + np.arange(-2, 3)[None, :]
+
+
+def noise_fit_weights(t) -> tuple[np.ndarray, np.ndarray]:
+    """The local quadratic fits of :func:`velocity_noise_std_irregular` on the stamps ``t`` (they depend on ``t``
+    only).
+
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Sample times (s), strictly increasing, any spacing; N >= 5.
+
+    Returns
+    -------
+    row : ndarray, shape (N-4, 5)
+        The centre row of the hat matrix of the least-squares quadratic through each 5-point neighbourhood (the
+        fitted value at the centre sample as weights of the five samples).
+    scale : ndarray, shape (N-4,)
+        ``sqrt(1 - h)``, ``h`` the centre point's leverage (floored at 1e-12 under the root).
+
+    Raises
+    ------
+    SignalError
+        Fewer than 5 samples, non-finite stamps, or ``t`` not strictly increasing.
+    """
+    t = check_time("t", t, min_len=5)
+    idx = _neighbourhoods(t.shape[0])
     dt = t[idx] - t[idx[:, 2:3]]
     x = dt / np.abs(dt).max(axis=1, keepdims=True)
     A = np.stack([np.ones_like(x), x, x * x], axis=2)  # (M, 5, 3)
     H = A @ np.linalg.pinv(A)  # hat matrices (M, 5, 5)
-    r = w[idx[:, 2]] - np.einsum("mj,mj->m", H[:, 2, :], w[idx])
-    r = r / np.sqrt(np.maximum(1.0 - H[:, 2, 2], 1e-12))
-    return float(1.4826 * np.median(np.abs(r - np.median(r))))
+    return H[:, 2, :], np.sqrt(np.maximum(1.0 - H[:, 2, 2], 1e-12))
 
 
 @dataclass(frozen=True)

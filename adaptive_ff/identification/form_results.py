@@ -182,6 +182,12 @@ class FormSelection:
         Smallest and largest measured velocity (rad/s): the range of :meth:`plot`.
     source : str
         The record's source.
+    input_delay : float or None
+        The input delay (s) of the output-error fits: the one given, or the one the profile chose; None for the
+        sliding regression.
+    input_delay_profile : dict or None
+        Where the delay was profiled: ``delay`` (s) and ``cost`` of each point tried, ``chosen``, ``n_simulations``
+        and ``form`` (the candidate refitted at each delay); else None.
     """
 
     candidates: tuple
@@ -196,6 +202,8 @@ class FormSelection:
     n_samples: int
     w_range: tuple
     source: str = ""
+    input_delay: float | None = None
+    input_delay_profile: dict | None = None
 
     @property
     def best(self) -> FormCandidate:
@@ -217,12 +225,13 @@ class FormSelection:
 
     def to_dict(self) -> dict:
         """Strict JSON (``null`` for non-finite values): ``chosen``, ``criterion``, ``rule``, ``folds``,
-        ``blocks``, ``method``, ``predictor``, ``noise_std``, ``n_samples``, ``w_range``, ``source`` and
-        ``candidates`` (list of :meth:`FormCandidate.to_dict`)."""
+        ``blocks``, ``method``, ``predictor``, ``noise_std``, ``n_samples``, ``w_range``, ``source``,
+        ``input_delay``, ``input_delay_profile`` and ``candidates`` (list of :meth:`FormCandidate.to_dict`)."""
         return json_safe({"chosen": self.chosen, "criterion": self.criterion, "rule": self.rule,
                           "folds": int(self.folds), "blocks": [[int(a), int(b)] for a, b in self.blocks],
                           "method": self.method, "predictor": self.predictor, "noise_std": self.noise_std,
                           "n_samples": int(self.n_samples), "w_range": list(self.w_range), "source": self.source,
+                          "input_delay": self.input_delay, "input_delay_profile": self.input_delay_profile,
                           "candidates": [c.to_dict() for c in self.candidates]})
 
     def to_json_dict(self) -> dict:

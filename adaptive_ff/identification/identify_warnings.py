@@ -107,8 +107,8 @@ def ls_simex_judgment(warn: list, model, u, w, Ts: float, ls: LSResult, noise_st
     rest = [x for x in warn if x not in j_warn]
     names = ("J", "tau") if model.lag else ("J",)
     ref = {k: getattr(ls.estimate, k) for k in names}
-    ch = _simex_median_change(lambda ww: fit_ls(model, u, ww, Ts=Ts).estimate, np.asarray(w, dtype=float),
-                              noise_std, ref)
+    ch = _simex_median_change(lambda ww: fit_ls(model, u, ww, Ts=Ts, free_run=False).estimate,  # estimate only
+                              np.asarray(w, dtype=float), noise_std, ref)
     if ch is None:
         return warn
     return rest + [_simex_warning(k, c, noise_std, "the eq. 4 regression") for k, c in ch.items() if c > _SIMEX_MAX]

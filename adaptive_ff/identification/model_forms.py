@@ -29,6 +29,11 @@ them). The predictor (``predictor="auto"``) is the one ``fit_physical`` chooses 
 run (output error, consistent under white noise) unless the record is nearly noise-free, then the one-step
 predictor with the velocity reset to the measurement after each sample.
 
+The input is taken ``input_delay`` before its stamps; where that delay is not given it is profiled as in
+``fit_physical`` (:mod:`adaptive_ff.identification.delay_profile`): after the whole-record searches at delay 0 the
+candidate of lowest whole-record cost among the identifiable ones is refitted at each sub-sample delay, and every
+search, the held-out ones too, then runs at the delay of lowest cost (``FormSelection.input_delay``).
+
 For these fits the out-of-sample error is that same prediction's error, because it is the error the fit minimises and the
 one the model is used for (predicting the joint's motion from its torque); a regression error (the eq. 4 or
 sliding-regime equation error) would judge a different, noise-biased predictor.
@@ -101,6 +106,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
 
+from adaptive_ff.identification.delay_profile import delay_profile_search
 from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
 from adaptive_ff.identification.simulator import H_MAX_DEFAULT, input_grid, simulate_on_grid
@@ -206,7 +212,7 @@ class _Problem:
         t, u, w = data.t, data.u, data.w
         self.t, self.u, self.w = t, u, w
         self.grid = input_grid(t, u, h_max=h_max, input_delay=input_delay)
-        self.h_max = h_max
+        self.h_max, self.input_delay, self.n_sim = h_max, float(input_delay), 0
         self.i0 = int(np.searchsorted(t, t[0] + _BURN))
         self.Vs, self.delta, self.offset = Vs, delta, offset
         self.noise = float(velocity_noise_std_irregular(t, w))
@@ -220,6 +226,12 @@ class _Problem:
         self.w0, self.f0 = float(w[0]), float(u[0])
         self.Ts = float(np.median(np.diff(t)))
         self.torque = 1.0
+
+    def set_delay(self, d: float) -> None:
+        """Take each input sample ``d`` s before its stamp from now on (the input grid rebuilt)."""
+        if d != self.input_delay:
+            self.grid = input_grid(self.t, self.u, h_max=self.h_max, input_delay=d)
+            self.input_delay = float(d)
 
     @staticmethod
     def layout(name: str, offset: bool) -> tuple:
@@ -267,6 +279,7 @@ class _Problem:
             par = lagged_params(p["J"], p["Fc"], p["Fs"], p["Vs"], p["delta"], p["sigma"], p["tau"])
         except (OverflowError, ValueError, ZeroDivisionError, ParameterError):
             return np.full(self.w.shape[0], np.nan)  # a trial point outside the model's range: a large residual
+        self.n_sim += 1
         return simulate_on_grid(par, self.grid, w0=self.w0, f0=self.f0, offset=p["offset"], gain=self.gain,
                                 w_meas=self.w)
 
@@ -448,10 +461,11 @@ def _not_fitted(name: str, status: str, offset: bool, k: int | None = None) -> F
 def _select_output_error(data, Vs, delta, offset: bool, folds: int, names, h_max, input_delay, predictor,
                          progress=False):
     """The candidates of :func:`select_form` by output error: ``(candidates, blocks, predictor, noise, n)``;
-    ``progress``: a tqdm bar on stderr over the whole-record search and the ``folds`` held-out searches."""
+    ``progress``: a tqdm bar on stderr over the whole-record search, the input-delay profile (``input_delay``
+    None) and the ``folds`` held-out searches."""
     from tqdm.auto import tqdm
 
-    pb = _Problem(data, Vs, delta, offset, h_max, input_delay, predictor)
+    pb = _Problem(data, Vs, delta, offset, h_max, 0.0 if input_delay is None else input_delay, predictor)
     n = data.t.shape[0]
     scored = np.zeros(n, dtype=bool)
     scored[pb.i0:] = True
@@ -469,20 +483,16 @@ def _select_output_error(data, Vs, delta, offset: bool, folds: int, names, h_max
             status[f] = "not run: needs Vs and delta (the Stribeck pre-fit, adaptive-ff stribeck)"
         else:
             run.append(f)
-    bar = tqdm(total=1 + folds, desc="form fits", unit="search", leave=False,
+    bar = tqdm(total=1 + folds + (input_delay is None), desc="form fits", unit="search", leave=False,
                disable=None if progress is None else not progress)
     fits = _full_fits(pb, run, start, scored)
     bar.update(1)
-    keep = []
-    for f in run:
-        if FORMS[f][1] == "free":
-            vs_ref = Vs if Vs is not None else pb.unpack(f, fits[f])["Vs"]
-            low = _low_speed_count(pb, vs_ref)
-            if low < MIN_LOW_SPEED:
-                status[f] = (f"not identifiable from this log: {low} samples with {3 * pb.noise:.3g} < |w| < "
-                             f"3*Vs = {3 * vs_ref:.3g} (need {MIN_LOW_SPEED})")
-                continue
-        keep.append(f)
+    profile = None
+    if input_delay is None:  # not given: profiled on the whole record, every search then at the delay chosen
+        fits, profile = _delay_fits(pb, run, _identifiable(pb, run, fits, Vs)[0], start, scored, fits)
+        bar.update(1)
+    keep, unfit = _identifiable(pb, run, fits, Vs)
+    status.update(unfit)
     fold_fits, fold_cold = [], []
     for a, b in blocks:  # each block held out: the whole search again on the other blocks, from their own start
         train = scored.copy()
@@ -499,7 +509,45 @@ def _select_output_error(data, Vs, delta, offset: bool, folds: int, names, h_max
             cands.append(_not_fitted(f, status[f], pb.offset))
             continue
         cands.append(_candidate(pb, f, fits[f], fold_fits, fold_cold, blocks, scored))
-    return cands, blocks, pb.predictor, pb.noise, n
+    return cands, blocks, pb.predictor, pb.noise, n, (pb.input_delay, profile)
+
+
+def _identifiable(pb: _Problem, run, fits: dict, Vs) -> tuple[list, dict]:
+    """The forms of ``run`` the log identifies, and ``{name: status}`` of the free Stribeck forms it does not
+    (fewer than :data:`MIN_LOW_SPEED` samples in ``3*noise < |w| < 3*Vs``, ``Vs`` the given one or the fit's)."""
+    keep, status = [], {}
+    for f in run:
+        if FORMS[f][1] == "free":
+            vs_ref = Vs if Vs is not None else pb.unpack(f, fits[f])["Vs"]
+            low = _low_speed_count(pb, vs_ref)
+            if low < MIN_LOW_SPEED:
+                status[f] = (f"not identifiable from this log: {low} samples with {3 * pb.noise:.3g} < |w| < "
+                             f"3*Vs = {3 * vs_ref:.3g} (need {MIN_LOW_SPEED})")
+                continue
+        keep.append(f)
+    return keep, status
+
+
+def _delay_fits(pb: _Problem, run, ok, start: dict, scored, fits: dict) -> tuple[dict, dict]:
+    """The input delay profiled on the whole record, as in ``fit_physical``
+    (:func:`adaptive_ff.identification.delay_profile.delay_profile_search`): the form of lowest whole-record cost
+    among the identifiable forms ``ok`` (their searches at delay 0, ``fits``) refitted from its estimate at each
+    sub-sample delay (:meth:`_Problem.fit`), the delay of lowest cost kept; then the whole-record searches of the
+    forms ``run`` again at that delay with the fits at delay 0 as one more start each (:func:`_full_fits`).
+    Returns ``(fits, details)``: the fits at the delay chosen (``pb`` left there) and the profile's details with
+    the form it was run on (``form``)."""
+    costs = {f: pb.cost(f, fits[f], scored, pb.f_scale) for f in (ok or run)}
+    ref = min(costs, key=costs.get)
+
+    def refit(x):
+        z = pb.fit(ref, x, scored)
+        return pb.cost(ref, z, scored, pb.f_scale), z
+
+    _, details = delay_profile_search(pb, (costs[ref], fits[ref]), refit)
+    details["form"] = ref
+    if pb.input_delay != 0.0:
+        fits = _full_fits(pb, run, start, scored, warm=fits)
+    return fits, details
 
 
 #: Stribeck shape factors and number of Stribeck velocities of the grid search of the free forms (sliding).
@@ -652,7 +700,7 @@ def _sliding_candidate(name, k, full, r, y, X, fold_mse, ns, ests, offset) -> Fo
 
 def select_form(data: MeasuredData, *, Vs: float | None = None, delta: float | None = None,
                 method: str = "output_error", folds: int = 5, criterion: str = "cv", offset: bool = True,
-                forms=None, h_max: float = H_MAX_DEFAULT, input_delay: float = 0.0,
+                forms=None, h_max: float = H_MAX_DEFAULT, input_delay: float | None = None,
                 predictor: str = "auto", progress: bool | None = False) -> FormSelection:
     """Fit the candidate friction forms to a record and choose one by blocked cross-validation (or AIC/BIC).
 
@@ -679,9 +727,13 @@ def select_form(data: MeasuredData, *, Vs: float | None = None, delta: float | N
         Names of :data:`FORMS` to try (default all).
     h_max : float, keyword-only
         Largest RK4 sub-step of the simulation (s), default 1 ms.
-    input_delay : float, keyword-only
-        Time (s) by which each input sample precedes its time stamp (as in
-        :class:`adaptive_ff.identification.physical_id.OutputErrorOptions`), default 0.
+    input_delay : float or None, keyword-only
+        Time (s) by which each input sample precedes its time stamp, >= 0 (as in
+        :class:`adaptive_ff.identification.physical_id.OutputErrorOptions`). None (default): not known, profiled
+        as the output-error fit profiles it (:func:`adaptive_ff.identification.delay_profile.delay_profile_search`
+        on the whole record, with the form of lowest whole-record cost refitted at each sub-sample delay); every
+        search, the held-out ones too, then runs at the delay chosen (``FormSelection.input_delay``,
+        ``input_delay_profile``).
     predictor : {"auto", "free-run", "one-step"}, keyword-only
         The prediction fitted and judged: ``"auto"`` (default) chooses as ``fit_physical`` does (one-step
         below a velocity noise of 0.03 % of the peak ``|w|``, else free run).
@@ -732,7 +784,10 @@ def select_form(data: MeasuredData, *, Vs: float | None = None, delta: float | N
         if delta == 0.0:
             raise ParameterError("delta must be non-zero, got 0.0")
     h_max = check_positive("h_max", h_max)
-    input_delay = check_finite_scalar("input_delay", input_delay)
+    if input_delay is not None:
+        input_delay = check_finite_scalar("input_delay", input_delay)
+        if input_delay < 0:
+            raise ParameterError(f"input_delay must be >= 0 s (or None: profiled), got {input_delay!r}")
     if predictor not in ("auto", "free-run", "one-step"):
         raise ParameterError(f"predictor must be one of ['auto', 'free-run', 'one-step'], got {predictor!r}")
     names = list(FORMS) if forms is None else [forms] if isinstance(forms, str) else list(forms)
@@ -749,14 +804,16 @@ def select_form(data: MeasuredData, *, Vs: float | None = None, delta: float | N
                               "both directions of motion")
     if np.ptp(data.u) == 0.0:
         raise ExcitationError("u is constant: the input does not excite J (nor any parameter)")
+    profile = None
     if method == "sliding":
         cands, blocks, pred, noise, n = _select_sliding(data, Vs, delta, bool(offset), folds, names)
+        input_delay = None
     else:
         if not (progress is None or isinstance(progress, (bool, np.bool_))):
             raise ParameterError(f"progress must be True, False or None, got {progress!r}")
         with threadpool_limits(limits=1, user_api="blas"):  # as the output-error fit (physical_id.fit_physical)
-            cands, blocks, pred, noise, n = _select_output_error(data, Vs, delta, bool(offset), folds, names, h_max,
-                                                                 input_delay, predictor, progress)
+            cands, blocks, pred, noise, n, (input_delay, profile) = _select_output_error(
+                data, Vs, delta, bool(offset), folds, names, h_max, input_delay, predictor, progress)
     ok = [c for c in cands if c.ok]
     if not ok:
         raise ExcitationError("no candidate form could be fitted and cross-validated on this record: "
@@ -772,4 +829,4 @@ def select_form(data: MeasuredData, *, Vs: float | None = None, delta: float | N
     return FormSelection(candidates=tuple(cands), chosen=chosen, criterion=criterion, rule=rule, folds=folds,
                          blocks=tuple(blocks), method=method, predictor=pred, noise_std=noise,
                          n_samples=int(n), w_range=(float(np.min(data.w)), float(np.max(data.w))),
-                         source=data.source)
+                         source=data.source, input_delay=input_delay, input_delay_profile=profile)

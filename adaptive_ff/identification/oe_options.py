@@ -93,14 +93,14 @@ class OutputErrorOptions:
         and the others refitted at each; about 1000 simulations). Default True; False gives the fit
         without it (found tau 9-70 % off on joints with a lag near the sample time).
     bootstrap_lag_refits : int or None, keyword-only
-        The profile search over tau in each ``"full"`` bootstrap refit (``lag_profile`` True): None (default),
-        the fit's own (the other parameters refitted at each of its ten values of tau; the calibrated
-        intervals); an integer >= 1, the J grid at each of the ten values screens them by its cost and the
-        others are refitted at the ``bootstrap_lag_refits`` values of lowest screening cost only
+        The profile search over tau in each ``"full"`` bootstrap refit (``lag_profile`` True): an integer >= 1
+        (default 2), the J grid at each of its ten values of tau screens them by its cost and the others are
+        refitted at the ``bootstrap_lag_refits`` values of lowest screening cost only
         (:func:`adaptive_ff.identification.lag_profile.lag_profile_search`, ``n_refit``; 2: about two thirds of
-        the bootstrap's simulations, its zoo coverage not yet established). The point estimate does not depend
-        on it (the fit's own search always refits at every value); the refits' scatter, and with it the
-        intervals, do (module docstring, "Standard errors").
+        the bootstrap's simulations); None, the fit's own (the other parameters refitted at each of the ten
+        values). The point estimate does not depend on it (the fit's own search always refits at every value); the
+        refits' scatter, and with it the intervals, do (module docstring, "Standard errors"; the zoo coverage of
+        both: the documentation's identification benchmark page).
     jacobian : {"difference", "sensitivity"}, keyword-only
         Jacobian of the trust-region fits. ``"difference"`` (default): forward differences with the relative
         step ``diff_step`` (a secant over 1 % of each parameter, which sees past the breakaway jitter of the
@@ -139,7 +139,7 @@ class OutputErrorOptions:
     bootstrap_workers: int | None = None
     progress: bool | None = False
     lag_profile: bool = True
-    bootstrap_lag_refits: int | None = None
+    bootstrap_lag_refits: int | None = 2
     jacobian: str = "difference"
 
     def __post_init__(self):

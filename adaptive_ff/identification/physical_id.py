@@ -171,22 +171,23 @@ the estimator as it is (Efron & Tibshirani, Ch. 6), at about three times the
 cost of the partial refits (a median 34 s, 22-68 s, against 11 s of CPU per
 15 s zoo record with 20 refits, when each refit runs the fit's whole profile
 search over tau); its coverage on the zoo: the identification
-page, "The bootstrap of the fit itself, the default". An opt-in shortcut of
-these refits is in that profile search (``bootstrap_lag_refits=2``): the J
-grid still runs at each of its ten values of tau, but the other parameters
-are refitted at the two values of lowest J-grid cost only. The profile is not
-dropped from the refits: on two zoo joints with lags of 5.1 and 7.7 ms the
-refits' search stopped 4-70 % high in tau before it, and it moved 41 of their
-42 refits back towards the estimate's tau (to 0.6-0.9 times the tau they had
-stopped at). The shortcut runs about 270 instead of 745 of a refit's 1400
-simulations on the log of ``benchmarks/output_error_speed.py``, where its
-intervals are those of the whole profile bit for bit; its zoo coverage is not
-established (32 joints: the documentation's output-error page, "Alternatives
-measured"), so the default stays the whole profile. The point estimate is the
+page, "The bootstrap of the fit itself, the default". The refits screen
+that profile search (``bootstrap_lag_refits=2``, the default): the J grid
+still runs at each of its ten values of tau, but the other parameters are
+refitted at the two values of lowest J-grid cost only (None: at all ten, as
+the fit itself). The profile is not dropped from the refits: on two zoo
+joints with lags of 5.1 and 7.7 ms the refits' search stopped 4-70 % high in
+tau before it, and it moved 41 of their 42 refits back towards the
+estimate's tau (to 0.6-0.9 times the tau they had stopped at). Screened, it
+runs about 230 instead of 745 of a refit's simulations on the log of
+``benchmarks/output_error_speed.py``, where the intervals are those of the
+whole profile bit for bit; the zoo coverage of both is on the identification
+page ("The default on a slow, irregular readout"). The point estimate is the
 same either way (the fit's own search refits at every value). The full refits
-are the default: with the whole profile in each refit their 95 % intervals covered the truth on 91-96 % of
-100 zoo joints per parameter in two runs with different draws (the
-identification page, "The bootstrap of the fit itself, the default"), the partial refits' J and tau
+are the default: their 95 % intervals covered the truth on 91-96 % of 100 zoo
+joints per parameter with the whole profile in each refit (two runs with
+different draws; the identification page, "The bootstrap of the fit itself,
+the default"), the partial refits' J and tau
 intervals on 99 % (twice too wide). The refits run in threads
 (``bootstrap_workers``; their time is in the C simulation, which releases the
 GIL); every replicate and the generator of each refit are drawn before any
@@ -206,7 +207,7 @@ from threadpoolctl import threadpool_limits
 
 from adaptive_ff.identification.covariance import (BootstrapSettings, andrews_bandwidth, hac_covariance,
                                                    parametric_block_bootstrap)
-from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
+from adaptive_ff.identification.diagnostics import noise_fit_weights, velocity_noise_std_irregular
 from adaptive_ff.identification.delay_profile import delay_profile_search
 from adaptive_ff.identification.lag_profile import lag_profile_search
 from adaptive_ff.identification.ls import fit_ls
@@ -468,7 +469,10 @@ class _OutputErrorProblem:
     free_shape = False  # Vs, delta fitted (set by __init__; a subclass with its own residual keeps them given)
     j_shape = 6
 
-    def __init__(self, t, u, w, Vs, delta, offset, opts: OutputErrorOptions):
+    def __init__(self, t, u, w, Vs, delta, offset, opts: OutputErrorOptions, noise_weights: tuple | None = None):
+        # noise_weights: noise_fit_weights(t), passed by the bootstrap's refits (the same stamps: computed once)
+        self.noise_weights = noise_fit_weights(t) if noise_weights is None else noise_weights
+        self.noise = velocity_noise_std_irregular(t, w, weights=self.noise_weights)
         # input_delay None: profiled by the search (delay_profile_search), from 0
         self.input_delay = 0.0 if opts.input_delay is None else float(opts.input_delay)
         self.delay_profile = None
@@ -482,7 +486,7 @@ class _OutputErrorProblem:
         self.free_shape = Vs is None
         if self.free_shape:
             peak0 = float(np.max(np.abs(w)))
-            self.vs_grid = np.geomspace(max(velocity_noise_std_irregular(t, w), 1e-3 * peak0), 0.3 * peak0, _VS_GRID)
+            self.vs_grid = np.geomspace(max(self.noise, 1e-3 * peak0), 0.3 * peak0, _VS_GRID)
             Vs, delta = float(self.vs_grid[_VS_GRID // 2]), 1.0
         self.j_shape = 5 + int(bool(offset))
         self.t, self.u, self.w, self.Vs, self.delta, self.offset, self.opts = t, u, w, Vs, delta, offset, opts
@@ -491,7 +495,6 @@ class _OutputErrorProblem:
         self.n_sim = 0
         self.memo, self.fd_memo = {}, None  # residual vectors by parameter vector (res, refine)
         self.big = 10.0 * (np.max(np.abs(w)) + 1.0)
-        self.noise = velocity_noise_std_irregular(t, w)
         peak = float(np.max(np.abs(w)))
         predictor = opts.predictor
         if predictor == "auto":
@@ -872,7 +875,7 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
         w_star[pb.i0:] = y_star
         if o.bootstrap_refit == "full":  # the estimator itself: the replicate as a record of its own
             given = (None, None) if pb.free_shape else (pb.Vs, pb.delta)
-            rp = _OutputErrorProblem(pb.t, pb.u, w_star, *given, pb.offset, o)
+            rp = _OutputErrorProblem(pb.t, pb.u, w_star, *given, pb.offset, o, noise_weights=pb.noise_weights)
             s0 = dict(o.start) if o.start is not None else _start_from_paper(pb.t, pb.u, w_star, rp.Vs, rp.delta,
                                                                               pb.offset)
             z = _oe_search(rp, s0, o.bootstrap_lag_refits, held_delay=held)[0][1]

@@ -60,10 +60,11 @@ COSTS = {"loop": 2.7e-7, "prepare": 6e-7, "compare_fixed": 0.3, "step": 1.5e-5, 
 OE_FIT_SIMULATIONS = 2000
 #: A bootstrap refit's share of a fit, by ``--bootstrap-refit`` (measured on the same logs,
 #: ``info["bootstrap"]["n_simulations"]``): ``full`` runs the fit's own search on the replicate with the fit's input
-#: delay held (its delay profile one point instead of the fit's grid: 0.71 of the fit's simulations a refit on the
-#: 20 s log), ``partial`` the fit's later steps from a spread start (182-197 simulations: 0.09-0.12). The
-#: closed-loop fit's refits are that fit again (:data:`CLOSED_LOOP_REFIT_SHARE`).
-OE_REFIT_SHARE = {"full": 0.75, "partial": 0.12}
+#: delay held (its delay profile one point instead of the fit's grid) and its profile over tau screened
+#: (``bootstrap_lag_refits=2``: 0.47 of the fit's simulations a refit on the 20 s log), ``partial`` the fit's later
+#: steps from a spread start (182-197 simulations: 0.09-0.12). The closed-loop fit's refits are that fit again
+#: (:data:`CLOSED_LOOP_REFIT_SHARE`).
+OE_REFIT_SHARE = {"full": 0.5, "partial": 0.12}
 #: A full bootstrap refit's share of the closed-loop fit (the fit again).
 CLOSED_LOOP_REFIT_SHARE = 1.0
 

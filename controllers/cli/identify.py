@@ -221,6 +221,8 @@ def _identify(args, data):
         raise ParameterError(f"--method closed_loop simulates your velocity loop: add {' and '.join(need)}")
     if ref_name is None or spec is None or args.method not in ("auto", "closed_loop"):
         mopts = boot if args.method in ("auto", "output_error", "paper", "sliding", "idim") else None
+        if args.method == "auto":  # it may answer by output error, whose bootstrap takes a while on a long log
+            mopts = {**boot, "progress": progress_from_args(args)}
         return identify(data, Vs=args.Vs, delta=args.delta, method=args.method, method_options=mopts, **common)
     if args.Vs is None and args.method == "closed_loop":
         raise ParameterError("--method closed_loop fits the Stribeck model of eqs. 1-3: give --Vs and --delta "

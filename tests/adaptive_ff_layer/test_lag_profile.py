@@ -169,8 +169,9 @@ def test_bad_n_refit_raises(n_refit):
 
 def test_bootstrap_lag_shortcut_keeps_the_estimate_and_the_interval_widths():
     # the paper joint with a lag of half the sample time (where the refits' profile over tau moves them), 4 s of
-    # the Sec. IV-A torque at 10 ms, 1 % velocity noise; 6 refits with the fit's whole profile over tau (the
-    # default) and with the shortcut (the J grid at all ten values, the refits at the two lowest)
+    # the Sec. IV-A torque at 10 ms, 1 % velocity noise; 6 refits with the fit's whole profile over tau
+    # (bootstrap_lag_refits=None) and with the shortcut (the default: the J grid at all ten values, the refits at the
+    # two lowest)
     p = dataclasses.replace(preset("paper"), tau=0.005)
     rng = np.random.default_rng(3)
     _, u = bandlimited_noise(4.0, dt=1e-3, cutoff=1.0, std=1.2 * (p.Fs + p.sigma * math.radians(20.0)), rng=rng)
@@ -179,9 +180,9 @@ def test_bootstrap_lag_shortcut_keeps_the_estimate_and_the_interval_widths():
     # the input delay held (at 0, each torque at its stamp): the shortcut is judged alone (with the delay profiled
     # in every refit too, Fs's error ratio was 1.82 on these 6 refits)
     kw = dict(Vs=p.Vs, delta=p.delta, n_bootstrap=6, bootstrap_workers=1, input_delay=0.0)
-    whole = fit_physical(m.t, m.u, m.w, **kw)
-    short = fit_physical(m.t, m.u, m.w, bootstrap_lag_refits=2, **kw)
-    assert OutputErrorOptions().bootstrap_lag_refits is None
+    whole = fit_physical(m.t, m.u, m.w, bootstrap_lag_refits=None, **kw)
+    short = fit_physical(m.t, m.u, m.w, **kw)
+    assert OutputErrorOptions().bootstrap_lag_refits == 2
     # the point estimate is the fit's own, bit for bit; its lag profile moved it (the case the shortcut is for)
     assert short.params == whole.params and short.info["cost"] == whole.info["cost"]
     assert short.info["lag_profile"]["moved"]
