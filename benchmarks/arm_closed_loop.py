@@ -43,10 +43,10 @@ def identify(path, *, seed: int = 1, duration: float = 20.0, n_bootstrap: int = 
     returns the :class:`adaptive_ff.arm.robot.ArmModel`."""
     from adaptive_ff.arm.fit import identify_arm
     from adaptive_ff.arm.robot import load_urdf
-    from adaptive_ff.arm.simulate import simulate_arm
+    from adaptive_ff.arm.simulate import ArmSimulation, simulate_arm
 
     arm = load_urdf(URDF)
-    log = simulate_arm(arm, friction(), duration=duration, seed=seed, substeps=1, armature=ARMATURE)
+    log = simulate_arm(arm, friction(), run=ArmSimulation(duration=duration, substeps=1), seed=seed, armature=ARMATURE)
     Path(path).write_text(json.dumps(identify_arm(log, arm, n_bootstrap=n_bootstrap).to_dict()))
     return arm
 

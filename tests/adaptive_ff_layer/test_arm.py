@@ -16,7 +16,7 @@ pin = pytest.importorskip("pinocchio", reason="the [arm] extra is not installed:
 from adaptive_ff.arm.arm_log import read_arm_log, write_arm_log  # noqa: E402
 from adaptive_ff.arm.fit import identify_arm  # noqa: E402
 from adaptive_ff.arm.robot import load_urdf  # noqa: E402
-from adaptive_ff.arm.simulate import JointFriction, simulate_arm  # noqa: E402
+from adaptive_ff.arm.simulate import ArmSimulation, JointFriction, simulate_arm  # noqa: E402
 from controllers.cli.main import main  # noqa: E402
 from plant.errors import ParameterError, SignalError  # noqa: E402
 
@@ -47,7 +47,7 @@ def arm():
 
 @pytest.fixture(scope="module")
 def log(arm):
-    return simulate_arm(arm, FRICTION, duration=20.0, seed=1, substeps=1, armature=ARMATURE)
+    return simulate_arm(arm, FRICTION, run=ArmSimulation(duration=20.0, substeps=1), seed=1, armature=ARMATURE)
 
 
 @pytest.fixture(scope="module")
@@ -111,7 +111,8 @@ def test_interval_coverage_over_seeds(arm):
     (0-5); at least 9 of 12 here."""
     hits = {"Fc": 0, "sigma": 0}
     for seed in (2, 3, 4, 5):
-        res = identify_arm(simulate_arm(arm, FRICTION, duration=20.0, seed=seed, substeps=1, armature=ARMATURE),
+        res = identify_arm(simulate_arm(arm, FRICTION, run=ArmSimulation(duration=20.0, substeps=1), seed=seed,
+                                        armature=ARMATURE),
                            arm, seed=seed, n_bootstrap=100, lag=False)
         for joint, f in zip(res.joints, FRICTION):
             for k in hits:
