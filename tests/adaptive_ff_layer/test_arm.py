@@ -321,3 +321,19 @@ def test_design_from_an_arm_joint(log_csv, tmp_path, capsys):
     assert "arm.json" in err and "'knee'" in err and "'elbow'" in err and "Traceback" not in err
     assert main(["design", "--joint", "elbow", *common]) == 2
     assert "--from ARM.json" in capsys.readouterr().err
+
+
+def test_parallel_filter_is_the_torques_filter():
+    """The friction columns' filter (parallel_filter) is the one the torque goes through in filtered_states: the
+    same rows, bit for bit, on a seeded random log; a constant passes unchanged (to the Butterworth design's DC gain, 1 - 8e-13, applied twice)."""
+    from adaptive_ff.arm.arm_log import ArmLog, filtered_states, parallel_filter
+
+    rng = np.random.default_rng(3)
+    t = np.arange(4000) * 1e-3
+    q = np.column_stack([np.sin(2 * np.pi * 0.5 * t), np.cos(2 * np.pi * 0.3 * t)])
+    log = ArmLog(t=t, q=q, tau=rng.standard_normal((4000, 2)), dq=None, source="synthetic")
+    pf = parallel_filter(log, 20.0)
+    tt, _, _, _, tau = filtered_states(log, 20.0)
+    assert np.array_equal(pf(log.tau), tau) and np.array_equal(t[pf.keep], tt)
+    assert pf.keep == slice(50, 3950, 10)  # one cutoff period cut at both ends, decimated to 5 x 20 Hz
+    np.testing.assert_allclose(pf(np.ones(4000)), 1.0, rtol=0, atol=1e-11)  # the design's DC gain: 1 - 8e-13
