@@ -299,14 +299,19 @@ def _profile_interval(table_j, rss_min: float, n_rows: int, block: int, cols: sl
     inside = [row for row in table_j if row[2] <= bound]
     grid = np.unique([r[0] for r in table_j[:len(DELTA_GRID) * N_VS]])
     vs = [r[0] for r in inside if np.isfinite(r[0])]
+    ds = [r[1] for r in inside if np.isfinite(r[0])]
+    edge = []
     if vs:
         below, above = grid[grid < min(vs)], grid[grid > max(vs)]
-        vs += [float(below.max())] if below.size else []
-        vs += [float(above.min())] if above.size else []
-    ds = [r[1] for r in inside if np.isfinite(r[0])]
+        edge = ([float(below.max())] if below.size else []) + ([float(above.min())] if above.size else [])
+        vs += edge
     xs = np.array([r[3][cols] for r in inside])
     off = np.array([not np.isfinite(r[0]) for r in inside])
     xs[off, 1] = xs[off, 0]  # Fs = Fc without the Stribeck term
+    fs_edge = [r[3][cols][1] for r in table_j[:len(DELTA_GRID) * N_VS] if r[0] in edge and r[1] in ds]
+    if fs_edge:  # Fs moves with Vs: its range covers its estimates at the Vs range's two ends too
+        xs = np.vstack([xs, np.tile(xs[0], (len(fs_edge), 1))])
+        xs[-len(fs_edge):, 1] = fs_edge
     nan = (np.nan, np.nan)
     return ((min(vs), max(vs)) if vs else nan), ((min(ds), max(ds)) if ds else nan), (xs.min(axis=0),
                                                                                         xs.max(axis=0)), \
