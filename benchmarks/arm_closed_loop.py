@@ -9,7 +9,7 @@ reference values of ``docs/benchmarks/arm_tx40.md``, ``Fs = 1.3 Fc``, ``Vs`` 0.1
 simulate_arm`, seed ``--id-seed``) identified by :func:`adaptive_ff.arm.fit.identify_arm` (as ``identify-arm
 --json``; 20 bootstrap refits: the intervals do not enter the loops), then
 :func:`controllers.experiments.compare_arm.compare_arm` on the same arm in the modes none, fixed, adaptive,
-adaptive-ff and frictionless (``--duration`` s, seed ``--seed``, the drives' limits the URDF's effort limits).
+adaptive-ff, the peers dob and canudas, and frictionless (``--duration`` s, seed ``--seed``, the drives' limits the URDF's effort limits).
 Printed: each joint's identified inertia and PI, the second-half RMS error per joint and mode, eta per joint, the
 adaptive compensator's switch-in time of its residual observer per joint, the CPU time.
 """
@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import json
 import tempfile
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -43,12 +42,21 @@ def identify(path, *, seed: int = 1, duration: float = 20.0, n_bootstrap: int = 
     returns the :class:`adaptive_ff.arm.robot.ArmModel`."""
     from adaptive_ff.arm.fit import identify_arm
     from adaptive_ff.arm.robot import load_urdf
-    from adaptive_ff.arm.simulate import simulate_arm
+    from adaptive_ff.arm.simulate import ArmSimulation, simulate_arm
 
     arm = load_urdf(URDF)
-    log = simulate_arm(arm, friction(), duration=duration, seed=seed, substeps=1, armature=ARMATURE)
+    log = simulate_arm(arm, friction(), run=ArmSimulation(duration=duration, substeps=1), seed=seed,
+                       armature=ARMATURE)
     Path(path).write_text(json.dumps(identify_arm(log, arm, n_bootstrap=n_bootstrap).to_dict()))
     return arm
+
+
+def _cpu() -> float:
+    """CPU seconds of this process and of its finished children (the lag fits' worker processes)."""
+    import resource
+
+    return sum(resource.getrusage(who).ru_utime + resource.getrusage(who).ru_stime
+               for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
 
 
 def main(argv=None) -> int:
@@ -63,14 +71,14 @@ def main(argv=None) -> int:
     ap.add_argument("--start", action="store_true",
                     help="start the adaptive modes from each joint's identified map and lag (compare-arm --start)")
     args = ap.parse_args(argv)
-    t0 = time.process_time()
+    t0 = _cpu()
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "arm.json"
         arm = identify(path, seed=args.id_seed)
-        t1 = time.process_time()
+        t1 = _cpu()
         res = compare_arm(ArmPlant(arm, friction(), armature=ARMATURE), path, duration=args.duration,
                           seed=args.seed, modes=ARM_MODES, start=args.start)
-    t2 = time.process_time()
+    t2 = _cpu()
     print(f"compare-arm on the simulated TX40 (6 joints): identification log seed {args.id_seed}, closed loop "
           f"{args.duration:g} s seed {args.seed}")
     for d in res.designs:

@@ -50,10 +50,10 @@ def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200) 
     import pinocchio as pin
 
     from adaptive_ff.arm.fit import identify_arm
-    from adaptive_ff.arm.simulate import simulate_arm
+    from adaptive_ff.arm.simulate import ArmSimulation, simulate_arm
 
     friction = draw_friction(arm.n, seed)
-    log = simulate_arm(arm, friction, duration=duration, seed=seed, substeps=1, armature=ARMATURE)
+    log = simulate_arm(arm, friction, run=ArmSimulation(duration=duration, substeps=1), seed=seed, armature=ARMATURE)
     res = identify_arm(log, arm, seed=seed, n_bootstrap=n_bootstrap, lag=False)  # no lag simulated
     model = arm.model.copy()
     model.armature = ARMATURE.copy()

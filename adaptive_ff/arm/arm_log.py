@@ -17,7 +17,8 @@ import numpy as np
 
 from plant.errors import ParameterError, SignalError
 
-__all__ = ["ArmLog", "read_arm_log", "write_arm_log", "filtered_states", "column_names", "DEFAULT_CUTOFF"]
+__all__ = ["ArmLog", "ParallelFilter", "read_arm_log", "write_arm_log", "filtered_states", "parallel_filter",
+           "column_names", "DEFAULT_CUTOFF"]
 
 #: Default cutoff (Hz) of the zero-phase low-pass before differentiation: the arm's rigid-body motion of an
 #: identification trajectory lies well below it, the sensor noise mostly above.
@@ -247,6 +248,50 @@ def write_arm_log(log: ArmLog, path) -> Path:
     return path
 
 
+@dataclass(frozen=True)
+class ParallelFilter:
+    """The zero-phase low-pass and decimation of :func:`filtered_states`, to put any signal of the log's rate through
+    what the torque goes through.
+
+    Attributes
+    ----------
+    b, a : ndarray
+        The 4th-order Butterworth low-pass (:func:`scipy.signal.butter`), run forwards and backwards.
+    keep : slice
+        The rows kept: the filter's start-up at both ends left out, then every ``step``-th sample.
+    """
+
+    b: np.ndarray
+    a: np.ndarray
+    keep: slice
+
+    def __call__(self, x) -> np.ndarray:
+        """``x`` (n,) or (n, N) at the log's rate, filtered and decimated as the torque of :func:`filtered_states`."""
+        from scipy.signal import filtfilt
+
+        return filtfilt(self.b, self.a, np.asarray(x, dtype=float), axis=0)[self.keep]
+
+
+def parallel_filter(log: ArmLog, cutoff: float = DEFAULT_CUTOFF) -> ParallelFilter:
+    """The filter and decimation of :func:`filtered_states` for ``log`` and ``cutoff`` (its checks and errors)."""
+    from scipy.signal import butter
+
+    dt = np.diff(log.t)
+    Ts = float(np.median(dt))
+    if np.max(np.abs(dt - Ts)) > 0.01 * Ts:
+        raise SignalError(f"{log.source}: time stamps not uniform (intervals {dt.min():.6g} to {dt.max():.6g} s); "
+                          "the filtered differentiation needs one sample time")
+    nyq = 0.5 / Ts
+    if not (np.isfinite(cutoff) and 0.0 < cutoff < nyq):
+        raise ParameterError(f"--cutoff must be in (0, {nyq:.6g}) Hz (the log's Nyquist frequency), got {cutoff!r}")
+    b, a = butter(4, cutoff / nyq)
+    if log.t.shape[0] <= 3 * max(len(a), len(b)) * 4:
+        raise SignalError(f"{log.source}: {log.t.shape[0]} rows are too few for the {cutoff:g} Hz filter")
+    step = max(1, int(nyq / (2.5 * cutoff)))
+    edge = min(int(round(1.0 / (cutoff * Ts))), log.t.shape[0] // 10)  # the filter's start-up at both ends
+    return ParallelFilter(b=b, a=a, keep=slice(edge, log.t.shape[0] - edge, step))
+
+
 def filtered_states(log: ArmLog, cutoff: float = DEFAULT_CUTOFF) -> tuple:
     """Zero-phase filtered ``(t, q, dq, ddq, tau)`` of ``log``, decimated to about ``5 * cutoff`` samples per second.
 
@@ -270,24 +315,13 @@ def filtered_states(log: ArmLog, cutoff: float = DEFAULT_CUTOFF) -> tuple:
     ParameterError
         ``cutoff`` not positive or not below the Nyquist frequency.
     """
-    from scipy.signal import butter, filtfilt
+    from scipy.signal import filtfilt
 
-    dt = np.diff(log.t)
-    Ts = float(np.median(dt))
-    if np.max(np.abs(dt - Ts)) > 0.01 * Ts:
-        raise SignalError(f"{log.source}: time stamps not uniform (intervals {dt.min():.6g} to {dt.max():.6g} s); "
-                          "the filtered differentiation needs one sample time")
-    nyq = 0.5 / Ts
-    if not (np.isfinite(cutoff) and 0.0 < cutoff < nyq):
-        raise ParameterError(f"--cutoff must be in (0, {nyq:.6g}) Hz (the log's Nyquist frequency), got {cutoff!r}")
-    b, a = butter(4, cutoff / nyq)
-    if log.t.shape[0] <= 3 * max(len(a), len(b)) * 4:
-        raise SignalError(f"{log.source}: {log.t.shape[0]} rows are too few for the {cutoff:g} Hz filter")
+    pf = parallel_filter(log, cutoff)
+    b, a, keep = pf.b, pf.a, pf.keep
+    Ts = float(np.median(np.diff(log.t)))
     q = filtfilt(b, a, log.q, axis=0)
     dq = filtfilt(b, a, log.dq, axis=0) if log.dq is not None else np.gradient(q, Ts, axis=0)
     ddq = np.gradient(dq, Ts, axis=0)
     tau = filtfilt(b, a, log.tau, axis=0)
-    step = max(1, int(nyq / (2.5 * cutoff)))
-    edge = min(int(round(1.0 / (cutoff * Ts))), log.t.shape[0] // 10)  # the filter's start-up at both ends
-    keep = slice(edge, log.t.shape[0] - edge, step)
     return log.t[keep], q[keep], dq[keep], ddq[keep], tau[keep]

@@ -54,7 +54,7 @@ from plant.errors import ParameterError, SignalError
 from plant.stribeck_map import stribeck_shape
 
 from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states
-from adaptive_ff.arm.lag import LAG_BOOTSTRAP, JointLag, joint_lag, lag_records, velocity_noise
+from adaptive_ff.arm.lag import JointLag, LagOptions, joint_lags, lag_records, velocity_noise
 from adaptive_ff.arm.result import ArmIdentification, ArmJoint
 from adaptive_ff.arm.robot import ArmModel
 
@@ -267,14 +267,27 @@ def _profile_interval(table_j, rss_min: float, n_rows: int, block: int, cols: sl
     """The ``(Vs range, delta range, (low, high) of the estimates[cols], estimates)`` over the grid points within the
     95 % likelihood-ratio bound of the best (the residuals' correlation counted by the block length); ``estimates``
     the accepted rows' whole estimates (k, p). The model without a Stribeck term (``Vs`` NaN) counts with
-    ``Fs = Fc``; the ranges of ``Vs`` and ``delta`` are NaN where no grid point is inside."""
+    ``Fs = Fc``; the ranges of ``Vs`` and ``delta`` are NaN where no grid point is inside. The ``Vs`` range reaches
+    out to the grid's next value beyond the accepted ones on either side (where the bound is crossed, somewhere
+    between the two): the accepted grid values alone left the true ``Vs`` outside on 11 of 30 simulated
+    joints (``benchmarks/arm_coverage.py``, seeds 0-9)."""
     bound = rss_min * (1.0 + 3.84 * block / max(n_rows, 1))
     inside = [row for row in table_j if row[2] <= bound]
+    grid = np.unique([r[0] for r in table_j[:len(DELTA_GRID) * N_VS]])
     vs = [r[0] for r in inside if np.isfinite(r[0])]
     ds = [r[1] for r in inside if np.isfinite(r[0])]
+    edge = []
+    if vs:
+        below, above = grid[grid < min(vs)], grid[grid > max(vs)]
+        edge = ([float(below.max())] if below.size else []) + ([float(above.min())] if above.size else [])
+        vs += edge
     xs = np.array([r[3][cols] for r in inside])
     off = np.array([not np.isfinite(r[0]) for r in inside])
     xs[off, 1] = xs[off, 0]  # Fs = Fc without the Stribeck term
+    fs_edge = [r[3][cols][1] for r in table_j[:len(DELTA_GRID) * N_VS] if r[0] in edge and r[1] in ds]
+    if fs_edge:  # Fs moves with Vs: its range covers its estimates at the Vs range's two ends too
+        xs = np.vstack([xs, np.tile(xs[0], (len(fs_edge), 1))])
+        xs[-len(fs_edge):, 1] = fs_edge
     nan = (np.nan, np.nan)
     return ((min(vs), max(vs)) if vs else nan), ((min(ds), max(ds)) if ds else nan), (xs.min(axis=0),
                                                                                         xs.max(axis=0)), \
@@ -345,7 +358,7 @@ def _sign_warnings(name: str, params: dict) -> list:
 @threadpool_limits.wrap(limits=1, user_api="blas")  # the many small products of the fits: one thread each
 def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, n_bootstrap: int = 200,
                  seed: int = 0, rigid_body: str = "fit", progress: bool | None = False,
-                 lag: bool = True, lag_bootstrap: int = LAG_BOOTSTRAP) -> ArmIdentification:
+                 lag: bool | LagOptions = True) -> ArmIdentification:
     """Identify the rigid body and every joint's friction of ``arm`` from ``log`` (module docstring: the method).
 
     Parameters
@@ -366,11 +379,10 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     progress : bool or None, keyword-only
         Progress bars of the Stribeck profile, the bootstrap and the lag fits on stderr (tqdm): True, False
         (default), None (only on a terminal).
-    lag : bool, keyword-only
-        Identify each joint's friction lag ``tau`` by output error (default True; :mod:`adaptive_ff.arm.lag`);
-        False: ``tau`` NaN with a warning (the costliest stage skipped).
-    lag_bootstrap : int, keyword-only
-        Refits of each lag fit's bootstrap (>= 2; default :data:`adaptive_ff.arm.lag.LAG_BOOTSTRAP`).
+    lag : bool or LagOptions, keyword-only
+        Identify each joint's friction lag ``tau`` by output error (:mod:`adaptive_ff.arm.lag`): True (default)
+        with :class:`adaptive_ff.arm.lag.LagOptions`' defaults (10 bootstrap refits per joint, the joints in 2
+        worker processes), or those options; False: ``tau`` NaN with a warning (the costliest stage skipped).
 
     Returns
     -------
@@ -386,11 +398,11 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
         The log's joint count differs from the URDF's; irregular time stamps; too few rows.
     ParameterError
         A position beyond the URDF's limits (file, joint, sample and value named); ``cutoff``, ``n_bootstrap``,
-        ``lag_bootstrap`` or ``rigid_body`` invalid; a joint with no row fast enough to fit.
+        ``lag`` or ``rigid_body`` invalid; a joint with no row fast enough to fit.
     """
     _check(log, arm, n_bootstrap, rigid_body)
-    if isinstance(lag_bootstrap, bool) or not isinstance(lag_bootstrap, (int, np.integer)) or lag_bootstrap < 2:
-        raise ParameterError(f"lag_bootstrap must be an integer >= 2, got {lag_bootstrap!r}")
+    if not isinstance(lag, (bool, LagOptions)):
+        raise ParameterError(f"lag must be True, False or a LagOptions, got {lag!r}")
     t, q, dq, ddq, tau = filtered_states(log, cutoff)
     base = arm.base_parameters()
     Y = arm.regressor(q, dq, ddq)
@@ -420,7 +432,8 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     a_J = _inertia_rows(arm, base, log.q.mean(axis=0))  # the log's mean configuration (all its samples)
     r = Yb.shape[2]
     J_all = a_J @ (x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf))
-    lags = _lags(log, arm, (base, x[:r], rigid_body), J_all, Vs, delta, cutoff, (lag, lag_bootstrap, seed, progress))
+    lags = _lags(log, arm, (base, x[:r], rigid_body), J_all, _lag_shapes(Vs, delta, table), cutoff,
+                 (lag, seed, progress))
     noise = velocity_noise(log)
     joints = []
     for j in range(arm.n):
@@ -444,13 +457,24 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
                              warnings=tuple(_arm_warnings(cond)))
 
 
-def _lags(log, arm, rb, J, Vs, delta, cutoff, settings) -> list:
-    """Every joint's :class:`adaptive_ff.arm.lag.JointLag` (``settings``: ``(lag, lag_bootstrap, seed,
-    progress)``; ``rb``: ``(base, beta, rigid_body)``)."""
-    from tqdm.auto import tqdm
+def _lag_shapes(Vs, delta, table) -> list:
+    """Each joint's ``(Vs, delta)`` held in its lag fit: the whole-arm fit's where it keeps the Stribeck term, else
+    the profile's best grid point (whose ``Fs`` the output-error fit then fits): the shape is not refitted there."""
+    out = []
+    for j in range(len(Vs)):
+        if np.isfinite(Vs[j]):
+            out.append((float(Vs[j]), float(delta[j])))
+        else:
+            best = min((row for row in table[j] if np.isfinite(row[0])), key=lambda row: row[2])
+            out.append((float(best[0]), float(best[1])))
+    return out
 
-    on, n_boot, seed, progress = settings
-    if not on:
+
+def _lags(log, arm, rb, J, shapes, cutoff, settings) -> list:
+    """Every joint's :class:`adaptive_ff.arm.lag.JointLag` (``settings``: ``(lag, seed, progress)``; ``rb``:
+    ``(base, beta, rigid_body)``; ``shapes``: each joint's ``(Vs, delta)`` held in its fit)."""
+    on, seed, progress = settings
+    if on is False:
         return [JointLag(np.nan, (np.nan, np.nan), "not asked for (lag=False; identify-arm --no-lag)")] * arm.n
     base, beta, mode = rb
     theta = np.zeros(11 * arm.n)
@@ -459,12 +483,7 @@ def _lags(log, arm, rb, J, Vs, delta, cutoff, settings) -> list:
     else:
         theta = arm.theta_urdf
     t, u, w = lag_records(log, arm, lambda Y: Y @ theta, J, cutoff)
-    out = []
-    for j in tqdm(range(arm.n), desc="arm friction lag", unit="joint", leave=False,
-                  disable=(None if progress is None else not progress)):
-        out.append(joint_lag(t, u[:, j], w[:, j], float(Vs[j]), float(delta[j]), n_bootstrap=n_boot,
-                             seed=seed + j))
-    return out
+    return joint_lags(t, u, w, shapes, options=LagOptions() if on is True else on, seed=seed, progress=progress)
 
 
 def _arm_warnings(cond: float) -> list:

@@ -11,8 +11,13 @@ once everything but the joint's own constant inertia is moved to the input:
 ``J_j`` the joint's ``M_jj`` at the log's mean configuration, ``Y_b \beta`` the identified rigid body (or the
 URDF's with ``rigid_body="urdf"``). That *rigid-body-removed* torque and the joint's velocity go through the
 package's output-error fit of eqs. 1-3 (:func:`adaptive_ff.identification.physical_id.fit_physical`, the fit of
-``identify --method output_error``; ``Vs``, ``delta`` the whole-arm fit's), of which the lag and its 95 % bootstrap
-interval are kept; ``J, Fc, Fs, sigma, offset`` stay the whole-arm fit's (every joint's rows in one fit).
+``identify --method output_error``), of which the lag and its 95 % bootstrap interval are kept; ``J, Fc, Fs, sigma,
+offset`` stay the whole-arm fit's (every joint's rows in one fit). The Stribeck shape ``Vs``, ``delta`` is held at
+the whole-arm fit's, and where that fit drops the term (``Fs = Fc``), at its profile's best grid point (the
+output-error fit then fits ``Fs``): on the TX40 log of ``docs/benchmarks/arm_tx40.md``, whose joints keep no
+Stribeck term, letting the output-error fit search ``Vs`` and ``delta`` itself cost 3 to 5 times the CPU time and
+moved no reported lag by more than 8 %. The joints' fits are independent and run in worker processes
+(:class:`LagOptions`, :func:`joint_lags`).
 
 The record's positions, velocities, accelerations and torques come from a zero-phase low-pass (4th-order
 Butterworth, forwards and backwards: no lag of its own) at :data:`LAG_CUTOFF_FACTOR` times the identification's
@@ -48,8 +53,8 @@ import numpy as np
 
 from plant.errors import ExcitationError, ParameterError, SignalError
 
-__all__ = ["JointLag", "LAG_RATE", "LAG_CUTOFF_FACTOR", "LAG_BOOTSTRAP", "lag_records", "joint_lag",
-           "velocity_noise"]
+__all__ = ["JointLag", "LagOptions", "LAG_RATE", "LAG_CUTOFF_FACTOR", "LAG_BOOTSTRAP", "LAG_WORKERS", "lag_records",
+           "joint_lag", "joint_lags", "velocity_noise"]
 
 #: Rate (Hz) at which the output-error record samples the log (every k-th sample; a slower log is taken as is).
 LAG_RATE = 1000.0
@@ -57,6 +62,37 @@ LAG_RATE = 1000.0
 LAG_CUTOFF_FACTOR = 5.0
 #: Default bootstrap refits of the output-error fit behind the lag's interval.
 LAG_BOOTSTRAP = 10
+#: Default worker processes the joints' lag fits run in (the fits are independent; the result does not depend on it).
+LAG_WORKERS = 2
+
+
+@dataclass(frozen=True)
+class LagOptions:
+    """How :func:`adaptive_ff.arm.fit.identify_arm` fits each joint's friction lag (validated on construction).
+
+    Attributes
+    ----------
+    n_bootstrap : int
+        Refits of each joint's output-error bootstrap (``bootstrap_refit="partial"``), >= 2; default
+        :data:`LAG_BOOTSTRAP` (``identify-arm --lag-bootstrap``).
+    workers : int
+        Processes the joints' fits run in, >= 1; default :data:`LAG_WORKERS` (``identify-arm --workers``). 1: one
+        after the other in this process. Each joint's fit has its own seed, so the result does not depend on it.
+
+    Raises
+    ------
+    ParameterError
+        ``n_bootstrap`` not an integer >= 2 or ``workers`` not an integer >= 1 (the field named).
+    """
+
+    n_bootstrap: int = LAG_BOOTSTRAP
+    workers: int = LAG_WORKERS
+
+    def __post_init__(self):
+        for name, least in (("n_bootstrap", 2), ("workers", 1)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < least:
+                raise ParameterError(f"LagOptions.{name} must be an integer >= {least}, got {v!r}")
 
 
 @dataclass(frozen=True)
@@ -73,7 +109,7 @@ class JointLag:
         Why ``tau`` is NaN (None where it is reported).
     info : dict
         ``samples``, ``rate`` (Hz), ``n_simulations``, ``predictor``, ``estimate`` (the fit's ``tau`` even where it
-        is not reported).
+        is not reported), ``Vs`` and ``delta`` (the Stribeck shape held in the fit; NaN where it fitted them).
     """
 
     tau: float
@@ -173,7 +209,7 @@ def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTST
     lo, hi = (fit.info.get("interval95") or {}).get("tau", (math.nan, math.nan))
     info = {"samples": int(t.shape[0]), "rate": float(1.0 / np.median(np.diff(t))),
             "n_simulations": int(fit.info.get("n_simulations", 0)), "predictor": fit.info.get("predictor"),
-            "estimate": est}
+            "estimate": est, "Vs": float(Vs), "delta": float(delta)}
     if not (lo is not None and hi is not None and math.isfinite(lo) and math.isfinite(hi)):
         return JointLag(math.nan, (math.nan, math.nan), "the output-error fit gives no finite interval for it", info)
     if lo <= 0.0:
@@ -182,3 +218,62 @@ def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTST
                         "reaches zero (more velocity reversals, or a lag longer than the sample time, determine "
                         "it)", info)
     return JointLag(est, (float(lo), float(hi)), None, info)
+
+
+def _worker_init() -> None:
+    """A lag worker's BLAS on one thread (the fits' products are small; the workers share the cores)."""
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=1, user_api="blas")
+
+
+def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int = 0, progress=False) -> list:
+    """Every joint's :func:`joint_lag`, in ``options.workers`` processes (joint ``j`` seeded ``seed + j``).
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Time (s) of :func:`lag_records`.
+    u, w : ndarray, shape (n, N)
+        Removed torques (N·m) and velocities (rad/s) of :func:`lag_records`.
+    shapes : sequence of (float, float)
+        Each joint's ``(Vs, delta)`` held in its fit (rad/s, -); NaN: fitted by the output-error fit.
+    options : LagOptions, keyword-only
+        Bootstrap refits and worker processes.
+    seed : int, keyword-only
+        Joint ``j``'s bootstrap takes ``seed + j``.
+    progress : bool or None, keyword-only
+        A tqdm bar over the joints on stderr: True, False (default), None (only on a terminal).
+
+    Returns
+    -------
+    list of JointLag
+        One per joint, in the joints' order; the same whatever ``options.workers``.
+    """
+    from tqdm.auto import tqdm
+
+    n = u.shape[1]
+    jobs = [((t, u[:, j], w[:, j], float(shapes[j][0]), float(shapes[j][1])),
+             {"n_bootstrap": int(options.n_bootstrap), "seed": int(seed) + j}) for j in range(n)]
+    bar = tqdm(total=n, desc="arm friction lag", unit="joint", leave=False,
+               disable=(None if progress is None else not progress))
+    out = [None] * n
+    with bar:
+        if options.workers == 1 or n == 1:
+            for j, (a, k) in enumerate(jobs):
+                out[j] = joint_lag(*a, **k)
+                bar.update()
+            return out
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        # fork where the platform has it: a spawned worker re-runs the caller's main script (one without a
+        # __main__ guard, or a script read from stdin, would break it)
+        method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+        with ProcessPoolExecutor(max_workers=min(int(options.workers), n), initializer=_worker_init,
+                                 mp_context=multiprocessing.get_context(method)) as pool:
+            futures = {pool.submit(joint_lag, *a, **k): j for j, (a, k) in enumerate(jobs)}
+            for f in as_completed(futures):
+                out[futures[f]] = f.result()
+                bar.update()
+    return out

@@ -18,7 +18,8 @@ from plant.errors import ParameterError
 from adaptive_ff.arm.arm_log import ArmLog
 from adaptive_ff.arm.robot import ArmModel, require_pinocchio
 
-__all__ = ["ArmPlant", "JointFriction", "SensorNoise", "arm_reference", "load_arm_plant", "simulate_arm",
+__all__ = ["ArmPlant", "ArmSimulation", "JointFriction", "SensorNoise", "arm_reference", "load_arm_plant",
+           "simulate_arm",
            "friction_torque"]
 
 
@@ -59,6 +60,46 @@ class SensorNoise:
     q: float = 1e-5
     dq: float = 2e-3
     tau: float = 0.1
+
+
+@dataclass(frozen=True)
+class ArmSimulation:
+    """The settings of one simulated run of the arm (:func:`simulate_arm`): its length, the controller and log
+    period, the amplitude of each joint's reference and the integration steps per period (validated on construction).
+
+    Attributes
+    ----------
+    duration : float
+        Length (s), > 0; default 20.
+    dt : float
+        Controller and log sample time (s), > 0; default 1e-3.
+    amplitude : float
+        Position amplitude (rad) of each joint's multisine reference (:func:`arm_reference`), summed over its
+        5 sines, > 0; default 0.8.
+    substeps : int
+        Runge-Kutta steps per controller period, >= 1; default 2.
+
+    Raises
+    ------
+    ParameterError
+        A value out of range (the field named).
+    """
+
+    duration: float = 20.0
+    dt: float = 1e-3
+    amplitude: float = 0.8
+    substeps: int = 2
+
+    def __post_init__(self):
+        import math
+
+        for name in ("duration", "dt", "amplitude"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) \
+                    or not (math.isfinite(v) and v > 0):
+                raise ParameterError(f"ArmSimulation.{name} must be a finite number > 0, got {v!r}")
+        if isinstance(self.substeps, bool) or not isinstance(self.substeps, (int, np.integer)) or self.substeps < 1:
+            raise ParameterError(f"ArmSimulation.substeps must be an integer >= 1, got {self.substeps!r}")
 
 
 def friction_torque(w, fr) -> np.ndarray:
@@ -211,9 +252,8 @@ class ArmPlant:
         self.q, self.dq, self.f = q, dq, fz
 
 
-def simulate_arm(arm: ArmModel, friction, *, duration: float = 20.0, dt: float = 1e-3, seed: int = 0,
-                 noise: SensorNoise | None = None, amplitude: float = 0.8, substeps: int = 2,
-                 armature=None) -> ArmLog:
+def simulate_arm(arm: ArmModel, friction, *, run: ArmSimulation = ArmSimulation(), seed: int = 0,
+                 noise: SensorNoise | None = None, armature=None) -> ArmLog:
     """Simulate ``arm`` with ``friction`` in a velocity PI loop per joint and return its noisy log.
 
     Parameters
@@ -222,16 +262,13 @@ def simulate_arm(arm: ArmModel, friction, *, duration: float = 20.0, dt: float =
         The rigid body (:func:`adaptive_ff.arm.robot.load_urdf`); its URDF inertias are the truth.
     friction : sequence of JointFriction
         One per joint, in the URDF's order.
-    duration, dt : float, keyword-only
-        Length (s) and controller/log sample time (s).
+    run : ArmSimulation, keyword-only
+        Length (s), controller/log sample time (s), reference amplitude (rad) and Runge-Kutta steps per period
+        (default :class:`ArmSimulation`'s values).
     seed : int, keyword-only
         Seeds the reference phases and the sensor noise.
     noise : SensorNoise, keyword-only
         Sensor noise (default :class:`SensorNoise`'s values).
-    amplitude : float, keyword-only
-        Position amplitude (rad) of each joint's multisine reference, summed over its 5 sines.
-    substeps : int, keyword-only
-        Runge-Kutta steps per controller period.
     armature : array_like, shape (N,), keyword-only
         Rotor inertias reflected to the joints (kg·m², Pinocchio's ``model.armature``); default zero (the URDF's).
 
@@ -259,7 +296,8 @@ def simulate_arm(arm: ArmModel, friction, *, duration: float = 20.0, dt: float =
     fr = plant.friction
     noise = SensorNoise() if noise is None else noise
     rng = np.random.default_rng(seed)
-    t, w_ref = arm_reference(arm.n, duration, dt, rng, amplitude)
+    dt = run.dt
+    t, w_ref = arm_reference(arm.n, run.duration, dt, rng, run.amplitude)
     M0 = np.diag(pin.crba(plant.model, plant.data, np.zeros(arm.n)))
     Kp = 2 * np.pi * 10.0 * M0
     Ki = 2 * np.pi * 2.0 * Kp
@@ -270,7 +308,7 @@ def simulate_arm(arm: ArmModel, friction, *, duration: float = 20.0, dt: float =
         e = w_ref[k] - DQ[k]
         integ += e * dt
         U[k] = Kp * e + Ki * integ
-        plant.step(U[k], dt, substeps)
+        plant.step(U[k], dt, run.substeps)
     arm.check_positions(Q, "simulate_arm")
     offset = np.array([f.offset for f in fr])
     n_shape = Q.shape

@@ -14,7 +14,9 @@ Each joint of the arm gets what identify-arm --json gives you for it: the PI tha
 --joint NAME' designs (on the joint's identified J and sigma at --crossover, --phase-margin) and, per mode,
 the package's compensator: fixed the identified static map (no lag), adaptive the compensator 'export-c --from
 ARM.json' writes for the joint (the adaptive feedforward, the residual observer it switches in, the
-supervisor), adaptive-ff that feedforward alone (export-c --feedforward-only). The simulated arm (--plant):
+supervisor), adaptive-ff that feedforward alone (export-c --feedforward-only), dob and canudas compare's peers
+(the disturbance observer, the Canudas de Wit compensator) on the joint's identified J. --encoder-counts and
+--delay give every joint's sensor an encoder and a measurement delay (compare's [sensor] models). The simulated arm (--plant):
 the URDF's rigid body (Pinocchio's articulated-body algorithm) with the file's armatures and a lagged Stribeck
 friction per joint; nothing of it reaches a design or a compensator. Each joint follows its own multisine
 velocity reference; the other joints' rigid-body torques (inertia coupling, Coriolis, gravity) are
@@ -41,7 +43,7 @@ def run(args) -> int:
     options = CompareArmOptions(duration=args.duration, seed=args.seed, modes=_modes(args.modes),
                                 crossover=args.crossover, phase_margin=args.phase_margin, Ts=args.Ts,
                                 u_max=_limits(args.u_max), noise_std=args.noise, amplitude=args.amplitude,
-                                start=args.start)
+                                start=args.start, encoder_counts=args.encoder_counts, delay=args.delay)
     arm = load_urdf(args.urdf)
     plant = load_arm_plant(args.plant, arm)
     result = compare_arm(plant, args.from_file, options, progress=None if not args.quiet else False)
@@ -88,7 +90,7 @@ def register(sub) -> None:
     """Add the ``compare-arm`` subcommand to an argparse subparsers object."""
     import argparse
 
-    from controllers.cli.data import seed_type
+    from controllers.cli.data import nonnegative_int, positive_int, seed_type
 
     c = sub.add_parser("compare-arm", help="every joint of a simulated arm in its velocity loop: eta per joint",
                        epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -109,8 +111,9 @@ def register(sub) -> None:
     c.add_argument("--duration", type=float, default=20.0, metavar="S", help="length of each run (default 20 s)")
     c.add_argument("--seed", type=seed_type, default=0, help="seed of the references and the noise (default 0)")
     c.add_argument("--modes", default=None, metavar="LIST",
-                   help="comma-separated subset of none, fixed, adaptive, adaptive-ff, frictionless (default: all "
-                        "but adaptive-ff; none and frictionless always run)")
+                   help="comma-separated subset of none, fixed, adaptive, adaptive-ff, dob, canudas, frictionless "
+                        "(default: none, fixed, adaptive, frictionless; none and frictionless always run); dob and "
+                        "canudas are compare's peers of those names, per joint on its identified J")
     c.add_argument("--crossover", type=float, default=20.0, metavar="RAD_S",
                    help="each joint's PI crossover (default 20 rad/s)")
     c.add_argument("--phase-margin", dest="phase_margin", type=float, default=60.0, metavar="DEG",
@@ -120,6 +123,13 @@ def register(sub) -> None:
     c.add_argument("--noise", type=float, default=1e-3, metavar="RAD_S",
                    help="velocity measurement noise per joint (default 0.001 rad/s); the stick band where an "
                         "entry has no noise estimate is three times it")
+    c.add_argument("--encoder-counts", dest="encoder_counts", type=positive_int, default=None, metavar="N",
+                   help="each joint measures with an encoder of N counts per joint revolution (quantised position, "
+                        "backward-difference velocity, plus --noise), as compare's [sensor] encoder_counts "
+                        "(default: a velocity sensor)")
+    c.add_argument("--delay", type=nonnegative_int, default=0, metavar="PERIODS",
+                   help="measurement delay of every joint's sensor in controller periods (default 0), as compare's "
+                        "[sensor] delay")
     c.add_argument("--amplitude", type=float, default=0.5, metavar="RAD",
                    help="position amplitude of each joint's multisine reference (default 0.5 rad)")
     c.add_argument("--start", action="store_true",

@@ -34,6 +34,7 @@ def run(args) -> int:
     """Execute ``adaptive-ff identify-arm`` with parsed ``args``; return the exit status."""
     from adaptive_ff.arm.arm_log import read_arm_log
     from adaptive_ff.arm.fit import identify_arm
+    from adaptive_ff.arm.lag import LagOptions
     from adaptive_ff.arm.robot import load_urdf
     from controllers.cli.data import check_output_dir, named_by, progress_from_args, write_plot
 
@@ -50,8 +51,9 @@ def run(args) -> int:
         log = gear.to_joint(log)
     with named_by(args.file):
         result = identify_arm(log, arm, cutoff=args.cutoff, n_bootstrap=args.bootstrap, seed=args.seed,
-                              rigid_body=args.rigid_body, progress=progress_from_args(args), lag=not args.no_lag,
-                              lag_bootstrap=args.lag_bootstrap)
+                              rigid_body=args.rigid_body, progress=progress_from_args(args),
+                              lag=False if args.no_lag else LagOptions(n_bootstrap=args.lag_bootstrap,
+                                                                       workers=args.workers))
     if gear is not None:
         result = gear.with_coupling_warnings(result)
     out = write_plot(result.to_dict(), args.plot, "arm_friction.png", lambda: result.plot()[0].figure)
@@ -68,7 +70,7 @@ def register(sub) -> None:
     """Add the ``identify-arm`` subcommand to an argparse subparsers object."""
     import argparse
 
-    from controllers.cli.data import nonnegative_int, seed_type
+    from controllers.cli.data import nonnegative_int, positive_int, seed_type
 
     def at_least_2(text):
         n = nonnegative_int(text)
@@ -103,6 +105,8 @@ def register(sub) -> None:
                    help="skip the friction lag (tau null): its output-error fits are most of the run's CPU time")
     i.add_argument("--lag-bootstrap", dest="lag_bootstrap", type=at_least_2, default=10, metavar="N",
                    help="refits of each joint's lag bootstrap (default 10, >= 2)")
+    i.add_argument("--workers", type=positive_int, default=2, metavar="N",
+                   help="processes the joints' lag fits run in (default 2; the result does not depend on it)")
     i.add_argument("--json", action="store_true", help="print the result as JSON")
     i.add_argument("--plot", metavar="DIR", default=None, help="write the per-joint friction figure into DIR")
     i.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -4,20 +4,27 @@
 articulated-body algorithm, a lagged Stribeck friction per joint) in its own velocity loop, each joint following its
 own velocity reference, in the modes ``none``, ``fixed``, ``adaptive`` and ``frictionless``, and reports eta per
 joint (:func:`controllers.experiments.comparison.eta`, second-half RMS errors against ``none`` and
-``frictionless``).
+``frictionless``); on request also the peers ``dob`` and ``canudas`` per joint, as ``compare`` runs them on one
+joint, and a sensor with an encoder and/or a measurement delay (:class:`controllers.simulation.sensor_drive.Sensor`,
+the one-joint engine's).
 
 What each joint's loop has is what a user has from ``identify-arm --json``: the joint's entry (its identified
 diagonal inertia ``J``, ``sigma``, ``Fc``, ``Fs``, ``Vs``, ``delta``), never the simulated arm's values. Its PI is
 the one ``design --from ARM.json --joint NAME`` designs; its ``adaptive`` compensator is the one
 ``export-c --from ARM.json`` writes for the joint (:func:`controllers.experiments.compensator_file.compensator_from_file`: the
 C struct ``aff_adaptive`` a drive runs, stepped here through its ops table); its ``fixed`` compensator the
-identified static map (eq. 3, no lag: ``identify-arm`` identifies none) as
-:class:`adaptive_ff.FrictionFeedforward` with the same settings. The rigid-body torques of the other joints
+identified static map (eq. 3, no lag) as
+:class:`adaptive_ff.FrictionFeedforward` with the same settings; the peers' the ones ``compare``'s modes of the same
+names build (:func:`controllers.simulation.compensators.build_mode`) from those settings: ``dob`` the disturbance
+observer on the identified ``J`` (Q-filter cut-off ``LoopConfig.observer.omega_q``), ``canudas`` the adaptive Coulomb and
+viscous compensator of Canudas de Wit et al. at the reference velocity (``compare``'s ``canudas_input``
+default). The rigid-body torques of the other joints
 (inertia coupling, Coriolis, gravity) are disturbances to each joint's loop: no model-based rigid-body
 feedforward runs, as on a drive that has none; the PI's integral takes up gravity.
 
 Per controller period, joint by joint, the order of the one-joint engine (:mod:`controllers.simulation.engine`):
-the sensor sample ``w + noise``, the sensor gate (:class:`adaptive_ff.OutlierGate`), the compensator's
+the sensor sample (``w + noise``; with an encoder the quantised position's backward difference plus the noise,
+with a delay the sample of ``delay`` periods before: C ``ctl_sensor_measure``), the sensor gate (:class:`adaptive_ff.OutlierGate`), the compensator's
 ``compensate`` (and its supervisor's bumpless transfer into the PI's integrator), the PI
 (:class:`controllers.PIController`, saturated at the drive's limit), the compensator's ``observe``; then the arm
 advances one period with every joint's torque held (:meth:`adaptive_ff.arm.simulate.ArmPlant.step`). The
@@ -40,6 +47,7 @@ from controllers.design.pi import PIController, PITuning
 from controllers.experiments.comparison import eta_or_none, options_with_changes
 from controllers.simulation.compensators import build_mode, own_supervisor
 from controllers.simulation.metrics import LoopMetrics, loop_metrics, reversal_times
+from controllers.simulation.sensor_drive import DELAY_MAX, Sensor
 from plant.errors import ParameterError, check_nonnegative, check_positive
 
 __all__ = ["ARM_MODES", "DEFAULT_MODES", "ETA_NOTE", "CompareArmOptions", "ArmComparison", "ArmRun",
@@ -48,8 +56,8 @@ __all__ = ["ARM_MODES", "DEFAULT_MODES", "ETA_NOTE", "CompareArmOptions", "ArmCo
 #: The modes of :func:`compare_arm`, in table order (``none`` and ``frictionless`` always run: eta needs them):
 #: ``adaptive-ff`` is mode ``adaptive``'s feedforward alone (``export-c --feedforward-only``: no residual observer,
 #: no supervisor), which shows what the adaptive friction model itself does beside the observer that also takes up
-#: part of the rigid-body coupling.
-ARM_MODES = ("none", "fixed", "adaptive", "adaptive-ff", "frictionless")
+#: part of the rigid-body coupling; ``dob`` and ``canudas`` are ``compare``'s peers of those names, per joint.
+ARM_MODES = ("none", "fixed", "adaptive", "adaptive-ff", "dob", "canudas", "frictionless")
 #: eta above this is noted in the summary (the loop beats the frictionless arm by more than noise).
 ETA_NOTE = 1.01
 #: The modes run by default.
@@ -91,6 +99,14 @@ class CompareArmOptions:
         Start the adaptive modes' feedforward from the identified map with its lag (``export-c --start``) on every
         joint whose entry has a ``tau`` (the others wait, as without it; ``JointLoopDesign.settings["start"]`` says
         which), default False: off until the estimator's first trusted estimate.
+    encoder_counts : int or None
+        Each joint's loop measures with an encoder of this many counts per joint revolution (quantised position,
+        velocity by backward difference, plus ``noise_std``), as ``compare``'s ``[sensor] encoder_counts``;
+        default None: a velocity sensor, ``w + noise``.
+    delay : int
+        Measurement delay of every joint's sensor (periods, 0 to
+        :data:`controllers.simulation.sensor_drive.DELAY_MAX`), as ``compare``'s ``[sensor] delay``; default 0.
+        The compensators are the exported ones either way (nothing of the sensor reaches them but its samples).
 
     Raises
     ------
@@ -112,6 +128,8 @@ class CompareArmOptions:
     reversal_window: float = 0.2
     decimate: int = 10
     start: bool = False
+    encoder_counts: int | None = None
+    delay: int = 0
 
     def __post_init__(self):
         for name in ("duration", "crossover", "phase_margin", "Tc", "Ts", "amplitude"):
@@ -123,6 +141,13 @@ class CompareArmOptions:
             low = 0 if name == "seed" else 1
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < low:
                 raise ParameterError(f"{name} must be an integer >= {low}, got {v!r}")
+        if self.encoder_counts is not None and (isinstance(self.encoder_counts, bool) or not isinstance(
+                self.encoder_counts, (int, np.integer)) or self.encoder_counts < 1):
+            raise ParameterError(f"encoder_counts must be an integer >= 1 (counts per joint revolution) or None, got "
+                                 f"{self.encoder_counts!r}")
+        if isinstance(self.delay, bool) or not isinstance(self.delay, (int, np.integer)) or \
+                not 0 <= self.delay <= DELAY_MAX:
+            raise ParameterError(f"delay must be an integer number of periods in 0..{DELAY_MAX}, got {self.delay!r}")
         ratio = self.Ts / self.Tc
         if abs(ratio - round(ratio)) > 1e-9 * ratio:
             raise ParameterError(f"Ts = {self.Ts!r} s must be a multiple of Tc = {self.Tc!r} s")
@@ -281,6 +306,8 @@ class _JointLoop:
                                                  feedforward_only=mode == "adaptive-ff", **design.settings)
         elif mode == "fixed":
             _, _, self.comp = build_mode(None, "fixed", o.replace(estimate=design.estimate))
+        elif mode in ("dob", "canudas"):  # compare's peers, on the joint's identified J and the same settings
+            _, _, self.comp = build_mode(None, mode, o.replace(ff_input="reference") if mode == "canudas" else o)
         if self.comp is not None:
             # cffi reads a const table as a value: a copy, as the engine makes (EngineRun.set_compensator)
             self.ops = ffi.new("aff_compensator_ops *", getattr(lib, self.comp.C_OPS))
@@ -340,6 +367,7 @@ def _run_mode(plant: ArmPlant, designs, mode: str, identification, t, w_ref, noi
     run_plant = ArmPlant(arm, None if mode == "frictionless" else plant.friction, armature=plant.armature)
     run_plant.set_state(np.zeros(arm.n), w_ref[0])
     loops = [_JointLoop(d, mode, identification, w_ref[0, j], o.Tc) for j, d in enumerate(designs)]
+    sensors = [Sensor(Tc=o.Tc, counts_per_rev=o.encoder_counts, delay=int(o.delay)) for _ in designs]
     n, N = w_ref.shape
     W, U, UFF = (np.full((n, N), math.nan) for _ in range(3))
     w_limit = 100.0 * np.max(np.abs(w_ref), axis=0) + 1.0
@@ -349,7 +377,8 @@ def _run_mode(plant: ArmPlant, designs, mode: str, identification, t, w_ref, noi
         w = run_plant.dq
         W[k] = w
         for j, loop in enumerate(loops):
-            U[k, j], UFF[k, j] = loop.period(float(w[j] + noise[k, j]), float(w_ref[k, j]))
+            U[k, j], UFF[k, j] = loop.period(sensors[j].measure(float(w[j]), float(noise[k, j])),
+                                             float(w_ref[k, j]))
         run_plant.step(U[k], o.Tc, o.substeps)
         q, dq = run_plant.q, run_plant.dq
         if not (np.all(np.abs(dq) < w_limit) and np.all(q > lo) and np.all(q < hi)):
@@ -423,8 +452,8 @@ class ArmComparison:
     def to_dict(self) -> dict:
         """Strict JSON: ``{"joints", "modes", "eta": {mode: {joint: x}}, "rms_second_half": {mode: {joint: rad/s}},
         "max_second_half", "u_rms", "diverged": {mode: bool}, "pi": [{"name", "J_design", "Kp", "Ki", "u_max"}],
-        "info": {"duration", "seed", "Tc", "Ts", "noise_std", "amplitude", "crossover", "phase_margin"}}`` (NaN as
-        null)."""
+        "info": {"duration", "seed", "Tc", "Ts", "noise_std", "start", "encoder_counts", "delay", "amplitude",
+        "crossover", "phase_margin"}}`` (NaN as null)."""
         o = self.options
         per = {k: {mode: {n: _json_number(getattr(m, k)) for n, m in zip(self.joints, r.metrics)}
                    for mode, r in self.runs.items()} for k in ("rms_second_half", "max_second_half", "u_rms")}
@@ -433,7 +462,7 @@ class ArmComparison:
                 **per, "diverged": {mode: bool(r.diverged) for mode, r in self.runs.items()},
                 "pi": [d.to_dict() for d in self.designs],
                 "info": {"duration": o.duration, "seed": int(o.seed), "Tc": o.Tc, "Ts": o.Ts, "noise_std": o.noise_std,
-                         "start": bool(o.start),
+                         "start": bool(o.start), "encoder_counts": o.encoder_counts, "delay": int(o.delay),
                          "amplitude": o.amplitude, "crossover": o.crossover, "phase_margin": o.phase_margin}}
 
     def summary(self) -> str:

@@ -16,7 +16,7 @@ pin = pytest.importorskip("pinocchio", reason="the [arm] extra is not installed:
 from adaptive_ff.arm.arm_log import read_arm_log, write_arm_log  # noqa: E402
 from adaptive_ff.arm.fit import identify_arm  # noqa: E402
 from adaptive_ff.arm.robot import load_urdf  # noqa: E402
-from adaptive_ff.arm.simulate import JointFriction, simulate_arm  # noqa: E402
+from adaptive_ff.arm.simulate import ArmSimulation, JointFriction, simulate_arm  # noqa: E402
 from controllers.cli.main import main  # noqa: E402
 from plant.errors import ParameterError, SignalError  # noqa: E402
 
@@ -47,7 +47,7 @@ def arm():
 
 @pytest.fixture(scope="module")
 def log(arm):
-    return simulate_arm(arm, FRICTION, duration=20.0, seed=1, substeps=1, armature=ARMATURE)
+    return simulate_arm(arm, FRICTION, run=ArmSimulation(duration=20.0, substeps=1), seed=1, armature=ARMATURE)
 
 
 @pytest.fixture(scope="module")
@@ -111,7 +111,8 @@ def test_interval_coverage_over_seeds(arm):
     (0-5); at least 9 of 12 here."""
     hits = {"Fc": 0, "sigma": 0}
     for seed in (2, 3, 4, 5):
-        res = identify_arm(simulate_arm(arm, FRICTION, duration=20.0, seed=seed, substeps=1, armature=ARMATURE),
+        res = identify_arm(simulate_arm(arm, FRICTION, run=ArmSimulation(duration=20.0, substeps=1), seed=seed,
+                                        armature=ARMATURE),
                            arm, seed=seed, n_bootstrap=100, lag=False)
         for joint, f in zip(res.joints, FRICTION):
             for k in hits:
@@ -320,3 +321,19 @@ def test_design_from_an_arm_joint(log_csv, tmp_path, capsys):
     assert "arm.json" in err and "'knee'" in err and "'elbow'" in err and "Traceback" not in err
     assert main(["design", "--joint", "elbow", *common]) == 2
     assert "--from ARM.json" in capsys.readouterr().err
+
+
+def test_parallel_filter_is_the_torques_filter():
+    """The friction columns' filter (parallel_filter) is the one the torque goes through in filtered_states: the
+    same rows, bit for bit, on a seeded random log; a constant passes unchanged (to the Butterworth design's DC gain, 1 - 8e-13, applied twice)."""
+    from adaptive_ff.arm.arm_log import ArmLog, filtered_states, parallel_filter
+
+    rng = np.random.default_rng(3)
+    t = np.arange(4000) * 1e-3
+    q = np.column_stack([np.sin(2 * np.pi * 0.5 * t), np.cos(2 * np.pi * 0.3 * t)])
+    log = ArmLog(t=t, q=q, tau=rng.standard_normal((4000, 2)), dq=None, source="synthetic")
+    pf = parallel_filter(log, 20.0)
+    tt, _, _, _, tau = filtered_states(log, 20.0)
+    assert np.array_equal(pf(log.tau), tau) and np.array_equal(t[pf.keep], tt)
+    assert pf.keep == slice(50, 3950, 10)  # one cutoff period cut at both ends, decimated to 5 x 20 Hz
+    np.testing.assert_allclose(pf(np.ones(4000)), 1.0, rtol=0, atol=1e-11)  # the design's DC gain: 1 - 8e-13

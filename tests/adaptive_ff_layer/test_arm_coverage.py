@@ -44,11 +44,12 @@ def test_wilson_interval_against_its_closed_form():
 
 @pytest.mark.slow
 def test_coverage_on_three_arms():
-    """Seeds 0-2 with 50 bootstrap refits (9 joints, 33 base parameters), measured inside: J 5, Fc 8, Fs 6, sigma 8,
-    offset 9 of 9, Vs 6 of 9 (every joint has a Vs interval: the profile's accepted range, also where the Stribeck
-    term is dropped), base 30 of 33. Below the nominal 95 % for J, Fs and Vs (the benchmark's 50 arms: J 0.75, Fc
-    0.89, Fs 0.65, sigma 0.90, offset 0.94, Vs 0.61, base 0.88; docs/your_arm.md); the bounds are one below the
-    measured counts, so a change that narrows the intervals further fails."""
+    """Seeds 0-2 with 50 bootstrap refits (9 joints, 33 base parameters), measured inside before the Vs range reached
+    the grid's next values (and Fs its estimates there): J 5, Fc 8, Fs 6, sigma 8, offset 9 of 9, Vs 6 of 9 (every
+    joint has a Vs interval, also where the Stribeck term is dropped), base 30 of 33. Below the nominal 95 % for J,
+    Fs and Vs (the benchmark's 10 arms: J 0.67, Fc 0.90, Fs 0.70, sigma 0.90, offset 0.97, Vs 0.70, base 0.90;
+    docs/your_arm.md); the bounds are one below those counts, so a change that narrows the intervals further
+    fails."""
     arm = load_urdf(arm_coverage.URDF)
     total = {}
     for seed in (0, 1, 2):

@@ -17,7 +17,7 @@ pytest.importorskip("pinocchio", reason="the [arm] extra is not installed: pip i
 from adaptive_ff.arm.fit import identify_arm  # noqa: E402
 from adaptive_ff.arm.lag import joint_lag  # noqa: E402
 from adaptive_ff.arm.robot import load_urdf  # noqa: E402
-from adaptive_ff.arm.simulate import JointFriction, SensorNoise, simulate_arm  # noqa: E402
+from adaptive_ff.arm.simulate import ArmSimulation, JointFriction, SensorNoise, simulate_arm  # noqa: E402
 from controllers.cli.main import main  # noqa: E402
 
 pytestmark = pytest.mark.slow  # output-error fits of three joints
@@ -38,7 +38,7 @@ def arm():
 
 @pytest.fixture(scope="module")
 def log(arm):
-    return simulate_arm(arm, FRICTION, duration=10.0, seed=1, substeps=1, armature=ARMATURE)
+    return simulate_arm(arm, FRICTION, run=ArmSimulation(duration=10.0, substeps=1), seed=1, armature=ARMATURE)
 
 
 @pytest.fixture(scope="module")
@@ -120,12 +120,33 @@ def test_no_reversal_gives_no_lag_and_says_why():
     assert "failed" in lag.reason and "no reversals" in lag.reason
 
 
-def test_lag_bootstrap_is_checked(arm):
+def test_lag_options_are_checked(arm):
+    from adaptive_ff.arm.lag import LagOptions
     from plant.errors import ParameterError
 
-    log = simulate_arm(arm, FRICTION, duration=2.0, seed=3, substeps=1, armature=ARMATURE)
-    with pytest.raises(ParameterError, match="lag_bootstrap"):
-        identify_arm(log, arm, lag_bootstrap=1)
+    with pytest.raises(ParameterError, match="LagOptions.n_bootstrap must be an integer >= 2, got 1"):
+        LagOptions(n_bootstrap=1)
+    with pytest.raises(ParameterError, match="LagOptions.workers must be an integer >= 1, got 0"):
+        LagOptions(workers=0)
+    log = simulate_arm(arm, FRICTION, run=ArmSimulation(duration=2.0, substeps=1), seed=3, armature=ARMATURE)
+    with pytest.raises(ParameterError, match="lag must be True, False or a LagOptions, got 3"):
+        identify_arm(log, arm, lag=3)
+
+
+def test_lag_workers_do_not_change_the_result(log):
+    """The joints' lag fits in two worker processes give what they give one after the other in this process, bit
+    for bit (each joint's bootstrap has its own seed)."""
+    from adaptive_ff.arm.lag import LagOptions, joint_lags
+
+    t = log.t[1000:4000]
+    u, w = log.tau[1000:4000], log.dq[1000:4000]
+    shapes = [(f.Vs, f.delta) for f in FRICTION]
+    serial = joint_lags(t, u, w, shapes, options=LagOptions(n_bootstrap=2, workers=1), seed=5)
+    parallel = joint_lags(t, u, w, shapes, options=LagOptions(n_bootstrap=2, workers=2), seed=5)
+    assert [x.info for x in serial] == [x.info for x in parallel]
+    for a, b in zip(serial, parallel):
+        assert (a.reason, a.tau, a.interval95) == (b.reason, b.tau, b.interval95) or (
+            np.isnan(a.tau) and np.isnan(b.tau) and a.reason == b.reason)
 
 
 def test_compare_arm_designs_take_the_noise_and_start_per_joint(arm, result, arm_json, tmp_path):

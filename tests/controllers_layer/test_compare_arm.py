@@ -14,7 +14,7 @@ pytest.importorskip("pinocchio")
 
 from adaptive_ff.arm.fit import identify_arm  # noqa: E402
 from adaptive_ff.arm.robot import load_urdf  # noqa: E402
-from adaptive_ff.arm.simulate import ArmPlant, JointFriction, arm_reference, simulate_arm  # noqa: E402
+from adaptive_ff.arm.simulate import ArmPlant, ArmSimulation, JointFriction, arm_reference, simulate_arm  # noqa: E402
 from controllers.cli.main import main  # noqa: E402
 from controllers.experiments.comparison import eta  # noqa: E402
 from controllers.experiments.compare_arm import CompareArmOptions, compare_arm  # noqa: E402
@@ -52,7 +52,7 @@ ONE_J = 0.05 + 2.0 * 0.3 ** 2 + ONE_ARMATURE  # the joint's inertia about its ax
 def _identified(urdf, friction, armature, path, *, duration=12.0):
     """identify-arm's JSON of a simulated log of the arm, written to ``path``."""
     arm = load_urdf(urdf)
-    log = simulate_arm(arm, friction, duration=duration, seed=1, substeps=1, armature=armature)
+    log = simulate_arm(arm, friction, run=ArmSimulation(duration=duration, substeps=1), seed=1, armature=armature)
     path.write_text(json.dumps(identify_arm(log, arm, n_bootstrap=5, lag=False).to_dict()))
     return arm
 
@@ -86,12 +86,16 @@ def test_arm_plant_inertia_of_one_vertical_joint(one_joint):
     assert p.mass_matrix()[0, 0] == pytest.approx(ONE_J, rel=1e-12)
 
 
-@pytest.mark.parametrize("mode", ["none", "fixed", "adaptive", "frictionless"])
-def test_one_joint_arm_matches_the_one_joint_engine(one_joint, mode):
+@pytest.mark.parametrize("mode, sensor", [("none", {}), ("fixed", {}), ("adaptive", {}), ("dob", {}),
+                                          ("canudas", {}), ("frictionless", {}),
+                                          ("fixed", {"delay": 3}), ("dob", {"encoder_counts": 2**14, "delay": 2})])
+def test_one_joint_arm_matches_the_one_joint_engine(one_joint, mode, sensor):
     """Without coupling (one joint about the vertical axis) the arm's loop is the one-joint engine's: the same gate,
-    PI and compensator (the same C code, the same settings) on the same plant step, reference and noise."""
+    PI and compensator (the same C code, the same settings; compare's peers dob and canudas as compare builds them,
+    canudas at the reference velocity) on the same plant step, reference, noise and sensor (an encoder, a
+    measurement delay)."""
     arm, path = one_joint
-    o = CompareArmOptions(duration=4.0, seed=5, modes=(mode,), decimate=1, u_max=30.0)
+    o = CompareArmOptions(duration=4.0, seed=5, modes=(mode,), decimate=1, u_max=30.0, **sensor)
     res = compare_arm(ArmPlant(arm, [ONE_FRICTION], armature=[ONE_ARMATURE]), path, o)
     d = res.designs[0]
     t, w = arm_reference(1, o.duration, o.Tc, np.random.default_rng(o.seed), o.amplitude)
@@ -103,7 +107,9 @@ def test_one_joint_arm_matches_the_one_joint_engine(one_joint, mode):
         from controllers.experiments.compensator_file import compensator_from_file
 
         mode_options = compensator_from_file(path, arm_joint="turn", **d.settings)[1]["options"]
-    one = run_mode(joint, ref, mode, mode_options.replace(noise_std=o.noise_std),
+    if mode == "canudas":
+        mode_options = mode_options.replace(ff_input="reference")
+    one = run_mode(joint, ref, mode, mode_options.replace(noise_std=o.noise_std, **sensor),
                    rng=np.random.default_rng([o.seed, 1]))
     w_arm = res.runs[mode].w[:, 0]
     assert w_arm.shape == one.w.shape
@@ -143,8 +149,8 @@ def test_fixed_eta_on_the_planar_arm(planar3_run):
 @pytest.mark.slow
 def test_six_axis_arm_eta_per_joint(tmp_path):
     """The simulated TX40 of benchmarks/arm_closed_loop.py (40 s, seed 0): measured eta adaptive 1.047, 1.167,
-    1.453, 0.998, 1.002, 1.000; fixed 1.012, 1.015, 1.018, 0.936, 0.878, 1.010; the frictionless arm below none
-    on every joint. (At 20 s joint 5's observer switches in at 10 s: adaptive 0.856 there.)"""
+    1.454, 0.998, 1.003, 1.000; fixed 1.012, 1.015, 1.019, 0.931, 0.884, 1.010; the frictionless arm below none
+    on every joint."""
     from adaptive_ff.arm.simulate import simulate_arm as sim
 
     urdf = ROOT / "data" / "tx40" / "tx40.urdf"
@@ -153,7 +159,7 @@ def test_six_axis_arm_eta_per_joint(tmp_path):
     fr = [JointFriction(Fc=c, Fs=1.3 * c, Vs=v, delta=1.0, sigma=sg, tau=0.002) for c, sg, v in levels]
     armature = (0.3, 0.3, 0.2, 0.07, 0.06, 0.03)
     arm = load_urdf(urdf)
-    log = sim(arm, fr, duration=20.0, seed=1, substeps=1, armature=armature)
+    log = sim(arm, fr, run=ArmSimulation(duration=20.0, substeps=1), seed=1, armature=armature)
     path = tmp_path / "tx40.json"
     path.write_text(json.dumps(identify_arm(log, arm, n_bootstrap=20).to_dict()))
     res = compare_arm(ArmPlant(arm, fr, armature=armature), path, duration=40.0, seed=0)
@@ -199,6 +205,10 @@ def test_options_refuse_bad_values(planar3):
     arm, _ = planar3
     with pytest.raises(ParameterError, match="modes: unknown mode"):
         CompareArmOptions(modes=("oracle",))
+    with pytest.raises(ParameterError, match="delay must be an integer number of periods in 0..32, got 33"):
+        CompareArmOptions(delay=33)
+    with pytest.raises(ParameterError, match="encoder_counts must be an integer >= 1"):
+        CompareArmOptions(encoder_counts=0)
     with pytest.raises(ParameterError, match="Ts = 0.0015 s must be a multiple of Tc"):
         CompareArmOptions(Ts=0.0015)
     with pytest.raises(ParameterError, match=r"u_max: 2 limits for the 3 joints"):

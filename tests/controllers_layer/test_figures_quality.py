@@ -256,12 +256,13 @@ def test_arm_figure():
     pytest.importorskip("pinocchio", reason="the [arm] extra is not installed")
     from adaptive_ff.arm.fit import identify_arm
     from adaptive_ff.arm.robot import load_urdf
-    from adaptive_ff.arm.simulate import JointFriction, simulate_arm
+    from adaptive_ff.arm.simulate import ArmSimulation, JointFriction, simulate_arm
 
     arm = load_urdf(Path(__file__).resolve().parents[2] / "examples" / "planar3.urdf")
     fr = [JointFriction(Fc=2.0, Fs=2.6, Vs=0.1, delta=1.0, sigma=0.8), JointFriction(Fc=1.2, Fs=1.5, Vs=0.08,
           delta=1.0, sigma=0.5), JointFriction(Fc=0.5, Fs=0.7, Vs=0.1, delta=1.0, sigma=0.2)]
-    res = identify_arm(simulate_arm(arm, fr, duration=8.0, seed=0, substeps=1, armature=[0.2, 0.1, 0.05]), arm,
+    res = identify_arm(simulate_arm(arm, fr, run=ArmSimulation(duration=8.0, substeps=1), seed=0,
+                                    armature=[0.2, 0.1, 0.05]), arm,
                        n_bootstrap=10)
     assert check_figure(res.plot()[0].figure, "ArmIdentification.plot") == 3
 
@@ -273,13 +274,14 @@ def test_arm_comparison_figure():
 
     from adaptive_ff.arm.fit import identify_arm
     from adaptive_ff.arm.robot import load_urdf
-    from adaptive_ff.arm.simulate import ArmPlant, JointFriction, simulate_arm
+    from adaptive_ff.arm.simulate import ArmPlant, ArmSimulation, JointFriction, simulate_arm
     from controllers.experiments.compare_arm import compare_arm
 
     arm = load_urdf(Path(__file__).resolve().parents[2] / "examples" / "planar3.urdf")
     fr = [JointFriction(Fc=2.0, Fs=2.6, Vs=0.1, delta=1.0, sigma=0.8), JointFriction(Fc=1.2, Fs=1.5, Vs=0.08,
           delta=1.0, sigma=0.5), JointFriction(Fc=0.5, Fs=0.7, Vs=0.1, delta=1.0, sigma=0.2)]
-    log = simulate_arm(arm, fr, duration=20.0, seed=1, substeps=1, armature=[0.2, 0.1, 0.05])  # docs/your_arm.md's
+    # docs/your_arm.md's
+    log = simulate_arm(arm, fr, run=ArmSimulation(duration=20.0, substeps=1), seed=1, armature=[0.2, 0.1, 0.05])
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "arm.json"
         path.write_text(json.dumps(identify_arm(log, arm, n_bootstrap=10).to_dict()))
