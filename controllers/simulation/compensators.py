@@ -520,17 +520,18 @@ def _adaptive(plant, o):
     composite :class:`AdaptiveDOBCompensator` with the switch-in, supervised by the engine."""
     _, ff = _adaptive_feedforward(plant, o)
     switch_in = o.switch_in and o.Kp > 0.0
-    _, ff_max = _ctx(plant, o)
+    J, ff_max = _ctx(plant, o)
+    wc = max(o.Kp, 0.0) / J  # the slew limit's crossover: the PI's Kp over the design inertia
     dob = sw = None
     if switch_in:
         _, dob = _dob(plant, replace(o, omega_q=o.omega_r))
         sw = ResidualSwitchIn(Tc=o.Tc, J_n=_nominal_inertia(plant, o), Kp=o.Kp, Ki=o.Ki, ratio=o.switch_in_ratio)
     if isinstance(ff, RobustAdaptiveFeedforward):
         return plant, AdaptiveCompensator(ff, dob, u_max=ff_max if switch_in else math.inf, switch_in=sw,
-                                          supervisor=build_supervisor(plant, "adaptive", o))
+                                          supervisor=build_supervisor(plant, "adaptive", o), crossover=wc)
     if not switch_in:
         return plant, ff
-    return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max, switch_in=sw)
+    return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max, switch_in=sw, crossover=wc)
 
 
 def _adaptive_feedforward(plant, o):
@@ -590,8 +591,8 @@ def _adaptive_dob(plant, o):
     # misses (docs/benchmarks/compensation.md, "The eq. 4 estimate's determinacy test")
     _, ff = _adaptive_feedforward(plant, replace(o, iv_map_stderr=math.inf))
     _, dob = _dob(plant, replace(o, omega_q=o.omega_r))
-    _, ff_max = _ctx(plant, o)
-    return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max)
+    J, ff_max = _ctx(plant, o)  # the slew limit's crossover: the PI's Kp over the design inertia
+    return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max, crossover=max(o.Kp, 0.0) / J)
 
 
 def _canudas(plant, o):
