@@ -151,12 +151,28 @@ def _compensation(mode, kw, *, J, J_d, Tc, m, u_max, ff_max, t, wr, wc, WM, U, F
             obs.update(U[k], uff[k])
     if mode == "adaptive-dob":  # the observer on the residual u - u_ff, the sum bounded by ff_max
         J_n = kw.get("J_n")
-        d = po.dob_path(wc, U - uff, J_n=J if J_n is None else J_n, omega_q=kw.get("omega_r", 1000.0), Tc=Tc,
-                        d_max=ff_max)["d_hat"]
+        omega_r = kw.get("omega_r", 1000.0)
+        d = po.dob_path(wc, U - uff, J_n=J if J_n is None else J_n, omega_q=omega_r, Tc=Tc, d_max=ff_max)["d_hat"]
+        d = _slew_limited(d, uff, slew_time=kw.get("slew_time", 0.4), crossover=max(kw["Kp"], 0.0) / J_d,
+                          a=-math.expm1(-Tc * omega_r))
         uff = np.clip(uff + d, -ff_max, ff_max)
     if rep["theta"].size == 0:  # no update: the engine's empty history
         rep["theta"] = np.empty((0, 0))
     return uff, rep
+
+
+def _slew_limited(d, uff, *, slew_time, crossover, a):
+    """The residual observer's estimate ``d`` as applied under the slew limit: each period it may differ from the
+    last applied value by at most ``slew_time*crossover*a`` times the largest ``|u_ff|`` up to and including that
+    period (a running maximum); ``d`` itself while that maximum is 0, and where ``slew_time*crossover`` is 0."""
+    width = slew_time * crossover * a * np.maximum.accumulate(np.abs(uff))
+    if slew_time * crossover == 0.0 or d.size == 0:
+        return d
+    out, last = np.empty_like(d), 0.0
+    for k in range(d.size):  # the value nearest d[k] inside [last - width, last + width]
+        last = float(np.median([last - width[k], d[k], last + width[k]])) if width[k] > 0.0 else float(d[k])
+        out[k] = last
+    return out
 
 
 def oracle_replay(run, p, ref, *, mode, rng=None, faults=None, **kw) -> dict:

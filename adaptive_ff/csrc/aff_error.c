@@ -259,6 +259,10 @@ const char *aff_error_message(aff_error e)
         return "residual observer: u_max (bound on the output, N*m) must be >= 0 (INFINITY: none)";
     case AFF_ERR_RESIDUAL_USE_SWITCH_IN:
         return "residual observer: use_switch_in must be 0 or 1";
+    case AFF_ERR_RESIDUAL_CROSSOVER:
+        return "residual observer: crossover (the loop's Kp/J_n, rad/s) must be finite and >= 0 (0: no slew limit)";
+    case AFF_ERR_RESIDUAL_SLEW_TIME:
+        return "residual observer: slew_time (s) must be finite and >= 0 (0: no slew limit)";
     case AFF_ERR_ADAPTIVE_USE_RESIDUAL:
         return "mode adaptive: use_residual must be 0 or 1";
     case AFF_ERR_ADAPTIVE_USE_SUPERVISOR:

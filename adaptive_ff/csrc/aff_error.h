@@ -152,6 +152,8 @@ typedef enum aff_error {
     /* the residual observer (aff_residual.h) */
     AFF_ERR_RESIDUAL_U_MAX = 260,
     AFF_ERR_RESIDUAL_USE_SWITCH_IN = 261,
+    AFF_ERR_RESIDUAL_CROSSOVER = 262,
+    AFF_ERR_RESIDUAL_SLEW_TIME = 263,
     /* mode "adaptive" (aff_adaptive.h) */
     AFF_ERR_ADAPTIVE_USE_RESIDUAL = 280,
     AFF_ERR_ADAPTIVE_USE_SUPERVISOR = 281

@@ -26,6 +26,8 @@ aff_residual_config aff_residual_default_config(void)
     c.dob = aff_dob_default_config();
     c.use_switch_in = 1;
     c.switch_in = aff_switch_in_default_config();
+    c.crossover = 0;
+    c.slew_time = (aff_real)0.4;
     return c;
 }
 
@@ -107,6 +109,10 @@ aff_error aff_residual_check_config(const aff_residual_config *cfg)
         return e;
     if (!aff_flag(cfg->use_switch_in))
         return AFF_ERR_RESIDUAL_USE_SWITCH_IN;
+    if (!aff_nonnegative(cfg->crossover))
+        return AFF_ERR_RESIDUAL_CROSSOVER;
+    if (!aff_nonnegative(cfg->slew_time))
+        return AFF_ERR_RESIDUAL_SLEW_TIME;
     return cfg->use_switch_in ? switch_in_check(&cfg->switch_in) : AFF_OK;
 }
 
@@ -130,6 +136,9 @@ aff_error aff_residual_init(aff_residual *r, const aff_residual_config *cfg)
         r->sw.decided = 0;
     }
     aff_dob_init(&r->dob, &cfg->dob);
+    r->slew = cfg->slew_time * cfg->crossover * r->dob.a; /* 0: no limit */
+    r->ff_peak = 0;
+    r->d_app = 0;
     return AFF_OK;
 }
 
@@ -270,10 +279,25 @@ aff_real aff_switch_in_step(aff_switch_in *s, aff_real u_ff, aff_real d_hat, aff
     return (aff_real)s->g;
 }
 
+/* The slew limit (header comment): the peak |u_ff| so far takes this period's u_ff (a non-finite one is left out);
+ * once it is above 0 the applied estimate d_app moves toward the observer's d by at most slew*ff_peak (N*m), before
+ * it d_app = d. Returns d_app; without the limit (slew 0) or for a non-finite d, d itself (d_app as it was). */
+static aff_real slew_step(aff_residual *r, aff_real u_ff, aff_real d)
+{
+    if (!(r->slew > 0) || !isfinite(d))
+        return d;
+    aff_real m = AFF_FABS(u_ff);
+    if (isfinite(m) && m > r->ff_peak)
+        r->ff_peak = m;
+    aff_real step = r->slew * r->ff_peak, x = d - r->d_app;
+    r->d_app = !(step > 0) ? d : r->d_app + (x > step ? step : (x < -step ? -step : x));
+    return r->d_app;
+}
+
 aff_real aff_residual_compensate(aff_residual *r, aff_real u_ff, int acting, int started, aff_real w_ctrl,
                                  aff_real w_meas, aff_real w_ref)
 {
-    aff_real d = aff_dob_compensate(&r->dob, w_ctrl, w_meas, w_ref);
+    aff_real d = slew_step(r, u_ff, aff_dob_compensate(&r->dob, w_ctrl, w_meas, w_ref));
     aff_real g = r->use_switch_in ? aff_switch_in_step(&r->sw, u_ff, d, w_ref, w_ctrl, acting, started)
                                 : (aff_real)1;
     if (r->held && w_ctrl * w_ref > 0) /* the joint moves in the reference's direction: the hold ends */

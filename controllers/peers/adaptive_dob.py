@@ -82,6 +82,7 @@ _COMPOSITES = {
 }
 _BY_CTYPE = {c.ctype: c for c in _COMPOSITES.values()}
 _SWITCH_IN = c_defaults("aff_switch_in_config")
+_SLEW_TIME = float(lib.aff_residual_default_config().slew_time)  # the C default, 0.4 s
 
 
 @dataclass(frozen=True)
@@ -166,11 +167,15 @@ class ResidualSwitchIn:
                                                     "trial_margin")}
 
 
-def residual_config(observer: DisturbanceObserver, u_max: float, switch_in: ResidualSwitchIn | None):
+def residual_config(observer: DisturbanceObserver, u_max: float, switch_in: ResidualSwitchIn | None, *,
+                    crossover: float = 0.0, slew_time: float = _SLEW_TIME):
     """The settings of the residual part (C ``aff_residual_config``) of a composite: the observer's, the bound
-    ``u_max`` (N·m) and the switch-in (None: the observer always applied)."""
+    ``u_max`` (N·m), the switch-in (None: the observer always applied) and the slew limit on the applied estimate
+    (``crossover``: the loop's ``Kp/J_n`` in rad/s, ``slew_time`` in s; either 0: none; ``aff_residual_init``
+    checks them)."""
     cfg = ffi.new("aff_residual_config *", lib.aff_residual_default_config())
     cfg.u_max, cfg.dob, cfg.use_switch_in = u_max, observer.config[0], switch_in is not None
+    cfg.crossover, cfg.slew_time = float(crossover), float(slew_time)
     if switch_in is not None:
         cfg.switch_in = switch_in.config_fields()
     return cfg
@@ -191,6 +196,11 @@ class AdaptiveDOBCompensator(Component):
     switch_in : ResidualSwitchIn or None, keyword-only
         None (default): the observer's estimate is always applied (mode ``adaptive-dob``); else it is applied after
         the residual switch-in (mode ``adaptive``).
+    crossover, slew_time : float, keyword-only
+        The slew limit on the observer's applied estimate: per period it moves by at most ``slew_time*crossover``
+        times the feedforward's largest torque so far times the Q-filter's factor ``1 - exp(-Tc*omega_q)``;
+        ``crossover`` the loop's ``Kp/J_n`` (rad/s, the design inertia), ``slew_time`` (s, default 0.4); either 0:
+        no limit (``crossover``'s default; C ``aff_residual_config``).
 
     Attributes
     ----------
@@ -231,7 +241,8 @@ class AdaptiveDOBCompensator(Component):
     _ctype = "ctl_adob"
 
     def __init__(self, feedforward: RobustAdaptiveFeedforward | AdaptiveFrictionFeedforward,
-                 observer: DisturbanceObserver, *, u_max: float = math.inf, switch_in: ResidualSwitchIn | None = None):
+                 observer: DisturbanceObserver, *, u_max: float = math.inf, switch_in: ResidualSwitchIn | None = None,
+                 crossover: float = 0.0, slew_time: float = _SLEW_TIME):
         composite = _COMPOSITES.get(type(feedforward))
         if composite is None:
             raise ParameterError("feedforward must be a RobustAdaptiveFeedforward or an AdaptiveFrictionFeedforward, "
@@ -250,7 +261,8 @@ class AdaptiveDOBCompensator(Component):
         self._ctype = composite.ctype
         self.C_OPS = f"{composite.ctype}_ops"
         self._configure(lambda c, cfg: composite.init(c, feedforward.cdata, cfg),
-                        residual_config(observer, u_max, switch_in), lib.aff_error_message, keep=False)
+                        residual_config(observer, u_max, switch_in, crossover=crossover, slew_time=slew_time),
+                        lib.aff_error_message, keep=False)
         self._attached()
 
     def _attached(self) -> None:
@@ -396,6 +408,8 @@ class AdaptiveCompensator(AdaptiveDOBCompensator):
         Bound on |u_ff + d_hat| (N·m), default inf.
     switch_in : ResidualSwitchIn or None, keyword-only
         The observer's switch-in; None with an observer: the observer always applied (as ``adaptive-dob``).
+    crossover, slew_time : float, keyword-only
+        The slew limit on the observer's applied estimate, as :class:`AdaptiveDOBCompensator`'s (with an observer).
     supervisor : FeedforwardSupervisor or None, keyword-only
         The supervisor of the compensation (copied into the struct; the object points there from now on); None:
         none.
@@ -423,7 +437,8 @@ class AdaptiveCompensator(AdaptiveDOBCompensator):
 
     def __init__(self, feedforward: RobustAdaptiveFeedforward, observer: DisturbanceObserver | None = None, *,
                  u_max: float = math.inf, switch_in: ResidualSwitchIn | None = None,
-                 supervisor: FeedforwardSupervisor | None = None):
+                 supervisor: FeedforwardSupervisor | None = None, crossover: float = 0.0,
+                 slew_time: float = _SLEW_TIME):
         if not isinstance(feedforward, RobustAdaptiveFeedforward):
             raise ParameterError(f"feedforward must be a RobustAdaptiveFeedforward, got {type(feedforward).__name__}")
         if observer is not None and not isinstance(observer, DisturbanceObserver):
@@ -444,7 +459,7 @@ class AdaptiveCompensator(AdaptiveDOBCompensator):
                              {"use_residual": observer is not None, "use_supervisor": supervisor is not None,
                               "ff": feedforward.config[0]})  # the parts not used keep the C defaults
         if observer is not None:
-            cfg.res = residual_config(observer, u_max, switch_in)[0]
+            cfg.res = residual_config(observer, u_max, switch_in, crossover=crossover, slew_time=slew_time)[0]
         else:
             cfg.res.u_max = u_max
         if supervisor is not None:

@@ -226,7 +226,8 @@ def _adaptive(plant, o):
     composite :class:`AdaptiveDOBCompensator` with the switch-in, supervised by the engine."""
     _, ff = _adaptive_feedforward(plant, o)
     switch_in = o.observer.switch_in and o.controller.Kp > 0.0
-    _, ff_max = _ctx(plant, o)
+    J, ff_max = _ctx(plant, o)
+    wc = max(o.controller.Kp, 0.0) / J  # the slew limit's crossover: the PI's Kp over the design inertia
     dob = sw = None
     if switch_in:
         _, dob = _dob(plant, o.replace(omega_q=o.observer.omega_r))
@@ -234,10 +235,10 @@ def _adaptive(plant, o):
                               Ki=o.controller.Ki, ratio=o.observer.switch_in_ratio)
     if isinstance(ff, RobustAdaptiveFeedforward):
         return plant, AdaptiveCompensator(ff, dob, u_max=ff_max if switch_in else math.inf, switch_in=sw,
-                                          supervisor=build_supervisor(plant, "adaptive", o))
+                                          supervisor=build_supervisor(plant, "adaptive", o), crossover=wc)
     if not switch_in:
         return plant, ff
-    return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max, switch_in=sw)
+    return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max, switch_in=sw, crossover=wc)
 
 
 def _adaptive_feedforward(plant, o):
@@ -298,8 +299,8 @@ def _adaptive_dob(plant, o):
     # misses (docs/benchmarks/compensation.md, "The eq. 4 estimate's determinacy test")
     _, ff = _adaptive_feedforward(plant, o.replace(iv_map_stderr=math.inf))
     _, dob = _dob(plant, o.replace(omega_q=o.observer.omega_r))
-    _, ff_max = _ctx(plant, o)
-    return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max)
+    J, ff_max = _ctx(plant, o)  # the slew limit's crossover: the PI's Kp over the design inertia
+    return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max, crossover=max(o.controller.Kp, 0.0) / J)
 
 
 def _canudas(plant, o):

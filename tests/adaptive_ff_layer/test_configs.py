@@ -119,7 +119,9 @@ COMPONENTS = {
         ("switch_in.Ki", -1.0, "AFF_ERR_SWITCH_IN_KI"), ("switch_in.window", 0.0, "AFF_ERR_SWITCH_IN_WINDOW"),
         ("switch_in.ratio", 0.0, "AFF_ERR_SWITCH_IN_RATIO"), ("switch_in.share", NAN, "AFF_ERR_SWITCH_IN_SHARE"),
         ("switch_in.fade_in", -1.0, "AFF_ERR_SWITCH_IN_FADE_IN"),
-        ("switch_in.trial_margin", -0.1, "AFF_ERR_SWITCH_IN_TRIAL_MARGIN")]),
+        ("switch_in.trial_margin", -0.1, "AFF_ERR_SWITCH_IN_TRIAL_MARGIN"),
+        ("crossover", -1.0, "AFF_ERR_RESIDUAL_CROSSOVER"), ("crossover", INF, "AFF_ERR_RESIDUAL_CROSSOVER"),
+        ("slew_time", NAN, "AFF_ERR_RESIDUAL_SLEW_TIME"), ("slew_time", -0.4, "AFF_ERR_RESIDUAL_SLEW_TIME")]),
     "adaptive": ("aff_adaptive", "aff_adaptive_config", lib.aff_adaptive_init,
                  {**{f"ff.est.{k}": v for k, v in _SLIDING_SET.items()}, **{f"res.{k}": v for k, v in
                                                                              _RESIDUAL_SET.items()},
