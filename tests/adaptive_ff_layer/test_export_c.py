@@ -134,8 +134,8 @@ def test_exported_float_build_stays_within_one_percent_of_the_friction_level(exp
     # the same compensator to within 1 % of the friction level but for the threshold decisions that fall on other
     # periods in float (a sign inside the stick band, a reversal one or a few periods later while the estimates
     # still differ in their early seconds: docs/benchmarks/export_c.md), on at most 0.1 % of the periods; where
-    # they fall depends on the platform's libm (one event of 52 periods on the machine of 2026-11-23, two of 146
-    # and 55 on an AMD EPYC machine on 2026-11-24); once the estimate has settled, the same to 0.01 % of Fc
+    # they fall depends on the platform's libm (one event of 52 periods on one x86-64 machine, two of 146 and 55 on
+    # an AMD EPYC machine); once the estimate has settled, the same to 0.01 % of Fc
     assert d["n_over"] <= 1e-3 * N
     assert d["rms"] <= 1e-3 * fc
     assert np.quantile(late, 0.999) <= 1e-4 * fc
