@@ -315,7 +315,9 @@ def test_after_a_rest_the_feedforward_part_is_held_until_the_joint_moves_in_the_
     d_hat again. Checked against an independent replay: the rest periods by the supervisor's rule (|w_ref| = 0 for
     n_hold periods in a row), a separate feedforward and a plain disturbance observer run on the recorded torque and
     measurement, composed by that rule in Python. At rest the last applied torque decays through the feedforward's
-    lag in use, ``u(k) = exp(-Tc/tau)*u(k-1)`` (the paper joint's lag, 3.2 ms)."""
+    lag in use, ``u(k) = exp(-Tc/tau)*u(k-1)`` (the paper joint's lag, 3.2 ms). The observer's estimate passes its
+    slew limit (aff_residual.h): it moves by at most ``slew_time*crossover*a*peak`` per period, ``a = 1 -
+    exp(-Tc*omega_r)`` its Q-filter's gain, ``crossover = Kp/J``, ``peak`` the largest feedforward torque so far."""
     targets = [0.5, -0.2, 0.4, 0.0, 0.6, -0.3] * 2  # the open bench's moves (the feedforward on after a few)
     # the measurement's noise (1e-3 rad/s) gives the velocity at a rest's end either sign: some moves begin held
     p, ref, o, rec, comp = _rest_end_runs("adaptive-dob", targets, sensor_gate=False)
@@ -335,11 +337,18 @@ def test_after_a_rest_the_feedforward_part_is_held_until_the_joint_moves_in_the_
     withheld = np.zeros(n)  # the feedforward part left out
     held = np.zeros(n, dtype=bool)
     hold = False
-    decays = 0
+    decays = limited = 0
+    slew = 0.4 * (o.controller.Kp / p.J) * (1.0 - math.exp(-1e-3 * o.observer.omega_r))  # slew_time 0.4 s
+    peak = d_app = 0.0
     for k in range(n):
         wm, wr = rec.w_meas[k], rec.w_ref[k]
         u_ff = ff.compensate(wm, wr)
-        d = dob.compensate(wm, wr)
+        d_raw = dob.compensate(wm, wr)
+        peak = max(peak, abs(u_ff))
+        step = slew * peak
+        d_app = d_raw if step == 0.0 else d_app + min(max(d_raw - d_app, -step), step)
+        limited += d_app != d_raw
+        d = d_app
         if hold and wm * wr > 0.0:
             hold = False
         if rest[k]:
@@ -356,6 +365,7 @@ def test_after_a_rest_the_feedforward_part_is_held_until_the_joint_moves_in_the_
         dob.observe(rec.u[k] - told, wm)
     assert np.max(np.abs(expected)) < o.drive.u_max  # the bound never acts
     assert decays > 1000  # the rests after the feedforward's switch-on withdraw it through its lag
+    assert limited >= 10  # the slew limit acts on this run (15 periods)
     starts = np.flatnonzero(held & ~np.roll(held, 1))
     ends = np.flatnonzero(rest[:-1] & ~rest[1:]) + 1  # first period after each rest
     assert starts.shape[0] >= 3 and np.all(np.isin(starts, ends))  # a hold begins only at a rest's end
