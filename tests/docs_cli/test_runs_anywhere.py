@@ -83,3 +83,13 @@ def test_read_only_install_without_home_or_temporary_folder(read_only_install):
     assert "Kp" in cli.stdout and "Traceback" not in cli.stderr
     assert _files(site) == before  # nothing compiled or cached beside the packages
     assert all(p.startswith("o") for p in _files(work))
+
+
+def test_the_source_tree_holds_no_symbolic_link():
+    """A checkout is plain files: a symbolic link (one that points into a developer's machine, or into its own
+    folder) breaks a copy of the tree on any other machine (the docs build copies ``examples/`` recursively)."""
+    root = Path(__file__).resolve().parents[2]
+    links = [str(p.relative_to(root)) for top in ("plant", "adaptive_ff", "controllers", "tests", "benchmarks",
+                                                  "examples", "docs", "data") if (root / top).exists()
+             for p in (root / top).rglob("*") if p.is_symlink()]
+    assert not links, links
