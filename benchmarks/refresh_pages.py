@@ -104,8 +104,9 @@ def sections(page: Path) -> list[Section]:
 def environment(bin_dir: Path) -> dict:
     """The environment of a documented command: this interpreter as ``python``, this checkout's CLI as
     ``adaptive-ff`` (shims written into ``bin_dir``, first on ``PATH``; ``PYTHONPATH`` the repository root),
-    ``MPLBACKEND=Agg``, ``PYTHONUNBUFFERED=1`` and no ``COLUMNS`` (help texts at their default width). Also the
-    environment of the docs' command tests (``tests/doc_commands.py``)."""
+    ``MPLBACKEND=Agg``, ``PYTHONUNBUFFERED=1``, no ``COLUMNS`` (help texts at their default width) and ``GIT_DIR``,
+    ``GIT_WORK_TREE`` this checkout's (git run from the temporary folder answers for it). Also the environment of the
+    docs' command tests (``tests/doc_commands.py``)."""
     bin_dir.mkdir(parents=True, exist_ok=True)
     exe = shlex.quote(sys.executable)
     cli = shlex.quote("import sys; from controllers.cli import main; sys.exit(main(sys.argv[1:]))")
@@ -118,6 +119,8 @@ def environment(bin_dir: Path) -> dict:
     env["PATH"] = os.pathsep.join([str(bin_dir), env.get("PATH", "")])
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
     env.pop("COLUMNS", None)
+    # git in the temporary folder answers for this checkout (a script printing its commit and whether it is dirty)
+    env["GIT_DIR"], env["GIT_WORK_TREE"] = str(ROOT / ".git"), str(ROOT)
     return env
 
 
