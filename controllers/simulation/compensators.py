@@ -81,6 +81,11 @@ def _ctx(plant, o: LoopConfig) -> tuple:
     return J, ff_max
 
 
+def _crossover(plant, o: LoopConfig) -> float:
+    """The loop's design crossover (rad/s): ``Kp`` over the design inertia, 0 without a loop (``Kp`` 0)."""
+    return max(o.controller.Kp, 0.0) / _ctx(plant, o)[0]
+
+
 def _nominal_inertia(plant, o: LoopConfig) -> float:
     """The nominal inertia of every observer (kg·m²): ``o.observer.J_n``, else the design inertia."""
     return _ctx(plant, o)[0] if o.observer.J_n is None else float(o.observer.J_n)
@@ -174,7 +179,7 @@ def build_supervisor(plant, mode: str, options: LoopConfig, *, force: bool = Fal
     J, ff_max = _ctx(plant, options)
     omega = options.supervisor.omega
     if omega is None:
-        omega = options.controller.Kp / J if options.controller.Kp > 0 else 10.0 / options.supervisor.window
+        omega = _crossover(plant, options) if options.controller.Kp > 0 else 10.0 / options.supervisor.window
     return FeedforwardSupervisor(Tc=options.controller.Tc, J_n=_nominal_inertia(plant, options), omega=omega,
                                  config=_configs(options, J, ff_max)["supervisor"])
 
@@ -226,8 +231,8 @@ def _adaptive(plant, o):
     composite :class:`AdaptiveDOBCompensator` with the switch-in, supervised by the engine."""
     _, ff = _adaptive_feedforward(plant, o)
     switch_in = o.observer.switch_in and o.controller.Kp > 0.0
-    J, ff_max = _ctx(plant, o)
-    wc = max(o.controller.Kp, 0.0) / J  # the slew limit's crossover: the PI's Kp over the design inertia
+    _, ff_max = _ctx(plant, o)
+    wc = _crossover(plant, o)  # the residual observer's slew limit scales with it
     dob = sw = None
     if switch_in:
         _, dob = _dob(plant, o.replace(omega_q=o.observer.omega_r))
@@ -299,8 +304,8 @@ def _adaptive_dob(plant, o):
     # misses (docs/benchmarks/compensation.md, "The eq. 4 estimate's determinacy test")
     _, ff = _adaptive_feedforward(plant, o.replace(iv_map_stderr=math.inf))
     _, dob = _dob(plant, o.replace(omega_q=o.observer.omega_r))
-    J, ff_max = _ctx(plant, o)  # the slew limit's crossover: the PI's Kp over the design inertia
-    return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max, crossover=max(o.controller.Kp, 0.0) / J)
+    _, ff_max = _ctx(plant, o)
+    return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max, crossover=_crossover(plant, o))
 
 
 def _canudas(plant, o):

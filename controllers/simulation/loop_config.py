@@ -396,13 +396,18 @@ FLAT_PATHS = {**{f.name: (g, f.name) for g, cls in GROUPS.items() for f in field
                  if (g, f.name) not in _RENAMED.values()}, **_RENAMED}
 
 
+def _path(name: str) -> tuple:
+    """``(group, field)`` of the flat keyword ``name`` (ParameterError naming an unknown one)."""
+    if name not in FLAT_PATHS:
+        raise ParameterError(f"unknown loop setting {name!r}; known: {sorted(FLAT_PATHS)}")
+    return FLAT_PATHS[name]
+
+
 def _flat_groups(knobs: dict) -> dict:
     """``{group: {field: value}}`` of flat ``knobs`` (ParameterError naming an unknown keyword)."""
     out = {g: {} for g in GROUPS}
     for k, v in knobs.items():
-        if k not in FLAT_PATHS:
-            raise ParameterError(f"unknown loop setting {k!r}; known: {sorted(FLAT_PATHS)}")
-        g, name = FLAT_PATHS[k]
+        g, name = _path(k)
         out[g][name] = v
     return out
 
@@ -483,9 +488,7 @@ class LoopConfig:
 
     def flat(self, name: str):
         """The value of the flat keyword ``name`` (:data:`FLAT_PATHS`; ParameterError if unknown)."""
-        if name not in FLAT_PATHS:
-            raise ParameterError(f"unknown loop setting {name!r}; known: {sorted(FLAT_PATHS)}")
-        g, f = FLAT_PATHS[name]
+        g, f = _path(name)
         return getattr(getattr(self, g), f)
 
     def to_flat(self) -> dict:
