@@ -13,7 +13,7 @@ from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforw
 from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
 from adaptive_ff.identification.regression import RegressionModel
 from controllers.experiments.compare import DESIGNED, EXPERIMENT_DEFAULTS, EXPERIMENT_LOOP, CompareOptions
-from controllers.experiments.zoo import SHARED_FIELDS, ZooOptions
+from controllers.experiments.zoo import PER_JOINT, ZooOptions
 from controllers.simulation import compensators
 from controllers.simulation.compensators import ESTIMATOR_BUILDERS, LoopConfig, build_mode
 from controllers.simulation.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
@@ -49,16 +49,24 @@ def test_compare_carries_the_loops_config_with_the_loops_defaults_or_a_named_ove
         CompareOptions.from_flat(lamda=0.9)
 
 
-def test_the_zoo_takes_the_knobs_it_shares_with_compare_from_compare():
-    zoo, cmp = _defaults(ZooOptions), CompareOptions()
-    for k in SHARED_FIELDS:
-        assert zoo[k] == cmp.flat(k) and type(zoo[k]) is type(cmp.flat(k)), k
-    o = ZooOptions(n=3, duration=4.0, seed=5, estimator="eq4", iv_map_stderr=0.2, switch_in=False, delay=1)
+def test_the_zoo_holds_a_comparison_and_declares_none_of_its_settings():
+    own = {f.name for f in dataclasses.fields(ZooOptions)}
+    # none of the comparison's settings re-declared; own compensators by import path (picklable for the workers)
+    # instead of the comparison's callables
+    assert own & set(CompareOptions.flat_names()) == {"compensators"}
+    assert ZooOptions().compare == CompareOptions() and ZooOptions().compare_options() == CompareOptions()
+    o = ZooOptions.from_flat(n=3, duration=4.0, seed=5, estimator="eq4", iv_map_stderr=0.2, switch_in=False, delay=1)
     c = o.compare_options()
-    assert (c.duration, c.seed, c.loop.estimator.name, c.loop.estimator.iv_map_stderr, c.loop.observer.switch_in,
-            c.loop.sensor.delay) == (4.0, 5, "eq4", 0.2, False, 1)
-    rest = [k for k in CompareOptions.flat_names() if k not in SHARED_FIELDS]
-    assert {k: c.flat(k) for k in rest} == {k: CompareOptions.from_flat(duration=4.0).flat(k) for k in rest}
+    assert (o.n, c.duration, c.seed, c.loop.estimator.name, c.loop.estimator.iv_map_stderr, c.loop.observer.switch_in,
+            c.loop.sensor.delay) == (3, 4.0, 5, "eq4", 0.2, False, 1)
+    assert c == CompareOptions.from_flat(duration=4.0, seed=5, estimator="eq4", iv_map_stderr=0.2, switch_in=False,
+                                         delay=1)
+    # the settings of one plant are each joint's: a comparison's torque limit and design inertia are not used
+    per_joint = ZooOptions(compare=CompareOptions.from_flat(duration=4.0, u_max=9.0, J_design=0.5)).compare_options()
+    assert (per_joint.loop.drive.u_max, per_joint.loop.controller.J_design) == (None, None)
+    assert set(PER_JOINT) <= set(CompareOptions.flat_names())
+    with pytest.raises(ParameterError, match="compare must be a CompareOptions"):
+        ZooOptions(compare={"duration": 4.0})
 
 
 @pytest.mark.parametrize("kw,match", [(dict(estimator="kalman"), "estimator must be one of"),
@@ -69,7 +77,7 @@ def test_the_zoo_takes_the_knobs_it_shares_with_compare_from_compare():
                                       (dict(slew_rate=0.0), "slew_rate"), (dict(sign_input="x"), "sign_input")])
 def test_each_shared_knob_is_checked_by_the_loops_options_for_every_bundle(kw, match):
     for make in (lambda **k: LoopConfig.from_flat(Kp=1.0, Ki=0.0, **k), lambda **k: CompareOptions.from_flat(duration=2.0, **k),
-                 lambda **k: ZooOptions(n=1, duration=2.0, **k)):
+                 lambda **k: ZooOptions.from_flat(n=1, duration=2.0, **k)):
         try:
             make(**kw)
         except TypeError:  # a knob the bundle does not carry (the zoo carries a few)
