@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
+import math
 
 import pytest
 
@@ -35,7 +36,9 @@ def test_compare_carries_the_loops_config_with_the_loops_defaults_or_a_named_ove
     assert CompareOptions().loop == EXPERIMENT_LOOP == LoopConfig.from_flat(**EXPERIMENT_DEFAULTS)
     # the four that differ on purpose
     assert (cmp["warmup"], loop["warmup"]) == (50, 200) and (cmp["stick_samples"], loop["stick_samples"]) == (50, 10)
-    assert (cmp["stick_band"], loop["stick_band"]) == (None, 0.0) and (cmp["noise_std"], loop["noise_std"]) == (1e-3, 0)
+    assert (cmp["u_max"], loop["u_max"]) == (None, math.inf) and (cmp["noise_std"], loop["noise_std"]) == (1e-3, 0)
+    # one stick-band default, the loop's: sized from the configured sensor (3 x its velocity noise)
+    assert cmp["stick_band"] is None and loop["stick_band"] is None
     # no setting is declared twice: the experiment's own fields and the loop's paths are apart
     assert not {f.name for f in dataclasses.fields(CompareOptions)} & set(FLAT_PATHS)
     o = CompareOptions.from_flat(duration=2.0, warmup=77, lam=0.99, estimator="eq4")
@@ -170,3 +173,24 @@ def test_the_loops_config_has_one_path_per_setting_and_one_map_from_the_flat_nam
         LoopConfig(estimator="eq4")
     with pytest.raises(ParameterError, match="u_max is None"):  # sized by a comparison: a run needs a number
         build_mode(preset("paper"), "none", LoopConfig.from_flat(u_max=None))
+
+
+@pytest.mark.parametrize("kw,says", [
+    (dict(encoder_counts=0), "encoder_counts must be an integer >= 1 (encoder counts per joint revolution) or None, "
+                             "got 0 (sensor.encoder_counts; the Sensor's counts_per_rev)"),
+    (dict(encoder_counts="x"), "encoder_counts must be an integer >= 1"),
+    (dict(delay=-1), "delay must be an integer number of periods in 0..32, got -1 (sensor.delay)"),
+    (dict(encoder_counts=8, velocity="kalman", velocity_bandwidth=500.0),
+     "velocity_bandwidth must be below the Nyquist frequency 500 Hz"),
+    (dict(encoder_counts=8, velocity="kalman", velocity_model="cj"), "velocity_model must be one of ['cv', 'ca']"),
+    (dict(slew_rate=0.0), "slew_rate must be > 0 (N·m/s; math.inf for none), got 0.0 (drive.slew_rate)"),
+    (dict(slew_rate=True), "slew_rate must be > 0")])
+def test_the_sensor_and_the_drive_are_checked_once_by_their_components_naming_the_setting(kw, says):
+    from controllers.simulation.loop_config import DriveSettings, SensorSettings
+
+    g, = {FLAT_PATHS[k][0] for k in kw if FLAT_PATHS[k][0] in ("sensor", "drive")}
+    group = {"sensor": SensorSettings, "drive": DriveSettings}[g](**{FLAT_PATHS[k][1]: v for k, v in kw.items()})
+    assert isinstance(group, (SensorSettings, DriveSettings))  # the group itself leaves the range to its component
+    with pytest.raises(ParameterError) as e:
+        LoopConfig.from_flat(**kw)
+    assert says in str(e.value)
