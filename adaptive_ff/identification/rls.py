@@ -312,7 +312,8 @@ class RecursiveLeastSquares(Component):
 
     n_updates = struct_field("n_updates", int, "Number of accepted updates.")
 
-    n_projected = struct_field("n_projected", int, "Number of updates after which ``theta`` was projected onto ``bounds``.")
+    n_projected = struct_field("n_projected", int,
+                               "Number of updates after which ``theta`` was projected onto ``bounds``.")
 
     n_rejected = struct_field("n_rejected", int, "Number of refused samples (non-finite, or an update that would "
                               "overflow); the state was left unchanged.")

@@ -170,9 +170,9 @@ class CompareOptions:
         measured in the quasi-static runs); ``feedforward.stick_band`` where None (the loop's own rule,
         :meth:`controllers.simulation.loop_config.LoopConfig.sized_stick_band`: three times the configured
         sensor's noise, :func:`measurement_noise`, which an encoder's quantisation (``sensor.encoder_counts``)
-        raises; that noise also sets the residual observer's cut-off and the noise of the quasi-static and identification
-        experiments); ``feedforward.ff_max`` (half of ``u_max``); the observers' nominal inertia and the residual
-        observer's cut-off (:mod:`controllers.experiments.observer_design`).
+        raises; that noise also sets the residual observer's cut-off and the noise of the quasi-static and
+        identification experiments); ``feedforward.ff_max`` (half of ``u_max``); the observers' nominal inertia
+        and the residual observer's cut-off (:mod:`controllers.experiments.observer_design`).
 
     Raises
     ------

@@ -79,8 +79,8 @@ def compensator_from_file(path, *, u_max: float, pi: PITuning = PITuning(), star
     **options
         Flat settings of :meth:`controllers.simulation.loop_config.LoopConfig.from_flat` that override the defaults: ``Tc``
         (1 ms), ``Ts`` (10 ms), ``J_design`` (the identified ``J``), ``Vs``, ``delta`` (the file's), ``ff_max``
-        (``u_max/2``), ``stick_band`` (:func:`controllers.simulation.loop_config.stick_band_for` the identification's noise
-        estimate, three times it; 0 without one),
+        (``u_max/2``), ``stick_band`` (three times the identification's noise estimate,
+        :func:`controllers.simulation.loop_config.stick_band_for`; 0 without one),
         ``stick_samples`` (50), ``warmup`` (50), ``omega_r`` (the residual observer's cut-off,
         :func:`controllers.experiments.observer_design.residual_cutoff` of the design inertia, the noise estimate
         and the identified friction level ``max(Fc, Fs)``), ...

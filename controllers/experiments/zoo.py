@@ -76,8 +76,8 @@ from plant.models import plant_from_dict
 from plant.results import json_safe
 from plant.stribeck_map import stribeck
 
-__all__ = ["DRIFT_STEPS", "STATUSES", "WORSE_THAN_NONE", "PER_JOINT", "ZooBox", "ZooOptions", "ZooResult", "ZOO_MODELS", "draw_plants", "run_zoo",
-           "zoo_box", "zoo_options_dict"]
+__all__ = ["DRIFT_STEPS", "STATUSES", "WORSE_THAN_NONE", "PER_JOINT", "ZooBox", "ZooOptions", "ZooResult",
+           "ZOO_MODELS", "draw_plants", "run_zoo", "zoo_box", "zoo_options_dict"]
 
 #: Plant models the zoo draws from.
 ZOO_MODELS = ("lagged-stribeck", "lugre", "karnopp", "asymmetric")
@@ -253,7 +253,8 @@ def draw_plants(n: int, reference, *, seed: int = 0, box: ZooBox | None = None) 
 
 
 #: The settings of every joint's comparison the zoo never takes from :attr:`ZooOptions.compare`: they belong to one
-#: plant (its torque limit, design inertia, PI and own compensators are each joint's, :meth:`ZooOptions.compare_options`).
+#: plant (its torque limit, design inertia, PI and own compensators are each joint's,
+#: :meth:`ZooOptions.compare_options`).
 PER_JOINT = {"u_max": None, "J_design": None, "controller": None, "compensators": None}
 
 

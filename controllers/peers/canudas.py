@@ -223,7 +223,8 @@ class CanudasCompensator(Component):
         self._c.phase = int(value) % self.m
 
     _usum = struct_field("u_sum", float, "Torque sum of the current RLS interval (N·m).", settable=True)
-    _w_prev = struct_field("w_prev", float, "Velocity at the start of the current interval (rad/s), None before the first.",
+    _w_prev = struct_field("w_prev", float,
+                           "Velocity at the start of the current interval (rad/s), None before the first.",
                            settable=True, flag="has_prev")
     _ok = struct_field("ok", bool, "False once a refused sample spoiled the current interval.", settable=True)
 

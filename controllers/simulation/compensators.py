@@ -114,7 +114,8 @@ def _configs(o: LoopConfig, J: float, ff_max: float) -> dict:
         above ``model.Vs``, with that ``ff``) (:class:`AdaptiveFrictionFeedforwardConfig`).
     """
     ffs, est, sup, ctl = o.feedforward, o.estimator, o.supervisor, o.controller
-    ff = FrictionFeedforwardConfig(lag=ffs.lag, ff_max=ff_max, sign_width=ffs.sign_width, stick_band=o.sized_stick_band(),
+    ff = FrictionFeedforwardConfig(lag=ffs.lag, ff_max=ff_max, sign_width=ffs.sign_width,
+                                   stick_band=o.sized_stick_band(),
                                    stick_samples=ffs.stick_samples, ff_input=ffs.ff_input)
     robust = RobustAdaptiveFeedforwardConfig(ff=ff, warmup=ffs.warmup, lag_margin=ffs.lag_margin,
                                              lag_margin_max=ffs.lag_margin_max, max_rel_stderr=ffs.max_rel_stderr,

@@ -21,8 +21,11 @@ group             settings (flat keyword of :meth:`LoopConfig.from_flat` where i
 A setting that mirrors a component's C setting takes that setting's C default (``aff_X_default_config()``, read
 by :func:`adaptive_ff.compensation.defaults.c_defaults`) and leaves its range to the component: the group's
 default is the one statement of it. One differs: ``feedforward.stick_band`` None, sized from the configured
-sensor's velocity noise (:meth:`LoopConfig.sized_stick_band`; 0, the C default, for a noiseless sensor). Each group checks its own settings; :class:`LoopConfig` checks those that
-tie two groups (a sample time a multiple of ``controller.Tc``, the sensor and the drive at that period).
+sensor's velocity noise (:meth:`LoopConfig.sized_stick_band`; 0, the C default, for a noiseless sensor). Each
+group checks its own settings but the sensor's and the drive's ranges, which their components check (the
+:class:`controllers.simulation.sensor_drive.Sensor` and ``Drive`` a :class:`LoopConfig` builds, its error naming the
+setting and its path); :class:`LoopConfig` checks those that tie two groups (a sample time a multiple of
+``controller.Tc``).
 
 The flat keywords (the former ``ModeOptions`` fields, the compare CLI's and the TOML files' names) map onto the
 paths by :data:`FLAT_PATHS`, the one such map: :meth:`LoopConfig.from_flat` builds a config from them,
@@ -35,7 +38,6 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field, fields, replace as _dc_replace
-
 
 from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
 from adaptive_ff.compensation.defaults import c_defaults
@@ -472,7 +474,8 @@ class LoopConfig:
     ParameterError
         A group of the wrong type, a setting out of range (the group's check), ``estimator.Ts`` or
         ``estimator.iv_Ts`` not a multiple of ``controller.Tc``, a sensor or a drive its component refuses at that
-        period.
+        period (the component's message with the setting's flat name in front and its path after:
+        ``encoder_counts must be an integer >= 1 ... (sensor.encoder_counts; the Sensor's counts_per_rev)``).
 
     Examples
     --------

@@ -132,7 +132,8 @@ def test_zoo_karnopp_joint_867_eq4_within_a_tenth_of_the_default():
     # kept it: 0.850 against the default's 0.978 (its trial took the observer out), adaptive-dob 0.850 with either
     # estimator, over six noise realisations 0.84-0.86. At the stick share (805 rad/s): 0.933 / 0.978, adaptive-dob
     # 0.933 (docs/benchmarks/compensation.md, "The residual observer on a joint that sticks").
-    o = ZooOptions.from_flat(n=1000, duration=60.0, seed=2, modes=("none", "adaptive", "adaptive-dob")).compare_options()
+    o = ZooOptions.from_flat(n=1000, duration=60.0, seed=2,
+                             modes=("none", "adaptive", "adaptive-dob")).compare_options()
     spec = draw_plants(1000, comparison_reference(o), seed=2)[867]
     assert spec["model"] == "karnopp" and math.isclose(spec["J"], 7.645, rel_tol=1e-3)
     eta = {}

@@ -33,7 +33,8 @@ def test_the_band_is_three_times_the_configured_sensors_velocity_noise():
     # the comparison's noise is the loop's (the same configured sensor), with the Kalman velocity too
     for kw in (dict(encoder_counts=2 ** 16), dict(encoder_counts=2 ** 17, velocity="kalman"), dict(noise_std=3e-3)):
         c = CompareOptions.from_flat(duration=1.0, **kw)
-        assert measurement_noise(c) == c.loop.velocity_noise() and c.loop.sized_stick_band() == 3.0 * measurement_noise(c)
+        assert measurement_noise(c) == c.loop.velocity_noise()
+        assert c.loop.sized_stick_band() == 3.0 * measurement_noise(c)
     with pytest.raises(ParameterError, match="noise"):
         stick_band_for(-1e-3)
     with pytest.raises(ParameterError, match="noise"):

@@ -225,7 +225,8 @@ def test_a_zoo_on_a_point_to_point_reference_with_an_encoder_is_compare_on_each_
     assert r.plants == draw_plants(3, ref, seed=4)
     json.dumps(r.to_dict(), allow_nan=False)
     d = json.loads(json.dumps(zoo_options_dict(o), allow_nan=False))
-    assert d["reference"] == {"samples": ref.t.shape[0], "stops": 3, "reversals": 0} and d["compare"]["encoder_counts"] == 65536
+    assert d["reference"] == {"samples": ref.t.shape[0], "stops": 3, "reversals": 0}
+    assert d["compare"]["encoder_counts"] == 65536
     assert not r.refused, r.refused  # a 3.7 s identification run too short to fit: fixed/the start fall back
     for j in (0, 2):
         c = compare(plant_from_dict(r.plants[j]), reference=ref, encoder_counts=2 ** 16, delay=1, seed=4, modes=modes,
@@ -235,7 +236,7 @@ def test_a_zoo_on_a_point_to_point_reference_with_an_encoder_is_compare_on_each_
 
 
 def test_own_compensators_run_on_every_zoo_joint_in_worker_processes(tmp_path, monkeypatch):
-    """ZooOptions.from_flat(compensators=) by file path: resolved in each worker, one run per joint, eta beside the modes,
+    """ZooOptions(compensators=) by file path: resolved in each worker, one run per joint, eta beside the modes,
     equal to compare() on that joint with the same factory."""
     import importlib.util
 
@@ -259,7 +260,7 @@ def test_own_compensators_run_on_every_zoo_joint_in_worker_processes(tmp_path, m
 
 
 def test_a_design_inertia_off_by_a_factor_is_compare_with_that_J_design_on_each_joint():
-    # ZooOptions.from_flat(J_design_factor=2): every joint designed with twice its inertia, as compare(J_design=2*J) on it
+    # ZooOptions(J_design_factor=2): every joint designed with twice its inertia, as compare(J_design=2*J) on it
     modes = ("none", "adaptive", "frictionless")
     r = run_zoo(ZooOptions.from_flat(n=2, duration=6.0, seed=2, modes=modes, workers=1, J_design_factor=2.0))
     plain = run_zoo(ZooOptions.from_flat(n=2, duration=6.0, seed=2, modes=modes, workers=1))
@@ -275,7 +276,7 @@ def test_a_design_inertia_off_by_a_factor_is_compare_with_that_J_design_on_each_
         for m in modes:
             assert plain.rms[m][j] == pytest.approx(c0.results[m].metrics.rms_second_half, rel=1e-12)
     assert ZooOptions().J_design_factor is None
-    assert zoo_options_dict(ZooOptions.from_flat(J_design_factor=2.0))["J_design_factor"] == 2.0  # on the benchmark page
+    assert zoo_options_dict(ZooOptions(J_design_factor=2.0))["J_design_factor"] == 2.0  # on the benchmark page
     for bad in (0.0, -1.0, math.inf, math.nan):
         with pytest.raises(ParameterError, match="J_design_factor"):
             ZooOptions.from_flat(J_design_factor=bad)
@@ -322,7 +323,7 @@ def test_observers_take_the_identified_inertia_where_the_design_inertia_is_contr
 
 
 def test_a_zoo_without_the_switch_in_is_compare_with_switch_in_false_on_each_joint():
-    # ZooOptions.from_flat(switch_in=False): mode adaptive as the feedforward alone (what export-c writes for a drive), as
+    # ZooOptions switch_in=False: mode adaptive as the feedforward alone (what export-c writes for a drive), as
     # compare(switch_in=False) on each joint; zoo seed 1's joint #0 is one where the residual observer switches in
     # within 10 s, so the option reaches the runs
     modes = ("none", "adaptive", "frictionless")
@@ -377,7 +378,7 @@ def test_a_zoo_placed_into_a_scenario_is_compare_on_each_joint_with_the_scenario
 
 
 def test_a_zoo_through_a_compiled_export_gives_the_packages_numbers(tmp_path):
-    # ZooOptions.from_flat(export=DIR): mode adaptive on every joint runs the export folder's C, compiled in the worker and
+    # ZooOptions(export=DIR): mode adaptive on every joint runs the export folder's C, compiled in the worker and
     # configured per joint by its own aff_init; the numbers are the package's, bit for bit
     import shutil
 
@@ -395,7 +396,8 @@ def test_a_zoo_through_a_compiled_export_gives_the_packages_numbers(tmp_path):
     export_c(JointExport(compensator=comp, J_design=p.J, u_max=150.0, Kp=d.Kp, Ki=d.Ki), tmp_path / "drive_ff")
     modes = ("none", "adaptive", "frictionless")
     pkg = run_zoo(ZooOptions.from_flat(n=3, duration=10.0, seed=1, modes=modes, workers=1))
-    exp = run_zoo(ZooOptions.from_flat(n=3, duration=10.0, seed=1, modes=modes, workers=1, export=tmp_path / "drive_ff"))
+    exp = run_zoo(ZooOptions.from_flat(n=3, duration=10.0, seed=1, modes=modes, workers=1,
+                                       export=tmp_path / "drive_ff"))
     for m in modes:
         np.testing.assert_array_equal(exp.rms[m], pkg.rms[m])
     assert np.isfinite(exp.rms["adaptive"]).all()
