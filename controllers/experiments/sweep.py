@@ -470,15 +470,15 @@ def check_case(case: dict) -> None:
     ------
     ParameterError
         Plant parameters out of range or implausible
-        (:func:`plant.models.check_plausible`, e.g. a Monte-Carlo draw of a
+        (:func:`plant.models.check_plausible` of any plant model, e.g. a Monte-Carlo draw of a
         negative ``J``), a crossover not > 0 or a phase margin outside (0, 90)
         deg; the message names the case's values.
     """
-    from plant.models import check_plausible
+    from plant.models import check_plausible, plant_from_dict
 
-    desc = ", ".join(f"{k}={v:g}" for k, v in case["plant"].items())
+    desc = ", ".join(f"{k}={v:g}" if _is_number(v) else f"{k}={v}" for k, v in case["plant"].items())
     try:
-        check_plausible(JointParams.from_dict(case["plant"]), where=f"case {case['id']} ({desc})")
+        check_plausible(plant_from_dict(case["plant"]), where=f"case {case['id']} ({desc})")
     except (ParameterError, TypeError, OverflowError) as exc:
         msg = str(exc)
         raise ParameterError(msg if msg.startswith("case ") else f"case {case['id']} ({desc}): {msg}") from None
