@@ -8,10 +8,10 @@ second half, ``(RMS_none - RMS_mode)/(RMS_none - RMS_frictionless)`` (none and f
 sensor, drive and plant):
 
 * **sensor and drive** (multi-sine 20 s, reference seed 0, run seed 1): the ideal sensor, a 17-bit encoder's
-  backward difference, the same with one period of measurement delay and a 2000 N·m/s slew limit, and the two
-  encoder rows again with the stick band ``compare`` sizes for the sensor (three times its velocity noise; the
-  example's options leave it at 0); eta of ``adaptive`` and ``adaptive-dob`` and the updates ``adaptive``'s
-  estimator refused as implausible;
+  backward difference, the same with one period of measurement delay and a 2000 N·m/s slew limit (the stick band
+  the loop sizes for the sensor, three times its velocity noise, :meth:`LoopConfig.sized_stick_band`), and the two
+  encoder rows again with a stick band of 0; eta of ``adaptive`` and ``adaptive-dob`` and the updates
+  ``adaptive``'s estimator refused as implausible;
 * **plant** (the same runs): a payload step (J 4 -> 6 kg·m² at 10 s) and a +-10 % friction ripple of 240 and 24
   periods per revolution;
 * **moves** (the page's pick-and-place reference, run seed 0): RMS of the velocity error in motion (deg/s) and
@@ -29,7 +29,6 @@ import argparse
 import numpy as np
 
 from controllers.design.pi import design_pi
-from controllers.experiments.compare import CompareOptions, measurement_noise
 from controllers.simulation.closed_loop import LoopConfig, run_mode
 from plant import FrictionRipple, PayloadStep, preset
 from plant.excitation import multisine_reference
@@ -44,13 +43,6 @@ def _eta(plant, ref, options, seed: int) -> tuple[dict, object]:
             for m in ("none", "frictionless") + MODES}
     rn, rf = runs["none"].metrics.rms_second_half, runs["frictionless"].metrics.rms_second_half
     return {m: (rn - runs[m].metrics.rms_second_half) / (rn - rf) for m in MODES}, runs["adaptive"]
-
-
-def _sized(o: dict, sensor: dict) -> dict:
-    """``sensor`` with the stick band ``compare`` gives it: three times the velocity noise the sensor makes
-    (:func:`controllers.experiments.compare.measurement_noise`: the white noise and the encoder's quantisation)."""
-    noise = measurement_noise(CompareOptions.from_flat(noise_std=o["noise_std"], **sensor))
-    return dict(sensor, stick_band=3.0 * noise)
 
 
 def _row(label: str, eta: dict, run) -> str:
@@ -69,8 +61,8 @@ def main(argv=None) -> int:
     encoder, drive = dict(encoder_counts=2 ** 17), dict(encoder_counts=2 ** 17, delay=1, slew_rate=2000.0)
     for label, kw in (("ideal sensor", {}), ("17-bit encoder", encoder),
                       ("17-bit encoder, 1 period delay, slew", drive),
-                      ("17-bit encoder, stick band 3x noise", _sized(o, encoder)),
-                      ("the same, 1 period delay, slew", _sized(o, drive))):
+                      ("17-bit encoder, stick band 0", dict(encoder, stick_band=0.0)),
+                      ("the same, 1 period delay, slew", dict(drive, stick_band=0.0))):
         print(_row(label, *_eta(p, ref, LoopConfig.from_flat(**o, **kw), 1)))
     print("\nplant (multi-sine 20 s, seed 1)\n" + head)
     for label, plant in (("payload step J 4 -> 6 at 10 s", PayloadStep(p, t_step=10.0, J_after=6.0)),

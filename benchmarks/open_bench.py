@@ -64,8 +64,8 @@ def variants_table(seed: int, velocity: str) -> None:
 
 
 def zoo_table(n: int, seed: int, workers, velocity: str) -> None:
-    o = ZooOptions(n=n, seed=seed, modes=MODES, reference=bench_reference(), encoder_counts=2 ** 17, delay=1,
-                   workers=workers, velocity=velocity)
+    o = ZooOptions.from_flat(n=n, seed=seed, modes=MODES, reference=bench_reference(), encoder_counts=2 ** 17, delay=1,
+                             workers=workers, velocity=velocity)
     r = run_zoo(o)
     q = (0.05, 0.25, 0.5)
     best = np.fmax(r.eta["adaptive"], r.eta["adaptive-dob"])

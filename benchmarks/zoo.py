@@ -19,7 +19,7 @@ at or above the DOB on at least 95 %) with the joints that miss them, and the
 wall time split into preparation and runs, and the joints where an adaptive mode's largest velocity error
 exceeds the larger of ``none``'s and twice ``frictionless``'s (target: none).
 
-``--scenario FILE`` places every joint into a scenario file's comparison (``ZooOptions.base``): its
+``--scenario FILE`` places every joint into a scenario file's comparison (``ZooOptions.compare``): its
 reference (the joints are drawn for its peak speed and acceleration; ``--duration`` is refused), sensor,
 slew limit and controller design; each joint keeps its own torque limit and design inertia.
 
@@ -80,20 +80,20 @@ def main(argv=None) -> int:
     ap.add_argument("--json", default=None, help="write the full result (strict JSON) to this file")
     add_yes_argument(ap)
     args = ap.parse_args(argv)
-    base = None
+    base, flat = None, {"duration": args.duration}
     if args.scenario is not None:
         if any(a == "--duration" or a.startswith("--duration=") for a in (argv if argv is not None else sys.argv[1:])):
             ap.error("--duration: the scenario's reference sets the duration")
         try:
-            base = load_scenario(args.scenario).options
+            base, flat = load_scenario(args.scenario).options, {}
         except ParameterError as exc:
             ap.error(str(exc))
     try:
-        o = ZooOptions(base=base, n=args.n, duration=args.duration, seed=args.seed,
-                       modes=tuple(args.modes.split(",")), group=args.group, workers=args.workers, scheduler=args.scheduler,
-                       min_degradation=args.min_degradation, estimator=args.estimator,
-                       J_design_factor=args.J_design_factor, iv_map_stderr=args.iv_map_stderr,
-                       switch_in=args.switch_in, export=args.export)
+        o = ZooOptions.from_flat(compare=base, **flat, n=args.n, seed=args.seed, modes=tuple(args.modes.split(",")),
+                                 group=args.group, workers=args.workers, scheduler=args.scheduler,
+                                 min_degradation=args.min_degradation, estimator=args.estimator,
+                                 J_design_factor=args.J_design_factor, iv_map_stderr=args.iv_map_stderr,
+                                 switch_in=args.switch_in, export=args.export)
     except ParameterError as exc:  # a setting out of range: argparse's message and exit code 2, no traceback
         ap.error(str(exc))
     try:  # --n and --duration bounded up front: beyond 10 min or 4 GiB only with --yes

@@ -203,9 +203,10 @@ def config_class(name: str, ffi_lib: tuple, ctype: str, *, module: str, summary:
     return cls
 
 
-def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c") -> property:
-    """A read-only public attribute that reads one field of a component's C struct: the one accessor of the
-    wrappers (``n_rejected = struct_field("n_rejected", int, "Samples rejected.")``).
+def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c", settable: bool = False,
+                 flag: str | None = None) -> property:
+    """A public attribute that reads one field of a component's C struct: the one accessor of the wrappers
+    (``n_rejected = struct_field("n_rejected", int, "Samples rejected.")``).
 
     Parameters
     ----------
@@ -218,6 +219,12 @@ def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c") -> p
     via : str, keyword-only
         The attribute that holds the struct pointer, default ``"_c"`` (:attr:`Component.cdata`; a part's, e.g.
         ``"_f"``, where the struct is a field of a composite's).
+    settable : bool, keyword-only
+        Writable too (a state a caller preloads or restores): the value converted by ``kind`` (a bool stored as
+        0/1); default False (read-only).
+    flag : str or None, keyword-only
+        A field beside ``field`` that says whether it holds a value (``"has_last"``): the attribute reads None
+        while the flag is 0; set, None clears the flag and a value sets it. Default None: always a value.
 
     Returns
     -------
@@ -225,14 +232,28 @@ def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c") -> p
     """
     path = tuple(field.split("."))
 
-    def get(self):
+    def holder(self):
         v = getattr(self, via)
-        for name in path:
+        for name in path[:-1]:
             v = getattr(v, name)
-        return kind(v)
+        return v
 
-    get.__name__ = path[-1]
-    return property(get, doc=doc)
+    def get(self):
+        h = holder(self)
+        if flag is not None and not getattr(h, flag):
+            return None
+        return kind(getattr(h, path[-1]))
+
+    def put(self, value) -> None:
+        h = holder(self)
+        if flag is not None:
+            setattr(h, flag, 0 if value is None else 1)
+            if value is None:
+                return
+        setattr(h, path[-1], int(bool(value)) if kind is bool else kind(value))
+
+    get.__name__ = put.__name__ = path[-1]
+    return property(get, put if settable else None, doc=doc)
 
 
 class Component:

@@ -69,9 +69,24 @@ def _velocity_inputs(kw, mode, J_d, with_ff):
     return lm, obs
 
 
+def _stick_band(kw) -> float:
+    """The loop's stick band: ``stick_band`` as given, or (None, the default) three times the velocity noise of the
+    sensor the settings describe: the white noise and, with an encoder, its backward difference's quantisation
+    (two independent uniform errors of ``res**2/12`` over ``Tc``)."""
+    if kw.get("stick_band") is not None:
+        return kw["stick_band"]
+    var = kw.get("noise_std", 0.0) ** 2
+    if kw.get("encoder_counts") is not None:
+        if kw.get("velocity", "difference") != "difference":
+            raise NotImplementedError("the replay sizes the stick band of the backward difference only")
+        res = 2.0 * math.pi / kw["encoder_counts"]
+        var += 2.0 * (res * res / 12.0) / kw.get("Tc", 1e-3) ** 2
+    return 3.0 * math.sqrt(var)
+
+
 def _ff_settings(kw, Tc, ff_max):
     return dict(dt=Tc, lag=kw.get("lag", True), ff_max=ff_max, sign_width=kw.get("sign_width", 0.0),
-                stick_band=kw.get("stick_band", 0.0), stick_samples=kw.get("stick_samples", 10))
+                stick_band=_stick_band(kw), stick_samples=kw.get("stick_samples", 10))
 
 
 def _robust(kw, U, WM, J, Tc, m, ff_max, u_max):
@@ -133,7 +148,7 @@ def _compensation(mode, kw, *, J, J_d, Tc, m, u_max, ff_max, t, wr, wc, WM, U, F
         rep["ff"] = SimpleNamespace(estimate=r["est"].estimate)
         return r["u_ff"], rep
     lm, obs = _velocity_inputs(kw, mode, J_d, True)
-    band = kw.get("stick_band", 0.0)
+    band = _stick_band(kw)
     if mode == "fixed":
         ff = po.Feedforward(**_ff_settings(kw, Tc, ff_max))
         ff.use(kw["estimate"])

@@ -540,10 +540,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         ``aff_robust_ff_plausible``)."""
         return bool(lib.aff_robust_ff_plausible(self._c, est.J, est.tau, est.J_alt, est.Fc, est.Fs, est.sigma))
 
-    @property
-    def active(self) -> bool:
-        """True once the feedforward acts: a plausible estimate, or the provisional start map, is in use."""
-        return bool(self._f.has)
+    active = struct_field("has", bool, "True once the feedforward acts: a plausible estimate, or the provisional "
+                          "start map, is in use.", via="_f")
 
     @property
     def theta(self) -> np.ndarray:

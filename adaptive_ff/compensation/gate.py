@@ -90,27 +90,10 @@ class OutlierGate(Component):
     max_consecutive = struct_field("max_consecutive", int,
                                    "Consecutive outlier rejections after which a sample is accepted again.")
 
-    @property
-    def last(self) -> float | None:
-        """Last accepted value, or None before the first."""
-        return float(self._c.last) if self._c.has_last else None
-
-    @last.setter
-    def last(self, value) -> None:
-        if value is None:
-            self._c.has_last = 0
-        else:
-            self._c.last = float(value)
-            self._c.has_last = 1
-
-    @property
-    def scale(self) -> float:
-        """Running mean of ``|x(k) - x(k-1)|`` over accepted samples."""
-        return float(self._c.scale)
-
-    @scale.setter
-    def scale(self, value) -> None:
-        self._c.scale = float(value)
+    last = struct_field("last", float, "Last accepted value, or None before the first.", settable=True,
+                        flag="has_last")
+    scale = struct_field("scale", float, "Running mean of ``|x(k) - x(k-1)|`` over accepted samples.",
+                         settable=True)
 
     n_held = struct_field("n_held", int, "Samples rejected since the last accepted one.")
     n_rejected = struct_field("n_rejected", int, "Rejections in total.")

@@ -407,11 +407,9 @@ class SlidingFrictionEstimator(Component):
         """Current near-zero band (rad/s): ``max(w_band_min, 4*noise_std)``."""
         return max(self.w_band_min, _BAND_SIGMAS * float(self._c.d2) / _NOISE_GAIN)
 
-    @property
-    def noise_variance(self) -> float:
-        """Running mean of the normalised squared a-priori errors of the RLS, ``err**2/(1 + phi @ P @ phi)``
-        (N·m²): the noise variance, the scale of :attr:`theta_cov`."""
-        return float(self._c.e2)
+    noise_variance = struct_field("e2", float, "Running mean of the normalised squared a-priori errors of the RLS, "
+                                  "``err**2/(1 + phi @ P @ phi)`` (N·m²): the noise variance, the scale of "
+                                  ":attr:`theta_cov`.")
 
     @property
     def theta_cov(self) -> np.ndarray:

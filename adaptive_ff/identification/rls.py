@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from adaptive_ff._caff import ffi, lib
-from plant.component import Component
+from plant.component import Component, struct_field
 from plant.errors import ParameterError, SignalError
 
 __all__ = ["RecursiveLeastSquares", "FORGETTING", "RLS_NMAX"]
@@ -308,25 +308,15 @@ class RecursiveLeastSquares(Component):
         """Forgetting scheme, one of :data:`FORGETTING`."""
         return self._forgetting
 
-    @property
-    def P_max(self) -> float:
-        """Bound on ``trace(P)`` (inf = none)."""
-        return float(self._c.P_max)
+    P_max = struct_field("P_max", float, "Bound on ``trace(P)`` (inf = none).")
 
-    @property
-    def n_updates(self) -> int:
-        """Number of accepted updates."""
-        return int(self._c.n_updates)
+    n_updates = struct_field("n_updates", int, "Number of accepted updates.")
 
-    @property
-    def n_projected(self) -> int:
-        """Number of updates after which ``theta`` was projected onto ``bounds``."""
-        return int(self._c.n_projected)
+    n_projected = struct_field("n_projected", int,
+                               "Number of updates after which ``theta`` was projected onto ``bounds``.")
 
-    @property
-    def n_rejected(self) -> int:
-        """Number of refused samples (non-finite, or an update that would overflow); the state was left unchanged."""
-        return int(self._c.n_rejected)
+    n_rejected = struct_field("n_rejected", int, "Number of refused samples (non-finite, or an update that would "
+                              "overflow); the state was left unchanged.")
 
     @property
     def prior_variance(self) -> float:

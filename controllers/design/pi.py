@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from controllers._cctl import ffi, lib
-from plant.component import Component
+from plant.component import Component, struct_field
 from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
 from plant.results import axes_or_new, json_safe
 
@@ -739,10 +739,7 @@ class PIController(Component):
         return (f"PIController(Kp={self.Kp!r}, Ki={self.Ki!r}, Tc={self.Tc!r}, u_max={self.u_max!r}, "
                 f"integral={self.integral!r})")
 
-    @property
-    def Kp(self) -> float:
-        """Proportional gain (N·m·s/rad)."""
-        return float(self._c.Kp)
+    Kp = struct_field("Kp", float, "Proportional gain (N·m·s/rad).")
 
     @property
     def Ki(self) -> float:
@@ -754,10 +751,7 @@ class PIController(Component):
         """Controller period (s)."""
         return self._Tc
 
-    @property
-    def u_max(self) -> float:
-        """Torque limit (N·m), ``inf`` = none."""
-        return float(self._c.u_max)
+    u_max = struct_field("u_max", float, "Torque limit (N·m), ``inf`` = none.")
 
     @property
     def integral(self) -> float:
@@ -768,14 +762,7 @@ class PIController(Component):
     def integral(self, value: float) -> None:
         self._c.I = check_finite_scalar("integral", value)
 
-    @property
-    def saturated(self) -> bool:
-        """Whether the last command was clipped to ``±u_max``."""
-        return bool(self._c.saturated)
-
-    @saturated.setter
-    def saturated(self, value: bool) -> None:
-        self._c.saturated = 1 if value else 0
+    saturated = struct_field("saturated", bool, "Whether the last command was clipped to ``±u_max``.", settable=True)
 
     def reset(self, integral: float = 0.0) -> None:
         """Set the integrator to ``integral`` (N·m, default 0) and clear ``saturated``."""

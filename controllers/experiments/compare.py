@@ -78,10 +78,9 @@ def friction_scale(p, peak_w: float) -> float:
 #: bare loop is noiseless); ``u_max`` None (three times the measured friction level plus the design inertia times the
 #: reference's peak acceleration; the bare loop is unbounded); ``warmup`` 50 sliding-regime RLS updates (the bare
 #: component's 200 give the same second-half eta on every plant of ``benchmarks/variants.py``, the feedforward
-#: acts about twice as early: docs/benchmarks/variants.md); ``stick_band`` None (``3*noise_std``, of the measured
-#: noise; the bare component's 0 detects no sticking) and ``stick_samples`` 50 (50 ms at 1 ms: with the observer's
+#: acts about twice as early: docs/benchmarks/variants.md) and ``stick_samples`` 50 (50 ms at 1 ms: with the observer's
 #: sign a slow reversal is not taken for sticking; the component's 10: docs/benchmarks/compensation.md).
-EXPERIMENT_DEFAULTS = {"noise_std": 1e-3, "u_max": None, "warmup": 50, "stick_band": None, "stick_samples": 50}
+EXPERIMENT_DEFAULTS = {"noise_std": 1e-3, "u_max": None, "warmup": 50, "stick_samples": 50}
 #: Loop settings a comparison sets itself for each joint (its PI design and what it measures,
 #: :func:`prepare_comparison`): no keyword of :meth:`CompareOptions.from_flat`.
 DESIGNED = ("Kp", "Ki", "ff_max", "model", "estimate", "initial", "start", "omega_r", "J_n")
@@ -168,11 +167,12 @@ class CompareOptions:
         reference's peak speed, then 20 s of open-loop noise torque; the plant's own ``J`` is never read);
         ``estimator.Vs``/``delta`` where None (the pre-fit; give both or neither, ``Vs > 0``, ``delta != 0``);
         ``drive.u_max`` where None (``3*(F_peak + J_design*accel_peak)`` with ``F_peak`` the largest mean torque
-        measured in the quasi-static runs); ``feedforward.stick_band`` where None (``3*`` the measurement's noise
-        level, :func:`measurement_noise`, which an encoder's quantisation (``sensor.encoder_counts``) raises: it
-        also sets the residual observer's cut-off and the noise of the quasi-static and identification
-        experiments); ``feedforward.ff_max`` (half of ``u_max``); the observers' nominal inertia and the residual
-        observer's cut-off (:mod:`controllers.experiments.observer_design`).
+        measured in the quasi-static runs); ``feedforward.stick_band`` where None (the loop's own rule,
+        :meth:`controllers.simulation.loop_config.LoopConfig.sized_stick_band`: three times the configured
+        sensor's noise, :func:`measurement_noise`, which an encoder's quantisation (``sensor.encoder_counts``)
+        raises; that noise also sets the residual observer's cut-off and the noise of the quasi-static and
+        identification experiments); ``feedforward.ff_max`` (half of ``u_max``); the observers' nominal inertia
+        and the residual observer's cut-off (:mod:`controllers.experiments.observer_design`).
 
     Raises
     ------
@@ -624,7 +624,7 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
         notes.append(f"the design inertia {J:.4g} kg·m² is {J / J_n:.3g} times the {J_n:.4g} kg·m² of the "
                      f"identification run: the observers (dob, the residual observer and switch-in of adaptive and "
                      f"adaptive-dob, the supervisor) take the identified one; the PI keeps its design")
-    stick_band = 3.0 * noise if o.loop.feedforward.stick_band is None else o.loop.feedforward.stick_band
+    stick_band = o.loop.sized_stick_band()  # the loop's one rule: 3 x the configured sensor's noise
     # the feedforward may use at most half the actuator range; friction levels above it are implausible
     sensor = o.loop.sensor
     omega_r = residual_cutoff(J, noise, Tc, friction_level(exp, F_peak), share=residual_share(exp, stick_band),
@@ -783,28 +783,11 @@ def _reference_duration(ref, Tc: float) -> float:
 
 
 def measurement_noise(o: CompareOptions) -> float:
-    """Standard deviation (rad/s) of the loop's velocity measurement error that the design assumes.
+    """Standard deviation (rad/s) of the loop's velocity measurement error that the design assumes: that of the
+    loop's configured sensor, :meth:`controllers.simulation.loop_config.LoopConfig.velocity_noise`.
 
-    ``sqrt(noise_std**2 + 2*(res**2/12)/Tc**2)`` with ``res = 2*pi/encoder_counts`` (rad): the white noise plus
-    the backward difference of two independent, uniformly distributed quantisation errors of variance
-    ``res**2/12`` each (Widrow & Kollar, *Quantization Noise*, 2008, ch. 4); ``noise_std`` without an encoder.
-    A 2^17-count encoder at 1 kHz: 0.0196 rad/s. With the Kalman velocity (``velocity="kalman"``) the
-    quantisation part is the filter's own steady-state velocity variance ``P[1, 1]`` for white position noise
-    ``res**2/12`` (:func:`adaptive_ff.io.kalman_velocity.steady_state_kalman`; 0.0043 rad/s for 2^17 counts, cv,
-    100 Hz). What a user knows of their sensor (its resolution, its filter), not a field of the plant.
     """
-    s, Tc = o.loop.sensor, o.loop.controller.Tc
-    if s.encoder_counts is None:
-        return float(s.noise_std)
-    res = 2.0 * math.pi / s.encoder_counts
-    if s.velocity == "kalman":
-        from adaptive_ff.io.kalman_velocity import steady_state_kalman
-        from controllers.simulation.sensor_drive import default_velocity_bandwidth
-
-        bw = s.velocity_bandwidth if s.velocity_bandwidth is not None else default_velocity_bandwidth(Tc)
-        kf = steady_state_kalman(s.velocity_model, bandwidth=bw, position_noise=res / math.sqrt(12.0), T=Tc)
-        return math.sqrt(s.noise_std ** 2 + float(kf.P[1, 1]))
-    return math.sqrt(s.noise_std ** 2 + res * res / (6.0 * Tc * Tc))
+    return o.loop.velocity_noise()
 
 
 def _checked_reference(ref, o: CompareOptions):

@@ -46,6 +46,7 @@ from controllers._cctl import ffi, lib
 from controllers.design.pi import PIController, PITuning
 from controllers.experiments.comparison import eta_or_none, options_with_changes
 from controllers.simulation.compensators import build_mode, own_supervisor
+from controllers.simulation.loop_config import stick_band_for
 from controllers.simulation.metrics import LoopMetrics, loop_metrics, reversal_times
 from controllers.simulation.sensor_drive import DELAY_MAX, Sensor
 from plant.errors import ParameterError, check_nonnegative, check_positive
@@ -279,7 +280,8 @@ def joint_designs(identification, arm, options: CompareArmOptions) -> list:
             noise, source = options.noise_std, "options"
         settings = {"u_max": float(u_max[j]), "pi": PITuning(Kp=s["Kp"], Ki=s["Ki"]), "Tc": options.Tc,
                     "Ts": options.Ts,
-                    "stick_band": 3.0 * noise, "omega_r": residual_cutoff(s["J_design"], noise, options.Tc, level),
+                    "stick_band": stick_band_for(noise),
+                    "omega_r": residual_cutoff(s["J_design"], noise, options.Tc, level),
                     "start": bool(options.start) and math.isfinite(ident.params.get("tau", math.nan))}
         o = compensator_from_file(identification, arm_joint=name, **settings)[1]["options"]
         est = FrictionEstimate(J=s["J_design"], tau=0.0, sigma=fr.get("sigma", 0.0), Fc=fr.get("Fc", 0.0),

@@ -79,7 +79,8 @@ def compensator_from_file(path, *, u_max: float, pi: PITuning = PITuning(), star
     **options
         Flat settings of :meth:`controllers.simulation.loop_config.LoopConfig.from_flat` that override the defaults: ``Tc``
         (1 ms), ``Ts`` (10 ms), ``J_design`` (the identified ``J``), ``Vs``, ``delta`` (the file's), ``ff_max``
-        (``u_max/2``), ``stick_band`` (three times the identification's noise estimate, 0 without one),
+        (``u_max/2``), ``stick_band`` (three times the identification's noise estimate,
+        :func:`controllers.simulation.loop_config.stick_band_for`; 0 without one),
         ``stick_samples`` (50), ``warmup`` (50), ``omega_r`` (the residual observer's cut-off,
         :func:`controllers.experiments.observer_design.residual_cutoff` of the design inertia, the noise estimate
         and the identified friction level ``max(Fc, Fs)``), ...
@@ -103,7 +104,7 @@ def compensator_from_file(path, *, u_max: float, pi: PITuning = PITuning(), star
     from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
     from adaptive_ff.identification.regression import FrictionEstimate
     from controllers.simulation.compensators import build_mode
-    from controllers.simulation.loop_config import FLAT_PATHS, LoopConfig
+    from controllers.simulation.loop_config import FLAT_PATHS, LoopConfig, stick_band_for
     from plant.errors import ParameterError
 
     from controllers.experiments.observer_design import residual_cutoff
@@ -147,7 +148,7 @@ def compensator_from_file(path, *, u_max: float, pi: PITuning = PITuning(), star
         init = FrictionEstimate(J=J_design, tau=0.0, sigma=joint.get("sigma", 0.0), Fc=joint.get("Fc", 0.0),
                                 Fs=joint.get("Fs", 0.0), offset=0.0, Vs=Vs, delta=delta, J_alt=math.nan)
     level = max(joint.get("Fc", 0.0), joint.get("Fs", 0.0))
-    settings = {"ff_max": 0.5 * u_max, "stick_band": 3.0 * noise if noise is not None and noise >= 0 else 0.0,
+    settings = {"ff_max": 0.5 * u_max, "stick_band": stick_band_for(noise) if noise is not None and noise >= 0 else 0.0,
                 "stick_samples": 50, "warmup": 50,
                 "omega_r": residual_cutoff(J_design, noise or 0.0, Tc, level), **options}
     if feedforward_only:  # the feedforward alone: aff_adaptive without the observer and the supervisor

@@ -78,12 +78,13 @@ class SweepSpec:
         Grid of :func:`controllers.design_pi` targets (``crossover``, ``phase_margin``).
     monte_carlo : dict
         Random plant draws (``n``, ``seed`` and per-parameter distributions).
-    modes : tuple of str
     seeds : tuple of int
-    duration : float
-        Run length (s).
+    compare : CompareOptions
+        The comparison of every case (:class:`controllers.experiments.compare.CompareOptions`: the spec's
+        ``duration``, ``modes`` and ``options``), which checks them; a case sets its seed and its controller targets.
     options : dict
-        Extra keyword arguments for :func:`controllers.experiments.compare.compare`.
+        The spec's ``options`` as written (flat keywords of :meth:`CompareOptions.from_flat`): a case carries them
+        to its worker and its id hashes them.
     random_plants : dict
         ``{"n", "seed", "box"}`` of random joints of every model (empty: none).
     compensators : dict
@@ -95,12 +96,21 @@ class SweepSpec:
     grid: dict
     controller: dict
     monte_carlo: dict
-    modes: tuple
     seeds: tuple
-    duration: float
+    compare: object
     options: dict
     random_plants: dict = field(default_factory=dict)
     compensators: dict = field(default_factory=dict)
+
+    @property
+    def modes(self) -> tuple:
+        """The modes of every case, :attr:`compare`'s."""
+        return tuple(self.compare.modes)
+
+    @property
+    def duration(self) -> float:
+        """Run length (s) of every case, :attr:`compare`'s."""
+        return self.compare.duration
 
 
 _PLANT_KEYS = ("J", "Fc", "Fs", "Vs", "delta", "sigma", "tau")
@@ -193,8 +203,10 @@ def _monte_carlo(where: str, value) -> dict:
     return mc
 
 
-def _options(where: str, value) -> dict:
-    """The validated ``options`` section: keyword arguments of ``compare()`` (:meth:`CompareOptions.from_flat`'s)."""
+def _compare_options(where: str, value, modes: tuple, duration: float):
+    """The comparison of every case: the ``options`` section (flat keywords of :meth:`CompareOptions.from_flat`
+    but those the spec has keys of its own for) with the spec's ``modes`` and ``duration``, checked by
+    :class:`CompareOptions` (the message names the file and the section)."""
     from controllers.experiments.compare import CompareOptions
 
     if not isinstance(value, dict):
@@ -205,10 +217,9 @@ def _options(where: str, value) -> dict:
         raise ParameterError(f"{where}: options key(s) {unknown} unknown; allowed {allowed} (duration, seeds, "
                              "modes and the controller targets have keys of their own)")
     try:
-        CompareOptions.from_flat(**value)
+        return CompareOptions.from_flat(duration=duration, modes=modes, **value)
     except (ParameterError, TypeError, ValueError) as exc:
         raise ParameterError(f"{where}: options: {exc}") from None
-    return dict(value)
 
 
 def _modes_seeds_duration(where: str, d: dict) -> tuple:
@@ -296,9 +307,10 @@ def load_spec(source) -> SweepSpec:
         raise ParameterError(f"{where}: random_plants.n x seeds x controller points is more than {MAX_CASES} cases")
     own = _own_compensators(d.get("compensators", {}), Path(where).parent if not isinstance(source, dict) else Path("."),
                             where)
-    return SweepSpec(base=base, grid=grid, controller=controller, monte_carlo=mc, modes=modes, seeds=seeds,
-                     duration=duration, options=_options(where, d.get("options", {})), random_plants=random_plants,
-                     compensators=own)
+    options = d.get("options", {})
+    return SweepSpec(base=base, grid=grid, controller=controller, monte_carlo=mc, seeds=seeds,
+                     compare=_compare_options(where, options, modes, duration), options=dict(options),
+                     random_plants=random_plants, compensators=own)
 
 
 def _own_compensators(table, base: Path, where: str) -> dict:
@@ -358,10 +370,10 @@ def expand_cases(spec: SweepSpec) -> list[dict]:
         plants.append(p)
     rp = spec.random_plants
     if rp:
-        from controllers.experiments.compare import CompareOptions, comparison_reference
+        from controllers.experiments.compare import comparison_reference
         from controllers.experiments.zoo import draw_plants, zoo_box
 
-        ref = comparison_reference(CompareOptions(duration=spec.duration, seed=0))
+        ref = comparison_reference(spec.compare.replace(seed=0))
         plants = draw_plants(rp["n"], ref, seed=rp["seed"], box=zoo_box(rp["box"]))
     mc = spec.monte_carlo
     if mc.get("n"):
@@ -458,15 +470,15 @@ def check_case(case: dict) -> None:
     ------
     ParameterError
         Plant parameters out of range or implausible
-        (:func:`plant.models.check_plausible`, e.g. a Monte-Carlo draw of a
+        (:func:`plant.models.check_plausible` of any plant model, e.g. a Monte-Carlo draw of a
         negative ``J``), a crossover not > 0 or a phase margin outside (0, 90)
         deg; the message names the case's values.
     """
-    from plant.models import check_plausible
+    from plant.models import check_plausible, plant_from_dict
 
-    desc = ", ".join(f"{k}={v:g}" for k, v in case["plant"].items())
+    desc = ", ".join(f"{k}={v:g}" if _is_number(v) else f"{k}={v}" for k, v in case["plant"].items())
     try:
-        check_plausible(JointParams.from_dict(case["plant"]), where=f"case {case['id']} ({desc})")
+        check_plausible(plant_from_dict(case["plant"]), where=f"case {case['id']} ({desc})")
     except (ParameterError, TypeError, OverflowError) as exc:
         msg = str(exc)
         raise ParameterError(msg if msg.startswith("case ") else f"case {case['id']} ({desc}): {msg}") from None
@@ -715,11 +727,8 @@ def run_sweep(spec: SweepSpec, out_csv, *, workers: int | None = None, scheduler
     if check is not None:
         check(todo)
     if todo:  # every worker holds one comparison at a time: refused before any case runs if they do not fit
-        from controllers.experiments.compare import CompareOptions
-
         parallel = 1 if scheduler is not None or workers == 1 else min(int(workers), len(todo))
-        CompareOptions.from_flat(duration=spec.duration, modes=spec.modes,
-                                 **spec.options).check_memory(processes=parallel)
+        spec.compare.check_memory(processes=parallel)
     new_file = not path.exists() or path.stat().st_size == 0
     written = 0
     with path.open("a", newline="") as fh:

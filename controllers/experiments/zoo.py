@@ -59,7 +59,7 @@ from __future__ import annotations
 import functools
 import math
 import os
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
@@ -76,8 +76,8 @@ from plant.models import plant_from_dict
 from plant.results import json_safe
 from plant.stribeck_map import stribeck
 
-__all__ = ["DRIFT_STEPS", "STATUSES", "WORSE_THAN_NONE", "ZooBox", "ZooOptions", "ZooResult", "ZOO_MODELS", "draw_plants", "run_zoo",
-           "zoo_box", "zoo_options_dict"]
+__all__ = ["DRIFT_STEPS", "STATUSES", "WORSE_THAN_NONE", "PER_JOINT", "ZooBox", "ZooOptions", "ZooResult",
+           "ZOO_MODELS", "draw_plants", "run_zoo", "zoo_box", "zoo_options_dict"]
 
 #: Plant models the zoo draws from.
 ZOO_MODELS = ("lagged-stribeck", "lugre", "karnopp", "asymmetric")
@@ -252,33 +252,36 @@ def draw_plants(n: int, reference, *, seed: int = 0, box: ZooBox | None = None) 
     return [_draw_one(rng, box, peak_w, peak_a, duration) for _ in range(int(n))]
 
 
-#: The fields :class:`ZooOptions` shares with :class:`controllers.experiments.compare.CompareOptions`, every joint's
-#: comparison: their defaults are CompareOptions' and CompareOptions checks them (:meth:`ZooOptions.compare_options`).
-SHARED_FIELDS = ("duration", "seed", "modes", "reference", "encoder_counts", "delay", "slew_rate", "velocity",
-                 "estimator", "iv_map_stderr", "switch_in")
-#: Those a ``base`` comparison sets (then left at their defaults here).
-BASE_FIELDS = ("reference", "encoder_counts", "delay", "slew_rate", "velocity")
-_COMPARE = {k: CompareOptions().flat(k) for k in SHARED_FIELDS}
+#: The settings of every joint's comparison the zoo never takes from :attr:`ZooOptions.compare`: they belong to one
+#: plant (its torque limit, design inertia, PI and own compensators are each joint's,
+#: :meth:`ZooOptions.compare_options`).
+PER_JOINT = {"u_max": None, "J_design": None, "controller": None, "compensators": None}
 
 
 @dataclass(frozen=True)
 class ZooOptions:
-    """Settings of :func:`run_zoo` (keyword-only, validated).
+    """Settings of :func:`run_zoo` (keyword-only, validated): the zoo's own and the comparison every joint is placed
+    into (:attr:`compare`, a :class:`controllers.experiments.compare.CompareOptions`, which holds and checks the
+    duration, seed, modes, reference, sensor, drive and estimator settings).
 
-    The fields it shares with every joint's comparison (:data:`SHARED_FIELDS`) take
-    :class:`controllers.experiments.compare.CompareOptions`' defaults and are checked by it
-    (:meth:`compare_options`).
+    :meth:`from_flat` takes both as flat keywords (``ZooOptions.from_flat(n=20, duration=30.0, estimator="eq4")``:
+    a setting of the comparison by its name of :meth:`CompareOptions.from_flat`).
 
     Parameters
     ----------
     n : int
         Number of joints.
-    duration : float
-        Run length (s).
-    seed : int
-        Seed of the draw and of every run (reference, noise, experiments as in ``compare``).
-    modes : tuple of str
-        Modes to run (``none`` and ``frictionless`` always; default every mode of the registry).
+    compare : CompareOptions
+        The comparison of every joint (default ``CompareOptions()``, ``compare``'s defaults), e.g. a scenario file's
+        (:attr:`controllers.experiments.scenario.Scenario.options`): its duration, seed (of the draw and of every
+        run: reference, noise, experiments as in ``compare``), modes (``none`` and ``frictionless`` always, in the
+        registry's order), reference (which sets the duration and the draw's peak speed and acceleration), sensor
+        (encoder, velocity, delay, noise), drive slew rate, step, controller design targets and estimator settings
+        are every joint's. Its settings of one plant (:data:`PER_JOINT`) are not: the torque limit is each joint's
+        ``compare`` default (three times its measured friction level plus its design inertia times the reference's
+        peak acceleration), the design inertia is identified on each joint or comes from ``J_design_factor``, each
+        joint's PI is designed on its own design inertia with the targets, own compensators come from
+        ``compensators``.
     box : ZooBox
     group : int
         Joints per task: a task prepares its joints and runs every mode on them, one batch call per mode
@@ -290,52 +293,6 @@ class ZooOptions:
         Where the preparation and the batches run instead: ``"synchronous"``, ``"threads"`` or ``"processes"``
         (Dask's local schedulers), or the address of a Dask cluster (``tcp://host:8786``) or a
         ``distributed.Client``. Needs dask.
-    reference : Reference or None
-        Velocity reference of every run (e.g. :func:`plant.motion.point_to_point_reference`); default None: the
-        multisine of ``duration`` s of :func:`controllers.experiments.compare.comparison_reference`. Given, it
-        sets the duration and the joints are drawn for its peak speed and acceleration.
-    encoder_counts, delay, slew_rate, velocity
-        The loop's encoder (counts per revolution), measurement delay (periods), torque slew limit (N·m/s) and
-        the encoder's velocity (``"difference"`` or ``"kalman"``, at its default bandwidth) in every run, as :class:`controllers.experiments.compare.CompareOptions`; default none of them. The
-        torque limit is each joint's ``u_max`` of ``compare``: three times its measured friction level plus
-        its design inertia times the reference's peak acceleration.
-    estimator : {"sliding", "eq4", "eq4-rls"}
-        Estimator of the ``adaptive`` and ``adaptive-dob`` modes, as :class:`controllers.experiments.compare.CompareOptions`;
-        default ``"sliding"``.
-    iv_map_stderr : float
-        The ``eq4`` estimator's determinacy test in mode ``adaptive``, as
-        :class:`controllers.experiments.compare.CompareOptions`; default ``inf`` (none).
-    compensators : dict or None
-        Your own compensators beside the modes, by import path (picklable, resolved in every worker):
-        ``{name: "module:factory"}`` or ``{name: {"factory": "path/file.py:factory", **keywords}}`` as the
-        ``[compensators]`` of a scenario file (:func:`controllers.experiments.scenario.compensator_factories`;
-        a relative file is relative to the working folder). Each runs on every joint with ``compare``'s context
-        (:func:`controllers.experiments.compare.compensator_context`) and the joint's noise, one run per joint
-        through the Python protocol (about ten times the engine's time per step), and appears among the modes.
-    switch_in : bool
-        Mode ``adaptive`` with the residual switch-in (default True), as
-        :class:`controllers.experiments.compare.CompareOptions`; False: the feedforward alone, as ``adaptive-ff
-        export-c`` writes it for a drive.
-    export : str or None
-        An ``adaptive-ff export-c`` folder: mode ``adaptive`` runs on every joint through its code, compiled in
-        each worker (:class:`controllers.simulation.exported.ExportedLibrary`: the drive's library, input guard
-        included, configured with each joint's settings by its own ``aff_init``) instead of the package's module;
-        default None. Needs a C compiler where the workers run.
-    base : CompareOptions or None
-        A comparison every joint is placed into, e.g. a scenario file's
-        (:attr:`controllers.experiments.scenario.Scenario.options`): its reference (which sets the duration and
-        the draw's peak speed and acceleration), sensor (encoder, velocity, delay, noise), drive slew rate, step
-        and controller design are every joint's. Its settings of one plant are not: the torque limit is each
-        joint's ``compare`` default (see ``encoder_counts`` above), the design inertia comes from
-        ``J_design_factor``, own compensators from ``compensators``; ``seed``, ``modes``, ``estimator``,
-        ``iv_map_stderr`` and ``switch_in`` are this zoo's. Given, ``reference``, ``encoder_counts``, ``delay``,
-        ``slew_rate`` and ``velocity`` must stay at their defaults. Default None: ``compare``'s defaults.
-    J_design_factor : float or None
-        Default None: every joint's design inertia (``CompareOptions.J_design``: the PI design, the estimators'
-        start, the gates, the observers' nominal inertia) is identified on it, ``compare``'s default
-        (:func:`controllers.experiments.first_inertia.inertia_experiment`). A factor (finite, > 0) makes it that
-        factor times the joint's true ``J`` instead: a data sheet off by that factor (1: an exact one), a benchmark
-        of what a wrong or a perfect design inertia does, never what a user has.
     min_degradation : float
         eta of a joint is *undefined* (``None`` in JSON) where friction raises the second-half RMS error of the
         uncompensated loop by less than this share of the frictionless loop's, ``rms_none < (1 +
@@ -343,33 +300,40 @@ class ZooOptions:
         error and the ratio is meaningless (a 6 s run without a reversal in its second half gives "eta" 5.1).
         Default 0.01; >= 0 (0: undefined only where friction does not degrade the loop at all, as
         :func:`controllers.experiments.compare.eta`).
+    compensators : dict or None
+        Your own compensators beside the modes, by import path (picklable, resolved in every worker):
+        ``{name: "module:factory"}`` or ``{name: {"factory": "path/file.py:factory", **keywords}}`` as the
+        ``[compensators]`` of a scenario file (:func:`controllers.experiments.scenario.compensator_factories`;
+        a relative file is relative to the working folder). Each runs on every joint with ``compare``'s context
+        (:func:`controllers.experiments.compare.compensator_context`) and the joint's noise, one run per joint
+        through the Python protocol (about ten times the engine's time per step), and appears among the modes.
+    J_design_factor : float or None
+        Default None: every joint's design inertia (``loop.controller.J_design``: the PI design, the estimators'
+        start, the gates, the observers' nominal inertia) is identified on it, ``compare``'s default
+        (:func:`controllers.experiments.first_inertia.inertia_experiment`). A factor (finite, > 0) makes it that
+        factor times the joint's true ``J`` instead: a data sheet off by that factor (1: an exact one), a benchmark
+        of what a wrong or a perfect design inertia does, never what a user has.
+    export : str or None
+        An ``adaptive-ff export-c`` folder: mode ``adaptive`` runs on every joint through its code, compiled in
+        each worker (:class:`controllers.simulation.exported.ExportedLibrary`: the drive's library, input guard
+        included, configured with each joint's settings by its own ``aff_init``) instead of the package's module;
+        default None. Needs a C compiler where the workers run.
 
     Raises
     ------
     ParameterError
-        Values out of range or an unknown mode.
+        Values out of range, an unknown mode or a setting the comparison refuses (:class:`CompareOptions`' check).
     """
 
     n: int = 100
-    duration: float = _COMPARE["duration"]
-    seed: int = _COMPARE["seed"]
-    modes: tuple = _COMPARE["modes"]
+    compare: CompareOptions = field(default_factory=CompareOptions)
     box: ZooBox = field(default_factory=ZooBox)
     group: int = 8
     workers: int | None = None
     scheduler: object = None
     min_degradation: float = 0.01
-    reference: object = _COMPARE["reference"]
-    encoder_counts: int | None = _COMPARE["encoder_counts"]
-    delay: int = _COMPARE["delay"]
-    slew_rate: float = _COMPARE["slew_rate"]
     compensators: dict | None = None
-    velocity: str = _COMPARE["velocity"]
-    estimator: str = _COMPARE["estimator"]
-    iv_map_stderr: float = _COMPARE["iv_map_stderr"]
-    switch_in: bool = _COMPARE["switch_in"]
     J_design_factor: float | None = None
-    base: CompareOptions | None = None
     export: str | None = None
 
     def __post_init__(self):
@@ -379,29 +343,17 @@ class ZooOptions:
             if missing:
                 raise ParameterError(f"export: {self.export} is not an export-c folder (missing {', '.join(missing)})")
             object.__setattr__(self, "export", str(self.export))
-        if self.base is not None:
-            if not isinstance(self.base, CompareOptions):
-                raise ParameterError(f"base must be a CompareOptions (e.g. a scenario's options), got "
-                                     f"{type(self.base).__name__}")
-            set_too = [k for k in BASE_FIELDS if getattr(self, k) != _COMPARE[k]]
-            if set_too:
-                raise ParameterError(f"{', '.join(set_too)}: set by base (the comparison every joint is placed "
-                                     f"into); leave them at their defaults")
-            object.__setattr__(self, "reference", self.base.reference)
-            if self.base.reference is None:
-                object.__setattr__(self, "duration", float(self.base.duration))
-        if self.reference is not None:  # its length sets the duration (checked with the step by CompareOptions)
-            t = np.asarray(getattr(self.reference, "t", ()), dtype=float)
-            if t.ndim != 1 or t.shape[0] < 2:
-                raise ParameterError(f"reference must be a plant.excitation.Reference of at least two samples, got "
-                                     f"{type(self.reference).__name__}")
-            object.__setattr__(self, "duration", float(t.shape[0] * (t[1] - t[0])))
+        if not isinstance(self.compare, CompareOptions):
+            raise ParameterError(f"compare must be a CompareOptions (e.g. a scenario's options), got "
+                                 f"{type(self.compare).__name__}")
         for name in ("n", "group"):
             v = getattr(self, name)
             if isinstance(v, bool) or int(v) != v or v < 1:
                 raise ParameterError(f"{name} must be an integer >= 1, got {v!r}")
-        self.compare_options()  # the fields it shares with compare: checked once, by CompareOptions
-        object.__setattr__(self, "modes", tuple(m for m in MODES if m in set(self.modes) | {"none", "frictionless"}))
+        modes = tuple(m for m in MODES if m in set(self.compare.modes) | {"none", "frictionless"})
+        if modes != self.compare.modes:
+            object.__setattr__(self, "compare", self.compare.replace(modes=modes))
+        self.compare_options()  # every joint's comparison: checked once, by CompareOptions (memory included)
         if self.compensators:
             compensator_factories(self.compensators, source="ZooOptions.compensators")  # importable, named well
         if self.workers is not None and (int(self.workers) != self.workers or self.workers < 1):
@@ -410,19 +362,48 @@ class ZooOptions:
         if self.J_design_factor is not None:
             object.__setattr__(self, "J_design_factor", check_positive("J_design_factor", self.J_design_factor))
 
+    @classmethod
+    def from_flat(cls, *, compare: CompareOptions | None = None, **knobs) -> "ZooOptions":
+        """The options of flat keywords: this class's own fields by name, the comparison's settings by their names
+        of :meth:`CompareOptions.from_flat` changed on ``compare`` (default ``CompareOptions()``).
+
+        Raises
+        ------
+        ParameterError
+            A keyword that is neither (named), or a value a check refuses.
+        """
+        own_names = {f.name for f in fields(cls)}
+        own = {k: v for k, v in knobs.items() if k in own_names}
+        flat = {k: v for k, v in knobs.items() if k not in own_names}
+        if compare is None:
+            return cls(**own, compare=CompareOptions.from_flat(**flat))
+        return cls(**own, compare=compare.replace(**flat) if flat else compare)
+
+    @property
+    def duration(self) -> float:
+        """Run length (s) of every joint, :attr:`compare`'s."""
+        return self.compare.duration
+
+    @property
+    def seed(self) -> int:
+        """Seed of the draw and of every run, :attr:`compare`'s."""
+        return self.compare.seed
+
+    @property
+    def modes(self) -> tuple:
+        """Modes run on every joint (``none`` and ``frictionless`` among them, the registry's order)."""
+        return self.compare.modes
+
+    @property
+    def reference(self):
+        """Velocity reference of every run (:attr:`compare`'s; None: the comparison's multisine)."""
+        return self.compare.reference
+
     def compare_options(self) -> CompareOptions:
-        """The :class:`controllers.experiments.compare.CompareOptions` every joint is prepared and run with: this
-        zoo's duration, seed, modes, reference, sensor and drive (encoder, delay, slew rate, velocity), estimator,
-        ``iv_map_stderr`` and ``switch_in``; the rest ``compare``'s defaults (the design inertia is identified on each
-        joint, or set from ``J_design_factor``); with ``base``, that comparison with this zoo's seed, modes and estimator
-        settings and no torque limit, design inertia, given PI (each joint's PI is designed on its own design
-        inertia with the base's targets) or own compensators of its own."""
-        if self.base is not None:
-            return self.base.replace(seed=int(self.seed), modes=self.modes, estimator=self.estimator,
-                                     iv_map_stderr=self.iv_map_stderr, switch_in=self.switch_in, u_max=None,
-                                     J_design=None, controller=None, compensators=None)
-        return CompareOptions.from_flat(**{**{k: getattr(self, k) for k in SHARED_FIELDS},
-                                           "duration": float(self.duration), "seed": int(self.seed)})
+        """The :class:`controllers.experiments.compare.CompareOptions` every joint is prepared and run with:
+        :attr:`compare` without the settings of one plant (:data:`PER_JOINT`: no torque limit, design inertia, given
+        PI or own compensators; the design inertia is identified on each joint or set from ``J_design_factor``)."""
+        return self.compare.replace(**PER_JOINT)
 
 
 #: Outcome of one (joint, mode), :meth:`ZooResult.status`.
@@ -914,15 +895,17 @@ def run_zoo(options: ZooOptions | None = None) -> ZooResult:
 
 
 def zoo_options_dict(o: ZooOptions) -> dict:
-    """The settings of a zoo run as a JSON-ready dict (for the benchmark page)."""
-    ref, base = o.reference, o.base
-    o = replace(o, reference=None, base=None)
-    d = asdict(o) if isinstance(o.scheduler, (str, type(None))) else asdict(replace(o, scheduler=str(o.scheduler)))
+    """The settings of a zoo run as a JSON-ready dict (for the benchmark page): the zoo's own fields, ``box``, and
+    ``compare``, every joint's comparison (:meth:`ZooOptions.compare_options`) by its flat names
+    (:meth:`CompareOptions.flat_names`; its reference summarised as ``reference``, no own compensators or PI)."""
+    co = o.compare_options()
+    d = {f.name: getattr(o, f.name) for f in fields(o) if f.name not in ("compare", "box", "scheduler")}
+    d["scheduler"] = o.scheduler if isinstance(o.scheduler, (str, type(None))) else str(o.scheduler)
     d["box"] = asdict(o.box)
-    if ref is not None:
+    d["compare"] = {k: co.flat(k) for k in CompareOptions.flat_names()
+                    if k not in ("reference", "compensators", "controller")}
+    if co.reference is not None:
+        ref = co.reference
         d["reference"] = {"samples": int(ref.t.shape[0]), "stops": int(len(ref.stops())),
                           "reversals": int(len(ref.reversals()))}
-    if base is not None:  # the comparison's settings; its reference above, its own compensators not run here
-        d["base"] = {k: base.flat(k) for k in CompareOptions.flat_names()
-                     if k not in ("reference", "compensators", "controller")}
     return json_safe(d)

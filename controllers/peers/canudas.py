@@ -211,14 +211,7 @@ class CanudasCompensator(Component):
         c.Fc_pos, c.Fc_neg, c.sigma_pos, c.sigma_neg = Fcp, Fcn, sp, sn
         c.on = 1
 
-    @property
-    def n_rejected(self) -> int:
-        """Samples ignored (range gates) and RLS rows refused."""
-        return int(self._c.n_rejected)
-
-    @n_rejected.setter
-    def n_rejected(self, value: int) -> None:
-        self._c.n_rejected = int(value)
+    n_rejected = struct_field("n_rejected", int, "Samples ignored (range gates) and RLS rows refused.", settable=True)
 
     @property
     def _k(self) -> int:
@@ -229,30 +222,11 @@ class CanudasCompensator(Component):
         self._c.k = int(value)
         self._c.phase = int(value) % self.m
 
-    @property
-    def _usum(self) -> float:
-        return float(self._c.u_sum)
-
-    @_usum.setter
-    def _usum(self, value: float) -> None:
-        self._c.u_sum = value
-
-    @property
-    def _w_prev(self) -> float | None:
-        return float(self._c.w_prev) if self._c.has_prev else None
-
-    @_w_prev.setter
-    def _w_prev(self, value: float | None) -> None:
-        self._c.has_prev = 0 if value is None else 1
-        self._c.w_prev = 0.0 if value is None else value
-
-    @property
-    def _ok(self) -> bool:
-        return bool(self._c.ok)
-
-    @_ok.setter
-    def _ok(self, value: bool) -> None:
-        self._c.ok = 1 if value else 0
+    _usum = struct_field("u_sum", float, "Torque sum of the current RLS interval (N·m).", settable=True)
+    _w_prev = struct_field("w_prev", float,
+                           "Velocity at the start of the current interval (rad/s), None before the first.",
+                           settable=True, flag="has_prev")
+    _ok = struct_field("ok", bool, "False once a refused sample spoiled the current interval.", settable=True)
 
     @property
     def estimate(self) -> dict | None:

@@ -134,44 +134,14 @@ class DisturbanceObserver(Component):
     order = struct_field("order", int, "Order of the binomial Q-filter.")
     d_max = struct_field("d_max", float, "Bound on |d_hat| (N·m).")
 
-    @property
-    def _a(self) -> float:
-        return float(self._c.a)
+    _a = struct_field("a", float, "The Q-filter's step gain ``1 - exp(-Tc*omega_q)`` (-).")
 
-    @property
-    def d_hat(self) -> float:
-        """Current disturbance estimate (N·m)."""
-        return float(self._c.d_hat)
-
-    @d_hat.setter
-    def d_hat(self, value: float) -> None:
-        self._c.d_hat = value
-
-    @property
-    def n_rejected(self) -> int:
-        """Rejected samples: non-finite or out-of-range velocities (the estimate was held) and torques."""
-        return int(self._c.n_rejected)
-
-    @n_rejected.setter
-    def n_rejected(self, value: int) -> None:
-        self._c.n_rejected = int(value)
-
-    @property
-    def _u_last(self) -> float:
-        return float(self._c.u_last)
-
-    @_u_last.setter
-    def _u_last(self, value: float) -> None:
-        self._c.u_last = value
-
-    @property
-    def _w_last(self) -> float | None:
-        return float(self._c.w_last) if self._c.has_w_last else None
-
-    @_w_last.setter
-    def _w_last(self, value: float | None) -> None:
-        self._c.has_w_last = 0 if value is None else 1
-        self._c.w_last = 0.0 if value is None else value
+    d_hat = struct_field("d_hat", float, "Current disturbance estimate (N·m).", settable=True)
+    n_rejected = struct_field("n_rejected", int, "Rejected samples: non-finite or out-of-range velocities (the "
+                              "estimate was held) and torques.", settable=True)
+    _u_last = struct_field("u_last", float, "The last accepted torque (N·m).", settable=True)
+    _w_last = struct_field("w_last", float, "The last accepted velocity (rad/s), None before the first.",
+                           settable=True, flag="has_w_last")
 
     def info(self) -> dict:
         """Counter and settings for run reports: ``n_rejected``, ``J_n`` (kg·m²), ``omega_q`` (rad/s).

@@ -114,7 +114,8 @@ def _configs(o: LoopConfig, J: float, ff_max: float) -> dict:
         above ``model.Vs``, with that ``ff``) (:class:`AdaptiveFrictionFeedforwardConfig`).
     """
     ffs, est, sup, ctl = o.feedforward, o.estimator, o.supervisor, o.controller
-    ff = FrictionFeedforwardConfig(lag=ffs.lag, ff_max=ff_max, sign_width=ffs.sign_width, stick_band=ffs.stick_band,
+    ff = FrictionFeedforwardConfig(lag=ffs.lag, ff_max=ff_max, sign_width=ffs.sign_width,
+                                   stick_band=o.sized_stick_band(),
                                    stick_samples=ffs.stick_samples, ff_input=ffs.ff_input)
     robust = RobustAdaptiveFeedforwardConfig(ff=ff, warmup=ffs.warmup, lag_margin=ffs.lag_margin,
                                              lag_margin_max=ffs.lag_margin_max, max_rel_stderr=ffs.max_rel_stderr,
@@ -363,9 +364,8 @@ def _controller(mode: str, options: LoopConfig) -> PIController:
         raise ParameterError(f"mode must be one of {MODES}, got {mode!r}")
     if not isinstance(options, LoopConfig):
         raise ParameterError(f"options must be LoopConfig, got {type(options).__name__}")
-    for name, value in (("u_max", options.drive.u_max), ("stick_band", options.feedforward.stick_band)):
-        if value is None:
-            raise ParameterError(f"{name} is None (a comparison sizes it): a loop run needs a number")
+    if options.drive.u_max is None:
+        raise ParameterError("u_max is None (a comparison sizes it): a loop run needs a number")
     c = options.controller
     return PIController(Kp=c.Kp, Ki=c.Ki, Tc=c.Tc, u_max=options.drive.u_max)
 

@@ -20,8 +20,12 @@ group             settings (flat keyword of :meth:`LoopConfig.from_flat` where i
 
 A setting that mirrors a component's C setting takes that setting's C default (``aff_X_default_config()``, read
 by :func:`adaptive_ff.compensation.defaults.c_defaults`) and leaves its range to the component: the group's
-default is the one statement of it. Each group checks its own settings; :class:`LoopConfig` checks those that
-tie two groups (a sample time a multiple of ``controller.Tc``, the sensor and the drive at that period).
+default is the one statement of it. One differs: ``feedforward.stick_band`` None, sized from the configured
+sensor's velocity noise (:meth:`LoopConfig.sized_stick_band`; 0, the C default, for a noiseless sensor). Each
+group checks its own settings but the sensor's and the drive's ranges, which their components check (the
+:class:`controllers.simulation.sensor_drive.Sensor` and ``Drive`` a :class:`LoopConfig` builds, its error naming the
+setting and its path); :class:`LoopConfig` checks those that tie two groups (a sample time a multiple of
+``controller.Tc``).
 
 The flat keywords (the former ``ModeOptions`` fields, the compare CLI's and the TOML files' names) map onto the
 paths by :data:`FLAT_PATHS`, the one such map: :meth:`LoopConfig.from_flat` builds a config from them,
@@ -32,9 +36,8 @@ beyond the defaults' table.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field, fields, replace as _dc_replace
-
-import numpy as np
 
 from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
 from adaptive_ff.compensation.defaults import c_defaults
@@ -46,7 +49,7 @@ from plant.errors import ParameterError, check_multiple, check_nonnegative, chec
 
 __all__ = ["LoopConfig", "ControllerSettings", "DriveSettings", "SensorSettings", "EstimatorSettings",
            "FeedforwardSettings", "ObserverSettings", "SupervisorSettings", "RunSettings", "FLAT_PATHS",
-           "GROUPS"]
+           "GROUPS", "STICK_BAND_NOISE", "stick_band_for"]
 
 _FF = c_defaults("aff_fixed_ff_config")
 _ROBUST = c_defaults("aff_robust_ff_config")
@@ -54,6 +57,29 @@ _SLIDING = c_defaults("aff_sliding_config")
 _SUP = c_defaults("aff_supervisor_config")
 _DOB = c_defaults("aff_dob_config")
 _SWITCH_IN = c_defaults("aff_switch_in_config")
+
+
+#: The stick band per unit standard deviation of the velocity measurement's noise (-): the one rule that sizes it
+#: (:func:`stick_band_for`), for a loop's configured sensor and for a noise a user estimated (an identification's).
+STICK_BAND_NOISE = 3.0
+
+
+def stick_band_for(noise: float) -> float:
+    """The stick-detection band (rad/s) for a velocity measurement of noise standard deviation ``noise`` (rad/s):
+    :data:`STICK_BAND_NOISE` times it, so that the noise alone leaves the band on about 0.3 % of the samples.
+
+    The noise is what a user knows of the sensor (its data sheet, :meth:`LoopConfig.velocity_noise`, or an
+    identification's noise estimate), never the simulated truth.
+
+    Raises
+    ------
+    ParameterError
+        ``noise`` not a finite number >= 0.
+    """
+    check_nonnegative("noise", noise)
+    if not math.isfinite(noise):
+        raise ParameterError(f"noise must be finite (rad/s), got {noise!r}")
+    return STICK_BAND_NOISE * float(noise)
 
 
 def _check_bool(name: str, value) -> None:
@@ -102,9 +128,7 @@ class DriveSettings:
     u_max: float | None = math.inf
     slew_rate: float = math.inf
 
-    def __post_init__(self):
-        if isinstance(self.slew_rate, bool) or not (isinstance(self.slew_rate, (int, float)) and self.slew_rate > 0):
-            raise ParameterError(f"slew_rate must be a number > 0 (N·m/s; inf for none), got {self.slew_rate!r}")
+    # its range: the Drive's check (LoopConfig builds one, naming the setting)
 
 
 @dataclass(frozen=True)
@@ -140,15 +164,7 @@ class SensorSettings:
     gate: bool = True
 
     def __post_init__(self):
-        check_nonnegative("noise_std", self.noise_std)
-        c = self.encoder_counts
-        if c is not None and (isinstance(c, bool) or not isinstance(c, (int, np.integer)) or c < 1):
-            raise ParameterError(f"encoder_counts must be an integer >= 1 (counts per joint revolution, the sensor's "
-                                 f"counts_per_rev) or None, got {c!r}")
-        if self.velocity_model not in ("cv", "ca"):
-            raise ParameterError(f"velocity_model must be 'cv' or 'ca', got {self.velocity_model!r}")
-        if self.velocity_bandwidth is not None:
-            check_positive("velocity_bandwidth", self.velocity_bandwidth)
+        check_nonnegative("noise_std", self.noise_std)  # the run's noise; the rest: the Sensor's checks
 
 
 @dataclass(frozen=True)
@@ -225,9 +241,14 @@ class FeedforwardSettings:
         Bound on |compensation| (N·m); default ``u_max``.
     ff_input : {"measured", "reference"}
         Velocity the friction feedforward is evaluated at.
-    sign_width, stick_band, stick_samples
-        See :class:`adaptive_ff.FrictionFeedforward`; ``stick_band`` None: sized by a comparison (three times the
-        measurement's noise level), which a run needs done.
+    sign_width, stick_samples
+        See :class:`adaptive_ff.FrictionFeedforward`.
+    stick_band : float or None
+        Stick-detection band (rad/s), see :class:`adaptive_ff.FrictionFeedforward`; a number is used as given;
+        None (default): sized from the sensor the loop is configured with, :func:`stick_band_for` of its velocity
+        noise (:meth:`LoopConfig.velocity_noise`: the white noise and an encoder's quantisation), 0 for a
+        noiseless sensor (the C component's default). A measured velocity's sign flips with its noise inside
+        that band: with a band of 0 the friction map follows it.
     stick_input : {"model", "reference"}
         Velocity the measured-velocity feedforward uses while the joint is detected as stuck: the nominal loop's
         (:class:`adaptive_ff.compensation.velocity_input.LoopModel`; default) or the reference itself (measured
@@ -253,7 +274,7 @@ class FeedforwardSettings:
     ff_max: float | None = None
     ff_input: str = FF_INPUTS[_FF["at_ref"]]
     sign_width: float = _FF["sign_width"]
-    stick_band: float | None = _FF["stick_band"]
+    stick_band: float | None = None
     stick_samples: int = _FF["stick_samples"]
     stick_input: str = "model"
     sign_input: str = "observer"
@@ -412,6 +433,25 @@ def _flat_groups(knobs: dict) -> dict:
     return out
 
 
+#: A keyword of the components a config builds (:class:`controllers.simulation.sensor_drive.Sensor`, ``Drive``)
+#: -> the flat name of the setting that feeds it (:data:`FLAT_PATHS`).
+_COMPONENT_KEYWORDS = {"counts_per_rev": "encoder_counts", "delay": "delay", "velocity": "velocity",
+                       "bandwidth": "velocity_bandwidth", "model": "velocity_model", "slew_rate": "slew_rate"}
+
+
+def _as_setting(exc: ParameterError, component: str) -> ParameterError:
+    """The component's error ``exc`` (its message opens with its keyword, ``counts_per_rev must ...``) naming the
+    setting the user gives instead: its flat name in front, its path and the component's keyword after."""
+    msg = str(exc)
+    key = re.match(r"\w*", msg).group(0)
+    flat = _COMPONENT_KEYWORDS.get(key)
+    if flat is None:
+        return ParameterError(f"{msg} ({component})")
+    g, f = FLAT_PATHS[flat]
+    whose = "" if key == flat else f"; the {component}'s {key}"
+    return ParameterError(f"{flat}{msg[len(key):]} ({g}.{f}{whose})")
+
+
 @dataclass(frozen=True)
 class LoopConfig:
     """Settings of a closed-loop run in a named mode (:func:`controllers.simulation.closed_loop.run_mode`), one
@@ -434,7 +474,8 @@ class LoopConfig:
     ParameterError
         A group of the wrong type, a setting out of range (the group's check), ``estimator.Ts`` or
         ``estimator.iv_Ts`` not a multiple of ``controller.Tc``, a sensor or a drive its component refuses at that
-        period.
+        period (the component's message with the setting's flat name in front and its path after:
+        ``encoder_counts must be an integer >= 1 ... (sensor.encoder_counts; the Sensor's counts_per_rev)``).
 
     Examples
     --------
@@ -460,14 +501,17 @@ class LoopConfig:
         check_multiple("Ts", est.Ts, "Tc", Tc)
         if est.iv_Ts is not None:
             check_multiple("iv_Ts", est.iv_Ts, "Tc", Tc)
-        if sensor.velocity_bandwidth is not None and sensor.velocity_bandwidth >= 0.5 / Tc:
-            raise ParameterError(f"velocity_bandwidth must be below the Nyquist frequency {0.5 / Tc:.6g} Hz, "
-                                 f"got {sensor.velocity_bandwidth!r}")
         from controllers.simulation.sensor_drive import Drive, Sensor  # the checks of the components themselves
 
-        Sensor(Tc=Tc, counts_per_rev=sensor.encoder_counts, delay=sensor.delay, velocity=sensor.velocity,
-               bandwidth=sensor.velocity_bandwidth, model=sensor.velocity_model)
-        Drive(Tc=Tc, slew_rate=self.drive.slew_rate)
+        try:
+            Sensor(Tc=Tc, counts_per_rev=sensor.encoder_counts, delay=sensor.delay, velocity=sensor.velocity,
+                   bandwidth=sensor.velocity_bandwidth, model=sensor.velocity_model)
+        except ParameterError as exc:
+            raise _as_setting(exc, "Sensor") from None
+        try:
+            Drive(Tc=Tc, slew_rate=self.drive.slew_rate)
+        except ParameterError as exc:
+            raise _as_setting(exc, "Drive") from None
 
     @classmethod
     def from_flat(cls, **knobs) -> "LoopConfig":
@@ -490,6 +534,36 @@ class LoopConfig:
         """The value of the flat keyword ``name`` (:data:`FLAT_PATHS`; ParameterError if unknown)."""
         g, f = _path(name)
         return getattr(getattr(self, g), f)
+
+    def velocity_noise(self) -> float:
+        """Standard deviation (rad/s) of the velocity measurement's error that the sensor's settings imply.
+
+        ``sqrt(noise_std**2 + 2*(res**2/12)/Tc**2)`` with ``res = 2*pi/encoder_counts`` (rad): the white noise plus
+        the backward difference of two independent, uniformly distributed quantisation errors of variance
+        ``res**2/12`` each (Widrow & Kollar, *Quantization Noise*, 2008, ch. 4); ``noise_std`` without an encoder.
+        A 2^17-count encoder at 1 kHz: 0.0196 rad/s. With the Kalman velocity (``velocity="kalman"``) the
+        quantisation part is the filter's own steady-state velocity variance ``P[1, 1]`` for white position noise
+        ``res**2/12`` (:func:`adaptive_ff.io.kalman_velocity.steady_state_kalman`; 0.0043 rad/s for 2^17 counts,
+        cv, 100 Hz). What a user knows of their sensor (its resolution, its filter), not a field of the plant.
+        """
+        s, Tc = self.sensor, self.controller.Tc
+        if s.encoder_counts is None:
+            return float(s.noise_std)
+        res = 2.0 * math.pi / s.encoder_counts
+        if s.velocity == "kalman":
+            from adaptive_ff.io.kalman_velocity import steady_state_kalman
+            from controllers.simulation.sensor_drive import default_velocity_bandwidth
+
+            bw = s.velocity_bandwidth if s.velocity_bandwidth is not None else default_velocity_bandwidth(Tc)
+            kf = steady_state_kalman(s.velocity_model, bandwidth=bw, position_noise=res / math.sqrt(12.0), T=Tc)
+            return math.sqrt(s.noise_std ** 2 + float(kf.P[1, 1]))
+        return math.sqrt(s.noise_std ** 2 + res * res / (6.0 * Tc * Tc))
+
+    def sized_stick_band(self) -> float:
+        """The stick band (rad/s) a run uses: ``feedforward.stick_band`` as given, or where it is None
+        :func:`stick_band_for` of :meth:`velocity_noise` (the one rule, used by every run and experiment)."""
+        band = self.feedforward.stick_band
+        return stick_band_for(self.velocity_noise()) if band is None else float(band)
 
     def to_flat(self) -> dict:
         """Every setting by its flat keyword (:data:`FLAT_PATHS`), the inverse of :meth:`from_flat`."""

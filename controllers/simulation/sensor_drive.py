@@ -65,6 +65,13 @@ def default_velocity_bandwidth(Tc: float) -> float:
     return 0.1 / check_positive("Tc", Tc)
 
 
+def _whole(v, lo: int, hi: float = math.inf) -> bool:
+    """``v`` is an integer (int, numpy integer or a float of integral value, not a bool) in ``lo..hi``."""
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+        return False
+    return math.isfinite(v) and int(v) == v and lo <= v <= hi
+
+
 class Sensor(Component):
     """The loop's velocity sensor: an encoder (quantised position; backward difference or Kalman velocity) and/or
     a delay.
@@ -123,11 +130,10 @@ class Sensor(Component):
     def __init__(self, *, Tc: float, counts_per_rev: int | None = None, delay: int = 0,
                  velocity: str = "difference", bandwidth: float | None = None, model: str = "cv"):
         Tc = check_positive("Tc", Tc)
-        if counts_per_rev is not None and (isinstance(counts_per_rev, bool) or int(counts_per_rev) != counts_per_rev
-                                           or counts_per_rev < 1):
+        if counts_per_rev is not None and not _whole(counts_per_rev, 1):
             raise ParameterError(f"counts_per_rev must be an integer >= 1 (encoder counts per joint revolution) or "
                                  f"None, got {counts_per_rev!r}")
-        if isinstance(delay, bool) or int(delay) != delay or not 0 <= delay <= DELAY_MAX:
+        if not _whole(delay, 0, DELAY_MAX):
             raise ParameterError(f"delay must be an integer number of periods in 0..{DELAY_MAX}, got {delay!r}")
         if velocity not in VELOCITIES:
             raise ParameterError(f"velocity must be one of {list(VELOCITIES)}, got {velocity!r}")
@@ -207,7 +213,8 @@ class Drive(Component):
 
     def __init__(self, *, Tc: float, slew_rate: float):
         Tc = check_positive("Tc", Tc)
-        if not slew_rate > 0:
+        if isinstance(slew_rate, bool) or not isinstance(slew_rate, (int, float, np.integer, np.floating)) \
+                or not slew_rate > 0:
             raise ParameterError(f"slew_rate must be > 0 (N·m/s; math.inf for none), got {slew_rate!r}")
         self._new_struct()
         lib.ctl_drive_init(self._c, float(slew_rate), Tc)

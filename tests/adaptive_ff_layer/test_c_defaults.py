@@ -36,6 +36,13 @@ _flag = bool
 _same = float
 
 
+def _sized_from_the_sensor(v):
+    """The loop's stick band: None, sized from its sensor's velocity noise, which makes it the C default ``v`` for
+    the default (noiseless) sensor."""
+    assert LoopConfig().sized_stick_band() == v
+    return None
+
+
 def _cdef(ctype: str) -> dict:
     """The C defaults of ``ctype`` from the library that owns it (controllers' ``ctl_*``, else adaptive_ff's)."""
     return config_defaults(cffi_ctl, lib_ctl, ctype) if ctype.startswith("ctl_") else c_defaults(ctype)
@@ -108,7 +115,8 @@ MIRRORS = [
       for k in ("lag_margin", "lag_margin_max", "max_rel_stderr", "lag_memory", "lag_zero")],
     (LoopConfig, "lag", "aff_fixed_ff_config", "lag", _flag),
     (LoopConfig, "ff_input", "aff_fixed_ff_config", "at_ref", FF_INPUTS.__getitem__),
-    *[(LoopConfig, k, "aff_fixed_ff_config", k, _same) for k in ("sign_width", "stick_band")],
+    (LoopConfig, "sign_width", "aff_fixed_ff_config", "sign_width", _same),
+    (LoopConfig, "stick_band", "aff_fixed_ff_config", "stick_band", _sized_from_the_sensor),
     (LoopConfig, "stick_samples", "aff_fixed_ff_config", "stick_samples", int),
     (LoopConfig, "omega_q", "aff_dob_config", "omega_q", _same),
     (LoopConfig, "switch_in_ratio", "aff_switch_in_config", "ratio", _same),

@@ -243,11 +243,13 @@ def test_compare_zoo_and_cli_pass_the_bound_to_mode_adaptive(capsys):
     assert s.mode_options["adaptive"].estimator.iv_map_stderr == 0.15
     assert build_mode(P, "adaptive", s.mode_options["adaptive"])[2].feedforward.map_rel_stderr == 0.15
     assert math.isinf(build_mode(P, "adaptive-dob", s.mode_options["adaptive-dob"])[2].feedforward.map_rel_stderr)
-    assert math.isinf(CompareOptions().loop.estimator.iv_map_stderr) and math.isinf(ZooOptions().iv_map_stderr)
+    assert math.isinf(CompareOptions().loop.estimator.iv_map_stderr)
+    assert math.isinf(ZooOptions().compare.loop.estimator.iv_map_stderr)
     # the zoo prepares and runs each joint with its CompareOptions: the bound is there
-    assert ZooOptions(iv_map_stderr=0.15, estimator="eq4").compare_options().loop.estimator.iv_map_stderr == 0.15
+    zoo = ZooOptions.from_flat(iv_map_stderr=0.15, estimator="eq4")
+    assert zoo.compare_options().loop.estimator.iv_map_stderr == 0.15
     for bad in (0.0, -1.0, math.nan, "0.2"):
-        for options in (CompareOptions.from_flat, ZooOptions):
+        for options in (CompareOptions.from_flat, ZooOptions.from_flat):
             with pytest.raises(ParameterError, match="iv_map_stderr"):
                 options(iv_map_stderr=bad)
     assert main(["compare", "--preset", "paper", "--iv-map-stderr", "0", "--duration", "1", "--no-figures",

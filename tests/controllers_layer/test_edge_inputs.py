@@ -100,7 +100,7 @@ def test_zoo_and_sweep_count_every_worker(monkeypatch, tmp_path):
                       "duration": 10.0})
     _fake_memory(monkeypatch, avail)
     with pytest.raises(ParameterError, match=r"noise of 1 joint in each of 2 processes"):
-        run_zoo(ZooOptions(n=4, group=1, workers=2, duration=10.0))
+        run_zoo(ZooOptions.from_flat(n=4, group=1, workers=2, duration=10.0))
     with pytest.raises(ParameterError, match=r"for 3 modes in each of 2 processes"):
         run_sweep(spec, tmp_path / "s.csv", workers=2, progress=False)
     assert not (tmp_path / "s.csv").exists() or (tmp_path / "s.csv").read_text().count("\n") <= 1

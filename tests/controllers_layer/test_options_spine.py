@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
+import math
 
 import pytest
 
@@ -13,7 +14,7 @@ from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforw
 from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward
 from adaptive_ff.identification.regression import RegressionModel
 from controllers.experiments.compare import DESIGNED, EXPERIMENT_DEFAULTS, EXPERIMENT_LOOP, CompareOptions
-from controllers.experiments.zoo import SHARED_FIELDS, ZooOptions
+from controllers.experiments.zoo import PER_JOINT, ZooOptions
 from controllers.simulation import compensators
 from controllers.simulation.compensators import ESTIMATOR_BUILDERS, LoopConfig, build_mode
 from controllers.simulation.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
@@ -35,7 +36,9 @@ def test_compare_carries_the_loops_config_with_the_loops_defaults_or_a_named_ove
     assert CompareOptions().loop == EXPERIMENT_LOOP == LoopConfig.from_flat(**EXPERIMENT_DEFAULTS)
     # the four that differ on purpose
     assert (cmp["warmup"], loop["warmup"]) == (50, 200) and (cmp["stick_samples"], loop["stick_samples"]) == (50, 10)
-    assert (cmp["stick_band"], loop["stick_band"]) == (None, 0.0) and (cmp["noise_std"], loop["noise_std"]) == (1e-3, 0)
+    assert (cmp["u_max"], loop["u_max"]) == (None, math.inf) and (cmp["noise_std"], loop["noise_std"]) == (1e-3, 0)
+    # one stick-band default, the loop's: sized from the configured sensor (3 x its velocity noise)
+    assert cmp["stick_band"] is None and loop["stick_band"] is None
     # no setting is declared twice: the experiment's own fields and the loop's paths are apart
     assert not {f.name for f in dataclasses.fields(CompareOptions)} & set(FLAT_PATHS)
     o = CompareOptions.from_flat(duration=2.0, warmup=77, lam=0.99, estimator="eq4")
@@ -49,16 +52,24 @@ def test_compare_carries_the_loops_config_with_the_loops_defaults_or_a_named_ove
         CompareOptions.from_flat(lamda=0.9)
 
 
-def test_the_zoo_takes_the_knobs_it_shares_with_compare_from_compare():
-    zoo, cmp = _defaults(ZooOptions), CompareOptions()
-    for k in SHARED_FIELDS:
-        assert zoo[k] == cmp.flat(k) and type(zoo[k]) is type(cmp.flat(k)), k
-    o = ZooOptions(n=3, duration=4.0, seed=5, estimator="eq4", iv_map_stderr=0.2, switch_in=False, delay=1)
+def test_the_zoo_holds_a_comparison_and_declares_none_of_its_settings():
+    own = {f.name for f in dataclasses.fields(ZooOptions)}
+    # none of the comparison's settings re-declared; own compensators by import path (picklable for the workers)
+    # instead of the comparison's callables
+    assert own & set(CompareOptions.flat_names()) == {"compensators"}
+    assert ZooOptions().compare == CompareOptions() and ZooOptions().compare_options() == CompareOptions()
+    o = ZooOptions.from_flat(n=3, duration=4.0, seed=5, estimator="eq4", iv_map_stderr=0.2, switch_in=False, delay=1)
     c = o.compare_options()
-    assert (c.duration, c.seed, c.loop.estimator.name, c.loop.estimator.iv_map_stderr, c.loop.observer.switch_in,
-            c.loop.sensor.delay) == (4.0, 5, "eq4", 0.2, False, 1)
-    rest = [k for k in CompareOptions.flat_names() if k not in SHARED_FIELDS]
-    assert {k: c.flat(k) for k in rest} == {k: CompareOptions.from_flat(duration=4.0).flat(k) for k in rest}
+    assert (o.n, c.duration, c.seed, c.loop.estimator.name, c.loop.estimator.iv_map_stderr, c.loop.observer.switch_in,
+            c.loop.sensor.delay) == (3, 4.0, 5, "eq4", 0.2, False, 1)
+    assert c == CompareOptions.from_flat(duration=4.0, seed=5, estimator="eq4", iv_map_stderr=0.2, switch_in=False,
+                                         delay=1)
+    # the settings of one plant are each joint's: a comparison's torque limit and design inertia are not used
+    per_joint = ZooOptions(compare=CompareOptions.from_flat(duration=4.0, u_max=9.0, J_design=0.5)).compare_options()
+    assert (per_joint.loop.drive.u_max, per_joint.loop.controller.J_design) == (None, None)
+    assert set(PER_JOINT) <= set(CompareOptions.flat_names())
+    with pytest.raises(ParameterError, match="compare must be a CompareOptions"):
+        ZooOptions(compare={"duration": 4.0})
 
 
 @pytest.mark.parametrize("kw,match", [(dict(estimator="kalman"), "estimator must be one of"),
@@ -69,7 +80,7 @@ def test_the_zoo_takes_the_knobs_it_shares_with_compare_from_compare():
                                       (dict(slew_rate=0.0), "slew_rate"), (dict(sign_input="x"), "sign_input")])
 def test_each_shared_knob_is_checked_by_the_loops_options_for_every_bundle(kw, match):
     for make in (lambda **k: LoopConfig.from_flat(Kp=1.0, Ki=0.0, **k), lambda **k: CompareOptions.from_flat(duration=2.0, **k),
-                 lambda **k: ZooOptions(n=1, duration=2.0, **k)):
+                 lambda **k: ZooOptions.from_flat(n=1, duration=2.0, **k)):
         try:
             make(**kw)
         except TypeError:  # a knob the bundle does not carry (the zoo carries a few)
@@ -162,3 +173,24 @@ def test_the_loops_config_has_one_path_per_setting_and_one_map_from_the_flat_nam
         LoopConfig(estimator="eq4")
     with pytest.raises(ParameterError, match="u_max is None"):  # sized by a comparison: a run needs a number
         build_mode(preset("paper"), "none", LoopConfig.from_flat(u_max=None))
+
+
+@pytest.mark.parametrize("kw,says", [
+    (dict(encoder_counts=0), "encoder_counts must be an integer >= 1 (encoder counts per joint revolution) or None, "
+                             "got 0 (sensor.encoder_counts; the Sensor's counts_per_rev)"),
+    (dict(encoder_counts="x"), "encoder_counts must be an integer >= 1"),
+    (dict(delay=-1), "delay must be an integer number of periods in 0..32, got -1 (sensor.delay)"),
+    (dict(encoder_counts=8, velocity="kalman", velocity_bandwidth=500.0),
+     "velocity_bandwidth must be below the Nyquist frequency 500 Hz"),
+    (dict(encoder_counts=8, velocity="kalman", velocity_model="cj"), "velocity_model must be one of ['cv', 'ca']"),
+    (dict(slew_rate=0.0), "slew_rate must be > 0 (N·m/s; math.inf for none), got 0.0 (drive.slew_rate)"),
+    (dict(slew_rate=True), "slew_rate must be > 0")])
+def test_the_sensor_and_the_drive_are_checked_once_by_their_components_naming_the_setting(kw, says):
+    from controllers.simulation.loop_config import DriveSettings, SensorSettings
+
+    g, = {FLAT_PATHS[k][0] for k in kw if FLAT_PATHS[k][0] in ("sensor", "drive")}
+    group = {"sensor": SensorSettings, "drive": DriveSettings}[g](**{FLAT_PATHS[k][1]: v for k, v in kw.items()})
+    assert isinstance(group, (SensorSettings, DriveSettings))  # the group itself leaves the range to its component
+    with pytest.raises(ParameterError) as e:
+        LoopConfig.from_flat(**kw)
+    assert says in str(e.value)

@@ -113,7 +113,7 @@ def test_a_joint_sticks_where_a_quasi_static_run_failed_beyond_the_stick_band():
 def test_compare_gives_a_joint_that_sticks_the_stick_share(seed, joint, sticks):
     # zoo seed 2's #867 (Karnopp): 12 of 20 runs did not hold, up to 0.021 rad/s against a noise of 0.001 rad/s;
     # seed 1's #700 (LuGre): the runs that did not hold are within 0.0011 rad/s, the noise's own band
-    o = ZooOptions(n=1000, duration=60.0, seed=seed, modes=("none", "adaptive")).compare_options()
+    o = ZooOptions.from_flat(n=1000, duration=60.0, seed=seed, modes=("none", "adaptive")).compare_options()
     spec = draw_plants(1000, comparison_reference(o), seed=seed)[joint]
     s = prepare_comparison(plant_from_dict(spec), o)
     s.bar.close()
@@ -132,7 +132,8 @@ def test_zoo_karnopp_joint_867_eq4_within_a_tenth_of_the_default():
     # kept it: 0.850 against the default's 0.978 (its trial took the observer out), adaptive-dob 0.850 with either
     # estimator, over six noise realisations 0.84-0.86. At the stick share (805 rad/s): 0.933 / 0.978, adaptive-dob
     # 0.933 (docs/benchmarks/compensation.md, "The residual observer on a joint that sticks").
-    o = ZooOptions(n=1000, duration=60.0, seed=2, modes=("none", "adaptive", "adaptive-dob")).compare_options()
+    o = ZooOptions.from_flat(n=1000, duration=60.0, seed=2,
+                             modes=("none", "adaptive", "adaptive-dob")).compare_options()
     spec = draw_plants(1000, comparison_reference(o), seed=2)[867]
     assert spec["model"] == "karnopp" and math.isclose(spec["J"], 7.645, rel_tol=1e-3)
     eta = {}
@@ -186,7 +187,7 @@ def test_a_wide_band_karnopp_joint_of_the_linear_axis_leaves_its_stick_slip_cycl
     # it: a Karnopp joint with a wide stick band on which, without the slew limit, adaptive-dob's observer kicked the
     # joint out of every stick (its raw sample jumps by J*dv/Tc when the plant stops it within one period) into a
     # stick-slip cycle: eta -0.072, the largest second-half error above the target's max(none, 2 x frictionless)
-    o = ZooOptions(base=load_scenario(SCENARIOS / "linear_axis.toml").options, n=200, seed=0,
+    o = ZooOptions.from_flat(compare=load_scenario(SCENARIOS / "linear_axis.toml").options, n=200, seed=0,
                    modes=("none", "adaptive", "adaptive-dob", "frictionless")).compare_options()
     # (with it: adaptive-dob 0.639 at 0.71 times the bound; mode adaptive 0.269 against 0.318, 0.85 times the bound)
     spec = draw_plants(200, o.reference, seed=0)[32]

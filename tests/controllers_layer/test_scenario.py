@@ -288,7 +288,7 @@ def test_the_kalman_velocity_reaches_the_runs_and_the_design_noise_level(tmp_pat
     wm = c.results["none"].w_meas
     wm = wm[np.abs(wm) > step]  # while the joint moves
     assert np.mean(np.abs(wm / step - np.round(wm / step)) > 1e-6) > 0.9  # not on the difference quotient's grid
-    with pytest.raises(ParameterError, match="velocity_model must be 'cv' or 'ca'"):
+    with pytest.raises(ParameterError, match=r"velocity_model must be one of \['cv', 'ca'\]"):
         CompareOptions.from_flat(encoder_counts=65536, velocity="kalman", velocity_model="cj")
 
 

@@ -241,3 +241,24 @@ def test_own_compensator_by_file_runs_in_every_case_in_worker_processes(tmp_path
     assert run_sweep(spec, out, workers=1, progress=False)["n_run"] == 0  # its rows count as the case's
     with pytest.raises(ValueError, match=r"compensators: \[compensators.none\] factory|built-in mode"):
         load_spec({**SPEC, "compensators": {"none": "math:sin"}})
+
+
+def test_a_sweep_of_random_plants_runs_every_model_as_compare_does(tmp_path):
+    # random_plants: joints of any model (here an asymmetric one and a Karnopp one), drawn for the reference of the
+    # spec's comparison (spec.compare), each case compare() on its joint
+    from controllers.experiments.compare import compare, comparison_reference
+    from controllers.experiments.zoo import draw_plants
+    from plant.models import plant_from_dict
+
+    spec = load_spec({"random_plants": {"n": 2, "seed": 3}, "seeds": [1], "modes": ["none", "dob", "frictionless"],
+                      "duration": 4.0})
+    assert (spec.compare.duration, spec.modes) == (4.0, ("none", "dob", "frictionless"))
+    plants = draw_plants(2, comparison_reference(spec.compare.replace(seed=0)), seed=3)
+    assert [c["plant"] for c in expand_cases(spec)] == plants and plants[0]["model"] == "asymmetric"
+    out = tmp_path / "r.csv"
+    assert run_sweep(spec, out, workers=1, progress=False)["n_run"] == 2
+    rows = list(csv.DictReader(out.open()))
+    for j, p in enumerate(plants):
+        c = compare(plant_from_dict(p), duration=4.0, seed=1, modes=("none", "dob", "frictionless"), progress=False)
+        got = {r["mode"]: float(r["rms"]) for r in rows[3 * j:3 * j + 3]}
+        assert got == {m: c.results[m].metrics.rms_second_half for m in ("none", "dob", "frictionless")}

@@ -53,7 +53,7 @@ def test_box_and_spec_validation():
     with pytest.raises(ParameterError, match="n must be"):
         draw_plants(0, REF)
     with pytest.raises(ParameterError, match="unknown mode"):
-        ZooOptions(modes=("none", "magic"))
+        ZooOptions.from_flat(modes=("none", "magic"))
 
 
 def test_sweep_random_plants_spec_draws_every_model_with_all_its_keys():
@@ -77,7 +77,7 @@ def test_sweep_random_plants_spec_draws_every_model_with_all_its_keys():
 
 def test_small_zoo_runs_and_its_table_is_consistent():
     modes = ("none", "fixed", "adaptive", "dob", "oracle", "frictionless")
-    r = run_zoo(ZooOptions(n=4, duration=6.0, seed=2, modes=modes, group=3, workers=1))
+    r = run_zoo(ZooOptions.from_flat(n=4, duration=6.0, seed=2, modes=modes, group=3, workers=1))
     assert r.modes == tuple(m for m in r.modes if m in modes) and set(r.modes) == set(modes)
     # this short run reverses in its second half: friction degrades every joint's loop, eta is defined everywhere
     assert all(c == {"ok": 4, "refused": 0, "diverged": 0, "undefined": 0, "no reference": 0, "invalid": 0}
@@ -112,7 +112,7 @@ def test_eta_is_undefined_where_friction_does_not_degrade_the_loop_and_reported_
     ref = comparison_reference(CompareOptions.from_flat(duration=6.0, seed=1))
     assert np.min(np.abs(ref.w[ref.w.size // 2:])) > 0.06
     modes = ("none", "dob", "frictionless")  # no pre-fit: a second or two
-    r = run_zoo(ZooOptions(n=3, duration=6.0, seed=1, modes=modes, workers=1))
+    r = run_zoo(ZooOptions.from_flat(n=3, duration=6.0, seed=1, modes=modes, workers=1))
     assert np.all(np.isfinite(r.rms["none"])) and np.all(np.abs(r.degradation()) < 0.01)
     for m in modes:
         assert list(r.status(m)) == ["undefined"] * 3 and r.counts()[m]["undefined"] == 3
@@ -122,7 +122,7 @@ def test_eta_is_undefined_where_friction_does_not_degrade_the_loop_and_reported_
     assert d["eta"]["dob"] == [None] * 3 and d["quantiles"]["dob"] == [None] * 7 and d["targets"]["undefined"] == [0, 1, 2]
     assert "3 with eta undefined" in r.summary()
     # with the threshold at 0 eta is compare's number wherever the denominator is positive
-    r0 = run_zoo(ZooOptions(n=3, duration=6.0, seed=1, modes=modes, workers=1, min_degradation=0.0))
+    r0 = run_zoo(ZooOptions.from_flat(n=3, duration=6.0, seed=1, modes=modes, workers=1, min_degradation=0.0))
     for i in range(3):
         den = r0.rms["none"][i] - r0.rms["frictionless"][i]
         want = (r0.rms["none"][i] - r0.rms["dob"][i]) / den if den > 0 else math.nan
@@ -157,7 +157,7 @@ def test_dask_scheduler_gives_the_numbers_of_the_default_path():
     pytest.importorskip("dask")
     from dask.distributed import Client
 
-    o = ZooOptions(n=2, duration=3.0, seed=2, modes=("none", "dob", "frictionless"), workers=1)
+    o = ZooOptions.from_flat(n=2, duration=3.0, seed=2, modes=("none", "dob", "frictionless"), workers=1)
     base = run_zoo(o)
     sync = run_zoo(ZooOptions(**{**o.__dict__, "scheduler": "synchronous"}))
     with Client(processes=False, n_workers=1, threads_per_worker=1, dashboard_address=None) as client:
@@ -213,19 +213,20 @@ def test_groups_partition_the_joints_and_shrink_towards_the_end():
 
 
 def test_a_zoo_on_a_point_to_point_reference_with_an_encoder_is_compare_on_each_joint():
-    """ZooOptions(reference=, encoder_counts=, delay=): every joint's numbers are compare()'s with the same
+    """ZooOptions.from_flat(reference=, encoder_counts=, delay=): every joint's numbers are compare()'s with the same
     settings (batch engine with sensors == single runs), and the joints are drawn for that reference."""
     from plant.motion import point_to_point_reference
 
     ref = point_to_point_reference([0.4, -0.2, 0.3], v_max=0.5, a_max=4.0, dwell=0.4)
     modes = ("none", "adaptive", "dob", "frictionless")
-    o = ZooOptions(n=3, seed=4, modes=modes, reference=ref, encoder_counts=2 ** 16, delay=1, workers=1)
+    o = ZooOptions.from_flat(n=3, seed=4, modes=modes, reference=ref, encoder_counts=2 ** 16, delay=1, workers=1)
     assert o.duration == pytest.approx(ref.t.shape[0] * 1e-3)
     r = run_zoo(o)
     assert r.plants == draw_plants(3, ref, seed=4)
     json.dumps(r.to_dict(), allow_nan=False)
     d = json.loads(json.dumps(zoo_options_dict(o), allow_nan=False))
-    assert d["reference"] == {"samples": ref.t.shape[0], "stops": 3, "reversals": 0} and d["encoder_counts"] == 65536
+    assert d["reference"] == {"samples": ref.t.shape[0], "stops": 3, "reversals": 0}
+    assert d["compare"]["encoder_counts"] == 65536
     assert not r.refused, r.refused  # a 3.7 s identification run too short to fit: fixed/the start fall back
     for j in (0, 2):
         c = compare(plant_from_dict(r.plants[j]), reference=ref, encoder_counts=2 ** 16, delay=1, seed=4, modes=modes,
@@ -249,20 +250,20 @@ def test_own_compensators_run_on_every_zoo_joint_in_worker_processes(tmp_path, m
         "        pass\n", encoding="utf-8")
     monkeypatch.chdir(tmp_path)
     modes = ("none", "adaptive", "frictionless")
-    r = run_zoo(ZooOptions(n=3, duration=6.0, seed=2, modes=modes, workers=2, group=1,
+    r = run_zoo(ZooOptions.from_flat(n=3, duration=6.0, seed=2, modes=modes, workers=2, group=1,
                            compensators={"zero": "zero_ff.py:Zero"}))
     assert r.modes == modes + ("zero",)
     np.testing.assert_array_equal(r.rms["zero"], r.rms["none"])  # no compensation is `none`, bit for bit
     np.testing.assert_array_equal(r.eta["zero"], 0.0)
     with pytest.raises(ParameterError, match=r"\[compensators.x\] factory = 'no_such_file.py:Zero': no such file"):
-        ZooOptions(n=1, compensators={"x": "no_such_file.py:Zero"})
+        ZooOptions.from_flat(n=1, compensators={"x": "no_such_file.py:Zero"})
 
 
 def test_a_design_inertia_off_by_a_factor_is_compare_with_that_J_design_on_each_joint():
     # ZooOptions(J_design_factor=2): every joint designed with twice its inertia, as compare(J_design=2*J) on it
     modes = ("none", "adaptive", "frictionless")
-    r = run_zoo(ZooOptions(n=2, duration=6.0, seed=2, modes=modes, workers=1, J_design_factor=2.0))
-    plain = run_zoo(ZooOptions(n=2, duration=6.0, seed=2, modes=modes, workers=1))
+    r = run_zoo(ZooOptions.from_flat(n=2, duration=6.0, seed=2, modes=modes, workers=1, J_design_factor=2.0))
+    plain = run_zoo(ZooOptions.from_flat(n=2, duration=6.0, seed=2, modes=modes, workers=1))
     for j in range(2):
         p = plant_from_dict(r.plants[j])
         c = compare(p, duration=6.0, seed=2, modes=modes, progress=False, J_design=2.0 * p.J)
@@ -278,7 +279,7 @@ def test_a_design_inertia_off_by_a_factor_is_compare_with_that_J_design_on_each_
     assert zoo_options_dict(ZooOptions(J_design_factor=2.0))["J_design_factor"] == 2.0  # on the benchmark page
     for bad in (0.0, -1.0, math.inf, math.nan):
         with pytest.raises(ParameterError, match="J_design_factor"):
-            ZooOptions(J_design_factor=bad)
+            ZooOptions.from_flat(J_design_factor=bad)
 
 
 def test_observers_take_the_identified_inertia_where_the_design_inertia_is_contradicted():
@@ -322,12 +323,12 @@ def test_observers_take_the_identified_inertia_where_the_design_inertia_is_contr
 
 
 def test_a_zoo_without_the_switch_in_is_compare_with_switch_in_false_on_each_joint():
-    # ZooOptions(switch_in=False): mode adaptive as the feedforward alone (what export-c writes for a drive), as
+    # ZooOptions switch_in=False: mode adaptive as the feedforward alone (what export-c writes for a drive), as
     # compare(switch_in=False) on each joint; zoo seed 1's joint #0 is one where the residual observer switches in
     # within 10 s, so the option reaches the runs
     modes = ("none", "adaptive", "frictionless")
     # the joint's exact inertia (J_design_factor 1): with the identified one it does not switch in within 10 s
-    o = ZooOptions(n=1, duration=10.0, seed=1, modes=modes, workers=1, switch_in=False, J_design_factor=1.0)
+    o = ZooOptions.from_flat(n=1, duration=10.0, seed=1, modes=modes, workers=1, switch_in=False, J_design_factor=1.0)
     assert o.compare_options().loop.observer.switch_in is False
     assert ZooOptions().compare_options().loop.observer.switch_in is True
     r = run_zoo(o)
@@ -338,14 +339,14 @@ def test_a_zoo_without_the_switch_in_is_compare_with_switch_in_false_on_each_joi
     for m in modes:
         assert r.rms[m][0] == pytest.approx(bare.results[m].metrics.rms_second_half, rel=1e-12)
     assert r.rms["adaptive"][0] != full.results["adaptive"].metrics.rms_second_half
-    assert zoo_options_dict(o)["switch_in"] is False  # on the benchmark page
+    assert zoo_options_dict(o)["compare"]["switch_in"] is False  # on the benchmark page
     for bad in (0, "no", None):
         with pytest.raises(ParameterError, match="switch_in"):
-            ZooOptions(switch_in=bad)
+            ZooOptions.from_flat(switch_in=bad)
 
 
 def test_a_zoo_placed_into_a_scenario_is_compare_on_each_joint_with_the_scenarios_settings():
-    """ZooOptions(base=scenario.options): every joint runs with the scenario's reference, sensor and controller, its
+    """ZooOptions(compare=scenario.options): every joint runs with the scenario's reference, sensor and controller, its
     own torque limit and design inertia (compare() with the scenario's options, u_max and J_design left to the
     joint); the largest errors are compare()'s second-half maxima and tracking_harm compares them as it says."""
     from dataclasses import replace
@@ -355,9 +356,8 @@ def test_a_zoo_placed_into_a_scenario_is_compare_on_each_joint_with_the_scenario
 
     sc = load_scenario(Path(__file__).resolve().parents[2] / "examples" / "scenarios" / "linear_axis.toml")
     modes = ("none", "adaptive", "frictionless")
-    with pytest.raises(ParameterError, match="delay"):
-        ZooOptions(n=2, base=sc.options, delay=1)
-    o = ZooOptions(n=2, seed=5, modes=modes, base=sc.options, workers=1)
+    assert sc.options.loop.drive.u_max == 300.0  # the scenario's own torque limit: each joint has its own
+    o = ZooOptions.from_flat(n=2, seed=5, modes=modes, compare=sc.options, workers=1)
     assert o.duration == pytest.approx(sc.options.reference.t.shape[0] * 1e-3)
     co = o.compare_options()
     assert co.reference is sc.options.reference and co.loop.drive.u_max is None and co.crossover == sc.options.crossover
@@ -395,10 +395,11 @@ def test_a_zoo_through_a_compiled_export_gives_the_packages_numbers(tmp_path):
                                                        J_design=p.J))
     export_c(JointExport(compensator=comp, J_design=p.J, u_max=150.0, Kp=d.Kp, Ki=d.Ki), tmp_path / "drive_ff")
     modes = ("none", "adaptive", "frictionless")
-    pkg = run_zoo(ZooOptions(n=3, duration=10.0, seed=1, modes=modes, workers=1))
-    exp = run_zoo(ZooOptions(n=3, duration=10.0, seed=1, modes=modes, workers=1, export=tmp_path / "drive_ff"))
+    pkg = run_zoo(ZooOptions.from_flat(n=3, duration=10.0, seed=1, modes=modes, workers=1))
+    exp = run_zoo(ZooOptions.from_flat(n=3, duration=10.0, seed=1, modes=modes, workers=1,
+                                       export=tmp_path / "drive_ff"))
     for m in modes:
         np.testing.assert_array_equal(exp.rms[m], pkg.rms[m])
     assert np.isfinite(exp.rms["adaptive"]).all()
     with pytest.raises(ParameterError, match="not an export-c folder"):
-        ZooOptions(export=tmp_path)
+        ZooOptions.from_flat(export=tmp_path)
