@@ -322,7 +322,7 @@ def update_page(path: Path) -> int:
 # a `compare` table whose compensation leaves stick-slip (none, fixed, canudas). The README once quoted
 # canudas max 8.3415 deg/s where another machine printed 8.6843.
 #
-# Evidence (2026-11-23, numpy 2.4, scipy 1.17, numba 0.68): the quoted commands re-run with the
+# Evidence (numpy 2.4, scipy 1.17, numba 0.68): the quoted commands re-run with the
 # `paper` preset's J, Fc, Fs, sigma, tau moved by k*2**-48 relative, k = 0..5, and `compare` on 52
 # plants (the `paper` preset and the page's my_joint.json, parameters moved by a few units in the last
 # place; a numba build for a generic CPU printed the native digits). Full range over these runs:
@@ -341,7 +341,7 @@ def update_page(path: Path) -> int:
 # The note of the residual switch-in of `adaptive` ("switched in at 5.28 s; ... raised the loop's mean-square
 # error ... by 0.17 times the frictionless loop's and 0.00036 times what the friction would raise it by") reports
 # the observer's estimate at the moment the test fired: the residual of a joint that sticks at its reversals, as
-# sensitive as fixed's max. Evidence (2026-11-24, an AMD EPYC machine, numpy 2.4.6, scipy 1.17.1): there the
+# sensitive as fixed's max. Evidence (an AMD EPYC machine, numpy 2.4.6, scipy 1.17.1): there the
 # page's `identify` printed my_joint.json's J, Fc, ... a few units in the last place from the quoted ones, and
 # `compare --plant my_joint.json` printed 0.29 and 0.00062 for the quoted 0.17 and 0.00036; the quoted joint
 # with each of J, Fc, Fs, sigma, tau moved by k*2**-48 relative, k = 0..5 (30 runs of the adaptive mode), switched
