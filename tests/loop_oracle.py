@@ -168,8 +168,9 @@ def _compensation(mode, kw, *, J, J_d, Tc, m, u_max, ff_max, t, wr, wc, WM, U, F
         J_n = kw.get("J_n")
         omega_r = kw.get("omega_r", 1000.0)
         d = po.dob_path(wc, U - uff, J_n=J if J_n is None else J_n, omega_q=omega_r, Tc=Tc, d_max=ff_max)["d_hat"]
-        d = _slew_limited(d, uff, slew_time=kw.get("slew_time", 0.4), crossover=max(kw["Kp"], 0.0) / J_d,
-                          a=-math.expm1(-Tc * omega_r))
+        # the crossover of the loop as run: Kp over the inertia the observers take (J_n where given, else the design's)
+        d = _slew_limited(d, uff, slew_time=kw.get("slew_time", 0.4),
+                          crossover=max(kw["Kp"], 0.0) / (J_d if J_n is None else J_n), a=-math.expm1(-Tc * omega_r))
         uff = np.clip(uff + d, -ff_max, ff_max)
     if rep["theta"].size == 0:  # no update: the engine's empty history
         rep["theta"] = np.empty((0, 0))

@@ -15,8 +15,9 @@
  *
  * The slew limit (aff_residual_config.crossover, .slew_time): d_app moves toward d_hat by at most
  *   slew_time*crossover*ff_peak*a  (N*m per period), a = 1 - exp(-Tc*omega_q) (the Q-filter's lag factor),
- * ff_peak the largest |u_ff| so far (N*m), crossover the loop's Kp/J_n (rad/s, the PI's gain over the design
- * inertia), slew_time in s (default 0.4). Both ways: a step of d_hat, e.g. the raw sample's jump J*dv/Tc when a
+ * ff_peak the largest |u_ff| so far (N*m), crossover the loop's Kp/J_n (rad/s, the PI's gain over the observers'
+ * nominal inertia J_n: the inertia the PI acts on as far as the loop knows it, the design inertia unless an
+ * identification run contradicts it), slew_time in s (default 0.4). Both ways: a step of d_hat, e.g. the raw sample's jump J*dv/Tc when a
  * joint inside a wide stick band stops within one period, reaches the output over at least
  * |step|/(slew_time*crossover*ff_peak*a) periods instead of one, so that the observer does not kick a sticking
  * joint out of its band, while a loop of a higher crossover, which rejects a disturbance faster, lets the
@@ -146,8 +147,8 @@ typedef struct aff_residual_config {
     aff_dob_config dob;   /* the observer of the residual f - u_ff */
     int use_switch_in;    /* 1 (default): d_hat applied after the switch-in (mode "adaptive"); 0: always */
     aff_switch_in_config switch_in; /* the switch-in (read if use_switch_in) */
-    aff_real crossover;   /* the loop's crossover (rad/s): the PI's Kp over the design inertia J_n (never the
-                             plant's), finite, >= 0; 0 (default): no slew limit, set it */
+    aff_real crossover;   /* the loop's crossover (rad/s): the PI's Kp over the observers' nominal inertia J_n
+                             (never the plant's), finite, >= 0; 0 (default): no slew limit, set it */
     aff_real slew_time;   /* the slew limit's time (s), finite, >= 0: the applied estimate moves by at most
                              slew_time*crossover*ff_peak*(1 - exp(-Tc*omega_q)) per period; default 0.4; 0: no
                              slew limit */

@@ -199,7 +199,7 @@ class AdaptiveDOBCompensator(Component):
     crossover, slew_time : float, keyword-only
         The slew limit on the observer's applied estimate: per period it moves by at most ``slew_time*crossover``
         times the feedforward's largest torque so far times the Q-filter's factor ``1 - exp(-Tc*omega_q)``;
-        ``crossover`` the loop's ``Kp/J_n`` (rad/s, the design inertia), ``slew_time`` (s, default 0.4); either 0:
+        ``crossover`` the loop's ``Kp/J_n`` (rad/s, the observers' nominal inertia), ``slew_time`` (s, default 0.4); either 0:
         no limit (``crossover``'s default; C ``aff_residual_config``).
 
     Attributes

@@ -82,8 +82,14 @@ def _ctx(plant, o: LoopConfig) -> tuple:
 
 
 def _crossover(plant, o: LoopConfig) -> float:
-    """The loop's design crossover (rad/s): ``Kp`` over the design inertia, 0 without a loop (``Kp`` 0)."""
-    return max(o.controller.Kp, 0.0) / _ctx(plant, o)[0]
+    """The crossover of the loop the drive runs (rad/s): ``Kp`` over the observers' nominal inertia
+    (:func:`_nominal_inertia`), 0 without a loop (``Kp`` 0).
+
+    The PI's ``Kp`` acts on the joint's inertia, not on the one it was designed with: where the identification run
+    contradicts the design inertia (``o.observer.J_n``, :func:`controllers.experiments.observer_design.observer_inertia`)
+    the loop crosses over at ``Kp/J_n``, not at its design crossover ``Kp/J_design``; elsewhere the two are one.
+    The supervisor's statistic and tracking model and the residual observer run on ``J_n`` too."""
+    return max(o.controller.Kp, 0.0) / _nominal_inertia(plant, o)
 
 
 def _nominal_inertia(plant, o: LoopConfig) -> float:
@@ -151,7 +157,7 @@ def build_supervisor(plant, mode: str, options: LoopConfig, *, force: bool = Fal
     :func:`controllers.simulation.closed_loop.run_own`), else None.
 
     Its settings: ``Tc``, ``J_n`` (``options.observer.J_n``, else the design inertia), ``omega =
-    supervise_omega`` (default ``Kp/J_design``, the loop's design crossover; ``10/supervise_window`` rad/s where
+    supervise_omega`` (default ``Kp/J_n``, the loop's crossover, :func:`_crossover`; ``10/supervise_window`` rad/s where
     ``Kp`` is 0), ``window = supervise_window``, ``margin = supervise_margin``, ``rest_band = supervise_rest_band``,
     ``delay`` = the options' measurement delay (periods).
 
