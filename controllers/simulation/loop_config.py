@@ -341,7 +341,8 @@ class SupervisorSettings:
     margin : float
         Its hysteresis (-), in [0, 1).
     omega : float or None
-        Cut-off of its Q-filter (rad/s); default None: ``Kp/J_n``, the loop's crossover with the observers' nominal inertia.
+        Cut-off of its Q-filter (rad/s); default None: ``Kp/J_n``, the loop's crossover with the observers'
+        nominal inertia.
     tracking : bool
         Its tracking test (needs ``Kp > 0``), default True.
     track_margin : float
