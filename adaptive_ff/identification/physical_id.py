@@ -929,8 +929,8 @@ def _with_delay_spread(pb: _OutputErrorProblem, params: dict, stderr: dict, boot
     """The bootstrap's standard errors with the input delay's share added in quadrature where the fit profiled
     the delay (:func:`adaptive_ff.identification.delay_profile.delay_spread`: the refits hold the delay), and
     ``boot["interval95"]`` widened to match (``value ± t stderr``, t of the valid refits); the refits' own errors
-    stay in ``boot["stderr_refits"]``, the delay's share in ``boot["stderr_delay"]``. Unchanged where the delay
-    was given."""
+    stay in ``boot["stderr_refits"]``, the delay's share in ``boot["stderr_delay"]``; the band of F(w) stays the
+    refits'. Unchanged where the delay was given."""
     if pb.delay_profile is None:
         return stderr
     spread = delay_spread(pb.delay_profile, {k: params[k] for k in stderr})
