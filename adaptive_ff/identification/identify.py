@@ -675,14 +675,18 @@ def stderr_note(fit: PhysicalFit) -> str:
     Returns
     -------
     str
-        E.g. ``"standard errors by a parametric block bootstrap (20 refits of re-simulated records, seed 0, ...)"``;
+        E.g. ``"standard errors by a parametric block bootstrap (20 refits of re-simulated records, seed 0, ...)"``,
+        with the profiled input delay's share where the output-error fit added it
+        (:func:`adaptive_ff.identification.delay_profile.delay_spread`);
         for HAC the caveat that they are too small on a rough free-run cost (Künsch 1989; Newey & West 1987:
         :mod:`adaptive_ff.identification.covariance`).
     """
     boot = fit.info.get("bootstrap")
     if fit.info.get("stderr_kind") == "bootstrap" and boot:
+        delay = ("; the profiled input delay's share added in quadrature (the parameters refitted at its "
+                 "neighbouring delays)") if boot.get("stderr_delay") else ""
         return (f"standard errors by a parametric block bootstrap ({boot['n_valid']} refits of re-simulated "
-                f"records, seed {boot['seed']}; options n_bootstrap, bootstrap_seed)")
+                f"records, seed {boot['seed']}; options n_bootstrap, bootstrap_seed){delay}")
     if fit.info.get("stderr_kind") == "hac":
         return ("standard errors HAC (Newey-West, asymptotic; too small on the rough free-run cost, a lower "
                 "bound: use n_bootstrap > 0)")

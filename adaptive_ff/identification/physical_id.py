@@ -166,7 +166,9 @@ Carlo did (J 0.38 % against 0.38 % on one of them; the partial refits 0.87 %).
 ``bootstrap_refit="full"`` refits each replicate by the fit itself, the
 replicate taken as a record of its own (its noise level, robust scales and
 eq. 4 start, every stage including the profile search over tau; the input
-delay held at the fit's, not profiled again): the bootstrap of
+delay held at the fit's, not profiled again, its own share added to the
+refits' spread in quadrature where the fit profiled it:
+:func:`adaptive_ff.identification.delay_profile.delay_spread`): the bootstrap of
 the estimator as it is (Efron & Tibshirani, Ch. 6), at about three times the
 cost of the partial refits (a median 34 s, 22-68 s, against 11 s of CPU per
 15 s zoo record with 20 refits, when each refit runs the fit's whole profile
@@ -205,10 +207,10 @@ import numpy as np
 from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
 
-from adaptive_ff.identification.covariance import (BootstrapSettings, andrews_bandwidth, hac_covariance,
-                                                   parametric_block_bootstrap)
+from adaptive_ff.identification.covariance import (BootstrapSettings, andrews_bandwidth, bootstrap_t_quantile,
+                                                   hac_covariance, parametric_block_bootstrap)
 from adaptive_ff.identification.diagnostics import noise_fit_weights, velocity_noise_std_irregular
-from adaptive_ff.identification.delay_profile import delay_profile_search
+from adaptive_ff.identification.delay_profile import delay_profile_search, delay_spread
 from adaptive_ff.identification.lag_profile import lag_profile_search
 from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.oe_options import BOOTSTRAP_REFITS, JACOBIANS, OutputErrorOptions
@@ -308,8 +310,10 @@ class PhysicalFit:
         runs), ``lag_refits`` (``OutputErrorOptions.bootstrap_lag_refits`` where the refits run the profile over
         tau: at how many of its values they refit the others, None for all), ``input_delay`` (s: the fit's, which
         the full refits hold, :mod:`adaptive_ff.identification.delay_profile`), ``n_simulations``, ``bias``:
-        mean deviation of the refits per parameter, ``interval95``: per
-        parameter ``[low, high]`` = value ± t stderr), ``interval95`` (the
+        mean deviation of the refits per parameter, ``stderr_refits`` and ``stderr_delay`` where the delay was
+        profiled (the refits' RMS deviation and the delay's share,
+        :func:`adaptive_ff.identification.delay_profile.delay_spread`; ``stderr`` is their root sum of squares),
+        ``interval95``: per parameter ``[low, high]`` = value ± t stderr), ``interval95`` (the
         same) and ``band`` (the 95 % band of F(w) from the refits, as
         :meth:`adaptive_ff.identification.uncertainty.FrictionBand.to_dict`), ``start``, ``cost``,
         ``lag_profile`` (None, or the profile over tau: ``tau``, ``cost``, ``n_simulations``, ``moved``),
@@ -318,7 +322,8 @@ class PhysicalFit:
         ``residual_rms``, ``n_simulations``, ``burn_samples``, ``loss``,
         ``f_scale``, ``h_max``, ``input_delay`` (s: the one given, or the one the profile chose),
         ``input_delay_profile`` (None where the delay was given, else ``delay``, ``cost``, ``chosen``,
-        ``n_simulations``: :func:`adaptive_ff.identification.delay_profile.delay_profile_search`), ``interp``,
+        ``n_simulations``, ``params``: :func:`adaptive_ff.identification.delay_profile.delay_profile_search`),
+        ``interp``,
         ``Ts_mean``, ``Ts_max``.
     """
 
@@ -920,6 +925,23 @@ def _oe_intervals(pb: _OutputErrorProblem, names: tuple, est: np.ndarray, b) -> 
             "band": band.to_dict()}
 
 
+def _with_delay_spread(pb: _OutputErrorProblem, params: dict, stderr: dict, boot: dict) -> dict:
+    """The bootstrap's standard errors with the input delay's share added in quadrature where the fit profiled
+    the delay (:func:`adaptive_ff.identification.delay_profile.delay_spread`: the refits hold the delay), and
+    ``boot["interval95"]`` widened to match (``value ± t stderr``, t of the valid refits); the refits' own errors
+    stay in ``boot["stderr_refits"]``, the delay's share in ``boot["stderr_delay"]``; the band of F(w) stays the
+    refits'. Unchanged where the delay was given."""
+    if pb.delay_profile is None:
+        return stderr
+    spread = delay_spread(pb.delay_profile, {k: params[k] for k in stderr})
+    total = {k: float(math.hypot(stderr[k], spread[k])) for k in stderr}
+    boot["stderr_refits"], boot["stderr_delay"] = dict(stderr), spread
+    if "interval95" in boot:
+        q = bootstrap_t_quantile(boot["n_valid"], 0.95)
+        boot["interval95"] = {k: [float(params[k] - q * total[k]), float(params[k] + q * total[k])] for k in total}
+    return total
+
+
 def _oe_search(pb: _OutputErrorProblem, s0: dict, lag_refits: int | None = None, held_delay: float | None = None
                ) -> tuple[tuple[float, np.ndarray], dict | None]:
     """The output-error fit's search from the start values ``s0`` (module docstring): global stage, local stage,
@@ -935,7 +957,8 @@ def _oe_search(pb: _OutputErrorProblem, s0: dict, lag_refits: int | None = None,
     if pb.opts.input_delay is None:  # not given: profiled (pb.delay_profile), pb left at the delay chosen;
         # a bootstrap refit (held_delay): the profile with the fit's delay as its one point
         best, pb.delay_profile = delay_profile_search(pb, best, lambda z: _oe_delay_refit(pb, z),
-                                                      delays=None if held_delay is None else (held_delay,))
+                                                      delays=None if held_delay is None else (held_delay,),
+                                                      values=pb.values if held_delay is None else None)
     return _oe_fs_profile(pb, best), lag_prof
 
 
@@ -952,6 +975,7 @@ def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> P
     if opts.n_bootstrap > 0:
         stderr, bias, boot = _oe_bootstrap(pb, x, names, r)
         boot["bias"] = bias
+        stderr = _with_delay_spread(pb, params, stderr, boot)
     top = {k: boot.pop(k) for k in ("interval95", "band") if boot and k in boot}
     if "interval95" in top:
         boot["interval95"] = top["interval95"]

@@ -191,6 +191,8 @@ def test_full_bootstrap_refit_is_the_fit_itself_on_the_replicate(monkeypatch):
     f = fit_physical(m.t, m.u, m.w, n_bootstrap=2, bootstrap_lag_refits=None, **kw)  # "full" is the default
     monkeypatch.setattr(pid, "_oe_search", search)
     assert len(seen) == 3 and f.info["bootstrap"]["refit"] == "the fit's own search from the replicate's start"
+    # the delay given: no profile, so no delay's share; stderr is the refits' RMS deviation alone (below)
+    assert f.info["input_delay_profile"] is None and "stderr_delay" not in f.info["bootstrap"]
     assert pid.OutputErrorOptions().bootstrap_refit == "full"
     g = [fit_physical(m.t, m.u, w_star, n_bootstrap=0, **kw).params for w_star in seen[1:]]  # fitted as records
     for k in f.params:
