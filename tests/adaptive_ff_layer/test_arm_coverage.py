@@ -105,3 +105,15 @@ def test_first_arm_known_friction_inside_its_intervals():
             assert lo <= getattr(f, k) <= hi, (joint.name, k, getattr(f, k), joint.params[k], (lo, hi))
         assert abs(joint.params["Fc"] - f.Fc) < 0.03 * f.Fc and abs(joint.params["sigma"] - f.sigma) < 0.03 * f.sigma
         assert joint.params["J"] == pytest.approx(M[j, j], rel=0.005)
+
+
+def test_rows_is_checked():
+    from adaptive_ff.arm.fit import identify_arm
+    from adaptive_ff.arm.simulate import ArmSimulation, simulate_arm
+    from plant.errors import ParameterError
+
+    arm = load_urdf(arm_coverage.URDF)
+    log = simulate_arm(arm, arm_coverage.draw_friction(arm.n, 0), run=ArmSimulation(duration=2.0, substeps=1),
+                       seed=0, armature=arm_coverage.ARMATURE)
+    with pytest.raises(ParameterError, match="rows must be one of 'moving', 'sliding', got 'fast'"):
+        identify_arm(log, arm, lag=False, rows="fast")
