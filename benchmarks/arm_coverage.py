@@ -1,14 +1,14 @@
 """Coverage of identify-arm's 95 % intervals over seeded simulated arms, per parameter.
 
-Run:  python -m benchmarks.arm_coverage [--n 50] [--start 0] [--bootstrap 200] [--duration 20]
+Run:  python -m benchmarks.arm_coverage [--n 50] [--start 0] [--bootstrap 200] [--duration 20] [--rows moving|sliding]
 
 Each arm is ``examples/planar3.urdf`` (three links in the vertical plane) with the armatures 0.2, 0.1, 0.05 kg·m²
 and a friction per joint drawn from its seed (:func:`draw_friction`: ``Fc`` 0.5-2.5 N·m, ``Fs = Fc`` times
 1.15-1.5, ``Vs`` 0.06-0.14 rad/s, ``delta = 1``, ``sigma`` 0.15-1 N·m·s/rad, an offset of -0.1-0.1 N·m, no lag),
 simulated for ``--duration`` s (:func:`adaptive_ff.arm.simulate.simulate_arm`: its PI per joint on a multisine,
 sensor noise, the seed's reference phases and noise) and identified as ``adaptive-ff identify-arm`` identifies it
-(:func:`adaptive_ff.arm.fit.identify_arm`, default cutoff, ``--bootstrap`` refits, bootstrap seed = the arm's;
-without the lag fit: the arms have none).
+(:func:`adaptive_ff.arm.fit.identify_arm`, default cutoff, ``--bootstrap`` refits, bootstrap seed = the arm's,
+its ``rows`` from ``--rows``, default ``"moving"`` as identify_arm's; without the lag fit: the arms have none).
 
 Printed per parameter: the share of the true values inside their 95 % interval, over every joint of every arm
 (``J`` against Pinocchio's ``M_jj`` at the log's mean position with the armatures; ``Vs`` only where the Stribeck
@@ -45,7 +45,7 @@ def draw_friction(n: int, seed: int) -> list:
     return out
 
 
-def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200) -> dict:
+def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, rows: str = "moving") -> dict:
     """``{parameter: [hits, count]}`` of one arm (seed ``seed``), the base parameters under ``"base"``."""
     import pinocchio as pin
 
@@ -54,7 +54,7 @@ def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200) 
 
     friction = draw_friction(arm.n, seed)
     log = simulate_arm(arm, friction, run=ArmSimulation(duration=duration, substeps=1), seed=seed, armature=ARMATURE)
-    res = identify_arm(log, arm, seed=seed, n_bootstrap=n_bootstrap, lag=False)  # no lag simulated
+    res = identify_arm(log, arm, seed=seed, n_bootstrap=n_bootstrap, lag=False, rows=rows)  # no lag simulated
     model = arm.model.copy()
     model.armature = ARMATURE.copy()
     M = pin.crba(model, model.createData(), log.q.mean(axis=0))
@@ -96,17 +96,20 @@ def main(argv=None) -> int:
     ap.add_argument("--start", type=int, default=0, help="first seed (default 0)")
     ap.add_argument("--bootstrap", type=int, default=200, help="bootstrap refits per arm (default 200)")
     ap.add_argument("--duration", type=float, default=20.0, help="log length in s (default 20)")
+    ap.add_argument("--rows", choices=("moving", "sliding"), default="moving",
+                    help="identify_arm's rows (default moving, its default)")
     args = ap.parse_args(argv)
     arm = load_urdf(URDF)
     total = {k: [0, 0] for k in PARAMETERS + ("base",)}
     t0 = time.process_time()
     for seed in range(args.start, args.start + args.n):
-        for k, (h, c) in arm_hits(arm, seed, duration=args.duration, n_bootstrap=args.bootstrap).items():
+        for k, (h, c) in arm_hits(arm, seed, duration=args.duration, n_bootstrap=args.bootstrap,
+                                  rows=args.rows).items():
             total[k][0] += h
             total[k][1] += c
     cpu = time.process_time() - t0
     print(f"identify-arm 95 % intervals over {args.n} simulated arms (planar3, seeds {args.start}-"
-          f"{args.start + args.n - 1}, {args.duration:g} s logs, {args.bootstrap} bootstrap refits)")
+          f"{args.start + args.n - 1}, {args.duration:g} s logs, {args.bootstrap} bootstrap refits, rows {args.rows})")
     print(f"{'parameter':<10} {'inside':>8} {'of':>6} {'coverage':>9}   95 % (Wilson)")
     for k, (h, c) in total.items():
         lo, hi = wilson(h, c)

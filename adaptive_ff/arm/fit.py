@@ -16,19 +16,37 @@ only where it lowers the weighted residual beyond the 95 % likelihood-ratio boun
 
 The rows come from the zero-phase filtered, decimated log (:func:`adaptive_ff.arm.arm_log.filtered_states`): the
 torque passes the filter of the positions (Gautier's parallel filtering), so that the rigid body sees the same
-filter on both sides. The friction columns take the filtered velocity, while the filtered torque holds the
-filtered friction ``F(w)``, which differs from ``F`` of the filtered velocity where the map is curved (the Stribeck
-hump, crossed in tens of milliseconds): over 8 arms of ``benchmarks/arm_coverage.py`` (24 joint fits) ``Fc`` came
-out 0.6 % high and ``sigma`` 1.2 % low on average. The torque as logged removes that (-0.15 %, -0.1 %) but not the
-rigid body's own mismatch: the fast response of a joint's torque to the other joints' reversals, which the filtered
-accelerations lack, moved a gravity parameter of ``docs/your_arm.md``'s arm 4 % (1.164 against 1.12, outside its
-interval). Filtering the friction columns as the torque is filtered would keep both; it is not done.
+filter on both sides. Samples where a joint moves slower than 2 % of its 99th-percentile speed, or lie within one
+cutoff period of one of its velocity reversals, are left out of that joint's rows (the sign of the velocity is not
+known there, and the filter spreads the friction's jump at a reversal over that period). Each joint's rows are
+weighted by the inverse of its residual standard deviation from an unweighted first fit (IDIM-WLS; Gautier &
+Poignet, IFAC SYSID 2001). Two choices of rows and friction columns (``rows``, :data:`ROWS`):
 
-Samples where a joint moves slower than 2 % of its 99th-percentile speed, or lie within one cutoff period of one
-of its velocity reversals, are left out of that joint's rows (the sign of the velocity is not known there, and
-the filter spreads the friction's jump at a reversal over that period). Each joint's rows are weighted by the
-inverse of its residual standard deviation from an unweighted first fit (IDIM-WLS; Gautier & Poignet, IFAC SYSID
-2001).
+``rows="moving"`` (the default): those rows, and friction columns of the filtered velocity, while the filtered
+torque holds the filtered friction ``F(w)``, which differs from ``F`` of the filtered velocity where the map is
+curved (the Stribeck hump, crossed in tens of milliseconds): over 8 arms of ``benchmarks/arm_coverage.py`` (24
+joint fits) ``Fc`` came out 0.6 % high and ``sigma`` 1.2 % low on average.
+
+``rows="sliding"``: the friction columns pass the torque's filter too
+(:func:`adaptive_ff.arm.arm_log.parallel_filter`): ``g`` and ``h`` are built at the log's rate from the velocity
+low-passed at :data:`FRICTION_VELOCITY_FACTOR` times the cutoff (the measured velocity where the log has one, else
+the positions' derivative; that light filter keeps the noise from scattering the sign near rest), then filtered
+and decimated as the torque is; the viscous and offset columns are the filtered velocity and one. And a joint's
+friction is the map of its velocity only while it slides: where it sticks or reverses, the friction is whatever
+holds it (a simulated joint without a lag chatters about zero velocity there), and the torque's filter carries that
+into the rows within about one cutoff period. So the rows within one cutoff period of every log sample where the
+lightly filtered velocity is slower than the 2 % speed or changes sign are left out as well. Measured over 12 arms
+of ``benchmarks/arm_coverage.py`` (36 joints): with ``"moving"`` the light wrists (``M_jj`` 0.057 kg·m² against
+``Fc`` up to 2.5 N·m, which stick for 0.1-0.2 s at each reversal) read ``J`` 2.3 % high, ``Fs`` 14 % low and
+``Vs`` twice the truth; with ``"sliding"`` ``J`` +0.06 %, ``Fs`` -8 %, ``Vs`` +31 %. On the Stäubli TX40 log
+(``docs/benchmarks/arm_tx40.md``, cutoff 80 Hz) ``"sliding"`` reads ``Fc`` of joints 1-4 6-8 % above the
+reference values where ``"moving"`` reads 3-4 % above (the rows it leaves out are where the arm dwells; which is
+nearer the truth is not known), and on the planar arm of ``docs/your_arm.md`` with a 10 ms lag the shoulder's
+``Vs`` 0.115 rad/s against 0.1 (0.098 with ``"moving"``): the static map reads part of a lag as Stribeck shape.
+
+Putting a lag into the friction columns (each joint's columns through ``1/(tau s + 1)`` before the torque's
+filter, ``tau`` profiled per joint) was measured and is not used: on lag-free simulated arms it finds lags of 2-5
+ms and moves ``J`` 0.9 % high.
 
 Intervals: the circular block bootstrap of the samples (each sample's rows of all joints, regressor and torque,
 resampled together in blocks of consecutive samples, the block by the Politis-White rule on the residuals,
@@ -38,8 +56,13 @@ a parameter's interval is its estimate ``± t`` times the bootstrap standard err
 number of refits). A joint's friction intervals are widened to cover that band around the estimates at every
 ``(V_s, delta)`` of the grid the profile accepts and, where accepted, of the model without the Stribeck term
 (``Fs = Fc``), whether the joint keeps its Stribeck term or not; the accepted grid values are the intervals of
-``V_s`` and ``delta`` (also where the term is dropped and ``V_s`` itself is NaN): the grid points whose profiled weighted residual sum of squares is within the 95 % likelihood-ratio
-bound of the best, the residuals' correlation counted by the block length.
+``V_s`` and ``delta`` (also where the term is dropped and ``V_s`` itself is NaN): the grid points whose profiled
+weighted residual sum of squares is within the 95 % likelihood-ratio bound of the best, the residuals' correlation
+counted by the bootstrap's block length (``rows="moving"``) or (``rows="sliding"``) by the ratio of the bootstrap
+variance to the white-noise least-squares variance (the largest over the joints' ``Fc, Fs, sigma``;
+:func:`_variance_ratio`): with the sliding rows the block length (25-30 samples against ratios up to 12) accepted
+nearly the whole grid and gave intervals of ``Fc``, ``sigma`` and the offset twice the width their errors call
+for (every true value inside over 12 arms).
 
 Then each joint's friction lag ``tau`` (eq. 1) by the package's output-error fit on its rigid-body-removed record,
 where the log determines it, and each joint's velocity noise (:mod:`adaptive_ff.arm.lag`).
@@ -53,30 +76,69 @@ from threadpoolctl import threadpool_limits
 from plant.errors import ParameterError, SignalError
 from plant.stribeck_map import stribeck_shape
 
-from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states
+from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states, parallel_filter
 from adaptive_ff.arm.lag import JointLag, LagOptions, joint_lags, lag_records, velocity_noise
 from adaptive_ff.arm.result import ArmIdentification, ArmJoint
 from adaptive_ff.arm.robot import ArmModel
 
-__all__ = ["identify_arm", "DELTA_GRID", "N_VS"]
+__all__ = ["identify_arm", "DELTA_GRID", "N_VS", "FRICTION_VELOCITY_FACTOR", "ROWS"]
 
 #: Stribeck shape factors of the profile grid.
 DELTA_GRID = (0.5, 1.0, 2.0)
 #: Stribeck velocities per joint in the profile grid (geometric, from the slowest kept speed to a third of the
 #: median speed).
 N_VS = 8
+#: Cutoff of the velocity the friction columns are built from, before the torque's filter, as a multiple of the
+#: identification's cutoff (at most 0.8 times the log's Nyquist frequency); also the velocity that marks rest.
+FRICTION_VELOCITY_FACTOR = 5.0
+#: The rows and friction columns of :func:`identify_arm` (its ``rows``; module docstring): ``"moving"`` (the default)
+#: the filtered velocity's own, ``"sliding"`` those where the joint slides, with the columns through the torque's
+#: filter and the likelihood-ratio bound scaled by the bootstrap's variance ratio.
+ROWS = ("moving", "sliding")
 #: Condition number of the column-scaled weighted regressor above which the result carries a conditioning warning.
 COND_WARN = 1e3
 #: Friction columns per joint: Fc (g), Fs (h), sigma (w), offset (1).
 _FRICTION = ("Fc", "Fs", "sigma", "offset")
 
 
+class _FrictionColumns:
+    """Each joint's friction columns ``(g, h, w, 1)`` (m, 4) at ``(Vs, delta)``: ``g`` and ``h`` built at the log's
+    rate from its velocity low-passed at :data:`FRICTION_VELOCITY_FACTOR` times the cutoff (``w_fast``, (n, N)) and
+    put through the torque's filter and decimation (``pf``); ``dq`` (m, N) the filtered velocity."""
+
+    def __init__(self, pf, w_fast, dq):
+        self.pf, self.w, self.dq = pf, w_fast, dq
+        self.sgn = pf(np.sign(w_fast))
+
+    def __call__(self, j: int, Vs: float, delta: float) -> np.ndarray:
+        m = self.dq.shape[0]
+        h = np.zeros(m)
+        if np.isfinite(Vs):
+            w = self.w[:, j]
+            h = self.pf(np.sign(w) * stribeck_shape(w, Vs, delta))
+        return np.column_stack([self.sgn[:, j] - h, h, self.dq[:, j], np.ones(m)])
+
+
+class _MapColumns:
+    """Each joint's friction columns ``(g, h, w, 1)`` (m, 4) at ``(Vs, delta)`` of the filtered velocity ``dq``
+    (m, N) itself (``rows="moving"``)."""
+
+    def __init__(self, dq):
+        self.dq = dq
+
+    def __call__(self, j: int, Vs: float, delta: float) -> np.ndarray:
+        w = self.dq[:, j]
+        s = stribeck_shape(w, Vs, delta) if np.isfinite(Vs) else np.zeros(w.shape[0])
+        return np.column_stack([np.sign(w) * (1 - s), np.sign(w) * s, w, np.ones(w.shape[0])])
+
+
 class _Problem:
     """The stacked rows of one log: the rigid-body block, the velocities, the kept rows, the weights."""
 
-    def __init__(self, Yb, dq, tau, keep):
+    def __init__(self, Yb, dq, tau, keep, columns):
         self.m, self.n, self.r = Yb.shape
         self.Yb, self.dq, self.tau, self.keep = Yb, dq, tau, keep
+        self.columns = columns
         self.w = np.ones(self.n)
         self._cache = (None, {})  # the weights the products below were made with, and the products
 
@@ -95,9 +157,7 @@ class _Problem:
         key = (j, float(Vs_j), float(delta_j)) if np.isfinite(Vs_j) else (j, None, None)  # NaN: no Stribeck term
         if key not in store:
             k, Y, y = store[j][:3]
-            w = self.dq[k, j]
-            s = stribeck_shape(w, Vs_j, delta_j) if np.isfinite(Vs_j) else np.zeros(w.shape[0])
-            F = np.column_stack([np.sign(w) * (1 - s), np.sign(w) * s, w, np.ones(w.shape[0])]) * self.w[j]
+            F = self.columns(j, Vs_j, delta_j)[k] * self.w[j]
             store[key] = (F, Y.T @ F, F.T @ F, F.T @ y)
         return store[j] + store[key]
 
@@ -124,10 +184,7 @@ class _Problem:
         A = np.zeros((self.m, self.n, self.r + 4 * self.n))
         A[:, :, : self.r] = self.Yb
         for j in range(self.n):
-            w = self.dq[:, j]
-            s = stribeck_shape(w, Vs[j], delta[j]) if np.isfinite(Vs[j]) else np.zeros(self.m)
-            A[:, j, self.r + 4 * j: self.r + 4 * j + 4] = np.column_stack(
-                [np.sign(w) * (1 - s), np.sign(w) * s, w, np.ones(self.m)])
+            A[:, j, self.r + 4 * j: self.r + 4 * j + 4] = self.columns(j, Vs[j], delta[j])
         return A.reshape(self.m * self.n, -1)
 
     def solve(self, Vs, delta):
@@ -165,6 +222,43 @@ def _near_reversal(t, dq, window: float) -> np.ndarray:
             hi = np.abs(flips[np.clip(idx, 0, flips.size - 1)] - t)
             out[:, j] = np.minimum(lo, hi) < window
     return out
+
+
+def _fast_velocity(log: ArmLog, cutoff: float) -> np.ndarray:
+    """The log's velocity (n, N) at its own rate, low-passed (zero phase) at :data:`FRICTION_VELOCITY_FACTOR` times
+    ``cutoff`` (at most 0.8 times the Nyquist frequency): the measured velocity where the log has one, else the
+    positions' derivative."""
+    from scipy.signal import butter, filtfilt
+
+    Ts = float(np.median(np.diff(log.t)))
+    b, a = butter(4, min(FRICTION_VELOCITY_FACTOR * cutoff * 2.0 * Ts, 0.8))
+    if log.dq is not None:
+        return filtfilt(b, a, log.dq, axis=0)
+    return np.gradient(filtfilt(b, a, log.q, axis=0), Ts, axis=0)
+
+
+def _rows_and_columns(log: ArmLog, cutoff: float, filtered, vmin, rows: str) -> tuple:
+    """Each joint's rows ``keep_j`` (m, N) and its friction columns (:class:`_FrictionColumns` or
+    :class:`_MapColumns`) for ``rows`` (:data:`ROWS`); ``filtered`` the ``(t, dq)`` of the filtered states."""
+    t, dq = filtered
+    keep_j = (np.abs(dq) >= np.maximum(vmin, 1e-9)) & ~_near_reversal(t, dq, 1.0 / cutoff)
+    if rows == "moving":
+        return keep_j, _MapColumns(dq)
+    pf, w_fast = parallel_filter(log, cutoff), _fast_velocity(log, cutoff)
+    window = int(round(1.0 / (cutoff * float(np.median(np.diff(log.t))))))
+    return keep_j & ~_near_rest(pf, w_fast, np.maximum(vmin, 1e-9), window), _FrictionColumns(pf, w_fast, dq)
+
+
+def _near_rest(pf, w_fast, vmin, window: int) -> np.ndarray:
+    """(m, N) True at the filtered rows (``pf``'s) within ``window`` log samples of a sample where the joint's
+    ``w_fast`` is slower than ``vmin`` (N,) or changes sign: where the joint sticks or reverses, the friction is not
+    the map of the measured velocity, and the torque's filter carries it that far."""
+    slow = np.abs(w_fast) < vmin
+    slow[1:] |= np.diff(np.sign(w_fast), axis=0) != 0
+    ker = np.ones(2 * window + 1)
+    out = np.column_stack([np.convolve(slow[:, j].astype(float), ker, mode="same") > 0.5
+                           for j in range(w_fast.shape[1])])
+    return out[pf.keep]
 
 
 def _grids(dq, keep_j, vmin):
@@ -263,15 +357,31 @@ def _bootstrap(prob: _Problem, A, x, n_boot: int, seed: int, progress=False):
                            n=n_boot, block=block), resid
 
 
-def _profile_interval(table_j, rss_min: float, n_rows: int, block: int, cols: slice) -> tuple:
+def _variance_ratio(prob: _Problem, A, rss: float, boot) -> float:
+    """The largest ratio over the joints' ``Fc, Fs, sigma`` of the bootstrap variance to the least-squares variance
+    for white residuals, ``s^2 (A^T A)^{-1}`` (weighted rows), at least 1: how much the residuals' correlation
+    inflates the fit's variance, by which the likelihood-ratio bound of :func:`_profile_interval` is scaled (a
+    zero column, of a dropped Stribeck term, has no ratio)."""
+    Aw = A[prob.keep] * np.tile(prob.w, prob.m)[prob.keep][:, None]
+    G = Aw.T @ Aw
+    on = np.diag(G) > 0
+    var = np.full(G.shape[0], np.nan)
+    var[on] = np.diag(np.linalg.pinv(G[np.ix_(on, on)])) * rss / max(Aw.shape[0] - int(on.sum()), 1)
+    kappa = boot.stderr ** 2 / np.where(var > 0, var, np.nan)
+    friction = np.concatenate([kappa[prob.r + 4 * j: prob.r + 4 * j + 3] for j in range(prob.n)])
+    return max(1.0, float(np.nanmax(friction))) if np.any(np.isfinite(friction)) else 1.0
+
+
+def _profile_interval(table_j, rss_min: float, n_rows: int, ratio: float, cols: slice) -> tuple:
     """The ``(Vs range, delta range, (low, high) of the estimates[cols], estimates)`` over the grid points within the
-    95 % likelihood-ratio bound of the best (the residuals' correlation counted by the block length); ``estimates``
+    95 % likelihood-ratio bound of the best (the residuals' correlation counted by the variance ratio ``ratio``,
+    :func:`_variance_ratio`); ``estimates``
     the accepted rows' whole estimates (k, p). The model without a Stribeck term (``Vs`` NaN) counts with
     ``Fs = Fc``; the ranges of ``Vs`` and ``delta`` are NaN where no grid point is inside. The ``Vs`` range reaches
     out to the grid's next value beyond the accepted ones on either side (where the bound is crossed, somewhere
     between the two): the accepted grid values alone left the true ``Vs`` outside on 11 of 30 simulated
     joints (``benchmarks/arm_coverage.py``, seeds 0-9)."""
-    bound = rss_min * (1.0 + 3.84 * block / max(n_rows, 1))
+    bound = rss_min * (1.0 + 3.84 * ratio / max(n_rows, 1))
     inside = [row for row in table_j if row[2] <= bound]
     grid = np.unique([r[0] for r in table_j[:len(DELTA_GRID) * N_VS]])
     vs = [r[0] for r in inside if np.isfinite(r[0])]
@@ -358,7 +468,7 @@ def _sign_warnings(name: str, params: dict) -> list:
 @threadpool_limits.wrap(limits=1, user_api="blas")  # the many small products of the fits: one thread each
 def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, n_bootstrap: int = 200,
                  seed: int = 0, rigid_body: str = "fit", progress: bool | None = False,
-                 lag: bool | LagOptions = True) -> ArmIdentification:
+                 lag: bool | LagOptions = True, rows: str = "moving") -> ArmIdentification:
     """Identify the rigid body and every joint's friction of ``arm`` from ``log`` (module docstring: the method).
 
     Parameters
@@ -383,6 +493,12 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
         Identify each joint's friction lag ``tau`` by output error (:mod:`adaptive_ff.arm.lag`): True (default)
         with :class:`adaptive_ff.arm.lag.LagOptions`' defaults (10 bootstrap refits per joint, the joints in 2
         worker processes), or those options; False: ``tau`` NaN with a warning (the costliest stage skipped).
+    rows : {"moving", "sliding"}, keyword-only
+        The joints' rows (:data:`ROWS`; module docstring): ``"moving"`` (default) where the filtered velocity is
+        above 2 % of the joint's 99th-percentile speed and one cutoff period from its reversals, friction columns
+        of the filtered velocity, the profile's bound scaled by the bootstrap's block length; ``"sliding"`` also
+        one cutoff period from where the joint sticks, friction columns through the torque's filter, the bound
+        scaled by the bootstrap's variance ratio (the calibrated intervals of ``docs/your_arm.md``).
 
     Returns
     -------
@@ -398,9 +514,11 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
         The log's joint count differs from the URDF's; irregular time stamps; too few rows.
     ParameterError
         A position beyond the URDF's limits (file, joint, sample and value named); ``cutoff``, ``n_bootstrap``,
-        ``lag`` or ``rigid_body`` invalid; a joint with no row fast enough to fit.
+        ``lag``, ``rows`` or ``rigid_body`` invalid; a joint with no row fast enough to fit.
     """
     _check(log, arm, n_bootstrap, rigid_body)
+    if rows not in ROWS:
+        raise ParameterError(f"rows must be one of {', '.join(map(repr, ROWS))}, got {rows!r}")
     if not isinstance(lag, (bool, LagOptions)):
         raise ParameterError(f"lag must be True, False or a LagOptions, got {lag!r}")
     t, q, dq, ddq, tau = filtered_states(log, cutoff)
@@ -411,11 +529,11 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
         tau = tau - Y @ arm.theta_urdf
         Yb = Yb[:, :, :0]
     vmin = 0.02 * np.percentile(np.abs(dq), 99, axis=0)
-    keep_j = (np.abs(dq) >= np.maximum(vmin, 1e-9)) & ~_near_reversal(t, dq, 1.0 / cutoff)
+    keep_j, columns = _rows_and_columns(log, cutoff, (t, dq), vmin, rows)
     for j in np.flatnonzero(keep_j.sum(axis=0) < 10):
         raise ParameterError(f"{log.source}: joint {arm.names[j]!r} moves in fewer than 10 of the filtered samples: "
                              "nothing to fit its friction on")
-    prob = _Problem(Yb, dq, tau, keep_j.reshape(-1))
+    prob = _Problem(Yb, dq, tau, keep_j.reshape(-1), columns)
     grids = _grids(dq, keep_j, vmin)
     mid = np.array([g[N_VS // 2] for g in grids])
     x0, _, A0 = prob.solve(mid, np.ones(arm.n))
@@ -425,10 +543,12 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
 
     block0 = max(politis_white_block(e0[keep_j[:, j], j] * prob.w[j]) for j in range(arm.n))
     rss0 = float(np.sum((e0 * prob.w) ** 2 * keep_j))
-    Vs, delta, table = _profile(prob, grids, 5.99 * block0 * rss0 / max(int(keep_j.sum()), 1), progress)
+    n_kept = max(int(keep_j.sum()), 1)
+    Vs, delta, table = _profile(prob, grids, 5.99 * block0 * rss0 / n_kept, progress)
     x, rss, A = prob.solve(Vs, delta)
     boot, resid = _bootstrap(prob, A, x, int(n_bootstrap), seed, progress)
     half = boot.half_width(0.95)
+    ratio = _variance_ratio(prob, A, rss, boot) if rows == "sliding" else float(boot.block)
     a_J = _inertia_rows(arm, base, log.q.mean(axis=0))  # the log's mean configuration (all its samples)
     r = Yb.shape[2]
     J_all = a_J @ (x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf))
@@ -437,7 +557,7 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     noise = velocity_noise(log)
     joints = []
     for j in range(arm.n):
-        joints.append(_joint(arm, j, x, half, boot, a_J, r, base, (Vs, delta, table, rss, int(prob.keep.sum())),
+        joints.append(_joint(arm, j, x, half, boot, a_J, r, base, (Vs, delta, table, rss, int(prob.keep.sum()), ratio),
                              (q, dq, keep_j), (lags[j], noise[j])))
     scaled = A[prob.keep] * np.tile(prob.w, prob.m)[prob.keep][:, None]
     norm = np.linalg.norm(scaled, axis=0)
@@ -450,7 +570,7 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     info = {"cutoff": float(cutoff), "rows": [int(v) for v in keep_j.sum(axis=0)],
             "bootstrap": {"n": int(n_bootstrap), "valid": boot.n_valid, "block": boot.block, "seed": int(seed)},
             "rms": [float(np.sqrt(np.mean(resid[keep_j[:, j], j] ** 2))) for j in range(arm.n)],
-            "J": "the joint's own diagonal inertia M_jj at the log's mean configuration"}
+            "J": "the joint's own diagonal inertia M_jj at the log's mean configuration", "row_selection": rows}
     cond = float(np.linalg.cond(scaled))
     return ArmIdentification(joints=tuple(joints), base_names=base.names, base_values=beta, base_interval=ival,
                              cond=cond, rigid_body=rigid_body, info=info, curves=curves,
@@ -502,7 +622,7 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> Arm
     """Joint ``j``'s parameters, intervals, standard errors and warnings from the fit."""
     from adaptive_ff.identification.covariance import bootstrap_t_quantile
 
-    Vs, delta, table, rss, n_rows = profile
+    Vs, delta, table, rss, n_rows, ratio = profile
     q, dq, keep_j = data
     c = r + 4 * j
     p = dict(zip(_FRICTION, x[c: c + 4]))
@@ -523,7 +643,7 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> Arm
         p["Fs"], hw["Fs"], std["Fs"], lo["Fs"], hi["Fs"] = p["Fc"], hw["Fc"], std["Fc"], lo["Fc"], hi["Fc"]
     # the friction's intervals cover the bootstrap band around every (Vs, delta) the profile accepts, the model
     # without a Stribeck term among them: a dropped term's Fs interval reaches as far as the profile allows
-    vs_iv, d_iv, (x_lo, x_hi), xs = _profile_interval(table[j], rss, n_rows, boot.block, slice(c, c + 4))
+    vs_iv, d_iv, (x_lo, x_hi), xs = _profile_interval(table[j], rss, n_rows, ratio, slice(c, c + 4))
     for i, k in enumerate(_FRICTION):
         lo[k], hi[k] = min(lo[k], x_lo[i] - hw[k]), max(hi[k], x_hi[i] + hw[k])
     if r:  # J as well: the rigid body's estimate moves with the joint's (Vs, delta)
