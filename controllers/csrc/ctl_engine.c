@@ -13,6 +13,7 @@ void ctl_scenario_init(ctl_scenario *sc, double w0)
     sc->diverged = 0;
     sc->n_theta_rec = 0;
     sc->fault_pos = 0;
+    sc->smooth = 0;
     sc->use_sensor = 0;
     sc->use_drive = 0;
     sc->use_supervisor = 0;
@@ -196,7 +197,10 @@ static inline CTL_ALWAYS_INLINE int period(const ctl_run *restrict run, ctl_scen
     metrics_add_motion_sample(&sc->metrics, where, mo->rest, wrk - w);
     if (mo->stop >= 0 || mo->rev >= 0) /* else no event in progress: nothing to add */
         events_add_sample(&sc->events, mo, run->t[k], wrk - w);
-    plant_step(par, &sc->plant, u, run->dt);
+    if (!(F & CTL_F_ROWS) && sc->smooth) /* the model's tests done once per call (ctl_run_chunk) */
+        plant_step_smooth(par, &sc->plant, u, run->dt);
+    else
+        plant_step(par, &sc->plant, u, run->dt);
     w = sc->plant.w;
     if (!(-sc->w_limit < w && w < sc->w_limit)) {
         sc->diverged = 1;
@@ -261,6 +265,7 @@ CTL_FLATTEN void ctl_run_chunk(const ctl_run *run, ctl_scenario *sc, long n_sc)
     unsigned F = 0;
     for (long b = 0; b < n_sc; b++) {
         n_alive += sc[b].diverged == 0;
+        sc[b].smooth = sc[b].n_rows == 1 && plant_step_is_smooth(sc[b].rows, run->dt);
         F |= ctl_features(run, sc + b);
     }
     /* the common runs without sensor and drive models, faults, oracle, engine supervisor or plant rows: no

@@ -94,6 +94,7 @@ typedef struct ctl_scenario {
     int diverged;               /* 1 once |w| left w_limit */
     long n_theta_rec;           /* estimates recorded */
     long fault_pos;             /* next fault to apply */
+    int smooth;                 /* 1: one parameter row with plant_step_is_smooth (set by ctl_run_chunk) */
     double theta_buf[CTL_THETA_NMAX];
 } ctl_scenario;
 
