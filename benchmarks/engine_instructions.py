@@ -1,15 +1,18 @@
-"""Instructions per 1 kHz step of the C engine (``run_mode none`` and ``adaptive``) under callgrind.
+"""Instructions per 1 kHz step of the C engine (``run_mode none``, ``fixed`` and ``adaptive``) under callgrind.
 
-Run:  python benchmarks/engine_instructions.py [--tree TREE ...] [--seconds 2]
+Run:  python benchmarks/engine_instructions.py [--tree TREE ...] [--seconds 2] [--keep DIR]
 
 Each mode runs in one process under ``valgrind --tool=callgrind`` with collection on inside the engine call only
 (``--toggle-collect`` of its cffi wrapper ``_cffi_f_ctl_run_chunk``) and one profile dump after every call
 (``--dump-after``): a warm-up, then runs of ``seconds`` and ``3*seconds`` on the loop of ``benchmarks/perf.py``
-(paper preset, PI at 20 rad/s; ``adaptive`` with the noise 1e-3 rad/s and its Vs, delta). Instructions per step
+(paper preset, PI at 20 rad/s; ``fixed`` with the true friction as its estimate and ``adaptive`` with its Vs,
+delta, both with the noise 1e-3 rad/s). Instructions per step
 are the difference of the two runs' counts over the difference of their steps: the work per period, without the
 fixed cost of a call. Counts do not depend on the machine's load (timings on a shared machine do), only on the
 code and the compiler: the measure to compare two trees side by side (``--tree`` names one or more source trees
-with their extensions built in place; default this one).
+with their extensions built in place; default this one; a tree whose loop settings are the older flat
+``ModeOptions`` runs the same loop). ``--keep DIR`` keeps the profiles (``DIR/<tree>-<mode>.<i>``, the last one
+the long run) for ``callgrind_annotate``.
 """
 
 from __future__ import annotations
@@ -24,29 +27,40 @@ import tempfile
 
 #: The script each measured process runs: mode, seconds; prints the steps of its three engine calls.
 _SCRIPT = r"""
-import sys
+import math, sys
 import numpy as np
-from controllers.simulation.closed_loop import LoopConfig, run_mode
+from controllers.simulation.closed_loop import run_mode
 from controllers.design.pi import design_pi
+from adaptive_ff.identification.regression import FrictionEstimate
 from plant.excitation import multisine_reference
 from plant.friction import preset
 mode, secs = sys.argv[1], float(sys.argv[2])
 p = preset("paper")
 d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
-o = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0)
+extra = {}
 if mode == "adaptive":
-    o = o.replace(Vs=p.Vs, delta=p.delta, noise_std=1e-3)
+    extra = dict(Vs=p.Vs, delta=p.delta, noise_std=1e-3)
+elif mode == "fixed":
+    extra = dict(estimate=FrictionEstimate(J=p.J, tau=p.tau, sigma=p.sigma, Fc=p.Fc, Fs=p.Fs, offset=0.0, Vs=p.Vs,
+                                           delta=p.delta, J_alt=math.nan), noise_std=1e-3)
+try:
+    from controllers.simulation.closed_loop import LoopConfig
+    o = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0, **extra)
+except ImportError:  # a tree with the flat ModeOptions
+    from controllers.simulation.compensators import ModeOptions
+    o = ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, **extra)
 refs = [multisine_reference(s, rng=np.random.default_rng(0)) for s in (0.2, secs, 3 * secs)]
 for ref in refs:
     run_mode(p, ref, mode, o, rng=np.random.default_rng(1))
 print(" ".join(str(r.t.size) for r in refs))
 """
 
-MODES = ("none", "adaptive")
+MODES = ("none", "fixed", "adaptive")
 
 
-def per_step(tree: str, mode: str, seconds: float = 2.0) -> float | None:
-    """Instructions per step of ``mode`` in the source tree ``tree`` (None without valgrind)."""
+def per_step(tree: str, mode: str, seconds: float = 2.0, keep: str | None = None) -> float | None:
+    """Instructions per step of ``mode`` in the source tree ``tree`` (None without valgrind); ``keep``: a folder
+    that receives the profiles (``<tree's name>-<mode>.<i>``)."""
     vg = shutil.which("valgrind")
     if vg is None:
         return None
@@ -59,10 +73,15 @@ def per_step(tree: str, mode: str, seconds: float = 2.0) -> float | None:
                              capture_output=True, text=True, check=True, cwd=tree, env=env, timeout=3600)
         steps = [int(x) for x in res.stdout.split()]
         counts = []
-        for name in sorted(os.listdir(tmp), key=lambda f: int(f.rsplit(".", 1)[-1]) if f[-1].isdigit() else 0):
+        names = sorted(os.listdir(tmp), key=lambda f: int(f.rsplit(".", 1)[-1]) if f[-1].isdigit() else 0)
+        for name in names:
             m = re.search(r"^(?:summary|totals):\s+(\d+)", open(os.path.join(tmp, name)).read(), re.M)
             if name.startswith("cg.out.") and m:
                 counts.append(int(m.group(1)))
+                if keep is not None:
+                    os.makedirs(keep, exist_ok=True)
+                    label = os.path.basename(os.path.abspath(tree))
+                    shutil.copy(os.path.join(tmp, name), os.path.join(keep, f"{label}-{mode}.{len(counts)}"))
     counts = counts[-3:]
     return (counts[2] - counts[1]) / (steps[2] - steps[1])
 
@@ -83,11 +102,12 @@ def main(argv=None) -> int:
     ap.add_argument("--tree", action="append", default=None,
                     help="source tree with its extensions built (repeatable; default this one)")
     ap.add_argument("--seconds", type=float, default=2.0, help="length of the shorter measured run (s)")
+    ap.add_argument("--keep", default=None, help="folder that keeps the callgrind profiles (for callgrind_annotate)")
     args = ap.parse_args(argv)
     trees = args.tree or [os.path.dirname(os.path.dirname(os.path.abspath(__file__)))]
     print(f"{'tree':<40}" + "".join(f"{m:>12}" for m in MODES) + "   instructions per step")
     for tree in trees:
-        vals = [per_step(tree, m, args.seconds) for m in MODES]
+        vals = [per_step(tree, m, args.seconds, args.keep) for m in MODES]
         print(f"{tree:<40}" + "".join(f"{v:>12.1f}" if v is not None else f"{'n/a':>12}" for v in vals))
     return 0
 

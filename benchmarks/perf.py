@@ -375,7 +375,7 @@ def _c_compensator_rows(args):
 
 
 def _instruction_rows(args):
-    """Instructions per step of ``run_mode none`` and ``adaptive`` under callgrind
+    """Instructions per step of ``run_mode none``, ``fixed`` and ``adaptive`` under callgrind
     (``benchmarks/engine_instructions.py`` beside this file, on this tree): the per-step work, whatever the load."""
     import importlib
 

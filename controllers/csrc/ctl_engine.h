@@ -94,12 +94,18 @@ typedef struct ctl_scenario {
     int diverged;               /* 1 once |w| left w_limit */
     long n_theta_rec;           /* estimates recorded */
     long fault_pos;             /* next fault to apply */
+    int smooth;                 /* 1: one parameter row with plant_step_is_smooth (set by ctl_run_chunk) */
     double theta_buf[CTL_THETA_NMAX];
 } ctl_scenario;
 
 /* Prepare sc for a run that starts from the plant state s0 (rad/s, N*m or rad) with the sensor gate holding
  * w0 (rad/s); the other fields (rows, gate, pi, comp/ops, metrics, records) are set by the caller. */
 void ctl_scenario_init(ctl_scenario *sc, double w0);
+
+/* This module's own ops table of the given name ("aff_fixed_ff_ops", "aff_adaptive_ops"), NULL for any other: a
+ * scenario that holds it runs in a loop that calls the compensator's functions directly (inlined, the same results),
+ * where every scenario of a chunk has the same one (ctl_run_chunk). */
+const aff_compensator_ops *ctl_known_ops(const char *name);
 
 /* Run scenarios sc[0..n_sc-1] over all periods of run (or until each diverged); sets k_end. */
 void ctl_run_chunk(const ctl_run *run, ctl_scenario *sc, long n_sc);

@@ -290,8 +290,11 @@ class EngineRun:
             raise ParameterError(f"compensator must be a compensator component (C_OPS), a UserCompensator or None, "
                                  f"got {comp!r}")
         ops = self._ops.get(name)
-        if ops is None:  # cffi reads a const table as a value: one copy per run, kept alive here
-            ops = self._ops[name] = ffi.new("aff_compensator_ops *", getattr(lib, name))
+        if ops is None:  # the engine's own table where it has one (its loop then calls the functions directly)
+            ops = lib.ctl_known_ops(name.encode())
+            if ops == ffi.NULL:  # cffi reads a const table as a value: one copy per run, kept alive here
+                ops = ffi.new("aff_compensator_ops *", getattr(lib, name))
+            self._ops[name] = ops
         self._keep.append(comp)
         sc.comp = ffi.cast("void *", comp.cdata)
         sc.ops = ops

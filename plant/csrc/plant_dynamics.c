@@ -269,6 +269,26 @@ void plant_step(const plant_params *p, plant_state *st, double u, double dt)
         step_general(p, st, u, dt);
 }
 
+int plant_step_is_smooth(const plant_params *p, double dt)
+{
+    return p->model != PLANT_LUGRE && p->tau != 0.0 && p->ripple_a == 0.0 && !(p->rate * dt > plant_rk4_rate_max);
+}
+
+void plant_step_smooth(const plant_params *p, plant_state *st, double u, double dt)
+{
+    double w = st->w;
+    double s = st->s;
+    double q = 0.0; /* not carried: without a ripple nothing reads the position (its operations left out) */
+    if (-p->dv < w && w < p->dv) { /* within the Karnopp band: the general step (single_rk4) */
+        step_general(p, st, u, dt);
+        return;
+    }
+    rk4_at(p, &w, &s, &q, plant_target(p, w, 0.0), u, u, u, dt, 0.0, 0, 1);
+    st->w = w;
+    st->s = s;
+    st->aux = NAN;
+}
+
 double plant_friction(const plant_params *p, const plant_state *st)
 {
     double w, z, aw, g, zdot;

@@ -51,6 +51,15 @@ void plant_rk4_at(const plant_params *p, double *w, double *s, double *q, double
  * Python: plant.dynamics.plant_step, make_plant_step. */
 void plant_step(const plant_params *p, plant_state *st, double u, double dt);
 
+/* 1 if plant_step of p with step dt takes its common case wherever w is outside the Karnopp band (a lagged model
+ * with tau != 0, no friction ripple, one RK4 step: rate*dt <= plant_rk4_rate_max), else 0: a loop over many steps of
+ * one parameter row tests this once and then calls plant_step_smooth. */
+int plant_step_is_smooth(const plant_params *p, double dt);
+
+/* plant_step for a p with plant_step_is_smooth(p, dt): the same w and s, without the per-step tests of the model;
+ * outside the Karnopp band the position st->q is left as it is (without a ripple nothing reads it). */
+void plant_step_smooth(const plant_params *p, plant_state *st, double u, double dt);
+
 /* Friction torque (N*m) of the plant in state *st: lagged models the friction state s (eq. 1); LuGre
  * sigma0*z + sigma1*dz/dt + sigma2*w (Canudas de Wit et al. 1995, eq. 3; with a ripple g and sigma2 times R(q)).
  * Python: plant.dynamics.plant_friction. */
