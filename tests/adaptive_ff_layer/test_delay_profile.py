@@ -16,9 +16,8 @@ from adaptive_ff.identification.covariance import bootstrap_t_quantile
 from adaptive_ff.identification.delay_profile import DELAY_FRACTIONS, delay_profile_search, delay_spread
 from adaptive_ff.identification.oe_options import OutputErrorOptions
 from adaptive_ff.identification.physical_id import fit_physical
-from adaptive_ff.identification.simulator import input_grid
 from controllers.cli.main import main
-from plant import bandlimited_noise, irregular_sample_times, preset, sample, simulate
+from coverage_zoo_joints import zoo_joint
 from plant.errors import ParameterError
 
 
@@ -61,30 +60,9 @@ def test_options_take_none_as_profiled_and_refuse_a_negative_delay():
         OutputErrorOptions(input_delay=float("nan"))
 
 
-def _zoo_joint_1():
-    """benchmarks/coverage_zoo.py's joint of seed 1 and its readout (15 s), rebuilt."""
-    rng = np.random.default_rng(1)
-    lu = lambda lo, hi: float(math.exp(rng.uniform(math.log(lo), math.log(hi))))  # noqa: E731
-    J, Fc = lu(1.0, 10.0), float(rng.uniform(10.0, 40.0))
-    Fs, Vs, delta = Fc * float(rng.uniform(1.2, 1.6)), lu(0.01, 0.05), float(rng.uniform(0.7, 1.5))
-    sigma, tau = float(rng.uniform(20.0, 60.0)), lu(0.005, 0.05)
-    import dataclasses
-
-    p = dataclasses.replace(preset("paper"), J=J, Fc=Fc, Fs=Fs, Vs=Vs, delta=delta, sigma=sigma, tau=tau)
-    s_u, s_t, s_n = np.random.SeedSequence(1).spawn(3)
-    _, u = bandlimited_noise(15.0, dt=1e-3, cutoff=1.0, std=1.2 * (p.Fs + p.sigma * math.radians(20.0)),
-                             rng=np.random.default_rng(int(s_u.generate_state(1)[0])))
-    resp = simulate(p, u, dt=1e-3)
-    times = irregular_sample_times(14.9, base=0.01, outlier=0.02, jitter=1e-3, dt=1e-3,
-                                   rng=np.random.default_rng(s_t))
-    m = sample(resp, Ts=0.01, times=times, noise_std=0.01 * float(np.max(np.abs(resp.w))), quantization=0.6,
-               rng=np.random.default_rng(s_n))
-    return p, m
-
-
 @pytest.fixture(scope="module")
 def joint():
-    return _zoo_joint_1()
+    return zoo_joint(1)  # benchmarks/coverage_zoo.py's joint of seed 1 and its 15 s readout
 
 
 def test_the_fit_profiles_the_delay_and_reports_it(joint):
