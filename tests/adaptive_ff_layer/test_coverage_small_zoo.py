@@ -6,7 +6,7 @@ the end of its 1 ms hold) is rebuilt here from the plant's own functions, as the
 answers them by output error with the input delay profiled. Its intervals are the bootstrap's refits, which hold
 the delay, with the delay's share added (:func:`adaptive_ff.identification.delay_profile.delay_spread`): with the
 refits' spread alone the Fs interval of the joint of seed 4 misses the truth (Fs -7.3 % against a half-width of
-7.1 %); with the delay's share every parameter of the four joints is inside its interval.
+7.1 %); with the delay's share every parameter of the three joints is inside its interval.
 """
 
 import math
@@ -17,7 +17,7 @@ from adaptive_ff.identification.identify import identify
 from adaptive_ff.io.data import MeasuredData
 from coverage_zoo_joints import zoo_joint
 
-pytestmark = pytest.mark.slow  # four output-error fits with 20 bootstrap refits each (about 3 min of CPU)
+pytestmark = pytest.mark.slow  # three output-error fits with 20 bootstrap refits each (about 70 s of CPU)
 
 KEYS = ("J", "tau", "sigma", "Fc", "Fs")
 
@@ -28,7 +28,7 @@ def zoo_reading(seed: int):
     return p, MeasuredData(m.t, m.u, m.w, source=f"zoo joint {seed}")
 
 
-@pytest.mark.parametrize("seed", [0, 2, 3, 4])
+@pytest.mark.parametrize("seed", [0, 2, 4])
 def test_every_parameter_of_the_joint_is_inside_its_interval(seed):
     p, d = zoo_reading(seed)
     rep = identify(d, Vs=p.Vs, delta=p.delta, lag=True, method="auto", method_options={"bootstrap_workers": 1})
