@@ -35,18 +35,9 @@ and decimated as the torque is; the viscous and offset columns are the filtered 
 friction is the map of its velocity only while it slides: where it sticks or reverses, the friction is whatever
 holds it (a simulated joint without a lag chatters about zero velocity there), and the torque's filter carries that
 into the rows within about one cutoff period. So the rows within one cutoff period of every log sample where the
-lightly filtered velocity is slower than the 2 % speed or changes sign are left out as well. Measured over 12 arms
-of ``benchmarks/arm_coverage.py`` (36 joints): with ``"moving"`` the light wrists (``M_jj`` 0.057 kg·m² against
-``Fc`` up to 2.5 N·m, which stick for 0.1-0.2 s at each reversal) read ``J`` 2.3 % high, ``Fs`` 14 % low and
-``Vs`` twice the truth; with ``"sliding"`` ``J`` +0.06 %, ``Fs`` -8 %, ``Vs`` +31 %. On the Stäubli TX40 log
-(``docs/benchmarks/arm_tx40.md``, cutoff 80 Hz) ``"sliding"`` reads ``Fc`` of joints 1-4 6-8 % above the
-reference values where ``"moving"`` reads 3-4 % above (the rows it leaves out are where the arm dwells; which is
-nearer the truth is not known), and on the planar arm of ``docs/your_arm.md`` with a 10 ms lag the shoulder's
-``Vs`` 0.115 rad/s against 0.1 (0.098 with ``"moving"``): the static map reads part of a lag as Stribeck shape.
-
-Putting a lag into the friction columns (each joint's columns through ``1/(tau s + 1)`` before the torque's
-filter, ``tau`` profiled per joint) was measured and is not used: on lag-free simulated arms it finds lags of 2-5
-ms and moves ``J`` 0.9 % high.
+lightly filtered velocity is slower than the 2 % speed or changes sign are left out as well. What either choice
+measures (coverage over simulated arms, the Stäubli TX40, a lagged arm) and the alternatives measured are on
+``docs/your_arm.md`` ("Sliding rows", "Not yet").
 
 Intervals: the circular block bootstrap of the samples (each sample's rows of all joints, regressor and torque,
 resampled together in blocks of consecutive samples, the block by the Politis-White rule on the residuals,
@@ -60,9 +51,7 @@ number of refits). A joint's friction intervals are widened to cover that band a
 weighted residual sum of squares is within the 95 % likelihood-ratio bound of the best, the residuals' correlation
 counted by the bootstrap's block length (``rows="moving"``) or (``rows="sliding"``) by the ratio of the bootstrap
 variance to the white-noise least-squares variance (the largest over the joints' ``Fc, Fs, sigma``;
-:func:`_variance_ratio`): with the sliding rows the block length (25-30 samples against ratios up to 12) accepted
-nearly the whole grid and gave intervals of ``Fc``, ``sigma`` and the offset twice the width their errors call
-for (every true value inside over 12 arms).
+:func:`_variance_ratio`; why: ``docs/your_arm.md``, "Sliding rows").
 
 Then each joint's friction lag ``tau`` (eq. 1) by the package's output-error fit on its rigid-body-removed record,
 where the log determines it, and each joint's velocity noise (:mod:`adaptive_ff.arm.lag`).
