@@ -30,16 +30,13 @@ of the estimator, the refits keep it.
 The delay's own uncertainty
 ---------------------------
 Held at the fit's delay, the refits do not carry the delay's error, and the profile cannot resolve the delay
-finer than its neighbouring points: the costs there differ by about the landing scatter of its refits (1-3 units
-on the zoo of ``benchmarks/coverage_zoo.py``, whose residuals are nearly white, where the likelihood's 95 %
-threshold is about 0.25), so which of two or three neighbouring delays is chosen is as much the optimiser's
-landing as the log. On that zoo (true delay 0.5 ms, grid 0, 0.625, 1.25 ms ...) the fit chose 0 ms on 12 of 28
-joints, 0.34-0.98 ms on 14 and 1.25-1.86 ms on 2. :func:`delay_spread` takes the delay's share from the profile
-itself: the root-mean-square move of the parameters refitted at the delays tried next to the chosen one (the
-estimator's own answers there), which ``fit_physical`` adds in quadrature to the refits' spread
-(``info["bootstrap"]["stderr_delay"]``). It costs no simulation. On those 28 joints it moved the default's
-coverage of sigma from 82.1 to 89.3 % and of Fs from 92.9 to 100 %, and left J, tau (96.4 %) and Fc (89.3 %):
-Fc's misses are common to every delay the profile tried (the identification benchmark page).
+finer than its neighbouring points: where the residuals are nearly white, the costs there differ by about the
+landing scatter of its refits, so which of two or three neighbouring delays is chosen is as much the optimiser's
+landing as the log. :func:`delay_spread` takes the delay's share from the profile itself: the root-mean-square
+move of the parameters refitted at the delays tried next to the chosen one (the estimator's own answers there),
+which ``fit_physical`` adds in quadrature to the refits' spread (``info["bootstrap"]["stderr_delay"]``). It costs
+no simulation. What it does to the coverage of the zoo of ``benchmarks/coverage_zoo.py`` is on the identification
+benchmark page ("The input delay's share").
 """
 
 from __future__ import annotations
@@ -130,10 +127,9 @@ def delay_spread(details: dict, estimate: dict) -> dict:
     """The input delay's share of the parameters' error: per parameter the root-mean-square move from
     ``estimate`` of the parameters refitted at the delays tried next to the chosen one.
 
-    The profile resolves the delay only to its neighbouring points: on the zoo of
-    ``benchmarks/coverage_zoo.py`` the costs of neighbouring delays differ by about the landing scatter of the
-    profile's refits (1-3 units, 4-12 times the likelihood's 95 % threshold of about 0.25 on those nearly white
-    residuals), so the chosen point is one of two or three the log does not tell apart. The refits there are the
+    The profile resolves the delay only to its neighbouring points: the costs of neighbouring delays differ by about
+    the landing scatter of the profile's refits, several times the likelihood's 95 % threshold on nearly white
+    residuals, so the chosen point is one of two or three the log does not tell apart. The refits there are the
     estimator's own answers at those delays; their moves, added in quadrature to the bootstrap's spread (which
     holds the delay, module docstring), give intervals that carry the delay's uncertainty without another
     simulation.
