@@ -339,6 +339,7 @@ def number_cell(at: str, cell: str) -> float:
     Returns
     -------
     float
+        The cell's value, finite.
 
     Raises
     ------
