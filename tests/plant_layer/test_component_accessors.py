@@ -17,15 +17,31 @@ from plant.errors import ParameterError, check_finite_scalar
 FFI = cffi.FFI()
 FFI.cdef("""
 typedef struct t_part { double x; long n; } t_part;
+typedef struct t_part_config { double x; long n; } t_part_config;
 typedef struct t_inner { t_part part; double y; } t_inner;
 typedef struct t_whole { long p; double phi[6]; double I; t_part a; t_inner inner; } t_whole;
 """)
 
 
 class _Lib:
-    """Stands in for a cffi library: one global ops table."""
+    """Stands in for a cffi library: one global ops table, and ``t_part``'s defaults, init and error message."""
 
     t_ops = FFI.new("t_part *", {"x": 4.5, "n": 7})[0]
+
+    @staticmethod
+    def t_part_default_config():
+        return {"x": 1.0, "n": 3}
+
+    @staticmethod
+    def t_part_init(c, cfg):  # refuses x <= 0 (code 5), else copies the settings and doubles n
+        if not cfg.x > 0:
+            return 5
+        c.x, c.n = cfg.x, 2 * cfg.n
+        return 0
+
+    @staticmethod
+    def aff_error_message(code):
+        return FFI.new("char[]", f"x must be > 0 (code {code})".encode())
 
 
 class Part(Component):
@@ -54,8 +70,7 @@ class Whole(Component):
 
     def __init__(self):
         self._new_struct()
-        self.a, self.b, self.c = Part(1.25), Part(-3.0), None
-        self._attached()
+        self._attach(a=Part(1.25), b=Part(-3.0), c=None)
 
 
 def test_an_array_field_reads_a_copy_of_its_first_p_entries_and_refuses_a_write():
@@ -124,3 +139,24 @@ def test_an_array_view_shares_the_struct_s_memory_and_its_length_follows_p():
     np.testing.assert_array_equal(w.phi_view, [0.0, 6.5, -2.0, 0.0, 0.0, 0.0])
     with pytest.raises(AttributeError):
         w.phi_view = np.zeros(6)
+
+
+class Configured(Component):
+    _ffi = FFI
+    _ctype = "t_part"
+    x = struct_field("x", float, "A value.")
+    n = struct_field("n", int, "A count.")
+
+    def __init__(self, **fields):
+        self._configure_from(_Lib, fields, counts=("n",))
+
+
+def test_configure_from_takes_the_c_defaults_the_fields_given_and_the_c_init_s_verdict():
+    c = Configured()
+    assert (c.x, c.n) == (1.0, 6) and (c.config.x, c.config.n) == (1.0, 3)
+    c = Configured(x=2.5, n=4)
+    assert (c.x, c.n) == (2.5, 8)
+    with pytest.raises(ParameterError, match=r"^Configured: x must be > 0 \(code 5\)$"):
+        Configured(x=-1.0)
+    with pytest.raises(TypeError, match="Configured: n must be an integer"):
+        Configured(n=True)
