@@ -299,8 +299,11 @@ class Component:
 
     Subclasses set two class attributes, ``_ffi`` (the cffi ``FFI`` of their
     package's extension module) and ``_ctype`` (the struct's C name, e.g.
-    ``"aff_gate"``), call :meth:`_new_struct` in ``__init__`` and expose named
-    properties that read and write fields of :attr:`cdata`.
+    ``"aff_gate"``), make their struct in ``__init__`` (:meth:`_configure_from`,
+    or :meth:`_new_struct` and their C init) and expose the fields of
+    :attr:`cdata` as attributes (:func:`struct_field`). A composite names its
+    parts in ``_parts`` (:meth:`_attach` points them into its struct), a
+    component its repr's fields in ``_repr_fields``.
 
     Attributes
     ----------

@@ -1,6 +1,6 @@
 """The generic pieces of :mod:`plant.component` on a struct of its own (cffi, no compiled library): ``struct_field``'s
-array fields and setter checks, the parts a composite points into its struct, the ``name=value`` repr and the ops
-table attribute."""
+array fields and setter checks, the parts a composite points into its struct, the ``name=value`` repr, the ops
+table attribute and the configuration from the C defaults and init."""
 
 from __future__ import annotations
 
