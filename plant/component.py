@@ -277,7 +277,8 @@ def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c", sett
 
 def ops_table(lib, doc: str = "Pointer to the C ops table :attr:`C_OPS` (``aff_compensator_ops *``).") -> property:
     """A public attribute ``ops`` of a compensator component: the pointer to the C ops table (``aff_compensator_ops``)
-    that its class attribute ``C_OPS`` names, the table the closed-loop engine calls with :attr:`Component.cdata`.
+    that its class attribute ``C_OPS`` names: the functions the closed-loop engine calls with
+    :attr:`Component.cdata`.
 
     Parameters
     ----------
@@ -289,7 +290,7 @@ def ops_table(lib, doc: str = "Pointer to the C ops table :attr:`C_OPS` (``aff_c
     Returns
     -------
     property
-        Read-only; reads ``ffi.addressof(lib, C_OPS)`` with the component's ``_ffi``.
+        Read-only; reads ``_ffi.addressof(getattr(lib, C_OPS))`` (a ``aff_compensator_ops *``).
     """
     return property(lambda self: self._ffi.addressof(getattr(lib, self.C_OPS)), doc=doc)
 
