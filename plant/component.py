@@ -29,7 +29,7 @@ import numpy as np
 
 from plant.errors import ParameterError
 
-__all__ = ["Component", "config_class", "config_defaults", "SettingTypeError", "struct_field"]
+__all__ = ["Component", "config_class", "config_defaults", "ops_table", "SettingTypeError", "struct_field"]
 
 
 class SettingTypeError(ParameterError, TypeError):
@@ -204,7 +204,7 @@ def config_class(name: str, ffi_lib: tuple, ctype: str, *, module: str, summary:
 
 
 def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c", settable: bool = False,
-                 flag: str | None = None) -> property:
+                 flag: str | None = None, check=None, size: str | None = None, view: bool = False) -> property:
     """A public attribute that reads one field of a component's C struct: the one accessor of the wrappers
     (``n_rejected = struct_field("n_rejected", int, "Samples rejected.")``).
 
@@ -225,6 +225,17 @@ def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c", sett
     flag : str or None, keyword-only
         A field beside ``field`` that says whether it holds a value (``"has_last"``): the attribute reads None
         while the flag is 0; set, None clears the flag and a value sets it. Default None: always a value.
+    check : callable or None, keyword-only
+        With ``settable``: ``check(value) -> value`` validates a value set before it is stored (e.g.
+        ``functools.partial(plant.errors.check_finite_scalar, "integral")``: a ParameterError naming the
+        attribute); default None: ``kind`` alone converts it.
+    size : str or None, keyword-only
+        For an array field: the field beside ``field`` that holds the number of elements in use (``"p"``); the
+        attribute reads a new float64 ndarray of that length (a copy; ``kind`` is not applied) and is read-only.
+        Default None: a scalar field.
+    view : bool, keyword-only
+        With ``size``: read a view of the C array's first entries instead of a copy (its writes go to the struct;
+        the C element type's float dtype). Default False.
 
     Returns
     -------
@@ -242,6 +253,12 @@ def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c", sett
         h = holder(self)
         if flag is not None and not getattr(h, flag):
             return None
+        if size is not None:
+            a, n = getattr(h, path[-1]), int(getattr(h, size))
+            if view:
+                dtype = np.dtype(f"f{self._ffi.sizeof(self._ffi.typeof(a).item)}")
+                return np.frombuffer(self._ffi.buffer(a), dtype=dtype)[:n]
+            return np.array(self._ffi.unpack(a, n), dtype=float)
         return kind(getattr(h, path[-1]))
 
     def put(self, value) -> None:
@@ -250,10 +267,32 @@ def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c", sett
             setattr(h, flag, 0 if value is None else 1)
             if value is None:
                 return
+        if check is not None:
+            value = check(value)
         setattr(h, path[-1], int(bool(value)) if kind is bool else kind(value))
 
     get.__name__ = put.__name__ = path[-1]
-    return property(get, put if settable else None, doc=doc)
+    return property(get, put if settable and size is None else None, doc=doc)
+
+
+def ops_table(lib, doc: str = "Pointer to the C ops table :attr:`C_OPS` (``aff_compensator_ops *``).") -> property:
+    """A public attribute ``ops`` of a compensator component: the pointer to the C ops table (``aff_compensator_ops``)
+    that its class attribute ``C_OPS`` names: the functions the closed-loop engine calls with
+    :attr:`Component.cdata`.
+
+    Parameters
+    ----------
+    lib : cffi library
+        The extension module that holds the table (e.g. ``controllers._cctl.lib``).
+    doc : str
+        The attribute's docstring.
+
+    Returns
+    -------
+    property
+        Read-only; reads ``_ffi.addressof(getattr(lib, C_OPS))`` (a ``aff_compensator_ops *``).
+    """
+    return property(lambda self: self._ffi.addressof(getattr(lib, self.C_OPS)), doc=doc)
 
 
 class Component:
@@ -261,8 +300,11 @@ class Component:
 
     Subclasses set two class attributes, ``_ffi`` (the cffi ``FFI`` of their
     package's extension module) and ``_ctype`` (the struct's C name, e.g.
-    ``"aff_gate"``), call :meth:`_new_struct` in ``__init__`` and expose named
-    properties that read and write fields of :attr:`cdata`.
+    ``"aff_gate"``), make their struct in ``__init__`` (:meth:`_configure_from`,
+    or :meth:`_new_struct` and their C init) and expose the fields of
+    :attr:`cdata` as attributes (:func:`struct_field`). A composite names its
+    parts in ``_parts`` (:meth:`_attach` points them into its struct), a
+    component its repr's fields in ``_repr_fields``.
 
     Attributes
     ----------
@@ -277,6 +319,12 @@ class Component:
 
     _ffi: Any = None
     _ctype: str = ""
+    #: The parts embedded in the struct: attribute -> its C field (a dotted path for a nested one), pointed there by
+    #: :meth:`_attached` (an attribute that is None is skipped).
+    _parts: dict = {}
+    #: The attributes :func:`repr` shows as ``name=value`` (a dotted path shows as its last name); empty: the
+    #: default ``object`` repr.
+    _repr_fields: tuple = ()
     #: The bytes and the C type name of the configuration struct the component was configured from (None: none).
     _config_bytes: bytes | None = None
     _config_ctype: str = ""
@@ -333,6 +381,29 @@ class Component:
             setattr(cfg, k, v)
         return cfg
 
+    def _configure_from(self, lib, fields: dict, *, counts: tuple = ()) -> None:
+        """Configure the struct ``_ctype`` (``"aff_X"``) from its C defaults ``aff_X_default_config()`` with
+        ``fields`` (:meth:`_settings`), checked by ``aff_X_init`` (:meth:`_configure`, messages
+        ``lib.aff_error_message``).
+
+        Parameters
+        ----------
+        lib : cffi library
+            The extension module of the package that owns the struct.
+        fields : dict
+            C field -> value, the settings given.
+        counts : tuple of str, keyword-only
+            The fields that take an integer and not a bool.
+
+        Raises
+        ------
+        SettingTypeError, ParameterError
+            As :meth:`_settings` and :meth:`_configure`.
+        """
+        cfg = self._settings(f"{self._ctype}_config", getattr(lib, f"{self._ctype}_default_config")(), fields,
+                             counts=counts)
+        self._configure(getattr(lib, f"{self._ctype}_init"), cfg, lib.aff_error_message)
+
     def _configure(self, init, cfg, message, *, names: dict | None = None, keep: bool = True) -> None:
         """Allocate the struct and configure it from the settings ``cfg`` by the C ``init``, which checks every field
         and computes the derived ones; keep a copy of ``cfg`` (:attr:`config`) unless ``keep`` is False.
@@ -380,8 +451,30 @@ class Component:
         """The struct's bytes (a snapshot of configuration and state)."""
         return bytes(self._ffi.buffer(self._c))
 
+    def _attach(self, **parts) -> None:
+        """Keep ``parts`` (attribute -> part object) as attributes, then point the parts :attr:`_parts` into this
+        component's struct (:meth:`_attached`)."""
+        for attr, part in parts.items():
+            setattr(self, attr, part)
+        self._attached()
+
     def _attached(self) -> None:
-        """Hook: re-point parts into this component's struct (composites override it)."""
+        """Re-point the parts :attr:`_parts` into this component's struct (composites with more to do extend it)."""
+        for attr, field in self._parts.items():
+            part = getattr(self, attr)
+            if part is not None:
+                part._use(self._ffi.addressof(self._c, *field.split(".")), self)
+
+    def __repr__(self) -> str:
+        if not self._repr_fields:
+            return object.__repr__(self)
+        shown = []
+        for name in self._repr_fields:
+            v = self
+            for step in name.split("."):
+                v = getattr(v, step)
+            shown.append(f"{name.rpartition('.')[2]}={v!r}")
+        return f"{type(self).__name__}({', '.join(shown)})"
 
     def __getstate__(self) -> dict:
         d = {k: v for k, v in self.__dict__.items() if k not in ("_c", "_owner")}

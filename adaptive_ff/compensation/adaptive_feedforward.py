@@ -418,6 +418,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     C_OPS = "aff_robust_ff_ops"
     MODE = "adaptive"
     _ctype = "aff_robust_ff"
+    _parts = {"estimator": "est"}
 
     #: The settings' class.
     Config = RobustAdaptiveFeedforwardConfig
@@ -451,8 +452,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
 
     def _attached(self) -> None:
         """The feedforward part and the estimator (with its parts) point into this component's struct."""
+        super()._attached()
         self._f = ffi.addressof(self._c, "ff")
-        self.estimator._use(ffi.addressof(self._c, "est"), self)
 
     warmup = struct_field("warmup", int, "RLS updates before switch-on.")
     J_range = property(lambda self: (float(self._c.J_lo), float(self._c.J_hi)),

@@ -30,7 +30,7 @@ from adaptive_ff._caff import ffi, lib
 from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart, start_output
 from adaptive_ff.compensation.defaults import c_config_class
 from adaptive_ff.compensation.feedforward import FF_INPUTS, FrictionFeedforward, FrictionFeedforwardConfig
-from adaptive_ff.compensation.gate import RangeGate
+from adaptive_ff.compensation.gate import RangeGate, range_gates
 from adaptive_ff.compensation.ivrls import RecursiveIV
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from adaptive_ff.identification.rls import RecursiveLeastSquares
@@ -163,6 +163,7 @@ class AdaptiveFrictionFeedforward(Component):
     MODE = "adaptive"
     _ffi = ffi
     _ctype = "aff_eq4_ff"
+    _parts = {"_ff": "ff", "u_range": "u_range", "w_range": "w_range", "rls": "rls", "ivrls": "ivrls"}
 
     #: The settings' class.
     Config = AdaptiveFrictionFeedforwardConfig
@@ -193,23 +194,14 @@ class AdaptiveFrictionFeedforward(Component):
         self.settings = config
         self.model = model
         self.n_theta = p
-        u_range = RangeGate() if u_range is None else u_range
-        w_range = RangeGate(floor=model.Vs if model.stribeck else 0.0) if w_range is None else w_range
-        for name, g in (("u_range", u_range), ("w_range", w_range)):
-            if not isinstance(g, RangeGate):
-                raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
+        u_range, w_range = range_gates(u_range, w_range, w_floor=model.Vs if model.stribeck else 0.0)
         self._new_struct()
         lib.aff_eq4_ff_init(self._c, ff.cdata, m, Ts, int(warmup), tau_max, ff.ff_max,
                             model.Vs if model.stribeck else 1.0, model.delta if model.stribeck else 1.0,
                             model.lag, model.stribeck, model.offset, u_range.cdata, w_range.cdata, rls.cdata,
                             int(bool(iv)), w_band, ivrls.cdata)
-        self._ff = ff
-        self.u_range = u_range
-        self.w_range = w_range
-        self.rls = rls
-        self.ivrls = ivrls
         self.start = start
-        self._attached()
+        self._attach(_ff=ff, u_range=u_range, w_range=w_range, rls=rls, ivrls=ivrls)
         if math.isfinite(map_rel_stderr):
             lib.aff_eq4_ff_require_determined(self._c, map_rel_stderr)
         if start is not None:
@@ -217,14 +209,6 @@ class AdaptiveFrictionFeedforward(Component):
             if lib.aff_eq4_ff_start(self._c, *args, start.gain, start.ff_input == "reference") != 0:
                 raise ParameterError(f"start: refused by aff_eq4_ff_start (Vs > 0 and a finite delta needed): "
                                      f"Vs={args[2]!r}, delta={args[3]!r}")
-
-    def _attached(self) -> None:
-        """Point the parts (feedforward, range gates, RLS) into this component's struct."""
-        self._ff._use(ffi.addressof(self._c, "ff"), self)
-        self.u_range._use(ffi.addressof(self._c, "u_range"), self)
-        self.w_range._use(ffi.addressof(self._c, "w_range"), self)
-        self.rls._use(ffi.addressof(self._c, "rls"), self)
-        self.ivrls._use(ffi.addressof(self._c, "ivrls"), self)
 
     def __repr__(self) -> str:
         return (f"AdaptiveFrictionFeedforward({self.model!r}, Ts={self.Ts!r}, dt={self.dt!r}, "

@@ -245,6 +245,7 @@ class FrictionFeedforward(Component):
     # ---- the struct: self._f points to the aff_fixed_ff (this component's struct, or the part of a composite's)
     def _attached(self) -> None:
         self._f = self._c
+        super()._attached()
 
     def __getstate__(self) -> dict:
         d = super().__getstate__()
@@ -257,8 +258,8 @@ class FrictionFeedforward(Component):
     sign_width = struct_field("sign_width", float, "Sign ramp half-width (rad/s).", via="_f")
     stick_band = struct_field("stick_band", float, "Stick-detection band (rad/s).", via="_f")
     stick_samples = struct_field("stick_samples", int, "In-band samples that declare sticking.", via="_f")
-    ff_input = property(lambda self: "reference" if self._f.at_ref else "measured",
-                        doc="Velocity the engine evaluates the feedforward at (``compensate``).")
+    ff_input = struct_field("at_ref", FF_INPUTS.__getitem__,
+                            "Velocity the engine evaluates the feedforward at (``compensate``).", via="_f")
     u_ff = struct_field("u_ff", float, "Feedforward before the clip (N·m).", via="_f")
     w_max = struct_field("w_max", float, "Largest plausible speed (rad/s).", via="_f")
     n_step_rejected = struct_field("n_rejected", int,

@@ -16,8 +16,9 @@ import math
 from adaptive_ff._caff import ffi, lib
 from adaptive_ff.compensation.defaults import c_defaults
 from plant.component import Component, struct_field
+from plant.errors import ParameterError
 
-__all__ = ["OutlierGate", "RangeGate"]
+__all__ = ["OutlierGate", "RangeGate", "range_gates"]
 
 #: The C defaults (``aff_gate_default_config``, ``aff_range_gate_default_config``): the keywords' defaults.
 _GATE = c_defaults("aff_gate_config")
@@ -72,17 +73,12 @@ class OutlierGate(Component):
 
     _ffi = ffi
     _ctype = "aff_gate"
+    _repr_fields = ("max_step", "n_sigma", "n_rejected")
 
     def __init__(self, *, max_step: float = _GATE["max_step"], n_sigma: float = _GATE["n_sigma"],
                  alpha: float = _GATE["alpha"], max_consecutive: int = _GATE["max_consecutive"]):
-        cfg = self._settings("aff_gate_config", lib.aff_gate_default_config(),
-                             {"max_step": max_step, "n_sigma": n_sigma, "alpha": alpha,
-                              "max_consecutive": max_consecutive}, counts=("max_consecutive",))
-        self._configure(lib.aff_gate_init, cfg, lib.aff_error_message)
-
-    def __repr__(self) -> str:
-        return (f"OutlierGate(max_step={self.max_step!r}, n_sigma={self.n_sigma!r}, "
-                f"n_rejected={self.n_rejected})")
+        self._configure_from(lib, {"max_step": max_step, "n_sigma": n_sigma, "alpha": alpha,
+                                   "max_consecutive": max_consecutive}, counts=("max_consecutive",))
 
     max_step = struct_field("max_step", float, "Largest plausible step (signal unit).")
     n_sigma = struct_field("n_sigma", float, "Noise allowance in running-scale units.")
@@ -166,18 +162,13 @@ class RangeGate(Component):
 
     _ffi = ffi
     _ctype = "aff_range_gate"
+    _repr_fields = ("x_max", "factor", "floor", "n_rejected")
 
     def __init__(self, *, x_max: float = _RANGE["x_max"], factor: float = _RANGE["factor"],
                  floor: float = _RANGE["floor"], memory: float = _RANGE["memory"],
                  max_consecutive: int = _RANGE["max_consecutive"]):
-        cfg = self._settings("aff_range_gate_config", lib.aff_range_gate_default_config(),
-                             {"x_max": x_max, "factor": factor, "floor": floor, "memory": memory,
-                              "max_consecutive": max_consecutive}, counts=("max_consecutive",))
-        self._configure(lib.aff_range_gate_init, cfg, lib.aff_error_message)
-
-    def __repr__(self) -> str:
-        return (f"RangeGate(x_max={self.x_max!r}, factor={self.factor!r}, floor={self.floor!r}, "
-                f"n_rejected={self.n_rejected})")
+        self._configure_from(lib, {"x_max": x_max, "factor": factor, "floor": floor, "memory": memory,
+                                   "max_consecutive": max_consecutive}, counts=("max_consecutive",))
 
     x_max = struct_field("x_max", float, "Absolute bound on |x| (signal unit).")
     factor = struct_field("factor", float, "Relative bound (times the reference scale).")
@@ -220,3 +211,32 @@ class RangeGate(Component):
         ok = lib.aff_range_gate_ok(self._c, x)
         lib.aff_range_gate_commit(self._c, x, ok)
         return bool(ok)
+
+
+def range_gates(u_range: RangeGate | None, w_range: RangeGate | None, *, w_floor: float = 0.0) -> tuple:
+    """The torque and velocity range gates of a component that embeds them: each the one given, or a new
+    ``RangeGate()`` (the velocity's with ``floor=w_floor``), its type checked.
+
+    Parameters
+    ----------
+    u_range, w_range : RangeGate or None
+        The gates given (torque, N·m; velocity, rad/s).
+    w_floor : float, keyword-only
+        The floor (rad/s) of a new velocity gate, default 0.
+
+    Returns
+    -------
+    tuple of RangeGate
+        ``(u_range, w_range)``.
+
+    Raises
+    ------
+    ParameterError
+        A gate given that is not a RangeGate (naming the argument), or an invalid ``w_floor``.
+    """
+    u_range = RangeGate() if u_range is None else u_range
+    w_range = RangeGate(floor=w_floor) if w_range is None else w_range
+    for name, g in (("u_range", u_range), ("w_range", w_range)):
+        if not isinstance(g, RangeGate):
+            raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
+    return u_range, w_range

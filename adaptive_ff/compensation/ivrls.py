@@ -113,10 +113,7 @@ class RecursiveIV(Component):
     n_updates = struct_field("n_updates", int, "Accepted updates.")
     n_rejected = struct_field("n_rejected", int, "Refused samples.")
 
-    @property
-    def theta(self) -> np.ndarray:
-        """Current estimate, shape (p,) (a view of the C struct)."""
-        return np.frombuffer(ffi.buffer(self._c.theta), dtype=_F8)[: self.p]
+    theta = struct_field("theta", doc="Current estimate, shape (p,) (a view of the C struct).", size="p", view=True)
 
     @property
     def P(self) -> np.ndarray:

@@ -77,7 +77,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from adaptive_ff._caff import ffi, lib
-from adaptive_ff.compensation.gate import OutlierGate, RangeGate
+from adaptive_ff.compensation.gate import OutlierGate, RangeGate, range_gates
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from adaptive_ff.compensation.defaults import c_config_class, c_defaults
@@ -160,18 +160,13 @@ def estimate_from_theta(names, theta, Vs, delta, *, box=None) -> FrictionEstimat
                             Vs=Vs, delta=delta, J_alt=J_alt)
 
 
-def _parts(gate, u_range, w_range) -> tuple:
+def _gates(gate, u_range, w_range) -> tuple:
     """The estimator's gates, defaults built and their types checked: ``(gate, u_range, w_range)`` (``w_range``'s
     default floor 0 stands for ``Vs``)."""
     gate = OutlierGate() if gate is None else gate
     if not isinstance(gate, OutlierGate):
         raise ParameterError(f"gate must be an OutlierGate, got {type(gate).__name__}")
-    u_range = RangeGate() if u_range is None else u_range
-    w_range = RangeGate() if w_range is None else w_range
-    for name, g in (("u_range", u_range), ("w_range", w_range)):
-        if not isinstance(g, RangeGate):
-            raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
-    return gate, u_range, w_range
+    return (gate, *range_gates(u_range, w_range))
 
 
 class SlidingFrictionEstimator(Component):
@@ -298,6 +293,7 @@ class SlidingFrictionEstimator(Component):
 
     _ffi = ffi
     _ctype = "aff_sliding"
+    _parts = {"gate": "gate", "u_range": "u_range", "w_range": "w_range", "rls": "rls"}
 
     #: The settings' class.
     Config = SlidingFrictionEstimatorConfig
@@ -309,7 +305,7 @@ class SlidingFrictionEstimator(Component):
         if not isinstance(config, SlidingFrictionEstimatorConfig):
             raise ParameterError(f"config must be a SlidingFrictionEstimatorConfig, got {type(config).__name__}")
         self.settings = c = config
-        gate, u_range, w_range = _parts(gate, u_range, w_range)
+        gate, u_range, w_range = _gates(gate, u_range, w_range)
         # the ranges of Vs, delta, Tc and every field of config are aff_sliding_init's to check (the one validator:
         # a ParameterError naming the field, its unit and range); here only what C does not see: a vector lam's
         # length, and an initial_J that C would clip rather than refuse
@@ -355,18 +351,7 @@ class SlidingFrictionEstimator(Component):
         rls.theta = ffi.unpack(self._c.rls.theta, p)
         if w_range.floor == 0.0:
             w_range = w_range.with_floor(self.Vs)
-        self.gate = gate
-        self.u_range = u_range
-        self.w_range = w_range
-        self.rls = rls
-        self._attached()
-
-    def _attached(self) -> None:
-        """Point the parts (gate, range gates, RLS) into this estimator's struct."""
-        self.gate._use(ffi.addressof(self._c, "gate"), self)
-        self.u_range._use(ffi.addressof(self._c, "u_range"), self)
-        self.w_range._use(ffi.addressof(self._c, "w_range"), self)
-        self.rls._use(ffi.addressof(self._c, "rls"), self)
+        self._attach(gate=gate, u_range=u_range, w_range=w_range, rls=rls)
 
     def __repr__(self) -> str:
         return (f"SlidingFrictionEstimator(Vs={self.Vs!r}, delta={self.delta!r}, Ts={self.Ts!r}, "
@@ -382,10 +367,8 @@ class SlidingFrictionEstimator(Component):
         """Current parameter vector, shape (p,), names in :attr:`names`."""
         return self.rls.theta
 
-    @property
-    def phi(self) -> np.ndarray:
-        """Regressor of the last RLS update, shape (p,) (a copy; valid while :attr:`updated` is True)."""
-        return np.array(ffi.unpack(self._c.phi, len(self.names)))
+    phi = struct_field("phi", doc="Regressor of the last RLS update, shape (p,) (a copy; valid while :attr:`updated` "
+                       "is True).", size="p")
 
     @property
     def y(self) -> float:
@@ -397,10 +380,8 @@ class SlidingFrictionEstimator(Component):
         """Accepted RLS updates."""
         return self.rls.n_updates
 
-    @property
-    def noise_std(self) -> float:
-        """Running estimate of the velocity noise standard deviation (rad/s)."""
-        return float(self._c.d2) / _NOISE_GAIN
+    noise_std = struct_field("d2", lambda d2: float(d2) / _NOISE_GAIN,
+                             "Running estimate of the velocity noise standard deviation (rad/s).")
 
     @property
     def w_band(self) -> float:

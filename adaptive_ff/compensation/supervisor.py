@@ -156,9 +156,7 @@ class FeedforwardSupervisor(Component):
         config = FeedforwardSupervisorConfig() if config is None else config
         if not isinstance(config, FeedforwardSupervisorConfig):
             raise ParameterError(f"config must be a FeedforwardSupervisorConfig, got {type(config).__name__}")
-        cfg = self._settings("aff_supervisor_config", lib.aff_supervisor_default_config(),
-                             {**config.c_fields(), "Tc": Tc, "J_n": J_n, "omega": omega}, counts=("delay",))
-        self._configure(lib.aff_supervisor_init, cfg, lib.aff_error_message)
+        self._configure_from(lib, {**config.c_fields(), "Tc": Tc, "J_n": J_n, "omega": omega}, counts=("delay",))
         self.settings = config
 
     def __repr__(self) -> str:

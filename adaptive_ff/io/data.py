@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from adaptive_ff.io.tables import number_cell
 from plant.errors import ParameterError, SignalError, check_not_special, check_positive, check_signal, check_time
 from plant.results import axes_or_new, json_safe
 
@@ -331,19 +332,10 @@ def load_csv(path) -> MeasuredData:
     data = {name: np.empty(len(rows)) for name in idx}
     for i, (row, line) in enumerate(zip(rows, lines)):
         for name, j in idx.items():
+            at = f"{where}: column {name!r}, row {i + 1} (line {line})"
             if j >= len(row):
-                raise SignalError(f"{where}: column {name!r}, row {i + 1} (line {line}): missing cell "
-                                  f"(the row has {len(row)} fields, the header {len(header)})")
-            cell = row[j].strip()
-            try:
-                x = float(cell)
-            except ValueError:
-                raise SignalError(f"{where}: column {name!r}, row {i + 1} (line {line}): "
-                                  f"{cell!r} is not a number") from None
-            if not math.isfinite(x):
-                raise SignalError(f"{where}: column {name!r}, row {i + 1} (line {line}): "
-                                  f"non-finite value {cell!r}")
-            data[name][i] = x
+                raise SignalError(f"{at}: missing cell (the row has {len(row)} fields, the header {len(header)})")
+            data[name][i] = number_cell(at, row[j])
     _check_record(where, data["t"], data["u"], lines)
     return MeasuredData(data["t"], data["u"], data["w"], source=where)
 

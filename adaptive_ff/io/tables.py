@@ -39,7 +39,7 @@ import numpy as np
 from adaptive_ff.io.units import ROLES
 from plant.errors import ParameterError, SignalError, check_not_special
 
-__all__ = ["Table", "CsvFormat", "DELIMITER_NAMES", "parse_column_map", "read_columns"]
+__all__ = ["Table", "CsvFormat", "DELIMITER_NAMES", "number_cell", "parse_column_map", "read_columns"]
 
 _SUFFIXES = (".csv", ".txt", ".mat", ".npz")
 
@@ -318,19 +318,42 @@ def _read_csv(path: Path, names: dict, optional: set, fmt: CsvFormat | None = No
     lines = np.array([ln for ln, _ in rows], dtype=np.int64)
     for i, (ln, row) in enumerate(rows):
         for role, j in idx.items():
-            col = f"column {found[role]!r} ({role})"
+            at = f"{where}: column {found[role]!r} ({role}), row {i + 1} (line {ln})"
             if j >= len(row) or not row[j].strip():
-                raise SignalError(f"{where}: {col}, row {i + 1} (line {ln}): missing cell "
+                raise SignalError(f"{at}: missing cell "
                                   f"(the row has {len(row)} fields{'' if not header else f', the header {len(header)}'})")
-            cell = row[j].strip()
-            try:
-                x = float(cell)
-            except ValueError:
-                raise SignalError(f"{where}: {col}, row {i + 1} (line {ln}): {cell!r} is not a number") from None
-            if not math.isfinite(x):
-                raise SignalError(f"{where}: {col}, row {i + 1} (line {ln}): non-finite value {cell!r}")
-            cols[role][i] = x
+            cols[role][i] = number_cell(at, row[j])
     return Table(source=where, kind="csv", columns=cols, names=found, lines=lines)
+
+
+def number_cell(at: str, cell: str) -> float:
+    """A text cell of a log as a finite number: the one parser of the CSV readers' cells.
+
+    Parameters
+    ----------
+    at : str
+        Where the cell is, the start of an error's message (``"log.csv: column 'w' (w), row 3 (line 4)"``).
+    cell : str
+        The cell's text; surrounding spaces are ignored.
+
+    Returns
+    -------
+    float
+        The cell's value, finite.
+
+    Raises
+    ------
+    SignalError
+        ``"{at}: '<cell>' is not a number"`` or ``"{at}: non-finite value '<cell>'"`` (NaN or inf).
+    """
+    cell = cell.strip()
+    try:
+        x = float(cell)
+    except ValueError:
+        raise SignalError(f"{at}: {cell!r} is not a number") from None
+    if not math.isfinite(x):
+        raise SignalError(f"{at}: non-finite value {cell!r}")
+    return x
 
 
 def _vector(where: str, role: str, name: str, value) -> np.ndarray:

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 
@@ -709,6 +710,7 @@ class PIController(Component):
 
     _ffi = ffi
     _ctype = "ctl_pi"
+    _repr_fields = ("Kp", "Ki", "Tc", "u_max", "integral")
 
     def __init__(self, *, Kp: float, Ki: float, Tc: float, u_max: float = math.inf,
                  integral0: float = 0.0):
@@ -735,10 +737,6 @@ class PIController(Component):
         """
         return cls(Kp=design.Kp, Ki=design.Ki, Tc=design.Tc, u_max=u_max)
 
-    def __repr__(self) -> str:
-        return (f"PIController(Kp={self.Kp!r}, Ki={self.Ki!r}, Tc={self.Tc!r}, u_max={self.u_max!r}, "
-                f"integral={self.integral!r})")
-
     Kp = struct_field("Kp", float, "Proportional gain (N·m·s/rad).")
 
     @property
@@ -753,20 +751,14 @@ class PIController(Component):
 
     u_max = struct_field("u_max", float, "Torque limit (N·m), ``inf`` = none.")
 
-    @property
-    def integral(self) -> float:
-        """Integrator state ``I`` (N·m); settable (finite) to preload it."""
-        return float(self._c.I)
-
-    @integral.setter
-    def integral(self, value: float) -> None:
-        self._c.I = check_finite_scalar("integral", value)
+    integral = struct_field("I", float, "Integrator state ``I`` (N·m); settable (finite) to preload it.",
+                            settable=True, check=partial(check_finite_scalar, "integral"))
 
     saturated = struct_field("saturated", bool, "Whether the last command was clipped to ``±u_max``.", settable=True)
 
     def reset(self, integral: float = 0.0) -> None:
         """Set the integrator to ``integral`` (N·m, default 0) and clear ``saturated``."""
-        self._c.I = check_finite_scalar("integral", integral)
+        self.integral = integral
         self._c.saturated = 0
 
     def step(self, e: float, u_ff: float = 0.0) -> float:

@@ -58,7 +58,7 @@ from adaptive_ff.compensation.defaults import c_defaults
 from adaptive_ff.compensation.supervisor import FeedforwardSupervisor
 from controllers._cctl import ffi, lib
 from controllers.peers.dob import DisturbanceObserver
-from plant.component import Component
+from plant.component import Component, ops_table, struct_field
 from plant.errors import ParameterError, check_nonnegative, check_positive
 
 __all__ = ["AdaptiveDOBCompensator", "AdaptiveCompensator", "ResidualSwitchIn", "residual_config"]
@@ -239,6 +239,8 @@ class AdaptiveDOBCompensator(Component):
     C_OPS = "ctl_adob_ops"
     _ffi = ffi
     _ctype = "ctl_adob"
+    #: The feedforward (its estimator follows its struct) and the observer (with its gates), in this struct.
+    _parts = {"feedforward": "ff", "observer": "res.dob"}
 
     def __init__(self, feedforward: RobustAdaptiveFeedforward | AdaptiveFrictionFeedforward,
                  observer: DisturbanceObserver, *, u_max: float = math.inf, switch_in: ResidualSwitchIn | None = None,
@@ -265,28 +267,18 @@ class AdaptiveDOBCompensator(Component):
                         lib.aff_error_message, keep=False)
         self._attached()
 
-    def _attached(self) -> None:
-        """Point the feedforward (with its estimator) and the observer (with its gates) into this struct."""
-        self.feedforward._use(ffi.addressof(self._c, "ff"), self)  # its estimator follows its struct
-        self.observer._use(ffi.addressof(self._c.res, "dob"), self)
-
     def __repr__(self) -> str:
         return f"AdaptiveDOBCompensator({self.estimator!r}, {self.observer!r})"
 
-    @property
-    def ops(self):
-        """Pointer to the C ops table :attr:`C_OPS` (``aff_compensator_ops *``)."""
-        return ffi.addressof(getattr(lib, self.C_OPS))
+    ops = ops_table(lib)
 
-    u_max = property(lambda self: float(self._c.res.u_max), doc="Bound on the total output (N·m).")
-    u_ff = property(lambda self: float(self._c.res.u_ff),
-                    doc="Feedforward part of the last output as its observer is told it (N·m; 0 at rest and while "
-                        "held after a rest, once the observer's estimate is applied).")
-    held = property(lambda self: bool(self._c.res.held),
-                    doc="Whether the feedforward part is held back after a rest until the joint moves in the "
-                        "reference's direction (C ``aff_residual_at_rest``).")
-    n_held = property(lambda self: int(self._c.res.n_held),
-                      doc="Periods outside rest in which the feedforward part was held back after a rest.")
+    u_max = struct_field("res.u_max", float, "Bound on the total output (N·m).")
+    u_ff = struct_field("res.u_ff", float, "Feedforward part of the last output as its observer is told it (N·m; 0 "
+                        "at rest and while held after a rest, once the observer's estimate is applied).")
+    held = struct_field("res.held", bool, "Whether the feedforward part is held back after a rest until the joint "
+                        "moves in the reference's direction (C ``aff_residual_at_rest``).")
+    n_held = struct_field("res.n_held", int,
+                          "Periods outside rest in which the feedforward part was held back after a rest.")
 
     @property
     def estimator(self):
@@ -434,6 +426,8 @@ class AdaptiveCompensator(AdaptiveDOBCompensator):
     MODE = "adaptive"
     C_OPS = "aff_adaptive_ops"
     _ctype = "aff_adaptive"
+    #: The feedforward, the observer and the supervisor (each but the first optional), in this struct.
+    _parts = {"feedforward": "ff", "observer": "res.dob", "supervisor": "sup"}
 
     def __init__(self, feedforward: RobustAdaptiveFeedforward, observer: DisturbanceObserver | None = None, *,
                  u_max: float = math.inf, switch_in: ResidualSwitchIn | None = None,
@@ -467,14 +461,6 @@ class AdaptiveCompensator(AdaptiveDOBCompensator):
         self._configure(lib.aff_adaptive_init, cfg, lib.aff_error_message)
         self._attached()
 
-    def _attached(self) -> None:
-        """Point the feedforward, the observer and the supervisor into this struct."""
-        self.feedforward._use(ffi.addressof(self._c, "ff"), self)
-        if self.observer is not None:
-            self.observer._use(ffi.addressof(self._c.res, "dob"), self)
-        if self.supervisor is not None:
-            self.supervisor._use(ffi.addressof(self._c, "sup"), self)
-
     def __repr__(self) -> str:
         return (f"AdaptiveCompensator({self.estimator!r}, observer={self.observer!r}, switch_in={self.switch_in!r}, "
                 f"supervisor={self.supervisor!r})")
@@ -491,9 +477,8 @@ class AdaptiveCompensator(AdaptiveDOBCompensator):
             setattr(cfg.guard, k, v)
         return cfg
 
-    transfer = property(lambda self: float(self._c.transfer),
-                        doc="The supervisor's bumpless transfer of the last compensate (N·m), for the PI's "
-                            "integrator.")
+    transfer = struct_field("transfer", float, "The supervisor's bumpless transfer of the last compensate (N·m), "
+                            "for the PI's integrator.")
 
     def info(self) -> dict:
         """:meth:`AdaptiveDOBCompensator.info` (without the ``dob_`` keys where there is no observer); the

@@ -28,10 +28,10 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from adaptive_ff.compensation.gate import RangeGate
+from adaptive_ff.compensation.gate import RangeGate, range_gates
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from controllers._cctl import ffi, lib
-from plant.component import Component, config_class, struct_field
+from plant.component import Component, config_class, ops_table, struct_field
 from plant.errors import ParameterError, check_multiple
 
 __all__ = ["CanudasCompensator", "CanudasCompensatorConfig", "CANUDAS_N_THETA"]
@@ -129,6 +129,8 @@ class CanudasCompensator(Component):
     n_theta = CANUDAS_N_THETA
     _ffi = ffi
     _ctype = "ctl_canudas"
+    _parts = {"u_range": "u_range", "w_range": "w_range", "rls": "rls"}
+    _repr_fields = ("Tc", "Ts", "w_dead", "warmup", "ff_max", "rls.n_updates")
 
     #: The settings' class.
     Config = CanudasCompensatorConfig
@@ -149,34 +151,14 @@ class CanudasCompensator(Component):
         inf = math.inf
         rls = RecursiveLeastSquares(5, lam=cfg.lam, P0=cfg.P0, forgetting=config.forgetting,
                                     theta0=[b0, 0, 0, 0, 0], bounds=([1e-12, 0, 0, 0, 0], [inf, inf, inf, inf, inf]))
-        u_range = RangeGate() if u_range is None else u_range
-        w_range = RangeGate(floor=cfg.w_dead) if w_range is None else w_range
-        for name, g in (("u_range", u_range), ("w_range", w_range)):
-            if not isinstance(g, RangeGate):
-                raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
+        u_range, w_range = range_gates(u_range, w_range, w_floor=cfg.w_dead)
         self._new_struct()
         lib.ctl_canudas_init(self._c, cfg.Tc, m, cfg.w_dead, int(cfg.warmup), cfg.ff_max, cfg.ff_measured,
                              rls.cdata.scheme, rls.cdata.lam, cfg.P0, cfg.J_guess)
         self.settings = config
-        self.rls = rls
-        self.u_range = u_range
-        self.w_range = w_range
-        self._attached()
+        self._attach(rls=rls, u_range=u_range, w_range=w_range)
 
-    def _attached(self) -> None:
-        """Point the parts into this struct (its ``rls``, ``u_range`` and ``w_range`` fields)."""
-        self.u_range._use(ffi.addressof(self._c, "u_range"), self)
-        self.w_range._use(ffi.addressof(self._c, "w_range"), self)
-        self.rls._use(ffi.addressof(self._c, "rls"), self)
-
-    def __repr__(self) -> str:
-        return (f"CanudasCompensator(Tc={self.Tc!r}, Ts={self.Ts!r}, w_dead={self.w_dead!r}, "
-                f"warmup={self.warmup}, ff_max={self.ff_max!r}, n_updates={self.rls.n_updates})")
-
-    @property
-    def ops(self):
-        """Pointer to the C ops table ``ctl_canudas_ops`` (``aff_compensator_ops *``)."""
-        return ffi.addressof(getattr(lib, self.C_OPS))
+    ops = ops_table(lib)
 
     # ---- configuration (read-only fields of the struct)
     Tc = struct_field("Tc", float, "Controller period (s).")
@@ -212,21 +194,6 @@ class CanudasCompensator(Component):
         c.on = 1
 
     n_rejected = struct_field("n_rejected", int, "Samples ignored (range gates) and RLS rows refused.", settable=True)
-
-    @property
-    def _k(self) -> int:
-        return int(self._c.k)
-
-    @_k.setter
-    def _k(self, value: int) -> None:
-        self._c.k = int(value)
-        self._c.phase = int(value) % self.m
-
-    _usum = struct_field("u_sum", float, "Torque sum of the current RLS interval (N·m).", settable=True)
-    _w_prev = struct_field("w_prev", float,
-                           "Velocity at the start of the current interval (rad/s), None before the first.",
-                           settable=True, flag="has_prev")
-    _ok = struct_field("ok", bool, "False once a refused sample spoiled the current interval.", settable=True)
 
     @property
     def estimate(self) -> dict | None:

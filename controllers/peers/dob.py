@@ -19,10 +19,9 @@ called by :class:`DisturbanceObserver`'s methods and by the closed-loop engine.
 from __future__ import annotations
 
 from adaptive_ff.compensation.defaults import c_defaults
-from adaptive_ff.compensation.gate import RangeGate
+from adaptive_ff.compensation.gate import RangeGate, range_gates
 from controllers._cctl import ffi, lib
-from plant.component import Component, struct_field
-from plant.errors import ParameterError
+from plant.component import Component, ops_table, struct_field
 
 __all__ = ["DisturbanceObserver", "DOB_ORDER_MAX"]
 
@@ -72,6 +71,10 @@ class DisturbanceObserver(Component):
     n_rejected : int
         Non-finite or out-of-range velocity samples (the estimate is held) and
         torque samples (the last torque is kept).
+    a : float
+        The Q-filter's step gain ``1 - exp(-Tc*omega_q)`` (-).
+    u_last, w_last : float
+        The last accepted torque (N·m) and velocity (rad/s; None before the first), read/write.
 
     Raises
     ------
@@ -96,37 +99,19 @@ class DisturbanceObserver(Component):
     n_theta = 0
     _ffi = ffi
     _ctype = "aff_dob"
+    _parts = {"u_range": "u_range", "w_range": "w_range"}
+    _repr_fields = ("J_n", "omega_q", "Tc", "order", "d_max")
 
     def __init__(self, *, J_n: float, omega_q: float = _DOB["omega_q"], Tc: float, order: int = _DOB["order"],
                  d_max: float = _DOB["d_max"], u_range: RangeGate | None = None, w_range: RangeGate | None = None):
         # the ranges of the settings are aff_dob_init's to check (the one validator: a ParameterError whose
         # sentence names the field); a wrong type is _settings' SettingTypeError
-        u_range = RangeGate() if u_range is None else u_range
-        w_range = RangeGate() if w_range is None else w_range
-        for name, g in (("u_range", u_range), ("w_range", w_range)):
-            if not isinstance(g, RangeGate):
-                raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
-        cfg = self._settings("aff_dob_config", lib.aff_dob_default_config(),
-                             {"Tc": Tc, "J_n": J_n, "omega_q": omega_q, "order": order, "d_max": d_max,
-                              "u_range": u_range.config[0], "w_range": w_range.config[0]}, counts=("order",))
-        self._configure(lib.aff_dob_init, cfg, lib.aff_error_message)
-        self.u_range = u_range
-        self.w_range = w_range
-        self._attached()
+        u_range, w_range = range_gates(u_range, w_range)
+        self._configure_from(lib, {"Tc": Tc, "J_n": J_n, "omega_q": omega_q, "order": order, "d_max": d_max,
+                                   "u_range": u_range.config[0], "w_range": w_range.config[0]}, counts=("order",))
+        self._attach(u_range=u_range, w_range=w_range)
 
-    def _attached(self) -> None:
-        """Point the range gates into this struct (its ``u_range`` and ``w_range`` fields)."""
-        self.u_range._use(ffi.addressof(self._c, "u_range"), self)
-        self.w_range._use(ffi.addressof(self._c, "w_range"), self)
-
-    def __repr__(self) -> str:
-        return (f"DisturbanceObserver(J_n={self.J_n!r}, omega_q={self.omega_q!r}, Tc={self.Tc!r}, "
-                f"order={self.order}, d_max={self.d_max!r})")
-
-    @property
-    def ops(self):
-        """Pointer to the C ops table ``aff_dob_ops`` (``aff_compensator_ops *``)."""
-        return ffi.addressof(getattr(lib, self.C_OPS))
+    ops = ops_table(lib)
 
     J_n = struct_field("J_n", float, "Nominal inertia (kg·m²).")
     omega_q = struct_field("omega_q", float, "Q-filter cut-off (rad/s).")
@@ -134,14 +119,14 @@ class DisturbanceObserver(Component):
     order = struct_field("order", int, "Order of the binomial Q-filter.")
     d_max = struct_field("d_max", float, "Bound on |d_hat| (N·m).")
 
-    _a = struct_field("a", float, "The Q-filter's step gain ``1 - exp(-Tc*omega_q)`` (-).")
+    a = struct_field("a", float, "The Q-filter's step gain ``1 - exp(-Tc*omega_q)`` (-).")
 
     d_hat = struct_field("d_hat", float, "Current disturbance estimate (N·m).", settable=True)
     n_rejected = struct_field("n_rejected", int, "Rejected samples: non-finite or out-of-range velocities (the "
                               "estimate was held) and torques.", settable=True)
-    _u_last = struct_field("u_last", float, "The last accepted torque (N·m).", settable=True)
-    _w_last = struct_field("w_last", float, "The last accepted velocity (rad/s), None before the first.",
-                           settable=True, flag="has_w_last")
+    u_last = struct_field("u_last", float, "The last accepted torque (N·m).", settable=True)
+    w_last = struct_field("w_last", float, "The last accepted velocity (rad/s), None before the first.",
+                          settable=True, flag="has_w_last")
 
     def info(self) -> dict:
         """Counter and settings for run reports: ``n_rejected``, ``J_n`` (kg·m²), ``omega_q`` (rad/s).

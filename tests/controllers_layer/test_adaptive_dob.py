@@ -70,7 +70,7 @@ def test_before_switch_on_it_is_the_observer_and_after_it_the_observer_sees_the_
         u = P.Fc + (P.Fs - P.Fc) * math.exp(-((w / P.Vs) ** P.delta)) + P.sigma * w + P.J * 0.1
         comp.observe(u, w)
     assert comp.active and comp.feedforward.u_ff != 0.0
-    assert comp.observer._u_last == pytest.approx(u - comp.u_ff, rel=1e-15)
+    assert comp.observer.u_last == pytest.approx(u - comp.u_ff, rel=1e-15)
     assert out == pytest.approx(comp.u_ff + comp.observer.d_hat, rel=1e-15)
 
 

@@ -256,10 +256,10 @@ def test_dob_layout_and_properties():
     # the two range gates (torque, velocity) live in the observer's struct
     assert c.u_range.cdata == ffi.addressof(c.cdata, "u_range") and c.w_range.cdata == ffi.addressof(c.cdata, "w_range")
     assert (c.J_n, c.omega_q, c.Tc, c.order, c.d_max) == (2.0, 400.0, 1e-3, 3, 9.0)
-    assert c._a == 1.0 - math.exp(-0.4) and c._w_last is None
+    assert c.a == 1.0 - math.exp(-0.4) and c.w_last is None
     c.d_hat = 1.5
     c.n_rejected = 4
-    assert c.compensate(0.1, 0.0) == 1.5 and c._w_last == 0.1 and c.n_rejected == 4
+    assert c.compensate(0.1, 0.0) == 1.5 and c.w_last == 0.1 and c.n_rejected == 4
     assert c.compensate(math.nan, 0.0) == 1.5 and c.n_rejected == 5
     assert c.info() == {"n_rejected": 5, "J_n": 2.0, "omega_q": 400.0}
 
