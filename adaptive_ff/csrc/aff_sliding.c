@@ -254,7 +254,7 @@ int aff_sliding_observe(aff_sliding *e, aff_real u, aff_real w)
     aff_range_gate_commit(&e->w_range, w, 1);
     if (e->n_acc >= 2) {
         aff_real dd = w - (aff_real)2.0 * e->w1 + e->w2;
-        e->d2 += (aff_real)0.01 * ((dd >= 0 ? dd : -dd) - e->d2);
+        e->d2 += (aff_real)0.01 * (AFF_FABS(dd) - e->d2);
     }
     e->w2 = e->w1;
     e->w1 = w;
@@ -263,7 +263,7 @@ int aff_sliding_observe(aff_sliding *e, aff_real u, aff_real w)
     nb = BAND_SIGMAS * e->d2 / NOISE_GAIN;
     if (nb > band)
         band = nb;
-    aw = w >= 0 ? w : -w;
+    aw = AFF_FABS(w);
     if (aw > 0) {
         /* exp(-|w/Vs|^delta), eq. 3's shape (plant.stribeck_map.stribeck_scalar(aw, 0, 1, Vs, delta, 0, inf) is
          * 0 + 1*shape + 0*aw: the same bits for the finite aw > 0 here) */
