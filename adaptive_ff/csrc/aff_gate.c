@@ -61,7 +61,7 @@ int aff_gate_check(aff_gate *g, aff_real x)
         g->has_last = 1;
         return 1;
     }
-    aff_real d = x >= g->last ? x - g->last : g->last - x;
+    aff_real d = AFF_FABS(x - g->last); /* x - last = -(last - x) exactly */
     aff_real bound = (g->max_step + g->n_sigma * g->scale) * ((aff_real)1.0 + (aff_real)g->n_held);
     if (d > bound) {
         if (g->n_held < g->max_consecutive) {
@@ -127,7 +127,7 @@ int aff_range_gate_ok(const aff_range_gate *g, aff_real x)
 {
     if (!isfinite(x))
         return 0;
-    aff_real ax = x >= 0 ? x : -x;
+    aff_real ax = AFF_FABS(x);
     if (ax > g->x_max)
         return 0;
     aff_real ref = g->env > g->floor ? g->env : g->floor;
@@ -139,7 +139,7 @@ int aff_range_gate_ok(const aff_range_gate *g, aff_real x)
 void aff_range_gate_commit(aff_range_gate *g, aff_real x, int ok)
 {
     if (ok) {
-        aff_real ax = x >= 0 ? x : -x;
+        aff_real ax = AFF_FABS(x);
         aff_real e = g->decay * g->env;
         g->env = ax > e ? ax : e;
         g->n_held = 0;

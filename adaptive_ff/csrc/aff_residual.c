@@ -63,6 +63,8 @@ static void switch_in_init(aff_switch_in *s, const aff_switch_in_config *cfg)
     s->J_n = cfg->J_n;
     s->Kp = cfg->Kp;
     s->Ki = cfg->Ki;
+    s->KiTc = cfg->Ki * Tc;
+    s->TcJ = Tc / cfg->J_n;
     s->ratio = cfg->ratio;
     s->share = cfg->share;
     s->margin = cfg->trial_margin;
@@ -147,8 +149,8 @@ aff_error aff_residual_init(aff_residual *r, const aff_residual_config *cfg)
 static aff_real disturbance_step(const aff_switch_in *s, aff_real *w, aff_real *I, aff_real d)
 {
     aff_real w0 = *w;
-    *I -= s->Ki * s->Tc * w0;
-    *w += s->Tc / s->J_n * (-s->Kp * w0 + *I - d);
+    *I -= s->KiTc * w0;
+    *w += s->TcJ * (-s->Kp * w0 + *I - d);
     return w0;
 }
 
@@ -171,8 +173,8 @@ int aff_switch_in_fires(const aff_switch_in *s)
 static aff_real frictionless_step(aff_switch_in *s, aff_real w_ref)
 {
     aff_real e_l = (aff_real)w_ref - s->w_l;
-    s->I_l += s->Ki * s->Tc * e_l;
-    s->w_l += s->Tc / s->J_n * (s->Kp * e_l + s->I_l);
+    s->I_l += s->KiTc * e_l;
+    s->w_l += s->TcJ * (s->Kp * e_l + s->I_l);
     return e_l;
 }
 

@@ -110,6 +110,8 @@ typedef struct aff_switch_in {
     aff_real share;       /* ... or when R_r > share*R_f (-), > 0 */
     aff_real margin;      /* the trial takes the observer out where a ratio rose by more than 1 + margin (-), >= 0
                              (INFINITY: no trial) */
+    aff_real KiTc;        /* Ki*Tc of the loop models (N*m*s/rad) */
+    aff_real TcJ;         /* Tc/J_n of the loop models (s/(kg*m^2)) */
     aff_real b;           /* EWMA factor, 1 - exp(-Tc/window) */
     aff_real fade;        /* increment of g per period after the switch-in, Tc/fade_in (1: a step) */
     long n_evidence;      /* periods of evidence before a decision, round(window/Tc) (at least 1) */

@@ -147,9 +147,20 @@ static void project(aff_rls *r)
     }
 }
 
-aff_real aff_rls_step(aff_rls *r, const aff_real *phi, aff_real y)
+/* GCC, Clang: rls_step inlined into each of aff_rls_step's calls, its p then a constant where the call names one. */
+#if defined(__GNUC__)
+#define AFF_RLS_INLINE __attribute__((always_inline))
+#else
+#define AFF_RLS_INLINE
+#endif
+
+/* The usual number of parameters (the sliding estimator with the lag and the offset): a step with this p has its
+ * loops of known length (unrolled by the compiler; the same operations in the same order). */
+#define AFF_RLS_P_USUAL 7
+
+/* aff_rls_step with p = r->p. */
+static inline AFF_RLS_INLINE aff_real rls_step(aff_rls *r, const aff_real *phi, aff_real y, long p)
 {
-    long p = r->p;
     long i, j, k;
     int scheme = r->scheme;
     aff_real lam = r->lam;
@@ -257,6 +268,13 @@ aff_real aff_rls_step(aff_rls *r, const aff_real *phi, aff_real y)
         project(r);
     r->n_updates = aff_count_up(r->n_updates);
     return e;
+}
+
+aff_real aff_rls_step(aff_rls *r, const aff_real *phi, aff_real y)
+{
+    if (r->p == AFF_RLS_P_USUAL)
+        return rls_step(r, phi, y, AFF_RLS_P_USUAL);
+    return rls_step(r, phi, y, r->p);
 }
 
 /* 0 iff y and phi[0..p-1] are all finite (x*0 is NaN exactly for NaN/inf). */

@@ -209,6 +209,17 @@ static aff_real phi_P_phi(const aff_rls *r, const aff_real *phi)
     return acc > 0 ? acc : (aff_real)0.0;
 }
 
+/* phi_P_phi of the P before an accepted update, from the update's own P phi (r->v, summed in the same order:
+ * the same number) where the scheme keeps it (exponential, directional; vector forgetting inflates P first). */
+static aff_real phi_v(const aff_rls *r, const aff_real *phi)
+{
+    long i;
+    aff_real acc = 0;
+    for (i = 0; i < r->p; i++)
+        acc += phi[i] * r->v[i];
+    return acc > 0 ? acc : (aff_real)0.0;
+}
+
 aff_real aff_sliding_regressand(const aff_sliding *e)
 {
     /* x3(k-1) = x3(k) - (a/(1 - a))*(x2(k) - x3(k)) of the stage x3 += a*(x2 - x3) */
@@ -243,7 +254,7 @@ int aff_sliding_observe(aff_sliding *e, aff_real u, aff_real w)
     aff_range_gate_commit(&e->w_range, w, 1);
     if (e->n_acc >= 2) {
         aff_real dd = w - (aff_real)2.0 * e->w1 + e->w2;
-        e->d2 += (aff_real)0.01 * ((dd >= 0 ? dd : -dd) - e->d2);
+        e->d2 += (aff_real)0.01 * (AFF_FABS(dd) - e->d2);
     }
     e->w2 = e->w1;
     e->w1 = w;
@@ -252,7 +263,7 @@ int aff_sliding_observe(aff_sliding *e, aff_real u, aff_real w)
     nb = BAND_SIGMAS * e->d2 / NOISE_GAIN;
     if (nb > band)
         band = nb;
-    aw = w >= 0 ? w : -w;
+    aw = AFF_FABS(w);
     if (aw > 0) {
         /* exp(-|w/Vs|^delta), eq. 3's shape (plant.stribeck_map.stribeck_scalar(aw, 0, 1, Vs, delta, 0, inf) is
          * 0 + 1*shape + 0*aw: the same bits for the finite aw > 0 here) */
@@ -293,10 +304,13 @@ int aff_sliding_observe(aff_sliding *e, aff_real u, aff_real w)
     j += 3;
     if (e->offset)
         e->phi[j] = 1.0;
-    s = phi_P_phi(&e->rls, e->phi); /* before the update: the a-priori error's variance is e2*(1 + s) */
+    /* phi'P phi before the update: the a-priori error's variance is e2*(1 + s) */
+    s = e->rls.scheme == AFF_RLS_VECTOR ? phi_P_phi(&e->rls, e->phi) : (aff_real)0.0;
     err = aff_rls_update(&e->rls, e->phi, aff_sliding_regressand(e));
     if (err != err) /* refused by the RLS (an update that would overflow): counted there, nothing else changes */
         return 1;
+    if (e->rls.scheme != AFF_RLS_VECTOR)
+        s = phi_v(&e->rls, e->phi);
     e->e2 += e->e2_rate * (err * err / ((aff_real)1.0 + s) - e->e2);
     e->updated = 1;
     return 1;
