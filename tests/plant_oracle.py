@@ -151,7 +151,7 @@ def step(p, w, s, u, dt):
     dv = getattr(p, "dv", 0.0)
     band = np.abs(w) < dv
     sgn = np.where(band, np.sign(u), 0.0)
-    w1, s1 = rk4(p, w, s, u, dt, sgn)
+    w1, s1 = (np.array(a, dtype=float) for a in rk4(p, w, s, u, dt, sgn))  # arrays the static step writes into
     if dv > 0.0:
         hold = band & (np.abs(u) <= p.Fs)
         wh, sh = _band_hold(p, w, u, dt)
