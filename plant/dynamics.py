@@ -99,8 +99,10 @@ def plant_step(par, st, u: float, dt: float) -> None:
     ``tau == 0`` without a Karnopp band: the map jumps at ``w = 0``, and a step that can reach it
     (:func:`plant.stiff.static_jump_in_reach`) is the set-valued :func:`lagged_stiff_step` instead (Filippov: at
     rest while ``-F(0-) <= u <= F(0+)``, with ``f = u``; RK4 would creep and chatter through the jump). Karnopp:
-    in the band ``|w| < dv`` with ``|u| <= Fs`` the joint sticks (``w = 0``, ``f = u``); with ``|u| > Fs`` it
-    breaks away (RK4 with the band target ``Fs*sgn(u)``). A lagged model whose fastest mode (:func:`lagged_rate`)
+    in the band ``|w| < dv`` with ``|u| <= Fs`` the friction is at most ``Fs`` (Karnopp 1985): the joint sticks
+    (``w = 0``, ``f = u``) where the step's stopping friction ``u + J*w/dt`` is within ``[-Fs, Fs]``, else it
+    slides the step decelerated by ``f = Fs*sgn(w)``; with ``|u| > Fs`` it breaks away (RK4 with the band target
+    ``Fs*sgn(u)``). A lagged model whose fastest mode (:func:`lagged_rate`)
     needs sub-steps takes ``int(rate*dt) + 1`` equal RK4 sub-steps, and beyond :data:`LAGGED_RK4_MAX` of them
     (unless the step's own velocity range is mild, :func:`lagged_local_rate`) :func:`lagged_stiff_step` with the
     same Karnopp direction. LuGre: ``n`` equal RK4 sub-steps, ``n`` chosen from the stiffness at the step start so

@@ -42,8 +42,13 @@ class KarnoppParams:
     -----
     At each integration step of length ``dt`` with input ``u`` held:
 
-    - ``|w| < dv`` and ``|u| <= Fs``: stick. The velocity is set to 0 and the
-      friction state to ``f = u`` (friction balances the drive torque).
+    - ``|w| < dv`` and ``|u| <= Fs``: the friction balances the drive torque
+      up to ``Fs`` and opposes the motion with at most ``Fs`` (``|f| <= Fs``).
+      Where the friction that stops the joint within the step,
+      ``u + J*w/dt``, lies in ``[-Fs, Fs]`` it sticks: the velocity is set to
+      0 and the friction state to ``f = u``. Else it slides the whole step,
+      decelerated by ``f = Fs*sgn(w)``: ``w += dt*(u - f)/J`` (exact; with
+      ``u = 0`` it sticks after ``ceil(J*|w|/(Fs*dt))`` steps).
     - ``|w| < dv`` and ``|u| > Fs``: breakaway. RK4 of eqs. 1-2 with the lag
       target ``Fs*sgn(u)`` while the velocity is in the band, ``F(w)`` (eq. 3)
       outside it.
@@ -55,7 +60,9 @@ class KarnoppParams:
     Karnopp (1985) fixes the acceleration to 0 in the band; zeroing the
     velocity as well removes the slow drift of that scheme (a common
     refinement, e.g. Olsson et al., "Friction models and friction
-    compensation", Eur. J. Control 4(3), 1998, Sec. 3.3).
+    compensation", Eur. J. Control 4(3), 1998, Sec. 3.3), within the bound
+    ``|f| <= Fs`` of the static friction: a heavy joint entering the band
+    decelerates for several steps before it sticks.
     """
 
     MODEL: ClassVar[str] = "karnopp"

@@ -117,6 +117,18 @@ def rk4(p, w, s, u, dt, sgn=0.0):
     return y[0], y[1]
 
 
+def _band_hold(p, w, u, dt):
+    """Karnopp band with ``|u| <= Fs``: the joint under a friction of magnitude at most ``Fs`` (Karnopp 1985).
+
+    While it moves the friction is ``Fs*sgn(w)``, a constant deceleration ``(Fs - u*sgn(w))/J >= 0`` of the speed;
+    the speed after ``dt`` is ``|w|`` less that times ``dt``, clipped at 0 where the joint comes to rest within the
+    step (then it stays: the friction balances ``u``). Arrays ``(w, f)`` after the step."""
+    sg = np.sign(w)
+    speed = np.abs(w) - dt * (p.Fs - u * sg) / p.J
+    rest = speed <= 0.0
+    return np.where(rest, 0.0, sg * speed), np.where(rest, u, p.Fs * sg)
+
+
 def step(p, w, s, u, dt):
     """One period ``dt`` (s) of plant ``p`` with the torques ``u`` held, for arrays of states ``(w, s)``.
 
@@ -127,7 +139,8 @@ def step(p, w, s, u, dt):
 
     Notes
     -----
-    Karnopp: inside the band ``|w| < dv`` the joint stays at rest with ``f = u`` while ``|u| <= Fs``, else it
+    Karnopp: inside the band ``|w| < dv`` while ``|u| <= Fs`` the friction is at most ``Fs``: a moving joint
+    decelerates under ``Fs*sgn(w)`` and rests with ``f = u`` once stopped (:func:`_band_hold`), else it
     breaks away towards ``sgn(u)`` (the band's target ``Fs*sgn(u)``; a step started outside the band has the
     target 0 inside it). Lagged models with ``tau = 0``: steps that can reach the jump at ``w = 0`` are the
     package's set-valued step (module docstring).
@@ -138,9 +151,11 @@ def step(p, w, s, u, dt):
     dv = getattr(p, "dv", 0.0)
     band = np.abs(w) < dv
     sgn = np.where(band, np.sign(u), 0.0)
-    w1, s1 = rk4(p, w, s, u, dt, sgn)
-    stick = band & (np.abs(u) <= getattr(p, "Fs", 0.0))
-    w1, s1 = np.where(stick, 0.0, w1), np.where(stick, u, s1)
+    w1, s1 = (np.array(a, dtype=float) for a in rk4(p, w, s, u, dt, sgn))  # arrays the static step writes into
+    if dv > 0.0:
+        hold = band & (np.abs(u) <= p.Fs)
+        wh, sh = _band_hold(p, w, u, dt)
+        w1, s1 = np.where(hold, wh, w1), np.where(hold, sh, s1)
     if p.tau == 0.0 and dv == 0.0:
         par = plant_params(p)
         for i in np.flatnonzero([static_jump_in_reach(par, a, b, dt) for a, b in zip(w.ravel(), u.ravel())]):

@@ -3,7 +3,8 @@
 Independent of :mod:`plant.dynamics` (its own eq. 3 in plain Python, scipy's Radau IIA): used by
 tests/plant_layer/test_stiff_lagged.py to check :func:`plant.dynamics.lagged_stiff_step` on stiff plants. Per step of ``dt``
 the torque is held, as in the engine; the Karnopp stick rule is applied at the step start (the model's
-definition, :class:`plant.karnopp.KarnoppParams`). The static map jumps (at ``w = 0``, or at the Karnopp band
+definition, :class:`plant.karnopp.KarnoppParams`: in the band, with ``|u| <= Fs``, a friction of at most ``Fs``
+that stops the joint, :func:`_band_hold`). The static map jumps (at ``w = 0``, or at the Karnopp band
 edges ``±dv``); Radau integrates each smooth piece (its formula continued past the jump, so the error control
 never sees the jump) up to an event at the jump, then:
 
@@ -91,12 +92,25 @@ def _segment(m: Lagged, y, u, sgn, piece, t0, dt):
     return dt, r.y[:, -1].copy(), None
 
 
+def _band_hold(m: Lagged, w: float, u: float, dt: float):
+    """The Karnopp band with ``|u| <= Fs``: the friction opposes the motion with its static limit ``Fs`` until the
+    joint rests, at ``t* = J*|w|/(Fs - u*sgn(w))``; from then on it balances ``u`` (Karnopp 1985, ``|f| <= Fs``).
+    (w, f) after ``dt``."""
+    if w == 0.0:
+        return 0.0, u
+    d = 1.0 if w > 0 else -1.0
+    decel = (m.Fs_stick - u * d) / m.J  # >= 0
+    if decel * dt >= abs(w):  # at rest by the step's end
+        return 0.0, u
+    return w - d * decel * dt, m.Fs_stick * d
+
+
 def lagged_step(m: Lagged, w: float, f: float, u: float, dt: float):
     """One step of ``dt`` (s) with ``u`` held: (w, f) after it."""
     sgn = 0.0
     if m.dv > 0.0 and abs(w) < m.dv:
         if abs(u) <= m.Fs_stick:
-            return 0.0, u
+            return _band_hold(m, w, u, dt)
         sgn = 1.0 if u > 0 else -1.0
     tau = m.tau
     y = np.array([w] if tau == 0.0 else [w, f], dtype=float)

@@ -137,6 +137,32 @@ static int single_rk4(const plant_params *p, double w, double dt)
     return !((p->ripple_a == 0.0 ? p->rate : lagged_rate_at(p, w)) * dt > plant_rk4_rate_max);
 }
 
+/* A step of dt of a Karnopp joint in its band |w| < dv with |u| <= Fs (Fs: the stick limit at the step start,
+ * times R(q) with a ripple): the friction opposes the motion with at most Fs, so the joint decelerates at
+ * (Fs*sgn(w) - u)/J and sticks once at rest. It stops within the step where the friction that stops it, the
+ * step's average u + J*w/dt, is within [-Fs, Fs]: w = 0, s = u (at rest the friction balances u), q advanced by
+ * J*w^2/(2*(Fs*sgn(w) - u)) (the distance to the stop); else it slides the whole step: w += dt*(u - f)/J and
+ * s = f = Fs*sgn(w), q by dt*(w + w1)/2 (exact for the constant deceleration, as RK4). aux = NaN. */
+static void karnopp_hold(const plant_params *p, plant_state *st, double u, double dt, double Fs)
+{
+    double w = st->w;
+    double f_stop = u + p->J * w / dt;
+    st->aux = NAN;
+    if (-Fs <= f_stop && f_stop <= Fs) { /* it stops within the step: it sticks */
+        double d = (w > 0.0 ? Fs : -Fs) - u; /* the net decelerating torque, != 0 where w's term is */
+        if (w != 0.0 && d != 0.0)
+            st->q += 0.5 * p->J * w * w / d;
+        st->w = 0.0;
+        st->s = u;
+    } else { /* it slides, decelerated by the static limit */
+        double f = w > 0.0 ? Fs : -Fs;
+        double w1 = w + dt * (u - f) * p->inv_J;
+        st->q += 0.5 * dt * (w + w1);
+        st->w = w1;
+        st->s = f;
+    }
+}
+
 /* plant_step's common case (a lagged model, one RK4 step of dt, single_rk4) without a friction ripple: the map and
  * RK4 inlined into one body. */
 PLANT_FLATTEN static void single_step_smooth(const plant_params *p, plant_state *st, double u, double dt)
@@ -210,9 +236,7 @@ PLANT_NOINLINE static void step_general(const plant_params *p, plant_state *st, 
             if (p->ripple_a != 0.0)
                 Fs *= plant_ripple(p, q);
             if (-Fs <= u && u <= Fs) {
-                st->w = 0.0;
-                st->s = u;
-                st->aux = NAN;
+                karnopp_hold(p, st, u, dt, Fs);
                 return;
             }
             sgn = u > 0.0 ? 1.0 : -1.0;

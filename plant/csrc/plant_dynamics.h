@@ -37,8 +37,10 @@ void plant_rk4_at(const plant_params *p, double *w, double *s, double *q, double
  * Lagged models: one RK4 step (tau == 0: RK4 on w, then s = F(w) and aux = p->key, which the next step reuses);
  * tau == 0 without a Karnopp band where the step can reach the jump at w = 0 (plant_static_jump_in_reach): the
  * set-valued plant_lagged_stiff_step (Filippov: at rest while -F(0-) <= u <= F(0+), f = u). Karnopp: in the band
- * |w| < dv with |u| <= Fs the joint sticks (w = 0, f = u); with |u| > Fs it breaks away (RK4 with the band
- * target Fs*sgn(u)). A lagged model with rate*dt > plant_rk4_rate_max takes (long)(rate*dt) + 1 equal RK4
+ * |w| < dv with |u| <= Fs the friction balances u up to Fs and opposes the motion with at most Fs (|f| <= Fs,
+ * Karnopp 1985): where the step's stopping friction u + J*w/dt lies within [-Fs, Fs] the joint sticks (w = 0,
+ * f = u, q advanced to the stop), else it slides the step decelerated by f = Fs*sgn(w) (w += dt*(u - f)/J, exact;
+ * q by the trapezoid); with |u| > Fs it breaks away (RK4 with the band target Fs*sgn(u)). A lagged model with rate*dt > plant_rk4_rate_max takes (long)(rate*dt) + 1 equal RK4
  * sub-steps, beyond PLANT_LAGGED_RK4_MAX of them (unless the step's own velocity range is mild,
  * plant_lagged_local_rate) plant_lagged_stiff_step. LuGre: n equal RK4 sub-steps with n chosen from the
  * stiffness at the step start, rate = sigma0*|w|max/g_min + base_rate (rate*h < 1; rate bounds the eigenvalues of

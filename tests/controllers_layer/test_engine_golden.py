@@ -14,6 +14,11 @@ Scenario 0 of the ``paper`` batch is a static joint (``tau = 0``). Its model cha
 map's jump at ``w = 0`` is now set-valued (the joint sticks there, Filippov, tests/plant_layer/test_static_stick.py) where RK4
 used to chatter through it. Its stored numbers describe the former model, so it is left out here; the batch
 engine on static joints is compared with the loop oracle in tests/controllers_layer/test_batch.py.
+
+The Karnopp joint's band rule changed after the file was made as well: a joint in the band with ``|u| <= Fs`` is
+held by a friction of at most ``Fs`` (it decelerates for several steps where ``J*|w|/dt`` exceeds what ``Fs`` can
+stop) instead of being set to rest in one step. Its oracle mode is therefore held to the bounds of the changed
+arithmetic (measured: the settled metrics within 0.2 %, the whole-run RMS 0.8 %), not to rounding.
 """
 
 import json
@@ -66,7 +71,7 @@ def _rel(a, b):
 def test_metrics_equal_todays_numbers(label, mode):
     r = golden_runs(label, mode)
     g = json.loads(GOLDEN_PATH.read_text())[f"{label}/{mode}"]
-    same_arithmetic = label == "lugre" or mode == "oracle"
+    same_arithmetic = label == "lugre" or (mode == "oracle" and label != "karnopp")  # karnopp: module docstring
     keep = slice(1, None) if label == "paper" else slice(None)  # paper: scenario 0 is static (module docstring)
     assert label != "paper" or _plants(label)[0].tau == 0.0
     for name in SETTLED + WHOLE:
