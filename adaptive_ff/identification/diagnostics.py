@@ -103,9 +103,9 @@ def input_quantum(u) -> float:
     A drive that logs its torque through a converter or as an integer count writes each sample rounded to a
     multiple of its resolution ``q``; the true input differs from the logged one by an error spread uniformly over
     ``[-q/2, q/2]`` (variance ``q**2 / 12``) wherever the signal crosses many levels between samples (Widrow &
-    Kollár, *Quantization Noise*, Cambridge University Press, 2008, Ch. 5). The output-error bootstrap draws
-    that error into the input of its replicate records
-    (:func:`adaptive_ff.identification.physical_id.fit_physical`, "Standard errors").
+    Kollár, *Quantization Noise*, Cambridge University Press, 2008, Ch. 5). The output-error bootstrap can draw
+    that error into the input of its replicate records (``bootstrap_input_quantum="auto"`` of
+    :class:`adaptive_ff.identification.oe_options.OutputErrorOptions`).
 
     Parameters
     ----------

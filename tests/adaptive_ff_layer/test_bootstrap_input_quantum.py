@@ -1,4 +1,5 @@
-"""The output-error bootstrap's worlds read their input as the log does: the logged torque's quantum.
+"""The output-error bootstrap's worlds can read their input as the log does: the logged torque's quantum
+(``bootstrap_input_quantum``).
 
 A drive that logs its torque rounded to a resolution ``q`` hands the fit an input that differs from the one that
 drove the joint by an error spread over ``[-q/2, q/2]``. The bootstrap's replicate records are the estimate driven
@@ -12,7 +13,7 @@ import pytest
 from adaptive_ff.identification import physical_id as pid
 from adaptive_ff.identification.diagnostics import input_quantum
 from plant import bandlimited_noise, irregular_sample_times, preset, sample, simulate
-from plant.errors import SignalError
+from plant.errors import ParameterError, SignalError
 
 P = preset("paper")
 KEYS = ("J", "Fc", "Fs", "sigma", "tau")
@@ -46,7 +47,8 @@ def test_a_continuous_input_has_no_quantum():
         input_quantum(np.array([0.0, np.nan, 1.0, 2.0]))
 
 
-def test_the_bootstrap_world_is_driven_by_an_input_the_log_reads_as_its_own(monkeypatch):
+@pytest.mark.parametrize("quantum", ["auto", 0.6])
+def test_the_bootstrap_world_is_driven_by_an_input_the_log_reads_as_its_own(monkeypatch, quantum):
     # each replicate record is the estimate driven by the logged torque plus a uniform draw within half a quantum;
     # rounded to the quantum, that input is the logged one again. Spy on the simulations the worlds run.
     m = _record(0.6)
@@ -60,7 +62,7 @@ def test_the_bootstrap_world_is_driven_by_an_input_the_log_reads_as_its_own(monk
     monkeypatch.setattr(pid._OutputErrorProblem, "simulate_input", spy)
     kw = dict(Vs=P.Vs, delta=P.delta, input_delay=0.5e-3, start={k: getattr(P, k) for k in KEYS}, n_bootstrap=2,
               bootstrap_workers=1)
-    f = pid.fit_physical(m.t, m.u, m.w, **kw)
+    f = pid.fit_physical(m.t, m.u, m.w, bootstrap_input_quantum=quantum, **kw)
     boot = f.info["bootstrap"]
     assert boot["input_quantum"] == pytest.approx(0.6, rel=1e-9) and len(seen) == 2
     for u_world in seen:
@@ -68,7 +70,17 @@ def test_the_bootstrap_world_is_driven_by_an_input_the_log_reads_as_its_own(monk
         assert np.max(np.abs(dev)) <= 0.3 and np.std(dev) == pytest.approx(0.6 / np.sqrt(12.0), rel=0.1)
         assert np.array_equal(np.round(u_world / 0.6) * 0.6, np.round(m.u / 0.6) * 0.6)
     assert not np.array_equal(seen[0], seen[1])  # each world its own draw
-    # a continuous torque: the worlds are driven by the logged input itself, no simulation added
+    # the default takes the logged input as exact: the same refits as without the option, no simulation added
     seen.clear()
-    g = pid.fit_physical(m.t, m.u_true, m.w, **kw)
-    assert g.info["bootstrap"]["input_quantum"] == 0.0 and not seen
+    g = pid.fit_physical(m.t, m.u, m.w, **kw)
+    assert g.info["bootstrap"]["input_quantum"] == 0.0 and not seen and g.params == f.params
+    assert g.stderr != f.stderr
+    if quantum == "auto":  # a continuous torque has no quantum to draw
+        h = pid.fit_physical(m.t, m.u_true, m.w, bootstrap_input_quantum="auto", **kw)
+        assert h.info["bootstrap"]["input_quantum"] == 0.0 and not seen
+
+
+@pytest.mark.parametrize("bad", [-0.1, "yes", float("nan")])
+def test_the_quantum_option_is_validated(bad):
+    with pytest.raises(ParameterError, match="bootstrap_input_quantum"):
+        pid.OutputErrorOptions(bootstrap_input_quantum=bad)
