@@ -116,8 +116,10 @@ def input_quantum(u) -> float:
     -------
     float
         ``q`` (unit of ``u``) > 0 when at least three distinct values occur, the smallest gap between distinct
-        values is ``q`` and every sample lies within ``1e-3 q`` of the lattice ``min(u) + k q``; else 0.0 (a
-        continuous input, or too few levels to tell).
+        values is ``q``, every sample lies within ``1e-3 q`` of the lattice ``min(u) + k q`` and the range holds
+        no more levels than there are samples (a lattice is told from a continuous input by samples that repeat
+        its levels: a continuous input written with ten digits lies on a lattice of its last digit, of far more
+        levels than samples); else 0.0 (a continuous input, or too few levels to tell).
 
     Raises
     ------
@@ -130,7 +132,7 @@ def input_quantum(u) -> float:
         return 0.0
     q = float(np.min(np.diff(v)))
     k = (v - v[0]) / q
-    if not (q > 0 and np.max(np.abs(k - np.rint(k))) <= 1e-3):
+    if not (q > 0 and k[-1] <= u.shape[0] and np.max(np.abs(k - np.rint(k))) <= 1e-3):
         return 0.0
     return q
 

@@ -29,7 +29,7 @@ def _record(quant: float, seed: int = 2, duration: float = 8.0):
                   rng=np.random.default_rng(seed + 2))
 
 
-@pytest.mark.parametrize("q", [0.6, 0.05, 2.0])
+@pytest.mark.parametrize("q", [0.6, 0.25, 2.0])
 def test_the_quantum_of_a_rounded_input_is_its_step(q):
     rng = np.random.default_rng(0)
     u = np.round(rng.normal(0.0, 40.0, 2000) / q) * q
@@ -43,6 +43,9 @@ def test_a_continuous_input_has_no_quantum():
     u = rng.normal(0.0, 40.0, 2000)
     assert input_quantum(u) == 0.0
     assert input_quantum(np.array([1.0, 1.0, 2.0, 2.0])) == 0.0  # two levels: nothing to tell a lattice from
+    # written with ten digits (as benchmarks/output_error_speed.py writes its log): a lattice of the last digit
+    # with far more levels than samples, not a quantum
+    assert input_quantum(np.array([float(f"{v:.10g}") for v in u])) == 0.0
     with pytest.raises(SignalError, match="u"):
         input_quantum(np.array([0.0, np.nan, 1.0, 2.0]))
 
