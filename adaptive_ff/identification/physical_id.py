@@ -1066,7 +1066,7 @@ def fit_physical(t, u, w, *, Vs: float | None, delta: float | None, method: str 
         ``input_delay``, ``interp``, ``burn``, ``fs_grid``, ``fs_max_ratio``,
         ``diff_step``, ``max_nfev``, ``loss``, ``f_scale``, ``start``,
         ``n_bootstrap``, ``bootstrap_seed``, ``bootstrap_refit``, ``bootstrap_lag_refits``, ``lag_profile``,
-        ``jacobian``; units and defaults there),
+        ``jacobian``, ``bootstrap_input_quantum``; units and defaults there),
         validated by it.
 
     Returns
