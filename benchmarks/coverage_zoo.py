@@ -1,7 +1,7 @@
 """Do the 95 % intervals of ``identify`` cover the truth on many different joints?
 
 Run ``python benchmarks/coverage_zoo.py [--n 40] [--start 0] [--duration 15] [--n-bootstrap 20]
-[--no-lag-profile] [--kinds oe eq4 default] [--jobs 1] [--out rows.jsonl]`` (or ``--table-from rows.jsonl``: the table of the records an earlier,
+[--no-lag-profile] [--input-quantum auto] [--kinds oe eq4 default] [--jobs 1] [--out rows.jsonl]`` (or ``--table-from rows.jsonl``: the table of the records an earlier,
 possibly unfinished, run saved).
 
 Joints: ``n`` joints of eqs. 1-3 drawn per seed (``numpy.random.default_rng(seed)``) around the ``paper``
@@ -24,6 +24,10 @@ pre-fit's values are the true ones: the intervals are conditional on them) and `
 * ``default``: ``identify`` as the CLI calls it by default (``method="auto"``, no options but ``bootstrap_workers=1``, which
   does not change the result), interval ``interval95``; the method it chose and the parameters its
   ``model_form`` warnings name are kept in the row (``default_method``, ``default_named``).
+
+``--input-quantum auto`` (or a resolution in N·m) passes ``bootstrap_input_quantum`` to the ``oe`` and ``default``
+fits: their bootstrap worlds read the torque with its quantum
+(:class:`adaptive_ff.identification.oe_options.OutputErrorOptions`); without it, the package's default (None).
 
 ``--kinds`` runs a subset (``eq4`` also gives ``eq4 delta``); a kind not run is left out of the table.
 
@@ -84,12 +88,14 @@ def _kind_row(rep, p, kind: str) -> dict:
 
 
 def one(seed: int, duration: float, n_bootstrap: int, lag_profile: bool = True, refit: str = "full",
-        kinds: tuple = ("oe", "eq4")) -> dict:
+        kinds: tuple = ("oe", "eq4"), quantum=None) -> dict:
     """Simulate, read out and identify joint ``seed`` by the methods of ``kinds`` (of :data:`KINDS`; ``"eq4"``
     gives ``"eq4 delta"`` too); the per-kind rows and CPU times (``lag_profile``: the output-error fit's profile
     search over tau, ``OutputErrorOptions.lag_profile``; ``refit``: ``OutputErrorOptions.bootstrap_refit``). The
     bootstrap refits run in this thread (``--jobs`` spreads the joints over processes; the result does not
-    depend on it)."""
+    depend on it); ``quantum``: ``OutputErrorOptions.bootstrap_input_quantum`` of the ``oe`` and ``default`` fits
+    (None: the package's default)."""
+    extra = {} if quantum is None else {"bootstrap_input_quantum": quantum}
     p = draw_joint(seed)
     m = record(p, seed=seed, noise=0.01, quant=QUANT, irregular="scaled", duration=duration)
     d = MeasuredData(m.t, m.u, m.w, source=f"zoo joint {seed}")
@@ -100,7 +106,7 @@ def one(seed: int, duration: float, n_bootstrap: int, lag_profile: bool = True, 
             rep = identify(d, Vs=p.Vs, delta=p.delta, lag=True, method="output_error",
                            method_options={"input_delay": INPUT_DELAY, "n_bootstrap": n_bootstrap,
                                            "lag_profile": lag_profile, "bootstrap_refit": refit,
-                                           "bootstrap_workers": 1})
+                                           "bootstrap_workers": 1, **extra})
             row["kinds"]["oe"] = _kind_row(rep, p, "oe")
         except Exception as exc:  # noqa: BLE001 - a failed fit is a row of the table, with its reason
             row["kinds"]["oe"] = {"failed": f"{type(exc).__name__}: {exc}"}
@@ -115,7 +121,8 @@ def one(seed: int, duration: float, n_bootstrap: int, lag_profile: bool = True, 
     if "default" in kinds:
         t0 = time.process_time()
         try:
-            rep = identify(d, Vs=p.Vs, delta=p.delta, lag=True, method="auto", method_options={"bootstrap_workers": 1})
+            rep = identify(d, Vs=p.Vs, delta=p.delta, lag=True, method="auto",
+                           method_options={"bootstrap_workers": 1, **extra})
             row["kinds"]["default"] = _kind_row(rep, p, "default")
             row["default_method"] = rep.method
             row["default_named"] = sorted({w.parameter for w in rep.warnings if w.code == "model_form"})
@@ -212,6 +219,9 @@ def main(argv=None) -> int:
     ap.add_argument("--bootstrap-refit", choices=("full", "partial"), default="full",
                     help="how the output-error bootstrap refits each replicate (OutputErrorOptions.bootstrap_refit; "
                          "default full, the package's)")
+    ap.add_argument("--input-quantum", default=None,
+                    help="bootstrap_input_quantum of the oe and default fits: 'auto' or a resolution in N·m "
+                         "(default: none, the package's default)")
     ap.add_argument("--kinds", nargs="+", choices=("oe", "eq4", "default"), default=["oe", "eq4"],
                     help="the fits to run (default: oe eq4; eq4 gives eq4 delta too)")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
@@ -222,6 +232,14 @@ def main(argv=None) -> int:
         rows = sorted((json.loads(x) for x in a.table_from.read_text().splitlines() if x.strip()),
                       key=lambda r: r["seed"])
     else:
+        quantum = a.input_quantum
+        if quantum not in (None, "auto"):
+            try:
+                quantum = float(quantum)
+            except ValueError:
+                quantum = math.nan
+            if not (math.isfinite(quantum) and quantum >= 0):
+                ap.error(f"--input-quantum must be 'auto' or a resolution >= 0 N·m, got {a.input_quantum!r}")
         seeds = range(a.start, a.start + a.n)
         if a.jobs > 1:
             from concurrent.futures import ProcessPoolExecutor
@@ -229,10 +247,10 @@ def main(argv=None) -> int:
             with ProcessPoolExecutor(a.jobs) as pool:
                 rows = [_save(a.out, r) for r in pool.map(one, seeds, [a.duration] * a.n, [a.n_bootstrap] * a.n,
                                                            [not a.no_lag_profile] * a.n, [a.bootstrap_refit] * a.n,
-                                                           [tuple(a.kinds)] * a.n)]
+                                                           [tuple(a.kinds)] * a.n, [quantum] * a.n)]
         else:
             rows = [_save(a.out, one(s, a.duration, a.n_bootstrap, not a.no_lag_profile, a.bootstrap_refit,
-                                     tuple(a.kinds))) for s in seeds]
+                                     tuple(a.kinds), quantum)) for s in seeds]
     seeds = [r["seed"] for r in rows]
     print(f"coverage of nominal 95 % intervals of identify on {len(rows)} zoo joints (seeds {min(seeds)}..{max(seeds)}), "
           f"noise 1 %, quantisation {QUANT} N·m, Fig. 10 sampling scaled to 10 ms, Vs and delta given, lag fitted")

@@ -20,7 +20,7 @@ from plant.errors import ParameterError, check_positive, check_signal, check_tim
 from plant.results import json_safe
 
 __all__ = ["velocity_noise_std", "velocity_noise_std_irregular", "noise_fit_weights", "feedback_correlation",
-           "FEEDBACK_MIN", "ExcitationReport", "excitation_report"]
+           "FEEDBACK_MIN", "input_quantum", "ExcitationReport", "excitation_report"]
 
 
 def velocity_noise_std(w) -> float:
@@ -95,6 +95,46 @@ def feedback_correlation(u, w) -> float:
     du, dw = du - du.mean(), dw - dw.mean()
     den = float(np.sqrt(np.dot(du, du) * np.dot(dw, dw)))
     return float(np.dot(du, dw) / den) if den > 0 else 0.0
+
+
+def input_quantum(u) -> float:
+    """The quantum of a logged input: the step of the lattice ``a + k q`` every sample lies on, or 0 if none.
+
+    A drive that logs its torque through a converter or as an integer count writes each sample rounded to a
+    multiple of its resolution ``q``; the true input differs from the logged one by an error spread uniformly over
+    ``[-q/2, q/2]`` (variance ``q**2 / 12``) wherever the signal crosses many levels between samples (Widrow &
+    Kollár, *Quantization Noise*, Cambridge University Press, 2008, Ch. 5). The output-error bootstrap can draw
+    that error into the input of its replicate records (``bootstrap_input_quantum="auto"`` of
+    :class:`adaptive_ff.identification.oe_options.OutputErrorOptions`).
+
+    Parameters
+    ----------
+    u : array_like, shape (N,)
+        Input samples (N·m or N), N >= 3.
+
+    Returns
+    -------
+    float
+        ``q`` (unit of ``u``) > 0 when at least three distinct values occur, the smallest gap between distinct
+        values is ``q``, every sample lies within ``1e-3 q`` of the lattice ``min(u) + k q`` and the range holds
+        no more levels than there are samples (a lattice is told from a continuous input by samples that repeat
+        its levels: a continuous input written with ten digits lies on a lattice of its last digit, of far more
+        levels than samples); else 0.0 (a continuous input, or too few levels to tell).
+
+    Raises
+    ------
+    SignalError
+        Fewer than 3 samples or non-finite values.
+    """
+    u = check_signal("u", u, min_len=3)
+    v = np.unique(u)
+    if v.shape[0] < 3:
+        return 0.0
+    q = float(np.min(np.diff(v)))
+    k = (v - v[0]) / q
+    if not (q > 0 and k[-1] <= u.shape[0] and np.max(np.abs(k - np.rint(k))) <= 1e-3):
+        return 0.0
+    return q
 
 
 def velocity_noise_std_irregular(t, w, *, weights: tuple | None = None) -> float:

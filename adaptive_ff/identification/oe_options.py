@@ -101,6 +101,15 @@ class OutputErrorOptions:
         values). The point estimate does not depend on it (the fit's own search always refits at every value); the
         refits' scatter, and with it the intervals, do (module docstring, "Standard errors"; the zoo coverage of
         both: the documentation's identification benchmark page).
+    bootstrap_input_quantum : float, "auto" or None, keyword-only
+        The resolution (N·m) the log's input was read with, drawn into the input of each bootstrap world
+        (module docstring of :mod:`adaptive_ff.identification.physical_id`, "Standard errors"): each replicate
+        record is the estimate driven by the logged input plus a uniform draw within half of it, refitted with the
+        logged input (one more simulation per refit). A float >= 0: that resolution (0: none); ``"auto"``: the
+        step of the lattice the logged samples lie on
+        (:func:`adaptive_ff.identification.diagnostics.input_quantum`; 0 for a continuous input); None
+        (default): the logged input taken as exact, the bootstrap as without this option. Reported in
+        ``info["bootstrap"]["input_quantum"]``.
     jacobian : {"difference", "sensitivity"}, keyword-only
         Jacobian of the trust-region fits. ``"difference"`` (default): forward differences with the relative
         step ``diff_step`` (a secant over 1 % of each parameter, which sees past the breakaway jitter of the
@@ -141,6 +150,7 @@ class OutputErrorOptions:
     lag_profile: bool = True
     bootstrap_lag_refits: int | None = 2
     jacobian: str = "difference"
+    bootstrap_input_quantum: float | str | None = None
 
     def __post_init__(self):
         def put(name, value):
@@ -179,6 +189,15 @@ class OutputErrorOptions:
                 raise ParameterError(f"{name} must be one of {list(allowed)}, got {getattr(self, name)!r}")
         if self.f_scale is not None:
             put("f_scale", check_positive("f_scale", self.f_scale))
+        q = self.bootstrap_input_quantum
+        if q is not None and not (isinstance(q, str) and q == "auto"):
+            if isinstance(q, str):
+                raise ParameterError(f"bootstrap_input_quantum must be a resolution >= 0 N·m, 'auto' or None, "
+                                     f"got {q!r}")
+            q = check_finite_scalar("bootstrap_input_quantum", q)
+            if q < 0:
+                raise ParameterError(f"bootstrap_input_quantum must be >= 0 N·m, 'auto' or None, got {q!r}")
+            put("bootstrap_input_quantum", float(q))
 
     def workers(self) -> int:
         """Threads of the bootstrap refits: ``bootstrap_workers``, or (None) the CPUs this process may use
