@@ -37,9 +37,9 @@ holds it (a simulated joint without a lag chatters about zero velocity there), a
 into the rows around it: 2 % of a torque step one cutoff period from it, 0.5 % at :data:`REST_WINDOW` (1.5)
 periods. So the rows within 1.5 cutoff periods of every log sample where the lightly filtered velocity is slower
 than the 2 % speed or changes sign are left out as well (at one period the rest left in those rows drew the
-Stribeck profile to a wrong shape: ``docs/your_arm.md``, "Sliding rows"). What either choice
+Stribeck profile to a wrong shape: ``docs/your_arm.md``, "Intervals"). What either choice
 measures (coverage over simulated arms, the Stäubli TX40, a lagged arm) and the alternatives measured are on
-``docs/your_arm.md`` ("Sliding rows", "Not yet").
+``docs/your_arm.md`` ("Rows", "Intervals", "Not yet").
 
 Intervals: the circular block bootstrap of the samples (each sample's rows of all joints, regressor and torque,
 resampled together in blocks of consecutive samples, the block by the Politis-White rule on the residuals,
@@ -53,7 +53,7 @@ number of refits). A joint's friction intervals are widened to cover that band a
 weighted residual sum of squares is within the 95 % likelihood-ratio bound of the best, the residuals' correlation
 counted by the bootstrap's block length (``rows="moving"``) or (``rows="sliding"``) by the ratio of the bootstrap
 variance to the white-noise least-squares variance (the largest over the joints' ``Fc, Fs, sigma``;
-:func:`_variance_ratio`; why: ``docs/your_arm.md``, "Sliding rows").
+:func:`_variance_ratio`; why: ``docs/your_arm.md``, "Intervals").
 
 Then each joint's friction lag ``tau`` (eq. 1) by the package's output-error fit on its rigid-body-removed record,
 where the log determines it, and each joint's velocity noise (:mod:`adaptive_ff.arm.lag`).

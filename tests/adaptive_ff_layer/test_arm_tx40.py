@@ -185,10 +185,11 @@ def test_a_transmission_for_another_joint_count(arm, motor_log, tmp_path):
 
 
 def test_a_negative_level_is_named(arm, motor_log):
-    # at the default 20 Hz cutoff the profile gives joint 2 a Stribeck term whose Fs comes out negative (eq. 3 needs
-    # Fs >= 0): its entry carries an `implausible` warning naming Fs, which design/compare/export-c --from refuse
+    # at the default 20 Hz cutoff with rows="moving" the profile gives joint 2 a Stribeck term whose Fs comes out
+    # negative (eq. 3 needs Fs >= 0; the default rows give it Fs 10.2 N·m): its entry carries an `implausible`
+    # warning naming Fs, which design/compare/export-c --from refuse
     gear = read_transmission(TOML, arm.n)
-    r = identify_arm(gear.to_joint(motor_log), arm, n_bootstrap=20, seed=0, lag=False)
+    r = identify_arm(gear.to_joint(motor_log), arm, n_bootstrap=20, seed=0, lag=False, rows="moving")
     for joint in r.joints:
         signs = {w.parameter for w in joint.warnings if w.code == "implausible"}
         assert signs == {k for k in ("J", "Fc", "Fs", "sigma") if joint.params[k] < (1e-300 if k == "J" else 0.0)}
