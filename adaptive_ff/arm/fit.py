@@ -86,8 +86,8 @@ FRICTION_VELOCITY_FACTOR = 5.0
 #: ``"moving"`` the filtered velocity's own, ``"sliding"`` (the default) those where the joint slides, with the
 #: columns through the torque's filter and the likelihood-ratio bound scaled by the bootstrap's variance ratio.
 ROWS = ("moving", "sliding")
-#: :func:`identify_arm`'s ``rows`` unless given (``identify-arm --rows``): the one whose intervals are calibrated on
-#: simulated arms (``docs/your_arm.md``).
+#: :func:`identify_arm`'s ``rows`` unless given (``identify-arm --rows``): the one with no interval too narrow on
+#: simulated arms (``docs/your_arm.md``, "Intervals").
 DEFAULT_ROWS = "sliding"
 #: Rows (``rows="sliding"``) within this many cutoff periods of where a joint sticks or reverses are left out: the
 #: forward-backward 4th-order Butterworth carries 2 % of a torque step one period from it, 0.5 % at 1.5 periods.
@@ -495,8 +495,8 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
         filtered velocity is above 2 % of the joint's 99th-percentile speed and one cutoff period from its
         reversals, friction columns of the filtered velocity, the profile's bound scaled by the bootstrap's block
         length; ``"sliding"`` (default) also :data:`REST_WINDOW` cutoff periods from where the joint sticks,
-        friction columns through the torque's filter, the bound scaled by the bootstrap's variance ratio (the
-        calibrated intervals of ``docs/your_arm.md``).
+        friction columns through the torque's filter, the bound scaled by the bootstrap's variance ratio (their
+        coverage: ``docs/your_arm.md``).
 
     Returns
     -------

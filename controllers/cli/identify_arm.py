@@ -70,7 +70,7 @@ def register(sub) -> None:
     """Add the ``identify-arm`` subcommand to an argparse subparsers object."""
     import argparse
 
-    from adaptive_ff.arm.fit import DEFAULT_ROWS, ROWS
+    from adaptive_ff.arm.fit import DEFAULT_ROWS, REST_WINDOW, ROWS
     from controllers.cli.data import nonnegative_int, positive_int, seed_type
 
     def at_least_2(text):
@@ -103,9 +103,10 @@ def register(sub) -> None:
                    help="fit (default): identify the base parameters with the friction; urdf: use the URDF's "
                         "inertias as given and fit only the friction")
     i.add_argument("--rows", choices=ROWS, default=DEFAULT_ROWS,
-                   help=f"each joint's rows (default {DEFAULT_ROWS}): sliding leaves out the rows within 1.5 cutoff "
-                        "periods of where the joint sticks or reverses and puts the friction columns through the "
-                        "torque's filter (the intervals calibrated on simulated arms); moving keeps every row "
+                   help=f"each joint's rows (default {DEFAULT_ROWS}): sliding leaves out the rows within "
+                        f"{REST_WINDOW:g} cutoff periods of where the joint sticks or reverses and puts the friction "
+                        "columns through the torque's filter (no interval too narrow on simulated arms, "
+                        "docs/your_arm.md); moving keeps every row "
                         "faster than 2 %% of the joint's 99th-percentile speed and one cutoff period from a "
                         "reversal, friction columns of the filtered velocity")
     i.add_argument("--no-lag", dest="no_lag", action="store_true",
