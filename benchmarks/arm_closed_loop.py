@@ -7,7 +7,7 @@ The arm: ``data/tx40/tx40.urdf`` (the six links' inertias of the Staubli TX40) w
 reference values of ``docs/benchmarks/arm_tx40.md``, ``Fs = 1.3 Fc``, ``Vs`` 0.1-0.15 rad/s, ``delta = 1``, a lag
 ``tau = 2 ms``). What the loops get is what a user has: a 20 s log of the arm (:func:`adaptive_ff.arm.simulate.
 simulate_arm`, seed ``--id-seed``) identified by :func:`adaptive_ff.arm.fit.identify_arm` (as ``identify-arm
---rows moving --json``; 20 bootstrap refits: the intervals do not enter the loops), then
+--json``; 20 bootstrap refits: the intervals do not enter the loops), then
 :func:`controllers.experiments.compare_arm.compare_arm` on the same arm in the modes none, fixed, adaptive,
 adaptive-ff, the peers dob and canudas, and frictionless (``--duration`` s, seed ``--seed``, the drives' limits the URDF's effort limits).
 Printed: each joint's identified inertia and PI, the second-half RMS error per joint and mode, eta per joint, the
@@ -38,9 +38,8 @@ def friction():
 
 
 def identify(path, *, seed: int = 1, duration: float = 20.0, n_bootstrap: int = 20):
-    """Simulate the arm's identification log, identify it (``identify-arm --rows moving``: every joint keeps its
-    Stribeck term, whose ``Vs`` each joint's compensator needs) and write the ``--json`` to ``path``; returns the
-    :class:`adaptive_ff.arm.robot.ArmModel`."""
+    """Simulate the arm's identification log, identify it and write the ``identify-arm --json`` to ``path``;
+    returns the :class:`adaptive_ff.arm.robot.ArmModel`."""
     from adaptive_ff.arm.fit import identify_arm
     from adaptive_ff.arm.robot import load_urdf
     from adaptive_ff.arm.simulate import ArmSimulation, simulate_arm
@@ -48,7 +47,7 @@ def identify(path, *, seed: int = 1, duration: float = 20.0, n_bootstrap: int = 
     arm = load_urdf(URDF)
     log = simulate_arm(arm, friction(), run=ArmSimulation(duration=duration, substeps=1), seed=seed,
                        armature=ARMATURE)
-    Path(path).write_text(json.dumps(identify_arm(log, arm, n_bootstrap=n_bootstrap, rows="moving").to_dict()))
+    Path(path).write_text(json.dumps(identify_arm(log, arm, n_bootstrap=n_bootstrap).to_dict()))
     return arm
 
 

@@ -252,10 +252,11 @@ def main(argv=None) -> None:
           + ("" if fig is None else f"; FIGAROH replay {fig_cpu:.1f} s CPU"))
     _, cpu0, wall0 = identify(args.bootstrap, args.seed, progress=False, lag=False)
     print(f"the same with --no-lag: {cpu0:.1f} s CPU, {wall0:.1f} s wall")
-    moving, _, _ = identify(args.bootstrap, args.seed, progress=False, lag=False, rows="moving")
-    print("with --rows moving (every row faster than 2 % of the joint's speed, the reference fit's kind), sigma / Fc: "
-          + ", ".join(f"{j.params['sigma']:.3g} / {j.params['Fc']:.3g}" for j in moving.joints)
-          + f"; rows per joint {moving.info['rows']}")
+    sliding, _, _ = identify(args.bootstrap, args.seed, progress=False, lag=False, rows="sliding")
+    print("with --rows sliding (the rows near rest left out, friction columns through the torque's filter), "
+          "sigma / Fc: " + ", ".join(f"{j.params['sigma']:.3g} / {j.params['Fc']:.3g}"
+                                     + (" S" if np.isfinite(j.params["Vs"]) else "") for j in sliding.joints)
+          + f"; rows per joint {sliding.info['rows']}")
     if not args.quick:
         _sensitivity((20.0, 40.0, 80.0, 150.0), 20, args.seed)
         _motor6(50, args.seed)

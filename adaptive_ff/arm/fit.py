@@ -22,12 +22,12 @@ known there, and the filter spreads the friction's jump at a reversal over that 
 weighted by the inverse of its residual standard deviation from an unweighted first fit (IDIM-WLS; Gautier &
 Poignet, IFAC SYSID 2001). Two choices of rows and friction columns (``rows``, :data:`ROWS`):
 
-``rows="moving"``: those rows, and friction columns of the filtered velocity, while the filtered
+``rows="moving"`` (the default): those rows, and friction columns of the filtered velocity, while the filtered
 torque holds the filtered friction ``F(w)``, which differs from ``F`` of the filtered velocity where the map is
 curved (the Stribeck hump, crossed in tens of milliseconds): over 8 arms of ``benchmarks/arm_coverage.py`` (24
 joint fits) ``Fc`` came out 0.6 % high and ``sigma`` 1.2 % low on average.
 
-``rows="sliding"`` (the default): the friction columns pass the torque's filter too
+``rows="sliding"``: the friction columns pass the torque's filter too
 (:func:`adaptive_ff.arm.arm_log.parallel_filter`): ``g`` and ``h`` are built at the log's rate from the velocity
 low-passed at :data:`FRICTION_VELOCITY_FACTOR` times the cutoff (the measured velocity where the log has one, else
 the positions' derivative; that light filter keeps the noise from scattering the sign near rest), then filtered
@@ -83,12 +83,14 @@ N_VS = 8
 #: identification's cutoff (at most 0.8 times the log's Nyquist frequency); also the velocity that marks rest.
 FRICTION_VELOCITY_FACTOR = 5.0
 #: The rows and friction columns of :func:`identify_arm` (its ``rows``, ``identify-arm --rows``; module docstring):
-#: ``"moving"`` the filtered velocity's own, ``"sliding"`` (the default) those where the joint slides, with the
+#: ``"moving"`` (the default) the filtered velocity's own, ``"sliding"`` those where the joint slides, with the
 #: columns through the torque's filter and the likelihood-ratio bound scaled by the bootstrap's variance ratio.
 ROWS = ("moving", "sliding")
-#: :func:`identify_arm`'s ``rows`` unless given (``identify-arm --rows``): the one with no interval too narrow on
-#: simulated arms (``docs/your_arm.md``, "Intervals").
-DEFAULT_ROWS = "sliding"
+#: :func:`identify_arm`'s ``rows`` unless given (``identify-arm --rows``): the rows with which every joint of the
+#: planar example arm keeps its Stribeck term (``compare-arm`` and ``export-c`` need each joint's ``Vs``), a 10 ms
+#: lag is read inside its intervals and the TX40's ``Fc`` agrees with its reference; ``"sliding"``'s intervals are
+#: the calibrated ones (``docs/your_arm.md``, "Rows").
+DEFAULT_ROWS = "moving"
 #: Rows (``rows="sliding"``) within this many cutoff periods of where a joint sticks or reverses are left out: the
 #: forward-backward 4th-order Butterworth carries 2 % of a torque step one period from it, 0.5 % at 1.5 periods.
 REST_WINDOW = 1.5
@@ -491,10 +493,10 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
         with :class:`adaptive_ff.arm.lag.LagOptions`' defaults (10 bootstrap refits per joint, the joints in 2
         worker processes), or those options; False: ``tau`` NaN with a warning (the costliest stage skipped).
     rows : {"moving", "sliding"}, keyword-only
-        The joints' rows (:data:`ROWS`; module docstring; ``identify-arm --rows``): ``"moving"`` where the
-        filtered velocity is above 2 % of the joint's 99th-percentile speed and one cutoff period from its
+        The joints' rows (:data:`ROWS`; module docstring; ``identify-arm --rows``): ``"moving"`` (default) where
+        the filtered velocity is above 2 % of the joint's 99th-percentile speed and one cutoff period from its
         reversals, friction columns of the filtered velocity, the profile's bound scaled by the bootstrap's block
-        length; ``"sliding"`` (default) also :data:`REST_WINDOW` cutoff periods from where the joint sticks,
+        length; ``"sliding"`` also :data:`REST_WINDOW` cutoff periods from where the joint sticks,
         friction columns through the torque's filter, the bound scaled by the bootstrap's variance ratio (their
         coverage: ``docs/your_arm.md``).
 

@@ -103,12 +103,12 @@ def register(sub) -> None:
                    help="fit (default): identify the base parameters with the friction; urdf: use the URDF's "
                         "inertias as given and fit only the friction")
     i.add_argument("--rows", choices=ROWS, default=DEFAULT_ROWS,
-                   help=f"each joint's rows (default {DEFAULT_ROWS}): sliding leaves out the rows within "
-                        f"{REST_WINDOW:g} cutoff periods of where the joint sticks or reverses and puts the friction "
-                        "columns through the torque's filter (no interval too narrow on simulated arms, "
-                        "docs/your_arm.md); moving keeps every row "
-                        "faster than 2 %% of the joint's 99th-percentile speed and one cutoff period from a "
-                        "reversal, friction columns of the filtered velocity")
+                   help=f"each joint's rows (default {DEFAULT_ROWS}): moving keeps every row faster than 2 %% of "
+                        "the joint's 99th-percentile speed and one cutoff period from a reversal, friction columns "
+                        f"of the filtered velocity; sliding also leaves out the rows within {REST_WINDOW:g} cutoff "
+                        "periods of where the joint sticks and puts the friction columns through the torque's "
+                        "filter (the calibrated intervals on simulated arms, but more joints without a Stribeck "
+                        "term: docs/your_arm.md)")
     i.add_argument("--no-lag", dest="no_lag", action="store_true",
                    help="skip the friction lag (tau null): its output-error fits are most of the run's CPU time")
     i.add_argument("--lag-bootstrap", dest="lag_bootstrap", type=at_least_2, default=10, metavar="N",

@@ -57,7 +57,7 @@ def _three_arms(rows: str) -> dict:
 
 @pytest.mark.slow
 def test_coverage_on_three_arms():
-    """Seeds 0-2 with 50 bootstrap refits (9 joints, 33 base parameters), rows="moving" (``--rows moving``),
+    """Seeds 0-2 with 50 bootstrap refits (9 joints, 33 base parameters), rows="moving" (identify_arm's default),
     measured inside before the Vs range reached the grid's next values (and Fs its estimates there): J 5, Fc 8, Fs 6,
     sigma 8, offset 9 of 9, Vs 6 of 9 (every joint has a Vs interval, also where the Stribeck term is dropped), base
     30 of 33. Below the nominal 95 % for J, Fs and Vs (the benchmark's 10 arms: J 0.67, Fc 0.90, Fs 0.70, sigma
@@ -70,9 +70,9 @@ def test_coverage_on_three_arms():
 
 @pytest.mark.slow
 def test_coverage_on_three_arms_sliding_rows():
-    """The same arms with rows="sliding" (the default; the calibrated intervals of docs/your_arm.md): measured inside
-    J, Fc, Fs, sigma, offset and Vs 9 of 9, base 32 of 33; the bounds are one below those counts (the offsets' at
-    them), so a change that narrows the intervals further or brings back a bias fails."""
+    """The same arms with rows="sliding" (``--rows sliding``, the calibrated intervals of docs/your_arm.md):
+    measured inside J, Fc, Fs, sigma, offset and Vs 9 of 9, base 32 of 33; the bounds are one below those counts
+    (the offsets' at them), so a change that narrows the intervals further or brings back a bias fails."""
     total = _three_arms("sliding")
     low = {"J": 8, "Fc": 8, "Fs": 8, "sigma": 8, "offset": 9, "Vs": 8, "base": 31}
     assert all(total[k][0] >= v for k, v in low.items()), total

@@ -53,9 +53,7 @@ def _identified(urdf, friction, armature, path, *, duration=12.0):
     """identify-arm's JSON of a simulated log of the arm, written to ``path``."""
     arm = load_urdf(urdf)
     log = simulate_arm(arm, friction, run=ArmSimulation(duration=duration, substeps=1), seed=1, armature=armature)
-    # rows="moving": every joint keeps its Stribeck term there, and compare-arm needs each joint's Vs (the default
-    # rows drop the planar arm's wrist term: docs/your_arm.md, "Not yet")
-    path.write_text(json.dumps(identify_arm(log, arm, n_bootstrap=5, lag=False, rows="moving").to_dict()))
+    path.write_text(json.dumps(identify_arm(log, arm, n_bootstrap=5, lag=False).to_dict()))
     return arm
 
 
@@ -163,7 +161,7 @@ def test_six_axis_arm_eta_per_joint(tmp_path):
     arm = load_urdf(urdf)
     log = sim(arm, fr, run=ArmSimulation(duration=20.0, substeps=1), seed=1, armature=armature)
     path = tmp_path / "tx40.json"
-    path.write_text(json.dumps(identify_arm(log, arm, n_bootstrap=20, rows="moving").to_dict()))  # every joint's Vs
+    path.write_text(json.dumps(identify_arm(log, arm, n_bootstrap=20).to_dict()))
     res = compare_arm(ArmPlant(arm, fr, armature=armature), path, duration=40.0, seed=0)
     rn, rf = res.rms("none"), res.rms("frictionless")
     for name in res.joints:

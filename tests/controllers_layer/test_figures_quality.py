@@ -285,7 +285,7 @@ def test_arm_comparison_figure():
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "arm.json"
         # the comparison figure needs the designs, not the lags: the lag fits (the costliest stage) are skipped
-        path.write_text(json.dumps(identify_arm(log, arm, n_bootstrap=10, lag=False, rows="moving").to_dict()))
+        path.write_text(json.dumps(identify_arm(log, arm, n_bootstrap=10, lag=False).to_dict()))
         res = compare_arm(ArmPlant(arm, fr, armature=[0.2, 0.1, 0.05]), path, duration=2.0, seed=0)
     check_figure(res.plot().figure, "ArmComparison.plot")
 
