@@ -59,8 +59,8 @@ def arm_json(result, tmp_path_factory):
 
 
 def test_each_joint_lag_inside_its_interval(result):
-    """The default rows ("moving"). Measured (ms): shoulder 9.74 [9.46, 10.01], elbow 10.27 [9.53, 11.02], wrist 9.72 [8.72,
-    10.71]; each estimate within 4 % of the true 10 ms, the true lag inside every interval."""
+    """The default rows ("moving"). Measured (ms): shoulder 9.74 [9.46, 10.01], elbow 10.27 [9.53, 11.02], wrist
+    9.72 [8.72, 10.71]; each estimate within 4 % of the true 10 ms, the true lag inside every interval."""
     for joint in result.joints:
         lo, hi = joint.interval95["tau"]
         assert lo <= TAU <= hi, (joint.name, joint.params["tau"], (lo, hi))

@@ -104,8 +104,8 @@ def test_sliding_rows_read_a_higher_coulomb_level(result_sliding, result, j):
     """rows="sliding" (``--rows sliding``) leaves out the rows within 1.5 cutoff periods of where the joint is slower
     than 2 % of its 99th-percentile speed or reverses (7 % of each joint's rows here); the friction in those rows
     lies below the line through the others, so the Coulomb level comes out higher and the viscous slope lower than
-    with the default rows ("moving"). Measured: Fc 1.044-1.073 times and sigma 0.964-0.981 times the moving rows' on joints 1-4
-    (Fc 7.9-11.5 % above the reference, sigma 2.7-7.1 % below); no Stribeck term kept."""
+    with the default rows ("moving"). Measured: Fc 1.044-1.073 times and sigma 0.964-0.981 times the moving rows'
+    on joints 1-4 (Fc 7.9-11.5 % above the reference, sigma 2.7-7.1 % below); no Stribeck term kept."""
     p, q = result_sliding.joints[j].params, result.joints[j].params
     assert 1.03 < p["Fc"] / q["Fc"] < 1.09 and 0.95 < p["sigma"] / q["sigma"] < 0.99
     assert result_sliding.info["row_selection"] == "sliding" and result.info["row_selection"] == "moving"
