@@ -8,7 +8,7 @@ and a friction per joint drawn from its seed (:func:`draw_friction`: ``Fc`` 0.5-
 simulated for ``--duration`` s (:func:`adaptive_ff.arm.simulate.simulate_arm`: its PI per joint on a multisine,
 sensor noise, the seed's reference phases and noise) and identified as ``adaptive-ff identify-arm`` identifies it
 (:func:`adaptive_ff.arm.fit.identify_arm`, default cutoff, ``--bootstrap`` refits, bootstrap seed = the arm's,
-its ``rows`` from ``--rows``, default ``"moving"`` as identify_arm's; without the lag fit: the arms have none).
+its ``rows`` from ``--rows``, default identify_arm's (``"moving"``); without the lag fit: the arms have none).
 
 Printed per parameter: the share of the true values inside their 95 % interval, over every joint of every arm
 (``J`` against Pinocchio's ``M_jj`` at the log's mean position with the armatures; ``Vs`` only where the Stribeck
@@ -89,6 +89,7 @@ def wilson(hits: int, n: int, z: float = 1.959963984540054) -> tuple:
 
 def main(argv=None) -> int:
     """Run the benchmark (module docstring) and print the coverage table."""
+    from adaptive_ff.arm.fit import DEFAULT_ROWS, ROWS
     from adaptive_ff.arm.robot import load_urdf
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -96,8 +97,8 @@ def main(argv=None) -> int:
     ap.add_argument("--start", type=int, default=0, help="first seed (default 0)")
     ap.add_argument("--bootstrap", type=int, default=200, help="bootstrap refits per arm (default 200)")
     ap.add_argument("--duration", type=float, default=20.0, help="log length in s (default 20)")
-    ap.add_argument("--rows", choices=("moving", "sliding"), default="moving",
-                    help="identify_arm's rows (default moving, its default)")
+    ap.add_argument("--rows", choices=ROWS, default=DEFAULT_ROWS,
+                    help=f"identify_arm's rows (default {DEFAULT_ROWS}, its default)")
     args = ap.parse_args(argv)
     arm = load_urdf(URDF)
     total = {k: [0, 0] for k in PARAMETERS + ("base",)}

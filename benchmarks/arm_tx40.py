@@ -52,11 +52,12 @@ DQ_LIM = (0.05009095, 0.05009095, 0.07504916, 0.0715585, 0.05585054, 0.12217305)
 
 
 def identify(bootstrap: int = 200, seed: int = 0, cutoff: float = CUTOFF_ARM, progress: bool | None = None,
-             motor6_removed: bool = False, lag: bool = True):
+             motor6_removed: bool = False, lag: bool = True, rows: str | None = None):
     """``(ArmIdentification, cpu s, wall s)`` of the TX40 log as ``adaptive-ff identify-arm --cutoff CUTOFF``
     runs it; ``motor6_removed``: the reference values' terms of the motor of joint 6 (``Iam6, fvm6, fsm6`` on
     ``ddq5 + ddq6``, ``dq5 + dq6``, ``sgn(dq5 + dq6)``) subtracted from the torques of joints 5 and 6 first;
-    ``lag``: with the friction lag fits (``identify-arm``'s default; False: ``--no-lag``)."""
+    ``lag``: with the friction lag fits (``identify-arm``'s default; False: ``--no-lag``); ``rows``: identify_arm's
+    (``--rows``; None: its default)."""
     from adaptive_ff.arm.arm_log import read_arm_log
     from adaptive_ff.arm.fit import identify_arm
     from adaptive_ff.arm.robot import load_urdf
@@ -69,7 +70,8 @@ def identify(bootstrap: int = 200, seed: int = 0, cutoff: float = CUTOFF_ARM, pr
     if motor6_removed:
         log = _without_motor6(log, cutoff)
     res = gear.with_coupling_warnings(identify_arm(log, arm, cutoff=cutoff, n_bootstrap=bootstrap, seed=seed,
-                                                   progress=progress, lag=lag))
+                                                   progress=progress, lag=lag,
+                                                   **({} if rows is None else {"rows": rows})))
     return res, _cpu() - c0, time.perf_counter() - w0
 
 
@@ -250,6 +252,11 @@ def main(argv=None) -> None:
           + ("" if fig is None else f"; FIGAROH replay {fig_cpu:.1f} s CPU"))
     _, cpu0, wall0 = identify(args.bootstrap, args.seed, progress=False, lag=False)
     print(f"the same with --no-lag: {cpu0:.1f} s CPU, {wall0:.1f} s wall")
+    sliding, _, _ = identify(args.bootstrap, args.seed, progress=False, lag=False, rows="sliding")
+    print("with --rows sliding (the rows near rest left out, friction columns through the torque's filter), "
+          "sigma / Fc: " + ", ".join(f"{j.params['sigma']:.3g} / {j.params['Fc']:.3g}"
+                                     + (" S" if np.isfinite(j.params["Vs"]) else "") for j in sliding.joints)
+          + f"; rows per joint {sliding.info['rows']}")
     if not args.quick:
         _sensitivity((20.0, 40.0, 80.0, 150.0), 20, args.seed)
         _motor6(50, args.seed)

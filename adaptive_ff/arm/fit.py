@@ -34,10 +34,12 @@ the positions' derivative; that light filter keeps the noise from scattering the
 and decimated as the torque is; the viscous and offset columns are the filtered velocity and one. And a joint's
 friction is the map of its velocity only while it slides: where it sticks or reverses, the friction is whatever
 holds it (a simulated joint without a lag chatters about zero velocity there), and the torque's filter carries that
-into the rows within about one cutoff period. So the rows within one cutoff period of every log sample where the
-lightly filtered velocity is slower than the 2 % speed or changes sign are left out as well. What either choice
+into the rows around it: 2 % of a torque step one cutoff period from it, 0.5 % at :data:`REST_WINDOW` (1.5)
+periods. So the rows within 1.5 cutoff periods of every log sample where the lightly filtered velocity is slower
+than the 2 % speed or changes sign are left out as well (at one period the rest left in those rows drew the
+Stribeck profile to a wrong shape: ``docs/your_arm.md``, "Intervals"). What either choice
 measures (coverage over simulated arms, the Stäubli TX40, a lagged arm) and the alternatives measured are on
-``docs/your_arm.md`` ("Sliding rows", "Not yet").
+``docs/your_arm.md`` ("Rows", "Intervals", "Not yet").
 
 Intervals: the circular block bootstrap of the samples (each sample's rows of all joints, regressor and torque,
 resampled together in blocks of consecutive samples, the block by the Politis-White rule on the residuals,
@@ -51,7 +53,7 @@ number of refits). A joint's friction intervals are widened to cover that band a
 weighted residual sum of squares is within the 95 % likelihood-ratio bound of the best, the residuals' correlation
 counted by the bootstrap's block length (``rows="moving"``) or (``rows="sliding"``) by the ratio of the bootstrap
 variance to the white-noise least-squares variance (the largest over the joints' ``Fc, Fs, sigma``;
-:func:`_variance_ratio`; why: ``docs/your_arm.md``, "Sliding rows").
+:func:`_variance_ratio`; why: ``docs/your_arm.md``, "Intervals").
 
 Then each joint's friction lag ``tau`` (eq. 1) by the package's output-error fit on its rigid-body-removed record,
 where the log determines it, and each joint's velocity noise (:mod:`adaptive_ff.arm.lag`).
@@ -70,7 +72,7 @@ from adaptive_ff.arm.lag import JointLag, LagOptions, joint_lags, lag_records, v
 from adaptive_ff.arm.result import ArmIdentification, ArmJoint
 from adaptive_ff.arm.robot import ArmModel
 
-__all__ = ["identify_arm", "DELTA_GRID", "N_VS", "FRICTION_VELOCITY_FACTOR", "ROWS"]
+__all__ = ["identify_arm", "DELTA_GRID", "N_VS", "FRICTION_VELOCITY_FACTOR", "ROWS", "DEFAULT_ROWS", "REST_WINDOW"]
 
 #: Stribeck shape factors of the profile grid.
 DELTA_GRID = (0.5, 1.0, 2.0)
@@ -80,10 +82,18 @@ N_VS = 8
 #: Cutoff of the velocity the friction columns are built from, before the torque's filter, as a multiple of the
 #: identification's cutoff (at most 0.8 times the log's Nyquist frequency); also the velocity that marks rest.
 FRICTION_VELOCITY_FACTOR = 5.0
-#: The rows and friction columns of :func:`identify_arm` (its ``rows``; module docstring): ``"moving"`` (the default)
-#: the filtered velocity's own, ``"sliding"`` those where the joint slides, with the columns through the torque's
-#: filter and the likelihood-ratio bound scaled by the bootstrap's variance ratio.
+#: The rows and friction columns of :func:`identify_arm` (its ``rows``, ``identify-arm --rows``; module docstring):
+#: ``"moving"`` (the default) the filtered velocity's own, ``"sliding"`` those where the joint slides, with the
+#: columns through the torque's filter and the likelihood-ratio bound scaled by the bootstrap's variance ratio.
 ROWS = ("moving", "sliding")
+#: :func:`identify_arm`'s ``rows`` unless given (``identify-arm --rows``): the rows with which every joint of the
+#: planar example arm keeps its Stribeck term (``compare-arm`` and ``export-c`` need each joint's ``Vs``), a 10 ms
+#: lag is read inside its intervals and the TX40's ``Fc`` agrees with its reference; ``"sliding"``'s intervals are
+#: the calibrated ones (``docs/your_arm.md``, "Rows").
+DEFAULT_ROWS = "moving"
+#: Rows (``rows="sliding"``) within this many cutoff periods of where a joint sticks or reverses are left out: the
+#: forward-backward 4th-order Butterworth carries 2 % of a torque step one period from it, 0.5 % at 1.5 periods.
+REST_WINDOW = 1.5
 #: Condition number of the column-scaled weighted regressor above which the result carries a conditioning warning.
 COND_WARN = 1e3
 #: Friction columns per joint: Fc (g), Fs (h), sigma (w), offset (1).
@@ -234,7 +244,7 @@ def _rows_and_columns(log: ArmLog, cutoff: float, filtered, vmin, rows: str) -> 
     if rows == "moving":
         return keep_j, _MapColumns(dq)
     pf, w_fast = parallel_filter(log, cutoff), _fast_velocity(log, cutoff)
-    window = int(round(1.0 / (cutoff * float(np.median(np.diff(log.t))))))
+    window = int(round(REST_WINDOW / (cutoff * float(np.median(np.diff(log.t))))))
     return keep_j & ~_near_rest(pf, w_fast, np.maximum(vmin, 1e-9), window), _FrictionColumns(pf, w_fast, dq)
 
 
@@ -457,7 +467,7 @@ def _sign_warnings(name: str, params: dict) -> list:
 @threadpool_limits.wrap(limits=1, user_api="blas")  # the many small products of the fits: one thread each
 def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, n_bootstrap: int = 200,
                  seed: int = 0, rigid_body: str = "fit", progress: bool | None = False,
-                 lag: bool | LagOptions = True, rows: str = "moving") -> ArmIdentification:
+                 lag: bool | LagOptions = True, rows: str = DEFAULT_ROWS) -> ArmIdentification:
     """Identify the rigid body and every joint's friction of ``arm`` from ``log`` (module docstring: the method).
 
     Parameters
@@ -483,11 +493,12 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
         with :class:`adaptive_ff.arm.lag.LagOptions`' defaults (10 bootstrap refits per joint, the joints in 2
         worker processes), or those options; False: ``tau`` NaN with a warning (the costliest stage skipped).
     rows : {"moving", "sliding"}, keyword-only
-        The joints' rows (:data:`ROWS`; module docstring): ``"moving"`` (default) where the filtered velocity is
-        above 2 % of the joint's 99th-percentile speed and one cutoff period from its reversals, friction columns
-        of the filtered velocity, the profile's bound scaled by the bootstrap's block length; ``"sliding"`` also
-        one cutoff period from where the joint sticks, friction columns through the torque's filter, the bound
-        scaled by the bootstrap's variance ratio (the calibrated intervals of ``docs/your_arm.md``).
+        The joints' rows (:data:`ROWS`; module docstring; ``identify-arm --rows``): ``"moving"`` (default) where
+        the filtered velocity is above 2 % of the joint's 99th-percentile speed and one cutoff period from its
+        reversals, friction columns of the filtered velocity, the profile's bound scaled by the bootstrap's block
+        length; ``"sliding"`` also :data:`REST_WINDOW` cutoff periods from where the joint sticks,
+        friction columns through the torque's filter, the bound scaled by the bootstrap's variance ratio (their
+        coverage: ``docs/your_arm.md``).
 
     Returns
     -------

@@ -53,7 +53,7 @@ def run(args) -> int:
         result = identify_arm(log, arm, cutoff=args.cutoff, n_bootstrap=args.bootstrap, seed=args.seed,
                               rigid_body=args.rigid_body, progress=progress_from_args(args),
                               lag=False if args.no_lag else LagOptions(n_bootstrap=args.lag_bootstrap,
-                                                                       workers=args.workers))
+                                                                       workers=args.workers), rows=args.rows)
     if gear is not None:
         result = gear.with_coupling_warnings(result)
     out = write_plot(result.to_dict(), args.plot, "arm_friction.png", lambda: result.plot()[0].figure)
@@ -70,6 +70,7 @@ def register(sub) -> None:
     """Add the ``identify-arm`` subcommand to an argparse subparsers object."""
     import argparse
 
+    from adaptive_ff.arm.fit import DEFAULT_ROWS, REST_WINDOW, ROWS
     from controllers.cli.data import nonnegative_int, positive_int, seed_type
 
     def at_least_2(text):
@@ -101,6 +102,13 @@ def register(sub) -> None:
     i.add_argument("--rigid-body", dest="rigid_body", choices=("fit", "urdf"), default="fit",
                    help="fit (default): identify the base parameters with the friction; urdf: use the URDF's "
                         "inertias as given and fit only the friction")
+    i.add_argument("--rows", choices=ROWS, default=DEFAULT_ROWS,
+                   help=f"each joint's rows (default {DEFAULT_ROWS}): moving keeps every row faster than 2 %% of "
+                        "the joint's 99th-percentile speed and one cutoff period from a reversal, friction columns "
+                        f"of the filtered velocity; sliding also leaves out the rows within {REST_WINDOW:g} cutoff "
+                        "periods of where the joint sticks and puts the friction columns through the torque's "
+                        "filter (the calibrated intervals on simulated arms, but more joints without a Stribeck "
+                        "term: docs/your_arm.md)")
     i.add_argument("--no-lag", dest="no_lag", action="store_true",
                    help="skip the friction lag (tau null): its output-error fits are most of the run's CPU time")
     i.add_argument("--lag-bootstrap", dest="lag_bootstrap", type=at_least_2, default=10, metavar="N",

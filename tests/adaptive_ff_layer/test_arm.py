@@ -218,6 +218,30 @@ def test_cli_identify_arm_json(log_csv, capsys):
     assert abs(d["joints"][0]["Fc"] - 2.0) < 0.04
 
 
+def test_cli_rows_choice(log_csv, capsys):
+    """``--rows`` takes identify_arm's ``ROWS`` (the tuple its keyword is checked against) and passes the choice on:
+    ``--rows sliding`` gives identify_arm(rows="sliding")'s result, no flag identify_arm's default (``"moving"``,
+    recorded in info.row_selection); a value outside ``ROWS`` exits 2 naming the flag, the value and the choices."""
+    from adaptive_ff.arm.fit import DEFAULT_ROWS, ROWS
+
+    assert ROWS == ("moving", "sliding") and DEFAULT_ROWS == "moving"
+    args = [str(log_csv), "--urdf", str(URDF), "--json", "--quiet", "--bootstrap", "20", "--no-lag"]
+    expected = identify_arm(read_arm_log(log_csv, 3), load_urdf(URDF), n_bootstrap=20, lag=False,
+                            rows="sliding").to_dict()
+    assert main(["identify-arm", *args, "--rows", "sliding"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["joints"] == expected["joints"] and d["info"]["row_selection"] == "sliding"
+    assert main(["identify-arm", *args]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["info"]["row_selection"] == "moving" and d["joints"] != expected["joints"]
+    with pytest.raises(SystemExit) as exc:
+        main(["identify-arm", *args, "--rows", "fast"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "--rows" in err and "'fast'" in err
+    assert all(repr(r) in err for r in ROWS), err
+
+
 def test_cli_identify_arm_text(log_csv, capsys):
     assert main(["identify-arm", str(log_csv), "--urdf", str(URDF), "--quiet", "--bootstrap", "20",
                  "--no-lag"]) == 0

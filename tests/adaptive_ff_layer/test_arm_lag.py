@@ -47,6 +47,11 @@ def result(arm, log):
 
 
 @pytest.fixture(scope="module")
+def result_sliding(arm, log):
+    return identify_arm(log, arm, n_bootstrap=20, seed=1, rows="sliding")
+
+
+@pytest.fixture(scope="module")
 def arm_json(result, tmp_path_factory):
     path = tmp_path_factory.mktemp("lag") / "arm.json"
     path.write_text(json.dumps(result.to_dict(), allow_nan=False))
@@ -54,8 +59,8 @@ def arm_json(result, tmp_path_factory):
 
 
 def test_each_joint_lag_inside_its_interval(result):
-    """Measured (ms): shoulder 9.74 [9.46, 10.01], elbow 10.27 [9.53, 11.02], wrist 9.72 [8.72, 10.71]; each
-    estimate within 4 % of the true 10 ms, the true lag inside every interval."""
+    """The default rows ("moving"). Measured (ms): shoulder 9.74 [9.46, 10.01], elbow 10.27 [9.53, 11.02], wrist
+    9.72 [8.72, 10.71]; each estimate within 4 % of the true 10 ms, the true lag inside every interval."""
     for joint in result.joints:
         lo, hi = joint.interval95["tau"]
         assert lo <= TAU <= hi, (joint.name, joint.params["tau"], (lo, hi))
@@ -63,6 +68,17 @@ def test_each_joint_lag_inside_its_interval(result):
         assert hi - lo < 0.3 * TAU  # determined: an interval far from zero
         assert joint.lag_info["samples"] > 9000 and joint.lag_info["rate"] == pytest.approx(1000.0)
         assert not [w for w in joint.warnings if w.parameter == "tau"]
+
+
+@pytest.mark.xfail(strict=True, reason="rows='sliding': the whole-arm fit reads part of the shoulder's lag as "
+                   "Stribeck shape (Vs 0.205 rad/s, delta 2 for the true 0.1 and 1), which its lag fit holds")
+def test_each_joint_lag_inside_its_interval_sliding_rows(result_sliding):
+    """rows="sliding" (``--rows sliding``). Measured: the shoulder 9.33 [9.18, 9.48] ms, outside; with the true
+    shape held its lag fit gives 9.69 [9.29, 10.09] ms."""
+    assert result_sliding.info["row_selection"] == "sliding"
+    for joint in result_sliding.joints:
+        lo, hi = joint.interval95["tau"]
+        assert lo <= TAU <= hi, (joint.name, joint.params["tau"], (lo, hi))
 
 
 def test_noise_estimate_per_joint(result, arm_json):
