@@ -71,6 +71,7 @@ from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states, par
 from adaptive_ff.arm.lag import JointLag, LagOptions, joint_lags, lag_records, velocity_noise
 from adaptive_ff.arm.result import ArmIdentification, ArmJoint
 from adaptive_ff.arm.robot import ArmModel
+from adaptive_ff.arm.rows import DEFAULT_ROWS, REST_WINDOW, ROWS
 
 __all__ = ["identify_arm", "DELTA_GRID", "N_VS", "FRICTION_VELOCITY_FACTOR", "ROWS", "DEFAULT_ROWS", "REST_WINDOW"]
 
@@ -82,18 +83,6 @@ N_VS = 8
 #: Cutoff of the velocity the friction columns are built from, before the torque's filter, as a multiple of the
 #: identification's cutoff (at most 0.8 times the log's Nyquist frequency); also the velocity that marks rest.
 FRICTION_VELOCITY_FACTOR = 5.0
-#: The rows and friction columns of :func:`identify_arm` (its ``rows``, ``identify-arm --rows``; module docstring):
-#: ``"moving"`` (the default) the filtered velocity's own, ``"sliding"`` those where the joint slides, with the
-#: columns through the torque's filter and the likelihood-ratio bound scaled by the bootstrap's variance ratio.
-ROWS = ("moving", "sliding")
-#: :func:`identify_arm`'s ``rows`` unless given (``identify-arm --rows``): the rows with which every joint of the
-#: planar example arm keeps its Stribeck term (``compare-arm`` and ``export-c`` need each joint's ``Vs``), a 10 ms
-#: lag is read inside its intervals and the TX40's ``Fc`` agrees with its reference; ``"sliding"``'s intervals are
-#: the calibrated ones (``docs/your_arm.md``, "Rows").
-DEFAULT_ROWS = "moving"
-#: Rows (``rows="sliding"``) within this many cutoff periods of where a joint sticks or reverses are left out: the
-#: forward-backward 4th-order Butterworth carries 2 % of a torque step one period from it, 0.5 % at 1.5 periods.
-REST_WINDOW = 1.5
 #: Condition number of the column-scaled weighted regressor above which the result carries a conditioning warning.
 COND_WARN = 1e3
 #: Friction columns per joint: Fc (g), Fs (h), sigma (w), offset (1).

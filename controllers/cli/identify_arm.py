@@ -70,7 +70,7 @@ def register(sub) -> None:
     """Add the ``identify-arm`` subcommand to an argparse subparsers object."""
     import argparse
 
-    from adaptive_ff.arm.fit import DEFAULT_ROWS, REST_WINDOW, ROWS
+    from adaptive_ff.arm.rows import DEFAULT_ROWS, REST_WINDOW, ROWS
     from controllers.cli.data import nonnegative_int, positive_int, seed_type
 
     def at_least_2(text):
