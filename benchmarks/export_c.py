@@ -39,7 +39,7 @@ import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent / "tests"))
 from export_c_helpers import (ID_JSON, IDENTIFIED, REPLAY_C, U_MAX, closed_loop_log, compile_export,  # noqa: E402
-                              deviation)
+                              deviation, package_ff)
 
 #: Times the replay of the log: ``time LOG REPEATS``; prints the median over the repeats of the ns per period of a
 #: whole replay, then of one replay timed period by period (timer included) the median, 99.9th and 99.99th
@@ -116,23 +116,6 @@ int main(int argc, char **argv)
 """
 
 
-def _package_ff(path, log, feedforward_only: bool = False):
-    """The package's compensation for the log: aff_replay of the package's C core (cffi)."""
-    from adaptive_ff._caff import ffi, lib
-    from controllers.experiments.compensator_file import compensator_from_file
-
-    comp, _ = compensator_from_file(path, u_max=U_MAX, feedforward_only=feedforward_only)
-    u, w, wr = (np.ascontiguousarray(x, dtype=np.float64) for x in log[:3])
-    c = ffi.new("aff *")
-    if lib.aff_init(c, comp.drive_config()) != lib.AFF_OK:
-        raise RuntimeError("aff_init refused the package's compensator")
-    uff = np.empty(len(u))
-    buf = ffi.from_buffer
-    lib.aff_replay(c, buf("double[]", u), buf("double[]", w), ffi.NULL, buf("double[]", wr), buf("double[]", uff),
-                   ffi.NULL, len(u))
-    return uff
-
-
 def _callgrind(exe: pathlib.Path, log_file: pathlib.Path, out: pathlib.Path, n: int) -> float | None:
     """Instructions per period inside the replay loop (callgrind, collection toggled on in main's loop only)."""
     vg = shutil.which("valgrind")
@@ -192,7 +175,7 @@ def measure(periods: int = 10**6, repeat: int = 5, callgrind_periods: int = 100_
             if cli(["export-c", "--from", str(id_file), "--u-max", str(U_MAX), "--out", str(out), "--quiet",
                     *extra]) != 0:
                 raise RuntimeError("adaptive-ff export-c failed on the benchmark's identification")
-            ref = _package_ff(id_file, log, feedforward_only=bool(extra))
+            ref = package_ff(id_file, log, feedforward_only=bool(extra))
             res.setdefault("max_uff", float(np.max(np.abs(ref))))
             for label, flags in (("double", []), ("float", ["-DAFF_FLOAT"])):
                 name = f"{kind} {label}"

@@ -36,7 +36,8 @@ import tempfile
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent / "tests"))
-from export_c_helpers import ID_JSON, IDENTIFIED, U_MAX, closed_loop_log, compile_export, deviation  # noqa: E402
+from export_c_helpers import (ID_JSON, IDENTIFIED, U_MAX, closed_loop_log, compile_export, deviation,  # noqa: E402
+                              package_ff)
 
 #: Columns of the state record the replay program writes per period.
 COLS = ["out", "ff_out", "w_hat", "z_hat", "n_in_band", "u_ff", "gain", "g", "sup", "used0", "used1", "used2",
@@ -213,24 +214,6 @@ def apply_variant(export: pathlib.Path, variant: str) -> None:
         (export / "aff_config.c").write_text(cfg)
         return
     raise ValueError(f"--variant {variant!r}: expected as-exported, ud or p0=X")
-
-
-def package_ff(path: pathlib.Path, log, feedforward_only: bool) -> np.ndarray:
-    """The package's compensation (N·m per period) for the log: ``aff_replay`` of the package's C core with the
-    compensator of the identification file ``path`` (as benchmarks/export_c.py)."""
-    from adaptive_ff._caff import ffi, lib
-    from controllers.experiments.compensator_file import compensator_from_file
-
-    comp, _ = compensator_from_file(path, u_max=U_MAX, feedforward_only=feedforward_only)
-    u, w, wr = (np.ascontiguousarray(x, dtype=np.float64) for x in log[:3])
-    c = ffi.new("aff *")
-    if lib.aff_init(c, comp.drive_config()) != lib.AFF_OK:
-        raise RuntimeError("aff_init refused the package's compensator")
-    uff = np.empty(len(u))
-    buf = ffi.from_buffer
-    lib.aff_replay(c, buf("double[]", u), buf("double[]", w), ffi.NULL, buf("double[]", wr), buf("double[]", uff),
-                   ffi.NULL, len(u))
-    return uff
 
 
 def replay(periods: int, kind: str, variant: str) -> dict:

@@ -112,6 +112,31 @@ def closed_loop_log(options, n: int = N) -> tuple:
     return r.u, r.w_meas, r.w_ref, r.u_ff
 
 
+def package_ff(path, log, feedforward_only: bool = False) -> np.ndarray:
+    """The package's compensation (N·m, an array of the log's length) for ``log`` (``(u, w_meas, w_ref, ...)``, arrays
+    of one length): ``aff_replay`` of the package's C core (cffi) on mode ``adaptive``'s compensator configured from
+    the identification file ``path`` (``--feedforward-only``'s with ``feedforward_only``), ``u_max`` :data:`U_MAX`.
+
+    Raises
+    ------
+    RuntimeError
+        ``aff_init`` refuses the package's compensator.
+    """
+    from adaptive_ff._caff import ffi, lib
+    from controllers.experiments.compensator_file import compensator_from_file
+
+    comp, _ = compensator_from_file(path, u_max=U_MAX, feedforward_only=feedforward_only)
+    u, w, wr = (np.ascontiguousarray(x, dtype=np.float64) for x in log[:3])
+    c = ffi.new("aff *")
+    if lib.aff_init(c, comp.drive_config()) != lib.AFF_OK:
+        raise RuntimeError("aff_init refused the package's compensator")
+    uff = np.empty(len(u))
+    buf = ffi.from_buffer
+    lib.aff_replay(c, buf("double[]", u), buf("double[]", w), ffi.NULL, buf("double[]", wr), buf("double[]", uff),
+                   ffi.NULL, len(u))
+    return uff
+
+
 def deviation(uff: np.ndarray, ref: np.ndarray, level: float) -> dict:
     """How far a feedforward sequence ``uff`` is from ``ref`` (N·m, arrays of one length), in N·m.
 
