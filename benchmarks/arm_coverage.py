@@ -45,15 +45,25 @@ def draw_friction(n: int, seed: int) -> list:
     return out
 
 
-def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, rows: str = "moving") -> dict:
-    """``{parameter: [hits, count]}`` of one arm (seed ``seed``), the base parameters under ``"base"``."""
+def arm_log(arm, seed: int, *, duration: float = 20.0):
+    """The simulated log (:class:`adaptive_ff.arm.arm_log.ArmLog`) of the arm of seed ``seed``: its friction
+    :func:`draw_friction`, ``duration`` seconds (s) of the planar arm with the armatures :data:`ARMATURE`."""
+    from adaptive_ff.arm.simulate import ArmSimulation, simulate_arm
+
+    return simulate_arm(arm, draw_friction(arm.n, seed), run=ArmSimulation(duration=duration, substeps=1), seed=seed,
+                        armature=ARMATURE)
+
+
+def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, rows: str = "moving",
+             log=None) -> dict:
+    """``{parameter: [hits, count]}`` of one arm (seed ``seed``), the base parameters under ``"base"``; ``log``: its
+    :func:`arm_log` if already simulated (default None: simulated here)."""
     import pinocchio as pin
 
     from adaptive_ff.arm.fit import identify_arm
-    from adaptive_ff.arm.simulate import ArmSimulation, simulate_arm
 
     friction = draw_friction(arm.n, seed)
-    log = simulate_arm(arm, friction, run=ArmSimulation(duration=duration, substeps=1), seed=seed, armature=ARMATURE)
+    log = arm_log(arm, seed, duration=duration) if log is None else log
     res = identify_arm(log, arm, seed=seed, n_bootstrap=n_bootstrap, lag=False, rows=rows)  # no lag simulated
     model = arm.model.copy()
     model.armature = ARMATURE.copy()

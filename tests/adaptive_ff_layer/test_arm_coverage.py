@@ -42,11 +42,24 @@ def test_wilson_interval_against_its_closed_form():
     assert all(math.isnan(x) for x in arm_coverage.wilson(0, 0))
 
 
-def _three_arms(rows: str) -> dict:
-    arm = load_urdf(arm_coverage.URDF)
+@pytest.fixture(scope="module")
+def planar():
+    """The planar arm and ``log(seed)``: the benchmark's simulated log of that seed, simulated once per module."""
+    arm, logs = load_urdf(arm_coverage.URDF), {}
+
+    def log(seed: int):
+        if seed not in logs:
+            logs[seed] = arm_coverage.arm_log(arm, seed)
+        return logs[seed]
+
+    return arm, log
+
+
+def _three_arms(planar, rows: str) -> dict:
+    arm, log = planar
     total = {}
     for seed in (0, 1, 2):
-        for k, (h, c) in arm_coverage.arm_hits(arm, seed, n_bootstrap=50, rows=rows).items():
+        for k, (h, c) in arm_coverage.arm_hits(arm, seed, n_bootstrap=50, rows=rows, log=log(seed)).items():
             total.setdefault(k, [0, 0])
             total[k][0] += h
             total[k][1] += c
@@ -56,29 +69,29 @@ def _three_arms(rows: str) -> dict:
 
 
 @pytest.mark.slow
-def test_coverage_on_three_arms():
+def test_coverage_on_three_arms(planar):
     """Seeds 0-2 with 50 bootstrap refits (9 joints, 33 base parameters), rows="moving" (identify_arm's default),
     measured inside before the Vs range reached the grid's next values (and Fs its estimates there): J 5, Fc 8, Fs 6,
     sigma 8, offset 9 of 9, Vs 6 of 9 (every joint has a Vs interval, also where the Stribeck term is dropped), base
     30 of 33. Below the nominal 95 % for J, Fs and Vs (the benchmark's 10 arms: J 0.67, Fc 0.90, Fs 0.70, sigma
     0.90, offset 0.97, Vs 0.70, base 0.90; docs/your_arm.md); the bounds are one below those counts, so a change
     that narrows the intervals further fails."""
-    total = _three_arms("moving")
+    total = _three_arms(planar, "moving")
     low = {"J": 4, "Fc": 7, "Fs": 5, "sigma": 7, "offset": 9, "Vs": 5, "base": 29}
     assert all(total[k][0] >= v for k, v in low.items()), total
 
 
 @pytest.mark.slow
-def test_coverage_on_three_arms_sliding_rows():
+def test_coverage_on_three_arms_sliding_rows(planar):
     """The same arms with rows="sliding" (``--rows sliding``, the calibrated intervals of docs/your_arm.md):
     measured inside J, Fc, Fs, sigma, offset and Vs 9 of 9, base 32 of 33; the bounds are one below those counts
     (the offsets' at them), so a change that narrows the intervals further or brings back a bias fails."""
-    total = _three_arms("sliding")
+    total = _three_arms(planar, "sliding")
     low = {"J": 8, "Fc": 8, "Fs": 8, "sigma": 8, "offset": 9, "Vs": 8, "base": 31}
     assert all(total[k][0] >= v for k, v in low.items()), total
 
 
-def test_first_arm_known_friction_inside_its_intervals():
+def test_first_arm_known_friction_inside_its_intervals(planar):
     """The benchmark's first arm (seed 0, 20 s, 50 refits, no lag fit, rows="sliding"): every joint's drawn Fc,
     sigma and offset inside their 95 % intervals; Fc and sigma within 3 % of the truth (measured: within 1.9 % and
     1.8 %, the shoulder's Fc of 0.58 N·m the farthest) and J within 0.5 % of M_jj (measured: within 0.35 %; the
@@ -89,12 +102,9 @@ def test_first_arm_known_friction_inside_its_intervals():
     import pinocchio as pin
 
     from adaptive_ff.arm.fit import identify_arm
-    from adaptive_ff.arm.simulate import ArmSimulation, simulate_arm
 
-    arm = load_urdf(arm_coverage.URDF)
+    arm, log = planar[0], planar[1](0)
     friction = arm_coverage.draw_friction(arm.n, 0)
-    log = simulate_arm(arm, friction, run=ArmSimulation(duration=20.0, substeps=1), seed=0,
-                       armature=arm_coverage.ARMATURE)
     res = identify_arm(log, arm, seed=0, n_bootstrap=50, lag=False, rows="sliding")
     model = arm.model.copy()
     model.armature = arm_coverage.ARMATURE.copy()
