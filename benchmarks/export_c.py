@@ -27,7 +27,6 @@ through the export. Printed, for the double and the float (``-DAFF_FLOAT``) buil
 from __future__ import annotations
 
 import argparse
-import json
 import pathlib
 import re
 import shutil
@@ -38,8 +37,8 @@ import tempfile
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent / "tests"))
-from export_c_helpers import (ID_JSON, IDENTIFIED, REPLAY_C, U_MAX, closed_loop_log, compile_export,  # noqa: E402
-                              deviation, package_ff)
+from export_c_helpers import (IDENTIFIED, REPLAY_C, c_compiler, compile_export, deviation,  # noqa: E402
+                              export_folder, package_ff, replay_inputs)
 
 #: Times the replay of the log: ``time LOG REPEATS``; prints the median over the repeats of the ns per period of a
 #: whole replay, then of one replay timed period by period (timer included) the median, 99.9th and 99.99th
@@ -155,26 +154,13 @@ def measure(periods: int = 10**6, repeat: int = 5, callgrind_periods: int = 100_
     RuntimeError
         No C compiler (``cc`` or ``gcc``) on PATH.
     """
-    from controllers.experiments.compensator_file import compensator_from_file
-    from controllers.cli.main import main as cli
-
-    cc = shutil.which("cc") or shutil.which("gcc")
-    if cc is None:
-        raise RuntimeError("no C compiler (cc or gcc) on PATH")
+    cc = c_compiler()
     with tempfile.TemporaryDirectory() as tmp:
         tmp = pathlib.Path(tmp)
-        id_file = tmp / "id.json"
-        id_file.write_text(json.dumps(ID_JSON))
-        _, s = compensator_from_file(id_file, u_max=U_MAX)
-        log = closed_loop_log(s["options"], periods)
-        log_file = tmp / "log.bin"
-        np.concatenate([np.asarray(x, dtype=np.float64) for x in log[:3]]).tofile(log_file)
+        id_file, log, log_file = replay_inputs(tmp, periods)
         res = {"periods": periods, "compiler": cc, "Fc": IDENTIFIED["Fc"], "builds": {}}
         for kind, extra in EXPORTS.items():
-            out = tmp / kind.replace(" ", "_")
-            if cli(["export-c", "--from", str(id_file), "--u-max", str(U_MAX), "--out", str(out), "--quiet",
-                    *extra]) != 0:
-                raise RuntimeError("adaptive-ff export-c failed on the benchmark's identification")
+            out = export_folder(id_file, tmp / kind.replace(" ", "_"), *extra)
             ref = package_ff(id_file, log, feedforward_only=bool(extra))
             res.setdefault("max_uff", float(np.max(np.abs(ref))))
             for label, flags in (("double", []), ("float", ["-DAFF_FLOAT"])):

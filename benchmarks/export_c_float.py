@@ -25,10 +25,8 @@ sources; ``p0=X``: the export's ``P0`` set to X and its trace bound ``P_max`` to
 from __future__ import annotations
 
 import argparse
-import json
 import pathlib
 import re
-import shutil
 import subprocess
 import sys
 import tempfile
@@ -36,8 +34,8 @@ import tempfile
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent / "tests"))
-from export_c_helpers import (ID_JSON, IDENTIFIED, U_MAX, closed_loop_log, compile_export, deviation,  # noqa: E402
-                              package_ff)
+from export_c_helpers import (IDENTIFIED, c_compiler, compile_export, deviation, export_folder,  # noqa: E402
+                              package_ff, replay_inputs)
 
 #: Columns of the state record the replay program writes per period.
 COLS = ["out", "ff_out", "w_hat", "z_hat", "n_in_band", "u_ff", "gain", "g", "sup", "used0", "used1", "used2",
@@ -220,25 +218,12 @@ def replay(periods: int, kind: str, variant: str) -> dict:
     """Export, replay the log through both builds of ``variant``; the package's compensation of the unedited
     export as the reference. Returns ``{"ref", "log", "double": (state, rls), "float": (state, rls)}``: state an
     array (periods, len(COLS)), rls an array (updates, 57): period, theta, P row-major."""
-    from controllers.cli.main import main as cli
-    from controllers.experiments.compensator_file import compensator_from_file
-
-    cc = shutil.which("cc") or shutil.which("gcc")
-    if cc is None:
-        raise RuntimeError("no C compiler (cc or gcc) on PATH")
+    cc = c_compiler()
     ff_only = kind == "feedforward-only"
     with tempfile.TemporaryDirectory() as tmp:
         tmp = pathlib.Path(tmp)
-        id_file = tmp / "id.json"
-        id_file.write_text(json.dumps(ID_JSON))
-        _, s = compensator_from_file(id_file, u_max=U_MAX)
-        log = closed_loop_log(s["options"], periods)
-        log_file = tmp / "log.bin"
-        np.concatenate([np.asarray(x, dtype=np.float64) for x in log[:3]]).tofile(log_file)
-        out = tmp / "export"
-        if cli(["export-c", "--from", str(id_file), "--u-max", str(U_MAX), "--out", str(out), "--quiet",
-                *(["--feedforward-only"] if ff_only else [])]) != 0:
-            raise RuntimeError("adaptive-ff export-c failed on the benchmark's identification")
+        id_file, log, log_file = replay_inputs(tmp, periods)
+        out = export_folder(id_file, tmp / "export", *(["--feedforward-only"] if ff_only else []))
         apply_variant(out, variant)
         res = {"ref": package_ff(id_file, log, ff_only), "log": np.asarray(log[:3])}
         for label, flags in (("double", []), ("float", ["-DAFF_FLOAT"])):

@@ -112,6 +112,56 @@ def closed_loop_log(options, n: int = N) -> tuple:
     return r.u, r.w_meas, r.w_ref, r.u_ff
 
 
+def c_compiler() -> str:
+    """The system C compiler the replays are built with: ``cc``, else ``gcc``.
+
+    Raises
+    ------
+    RuntimeError
+        Neither is on PATH.
+    """
+    import shutil
+
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        raise RuntimeError("no C compiler (cc or gcc) on PATH")
+    return cc
+
+
+def replay_inputs(tmp: Path, periods: int = N) -> tuple:
+    """The benchmarks' identification and log in the folder ``tmp``: ``(id_file, log, log_file)``, with
+    ``id_file`` :data:`ID_JSON` written as ``tmp/id.json``, ``log`` :func:`closed_loop_log` of ``periods`` periods
+    of the compensator it configures, ``log_file`` its ``u, w, w_ref`` (float64, one block after the other) as
+    ``tmp/log.bin``, the input of :data:`REPLAY_C`."""
+    import json
+
+    from controllers.experiments.compensator_file import compensator_from_file
+
+    id_file = tmp / "id.json"
+    id_file.write_text(json.dumps(ID_JSON))
+    _, s = compensator_from_file(id_file, u_max=U_MAX)
+    log = closed_loop_log(s["options"], periods)
+    log_file = tmp / "log.bin"
+    np.concatenate([np.asarray(x, dtype=np.float64) for x in log[:3]]).tofile(log_file)
+    return id_file, log, log_file
+
+
+def export_folder(id_file: Path, out: Path, *flags: str) -> Path:
+    """``adaptive-ff export-c --from id_file --u-max U_MAX --out out --quiet FLAGS`` (e.g. ``--feedforward-only``):
+    the folder ``out``.
+
+    Raises
+    ------
+    RuntimeError
+        The command fails.
+    """
+    from controllers.cli.main import main as cli
+
+    if cli(["export-c", "--from", str(id_file), "--u-max", str(U_MAX), "--out", str(out), "--quiet", *flags]) != 0:
+        raise RuntimeError("adaptive-ff export-c failed on the benchmark's identification")
+    return out
+
+
 def package_ff(path, log, feedforward_only: bool = False) -> np.ndarray:
     """The package's compensation (N·m, an array of the log's length) for ``log`` (``(u, w_meas, w_ref, ...)``, arrays
     of one length): ``aff_replay`` of the package's C core (cffi) on mode ``adaptive``'s compensator configured from
