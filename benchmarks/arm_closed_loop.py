@@ -1,13 +1,13 @@
 """The whole arm in closed loop: eta per joint of compare-arm on a simulated 6-axis arm (the Staubli TX40's URDF).
 
-Run:  python -m benchmarks.arm_closed_loop [--duration 40] [--seed 0] [--id-seed 1]
+Run:  python -m benchmarks.arm_closed_loop [--duration 40] [--seed 0] [--id-seed 1] [--rows moving|sliding]
 
 The arm: ``data/tx40/tx40.urdf`` (the six links' inertias of the Staubli TX40) with the armatures of
 :data:`ARMATURE` and a lagged Stribeck friction per joint (:data:`FRICTION`: ``Fc`` and ``sigma`` near the
 reference values of ``docs/benchmarks/arm_tx40.md``, ``Fs = 1.3 Fc``, ``Vs`` 0.1-0.15 rad/s, ``delta = 1``, a lag
 ``tau = 2 ms``). What the loops get is what a user has: a 20 s log of the arm (:func:`adaptive_ff.arm.simulate.
 simulate_arm`, seed ``--id-seed``) identified by :func:`adaptive_ff.arm.fit.identify_arm` (as ``identify-arm
---json``; 20 bootstrap refits: the intervals do not enter the loops), then
+--json``, its rows ``--rows``, default identify_arm's; 20 bootstrap refits: the intervals do not enter the loops), then
 :func:`controllers.experiments.compare_arm.compare_arm` on the same arm in the modes none, fixed, adaptive,
 adaptive-ff, the peers dob and canudas, and frictionless (``--duration`` s, seed ``--seed``, the drives' limits the URDF's effort limits).
 Printed: each joint's identified inertia and PI, the second-half RMS error per joint and mode, eta per joint, the
@@ -37,9 +37,9 @@ def friction():
     return [JointFriction(Fc=c, Fs=1.3 * c, Vs=v, delta=1.0, sigma=s, tau=0.002) for c, s, v in LEVELS]
 
 
-def identify(path, *, seed: int = 1, duration: float = 20.0, n_bootstrap: int = 20):
-    """Simulate the arm's identification log, identify it and write the ``identify-arm --json`` to ``path``;
-    returns the :class:`adaptive_ff.arm.robot.ArmModel`."""
+def identify(path, *, seed: int = 1, duration: float = 20.0, n_bootstrap: int = 20, rows: str | None = None):
+    """Simulate the arm's identification log, identify it (``rows``: identify_arm's, None its default) and write
+    the ``identify-arm --json`` to ``path``; returns the :class:`adaptive_ff.arm.robot.ArmModel`."""
     from adaptive_ff.arm.fit import identify_arm
     from adaptive_ff.arm.robot import load_urdf
     from adaptive_ff.arm.simulate import ArmSimulation, simulate_arm
@@ -47,7 +47,8 @@ def identify(path, *, seed: int = 1, duration: float = 20.0, n_bootstrap: int = 
     arm = load_urdf(URDF)
     log = simulate_arm(arm, friction(), run=ArmSimulation(duration=duration, substeps=1), seed=seed,
                        armature=ARMATURE)
-    Path(path).write_text(json.dumps(identify_arm(log, arm, n_bootstrap=n_bootstrap).to_dict()))
+    res = identify_arm(log, arm, n_bootstrap=n_bootstrap, **({} if rows is None else {"rows": rows}))
+    Path(path).write_text(json.dumps(res.to_dict()))
     return arm
 
 
@@ -62,6 +63,7 @@ def _cpu() -> float:
 def main(argv=None) -> int:
     """Run the benchmark (module docstring) and print its table."""
     from adaptive_ff.arm.simulate import ArmPlant
+    from adaptive_ff.arm.rows import DEFAULT_ROWS, ROWS
     from controllers.experiments.compare_arm import ARM_MODES, compare_arm
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -70,17 +72,19 @@ def main(argv=None) -> int:
     ap.add_argument("--id-seed", dest="id_seed", type=int, default=1, help="seed of the identification log")
     ap.add_argument("--start", action="store_true",
                     help="start the adaptive modes from each joint's identified map and lag (compare-arm --start)")
+    ap.add_argument("--rows", choices=ROWS, default=DEFAULT_ROWS,
+                    help=f"identify_arm's rows (default {DEFAULT_ROWS}, its default)")
     args = ap.parse_args(argv)
     t0 = _cpu()
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "arm.json"
-        arm = identify(path, seed=args.id_seed)
+        arm = identify(path, seed=args.id_seed, rows=args.rows)
         t1 = _cpu()
         res = compare_arm(ArmPlant(arm, friction(), armature=ARMATURE), path, duration=args.duration,
                           seed=args.seed, modes=ARM_MODES, start=args.start)
     t2 = _cpu()
     print(f"compare-arm on the simulated TX40 (6 joints): identification log seed {args.id_seed}, closed loop "
-          f"{args.duration:g} s seed {args.seed}")
+          f"{args.duration:g} s seed {args.seed}, rows {args.rows}")
     for d in res.designs:
         sw = res.runs["adaptive"].info[d.name].get("t_switch_in")
         print(f"  {d.name}: J_design {d.J_design:.4g} kg·m², Kp {d.Kp:.4g}, Ki {d.Ki:.4g}, u_max {d.u_max:g} N·m; "

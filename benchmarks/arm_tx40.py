@@ -1,6 +1,6 @@
 """A real arm: the Staubli TX40 log of thanhndv212/figaroh-examples identified by ``identify-arm``.
 
-Run:  python -m benchmarks.arm_tx40 [--bootstrap 200] [--seed 0] [--no-figaroh]
+Run:  python -m benchmarks.arm_tx40 [--bootstrap 200] [--seed 0] [--no-figaroh] [--rows moving|sliding]
 
 The log (``data/tx40/``: 45 000 samples at 5 kHz of the six motor angles and motor torques, the URDF and the
 transmission: ratios, the wrist coupling of joints 5 and 6, the joint 2 and 3 offsets) goes through
@@ -30,6 +30,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+from adaptive_ff.arm.rows import DEFAULT_ROWS, ROWS
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "data" / "tx40"
@@ -204,19 +206,19 @@ def table(res, fig) -> str:
     return "\n".join(lines)
 
 
-def _sensitivity(cutoffs, bootstrap: int, seed: int) -> None:
+def _sensitivity(cutoffs, bootstrap: int, seed: int, rows: str) -> None:
     print(f"\nsigma / Fc per cutoff ({bootstrap} bootstrap refits; S: a Stribeck term kept, Fs then Stribeck's)")
     print(f"{'cutoff':>7}" + "".join(f"{f'joint_{i + 1}':>16}" for i in range(6)) + f"{'CPU [s]':>9}")
     for c in cutoffs:
-        res, cpu, _ = identify(bootstrap, seed, cutoff=c, progress=False, lag=False)
+        res, cpu, _ = identify(bootstrap, seed, cutoff=c, progress=False, lag=False, rows=rows)
         cells = [f"{j.params['sigma']:.3g} / {j.params['Fc']:.3g}{' S' if np.isfinite(j.params['Vs']) else ''}"
                  for j in res.joints]
         print(f"{c:>7g}" + "".join(f"{x:>16}" for x in cells) + f"{cpu:>9.1f}")
     print(f"{'ref':>7}" + "".join(f"{f'{v:.3g} / {c:.3g}':>16}" for v, c in zip(REFERENCE['fv'], REFERENCE['fs'])))
 
 
-def _motor6(bootstrap: int, seed: int) -> None:
-    res, _, _ = identify(bootstrap, seed, motor6_removed=True, progress=False, lag=False)
+def _motor6(bootstrap: int, seed: int, rows: str) -> None:
+    res, _, _ = identify(bootstrap, seed, motor6_removed=True, progress=False, lag=False, rows=rows)
     print(f"\nthe reference motor-6 terms subtracted from joints 5 and 6 first ({bootstrap} bootstrap refits):")
     for i in (4, 5):
         j = res.joints[i]
@@ -231,10 +233,13 @@ def main(argv=None) -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--no-figaroh", action="store_true", help="skip the FIGAROH IDIM-LS replay")
     ap.add_argument("--quick", action="store_true", help="only the first table")
+    ap.add_argument("--rows", choices=ROWS, default=DEFAULT_ROWS,
+                    help=f"identify-arm's rows (default {DEFAULT_ROWS}, its default); the other's values follow")
     args = ap.parse_args(argv)
-    res, cpu, wall = identify(args.bootstrap, args.seed)
+    res, cpu, wall = identify(args.bootstrap, args.seed, rows=args.rows)
     fig, fig_cpu = (None, 0.0) if args.no_figaroh else figaroh_idim_ls()
-    print(f"identify-arm --cutoff {CUTOFF_ARM:g}; units: sigma, fv in N·m·s/rad; Fc, fs in N·m (joint side)")
+    print(f"identify-arm --cutoff {CUTOFF_ARM:g}" + ("" if args.rows == DEFAULT_ROWS else f" --rows {args.rows}")
+          + "; units: sigma, fv in N·m·s/rad; Fc, fs in N·m (joint side)")
     print(table(res, fig))
     stribeck = [f"{j.name} Fs {j.params['Fs']:.3g} Vs {j.params['Vs']:.3g}" for j in res.joints
                 if np.isfinite(j.params["Vs"])]
@@ -250,16 +255,19 @@ def main(argv=None) -> None:
     print(f"identify-arm on 45000 samples x 6 joints: {cpu:.1f} s CPU, {wall:.1f} s wall "
           f"({args.bootstrap} bootstrap refits, the lag fits {sum(1 for j in res.joints if j.lag_info)} joints)"
           + ("" if fig is None else f"; FIGAROH replay {fig_cpu:.1f} s CPU"))
-    _, cpu0, wall0 = identify(args.bootstrap, args.seed, progress=False, lag=False)
+    _, cpu0, wall0 = identify(args.bootstrap, args.seed, progress=False, lag=False, rows=args.rows)
     print(f"the same with --no-lag: {cpu0:.1f} s CPU, {wall0:.1f} s wall")
-    sliding, _, _ = identify(args.bootstrap, args.seed, progress=False, lag=False, rows="sliding")
-    print("with --rows sliding (the rows near rest left out, friction columns through the torque's filter), "
-          "sigma / Fc: " + ", ".join(f"{j.params['sigma']:.3g} / {j.params['Fc']:.3g}"
-                                     + (" S" if np.isfinite(j.params["Vs"]) else "") for j in sliding.joints)
-          + f"; rows per joint {sliding.info['rows']}")
+    other = next(r for r in ROWS if r != args.rows)
+    alt, _, _ = identify(args.bootstrap, args.seed, progress=False, lag=False, rows=other)
+    how = {"sliding": "the rows near rest left out, friction columns through the torque's filter",
+           "moving": "every row above the 2 % speed, friction columns of the filtered velocity"}[other]
+    print(f"with --rows {other} ({how}), sigma / Fc: "
+          + ", ".join(f"{j.params['sigma']:.3g} / {j.params['Fc']:.3g}" + (" S" if np.isfinite(j.params["Vs"]) else "")
+                      for j in alt.joints)
+          + f"; rows per joint {alt.info['rows']}")
     if not args.quick:
-        _sensitivity((20.0, 40.0, 80.0, 150.0), 20, args.seed)
-        _motor6(50, args.seed)
+        _sensitivity((20.0, 40.0, 80.0, 150.0), 20, args.seed, args.rows)
+        _motor6(50, args.seed, args.rows)
 
 
 if __name__ == "__main__":

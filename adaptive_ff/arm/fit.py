@@ -645,4 +645,5 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> Arm
     rel = {k: hw[k] / max(abs(p[k]), 1e-12) for k in ("Fc", "sigma")}
     warn = _joint_warnings(arm, j, q, dq, keep_j, Vs[j], rel, lag) + _sign_warnings(arm.names[j], params)
     return ArmJoint(name=arm.names[j], params=params, interval95=interval, std=std, warnings=tuple(warn),
-                    noise_std=float(noise), lag_info=lag.info or {})
+                    noise_std=float(noise), lag_info=lag.info or {},
+                    min_speed=float(np.min(np.abs(dq[keep_j[:, j], j]))))

@@ -44,6 +44,10 @@ class ArmJoint:
         stick band of its compensator is three times it); NaN if none.
     lag_info : dict
         The lag fit's ``samples``, ``rate``, ``n_simulations``, ``predictor``, ``estimate`` (empty where none ran).
+    min_speed : float
+        The lowest speed of the joint's rows (rad/s, the filtered velocity; ``excitation.min_speed``): the
+        placeholder ``Vs`` of its compensator where it keeps no Stribeck term
+        (:func:`adaptive_ff.identification.stribeck_fit.placeholder_shape`); NaN if unknown.
     """
 
     name: str
@@ -53,6 +57,7 @@ class ArmJoint:
     warnings: tuple = ()
     noise_std: float = math.nan
     lag_info: dict = field(default_factory=dict)
+    min_speed: float = math.nan
 
     def friction(self, w) -> np.ndarray:
         """The identified static friction ``F(w)`` (eq. 3) plus the offset, at velocities ``w`` (rad/s)."""
@@ -65,14 +70,15 @@ class ArmJoint:
 
     def to_dict(self) -> dict:
         """The joint's entry: the layout of ``adaptive-ff identify --json``'s top level (``method`` ``"arm"``) plus
-        ``name``, ``interval95``, ``excitation: {"noise_std"}`` (as ``identify --json``'s) and ``lag`` (the lag
+        ``name``, ``interval95``, ``excitation: {"noise_std", "min_speed"}`` (``noise_std`` as ``identify
+        --json``'s) and ``lag`` (the lag
         fit's ``lag_info``); warnings as ``{"code", "parameter", "message"}``; non-finite values are null."""
         from plant.results import json_safe
 
         return {"name": self.name, "method": "arm", **{k: _num(self.params[k]) for k in JOINT_PARAMETERS},
                 "std": {k: _num(v) for k, v in self.std.items()},
                 "interval95": {k: [_num(lo), _num(hi)] for k, (lo, hi) in self.interval95.items()},
-                "excitation": {"noise_std": _num(self.noise_std)}, "lag": json_safe(dict(self.lag_info)),
+                "excitation": {"noise_std": _num(self.noise_std), "min_speed": _num(self.min_speed)}, "lag": json_safe(dict(self.lag_info)),
                 "warnings": [w.to_dict() for w in self.warnings]}
 
 

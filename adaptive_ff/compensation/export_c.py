@@ -46,7 +46,7 @@ from adaptive_ff.io.output import staged_folder
 from plant.errors import ParameterError
 
 __all__ = ["export_c", "export_settings", "ExportSettings", "JointExport", "CExport", "c_closure", "amalgamate", "struct_initializer",
-           "field_comments", "c_literal", "macro_lines", "banner", "prepare_out", "EXPORT_FILES", "CSRC_DIRS", "ROOT_HEADER", "MACRO_DOC",
+           "field_comments", "c_literal", "c_comment", "macro_lines", "banner", "prepare_out", "EXPORT_FILES", "CSRC_DIRS", "ROOT_HEADER", "MACRO_DOC",
            "MACRO_FIELDS", "MAKEFILE", "W_MAX_DEFAULT", "HOLD_TIME_DEFAULT"]
 
 #: The folders the compensator's C sources live in, searched in this order for a quoted ``#include``.
@@ -314,6 +314,25 @@ def struct_initializer(ffi, value, ctype, *, macros=None, indent: str = "    ", 
     return "\n".join(lines)
 
 
+def c_comment(text: str, indent: str = "") -> str:
+    """``text`` as a C comment of lines at most 116 characters wide, each starting with ``indent``, ending in a
+    newline (``·`` written ``*``, ``*/`` ``* /``: the comment stays ASCII-safe and closed once).
+
+    Parameters
+    ----------
+    text : str
+        The comment's words (wrapped at spaces).
+    indent : str
+        Prefix of every line.
+
+    Returns
+    -------
+    str
+    """
+    text = str(text).replace("·", "*").replace("*/", "* /")
+    return "\n".join(_comment_lines(text, indent)) + "\n"
+
+
 def _comment_lines(text: str, indent: str, width: int = 116) -> list:
     """``text`` as a C comment of lines at most ``width`` wide."""
     out, cur = [], ""
@@ -467,7 +486,7 @@ def _config_header(config: dict, source: str) -> str:
     return "\n".join(lines)
 
 
-def _config_source(init: str, source: str, big: list) -> str:
+def _config_source(init: str, source: str, big: list, notes=()) -> str:
     no_float = ""
     if big:
         no_float = ("#ifdef AFF_FLOAT\n#error \"fields beyond the float range (" + ", ".join(big[:4])
@@ -481,6 +500,7 @@ def _config_source(init: str, source: str, big: list) -> str:
               " * forgetting factors, counts). Edit a value and rebuild; the fields written with a macro take it from\n"
               " * aff_config.h. Numbers have 17 significant digits at most (the shortest that give back the same\n"
               " * double). */\n"
+            + "".join(c_comment(f"Note: {n}") for n in notes)
             + f"const aff_config AFF_CONFIG = {init};\n")
 
 
@@ -750,6 +770,10 @@ class JointExport:
     name : str
         The joint's name (the identification's, e.g. the URDF's; an arm's export names its joints by it);
         default ``"joint"``.
+    notes : tuple of str
+        What the configuration assumed (e.g. the placeholders ``Vs``, ``delta`` of a joint without a Stribeck
+        term, :func:`controllers.experiments.compensator_file.compensator_from_file`'s ``notes``): written in the
+        comment above the joint's settings in ``aff_config.c`` and in the export's ``notes``; default none.
     """
 
     compensator: object
@@ -759,6 +783,7 @@ class JointExport:
     Ki: float
     friction: dict = field(default_factory=dict)
     name: str = "joint"
+    notes: tuple = ()
 
 
 def export_settings(joint: JointExport, *, w_max: float = W_MAX_DEFAULT,
@@ -871,7 +896,7 @@ def export_c(joint: JointExport, out, *, w_max: float = W_MAX_DEFAULT, hold_time
     init = struct_initializer(ffi, st.drive[0], ffi.typeof(st.drive).item, macros=st.macros, too_large_for_float=big,
                               comments=field_comments(headers))
     h_text, c_text = amalgamate(headers, sources, origin)
-    notes = []
+    notes = [str(n) for n in joint.notes]
     if big:
         notes.append(f"fields beyond the float range ({', '.join(big)}): the export builds in double only")
         if float_default:
@@ -882,7 +907,7 @@ def export_c(joint: JointExport, out, *, w_max: float = W_MAX_DEFAULT, hold_time
         example = example.replace(key, c_literal(v))
     texts = {"aff.h": h_text, "aff.c": c_text,
              "aff_config.h": _config_header(config, origin),
-             "aff_config.c": _config_source(init, origin, big),
+             "aff_config.c": _config_source(init, origin, big, joint.notes),
              "example_loop.c": example, "Makefile": MAKEFILE.replace("@FLOAT@", "1" if float_default else "0")}
     with staged_folder(out, "out") as staged:  # all files appear at once, or the previous ones stay
         for name in EXPORT_FILES:

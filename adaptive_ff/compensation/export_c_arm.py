@@ -28,7 +28,7 @@ import re
 from plant.errors import ParameterError
 
 from adaptive_ff.compensation.export_c import (EXPORT_FILES, HOLD_TIME_DEFAULT, MACRO_FIELDS, MAKEFILE,
-                                               W_MAX_DEFAULT, CExport, amalgamate, banner, c_closure, c_literal,
+                                               W_MAX_DEFAULT, CExport, amalgamate, banner, c_closure, c_comment, c_literal,
                                                JointExport, export_settings, field_comments, macro_lines,
                                                prepare_out, struct_initializer)
 
@@ -97,13 +97,13 @@ def _config_header(names, ids, common, per_joint, origin) -> str:
     return "\n".join(lines)
 
 
-def _config_source(inits, ids, names, origin, big) -> str:
+def _config_source(inits, ids, names, origin, big, notes) -> str:
     no_float = ""
     if big:
         no_float = ("#ifdef AFF_FLOAT\n#error \"fields beyond the float range (" + ", ".join(big[:4])
                     + "): this export cannot be built with AFF_FLOAT\"\n#endif\n\n")
-    body = ",\n".join(f"    /* joint {_string_literal(n)} */\n    [AFF_JOINT_{i}] = {init}"
-                      for i, n, init in zip(ids, names, inits))
+    body = ",\n".join(f"    /* joint {_string_literal(n)} */\n" + "".join(c_comment(f"Note: {x}", "    ") for x in nj)
+                      + f"    [AFF_JOINT_{i}] = {init}" for i, n, init, nj in zip(ids, names, inits, notes))
     return (banner("aff_config.c", "AFF_CONFIGS, the drive's settings per joint as the package configured them.",
                    origin, "yours to edit (a value, then rebuild)")
             + '#include "aff_config.h"\n\n' + no_float
@@ -202,7 +202,7 @@ def export_c_arm(joints, out, *, w_max: float = W_MAX_DEFAULT, hold_time: float 
     h_text, c_text = amalgamate(headers, sources, origin)
     texts = {"aff.h": h_text, "aff.c": c_text,
              "aff_config.h": _config_header(names, ids, common, per_joint, origin),
-             "aff_config.c": _config_source(inits, ids, names, origin, big),
+             "aff_config.c": _config_source(inits, ids, names, origin, big, [j.notes for j in joints]),
              "example_loop.c": _example(joints, settings, ids, common, per_joint),
              "Makefile": MAKEFILE.replace("@FLOAT@", "1" if float_default else "0")}
     with staged_folder(out, "out") as staged:  # all files appear at once, or the previous ones stay
@@ -211,7 +211,9 @@ def export_c_arm(joints, out, *, w_max: float = W_MAX_DEFAULT, hold_time: float 
     config = dict(common)
     for pj in per_joint:
         config.update({k: v for k, (v, _) in pj.items()})
-    notes = [f"fields beyond the float range ({', '.join(big)}): the export builds in double only"] if big else []
+    notes = [str(n) for j in joints for n in j.notes]
+    if big:
+        notes.append(f"fields beyond the float range ({', '.join(big)}): the export builds in double only")
     return CExport(out=out, files=tuple(out / n for n in EXPORT_FILES), config=config,
                    headers=tuple(p.name for p in headers), sources=tuple(p.name for p in sources),
                    float_default=bool(float_default), notes=tuple(notes), joints=tuple(names))

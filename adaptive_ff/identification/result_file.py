@@ -64,13 +64,16 @@ class IdentifiedJoint:
         ``"closed_loop"``).
     params : dict
         ``{"J": kg·m², "Fc": N·m, "Fs": N·m, "sigma": N·m·s/rad, "tau": s, "offset": N·m}``, floats (NaN where the
-        file has ``null``: a non-finite estimate).
+        file has ``null``: a non-finite estimate; ``Fs`` also where the file has none).
     stderr : dict
         Standard errors of ``params`` the file gives (same keys and units; may be empty).
     Vs, delta : float or None
         The Stribeck velocity (rad/s) and shape factor, None for the Coulomb + viscous structure.
     noise_std : float or None
         Velocity noise estimate of the record (rad/s, ``excitation.noise_std``), None if absent.
+    min_speed : float or None
+        The lowest speed the identification used (rad/s, ``excitation.min_speed``; ``identify-arm --json``'s
+        entries give it), None if absent.
     layout : str
         One of :data:`LAYOUTS`: where the values were found.
     source : str
@@ -83,6 +86,7 @@ class IdentifiedJoint:
     Vs: float | None = None
     delta: float | None = None
     noise_std: float | None = None
+    min_speed: float | None = None
     layout: str = "top"
     source: str = "identification"
 
@@ -207,15 +211,18 @@ def identification_from_dict(d, *, where="identification") -> IdentifiedJoint:
         layout, src, prefix, std = "eq4", d, "", d.get("std")
     if not isinstance(method, str):
         method = "paper"
-    params = {k: _value(src, k, where, prefix) for k in JOINT_KEYS[:-1]}
+    params = {k: _value(src, k, where, prefix, required=k != "Fs") for k in JOINT_KEYS[:-1]}
+    if params["Fs"] is None:  # absent as null: no Stribeck level (Fs = Fc where a compensator is built)
+        params["Fs"] = math.nan
     off = _value(src, "offset", where, prefix, required=False)
     params["offset"] = 0.0 if off is None else off
     Vs = _value(d, "Vs", where, "", required=False)
     delta = _value(d, "delta", where, "", required=False)
     exc = d.get("excitation")
-    noise = _value(exc, "noise_std", where, "excitation.", required=False) if isinstance(exc, dict) else None
+    noise, slowest = ((_value(exc, k, where, "excitation.", required=False) for k in ("noise_std", "min_speed"))
+                      if isinstance(exc, dict) else (None, None))
     return IdentifiedJoint(method=method, params=params, stderr=_numbers(std, where, prefix), Vs=Vs, delta=delta,
-                           noise_std=noise, layout=layout, source=str(where))
+                           noise_std=noise, min_speed=slowest, layout=layout, source=str(where))
 
 
 def read_identification(path) -> IdentifiedJoint:

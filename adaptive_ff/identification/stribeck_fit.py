@@ -68,7 +68,8 @@ from plant.errors import ExcitationError, ParameterError, SignalError, check_fin
 from plant.friction import stribeck
 from plant.results import axes_or_new, json_safe
 
-__all__ = ["PARAM_NAMES", "MIN_POINTS", "DELTA_MAX", "StribeckFit", "fit_stribeck", "plot_stribeck_fit"]
+__all__ = ["PARAM_NAMES", "MIN_POINTS", "DELTA_MAX", "StribeckFit", "fit_stribeck", "plot_stribeck_fit",
+           "placeholder_shape"]
 
 #: Order of the fitted parameters (natural scale) in ``StribeckFit.cov``.
 PARAM_NAMES = ("Fc", "Fs", "Vs", "delta", "sigma")
@@ -598,6 +599,39 @@ def _result(x, w, F, cov, converged: bool, fb) -> StribeckFit:
     )
 
 
+def placeholder_shape(speeds) -> tuple[float, float]:
+    """The Stribeck shape ``(Vs, delta)`` of a friction without a Stribeck term (``Fs = Fc``): placeholders.
+
+    ``Vs`` is the lowest measured speed (any Stribeck effect lies below it), ``delta`` 1. The static map does not
+    depend on them while ``Fs = Fc``; an adaptive estimator started there learns any ``Fs - Fc`` with that shape.
+    One rule for the Coulomb + viscous fallback of :func:`fit_stribeck`, ``compare``'s joint without friction and
+    a compensator from an identification without a Stribeck term
+    (:func:`controllers.experiments.compensator_file.compensator_from_file`).
+
+    Parameters
+    ----------
+    speeds : array_like
+        The measured speeds or velocities (rad/s; signs ignored), at least one non-zero finite value.
+
+    Returns
+    -------
+    Vs : float
+        The smallest non-zero ``|speed|`` (rad/s).
+    delta : float
+        1.0.
+
+    Raises
+    ------
+    ParameterError
+        No non-zero finite speed.
+    """
+    s = np.abs(np.asarray(speeds, dtype=float).ravel())
+    s = s[np.isfinite(s) & (s > 0.0)]
+    if s.size == 0:
+        raise ParameterError(f"placeholder_shape: no non-zero finite speed in {speeds!r}: no placeholder Vs")
+    return float(np.min(s)), 1.0
+
+
 def _coulomb_viscous_fit(w, F, wt, reason: str) -> StribeckFit:
     """No resolvable Stribeck effect: weighted LS line ``Fc*sgn(w) + sigma*w``, ``Fs = Fc`` (placeholders Vs, delta).
 
@@ -624,7 +658,8 @@ def _coulomb_viscous_fit(w, F, wt, reason: str) -> StribeckFit:
     for i, a in zip(idx, src):
         for j, b in zip(idx, src):
             cov[i, j] = c2[a, b]
-    x = np.array([c, c, math.log(float(np.min(np.abs(w)))), 1.0, sig])
+    Vs, delta = placeholder_shape(w)
+    x = np.array([c, c, math.log(Vs), delta, sig])
     note = (f"no Stribeck effect resolved from the data, Coulomb + viscous model used (Fs = Fc = {c:.4g} N·m, "
             f"sigma = {sig:.4g} N·m·s/rad; Vs, delta are placeholders). Reason: {reason}")
     return _result(x, w, F, cov, True, ("coulomb-viscous", (note,)))

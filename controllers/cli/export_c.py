@@ -145,7 +145,7 @@ def _export(args, out: Path) -> int:
     comp, s = _compensator(args, args.joint)
     origin = f" for {Path(args.from_file).name}" + ("" if args.joint is None else f" joint {args.joint!r}")
     joint = JointExport(compensator=comp, J_design=s["J_design"], u_max=s["u_max"], Kp=s["Kp"], Ki=s["Ki"],
-                        friction=s["joint"])
+                        friction=s["joint"], notes=s["notes"])
     res = export_c(joint, out, w_max=args.w_max, hold_time=args.hold_time, float_default=args.float,
                    force=args.force, origin=origin)
     return _print_export(args, res)
@@ -213,7 +213,7 @@ def _export_arm(args, out: Path) -> int:
     for e in entries:
         comp, s = _compensator(args, e["name"])
         joints.append(JointExport(name=e["name"], compensator=comp, J_design=s["J_design"], u_max=s["u_max"],
-                                  Kp=s["Kp"], Ki=s["Ki"], friction=s["joint"]))
+                                  Kp=s["Kp"], Ki=s["Ki"], friction=s["joint"], notes=s["notes"]))
     res = export_c_arm(joints, out, w_max=args.w_max, hold_time=args.hold_time, float_default=args.float,
                        force=args.force, origin=f" for {Path(args.from_file).name}")
     return _print_export(args, res)

@@ -20,6 +20,7 @@ from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
 from adaptive_ff.compensation.feedforward import FF_INPUTS, project_estimate
 from adaptive_ff.identification.ls import fit_ls
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
+from adaptive_ff.identification.stribeck_fit import placeholder_shape
 from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimatorConfig, fit_sliding
 from controllers.simulation.closed_loop import run_mode, run_own
 from controllers.simulation.compensators import ESTIMATORS, MODES, check_estimator
@@ -580,7 +581,7 @@ def prepare_comparison(p, o: CompareOptions, *, progress: bool | None = False, r
     Vs, delta = (fit.Vs, fit.delta) if fit is not None else (o.loop.estimator.Vs, o.loop.estimator.delta)
     no_friction = exp is not None and exp.no_friction
     if no_friction and Vs is None:  # placeholders, as the pre-fit's without a Stribeck effect: the lowest speed, 1
-        Vs, delta = float(np.min(np.abs(exp.setpoints))), 1.0
+        Vs, delta = placeholder_shape(exp.setpoints)
     if needs_prefit:
         bar.update()
     u_max, F_peak = _drive_limit(p0, o, exp, J, peak_a)

@@ -217,6 +217,9 @@ class JointLoopDesign:
         The velocity noise (rad/s) behind ``stick_band`` and ``omega_r``.
     noise_source : str
         ``"identification"`` (the entry's estimate) or ``"options"`` (:attr:`CompareArmOptions.noise_std`).
+    notes : tuple of str
+        What the joint's compensator assumed (:func:`controllers.experiments.compensator_file.compensator_from_file`'s
+        ``notes``: the placeholders ``Vs``, ``delta`` of an entry without a Stribeck term).
     """
 
     name: str
@@ -229,6 +232,7 @@ class JointLoopDesign:
     settings: dict
     noise_std: float = math.nan
     noise_source: str = "options"
+    notes: tuple = ()
 
     def to_dict(self) -> dict:
         """``{"name", "J_design", "Kp", "Ki", "u_max", "stick_band", "noise_source"}``."""
@@ -254,8 +258,9 @@ def joint_designs(identification, arm, options: CompareArmOptions) -> list:
     Raises
     ------
     ParameterError
-        A joint of the URDF without an entry, an entry without ``Vs``/``delta`` (no Stribeck term kept: the
-        compensators need one) or a ``J`` not > 0 (the file and the joint named).
+        A joint of the URDF without an entry, an entry with a Stribeck term (``Fs != Fc``) but no ``Vs``/``delta``
+        or a ``J`` not > 0 (the file and the joint named). An entry without a Stribeck term gets ``Fs = Fc`` and
+        the placeholders of :func:`controllers.experiments.compensator_file.compensator_from_file` (its ``notes``).
     """
     from adaptive_ff.arm.result import read_arm_entries
     from controllers.experiments.compensator_file import compensator_from_file, read_identified
@@ -288,7 +293,7 @@ def joint_designs(identification, arm, options: CompareArmOptions) -> list:
                                Fs=fr.get("Fs", 0.0), offset=0.0, Vs=o.estimator.Vs, delta=o.estimator.delta, J_alt=math.nan)
         out.append(JointLoopDesign(name=name, J_design=float(s["J_design"]), Kp=float(s["Kp"]), Ki=float(s["Ki"]),
                                    u_max=float(u_max[j]), estimate=est, options=o, settings=settings,
-                                   noise_std=float(noise), noise_source=source))
+                                   noise_std=float(noise), noise_source=source, notes=tuple(s["notes"])))
     return out
 
 
@@ -488,8 +493,9 @@ class ArmComparison:
         return "\n".join(lines)
 
     def notes(self) -> list:
-        """The notes of :meth:`summary`: undefined eta, eta above 1, a diverged run."""
-        out = []
+        """The notes of :meth:`summary`: a joint's compensator's assumptions (the placeholders of a joint without a
+        Stribeck term), undefined eta, eta above 1, a diverged run."""
+        out = [f"note: {n}" for d in self.designs for n in d.notes]
         undefined = [n for n in self.joints if self.eta["none"][n] is None]
         if undefined:
             out.append(f"note: eta is undefined (-) on {', '.join(undefined)}: friction does not raise the joint's "

@@ -45,6 +45,36 @@ def read_identified(path, arm_joint=None):
     return identification_from_dict(read_arm_joint(path, arm_joint), where=f"{path} joint {arm_joint!r}")
 
 
+def _stribeck_shape(ident, params: dict, Vs, delta) -> tuple:
+    """``(Vs, delta, notes)`` of the compensator of ``ident``: the given ``Vs``, ``delta`` (None: the file's);
+    without a Stribeck term in the file (``Vs`` null or absent, ``Fs`` null, absent or equal to ``Fc``) ``Fs = Fc``
+    (set in ``params``) and the placeholders of :func:`adaptive_ff.identification.stribeck_fit.placeholder_shape`
+    at the file's lowest measured speed (``excitation.min_speed``) for what is not given, with a note."""
+    from adaptive_ff.identification.stribeck_fit import placeholder_shape
+    from plant.errors import ParameterError
+
+    path = ident.source
+    top = {k: v for k, v in (("Vs", ident.Vs), ("delta", ident.delta)) if v is not None and math.isfinite(v)}
+    Fc, Fs = params.get("Fc"), params.get("Fs")
+    if "Vs" in top or (Fs is not None and Fc is not None and Fs != Fc) or Fc is None:
+        Vs = _number(top, "Vs", path) if Vs is None else Vs
+        return Vs, (_number(top, "delta", path) if delta is None else delta), ()
+    params["Fs"] = Fc  # no Stribeck term: Fs = Fc
+    if Vs is None:
+        slowest = ident.min_speed
+        if slowest is None or not (math.isfinite(slowest) and slowest > 0.0):
+            raise ParameterError(f"{path}: no Stribeck term ('Vs' null) and no lowest measured speed "
+                                 "('excitation.min_speed') for its placeholder Vs: give Vs (--Vs)")
+        Vs, d0 = placeholder_shape([slowest])
+        how = f"placeholder Vs = {Vs:.4g} rad/s (the lowest measured speed)"
+    else:
+        d0, how = placeholder_shape([Vs])[1], f"Vs = {Vs:.4g} rad/s (given)"
+    delta = top.get("delta", d0) if delta is None else delta
+    note = (f"{path}: no Stribeck term identified: Fs = Fc = {Fc:.4g} N·m, {how}, delta = {delta:.4g} (the rule of "
+            "compare's pre-fit without a Stribeck effect); the adaptive estimator learns any Fs - Fc with that shape")
+    return Vs, delta, (note,)
+
+
 def compensator_from_file(path, *, u_max: float, pi: PITuning = PITuning(), start: bool = False, initial: bool = True,
                           feedforward_only: bool = False, arm_joint: str | None = None, **options):
     """The ``adaptive`` mode's compensator configured from an ``identify --json`` file, as ``compare`` configures it.
@@ -52,7 +82,8 @@ def compensator_from_file(path, *, u_max: float, pi: PITuning = PITuning(), star
     Parameters
     ----------
     path : str or os.PathLike
-        The identification (``adaptive-ff identify ... --Vs --delta --json``): ``Vs``, ``delta`` at its top level,
+        The identification (``adaptive-ff identify ... --Vs --delta --json``): ``Vs``, ``delta`` at its top level
+        (null or absent with ``Fs`` null, absent or equal to ``Fc``: no Stribeck term, see Notes),
         ``J``, ``sigma``, ``Fc``, ``Fs``, ``tau`` of the chosen method at its top level (a file written before
         that layout: in ``physical.params``; read by
         :func:`adaptive_ff.identification.result_file.read_identification`), the velocity noise in
@@ -92,14 +123,23 @@ def compensator_from_file(path, *, u_max: float, pi: PITuning = PITuning(), star
         stepped.
     settings : dict
         ``J_design, u_max, Kp, Ki`` and ``joint`` (the identified ``Fc``, ``Fs``, ``sigma`` that are finite and
-        >= 0) for :func:`adaptive_ff.compensation.export_c.export_c`, and ``options`` (the LoopConfig used).
+        >= 0) for :func:`adaptive_ff.compensation.export_c.export_c`, ``options`` (the LoopConfig used) and
+        ``notes`` (tuple of str: what was assumed, e.g. the placeholders of a joint without a Stribeck term).
 
     Raises
     ------
     ParameterError
-        Unreadable or invalid file (the file and the key named), a bad setting, ``pi`` not a :class:`PITuning`.
+        Unreadable or invalid file (the file and the key named), a bad setting, ``pi`` not a :class:`PITuning`,
+        a joint without a Stribeck term whose file gives no ``excitation.min_speed`` and no ``Vs`` option.
     FileNotFoundError
         No such file.
+
+    Notes
+    -----
+    A joint without a Stribeck term (``Fs = Fc``; ``identify-arm`` drops it where it does not lower the residual
+    beyond its likelihood-ratio bound) gets ``Fs = Fc`` and the placeholders of ``compare``'s pre-fit without a
+    Stribeck effect (:func:`adaptive_ff.identification.stribeck_fit.placeholder_shape`): ``Vs`` the lowest
+    measured speed (``excitation.min_speed``) unless ``Vs`` is given, ``delta`` 1 unless given; ``notes`` says so.
     """
     from adaptive_ff.compensation.adaptive_feedforward import FeedforwardStart
     from adaptive_ff.identification.regression import FrictionEstimate
@@ -115,12 +155,8 @@ def compensator_from_file(path, *, u_max: float, pi: PITuning = PITuning(), star
         raise ParameterError(f"unknown option(s) {unknown}; allowed: the loop settings of LoopConfig.from_flat {sorted(known)}")
     ident = read_identified(path, arm_joint)
     path = ident.source  # the file, or the file and the joint: what the messages name
-    top = {k: v for k, v in (("Vs", ident.Vs), ("delta", ident.delta)) if v is not None and math.isfinite(v)}
     params = {k: v for k, v in ident.params.items() if math.isfinite(v)}  # a null (non-finite) value: absent
-    Vs = options.pop("Vs", None)
-    delta = options.pop("delta", None)
-    Vs = _number(top, "Vs", path) if Vs is None else Vs
-    delta = _number(top, "delta", path) if delta is None else delta
+    Vs, delta, notes = _stribeck_shape(ident, params, options.pop("Vs", None), options.pop("delta", None))
     J_id, sigma_id = ident.J, ident.sigma
     J_design = options.pop("J_design", None)
     if J_design is None:
@@ -156,4 +192,5 @@ def compensator_from_file(path, *, u_max: float, pi: PITuning = PITuning(), star
     opts = LoopConfig.from_flat(Kp=Kp, Ki=Ki, u_max=u_max, J_design=J_design, Vs=Vs, delta=delta, start=first,
                                 initial=init, **settings)
     _, _, comp = build_mode(None, "adaptive", opts)  # None: no plant field is read with J_design given
-    return comp, {"J_design": J_design, "u_max": u_max, "Kp": Kp, "Ki": Ki, "joint": joint, "options": opts}
+    return comp, {"J_design": J_design, "u_max": u_max, "Kp": Kp, "Ki": Ki, "joint": joint, "options": opts,
+                  "notes": notes}

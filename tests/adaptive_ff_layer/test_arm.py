@@ -121,6 +121,21 @@ def test_interval_coverage_over_seeds(arm):
     assert hits["Fc"] >= 9 and hits["sigma"] >= 9, hits
 
 
+def test_min_speed_is_the_slowest_kept_row(result, log):
+    """``excitation.min_speed`` (the placeholder ``Vs`` of a joint without a Stribeck term): the slowest filtered
+    speed among the joint's rows, at least the 2 % of its 99th-percentile speed below which rows go, and every row
+    at least that fast."""
+    from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, filtered_states
+
+    dq = np.abs(filtered_states(log, DEFAULT_CUTOFF)[2])
+    for j, joint in enumerate(result.joints):
+        v = joint.min_speed
+        assert v >= 0.02 * np.percentile(dq[:, j], 99)
+        assert np.min(np.abs(dq[:, j] - v)) == 0.0  # a sample's speed
+        assert result.info["rows"][j] <= np.count_nonzero(dq[:, j] >= v)
+        assert result.to_dict()["joints"][j]["excitation"]["min_speed"] == v
+
+
 def test_to_dict_is_strict_json_in_the_issue_layout(result):
     from adaptive_ff.identification.result_file import identification_from_dict
 

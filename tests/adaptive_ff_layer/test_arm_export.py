@@ -194,17 +194,101 @@ def test_export_errors_name_the_file_and_the_joint(case, arm_file, tmp_path, cap
         args[2] = str(tmp_path / "arm.json")
         (tmp_path / "arm.json").write_text(json.dumps(bad))
         status, want = 3, ["arm.json joint 'elbow'", "identifiability warning on Fc", "--accept-warnings"]
-    else:
+    else:  # no Stribeck term and no lowest speed for its placeholder Vs (a file written without one)
         bad = copy.deepcopy(ARM)
         bad["joints"][2].update(Vs=None, delta=None, Fs=bad["joints"][2]["Fc"])
         args[2] = str(tmp_path / "arm.json")
         (tmp_path / "arm.json").write_text(json.dumps(bad))
-        want = ["arm.json joint 'wrist-3'", "'Vs'"]
+        want = ["arm.json joint 'wrist-3'", "no Stribeck term", "'excitation.min_speed'", "--Vs"]
     assert main(args) == status
     err = capsys.readouterr().err
     assert "Traceback" not in err and not (tmp_path / "x").exists()
     for w in want:
         assert w in err, (w, err)
+
+
+# ------------------------------------------------------------------------------------- no Stribeck term
+
+#: The slowest speed of the wrist's rows (rad/s) in the arm file without its Stribeck term.
+MIN_SPEED = 0.0123
+
+
+def _no_stribeck_arm(folder, **wrist):
+    """ARM with the wrist's Stribeck term dropped as identify-arm drops it (``Vs``, ``delta`` null, ``Fs = Fc``),
+    its entry's lowest speed ``excitation.min_speed``; ``wrist`` overrides entry keys (None: removed)."""
+    d = copy.deepcopy(ARM)
+    e = d["joints"][2]
+    e.update(Vs=None, delta=None, Fs=e["Fc"], excitation={"noise_std": 2e-3, "min_speed": MIN_SPEED})
+    for k, v in wrist.items():
+        if v is None:
+            e.pop(k, None)
+        else:
+            e[k] = v
+    path = folder / "arm.json"
+    path.write_text(json.dumps(d))
+    return path
+
+
+def test_placeholder_shape_is_the_lowest_speed_and_delta_1():
+    from adaptive_ff.identification.stribeck_fit import placeholder_shape
+    from plant.errors import ParameterError
+
+    assert placeholder_shape([-0.3, 0.05, 0.0, float("nan"), 0.2]) == (0.05, 1.0)
+    with pytest.raises(ParameterError, match="no non-zero finite speed"):
+        placeholder_shape([0.0, float("nan")])
+
+
+@pytest.mark.parametrize("Fs", ["equal", "null", "absent"])
+def test_a_joint_without_stribeck_gets_a_compensator_with_the_placeholders(Fs, tmp_path):
+    """Fs = Fc, delta = 1 and Vs the entry's lowest measured speed: the rule of compare's pre-fit without a
+    Stribeck effect; the compensator's estimator starts from that map, and the notes say so."""
+    from controllers.experiments.compensator_file import compensator_from_file
+
+    Fc = ARM["joints"][2]["Fc"]
+    path = _no_stribeck_arm(tmp_path, **({"Fs": Fc} if Fs == "equal" else {"Fs": None}))
+    if Fs == "null":
+        d = json.loads(path.read_text())
+        d["joints"][2]["Fs"] = None
+        path.write_text(json.dumps(d))
+    comp, s = compensator_from_file(path, arm_joint="wrist-3", u_max=U_MAX)
+    est = s["options"].estimator
+    assert (est.Vs, est.delta) == (MIN_SPEED, 1.0)
+    assert s["joint"] == {"Fc": Fc, "Fs": Fc, "sigma": ARM["joints"][2]["sigma"]}
+    init = s["options"].estimator.initial
+    assert (init.Fc, init.Fs, init.Vs, init.delta) == (Fc, Fc, MIN_SPEED, 1.0)
+    assert comp.feedforward.estimator.Vs == MIN_SPEED and comp.feedforward.estimator.delta == 1.0
+    (note,) = s["notes"]
+    assert "joint 'wrist-3'" in note and "no Stribeck term" in note and "placeholder Vs = 0.0123 rad/s" in note
+    # a Vs given replaces the placeholder; delta stays the placeholder's 1
+    _, s = compensator_from_file(path, arm_joint="wrist-3", u_max=U_MAX, Vs=0.05)
+    assert (s["options"].estimator.Vs, s["options"].estimator.delta) == (0.05, 1.0) and "(given)" in s["notes"][0]
+    # the joints with a Stribeck term: theirs, no note
+    _, s = compensator_from_file(path, arm_joint="elbow", u_max=U_MAX)
+    assert (s["options"].estimator.Vs, s["options"].estimator.delta, s["notes"]) == (0.06926, 1.0, ())
+
+
+def test_export_c_of_an_arm_with_a_joint_without_stribeck(tmp_path, capsys):
+    """The whole arm's library and the joint's own export: the placeholders in the settings, the note in the
+    joint's comment of aff_config.c and in the export's notes."""
+    path = _no_stribeck_arm(tmp_path)
+    assert main(["export-c", "--from", str(path), "--u-max", str(U_MAX), "--out", str(tmp_path / "arm"),
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    # delta 1 on every joint now (the wrist's placeholder): one macro
+    assert out["config"]["AFF_WRIST_3_VS"] == MIN_SPEED and out["config"]["AFF_DELTA"] == 1.0
+    (note,) = out["notes"]
+    assert "joint 'wrist-3'" in note and "placeholder Vs = 0.0123 rad/s" in note
+    source = (tmp_path / "arm" / "aff_config.c").read_text()
+    wrist = source.split('/* joint "wrist-3" */', 1)[1].split("[AFF_JOINT_WRIST_3]", 1)[0]
+    words = " ".join(wrist.split())  # the comment is wrapped at 116 characters
+    assert words.startswith("/* Note: ") and "no Stribeck term identified: Fs = Fc = 0.5025 N*m" in words
+    assert "placeholder Vs = 0.0123 rad/s (the lowest measured speed), delta = 1" in words
+    assert "Note:" not in source.split('/* joint "wrist-3" */', 1)[0]  # only the wrist's block
+    assert main(["export-c", "--from", str(path), "--joint", "wrist-3", "--u-max", str(U_MAX), "--out",
+                 str(tmp_path / "one"), "--json"]) == 0
+    one = json.loads(capsys.readouterr().out)
+    assert one["config"]["AFF_VS"] == MIN_SPEED and one["notes"] == [note]
+    assert "no Stribeck term identified" in " ".join((tmp_path / "one" / "aff_config.c").read_text().split())
 
 
 # ------------------------------------------------------------------------------------------------ compare

@@ -88,7 +88,7 @@ def test_noise_estimate_per_joint(result, arm_json):
     entries = json.loads(arm_json.read_text())["joints"]
     for joint, entry in zip(result.joints, entries):
         assert joint.noise_std == pytest.approx(noise, rel=0.03)
-        assert entry["excitation"] == {"noise_std": joint.noise_std}
+        assert entry["excitation"] == {"noise_std": joint.noise_std, "min_speed": joint.min_speed}
         assert entry["tau"] == joint.params["tau"] and entry["interval95"]["tau"] == list(joint.interval95["tau"])
 
 

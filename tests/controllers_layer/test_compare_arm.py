@@ -239,6 +239,31 @@ def test_cli_json_is_the_library_result(planar3, tmp_path, capsys):
     assert out == expected
 
 
+def test_cli_runs_an_arm_whose_joint_has_no_stribeck_term(planar3, tmp_path, capsys):
+    """The wrist's entry as identify-arm writes a joint without a Stribeck term (Vs, delta null, Fs = Fc): its
+    compensators get the placeholders (Vs the entry's lowest measured speed, delta 1) and the summary says so."""
+    from controllers.experiments.compare_arm import joint_designs
+
+    _, path = planar3
+    d = json.loads(path.read_text())
+    wrist = d["joints"][2]
+    slowest = wrist["excitation"]["min_speed"]
+    assert slowest > 0.0
+    wrist.update(Vs=None, delta=None, Fs=wrist["Fc"])
+    ident = tmp_path / "nostribeck.json"
+    ident.write_text(json.dumps(d))
+    designs = joint_designs(ident, load_urdf(PLANAR3), CompareArmOptions())
+    w = designs[2]
+    assert (w.options.estimator.Vs, w.options.estimator.delta) == (slowest, 1.0)
+    assert (w.estimate.Fc, w.estimate.Fs) == (wrist["Fc"], wrist["Fc"]) and designs[0].notes == ()
+    plant = _plant_file(tmp_path / "plant.json", _joints3())
+    assert main(["compare-arm", "--urdf", str(PLANAR3), "--from", str(ident), "--plant", str(plant), "--duration",
+                 "1", "--modes", "none,fixed,adaptive,frictionless", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert f"note: {ident} joint 'wrist': no Stribeck term identified: Fs = Fc = {wrist['Fc']:.4g} N·m, " \
+           f"placeholder Vs = {slowest:.4g} rad/s (the lowest measured speed), delta = 1" in out
+
+
 @pytest.mark.parametrize("case", ["missing_joint", "unknown_joint", "bad_value", "armature", "u_max", "urdf",
                                   "identification", "no_stribeck", "duration"])
 def test_cli_bad_input_exits_2_naming_the_reason(case, planar3, tmp_path, capsys):
