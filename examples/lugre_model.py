@@ -9,8 +9,8 @@ friction", IEEE TAC 40(3), 1995) as a model-based friction compensator driven by
 estimate fed forward. Its levels come from the comparison's Stribeck pre-fit (what a user has), the bristle
 stiffness from a chosen pre-sliding deflection. `compare(..., compensators={name: factory})` runs it in the
 same loop, on the same reference and noise, as the built-in modes. Driven by the measured velocity instead,
-the observer feeds the noise and the joint's 20 ms friction lag back into the loop: eta -0.08 at the default
-deflection, worse than no compensation (2026-11-23, `paper` preset, seed 0); by the reference, 0.77.
+the observer feeds the noise and the joint's 20 ms friction lag back into the loop: eta -0.76 at the default
+deflection, worse than no compensation (`paper` preset, seed 0, 60 s); by the reference, 0.77.
 
     python examples/lugre_model.py [--duration 60] [--seed 0] [--deflection 1e-3]
 """

@@ -38,7 +38,7 @@ mode on the joint's group with :func:`controllers.simulation.batch.run_batch`
 (:data:`STATUSES`, :meth:`ZooResult.status`), counted apart in the table:
 
 - ``refused``: the preparation or the engine refused the joint (no mode ran), or
-  this mode could not be built for it, with the reason (``fixed`` no longer is
+  this mode could not be built for it, with the reason (``fixed`` is not refused
   when its offline fit is rejected: it falls back to the pre-fit's static map,
   :meth:`ZooResult.fixed_fallbacks`);
 - ``diverged``: the run left the engine's velocity bound;

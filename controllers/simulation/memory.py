@@ -13,7 +13,7 @@ machine that swaps. The entries that allocate by duration call it first: :class:
 processes at once).
 
 The signal counts below are upper bounds of the peak resident memory measured with ``ru_maxrss`` on the
-``paper`` preset (2026-11, numpy 2; the slope between 200 s and 600 s runs): ``compare`` with all eight modes
+``paper`` preset (numpy 2; the slope between 200 s and 600 s runs): ``compare`` with all eight modes
 372 bytes per sample (the estimate ``8*(SHARED_SIGNALS + 8*MODE_SIGNALS)`` is 416), its preparation with the
 identification run of ``fixed`` 306 bytes per sample (``8*PREPARATION_SIGNALS`` is 320).
 """
