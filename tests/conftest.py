@@ -27,18 +27,20 @@ SLOW_FILES = frozenset({
     "test_figures_quality.py", "test_stiff_lagged.py", "test_examples.py", "test_arm.py", "test_arm_tx40.py",
 })
 
-#: The test files of about half a minute or more of one core (``--run-slow``), longest first. ``--dist loadfile``
-#: gives a worker a whole file, and xdist hands the files out in collection order (``--no-loadscope-reorder``,
-#: pyproject.toml; its default order, most tests first, started the long few-test files last, with one core idle
-#: at the end): these files go first, longest first, and the many short files fill both workers' ends
-#: (longest-processing-time-first scheduling). A file missing here only starts later; the order decides no result.
+#: The test files of about 20 s or more (``-n 0 --run-slow --durations=0`` on a loaded two-core machine), longest
+#: first. ``--dist loadfile`` gives a worker a whole file, and xdist hands the files out in collection order
+#: (``--no-loadscope-reorder``, pyproject.toml; its default order, most tests first, can start a long file of few
+#: tests late, beside an idle core): these files go first, longest first, and the many short files fill both
+#: workers' ends (longest-processing-time-first scheduling). A file missing here only starts later; the order
+#: decides no result.
 LONG_FILES = (
-    "test_compare_arm.py", "test_closed_loop_id.py", "test_coverage_small_zoo.py", "test_physical_id.py",
-    "test_your_drive.py", "test_arm_coverage.py", "test_docs.py", "test_properties.py", "test_arm.py",
-    "test_arm_lag.py", "test_fuzz_cli.py", "test_plant_options.py", "test_readme.py", "test_kernel_adaptive.py",
-    "test_figures_quality.py", "test_delay_profile.py", "test_atomic_commands.py", "test_identify_auto.py",
-    "test_stiff_lugre.py", "test_fuzz_c.py", "test_model_forms.py", "test_batch.py", "test_sweep.py",
-    "test_oe_no_prefit.py", "test_identify_method.py",
+    "test_compare_arm.py", "test_physical_id.py", "test_closed_loop_id.py", "test_your_drive.py",
+    "test_kernel_adaptive.py", "test_coverage_small_zoo.py", "test_properties.py", "test_docs.py", "test_sweep.py",
+    "test_zoo.py", "test_figures_quality.py", "test_fuzz_cli.py", "test_readme.py", "test_plant_options.py",
+    "test_arm_lag.py", "test_fuzz_c.py", "test_stiff_lagged.py", "test_arm.py", "test_examples.py",
+    "test_atomic_commands.py", "test_identify_auto.py", "test_plausibility.py", "test_batch.py",
+    "test_identify_method.py", "test_model_forms.py", "test_static_stick.py", "test_adaptive_dob.py",
+    "test_delay_profile.py", "test_scenario.py", "test_stiff_lugre.py", "test_plant.py",
 )
 
 
