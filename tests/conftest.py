@@ -27,6 +27,22 @@ SLOW_FILES = frozenset({
     "test_figures_quality.py", "test_stiff_lagged.py", "test_examples.py", "test_arm.py", "test_arm_tx40.py",
 })
 
+#: The test files of about 20 s or more (``-n 0 --run-slow --durations=0`` on a loaded two-core machine), longest
+#: first. ``--dist loadfile`` gives a worker a whole file, and xdist hands the files out in collection order
+#: (``--no-loadscope-reorder``, pyproject.toml; its default order, most tests first, can start a long file of few
+#: tests late, beside an idle core): these files go first, longest first, and the many short files fill both
+#: workers' ends (longest-processing-time-first scheduling). A file missing here only starts later; the order
+#: decides no result.
+LONG_FILES = (
+    "test_compare_arm.py", "test_physical_id.py", "test_closed_loop_id.py", "test_your_drive.py",
+    "test_kernel_adaptive.py", "test_coverage_small_zoo.py", "test_properties.py", "test_docs.py", "test_sweep.py",
+    "test_zoo.py", "test_figures_quality.py", "test_fuzz_cli.py", "test_readme.py", "test_plant_options.py",
+    "test_arm_lag.py", "test_fuzz_c.py", "test_stiff_lagged.py", "test_arm.py", "test_examples.py",
+    "test_atomic_commands.py", "test_identify_auto.py", "test_plausibility.py", "test_batch.py",
+    "test_identify_method.py", "test_model_forms.py", "test_static_stick.py", "test_adaptive_dob.py",
+    "test_delay_profile.py", "test_scenario.py", "test_stiff_lugre.py", "test_plant.py",
+)
+
 
 def pytest_addoption(parser):
     parser.addoption("--run-slow", action="store_true", default=False,
@@ -37,7 +53,10 @@ def pytest_configure(config):
     config.addinivalue_line("markers", "slow: a test of many seconds; run only with --run-slow (tests/conftest.py)")
 
 
+@pytest.hookimpl(trylast=True)  # after pytest's own reordering by fixture
 def pytest_collection_modifyitems(config, items):
+    rank = {name: i for i, name in enumerate(LONG_FILES)}
+    items.sort(key=lambda item: rank.get(Path(str(item.fspath)).name, len(rank)))  # stable: a file keeps its order
     for item in items:
         if Path(str(item.fspath)).name in SLOW_FILES:
             item.add_marker(pytest.mark.slow)

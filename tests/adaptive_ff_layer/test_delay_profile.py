@@ -65,9 +65,30 @@ def joint():
     return zoo_joint(1)  # benchmarks/coverage_zoo.py's joint of seed 1 and its 15 s readout
 
 
-def test_the_fit_profiles_the_delay_and_reports_it(joint):
+@pytest.fixture(scope="module")
+def profiled(joint):
+    """The fit with the delay profiled and 3 bootstrap refits (one worker), and every delay profile it ran: the
+    fit's, then one per refit (spied on ``physical_id.delay_profile_search``). The bootstrap only adds the errors
+    (the estimate is the one of ``n_bootstrap=0``), so both tests below read this one fit."""
+    import adaptive_ff.identification.physical_id as physical_id
+
     p, m = joint
-    f = fit_physical(m.t, m.u, m.w, Vs=p.Vs, delta=p.delta, n_bootstrap=0)
+    profiles = []
+
+    def profile_spy(*args, **kwargs):
+        out = delay_profile_search(*args, **kwargs)
+        profiles.append(out[1])
+        return out
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(physical_id, "delay_profile_search", profile_spy)
+        f = fit_physical(m.t, m.u, m.w, Vs=p.Vs, delta=p.delta, n_bootstrap=3, bootstrap_workers=1)
+    return f, profiles
+
+
+def test_the_fit_profiles_the_delay_and_reports_it(joint, profiled):
+    p, m = joint
+    f = profiled[0]
     at0 = fit_physical(m.t, m.u, m.w, Vs=p.Vs, delta=p.delta, n_bootstrap=0, input_delay=0.0)
     prof = json.loads(json.dumps(f.info["input_delay_profile"], allow_nan=False))
     # measured: 0.625 ms chosen (cost 75.35 against 80.36 at 0 ms), Fs +2.0 % against +6.2 % at 0 ms
@@ -95,19 +116,8 @@ def test_cli_input_delay_is_refused_where_no_output_error_fit_runs(tmp_path, cap
     assert "--input-delay applies to the output-error fit of the log" in capsys.readouterr().err
 
 
-def test_the_bootstrap_refits_hold_the_delay_the_fit_chose(joint, monkeypatch):
-    import adaptive_ff.identification.physical_id as physical_id
-
-    p, m = joint
-    profiles = []
-
-    def profile_spy(*args, **kwargs):
-        out = delay_profile_search(*args, **kwargs)
-        profiles.append(out[1])
-        return out
-
-    monkeypatch.setattr(physical_id, "delay_profile_search", profile_spy)
-    f = fit_physical(m.t, m.u, m.w, Vs=p.Vs, delta=p.delta, n_bootstrap=3, bootstrap_workers=1)
+def test_the_bootstrap_refits_hold_the_delay_the_fit_chose(profiled):
+    f, profiles = profiled
     boot, prof, d = f.info["bootstrap"], f.info["input_delay_profile"], f.info["input_delay"]
     # the fit's profile, then one per refit with the fit's delay (0.625 ms) as its one point
     assert len(profiles) == 4 and profiles[0] == prof and 0.5e-3 <= d <= 1.0e-3 and boot["input_delay"] == d
