@@ -61,12 +61,101 @@ aff_error aff_rls_init(aff_rls *r, const aff_rls_config *cfg)
     for (k = 0; k < AFF_RLS_NMAX * AFF_RLS_NMAX; k++) {
         r->D[k] = 1;
         r->P[k] = 0;
+        r->UD[k] = 0;
     }
-    for (i = 0; i < p; i++)
+    for (i = 0; i < p; i++) {
         r->P[i * p + i] = cfg->P0;
+        r->UD[i * p + i] = cfg->P0; /* U = I, d = P0 */
+    }
     r->n_updates = 0;
     r->n_projected = 0;
     r->n_rejected = 0;
+    return AFF_OK;
+}
+
+/* GCC, Clang: rls_step and the factor updates inlined into each of aff_rls_step's calls, its p then a constant where the call names one. */
+#if defined(__GNUC__)
+#define AFF_RLS_INLINE __attribute__((always_inline))
+#else
+#define AFF_RLS_INLINE
+#endif
+
+/* P = U diag(d) U' from the factors in UD (upper triangle computed, mirrored: exactly symmetric):
+ * P_ij = U_ij d_j + sum_{k>j} U_ik d_k U_jk for i <= j (U_jj = 1). */
+static inline AFF_RLS_INLINE void ud_to_P(const aff_real *UD, aff_real *P, long p)
+{
+    long i, j, k;
+    for (j = 0; j < p; j++) {
+        for (i = 0; i <= j; i++) {
+            aff_real x = i == j ? UD[j * p + j] : UD[i * p + j] * UD[j * p + j];
+            for (k = j + 1; k < p; k++)
+                x += UD[i * p + k] * UD[k * p + k] * UD[j * p + k];
+            P[i * p + j] = x;
+            P[j * p + i] = x;
+        }
+    }
+}
+
+/* Bierman's measurement update of the factors of P (Bierman 1977, Sec. V.3, with a weight alpha in place of the
+ * measurement variance) followed by the division by div:
+ *   P <- (P - (P phi)(P phi)'/(alpha + phi'P phi))/div,
+ * alpha != 0 with alpha + phi'P phi of alpha's sign (alpha < 0: the directional scheme's information removal);
+ * k (p scratch entries) ends as P phi of the P before the update. */
+static inline AFF_RLS_INLINE void ud_update(aff_real *UD, const aff_real *phi, aff_real alpha, aff_real div,
+                                            aff_real *k, long p)
+{
+    long i, j;
+    aff_real b = alpha;
+    for (j = 0; j < p; j++) {
+        aff_real f = phi[j], g, b_prev, mu;
+        for (i = 0; i < j; i++) /* f = (U' phi)_j */
+            f += UD[i * p + j] * phi[i];
+        g = UD[j * p + j] * f;
+        b_prev = b;
+        b = b + f * g;
+        UD[j * p + j] = UD[j * p + j] * (b_prev / (b * div)); /* b_prev/b <= 1 for alpha > 0: no overflow */
+        mu = -f / b_prev;
+        for (i = 0; i < j; i++) {
+            aff_real t = UD[i * p + j];
+            UD[i * p + j] = t + k[i] * mu;
+            k[i] = k[i] + t * g;
+        }
+        k[j] = g;
+    }
+}
+
+aff_error aff_rls_set_P(aff_rls *r, const aff_real *P)
+{
+    aff_real UD[AFF_RLS_NMAX * AFF_RLS_NMAX];
+    long p, i, j, k;
+    if (r == NULL || P == NULL)
+        return AFF_ERR_NULL;
+    p = r->p;
+    for (k = 0; k < p * p; k++) {
+        UD[k] = 0;
+        if (!isfinite(P[k]))
+            return AFF_ERR_RLS_P;
+    }
+    for (i = 0; i < p; i++)
+        for (j = i + 1; j < p; j++)
+            if (P[i * p + j] != P[j * p + i])
+                return AFF_ERR_RLS_P;
+    for (j = p - 1; j >= 0; j--) { /* U D U' = P, column by column from the last (Bierman 1977, Sec. III.2) */
+        aff_real dj = P[j * p + j];
+        for (k = j + 1; k < p; k++)
+            dj -= UD[k * p + k] * UD[j * p + k] * UD[j * p + k];
+        if (!(dj > 0 && isfinite(dj)))
+            return AFF_ERR_RLS_P;
+        UD[j * p + j] = dj;
+        for (i = 0; i < j; i++) {
+            aff_real x = P[i * p + j];
+            for (k = j + 1; k < p; k++)
+                x -= UD[k * p + k] * UD[i * p + k] * UD[j * p + k];
+            UD[i * p + j] = x / dj;
+        }
+    }
+    memcpy(r->P, P, sizeof(aff_real) * (size_t)(p * p));
+    memcpy(r->UD, UD, sizeof(aff_real) * (size_t)(p * p));
     return AFF_OK;
 }
 
@@ -147,16 +236,17 @@ static void project(aff_rls *r)
     }
 }
 
-/* GCC, Clang: rls_step inlined into each of aff_rls_step's calls, its p then a constant where the call names one. */
-#if defined(__GNUC__)
-#define AFF_RLS_INLINE __attribute__((always_inline))
-#else
-#define AFF_RLS_INLINE
-#endif
 
 /* The usual number of parameters (the sliding estimator with the lag and the offset): a step with this p has its
  * loops of known length (unrolled by the compiler; the same operations in the same order). */
 #define AFF_RLS_P_USUAL 7
+
+/* Count a refused sample (its update would overflow; the state is untouched) and return NAN. */
+static aff_real refuse(aff_rls *r)
+{
+    r->n_rejected = aff_count_up(r->n_rejected);
+    return (aff_real)NAN;
+}
 
 /* aff_rls_step with p = r->p. */
 static inline AFF_RLS_INLINE aff_real rls_step(aff_rls *r, const aff_real *phi, aff_real y, long p)
@@ -169,6 +259,7 @@ static inline AFF_RLS_INLINE aff_real rls_step(aff_rls *r, const aff_real *phi, 
     aff_real *v = r->v;
     aff_real e = y;
     aff_real rr = 0, vv = 0, tr = 0, g, s;
+    aff_real k_scratch[AFF_RLS_NMAX];
     for (i = 0; i < p; i++)
         e -= phi[i] * r->theta[i];
     /* P phi into the scratch vector (inflated by D for vector forgetting), then the overflow guard: the state
@@ -186,18 +277,24 @@ static inline AFF_RLS_INLINE aff_real rls_step(aff_rls *r, const aff_real *phi, 
         vv += acc * acc;
         tr += P[i * p + i];
     }
-    if (!(isfinite(e * e) && isfinite(rr) && isfinite(vv))) {
-        r->n_rejected = aff_count_up(r->n_rejected);
-        return (aff_real)NAN;
-    }
+    if (!(isfinite(e * e) && isfinite(rr) && isfinite(vv)))
+        return refuse(r);
     if (scheme == AFF_RLS_VECTOR) {
         /* inflate P <- D.P (unless that exceeds the trace bound), then a unit-weight update */
         tr = 0;
         for (i = 0; i < p; i++)
             tr += P[i * p + i] * r->D[i * p + i];
-        if (tr <= P_max) {
+        if (!isfinite(tr))
+            return refuse(r);
+        if (tr <= P_max) { /* D.P = S P S, S = diag(s), s_i = lam_i^-1/2: U <- S U S^-1, d <- S^2 d */
             for (k = 0; k < p * p; k++)
                 P[k] = P[k] * r->D[k];
+            for (j = 0; j < p; j++) {
+                aff_real djj = r->D[j * p + j];
+                for (i = 0; i < j; i++)
+                    r->UD[i * p + j] = r->UD[i * p + j] * (r->D[i * p + j] / djj);
+                r->UD[j * p + j] = r->UD[j * p + j] * djj;
+            }
         }
         rr = 0;
         for (i = 0; i < p; i++) {
@@ -208,17 +305,12 @@ static inline AFF_RLS_INLINE aff_real rls_step(aff_rls *r, const aff_real *phi, 
             rr += phi[i] * acc;
         }
         s = (aff_real)1.0 + rr;
-        for (i = 0; i < p; i++) {
-            aff_real vi = v[i];
-            for (j = i; j < p; j++) {
-                aff_real x = P[i * p + j] - (vi * v[j]) / s;
-                P[i * p + j] = x;
-                P[j * p + i] = x;
-            }
-        }
+        ud_update(r->UD, phi, (aff_real)1.0, (aff_real)1.0, k_scratch, p);
         g = e / s;
     } else if (scheme == AFF_RLS_EXPONENTIAL) {
-        aff_real div = 1.0;
+        aff_real div = (aff_real)1.0;
+        if (!isfinite(tr / lam)) /* the factors d/lam would overflow */
+            return refuse(r);
         s = lam + rr;
         if (lam < (aff_real)1.0) {
             aff_real tr1 = 0;
@@ -229,39 +321,27 @@ static inline AFF_RLS_INLINE aff_real rls_step(aff_rls *r, const aff_real *phi, 
             else /* covariance bound reached: this update forgets nothing (ordinary RLS step) */
                 s = (aff_real)1.0 + rr;
         }
-        for (i = 0; i < p; i++) {
-            aff_real vi = v[i];
-            for (j = i; j < p; j++) {
-                aff_real x = P[i * p + j] - (vi * v[j]) / s;
-                if (div != (aff_real)1.0)
-                    x = x / div;
-                P[i * p + j] = x;
-                P[j * p + i] = x;
-            }
-        }
+        ud_update(r->UD, phi, div, div, k_scratch, p); /* s = div + phi'P phi */
         g = e / s;
     } else { /* directional forgetting */
         aff_real beta = rr > 0 ? lam - ((aff_real)1.0 - lam) / rr : (aff_real)1.0;
         aff_real den = (aff_real)1.0 + beta * rr;
-        aff_real c;
         if (beta < 0) {
             /* trace after the update: trace(P) - beta*|P phi|^2/den; over the bound -> no forgetting */
             if (tr - beta * vv / den > P_max) {
-                beta = 1.0;
+                beta = (aff_real)1.0;
                 den = (aff_real)1.0 + rr;
+            } else if (!isfinite(tr - beta * vv / den)) {
+                return refuse(r);
             }
         }
-        c = beta / den;
-        for (i = 0; i < p; i++) {
-            aff_real vi = v[i];
-            for (j = i; j < p; j++) {
-                aff_real x = P[i * p + j] - (vi * v[j]) * c;
-                P[i * p + j] = x;
-                P[j * p + i] = x;
-            }
-        }
+        /* P - beta/(1 + beta*rr) (P phi)(P phi)' = P - (P phi)(P phi)'/(1/beta + rr); beta = 0 (or a
+         * 1/beta beyond the range) changes nothing */
+        if (beta != 0 && isfinite((aff_real)1.0 / beta))
+            ud_update(r->UD, phi, (aff_real)1.0 / beta, (aff_real)1.0, k_scratch, p);
         g = e / den; /* theta += P_new phi e */
     }
+    ud_to_P(r->UD, P, p);
     for (i = 0; i < p; i++)
         r->theta[i] += v[i] * g;
     if (r->has_bounds)

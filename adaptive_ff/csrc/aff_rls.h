@@ -2,8 +2,12 @@
  *
  * With phi the regressor and y the output (paper: X and w), per accepted sample
  *   e = y - phi'theta,  s = lam + phi'P phi,  theta += P phi e/s,  P = (P - (P phi)(P phi)'/s)/lam
- * in the symmetric rank-one form (P exactly symmetric: Ljung & Soderstrom, Theory and Practice of Recursive
- * Identification, 1983, Sec. 2.2), with three forgetting schemes:
+ * with P held as its factors P = U diag(d) U' (U unit upper triangular, d > 0) and updated by Bierman's algorithm
+ * (G. J. Bierman, Factorization Methods for Discrete Sequential Estimation, 1977, Sec. V.3; Grewal & Andrews,
+ * Kalman Filtering, 4th ed., 2015, Sec. 7.5.2): P stays symmetric positive definite in float as in double, where
+ * the rank-one form P - (P phi)(P phi)'/s loses it at the condition numbers of a first learning transient. The
+ * field P is the product U diag(d) U', rebuilt after each update (exactly symmetric), and is what every reader
+ * uses. Three forgetting schemes:
  *   AFF_RLS_EXPONENTIAL  eqs. 10-13; an update whose trace(P) would exceed P_max forgets nothing;
  *   AFF_RLS_DIRECTIONAL  information forgotten along phi only (Kulhavy, Automatica 23(5), 1987; Bittanti,
  *                        Bolzern, Campi, Automatica 26(5), 1990), same trace bound;
@@ -47,7 +51,10 @@ typedef struct aff_rls {
     aff_real upper[AFF_RLS_NMAX];                /* upper bounds of theta (INFINITY allowed) */
     aff_real D[AFF_RLS_NMAX * AFF_RLS_NMAX];     /* vector scheme: inflation factors d_i*d_j (p*p) */
     aff_real theta[AFF_RLS_NMAX];                /* estimate */
-    aff_real P[AFF_RLS_NMAX * AFF_RLS_NMAX];     /* covariance, p*p row-major, exactly symmetric */
+    aff_real P[AFF_RLS_NMAX * AFF_RLS_NMAX];     /* covariance U diag(d) U', p*p row-major, exactly symmetric;
+                                                    read it, write it only through aff_rls_set_P */
+    aff_real UD[AFF_RLS_NMAX * AFF_RLS_NMAX];    /* the factors of P, p*p row-major: d_j at (j, j), U_ij (i < j)
+                                                    above the diagonal (U's unit diagonal implied), 0 below */
     aff_real v[AFF_RLS_NMAX];                    /* scratch: P phi of the last update */
     int64_t n_updates;                           /* accepted updates */
     int64_t n_projected;                         /* updates after which theta was projected onto the box */
@@ -58,12 +65,18 @@ typedef struct aff_rls {
  * trace bound trace(P0*I)). */
 aff_rls_config aff_rls_default_config(void);
 
-/* Configure r from *cfg and clear it: theta = 0, P = P0*I, no bounds (lower -inf, upper +inf), D = 1, counters
- * 0; lam 1 for the vector scheme. A caller with a start theta0, a full P0 or bounds writes the fields theta, P,
- * lower/upper (has_bounds = 1) afterwards; the vector scheme's factors: aff_rls_set_lam_each. Returns AFF_OK, or
+/* Configure r from *cfg and clear it: theta = 0, P = P0*I (U = I, d = P0), no bounds (lower -inf, upper +inf), D = 1, counters
+ * 0; lam 1 for the vector scheme. A caller with a start theta0 or bounds writes the fields theta, lower/upper
+ * (has_bounds = 1) afterwards, a full P0 through aff_rls_set_P; the vector scheme's factors: aff_rls_set_lam_each. Returns AFF_OK, or
  * AFF_ERR_NULL, AFF_ERR_RLS_N_PARAMS, _FORGETTING, _LAM, _P0, _P_MAX (r untouched). Python:
  * RecursiveLeastSquares.__init__. */
 aff_error aff_rls_init(aff_rls *r, const aff_rls_config *cfg);
+
+/* Set the covariance to the symmetric positive definite P[0..p*p-1] (row-major; its upper triangle is read): the
+ * field P becomes a copy, UD its factors (U D U' decomposition, Bierman 1977, Sec. III.2). Returns AFF_OK, or
+ * AFF_ERR_NULL, or AFF_ERR_RLS_P (an entry not finite, or P not positive definite: a factor d_j not finite and
+ * > 0); r untouched then. Python: RecursiveLeastSquares.P = value. */
+aff_error aff_rls_set_P(aff_rls *r, const aff_real *P);
 
 /* The checks of aff_rls_init alone: AFF_OK or the code it would return for *cfg. */
 aff_error aff_rls_check_config(const aff_rls_config *cfg);
@@ -76,7 +89,8 @@ aff_error aff_rls_set_lam_each(aff_rls *r, const aff_real *lam);
 
 /* One update with the finite sample (phi[0..p-1], y) (unchecked: aff_rls_update checks); returns the a-priori
  * error y - phi'theta (unit of y). An update that would overflow (e*e, phi'P phi or |P phi|^2 not finite) is
- * refused before the state changes: n_rejected counts it and NAN is returned. Eqs. 10-13 and the schemes above. */
+ * refused before the state changes: n_rejected counts it and NAN is returned. Eqs. 10-13 and the schemes above;
+ * the covariance by Bierman's update of U, d. */
 aff_real aff_rls_step(aff_rls *r, const aff_real *phi, aff_real y);
 
 /* Checked update: NAN (state untouched but n_rejected) if y or an entry of phi[0..p-1] is NaN/inf, else
