@@ -81,15 +81,18 @@ aff_error aff_rls_init(aff_rls *r, const aff_rls_config *cfg)
 #endif
 
 /* P = U diag(d) U' from the factors in UD (upper triangle computed, mirrored: exactly symmetric):
- * P_ij = U_ij d_j + sum_{k>j} U_ik d_k U_jk for i <= j (U_jj = 1). */
-static inline AFF_RLS_INLINE void ud_to_P(const aff_real *UD, aff_real *P, long p)
+ * P_ij = U_ij d_j + sum_{k>j} U_ik w_k for i <= j (U_jj = 1), w_k = d_k U_jk (w: p scratch entries). */
+static inline AFF_RLS_INLINE void ud_to_P(const aff_real *UD, aff_real *P, aff_real *w, long p)
 {
     long i, j, k;
     for (j = 0; j < p; j++) {
+        aff_real dj = UD[j * p + j];
+        for (k = j + 1; k < p; k++)
+            w[k] = UD[k * p + k] * UD[j * p + k];
         for (i = 0; i <= j; i++) {
-            aff_real x = i == j ? UD[j * p + j] : UD[i * p + j] * UD[j * p + j];
+            aff_real x = i == j ? dj : UD[i * p + j] * dj;
             for (k = j + 1; k < p; k++)
-                x += UD[i * p + k] * UD[k * p + k] * UD[j * p + k];
+                x += UD[i * p + k] * w[k];
             P[i * p + j] = x;
             P[j * p + i] = x;
         }
@@ -341,7 +344,7 @@ static inline AFF_RLS_INLINE aff_real rls_step(aff_rls *r, const aff_real *phi, 
             ud_update(r->UD, phi, (aff_real)1.0 / beta, (aff_real)1.0, k_scratch, p);
         g = e / den; /* theta += P_new phi e */
     }
-    ud_to_P(r->UD, P, p);
+    ud_to_P(r->UD, P, k_scratch, p);
     for (i = 0; i < p; i++)
         r->theta[i] += v[i] * g;
     if (r->has_bounds)
