@@ -28,7 +28,7 @@ RLS_NMAX = len(ffi.new("aff_rls *").theta)
 _SCHEMES = {"exponential": lib.AFF_RLS_EXPONENTIAL, "directional": lib.AFF_RLS_DIRECTIONAL}
 _NDARRAY = np.ndarray
 _F8 = np.dtype(np.float64)
-_VIEWS = ("_theta", "_P", "_lower", "_upper", "_D")
+_VIEWS = ("_theta", "_lower", "_upper", "_D")
 
 
 class RecursiveLeastSquares(Component):
@@ -72,8 +72,8 @@ class RecursiveLeastSquares(Component):
         Current estimate (public, read it any time). A view of the internal
         state, updated in place: copy it to keep a value.
     P : ndarray, shape (p, p)
-        Current covariance (exactly symmetric; a read-only view, updated in place; assigning the attribute sets
-        it and its factors).
+        Current covariance (exactly symmetric; a new array from the factors ``U D U'`` the struct holds;
+        assigning the attribute sets them).
     lam : float or ndarray, shape (p,)
         Forgetting factor(s).
     n_updates : int
@@ -170,8 +170,8 @@ class RecursiveLeastSquares(Component):
     the configuration (:attr:`cdata`; a composite component embeds it in its own struct);
     :meth:`update` calls it once per sample (timings: ``benchmarks/rls.py`` and the
     documentation's benchmark pages), :meth:`update_many` runs a whole stream in one call
-    (``aff_rls_update_many``). The struct holds ``P`` and its
-    factors ``UD``; both change together (assign :attr:`P` to set them).
+    (``aff_rls_update_many``). The struct holds ``P`` as its
+    factors ``UD`` (assign :attr:`P` to set them).
     """
 
 
@@ -260,8 +260,6 @@ class RecursiveLeastSquares(Component):
             return np.frombuffer(ffi.buffer(field), dtype=np.float64)[:n]
 
         self._theta = view(c.theta, p)
-        self._P = view(c.P, p * p).reshape(p, p)
-        self._P.flags.writeable = False  # P and its factors UD change together: through the setter only
         self._lower = view(c.lower, p)
         self._upper = view(c.upper, p)
         self._D = view(c.D, p * p).reshape(p, p)
@@ -295,9 +293,12 @@ class RecursiveLeastSquares(Component):
 
     @property
     def P(self) -> np.ndarray:
-        """Current covariance ``U diag(d) U'``, shape (p, p), exactly symmetric (a read-only view of the struct,
-        updated in place; assign to the attribute to set it)."""
-        return self._P
+        """Current covariance ``U diag(d) U'``, shape (p, p), exactly symmetric: a new array computed from the
+        factors the struct holds (``aff_rls_cov``); assign to the attribute to set it."""
+        p = self.n_params
+        out = np.empty((p, p))
+        lib.aff_rls_cov(self._c, ffi.from_buffer("double[]", out))
+        return out
 
     @P.setter
     def P(self, value) -> None:

@@ -133,8 +133,8 @@ def test_exported_float_build_stays_within_one_percent_of_the_friction_level(exp
     assert active == "1"
     # the same compensator within 1 % of the friction level, a threshold decision allowed to fall on the neighbouring
     # period (the RLS covariance held as Bierman's U D U' factors stays positive definite in float; the rank-one form
-    # lost it while the estimator first learned and drifted by up to 10 % of Fc); once the estimate has settled, the
-    # same to 0.01 % of Fc
+    # lost it while the estimator first learned, and the float build drifted by up to 10 % of Fc); once the estimate
+    # has settled, the same to 0.01 % of Fc
     assert d["max_shift"] <= 0.01 * fc and d["n_over"] == 0
     assert d["rms"] <= 1e-4 * fc
     assert np.quantile(late, 0.999) <= 1e-4 * fc
