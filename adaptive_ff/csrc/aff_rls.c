@@ -70,7 +70,8 @@ aff_error aff_rls_init(aff_rls *r, const aff_rls_config *cfg)
     return AFF_OK;
 }
 
-/* GCC, Clang: rls_step and the factor updates inlined into each of aff_rls_step's calls, its p then a constant where the call names one. */
+/* GCC, Clang: rls_step and the factor updates inlined into each of aff_rls_step's calls, its p then a constant
+ * where the call names one. */
 #if defined(__GNUC__)
 #define AFF_RLS_INLINE __attribute__((always_inline))
 #else
