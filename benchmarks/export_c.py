@@ -221,13 +221,13 @@ def main(argv=None) -> int:
     fc = res["Fc"]
     print(f"log: {res['periods']} periods of the adaptive mode on the paper joint (noise 1e-3 rad/s); "
           f"compiler {res['compiler']} -O2; max |u_ff| {res['max_uff']:.4g} N·m, Fc {fc:.4g} N·m")
-    print(f"{'build':<24}{'max dev':>10}{'of Fc':>8}{'±1 period':>11}{'of Fc':>8}{'RMS dev':>10}{'> 1 % Fc':>10}"
+    print(f"{'build':<24}{'max dev':>10}{'of Fc':>10}{'±1 period':>11}{'of Fc':>10}{'RMS dev':>10}{'> 1 % Fc':>10}"
           f"{'ns/period':>11}{'p99.9 ns':>10}{'p99.99 ns':>12}{'ticks':>8}{'instr/period':>14}")
     for label, b in res["builds"].items():
         d, ir = b["deviation"], b["instr"]
         ticks = "n/a" if b["ticks"] is None else f"{b['ticks']:.0f}"
-        print(f"{label:<24}{d['max']:>10.3g}{100 * d['max'] / fc:>7.3g}%{d['max_shift']:>11.3g}"
-              f"{100 * d['max_shift'] / fc:>7.3g}%{d['rms']:>10.3g}{d['n_over']:>10d}{b['ns']:>11.1f}"
+        print(f"{label:<24}{d['max']:>10.3g}{100 * d['max'] / fc:>9.2g}%{d['max_shift']:>11.3g}"
+              f"{100 * d['max_shift'] / fc:>9.2g}%{d['rms']:>10.3g}{d['n_over']:>10d}{b['ns']:>11.1f}"
               f"{b['p999']:>10.0f}{b['p9999']:>12.0f}{ticks:>8}{'n/a' if ir is None else f'{ir:.0f}':>14}")
     print("deviations in N·m from the package's compensation of the same export (aff_replay of the package's C core); "
           "'mode': mode adaptive (the default export), 'feedforward only': --feedforward-only; '±1 period': "

@@ -120,8 +120,8 @@ def project_box(P, theta, lower, upper) -> tuple:
     Raises
     ------
     ParameterError
-        Shapes that do not match, non-finite ``P`` or ``theta``, an empty bound pair, or a ``P`` not positive
-        definite on the active bounds (the solver's failure).
+        Shapes that do not match, non-finite ``P`` or ``theta``, an empty bound pair, or a ``P`` not symmetric
+        positive definite.
     """
     P = np.ascontiguousarray(P, dtype=float)
     theta = np.ascontiguousarray(theta, dtype=float)
@@ -137,8 +137,14 @@ def project_box(P, theta, lower, upper) -> tuple:
         raise ParameterError("P and theta must be finite")
     if not (np.all(lo <= hi) and np.all(lo < np.inf) and np.all(hi > -np.inf)):
         raise ParameterError(f"bounds must satisfy lower <= upper, got {lo!r}, {hi!r}")
+    cov = ffi.new("aff_rls *")  # P as an RLS covariance (its factors): the form aff_project_box reads
+    cfg = lib.aff_rls_default_config()
+    cfg.n_params = p
+    lib.aff_rls_init(cov, ffi.new("aff_rls_config *", cfg))
+    if lib.aff_rls_set_P(cov, ffi.from_buffer("double[]", P)) != lib.AFF_OK:
+        raise ParameterError("project_box: P must be symmetric positive definite")
     x = np.empty(p)
-    n = lib.aff_project_box(p, ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", theta),
+    n = lib.aff_project_box(p, cov, ffi.from_buffer("double[]", theta),
                             ffi.from_buffer("double[]", lo), ffi.from_buffer("double[]", hi),
                             ffi.from_buffer("double[]", x), ffi.new("double[]", p * (p + 3)))
     if n < 0:

@@ -49,6 +49,8 @@ const char *aff_error_message(aff_error e)
         return "RLS: P0 (initial covariance scale) must be finite and > 0";
     case AFF_ERR_RLS_P_MAX:
         return "RLS: P_max (bound on trace(P)) must be > 0 (INFINITY: none; 0: trace(P0*I))";
+    case AFF_ERR_RLS_P:
+        return "RLS: P (covariance) must be finite, symmetric and positive definite";
     case AFF_ERR_RLS_LAM_EACH:
         return "RLS: each per-parameter forgetting factor (-) must be in (0, 1]";
     case AFF_ERR_LOOP_MODEL_TC:

@@ -38,6 +38,7 @@ typedef enum aff_error {
     AFF_ERR_RLS_P0 = 63,
     AFF_ERR_RLS_P_MAX = 64,
     AFF_ERR_RLS_LAM_EACH = 65,
+    AFF_ERR_RLS_P = 66,
     /* the loop model (aff_velocity_input.h) */
     AFF_ERR_LOOP_MODEL_TC = 80,
     AFF_ERR_LOOP_MODEL_KP = 81,

@@ -2,8 +2,12 @@
  *
  * With phi the regressor and y the output (paper: X and w), per accepted sample
  *   e = y - phi'theta,  s = lam + phi'P phi,  theta += P phi e/s,  P = (P - (P phi)(P phi)'/s)/lam
- * in the symmetric rank-one form (P exactly symmetric: Ljung & Soderstrom, Theory and Practice of Recursive
- * Identification, 1983, Sec. 2.2), with three forgetting schemes:
+ * with P held as its factors P = U diag(d) U' (U unit upper triangular, d > 0) and updated by Bierman's algorithm
+ * (G. J. Bierman, Factorization Methods for Discrete Sequential Estimation, 1977, Sec. V.3; Grewal & Andrews,
+ * Kalman Filtering, 4th ed., 2015, Sec. 7.5.2): P stays symmetric positive definite in float as in double, where
+ * the rank-one form P - (P phi)(P phi)'/s loses it at the condition numbers of a first learning transient. The
+ * struct holds the factors only; P's entries, P times a vector and phi'P phi are computed from them (aff_rls_P,
+ * aff_rls_cov, aff_rls_P_times, aff_rls_quad). Three forgetting schemes:
  *   AFF_RLS_EXPONENTIAL  eqs. 10-13; an update whose trace(P) would exceed P_max forgets nothing;
  *   AFF_RLS_DIRECTIONAL  information forgotten along phi only (Kulhavy, Automatica 23(5), 1987; Bittanti,
  *                        Bolzern, Campi, Automatica 26(5), 1990), same trace bound;
@@ -47,8 +51,11 @@ typedef struct aff_rls {
     aff_real upper[AFF_RLS_NMAX];                /* upper bounds of theta (INFINITY allowed) */
     aff_real D[AFF_RLS_NMAX * AFF_RLS_NMAX];     /* vector scheme: inflation factors d_i*d_j (p*p) */
     aff_real theta[AFF_RLS_NMAX];                /* estimate */
-    aff_real P[AFF_RLS_NMAX * AFF_RLS_NMAX];     /* covariance, p*p row-major, exactly symmetric */
-    aff_real v[AFF_RLS_NMAX];                    /* scratch: P phi of the last update */
+    aff_real UD[AFF_RLS_NMAX * AFF_RLS_NMAX];    /* the covariance P = U diag(d) U' as its factors, p*p row-major:
+                                                    d_j at (j, j), U_ij (i < j) above the diagonal (U's unit
+                                                    diagonal implied), 0 below; set through aff_rls_set_P */
+    aff_real v[AFF_RLS_NMAX];                    /* P phi of the last update (the P before it, inflated by the
+                                                    vector scheme) */
     int64_t n_updates;                           /* accepted updates */
     int64_t n_projected;                         /* updates after which theta was projected onto the box */
     int64_t n_rejected;                          /* refused samples (non-finite, or an update that would overflow) */
@@ -58,12 +65,19 @@ typedef struct aff_rls {
  * trace bound trace(P0*I)). */
 aff_rls_config aff_rls_default_config(void);
 
-/* Configure r from *cfg and clear it: theta = 0, P = P0*I, no bounds (lower -inf, upper +inf), D = 1, counters
- * 0; lam 1 for the vector scheme. A caller with a start theta0, a full P0 or bounds writes the fields theta, P,
- * lower/upper (has_bounds = 1) afterwards; the vector scheme's factors: aff_rls_set_lam_each. Returns AFF_OK, or
+/* Configure r from *cfg and clear it: theta = 0, P = P0*I (U = I, d = P0), no bounds (lower -inf, upper +inf), D = 1, counters
+ * 0; lam 1 for the vector scheme. A caller with a start theta0 or bounds writes the fields theta, lower/upper
+ * (has_bounds = 1) afterwards, a full P0 through aff_rls_set_P; the vector scheme's factors: aff_rls_set_lam_each. Returns AFF_OK, or
  * AFF_ERR_NULL, AFF_ERR_RLS_N_PARAMS, _FORGETTING, _LAM, _P0, _P_MAX (r untouched). Python:
  * RecursiveLeastSquares.__init__. */
 aff_error aff_rls_init(aff_rls *r, const aff_rls_config *cfg);
+
+/* Set the covariance to the symmetric positive definite P[0..p*p-1] (row-major): UD becomes its factors (U D U'
+ * decomposition, Bierman 1977, Sec. III.2). Returns AFF_OK, or AFF_ERR_NULL, or AFF_ERR_RLS_P (an entry not
+ * finite, P not symmetric, or not positive definite: a factor d_j not finite and > 0); r untouched then. Works on
+ * a p*p copy on the stack (up to 2 kB in double): a call of a configuration step, not of a drive's period. Python:
+ * RecursiveLeastSquares.P = value. */
+aff_error aff_rls_set_P(aff_rls *r, const aff_real *P);
 
 /* The checks of aff_rls_init alone: AFF_OK or the code it would return for *cfg. */
 aff_error aff_rls_check_config(const aff_rls_config *cfg);
@@ -76,7 +90,8 @@ aff_error aff_rls_set_lam_each(aff_rls *r, const aff_real *lam);
 
 /* One update with the finite sample (phi[0..p-1], y) (unchecked: aff_rls_update checks); returns the a-priori
  * error y - phi'theta (unit of y). An update that would overflow (e*e, phi'P phi or |P phi|^2 not finite) is
- * refused before the state changes: n_rejected counts it and NAN is returned. Eqs. 10-13 and the schemes above. */
+ * refused before the state changes: n_rejected counts it and NAN is returned. Eqs. 10-13 and the schemes above;
+ * the covariance by Bierman's update of U, d. */
 aff_real aff_rls_step(aff_rls *r, const aff_real *phi, aff_real y);
 
 /* Checked update: NAN (state untouched but n_rejected) if y or an entry of phi[0..p-1] is NaN/inf, else
@@ -88,8 +103,18 @@ aff_real aff_rls_update(aff_rls *r, const aff_real *phi, aff_real y);
  * into hist[k*p .. k*p+p-1] and returns -1. Python: RecursiveLeastSquares.update_many. */
 long aff_rls_update_many(aff_rls *r, const aff_real *Phi, const aff_real *Y, long n, aff_real *hist);
 
-/* Entry (i, j) of P (0 <= i, j < p; not checked). */
+/* Entry (i, j) of P = U diag(d) U' (0 <= i, j < p; not checked), computed from the factors (O(p); (i, j) and
+ * (j, i) give the same number). */
 aff_real aff_rls_P(const aff_rls *r, long i, long j);
+
+/* P into out[0..p*p-1], row-major, exactly symmetric (the entries of aff_rls_P). Python: RecursiveLeastSquares.P. */
+void aff_rls_cov(const aff_rls *r, aff_real *out);
+
+/* out[0..p-1] = P x[0..p-1] = U (diag(d) (U' x)), O(p^2); out must not alias x. */
+void aff_rls_P_times(const aff_rls *r, const aff_real *x, aff_real *out);
+
+/* x'P x = sum_j d_j ((U' x)_j)^2 >= 0 for x[0..p-1], O(p^2). */
+aff_real aff_rls_quad(const aff_rls *r, const aff_real *x);
 
 /* Prior variance per parameter, P_max/p (INFINITY for the unbounded eqs. 10-13): the scale against which the
  * data's reduction of a diagonal entry of P is judged (adaptive_ff.compensation.adaptive_feedforward). */

@@ -234,7 +234,7 @@ aff_real aff_robust_ff_lag_weighted(aff_robust_ff *r, aff_real tau, aff_real sd)
     return r->lag_mean;
 }
 
-int aff_project_box(long p, const aff_real *P, const aff_real *theta, const aff_real *lo, const aff_real *hi,
+int aff_project_box(long p, const aff_rls *cov, const aff_real *theta, const aff_real *lo, const aff_real *hi,
                     aff_real *x, aff_real *work)
 {
     int side[AFF_RLS_NMAX];      /* working set: 0 free, -1 held at lo, +1 held at hi */
@@ -275,14 +275,14 @@ int aff_project_box(long p, const aff_real *P, const aff_real *theta, const aff_
                 W[nw++] = i;
         /* Cholesky of P[W, W], then mu */
         for (j = 0; j < nw; j++) {
-            aff_real d = P[W[j] * p + W[j]];
+            aff_real d = aff_rls_P(cov, W[j], W[j]);
             for (k = 0; k < j; k++)
                 d -= L[j * p + k] * L[j * p + k];
             if (!(d > 0) || !isfinite(d))
                 return -1;
             L[j * p + j] = AFF_SQRT(d);
             for (i = j + 1; i < nw; i++) {
-                aff_real c = P[W[i] * p + W[j]];
+                aff_real c = aff_rls_P(cov, W[i], W[j]);
                 for (k = 0; k < j; k++)
                     c -= L[i * p + k] * L[j * p + k];
                 L[i * p + j] = c / L[j * p + j];
@@ -306,7 +306,7 @@ int aff_project_box(long p, const aff_real *P, const aff_real *theta, const aff_
             } else {
                 aff_real c = th[i];
                 for (k = 0; k < nw; k++)
-                    c += P[i * p + W[k]] * mu[k];
+                    c += aff_rls_P(cov, i, W[k]) * mu[k];
                 z[i] = c;
             }
         }
@@ -436,7 +436,7 @@ int aff_robust_ff_decide(aff_robust_ff *r)
         plausible_box(r, lo, hi);
         if (lag && !(r->lag_zero > 0))
             lo[2] = -(aff_real)INFINITY; /* lag_zero 0: a negative lag is refused below, not projected */
-        nb = aff_project_box(p, rls->P, rls->theta, lo, hi, x, r->work);
+        nb = aff_project_box(p, rls, rls->theta, lo, hi, x, r->work);
         if (nb < 0) {
             r->n_implausible = aff_count_up(r->n_implausible);
             return 0;

@@ -117,8 +117,9 @@ aff_error aff_robust_ff_init(aff_robust_ff *r, const aff_robust_ff_config *cfg);
 aff_error aff_robust_ff_check_config(const aff_robust_ff_config *cfg);
 
 /* Projection of theta onto the box lo <= x <= hi in the metric of P^-1: x minimises (x - theta)' P^-1 (x - theta)
- * subject to the bounds (P, p*p row-major, symmetric positive definite; lo[i] = -INFINITY / hi[i] = INFINITY for
- * a free parameter; x may alias theta). With P the RLS covariance this is the least-squares estimate under the
+ * subject to the bounds (P the covariance of the RLS cov, p its number of parameters, its entries by aff_rls_P;
+ * lo[i] = -INFINITY / hi[i] = INFINITY for a free parameter; x may alias theta). With the RLS's own theta this is
+ * the least-squares estimate under the
  * bounds (the cost of the RLS data is that quadratic form plus a constant: the constrained least-squares step,
  * Goodwin & Sin, Adaptive Filtering, Prediction and Control, 1984, Sec. 3.3.7; Ljung, System Identification, 2nd
  * ed., 1999, Sec. 11.2). Solved exactly by the primal active-set method for convex QP (Nocedal & Wright, Numerical
@@ -129,7 +130,7 @@ aff_error aff_robust_ff_check_config(const aff_robust_ff_config *cfg);
  * a P[W, W] is not numerically positive definite, or the iterations run out. work: scratch of at least
  * AFF_PROJECT_WORK(p) entries (the caller's, so that a drive's stack stays small). Python:
  * adaptive_ff.compensation.adaptive_feedforward.project_box. */
-int aff_project_box(long p, const aff_real *P, const aff_real *theta, const aff_real *lo, const aff_real *hi,
+int aff_project_box(long p, const aff_rls *cov, const aff_real *theta, const aff_real *lo, const aff_real *hi,
                     aff_real *x, aff_real *work);
 
 /* The estimator's current theta through the tests of the safety chain (what aff_robust_ff_observe does after an

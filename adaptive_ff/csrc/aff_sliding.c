@@ -197,15 +197,7 @@ static void svf3(aff_real *x, aff_real a, aff_real v)
  * 2nd ed., 1999, Sec. 11.2). */
 static aff_real phi_P_phi(const aff_rls *r, const aff_real *phi)
 {
-    long n = r->p;
-    long i, j;
-    aff_real acc = 0;
-    for (i = 0; i < n; i++) {
-        aff_real row = 0;
-        for (j = 0; j < n; j++)
-            row += r->P[i * n + j] * phi[j];
-        acc += phi[i] * row;
-    }
+    aff_real acc = aff_rls_quad(r, phi);
     return acc > 0 ? acc : (aff_real)0.0;
 }
 

@@ -28,7 +28,7 @@ RLS_NMAX = len(ffi.new("aff_rls *").theta)
 _SCHEMES = {"exponential": lib.AFF_RLS_EXPONENTIAL, "directional": lib.AFF_RLS_DIRECTIONAL}
 _NDARRAY = np.ndarray
 _F8 = np.dtype(np.float64)
-_VIEWS = ("_theta", "_P", "_lower", "_upper", "_D")
+_VIEWS = ("_theta", "_lower", "_upper", "_D")
 
 
 class RecursiveLeastSquares(Component):
@@ -72,7 +72,8 @@ class RecursiveLeastSquares(Component):
         Current estimate (public, read it any time). A view of the internal
         state, updated in place: copy it to keep a value.
     P : ndarray, shape (p, p)
-        Current covariance (exactly symmetric; a view, updated in place).
+        Current covariance (exactly symmetric; a new array from the factors ``U D U'`` the struct holds;
+        assigning the attribute sets them).
     lam : float or ndarray, shape (p,)
         Forgetting factor(s).
     n_updates : int
@@ -102,11 +103,16 @@ class RecursiveLeastSquares(Component):
         P     = (P - (P @ phi)(P @ phi)^T / s) / lam (eq. 13)
 
     Eq. 13 is written ``(I - gamma phi^T) P / lam``; that product is not
-    symmetric in floating point and drifts over long runs. The form above,
-    algebraically identical, subtracts a symmetric rank-one term and so keeps
-    ``P`` exactly symmetric (Ljung & Söderström, *Theory and Practice of
-    Recursive Identification*, 1983, Sec. 2.2; Haykin, *Adaptive Filter
-    Theory*, Ch. 10). With ``lam = 1``, ``P0 = I/r`` and ``theta0 = 0`` the
+    symmetric in floating point, and even the symmetric rank-one form above
+    (Ljung & Söderström, *Theory and Practice of Recursive Identification*,
+    1983, Sec. 2.2) loses positive definiteness in single precision at the
+    condition numbers of a first learning transient (a large ``P0``). ``P`` is
+    therefore held as its factors ``P = U diag(d) U^T`` (``U`` unit upper
+    triangular, ``d > 0``) and the update is carried out on them by Bierman's
+    algorithm (G. J. Bierman, *Factorization Methods for Discrete Sequential
+    Estimation*, 1977, Sec. V.3; Grewal & Andrews, *Kalman Filtering*, 2015,
+    Sec. 7.5.2), algebraically identical; :attr:`P` is the product, rebuilt
+    after each update and exactly symmetric. With ``lam = 1``, ``P0 = I/r`` and ``theta0 = 0`` the
     estimate after N updates equals the ridge-regularised batch solution
     ``argmin ||X theta - y||**2 + r*||theta||**2`` (see
     :func:`adaptive_ff.fit_ls` with ``ridge=r``).
@@ -164,8 +170,8 @@ class RecursiveLeastSquares(Component):
     the configuration (:attr:`cdata`; a composite component embeds it in its own struct);
     :meth:`update` calls it once per sample (timings: ``benchmarks/rls.py`` and the
     documentation's benchmark pages), :meth:`update_many` runs a whole stream in one call
-    (``aff_rls_update_many``). ``P`` is updated on its upper triangle and mirrored, so it is
-    exactly symmetric.
+    (``aff_rls_update_many``). The struct holds ``P`` as its
+    factors ``UD`` (assign :attr:`P` to set them).
     """
 
 
@@ -254,7 +260,6 @@ class RecursiveLeastSquares(Component):
             return np.frombuffer(ffi.buffer(field), dtype=np.float64)[:n]
 
         self._theta = view(c.theta, p)
-        self._P = view(c.P, p * p).reshape(p, p)
         self._lower = view(c.lower, p)
         self._upper = view(c.upper, p)
         self._D = view(c.D, p * p).reshape(p, p)
@@ -288,15 +293,23 @@ class RecursiveLeastSquares(Component):
 
     @property
     def P(self) -> np.ndarray:
-        """Current covariance, shape (p, p), exactly symmetric (a view of the struct, updated in place)."""
-        return self._P
+        """Current covariance ``U diag(d) U'``, shape (p, p), exactly symmetric: a new array computed from the
+        factors the struct holds (``aff_rls_cov``); assign to the attribute to set it."""
+        p = self.n_params
+        out = np.empty((p, p))
+        lib.aff_rls_cov(self._c, ffi.from_buffer("double[]", out))
+        return out
 
     @P.setter
     def P(self, value) -> None:
-        value = np.asarray(value, dtype=float)
+        """Set the covariance: a finite, symmetric, positive definite (p, p) array (``aff_rls_set_P`` stores it and
+        its factors); :class:`~plant.errors.ParameterError` otherwise, the state unchanged."""
+        value = np.ascontiguousarray(value, dtype=float)
         if value.shape != (self.n_params, self.n_params):
             raise ParameterError(f"P must have shape ({self.n_params}, {self.n_params}), got {value.shape}")
-        self._P[:] = value
+        code = lib.aff_rls_set_P(self._c, ffi.from_buffer("double[]", value))
+        if code != lib.AFF_OK:
+            raise ParameterError(f"P: {ffi.string(lib.aff_error_message(code)).decode()}")
 
     @property
     def lam(self):

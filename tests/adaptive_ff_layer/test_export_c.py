@@ -7,8 +7,8 @@ supervisor) on the ``paper`` joint with measurement noise is replayed through it
 log through the package's compensator, built from the same identification: ``aff_replay`` through cffi, itself
 checked against the Python methods ``compensate``/``observe``, and the compensation the closed loop applied).
 Double: bit for bit. Float (``-DAFF_FLOAT``):
-the deviation is measured and printed; it must stay within 1 % of the friction level ``Fc`` except where a
-threshold decision falls on the neighbouring period (docs/benchmarks/export_c.md). Also: ``aff_init`` of the
+the deviation is measured and printed; it must stay within 1 % of the friction level ``Fc``, a threshold decision
+allowed to fall on the neighbouring period (docs/benchmarks/export_c.md). Also: ``aff_init`` of the
 exported settings ``AFF_CONFIG`` builds the package's struct byte for byte, a setting edited in ``aff_config.c``
 gives the package's compensator with that setting (replay equality), the library references nothing but
 ``<math.h>`` functions and ``memmove``/``memset``/``memcpy``, ``make`` builds and runs the example in both
@@ -131,13 +131,12 @@ def test_exported_float_build_stays_within_one_percent_of_the_friction_level(exp
     late = np.abs(uff - reference_ff)[N // 2:]
     print(f"second half: 99.9 % of the periods within {np.quantile(late, 0.999):.3g} N·m")
     assert active == "1"
-    # the same compensator to within 1 % of the friction level but on at most 0.1 % of the periods: while the
-    # estimator first learns, the float RLS covariance loses its positive definiteness, the estimates drift apart and
-    # the sign inside the stick band flips at a few slow reversals (docs/benchmarks/export_c.md,
-    # benchmarks/export_c_float.py; how many periods depends on the platform's libm); once the estimate has
-    # settled, the same to 0.01 % of Fc
-    assert d["n_over"] <= 1e-3 * N
-    assert d["rms"] <= 1e-3 * fc
+    # the same compensator within 1 % of the friction level, a threshold decision allowed to fall on the neighbouring
+    # period (the RLS covariance held as Bierman's U D U' factors stays positive definite in float; the rank-one form
+    # lost it while the estimator first learned, and the float build drifted by up to 10 % of Fc); once the estimate
+    # has settled, the same to 0.01 % of Fc
+    assert d["max_shift"] <= 0.01 * fc and d["n_over"] == 0
+    assert d["rms"] <= 1e-4 * fc
     assert np.quantile(late, 0.999) <= 1e-4 * fc
 
 
