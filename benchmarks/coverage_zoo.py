@@ -25,9 +25,10 @@ pre-fit's values are the true ones: the intervals are conditional on them) and `
   does not change the result), interval ``interval95``; the method it chose and the parameters its
   ``model_form`` warnings name are kept in the row (``default_method``, ``default_named``).
 
-``--input-quantum auto`` (or a resolution in N·m) passes ``bootstrap_input_quantum`` to the ``oe`` and ``default``
-fits: their bootstrap worlds read the torque with its quantum
-(:class:`adaptive_ff.identification.oe_options.OutputErrorOptions`); without it, the package's default (None).
+``--input-quantum`` passes ``bootstrap_input_quantum`` to the ``oe`` and ``default`` fits: ``auto`` or a
+resolution in N·m, the quantum their bootstrap worlds read the torque with
+(:class:`adaptive_ff.identification.oe_options.OutputErrorOptions`; ``0``: the logged torque taken as exact);
+without it, the package's default (``"auto"``).
 
 ``--kinds`` runs a subset (``eq4`` also gives ``eq4 delta``); a kind not run is left out of the table.
 
@@ -220,8 +221,8 @@ def main(argv=None) -> int:
                     help="how the output-error bootstrap refits each replicate (OutputErrorOptions.bootstrap_refit; "
                          "default full, the package's)")
     ap.add_argument("--input-quantum", default=None,
-                    help="bootstrap_input_quantum of the oe and default fits: 'auto' or a resolution in N·m "
-                         "(default: none, the package's default)")
+                    help="bootstrap_input_quantum of the oe and default fits: 'auto' or a resolution in N·m, 0 for "
+                         "the logged torque taken as exact (default: the package's default, 'auto')")
     ap.add_argument("--kinds", nargs="+", choices=("oe", "eq4", "default"), default=["oe", "eq4"],
                     help="the fits to run (default: oe eq4; eq4 gives eq4 delta too)")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")

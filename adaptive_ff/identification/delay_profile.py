@@ -33,7 +33,8 @@ Held at the fit's delay, the refits do not carry the delay's error, and the prof
 finer than its neighbouring points: where the residuals are nearly white, the costs there differ by about the
 landing scatter of its refits, so which of two or three neighbouring delays is chosen is as much the optimiser's
 landing as the log. :func:`delay_spread` takes the delay's share from the profile itself: the root-mean-square
-move of the parameters refitted at the delays tried next to the chosen one (the estimator's own answers there),
+move of the parameters refitted at the delays tried next to the chosen one (the estimator's own answers there)
+from the profile's refit at the chosen delay (the same stage of the search),
 which ``fit_physical`` adds in quadrature to the refits' spread (``info["bootstrap"]["stderr_delay"]``). It costs
 no simulation. What it does to the coverage of the zoo of ``benchmarks/coverage_zoo.py`` is on the identification
 benchmark page ("The input delay's share").
@@ -123,24 +124,27 @@ def delay_profile_search(pb, best, refit, *, fractions=DELAY_FRACTIONS, delays=N
     return tried[chosen], details
 
 
-def delay_spread(details: dict, estimate: dict) -> dict:
-    """The input delay's share of the parameters' error: per parameter the root-mean-square move from
-    ``estimate`` of the parameters refitted at the delays tried next to the chosen one.
+def delay_spread(details: dict, names) -> dict:
+    """The input delay's share of the parameters' error: per parameter the root-mean-square move, from the
+    profile's own refit at the chosen delay, of the parameters refitted at the delays tried next to it.
 
     The profile resolves the delay only to its neighbouring points: the costs of neighbouring delays differ by about
     the landing scatter of the profile's refits, several times the likelihood's 95 % threshold on nearly white
     residuals, so the chosen point is one of two or three the log does not tell apart. The refits there are the
     estimator's own answers at those delays; their moves, added in quadrature to the bootstrap's spread (which
     holds the delay, module docstring), give intervals that carry the delay's uncertainty without another
-    simulation.
+    simulation. The moves are measured from the profile's refit at the chosen delay, the same stage of the search
+    as at the neighbours, not from the fit's estimate: the final Fs profile that follows the delay's profile
+    moves the estimate's Fs (and what correlates with it) by its own polish, which is no effect of the delay and
+    which the bootstrap's refits, running that profile too, already hold.
 
     Parameters
     ----------
     details : dict
         :func:`delay_profile_search`'s details with ``params`` (``delay``, ``chosen``, ``params``: the parameters
         refitted at each delay tried, in the order of ``delay``).
-    estimate : dict
-        The fit's parameters (name -> value); the keys of the result.
+    names : iterable of str
+        The parameters (keys of each entry of ``details["params"]``); the keys of the result.
 
     Returns
     -------
@@ -149,10 +153,12 @@ def delay_spread(details: dict, estimate: dict) -> dict:
         chosen one (one of them at an end of the profile); 0.0 for every parameter where the profile tried one
         delay (the bootstrap's refits) or has no ``params``.
     """
+    names = list(names)
     delays, params = list(details.get("delay", ())), details.get("params")
     if not params or len(delays) < 2:
-        return {k: 0.0 for k in estimate}
+        return {k: 0.0 for k in names}
     order = sorted(range(len(delays)), key=lambda i: delays[i])
-    pos = order.index(delays.index(details["chosen"]))
+    ch = delays.index(details["chosen"])
+    pos = order.index(ch)
     nb = [order[j] for j in (pos - 1, pos + 1) if 0 <= j < len(order)]
-    return {k: float(np.sqrt(np.mean([(params[i][k] - v) ** 2 for i in nb]))) for k, v in estimate.items()}
+    return {k: float(np.sqrt(np.mean([(params[i][k] - params[ch][k]) ** 2 for i in nb]))) for k in names}

@@ -676,8 +676,8 @@ def stderr_note(fit: PhysicalFit) -> str:
     -------
     str
         E.g. ``"standard errors by a parametric block bootstrap (20 refits of re-simulated records, seed 0, ...)"``,
-        with the profiled input delay's share where the output-error fit added it
-        (:func:`adaptive_ff.identification.delay_profile.delay_spread`);
+        with the input quantum of the bootstrap worlds and the profiled input delay's share where the output-error
+        fit used them (:func:`adaptive_ff.identification.delay_profile.delay_spread`) and the intervals' centre;
         for HAC the caveat that they are too small on a rough free-run cost (Künsch 1989; Newey & West 1987:
         :mod:`adaptive_ff.identification.covariance`).
     """
@@ -685,8 +685,11 @@ def stderr_note(fit: PhysicalFit) -> str:
     if fit.info.get("stderr_kind") == "bootstrap" and boot:
         delay = ("; the profiled input delay's share added in quadrature (the parameters refitted at its "
                  "neighbouring delays)") if boot.get("stderr_delay") else ""
+        quantum = (f"; each world driven by the logged input plus a draw within half its {boot['input_quantum']:.4g} "
+                   f"quantum") if boot.get("input_quantum") else ""
         return (f"standard errors by a parametric block bootstrap ({boot['n_valid']} refits of re-simulated "
-                f"records, seed {boot['seed']}; options n_bootstrap, bootstrap_seed){delay}")
+                f"records, seed {boot['seed']}; options n_bootstrap, bootstrap_seed){quantum}{delay}; 95 % "
+                f"intervals centred on the estimate less the refits' mean shift (info.bootstrap.bias)")
     if fit.info.get("stderr_kind") == "hac":
         return ("standard errors HAC (Newey-West, asymptotic; too small on the rough free-run cost, a lower "
                 "bound: use n_bootstrap > 0)")

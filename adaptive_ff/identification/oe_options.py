@@ -105,11 +105,10 @@ class OutputErrorOptions:
         The resolution (N·m) the log's input was read with, drawn into the input of each bootstrap world
         (module docstring of :mod:`adaptive_ff.identification.physical_id`, "Standard errors"): each replicate
         record is the estimate driven by the logged input plus a uniform draw within half of it, refitted with the
-        logged input (one more simulation per refit). A float >= 0: that resolution (0: none); ``"auto"``: the
-        step of the lattice the logged samples lie on
-        (:func:`adaptive_ff.identification.diagnostics.input_quantum`; 0 for a continuous input); None
-        (default): the logged input taken as exact, the bootstrap as without this option. Reported in
-        ``info["bootstrap"]["input_quantum"]``.
+        logged input (one more simulation per refit). ``"auto"`` (default): the step of the lattice the logged
+        samples lie on (:func:`adaptive_ff.identification.diagnostics.input_quantum`; 0 for a continuous input,
+        whose bootstrap is then that of None bit for bit); a float >= 0: that resolution (0: none); None: the
+        logged input taken as exact. Reported in ``info["bootstrap"]["input_quantum"]``.
     jacobian : {"difference", "sensitivity"}, keyword-only
         Jacobian of the trust-region fits. ``"difference"`` (default): forward differences with the relative
         step ``diff_step`` (a secant over 1 % of each parameter, which sees past the breakaway jitter of the
@@ -150,7 +149,7 @@ class OutputErrorOptions:
     lag_profile: bool = True
     bootstrap_lag_refits: int | None = 2
     jacobian: str = "difference"
-    bootstrap_input_quantum: float | str | None = None
+    bootstrap_input_quantum: float | str | None = "auto"
 
     def __post_init__(self):
         def put(name, value):

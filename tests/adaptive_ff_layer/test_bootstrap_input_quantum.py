@@ -4,7 +4,8 @@
 A drive that logs its torque rounded to a resolution ``q`` hands the fit an input that differs from the one that
 drove the joint by an error spread over ``[-q/2, q/2]``. The bootstrap's replicate records are the estimate driven
 by such an input (the logged one plus a uniform draw within half a quantum), refitted with the logged input, so
-that the refits carry the input's reading error as the fit of the record does.
+that the refits carry the input's reading error as the fit of the record does. The default finds the quantum from
+the log (``"auto"``); None takes the logged input as exact.
 """
 
 import numpy as np
@@ -73,9 +74,11 @@ def test_the_bootstrap_world_is_driven_by_an_input_the_log_reads_as_its_own(monk
         assert np.max(np.abs(dev)) <= 0.3 and np.std(dev) == pytest.approx(0.6 / np.sqrt(12.0), rel=0.1)
         assert np.array_equal(np.round(u_world / 0.6) * 0.6, np.round(m.u / 0.6) * 0.6)
     assert not np.array_equal(seen[0], seen[1])  # each world its own draw
-    # the default takes the logged input as exact: the same refits as without the option, no simulation added
+    # the default finds the quantum itself ("auto"); None (or 0) takes the logged input as exact: no world
+    # simulation added, the same fit
     seen.clear()
-    g = pid.fit_physical(m.t, m.u, m.w, **kw)
+    assert pid.OutputErrorOptions().bootstrap_input_quantum == "auto"
+    g = pid.fit_physical(m.t, m.u, m.w, bootstrap_input_quantum=None, **kw)
     assert g.info["bootstrap"]["input_quantum"] == 0.0 and not seen and g.params == f.params
     assert g.stderr != f.stderr
     if quantum == "auto":  # a continuous torque has no quantum to draw

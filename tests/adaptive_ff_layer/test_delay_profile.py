@@ -129,32 +129,36 @@ def test_the_bootstrap_refits_hold_the_delay_the_fit_chose(profiled):
     # the fit's profile keeps the parameters at each delay; the refits' one-point profiles have no spread
     assert "params" in prof and len(prof["params"]) == len(prof["delay"]) and all("params" not in r
                                                                                    for r in profiles[1:])
-    # the delay's share, recomputed here from the profile: the tried delays nearest below and above the chosen
+    # the delay's share, recomputed here from the profile: the moves from the profile's refit at the chosen delay
+    # to the tried delays nearest below and above it
+    at = prof["params"][prof["delay"].index(d)]
     below = max((x for x in prof["delay"] if x < d), default=None)
     above = min((x for x in prof["delay"] if x > d), default=None)
     nb = [prof["params"][prof["delay"].index(x)] for x in (below, above) if x is not None]
     q = bootstrap_t_quantile(boot["n_valid"], 0.95)
     for k in ("J", "tau", "sigma", "Fc", "Fs", "offset"):
-        share = math.sqrt(sum((v[k] - f.params[k]) ** 2 for v in nb) / len(nb))
+        share = math.sqrt(sum((v[k] - at[k]) ** 2 for v in nb) / len(nb))
         assert boot["stderr_delay"][k] == pytest.approx(share, rel=1e-12, abs=1e-15)
         assert f.stderr[k] == pytest.approx(math.sqrt(boot["stderr_refits"][k] ** 2 + share ** 2), rel=1e-12)
-        assert f.info["interval95"][k] == pytest.approx([f.params[k] - q * f.stderr[k],
-                                                         f.params[k] + q * f.stderr[k]], rel=1e-12)
+        # centred on the estimate less the refits' mean shift
+        centre = f.params[k] - boot["bias"][k]
+        assert f.info["interval95"][k] == pytest.approx([centre - q * f.stderr[k], centre + q * f.stderr[k]],
+                                                        rel=1e-12)
     # measured on this joint: the delay's share 0.25-0.9 of the refits' spread in sigma and Fc
     assert all(boot["stderr_delay"][k] > 0.1 * boot["stderr_refits"][k] for k in ("sigma", "Fc"))
 
 
-def test_delay_spread_is_the_rms_move_to_the_chosen_delays_neighbours():
-    # delays tried in the profile's order (the grid, then the parabola's vertex 0.7 ms); chosen 0.625 ms: its
-    # neighbours in time are 0 and 0.7 ms, not 1.25 ms
+def test_delay_spread_is_the_rms_move_from_the_chosen_delay_to_its_neighbours():
+    # delays tried in the profile's order (the grid, then the parabola's vertex 0.7 ms); chosen 0.625 ms (the
+    # profile's refit there: J 2, Fc 11): its neighbours in time are 0 and 0.7 ms, not 1.25 ms
     det = {"delay": [0.0, 0.625e-3, 1.25e-3, 2.5e-3, 0.7e-3], "chosen": 0.625e-3,
            "params": [{"J": 1.0, "Fc": 10.0}, {"J": 2.0, "Fc": 11.0}, {"J": 9.0, "Fc": 90.0},
                       {"J": 9.0, "Fc": 90.0}, {"J": 4.0, "Fc": 11.0}]}
-    out = delay_spread(det, {"J": 2.0, "Fc": 11.5})
+    out = delay_spread(det, ("J", "Fc"))
     assert out["J"] == pytest.approx(math.sqrt((1.0 + 4.0) / 2.0), rel=1e-15)
-    assert out["Fc"] == pytest.approx(math.sqrt((1.5 ** 2 + 0.5 ** 2) / 2.0), rel=1e-15)
-    # chosen at an end of the profile (0 ms): its one neighbour, 0.625 ms
-    assert delay_spread(dict(det, chosen=0.0), {"J": 1.0, "Fc": 10.0}) == {"J": 1.0, "Fc": 1.0}
+    assert out["Fc"] == pytest.approx(math.sqrt((1.0 + 0.0) / 2.0), rel=1e-15)
+    # chosen at an end of the profile (0 ms: J 1, Fc 10): its one neighbour, 0.625 ms
+    assert delay_spread(dict(det, chosen=0.0), ("J", "Fc")) == {"J": 1.0, "Fc": 1.0}
     # one delay (a bootstrap refit's profile) or no parameters kept: no share
-    assert delay_spread({"delay": [1e-3], "chosen": 1e-3, "params": [{"J": 5.0}]}, {"J": 2.0}) == {"J": 0.0}
-    assert delay_spread({"delay": [0.0, 1e-3], "chosen": 0.0}, {"J": 2.0}) == {"J": 0.0}
+    assert delay_spread({"delay": [1e-3], "chosen": 1e-3, "params": [{"J": 5.0}]}, ("J",)) == {"J": 0.0}
+    assert delay_spread({"delay": [0.0, 1e-3], "chosen": 0.0}, ("J",)) == {"J": 0.0}
