@@ -65,11 +65,11 @@ typedef struct aff_rls {
  * trace bound trace(P0*I)). */
 aff_rls_config aff_rls_default_config(void);
 
-/* Configure r from *cfg and clear it: theta = 0, P = P0*I (U = I, d = P0), no bounds (lower -inf, upper +inf), D = 1, counters
- * 0; lam 1 for the vector scheme. A caller with a start theta0 or bounds writes the fields theta, lower/upper
- * (has_bounds = 1) afterwards, a full P0 through aff_rls_set_P; the vector scheme's factors: aff_rls_set_lam_each. Returns AFF_OK, or
- * AFF_ERR_NULL, AFF_ERR_RLS_N_PARAMS, _FORGETTING, _LAM, _P0, _P_MAX (r untouched). Python:
- * RecursiveLeastSquares.__init__. */
+/* Configure r from *cfg and clear it: theta = 0, P = P0*I (U = I, d = P0), no bounds (lower -inf, upper +inf),
+ * D = 1, counters 0; lam 1 for the vector scheme. A caller with a start theta0 or bounds writes the fields theta,
+ * lower/upper (has_bounds = 1) afterwards, a full P0 through aff_rls_set_P; the vector scheme's factors:
+ * aff_rls_set_lam_each. Returns AFF_OK, or AFF_ERR_NULL, AFF_ERR_RLS_N_PARAMS, _FORGETTING, _LAM, _P0, _P_MAX
+ * (r untouched). Python: RecursiveLeastSquares.__init__. */
 aff_error aff_rls_init(aff_rls *r, const aff_rls_config *cfg);
 
 /* Set the covariance to the symmetric positive definite P[0..p*p-1] (row-major): UD becomes its factors (U D U'
@@ -89,8 +89,9 @@ aff_error aff_rls_check_config(const aff_rls_config *cfg);
 aff_error aff_rls_set_lam_each(aff_rls *r, const aff_real *lam);
 
 /* One update with the finite sample (phi[0..p-1], y) (unchecked: aff_rls_update checks); returns the a-priori
- * error y - phi'theta (unit of y). An update that would overflow (e*e, phi'P phi or |P phi|^2 not finite) is
- * refused before the state changes: n_rejected counts it and NAN is returned. Eqs. 10-13 and the schemes above;
+ * error y - phi'theta (unit of y). An update that would overflow (e*e, phi'P phi or |P phi|^2 not finite; the
+ * factors' growth: trace(P)/lam not finite; the vector scheme: trace(D.P)^2 |phi|^2 not finite) is refused before
+ * the state changes: n_rejected counts it and NAN is returned. Eqs. 10-13 and the schemes above;
  * the covariance by Bierman's update of U, d. */
 aff_real aff_rls_step(aff_rls *r, const aff_real *phi, aff_real y);
 
