@@ -77,9 +77,9 @@ def test_open_loop_1khz_noisy_log_answers_by_output_error_and_covers_the_truth(t
     assert "simulation-extrapolation moves tau" in reason and "open-loop record" in reason
     assert any(w.code == "method" and w.startswith("sliding regression, not the answer: tau moves by")
                for w in rep.warnings)
-    # measured: J 3.9923 [3.9505, 4.0109], Fc 24.932 [24.739, 25.088], Fs 35.214 [32.216, 40.337],
-    # sigma 40.123 [39.953, 40.267], tau 0.020040 [0.019516, 0.020315] (centred on the estimate less the refits'
-    # mean shift: Fs's -1.06)
+    # measured: J 3.9923 [3.9505, 4.0109], Fc 24.932 [24.757, 25.107], Fs 35.214 [32.216, 40.337],
+    # sigma 40.123 [39.966, 40.280], tau 0.020040 [0.019516, 0.020315] (J, Fs and tau centred on the estimate less
+    # the refits' mean shift, Fs's -1.06; Fc's and sigma's shifts below a quarter of their standard errors)
     for k in ("J", "Fc", "Fs", "sigma", "tau"):
         lo, hi = rep.interval95[k]
         assert lo <= getattr(P, k) <= hi, (k, lo, hi)
