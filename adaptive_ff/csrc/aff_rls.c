@@ -265,7 +265,6 @@ static void project(aff_rls *r)
     }
 }
 
-
 /* The usual number of parameters (the sliding estimator with the lag and the offset): a step with this p has its
  * loops of known length (unrolled by the compiler; the same operations in the same order). */
 #define AFF_RLS_P_USUAL 7
@@ -428,36 +427,10 @@ void aff_rls_cov(const aff_rls *r, aff_real *P)
     }
 }
 
-void aff_rls_P_times(const aff_rls *r, const aff_real *x, aff_real *out)
-{
-    long p = r->p;
-    long i, j;
-    for (j = 0; j < p; j++) { /* out <- diag(d) U' x */
-        aff_real acc = x[j];
-        for (i = 0; i < j; i++)
-            acc += r->UD[i * p + j] * x[i];
-        out[j] = r->UD[j * p + j] * acc;
-    }
-    for (i = 0; i < p; i++) { /* out <- U out, in place (row i reads entries i.. only) */
-        aff_real acc = out[i];
-        for (j = i + 1; j < p; j++)
-            acc += r->UD[i * p + j] * out[j];
-        out[i] = acc;
-    }
-}
-
 aff_real aff_rls_quad(const aff_rls *r, const aff_real *x)
 {
-    long p = r->p;
-    long i, j;
-    aff_real acc = 0;
-    for (j = 0; j < p; j++) { /* sum_j d_j (U' x)_j^2 */
-        aff_real fj = x[j];
-        for (i = 0; i < j; i++)
-            fj += r->UD[i * p + j] * x[i];
-        acc += r->UD[j * p + j] * fj * fj;
-    }
-    return acc;
+    aff_real g[AFF_RLS_NMAX], vv;
+    return ud_gain(r->UD, x, g, &vv, r->p); /* (U' x)' diag(d) (U' x) */
 }
 
 aff_real aff_rls_prior_variance(const aff_rls *r)

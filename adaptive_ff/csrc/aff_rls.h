@@ -6,8 +6,8 @@
  * (G. J. Bierman, Factorization Methods for Discrete Sequential Estimation, 1977, Sec. V.3; Grewal & Andrews,
  * Kalman Filtering, 4th ed., 2015, Sec. 7.5.2): P stays symmetric positive definite in float as in double, where
  * the rank-one form P - (P phi)(P phi)'/s loses it at the condition numbers of a first learning transient. The
- * struct holds the factors only; P's entries, P times a vector and phi'P phi are computed from them (aff_rls_P,
- * aff_rls_cov, aff_rls_P_times, aff_rls_quad). Three forgetting schemes:
+ * struct holds the factors only; P's entries and phi'P phi are computed from them (aff_rls_P, aff_rls_cov,
+ * aff_rls_quad). Three forgetting schemes:
  *   AFF_RLS_EXPONENTIAL  eqs. 10-13; an update whose trace(P) would exceed P_max forgets nothing;
  *   AFF_RLS_DIRECTIONAL  information forgotten along phi only (Kulhavy, Automatica 23(5), 1987; Bittanti,
  *                        Bolzern, Campi, Automatica 26(5), 1990), same trace bound;
@@ -110,9 +110,6 @@ aff_real aff_rls_P(const aff_rls *r, long i, long j);
 
 /* P into out[0..p*p-1], row-major, exactly symmetric (the entries of aff_rls_P). Python: RecursiveLeastSquares.P. */
 void aff_rls_cov(const aff_rls *r, aff_real *out);
-
-/* out[0..p-1] = P x[0..p-1] = U (diag(d) (U' x)), O(p^2); out must not alias x. */
-void aff_rls_P_times(const aff_rls *r, const aff_real *x, aff_real *out);
 
 /* x'P x = sum_j d_j ((U' x)_j)^2 >= 0 for x[0..p-1], O(p^2). */
 aff_real aff_rls_quad(const aff_rls *r, const aff_real *x);

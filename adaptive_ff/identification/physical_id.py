@@ -965,6 +965,12 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
 BIAS_NEGLIGIBLE = 0.25
 
 
+def _interval_centre(value: float, bias: float, stderr: float) -> float:
+    """The centre of a parameter's 95 % interval: ``value - bias`` where the refits' mean shift ``bias`` exceeds
+    :data:`BIAS_NEGLIGIBLE` standard errors ``stderr``, else ``value`` (same unit)."""
+    return float(value - bias) if abs(bias) > BIAS_NEGLIGIBLE * stderr else float(value)
+
+
 def _oe_intervals(pb: _OutputErrorProblem, names: tuple, est: np.ndarray, b) -> dict:
     """``interval95`` (``value - bias ± t stderr``: centred on the estimate less the refits' mean shift, t of the
     valid refits; module docstring, "Standard errors") and ``band`` (the 95 % band of F(w) from the refits,
@@ -979,7 +985,7 @@ def _oe_intervals(pb: _OutputErrorProblem, names: tuple, est: np.ndarray, b) -> 
     Vs, delta = (est[names.index("Vs")], est[names.index("delta")]) if pb.free_shape else (pb.Vs, pb.delta)
     band = friction_band(est[cols], b.replicates[:, cols], w_max=float(np.max(np.abs(pb.w))), Vs=float(Vs),
                          delta=float(delta))
-    centre = est - np.where(np.abs(b.bias) > BIAS_NEGLIGIBLE * b.stderr, b.bias, 0.0)
+    centre = [_interval_centre(v, bias, se) for v, bias, se in zip(est, b.bias, b.stderr)]
     return {"interval95": {k: [float(v - h), float(v + h)] for k, v, h in zip(names, centre, half)},
             "band": band.to_dict()}
 
@@ -998,8 +1004,7 @@ def _with_delay_spread(pb: _OutputErrorProblem, params: dict, stderr: dict, boot
     boot["stderr_refits"], boot["stderr_delay"] = dict(stderr), spread
     if "interval95" in boot:
         q = bootstrap_t_quantile(boot["n_valid"], 0.95)
-        centre = {k: params[k] - (boot["bias"][k] if abs(boot["bias"][k]) > BIAS_NEGLIGIBLE * total[k] else 0.0)
-                  for k in total}
+        centre = {k: _interval_centre(params[k], boot["bias"][k], total[k]) for k in total}
         boot["interval95"] = {k: [float(centre[k] - q * total[k]), float(centre[k] + q * total[k])] for k in total}
     return total
 
