@@ -46,6 +46,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from benchmarks.numeric_paths import numpy_paths
+
 ROOT = Path(__file__).resolve().parents[1]
 PAGES = ROOT / "docs" / "benchmarks"
 CODE = ("plant", "adaptive_ff", "controllers", "benchmarks")
@@ -104,7 +106,7 @@ def sections(page: Path) -> list[Section]:
 def environment(bin_dir: Path) -> dict:
     """The environment of a documented command: this interpreter as ``python``, this checkout's CLI as
     ``adaptive-ff`` (shims written into ``bin_dir``, first on ``PATH``; ``PYTHONPATH`` the repository root),
-    ``MPLBACKEND=Agg``, ``PYTHONUNBUFFERED=1``, no ``COLUMNS`` (help texts at their default width) and ``GIT_DIR``,
+    ``MPLBACKEND=Agg``, ``PYTHONUNBUFFERED=1``, numpy on its AVX2 paths (:mod:`benchmarks.numeric_paths`), no ``COLUMNS`` (help texts at their default width) and ``GIT_DIR``,
     ``GIT_WORK_TREE`` this checkout's (git run from the temporary folder answers for it). Also the environment of the
     docs' command tests (``tests/doc_commands.py``)."""
     bin_dir.mkdir(parents=True, exist_ok=True)
@@ -115,7 +117,7 @@ def environment(bin_dir: Path) -> dict:
         (bin_dir / name).write_text(f'#!/bin/sh\nexec {exe} "$@"\n', encoding="utf-8")
     for f in bin_dir.iterdir():
         f.chmod(0o755)
-    env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONUNBUFFERED": "1"}
+    env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONUNBUFFERED": "1", **numpy_paths(os.environ)}
     env["PATH"] = os.pathsep.join([str(bin_dir), env.get("PATH", "")])
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
     env.pop("COLUMNS", None)

@@ -8,7 +8,9 @@ fuzzers); such a test carries ``@pytest.mark.slow``, or its file is in :data:`SL
 
 from __future__ import annotations
 
+import os
 import sys
+import warnings
 from pathlib import Path
 
 import pytest
@@ -18,6 +20,18 @@ import pytest
 TESTS = Path(__file__).resolve().parent
 if str(TESTS) not in sys.path:
     sys.path.insert(0, str(TESTS))
+if str(TESTS.parent) not in sys.path:
+    sys.path.insert(0, str(TESTS.parent))
+
+from benchmarks.numeric_paths import numpy_paths  # noqa: E402
+
+#: numpy on its AVX2 paths on an AVX-512 machine, before anything imports it (benchmarks/numeric_paths.py: the
+#: suite's measured numbers and the quoted outputs are those paths'); the workers of -n inherit it.
+_PATHS = numpy_paths(os.environ)
+if _PATHS and "numpy" in sys.modules:
+    warnings.warn("numpy was imported before tests/conftest.py could hold it to its AVX2 paths: measured numbers "
+                  "may differ from the quoted ones on this AVX-512 machine", stacklevel=1)
+os.environ.update(_PATHS)
 
 #: Test files whose every test is slow (tens of seconds to minutes each; together about two thirds of the suite's
 #: time): the output-error and closed-loop fits, the documentation pages run as written, the fuzzers.
