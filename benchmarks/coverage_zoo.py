@@ -14,6 +14,9 @@ own friction) and read out as in ``benchmarks/coverage.py``: white velocity nois
 input quantisation 0.6 N·m, the Fig. 10 sampling scaled to a 10 ms base (``record`` of
 ``benchmarks/identification.py``, same seed).
 
+Each output-error row also keeps its interval's parts per parameter (``stderr_refits``, ``stderr_delay``,
+``bias`` of ``info["bootstrap"]``).
+
 Fits, all through :func:`adaptive_ff.identification.identify.identify` with ``Vs`` and ``delta`` given (the
 pre-fit's values are the true ones: the intervals are conditional on them) and ``lag=True``:
 
@@ -86,8 +89,14 @@ def _kind_row(rep, p, kind: str) -> dict:
         return {k: {"err": getattr(rep.estimate, k) - getattr(p, k), "se": std[k],
                     "lo": Z95 * std[k], "hi": Z95 * std[k]} for k in KEYS}
     iv, se = rep.interval95, rep.stderr
-    return {k: {"err": rep.params[k] - getattr(p, k), "se": se[k], "lo": rep.params[k] - iv[k][0],
-                "hi": iv[k][1] - rep.params[k]} for k in KEYS}
+    out = {k: {"err": rep.params[k] - getattr(p, k), "se": se[k], "lo": rep.params[k] - iv[k][0],
+               "hi": iv[k][1] - rep.params[k]} for k in KEYS}
+    boot = (rep.physical.info.get("bootstrap") or {}) if getattr(rep, "physical", None) is not None else {}
+    for part in ("stderr_refits", "stderr_delay", "bias"):  # the output-error interval's parts, where it has them
+        for k in KEYS:
+            if isinstance(boot.get(part), dict) and k in boot[part]:
+                out[k][part] = float(boot[part][k])
+    return out
 
 
 def one(seed: int, duration: float, n_bootstrap: int, lag_profile: bool = True, refit: str = "full",
