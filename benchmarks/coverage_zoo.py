@@ -1,8 +1,9 @@
 """Do the 95 % intervals of ``identify`` cover the truth on many different joints?
 
 Run ``python benchmarks/coverage_zoo.py [--n 40] [--start 0] [--duration 15] [--n-bootstrap 20]
-[--no-lag-profile] [--input-quantum auto] [--kinds oe eq4 default] [--jobs 1] [--out rows.jsonl]`` (or ``--table-from rows.jsonl``: the table of the records an earlier,
-possibly unfinished, run saved).
+[--no-lag-profile] [--input-quantum auto] [--kinds oe eq4 default] [--jobs 1] [--out rows.jsonl]`` (or ``--table-from
+rows.jsonl [more.jsonl ...]``: the table of the records earlier, possibly unfinished, runs saved; the rows of one
+seed in several files are merged, each kind from the file that has it).
 
 Joints: ``n`` joints of eqs. 1-3 drawn per seed (``numpy.random.default_rng(seed)``) around the ``paper``
 preset, the way the plant zoo (:mod:`controllers.experiments.zoo`) randomises a preset: ``J``
@@ -12,6 +13,9 @@ log-uniform in 1-10 kg·m², ``Fc`` uniform in 10-40 N·m, ``Fs/Fc`` uniform in 
 own friction) and read out as in ``benchmarks/coverage.py``: white velocity noise 1 % of the peak velocity,
 input quantisation 0.6 N·m, the Fig. 10 sampling scaled to a 10 ms base (``record`` of
 ``benchmarks/identification.py``, same seed).
+
+Each output-error row also keeps its interval's parts per parameter (``stderr_refits``, ``stderr_delay``,
+``bias`` of ``info["bootstrap"]``).
 
 Fits, all through :func:`adaptive_ff.identification.identify.identify` with ``Vs`` and ``delta`` given (the
 pre-fit's values are the true ones: the intervals are conditional on them) and ``lag=True``:
@@ -33,7 +37,8 @@ without it, the package's default (``"auto"``).
 ``--kinds`` runs a subset (``eq4`` also gives ``eq4 delta``); a kind not run is left out of the table.
 
 Prints per parameter the coverage (%) of each kind of interval, the median of ``|error| / stderr`` (0.67 for
-exact normal intervals) and the median relative error. Target: ``oe`` coverage in 90-98 % for every
+exact normal intervals) and the median relative error, then the coverage's Wilson 95 % score interval (the
+binomial sampling error of a count on this many joints, Wilson 1927) and the seeds missed. Target: ``oe`` coverage in 90-98 % for every
 parameter (exit status 1 if not; the ``eq4`` rows are reported, not judged: eq. 4's discretisation and
 errors-in-variables bias, docs/benchmarks/identification.md, is common to every bootstrap refit).
 """
@@ -84,8 +89,14 @@ def _kind_row(rep, p, kind: str) -> dict:
         return {k: {"err": getattr(rep.estimate, k) - getattr(p, k), "se": std[k],
                     "lo": Z95 * std[k], "hi": Z95 * std[k]} for k in KEYS}
     iv, se = rep.interval95, rep.stderr
-    return {k: {"err": rep.params[k] - getattr(p, k), "se": se[k], "lo": rep.params[k] - iv[k][0],
-                "hi": iv[k][1] - rep.params[k]} for k in KEYS}
+    out = {k: {"err": rep.params[k] - getattr(p, k), "se": se[k], "lo": rep.params[k] - iv[k][0],
+               "hi": iv[k][1] - rep.params[k]} for k in KEYS}
+    boot = (rep.physical.info.get("bootstrap") or {}) if getattr(rep, "physical", None) is not None else {}
+    for part in ("stderr_refits", "stderr_delay", "bias"):  # the output-error interval's parts, where it has them
+        for k in KEYS:
+            if isinstance(boot.get(part), dict) and k in boot[part]:
+                out[k][part] = float(boot[part][k])
+    return out
 
 
 def one(seed: int, duration: float, n_bootstrap: int, lag_profile: bool = True, refit: str = "full",
@@ -133,6 +144,18 @@ def one(seed: int, duration: float, n_bootstrap: int, lag_profile: bool = True, 
     return row
 
 
+def wilson95(k: int, n: int) -> tuple:
+    """The Wilson 95 % score interval (%, %) of a proportion ``k`` of ``n`` (Wilson 1927; Agresti & Coull 1998):
+    the range of true coverages that a count of ``k`` covered joints out of ``n`` does not reject at 5 %.
+    Raises ``ValueError`` unless ``0 <= k <= n`` and ``n >= 1``."""
+    if not (isinstance(n, int) and isinstance(k, int) and n >= 1 and 0 <= k <= n):
+        raise ValueError(f"wilson95 needs integers 0 <= k <= n, n >= 1, got k={k!r}, n={n!r}")
+    ph, z2 = k / n, Z95 * Z95
+    centre = (ph + z2 / (2 * n)) / (1 + z2 / n)
+    half = Z95 * math.sqrt(ph * (1 - ph) / n + z2 / (4 * n * n)) / (1 + z2 / n)
+    return 100 * max(0.0, centre - half), 100 * min(1.0, centre + half)
+
+
 def covered(c: dict) -> bool:
     """Whether the interval ``[value - lo, value + hi]`` of one parameter holds the truth (``value - err``)."""
     return -c["lo"] <= -c["err"] <= c["hi"]
@@ -166,6 +189,15 @@ def table(rows: list) -> str:
             cells.append(f"{np.median([100 * abs(c['err']) / v for c, v in ok]) if ok else math.nan:>19.2f}")
         lines.append(f"{k:<10}" + "".join(cells))
     lines.append("-" * len(head))
+    for kd in kinds:
+        cells = []
+        for k in KEYS:
+            miss = [r["seed"] for r in rows if "failed" in r["kinds"][kd] or not covered(r["kinds"][kd][k])]
+            lo, hi = wilson95(len(rows) - len(miss), len(rows))
+            seeds = "no misses" if not miss else (f"misses: seeds {', '.join(map(str, miss))}" if len(miss) <= 10
+                                                  else f"{len(miss)} misses")
+            cells.append(f"{k} {lo:.1f}-{hi:.1f} ({seeds})")
+        lines.append(f"{kd}: Wilson 95 % interval of the coverage, %: " + "; ".join(cells))
     for kd in ("oe", "default"):
         if kd in kinds:
             failed = [r["seed"] for r in rows if "failed" in r["kinds"][kd]]
@@ -191,6 +223,21 @@ def _coverage_ok(rows: list) -> bool:
     cov = [100 * np.mean([covered(r["kinds"][kd][k]) if "failed" not in r["kinds"][kd] else False for r in rows])
            for kd in kinds for k in KEYS]
     return all(TARGET[0] <= c <= TARGET[1] for c in cov)
+
+
+def merge_rows(rows) -> list:
+    """Rows of :func:`one` sorted by seed, the rows of one seed merged into one: the union of their kinds and CPU
+    times (a later row's kind replaces an earlier one's), their other fields from the first. Raises ``ValueError``
+    where two rows of a seed disagree on the joint's parameters."""
+    by_seed: dict = {}
+    for r in rows:
+        m = by_seed.setdefault(r["seed"], {**r, "kinds": {}, "time": {}})
+        if m["params"] != r["params"]:
+            raise ValueError(f"rows of seed {r['seed']} disagree on the joint: {m['params']} and {r['params']}")
+        m["kinds"].update(r["kinds"])
+        m["time"].update(r["time"])
+        m.update({k: v for k, v in r.items() if k not in m})
+    return [by_seed[s] for s in sorted(by_seed)]
 
 
 def _save(path: Path | None, row: dict) -> dict:
@@ -227,11 +274,11 @@ def main(argv=None) -> int:
                     help="the fits to run (default: oe eq4; eq4 gives eq4 delta too)")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
     ap.add_argument("--out", type=Path, default=None, help="append each joint's row to this JSON-lines file")
-    ap.add_argument("--table-from", type=Path, default=None, help="print the table of these rows, fit nothing")
+    ap.add_argument("--table-from", type=Path, nargs="+", default=None,
+                    help="print the table of the rows of these files (one seed's rows merged), fit nothing")
     a = ap.parse_args(argv)
     if a.table_from is not None:
-        rows = sorted((json.loads(x) for x in a.table_from.read_text().splitlines() if x.strip()),
-                      key=lambda r: r["seed"])
+        rows = merge_rows(json.loads(x) for f in a.table_from for x in f.read_text().splitlines() if x.strip())
     else:
         quantum = a.input_quantum
         if quantum not in (None, "auto"):

@@ -86,7 +86,10 @@ def errors(fit, p) -> dict:
 
 
 def fit(m, p, method: str, **kw):
-    opts = dict(input_delay=INPUT_DELAY) if method == "output_error" else {}
+    """``fit_physical`` of record ``m`` by ``method`` with the true ``Vs``, ``delta`` of ``p``; output error with the
+    readout's input delay and without its bootstrap (``n_bootstrap=0``: these tables need the estimate, which the
+    bootstrap does not change)."""
+    opts = dict(input_delay=INPUT_DELAY, n_bootstrap=0) if method == "output_error" else {}
     opts.update(kw)
     return fit_physical(m.t, m.u, m.w, Vs=p.Vs, delta=p.delta, method=method, **opts)
 
