@@ -19,8 +19,9 @@ HISTORY = re.compile(r"\b20\d\d-\d\d(?:-\d\d)?\b|\bcommits? `?[0-9a-f]{7,40}\b|(
 #: In examples/ and docs/: a date (a year-month too) or a commit named as one.
 DOC_HISTORY = re.compile(r"\b20\d\d-\d\d(?:-\d\d)?\b|\bcommits? `?[0-9a-f]{7,40}\b")
 #: What a benchmark page (docs/benchmarks/*.md) may say of when its numbers were taken: "measured at commit `X` on
-#: DATE" (or without the date where the page says which rows it covers) ...
-MEASURED_AT = re.compile(r"[Mm]easured at commit `[0-9a-f]{7,40}`(?: on 20\d\d-\d\d-\d\d)?")
+#: DATE" (the form benchmarks/refresh_pages.py writes, "(uncommitted changes)" after the commit too; or without the
+#: date where the page says which rows it covers) ...
+MEASURED_AT = re.compile(r"[Mm]easured at commit `[0-9a-f]{7,40}`(?: \(uncommitted changes\))?(?: on 20\d\d-\d\d-\d\d)?")
 #: ... and, inside a fenced code block, the header line a benchmark script prints above its output.
 RUN_HEADER = re.compile(r"^# 20\d\d-\d\d-\d\d \d\d:\d\d UTC, commit [0-9a-f]{7,40}(?:\+dirty)?, ")
 DOC_SUFFIXES = (".md", ".rst", ".py", ".json", ".txt")
