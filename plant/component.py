@@ -204,7 +204,8 @@ def config_class(name: str, ffi_lib: tuple, ctype: str, *, module: str, summary:
 
 
 def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c", settable: bool = False,
-                 flag: str | None = None, check=None, size: str | None = None, view: bool = False) -> property:
+                 flag: str | None = None, check=None, size: str | None = None, view: bool = False,
+                 square: bool = False, scale: str | None = None, choices: dict | None = None) -> property:
     """A public attribute that reads one field of a component's C struct: the one accessor of the wrappers
     (``n_rejected = struct_field("n_rejected", int, "Samples rejected.")``).
 
@@ -236,6 +237,14 @@ def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c", sett
     view : bool, keyword-only
         With ``size``: read a view of the C array's first entries instead of a copy (its writes go to the struct;
         the C element type's float dtype). Default False.
+    square : bool, keyword-only
+        With ``size``: the array holds a row-major ``size`` x ``size`` matrix (``P``): the attribute reads it with
+        shape (n, n). Default False: shape (n,).
+    scale : str or None, keyword-only
+        A field beside ``field`` whose value multiplies the read value after ``kind`` (``"Tc"``: a count of steps
+        read in seconds); read-only. Default None.
+    choices : dict or None, keyword-only
+        C value -> the name the attribute reads (``{0: "difference", 1: "kalman"}``); read-only. Default None.
 
     Returns
     -------
@@ -255,11 +264,17 @@ def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c", sett
             return None
         if size is not None:
             a, n = getattr(h, path[-1]), int(getattr(h, size))
+            m = n * n if square else n
             if view:
                 dtype = np.dtype(f"f{self._ffi.sizeof(self._ffi.typeof(a).item)}")
-                return np.frombuffer(self._ffi.buffer(a), dtype=dtype)[:n]
-            return np.array(self._ffi.unpack(a, n), dtype=float)
-        return kind(getattr(h, path[-1]))
+                out = np.frombuffer(self._ffi.buffer(a), dtype=dtype)[:m]
+            else:
+                out = np.array(self._ffi.unpack(a, m), dtype=float)
+            return out.reshape(n, n) if square else out
+        if choices is not None:
+            return choices[int(getattr(h, path[-1]))]
+        v = kind(getattr(h, path[-1]))
+        return v * float(getattr(h, scale)) if scale is not None else v
 
     def put(self, value) -> None:
         h = holder(self)
@@ -272,7 +287,8 @@ def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c", sett
         setattr(h, path[-1], int(bool(value)) if kind is bool else kind(value))
 
     get.__name__ = put.__name__ = path[-1]
-    return property(get, put if settable and size is None else None, doc=doc)
+    writable = settable and size is None and scale is None and choices is None
+    return property(get, put if writable else None, doc=doc)
 
 
 def ops_table(lib, doc: str = "Pointer to the C ops table :attr:`C_OPS` (``aff_compensator_ops *``).") -> property:

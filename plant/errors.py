@@ -8,7 +8,9 @@ so the exceptions live here and are re-exported by :mod:`adaptive_ff`.
 
 from __future__ import annotations
 
+import dataclasses
 import errno
+import functools
 import math
 import os
 import stat
@@ -29,6 +31,9 @@ __all__ = [
     "check_time",
     "check_multiple",
     "check_not_special",
+    "check_optional",
+    "known_fields",
+    "UnknownFieldError",
 ]
 
 
@@ -64,6 +69,64 @@ def check_finite_scalar(name: str, value) -> float:
     if not math.isfinite(value):
         raise ParameterError(f"{name} must be finite, got {value!r}")
     return value
+
+
+def check_optional(name: str, value, cls, *, what: str | None = None, error: type = None):
+    """Return ``value`` if it is None or an instance of ``cls``; else raise naming ``name`` and the value's type.
+
+    The one check of a knob that takes an object or None (``check_optional("start", start, FeedforwardStart)``).
+
+    Parameters
+    ----------
+    name : str
+        The argument's name, as the caller spells it.
+    value : object
+        The value given.
+    cls : type or tuple of types
+        The accepted type(s).
+    what : str, optional
+        How the message names the accepted values (default ``"a <cls name>"``).
+    error : type, optional
+        The exception class (default :class:`ParameterError`).
+
+    Raises
+    ------
+    ParameterError
+        (or ``error``) ``value`` is neither None nor a ``cls``: "<name> must be <what> or None, got <type>".
+    """
+    if value is not None and not isinstance(value, cls):
+        if what is None:
+            names = [c.__name__ for c in (cls if isinstance(cls, tuple) else (cls,))]
+            what = "a " + " or ".join(names)
+        raise (error or ParameterError)(f"{name} must be {what} or None, got {type(value).__name__}")
+    return value
+
+
+class UnknownFieldError(ParameterError, TypeError):
+    """A keyword that is no field of a settings class: a :class:`ParameterError` and a TypeError (as Python's own
+    unexpected-keyword error), naming the class and the keyword."""
+
+
+def known_fields(cls: type | None = None, *, hint: str = ""):
+    """Class decorator: the dataclass ``cls`` refuses an unknown keyword with :class:`UnknownFieldError` naming it
+    (rather than Python's plain TypeError); ``hint`` ends the message (where such a keyword belongs). Returns
+    ``cls`` (``known_fields(hint=...)``: the decorator)."""
+    if cls is None:
+        return functools.partial(known_fields, hint=hint)
+    init, own = cls.__init__, None
+
+    @functools.wraps(init)
+    def __init__(self, *args, **kwargs):
+        nonlocal own
+        own = own or {f.name for f in dataclasses.fields(cls) if f.init}
+        unknown = sorted(set(kwargs) - own)
+        if unknown:
+            raise UnknownFieldError(f"{cls.__name__}: {', '.join(map(repr, unknown))} is no field of it (fields: "
+                                    f"{', '.join(sorted(own))}){hint}")
+        init(self, *args, **kwargs)
+
+    cls.__init__ = __init__
+    return cls
 
 
 def check_positive(name: str, value) -> float:

@@ -10,7 +10,7 @@ Every result object of the package offers
 
 This module holds the helpers those methods share: :func:`json_safe` (the
 conversion to strict JSON), :func:`to_json` and :func:`axes_or_new`. It imports
-only the standard library and numpy, so every layer (``plant``, ``adaptive_ff``,
+only the standard library, numpy and :mod:`plant.errors`, so every layer (``plant``, ``adaptive_ff``,
 ``controllers``) may use it.
 """
 
@@ -24,6 +24,8 @@ from collections.abc import Mapping
 from pathlib import PurePath
 
 import numpy as np
+
+from plant.errors import check_optional
 
 __all__ = ["json_safe", "to_json", "axes_or_new"]
 
@@ -142,8 +144,6 @@ def axes_or_new(ax=None, *, figsize: tuple[float, float] = (7.0, 4.0)):
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-    if ax is None:
+    if check_optional("ax", ax, Axes, what="a matplotlib Axes", error=TypeError) is None:
         return Figure(figsize=figsize, layout="constrained").subplots()
-    if not isinstance(ax, Axes):
-        raise TypeError(f"ax must be a matplotlib Axes or None, got {type(ax).__name__}")
     return ax

@@ -33,7 +33,7 @@ from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RLS_NMAX
 from adaptive_ff.compensation.defaults import c_config_class, c_defaults
 from plant.component import struct_field
-from plant.errors import ParameterError
+from plant.errors import ParameterError, check_optional
 
 __all__ = ["RobustAdaptiveFeedforward", "RobustAdaptiveFeedforwardConfig", "FeedforwardStart", "start_output", "lag_weighted", "fc_determined",
            "project_box", "FC_INFO_FRACTION"]
@@ -440,8 +440,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         ff = FrictionFeedforward(None, dt=dt, config=config.ff, loop_model=loop_model, sign_observer=sign_observer)
         self.loop_model = loop_model
         self.sign_observer = sign_observer
-        if start is not None and not isinstance(start, FeedforwardStart):
-            raise ParameterError(f"start must be a FeedforwardStart or None, got {type(start).__name__}")
+        check_optional("start", start, FeedforwardStart)
         self.estimator = estimator
         self.n_theta = len(estimator.names)
         own = {k: v for k, v in config.c_fields().items() if k != "ff"}

@@ -35,7 +35,7 @@ from adaptive_ff.compensation.ivrls import RecursiveIV
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from plant.component import Component, struct_field
-from plant.errors import ParameterError, check_multiple
+from plant.errors import ParameterError, check_multiple, check_optional
 
 __all__ = ["AdaptiveFrictionFeedforward", "AdaptiveFrictionFeedforwardConfig"]
 
@@ -186,8 +186,7 @@ class AdaptiveFrictionFeedforward(Component):
         Ts, warmup, tau_max, iv, w_band = cfg.Ts, cfg.warmup, cfg.tau_max, bool(cfg.iv), cfg.w_band
         map_rel_stderr = cfg.map_rel_stderr
         m = check_multiple("Ts", Ts, "dt", ff.dt)
-        if start is not None and not isinstance(start, FeedforwardStart):
-            raise ParameterError(f"start must be a FeedforwardStart or None, got {type(start).__name__}")
+        check_optional("start", start, FeedforwardStart)
         p = model.n_params
         rls = RecursiveLeastSquares(p, lam=config.lam, P0=config.P0)
         ivrls = RecursiveIV(p, lam=config.lam, P0=config.P0, guard=True)

@@ -29,7 +29,7 @@ from adaptive_ff.compensation.velocity_input import LoopModel, SignObserver
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.compensation.defaults import c_config_class
 from plant.component import Component, struct_field
-from plant.errors import ParameterError
+from plant.errors import ParameterError, check_optional
 
 __all__ = ["FrictionFeedforward", "FrictionFeedforwardConfig", "project_estimate", "project_levels", "FF_INPUTS",
            "at_ref"]
@@ -223,10 +223,8 @@ class FrictionFeedforward(Component):
         config = FrictionFeedforwardConfig() if config is None else config
         if not isinstance(config, FrictionFeedforwardConfig):
             raise ParameterError(f"config must be a FrictionFeedforwardConfig, got {type(config).__name__}")
-        if loop_model is not None and not isinstance(loop_model, LoopModel):
-            raise ParameterError(f"loop_model must be a LoopModel or None, got {type(loop_model).__name__}")
-        if sign_observer is not None and not isinstance(sign_observer, SignObserver):
-            raise ParameterError(f"sign_observer must be a SignObserver or None, got {type(sign_observer).__name__}")
+        check_optional("loop_model", loop_model, LoopModel)
+        check_optional("sign_observer", sign_observer, SignObserver)
         cfg = self._settings("aff_fixed_ff_config", lib.aff_fixed_ff_default_config(), {
             **config.c_fields(), "dt": dt, "use_loop_model": loop_model is not None,
             "use_sign_observer": sign_observer is not None}, counts=("stick_samples",))

@@ -21,7 +21,6 @@ __all__ = ["RecursiveIV", "IVRLS_NMAX"]
 #: Most parameters a :class:`RecursiveIV` holds (``AFF_IVRLS_NMAX`` of ``adaptive_ff/csrc/aff_ivrls.h``).
 IVRLS_NMAX = len(ffi.new("aff_ivrls *").theta)
 
-_F8 = np.dtype(np.float64)
 
 
 def _row(name: str, x, p: int) -> np.ndarray:
@@ -115,11 +114,7 @@ class RecursiveIV(Component):
 
     theta = struct_field("theta", doc="Current estimate, shape (p,) (a view of the C struct).", size="p", view=True)
 
-    @property
-    def P(self) -> np.ndarray:
-        """``P``, shape (p, p) (a view of the C struct)."""
-        p = self.p
-        return np.frombuffer(ffi.buffer(self._c.P), dtype=_F8)[: p * p].reshape(p, p)
+    P = struct_field("P", doc="``P``, shape (p, p) (a view of the C struct).", size="p", view=True, square=True)
 
     def __repr__(self) -> str:
         return f"RecursiveIV({self.p}, lam={self.lam!r}, n_updates={self.n_updates})"

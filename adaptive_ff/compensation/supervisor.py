@@ -167,13 +167,8 @@ class FeedforwardSupervisor(Component):
     n_backoff = struct_field("n_backoff", int, "Switches off.")
     n_restore = struct_field("n_restore", int, "Switches back on.")
 
-    @property
-    def t_off(self) -> float:
-        return float(self._c.n_off) * float(self._c.Tc)
-
-    @property
-    def t_rest(self) -> float:
-        return float(self._c.n_rest) * float(self._c.Tc)
+    t_off = struct_field("n_off", int, "Time the candidate torque has been off (s): steps times ``Tc``.", scale="Tc")
+    t_rest = struct_field("n_rest", int, "Time at rest (s): steps times ``Tc``.", scale="Tc")
 
     f_hat = struct_field("x_f", float, "Filtered disturbance without the candidate (N·m).")
     r_hat = struct_field("x_r", float, "Filtered disturbance with the candidate (N·m).")

@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from adaptive_ff.io.units import ROLES
-from plant.errors import ParameterError, SignalError, check_not_special
+from plant.errors import ParameterError, SignalError, check_not_special, check_optional
 
 __all__ = ["Table", "CsvFormat", "DELIMITER_NAMES", "number_cell", "parse_column_map", "read_columns"]
 
@@ -506,8 +506,7 @@ def read_columns(path, names: Mapping, *, optional=(), csv_format: CsvFormat | N
     check_not_special(path, "data file", error=SignalError)
     if not path.is_file():
         raise FileNotFoundError(f"no such file: {path}")
-    if csv_format is not None and not isinstance(csv_format, CsvFormat):
-        raise TypeError(f"csv_format must be a CsvFormat, got {type(csv_format).__name__}")
+    check_optional("csv_format", csv_format, CsvFormat, error=TypeError)
     names = {str(k): str(v) for k, v in dict(names).items()}
     optional = set(optional)
     suffix = path.suffix.lower()

@@ -118,6 +118,18 @@ def _where(args) -> str:
     return str(args.from_file) + ("" if args.joint is None else f" joint {args.joint!r}")
 
 
+def _inertia_source(args) -> str:
+    """Where a design inertia that no experiment measured came from, for the ``design inertia`` line: ``--J-design``,
+    the ``--from`` file (and joint) or the scenario file."""
+    if getattr(args, "J_design", None) is not None:
+        return "given: --J-design"
+    if getattr(args, "from_file", None):
+        return f"from {_where(args)}"
+    if getattr(args, "scenario", None):
+        return f"given: {args.scenario} [controller] J_design"
+    return "given"
+
+
 def _joint_identified(args):
     """The :class:`adaptive_ff.identification.result_file.IdentifiedJoint` of the joint ``--joint`` of the
     ``identify-arm --json`` output ``--from``."""
@@ -331,7 +343,7 @@ def _print_comparison(args, comp, header, scenario, run, paths, report) -> int:
             print(line)
     print(pi_text(d, args))
     i = comp.inertia
-    how = "given" if i is None else (f"identified: a torque ramp to {i.u_ramp:.4g} N·m reached {i.w_switch:.4g} rad/s, "
+    how = _inertia_source(args) if i is None else (f"identified: a torque ramp to {i.u_ramp:.4g} N·m reached {i.w_switch:.4g} rad/s, "
                                      f"then {i.duration:g} s of open-loop noise torque of {i.u_std:.4g} N·m")
     print(f"design inertia J_design={comp.J_design:g} kg·m² ({how})")
     if comp.prefit is not None:

@@ -37,7 +37,8 @@ from controllers.experiments.observer_design import (J_CONTRADICTED, friction_le
                                                      residual_cutoff, residual_share)
 from controllers.experiments.quasi_static import (StribeckDesign, StribeckExperiment, prefit_stribeck,
                                                   stribeck_experiment)
-from plant.errors import ExcitationError, ParameterError, check_finite_scalar, check_multiple, check_positive
+from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, check_multiple, check_positive,
+                          known_fields)
 from plant.dynamics import plant_params
 from plant.excitation import bandlimited_noise, multisine_reference
 from plant.joint import simulate
@@ -89,6 +90,7 @@ DESIGNED = ("Kp", "Ki", "ff_max", "model", "estimate", "initial", "start", "omeg
 EXPERIMENT_LOOP = LoopConfig.from_flat(**EXPERIMENT_DEFAULTS)
 
 
+@known_fields(hint="; a loop setting goes in loop=LoopConfig(...) or CompareOptions.from_flat(...)")
 @dataclass(frozen=True)
 class CompareOptions:
     """Settings of :func:`compare` (all keyword, validated; units SI): the experiment's own settings and the loop's

@@ -71,7 +71,7 @@ from controllers.simulation.batch import run_batch
 from controllers.simulation.memory import PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
 from controllers.simulation.closed_loop import plant_table, run_own
 from controllers.simulation.compensators import MODES, build_mode
-from plant.errors import ParameterError, check_nonnegative, check_positive
+from plant.errors import ParameterError, check_nonnegative, check_positive, known_fields
 from plant.models import plant_from_dict
 from plant.results import json_safe
 from plant.stribeck_map import stribeck
@@ -258,6 +258,8 @@ def draw_plants(n: int, reference, *, seed: int = 0, box: ZooBox | None = None) 
 PER_JOINT = {"u_max": None, "J_design": None, "controller": None, "compensators": None}
 
 
+@known_fields(hint="; a comparison's setting (duration, seed, ...) goes in compare=CompareOptions(...) or "
+                   "ZooOptions.from_flat(...)")
 @dataclass(frozen=True)
 class ZooOptions:
     """Settings of :func:`run_zoo` (keyword-only, validated): the zoo's own and the comparison every joint is placed

@@ -59,7 +59,7 @@ from adaptive_ff.compensation.supervisor import FeedforwardSupervisor
 from controllers._cctl import ffi, lib
 from controllers.peers.dob import DisturbanceObserver
 from plant.component import Component, ops_table, struct_field
-from plant.errors import ParameterError, check_nonnegative, check_positive
+from plant.errors import ParameterError, check_nonnegative, check_optional, check_positive
 
 __all__ = ["AdaptiveDOBCompensator", "AdaptiveCompensator", "ResidualSwitchIn", "residual_config"]
 
@@ -255,9 +255,7 @@ class AdaptiveDOBCompensator(Component):
         self.feedforward = feedforward
         self.observer = observer
         self.n_theta = feedforward.n_theta
-        if switch_in is not None and not isinstance(switch_in, ResidualSwitchIn):
-            raise ParameterError(f"switch_in must be a ResidualSwitchIn or None, got {type(switch_in).__name__}")
-        self.switch_in = switch_in
+        self.switch_in = check_optional("switch_in", switch_in, ResidualSwitchIn)
         if switch_in is not None:
             self.MODE = "adaptive"  # the mode it is (run_closed_loop's default result name)
         self._ctype = composite.ctype
@@ -435,14 +433,11 @@ class AdaptiveCompensator(AdaptiveDOBCompensator):
                  slew_time: float = _SLEW_TIME):
         if not isinstance(feedforward, RobustAdaptiveFeedforward):
             raise ParameterError(f"feedforward must be a RobustAdaptiveFeedforward, got {type(feedforward).__name__}")
-        if observer is not None and not isinstance(observer, DisturbanceObserver):
-            raise ParameterError(f"observer must be a DisturbanceObserver or None, got {type(observer).__name__}")
-        if switch_in is not None and not isinstance(switch_in, ResidualSwitchIn):
-            raise ParameterError(f"switch_in must be a ResidualSwitchIn or None, got {type(switch_in).__name__}")
+        check_optional("observer", observer, DisturbanceObserver)
+        check_optional("switch_in", switch_in, ResidualSwitchIn)
         if switch_in is not None and observer is None:
             raise ParameterError("switch_in needs an observer (the residual observer it switches in)")
-        if supervisor is not None and not isinstance(supervisor, FeedforwardSupervisor):
-            raise ParameterError(f"supervisor must be a FeedforwardSupervisor or None, got {type(supervisor).__name__}")
+        check_optional("supervisor", supervisor, FeedforwardSupervisor)
         u_max = math.inf if u_max == math.inf else check_nonnegative("u_max", u_max)
         self.feedforward = feedforward
         self.observer = observer

@@ -27,7 +27,7 @@ from controllers.simulation.metrics import (LoopMetrics, MotionMetrics, engine_m
                                             reversal_times)
 from controllers.simulation.sensor_drive import Drive, Sensor
 from controllers.simulation.user_compensator import UserCompensator, is_user_compensator
-from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
+from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_optional, check_positive
 from plant.excitation import Reference
 from plant.dynamics import check_integrable, plant_params, plant_state
 from plant.rows import stack_params
@@ -309,9 +309,8 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
     """
     m = MeasurementSettings() if measurement is None else measurement
     r = RunSettings() if settings is None else settings
-    for name, v, cls in (("measurement", m, MeasurementSettings), ("settings", r, RunSettings)):
-        if not isinstance(v, cls):
-            raise ParameterError(f"{name} must be a {cls.__name__} or None, got {type(v).__name__}")
+    check_optional("measurement", measurement, MeasurementSettings)
+    check_optional("settings", settings, RunSettings)
     return _run_loop(plant, controller, compensator, reference, noise_std=m.noise_std, rng=m.rng, faults=m.faults,
                      sensor_gate=m.sensor_gate, w_limit=r.w_limit, decimate=r.decimate,
                      reversal_window=r.reversal_window, friction0=r.friction0, sensor=None, drive=None)
@@ -363,8 +362,8 @@ def _run_loop(plant, controller, compensator, reference, *, noise_std, rng, faul
         x.set_noise_table(rng.normal(0.0, noise_std, size=n)[None, :])
         x.set_noise_row(0, 0)
     x.set_gate(0, gate)
-    x.set_sensor(0, _checked("sensor", sensor, Sensor))
-    x.set_drive(0, _checked("drive", drive, Drive))
+    x.set_sensor(0, check_optional("sensor", sensor, Sensor))
+    x.set_drive(0, check_optional("drive", drive, Drive))
     x.set_pi(0, controller)
     x.set_compensator(0, None if oracle else compensator)
     x.set_supervisor(0, supervisor if compensator is not None and not oracle else None)
@@ -385,10 +384,6 @@ def _run_loop(plant, controller, compensator, reference, *, noise_std, rng, faul
 
 
 
-def _checked(name: str, obj, cls):
-    if obj is not None and not isinstance(obj, cls):
-        raise ParameterError(f"{name} must be a {cls.__name__} or None, got {type(obj).__name__}")
-    return obj
 
 
 def sensor_and_drive(options: LoopConfig) -> tuple:

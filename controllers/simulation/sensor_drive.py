@@ -159,22 +159,16 @@ class Sensor(Component):
             K = [float(k) for k in self.filter.K] + [0.0]
             lib.ctl_sensor_set_kalman(self._c, KALMAN_MODELS[model], K[0], K[1], K[2])
 
-    @property
-    def velocity(self) -> str:
-        """How the encoder's velocity is formed: ``"difference"`` or ``"kalman"``."""
-        return "kalman" if self._c.kalman else "difference"
+    velocity = struct_field("kalman", doc='How the encoder\'s velocity is formed: ``"difference"`` or ``"kalman"``.',
+                            choices={0: "difference", 1: "kalman"})
 
     @property
     def bandwidth(self) -> float | None:
         """Bandwidth of the Kalman velocity (Hz); None for the difference."""
         return None if self.filter is None else self.filter.bandwidth
 
-    @property
-    def gain(self) -> np.ndarray | None:
-        """The Kalman velocity's constant gain, shape (n,) (a copy of the struct's ``K``); None for the difference."""
-        if self.filter is None:
-            return None
-        return np.frombuffer(ffi.buffer(self._c.K), dtype=np.float64)[: int(self._c.n_x)].copy()
+    gain = struct_field("K", doc="The Kalman velocity's constant gain, shape (n,) (a copy of the struct's ``K``); None for "
+                        "the difference.", size="n_x", flag="kalman")
 
     resolution = struct_field("res", float, "Encoder resolution (rad per count); 0 for a velocity sensor.")
 

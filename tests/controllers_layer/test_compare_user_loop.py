@@ -114,7 +114,7 @@ def test_the_workflow_closes_design_from_then_compare(tmp_path, capsys):
                                      "--no-figures", "--quiet"], capsys)
     assert status == 0
     assert re.search(r"PI: Kp = (\S+) N·m·s/deg, Ki = (\S+) N·m/deg", out.out).groups() == designed
-    assert "design inertia J_design=4.10342 kg·m²" in out.out
+    assert f"design inertia J_design=4.10342 kg·m² (from {ident})" in out.out  # where the inertia came from
     assert "plant: the joint identified in" in out.out
 
     status, out = _cli(cli_design, ["design", "--from", str(ident), "--no-figures", "--json"], capsys)

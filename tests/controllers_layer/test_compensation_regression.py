@@ -1,8 +1,7 @@
 """Fixed-seed regression tests of the compensation quality: the paper preset and the friction-drift case.
 
 The benchmark (``benchmarks/compensation.py``: 10 seeds x 120 s) gives the reference figures of
-docs/benchmarks/compensation.md (the re-run of 2026-11-22 at commit 62aeac1: paper preset 0.999 ± 0.002, drift
-0.993 ± 0.004). The margins that a
+docs/benchmarks/compensation.md (paper preset 0.999 ± 0.002, drift 0.993 ± 0.004). The margins that a
 10 % error in the estimated lag breaks are in tests/controllers_layer/test_regression_models.py and tests/adaptive_ff_layer/test_fast_start.py. These tests use seed 0. The paper-preset test
 runs 60 s: the metric window (second half, 30-60 s) starts long after the estimator's warm-up (about
 3 s) and spans many memories of it (about 2.6 s), so the steady regime is that of the benchmark. The

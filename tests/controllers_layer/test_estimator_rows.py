@@ -66,7 +66,7 @@ def test_without_adaptive_a_row_stands_where_adaptive_would():
 
 @pytest.mark.parametrize("rows, why", [
     (("magic",), "must be one of ('sliding', 'eq4', 'eq4-rls'), got 'magic'"),
-    (("eq4-iv",), "'eq4-iv' is now 'eq4'"),  # the name until 2026-11-24
+    (("eq4-iv",), "'eq4-iv' is now 'eq4'"),  # the former name gets a pointer to the current one
     (("sliding",), "'sliding' is the estimator of the adaptive mode's own row"),
     (("eq4-rls", "eq4-rls"), "given twice"),
     ("eq4-rls", "must be a tuple"),

@@ -65,8 +65,7 @@ def _assert_same(a, b):
     _close(a["t_theta"], b.t_theta, rel=0.0)
     # theta: the oracle's own estimator (whole-signal filters, scipy) through the RLS, which amplifies rounding by
     # the regressors' conditioning: 1.1e-9 of the scale on the LuGre variant with numpy's AVX-512 kernels disabled
-    # and the former JIT-compiled engine built for a generic CPU (the platform-dependence check of 2026-11-23); a
-    # defect is O(1)
+    # and an engine built for a generic CPU (the platform-dependence check); a defect is O(1)
     _close(a["theta"], b.theta, rel=1e-7)
     assert a["diverged"] == b.info["diverged"]
     if a["gate"] is not None:
