@@ -60,7 +60,8 @@ that a bootstrap of one rows choice cannot see (a bias common to all its refits:
 sticks): its half-width on either side is combined in quadrature with the distance of the estimate from the
 ``rows="sliding"`` fit's (a point fit of the same log, without bootstrap; ``Fs = Fc`` where that fit drops the
 Stribeck term), ``sqrt(h^2 + (x_moving - x_sliding)^2)``. A joint that keeps the Stribeck term and is at rest over
-more than :data:`REST_WARN` of the log carries a warning that its ``Fs`` and ``Vs`` may lie outside their intervals.
+more than :data:`REST_WARN` of the log carries a warning that its ``Fs`` and ``Vs`` may lie outside their intervals
+(code ``method``: a note on the method, which ``design``, ``compare`` and ``export-c --from`` do not refuse).
 
 Then each joint's friction lag ``tau`` (eq. 1) by the package's output-error fit on its rigid-body-removed record,
 where the log determines it, and each joint's velocity noise (:mod:`adaptive_ff.arm.lag`).
@@ -452,7 +453,7 @@ def _joint_warnings(arm, j, data, Vs, rel, lag) -> list:
         out.append(W("identifiability", "Vs", f"fewer than 2 % of joint {name!r}'s kept samples are slower than "
                      "3 Vs: Fs, Vs and delta rest on few low-speed samples"))
     if rest is not None and np.isfinite(Vs) and rest[j] > REST_WARN:
-        out.append(W("identifiability", "Fs", f"joint {name!r} is at rest (slower than its slowest kept speed) over "
+        out.append(W("method", "Fs", f"joint {name!r} is at rest (slower than its slowest kept speed) over "
                      f"{100 * rest[j]:.0f} % of the log: the Stribeck hump lies where it sticks and reverses, outside "
                      "its rows, so Fs and Vs are extrapolated from faster rows and may lie outside their intervals "
                      "(on simulated arms Fs reads low and Vs high); --rows sliding, or slow constant-speed segments "
