@@ -115,7 +115,7 @@ def test_first_arm_known_friction_inside_its_intervals(planar):
         assert joint.params["J"] == pytest.approx(M[j, j], rel=0.005)
 
 
-def test_default_rows_intervals_carry_the_row_sensitivity(planar):
+def test_default_rows_intervals_carry_the_row_sensitivity(planar, tmp_path, capsys):
     """Seed 1, rows="moving" (the default), 50 refits. The wrist (M_jj 0.057 kg·m², Fc 1.9 N·m) sticks at its
     reversals, and the rows next to where it sticks bias its J about 2.7 % high in every bootstrap refit alike: the
     bootstrap interval alone, [0.0584, 0.0595] with 200 refits, missed M_jj 0.0574. The rows="sliding" fit of the
@@ -144,6 +144,16 @@ def test_default_rows_intervals_carry_the_row_sensitivity(planar):
     rest = [[w for w in joint.warnings if w.parameter == "Fs" and "at rest" in w] for joint in res.joints]
     assert rest[0] == [] and rest[1] == [] and len(rest[2]) == 1 and "over 29 % of the log" in rest[2][0], rest
     assert not any("at rest" in w for joint in alt.joints for w in joint.warnings)  # the sliding rows: none
+    # a note on the method (code "method"), which design --from takes as it is (no refusal, exit status 0)
+    import json
+
+    from controllers.cli.main import main
+
+    assert rest[2][0].code == "method"
+    arm_json = tmp_path / "arm.json"
+    arm_json.write_text(json.dumps(res.to_dict()))
+    assert main(["design", "--from", str(arm_json), "--joint", "wrist", "--no-figures", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["J"] == res.joints[2].params["J"]
 
 
 def test_rows_is_checked():
