@@ -575,7 +575,7 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     cond = float(np.linalg.cond(scaled))
     return ArmIdentification(joints=tuple(joints), base_names=base.names, base_values=beta, base_interval=ival,
                              cond=cond, rigid_body=rigid_body, info=info, curves=curves,
-                             warnings=tuple(_arm_warnings(cond)))
+                             warnings=tuple(_arm_warnings(cond, rows == "moving" and x_alt is None)))
 
 
 def _weighted_fit(setup, states, vmin, rows: str, progress=False) -> tuple:
@@ -657,16 +657,23 @@ def _lags(log, arm, rb, J, shapes, cutoff, settings) -> list:
     return joint_lags(t, u, w, shapes, options=LagOptions() if on is True else on, seed=seed, progress=progress)
 
 
-def _arm_warnings(cond: float) -> list:
-    """A conditioning warning when the column-scaled regressor's condition number exceeds ``COND_WARN``."""
+def _arm_warnings(cond: float, no_sensitivity: bool = False) -> list:
+    """A conditioning warning when the column-scaled regressor's condition number exceeds ``COND_WARN``; a method
+    note when ``no_sensitivity`` (``rows="moving"`` and the sliding rows leave a joint fewer than 10 rows, so that
+    the intervals carry no row-sensitivity term)."""
     from adaptive_ff.identification.plausibility import IdentificationWarning
 
+    out = []
+    if no_sensitivity:
+        out.append(IdentificationWarning("method", "all", "the sliding rows (--rows sliding) leave a joint fewer "
+                                         "than 10 rows: the intervals carry no row-sensitivity term and may be "
+                                         "too narrow"))
     if cond <= COND_WARN:
-        return []
-    return [IdentificationWarning("conditioning", "rigid_body", f"the weighted regressor (column-scaled) has "
-                                  f"condition number {cond:.3g} > {COND_WARN:g}: the log does not excite every base "
-                                  "parameter and friction term apart; a richer trajectory (more joints moving at "
-                                  "once, wider ranges) separates them")]
+        return out
+    return out + [IdentificationWarning("conditioning", "rigid_body", f"the weighted regressor (column-scaled) has "
+                                        f"condition number {cond:.3g} > {COND_WARN:g}: the log does not excite every "
+                                        "base parameter and friction term apart; a richer trajectory (more joints "
+                                        "moving at once, wider ranges) separates them")]
 
 
 def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> ArmJoint:
