@@ -13,7 +13,8 @@ its ``rows`` from ``--rows``, default identify_arm's (``"moving"``); without the
 Printed per parameter: the share of the true values inside their 95 % interval, over every joint of every arm
 (``J`` against Pinocchio's ``M_jj`` at the log's mean position with the armatures; ``Vs`` only where the Stribeck
 term was kept) and over every base parameter of every arm (the URDF's inertias with the armatures, reduced to the
-base parameters), with the 95 % binomial (Wilson) interval of that share. The target of a 95 % interval is a
+base parameters), with the 95 % binomial (Wilson) interval of that share, and how many true values lie outside
+their interval on a joint without a warning whose text names the parameter (a base parameter has no warnings). The target of a 95 % interval is a
 share near 0.95; between 0.90 and 0.98 is what ``docs/your_arm.md`` reports as calibrated.
 """
 
@@ -56,8 +57,11 @@ def arm_log(arm, seed: int, *, duration: float = 20.0):
 
 def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, rows: str = "moving",
              log=None) -> dict:
-    """``{parameter: [hits, count]}`` of one arm (seed ``seed``), the base parameters under ``"base"``; ``log``: its
-    :func:`arm_log` if already simulated (default None: simulated here)."""
+    """``{parameter: [hits, count, unwarned]}`` of one arm (seed ``seed``), the base parameters under ``"base"``
+    (``unwarned``: the misses whose joint has no warning naming the parameter); ``log``: its :func:`arm_log` if
+    already simulated (default None: simulated here)."""
+    import re
+
     import pinocchio as pin
 
     from adaptive_ff.arm.fit import identify_arm
@@ -68,21 +72,25 @@ def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, 
     model = arm.model.copy()
     model.armature = ARMATURE.copy()
     M = pin.crba(model, model.createData(), log.q.mean(axis=0))
-    out = {k: [0, 0] for k in PARAMETERS + ("base",)}
+    out = {k: [0, 0, 0] for k in PARAMETERS + ("base",)}
     for j, (joint, f) in enumerate(zip(res.joints, friction)):
         truth = {"J": M[j, j], "Fc": f.Fc, "Fs": f.Fs, "sigma": f.sigma, "offset": f.offset, "Vs": f.Vs}
         for k in PARAMETERS:
             lo, hi = joint.interval95[k]
             if lo is None or hi is None or not (math.isfinite(lo) and math.isfinite(hi)):
                 continue  # Vs where no Stribeck term was kept
-            out[k][0] += bool(lo <= truth[k] <= hi)
+            inside = bool(lo <= truth[k] <= hi)
+            out[k][0] += inside
             out[k][1] += 1
+            out[k][2] += not inside and not any(re.search(rf"\b{k}\b", str(w)) for w in joint.warnings)
     theta = arm.theta_urdf.copy()
     theta[-arm.n:] = ARMATURE
     base = arm.base_parameters().of(theta)
     lo, hi = res.base_interval.T
-    out["base"][0] += int(np.sum((lo <= base) & (base <= hi)))
+    inside = int(np.sum((lo <= base) & (base <= hi)))
+    out["base"][0] += inside
     out["base"][1] += base.shape[0]
+    out["base"][2] += base.shape[0] - inside
     return out
 
 
@@ -111,20 +119,19 @@ def main(argv=None) -> int:
                     help=f"identify_arm's rows (default {DEFAULT_ROWS}, its default)")
     args = ap.parse_args(argv)
     arm = load_urdf(URDF)
-    total = {k: [0, 0] for k in PARAMETERS + ("base",)}
+    total = {k: [0, 0, 0] for k in PARAMETERS + ("base",)}
     t0 = time.process_time()
     for seed in range(args.start, args.start + args.n):
-        for k, (h, c) in arm_hits(arm, seed, duration=args.duration, n_bootstrap=args.bootstrap,
+        for k, counts in arm_hits(arm, seed, duration=args.duration, n_bootstrap=args.bootstrap,
                                   rows=args.rows).items():
-            total[k][0] += h
-            total[k][1] += c
+            total[k] = [a + b for a, b in zip(total[k], counts)]
     cpu = time.process_time() - t0
     print(f"identify-arm 95 % intervals over {args.n} simulated arms (planar3, seeds {args.start}-"
           f"{args.start + args.n - 1}, {args.duration:g} s logs, {args.bootstrap} bootstrap refits, rows {args.rows})")
-    print(f"{'parameter':<10} {'inside':>8} {'of':>6} {'coverage':>9}   95 % (Wilson)")
-    for k, (h, c) in total.items():
+    print(f"{'parameter':<10} {'inside':>8} {'of':>6} {'coverage':>9}   95 % (Wilson)    outside, no warning")
+    for k, (h, c, u) in total.items():
         lo, hi = wilson(h, c)
-        print(f"{k:<10} {h:>8} {c:>6} {h / c if c else math.nan:>9.3f}   [{lo:.3f}, {hi:.3f}]")
+        print(f"{k:<10} {h:>8} {c:>6} {h / c if c else math.nan:>9.3f}   [{lo:.3f}, {hi:.3f}]   {u:>8}")
     print(f"CPU {cpu:.0f} s")
     return 0
 

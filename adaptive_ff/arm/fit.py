@@ -55,6 +55,14 @@ counted by the bootstrap's block length (``rows="moving"``) or (``rows="sliding"
 variance to the white-noise least-squares variance (the largest over the joints' ``Fc, Fs, sigma``;
 :func:`_variance_ratio`; why: ``docs/your_arm.md``, "Intervals").
 
+With ``rows="moving"`` every interval of ``J``, the friction and the base parameters then carries the model error
+that a bootstrap of one rows choice cannot see (a bias common to all its refits: the rows next to where a joint
+sticks): its half-width on either side is combined in quadrature with the distance of the estimate from the
+``rows="sliding"`` fit's (a point fit of the same log, without bootstrap; ``Fs = Fc`` where that fit drops the
+Stribeck term), ``sqrt(h^2 + (x_moving - x_sliding)^2)``. A joint that keeps the Stribeck term and is at rest over
+more than :data:`REST_WARN` of the log carries a warning that its ``Fs`` and ``Vs`` may lie outside their intervals
+(code ``method``: a note on the method, which ``design``, ``compare`` and ``export-c --from`` do not refuse).
+
 Then each joint's friction lag ``tau`` (eq. 1) by the package's output-error fit on its rigid-body-removed record,
 where the log determines it, and each joint's velocity noise (:mod:`adaptive_ff.arm.lag`).
 """
@@ -73,7 +81,8 @@ from adaptive_ff.arm.result import ArmIdentification, ArmJoint
 from adaptive_ff.arm.robot import ArmModel
 from adaptive_ff.arm.rows import DEFAULT_ROWS, REST_WINDOW, ROWS
 
-__all__ = ["identify_arm", "DELTA_GRID", "N_VS", "FRICTION_VELOCITY_FACTOR", "ROWS", "DEFAULT_ROWS", "REST_WINDOW"]
+__all__ = ["identify_arm", "DELTA_GRID", "N_VS", "FRICTION_VELOCITY_FACTOR", "ROWS", "DEFAULT_ROWS", "REST_WINDOW",
+           "REST_WARN"]
 
 #: Stribeck shape factors of the profile grid.
 DELTA_GRID = (0.5, 1.0, 2.0)
@@ -85,6 +94,12 @@ N_VS = 8
 FRICTION_VELOCITY_FACTOR = 5.0
 #: Condition number of the column-scaled weighted regressor above which the result carries a conditioning warning.
 COND_WARN = 1e3
+#: Share of the log at rest (the velocity low-passed at FRICTION_VELOCITY_FACTOR times the cutoff slower than the
+#: joint's slowest kept speed) above which a joint that keeps its Stribeck term gets a warning that its ``Fs`` and
+#: ``Vs`` intervals may miss (``rows="moving"``): over the 150 joints of ``benchmarks/arm_coverage.py`` 24 of the 26
+#: ``Fs`` intervals that missed the truth were wrists at rest over 24-40 % of their logs (two elbows, 13 %); every
+#: shoulder and elbow is at rest over at most 19 %, every wrist over at least 11 %.
+REST_WARN = 0.15
 #: Friction columns per joint: Fc (g), Fs (h), sigma (w), offset (1).
 _FRICTION = ("Fc", "Fs", "sigma", "offset")
 
@@ -416,11 +431,14 @@ def _check(log: ArmLog, arm: ArmModel, n_bootstrap, rigid_body: str) -> None:
     arm.check_positions(log.q, log.source)
 
 
-def _joint_warnings(arm, j, q, dq, keep_j, Vs, rel, lag) -> list:
+def _joint_warnings(arm, j, data, Vs, rel, lag) -> list:
     """What the log does not determine for joint ``j``: IdentificationWarning objects (the codes of
-    :mod:`adaptive_ff.identification.plausibility`, so that ``design --from`` reads them as it reads identify's)."""
+    :mod:`adaptive_ff.identification.plausibility`, so that ``design --from`` reads them as it reads identify's);
+    ``data`` is ``(q, dq, keep_j, rest)``, ``rest`` (N,) each joint's share of the log at rest, or None
+    (``rows="sliding"``: no rest warning)."""
     from adaptive_ff.identification.plausibility import IdentificationWarning as W
 
+    q, dq, keep_j, rest = data
     name, out = arm.names[j], []
     span = float(np.ptp(q[:, j]))
     speed = float(np.percentile(np.abs(dq[:, j]), 99))
@@ -434,6 +452,12 @@ def _joint_warnings(arm, j, q, dq, keep_j, Vs, rel, lag) -> list:
     elif np.mean(np.abs(dq[keep_j[:, j], j]) < 3.0 * Vs) < 0.02:
         out.append(W("identifiability", "Vs", f"fewer than 2 % of joint {name!r}'s kept samples are slower than "
                      "3 Vs: Fs, Vs and delta rest on few low-speed samples"))
+    if rest is not None and np.isfinite(Vs) and rest[j] > REST_WARN:
+        out.append(W("method", "Fs", f"joint {name!r} is at rest (slower than its slowest kept speed) over "
+                     f"{100 * rest[j]:.0f} % of the log: the Stribeck hump lies where it sticks and reverses, outside "
+                     "its rows, so Fs and Vs are extrapolated from faster rows and may lie outside their intervals "
+                     "(on simulated arms Fs reads low and Vs high); --rows sliding, or slow constant-speed segments "
+                     "in the log, determine them"))
     for k in ("Fc", "sigma"):
         if rel[k] > 0.5:
             out.append(W("identifiability", k, f"{k} of joint {name!r} is poorly determined (95 % half-width "
@@ -518,6 +542,48 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
         tau = tau - Y @ arm.theta_urdf
         Yb = Yb[:, :, :0]
     vmin = 0.02 * np.percentile(np.abs(dq), 99, axis=0)
+    prob, keep_j, (Vs, delta, table), (x, rss, A) = _weighted_fit((log, arm, cutoff), (t, dq, Yb, tau), vmin, rows,
+                                                                 progress)
+    x_alt = _sliding_estimate((log, arm, cutoff), (t, dq, Yb, tau), vmin) if rows == "moving" else None
+    boot, resid = _bootstrap(prob, A, x, int(n_bootstrap), seed, progress)
+    half = boot.half_width(0.95)
+    ratio = _variance_ratio(prob, A, rss, boot) if rows == "sliding" else float(boot.block)
+    a_J = _inertia_rows(arm, base, log.q.mean(axis=0))  # the log's mean configuration (all its samples)
+    r = Yb.shape[2]
+    J_all = a_J @ (x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf))
+    lags = _lags(log, arm, (base, x[:r], rigid_body), J_all, _lag_shapes(Vs, delta, table), cutoff,
+                 (lag, seed, progress))
+    noise = velocity_noise(log)
+    rest = np.mean(np.abs(_fast_velocity(log, cutoff)) < vmin, axis=0)  # each joint's share of the log at rest
+    joints = []
+    for j in range(arm.n):
+        joints.append(_joint(arm, j, x, half, boot, a_J, r, base,
+                             (Vs, delta, table, rss, int(prob.keep.sum()), ratio, x_alt),
+                             (q, dq, keep_j, rest if rows == "moving" else None), (lags[j], noise[j])))
+    scaled = A[prob.keep] * np.tile(prob.w, prob.m)[prob.keep][:, None]
+    norm = np.linalg.norm(scaled, axis=0)
+    scaled = scaled[:, norm > 0] / norm[norm > 0]  # a zero column (Fs of a joint without Stribeck term) is no fit
+    beta = x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf)
+    ival = (np.column_stack(_widen(x[:r], x[:r] - half[:r], x[:r] + half[:r], None if x_alt is None else x_alt[:r]))
+            if rigid_body == "fit" else np.full((beta.shape[0], 2), np.nan))
+    rigid = (Yb @ x[:r]) if rigid_body == "fit" else np.zeros_like(tau)
+    curves = tuple((dq[:, j], tau[:, j] - rigid[:, j]) for j in range(arm.n))
+    info = {"cutoff": float(cutoff), "rows": [int(v) for v in keep_j.sum(axis=0)],
+            "bootstrap": {"n": int(n_bootstrap), "valid": boot.n_valid, "block": boot.block, "seed": int(seed)},
+            "rms": [float(np.sqrt(np.mean(resid[keep_j[:, j], j] ** 2))) for j in range(arm.n)],
+            "J": "the joint's own diagonal inertia M_jj at the log's mean configuration", "row_selection": rows}
+    cond = float(np.linalg.cond(scaled))
+    return ArmIdentification(joints=tuple(joints), base_names=base.names, base_values=beta, base_interval=ival,
+                             cond=cond, rigid_body=rigid_body, info=info, curves=curves,
+                             warnings=tuple(_arm_warnings(cond, rows == "moving" and x_alt is None)))
+
+
+def _weighted_fit(setup, states, vmin, rows: str, progress=False) -> tuple:
+    """The weighted fit of one rows choice (module docstring): ``(problem, keep_j, (Vs, delta, table), (x, rss, A))``;
+    ``setup`` is ``(log, arm, cutoff)``, ``states`` ``(t, dq, Yb, tau)`` of the filtered log, ``vmin`` (N,) each
+    joint's slowest kept speed (rad/s). Raises ParameterError where a joint has fewer than 10 rows."""
+    log, arm, cutoff = setup
+    t, dq, Yb, tau = states
     keep_j, columns = _rows_and_columns(log, cutoff, (t, dq), vmin, rows)
     for j in np.flatnonzero(keep_j.sum(axis=0) < 10):
         raise ParameterError(f"{log.source}: joint {arm.names[j]!r} moves in fewer than 10 of the filtered samples: "
@@ -534,36 +600,32 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     rss0 = float(np.sum((e0 * prob.w) ** 2 * keep_j))
     n_kept = max(int(keep_j.sum()), 1)
     Vs, delta, table = _profile(prob, grids, 5.99 * block0 * rss0 / n_kept, progress)
-    x, rss, A = prob.solve(Vs, delta)
-    boot, resid = _bootstrap(prob, A, x, int(n_bootstrap), seed, progress)
-    half = boot.half_width(0.95)
-    ratio = _variance_ratio(prob, A, rss, boot) if rows == "sliding" else float(boot.block)
-    a_J = _inertia_rows(arm, base, log.q.mean(axis=0))  # the log's mean configuration (all its samples)
-    r = Yb.shape[2]
-    J_all = a_J @ (x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf))
-    lags = _lags(log, arm, (base, x[:r], rigid_body), J_all, _lag_shapes(Vs, delta, table), cutoff,
-                 (lag, seed, progress))
-    noise = velocity_noise(log)
-    joints = []
-    for j in range(arm.n):
-        joints.append(_joint(arm, j, x, half, boot, a_J, r, base, (Vs, delta, table, rss, int(prob.keep.sum()), ratio),
-                             (q, dq, keep_j), (lags[j], noise[j])))
-    scaled = A[prob.keep] * np.tile(prob.w, prob.m)[prob.keep][:, None]
-    norm = np.linalg.norm(scaled, axis=0)
-    scaled = scaled[:, norm > 0] / norm[norm > 0]  # a zero column (Fs of a joint without Stribeck term) is no fit
-    beta = x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf)
-    ival = (np.column_stack([x[:r] - half[:r], x[:r] + half[:r]]) if rigid_body == "fit"
-            else np.full((beta.shape[0], 2), np.nan))
-    rigid = (Yb @ x[:r]) if rigid_body == "fit" else np.zeros_like(tau)
-    curves = tuple((dq[:, j], tau[:, j] - rigid[:, j]) for j in range(arm.n))
-    info = {"cutoff": float(cutoff), "rows": [int(v) for v in keep_j.sum(axis=0)],
-            "bootstrap": {"n": int(n_bootstrap), "valid": boot.n_valid, "block": boot.block, "seed": int(seed)},
-            "rms": [float(np.sqrt(np.mean(resid[keep_j[:, j], j] ** 2))) for j in range(arm.n)],
-            "J": "the joint's own diagonal inertia M_jj at the log's mean configuration", "row_selection": rows}
-    cond = float(np.linalg.cond(scaled))
-    return ArmIdentification(joints=tuple(joints), base_names=base.names, base_values=beta, base_interval=ival,
-                             cond=cond, rigid_body=rigid_body, info=info, curves=curves,
-                             warnings=tuple(_arm_warnings(cond)))
+    return prob, keep_j, (Vs, delta, table), prob.solve(Vs, delta)
+
+
+def _sliding_estimate(setup, states, vmin):
+    """The ``rows="sliding"`` point estimate (p,) of the same log (:func:`_weighted_fit`), each joint's ``Fs`` set to
+    its ``Fc`` where that fit drops the Stribeck term, or None where a joint has fewer than 10 sliding rows: the
+    other rows choice, whose distance from the default's estimate is the row-sensitivity term of the default's
+    intervals (:func:`_widen`)."""
+    try:
+        prob, _, (Vs, _, _), (x, _, _) = _weighted_fit(setup, states, vmin, "sliding")
+    except ParameterError:
+        return None
+    x = x.copy()
+    for j in np.flatnonzero(~np.isfinite(Vs)):
+        x[prob.r + 4 * j + 1] = x[prob.r + 4 * j]
+    return x
+
+
+def _widen(value, lo, hi, alt):
+    """``(lo, hi)`` with each half-width about ``value`` combined in quadrature with the row sensitivity
+    ``|value - alt|`` (arrays or floats; ``alt`` None or NaN: unchanged): the model error that a bootstrap of one
+    rows choice does not see, measured by the other rows choice's estimate (``docs/your_arm.md``, "Intervals")."""
+    if alt is None:
+        return lo, hi
+    e = np.where(np.isfinite(alt), np.abs(np.asarray(value) - alt), 0.0)
+    return value - np.hypot(value - lo, e), value + np.hypot(hi - value, e)
 
 
 def _lag_shapes(Vs, delta, table) -> list:
@@ -595,24 +657,31 @@ def _lags(log, arm, rb, J, shapes, cutoff, settings) -> list:
     return joint_lags(t, u, w, shapes, options=LagOptions() if on is True else on, seed=seed, progress=progress)
 
 
-def _arm_warnings(cond: float) -> list:
-    """A conditioning warning when the column-scaled regressor's condition number exceeds ``COND_WARN``."""
+def _arm_warnings(cond: float, no_sensitivity: bool = False) -> list:
+    """A conditioning warning when the column-scaled regressor's condition number exceeds ``COND_WARN``; a method
+    note when ``no_sensitivity`` (``rows="moving"`` and the sliding rows leave a joint fewer than 10 rows, so that
+    the intervals carry no row-sensitivity term)."""
     from adaptive_ff.identification.plausibility import IdentificationWarning
 
+    out = []
+    if no_sensitivity:
+        out.append(IdentificationWarning("method", "all", "the sliding rows (--rows sliding) leave a joint fewer "
+                                         "than 10 rows: the intervals carry no row-sensitivity term and may be "
+                                         "too narrow"))
     if cond <= COND_WARN:
-        return []
-    return [IdentificationWarning("conditioning", "rigid_body", f"the weighted regressor (column-scaled) has "
-                                  f"condition number {cond:.3g} > {COND_WARN:g}: the log does not excite every base "
-                                  "parameter and friction term apart; a richer trajectory (more joints moving at "
-                                  "once, wider ranges) separates them")]
+        return out
+    return out + [IdentificationWarning("conditioning", "rigid_body", f"the weighted regressor (column-scaled) has "
+                                        f"condition number {cond:.3g} > {COND_WARN:g}: the log does not excite every "
+                                        "base parameter and friction term apart; a richer trajectory (more joints "
+                                        "moving at once, wider ranges) separates them")]
 
 
 def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> ArmJoint:
     """Joint ``j``'s parameters, intervals, standard errors and warnings from the fit."""
     from adaptive_ff.identification.covariance import bootstrap_t_quantile
 
-    Vs, delta, table, rss, n_rows, ratio = profile
-    q, dq, keep_j = data
+    Vs, delta, table, rss, n_rows, ratio, x_alt = profile
+    q, dq, keep_j, rest = data
     c = r + 4 * j
     p = dict(zip(_FRICTION, x[c: c + 4]))
     hw = dict(zip(_FRICTION, half[c: c + 4]))
@@ -638,12 +707,16 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> Arm
     if r:  # J as well: the rigid body's estimate moves with the joint's (Vs, delta)
         Js = xs[:, :r] @ a_J[j]
         lo["J"], hi["J"] = min(lo["J"], Js.min() - hw["J"]), max(hi["J"], Js.max() + hw["J"])
+    if x_alt is not None:  # the row sensitivity (rows="moving"): the sliding rows' estimate, Fs = Fc where dropped
+        alt = dict(zip(_FRICTION, x_alt[c: c + 4]), J=float(a_J[j] @ x_alt[:r]) if r else np.nan)
+        for k, v in (("J", J), *p.items()):
+            lo[k], hi[k] = _widen(v, lo[k], hi[k], alt[k])
     lag, noise = lag_noise
     params = {"J": J, **p, "Vs": float(Vs[j]), "delta": float(delta[j]) if stribeck else np.nan, "tau": lag.tau}
     interval = {k: (lo[k], hi[k]) for k in ("J", *_FRICTION)}
     interval.update({"Vs": vs_iv, "delta": d_iv, "tau": lag.interval95})
     rel = {k: hw[k] / max(abs(p[k]), 1e-12) for k in ("Fc", "sigma")}
-    warn = _joint_warnings(arm, j, q, dq, keep_j, Vs[j], rel, lag) + _sign_warnings(arm.names[j], params)
+    warn = _joint_warnings(arm, j, (q, dq, keep_j, rest), Vs[j], rel, lag) + _sign_warnings(arm.names[j], params)
     return ArmJoint(name=arm.names[j], params=params, interval95=interval, std=std, warnings=tuple(warn),
                     noise_std=float(noise), lag_info=lag.info or {},
                     min_speed=float(np.min(np.abs(dq[keep_j[:, j], j]))))
