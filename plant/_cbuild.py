@@ -62,6 +62,13 @@ def compile_args() -> list[str]:
     return args
 
 
+def link_libraries() -> list[str]:
+    """The math library named at link time (not on Windows, whose C runtime holds it): the extension then binds
+    glibc's current ``exp`` (``exp@@GLIBC_2.29``, the same result, a wrapper one instruction shorter) rather than
+    the compatibility symbol an unversioned reference resolves to (docs/benchmarks/perf.md)."""
+    return [] if sys.platform == "win32" else ["m"]
+
+
 def sources(csrc: Path) -> list[str]:
     """The ``.c`` files of a ``csrc`` folder, relative to the project root (setuptools wants relative paths)."""
     root = csrc.parent.parent
@@ -105,7 +112,7 @@ def make_ffi(module: str, layers: list[tuple[Path, list[str]]], include: FFI | N
                    include_dirs=[os.path.relpath(d, root) for d, _ in layers],
                    depends=[s for d, _ in layers for s in sources(d)]
                    + [os.path.relpath(h, root) for d, _ in layers for h in sorted(d.glob("*.h"))],
-                   extra_compile_args=compile_args())
+                   extra_compile_args=compile_args(), libraries=link_libraries())
     return ffi
 
 

@@ -62,7 +62,9 @@ int aff_gate_check(aff_gate *g, aff_real x)
         return 1;
     }
     aff_real d = AFF_FABS(x - g->last); /* x - last = -(last - x) exactly */
-    aff_real bound = (g->max_step + g->n_sigma * g->scale) * ((aff_real)1.0 + (aff_real)g->n_held);
+    aff_real bound = g->max_step + g->n_sigma * g->scale;
+    if (g->n_held > 0) /* widened after held samples; times 1 exactly otherwise, so not multiplied */
+        bound *= (aff_real)1.0 + (aff_real)g->n_held;
     if (d > bound) {
         if (g->n_held < g->max_consecutive) {
             g->n_rejected = aff_count_up(g->n_rejected);

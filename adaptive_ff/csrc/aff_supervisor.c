@@ -92,7 +92,7 @@ aff_error aff_supervisor_init(aff_supervisor *s, const aff_supervisor_config *cf
     s->applied_on = 1;
     s->transfer = 0;
     s->u_c = 0;
-    s->rest_keep = 0;
+    s->rest_alpha = 1;
     s->u_applied = 0;
     s->w_last = 0;
     s->has_w_last = 0;
@@ -135,7 +135,8 @@ aff_real aff_supervisor_apply(aff_supervisor *s, aff_real u_c, aff_real w_ref)
     s->transfer = 0;
     if (s->rest) {
         s->n_rest = aff_count_up(s->n_rest);
-        s->u_applied *= s->rest_keep;
+        aff_real alpha = s->rest_alpha; /* the decay factor worked out here, the only place that reads it */
+        s->u_applied *= alpha >= 0 && alpha <= 1 ? 1 - alpha : 0;
         return s->u_applied;
     }
     if (s->on != s->applied_on) {
@@ -148,7 +149,7 @@ aff_real aff_supervisor_apply(aff_supervisor *s, aff_real u_c, aff_real w_ref)
 
 void aff_supervisor_set_rest_lag(aff_supervisor *s, aff_real alpha)
 {
-    s->rest_keep = alpha >= 0 && alpha <= 1 ? 1 - alpha : 0;
+    s->rest_alpha = alpha;
 }
 
 /* One period of the nominal loop's response to an added torque d (N*m): the PI on the error -y (its integrator

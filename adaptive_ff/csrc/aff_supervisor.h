@@ -129,8 +129,8 @@ typedef struct aff_supervisor {
     aff_real transfer;    /* torque to add to the PI integrator in this period (N*m), 0 unless the mode switched */
     aff_real u_c;         /* the candidate of this period (N*m) */
     aff_real w_ref;       /* the reference of this period (rad/s) */
-    aff_real rest_keep;   /* at rest the applied torque decays by this factor per period, in [0, 1)
-                             (aff_supervisor_set_rest_lag; 0: withdrawn at once) */
+    aff_real rest_alpha;  /* the rest lag's alpha (aff_supervisor_set_rest_lag; 1 until set): at rest the applied
+                             torque decays by 1 - rest_alpha per period (alpha outside [0, 1]: withdrawn at once) */
     aff_real u_applied;   /* the torque returned by the last apply (N*m) */
     aff_real w_last;      /* last finite velocity (rad/s; valid if has_w_last) */
     int has_w_last;
