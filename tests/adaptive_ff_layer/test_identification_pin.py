@@ -35,12 +35,12 @@ EMPS = ROOT / "data" / "emps" / "DATA_EMPS.mat"
 
 #: Published EMPS reference values (Janot, Gautier, Brunot 2019; data/emps/README.md, docs/benchmarks/emps.md).
 EMPS_PUBLISHED = {"sigma": 203.5034, "Fc": 20.3935, "offset": -3.1648}
-#: Measured at commit f4142d7: eq. 4 LS J on DATA_EMPS.mat (published 95.1089 kg; see the module docstring).
+#: Measured: eq. 4 LS J on DATA_EMPS.mat (published 95.1089 kg; see the module docstring).
 EMPS_MEASURED = {"J": 95.52113}
 
 #: The true parameters of the simulated joint (the ``paper`` preset) and its zero torque offset.
 TRUE = {"J": 4.0, "Fc": 25.0, "Fs": 35.0, "sigma": 40.0, "tau": 0.02, "offset": 0.0}
-#: Measured at commit f4142d7 (sliding regression, seed 3); biased, see the module docstring.
+#: Measured (sliding regression, seed 3); biased, see the module docstring.
 CL_MEASURED = {"J": 3.994583, "Fs": 35.017272, "tau": 0.0196986}
 #: Bounds on the bias of the measured ones against the truth (relative).
 CL_BIAS_MAX = {"J": 0.03, "Fs": 0.002, "tau": 0.03}

@@ -64,10 +64,9 @@ def test_the_raw_estimate_is_the_true_friction_after_point_to_point_moves(runs):
 
 def test_the_supervised_loop_sticks_between_moves_and_its_estimate_of_the_peak_is_worse(runs):
     """With the supervisor nothing is applied at rest, the joint sticks there (its friction brakes it toward the
-    setpoint), tracking improves, and the estimate of the Stribeck peak moves away from the truth: measured at commit
-    c02fbb0, Fs +5.4 % (unsupervised -0.5 %), tau +9 % (-1.3 %); with the rest rule's hold of one loop time constant
-    (commit 5d99dc7) Fs +3.1 %, tau -5.1 %, eta 1.125; stated on docs/benchmarks/compensation.md ("The
-    supervisor")."""
+    setpoint), tracking improves, and the estimate of the Stribeck peak moves away from the truth: measured with
+    the rest rule's hold of one loop time constant, Fs +3.1 %, tau -5.1 %, eta 1.125 (unsupervised Fs -0.5 %, tau
+    -1.3 %); stated on docs/benchmarks/compensation.md ("The supervisor")."""
     sup, uns = runs["adaptive"], runs["unsupervised"]
     assert sup.info["n_backoff"] == 0 and sup.info["t_rest"] > 3.0  # the dwells: 3.5 s at rest, nothing applied
     assert uns.info.get("t_rest") is None

@@ -3,9 +3,8 @@
 Regression: on the ``static`` variant (tau = 0) the slowest quasi-static runs stop within each 1 ms sample
 (the joint's friction reverses a speed below ``Fs*Tc/J`` within one step), so their mean speed matches the
 setpoint while the mean torque is ~0 or against the motion; the pre-fit fitted that jump (Vs 0.0024, delta
--46.7, Fc -0.35 N·m) and ``fixed``/``adaptive`` lost 0.36/0.27 of eta. (That was the plant of the time, which
-crept through the jump of the static map; since commit 7bb5fe3 the static joint sticks at ``w = 0``, and the test keeps
-guarding the fit against such runs.) The plant parameters below are test oracles only: nothing of them reaches the
+-46.7, Fc -0.35 N·m) and ``fixed``/``adaptive`` lost 0.36/0.27 of eta, on a plant that crept through the jump of
+the static map. The static joint now sticks at ``w = 0``; the test keeps guarding the fit against such runs. The plant parameters below are test oracles only: nothing of them reaches the
 experiment design or the fit.
 """
 

@@ -147,14 +147,14 @@ def test_frictionless_joint_runs_every_mode_and_tracks_like_the_limit(frictionle
         assert r.metrics.rms_second_half == pytest.approx(rf, rel=0.02), mode
     # the adaptive modes pass the feedforward supervisor (adaptive_ff/csrc/aff_supervisor.h): a friction feedforward
     # on a joint without friction only adds to the disturbance the PI sees, so it backs off for good, once, and
-    # applies nothing after (measured at commit c02fbb0: adaptive 2.762 s, adaptive-dob 1.290 s of the 5 s run)
+    # applies nothing after
     for mode in ("adaptive", "adaptive-dob"):
         r = comp.results[mode]
         assert r.info["n_backoff"] == 1 and r.info["n_restore"] == 0, mode
         k_off = len(r.t) - round(r.info["t_off"] / d.Tc)
         assert 0 < k_off < len(r.t) // 2 + len(r.t) // 4, mode
         assert np.all(r.u_ff[k_off:] == 0.0), mode
-        assert np.max(np.abs(r.u_ff)) < 0.2, mode  # adaptive: the noise's Stribeck level, projected (commit 32c8929)
+        assert np.max(np.abs(r.u_ff)) < 0.2, mode  # adaptive: the noise's Stribeck level, projected
         assert r.metrics.rms_second_half == pytest.approx(rf, rel=0.02), mode
     assert comp.results["adaptive"].info["n_implausible"] < 0.05 * comp.results["adaptive"].info["n_updates"]
 

@@ -18,17 +18,10 @@ MODES = ("fixed", "adaptive", "adaptive-dob", "dob")
 #: LuGre has no lag parameter; on the asymmetric plant the estimated lag absorbs part of the direction-dependent
 #: levels (biased low, see docs/benchmarks/variants.md), and on Karnopp the observer's residual torque biases the
 #: composite's lag estimate: those are pinned through rms_dev instead.
-#: The rms_dev values are those with the feedforward's provisional start (FeedforwardStart, commit 5801f5b; without
-#: it: paper 1.3502e-3, lugre 1.4118e-3, karnopp 2.2466e-3 rad/s) and the loop-model stick fallback (LoopModel,
-#: merge f44a519; with the reference as the fallback: paper 7.4706e-4, karnopp 1.8791e-3 rad/s, lugre within 10 %).
-#: Since the adaptive start takes its lag from the identification run and acts from the first period (commit
-#: 9717cda; before: paper 6.1861e-4, lugre 1.2475e-3, karnopp 1.6510e-3 rad/s and t_ff_on 1 ms): plain adaptive's
-#: rms_dev fell by 40 % on lugre and 3 % on asymmetric, adaptive-dob's rose by 13 % on lugre (30 s run; 4 % at 120 s).
-#: With the sign observer of the feedforward and 50 stick samples (commit 88db4dc) adaptive-dob's rms_dev on lugre
-#: rose from 1.4054e-3 to 1.6097e-3 rad/s (30 s run); paper and karnopp stay within 10 %.
-#: With the lag margin and the determinacy test of the adaptive estimate (commit a42b9e9) adaptive-dob's rms_dev on
-#: karnopp rose from 1.5969e-3 to 1.7661e-3 rad/s (30 s run, the start; +1.7 % over 120 s in variants.md);
-#: paper (5.5059e-4) and lugre (1.5762e-3) stay within 3 %.
+#: The rms_dev values are those of the current loop (30 s runs): the feedforward's provisional start
+#: (FeedforwardStart) with the identification run's lag, acting from the first period; the loop-model stick fallback
+#: (LoopModel); the feedforward's sign observer with 50 stick samples; the lag margin and the determinacy test of the
+#: adaptive estimate. How each of them moved these values is in CHANGELOG.md and git.
 CASES = {"paper": (True, {"adaptive": 0.02, "adaptive-dob": 0.02}, 5.6650e-4), "lugre": (False, {}, 1.6097e-3),
          "karnopp": (False, {"adaptive": 0.02}, 1.7661e-3), "asymmetric": (True, {}, None)}
 

@@ -390,7 +390,7 @@ HEAVY_LAGGED = {"model": "lagged-stribeck", "J": 27.91554508467193, "Fc": 1.8581
 
 def test_an_observer_that_makes_the_loop_worse_is_taken_out_by_the_trial():
     # designed with twice its inertia, the switch-in fired at 8.5 s (measured ratio 1.003) and the observer made
-    # the loop worse than no compensation (eta -0.54 at commit 16fb9c2); the trial finds the loop's measured error
+    # the loop worse than no compensation (eta -0.54 without the trial); the trial finds the loop's measured error
     # 6 % higher with it against the frictionless loop's and takes it out 4.5 s later: eta that of the feedforward
     # alone (3.222), to 2e-3 (measured 1.5e-3; below 1e-3 before the sliding regression's derivative columns became
     # the filters' exact backward differences)
