@@ -25,7 +25,7 @@ if str(TESTS.parent) not in sys.path:
 
 from benchmarks.numeric_paths import numpy_paths  # noqa: E402
 
-#: numpy on its AVX2 paths on an AVX-512 machine, before anything imports it (benchmarks/numeric_paths.py: the
+#: numpy and OpenBLAS on their AVX2 paths on an AVX-512 machine, before anything imports numpy (benchmarks/numeric_paths.py: the
 #: suite's measured numbers and the quoted outputs are those paths'); the workers of -n inherit it.
 _PATHS = numpy_paths(os.environ)
 if _PATHS and "numpy" in sys.modules:

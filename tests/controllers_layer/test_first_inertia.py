@@ -96,7 +96,7 @@ def test_compare_honours_a_given_design_inertia():
         compare(P, duration=6.0, modes=("none",), progress=False).results["none"].metrics.rms_second_half
 
 
-@pytest.mark.parametrize("J_design, said", [(5.0, "J_design=5 kg·m² (given)"),
+@pytest.mark.parametrize("J_design, said", [(5.0, "J_design=5 kg·m² (given: --J-design)"),
                                             (None, "(identified: a torque ramp to ")])
 def test_the_cli_says_where_the_design_inertia_comes_from(J_design, said, capsys, tmp_path):
     parser = argparse.ArgumentParser()
