@@ -25,8 +25,9 @@ if str(TESTS.parent) not in sys.path:
 
 from benchmarks.numeric_paths import numpy_paths  # noqa: E402
 
-#: numpy and OpenBLAS on their AVX2 paths on an AVX-512 machine, before anything imports numpy (benchmarks/numeric_paths.py: the
-#: suite's measured numbers and the quoted outputs are those paths'); the workers of -n inherit it.
+#: numpy and OpenBLAS on their AVX2 paths on an AVX-512 machine, before anything imports numpy
+#: (benchmarks/numeric_paths.py: the suite's measured numbers and the quoted outputs are those paths'); the workers
+#: of -n inherit them.
 _PATHS = numpy_paths(os.environ)
 if _PATHS and "numpy" in sys.modules:
     warnings.warn("numpy was imported before tests/conftest.py could hold it to its AVX2 paths: measured numbers "
