@@ -106,8 +106,8 @@ def sections(page: Path) -> list[Section]:
 def environment(bin_dir: Path) -> dict:
     """The environment of a documented command: this interpreter as ``python``, this checkout's CLI as
     ``adaptive-ff`` (shims written into ``bin_dir``, first on ``PATH``; ``PYTHONPATH`` the repository root),
-    ``MPLBACKEND=Agg``, ``PYTHONUNBUFFERED=1``, numpy and OpenBLAS on their AVX2 paths (:mod:`benchmarks.numeric_paths`), no ``COLUMNS``
-    (help texts at their default width) and ``GIT_DIR``,
+    ``MPLBACKEND=Agg``, ``PYTHONUNBUFFERED=1``, numpy and OpenBLAS on their AVX2 paths
+    (:mod:`benchmarks.numeric_paths`), no ``COLUMNS`` (help texts at their default width) and ``GIT_DIR``,
     ``GIT_WORK_TREE`` this checkout's (git run from the temporary folder answers for it). Also the environment of the
     docs' command tests (``tests/doc_commands.py``)."""
     bin_dir.mkdir(parents=True, exist_ok=True)
