@@ -2,11 +2,10 @@
 
 numpy picks, when it is imported, the SIMD code of its element-wise functions (``exp``, ``log``, ``sin``, ...) for
 the machine's CPU, and OpenBLAS, when it is loaded, the kernels of its matrix products. On a CPU with AVX-512 both
-take paths whose results differ from the AVX2 paths in the last bits; the package's fits and closed loops then land
-elsewhere by more than that: an output-error fit's profiled input delay 0 or 1.25 ms instead of 0.625 ms on the
-coverage zoo's joint of seed 1, a 17-bit encoder loop's `adaptive` eta 0.22 instead of 0.46 (one realisation of a
-loop that sticks at its reversals, docs/getting_started.md). The numbers the documentation quotes and the suite
-checks are those of the AVX2 paths: :func:`numpy_paths` gives the variables that hold numpy (>= 2.0:
+take paths whose results differ from the AVX2 paths in the last bits; a fit whose cost has near-equal minima (an
+output-error fit's profiled input delay) or a loop that sits at a tie (a quantised encoder's loop that sticks at its
+reversals) then lands elsewhere by more than that (docs/getting_started.md). The numbers the documentation quotes
+and the suite checks are those of the AVX2 paths: :func:`numpy_paths` gives the variables that hold numpy (>= 2.0:
 ``NPY_ENABLE_CPU_FEATURES``) and OpenBLAS (``OPENBLAS_CORETYPE=Haswell``, its AVX2 kernels) to them on an AVX-512
 machine; ``tests/conftest.py`` sets them before numpy is imported, and :func:`benchmarks.refresh_pages.environment`
 for every documented command. Elsewhere (another architecture, a CPU without AVX-512, a variable the user set) it
