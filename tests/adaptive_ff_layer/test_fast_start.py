@@ -96,8 +96,8 @@ def test_fast_start_pins_switch_on_whole_run_eta_and_the_lag_in_use(runs):
     assert _eta_full(out, a) >= 0.93
     assert _eta_full(out, old) < 0.5
     # the estimator's estimate took over (hand-over) and its lag is within 7 % of the true 20 ms (measured +5.6 %
-    # after 15 s with the sign observer of the feedforward, commit 88db4dc; within 5 % before; 120 s runs:
-    # 0.0198 +- 0.0005 s over ten seeds, docs/benchmarks/compensation.md)
+    # after 15 s with the sign observer of the feedforward; 120 s runs: 0.0198 +- 0.0005 s over ten seeds,
+    # docs/benchmarks/compensation.md)
     assert a.estimate is not None and a.estimate.tau == pytest.approx(P.tau, rel=0.07)
     # second-half distance from the frictionless run: 2.47e-3 rad/s measured (with the loop-model stick fallback,
     # h/adaptive; 2.8e-3 with the reference fallback); the pre-fit map with the true lag off by -10 % / +10 %

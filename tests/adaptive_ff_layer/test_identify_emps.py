@@ -178,8 +178,8 @@ def test_emps_quality_figures(report):
     assert set(d["std"]) == {"J", "sigma", "Fc", "offset"}
     for k, s in d["std"].items():
         assert d["rel_std"][k] == pytest.approx(100 * s / abs(d[k]), rel=1e-12)
-        # residual block bootstrap: measured 0.20, 1.77, 1.61, 5.89 % (J, sigma, Fc, offset; commit 0cb350d);
-        # the white-noise delta-method ones (std_delta) were 0.05, 0.23, 0.20, 0.56 %
+        # residual block bootstrap: measured 0.20, 1.77, 1.61, 5.89 % (J, sigma, Fc, offset); the white-noise
+        # delta-method ones (std_delta) measured 0.05, 0.23, 0.20, 0.56 %
         assert 0 < d["rel_std"][k] < 10.0
         assert 0 < 100 * d["std_delta"][k] / abs(d[k]) < 1.0
         assert s > 3 * d["std_delta"][k]

@@ -1,8 +1,8 @@
 """The robust adaptive feedforward uses a lag-free joint's estimate: the lag-zero test and the projected estimate.
 
-With the sliding estimator's RLS state unconstrained (commit 8b0af0b), a joint without lag gets lag estimates that
-scatter around 0, half of them below it, and estimates outside the plausible box were refused for whole runs
-(docs/benchmarks/compensation.md). :class:`RobustAdaptiveFeedforward` now (a) takes a lag estimate below 0 by at
+The sliding estimator's RLS state is unconstrained: on a joint without lag its lag estimates scatter around 0, half
+of them below it, and estimates outside the plausible box would be refused for whole runs
+(docs/benchmarks/compensation.md). :class:`RobustAdaptiveFeedforward` therefore (a) takes a lag estimate below 0 by at
 most ``max(lag_zero*sd, 2*dt)`` as lag 0 (``sd`` the standard error ``sqrt(e2*P_tautau)``) and refuses a lower one,
 and (b) uses a copy of ``theta`` projected onto the plausible box in the metric of ``P^-1`` (the box-constrained
 least-squares estimate), :func:`project_box`.

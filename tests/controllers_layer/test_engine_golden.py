@@ -1,8 +1,8 @@
 """The engine's metrics against the numbers of the code before the plant step changed its arithmetic.
 
-``tests/engine_golden_divisions.json`` holds the metrics of :func:`run_batch` at commit a6446c7 (main 12b8833
-plus the stiff lagged step), before :func:`plant.dynamics.plant_step` multiplied by ``1/J`` and
-``1/tau`` instead of dividing (for the batch speed target of docs/benchmarks/perf.md; first tried as commit 334a38e against a8d0e12).
+``tests/engine_golden_divisions.json`` holds the metrics of :func:`run_batch` computed while
+:func:`plant.dynamics.plant_step` divided by ``J`` and ``tau``, before it multiplied by ``1/J`` and ``1/tau`` (for the
+batch speed target of docs/benchmarks/perf.md).
 Where the arithmetic is the same (LuGre, and the oracle mode, whose trajectory does not depend on the friction's
 last bits) the numbers agree to rounding; where it differs by an ulp, every metric that describes the controlled
 loop (second half, actuator RMS) is within 1 %. The whole-run RMS and peak include the start from standstill,
@@ -54,8 +54,8 @@ def golden_runs(label, mode, Kp=KP):
     """Metrics of the golden scenarios: 3 s multisine, noise 1e-3 rad/s, seeds 0.., u_max 150 N·m."""
     ref = multisine_reference(3.0, rng=np.random.default_rng(0))
     ps = _plants(label)
-    # the adaptive feedforward as it was then: the lag estimate itself, no determinacy test (both came later,
-    # commit a42b9e9), no weighted lag (commit 28abafb); they change the algorithm, not the arithmetic this file checks
+    # the adaptive feedforward as the records have it: the lag estimate itself, no determinacy test, no weighted lag
+    # (later additions); they change the algorithm, not the arithmetic this file checks
     o = LoopConfig.from_flat(Kp=Kp, Ki=KI, u_max=150.0, Vs=P.Vs, delta=P.delta, noise_std=1e-3, lag_margin=0.0,
                     max_rel_stderr=math.inf, lag_memory=0.0)
     return run_batch(ps, ref, mode, o, seeds=list(range(len(ps))))
@@ -78,8 +78,8 @@ def test_metrics_equal_todays_numbers(label, mode):
         got = np.asarray(getattr(r, name))[keep]
         g[name] = np.asarray(g[name], dtype=float)[keep]
         if same_arithmetic:
-            # lugre/adaptive: since commit 8b0af0b the sliding estimator's RLS is not projected onto its box (the
-            # algorithm, not the arithmetic, changed); the projection had acted on 20 and 21 of the first updates
+            # lugre/adaptive: the records' sliding estimator projected its RLS onto its box, today's does not (the
+            # algorithm, not the arithmetic, differs); the projection had acted on 20 and 21 of the first updates
             # here and the metrics moved by up to 1.9e-8 (u_rms), 3e-9 (rms_second_half)
             rtol = 1e-7 if (label, mode) == ("lugre", "adaptive") else 1e-12
             np.testing.assert_allclose(got, g[name], rtol=rtol, err_msg=name)
