@@ -242,12 +242,13 @@ def _fast_velocity(log: ArmLog, cutoff: float) -> np.ndarray:
 
 def _rows_and_columns(log: ArmLog, cutoff: float, filtered, vmin, rows: str) -> tuple:
     """Each joint's rows ``keep_j`` (m, N) and its friction columns (:class:`_FrictionColumns` or
-    :class:`_MapColumns`) for ``rows`` (:data:`ROWS`); ``filtered`` the ``(t, dq)`` of the filtered states."""
-    t, dq = filtered
+    :class:`_MapColumns`) for ``rows`` (:data:`ROWS`); ``filtered`` the ``(t, dq)`` of the filtered states and the
+    log's fast velocity ``w_fast`` (:func:`_fast_velocity`)."""
+    t, dq, w_fast = filtered
     keep_j = (np.abs(dq) >= np.maximum(vmin, 1e-9)) & ~_near_reversal(t, dq, 1.0 / cutoff)
     if rows == "moving":
         return keep_j, _MapColumns(dq)
-    pf, w_fast = parallel_filter(log, cutoff), _fast_velocity(log, cutoff)
+    pf = parallel_filter(log, cutoff)
     window = int(round(REST_WINDOW / (cutoff * float(np.median(np.diff(log.t))))))
     return keep_j & ~_near_rest(pf, w_fast, np.maximum(vmin, 1e-9), window), _FrictionColumns(pf, w_fast, dq)
 
@@ -542,9 +543,10 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
         tau = tau - Y @ arm.theta_urdf
         Yb = Yb[:, :, :0]
     vmin = 0.02 * np.percentile(np.abs(dq), 99, axis=0)
-    prob, keep_j, (Vs, delta, table), (x, rss, A) = _weighted_fit((log, arm, cutoff), (t, dq, Yb, tau), vmin, rows,
-                                                                 progress)
-    x_alt = _sliding_estimate((log, arm, cutoff), (t, dq, Yb, tau), vmin) if rows == "moving" else None
+    w_fast = _fast_velocity(log, cutoff)
+    states = (t, dq, Yb, tau, w_fast)
+    prob, keep_j, (Vs, delta, table), (x, rss, A) = _weighted_fit((log, arm, cutoff), states, vmin, rows, progress)
+    x_alt = _sliding_estimate((log, arm, cutoff), states, vmin) if rows == "moving" else None
     boot, resid = _bootstrap(prob, A, x, int(n_bootstrap), seed, progress)
     half = boot.half_width(0.95)
     ratio = _variance_ratio(prob, A, rss, boot) if rows == "sliding" else float(boot.block)
@@ -554,12 +556,12 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     lags = _lags(log, arm, (base, x[:r], rigid_body), J_all, _lag_shapes(Vs, delta, table), cutoff,
                  (lag, seed, progress))
     noise = velocity_noise(log)
-    rest = np.mean(np.abs(_fast_velocity(log, cutoff)) < vmin, axis=0)  # each joint's share of the log at rest
+    rest = np.mean(np.abs(w_fast) < vmin, axis=0) if rows == "moving" else None  # each joint's share at rest
     joints = []
     for j in range(arm.n):
         joints.append(_joint(arm, j, x, half, boot, a_J, r, base,
                              (Vs, delta, table, rss, int(prob.keep.sum()), ratio, x_alt),
-                             (q, dq, keep_j, rest if rows == "moving" else None), (lags[j], noise[j])))
+                             (q, dq, keep_j, rest), (lags[j], noise[j])))
     scaled = A[prob.keep] * np.tile(prob.w, prob.m)[prob.keep][:, None]
     norm = np.linalg.norm(scaled, axis=0)
     scaled = scaled[:, norm > 0] / norm[norm > 0]  # a zero column (Fs of a joint without Stribeck term) is no fit
@@ -580,11 +582,11 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
 
 def _weighted_fit(setup, states, vmin, rows: str, progress=False) -> tuple:
     """The weighted fit of one rows choice (module docstring): ``(problem, keep_j, (Vs, delta, table), (x, rss, A))``;
-    ``setup`` is ``(log, arm, cutoff)``, ``states`` ``(t, dq, Yb, tau)`` of the filtered log, ``vmin`` (N,) each
-    joint's slowest kept speed (rad/s). Raises ParameterError where a joint has fewer than 10 rows."""
+    ``setup`` is ``(log, arm, cutoff)``, ``states`` ``(t, dq, Yb, tau)`` of the filtered log and the log's fast
+    velocity ``w_fast``, ``vmin`` (N,) each joint's slowest kept speed (rad/s). Raises ParameterError where a joint has fewer than 10 rows."""
     log, arm, cutoff = setup
-    t, dq, Yb, tau = states
-    keep_j, columns = _rows_and_columns(log, cutoff, (t, dq), vmin, rows)
+    t, dq, Yb, tau, w_fast = states
+    keep_j, columns = _rows_and_columns(log, cutoff, (t, dq, w_fast), vmin, rows)
     for j in np.flatnonzero(keep_j.sum(axis=0) < 10):
         raise ParameterError(f"{log.source}: joint {arm.names[j]!r} moves in fewer than 10 of the filtered samples: "
                              "nothing to fit its friction on")
@@ -668,12 +670,12 @@ def _arm_warnings(cond: float, no_sensitivity: bool = False) -> list:
         out.append(IdentificationWarning("method", "all", "the sliding rows (--rows sliding) leave a joint fewer "
                                          "than 10 rows: the intervals carry no row-sensitivity term and may be "
                                          "too narrow"))
-    if cond <= COND_WARN:
-        return out
-    return out + [IdentificationWarning("conditioning", "rigid_body", f"the weighted regressor (column-scaled) has "
-                                        f"condition number {cond:.3g} > {COND_WARN:g}: the log does not excite every "
-                                        "base parameter and friction term apart; a richer trajectory (more joints "
-                                        "moving at once, wider ranges) separates them")]
+    if cond > COND_WARN:
+        out.append(IdentificationWarning("conditioning", "rigid_body", f"the weighted regressor (column-scaled) has "
+                                         f"condition number {cond:.3g} > {COND_WARN:g}: the log does not excite every "
+                                         "base parameter and friction term apart; a richer trajectory (more joints "
+                                         "moving at once, wider ranges) separates them"))
+    return out
 
 
 def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> ArmJoint:

@@ -22,7 +22,6 @@ __all__ = ["RecursiveIV", "IVRLS_NMAX"]
 IVRLS_NMAX = len(ffi.new("aff_ivrls *").theta)
 
 
-
 def _row(name: str, x, p: int) -> np.ndarray:
     a = np.ascontiguousarray(x, dtype=float).reshape(-1) if np.ndim(x) else None
     if a is None or a.shape != (p,):

@@ -343,8 +343,9 @@ def _print_comparison(args, comp, header, scenario, run, paths, report) -> int:
             print(line)
     print(pi_text(d, args))
     i = comp.inertia
-    how = _inertia_source(args) if i is None else (f"identified: a torque ramp to {i.u_ramp:.4g} N·m reached {i.w_switch:.4g} rad/s, "
-                                     f"then {i.duration:g} s of open-loop noise torque of {i.u_std:.4g} N·m")
+    how = _inertia_source(args) if i is None else (
+        f"identified: a torque ramp to {i.u_ramp:.4g} N·m reached {i.w_switch:.4g} rad/s, "
+        f"then {i.duration:g} s of open-loop noise torque of {i.u_std:.4g} N·m")
     print(f"design inertia J_design={comp.J_design:g} kg·m² ({how})")
     if comp.prefit is not None:
         fb = comp.prefit.fallback

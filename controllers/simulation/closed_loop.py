@@ -383,9 +383,6 @@ def _run_loop(plant, controller, compensator, reference, *, noise_std, rng, faul
     return res
 
 
-
-
-
 def sensor_and_drive(options: LoopConfig) -> tuple:
     """The :class:`Sensor` and :class:`Drive` of ``options`` (``encoder_counts``, ``delay``, ``slew_rate``), each
     None where the options ask for none."""
