@@ -63,6 +63,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from identification import INPUT_DELAY, KEYS, QUANT, record  # noqa: E402
 
+from adaptive_ff.identification.covariance import bias_corrected_interval  # noqa: E402
 from adaptive_ff.identification.identify import identify  # noqa: E402
 from adaptive_ff.io.data import MeasuredData  # noqa: E402
 from plant import preset  # noqa: E402
@@ -96,6 +97,27 @@ def _kind_row(rep, p, kind: str) -> dict:
         for k in KEYS:
             if isinstance(boot.get(part), dict) and k in boot[part]:
                 out[k][part] = float(boot[part][k])
+                out[k]["n_valid"] = int(boot["n_valid"])
+    return out
+
+
+def rescored(rows: list, n_bootstrap: int) -> list:
+    """``rows`` with every interval that keeps its parts (``stderr_refits``, ``bias``, ``stderr_delay`` if any and
+    ``n_valid``, else ``n_bootstrap``) recomputed by the package's current rule
+    (:func:`adaptive_ff.identification.covariance.bias_corrected_interval`): the table of fits that the current
+    code reproduces, kept under an earlier interval rule, without refitting them."""
+    out = []
+    for r in rows:
+        r = json.loads(json.dumps(r))
+        for kd, cells in r["kinds"].items():
+            for k, c in cells.items() if isinstance(cells, dict) and "failed" not in cells else ():
+                if "stderr_refits" not in c or "bias" not in c:
+                    continue
+                value = r["params"][k] + c["err"]
+                centre, se, t = bias_corrected_interval(value, c["bias"], c["stderr_refits"],
+                                                        c.get("stderr_delay", 0.0), c.get("n_valid", n_bootstrap))
+                c.update(se=se, lo=value - (centre - t * se), hi=centre + t * se - value)
+        out.append(r)
     return out
 
 
@@ -276,9 +298,16 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=None, help="append each joint's row to this JSON-lines file")
     ap.add_argument("--table-from", type=Path, nargs="+", default=None,
                     help="print the table of the rows of these files (one seed's rows merged), fit nothing")
+    ap.add_argument("--rescore", action="store_true",
+                    help="with --table-from: each output-error interval recomputed from the parts its row keeps "
+                         "(the refits' RMS deviation and mean shift, the delay's share; --n-bootstrap refits where "
+                         "the row does not say) by the current interval rule")
     a = ap.parse_args(argv)
+    if a.rescore and a.table_from is None:
+        ap.error("--rescore needs --table-from")
     if a.table_from is not None:
         rows = merge_rows(json.loads(x) for f in a.table_from for x in f.read_text().splitlines() if x.strip())
+        rows = rescored(rows, a.n_bootstrap) if a.rescore else rows
     else:
         quantum = a.input_quantum
         if quantum not in (None, "auto"):

@@ -45,7 +45,7 @@ from plant.errors import FrictionError, ParameterError, SignalError
 __all__ = ["hac_covariance", "andrews_bandwidth", "moving_block_resample", "block_wild_resample",
            "parametric_block_bootstrap", "BootstrapSettings", "BOOTSTRAP_SCHEMES", "DEFAULT_N_BOOTSTRAP",
            "BootstrapResult", "bootstrap_t_quantile", "circular_block_resample", "politis_white_block",
-           "residual_block_bootstrap"]
+           "residual_block_bootstrap", "BIAS_NEGLIGIBLE", "bias_corrected_interval"]
 
 
 def andrews_bandwidth(r) -> int:
@@ -389,6 +389,64 @@ def bootstrap_t_quantile(n: int, level: float = 0.95) -> float:
     if not 0.0 < lv < 1.0:
         raise ParameterError(f"level must be in (0, 1), got {level!r}")
     return float(student_t.ppf(0.5 + 0.5 * lv, int(n)))
+
+
+#: A refits' mean shift of at most this many standard errors leaves the interval centred on the estimate: the
+#: shift's own Monte Carlo error at 20 refits is about 0.22 standard errors, and correcting by it adds variance
+#: and removes no bias (Efron & Tibshirani, *An Introduction to the Bootstrap*, 1993, Sec. 10.6).
+BIAS_NEGLIGIBLE = 0.25
+
+
+def bias_corrected_interval(value: float, bias: float, rms: float, extra: float, n: int,
+                            level: float = 0.95) -> tuple[float, float, float]:
+    """One parameter's bootstrap interval ``centre ± t stderr``, centred on the estimate less the refits' mean shift
+    where that shift is not negligible.
+
+    Parameters
+    ----------
+    value : float
+        The estimate (the parameter's unit).
+    bias : float
+        The refits' mean deviation from the estimate (:attr:`BootstrapResult.bias`; same unit).
+    rms : float
+        The refits' root-mean-square deviation from the estimate (:attr:`BootstrapResult.stderr`; same unit).
+    extra : float
+        A share of the error the refits do not hold, added in quadrature (same unit, >= 0; 0 for none: e.g. the
+        profiled input delay's, :func:`adaptive_ff.identification.delay_profile.delay_spread`).
+    n : int
+        Number of valid refits, >= 2.
+    level : float
+        Nominal coverage, in (0, 1). Default 0.95.
+
+    Returns
+    -------
+    tuple of float
+        ``(centre, stderr, t)``; the interval is ``centre ± t stderr``.
+
+    Raises
+    ------
+    ParameterError
+        ``n`` not an integer >= 2, or ``level`` not in (0, 1).
+
+    Notes
+    -----
+    Where ``|bias| <= BIAS_NEGLIGIBLE * hypot(rms, extra)`` the interval is ``value ± t_n hypot(rms, extra)``: the
+    estimate's error is a draw from the distribution the refits' deviations sample, the shift part of it
+    (:func:`bootstrap_t_quantile`). Otherwise the centre is ``value - bias`` (Efron & Tibshirani 1993, Sec. 10.2)
+    and its error ``(value - truth - bias) - (bias_hat - bias)`` is a new draw from that distribution less the mean
+    of ``n`` draws from it: variance ``s**2 (1 + 1/n)``, with ``s**2 = (rms**2 - bias**2) n / (n - 1)`` the refits'
+    sample variance about their mean, Student-t with ``n - 1`` degrees of freedom: the prediction interval of a
+    normal sample (Hahn & Meeker, *Statistical Intervals*, 1991, Sec. 4.7). The refits' root-mean-square deviation
+    from the estimate would count the shift twice, once in the centre and once in the width.
+    """
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
+        raise ParameterError(f"n must be an integer >= 2 (valid refits), got {n!r}")
+    se = math.hypot(rms, extra)
+    if abs(bias) <= BIAS_NEGLIGIBLE * se:
+        return float(value), float(se), bootstrap_t_quantile(int(n), level)
+    s2 = max(rms * rms - bias * bias, 0.0) * n / (n - 1.0)
+    return (float(value - bias), float(math.sqrt(s2 * (1.0 + 1.0 / n) + extra * extra)),
+            bootstrap_t_quantile(int(n) - 1, level))
 
 
 def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, settings: BootstrapSettings,

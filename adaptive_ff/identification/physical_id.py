@@ -212,20 +212,24 @@ Sec. 6.5; ``info["bootstrap"]["input_quantum"]``). It is the default
 (``"auto"``; a continuous input has no quantum and its bootstrap is that of
 None bit for bit); None takes the logged input as exact.
 
-The 95 % interval of each parameter is ``value - bias ± t stderr``: centred on
-the estimate less the refits' mean shift ``info["bootstrap"]["bias"]`` where
-that shift exceeds :data:`BIAS_NEGLIGIBLE` (0.25) standard errors, on the
-estimate otherwise (Efron & Tibshirani, Sec. 10.6) (the shift is the
-estimator's bias in the bootstrap world, Efron & Tibshirani, Sec. 10.2; the
-reflected, "basic" bootstrap interval is centred there too, Davison & Hinkley,
-*Bootstrap Methods*, 1997, Sec. 5.2), ``t`` the Student quantile of the valid
-refits, ``stderr`` their root-mean-square deviation from the estimate (the
-mean shift included, so that the interval also holds the shift's own Monte
-Carlo error) with the profiled input delay's share. On the zoo the fit's
-errors lie on the side of the refits' shift (Fc low, sigma high, tau low on the
-joints missed when the interval was centred on the estimate), three to five
-times as far; the identification page, "Calibrated on the zoo", has the
-coverage before and after.
+The 95 % interval of each parameter is ``centre ± t stderr``
+(:func:`adaptive_ff.identification.covariance.bias_corrected_interval`): centred
+on the estimate less the refits' mean shift ``info["bootstrap"]["bias"]`` where
+that shift exceeds :data:`adaptive_ff.identification.covariance.BIAS_NEGLIGIBLE`
+(0.25) standard errors, on the estimate otherwise (Efron & Tibshirani, Sec.
+10.6) (the shift is the estimator's bias in the bootstrap world, Efron &
+Tibshirani, Sec. 10.2; the reflected, "basic" bootstrap interval is centred
+there too, Davison & Hinkley, *Bootstrap Methods*, 1997, Sec. 5.2). Centred on
+the estimate, ``stderr`` is the refits' root-mean-square deviation from it and
+``t`` the Student quantile of the valid refits; centred less the shift, it is
+the refits' standard deviation about their mean times ``sqrt(1 + 1/n)`` (the
+shift's own Monte Carlo error) and ``t`` that of ``n - 1`` degrees of freedom,
+the prediction interval of a normal sample (Hahn & Meeker, *Statistical
+Intervals*, 1991, Sec. 4.7); each with the profiled input delay's share in
+quadrature. On the zoo the fit's errors lie on the side of the refits' shift
+(Fc low, sigma high, tau low on the joints missed when the interval was centred
+on the estimate), three to five times as far; the identification page,
+"Calibrated on the zoo", has the coverage of each rule.
 """
 
 from __future__ import annotations
@@ -239,7 +243,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
 
-from adaptive_ff.identification.covariance import (BootstrapSettings, andrews_bandwidth, bootstrap_t_quantile,
+from adaptive_ff.identification.covariance import (BootstrapSettings, andrews_bandwidth, bias_corrected_interval,
                                                    hac_covariance, parametric_block_bootstrap)
 from adaptive_ff.identification.diagnostics import input_quantum, noise_fit_weights, velocity_noise_std_irregular
 from adaptive_ff.identification.delay_profile import delay_profile_search, delay_spread
@@ -342,11 +346,12 @@ class PhysicalFit:
         runs), ``lag_refits`` (``OutputErrorOptions.bootstrap_lag_refits`` where the refits run the profile over
         tau: at how many of its values they refit the others, None for all), ``input_delay`` (s: the fit's, which
         the full refits hold, :mod:`adaptive_ff.identification.delay_profile`), ``n_simulations``, ``bias``:
-        mean deviation of the refits per parameter, ``stderr_refits`` and ``stderr_delay`` where the delay was
-        profiled (the refits' RMS deviation and the delay's share,
-        :func:`adaptive_ff.identification.delay_profile.delay_spread`; ``stderr`` is their root sum of squares),
-        ``interval95``: per parameter ``[low, high]`` = value - bias ± t stderr, ``bias`` the refits' mean
-        shift), ``interval95`` (the same) and ``band`` (the 95 % band of F(w) from the refits, as
+        mean deviation of the refits per parameter, ``stderr_refits`` (the refits' RMS deviation from the
+        estimate) and ``stderr_delay`` where the delay was profiled (the delay's share,
+        :func:`adaptive_ff.identification.delay_profile.delay_spread`; ``stderr`` is their root sum of squares
+        where the interval is centred on the estimate), ``interval95``: per parameter ``[low, high]`` = centre ±
+        t stderr, :func:`adaptive_ff.identification.covariance.bias_corrected_interval`), ``interval95`` (the
+        same) and ``band`` (the 95 % band of F(w) from the refits, as
         :meth:`adaptive_ff.identification.uncertainty.FrictionBand.to_dict`), ``start``, ``cost``,
         ``lag_profile`` (None, or the profile over tau: ``tau``, ``cost``, ``n_simulations``, ``moved``),
         ``fitted`` (names of the fitted parameters; ``Vs``, ``delta`` among them where they were not given),
@@ -954,59 +959,41 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
                "lag_refits": (o.bootstrap_lag_refits if o.bootstrap_refit == "full" and o.lag_profile else None),
                "input_delay": float(pb.input_delay), "input_quantum": quantum,
                "n_simulations": int(sum(n_sim))}
-    details.update(_oe_intervals(pb, names, est, b))
+    details.update(_oe_band(pb, names, est, b))
     return dict(zip(names, map(float, b.stderr))), dict(zip(names, map(float, b.bias))), details
 
 
-#: A refits' mean shift of at most this many standard errors leaves the interval centred on the estimate: the shift
-#: is then within its own Monte Carlo error (about stderr/sqrt(B), 0.22 stderr at 20 refits), and a correction would
-#: add variance without removing bias (Efron & Tibshirani, *An Introduction to the Bootstrap*, 1993, Sec. 10.6:
-#: a bias below 0.25 standard errors is negligible).
-BIAS_NEGLIGIBLE = 0.25
-
-
-def _interval_centre(value: float, bias: float, stderr: float) -> float:
-    """The centre of a parameter's 95 % interval: ``value - bias`` where the refits' mean shift ``bias`` exceeds
-    :data:`BIAS_NEGLIGIBLE` standard errors ``stderr``, else ``value`` (same unit)."""
-    return float(value - bias) if abs(bias) > BIAS_NEGLIGIBLE * stderr else float(value)
-
-
-def _oe_intervals(pb: _OutputErrorProblem, names: tuple, est: np.ndarray, b) -> dict:
-    """``interval95`` (``value - bias ± t stderr``: centred on the estimate less the refits' mean shift, t of the
-    valid refits; module docstring, "Standard errors") and ``band`` (the 95 % band of F(w) from the refits,
-    :func:`adaptive_ff.identification.uncertainty.friction_band`) of a bootstrap ``b``; empty with fewer than 2
-    valid refits."""
+def _oe_band(pb: _OutputErrorProblem, names: tuple, est: np.ndarray, b) -> dict:
+    """``band``: the 95 % band of F(w) from the refits of a bootstrap ``b``
+    (:func:`adaptive_ff.identification.uncertainty.friction_band`); empty with fewer than 2 valid refits."""
     from adaptive_ff.identification.uncertainty import friction_band
 
     if b.n_valid < 2:
         return {}
-    half = b.half_width(0.95)
     cols = [names.index(k) for k in ("Fc", "Fs", "sigma")]
     Vs, delta = (est[names.index("Vs")], est[names.index("delta")]) if pb.free_shape else (pb.Vs, pb.delta)
     band = friction_band(est[cols], b.replicates[:, cols], w_max=float(np.max(np.abs(pb.w))), Vs=float(Vs),
                          delta=float(delta))
-    centre = [_interval_centre(v, bias, se) for v, bias, se in zip(est, b.bias, b.stderr)]
-    return {"interval95": {k: [float(v - h), float(v + h)] for k, v, h in zip(names, centre, half)},
-            "band": band.to_dict()}
+    return {"band": band.to_dict()}
 
 
-def _with_delay_spread(pb: _OutputErrorProblem, params: dict, stderr: dict, boot: dict) -> dict:
-    """The bootstrap's standard errors with the input delay's share added in quadrature where the fit profiled
-    the delay (:func:`adaptive_ff.identification.delay_profile.delay_spread`: the refits hold the delay), and
-    ``boot["interval95"]`` widened to match (``value - bias ± t stderr``, t of the valid refits, the bias the
-    refits' mean shift ``boot["bias"]``); the refits' own errors
-    stay in ``boot["stderr_refits"]``, the delay's share in ``boot["stderr_delay"]``; the band of F(w) stays the
-    refits'. Unchanged where the delay was given."""
-    if pb.delay_profile is None:
-        return stderr
-    spread = delay_spread(pb.delay_profile, stderr)
-    total = {k: float(math.hypot(stderr[k], spread[k])) for k in stderr}
-    boot["stderr_refits"], boot["stderr_delay"] = dict(stderr), spread
-    if "interval95" in boot:
-        q = bootstrap_t_quantile(boot["n_valid"], 0.95)
-        centre = {k: _interval_centre(params[k], boot["bias"][k], total[k]) for k in total}
-        boot["interval95"] = {k: [float(centre[k] - q * total[k]), float(centre[k] + q * total[k])] for k in total}
-    return total
+def _bootstrap_intervals(pb: _OutputErrorProblem, params: dict, rms: dict, boot: dict) -> dict:
+    """The standard errors of the fit and ``boot["interval95"]`` (``centre ± t stderr``,
+    :func:`adaptive_ff.identification.covariance.bias_corrected_interval`: centred on the estimate less the refits'
+    mean shift ``boot["bias"]`` where it is not negligible) from the refits' RMS deviations ``rms``, with the input
+    delay's share added in quadrature where the fit profiled the delay
+    (:func:`adaptive_ff.identification.delay_profile.delay_spread`: the refits hold the delay; its share in
+    ``boot["stderr_delay"]``). The refits' own RMS deviations go to ``boot["stderr_refits"]``. With fewer than 2 valid
+    refits: ``rms`` and the delay's share in quadrature, no interval. The band of F(w) stays the refits'."""
+    spread = {k: 0.0 for k in rms} if pb.delay_profile is None else delay_spread(pb.delay_profile, rms)
+    boot["stderr_refits"] = dict(rms)
+    if pb.delay_profile is not None:
+        boot["stderr_delay"] = spread
+    if boot["n_valid"] < 2:
+        return {k: float(math.hypot(rms[k], spread[k])) for k in rms}
+    parts = {k: bias_corrected_interval(params[k], boot["bias"][k], rms[k], spread[k], boot["n_valid"]) for k in rms}
+    boot["interval95"] = {k: [float(c - q * se), float(c + q * se)] for k, (c, se, q) in parts.items()}
+    return {k: se for k, (c, se, q) in parts.items()}
 
 
 def _oe_search(pb: _OutputErrorProblem, s0: dict, lag_refits: int | None = None, held_delay: float | None = None
@@ -1042,7 +1029,7 @@ def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> P
     if opts.n_bootstrap > 0:
         stderr, bias, boot = _oe_bootstrap(pb, x, names, r)
         boot["bias"] = bias
-        stderr = _with_delay_spread(pb, params, stderr, boot)
+        stderr = _bootstrap_intervals(pb, params, stderr, boot)
     top = {k: boot.pop(k) for k in ("interval95", "band") if boot and k in boot}
     if "interval95" in top:
         boot["interval95"] = top["interval95"]

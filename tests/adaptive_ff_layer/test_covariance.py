@@ -366,3 +366,48 @@ def test_wild_bootstrap_of_ols_gives_whites_heteroscedastic_errors():
     assert b.stderr[1] > 1.3 * m.stderr[1]  # the slope's error is larger under the heteroscedasticity
     with pytest.raises(ParameterError, match="scheme"):
         BootstrapSettings(n=2, block=1, seed=5, scheme="stationary")
+
+
+def _interval_by_refits(estimate: np.ndarray, refits: np.ndarray, extra: float = 0.0):
+    """``bias_corrected_interval`` fed from a draw of refits: their mean shift and RMS deviation from the estimate."""
+    from adaptive_ff.identification.covariance import bias_corrected_interval
+
+    d = refits - estimate
+    return bias_corrected_interval(float(estimate), float(np.mean(d)), float(np.sqrt(np.mean(d * d))), extra,
+                                   refits.shape[0])
+
+
+def test_bias_corrected_interval_covers_at_its_level_where_the_estimator_is_biased():
+    """A biased estimator (shift 1.5 of its standard deviation) whose 20 refits sample its error's distribution: the
+    interval less the refits' shift covers the truth 95 % of the time (the normal sample's prediction interval,
+    Student-t with n - 1 degrees of freedom), where the refits' RMS deviation as its width over-covers (nearly always)."""
+    rng = np.random.default_rng(20)
+    n, trials, shift = 20, 4000, 1.5
+    hits, hits_rms = 0, 0
+    for _ in range(trials):
+        est = shift + rng.normal()  # the truth is 0
+        refits = est + shift + rng.normal(size=n)  # the bootstrap world: the same error, from the estimate
+        c, se, t = _interval_by_refits(np.float64(est), refits)
+        hits += abs(c) <= t * se
+        d = refits - est
+        hits_rms += abs(c) <= bootstrap_t_quantile(n) * math.sqrt(np.mean(d * d))
+    assert 0.94 <= hits / trials <= 0.96  # binomial standard error 0.0034
+    assert hits_rms / trials > 0.99
+
+
+def test_bias_corrected_interval_forms():
+    from scipy.stats import t as student_t
+
+    from adaptive_ff.identification.covariance import bias_corrected_interval
+
+    # a shift below a quarter of the standard error: centred on the estimate, the RMS with the extra share, t_n
+    c, se, t = bias_corrected_interval(10.0, 0.2, 1.0, 0.5, 20)
+    assert (c, se) == (10.0, pytest.approx(math.sqrt(1.25), rel=1e-15))
+    assert t == pytest.approx(student_t.ppf(0.975, 20), rel=1e-12)
+    # a larger shift: centre less the shift, the sample variance about the refits' mean times 1 + 1/n, t_{n-1}
+    c, se, t = bias_corrected_interval(10.0, 0.6, 1.0, 0.5, 20)
+    s2 = (1.0 - 0.36) * 20 / 19
+    assert c == pytest.approx(9.4, rel=1e-15) and se == pytest.approx(math.sqrt(s2 * 21 / 20 + 0.25), rel=1e-14)
+    assert t == pytest.approx(student_t.ppf(0.975, 19), rel=1e-12)
+    with pytest.raises(ParameterError, match="n must be an integer >= 2"):
+        bias_corrected_interval(1.0, 0.0, 1.0, 0.0, 1)

@@ -139,12 +139,17 @@ def test_the_bootstrap_refits_hold_the_delay_the_fit_chose(profiled):
     for k in ("J", "tau", "sigma", "Fc", "Fs", "offset"):
         share = math.sqrt(sum((v[k] - at[k]) ** 2 for v in nb) / len(nb))
         assert boot["stderr_delay"][k] == pytest.approx(share, rel=1e-12, abs=1e-15)
-        assert f.stderr[k] == pytest.approx(math.sqrt(boot["stderr_refits"][k] ** 2 + share ** 2), rel=1e-12)
-        # centred on the estimate less the refits' mean shift where it exceeds a quarter of the standard error
-        b = boot["bias"][k]
-        centre = f.params[k] - (b if abs(b) > 0.25 * f.stderr[k] else 0.0)
-        assert f.info["interval95"][k] == pytest.approx([centre - q * f.stderr[k], centre + q * f.stderr[k]],
-                                                        rel=1e-12)
+        # centred on the estimate with the refits' RMS deviation and the share in quadrature, t of n refits, where
+        # the refits' mean shift is at most a quarter of that standard error; else centred less the shift, the
+        # refits' sample variance about their mean times 1 + 1/n and the share in quadrature, t of n - 1
+        b, rms, n = boot["bias"][k], boot["stderr_refits"][k], boot["n_valid"]
+        se = math.sqrt(rms ** 2 + share ** 2)
+        centre, t = f.params[k], q
+        if abs(b) > 0.25 * se:
+            centre, se = f.params[k] - b, math.sqrt((rms ** 2 - b ** 2) * (n + 1) / (n - 1) + share ** 2)
+            t = bootstrap_t_quantile(n - 1, 0.95)
+        assert f.stderr[k] == pytest.approx(se, rel=1e-12)
+        assert f.info["interval95"][k] == pytest.approx([centre - t * se, centre + t * se], rel=1e-12)
     # measured on this joint: the delay's share 0.25-0.9 of the refits' spread in sigma and Fc
     assert all(boot["stderr_delay"][k] > 0.1 * boot["stderr_refits"][k] for k in ("sigma", "Fc"))
 

@@ -200,20 +200,25 @@ def test_output_error_fit_reports_interval_and_band_of_its_bootstrap():
     resp = simulate(p, u, dt=1e-3)
     m = sample(resp, Ts=0.01, noise_std=0.01 * float(np.max(np.abs(resp.w))), rng=np.random.default_rng(5))
     f = fit_physical(m.t, m.u, m.w, Vs=p.Vs, delta=p.delta, n_bootstrap=4, input_delay=5e-4)
-    n_valid = f.info["bootstrap"]["n_valid"]
-    t = bootstrap_t_quantile(n_valid, 0.95)
-    bias = f.info["bootstrap"]["bias"]
-    for k, (lo, hi) in f.info["interval95"].items():  # centred on the estimate less the refits' mean shift where
-        # that shift exceeds a quarter of the standard error (Efron & Tibshirani 1993, Sec. 10.6)
-        c = f.params[k] - (bias[k] if abs(bias[k]) > 0.25 * f.stderr[k] else 0.0)
-        assert lo == pytest.approx(c - t * f.stderr[k], rel=1e-12, abs=1e-15)
-        assert hi == pytest.approx(c + t * f.stderr[k], rel=1e-12, abs=1e-15)
+    boot = f.info["bootstrap"]
+    n, bias, rms = boot["n_valid"], boot["bias"], boot["stderr_refits"]
+    for k, (lo, hi) in f.info["interval95"].items():  # centred on the estimate with the refits' RMS deviation where
+        # their mean shift is at most a quarter of it (Efron & Tibshirani 1993, Sec. 10.6), t of n refits; else on
+        # the estimate less the shift with the refits' sample deviation about their mean times sqrt(1 + 1/n), t of
+        # n - 1 (the prediction interval of a normal sample)
+        c, se, t = f.params[k], rms[k], bootstrap_t_quantile(n, 0.95)
+        if abs(bias[k]) > 0.25 * rms[k]:
+            c, se = f.params[k] - bias[k], math.sqrt((rms[k] ** 2 - bias[k] ** 2) * (n + 1) / (n - 1))
+            t = bootstrap_t_quantile(n - 1, 0.95)
+        assert f.stderr[k] == pytest.approx(se, rel=1e-12)
+        assert lo == pytest.approx(c - t * se, rel=1e-12, abs=1e-15)
+        assert hi == pytest.approx(c + t * se, rel=1e-12, abs=1e-15)
     band = f.info["band"]
     F = stribeck(np.array(band["w"]), Fc=f.params["Fc"], Fs=f.params["Fs"], Vs=p.Vs, delta=p.delta,
                  sigma=f.params["sigma"])
     np.testing.assert_allclose(band["F"], F, rtol=1e-12)
     assert np.all(np.array(band["lower"]) <= F) and np.all(F <= np.array(band["upper"]))
-    assert band["n_replicates"] == n_valid
+    assert band["n_replicates"] == n
     json.dumps(f.to_dict(), allow_nan=False)
 
 
