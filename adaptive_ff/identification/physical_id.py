@@ -151,9 +151,10 @@ lag profile and the final Fs profile are not run in the refits (they cost
 several times the rest of a refit). A refit started at the
 estimate itself stays there on the rough cost (measured: spreads 10-100
 times too small); from a spread start it has to find the valley again as
-the real fit does. The standard error is the root-mean-square deviation of
-the refits from the estimate (it includes their mean shift,
-``info["bootstrap"]["bias"]``). The start spread is a method constant,
+the real fit does. The refits' root-mean-square deviation from the estimate
+(``info["bootstrap"]["stderr_refits"]``; it includes their mean shift,
+``info["bootstrap"]["bias"]``) gives the standard error as the interval rule
+below says. The start spread is a method constant,
 calibrated on simulated records and checked on others
 (``benchmarks/coverage.py``; the documentation's identification page has
 the table); the intervals widen with it.
