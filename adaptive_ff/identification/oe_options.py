@@ -13,7 +13,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from adaptive_ff.identification.simulator import H_MAX_DEFAULT
-from plant.errors import ParameterError, check_finite_scalar, check_positive
+from plant.errors import ParameterError, check_finite_scalar, check_optional, check_positive
 
 __all__ = ["OutputErrorOptions", "BOOTSTRAP_REFITS", "JACOBIANS"]
 
@@ -173,8 +173,7 @@ class OutputErrorOptions:
         put("bootstrap_seed", _check_int("bootstrap_seed", self.bootstrap_seed, 0))
         if self.bootstrap_workers is not None:
             put("bootstrap_workers", _check_int("bootstrap_workers", self.bootstrap_workers, 1))
-        if not (self.progress is None or isinstance(self.progress, (bool, np.bool_))):
-            raise ParameterError(f"progress must be True, False or None, got {self.progress!r}")
+        check_optional("progress", self.progress, (bool, np.bool_), what="True, False")
         if not isinstance(self.lag_profile, (bool, np.bool_)):
             raise ParameterError(f"lag_profile must be True or False, got {self.lag_profile!r}")
         put("lag_profile", bool(self.lag_profile))
