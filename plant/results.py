@@ -120,6 +120,41 @@ def to_json(obj, **kwargs) -> str:
     return json.dumps(json_safe(obj), allow_nan=False, **kwargs)
 
 
+class PhysicalParams:
+    """Mixin: the physical parameters J, Fc, Fs, sigma, tau of a result as attributes read from its ``params``.
+
+    The class that mixes it in holds ``params``, a mapping with the keys ``"J"``, ``"Fc"``, ``"Fs"``, ``"sigma"``,
+    ``"tau"`` (the field symbols of eqs. 1-3; units kg·m², N·m, N·m, N·m·s/rad, s). A missing key raises KeyError.
+    """
+
+    __slots__ = ()
+
+    @property
+    def J(self) -> float:
+        """Inertia (kg·m²), ``params["J"]``."""
+        return self.params["J"]
+
+    @property
+    def Fc(self) -> float:
+        """Coulomb level (N·m), ``params["Fc"]``."""
+        return self.params["Fc"]
+
+    @property
+    def Fs(self) -> float:
+        """Stiction level (N·m), ``params["Fs"]``."""
+        return self.params["Fs"]
+
+    @property
+    def sigma(self) -> float:
+        """Viscous coefficient (N·m·s/rad), ``params["sigma"]``."""
+        return self.params["sigma"]
+
+    @property
+    def tau(self) -> float:
+        """Friction lag (s), ``params["tau"]``."""
+        return self.params["tau"]
+
+
 def axes_or_new(ax=None, *, figsize: tuple[float, float] = (7.0, 4.0)):
     """The axes a result's ``plot(ax=None)`` draws on: ``ax`` itself, or the axes of a new figure.
 
