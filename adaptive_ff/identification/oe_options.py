@@ -1,7 +1,8 @@
 """Settings of the output-error method of :func:`adaptive_ff.identification.physical_id.fit_physical`.
 
 :class:`OutputErrorOptions` validates them on construction; the search they control is described in the
-docstring of :mod:`adaptive_ff.identification.physical_id` ("the module docstring" below).
+docstring of :mod:`adaptive_ff.identification.physical_id` ("the module docstring" below; its "Standard errors"
+are in :mod:`adaptive_ff.identification.oe_intervals`).
 """
 
 from __future__ import annotations
@@ -103,7 +104,7 @@ class OutputErrorOptions:
         both: the documentation's identification benchmark page).
     bootstrap_input_quantum : float, "auto" or None, keyword-only
         The resolution (N·m) the log's input was read with, drawn into the input of each bootstrap world
-        (module docstring of :mod:`adaptive_ff.identification.physical_id`, "Standard errors"): each replicate
+        (module docstring of :mod:`adaptive_ff.identification.oe_intervals`, "Standard errors"): each replicate
         record is the estimate driven by the logged input plus a uniform draw within half of it, refitted with the
         logged input (one more simulation per refit). ``"auto"`` (default): the step of the lattice the logged
         samples lie on (:func:`adaptive_ff.identification.diagnostics.input_quantum`; 0 for a continuous input,
