@@ -129,30 +129,11 @@ class PhysicalParams:
 
     __slots__ = ()
 
-    @property
-    def J(self) -> float:
-        """Inertia (kg·m²), ``params["J"]``."""
-        return self.params["J"]
-
-    @property
-    def Fc(self) -> float:
-        """Coulomb level (N·m), ``params["Fc"]``."""
-        return self.params["Fc"]
-
-    @property
-    def Fs(self) -> float:
-        """Stiction level (N·m), ``params["Fs"]``."""
-        return self.params["Fs"]
-
-    @property
-    def sigma(self) -> float:
-        """Viscous coefficient (N·m·s/rad), ``params["sigma"]``."""
-        return self.params["sigma"]
-
-    @property
-    def tau(self) -> float:
-        """Friction lag (s), ``params["tau"]``."""
-        return self.params["tau"]
+    J = property(lambda self: self.params["J"], doc='Inertia (kg·m²), ``params["J"]``.')
+    Fc = property(lambda self: self.params["Fc"], doc='Coulomb level (N·m), ``params["Fc"]``.')
+    Fs = property(lambda self: self.params["Fs"], doc='Stiction level (N·m), ``params["Fs"]``.')
+    sigma = property(lambda self: self.params["sigma"], doc='Viscous coefficient (N·m·s/rad), ``params["sigma"]``.')
+    tau = property(lambda self: self.params["tau"], doc='Friction lag (s), ``params["tau"]``.')
 
 
 def axes_or_new(ax=None, *, figsize: tuple[float, float] = (7.0, 4.0)):
