@@ -29,7 +29,8 @@ import numpy as np
 
 from plant.errors import ParameterError
 
-__all__ = ["Component", "config_class", "config_defaults", "ops_table", "SettingTypeError", "struct_field"]
+__all__ = ["Component", "c_compensate", "c_observe", "config_class", "config_defaults", "ops_table", "SettingTypeError",
+           "step_time", "struct_field"]
 
 
 class SettingTypeError(ParameterError, TypeError):
@@ -289,6 +290,95 @@ def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c", sett
     get.__name__ = put.__name__ = path[-1]
     writable = settable and size is None and scale is None and choices is None
     return property(get, put if writable else None, doc=doc)
+
+
+def step_time(field: str, period: str, doc: str = "", *, via: str = "_c") -> property:
+    """A public read-only attribute that reads a step index of the C struct in seconds, or None: the one accessor
+    of a switch time (``t_switch_in = step_time("res.sw.k_in", "switch_in.Tc", "Time of the switch-in (s).")``).
+
+    Parameters
+    ----------
+    field : str
+        The C field holding the step index ``k`` (a dotted path, as :func:`struct_field`); ``k < 0`` means "not
+        (yet)".
+    period : str
+        A dotted attribute path from the component to the step's period (s), e.g. ``"switch_in.Tc"``; a None on
+        the path (the part absent) makes the attribute read None.
+    doc : str
+        The attribute's docstring (with its unit).
+    via : str, keyword-only
+        The attribute that holds the struct pointer, default ``"_c"``.
+
+    Returns
+    -------
+    property
+        Reads ``k * period`` (s), or None where the part is absent or ``k < 0``.
+    """
+    path, link = tuple(field.split(".")), tuple(period.split("."))
+
+    def get(self):
+        Ts = self
+        for name in link:
+            Ts = getattr(Ts, name)
+            if Ts is None:
+                return None
+        k = getattr(self, via)
+        for name in path:
+            k = getattr(k, name)
+        return None if k < 0 else float(k) * float(Ts)
+
+    get.__name__ = path[-1]
+    return property(get, doc=doc)
+
+
+def c_compensate(fn, doc: str):
+    """The compensator protocol's ``compensate(w_meas, w_ref) -> float`` of a component, calling the C function
+    ``fn(struct, w_ctrl, w_meas, w_ref)`` with the measured velocity as the controller's (``w_ctrl = w_meas``).
+
+    Parameters
+    ----------
+    fn : cffi function
+        The C ``*_compensate`` (``double (*)(T *, double, double, double)``).
+    doc : str
+        The method's docstring (units, what it returns).
+
+    Returns
+    -------
+    function
+        ``compensate(self, w_meas, w_ref)``: the compensation (N·m) as a float.
+    """
+    def compensate(self, w_meas: float, w_ref: float) -> float:
+        w_meas = float(w_meas)
+        return float(fn(self._c, w_meas, w_meas, float(w_ref)))
+
+    compensate.__doc__ = doc
+    return compensate
+
+
+def c_observe(fn, doc: str, kind=None):
+    """The compensator protocol's ``observe(u, w)`` of a component, calling the C function
+    ``fn(struct, u, w, NULL)`` (no trace record).
+
+    Parameters
+    ----------
+    fn : cffi function
+        The C ``*_observe`` (``(T *, double u, double w, trace *)``).
+    doc : str
+        The method's docstring (units, what it returns).
+    kind : callable or None
+        Conversion of the C return value (``bool``); default None: the method returns None.
+
+    Returns
+    -------
+    function
+        ``observe(self, u, w)``: ``u`` the applied torque (N·m), ``w`` the measured velocity (rad/s).
+    """
+    def observe(self, u: float, w: float):
+        r = fn(self._c, float(u), float(w), self._ffi.NULL)
+        return None if kind is None else kind(r)
+
+    observe.__doc__ = doc
+    return observe
 
 
 def ops_table(lib, doc: str = "Pointer to the C ops table :attr:`C_OPS` (``aff_compensator_ops *``).") -> property:

@@ -13,6 +13,7 @@ import errno
 import functools
 import math
 import os
+import reprlib
 import stat
 from numbers import Real
 
@@ -92,13 +93,15 @@ def check_optional(name: str, value, cls, *, what: str | None = None, error: typ
     Raises
     ------
     ParameterError
-        (or ``error``) ``value`` is neither None nor a ``cls``: "<name> must be <what> or None, got <type>".
+        (or ``error``) ``value`` is neither None nor a ``cls``: "<name> must be <what> or None, got <type> <repr>"
+        (the repr shortened by :mod:`reprlib`).
     """
     if value is not None and not isinstance(value, cls):
         if what is None:
             names = [c.__name__ for c in (cls if isinstance(cls, tuple) else (cls,))]
             what = "a " + " or ".join(names)
-        raise (error or ParameterError)(f"{name} must be {what} or None, got {type(value).__name__}")
+        raise (error or ParameterError)(f"{name} must be {what} or None, got {type(value).__name__} "
+                                        f"{reprlib.repr(value)}")
     return value
 
 

@@ -120,6 +120,22 @@ def to_json(obj, **kwargs) -> str:
     return json.dumps(json_safe(obj), allow_nan=False, **kwargs)
 
 
+class PhysicalParams:
+    """Mixin: the physical parameters J, Fc, Fs, sigma, tau of a result as attributes read from its ``params``.
+
+    The class that mixes it in holds ``params``, a mapping with the keys ``"J"``, ``"Fc"``, ``"Fs"``, ``"sigma"``,
+    ``"tau"`` (the field symbols of eqs. 1-3; units kg·m², N·m, N·m, N·m·s/rad, s). A missing key raises KeyError.
+    """
+
+    __slots__ = ()
+
+    J = property(lambda self: self.params["J"], doc='Inertia (kg·m²), ``params["J"]``.')
+    Fc = property(lambda self: self.params["Fc"], doc='Coulomb level (N·m), ``params["Fc"]``.')
+    Fs = property(lambda self: self.params["Fs"], doc='Stiction level (N·m), ``params["Fs"]``.')
+    sigma = property(lambda self: self.params["sigma"], doc='Viscous coefficient (N·m·s/rad), ``params["sigma"]``.')
+    tau = property(lambda self: self.params["tau"], doc='Friction lag (s), ``params["tau"]``.')
+
+
 def axes_or_new(ax=None, *, figsize: tuple[float, float] = (7.0, 4.0)):
     """The axes a result's ``plot(ax=None)`` draws on: ``ax`` itself, or the axes of a new figure.
 

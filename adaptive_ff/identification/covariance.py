@@ -40,7 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plant.errors import FrictionError, ParameterError, SignalError
+from plant.errors import FrictionError, ParameterError, SignalError, check_optional
 
 __all__ = ["hac_covariance", "andrews_bandwidth", "moving_block_resample", "block_wild_resample",
            "parametric_block_bootstrap", "BootstrapSettings", "BOOTSTRAP_SCHEMES", "DEFAULT_N_BOOTSTRAP",
@@ -533,8 +533,7 @@ def parametric_block_bootstrap(refit, prediction, residuals, estimate, *, settin
                              f"{type(simulate).__name__}")
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
-    if not (progress is None or isinstance(progress, (bool, np.bool_))):
-        raise ParameterError(f"progress must be True, False or None, got {progress!r}")
+    check_optional("progress", progress, (bool, np.bool_), what="True, False")
     n, block, rng, resample = settings.n, settings.block, settings.rng(), settings.resample()
     replicates = []  # (y_star, or None for a non-finite simulation), every draw before any refit
     for _ in range(int(n)):

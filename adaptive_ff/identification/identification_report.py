@@ -28,7 +28,7 @@ from adaptive_ff.identification.uncertainty import ParameterUncertainty
 
 if TYPE_CHECKING:  # pragma: no cover
     from adaptive_ff.identification.model_forms import FormSelection
-from plant.results import axes_or_new, json_safe
+from plant.results import PhysicalParams, axes_or_new, json_safe
 
 __all__ = ["IdentificationReport", "parameter_names"]
 
@@ -64,7 +64,7 @@ def parameter_names(model: RegressionModel) -> tuple[str, ...]:
 
 
 @dataclass(frozen=True)
-class IdentificationReport:
+class IdentificationReport(PhysicalParams):
     """Result of :func:`identify`.
 
     The answer is the chosen method's (:attr:`method`): :attr:`params` (``J``, ``Fc``, ``Fs``, ``sigma``,
@@ -239,31 +239,6 @@ class IdentificationReport:
         if self.physical is not None and "delta" in self.physical.params:
             return self.physical.params["delta"]
         return self.model.delta if self.model.stribeck else None
-
-    @property
-    def J(self) -> float:
-        """Inertia (kg·m²) of the chosen method (:attr:`params`)."""
-        return self.params["J"]
-
-    @property
-    def Fc(self) -> float:
-        """Coulomb level (N·m) of the chosen method."""
-        return self.params["Fc"]
-
-    @property
-    def Fs(self) -> float:
-        """Stiction level (N·m) of the chosen method."""
-        return self.params["Fs"]
-
-    @property
-    def sigma(self) -> float:
-        """Viscous coefficient (N·m·s/rad) of the chosen method."""
-        return self.params["sigma"]
-
-    @property
-    def tau(self) -> float:
-        """Friction lag (s) of the chosen method."""
-        return self.params["tau"]
 
     @property
     def offset(self) -> float:

@@ -53,7 +53,7 @@ from adaptive_ff.identification.rls import RecursiveLeastSquares
 from adaptive_ff.identification.steady_state_check import with_steady_state_check, without_steady_state_check
 from adaptive_ff.identification.uncertainty import (DEFAULT_N_BOOTSTRAP, BootstrapSettings, ParameterUncertainty,
                                                     eq4_block_bootstrap, regression_block_bootstrap)
-from plant.errors import ExcitationError, ParameterError, check_positive
+from plant.errors import ExcitationError, ParameterError, check_optional, check_positive
 
 __all__ = ["IdentificationReport", "identify", "PARAM_UNITS", "CrossValidation", "cross_validate", "stderr_note",
            "IDENTIFY_METHODS", "choose_method", "auto_methods", "attach_physical", "input_delay_note"]
@@ -754,8 +754,7 @@ def _check_identify_args(data, Vs, delta, n_history, P0, method, method_options,
     if method == "sliding" and Vs is None:  # output_error without them fits Vs and delta (fit_physical)
         raise ParameterError(f"method {method!r} fits the Stribeck model of eqs. 1-3: give Vs and delta "
                              f"(pre-fit, Sec. V-C), got Vs = {Vs!r}, delta = {delta!r}")
-    if method_options is not None and not isinstance(method_options, dict):
-        raise ParameterError(f"method_options must be a dict, got {method_options!r}")
+    check_optional("method_options", method_options, dict)
     if method in ("paper", "sliding", "idim") and set(method_options or {}) - set(_EQ4_BOOT_OPTIONS):
         raise ParameterError(f"method {method!r} takes the options {list(_EQ4_BOOT_OPTIONS)}, got "
                              f"{sorted(method_options)}")

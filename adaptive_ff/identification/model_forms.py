@@ -112,7 +112,7 @@ from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
 from adaptive_ff.identification.simulator import H_MAX_DEFAULT, input_grid, simulate_on_grid
 from adaptive_ff.io.data import MeasuredData, to_uniform
 from plant.dynamics import lagged_params
-from plant.errors import ExcitationError, ParameterError, check_finite_scalar, check_positive
+from plant.errors import ExcitationError, ParameterError, check_finite_scalar, check_optional, check_positive
 from adaptive_ff.identification.form_results import FORMS, FormCandidate, FormSelection
 
 __all__ = ["FORMS", "CRITERIA", "SELECTION_METHODS", "MIN_LOW_SPEED", "FormCandidate", "FormSelection",
@@ -809,8 +809,7 @@ def select_form(data: MeasuredData, *, Vs: float | None = None, delta: float | N
         cands, blocks, pred, noise, n = _select_sliding(data, Vs, delta, bool(offset), folds, names)
         input_delay = None
     else:
-        if not (progress is None or isinstance(progress, (bool, np.bool_))):
-            raise ParameterError(f"progress must be True, False or None, got {progress!r}")
+        check_optional("progress", progress, (bool, np.bool_), what="True, False")
         with threadpool_limits(limits=1, user_api="blas"):  # as the output-error fit (physical_id.fit_physical)
             cands, blocks, pred, noise, n, (input_delay, profile) = _select_output_error(
                 data, Vs, delta, bool(offset), folds, names, h_max, input_delay, predictor, progress)

@@ -1,7 +1,8 @@
 """Settings of the output-error method of :func:`adaptive_ff.identification.physical_id.fit_physical`.
 
 :class:`OutputErrorOptions` validates them on construction; the search they control is described in the
-docstring of :mod:`adaptive_ff.identification.physical_id` ("the module docstring" below).
+docstring of :mod:`adaptive_ff.identification.physical_id` ("the module docstring" below; its "Standard errors"
+are in :mod:`adaptive_ff.identification.oe_intervals`).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from adaptive_ff.identification.simulator import H_MAX_DEFAULT
-from plant.errors import ParameterError, check_finite_scalar, check_positive
+from plant.errors import ParameterError, check_finite_scalar, check_optional, check_positive
 
 __all__ = ["OutputErrorOptions", "BOOTSTRAP_REFITS", "JACOBIANS"]
 
@@ -103,7 +104,7 @@ class OutputErrorOptions:
         both: the documentation's identification benchmark page).
     bootstrap_input_quantum : float, "auto" or None, keyword-only
         The resolution (N·m) the log's input was read with, drawn into the input of each bootstrap world
-        (module docstring of :mod:`adaptive_ff.identification.physical_id`, "Standard errors"): each replicate
+        (module docstring of :mod:`adaptive_ff.identification.oe_intervals`, "Standard errors"): each replicate
         record is the estimate driven by the logged input plus a uniform draw within half of it, refitted with the
         logged input (one more simulation per refit). ``"auto"`` (default): the step of the lattice the logged
         samples lie on (:func:`adaptive_ff.identification.diagnostics.input_quantum`; 0 for a continuous input,
@@ -173,8 +174,7 @@ class OutputErrorOptions:
         put("bootstrap_seed", _check_int("bootstrap_seed", self.bootstrap_seed, 0))
         if self.bootstrap_workers is not None:
             put("bootstrap_workers", _check_int("bootstrap_workers", self.bootstrap_workers, 1))
-        if not (self.progress is None or isinstance(self.progress, (bool, np.bool_))):
-            raise ParameterError(f"progress must be True, False or None, got {self.progress!r}")
+        check_optional("progress", self.progress, (bool, np.bool_), what="True, False")
         if not isinstance(self.lag_profile, (bool, np.bool_)):
             raise ParameterError(f"lag_profile must be True or False, got {self.lag_profile!r}")
         put("lag_profile", bool(self.lag_profile))

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from plant.errors import ParameterError
+from plant.results import PhysicalParams
 
 __all__ = ["IdentifiedJoint", "IdentificationFileError", "read_identification", "identification_from_dict",
            "is_identification", "JOINT_KEYS", "LAYOUTS"]
@@ -54,7 +55,7 @@ class IdentificationFileError(ParameterError):
 
 
 @dataclass(frozen=True)
-class IdentifiedJoint:
+class IdentifiedJoint(PhysicalParams):
     """The identified joint of an identification file, whatever its layout.
 
     Attributes
@@ -89,31 +90,6 @@ class IdentifiedJoint:
     min_speed: float | None = None
     layout: str = "top"
     source: str = "identification"
-
-    @property
-    def J(self) -> float:
-        """Inertia (kg·m²)."""
-        return self.params["J"]
-
-    @property
-    def Fc(self) -> float:
-        """Coulomb level (N·m)."""
-        return self.params["Fc"]
-
-    @property
-    def Fs(self) -> float:
-        """Stiction level (N·m)."""
-        return self.params["Fs"]
-
-    @property
-    def sigma(self) -> float:
-        """Viscous coefficient (N·m·s/rad)."""
-        return self.params["sigma"]
-
-    @property
-    def tau(self) -> float:
-        """Friction lag (s)."""
-        return self.params["tau"]
 
     def plant_dict(self) -> dict:
         """A plant file (:mod:`plant.models`, lagged Stribeck) of the identified joint, for ``compare --plant``.

@@ -58,7 +58,7 @@ from adaptive_ff.compensation.defaults import c_defaults
 from adaptive_ff.compensation.supervisor import FeedforwardSupervisor
 from controllers._cctl import ffi, lib
 from controllers.peers.dob import DisturbanceObserver
-from plant.component import Component, ops_table, struct_field
+from plant.component import Component, c_compensate, c_observe, ops_table, step_time, struct_field
 from plant.errors import ParameterError, check_nonnegative, check_optional, check_positive
 
 __all__ = ["AdaptiveDOBCompensator", "AdaptiveCompensator", "ResidualSwitchIn", "residual_config"]
@@ -295,20 +295,11 @@ class AdaptiveDOBCompensator(Component):
         """Whether the feedforward part is switched on (the observer always is)."""
         return self.feedforward.active
 
-    @property
-    def t_switch_in(self) -> float | None:
-        """Time of the residual switch-in from the first period (s; ``k*Tc``), None without it or before."""
-        if self.switch_in is None or self._c.res.sw.k_in < 0:
-            return None
-        return float(self._c.res.sw.k_in) * self.switch_in.Tc
-
-    @property
-    def t_switch_out(self) -> float | None:
-        """Time at which the switch-in's trial took the observer out again (s; ``k*Tc``), None if it did not (no
-        switch-in, the trial pending, or the observer kept)."""
-        if self.switch_in is None or self._c.res.sw.k_out < 0:
-            return None
-        return float(self._c.res.sw.k_out) * self.switch_in.Tc
+    t_switch_in = step_time("res.sw.k_in", "switch_in.Tc", "Time of the residual switch-in from the first period "
+                            "(s; ``k*Tc``), None without it or before.")
+    t_switch_out = step_time("res.sw.k_out", "switch_in.Tc", "Time at which the switch-in's trial took the observer "
+                             "out again (s; ``k*Tc``), None if it did not (no switch-in, the trial pending, or the "
+                             "observer kept).")
 
     def info(self) -> dict:
         """The feedforward's counters (:meth:`RobustAdaptiveFeedforward.info`) plus the observer's, prefixed
@@ -482,16 +473,13 @@ class AdaptiveCompensator(AdaptiveDOBCompensator):
             return super().info()
         return self.feedforward.info()
 
-    def compensate(self, w_meas: float, w_ref: float) -> float:
-        """Compensator protocol: this period's compensation (N·m), C ``aff_adaptive_compensate`` (the measurement as
-        the controller's); then :attr:`transfer` holds the supervisor's bumpless transfer."""
-        w_meas = float(w_meas)
-        return float(lib.aff_adaptive_compensate(self._c, w_meas, w_meas, float(w_ref)))
+    compensate = c_compensate(lib.aff_adaptive_compensate, """Compensator protocol: this period's compensation
+        (N·m), C ``aff_adaptive_compensate`` (the measurement as the controller's); then :attr:`transfer` holds the
+        supervisor's bumpless transfer.""")
 
     def at_rest(self) -> None:
         """Nothing to do: the composite's own supervisor tells the observer (C ``aff_adaptive_compensate``)."""
 
-    def observe(self, u: float, w: float) -> bool:
-        """Compensator protocol: the applied torque ``u`` (N·m) and the measured velocity ``w`` (rad/s), C
-        ``aff_adaptive_observe``; True after an RLS update of the estimator."""
-        return bool(lib.aff_adaptive_observe(self._c, float(u), float(w), ffi.NULL))
+    observe = c_observe(lib.aff_adaptive_observe, """Compensator protocol: the applied torque ``u`` (N·m) and the
+        measured velocity ``w`` (rad/s), C ``aff_adaptive_observe``; True after an RLS update of the estimator.""",
+                        bool)

@@ -31,7 +31,7 @@ from pathlib import Path
 from adaptive_ff.compensation.gate import RangeGate, range_gates
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from controllers._cctl import ffi, lib
-from plant.component import Component, config_class, ops_table, struct_field
+from plant.component import Component, c_compensate, c_observe, config_class, ops_table, struct_field
 from plant.errors import ParameterError, check_multiple
 
 __all__ = ["CanudasCompensator", "CanudasCompensatorConfig", "CANUDAS_N_THETA"]
@@ -216,8 +216,8 @@ class CanudasCompensator(Component):
         return {"n_rejected": self.n_rejected, "n_updates": self.rls.n_updates, "lam": self.rls.lam,
                 "canudas_estimate": self.estimate}
 
-    def compensate(self, w_meas: float, w_ref: float) -> float:
-        """Compensation torque (N·m) for this period, bounded by ``ff_max`` (C ``ctl_canudas_compensate``).
+    compensate = c_compensate(lib.ctl_canudas_compensate, """Compensation torque (N·m) for this period, bounded by
+        ``ff_max`` (C ``ctl_canudas_compensate``).
 
         Parameters
         ----------
@@ -229,12 +229,10 @@ class CanudasCompensator(Component):
         Returns
         -------
         float
-        """
-        w_meas = float(w_meas)
-        return lib.ctl_canudas_compensate(self._c, w_meas, w_meas, float(w_ref))
+        """)
 
-    def observe(self, u: float, w: float) -> None:
-        """Record the torque applied in this period and the velocity measured at its start (C ``ctl_canudas_observe``).
+    observe = c_observe(lib.ctl_canudas_observe, """Record the torque applied in this period and the velocity
+        measured at its start (C ``ctl_canudas_observe``).
 
         Parameters
         ----------
@@ -247,5 +245,4 @@ class CanudasCompensator(Component):
         -----
         A non-finite or out-of-range value is counted in ``n_rejected`` and spoils the current sample
         interval.
-        """
-        lib.ctl_canudas_observe(self._c, float(u), float(w), ffi.NULL)
+        """)

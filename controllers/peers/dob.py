@@ -21,7 +21,7 @@ from __future__ import annotations
 from adaptive_ff.compensation.defaults import c_defaults
 from adaptive_ff.compensation.gate import RangeGate, range_gates
 from controllers._cctl import ffi, lib
-from plant.component import Component, ops_table, struct_field
+from plant.component import Component, c_compensate, c_observe, ops_table, struct_field
 
 __all__ = ["DisturbanceObserver", "DOB_ORDER_MAX"]
 
@@ -137,8 +137,8 @@ class DisturbanceObserver(Component):
         """
         return {"n_rejected": self.n_rejected, "J_n": self.J_n, "omega_q": self.omega_q}
 
-    def compensate(self, w_meas: float, w_ref: float) -> float:
-        """Advance the observer with the measured velocity of this period (C ``aff_dob_compensate``).
+    compensate = c_compensate(lib.aff_dob_compensate, """Advance the observer with the measured velocity of this
+        period (C ``aff_dob_compensate``).
 
         Parameters
         ----------
@@ -151,12 +151,10 @@ class DisturbanceObserver(Component):
         -------
         float
             The bounded disturbance estimate ``d_hat`` (N·m).
-        """
-        w_meas = float(w_meas)
-        return lib.aff_dob_compensate(self._c, w_meas, w_meas, float(w_ref))
+        """)
 
-    def observe(self, u: float, w: float) -> None:
-        """Record the torque applied in this period (it drives the next velocity sample; C ``aff_dob_observe``).
+    observe = c_observe(lib.aff_dob_observe, """Record the torque applied in this period (it drives the next
+        velocity sample; C ``aff_dob_observe``).
 
         Parameters
         ----------
@@ -164,5 +162,4 @@ class DisturbanceObserver(Component):
             Applied torque (N·m); a non-finite value is ignored.
         w : float
             Measured velocity (rad/s), unused.
-        """
-        lib.aff_dob_observe(self._c, float(u), float(w), ffi.NULL)
+        """)

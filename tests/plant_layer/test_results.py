@@ -170,3 +170,15 @@ def test_log_options_validated(cls, kwargs, name):
         cls(**kwargs)
     with pytest.raises(TypeError):
         cls("s")  # keyword-only
+
+
+def test_physical_params_reads_each_symbol_from_params_and_names_a_missing_one():
+    from adaptive_ff.identification.result_file import IdentifiedJoint
+    from plant.results import PhysicalParams
+
+    vals = {"J": 0.031, "Fc": 0.72, "Fs": 0.9, "sigma": 0.045, "tau": 2.5e-3}
+    joint = IdentifiedJoint(method="paper", params=dict(vals))
+    assert isinstance(joint, PhysicalParams)
+    assert [joint.J, joint.Fc, joint.Fs, joint.sigma, joint.tau] == list(vals.values())
+    with pytest.raises(KeyError, match="tau"):
+        IdentifiedJoint(method="paper", params={k: v for k, v in vals.items() if k != "tau"}).tau
