@@ -608,17 +608,18 @@ def _weighted_fit(setup, states, vmin, rows: str, progress=False) -> tuple:
 
 def _sliding_estimate(setup, states, vmin):
     """The ``rows="sliding"`` point estimate of the same log (:func:`_weighted_fit`): ``(x, Vs)`` with ``x`` (p,)
-    each joint's ``Fs`` set to its ``Fc`` where that fit drops the Stribeck term and ``Vs`` (n,) rad/s, NaN there;
+    each joint's ``Fs`` set to its ``Fc`` where that fit drops the Stribeck term and ``Vs`` (n,) rad/s its profile's
+    best, also where the term is dropped;
     or None where a joint has fewer than 10 sliding rows: the other rows choice, whose distance from the default's
     estimate is the row-sensitivity term of the default's intervals (:func:`_widen`)."""
     try:
-        prob, _, (Vs, _, _), (x, _, _) = _weighted_fit(setup, states, vmin, "sliding")
+        prob, _, (Vs, _, table), (x, _, _) = _weighted_fit(setup, states, vmin, "sliding")
     except ParameterError:
         return None
     x = x.copy()
     for j in np.flatnonzero(~np.isfinite(Vs)):
         x[prob.r + 4 * j + 1] = x[prob.r + 4 * j]
-    return x, Vs
+    return x, np.array([t[-2][0] for t in table])  # the profile's best Vs, kept or not (:func:`_profile`)
 
 
 def _widen(value, lo, hi, alt):
