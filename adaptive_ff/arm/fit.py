@@ -546,7 +546,8 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     w_fast = _fast_velocity(log, cutoff)
     states = (t, dq, Yb, tau, w_fast)
     prob, keep_j, (Vs, delta, table), (x, rss, A) = _weighted_fit((log, arm, cutoff), states, vmin, rows, progress)
-    x_alt = _sliding_estimate((log, arm, cutoff), states, vmin) if rows == "moving" else None
+    alt = _sliding_estimate((log, arm, cutoff), states, vmin) if rows == "moving" else None
+    x_alt = None if alt is None else alt[0]
     boot, resid = _bootstrap(prob, A, x, int(n_bootstrap), seed, progress)
     half = boot.half_width(0.95)
     ratio = _variance_ratio(prob, A, rss, boot) if rows == "sliding" else float(boot.block)
@@ -560,7 +561,7 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     joints = []
     for j in range(arm.n):
         joints.append(_joint(arm, j, x, half, boot, a_J, r, base,
-                             (Vs, delta, table, rss, int(prob.keep.sum()), ratio, x_alt),
+                             (Vs, delta, table, rss, int(prob.keep.sum()), ratio, alt),
                              (q, dq, keep_j, rest), (lags[j], noise[j])))
     scaled = A[prob.keep] * np.tile(prob.w, prob.m)[prob.keep][:, None]
     norm = np.linalg.norm(scaled, axis=0)
@@ -606,18 +607,19 @@ def _weighted_fit(setup, states, vmin, rows: str, progress=False) -> tuple:
 
 
 def _sliding_estimate(setup, states, vmin):
-    """The ``rows="sliding"`` point estimate (p,) of the same log (:func:`_weighted_fit`), each joint's ``Fs`` set to
-    its ``Fc`` where that fit drops the Stribeck term, or None where a joint has fewer than 10 sliding rows: the
-    other rows choice, whose distance from the default's estimate is the row-sensitivity term of the default's
-    intervals (:func:`_widen`)."""
+    """The ``rows="sliding"`` point estimate of the same log (:func:`_weighted_fit`): ``(x, Vs)`` with ``x`` (p,)
+    each joint's ``Fs`` set to its ``Fc`` where that fit drops the Stribeck term and ``Vs`` (n,) rad/s its profile's
+    best, also where the term is dropped;
+    or None where a joint has fewer than 10 sliding rows: the other rows choice, whose distance from the default's
+    estimate is the row-sensitivity term of the default's intervals (:func:`_widen`)."""
     try:
-        prob, _, (Vs, _, _), (x, _, _) = _weighted_fit(setup, states, vmin, "sliding")
+        prob, _, (Vs, _, table), (x, _, _) = _weighted_fit(setup, states, vmin, "sliding")
     except ParameterError:
         return None
     x = x.copy()
     for j in np.flatnonzero(~np.isfinite(Vs)):
         x[prob.r + 4 * j + 1] = x[prob.r + 4 * j]
-    return x
+    return x, np.array([t[-2][0] for t in table])  # the profile's best Vs, kept or not (:func:`_profile`)
 
 
 def _widen(value, lo, hi, alt):
@@ -682,7 +684,7 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> Arm
     """Joint ``j``'s parameters, intervals, standard errors and warnings from the fit."""
     from adaptive_ff.identification.covariance import bootstrap_t_quantile
 
-    Vs, delta, table, rss, n_rows, ratio, x_alt = profile
+    Vs, delta, table, rss, n_rows, ratio, sliding = profile
     q, dq, keep_j, rest = data
     c = r + 4 * j
     p = dict(zip(_FRICTION, x[c: c + 4]))
@@ -709,10 +711,13 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> Arm
     if r:  # J as well: the rigid body's estimate moves with the joint's (Vs, delta)
         Js = xs[:, :r] @ a_J[j]
         lo["J"], hi["J"] = min(lo["J"], Js.min() - hw["J"]), max(hi["J"], Js.max() + hw["J"])
-    if x_alt is not None:  # the row sensitivity (rows="moving"): the sliding rows' estimate, Fs = Fc where dropped
+    if sliding is not None:  # the row sensitivity (rows="moving"): the sliding rows' estimate, Fs = Fc where dropped
+        x_alt, Vs_alt = sliding
         alt = dict(zip(_FRICTION, x_alt[c: c + 4]), J=float(a_J[j] @ x_alt[:r]) if r else np.nan)
         for k, v in (("J", J), *p.items()):
             lo[k], hi[k] = _widen(v, lo[k], hi[k], alt[k])
+        if stribeck and np.all(np.isfinite(vs_iv)):  # Vs as well, in log Vs (its grid's scale; the bounds stay > 0)
+            vs_iv = tuple(float(np.exp(b)) for b in _widen(np.log(Vs[j]), *np.log(vs_iv), np.log(Vs_alt[j])))
     lag, noise = lag_noise
     params = {"J": J, **p, "Vs": float(Vs[j]), "delta": float(delta[j]) if stribeck else np.nan, "tau": lag.tau}
     interval = {k: (lo[k], hi[k]) for k in ("J", *_FRICTION)}
