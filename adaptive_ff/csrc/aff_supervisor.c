@@ -107,6 +107,8 @@ aff_error aff_supervisor_init(aff_supervisor *s, const aff_supervisor_config *cf
     s->n_skipped = 0;
     s->track = cfg->Kp > 0;
     s->track_margin = cfg->track_margin;
+    s->keep = (aff_real)1.0 - cfg->margin;
+    s->track_keep = (aff_real)1.0 + cfg->track_margin;
     s->Kp = cfg->Kp;
     s->KiTc = cfg->Ki * Tc;
     s->TcJ = Tc / cfg->J_n;
@@ -209,9 +211,9 @@ void aff_supervisor_observe(aff_supervisor *s, aff_real u, aff_real w)
     }
     if (k < s->n_decide)
         return;
-    aff_real keep = (aff_real)1.0 - s->margin;
+    aff_real keep = s->keep;
     int worse_torque = s->m_r > s->m_f;
-    int worse_tracking = s->track && s->m_e1 > ((aff_real)1.0 + s->track_margin) * s->m_e0;
+    int worse_tracking = s->track && s->m_e1 > s->track_keep * s->m_e0;
     if (s->on && (worse_torque || worse_tracking)) {
         if (!worse_torque)
             s->n_backoff_tracking = aff_count_up(s->n_backoff_tracking);

@@ -145,6 +145,8 @@ typedef struct aff_supervisor {
     int64_t n_skipped;    /* non-finite samples skipped */
     int track;            /* 1: the tracking test acts too (Kp > 0) */
     aff_real track_margin; /* it backs off where M_e1 > (1 + track_margin)*M_e0 (-), >= 0 */
+    aff_real keep;        /* 1 - margin (-): the restore test's factor, derived at init */
+    aff_real track_keep;  /* 1 + track_margin (-): the tracking test's back-off factor, derived at init */
     aff_real Kp;          /* the loop's PI: proportional gain (N*m*s/rad), of the tracking test's loop model */
     aff_real KiTc;        /* its integral gain times Tc (N*m/rad) */
     aff_real TcJ;         /* Tc/J_n (s/(kg*m^2)) */
