@@ -277,8 +277,9 @@ def _grids(dq, keep_j, vmin):
 
 def _profile(prob: _Problem, grids, bound: float, progress=False):
     """Coordinate descent over the joints' ``(Vs, delta)`` grids (two sweeps); ``(Vs, delta, table)`` with
-    ``table[j]`` the ``(Vs, delta, weighted RSS, estimate)`` of joint ``j``'s last sweep, the model without its Stribeck
-    term among them (``Vs, delta`` NaN). A joint keeps no Stribeck term (``Vs`` NaN: ``Fs = Fc``) unless its best grid
+    ``table[j]`` the ``(Vs, delta, weighted RSS, estimate)`` of joint ``j``'s last sweep: the grid, then the grid's
+    best refined in ``Vs`` (``table[j][-2]``), then the model without its Stribeck term (``Vs, delta`` NaN). A joint
+    keeps no Stribeck term (``Vs`` NaN: ``Fs = Fc``) unless its best grid
     point lowers the weighted RSS by more than ``bound``."""
     from tqdm.auto import tqdm
 
@@ -619,7 +620,7 @@ def _sliding_estimate(setup, states, vmin):
     x = x.copy()
     for j in np.flatnonzero(~np.isfinite(Vs)):
         x[prob.r + 4 * j + 1] = x[prob.r + 4 * j]
-    return x, np.array([t[-2][0] for t in table])  # the profile's best Vs, kept or not (:func:`_profile`)
+    return x, np.array([t[-2][0] for t in table])  # the refined best Vs of each joint, kept or not
 
 
 def _widen(value, lo, hi, alt):

@@ -3,7 +3,8 @@
 The Newey-West (HAC) sandwich and the white
 Gauss-Newton errors around the forward-difference Jacobian of the free-run residuals (:func:`oe_stderr`), the
 bootstrap's intervals centred on the estimate less the refits' mean shift where it is not negligible
-and the profiled input delay's share added in quadrature (:func:`bootstrap_intervals`, :data:`BIAS_NEGLIGIBLE`),
+and the profiled input delay's share added in quadrature (:func:`bootstrap_intervals`,
+:data:`adaptive_ff.identification.covariance.BIAS_NEGLIGIBLE`),
 the band of F(w) from the refits (:func:`oe_band`); the bootstrap's refits run in ``physical_id``.
 
 Each function takes the fit's output-error problem ``pb`` (``physical_id``'s): it reads its residual functions
@@ -117,7 +118,8 @@ None bit for bit); None takes the logged input as exact.
 The 95 % interval of each parameter is ``centre ± t stderr``
 (:func:`adaptive_ff.identification.covariance.bias_corrected_interval`): centred
 on the estimate less the refits' mean shift ``info["bootstrap"]["bias"]`` where
-that shift exceeds :data:`BIAS_NEGLIGIBLE` (0.25) standard errors, on the
+that shift exceeds :data:`adaptive_ff.identification.covariance.BIAS_NEGLIGIBLE`
+(0.25) standard errors, on the
 estimate otherwise (Efron & Tibshirani, Sec. 10.6) (the shift is the
 estimator's bias in the bootstrap world, Efron & Tibshirani, Sec. 10.2; the
 reflected, "basic" bootstrap interval is centred there too, Davison & Hinkley,
@@ -139,11 +141,11 @@ import math
 
 import numpy as np
 
-from adaptive_ff.identification.covariance import BIAS_NEGLIGIBLE, bias_corrected_interval, hac_covariance
+from adaptive_ff.identification.covariance import bias_corrected_interval, hac_covariance
 from adaptive_ff.identification.delay_profile import delay_spread
 from plant.errors import ExcitationError
 
-__all__ = ["BIAS_NEGLIGIBLE", "bootstrap_intervals", "oe_band", "oe_stderr"]
+__all__ = ["bootstrap_intervals", "oe_band", "oe_stderr"]
 
 
 def oe_stderr(pb, x: np.ndarray, names: tuple) -> tuple[dict, dict, float, np.ndarray, int]:
