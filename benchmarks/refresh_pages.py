@@ -1,6 +1,6 @@
 """Re-measure the benchmark pages: run each measured section's command at the current commit and rewrite its output.
 
-Run:  python -m benchmarks.refresh_pages [PAGE ...] [--list] [--allow-dirty]
+Run:  python -m benchmarks.refresh_pages [PAGE ...] [--list] [--allow-dirty] [--only TEXT]
 
 A page of ``docs/benchmarks/`` is made of measured sections, each in this form::
 
@@ -29,7 +29,8 @@ The package code must be that of the commit the page will name: with uncommitted
 ``(uncommitted changes)`` after the commit). A command that fails leaves its section unchanged and the script exits 1
 after the other sections.
 
-``--list`` prints every section of the pages (refreshable or not) without running anything.
+``--list`` prints every section of the pages (refreshable or not) without running anything; ``--only TEXT`` refreshes
+just the sections whose command contains ``TEXT`` (e.g. a script's name).
 """
 
 from __future__ import annotations
@@ -178,11 +179,14 @@ def run(command: str, env: dict, cwd: Path = ROOT) -> tuple[int, str, float]:
     return r.returncode, r.stdout, time.perf_counter() - t0
 
 
-def refresh(page: Path, env: dict, *, commit: str, dirty: bool, date: str, cwd: Path = ROOT) -> int:
+def refresh(page: Path, env: dict, *, commit: str, dirty: bool, date: str, cwd: Path = ROOT,
+            only: str | None = None) -> int:
     """Refresh every refreshable section of ``page`` (last first, so that spans stay valid), its commands run in
-    ``cwd`` (:func:`work_folder`); the failures."""
+    ``cwd`` (:func:`work_folder`); with ``only``, just the sections whose command contains that text; the failures."""
     failed = 0
     for s in reversed(sections(page)):
+        if only is not None and not any(only in c for c in s.commands):
+            continue
         if not s.refreshable:
             print(f"{page.name}:{s.line}: not refreshable ({len(s.commands)} commands)", file=sys.stderr)
             continue
@@ -204,6 +208,7 @@ def main(argv=None) -> int:
     ap.add_argument("pages", nargs="*", help="page names or paths (default: every page of docs/benchmarks)")
     ap.add_argument("--list", action="store_true", help="print the sections, run nothing")
     ap.add_argument("--allow-dirty", action="store_true", help="run with uncommitted package or benchmark code")
+    ap.add_argument("--only", metavar="TEXT", help="refresh only the sections whose command contains TEXT")
     a = ap.parse_args(argv)
     pages = []
     for p in a.pages or sorted(PAGES.glob("*.md")):
@@ -227,7 +232,8 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         env = environment(Path(tmp))
         work = work_folder(Path(tmp))
-        failed = sum(refresh(page, env, commit=commit, dirty=dirty, date=date, cwd=work) for page in pages)
+        failed = sum(refresh(page, env, commit=commit, dirty=dirty, date=date, cwd=work, only=a.only)
+                     for page in pages)
     return 1 if failed else 0
 
 

@@ -83,6 +83,18 @@ def test_a_refresh_rewrites_the_output_and_the_commit_date_and_wall_time_only():
     assert again == new  # idempotent
 
 
+def test_only_refreshes_just_the_sections_whose_command_holds_the_text(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text(PAGE, encoding="utf-8")
+    failed = rp.refresh(page, rp.environment(tmp_path), commit="1234567", dirty=False, date="2026-11-26",
+                        only="print('|")
+    new = page.read_text(encoding="utf-8")
+    assert failed == 0
+    assert "<!-- output -->\n| a |\n|---|\n<!-- end output -->" in new  # the marked section: its command holds it
+    assert "alpha 1.0" in new and "alpha 1.5\nbeta 2\n```" not in new  # the first section: left as it was
+    assert new.count("`1234567`") == 1
+
+
 def test_a_failing_command_leaves_its_section_and_is_counted():
     bad = PAGE.replace("print('alpha 1.5'); print('beta 2')", "import sys; sys.exit(3)")
     new, failed = refreshed(bad)
