@@ -108,6 +108,7 @@ from threadpoolctl import threadpool_limits
 
 from adaptive_ff.identification.delay_profile import delay_profile_search
 from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
+from adaptive_ff.identification.log_scale import from_log
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
 from adaptive_ff.identification.simulator import H_MAX_DEFAULT, input_grid, simulate_on_grid
 from adaptive_ff.io.data import MeasuredData, to_uniform
@@ -246,9 +247,9 @@ class _Problem:
         _, stribeck, _ = FORMS[name]
         Fc = v["Fc"]
         Vs, delta = (self.Vs, self.delta) if stribeck == "fixed" else (
-            (math.exp(v["logVs"]), v["delta"]) if stribeck == "free" else (self.Vs or 1.0, self.delta or 1.0))
-        return {"J": math.exp(v["logJ"]), "Fc": Fc, "Fs": v.get("Fs", Fc), "sigma": v["sigma"],
-                "tau": math.exp(v["logtau"]) if "logtau" in v else 0.0,
+            (from_log(v["logVs"]), v["delta"]) if stribeck == "free" else (self.Vs or 1.0, self.delta or 1.0))
+        return {"J": from_log(v["logJ"]), "Fc": Fc, "Fs": v.get("Fs", Fc), "sigma": v["sigma"],
+                "tau": from_log(v["logtau"]) if "logtau" in v else 0.0,
                 "offset": v.get("off", 0.0) * self.torque, "Vs": float(Vs), "delta": float(delta)}
 
     def pack(self, name: str, p: dict) -> np.ndarray:
@@ -398,7 +399,7 @@ def _full_fits(pb: _Problem, names, start: dict, mask, warm: dict | None = None,
         if name not in names:
             continue
         cv = params("coulomb_viscous_lag" if lag else "coulomb_viscous")
-        x = pb.pack(name, dict(cv, Fs=1.5 * cv["Fc"], delta=1.0, Vs=math.exp(vs_grid[4])))
+        x = pb.pack(name, dict(cv, Fs=1.5 * cv["Fc"], delta=1.0, Vs=from_log(vs_grid[4])))
         starts = [with_fs(name, pb.profile(name, x, "logVs", vs_grid, mask))]
         if fixed:
             starts.append(pb.pack(name, params("stribeck_lag" if lag else "stribeck")))
