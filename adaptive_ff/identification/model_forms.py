@@ -113,7 +113,8 @@ from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
 from adaptive_ff.identification.simulator import H_MAX_DEFAULT, input_grid, simulate_on_grid
 from adaptive_ff.io.data import MeasuredData, to_uniform
 from plant.dynamics import lagged_params
-from plant.errors import ExcitationError, ParameterError, check_finite_scalar, check_optional, check_positive
+from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, check_optional, check_optional_number,
+                          check_positive)
 from adaptive_ff.identification.form_results import FORMS, FormCandidate, FormSelection
 
 __all__ = ["FORMS", "CRITERIA", "SELECTION_METHODS", "MIN_LOW_SPEED", "FormCandidate", "FormSelection",
@@ -785,10 +786,7 @@ def select_form(data: MeasuredData, *, Vs: float | None = None, delta: float | N
         if delta == 0.0:
             raise ParameterError("delta must be non-zero, got 0.0")
     h_max = check_positive("h_max", h_max)
-    if input_delay is not None:
-        input_delay = check_finite_scalar("input_delay", input_delay)
-        if input_delay < 0:
-            raise ParameterError(f"input_delay must be >= 0 s (or None: profiled), got {input_delay!r}")
+    input_delay = check_optional_number("input_delay", input_delay, low=0.0, unit="s", none="profiled")
     if predictor not in ("auto", "free-run", "one-step"):
         raise ParameterError(f"predictor must be one of ['auto', 'free-run', 'one-step'], got {predictor!r}")
     names = list(FORMS) if forms is None else [forms] if isinstance(forms, str) else list(forms)
