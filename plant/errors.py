@@ -117,10 +117,8 @@ def check_optional_number(name: str, value, *, integer: bool = False, low: float
 
     Parameters
     ----------
-    name : str
-        The argument's name, as the caller spells it.
-    value : object
-        The value given.
+    name, value : str, object
+        The argument's name (as the caller spells it) and the value given.
     integer : bool, keyword-only
         Take an integer (a Python or numpy integer, not a bool) rather than a real number; default False.
     low, high : float or None, keyword-only
