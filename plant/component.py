@@ -84,7 +84,7 @@ def config_defaults(ffi, lib, ctype: str) -> dict:
 
 @functools.lru_cache(maxsize=None)
 def _header_text(header: str) -> str:
-    """The text of the C header at ``header`` ("" where it cannot be read)."""
+    """The text of the C header at ``header`` ("" where it cannot be read), read once per process."""
     try:
         return Path(header).read_text()
     except OSError:
@@ -103,15 +103,17 @@ def _field_comments(header, ctype: str) -> dict:
     return {name: " ".join(re.sub(r"\n\s*\*", " ", c).split()) for name, c in rows}
 
 
-#: The folder that holds the packages, whose ``*/csrc/*.h`` headers declare the components' structs.
+#: The folder that holds the packages; those built from C (a ``_cbuild.py``) declare the structs in ``csrc/*.h``.
 _PACKAGES = Path(__file__).resolve().parent.parent
 
 
 @functools.lru_cache(maxsize=None)
 def _struct_comments(ctype: str, header=None) -> dict:
     """Field -> its comment in the declaration of the C struct ``ctype``: in ``header``, or (None) in the first of
-    the packages' ``csrc`` headers that declares it ({} where none does)."""
-    for h in [header] if header is not None else sorted(_PACKAGES.glob("*/csrc/*.h")):
+    the C-built packages' ``csrc`` headers that declares it ({} where none does)."""
+    headers = [header] if header is not None else sorted(
+        h for build in _PACKAGES.glob("*/_cbuild.py") for h in (build.parent / "csrc").glob("*.h"))
+    for h in headers:
         notes = _field_comments(h, ctype)
         if notes:
             return notes
@@ -342,8 +344,8 @@ def struct_fields(*fields: str, settable=(), via: str = "_c", header=None):
     via : str, keyword-only
         The attribute that holds the struct pointer (:func:`struct_field`'s ``via``), default ``"_c"``.
     header : path-like, optional, keyword-only
-        The C header that declares the structs; default None: the first of the packages' ``*/csrc/*.h`` that
-        declares each.
+        The C header that declares the structs; default None: the first of the C-built packages' ``csrc/*.h`` that
+        declares each (where none does, e.g. an install without the headers, the docstring only names the field).
 
     Returns
     -------
@@ -353,8 +355,9 @@ def struct_fields(*fields: str, settable=(), via: str = "_c", header=None):
     Raises
     ------
     ParameterError
-        At class creation: a field that is not a primitive field of the struct, one without a header comment, a
-        ``settable`` name not among ``fields``, or an attribute the class already defines.
+        At class creation: a field that is not a primitive field of the struct, one without a comment in the
+        header that declares the struct, a ``settable`` name not among ``fields``, or an attribute the class
+        already defines.
     """
     settable = set(settable)
 
@@ -370,7 +373,8 @@ def struct_fields(*fields: str, settable=(), via: str = "_c", header=None):
                     raise ParameterError(f"{cls.__name__}: field must be a primitive field of {cls._ctype}, "
                                          f"got {field!r}")
                 owner, ctype = ctype, f.type.cname.replace("struct ", "")
-            note = _struct_comments(owner, header).get(names[-1])
+            notes = _struct_comments(owner, header)
+            note = notes.get(names[-1]) if notes else f"the C field {names[-1]} of {owner}"  # no header shipped
             if not note:
                 raise ParameterError(f"{cls.__name__}: field {field!r} has no comment in the C declaration of {owner}")
             if names[-1] in vars(cls):

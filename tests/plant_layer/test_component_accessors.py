@@ -227,3 +227,10 @@ def test_struct_fields_reads_each_field_as_its_c_kind_with_the_header_comment_as
 def test_struct_fields_refuses_a_field_it_cannot_declare_naming_it(tmp_path, fields, options, what):
     with pytest.raises(ParameterError, match=what):
         _fields_class(tmp_path, *fields, **options)
+
+
+def test_struct_fields_without_a_header_that_declares_the_struct_names_the_field(tmp_path):
+    cls = _fields_class(tmp_path, "Tc")
+    (tmp_path / "other.h").write_text("/* no declaration of t_fields */\n")
+    bare = struct_fields("m", header=tmp_path / "other.h")(type("Bare", (cls,), {}))
+    assert bare.m.__doc__ == "The C field m of t_fields (C ``m``)."
