@@ -9,7 +9,7 @@ from plant.errors import ParameterError
 __all__ = ["plant_from_mapping"]
 
 
-def plant_from_mapping(cls, d: dict):
+def plant_from_mapping(cls, d: dict, *, hint: str = ""):
     """Build the plant dataclass ``cls`` from ``d``: exactly its fields, plus an optional ``"model"`` = ``cls.MODEL``.
 
     Parameters
@@ -19,6 +19,8 @@ def plant_from_mapping(cls, d: dict):
         :class:`plant.lugre.LuGreParams`).
     d : dict
         Parameters under the field names (SI units).
+    hint : str, keyword-only
+        Appended to the message of a wrong ``model`` (where such a plant is read instead); default none.
 
     Returns
     -------
@@ -33,7 +35,7 @@ def plant_from_mapping(cls, d: dict):
     d = dict(d)
     model = d.pop("model", cls.MODEL)
     if model != cls.MODEL:
-        raise ParameterError(f"model {model!r} is not {cls.MODEL!r}")
+        raise ParameterError(f"model {model!r} is not {cls.MODEL!r}{hint}")
     names = [f.name for f in fields(cls)]
     missing = [k for k in names if k not in d]
     unknown = [k for k in d if k not in names]
