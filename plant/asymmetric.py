@@ -9,21 +9,20 @@ Stribeck map of eq. 3, with the lag of eq. 1.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, replace
-from typing import Callable, ClassVar
+from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
-from plant.dynamics import make_plant_step
 from plant.errors import check_nonnegative, check_positive
 from plant.friction import JointParams, stribeck
-from plant.mapping import plant_from_mapping
+from plant.mapping import LaggedPlantModel
 
 __all__ = ["AsymmetricParams"]
 
 
 @dataclass(frozen=True)
-class AsymmetricParams:
+class AsymmetricParams(LaggedPlantModel):
     """Lumped joint with lagged, direction-dependent Stribeck friction.
 
     Parameters
@@ -98,45 +97,6 @@ class AsymmetricParams:
         out = np.where(w > 0, pos, neg)  # F(0) = 0 in both
         return float(out) if np.ndim(out) == 0 else out
 
-    def friction_torque(self, w: float, s: float) -> float:
-        """Friction torque (N·m) in state ``(w, s)``: the lag state ``s = f``."""
-        return s
-
-    def initial_state(self, w: float) -> float:
-        """Friction state of steady motion at ``w`` (0 at rest), N·m."""
-        return float(self.friction(float(w)))
-
-    def make_step(self, dt: float) -> Callable[[float, float, float], tuple]:
-        """One step ``(w, f, u) -> (w, f)`` over ``dt`` (s) with ``u`` held (RK4; stiff joints: the implicit step).
-
-        The C :func:`plant.dynamics.plant_step` behind a Python call.
-
-        Raises
-        ------
-        ParameterError
-            ``dt`` not > 0.
-        """
-        return make_plant_step(self, dt)
-
     def frictionless(self) -> JointParams:
         """The same inertia without friction (the compensation limit)."""
         return JointParams(J=self.J, Fc=0.0, Fs=0.0, Vs=self.Vs, delta=self.delta, sigma=0.0, tau=0.0)
-
-    def replace(self, **changes) -> "AsymmetricParams":
-        """Copy with some fields changed (validated again)."""
-        return replace(self, **changes)
-
-    def to_dict(self) -> dict:
-        """``{"model": "asymmetric", J, Fc_pos, Fc_neg, Fs_pos, Fs_neg, Vs, delta, sigma_pos, sigma_neg, tau}``."""
-        return {"model": self.MODEL, **asdict(self)}
-
-    @classmethod
-    def from_dict(cls, d: dict) -> "AsymmetricParams":
-        """Build from a mapping with the keys of :meth:`to_dict` (``model`` optional).
-
-        Raises
-        ------
-        ParameterError
-            Missing or unknown keys, wrong ``model``, or values out of range.
-        """
-        return plant_from_mapping(cls, d)

@@ -20,6 +20,7 @@ C workspace behind a thin Python object.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import re
 from numbers import Integral, Real
 from pathlib import Path
@@ -30,7 +31,7 @@ import numpy as np
 from plant.errors import ParameterError
 
 __all__ = ["Component", "c_compensate", "c_observe", "config_class", "config_defaults", "ops_table", "SettingTypeError",
-           "step_time", "struct_field"]
+           "step_time", "struct_field", "struct_fields"]
 
 
 class SettingTypeError(ParameterError, TypeError):
@@ -81,17 +82,42 @@ def config_defaults(ffi, lib, ctype: str) -> dict:
     return _value(ffi, fn())
 
 
-def _field_comments(header, ctype: str) -> dict:
-    """Field -> its comment (whitespace joined) in the C declaration of ``ctype`` in ``header`` ({} without one)."""
+@functools.lru_cache(maxsize=None)
+def _header_text(header: str) -> str:
+    """The text of the C header at ``header`` ("" where it cannot be read), read once per process."""
     try:
-        text = Path(header).read_text()
-    except (OSError, TypeError):
+        return Path(header).read_text()
+    except OSError:
+        return ""
+
+
+def _field_comments(header, ctype: str) -> dict:
+    """Field -> its comment (whitespace joined, a continuation line's leading ``*`` dropped) in the C declaration of
+    ``ctype`` in ``header`` ({} without one)."""
+    if header is None:
         return {}
-    m = re.search(r"typedef struct " + ctype + r" \{(.*?)\} " + ctype + ";", text, re.S)
+    m = re.search(r"typedef struct " + ctype + r" \{(.*?)\} " + ctype + ";", _header_text(str(header)), re.S)
     if m is None:
         return {}
     rows = re.findall(r"(\w+)(?:\[[^\]]*\])?;\s*/\*(.*?)\*/", m.group(1), re.S)
-    return {name: " ".join(c.split()) for name, c in rows}
+    return {name: " ".join(re.sub(r"\n\s*\*", " ", c).split()) for name, c in rows}
+
+
+#: The folder that holds the packages; those built from C (a ``_cbuild.py``) declare the structs in ``csrc/*.h``.
+_PACKAGES = Path(__file__).resolve().parent.parent
+
+
+@functools.lru_cache(maxsize=None)
+def _struct_comments(ctype: str, header=None) -> dict:
+    """Field -> its comment in the declaration of the C struct ``ctype``: in ``header``, or (None) in the first of
+    the C-built packages' ``csrc`` headers that declares it ({} where none does)."""
+    headers = [header] if header is not None else sorted(
+        h for build in _PACKAGES.glob("*/_cbuild.py") for h in (build.parent / "csrc").glob("*.h"))
+    for h in headers:
+        notes = _field_comments(h, ctype)
+        if notes:
+            return notes
+    return {}
 
 
 def config_class(name: str, ffi_lib: tuple, ctype: str, *, module: str, summary: str, header=None, exclude=(),
@@ -292,6 +318,78 @@ def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c", sett
     return property(get, put if writable else None, doc=doc)
 
 
+def _c_kind(ctype) -> type:
+    """The Python kind of a primitive cffi type: a C floating type is a float, an ``int`` a flag (bool), any other
+    integer (``long``, ``int64_t``) an int (the convention of the C structs, as :func:`config_class`'s)."""
+    if ctype.cname in ("double", "float"):
+        return float
+    return bool if ctype.cname == "int" else int
+
+
+def struct_fields(*fields: str, settable=(), via: str = "_c", header=None):
+    """A class decorator that gives a component class a public attribute for each of the C ``fields`` of its struct:
+    the one declaration of the C-mirrored attributes (``@struct_fields("Tc", "m", "ff.dt", settable=("d_hat",))``).
+
+    Each attribute is a :func:`struct_field` named after the field's last name (``"ff.dt"`` -> ``dt``), its kind
+    the C type's (a ``double`` a float, an ``int`` a flag read as a bool, a ``long`` or ``int64_t`` an int) and its
+    docstring the field's comment in the C header that declares the struct (the unit, the range): the C header is
+    the one statement of the field.
+
+    Parameters
+    ----------
+    *fields : str
+        C fields of the class's struct ``_ctype`` (a dotted path for a field of a nested struct), primitive ones.
+    settable : iterable of str, keyword-only
+        Those of ``fields`` that are writable too (a state a caller preloads or restores); default none.
+    via : str, keyword-only
+        The attribute that holds the struct pointer (:func:`struct_field`'s ``via``), default ``"_c"``.
+    header : path-like, optional, keyword-only
+        The C header that declares the structs; default None: the first of the C-built packages' ``csrc/*.h`` that
+        declares each (where none does, e.g. an install without the headers, the docstring only names the field).
+
+    Returns
+    -------
+    callable
+        The decorator: sets the attributes on the class (of ``_ffi``, ``_ctype``) and returns it.
+
+    Raises
+    ------
+    ParameterError
+        At class creation: a field that is not a primitive field of the struct, one without a comment in the
+        header that declares the struct, a ``settable`` name not among ``fields``, or an attribute the class
+        already defines.
+    """
+    settable = set(settable)
+
+    def decorate(cls):
+        unknown = settable - set(fields)
+        if unknown:
+            raise ParameterError(f"{cls.__name__}: settable names fields not given: {sorted(unknown)}")
+        for field in fields:
+            ctype, names = cls._ctype, field.split(".")
+            for i, name in enumerate(names):
+                f = dict(cls._ffi.typeof(ctype).fields).get(name)
+                if f is None or f.type.kind != ("struct" if i < len(names) - 1 else "primitive"):
+                    raise ParameterError(f"{cls.__name__}: field must be a primitive field of {cls._ctype}, "
+                                         f"got {field!r}")
+                owner, ctype = ctype, f.type.cname.replace("struct ", "")
+            notes = _struct_comments(owner, header)
+            note = notes.get(names[-1]) if notes else f"the C field {names[-1]} of {owner}"  # no header shipped
+            if not note:
+                raise ParameterError(f"{cls.__name__}: field {field!r} has no comment in the C declaration of {owner}")
+            if names[-1] in vars(cls):
+                raise ParameterError(f"{cls.__name__}: attribute {names[-1]!r} is already defined")
+            kind = _c_kind(f.type)
+            if kind is bool:  # a C flag's "1: ...; 0: ..." as the values the attribute reads
+                note = re.sub(r"(^|; |, )([01])\b", lambda m: m.group(1) + ("True" if m.group(2) == "1" else "False"),
+                              note)
+            doc = f"{note[0].upper()}{note[1:]} (C ``{field}``)."
+            setattr(cls, names[-1], struct_field(field, kind, doc, via=via, settable=field in settable))
+        return cls
+
+    return decorate
+
+
 def step_time(field: str, period: str, doc: str = "", *, via: str = "_c") -> property:
     """A public read-only attribute that reads a step index of the C struct in seconds, or None: the one accessor
     of a switch time (``t_switch_in = step_time("res.sw.k_in", "switch_in.Tc", "Time of the switch-in (s).")``).
@@ -408,7 +506,7 @@ class Component:
     package's extension module) and ``_ctype`` (the struct's C name, e.g.
     ``"aff_gate"``), make their struct in ``__init__`` (:meth:`_configure_from`,
     or :meth:`_new_struct` and their C init) and expose the fields of
-    :attr:`cdata` as attributes (:func:`struct_field`). A composite names its
+    :attr:`cdata` as attributes (:func:`struct_fields`, :func:`struct_field`). A composite names its
     parts in ``_parts`` (:meth:`_attach` points them into its struct), a
     component its repr's fields in ``_repr_fields``.
 

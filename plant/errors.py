@@ -33,6 +33,7 @@ __all__ = [
     "check_multiple",
     "check_not_special",
     "check_optional",
+    "check_optional_number",
     "known_fields",
     "UnknownFieldError",
 ]
@@ -103,6 +104,67 @@ def check_optional(name: str, value, cls, *, what: str | None = None, error: typ
         raise (error or ParameterError)(f"{name} must be {what} or None, got {type(value).__name__} "
                                         f"{reprlib.repr(value)}")
     return value
+
+
+def check_optional_number(name: str, value, *, integer: bool = False, low: float | None = None,
+                          high: float | None = None, strict: bool = False, unit: str = "", none: str = ""):
+    """Return None for None, else ``value`` as a finite number (an int with ``integer``) in its range; else raise
+    naming ``name`` and the value.
+
+    The one check of a knob that takes a number in a range or None (``check_optional_number("f_scale", f_scale,
+    low=0.0, strict=True)``: a robust scale > 0, None for the default); :func:`check_optional` checks the type of
+    an object-or-None knob.
+
+    Parameters
+    ----------
+    name, value : str, object
+        The argument's name (as the caller spells it) and the value given.
+    integer : bool, keyword-only
+        Take an integer (a Python or numpy integer, not a bool) rather than a real number; default False.
+    low, high : float or None, keyword-only
+        The range's ends (in the value's unit); None (default): unbounded on that side.
+    strict : bool, keyword-only
+        Refuse the ends themselves (``low < value < high``); default False (``low <= value <= high``).
+    unit : str, keyword-only
+        The unit the message gives the ends in (``"s"``); default none.
+    none : str, keyword-only
+        What None means, for the message (``"profiled"``); default not said.
+
+    Returns
+    -------
+    float, int or None
+        None, or the value as a float (an int with ``integer``).
+
+    Raises
+    ------
+    TypeError
+        A number expected and ``value`` is no real number (a bool, a string): as :func:`check_finite_scalar`.
+    ParameterError
+        ``value`` is NaN or infinite, out of the range, or (``integer``) no integer: "<name> must be [an integer]
+        <range> (or None[: <none>]), got <value>" ("a finite number" for a number without a range).
+    """
+    if value is None:
+        return None
+    ops = ("> ", "< ") if strict else (">= ", "<= ")
+    ends = [op + f"{end:g}" + (f" {unit}" if unit else "") for op, end in zip(ops, (low, high)) if end is not None]
+    kind = "an integer" if integer else "" if ends else "a finite number"
+    what = (f"{name} must be {' '.join([kind] * bool(kind) + [' and '.join(ends)] * bool(ends))} "
+            f"(or None{f': {none}' if none else ''}), got {value!r}")
+    if integer:
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+            raise ParameterError(what)
+        x = int(value)
+    else:
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (Real, np.floating, np.integer)):
+            raise TypeError(f"{what} ({type(value).__name__})")
+        x = float(value)
+        if not math.isfinite(x):
+            raise ParameterError(what)
+    below = low is not None and (x <= low if strict else x < low)
+    above = high is not None and (x >= high if strict else x > high)
+    if below or above:
+        raise ParameterError(what)
+    return x
 
 
 class UnknownFieldError(ParameterError, TypeError):

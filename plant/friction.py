@@ -18,12 +18,13 @@ symbol      unit            meaning
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Callable, ClassVar
 
 from plant.dynamics import make_plant_step
 from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
+from plant.mapping import plant_from_mapping
 from plant.stribeck_map import stribeck, stribeck_cutoff, stribeck_scalar, stribeck_shape
 
 __all__ = ["JointParams", "stribeck_shape", "stribeck", "stribeck_scalar", "stribeck_cutoff", "PRESETS", "preset"]
@@ -148,19 +149,7 @@ class JointParams:
             A key is missing or unknown, a value out of range, or ``model``
             names another friction model.
         """
-        if "model" in d:
-            if d["model"] != cls.MODEL:
-                raise ParameterError(f"model {d['model']!r} is not {cls.MODEL!r}; read such plants with "
-                                     "plant.models.plant_from_dict / load_plant")
-            d = {k: v for k, v in d.items() if k != "model"}
-        names = [f.name for f in fields(cls)]
-        missing = [k for k in names if k not in d]
-        unknown = [k for k in d if k not in names]
-        if missing:
-            raise ParameterError(f"plant parameters miss the key(s) {missing}; need {names}")
-        if unknown:
-            raise ParameterError(f"unknown plant parameter key(s) {unknown}; allowed {names}")
-        return cls(**{k: d[k] for k in names})
+        return plant_from_mapping(cls, d, hint="; read such plants with plant.models.plant_from_dict / load_plant")
 
     @classmethod
     def from_json(cls, path) -> "JointParams":

@@ -11,19 +11,18 @@ Control 107(1), 1985, pp. 100-103) treats every velocity inside a small band
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, replace
-from typing import Callable, ClassVar
+from dataclasses import dataclass
+from typing import ClassVar
 
-from plant.dynamics import make_plant_step
 from plant.errors import check_positive
 from plant.friction import JointParams, stribeck
-from plant.mapping import plant_from_mapping
+from plant.mapping import LaggedPlantModel
 
 __all__ = ["KarnoppParams"]
 
 
 @dataclass(frozen=True)
-class KarnoppParams:
+class KarnoppParams(LaggedPlantModel):
     """Joint of :class:`plant.friction.JointParams` plus a Karnopp stick band of half-width ``dv``.
 
     Parameters
@@ -91,45 +90,6 @@ class KarnoppParams:
         """Steady-sliding friction map ``F(w)`` (eq. 3), N·m (``F(0) = 0``)."""
         return stribeck(w, Fc=self.Fc, Fs=self.Fs, Vs=self.Vs, delta=self.delta, sigma=self.sigma)
 
-    def friction_torque(self, w: float, s: float) -> float:
-        """Friction torque (N·m) in state ``(w, s)``: the lag state ``s = f``."""
-        return s
-
-    def initial_state(self, w: float) -> float:
-        """Friction state of steady motion at ``w`` (0 at rest), N·m."""
-        return float(self.friction(float(w)))
-
-    def make_step(self, dt: float) -> Callable[[float, float, float], tuple]:
-        """One step ``(w, f, u) -> (w, f)`` over ``dt`` (s) with ``u`` held; rules in the class Notes.
-
-        The C :func:`plant.dynamics.plant_step` behind a Python call.
-
-        Raises
-        ------
-        ParameterError
-            ``dt`` not > 0.
-        """
-        return make_plant_step(self, dt)
-
     def frictionless(self) -> JointParams:
         """The same inertia without friction (the compensation limit)."""
         return self.lagged().frictionless()
-
-    def replace(self, **changes) -> "KarnoppParams":
-        """Copy with some fields changed (validated again)."""
-        return replace(self, **changes)
-
-    def to_dict(self) -> dict:
-        """``{"model": "karnopp", J, Fc, Fs, Vs, delta, sigma, tau, dv}`` (SI units)."""
-        return {"model": self.MODEL, **asdict(self)}
-
-    @classmethod
-    def from_dict(cls, d: dict) -> "KarnoppParams":
-        """Build from a mapping with the keys of :meth:`to_dict` (``model`` optional).
-
-        Raises
-        ------
-        ParameterError
-            Missing or unknown keys, wrong ``model``, or values out of range.
-        """
-        return plant_from_mapping(cls, d)

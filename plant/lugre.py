@@ -12,7 +12,7 @@ Symbols (SI units, joint side): ``J, Fc, Fs, Vs, delta`` as in
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass
 from functools import cached_property
 from typing import Callable, ClassVar
 
@@ -22,7 +22,7 @@ from plant._cplant import ffi
 from plant.dynamics import make_plant_step, plant_friction, plant_params
 from plant.errors import ParameterError, check_finite_scalar
 from plant.friction import JointParams, stribeck
-from plant.mapping import plant_from_mapping
+from plant.mapping import PlantModel
 
 __all__ = ["LuGreParams"]
 
@@ -56,7 +56,7 @@ def _physical(name: str, value, positive: bool) -> float:
 
 
 @dataclass(frozen=True)
-class LuGreParams:
+class LuGreParams(PlantModel):
     """Lumped joint with LuGre friction.
 
     Parameters
@@ -191,22 +191,3 @@ class LuGreParams:
     def frictionless(self) -> JointParams:
         """The same inertia without friction (the compensation limit)."""
         return JointParams(J=self.J, Fc=0.0, Fs=0.0, Vs=self.Vs, delta=1.0, sigma=0.0, tau=0.0)
-
-    def replace(self, **changes) -> "LuGreParams":
-        """Copy with some fields changed (validated again)."""
-        return replace(self, **changes)
-
-    def to_dict(self) -> dict:
-        """``{"model": "lugre", J, Fc, Fs, Vs, delta, sigma0, sigma1, sigma2}`` (SI units)."""
-        return {"model": self.MODEL, **asdict(self)}
-
-    @classmethod
-    def from_dict(cls, d: dict) -> "LuGreParams":
-        """Build from a mapping with the keys of :meth:`to_dict` (``model`` optional).
-
-        Raises
-        ------
-        ParameterError
-            Missing or unknown keys, wrong ``model``, or values out of range.
-        """
-        return plant_from_mapping(cls, d)

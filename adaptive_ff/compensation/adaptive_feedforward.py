@@ -32,7 +32,7 @@ from adaptive_ff.compensation.velocity_input import LoopModel, SignObserver
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RLS_NMAX
 from adaptive_ff.compensation.defaults import c_config_class, c_defaults
-from plant.component import struct_field
+from plant.component import struct_field, struct_fields
 from plant.errors import ParameterError, check_optional
 
 __all__ = ["RobustAdaptiveFeedforward", "RobustAdaptiveFeedforwardConfig", "FeedforwardStart", "start_output", "lag_weighted", "fc_determined",
@@ -224,6 +224,10 @@ def start_output(step, w: float, w_ref: float | None, *, at_ref: bool, gain: flo
     return step(w, w_ref) * gain
 
 
+@struct_fields(
+    "warmup", "tau_max", "consistency", "n_implausible", "n_lag_held", "n_undetermined", "lag_margin",
+    "lag_margin_max", "max_rel_stderr", "lag_zero", "project", "n_lag_zero", "n_boxed", "provisional"
+)
 class RobustAdaptiveFeedforward(FrictionFeedforward):
     """Adaptive friction feedforward for a running machine: safe online estimation plus the lagged feedforward.
 
@@ -460,26 +464,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         super()._attached()
         self._f = ffi.addressof(self._c, "ff")
 
-    warmup = struct_field("warmup", int, "RLS updates before switch-on.")
     J_range = property(lambda self: (float(self._c.J_lo), float(self._c.J_hi)),
                        doc="Plausible inertia interval (kg·m²).")
-    tau_max = struct_field("tau_max", float, "Largest plausible lag (s).")
-    consistency = struct_field("consistency", float, "Relative lag-consistency tolerance.")
-    n_implausible = struct_field("n_implausible", int, "Estimates that failed the plausibility test.")
-    n_lag_held = struct_field("n_lag_held", int, "Estimates used with the previous lag.")
-    n_undetermined = struct_field("n_undetermined", int,
-                                  "Plausible estimates not used because ``Fc`` was not determined yet.")
-    lag_margin = struct_field("lag_margin", float, "Standard errors added to the estimated lag in use.")
-    lag_margin_max = struct_field("lag_margin_max", float, "Largest lag margin, as a fraction of the estimated lag.")
-    max_rel_stderr = struct_field("max_rel_stderr", float,
-                                  "Largest standard error of ``Fc`` in use, relative to ``max(Fc, Fs)``.")
-
-    lag_zero = struct_field("lag_zero", float, "Standard errors below 0 within which a lag estimate is lag 0.")
-    project = struct_field("project", bool, "Whether the estimate used is theta projected onto the plausible box.")
-    n_lag_zero = struct_field("n_lag_zero", int, "Estimates whose negative lag estimate was taken as lag 0.")
-    n_boxed = struct_field("n_boxed", int, "Estimates the projection moved onto the plausible box.")
-
-    provisional = struct_field("provisional", bool, "Whether the provisional start map (``start``) is in use.")
 
     @property
     def lag_memory(self) -> float:

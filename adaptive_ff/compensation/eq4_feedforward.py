@@ -34,7 +34,7 @@ from adaptive_ff.compensation.gate import RangeGate, range_gates
 from adaptive_ff.compensation.ivrls import RecursiveIV
 from adaptive_ff.identification.regression import FrictionEstimate, RegressionModel
 from adaptive_ff.identification.rls import RecursiveLeastSquares
-from plant.component import Component, struct_field
+from plant.component import Component, struct_field, struct_fields
 from plant.errors import ParameterError, check_multiple, check_optional
 
 __all__ = ["AdaptiveFrictionFeedforward", "AdaptiveFrictionFeedforwardConfig"]
@@ -47,6 +47,11 @@ AdaptiveFrictionFeedforwardConfig = c_config_class(
     fields={"ff": FrictionFeedforwardConfig})
 
 
+@struct_fields(
+    "Ts", "m", "warmup", "tau_max", "iv", "w_band", "ff.dt", "ff.lag", "ff.ff_max", "ff.sign_width", "ff.stick_band",
+    "ff.stick_samples", "ff.u_ff", "n_rejected", "n_implausible", "n_gated", "n_undetermined", "map_rel_stderr",
+    "provisional"
+)
 class AdaptiveFrictionFeedforward(Component):
     """Adaptive friction feedforward: RLS (eqs. 10-13) on the sampled (u, w) stream drives the feedforward.
 
@@ -214,30 +219,10 @@ class AdaptiveFrictionFeedforward(Component):
                 f"warmup={self.warmup}, iv={self.iv}, w_band={self.w_band!r}, n_updates={self._est.n_updates})")
 
     # ---- configuration
-    Ts = struct_field("Ts", float, "Sample time of the (u, w) stream (s).")
-    m = struct_field("m", int, "Periods ``dt`` per sample ``Ts``.")
-    warmup = struct_field("warmup", int, "RLS updates before switch-on.")
-    tau_max = struct_field("tau_max", float, "Upper projection bound of tau (s).")
-    iv = struct_field("iv", bool, "Estimate with recursive IV (else the RLS).")
-    w_band = struct_field("w_band", float, "Sliding-regime gate (rad/s), 0 = none.")
     _est = property(lambda self: self.ivrls if self.iv else self.rls)
-    dt = struct_field("ff.dt", float, "Call period of :meth:`step` (s).")
-    lag = struct_field("ff.lag", bool, "Filter the feedforward through the estimated lag.")
-    ff_max = struct_field("ff.ff_max", float, "Bound on |feedforward| (N·m).")
     ff_input = struct_field("ff.at_ref", FF_INPUTS.__getitem__, "Velocity :meth:`compensate` evaluates at.")
-    sign_width = struct_field("ff.sign_width", float, "Sign ramp half-width (rad/s).")
-    stick_band = struct_field("ff.stick_band", float, "Stick-detection band (rad/s).")
-    stick_samples = struct_field("ff.stick_samples", int, "In-band samples that declare sticking.")
 
     # ---- state
-    u_ff = struct_field("ff.u_ff", float, "Feedforward before the clip (N·m).")
-    n_rejected = struct_field("n_rejected", int, "Refused samples.")
-    n_implausible = struct_field("n_implausible", int, "Estimates that failed the projection.")
-    n_gated = struct_field("n_gated", int, "Samples the sliding-regime gate kept out.")
-    n_undetermined = struct_field("n_undetermined", int,
-                                  "Admissible estimates not put into use: the map not determined.")
-    map_rel_stderr = struct_field("map_rel_stderr", float,
-                                  "The estimates' determinacy bound (relative to max(Fc, Fs)), ``inf`` = no test.")
 
     @property
     def theta(self) -> np.ndarray:
@@ -248,8 +233,6 @@ class AdaptiveFrictionFeedforward(Component):
     def active(self) -> bool:
         """Whether the feedforward acts: an admissible estimate, or the provisional start map, is in use."""
         return bool(self._c.has_estimate or self._c.provisional)
-
-    provisional = struct_field("provisional", bool, "Whether the provisional start map (``start``) is in use.")
 
     @property
     def estimate(self) -> FrictionEstimate | None:

@@ -28,7 +28,7 @@ from adaptive_ff._caff import ffi, lib
 from adaptive_ff.compensation.velocity_input import LoopModel, SignObserver
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.compensation.defaults import c_config_class
-from plant.component import Component, struct_field
+from plant.component import Component, struct_field, struct_fields
 from plant.errors import ParameterError, check_optional
 
 __all__ = ["FrictionFeedforward", "FrictionFeedforwardConfig", "project_estimate", "project_levels", "FF_INPUTS",
@@ -114,6 +114,7 @@ def project_estimate(est: FrictionEstimate, *, tau_max: float = 1.0,
                             delta=est.delta, J_alt=est.J_alt)
 
 
+@struct_fields("dt", "lag", "ff_max", "sign_width", "stick_band", "stick_samples", "u_ff", "w_max", via="_f")
 class FrictionFeedforward(Component):
     """Friction feedforward torque from a fixed estimate, with the estimated lag.
 
@@ -250,16 +251,8 @@ class FrictionFeedforward(Component):
         d.pop("_f", None)
         return d
 
-    dt = struct_field("dt", float, "Call period of :meth:`step` (s).", via="_f")
-    lag = struct_field("lag", bool, "Filter through the estimated lag.", via="_f")
-    ff_max = struct_field("ff_max", float, "Bound on |feedforward| (N·m).", via="_f")
-    sign_width = struct_field("sign_width", float, "Sign ramp half-width (rad/s).", via="_f")
-    stick_band = struct_field("stick_band", float, "Stick-detection band (rad/s).", via="_f")
-    stick_samples = struct_field("stick_samples", int, "In-band samples that declare sticking.", via="_f")
     ff_input = struct_field("at_ref", FF_INPUTS.__getitem__,
                             "Velocity the engine evaluates the feedforward at (``compensate``).", via="_f")
-    u_ff = struct_field("u_ff", float, "Feedforward before the clip (N·m).", via="_f")
-    w_max = struct_field("w_max", float, "Largest plausible speed (rad/s).", via="_f")
     n_step_rejected = struct_field("n_rejected", int,
                                    "Calls of step() whose input was rejected (the output was held).", via="_f")
 

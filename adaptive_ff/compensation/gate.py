@@ -15,7 +15,7 @@ import math
 
 from adaptive_ff._caff import ffi, lib
 from adaptive_ff.compensation.defaults import c_defaults
-from plant.component import Component, struct_field
+from plant.component import Component, struct_field, struct_fields
 from plant.errors import ParameterError
 
 __all__ = ["OutlierGate", "RangeGate", "range_gates"]
@@ -25,6 +25,10 @@ _GATE = c_defaults("aff_gate_config")
 _RANGE = c_defaults("aff_range_gate_config")
 
 
+@struct_fields(
+    "max_step", "n_sigma", "alpha", "max_consecutive", "scale", "n_held", "n_rejected", "n_nonfinite", "n_outliers",
+    settable=("scale",)
+)
 class OutlierGate(Component):
     """Reject non-finite samples and outlier spikes of a sampled signal (e.g. the measured velocity).
 
@@ -80,21 +84,8 @@ class OutlierGate(Component):
         self._configure_from(lib, {"max_step": max_step, "n_sigma": n_sigma, "alpha": alpha,
                                    "max_consecutive": max_consecutive}, counts=("max_consecutive",))
 
-    max_step = struct_field("max_step", float, "Largest plausible step (signal unit).")
-    n_sigma = struct_field("n_sigma", float, "Noise allowance in running-scale units.")
-    alpha = struct_field("alpha", float, "Smoothing factor of the running scale.")
-    max_consecutive = struct_field("max_consecutive", int,
-                                   "Consecutive outlier rejections after which a sample is accepted again.")
-
     last = struct_field("last", float, "Last accepted value, or None before the first.", settable=True,
                         flag="has_last")
-    scale = struct_field("scale", float, "Running mean of ``|x(k) - x(k-1)|`` over accepted samples.",
-                         settable=True)
-
-    n_held = struct_field("n_held", int, "Samples rejected since the last accepted one.")
-    n_rejected = struct_field("n_rejected", int, "Rejections in total.")
-    n_nonfinite = struct_field("n_nonfinite", int, "Non-finite samples rejected.")
-    n_outliers = struct_field("n_outliers", int, "Outlier spikes rejected.")
 
     def check(self, x: float) -> bool:
         """Return True and accept ``x`` if it is plausible; False (counted) if it is rejected.
@@ -112,6 +103,7 @@ class OutlierGate(Component):
         return bool(lib.aff_gate_check(self._c, float(x)))
 
 
+@struct_fields("x_max", "factor", "floor", "max_consecutive", "n_held", "n_rejected")
 class RangeGate(Component):
     """Reject non-finite and out-of-range samples of a signal (a torque, a velocity): magnitude against a bound.
 
@@ -170,20 +162,13 @@ class RangeGate(Component):
         self._configure_from(lib, {"x_max": x_max, "factor": factor, "floor": floor, "memory": memory,
                                    "max_consecutive": max_consecutive}, counts=("max_consecutive",))
 
-    x_max = struct_field("x_max", float, "Absolute bound on |x| (signal unit).")
-    factor = struct_field("factor", float, "Relative bound (times the reference scale).")
-    floor = struct_field("floor", float, "Smallest reference scale (signal unit).")
     @property
     def memory(self) -> float:
         """Decay time of the envelope (samples), as configured."""
         cfg = self.config
         return float(cfg.memory) if cfg is not None else -1.0 / math.log(float(self._c.decay))
 
-    max_consecutive = struct_field("max_consecutive", int,
-                                   "Consecutive rejections after which a sample is accepted again.")
     envelope = struct_field("env", float, "Envelope of the accepted |x| (signal unit).")
-    n_held = struct_field("n_held", int, "Samples rejected since the last accepted one.")
-    n_rejected = struct_field("n_rejected", int, "Samples rejected in total.")
 
     def with_floor(self, floor: float) -> "RangeGate":
         """A copy with another ``floor`` (signal unit) and this gate's state; components set it from what they

@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from adaptive_ff._caff import ffi, lib
-from plant.component import Component, struct_field
+from plant.component import Component, struct_field, struct_fields
 from plant.errors import ParameterError, SignalError, check_finite_scalar
 
 __all__ = ["RecursiveIV", "IVRLS_NMAX"]
@@ -29,6 +29,7 @@ def _row(name: str, x, p: int) -> np.ndarray:
     return a
 
 
+@struct_fields("p", "lam", "P_max", "guard", "n_updates", "n_rejected")
 class RecursiveIV(Component):
     """Recursive instrumental-variable estimator with forgetting factor ``lam`` and a covariance bound.
 
@@ -103,13 +104,6 @@ class RecursiveIV(Component):
             raise ParameterError(f"guard must be True or False, got {guard!r}")
         self._new_struct()
         lib.aff_ivrls_init(self._c, p, lam, P_max, P0, int(bool(guard)))
-
-    p = struct_field("p", int, "Number of parameters.")
-    lam = struct_field("lam", float, "Forgetting factor.")
-    P_max = struct_field("P_max", float, "Bound on trace(P).")
-    guard = struct_field("guard", bool, "Refuse updates with phi'P z < 0 too.")
-    n_updates = struct_field("n_updates", int, "Accepted updates.")
-    n_rejected = struct_field("n_rejected", int, "Refused samples.")
 
     theta = struct_field("theta", doc="Current estimate, shape (p,) (a view of the C struct).", size="p", view=True)
 

@@ -81,7 +81,7 @@ from adaptive_ff.compensation.gate import OutlierGate, RangeGate, range_gates
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from adaptive_ff.compensation.defaults import c_config_class, c_defaults
-from plant.component import Component, struct_field
+from plant.component import Component, struct_field, struct_fields
 from plant.errors import ExcitationError, ParameterError, check_positive, check_signal
 from plant.stribeck_map import stribeck_shape
 
@@ -169,6 +169,7 @@ def _gates(gate, u_range, w_range) -> tuple:
     return (gate, *range_gates(u_range, w_range))
 
 
+@struct_fields("n_samples", "n_rejected", "n_gated", "updated")
 class SlidingFrictionEstimator(Component):
     """Online estimate of ``J, tau, Fc, Fs, sigma`` (and a torque offset) from the controller's ``(u, w)`` stream.
 
@@ -356,11 +357,6 @@ class SlidingFrictionEstimator(Component):
     def __repr__(self) -> str:
         return (f"SlidingFrictionEstimator(Vs={self.Vs!r}, delta={self.delta!r}, Ts={self.Ts!r}, "
                 f"T_filter={self.T!r}, n_updates={self.rls.n_updates})")
-
-    n_samples = struct_field("n_samples", int, "Samples accepted.")
-    n_rejected = struct_field("n_rejected", int, "Samples rejected (non-finite or outliers).")
-    n_gated = struct_field("n_gated", int, "Update instants skipped by the sliding gate.")
-    updated = struct_field("updated", bool, "Whether the last observe() updated the RLS.")
 
     @property
     def theta(self) -> np.ndarray:

@@ -17,7 +17,7 @@ import numpy as np
 
 from adaptive_ff._caff import ffi, lib
 from adaptive_ff.compensation.defaults import c_config_class
-from plant.component import Component, struct_field
+from plant.component import Component, struct_field, struct_fields
 from plant.errors import ParameterError
 
 __all__ = ["FeedforwardSupervisor", "FeedforwardSupervisorConfig", "DELAY_MAX"]
@@ -42,6 +42,7 @@ def _f8(name: str, x, n: int | None = None) -> np.ndarray:
     return a
 
 
+@struct_fields("on", "n_backoff", "n_restore", "n_backoff_tracking")
 class FeedforwardSupervisor(Component):
     """Back a feedforward off to none while it makes the torque disturbance the PI sees larger than no compensation.
 
@@ -163,10 +164,6 @@ class FeedforwardSupervisor(Component):
         c = self._c
         return f"FeedforwardSupervisor(Tc={c.Tc!r}, J_n={c.J_n!r}, omega={c.omega!r}, config={self.settings!r})"
 
-    on = struct_field("on", bool, "Whether the candidate torque is applied.")
-    n_backoff = struct_field("n_backoff", int, "Switches off.")
-    n_restore = struct_field("n_restore", int, "Switches back on.")
-
     t_off = struct_field("n_off", int, "Time the candidate torque has been off (s): steps times ``Tc``.", scale="Tc")
     t_rest = struct_field("n_rest", int, "Time at rest (s): steps times ``Tc``.", scale="Tc")
 
@@ -226,9 +223,6 @@ class FeedforwardSupervisor(Component):
                                ffi.from_buffer("int[]", on))
         out["on"] = on.astype(bool)
         return out
-
-    n_backoff_tracking = struct_field("n_backoff_tracking", int,
-                                      "Back-offs the tracking test made where the torque test would not have.")
 
     ms_error_none = struct_field("m_e0", float,
                                  "Mean square ``M_e0`` of the nominal loop's error without the candidate ((rad/s)²).")

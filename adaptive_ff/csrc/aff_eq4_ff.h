@@ -66,7 +66,7 @@ typedef struct aff_eq4_ff {
     aff_real phi[AFF_RLS_NMAX];   /* regressor of the last sample */
     aff_rls rls;                  /* the estimator of theta with iv == 0 (p = the structure's n_params) */
     int iv;                       /* 1: estimate with ivrls and the instruments z(k) = phi(k-2); 0: with rls */
-    aff_real w_band;              /* sliding-regime gate (rad/s), 0 = none (header comment) */
+    aff_real w_band;              /* sliding-regime gate (rad/s): only |w| > w_band of one sign updates, 0 = none */
     long n_past;                  /* samples held in the past, 0..5 */
     aff_real u2;                  /* u(k-2) (N*m) */
     aff_real u3;                  /* u(k-3) (N*m) */
@@ -79,8 +79,8 @@ typedef struct aff_eq4_ff {
     int provisional;              /* 1 while the start map is in use (aff_eq4_ff_start), until the first estimate */
     int start_at_ref;             /* 1: the start map is evaluated at the reference */
     aff_real start_gain;          /* factor on the start map, in (0, 1] (1 without a start) */
-    aff_real map_rel_stderr;      /* the estimates' determinacy test (aff_eq4_ff_require_determined),
-                                   * INFINITY = none */
+    aff_real map_rel_stderr;      /* bound on the map's standard error relative to max(Fc, Fs) of an estimate
+                                   * put into use (aff_eq4_ff_require_determined), INFINITY = no test */
     aff_real e2;                  /* running mean of e^2/(1 + phi'P z) of the IV updates (rad^2/s^2) */
     aff_real Szz[AFF_RLS_NMAX * AFF_RLS_NMAX]; /* sum of lam^(N-k) z(k) z(k)' of the IV updates (p*p, row-major) */
     aff_real w_max;               /* largest |w(k)| of the IV updates (rad/s) */

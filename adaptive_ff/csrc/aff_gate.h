@@ -35,8 +35,8 @@ typedef struct aff_gate {
     aff_real scale;           /* running mean of |x(k) - x(k-1)| over accepted samples */
     int64_t n_held;           /* samples rejected since the last accepted one */
     int64_t n_rejected;       /* rejections in total */
-    int64_t n_nonfinite;      /* of them non-finite */
-    int64_t n_outliers;       /* of them outlier spikes */
+    int64_t n_nonfinite;      /* rejections of non-finite samples */
+    int64_t n_outliers;       /* rejections of outlier spikes */
 } aff_gate;
 
 /* The outlier gate's defaults: max_step INFINITY (non-finite samples only), n_sigma 8, alpha 0.01,

@@ -16,7 +16,7 @@ import numpy as np
 
 from adaptive_ff.identification.plausibility import IdentificationWarning
 from adaptive_ff.io.units import VELOCITY_LABEL
-from plant.errors import ParameterError, check_positive, check_signal, check_time
+from plant.errors import ParameterError, check_optional_number, check_positive, check_signal, check_time
 from plant.results import json_safe
 
 __all__ = ["velocity_noise_std", "velocity_noise_std_irregular", "noise_fit_weights", "feedback_correlation",
@@ -307,8 +307,7 @@ def excitation_report(u, w, *, Vs: float | None = None, min_reversals: int = 4,
     """
     u = check_signal("u", u, min_len=8)
     w = check_signal("w", w, n=u.shape[0])
-    if Vs is not None:
-        Vs = check_positive("Vs", Vs)
+    Vs = check_optional_number("Vs", Vs, low=0.0, strict=True)
     if isinstance(min_reversals, bool) or not isinstance(min_reversals, (int, np.integer)) or min_reversals < 1:
         raise ParameterError(f"min_reversals must be an integer >= 1, got {min_reversals!r}")
     min_low_speed = check_positive("min_low_speed", min_low_speed)

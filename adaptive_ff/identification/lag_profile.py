@@ -32,7 +32,7 @@ import math
 
 import numpy as np
 
-from plant.errors import ParameterError
+from plant.errors import ParameterError, check_optional_number
 
 __all__ = ["TAU_FACTORS", "J_SPAN", "J_GRID", "lag_profile_search"]
 
@@ -92,9 +92,7 @@ def lag_profile_search(pb, best: tuple, *, factors=TAU_FACTORS, j_tau: int = 4, 
     fac = np.asarray(factors, dtype=float).reshape(-1)
     if fac.size == 0 or not np.all(np.isfinite(fac)) or np.any(fac <= 0):
         raise ParameterError(f"factors must be finite numbers > 0, got {factors!r}")
-    if n_refit is not None and (isinstance(n_refit, bool) or not isinstance(n_refit, (int, np.integer))
-                                or n_refit < 1):
-        raise ParameterError(f"n_refit must be None or an integer >= 1, got {n_refit!r}")
+    n_refit = check_optional_number("n_refit", n_refit, integer=True, low=1)
     c0, x0 = float(best[0]), np.asarray(best[1], dtype=float)
     ds = pb.opts.diff_step / 3.0
     free = [j for j in range(x0.shape[0]) if j != j_tau]

@@ -108,11 +108,13 @@ from threadpoolctl import threadpool_limits
 
 from adaptive_ff.identification.delay_profile import delay_profile_search
 from adaptive_ff.identification.diagnostics import velocity_noise_std_irregular
+from adaptive_ff.identification.log_scale import from_log
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
 from adaptive_ff.identification.simulator import H_MAX_DEFAULT, input_grid, simulate_on_grid
 from adaptive_ff.io.data import MeasuredData, to_uniform
 from plant.dynamics import lagged_params
-from plant.errors import ExcitationError, ParameterError, check_finite_scalar, check_optional, check_positive
+from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, check_optional, check_optional_number,
+                          check_positive)
 from adaptive_ff.identification.form_results import FORMS, FormCandidate, FormSelection
 
 __all__ = ["FORMS", "CRITERIA", "SELECTION_METHODS", "MIN_LOW_SPEED", "FormCandidate", "FormSelection",
@@ -246,9 +248,9 @@ class _Problem:
         _, stribeck, _ = FORMS[name]
         Fc = v["Fc"]
         Vs, delta = (self.Vs, self.delta) if stribeck == "fixed" else (
-            (math.exp(v["logVs"]), v["delta"]) if stribeck == "free" else (self.Vs or 1.0, self.delta or 1.0))
-        return {"J": math.exp(v["logJ"]), "Fc": Fc, "Fs": v.get("Fs", Fc), "sigma": v["sigma"],
-                "tau": math.exp(v["logtau"]) if "logtau" in v else 0.0,
+            (from_log(v["logVs"]), v["delta"]) if stribeck == "free" else (self.Vs or 1.0, self.delta or 1.0))
+        return {"J": from_log(v["logJ"]), "Fc": Fc, "Fs": v.get("Fs", Fc), "sigma": v["sigma"],
+                "tau": from_log(v["logtau"]) if "logtau" in v else 0.0,
                 "offset": v.get("off", 0.0) * self.torque, "Vs": float(Vs), "delta": float(delta)}
 
     def pack(self, name: str, p: dict) -> np.ndarray:
@@ -398,7 +400,7 @@ def _full_fits(pb: _Problem, names, start: dict, mask, warm: dict | None = None,
         if name not in names:
             continue
         cv = params("coulomb_viscous_lag" if lag else "coulomb_viscous")
-        x = pb.pack(name, dict(cv, Fs=1.5 * cv["Fc"], delta=1.0, Vs=math.exp(vs_grid[4])))
+        x = pb.pack(name, dict(cv, Fs=1.5 * cv["Fc"], delta=1.0, Vs=from_log(vs_grid[4])))
         starts = [with_fs(name, pb.profile(name, x, "logVs", vs_grid, mask))]
         if fixed:
             starts.append(pb.pack(name, params("stribeck_lag" if lag else "stribeck")))
@@ -784,10 +786,7 @@ def select_form(data: MeasuredData, *, Vs: float | None = None, delta: float | N
         if delta == 0.0:
             raise ParameterError("delta must be non-zero, got 0.0")
     h_max = check_positive("h_max", h_max)
-    if input_delay is not None:
-        input_delay = check_finite_scalar("input_delay", input_delay)
-        if input_delay < 0:
-            raise ParameterError(f"input_delay must be >= 0 s (or None: profiled), got {input_delay!r}")
+    input_delay = check_optional_number("input_delay", input_delay, low=0.0, unit="s", none="profiled")
     if predictor not in ("auto", "free-run", "one-step"):
         raise ParameterError(f"predictor must be one of ['auto', 'free-run', 'one-step'], got {predictor!r}")
     names = list(FORMS) if forms is None else [forms] if isinstance(forms, str) else list(forms)

@@ -14,7 +14,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from adaptive_ff.identification.simulator import H_MAX_DEFAULT
-from plant.errors import ParameterError, check_finite_scalar, check_optional, check_positive
+from plant.errors import ParameterError, check_finite_scalar, check_optional, check_optional_number, check_positive
 
 __all__ = ["OutputErrorOptions", "BOOTSTRAP_REFITS", "JACOBIANS"]
 
@@ -157,10 +157,7 @@ class OutputErrorOptions:
             object.__setattr__(self, name, value)
 
         put("h_max", check_positive("h_max", self.h_max))
-        if self.input_delay is not None:
-            put("input_delay", check_finite_scalar("input_delay", self.input_delay))
-            if self.input_delay < 0:
-                raise ParameterError(f"input_delay must be >= 0 s (or None: profiled), got {self.input_delay!r}")
+        put("input_delay", check_optional_number("input_delay", self.input_delay, low=0.0, unit="s", none="profiled"))
         put("burn", check_finite_scalar("burn", self.burn))
         if self.burn < 0:
             raise ParameterError(f"burn must be >= 0, got {self.burn!r}")
@@ -172,22 +169,21 @@ class OutputErrorOptions:
         put("max_nfev", _check_int("max_nfev", self.max_nfev, 1))
         put("n_bootstrap", _check_int("n_bootstrap", self.n_bootstrap, 0))
         put("bootstrap_seed", _check_int("bootstrap_seed", self.bootstrap_seed, 0))
-        if self.bootstrap_workers is not None:
-            put("bootstrap_workers", _check_int("bootstrap_workers", self.bootstrap_workers, 1))
+        put("bootstrap_workers", check_optional_number("bootstrap_workers", self.bootstrap_workers, integer=True,
+                                                       low=1))
         check_optional("progress", self.progress, (bool, np.bool_), what="True, False")
         if not isinstance(self.lag_profile, (bool, np.bool_)):
             raise ParameterError(f"lag_profile must be True or False, got {self.lag_profile!r}")
         put("lag_profile", bool(self.lag_profile))
-        if self.bootstrap_lag_refits is not None:
-            put("bootstrap_lag_refits", _check_int("bootstrap_lag_refits", self.bootstrap_lag_refits, 1))
+        put("bootstrap_lag_refits", check_optional_number("bootstrap_lag_refits", self.bootstrap_lag_refits,
+                                                          integer=True, low=1))
         put("start", _check_start(self.start))
         for name, allowed in (("loss", ("linear", "soft_l1")), ("predictor", ("auto", "free-run", "one-step")),
                               ("interp", ("linear", "cubic")), ("bootstrap_refit", BOOTSTRAP_REFITS),
                               ("jacobian", JACOBIANS)):
             if getattr(self, name) not in allowed:
                 raise ParameterError(f"{name} must be one of {list(allowed)}, got {getattr(self, name)!r}")
-        if self.f_scale is not None:
-            put("f_scale", check_positive("f_scale", self.f_scale))
+        put("f_scale", check_optional_number("f_scale", self.f_scale, low=0.0, strict=True))
         q = self.bootstrap_input_quantum
         if q is not None and not (isinstance(q, str) and q == "auto"):
             if isinstance(q, str):

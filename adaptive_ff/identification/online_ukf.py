@@ -103,6 +103,7 @@ import scipy.linalg
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
 from adaptive_ff._caff import ffi, lib
+from adaptive_ff.identification.log_scale import from_log
 from plant.errors import FrictionError, ParameterError, SignalError, check_finite_scalar, check_positive, \
     check_signal, check_time
 from plant.dynamics import lagged_params
@@ -474,10 +475,10 @@ class OnlineUKF:
     def _fx(self, x, dt, u=0.0):
         """Process model: eqs. 1-2 over ``dt`` by ``n_substeps`` RK4 steps, ``u`` held; parameters constant."""
         w, f, Fc, Fs, logVs, logdelta, sigma, logtau = (float(v) for v in x)
-        Vs = math.exp(min(max(logVs, self._logVs_box[0]), self._logVs_box[1]))
-        delta = self.delta_sign * math.exp(min(max(logdelta, self._logdelta_box[0]), self._logdelta_box[1]))
+        Vs = from_log(logVs, *self._logVs_box)
+        delta = self.delta_sign * from_log(logdelta, *self._logdelta_box)
         tmin, tmax = self._tau_bounds(dt)
-        tau = min(max(math.exp(min(logtau, 50.0)), tmin), tmax)
+        tau = min(max(from_log(logtau, high=50.0), tmin), tmax)
         par = lagged_params(self.J, Fc, Fs, Vs, delta, sigma, tau)
         w, f = _propagate(par, w, f, float(u), dt / self.n_substeps, self.n_substeps)
         out = np.array(x, dtype=float)
@@ -533,8 +534,8 @@ class OnlineUKF:
     def theta(self) -> dict:
         """Physical friction parameters ``{Fc, Fs, Vs, delta, sigma, tau}`` (SI units) of the estimate."""
         x = self._ukf.x
-        return {"Fc": float(x[2]), "Fs": float(x[3]), "Vs": float(math.exp(x[4])), "delta": float(self.delta_sign * math.exp(x[5])),
-                "sigma": float(x[6]), "tau": float(math.exp(x[7]))}
+        return {"Fc": float(x[2]), "Fs": float(x[3]), "Vs": from_log(x[4]), "delta": self.delta_sign * from_log(x[5]),
+                "sigma": float(x[6]), "tau": from_log(x[7])}
 
     @property
     def theta_std(self) -> dict:

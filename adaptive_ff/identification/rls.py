@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from adaptive_ff._caff import ffi, lib
-from plant.component import Component, struct_field
+from plant.component import Component, struct_fields
 from plant.errors import ParameterError, SignalError
 
 __all__ = ["RecursiveLeastSquares", "FORGETTING", "RLS_NMAX"]
@@ -31,6 +31,7 @@ _F8 = np.dtype(np.float64)
 _VIEWS = ("_theta", "_lower", "_upper", "_D")
 
 
+@struct_fields("P_max", "n_updates", "n_projected", "n_rejected")
 class RecursiveLeastSquares(Component):
     """Recursive least-squares estimator with forgetting factor ``lam``, eqs. 10-13.
 
@@ -173,7 +174,6 @@ class RecursiveLeastSquares(Component):
     (``aff_rls_update_many``). The struct holds ``P`` as its
     factors ``UD`` (assign :attr:`P` to set them).
     """
-
 
     _ffi = ffi
     _ctype = "aff_rls"
@@ -320,16 +320,6 @@ class RecursiveLeastSquares(Component):
     def forgetting(self) -> str:
         """Forgetting scheme, one of :data:`FORGETTING`."""
         return self._forgetting
-
-    P_max = struct_field("P_max", float, "Bound on ``trace(P)`` (inf = none).")
-
-    n_updates = struct_field("n_updates", int, "Number of accepted updates.")
-
-    n_projected = struct_field("n_projected", int,
-                               "Number of updates after which ``theta`` was projected onto ``bounds``.")
-
-    n_rejected = struct_field("n_rejected", int, "Number of refused samples (non-finite, or an update that would "
-                              "overflow); the state was left unchanged.")
 
     @property
     def prior_variance(self) -> float:

@@ -64,6 +64,7 @@ import numpy as np
 from scipy.optimize import leastsq, nnls
 
 from adaptive_ff._caff import ffi, lib
+from adaptive_ff.identification.log_scale import from_log
 from plant.errors import ExcitationError, ParameterError, SignalError, check_finite_scalar, check_signal
 from plant.friction import stribeck
 from plant.results import axes_or_new, json_safe
@@ -335,7 +336,7 @@ def _eq3_values(w, Fc, dF, Vs, delta, sigma, out):
 def _model(x, w):
     """Eq. 3 with the optimiser's parameters ``x = (Fc, Fs, log Vs, delta, sigma)`` at the speeds ``w``."""
     Fc, Fs, logVs, delta, sigma = np.asarray(x, dtype=float).tolist()
-    Vs = math.exp(min(max(logVs, -_LOGP_MAX), _LOGP_MAX))  # finite and > 0 whatever the optimiser tries
+    Vs = from_log(logVs, -_LOGP_MAX, _LOGP_MAX)  # finite and > 0 whatever the optimiser tries
     w = np.ascontiguousarray(w, dtype=float)
     return _eq3_values(w, Fc, Fs - Fc, Vs, delta, sigma, np.empty_like(w))
 
@@ -550,7 +551,7 @@ def fit_stribeck(w, F, *, F_std=None, p0=None, delta_starts=(0.5, 1.0, 2.0), fal
     best = _best_lm_run(resid, jac, starts)
     x = best.x
     Fc, Fs, logVs, delta, sigma = (float(v) for v in x)
-    Vs = float(np.exp(logVs))
+    Vs = from_log(logVs)
     try:
         _check_plausible(Fc, Fs, Vs, delta)
     except ExcitationError as exc:
@@ -588,7 +589,7 @@ def _result(x, w, F, cov, converged: bool, fb) -> StribeckFit:
     cov = np.array(cov, dtype=float)
     cov.setflags(write=False)
     return StribeckFit(
-        Fc=Fc, Fs=Fs, Vs=float(np.exp(logVs)), delta=delta, sigma=sigma,
+        Fc=Fc, Fs=Fs, Vs=from_log(logVs), delta=delta, sigma=sigma,
         stderr=stderr,
         cov=cov,
         residual_rms=float(np.sqrt(np.mean((_model(x, w) - F) ** 2))),
@@ -776,7 +777,7 @@ def _covariance(Jw, r, Fw, x) -> np.ndarray:
     ``Fw``: weighted data (for the numerical resolution floor of ``s**2``).
     """
     Fc, Fs, logVs, delta, _ = (float(v) for v in x)
-    Vs = float(np.exp(logVs))
+    Vs = from_log(logVs)
     dof = r.shape[0] - len(PARAM_NAMES)
     # numerical resolution floor: rounding in the residuals (a few eps*|F| per point) leaves exact data with
     # parameter errors of ~1e-15 relative that a purely residual-based s**2 (~1e-30) would call significant

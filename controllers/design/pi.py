@@ -27,7 +27,7 @@ from functools import partial
 import numpy as np
 
 from controllers._cctl import ffi, lib
-from plant.component import Component, struct_field
+from plant.component import Component, struct_field, struct_fields
 from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_positive
 from plant.results import axes_or_new, json_safe
 
@@ -651,6 +651,7 @@ def pi_step(pi, e: float, u_ff: float = 0.0) -> float:
     return lib.ctl_pi_step(pi.cdata if isinstance(pi, PIController) else pi, e, u_ff)
 
 
+@struct_fields("Kp", "u_max", "saturated", settable=("saturated",))
 class PIController(Component):
     """Discrete PI controller with saturation, feedforward and anti-windup (integrator clamping).
 
@@ -737,8 +738,6 @@ class PIController(Component):
         """
         return cls(Kp=design.Kp, Ki=design.Ki, Tc=design.Tc, u_max=u_max)
 
-    Kp = struct_field("Kp", float, "Proportional gain (N·m·s/rad).")
-
     @property
     def Ki(self) -> float:
         """Integral gain (N·m/rad)."""
@@ -749,12 +748,8 @@ class PIController(Component):
         """Controller period (s)."""
         return self._Tc
 
-    u_max = struct_field("u_max", float, "Torque limit (N·m), ``inf`` = none.")
-
     integral = struct_field("I", float, "Integrator state ``I`` (N·m); settable (finite) to preload it.",
                             settable=True, check=partial(check_finite_scalar, "integral"))
-
-    saturated = struct_field("saturated", bool, "Whether the last command was clipped to ``±u_max``.", settable=True)
 
     def reset(self, integral: float = 0.0) -> None:
         """Set the integrator to ``integral`` (N·m, default 0) and clear ``saturated``."""

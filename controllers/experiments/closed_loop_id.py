@@ -150,8 +150,8 @@ from controllers.design.pi import PIController
 from controllers.simulation.engine import EngineMetrics, EngineRecord, EngineRun
 from controllers.simulation.metrics import reversal_times
 from plant.dynamics import check_integrable, plant_params, plant_state
-from plant.errors import ExcitationError, ParameterError, SignalError, check_finite_scalar, check_positive, \
-    check_signal, check_time
+from plant.errors import ExcitationError, ParameterError, SignalError, check_finite_scalar, check_optional_number, \
+    check_positive, check_signal, check_time
 from plant.friction import JointParams
 from plant.stiff import check_oscillation
 
@@ -328,11 +328,8 @@ class ClosedLoopIdOptions:
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
                 raise ParameterError(f"{name} must be an integer >= {lo}, got {v!r}")
             object.__setattr__(self, name, int(v))
-        if self.sensor_noise is not None:
-            v = check_finite_scalar("sensor_noise", self.sensor_noise)
-            if v < 0:
-                raise ParameterError(f"sensor_noise must be >= 0 rad/s (or None: from the log), got {v!r}")
-            object.__setattr__(self, "sensor_noise", v)
+        object.__setattr__(self, "sensor_noise", check_optional_number("sensor_noise", self.sensor_noise, low=0.0,
+                                                                       unit="rad/s", none="from the log"))
         if self.start is not None:
             s = dict(self.start)
             missing = [k for k in CLOSED_LOOP_NAMES if k not in s]

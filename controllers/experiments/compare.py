@@ -37,8 +37,8 @@ from controllers.experiments.observer_design import (J_CONTRADICTED, friction_le
                                                      residual_cutoff, residual_share)
 from controllers.experiments.quasi_static import (StribeckDesign, StribeckExperiment, prefit_stribeck,
                                                   stribeck_experiment)
-from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, check_multiple, check_positive,
-                          known_fields)
+from plant.errors import (ExcitationError, ParameterError, check_finite_scalar, check_multiple,
+                          check_optional_number, check_positive, known_fields)
 from plant.dynamics import plant_params
 from plant.excitation import bandlimited_noise, multisine_reference
 from plant.joint import simulate
@@ -221,16 +221,14 @@ class CompareOptions:
         if self.canudas_input not in FF_INPUTS:
             raise ParameterError(f"canudas_input must be one of {FF_INPUTS}, got {self.canudas_input!r}")
         self._check_estimator_rows()
-        if self.loop.drive.u_max is not None:
-            check_positive("u_max", self.loop.drive.u_max)
+        check_optional_number("u_max", self.loop.drive.u_max, low=0.0, strict=True)
         if (est.Vs is None) != (est.delta is None):
             raise ParameterError(f"give both Vs and delta, or neither; got Vs={est.Vs!r}, delta={est.delta!r}")
         if est.Vs is not None:
             check_positive("Vs", est.Vs)
             if check_finite_scalar("delta", est.delta) == 0.0:
                 raise ParameterError("delta must be non-zero (|w/Vs|**0 is constant), got 0.0")
-        if self.loop.controller.J_design is not None:
-            check_positive("J_design", self.loop.controller.J_design)
+        check_optional_number("J_design", self.loop.controller.J_design, low=0.0, strict=True)
         unknown = [m for m in self.modes if m not in MODES]
         if unknown:
             raise ParameterError(f"unknown mode(s) {unknown}; known: {MODES}")

@@ -49,7 +49,7 @@ from controllers.simulation.compensators import build_mode, own_supervisor
 from controllers.simulation.loop_config import stick_band_for
 from controllers.simulation.metrics import LoopMetrics, loop_metrics, reversal_times
 from controllers.simulation.sensor_drive import DELAY_MAX, Sensor
-from plant.errors import ParameterError, check_nonnegative, check_positive
+from plant.errors import ParameterError, check_nonnegative, check_optional_number, check_positive
 
 __all__ = ["ARM_MODES", "DEFAULT_MODES", "ETA_NOTE", "CompareArmOptions", "ArmComparison", "ArmRun",
            "JointLoopDesign", "compare_arm", "joint_designs"]
@@ -142,10 +142,8 @@ class CompareArmOptions:
             low = 0 if name == "seed" else 1
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < low:
                 raise ParameterError(f"{name} must be an integer >= {low}, got {v!r}")
-        if self.encoder_counts is not None and (isinstance(self.encoder_counts, bool) or not isinstance(
-                self.encoder_counts, (int, np.integer)) or self.encoder_counts < 1):
-            raise ParameterError(f"encoder_counts must be an integer >= 1 (counts per joint revolution) or None, got "
-                                 f"{self.encoder_counts!r}")
+        check_optional_number("encoder_counts", self.encoder_counts, integer=True, low=1,
+                              unit="counts per joint revolution")
         if isinstance(self.delay, bool) or not isinstance(self.delay, (int, np.integer)) or \
                 not 0 <= self.delay <= DELAY_MAX:
             raise ParameterError(f"delay must be an integer number of periods in 0..{DELAY_MAX}, got {self.delay!r}")

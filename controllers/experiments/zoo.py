@@ -71,7 +71,7 @@ from controllers.simulation.batch import run_batch
 from controllers.simulation.memory import PREPARATION_SIGNALS, SHARED_SIGNALS, check_run_memory
 from controllers.simulation.closed_loop import plant_table, run_own
 from controllers.simulation.compensators import MODES, build_mode
-from plant.errors import ParameterError, check_nonnegative, check_positive, known_fields
+from plant.errors import ParameterError, check_nonnegative, check_optional_number, known_fields
 from plant.models import plant_from_dict
 from plant.results import json_safe
 from plant.stribeck_map import stribeck
@@ -361,8 +361,8 @@ class ZooOptions:
         if self.workers is not None and (int(self.workers) != self.workers or self.workers < 1):
             raise ParameterError(f"workers must be an integer >= 1, got {self.workers!r}")
         object.__setattr__(self, "min_degradation", check_nonnegative("min_degradation", self.min_degradation))
-        if self.J_design_factor is not None:
-            object.__setattr__(self, "J_design_factor", check_positive("J_design_factor", self.J_design_factor))
+        object.__setattr__(self, "J_design_factor", check_optional_number("J_design_factor", self.J_design_factor,
+                                                                          low=0.0, strict=True))
 
     @classmethod
     def from_flat(cls, *, compare: CompareOptions | None = None, **knobs) -> "ZooOptions":

@@ -31,7 +31,7 @@ from pathlib import Path
 from adaptive_ff.compensation.gate import RangeGate, range_gates
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from controllers._cctl import ffi, lib
-from plant.component import Component, c_compensate, c_observe, config_class, ops_table, struct_field
+from plant.component import Component, c_compensate, c_observe, config_class, ops_table, struct_fields
 from plant.errors import ParameterError, check_multiple
 
 __all__ = ["CanudasCompensator", "CanudasCompensatorConfig", "CANUDAS_N_THETA"]
@@ -49,6 +49,7 @@ CanudasCompensatorConfig = config_class(
 CANUDAS_N_THETA = 5
 
 
+@struct_fields("Tc", "Ts", "m", "w_dead", "warmup", "ff_max", "ff_measured", "n_rejected", settable=("n_rejected",))
 class CanudasCompensator(Component):
     """Direction-dependent Coulomb + viscous friction, estimated by RLS, compensated at a velocity.
 
@@ -160,16 +161,6 @@ class CanudasCompensator(Component):
 
     ops = ops_table(lib)
 
-    # ---- configuration (read-only fields of the struct)
-    Tc = struct_field("Tc", float, "Controller period (s).")
-    Ts = struct_field("Ts", float, "Estimator sample time ``m*Tc`` (s).")
-    m = struct_field("m", int, "Controller periods per estimator sample.")
-    w_dead = struct_field("w_dead", float, "Estimation dead zone (rad/s).")
-    warmup = struct_field("warmup", int, "RLS updates before the compensation is switched on.")
-    ff_max = struct_field("ff_max", float, "Bound on |compensation| (N·m).")
-    ff_measured = struct_field("ff_measured", bool,
-                               "True: compensation at the controller's measured velocity; False: at the reference.")
-
     # ---- state (read/write fields of the struct)
     @property
     def coef(self) -> tuple | None:
@@ -192,8 +183,6 @@ class CanudasCompensator(Component):
                                  f"got {value!r}") from None
         c.Fc_pos, c.Fc_neg, c.sigma_pos, c.sigma_neg = Fcp, Fcn, sp, sn
         c.on = 1
-
-    n_rejected = struct_field("n_rejected", int, "Samples ignored (range gates) and RLS rows refused.", settable=True)
 
     @property
     def estimate(self) -> dict | None:

@@ -21,7 +21,7 @@ from __future__ import annotations
 from adaptive_ff.compensation.defaults import c_defaults
 from adaptive_ff.compensation.gate import RangeGate, range_gates
 from controllers._cctl import ffi, lib
-from plant.component import Component, c_compensate, c_observe, ops_table, struct_field
+from plant.component import Component, c_compensate, c_observe, ops_table, struct_field, struct_fields
 
 __all__ = ["DisturbanceObserver", "DOB_ORDER_MAX"]
 
@@ -32,6 +32,10 @@ DOB_ORDER_MAX = len(ffi.new("aff_dob *").x)
 _DOB = c_defaults("aff_dob_config")
 
 
+@struct_fields(
+    "J_n", "omega_q", "Tc", "order", "d_max", "a", "d_hat", "n_rejected", "u_last",
+    settable=("d_hat", "n_rejected", "u_last")
+)
 class DisturbanceObserver(Component):
     """Velocity-loop disturbance observer ``d_hat = Q*(u - J_n*dw/dt)``, added to the controller output.
 
@@ -113,18 +117,6 @@ class DisturbanceObserver(Component):
 
     ops = ops_table(lib)
 
-    J_n = struct_field("J_n", float, "Nominal inertia (kg·m²).")
-    omega_q = struct_field("omega_q", float, "Q-filter cut-off (rad/s).")
-    Tc = struct_field("Tc", float, "Controller period (s).")
-    order = struct_field("order", int, "Order of the binomial Q-filter.")
-    d_max = struct_field("d_max", float, "Bound on |d_hat| (N·m).")
-
-    a = struct_field("a", float, "The Q-filter's step gain ``1 - exp(-Tc*omega_q)`` (-).")
-
-    d_hat = struct_field("d_hat", float, "Current disturbance estimate (N·m).", settable=True)
-    n_rejected = struct_field("n_rejected", int, "Rejected samples: non-finite or out-of-range velocities (the "
-                              "estimate was held) and torques.", settable=True)
-    u_last = struct_field("u_last", float, "The last accepted torque (N·m).", settable=True)
     w_last = struct_field("w_last", float, "The last accepted velocity (rad/s), None before the first.",
                           settable=True, flag="has_w_last")
 

@@ -11,7 +11,7 @@ import cffi
 import numpy as np
 import pytest
 
-from plant.component import Component, ops_table, struct_field
+from plant.component import Component, ops_table, struct_field, struct_fields
 from plant.errors import ParameterError, check_finite_scalar
 
 FFI = cffi.FFI()
@@ -160,3 +160,77 @@ def test_configure_from_takes_the_c_defaults_the_fields_given_and_the_c_init_s_v
         Configured(x=-1.0)
     with pytest.raises(TypeError, match="Configured: n must be an integer"):
         Configured(n=True)
+
+
+_FIELDS_H = """
+typedef struct t_sub {
+    double level;             /* a level (N*m), >= 0 */
+} t_sub;
+
+typedef struct t_fields {
+    double Tc;                /* controller period (s), > 0 */
+    long m;                   /* periods per sample,
+                               * >= 1 */
+    int at_ref;               /* 1: at the reference; 0: at the measurement */
+    int64_t n_rejected;       /* refused samples */
+    t_sub sub;                /* the part */
+    double bare;
+    double arr[2];            /* two values */
+} t_fields;
+"""
+FFI.cdef("""
+typedef struct t_sub { double level; } t_sub;
+typedef struct t_fields { double Tc; long m; int at_ref; int64_t n_rejected; t_sub sub; double bare; double arr[2]; }
+    t_fields;
+""")
+
+
+def _fields_class(tmp_path, *fields, **options):
+    header = tmp_path / "t_fields.h"
+    header.write_text(_FIELDS_H)
+
+    class Fields(Component):
+        _ffi = FFI
+        _ctype = "t_fields"
+
+        def __init__(self):
+            self._new_struct()
+
+    return struct_fields(*fields, header=header, **options)(Fields)
+
+
+def test_struct_fields_reads_each_field_as_its_c_kind_with_the_header_comment_as_its_doc(tmp_path):
+    cls = _fields_class(tmp_path, "Tc", "m", "at_ref", "n_rejected", "sub.level", settable=("m",))
+    f = cls()
+    f.cdata.Tc, f.cdata.m, f.cdata.at_ref, f.cdata.n_rejected, f.cdata.sub.level = 2e-3, 10, 1, 2**40, 0.25
+    got = (f.Tc, f.m, f.at_ref, f.n_rejected, f.level)
+    assert got == (2e-3, 10, True, 2**40, 0.25)
+    assert [type(v) for v in got] == [float, int, bool, int, float]
+    assert cls.Tc.__doc__ == "Controller period (s), > 0 (C ``Tc``)."
+    assert cls.m.__doc__ == "Periods per sample, >= 1 (C ``m``)."  # a continuation line's '*' dropped
+    assert cls.at_ref.__doc__ == "True: at the reference; False: at the measurement (C ``at_ref``)."
+    assert cls.level.__doc__ == "A level (N*m), >= 0 (C ``sub.level``)."  # the nested struct's own declaration
+    f.m = 3
+    assert f.cdata.m == 3
+    with pytest.raises(AttributeError):
+        f.Tc = 1.0
+
+
+@pytest.mark.parametrize("fields, options, what", [
+    (("nope",), {}, "'nope'"),            # no such field
+    (("sub",), {}, "'sub'"),              # a struct, not a primitive field
+    (("arr",), {}, "'arr'"),              # an array
+    (("bare",), {}, "'bare' has no comment"),
+    (("Tc",), {"settable": ("m",)}, "settable names fields not given: \\['m'\\]"),
+    (("Tc", "Tc"), {}, "'Tc' is already defined"),
+])
+def test_struct_fields_refuses_a_field_it_cannot_declare_naming_it(tmp_path, fields, options, what):
+    with pytest.raises(ParameterError, match=what):
+        _fields_class(tmp_path, *fields, **options)
+
+
+def test_struct_fields_without_a_header_that_declares_the_struct_names_the_field(tmp_path):
+    cls = _fields_class(tmp_path, "Tc")
+    (tmp_path / "other.h").write_text("/* no declaration of t_fields */\n")
+    bare = struct_fields("m", header=tmp_path / "other.h")(type("Bare", (cls,), {}))
+    assert bare.m.__doc__ == "The C field m of t_fields (C ``m``)."

@@ -360,3 +360,15 @@ def test_wrappers_delegate_to_the_plant_at_t0():
     assert p.frictionless().at(1.0).J == 7.0 and p.frictionless().at(1.0).Fc == 0.0
     assert FrictionRipple(P, amplitude=0.1, harmonic=5.0).tau == P.tau
     assert not hasattr(FrictionRipple(P, amplitude=0.1, harmonic=5.0), "at")
+
+
+def test_joint_params_from_dict_reads_its_own_model_and_names_what_is_wrong():
+    assert JointParams.from_dict(P.to_dict()) == P
+    assert JointParams.from_dict({"model": "lagged-stribeck", **P.to_dict()}) == P
+    with pytest.raises(ParameterError, match=r"^model 'lugre' is not 'lagged-stribeck'; read such plants with "
+                                             r"plant\.models\.plant_from_dict / load_plant$"):
+        JointParams.from_dict({**P.to_dict(), "model": "lugre"})
+    with pytest.raises(ParameterError, match=r"miss the key\(s\) \['tau'\]"):
+        JointParams.from_dict({k: v for k, v in P.to_dict().items() if k != "tau"})
+    with pytest.raises(ParameterError, match=r"unknown 'lagged-stribeck' plant parameter key\(s\) \['dv'\]"):
+        JointParams.from_dict({**P.to_dict(), "dv": 1.0})
