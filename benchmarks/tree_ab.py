@@ -74,7 +74,7 @@ _RATIO_CHILD = r"""
 import json, statistics, sys, time
 import numpy as np
 import control
-from controllers.simulation.closed_loop import LoopConfig, run_mode
+from controllers.simulation.closed_loop import run_mode
 from controllers.design.pi import design_pi
 from plant.excitation import multisine_reference
 from plant.friction import preset
@@ -103,8 +103,14 @@ pc_ref = multisine_reference(min(seconds, 2.0), rng=np.random.default_rng(0))
 us = {"python-control": cpu(lambda: control.input_output_response(loop, pc_ref.t, pc_ref.w),
                             max(1, repeat // 2)) / pc_ref.t.size * 1e6}
 ref = multisine_reference(seconds, rng=np.random.default_rng(0))
-base = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=u_max)
-adaptive = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=u_max, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
+def options(**extra):
+    try:
+        from controllers.simulation.closed_loop import LoopConfig
+        return LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=u_max, **extra)
+    except ImportError:  # a tree with the flat ModeOptions
+        from controllers.simulation.compensators import ModeOptions
+        return ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=u_max, **extra)
+base, adaptive = options(), options(Vs=p.Vs, delta=p.delta, noise_std=1e-3)
 for mode, o in (("none", base), ("adaptive", adaptive)):
     run = lambda: run_mode(p, ref, mode, o, rng=np.random.default_rng(1))
     run()  # warm-up (compiles where the other tree has a JIT)
