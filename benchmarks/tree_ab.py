@@ -4,6 +4,7 @@ Run:  git worktree add /tmp/old REV   (or: mkdir /tmp/old && git archive REV | t
       (cd /tmp/old && python setup.py build_ext --inplace)   # its C core, built in place
       python benchmarks/tree_ab.py /tmp/old [--B 1000] [--seconds 2] [--repeat 5] [--rounds 3] [--mode none]
       python benchmarks/tree_ab.py /tmp/old --ratio [--other-python /venv-of-old/bin/python]
+      python benchmarks/tree_ab.py /tmp/old --engine [--seconds 60] [--repeat 5] [--rounds 4]
 
 ``--ratio`` times, in the same alternating fresh processes, python-control's ``input_output_response`` on
 the PI + plant loop of ``benchmarks/perf.py`` and the single-run engine (``run_mode`` ``none`` and
@@ -20,6 +21,11 @@ fresh process per tree (this tree and OTHER, alternating), which times ``run_bat
 processes on a loaded machine) and prints µs per scenario-step of the engine (median and fastest of
 ``--repeat``), the serial Python part of the call (CPU of the calling thread outside the engine's
 ``EngineRun.run``: packing the scenarios, the results) and the first metrics, so a change of the numbers shows.
+
+``--engine`` times the C engine call alone (``EngineRun.run``, CPU time of the calling thread) of the single runs
+``run_mode none`` and ``adaptive`` (noise 1e-3) of ``benchmarks/engine_instructions.py``'s loop on a reference of
+``--seconds`` (long, so the call's fixed cost does not count), in alternating fresh processes, and prints each
+process's median of ``--repeat`` calls and, per tree, the median and the range over its processes (ns per step).
 """
 
 from __future__ import annotations
@@ -68,7 +74,7 @@ _RATIO_CHILD = r"""
 import json, statistics, sys, time
 import numpy as np
 import control
-from controllers.simulation.closed_loop import LoopConfig, run_mode
+from controllers.simulation.closed_loop import run_mode
 from controllers.design.pi import design_pi
 from plant.excitation import multisine_reference
 from plant.friction import preset
@@ -97,14 +103,89 @@ pc_ref = multisine_reference(min(seconds, 2.0), rng=np.random.default_rng(0))
 us = {"python-control": cpu(lambda: control.input_output_response(loop, pc_ref.t, pc_ref.w),
                             max(1, repeat // 2)) / pc_ref.t.size * 1e6}
 ref = multisine_reference(seconds, rng=np.random.default_rng(0))
-base = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=u_max)
-adaptive = LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=u_max, Vs=p.Vs, delta=p.delta, noise_std=1e-3)
+def options(**extra):
+    try:
+        from controllers.simulation.closed_loop import LoopConfig
+        return LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=u_max, **extra)
+    except ImportError:  # a tree with the flat ModeOptions
+        from controllers.simulation.compensators import ModeOptions
+        return ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=u_max, **extra)
+base, adaptive = options(), options(Vs=p.Vs, delta=p.delta, noise_std=1e-3)
 for mode, o in (("none", base), ("adaptive", adaptive)):
     run = lambda: run_mode(p, ref, mode, o, rng=np.random.default_rng(1))
     run()  # warm-up (compiles where the other tree has a JIT)
     us[mode] = cpu(run, repeat) / ref.t.size * 1e6
 print(json.dumps(us))
 """
+
+_ENGINE_CHILD = r"""
+import json, statistics, sys, time
+import numpy as np
+from controllers.simulation.closed_loop import run_mode
+from controllers.simulation.engine import EngineRun
+from controllers.design.pi import design_pi
+from plant.excitation import multisine_reference
+from plant.friction import preset
+seconds, repeat = float(sys.argv[1]), int(sys.argv[2])
+p = preset("paper")
+d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
+def options(**extra):
+    try:
+        from controllers.simulation.closed_loop import LoopConfig
+        return LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0, **extra)
+    except ImportError:  # a tree with the flat ModeOptions
+        from controllers.simulation.compensators import ModeOptions
+        return ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, **extra)
+run, spent = EngineRun.run, []
+def timed(self):
+    t0 = time.thread_time(); run(self); spent.append(time.thread_time() - t0)
+EngineRun.run = timed
+ref = multisine_reference(seconds, rng=np.random.default_rng(0))
+ns = {}
+for mode, o in (("none", options()), ("adaptive", options(Vs=p.Vs, delta=p.delta, noise_std=1e-3))):
+    run_mode(p, ref, mode, o, rng=np.random.default_rng(1))  # warm-up
+    spent.clear()
+    for _ in range(repeat):
+        run_mode(p, ref, mode, o, rng=np.random.default_rng(1))
+    ns[mode] = statistics.median(spent) / ref.t.size * 1e9
+print(json.dumps(ns))
+"""
+
+
+def engine_rounds(trees: dict, *, seconds: float = 60.0, repeat: int = 5, rounds: int = 4, out=print) -> dict:
+    """Alternate fresh processes of the trees; print the C engine call's ns per step of ``none`` and ``adaptive``.
+
+    Parameters
+    ----------
+    trees : dict of str -> str
+        Name -> root of a source tree (holds plant/, adaptive_ff/, controllers/, extensions built in place).
+    seconds, repeat, rounds : float, int, int
+        Simulated time of each run (s), timed calls per process (median), processes per tree.
+    out : callable
+        Receives each printed line.
+
+    Returns
+    -------
+    dict of str -> dict of str -> list of float
+        Name -> mode -> the processes' medians (ns per step), in the order run.
+    """
+    out(f"C engine call (EngineRun.run) of run_mode, {seconds:g} s reference, CPU time of the calling thread, "
+        f"median of {repeat} calls per process, ns per step")
+    out(f"{'tree':<10} {'none':>9} {'adaptive':>9}")
+    runs = {name: {"none": [], "adaptive": []} for name in trees}
+    for _ in range(rounds):
+        for name, root in trees.items():
+            env = dict(os.environ, PYTHONPATH=root, ADAPTIVE_FF_THREADS="1")
+            proc = subprocess.run([sys.executable, "-c", _ENGINE_CHILD, str(seconds), str(repeat)],
+                                  env=env, cwd=root, capture_output=True, text=True, check=True)
+            ns = json.loads(proc.stdout.strip().splitlines()[-1])
+            for mode in ("none", "adaptive"):
+                runs[name][mode].append(ns[mode])
+            out(f"{name:<10} {ns['none']:>9.1f} {ns['adaptive']:>9.1f}")
+    for name, by_mode in runs.items():
+        out(f"{name:<10} " + ", ".join(f"{m} median {statistics.median(v):.1f} (range {min(v):.1f}-{max(v):.1f})"
+                                       for m, v in by_mode.items()) + " ns/step")
+    return runs
 
 
 def ratio_rounds(trees: dict, pythons: dict, *, seconds: float = 20.0, repeat: int = 5, rounds: int = 3,
@@ -164,11 +245,16 @@ def main(argv=None) -> int:
     ap.add_argument("--mode", default="none")
     ap.add_argument("--ratio", action="store_true",
                     help="time run_mode none/adaptive against python-control in both trees (ratios), not run_batch")
+    ap.add_argument("--engine", action="store_true",
+                    help="time the C engine call of run_mode none/adaptive in both trees (ns per step)")
     ap.add_argument("--other-python", default=sys.executable,
                     help="interpreter for the other tree (default: this one)")
     args = ap.parse_args(argv)
     trees = {"this tree": str(Path(__file__).resolve().parent.parent), "other": str(Path(args.other).resolve())}
     pythons = {"this tree": sys.executable, "other": args.other_python}
+    if args.engine:
+        engine_rounds(trees, seconds=args.seconds, repeat=args.repeat, rounds=args.rounds)
+        return 0
     if args.ratio:
         ratio_rounds(trees, pythons, seconds=args.seconds, repeat=args.repeat, rounds=args.rounds)
         return 0

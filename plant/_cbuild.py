@@ -50,13 +50,17 @@ def compile_args() -> list[str]:
 
     ``-O3`` without ``-ffast-math`` keeps every floating-point operation and its order (vectorising or
     inlining does not reassociate), so the results equal those of ``-O2`` (tests/controllers_layer/test_golden.py); it made the
-    engine 20-25 % faster per step (docs/benchmarks/perf.md). On Linux, ``-fno-semantic-interposition`` lets
+    engine 20-25 % faster per step (docs/benchmarks/perf.md). ``-fno-tree-slp-vectorize`` (GCC; Clang reads it
+    as ``-fno-slp-vectorize``) keeps straight-line code scalar: packing pairs of independent scalar operations
+    into vector registers (the RK4 stages, the filter chains, the covariance update) puts shuffles on the loops'
+    dependency chains, a quarter to three quarters more time per engine step and per RLS update at about the
+    same instruction count; the same operations, so the same numbers. On Linux, ``-fno-semantic-interposition`` lets
     the compiler inline the components' exported functions into their callers inside the module (an ELF
     shared object otherwise keeps every exported call interposable).
     """
     if sys.platform == "win32":
         return ["/O2"]
-    args = ["-std=c99", "-O3", "-ffp-contract=off", "-fno-fast-math"]
+    args = ["-std=c99", "-O3", "-ffp-contract=off", "-fno-fast-math", "-fno-tree-slp-vectorize"]
     if sys.platform.startswith("linux"):
         args.append("-fno-semantic-interposition")
     return args

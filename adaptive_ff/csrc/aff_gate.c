@@ -133,9 +133,8 @@ int aff_range_gate_ok(const aff_range_gate *g, aff_real x)
     if (ax > g->x_max)
         return 0;
     aff_real ref = g->env > g->floor ? g->env : g->floor;
-    if (ref == 0 || g->n_held >= g->max_consecutive) /* no scale yet, or the signal really moved */
-        return 1;
-    return ax <= g->factor * ref;
+    /* within the relative bound (the common case, so tested first), or no scale yet, or the signal really moved */
+    return ax <= g->factor * ref || ref == 0 || g->n_held >= g->max_consecutive;
 }
 
 void aff_range_gate_commit(aff_range_gate *g, aff_real x, int ok)
