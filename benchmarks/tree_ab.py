@@ -8,7 +8,8 @@ Run:  git worktree add /tmp/old REV   (or: mkdir /tmp/old && git archive REV | t
 
 ``--ratio`` times, in the same alternating fresh processes, python-control's ``input_output_response`` on
 the PI + plant loop of ``benchmarks/perf.py`` and the single-run engine (``run_mode`` ``none`` and
-``adaptive`` with noise 1e-3), and prints the ratios of both trees to one python-control baseline (the
+``adaptive`` with noise 1e-3; the whole call, and its Python part: CPU time outside the C engine call
+``EngineRun.run``), and prints the ratios of both trees to one python-control baseline (the
 median over all their processes): the speed target "warm engine ratio to python-control not worse than
 before" compared on one machine in one run, where python-control's own time per step varies several-fold
 between runs (docs/benchmarks/perf.md). ``--other-python`` runs the
@@ -111,10 +112,20 @@ def options(**extra):
         from controllers.simulation.compensators import ModeOptions
         return ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=u_max, **extra)
 base, adaptive = options(), options(Vs=p.Vs, delta=p.delta, noise_std=1e-3)
+from controllers.simulation.engine import EngineRun
+engine_run, spent = EngineRun.run, []
+def timed(self):
+    t0 = time.thread_time(); engine_run(self); spent.append(time.thread_time() - t0)
+EngineRun.run = timed
 for mode, o in (("none", base), ("adaptive", adaptive)):
     run = lambda: run_mode(p, ref, mode, o, rng=np.random.default_rng(1))
     run()  # warm-up (compiles where the other tree has a JIT)
-    us[mode] = cpu(run, repeat) / ref.t.size * 1e6
+    whole = []
+    spent.clear()
+    for _ in range(repeat):
+        t0 = time.thread_time(); run(); whole.append(time.thread_time() - t0)
+    us[mode] = statistics.median(whole) / ref.t.size * 1e6
+    us[mode + " python ms"] = statistics.median(w - e for w, e in zip(whole, spent)) * 1e3
 print(json.dumps(us))
 """
 
@@ -215,7 +226,7 @@ def ratio_rounds(trees: dict, pythons: dict, *, seconds: float = 20.0, repeat: i
     """
     out(f"python-control input_output_response ({min(seconds, 2.0):g} s) and run_mode ({seconds:g} s), "
         "CPU time of the calling thread, median of --repeat, µs per step")
-    out(f"{'tree':<10} {'python-control':>15} {'none':>9} {'adaptive':>9}")
+    out(f"{'tree':<10} {'python-control':>15} {'none':>9} {'adaptive':>9}   Python part of a call (ms): none, adaptive")
     runs = {name: [] for name in trees}
     for _ in range(rounds):
         for name, root in trees.items():
@@ -224,14 +235,17 @@ def ratio_rounds(trees: dict, pythons: dict, *, seconds: float = 20.0, repeat: i
                                   env=env, cwd=root, capture_output=True, text=True, check=True)
             us = json.loads(proc.stdout.strip().splitlines()[-1])
             runs[name].append(us)
-            out(f"{name:<10} {us['python-control']:>15.1f} {us['none']:>9.4f} {us['adaptive']:>9.4f}")
+            out(f"{name:<10} {us['python-control']:>15.1f} {us['none']:>9.4f} {us['adaptive']:>9.4f}   "
+                f"{us['none python ms']:.3f} {us['adaptive python ms']:.3f}")
     pc = statistics.median(us["python-control"] for rs in runs.values() for us in rs)
     ratios = {}
     for name, rs in runs.items():
-        none, adaptive = (statistics.median(us[m] for us in rs) for m in ("none", "adaptive"))
+        none, adaptive, py_none, py_adaptive = (statistics.median(us[m] for us in rs) for m in (
+            "none", "adaptive", "none python ms", "adaptive python ms"))
         ratios[name] = (pc / none, pc / adaptive)
-        out(f"{name:<10} median engine none {none:.4f}, adaptive {adaptive:.4f} µs/step; against python-control's "
-            f"median of all runs ({pc:.1f} µs/step): none {pc / none:.0f}x, adaptive {pc / adaptive:.0f}x")
+        out(f"{name:<10} median engine none {none:.4f}, adaptive {adaptive:.4f} µs/step (Python part {py_none:.3f}, "
+            f"{py_adaptive:.3f} ms per call); against python-control's median of all runs ({pc:.1f} µs/step): none "
+            f"{pc / none:.0f}x, adaptive {pc / adaptive:.0f}x")
     return ratios
 
 

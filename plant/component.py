@@ -499,6 +499,25 @@ def ops_table(lib, doc: str = "Pointer to the C ops table :attr:`C_OPS` (``aff_c
     return property(lambda self: self._ffi.addressof(getattr(lib, self.C_OPS)), doc=doc)
 
 
+#: (ffi, C struct name) -> {field: float, int or None}: the kind of each field of a settings struct (a C
+#: ``double``/``float``, another primitive, or a struct), read once from the cffi type (constant per process).
+_FIELD_KINDS: dict = {}
+
+
+def _field_kinds(ffi, ctype: str) -> dict:
+    """The fields of the C struct ``ctype`` (cffi ``ffi``) -> ``float`` (a C ``double`` or ``float``), ``int``
+    (another primitive: an integer or a flag) or None (a struct or an array), cached in memory per process."""
+    key = (ffi, ctype)
+    kinds = _FIELD_KINDS.get(key)
+    if kinds is None:
+        kinds = {}
+        for name, f in ffi.typeof(f"{ctype} *").item.fields:
+            kinds[name] = (float if f.type.cname in ("double", "float") else
+                           int if f.type.kind == "primitive" else None)
+        _FIELD_KINDS[key] = kinds
+    return kinds
+
+
 class Component:
     """Base class: owns (or points into) one C struct of the component's type.
 
@@ -568,16 +587,17 @@ class Component:
             A value of the wrong type (a ParameterError and a TypeError), naming the class and the field.
         """
         cfg = self._ffi.new(f"{ctype} *", defaults)
-        kinds = dict(self._ffi.typeof(cfg).item.fields)
+        kinds = _field_kinds(self._ffi, ctype)
         for k, v in fields.items():
-            cname = kinds[k].type.cname
-            if cname in ("double", "float"):
-                ok = isinstance(v, (Real, np.floating, np.integer)) and not isinstance(v, (bool, np.bool_))
-                if not ok:
-                    raise SettingTypeError(f"{type(self).__name__}: {k} must be a real number, got {v!r} "
-                                           f"({type(v).__name__})")
-                v = float(v)
-            elif kinds[k].type.kind == "primitive":
+            kind = kinds[k]
+            t = type(v)
+            if kind is float:
+                if t is not float:  # the common case, a float, as it is (float(v) is v's value)
+                    if not isinstance(v, (Real, np.floating, np.integer)) or isinstance(v, (bool, np.bool_)):
+                        raise SettingTypeError(f"{type(self).__name__}: {k} must be a real number, got {v!r} "
+                                               f"({type(v).__name__})")
+                    v = float(v)
+            elif kind is int and t is not int:  # an int as it is (never a bool: type(True) is bool)
                 if not isinstance(v, (Integral, np.integer, np.bool_)) or (
                         k in counts and isinstance(v, (bool, np.bool_))):
                     raise SettingTypeError(f"{type(self).__name__}: {k} must be an integer, got {v!r}")

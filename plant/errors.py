@@ -65,9 +65,10 @@ def check_finite_scalar(name: str, value) -> float:
     ParameterError
         If ``value`` is NaN or infinite.
     """
-    if isinstance(value, bool) or not isinstance(value, (Real, np.floating, np.integer)):
-        raise TypeError(f"{name} must be a real number, got {value!r} ({type(value).__name__})")
-    value = float(value)
+    if type(value) is not float:  # a float as it is (the common case; float(value) is its value)
+        if isinstance(value, bool) or not isinstance(value, (Real, np.floating, np.integer)):
+            raise TypeError(f"{name} must be a real number, got {value!r} ({type(value).__name__})")
+        value = float(value)
     if not math.isfinite(value):
         raise ParameterError(f"{name} must be finite, got {value!r}")
     return value

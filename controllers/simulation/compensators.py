@@ -97,7 +97,7 @@ def _nominal_inertia(plant, o: LoopConfig) -> float:
     return _ctx(plant, o)[0] if o.observer.J_n is None else float(o.observer.J_n)
 
 
-def _configs(o: LoopConfig, J: float, ff_max: float) -> dict:
+def _configs(o: LoopConfig, J: float, ff_max: float, *names: str) -> dict:
     """The one map from :class:`LoopConfig` onto the components' config objects (the C settings' dataclasses).
 
     Parameters
@@ -108,47 +108,93 @@ def _configs(o: LoopConfig, J: float, ff_max: float) -> dict:
         The design inertia (kg·m²): the sliding estimator's start.
     ff_max : float
         The compensation's bound (N·m).
+    *names : str
+        The configs wanted (each built only when asked for: a mode builds one or two of them per run).
 
     Returns
     -------
     dict
-        ``"ff"`` (:class:`FrictionFeedforwardConfig`: ``fixed``'s, the adaptive ones' feedforward), ``"robust"``
-        (:class:`RobustAdaptiveFeedforwardConfig`, with that ``ff``), ``"sliding"``
-        (:class:`SlidingFrictionEstimatorConfig`), ``"supervisor"`` (:class:`FeedforwardSupervisorConfig`),
-        ``"canudas"`` (:class:`CanudasCompensatorConfig`) and, with ``o.estimator.model``, ``"eq4-rls"`` (the paper's
-        prototype: RLS at ``Ts``, the bare feedforward) and ``"eq4"`` (recursive IV at ``iv_Ts`` on the samples
-        above ``model.Vs``, with that ``ff``) (:class:`AdaptiveFrictionFeedforwardConfig`).
+        Name -> config, of the ``names`` given: ``"ff"`` (:class:`FrictionFeedforwardConfig`: ``fixed``'s, the
+        adaptive ones' feedforward), ``"robust"`` (:class:`RobustAdaptiveFeedforwardConfig`, with that ``ff``),
+        ``"sliding"`` (:class:`SlidingFrictionEstimatorConfig`), ``"supervisor"``
+        (:class:`FeedforwardSupervisorConfig`), ``"canudas"`` (:class:`CanudasCompensatorConfig`) and, with
+        ``o.estimator.model``, ``"eq4-rls"`` (the paper's prototype: RLS at ``Ts``, the bare feedforward) and
+        ``"eq4"`` (recursive IV at ``iv_Ts`` on the samples above ``model.Vs``, with that ``ff``)
+        (:class:`AdaptiveFrictionFeedforwardConfig`).
+
+    Raises
+    ------
+    KeyError
+        A name not among these (``"eq4"`` and ``"eq4-rls"`` without ``o.estimator.model``).
     """
-    ffs, est, sup, ctl = o.feedforward, o.estimator, o.supervisor, o.controller
-    ff = FrictionFeedforwardConfig(lag=ffs.lag, ff_max=ff_max, sign_width=ffs.sign_width,
-                                   stick_band=o.sized_stick_band(),
-                                   stick_samples=ffs.stick_samples, ff_input=ffs.ff_input)
-    robust = RobustAdaptiveFeedforwardConfig(ff=ff, warmup=ffs.warmup, lag_margin=ffs.lag_margin,
-                                             lag_margin_max=ffs.lag_margin_max, max_rel_stderr=ffs.max_rel_stderr,
-                                             lag_memory=ffs.lag_memory, lag_zero=ffs.lag_zero, project=ffs.project)
-    sliding = SlidingFrictionEstimatorConfig(Ts=est.Ts, T_filter=est.T_filter,
-                                             lam=_SLIDING["lam"] if est.lam is None else est.lam,
-                                             forgetting=est.forgetting, P0=est.P0, initial_J=J, lag=ffs.lag,
-                                             dwell_max=est.dwell_max, offset=est.offset)
+    out = {}
+    for name in names:
+        out[name] = _CONFIG_BUILDERS[name](o, J, ff_max)
+    return out
+
+
+def _ff_config(o, J, ff_max) -> FrictionFeedforwardConfig:
+    ffs = o.feedforward
+    return FrictionFeedforwardConfig(lag=ffs.lag, ff_max=ff_max, sign_width=ffs.sign_width,
+                                     stick_band=o.sized_stick_band(), stick_samples=ffs.stick_samples,
+                                     ff_input=ffs.ff_input)
+
+
+def _robust_config(o, J, ff_max) -> RobustAdaptiveFeedforwardConfig:
+    ffs = o.feedforward
+    return RobustAdaptiveFeedforwardConfig(ff=_ff_config(o, J, ff_max), warmup=ffs.warmup, lag_margin=ffs.lag_margin,
+                                           lag_margin_max=ffs.lag_margin_max, max_rel_stderr=ffs.max_rel_stderr,
+                                           lag_memory=ffs.lag_memory, lag_zero=ffs.lag_zero, project=ffs.project)
+
+
+def _sliding_config(o, J, ff_max) -> SlidingFrictionEstimatorConfig:
+    est = o.estimator
+    return SlidingFrictionEstimatorConfig(Ts=est.Ts, T_filter=est.T_filter,
+                                          lam=_SLIDING["lam"] if est.lam is None else est.lam,
+                                          forgetting=est.forgetting, P0=est.P0, initial_J=J, lag=o.feedforward.lag,
+                                          dwell_max=est.dwell_max, offset=est.offset)
+
+
+def _supervisor_config(o, J, ff_max) -> FeedforwardSupervisorConfig:
+    sup, ctl = o.supervisor, o.controller
     tracking = sup.tracking and ctl.Kp > 0
-    supervisor = FeedforwardSupervisorConfig(
+    return FeedforwardSupervisorConfig(
         window=sup.window, margin=sup.margin, rest_band=-1.0 if sup.rest_band is None else sup.rest_band,
         delay=int(o.sensor.delay), Kp=ctl.Kp if tracking else 0.0, Ki=ctl.Ki if tracking else 0.0,
         track_margin=sup.track_margin)
-    canudas = CanudasCompensatorConfig(Ts=est.Ts, lam=CanudasCompensatorConfig.lam if est.lam is None else est.lam,
-                                       forgetting=est.forgetting, P0=est.P0, J_guess=J, warmup=ffs.warmup,
-                                       ff_max=ff_max, ff_input=ffs.ff_input)
-    out = {"ff": ff, "robust": robust, "sliding": sliding, "supervisor": supervisor, "canudas": canudas}
-    if est.model is not None:
-        m = est.model
-        iv_Ts = ctl.Tc * max(1, round(_IV_TS / ctl.Tc)) if est.iv_Ts is None else est.iv_Ts
-        out["eq4-rls"] = AdaptiveFrictionFeedforwardConfig(
-            Ts=est.Ts, lam=sliding.lam, P0=est.P0, warmup=ffs.warmup,
-            ff=FrictionFeedforwardConfig(lag=ffs.lag, ff_max=ff_max, ff_input=ffs.ff_input))
-        out["eq4"] = AdaptiveFrictionFeedforwardConfig(
-            Ts=iv_Ts, lam=1.0 - iv_Ts / _IV_MEMORY if est.lam is None else est.lam, P0=est.P0, warmup=ffs.warmup,
-            iv=True, w_band=m.Vs if m.stribeck else 0.0, map_rel_stderr=est.iv_map_stderr, ff=ff)
-    return out
+
+
+def _canudas_config(o, J, ff_max) -> CanudasCompensatorConfig:
+    est, ffs = o.estimator, o.feedforward
+    return CanudasCompensatorConfig(Ts=est.Ts, lam=CanudasCompensatorConfig.lam if est.lam is None else est.lam,
+                                    forgetting=est.forgetting, P0=est.P0, J_guess=J, warmup=ffs.warmup,
+                                    ff_max=ff_max, ff_input=ffs.ff_input)
+
+
+def _eq4_rls_config(o, J, ff_max) -> AdaptiveFrictionFeedforwardConfig:
+    est, ffs = o.estimator, o.feedforward
+    if est.model is None:
+        raise KeyError("eq4-rls")
+    return AdaptiveFrictionFeedforwardConfig(
+        Ts=est.Ts, lam=_SLIDING["lam"] if est.lam is None else est.lam, P0=est.P0, warmup=ffs.warmup,
+        ff=FrictionFeedforwardConfig(lag=ffs.lag, ff_max=ff_max, ff_input=ffs.ff_input))
+
+
+def _eq4_config(o, J, ff_max) -> AdaptiveFrictionFeedforwardConfig:
+    est, ffs, m = o.estimator, o.feedforward, o.estimator.model
+    if m is None:
+        raise KeyError("eq4")
+    Tc = o.controller.Tc
+    iv_Ts = Tc * max(1, round(_IV_TS / Tc)) if est.iv_Ts is None else est.iv_Ts
+    return AdaptiveFrictionFeedforwardConfig(
+        Ts=iv_Ts, lam=1.0 - iv_Ts / _IV_MEMORY if est.lam is None else est.lam, P0=est.P0, warmup=ffs.warmup,
+        iv=True, w_band=m.Vs if m.stribeck else 0.0, map_rel_stderr=est.iv_map_stderr, ff=_ff_config(o, J, ff_max))
+
+
+#: Config name -> builder ``(options, design inertia J, feedforward bound) -> config`` of :func:`_configs`.
+_CONFIG_BUILDERS = {"ff": _ff_config, "robust": _robust_config, "sliding": _sliding_config,
+                    "supervisor": _supervisor_config, "canudas": _canudas_config, "eq4-rls": _eq4_rls_config,
+                    "eq4": _eq4_config}
 
 
 def build_supervisor(plant, mode: str, options: LoopConfig, *, force: bool = False) -> FeedforwardSupervisor | None:
@@ -188,7 +234,7 @@ def build_supervisor(plant, mode: str, options: LoopConfig, *, force: bool = Fal
     if omega is None:
         omega = _crossover(plant, options) if options.controller.Kp > 0 else 10.0 / options.supervisor.window
     return FeedforwardSupervisor(Tc=options.controller.Tc, J_n=_nominal_inertia(plant, options), omega=omega,
-                                 config=_configs(options, J, ff_max)["supervisor"])
+                                 config=_configs(options, J, ff_max, "supervisor")["supervisor"])
 
 
 def own_supervisor(comp) -> FeedforwardSupervisor | None:
@@ -228,7 +274,7 @@ def _fixed(plant, o):
     if o.feedforward.estimate is None:
         raise ParameterError("mode 'fixed' needs estimate=FrictionEstimate (an offline LS result)")
     J, ff_max = _ctx(plant, o)
-    return plant, FrictionFeedforward(o.feedforward.estimate, dt=o.controller.Tc, config=_configs(o, J, ff_max)["ff"],
+    return plant, FrictionFeedforward(o.feedforward.estimate, dt=o.controller.Tc, config=_configs(o, J, ff_max, "ff")["ff"],
                                       loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
 
 
@@ -242,7 +288,7 @@ def _adaptive(plant, o):
     wc = _crossover(plant, o)  # the residual observer's slew limit scales with it
     dob = sw = None
     if switch_in:
-        _, dob = _dob(plant, o.replace(omega_q=o.observer.omega_r))
+        _, dob = _dob(plant, o, omega_q=o.observer.omega_r)
         sw = ResidualSwitchIn(Tc=o.controller.Tc, J_n=_nominal_inertia(plant, o), Kp=o.controller.Kp,
                               Ki=o.controller.Ki, ratio=o.observer.switch_in_ratio)
     if isinstance(ff, RobustAdaptiveFeedforward):
@@ -270,7 +316,7 @@ def _eq4_model(o) -> RegressionModel:
 
 def _eq4_rls(o, J: float, ff_max: float) -> AdaptiveFrictionFeedforward:
     """Estimator ``eq4-rls``: the paper's prototype, RLS on every sample at ``Ts``, the bare feedforward."""
-    return AdaptiveFrictionFeedforward(_eq4_model(o), dt=o.controller.Tc, config=_configs(o, J, ff_max)["eq4-rls"])
+    return AdaptiveFrictionFeedforward(_eq4_model(o), dt=o.controller.Tc, config=_configs(o, J, ff_max, "eq4-rls")["eq4-rls"])
 
 
 def _eq4_iv(o, J: float, ff_max: float) -> AdaptiveFrictionFeedforward:
@@ -278,7 +324,7 @@ def _eq4_iv(o, J: float, ff_max: float) -> AdaptiveFrictionFeedforward:
     (offset) as the sliding estimator's."""
     m = _eq4_model(o)
     model = RegressionModel(m.Vs, m.delta, lag=m.lag, stribeck=m.stribeck, offset=bool(o.estimator.offset))
-    return AdaptiveFrictionFeedforward(model, dt=o.controller.Tc, config=_configs(o, J, ff_max)["eq4"],
+    return AdaptiveFrictionFeedforward(model, dt=o.controller.Tc, config=_configs(o, J, ff_max, "eq4")["eq4"],
                                        loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o),
                                        start=o.feedforward.start)
 
@@ -291,7 +337,7 @@ def _sliding(o, J: float, ff_max: float) -> RobustAdaptiveFeedforward:
     if Vs is None or delta is None:
         raise ParameterError("mode 'adaptive' needs Vs and delta (from the Stribeck pre-fit) or model=")
     gate_step = 2.0 * o.drive.u_max * o.controller.Tc / J if math.isfinite(o.drive.u_max) else math.inf
-    configs = _configs(o, J, ff_max)
+    configs = _configs(o, J, ff_max, "sliding", "robust")
     est = SlidingFrictionEstimator(Vs, delta, Tc=o.controller.Tc, config=configs["sliding"], initial=e.initial,
                                    gate=OutlierGate(max_step=gate_step))
     return RobustAdaptiveFeedforward(est, dt=o.controller.Tc, config=configs["robust"], start=o.feedforward.start,
@@ -310,20 +356,23 @@ def _adaptive_dob(plant, o):
     # the eq. 4 estimates without the determinacy test: the observer, always applied, takes what an early estimate
     # misses (docs/benchmarks/compensation.md, "The eq. 4 estimate's determinacy test")
     _, ff = _adaptive_feedforward(plant, o.replace(iv_map_stderr=math.inf))
-    _, dob = _dob(plant, o.replace(omega_q=o.observer.omega_r))
+    _, dob = _dob(plant, o, omega_q=o.observer.omega_r)
     _, ff_max = _ctx(plant, o)
     return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max, crossover=_crossover(plant, o))
 
 
 def _canudas(plant, o):
     J, ff_max = _ctx(plant, o)
-    return plant, CanudasCompensator(Tc=o.controller.Tc, config=_configs(o, J, ff_max)["canudas"])
+    return plant, CanudasCompensator(Tc=o.controller.Tc, config=_configs(o, J, ff_max, "canudas")["canudas"])
 
 
-def _dob(plant, o):
+def _dob(plant, o, omega_q: float | None = None):
+    """Mode ``dob``: the observer of ``o.observer`` (its cut-off ``omega_q``, or the one given: a composite's
+    ``omega_r``, checked where ``o`` was built)."""
     _, ff_max = _ctx(plant, o)
-    return plant, DisturbanceObserver(J_n=_nominal_inertia(plant, o), omega_q=o.observer.omega_q, Tc=o.controller.Tc,
-                                      d_max=ff_max)
+    return plant, DisturbanceObserver(J_n=_nominal_inertia(plant, o),
+                                      omega_q=o.observer.omega_q if omega_q is None else omega_q,
+                                      Tc=o.controller.Tc, d_max=ff_max)
 
 
 #: Mode name -> builder ``(plant, options) -> (plant to simulate, compensator or None)``.

@@ -209,7 +209,7 @@ class EngineRun:
             n_rows = n_rows if row_k else 1
             row_k = np.arange(n_rows) * int(row_k)
         starts = np.ascontiguousarray(row_k, dtype=np.dtype("long"))
-        if starts.shape != (max(n_rows, 1),) or starts[0] != 0 or np.any(np.diff(starts) < 0):
+        if starts.shape != (max(n_rows, 1),) or starts[0] != 0 or (n_rows > 1 and np.any(np.diff(starts) < 0)):
             raise ParameterError(f"row_k must hold {n_rows} increasing start samples from 0, got {row_k!r}")
         self._keep.extend((rows, starts))
         sc.rows = rows

@@ -75,25 +75,31 @@ def available_memory() -> tuple[int, str] | None:
     return None
 
 
+def _read(path: str, size: int) -> bytes:
+    """The first ``size`` bytes of the file ``path`` (one ``read``: no text layer, the kernel's pseudo-files are read
+    fresh at each call)."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        return os.read(fd, size)
+    finally:
+        os.close(fd)
+
+
 def _meminfo_available() -> int | None:
     try:
-        with open("/proc/meminfo", encoding="ascii") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
+        data = b"\n" + _read("/proc/meminfo", 1 << 14)  # every line after a newline, the first one too
+        at = data.index(b"\nMemAvailable:") + 14
+        return int(data[at:data.index(b"\n", at)].split()[0]) * 1024
     except (OSError, ValueError, IndexError):
         return None
-    return None
 
 
 def _cgroup_free() -> int | None:
     try:
-        with open("/sys/fs/cgroup/memory.max", encoding="ascii") as fh:
-            limit = fh.read().strip()
-        if limit == "max":
+        limit = _read("/sys/fs/cgroup/memory.max", 64).strip()
+        if limit == b"max":
             return None
-        with open("/sys/fs/cgroup/memory.current", encoding="ascii") as fh:
-            used = int(fh.read().strip())
+        used = int(_read("/sys/fs/cgroup/memory.current", 64).strip())
         return max(int(limit) - used, 0)
     except (OSError, ValueError):
         return None

@@ -275,10 +275,11 @@ def reversal_times(t, w, chunk: int = 1 << 16) -> np.ndarray:
     out = [t[:0]]
     for i in range(0, n - 1, chunk):
         s = np.sign(w[i:i + chunk + 2])
-        direct = s[1:] * s[:-1] < 0
-        on_zero = np.zeros_like(direct)
-        on_zero[:-1] = (s[1:-1] == 0) & (s[2:] * s[:-2] < 0)
-        k = np.flatnonzero((direct | on_zero)[:chunk])
+        flips = s[1:] * s[:-1] < 0
+        zero = s[1:-1] == 0
+        if zero.any():  # a sample exactly at 0 between opposite signs (rare: measured data, a designed reference)
+            flips[:-1] |= zero & (s[2:] * s[:-2] < 0)
+        k = np.flatnonzero(flips[:chunk])
         out.append(t[i + 1 + k])
     return np.concatenate(out)
 

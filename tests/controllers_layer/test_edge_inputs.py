@@ -43,6 +43,21 @@ def _fake_memory(monkeypatch, n_bytes):
 
 
 # ------------------------------------------------------------------------------------------- run length and memory
+def test_available_memory_is_memavailable_of_proc_meminfo():
+    # read here by a regular expression over the text, the module reads the bytes; outside a cgroup limit the two
+    # agree up to what the machine's other processes move between the reads (1 %: MemFree, the other number a
+    # wrong line would give, lies a few % below MemAvailable where the kernel holds a page cache)
+    try:
+        text = open("/proc/meminfo", encoding="ascii").read()
+    except OSError:
+        pytest.skip("no /proc/meminfo")
+    found = memory.available_memory()
+    if found is None or found[1] != "are available":
+        pytest.skip("a cgroup limit decides")
+    expected = int(re.search(r"^MemAvailable:\s+(\d+) kB$", text, re.M).group(1)) * 1024
+    assert found[0] == pytest.approx(expected, rel=0.01)
+
+
 def test_cli_refuses_a_duration_too_long_for_the_memory_with_the_numbers(monkeypatch, capsys):
     _fake_memory(monkeypatch, 16e9)
     code = main(["compare", "--duration", "1e9", "--no-figures", "--quiet", "--yes"])  # --yes: past the work bound
