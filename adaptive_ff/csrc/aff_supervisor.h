@@ -29,7 +29,18 @@
  * (n_restore += 1). The hysteresis band [(1 - margin)*M_f, M_f] keeps it from chattering. The motion condition:
  * a friction feedforward evaluated at a joint that sticks at a reversal takes the sign of the sensor's noise, and
  * switched on there, the transfer below moves one noise-signed sample into the integrator while the next period's
- * flips the command (on the linear axis's zoo: 3 times the uncompensated loop's largest error). Bumpless transfer (Astrom & Hagglund, Advanced PID
+ * flips the command (on the linear axis's zoo: 3 times the uncompensated loop's largest error). Off, a period where
+ * the reference moves (|w_ref| > rest_band) and the joint does not move with it is no evidence for the candidate:
+ * the uncompensated loop leaves the joint stuck after a reversal until its PI reaches the breakaway torque, the
+ * friction there is the reaction that holds it and the candidate, evaluated at the sensor's noise, takes the noise's
+ * sign, none of which the candidate applied would meet. Such a period adds nothing to the mean squares (x^2 = 0 in
+ * all four: they forget at the window's rate and their ratios hold, so older evidence still ages in time), and the
+ * candidate's residual enters the Q-filter and the tracking test's loop model as 0 (u_c taken as v there), so it
+ * leaves no transient behind. Counted, the phantom residual held M_e1 at 10 to 20 times M_e0 on the `paper` joint
+ * with the eq. 4 feedforward alone (seed 3): backed off at 1.3 s, never restored, eta 0.000 (0.995 with the rule,
+ * restored at 12 s). Held instead of forgetting, the mean squares kept a harmful start's evidence for as long again
+ * as the joint stuck: the `karnopp` joint's eq4-rls mode with its switch-in (30 s, seed 0) was restored at 17 s
+ * rather than 11 s, eta 1.00 -> 0.81. Bumpless transfer (Astrom & Hagglund, Advanced PID
  * Control, ISA 2006, Sec. 3.5, between manual and automatic modes): in the period the applied torque switches,
  * transfer = (the torque the old mode would apply) - (the new mode's), +u_c off, -u_c on, is what the loop adds
  * to its PI integrator, so the total command does not jump (0 in every other period). While on, the applied
