@@ -29,38 +29,35 @@
  * (n_restore += 1). The hysteresis band [(1 - margin)*M_f, M_f] keeps it from chattering. The motion condition:
  * a friction feedforward evaluated at a joint that sticks at a reversal takes the sign of the sensor's noise, and
  * switched on there, the transfer below moves one noise-signed sample into the integrator while the next period's
- * flips the command (on the linear axis's zoo: 3 times the uncompensated loop's largest error). Off, a period where
+ * flips the command. Off, a period where
  * the reference moves (|w_ref| > rest_band) and the joint does not move with it is no evidence for the candidate:
  * the uncompensated loop leaves the joint stuck after a reversal until its PI reaches the breakaway torque, the
  * friction there is the reaction that holds it and the candidate, evaluated at the sensor's noise, takes the noise's
  * sign, none of which the candidate applied would meet. Such a period adds nothing to the mean squares (x^2 = 0 in
  * all four: they forget at the window's rate and their ratios hold, so older evidence still ages in time), and the
  * candidate's residual enters the Q-filter and the tracking test's loop model as 0 (u_c taken as v there), so it
- * leaves no transient behind. Counted, the phantom residual held M_e1 at 10 to 20 times M_e0 on the `paper` joint
- * with the eq. 4 feedforward alone (seed 3): backed off at 1.3 s, never restored, eta 0.000 (0.995 with the rule,
- * restored at 12 s). Held instead of forgetting, the mean squares kept a harmful start's evidence for as long again
- * as the joint stuck: the `karnopp` joint's eq4-rls mode with its switch-in (30 s, seed 0) was restored at 17 s
- * rather than 11 s, eta 1.00 -> 0.81. Bumpless transfer (Astrom & Hagglund, Advanced PID
+ * leaves no transient behind. Counted, the stuck periods' phantom residual would keep the tracking test from
+ * clearing however well the candidate tracks in motion; held instead of forgetting, the mean squares would keep a
+ * harmful start's evidence for as long again as the joint sticks (docs/benchmarks/compensation.md, "The
+ * supervisor"). Bumpless transfer (Astrom & Hagglund, Advanced PID
  * Control, ISA 2006, Sec. 3.5, between manual and automatic modes): in the period the applied torque switches,
  * transfer = (the torque the old mode would apply) - (the new mode's), +u_c off, -u_c on, is what the loop adds
  * to its PI integrator, so the total command does not jump (0 in every other period). While on, the applied
  * torque is the candidate itself, so a supervisor that never backs off leaves the loop bit for bit unchanged.
  * The reference at rest (|w_ref| <= rest_band for n_hold periods in a row, n_hold = max(2, ceil(1/(omega*Tc))): one
- * time constant of the loop after the reference stopped, the joint has stopped behind it; a hold of 2 periods cost
- * the `long-lag` joint (tau 80 ms) eta 1.10 -> 0.95 on the open bench, the friction still decaying through its lag
- * when the feedforward was withdrawn; docs/benchmarks/compensation.md, "The rest rule's hold"): a velocity loop's friction then
+ * time constant of the loop after the reference stopped, the joint has stopped behind it; a shorter hold withdraws
+ * the feedforward while a long lag's friction still decays; docs/benchmarks/compensation.md, "The rest rule's
+ * hold"): a velocity loop's friction then
  * brakes the joint toward its setpoint w = 0 (the error is -w and friction opposes w), so a friction
  * feedforward can only lift that brake; the supervisor withdraws it (no transfer: the brake is wanted) through
  * the compensator's lag in use (aff_supervisor_set_rest_lag: u(k) = (1 - alpha)*u(k-1) from the last applied
  * torque, eq. 2's lag with the model friction F(0) = 0 as its input; at once without a lag: a lagged friction
- * withdrawn in one period keeps acting for its lag and drives the stopped joint backward, 33 deg/s on a joint
- * of J 0.5 kg*m^2, tau 50 ms and 20 N*m where no compensation errs by 1.5 deg/s) and those periods do not enter
+ * withdrawn in one period keeps acting for its lag and drives the stopped joint backward) and those periods do not
+ * enter
  * M_f, M_r (friction there is a reaction, not a disturbance); rest = 1 tells the loop,
  * which tells the compensator (aff_compensator_ops.at_rest: the composite ctl_adob's residual observer then
- * records the torque as applied, without the feedforward it did not get, ctl_adob.h). Measured on the open
- * bench's point-to-point moves (docs/benchmarks/compensation.md, "The supervisor"): the adaptive feedforward's
- * mean-square error at rest was 20-46 times the uncompensated loop's on joints where it was worse than none,
- * while in motion it was at the frictionless loop's.
+ * records the torque as applied, without the feedforward it did not get, ctl_adob.h). The measurements behind
+ * these rules: docs/benchmarks/compensation.md, "The supervisor".
  * The tracking test (the config's Kp, Ki: the loop's PI gains; off with Kp = 0). The torque test weighs
  * every frequency of the residual alike; the loop's tracking weighs it by its disturbance sensitivity: a constant
  * the PI's integrator rejects costs no tracking, a ripple at the loop's bandwidth costs most. The nominal loop (the
@@ -73,12 +70,12 @@
  * as M_f, M_r. On and M_e1 > (1 + track_margin)*M_e0 (the compensation makes the loop's velocity error clearly
  * larger than none would: by default twice its mean square): back off too (n_backoff_tracking counts the back-offs
  * the torque test alone would not have made); off: switch back on only when both tests clear their margin
- * (M_e1 < (1 - margin)*M_e0 too). Without track_margin the test backed the `paper` joint off in its feedforward's
- * fade-in (the models' integrators still held the friction's rejection: M_e1 1.13 times M_e0 for 1 s), eta
- * 0.94 -> 0.65. The measured error itself is not compared: it holds the reference's
+ * (M_e1 < (1 - margin)*M_e0 too). Without track_margin the test would back a joint off in its feedforward's
+ * fade-in, while the models' integrators still hold the friction's rejection. The measured error itself is not
+ * compared: it holds the reference's
  * own tracking error, which dwarfs the friction's share on a joint whose friction costs little, and its prediction
- * without the feedforward by superposition predicted the uncompensated error 2 to 10 times too large on the open
- * bench's worse-than-none joints (the linear model lacks the friction's braking); G[v] compares the same
+ * without the feedforward by superposition predicts the uncompensated error too large where friction brakes the
+ * joint (the linear model lacks the friction's braking); G[v] compares the same
  * disturbance, which needs no such prediction. Neither test sees every harm: a feedforward whose residual is small in mean square can still cost tracking where friction
  * was helping (at rest, hence the rest rule, or where the PI's integrator rejected the friction anyway, a joint
  * whose friction raises the uncompensated error by 2 %), or change the loop's motion (the eq. 4 feedforward's
