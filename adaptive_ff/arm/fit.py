@@ -22,26 +22,21 @@ known there, and the filter spreads the friction's jump at a reversal over that 
 weighted by the inverse of its residual standard deviation from an unweighted first fit (IDIM-WLS; Gautier &
 Poignet, IFAC SYSID 2001). Two choices of rows and friction columns (``rows``, :data:`ROWS`):
 
-In both the friction columns pass the torque's filter (:func:`adaptive_ff.arm.arm_log.parallel_filter`): ``g``
-and ``h`` are built at the log's rate from the velocity low-passed at :data:`FRICTION_VELOCITY_FACTOR` times the
-cutoff (the measured velocity where the log has one, else the positions' derivative; that light filter keeps the
-noise from scattering the sign near rest), then filtered and decimated as the torque is, since the filtered torque
-holds the filtered friction, not the friction of the filtered velocity (they differ where the map is curved, the
-Stribeck hump, crossed in tens of milliseconds). And a joint's friction is the map of its velocity only while it
-slides: where it is at rest, the friction is whatever holds it (a simulated joint without a lag chatters about zero
-velocity there), which no friction column gives, and the torque's filter carries that into the rows around it: 2 %
-of a torque step one cutoff period from it, 0.5 % at :data:`REST_WINDOW` (1.5) periods.
+``rows="moving"`` (the default): those rows, and friction columns of the filtered velocity, while the filtered
+torque holds the filtered friction ``F(w)``, which differs from ``F`` of the filtered velocity where the map is
+curved (the Stribeck hump, crossed in tens of milliseconds): over 8 arms of ``benchmarks/arm_coverage.py`` (24
+joint fits) ``Fc`` came out 0.6 % high and ``sigma`` 1.2 % low on average.
 
-``rows="moving"`` (the default): those rows, each of them the filter of the moving samples' equation alone
-(:func:`_moving_share`): the samples where the lightly filtered velocity is slower than the 2 % speed (at rest)
-are left out of the torque, the rigid-body block (the regressor of the filtered states at the log's rate) and the
-friction columns (viscous and offset too) before the filter, so that the rows next to a stick keep the hump's
-information without the holding torque (with it in, over the 50 arms of ``benchmarks/arm_coverage.py`` the
-wrists' ``Fs`` read 12 % low and ``Vs`` 1.8 times the truth, medians; without it 1 % low and 1.01 times).
-
-``rows="sliding"``: the viscous and offset columns are the filtered velocity and one, and the rows within 1.5
-cutoff periods of every log sample where the lightly filtered velocity is slower than the 2 % speed or changes sign
-are left out as well (at one period the rest left in those rows drew the
+``rows="sliding"``: the friction columns pass the torque's filter too
+(:func:`adaptive_ff.arm.arm_log.parallel_filter`): ``g`` and ``h`` are built at the log's rate from the velocity
+low-passed at :data:`FRICTION_VELOCITY_FACTOR` times the cutoff (the measured velocity where the log has one, else
+the positions' derivative; that light filter keeps the noise from scattering the sign near rest), then filtered
+and decimated as the torque is; the viscous and offset columns are the filtered velocity and one. And a joint's
+friction is the map of its velocity only while it slides: where it sticks or reverses, the friction is whatever
+holds it (a simulated joint without a lag chatters about zero velocity there), and the torque's filter carries that
+into the rows around it: 2 % of a torque step one cutoff period from it, 0.5 % at :data:`REST_WINDOW` (1.5)
+periods. So the rows within 1.5 cutoff periods of every log sample where the lightly filtered velocity is slower
+than the 2 % speed or changes sign are left out as well (at one period the rest left in those rows drew the
 Stribeck profile to a wrong shape: ``docs/your_arm.md``, "Intervals"). What either choice
 measures (coverage over simulated arms, the Stäubli TX40, a lagged arm) and the alternatives measured are on
 ``docs/your_arm.md`` ("Rows", "Intervals", "Not yet").
@@ -56,15 +51,15 @@ number of refits). A joint's friction intervals are widened to cover that band a
 (``Fs = Fc``), whether the joint keeps its Stribeck term or not; the accepted grid values are the intervals of
 ``V_s`` and ``delta`` (also where the term is dropped and ``V_s`` itself is NaN): the grid points whose profiled
 weighted residual sum of squares is within the 95 % likelihood-ratio bound of the best, the residuals' correlation
-counted by the ratio of the bootstrap variance to the white-noise least-squares variance (the largest over the
-joints' ``Fc, Fs, sigma``; :func:`_variance_ratio`; why: ``docs/your_arm.md``, "Intervals").
+counted by the bootstrap's block length (``rows="moving"``) or (``rows="sliding"``) by the ratio of the bootstrap
+variance to the white-noise least-squares variance (the largest over the joints' ``Fc, Fs, sigma``;
+:func:`_variance_ratio`; why: ``docs/your_arm.md``, "Intervals").
 
 With ``rows="moving"`` every interval of ``J``, the friction and the base parameters then carries the model error
-that a bootstrap of one rows choice cannot see (a bias common to all its refits, such as the rigid body's share at
-the samples at rest, which the regressor of the filtered states approximates): its half-width on either side is combined in quadrature with the distance of the estimate from the
-``rows="sliding"`` fit's (a point fit of the same log, without bootstrap; for ``Fs`` and ``Vs`` only where that fit
-keeps the Stribeck term: without it, its ``Fs`` is its ``Fc``, another model's), ``sqrt(h^2 + (x_moving -
-x_sliding)^2)``. A joint that keeps the Stribeck term and is at rest over
+that a bootstrap of one rows choice cannot see (a bias common to all its refits: the rows next to where a joint
+sticks): its half-width on either side is combined in quadrature with the distance of the estimate from the
+``rows="sliding"`` fit's (a point fit of the same log, without bootstrap; ``Fs = Fc`` where that fit drops the
+Stribeck term), ``sqrt(h^2 + (x_moving - x_sliding)^2)``. A joint that keeps the Stribeck term and is at rest over
 more than :data:`REST_WARN` of the log carries a warning that its ``Fs`` and ``Vs`` may lie outside their intervals
 (code ``method``: a note on the method, which ``design``, ``compare`` and ``export-c --from`` do not refuse).
 
@@ -113,26 +108,32 @@ _FRICTION = ("Fc", "Fs", "sigma", "offset")
 class _FrictionColumns:
     """Each joint's friction columns ``(g, h, w, 1)`` (m, 4) at ``(Vs, delta)``: ``g`` and ``h`` built at the log's
     rate from its velocity low-passed at :data:`FRICTION_VELOCITY_FACTOR` times the cutoff (``w_fast``, (n, N)) and
-    put through the torque's filter and decimation (``pf``); ``dq`` (m, N) the filtered velocity. With ``moving``
-    ((n, N) bool, ``rows="moving"``) every column is the filtered product of ``moving`` and its map, ``w`` and ``1``
-    too: the friction of the moving samples only (:func:`_moving_share`)."""
+    put through the torque's filter and decimation (``pf``); ``dq`` (m, N) the filtered velocity."""
 
-    def __init__(self, pf, w_fast, dq, moving=None):
-        self.pf, self.w, self.moving = pf, w_fast, moving
-        if moving is None:
-            self.sgn, self.lin, self.one = pf(np.sign(w_fast)), dq, np.ones(dq.shape)
-        else:
-            mf = moving.astype(float)
-            self.sgn, self.lin, self.one = pf(mf * np.sign(w_fast)), pf(mf * w_fast), pf(mf)
+    def __init__(self, pf, w_fast, dq):
+        self.pf, self.w, self.dq = pf, w_fast, dq
+        self.sgn = pf(np.sign(w_fast))
 
     def __call__(self, j: int, Vs: float, delta: float) -> np.ndarray:
-        m = self.sgn.shape[0]
+        m = self.dq.shape[0]
         h = np.zeros(m)
         if np.isfinite(Vs):
             w = self.w[:, j]
-            x = np.sign(w) * stribeck_shape(w, Vs, delta)
-            h = self.pf(x if self.moving is None else x * self.moving[:, j])
-        return np.column_stack([self.sgn[:, j] - h, h, self.lin[:, j], self.one[:, j]])
+            h = self.pf(np.sign(w) * stribeck_shape(w, Vs, delta))
+        return np.column_stack([self.sgn[:, j] - h, h, self.dq[:, j], np.ones(m)])
+
+
+class _MapColumns:
+    """Each joint's friction columns ``(g, h, w, 1)`` (m, 4) at ``(Vs, delta)`` of the filtered velocity ``dq``
+    (m, N) itself (``rows="moving"``)."""
+
+    def __init__(self, dq):
+        self.dq = dq
+
+    def __call__(self, j: int, Vs: float, delta: float) -> np.ndarray:
+        w = self.dq[:, j]
+        s = stribeck_shape(w, Vs, delta) if np.isfinite(Vs) else np.zeros(w.shape[0])
+        return np.column_stack([np.sign(w) * (1 - s), np.sign(w) * s, w, np.ones(w.shape[0])])
 
 
 class _Problem:
@@ -241,49 +242,16 @@ def _fast_velocity(log: ArmLog, cutoff: float) -> np.ndarray:
 
 
 def _rows_and_columns(log: ArmLog, cutoff: float, filtered, vmin, rows: str) -> tuple:
-    """Each joint's rows ``keep_j`` (m, N) and its friction columns (:class:`_FrictionColumns`, with the moving
-    samples' mask ``|w_fast| >= vmin`` for ``rows="moving"``) for ``rows`` (:data:`ROWS`); ``filtered`` the
-    ``(t, dq)`` of the filtered states and the log's fast velocity ``w_fast`` (:func:`_fast_velocity`)."""
+    """Each joint's rows ``keep_j`` (m, N) and its friction columns (:class:`_FrictionColumns` or
+    :class:`_MapColumns`) for ``rows`` (:data:`ROWS`); ``filtered`` the ``(t, dq)`` of the filtered states and the
+    log's fast velocity ``w_fast`` (:func:`_fast_velocity`)."""
     t, dq, w_fast = filtered
     keep_j = (np.abs(dq) >= np.maximum(vmin, 1e-9)) & ~_near_reversal(t, dq, 1.0 / cutoff)
-    pf = parallel_filter(log, cutoff)
     if rows == "moving":
-        return keep_j, _FrictionColumns(pf, w_fast, dq, moving=np.abs(w_fast) >= np.maximum(vmin, 1e-9))
+        return keep_j, _MapColumns(dq)
+    pf = parallel_filter(log, cutoff)
     window = int(round(REST_WINDOW / (cutoff * float(np.median(np.diff(log.t))))))
     return keep_j & ~_near_rest(pf, w_fast, np.maximum(vmin, 1e-9), window), _FrictionColumns(pf, w_fast, dq)
-
-
-def _moving_share(log: ArmLog, arm: ArmModel, cutoff: float, states, vmin, rb) -> tuple:
-    """``states`` ``(t, dq, Yb, tau, w_fast)`` (:func:`identify_arm`'s) with each joint's torque and rigid-body rows
-    holding the share of its moving samples only: ``tau_j - pf(stuck_j tau_j)`` and ``Yb_j - pf(stuck_j Yb_j)``,
-    ``pf`` the torque's filter and decimation (:func:`adaptive_ff.arm.arm_log.parallel_filter`), ``stuck_j`` the
-    log's samples where the joint's ``w_fast`` is slower than its ``vmin`` (N,) (at rest), the regressor there from
-    the filtered states at the log's rate. ``rb`` is ``(independent, theta)``: the base parameters' columns of the
-    regressor, and None or, with ``rigid_body="urdf"`` (``tau`` already less ``Y theta``, ``Yb`` empty), the URDF's
-    inertias ``theta``, then the torque's share is ``pf(stuck_j (tau_j - (Y theta)_j))``.
-
-    Why: the filtered torque of a row is linear in the log's samples, ``sum_i k_i tau_i``; at a sample where the
-    joint is at rest its friction is whatever holds it, which no friction column gives (their map is 0 at rest), so
-    that the rows next to a stick carry ``sum_stuck k_i f_hold_i`` unexplained. The stuck samples' share left out of
-    the torque, the rigid body and (:class:`_FrictionColumns` with ``moving``) the friction columns alike, each row
-    is the filter of the moving samples' own equation, which holds exactly."""
-    t, dq, Yb, tau, w_fast = states
-    independent, theta = rb
-    pf = parallel_filter(log, cutoff)
-    stuck = np.abs(w_fast) < np.maximum(vmin, 1e-9)
-    n, r = log.t.shape[0], Yb.shape[2]
-    _, q_n, dq_n, ddq_n, _ = filtered_states(log, cutoff, decimate=False)
-    S = np.zeros((n, arm.n, r))
-    U = np.where(stuck, log.tau, 0.0)
-    at_rest = np.flatnonzero(stuck.any(axis=1))
-    for idx in np.array_split(at_rest, max(1, at_rest.size // 5000)):  # the regressor in slices: memory
-        Y = arm.regressor(q_n[idx], dq_n[idx], ddq_n[idx])
-        if theta is not None:
-            U[idx] -= np.where(stuck[idx], Y @ theta, 0.0)
-        else:
-            S[idx] = Y[:, :, independent] * stuck[idx][:, :, None]
-    Yb_m = Yb - pf(S.reshape(n, -1)).reshape(Yb.shape) if r else Yb
-    return t, dq, Yb_m, tau - pf(U), w_fast
 
 
 def _near_rest(pf, w_fast, vmin, window: int) -> np.ndarray:
@@ -556,9 +524,10 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     rows : {"moving", "sliding"}, keyword-only
         The joints' rows (:data:`ROWS`; module docstring; ``identify-arm --rows``): ``"moving"`` (default) where
         the filtered velocity is above 2 % of the joint's 99th-percentile speed and one cutoff period from its
-        reversals, each the filter of the moving samples' share alone (torque, rigid body and friction columns);
-        ``"sliding"`` also :data:`REST_WINDOW` cutoff periods from where the joint sticks; the profile's bound
-        scaled by the bootstrap's variance ratio in both (their coverage: ``docs/your_arm.md``).
+        reversals, friction columns of the filtered velocity, the profile's bound scaled by the bootstrap's block
+        length; ``"sliding"`` also :data:`REST_WINDOW` cutoff periods from where the joint sticks,
+        friction columns through the torque's filter, the bound scaled by the bootstrap's variance ratio (their
+        coverage: ``docs/your_arm.md``).
 
     Returns
     -------
@@ -593,15 +562,12 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     vmin = 0.02 * np.percentile(np.abs(dq), 99, axis=0)
     w_fast = _fast_velocity(log, cutoff)
     states = (t, dq, Yb, tau, w_fast)
-    rb = (base.independent, arm.theta_urdf if rigid_body == "urdf" else None)
-    fit_states = _moving_share(log, arm, cutoff, states, vmin, rb) if rows == "moving" else states
-    prob, keep_j, (Vs, delta, table), (x, rss, A) = _weighted_fit((log, arm, cutoff), fit_states, vmin, rows,
-                                                                  progress)
+    prob, keep_j, (Vs, delta, table), (x, rss, A) = _weighted_fit((log, arm, cutoff), states, vmin, rows, progress)
     alt = _sliding_estimate((log, arm, cutoff), states, vmin) if rows == "moving" else None
     x_alt = None if alt is None else alt[0]
     boot, resid = _bootstrap(prob, A, x, int(n_bootstrap), seed, progress)
     half = boot.half_width(0.95)
-    ratio = _variance_ratio(prob, A, rss, boot)
+    ratio = _variance_ratio(prob, A, rss, boot) if rows == "sliding" else float(boot.block)
     a_J = _inertia_rows(arm, base, log.q.mean(axis=0))  # the log's mean configuration (all its samples)
     r = Yb.shape[2]
     J_all = a_J @ (x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf))
@@ -659,8 +625,8 @@ def _weighted_fit(setup, states, vmin, rows: str, progress=False) -> tuple:
 
 def _sliding_estimate(setup, states, vmin):
     """The ``rows="sliding"`` point estimate of the same log (:func:`_weighted_fit`): ``(x, Vs)`` with ``x`` (p,)
-    and ``Vs`` (n,) rad/s the refined best, each joint's ``Fs`` and ``Vs`` NaN where that fit drops the Stribeck
-    term (no row sensitivity of them there);
+    each joint's ``Fs`` set to its ``Fc`` where that fit drops the Stribeck term and ``Vs`` (n,) rad/s its profile's
+    best, also where the term is dropped;
     or None where a joint has fewer than 10 sliding rows: the other rows choice, whose distance from the default's
     estimate is the row-sensitivity term of the default's intervals (:func:`_widen`)."""
     try:
@@ -669,8 +635,8 @@ def _sliding_estimate(setup, states, vmin):
         return None
     x = x.copy()
     for j in np.flatnonzero(~np.isfinite(Vs)):
-        x[prob.r + 4 * j + 1] = np.nan
-    return x, np.where(np.isfinite(Vs), [t[-2][0] for t in table], np.nan)
+        x[prob.r + 4 * j + 1] = x[prob.r + 4 * j]
+    return x, np.array([t[-2][0] for t in table])  # the refined best Vs of each joint, kept or not
 
 
 def _widen(value, lo, hi, alt):
@@ -763,7 +729,7 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> Arm
     if r:  # J as well: the rigid body's estimate moves with the joint's (Vs, delta)
         Js = xs[:, :r] @ a_J[j]
         lo["J"], hi["J"] = min(lo["J"], Js.min() - hw["J"]), max(hi["J"], Js.max() + hw["J"])
-    if sliding is not None:  # the row sensitivity (rows="moving"): the sliding rows' estimate (Fs NaN where dropped)
+    if sliding is not None:  # the row sensitivity (rows="moving"): the sliding rows' estimate, Fs = Fc where dropped
         x_alt, Vs_alt = sliding
         alt = dict(zip(_FRICTION, x_alt[c: c + 4]), J=float(a_J[j] @ x_alt[:r]) if r else np.nan)
         for k, v in (("J", J), *p.items()):
