@@ -403,8 +403,8 @@ def test_profile_interval_of_a_profile_the_later_joints_lowered():
     from its own minimum, not an IndexError. The bound's half-width 100 * 3.84 * 2 / 1000 = 0.768 accepts the
     ``delta = 1`` rows within |log(Vs / 0.1)| <= sqrt(0.768 / 40) = 0.139: the refined best 0.1 and the grid's
     0.0940 (RSS 100.15 before the shift); the Vs range reaches the grid's next values, 0.0638 and 0.1384 (RSS 108.1
-    and 104.2), and Fs covers its estimates there. Before the bound was counted from the profile's minimum this
-    raised IndexError. A profile or final fit without a finite RSS raises ExcitationError naming the joint."""
+    and 104.2), and Fs covers its estimates there; counted from the final fit's RSS alone no row would be inside.
+    A profile or final fit without a finite RSS raises ExcitationError naming the joint."""
     from adaptive_ff.arm import fit
     from plant.errors import ExcitationError
 
