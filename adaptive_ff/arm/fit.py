@@ -72,7 +72,7 @@ from __future__ import annotations
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from plant.errors import ParameterError, SignalError
+from plant.errors import ExcitationError, ParameterError, SignalError
 from plant.stribeck_map import stribeck_shape
 
 from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states, parallel_filter
@@ -97,8 +97,9 @@ COND_WARN = 1e3
 #: Share of the log at rest (the velocity low-passed at FRICTION_VELOCITY_FACTOR times the cutoff slower than the
 #: joint's slowest kept speed) above which a joint that keeps its Stribeck term gets a warning that its ``Fs`` and
 #: ``Vs`` intervals may miss (``rows="moving"``): over the 150 joints of ``benchmarks/arm_coverage.py`` 24 of the 26
-#: ``Fs`` intervals that missed the truth were wrists at rest over 24-40 % of their logs (two elbows, 13 %); every
-#: shoulder and elbow is at rest over at most 19 %, every wrist over at least 11 %.
+#: ``Fs`` intervals that missed the truth were wrists at rest over 24-40 % of their logs (two elbows, 13 %), 23 of
+#: the 27 ``Vs`` intervals wrists at rest over 19-40 % (four elbows, 9-13 %); every shoulder and elbow is at rest
+#: over at most 19 %, every wrist over at least 11 %.
 REST_WARN = 0.15
 #: Friction columns per joint: Fc (g), Fs (h), sigma (w), offset (1).
 _FRICTION = ("Fc", "Fs", "sigma", "offset")
@@ -377,7 +378,7 @@ def _variance_ratio(prob: _Problem, A, rss: float, boot) -> float:
     return max(1.0, float(np.nanmax(friction))) if np.any(np.isfinite(friction)) else 1.0
 
 
-def _profile_interval(table_j, rss_min: float, n_rows: int, ratio: float, cols: slice) -> tuple:
+def _profile_interval(table_j, rss_min: float, n_rows: int, ratio: float, cols: slice, name: str = "joint") -> tuple:
     """The ``(Vs range, delta range, (low, high) of the estimates[cols], estimates)`` over the grid points within the
     95 % likelihood-ratio bound of the best (the residuals' correlation counted by the variance ratio ``ratio``,
     :func:`_variance_ratio`); ``estimates``
@@ -385,8 +386,21 @@ def _profile_interval(table_j, rss_min: float, n_rows: int, ratio: float, cols: 
     ``Fs = Fc``; the ranges of ``Vs`` and ``delta`` are NaN where no grid point is inside. The ``Vs`` range reaches
     out to the grid's next value beyond the accepted ones on either side (where the bound is crossed, somewhere
     between the two): the accepted grid values alone left the true ``Vs`` outside on 11 of 30 simulated
-    joints (``benchmarks/arm_coverage.py``, seeds 0-9)."""
-    bound = rss_min * (1.0 + 3.84 * ratio / max(n_rows, 1))
+    joints (``benchmarks/arm_coverage.py``, seeds 0-9).
+
+    The bound is ``max(rss_min, min of table_j) + 3.84 ratio rss_min / n_rows``: the final fit's weighted RSS
+    ``rss_min`` sets its scale, and it is counted from the profile's own minimum where that lies above
+    ``rss_min``: ``table_j`` is the joint's profile of the last sweep, taken with the later joints' shapes of the
+    sweep before, and their last steps lower each of its RSS about alike (the joints share only the rigid body), so
+    that the final fit can lie below every row of it (then no row would be inside). The accepted rows hold the
+    profile's best. Raises ExcitationError naming ``name`` (the joint) where the profile has no finite RSS or
+    ``rss_min`` is not finite."""
+    finite = [row[2] for row in table_j if np.isfinite(row[2])]
+    if not finite or not np.isfinite(rss_min):
+        raise ExcitationError(f"joint {name!r}: the Stribeck profile has no finite weighted residual sum of squares "
+                              f"(final fit {rss_min!r}, {len(finite)} of {len(table_j)} profile rows finite): the "
+                              "log does not determine its friction")
+    bound = max(rss_min, min(finite)) + rss_min * 3.84 * ratio / max(n_rows, 1)
     inside = [row for row in table_j if row[2] <= bound]
     grid = np.unique([r[0] for r in table_j[:len(DELTA_GRID) * N_VS]])
     vs = [r[0] for r in inside if np.isfinite(r[0])]
@@ -530,6 +544,8 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     ParameterError
         A position beyond the URDF's limits (file, joint, sample and value named); ``cutoff``, ``n_bootstrap``,
         ``lag``, ``rows`` or ``rigid_body`` invalid; a joint with no row fast enough to fit.
+    ExcitationError
+        A joint whose Stribeck profile has no finite weighted residual (the joint named).
     """
     _check(log, arm, n_bootstrap, rigid_body)
     if rows not in ROWS:
@@ -706,7 +722,8 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> Arm
         p["Fs"], hw["Fs"], std["Fs"], lo["Fs"], hi["Fs"] = p["Fc"], hw["Fc"], std["Fc"], lo["Fc"], hi["Fc"]
     # the friction's intervals cover the bootstrap band around every (Vs, delta) the profile accepts, the model
     # without a Stribeck term among them: a dropped term's Fs interval reaches as far as the profile allows
-    vs_iv, d_iv, (x_lo, x_hi), xs = _profile_interval(table[j], rss, n_rows, ratio, slice(c, c + 4))
+    vs_iv, d_iv, (x_lo, x_hi), xs = _profile_interval(table[j], rss, n_rows, ratio, slice(c, c + 4),
+                                                      arm.names[j])
     for i, k in enumerate(_FRICTION):
         lo[k], hi[k] = min(lo[k], x_lo[i] - hw[k]), max(hi[k], x_hi[i] + hw[k])
     if r:  # J as well: the rigid body's estimate moves with the joint's (Vs, delta)

@@ -376,3 +376,50 @@ def test_parallel_filter_is_the_torques_filter():
     assert np.array_equal(pf(log.tau), tau) and np.array_equal(t[pf.keep], tt)
     assert pf.keep == slice(50, 3950, 10)  # one cutoff period cut at both ends, decimated to 5 x 20 Hz
     np.testing.assert_allclose(pf(np.ones(4000)), 1.0, rtol=0, atol=1e-11)  # the design's DC gain: 1 - 8e-13
+
+
+def _stale_profile(shift: float):
+    """A joint's profile table as ``_profile`` writes it (the grid of 3 deltas x 8 ``Vs``, the refined best, the
+    model without the Stribeck term), each row ``(Vs, delta, weighted RSS, estimate)``, every RSS raised by
+    ``shift``: the RSS a quadratic in ``log(Vs / 0.1)`` (curvature 40) at ``delta = 1``, 30 more at the other
+    deltas, 50 more without the term, over 100; the estimate (8,) holds ``Fc, Fs, sigma, offset`` at [4:8] with
+    ``Fs = 1.2 + 0.5 log(Vs / 0.1)``."""
+    from adaptive_ff.arm.fit import DELTA_GRID
+
+    grid = np.geomspace(0.02, 0.3, 8)
+
+    def row(v, d, extra=0.0):
+        x = np.zeros(8)
+        x[4:8] = (1.0, 1.2 + 0.5 * np.log(v / 0.1) if np.isfinite(v) else 0.0, 0.5, 0.01)
+        rss = 100.0 + extra + (40.0 * np.log(v / 0.1) ** 2 + (0.0 if d == 1.0 else 30.0) if np.isfinite(v) else 50.0)
+        return (v, d, rss + shift, x)
+
+    return [row(v, d) for d in DELTA_GRID for v in grid] + [row(0.1, 1.0), row(np.nan, np.nan)], grid
+
+
+def test_profile_interval_of_a_profile_the_later_joints_lowered():
+    """The final fit's RSS (100) below every row of a joint's profile (its rows all 5 higher: the later joints' last
+    steps lowered the RSS after the joint's profile was taken): the interval is that of the same profile counted
+    from its own minimum, not an IndexError. The bound's half-width 100 * 3.84 * 2 / 1000 = 0.768 accepts the
+    ``delta = 1`` rows within |log(Vs / 0.1)| <= sqrt(0.768 / 40) = 0.139: the refined best 0.1 and the grid's
+    0.0940 (RSS 100.15 before the shift); the Vs range reaches the grid's next values, 0.0638 and 0.1384 (RSS 108.1
+    and 104.2), and Fs covers its estimates there; counted from the final fit's RSS alone no row would be inside.
+    A profile or final fit without a finite RSS raises ExcitationError naming the joint."""
+    from adaptive_ff.arm import fit
+    from plant.errors import ExcitationError
+
+    fresh, grid = _stale_profile(0.0)
+    stale, _ = _stale_profile(5.0)
+    cols = slice(4, 8)
+    got = fit._profile_interval(stale, 100.0, 1000, 2.0, cols, "wrist")
+    want = fit._profile_interval(fresh, 100.0, 1000, 2.0, cols, "wrist")
+    accepted = [v for v in grid if 40.0 * np.log(v / 0.1) ** 2 <= 0.768] + [0.1]
+    lo_v, hi_v = grid[grid < min(accepted)].max(), grid[grid > max(accepted)].min()
+    assert got[0] == want[0] == (lo_v, hi_v) and got[1] == (1.0, 1.0)
+    fs = [1.2 + 0.5 * np.log(v / 0.1) for v in accepted + [lo_v, hi_v]]
+    np.testing.assert_allclose(got[2][0], [1.0, min(fs), 0.5, 0.01], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got[2][1], [1.0, max(fs), 0.5, 0.01], rtol=0, atol=1e-12)
+    assert got[3].shape == (len(accepted), 8)
+    for rss_min, table in ((np.nan, fresh), (100.0, [(v, d, np.nan, x) for v, d, _, x in fresh])):
+        with pytest.raises(ExcitationError, match="'wrist'.*no finite weighted residual"):
+            fit._profile_interval(table, rss_min, 1000, 2.0, cols, "wrist")
