@@ -80,6 +80,7 @@ from adaptive_ff.arm.lag import JointLag, LagOptions, joint_lags, lag_records, v
 from adaptive_ff.arm.result import ArmIdentification, ArmJoint
 from adaptive_ff.arm.robot import ArmModel
 from adaptive_ff.arm.rows import DEFAULT_ROWS, REST_WINDOW, ROWS
+from adaptive_ff.identification.log_scale import from_log
 
 __all__ = ["identify_arm", "DELTA_GRID", "N_VS", "FRICTION_VELOCITY_FACTOR", "ROWS", "DEFAULT_ROWS", "REST_WINDOW",
            "REST_WARN"]
@@ -735,7 +736,7 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> Arm
         for k, v in (("J", J), *p.items()):
             lo[k], hi[k] = _widen(v, lo[k], hi[k], alt[k])
         if stribeck and np.all(np.isfinite(vs_iv)):  # Vs as well, in log Vs (its grid's scale; the bounds stay > 0)
-            vs_iv = tuple(float(np.exp(b)) for b in _widen(np.log(Vs[j]), *np.log(vs_iv), np.log(Vs_alt[j])))
+            vs_iv = tuple(from_log(b) for b in _widen(np.log(Vs[j]), *np.log(vs_iv), np.log(Vs_alt[j])))
     lag, noise = lag_noise
     params = {"J": J, **p, "Vs": float(Vs[j]), "delta": float(delta[j]) if stribeck else np.nan, "tau": lag.tau}
     interval = {k: (lo[k], hi[k]) for k in ("J", *_FRICTION)}
