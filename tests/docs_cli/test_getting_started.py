@@ -43,6 +43,23 @@ def test_the_page_quotes_its_measurements():
                       "python examples/controller_design.py --J 4 --crossovers 10 20 40 80"], quoted
 
 
+def test_the_quoted_scenario_error_is_what_a_bad_file_gets(tmp_path, monkeypatch):
+    """The page's example of a wrong scenario file's error: an encoder of 0 counts in a copy of an example."""
+    import re
+
+    from controllers.experiments.scenario import ScenarioError, load_scenario
+
+    quoted = re.search(r"`(robot\.toml: \[sensor\] encoder_counts [^`]*)`", PAGE.read_text(encoding="utf-8")).group(1)
+    text = (ROOT / "examples" / "scenarios" / "linear_axis.toml").read_text(encoding="utf-8")
+    text, n = re.subn(r"(?m)^\[sensor\]$", "[sensor]\nencoder_counts = 0", text)
+    assert n == 1
+    (tmp_path / "robot.toml").write_text(text, encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ScenarioError) as e:
+        load_scenario("robot.toml")
+    assert str(e.value) == quoted
+
+
 @pytest.mark.slow
 def test_every_quoted_output_is_what_the_command_prints(tmp_path):
     bad = check_page(run_quoted(tmp_path), stable_digits)
