@@ -49,7 +49,7 @@ SLOW_FILES = frozenset({
 #: workers' ends (longest-processing-time-first scheduling). A file missing here only starts later; the order
 #: decides no result.
 LONG_FILES = (
-    "test_compare_arm.py", "test_physical_id.py", "test_closed_loop_id.py", "test_your_drive.py",
+    "test_your_arm.py", "test_compare_arm.py", "test_physical_id.py", "test_closed_loop_id.py", "test_your_drive.py",
     "test_kernel_adaptive.py", "test_coverage_small_zoo.py", "test_properties.py", "test_docs.py", "test_sweep.py",
     "test_zoo.py", "test_figures_quality.py", "test_fuzz_cli.py", "test_readme.py", "test_plant_options.py",
     "test_arm_lag.py", "test_fuzz_c.py", "test_stiff_lagged.py", "test_arm.py", "test_examples.py",
