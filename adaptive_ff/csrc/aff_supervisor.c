@@ -201,7 +201,7 @@ void aff_supervisor_observe(aff_supervisor *s, aff_real u, aff_real w)
      * holding a joint the uncompensated PI still pushes the old way): the candidate's residual enters as 0 and the
      * period adds nothing to the mean squares (header comment) */
     int no_evidence = !s->on && AFF_FABS(s->w_ref) > s->rest_band && !moves_with(ww, s->w_ref)
-                      && s->x_f * s->w_ref < 0;
+                      && (s->x_f * s->w_ref < 0 || c_old * s->w_ref < 0);
     if (no_evidence)
         c_old = v;
     aff_real f = aff_lag_step(&s->x_f, s->a, v);
