@@ -2,8 +2,9 @@
 
 Backed off, the uncompensated loop leaves the joint stuck after each reversal for as long as its PI takes to wind up
 to the breakaway torque; the friction there is the reaction holding it, and the candidate, evaluated at the
-measured velocity, takes the sign of the sensor's noise. Such periods say nothing about what the candidate would do
-applied (the joint would not stick then): the supervisor takes no evidence from them while off. Before that rule
+measured velocity, takes the sign of the sensor's noise. Where the reaction (the supervisor's friction estimate) or
+the candidate opposes the reference, such periods say nothing about what the candidate would do applied (the joint
+would not stick then): the supervisor takes no evidence from them while off. Before that rule
 the phantom residual they left (+-Fc against a reaction that winds from -Fc to Fs) held the tracking test's M_e1 at
 ten to twenty times M_e0, and a compensation backed off once in its first seconds was never restored (the eq. 4
 feedforward alone on the `paper` joint, seed 3: 118.7 s of 120 s off, eta 0.000).
