@@ -196,10 +196,12 @@ void aff_supervisor_observe(aff_supervisor *s, aff_real u, aff_real w)
     }
     aff_real v = aff_dob_raw(u_old, s->J_n, ww, s->w_last, s->Tc);
     s->w_last = ww;
-    /* backed off, a period where the reference moves and the joint does not move with it is no evidence for the
-     * candidate (its friction the reaction of a joint the uncompensated loop left stuck, the candidate at its noise's
-     * sign): the candidate's residual enters as 0 and the period adds nothing to the mean squares (header comment) */
-    int no_evidence = !s->on && AFF_FABS(s->w_ref) > s->rest_band && !moves_with(ww, s->w_ref);
+    /* backed off, a period where the reference moves, the joint does not move with it and the friction estimate f_hat
+     * (of the period before) or the candidate opposes the reference is no evidence for the candidate (the friction the
+     * reaction holding a joint the uncompensated PI still pushes the old way, or the candidate at its noise's sign):
+     * the candidate's residual enters as 0 and the period adds nothing to the mean squares (header comment) */
+    int no_evidence = !s->on && AFF_FABS(s->w_ref) > s->rest_band && !moves_with(ww, s->w_ref)
+                      && (s->x_f * s->w_ref < 0 || c_old * s->w_ref < 0);
     if (no_evidence)
         c_old = v;
     aff_real f = aff_lag_step(&s->x_f, s->a, v);
