@@ -292,19 +292,21 @@ def updated_text(page: Page) -> tuple[str, int]:
     return text, changed
 
 
-def update_page(path: Path) -> int:
+def update_page(path: Path, *, page: "Page | None" = None, digits: "Rule | None" = None) -> int:
     """Run the page's commands in a temporary folder and rewrite every quoted output that differs from
     what its command printed (the ``--update`` mode of the page's test); prints a summary, returns 0.
 
+    ``page``: the page's steps as the test runs them (default ``parse_page(path)``); ``digits``: the test's rule
+    of stable digits (default :func:`stable_digits`), which counts the rewrites beyond it in the summary.
     Re-runnable: only the quoted outputs change, the commands and the prose stay, so running it again
     after a change of the code refreshes the same blocks.
     """
     import tempfile
 
     with tempfile.TemporaryDirectory() as tmp:
-        page = run_page(parse_page(path), Path(tmp))
+        page = run_page(parse_page(path) if page is None else page, Path(tmp))
     print(timings(page), file=sys.stderr)
-    beyond = len(check_page(page, stable_digits))
+    beyond = len(check_page(page, stable_digits if digits is None else digits))
     text, changed = updated_text(page)
     if changed:
         path.write_text(text, encoding="utf-8")

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import re
 import sys
-import tempfile
 from pathlib import Path
 
 import pytest
@@ -20,7 +19,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # also as ``python -m tests.docs_cli.test_your_arm``
 
 from doc_commands import (FENCE, ROOT, Step, Tol, check_page, parse_page, run_page, stable_digits,  # noqa: E402
-                          timings, updated_text)
+                          timings, update_page)
 
 PAGE = ROOT / "docs" / "your_arm.md"
 
@@ -129,18 +128,9 @@ def test_the_commands_make_what_the_page_says(ran):
 
 
 def update() -> int:
-    """Run the page in a temporary folder and rewrite every quoted output that differs from what its command
-    printed (the ``--update`` mode); the prose is left as it is: read it against the new outputs (git diff)."""
-    with tempfile.TemporaryDirectory() as tmp:
-        page = run_page(arm_page(), Path(tmp))
-        print(timings(page), file=sys.stderr)
-        beyond = len(check_page(page, stable_digits_arm))
-        text, changed = updated_text(page)
-    if changed:
-        PAGE.write_text(text, encoding="utf-8")
-    print(f"{PAGE.relative_to(ROOT)}: {changed} quoted output(s) rewritten, {beyond} of them beyond the stable "
-          "digits (see git diff)", file=sys.stderr)
-    return 0
+    """The ``--update`` mode: :func:`doc_commands.update_page` on the page as the tests run it (its Python block
+    first), with this page's stable digits; the prose is left as it is: read it against the new outputs (git diff)."""
+    return update_page(PAGE, page=arm_page(), digits=stable_digits_arm)
 
 
 if __name__ == "__main__":
