@@ -30,13 +30,16 @@ DOC_SUFFIXES = (".md", ".rst", ".py", ".json", ".txt")
 def _doc_history(path: Path) -> list:
     """``(line number, line)`` of the history a docs/ or examples/ file carries, less the allowed forms."""
     page = path.parent.name == "benchmarks" and path.suffix == ".md"
-    found, fenced = [], False
+    found, fenced, marked = [], False, False  # in a fenced block; in a measured output between the markers
     for i, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
         if line.lstrip().startswith("```"):
             fenced = not fenced
             continue
+        if line.strip() in ("<!-- output -->", "<!-- end output -->"):
+            marked = line.strip() == "<!-- output -->"
+            continue
         text = MEASURED_AT.sub("", line) if page else line
-        if page and fenced and RUN_HEADER.match(line.strip()):
+        if page and (fenced or marked) and RUN_HEADER.match(line.strip()):
             continue
         if DOC_HISTORY.search(text):
             found.append((i, line))
@@ -71,8 +74,10 @@ def test_the_pages_allowance_is_narrow(tmp_path):
     page.write_text("Measured at commit `abc1234` on 2026-11-26 (2 cores).\n"
                     "```\n# 2026-11-26 16:22 UTC, commit abc1234+dirty, x86_64, cores 2\nzoo: 3 joints\n```\n"
                     "Faster since 2026-11 (commit abc1234).\n```\n2026-11-26 a date in an output\n```\n"
-                    "# 2026-11-26 16:22 UTC, commit abc1234, outside a block\n")
-    assert [i for i, _ in _doc_history(page)] == [6, 8, 10]
+                    "# 2026-11-26 16:22 UTC, commit abc1234, outside a block\n"
+                    "<!-- output -->\n# 2026-11-26 16:22 UTC, commit abc1234, velocity kalman\n| a |\n"
+                    "<!-- end output -->\n# 2026-11-26 16:22 UTC, commit abc1234, after the markers\n")
+    assert [i for i, _ in _doc_history(page)] == [6, 8, 10, 15]
     other = tmp_path / "guide.md"
     other.write_text("Measured at commit `abc1234` on 2026-11-26.\n")
     assert [i for i, _ in _doc_history(other)] == [1]
