@@ -120,11 +120,7 @@ class FeedforwardSupervisor(Component):
     round(settle/Tc)`` on: on and ``M_r > M_f``: back off; off and ``M_r < (1 - margin)*M_f``, with the joint moving
     in the reference's direction at half its speed or more (``w*w_ref > 0``, ``|w| >= |w_ref|/2``; any ``w`` where
     ``w_ref`` is not finite): on again (a feedforward switched on at a joint stuck at a reversal takes the sign of
-    the sensor's noise). Off, a period where the reference moves (``|w_ref| > rest_band``), the joint does not
-    move with it and the friction estimate ``f_hat`` of the period before or the candidate opposes the reference is
-    no evidence (the joint stuck because nothing compensates it, its friction the reaction of a PI still pushing
-    the old way, or the candidate at the noise's sign): it adds nothing to the mean squares (they forget at the window's rate, their
-    ratios held) and the candidate's residual enters ``r_hat`` and the tracking test's loop model as 0. Noise and
+    the sensor's noise). Noise and
     the inertia error enter ``f_hat`` and ``r_hat`` alike. In the period the applied torque switches the loop adds ``+u_c`` (off) or
     ``-u_c`` (on) to its PI integrator (bumpless transfer, Åström & Hägglund, *Advanced PID Control*, ISA 2006,
     Sec. 3.5). With the reference at rest a velocity loop's friction brakes the joint toward its setpoint

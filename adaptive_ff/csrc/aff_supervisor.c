@@ -163,13 +163,6 @@ static void loop_model_step(aff_real *y, aff_real *I, aff_real Kp, aff_real KiTc
     *y += TcJ * (Kp * e + *I + d);
 }
 
-/* 1 where the joint moves in the reference's direction at half its speed or more (w*w_ref > 0, |w| >= |w_ref|/2), or
- * the reference is not finite: the restore test's motion condition (header comment). */
-static int moves_with(aff_real w, aff_real w_ref)
-{
-    return !isfinite(w_ref) || (w * w_ref > 0 && AFF_FABS(w) >= (aff_real)0.5 * AFF_FABS(w_ref));
-}
-
 void aff_supervisor_observe(aff_supervisor *s, aff_real u, aff_real w)
 {
     aff_real uu = (aff_real)u;
@@ -196,14 +189,6 @@ void aff_supervisor_observe(aff_supervisor *s, aff_real u, aff_real w)
     }
     aff_real v = aff_dob_raw(u_old, s->J_n, ww, s->w_last, s->Tc);
     s->w_last = ww;
-    /* backed off, a period where the reference moves, the joint does not move with it and the friction estimate f_hat
-     * (of the period before) or the candidate opposes the reference is no evidence for the candidate (the friction the
-     * reaction holding a joint the uncompensated PI still pushes the old way, or the candidate at its noise's sign):
-     * the candidate's residual enters as 0 and the period adds nothing to the mean squares (header comment) */
-    int no_evidence = !s->on && AFF_FABS(s->w_ref) > s->rest_band && !moves_with(ww, s->w_ref)
-                      && (s->x_f * s->w_ref < 0 || c_old * s->w_ref < 0);
-    if (no_evidence)
-        c_old = v;
     aff_real f = aff_lag_step(&s->x_f, s->a, v);
     aff_real r = aff_lag_step(&s->x_r, s->a, v - c_old);
     /* the tracking test: the velocity error the nominal loop makes from the disturbance v without the compensation,
@@ -218,8 +203,6 @@ void aff_supervisor_observe(aff_supervisor *s, aff_real u, aff_real w)
     }
     if (k < s->n_start || s->rest)
         return;
-    if (no_evidence) /* nothing added: the mean squares forget at the window's rate, their ratios held */
-        f = r = e0 = e1 = 0;
     aff_lag_step(&s->m_f, s->b, f * f);
     aff_lag_step(&s->m_r, s->b, r * r);
     if (s->track) {
@@ -237,7 +220,7 @@ void aff_supervisor_observe(aff_supervisor *s, aff_real u, aff_real w)
         s->on = 0;
         s->n_backoff = aff_count_up(s->n_backoff);
     } else if (!s->on && s->m_r < keep * s->m_f && (!s->track || s->m_e1 < keep * s->m_e0)
-               && moves_with(ww, s->w_ref)) {
+               && (!isfinite(s->w_ref) || (ww * s->w_ref > 0 && AFF_FABS(ww) >= (aff_real)0.5 * AFF_FABS(s->w_ref)))) {
         s->on = 1;
         s->n_restore = aff_count_up(s->n_restore);
     }

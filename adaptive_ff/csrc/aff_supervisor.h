@@ -29,21 +29,7 @@
  * (n_restore += 1). The hysteresis band [(1 - margin)*M_f, M_f] keeps it from chattering. The motion condition:
  * a friction feedforward evaluated at a joint that sticks at a reversal takes the sign of the sensor's noise, and
  * switched on there, the transfer below moves one noise-signed sample into the integrator while the next period's
- * flips the command. Off, a period where
- * the reference moves (|w_ref| > rest_band), the joint does not move with it and the friction estimate f_hat of the
- * period before or the candidate u_c(k-1-d) opposes the reference (f_hat*w_ref < 0 or u_c*w_ref < 0) is no evidence
- * for the candidate: the uncompensated loop leaves the joint stuck after a reversal until its PI reaches the
- * breakaway torque; while the PI still pushes the old way the friction there is the reaction that holds the joint
- * against the reference, and a candidate evaluated at the sensor's noise takes the noise's sign, none of which the
- * candidate applied would meet. A joint that lags the reference with its friction and the candidate both in the
- * reference's direction (the PI winding toward breakaway, or catching up) is evidence: the candidate there
- * supplies the torque the joint is short of. Such a period adds nothing to the mean squares (x^2 = 0 in
- * all four: they forget at the window's rate and their ratios hold, so older evidence still ages in time), and the
- * candidate's residual enters the Q-filter and the tracking test's loop model as 0 (u_c taken as v there), so it
- * leaves no transient behind. Counted, the stuck periods' phantom residual would keep the tracking test from
- * clearing however well the candidate tracks in motion; held instead of forgetting, the mean squares would keep a
- * harmful start's evidence for as long again as the joint sticks (docs/benchmarks/compensation.md, "The
- * supervisor"). Bumpless transfer (Astrom & Hagglund, Advanced PID
+ * flips the command. Bumpless transfer (Astrom & Hagglund, Advanced PID
  * Control, ISA 2006, Sec. 3.5, between manual and automatic modes): in the period the applied torque switches,
  * transfer = (the torque the old mode would apply) - (the new mode's), +u_c off, -u_c on, is what the loop adds
  * to its PI integrator, so the total command does not jump (0 in every other period). While on, the applied
