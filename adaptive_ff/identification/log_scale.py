@@ -29,6 +29,10 @@ def from_log(x: float, low: float = -math.inf, high: float = math.inf) -> float:
     -------
     float
         ``exp(min(max(x, low), high))``, in the parameter's unit: > 0 and finite for finite bounds within
-        ``±700``; NaN for a NaN ``x`` (the caller's optimiser or filter step sees and refuses it).
+        ``±700``; ``inf`` where that exceeds the largest float (as ``numpy.exp``: the caller's plausibility check
+        refuses it); NaN for a NaN ``x`` (the caller's optimiser or filter step sees and refuses it).
     """
-    return math.exp(min(max(float(x), low), high))
+    try:
+        return math.exp(min(max(float(x), low), high))
+    except OverflowError:
+        return math.inf

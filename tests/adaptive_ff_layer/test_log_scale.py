@@ -16,3 +16,13 @@ def test_from_log_is_exp_of_the_clipped_log():
 
 def test_from_log_passes_a_nan_through_for_the_caller_to_refuse():
     assert math.isnan(from_log(math.nan, -1.0, 1.0))
+
+
+def test_from_log_overflows_to_inf_as_numpy_exp_does():
+    # an unbounded optimiser step far up the log scale: inf for the caller's plausibility check, not an exception
+    import numpy as np
+
+    with np.errstate(over="ignore"):
+        assert from_log(800.0) == float(np.exp(800.0)) == math.inf
+    assert from_log(709.0) == float(np.exp(709.0)) < math.inf
+    assert from_log(-800.0) == 0.0  # underflow: 0, as exp
