@@ -97,43 +97,13 @@ def _nominal_inertia(plant, o: LoopConfig) -> float:
     return _ctx(plant, o)[0] if o.observer.J_n is None else float(o.observer.J_n)
 
 
-def _configs(o: LoopConfig, J: float, ff_max: float, *names: str) -> dict:
-    """The one map from :class:`LoopConfig` onto the components' config objects (the C settings' dataclasses).
-
-    Parameters
-    ----------
-    o : LoopConfig
-        The loop's settings.
-    J : float
-        The design inertia (kg·m²): the sliding estimator's start.
-    ff_max : float
-        The compensation's bound (N·m).
-    *names : str
-        The configs wanted (each built only when asked for: a mode builds one or two of them per run).
-
-    Returns
-    -------
-    dict
-        Name -> config, of the ``names`` given: ``"ff"`` (:class:`FrictionFeedforwardConfig`: ``fixed``'s, the
-        adaptive ones' feedforward), ``"robust"`` (:class:`RobustAdaptiveFeedforwardConfig`, with that ``ff``),
-        ``"sliding"`` (:class:`SlidingFrictionEstimatorConfig`), ``"supervisor"``
-        (:class:`FeedforwardSupervisorConfig`), ``"canudas"`` (:class:`CanudasCompensatorConfig`) and, with
-        ``o.estimator.model``, ``"eq4-rls"`` (the paper's prototype: RLS at ``Ts``, the bare feedforward) and
-        ``"eq4"`` (recursive IV at ``iv_Ts`` on the samples above ``model.Vs``, with that ``ff``)
-        (:class:`AdaptiveFrictionFeedforwardConfig`).
-
-    Raises
-    ------
-    KeyError
-        A name not among these (``"eq4"`` and ``"eq4-rls"`` without ``o.estimator.model``).
-    """
-    out = {}
-    for name in names:
-        out[name] = _CONFIG_BUILDERS[name](o, J, ff_max)
-    return out
+# The map from :class:`LoopConfig` onto the components' config objects (the C settings' dataclasses): one builder
+# per config, ``(o, J, ff_max) -> config`` with ``J`` the design inertia (kg·m², the sliding estimator's start) and
+# ``ff_max`` the compensation's bound (N·m); a mode builds only the configs it uses.
 
 
 def _ff_config(o, J, ff_max) -> FrictionFeedforwardConfig:
+    """``fixed``'s feedforward, and the adaptive ones'."""
     ffs = o.feedforward
     return FrictionFeedforwardConfig(lag=ffs.lag, ff_max=ff_max, sign_width=ffs.sign_width,
                                      stick_band=o.sized_stick_band(), stick_samples=ffs.stick_samples,
@@ -141,6 +111,7 @@ def _ff_config(o, J, ff_max) -> FrictionFeedforwardConfig:
 
 
 def _robust_config(o, J, ff_max) -> RobustAdaptiveFeedforwardConfig:
+    """The sliding estimator's feedforward (with :func:`_ff_config`'s ``ff``)."""
     ffs = o.feedforward
     return RobustAdaptiveFeedforwardConfig(ff=_ff_config(o, J, ff_max), warmup=ffs.warmup, lag_margin=ffs.lag_margin,
                                            lag_margin_max=ffs.lag_margin_max, max_rel_stderr=ffs.max_rel_stderr,
@@ -148,6 +119,7 @@ def _robust_config(o, J, ff_max) -> RobustAdaptiveFeedforwardConfig:
 
 
 def _sliding_config(o, J, ff_max) -> SlidingFrictionEstimatorConfig:
+    """The sliding-regime estimator."""
     est = o.estimator
     return SlidingFrictionEstimatorConfig(Ts=est.Ts, T_filter=est.T_filter,
                                           lam=_SLIDING["lam"] if est.lam is None else est.lam,
@@ -156,6 +128,7 @@ def _sliding_config(o, J, ff_max) -> SlidingFrictionEstimatorConfig:
 
 
 def _supervisor_config(o, J, ff_max) -> FeedforwardSupervisorConfig:
+    """The feedforward supervisor."""
     sup, ctl = o.supervisor, o.controller
     tracking = sup.tracking and ctl.Kp > 0
     return FeedforwardSupervisorConfig(
@@ -165,6 +138,7 @@ def _supervisor_config(o, J, ff_max) -> FeedforwardSupervisorConfig:
 
 
 def _canudas_config(o, J, ff_max) -> CanudasCompensatorConfig:
+    """The Canudas peer."""
     est, ffs = o.estimator, o.feedforward
     return CanudasCompensatorConfig(Ts=est.Ts, lam=CanudasCompensatorConfig.lam if est.lam is None else est.lam,
                                     forgetting=est.forgetting, P0=est.P0, J_guess=J, warmup=ffs.warmup,
@@ -172,29 +146,21 @@ def _canudas_config(o, J, ff_max) -> CanudasCompensatorConfig:
 
 
 def _eq4_rls_config(o, J, ff_max) -> AdaptiveFrictionFeedforwardConfig:
+    """Estimator ``eq4-rls``, the paper's prototype: RLS at ``Ts``, the bare feedforward."""
     est, ffs = o.estimator, o.feedforward
-    if est.model is None:
-        raise KeyError("eq4-rls")
     return AdaptiveFrictionFeedforwardConfig(
         Ts=est.Ts, lam=_SLIDING["lam"] if est.lam is None else est.lam, P0=est.P0, warmup=ffs.warmup,
         ff=FrictionFeedforwardConfig(lag=ffs.lag, ff_max=ff_max, ff_input=ffs.ff_input))
 
 
 def _eq4_config(o, J, ff_max) -> AdaptiveFrictionFeedforwardConfig:
+    """Estimator ``eq4``: recursive IV at ``iv_Ts`` on the samples above ``model.Vs`` (:func:`_eq4_model` first)."""
     est, ffs, m = o.estimator, o.feedforward, o.estimator.model
-    if m is None:
-        raise KeyError("eq4")
     Tc = o.controller.Tc
     iv_Ts = Tc * max(1, round(_IV_TS / Tc)) if est.iv_Ts is None else est.iv_Ts
     return AdaptiveFrictionFeedforwardConfig(
         Ts=iv_Ts, lam=1.0 - iv_Ts / _IV_MEMORY if est.lam is None else est.lam, P0=est.P0, warmup=ffs.warmup,
         iv=True, w_band=m.Vs if m.stribeck else 0.0, map_rel_stderr=est.iv_map_stderr, ff=_ff_config(o, J, ff_max))
-
-
-#: Config name -> builder ``(options, design inertia J, feedforward bound) -> config`` of :func:`_configs`.
-_CONFIG_BUILDERS = {"ff": _ff_config, "robust": _robust_config, "sliding": _sliding_config,
-                    "supervisor": _supervisor_config, "canudas": _canudas_config, "eq4-rls": _eq4_rls_config,
-                    "eq4": _eq4_config}
 
 
 def build_supervisor(plant, mode: str, options: LoopConfig, *, force: bool = False) -> FeedforwardSupervisor | None:
@@ -234,7 +200,7 @@ def build_supervisor(plant, mode: str, options: LoopConfig, *, force: bool = Fal
     if omega is None:
         omega = _crossover(plant, options) if options.controller.Kp > 0 else 10.0 / options.supervisor.window
     return FeedforwardSupervisor(Tc=options.controller.Tc, J_n=_nominal_inertia(plant, options), omega=omega,
-                                 config=_configs(options, J, ff_max, "supervisor")["supervisor"])
+                                 config=_supervisor_config(options, J, ff_max))
 
 
 def own_supervisor(comp) -> FeedforwardSupervisor | None:
@@ -274,7 +240,7 @@ def _fixed(plant, o):
     if o.feedforward.estimate is None:
         raise ParameterError("mode 'fixed' needs estimate=FrictionEstimate (an offline LS result)")
     J, ff_max = _ctx(plant, o)
-    return plant, FrictionFeedforward(o.feedforward.estimate, dt=o.controller.Tc, config=_configs(o, J, ff_max, "ff")["ff"],
+    return plant, FrictionFeedforward(o.feedforward.estimate, dt=o.controller.Tc, config=_ff_config(o, J, ff_max),
                                       loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
 
 
@@ -316,7 +282,7 @@ def _eq4_model(o) -> RegressionModel:
 
 def _eq4_rls(o, J: float, ff_max: float) -> AdaptiveFrictionFeedforward:
     """Estimator ``eq4-rls``: the paper's prototype, RLS on every sample at ``Ts``, the bare feedforward."""
-    return AdaptiveFrictionFeedforward(_eq4_model(o), dt=o.controller.Tc, config=_configs(o, J, ff_max, "eq4-rls")["eq4-rls"])
+    return AdaptiveFrictionFeedforward(_eq4_model(o), dt=o.controller.Tc, config=_eq4_rls_config(o, J, ff_max))
 
 
 def _eq4_iv(o, J: float, ff_max: float) -> AdaptiveFrictionFeedforward:
@@ -324,7 +290,7 @@ def _eq4_iv(o, J: float, ff_max: float) -> AdaptiveFrictionFeedforward:
     (offset) as the sliding estimator's."""
     m = _eq4_model(o)
     model = RegressionModel(m.Vs, m.delta, lag=m.lag, stribeck=m.stribeck, offset=bool(o.estimator.offset))
-    return AdaptiveFrictionFeedforward(model, dt=o.controller.Tc, config=_configs(o, J, ff_max, "eq4")["eq4"],
+    return AdaptiveFrictionFeedforward(model, dt=o.controller.Tc, config=_eq4_config(o, J, ff_max),
                                        loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o),
                                        start=o.feedforward.start)
 
@@ -337,11 +303,10 @@ def _sliding(o, J: float, ff_max: float) -> RobustAdaptiveFeedforward:
     if Vs is None or delta is None:
         raise ParameterError("mode 'adaptive' needs Vs and delta (from the Stribeck pre-fit) or model=")
     gate_step = 2.0 * o.drive.u_max * o.controller.Tc / J if math.isfinite(o.drive.u_max) else math.inf
-    configs = _configs(o, J, ff_max, "sliding", "robust")
-    est = SlidingFrictionEstimator(Vs, delta, Tc=o.controller.Tc, config=configs["sliding"], initial=e.initial,
-                                   gate=OutlierGate(max_step=gate_step))
-    return RobustAdaptiveFeedforward(est, dt=o.controller.Tc, config=configs["robust"], start=o.feedforward.start,
-                                     loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
+    est = SlidingFrictionEstimator(Vs, delta, Tc=o.controller.Tc, config=_sliding_config(o, J, ff_max),
+                                   initial=e.initial, gate=OutlierGate(max_step=gate_step))
+    return RobustAdaptiveFeedforward(est, dt=o.controller.Tc, config=_robust_config(o, J, ff_max),
+                                     start=o.feedforward.start, loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
 
 
 #: Estimator name (:data:`controllers.simulation.estimators.ESTIMATORS`, the one list of names: the options' check,
@@ -363,7 +328,7 @@ def _adaptive_dob(plant, o):
 
 def _canudas(plant, o):
     J, ff_max = _ctx(plant, o)
-    return plant, CanudasCompensator(Tc=o.controller.Tc, config=_configs(o, J, ff_max, "canudas")["canudas"])
+    return plant, CanudasCompensator(Tc=o.controller.Tc, config=_canudas_config(o, J, ff_max))
 
 
 def _dob(plant, o, omega_q: float | None = None):
