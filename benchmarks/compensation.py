@@ -1,6 +1,6 @@
 """Compensation benchmark: targets, robustness matrix, feedforward design alternatives, closed-loop bias.
 
-Run:  python benchmarks/compensation.py [--seeds 10] [--duration 120] [--jobs N]
+Run:  python benchmarks/compensation.py [--seeds 10] [--duration 120] [--jobs N] [--feedforward-alone]
 
 Prints, as mean ± std over the seeds (metrics over the second half of each run;
 velocities in deg/s, torques in N·m; eta = (RMS_none - RMS_mode) / (RMS_none - RMS_frictionless)):
@@ -11,6 +11,10 @@ velocities in deg/s, torques in N·m; eta = (RMS_none - RMS_mode) / (RMS_none - 
 3. feedforward and estimator design alternatives side by side, the peers' tuning;
 4. the closed-loop identification bias: the sliding-regime regression on the loop's own
    data with and without its gate, against the true parameters.
+
+``--feedforward-alone`` prints part 3 only, for the alternatives of mode ``adaptive``, each run without the
+residual switch-in (``switch_in=False``): the feedforward the alternative designs, with the supervisor, and no
+observer carrying what it leaves.
 
 "u noise" is ``std(diff(u))/sqrt(2)`` over the second half: the white part of the torque command.
 """
@@ -106,8 +110,11 @@ def main_task(scenario: str, seed: int, duration: float) -> dict:
     return out
 
 
-def alt_task(index: int, seed: int, duration: float) -> dict:
+def alt_task(index: int, seed: int, duration: float, alone: bool = False) -> dict:
+    """One design alternative (index into ALTERNATIVES) on one seed; ``alone``: without the residual switch-in."""
     scenario, _, options, mode = ALTERNATIVES[index]
+    if alone:
+        options = {**options, "switch_in": False}
     comp = compare(_plant(scenario, duration), duration=duration, seed=seed, modes=(mode,), progress=False, **options)
     out = {"row": _row(comp, mode)}
     if index == ALTERNATIVES.index(next(a for a in ALTERNATIVES if a[1].startswith("sliding RLS without"))):
@@ -121,28 +128,51 @@ def _fmt(vals, width=15, prec=3) -> str:
     return f"{np.nanmean(a):>{width - 8}.{prec}f} ± {np.nanstd(a):<5.{prec}f}"
 
 
+def _print_alternatives(results: dict, seeds, indices, title: str) -> None:
+    print(title)
+    head3 = f"{'scenario':<8} {'alternative':<58}{'eta':>15}{'u noise [N·m]':>15}{'RMS [deg/s]':>15}"
+    print(head3)
+    print("-" * len(head3))
+    for i in indices:
+        sc, label = ALTERNATIVES[i][:2]
+        rows = [results[("alt", i, s)]["row"] for s in seeds]
+        dv = sum(r["diverged"] for r in rows)
+        print(f"{sc:<8} {label:<58}{_fmt([r['eta'] for r in rows])}{_fmt([r['u_noise'] for r in rows])}"
+              f"{_fmt([r['rms'] for r in rows])}" + (f"  ({dv} diverged)" if dv else ""))
+    print()
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--duration", type=float, default=120.0)
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--feedforward-alone", action="store_true",
+                    help="part 3 only: the alternatives of mode adaptive without the residual switch-in")
     args = ap.parse_args(argv)
     seeds = range(args.seeds)
-    scenarios = ["paper", "drift", *VARIANT_NAMES]
+    alone = args.feedforward_alone
+    alternatives = [i for i, a in enumerate(ALTERNATIVES) if not alone or a[3] == "adaptive"]
+    scenarios = [] if alone else ["paper", "drift", *VARIANT_NAMES]
     tasks = [("main", sc, s) for sc in scenarios for s in seeds] + \
-            [("alt", i, s) for i in range(len(ALTERNATIVES)) for s in seeds]
+            [("alt", i, s) for i in alternatives for s in seeds]
     results = {}
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=args.jobs) as ex:
         futs = {}
         for kind, key, s in tasks:
-            fn = main_task if kind == "main" else alt_task
-            futs[ex.submit(fn, key, s, args.duration)] = (kind, key, s)
+            fut = (ex.submit(main_task, key, s, args.duration) if kind == "main"
+                   else ex.submit(alt_task, key, s, args.duration, alone))
+            futs[fut] = (kind, key, s)
         for f in tqdm(as_completed(futs), total=len(futs), desc="runs", disable=None):
             results[futs[f]] = f.result()
     wall = time.perf_counter() - t0
     print(f"{args.seeds} seeds x {args.duration:g} s, metrics over the second half, mean ± std; "
           f"{len(tasks)} comparisons in {wall:.0f} s on {args.jobs} processes\n")
+    if alone:
+        _print_alternatives(results, seeds, alternatives, "3. design alternatives of mode adaptive, the feedforward "
+                            "alone (no residual switch-in; eta and u noise, mean ± std)")
+        return 0
 
     head = f"{'mode':<13}" + "".join(f"{c:>15}" for c in ("RMS [deg/s]", "max [deg/s]", "reversal RMS",
                                                            "u RMS [N·m]", "u noise [N·m]", "eta"))
@@ -171,16 +201,7 @@ def main(argv=None) -> int:
         print(f"{sc:<16}{cells}  {dv:>5}")
     print()
 
-    print("3. design alternatives (eta and u noise, mean ± std)")
-    head3 = f"{'scenario':<8} {'alternative':<58}{'eta':>15}{'u noise [N·m]':>15}{'RMS [deg/s]':>15}"
-    print(head3)
-    print("-" * len(head3))
-    for i, (sc, label, _, _) in enumerate(ALTERNATIVES):
-        rows = [results[("alt", i, s)]["row"] for s in seeds]
-        dv = sum(r["diverged"] for r in rows)
-        print(f"{sc:<8} {label:<58}{_fmt([r['eta'] for r in rows])}{_fmt([r['u_noise'] for r in rows])}"
-              f"{_fmt([r['rms'] for r in rows])}" + (f"  ({dv} diverged)" if dv else ""))
-    print()
+    _print_alternatives(results, seeds, range(len(ALTERNATIVES)), "3. design alternatives (eta and u noise, mean ± std)")
 
     p = preset("paper")
     print("4. closed-loop identification bias on the paper preset (noise 1e-3 rad/s), estimates mean ± std")
