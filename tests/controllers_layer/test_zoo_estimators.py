@@ -18,7 +18,7 @@ _spec.loader.exec_module(zoo_estimators)
 
 def _write(path, estimator, adaptive, dob):
     d = {"plants": [{} for _ in adaptive], "eta": {"adaptive": adaptive, "adaptive-dob": dob},
-         "options": {"estimator": estimator}}
+         "options": {"compare": {"estimator": estimator, "seed": 3}}}
     path.write_text(json.dumps(d, allow_nan=False))
     return str(path)
 
@@ -46,3 +46,16 @@ def test_a_file_that_is_not_a_zoo_result_is_refused(tmp_path):
         zoo_estimators.compare_files([str(bad)])
     with pytest.raises(SystemExit, match="cannot read a zoo result"):
         zoo_estimators.compare_files([str(tmp_path / "missing.json")])
+
+
+def test_quantile_rows_follow_the_definitions(tmp_path):
+    # eta defined on joints 0, 1, 3 of the reference: sorted 0.9, 0.99, 1.5; numpy's default (linear) quantiles
+    # by hand: q05 at position 0.1 -> 0.9 + 0.1*0.09, q25 at 0.5 -> 0.945, the median 0.99
+    ref = _write(tmp_path / "s.json", "sliding", [1.5, 0.99, None, 0.9], [0.99, 0.99, None, 0.96])
+    # the other: sorted -0.05, 0.5, 0.85, 0.95: q05 at 0.15 -> -0.05 + 0.15*0.55, q25 at 0.75, the median at 1.5
+    other = _write(tmp_path / "e.json", "eq4", [0.95, 0.85, 0.5, -0.05], [0.99, 0.97, 0.4, 0.96])
+    rows = zoo_estimators.quantile_rows([ref, other], gap=0.1)
+    assert rows[2] == "| seed 3, 3 joints | sliding | adaptive | 0.900 | 0.909 | 0.945 | 0.990 | 0 |  |"
+    # below min(reference, 1) - 0.1 where both are defined: joints 1 (0.85 < 0.89) and 3 (-0.05 < 0.8)
+    assert rows[4] == "| seed 3, 4 joints | eq4 | adaptive | -0.050 | 0.033 | 0.362 | 0.675 | 1 | 2 |"
+    assert len(rows) == 2 + 4  # the header, and adaptive and adaptive-dob of each file
