@@ -22,6 +22,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import re
+import weakref
 from numbers import Integral, Real
 from pathlib import Path
 from typing import Any
@@ -518,6 +519,16 @@ def _field_kinds(ffi, ctype: str) -> dict:
     return kinds
 
 
+#: A part's dotted C field -> its names (constant per process).
+_PATHS: dict = {}
+
+
+def _path(field: str) -> tuple:
+    """The names of the dotted C field ``field`` (``"res.sw"`` -> ``("res", "sw")``), cached in :data:`_PATHS`."""
+    names = _PATHS[field] = tuple(field.split("."))
+    return names
+
+
 class Component:
     """Base class: owns (or points into) one C struct of the component's type.
 
@@ -551,20 +562,33 @@ class Component:
     #: The bytes and the C type name of the configuration struct the component was configured from (None: none).
     _config_bytes: bytes | None = None
     _config_ctype: str = ""
+    #: What keeps the memory of the struct alive where it is a part of another's: the cffi struct that owns it, or
+    #: an owner that is no component (held as it is); None: the component owns its struct.
+    _memory = None
+    #: A weak reference to the composite whose struct holds this component's (None: none). Weak, and the memory
+    #: held by its cffi owner: a part and its composite form no reference cycle, so they are freed as soon as they
+    #: are dropped, not by a later pass of the cyclic garbage collector.
+    _holder = None
 
     def _new_struct(self) -> None:
         """Allocate a zeroed struct of type ``_ctype`` owned by this object."""
         self._c = self._ffi.new(f"{self._ctype} *")
-        self._owner = None
+        self._memory = self._holder = None
 
-    def _use(self, ptr, owner) -> None:
-        """Use the struct at ``ptr`` (a field of ``owner``'s struct, kept alive here) from now on, after
-        copying the current values into it; then :meth:`_attached` re-points the parts (a composite's), while the
-        old struct is still alive (their old pointers point into it)."""
-        old, old_owner = self._c, self._owner  # noqa: F841 - alive until the parts have moved along
-        ptr[0] = old[0]
+    def _use(self, ptr, owner, *, moved: bool = False) -> None:
+        """Use the struct at ``ptr`` (a field of ``owner``'s struct, its memory kept alive here) from now on, after
+        copying the current values into it (unless ``moved``: they are there already, the part of a composite whose
+        whole struct was copied); then :meth:`_attached` re-points the parts (a composite's), while the old struct
+        is still alive (their old pointers point into it)."""
+        old, old_memory = self._c, self._memory  # noqa: F841 - alive until the parts have moved along
+        if not moved:
+            ptr[0] = old[0]
         self._c = ptr
-        self._owner = owner
+        if isinstance(owner, Component):
+            self._memory = owner._c if owner._memory is None else owner._memory
+            self._holder = weakref.ref(owner)
+        else:
+            self._memory, self._holder = owner, None
         self._attached()
 
     @property
@@ -683,11 +707,16 @@ class Component:
         self._attached()
 
     def _attached(self) -> None:
-        """Re-point the parts :attr:`_parts` into this component's struct (composites with more to do extend it)."""
+        """Re-point the parts :attr:`_parts` into this component's struct (composites with more to do extend it).
+
+        A part that points into this component's struct already (its holder is this component) moved along with the
+        whole struct (:meth:`_use` copied it): it is re-pointed without copying its bytes again; a part of its own
+        (new, or unpickled) is copied in."""
         for attr, field in self._parts.items():
             part = getattr(self, attr)
             if part is not None:
-                part._use(self._ffi.addressof(self._c, *field.split(".")), self)
+                part._use(self._ffi.addressof(self._c, *_PATHS.get(field) or _path(field)), self,
+                          moved=part._holder is not None and part._holder() is self)
 
     def __repr__(self) -> str:
         if not self._repr_fields:
@@ -701,7 +730,7 @@ class Component:
         return f"{type(self).__name__}({', '.join(shown)})"
 
     def __getstate__(self) -> dict:
-        d = {k: v for k, v in self.__dict__.items() if k not in ("_c", "_owner")}
+        d = {k: v for k, v in self.__dict__.items() if k not in ("_c", "_memory", "_holder")}
         d["_cbytes"] = self.struct_bytes()
         return d
 
