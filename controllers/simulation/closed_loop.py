@@ -29,8 +29,8 @@ from controllers.simulation.sensor_drive import Drive, Sensor
 from controllers.simulation.user_compensator import UserCompensator, is_user_compensator
 from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_optional, check_positive
 from plant.excitation import Reference
-from plant.dynamics import check_integrable, plant_params, plant_state
-from plant.rows import stack_params
+from plant.dynamics import check_integrable, plant_params
+from plant.rows import params_state, stack_params
 from plant.results import axes_or_new, json_safe
 
 __all__ = ["MODES", "ESTIMATORS", "LoopConfig", "LoopMetrics", "ClosedLoopResult", "MeasurementSettings",
@@ -349,7 +349,7 @@ def _run_loop(plant, controller, compensator, reference, *, noise_std, rng, faul
     frozen = plant.at(0.0) if hasattr(plant, "at") else plant
     gate = _sensor_gate(sensor_gate, controller, float(frozen.J) if sensor_gate is True else math.nan)
     n_theta = 0 if compensator is None or oracle else int(getattr(compensator, "n_theta", 0))
-    state0 = plant_state(frozen, float(wr[0]))
+    state0 = params_state(table, float(wr[0]))  # row 0: the plant at t = 0 (``frozen``), packed once
     if friction0 is not None and getattr(frozen, "tau", 0.0) > 0:  # the lagged models (LuGre has no tau)
         state0.s = check_finite_scalar("friction0", friction0)
     revs = reversal_times(t, wr)

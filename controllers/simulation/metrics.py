@@ -67,6 +67,7 @@ def _struct_dtype(ctype: str) -> np.dtype:
 #: ``ffi.from_buffer("ctl_metrics[]", np.zeros(B, METRICS_DTYPE))``).
 METRICS_DTYPE = _struct_dtype("ctl_metrics")
 _CTYPE = ffi.typeof("ctl_metrics")
+_NAMES = METRICS_DTYPE.names
 
 
 @dataclass(frozen=True)
@@ -218,8 +219,19 @@ def metrics_result(st, *, n_total: int | None = None) -> LoopMetrics:
     if n_total is not None and rec["n"][0] < n_total:
         return LoopMetrics(rms=nan, max=nan, rms_second_half=nan, max_second_half=nan, rms_reversal=nan,
                            u_rms=nan)
-    cols = metrics_columns(rec)
-    return LoopMetrics(**{k: float(v[0]) for k, v in cols.items()})
+    r = dict(zip(_NAMES, rec[0].item()))  # Python numbers: the IEEE operations of metrics_columns, one scenario
+    n, nh, nr = float(r["n"]), float(r["n_half"]), float(r["n_rev"])
+
+    def rms(k, c):
+        if not c > 0:
+            return nan
+        x = (r[k] + r[k + "_c"]) / c
+        return math.sqrt(x) if x >= 0.0 else float(np.sqrt(x))  # numpy's NaN below 0, as metrics_columns
+
+    return LoopMetrics(rms=rms("e2", n), max=float(r["e_max"]) if n != 0 else nan,
+                       rms_second_half=rms("e2_half", nh),
+                       max_second_half=float(r["e_max_half"]) if nh != 0 else nan,
+                       rms_reversal=rms("e2_rev", nr), u_rms=rms("u2", n))
 
 
 def metrics_columns(states) -> dict:
