@@ -596,6 +596,20 @@ class Component:
         """Pointer to the component's C struct (cffi)."""
         return self._c
 
+    @classmethod
+    def _in_place(cls, owner: "Component", field: str, cfg):
+        """A part over the struct ``field`` (a dotted path) of ``owner``'s struct, which ``owner``'s C init has
+        configured from the settings ``cfg`` (cffi ``aff_X_config *`` or struct, kept as its :attr:`config`): no
+        struct of its own made, checked and copied in. Only for a class whose objects hold nothing besides the
+        struct (e.g. a gate); the composite then :meth:`_attach` es it like any part."""
+        part = cls.__new__(cls)
+        part._c = owner._ffi.addressof(owner._c, *_PATHS.get(field) or _path(field))
+        part._memory = owner._c if owner._memory is None else owner._memory
+        part._holder = weakref.ref(owner)
+        part._config_bytes = bytes(part._ffi.buffer(cfg))
+        part._config_ctype = f"{cls._ctype}_config"
+        return part
+
     def _settings(self, ctype: str, defaults, fields: dict, *, counts: tuple = ()):
         """New settings ``ctype`` (a C config struct, cffi pointer): the C ``defaults`` (e.g.
         ``lib.aff_gate_default_config()``), then the ``fields`` given (name -> value; a struct field takes a dict or a
@@ -616,16 +630,20 @@ class Component:
             kind = kinds[k]
             t = type(v)
             if kind is float:
-                if t is not float:  # the common case, a float, as it is (float(v) is v's value)
-                    if not isinstance(v, (Real, np.floating, np.integer)) or isinstance(v, (bool, np.bool_)):
+                if t is not float:  # the common case, a float, as it is (float(v) is v's value); then an int
+                    if t is not int and (not isinstance(v, (Real, np.floating, np.integer))
+                                         or isinstance(v, (bool, np.bool_))):
                         raise SettingTypeError(f"{type(self).__name__}: {k} must be a real number, got {v!r} "
                                                f"({type(v).__name__})")
                     v = float(v)
-            elif kind is int and t is not int:  # an int as it is (never a bool: type(True) is bool)
-                if not isinstance(v, (Integral, np.integer, np.bool_)) or (
-                        k in counts and isinstance(v, (bool, np.bool_))):
-                    raise SettingTypeError(f"{type(self).__name__}: {k} must be an integer, got {v!r}")
-                v = int(v)
+            elif kind is int and t is not int:  # an int as it is (never a bool: type(True) is bool); a flag's bool
+                if t is bool and k not in counts:
+                    v = int(v)
+                else:
+                    if not isinstance(v, (Integral, np.integer, np.bool_)) or (
+                            k in counts and isinstance(v, (bool, np.bool_))):
+                        raise SettingTypeError(f"{type(self).__name__}: {k} must be an integer, got {v!r}")
+                    v = int(v)
             setattr(cfg, k, v)
         return cfg
 

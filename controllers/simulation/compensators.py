@@ -196,11 +196,17 @@ def build_supervisor(plant, mode: str, options: LoopConfig, *, force: bool = Fal
     if not (options.supervisor.enabled and (force or mode in SUPERVISED_MODES)):
         return None
     J, ff_max = _ctx(plant, options)
-    omega = options.supervisor.omega
+    J_n = _nominal_inertia(plant, options)
+    return _supervisor(options, J, J_n, ff_max, max(options.controller.Kp, 0.0) / J_n)
+
+
+def _supervisor(o: LoopConfig, J: float, J_n: float, ff_max: float, wc: float) -> FeedforwardSupervisor:
+    """:func:`build_supervisor`'s supervisor of the design inertia ``J``, the nominal one ``J_n`` (kg·m²), the bound
+    ``ff_max`` (N·m) and the crossover ``wc`` (rad/s, :func:`_crossover`), each computed once by the caller."""
+    omega = o.supervisor.omega
     if omega is None:
-        omega = _crossover(plant, options) if options.controller.Kp > 0 else 10.0 / options.supervisor.window
-    return FeedforwardSupervisor(Tc=options.controller.Tc, J_n=_nominal_inertia(plant, options), omega=omega,
-                                 config=_supervisor_config(options, J, ff_max))
+        omega = wc if o.controller.Kp > 0 else 10.0 / o.supervisor.window
+    return FeedforwardSupervisor(Tc=o.controller.Tc, J_n=J_n, omega=omega, config=_supervisor_config(o, J, ff_max))
 
 
 def own_supervisor(comp) -> FeedforwardSupervisor | None:
@@ -248,18 +254,20 @@ def _adaptive(plant, o):
     """Mode ``adaptive``: over the sliding estimator one :class:`AdaptiveCompensator` (the feedforward, the residual
     observer it switches in and the supervisor in one C struct, the one a drive runs); over the eq. 4 estimators the
     composite :class:`AdaptiveDOBCompensator` with the switch-in, supervised by the engine."""
-    _, ff = _adaptive_feedforward(plant, o)
+    J, ff_max = _ctx(plant, o)  # the design inertia, the bound and (below) the nominal inertia: once
+    J_n = J if o.observer.J_n is None else float(o.observer.J_n)  # _nominal_inertia
+    wc = max(o.controller.Kp, 0.0) / J_n  # _crossover: the residual observer's slew limit scales with it
+    ff = ESTIMATOR_BUILDERS[o.estimator.name](o, J, ff_max)
     switch_in = o.observer.switch_in and o.controller.Kp > 0.0
-    _, ff_max = _ctx(plant, o)
-    wc = _crossover(plant, o)  # the residual observer's slew limit scales with it
     dob = sw = None
     if switch_in:
-        _, dob = _dob(plant, o, omega_q=o.observer.omega_r)
-        sw = ResidualSwitchIn(Tc=o.controller.Tc, J_n=_nominal_inertia(plant, o), Kp=o.controller.Kp,
+        dob = _observer(o, J_n, ff_max, o.observer.omega_r)
+        sw = ResidualSwitchIn(Tc=o.controller.Tc, J_n=J_n, Kp=o.controller.Kp,
                               Ki=o.controller.Ki, ratio=o.observer.switch_in_ratio)
     if isinstance(ff, RobustAdaptiveFeedforward):
+        sup = _supervisor(o, J, J_n, ff_max, wc) if o.supervisor.enabled else None  # build_supervisor's
         return plant, AdaptiveCompensator(ff, dob, u_max=ff_max if switch_in else math.inf, switch_in=sw,
-                                          supervisor=build_supervisor(plant, "adaptive", o), crossover=wc)
+                                          supervisor=sup, crossover=wc)
     if not switch_in:
         return plant, ff
     return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max, switch_in=sw, crossover=wc)
@@ -335,9 +343,13 @@ def _dob(plant, o, omega_q: float | None = None):
     """Mode ``dob``: the observer of ``o.observer`` (its cut-off ``omega_q``, or the one given: a composite's
     ``omega_r``, checked where ``o`` was built)."""
     _, ff_max = _ctx(plant, o)
-    return plant, DisturbanceObserver(J_n=_nominal_inertia(plant, o),
-                                      omega_q=o.observer.omega_q if omega_q is None else omega_q,
-                                      Tc=o.controller.Tc, d_max=ff_max)
+    return plant, _observer(o, _nominal_inertia(plant, o), ff_max, o.observer.omega_q if omega_q is None else omega_q)
+
+
+def _observer(o: LoopConfig, J_n: float, ff_max: float, omega_q: float) -> DisturbanceObserver:
+    """:func:`_dob`'s observer of the nominal inertia ``J_n`` (kg·m²), the bound ``ff_max`` (N·m) and the cut-off
+    ``omega_q`` (rad/s)."""
+    return DisturbanceObserver(J_n=J_n, omega_q=omega_q, Tc=o.controller.Tc, d_max=ff_max)
 
 
 #: Mode name -> builder ``(plant, options) -> (plant to simulate, compensator or None)``.
