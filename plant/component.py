@@ -204,14 +204,18 @@ def config_class(name: str, ffi_lib: tuple, ctype: str, *, module: str, summary:
                 raise ParameterError(f"{name}: {key} must be a {nested[key].__name__}, got "
                                      f"{type(getattr(self, key)).__name__}")
 
+    # per field, in C order: (Python name, C name, {choice name: its first C code} or None, a nested config)
+    spec = tuple((key, cname, {n: code for code, n in reversed(by_key[key].items())} if key in by_key else None,
+                  key in nested) for key, cname in to_c.items())
+
     def c_fields(self) -> dict:
         """C field -> value: a choice as its C code, a nested config as its ``c_fields()``."""
         out = {}
-        for key, cname in to_c.items():
+        for key, cname, codes, sub in spec:
             v = getattr(self, key)
-            if key in by_key:
-                v = next(code for code, n in by_key[key].items() if n == v)
-            elif key in nested:
+            if codes is not None:
+                v = codes[v]
+            elif sub:
                 v = v.c_fields()
             out[cname] = v
         return out

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -34,12 +34,21 @@ from adaptive_ff.identification.rls import RLS_NMAX
 from adaptive_ff.compensation.defaults import c_config_class, c_defaults
 from plant.component import struct_field, struct_fields
 from plant.errors import ParameterError, check_optional
+from plant.results import json_safe
 
 __all__ = ["RobustAdaptiveFeedforward", "RobustAdaptiveFeedforwardConfig", "FeedforwardStart", "start_output", "lag_weighted", "fc_determined",
            "project_box", "FC_INFO_FRACTION"]
 
 #: The C defaults of the provisional start (``aff_start_default_config``): :class:`FeedforwardStart`'s defaults.
 _START = c_defaults("aff_start_config")
+#: The fields of a :class:`FrictionEstimate`, in order: the keys of its ``to_dict()``.
+_ESTIMATE_FIELDS = tuple(f.name for f in fields(FrictionEstimate))
+
+
+def _estimate_dict(est: FrictionEstimate) -> dict:
+    """``est.to_dict()`` of an estimate whose fields are numbers or None (the estimator's: the same strict-JSON dict,
+    without ``dataclasses.asdict``'s deep copy)."""
+    return {k: json_safe(getattr(est, k)) for k in _ESTIMATE_FIELDS}
 
 RobustAdaptiveFeedforwardConfig = c_config_class(
     "RobustAdaptiveFeedforwardConfig", "aff_robust_ff_config", "aff_robust_ff.h", module=__name__,
@@ -552,7 +561,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
                 "n_undetermined": self.n_undetermined, "n_lag_held": self.n_lag_held, "n_updates": e.n_updates,
                 "n_gated": e.n_gated,
                 "n_projected": e.rls.n_projected, "lam": e.rls.lam, "names": list(e.names),
-                "raw_estimate": e.estimate.to_dict(), "noise_estimate": e.noise_std}
+                "raw_estimate": _estimate_dict(e.estimate), "noise_estimate": e.noise_std}
 
     def observe(self, u: float, w: float) -> bool:
         """Feed one controller-period sample to the estimator; refresh the estimate in use (C
