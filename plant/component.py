@@ -523,6 +523,8 @@ def _field_kinds(ffi, ctype: str) -> dict:
     return kinds
 
 
+#: A cffi pointer type -> the C name of the struct it points to (constant per process).
+_CNAMES: dict = {}
 #: A part's dotted C field -> its names (constant per process).
 _PATHS: dict = {}
 
@@ -705,7 +707,11 @@ class Component:
                                  + (f" (argument {arg})" if arg else ""))
         if keep:
             self._config_bytes = bytes(self._ffi.buffer(cfg))
-            self._config_ctype = self._ffi.typeof(cfg).item.cname.replace("struct ", "")
+            t = self._ffi.typeof(cfg)
+            name = _CNAMES.get(t)
+            if name is None:
+                name = _CNAMES[t] = t.item.cname.replace("struct ", "")
+            self._config_ctype = name
 
     @property
     def config(self):

@@ -450,7 +450,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         config = RobustAdaptiveFeedforwardConfig() if config is None else config
         if not isinstance(config, RobustAdaptiveFeedforwardConfig):
             raise ParameterError(f"config must be a RobustAdaptiveFeedforwardConfig, got {type(config).__name__}")
-        ff = FrictionFeedforward(None, dt=dt, config=config.ff, loop_model=loop_model, sign_observer=sign_observer)
+        ff = FrictionFeedforward.checked_settings(dt=dt, config=config.ff, loop_model=loop_model,
+                                                  sign_observer=sign_observer)  # its struct: this one's field ff
         self.loop_model = loop_model
         self.sign_observer = sign_observer
         check_optional("start", start, FeedforwardStart)
@@ -458,7 +459,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         self.n_theta = len(estimator.names)
         own = {k: v for k, v in config.c_fields().items() if k != "ff"}
         cfg = self._settings("aff_robust_ff_config", lib.aff_robust_ff_default_config(), own, counts=("warmup",))
-        cfg.ff, cfg.est = ff.config[0], estimator.config[0]
+        cfg.ff, cfg.est = ff[0], estimator.config[0]
         if start is not None:
             Fc, Fs, Vs, delta, sigma, tau = start.map_args(estimator.Vs, estimator.delta)
             cfg.start = {"on": True, "Fc": Fc, "Fs": Fs, "Vs": Vs, "delta": delta, "sigma": sigma, "tau": tau,

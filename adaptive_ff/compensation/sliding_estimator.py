@@ -316,7 +316,7 @@ class SlidingFrictionEstimator(Component):
         # the ranges of Vs, delta, Tc and every field of config are aff_sliding_init's to check (the one validator:
         # a ParameterError naming the field, its unit and range); here only what C does not see: a vector lam's
         # length, and an initial_J that C would clip rather than refuse
-        vector = np.ndim(c.lam) > 0
+        vector = type(c.lam) is not float and np.ndim(c.lam) > 0  # a float (the common case) is no vector
         p = len(_names(bool(c.lag), bool(c.offset)))
         if vector and np.size(c.lam) != p:
             raise ParameterError(f"lam must be a number or {p} numbers in (0, 1], got {c.lam!r}")

@@ -24,7 +24,9 @@ entry of :data:`REGISTRY`.
 
 from __future__ import annotations
 
+import functools
 import math
+
 from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward, AdaptiveFrictionFeedforwardConfig
 from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward, RobustAdaptiveFeedforwardConfig
 from adaptive_ff.compensation.defaults import c_defaults
@@ -101,7 +103,35 @@ def _nominal_inertia(plant, o: LoopConfig) -> float:
 # per config, ``(o, J, ff_max) -> config`` with ``J`` the design inertia (kg·m², the sliding estimator's start) and
 # ``ff_max`` the compensation's bound (N·m); a mode builds only the configs it uses.
 
+#: The settings made from the last options: (builder, id(options)) -> (options, the other arguments, what it made).
+#: A :class:`LoopConfig` and what is made here (the components' config dataclasses, :class:`LoopModel`,
+#: :class:`SignObserver`, :class:`ResidualSwitchIn`) are frozen, so a mode built again from the same options object
+#: (a batch, a sweep's repeats, a benchmark's) reuses them, made and checked once; an entry holds its options object,
+#: so the id is not another's. At most :data:`_MADE_MAX` entries, the oldest dropped first; in memory only.
+_MADE: dict = {}
+_MADE_MAX = 64
 
+
+def _once(builder):
+    """``builder(o, *args)`` (frozen settings from the options ``o`` and numbers ``args``) made once per options
+    object and equal ``args`` of the same types (:data:`_MADE`)."""
+    @functools.wraps(builder)
+    def made(o, *args):
+        key = (builder, id(o))
+        hit = _MADE.get(key)
+        if hit is not None and hit[0] is o and hit[1] == args and all(
+                type(a) is type(b) for a, b in zip(hit[1], args)):
+            return hit[2]
+        value = builder(o, *args)
+        if len(_MADE) >= _MADE_MAX:
+            del _MADE[next(iter(_MADE))]
+        _MADE[key] = (o, args, value)
+        return value
+
+    return made
+
+
+@_once
 def _ff_config(o, J, ff_max) -> FrictionFeedforwardConfig:
     """``fixed``'s feedforward, and the adaptive ones'."""
     ffs = o.feedforward
@@ -110,6 +140,7 @@ def _ff_config(o, J, ff_max) -> FrictionFeedforwardConfig:
                                      ff_input=ffs.ff_input)
 
 
+@_once
 def _robust_config(o, J, ff_max) -> RobustAdaptiveFeedforwardConfig:
     """The sliding estimator's feedforward (with :func:`_ff_config`'s ``ff``)."""
     ffs = o.feedforward
@@ -118,6 +149,7 @@ def _robust_config(o, J, ff_max) -> RobustAdaptiveFeedforwardConfig:
                                            lag_memory=ffs.lag_memory, lag_zero=ffs.lag_zero, project=ffs.project)
 
 
+@_once
 def _sliding_config(o, J, ff_max) -> SlidingFrictionEstimatorConfig:
     """The sliding-regime estimator."""
     est = o.estimator
@@ -127,6 +159,7 @@ def _sliding_config(o, J, ff_max) -> SlidingFrictionEstimatorConfig:
                                           dwell_max=est.dwell_max, offset=est.offset)
 
 
+@_once
 def _supervisor_config(o, J, ff_max) -> FeedforwardSupervisorConfig:
     """The feedforward supervisor."""
     sup, ctl = o.supervisor, o.controller
@@ -217,12 +250,14 @@ def own_supervisor(comp) -> FeedforwardSupervisor | None:
     return comp.supervisor if isinstance(comp, AdaptiveCompensator) else None
 
 
-def _loop_model(J: float, o: LoopConfig) -> LoopModel | None:
+@_once
+def _loop_model(o: LoopConfig, J: float) -> LoopModel | None:
     """The nominal loop of the stick-detection fallback (``stick_input`` model), from the PI and the design J."""
     return LoopModel(Kp=o.controller.Kp, Ki=o.controller.Ki, J=J) if o.feedforward.stick_input == "model" else None
 
 
-def _sign_observer(J: float, o: LoopConfig) -> SignObserver | None:
+@_once
+def _sign_observer(o: LoopConfig, J: float) -> SignObserver | None:
     """The velocity observer that signs the friction map inside the stick band (``sign_input`` observer)."""
     if o.feedforward.sign_input != "observer" or o.controller.Kp <= 0.0:
         return None
@@ -247,7 +282,7 @@ def _fixed(plant, o):
         raise ParameterError("mode 'fixed' needs estimate=FrictionEstimate (an offline LS result)")
     J, ff_max = _ctx(plant, o)
     return plant, FrictionFeedforward(o.feedforward.estimate, dt=o.controller.Tc, config=_ff_config(o, J, ff_max),
-                                      loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
+                                      loop_model=_loop_model(o, J), sign_observer=_sign_observer(o, J))
 
 
 def _adaptive(plant, o):
@@ -262,8 +297,7 @@ def _adaptive(plant, o):
     dob = sw = None
     if switch_in:
         dob = _observer(o, J_n, ff_max, o.observer.omega_r)
-        sw = ResidualSwitchIn(Tc=o.controller.Tc, J_n=J_n, Kp=o.controller.Kp,
-                              Ki=o.controller.Ki, ratio=o.observer.switch_in_ratio)
+        sw = _switch_in(o, J_n)
     if isinstance(ff, RobustAdaptiveFeedforward):
         sup = _supervisor(o, J, J_n, ff_max, wc) if o.supervisor.enabled else None  # build_supervisor's
         return plant, AdaptiveCompensator(ff, dob, u_max=ff_max if switch_in else math.inf, switch_in=sw,
@@ -271,6 +305,13 @@ def _adaptive(plant, o):
     if not switch_in:
         return plant, ff
     return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max, switch_in=sw, crossover=wc)
+
+
+@_once
+def _switch_in(o: LoopConfig, J_n: float) -> ResidualSwitchIn:
+    """Mode ``adaptive``'s residual switch-in on the nominal inertia ``J_n`` (kg·m²)."""
+    return ResidualSwitchIn(Tc=o.controller.Tc, J_n=J_n, Kp=o.controller.Kp, Ki=o.controller.Ki,
+                            ratio=o.observer.switch_in_ratio)
 
 
 def _adaptive_feedforward(plant, o):
@@ -299,7 +340,7 @@ def _eq4_iv(o, J: float, ff_max: float) -> AdaptiveFrictionFeedforward:
     m = _eq4_model(o)
     model = RegressionModel(m.Vs, m.delta, lag=m.lag, stribeck=m.stribeck, offset=bool(o.estimator.offset))
     return AdaptiveFrictionFeedforward(model, dt=o.controller.Tc, config=_eq4_config(o, J, ff_max),
-                                       loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o),
+                                       loop_model=_loop_model(o, J), sign_observer=_sign_observer(o, J),
                                        start=o.feedforward.start)
 
 
@@ -314,7 +355,7 @@ def _sliding(o, J: float, ff_max: float) -> RobustAdaptiveFeedforward:
     est = SlidingFrictionEstimator(Vs, delta, Tc=o.controller.Tc, config=_sliding_config(o, J, ff_max),
                                    initial=e.initial, gate=OutlierGate(max_step=gate_step))
     return RobustAdaptiveFeedforward(est, dt=o.controller.Tc, config=_robust_config(o, J, ff_max),
-                                     start=o.feedforward.start, loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
+                                     start=o.feedforward.start, loop_model=_loop_model(o, J), sign_observer=_sign_observer(o, J))
 
 
 #: Estimator name (:data:`controllers.simulation.estimators.ESTIMATORS`, the one list of names: the options' check,
