@@ -595,7 +595,8 @@ class Component:
             self._holder = weakref.ref(owner)
         else:
             self._memory, self._holder = owner, None
-        self._attached()
+        if self._parts or type(self)._attached is not Component._attached:  # a leaf of the base class: nothing
+            self._attached()
 
     @property
     def cdata(self):

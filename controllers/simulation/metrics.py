@@ -233,7 +233,10 @@ def _rms(r: dict, k: str, c: float) -> float:
     if not c > 0:
         return math.nan
     x = (r[k] + r[k + "_c"]) / c
-    return math.sqrt(x) if x >= 0.0 else float(np.sqrt(x))
+    if x >= 0.0:
+        return math.sqrt(x)
+    with np.errstate(invalid="ignore"):
+        return float(np.sqrt(x))
 
 
 def _motion_scalars(r: dict, diverged: bool) -> tuple:
