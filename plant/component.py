@@ -22,6 +22,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import re
+import weakref
 from numbers import Integral, Real
 from pathlib import Path
 from typing import Any
@@ -203,14 +204,18 @@ def config_class(name: str, ffi_lib: tuple, ctype: str, *, module: str, summary:
                 raise ParameterError(f"{name}: {key} must be a {nested[key].__name__}, got "
                                      f"{type(getattr(self, key)).__name__}")
 
+    # per field, in C order: (Python name, C name, {choice name: its first C code} or None, a nested config)
+    spec = tuple((key, cname, {n: code for code, n in reversed(by_key[key].items())} if key in by_key else None,
+                  key in nested) for key, cname in to_c.items())
+
     def c_fields(self) -> dict:
         """C field -> value: a choice as its C code, a nested config as its ``c_fields()``."""
         out = {}
-        for key, cname in to_c.items():
+        for key, cname, codes, sub in spec:
             v = getattr(self, key)
-            if key in by_key:
-                v = next(code for code, n in by_key[key].items() if n == v)
-            elif key in nested:
+            if codes is not None:
+                v = codes[v]
+            elif sub:
                 v = v.c_fields()
             out[cname] = v
         return out
@@ -518,6 +523,18 @@ def _field_kinds(ffi, ctype: str) -> dict:
     return kinds
 
 
+#: A cffi pointer type -> the C name of the struct it points to (constant per process).
+_CNAMES: dict = {}
+#: A part's dotted C field -> its names (constant per process).
+_PATHS: dict = {}
+
+
+def _path(field: str) -> tuple:
+    """The names of the dotted C field ``field`` (``"res.sw"`` -> ``("res", "sw")``), cached in :data:`_PATHS`."""
+    names = _PATHS[field] = tuple(field.split("."))
+    return names
+
+
 class Component:
     """Base class: owns (or points into) one C struct of the component's type.
 
@@ -551,26 +568,54 @@ class Component:
     #: The bytes and the C type name of the configuration struct the component was configured from (None: none).
     _config_bytes: bytes | None = None
     _config_ctype: str = ""
+    #: What keeps the memory of the struct alive where it is a part of another's: the cffi struct that owns it, or
+    #: an owner that is no component (held as it is); None: the component owns its struct.
+    _memory = None
+    #: A weak reference to the composite whose struct holds this component's (None: none). Weak, and the memory
+    #: held by its cffi owner: a part and its composite form no reference cycle, so they are freed as soon as they
+    #: are dropped, not by a later pass of the cyclic garbage collector.
+    _holder = None
 
     def _new_struct(self) -> None:
         """Allocate a zeroed struct of type ``_ctype`` owned by this object."""
         self._c = self._ffi.new(f"{self._ctype} *")
-        self._owner = None
+        self._memory = self._holder = None
 
-    def _use(self, ptr, owner) -> None:
-        """Use the struct at ``ptr`` (a field of ``owner``'s struct, kept alive here) from now on, after
-        copying the current values into it; then :meth:`_attached` re-points the parts (a composite's), while the
-        old struct is still alive (their old pointers point into it)."""
-        old, old_owner = self._c, self._owner  # noqa: F841 - alive until the parts have moved along
-        ptr[0] = old[0]
+    def _use(self, ptr, owner, *, moved: bool = False) -> None:
+        """Use the struct at ``ptr`` (a field of ``owner``'s struct, its memory kept alive here) from now on, after
+        copying the current values into it (unless ``moved``: they are there already, the part of a composite whose
+        whole struct was copied); then :meth:`_attached` re-points the parts (a composite's), while the old struct
+        is still alive (their old pointers point into it)."""
+        old, old_memory = self._c, self._memory  # noqa: F841 - alive until the parts have moved along
+        if not moved:
+            ptr[0] = old[0]
         self._c = ptr
-        self._owner = owner
-        self._attached()
+        if isinstance(owner, Component):
+            self._memory = owner._c if owner._memory is None else owner._memory
+            self._holder = weakref.ref(owner)
+        else:
+            self._memory, self._holder = owner, None
+        if self._parts or type(self)._attached is not Component._attached:  # a leaf of the base class: nothing
+            self._attached()
 
     @property
     def cdata(self):
         """Pointer to the component's C struct (cffi)."""
         return self._c
+
+    @classmethod
+    def _in_place(cls, owner: "Component", field: str, cfg):
+        """A part over the struct ``field`` (a dotted path) of ``owner``'s struct, which ``owner``'s C init has
+        configured from the settings ``cfg`` (cffi ``aff_X_config *`` or struct, kept as its :attr:`config`): no
+        struct of its own made, checked and copied in. Only for a class whose objects hold nothing besides the
+        struct (e.g. a gate); the composite then :meth:`_attach` es it like any part."""
+        part = cls.__new__(cls)
+        part._c = owner._ffi.addressof(owner._c, *_PATHS.get(field) or _path(field))
+        part._memory = owner._c if owner._memory is None else owner._memory
+        part._holder = weakref.ref(owner)
+        part._config_bytes = bytes(part._ffi.buffer(cfg))
+        part._config_ctype = f"{cls._ctype}_config"
+        return part
 
     def _settings(self, ctype: str, defaults, fields: dict, *, counts: tuple = ()):
         """New settings ``ctype`` (a C config struct, cffi pointer): the C ``defaults`` (e.g.
@@ -592,16 +637,20 @@ class Component:
             kind = kinds[k]
             t = type(v)
             if kind is float:
-                if t is not float:  # the common case, a float, as it is (float(v) is v's value)
-                    if not isinstance(v, (Real, np.floating, np.integer)) or isinstance(v, (bool, np.bool_)):
+                if t is not float:  # the common case, a float, as it is (float(v) is v's value); then an int
+                    if t is not int and (not isinstance(v, (Real, np.floating, np.integer))
+                                         or isinstance(v, (bool, np.bool_))):
                         raise SettingTypeError(f"{type(self).__name__}: {k} must be a real number, got {v!r} "
                                                f"({type(v).__name__})")
                     v = float(v)
-            elif kind is int and t is not int:  # an int as it is (never a bool: type(True) is bool)
-                if not isinstance(v, (Integral, np.integer, np.bool_)) or (
-                        k in counts and isinstance(v, (bool, np.bool_))):
-                    raise SettingTypeError(f"{type(self).__name__}: {k} must be an integer, got {v!r}")
-                v = int(v)
+            elif kind is int and t is not int:  # an int as it is (never a bool: type(True) is bool); a flag's bool
+                if t is bool and k not in counts:
+                    v = int(v)
+                else:
+                    if not isinstance(v, (Integral, np.integer, np.bool_)) or (
+                            k in counts and isinstance(v, (bool, np.bool_))):
+                        raise SettingTypeError(f"{type(self).__name__}: {k} must be an integer, got {v!r}")
+                    v = int(v)
             setattr(cfg, k, v)
         return cfg
 
@@ -659,7 +708,11 @@ class Component:
                                  + (f" (argument {arg})" if arg else ""))
         if keep:
             self._config_bytes = bytes(self._ffi.buffer(cfg))
-            self._config_ctype = self._ffi.typeof(cfg).item.cname.replace("struct ", "")
+            t = self._ffi.typeof(cfg)
+            name = _CNAMES.get(t)
+            if name is None:
+                name = _CNAMES[t] = t.item.cname.replace("struct ", "")
+            self._config_ctype = name
 
     @property
     def config(self):
@@ -683,11 +736,16 @@ class Component:
         self._attached()
 
     def _attached(self) -> None:
-        """Re-point the parts :attr:`_parts` into this component's struct (composites with more to do extend it)."""
+        """Re-point the parts :attr:`_parts` into this component's struct (composites with more to do extend it).
+
+        A part that points into this component's struct already (its holder is this component) moved along with the
+        whole struct (:meth:`_use` copied it): it is re-pointed without copying its bytes again; a part of its own
+        (new, or unpickled) is copied in."""
         for attr, field in self._parts.items():
             part = getattr(self, attr)
             if part is not None:
-                part._use(self._ffi.addressof(self._c, *field.split(".")), self)
+                part._use(self._ffi.addressof(self._c, *_PATHS.get(field) or _path(field)), self,
+                          moved=part._holder is not None and part._holder() is self)
 
     def __repr__(self) -> str:
         if not self._repr_fields:
@@ -701,7 +759,7 @@ class Component:
         return f"{type(self).__name__}({', '.join(shown)})"
 
     def __getstate__(self) -> dict:
-        d = {k: v for k, v in self.__dict__.items() if k not in ("_c", "_owner")}
+        d = {k: v for k, v in self.__dict__.items() if k not in ("_c", "_memory", "_holder")}
         d["_cbytes"] = self.struct_bytes()
         return d
 

@@ -65,7 +65,12 @@ def json_safe(obj):
     ``json_safe(dataclasses.asdict(self))`` or an explicit dict). Source:
     RFC 8259, Sec. 6 (numbers in JSON are finite).
     """
-    if obj is None or isinstance(obj, (bool, str)):
+    t = type(obj)
+    if t is float:  # the common cases first, by exact type (a subclass takes the checks below)
+        return obj if math.isfinite(obj) else None
+    if t is dict:
+        return {k if type(k) is str else str(k): json_safe(v) for k, v in obj.items()}
+    if obj is None or t is str or t is int or isinstance(obj, (bool, str)):
         return obj
     if isinstance(obj, (int, np.integer)) and not isinstance(obj, np.bool_):
         return int(obj)

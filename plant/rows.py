@@ -104,7 +104,7 @@ from plant._cplant import ffi, lib
 from plant.errors import ParameterError, check_positive
 from plant.stribeck_map import stribeck_cutoff, stribeck_slope_scalar
 
-__all__ = ["MODEL_CODES", "plant_params", "plant_rows", "lagged_params", "plant_state", "plant_states",
+__all__ = ["MODEL_CODES", "plant_params", "plant_rows", "lagged_params", "plant_state", "params_state", "plant_states",
            "stack_params", "stack_states", "plant_target", "check_integrable", "integrable_rows", "lagged_rate",
            "steepest_rise", "RK4_RATE_MAX", "LUGRE_STIFF_MAX"]
 
@@ -281,7 +281,21 @@ def plant_params(p):
     Ruderman, eqs. 1-3, and the models of :mod:`plant.asymmetric`,
     :mod:`plant.karnopp`, :mod:`plant.lugre`.
     """
-    return ffi.new(_PARAMS_PTR, _init(_row_list(p)))
+    hit = _PACKED.get(id(p))
+    if hit is not None and hit[0] is p:  # a frozen model packed before: its initialiser
+        return ffi.new(_PARAMS_PTR, hit[1])
+    init = _init(_row_list(p))
+    if len(_PACKED) >= _PACKED_MAX:
+        del _PACKED[next(iter(_PACKED))]
+    _PACKED[id(p)] = (p, init)
+    return ffi.new(_PARAMS_PTR, init)
+
+
+#: The initialisers of the last plants :func:`plant_params` packed: id -> (the frozen model, initialiser); the entry
+#: holds its model (frozen: its row does not change), so the id is not another's. At most :data:`_PACKED_MAX`, the
+#: oldest dropped first; in memory only (a run packs its plant twice, a sweep the same plant per run).
+_PACKED: dict = {}
+_PACKED_MAX = 256
 
 
 def _row_list(p) -> list:
@@ -441,7 +455,32 @@ def plant_state(p, w0: float = 0.0):
     ParameterError
         ``w0`` not finite.
     """
-    par = plant_params(p)
+    return params_state(plant_params(p), w0)
+
+
+def params_state(par, w0: float = 0.0):
+    """:func:`plant_state` of a packed plant: the state of steady motion at ``w0`` of the parameters ``par``.
+
+    Parameters
+    ----------
+    par : cffi ``plant_params *`` or ``plant_params[K]``
+        Parameters of :func:`plant_params` (of a table: its first row), e.g. the first row of a run's table.
+    w0 : float
+        Velocity (rad/s).
+
+    Returns
+    -------
+    cffi ``plant_state *``
+        A new struct, as :func:`plant_state` of the model ``par`` was packed from. C: ``plant_steady_state``.
+
+    Raises
+    ------
+    TypeError
+        ``par`` is not a ``plant_params`` pointer or array.
+    ParameterError
+        ``w0`` not finite.
+    """
+    par = _table(par, "par", _PARAMS, _PARAMS_PTR)[0]
     w0 = float(w0)
     if not math.isfinite(w0):
         raise ParameterError(f"w0 must be finite, got {w0!r}")

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -34,12 +34,21 @@ from adaptive_ff.identification.rls import RLS_NMAX
 from adaptive_ff.compensation.defaults import c_config_class, c_defaults
 from plant.component import struct_field, struct_fields
 from plant.errors import ParameterError, check_optional
+from plant.results import json_safe
 
 __all__ = ["RobustAdaptiveFeedforward", "RobustAdaptiveFeedforwardConfig", "FeedforwardStart", "start_output", "lag_weighted", "fc_determined",
            "project_box", "FC_INFO_FRACTION"]
 
 #: The C defaults of the provisional start (``aff_start_default_config``): :class:`FeedforwardStart`'s defaults.
 _START = c_defaults("aff_start_config")
+#: The fields of a :class:`FrictionEstimate`, in order: the keys of its ``to_dict()``.
+_ESTIMATE_FIELDS = tuple(f.name for f in fields(FrictionEstimate))
+
+
+def _estimate_dict(est: FrictionEstimate) -> dict:
+    """``est.to_dict()`` of an estimate whose fields are numbers or None (the estimator's: the same strict-JSON dict,
+    without ``dataclasses.asdict``'s deep copy)."""
+    return {k: json_safe(getattr(est, k)) for k in _ESTIMATE_FIELDS}
 
 RobustAdaptiveFeedforwardConfig = c_config_class(
     "RobustAdaptiveFeedforwardConfig", "aff_robust_ff_config", "aff_robust_ff.h", module=__name__,
@@ -441,7 +450,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         config = RobustAdaptiveFeedforwardConfig() if config is None else config
         if not isinstance(config, RobustAdaptiveFeedforwardConfig):
             raise ParameterError(f"config must be a RobustAdaptiveFeedforwardConfig, got {type(config).__name__}")
-        ff = FrictionFeedforward(None, dt=dt, config=config.ff, loop_model=loop_model, sign_observer=sign_observer)
+        ff = FrictionFeedforward.checked_settings(dt=dt, config=config.ff, loop_model=loop_model,
+                                                  sign_observer=sign_observer)  # its struct: this one's field ff
         self.loop_model = loop_model
         self.sign_observer = sign_observer
         check_optional("start", start, FeedforwardStart)
@@ -449,7 +459,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         self.n_theta = len(estimator.names)
         own = {k: v for k, v in config.c_fields().items() if k != "ff"}
         cfg = self._settings("aff_robust_ff_config", lib.aff_robust_ff_default_config(), own, counts=("warmup",))
-        cfg.ff, cfg.est = ff.config[0], estimator.config[0]
+        cfg.ff, cfg.est = ff[0], estimator.config[0]
         if start is not None:
             Fc, Fs, Vs, delta, sigma, tau = start.map_args(estimator.Vs, estimator.delta)
             cfg.start = {"on": True, "Fc": Fc, "Fs": Fs, "Vs": Vs, "delta": delta, "sigma": sigma, "tau": tau,
@@ -552,7 +562,7 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
                 "n_undetermined": self.n_undetermined, "n_lag_held": self.n_lag_held, "n_updates": e.n_updates,
                 "n_gated": e.n_gated,
                 "n_projected": e.rls.n_projected, "lam": e.rls.lam, "names": list(e.names),
-                "raw_estimate": e.estimate.to_dict(), "noise_estimate": e.noise_std}
+                "raw_estimate": _estimate_dict(e.estimate), "noise_estimate": e.noise_std}
 
     def observe(self, u: float, w: float) -> bool:
         """Feed one controller-period sample to the estimator; refresh the estimate in use (C

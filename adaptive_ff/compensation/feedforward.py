@@ -222,6 +222,17 @@ class FrictionFeedforward(Component):
     def __init__(self, estimate: FrictionEstimate | None, *, dt: float, config: FrictionFeedforwardConfig | None = None,
                  loop_model: LoopModel | None = None, sign_observer: SignObserver | None = None):
         config = FrictionFeedforwardConfig() if config is None else config
+        cfg = self._settings_of(dt, config, loop_model, sign_observer)
+        self._configure(lib.aff_fixed_ff_init, cfg, lib.aff_error_message)
+        self.settings = config
+        self.loop_model = loop_model
+        self.sign_observer = sign_observer
+        self._attached()
+        self.estimate = None
+        self._set(estimate)
+
+    def _settings_of(self, dt, config, loop_model, sign_observer):
+        """The C settings of the constructor's arguments, their types checked (their ranges are C's to check)."""
         if not isinstance(config, FrictionFeedforwardConfig):
             raise ParameterError(f"config must be a FrictionFeedforwardConfig, got {type(config).__name__}")
         check_optional("loop_model", loop_model, LoopModel)
@@ -233,13 +244,36 @@ class FrictionFeedforward(Component):
             cfg.loop_model = loop_model.config_fields()
         if sign_observer is not None:
             cfg.sign_observer = sign_observer.config_fields()
-        self._configure(lib.aff_fixed_ff_init, cfg, lib.aff_error_message)
-        self.settings = config
-        self.loop_model = loop_model
-        self.sign_observer = sign_observer
-        self._attached()
-        self.estimate = None
-        self._set(estimate)
+        return cfg
+
+    @classmethod
+    def checked_settings(cls, *, dt: float, config: FrictionFeedforwardConfig | None = None,
+                         loop_model: LoopModel | None = None, sign_observer: SignObserver | None = None):
+        """The settings a ``FrictionFeedforward(None, dt=dt, config=config, ...)`` is configured from, checked as its
+        constructor checks them, without making its struct: the feedforward part of a composite, whose C init makes
+        the struct (:class:`adaptive_ff.compensation.adaptive_feedforward.RobustAdaptiveFeedforward`).
+
+        Parameters
+        ----------
+        dt, config, loop_model, sign_observer : keyword-only
+            As the constructor's.
+
+        Returns
+        -------
+        cffi ``aff_fixed_ff_config *``
+            The C settings (``aff_fixed_ff_check_config`` accepted them).
+
+        Raises
+        ------
+        ParameterError, SettingTypeError
+            The constructor's errors, with its messages (``FrictionFeedforward: ...``).
+        """
+        config = FrictionFeedforwardConfig() if config is None else config
+        cfg = cls.__new__(cls)._settings_of(dt, config, loop_model, sign_observer)
+        code = int(lib.aff_fixed_ff_check_config(cfg))
+        if code != 0:  # the sentence of the constructor's _configure (aff_fixed_ff_init checks first the same)
+            raise ParameterError(f"{cls.__name__}: {ffi.string(lib.aff_error_message(code)).decode()}")
+        return cfg
 
     # ---- the struct: self._f points to the aff_fixed_ff (this component's struct, or the part of a composite's)
     def _attached(self) -> None:

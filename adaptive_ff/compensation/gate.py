@@ -18,11 +18,14 @@ from adaptive_ff.compensation.defaults import c_defaults
 from plant.component import Component, struct_field, struct_fields
 from plant.errors import ParameterError
 
-__all__ = ["OutlierGate", "RangeGate", "range_gates"]
+__all__ = ["OutlierGate", "RangeGate", "range_gates", "range_gate_in", "RANGE_DEFAULTS"]
 
 #: The C defaults (``aff_gate_default_config``, ``aff_range_gate_default_config``): the keywords' defaults.
 _GATE = c_defaults("aff_gate_config")
 _RANGE = c_defaults("aff_range_gate_config")
+#: The settings of a default range gate, ``RangeGate()``'s: the C ``aff_range_gate_default_config()`` (a cffi struct;
+#: a composite's settings take a copy of it for a range gate not given).
+RANGE_DEFAULTS = lib.aff_range_gate_default_config()
 
 
 @struct_fields(
@@ -225,3 +228,27 @@ def range_gates(u_range: RangeGate | None, w_range: RangeGate | None, *, w_floor
         if not isinstance(g, RangeGate):
             raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
     return u_range, w_range
+
+
+def range_gate_in(owner, field: str, floor: float = 0.0) -> RangeGate:
+    """A default range gate (:data:`RANGE_DEFAULTS`, ``floor`` set) over the field ``field`` of ``owner``'s struct,
+    which ``owner``'s C init configured from those settings: ``RangeGate(floor=floor)`` made in place, no struct of
+    its own built, checked and copied in (:meth:`plant.component.Component._in_place`).
+
+    Parameters
+    ----------
+    owner : plant.component.Component
+        The composite (configured), which embeds an ``aff_range_gate`` at ``field``.
+    field : str
+        The C field (a dotted path for a nested one).
+    floor : float
+        The floor its init was given (signal unit; the composite's init checked it).
+
+    Returns
+    -------
+    RangeGate
+        Points into ``owner``'s struct; its :attr:`config` the settings with ``floor``.
+    """
+    cfg = ffi.new("aff_range_gate_config *", RANGE_DEFAULTS)
+    cfg.floor = floor
+    return RangeGate._in_place(owner, field, cfg)

@@ -77,7 +77,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from adaptive_ff._caff import ffi, lib
-from adaptive_ff.compensation.gate import OutlierGate, RangeGate, range_gates
+from adaptive_ff.compensation.gate import RANGE_DEFAULTS, OutlierGate, RangeGate, range_gate_in
 from adaptive_ff.identification.regression import FrictionEstimate
 from adaptive_ff.identification.rls import RecursiveLeastSquares
 from adaptive_ff.compensation.defaults import c_config_class, c_defaults
@@ -161,12 +161,18 @@ def estimate_from_theta(names, theta, Vs, delta, *, box=None) -> FrictionEstimat
 
 
 def _gates(gate, u_range, w_range) -> tuple:
-    """The estimator's gates, defaults built and their types checked: ``(gate, u_range, w_range)`` (``w_range``'s
-    default floor 0 stands for ``Vs``)."""
+    """The estimator's gates, their types checked: ``(gate, u_range, w_range)``, the outlier gate's default built, a
+    range gate not given None (made in place in the struct from
+    :data:`adaptive_ff.compensation.gate.RANGE_DEFAULTS`, :func:`adaptive_ff.compensation.gate.range_gate_in`;
+    ``w_range``'s floor 0 stands for ``Vs``)."""
     gate = OutlierGate() if gate is None else gate
     if not isinstance(gate, OutlierGate):
         raise ParameterError(f"gate must be an OutlierGate, got {type(gate).__name__}")
-    return (gate, *range_gates(u_range, w_range))
+    for name, g in (("u_range", u_range), ("w_range", w_range)):
+        if g is not None and not isinstance(g, RangeGate):
+            raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
+    return gate, u_range, w_range
+
 
 
 @struct_fields("n_samples", "n_rejected", "n_gated", "updated")
@@ -306,11 +312,11 @@ class SlidingFrictionEstimator(Component):
         if not isinstance(config, SlidingFrictionEstimatorConfig):
             raise ParameterError(f"config must be a SlidingFrictionEstimatorConfig, got {type(config).__name__}")
         self.settings = c = config
-        gate, u_range, w_range = _gates(gate, u_range, w_range)
+        gate, u_range, w_range = _gates(gate, u_range, w_range)  # a default range gate is None: made in place
         # the ranges of Vs, delta, Tc and every field of config are aff_sliding_init's to check (the one validator:
         # a ParameterError naming the field, its unit and range); here only what C does not see: a vector lam's
         # length, and an initial_J that C would clip rather than refuse
-        vector = np.ndim(c.lam) > 0
+        vector = type(c.lam) is not float and np.ndim(c.lam) > 0  # a float (the common case) is no vector
         p = len(_names(bool(c.lag), bool(c.offset)))
         if vector and np.size(c.lam) != p:
             raise ParameterError(f"lam must be a number or {p} numbers in (0, 1], got {c.lam!r}")
@@ -330,7 +336,9 @@ class SlidingFrictionEstimator(Component):
         # the defaults C resolves, written into the settings kept (C checks Vs and P0 before these fields)
         cfg.P_max = p * cfg.P0 if cfg.P_max == 0 else cfg.P_max
         cfg.w_band_min = 0.1 * cfg.Vs if cfg.w_band_min == 0 else cfg.w_band_min
-        cfg.gate, cfg.u_range, cfg.w_range = gate.config[0], u_range.config[0], w_range.config[0]
+        cfg.gate = gate.config[0]
+        cfg.u_range = RANGE_DEFAULTS if u_range is None else u_range.config[0]
+        cfg.w_range = RANGE_DEFAULTS if w_range is None else w_range.config[0]
         if cfg.w_range.floor == 0.0:
             cfg.w_range.floor = cfg.Vs
         self._configure(lib.aff_sliding_init, cfg, lib.aff_error_message,
@@ -350,7 +358,11 @@ class SlidingFrictionEstimator(Component):
         # start the clipped initial estimate aff_sliding_init computed
         rls = RecursiveLeastSquares(p, lam=c.lam, P0=float(cfg.P0), forgetting=c.forgetting, P_max=float(cfg.P_max))
         rls.theta = ffi.unpack(self._c.rls.theta, p)
-        if w_range.floor == 0.0:
+        # a default range gate over its field of the struct, as aff_sliding_init configured it (floor Vs for w)
+        u_range = range_gate_in(self, "u_range") if u_range is None else u_range
+        if w_range is None:
+            w_range = range_gate_in(self, "w_range", float(cfg.w_range.floor))
+        elif w_range.floor == 0.0:
             w_range = w_range.with_floor(self.Vs)
         self._attach(gate=gate, u_range=u_range, w_range=w_range, rls=rls)
 

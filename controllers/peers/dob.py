@@ -19,9 +19,10 @@ called by :class:`DisturbanceObserver`'s methods and by the closed-loop engine.
 from __future__ import annotations
 
 from adaptive_ff.compensation.defaults import c_defaults
-from adaptive_ff.compensation.gate import RangeGate, range_gates
+from adaptive_ff.compensation.gate import RANGE_DEFAULTS, RangeGate, range_gate_in
 from controllers._cctl import ffi, lib
 from plant.component import Component, c_compensate, c_observe, ops_table, struct_field, struct_fields
+from plant.errors import ParameterError
 
 __all__ = ["DisturbanceObserver", "DOB_ORDER_MAX"]
 
@@ -110,10 +111,16 @@ class DisturbanceObserver(Component):
                  d_max: float = _DOB["d_max"], u_range: RangeGate | None = None, w_range: RangeGate | None = None):
         # the ranges of the settings are aff_dob_init's to check (the one validator: a ParameterError whose
         # sentence names the field); a wrong type is _settings' SettingTypeError
-        u_range, w_range = range_gates(u_range, w_range)
+        for name, g in (("u_range", u_range), ("w_range", w_range)):
+            if g is not None and not isinstance(g, RangeGate):
+                raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
         self._configure_from(lib, {"Tc": Tc, "J_n": J_n, "omega_q": omega_q, "order": order, "d_max": d_max,
-                                   "u_range": u_range.config[0], "w_range": w_range.config[0]}, counts=("order",))
-        self._attach(u_range=u_range, w_range=w_range)
+                                   "u_range": RANGE_DEFAULTS if u_range is None else u_range.config[0],
+                                   "w_range": RANGE_DEFAULTS if w_range is None else w_range.config[0]},
+                             counts=("order",))
+        # a gate not given: RangeGate() made in place in the struct (aff_dob_init configured it)
+        self._attach(u_range=range_gate_in(self, "u_range") if u_range is None else u_range,
+                     w_range=range_gate_in(self, "w_range") if w_range is None else w_range)
 
     ops = ops_table(lib)
 

@@ -11,7 +11,7 @@ one named compensation mode from :class:`LoopConfig` through the registry
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -29,8 +29,8 @@ from controllers.simulation.sensor_drive import Drive, Sensor
 from controllers.simulation.user_compensator import UserCompensator, is_user_compensator
 from plant.errors import ParameterError, check_finite_scalar, check_nonnegative, check_optional, check_positive
 from plant.excitation import Reference
-from plant.dynamics import check_integrable, plant_params, plant_state
-from plant.rows import stack_params
+from plant.dynamics import check_integrable, plant_params
+from plant.rows import params_state, stack_params
 from plant.results import axes_or_new, json_safe
 
 __all__ = ["MODES", "ESTIMATORS", "LoopConfig", "LoopMetrics", "ClosedLoopResult", "MeasurementSettings",
@@ -317,10 +317,11 @@ def run_closed_loop(plant, controller: PIController, compensator, reference: Ref
 
 
 def _run_loop(plant, controller, compensator, reference, *, noise_std, rng, faults, sensor_gate, w_limit, decimate,
-              reversal_window, friction0, sensor, drive, supervisor=None) -> ClosedLoopResult:
+              reversal_window, friction0, sensor, drive, supervisor=None, mode=None) -> ClosedLoopResult:
     """:func:`run_closed_loop` with the loop's sensor and drive (:class:`Sensor`, :class:`Drive` or None; copied)
     and a feedforward supervisor (:class:`adaptive_ff.compensation.supervisor.FeedforwardSupervisor` or None; its
-    state advanced as the run's, its counters in the result's ``info``)."""
+    state advanced as the run's, its counters in the result's ``info``); the result's ``mode`` is ``mode`` where
+    given, else the compensator's."""
     if not isinstance(controller, PIController):
         raise ParameterError(f"controller must be a PIController, got {type(controller).__name__}")
     oracle = isinstance(compensator, TrueFriction)
@@ -349,7 +350,7 @@ def _run_loop(plant, controller, compensator, reference, *, noise_std, rng, faul
     frozen = plant.at(0.0) if hasattr(plant, "at") else plant
     gate = _sensor_gate(sensor_gate, controller, float(frozen.J) if sensor_gate is True else math.nan)
     n_theta = 0 if compensator is None or oracle else int(getattr(compensator, "n_theta", 0))
-    state0 = plant_state(frozen, float(wr[0]))
+    state0 = params_state(table, float(wr[0]))  # row 0: the plant at t = 0 (``frozen``), packed once
     if friction0 is not None and getattr(frozen, "tau", 0.0) > 0:  # the lagged models (LuGre has no tau)
         state0.s = check_finite_scalar("friction0", friction0)
     revs = reversal_times(t, wr)
@@ -373,7 +374,8 @@ def _run_loop(plant, controller, compensator, reference, *, noise_std, rng, faul
     controller.cdata[0] = x.scenarios[0].pi  # the controller's and the gate's state advance as in a loop
     if gate is not None:
         gate.cdata[0] = x.scenarios[0].gate
-    res = _result(x, plant, compensator, t, wr, revs, gate, decimate, n_theta, noise_std, Tc, float(reversal_window))
+    res = _result(x, plant, compensator, t, wr, revs, gate, decimate, n_theta, noise_std, Tc, float(reversal_window),
+                  mode)
     if supervisor is not None and x.scenarios[0].use_supervisor:
         x.supervisor_state(0, supervisor)
         res.info.update(supervisor.info())
@@ -394,7 +396,8 @@ def sensor_and_drive(options: LoopConfig) -> tuple:
     return sensor, drive
 
 
-def _result(x: EngineRun, plant, compensator, t, wr, revs, gate, decimate, n_theta, noise_std, Tc, window):
+def _result(x: EngineRun, plant, compensator, t, wr, revs, gate, decimate, n_theta, noise_std, Tc, window,
+            mode=None):
     k_end, diverged, n_th = (a[0] for a in x.outcome())
     n = t.shape[0]
     metrics = metrics_result(x.scenarios[0].metrics)
@@ -417,7 +420,8 @@ def _result(x: EngineRun, plant, compensator, t, wr, revs, gate, decimate, n_the
             "n_sensor_rejected": gate.n_rejected if gate is not None else 0}
     if compensator is not None and hasattr(compensator, "info"):
         info.update(compensator.info())
-    mode = getattr(compensator, "MODE", "none") if compensator is not None else "none"
+    if mode is None:
+        mode = getattr(compensator, "MODE", "none") if compensator is not None else "none"
     est = getattr(compensator, "estimate", None)
     est = est if isinstance(est, FrictionEstimate) else None
     return ClosedLoopResult(mode=mode, t=ts, w_ref=wrs, w=W, w_meas=WM, u=U, u_ff=UFF, f=F, t_theta=t_th, theta=th,
@@ -472,12 +476,10 @@ def run_own(plant, reference: Reference, compensator, options: LoopConfig, *, na
         gate = _sensor_gate(True, controller, float(frozen.J) if J_design is None else J_design)
     sensor, drive = sensor_and_drive(options)
     sup = build_supervisor(plant, "own", options.replace(supervise=True), force=True) if supervise else None
-    res = _run_loop(run_plant, controller, comp, reference, noise_std=options.sensor.noise_std, rng=rng,
-                    faults=faults, sensor_gate=gate, w_limit=options.run.w_limit, decimate=options.run.decimate,
-                    reversal_window=options.run.reversal_window, friction0=options.run.friction0, sensor=sensor,
-                    drive=drive,
-                    supervisor=sup)
-    return replace(res, mode=comp.name)
+    return _run_loop(run_plant, controller, comp, reference, noise_std=options.sensor.noise_std, rng=rng,
+                     faults=faults, sensor_gate=gate, w_limit=options.run.w_limit, decimate=options.run.decimate,
+                     reversal_window=options.run.reversal_window, friction0=options.run.friction0, sensor=sensor,
+                     drive=drive, supervisor=sup, mode=comp.name)
 
 
 def _window_after(t, revs, window, k_end) -> bool:
@@ -537,6 +539,6 @@ def run_mode(plant, reference: Reference, mode: str, options: LoopConfig, *, rng
                     reversal_window=options.run.reversal_window, friction0=options.run.friction0, sensor=sensor,
                     drive=drive,
                     supervisor=None if own_supervisor(compensator) is not None else
-                    build_supervisor(plant, mode, options))
-    info = dict(res.info, Ts=options.estimator.Ts, ff_input=options.feedforward.ff_input)
-    return replace(res, mode=mode, info=info)
+                    build_supervisor(plant, mode, options), mode=mode)
+    res.info.update(Ts=options.estimator.Ts, ff_input=options.feedforward.ff_input)  # the run's own dict
+    return res

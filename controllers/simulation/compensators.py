@@ -24,7 +24,9 @@ entry of :data:`REGISTRY`.
 
 from __future__ import annotations
 
+import functools
 import math
+
 from adaptive_ff.compensation.eq4_feedforward import AdaptiveFrictionFeedforward, AdaptiveFrictionFeedforwardConfig
 from adaptive_ff.compensation.adaptive_feedforward import RobustAdaptiveFeedforward, RobustAdaptiveFeedforwardConfig
 from adaptive_ff.compensation.defaults import c_defaults
@@ -101,7 +103,35 @@ def _nominal_inertia(plant, o: LoopConfig) -> float:
 # per config, ``(o, J, ff_max) -> config`` with ``J`` the design inertia (kg·m², the sliding estimator's start) and
 # ``ff_max`` the compensation's bound (N·m); a mode builds only the configs it uses.
 
+#: The settings made from the last options: (builder, id(options)) -> (options, the other arguments, what it made).
+#: A :class:`LoopConfig` and what is made here (the components' config dataclasses, :class:`LoopModel`,
+#: :class:`SignObserver`, :class:`ResidualSwitchIn`) are frozen, so a mode built again from the same options object
+#: (a batch, a sweep's repeats, a benchmark's) reuses them, made and checked once; an entry holds its options object,
+#: so the id is not another's. At most :data:`_MADE_MAX` entries, the oldest dropped first; in memory only.
+_MADE: dict = {}
+_MADE_MAX = 64
 
+
+def _once(builder):
+    """``builder(o, *args)`` (frozen settings from the options ``o`` and numbers ``args``) made once per options
+    object and equal ``args`` of the same types (:data:`_MADE`)."""
+    @functools.wraps(builder)
+    def made(o, *args):
+        key = (builder, id(o))
+        hit = _MADE.get(key)
+        if hit is not None and hit[0] is o and hit[1] == args and all(
+                type(a) is type(b) for a, b in zip(hit[1], args)):
+            return hit[2]
+        value = builder(o, *args)
+        if len(_MADE) >= _MADE_MAX:
+            del _MADE[next(iter(_MADE))]
+        _MADE[key] = (o, args, value)
+        return value
+
+    return made
+
+
+@_once
 def _ff_config(o, J, ff_max) -> FrictionFeedforwardConfig:
     """``fixed``'s feedforward, and the adaptive ones'."""
     ffs = o.feedforward
@@ -110,6 +140,7 @@ def _ff_config(o, J, ff_max) -> FrictionFeedforwardConfig:
                                      ff_input=ffs.ff_input)
 
 
+@_once
 def _robust_config(o, J, ff_max) -> RobustAdaptiveFeedforwardConfig:
     """The sliding estimator's feedforward (with :func:`_ff_config`'s ``ff``)."""
     ffs = o.feedforward
@@ -118,6 +149,7 @@ def _robust_config(o, J, ff_max) -> RobustAdaptiveFeedforwardConfig:
                                            lag_memory=ffs.lag_memory, lag_zero=ffs.lag_zero, project=ffs.project)
 
 
+@_once
 def _sliding_config(o, J, ff_max) -> SlidingFrictionEstimatorConfig:
     """The sliding-regime estimator."""
     est = o.estimator
@@ -127,6 +159,7 @@ def _sliding_config(o, J, ff_max) -> SlidingFrictionEstimatorConfig:
                                           dwell_max=est.dwell_max, offset=est.offset)
 
 
+@_once
 def _supervisor_config(o, J, ff_max) -> FeedforwardSupervisorConfig:
     """The feedforward supervisor."""
     sup, ctl = o.supervisor, o.controller
@@ -196,11 +229,17 @@ def build_supervisor(plant, mode: str, options: LoopConfig, *, force: bool = Fal
     if not (options.supervisor.enabled and (force or mode in SUPERVISED_MODES)):
         return None
     J, ff_max = _ctx(plant, options)
-    omega = options.supervisor.omega
+    J_n = _nominal_inertia(plant, options)
+    return _supervisor(options, J, J_n, ff_max, max(options.controller.Kp, 0.0) / J_n)
+
+
+def _supervisor(o: LoopConfig, J: float, J_n: float, ff_max: float, wc: float) -> FeedforwardSupervisor:
+    """:func:`build_supervisor`'s supervisor of the design inertia ``J``, the nominal one ``J_n`` (kg·m²), the bound
+    ``ff_max`` (N·m) and the crossover ``wc`` (rad/s, :func:`_crossover`), each computed once by the caller."""
+    omega = o.supervisor.omega
     if omega is None:
-        omega = _crossover(plant, options) if options.controller.Kp > 0 else 10.0 / options.supervisor.window
-    return FeedforwardSupervisor(Tc=options.controller.Tc, J_n=_nominal_inertia(plant, options), omega=omega,
-                                 config=_supervisor_config(options, J, ff_max))
+        omega = wc if o.controller.Kp > 0 else 10.0 / o.supervisor.window
+    return FeedforwardSupervisor(Tc=o.controller.Tc, J_n=J_n, omega=omega, config=_supervisor_config(o, J, ff_max))
 
 
 def own_supervisor(comp) -> FeedforwardSupervisor | None:
@@ -211,12 +250,14 @@ def own_supervisor(comp) -> FeedforwardSupervisor | None:
     return comp.supervisor if isinstance(comp, AdaptiveCompensator) else None
 
 
-def _loop_model(J: float, o: LoopConfig) -> LoopModel | None:
+@_once
+def _loop_model(o: LoopConfig, J: float) -> LoopModel | None:
     """The nominal loop of the stick-detection fallback (``stick_input`` model), from the PI and the design J."""
     return LoopModel(Kp=o.controller.Kp, Ki=o.controller.Ki, J=J) if o.feedforward.stick_input == "model" else None
 
 
-def _sign_observer(J: float, o: LoopConfig) -> SignObserver | None:
+@_once
+def _sign_observer(o: LoopConfig, J: float) -> SignObserver | None:
     """The velocity observer that signs the friction map inside the stick band (``sign_input`` observer)."""
     if o.feedforward.sign_input != "observer" or o.controller.Kp <= 0.0:
         return None
@@ -241,28 +282,36 @@ def _fixed(plant, o):
         raise ParameterError("mode 'fixed' needs estimate=FrictionEstimate (an offline LS result)")
     J, ff_max = _ctx(plant, o)
     return plant, FrictionFeedforward(o.feedforward.estimate, dt=o.controller.Tc, config=_ff_config(o, J, ff_max),
-                                      loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
+                                      loop_model=_loop_model(o, J), sign_observer=_sign_observer(o, J))
 
 
 def _adaptive(plant, o):
     """Mode ``adaptive``: over the sliding estimator one :class:`AdaptiveCompensator` (the feedforward, the residual
     observer it switches in and the supervisor in one C struct, the one a drive runs); over the eq. 4 estimators the
     composite :class:`AdaptiveDOBCompensator` with the switch-in, supervised by the engine."""
-    _, ff = _adaptive_feedforward(plant, o)
+    J, ff_max = _ctx(plant, o)  # the design inertia, the bound and (below) the nominal inertia: once
+    J_n = J if o.observer.J_n is None else float(o.observer.J_n)  # _nominal_inertia
+    wc = max(o.controller.Kp, 0.0) / J_n  # _crossover: the residual observer's slew limit scales with it
+    ff = ESTIMATOR_BUILDERS[o.estimator.name](o, J, ff_max)
     switch_in = o.observer.switch_in and o.controller.Kp > 0.0
-    _, ff_max = _ctx(plant, o)
-    wc = _crossover(plant, o)  # the residual observer's slew limit scales with it
     dob = sw = None
     if switch_in:
-        _, dob = _dob(plant, o, omega_q=o.observer.omega_r)
-        sw = ResidualSwitchIn(Tc=o.controller.Tc, J_n=_nominal_inertia(plant, o), Kp=o.controller.Kp,
-                              Ki=o.controller.Ki, ratio=o.observer.switch_in_ratio)
+        dob = _observer(o, J_n, ff_max, o.observer.omega_r)
+        sw = _switch_in(o, J_n)
     if isinstance(ff, RobustAdaptiveFeedforward):
+        sup = _supervisor(o, J, J_n, ff_max, wc) if o.supervisor.enabled else None  # build_supervisor's
         return plant, AdaptiveCompensator(ff, dob, u_max=ff_max if switch_in else math.inf, switch_in=sw,
-                                          supervisor=build_supervisor(plant, "adaptive", o), crossover=wc)
+                                          supervisor=sup, crossover=wc)
     if not switch_in:
         return plant, ff
     return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max, switch_in=sw, crossover=wc)
+
+
+@_once
+def _switch_in(o: LoopConfig, J_n: float) -> ResidualSwitchIn:
+    """Mode ``adaptive``'s residual switch-in on the nominal inertia ``J_n`` (kg·m²)."""
+    return ResidualSwitchIn(Tc=o.controller.Tc, J_n=J_n, Kp=o.controller.Kp, Ki=o.controller.Ki,
+                            ratio=o.observer.switch_in_ratio)
 
 
 def _adaptive_feedforward(plant, o):
@@ -291,7 +340,7 @@ def _eq4_iv(o, J: float, ff_max: float) -> AdaptiveFrictionFeedforward:
     m = _eq4_model(o)
     model = RegressionModel(m.Vs, m.delta, lag=m.lag, stribeck=m.stribeck, offset=bool(o.estimator.offset))
     return AdaptiveFrictionFeedforward(model, dt=o.controller.Tc, config=_eq4_config(o, J, ff_max),
-                                       loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o),
+                                       loop_model=_loop_model(o, J), sign_observer=_sign_observer(o, J),
                                        start=o.feedforward.start)
 
 
@@ -306,7 +355,7 @@ def _sliding(o, J: float, ff_max: float) -> RobustAdaptiveFeedforward:
     est = SlidingFrictionEstimator(Vs, delta, Tc=o.controller.Tc, config=_sliding_config(o, J, ff_max),
                                    initial=e.initial, gate=OutlierGate(max_step=gate_step))
     return RobustAdaptiveFeedforward(est, dt=o.controller.Tc, config=_robust_config(o, J, ff_max),
-                                     start=o.feedforward.start, loop_model=_loop_model(J, o), sign_observer=_sign_observer(J, o))
+                                     start=o.feedforward.start, loop_model=_loop_model(o, J), sign_observer=_sign_observer(o, J))
 
 
 #: Estimator name (:data:`controllers.simulation.estimators.ESTIMATORS`, the one list of names: the options' check,
@@ -335,9 +384,13 @@ def _dob(plant, o, omega_q: float | None = None):
     """Mode ``dob``: the observer of ``o.observer`` (its cut-off ``omega_q``, or the one given: a composite's
     ``omega_r``, checked where ``o`` was built)."""
     _, ff_max = _ctx(plant, o)
-    return plant, DisturbanceObserver(J_n=_nominal_inertia(plant, o),
-                                      omega_q=o.observer.omega_q if omega_q is None else omega_q,
-                                      Tc=o.controller.Tc, d_max=ff_max)
+    return plant, _observer(o, _nominal_inertia(plant, o), ff_max, o.observer.omega_q if omega_q is None else omega_q)
+
+
+def _observer(o: LoopConfig, J_n: float, ff_max: float, omega_q: float) -> DisturbanceObserver:
+    """:func:`_dob`'s observer of the nominal inertia ``J_n`` (kg·m²), the bound ``ff_max`` (N·m) and the cut-off
+    ``omega_q`` (rad/s)."""
+    return DisturbanceObserver(J_n=J_n, omega_q=omega_q, Tc=o.controller.Tc, d_max=ff_max)
 
 
 #: Mode name -> builder ``(plant, options) -> (plant to simulate, compensator or None)``.

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 import os
+import time
 
 from plant.errors import ParameterError, check_positive
 
@@ -45,8 +46,16 @@ PREPARATION_SIGNALS = 40
 _BYTES = 8  # float64
 
 
+#: How long (s) a reading of :func:`available_memory` is reused: reading ``/proc/meminfo`` costs more than the
+#: Python part of a short run's other checks, and a run of a few seconds starts several times a second.
+READING_LIFETIME = 1.0
+_reading: list = [-math.inf, None]  # [time.monotonic() of the reading, its result]
+
+
 def available_memory() -> tuple[int, str] | None:
     """Memory (bytes) a new allocation may use now, and where the number comes from; None when unknown.
+
+    A reading is reused for :data:`READING_LIFETIME` s (kept in memory only: the last one of this process).
 
     In this order: ``MemAvailable`` of ``/proc/meminfo`` (Linux: free memory plus the page cache the kernel
     can drop), lowered to the free part of a cgroup v2 limit (``/sys/fs/cgroup/memory.max`` minus
@@ -59,6 +68,16 @@ def available_memory() -> tuple[int, str] | None:
         Bytes and the end of a sentence ``"<bytes> of memory ..."`` naming the source (e.g. ``"are available"``),
         or None on a system that reports none of them (then no run is refused).
     """
+    now = time.monotonic()
+    if now - _reading[0] < READING_LIFETIME:
+        return _reading[1]
+    found = _read_available()
+    _reading[0], _reading[1] = now, found
+    return found
+
+
+def _read_available() -> tuple[int, str] | None:
+    """:func:`available_memory` read now from the system (no reuse)."""
     avail = _meminfo_available()
     if avail is not None:
         limit = _cgroup_free()

@@ -67,6 +67,7 @@ def _struct_dtype(ctype: str) -> np.dtype:
 #: ``ffi.from_buffer("ctl_metrics[]", np.zeros(B, METRICS_DTYPE))``).
 METRICS_DTYPE = _struct_dtype("ctl_metrics")
 _CTYPE = ffi.typeof("ctl_metrics")
+_NAMES = METRICS_DTYPE.names
 
 
 @dataclass(frozen=True)
@@ -218,8 +219,33 @@ def metrics_result(st, *, n_total: int | None = None) -> LoopMetrics:
     if n_total is not None and rec["n"][0] < n_total:
         return LoopMetrics(rms=nan, max=nan, rms_second_half=nan, max_second_half=nan, rms_reversal=nan,
                            u_rms=nan)
-    cols = metrics_columns(rec)
-    return LoopMetrics(**{k: float(v[0]) for k, v in cols.items()})
+    r = dict(zip(_NAMES, rec[0].item()))  # Python numbers: the IEEE operations of metrics_columns, one scenario
+    n, nh, nr = float(r["n"]), float(r["n_half"]), float(r["n_rev"])
+    return LoopMetrics(rms=_rms(r, "e2", n), max=float(r["e_max"]) if n != 0 else nan,
+                       rms_second_half=_rms(r, "e2_half", nh),
+                       max_second_half=float(r["e_max_half"]) if nh != 0 else nan,
+                       rms_reversal=_rms(r, "e2_rev", nr), u_rms=_rms(r, "u2", n))
+
+
+def _rms(r: dict, k: str, c: float) -> float:
+    """``sqrt((r[k] + r[k_c])/c)`` of one accumulator's fields ``r`` (Python numbers), NaN where ``c`` is 0: the IEEE
+    operations of :func:`metrics_columns`'s ``rms`` on one scenario (numpy's NaN where the sum is below 0)."""
+    if not c > 0:
+        return math.nan
+    x = (r[k] + r[k + "_c"]) / c
+    if x >= 0.0:
+        return math.sqrt(x)
+    with np.errstate(invalid="ignore"):
+        return float(np.sqrt(x))
+
+
+def _motion_scalars(r: dict, diverged: bool) -> tuple:
+    """``(rms_motion, rms_standstill, max_standstill)`` of one accumulator's fields ``r`` (Python numbers), NaN where
+    the run diverged or had no such sample: :func:`engine_motion`'s operations on one scenario."""
+    if diverged:
+        return math.nan, math.nan, math.nan
+    nm, nr = float(r["n_move"]), float(r["n_rest"])
+    return _rms(r, "e2_move", nm), _rms(r, "e2_rest", nr), float(r["e_max_rest"]) if nr > 0 else math.nan
 
 
 def metrics_columns(states) -> dict:
@@ -653,11 +679,14 @@ def engine_motion(run, states, t, revs, *, window: float, diverged) -> tuple:
     """
     st = _records(states)
     dv = np.asarray(diverged, dtype=bool).reshape(-1)
-    with np.errstate(all="ignore"):
-        nm, nr = st["n_move"].astype(np.float64), st["n_rest"].astype(np.float64)
-        rm = np.where((nm > 0) & ~dv, np.sqrt((st["e2_move"] + st["e2_move_c"]) / nm), np.nan)
-        rr = np.where((nr > 0) & ~dv, np.sqrt((st["e2_rest"] + st["e2_rest_c"]) / nr), np.nan)
-        mr = np.where((nr > 0) & ~dv, st["e_max_rest"], np.nan)
+    if st.shape[0] == 1:  # a single run: Python numbers, the same IEEE operations
+        rm, rr, mr = ([v] for v in _motion_scalars(dict(zip(_NAMES, st[0].item())), bool(dv[0])))
+    else:
+        with np.errstate(all="ignore"):
+            nm, nr = st["n_move"].astype(np.float64), st["n_rest"].astype(np.float64)
+            rm = np.where((nm > 0) & ~dv, np.sqrt((st["e2_move"] + st["e2_move_c"]) / nm), np.nan)
+            rr = np.where((nr > 0) & ~dv, np.sqrt((st["e2_rest"] + st["e2_rest_c"]) / nr), np.nan)
+            mr = np.where((nr > 0) & ~dv, st["e_max_rest"], np.nan)
     c = run.c_run
     t_mid = 0.5 * (t[0] + t[-1]) if len(t) else math.nan
     a, b, band = (np.array(x, dtype=float) for x in run.stops)
