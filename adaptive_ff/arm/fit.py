@@ -105,10 +105,10 @@ FRICTION_VELOCITY_FACTOR = 5.0
 COND_WARN = 1e3
 #: Share of the log at rest (the velocity low-passed at FRICTION_VELOCITY_FACTOR times the cutoff slower than the
 #: joint's slowest kept speed) above which a joint that keeps its Stribeck term gets a warning that its ``Fs`` and
-#: ``Vs`` intervals may miss (``rows="moving"``): over the 150 joints of ``benchmarks/arm_coverage.py`` 24 of the 26
-#: ``Fs`` intervals that missed the truth were wrists at rest over 24-40 % of their logs (two elbows, 13 %), 23 of
-#: the 27 ``Vs`` intervals wrists at rest over 19-40 % (four elbows, 9-13 %); every shoulder and elbow is at rest
-#: over at most 19 %, every wrist over at least 11 %.
+#: ``Vs`` intervals may miss (``rows="moving"``): over the 150 joints of ``benchmarks/arm_coverage.py`` (seeds 0-49)
+#: all 6 ``Fs`` intervals that missed the truth and 7 of the 9 ``Vs`` intervals were wrists at rest over 25-40 % of
+#: their logs (the other two elbows, 8 and 14 %); every shoulder and elbow is at rest over at most 19 %, every wrist
+#: over at least 11 %.
 REST_WARN = 0.15
 #: Bisections in ``log Vs`` that locate the profile's crossing of its likelihood-ratio bound between two grid values
 #: (:func:`_crossings`): the crossing to 2**-5 of the grid's step.
