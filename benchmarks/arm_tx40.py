@@ -260,7 +260,7 @@ def main(argv=None) -> None:
     other = next(r for r in ROWS if r != args.rows)
     alt, _, _ = identify(args.bootstrap, args.seed, progress=False, lag=False, rows=other)
     how = {"sliding": "the rows near rest left out, friction columns through the torque's filter",
-           "moving": "every row above the 2 % speed, friction columns of the filtered velocity"}[other]
+           "moving": "every row above the 2 % speed, each the filter of the moving samples alone"}[other]
     print(f"with --rows {other} ({how}), sigma / Fc: "
           + ", ".join(f"{j.params['sigma']:.3g} / {j.params['Fc']:.3g}" + (" S" if np.isfinite(j.params["Vs"]) else "")
                       for j in alt.joints)

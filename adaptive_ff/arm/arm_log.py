@@ -292,7 +292,7 @@ def parallel_filter(log: ArmLog, cutoff: float = DEFAULT_CUTOFF) -> ParallelFilt
     return ParallelFilter(b=b, a=a, keep=slice(edge, log.t.shape[0] - edge, step))
 
 
-def filtered_states(log: ArmLog, cutoff: float = DEFAULT_CUTOFF) -> tuple:
+def filtered_states(log: ArmLog, cutoff: float = DEFAULT_CUTOFF, *, decimate: bool = True) -> tuple:
     """Zero-phase filtered ``(t, q, dq, ddq, tau)`` of ``log``, decimated to about ``5 * cutoff`` samples per second.
 
     Parameters
@@ -301,6 +301,9 @@ def filtered_states(log: ArmLog, cutoff: float = DEFAULT_CUTOFF) -> tuple:
         The log; its time stamps must be uniform within 1 % (their median is the sample time).
     cutoff : float
         Cutoff (Hz) of the 4th-order Butterworth low-pass (filtfilt), below the Nyquist frequency.
+    decimate : bool, keyword-only
+        True (default): the rows of :func:`parallel_filter` (start-up at both ends left out, decimated); False:
+        every sample of the log (``m = n``).
 
     Returns
     -------
@@ -318,7 +321,7 @@ def filtered_states(log: ArmLog, cutoff: float = DEFAULT_CUTOFF) -> tuple:
     from scipy.signal import filtfilt
 
     pf = parallel_filter(log, cutoff)
-    b, a, keep = pf.b, pf.a, pf.keep
+    b, a, keep = pf.b, pf.a, (pf.keep if decimate else slice(None))
     Ts = float(np.median(np.diff(log.t)))
     q = filtfilt(b, a, log.q, axis=0)
     dq = filtfilt(b, a, log.dq, axis=0) if log.dq is not None else np.gradient(q, Ts, axis=0)

@@ -22,21 +22,26 @@ known there, and the filter spreads the friction's jump at a reversal over that 
 weighted by the inverse of its residual standard deviation from an unweighted first fit (IDIM-WLS; Gautier &
 Poignet, IFAC SYSID 2001). Two choices of rows and friction columns (``rows``, :data:`ROWS`):
 
-``rows="moving"`` (the default): those rows, and friction columns of the filtered velocity, while the filtered
-torque holds the filtered friction ``F(w)``, which differs from ``F`` of the filtered velocity where the map is
-curved (the Stribeck hump, crossed in tens of milliseconds): over 8 arms of ``benchmarks/arm_coverage.py`` (24
-joint fits) ``Fc`` came out 0.6 % high and ``sigma`` 1.2 % low on average.
+In both the friction columns pass the torque's filter (:func:`adaptive_ff.arm.arm_log.parallel_filter`): ``g``
+and ``h`` are built at the log's rate from the velocity low-passed at :data:`FRICTION_VELOCITY_FACTOR` times the
+cutoff (the measured velocity where the log has one, else the positions' derivative; that light filter keeps the
+noise from scattering the sign near rest), then filtered and decimated as the torque is, since the filtered torque
+holds the filtered friction, not the friction of the filtered velocity (they differ where the map is curved, the
+Stribeck hump, crossed in tens of milliseconds). And a joint's friction is the map of its velocity only while it
+slides: where it is at rest, the friction is whatever holds it (a simulated joint without a lag chatters about zero
+velocity there), which no friction column gives, and the torque's filter carries that into the rows around it: 2 %
+of a torque step one cutoff period from it, 0.5 % at :data:`REST_WINDOW` (1.5) periods.
 
-``rows="sliding"``: the friction columns pass the torque's filter too
-(:func:`adaptive_ff.arm.arm_log.parallel_filter`): ``g`` and ``h`` are built at the log's rate from the velocity
-low-passed at :data:`FRICTION_VELOCITY_FACTOR` times the cutoff (the measured velocity where the log has one, else
-the positions' derivative; that light filter keeps the noise from scattering the sign near rest), then filtered
-and decimated as the torque is; the viscous and offset columns are the filtered velocity and one. And a joint's
-friction is the map of its velocity only while it slides: where it sticks or reverses, the friction is whatever
-holds it (a simulated joint without a lag chatters about zero velocity there), and the torque's filter carries that
-into the rows around it: 2 % of a torque step one cutoff period from it, 0.5 % at :data:`REST_WINDOW` (1.5)
-periods. So the rows within 1.5 cutoff periods of every log sample where the lightly filtered velocity is slower
-than the 2 % speed or changes sign are left out as well (at one period the rest left in those rows drew the
+``rows="moving"`` (the default): those rows, each of them the filter of the moving samples' equation alone
+(:func:`_moving_share`): the samples where the lightly filtered velocity is slower than the 2 % speed (at rest)
+are left out of the torque, the rigid-body block (the regressor of the filtered states at the log's rate) and the
+friction columns (viscous and offset too) before the filter, so that the rows next to a stick keep the hump's
+information without the holding torque (with it in, over the 50 arms of ``benchmarks/arm_coverage.py`` the
+wrists' ``Fs`` read 12 % low and ``Vs`` 1.8 times the truth, medians; without it 1 % low and 1.01 times).
+
+``rows="sliding"``: the viscous and offset columns are the filtered velocity and one, and the rows within 1.5
+cutoff periods of every log sample where the lightly filtered velocity is slower than the 2 % speed or changes sign
+are left out as well (at one period the rest left in those rows drew the
 Stribeck profile to a wrong shape: ``docs/your_arm.md``, "Intervals"). What either choice
 measures (coverage over simulated arms, the Stäubli TX40, a lagged arm) and the alternatives measured are on
 ``docs/your_arm.md`` ("Rows", "Intervals", "Not yet").
@@ -48,20 +53,23 @@ at low speed, which depends on the motion, counts as well as the noise), refitte
 a parameter's interval is its estimate ``± t`` times the bootstrap standard error (Student-t quantile of the
 number of refits). A joint's friction intervals are widened to cover that band around the estimates at every
 ``(V_s, delta)`` of the grid the profile accepts and, where accepted, of the model without the Stribeck term
-(``Fs = Fc``), whether the joint keeps its Stribeck term or not; the accepted grid values are the intervals of
-``V_s`` and ``delta`` (also where the term is dropped and ``V_s`` itself is NaN): the grid points whose profiled
-weighted residual sum of squares is within the 95 % likelihood-ratio bound of the best, the residuals' correlation
-counted by the bootstrap's block length (``rows="moving"``) or (``rows="sliding"``) by the ratio of the bootstrap
-variance to the white-noise least-squares variance (the largest over the joints' ``Fc, Fs, sigma``;
-:func:`_variance_ratio`; why: ``docs/your_arm.md``, "Intervals").
+(``Fs = Fc``), whether the joint keeps its Stribeck term or not: the grid points whose profiled weighted residual
+sum of squares is within the 95 % likelihood-ratio bound of the best, the residuals' correlation counted by the
+ratio of the bootstrap variance to the white-noise least-squares variance (the largest over the joints' ``Fc, Fs,
+sigma``; :func:`_variance_ratio`; why: ``docs/your_arm.md``, "Intervals"). ``V_s``'s interval runs between the
+profile's crossings of that bound, located between the grid's values by bisection (:func:`_crossings`), and
+``Fs``'s covers its estimates there; ``delta``'s holds the accepted grid values (also where the term is dropped and
+``V_s`` itself is NaN).
 
 With ``rows="moving"`` every interval of ``J``, the friction and the base parameters then carries the model error
-that a bootstrap of one rows choice cannot see (a bias common to all its refits: the rows next to where a joint
-sticks): its half-width on either side is combined in quadrature with the distance of the estimate from the
-``rows="sliding"`` fit's (a point fit of the same log, without bootstrap; ``Fs = Fc`` where that fit drops the
-Stribeck term), ``sqrt(h^2 + (x_moving - x_sliding)^2)``. A joint that keeps the Stribeck term and is at rest over
-more than :data:`REST_WARN` of the log carries a warning that its ``Fs`` and ``Vs`` may lie outside their intervals
-(code ``method``: a note on the method, which ``design``, ``compare`` and ``export-c --from`` do not refuse).
+that a bootstrap of one rows choice cannot see (a bias common to all its refits, such as the rigid body's share at
+the samples at rest, which the regressor of the filtered states approximates): its half-width on either side is
+combined in quadrature with the distance of the estimate from the ``rows="sliding"`` fit's (a point fit of the same
+log, without bootstrap; ``Fs`` and ``Vs`` those of its profile's best shape, also where that fit drops the Stribeck
+term), ``sqrt(h^2 + (x_moving - x_sliding)^2)``; ``Vs``'s in ``log Vs``. A joint that keeps the Stribeck term
+and is at rest over more than :data:`REST_WARN` of the log carries a warning that its ``Fs`` and ``Vs`` may lie
+outside their intervals (code ``method``: a note on the method, which ``design``, ``compare`` and ``export-c
+--from`` do not refuse).
 
 Then each joint's friction lag ``tau`` (eq. 1) by the package's output-error fit on its rigid-body-removed record,
 where the log determines it, and each joint's velocity noise (:mod:`adaptive_ff.arm.lag`).
@@ -97,11 +105,14 @@ FRICTION_VELOCITY_FACTOR = 5.0
 COND_WARN = 1e3
 #: Share of the log at rest (the velocity low-passed at FRICTION_VELOCITY_FACTOR times the cutoff slower than the
 #: joint's slowest kept speed) above which a joint that keeps its Stribeck term gets a warning that its ``Fs`` and
-#: ``Vs`` intervals may miss (``rows="moving"``): over the 150 joints of ``benchmarks/arm_coverage.py`` 24 of the 26
-#: ``Fs`` intervals that missed the truth were wrists at rest over 24-40 % of their logs (two elbows, 13 %), 23 of
-#: the 27 ``Vs`` intervals wrists at rest over 19-40 % (four elbows, 9-13 %); every shoulder and elbow is at rest
-#: over at most 19 %, every wrist over at least 11 %.
+#: ``Vs`` intervals may miss (``rows="moving"``): over the 150 joints of ``benchmarks/arm_coverage.py`` (seeds 0-49)
+#: all 6 ``Fs`` intervals that missed the truth and 7 of the 9 ``Vs`` intervals were wrists at rest over 25-40 % of
+#: their logs (the other two elbows, 8 and 14 %); every shoulder and elbow is at rest over at most 19 %, every wrist
+#: over at least 11 %.
 REST_WARN = 0.15
+#: Bisections in ``log Vs`` that locate the profile's crossing of its likelihood-ratio bound between two grid values
+#: (:func:`_crossings`): the crossing to 2**-5 of the grid's step.
+CROSSING_STEPS = 5
 #: Friction columns per joint: Fc (g), Fs (h), sigma (w), offset (1).
 _FRICTION = ("Fc", "Fs", "sigma", "offset")
 
@@ -109,32 +120,26 @@ _FRICTION = ("Fc", "Fs", "sigma", "offset")
 class _FrictionColumns:
     """Each joint's friction columns ``(g, h, w, 1)`` (m, 4) at ``(Vs, delta)``: ``g`` and ``h`` built at the log's
     rate from its velocity low-passed at :data:`FRICTION_VELOCITY_FACTOR` times the cutoff (``w_fast``, (n, N)) and
-    put through the torque's filter and decimation (``pf``); ``dq`` (m, N) the filtered velocity."""
+    put through the torque's filter and decimation (``pf``); ``dq`` (m, N) the filtered velocity. With ``moving``
+    ((n, N) bool, ``rows="moving"``) every column is the filtered product of ``moving`` and its map, ``w`` and ``1``
+    too: the friction of the moving samples only (:func:`_moving_share`)."""
 
-    def __init__(self, pf, w_fast, dq):
-        self.pf, self.w, self.dq = pf, w_fast, dq
-        self.sgn = pf(np.sign(w_fast))
+    def __init__(self, pf, w_fast, dq, moving=None):
+        self.pf, self.w, self.moving = pf, w_fast, moving
+        if moving is None:
+            self.sgn, self.lin, self.one = pf(np.sign(w_fast)), dq, np.ones(dq.shape)
+        else:
+            mf = moving.astype(float)
+            self.sgn, self.lin, self.one = pf(mf * np.sign(w_fast)), pf(mf * w_fast), pf(mf)
 
     def __call__(self, j: int, Vs: float, delta: float) -> np.ndarray:
-        m = self.dq.shape[0]
+        m = self.sgn.shape[0]
         h = np.zeros(m)
         if np.isfinite(Vs):
             w = self.w[:, j]
-            h = self.pf(np.sign(w) * stribeck_shape(w, Vs, delta))
-        return np.column_stack([self.sgn[:, j] - h, h, self.dq[:, j], np.ones(m)])
-
-
-class _MapColumns:
-    """Each joint's friction columns ``(g, h, w, 1)`` (m, 4) at ``(Vs, delta)`` of the filtered velocity ``dq``
-    (m, N) itself (``rows="moving"``)."""
-
-    def __init__(self, dq):
-        self.dq = dq
-
-    def __call__(self, j: int, Vs: float, delta: float) -> np.ndarray:
-        w = self.dq[:, j]
-        s = stribeck_shape(w, Vs, delta) if np.isfinite(Vs) else np.zeros(w.shape[0])
-        return np.column_stack([np.sign(w) * (1 - s), np.sign(w) * s, w, np.ones(w.shape[0])])
+            x = np.sign(w) * stribeck_shape(w, Vs, delta)
+            h = self.pf(x if self.moving is None else x * self.moving[:, j])
+        return np.column_stack([self.sgn[:, j] - h, h, self.lin[:, j], self.one[:, j]])
 
 
 class _Problem:
@@ -243,16 +248,49 @@ def _fast_velocity(log: ArmLog, cutoff: float) -> np.ndarray:
 
 
 def _rows_and_columns(log: ArmLog, cutoff: float, filtered, vmin, rows: str) -> tuple:
-    """Each joint's rows ``keep_j`` (m, N) and its friction columns (:class:`_FrictionColumns` or
-    :class:`_MapColumns`) for ``rows`` (:data:`ROWS`); ``filtered`` the ``(t, dq)`` of the filtered states and the
-    log's fast velocity ``w_fast`` (:func:`_fast_velocity`)."""
+    """Each joint's rows ``keep_j`` (m, N) and its friction columns (:class:`_FrictionColumns`, with the moving
+    samples' mask ``|w_fast| >= vmin`` for ``rows="moving"``) for ``rows`` (:data:`ROWS`); ``filtered`` the
+    ``(t, dq)`` of the filtered states and the log's fast velocity ``w_fast`` (:func:`_fast_velocity`)."""
     t, dq, w_fast = filtered
     keep_j = (np.abs(dq) >= np.maximum(vmin, 1e-9)) & ~_near_reversal(t, dq, 1.0 / cutoff)
-    if rows == "moving":
-        return keep_j, _MapColumns(dq)
     pf = parallel_filter(log, cutoff)
+    if rows == "moving":
+        return keep_j, _FrictionColumns(pf, w_fast, dq, moving=np.abs(w_fast) >= np.maximum(vmin, 1e-9))
     window = int(round(REST_WINDOW / (cutoff * float(np.median(np.diff(log.t))))))
     return keep_j & ~_near_rest(pf, w_fast, np.maximum(vmin, 1e-9), window), _FrictionColumns(pf, w_fast, dq)
+
+
+def _moving_share(log: ArmLog, arm: ArmModel, cutoff: float, states, vmin, rb) -> tuple:
+    """``states`` ``(t, dq, Yb, tau, w_fast)`` (:func:`identify_arm`'s) with each joint's torque and rigid-body rows
+    holding the share of its moving samples only: ``tau_j - pf(stuck_j tau_j)`` and ``Yb_j - pf(stuck_j Yb_j)``,
+    ``pf`` the torque's filter and decimation (:func:`adaptive_ff.arm.arm_log.parallel_filter`), ``stuck_j`` the
+    log's samples where the joint's ``w_fast`` is slower than its ``vmin`` (N,) (at rest), the regressor there from
+    the filtered states at the log's rate. ``rb`` is ``(independent, theta)``: the base parameters' columns of the
+    regressor, and None or, with ``rigid_body="urdf"`` (``tau`` already less ``Y theta``, ``Yb`` empty), the URDF's
+    inertias ``theta``, then the torque's share is ``pf(stuck_j (tau_j - (Y theta)_j))``.
+
+    Why: the filtered torque of a row is linear in the log's samples, ``sum_i k_i tau_i``; at a sample where the
+    joint is at rest its friction is whatever holds it, which no friction column gives (their map is 0 at rest), so
+    that the rows next to a stick carry ``sum_stuck k_i f_hold_i`` unexplained. The stuck samples' share left out of
+    the torque, the rigid body and (:class:`_FrictionColumns` with ``moving``) the friction columns alike, each row
+    is the filter of the moving samples' own equation, which holds exactly."""
+    t, dq, Yb, tau, w_fast = states
+    independent, theta = rb
+    pf = parallel_filter(log, cutoff)
+    stuck = np.abs(w_fast) < np.maximum(vmin, 1e-9)
+    n, r = log.t.shape[0], Yb.shape[2]
+    _, q_n, dq_n, ddq_n, _ = filtered_states(log, cutoff, decimate=False)
+    S = np.zeros((n, arm.n, r))
+    U = np.where(stuck, log.tau, 0.0)
+    at_rest = np.flatnonzero(stuck.any(axis=1))
+    for idx in np.array_split(at_rest, max(1, at_rest.size // 5000)):  # the regressor in slices: memory
+        Y = arm.regressor(q_n[idx], dq_n[idx], ddq_n[idx])
+        if theta is not None:
+            U[idx] -= np.where(stuck[idx], Y @ theta, 0.0)
+        else:
+            S[idx] = Y[:, :, independent] * stuck[idx][:, :, None]
+    Yb_m = Yb - pf(S.reshape(n, -1)).reshape(Yb.shape) if r else Yb
+    return t, dq, Yb_m, tau - pf(U), w_fast
 
 
 def _near_rest(pf, w_fast, vmin, window: int) -> np.ndarray:
@@ -379,15 +417,15 @@ def _variance_ratio(prob: _Problem, A, rss: float, boot) -> float:
     return max(1.0, float(np.nanmax(friction))) if np.any(np.isfinite(friction)) else 1.0
 
 
-def _profile_interval(table_j, rss_min: float, n_rows: int, ratio: float, cols: slice, name: str = "joint") -> tuple:
-    """The ``(Vs range, delta range, (low, high) of the estimates[cols], estimates)`` over the grid points within the
-    95 % likelihood-ratio bound of the best (the residuals' correlation counted by the variance ratio ``ratio``,
-    :func:`_variance_ratio`); ``estimates``
-    the accepted rows' whole estimates (k, p). The model without a Stribeck term (``Vs`` NaN) counts with
-    ``Fs = Fc``; the ranges of ``Vs`` and ``delta`` are NaN where no grid point is inside. The ``Vs`` range reaches
-    out to the grid's next value beyond the accepted ones on either side (where the bound is crossed, somewhere
-    between the two): the accepted grid values alone left the true ``Vs`` outside on 11 of 30 simulated
-    joints (``benchmarks/arm_coverage.py``, seeds 0-9).
+def _profile_interval(table_j, rss_min: float, n_rows: int, ratio: float, cols: slice, name: str = "joint",
+                      fit_at=None) -> tuple:
+    """The ``(Vs range, delta range, (low, high) of the estimates[cols], estimates)`` over the profile's rows within
+    the 95 % likelihood-ratio bound of the best (the residuals' correlation counted by the variance ratio ``ratio``,
+    :func:`_variance_ratio`); ``estimates`` the accepted rows' whole estimates (k, p). The ``Vs`` range reaches the
+    points where the profile crosses that bound between the grid's values (:func:`_crossings`, with ``fit_at``;
+    None: the accepted values alone), and the range of ``Fs`` (``cols``' second) covers its estimates there too:
+    ``Fs`` moves with ``Vs``, the other parameters little. The model without a Stribeck term (``Vs`` NaN) counts
+    with ``Fs = Fc``; the ranges of ``Vs`` and ``delta`` are NaN where no grid point is inside.
 
     The bound is ``max(rss_min, min of table_j) + 3.84 ratio rss_min / n_rows``: the final fit's weighted RSS
     ``rss_min`` sets its scale, and it is counted from the profile's own minimum where that lies above
@@ -401,27 +439,63 @@ def _profile_interval(table_j, rss_min: float, n_rows: int, ratio: float, cols: 
         raise ExcitationError(f"joint {name!r}: the Stribeck profile has no finite weighted residual sum of squares "
                               f"(final fit {rss_min!r}, {len(finite)} of {len(table_j)} profile rows finite): the "
                               "log does not determine its friction")
-    bound = max(rss_min, min(finite)) + rss_min * 3.84 * ratio / max(n_rows, 1)
-    inside = [row for row in table_j if row[2] <= bound]
-    grid = np.unique([r[0] for r in table_j[:len(DELTA_GRID) * N_VS]])
-    vs = [r[0] for r in inside if np.isfinite(r[0])]
+    allowance = rss_min * 3.84 * ratio / max(n_rows, 1)
+    inside = [row for row in table_j if row[2] <= max(rss_min, min(finite)) + allowance]
+    edge = [] if fit_at is None else _crossings(table_j, inside, allowance, fit_at)
+    vs = [r[0] for r in inside + edge if np.isfinite(r[0])]
     ds = [r[1] for r in inside if np.isfinite(r[0])]
-    edge = []
-    if vs:
-        below, above = grid[grid < min(vs)], grid[grid > max(vs)]
-        edge = ([float(below.max())] if below.size else []) + ([float(above.min())] if above.size else [])
-        vs += edge
     xs = np.array([r[3][cols] for r in inside])
     off = np.array([not np.isfinite(r[0]) for r in inside])
     xs[off, 1] = xs[off, 0]  # Fs = Fc without the Stribeck term
-    fs_edge = [r[3][cols][1] for r in table_j[:len(DELTA_GRID) * N_VS] if r[0] in edge and r[1] in ds]
-    if fs_edge:  # Fs moves with Vs: its range covers its estimates at the Vs range's two ends too
-        xs = np.vstack([xs, np.tile(xs[0], (len(fs_edge), 1))])
-        xs[-len(fs_edge):, 1] = fs_edge
+    lo, hi = xs.min(axis=0), xs.max(axis=0)
+    for r in edge:  # Fs moves with Vs: its range covers its estimates out to the Vs range's ends
+        lo[1], hi[1] = min(lo[1], r[3][cols][1]), max(hi[1], r[3][cols][1])
     nan = (np.nan, np.nan)
-    return ((min(vs), max(vs)) if vs else nan), ((min(ds), max(ds)) if ds else nan), (xs.min(axis=0),
-                                                                                        xs.max(axis=0)), \
+    return ((min(vs), max(vs)) if vs else nan), ((min(ds), max(ds)) if ds else nan), (lo, hi), \
         np.array([r[3] for r in inside])
+
+
+def _crossings(table_j, inside, allowance: float, fit_at, steps: int = CROSSING_STEPS) -> list:
+    """The profile's crossings of its likelihood-ratio bound between the grid's values: for each ``delta`` with an
+    accepted point (a grid point or the refined best), from its lowest and highest accepted ``Vs`` towards the
+    grid's next value beyond (where the grid goes on), the farthest ``(Vs, delta, rss, estimate)`` still within
+    ``allowance`` of the best, located by ``steps`` bisections in ``log Vs``. ``fit_at(Vs, delta)`` is
+    ``(estimate, weighted RSS)`` with the joint at that shape and the others at their final ones; its RSS is counted
+    from its own at the profile's best (``table_j[-2]``, refined), so that the other joints' last steps do not shift
+    the bound. Rows of ``table_j`` as :func:`_profile`'s; ``inside`` its accepted rows."""
+    grid_rows = table_j[:len(DELTA_GRID) * N_VS]
+    grid = np.unique([r[0] for r in grid_rows])
+    ref = fit_at(*table_j[-2][:2])[1]
+    out = []
+    for d in sorted({r[1] for r in inside if np.isfinite(r[0])}):
+        accepted = [r[0] for r in inside if r[1] == d and np.isfinite(r[0])]
+        lo, hi = min(accepted), max(accepted)
+        for v_in, beyond in ((lo, grid[grid < lo][-1:]), (hi, grid[grid > hi][:1])):
+            if not beyond.size:
+                continue  # the accepted range reaches the grid's end: no crossing located beyond it
+            a, b, best = np.log(v_in), np.log(beyond[0]), None
+            for _ in range(steps):
+                mid = 0.5 * (a + b)
+                x, rss = fit_at(float(np.exp(mid)), d)
+                if rss - ref <= allowance:
+                    a, best = mid, (float(np.exp(mid)), d, rss, x)
+                else:
+                    b = mid
+            if best is not None:
+                out.append(best)
+    return out
+
+
+def _shape_fit(prob: _Problem, Vs, delta):
+    """``fit(j, Vs_j, delta_j) -> (estimate, weighted RSS)``: the weighted fit with joint ``j`` at ``(Vs_j, delta_j)``
+    and the others at the final ``Vs, delta`` (N,) (:meth:`_Problem.fit`), for :func:`_crossings`."""
+
+    def fit(j: int, Vs_j: float, delta_j: float):
+        Vs_try, d_try = np.array(Vs, dtype=float), np.array(delta, dtype=float)
+        Vs_try[j], d_try[j] = Vs_j, delta_j
+        return prob.fit(Vs_try, d_try)
+
+    return fit
 
 
 def _inertia_rows(arm: ArmModel, base, q_mean) -> np.ndarray:
@@ -525,10 +599,9 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     rows : {"moving", "sliding"}, keyword-only
         The joints' rows (:data:`ROWS`; module docstring; ``identify-arm --rows``): ``"moving"`` (default) where
         the filtered velocity is above 2 % of the joint's 99th-percentile speed and one cutoff period from its
-        reversals, friction columns of the filtered velocity, the profile's bound scaled by the bootstrap's block
-        length; ``"sliding"`` also :data:`REST_WINDOW` cutoff periods from where the joint sticks,
-        friction columns through the torque's filter, the bound scaled by the bootstrap's variance ratio (their
-        coverage: ``docs/your_arm.md``).
+        reversals, each the filter of the moving samples' share alone (torque, rigid body and friction columns);
+        ``"sliding"`` also :data:`REST_WINDOW` cutoff periods from where the joint sticks; the profile's bound
+        scaled by the bootstrap's variance ratio in both (their coverage: ``docs/your_arm.md``).
 
     Returns
     -------
@@ -563,12 +636,15 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     vmin = 0.02 * np.percentile(np.abs(dq), 99, axis=0)
     w_fast = _fast_velocity(log, cutoff)
     states = (t, dq, Yb, tau, w_fast)
-    prob, keep_j, (Vs, delta, table), (x, rss, A) = _weighted_fit((log, arm, cutoff), states, vmin, rows, progress)
+    rb = (base.independent, arm.theta_urdf if rigid_body == "urdf" else None)
+    fit_states = _moving_share(log, arm, cutoff, states, vmin, rb) if rows == "moving" else states
+    prob, keep_j, (Vs, delta, table), (x, rss, A) = _weighted_fit((log, arm, cutoff), fit_states, vmin, rows,
+                                                                  progress)
     alt = _sliding_estimate((log, arm, cutoff), states, vmin) if rows == "moving" else None
     x_alt = None if alt is None else alt[0]
     boot, resid = _bootstrap(prob, A, x, int(n_bootstrap), seed, progress)
     half = boot.half_width(0.95)
-    ratio = _variance_ratio(prob, A, rss, boot) if rows == "sliding" else float(boot.block)
+    ratio = _variance_ratio(prob, A, rss, boot)
     a_J = _inertia_rows(arm, base, log.q.mean(axis=0))  # the log's mean configuration (all its samples)
     r = Yb.shape[2]
     J_all = a_J @ (x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf))
@@ -579,7 +655,7 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     joints = []
     for j in range(arm.n):
         joints.append(_joint(arm, j, x, half, boot, a_J, r, base,
-                             (Vs, delta, table, rss, int(prob.keep.sum()), ratio, alt),
+                             (Vs, delta, table, rss, int(prob.keep.sum()), ratio, alt, _shape_fit(prob, Vs, delta)),
                              (q, dq, keep_j, rest), (lags[j], noise[j])))
     scaled = A[prob.keep] * np.tile(prob.w, prob.m)[prob.keep][:, None]
     norm = np.linalg.norm(scaled, axis=0)
@@ -626,8 +702,9 @@ def _weighted_fit(setup, states, vmin, rows: str, progress=False) -> tuple:
 
 def _sliding_estimate(setup, states, vmin):
     """The ``rows="sliding"`` point estimate of the same log (:func:`_weighted_fit`): ``(x, Vs)`` with ``x`` (p,)
-    each joint's ``Fs`` set to its ``Fc`` where that fit drops the Stribeck term and ``Vs`` (n,) rad/s its profile's
-    best, also where the term is dropped;
+    and ``Vs`` (n,) rad/s its profile's refined best; where that fit drops a joint's Stribeck term, the joint's
+    ``Fs`` is the one fitted with the term at that best shape (the model the default rows' ``Fs`` and ``Vs`` belong
+    to, not ``Fs = Fc``);
     or None where a joint has fewer than 10 sliding rows: the other rows choice, whose distance from the default's
     estimate is the row-sensitivity term of the default's intervals (:func:`_widen`)."""
     try:
@@ -636,8 +713,8 @@ def _sliding_estimate(setup, states, vmin):
         return None
     x = x.copy()
     for j in np.flatnonzero(~np.isfinite(Vs)):
-        x[prob.r + 4 * j + 1] = x[prob.r + 4 * j]
-    return x, np.array([t[-2][0] for t in table])  # the refined best Vs of each joint, kept or not
+        x[prob.r + 4 * j + 1] = table[j][-2][3][prob.r + 4 * j + 1]
+    return x, np.array([t[-2][0] for t in table])
 
 
 def _widen(value, lo, hi, alt):
@@ -702,7 +779,7 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> Arm
     """Joint ``j``'s parameters, intervals, standard errors and warnings from the fit."""
     from adaptive_ff.identification.covariance import bootstrap_t_quantile
 
-    Vs, delta, table, rss, n_rows, ratio, sliding = profile
+    Vs, delta, table, rss, n_rows, ratio, sliding, shape_fit = profile
     q, dq, keep_j, rest = data
     c = r + 4 * j
     p = dict(zip(_FRICTION, x[c: c + 4]))
@@ -724,13 +801,13 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> Arm
     # the friction's intervals cover the bootstrap band around every (Vs, delta) the profile accepts, the model
     # without a Stribeck term among them: a dropped term's Fs interval reaches as far as the profile allows
     vs_iv, d_iv, (x_lo, x_hi), xs = _profile_interval(table[j], rss, n_rows, ratio, slice(c, c + 4),
-                                                      arm.names[j])
+                                                      arm.names[j], lambda v, d: shape_fit(j, v, d))
     for i, k in enumerate(_FRICTION):
         lo[k], hi[k] = min(lo[k], x_lo[i] - hw[k]), max(hi[k], x_hi[i] + hw[k])
     if r:  # J as well: the rigid body's estimate moves with the joint's (Vs, delta)
         Js = xs[:, :r] @ a_J[j]
         lo["J"], hi["J"] = min(lo["J"], Js.min() - hw["J"]), max(hi["J"], Js.max() + hw["J"])
-    if sliding is not None:  # the row sensitivity (rows="moving"): the sliding rows' estimate, Fs = Fc where dropped
+    if sliding is not None:  # the row sensitivity (rows="moving"): the sliding rows' estimate at its best shape
         x_alt, Vs_alt = sliding
         alt = dict(zip(_FRICTION, x_alt[c: c + 4]), J=float(a_J[j] @ x_alt[:r]) if r else np.nan)
         for k, v in (("J", J), *p.items()):

@@ -4,14 +4,13 @@ reads them without loading the fit (the module docstring of :mod:`adaptive_ff.ar
 
 __all__ = ["ROWS", "DEFAULT_ROWS", "REST_WINDOW"]
 
-#: The rows and friction columns of :func:`adaptive_ff.arm.fit.identify_arm`: ``"moving"`` (the default) the
-#: filtered velocity's own, ``"sliding"`` those where the joint slides, with the columns through the torque's filter
-#: and the likelihood-ratio bound scaled by the bootstrap's variance ratio.
+#: The rows of :func:`adaptive_ff.arm.fit.identify_arm`: ``"moving"`` (the default) the filtered velocity's own,
+#: each holding the share of the samples where the joint moves alone; ``"sliding"`` those where the joint slides.
 ROWS = ("moving", "sliding")
 #: ``identify_arm``'s ``rows`` unless given: the rows with which every joint of the planar example arm keeps its
 #: Stribeck term (``compare-arm`` and ``export-c`` need each joint's ``Vs``), a 10 ms lag is read inside its
-#: intervals and the TX40's ``Fc`` agrees with its reference; ``"sliding"``'s intervals are the calibrated ones
-#: (``docs/your_arm.md``, "Rows").
+#: intervals and the TX40's ``Fc`` agrees with its reference; the intervals of both are calibrated on simulated
+#: arms (``docs/your_arm.md``, "Rows", "Intervals").
 DEFAULT_ROWS = "moving"
 #: Rows (``rows="sliding"``) within this many cutoff periods of where a joint sticks or reverses are left out: the
 #: forward-backward 4th-order Butterworth carries 2 % of a torque step one period from it, 0.5 % at 1.5 periods.

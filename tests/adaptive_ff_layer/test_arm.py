@@ -378,6 +378,14 @@ def test_parallel_filter_is_the_torques_filter():
     np.testing.assert_allclose(pf(np.ones(4000)), 1.0, rtol=0, atol=1e-11)  # the design's DC gain: 1 - 8e-13
 
 
+def _profile_row(v, d, shift: float = 0.0):
+    """One row ``(Vs, delta, weighted RSS, estimate)`` of the profile of :func:`_stale_profile`."""
+    x = np.zeros(8)
+    x[4:8] = (1.0, 1.2 + 0.5 * np.log(v / 0.1) if np.isfinite(v) else 0.0, 0.5, 0.01)
+    rss = 100.0 + (40.0 * np.log(v / 0.1) ** 2 + (0.0 if d == 1.0 else 30.0) if np.isfinite(v) else 50.0)
+    return (v, d, rss + shift, x)
+
+
 def _stale_profile(shift: float):
     """A joint's profile table as ``_profile`` writes it (the grid of 3 deltas x 8 ``Vs``, the refined best, the
     model without the Stribeck term), each row ``(Vs, delta, weighted RSS, estimate)``, every RSS raised by
@@ -387,24 +395,21 @@ def _stale_profile(shift: float):
     from adaptive_ff.arm.fit import DELTA_GRID
 
     grid = np.geomspace(0.02, 0.3, 8)
-
-    def row(v, d, extra=0.0):
-        x = np.zeros(8)
-        x[4:8] = (1.0, 1.2 + 0.5 * np.log(v / 0.1) if np.isfinite(v) else 0.0, 0.5, 0.01)
-        rss = 100.0 + extra + (40.0 * np.log(v / 0.1) ** 2 + (0.0 if d == 1.0 else 30.0) if np.isfinite(v) else 50.0)
-        return (v, d, rss + shift, x)
-
-    return [row(v, d) for d in DELTA_GRID for v in grid] + [row(0.1, 1.0), row(np.nan, np.nan)], grid
+    return ([_profile_row(v, d, shift) for d in DELTA_GRID for v in grid]
+            + [_profile_row(0.1, 1.0, shift), _profile_row(np.nan, np.nan, shift)]), grid
 
 
 def test_profile_interval_of_a_profile_the_later_joints_lowered():
     """The final fit's RSS (100) below every row of a joint's profile (its rows all 5 higher: the later joints' last
     steps lowered the RSS after the joint's profile was taken): the interval is that of the same profile counted
     from its own minimum, not an IndexError. The bound's half-width 100 * 3.84 * 2 / 1000 = 0.768 accepts the
-    ``delta = 1`` rows within |log(Vs / 0.1)| <= sqrt(0.768 / 40) = 0.139: the refined best 0.1 and the grid's
-    0.0940 (RSS 100.15 before the shift); the Vs range reaches the grid's next values, 0.0638 and 0.1384 (RSS 108.1
-    and 104.2), and Fs covers its estimates there; counted from the final fit's RSS alone no row would be inside.
-    A profile or final fit without a finite RSS raises ExcitationError naming the joint."""
+    ``delta = 1`` rows within |log(Vs / 0.1)| <= sqrt(0.768 / 40) = 0.1386: the refined best 0.1 and the grid's
+    0.0940 (RSS 100.15 before the shift); counted from the final fit's RSS alone no row would be inside. Without a
+    fit to locate the crossings the Vs range is those accepted values; with one (the same quadratic, unshifted:
+    the fit with the other joints' final shapes), it reaches the crossings 0.1 exp(+-0.1386) = 0.0871 and 0.1149
+    to within 2**-5 of the grid's step in log Vs (log(15) / 7 / 32 = 0.012) on the inside, and Fs covers its
+    estimates there, 1.2 +- 0.5 * 0.1386. A profile or final fit without a finite RSS raises ExcitationError
+    naming the joint."""
     from adaptive_ff.arm import fit
     from plant.errors import ExcitationError
 
@@ -414,12 +419,27 @@ def test_profile_interval_of_a_profile_the_later_joints_lowered():
     got = fit._profile_interval(stale, 100.0, 1000, 2.0, cols, "wrist")
     want = fit._profile_interval(fresh, 100.0, 1000, 2.0, cols, "wrist")
     accepted = [v for v in grid if 40.0 * np.log(v / 0.1) ** 2 <= 0.768] + [0.1]
-    lo_v, hi_v = grid[grid < min(accepted)].max(), grid[grid > max(accepted)].min()
-    assert got[0] == want[0] == (lo_v, hi_v) and got[1] == (1.0, 1.0)
-    fs = [1.2 + 0.5 * np.log(v / 0.1) for v in accepted + [lo_v, hi_v]]
+    assert got[0] == want[0] == (min(accepted), max(accepted)) and got[1] == (1.0, 1.0)
+    fs = [1.2 + 0.5 * np.log(v / 0.1) for v in accepted]
     np.testing.assert_allclose(got[2][0], [1.0, min(fs), 0.5, 0.01], rtol=0, atol=1e-12)
     np.testing.assert_allclose(got[2][1], [1.0, max(fs), 0.5, 0.01], rtol=0, atol=1e-12)
     assert got[3].shape == (len(accepted), 8)
+    calls = []
+
+    def fit_at(v, d):  # the same profile between the grid's values, the later joints' steps taken
+        calls.append((v, d))
+        _, _, rss, x = _profile_row(v, d)
+        return x, rss
+
+    located = fit._profile_interval(stale, 100.0, 1000, 2.0, cols, "wrist", fit_at)
+    edge = np.sqrt(0.768 / 40.0)
+    step = np.log(grid[1] / grid[0]) / 2 ** fit.CROSSING_STEPS
+    lo_v, hi_v = np.log(np.array(located[0]) / 0.1)
+    assert -edge <= lo_v <= -edge + step and edge - step <= hi_v <= edge, (lo_v, hi_v, edge)
+    np.testing.assert_allclose(located[2][0][[0, 2, 3]], [1.0, 0.5, 0.01], rtol=0, atol=1e-12)
+    assert 1.2 - 0.5 * edge <= located[2][0][1] <= 1.2 - 0.5 * (edge - step)
+    assert 1.2 + 0.5 * (edge - step) <= located[2][1][1] <= 1.2 + 0.5 * edge
+    assert {d for _, d in calls} == {1.0} and len(calls) == 1 + 2 * fit.CROSSING_STEPS  # the best, two sides
     for rss_min, table in ((np.nan, fresh), (100.0, [(v, d, np.nan, x) for v, d, _, x in fresh])):
         with pytest.raises(ExcitationError, match="'wrist'.*no finite weighted residual"):
             fit._profile_interval(table, rss_min, 1000, 2.0, cols, "wrist")
