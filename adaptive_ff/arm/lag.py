@@ -45,7 +45,7 @@ of the record. Elsewhere ``tau`` is NaN (null in JSON) and the joint carries a w
 the interval: a joint without a lag does not read as one here. Its friction jumps at each reversal, which
 the zero-phase low-pass of the record smooths over a few ms, and it sticks there, which eqs. 1-3 do not model; the
 fit reads both as a lag. Over the arms of ``benchmarks/arm_lag.py`` (the planar arm, 20 s logs) lag-free joints
-read 0.6-1.8 ms on the shoulder, 3.1-5.4 ms on the elbow and 6.7-10 ms on the wrist, 22 of 43 with an interval that
+read 0.6-1.8 ms on the shoulder, 3.1-5.5 ms on the elbow and 6.7-10 ms on the wrist, 24 of 47 with an interval that
 excludes zero. On the example wrist of ``docs/your_arm.md`` (7.2 ms) the lag-free joint simulated by the fit's own
 model from the record's torque reads 0.41 ms, and 5.1 ms once its velocity goes through the record's low-pass: the
 filter makes most of it. The free-run predictor, with the unfiltered velocity, still reads 1.1, 4.3 and 3.8 ms on
@@ -55,9 +55,9 @@ and the predictor stay. A test of
 than at ``tau`` near zero by construction. What tells them apart on those arms is the bootstrap: where a lag-free
 elbow's or wrist's interval excludes zero its refits read the lag 10-50 % longer on average (the estimate is not a
 stable point of the fit), on lagged joints at most 5 % longer; the shoulder's false lags lie below 2 samples.
-With the rule no lag-free joint of 43 is reported a lag (22 before) and no lagged joint of 62 is null. The interval
+With the rule no lag-free joint of 47 is reported a lag (24 before) and no lagged joint of 73 is null. The interval
 does not carry the reading's own error either: a lagged elbow or wrist reads up to its lag-free reading long, and
-the interval holds the true lag on 15 of the 62 (``docs/your_arm.md``, "Not yet"): read a reported lag as an upper
+the interval holds the true lag on 22 of the 73 (``docs/your_arm.md``, "Not yet"): read a reported lag as an upper
 bound.
 
 The velocity noise of each joint (``excitation.noise_std`` of ``identify --json``) is
