@@ -181,3 +181,46 @@ def test_compare_arm_designs_take_the_noise_and_start_per_joint(arm, result, arm
     assert designs[0].settings["stick_band"] == 3.0 * result.joints[0].noise_std
     assert designs[2].settings["stick_band"] == 3.0 * 1e-3
     assert designs[0].options.feedforward.start is not None and designs[1].options.feedforward.start is None
+
+
+def test_lag_free_joint_null_and_lagged_joint_covered(arm):
+    """The planar arm with a 10 ms lag on the elbow alone (10 s, seed 2): each joint's lag fit on its record with
+    the URDF's rigid body removed and its true Stribeck shape held. The lag-free shoulder, which the output-error fit
+    reads as 0.75 [0.74, 1.00] ms (an interval that excludes zero), is null: its interval reaches below two samples of
+    the record (lag_reason); the lagged elbow is reported, 10.23 [9.64, 11.47] ms, holding the true 10 ms
+    (``benchmarks/arm_lag.py`` has the rates over arms)."""
+    from dataclasses import replace
+
+    from adaptive_ff.arm.lag import lag_records
+    from adaptive_ff.arm.simulate import ArmPlant
+
+    friction = [replace(f, tau=TAU if j == 1 else 0.0) for j, f in enumerate(FRICTION)]
+    log = simulate_arm(arm, friction, run=ArmSimulation(duration=10.0, substeps=1), seed=2, armature=ARMATURE)
+    theta = np.array(arm.theta_urdf, dtype=float)
+    theta[-arm.n:] = ARMATURE  # the true rigid body: the URDF's inertias with the simulated armatures
+    J = np.diag(ArmPlant(arm, friction, armature=ARMATURE).mass_matrix(np.mean(log.q, axis=0)))
+    t, u, w = lag_records(log, arm, lambda Y: Y @ theta, J, 20.0)
+    shoulder = joint_lag(t, u[:, 0], w[:, 0], friction[0].Vs, friction[0].delta, seed=2)
+    elbow = joint_lag(t, u[:, 1], w[:, 1], friction[1].Vs, friction[1].delta, seed=4)
+    assert np.isnan(shoulder.tau) and np.all(np.isnan(shoulder.interval95)), shoulder
+    lo, hi = shoulder.info["interval95"]
+    assert 0.0 < lo < 2e-3 and "below 2 samples of the record (2 ms)" in shoulder.reason, shoulder
+    assert elbow.reason is None and elbow.interval95[0] <= TAU <= elbow.interval95[1], elbow
+    assert elbow.tau == pytest.approx(TAU, rel=0.05)
+
+
+def test_lag_reason_rules():
+    """lag_reason on the numbers of three joints of benchmarks/arm_lag.py (ms): a lag-free elbow read 4.05 [1.60,
+    5.12] whose refits read 0.69 longer on average (17 % of it): null; a lagged shoulder 5.85 [5.67, 5.81], refits
+    0.11 longer (1.9 %): reported; a lag-free shoulder 0.91 [0.84, 1.17] at 1 kHz: null (below 2 ms), reported from a
+    record at 4 kHz (floor 0.5 ms)."""
+    from adaptive_ff.arm.lag import lag_reason
+
+    elbow = lag_reason(4.05e-3, (1.60e-3, 5.12e-3), {"rate": 1000.0, "bias": 0.69e-3})
+    assert elbow is not None and "refits read 0.69 ms more on average (more than 7.5 % of it)" in elbow
+    assert lag_reason(5.85e-3, (5.67e-3, 5.81e-3), {"rate": 1000.0, "bias": 0.11e-3}) is None
+    floor = lag_reason(0.91e-3, (0.84e-3, 1.17e-3), {"rate": 1000.0, "bias": -0.1e-3})
+    assert floor is not None and "below 2 samples of the record (2 ms)" in floor
+    assert lag_reason(0.91e-3, (0.84e-3, 1.17e-3), {"rate": 4000.0, "bias": -0.1e-3}) is None
+    assert "no finite interval" in lag_reason(5e-3, (np.nan, np.nan), {"rate": 1000.0, "bias": 0.0})
+    assert "reaches zero" in lag_reason(5e-3, (-1e-3, 9e-3), {"rate": 1000.0, "bias": 0.0})

@@ -1,0 +1,171 @@
+"""identify-arm's friction lag over seeded simulated arms: coverage of the true lags, false lags, missed lags.
+
+Run:  python -m benchmarks.arm_lag [--n 20] [--start 0] [--lag-bootstrap 10] [--duration 20] [--cache FILE]
+
+Each arm is ``examples/planar3.urdf`` with the armatures 0.2, 0.1, 0.05 kg·m², the friction of ``docs/your_arm.md``
+(:data:`FRICTION`) with ``Fc, Fs, sigma`` scaled by a factor 0.8-1.25 per joint, or with ``--friction coverage``
+the wider draws of :func:`benchmarks.arm_coverage.draw_friction` (a wrist with up to 2.5 N·m of Coulomb friction,
+which sticks at most reversals), and a lag per joint drawn from its seed (:func:`draw_friction`: none with
+probability :data:`P_LAG_FREE`, else uniform in 2-10 ms), simulated for
+``--duration`` s (:func:`adaptive_ff.arm.simulate.simulate_arm`, the default sensor noise, one Runge-Kutta step per
+period) and identified as ``adaptive-ff identify-arm`` identifies it (:func:`adaptive_ff.arm.fit.identify_arm`,
+bootstrap seed = the arm's, ``--lag-bootstrap`` refits of each lag fit, 30 refits of the whole-arm bootstrap: the
+lag fits do not use its intervals).
+
+Printed: over the lag-free joints the share reported with a lag (false lags); over the lagged joints the share
+reported null and, of the reported ones, the share whose 95 % interval holds the true lag (coverage), each with its
+95 % binomial (Wilson) interval. ``--cache FILE`` keeps each arm's joints (JSON lines) and reads back the arms it
+already holds: it keeps the fits, and each joint is decided again by :func:`adaptive_ff.arm.lag.lag_reason` (a cache
+made before a change of the lag fit itself is stale). 20 arms take about 8 minutes of CPU; the numbers, seeds 0-19
+(the rule's) and 20-39 (its check), are in ``docs/your_arm.md`` (How, Lag).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+URDF = ROOT / "examples" / "planar3.urdf"
+#: Probability that a joint is drawn without a lag.
+P_LAG_FREE = 0.4
+#: Range (s) of a drawn lag.
+LAG_RANGE = (2e-3, 10e-3)
+
+
+#: The planar arm's friction of ``docs/your_arm.md`` (shoulder, elbow, wrist): ``(Fc, Fs, Vs, delta, sigma, offset)``.
+FRICTION = ((2.0, 2.6, 0.1, 1.0, 0.8, 0.1), (1.2, 1.5, 0.08, 1.0, 0.5, -0.05), (0.5, 0.7, 0.1, 1.0, 0.2, 0.0))
+
+
+def draw_friction(n: int, seed: int, kind: str = "example") -> list:
+    """The friction (:class:`adaptive_ff.arm.simulate.JointFriction`, with its lag) of the ``n`` joints of arm
+    ``seed`` (module docstring), from ``default_rng([seed, 51])``; ``kind`` ``"example"`` or ``"coverage"``."""
+    from dataclasses import replace
+
+    from adaptive_ff.arm.simulate import JointFriction
+    from benchmarks.arm_coverage import draw_friction as coverage_friction
+
+    rng = np.random.default_rng([seed, 51])
+    lags = [0.0 if rng.uniform() < P_LAG_FREE else float(rng.uniform(*LAG_RANGE)) for _ in range(n)]
+    if kind == "coverage":
+        return [replace(f, tau=lag) for f, lag in zip(coverage_friction(n, seed), lags)]
+    out = []
+    for (Fc, Fs, Vs, delta, sigma, offset), lag in zip(FRICTION, lags):
+        k = float(np.exp(rng.uniform(np.log(0.8), np.log(1.25))))
+        out.append(JointFriction(Fc=k * Fc, Fs=k * Fs, Vs=Vs, delta=delta, sigma=k * sigma, offset=offset, tau=lag))
+    return out
+
+
+def arm_joints(arm, seed: int, *, duration: float = 20.0, n_lag: int = 10, kind: str = "example") -> list:
+    """One arm's joints: ``{"seed", "joint", "true", "tau", "lo", "hi", "reason", "info"}`` per joint (s)."""
+    from adaptive_ff.arm.fit import identify_arm
+    from adaptive_ff.arm.lag import LagOptions
+    from adaptive_ff.arm.simulate import ArmSimulation, simulate_arm
+    from benchmarks.arm_coverage import ARMATURE
+
+    friction = draw_friction(arm.n, seed, kind)
+    lags = [f.tau for f in friction]
+    log = simulate_arm(arm, friction, run=ArmSimulation(duration=duration, substeps=1), seed=seed,
+                       armature=ARMATURE)
+    res = identify_arm(log, arm, n_bootstrap=30, seed=seed, lag=LagOptions(n_bootstrap=n_lag, workers=1))
+    out = []
+    for j, joint in enumerate(res.joints):
+        lo, hi = joint.interval95["tau"]
+        reason = next((w.message for w in joint.warnings if w.parameter == "tau"), None)
+        out.append({"seed": seed, "joint": joint.name, "true": lags[j], "tau": joint.params["tau"], "lo": lo,
+                    "hi": hi, "reason": reason, "info": joint.lag_info})
+    return out
+
+
+def wilson(k: int, n: int) -> tuple:
+    """95 % Wilson interval of the share ``k / n``."""
+    if n == 0:
+        return (math.nan, math.nan)
+    z, p = 1.959964, k / n
+    c = (p + z * z / (2 * n)) / (1 + z * z / n)
+    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return (c - h, c + h)
+
+
+def reported(row: dict) -> bool:
+    """Whether identify-arm reports the joint's lag: :func:`adaptive_ff.arm.lag.lag_reason` of its fit (a cached
+    joint decided again, so that a cache holds fits, not decisions)."""
+    from adaptive_ff.arm.lag import lag_reason
+
+    info = row["info"]
+    if "estimate" not in info:  # the fit failed
+        return False
+    lo, hi = info.get("interval95", (row["lo"], row["hi"]))
+    return lag_reason(info["estimate"], (lo, hi), info) is None
+
+
+def summary(rows: list) -> dict:
+    """``{"false", "missed", "covered"}``: each ``(k, n)`` over ``rows`` (module docstring)."""
+    free = [r for r in rows if r["true"] == 0.0]
+    lagged = [r for r in rows if r["true"] > 0.0]
+    reported_ = [r for r in lagged if reported(r)]
+    return {"false": (sum(map(reported, free)), len(free)),
+            "missed": (len(lagged) - len(reported_), len(lagged)),
+            "covered": (sum(r["lo"] <= r["true"] <= r["hi"] for r in reported_), len(reported_))}
+
+
+def _read_cache(path) -> dict:
+    rows = {}
+    if path is not None and Path(path).exists():
+        for line in Path(path).read_text().splitlines():
+            r = json.loads(line)
+            rows.setdefault(r["seed"], []).append(r)
+    return rows
+
+
+def main(argv=None) -> int:
+    """Run the arms and print the table (module docstring)."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=20, help="arms (default 20)")
+    ap.add_argument("--start", type=int, default=0, help="first seed (default 0)")
+    ap.add_argument("--lag-bootstrap", type=int, default=10, help="refits of each lag fit's bootstrap (default 10)")
+    ap.add_argument("--duration", type=float, default=20.0, help="log length in s (default 20)")
+    ap.add_argument("--friction", choices=("example", "coverage"), default="example",
+                    help="the joints' friction: the page's scaled (default) or arm_coverage's draws")
+    ap.add_argument("--cache", default=None, help="JSON-lines file of the arms' joints, read and appended")
+    ap.add_argument("--verbose", action="store_true", help="print every joint")
+    a = ap.parse_args(argv)
+    from adaptive_ff.arm.robot import load_urdf
+
+    arm = load_urdf(URDF)
+    cache = _read_cache(a.cache)
+    rows, c0 = [], time.process_time()
+    for seed in range(a.start, a.start + a.n):
+        if seed not in cache:
+            cache[seed] = arm_joints(arm, seed, duration=a.duration, n_lag=a.lag_bootstrap,
+                                     kind=a.friction)
+            if a.cache is not None:
+                with open(a.cache, "a", encoding="utf-8") as fh:
+                    for r in cache[seed]:
+                        fh.write(json.dumps(r, default=float) + "\n")
+        rows += cache[seed]
+        if a.verbose:
+            for r in cache[seed]:
+                print(f"seed {seed:3d} {r['joint']:9s} true {1e3 * r['true']:5.2f} ms  tau "
+                      f"{1e3 * (r['tau'] if r['tau'] is not None else math.nan):6.2f} "
+                      f"[{1e3 * (r['lo'] if r['lo'] is not None else math.nan):6.2f}, "
+                      f"{1e3 * (r['hi'] if r['hi'] is not None else math.nan):6.2f}] ms  estimate "
+                      f"{1e3 * r['info'].get('estimate', math.nan):6.2f} ms")
+    s = summary(rows)
+    print(f"{a.n} arms (seeds {a.start}-{a.start + a.n - 1}, friction {a.friction}), {a.duration:g} s logs, {a.lag_bootstrap} refits per lag "
+          f"fit; CPU {time.process_time() - c0:.0f} s")
+    for key, text in (("false", "lag-free joints reported with a lag"), ("missed", "lagged joints reported null"),
+                      ("covered", "reported lags whose interval holds the true lag")):
+        k, n = s[key]
+        lo, hi = wilson(k, n)
+        print(f"  {text:50s} {k:3d} / {n:3d} = {k / n if n else math.nan:5.3f}  [{max(lo, 0.0):.3f}, {min(hi, 1.0):.3f}]")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
