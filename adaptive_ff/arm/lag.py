@@ -24,17 +24,11 @@ Butterworth, forwards and backwards: no lag of its own) at :data:`LAG_CUTOFF_FAC
 cutoff, at most a fifth of the record's rate, sampled at about :data:`LAG_RATE` Hz (every k-th sample of the log),
 the filter's start-up at both ends left out. Why that cutoff: a friction jump at a reversal accelerates every joint
 at once, and the coupling torque ``M_jk ddq_k`` of that step is what the output-error fit must not read as the
-joint's own lag; and velocity noise, which the fit reads as lag, is what the filter removes. Measured on the
-planar arm of ``docs/your_arm.md`` with a 10 ms lag on every joint and the sensor noise of
-:class:`adaptive_ff.arm.simulate.SensorNoise` (seed 1): the identification's own 20 Hz states with the log's raw
-velocity put ``tau`` at 4.6-8.0 ms (20 s log); states at 100 Hz with the raw velocity at 4.3-10.4 ms, with their
-filtered velocity at 9.7-10.3 ms (10 s logs). What stays: on the same arm without a lag the fit reads 1.6, 4.2 and
-7.3 ms, the last two with intervals that exclude zero (noise-free: 0.4-0.5 ms).
+joint's own lag; and velocity noise, which the fit reads as lag, is what the filter removes.
 
 The torque is taken at its time stamp (``input_delay=0``): a whole-arm log samples every joint's torque and
 position together, and the output-error fit's profile over a sub-sample input delay, which ``identify`` runs on a
-one-joint log, trades the delay against the lag here (on the planar arm below with a 10 ms lag, one joint's lag
-came out 9.50 ms with the profile, 9.72-10.27 ms without it).
+one-joint log, trades the delay against the lag here.
 
 Reported
 --------
@@ -44,21 +38,12 @@ excludes zero; the bootstrap's refits, whose world is the fitted lagged joint, d
 of the record. Elsewhere ``tau`` is NaN (null in JSON) and the joint carries a warning that says why. Why more than
 the interval: a joint without a lag does not read as one here. Its friction jumps at each reversal, which
 the zero-phase low-pass of the record smooths over a few ms, and it sticks there, which eqs. 1-3 do not model; the
-fit reads both as a lag. Over the arms of ``benchmarks/arm_lag.py`` (the planar arm, 20 s logs) lag-free joints
-read 0.6-1.8 ms on the shoulder, 3.1-5.5 ms on the elbow and 6.7-10 ms on the wrist, 24 of 47 with an interval that
-excludes zero. On the example wrist of ``docs/your_arm.md`` (7.2 ms) the lag-free joint simulated by the fit's own
-model from the record's torque reads 0.41 ms, and 5.1 ms once its velocity goes through the record's low-pass: the
-filter makes most of it. The free-run predictor, with the unfiltered velocity, still reads 1.1, 4.3 and 3.8 ms on
-that lag-free arm, and with the filtered one 0.9 ms for an 8.7 ms shoulder lag (seed 0 of the benchmark): the record
-and the predictor stay. A test of
-``tau = 0`` against the fitted lag on the fit's cost was not tried: the false lag is the fit's minimum, a lower cost
-than at ``tau`` near zero by construction. What tells them apart on those arms is the bootstrap: where a lag-free
-elbow's or wrist's interval excludes zero its refits read the lag 10-50 % longer on average (the estimate is not a
-stable point of the fit), on lagged joints at most 5 % longer; the shoulder's false lags lie below 2 samples.
-With the rule no lag-free joint of 47 is reported a lag (24 before) and no lagged joint of 73 is null. The interval
-does not carry the reading's own error either: a lagged elbow or wrist reads up to its lag-free reading long, and
-the interval holds the true lag on 22 of the 73 (``docs/your_arm.md``, "Not yet"): read a reported lag as an upper
-bound.
+fit reads both as a lag, often with an interval that excludes zero. What tells them apart is the bootstrap: on a
+lag-free joint the estimate is not a stable point of the fit and its refits read the lag markedly longer, on a
+lagged joint they do not; a lag-free shoulder's reading lies below two samples. The interval does not carry the
+reading's own error (a bias common to every refit): read a reported lag as an upper bound and its interval as too
+narrow. The measurements behind the rule and its limits: ``docs/your_arm.md`` (How, Lag; Not yet) and
+``benchmarks/arm_lag.py``.
 
 The velocity noise of each joint (``excitation.noise_std`` of ``identify --json``) is
 :func:`adaptive_ff.identification.diagnostics.velocity_noise_std` of the log's velocity as measured (or of the
