@@ -36,8 +36,8 @@ of a torque step one cutoff period from it, 0.5 % at :data:`REST_WINDOW` (1.5) p
 (:func:`_moving_share`): the samples where the lightly filtered velocity is slower than the 2 % speed (at rest)
 are left out of the torque, the rigid-body block (the regressor of the filtered states at the log's rate) and the
 friction columns (viscous and offset too) before the filter, so that the rows next to a stick keep the hump's
-information without the holding torque (with it in, over the 50 arms of ``benchmarks/arm_coverage.py`` the
-wrists' ``Fs`` read 12 % low and ``Vs`` 1.8 times the truth, medians; without it 1 % low and 1.01 times).
+information without the holding torque (with it in, the wrists' ``Fs`` read low and ``Vs`` high on the simulated
+arms: ``docs/your_arm.md``, How).
 
 ``rows="sliding"``: the viscous and offset columns are the filtered velocity and one, and the rows within 1.5
 cutoff periods of every log sample where the lightly filtered velocity is slower than the 2 % speed or changes sign
@@ -105,10 +105,8 @@ FRICTION_VELOCITY_FACTOR = 5.0
 COND_WARN = 1e3
 #: Share of the log at rest (the velocity low-passed at FRICTION_VELOCITY_FACTOR times the cutoff slower than the
 #: joint's slowest kept speed) above which a joint that keeps its Stribeck term gets a warning that its ``Fs`` and
-#: ``Vs`` intervals may miss (``rows="moving"``): over the 150 joints of ``benchmarks/arm_coverage.py`` (seeds 0-49)
-#: all 6 ``Fs`` intervals that missed the truth and 7 of the 9 ``Vs`` intervals were wrists at rest over 25-40 % of
-#: their logs (the other two elbows, 8 and 14 %); every shoulder and elbow is at rest over at most 19 %, every wrist
-#: over at least 11 %.
+#: ``Vs`` intervals may miss (``rows="moving"``): the misses of those intervals over simulated arms are joints at rest
+#: over more of their logs than shoulders and elbows are (the measurements: ``docs/your_arm.md``, How, Intervals).
 REST_WARN = 0.15
 #: Bisections in ``log Vs`` that locate the profile's crossing of its likelihood-ratio bound between two grid values
 #: (:func:`_crossings`): the crossing to 2**-5 of the grid's step.
