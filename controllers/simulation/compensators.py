@@ -83,20 +83,21 @@ def _ctx(plant, o: LoopConfig) -> tuple:
     return J, ff_max
 
 
-def _crossover(plant, o: LoopConfig) -> float:
-    """The crossover of the loop the drive runs (rad/s): ``Kp`` over the observers' nominal inertia
-    (:func:`_nominal_inertia`), 0 without a loop (``Kp`` 0).
+def _crossover(o: LoopConfig, J_n: float) -> float:
+    """The crossover of the loop the drive runs (rad/s): ``Kp`` over the observers' nominal inertia ``J_n`` (kg·m²,
+    :func:`_nominal_inertia`), 0 without a loop (``Kp`` 0).
 
     The PI's ``Kp`` acts on the joint's inertia, not on the one it was designed with: where the identification run
     contradicts the design inertia (``o.observer.J_n``, :func:`controllers.experiments.observer_design.observer_inertia`)
     the loop crosses over at ``Kp/J_n``, not at its design crossover ``Kp/J_design``; elsewhere the two are one.
     The supervisor's statistic and tracking model and the residual observer run on ``J_n`` too."""
-    return max(o.controller.Kp, 0.0) / _nominal_inertia(plant, o)
+    return max(o.controller.Kp, 0.0) / J_n
 
 
-def _nominal_inertia(plant, o: LoopConfig) -> float:
-    """The nominal inertia of every observer (kg·m²): ``o.observer.J_n``, else the design inertia."""
-    return _ctx(plant, o)[0] if o.observer.J_n is None else float(o.observer.J_n)
+def _nominal_inertia(o: LoopConfig, J: float) -> float:
+    """The nominal inertia of every observer (kg·m²): ``o.observer.J_n``, else the design inertia ``J`` (kg·m²,
+    :func:`_ctx`)."""
+    return J if o.observer.J_n is None else float(o.observer.J_n)
 
 
 # The map from :class:`LoopConfig` onto the components' config objects (the C settings' dataclasses): one builder
@@ -229,8 +230,8 @@ def build_supervisor(plant, mode: str, options: LoopConfig, *, force: bool = Fal
     if not (options.supervisor.enabled and (force or mode in SUPERVISED_MODES)):
         return None
     J, ff_max = _ctx(plant, options)
-    J_n = _nominal_inertia(plant, options)
-    return _supervisor(options, J, J_n, ff_max, max(options.controller.Kp, 0.0) / J_n)
+    J_n = _nominal_inertia(options, J)
+    return _supervisor(options, J, J_n, ff_max, _crossover(options, J_n))
 
 
 def _supervisor(o: LoopConfig, J: float, J_n: float, ff_max: float, wc: float) -> FeedforwardSupervisor:
@@ -289,9 +290,9 @@ def _adaptive(plant, o):
     """Mode ``adaptive``: over the sliding estimator one :class:`AdaptiveCompensator` (the feedforward, the residual
     observer it switches in and the supervisor in one C struct, the one a drive runs); over the eq. 4 estimators the
     composite :class:`AdaptiveDOBCompensator` with the switch-in, supervised by the engine."""
-    J, ff_max = _ctx(plant, o)  # the design inertia, the bound and (below) the nominal inertia: once
-    J_n = J if o.observer.J_n is None else float(o.observer.J_n)  # _nominal_inertia
-    wc = max(o.controller.Kp, 0.0) / J_n  # _crossover: the residual observer's slew limit scales with it
+    J, ff_max = _ctx(plant, o)  # the design inertia, the bound and the nominal inertia: once
+    J_n = _nominal_inertia(o, J)
+    wc = _crossover(o, J_n)  # the residual observer's slew limit scales with it
     ff = ESTIMATOR_BUILDERS[o.estimator.name](o, J, ff_max)
     switch_in = o.observer.switch_in and o.controller.Kp > 0.0
     dob = sw = None
@@ -370,9 +371,10 @@ def _adaptive_dob(plant, o):
     # the eq. 4 estimates without the determinacy test: the observer, always applied, takes what an early estimate
     # misses (docs/benchmarks/compensation.md, "The eq. 4 estimate's determinacy test")
     _, ff = _adaptive_feedforward(plant, o.replace(iv_map_stderr=math.inf))
-    _, dob = _dob(plant, o, omega_q=o.observer.omega_r)
-    _, ff_max = _ctx(plant, o)
-    return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max, crossover=_crossover(plant, o))
+    J, ff_max = _ctx(plant, o)
+    J_n = _nominal_inertia(o, J)
+    dob = _observer(o, J_n, ff_max, o.observer.omega_r)
+    return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max, crossover=_crossover(o, J_n))
 
 
 def _canudas(plant, o):
@@ -380,16 +382,16 @@ def _canudas(plant, o):
     return plant, CanudasCompensator(Tc=o.controller.Tc, config=_canudas_config(o, J, ff_max))
 
 
-def _dob(plant, o, omega_q: float | None = None):
-    """Mode ``dob``: the observer of ``o.observer`` (its cut-off ``omega_q``, or the one given: a composite's
-    ``omega_r``, checked where ``o`` was built)."""
-    _, ff_max = _ctx(plant, o)
-    return plant, _observer(o, _nominal_inertia(plant, o), ff_max, o.observer.omega_q if omega_q is None else omega_q)
+def _dob(plant, o):
+    """Mode ``dob``: the observer of ``o.observer`` (its cut-off ``omega_q``)."""
+    J, ff_max = _ctx(plant, o)
+    return plant, _observer(o, _nominal_inertia(o, J), ff_max, o.observer.omega_q)
 
 
 def _observer(o: LoopConfig, J_n: float, ff_max: float, omega_q: float) -> DisturbanceObserver:
-    """:func:`_dob`'s observer of the nominal inertia ``J_n`` (kg·m²), the bound ``ff_max`` (N·m) and the cut-off
-    ``omega_q`` (rad/s)."""
+    """A disturbance observer of the nominal inertia ``J_n`` (kg·m²), the bound ``ff_max`` (N·m) and the cut-off
+    ``omega_q`` (rad/s): mode ``dob``'s, and a composite's residual observer (``o.observer.omega_r``, checked where
+    ``o`` was built)."""
     return DisturbanceObserver(J_n=J_n, omega_q=omega_q, Tc=o.controller.Tc, d_max=ff_max)
 
 

@@ -221,22 +221,23 @@ def metrics_result(st, *, n_total: int | None = None) -> LoopMetrics:
                            u_rms=nan)
     r = dict(zip(_NAMES, rec[0].item()))  # Python numbers: the IEEE operations of metrics_columns, one scenario
     n, nh, nr = float(r["n"]), float(r["n_half"]), float(r["n_rev"])
-    return LoopMetrics(rms=_rms(r, "e2", n), max=float(r["e_max"]) if n != 0 else nan,
-                       rms_second_half=_rms(r, "e2_half", nh),
+    return LoopMetrics(rms=_rms(r["e2"], r["e2_c"], n), max=float(r["e_max"]) if n != 0 else nan,
+                       rms_second_half=_rms(r["e2_half"], r["e2_half_c"], nh),
                        max_second_half=float(r["e_max_half"]) if nh != 0 else nan,
-                       rms_reversal=_rms(r, "e2_rev", nr), u_rms=_rms(r, "u2", n))
+                       rms_reversal=_rms(r["e2_rev"], r["e2_rev_c"], nr), u_rms=_rms(r["u2"], r["u2_c"], n))
 
 
-def _rms(r: dict, k: str, c: float) -> float:
-    """``sqrt((r[k] + r[k_c])/c)`` of one accumulator's fields ``r`` (Python numbers), NaN where ``c`` is 0: the IEEE
-    operations of :func:`metrics_columns`'s ``rms`` on one scenario (numpy's NaN where the sum is below 0)."""
-    if not c > 0:
-        return math.nan
-    x = (r[k] + r[k + "_c"]) / c
-    if x >= 0.0:
-        return math.sqrt(x)
-    with np.errstate(invalid="ignore"):
-        return float(np.sqrt(x))
+def _rms(total, comp, count):
+    """``sqrt((total + comp)/count)``: the RMS of a Neumaier-compensated sum of squares (module docstring), NaN where
+    ``count`` is not > 0 or the sum is below 0. One scenario's Python floats, or B scenarios' arrays (shape (B,),
+    ``count`` an ndarray): the same IEEE operations either way."""
+    if isinstance(count, float):
+        if not count > 0:
+            return math.nan
+        x = (total + comp) / count
+        return math.sqrt(x) if x >= 0.0 else math.nan
+    with np.errstate(all="ignore"):
+        return np.where(count > 0, np.sqrt((total + comp) / count), np.nan)
 
 
 def _motion_scalars(r: dict, diverged: bool) -> tuple:
@@ -245,7 +246,8 @@ def _motion_scalars(r: dict, diverged: bool) -> tuple:
     if diverged:
         return math.nan, math.nan, math.nan
     nm, nr = float(r["n_move"]), float(r["n_rest"])
-    return _rms(r, "e2_move", nm), _rms(r, "e2_rest", nr), float(r["e_max_rest"]) if nr > 0 else math.nan
+    return (_rms(r["e2_move"], r["e2_move_c"], nm), _rms(r["e2_rest"], r["e2_rest_c"], nr),
+            float(r["e_max_rest"]) if nr > 0 else math.nan)
 
 
 def metrics_columns(states) -> dict:
@@ -270,14 +272,13 @@ def metrics_columns(states) -> dict:
     """
     st = _records(states)
     n, nh, nr = (st[k].astype(np.float64) for k in ("n", "n_half", "n_rev"))
-    with np.errstate(all="ignore"):
-        def rms(k, c):
-            return np.where(c > 0, np.sqrt((st[k] + st[k + "_c"]) / c), np.nan)
+    def rms(k, c):
+        return _rms(st[k], st[k + "_c"], c)
 
-        return {"rms": rms("e2", n), "max": np.where(n != 0, st["e_max"], np.nan),
-                "rms_second_half": rms("e2_half", nh),
-                "max_second_half": np.where(nh != 0, st["e_max_half"], np.nan), "rms_reversal": rms("e2_rev", nr),
-                "u_rms": rms("u2", n)}
+    return {"rms": rms("e2", n), "max": np.where(n != 0, st["e_max"], np.nan),
+            "rms_second_half": rms("e2_half", nh),
+            "max_second_half": np.where(nh != 0, st["e_max_half"], np.nan), "rms_reversal": rms("e2_rev", nr),
+            "u_rms": rms("u2", n)}
 
 
 def reversal_times(t, w, chunk: int = 1 << 16) -> np.ndarray:
@@ -682,11 +683,10 @@ def engine_motion(run, states, t, revs, *, window: float, diverged) -> tuple:
     if st.shape[0] == 1:  # a single run: Python numbers, the same IEEE operations
         rm, rr, mr = ([v] for v in _motion_scalars(dict(zip(_NAMES, st[0].item())), bool(dv[0])))
     else:
-        with np.errstate(all="ignore"):
-            nm, nr = st["n_move"].astype(np.float64), st["n_rest"].astype(np.float64)
-            rm = np.where((nm > 0) & ~dv, np.sqrt((st["e2_move"] + st["e2_move_c"]) / nm), np.nan)
-            rr = np.where((nr > 0) & ~dv, np.sqrt((st["e2_rest"] + st["e2_rest_c"]) / nr), np.nan)
-            mr = np.where((nr > 0) & ~dv, st["e_max_rest"], np.nan)
+        nm, nr = st["n_move"].astype(np.float64), st["n_rest"].astype(np.float64)
+        rm = np.where(~dv, _rms(st["e2_move"], st["e2_move_c"], nm), np.nan)
+        rr = np.where(~dv, _rms(st["e2_rest"], st["e2_rest_c"], nr), np.nan)
+        mr = np.where((nr > 0) & ~dv, st["e_max_rest"], np.nan)
     c = run.c_run
     t_mid = 0.5 * (t[0] + t[-1]) if len(t) else math.nan
     a, b, band = (np.array(x, dtype=float) for x in run.stops)
