@@ -18,6 +18,12 @@ Methods:
 
 The CPU seconds count every thread (the bootstrap refits run in threads): on a machine with more cores the
 wall time is shorter, the CPU time is the same.
+
+``--work`` prints where the ``output_error`` command's work goes, from its JSON (``info``): the C grid simulations
+of the fit (of which its profile over tau, ``info.lag_profile``, and its input-delay profile,
+``info.input_delay_profile``), of the bootstrap's refits (``info.bootstrap``) and their CPU seconds per simulation;
+then the CPU seconds of the command without its bootstrap (``--bootstrap 0``) less those of a child that only
+imports the CLI (``controllers.cli.main --help``).
 """
 
 from __future__ import annotations
@@ -56,10 +62,8 @@ def write_log(path: Path, duration: float, seed: int = 0, noise: float = 0.01) -
     np.savetxt(path, np.column_stack([m.t, m.u, m.w]), delimiter=",", header="t,u,w", comments="", fmt="%.10g")
 
 
-def run(log: Path, method: str, out: Path) -> dict:
-    """CPU and wall seconds of one ``identify`` child process, and its JSON result."""
-    cmd = [sys.executable, "-m", "controllers.cli.main", "identify", str(log), "--Vs", "0.02", "--delta", "1",
-           "--lag", "--json", "--quiet", "--yes", *ARGS[method]]
+def _child(cmd: list) -> tuple:
+    """``(cpu, wall, stdout)`` of one child process (user + system seconds of all its threads)."""
     r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)})
@@ -68,9 +72,17 @@ def run(log: Path, method: str, out: Path) -> dict:
     cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
     if proc.returncode != 0:
         raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stderr[-3000:]}")
-    (out / f"{method}.json").write_text(proc.stdout)
+    return cpu, wall, proc.stdout
+
+
+def run(log: Path, method: str, out: Path, extra: tuple = ()) -> dict:
+    """CPU and wall seconds of one ``identify`` child process, and its JSON result."""
+    cmd = [sys.executable, "-m", "controllers.cli.main", "identify", str(log), "--Vs", "0.02", "--delta", "1",
+           "--lag", "--json", "--quiet", "--yes", *ARGS[method], *extra]
+    cpu, wall, stdout = _child(cmd)
+    (out / f"{method}.json").write_text(stdout)
     try:
-        res = json.loads(proc.stdout)
+        res = json.loads(stdout)
     except json.JSONDecodeError:
         res = {}
     return {"cpu": cpu, "wall": wall, "result": res}
@@ -85,10 +97,29 @@ def _param(res: dict, name: str) -> float:
     return float("nan")
 
 
+def work(log: Path, out: Path, r: dict) -> None:
+    """Print where the ``output_error`` command's work goes (module docstring, ``--work``); ``r`` its :func:`run`."""
+    info = r["result"].get("info", {})
+    fit, boot = int(info.get("n_simulations", 0)), info.get("bootstrap") or {}
+    lag, delay = ((info.get(k) or {}).get("n_simulations", 0) for k in ("lag_profile", "input_delay_profile"))
+    n_boot, n_valid = int(boot.get("n_simulations", 0)), int(boot.get("n_valid", 0))
+    total = fit + n_boot
+    print(f"work of output_error: {total} C grid simulations; the fit {fit} (its profile over tau {lag}, its "
+          f"input-delay profile {delay}, the rest {fit - lag - delay}); the bootstrap's {n_valid} refits {n_boot} "
+          f"(about {n_boot / max(n_valid, 1):.0f} each); {1e3 * r['cpu'] / max(total, 1):.2f} ms of CPU per "
+          "simulation (the command's CPU seconds over its simulations)")
+    bare = run(log, "output_error", out, ("--bootstrap", "0"))["cpu"]
+    imports = _child([sys.executable, "-m", "controllers.cli.main", "--help"])[0]
+    print(f"without its bootstrap (--bootstrap 0): {bare:.1f} CPU s, of which {imports:.1f} s the imports "
+          f"(a child running --help): {bare - imports:.1f} s of work", flush=True)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=20.0, help="log length (s) at 1 kHz (default 20: 20 001 samples)")
     ap.add_argument("--methods", nargs="+", choices=tuple(ARGS), default=["output_error", "form_auto"])
+    ap.add_argument("--work", action="store_true", help="where the output_error command's work goes (needs "
+                    "output_error among --methods)")
     args = ap.parse_args(argv)
     p = preset("paper")
     with tempfile.TemporaryDirectory() as tmp:
@@ -99,6 +130,7 @@ def main(argv=None) -> int:
               f"{os.cpu_count()} CPUs")
         print(f"{'method':<14}{'CPU s':>8}{'wall s':>8}{'budget':>8}  {'ok':<4}{'J':>8}{'Fc':>8}{'Fs':>8}")
         print(f"{'(truth)':<14}{'':>8}{'':>8}{'':>8}  {'':<4}{p.J:>8.4g}{p.Fc:>8.4g}{p.Fs:>8.4g}")
+        runs = {}
         for method in args.methods:
             r = run(log, method, Path(tmp))
             b = BUDGET[method]
@@ -106,6 +138,9 @@ def main(argv=None) -> int:
             vals = [_param(r["result"], k) for k in ("J", "Fc", "Fs")]
             print(f"{method:<14}{r['cpu']:>8.1f}{r['wall']:>8.1f}{b:>8.0f}  {ok:<4}"
                   + "".join(f"{v:>8.4g}" for v in vals), flush=True)
+            runs[method] = r
+        if args.work and "output_error" in runs:
+            work(log, Path(tmp), runs["output_error"])
     return 0
 
 
