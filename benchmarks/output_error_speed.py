@@ -22,8 +22,7 @@ wall time is shorter, the CPU time is the same.
 ``--work`` prints where the ``output_error`` command's work goes, from its JSON (``info``): the C grid simulations
 of the fit (of which its profile over tau, ``info.lag_profile``, and its input-delay profile,
 ``info.input_delay_profile``), of the bootstrap's refits (``info.bootstrap``) and their CPU seconds per simulation;
-then the CPU seconds of the command without its bootstrap (``--bootstrap 0``) less those of a child that only
-imports the CLI (``controllers.cli.main --help``).
+then the CPU seconds of the command without its bootstrap (``--bootstrap 0``, imports included).
 """
 
 from __future__ import annotations
@@ -109,9 +108,7 @@ def work(log: Path, out: Path, r: dict) -> None:
           f"(about {n_boot / max(n_valid, 1):.0f} each); {1e3 * r['cpu'] / max(total, 1):.2f} ms of CPU per "
           "simulation (the command's CPU seconds over its simulations)")
     bare = run(log, "output_error", out, ("--bootstrap", "0"))["cpu"]
-    imports = _child([sys.executable, "-m", "controllers.cli.main", "--help"])[0]
-    print(f"without its bootstrap (--bootstrap 0): {bare:.1f} CPU s, of which {imports:.1f} s the imports "
-          f"(a child running --help): {bare - imports:.1f} s of work", flush=True)
+    print(f"without its bootstrap (--bootstrap 0): {bare:.1f} CPU s (imports included)", flush=True)
 
 
 def main(argv=None) -> int:
