@@ -442,9 +442,18 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     #: The settings' class.
     Config = RobustAdaptiveFeedforwardConfig
 
+    _lib = lib
+
     def __init__(self, estimator: SlidingFrictionEstimator, *, dt: float,
                  config: RobustAdaptiveFeedforwardConfig | None = None, start: FeedforwardStart | None = None,
                  loop_model: LoopModel | None = None, sign_observer: SignObserver | None = None):
+        cfg, _ = self._plan(estimator, dt=dt, config=config, start=start, loop_model=loop_model,
+                            sign_observer=sign_observer)
+        self._configure(lib.aff_robust_ff_init, cfg, lib.aff_error_message)
+        self._built()
+
+    def _plan(self, estimator, *, dt, config=None, start=None, loop_model=None, sign_observer=None):
+        """The constructor's checks and settings (``(cfg, None)``) and the attributes they give."""
         if not isinstance(estimator, SlidingFrictionEstimator):
             raise TypeError(f"estimator must be a SlidingFrictionEstimator, got {type(estimator).__name__}")
         config = RobustAdaptiveFeedforwardConfig() if config is None else config
@@ -464,9 +473,12 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
             Fc, Fs, Vs, delta, sigma, tau = start.map_args(estimator.Vs, estimator.delta)
             cfg.start = {"on": True, "Fc": Fc, "Fs": Fs, "Vs": Vs, "delta": delta, "sigma": sigma, "tau": tau,
                          "gain": start.gain, "at_ref": start.ff_input == "reference"}  # else off, the C defaults
-        self._configure(lib.aff_robust_ff_init, cfg, lib.aff_error_message)
         self.settings = config
         self.start = start
+        return cfg, None
+
+    def _built(self) -> None:
+        """The constructor's step once the struct is configured: the parts point into it."""
         self._attached()
 
     def _attached(self) -> None:
