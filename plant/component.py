@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import operator
 import re
 import weakref
 from numbers import Integral, Real
@@ -208,17 +209,20 @@ def config_class(name: str, ffi_lib: tuple, ctype: str, *, module: str, summary:
     spec = tuple((key, cname, {n: code for code, n in reversed(by_key[key].items())} if key in by_key else None,
                   key in nested) for key, cname in to_c.items())
 
+    # the values in C order in one call, then the few choices and nested configs converted in place
+    values = operator.attrgetter(*[key for key, *_ in spec]) if len(spec) > 1 else (
+        lambda self: tuple(getattr(self, key) for key, *_ in spec))
+    cnames = tuple(cname for _, cname, *_ in spec)
+    special = tuple((i, codes, sub) for i, (_, _, codes, sub) in enumerate(spec) if codes is not None or sub)
+
     def c_fields(self) -> dict:
         """C field -> value: a choice as its C code, a nested config as its ``c_fields()``."""
-        out = {}
-        for key, cname, codes, sub in spec:
-            v = getattr(self, key)
-            if codes is not None:
-                v = codes[v]
-            elif sub:
-                v = v.c_fields()
-            out[cname] = v
-        return out
+        v = values(self)
+        if special:
+            v = list(v)
+            for i, codes, sub in special:
+                v[i] = codes[v[i]] if codes is not None else v[i].c_fields()
+        return dict(zip(cnames, v))
 
     def replace(self, **changes):
         """A copy with ``changes`` (:func:`dataclasses.replace`)."""

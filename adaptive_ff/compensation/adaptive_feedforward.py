@@ -466,7 +466,8 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         check_optional("start", start, FeedforwardStart)
         self.estimator = estimator
         self.n_theta = len(estimator.names)
-        own = {k: v for k, v in config.c_fields().items() if k != "ff"}
+        own = config.c_fields()  # a new dict: the feedforward's settings are the checked ones above
+        del own["ff"]
         cfg = self._settings("aff_robust_ff_config", lib.aff_robust_ff_default_config(), own, counts=("warmup",))
         cfg.ff, cfg.est = ff[0], estimator.config[0]
         if start is not None:

@@ -71,7 +71,9 @@ implementation of a sample, called by :meth:`SlidingFrictionEstimator.observe` a
 
 from __future__ import annotations
 
+import functools
 import math
+import operator
 from dataclasses import dataclass
 
 import numpy as np
@@ -111,7 +113,10 @@ SlidingFrictionEstimatorConfig = c_config_class(
     fields={"forgetting": ("forgetting", FORGETTINGS)})
 
 
+@functools.lru_cache(maxsize=None)
 def _names(lag: bool, offset: bool) -> tuple:
+    """The parameter names of the regression with the lag columns (``lag``) and the offset (``offset``), in
+    :data:`SLIDING_NAMES` order (four structures, made once)."""
     return tuple(n for n in SLIDING_NAMES if (lag or n not in ("J_tau", "tau")) and (offset or n != "offset"))
 
 
@@ -359,7 +364,8 @@ class SlidingFrictionEstimator(Component):
         lower = {"J": 1e-9, "J_tau": 0.0, "tau": 0.0, "Fc": 0.0, "Fs": 0.0, "sigma": 0.0, "offset": -math.inf}
         upper = {"J": J_max, "J_tau": J_max * self.tau_max, "tau": self.tau_max, "Fc": math.inf, "Fs": math.inf,
                  "sigma": math.inf, "offset": math.inf}
-        self._box = (np.array([lower[n] for n in self.names]), np.array([upper[n] for n in self.names]))
+        pick = operator.itemgetter(*self.names)  # at least four names: a tuple
+        self._box = (np.array(pick(lower)), np.array(pick(upper)))
         self._given = (gate, u_range, w_range, float(cfg.P0), float(cfg.P_max), float(cfg.w_range.floor))
         return cfg, {lib.AFF_ERR_SLIDING_INITIAL: f"initial = {initial!r}"}
 
