@@ -322,6 +322,12 @@ def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c", sett
             value = check(value)
         setattr(h, path[-1], int(bool(value)) if kind is bool else kind(value))
 
+    if flag is None and size is None and choices is None and scale is None and len(path) == 1:
+        name = path[0]
+
+        def get(self):  # the common case, a plain field of the struct: one read, converted
+            return kind(getattr(getattr(self, via), name))
+
     get.__name__ = put.__name__ = path[-1]
     writable = settable and size is None and scale is None and choices is None
     return property(get, put if writable else None, doc=doc)
