@@ -674,7 +674,11 @@ class Component:
 
     @property
     def cdata(self):
-        """Pointer to the component's C struct (cffi)."""
+        """Pointer to the component's C struct (cffi); a ParameterError for an :meth:`unbuilt` object that no
+        composite has made yet."""
+        if self._pending is not None:
+            raise ParameterError(f"{type(self).__name__}.unbuilt(...) has no struct of its own: give it to a composite "
+                                 "that makes it from its settings, or use the constructor")
         return self._c
 
     @classmethod

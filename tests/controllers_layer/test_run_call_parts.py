@@ -256,6 +256,8 @@ def test_unbuilt_raises_the_constructors_errors():
         assert (type(a.value), str(a.value)) == (type(b.value), str(b.value)), (cls, kw)
     with pytest.raises(TypeError, match="RangeGate is made by its constructor only"):
         RangeGate.unbuilt()
+    with pytest.raises(ParameterError, match=r"SlidingFrictionEstimator.unbuilt\(...\) has no struct of its own"):
+        est.cdata
 
 
 def test_build_modes_shares_the_settings_of_one_options_object_in_its_call_only():
