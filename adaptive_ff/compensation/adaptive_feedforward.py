@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import functools
 import math
+import operator
 from dataclasses import dataclass, fields, replace
 
 import numpy as np
@@ -43,12 +44,13 @@ __all__ = ["RobustAdaptiveFeedforward", "RobustAdaptiveFeedforwardConfig", "Feed
 _START = c_defaults("aff_start_config")
 #: The fields of a :class:`FrictionEstimate`, in order: the keys of its ``to_dict()``.
 _ESTIMATE_FIELDS = tuple(f.name for f in fields(FrictionEstimate))
+_estimate_values = operator.attrgetter(*_ESTIMATE_FIELDS)
 
 
 def _estimate_dict(est: FrictionEstimate) -> dict:
     """``est.to_dict()`` of an estimate whose fields are numbers or None (the estimator's: the same strict-JSON dict,
     without ``dataclasses.asdict``'s deep copy)."""
-    return {k: json_safe(getattr(est, k)) for k in _ESTIMATE_FIELDS}
+    return dict(zip(_ESTIMATE_FIELDS, map(json_safe, _estimate_values(est))))
 
 RobustAdaptiveFeedforwardConfig = c_config_class(
     "RobustAdaptiveFeedforwardConfig", "aff_robust_ff_config", "aff_robust_ff.h", module=__name__,

@@ -154,10 +154,10 @@ def estimate_from_theta(names, theta, Vs, delta, *, box=None) -> FrictionEstimat
     RLS of :class:`SlidingFrictionEstimator` runs unconstrained (its Notes
     say why), and the clipped values are what it reports.
     """
-    theta = [float(x) for x in theta]
-    if box is not None:
+    theta = list(map(float, theta))
+    if box is not None:  # each entry clipped to [lo, hi], the bounds as Python floats
         lo, hi = box
-        theta = [min(max(x, float(a)), float(b)) for x, a, b in zip(theta, lo, hi)]
+        theta = list(map(min, map(max, theta, map(float, lo)), map(float, hi)))
     d = dict(zip(names, theta))
     tau = d.get("tau", 0.0)
     J_alt = d["J_tau"] / tau if ("J_tau" in d and tau > 0) else float("nan")
