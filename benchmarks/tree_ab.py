@@ -51,7 +51,6 @@ import statistics, sys, time
 import numpy as np
 import controllers.simulation.batch as bm
 from controllers.simulation.engine import EngineRun
-from controllers.simulation.closed_loop import LoopConfig
 from plant.excitation import multisine_reference
 from plant.friction import preset
 B, seconds, repeat, mode = int(sys.argv[1]), float(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
@@ -61,8 +60,13 @@ rng = np.random.default_rng(2)
 plants = [p.replace(J=p.J * rng.uniform(0.7, 1.3), Fc=p.Fc * rng.uniform(0.7, 1.3), tau=p.tau * rng.uniform(0.5, 2.0))
           for _ in range(B)]
 def options():
-    return LoopConfig.from_flat(Kp=69.28434179621937, Ki=786.1169272191827, u_max=150.0, Vs=p.Vs, delta=p.delta,
-                                sensor_gate=False)
+    flat = dict(Kp=69.28434179621937, Ki=786.1169272191827, u_max=150.0, Vs=p.Vs, delta=p.delta, sensor_gate=False)
+    try:
+        from controllers.simulation.closed_loop import LoopConfig
+        return LoopConfig.from_flat(**flat)
+    except ImportError:  # a tree with the flat ModeOptions
+        from controllers.simulation.compensators import ModeOptions
+        return ModeOptions(**flat)
 fresh = [options() for _ in range(repeat)]  # a new options object per timed call, made before the timing
 run, spent = EngineRun.run, []
 def timed(self):
