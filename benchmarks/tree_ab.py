@@ -5,11 +5,13 @@ Run:  git worktree add /tmp/old REV   (or: mkdir /tmp/old && git archive REV | t
       python benchmarks/tree_ab.py /tmp/old [--B 1000] [--seconds 2] [--repeat 5] [--rounds 3] [--mode none]
       python benchmarks/tree_ab.py /tmp/old --ratio [--other-python /venv-of-old/bin/python]
       python benchmarks/tree_ab.py /tmp/old --engine [--seconds 60] [--repeat 5] [--rounds 4]
+      python benchmarks/tree_ab.py /tmp/old --build [--rounds 4]
 
 ``--ratio`` times, in the same alternating fresh processes, python-control's ``input_output_response`` on
 the PI + plant loop of ``benchmarks/perf.py`` and the single-run engine (``run_mode`` ``none`` and
 ``adaptive`` with noise 1e-3; the whole call, and its Python part: CPU time outside the C engine call
-``EngineRun.run``), and prints the ratios of both trees to one python-control baseline (the
+``EngineRun.run``), each timed call from a new options object made before the timing (a user's single call
+builds its settings: a cache keyed by the options object would save only on repeats), and prints the ratios of both trees to one python-control baseline (the
 median over all their processes): the speed target "warm engine ratio to python-control not worse than
 before" compared on one machine in one run, where python-control's own time per step varies several-fold
 between runs (docs/benchmarks/perf.md). ``--other-python`` runs the
@@ -21,7 +23,12 @@ fresh process per tree (this tree and OTHER, alternating), which times ``run_bat
 (``ADAPTIVE_FF_THREADS=1``) by the CPU time of the calling thread (``time.thread_time``: not inflated by other
 processes on a loaded machine) and prints µs per scenario-step of the engine (median and fastest of
 ``--repeat``), the serial Python part of the call (CPU of the calling thread outside the engine's
-``EngineRun.run``: packing the scenarios, the results) and the first metrics, so a change of the numbers shows.
+``EngineRun.run``: packing the scenarios, the results; each timed call from a new options object) and the first
+metrics, so a change of the numbers shows.
+
+``--build`` times ``build_mode none`` and ``adaptive`` (the ``--ratio`` settings), each call from a new options
+object made before the timing, in alternating fresh processes, and prints each process's fastest of nine timings of
+200 calls and, per tree, the median and the range over its processes (µs per call).
 
 ``--engine`` times the C engine call alone (``EngineRun.run``, CPU time of the calling thread) of the single runs
 ``run_mode none`` and ``adaptive`` (noise 1e-3) of ``benchmarks/engine_instructions.py``'s loop on a reference of
@@ -44,7 +51,6 @@ import statistics, sys, time
 import numpy as np
 import controllers.simulation.batch as bm
 from controllers.simulation.engine import EngineRun
-from controllers.simulation.closed_loop import LoopConfig
 from plant.excitation import multisine_reference
 from plant.friction import preset
 B, seconds, repeat, mode = int(sys.argv[1]), float(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
@@ -53,14 +59,22 @@ ref = multisine_reference(seconds, rng=np.random.default_rng(0))
 rng = np.random.default_rng(2)
 plants = [p.replace(J=p.J * rng.uniform(0.7, 1.3), Fc=p.Fc * rng.uniform(0.7, 1.3), tau=p.tau * rng.uniform(0.5, 2.0))
           for _ in range(B)]
-o = LoopConfig.from_flat(Kp=69.28434179621937, Ki=786.1169272191827, u_max=150.0, Vs=p.Vs, delta=p.delta, sensor_gate=False)
+def options():
+    flat = dict(Kp=69.28434179621937, Ki=786.1169272191827, u_max=150.0, Vs=p.Vs, delta=p.delta, sensor_gate=False)
+    try:
+        from controllers.simulation.closed_loop import LoopConfig
+        return LoopConfig.from_flat(**flat)
+    except ImportError:  # a tree with the flat ModeOptions
+        from controllers.simulation.compensators import ModeOptions
+        return ModeOptions(**flat)
+fresh = [options() for _ in range(repeat)]  # a new options object per timed call, made before the timing
 run, spent = EngineRun.run, []
 def timed(self):
     t0 = time.thread_time(); run(self); spent.append(time.thread_time() - t0)
-bm.run_batch(plants[:2], ref, mode, o)
+bm.run_batch(plants[:2], ref, mode, options())
 EngineRun.run = timed
 whole = []
-for _ in range(repeat):
+for o in fresh:
     t0 = time.thread_time()
     r = bm.run_batch(plants, ref, mode, o)
     whole.append(time.thread_time() - t0)
@@ -111,19 +125,22 @@ def options(**extra):
     except ImportError:  # a tree with the flat ModeOptions
         from controllers.simulation.compensators import ModeOptions
         return ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=u_max, **extra)
-base, adaptive = options(), options(Vs=p.Vs, delta=p.delta, noise_std=1e-3)
+extra = {"none": {}, "adaptive": dict(Vs=p.Vs, delta=p.delta, noise_std=1e-3)}
 from controllers.simulation.engine import EngineRun
 engine_run, spent = EngineRun.run, []
 def timed(self):
     t0 = time.thread_time(); engine_run(self); spent.append(time.thread_time() - t0)
 EngineRun.run = timed
-for mode, o in (("none", base), ("adaptive", adaptive)):
-    run = lambda: run_mode(p, ref, mode, o, rng=np.random.default_rng(1))
-    run()  # warm-up (compiles where the other tree has a JIT)
+for mode in ("none", "adaptive"):
+    run_mode(p, ref, mode, options(**extra[mode]), rng=np.random.default_rng(1))  # warm-up (a JIT compiles)
+    # each timed call gets a new options object, made before the timing: a user's single call pays what a
+    # settings cache keyed by the options object would save on repeats
+    fresh = [options(**extra[mode]) for _ in range(repeat)]
     whole = []
     spent.clear()
-    for _ in range(repeat):
-        t0 = time.thread_time(); run(); whole.append(time.thread_time() - t0)
+    for o in fresh:
+        t0 = time.thread_time(); run_mode(p, ref, mode, o, rng=np.random.default_rng(1))
+        whole.append(time.thread_time() - t0)
     us[mode] = statistics.median(whole) / ref.t.size * 1e6
     us[mode + " python ms"] = statistics.median(w - e for w, e in zip(whole, spent)) * 1e3
 print(json.dumps(us))
@@ -161,6 +178,73 @@ for mode, o in (("none", options()), ("adaptive", options(Vs=p.Vs, delta=p.delta
     ns[mode] = statistics.median(spent) / ref.t.size * 1e9
 print(json.dumps(ns))
 """
+
+_BUILD_CHILD = r"""
+import json, sys, time
+from controllers.simulation.compensators import build_mode
+from controllers.design.pi import design_pi
+from plant.friction import preset
+calls, timings = int(sys.argv[1]), int(sys.argv[2])
+p = preset("paper")
+d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
+def options(**extra):
+    try:
+        from controllers.simulation.closed_loop import LoopConfig
+        return LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0, **extra)
+    except ImportError:  # a tree with the flat ModeOptions
+        from controllers.simulation.compensators import ModeOptions
+        return ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, **extra)
+extra = {"none": {}, "adaptive": dict(Vs=p.Vs, delta=p.delta, noise_std=1e-3)}
+us = {}
+for mode in ("none", "adaptive"):
+    build_mode(p, mode, options(**extra[mode]))  # warm-up
+    best = []
+    for _ in range(timings):
+        fresh = [options(**extra[mode]) for _ in range(calls)]  # new options objects, made before the timing
+        t0 = time.thread_time()
+        for o in fresh:
+            build_mode(p, mode, o)
+        best.append((time.thread_time() - t0) / calls * 1e6)
+    us[mode] = min(best)
+print(json.dumps(us))
+"""
+
+
+def build_rounds(trees: dict, *, calls: int = 200, timings: int = 9, rounds: int = 4, out=print) -> dict:
+    """Alternate fresh processes of the trees; print µs per ``build_mode`` call of ``none`` and ``adaptive``, each
+    call from a new options object (made before the timing), the fastest of ``timings`` timings of ``calls`` calls.
+
+    Parameters
+    ----------
+    trees : dict of str -> str
+        Name -> root of a source tree (holds plant/, adaptive_ff/, controllers/, extensions built in place).
+    calls, timings, rounds : int
+        Calls per timing, timings per process (the fastest counts), processes per tree.
+    out : callable
+        Receives each printed line.
+
+    Returns
+    -------
+    dict of str -> dict of str -> list of float
+        Name -> mode -> the processes' fastest timings (µs per call), in the order run.
+    """
+    out(f"build_mode from a new options object per call, CPU time of the calling thread, fastest of {timings} "
+        f"timings of {calls} calls per process, µs per call")
+    out(f"{'tree':<10} {'none':>9} {'adaptive':>9}")
+    runs = {name: {"none": [], "adaptive": []} for name in trees}
+    for _ in range(rounds):
+        for name, root in trees.items():
+            env = dict(os.environ, PYTHONPATH=root, ADAPTIVE_FF_THREADS="1")
+            proc = subprocess.run([sys.executable, "-c", _BUILD_CHILD, str(calls), str(timings)],
+                                  env=env, cwd=root, capture_output=True, text=True, check=True)
+            us = json.loads(proc.stdout.strip().splitlines()[-1])
+            for mode in ("none", "adaptive"):
+                runs[name][mode].append(us[mode])
+            out(f"{name:<10} {us['none']:>9.1f} {us['adaptive']:>9.1f}")
+    for name, by_mode in runs.items():
+        out(f"{name:<10} " + ", ".join(f"{m} median {statistics.median(v):.1f} (range {min(v):.1f}-{max(v):.1f})"
+                                       for m, v in by_mode.items()) + " µs per call")
+    return runs
 
 
 def engine_rounds(trees: dict, *, seconds: float = 60.0, repeat: int = 5, rounds: int = 4, out=print) -> dict:
@@ -261,11 +345,16 @@ def main(argv=None) -> int:
                     help="time run_mode none/adaptive against python-control in both trees (ratios), not run_batch")
     ap.add_argument("--engine", action="store_true",
                     help="time the C engine call of run_mode none/adaptive in both trees (ns per step)")
+    ap.add_argument("--build", action="store_true",
+                    help="time build_mode none/adaptive from new options objects in both trees (µs per call)")
     ap.add_argument("--other-python", default=sys.executable,
                     help="interpreter for the other tree (default: this one)")
     args = ap.parse_args(argv)
     trees = {"this tree": str(Path(__file__).resolve().parent.parent), "other": str(Path(args.other).resolve())}
     pythons = {"this tree": sys.executable, "other": args.other_python}
+    if args.build:
+        build_rounds(trees, rounds=args.rounds)
+        return 0
     if args.engine:
         engine_rounds(trees, seconds=args.seconds, repeat=args.repeat, rounds=args.rounds)
         return 0

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import operator
 import re
 import weakref
 from numbers import Integral, Real
@@ -208,17 +209,20 @@ def config_class(name: str, ffi_lib: tuple, ctype: str, *, module: str, summary:
     spec = tuple((key, cname, {n: code for code, n in reversed(by_key[key].items())} if key in by_key else None,
                   key in nested) for key, cname in to_c.items())
 
+    # the values in C order in one call, then the few choices and nested configs converted in place
+    values = operator.attrgetter(*[key for key, *_ in spec]) if len(spec) > 1 else (
+        lambda self: tuple(getattr(self, key) for key, *_ in spec))
+    cnames = tuple(cname for _, cname, *_ in spec)
+    special = tuple((i, codes, sub) for i, (_, _, codes, sub) in enumerate(spec) if codes is not None or sub)
+
     def c_fields(self) -> dict:
         """C field -> value: a choice as its C code, a nested config as its ``c_fields()``."""
-        out = {}
-        for key, cname, codes, sub in spec:
-            v = getattr(self, key)
-            if codes is not None:
-                v = codes[v]
-            elif sub:
-                v = v.c_fields()
-            out[cname] = v
-        return out
+        v = values(self)
+        if special:
+            v = list(v)
+            for i, codes, sub in special:
+                v[i] = codes[v[i]] if codes is not None else v[i].c_fields()
+        return dict(zip(cnames, v))
 
     def replace(self, **changes):
         """A copy with ``changes`` (:func:`dataclasses.replace`)."""
@@ -317,6 +321,12 @@ def struct_field(field: str, kind=float, doc: str = "", *, via: str = "_c", sett
         if check is not None:
             value = check(value)
         setattr(h, path[-1], int(bool(value)) if kind is bool else kind(value))
+
+    if flag is None and size is None and choices is None and scale is None and len(path) == 1:
+        name = path[0]
+
+        def get(self):  # the common case, a plain field of the struct: one read, converted
+            return kind(getattr(getattr(self, via), name))
 
     get.__name__ = put.__name__ = path[-1]
     writable = settable and size is None and scale is None and choices is None
@@ -529,6 +539,10 @@ _CNAMES: dict = {}
 _PATHS: dict = {}
 
 
+#: A class with :meth:`Component.unbuilt` -> its C ``aff_X_check_config`` (constant per process).
+_CHECKS: dict = {}
+
+
 def _path(field: str) -> tuple:
     """The names of the dotted C field ``field`` (``"res.sw"`` -> ``("res", "sw")``), cached in :data:`_PATHS`."""
     names = _PATHS[field] = tuple(field.split("."))
@@ -575,6 +589,66 @@ class Component:
     #: held by its cffi owner: a part and its composite form no reference cycle, so they are freed as soon as they
     #: are dropped, not by a later pass of the cyclic garbage collector.
     _holder = None
+    #: The checked settings (cffi ``aff_X_config *``) of an object made by :meth:`unbuilt`, whose struct its
+    #: composite's C init configures from them; None once the object has its struct (its own or a composite's field).
+    _pending = None
+    #: The cffi library of the class's C functions (``aff_X_check_config``, ``aff_error_message``): set by a class
+    #: that offers :meth:`unbuilt`.
+    _lib = None
+
+    @classmethod
+    def unbuilt(cls, *args, **kwargs):
+        """An object of this class to be given as a part to a composite's constructor, whose C init makes its struct:
+        the constructor's arguments checked as the constructor checks them (the same errors), its settings kept, no
+        struct of its own made, configured and then copied into the composite's.
+
+        The composite's C init configures the part's field of its struct from the part's settings (:attr:`config`);
+        the composite then points the part there and completes it (:meth:`_attached`), the same bytes as a part made
+        by the constructor and copied in. Until then the object has no struct: give it to a composite that takes
+        its part's settings (``RobustAdaptiveFeedforward`` its estimator, ``AdaptiveCompensator`` its parts), nothing
+        else.
+
+        Parameters
+        ----------
+        *args, **kwargs
+            The constructor's.
+
+        Returns
+        -------
+        Component
+            The object without its struct (:attr:`config` the checked settings).
+
+        Raises
+        ------
+        ParameterError, SettingTypeError
+            The constructor's errors, with its messages; TypeError for a class without the two-step constructor.
+        """
+        check = _CHECKS.get(cls)
+        if check is None:
+            if cls._lib is None or "_plan" not in vars(cls):
+                raise TypeError(f"{cls.__name__} is made by its constructor only (no unbuilt form)")
+            check = _CHECKS[cls] = getattr(cls._lib, f"{cls._ctype}_check_config")
+        part = cls.__new__(cls)
+        cfg, names = part._plan(*args, **kwargs)
+        code = check(cfg)  # the checks of the constructor's C init
+        if code != 0:
+            part._refuse(code, cls._lib.aff_error_message, names)
+        part._pending = cfg
+        part._keep(cfg)
+        return part
+
+    def _place(self, ptr, owner: "Component") -> None:
+        """Point an :meth:`unbuilt` object at ``ptr``, the field of ``owner``'s struct that ``owner``'s C init has
+        just configured from this object's settings, and complete it (:meth:`_built`)."""
+        self._c = ptr
+        self._memory = owner._c if owner._memory is None else owner._memory
+        self._holder = weakref.ref(owner)
+        self._pending = None
+        self._built()
+
+    def _built(self) -> None:
+        """Complete the object once its struct is configured (the constructor's steps after the C init; a class with
+        :meth:`unbuilt` defines it, with its ``_plan``)."""
 
     def _new_struct(self) -> None:
         """Allocate a zeroed struct of type ``_ctype`` owned by this object."""
@@ -600,21 +674,27 @@ class Component:
 
     @property
     def cdata(self):
-        """Pointer to the component's C struct (cffi)."""
+        """Pointer to the component's C struct (cffi); a ParameterError for an :meth:`unbuilt` object that no
+        composite has made yet."""
+        if self._pending is not None:
+            raise ParameterError(f"{type(self).__name__}.unbuilt(...) has no struct of its own: give it to a composite "
+                                 "that makes it from its settings, or use the constructor")
         return self._c
 
     @classmethod
     def _in_place(cls, owner: "Component", field: str, cfg):
         """A part over the struct ``field`` (a dotted path) of ``owner``'s struct, which ``owner``'s C init has
         configured from the settings ``cfg`` (cffi ``aff_X_config *`` or struct, kept as its :attr:`config`): no
-        struct of its own made, checked and copied in. Only for a class whose objects hold nothing besides the
-        struct (e.g. a gate); the composite then :meth:`_attach` es it like any part."""
+        struct of its own made, checked and copied in. For a class whose objects hold nothing besides the struct
+        (e.g. a gate), or whose caller sets the rest (``cfg`` None: the caller keeps the settings too); the
+        composite then :meth:`_attach` es it like any part."""
         part = cls.__new__(cls)
         part._c = owner._ffi.addressof(owner._c, *_PATHS.get(field) or _path(field))
         part._memory = owner._c if owner._memory is None else owner._memory
         part._holder = weakref.ref(owner)
-        part._config_bytes = bytes(part._ffi.buffer(cfg))
-        part._config_ctype = f"{cls._ctype}_config"
+        if cfg is not None:  # None: the caller keeps the settings (:meth:`_keep`)
+            part._config_bytes = bytes(part._ffi.buffer(cfg))
+            part._config_ctype = f"{cls._ctype}_config"
         return part
 
     def _settings(self, ctype: str, defaults, fields: dict, *, counts: tuple = ()):
@@ -673,9 +753,14 @@ class Component:
         SettingTypeError, ParameterError
             As :meth:`_settings` and :meth:`_configure`.
         """
-        cfg = self._settings(f"{self._ctype}_config", getattr(lib, f"{self._ctype}_default_config")(), fields,
-                             counts=counts)
-        self._configure(getattr(lib, f"{self._ctype}_init"), cfg, lib.aff_error_message)
+        self._configure(getattr(lib, f"{self._ctype}_init"), self._settings_from(lib, fields, counts=counts),
+                        lib.aff_error_message)
+
+    def _settings_from(self, lib, fields: dict, *, counts: tuple = ()):
+        """:meth:`_configure_from`'s settings: the C defaults ``aff_X_default_config()`` with ``fields``
+        (:meth:`_settings`), not yet checked by C."""
+        return self._settings(f"{self._ctype}_config", getattr(lib, f"{self._ctype}_default_config")(), fields,
+                              counts=counts)
 
     def _configure(self, init, cfg, message, *, names: dict | None = None, keep: bool = True) -> None:
         """Allocate the struct and configure it from the settings ``cfg`` by the C ``init``, which checks every field
@@ -703,16 +788,25 @@ class Component:
         self._new_struct()
         code = int(init(self._c, cfg))
         if code != 0:
-            arg = (names or {}).get(code)
-            raise ParameterError(f"{type(self).__name__}: {self._ffi.string(message(code)).decode()}"
-                                 + (f" (argument {arg})" if arg else ""))
+            self._refuse(code, message, names)
         if keep:
-            self._config_bytes = bytes(self._ffi.buffer(cfg))
-            t = self._ffi.typeof(cfg)
-            name = _CNAMES.get(t)
-            if name is None:
-                name = _CNAMES[t] = t.item.cname.replace("struct ", "")
-            self._config_ctype = name
+            self._keep(cfg)
+
+    def _refuse(self, code: int, message, names: dict | None):
+        """Raise the ParameterError of the C error ``code``: the class, the sentence ``message(code)`` and, from
+        ``names`` (code -> argument), the argument."""
+        arg = (names or {}).get(code)
+        raise ParameterError(f"{type(self).__name__}: {self._ffi.string(message(code)).decode()}"
+                             + (f" (argument {arg})" if arg else ""))
+
+    def _keep(self, cfg) -> None:
+        """Keep a copy of the settings ``cfg`` (cffi pointer) as :attr:`config`."""
+        self._config_bytes = bytes(self._ffi.buffer(cfg))
+        t = self._ffi.typeof(cfg)
+        name = _CNAMES.get(t)
+        if name is None:
+            name = _CNAMES[t] = t.item.cname.replace("struct ", "")
+        self._config_ctype = name
 
     @property
     def config(self):
@@ -740,12 +834,18 @@ class Component:
 
         A part that points into this component's struct already (its holder is this component) moved along with the
         whole struct (:meth:`_use` copied it): it is re-pointed without copying its bytes again; a part of its own
-        (new, or unpickled) is copied in."""
+        (new, or unpickled) is copied in; an :meth:`unbuilt` part, whose field this component's C init configured
+        from its settings, is pointed there and completed (:meth:`_place`)."""
         for attr, field in self._parts.items():
             part = getattr(self, attr)
             if part is not None:
-                part._use(self._ffi.addressof(self._c, *_PATHS.get(field) or _path(field)), self,
-                          moved=part._holder is not None and part._holder() is self)
+                ptr = self._ffi.addressof(self._c, *_PATHS.get(field) or _path(field))
+                if part._pending is not None:
+                    part._place(ptr, self)
+                elif part._c == ptr:  # made in place in this struct just now (:meth:`_in_place`): there already
+                    continue
+                else:
+                    part._use(ptr, self, moved=part._holder is not None and part._holder() is self)
 
     def __repr__(self) -> str:
         if not self._repr_fields:

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import functools
 import math
+import operator
 from dataclasses import dataclass, fields, replace
 
 import numpy as np
@@ -43,12 +44,13 @@ __all__ = ["RobustAdaptiveFeedforward", "RobustAdaptiveFeedforwardConfig", "Feed
 _START = c_defaults("aff_start_config")
 #: The fields of a :class:`FrictionEstimate`, in order: the keys of its ``to_dict()``.
 _ESTIMATE_FIELDS = tuple(f.name for f in fields(FrictionEstimate))
+_estimate_values = operator.attrgetter(*_ESTIMATE_FIELDS)
 
 
 def _estimate_dict(est: FrictionEstimate) -> dict:
     """``est.to_dict()`` of an estimate whose fields are numbers or None (the estimator's: the same strict-JSON dict,
     without ``dataclasses.asdict``'s deep copy)."""
-    return {k: json_safe(getattr(est, k)) for k in _ESTIMATE_FIELDS}
+    return dict(zip(_ESTIMATE_FIELDS, map(json_safe, _estimate_values(est))))
 
 RobustAdaptiveFeedforwardConfig = c_config_class(
     "RobustAdaptiveFeedforwardConfig", "aff_robust_ff_config", "aff_robust_ff.h", module=__name__,
@@ -442,9 +444,18 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
     #: The settings' class.
     Config = RobustAdaptiveFeedforwardConfig
 
+    _lib = lib
+
     def __init__(self, estimator: SlidingFrictionEstimator, *, dt: float,
                  config: RobustAdaptiveFeedforwardConfig | None = None, start: FeedforwardStart | None = None,
                  loop_model: LoopModel | None = None, sign_observer: SignObserver | None = None):
+        cfg, _ = self._plan(estimator, dt=dt, config=config, start=start, loop_model=loop_model,
+                            sign_observer=sign_observer)
+        self._configure(lib.aff_robust_ff_init, cfg, lib.aff_error_message)
+        self._built()
+
+    def _plan(self, estimator, *, dt, config=None, start=None, loop_model=None, sign_observer=None):
+        """The constructor's checks and settings (``(cfg, None)``) and the attributes they give."""
         if not isinstance(estimator, SlidingFrictionEstimator):
             raise TypeError(f"estimator must be a SlidingFrictionEstimator, got {type(estimator).__name__}")
         config = RobustAdaptiveFeedforwardConfig() if config is None else config
@@ -457,16 +468,20 @@ class RobustAdaptiveFeedforward(FrictionFeedforward):
         check_optional("start", start, FeedforwardStart)
         self.estimator = estimator
         self.n_theta = len(estimator.names)
-        own = {k: v for k, v in config.c_fields().items() if k != "ff"}
+        own = config.c_fields()  # a new dict: the feedforward's settings are the checked ones above
+        del own["ff"]
         cfg = self._settings("aff_robust_ff_config", lib.aff_robust_ff_default_config(), own, counts=("warmup",))
         cfg.ff, cfg.est = ff[0], estimator.config[0]
         if start is not None:
             Fc, Fs, Vs, delta, sigma, tau = start.map_args(estimator.Vs, estimator.delta)
             cfg.start = {"on": True, "Fc": Fc, "Fs": Fs, "Vs": Vs, "delta": delta, "sigma": sigma, "tau": tau,
                          "gain": start.gain, "at_ref": start.ff_input == "reference"}  # else off, the C defaults
-        self._configure(lib.aff_robust_ff_init, cfg, lib.aff_error_message)
         self.settings = config
         self.start = start
+        return cfg, None
+
+    def _built(self) -> None:
+        """The constructor's step once the struct is configured: the parts point into it."""
         self._attached()
 
     def _attached(self) -> None:

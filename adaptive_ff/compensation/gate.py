@@ -84,8 +84,16 @@ class OutlierGate(Component):
 
     def __init__(self, *, max_step: float = _GATE["max_step"], n_sigma: float = _GATE["n_sigma"],
                  alpha: float = _GATE["alpha"], max_consecutive: int = _GATE["max_consecutive"]):
-        self._configure_from(lib, {"max_step": max_step, "n_sigma": n_sigma, "alpha": alpha,
-                                   "max_consecutive": max_consecutive}, counts=("max_consecutive",))
+        cfg, _ = self._plan(max_step=max_step, n_sigma=n_sigma, alpha=alpha, max_consecutive=max_consecutive)
+        self._configure(lib.aff_gate_init, cfg, lib.aff_error_message)
+
+    _lib = lib
+
+    def _plan(self, *, max_step=_GATE["max_step"], n_sigma=_GATE["n_sigma"], alpha=_GATE["alpha"],
+              max_consecutive=_GATE["max_consecutive"]):
+        """The constructor's settings (``(cfg, None)``), their types checked (their ranges are C's to check)."""
+        return self._settings_from(lib, {"max_step": max_step, "n_sigma": n_sigma, "alpha": alpha,
+                                         "max_consecutive": max_consecutive}, counts=("max_consecutive",)), None
 
     last = struct_field("last", float, "Last accepted value, or None before the first.", settable=True,
                         flag="has_last")

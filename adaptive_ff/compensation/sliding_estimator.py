@@ -71,7 +71,9 @@ implementation of a sample, called by :meth:`SlidingFrictionEstimator.observe` a
 
 from __future__ import annotations
 
+import functools
 import math
+import operator
 from dataclasses import dataclass
 
 import numpy as np
@@ -111,7 +113,10 @@ SlidingFrictionEstimatorConfig = c_config_class(
     fields={"forgetting": ("forgetting", FORGETTINGS)})
 
 
+@functools.lru_cache(maxsize=None)
 def _names(lag: bool, offset: bool) -> tuple:
+    """The parameter names of the regression with the lag columns (``lag``) and the offset (``offset``), in
+    :data:`SLIDING_NAMES` order (four structures, made once)."""
     return tuple(n for n in SLIDING_NAMES if (lag or n not in ("J_tau", "tau")) and (offset or n != "offset"))
 
 
@@ -149,10 +154,10 @@ def estimate_from_theta(names, theta, Vs, delta, *, box=None) -> FrictionEstimat
     RLS of :class:`SlidingFrictionEstimator` runs unconstrained (its Notes
     say why), and the clipped values are what it reports.
     """
-    theta = [float(x) for x in theta]
-    if box is not None:
+    theta = list(map(float, theta))
+    if box is not None:  # each entry clipped to [lo, hi], the bounds as Python floats
         lo, hi = box
-        theta = [min(max(x, float(a)), float(b)) for x, a, b in zip(theta, lo, hi)]
+        theta = list(map(min, map(max, theta, map(float, lo)), map(float, hi)))
     d = dict(zip(names, theta))
     tau = d.get("tau", 0.0)
     J_alt = d["J_tau"] / tau if ("J_tau" in d and tau > 0) else float("nan")
@@ -305,9 +310,19 @@ class SlidingFrictionEstimator(Component):
     #: The settings' class.
     Config = SlidingFrictionEstimatorConfig
 
+    _lib = lib
+
     def __init__(self, Vs: float, delta: float, *, Tc: float, config: SlidingFrictionEstimatorConfig | None = None,
                  initial: FrictionEstimate | None = None, gate: OutlierGate | None = None,
                  u_range: RangeGate | None = None, w_range: RangeGate | None = None):
+        cfg, names = self._plan(Vs, delta, Tc=Tc, config=config, initial=initial, gate=gate, u_range=u_range,
+                                w_range=w_range)
+        self._configure(lib.aff_sliding_init, cfg, lib.aff_error_message, names=names)
+        self._built()
+
+    def _plan(self, Vs, delta, *, Tc, config=None, initial=None, gate=None, u_range=None, w_range=None):
+        """The constructor's checks and settings (``(cfg, error names)``) and the attributes they give; the parts
+        given kept for :meth:`_built`."""
         config = SlidingFrictionEstimatorConfig() if config is None else config
         if not isinstance(config, SlidingFrictionEstimatorConfig):
             raise ParameterError(f"config must be a SlidingFrictionEstimatorConfig, got {type(config).__name__}")
@@ -341,11 +356,7 @@ class SlidingFrictionEstimator(Component):
         cfg.w_range = RANGE_DEFAULTS if w_range is None else w_range.config[0]
         if cfg.w_range.floor == 0.0:
             cfg.w_range.floor = cfg.Vs
-        self._configure(lib.aff_sliding_init, cfg, lib.aff_error_message,
-                        names={lib.AFF_ERR_SLIDING_INITIAL: f"initial = {initial!r}"})
         self.Vs, self.delta, self.Tc, self.T = float(cfg.Vs), float(cfg.delta), float(cfg.Tc), float(cfg.T_filter)
-        self.m = int(self._c.m)
-        self.Ts = self.m * self.Tc
         self.lag, self.offset = bool(cfg.lag), bool(cfg.offset)
         self.names = _names(self.lag, self.offset)
         self.w_band_min, self.dwell_max, self.tau_max = float(cfg.w_band_min), float(cfg.dwell_max), float(cfg.tau_max)
@@ -353,15 +364,26 @@ class SlidingFrictionEstimator(Component):
         lower = {"J": 1e-9, "J_tau": 0.0, "tau": 0.0, "Fc": 0.0, "Fs": 0.0, "sigma": 0.0, "offset": -math.inf}
         upper = {"J": J_max, "J_tau": J_max * self.tau_max, "tau": self.tau_max, "Fc": math.inf, "Fs": math.inf,
                  "sigma": math.inf, "offset": math.inf}
-        self._box = (np.array([lower[n] for n in self.names]), np.array([upper[n] for n in self.names]))
-        # the RLS part (no bounds on its state: the box applies to the reported estimate only, class Notes), its
-        # start the clipped initial estimate aff_sliding_init computed
-        rls = RecursiveLeastSquares(p, lam=c.lam, P0=float(cfg.P0), forgetting=c.forgetting, P_max=float(cfg.P_max))
-        rls.theta = ffi.unpack(self._c.rls.theta, p)
+        pick = operator.itemgetter(*self.names)  # at least four names: a tuple
+        self._box = (np.array(pick(lower)), np.array(pick(upper)))
+        self._given = (gate, u_range, w_range, float(cfg.P0), float(cfg.P_max), float(cfg.w_range.floor))
+        return cfg, {lib.AFF_ERR_SLIDING_INITIAL: f"initial = {initial!r}"}
+
+    def _built(self) -> None:
+        """The constructor's steps once the struct is configured: the update period, the parts."""
+        gate, u_range, w_range, P0, P_max, w_floor = self._given
+        del self._given
+        self.m = int(self._c.m)
+        self.Ts = self.m * self.Tc
+        # the RLS part over its field of the struct, as aff_sliding_init configured it and set its start to the
+        # clipped initial estimate (no bounds on its state: the box applies to the reported estimate only, class
+        # Notes)
+        c = self.settings
+        rls = RecursiveLeastSquares.in_place(self, "rls", lam=c.lam, P0=P0, forgetting=c.forgetting, P_max=P_max)
         # a default range gate over its field of the struct, as aff_sliding_init configured it (floor Vs for w)
         u_range = range_gate_in(self, "u_range") if u_range is None else u_range
         if w_range is None:
-            w_range = range_gate_in(self, "w_range", float(cfg.w_range.floor))
+            w_range = range_gate_in(self, "w_range", w_floor)
         elif w_range.floor == 0.0:
             w_range = w_range.with_floor(self.Vs)
         self._attach(gate=gate, u_range=u_range, w_range=w_range, rls=rls)

@@ -154,11 +154,20 @@ class FeedforwardSupervisor(Component):
     Config = FeedforwardSupervisorConfig
 
     def __init__(self, *, Tc: float, J_n: float, omega: float, config: FeedforwardSupervisorConfig | None = None):
+        cfg, _ = self._plan(Tc=Tc, J_n=J_n, omega=omega, config=config)
+        self._configure(lib.aff_supervisor_init, cfg, lib.aff_error_message)
+
+    _lib = lib
+
+    def _plan(self, *, Tc, J_n, omega, config=None):
+        """The constructor's checks and settings (``(cfg, None)``); nothing more to do once the struct is
+        configured."""
         config = FeedforwardSupervisorConfig() if config is None else config
         if not isinstance(config, FeedforwardSupervisorConfig):
             raise ParameterError(f"config must be a FeedforwardSupervisorConfig, got {type(config).__name__}")
-        self._configure_from(lib, {**config.c_fields(), "Tc": Tc, "J_n": J_n, "omega": omega}, counts=("delay",))
         self.settings = config
+        return self._settings_from(lib, {**config.c_fields(), "Tc": Tc, "J_n": J_n, "omega": omega},
+                                   counts=("delay",)), None
 
     def __repr__(self) -> str:
         c = self._c

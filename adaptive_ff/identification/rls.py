@@ -251,6 +251,41 @@ class RecursiveLeastSquares(Component):
         self._lower[:] = lower
         self._upper[:] = upper
 
+    @classmethod
+    def in_place(cls, owner: Component, field: str, *, lam=1.0, P0: float = 1e4, forgetting: str = "exponential",
+                 P_max: float | None = None) -> "RecursiveLeastSquares":
+        """An RLS over the struct ``field`` of ``owner``'s struct, which ``owner``'s C init configured as
+        ``RecursiveLeastSquares(p, lam=lam, P0=P0, forgetting=forgetting, P_max=P_max)`` configures its own (C
+        ``aff_rls_init``; a vector ``lam``: ``aff_rls_set_lam_each``) and started at its theta: no struct of its
+        own built, checked, set and copied in (the composite's C init checked the settings; the estimator of
+        :class:`adaptive_ff.compensation.sliding_estimator.SlidingFrictionEstimator`).
+
+        Parameters
+        ----------
+        owner : plant.component.Component
+            The composite (configured), which embeds an ``aff_rls`` at ``field``.
+        field : str
+            The C field (a dotted path for a nested one).
+        lam, P0, forgetting, P_max : keyword-only
+            The settings its init was given (as the constructor's; ``P0`` a number), kept as :attr:`config`,
+            :attr:`lam` and :attr:`forgetting`.
+
+        Returns
+        -------
+        RecursiveLeastSquares
+            Points into ``owner``'s struct; ``n_params`` is the struct's.
+        """
+        rls = cls._in_place(owner, field, None)
+        vector = type(lam) is not float and np.ndim(lam) > 0
+        p = rls.n_params = int(rls._c.p)
+        rls._keep(ffi.new("aff_rls_config *", {  # every field of the settings (the composite's init checked them)
+            "n_params": p, "forgetting": lib.AFF_RLS_VECTOR if vector else _SCHEMES[forgetting],
+            "lam": 1.0 if vector else float(lam), "P0": float(P0), "P_max": 0.0 if P_max is None else float(P_max)}))
+        rls._lam = np.array(lam, dtype=float).reshape(-1) if vector else float(lam)
+        rls._forgetting = forgetting
+        rls._bind()
+        return rls
+
     def _bind(self) -> None:
         """Make the numpy views of the struct's arrays (again, after the struct moved: :meth:`_use`, unpickling)."""
         p = self.n_params

@@ -49,6 +49,7 @@ docs/benchmarks/compensation.md, "The composite's observer at rest").
 from __future__ import annotations
 
 import math
+import operator
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -83,6 +84,9 @@ _COMPOSITES = {
 _BY_CTYPE = {c.ctype: c for c in _COMPOSITES.values()}
 _SWITCH_IN = c_defaults("aff_switch_in_config")
 _SLEW_TIME = float(lib.aff_residual_default_config().slew_time)  # the C default, 0.4 s
+#: The fields of ``aff_switch_in_config`` a :class:`ResidualSwitchIn` sets, and their reader.
+_SWITCH_IN_FIELDS = ("Tc", "J_n", "Kp", "Ki", "window", "ratio", "share", "fade_in", "trial_margin")
+_switch_in_values = operator.attrgetter(*_SWITCH_IN_FIELDS)
 
 
 @dataclass(frozen=True)
@@ -163,8 +167,7 @@ class ResidualSwitchIn:
     def config_fields(self) -> dict:
         """The fields of the C settings ``aff_switch_in_config`` (``aff_residual_init`` computes the EWMA factor, the
         fade step and the evidence count from them)."""
-        return {k: float(getattr(self, k)) for k in ("Tc", "J_n", "Kp", "Ki", "window", "ratio", "share", "fade_in",
-                                                    "trial_margin")}
+        return dict(zip(_SWITCH_IN_FIELDS, map(float, _switch_in_values(self))))
 
 
 def residual_config(observer: DisturbanceObserver, u_max: float, switch_in: ResidualSwitchIn | None, *,

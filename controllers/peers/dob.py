@@ -109,16 +109,32 @@ class DisturbanceObserver(Component):
 
     def __init__(self, *, J_n: float, omega_q: float = _DOB["omega_q"], Tc: float, order: int = _DOB["order"],
                  d_max: float = _DOB["d_max"], u_range: RangeGate | None = None, w_range: RangeGate | None = None):
+        cfg, _ = self._plan(J_n=J_n, omega_q=omega_q, Tc=Tc, order=order, d_max=d_max, u_range=u_range,
+                            w_range=w_range)
+        self._configure(lib.aff_dob_init, cfg, lib.aff_error_message)
+        self._built()
+
+    _lib = lib
+
+    def _plan(self, *, J_n, omega_q=_DOB["omega_q"], Tc, order=_DOB["order"], d_max=_DOB["d_max"], u_range=None,
+              w_range=None):
+        """The constructor's checks and settings (``(cfg, None)``); the gates given kept for :meth:`_built`."""
         # the ranges of the settings are aff_dob_init's to check (the one validator: a ParameterError whose
         # sentence names the field); a wrong type is _settings' SettingTypeError
         for name, g in (("u_range", u_range), ("w_range", w_range)):
             if g is not None and not isinstance(g, RangeGate):
                 raise ParameterError(f"{name} must be a RangeGate, got {type(g).__name__}")
-        self._configure_from(lib, {"Tc": Tc, "J_n": J_n, "omega_q": omega_q, "order": order, "d_max": d_max,
-                                   "u_range": RANGE_DEFAULTS if u_range is None else u_range.config[0],
-                                   "w_range": RANGE_DEFAULTS if w_range is None else w_range.config[0]},
-                             counts=("order",))
-        # a gate not given: RangeGate() made in place in the struct (aff_dob_init configured it)
+        self._given = (u_range, w_range)
+        return self._settings_from(lib, {"Tc": Tc, "J_n": J_n, "omega_q": omega_q, "order": order, "d_max": d_max,
+                                         "u_range": RANGE_DEFAULTS if u_range is None else u_range.config[0],
+                                         "w_range": RANGE_DEFAULTS if w_range is None else w_range.config[0]},
+                                   counts=("order",)), None
+
+    def _built(self) -> None:
+        """The constructor's step once the struct is configured: its gates (a gate not given: ``RangeGate()`` made
+        in place in the struct, as aff_dob_init configured it)."""
+        u_range, w_range = self._given
+        del self._given
         self._attach(u_range=range_gate_in(self, "u_range") if u_range is None else u_range,
                      w_range=range_gate_in(self, "w_range") if w_range is None else w_range)
 

@@ -24,6 +24,7 @@ entry of :data:`REGISTRY`.
 
 from __future__ import annotations
 
+import contextvars
 import functools
 import math
 
@@ -104,29 +105,31 @@ def _nominal_inertia(o: LoopConfig, J: float) -> float:
 # per config, ``(o, J, ff_max) -> config`` with ``J`` the design inertia (kg·m², the sliding estimator's start) and
 # ``ff_max`` the compensation's bound (N·m); a mode builds only the configs it uses.
 
-#: The settings made from the last options: (builder, id(options)) -> (options, the other arguments, what it made).
-#: A :class:`LoopConfig` and what is made here (the components' config dataclasses, :class:`LoopModel`,
-#: :class:`SignObserver`, :class:`ResidualSwitchIn`) are frozen, so a mode built again from the same options object
-#: (a batch, a sweep's repeats, a benchmark's) reuses them, made and checked once; an entry holds its options object,
-#: so the id is not another's. At most :data:`_MADE_MAX` entries, the oldest dropped first; in memory only.
-_MADE: dict = {}
-_MADE_MAX = 64
+#: The settings made from one options object within one :func:`build_modes` call: (builder, id(options)) ->
+#: (options, the other arguments, what it made), or None outside such a call. A :class:`LoopConfig` and what is made
+#: here (the components' config dataclasses, :class:`LoopModel`, :class:`SignObserver`, :class:`ResidualSwitchIn`) are
+#: frozen, so the scenarios of a batch that share one options object share them, made and checked once per call; an
+#: entry holds its options object, so the id is not another's. Nothing is kept across calls: a single
+#: :func:`build_mode` makes its settings (a context variable, so threads do not share a call's).
+_SCOPE: contextvars.ContextVar = contextvars.ContextVar("compensators_made", default=None)
 
 
 def _once(builder):
     """``builder(o, *args)`` (frozen settings from the options ``o`` and numbers ``args``) made once per options
-    object and equal ``args`` of the same types (:data:`_MADE`)."""
+    object and equal ``args`` of the same types within one :func:`build_modes` call (:data:`_SCOPE`); made each
+    time outside one."""
     @functools.wraps(builder)
     def made(o, *args):
+        memo = _SCOPE.get()
+        if memo is None:
+            return builder(o, *args)
         key = (builder, id(o))
-        hit = _MADE.get(key)
+        hit = memo.get(key)
         if hit is not None and hit[0] is o and hit[1] == args and all(
                 type(a) is type(b) for a, b in zip(hit[1], args)):
             return hit[2]
         value = builder(o, *args)
-        if len(_MADE) >= _MADE_MAX:
-            del _MADE[next(iter(_MADE))]
-        _MADE[key] = (o, args, value)
+        memo[key] = (o, args, value)
         return value
 
     return made
@@ -234,13 +237,16 @@ def build_supervisor(plant, mode: str, options: LoopConfig, *, force: bool = Fal
     return _supervisor(options, J, J_n, ff_max, _crossover(options, J_n))
 
 
-def _supervisor(o: LoopConfig, J: float, J_n: float, ff_max: float, wc: float) -> FeedforwardSupervisor:
+def _supervisor(o: LoopConfig, J: float, J_n: float, ff_max: float, wc: float, *,
+                unbuilt: bool = False) -> FeedforwardSupervisor:
     """:func:`build_supervisor`'s supervisor of the design inertia ``J``, the nominal one ``J_n`` (kg·m²), the bound
-    ``ff_max`` (N·m) and the crossover ``wc`` (rad/s, :func:`_crossover`), each computed once by the caller."""
+    ``ff_max`` (N·m) and the crossover ``wc`` (rad/s, :func:`_crossover`), each computed once by the caller;
+    ``unbuilt``: for a composite that makes its struct (:meth:`plant.component.Component.unbuilt`)."""
     omega = o.supervisor.omega
     if omega is None:
         omega = wc if o.controller.Kp > 0 else 10.0 / o.supervisor.window
-    return FeedforwardSupervisor(Tc=o.controller.Tc, J_n=J_n, omega=omega, config=_supervisor_config(o, J, ff_max))
+    make = FeedforwardSupervisor.unbuilt if unbuilt else FeedforwardSupervisor
+    return make(Tc=o.controller.Tc, J_n=J_n, omega=omega, config=_supervisor_config(o, J, ff_max))
 
 
 def own_supervisor(comp) -> FeedforwardSupervisor | None:
@@ -293,14 +299,15 @@ def _adaptive(plant, o):
     J, ff_max = _ctx(plant, o)  # the design inertia, the bound and the nominal inertia: once
     J_n = _nominal_inertia(o, J)
     wc = _crossover(o, J_n)  # the residual observer's slew limit scales with it
-    ff = ESTIMATOR_BUILDERS[o.estimator.name](o, J, ff_max)
+    sliding = o.estimator.name == "sliding"  # one AdaptiveCompensator: its parts made in its struct (unbuilt)
+    ff = _sliding(o, J, ff_max, unbuilt=True) if sliding else ESTIMATOR_BUILDERS[o.estimator.name](o, J, ff_max)
     switch_in = o.observer.switch_in and o.controller.Kp > 0.0
     dob = sw = None
     if switch_in:
-        dob = _observer(o, J_n, ff_max, o.observer.omega_r)
+        dob = _observer(o, J_n, ff_max, o.observer.omega_r, unbuilt=True)
         sw = _switch_in(o, J_n)
-    if isinstance(ff, RobustAdaptiveFeedforward):
-        sup = _supervisor(o, J, J_n, ff_max, wc) if o.supervisor.enabled else None  # build_supervisor's
+    if sliding:
+        sup = _supervisor(o, J, J_n, ff_max, wc, unbuilt=True) if o.supervisor.enabled else None  # build_supervisor's
         return plant, AdaptiveCompensator(ff, dob, u_max=ff_max if switch_in else math.inf, switch_in=sw,
                                           supervisor=sup, crossover=wc)
     if not switch_in:
@@ -345,18 +352,21 @@ def _eq4_iv(o, J: float, ff_max: float) -> AdaptiveFrictionFeedforward:
                                        start=o.feedforward.start)
 
 
-def _sliding(o, J: float, ff_max: float) -> RobustAdaptiveFeedforward:
-    """Estimator ``sliding``: the sliding-regime inverse-dynamics RLS under the robust feedforward."""
+def _sliding(o, J: float, ff_max: float, *, unbuilt: bool = False) -> RobustAdaptiveFeedforward:
+    """Estimator ``sliding``: the sliding-regime inverse-dynamics RLS under the robust feedforward (``unbuilt``: for
+    a composite that makes its struct, :meth:`plant.component.Component.unbuilt`; the estimator and its gate always
+    are, made in the feedforward's struct)."""
     e = o.estimator
     Vs = e.Vs if e.Vs is not None else (e.model.Vs if e.model is not None else None)
     delta = e.delta if e.delta is not None else (e.model.delta if e.model is not None else None)
     if Vs is None or delta is None:
         raise ParameterError("mode 'adaptive' needs Vs and delta (from the Stribeck pre-fit) or model=")
     gate_step = 2.0 * o.drive.u_max * o.controller.Tc / J if math.isfinite(o.drive.u_max) else math.inf
-    est = SlidingFrictionEstimator(Vs, delta, Tc=o.controller.Tc, config=_sliding_config(o, J, ff_max),
-                                   initial=e.initial, gate=OutlierGate(max_step=gate_step))
-    return RobustAdaptiveFeedforward(est, dt=o.controller.Tc, config=_robust_config(o, J, ff_max),
-                                     start=o.feedforward.start, loop_model=_loop_model(o, J), sign_observer=_sign_observer(o, J))
+    est = SlidingFrictionEstimator.unbuilt(Vs, delta, Tc=o.controller.Tc, config=_sliding_config(o, J, ff_max),
+                                           initial=e.initial, gate=OutlierGate.unbuilt(max_step=gate_step))
+    make = RobustAdaptiveFeedforward.unbuilt if unbuilt else RobustAdaptiveFeedforward
+    return make(est, dt=o.controller.Tc, config=_robust_config(o, J, ff_max), start=o.feedforward.start,
+                loop_model=_loop_model(o, J), sign_observer=_sign_observer(o, J))
 
 
 #: Estimator name (:data:`controllers.simulation.estimators.ESTIMATORS`, the one list of names: the options' check,
@@ -373,7 +383,7 @@ def _adaptive_dob(plant, o):
     _, ff = _adaptive_feedforward(plant, o.replace(iv_map_stderr=math.inf))
     J, ff_max = _ctx(plant, o)
     J_n = _nominal_inertia(o, J)
-    dob = _observer(o, J_n, ff_max, o.observer.omega_r)
+    dob = _observer(o, J_n, ff_max, o.observer.omega_r, unbuilt=True)
     return plant, AdaptiveDOBCompensator(ff, dob, u_max=ff_max, crossover=_crossover(o, J_n))
 
 
@@ -388,11 +398,13 @@ def _dob(plant, o):
     return plant, _observer(o, _nominal_inertia(o, J), ff_max, o.observer.omega_q)
 
 
-def _observer(o: LoopConfig, J_n: float, ff_max: float, omega_q: float) -> DisturbanceObserver:
+def _observer(o: LoopConfig, J_n: float, ff_max: float, omega_q: float, *,
+              unbuilt: bool = False) -> DisturbanceObserver:
     """A disturbance observer of the nominal inertia ``J_n`` (kg·m²), the bound ``ff_max`` (N·m) and the cut-off
     ``omega_q`` (rad/s): mode ``dob``'s, and a composite's residual observer (``o.observer.omega_r``, checked where
-    ``o`` was built)."""
-    return DisturbanceObserver(J_n=J_n, omega_q=omega_q, Tc=o.controller.Tc, d_max=ff_max)
+    ``o`` was built; ``unbuilt``: made in the composite's struct, :meth:`plant.component.Component.unbuilt`)."""
+    make = DisturbanceObserver.unbuilt if unbuilt else DisturbanceObserver
+    return make(J_n=J_n, omega_q=omega_q, Tc=o.controller.Tc, d_max=ff_max)
 
 
 #: Mode name -> builder ``(plant, options) -> (plant to simulate, compensator or None)``.
@@ -449,8 +461,9 @@ def build_modes(plants, mode: str, options) -> tuple:
     """:func:`build_mode` for B scenarios, with one controller per distinct options object.
 
     The PI depends on the options only, so scenarios that share one :class:`LoopConfig` object share one
-    (unused, never stepped) :class:`PIController`; every scenario gets its own compensator (it holds the
-    scenario's state and may depend on the plant).
+    (unused, never stepped) :class:`PIController` and the frozen settings a mode makes from them (the components'
+    config dataclasses, made once per options object in this call); every scenario gets its own compensator (it
+    holds the scenario's state and may depend on the plant).
 
     Parameters
     ----------
@@ -476,12 +489,16 @@ def build_modes(plants, mode: str, options) -> tuple:
         As :func:`build_mode`, for the first scenario whose settings are bad.
     """
     made, run_plants, controllers, comps = {}, [], [], []
-    for p, o in zip(plants, options):
-        c = made.get(id(o))
-        if c is None:
-            c = made[id(o)] = _controller(mode, o)
-        run_plant, comp = REGISTRY[mode](p, o)
-        run_plants.append(run_plant)
-        controllers.append(c)
-        comps.append(comp)
+    scope = _SCOPE.set({})  # the settings of one options object made once for its scenarios, in this call only
+    try:
+        for p, o in zip(plants, options):
+            c = made.get(id(o))
+            if c is None:
+                c = made[id(o)] = _controller(mode, o)
+            run_plant, comp = REGISTRY[mode](p, o)
+            run_plants.append(run_plant)
+            controllers.append(c)
+            comps.append(comp)
+    finally:
+        _SCOPE.reset(scope)
     return run_plants, controllers, comps

@@ -151,3 +151,125 @@ def test_json_safe_fast_paths_keep_the_general_answers():
         "a": 1.5, "b": None, "3": [None, 2], "c": {"d": True}}
     assert json_safe(np.float64(2.5)) == 2.5 and type(json_safe(np.float64(2.5))) is float
     assert json_safe(True) is True and json_safe(7) == 7
+
+
+def _cfg_values(x):
+    """The settings ``x`` was configured from, field by field (their padding bytes aside), NaN as the string "nan";
+    None: none."""
+    def value(v):
+        if not isinstance(v, x._ffi.CData):
+            return "nan" if v != v else v
+        t = x._ffi.typeof(v)
+        if t.kind == "struct":
+            return {n: value(getattr(v, n)) for n, _ in t.fields}
+        return [value(e) for e in v]
+
+    c = x.config
+    return None if c is None else value(c[0])
+
+
+def _built_parts_composite(p, o):
+    """Mode ``adaptive``'s compensator made the general way: every part by its own constructor, then copied into the
+    composite's struct (the settings from ``o`` as :func:`build_mode` makes them)."""
+    from adaptive_ff.compensation.gate import OutlierGate
+    from controllers.peers.adaptive_dob import AdaptiveCompensator, ResidualSwitchIn
+    from adaptive_ff.compensation.supervisor import FeedforwardSupervisor
+    comp = build_mode(p, "adaptive", o)[2]  # its settings objects (the parts' config dataclasses)
+    ff, est = comp.feedforward, comp.feedforward.estimator
+    gate = OutlierGate(max_step=est.gate.max_step)
+    own_est = SlidingFrictionEstimator(est.Vs, est.delta, Tc=est.Tc, config=est.settings, initial=o.estimator.initial,
+                                       gate=gate)
+    own_ff = RobustAdaptiveFeedforward(own_est, dt=ff.dt, config=ff.settings, start=ff.start, loop_model=ff.loop_model,
+                                       sign_observer=ff.sign_observer)
+    dob = sw = sup = None
+    if comp.observer is not None:
+        d = comp.observer
+        dob = DisturbanceObserver(J_n=d.J_n, omega_q=d.omega_q, Tc=d.Tc, d_max=d.d_max)
+        sw = ResidualSwitchIn(**{k: getattr(comp.switch_in, k) for k in ("Tc", "J_n", "Kp", "Ki", "ratio")})
+    if comp.supervisor is not None:
+        s = comp.supervisor
+        sup = FeedforwardSupervisor(Tc=s.cdata.Tc, J_n=s.cdata.J_n, omega=s.cdata.omega, config=s.settings)
+    return comp, AdaptiveCompensator(own_ff, dob, u_max=comp.u_max, switch_in=sw, supervisor=sup,
+                                     crossover=comp.config.res.crossover if dob is not None else 0.0)
+
+
+@pytest.mark.parametrize("extra", [{}, dict(supervise=False), dict(switch_in=False), dict(forgetting="directional"),
+                                   dict(lam=(0.999, 0.998, 0.997, 0.999, 0.999, 0.998, 0.999), offset=True),
+                                   dict(sign_input="measured", stick_input="reference")])
+def test_a_composite_made_of_unbuilt_parts_is_the_composite_of_built_parts(extra):
+    # build_mode's adaptive compensator (its parts made in its struct by its C init) against the one of parts made
+    # by their constructors and copied in: the same bytes, settings and attributes of every part
+    p = preset("paper")
+    comp, own = _built_parts_composite(p, _options(p).replace(**extra))
+    assert comp.struct_bytes() == own.struct_bytes() and _cfg_values(comp) == _cfg_values(own)
+    pairs = [(comp.feedforward, own.feedforward), (comp.estimator, own.estimator),
+             (comp.estimator.rls, own.estimator.rls), (comp.estimator.gate, own.estimator.gate),
+             (comp.observer, own.observer), (comp.supervisor, own.supervisor)]
+    for a, b in pairs:
+        assert (a is None) == (b is None)
+        if a is None:
+            continue
+        assert a.struct_bytes() == b.struct_bytes() and _cfg_values(a) == _cfg_values(b), type(a).__name__
+        assert a._holder() is not None and a.struct_bytes() in comp.struct_bytes()
+    e, f = comp.estimator, own.estimator
+    assert (e.names, e.m, e.Ts, e.Vs, e.delta, e.lag, e.offset) == (f.names, f.m, f.Ts, f.Vs, f.delta, f.lag, f.offset)
+    assert np.array_equal(e.box[0], f.box[0]) and np.array_equal(e.box[1], f.box[1])
+    assert (e.rls.n_params, e.rls.forgetting) == (f.rls.n_params, f.rls.forgetting)
+    assert np.array_equal(np.ravel(e.rls.lam), np.ravel(f.rls.lam)) and np.array_equal(e.rls.theta, f.rls.theta)
+
+
+def test_the_rls_made_in_place_is_the_rls_of_its_constructor():
+    # the estimator's RLS over the field its C init configured, against RecursiveLeastSquares with the same
+    # settings and start (independently made: the standalone constructor, its P set from P0)
+    from adaptive_ff.compensation.sliding_estimator import SlidingFrictionEstimatorConfig
+    from adaptive_ff.identification.rls import RecursiveLeastSquares
+    for cfg in (SlidingFrictionEstimatorConfig(), SlidingFrictionEstimatorConfig(lam=0.99, forgetting="directional"),
+                SlidingFrictionEstimatorConfig(lam=(0.99, 0.98, 0.97, 0.995, 0.99, 0.99, 0.999), P0=30.0),
+                SlidingFrictionEstimatorConfig(lag=False, offset=False, P_max=77.0, initial_J=3.0)):
+        est = SlidingFrictionEstimator(0.05, 1.5, Tc=1e-3, config=cfg)
+        own = RecursiveLeastSquares(est.rls.n_params, lam=cfg.lam, P0=cfg.P0, forgetting=cfg.forgetting,
+                                    P_max=cfg.P_max if cfg.P_max else est.rls.n_params * cfg.P0)
+        own.theta = est.rls.theta
+        assert est.rls.struct_bytes() == own.struct_bytes()
+        names = [n for n, _ in own._ffi.typeof("aff_rls_config").fields]
+        assert [getattr(est.rls.config, n) for n in names] == [getattr(own.config, n) for n in names]
+        assert est.rls.forgetting == own.forgetting and np.array_equal(np.ravel(est.rls.lam), np.ravel(own.lam))
+
+
+def test_unbuilt_raises_the_constructors_errors():
+    from adaptive_ff.compensation.gate import OutlierGate
+    from adaptive_ff.compensation.supervisor import FeedforwardSupervisor
+    est = SlidingFrictionEstimator.unbuilt(0.05, 1.5, Tc=1e-3)
+    bad = [(SlidingFrictionEstimator, (0.05, 0.0), dict(Tc=1e-3)), (SlidingFrictionEstimator, (0.05, 1.5), dict(Tc=0.0)),
+           (SlidingFrictionEstimator, (0.05, 1.5), dict(Tc=1e-3, gate="g")),
+           (RobustAdaptiveFeedforward, (est,), dict(dt=-1.0)), (RobustAdaptiveFeedforward, (est,), dict(dt="x")),
+           (RobustAdaptiveFeedforward, ("est",), dict(dt=1e-3)),
+           (DisturbanceObserver, (), dict(J_n=-2.0, Tc=1e-3)), (DisturbanceObserver, (), dict(J_n=2.0, Tc=1e-3, order=1.5)),
+           (FeedforwardSupervisor, (), dict(Tc=1e-3, J_n=2.0, omega=math.nan)), (OutlierGate, (), dict(max_step=-1.0)),
+           (OutlierGate, (), dict(max_consecutive=True))]
+    for cls, args, kw in bad:
+        with pytest.raises(Exception) as a:
+            cls(*args, **kw)
+        with pytest.raises(Exception) as b:
+            cls.unbuilt(*args, **kw)
+        assert isinstance(a.value, (ParameterError, TypeError)), (cls, kw)
+        assert (type(a.value), str(a.value)) == (type(b.value), str(b.value)), (cls, kw)
+    with pytest.raises(TypeError, match="RangeGate is made by its constructor only"):
+        RangeGate.unbuilt()
+    with pytest.raises(ParameterError, match=r"SlidingFrictionEstimator.unbuilt\(...\) has no struct of its own"):
+        est.cdata
+
+
+def test_build_modes_shares_the_settings_of_one_options_object_in_its_call_only():
+    from controllers.simulation.compensators import build_modes
+    p = preset("paper")
+    o = _options(p)
+    comps = build_modes([p, p], "adaptive", [o, o])[2]
+    assert comps[0].feedforward.settings is comps[1].feedforward.settings
+    assert comps[0].cdata != comps[1].cdata and comps[0].struct_bytes() == comps[1].struct_bytes()
+    again = build_modes([p], "adaptive", [o])[2][0]
+    one, two = build_mode(p, "adaptive", o)[2], build_mode(p, "adaptive", o)[2]
+    for c in (again, two):  # made again by the next call: equal, not the same objects
+        assert c.feedforward.settings is not comps[0].feedforward.settings
+        assert c.feedforward.settings == comps[0].feedforward.settings and c.struct_bytes() == comps[0].struct_bytes()
+    assert one.estimator.settings is not two.estimator.settings
