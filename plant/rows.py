@@ -281,21 +281,7 @@ def plant_params(p):
     Ruderman, eqs. 1-3, and the models of :mod:`plant.asymmetric`,
     :mod:`plant.karnopp`, :mod:`plant.lugre`.
     """
-    hit = _PACKED.get(id(p))
-    if hit is not None and hit[0] is p:  # a frozen model packed before: its initialiser
-        return ffi.new(_PARAMS_PTR, hit[1])
-    init = _init(_row_list(p))
-    if len(_PACKED) >= _PACKED_MAX:
-        del _PACKED[next(iter(_PACKED))]
-    _PACKED[id(p)] = (p, init)
-    return ffi.new(_PARAMS_PTR, init)
-
-
-#: The initialisers of the last plants :func:`plant_params` packed: id -> (the frozen model, initialiser); the entry
-#: holds its model (frozen: its row does not change), so the id is not another's. At most :data:`_PACKED_MAX`, the
-#: oldest dropped first; in memory only (a run packs its plant twice, a sweep the same plant per run).
-_PACKED: dict = {}
-_PACKED_MAX = 256
+    return ffi.new(_PARAMS_PTR, _init(_row_list(p)))
 
 
 def _row_list(p) -> list:
