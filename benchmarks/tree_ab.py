@@ -230,20 +230,27 @@ def build_rounds(trees: dict, *, calls: int = 200, timings: int = 9, rounds: int
     """
     out(f"build_mode from a new options object per call, CPU time of the calling thread, fastest of {timings} "
         f"timings of {calls} calls per process, µs per call")
+    return _alternate(trees, (_BUILD_CHILD, str(calls), str(timings)), rounds, "µs per call", out)
+
+
+def _alternate(trees: dict, child: tuple, rounds: int, unit: str, out) -> dict:
+    """Run ``python -c child[0] child[1:]`` in each tree in turn, ``rounds`` times (fresh processes, one BLAS and
+    engine thread); each prints a JSON ``{"none": x, "adaptive": y}`` as its last line. Prints each process's pair
+    and each tree's medians and ranges (``unit``); returns name -> mode -> the values in the order run."""
     out(f"{'tree':<10} {'none':>9} {'adaptive':>9}")
     runs = {name: {"none": [], "adaptive": []} for name in trees}
     for _ in range(rounds):
         for name, root in trees.items():
             env = dict(os.environ, PYTHONPATH=root, ADAPTIVE_FF_THREADS="1")
-            proc = subprocess.run([sys.executable, "-c", _BUILD_CHILD, str(calls), str(timings)],
-                                  env=env, cwd=root, capture_output=True, text=True, check=True)
-            us = json.loads(proc.stdout.strip().splitlines()[-1])
+            proc = subprocess.run([sys.executable, "-c", *child], env=env, cwd=root, capture_output=True, text=True,
+                                  check=True)
+            v = json.loads(proc.stdout.strip().splitlines()[-1])
             for mode in ("none", "adaptive"):
-                runs[name][mode].append(us[mode])
-            out(f"{name:<10} {us['none']:>9.1f} {us['adaptive']:>9.1f}")
+                runs[name][mode].append(v[mode])
+            out(f"{name:<10} {v['none']:>9.1f} {v['adaptive']:>9.1f}")
     for name, by_mode in runs.items():
         out(f"{name:<10} " + ", ".join(f"{m} median {statistics.median(v):.1f} (range {min(v):.1f}-{max(v):.1f})"
-                                       for m, v in by_mode.items()) + " µs per call")
+                                       for m, v in by_mode.items()) + f" {unit}")
     return runs
 
 
@@ -266,21 +273,7 @@ def engine_rounds(trees: dict, *, seconds: float = 60.0, repeat: int = 5, rounds
     """
     out(f"C engine call (EngineRun.run) of run_mode, {seconds:g} s reference, CPU time of the calling thread, "
         f"median of {repeat} calls per process, ns per step")
-    out(f"{'tree':<10} {'none':>9} {'adaptive':>9}")
-    runs = {name: {"none": [], "adaptive": []} for name in trees}
-    for _ in range(rounds):
-        for name, root in trees.items():
-            env = dict(os.environ, PYTHONPATH=root, ADAPTIVE_FF_THREADS="1")
-            proc = subprocess.run([sys.executable, "-c", _ENGINE_CHILD, str(seconds), str(repeat)],
-                                  env=env, cwd=root, capture_output=True, text=True, check=True)
-            ns = json.loads(proc.stdout.strip().splitlines()[-1])
-            for mode in ("none", "adaptive"):
-                runs[name][mode].append(ns[mode])
-            out(f"{name:<10} {ns['none']:>9.1f} {ns['adaptive']:>9.1f}")
-    for name, by_mode in runs.items():
-        out(f"{name:<10} " + ", ".join(f"{m} median {statistics.median(v):.1f} (range {min(v):.1f}-{max(v):.1f})"
-                                       for m, v in by_mode.items()) + " ns/step")
-    return runs
+    return _alternate(trees, (_ENGINE_CHILD, str(seconds), str(repeat)), rounds, "ns/step", out)
 
 
 def ratio_rounds(trees: dict, pythons: dict, *, seconds: float = 20.0, repeat: int = 5, rounds: int = 3,
