@@ -85,19 +85,33 @@ print(f"median {statistics.median(spent) / n * 1e6:.4f} µs, fastest {min(spent)
       f"rms[:2] {r.rms[:2].tolist()}")
 """
 
-_RATIO_CHILD = r"""
+#: The children's loop: the ``paper`` preset, its PI, ``options(**extra)`` (a new options object, in either tree's
+#: form) and each mode's ``extra`` settings.
+_LOOP = r"""
+from controllers.design.pi import design_pi
+from plant.friction import preset
+p = preset("paper")
+d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
+u_max = 150.0
+def options(**extra):
+    try:
+        from controllers.simulation.closed_loop import LoopConfig
+        return LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=u_max, **extra)
+    except ImportError:  # a tree with the flat ModeOptions
+        from controllers.simulation.compensators import ModeOptions
+        return ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=u_max, **extra)
+extra = {"none": {}, "adaptive": dict(Vs=p.Vs, delta=p.delta, noise_std=1e-3)}
+"""
+
+_RATIO_CHILD = _LOOP + r"""
 import json, statistics, sys, time
 import numpy as np
 import control
 from controllers.simulation.closed_loop import run_mode
-from controllers.design.pi import design_pi
 from plant.excitation import multisine_reference
-from plant.friction import preset
 from plant.joint import make_rk4_step
 seconds, repeat = float(sys.argv[1]), int(sys.argv[2])
-p = preset("paper")
-d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
-Tc, u_max = d.Tc, 150.0
+Tc = d.Tc
 step = make_rk4_step(p, Tc)
 Kp, KiTc = d.Kp, d.Ki * Tc
 def ctrl_out(t, x, u, params):
@@ -118,14 +132,6 @@ pc_ref = multisine_reference(min(seconds, 2.0), rng=np.random.default_rng(0))
 us = {"python-control": cpu(lambda: control.input_output_response(loop, pc_ref.t, pc_ref.w),
                             max(1, repeat // 2)) / pc_ref.t.size * 1e6}
 ref = multisine_reference(seconds, rng=np.random.default_rng(0))
-def options(**extra):
-    try:
-        from controllers.simulation.closed_loop import LoopConfig
-        return LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=u_max, **extra)
-    except ImportError:  # a tree with the flat ModeOptions
-        from controllers.simulation.compensators import ModeOptions
-        return ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=u_max, **extra)
-extra = {"none": {}, "adaptive": dict(Vs=p.Vs, delta=p.delta, noise_std=1e-3)}
 from controllers.simulation.engine import EngineRun
 engine_run, spent = EngineRun.run, []
 def timed(self):
@@ -146,31 +152,21 @@ for mode in ("none", "adaptive"):
 print(json.dumps(us))
 """
 
-_ENGINE_CHILD = r"""
+_ENGINE_CHILD = _LOOP + r"""
 import json, statistics, sys, time
 import numpy as np
 from controllers.simulation.closed_loop import run_mode
 from controllers.simulation.engine import EngineRun
-from controllers.design.pi import design_pi
 from plant.excitation import multisine_reference
-from plant.friction import preset
 seconds, repeat = float(sys.argv[1]), int(sys.argv[2])
-p = preset("paper")
-d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
-def options(**extra):
-    try:
-        from controllers.simulation.closed_loop import LoopConfig
-        return LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0, **extra)
-    except ImportError:  # a tree with the flat ModeOptions
-        from controllers.simulation.compensators import ModeOptions
-        return ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, **extra)
 run, spent = EngineRun.run, []
 def timed(self):
     t0 = time.thread_time(); run(self); spent.append(time.thread_time() - t0)
 EngineRun.run = timed
 ref = multisine_reference(seconds, rng=np.random.default_rng(0))
 ns = {}
-for mode, o in (("none", options()), ("adaptive", options(Vs=p.Vs, delta=p.delta, noise_std=1e-3))):
+for mode in ("none", "adaptive"):
+    o = options(**extra[mode])
     run_mode(p, ref, mode, o, rng=np.random.default_rng(1))  # warm-up
     spent.clear()
     for _ in range(repeat):
@@ -179,22 +175,10 @@ for mode, o in (("none", options()), ("adaptive", options(Vs=p.Vs, delta=p.delta
 print(json.dumps(ns))
 """
 
-_BUILD_CHILD = r"""
+_BUILD_CHILD = _LOOP + r"""
 import json, sys, time
 from controllers.simulation.compensators import build_mode
-from controllers.design.pi import design_pi
-from plant.friction import preset
 calls, timings = int(sys.argv[1]), int(sys.argv[2])
-p = preset("paper")
-d = design_pi(p.J, crossover=20.0, phase_margin=60.0, Tc=1e-3)
-def options(**extra):
-    try:
-        from controllers.simulation.closed_loop import LoopConfig
-        return LoopConfig.from_flat(Kp=d.Kp, Ki=d.Ki, u_max=150.0, **extra)
-    except ImportError:  # a tree with the flat ModeOptions
-        from controllers.simulation.compensators import ModeOptions
-        return ModeOptions(Kp=d.Kp, Ki=d.Ki, u_max=150.0, **extra)
-extra = {"none": {}, "adaptive": dict(Vs=p.Vs, delta=p.delta, noise_std=1e-3)}
 us = {}
 for mode in ("none", "adaptive"):
     build_mode(p, mode, options(**extra[mode]))  # warm-up
