@@ -473,6 +473,17 @@ def plot_error(comp) -> Figure:
     return _draw_error(_error_inputs(comp))
 
 
+def _estimator_model(comp, r):
+    """The regression of an eq. 4 estimator's ``theta`` in result ``r``: the identification's model with the
+    estimator's own offset column (``o1`` in ``r.info["names"]``); None for the sliding estimator."""
+    from adaptive_ff.identification.regression import RegressionModel
+
+    if r.info.get("estimator") == "sliding":
+        return None
+    m = comp.model
+    return RegressionModel(m.Vs, m.delta, lag=m.lag, stribeck=m.stribeck, offset="o1" in r.info.get("names", ()))
+
+
 def estimate_history(comp, times) -> list:
     """The adaptive mode's friction estimate at given times, as physical parameters.
 
@@ -494,6 +505,7 @@ def estimate_history(comp, times) -> list:
         return []
     Vs, delta = comp.model.Vs, comp.model.delta
     names = list(r.info.get("names", ()))
+    m = _estimator_model(comp, r)
     out = []
     for ti in times:
         k = int(np.searchsorted(r.t_theta, ti, side="right")) - 1
@@ -503,7 +515,7 @@ def estimate_history(comp, times) -> list:
         if r.info.get("estimator") == "sliding":
             v = dict(zip(names, (float(x) for x in th)))
         else:
-            e = comp.model.to_physical(th, r.info["Ts"])
+            e = m.to_physical(th, r.info["Ts"])
             v = {"Fc": e.Fc, "Fs": e.Fs, "sigma": e.sigma, "offset": e.offset}
         if not all(math.isfinite(v.get(n, 0.0)) for n in ("Fc", "Fs", "sigma", "offset")):
             continue
@@ -644,7 +656,7 @@ def _rls_inputs(comp) -> dict | None:
         title = "sliding-regime estimator: physical parameters (dashed: true plant)"
     else:
         p0 = comp.plant.at(0.0) if hasattr(comp.plant, "at") else comp.plant
-        true = np.tile(comp.model.theta_from_physical(p0, r.info["Ts"]), (len(tt), 1))
+        true = np.tile(_estimator_model(comp, r).theta_from_physical(p0, r.info["Ts"]), (len(tt), 1))
         title = "eq. 4 RLS coefficients (dashed: true plant)"
     return {"names": names, "t": tt, "theta": th, "true": true, "title": title, "t_end": r.t[-1]}
 

@@ -469,3 +469,27 @@ def test_jobs_argument_is_checked(tmp_path):
             plot_comparison(None, tmp_path, jobs=bad)
         with pytest.raises(ParameterError, match="jobs"):
             draw_figures({}, tmp_path, jobs=bad)
+
+
+def test_friction_history_of_the_eq4_estimators_uses_their_own_regression():
+    """The eq. 4 estimators' theta (with the offset column ``o1`` for ``eq4``) converts to the plant's friction."""
+    from controllers.experiments.compare import compare
+    from controllers.report.figures import estimate_history, figure_inputs
+    from plant.friction import preset
+
+    p = preset("paper")
+    for est, names in (("eq4", 7), ("eq4-rls", 6)):
+        c = compare(p, duration=12.0, seed=1, progress=False, estimator=est, modes=("none", "adaptive"))
+        assert len(c.results["adaptive"].info["names"]) == names
+        hist = estimate_history(c, [3.0, 6.0, 12.0])
+        assert len(hist) == 3
+        last = hist[-1]
+        assert last["Fc"] == pytest.approx(p.Fc, rel=0.06)        # the converged map: Fc 25.3 / 26.1 N·m
+        assert last["sigma"] == pytest.approx(p.sigma, rel=0.06)  # sigma 38.5 / 39.2 N·m·s/rad
+        assert abs(last["offset"]) < 0.1
+        inputs = figure_inputs(c)
+        rls = inputs["rls_convergence"]  # the true plant's coefficients in the estimator's own regression
+        assert rls["names"] == c.results["adaptive"].info["names"] and rls["true"].shape == rls["theta"].shape
+        wide = inputs["friction"]["columns"][0]  # compare's friction figure draws these estimates
+        assert [label for label, *_ in wide["curves"]].count("adaptive at t = 12 s") == 1
+        assert sum(label.startswith("adaptive at") for label, *_ in wide["curves"]) == 4
