@@ -185,14 +185,13 @@ class EngineRun:
         self.scenarios = ffi.new("ctl_scenario[]", B)
         self._keep = []
         self._ops = {}
-        rec = ffi.from_buffer("double[]", self.rec)
-        th = ffi.from_buffer("double[]", self.theta)
-        thk = ffi.from_buffer("int64_t[]", self.theta_k)
-        for b in range(B):
-            sc = self.scenarios[b]
-            lib.ctl_scenario_init(ffi.addressof(self.scenarios, b), float(self._wr[0]) if n else 0.0)
-            lib.ctl_events_init(ffi.addressof(sc, "events"), ev[0] + b * S, ev[1] + b * S, S, ev[2] + b * R, R)
-            if decimate > 0:
+        lib.ctl_scenarios_init(self.scenarios, B, float(self._wr[0]) if n else 0.0, ev[0], ev[1], S, ev[2], R)
+        if decimate > 0:  # the records: row b of rec, theta and theta_k
+            rec = ffi.from_buffer("double[]", self.rec)
+            th = ffi.from_buffer("double[]", self.theta)
+            thk = ffi.from_buffer("int64_t[]", self.theta_k)
+            for b in range(B):
+                sc = self.scenarios[b]
                 sc.rec = rec + b * 5 * n_rec
                 if m_theta > 0 and n_theta > 0:
                     sc.theta = th + b * m_theta * max(n_theta, 1)
@@ -217,6 +216,32 @@ class EngineRun:
         sc.row_k = ffi.from_buffer("long[]", starts)
         sc.plant = state[0] if ffi.typeof(state).kind == "pointer" else state
         sc.w_limit = float(w_limit)
+
+    def set_plants(self, rows, states, index, w_limit) -> None:
+        """Every scenario's plant at once, each one that does not vary in time: scenario ``b`` steps the parameter
+        row ``rows[index[b]]`` (a cffi ``plant_params[]`` table, :func:`plant.rows.plant_rows`; kept alive here) from
+        the state ``states[index[b]]`` (``plant_state[]``, :func:`plant.rows.plant_states`, copied) with the
+        divergence bound ``w_limit[b]`` (rad/s): :meth:`set_plant` with one row for each, in one C pass
+        (``ctl_scenarios_set_plants``).
+
+        Raises
+        ------
+        ParameterError
+            ``index`` (shape (B,)) outside the table, ``w_limit`` not of shape (B,), or fewer states than rows.
+        """
+        B = len(self.scenarios)
+        idx = np.ascontiguousarray(index, dtype=np.int64)
+        lim = _f8(w_limit)
+        n_rows = len(rows)
+        if idx.shape != (B,) or (B and (idx.min() < 0 or idx.max() >= n_rows)):
+            raise ParameterError(f"index must hold {B} rows of the {n_rows} of the table, got {index!r}")
+        if lim.shape != (B,):
+            raise ParameterError(f"w_limit must have shape ({B},), got {np.shape(w_limit)}")
+        if len(states) < n_rows:
+            raise ParameterError(f"states must hold a state per row ({n_rows}), got {len(states)}")
+        self._keep.extend((rows, states))
+        lib.ctl_scenarios_set_plants(self.scenarios, B, rows, states, ffi.from_buffer("int64_t[]", idx),
+                                     ffi.from_buffer("double[]", lim))
 
     def set_noise_table(self, noise) -> None:
         """A table of noise rows, shape (R, N) (rad/s), that :meth:`set_noise_row` hands to scenarios; None: none."""
@@ -273,6 +298,11 @@ class EngineRun:
         """Scenario ``b``'s PI (a :class:`controllers.PIController`, copied by value)."""
         self.scenarios[b].pi = controller.cdata[0]
 
+    def set_pi_all(self, controller) -> None:
+        """Every scenario's PI: ``controller`` (a :class:`controllers.PIController`, copied by value into each; C
+        ``ctl_scenarios_set_pi``), :meth:`set_pi` of each scenario in one C pass."""
+        lib.ctl_scenarios_set_pi(self.scenarios, len(self.scenarios), controller.cdata)
+
     def set_compensator(self, b: int, comp) -> None:
         """Scenario ``b``'s compensator: its own struct is advanced in place (kept alive here); a
         :class:`controllers.simulation.user_compensator.UserCompensator` is called back through its ops table;
@@ -316,18 +346,24 @@ class EngineRun:
     def metrics(self) -> np.ndarray:
         """The scenarios' metric accumulators, a copy as a numpy array of
         :data:`controllers.simulation.metrics.METRICS_DTYPE`, shape (B,)."""
-        sc = self.scenarios
-        out = np.empty(len(sc), dtype=METRICS_DTYPE)
-        raw = out.view(np.uint8).reshape(len(sc), -1)
-        for b in range(len(sc)):
-            raw[b] = np.frombuffer(ffi.buffer(ffi.addressof(sc[b], "metrics")), dtype=np.uint8)
+        out = np.empty(len(self.scenarios), dtype=METRICS_DTYPE)
+        out.view(np.uint8).reshape(len(out), -1)[:] = self._field_bytes("metrics", ffi.sizeof("ctl_metrics"))
         return out
+
+    def _field_bytes(self, field: str, size: int) -> np.ndarray:
+        """The bytes of the field ``field`` (``size`` bytes) of every scenario's struct, a view of shape (B, size)."""
+        B = len(self.scenarios)
+        raw = np.frombuffer(ffi.buffer(self.scenarios), dtype=np.uint8).reshape(B, ffi.sizeof("ctl_scenario"))
+        off = ffi.offsetof("ctl_scenario", field)
+        return raw[:, off:off + size]
+
+    def _column(self, field: str, ctype: str) -> np.ndarray:
+        """The integer field ``field`` (C type ``ctype``: ``long`` or ``int``) of every scenario, a new int64 array of
+        shape (B,)."""
+        dt = np.dtype(f"i{ffi.sizeof(ctype)}")
+        return np.ascontiguousarray(self._field_bytes(field, dt.itemsize)).view(dt).reshape(-1).astype(np.int64)
 
     def outcome(self) -> tuple:
         """``(k_end, diverged, n_theta)`` arrays (int64, bool, int64) of shape (B,)."""
-        sc = self.scenarios
-        B = len(sc)
-        k_end = np.fromiter((sc[b].k_end for b in range(B)), dtype=np.int64, count=B)
-        div = np.fromiter((sc[b].diverged for b in range(B)), dtype=bool, count=B)
-        nth = np.fromiter((sc[b].n_theta_rec for b in range(B)), dtype=np.int64, count=B)
-        return k_end, div, nth
+        return (self._column("k_end", "long"), self._column("diverged", "int") != 0,
+                self._column("n_theta_rec", "long"))
