@@ -46,6 +46,18 @@ _CHUNK_MIN = 8
 RECORDED = ("w", "w_meas", "u", "u_ff", "f")
 
 
+#: The fields of a ``ctl_scenario`` read after a run, at their offsets in the struct (numpy's view of the array of B:
+#: one pass per field instead of one cffi access per scenario): the metric accumulators (:data:`METRICS_DTYPE`, the
+#: bytes of ``ctl_metrics``), ``k_end``, ``diverged`` and ``n_theta_rec``.
+_SCENARIO_FIELDS = np.dtype({
+    "names": ["metrics", "k_end", "diverged", "n_theta_rec"],
+    "formats": [METRICS_DTYPE, f"i{ffi.sizeof('long')}", f"i{ffi.sizeof('int')}", f"i{ffi.sizeof('long')}"],
+    "offsets": [ffi.offsetof("ctl_scenario", f) for f in ("metrics", "k_end", "diverged", "n_theta_rec")],
+    "itemsize": ffi.sizeof("ctl_scenario")})
+if METRICS_DTYPE.itemsize != ffi.sizeof("ctl_metrics"):  # pragma: no cover - the dtype mirrors the C struct
+    raise ImportError(f"METRICS_DTYPE has {METRICS_DTYPE.itemsize} bytes, ctl_metrics {ffi.sizeof('ctl_metrics')}")
+
+
 def engine_threads() -> int:
     """Threads the engine runs chunks on: ``ADAPTIVE_FF_THREADS`` if set (an integer >= 1), else the CPUs this
     process may use."""
@@ -346,24 +358,19 @@ class EngineRun:
     def metrics(self) -> np.ndarray:
         """The scenarios' metric accumulators, a copy as a numpy array of
         :data:`controllers.simulation.metrics.METRICS_DTYPE`, shape (B,)."""
-        out = np.empty(len(self.scenarios), dtype=METRICS_DTYPE)
-        out.view(np.uint8).reshape(len(out), -1)[:] = self._field_bytes("metrics", ffi.sizeof("ctl_metrics"))
+        B = len(self.scenarios)
+        out = np.empty(B, dtype=METRICS_DTYPE)
+        raw = np.frombuffer(ffi.buffer(self.scenarios), dtype=np.uint8).reshape(B, _SCENARIO_FIELDS.itemsize)
+        off = _SCENARIO_FIELDS.fields["metrics"][1]
+        out.view(np.uint8).reshape(B, -1)[:] = raw[:, off:off + METRICS_DTYPE.itemsize]  # the bytes, as C has them
         return out
 
-    def _field_bytes(self, field: str, size: int) -> np.ndarray:
-        """The bytes of the field ``field`` (``size`` bytes) of every scenario's struct, a view of shape (B, size)."""
-        B = len(self.scenarios)
-        raw = np.frombuffer(ffi.buffer(self.scenarios), dtype=np.uint8).reshape(B, ffi.sizeof("ctl_scenario"))
-        off = ffi.offsetof("ctl_scenario", field)
-        return raw[:, off:off + size]
-
-    def _column(self, field: str, ctype: str) -> np.ndarray:
-        """The integer field ``field`` (C type ``ctype``: ``long`` or ``int``) of every scenario, a new int64 array of
-        shape (B,)."""
-        dt = np.dtype(f"i{ffi.sizeof(ctype)}")
-        return np.ascontiguousarray(self._field_bytes(field, dt.itemsize)).view(dt).reshape(-1).astype(np.int64)
+    def _fields(self) -> np.ndarray:
+        """The scenarios' structs as a numpy view of :data:`_SCENARIO_FIELDS` (the fields read after a run), shape
+        (B,)."""
+        return np.frombuffer(ffi.buffer(self.scenarios), dtype=_SCENARIO_FIELDS)
 
     def outcome(self) -> tuple:
         """``(k_end, diverged, n_theta)`` arrays (int64, bool, int64) of shape (B,)."""
-        return (self._column("k_end", "long"), self._column("diverged", "int") != 0,
-                self._column("n_theta_rec", "long"))
+        f = self._fields()
+        return f["k_end"].astype(np.int64), f["diverged"] != 0, f["n_theta_rec"].astype(np.int64)
