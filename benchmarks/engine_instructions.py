@@ -1,6 +1,6 @@
 """Instructions per 1 kHz step of the C engine (``run_mode none``, ``fixed`` and ``adaptive``) under callgrind.
 
-Run:  python benchmarks/engine_instructions.py [--tree TREE ...] [--seconds 2] [--keep DIR] [--batch B]
+Run:  python benchmarks/engine_instructions.py [--tree TREE ...] [--seconds 2] [--keep DIR] [--batch B [--plants M]]
 
 Each mode runs in one process under ``valgrind --tool=callgrind`` with collection on inside the engine call only
 (``--toggle-collect`` of its cffi wrapper ``_cffi_f_ctl_run_chunk``) and one profile dump after every call
@@ -15,7 +15,8 @@ with their extensions built in place; default this one; a tree whose loop settin
 the long run) for ``callgrind_annotate``. ``--batch B`` counts ``run_batch`` instead, per scenario-step: B ``paper``
 plants (2 to 64: one chunk, one engine call per run, time-major as every chunk of a larger batch) with J, Fc and tau
 jittered as ``benchmarks/tree_ab.py``'s, the loop's PI and the ``adaptive`` estimator's Vs, delta without noise or
-sensor gate (``run_batch``'s rows of ``benchmarks/perf.py``); ``fixed`` is left out.
+sensor gate (``run_batch``'s rows of ``benchmarks/perf.py``); ``fixed`` is left out. ``--plants NAME`` with
+``--batch``: one plant of that model of :func:`plant.variant_plants.variant` B times (``lugre``, ...).
 """
 
 from __future__ import annotations
@@ -65,11 +66,14 @@ import numpy as np
 from controllers.simulation.batch import run_batch
 from plant.excitation import multisine_reference
 from plant.friction import preset
-mode, secs, B = sys.argv[1], float(sys.argv[2]), int(sys.argv[3])
+mode, secs, B, model = sys.argv[1], float(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
 p = preset("paper")
 rng = np.random.default_rng(2)
 plants = [p.replace(J=p.J * rng.uniform(0.7, 1.3), Fc=p.Fc * rng.uniform(0.7, 1.3), tau=p.tau * rng.uniform(0.5, 2.0))
           for _ in range(B)]
+if model != "paper":  # one plant of a variant model, B times (tree_ab.py --plants)
+    from plant.variant_plants import variant
+    plants = [variant(model)] * B
 flat = dict(Kp=69.28434179621937, Ki=786.1169272191827, u_max=150.0, Vs=p.Vs, delta=p.delta, sensor_gate=False)
 try:
     from controllers.simulation.closed_loop import LoopConfig
@@ -86,14 +90,15 @@ print(" ".join(str(r.t.size * B) for r in refs))
 MODES = ("none", "fixed", "adaptive")
 
 
-def per_step(tree: str, mode: str, seconds: float = 2.0, keep: str | None = None, batch: int = 0) -> float | None:
+def per_step(tree: str, mode: str, seconds: float = 2.0, keep: str | None = None, batch: int = 0,
+             plants: str = "paper") -> float | None:
     """Instructions per step of ``mode`` in the source tree ``tree`` (None without valgrind); ``keep``: a folder
     that receives the profiles (``<tree's name>-<mode>.<i>``); ``batch`` > 0: per scenario-step of ``run_batch``
-    over that many scenarios (``--batch``)."""
+    over that many scenarios of ``plants`` (``--batch``, ``--plants``)."""
     vg = shutil.which("valgrind")
     if vg is None:
         return None
-    script = (_BATCH_SCRIPT, mode, str(seconds), str(batch)) if batch > 0 else (_SCRIPT, mode, str(seconds))
+    script = (_BATCH_SCRIPT, mode, str(seconds), str(batch), plants) if batch > 0 else (_SCRIPT, mode, str(seconds))
     with tempfile.TemporaryDirectory() as tmp:
         out = os.path.join(tmp, "cg.out")
         env = dict(os.environ, PYTHONPATH=os.path.abspath(tree), ADAPTIVE_FF_THREADS="1")
@@ -135,6 +140,8 @@ def main(argv=None) -> int:
     ap.add_argument("--keep", default=None, help="folder that keeps the callgrind profiles (for callgrind_annotate)")
     ap.add_argument("--batch", type=int, default=0,
                     help="count run_batch over B scenarios (none, adaptive), per scenario-step")
+    ap.add_argument("--plants", default="paper",
+                    help="with --batch: paper (jittered paper plants, default) or a variant model's name, B times")
     args = ap.parse_args(argv)
     if args.batch and not 2 <= args.batch <= 64:
         ap.error(f"--batch must be 2 to 64 scenarios (one engine call per run), got {args.batch}")
@@ -144,7 +151,7 @@ def main(argv=None) -> int:
         "instructions per step"
     print(f"{'tree':<40}" + "".join(f"{m:>12}" for m in modes) + f"   {unit}")
     for tree in trees:
-        vals = [per_step(tree, m, args.seconds, args.keep, args.batch) for m in modes]
+        vals = [per_step(tree, m, args.seconds, args.keep, args.batch, args.plants) for m in modes]
         print(f"{tree:<40}" + "".join(f"{v:>12.1f}" if v is not None else f"{'n/a':>12}" for v in vals))
     return 0
 
