@@ -1,6 +1,6 @@
 """Instructions per 1 kHz step of the C engine (``run_mode none``, ``fixed`` and ``adaptive``) under callgrind.
 
-Run:  python benchmarks/engine_instructions.py [--tree TREE ...] [--seconds 2] [--keep DIR]
+Run:  python benchmarks/engine_instructions.py [--tree TREE ...] [--seconds 2] [--keep DIR] [--batch B [--plants M]]
 
 Each mode runs in one process under ``valgrind --tool=callgrind`` with collection on inside the engine call only
 (``--toggle-collect`` of its cffi wrapper ``_cffi_f_ctl_run_chunk``) and one profile dump after every call
@@ -12,7 +12,11 @@ fixed cost of a call. Counts do not depend on the machine's load (timings on a s
 code and the compiler: the measure to compare two trees side by side (``--tree`` names one or more source trees
 with their extensions built in place; default this one; a tree whose loop settings are the older flat
 ``ModeOptions`` runs the same loop). ``--keep DIR`` keeps the profiles (``DIR/<tree>-<mode>.<i>``, the last one
-the long run) for ``callgrind_annotate``.
+the long run) for ``callgrind_annotate``. ``--batch B`` counts ``run_batch`` instead, per scenario-step: B ``paper``
+plants (2 to 64: one chunk, one engine call per run, time-major as every chunk of a larger batch) with J, Fc and tau
+jittered as ``benchmarks/tree_ab.py``'s, the loop's PI and the ``adaptive`` estimator's Vs, delta without noise or
+sensor gate (``run_batch``'s rows of ``benchmarks/perf.py``); ``fixed`` is left out. ``--plants NAME`` with
+``--batch``: one plant of that model of :func:`plant.variant_plants.variant` B times (``lugre``, ...).
 """
 
 from __future__ import annotations
@@ -55,21 +59,52 @@ for ref in refs:
 print(" ".join(str(r.t.size) for r in refs))
 """
 
+#: The script of ``--batch``: mode, seconds, B; prints the scenario-steps of its three engine calls.
+_BATCH_SCRIPT = r"""
+import sys
+import numpy as np
+from controllers.simulation.batch import run_batch
+from plant.excitation import multisine_reference
+from plant.friction import preset
+mode, secs, B, model = sys.argv[1], float(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
+p = preset("paper")
+rng = np.random.default_rng(2)
+plants = [p.replace(J=p.J * rng.uniform(0.7, 1.3), Fc=p.Fc * rng.uniform(0.7, 1.3), tau=p.tau * rng.uniform(0.5, 2.0))
+          for _ in range(B)]
+if model != "paper":  # one plant of a variant model, B times (tree_ab.py --plants)
+    from plant.variant_plants import variant
+    plants = [variant(model)] * B
+flat = dict(Kp=69.28434179621937, Ki=786.1169272191827, u_max=150.0, Vs=p.Vs, delta=p.delta, sensor_gate=False)
+try:
+    from controllers.simulation.closed_loop import LoopConfig
+    o = LoopConfig.from_flat(**flat)
+except ImportError:  # a tree with the flat ModeOptions
+    from controllers.simulation.compensators import ModeOptions
+    o = ModeOptions(**flat)
+refs = [multisine_reference(s, rng=np.random.default_rng(0)) for s in (0.1, secs, 3 * secs)]
+for ref in refs:
+    run_batch(plants, ref, mode, o)
+print(" ".join(str(r.t.size * B) for r in refs))
+"""
+
 MODES = ("none", "fixed", "adaptive")
 
 
-def per_step(tree: str, mode: str, seconds: float = 2.0, keep: str | None = None) -> float | None:
+def per_step(tree: str, mode: str, seconds: float = 2.0, keep: str | None = None, batch: int = 0,
+             plants: str = "paper") -> float | None:
     """Instructions per step of ``mode`` in the source tree ``tree`` (None without valgrind); ``keep``: a folder
-    that receives the profiles (``<tree's name>-<mode>.<i>``)."""
+    that receives the profiles (``<tree's name>-<mode>.<i>``); ``batch`` > 0: per scenario-step of ``run_batch``
+    over that many scenarios of ``plants`` (``--batch``, ``--plants``)."""
     vg = shutil.which("valgrind")
     if vg is None:
         return None
+    script = (_BATCH_SCRIPT, mode, str(seconds), str(batch), plants) if batch > 0 else (_SCRIPT, mode, str(seconds))
     with tempfile.TemporaryDirectory() as tmp:
         out = os.path.join(tmp, "cg.out")
         env = dict(os.environ, PYTHONPATH=os.path.abspath(tree), ADAPTIVE_FF_THREADS="1")
         res = subprocess.run([vg, "--tool=callgrind", f"--callgrind-out-file={out}", "--collect-atstart=no",
                               "--toggle-collect=_cffi_f_ctl_run_chunk", "--dump-after=_cffi_f_ctl_run_chunk",
-                              sys.executable, "-c", _SCRIPT, mode, str(seconds)],
+                              sys.executable, "-c", *script],
                              capture_output=True, text=True, check=True, cwd=tree, env=env, timeout=3600)
         steps = [int(x) for x in res.stdout.split()]
         counts = []
@@ -103,11 +138,20 @@ def main(argv=None) -> int:
                     help="source tree with its extensions built (repeatable; default this one)")
     ap.add_argument("--seconds", type=float, default=2.0, help="length of the shorter measured run (s)")
     ap.add_argument("--keep", default=None, help="folder that keeps the callgrind profiles (for callgrind_annotate)")
+    ap.add_argument("--batch", type=int, default=0,
+                    help="count run_batch over B scenarios (none, adaptive), per scenario-step")
+    ap.add_argument("--plants", default="paper",
+                    help="with --batch: paper (jittered paper plants, default) or a variant model's name, B times")
     args = ap.parse_args(argv)
+    if args.batch and not 2 <= args.batch <= 64:
+        ap.error(f"--batch must be 2 to 64 scenarios (one engine call per run), got {args.batch}")
     trees = args.tree or [os.path.dirname(os.path.dirname(os.path.abspath(__file__)))]
-    print(f"{'tree':<40}" + "".join(f"{m:>12}" for m in MODES) + "   instructions per step")
+    modes = ("none", "adaptive") if args.batch > 0 else MODES
+    unit = f"instructions per scenario-step of run_batch, B = {args.batch}" if args.batch > 0 else \
+        "instructions per step"
+    print(f"{'tree':<40}" + "".join(f"{m:>12}" for m in modes) + f"   {unit}")
     for tree in trees:
-        vals = [per_step(tree, m, args.seconds, args.keep) for m in MODES]
+        vals = [per_step(tree, m, args.seconds, args.keep, args.batch, args.plants) for m in modes]
         print(f"{tree:<40}" + "".join(f"{v:>12.1f}" if v is not None else f"{'n/a':>12}" for v in vals))
     return 0
 

@@ -3,6 +3,7 @@
 Run:  git worktree add /tmp/old REV   (or: mkdir /tmp/old && git archive REV | tar -x -C /tmp/old)
       (cd /tmp/old && python setup.py build_ext --inplace)   # its C core, built in place
       python benchmarks/tree_ab.py /tmp/old [--B 1000] [--seconds 2] [--repeat 5] [--rounds 3] [--mode none]
+                                   [--plants lugre]
       python benchmarks/tree_ab.py /tmp/old --ratio [--other-python /venv-of-old/bin/python]
       python benchmarks/tree_ab.py /tmp/old --engine [--seconds 60] [--repeat 5] [--rounds 4]
       python benchmarks/tree_ab.py /tmp/old --build [--rounds 4]
@@ -24,7 +25,9 @@ fresh process per tree (this tree and OTHER, alternating), which times ``run_bat
 processes on a loaded machine) and prints µs per scenario-step of the engine (median and fastest of
 ``--repeat``), the serial Python part of the call (CPU of the calling thread outside the engine's
 ``EngineRun.run``: packing the scenarios, the results; each timed call from a new options object) and the first
-metrics, so a change of the numbers shows.
+metrics, so a change of the numbers shows. The scenarios are B ``paper`` plants with jittered J, Fc and tau (default),
+or with ``--plants NAME`` one plant of a model of :func:`plant.variant_plants.variant` B times (``lugre``,
+``karnopp``, ``asymmetric``: the plant-model rows of ``benchmarks/perf.py``).
 
 ``--build`` times ``build_mode none`` and ``adaptive`` (the ``--ratio`` settings), each call from a new options
 object made before the timing, in alternating fresh processes, and prints each process's fastest of nine timings of
@@ -53,12 +56,16 @@ import controllers.simulation.batch as bm
 from controllers.simulation.engine import EngineRun
 from plant.excitation import multisine_reference
 from plant.friction import preset
-B, seconds, repeat, mode = int(sys.argv[1]), float(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
+B, seconds, repeat, mode, model = int(sys.argv[1]), float(sys.argv[2]), int(sys.argv[3]), sys.argv[4], sys.argv[5]
 p = preset("paper")
 ref = multisine_reference(seconds, rng=np.random.default_rng(0))
 rng = np.random.default_rng(2)
-plants = [p.replace(J=p.J * rng.uniform(0.7, 1.3), Fc=p.Fc * rng.uniform(0.7, 1.3), tau=p.tau * rng.uniform(0.5, 2.0))
-          for _ in range(B)]
+if model == "paper":
+    plants = [p.replace(J=p.J * rng.uniform(0.7, 1.3), Fc=p.Fc * rng.uniform(0.7, 1.3),
+                        tau=p.tau * rng.uniform(0.5, 2.0)) for _ in range(B)]
+else:  # one plant of the model, B times (perf.py's rows of the plant models)
+    from plant.variant_plants import variant
+    plants = [variant(model)] * B
 def options():
     flat = dict(Kp=69.28434179621937, Ki=786.1169272191827, u_max=150.0, Vs=p.Vs, delta=p.delta, sensor_gate=False)
     try:
@@ -318,6 +325,8 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--mode", default="none")
+    ap.add_argument("--plants", default="paper",
+                    help="run_batch's plants: paper (B jittered paper plants, default) or a variant model's name, B times")
     ap.add_argument("--ratio", action="store_true",
                     help="time run_mode none/adaptive against python-control in both trees (ratios), not run_batch")
     ap.add_argument("--engine", action="store_true",
@@ -338,12 +347,14 @@ def main(argv=None) -> int:
     if args.ratio:
         ratio_rounds(trees, pythons, seconds=args.seconds, repeat=args.repeat, rounds=args.rounds)
         return 0
-    print(f"run_batch {args.mode}, B={args.B}, {args.seconds:g} s, 1 thread, engine CPU time per scenario-step")
+    print(f"run_batch {args.mode}, B={args.B} {args.plants} plants, {args.seconds:g} s, 1 thread, engine CPU time per "
+          "scenario-step")
     for _ in range(args.rounds):
         for name, root in trees.items():
             env = dict(os.environ, PYTHONPATH=root, ADAPTIVE_FF_THREADS="1")
             out = subprocess.run([pythons[name], "-c", _CHILD, str(args.B), str(args.seconds), str(args.repeat),
-                                  args.mode], env=env, cwd=root, capture_output=True, text=True, check=True)
+                                  args.mode, args.plants], env=env, cwd=root, capture_output=True, text=True,
+                             check=True)
             print(f"{name:<10} {out.stdout.strip()}")
     return 0
 

@@ -519,14 +519,20 @@ def ops_table(lib, doc: str = "Pointer to the C ops table :attr:`C_OPS` (``aff_c
 _FIELD_KINDS: dict = {}
 
 
+#: The key of :func:`_field_kinds`' entry that holds the cffi pointer type of the struct (no C field's name).
+_POINTER = " pointer"
+
+
 def _field_kinds(ffi, ctype: str) -> dict:
     """The fields of the C struct ``ctype`` (cffi ``ffi``) -> ``float`` (a C ``double`` or ``float``), ``int``
-    (another primitive: an integer or a flag) or None (a struct or an array), cached in memory per process."""
+    (another primitive: an integer or a flag) or None (a struct or an array), and :data:`_POINTER` -> the cffi type
+    ``ctype *``; cached in memory per process (types, constant)."""
     key = (ffi, ctype)
     kinds = _FIELD_KINDS.get(key)
     if kinds is None:
-        kinds = {}
-        for name, f in ffi.typeof(f"{ctype} *").item.fields:
+        ptr = ffi.typeof(f"{ctype} *")
+        kinds = {_POINTER: ptr}
+        for name, f in ptr.item.fields:
             kinds[name] = (float if f.type.cname in ("double", "float") else
                            int if f.type.kind == "primitive" else None)
         _FIELD_KINDS[key] = kinds
@@ -711,13 +717,15 @@ class Component:
         SettingTypeError
             A value of the wrong type (a ParameterError and a TypeError), naming the class and the field.
         """
-        cfg = self._ffi.new(f"{ctype} *", defaults)
         kinds = _field_kinds(self._ffi, ctype)
+        cfg = self._ffi.new(kinds[_POINTER], defaults)
         for k, v in fields.items():
             kind = kinds[k]
             t = type(v)
-            if kind is float:
-                if t is not float:  # the common case, a float, as it is (float(v) is v's value); then an int
+            if t is kind:  # the common cases: a float for a C double, an int for an integer (never a bool)
+                pass
+            elif kind is float:
+                if t is not float:  # a float as it is (float(v) is v's value); then an int
                     if t is not int and (not isinstance(v, (Real, np.floating, np.integer))
                                          or isinstance(v, (bool, np.bool_))):
                         raise SettingTypeError(f"{type(self).__name__}: {k} must be a real number, got {v!r} "
@@ -814,7 +822,7 @@ class Component:
         ``aff_X_init``; a composite's holds its parts'), or None for a component without one."""
         if self._config_bytes is None:
             return None
-        c = self._ffi.new(f"{self._config_ctype} *")
+        c = self._ffi.new(_field_kinds(self._ffi, self._config_ctype)[_POINTER])
         self._ffi.buffer(c)[:] = self._config_bytes
         return c
 

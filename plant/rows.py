@@ -284,13 +284,14 @@ def plant_params(p):
     return ffi.new(_PARAMS_PTR, _init(_row_list(p)))
 
 
-def _row_list(p) -> list:
-    """The values of :func:`plant_params` as a list of Python floats (order: :func:`_init`)."""
+def _row_list(p, models: dict | None = None) -> list:
+    """The values of :func:`plant_params` as a list of Python floats (order: :func:`_init`); ``models``: the model
+    name of each class checked so far (:func:`_model_list`)."""
     ripple = getattr(p, "ripple_fields", None)
     if ripple is None:
-        return _keyed(_model_list(p))
+        return _keyed(_model_list(p, models))
     a = float(ripple[0])
-    v = _model_list(p.base)
+    v = _model_list(p.base, models)
     if a != 0.0:  # the map and its slopes up to (1 + a) times the base's (plant_params.h)
         if int(v[0]) == _LUGRE:
             v[19] = (v[16] + v[7] * (1.0 + a)) / v[1] + math.sqrt(v[15] / v[1])
@@ -300,9 +301,16 @@ def _row_list(p) -> list:
     return _keyed(v, ripple)
 
 
-def _model_list(p) -> list:
-    """The 21 model values of :func:`_row_list` (without ``inv_J``, ``inv_tau``, the ripple and the key)."""
-    model = _model_of(p)
+def _model_list(p, models: dict | None = None) -> list:
+    """The 21 model values of :func:`_row_list` (without ``inv_J``, ``inv_tau``, the ripple and the key); ``models``
+    (a dict, or None): class -> model name of the classes :func:`_model_of` checked so far, so that the plants of one
+    :func:`plant_rows` call have their class checked once each."""
+    if models is None:
+        model = _model_of(p)
+    else:
+        model = models.get(type(p))
+        if model is None:
+            model = models[type(p)] = _model_of(p)
     if model == "lagged-stribeck":
         return _lagged_list(0.0, p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau, 0.0, 0.0, keyed=False)
     if model == "karnopp":
@@ -352,7 +360,8 @@ def plant_rows(plants):
     -----
     Ruderman, eqs. 1-3 (as :func:`plant_params`).
     """
-    return ffi.new("plant_params[]", [_init(_row_list(p)) for p in plants])
+    models = {}  # each distinct class of the plants checked once, in this call
+    return ffi.new("plant_params[]", [_init(_row_list(p, models)) for p in plants])
 
 
 def _table(rows, what: str, item, ptr):

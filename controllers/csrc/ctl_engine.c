@@ -21,6 +21,34 @@ void ctl_scenario_init(ctl_scenario *sc, double w0)
         sc->theta_buf[i] = 0.0;
 }
 
+void ctl_scenarios_init(ctl_scenario *sc, long n_sc, double w0, double *settle, double *stop_max, long n_stops,
+                        double *rev_max, long n_revs)
+{
+    for (long b = 0; b < n_sc; b++) {
+        ctl_scenario_init(sc + b, w0);
+        ctl_events_init(&sc[b].events, n_stops ? settle + b * n_stops : NULL, n_stops ? stop_max + b * n_stops : NULL,
+                        n_stops, n_revs ? rev_max + b * n_revs : NULL, n_revs);
+    }
+}
+
+void ctl_scenarios_set_plants(ctl_scenario *sc, long n_sc, const plant_params *rows, const plant_state *states,
+                              const int64_t *index, const double *w_limit)
+{
+    for (long b = 0; b < n_sc; b++) {
+        sc[b].rows = rows + index[b];
+        sc[b].n_rows = 1;
+        sc[b].row_k = NULL;
+        sc[b].plant = states[index[b]];
+        sc[b].w_limit = w_limit[b];
+    }
+}
+
+void ctl_scenarios_set_pi(ctl_scenario *sc, long n_sc, const ctl_pi *pi)
+{
+    for (long b = 0; b < n_sc; b++)
+        sc[b].pi = *pi;
+}
+
 /* What a scenario uses besides the plant, the PI and the metrics (bits of ctl_features): the period's code for a
  * part no scenario of a chunk uses is left out (ctl_run_chunk picks a specialised loop once per call). */
 enum {

@@ -102,6 +102,21 @@ typedef struct ctl_scenario {
  * w0 (rad/s); the other fields (rows, gate, pi, comp/ops, metrics, records) are set by the caller. */
 void ctl_scenario_init(ctl_scenario *sc, double w0);
 
+/* ctl_scenario_init(sc + b, w0) and ctl_events_init of sc[b].events on row b of the per-event arrays (settle,
+ * stop_max: n_sc x n_stops doubles; rev_max: n_sc x n_revs doubles; row-major, NULL with a count 0) for
+ * b = 0..n_sc-1, sc zeroed before (the run's scenarios, the Python side's one call instead of 2*n_sc). */
+void ctl_scenarios_init(ctl_scenario *sc, long n_sc, double w0, double *settle, double *stop_max, long n_stops,
+                        double *rev_max, long n_revs);
+
+/* Scenario b's plant, for b = 0..n_sc-1: the one parameter row rows + index[b] (a plant that does not vary in
+ * time: n_rows 1, row_k NULL), its initial state states[index[b]] (copied) and the divergence bound w_limit[b]
+ * (rad/s); index[b] in [0, number of rows), the caller's to ensure. */
+void ctl_scenarios_set_plants(ctl_scenario *sc, long n_sc, const plant_params *rows, const plant_state *states,
+                              const int64_t *index, const double *w_limit);
+
+/* Copy the PI *pi into scenarios sc[0..n_sc-1] (a common controller, copied by value into each). */
+void ctl_scenarios_set_pi(ctl_scenario *sc, long n_sc, const ctl_pi *pi);
+
 /* This module's own ops table of the given name ("aff_fixed_ff_ops", "aff_adaptive_ops"), NULL for any other: a
  * scenario that holds it runs in a loop that calls the compensator's functions directly (inlined, the same results),
  * where every scenario of a chunk has the same one (ctl_run_chunk). */

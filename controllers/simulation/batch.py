@@ -254,26 +254,40 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
     x = EngineRun(t=t, w_ref=wr, dt=float(Tc), n_scenarios=B, oracle=oracle,
                   metrics=EngineMetrics(revs=revs, window=float(opts[0].run.reversal_window)))
     x.set_noise_table(nz if nrows else None)
+    w_limit = [w_default if o.run.w_limit is None else float(o.run.w_limit) for o in opts]
+    if len(rows[0]) == len(tables):  # every distinct plant fixed in time (one row each): one C pass
+        x.set_plants(rows[0], rows[1], idx, w_limit)
+    else:
+        for b in range(B):
+            k = idx[b]
+            x.set_plant(b, tables[k], n_rows[k], row_ks[k], states[k], w_limit[b])
+    if all(c is ctrls[0] for c in ctrls):  # one options object: its PI copied into every scenario in one C pass
+        x.set_pi_all(ctrls[0])
+    else:
+        for b in range(B):
+            x.set_pi(b, ctrls[b])
+    parts = {}  # the sensor and drive of each distinct options object (copied by value into its scenarios)
     sups = [None] * B
     for b in range(B):
-        k = idx[b]
         o = opts[b]
-        x.set_plant(b, tables[k], n_rows[k], row_ks[k], states[k],
-                    w_default if o.run.w_limit is None else float(o.run.w_limit))
         if nrows:
             x.set_noise_row(b, b if nrows > 1 else 0)
-        x.set_gate(b, gates[b])
-        sensor, drive = sensor_and_drive(o)
-        x.set_sensor(b, sensor)
-        x.set_drive(b, drive)
-        x.set_pi(b, ctrls[b])
-        x.set_compensator(b, None if oracle else comps[b])
+        if gates[b] is not None:  # a new scenario has none
+            x.set_gate(b, gates[b])
+        sensor, drive = parts.get(id(o)) or parts.setdefault(id(o), sensor_and_drive(o))
+        if sensor is not None:  # a new scenario has none, nor a drive
+            x.set_sensor(b, sensor)
+        if drive is not None:
+            x.set_drive(b, drive)
+        if comps[b] is not None and not oracle:
+            x.set_compensator(b, comps[b])
         own = own_supervisor(comps[b])  # applied by the compensator itself (mode adaptive), advanced in its struct
         if own is not None:
             sups[b] = own
         else:
             sups[b] = None if comps[b] is None or oracle else build_supervisor(plants[b], mode, o)
-            x.set_supervisor(b, sups[b])
+            if sups[b] is not None:  # a new scenario has none
+                x.set_supervisor(b, sups[b])
     x.keep(rows)
     x.run()
     for b in range(B):

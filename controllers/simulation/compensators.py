@@ -103,7 +103,8 @@ def _nominal_inertia(o: LoopConfig, J: float) -> float:
 
 # The map from :class:`LoopConfig` onto the components' config objects (the C settings' dataclasses): one builder
 # per config, ``(o, J, ff_max) -> config`` with ``J`` the design inertia (kg·m², the sliding estimator's start) and
-# ``ff_max`` the compensation's bound (N·m); a mode builds only the configs it uses.
+# ``ff_max`` the compensation's bound (N·m), or of those only the ones it reads (a config made once per options
+# object is then shared by scenarios whose plants differ in J); a mode builds only the configs it uses.
 
 #: The settings made from one options object within one :func:`build_modes` call: (builder, id(options)) ->
 #: (options, the other arguments, what it made), or None outside such a call. A :class:`LoopConfig` and what is made
@@ -123,20 +124,19 @@ def _once(builder):
         memo = _SCOPE.get()
         if memo is None:
             return builder(o, *args)
-        key = (builder, id(o))
+        key, kinds = (builder, id(o)), tuple(map(type, args))
         hit = memo.get(key)
-        if hit is not None and hit[0] is o and hit[1] == args and all(
-                type(a) is type(b) for a, b in zip(hit[1], args)):
-            return hit[2]
+        if hit is not None and hit[0] is o and hit[1] == args and hit[2] == kinds:
+            return hit[3]
         value = builder(o, *args)
-        memo[key] = (o, args, value)
+        memo[key] = (o, args, kinds, value)
         return value
 
     return made
 
 
 @_once
-def _ff_config(o, J, ff_max) -> FrictionFeedforwardConfig:
+def _ff_config(o, ff_max) -> FrictionFeedforwardConfig:
     """``fixed``'s feedforward, and the adaptive ones'."""
     ffs = o.feedforward
     return FrictionFeedforwardConfig(lag=ffs.lag, ff_max=ff_max, sign_width=ffs.sign_width,
@@ -145,10 +145,10 @@ def _ff_config(o, J, ff_max) -> FrictionFeedforwardConfig:
 
 
 @_once
-def _robust_config(o, J, ff_max) -> RobustAdaptiveFeedforwardConfig:
+def _robust_config(o, ff_max) -> RobustAdaptiveFeedforwardConfig:
     """The sliding estimator's feedforward (with :func:`_ff_config`'s ``ff``)."""
     ffs = o.feedforward
-    return RobustAdaptiveFeedforwardConfig(ff=_ff_config(o, J, ff_max), warmup=ffs.warmup, lag_margin=ffs.lag_margin,
+    return RobustAdaptiveFeedforwardConfig(ff=_ff_config(o, ff_max), warmup=ffs.warmup, lag_margin=ffs.lag_margin,
                                            lag_margin_max=ffs.lag_margin_max, max_rel_stderr=ffs.max_rel_stderr,
                                            lag_memory=ffs.lag_memory, lag_zero=ffs.lag_zero, project=ffs.project)
 
@@ -164,7 +164,7 @@ def _sliding_config(o, J, ff_max) -> SlidingFrictionEstimatorConfig:
 
 
 @_once
-def _supervisor_config(o, J, ff_max) -> FeedforwardSupervisorConfig:
+def _supervisor_config(o) -> FeedforwardSupervisorConfig:
     """The feedforward supervisor."""
     sup, ctl = o.supervisor, o.controller
     tracking = sup.tracking and ctl.Kp > 0
@@ -197,7 +197,7 @@ def _eq4_config(o, J, ff_max) -> AdaptiveFrictionFeedforwardConfig:
     iv_Ts = Tc * max(1, round(_IV_TS / Tc)) if est.iv_Ts is None else est.iv_Ts
     return AdaptiveFrictionFeedforwardConfig(
         Ts=iv_Ts, lam=1.0 - iv_Ts / _IV_MEMORY if est.lam is None else est.lam, P0=est.P0, warmup=ffs.warmup,
-        iv=True, w_band=m.Vs if m.stribeck else 0.0, map_rel_stderr=est.iv_map_stderr, ff=_ff_config(o, J, ff_max))
+        iv=True, w_band=m.Vs if m.stribeck else 0.0, map_rel_stderr=est.iv_map_stderr, ff=_ff_config(o, ff_max))
 
 
 def build_supervisor(plant, mode: str, options: LoopConfig, *, force: bool = False) -> FeedforwardSupervisor | None:
@@ -246,7 +246,7 @@ def _supervisor(o: LoopConfig, J: float, J_n: float, ff_max: float, wc: float, *
     if omega is None:
         omega = wc if o.controller.Kp > 0 else 10.0 / o.supervisor.window
     make = FeedforwardSupervisor.unbuilt if unbuilt else FeedforwardSupervisor
-    return make(Tc=o.controller.Tc, J_n=J_n, omega=omega, config=_supervisor_config(o, J, ff_max))
+    return make(Tc=o.controller.Tc, J_n=J_n, omega=omega, config=_supervisor_config(o))
 
 
 def own_supervisor(comp) -> FeedforwardSupervisor | None:
@@ -288,7 +288,7 @@ def _fixed(plant, o):
     if o.feedforward.estimate is None:
         raise ParameterError("mode 'fixed' needs estimate=FrictionEstimate (an offline LS result)")
     J, ff_max = _ctx(plant, o)
-    return plant, FrictionFeedforward(o.feedforward.estimate, dt=o.controller.Tc, config=_ff_config(o, J, ff_max),
+    return plant, FrictionFeedforward(o.feedforward.estimate, dt=o.controller.Tc, config=_ff_config(o, ff_max),
                                       loop_model=_loop_model(o, J), sign_observer=_sign_observer(o, J))
 
 
@@ -365,7 +365,7 @@ def _sliding(o, J: float, ff_max: float, *, unbuilt: bool = False) -> RobustAdap
     est = SlidingFrictionEstimator.unbuilt(Vs, delta, Tc=o.controller.Tc, config=_sliding_config(o, J, ff_max),
                                            initial=e.initial, gate=OutlierGate.unbuilt(max_step=gate_step))
     make = RobustAdaptiveFeedforward.unbuilt if unbuilt else RobustAdaptiveFeedforward
-    return make(est, dt=o.controller.Tc, config=_robust_config(o, J, ff_max), start=o.feedforward.start,
+    return make(est, dt=o.controller.Tc, config=_robust_config(o, ff_max), start=o.feedforward.start,
                 loop_model=_loop_model(o, J), sign_observer=_sign_observer(o, J))
 
 

@@ -46,6 +46,18 @@ _CHUNK_MIN = 8
 RECORDED = ("w", "w_meas", "u", "u_ff", "f")
 
 
+#: The fields of a ``ctl_scenario`` read after a run, at their offsets in the struct (numpy's view of the array of B:
+#: one pass per field instead of one cffi access per scenario): the metric accumulators (:data:`METRICS_DTYPE`, the
+#: bytes of ``ctl_metrics``), ``k_end``, ``diverged`` and ``n_theta_rec``.
+_SCENARIO_FIELDS = np.dtype({
+    "names": ["metrics", "k_end", "diverged", "n_theta_rec"],
+    "formats": [METRICS_DTYPE, f"i{ffi.sizeof('long')}", f"i{ffi.sizeof('int')}", f"i{ffi.sizeof('long')}"],
+    "offsets": [ffi.offsetof("ctl_scenario", f) for f in ("metrics", "k_end", "diverged", "n_theta_rec")],
+    "itemsize": ffi.sizeof("ctl_scenario")})
+if METRICS_DTYPE.itemsize != ffi.sizeof("ctl_metrics"):  # pragma: no cover - the dtype mirrors the C struct
+    raise ImportError(f"METRICS_DTYPE has {METRICS_DTYPE.itemsize} bytes, ctl_metrics {ffi.sizeof('ctl_metrics')}")
+
+
 def engine_threads() -> int:
     """Threads the engine runs chunks on: ``ADAPTIVE_FF_THREADS`` if set (an integer >= 1), else the CPUs this
     process may use."""
@@ -185,14 +197,13 @@ class EngineRun:
         self.scenarios = ffi.new("ctl_scenario[]", B)
         self._keep = []
         self._ops = {}
-        rec = ffi.from_buffer("double[]", self.rec)
-        th = ffi.from_buffer("double[]", self.theta)
-        thk = ffi.from_buffer("int64_t[]", self.theta_k)
-        for b in range(B):
-            sc = self.scenarios[b]
-            lib.ctl_scenario_init(ffi.addressof(self.scenarios, b), float(self._wr[0]) if n else 0.0)
-            lib.ctl_events_init(ffi.addressof(sc, "events"), ev[0] + b * S, ev[1] + b * S, S, ev[2] + b * R, R)
-            if decimate > 0:
+        lib.ctl_scenarios_init(self.scenarios, B, float(self._wr[0]) if n else 0.0, ev[0], ev[1], S, ev[2], R)
+        if decimate > 0:  # the records: row b of rec, theta and theta_k
+            rec = ffi.from_buffer("double[]", self.rec)
+            th = ffi.from_buffer("double[]", self.theta)
+            thk = ffi.from_buffer("int64_t[]", self.theta_k)
+            for b in range(B):
+                sc = self.scenarios[b]
                 sc.rec = rec + b * 5 * n_rec
                 if m_theta > 0 and n_theta > 0:
                     sc.theta = th + b * m_theta * max(n_theta, 1)
@@ -217,6 +228,32 @@ class EngineRun:
         sc.row_k = ffi.from_buffer("long[]", starts)
         sc.plant = state[0] if ffi.typeof(state).kind == "pointer" else state
         sc.w_limit = float(w_limit)
+
+    def set_plants(self, rows, states, index, w_limit) -> None:
+        """Every scenario's plant at once, each one that does not vary in time: scenario ``b`` steps the parameter
+        row ``rows[index[b]]`` (a cffi ``plant_params[]`` table, :func:`plant.rows.plant_rows`; kept alive here) from
+        the state ``states[index[b]]`` (``plant_state[]``, :func:`plant.rows.plant_states`, copied) with the
+        divergence bound ``w_limit[b]`` (rad/s): :meth:`set_plant` with one row for each, in one C pass
+        (``ctl_scenarios_set_plants``).
+
+        Raises
+        ------
+        ParameterError
+            ``index`` (shape (B,)) outside the table, ``w_limit`` not of shape (B,), or fewer states than rows.
+        """
+        B = len(self.scenarios)
+        idx = np.ascontiguousarray(index, dtype=np.int64)
+        lim = _f8(w_limit)
+        n_rows = len(rows)
+        if idx.shape != (B,) or (B and (idx.min() < 0 or idx.max() >= n_rows)):
+            raise ParameterError(f"index must hold {B} rows of the {n_rows} of the table, got {index!r}")
+        if lim.shape != (B,):
+            raise ParameterError(f"w_limit must have shape ({B},), got {np.shape(w_limit)}")
+        if len(states) < n_rows:
+            raise ParameterError(f"states must hold a state per row ({n_rows}), got {len(states)}")
+        self._keep.extend((rows, states))
+        lib.ctl_scenarios_set_plants(self.scenarios, B, rows, states, ffi.from_buffer("int64_t[]", idx),
+                                     ffi.from_buffer("double[]", lim))
 
     def set_noise_table(self, noise) -> None:
         """A table of noise rows, shape (R, N) (rad/s), that :meth:`set_noise_row` hands to scenarios; None: none."""
@@ -273,6 +310,11 @@ class EngineRun:
         """Scenario ``b``'s PI (a :class:`controllers.PIController`, copied by value)."""
         self.scenarios[b].pi = controller.cdata[0]
 
+    def set_pi_all(self, controller) -> None:
+        """Every scenario's PI: ``controller`` (a :class:`controllers.PIController`, copied by value into each; C
+        ``ctl_scenarios_set_pi``), :meth:`set_pi` of each scenario in one C pass."""
+        lib.ctl_scenarios_set_pi(self.scenarios, len(self.scenarios), controller.cdata)
+
     def set_compensator(self, b: int, comp) -> None:
         """Scenario ``b``'s compensator: its own struct is advanced in place (kept alive here); a
         :class:`controllers.simulation.user_compensator.UserCompensator` is called back through its ops table;
@@ -316,18 +358,19 @@ class EngineRun:
     def metrics(self) -> np.ndarray:
         """The scenarios' metric accumulators, a copy as a numpy array of
         :data:`controllers.simulation.metrics.METRICS_DTYPE`, shape (B,)."""
-        sc = self.scenarios
-        out = np.empty(len(sc), dtype=METRICS_DTYPE)
-        raw = out.view(np.uint8).reshape(len(sc), -1)
-        for b in range(len(sc)):
-            raw[b] = np.frombuffer(ffi.buffer(ffi.addressof(sc[b], "metrics")), dtype=np.uint8)
+        B = len(self.scenarios)
+        out = np.empty(B, dtype=METRICS_DTYPE)
+        raw = np.frombuffer(ffi.buffer(self.scenarios), dtype=np.uint8).reshape(B, _SCENARIO_FIELDS.itemsize)
+        off = _SCENARIO_FIELDS.fields["metrics"][1]
+        out.view(np.uint8).reshape(B, -1)[:] = raw[:, off:off + METRICS_DTYPE.itemsize]  # the bytes, as C has them
         return out
+
+    def _fields(self) -> np.ndarray:
+        """The scenarios' structs as a numpy view of :data:`_SCENARIO_FIELDS` (the fields read after a run), shape
+        (B,)."""
+        return np.frombuffer(ffi.buffer(self.scenarios), dtype=_SCENARIO_FIELDS)
 
     def outcome(self) -> tuple:
         """``(k_end, diverged, n_theta)`` arrays (int64, bool, int64) of shape (B,)."""
-        sc = self.scenarios
-        B = len(sc)
-        k_end = np.fromiter((sc[b].k_end for b in range(B)), dtype=np.int64, count=B)
-        div = np.fromiter((sc[b].diverged for b in range(B)), dtype=bool, count=B)
-        nth = np.fromiter((sc[b].n_theta_rec for b in range(B)), dtype=np.int64, count=B)
-        return k_end, div, nth
+        f = self._fields()
+        return f["k_end"].astype(np.int64), f["diverged"] != 0, f["n_theta_rec"].astype(np.int64)

@@ -693,11 +693,20 @@ def engine_motion(run, states, t, revs, *, window: float, diverged) -> tuple:
     revs = np.array(revs, dtype=float)
     for x in (a, b, band, revs):
         x.flags.writeable = False  # shared by the scenarios' results
-    common = dict(t_mid=float(t_mid), stop_start=a, stop_end=b, stop_band=band, reversal_times=revs,
-                  window=float(window), share=float(c.settle_share), floor=float(c.settle_floor))
-    return tuple(MotionMetrics(rms_motion=float(rm[i]), rms_standstill=float(rr[i]), max_standstill=float(mr[i]),
-                               settling_time=run.settle[i], stop_max=run.stop_max[i], reversal_max=run.rev_max[i],
-                               **common) for i in range(st.shape[0]))
+    t_mid, window, share, floor = float(t_mid), float(window), float(c.settle_share), float(c.settle_floor)
+    # each result's fields set as the dataclass's __init__ sets them, in field order (it checks nothing): the
+    # frozen class's per-field object.__setattr__ is most of the time of B results
+    make, out = MotionMetrics.__new__, []
+    for m, r, x, settle, stop_max, rev_max in zip(np.asarray(rm, dtype=float).tolist(),
+                                                  np.asarray(rr, dtype=float).tolist(),
+                                                  np.asarray(mr, dtype=float).tolist(), run.settle, run.stop_max,
+                                                  run.rev_max):
+        res = make(MotionMetrics)
+        res.__dict__.update(rms_motion=m, rms_standstill=r, max_standstill=x, t_mid=t_mid, stop_start=a, stop_end=b,
+                            stop_band=band, settling_time=settle, stop_max=stop_max, reversal_times=revs,
+                            reversal_max=rev_max, window=window, share=share, floor=floor)
+        out.append(res)
+    return tuple(out)
 
 
 def motion_metrics(t, w_ref, w, *, reversals, window: float = 0.2, share: float = SETTLE_SHARE,
