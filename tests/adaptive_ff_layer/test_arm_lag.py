@@ -159,6 +159,47 @@ def test_lag_options_are_checked(arm):
         identify_arm(log, arm, lag=3)
 
 
+def test_lag_records_draw_the_rigid_body_replicates_errors(arm, log):
+    """lag_records' error draws are each whole-arm replicate's removed torque less the fit's: a replicate whose
+    rigid body adds a constant torque c per joint reads e = -c on every sample; one whose J is larger by dJ reads
+    e = dJ ddq, ddq the central difference of the record's (1 kHz, every sample) velocity away from its ends."""
+    from adaptive_ff.arm.lag import lag_records
+
+    theta = np.array(arm.theta_urdf, dtype=float)
+    J = np.array([0.3, 0.15, 0.06])
+    c, dJ = np.array([0.2, -0.1, 0.05]), np.array([0.01, 0.02, -0.005])
+    rigid = lambda Y: Y @ theta  # noqa: E731
+    t, u, w, e = lag_records(log, arm, rigid, J, 20.0, replicates=[(lambda Y: Y @ theta + c, J), (rigid, J + dJ)])
+    t0, u0, w0 = lag_records(log, arm, rigid, J, 20.0)
+    assert np.array_equal(t, t0) and np.array_equal(u, u0) and np.array_equal(w, w0) and e.shape == (2,) + u.shape
+    np.testing.assert_allclose(e[0], np.broadcast_to(-c, u.shape), rtol=0, atol=1e-12)
+    ddq = np.gradient(w, t, axis=0)
+    np.testing.assert_allclose(e[1][1:-1], (ddq * dJ)[1:-1], rtol=1e-9, atol=1e-12)
+
+
+def test_output_error_bootstrap_input_errors(log):
+    """fit_physical's bootstrap_input_errors: rows of zeros give the bootstrap without them, bit for bit (each world
+    one simulation more); a constant error of 0.05 N·m moves the refits; a row of the wrong length, a NaN or a
+    vector is refused by name."""
+    from adaptive_ff.identification.physical_id import fit_physical
+    from plant.errors import ParameterError
+
+    t, u, w = log.t[1000:3500], log.tau[1000:3500, 0], log.dq[1000:3500, 0]
+    kw = dict(Vs=0.1, delta=1.0, n_bootstrap=2, bootstrap_refit="partial", bootstrap_workers=1, input_delay=0.0)
+    plain = fit_physical(t, u, w, **kw)
+    zero = fit_physical(t, u, w, bootstrap_input_errors=np.zeros((2, t.shape[0])), **kw)
+    assert zero.info["interval95"] == plain.info["interval95"] and zero.info["bootstrap"]["input_errors"] == 2
+    assert zero.info["bootstrap"]["n_simulations"] == plain.info["bootstrap"]["n_simulations"] + 2
+    moved = fit_physical(t, u, w, bootstrap_input_errors=np.full((1, t.shape[0]), 0.05), **kw)
+    assert moved.params == plain.params and moved.info["interval95"]["tau"] != plain.info["interval95"]["tau"]
+    with pytest.raises(ParameterError, match="bootstrap_input_errors must have one column per sample"):
+        fit_physical(t, u, w, bootstrap_input_errors=np.zeros((2, 10)), **kw)
+    with pytest.raises(ParameterError, match="bootstrap_input_errors must be a finite"):
+        fit_physical(t, u, w, bootstrap_input_errors=np.full((2, t.shape[0]), np.nan), **kw)
+    with pytest.raises(ParameterError, match="bootstrap_input_errors must be a finite"):
+        fit_physical(t, u, w, bootstrap_input_errors=np.zeros(t.shape[0]), **kw)
+
+
 def test_lag_workers_do_not_change_the_result(log):
     """The joints' lag fits in two worker processes give what they give one after the other in this process, bit
     for bit (each joint's bootstrap has its own seed)."""
