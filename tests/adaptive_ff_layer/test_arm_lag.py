@@ -91,6 +91,23 @@ def test_each_joint_lag_inside_its_interval_sliding_rows(result_sliding):
         assert lo <= TAU <= hi, (joint.name, joint.params["tau"], (lo, hi))
 
 
+def test_reported_lag_is_the_low_pass_correction(result):
+    """Each reported lag is the output-error estimate corrected for the record's low-pass (adaptive_ff.arm.lag,
+    "Reported"): on the secant through the two worlds' (lag, reading) points, the lag that reads as the estimate;
+    the interval is the fit's mapped through that secant (its slope where in (0, 1], else 1)."""
+    for joint in result.joints:
+        info, (lo, hi) = joint.lag_info, joint.interval95["tau"]
+        corr = info["lowpass"]
+        (x1, x2), (y1, y2) = corr["worlds"], corr["reads"]
+        assert x1 == info["estimate"] and x2 < x1 and 0.0 < corr["slope"] <= 1.0
+        if 0.0 < (y1 - y2) / (x1 - x2) <= 1.0:  # else 1: the mapping never narrows the interval
+            assert corr["slope"] == pytest.approx((y1 - y2) / (x1 - x2), rel=1e-12)
+        assert y2 + corr["slope"] * (joint.params["tau"] - x2) == pytest.approx(info["estimate"], rel=1e-12)
+        f_lo, f_hi = info["interval95"]
+        assert (lo, hi) == pytest.approx((joint.params["tau"] + (f_lo - x1) / corr["slope"],
+                                          joint.params["tau"] + (f_hi - x1) / corr["slope"]), rel=1e-12)
+
+
 def test_noise_estimate_per_joint(result, arm_json):
     """The velocity noise of each joint against the simulated 2 mrad/s (measured 1.982, 1.986, 2.040 mrad/s), in
     the entry as identify --json has it (excitation.noise_std)."""
