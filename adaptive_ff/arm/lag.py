@@ -40,10 +40,19 @@ the interval: a joint without a lag does not read as one here. Its friction jump
 the zero-phase low-pass of the record smooths over a few ms, and it sticks there, which eqs. 1-3 do not model; the
 fit reads both as a lag, often with an interval that excludes zero. What tells them apart is the bootstrap: on a
 lag-free joint the estimate is not a stable point of the fit and its refits read the lag markedly longer, on a
-lagged joint they do not; a lag-free shoulder's reading lies below two samples. The interval does not carry the
-reading's own error (a bias common to every refit): read a reported lag as an upper bound and its interval as too
-narrow. The measurements behind the rule and its limits: ``docs/your_arm.md`` (How, Lag; Not yet) and
-``benchmarks/arm_lag.py``.
+lagged joint they do not; a lag-free shoulder's reading lies below two samples.
+
+The bootstrap's worlds carry the identified rigid body's error: world ``i`` is driven by the record's torque less
+the difference of the ``i``-th whole-arm bootstrap replicate's removed torque from the fit's (:func:`lag_records`'
+``e``, :class:`LagWorld`; ``bootstrap_input_errors`` of the output-error fit), refitted with the record's torque.
+A reported lag is then corrected for the record's low-pass by indirect inference (:func:`_lowpass_correction`):
+the fitted joint, its lag at the estimate and at the estimate's one-step correction, is driven by the record's
+torque, its velocity put through the record's low-pass and fitted as the record is; the reported lag is the one
+that reads as the estimate on the secant through those two readings, and its interval is the fit's mapped through
+the same secant (its slope at most 1: the mapping never narrows it). Where that leaves no positive lag, ``tau`` is
+NaN. Neither carries the Stribeck shape the fit holds, nor the share of the low-pass that the fitted joint's world
+does not reproduce: the intervals remain too narrow. The measurements behind the rule, the correction and their
+limits: ``docs/your_arm.md`` (How, Lag; Not yet) and ``benchmarks/arm_lag.py``.
 
 The velocity noise of each joint (``excitation.noise_std`` of ``identify --json``) is
 :func:`adaptive_ff.identification.diagnostics.velocity_noise_std` of the log's velocity as measured (or of the
