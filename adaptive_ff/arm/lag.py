@@ -48,9 +48,12 @@ the difference of the ``i``-th whole-arm bootstrap replicate's removed torque fr
 A reported lag is then corrected for the record's low-pass by indirect inference (:func:`_lowpass_correction`):
 the fitted joint, its lag at the estimate and at the estimate's one-step correction, is driven by the record's
 torque, its velocity put through the record's low-pass and fitted as the record is; the reported lag is the one
-that reads as the estimate on the secant through those two readings, and its interval is the fit's mapped through
-the same secant (its slope at most 1: the mapping never narrows it). Where that leaves no positive lag, ``tau`` is
-NaN. Neither carries the Stribeck shape the fit holds, nor the share of the low-pass that the fitted joint's world
+that reads as the estimate on the secant through those two readings. Its interval is centred there, ``± t rms /
+slope``: ``rms`` the bootstrap refits' root-mean-square deviation from the estimate (their mean shift included),
+``t`` the Student-t quantile of the valid refits (:func:`adaptive_ff.identification.covariance.bootstrap_t_quantile`)
+and the secant's slope (at most 1: it never narrows the interval) mapping the reading's spread to the lag's; the
+correction, not the refits' mean shift (by which the fit's own interval is centred), stands for the bias. Where
+that leaves no positive lag, ``tau`` is NaN. Neither carries the Stribeck shape the fit holds, nor the share of the low-pass that the fitted joint's world
 does not reproduce: the intervals remain too narrow. The measurements behind the rule, the correction and their
 limits: ``docs/your_arm.md`` (How, Lag; Not yet) and ``benchmarks/arm_lag.py``.
 
@@ -250,10 +253,11 @@ def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTST
     -------
     JointLag
         ``tau`` NaN with ``reason`` where the fit fails or :func:`lag_reason` gives one, or where the low-pass
-        correction leaves no lag (module docstring, "Reported"); a reported ``tau`` and its interval corrected for
-        the low-pass where ``world.lowpass`` is given (``info["lowpass"]``: :func:`_lowpass_correction`'s numbers,
-        None where its worlds fail and the fit's own are reported).
+        correction leaves no lag (module docstring, "Reported"); where ``world.lowpass`` is given a reported ``tau``
+        is corrected for the low-pass and its interval is ``tau ± t rms / slope`` (``info["lowpass"]``:
+        :func:`_lowpass_correction`'s numbers, None where its worlds fail and the fit's own are reported).
     """
+    from adaptive_ff.identification.covariance import bootstrap_t_quantile
     from adaptive_ff.identification.physical_id import fit_physical
 
     stribeck = math.isfinite(Vs) and math.isfinite(delta)
@@ -281,7 +285,8 @@ def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTST
                 return JointLag(math.nan, (math.nan, math.nan), f"the output-error estimate {1e3 * est:.3g} ms is "
                                 f"all the record's low-pass: the fitted joint read through it reads "
                                 f"{1e3 * corr['reads'][0]:.3g} ms", info)
-            est, lo, hi = tau_ii, tau_ii + (lo - est) / slope, tau_ii + (hi - est) / slope
+            half = bootstrap_t_quantile(info["n_valid"], 0.95) * info["rms"] / slope
+            est, lo, hi = tau_ii, tau_ii - half, tau_ii + half
     return JointLag(est, (float(max(lo, 0.0)), float(hi)), None, info)
 
 

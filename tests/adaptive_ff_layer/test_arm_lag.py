@@ -94,7 +94,10 @@ def test_each_joint_lag_inside_its_interval_sliding_rows(result_sliding):
 def test_reported_lag_is_the_low_pass_correction(result):
     """Each reported lag is the output-error estimate corrected for the record's low-pass (adaptive_ff.arm.lag,
     "Reported"): on the secant through the two worlds' (lag, reading) points, the lag that reads as the estimate;
-    the interval is the fit's mapped through that secant (its slope where in (0, 1], else 1)."""
+    the interval is centred there, ± the Student-t quantile of the valid refits times their RMS deviation over the
+    secant's slope (where in (0, 1], else 1)."""
+    from scipy import stats
+
     for joint in result.joints:
         info, (lo, hi) = joint.lag_info, joint.interval95["tau"]
         corr = info["lowpass"]
@@ -103,9 +106,8 @@ def test_reported_lag_is_the_low_pass_correction(result):
         if 0.0 < (y1 - y2) / (x1 - x2) <= 1.0:  # else 1: the mapping never narrows the interval
             assert corr["slope"] == pytest.approx((y1 - y2) / (x1 - x2), rel=1e-12)
         assert y2 + corr["slope"] * (joint.params["tau"] - x2) == pytest.approx(info["estimate"], rel=1e-12)
-        f_lo, f_hi = info["interval95"]
-        assert (lo, hi) == pytest.approx((joint.params["tau"] + (f_lo - x1) / corr["slope"],
-                                          joint.params["tau"] + (f_hi - x1) / corr["slope"]), rel=1e-12)
+        half = stats.t.ppf(0.975, info["n_valid"]) * info["rms"] / corr["slope"]
+        assert (lo, hi) == pytest.approx((joint.params["tau"] - half, joint.params["tau"] + half), rel=1e-12)
 
 
 def test_noise_estimate_per_joint(result, arm_json):
