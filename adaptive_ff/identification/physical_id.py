@@ -768,10 +768,7 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
                if o.bootstrap_input_quantum == "auto" else float(o.bootstrap_input_quantum))
     n_sim = []  # per refit; list.append is atomic, the refits may run in threads
     simulate, errors = None, o.bootstrap_input_errors
-    if errors is not None:
-        if errors.shape[1] != pb.u.shape[0]:
-            raise ParameterError(f"bootstrap_input_errors must have one column per sample ({pb.u.shape[0]}), got "
-                                 f"shape {errors.shape}")
+    if errors is not None:  # its shape checked by _fit_output_error
         drawn = iter(range(o.n_bootstrap))
 
         def simulate(_rng):  # world i: the estimate driven by the logged input less error draw i (in replicate order)
@@ -842,6 +839,10 @@ def _oe_search(pb: _OutputErrorProblem, s0: dict, lag_refits: int | None = None,
 
 def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> PhysicalFit:
     """The output-error fit of eqs. 1-3 (module docstring): staged search, then Gauss-Newton errors."""
+    errors = opts.bootstrap_input_errors
+    if errors is not None and errors.shape[1] != u.shape[0]:
+        raise ParameterError(f"bootstrap_input_errors must have one column per sample ({u.shape[0]}), got shape "
+                             f"{errors.shape}")
     pb = _OutputErrorProblem(t, u, w, Vs, delta, offset, opts)
     names = _names(offset, pb.free_shape)
     s0 = dict(opts.start) if opts.start is not None else _start_from_paper(t, u, w, pb.Vs, pb.delta, offset)
