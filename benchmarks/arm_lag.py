@@ -17,7 +17,7 @@ reported null and, of the reported ones, the share whose 95 % interval holds the
 95 % binomial (Wilson) interval; and the reported intervals' median width over the true lag. ``--cache FILE`` keeps
 each arm's joints (JSON lines) and reads back the arms it already holds: it keeps the fits, and each joint is decided
 again by :func:`adaptive_ff.arm.lag.lag_reason` and the low-pass correction's sign (a cache made before a change of
-the lag fit itself is stale). 20 arms take about 8 minutes of CPU; the numbers, seeds 0-19
+the lag fit itself is stale). 20 arms take about 9 minutes of CPU; the numbers, seeds 0-19
 (the rule's) and 20-39 (its check), are in ``docs/your_arm.md`` (How, Lag).
 """
 
