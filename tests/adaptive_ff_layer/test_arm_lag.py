@@ -103,8 +103,10 @@ def test_reported_lag_is_the_low_pass_correction(result):
         corr = info["lowpass"]
         (x1, x2), (y1, y2) = corr["worlds"], corr["reads"]
         assert x1 == info["estimate"] and x2 < x1 and 0.0 < corr["slope"] <= 1.0
-        if 0.0 < (y1 - y2) / (x1 - x2) <= 1.0:  # else 1: the mapping never narrows the interval
+        if 0.0 < (y1 - y2) / (x1 - x2) <= 1.0:
             assert corr["slope"] == pytest.approx((y1 - y2) / (x1 - x2), rel=1e-12)
+        else:  # the mapping never narrows the interval
+            assert corr["slope"] == 1.0
         assert y2 + corr["slope"] * (joint.params["tau"] - x2) == pytest.approx(info["estimate"], rel=1e-12)
         half = stats.t.ppf(0.975, info["n_valid"]) * info["rms"] / corr["slope"]
         assert (lo, hi) == pytest.approx((joint.params["tau"] - half, joint.params["tau"] + half), rel=1e-12)
