@@ -14,9 +14,10 @@ lag fits do not use its intervals).
 
 Printed: over the lag-free joints the share reported with a lag (false lags); over the lagged joints the share
 reported null and, of the reported ones, the share whose 95 % interval holds the true lag (coverage), each with its
-95 % binomial (Wilson) interval. ``--cache FILE`` keeps each arm's joints (JSON lines) and reads back the arms it
-already holds: it keeps the fits, and each joint is decided again by :func:`adaptive_ff.arm.lag.lag_reason` (a cache
-made before a change of the lag fit itself is stale). 20 arms take about 8 minutes of CPU; the numbers, seeds 0-19
+95 % binomial (Wilson) interval; and the reported intervals' median width over the true lag. ``--cache FILE`` keeps
+each arm's joints (JSON lines) and reads back the arms it already holds: it keeps the fits, and each joint is decided
+again by :func:`adaptive_ff.arm.lag.lag_reason` and the low-pass correction's sign (a cache made before a change of
+the lag fit itself is stale). 20 arms take about 9 minutes of CPU; the numbers, seeds 0-19
 (the rule's) and 20-39 (its check), are in ``docs/your_arm.md`` (How, Lag).
 """
 
@@ -101,17 +102,21 @@ def reported(row: dict) -> bool:
     if "estimate" not in info:  # the fit failed
         return False
     lo, hi = info.get("interval95", (row["lo"], row["hi"]))
-    return lag_reason(info["estimate"], (lo, hi), info) is None
+    corrected = info.get("lowpass")  # the low-pass correction leaves no lag
+    return lag_reason(info["estimate"], (lo, hi), info) is None and not (corrected and not corrected["tau"] > 0.0)
 
 
 def summary(rows: list) -> dict:
-    """``{"false", "missed", "covered"}``: each ``(k, n)`` over ``rows`` (module docstring)."""
+    """``{"false", "missed", "covered"}``: each ``(k, n)`` over ``rows`` (module docstring); ``"width"``: the
+    reported intervals' median width over the true lag."""
     free = [r for r in rows if r["true"] == 0.0]
     lagged = [r for r in rows if r["true"] > 0.0]
     reported_ = [r for r in lagged if reported(r)]
+    width = [(r["hi"] - r["lo"]) / r["true"] for r in reported_]
     return {"false": (sum(map(reported, free)), len(free)),
             "missed": (len(lagged) - len(reported_), len(lagged)),
-            "covered": (sum(r["lo"] <= r["true"] <= r["hi"] for r in reported_), len(reported_))}
+            "covered": (sum(r["lo"] <= r["true"] <= r["hi"] for r in reported_), len(reported_)),
+            "width": float(np.median(width)) if width else math.nan}
 
 
 def _read_cache(path) -> dict:
@@ -164,6 +169,7 @@ def main(argv=None) -> int:
         k, n = s[key]
         lo, hi = wilson(k, n)
         print(f"  {text:50s} {k:3d} / {n:3d} = {k / n if n else math.nan:5.3f}  [{max(lo, 0.0):.3f}, {min(hi, 1.0):.3f}]")
+    print(f"  {'median width of the reported intervals / true lag':50s} {s['width']:.3f}")
     return 0
 
 

@@ -84,7 +84,7 @@ from plant.errors import ExcitationError, ParameterError, SignalError
 from plant.stribeck_map import stribeck_shape
 
 from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states, parallel_filter
-from adaptive_ff.arm.lag import JointLag, LagOptions, joint_lags, lag_records, velocity_noise
+from adaptive_ff.arm.lag import LAG_CUTOFF_FACTOR, JointLag, LagOptions, joint_lags, lag_records, velocity_noise
 from adaptive_ff.arm.result import ArmIdentification, ArmJoint
 from adaptive_ff.arm.robot import ArmModel
 from adaptive_ff.arm.rows import DEFAULT_ROWS, REST_WINDOW, ROWS
@@ -646,7 +646,8 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     a_J = _inertia_rows(arm, base, log.q.mean(axis=0))  # the log's mean configuration (all its samples)
     r = Yb.shape[2]
     J_all = a_J @ (x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf))
-    lags = _lags(log, arm, (base, x[:r], rigid_body), J_all, _lag_shapes(Vs, delta, table), cutoff,
+    reps = (boot.replicates[:, :r], boot.replicates[:, :r] @ a_J.T) if rigid_body == "fit" else None
+    lags = _lags(log, arm, (base, x[:r], rigid_body, reps), J_all, _lag_shapes(Vs, delta, table), cutoff,
                  (lag, seed, progress))
     noise = velocity_noise(log)
     rest = np.mean(np.abs(w_fast) < vmin, axis=0) if rows == "moving" else None  # each joint's share at rest
@@ -740,18 +741,30 @@ def _lag_shapes(Vs, delta, table) -> list:
 
 def _lags(log, arm, rb, J, shapes, cutoff, settings) -> list:
     """Every joint's :class:`adaptive_ff.arm.lag.JointLag` (``settings``: ``(lag, seed, progress)``; ``rb``:
-    ``(base, beta, rigid_body)``; ``shapes``: each joint's ``(Vs, delta)`` held in its fit)."""
+    ``(base, beta, rigid_body, replicates)``, ``replicates`` None or the whole-arm bootstrap's ``(beta_k (k, r),
+    J_k (k, N))``, whose removed torques' differences from the fit's each lag bootstrap carries (refit ``i`` the
+    ``i``-th; :mod:`adaptive_ff.arm.lag`, "Reported"); ``shapes``: each joint's ``(Vs, delta)`` held in its fit)."""
     on, seed, progress = settings
     if on is False:
         return [JointLag(np.nan, (np.nan, np.nan), "not asked for (lag=False; identify-arm --no-lag)")] * arm.n
-    base, beta, mode = rb
-    theta = np.zeros(11 * arm.n)
-    if mode == "fit":
-        theta[base.independent] = beta  # the dependent columns are spanned by the independent ones
+    base, beta, mode, reps = rb
+    options = LagOptions() if on is True else on
+
+    def rigid_of(b):
+        theta = np.zeros(11 * arm.n)
+        theta[base.independent] = b  # the dependent columns are spanned by the independent ones
+        return lambda Y: Y @ theta
+
+    rigid = rigid_of(beta) if mode == "fit" else (lambda Y: Y @ arm.theta_urdf)
+    if reps is None or reps[0].shape[0] == 0:
+        t, u, w = lag_records(log, arm, rigid, J, cutoff)
+        errors = None
     else:
-        theta = arm.theta_urdf
-    t, u, w = lag_records(log, arm, lambda Y: Y @ theta, J, cutoff)
-    return joint_lags(t, u, w, shapes, options=LagOptions() if on is True else on, seed=seed, progress=progress)
+        k = np.arange(options.n_bootstrap) % reps[0].shape[0]  # fewer whole-arm replicates: taken in turn again
+        t, u, w, errors = lag_records(log, arm, rigid, J, cutoff,
+                                      replicates=[(rigid_of(reps[0][i]), reps[1][i]) for i in k])
+    return joint_lags(t, u, w, shapes, options=options, seed=seed, progress=progress, errors=errors,
+                      lowpass=LAG_CUTOFF_FACTOR * cutoff)
 
 
 def _arm_warnings(cond: float, no_sensitivity: bool = False) -> list:

@@ -40,10 +40,22 @@ the interval: a joint without a lag does not read as one here. Its friction jump
 the zero-phase low-pass of the record smooths over a few ms, and it sticks there, which eqs. 1-3 do not model; the
 fit reads both as a lag, often with an interval that excludes zero. What tells them apart is the bootstrap: on a
 lag-free joint the estimate is not a stable point of the fit and its refits read the lag markedly longer, on a
-lagged joint they do not; a lag-free shoulder's reading lies below two samples. The interval does not carry the
-reading's own error (a bias common to every refit): read a reported lag as an upper bound and its interval as too
-narrow. The measurements behind the rule and its limits: ``docs/your_arm.md`` (How, Lag; Not yet) and
-``benchmarks/arm_lag.py``.
+lagged joint they do not; a lag-free shoulder's reading lies below two samples.
+
+The bootstrap's worlds carry the identified rigid body's error: world ``i`` is driven by the record's torque less
+the difference of the ``i``-th whole-arm bootstrap replicate's removed torque from the fit's (:func:`lag_records`'
+``e``, :class:`LagWorld`; ``bootstrap_input_errors`` of the output-error fit), refitted with the record's torque.
+A reported lag is then corrected for the record's low-pass by indirect inference (:func:`_lowpass_correction`):
+the fitted joint, its lag at the estimate and at the estimate's one-step correction, is driven by the record's
+torque, its velocity put through the record's low-pass and fitted as the record is; the reported lag is the one
+that reads as the estimate on the secant through those two readings. Its interval is centred there, ``± t rms /
+slope``: ``rms`` the bootstrap refits' root-mean-square deviation from the estimate (their mean shift included),
+``t`` the Student-t quantile of the valid refits (:func:`adaptive_ff.identification.covariance.bootstrap_t_quantile`)
+and the secant's slope (at most 1: it never narrows the interval) mapping the reading's spread to the lag's; the
+correction, not the refits' mean shift (by which the fit's own interval is centred), stands for the bias. Where
+that leaves no positive lag, ``tau`` is NaN. Neither carries the Stribeck shape the fit holds, nor the share of the low-pass that the fitted joint's world
+does not reproduce: the intervals remain too narrow. The measurements behind the rule, the correction and their
+limits: ``docs/your_arm.md`` (How, Lag; Not yet) and ``benchmarks/arm_lag.py``.
 
 The velocity noise of each joint (``excitation.noise_std`` of ``identify --json``) is
 :func:`adaptive_ff.identification.diagnostics.velocity_noise_std` of the log's velocity as measured (or of the
@@ -59,7 +71,7 @@ import numpy as np
 
 from plant.errors import ExcitationError, ParameterError, SignalError
 
-__all__ = ["JointLag", "LagOptions", "LAG_RATE", "LAG_CUTOFF_FACTOR", "LAG_BOOTSTRAP", "LAG_WORKERS",
+__all__ = ["JointLag", "LagOptions", "LagWorld", "LAG_RATE", "LAG_CUTOFF_FACTOR", "LAG_BOOTSTRAP", "LAG_WORKERS",
            "LAG_FLOOR_SAMPLES", "LAG_SHIFT_MAX", "lag_records", "joint_lag", "joint_lags", "lag_reason", "velocity_noise"]
 
 #: Rate (Hz) at which the output-error record samples the log (every k-th sample; a slower log is taken as is).
@@ -148,7 +160,7 @@ def _filtered_full(log, cutoff: float, step: int) -> tuple:
     return sel, q[sel], dq[sel], ddq[sel], tau[sel]
 
 
-def lag_records(log, arm, rigid, J, cutoff: float) -> tuple:
+def lag_records(log, arm, rigid, J, cutoff: float, *, replicates=None) -> tuple:
     """Every joint's output-error record: the rigid-body-removed torque and the measured velocity (module docstring).
 
     Parameters
@@ -164,18 +176,28 @@ def lag_records(log, arm, rigid, J, cutoff: float) -> tuple:
         Each joint's ``M_jj`` at the log's mean configuration (kg·m²).
     cutoff : float
         The identification's cutoff (Hz); the states here are filtered at :data:`LAG_CUTOFF_FACTOR` times it.
+    replicates : sequence of (callable, array_like) or None, keyword-only
+        The whole-arm bootstrap's replicates as ``(rigid_k, J_k)``, each like ``rigid`` and ``J``; None (default):
+        none.
 
     Returns
     -------
     t : ndarray, shape (n,)
     u, w : ndarray, shape (n, N)
         Removed torque (N·m) and velocity (rad/s) per joint, both from the zero-phase low-pass.
+    e : ndarray, shape (k, n, N)
+        Only with ``replicates``: each replicate's removed torque less ``u`` (N·m), the draws of ``u``'s error from
+        the identified rigid body that each joint's lag bootstrap carries (module docstring, "Reported").
     """
     Ts = float(np.median(np.diff(log.t)))
     step = max(1, int(round(1.0 / (LAG_RATE * Ts))))
     sel, q, dq, ddq, tau = _filtered_full(log, LAG_CUTOFF_FACTOR * cutoff, step)
-    other = rigid(arm.regressor(q, dq, ddq)) - ddq * np.asarray(J, dtype=float)
-    return log.t[sel], tau - other, dq
+    Y = arm.regressor(q, dq, ddq)
+    other = rigid(Y) - ddq * np.asarray(J, dtype=float)
+    if replicates is None:
+        return log.t[sel], tau - other, dq
+    e = np.array([other - (rigid_k(Y) - ddq * np.asarray(J_k, dtype=float)) for rigid_k, J_k in replicates])
+    return log.t[sel], tau - other, dq, e
 
 
 def velocity_noise(log) -> np.ndarray:
@@ -189,7 +211,27 @@ def velocity_noise(log) -> np.ndarray:
     return np.array([velocity_noise_std(w[:, j]) for j in range(w.shape[1])])
 
 
-def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTSTRAP, seed: int = 0) -> JointLag:
+@dataclass(frozen=True)
+class LagWorld:
+    """What a joint's lag fit takes from beyond its record (:func:`joint_lag`; module docstring, "Reported").
+
+    Attributes
+    ----------
+    input_errors : ndarray, shape (k, n), or None
+        Draws of the removed torque's error from the identified rigid body (:func:`lag_records`' ``e`` of the
+        joint): bootstrap world ``i`` is driven by the record's torque less row ``i mod k``
+        (``bootstrap_input_errors`` of the output-error fit). None: the torque taken as exact.
+    lowpass : float or None
+        Cutoff (Hz) of the record's zero-phase low-pass (:func:`lag_records`; at most a fifth of the record's
+        rate), through which a reported lag is corrected (:func:`joint_lag`). None: not corrected.
+    """
+
+    input_errors: np.ndarray | None = None
+    lowpass: float | None = None
+
+
+def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTSTRAP, seed: int = 0,
+              world: LagWorld = LagWorld()) -> JointLag:
     """One joint's lag by the package's output-error fit on its rigid-body-removed record (module docstring).
 
     Parameters
@@ -203,20 +245,26 @@ def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTST
         Refits of the fit's bootstrap (``bootstrap_refit="partial"``), >= 2.
     seed : int, keyword-only
         The bootstrap's seed.
+    world : LagWorld, keyword-only
+        The rigid body's error draws for the bootstrap and the record's low-pass for the correction; default none
+        of either.
 
     Returns
     -------
     JointLag
-        ``tau`` NaN with ``reason`` where the fit fails or :func:`lag_reason` gives one (module docstring,
-        "Reported").
+        ``tau`` NaN with ``reason`` where the fit fails or :func:`lag_reason` gives one, or where the low-pass
+        correction leaves no lag (module docstring, "Reported"); where ``world.lowpass`` is given a reported ``tau``
+        is corrected for the low-pass and its interval is ``tau ± t rms / slope`` (``info["lowpass"]``:
+        :func:`_lowpass_correction`'s numbers, None where its worlds fail and the fit's own are reported).
     """
+    from adaptive_ff.identification.covariance import bootstrap_t_quantile
     from adaptive_ff.identification.physical_id import fit_physical
 
     stribeck = math.isfinite(Vs) and math.isfinite(delta)
     try:
         fit = fit_physical(t, u, w, Vs=Vs if stribeck else None, delta=delta if stribeck else None,
                            n_bootstrap=int(n_bootstrap), bootstrap_refit="partial", bootstrap_seed=int(seed),
-                           bootstrap_workers=1, input_delay=0.0)
+                           bootstrap_workers=1, input_delay=0.0, bootstrap_input_errors=world.input_errors)
     except (ExcitationError, SignalError, ParameterError) as err:
         return JointLag(math.nan, (math.nan, math.nan), f"the output-error fit on its rigid-body-removed record "
                         f"failed ({err})", {"samples": int(t.shape[0])})
@@ -228,7 +276,58 @@ def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTST
     reason = lag_reason(est, (lo, hi), info)
     if reason is not None:
         return JointLag(math.nan, (math.nan, math.nan), reason, info)
-    return JointLag(est, (float(lo), float(hi)), None, info)
+    if world.lowpass is not None:
+        corr = _lowpass_correction(t, u, w, fit, min(float(world.lowpass), 0.2 * info["rate"]))
+        info["lowpass"] = corr
+        if corr is not None:
+            tau_ii, slope = corr["tau"], corr["slope"]
+            if not tau_ii > 0.0:
+                return JointLag(math.nan, (math.nan, math.nan), f"the output-error estimate {1e3 * est:.3g} ms is "
+                                f"all the record's low-pass: the fitted joint read through it reads "
+                                f"{1e3 * corr['reads'][0]:.3g} ms", info)
+            half = bootstrap_t_quantile(info["n_valid"], 0.95) * info["rms"] / slope
+            est, lo, hi = tau_ii, tau_ii - half, tau_ii + half
+    return JointLag(est, (float(max(lo, 0.0)), float(hi)), None, info)
+
+
+def _lowpass_correction(t, u, w, fit, lowpass: float) -> dict | None:
+    """The lag the fit reads as its estimate once the record's low-pass is counted (indirect inference): ``{"tau",
+    "slope", "worlds", "reads"}`` (s, -, s, s), or None where a world cannot be simulated or fitted.
+
+    World ``k``: the fitted joint with lag ``worlds[k]`` (the estimate, then its one-step correction) driven by
+    the record's input, its velocity through the record's zero-phase low-pass (``lowpass`` Hz, 4th order), fitted
+    as the record is (from the fit's values, its predictor and robust scale, without the profile over tau): it
+    reads ``reads[k]``. ``tau`` solves ``reads(tau) = estimate`` on their secant, whose slope (at most 1, else 1)
+    maps the interval."""
+    from scipy.signal import butter, filtfilt
+
+    from adaptive_ff.identification.physical_id import fit_physical
+    from adaptive_ff.identification.simulator import simulate_sampled
+    from plant.friction import JointParams
+
+    p = fit.params
+    Vs, delta = fit.info["fixed"]["Vs"], fit.info["fixed"]["delta"]
+    b, a = butter(4, min(2.0 * lowpass * float(np.median(np.diff(t))), 0.8))
+    start = {k: float(p[k]) for k in ("J", "Fc", "Fs", "sigma", "offset")}
+
+    def reads(tau):
+        jp = JointParams(J=p["J"], Fc=p["Fc"], Fs=p["Fs"], Vs=Vs, delta=delta, sigma=p["sigma"], tau=tau)
+        sim = simulate_sampled(jp, t, u, w0=float(w[0]), f0=float(u[0]), offset=float(p["offset"]))
+        world = fit_physical(t, u, filtfilt(b, a, sim), Vs=Vs, delta=delta, n_bootstrap=0, input_delay=0.0,
+                             start=dict(start, tau=tau), lag_profile=False, predictor=fit.info["predictor"],
+                             f_scale=fit.info["f_scale"])
+        return float(world.params["tau"])
+
+    est = float(p["tau"])
+    try:
+        b1 = reads(est)
+        tau1 = max(est - (b1 - est), 0.5 * est)
+        b2 = reads(tau1)
+    except (ExcitationError, SignalError, ParameterError, TypeError):
+        return None
+    slope = (b1 - b2) / (est - tau1) if est != tau1 else math.nan
+    slope = min(slope, 1.0) if math.isfinite(slope) and slope > 0.0 else 1.0
+    return {"tau": tau1 + (est - b2) / slope, "slope": slope, "worlds": [est, tau1], "reads": [b1, b2]}
 
 
 def lag_reason(estimate: float, interval95: tuple, info: dict) -> str | None:
@@ -286,7 +385,8 @@ def _worker_init() -> None:
     threadpool_limits(limits=1, user_api="blas")
 
 
-def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int = 0, progress=False) -> list:
+def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int = 0, progress=False,
+               errors=None, lowpass=None) -> list:
     """Every joint's :func:`joint_lag`, in ``options.workers`` processes (joint ``j`` seeded ``seed + j``).
 
     Parameters
@@ -303,6 +403,11 @@ def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int
         Joint ``j``'s bootstrap takes ``seed + j``.
     progress : bool or None, keyword-only
         A tqdm bar over the joints on stderr: True, False (default), None (only on a terminal).
+    errors : ndarray, shape (k, n, N), or None, keyword-only
+        :func:`lag_records`' draws of the removed torques' errors (joint ``j``'s ``errors[:, :, j]``, the first
+        ``options.n_bootstrap`` rows: :class:`LagWorld`'s ``input_errors``); None (default): none.
+    lowpass : float or None, keyword-only
+        The record's low-pass cutoff (Hz), :class:`LagWorld`'s ``lowpass``; None (default): no correction.
 
     Returns
     -------
@@ -313,7 +418,9 @@ def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int
 
     n = u.shape[1]
     jobs = [((t, u[:, j], w[:, j], float(shapes[j][0]), float(shapes[j][1])),
-             {"n_bootstrap": int(options.n_bootstrap), "seed": int(seed) + j}) for j in range(n)]
+             {"n_bootstrap": int(options.n_bootstrap), "seed": int(seed) + j,
+              "world": LagWorld(None if errors is None else errors[: int(options.n_bootstrap), :, j], lowpass)})
+            for j in range(n)]
     bar = tqdm(total=n, desc="arm friction lag", unit="joint", leave=False,
                disable=(None if progress is None else not progress))
     out = [None] * n

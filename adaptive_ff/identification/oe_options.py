@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -110,6 +110,14 @@ class OutputErrorOptions:
         samples lie on (:func:`adaptive_ff.identification.diagnostics.input_quantum`; 0 for a continuous input,
         whose bootstrap is then that of None bit for bit); a float >= 0: that resolution (0: none); None: the
         logged input taken as exact. Reported in ``info["bootstrap"]["input_quantum"]``.
+    bootstrap_input_errors : array_like or None, keyword-only
+        Draws of the logged input's error (logged less true, N·m), shape (k, N) with N the record's samples
+        (finite; a record's input that is itself an estimate, e.g. a torque with an identified rigid body
+        removed, whose own bootstrap gives the draws): bootstrap world ``i`` is the estimate driven by the logged
+        input less row ``i mod k`` (one more simulation per replicate), refitted with the logged input, so that
+        the refits carry that error too (module docstring of :mod:`adaptive_ff.identification.oe_intervals`,
+        "Standard errors"; with ``bootstrap_input_quantum`` its draw is added about the logged input). None
+        (default): none. Reported in ``info["bootstrap"]["input_errors"]`` (the rows k).
     jacobian : {"difference", "sensitivity"}, keyword-only
         Jacobian of the trust-region fits. ``"difference"`` (default): forward differences with the relative
         step ``diff_step`` (a secant over 1 % of each parameter, which sees past the breakaway jitter of the
@@ -151,6 +159,7 @@ class OutputErrorOptions:
     bootstrap_lag_refits: int | None = 2
     jacobian: str = "difference"
     bootstrap_input_quantum: float | str | None = "auto"
+    bootstrap_input_errors: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self):
         def put(name, value):
@@ -193,6 +202,13 @@ class OutputErrorOptions:
             if q < 0:
                 raise ParameterError(f"bootstrap_input_quantum must be >= 0 N·m, 'auto' or None, got {q!r}")
             put("bootstrap_input_quantum", float(q))
+        if self.bootstrap_input_errors is not None:
+            e = np.array(self.bootstrap_input_errors, dtype=float)
+            if e.ndim != 2 or e.shape[0] < 1 or not np.all(np.isfinite(e)):
+                raise ParameterError(f"bootstrap_input_errors must be a finite (k, N) array with k >= 1, got shape "
+                                     f"{e.shape}{'' if np.all(np.isfinite(e)) else ' with non-finite values'}")
+            e.setflags(write=False)
+            put("bootstrap_input_errors", e)
 
     def workers(self) -> int:
         """Threads of the bootstrap refits: ``bootstrap_workers``, or (None) the CPUs this process may use

@@ -767,6 +767,12 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
     quantum = (0.0 if o.bootstrap_input_quantum is None else input_quantum(pb.u)  # drawn into each world's input
                if o.bootstrap_input_quantum == "auto" else float(o.bootstrap_input_quantum))
     n_sim = []  # per refit; list.append is atomic, the refits may run in threads
+    simulate, errors = None, o.bootstrap_input_errors
+    if errors is not None:  # its shape checked by _fit_output_error
+        drawn = iter(range(o.n_bootstrap))
+
+        def simulate(_rng):  # world i: the estimate driven by the logged input less error draw i (in replicate order)
+            return pb.simulate_input(x, pb.u - errors[next(drawn) % errors.shape[0]])[pb.i0:]
 
     def world(y_star, rng):  # the replicate record: the estimate driven by an input the log reads as pb.u
         w_star = w_hat.copy()
@@ -797,15 +803,16 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
     est = np.array([v[k] for k in names])
     settings = BootstrapSettings(n=o.n_bootstrap, block=_BOOT_BLOCK * (andrews_bandwidth(r) + 1),
                                  seed=o.bootstrap_seed, scheme=_BOOT_SCHEME)
-    b = parametric_block_bootstrap(refit, w_hat[pb.i0:], r, est, settings=settings, workers=o.workers(),
-                                   progress=o.progress)
+    b = parametric_block_bootstrap(refit, w_hat[pb.i0:], r, est, settings=settings, simulate=simulate,
+                                   workers=o.workers(), progress=o.progress)
     details = {"n": o.n_bootstrap, "n_valid": b.n_valid, "block": int(b.block), "seed": o.bootstrap_seed,
                "start_spread": _BOOT_START, "resampling": _BOOT_SCHEME,
                "refit": (_BOOT_REFIT if o.bootstrap_refit == "partial"
                          else "the fit's own search from the replicate's start"),
                "lag_refits": (o.bootstrap_lag_refits if o.bootstrap_refit == "full" and o.lag_profile else None),
                "input_delay": float(pb.input_delay), "input_quantum": quantum,
-               "n_simulations": int(sum(n_sim))}
+               "input_errors": None if errors is None else int(errors.shape[0]),
+               "n_simulations": int(sum(n_sim)) + (0 if errors is None else o.n_bootstrap)}
     details.update(oe_band(pb, names, est, b))
     return dict(zip(names, map(float, b.stderr))), dict(zip(names, map(float, b.bias))), details
 
@@ -832,6 +839,10 @@ def _oe_search(pb: _OutputErrorProblem, s0: dict, lag_refits: int | None = None,
 
 def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> PhysicalFit:
     """The output-error fit of eqs. 1-3 (module docstring): staged search, then Gauss-Newton errors."""
+    errors = opts.bootstrap_input_errors
+    if errors is not None and errors.shape[1] != u.shape[0]:
+        raise ParameterError(f"bootstrap_input_errors must have one column per sample ({u.shape[0]}), got shape "
+                             f"{errors.shape}")
     pb = _OutputErrorProblem(t, u, w, Vs, delta, offset, opts)
     names = _names(offset, pb.free_shape)
     s0 = dict(opts.start) if opts.start is not None else _start_from_paper(t, u, w, pb.Vs, pb.delta, offset)
@@ -897,7 +908,7 @@ def fit_physical(t, u, w, *, Vs: float | None, delta: float | None, method: str 
         ``input_delay``, ``interp``, ``burn``, ``fs_grid``, ``fs_max_ratio``,
         ``diff_step``, ``max_nfev``, ``loss``, ``f_scale``, ``start``,
         ``n_bootstrap``, ``bootstrap_seed``, ``bootstrap_refit``, ``bootstrap_lag_refits``, ``lag_profile``,
-        ``jacobian``, ``bootstrap_input_quantum``; units and defaults there),
+        ``jacobian``, ``bootstrap_input_quantum``, ``bootstrap_input_errors``; units and defaults there),
         validated by it.
 
     Returns

@@ -91,6 +91,27 @@ def test_each_joint_lag_inside_its_interval_sliding_rows(result_sliding):
         assert lo <= TAU <= hi, (joint.name, joint.params["tau"], (lo, hi))
 
 
+def test_reported_lag_is_the_low_pass_correction(result):
+    """Each reported lag is the output-error estimate corrected for the record's low-pass (adaptive_ff.arm.lag,
+    "Reported"): on the secant through the two worlds' (lag, reading) points, the lag that reads as the estimate;
+    the interval is centred there, ± the Student-t quantile of the valid refits times their RMS deviation over the
+    secant's slope (where in (0, 1], else 1)."""
+    from scipy import stats
+
+    for joint in result.joints:
+        info, (lo, hi) = joint.lag_info, joint.interval95["tau"]
+        corr = info["lowpass"]
+        (x1, x2), (y1, y2) = corr["worlds"], corr["reads"]
+        assert x1 == info["estimate"] and x2 < x1 and 0.0 < corr["slope"] <= 1.0
+        if 0.0 < (y1 - y2) / (x1 - x2) <= 1.0:
+            assert corr["slope"] == pytest.approx((y1 - y2) / (x1 - x2), rel=1e-12)
+        else:  # the mapping never narrows the interval
+            assert corr["slope"] == 1.0
+        assert y2 + corr["slope"] * (joint.params["tau"] - x2) == pytest.approx(info["estimate"], rel=1e-12)
+        half = stats.t.ppf(0.975, info["n_valid"]) * info["rms"] / corr["slope"]
+        assert (lo, hi) == pytest.approx((joint.params["tau"] - half, joint.params["tau"] + half), rel=1e-12)
+
+
 def test_noise_estimate_per_joint(result, arm_json):
     """The velocity noise of each joint against the simulated 2 mrad/s (measured 1.982, 1.986, 2.040 mrad/s), in
     the entry as identify --json has it (excitation.noise_std)."""
@@ -157,6 +178,47 @@ def test_lag_options_are_checked(arm):
     log = simulate_arm(arm, FRICTION, run=ArmSimulation(duration=2.0, substeps=1), seed=3, armature=ARMATURE)
     with pytest.raises(ParameterError, match="lag must be True, False or a LagOptions, got 3"):
         identify_arm(log, arm, lag=3)
+
+
+def test_lag_records_draw_the_rigid_body_replicates_errors(arm, log):
+    """lag_records' error draws are each whole-arm replicate's removed torque less the fit's: a replicate whose
+    rigid body adds a constant torque c per joint reads e = -c on every sample; one whose J is larger by dJ reads
+    e = dJ ddq, ddq the central difference of the record's (1 kHz, every sample) velocity away from its ends."""
+    from adaptive_ff.arm.lag import lag_records
+
+    theta = np.array(arm.theta_urdf, dtype=float)
+    J = np.array([0.3, 0.15, 0.06])
+    c, dJ = np.array([0.2, -0.1, 0.05]), np.array([0.01, 0.02, -0.005])
+    rigid = lambda Y: Y @ theta  # noqa: E731
+    t, u, w, e = lag_records(log, arm, rigid, J, 20.0, replicates=[(lambda Y: Y @ theta + c, J), (rigid, J + dJ)])
+    t0, u0, w0 = lag_records(log, arm, rigid, J, 20.0)
+    assert np.array_equal(t, t0) and np.array_equal(u, u0) and np.array_equal(w, w0) and e.shape == (2,) + u.shape
+    np.testing.assert_allclose(e[0], np.broadcast_to(-c, u.shape), rtol=0, atol=1e-12)
+    ddq = np.gradient(w, t, axis=0)
+    np.testing.assert_allclose(e[1][1:-1], (ddq * dJ)[1:-1], rtol=1e-9, atol=1e-12)
+
+
+def test_output_error_bootstrap_input_errors(log):
+    """fit_physical's bootstrap_input_errors: rows of zeros give the bootstrap without them, bit for bit (each world
+    one simulation more); a constant error of 0.05 N·m moves the refits; a row of the wrong length, a NaN or a
+    vector is refused by name."""
+    from adaptive_ff.identification.physical_id import fit_physical
+    from plant.errors import ParameterError
+
+    t, u, w = log.t[1000:3500], log.tau[1000:3500, 0], log.dq[1000:3500, 0]
+    kw = dict(Vs=0.1, delta=1.0, n_bootstrap=2, bootstrap_refit="partial", bootstrap_workers=1, input_delay=0.0)
+    plain = fit_physical(t, u, w, **kw)
+    zero = fit_physical(t, u, w, bootstrap_input_errors=np.zeros((2, t.shape[0])), **kw)
+    assert zero.info["interval95"] == plain.info["interval95"] and zero.info["bootstrap"]["input_errors"] == 2
+    assert zero.info["bootstrap"]["n_simulations"] == plain.info["bootstrap"]["n_simulations"] + 2
+    moved = fit_physical(t, u, w, bootstrap_input_errors=np.full((1, t.shape[0]), 0.05), **kw)
+    assert moved.params == plain.params and moved.info["interval95"]["tau"] != plain.info["interval95"]["tau"]
+    with pytest.raises(ParameterError, match="bootstrap_input_errors must have one column per sample"):
+        fit_physical(t, u, w, bootstrap_input_errors=np.zeros((2, 10)), **kw)
+    with pytest.raises(ParameterError, match="bootstrap_input_errors must be a finite"):
+        fit_physical(t, u, w, bootstrap_input_errors=np.full((2, t.shape[0]), np.nan), **kw)
+    with pytest.raises(ParameterError, match="bootstrap_input_errors must be a finite"):
+        fit_physical(t, u, w, bootstrap_input_errors=np.zeros(t.shape[0]), **kw)
 
 
 def test_lag_workers_do_not_change_the_result(log):
