@@ -554,6 +554,10 @@ def _joint_warnings(arm, j, data, Vs, rel, lag) -> list:
     if lag.reason is not None:
         out.append(W("method", "tau", f"no friction lag (tau, eq. 1) for joint {name!r}: {lag.reason}; "
                      "tau is null"))
+    elif "lowpass" in lag.info and lag.info["lowpass"] is None:  # asked for, its worlds not simulated or fitted
+        out.append(W("method", "tau", f"the friction lag of joint {name!r} is not corrected for the record's "
+                     "low-pass (the correction's worlds could not be simulated or fitted): tau is the output-error "
+                     "fit's own reading, read it as an upper bound and its interval as too narrow"))
     return out
 
 
