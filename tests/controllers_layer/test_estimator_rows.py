@@ -115,6 +115,19 @@ def test_the_feedforward_alone_that_makes_the_joint_stick_and_slip_is_kept_off_b
     assert not [n for n in guarded.notes if "worse than no compensation" in n]
 
 
+
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason="known: the supervisor's tracking test backs the eq. 4 "
+                   "feedforward off at 1.3 s, while its first estimate is poor, and never restores it (118.7 s off, "
+                   "eta 0.000) though the estimate converges: with the tracking test off the same feedforward reaches "
+                   "eta 0.990 (the cause is not measured)")
+def test_a_feedforward_backed_off_early_comes_back_once_its_estimate_converges():
+    base = dict(modes=("none", "adaptive", "frictionless"), estimator="eq4", seed=3, switch_in=False, progress=False)
+    free = compare(preset("paper"), supervise_tracking=False, **base)
+    assert free.results["adaptive"].info["n_backoff"] == 0 and free.eta["adaptive"] > 0.98  # the feedforward: 0.990
+    supervised = compare(preset("paper"), **base)
+    assert supervised.results["adaptive"].info["n_restore"] >= 1
+    assert supervised.eta["adaptive"] > 0.9
+
 def test_worse_than_none_notes_threshold_and_modes():
     from types import SimpleNamespace
 
