@@ -297,8 +297,9 @@ def _lowpass_correction(t, u, w, fit, lowpass: float) -> dict | None:
     World ``k``: the fitted joint with lag ``worlds[k]`` (the estimate, then its one-step correction) driven by
     the record's input, its velocity through the record's zero-phase low-pass (``lowpass`` Hz, 4th order), fitted
     as the record is (from the fit's values, its predictor and robust scale, without the profile over tau): it
-    reads ``reads[k]``. ``tau`` solves ``reads(tau) = estimate`` on their secant, whose slope (at most 1, else 1)
-    maps the interval."""
+    reads ``reads[k]``. The worlds hold the fit's Stribeck shape: the one it held, or where it searched the shape
+    (``Vs``, ``delta`` not given), the one it found. ``tau`` solves ``reads(tau) = estimate`` on their secant, whose
+    slope (at most 1, else 1) maps the interval."""
     from scipy.signal import butter, filtfilt
 
     from adaptive_ff.identification.physical_id import fit_physical
@@ -306,7 +307,8 @@ def _lowpass_correction(t, u, w, fit, lowpass: float) -> dict | None:
     from plant.friction import JointParams
 
     p = fit.params
-    Vs, delta = fit.info["fixed"]["Vs"], fit.info["fixed"]["delta"]
+    shape = fit.info["fixed"] or p  # the Stribeck shape the fit held, or (no shape given) the one it found
+    Vs, delta = float(shape["Vs"]), float(shape["delta"])
     b, a = butter(4, min(2.0 * lowpass * float(np.median(np.diff(t))), 0.8))
     start = {k: float(p[k]) for k in ("J", "Fc", "Fs", "sigma", "offset")}
 
@@ -323,7 +325,7 @@ def _lowpass_correction(t, u, w, fit, lowpass: float) -> dict | None:
         b1 = reads(est)
         tau1 = max(est - (b1 - est), 0.5 * est)
         b2 = reads(tau1)
-    except (ExcitationError, SignalError, ParameterError, TypeError):
+    except (ExcitationError, SignalError, ParameterError):  # e.g. a fit whose Fs < 0 makes no world
         return None
     slope = (b1 - b2) / (est - tau1) if est != tau1 else math.nan
     slope = min(slope, 1.0) if math.isfinite(slope) and slope > 0.0 else 1.0
