@@ -274,7 +274,9 @@ def run_batch(plants, reference: Reference, mode: str, options, *, seeds=None, n
             x.set_noise_row(b, b if nrows > 1 else 0)
         if gates[b] is not None:  # a new scenario has none
             x.set_gate(b, gates[b])
-        sensor, drive = parts.get(id(o)) or parts.setdefault(id(o), sensor_and_drive(o))
+        if id(o) not in parts:
+            parts[id(o)] = sensor_and_drive(o)
+        sensor, drive = parts[id(o)]
         if sensor is not None:  # a new scenario has none, nor a drive
             x.set_sensor(b, sensor)
         if drive is not None:
