@@ -119,14 +119,21 @@ def test_the_feedforward_alone_that_makes_the_joint_stick_and_slip_is_kept_off_b
 @pytest.mark.xfail(strict=True, raises=AssertionError, reason="known: the supervisor's tracking test backs the eq. 4 "
                    "feedforward off at 1.3 s, while its first estimate is poor, and never restores it (118.7 s off, "
                    "eta 0.000) though the estimate converges: with the tracking test off the same feedforward reaches "
-                   "eta 0.990 (the cause is not measured)")
+                   "eta 0.975. Measured cause: backed off, the joint moves with the reference (same sign, half its "
+                   "speed or more) in 57 % of the moving reference's periods and sticks or lags in the rest, where the "
+                   "candidate at the measured velocity takes the noise's sign; the statistics of the off state counted "
+                   "in the moving periods alone restore it (18.9 s off, eta 0.987) and keep the Karnopp case's "
+                   "feedforward off, but delay the restore of the eq4-rls feedforward at the reference velocity "
+                   "(test_closed_loop's eq. 4 test: 7.5-8.8 s off -> 16-21 s, RMS ratios 0.33 -> 0.90-0.95)")
 def test_a_feedforward_backed_off_early_comes_back_once_its_estimate_converges():
     base = dict(modes=("none", "adaptive", "frictionless"), estimator="eq4", seed=3, switch_in=False, progress=False)
     free = compare(preset("paper"), supervise_tracking=False, **base)
-    assert free.results["adaptive"].info["n_backoff"] == 0 and free.eta["adaptive"] > 0.98  # the feedforward: 0.990
+    info = free.results["adaptive"].info
+    assert info["n_backoff"] == 0 and free.eta["adaptive"] > 0.96  # the feedforward never supervised: 0.975
     supervised = compare(preset("paper"), **base)
     assert supervised.results["adaptive"].info["n_restore"] >= 1
     assert supervised.eta["adaptive"] > 0.9
+
 
 def test_worse_than_none_notes_threshold_and_modes():
     from types import SimpleNamespace
