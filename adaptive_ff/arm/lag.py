@@ -224,10 +224,15 @@ class LagWorld:
     lowpass : float or None
         Cutoff (Hz) of the record's zero-phase low-pass (:func:`lag_records`; at most a fifth of the record's
         rate), through which a reported lag is corrected (:func:`joint_lag`). None: not corrected.
+    shapes : ndarray, shape (k, 2), or None
+        Stribeck shapes ``(Vs, delta)`` (rad/s, -) the whole-arm data accept: each bootstrap refit holds one of
+        them, drawn by its own generator (``bootstrap_shapes`` of the output-error fit), its world the fitted
+        joint at the shape the fit holds. None: every refit holds the fit's shape.
     """
 
     input_errors: np.ndarray | None = None
     lowpass: float | None = None
+    shapes: np.ndarray | None = None
 
 
 def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTSTRAP, seed: int = 0,
@@ -264,7 +269,8 @@ def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTST
     try:
         fit = fit_physical(t, u, w, Vs=Vs if stribeck else None, delta=delta if stribeck else None,
                            n_bootstrap=int(n_bootstrap), bootstrap_refit="partial", bootstrap_seed=int(seed),
-                           bootstrap_workers=1, input_delay=0.0, bootstrap_input_errors=world.input_errors)
+                           bootstrap_workers=1, input_delay=0.0, bootstrap_input_errors=world.input_errors,
+                           bootstrap_shapes=world.shapes if stribeck else None)
     except (ExcitationError, SignalError, ParameterError) as err:
         return JointLag(math.nan, (math.nan, math.nan), f"the output-error fit on its rigid-body-removed record "
                         f"failed ({err})", {"samples": int(t.shape[0])})
@@ -388,7 +394,7 @@ def _worker_init() -> None:
 
 
 def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int = 0, progress=False,
-               errors=None, lowpass=None) -> list:
+               errors=None, lowpass=None, accepted=None) -> list:
     """Every joint's :func:`joint_lag`, in ``options.workers`` processes (joint ``j`` seeded ``seed + j``).
 
     Parameters
@@ -410,6 +416,9 @@ def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int
         ``options.n_bootstrap`` rows: :class:`LagWorld`'s ``input_errors``); None (default): none.
     lowpass : float or None, keyword-only
         The record's low-pass cutoff (Hz), :class:`LagWorld`'s ``lowpass``; None (default): no correction.
+    accepted : sequence of (ndarray (k_j, 2) or None), or None, keyword-only
+        Each joint's Stribeck shapes the whole-arm data accept, :class:`LagWorld`'s ``shapes``; None (default): the
+        held shape in every refit.
 
     Returns
     -------
@@ -421,7 +430,8 @@ def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int
     n = u.shape[1]
     jobs = [((t, u[:, j], w[:, j], float(shapes[j][0]), float(shapes[j][1])),
              {"n_bootstrap": int(options.n_bootstrap), "seed": int(seed) + j,
-              "world": LagWorld(None if errors is None else errors[: int(options.n_bootstrap), :, j], lowpass)})
+              "world": LagWorld(None if errors is None else errors[: int(options.n_bootstrap), :, j], lowpass,
+                                None if accepted is None else accepted[j])})
             for j in range(n)]
     bar = tqdm(total=n, desc="arm friction lag", unit="joint", leave=False,
                disable=(None if progress is None else not progress))
