@@ -14,7 +14,8 @@ package's output-error fit of eqs. 1-3 (:func:`adaptive_ff.identification.physic
 ``identify --method output_error``), of which the lag and its 95 % bootstrap interval are kept; ``J, Fc, Fs, sigma,
 offset`` stay the whole-arm fit's (every joint's rows in one fit). The Stribeck shape ``Vs``, ``delta`` is held at
 the whole-arm fit's, and where that fit drops the term (``Fs = Fc``), at its profile's best grid point (the
-output-error fit then fits ``Fs``): on the TX40 log of ``docs/benchmarks/arm_tx40.md``, whose joints keep no
+output-error fit then fits ``Fs``); the bootstrap's refits hold the shapes the whole-arm profile accepts ("Reported"):
+on the TX40 log of ``docs/benchmarks/arm_tx40.md``, whose joints keep no
 Stribeck term, letting the output-error fit search ``Vs`` and ``delta`` itself cost 3 to 5 times the CPU time and
 moved no reported lag by more than 8 %. The joints' fits are independent and run in worker processes
 (:class:`LagOptions`, :func:`joint_lags`).
@@ -45,6 +46,11 @@ lagged joint they do not; a lag-free shoulder's reading lies below two samples.
 The bootstrap's worlds carry the identified rigid body's error: world ``i`` is driven by the record's torque less
 the difference of the ``i``-th whole-arm bootstrap replicate's removed torque from the fit's (:func:`lag_records`'
 ``e``, :class:`LagWorld`; ``bootstrap_input_errors`` of the output-error fit), refitted with the record's torque.
+And its refits carry the Stribeck shape's: the world is the fitted joint at the shape the fit holds, and each refit
+holds a shape drawn from those the whole-arm profile accepts (its rows with the term within the 95 %
+likelihood-ratio bound of the friction intervals, weighted by their likelihood, ``exp(-chi2 / 2)``;
+:func:`adaptive_ff.arm.fit.identify_arm`; ``bootstrap_shapes`` of the output-error fit), as the fit itself holds
+one the data determine only that far: the refits read the lag the held shape's error moves.
 A reported lag is then corrected for the record's low-pass by indirect inference (:func:`_lowpass_correction`):
 the fitted joint, its lag at the estimate and at the estimate's one-step correction, is driven by the record's
 torque, its velocity put through the record's low-pass and fitted as the record is; the reported lag is the one
@@ -53,9 +59,9 @@ slope``: ``rms`` the bootstrap refits' root-mean-square deviation from the estim
 ``t`` the Student-t quantile of the valid refits (:func:`adaptive_ff.identification.covariance.bootstrap_t_quantile`)
 and the secant's slope (at most 1: it never narrows the interval) mapping the reading's spread to the lag's; the
 correction, not the refits' mean shift (by which the fit's own interval is centred), stands for the bias. Where
-that leaves no positive lag, ``tau`` is NaN. Neither carries the Stribeck shape the fit holds, nor the share of the low-pass that the fitted joint's world
-does not reproduce: the intervals remain too narrow. The measurements behind the rule, the correction and their
-limits: ``docs/your_arm.md`` (How, Lag; Not yet) and ``benchmarks/arm_lag.py``.
+that leaves no positive lag, ``tau`` is NaN. Neither carries the share of the low-pass that the fitted joint's world
+does not reproduce (on wrists and elbows): there the intervals remain too narrow. The measurements behind the rule,
+the correction and their limits: ``docs/your_arm.md`` (How, Lag; Not yet) and ``benchmarks/arm_lag.py``.
 
 The velocity noise of each joint (``excitation.noise_std`` of ``identify --json``) is
 :func:`adaptive_ff.identification.diagnostics.velocity_noise_std` of the log's velocity as measured (or of the
