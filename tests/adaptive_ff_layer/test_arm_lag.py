@@ -198,16 +198,25 @@ def test_lag_records_draw_the_rigid_body_replicates_errors(arm, log):
     np.testing.assert_allclose(e[1][1:-1], (ddq * dJ)[1:-1], rtol=1e-9, atol=1e-12)
 
 
-def test_output_error_bootstrap_input_errors(log):
+@pytest.fixture(scope="module")
+def shoulder_fit(log):
+    """``(t, u, w, options, fit)``: 2.5 s of the shoulder's record and its output-error fit with two partial
+    bootstrap refits, the plain bootstrap the options' tests compare against."""
+    from adaptive_ff.identification.physical_id import fit_physical
+
+    t, u, w = log.t[1000:3500], log.tau[1000:3500, 0], log.dq[1000:3500, 0]
+    kw = dict(Vs=0.1, delta=1.0, n_bootstrap=2, bootstrap_refit="partial", bootstrap_workers=1, input_delay=0.0)
+    return t, u, w, kw, fit_physical(t, u, w, **kw)
+
+
+def test_output_error_bootstrap_input_errors(shoulder_fit):
     """fit_physical's bootstrap_input_errors: rows of zeros give the bootstrap without them, bit for bit (each world
     one simulation more); a constant error of 0.05 N·m moves the refits; a row of the wrong length, a NaN or a
     vector is refused by name."""
     from adaptive_ff.identification.physical_id import fit_physical
     from plant.errors import ParameterError
 
-    t, u, w = log.t[1000:3500], log.tau[1000:3500, 0], log.dq[1000:3500, 0]
-    kw = dict(Vs=0.1, delta=1.0, n_bootstrap=2, bootstrap_refit="partial", bootstrap_workers=1, input_delay=0.0)
-    plain = fit_physical(t, u, w, **kw)
+    t, u, w, kw, plain = shoulder_fit
     zero = fit_physical(t, u, w, bootstrap_input_errors=np.zeros((2, t.shape[0])), **kw)
     assert zero.info["interval95"] == plain.info["interval95"] and zero.info["bootstrap"]["input_errors"] == 2
     assert zero.info["bootstrap"]["n_simulations"] == plain.info["bootstrap"]["n_simulations"] + 2
@@ -221,16 +230,14 @@ def test_output_error_bootstrap_input_errors(log):
         fit_physical(t, u, w, bootstrap_input_errors=np.zeros(t.shape[0]), **kw)
 
 
-def test_output_error_bootstrap_shapes(log):
+def test_output_error_bootstrap_shapes(shoulder_fit):
     """fit_physical's bootstrap_shapes: one row, the held shape, gives the bootstrap without them, bit for bit; a
     shape 3 times slower moves the refits (their world stays the estimate at the held shape) and not the estimate; a
-    full refit ignores them; a NaN, a Vs <= 0 or a vector is refused by name."""
+    NaN, a Vs <= 0 or a vector is refused by name."""
     from adaptive_ff.identification.physical_id import fit_physical
     from plant.errors import ParameterError
 
-    t, u, w = log.t[1000:3500], log.tau[1000:3500, 0], log.dq[1000:3500, 0]
-    kw = dict(Vs=0.1, delta=1.0, n_bootstrap=2, bootstrap_refit="partial", bootstrap_workers=1, input_delay=0.0)
-    plain = fit_physical(t, u, w, **kw)
+    t, u, w, kw, plain = shoulder_fit
     held = fit_physical(t, u, w, bootstrap_shapes=[(0.1, 1.0)], **kw)
     assert held.info["interval95"] == plain.info["interval95"] and held.info["bootstrap"]["shapes"] == 1
     assert plain.info["bootstrap"]["shapes"] is None
