@@ -111,6 +111,8 @@ REST_WARN = 0.15
 #: Bisections in ``log Vs`` that locate the profile's crossing of its likelihood-ratio bound between two grid values
 #: (:func:`_crossings`): the crossing to 2**-5 of the grid's step.
 CROSSING_STEPS = 5
+#: Stribeck shapes drawn by weight from each joint's accepted set for its lag bootstrap refits (:func:`_accepted_shapes`).
+LAG_SHAPE_DRAWS = 20
 #: Friction columns per joint: Fc (g), Fs (h), sigma (w), offset (1).
 _FRICTION = ("Fc", "Fs", "sigma", "offset")
 
@@ -651,8 +653,8 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     r = Yb.shape[2]
     J_all = a_J @ (x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf))
     reps = (boot.replicates[:, :r], boot.replicates[:, :r] @ a_J.T) if rigid_body == "fit" else None
-    lags = _lags(log, arm, (base, x[:r], rigid_body, reps), J_all, _lag_shapes(Vs, delta, table), cutoff,
-                 (lag, seed, progress))
+    shapes = (_lag_shapes(Vs, delta, table), _accepted_shapes(table, rss, int(prob.keep.sum()), ratio))
+    lags = _lags(log, arm, (base, x[:r], rigid_body, reps), J_all, shapes, cutoff, (lag, seed, progress))
     noise = velocity_noise(log)
     rest = np.mean(np.abs(w_fast) < vmin, axis=0) if rows == "moving" else None  # each joint's share at rest
     joints = []
@@ -743,11 +745,34 @@ def _lag_shapes(Vs, delta, table) -> list:
     return out
 
 
+def _accepted_shapes(table, rss_min: float, n_rows: int, ratio: float, draws: int = LAG_SHAPE_DRAWS) -> list:
+    """Each joint's Stribeck shapes that its lag bootstrap refits hold (:mod:`adaptive_ff.arm.lag`, "Reported"):
+    ``draws`` rows (Vs, delta) taken systematically, by weight ``exp(-chi2 / 2)``, from the profile's rows with a
+    Stribeck term within its 95 % likelihood-ratio bound (:func:`_profile_interval`'s, ``chi2 = 3.84 (rss -
+    best) / allowance``), or None where no such row (the profile's table ``table``, the final fit's weighted RSS
+    ``rss_min`` over ``n_rows`` rows, the variance ratio ``ratio``)."""
+    out = []
+    allowance = rss_min * 3.84 * ratio / max(n_rows, 1)
+    for table_j in table:
+        finite = [row[2] for row in table_j if np.isfinite(row[2])]
+        best = max(rss_min, min(finite)) if finite and np.isfinite(rss_min) else np.nan
+        rows = [row for row in table_j if np.isfinite(row[0]) and row[2] <= best + allowance]
+        if not rows or not allowance > 0.0:
+            out.append(None)
+            continue
+        chi2 = np.array([3.84 * max(row[2] - best, 0.0) / allowance for row in rows])
+        cum = np.cumsum(np.exp(-0.5 * chi2))
+        pick = np.searchsorted(cum / cum[-1], (np.arange(draws) + 0.5) / draws)
+        out.append(np.array([(rows[i][0], rows[i][1]) for i in pick], dtype=float))
+    return out
+
+
 def _lags(log, arm, rb, J, shapes, cutoff, settings) -> list:
     """Every joint's :class:`adaptive_ff.arm.lag.JointLag` (``settings``: ``(lag, seed, progress)``; ``rb``:
     ``(base, beta, rigid_body, replicates)``, ``replicates`` None or the whole-arm bootstrap's ``(beta_k (k, r),
     J_k (k, N))``, whose removed torques' differences from the fit's each lag bootstrap carries (refit ``i`` the
-    ``i``-th; :mod:`adaptive_ff.arm.lag`, "Reported"); ``shapes``: each joint's ``(Vs, delta)`` held in its fit)."""
+    ``i``-th; :mod:`adaptive_ff.arm.lag`, "Reported"); ``shapes``: each joint's ``(Vs, delta)`` held in its fit and
+    the shapes its refits hold (:func:`_accepted_shapes`))."""
     on, seed, progress = settings
     if on is False:
         return [JointLag(np.nan, (np.nan, np.nan), "not asked for (lag=False; identify-arm --no-lag)")] * arm.n
@@ -767,8 +792,9 @@ def _lags(log, arm, rb, J, shapes, cutoff, settings) -> list:
         k = np.arange(options.n_bootstrap) % reps[0].shape[0]  # fewer whole-arm replicates: taken in turn again
         t, u, w, errors = lag_records(log, arm, rigid, J, cutoff,
                                       replicates=[(rigid_of(reps[0][i]), reps[1][i]) for i in k])
-    return joint_lags(t, u, w, shapes, options=options, seed=seed, progress=progress, errors=errors,
-                      lowpass=LAG_CUTOFF_FACTOR * cutoff)
+    held, accepted = shapes
+    return joint_lags(t, u, w, held, options=options, seed=seed, progress=progress, errors=errors,
+                      lowpass=LAG_CUTOFF_FACTOR * cutoff, accepted=accepted)
 
 
 def _arm_warnings(cond: float, no_sensitivity: bool = False) -> list:

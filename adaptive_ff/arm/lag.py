@@ -14,7 +14,8 @@ package's output-error fit of eqs. 1-3 (:func:`adaptive_ff.identification.physic
 ``identify --method output_error``), of which the lag and its 95 % bootstrap interval are kept; ``J, Fc, Fs, sigma,
 offset`` stay the whole-arm fit's (every joint's rows in one fit). The Stribeck shape ``Vs``, ``delta`` is held at
 the whole-arm fit's, and where that fit drops the term (``Fs = Fc``), at its profile's best grid point (the
-output-error fit then fits ``Fs``): on the TX40 log of ``docs/benchmarks/arm_tx40.md``, whose joints keep no
+output-error fit then fits ``Fs``); the bootstrap's refits hold the shapes the whole-arm profile accepts ("Reported"):
+on the TX40 log of ``docs/benchmarks/arm_tx40.md``, whose joints keep no
 Stribeck term, letting the output-error fit search ``Vs`` and ``delta`` itself cost 3 to 5 times the CPU time and
 moved no reported lag by more than 8 %. The joints' fits are independent and run in worker processes
 (:class:`LagOptions`, :func:`joint_lags`).
@@ -45,6 +46,11 @@ lagged joint they do not; a lag-free shoulder's reading lies below two samples.
 The bootstrap's worlds carry the identified rigid body's error: world ``i`` is driven by the record's torque less
 the difference of the ``i``-th whole-arm bootstrap replicate's removed torque from the fit's (:func:`lag_records`'
 ``e``, :class:`LagWorld`; ``bootstrap_input_errors`` of the output-error fit), refitted with the record's torque.
+And its refits carry the Stribeck shape's: the world is the fitted joint at the shape the fit holds, and each refit
+holds a shape drawn from those the whole-arm profile accepts (its rows with the term within the 95 %
+likelihood-ratio bound of the friction intervals, weighted by their likelihood, ``exp(-chi2 / 2)``;
+:func:`adaptive_ff.arm.fit.identify_arm`; ``bootstrap_shapes`` of the output-error fit), as the fit itself holds
+one the data determine only that far: the refits read the lag the held shape's error moves.
 A reported lag is then corrected for the record's low-pass by indirect inference (:func:`_lowpass_correction`):
 the fitted joint, its lag at the estimate and at the estimate's one-step correction, is driven by the record's
 torque, its velocity put through the record's low-pass and fitted as the record is; the reported lag is the one
@@ -53,9 +59,9 @@ slope``: ``rms`` the bootstrap refits' root-mean-square deviation from the estim
 ``t`` the Student-t quantile of the valid refits (:func:`adaptive_ff.identification.covariance.bootstrap_t_quantile`)
 and the secant's slope (at most 1: it never narrows the interval) mapping the reading's spread to the lag's; the
 correction, not the refits' mean shift (by which the fit's own interval is centred), stands for the bias. Where
-that leaves no positive lag, ``tau`` is NaN. Neither carries the Stribeck shape the fit holds, nor the share of the low-pass that the fitted joint's world
-does not reproduce: the intervals remain too narrow. The measurements behind the rule, the correction and their
-limits: ``docs/your_arm.md`` (How, Lag; Not yet) and ``benchmarks/arm_lag.py``.
+that leaves no positive lag, ``tau`` is NaN. Neither carries the share of the low-pass that the fitted joint's world
+does not reproduce (on wrists and elbows): there the intervals remain too narrow. The measurements behind the rule,
+the correction and their limits: ``docs/your_arm.md`` (How, Lag; Not yet) and ``benchmarks/arm_lag.py``.
 
 The velocity noise of each joint (``excitation.noise_std`` of ``identify --json``) is
 :func:`adaptive_ff.identification.diagnostics.velocity_noise_std` of the log's velocity as measured (or of the
@@ -224,10 +230,15 @@ class LagWorld:
     lowpass : float or None
         Cutoff (Hz) of the record's zero-phase low-pass (:func:`lag_records`; at most a fifth of the record's
         rate), through which a reported lag is corrected (:func:`joint_lag`). None: not corrected.
+    shapes : ndarray, shape (k, 2), or None
+        Stribeck shapes ``(Vs, delta)`` (rad/s, -) the whole-arm data accept: each bootstrap refit holds one of
+        them, drawn by its own generator (``bootstrap_shapes`` of the output-error fit), its world the fitted
+        joint at the shape the fit holds. None: every refit holds the fit's shape.
     """
 
     input_errors: np.ndarray | None = None
     lowpass: float | None = None
+    shapes: np.ndarray | None = None
 
 
 def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTSTRAP, seed: int = 0,
@@ -264,7 +275,8 @@ def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTST
     try:
         fit = fit_physical(t, u, w, Vs=Vs if stribeck else None, delta=delta if stribeck else None,
                            n_bootstrap=int(n_bootstrap), bootstrap_refit="partial", bootstrap_seed=int(seed),
-                           bootstrap_workers=1, input_delay=0.0, bootstrap_input_errors=world.input_errors)
+                           bootstrap_workers=1, input_delay=0.0, bootstrap_input_errors=world.input_errors,
+                           bootstrap_shapes=world.shapes if stribeck else None)
     except (ExcitationError, SignalError, ParameterError) as err:
         return JointLag(math.nan, (math.nan, math.nan), f"the output-error fit on its rigid-body-removed record "
                         f"failed ({err})", {"samples": int(t.shape[0])})
@@ -388,7 +400,7 @@ def _worker_init() -> None:
 
 
 def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int = 0, progress=False,
-               errors=None, lowpass=None) -> list:
+               errors=None, lowpass=None, accepted=None) -> list:
     """Every joint's :func:`joint_lag`, in ``options.workers`` processes (joint ``j`` seeded ``seed + j``).
 
     Parameters
@@ -410,6 +422,9 @@ def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int
         ``options.n_bootstrap`` rows: :class:`LagWorld`'s ``input_errors``); None (default): none.
     lowpass : float or None, keyword-only
         The record's low-pass cutoff (Hz), :class:`LagWorld`'s ``lowpass``; None (default): no correction.
+    accepted : sequence of (ndarray (k_j, 2) or None), or None, keyword-only
+        Each joint's Stribeck shapes the whole-arm data accept, :class:`LagWorld`'s ``shapes``; None (default): the
+        held shape in every refit.
 
     Returns
     -------
@@ -421,7 +436,8 @@ def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int
     n = u.shape[1]
     jobs = [((t, u[:, j], w[:, j], float(shapes[j][0]), float(shapes[j][1])),
              {"n_bootstrap": int(options.n_bootstrap), "seed": int(seed) + j,
-              "world": LagWorld(None if errors is None else errors[: int(options.n_bootstrap), :, j], lowpass)})
+              "world": LagWorld(None if errors is None else errors[: int(options.n_bootstrap), :, j], lowpass,
+                                None if accepted is None else accepted[j])})
             for j in range(n)]
     bar = tqdm(total=n, desc="arm friction lag", unit="joint", leave=False,
                disable=(None if progress is None else not progress))

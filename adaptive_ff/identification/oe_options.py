@@ -118,6 +118,13 @@ class OutputErrorOptions:
         the refits carry that error too (module docstring of :mod:`adaptive_ff.identification.oe_intervals`,
         "Standard errors"; with ``bootstrap_input_quantum`` its draw is added about the logged input). None
         (default): none. Reported in ``info["bootstrap"]["input_errors"]`` (the rows k).
+    bootstrap_shapes : array_like or None, keyword-only
+        Stribeck shapes ``(Vs, delta)`` (rad/s, -), shape (k, 2), finite, ``Vs > 0``, ``delta`` non-zero: each
+        partial refit (``bootstrap_refit="partial"``, ``Vs`` and ``delta`` given) holds the row its own generator
+        draws (uniformly, after its start) in place of the given shape, its world staying the estimate at the given
+        shape, so that the refits carry the error of a held shape that the data determine only to within those rows
+        (e.g. a profile's accepted set, repeated by weight). Ignored by full refits and where the fit searches the
+        shape. None (default): the given shape in every refit. Reported in ``info["bootstrap"]["shapes"]`` (k).
     jacobian : {"difference", "sensitivity"}, keyword-only
         Jacobian of the trust-region fits. ``"difference"`` (default): forward differences with the relative
         step ``diff_step`` (a secant over 1 % of each parameter, which sees past the breakaway jitter of the
@@ -160,6 +167,7 @@ class OutputErrorOptions:
     jacobian: str = "difference"
     bootstrap_input_quantum: float | str | None = "auto"
     bootstrap_input_errors: np.ndarray | None = field(default=None, compare=False, repr=False)
+    bootstrap_shapes: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self):
         def put(name, value):
@@ -209,6 +217,8 @@ class OutputErrorOptions:
                                      f"{e.shape}{'' if np.all(np.isfinite(e)) else ' with non-finite values'}")
             e.setflags(write=False)
             put("bootstrap_input_errors", e)
+        if self.bootstrap_shapes is not None:
+            put("bootstrap_shapes", _check_shapes(self.bootstrap_shapes))
 
     def workers(self) -> int:
         """Threads of the bootstrap refits: ``bootstrap_workers``, or (None) the CPUs this process may use
@@ -247,6 +257,18 @@ def _check_int(name: str, value, low: int) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
         raise ParameterError(f"{name} must be an integer >= {low}, got {value!r}")
     return int(value)
+
+
+def _check_shapes(shapes) -> np.ndarray:
+    """``bootstrap_shapes`` as a read-only finite (k, 2) array with ``Vs > 0`` and ``delta != 0``, else
+    ParameterError."""
+    a = np.array(shapes, dtype=float)
+    if a.ndim != 2 or a.shape[0] < 1 or a.shape[1] != 2 or not np.all(np.isfinite(a)) or np.any(a[:, 0] <= 0.0) \
+            or np.any(a[:, 1] == 0.0):
+        raise ParameterError(f"bootstrap_shapes must be a finite (k, 2) array of (Vs > 0, delta != 0) with k >= 1, "
+                             f"got {np.array2string(a, threshold=6)} of shape {a.shape}")
+    a.setflags(write=False)
+    return a
 
 
 def _check_start(start) -> dict | None:

@@ -768,6 +768,7 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
                if o.bootstrap_input_quantum == "auto" else float(o.bootstrap_input_quantum))
     n_sim = []  # per refit; list.append is atomic, the refits may run in threads
     simulate, errors = None, o.bootstrap_input_errors
+    shapes = o.bootstrap_shapes if o.bootstrap_refit == "partial" and not pb.free_shape else None
     if errors is not None:  # its shape checked by _fit_output_error
         drawn = iter(range(o.n_bootstrap))
 
@@ -794,6 +795,8 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
             x0 = x + rng.normal(size=x.shape) * _BOOT_START * pb.typical(x)
             w_star, extra = world(y_star, rng)
             rp = pb.replicate(w_star)
+            if shapes is not None:  # the refit holds a drawn shape; its world is the estimate at the given one
+                rp.Vs, rp.delta = map(float, shapes[rng.integers(shapes.shape[0])])
             z = _oe_refit(rp, x0)
         n_sim.append(rp.n_sim + extra)
         v = rp.values(z)
@@ -812,6 +815,7 @@ def _oe_bootstrap(pb: _OutputErrorProblem, x: np.ndarray, names: tuple, r: np.nd
                "lag_refits": (o.bootstrap_lag_refits if o.bootstrap_refit == "full" and o.lag_profile else None),
                "input_delay": float(pb.input_delay), "input_quantum": quantum,
                "input_errors": None if errors is None else int(errors.shape[0]),
+               "shapes": None if shapes is None else int(shapes.shape[0]),
                "n_simulations": int(sum(n_sim)) + (0 if errors is None else o.n_bootstrap)}
     details.update(oe_band(pb, names, est, b))
     return dict(zip(names, map(float, b.stderr))), dict(zip(names, map(float, b.bias))), details
@@ -908,7 +912,8 @@ def fit_physical(t, u, w, *, Vs: float | None, delta: float | None, method: str 
         ``input_delay``, ``interp``, ``burn``, ``fs_grid``, ``fs_max_ratio``,
         ``diff_step``, ``max_nfev``, ``loss``, ``f_scale``, ``start``,
         ``n_bootstrap``, ``bootstrap_seed``, ``bootstrap_refit``, ``bootstrap_lag_refits``, ``lag_profile``,
-        ``jacobian``, ``bootstrap_input_quantum``, ``bootstrap_input_errors``; units and defaults there),
+        ``jacobian``, ``bootstrap_input_quantum``, ``bootstrap_input_errors``, ``bootstrap_shapes``; units and
+        defaults there),
         validated by it.
 
     Returns
