@@ -181,7 +181,7 @@ def main(argv=None) -> int:
               f"{'yes' if ok else 'NO'} | {cpu:.2f} |")
     for line in extra:
         print(f"\n{line}")
-    print("\n| simulated log | seed | parameter | true | estimate | bootstrap alone (before) | inside | default now "
+    print("\n| simulated log | seed | parameter | true | estimate | bootstrap alone | inside | default "
           "| inside | named |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     for label, s, k, v, e, lo0, hi0, in0, lo, hi, ins, nm in simulated_rows():
