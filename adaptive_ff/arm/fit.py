@@ -111,7 +111,11 @@ REST_WARN = 0.15
 #: Bisections in ``log Vs`` that locate the profile's crossing of its likelihood-ratio bound between two grid values
 #: (:func:`_crossings`): the crossing to 2**-5 of the grid's step.
 CROSSING_STEPS = 5
-#: Stribeck shapes drawn by weight from each joint's accepted set for its lag bootstrap refits (:func:`_accepted_shapes`).
+#: The chi-square quantile of one degree of freedom at 95 %: the profile's likelihood-ratio bound
+#: (:func:`_profile_bound`).
+CHI2_95 = 3.84
+#: Stribeck shapes drawn by weight from each joint's accepted set for its lag bootstrap refits
+#: (:func:`_accepted_shapes`).
 LAG_SHAPE_DRAWS = 20
 #: Friction columns per joint: Fc (g), Fs (h), sigma (w), offset (1).
 _FRICTION = ("Fc", "Fs", "sigma", "offset")
@@ -417,6 +421,15 @@ def _variance_ratio(prob: _Problem, A, rss: float, boot) -> float:
     return max(1.0, float(np.nanmax(friction))) if np.any(np.isfinite(friction)) else 1.0
 
 
+def _profile_bound(table_j, rss_min: float, n_rows: int, ratio: float) -> tuple:
+    """``(best, allowance)`` of the profile's 95 % likelihood-ratio bound ``best + allowance``
+    (:func:`_profile_interval` says why): ``best = max(rss_min, min of table_j's finite RSS)`` (NaN where none is
+    finite or ``rss_min`` is not), ``allowance = CHI2_95 ratio rss_min / n_rows``."""
+    finite = [row[2] for row in table_j if np.isfinite(row[2])]
+    best = max(rss_min, min(finite)) if finite and np.isfinite(rss_min) else np.nan
+    return best, rss_min * CHI2_95 * ratio / max(n_rows, 1)
+
+
 def _profile_interval(table_j, rss_min: float, n_rows: int, ratio: float, cols: slice, name: str = "joint",
                       fit_at=None) -> tuple:
     """The ``(Vs range, delta range, (low, high) of the estimates[cols], estimates)`` over the profile's rows within
@@ -427,20 +440,20 @@ def _profile_interval(table_j, rss_min: float, n_rows: int, ratio: float, cols: 
     ``Fs`` moves with ``Vs``, the other parameters little. The model without a Stribeck term (``Vs`` NaN) counts
     with ``Fs = Fc``; the ranges of ``Vs`` and ``delta`` are NaN where no grid point is inside.
 
-    The bound is ``max(rss_min, min of table_j) + 3.84 ratio rss_min / n_rows``: the final fit's weighted RSS
-    ``rss_min`` sets its scale, and it is counted from the profile's own minimum where that lies above
-    ``rss_min``: ``table_j`` is the joint's profile of the last sweep, taken with the later joints' shapes of the
-    sweep before, and their last steps lower each of its RSS about alike (the joints share only the rigid body), so
-    that the final fit can lie below every row of it (then no row would be inside). The accepted rows hold the
-    profile's best. Raises ExcitationError naming ``name`` (the joint) where the profile has no finite RSS or
+    The bound is ``max(rss_min, min of table_j) + CHI2_95 ratio rss_min / n_rows`` (:func:`_profile_bound`): the
+    final fit's weighted RSS ``rss_min`` sets its scale, and it is counted from the profile's own minimum where that
+    lies above ``rss_min``: ``table_j`` is the joint's profile of the last sweep, taken with the later joints' shapes
+    of the sweep before, and their last steps lower each of its RSS about alike (the joints share only the rigid
+    body), so that the final fit can lie below every row of it (then no row would be inside). The accepted rows hold
+    the profile's best. Raises ExcitationError naming ``name`` (the joint) where the profile has no finite RSS or
     ``rss_min`` is not finite."""
     finite = [row[2] for row in table_j if np.isfinite(row[2])]
     if not finite or not np.isfinite(rss_min):
         raise ExcitationError(f"joint {name!r}: the Stribeck profile has no finite weighted residual sum of squares "
                               f"(final fit {rss_min!r}, {len(finite)} of {len(table_j)} profile rows finite): the "
                               "log does not determine its friction")
-    allowance = rss_min * 3.84 * ratio / max(n_rows, 1)
-    inside = [row for row in table_j if row[2] <= max(rss_min, min(finite)) + allowance]
+    best, allowance = _profile_bound(table_j, rss_min, n_rows, ratio)
+    inside = [row for row in table_j if row[2] <= best + allowance]
     edge = [] if fit_at is None else _crossings(table_j, inside, allowance, fit_at)
     vs = [r[0] for r in inside + edge if np.isfinite(r[0])]
     ds = [r[1] for r in inside if np.isfinite(r[0])]
@@ -748,19 +761,17 @@ def _lag_shapes(Vs, delta, table) -> list:
 def _accepted_shapes(table, rss_min: float, n_rows: int, ratio: float, draws: int = LAG_SHAPE_DRAWS) -> list:
     """Each joint's Stribeck shapes that its lag bootstrap refits hold (:mod:`adaptive_ff.arm.lag`, "Reported"):
     ``draws`` rows (Vs, delta) taken systematically, by weight ``exp(-chi2 / 2)``, from the profile's rows with a
-    Stribeck term within its 95 % likelihood-ratio bound (:func:`_profile_interval`'s, ``chi2 = 3.84 (rss -
+    Stribeck term within its 95 % likelihood-ratio bound (:func:`_profile_bound`'s, ``chi2 = CHI2_95 (rss -
     best) / allowance``), or None where no such row (the profile's table ``table``, the final fit's weighted RSS
     ``rss_min`` over ``n_rows`` rows, the variance ratio ``ratio``)."""
     out = []
-    allowance = rss_min * 3.84 * ratio / max(n_rows, 1)
     for table_j in table:
-        finite = [row[2] for row in table_j if np.isfinite(row[2])]
-        best = max(rss_min, min(finite)) if finite and np.isfinite(rss_min) else np.nan
+        best, allowance = _profile_bound(table_j, rss_min, n_rows, ratio)
         rows = [row for row in table_j if np.isfinite(row[0]) and row[2] <= best + allowance]
         if not rows or not allowance > 0.0:
             out.append(None)
             continue
-        chi2 = np.array([3.84 * max(row[2] - best, 0.0) / allowance for row in rows])
+        chi2 = np.array([CHI2_95 * max(row[2] - best, 0.0) / allowance for row in rows])
         cum = np.cumsum(np.exp(-0.5 * chi2))
         pick = np.searchsorted(cum / cum[-1], (np.arange(draws) + 0.5) / draws)
         out.append(np.array([(rows[i][0], rows[i][1]) for i in pick], dtype=float))
