@@ -323,11 +323,12 @@ def _lowpass_correction(t, u, w, fit, lowpass: float) -> dict | None:
     Vs, delta = float(shape["Vs"]), float(shape["delta"])
     b, a = butter(4, min(2.0 * lowpass * float(np.median(np.diff(t))), 0.8))
     start = {k: float(p[k]) for k in ("J", "Fc", "Fs", "sigma", "offset")}
+    u_world = filtfilt(b, a, u)
 
     def reads(tau):
         jp = JointParams(J=p["J"], Fc=p["Fc"], Fs=p["Fs"], Vs=Vs, delta=delta, sigma=p["sigma"], tau=tau)
         sim = simulate_sampled(jp, t, u, w0=float(w[0]), f0=float(u[0]), offset=float(p["offset"]))
-        world = fit_physical(t, u, filtfilt(b, a, sim), Vs=Vs, delta=delta, n_bootstrap=0, input_delay=0.0,
+        world = fit_physical(t, u_world, filtfilt(b, a, sim), Vs=Vs, delta=delta, n_bootstrap=0, input_delay=0.0,
                              start=dict(start, tau=tau), lag_profile=False, predictor=fit.info["predictor"],
                              f_scale=fit.info["f_scale"])
         return float(world.params["tau"])
