@@ -1,6 +1,7 @@
 """identify-arm's friction lag over seeded simulated arms: coverage of the true lags, false lags, missed lags.
 
 Run:  python -m benchmarks.arm_lag [--n 20] [--start 0] [--lag-bootstrap 10] [--duration 20] [--cache FILE]
+      [--workers 1]
 
 Each arm is ``examples/planar3.urdf`` with the armatures 0.2, 0.1, 0.05 kg·m², the friction of ``docs/your_arm.md``
 (:data:`FRICTION`) with ``Fc, Fs, sigma`` scaled by a factor 0.8-1.25 per joint, or with ``--friction coverage``
@@ -14,11 +15,12 @@ lag fits do not use its intervals).
 
 Printed: over the lag-free joints the share reported with a lag (false lags); over the lagged joints the share
 reported null and, of the reported ones, the share whose 95 % interval holds the true lag (coverage), each with its
-95 % binomial (Wilson) interval; and the reported intervals' median width over the true lag. ``--cache FILE`` keeps
-each arm's joints (JSON lines) and reads back the arms it already holds: it keeps the fits, and each joint is decided
-again by :func:`adaptive_ff.arm.lag.lag_reason` and the low-pass correction's sign (a cache made before a change of
-the lag fit itself is stale). 20 arms take about 9 minutes of CPU; the numbers, seeds 0-19
-(the rule's) and 20-39 (its check), are in ``docs/your_arm.md`` (How, Lag).
+95 % binomial (Wilson) interval; the reported intervals' median width over the true lag; and the coverage by joint.
+``--cache FILE`` keeps each arm's joints (JSON lines) and reads back the arms it already holds: it keeps the fits,
+and each joint is decided again by :func:`adaptive_ff.arm.lag.lag_reason` and the low-pass correction's sign (a
+cache made before a change of the lag fit itself is stale). ``--workers N`` runs the arms in N processes. 50 arms
+take about 25 minutes of CPU; the numbers of seeds 0-49 (0-19 set the rule, 20-49 check it) are in
+``docs/your_arm.md`` (How, Lag; Not yet).
 """
 
 from __future__ import annotations
@@ -27,6 +29,8 @@ import argparse
 import json
 import math
 import time
+from concurrent.futures import ProcessPoolExecutor
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -139,20 +143,22 @@ def main(argv=None) -> int:
                     help="the joints' friction: the page's scaled (default) or arm_coverage's draws")
     ap.add_argument("--cache", default=None, help="JSON-lines file of the arms' joints, read and appended")
     ap.add_argument("--verbose", action="store_true", help="print every joint")
+    ap.add_argument("--workers", type=int, default=1, help="processes the arms run in (default 1; the result does "
+                    "not depend on it)")
     a = ap.parse_args(argv)
-    from adaptive_ff.arm.robot import load_urdf
-
-    arm = load_urdf(URDF)
     cache = _read_cache(a.cache)
-    rows, c0 = [], time.process_time()
-    for seed in range(a.start, a.start + a.n):
-        if seed not in cache:
-            cache[seed] = arm_joints(arm, seed, duration=a.duration, n_lag=a.lag_bootstrap,
-                                     kind=a.friction)
-            if a.cache is not None:
-                with open(a.cache, "a", encoding="utf-8") as fh:
-                    for r in cache[seed]:
-                        fh.write(json.dumps(r, default=float) + "\n")
+    seeds = range(a.start, a.start + a.n)
+    todo = [seed for seed in seeds if seed not in cache]
+    c0 = _cpu()
+    job = partial(_arm_rows, duration=a.duration, n_lag=a.lag_bootstrap, kind=a.friction)
+    if a.workers > 1 and len(todo) > 1:
+        with ProcessPoolExecutor(max_workers=a.workers) as pool:
+            done = zip(todo, pool.map(job, todo))
+            _collect(done, cache, a.cache)
+    else:
+        _collect(((seed, job(seed)) for seed in todo), cache, a.cache)
+    rows = []
+    for seed in seeds:
         rows += cache[seed]
         if a.verbose:
             for r in cache[seed]:
@@ -162,15 +168,45 @@ def main(argv=None) -> int:
                       f"{1e3 * (r['hi'] if r['hi'] is not None else math.nan):6.2f}] ms  estimate "
                       f"{1e3 * r['info'].get('estimate', math.nan):6.2f} ms")
     s = summary(rows)
-    print(f"{a.n} arms (seeds {a.start}-{a.start + a.n - 1}, friction {a.friction}), {a.duration:g} s logs, {a.lag_bootstrap} refits per lag "
-          f"fit; CPU {time.process_time() - c0:.0f} s")
+    print(f"{a.n} arms (seeds {a.start}-{a.start + a.n - 1}, friction {a.friction}), {a.duration:g} s logs, "
+          f"{a.lag_bootstrap} refits per lag fit; CPU {_cpu() - c0:.0f} s")
     for key, text in (("false", "lag-free joints reported with a lag"), ("missed", "lagged joints reported null"),
                       ("covered", "reported lags whose interval holds the true lag")):
         k, n = s[key]
         lo, hi = wilson(k, n)
-        print(f"  {text:50s} {k:3d} / {n:3d} = {k / n if n else math.nan:5.3f}  [{max(lo, 0.0):.3f}, {min(hi, 1.0):.3f}]")
+        print(f"  {text:50s} {k:3d} / {n:3d} = {k / n if n else math.nan:5.3f}  "
+              f"[{max(lo, 0.0):.3f}, {min(hi, 1.0):.3f}]")
     print(f"  {'median width of the reported intervals / true lag':50s} {s['width']:.3f}")
+    by_joint = []
+    for name in dict.fromkeys(r["joint"] for r in rows):
+        k, n = summary([r for r in rows if r["joint"] == name])["covered"]
+        by_joint.append(f"{name} {k} / {n}")
+    print(f"  {'reported lags inside, by joint':50s} {', '.join(by_joint)}")
     return 0
+
+
+def _arm_rows(seed: int, *, duration: float, n_lag: int, kind: str) -> list:
+    """:func:`arm_joints` of arm ``seed`` (the URDF loaded in the calling process: a worker's)."""
+    from adaptive_ff.arm.robot import load_urdf
+
+    return arm_joints(load_urdf(URDF), seed, duration=duration, n_lag=n_lag, kind=kind)
+
+
+def _collect(done, cache: dict, path) -> None:
+    """Put each ``(seed, rows)`` of ``done`` into ``cache`` and append it to the cache file ``path`` (None: none)."""
+    for seed, rows in done:
+        cache[seed] = rows
+        if path is not None:
+            with open(path, "a", encoding="utf-8") as fh:
+                for r in rows:
+                    fh.write(json.dumps(r, default=float) + "\n")
+
+
+def _cpu() -> float:
+    """CPU seconds of this process and its finished worker processes."""
+    import resource
+
+    return time.process_time() + resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime
 
 
 if __name__ == "__main__":

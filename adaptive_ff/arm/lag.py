@@ -51,14 +51,16 @@ holds a shape drawn from those the whole-arm profile accepts (its rows with the 
 likelihood-ratio bound of the friction intervals, weighted by their likelihood, ``exp(-chi2 / 2)``;
 :func:`adaptive_ff.arm.fit.identify_arm`; ``bootstrap_shapes`` of the output-error fit), as the fit itself holds
 one the data determine only that far: the refits read the lag the held shape's error moves.
-A reported lag is then corrected for the record's low-pass by indirect inference (:func:`_lowpass_correction`):
-the fitted joint, its lag at the estimate and at the estimate's one-step correction, is driven by the record's
-torque, its velocity put through the record's low-pass and fitted as the record is; the reported lag is the one
-that reads as the estimate on the secant through those two readings. Its interval is centred there, ``± t rms /
-slope``: ``rms`` the bootstrap refits' root-mean-square deviation from the estimate (their mean shift included),
-``t`` the Student-t quantile of the valid refits (:func:`adaptive_ff.identification.covariance.bootstrap_t_quantile`)
-and the secant's slope (at most 1: it never narrows the interval) mapping the reading's spread to the lag's; the
-correction, not the refits' mean shift (by which the fit's own interval is centred), stands for the bias. Where
+A reported lag is then corrected for the record's low-pass by indirect inference (:func:`_lowpass_correction`): the
+fitted joint, its lag at the estimate and at the estimate's one-step correction, is driven by the record's torque,
+that torque and its velocity put through the record's low-pass (as the record's torque and velocity went through it)
+and fitted as the record is; the reported lag is the one that reads as the estimate on the secant through those two
+readings. Its interval is centred there, ``± t rms / slope``: ``rms`` the bootstrap refits' root-mean-square
+deviation from the estimate (their mean shift included), ``t`` the Student-t quantile of the valid refits
+(:func:`adaptive_ff.identification.covariance.bootstrap_t_quantile`) and the secant's slope mapping the reading's
+spread to the lag's, held within [:data:`LAG_SLOPE_MIN`, 1] (above 1 it would narrow the interval; far below 1 it is
+the two world fits' own scatter, not the reading's sensitivity, and dividing by it would throw the correction out);
+the correction, not the refits' mean shift (by which the fit's own interval is centred), stands for the bias. Where
 that leaves no positive lag, ``tau`` is NaN. Neither carries the share of the low-pass that the fitted joint's world
 does not reproduce (on wrists and elbows): there the intervals remain too narrow. The measurements behind the rule,
 the correction and their limits: ``docs/your_arm.md`` (How, Lag; Not yet) and ``benchmarks/arm_lag.py``.
@@ -78,7 +80,8 @@ import numpy as np
 from plant.errors import ExcitationError, ParameterError, SignalError
 
 __all__ = ["JointLag", "LagOptions", "LagWorld", "LAG_RATE", "LAG_CUTOFF_FACTOR", "LAG_BOOTSTRAP", "LAG_WORKERS",
-           "LAG_FLOOR_SAMPLES", "LAG_SHIFT_MAX", "lag_records", "joint_lag", "joint_lags", "lag_reason", "velocity_noise"]
+           "LAG_FLOOR_SAMPLES", "LAG_SHIFT_MAX", "LAG_SLOPE_MIN", "lag_records", "joint_lag", "joint_lags",
+           "lag_reason", "velocity_noise"]
 
 #: Rate (Hz) at which the output-error record samples the log (every k-th sample; a slower log is taken as is).
 LAG_RATE = 1000.0
@@ -92,6 +95,9 @@ LAG_FLOOR_SAMPLES = 2.0
 #: A lag whose bootstrap refits read more than this share of it longer on average is not reported (module
 #: docstring, "Reported").
 LAG_SHIFT_MAX = 0.075
+#: Least slope of the low-pass correction's secant (its readings per s of the worlds' lag; module docstring,
+#: "Reported"): a flatter secant is taken at this slope.
+LAG_SLOPE_MIN = 0.5
 #: Default worker processes the joints' lag fits run in (the fits are independent; the result does not depend on it).
 LAG_WORKERS = 2
 
@@ -306,12 +312,13 @@ def _lowpass_correction(t, u, w, fit, lowpass: float) -> dict | None:
     """The lag the fit reads as its estimate once the record's low-pass is counted (indirect inference): ``{"tau",
     "slope", "worlds", "reads"}`` (s, -, s, s), or None where a world cannot be simulated or fitted.
 
-    World ``k``: the fitted joint with lag ``worlds[k]`` (the estimate, then its one-step correction) driven by
-    the record's input, its velocity through the record's zero-phase low-pass (``lowpass`` Hz, 4th order), fitted
-    as the record is (from the fit's values, its predictor and robust scale, without the profile over tau): it
-    reads ``reads[k]``. The worlds hold the fit's Stribeck shape: the one it held, or where it searched the shape
-    (``Vs``, ``delta`` not given), the one it found. ``tau`` solves ``reads(tau) = estimate`` on their secant, whose
-    slope (at most 1, else 1) maps the interval."""
+    World ``k``: the fitted joint with lag ``worlds[k]`` (the estimate, then its one-step correction) driven by the
+    record's input, that input and its velocity through the record's zero-phase low-pass (``lowpass`` Hz, 4th order;
+    the record's torque passed it as its velocity did), fitted as the record is (from the fit's values, its
+    predictor and robust scale, without the profile over tau): it reads ``reads[k]``. The worlds hold the fit's
+    Stribeck shape: the one it held, or where it searched the shape (``Vs``, ``delta`` not given), the one it found.
+    ``tau`` solves ``reads(tau) = estimate`` on their secant, whose slope (held within [:data:`LAG_SLOPE_MIN`, 1]; 1
+    where it is not positive) maps the interval."""
     from scipy.signal import butter, filtfilt
 
     from adaptive_ff.identification.physical_id import fit_physical
@@ -323,11 +330,12 @@ def _lowpass_correction(t, u, w, fit, lowpass: float) -> dict | None:
     Vs, delta = float(shape["Vs"]), float(shape["delta"])
     b, a = butter(4, min(2.0 * lowpass * float(np.median(np.diff(t))), 0.8))
     start = {k: float(p[k]) for k in ("J", "Fc", "Fs", "sigma", "offset")}
+    u_world = filtfilt(b, a, u)
 
     def reads(tau):
         jp = JointParams(J=p["J"], Fc=p["Fc"], Fs=p["Fs"], Vs=Vs, delta=delta, sigma=p["sigma"], tau=tau)
         sim = simulate_sampled(jp, t, u, w0=float(w[0]), f0=float(u[0]), offset=float(p["offset"]))
-        world = fit_physical(t, u, filtfilt(b, a, sim), Vs=Vs, delta=delta, n_bootstrap=0, input_delay=0.0,
+        world = fit_physical(t, u_world, filtfilt(b, a, sim), Vs=Vs, delta=delta, n_bootstrap=0, input_delay=0.0,
                              start=dict(start, tau=tau), lag_profile=False, predictor=fit.info["predictor"],
                              f_scale=fit.info["f_scale"])
         return float(world.params["tau"])
@@ -340,7 +348,7 @@ def _lowpass_correction(t, u, w, fit, lowpass: float) -> dict | None:
     except (ExcitationError, SignalError, ParameterError):  # e.g. a fit whose Fs < 0 makes no world
         return None
     slope = (b1 - b2) / (est - tau1) if est != tau1 else math.nan
-    slope = min(slope, 1.0) if math.isfinite(slope) and slope > 0.0 else 1.0
+    slope = min(max(slope, LAG_SLOPE_MIN), 1.0) if math.isfinite(slope) and slope > 0.0 else 1.0
     return {"tau": tau1 + (est - b2) / slope, "slope": slope, "worlds": [est, tau1], "reads": [b1, b2]}
 
 
