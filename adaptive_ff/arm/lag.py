@@ -61,9 +61,11 @@ deviation from the estimate (their mean shift included), ``t`` the Student-t qua
 spread to the lag's, held within [:data:`LAG_SLOPE_MIN`, 1] (above 1 it would narrow the interval; far below 1 it is
 the two world fits' own scatter, not the reading's sensitivity, and dividing by it would throw the correction out);
 the correction, not the refits' mean shift (by which the fit's own interval is centred), stands for the bias. Where
-that leaves no positive lag, ``tau`` is NaN. Neither carries the share of the low-pass that the fitted joint's world
-does not reproduce (on wrists and elbows): there the intervals remain too narrow. The measurements behind the rule,
-the correction and their limits: ``docs/your_arm.md`` (How, Lag; Not yet) and ``benchmarks/arm_lag.py``.
+that leaves no positive lag, ``tau`` is NaN. Neither carries what the correction's world does not reproduce: the
+torque sensor's noise in the record's torque drives the world's joint, as it never drove the arm's, and the world
+then reads less of the low-pass than the record does on wrists and elbows, whose intervals remain too narrow. The
+measurements behind the rule, the correction and their limits: ``docs/your_arm.md`` (How, Lag; Not yet) and
+``benchmarks/arm_lag.py``.
 
 The velocity noise of each joint (``excitation.noise_std`` of ``identify --json``) is
 :func:`adaptive_ff.identification.diagnostics.velocity_noise_std` of the log's velocity as measured (or of the
