@@ -1,6 +1,7 @@
 """Coverage of identify-arm's 95 % intervals over seeded simulated arms, per parameter.
 
 Run:  python -m benchmarks.arm_coverage [--n 50] [--start 0] [--bootstrap 200] [--duration 20] [--rows moving|sliding]
+      [--lag]
 
 Each arm is ``examples/planar3.urdf`` (three links in the vertical plane) with the armatures 0.2, 0.1, 0.05 kg·m²
 and a friction per joint drawn from its seed (:func:`draw_friction`: ``Fc`` 0.5-2.5 N·m, ``Fs = Fc`` times
@@ -9,6 +10,9 @@ simulated for ``--duration`` s (:func:`adaptive_ff.arm.simulate.simulate_arm`: i
 sensor noise, the seed's reference phases and noise) and identified as ``adaptive-ff identify-arm`` identifies it
 (:func:`adaptive_ff.arm.fit.identify_arm`, default cutoff, ``--bootstrap`` refits, bootstrap seed = the arm's,
 its ``rows`` from ``--rows``, default identify_arm's (``"moving"``); without the lag fit: the arms have none).
+With ``--lag`` each joint's friction lags (eq. 1) as ``benchmarks/arm_lag.py`` draws it (:func:`draw_lags`: none
+with probability 0.4, else 2-10 ms), and the intervals are those of the same whole-arm fit (a static friction map,
+which the lag fits of ``identify-arm`` leave as it is).
 
 Printed per parameter: the share of the true values inside their 95 % interval, over every joint of every arm
 (``J`` against Pinocchio's ``M_jj`` at the log's mean position with the armatures; ``Vs`` only where the Stribeck
@@ -46,29 +50,44 @@ def draw_friction(n: int, seed: int) -> list:
     return out
 
 
-def arm_log(arm, seed: int, *, duration: float = 20.0):
+def draw_lags(n: int, seed: int) -> list:
+    """Each of the ``n`` joints' friction lag (s) of arm ``seed``: 0 with probability 0.4, else uniform in 2-10 ms
+    (as :func:`benchmarks.arm_lag.draw_friction` draws them), from ``default_rng([seed, 52])``."""
+    rng = np.random.default_rng([seed, 52])
+    return [0.0 if rng.uniform() < 0.4 else float(rng.uniform(2e-3, 10e-3)) for _ in range(n)]
+
+
+def arm_friction(n: int, seed: int, lag: bool = False) -> list:
+    """The friction of arm ``seed``: :func:`draw_friction`, with :func:`draw_lags`' lags where ``lag``."""
+    from dataclasses import replace
+
+    friction = draw_friction(n, seed)
+    return [replace(f, tau=t) for f, t in zip(friction, draw_lags(n, seed))] if lag else friction
+
+
+def arm_log(arm, seed: int, *, duration: float = 20.0, lag: bool = False):
     """The simulated log (:class:`adaptive_ff.arm.arm_log.ArmLog`) of the arm of seed ``seed``: its friction
-    :func:`draw_friction`, ``duration`` seconds (s) of the planar arm with the armatures :data:`ARMATURE`."""
+    :func:`arm_friction`, ``duration`` seconds (s) of the planar arm with the armatures :data:`ARMATURE`."""
     from adaptive_ff.arm.simulate import ArmSimulation, simulate_arm
 
-    return simulate_arm(arm, draw_friction(arm.n, seed), run=ArmSimulation(duration=duration, substeps=1), seed=seed,
-                        armature=ARMATURE)
+    return simulate_arm(arm, arm_friction(arm.n, seed, lag), run=ArmSimulation(duration=duration, substeps=1),
+                        seed=seed, armature=ARMATURE)
 
 
 def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, rows: str = "moving",
-             log=None) -> dict:
+             log=None, lag: bool = False) -> dict:
     """``{parameter: [hits, count, unwarned]}`` of one arm (seed ``seed``), the base parameters under ``"base"``
     (``unwarned``: the misses whose joint has no warning naming the parameter); ``log``: its :func:`arm_log` if
-    already simulated (default None: simulated here)."""
+    already simulated (default None: simulated here); ``lag``: the joints' friction lagged (:func:`draw_lags`)."""
     import re
 
     import pinocchio as pin
 
     from adaptive_ff.arm.fit import identify_arm
 
-    friction = draw_friction(arm.n, seed)
-    log = arm_log(arm, seed, duration=duration) if log is None else log
-    res = identify_arm(log, arm, seed=seed, n_bootstrap=n_bootstrap, lag=False, rows=rows)  # no lag simulated
+    friction = arm_friction(arm.n, seed, lag)
+    log = arm_log(arm, seed, duration=duration, lag=lag) if log is None else log
+    res = identify_arm(log, arm, seed=seed, n_bootstrap=n_bootstrap, lag=False, rows=rows)  # the friction map alone
     model = arm.model.copy()
     model.armature = ARMATURE.copy()
     M = pin.crba(model, model.createData(), log.q.mean(axis=0))
@@ -117,17 +136,19 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=20.0, help="log length in s (default 20)")
     ap.add_argument("--rows", choices=ROWS, default=DEFAULT_ROWS,
                     help=f"identify_arm's rows (default {DEFAULT_ROWS}, its default)")
+    ap.add_argument("--lag", action="store_true", help="each joint's friction lagged (none or 2-10 ms)")
     args = ap.parse_args(argv)
     arm = load_urdf(URDF)
     total = {k: [0, 0, 0] for k in PARAMETERS + ("base",)}
     t0 = time.process_time()
     for seed in range(args.start, args.start + args.n):
         for k, counts in arm_hits(arm, seed, duration=args.duration, n_bootstrap=args.bootstrap,
-                                  rows=args.rows).items():
+                                  rows=args.rows, lag=args.lag).items():
             total[k] = [a + b for a, b in zip(total[k], counts)]
     cpu = time.process_time() - t0
     print(f"identify-arm 95 % intervals over {args.n} simulated arms (planar3, seeds {args.start}-"
-          f"{args.start + args.n - 1}, {args.duration:g} s logs, {args.bootstrap} bootstrap refits, rows {args.rows})")
+          f"{args.start + args.n - 1}, {args.duration:g} s logs, {args.bootstrap} bootstrap refits, rows {args.rows}"
+          f"{', lagged friction' if args.lag else ''})")
     print(f"{'parameter':<10} {'inside':>8} {'of':>6} {'coverage':>9}   95 % (Wilson)    outside, no warning")
     for k, (h, c, u) in total.items():
         lo, hi = wilson(h, c)
