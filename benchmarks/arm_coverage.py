@@ -11,8 +11,10 @@ sensor noise, the seed's reference phases and noise) and identified as ``adaptiv
 (:func:`adaptive_ff.arm.fit.identify_arm`, default cutoff, ``--bootstrap`` refits, bootstrap seed = the arm's,
 its ``rows`` from ``--rows``, default identify_arm's (``"moving"``); without the lag fit: the arms have none).
 With ``--lag`` each joint's friction lags (eq. 1) as ``benchmarks/arm_lag.py`` draws it (:func:`draw_lags`: none
-with probability 0.4, else 2-10 ms), and the intervals are those of the same whole-arm fit (a static friction map,
-which the lag fits of ``identify-arm`` leave as it is).
+with probability 0.4, else 2-10 ms), and the arms are identified with their lag fits (10 refits each; the whole-arm
+fit then runs again with each reported lag in its joint's friction columns), whose reported lags' intervals make
+the row ``tau`` (over the lagged joints whose lag is reported; a lag reported on a lag-free joint counts as outside).
+``--workers N`` runs the arms in N processes.
 
 Printed per parameter: the share of the true values inside their 95 % interval, over every joint of every arm
 (``J`` against Pinocchio's ``M_jj`` at the log's mean position with the armatures; ``Vs`` only where the Stribeck
@@ -26,7 +28,10 @@ from __future__ import annotations
 
 import argparse
 import math
+import resource
 import time
+from concurrent.futures import ProcessPoolExecutor
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +39,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 URDF = ROOT / "examples" / "planar3.urdf"
 ARMATURE = np.array([0.2, 0.1, 0.05])
-PARAMETERS = ("J", "Fc", "Fs", "sigma", "offset", "Vs")
+PARAMETERS = ("J", "Fc", "Fs", "sigma", "offset", "Vs", "tau")
 
 
 def draw_friction(n: int, seed: int) -> list:
@@ -84,18 +89,23 @@ def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, 
     import pinocchio as pin
 
     from adaptive_ff.arm.fit import identify_arm
+    from adaptive_ff.arm.lag import LagOptions
 
     friction = arm_friction(arm.n, seed, lag)
     log = arm_log(arm, seed, duration=duration, lag=lag) if log is None else log
-    res = identify_arm(log, arm, seed=seed, n_bootstrap=n_bootstrap, lag=False, rows=rows)  # the friction map alone
+    res = identify_arm(log, arm, seed=seed, n_bootstrap=n_bootstrap, rows=rows,
+                       lag=LagOptions(workers=1) if lag else False)
     model = arm.model.copy()
     model.armature = ARMATURE.copy()
     M = pin.crba(model, model.createData(), log.q.mean(axis=0))
     out = {k: [0, 0, 0] for k in PARAMETERS + ("base",)}
     for j, (joint, f) in enumerate(zip(res.joints, friction)):
-        truth = {"J": M[j, j], "Fc": f.Fc, "Fs": f.Fs, "sigma": f.sigma, "offset": f.offset, "Vs": f.Vs}
+        truth = {"J": M[j, j], "Fc": f.Fc, "Fs": f.Fs, "sigma": f.sigma, "offset": f.offset, "Vs": f.Vs,
+                 "tau": f.tau}
         for k in PARAMETERS:
             lo, hi = joint.interval95[k]
+            if k == "tau" and f.tau == 0.0 and not (lo is not None and math.isfinite(lo)):
+                continue  # a lag-free joint's lag null: right, and no interval
             if lo is None or hi is None or not (math.isfinite(lo) and math.isfinite(hi)):
                 continue  # Vs where no Stribeck term was kept
             inside = bool(lo <= truth[k] <= hi)
@@ -113,6 +123,13 @@ def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, 
     return out
 
 
+def _arm_hits(seed: int, **kwargs) -> dict:
+    """:func:`arm_hits` of arm ``seed`` on the URDF loaded in the calling process (a worker's)."""
+    from adaptive_ff.arm.robot import load_urdf
+
+    return arm_hits(load_urdf(URDF), seed, **kwargs)
+
+
 def wilson(hits: int, n: int, z: float = 1.959963984540054) -> tuple:
     """The Wilson score interval of a binomial share ``hits/n`` (95 % by default)."""
     if n == 0:
@@ -127,7 +144,6 @@ def wilson(hits: int, n: int, z: float = 1.959963984540054) -> tuple:
 def main(argv=None) -> int:
     """Run the benchmark (module docstring) and print the coverage table."""
     from adaptive_ff.arm.fit import DEFAULT_ROWS, ROWS
-    from adaptive_ff.arm.robot import load_urdf
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--n", type=int, default=50, help="number of arms (default 50)")
@@ -136,21 +152,29 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=20.0, help="log length in s (default 20)")
     ap.add_argument("--rows", choices=ROWS, default=DEFAULT_ROWS,
                     help=f"identify_arm's rows (default {DEFAULT_ROWS}, its default)")
-    ap.add_argument("--lag", action="store_true", help="each joint's friction lagged (none or 2-10 ms)")
+    ap.add_argument("--lag", action="store_true", help="each joint's friction lagged (none or 2-10 ms), the lags fitted")
+    ap.add_argument("--workers", type=int, default=1, help="processes the arms run in (default 1)")
     args = ap.parse_args(argv)
-    arm = load_urdf(URDF)
     total = {k: [0, 0, 0] for k in PARAMETERS + ("base",)}
     t0 = time.process_time()
-    for seed in range(args.start, args.start + args.n):
-        for k, counts in arm_hits(arm, seed, duration=args.duration, n_bootstrap=args.bootstrap,
-                                  rows=args.rows, lag=args.lag).items():
+    job = partial(_arm_hits, duration=args.duration, n_bootstrap=args.bootstrap, rows=args.rows, lag=args.lag)
+    seeds = range(args.start, args.start + args.n)
+    if args.workers > 1:
+        with ProcessPoolExecutor(max_workers=args.workers) as pool:
+            results = list(pool.map(job, seeds))
+    else:
+        results = [job(seed) for seed in seeds]
+    for hits in results:
+        for k, counts in hits.items():
             total[k] = [a + b for a, b in zip(total[k], counts)]
-    cpu = time.process_time() - t0
+    cpu = time.process_time() - t0 + resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime
     print(f"identify-arm 95 % intervals over {args.n} simulated arms (planar3, seeds {args.start}-"
           f"{args.start + args.n - 1}, {args.duration:g} s logs, {args.bootstrap} bootstrap refits, rows {args.rows}"
           f"{', lagged friction' if args.lag else ''})")
     print(f"{'parameter':<10} {'inside':>8} {'of':>6} {'coverage':>9}   95 % (Wilson)    outside, no warning")
     for k, (h, c, u) in total.items():
+        if c == 0:
+            continue  # tau without --lag
         lo, hi = wilson(h, c)
         print(f"{k:<10} {h:>8} {c:>6} {h / c if c else math.nan:>9.3f}   [{lo:.3f}, {hi:.3f}]   {u:>8}")
     print(f"CPU {cpu:.0f} s")

@@ -73,6 +73,20 @@ outside their intervals (code ``method``: a note on the method, which ``design``
 
 Then each joint's friction lag ``tau`` (eq. 1) by the package's output-error fit on its rigid-body-removed record,
 where the log determines it, and each joint's velocity noise (:mod:`adaptive_ff.arm.lag`).
+
+Lag
+---
+A lagged friction is not the static map of the columns above: where it rises with speed, its lag acts as an inertia
+term, and the fit reads ``J`` low (a 10 ms lag on the planar arm: 0.4-1.8 % low, outside the intervals). So the
+whole-arm fit runs again with each reported lag in its joint's friction columns: each map ``g, h, w`` through
+``1/(tau s + 1)`` at the log's rate, before the torque's filter (:func:`_lagger`), everything after (profile,
+bootstrap, row sensitivity) as before; its results are reported, the lags those of the first pass. A joint whose
+residual RMS the lagged columns raise keeps its columns without the lag (the reported lag then models more than
+a delay of the friction map; the TX40's joint 5), and the fit runs once more without it (:func:`_lagged_stage`).
+The intervals of ``J``, the friction and the base parameters then carry the lags' uncertainty, which the bootstrap
+at the estimated lags does not see: each half-width combined in quadrature, as the row sensitivity is, with the
+larger distance of the estimate from the two point fits with every lag in the columns at its interval's lower and
+upper end (:func:`_widen_lag`).
 """
 
 from __future__ import annotations
@@ -126,15 +140,18 @@ class _FrictionColumns:
     rate from its velocity low-passed at :data:`FRICTION_VELOCITY_FACTOR` times the cutoff (``w_fast``, (n, N)) and
     put through the torque's filter and decimation (``pf``); ``dq`` (m, N) the filtered velocity. With ``moving``
     ((n, N) bool, ``rows="moving"``) every column is the filtered product of ``moving`` and its map, ``w`` and ``1``
-    too: the friction of the moving samples only (:func:`_moving_share`)."""
+    too: the friction of the moving samples only (:func:`_moving_share`). With ``lag`` (a callable, :func:`_lagger`)
+    each joint's map ``g, h, w`` goes through its friction lag (eq. 1) at the log's rate first."""
 
-    def __init__(self, pf, w_fast, dq, moving=None):
-        self.pf, self.w, self.moving = pf, w_fast, moving
+    def __init__(self, pf, w_fast, dq, moving=None, lag=None):
+        self.pf, self.w, self.moving, self.lag = pf, w_fast, moving, lag
+        sgn = np.sign(w_fast) if lag is None else lag(np.sign(w_fast))
+        lin = None if lag is None else lag(w_fast)
         if moving is None:
-            self.sgn, self.lin, self.one = pf(np.sign(w_fast)), dq, np.ones(dq.shape)
+            self.sgn, self.lin, self.one = pf(sgn), dq if lin is None else pf(lin), np.ones(dq.shape)
         else:
             mf = moving.astype(float)
-            self.sgn, self.lin, self.one = pf(mf * np.sign(w_fast)), pf(mf * w_fast), pf(mf)
+            self.sgn, self.lin, self.one = pf(mf * sgn), pf(mf * (w_fast if lin is None else lin)), pf(mf)
 
     def __call__(self, j: int, Vs: float, delta: float) -> np.ndarray:
         m = self.sgn.shape[0]
@@ -142,8 +159,36 @@ class _FrictionColumns:
         if np.isfinite(Vs):
             w = self.w[:, j]
             x = np.sign(w) * stribeck_shape(w, Vs, delta)
+            if self.lag is not None:
+                x = self.lag(x[:, None], j)[:, 0]
             h = self.pf(x if self.moving is None else x * self.moving[:, j])
         return np.column_stack([self.sgn[:, j] - h, h, self.lin[:, j], self.one[:, j]])
+
+
+def _lagger(tau, Ts: float):
+    """``lag(x, j=None)``: the columns of ``x`` (n, k) through each joint's first-order lag ``1/(tau_j s + 1)``
+    (eq. 1; ``tau`` (N,) s, 0 or NaN: none) at the sample time ``Ts`` (s), exact for an input linear between the
+    samples (first-order hold: ``y[k+1] = a y[k] + (c - a) x[k] + (1 - c) x[k+1]``, ``a = exp(-Ts/tau)``, ``c = (1 -
+    a) tau / Ts``; Franklin, Powell and Workman, Digital Control of Dynamic Systems, the triangle hold), each column
+    from its steady state at its first sample; ``j`` given: every column through joint ``j``'s lag."""
+    from scipy.signal import lfilter, lfilter_zi
+
+    tau = np.nan_to_num(np.asarray(tau, dtype=float), nan=0.0)
+
+    def one(x, t):
+        if not t > 0.0:
+            return x
+        a = float(np.exp(-Ts / t))
+        c = (1.0 - a) * t / Ts
+        b, d = [1.0 - c, c - a], [1.0, -a]
+        return lfilter(b, d, x, axis=0, zi=lfilter_zi(b, d)[:, None] * x[:1])[0]
+
+    def lag(x, j=None):
+        if j is not None:
+            return one(x, tau[j])
+        return np.column_stack([one(x[:, [k]], tau[k])[:, 0] for k in range(x.shape[1])])
+
+    return lag
 
 
 class _Problem:
@@ -251,17 +296,21 @@ def _fast_velocity(log: ArmLog, cutoff: float) -> np.ndarray:
     return np.gradient(filtfilt(b, a, log.q, axis=0), Ts, axis=0)
 
 
-def _rows_and_columns(log: ArmLog, cutoff: float, filtered, vmin, rows: str) -> tuple:
+def _rows_and_columns(log: ArmLog, cutoff: float, filtered, vmin, rows: str, tau=None) -> tuple:
     """Each joint's rows ``keep_j`` (m, N) and its friction columns (:class:`_FrictionColumns`, with the moving
     samples' mask ``|w_fast| >= vmin`` for ``rows="moving"``) for ``rows`` (:data:`ROWS`); ``filtered`` the
-    ``(t, dq)`` of the filtered states and the log's fast velocity ``w_fast`` (:func:`_fast_velocity`)."""
+    ``(t, dq)`` of the filtered states and the log's fast velocity ``w_fast`` (:func:`_fast_velocity`); ``tau`` None
+    or each joint's friction lag (N,) s (NaN: none), through which its columns go (:func:`_lagger`)."""
     t, dq, w_fast = filtered
     keep_j = (np.abs(dq) >= np.maximum(vmin, 1e-9)) & ~_near_reversal(t, dq, 1.0 / cutoff)
     pf = parallel_filter(log, cutoff)
+    Ts = float(np.median(np.diff(log.t)))
+    lag = None if tau is None else _lagger(tau, Ts)
     if rows == "moving":
-        return keep_j, _FrictionColumns(pf, w_fast, dq, moving=np.abs(w_fast) >= np.maximum(vmin, 1e-9))
-    window = int(round(REST_WINDOW / (cutoff * float(np.median(np.diff(log.t))))))
-    return keep_j & ~_near_rest(pf, w_fast, np.maximum(vmin, 1e-9), window), _FrictionColumns(pf, w_fast, dq)
+        return keep_j, _FrictionColumns(pf, w_fast, dq, moving=np.abs(w_fast) >= np.maximum(vmin, 1e-9), lag=lag)
+    window = int(round(REST_WINDOW / (cutoff * Ts)))
+    return keep_j & ~_near_rest(pf, w_fast, np.maximum(vmin, 1e-9), window), _FrictionColumns(pf, w_fast, dq,
+                                                                                                lag=lag)
 
 
 def _moving_share(log: ArmLog, arm: ArmModel, cutoff: float, states, vmin, rb) -> tuple:
@@ -655,51 +704,130 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     states = (t, dq, Yb, tau, w_fast)
     rb = (base.independent, arm.theta_urdf if rigid_body == "urdf" else None)
     fit_states = _moving_share(log, arm, cutoff, states, vmin, rb) if rows == "moving" else states
-    prob, keep_j, (Vs, delta, table), (x, rss, A) = _weighted_fit((log, arm, cutoff), fit_states, vmin, rows,
-                                                                  progress)
-    alt = _sliding_estimate((log, arm, cutoff), states, vmin) if rows == "moving" else None
-    x_alt = None if alt is None else alt[0]
-    boot, resid = _bootstrap(prob, A, x, int(n_bootstrap), seed, progress)
-    half = boot.half_width(0.95)
-    ratio = _variance_ratio(prob, A, rss, boot)
+    settings = (int(n_bootstrap), seed, progress)
+    stage = _whole_arm((log, arm, cutoff, None), (states, fit_states), vmin, rows, settings)
+    prob, keep_j, (Vs, delta, table), (x, rss, A), alt, (boot, resid, half, ratio) = stage
     a_J = _inertia_rows(arm, base, log.q.mean(axis=0))  # the log's mean configuration (all its samples)
     r = Yb.shape[2]
     J_all = a_J @ (x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf))
     reps = (boot.replicates[:, :r], boot.replicates[:, :r] @ a_J.T) if rigid_body == "fit" else None
     shapes = (_lag_shapes(Vs, delta, table), _accepted_shapes(table, rss, int(prob.keep.sum()), ratio))
     lags = _lags(log, arm, (base, x[:r], rigid_body, reps), J_all, shapes, cutoff, (lag, seed, progress))
+    stage, lagged, lag_alts = _lagged_stage(stage, lags, ((log, arm, cutoff), (states, fit_states), vmin, rows,
+                                                          settings))
+    prob, keep_j, (Vs, delta, table), (x, rss, A), alt, (boot, resid, half, ratio) = stage
+    x_alt = None if alt is None else alt[0]
     noise = velocity_noise(log)
     rest = np.mean(np.abs(w_fast) < vmin, axis=0) if rows == "moving" else None  # each joint's share at rest
     joints = []
     for j in range(arm.n):
         joints.append(_joint(arm, j, x, half, boot, a_J, r, base,
-                             (Vs, delta, table, rss, int(prob.keep.sum()), ratio, alt, _shape_fit(prob, Vs, delta)),
+                             (Vs, delta, table, rss, int(prob.keep.sum()), ratio, alt, _shape_fit(prob, Vs, delta),
+                              lag_alts),
                              (q, dq, keep_j, rest), (lags[j], noise[j])))
     scaled = A[prob.keep] * np.tile(prob.w, prob.m)[prob.keep][:, None]
     norm = np.linalg.norm(scaled, axis=0)
     scaled = scaled[:, norm > 0] / norm[norm > 0]  # a zero column (Fs of a joint without Stribeck term) is no fit
     beta = x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf)
-    ival = (np.column_stack(_widen(x[:r], x[:r] - half[:r], x[:r] + half[:r], None if x_alt is None else x_alt[:r]))
+    ival = (np.column_stack(_widen_lag(x[:r], *_widen(x[:r], x[:r] - half[:r], x[:r] + half[:r],
+                                                      None if x_alt is None else x_alt[:r]),
+                                       None if lag_alts is None else [a[:r] for a in lag_alts]))
             if rigid_body == "fit" else np.full((beta.shape[0], 2), np.nan))
     rigid = (Yb @ x[:r]) if rigid_body == "fit" else np.zeros_like(tau)
     curves = tuple((dq[:, j], tau[:, j] - rigid[:, j]) for j in range(arm.n))
     info = {"cutoff": float(cutoff), "rows": [int(v) for v in keep_j.sum(axis=0)],
             "bootstrap": {"n": int(n_bootstrap), "valid": boot.n_valid, "block": boot.block, "seed": int(seed)},
             "rms": [float(np.sqrt(np.mean(resid[keep_j[:, j], j] ** 2))) for j in range(arm.n)],
-            "J": "the joint's own diagonal inertia M_jj at the log's mean configuration", "row_selection": rows}
+            "J": "the joint's own diagonal inertia M_jj at the log's mean configuration", "row_selection": rows,
+            "lagged_columns": [float(v) if np.isfinite(v) else None for v in lagged]}
     cond = float(np.linalg.cond(scaled))
     return ArmIdentification(joints=tuple(joints), base_names=base.names, base_values=beta, base_interval=ival,
                              cond=cond, rigid_body=rigid_body, info=info, curves=curves,
                              warnings=tuple(_arm_warnings(cond, rows == "moving" and x_alt is None)))
 
 
+def _residual_rms(stage) -> np.ndarray:
+    """Each joint's residual RMS (N·m) over its kept rows in a :func:`_whole_arm` result."""
+    keep_j, resid = stage[1], stage[5][1]
+    return np.array([np.sqrt(np.mean(resid[keep_j[:, j], j] ** 2)) for j in range(keep_j.shape[1])])
+
+
+def _lagged_stage(stage, lags, run) -> tuple:
+    """The whole-arm fit with each reported lag in its joint's friction columns (module docstring, "Lag"):
+    ``(stage, lagged, lag_alts)``. ``stage`` the lag-free :func:`_whole_arm` result, ``lags`` the joints'
+    :class:`adaptive_ff.arm.lag.JointLag`, ``run`` ``((log, arm, cutoff), states, vmin, rows, settings)``. A joint
+    whose residual RMS the lagged columns raise keeps its columns lag-free (the lag then models something else than
+    the friction map's delay), and the fit is run again without it. ``lagged`` (N,) the lags in the columns (s, NaN:
+    none); ``lag_alts`` None, or the point fits (p,) at the lags' 95 % interval ends (all lower, all upper; at the
+    fit's Stribeck shapes), whose distance from the estimate the intervals carry (:func:`_widen_lag`)."""
+    (log, arm, cutoff), states, vmin, rows, settings = run
+    lagged = np.array([lg.tau if np.isfinite(lg.tau) and lg.tau > 0.0 else np.nan for lg in lags])
+    rms0 = _residual_rms(stage)
+    for _ in range(2):
+        if not np.isfinite(lagged).any():
+            return stage, lagged, None
+        new = _whole_arm((log, arm, cutoff, lagged), states, vmin, rows, settings)
+        worse = np.isfinite(lagged) & (_residual_rms(new) > rms0)
+        if not worse.any():
+            break
+        lagged = np.where(worse, np.nan, lagged)
+    else:  # the second pass raised another joint's residual: no lag in the columns
+        return stage, np.full(lagged.shape, np.nan), None
+    prob, _, (Vs, delta, _), _, _, _ = new
+    alts = []
+    for end in (0, 1):
+        tau = np.array([lg.interval95[end] if np.isfinite(v) else np.nan for lg, v in zip(lags, lagged)])
+        tau = np.where(np.isfinite(tau) & (tau > 0.0), tau, np.where(np.isfinite(lagged), 0.0, np.nan))
+        alts.append(_point_fit((log, arm, cutoff, tau), states[1], vmin, rows, (prob, Vs, delta)))
+    return new, lagged, alts
+
+
+def _point_fit(setup, states, vmin, rows: str, at) -> np.ndarray:
+    """The whole-arm fit's parameters (p,) with the columns of ``setup`` (:func:`_weighted_fit`'s) at the Stribeck
+    shapes and weights of ``at`` ``(prob, Vs, delta)``, the same rows (no profile)."""
+    log, arm, cutoff, lags = setup
+    t, dq, Yb, tau, w_fast = states
+    prob, Vs, delta = at
+    _, columns = _rows_and_columns(log, cutoff, (t, dq, w_fast), vmin, rows, lags)
+    other = _Problem(Yb, dq, tau, prob.keep, columns)
+    other.w = prob.w
+    return other.fit(Vs, delta)[0]
+
+
+def _widen_lag(value, lo, hi, alts):
+    """``(lo, hi)`` widened as :func:`_widen` by the larger distance of ``value`` from the two point fits ``alts`` at
+    the lags' interval ends (None: unchanged): the lag's uncertainty, which the whole-arm bootstrap (at the
+    estimated lags) does not carry."""
+    if alts is None:
+        return lo, hi
+    e = np.maximum(np.abs(np.asarray(value) - alts[0]), np.abs(np.asarray(value) - alts[1]))
+    return _widen(value, lo, hi, np.asarray(value) + e)
+
+
+def _whole_arm(setup, states, vmin, rows: str, settings) -> tuple:
+    """The whole-arm fit with its intervals' ingredients: ``(prob, keep_j, (Vs, delta, table), (x, rss, A), alt,
+    (boot, resid, half, ratio))`` (:func:`_weighted_fit`, :func:`_sliding_estimate` for ``rows="moving"`` else None,
+    :func:`_bootstrap`, its 95 % half-widths, :func:`_variance_ratio`); ``setup`` as :func:`_weighted_fit`'s,
+    ``states`` ``(states, fit_states)`` (the filtered states, and those of the rows' fit), ``settings``
+    ``(n_bootstrap, seed, progress)``."""
+    states, fit_states = states
+    n_bootstrap, seed, progress = settings
+    prob, keep_j, shape, (x, rss, A) = _weighted_fit(setup, fit_states, vmin, rows, progress)
+    alt = _sliding_estimate(setup, states, vmin) if rows == "moving" else None
+    boot, resid = _bootstrap(prob, A, x, n_bootstrap, seed, progress)
+    return prob, keep_j, shape, (x, rss, A), alt, (boot, resid, boot.half_width(0.95), _variance_ratio(prob, A, rss,
+                                                                                                       boot))
+
+
 def _weighted_fit(setup, states, vmin, rows: str, progress=False) -> tuple:
     """The weighted fit of one rows choice (module docstring): ``(problem, keep_j, (Vs, delta, table), (x, rss, A))``;
-    ``setup`` is ``(log, arm, cutoff)``, ``states`` ``(t, dq, Yb, tau)`` of the filtered log and the log's fast
-    velocity ``w_fast``, ``vmin`` (N,) each joint's slowest kept speed (rad/s). Raises ParameterError where a joint has fewer than 10 rows."""
-    log, arm, cutoff = setup
+    ``setup`` is ``(log, arm, cutoff, lags)``, ``lags`` None or each joint's friction lag (N,) s through which its
+    friction columns go, ``states`` ``(t, dq, Yb, tau)`` of the filtered log and the log's fast velocity ``w_fast``,
+    ``vmin`` (N,) each joint's slowest kept speed (rad/s). Raises ParameterError where a joint has fewer than 10
+    rows."""
+    log, arm, cutoff, lags = setup
     t, dq, Yb, tau, w_fast = states
-    keep_j, columns = _rows_and_columns(log, cutoff, (t, dq, w_fast), vmin, rows)
+    keep_j, columns = _rows_and_columns(log, cutoff, (t, dq, w_fast), vmin, rows, lags)
     for j in np.flatnonzero(keep_j.sum(axis=0) < 10):
         raise ParameterError(f"{log.source}: joint {arm.names[j]!r} moves in fewer than 10 of the filtered samples: "
                              "nothing to fit its friction on")
@@ -831,7 +959,7 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> Arm
     """Joint ``j``'s parameters, intervals, standard errors and warnings from the fit."""
     from adaptive_ff.identification.covariance import bootstrap_t_quantile
 
-    Vs, delta, table, rss, n_rows, ratio, sliding, shape_fit = profile
+    Vs, delta, table, rss, n_rows, ratio, sliding, shape_fit, lag_alts = profile
     q, dq, keep_j, rest = data
     c = r + 4 * j
     p = dict(zip(_FRICTION, x[c: c + 4]))
@@ -866,6 +994,10 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> Arm
             lo[k], hi[k] = _widen(v, lo[k], hi[k], alt[k])
         if stribeck and np.all(np.isfinite(vs_iv)):  # Vs as well, in log Vs (its grid's scale; the bounds stay > 0)
             vs_iv = tuple(from_log(b) for b in _widen(np.log(Vs[j]), *np.log(vs_iv), np.log(Vs_alt[j])))
+    if lag_alts is not None:  # the lags' uncertainty (the columns at the lags' interval ends)
+        for k, v in (("J", J), *p.items()):
+            a = [float(a_J[j] @ x_a[:r]) if k == "J" else float(x_a[c + _FRICTION.index(k)]) for x_a in lag_alts]
+            lo[k], hi[k] = _widen_lag(v, lo[k], hi[k], a)
     lag, noise = lag_noise
     params = {"J": J, **p, "Vs": float(Vs[j]), "delta": float(delta[j]) if stribeck else np.nan, "tau": lag.tau}
     interval = {k: (lo[k], hi[k]) for k in ("J", *_FRICTION)}

@@ -102,7 +102,8 @@ class ArmIdentification:
         ``"fit"`` (identified with the friction) or ``"urdf"`` (the URDF's inertias as given).
     info : dict
         ``cutoff`` (Hz), ``rows`` (per joint, used), ``bootstrap`` (replicates, valid, block), ``rms`` residual per
-        joint (N·m).
+        joint (N·m), ``lagged_columns`` per joint the lag (s) its friction columns carry in the reported fit, None
+        where none (:mod:`adaptive_ff.arm.fit`, "Lag").
     curves : tuple
         Per joint ``(dq, friction torque)`` of the log: the torque minus the identified rigid body (for
         :meth:`plot`).
