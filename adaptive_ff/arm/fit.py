@@ -76,13 +76,13 @@ where the log determines it, and each joint's velocity noise (:mod:`adaptive_ff.
 
 Lag
 ---
-A lagged friction is not the static map of the columns above: where it rises with speed, its lag acts as an inertia
-term, and the fit reads ``J`` low (a 10 ms lag on the planar arm: 0.4-1.8 % low, outside the intervals). So the
+A lagged friction is not the static map of the columns above: where it changes with speed, its lag acts as an
+inertia term, and the fit reads ``J`` low (``docs/your_arm.md``, How, The lags in the whole-arm fit). So the
 whole-arm fit runs again with each reported lag in its joint's friction columns: each map ``g, h, w`` through
 ``1/(tau s + 1)`` at the log's rate, before the torque's filter (:func:`_lagger`), everything after (profile,
 bootstrap, row sensitivity) as before; its results are reported, the lags those of the first pass. A joint whose
 residual RMS the lagged columns raise keeps its columns without the lag (the reported lag then models more than
-a delay of the friction map; the TX40's joint 5), and the fit runs once more without it (:func:`_lagged_stage`).
+a delay of the friction map), and the fit runs once more without it (:func:`_lagged_stage`).
 The intervals of ``J``, the friction and the base parameters then carry the lags' uncertainty, which the bootstrap
 at the estimated lags does not see: each half-width combined in quadrature, as the row sensitivity is, with the
 larger distance of the estimate from the two point fits with every lag in the columns at its interval's lower and
