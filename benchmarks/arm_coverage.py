@@ -40,6 +40,10 @@ ROOT = Path(__file__).resolve().parents[1]
 URDF = ROOT / "examples" / "planar3.urdf"
 ARMATURE = np.array([0.2, 0.1, 0.05])
 PARAMETERS = ("J", "Fc", "Fs", "sigma", "offset", "Vs", "tau")
+#: Probability that a joint is drawn without a lag (:func:`draw_lags`, ``benchmarks/arm_lag.py``).
+P_LAG_FREE = 0.4
+#: Range (s) of a drawn lag.
+LAG_RANGE = (2e-3, 10e-3)
 
 
 def draw_friction(n: int, seed: int) -> list:
@@ -59,7 +63,7 @@ def draw_lags(n: int, seed: int) -> list:
     """Each of the ``n`` joints' friction lag (s) of arm ``seed``: 0 with probability 0.4, else uniform in 2-10 ms
     (as :func:`benchmarks.arm_lag.draw_friction` draws them), from ``default_rng([seed, 52])``."""
     rng = np.random.default_rng([seed, 52])
-    return [0.0 if rng.uniform() < 0.4 else float(rng.uniform(2e-3, 10e-3)) for _ in range(n)]
+    return [0.0 if rng.uniform() < P_LAG_FREE else float(rng.uniform(*LAG_RANGE)) for _ in range(n)]
 
 
 def arm_friction(n: int, seed: int, lag: bool = False) -> list:
@@ -130,6 +134,11 @@ def _arm_hits(seed: int, **kwargs) -> dict:
     return arm_hits(load_urdf(URDF), seed, **kwargs)
 
 
+def cpu_seconds() -> float:
+    """CPU seconds of this process and its finished worker processes."""
+    return time.process_time() + resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime
+
+
 def wilson(hits: int, n: int, z: float = 1.959963984540054) -> tuple:
     """The Wilson score interval of a binomial share ``hits/n`` (95 % by default)."""
     if n == 0:
@@ -156,7 +165,7 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=1, help="processes the arms run in (default 1)")
     args = ap.parse_args(argv)
     total = {k: [0, 0, 0] for k in PARAMETERS + ("base",)}
-    t0 = time.process_time()
+    c0 = cpu_seconds()
     job = partial(_arm_hits, duration=args.duration, n_bootstrap=args.bootstrap, rows=args.rows, lag=args.lag)
     seeds = range(args.start, args.start + args.n)
     if args.workers > 1:
@@ -167,7 +176,7 @@ def main(argv=None) -> int:
     for hits in results:
         for k, counts in hits.items():
             total[k] = [a + b for a, b in zip(total[k], counts)]
-    cpu = time.process_time() - t0 + resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime
+    cpu = cpu_seconds() - c0
     print(f"identify-arm 95 % intervals over {args.n} simulated arms (planar3, seeds {args.start}-"
           f"{args.start + args.n - 1}, {args.duration:g} s logs, {args.bootstrap} bootstrap refits, rows {args.rows}"
           f"{', lagged friction' if args.lag else ''})")

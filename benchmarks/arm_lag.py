@@ -28,19 +28,16 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import time
 from concurrent.futures import ProcessPoolExecutor
 from functools import partial
 from pathlib import Path
 
 import numpy as np
 
+from benchmarks.arm_coverage import LAG_RANGE, P_LAG_FREE, cpu_seconds, wilson
+
 ROOT = Path(__file__).resolve().parents[1]
 URDF = ROOT / "examples" / "planar3.urdf"
-#: Probability that a joint is drawn without a lag.
-P_LAG_FREE = 0.4
-#: Range (s) of a drawn lag.
-LAG_RANGE = (2e-3, 10e-3)
 
 
 #: The planar arm's friction of ``docs/your_arm.md`` (shoulder, elbow, wrist): ``(Fc, Fs, Vs, delta, sigma, offset)``.
@@ -85,16 +82,6 @@ def arm_joints(arm, seed: int, *, duration: float = 20.0, n_lag: int = 10, kind:
         out.append({"seed": seed, "joint": joint.name, "true": lags[j], "tau": joint.params["tau"], "lo": lo,
                     "hi": hi, "reason": reason, "info": joint.lag_info})
     return out
-
-
-def wilson(k: int, n: int) -> tuple:
-    """95 % Wilson interval of the share ``k / n``."""
-    if n == 0:
-        return (math.nan, math.nan)
-    z, p = 1.959964, k / n
-    c = (p + z * z / (2 * n)) / (1 + z * z / n)
-    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return (c - h, c + h)
 
 
 def reported(row: dict) -> bool:
@@ -149,7 +136,7 @@ def main(argv=None) -> int:
     cache = _read_cache(a.cache)
     seeds = range(a.start, a.start + a.n)
     todo = [seed for seed in seeds if seed not in cache]
-    c0 = _cpu()
+    c0 = cpu_seconds()
     job = partial(_arm_rows, duration=a.duration, n_lag=a.lag_bootstrap, kind=a.friction)
     if a.workers > 1 and len(todo) > 1:
         with ProcessPoolExecutor(max_workers=a.workers) as pool:
@@ -169,7 +156,7 @@ def main(argv=None) -> int:
                       f"{1e3 * r['info'].get('estimate', math.nan):6.2f} ms")
     s = summary(rows)
     print(f"{a.n} arms (seeds {a.start}-{a.start + a.n - 1}, friction {a.friction}), {a.duration:g} s logs, "
-          f"{a.lag_bootstrap} refits per lag fit; CPU {_cpu() - c0:.0f} s")
+          f"{a.lag_bootstrap} refits per lag fit; CPU {cpu_seconds() - c0:.0f} s")
     for key, text in (("false", "lag-free joints reported with a lag"), ("missed", "lagged joints reported null"),
                       ("covered", "reported lags whose interval holds the true lag")):
         k, n = s[key]
@@ -200,13 +187,6 @@ def _collect(done, cache: dict, path) -> None:
             with open(path, "a", encoding="utf-8") as fh:
                 for r in rows:
                     fh.write(json.dumps(r, default=float) + "\n")
-
-
-def _cpu() -> float:
-    """CPU seconds of this process and its finished worker processes."""
-    import resource
-
-    return time.process_time() + resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime
 
 
 if __name__ == "__main__":

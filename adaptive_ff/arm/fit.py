@@ -91,6 +91,8 @@ upper end (:func:`_widen_lag`).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from threadpoolctl import threadpool_limits
 
@@ -145,13 +147,12 @@ class _FrictionColumns:
 
     def __init__(self, pf, w_fast, dq, moving=None, lag=None):
         self.pf, self.w, self.moving, self.lag = pf, w_fast, moving, lag
-        sgn = np.sign(w_fast) if lag is None else lag(np.sign(w_fast))
-        lin = None if lag is None else lag(w_fast)
-        if moving is None:
-            self.sgn, self.lin, self.one = pf(sgn), dq if lin is None else pf(lin), np.ones(dq.shape)
+        sgn, lin = (np.sign(w_fast), w_fast) if lag is None else (lag(np.sign(w_fast)), lag(w_fast))
+        if moving is None:  # the filtered velocity is the velocity column's filter, where no lag acts on it
+            self.sgn, self.lin, self.one = pf(sgn), dq if lag is None else pf(lin), np.ones(dq.shape)
         else:
             mf = moving.astype(float)
-            self.sgn, self.lin, self.one = pf(mf * sgn), pf(mf * (w_fast if lin is None else lin)), pf(mf)
+            self.sgn, self.lin, self.one = pf(mf * sgn), pf(mf * lin), pf(mf)
 
     def __call__(self, j: int, Vs: float, delta: float) -> np.ndarray:
         m = self.sgn.shape[0]
@@ -705,17 +706,17 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     rb = (base.independent, arm.theta_urdf if rigid_body == "urdf" else None)
     fit_states = _moving_share(log, arm, cutoff, states, vmin, rb) if rows == "moving" else states
     settings = (int(n_bootstrap), seed, progress)
-    stage = _whole_arm((log, arm, cutoff, None), (states, fit_states), vmin, rows, settings)
-    prob, keep_j, (Vs, delta, table), (x, rss, A), alt, (boot, resid, half, ratio) = stage
+    first = _whole_arm((log, arm, cutoff, None), (states, fit_states), vmin, rows, settings)
     a_J = _inertia_rows(arm, base, log.q.mean(axis=0))  # the log's mean configuration (all its samples)
     r = Yb.shape[2]
-    J_all = a_J @ (x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf))
-    reps = (boot.replicates[:, :r], boot.replicates[:, :r] @ a_J.T) if rigid_body == "fit" else None
-    shapes = (_lag_shapes(Vs, delta, table), _accepted_shapes(table, rss, int(prob.keep.sum()), ratio))
-    lags = _lags(log, arm, (base, x[:r], rigid_body, reps), J_all, shapes, cutoff, (lag, seed, progress))
-    stage, lagged, lag_alts = _lagged_stage(stage, lags, ((log, arm, cutoff), (states, fit_states), vmin, rows,
+    J_all = a_J @ (first.x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf))
+    reps = (first.boot.replicates[:, :r], first.boot.replicates[:, :r] @ a_J.T) if rigid_body == "fit" else None
+    shapes = (_lag_shapes(first.Vs, first.delta, first.table),
+              _accepted_shapes(first.table, first.rss, int(first.prob.keep.sum()), first.ratio))
+    lags = _lags(log, arm, (base, first.x[:r], rigid_body, reps), J_all, shapes, cutoff, (lag, seed, progress))
+    stage, lagged, lag_alts = _lagged_stage(first, lags, ((log, arm, cutoff), (states, fit_states), vmin, rows,
                                                           settings))
-    prob, keep_j, (Vs, delta, table), (x, rss, A), alt, (boot, resid, half, ratio) = stage
+    prob, keep_j, Vs, delta, table, x, rss, A, alt, boot, resid, half, ratio = stage
     x_alt = None if alt is None else alt[0]
     noise = velocity_noise(log)
     rest = np.mean(np.abs(w_fast) < vmin, axis=0) if rows == "moving" else None  # each joint's share at rest
@@ -746,15 +747,37 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
                              warnings=tuple(_arm_warnings(cond, rows == "moving" and x_alt is None)))
 
 
-def _residual_rms(stage) -> np.ndarray:
+class _Stage(NamedTuple):
+    """One whole-arm fit (:func:`_whole_arm`): the problem ``prob`` and each joint's rows ``keep_j``
+    (:func:`_weighted_fit`), the profile's Stribeck shapes ``Vs``, ``delta`` and its ``table``, the solution ``x``,
+    its weighted ``rss`` and rows ``A``, the row-sensitivity estimate ``alt`` (:func:`_sliding_estimate`, None with
+    ``rows="sliding"``), the bootstrap ``boot`` with its residuals ``resid`` and 95 % half-widths ``half``, and the
+    variance ratio ``ratio`` (:func:`_variance_ratio`)."""
+
+    prob: _Problem
+    keep_j: np.ndarray
+    Vs: np.ndarray
+    delta: np.ndarray
+    table: list
+    x: np.ndarray
+    rss: float
+    A: np.ndarray
+    alt: tuple | None
+    boot: object
+    resid: np.ndarray
+    half: np.ndarray
+    ratio: float
+
+
+def _residual_rms(stage: _Stage) -> np.ndarray:
     """Each joint's residual RMS (N·m) over its kept rows in a :func:`_whole_arm` result."""
-    keep_j, resid = stage[1], stage[5][1]
+    keep_j, resid = stage.keep_j, stage.resid
     return np.array([np.sqrt(np.mean(resid[keep_j[:, j], j] ** 2)) for j in range(keep_j.shape[1])])
 
 
 def _lagged_stage(stage, lags, run) -> tuple:
     """The whole-arm fit with each reported lag in its joint's friction columns (module docstring, "Lag"):
-    ``(stage, lagged, lag_alts)``. ``stage`` the lag-free :func:`_whole_arm` result, ``lags`` the joints'
+    ``(stage, lagged, lag_alts)``. ``stage`` the lag-free :class:`_Stage`, ``lags`` the joints'
     :class:`adaptive_ff.arm.lag.JointLag`, ``run`` ``((log, arm, cutoff), states, vmin, rows, settings)``. A joint
     whose residual RMS the lagged columns raise keeps its columns lag-free (the lag then models something else than
     the friction map's delay), and the fit is run again without it. ``lagged`` (N,) the lags in the columns (s, NaN:
@@ -773,12 +796,11 @@ def _lagged_stage(stage, lags, run) -> tuple:
         lagged = np.where(worse, np.nan, lagged)
     else:  # the second pass raised another joint's residual: no lag in the columns
         return stage, np.full(lagged.shape, np.nan), None
-    prob, _, (Vs, delta, _), _, _, _ = new
     alts = []
     for end in (0, 1):
         tau = np.array([lg.interval95[end] if np.isfinite(v) else np.nan for lg, v in zip(lags, lagged)])
         tau = np.where(np.isfinite(tau) & (tau > 0.0), tau, np.where(np.isfinite(lagged), 0.0, np.nan))
-        alts.append(_point_fit((log, arm, cutoff, tau), states[1], vmin, rows, (prob, Vs, delta)))
+        alts.append(_point_fit((log, arm, cutoff, tau), states[1], vmin, rows, (new.prob, new.Vs, new.delta)))
     return new, lagged, alts
 
 
@@ -804,19 +826,17 @@ def _widen_lag(value, lo, hi, alts):
     return _widen(value, lo, hi, np.asarray(value) + e)
 
 
-def _whole_arm(setup, states, vmin, rows: str, settings) -> tuple:
-    """The whole-arm fit with its intervals' ingredients: ``(prob, keep_j, (Vs, delta, table), (x, rss, A), alt,
-    (boot, resid, half, ratio))`` (:func:`_weighted_fit`, :func:`_sliding_estimate` for ``rows="moving"`` else None,
-    :func:`_bootstrap`, its 95 % half-widths, :func:`_variance_ratio`); ``setup`` as :func:`_weighted_fit`'s,
+def _whole_arm(setup, states, vmin, rows: str, settings) -> _Stage:
+    """The whole-arm fit with its intervals' ingredients (:class:`_Stage`); ``setup`` as :func:`_weighted_fit`'s,
     ``states`` ``(states, fit_states)`` (the filtered states, and those of the rows' fit), ``settings``
     ``(n_bootstrap, seed, progress)``."""
     states, fit_states = states
     n_bootstrap, seed, progress = settings
-    prob, keep_j, shape, (x, rss, A) = _weighted_fit(setup, fit_states, vmin, rows, progress)
+    prob, keep_j, (Vs, delta, table), (x, rss, A) = _weighted_fit(setup, fit_states, vmin, rows, progress)
     alt = _sliding_estimate(setup, states, vmin) if rows == "moving" else None
     boot, resid = _bootstrap(prob, A, x, n_bootstrap, seed, progress)
-    return prob, keep_j, shape, (x, rss, A), alt, (boot, resid, boot.half_width(0.95), _variance_ratio(prob, A, rss,
-                                                                                                       boot))
+    return _Stage(prob, keep_j, Vs, delta, table, x, rss, A, alt, boot, resid, boot.half_width(0.95),
+                  _variance_ratio(prob, A, rss, boot))
 
 
 def _weighted_fit(setup, states, vmin, rows: str, progress=False) -> tuple:
