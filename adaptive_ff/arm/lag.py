@@ -82,13 +82,16 @@ import numpy as np
 from plant.errors import ExcitationError, ParameterError, SignalError
 
 __all__ = ["JointLag", "LagOptions", "LagWorld", "LAG_RATE", "LAG_CUTOFF_FACTOR", "LAG_BOOTSTRAP", "LAG_WORKERS",
-           "LAG_FLOOR_SAMPLES", "LAG_SHIFT_MAX", "LAG_SLOPE_MIN", "lag_records", "joint_lag", "joint_lags",
+           "LAG_FLOOR_SAMPLES", "LAG_SHIFT_MAX", "LAG_SLOPE_MIN", "LAG_INJECTION_GAIN", "lag_records", "joint_lag", "joint_lags",
            "lag_reason", "velocity_noise"]
 
 #: Rate (Hz) at which the output-error record samples the log (every k-th sample; a slower log is taken as is).
 LAG_RATE = 1000.0
 #: Cutoff of the states of the removed rigid-body torque, as a multiple of the identification's cutoff.
 LAG_CUTOFF_FACTOR = 5.0
+#: Output-injection gain of the output-error fit's one-step predictor on the velocity (``injection_gain`` of
+#: :class:`adaptive_ff.identification.oe_options.OutputErrorOptions`; module docstring, "Predictor").
+LAG_INJECTION_GAIN = 0.3
 #: Default bootstrap refits of the output-error fit behind the lag's interval.
 LAG_BOOTSTRAP = 10
 #: A lag whose interval reaches below this many samples of the output-error record is not reported (s per sample:
@@ -283,7 +286,8 @@ def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTST
     try:
         fit = fit_physical(t, u, w, Vs=Vs if stribeck else None, delta=delta if stribeck else None,
                            n_bootstrap=int(n_bootstrap), bootstrap_refit="partial", bootstrap_seed=int(seed),
-                           bootstrap_workers=1, input_delay=0.0, bootstrap_input_errors=world.input_errors,
+                           bootstrap_workers=1, input_delay=0.0, injection_gain=LAG_INJECTION_GAIN,
+                           bootstrap_input_errors=world.input_errors,
                            bootstrap_shapes=world.shapes if stribeck else None)
     except (ExcitationError, SignalError, ParameterError) as err:
         return JointLag(math.nan, (math.nan, math.nan), f"the output-error fit on its rigid-body-removed record "
@@ -339,7 +343,7 @@ def _lowpass_correction(t, u, w, fit, lowpass: float) -> dict | None:
         sim = simulate_sampled(jp, t, u, w0=float(w[0]), f0=float(u[0]), offset=float(p["offset"]))
         world = fit_physical(t, u_world, filtfilt(b, a, sim), Vs=Vs, delta=delta, n_bootstrap=0, input_delay=0.0,
                              start=dict(start, tau=tau), lag_profile=False, predictor=fit.info["predictor"],
-                             f_scale=fit.info["f_scale"])
+                             injection_gain=LAG_INJECTION_GAIN, f_scale=fit.info["f_scale"])
         return float(world.params["tau"])
 
     est = float(p["tau"])

@@ -33,6 +33,13 @@ class OutputErrorOptions:
     predictor : {"auto", "free-run", "one-step"}, keyword-only
         Prediction used in the cost. ``"auto"`` (default): one-step below a
         velocity noise of 0.03 % of the peak ``|w|``, else free-run (module docstring).
+    injection_gain : float, keyword-only
+        The one-step predictor's output-injection gain on the velocity, ``Kw`` in (0, 1]
+        (:mod:`adaptive_ff.identification.simulator`): after each sample the predicted velocity moves this share
+        of the way to the measured one. 1 (default): it is reset to it. Below 1 the predictor carries less of the
+        velocity's noise, which a low-passed record hides from ``"auto"`` and which the reset would read as a
+        friction lag (errors in variables; :mod:`adaptive_ff.arm.lag` takes 0.2). Not used by the free-run
+        predictor.
     h_max : float, keyword-only
         Largest RK4 sub-step (s), > 0. Default 1e-3 (the paper's simulation rate).
     input_delay : float or None, keyword-only
@@ -146,6 +153,7 @@ class OutputErrorOptions:
     """
 
     predictor: str = "auto"
+    injection_gain: float = 1.0
     h_max: float = H_MAX_DEFAULT
     input_delay: float | None = None
     interp: str = "linear"
@@ -174,6 +182,9 @@ class OutputErrorOptions:
             object.__setattr__(self, name, value)
 
         put("h_max", check_positive("h_max", self.h_max))
+        put("injection_gain", check_positive("injection_gain", self.injection_gain))
+        if self.injection_gain > 1.0:
+            raise ParameterError(f"injection_gain must be in (0, 1], got {self.injection_gain!r}")
         put("input_delay", check_optional_number("input_delay", self.input_delay, low=0.0, unit="s", none="profiled"))
         put("burn", check_finite_scalar("burn", self.burn))
         if self.burn < 0:

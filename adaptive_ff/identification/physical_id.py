@@ -222,7 +222,8 @@ class PhysicalFit:
     info : dict
         Method details (JSON-serialisable). ``"paper"``: ``Ts``, ``inverse``,
         ``theta``, ``fit_free_run``, ``residual_rms``. ``"output_error"``:
-        ``predictor``, ``noise_std`` (rad/s), ``stderr_kind`` (``"bootstrap"``
+        ``predictor``, ``injection_gain`` (the velocity's output-injection gain of the predictor: 0 free-run),
+        ``noise_std`` (rad/s), ``stderr_kind`` (``"bootstrap"``
         or ``"hac"``: what ``stderr`` is), ``stderr_hac`` (Newey-West),
         ``stderr_white`` (white-noise Gauss-Newton errors), ``hac_lags``
         (Bartlett bandwidth), ``bootstrap`` (None, or ``n``, ``n_valid``,
@@ -426,7 +427,7 @@ class _OutputErrorProblem:
         if predictor == "auto":
             predictor = "one-step" if self.noise < _ONE_STEP_NOISE * peak else "free-run"
         self.predictor = predictor
-        self.gain = (1.0, 0.0) if predictor == "one-step" else (0.0, 0.0)
+        self.gain = (opts.injection_gain, 0.0) if predictor == "one-step" else (0.0, 0.0)
         self.f_scale = max(3.0 * self.noise, 1e-3 * peak) if opts.f_scale is None else opts.f_scale
         # continuation (graduated non-convexity): the global stage uses a wide robust scale, which smooths
         # the cost over the breakaway jitter; the final stage the noise-level scale
@@ -865,7 +866,7 @@ def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> P
     fit = nrmse_fit(pb.wm, pb.simulate(x)[pb.i0:])
     return PhysicalFit(method="output_error", params=params, stderr=stderr, cond=cond, nrmse=float(fit),
                        n_samples=int(t.shape[0]), nrmse_kind=pb.predictor,
-                       info={"predictor": pb.predictor, "noise_std": pb.noise,
+                       info={"predictor": pb.predictor, "injection_gain": float(pb.gain[0]), "noise_std": pb.noise,
                              "stderr_kind": "bootstrap" if boot is not None else "hac", "stderr_hac": stderr_hac,
                              "stderr_white": stderr_white, "hac_lags": int(lags), "bootstrap": boot,
                              "start": {k: float(v) for k, v in s0.items()}, "cost": float(best[0]),
@@ -908,7 +909,7 @@ def fit_physical(t, u, w, *, Vs: float | None, delta: float | None, method: str 
     **options
         ``"paper"``: ``inverse`` ({"corrected", "printed"}, default
         "corrected"). ``"output_error"``: the fields of
-        :class:`OutputErrorOptions` (``predictor``, ``h_max``,
+        :class:`OutputErrorOptions` (``predictor``, ``injection_gain``, ``h_max``,
         ``input_delay``, ``interp``, ``burn``, ``fs_grid``, ``fs_max_ratio``,
         ``diff_step``, ``max_nfev``, ``loss``, ``f_scale``, ``start``,
         ``n_bootstrap``, ``bootstrap_seed``, ``bootstrap_refit``, ``bootstrap_lag_refits``, ``lag_profile``,

@@ -44,7 +44,7 @@ def test_output_error_recovers_noise_free_parameters_at_10_ms(clean):
     for k, tol in (("Fc", 2.0), ("Fs", 2.0), ("sigma", 2.0), ("J", 5.0), ("tau", 5.0)):
         assert abs(e[k]) < tol, (k, e[k])
     # noise-free data: the one-step predictor is chosen (module docstring); it reproduces the record
-    assert fit.info["predictor"] == "one-step" and fit.nrmse_kind == "one-step"
+    assert fit.info["predictor"] == "one-step" and fit.nrmse_kind == "one-step" and fit.info["injection_gain"] == 1.0
     assert fit.nrmse > 99.5
     assert abs(fit.params["offset"]) < 0.01 * P.Fc
     assert all(math.isfinite(v) and v > 0 for v in fit.stderr.values())
@@ -131,6 +131,11 @@ def test_invalid_input_raises_typed_errors_naming_the_argument(clean):
         fit_physical(t, u, w, Vs=P.Vs, delta=P.delta, h_max=0.0)
     with pytest.raises(ParameterError, match="predictor"):
         fit_physical(t, u, w, Vs=P.Vs, delta=P.delta, predictor="two-step")
+    for bad in (0.0, -0.3, 1.5, math.nan):
+        with pytest.raises(ParameterError, match="injection_gain"):
+            fit_physical(t, u, w, Vs=P.Vs, delta=P.delta, injection_gain=bad)
+    with pytest.raises(TypeError, match="injection_gain must be a real number"):
+        fit_physical(t, u, w, Vs=P.Vs, delta=P.delta, injection_gain="0.3")
     with pytest.raises(ParameterError, match="inverse"):
         fit_physical(t, u, w, Vs=P.Vs, delta=P.delta, method="paper", inverse="guess")
     with pytest.raises(ParameterError, match="unknown option"):

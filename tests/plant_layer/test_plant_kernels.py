@@ -367,7 +367,7 @@ def test_simulator_matches_the_oracle_with_offset_and_injection():
     idx = np.arange(0, n + 1, 4, dtype=np.int64)
     grid = InputGrid(tg=t, ug=u, idx=idx)
     w_meas = 0.8 + 0.05 * np.sin(2 * np.pi * 0.9 * t[idx])
-    for offset, gain in ((0.0, (0.0, 0.0)), (2.5, (0.0, 0.0)), (-1.5, (1.0, 0.5))):
+    for offset, gain in ((0.0, (0.0, 0.0)), (2.5, (0.0, 0.0)), (-1.5, (1.0, 0.5)), (0.5, (0.3, 0.0))):
         new = simulate_on_grid(lagged_params(p.J, p.Fc, p.Fs, p.Vs, p.delta, p.sigma, p.tau), grid, w0=0.8, f0=55.0,
                                offset=offset, gain=gain, w_meas=w_meas)
         ref = oracle.simulate_foh(t, u, idx, p, offset=offset, w0=0.8, f0=55.0, gain=gain, w_meas=w_meas)
