@@ -27,6 +27,18 @@ the filter's start-up at both ends left out. Why that cutoff: a friction jump at
 at once, and the coupling torque ``M_jk ddq_k`` of that step is what the output-error fit must not read as the
 joint's own lag; and velocity noise, which the fit reads as lag, is what the filter removes.
 
+Predictor
+---------
+The record's velocity noise, low-passed with it, lies below the threshold at which ``predictor="auto"`` takes the
+free-run predictor, so the fit runs the one-step predictor. Its velocity after each sample moves
+:data:`LAG_INJECTION_GAIN` of the way to the measured one (``injection_gain`` of
+:class:`adaptive_ff.identification.oe_options.OutputErrorOptions`), not all of it: a reset to the measurement carries
+the noise into the friction map's argument, where it flips the map's sign near each reversal (errors in variables),
+and a longer lag averages those flips, so the fit reads the noise as lag, most on light joints (elbows, wrists),
+lagged or not. With the smaller share the predictor follows its own simulated velocity between samples and the
+measurement still keeps it from drifting off; a much smaller share brings it near the free-run predictor, whose
+cost is rough at breakaway, and reads long lags short. The measurements behind the share: ``docs/your_arm.md`` (How, Lag).
+
 The torque is taken at its time stamp (``input_delay=0``): a whole-arm log samples every joint's torque and
 position together, and the output-error fit's profile over a sub-sample input delay, which ``identify`` runs on a
 one-joint log, trades the delay against the lag here.
@@ -37,11 +49,11 @@ A lag is reported where the log determines it (:func:`lag_reason`): the fit runs
 excludes zero; the bootstrap's refits, whose world is the fitted lagged joint, do not read it longer by more than
 :data:`LAG_SHIFT_MAX` (7.5 %) of it on average; and the interval stays above :data:`LAG_FLOOR_SAMPLES` (2) samples
 of the record. Elsewhere ``tau`` is NaN (null in JSON) and the joint carries a warning that says why. Why more than
-the interval: a joint without a lag does not read as one here. Its friction jumps at each reversal, which
-the zero-phase low-pass of the record smooths over a few ms, and it sticks there, which eqs. 1-3 do not model; the
-fit reads both as a lag, often with an interval that excludes zero. What tells them apart is the bootstrap: on a
-lag-free joint the estimate is not a stable point of the fit and its refits read the lag markedly longer, on a
-lagged joint they do not; a lag-free shoulder's reading lies below two samples.
+the interval: a joint without a lag still reads a short one. Its friction jumps at each reversal, which the
+zero-phase low-pass of the record smooths over a few ms, and it sticks there, which eqs. 1-3 do not model; the fit
+reads both as a lag of about a sample, with an interval that excludes zero, which the floor sets apart. The
+bootstrap's mean shift is a second guard: where the estimate is not a stable point of the fit, its refits read the
+lag markedly longer; on a lagged joint they do not.
 
 The bootstrap's worlds carry the identified rigid body's error: world ``i`` is driven by the record's torque less
 the difference of the ``i``-th whole-arm bootstrap replicate's removed torque from the fit's (:func:`lag_records`'
@@ -61,11 +73,10 @@ deviation from the estimate (their mean shift included), ``t`` the Student-t qua
 spread to the lag's, held within [:data:`LAG_SLOPE_MIN`, 1] (above 1 it would narrow the interval; far below 1 it is
 the two world fits' own scatter, not the reading's sensitivity, and dividing by it would throw the correction out);
 the correction, not the refits' mean shift (by which the fit's own interval is centred), stands for the bias. Where
-that leaves no positive lag, ``tau`` is NaN. Neither carries what the correction's world does not reproduce: the
-torque sensor's noise in the record's torque drives the world's joint, as it never drove the arm's, and the world
-then reads less of the low-pass than the record does on wrists and elbows, whose intervals remain too narrow. The
-measurements behind the rule, the correction and their limits: ``docs/your_arm.md`` (How, Lag; Not yet) and
-``benchmarks/arm_lag.py``.
+that leaves no positive lag, ``tau`` is NaN. Neither carries an error common to the record and every refit: on a
+heavy joint, whose interval is narrow, the held Stribeck shape and the identified rigid body can move the lag by
+more than its interval. The measurements behind the rule, the correction and their limits: ``docs/your_arm.md``
+(How, Lag; Not yet) and ``benchmarks/arm_lag.py``.
 
 The velocity noise of each joint (``excitation.noise_std`` of ``identify --json``) is
 :func:`adaptive_ff.identification.diagnostics.velocity_noise_std` of the log's velocity as measured (or of the
@@ -95,7 +106,7 @@ LAG_INJECTION_GAIN = 0.3
 #: Default bootstrap refits of the output-error fit behind the lag's interval.
 LAG_BOOTSTRAP = 10
 #: A lag whose interval reaches below this many samples of the output-error record is not reported (s per sample:
-#: 1 / the record's rate): joints without a lag read up to 1.8 ms at 1 kHz (module docstring, "Reported").
+#: 1 / the record's rate): joints without a lag read about one sample (module docstring, "Reported").
 LAG_FLOOR_SAMPLES = 2.0
 #: A lag whose bootstrap refits read more than this share of it longer on average is not reported (module
 #: docstring, "Reported").

@@ -54,7 +54,8 @@ Methods
       of the peak velocity): consistent under white noise;
     * ``"one-step"`` for (nearly) noise-free data: after each sample the
       predicted velocity is reset to the measured one, the friction state
-      stays simulated (gain ``(1, 0)``). The free-run output is chaotic at
+      stays simulated (gain ``(1, 0)``; ``injection_gain`` below 1 moves the
+      velocity that share of the way instead). The free-run output is chaotic at
       breakaway (a Stribeck curve falls with speed, so creep is unstable) and
       the free-run cost is rough in Fs at the 2-3 % level even without noise;
       the one-step error is not, and on exact data it is unbiased. With
