@@ -37,7 +37,8 @@ the noise into the friction map's argument, where it flips the map's sign near e
 and a longer lag averages those flips, so the fit reads the noise as lag, most on light joints (elbows, wrists),
 lagged or not. With the smaller share the predictor follows its own simulated velocity between samples and the
 measurement still keeps it from drifting off; a much smaller share brings it near the free-run predictor, whose
-cost is rough at breakaway, and reads long lags short. The measurements behind the share: ``docs/your_arm.md`` (How, Lag).
+cost is rough at breakaway, and reads long lags short. The measurements behind the share: ``docs/your_arm.md``
+(How, Lag).
 
 The torque is taken at its time stamp (``input_delay=0``): a whole-arm log samples every joint's torque and
 position together, and the output-error fit's profile over a sub-sample input delay, which ``identify`` runs on a
@@ -93,8 +94,8 @@ import numpy as np
 from plant.errors import ExcitationError, ParameterError, SignalError
 
 __all__ = ["JointLag", "LagOptions", "LagWorld", "LAG_RATE", "LAG_CUTOFF_FACTOR", "LAG_BOOTSTRAP", "LAG_WORKERS",
-           "LAG_FLOOR_SAMPLES", "LAG_SHIFT_MAX", "LAG_SLOPE_MIN", "LAG_INJECTION_GAIN", "lag_records", "joint_lag", "joint_lags",
-           "lag_reason", "velocity_noise"]
+           "LAG_FLOOR_SAMPLES", "LAG_SHIFT_MAX", "LAG_SLOPE_MIN", "LAG_INJECTION_GAIN", "lag_records", "joint_lag",
+           "joint_lags", "lag_reason", "velocity_noise"]
 
 #: Rate (Hz) at which the output-error record samples the log (every k-th sample; a slower log is taken as is).
 LAG_RATE = 1000.0

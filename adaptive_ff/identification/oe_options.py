@@ -38,8 +38,8 @@ class OutputErrorOptions:
         (:mod:`adaptive_ff.identification.simulator`): after each sample the predicted velocity moves this share
         of the way to the measured one. 1 (default): it is reset to it. Below 1 the predictor carries less of the
         velocity's noise, which a low-passed record hides from ``"auto"`` and which the reset would read as a
-        friction lag (errors in variables; :mod:`adaptive_ff.arm.lag` takes 0.2). Not used by the free-run
-        predictor.
+        friction lag (errors in variables; :data:`adaptive_ff.arm.lag.LAG_INJECTION_GAIN` for the arm's lag
+        fits). Not used by the free-run predictor.
     h_max : float, keyword-only
         Largest RK4 sub-step (s), > 0. Default 1e-3 (the paper's simulation rate).
     input_delay : float or None, keyword-only
