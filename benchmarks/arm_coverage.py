@@ -59,11 +59,16 @@ def draw_friction(n: int, seed: int) -> list:
     return out
 
 
-def draw_lags(n: int, seed: int) -> list:
-    """Each of the ``n`` joints' friction lag (s) of arm ``seed``: 0 with probability 0.4, else uniform in 2-10 ms
-    (as :func:`benchmarks.arm_lag.draw_friction` draws them), from ``default_rng([seed, 52])``."""
-    rng = np.random.default_rng([seed, 52])
+def lag_draws(rng, n: int) -> list:
+    """``n`` friction lags (s) drawn from the generator ``rng``: 0 with probability :data:`P_LAG_FREE`, else uniform
+    in :data:`LAG_RANGE` (one draw for the choice, one for the lag)."""
     return [0.0 if rng.uniform() < P_LAG_FREE else float(rng.uniform(*LAG_RANGE)) for _ in range(n)]
+
+
+def draw_lags(n: int, seed: int) -> list:
+    """Each of the ``n`` joints' friction lag (s) of arm ``seed``: :func:`lag_draws` (as
+    :func:`benchmarks.arm_lag.draw_friction` draws them) from ``default_rng([seed, 52])``."""
+    return lag_draws(np.random.default_rng([seed, 52]), n)
 
 
 def arm_friction(n: int, seed: int, lag: bool = False) -> list:
@@ -185,7 +190,7 @@ def main(argv=None) -> int:
         if c == 0:
             continue  # tau without --lag
         lo, hi = wilson(h, c)
-        print(f"{k:<10} {h:>8} {c:>6} {h / c if c else math.nan:>9.3f}   [{lo:.3f}, {hi:.3f}]   {u:>8}")
+        print(f"{k:<10} {h:>8} {c:>6} {h / c:>9.3f}   [{lo:.3f}, {hi:.3f}]   {u:>8}")
     print(f"CPU {cpu:.0f} s")
     return 0
 

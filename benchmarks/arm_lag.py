@@ -7,7 +7,7 @@ Each arm is ``examples/planar3.urdf`` with the armatures 0.2, 0.1, 0.05 kg·m²,
 (:data:`FRICTION`) with ``Fc, Fs, sigma`` scaled by a factor 0.8-1.25 per joint, or with ``--friction coverage``
 the wider draws of :func:`benchmarks.arm_coverage.draw_friction` (a wrist with up to 2.5 N·m of Coulomb friction,
 which sticks at most reversals), and a lag per joint drawn from its seed (:func:`draw_friction`: none with
-probability :data:`P_LAG_FREE`, else uniform in 2-10 ms), simulated for
+probability :data:`benchmarks.arm_coverage.P_LAG_FREE`, else uniform in 2-10 ms), simulated for
 ``--duration`` s (:func:`adaptive_ff.arm.simulate.simulate_arm`, the default sensor noise, one Runge-Kutta step per
 period) and identified as ``adaptive-ff identify-arm`` identifies it (:func:`adaptive_ff.arm.fit.identify_arm`,
 bootstrap seed = the arm's, ``--lag-bootstrap`` refits of each lag fit, 30 refits of the whole-arm bootstrap: the
@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.arm_coverage import LAG_RANGE, P_LAG_FREE, cpu_seconds, wilson
+from benchmarks.arm_coverage import cpu_seconds, lag_draws, wilson
 
 ROOT = Path(__file__).resolve().parents[1]
 URDF = ROOT / "examples" / "planar3.urdf"
@@ -53,7 +53,7 @@ def draw_friction(n: int, seed: int, kind: str = "example") -> list:
     from benchmarks.arm_coverage import draw_friction as coverage_friction
 
     rng = np.random.default_rng([seed, 51])
-    lags = [0.0 if rng.uniform() < P_LAG_FREE else float(rng.uniform(*LAG_RANGE)) for _ in range(n)]
+    lags = lag_draws(rng, n)
     if kind == "coverage":
         return [replace(f, tau=lag) for f, lag in zip(coverage_friction(n, seed), lags)]
     out = []

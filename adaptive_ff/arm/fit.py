@@ -716,7 +716,7 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     lags = _lags(log, arm, (base, first.x[:r], rigid_body, reps), J_all, shapes, cutoff, (lag, seed, progress))
     stage, lagged, lag_alts = _lagged_stage(first, lags, ((log, arm, cutoff), (states, fit_states), vmin, rows,
                                                           settings))
-    prob, keep_j, Vs, delta, table, x, rss, A, alt, boot, resid, half, ratio = stage
+    prob, keep_j, Vs, delta, table, x, rss, A, alt, boot, _, half, ratio = stage
     x_alt = None if alt is None else alt[0]
     noise = velocity_noise(log)
     rest = np.mean(np.abs(w_fast) < vmin, axis=0) if rows == "moving" else None  # each joint's share at rest
@@ -738,7 +738,7 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     curves = tuple((dq[:, j], tau[:, j] - rigid[:, j]) for j in range(arm.n))
     info = {"cutoff": float(cutoff), "rows": [int(v) for v in keep_j.sum(axis=0)],
             "bootstrap": {"n": int(n_bootstrap), "valid": boot.n_valid, "block": boot.block, "seed": int(seed)},
-            "rms": [float(np.sqrt(np.mean(resid[keep_j[:, j], j] ** 2))) for j in range(arm.n)],
+            "rms": [float(v) for v in _residual_rms(stage)],
             "J": "the joint's own diagonal inertia M_jj at the log's mean configuration", "row_selection": rows,
             "lagged_columns": [float(v) if np.isfinite(v) else None for v in lagged]}
     cond = float(np.linalg.cond(scaled))
