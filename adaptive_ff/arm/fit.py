@@ -81,12 +81,15 @@ inertia term, and the fit reads ``J`` low (``docs/your_arm.md``, How, The lags i
 whole-arm fit runs again with each reported lag in its joint's friction columns: each map ``g, h, w`` through
 ``1/(tau s + 1)`` at the log's rate, before the torque's filter (:func:`_lagger`), everything after (profile,
 bootstrap, row sensitivity) as before; its results are reported, the lags those of the first pass. A joint whose
-residual RMS the lagged columns raise keeps its columns without the lag (the reported lag then models more than
-a delay of the friction map), and the fit runs once more without it (:func:`_lagged_stage`).
+residual the lagged columns raise beyond the 95 % likelihood-ratio bound (:func:`_lag_raises_residual`) keeps its
+columns without the lag (the reported lag then models more than a delay of the friction map), and the fit runs
+once more without it (:func:`_lagged_stage`).
 The intervals of ``J``, the friction and the base parameters then carry the lags' uncertainty, which the bootstrap
 at the estimated lags does not see: each half-width combined in quadrature, as the row sensitivity is, with the
-larger distance of the estimate from the two point fits with every lag in the columns at its interval's lower and
-upper end (:func:`_widen_lag`).
+larger distance of the estimate from the two point fits with every joint's columns at the lower and the upper end
+of its lag range (:func:`_widen_lag`, :func:`_lag_ranges`): a lag in the columns its interval; a null lag none up
+to the reporting floor or its fit's upper end, whichever is longer, since the log does not tell such a lag from
+none, while it still acts as an inertia term.
 """
 
 from __future__ import annotations
@@ -100,7 +103,8 @@ from plant.errors import ExcitationError, ParameterError, SignalError
 from plant.stribeck_map import stribeck_shape
 
 from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states, parallel_filter
-from adaptive_ff.arm.lag import LAG_CUTOFF_FACTOR, JointLag, LagOptions, joint_lags, lag_records, velocity_noise
+from adaptive_ff.arm.lag import (LAG_CUTOFF_FACTOR, LAG_FLOOR_SAMPLES, JointLag, LagOptions, joint_lags, lag_records,
+                                 velocity_noise)
 from adaptive_ff.arm.result import ArmIdentification, ArmJoint
 from adaptive_ff.arm.robot import ArmModel
 from adaptive_ff.arm.rows import DEFAULT_ROWS, REST_WINDOW, ROWS
@@ -779,29 +783,60 @@ def _lagged_stage(stage, lags, run) -> tuple:
     """The whole-arm fit with each reported lag in its joint's friction columns (module docstring, "Lag"):
     ``(stage, lagged, lag_alts)``. ``stage`` the lag-free :class:`_Stage`, ``lags`` the joints'
     :class:`adaptive_ff.arm.lag.JointLag`, ``run`` ``((log, arm, cutoff), states, vmin, rows, settings)``. A joint
-    whose residual RMS the lagged columns raise keeps its columns lag-free (the lag then models something else than
-    the friction map's delay), and the fit is run again without it. ``lagged`` (N,) the lags in the columns (s, NaN:
-    none); ``lag_alts`` None, or the point fits (p,) at the lags' 95 % interval ends (all lower, all upper; at the
-    fit's Stribeck shapes), whose distance from the estimate the intervals carry (:func:`_widen_lag`)."""
+    whose residual the lagged columns raise beyond the bound of :func:`_lag_raises_residual` keeps its columns
+    lag-free (the lag then models something else than the friction map's delay), and the fit is run again without
+    it. ``lagged`` (N,) the lags in the columns (s, NaN: none); ``lag_alts`` None, or the point fits (p,) at the
+    ends of each joint's lag range (:func:`_lag_ranges`; all lower, all upper; at the fit's Stribeck shapes), whose
+    distance from the estimate the intervals carry (:func:`_widen_lag`)."""
     (log, arm, cutoff), states, vmin, rows, settings = run
     lagged = np.array([lg.tau if np.isfinite(lg.tau) and lg.tau > 0.0 else np.nan for lg in lags])
-    rms0 = _residual_rms(stage)
+    new = stage
     for _ in range(2):
         if not np.isfinite(lagged).any():
-            return stage, lagged, None
+            new = stage
+            break
         new = _whole_arm((log, arm, cutoff, lagged), states, vmin, rows, settings)
-        worse = np.isfinite(lagged) & (_residual_rms(new) > rms0)
+        worse = np.isfinite(lagged) & _lag_raises_residual(stage, new)
         if not worse.any():
             break
         lagged = np.where(worse, np.nan, lagged)
     else:  # the second pass raised another joint's residual: no lag in the columns
-        return stage, np.full(lagged.shape, np.nan), None
-    alts = []
-    for end in (0, 1):
-        tau = np.array([lg.interval95[end] if np.isfinite(v) else np.nan for lg, v in zip(lags, lagged)])
-        tau = np.where(np.isfinite(tau) & (tau > 0.0), tau, np.where(np.isfinite(lagged), 0.0, np.nan))
-        alts.append(_point_fit((log, arm, cutoff, tau), states[1], vmin, rows, (new.prob, new.Vs, new.delta)))
+        new, lagged = stage, np.full(lagged.shape, np.nan)
+    ends = _lag_ranges(lags, lagged)
+    if ends is None:
+        return new, lagged, None
+    alts = [_point_fit((log, arm, cutoff, tau), states[1], vmin, rows, (new.prob, new.Vs, new.delta)) for tau in ends]
     return new, lagged, alts
+
+
+def _lag_raises_residual(stage, new) -> np.ndarray:
+    """(N,) bool: joints whose residual sum of squares over their kept rows ``new`` (a :class:`_Stage` with lags in
+    its columns) raises above ``stage``'s (the lag-free fit's) by more than its 95 % likelihood-ratio allowance,
+    ``CHI2_95 ratio / n_j`` of it (``n_j`` the joint's rows, ``ratio`` the lag-free fit's variance ratio,
+    :func:`_variance_ratio`; the bound of the Stribeck profile's intervals, :func:`_profile_bound`): a rise within
+    it is the two fits' difference on the same rows, not a worse model."""
+    n_j = np.maximum(stage.keep_j.sum(axis=0), 1)
+    return _residual_rms(new) ** 2 > _residual_rms(stage) ** 2 * (1.0 + CHI2_95 * stage.ratio / n_j)
+
+
+def _lag_ranges(lags, lagged):
+    """The two ends ``(low (N,), high (N,))`` (s, NaN: the joint's columns stay lag-free) of the lag range each
+    joint's columns are put through for the intervals (:func:`_lagged_stage`), or None where no joint has one: a
+    lag in the columns (``lagged`` finite), its 95 % interval (a lower end at or below zero: none); a null lag whose
+    output-error fit ran (``info["interval95"]`` finite), from none up to the larger of that fit's upper end and the
+    floor below which no lag is reported (:data:`adaptive_ff.arm.lag.LAG_FLOOR_SAMPLES` samples of its record): the
+    log does not tell such a lag from none, and a lag acts on the friction columns as an inertia term. A lag
+    reported but kept out of the columns by :func:`_lag_raises_residual` has none (it models something else)."""
+    low, high = np.full(len(lags), np.nan), np.full(len(lags), np.nan)
+    for j, (lg, v) in enumerate(zip(lags, lagged)):
+        if np.isfinite(v):
+            lo, hi = lg.interval95
+            low[j], high[j] = (lo if np.isfinite(lo) and lo > 0.0 else 0.0), hi
+        elif not np.isfinite(lg.tau) and lg.info and "rate" in lg.info:
+            hi = (lg.info.get("interval95") or [np.nan, np.nan])[1]
+            if np.isfinite(hi):
+                low[j], high[j] = 0.0, max(float(hi), LAG_FLOOR_SAMPLES / float(lg.info["rate"]))
+    return None if not np.isfinite(high).any() else (low, high)
 
 
 def _point_fit(setup, states, vmin, rows: str, at) -> np.ndarray:

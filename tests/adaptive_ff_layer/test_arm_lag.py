@@ -118,7 +118,7 @@ def test_whole_arm_fit_with_the_lags_in_its_columns(arm, log, result):
     "Lag"): the static map without the lag reads every joint's inertia low (the lag of a friction that rises with
     speed acts as an inertia term), outside its interval (measured 1.0559 [1.0525, 1.0593], 0.2277 [0.2255, 0.2300],
     0.05636 [0.05573, 0.05702] kg·m² for the true 1.0602, 0.2318, 0.05737); with the lags, every joint's ``J`` lies
-    inside its interval and within 1.5 % of the truth (measured 1.0606, 0.2319, 0.05809). The truth: Pinocchio's
+    inside its interval and within 1.5 % of the truth (measured 1.0607, 0.2317, 0.05795). The truth: Pinocchio's
     ``M_jj`` at the log's mean position, with the armatures."""
     import pinocchio as pin
 
@@ -305,6 +305,42 @@ def test_accepted_shapes_drawn_by_likelihood():
     assert out[1] is None
     shapes, counts = np.unique(out[0], axis=0, return_counts=True)
     assert shapes.tolist() == [[0.1, 1.0], [0.2, 2.0]] and counts.tolist() == [15, 5]
+
+
+def test_lag_ranges_of_the_intervals():
+    """The lag range each joint's columns take in the intervals' two point fits (adaptive_ff.arm.fit._lag_ranges): a
+    lag in the columns its interval (a lower end at zero: none); a null lag whose fit ran from none to the larger of
+    that fit's upper end and the reporting floor (2 samples: 2 ms at 1 kHz); a lag kept out of the columns, or a
+    fit that failed, none; no range at all: None."""
+    from adaptive_ff.arm.fit import _lag_ranges
+    from adaptive_ff.arm.lag import JointLag
+
+    info = {"rate": 1000.0, "interval95": [0.7e-3, 1.1e-3]}
+    lags = [JointLag(5e-3, (4e-3, 6e-3), None, {"rate": 1000.0}),
+            JointLag(np.nan, (np.nan, np.nan), "floor", info),
+            JointLag(np.nan, (np.nan, np.nan), "floor", dict(info, interval95=[2.3e-3, 3.0e-3])),
+            JointLag(7e-3, (6e-3, 8e-3), None, {"rate": 1000.0}),
+            JointLag(np.nan, (np.nan, np.nan), "failed", {"samples": 100}),
+            JointLag(3e-3, (-1e-3, 7e-3), None, {"rate": 1000.0})]
+    lagged = np.array([5e-3, np.nan, np.nan, np.nan, np.nan, 3e-3])  # the fourth kept out of the columns
+    low, high = _lag_ranges(lags, lagged)
+    assert np.allclose(low, [4e-3, 0.0, 0.0, np.nan, np.nan, 0.0], equal_nan=True)
+    assert np.allclose(high, [6e-3, 2e-3, 3e-3, np.nan, np.nan, 7e-3], equal_nan=True)
+    assert _lag_ranges(lags[3:5], lagged[3:5]) is None
+
+
+def test_lag_stays_out_of_the_columns_only_beyond_the_likelihood_bound():
+    """adaptive_ff.arm.fit._lag_raises_residual: a joint's residual sum of squares over its kept rows may rise by
+    ``3.84 ratio / n_j`` of the lag-free fit's (ratio 5, 1000 rows: 1.92 %) before its lag leaves the columns. Raised
+    by 1 % (RMS by 0.5 %): kept; by 3 %: out; lowered: kept."""
+    from adaptive_ff.arm import fit
+
+    rng = np.random.default_rng(3)
+    e = rng.standard_normal((1000, 3))
+    keep = np.ones((1000, 3), bool)
+    stage = fit._Stage(*([None] * len(fit._Stage._fields)))._replace(keep_j=keep, resid=e, ratio=5.0)
+    new = stage._replace(resid=e * np.sqrt([1.01, 1.03, 0.9]))
+    assert fit._lag_raises_residual(stage, new).tolist() == [False, True, False]
 
 
 def test_lag_workers_do_not_change_the_result(log):
