@@ -48,18 +48,17 @@ measures (coverage over simulated arms, the Stäubli TX40, a lagged arm) and the
 
 Intervals: the circular block bootstrap of the samples (each sample's rows of all joints, regressor and torque,
 resampled together in blocks of consecutive samples, the block by the Politis-White rule on the residuals,
-:mod:`adaptive_ff.identification.covariance`; a resampling of cases, so that the model's error near reversals and
-at low speed, which depends on the motion, counts as well as the noise), refitted at the profiled ``V_s, delta``;
-a parameter's interval is its estimate ``± t`` times the bootstrap standard error (Student-t quantile of the
-number of refits). A joint's friction intervals are widened to cover that band around the estimates at every
-``(V_s, delta)`` of the grid the profile accepts and, where accepted, of the model without the Stribeck term
-(``Fs = Fc``), whether the joint keeps its Stribeck term or not: the grid points whose profiled weighted residual
-sum of squares is within the 95 % likelihood-ratio bound of the best, the residuals' correlation counted by the
-ratio of the bootstrap variance to the white-noise least-squares variance (the largest over the joints' ``Fc, Fs,
-sigma``; :func:`_variance_ratio`; why: ``docs/your_arm.md``, "Intervals"). ``V_s``'s interval runs between the
-profile's crossings of that bound, located between the grid's values by bisection (:func:`_crossings`), and
-``Fs``'s covers its estimates there; ``delta``'s holds the accepted grid values (also where the term is dropped and
-``V_s`` itself is NaN).
+:mod:`adaptive_ff.identification.covariance`; a resampling of cases, so that the model's error near reversals and at low
+speed, which depends on the motion, counts as well as the noise), refitted at the profiled ``V_s, delta``; a parameter's
+interval is its estimate ``± t`` times the bootstrap standard error (Student-t quantile of the number of refits). A
+joint's friction intervals are widened to cover that band around the estimates at every ``(V_s, delta)`` of the grid the
+profile accepts and, where accepted, of the model without the Stribeck term (``Fs = Fc``), whether the joint keeps its
+Stribeck term or not: the grid points whose profiled weighted residual sum of squares is within the 95 %
+likelihood-ratio bound of the best, the residuals' correlation counted by the ratio of the bootstrap variance to the
+white-noise least-squares variance (the largest over the joints' ``Fc, Fs, sigma``; :func:`_variance_ratio`; why:
+``docs/your_arm.md``, "Intervals"). ``V_s``'s interval runs between the profile's crossings of that bound, located
+between the grid's values by bisection (:func:`adaptive_ff.arm.intervals.crossings`), and ``Fs``'s covers its estimates
+there; ``delta``'s holds the accepted grid values (also where the term is dropped and ``V_s`` itself is NaN).
 
 With ``rows="moving"`` every interval of ``J``, the friction and the base parameters then carries the model error
 that a bootstrap of one rows choice cannot see (a bias common to all its refits, such as the rigid body's share at
@@ -85,11 +84,11 @@ residual the lagged columns raise beyond the 95 % likelihood-ratio bound (:func:
 columns without the lag (the reported lag then models more than a delay of the friction map), and the fit runs
 once more without it (:func:`_lagged_stage`).
 The intervals of ``J``, the friction and the base parameters then carry the lags' uncertainty, which the bootstrap
-at the estimated lags does not see: each half-width combined in quadrature, as the row sensitivity is, with the
-larger distance of the estimate from the two point fits with every joint's columns at the lower and the upper end
-of its lag range (:func:`_widen_lag`, :func:`_lag_ranges`): a lag in the columns its interval; a null lag none up
-to the reporting floor or its fit's upper end, whichever is longer, since the log does not tell such a lag from
-none, while it still acts as an inertia term.
+at the estimated lags does not see: each half-width combined in quadrature, as the row sensitivity is, with the larger
+distance of the estimate from the two point fits with every joint's columns at the lower and the upper end of its lag
+range (:func:`adaptive_ff.arm.intervals.widen_lag`, :func:`adaptive_ff.arm.intervals.lag_ranges`): a lag in the columns
+its interval; a null lag none up to the reporting floor or its fit's upper end, whichever is longer, since the log does
+not tell such a lag from none, while it still acts as an inertia term.
 """
 
 from __future__ import annotations
@@ -103,8 +102,9 @@ from plant.errors import ExcitationError, ParameterError, SignalError
 from plant.stribeck_map import stribeck_shape
 
 from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states, parallel_filter
-from adaptive_ff.arm.lag import (LAG_CUTOFF_FACTOR, LAG_FLOOR_SAMPLES, JointLag, LagOptions, joint_lags, lag_records,
-                                 velocity_noise)
+from adaptive_ff.arm.intervals import (CHI2_95, accepted_shapes, lag_ranges, lag_shapes, profile_interval, widen,
+                                       widen_lag)
+from adaptive_ff.arm.lag import LAG_CUTOFF_FACTOR, JointLag, LagOptions, joint_lags, lag_records, velocity_noise
 from adaptive_ff.arm.result import ArmIdentification, ArmJoint
 from adaptive_ff.arm.robot import ArmModel
 from adaptive_ff.arm.rows import DEFAULT_ROWS, REST_WINDOW, ROWS
@@ -128,15 +128,6 @@ COND_WARN = 1e3
 #: ``Vs`` intervals may miss (``rows="moving"``): the misses of those intervals over simulated arms are joints at rest
 #: over more of their logs than shoulders and elbows are (the measurements: ``docs/your_arm.md``, How, Intervals).
 REST_WARN = 0.15
-#: Bisections in ``log Vs`` that locate the profile's crossing of its likelihood-ratio bound between two grid values
-#: (:func:`_crossings`): the crossing to 2**-5 of the grid's step.
-CROSSING_STEPS = 5
-#: The chi-square quantile of one degree of freedom at 95 %: the profile's likelihood-ratio bound
-#: (:func:`_profile_bound`).
-CHI2_95 = 3.84
-#: Stribeck shapes drawn by weight from each joint's accepted set for its lag bootstrap refits
-#: (:func:`_accepted_shapes`).
-LAG_SHAPE_DRAWS = 20
 #: Friction columns per joint: Fc (g), Fs (h), sigma (w), offset (1).
 _FRICTION = ("Fc", "Fs", "sigma", "offset")
 
@@ -461,10 +452,10 @@ def _bootstrap(prob: _Problem, A, x, n_boot: int, seed: int, progress=False):
 
 
 def _variance_ratio(prob: _Problem, A, rss: float, boot) -> float:
-    """The largest ratio over the joints' ``Fc, Fs, sigma`` of the bootstrap variance to the least-squares variance
-    for white residuals, ``s^2 (A^T A)^{-1}`` (weighted rows), at least 1: how much the residuals' correlation
-    inflates the fit's variance, by which the likelihood-ratio bound of :func:`_profile_interval` is scaled (a
-    zero column, of a dropped Stribeck term, has no ratio)."""
+    """The largest ratio over the joints' ``Fc, Fs, sigma`` of the bootstrap variance to the least-squares variance for
+    white residuals, ``s^2 (A^T A)^{-1}`` (weighted rows), at least 1: how much the residuals' correlation inflates the
+    fit's variance, by which the likelihood-ratio bound of :func:`adaptive_ff.arm.intervals.profile_interval` is scaled
+    (a zero column, of a dropped Stribeck term, has no ratio)."""
     Aw = A[prob.keep] * np.tile(prob.w, prob.m)[prob.keep][:, None]
     G = Aw.T @ Aw
     on = np.diag(G) > 0
@@ -475,87 +466,10 @@ def _variance_ratio(prob: _Problem, A, rss: float, boot) -> float:
     return max(1.0, float(np.nanmax(friction))) if np.any(np.isfinite(friction)) else 1.0
 
 
-def _profile_bound(table_j, rss_min: float, n_rows: int, ratio: float) -> tuple:
-    """``(best, allowance)`` of the profile's 95 % likelihood-ratio bound ``best + allowance``
-    (:func:`_profile_interval` says why): ``best = max(rss_min, min of table_j's finite RSS)`` (NaN where none is
-    finite or ``rss_min`` is not), ``allowance = CHI2_95 ratio rss_min / n_rows``."""
-    finite = [row[2] for row in table_j if np.isfinite(row[2])]
-    best = max(rss_min, min(finite)) if finite and np.isfinite(rss_min) else np.nan
-    return best, rss_min * CHI2_95 * ratio / max(n_rows, 1)
-
-
-def _profile_interval(table_j, rss_min: float, n_rows: int, ratio: float, cols: slice, name: str = "joint",
-                      fit_at=None) -> tuple:
-    """The ``(Vs range, delta range, (low, high) of the estimates[cols], estimates)`` over the profile's rows within
-    the 95 % likelihood-ratio bound of the best (the residuals' correlation counted by the variance ratio ``ratio``,
-    :func:`_variance_ratio`); ``estimates`` the accepted rows' whole estimates (k, p). The ``Vs`` range reaches the
-    points where the profile crosses that bound between the grid's values (:func:`_crossings`, with ``fit_at``;
-    None: the accepted values alone), and the range of ``Fs`` (``cols``' second) covers its estimates there too:
-    ``Fs`` moves with ``Vs``, the other parameters little. The model without a Stribeck term (``Vs`` NaN) counts
-    with ``Fs = Fc``; the ranges of ``Vs`` and ``delta`` are NaN where no grid point is inside.
-
-    The bound is ``max(rss_min, min of table_j) + CHI2_95 ratio rss_min / n_rows`` (:func:`_profile_bound`): the
-    final fit's weighted RSS ``rss_min`` sets its scale, and it is counted from the profile's own minimum where that
-    lies above ``rss_min``: ``table_j`` is the joint's profile of the last sweep, taken with the later joints' shapes
-    of the sweep before, and their last steps lower each of its RSS about alike (the joints share only the rigid
-    body), so that the final fit can lie below every row of it (then no row would be inside). The accepted rows hold
-    the profile's best. Raises ExcitationError naming ``name`` (the joint) where the profile has no finite RSS or
-    ``rss_min`` is not finite."""
-    finite = [row[2] for row in table_j if np.isfinite(row[2])]
-    if not finite or not np.isfinite(rss_min):
-        raise ExcitationError(f"joint {name!r}: the Stribeck profile has no finite weighted residual sum of squares "
-                              f"(final fit {rss_min!r}, {len(finite)} of {len(table_j)} profile rows finite): the "
-                              "log does not determine its friction")
-    best, allowance = _profile_bound(table_j, rss_min, n_rows, ratio)
-    inside = [row for row in table_j if row[2] <= best + allowance]
-    edge = [] if fit_at is None else _crossings(table_j, inside, allowance, fit_at)
-    vs = [r[0] for r in inside + edge if np.isfinite(r[0])]
-    ds = [r[1] for r in inside if np.isfinite(r[0])]
-    xs = np.array([r[3][cols] for r in inside])
-    off = np.array([not np.isfinite(r[0]) for r in inside])
-    xs[off, 1] = xs[off, 0]  # Fs = Fc without the Stribeck term
-    lo, hi = xs.min(axis=0), xs.max(axis=0)
-    for r in edge:  # Fs moves with Vs: its range covers its estimates out to the Vs range's ends
-        lo[1], hi[1] = min(lo[1], r[3][cols][1]), max(hi[1], r[3][cols][1])
-    nan = (np.nan, np.nan)
-    return ((min(vs), max(vs)) if vs else nan), ((min(ds), max(ds)) if ds else nan), (lo, hi), \
-        np.array([r[3] for r in inside])
-
-
-def _crossings(table_j, inside, allowance: float, fit_at, steps: int = CROSSING_STEPS) -> list:
-    """The profile's crossings of its likelihood-ratio bound between the grid's values: for each ``delta`` with an
-    accepted point (a grid point or the refined best), from its lowest and highest accepted ``Vs`` towards the
-    grid's next value beyond (where the grid goes on), the farthest ``(Vs, delta, rss, estimate)`` still within
-    ``allowance`` of the best, located by ``steps`` bisections in ``log Vs``. ``fit_at(Vs, delta)`` is
-    ``(estimate, weighted RSS)`` with the joint at that shape and the others at their final ones; its RSS is counted
-    from its own at the profile's best (``table_j[-2]``, refined), so that the other joints' last steps do not shift
-    the bound. Rows of ``table_j`` as :func:`_profile`'s; ``inside`` its accepted rows."""
-    grid_rows = table_j[:len(DELTA_GRID) * N_VS]
-    grid = np.unique([r[0] for r in grid_rows])
-    ref = fit_at(*table_j[-2][:2])[1]
-    out = []
-    for d in sorted({r[1] for r in inside if np.isfinite(r[0])}):
-        accepted = [r[0] for r in inside if r[1] == d and np.isfinite(r[0])]
-        lo, hi = min(accepted), max(accepted)
-        for v_in, beyond in ((lo, grid[grid < lo][-1:]), (hi, grid[grid > hi][:1])):
-            if not beyond.size:
-                continue  # the accepted range reaches the grid's end: no crossing located beyond it
-            a, b, best = np.log(v_in), np.log(beyond[0]), None
-            for _ in range(steps):
-                mid = 0.5 * (a + b)
-                x, rss = fit_at(float(np.exp(mid)), d)
-                if rss - ref <= allowance:
-                    a, best = mid, (float(np.exp(mid)), d, rss, x)
-                else:
-                    b = mid
-            if best is not None:
-                out.append(best)
-    return out
-
-
 def _shape_fit(prob: _Problem, Vs, delta):
     """``fit(j, Vs_j, delta_j) -> (estimate, weighted RSS)``: the weighted fit with joint ``j`` at ``(Vs_j, delta_j)``
-    and the others at the final ``Vs, delta`` (N,) (:meth:`_Problem.fit`), for :func:`_crossings`."""
+    and the others at the final ``Vs, delta`` (N,) (:meth:`_Problem.fit`), for
+    :func:`adaptive_ff.arm.intervals.crossings`."""
 
     def fit(j: int, Vs_j: float, delta_j: float):
         Vs_try, d_try = np.array(Vs, dtype=float), np.array(delta, dtype=float)
@@ -715,8 +629,8 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     r = Yb.shape[2]
     J_all = a_J @ (first.x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf))
     reps = (first.boot.replicates[:, :r], first.boot.replicates[:, :r] @ a_J.T) if rigid_body == "fit" else None
-    shapes = (_lag_shapes(first.Vs, first.delta, first.table),
-              _accepted_shapes(first.table, first.rss, int(first.prob.keep.sum()), first.ratio))
+    shapes = (lag_shapes(first.Vs, first.delta, first.table),
+              accepted_shapes(first.table, first.rss, int(first.prob.keep.sum()), first.ratio))
     lags = _lags(log, arm, (base, first.x[:r], rigid_body, reps), J_all, shapes, cutoff, (lag, seed, progress))
     stage, lagged, lag_alts = _lagged_stage(first, lags, ((log, arm, cutoff), (states, fit_states), vmin, rows,
                                                           settings))
@@ -734,7 +648,7 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     norm = np.linalg.norm(scaled, axis=0)
     scaled = scaled[:, norm > 0] / norm[norm > 0]  # a zero column (Fs of a joint without Stribeck term) is no fit
     beta = x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf)
-    ival = (np.column_stack(_widen_lag(x[:r], *_widen(x[:r], x[:r] - half[:r], x[:r] + half[:r],
+    ival = (np.column_stack(widen_lag(x[:r], *widen(x[:r], x[:r] - half[:r], x[:r] + half[:r],
                                                       None if x_alt is None else x_alt[:r]),
                                        None if lag_alts is None else [a[:r] for a in lag_alts]))
             if rigid_body == "fit" else np.full((beta.shape[0], 2), np.nan))
@@ -780,14 +694,14 @@ def _residual_rms(stage: _Stage) -> np.ndarray:
 
 
 def _lagged_stage(stage, lags, run) -> tuple:
-    """The whole-arm fit with each reported lag in its joint's friction columns (module docstring, "Lag"):
-    ``(stage, lagged, lag_alts)``. ``stage`` the lag-free :class:`_Stage`, ``lags`` the joints'
-    :class:`adaptive_ff.arm.lag.JointLag`, ``run`` ``((log, arm, cutoff), states, vmin, rows, settings)``. A joint
-    whose residual the lagged columns raise beyond the bound of :func:`_lag_raises_residual` keeps its columns
-    lag-free (the lag then models something else than the friction map's delay), and the fit is run again without
-    it. ``lagged`` (N,) the lags in the columns (s, NaN: none); ``lag_alts`` None, or the point fits (p,) at the
-    ends of each joint's lag range (:func:`_lag_ranges`; all lower, all upper; at the fit's Stribeck shapes), whose
-    distance from the estimate the intervals carry (:func:`_widen_lag`)."""
+    """The whole-arm fit with each reported lag in its joint's friction columns (module docstring, "Lag"): ``(stage,
+    lagged, lag_alts)``. ``stage`` the lag-free :class:`_Stage`, ``lags`` the joints'
+    :class:`adaptive_ff.arm.lag.JointLag`, ``run`` ``((log, arm, cutoff), states, vmin, rows, settings)``. A joint whose
+    residual the lagged columns raise beyond the bound of :func:`_lag_raises_residual` keeps its columns lag-free (the
+    lag then models something else than the friction map's delay), and the fit is run again without it. ``lagged`` (N,)
+    the lags in the columns (s, NaN: none); ``lag_alts`` None, or the point fits (p,) at the ends of each joint's lag
+    range (:func:`adaptive_ff.arm.intervals.lag_ranges`; all lower, all upper; at the fit's Stribeck shapes), whose
+    distance from the estimate the intervals carry (:func:`adaptive_ff.arm.intervals.widen_lag`)."""
     (log, arm, cutoff), states, vmin, rows, settings = run
     lagged = np.array([lg.tau if np.isfinite(lg.tau) and lg.tau > 0.0 else np.nan for lg in lags])
     new = stage
@@ -802,7 +716,7 @@ def _lagged_stage(stage, lags, run) -> tuple:
         lagged = np.where(worse, np.nan, lagged)
     else:  # the second pass raised another joint's residual: no lag in the columns
         new, lagged = stage, np.full(lagged.shape, np.nan)
-    ends = _lag_ranges(lags, lagged)
+    ends = lag_ranges(lags, lagged)
     if ends is None:
         return new, lagged, None
     alts = [_point_fit((log, arm, cutoff, tau), states[1], vmin, rows, (new.prob, new.Vs, new.delta)) for tau in ends]
@@ -810,33 +724,13 @@ def _lagged_stage(stage, lags, run) -> tuple:
 
 
 def _lag_raises_residual(stage, new) -> np.ndarray:
-    """(N,) bool: joints whose residual sum of squares over their kept rows ``new`` (a :class:`_Stage` with lags in
-    its columns) raises above ``stage``'s (the lag-free fit's) by more than its 95 % likelihood-ratio allowance,
-    ``CHI2_95 ratio / n_j`` of it (``n_j`` the joint's rows, ``ratio`` the lag-free fit's variance ratio,
-    :func:`_variance_ratio`; the bound of the Stribeck profile's intervals, :func:`_profile_bound`): a rise within
-    it is the two fits' difference on the same rows, not a worse model."""
+    """(N,) bool: joints whose residual sum of squares over their kept rows ``new`` (a :class:`_Stage` with lags in its
+    columns) raises above ``stage``'s (the lag-free fit's) by more than its 95 % likelihood-ratio allowance, ``CHI2_95
+    ratio / n_j`` of it (``n_j`` the joint's rows, ``ratio`` the lag-free fit's variance ratio, :func:`_variance_ratio`;
+    the bound of the Stribeck profile's intervals, :func:`adaptive_ff.arm.intervals.profile_bound`): a rise within it is
+    the two fits' difference on the same rows, not a worse model."""
     n_j = np.maximum(stage.keep_j.sum(axis=0), 1)
     return _residual_rms(new) ** 2 > _residual_rms(stage) ** 2 * (1.0 + CHI2_95 * stage.ratio / n_j)
-
-
-def _lag_ranges(lags, lagged):
-    """The two ends ``(low (N,), high (N,))`` (s, NaN: the joint's columns stay lag-free) of the lag range each
-    joint's columns are put through for the intervals (:func:`_lagged_stage`), or None where no joint has one: a
-    lag in the columns (``lagged`` finite), its 95 % interval (a lower end at or below zero: none); a null lag whose
-    output-error fit ran (``info["interval95"]`` finite), from none up to the larger of that fit's upper end and the
-    floor below which no lag is reported (:data:`adaptive_ff.arm.lag.LAG_FLOOR_SAMPLES` samples of its record): the
-    log does not tell such a lag from none, and a lag acts on the friction columns as an inertia term. A lag
-    reported but kept out of the columns by :func:`_lag_raises_residual` has none (it models something else)."""
-    low, high = np.full(len(lags), np.nan), np.full(len(lags), np.nan)
-    for j, (lg, v) in enumerate(zip(lags, lagged)):
-        if np.isfinite(v):
-            lo, hi = lg.interval95
-            low[j], high[j] = (lo if np.isfinite(lo) and lo > 0.0 else 0.0), hi
-        elif not np.isfinite(lg.tau) and lg.info and "rate" in lg.info:
-            hi = (lg.info.get("interval95") or [np.nan, np.nan])[1]
-            if np.isfinite(hi):
-                low[j], high[j] = 0.0, max(float(hi), LAG_FLOOR_SAMPLES / float(lg.info["rate"]))
-    return None if not np.isfinite(high).any() else (low, high)
 
 
 def _point_fit(setup, states, vmin, rows: str, at) -> np.ndarray:
@@ -849,16 +743,6 @@ def _point_fit(setup, states, vmin, rows: str, at) -> np.ndarray:
     other = _Problem(Yb, dq, tau, prob.keep, columns)
     other.w = prob.w
     return other.fit(Vs, delta)[0]
-
-
-def _widen_lag(value, lo, hi, alts):
-    """``(lo, hi)`` widened as :func:`_widen` by the larger distance of ``value`` from the two point fits ``alts`` at
-    the lags' interval ends (None: unchanged): the lag's uncertainty, which the whole-arm bootstrap (at the
-    estimated lags) does not carry."""
-    if alts is None:
-        return lo, hi
-    e = np.maximum(np.abs(np.asarray(value) - alts[0]), np.abs(np.asarray(value) - alts[1]))
-    return _widen(value, lo, hi, np.asarray(value) + e)
 
 
 def _whole_arm(setup, states, vmin, rows: str, settings) -> _Stage:
@@ -907,7 +791,7 @@ def _sliding_estimate(setup, states, vmin):
     ``Fs`` is the one fitted with the term at that best shape (the model the default rows' ``Fs`` and ``Vs`` belong
     to, not ``Fs = Fc``);
     or None where a joint has fewer than 10 sliding rows: the other rows choice, whose distance from the default's
-    estimate is the row-sensitivity term of the default's intervals (:func:`_widen`)."""
+    estimate is the row-sensitivity term of the default's intervals (:func:`adaptive_ff.arm.intervals.widen`)."""
     try:
         prob, _, (Vs, _, table), (x, _, _) = _weighted_fit(setup, states, vmin, "sliding")
     except ParameterError:
@@ -918,55 +802,12 @@ def _sliding_estimate(setup, states, vmin):
     return x, np.array([t[-2][0] for t in table])
 
 
-def _widen(value, lo, hi, alt):
-    """``(lo, hi)`` with each half-width about ``value`` combined in quadrature with the row sensitivity
-    ``|value - alt|`` (arrays or floats; ``alt`` None or NaN: unchanged): the model error that a bootstrap of one
-    rows choice does not see, measured by the other rows choice's estimate (``docs/your_arm.md``, "Intervals")."""
-    if alt is None:
-        return lo, hi
-    e = np.where(np.isfinite(alt), np.abs(np.asarray(value) - alt), 0.0)
-    return value - np.hypot(value - lo, e), value + np.hypot(hi - value, e)
-
-
-def _lag_shapes(Vs, delta, table) -> list:
-    """Each joint's ``(Vs, delta)`` held in its lag fit: the whole-arm fit's where it keeps the Stribeck term, else
-    the profile's best grid point (whose ``Fs`` the output-error fit then fits): the shape is not refitted there."""
-    out = []
-    for j in range(len(Vs)):
-        if np.isfinite(Vs[j]):
-            out.append((float(Vs[j]), float(delta[j])))
-        else:
-            best = min((row for row in table[j] if np.isfinite(row[0])), key=lambda row: row[2])
-            out.append((float(best[0]), float(best[1])))
-    return out
-
-
-def _accepted_shapes(table, rss_min: float, n_rows: int, ratio: float, draws: int = LAG_SHAPE_DRAWS) -> list:
-    """Each joint's Stribeck shapes that its lag bootstrap refits hold (:mod:`adaptive_ff.arm.lag`, "Reported"):
-    ``draws`` rows (Vs, delta) taken systematically, by weight ``exp(-chi2 / 2)``, from the profile's rows with a
-    Stribeck term within its 95 % likelihood-ratio bound (:func:`_profile_bound`'s, ``chi2 = CHI2_95 (rss -
-    best) / allowance``), or None where no such row (the profile's table ``table``, the final fit's weighted RSS
-    ``rss_min`` over ``n_rows`` rows, the variance ratio ``ratio``)."""
-    out = []
-    for table_j in table:
-        best, allowance = _profile_bound(table_j, rss_min, n_rows, ratio)
-        rows = [row for row in table_j if np.isfinite(row[0]) and row[2] <= best + allowance]
-        if not rows or not allowance > 0.0:
-            out.append(None)
-            continue
-        chi2 = np.array([CHI2_95 * max(row[2] - best, 0.0) / allowance for row in rows])
-        cum = np.cumsum(np.exp(-0.5 * chi2))
-        pick = np.searchsorted(cum / cum[-1], (np.arange(draws) + 0.5) / draws)
-        out.append(np.array([(rows[i][0], rows[i][1]) for i in pick], dtype=float))
-    return out
-
-
 def _lags(log, arm, rb, J, shapes, cutoff, settings) -> list:
     """Every joint's :class:`adaptive_ff.arm.lag.JointLag` (``settings``: ``(lag, seed, progress)``; ``rb``:
     ``(base, beta, rigid_body, replicates)``, ``replicates`` None or the whole-arm bootstrap's ``(beta_k (k, r),
     J_k (k, N))``, whose removed torques' differences from the fit's each lag bootstrap carries (refit ``i`` the
     ``i``-th; :mod:`adaptive_ff.arm.lag`, "Reported"); ``shapes``: each joint's ``(Vs, delta)`` held in its fit and
-    the shapes its refits hold (:func:`_accepted_shapes`))."""
+    the shapes its refits hold (:func:`adaptive_ff.arm.intervals.accepted_shapes`))."""
     on, seed, progress = settings
     if on is False:
         return [JointLag(np.nan, (np.nan, np.nan), "not asked for (lag=False; identify-arm --no-lag)")] * arm.n
@@ -1035,7 +876,7 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> Arm
         p["Fs"], hw["Fs"], std["Fs"], lo["Fs"], hi["Fs"] = p["Fc"], hw["Fc"], std["Fc"], lo["Fc"], hi["Fc"]
     # the friction's intervals cover the bootstrap band around every (Vs, delta) the profile accepts, the model
     # without a Stribeck term among them: a dropped term's Fs interval reaches as far as the profile allows
-    vs_iv, d_iv, (x_lo, x_hi), xs = _profile_interval(table[j], rss, n_rows, ratio, slice(c, c + 4),
+    vs_iv, d_iv, (x_lo, x_hi), xs = profile_interval(table[j], rss, n_rows, ratio, slice(c, c + 4),
                                                       arm.names[j], lambda v, d: shape_fit(j, v, d))
     for i, k in enumerate(_FRICTION):
         lo[k], hi[k] = min(lo[k], x_lo[i] - hw[k]), max(hi[k], x_hi[i] + hw[k])
@@ -1046,13 +887,13 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> Arm
         x_alt, Vs_alt = sliding
         alt = dict(zip(_FRICTION, x_alt[c: c + 4]), J=float(a_J[j] @ x_alt[:r]) if r else np.nan)
         for k, v in (("J", J), *p.items()):
-            lo[k], hi[k] = _widen(v, lo[k], hi[k], alt[k])
+            lo[k], hi[k] = widen(v, lo[k], hi[k], alt[k])
         if stribeck and np.all(np.isfinite(vs_iv)):  # Vs as well, in log Vs (its grid's scale; the bounds stay > 0)
-            vs_iv = tuple(from_log(b) for b in _widen(np.log(Vs[j]), *np.log(vs_iv), np.log(Vs_alt[j])))
+            vs_iv = tuple(from_log(b) for b in widen(np.log(Vs[j]), *np.log(vs_iv), np.log(Vs_alt[j])))
     if lag_alts is not None:  # the lags' uncertainty (the columns at the lags' interval ends)
         for k, v in (("J", J), *p.items()):
             a = [float(a_J[j] @ x_a[:r]) if k == "J" else float(x_a[c + _FRICTION.index(k)]) for x_a in lag_alts]
-            lo[k], hi[k] = _widen_lag(v, lo[k], hi[k], a)
+            lo[k], hi[k] = widen_lag(v, lo[k], hi[k], a)
     lag, noise = lag_noise
     params = {"J": J, **p, "Vs": float(Vs[j]), "delta": float(delta[j]) if stribeck else np.nan, "tau": lag.tau}
     interval = {k: (lo[k], hi[k]) for k in ("J", *_FRICTION)}

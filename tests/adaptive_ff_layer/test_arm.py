@@ -410,14 +410,14 @@ def test_profile_interval_of_a_profile_the_later_joints_lowered():
     to within 2**-5 of the grid's step in log Vs (log(15) / 7 / 32 = 0.012) on the inside, and Fs covers its
     estimates there, 1.2 +- 0.5 * 0.1386. A profile or final fit without a finite RSS raises ExcitationError
     naming the joint."""
-    from adaptive_ff.arm import fit
+    from adaptive_ff.arm import intervals
     from plant.errors import ExcitationError
 
     fresh, grid = _stale_profile(0.0)
     stale, _ = _stale_profile(5.0)
     cols = slice(4, 8)
-    got = fit._profile_interval(stale, 100.0, 1000, 2.0, cols, "wrist")
-    want = fit._profile_interval(fresh, 100.0, 1000, 2.0, cols, "wrist")
+    got = intervals.profile_interval(stale, 100.0, 1000, 2.0, cols, "wrist")
+    want = intervals.profile_interval(fresh, 100.0, 1000, 2.0, cols, "wrist")
     accepted = [v for v in grid if 40.0 * np.log(v / 0.1) ** 2 <= 0.768] + [0.1]
     assert got[0] == want[0] == (min(accepted), max(accepted)) and got[1] == (1.0, 1.0)
     fs = [1.2 + 0.5 * np.log(v / 0.1) for v in accepted]
@@ -431,15 +431,15 @@ def test_profile_interval_of_a_profile_the_later_joints_lowered():
         _, _, rss, x = _profile_row(v, d)
         return x, rss
 
-    located = fit._profile_interval(stale, 100.0, 1000, 2.0, cols, "wrist", fit_at)
+    located = intervals.profile_interval(stale, 100.0, 1000, 2.0, cols, "wrist", fit_at)
     edge = np.sqrt(0.768 / 40.0)
-    step = np.log(grid[1] / grid[0]) / 2 ** fit.CROSSING_STEPS
+    step = np.log(grid[1] / grid[0]) / 2 ** intervals.CROSSING_STEPS
     lo_v, hi_v = np.log(np.array(located[0]) / 0.1)
     assert -edge <= lo_v <= -edge + step and edge - step <= hi_v <= edge, (lo_v, hi_v, edge)
     np.testing.assert_allclose(located[2][0][[0, 2, 3]], [1.0, 0.5, 0.01], rtol=0, atol=1e-12)
     assert 1.2 - 0.5 * edge <= located[2][0][1] <= 1.2 - 0.5 * (edge - step)
     assert 1.2 + 0.5 * (edge - step) <= located[2][1][1] <= 1.2 + 0.5 * edge
-    assert {d for _, d in calls} == {1.0} and len(calls) == 1 + 2 * fit.CROSSING_STEPS  # the best, two sides
+    assert {d for _, d in calls} == {1.0} and len(calls) == 1 + 2 * intervals.CROSSING_STEPS  # the best, two sides
     for rss_min, table in ((np.nan, fresh), (100.0, [(v, d, np.nan, x) for v, d, _, x in fresh])):
         with pytest.raises(ExcitationError, match="'wrist'.*no finite weighted residual"):
-            fit._profile_interval(table, rss_min, 1000, 2.0, cols, "wrist")
+            intervals.profile_interval(table, rss_min, 1000, 2.0, cols, "wrist")

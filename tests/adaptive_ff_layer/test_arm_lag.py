@@ -291,28 +291,28 @@ def test_output_error_bootstrap_shapes(shoulder_fit):
 
 
 def test_accepted_shapes_drawn_by_likelihood():
-    """The shapes a joint's lag refits hold (adaptive_ff.arm.fit._accepted_shapes): the profile's rows with a Stribeck
+    """The shapes a joint's lag refits hold (adaptive_ff.arm.intervals.accepted_shapes): the profile's rows with a Stribeck
     term within the 95 % bound ``max(rss_min, best) + 3.84 ratio rss_min / n_rows``, drawn systematically by weight
     exp(-chi2 / 2). Rows at chi2 0, 2 ln 3 (weight 1/3) and beyond the bound, and the row without the term: 20 draws
     are 15 of the first and 5 of the second; a table with no such row gives None."""
-    from adaptive_ff.arm.fit import _accepted_shapes
+    from adaptive_ff.arm.intervals import accepted_shapes
 
     rss_min, n_rows, ratio = 100.0, 384, 2.0  # allowance 2.0: chi2 = 1.92 (rss - best)
     chi2_b = 2.0 * np.log(3.0)
     table = [(0.1, 1.0, 100.0, None), (0.2, 2.0, 100.0 + chi2_b / 1.92, None), (0.4, 1.0, 102.5, None),
              (np.nan, np.nan, 100.5, None)]
-    out = _accepted_shapes([table, [(np.nan, np.nan, 100.0, None)]], rss_min, n_rows, ratio, draws=20)
+    out = accepted_shapes([table, [(np.nan, np.nan, 100.0, None)]], rss_min, n_rows, ratio, draws=20)
     assert out[1] is None
     shapes, counts = np.unique(out[0], axis=0, return_counts=True)
     assert shapes.tolist() == [[0.1, 1.0], [0.2, 2.0]] and counts.tolist() == [15, 5]
 
 
 def test_lag_ranges_of_the_intervals():
-    """The lag range each joint's columns take in the intervals' two point fits (adaptive_ff.arm.fit._lag_ranges): a
+    """The lag range each joint's columns take in the intervals' two point fits (adaptive_ff.arm.intervals.lag_ranges): a
     lag in the columns its interval (a lower end at zero: none); a null lag whose fit ran from none to the larger of
     that fit's upper end and the reporting floor (2 samples: 2 ms at 1 kHz); a lag kept out of the columns, or a
     fit that failed, none; no range at all: None."""
-    from adaptive_ff.arm.fit import _lag_ranges
+    from adaptive_ff.arm.intervals import lag_ranges
     from adaptive_ff.arm.lag import JointLag
 
     info = {"rate": 1000.0, "interval95": [0.7e-3, 1.1e-3]}
@@ -323,10 +323,10 @@ def test_lag_ranges_of_the_intervals():
             JointLag(np.nan, (np.nan, np.nan), "failed", {"samples": 100}),
             JointLag(3e-3, (-1e-3, 7e-3), None, {"rate": 1000.0})]
     lagged = np.array([5e-3, np.nan, np.nan, np.nan, np.nan, 3e-3])  # the fourth kept out of the columns
-    low, high = _lag_ranges(lags, lagged)
+    low, high = lag_ranges(lags, lagged)
     assert np.allclose(low, [4e-3, 0.0, 0.0, np.nan, np.nan, 0.0], equal_nan=True)
     assert np.allclose(high, [6e-3, 2e-3, 3e-3, np.nan, np.nan, 7e-3], equal_nan=True)
-    assert _lag_ranges(lags[3:5], lagged[3:5]) is None
+    assert lag_ranges(lags[3:5], lagged[3:5]) is None
 
 
 def test_lag_stays_out_of_the_columns_only_beyond_the_likelihood_bound():
