@@ -98,7 +98,7 @@ from typing import NamedTuple
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from plant.errors import ExcitationError, ParameterError, SignalError
+from plant.errors import ParameterError, SignalError
 from plant.stribeck_map import stribeck_shape
 
 from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states, parallel_filter
