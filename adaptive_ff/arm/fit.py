@@ -102,8 +102,8 @@ from plant.errors import ParameterError, SignalError
 from plant.stribeck_map import stribeck_shape
 
 from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states, parallel_filter
-from adaptive_ff.arm.intervals import (CHI2_95, accepted_shapes, lag_ranges, lag_shapes, profile_interval, widen,
-                                       widen_lag)
+from adaptive_ff.arm.intervals import (accepted_shapes, lag_ranges, lag_shapes, lr_allowance, profile_interval,
+                                       widen, widen_lag)
 from adaptive_ff.arm.lag import LAG_CUTOFF_FACTOR, JointLag, LagOptions, joint_lags, lag_records, velocity_noise
 from adaptive_ff.arm.result import ArmIdentification, ArmJoint
 from adaptive_ff.arm.robot import ArmModel
@@ -704,7 +704,6 @@ def _lagged_stage(stage, lags, run) -> tuple:
     distance from the estimate the intervals carry (:func:`adaptive_ff.arm.intervals.widen_lag`)."""
     (log, arm, cutoff), states, vmin, rows, settings = run
     lagged = np.array([lg.tau if np.isfinite(lg.tau) and lg.tau > 0.0 else np.nan for lg in lags])
-    new = stage
     for _ in range(2):
         if not np.isfinite(lagged).any():
             new = stage
@@ -724,13 +723,13 @@ def _lagged_stage(stage, lags, run) -> tuple:
 
 
 def _lag_raises_residual(stage, new) -> np.ndarray:
-    """(N,) bool: joints whose residual sum of squares over their kept rows ``new`` (a :class:`_Stage` with lags in its
-    columns) raises above ``stage``'s (the lag-free fit's) by more than its 95 % likelihood-ratio allowance, ``CHI2_95
-    ratio / n_j`` of it (``n_j`` the joint's rows, ``ratio`` the lag-free fit's variance ratio, :func:`_variance_ratio`;
-    the bound of the Stribeck profile's intervals, :func:`adaptive_ff.arm.intervals.profile_bound`): a rise within it is
-    the two fits' difference on the same rows, not a worse model."""
-    n_j = np.maximum(stage.keep_j.sum(axis=0), 1)
-    return _residual_rms(new) ** 2 > _residual_rms(stage) ** 2 * (1.0 + CHI2_95 * stage.ratio / n_j)
+    """(N,) bool: joints whose residual over their kept rows in ``new`` (a :class:`_Stage` with lags in its columns)
+    rises above ``stage``'s (the lag-free fit's) by more than the 95 % likelihood-ratio allowance
+    (:func:`adaptive_ff.arm.intervals.lr_allowance` over the joint's rows, ``ratio`` the lag-free fit's variance
+    ratio; the bound of the Stribeck profile's intervals), both taken as mean squares: a rise within it is the two
+    fits' difference on the same rows, not a worse model."""
+    ms0 = _residual_rms(stage) ** 2
+    return _residual_rms(new) ** 2 > ms0 + lr_allowance(ms0, stage.keep_j.sum(axis=0), stage.ratio)
 
 
 def _point_fit(setup, states, vmin, rows: str, at) -> np.ndarray:

@@ -17,7 +17,7 @@ from plant.errors import ExcitationError
 from adaptive_ff.arm.lag import LAG_FLOOR_SAMPLES
 
 __all__ = ["CHI2_95", "CROSSING_STEPS", "LAG_SHAPE_DRAWS", "accepted_shapes", "crossings", "lag_ranges", "lag_shapes",
-           "profile_bound", "profile_interval", "widen", "widen_lag"]
+           "lr_allowance", "profile_bound", "profile_interval", "widen", "widen_lag"]
 
 #: The chi-square quantile of one degree of freedom at 95 %: the profile's likelihood-ratio bound
 #: (:func:`profile_bound`).
@@ -32,13 +32,21 @@ CROSSING_STEPS = 5
 LAG_SHAPE_DRAWS = 20
 
 
+def lr_allowance(rss, n_rows, ratio: float):
+    """The 95 % likelihood-ratio allowance ``CHI2_95 ratio rss / n_rows`` on a residual sum of squares ``rss`` over
+    ``n_rows`` rows (at least 1), the residuals' correlation counted by the variance ratio ``ratio``
+    (:func:`adaptive_ff.arm.fit._variance_ratio`): how far another model's RSS on the same rows may lie above it
+    before the data reject that model. Floats or arrays (broadcast)."""
+    return rss * CHI2_95 * ratio / np.maximum(n_rows, 1)
+
+
 def profile_bound(table_j, rss_min: float, n_rows: int, ratio: float) -> tuple:
     """``(best, allowance)`` of the profile's 95 % likelihood-ratio bound ``best + allowance``
     (:func:`profile_interval` says why): ``best = max(rss_min, min of table_j's finite RSS)`` (NaN where none is
-    finite or ``rss_min`` is not), ``allowance = CHI2_95 ratio rss_min / n_rows``."""
+    finite or ``rss_min`` is not), ``allowance`` :func:`lr_allowance` of ``rss_min``."""
     finite = [row[2] for row in table_j if np.isfinite(row[2])]
     best = max(rss_min, min(finite)) if finite and np.isfinite(rss_min) else np.nan
-    return best, rss_min * CHI2_95 * ratio / max(n_rows, 1)
+    return best, lr_allowance(rss_min, n_rows, ratio)
 
 
 def profile_interval(table_j, rss_min: float, n_rows: int, ratio: float, cols: slice, name: str = "joint",
