@@ -21,6 +21,8 @@ import json
 import tempfile
 from pathlib import Path
 
+from benchmarks.arm_coverage import cpu_seconds
+
 ROOT = Path(__file__).resolve().parents[1]
 URDF = ROOT / "data" / "tx40" / "tx40.urdf"
 #: Rotor inertias reflected to the joints (kg·m²): motors of 1e-4 to 3e-4 kg·m² behind ratios 32-48.
@@ -52,14 +54,6 @@ def identify(path, *, seed: int = 1, duration: float = 20.0, n_bootstrap: int = 
     return arm
 
 
-def _cpu() -> float:
-    """CPU seconds of this process and of its finished children (the lag fits' worker processes)."""
-    import resource
-
-    return sum(resource.getrusage(who).ru_utime + resource.getrusage(who).ru_stime
-               for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
-
-
 def main(argv=None) -> int:
     """Run the benchmark (module docstring) and print its table."""
     from adaptive_ff.arm.simulate import ArmPlant
@@ -75,14 +69,14 @@ def main(argv=None) -> int:
     ap.add_argument("--rows", choices=ROWS, default=DEFAULT_ROWS,
                     help=f"identify_arm's rows (default {DEFAULT_ROWS}, its default)")
     args = ap.parse_args(argv)
-    t0 = _cpu()
+    t0 = cpu_seconds()
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "arm.json"
         arm = identify(path, seed=args.id_seed, rows=args.rows)
-        t1 = _cpu()
+        t1 = cpu_seconds()
         res = compare_arm(ArmPlant(arm, friction(), armature=ARMATURE), path, duration=args.duration,
                           seed=args.seed, modes=ARM_MODES, start=args.start)
-    t2 = _cpu()
+    t2 = cpu_seconds()
     print(f"compare-arm on the simulated TX40 (6 joints): identification log seed {args.id_seed}, closed loop "
           f"{args.duration:g} s seed {args.seed}, rows {args.rows}")
     for d in res.designs:

@@ -29,7 +29,6 @@ from __future__ import annotations
 import argparse
 import math
 import resource
-import time
 from concurrent.futures import ProcessPoolExecutor
 from functools import partial
 from pathlib import Path
@@ -140,8 +139,9 @@ def _arm_hits(seed: int, **kwargs) -> dict:
 
 
 def cpu_seconds() -> float:
-    """CPU seconds of this process and its finished worker processes."""
-    return time.process_time() + resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime
+    """CPU seconds (user and system) of this process and of its finished worker processes."""
+    return sum(resource.getrusage(who).ru_utime + resource.getrusage(who).ru_stime
+               for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
 
 
 def wilson(hits: int, n: int, z: float = 1.959963984540054) -> tuple:
