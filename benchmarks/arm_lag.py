@@ -19,7 +19,7 @@ reported null and, of the reported ones, the share whose 95 % interval holds the
 ``--cache FILE`` keeps each arm's joints (JSON lines) and reads back the arms it already holds: it keeps the fits,
 and each joint is decided again by :func:`adaptive_ff.arm.lag.lag_reason` and the low-pass correction's sign (a
 cache made before a change of the lag fit itself is stale). ``--workers N`` runs the arms in N processes. 50 arms
-take about 25 minutes of CPU; the numbers of seeds 0-49 (0-19 set the rule, 20-49 check it) are in
+take 25-45 minutes of CPU; the numbers of seeds 0-49 (0-19 set the rule, 20-49 check it) are in
 ``docs/your_arm.md`` (How, Lag; Not yet).
 """
 
