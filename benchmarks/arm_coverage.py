@@ -78,13 +78,32 @@ def arm_friction(n: int, seed: int, lag: bool = False) -> list:
     return [replace(f, tau=t) for f, t in zip(friction, draw_lags(n, seed))] if lag else friction
 
 
-def arm_log(arm, seed: int, *, duration: float = 20.0, lag: bool = False):
+def arm_log(arm, seed: int, *, duration: float = 20.0, lag: bool = False, substeps: int = 1):
     """The simulated log (:class:`adaptive_ff.arm.arm_log.ArmLog`) of the arm of seed ``seed``: its friction
-    :func:`arm_friction`, ``duration`` seconds (s) of the planar arm with the armatures :data:`ARMATURE`."""
+    :func:`arm_friction`, ``duration`` seconds (s) of the planar arm with the armatures :data:`ARMATURE`, integrated
+    with ``substeps`` Runge-Kutta steps per 1 ms period (the coverage takes 1)."""
     from adaptive_ff.arm.simulate import ArmSimulation, simulate_arm
 
-    return simulate_arm(arm, arm_friction(arm.n, seed, lag), run=ArmSimulation(duration=duration, substeps=1),
-                        seed=seed, armature=ARMATURE)
+    return simulate_arm(arm, arm_friction(arm.n, seed, lag),
+                        run=ArmSimulation(duration=duration, substeps=substeps), seed=seed, armature=ARMATURE)
+
+
+def true_theta(arm) -> np.ndarray:
+    """The arm's true dynamic parameters (the regressor's columns): the URDF's inertias with the armatures
+    :data:`ARMATURE`."""
+    theta = arm.theta_urdf.copy()
+    theta[-arm.n:] = ARMATURE
+    return theta
+
+
+def true_inertia(arm, q) -> np.ndarray:
+    """Each joint's true ``M_jj`` (kg·m², shape (N,)) at the position ``q`` (rad): Pinocchio's CRBA of the URDF with
+    the armatures :data:`ARMATURE`, the truth of identify-arm's ``J``."""
+    import pinocchio as pin
+
+    model = arm.model.copy()
+    model.armature = ARMATURE.copy()
+    return np.diag(pin.crba(model, model.createData(), np.asarray(q, dtype=float))).copy()
 
 
 def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, rows: str = "moving",
@@ -94,8 +113,6 @@ def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, 
     already simulated (default None: simulated here); ``lag``: the joints' friction lagged (:func:`draw_lags`)."""
     import re
 
-    import pinocchio as pin
-
     from adaptive_ff.arm.fit import identify_arm
     from adaptive_ff.arm.lag import LagOptions
 
@@ -103,12 +120,10 @@ def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, 
     log = arm_log(arm, seed, duration=duration, lag=lag) if log is None else log
     res = identify_arm(log, arm, seed=seed, n_bootstrap=n_bootstrap, rows=rows,
                        lag=LagOptions(workers=1) if lag else False)
-    model = arm.model.copy()
-    model.armature = ARMATURE.copy()
-    M = pin.crba(model, model.createData(), log.q.mean(axis=0))
+    J = true_inertia(arm, log.q.mean(axis=0))
     out = {k: [0, 0, 0] for k in PARAMETERS + ("base",)}
     for j, (joint, f) in enumerate(zip(res.joints, friction)):
-        truth = {"J": M[j, j], "Fc": f.Fc, "Fs": f.Fs, "sigma": f.sigma, "offset": f.offset, "Vs": f.Vs,
+        truth = {"J": J[j], "Fc": f.Fc, "Fs": f.Fs, "sigma": f.sigma, "offset": f.offset, "Vs": f.Vs,
                  "tau": f.tau}
         for k in PARAMETERS:
             lo, hi = joint.interval95[k]
@@ -120,9 +135,7 @@ def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, 
             out[k][0] += inside
             out[k][1] += 1
             out[k][2] += not inside and not any(re.search(rf"\b{k}\b", str(w)) for w in joint.warnings)
-    theta = arm.theta_urdf.copy()
-    theta[-arm.n:] = ARMATURE
-    base = arm.base_parameters().of(theta)
+    base = arm.base_parameters().of(true_theta(arm))
     lo, hi = res.base_interval.T
     inside = int(np.sum((lo <= base) & (base <= hi)))
     out["base"][0] += inside

@@ -41,23 +41,16 @@ def _cases(text: str) -> list:
 def true_record(seed: int, substeps: int) -> tuple:
     """``(friction, J, t, u, w)`` of arm ``seed``: its lagged friction, each joint's ``M_jj`` (kg·m²) and the
     output-error record (s, N·m, rad/s; shapes (n,), (n, N), (n, N)) with the true rigid body removed."""
-    import pinocchio as pin
-
     from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF
     from adaptive_ff.arm.lag import lag_records
     from adaptive_ff.arm.robot import load_urdf
-    from adaptive_ff.arm.simulate import ArmSimulation, simulate_arm
-    from benchmarks.arm_coverage import ARMATURE, URDF, arm_friction
+    from benchmarks.arm_coverage import URDF, arm_friction, arm_log, true_inertia, true_theta
 
     arm = load_urdf(URDF)
     friction = arm_friction(arm.n, seed, lag=True)
-    log = simulate_arm(arm, friction, run=ArmSimulation(duration=20.0, substeps=substeps), seed=seed,
-                       armature=ARMATURE)
-    theta = arm.theta_urdf.copy()
-    theta[-arm.n:] = ARMATURE
-    model = arm.model.copy()
-    model.armature = ARMATURE.copy()
-    J = np.diag(pin.crba(model, model.createData(), log.q.mean(axis=0))).copy()
+    log = arm_log(arm, seed, lag=True, substeps=substeps)
+    theta = true_theta(arm)
+    J = true_inertia(arm, log.q.mean(axis=0))
     t, u, w = lag_records(log, arm, lambda Y: Y @ theta, J, DEFAULT_CUTOFF)
     return friction, J, t, u, w
 
