@@ -1,7 +1,7 @@
 """Coverage of identify-arm's 95 % intervals over seeded simulated arms, per parameter.
 
 Run:  python -m benchmarks.arm_coverage [--n 50] [--start 0] [--bootstrap 200] [--duration 20] [--rows moving|sliding]
-      [--lag]
+      [--lag] [--stops]
 
 Each arm is ``examples/planar3.urdf`` (three links in the vertical plane) with the armatures 0.2, 0.1, 0.05 kg·m²
 and a friction per joint drawn from its seed (:func:`draw_friction`: ``Fc`` 0.5-2.5 N·m, ``Fs = Fc`` times
@@ -14,6 +14,8 @@ With ``--lag`` each joint's friction lags (eq. 1) as ``benchmarks/arm_lag.py`` d
 with probability 0.4, else 2-10 ms), and the arms are identified with their lag fits (10 refits each; the whole-arm
 fit then runs again with each reported lag in its joint's friction columns), whose reported lags' intervals make
 the row ``tau`` (over the lagged joints whose lag is reported; a lag reported on a lag-free joint counts as outside).
+``--stops`` steps each arm's periods in which a joint stops or reverses ten times as finely
+(``ArmSimulation.stop_refine``) and refines the lag fits' stops too (``LagOptions(stop_band=True)``).
 ``--workers N`` runs the arms in N processes.
 
 Printed per parameter: the share of the true values inside their 95 % interval, over every joint of every arm
@@ -78,14 +80,18 @@ def arm_friction(n: int, seed: int, lag: bool = False) -> list:
     return [replace(f, tau=t) for f, t in zip(friction, draw_lags(n, seed))] if lag else friction
 
 
-def arm_log(arm, seed: int, *, duration: float = 20.0, lag: bool = False, substeps: int = 1):
+def arm_log(arm, seed: int, *, duration: float = 20.0, lag: bool = False, substeps: int = 1, stop_refine=None):
     """The simulated log (:class:`adaptive_ff.arm.arm_log.ArmLog`) of the arm of seed ``seed``: its friction
     :func:`arm_friction`, ``duration`` seconds (s) of the planar arm with the armatures :data:`ARMATURE`, integrated
-    with ``substeps`` Runge-Kutta steps per 1 ms period (the coverage takes 1)."""
+    with ``substeps`` Runge-Kutta steps per 1 ms period (the coverage takes 1) and ``stop_refine`` times as many in
+    the periods in which a joint stops or reverses (None: :class:`adaptive_ff.arm.simulate.ArmSimulation`'s
+    default)."""
     from adaptive_ff.arm.simulate import ArmSimulation, simulate_arm
 
-    return simulate_arm(arm, arm_friction(arm.n, seed, lag),
-                        run=ArmSimulation(duration=duration, substeps=substeps), seed=seed, armature=ARMATURE)
+    run = ArmSimulation(duration=duration, substeps=substeps)
+    if stop_refine is not None:
+        run = ArmSimulation(duration=duration, substeps=substeps, stop_refine=stop_refine)
+    return simulate_arm(arm, arm_friction(arm.n, seed, lag), run=run, seed=seed, armature=ARMATURE)
 
 
 def true_theta(arm) -> np.ndarray:
@@ -107,19 +113,23 @@ def true_inertia(arm, q) -> np.ndarray:
 
 
 def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, rows: str = "moving",
-             log=None, lag: bool = False) -> dict:
+             log=None, lag: bool = False, stops: bool = False) -> dict:
     """``{parameter: [hits, count, unwarned]}`` of one arm (seed ``seed``), the base parameters under ``"base"``
     (``unwarned``: the misses whose joint has no warning naming the parameter); ``log``: its :func:`arm_log` if
-    already simulated (default None: simulated here); ``lag``: the joints' friction lagged (:func:`draw_lags`)."""
+    already simulated (default None: simulated here); ``lag``: the joints' friction lagged (:func:`draw_lags`);
+    ``stops``: the arm's stops stepped finely (``stop_refine`` :data:`adaptive_ff.arm.simulate.STOP_REFINE`) and the
+    lag fits' too (``LagOptions(stop_band=True)``)."""
+    from adaptive_ff.arm.simulate import STOP_REFINE
     import re
 
     from adaptive_ff.arm.fit import identify_arm
     from adaptive_ff.arm.lag import LagOptions
 
     friction = arm_friction(arm.n, seed, lag)
-    log = arm_log(arm, seed, duration=duration, lag=lag) if log is None else log
+    if log is None:
+        log = arm_log(arm, seed, duration=duration, lag=lag, stop_refine=STOP_REFINE if stops else 1)
     res = identify_arm(log, arm, seed=seed, n_bootstrap=n_bootstrap, rows=rows,
-                       lag=LagOptions(workers=1) if lag else False)
+                       lag=LagOptions(workers=1, stop_band=stops) if lag else False)
     J = true_inertia(arm, log.q.mean(axis=0))
     out = {k: [0, 0, 0] for k in PARAMETERS + ("base",)}
     for j, (joint, f) in enumerate(zip(res.joints, friction)):
@@ -181,10 +191,14 @@ def main(argv=None) -> int:
                     help=f"identify_arm's rows (default {DEFAULT_ROWS}, its default)")
     ap.add_argument("--lag", action="store_true", help="each joint's friction lagged (none or 2-10 ms), the lags fitted")
     ap.add_argument("--workers", type=int, default=1, help="processes the arms run in (default 1)")
+    ap.add_argument("--stops", action="store_true",
+                    help="the arms' stops stepped finely (ArmSimulation.stop_refine) and the lag fits' too "
+                         "(LagOptions.stop_band)")
     args = ap.parse_args(argv)
     total = {k: [0, 0, 0] for k in PARAMETERS + ("base",)}
     c0 = cpu_seconds()
-    job = partial(_arm_hits, duration=args.duration, n_bootstrap=args.bootstrap, rows=args.rows, lag=args.lag)
+    job = partial(_arm_hits, duration=args.duration, n_bootstrap=args.bootstrap, rows=args.rows, lag=args.lag,
+                  stops=args.stops)
     seeds = range(args.start, args.start + args.n)
     if args.workers > 1:
         with ProcessPoolExecutor(max_workers=args.workers) as pool:
@@ -197,7 +211,7 @@ def main(argv=None) -> int:
     cpu = cpu_seconds() - c0
     print(f"identify-arm 95 % intervals over {args.n} simulated arms (planar3, seeds {args.start}-"
           f"{args.start + args.n - 1}, {args.duration:g} s logs, {args.bootstrap} bootstrap refits, rows {args.rows}"
-          f"{', lagged friction' if args.lag else ''})")
+          f"{', lagged friction' if args.lag else ''}{', stops refined' if args.stops else ''})")
     print(f"{'parameter':<10} {'inside':>8} {'of':>6} {'coverage':>9}   95 % (Wilson)    outside, no warning")
     for k, (h, c, u) in total.items():
         if c == 0:

@@ -104,7 +104,8 @@ from plant.stribeck_map import stribeck_shape
 from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states, parallel_filter
 from adaptive_ff.arm.intervals import (accepted_shapes, lag_ranges, lag_shapes, lr_allowance, profile_interval,
                                        widen, widen_lag)
-from adaptive_ff.arm.lag import LAG_CUTOFF_FACTOR, JointLag, LagOptions, joint_lags, lag_records, velocity_noise
+from adaptive_ff.arm.lag import (LAG_CUTOFF_FACTOR, JointLag, LagOptions, joint_lags, lag_records, stop_bands,
+                                 velocity_noise)
 from adaptive_ff.arm.result import ArmIdentification, ArmJoint
 from adaptive_ff.arm.robot import ArmModel
 from adaptive_ff.arm.rows import DEFAULT_ROWS, REST_WINDOW, ROWS
@@ -631,7 +632,10 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     reps = (first.boot.replicates[:, :r], first.boot.replicates[:, :r] @ a_J.T) if rigid_body == "fit" else None
     shapes = (lag_shapes(first.Vs, first.delta, first.table),
               accepted_shapes(first.table, first.rss, int(first.prob.keep.sum()), first.ratio))
-    lags = _lags(log, arm, (base, first.x[:r], rigid_body, reps), J_all, shapes, cutoff, (lag, seed, progress))
+    Fs_all = np.array([max(abs(first.x[r + 4 * j]), abs(first.x[r + 4 * j + 1]) if np.isfinite(first.Vs[j]) else 0.0)
+                       for j in range(arm.n)])  # each joint's static friction: its Fs, Fc without a Stribeck term
+    lags = _lags(log, arm, (base, first.x[:r], rigid_body, reps), (J_all, Fs_all), shapes, cutoff,
+                 (lag, seed, progress))
     stage, lagged, lag_alts = _lagged_stage(first, lags, ((log, arm, cutoff), (states, fit_states), vmin, rows,
                                                           settings))
     prob, keep_j, Vs, delta, table, x, rss, A, alt, boot, _, half, ratio = stage
@@ -801,8 +805,10 @@ def _sliding_estimate(setup, states, vmin):
     return x, np.array([t[-2][0] for t in table])
 
 
-def _lags(log, arm, rb, J, shapes, cutoff, settings) -> list:
-    """Every joint's :class:`adaptive_ff.arm.lag.JointLag` (``settings``: ``(lag, seed, progress)``; ``rb``:
+def _lags(log, arm, rb, joints, shapes, cutoff, settings) -> list:
+    """Every joint's :class:`adaptive_ff.arm.lag.JointLag` (``settings``: ``(lag, seed, progress)``; ``joints``:
+    ``(J, Fs)``, each joint's identified ``M_jj`` and static friction, behind its record and its stop band,
+    :func:`adaptive_ff.arm.lag.stop_bands`; ``rb``:
     ``(base, beta, rigid_body, replicates)``, ``replicates`` None or the whole-arm bootstrap's ``(beta_k (k, r),
     J_k (k, N))``, whose removed torques' differences from the fit's each lag bootstrap carries (refit ``i`` the
     ``i``-th; :mod:`adaptive_ff.arm.lag`, "Reported"); ``shapes``: each joint's ``(Vs, delta)`` held in its fit and
@@ -811,6 +817,7 @@ def _lags(log, arm, rb, J, shapes, cutoff, settings) -> list:
     if on is False:
         return [JointLag(np.nan, (np.nan, np.nan), "not asked for (lag=False; identify-arm --no-lag)")] * arm.n
     base, beta, mode, reps = rb
+    J, Fs = joints
     options = LagOptions() if on is True else on
 
     def rigid_of(b):
@@ -828,7 +835,8 @@ def _lags(log, arm, rb, J, shapes, cutoff, settings) -> list:
                                       replicates=[(rigid_of(reps[0][i]), reps[1][i]) for i in k])
     held, accepted = shapes
     return joint_lags(t, u, w, held, options=options, seed=seed, progress=progress, errors=errors,
-                      lowpass=LAG_CUTOFF_FACTOR * cutoff, accepted=accepted)
+                      lowpass=LAG_CUTOFF_FACTOR * cutoff, accepted=accepted,
+                      bands=stop_bands(Fs, J, float(np.median(np.diff(t)))) if options.stop_band else None)
 
 
 def _arm_warnings(cond: float, no_sensitivity: bool = False) -> list:

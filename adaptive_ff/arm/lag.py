@@ -40,6 +40,21 @@ measurement still keeps it from drifting off; a much smaller share brings it nea
 cost is rough at breakaway, and reads long lags short. The measurements behind the share: ``docs/your_arm.md``
 (How, Lag).
 
+Stops
+-----
+Each joint's lagged friction, which jumps with ``sgn(w)``, drives it through zero velocity at each stop in a damped
+ringing of a few milliseconds per period on a light joint (elbows, wrists). The output-error simulation with one RK4
+step per sample of the 1 kHz record keeps that ringing up and the fit reads the lag that mimics its own coarse step:
+several times the true lag on the heavy wrists of ``benchmarks/arm_stops.py``. With ``LagOptions(stop_band=True)``
+the fit simulates the sample intervals in which the record's velocity is inside a band around zero, or reverses,
+with sub-steps of a tenth of the sample time (``stop_band`` of the output-error fit,
+:func:`adaptive_ff.identification.simulator.stop_intervals`); the band is :data:`LAG_STOP_BAND` times ``Fs Ts / J``,
+the velocity the joint's static friction takes off in one sample, with ``Fs`` and ``J`` from the whole-arm fit
+(:func:`stop_bands`). The low-pass correction's worlds are then simulated at that sub-step throughout. It is off by
+default: the benchmarks that calibrate the lag's rules (``benchmarks/arm_lag.py``, ``benchmarks/arm_coverage.py``)
+simulate their arms with one step per period, and with both the arm's stops and the fit's refined the rules are not
+yet calibrated (``docs/your_arm.md``, Not yet).
+
 The torque is taken at its time stamp (``input_delay=0``): a whole-arm log samples every joint's torque and
 position together, and the output-error fit's profile over a sub-sample input delay, which ``identify`` runs on a
 one-joint log, trades the delay against the lag here.
@@ -94,8 +109,8 @@ import numpy as np
 from plant.errors import ExcitationError, ParameterError, SignalError
 
 __all__ = ["JointLag", "LagOptions", "LagWorld", "LAG_RATE", "LAG_CUTOFF_FACTOR", "LAG_BOOTSTRAP", "LAG_WORKERS",
-           "LAG_FLOOR_SAMPLES", "LAG_SHIFT_MAX", "LAG_SLOPE_MIN", "LAG_INJECTION_GAIN", "lag_records", "joint_lag",
-           "joint_lags", "lag_reason", "velocity_noise"]
+           "LAG_FLOOR_SAMPLES", "LAG_SHIFT_MAX", "LAG_SLOPE_MIN", "LAG_INJECTION_GAIN", "LAG_STOP_BAND", "lag_records",
+           "joint_lag", "joint_lags", "lag_reason", "stop_bands", "velocity_noise"]
 
 #: Rate (Hz) at which the output-error record samples the log (every k-th sample; a slower log is taken as is).
 LAG_RATE = 1000.0
@@ -115,6 +130,10 @@ LAG_SHIFT_MAX = 0.075
 #: Least slope of the low-pass correction's secant (its readings per s of the worlds' lag; module docstring,
 #: "Reported"): a flatter secant is taken at this slope.
 LAG_SLOPE_MIN = 0.5
+#: Half-width of the band around zero velocity inside which the lag fit's output-error simulation takes sub-steps of
+#: a tenth of the record's sample time, as a multiple of ``Fs Ts / J`` (the velocity the joint's static friction takes
+#: off in one sample; ``stop_band`` of the output-error fit; module docstring, "Stops").
+LAG_STOP_BAND = 2.0
 #: Default worker processes the joints' lag fits run in (the fits are independent; the result does not depend on it).
 LAG_WORKERS = 2
 
@@ -131,21 +150,29 @@ class LagOptions:
     workers : int
         Processes the joints' fits run in, >= 1; default :data:`LAG_WORKERS` (``identify-arm --workers``). 1: one
         after the other in this process. Each joint's fit has its own seed, so the result does not depend on it.
+    stop_band : bool
+        Simulate each joint's stops finely in its output-error fit: the sample intervals in which its velocity is
+        inside its band (:func:`stop_bands`) or reverses at a tenth of the sample time (module docstring, "Stops").
+        Default False.
 
     Raises
     ------
     ParameterError
-        ``n_bootstrap`` not an integer >= 2 or ``workers`` not an integer >= 1 (the field named).
+        ``n_bootstrap`` not an integer >= 2, ``workers`` not an integer >= 1 or ``stop_band`` not a bool (the field
+        named).
     """
 
     n_bootstrap: int = LAG_BOOTSTRAP
     workers: int = LAG_WORKERS
+    stop_band: bool = False
 
     def __post_init__(self):
         for name, least in (("n_bootstrap", 2), ("workers", 1)):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < least:
                 raise ParameterError(f"LagOptions.{name} must be an integer >= {least}, got {v!r}")
+        if not isinstance(self.stop_band, bool):
+            raise ParameterError(f"LagOptions.stop_band must be True or False, got {self.stop_band!r}")
 
 
 @dataclass(frozen=True)
@@ -257,11 +284,15 @@ class LagWorld:
         Stribeck shapes ``(Vs, delta)`` (rad/s, -) the whole-arm data accept: each bootstrap refit holds one of
         them, drawn by its own generator (``bootstrap_shapes`` of the output-error fit), its world the fitted
         joint at the shape the fit holds. None: every refit holds the fit's shape.
+    stop_band : float or None
+        Half-width (rad/s) of the band around zero velocity in which the output-error simulation takes sub-steps of
+        a tenth of the record's sample time (:func:`stop_bands`; module docstring, "Stops"). None: none.
     """
 
     input_errors: np.ndarray | None = None
     lowpass: float | None = None
     shapes: np.ndarray | None = None
+    stop_band: float | None = None
 
 
 def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTSTRAP, seed: int = 0,
@@ -300,7 +331,8 @@ def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTST
                            n_bootstrap=int(n_bootstrap), bootstrap_refit="partial", bootstrap_seed=int(seed),
                            bootstrap_workers=1, input_delay=0.0, injection_gain=LAG_INJECTION_GAIN,
                            bootstrap_input_errors=world.input_errors,
-                           bootstrap_shapes=world.shapes if stribeck else None)
+                           bootstrap_shapes=world.shapes if stribeck else None, stop_band=world.stop_band,
+                           h_refine=_h_refine(t))
     except (ExcitationError, SignalError, ParameterError) as err:
         return JointLag(math.nan, (math.nan, math.nan), f"the output-error fit on its rigid-body-removed record "
                         f"failed ({err})", {"samples": int(t.shape[0])})
@@ -352,13 +384,16 @@ def _lowpass_correction(t, u, w, fit, lowpass: float) -> dict | None:
 
     def reads(tau):
         jp = JointParams(J=p["J"], Fc=p["Fc"], Fs=p["Fs"], Vs=Vs, delta=delta, sigma=p["sigma"], tau=tau)
-        sim = simulate_sampled(jp, t, u, w0=float(w[0]), f0=float(u[0]), offset=float(p["offset"]))
+        sim = simulate_sampled(jp, t, u, w0=float(w[0]), f0=float(u[0]), offset=float(p["offset"]), h_max=h_world)
         world = fit_physical(t, u_world, filtfilt(b, a, sim), Vs=Vs, delta=delta, n_bootstrap=0, input_delay=0.0,
                              start=dict(start, tau=tau), lag_profile=False, predictor=fit.info["predictor"],
-                             injection_gain=LAG_INJECTION_GAIN, f_scale=fit.info["f_scale"])
+                             injection_gain=LAG_INJECTION_GAIN, f_scale=fit.info["f_scale"],
+                             stop_band=fit.info["stop_band"], h_refine=_h_refine(t))
         return float(world.params["tau"])
 
     est = float(p["tau"])
+    # the worlds at the fit's finest step throughout where it refines its stops (a continuous joint), else as it
+    h_world = _h_refine(t) if fit.info["stop_band"] is not None else float(fit.info["h_max"])
     try:
         b1 = reads(est)
         tau1 = max(est - (b1 - est), 0.5 * est)
@@ -368,6 +403,35 @@ def _lowpass_correction(t, u, w, fit, lowpass: float) -> dict | None:
     slope = (b1 - b2) / (est - tau1) if est != tau1 else math.nan
     slope = min(max(slope, LAG_SLOPE_MIN), 1.0) if math.isfinite(slope) and slope > 0.0 else 1.0
     return {"tau": tau1 + (est - b2) / slope, "slope": slope, "worlds": [est, tau1], "reads": [b1, b2]}
+
+
+def _h_refine(t) -> float:
+    """The output-error simulation's sub-step (s) inside the stop band: a tenth of the record's median sample time."""
+    return 0.1 * float(np.median(np.diff(t)))
+
+
+def stop_bands(Fs, J, Ts: float) -> np.ndarray:
+    """Each joint's :class:`LagWorld` ``stop_band`` (rad/s, shape (N,)): :data:`LAG_STOP_BAND` times the velocity
+    its static friction takes off in one sample, ``Fs Ts / J``.
+
+    Parameters
+    ----------
+    Fs : array_like, shape (N,)
+        Each joint's static friction (N·m; its magnitude is taken) from the whole-arm fit.
+    J : array_like, shape (N,)
+        Each joint's identified ``M_jj`` (kg·m²); a non-positive or non-finite one gives no band (None-like: 0).
+    Ts : float
+        The lag record's sample time (s).
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        The bands (rad/s); 0 where ``J`` or ``Fs`` is not finite or ``J <= 0`` (the reversals alone refined).
+    """
+    Fs = np.abs(np.asarray(Fs, dtype=float))
+    J = np.asarray(J, dtype=float)
+    ok = np.isfinite(Fs) & np.isfinite(J) & (J > 0)
+    return np.where(ok, LAG_STOP_BAND * np.where(ok, Fs, 0.0) * float(Ts) / np.where(ok, J, 1.0), 0.0)
 
 
 def lag_reason(estimate: float, interval95: tuple, info: dict) -> str | None:
@@ -426,7 +490,7 @@ def _worker_init() -> None:
 
 
 def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int = 0, progress=False,
-               errors=None, lowpass=None, accepted=None) -> list:
+               errors=None, lowpass=None, accepted=None, bands=None) -> list:
     """Every joint's :func:`joint_lag`, in ``options.workers`` processes (joint ``j`` seeded ``seed + j``).
 
     Parameters
@@ -451,6 +515,8 @@ def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int
     accepted : sequence of (ndarray (k_j, 2) or None), or None, keyword-only
         Each joint's Stribeck shapes the whole-arm data accept, :class:`LagWorld`'s ``shapes``; None (default): the
         held shape in every refit.
+    bands : array_like, shape (N,), or None, keyword-only
+        Each joint's :class:`LagWorld` ``stop_band`` (rad/s, :func:`stop_bands`); None (default): none.
 
     Returns
     -------
@@ -463,7 +529,8 @@ def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int
     jobs = [((t, u[:, j], w[:, j], float(shapes[j][0]), float(shapes[j][1])),
              {"n_bootstrap": int(options.n_bootstrap), "seed": int(seed) + j,
               "world": LagWorld(None if errors is None else errors[: int(options.n_bootstrap), :, j], lowpass,
-                                None if accepted is None else accepted[j])})
+                                None if accepted is None else accepted[j],
+                                None if bands is None else float(bands[j]))})
             for j in range(n)]
     bar = tqdm(total=n, desc="arm friction lag", unit="joint", leave=False,
                disable=(None if progress is None else not progress))

@@ -4,7 +4,8 @@ PI loop per joint, with sensor noise; its log in the layout of :func:`adaptive_f
 Each joint's friction follows eqs. 1-3 of the paper: ``tau_j df_j/dt + f_j = F_j(dq_j)`` with
 ``F(w) = sgn(w) (Fc + (Fs - Fc) exp(-|w/Vs|**delta)) + sigma w`` (``tau_j = 0``: ``f_j = F_j(dq_j)``). The arm
 ``M(q) ddq + C(q, dq) dq + g(q) = u - f`` is integrated by the classical Runge-Kutta method (4th order) at
-``dt/substeps``, the torque ``u`` held over each controller period ``dt``.
+``dt/substeps``, the torque ``u`` held over each controller period ``dt``; optionally (``stop_refine``) at a
+tenth of that through each period in which a joint comes to rest or reverses.
 """
 
 from __future__ import annotations
@@ -18,9 +19,11 @@ from plant.errors import ParameterError
 from adaptive_ff.arm.arm_log import ArmLog
 from adaptive_ff.arm.robot import ArmModel, require_pinocchio
 
-__all__ = ["ArmPlant", "ArmSimulation", "JointFriction", "SensorNoise", "arm_reference", "load_arm_plant",
-           "simulate_arm",
-           "friction_torque"]
+#: Runge-Kutta steps per step of a period in which a joint stops or reverses (:meth:`ArmPlant.step`).
+STOP_REFINE = 10
+
+__all__ = ["STOP_REFINE", "ArmPlant", "ArmSimulation", "JointFriction", "SensorNoise", "arm_reference",
+           "load_arm_plant", "simulate_arm", "friction_torque"]
 
 
 @dataclass(frozen=True)
@@ -78,6 +81,12 @@ class ArmSimulation:
         5 sines, > 0; default 0.8.
     substeps : int
         Runge-Kutta steps per controller period, >= 1; default 2.
+    stop_refine : int
+        Runge-Kutta steps per step in a period in which a joint stops or reverses (:meth:`ArmPlant.step`, each
+        joint's band :meth:`ArmPlant.stop_band` at the start position), >= 1; 1 (default): none. A lagged joint
+        rings through zero velocity at its stops faster than a 1 ms step resolves
+        (:func:`adaptive_ff.identification.simulator.stop_intervals`); :data:`STOP_REFINE` integrates those periods
+        as a finely stepped arm does (``benchmarks/arm_stops.py``).
 
     Raises
     ------
@@ -89,6 +98,7 @@ class ArmSimulation:
     dt: float = 1e-3
     amplitude: float = 0.8
     substeps: int = 2
+    stop_refine: int = 1
 
     def __post_init__(self):
         import math
@@ -98,8 +108,10 @@ class ArmSimulation:
             if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) \
                     or not (math.isfinite(v) and v > 0):
                 raise ParameterError(f"ArmSimulation.{name} must be a finite number > 0, got {v!r}")
-        if isinstance(self.substeps, bool) or not isinstance(self.substeps, (int, np.integer)) or self.substeps < 1:
-            raise ParameterError(f"ArmSimulation.substeps must be an integer >= 1, got {self.substeps!r}")
+        for name in ("substeps", "stop_refine"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+                raise ParameterError(f"ArmSimulation.{name} must be an integer >= 1, got {v!r}")
 
 
 def friction_torque(w, fr) -> np.ndarray:
@@ -236,9 +248,27 @@ class ArmPlant:
         f_now = np.where(self._lagged, fz, F)
         return dq, self.pin.aba(self.model, self.data, q, dq, u - f_now), np.where(self._lagged, (F - fz) / self._lag_div, 0.0)
 
-    def step(self, u, dt: float, substeps: int = 1) -> None:
-        """Advance by ``dt`` (s) with the torques ``u`` (N·m, shape (N,)) held, in ``substeps`` Runge-Kutta steps."""
+    def step(self, u, dt: float, substeps: int = 1, *, stop_band=None, stop_refine: int = STOP_REFINE) -> None:
+        """Advance by ``dt`` (s) with the torques ``u`` (N·m, shape (N,)) held, in ``substeps`` Runge-Kutta steps.
+
+        ``stop_band`` (rad/s, shape (N,), or None: not used): a period in which some joint's velocity starts inside
+        ``(-stop_band_j, stop_band_j)`` or changes sign is taken in ``substeps * stop_refine`` steps (a period that
+        reverses a joint is retaken), where a lagged joint rings through zero velocity at its stops faster than
+        ``dt / substeps`` resolves (:func:`adaptive_ff.identification.simulator.stop_intervals`)."""
         u = np.asarray(u, dtype=float)
+        if stop_band is None or stop_refine == 1:
+            self.q, self.dq, self.f = self._advance(u, dt, substeps)
+            return
+        if np.any(np.abs(self.dq) < stop_band):
+            self.q, self.dq, self.f = self._advance(u, dt, substeps * stop_refine)
+            return
+        q, dq, fz = self._advance(u, dt, substeps)
+        if np.any(np.sign(dq) != np.sign(self.dq)):
+            q, dq, fz = self._advance(u, dt, substeps * stop_refine)
+        self.q, self.dq, self.f = q, dq, fz
+
+    def _advance(self, u, dt: float, substeps: int) -> tuple:
+        """``(q, dq, f)`` after ``dt`` (s) from the current state in ``substeps`` Runge-Kutta steps (the state kept)."""
         h = dt / substeps
         q, dq, fz = self.q, self.dq, self.f
         for _ in range(substeps):
@@ -249,7 +279,16 @@ class ArmPlant:
             q = q + h / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4)
             dq = dq + h / 6.0 * (b1 + 2 * b2 + 2 * b3 + b4)
             fz = fz + h / 6.0 * (c1 + 2 * c2 + 2 * c3 + c4)
-        self.q, self.dq, self.f = q, dq, fz
+        return q, dq, fz
+
+    def stop_band(self, dt: float) -> np.ndarray:
+        """Each joint's band (rad/s, shape (N,)) of :meth:`step`'s ``stop_band`` for the period ``dt`` (s): the
+        velocity its static friction ``Fs`` takes off in ``dt`` at its inertia ``M_jj(q)`` at the current position,
+        ``Fs dt / M_jj`` (the frictionless arm: zeros)."""
+        if self.friction is None:
+            return np.zeros(self.n)
+        Fs = np.array([max(abs(f.Fs), abs(f.Fc)) for f in self.friction])
+        return Fs * dt / np.diag(self.mass_matrix())
 
 
 def simulate_arm(arm: ArmModel, friction, *, run: ArmSimulation = ArmSimulation(), seed: int = 0,
@@ -301,6 +340,7 @@ def simulate_arm(arm: ArmModel, friction, *, run: ArmSimulation = ArmSimulation(
     M0 = np.diag(pin.crba(plant.model, plant.data, np.zeros(arm.n)))
     Kp = 2 * np.pi * 10.0 * M0
     Ki = 2 * np.pi * 2.0 * Kp
+    band = plant.stop_band(dt)
     Q, DQ, U = (np.empty((t.shape[0], arm.n)) for _ in range(3))
     integ = np.zeros(arm.n)
     for k in range(t.shape[0]):
@@ -308,7 +348,7 @@ def simulate_arm(arm: ArmModel, friction, *, run: ArmSimulation = ArmSimulation(
         e = w_ref[k] - DQ[k]
         integ += e * dt
         U[k] = Kp * e + Ki * integ
-        plant.step(U[k], dt, run.substeps)
+        plant.step(U[k], dt, run.substeps, stop_band=band, stop_refine=run.stop_refine)
     arm.check_positions(Q, "simulate_arm")
     offset = np.array([f.offset for f in fr])
     n_shape = Q.shape

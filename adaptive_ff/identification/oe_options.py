@@ -13,7 +13,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from adaptive_ff.identification.simulator import H_MAX_DEFAULT
+from adaptive_ff.identification.simulator import H_MAX_DEFAULT, H_REFINE_DEFAULT
 from plant.errors import ParameterError, check_finite_scalar, check_optional, check_optional_number, check_positive
 
 __all__ = ["OutputErrorOptions", "BOOTSTRAP_REFITS", "JACOBIANS"]
@@ -42,6 +42,13 @@ class OutputErrorOptions:
         fits). Not used by the free-run predictor.
     h_max : float, keyword-only
         Largest RK4 sub-step (s), > 0. Default 1e-3 (the paper's simulation rate).
+    stop_band : float or None, keyword-only
+        Half-width (rad/s) of a band around zero velocity, >= 0: the sample intervals in which the measured
+        velocity is inside it at either end or reverses are simulated with sub-steps of at most ``h_refine``
+        (:func:`adaptive_ff.identification.simulator.stop_intervals`), where a lagged joint rings through zero
+        at its stops faster than ``h_max`` resolves. None (default): every interval at ``h_max``.
+    h_refine : float, keyword-only
+        Largest RK4 sub-step (s) inside ``stop_band``, > 0. Default 1e-4.
     input_delay : float or None, keyword-only
         Time (s) by which each input sample precedes its time stamp, >= 0 (0.5e-3 for
         :func:`plant.sampling.sample` at 1 kHz). None (default): not known, profiled by the fit
@@ -155,6 +162,8 @@ class OutputErrorOptions:
     predictor: str = "auto"
     injection_gain: float = 1.0
     h_max: float = H_MAX_DEFAULT
+    stop_band: float | None = None
+    h_refine: float = H_REFINE_DEFAULT
     input_delay: float | None = None
     interp: str = "linear"
     burn: float = 0.5
@@ -182,6 +191,8 @@ class OutputErrorOptions:
             object.__setattr__(self, name, value)
 
         put("h_max", check_positive("h_max", self.h_max))
+        put("stop_band", check_optional_number("stop_band", self.stop_band, low=0.0, unit="rad/s", none="none"))
+        put("h_refine", check_positive("h_refine", self.h_refine))
         put("injection_gain", check_positive("injection_gain", self.injection_gain))
         if self.injection_gain > 1.0:
             raise ParameterError(f"injection_gain must be in (0, 1], got {self.injection_gain!r}")

@@ -138,7 +138,7 @@ from adaptive_ff.identification.oe_options import BOOTSTRAP_REFITS, JACOBIANS, O
 from adaptive_ff.identification.plausibility import check_physical
 from adaptive_ff.identification.regression import RegressionModel, nrmse_fit
 from adaptive_ff.identification.simulator import (BATCH_MAX, input_grid, simulate_on_grid, simulate_on_grid_batch,
-                                                  simulate_on_grid_sens)
+                                                  simulate_on_grid_sens, stop_intervals)
 from plant.dynamics import lagged_params
 from plant.errors import (ExcitationError, ParameterError, SignalError, check_finite_scalar, check_positive,
                           check_signal, check_time)
@@ -243,7 +243,8 @@ class PhysicalFit:
         ``fitted`` (names of the fitted parameters; ``Vs``, ``delta`` among them where they were not given),
         ``fixed`` (``{"Vs", "delta"}`` as given, or empty),
         ``residual_rms``, ``n_simulations``, ``burn_samples``, ``loss``,
-        ``f_scale``, ``h_max``, ``input_delay`` (s: the one given, or the one the profile chose),
+        ``f_scale``, ``h_max``, ``stop_band`` (rad/s or None) and ``refined_intervals`` (the sample intervals
+        simulated at ``h_refine`` inside it), ``input_delay`` (s: the one given, or the one the profile chose),
         ``input_delay_profile`` (None where the delay was given, else ``delay``, ``cost``, ``chosen``,
         ``n_simulations``, ``params``: :func:`adaptive_ff.identification.delay_profile.delay_profile_search`),
         ``interp``,
@@ -404,7 +405,10 @@ class _OutputErrorProblem:
         # input_delay None: profiled by the search (delay_profile_search), from 0
         self.input_delay = 0.0 if opts.input_delay is None else float(opts.input_delay)
         self.delay_profile = None
-        self.grid = input_grid(t, u, h_max=opts.h_max, input_delay=self.input_delay, interp=opts.interp)
+        # the intervals where the measured velocity stops or reverses, at sub-steps of h_refine (opts.stop_band)
+        self.stop_mask = None if opts.stop_band is None else stop_intervals(w, opts.stop_band)
+        self.t, self.opts = t, opts
+        self.grid = self.input_grid(u, self.input_delay)
         self.i0 = int(np.searchsorted(t, t[0] + opts.burn))
         if t.shape[0] - self.i0 < MIN_SAMPLES:
             raise SignalError(f"the record ({t[-1] - t[0]:.4g} s) is too short for burn = {opts.burn!r} s; "
@@ -435,11 +439,18 @@ class _OutputErrorProblem:
         self.f_wide = max(self.f_scale, 1e-2 * peak)
         self.torque = 1.0  # offset scale, set by start_vector
 
+    def input_grid(self, u, d: float):
+        """The simulation grid of the input samples ``u`` (shape of ``self.u``) taken ``d`` s before their stamps:
+        sub-steps of ``h_max``, of ``h_refine`` in the record's stop intervals (``opts.stop_band``)."""
+        o = self.opts
+        return input_grid(self.t, u, h_max=o.h_max, input_delay=d, interp=o.interp, refine=self.stop_mask,
+                          h_refine=o.h_refine)
+
     def set_delay(self, d: float) -> None:
         """Take each input sample ``d`` s before its stamp from now on (the input grid rebuilt, the remembered
         residuals dropped)."""
         if d != self.input_delay:
-            self.grid = input_grid(self.t, self.u, h_max=self.opts.h_max, input_delay=d, interp=self.opts.interp)
+            self.grid = self.input_grid(self.u, d)
             self.input_delay, self.memo, self.fd_memo = float(d), {}, None
 
     def start_vector(self, s0: dict) -> np.ndarray:
@@ -492,7 +503,7 @@ class _OutputErrorProblem:
     def simulate_input(self, x, u) -> np.ndarray:
         """Predicted velocity at every sample (rad/s) driven by the input samples ``u`` (shape of ``self.u``) in
         place of the record's, at the problem's input delay; not counted in ``n_sim`` (safe in threads)."""
-        grid = input_grid(self.t, u, h_max=self.opts.h_max, input_delay=self.input_delay, interp=self.opts.interp)
+        grid = self.input_grid(u, self.input_delay)
         par, off = self.plant(x)
         return simulate_on_grid(par, grid, w0=self.w0, f0=self.f0, offset=off, gain=self.gain, w_meas=self.w)
 
@@ -876,7 +887,9 @@ def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> P
                              "residual_rms": float(math.sqrt(float(r @ r) / r.shape[0])),
                              "n_simulations": int(pb.n_sim), "burn_samples": pb.i0, "loss": opts.loss,
                              "f_scale": float(pb.f_scale), "f_scale_global": float(pb.f_wide),
-                             "h_max": opts.h_max, "input_delay": pb.input_delay,
+                             "h_max": opts.h_max, "stop_band": opts.stop_band,
+                             "refined_intervals": 0 if pb.stop_mask is None else int(np.count_nonzero(pb.stop_mask)),
+                             "input_delay": pb.input_delay,
                              "input_delay_profile": pb.delay_profile, "interp": opts.interp,
                              "Ts_mean": float(np.mean(np.diff(t))), "Ts_max": float(np.max(np.diff(t))), **top})
 

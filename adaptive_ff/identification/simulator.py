@@ -47,8 +47,8 @@ from plant.dynamics import lagged_params, stack_params
 from plant.errors import ParameterError, SignalError, check_finite_scalar, check_positive, check_signal, check_time
 from plant.friction import JointParams
 
-__all__ = ["InputGrid", "input_grid", "simulate_on_grid", "simulate_on_grid_batch", "simulate_on_grid_sens",
-           "simulate_sampled", "H_MAX_DEFAULT", "SENS_NAMES", "BATCH_MAX"]
+__all__ = ["InputGrid", "input_grid", "stop_intervals", "simulate_on_grid", "simulate_on_grid_batch",
+           "simulate_on_grid_sens", "simulate_sampled", "H_MAX_DEFAULT", "H_REFINE_DEFAULT", "SENS_NAMES", "BATCH_MAX"]
 
 #: Parameters of the sensitivities of :func:`simulate_on_grid_sens`, in the order of its columns.
 SENS_NAMES = ("J", "Fc", "Fs", "sigma", "tau", "offset", "Vs", "delta")
@@ -59,6 +59,9 @@ BATCH_MAX = int(lib.aff_sim_batch_max)
 
 #: Default largest RK4 sub-step (s): the paper's 1 kHz integration rate.
 H_MAX_DEFAULT = 1e-3
+#: Default largest RK4 sub-step (s) of the intervals :func:`input_grid` refines (``refine``): a tenth of
+#: :data:`H_MAX_DEFAULT`.
+H_REFINE_DEFAULT = 1e-4
 
 _LONG = np.dtype(f"i{ffi.sizeof('long')}")  # C long of aff_simulate_on_grid's idx (8 bytes on LP64, 4 on Windows)
 
@@ -82,7 +85,8 @@ class InputGrid:
     idx: np.ndarray
 
 
-def input_grid(t, u, *, h_max: float = H_MAX_DEFAULT, input_delay: float = 0.0, interp: str = "linear") -> InputGrid:
+def input_grid(t, u, *, h_max: float = H_MAX_DEFAULT, input_delay: float = 0.0, interp: str = "linear",
+               refine=None, h_refine: float = H_REFINE_DEFAULT) -> InputGrid:
     """Sub-divide the sample intervals and interpolate the input onto the sub-steps.
 
     Parameters
@@ -105,6 +109,13 @@ def input_grid(t, u, *, h_max: float = H_MAX_DEFAULT, input_delay: float = 0.0, 
         hold, default) or ``"cubic"`` (not-a-knot cubic spline through the
         samples, :class:`scipy.interpolate.CubicSpline`; smaller error for a
         smooth input).
+    refine : array_like of bool, shape (N-1,), or None, keyword-only
+        Intervals split into sub-steps of at most ``h_refine`` instead of
+        ``h_max`` (True at interval ``i``, from ``t(i)`` to ``t(i+1)``), e.g.
+        :func:`stop_intervals`; None (default): none.
+    h_refine : float, keyword-only
+        Largest sub-step (s) of the refined intervals, > 0; default
+        :data:`H_REFINE_DEFAULT`.
 
     Returns
     -------
@@ -113,9 +124,11 @@ def input_grid(t, u, *, h_max: float = H_MAX_DEFAULT, input_delay: float = 0.0, 
     Raises
     ------
     SignalError
-        ``t`` not strictly increasing or shapes differ.
+        ``t`` not strictly increasing or shapes differ; ``refine`` not one
+        entry per interval.
     ParameterError
-        ``h_max`` not > 0; ``input_delay`` not finite; unknown ``interp``.
+        ``h_max`` or ``h_refine`` not > 0; ``input_delay`` not finite; unknown
+        ``interp``.
 
     Notes
     -----
@@ -131,6 +144,12 @@ def input_grid(t, u, *, h_max: float = H_MAX_DEFAULT, input_delay: float = 0.0, 
         raise ParameterError(f"interp must be 'linear' or 'cubic', got {interp!r}")
     dt = np.diff(t)
     n = np.maximum(np.ceil(dt / h_max - 1e-9).astype(np.int64), 1)
+    if refine is not None:
+        h_refine = check_positive("h_refine", h_refine)
+        refine = np.asarray(refine)
+        if refine.shape != dt.shape:
+            raise SignalError(f"refine must have one entry per interval of t, shape {dt.shape}, got {refine.shape}")
+        n = np.where(refine.astype(bool), np.maximum(n, np.ceil(dt / h_refine - 1e-9).astype(np.int64)), n)
     idx = np.concatenate([[0], np.cumsum(n)])
     seg = np.repeat(np.arange(dt.shape[0]), n)
     frac = (np.arange(idx[-1]) - idx[seg]) / n[seg]
@@ -162,6 +181,44 @@ def _grid_args(grid: InputGrid, offset: float, w0: float, f0: float, gain, w_mea
     return (ffi.from_buffer("double[]", tg), ffi.from_buffer("double[]", ug), ffi.from_buffer("long[]", idx), n,
             float(offset), float(w0), float(f0), Kw, Kf, ffi.from_buffer("double[]", wm), int(inject),
             ffi.from_buffer("double[]", out))
+
+
+def stop_intervals(w, band: float) -> np.ndarray:
+    """The sample intervals in which a velocity record comes to rest or reverses: either end's ``|w|`` below
+    ``band`` or the sign of ``w`` changing (``refine`` of :func:`input_grid`).
+
+    Parameters
+    ----------
+    w : array_like, shape (N,)
+        Velocity samples (rad/s), finite.
+    band : float
+        Half-width (rad/s) of the band around zero, >= 0; 0 marks only the reversals.
+
+    Returns
+    -------
+    ndarray of bool, shape (N-1,)
+
+    Raises
+    ------
+    SignalError
+        ``w`` not a finite 1-D array of at least 2 samples.
+    ParameterError
+        ``band`` negative or not finite.
+
+    Notes
+    -----
+    Why: with a lag (eq. 1) the friction, which jumps with ``sgn(w)`` (eq. 3), drives the joint through zero
+    velocity at each stop in a damped ringing, a few milliseconds per period on a light joint. One RK4 step per
+    millisecond does not resolve it and keeps it ringing; an output-error fit then reads the lag that mimics its own
+    coarse step. Steps of a tenth of that inside the band where the joint stops reproduce a finely integrated joint
+    (``docs/your_arm.md``, How, Lag).
+    """
+    w = check_signal("w", w, min_len=2)
+    band = check_finite_scalar("band", band)
+    if band < 0.0:
+        raise ParameterError(f"band must be >= 0 (rad/s), got {band!r}")
+    slow = np.abs(w) < band
+    return slow[:-1] | slow[1:] | (np.sign(w[:-1]) != np.sign(w[1:]))
 
 
 def simulate_on_grid(par: np.ndarray, grid: InputGrid, *, w0: float, f0: float, offset: float = 0.0,

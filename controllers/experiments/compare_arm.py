@@ -92,6 +92,11 @@ class CompareArmOptions:
         (:func:`adaptive_ff.arm.simulate.arm_reference`: 5 sines, 0.1-1 Hz), default 0.5.
     substeps : int
         Runge-Kutta steps of the arm per controller period, default 1.
+    stop_refine : int
+        Runge-Kutta steps per step in a period in which a joint of the arm with friction comes to rest or reverses
+        (:meth:`adaptive_ff.arm.simulate.ArmPlant.step`, each joint's band at the start position), >= 1; 1
+        (default): none, the arm stepped as the one-joint engine steps its plant;
+        :data:`adaptive_ff.arm.simulate.STOP_REFINE`: as a finely stepped arm.
     reversal_window : float
         Half-width (s) of the metrics' reversal windows.
     decimate : int
@@ -126,6 +131,7 @@ class CompareArmOptions:
     noise_std: float = 1e-3
     amplitude: float = 0.5
     substeps: int = 1
+    stop_refine: int = 1
     reversal_window: float = 0.2
     decimate: int = 10
     start: bool = False
@@ -137,7 +143,7 @@ class CompareArmOptions:
             check_positive(name, getattr(self, name))
         check_nonnegative("noise_std", self.noise_std)
         check_nonnegative("reversal_window", self.reversal_window)
-        for name in ("seed", "substeps", "decimate"):
+        for name in ("seed", "substeps", "stop_refine", "decimate"):
             v = getattr(self, name)
             low = 0 if name == "seed" else 1
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < low:
@@ -371,6 +377,7 @@ def _run_mode(plant: ArmPlant, designs, mode: str, identification, t, w_ref, noi
     arm = plant.arm
     run_plant = ArmPlant(arm, None if mode == "frictionless" else plant.friction, armature=plant.armature)
     run_plant.set_state(np.zeros(arm.n), w_ref[0])
+    band = run_plant.stop_band(o.Tc) if run_plant.friction is not None else None
     loops = [_JointLoop(d, mode, identification, w_ref[0, j], o.Tc) for j, d in enumerate(designs)]
     sensors = [Sensor(Tc=o.Tc, counts_per_rev=o.encoder_counts, delay=int(o.delay)) for _ in designs]
     n, N = w_ref.shape
@@ -384,7 +391,7 @@ def _run_mode(plant: ArmPlant, designs, mode: str, identification, t, w_ref, noi
         for j, loop in enumerate(loops):
             U[k, j], UFF[k, j] = loop.period(sensors[j].measure(float(w[j]), float(noise[k, j])),
                                              float(w_ref[k, j]))
-        run_plant.step(U[k], o.Tc, o.substeps)
+        run_plant.step(U[k], o.Tc, o.substeps, stop_band=band, stop_refine=o.stop_refine)
         q, dq = run_plant.q, run_plant.dq
         if not (np.all(np.abs(dq) < w_limit) and np.all(q > lo) and np.all(q < hi)):
             diverged = True
