@@ -15,7 +15,7 @@ with probability 0.4, else 2-10 ms), and the arms are identified with their lag 
 fit then runs again with each reported lag in its joint's friction columns), whose reported lags' intervals make
 the row ``tau`` (over the lagged joints whose lag is reported; a lag reported on a lag-free joint counts as outside).
 ``--stops`` steps each arm's periods in which a joint stops or reverses ten times as finely
-(``ArmSimulation.stop_refine``) and refines the lag fits' stops too (``LagOptions(stop_band=True)``).
+(``ArmSimulation.stop_refine``) and refines the lag fits' stops too (``LagOptions(refine_stops=True)``).
 ``--workers N`` runs the arms in N processes.
 
 Printed per parameter: the share of the true values inside their 95 % interval, over every joint of every arm
@@ -118,7 +118,7 @@ def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, 
     (``unwarned``: the misses whose joint has no warning naming the parameter); ``log``: its :func:`arm_log` if
     already simulated (default None: simulated here); ``lag``: the joints' friction lagged (:func:`draw_lags`);
     ``stops``: the arm's stops stepped finely (``stop_refine`` :data:`adaptive_ff.arm.simulate.STOP_REFINE`) and the
-    lag fits' too (``LagOptions(stop_band=True)``)."""
+    lag fits' too (``LagOptions(refine_stops=True)``)."""
     from adaptive_ff.arm.simulate import STOP_REFINE
     import re
 
@@ -129,7 +129,7 @@ def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, 
     if log is None:
         log = arm_log(arm, seed, duration=duration, lag=lag, stop_refine=STOP_REFINE if stops else 1)
     res = identify_arm(log, arm, seed=seed, n_bootstrap=n_bootstrap, rows=rows,
-                       lag=LagOptions(workers=1, stop_band=stops) if lag else False)
+                       lag=LagOptions(workers=1, refine_stops=stops) if lag else False)
     J = true_inertia(arm, log.q.mean(axis=0))
     out = {k: [0, 0, 0] for k in PARAMETERS + ("base",)}
     for j, (joint, f) in enumerate(zip(res.joints, friction)):
@@ -193,7 +193,7 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=1, help="processes the arms run in (default 1)")
     ap.add_argument("--stops", action="store_true",
                     help="the arms' stops stepped finely (ArmSimulation.stop_refine) and the lag fits' too "
-                         "(LagOptions.stop_band)")
+                         "(LagOptions.refine_stops)")
     args = ap.parse_args(argv)
     total = {k: [0, 0, 0] for k in PARAMETERS + ("base",)}
     c0 = cpu_seconds()

@@ -836,7 +836,7 @@ def _lags(log, arm, rb, joints, shapes, cutoff, settings) -> list:
     held, accepted = shapes
     return joint_lags(t, u, w, held, options=options, seed=seed, progress=progress, errors=errors,
                       lowpass=LAG_CUTOFF_FACTOR * cutoff, accepted=accepted,
-                      bands=stop_bands(Fs, J, float(np.median(np.diff(t)))) if options.stop_band else None)
+                      bands=stop_bands(Fs, J, float(np.median(np.diff(t)))) if options.refine_stops else None)
 
 
 def _arm_warnings(cond: float, no_sensitivity: bool = False) -> list:

@@ -45,7 +45,7 @@ Stops
 Each joint's lagged friction, which jumps with ``sgn(w)``, drives it through zero velocity at each stop in a damped
 ringing of a few milliseconds per period on a light joint (elbows, wrists). The output-error simulation with one RK4
 step per sample of the 1 kHz record keeps that ringing up and the fit reads the lag that mimics its own coarse step:
-several times the true lag on the heavy wrists of ``benchmarks/arm_stops.py``. With ``LagOptions(stop_band=True)``
+several times the true lag on the heavy wrists of ``benchmarks/arm_stops.py``. With ``LagOptions(refine_stops=True)``
 the fit simulates the sample intervals in which the record's velocity is inside a band around zero, or reverses,
 with sub-steps of a tenth of the sample time (``stop_band`` of the output-error fit,
 :func:`adaptive_ff.identification.simulator.stop_intervals`); the band is :data:`LAG_STOP_BAND` times ``Fs Ts / J``,
@@ -150,7 +150,7 @@ class LagOptions:
     workers : int
         Processes the joints' fits run in, >= 1; default :data:`LAG_WORKERS` (``identify-arm --workers``). 1: one
         after the other in this process. Each joint's fit has its own seed, so the result does not depend on it.
-    stop_band : bool
+    refine_stops : bool
         Simulate each joint's stops finely in its output-error fit: the sample intervals in which its velocity is
         inside its band (:func:`stop_bands`) or reverses at a tenth of the sample time (module docstring, "Stops").
         Default False.
@@ -158,21 +158,21 @@ class LagOptions:
     Raises
     ------
     ParameterError
-        ``n_bootstrap`` not an integer >= 2, ``workers`` not an integer >= 1 or ``stop_band`` not a bool (the field
+        ``n_bootstrap`` not an integer >= 2, ``workers`` not an integer >= 1 or ``refine_stops`` not a bool (the field
         named).
     """
 
     n_bootstrap: int = LAG_BOOTSTRAP
     workers: int = LAG_WORKERS
-    stop_band: bool = False
+    refine_stops: bool = False
 
     def __post_init__(self):
         for name, least in (("n_bootstrap", 2), ("workers", 1)):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < least:
                 raise ParameterError(f"LagOptions.{name} must be an integer >= {least}, got {v!r}")
-        if not isinstance(self.stop_band, bool):
-            raise ParameterError(f"LagOptions.stop_band must be True or False, got {self.stop_band!r}")
+        if not isinstance(self.refine_stops, bool):
+            raise ParameterError(f"LagOptions.refine_stops must be True or False, got {self.refine_stops!r}")
 
 
 @dataclass(frozen=True)

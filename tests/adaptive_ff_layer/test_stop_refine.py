@@ -159,11 +159,11 @@ def test_the_stop_refinement_settings_are_checked():
     from controllers.experiments.compare_arm import CompareArmOptions
 
     assert ArmSimulation().stop_refine == 1 and CompareArmOptions().stop_refine == 1
-    assert LagOptions().stop_band is False and LagOptions(stop_band=True).stop_band is True
+    assert LagOptions().refine_stops is False and LagOptions(refine_stops=True).refine_stops is True
     for bad in (0, 2.5, True):
         with pytest.raises(ParameterError, match="stop_refine"):
             ArmSimulation(stop_refine=bad)
         with pytest.raises(ParameterError, match="stop_refine"):
             CompareArmOptions(stop_refine=bad)
-    with pytest.raises(ParameterError, match="stop_band"):
-        LagOptions(stop_band=1)
+    with pytest.raises(ParameterError, match="refine_stops"):
+        LagOptions(refine_stops=1)
