@@ -80,17 +80,14 @@ def arm_friction(n: int, seed: int, lag: bool = False) -> list:
     return [replace(f, tau=t) for f, t in zip(friction, draw_lags(n, seed))] if lag else friction
 
 
-def arm_log(arm, seed: int, *, duration: float = 20.0, lag: bool = False, substeps: int = 1, stop_refine=None):
+def arm_log(arm, seed: int, *, duration: float = 20.0, lag: bool = False, substeps: int = 1, stop_refine: int = 1):
     """The simulated log (:class:`adaptive_ff.arm.arm_log.ArmLog`) of the arm of seed ``seed``: its friction
     :func:`arm_friction`, ``duration`` seconds (s) of the planar arm with the armatures :data:`ARMATURE`, integrated
     with ``substeps`` Runge-Kutta steps per 1 ms period (the coverage takes 1) and ``stop_refine`` times as many in
-    the periods in which a joint stops or reverses (None: :class:`adaptive_ff.arm.simulate.ArmSimulation`'s
-    default)."""
+    the periods in which a joint stops or reverses (``ArmSimulation.stop_refine``; 1, the default: none)."""
     from adaptive_ff.arm.simulate import ArmSimulation, simulate_arm
 
-    run = ArmSimulation(duration=duration, substeps=substeps)
-    if stop_refine is not None:
-        run = ArmSimulation(duration=duration, substeps=substeps, stop_refine=stop_refine)
+    run = ArmSimulation(duration=duration, substeps=substeps, stop_refine=stop_refine)
     return simulate_arm(arm, arm_friction(arm.n, seed, lag), run=run, seed=seed, armature=ARMATURE)
 
 
@@ -119,11 +116,11 @@ def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, 
     already simulated (default None: simulated here); ``lag``: the joints' friction lagged (:func:`draw_lags`);
     ``stops``: the arm's stops stepped finely (``stop_refine`` :data:`adaptive_ff.arm.simulate.STOP_REFINE`) and the
     lag fits' too (``LagOptions(refine_stops=True)``)."""
-    from adaptive_ff.arm.simulate import STOP_REFINE
     import re
 
     from adaptive_ff.arm.fit import identify_arm
     from adaptive_ff.arm.lag import LagOptions
+    from adaptive_ff.arm.simulate import STOP_REFINE
 
     friction = arm_friction(arm.n, seed, lag)
     if log is None:

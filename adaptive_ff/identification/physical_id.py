@@ -407,7 +407,7 @@ class _OutputErrorProblem:
         self.delay_profile = None
         # the intervals where the measured velocity stops or reverses, at sub-steps of h_refine (opts.stop_band)
         self.stop_mask = None if opts.stop_band is None else stop_intervals(w, opts.stop_band)
-        self.t, self.opts = t, opts
+        self.t, self.opts = t, opts  # the grid's (input_grid)
         self.grid = self.input_grid(u, self.input_delay)
         self.i0 = int(np.searchsorted(t, t[0] + opts.burn))
         if t.shape[0] - self.i0 < MIN_SAMPLES:
@@ -421,7 +421,7 @@ class _OutputErrorProblem:
             self.vs_grid = np.geomspace(max(self.noise, 1e-3 * peak0), 0.3 * peak0, _VS_GRID)
             Vs, delta = float(self.vs_grid[_VS_GRID // 2]), 1.0
         self.j_shape = 5 + int(bool(offset))
-        self.t, self.u, self.w, self.Vs, self.delta, self.offset, self.opts = t, u, w, Vs, delta, offset, opts
+        self.u, self.w, self.Vs, self.delta, self.offset = u, w, Vs, delta, offset
         self.wm = w[self.i0:]
         self.w0, self.f0 = float(w[0]), float(u[0])  # friction balances the input at the start (quasi-steady)
         self.n_sim = 0
