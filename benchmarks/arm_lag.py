@@ -1,7 +1,7 @@
 """identify-arm's friction lag over seeded simulated arms: coverage of the true lags, false lags, missed lags.
 
 Run:  python -m benchmarks.arm_lag [--n 20] [--start 0] [--lag-bootstrap 10] [--duration 20] [--cache FILE]
-      [--workers 1]
+      [--workers 1] [--stops]
 
 Each arm is ``examples/planar3.urdf`` with the armatures 0.2, 0.1, 0.05 kg·m², the friction of ``docs/your_arm.md``
 (:data:`FRICTION`) with ``Fc, Fs, sigma`` scaled by a factor 0.8-1.25 per joint, or with ``--friction coverage``
@@ -18,7 +18,10 @@ reported null and, of the reported ones, the share whose 95 % interval holds the
 95 % binomial (Wilson) interval; the reported intervals' median width over the true lag; and the coverage by joint.
 ``--cache FILE`` keeps each arm's joints (JSON lines) and reads back the arms it already holds: it keeps the fits,
 and each joint is decided again by :func:`adaptive_ff.arm.lag.lag_reason` and the low-pass correction's sign (a
-cache made before a change of the lag fit itself is stale). ``--workers N`` runs the arms in N processes. 50 arms
+cache made before a change of the lag fit itself is stale; a cache holds one ``--stops`` setting).
+``--stops`` steps each arm finely in the periods in which a joint stops or reverses
+(``ArmSimulation.stop_refine`` :data:`adaptive_ff.arm.simulate.STOP_REFINE`) and refines the lag fits' stops too
+(``LagOptions(refine_stops=True)``; ``docs/your_arm.md``, Not yet). ``--workers N`` runs the arms in N processes. 50 arms
 take 25-45 minutes of CPU; the numbers of seeds 0-49 (0-19 set the rule, 20-49 check it) are in
 ``docs/your_arm.md`` (How, Lag; Not yet).
 """
@@ -63,18 +66,21 @@ def draw_friction(n: int, seed: int, kind: str = "example") -> list:
     return out
 
 
-def arm_joints(arm, seed: int, *, duration: float = 20.0, n_lag: int = 10, kind: str = "example") -> list:
-    """One arm's joints: ``{"seed", "joint", "true", "tau", "lo", "hi", "reason", "info"}`` per joint (s)."""
+def arm_joints(arm, seed: int, *, duration: float = 20.0, n_lag: int = 10, kind: str = "example",
+               stops: bool = False) -> list:
+    """One arm's joints: ``{"seed", "joint", "true", "tau", "lo", "hi", "reason", "info"}`` per joint (s);
+    ``stops``: the arm's stops and the lag fits' refined (module docstring)."""
     from adaptive_ff.arm.fit import identify_arm
     from adaptive_ff.arm.lag import LagOptions
-    from adaptive_ff.arm.simulate import ArmSimulation, simulate_arm
+    from adaptive_ff.arm.simulate import STOP_REFINE, ArmSimulation, simulate_arm
     from benchmarks.arm_coverage import ARMATURE
 
     friction = draw_friction(arm.n, seed, kind)
     lags = [f.tau for f in friction]
-    log = simulate_arm(arm, friction, run=ArmSimulation(duration=duration, substeps=1), seed=seed,
-                       armature=ARMATURE)
-    res = identify_arm(log, arm, n_bootstrap=30, seed=seed, lag=LagOptions(n_bootstrap=n_lag, workers=1))
+    run = ArmSimulation(duration=duration, substeps=1, stop_refine=STOP_REFINE if stops else 1)
+    log = simulate_arm(arm, friction, run=run, seed=seed, armature=ARMATURE)
+    res = identify_arm(log, arm, n_bootstrap=30, seed=seed,
+                       lag=LagOptions(n_bootstrap=n_lag, workers=1, refine_stops=stops))
     out = []
     for j, joint in enumerate(res.joints):
         lo, hi = joint.interval95["tau"]
@@ -130,6 +136,9 @@ def main(argv=None) -> int:
                     help="the joints' friction: the page's scaled (default) or arm_coverage's draws")
     ap.add_argument("--cache", default=None, help="JSON-lines file of the arms' joints, read and appended")
     ap.add_argument("--verbose", action="store_true", help="print every joint")
+    ap.add_argument("--stops", action="store_true",
+                    help="the arms' stops stepped finely (ArmSimulation.stop_refine) and the lag fits' too "
+                         "(LagOptions.refine_stops)")
     ap.add_argument("--workers", type=int, default=1, help="processes the arms run in (default 1; the result does "
                     "not depend on it)")
     a = ap.parse_args(argv)
@@ -137,7 +146,7 @@ def main(argv=None) -> int:
     seeds = range(a.start, a.start + a.n)
     todo = [seed for seed in seeds if seed not in cache]
     c0 = cpu_seconds()
-    job = partial(_arm_rows, duration=a.duration, n_lag=a.lag_bootstrap, kind=a.friction)
+    job = partial(_arm_rows, duration=a.duration, n_lag=a.lag_bootstrap, kind=a.friction, stops=a.stops)
     if a.workers > 1 and len(todo) > 1:
         with ProcessPoolExecutor(max_workers=a.workers) as pool:
             done = zip(todo, pool.map(job, todo))
@@ -156,7 +165,8 @@ def main(argv=None) -> int:
                       f"{1e3 * r['info'].get('estimate', math.nan):6.2f} ms")
     s = summary(rows)
     print(f"{a.n} arms (seeds {a.start}-{a.start + a.n - 1}, friction {a.friction}), {a.duration:g} s logs, "
-          f"{a.lag_bootstrap} refits per lag fit; CPU {cpu_seconds() - c0:.0f} s")
+          f"{a.lag_bootstrap} refits per lag fit" + (", stops refined" if a.stops else "")
+          + f"; CPU {cpu_seconds() - c0:.0f} s")
     for key, text in (("false", "lag-free joints reported with a lag"), ("missed", "lagged joints reported null"),
                       ("covered", "reported lags whose interval holds the true lag")):
         k, n = s[key]
@@ -172,11 +182,11 @@ def main(argv=None) -> int:
     return 0
 
 
-def _arm_rows(seed: int, *, duration: float, n_lag: int, kind: str) -> list:
+def _arm_rows(seed: int, *, duration: float, n_lag: int, kind: str, stops: bool = False) -> list:
     """:func:`arm_joints` of arm ``seed`` (the URDF loaded in the calling process: a worker's)."""
     from adaptive_ff.arm.robot import load_urdf
 
-    return arm_joints(load_urdf(URDF), seed, duration=duration, n_lag=n_lag, kind=kind)
+    return arm_joints(load_urdf(URDF), seed, duration=duration, n_lag=n_lag, kind=kind, stops=stops)
 
 
 def _collect(done, cache: dict, path) -> None:

@@ -89,6 +89,7 @@ def stop_peaks(f, J: float, h_max: float, *, windows: int = 6, window: float = 5
 
 def main(argv=None) -> int:
     from adaptive_ff.arm.lag import stop_bands
+    from plant.stribeck_map import static_friction
 
     ap = argparse.ArgumentParser(prog="python -m benchmarks.arm_stops", description=__doc__.splitlines()[0])
     ap.add_argument("--cases", default="0:3,26:3", help="SEED:JOINT pairs, JOINT 1-based (default 0:3,26:3)")
@@ -109,7 +110,7 @@ def main(argv=None) -> int:
             if (seed, arm_way) not in records:
                 records[seed, arm_way] = true_record(seed, *arm_way)
             fr, J, t, u, w = records[seed, arm_way]
-            band = float(stop_bands([max(fr[j].Fs, fr[j].Fc)], [J[j]], float(np.median(np.diff(t))))[0])
+            band = float(stop_bands([static_friction(fr[j].Fc, fr[j].Fs)], [J[j]], float(np.median(np.diff(t))))[0])
             reads = "  ".join(f"h_max {1e3 * h:g} ms: {1e3 * lag_read(t, u[:, j], w[:, j], fr[j], h):6.2f}"
                               for h in hs)
             banded = 1e3 * lag_read(t, u[:, j], w[:, j], fr[j], 1e-3, band)

@@ -25,7 +25,27 @@ from plant.errors import ParameterError, check_finite_scalar, check_positive
 from plant._cplant import ffi, lib
 
 __all__ = ["stribeck_scalar", "stribeck_shape_scalar", "stribeck_slope_scalar", "stribeck_cutoff", "stribeck",
-           "stribeck_shape"]
+           "stribeck_shape", "static_friction"]
+
+
+def static_friction(Fc, Fs):
+    """The largest friction the map of eq. 3 puts against a joint leaving rest, ``max(|Fc|, |Fs|)`` (N·m): ``Fs``
+    where the Stribeck hump rises above the Coulomb level, ``Fc`` where it does not (``Fs < Fc``, or no Stribeck term:
+    pass ``Fs = Fc``).
+
+    Parameters
+    ----------
+    Fc, Fs : float or array_like
+        Coulomb and static friction (N·m), broadcast together.
+
+    Returns
+    -------
+    float or ndarray
+        ``max(|Fc|, |Fs|)`` elementwise (a float for scalar inputs); NaN where either is NaN.
+    """
+    out = np.fmax(np.abs(np.asarray(Fc, dtype=float)), np.abs(np.asarray(Fs, dtype=float)))
+    out = np.where(np.isnan(Fc) | np.isnan(Fs), np.nan, out)
+    return float(out) if out.ndim == 0 else out
 
 
 def stribeck_shape_scalar(w: float, Vs: float, delta: float) -> float:

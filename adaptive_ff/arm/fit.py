@@ -99,7 +99,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from plant.errors import ParameterError, SignalError
-from plant.stribeck_map import stribeck_shape
+from plant.stribeck_map import static_friction, stribeck_shape
 
 from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states, parallel_filter
 from adaptive_ff.arm.intervals import (accepted_shapes, lag_ranges, lag_shapes, lr_allowance, profile_interval,
@@ -632,8 +632,8 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     reps = (first.boot.replicates[:, :r], first.boot.replicates[:, :r] @ a_J.T) if rigid_body == "fit" else None
     shapes = (lag_shapes(first.Vs, first.delta, first.table),
               accepted_shapes(first.table, first.rss, int(first.prob.keep.sum()), first.ratio))
-    Fs_all = np.array([max(abs(first.x[r + 4 * j]), abs(first.x[r + 4 * j + 1]) if np.isfinite(first.Vs[j]) else 0.0)
-                       for j in range(arm.n)])  # each joint's static friction: its Fs, Fc without a Stribeck term
+    Fc_all = first.x[r:r + 4 * arm.n:4]
+    Fs_all = static_friction(Fc_all, np.where(np.isfinite(first.Vs), first.x[r + 1:r + 4 * arm.n:4], Fc_all))
     lags = _lags(log, arm, (base, first.x[:r], rigid_body, reps), (J_all, Fs_all), shapes, cutoff,
                  (lag, seed, progress))
     stage, lagged, lag_alts = _lagged_stage(first, lags, ((log, arm, cutoff), (states, fit_states), vmin, rows,

@@ -190,6 +190,7 @@ class JointLag:
     info : dict
         ``samples``, ``rate`` (Hz), ``n_simulations``, ``predictor``, ``estimate`` (the fit's ``tau`` even where it
         is not reported), ``Vs`` and ``delta`` (the Stribeck shape held in the fit; NaN where it fitted them),
+        ``stop_band`` (rad/s, the band its stops were refined in, :class:`LagWorld`; None: not refined),
         ``interval95`` (s, the fit's even where it is not reported), ``n_valid``, ``bias`` and ``rms`` (the
         bootstrap's valid refits and their mean shift and RMS deviation of ``tau`` from the estimate, s).
     """
@@ -340,7 +341,7 @@ def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTST
     lo, hi = (fit.info.get("interval95") or {}).get("tau", (math.nan, math.nan))
     info = {"samples": int(t.shape[0]), "rate": float(1.0 / np.median(np.diff(t))),
             "n_simulations": int(fit.info.get("n_simulations", 0)), "predictor": fit.info.get("predictor"),
-            "estimate": est, "Vs": float(Vs), "delta": float(delta), **_fit_stats(fit)}
+            "estimate": est, "Vs": float(Vs), "delta": float(delta), "stop_band": world.stop_band, **_fit_stats(fit)}
     reason = lag_reason(est, (lo, hi), info)
     if reason is not None:
         return JointLag(math.nan, (math.nan, math.nan), reason, info)

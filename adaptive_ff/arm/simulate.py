@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from plant.errors import ParameterError
+from plant.stribeck_map import static_friction
 
 from adaptive_ff.arm.arm_log import ArmLog
 from adaptive_ff.arm.robot import ArmModel, require_pinocchio
@@ -283,11 +284,11 @@ class ArmPlant:
 
     def stop_band(self, dt: float) -> np.ndarray:
         """Each joint's band (rad/s, shape (N,)) of :meth:`step`'s ``stop_band`` for the period ``dt`` (s): the
-        velocity its static friction ``Fs`` takes off in ``dt`` at its inertia ``M_jj(q)`` at the current position,
-        ``Fs dt / M_jj`` (the frictionless arm: zeros)."""
+        velocity its static friction takes off in ``dt`` at its inertia ``M_jj(q)`` at the current position,
+        ``max(|Fc|, |Fs|) dt / M_jj`` (:func:`plant.stribeck_map.static_friction`; the frictionless arm: zeros)."""
         if self.friction is None:
             return np.zeros(self.n)
-        Fs = np.array([max(abs(f.Fs), abs(f.Fc)) for f in self.friction])
+        Fs = np.array([static_friction(f.Fc, f.Fs) for f in self.friction])
         return Fs * dt / np.diag(self.mass_matrix())
 
 

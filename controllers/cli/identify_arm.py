@@ -53,7 +53,9 @@ def run(args) -> int:
         result = identify_arm(log, arm, cutoff=args.cutoff, n_bootstrap=args.bootstrap, seed=args.seed,
                               rigid_body=args.rigid_body, progress=progress_from_args(args),
                               lag=False if args.no_lag else LagOptions(n_bootstrap=args.lag_bootstrap,
-                                                                       workers=args.workers), rows=args.rows)
+                                                                       workers=args.workers,
+                                                                       refine_stops=args.refine_stops),
+                              rows=args.rows)
     if gear is not None:
         result = gear.with_coupling_warnings(result)
     out = write_plot(result.to_dict(), args.plot, "arm_friction.png", lambda: result.plot()[0].figure)
@@ -113,6 +115,10 @@ def register(sub) -> None:
                    help="skip the friction lag (tau null): its output-error fits are most of the run's CPU time")
     i.add_argument("--lag-bootstrap", dest="lag_bootstrap", type=at_least_2, default=10, metavar="N",
                    help="refits of each joint's lag bootstrap (default 10, >= 2)")
+    i.add_argument("--refine-stops", dest="refine_stops", action="store_true",
+                   help="simulate each joint's stops finely in its lag fit (sub-steps of a tenth of the record's "
+                        "sample time where the joint is near rest or reverses): the lag of a light joint that sticks "
+                        "as a continuous joint has it, at 2-4 times the lag fits' CPU time (docs/your_arm.md, Not yet)")
     i.add_argument("--workers", type=positive_int, default=2, metavar="N",
                    help="processes the joints' lag fits run in (default 2; the result does not depend on it)")
     i.add_argument("--json", action="store_true", help="print the result as JSON")

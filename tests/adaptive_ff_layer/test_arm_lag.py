@@ -467,3 +467,26 @@ def test_low_pass_correction_of_a_fit_that_searches_the_stribeck_shape():
         lag = joint_lag(t, u, w, Vs, delta, n_bootstrap=2, world=LagWorld(lowpass=100.0))
         assert lag.reason is None and lag.info["lowpass"]["tau"] == lag.tau
         assert lag.tau == pytest.approx(p.tau, rel=0.05)
+
+
+def test_cli_refine_stops(arm, tmp_path, capsys):
+    """``identify-arm --refine-stops`` refines each joint's stops in its lag fit (``LagOptions(refine_stops=True)``):
+    its record's band is ``LAG_STOP_BAND max(|Fc|, |Fs|) Ts / J`` of the whole-arm fit (``Fs`` where the joint keeps
+    a Stribeck term; the reported entry's values are the second pass's, within 4 % of the first's here), recorded as
+    ``lag.stop_band``; without the flag none (null)."""
+    from adaptive_ff.arm.arm_log import write_arm_log
+    from adaptive_ff.arm.lag import LAG_STOP_BAND
+
+    log = simulate_arm(arm, FRICTION, run=ArmSimulation(duration=4.0, substeps=1), seed=4, armature=ARMATURE)
+    path = write_arm_log(log, tmp_path / "arm.csv")
+    args = ["identify-arm", str(path), "--urdf", str(URDF), "--json", "--quiet", "--bootstrap", "20",
+            "--lag-bootstrap", "2", "--workers", "1"]
+    assert main([*args, "--refine-stops"]) == 0
+    refined = json.loads(capsys.readouterr().out)["joints"]
+    assert main(args) == 0
+    plain = json.loads(capsys.readouterr().out)["joints"]
+    for e, p in zip(refined, plain):
+        static = max(abs(e["Fc"]), abs(e["Fs"])) if e["Vs"] is not None else abs(e["Fc"])
+        band = LAG_STOP_BAND * static / e["lag"]["rate"] / e["J"]
+        assert e["lag"]["stop_band"] == pytest.approx(band, rel=0.05), (e["name"], e["lag"]["stop_band"], band)
+        assert p["lag"]["stop_band"] is None and p["lag"]["samples"] == e["lag"]["samples"]

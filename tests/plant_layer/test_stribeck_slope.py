@@ -1,11 +1,12 @@
-"""The slope of eq. 3's Stribeck term (plant.stribeck_map.stribeck_slope_scalar) against central differences of the map."""
+"""The slope of eq. 3's Stribeck term (plant.stribeck_map.stribeck_slope_scalar) against central differences of the map;
+the map's static friction (static_friction) against its largest value off rest."""
 
 import math
 
 import numpy as np
 import pytest
 
-from plant.stribeck_map import stribeck, stribeck_slope_scalar
+from plant.stribeck_map import static_friction, stribeck, stribeck_slope_scalar
 
 
 @pytest.mark.parametrize("delta", [-0.7, 0.5, 1.0, 2.0, 2.5])
@@ -34,3 +35,15 @@ def test_slope_limits():
     assert stribeck_slope_scalar(0.0, 10.0, 0.02, 0.5) == -math.inf
     assert stribeck_slope_scalar(0.0, 10.0, 0.02, 2.0) == 0.0
     assert np.isfinite(stribeck_slope_scalar(1e-12, 10.0, 0.02, 0.5))
+
+
+def test_static_friction_is_the_largest_friction_at_breakaway():
+    """static_friction(Fc, Fs): the map's largest value just off rest, max over w -> 0+ of |F(w)| with sigma = 0
+    (sampled here from the map itself), for a hump (Fs > Fc), a dip (Fs < Fc), negative values; NaN passes."""
+    w = np.geomspace(1e-9, 10.0, 4001)
+    for Fc, Fs in ((1.2, 1.5), (2.0, 0.7), (-0.5, -0.9), (0.8, 0.8)):
+        peak = float(np.max(np.abs(stribeck(w, Fc=Fc, Fs=Fs, Vs=0.1, delta=1.0, sigma=0.0))))
+        assert static_friction(Fc, Fs) == pytest.approx(peak, rel=1e-6), (Fc, Fs)
+    both = static_friction([1.2, 2.0], [1.5, 0.7])
+    assert isinstance(both, np.ndarray) and both.tolist() == [1.5, 2.0]
+    assert isinstance(static_friction(1.0, 2.0), float) and np.isnan(static_friction(np.nan, 1.0))
