@@ -48,7 +48,7 @@ def main(argv=None) -> int:
                          dict(encoder_counts=a.counts, velocity="kalman", velocity_model=model,
                               velocity_bandwidth=float(fb))))
     seeds = [int(x) for x in a.seeds.split(",")]
-    print(f"| velocity | sensor noise RMS (rad/s) | "
+    print("| velocity | sensor noise RMS (rad/s) | "
           + " | ".join(f"eta {m} seed {seeds[0]} | RMS {m} (rad/s) | eta {m} mean (range) over {len(seeds)} seeds"
                        for m in MODES) + " |")
     print("|---|---:|" + "---:|---:|---:|" * len(MODES))

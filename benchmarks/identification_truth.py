@@ -189,7 +189,7 @@ def main(argv=None) -> int:
               f"[{lo:.4g}, {hi:.4g}] | {'yes' if ins else 'NO'} | {'yes' if nm else '-'} |")
     if args.zoo or args.zoo_from:
         zrows, line = zoo_rows(args.zoo, args.zoo_from)
-        print(f"\n| zoo, default (auto) | default cover % | inside or named % |")
+        print("\n| zoo, default (auto) | default cover % | inside or named % |")
         print("|---|---|---|")
         for k, b, c in zrows:
             print(f"| {k} | {b:.1f} | {c:.1f} |")

@@ -36,7 +36,6 @@ the plant simulation (:func:`plant.joint.make_rk4_step`) does.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np

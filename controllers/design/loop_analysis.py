@@ -16,7 +16,7 @@ import numpy as np
 
 from controllers.design.pi import ClosedLoopStep, PIDesign, closed_loop_step
 from plant.errors import check_positive
-from plant.results import axes_or_new, json_safe
+from plant.results import json_safe
 
 __all__ = ["LoopAnalysis", "analyse_design", "plot_bode", "plot_step", "default_step_duration"]
 
