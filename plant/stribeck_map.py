@@ -43,8 +43,7 @@ def static_friction(Fc, Fs):
     float or ndarray
         ``max(|Fc|, |Fs|)`` elementwise (a float for scalar inputs); NaN where either is NaN.
     """
-    out = np.fmax(np.abs(np.asarray(Fc, dtype=float)), np.abs(np.asarray(Fs, dtype=float)))
-    out = np.where(np.isnan(Fc) | np.isnan(Fs), np.nan, out)
+    out = np.maximum(np.abs(np.asarray(Fc, dtype=float)), np.abs(np.asarray(Fs, dtype=float)))  # NaN propagates
     return float(out) if out.ndim == 0 else out
 
 

@@ -50,10 +50,13 @@ the fit simulates the sample intervals in which the record's velocity is inside 
 with sub-steps of a tenth of the sample time (``stop_band`` of the output-error fit,
 :func:`adaptive_ff.identification.simulator.stop_intervals`); the band is :data:`LAG_STOP_BAND` times ``Fs Ts / J``,
 the velocity the joint's static friction takes off in one sample, with ``Fs`` and ``J`` from the whole-arm fit
-(:func:`stop_bands`). The low-pass correction's worlds are then simulated at that sub-step throughout. It is off by
-default: the benchmarks that calibrate the lag's rules (``benchmarks/arm_lag.py``, ``benchmarks/arm_coverage.py``)
-simulate their arms with one step per period, and with both the arm's stops and the fit's refined the rules are not
-yet calibrated (``docs/your_arm.md``, Not yet).
+(:func:`stop_bands`). The low-pass correction's worlds are then simulated at that sub-step throughout. On arms
+stepped finely it reads the lags of wrists whose friction is large for their inertia right and those of wrists with
+light friction short, where the coarse step reads them right (the one-step predictor's pull toward the low-passed
+velocity on a model that settles at its stops). It is off by default (``identify-arm --refine-stops`` puts it on):
+it is not right on every joint, it takes two to four times the lag fits' CPU time on a log with long rests, and the
+lag's rules are calibrated on arms stepped once per period (``benchmarks/arm_lag.py``, ``benchmarks/arm_coverage.py``;
+their ``--stops``; ``docs/your_arm.md``, Not yet).
 
 The torque is taken at its time stamp (``input_delay=0``): a whole-arm log samples every joint's torque and
 position together, and the output-error fit's profile over a sub-sample input delay, which ``identify`` runs on a
