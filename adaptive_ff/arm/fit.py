@@ -88,7 +88,8 @@ at the estimated lags does not see: each half-width combined in quadrature, as t
 distance of the estimate from the two point fits with every joint's columns at the lower and the upper end of its lag
 range (:func:`adaptive_ff.arm.intervals.widen_lag`, :func:`adaptive_ff.arm.intervals.lag_ranges`): a lag in the columns
 its interval; a null lag none up to the reporting floor or its fit's upper end, whichever is longer, since the log does
-not tell such a lag from none, while it still acts as an inertia term.
+not tell such a lag from none, while it still acts as an inertia term; that end halved toward the floor while it
+raises the joint's residual beyond the bound of :func:`_lag_raises_residual` (:func:`_capped_null_ranges`).
 """
 
 from __future__ import annotations
@@ -104,8 +105,8 @@ from plant.stribeck_map import static_friction, stribeck_shape
 from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states, parallel_filter
 from adaptive_ff.arm.intervals import (accepted_shapes, lag_ranges, lag_shapes, lr_allowance, profile_interval,
                                        widen, widen_lag)
-from adaptive_ff.arm.lag import (LAG_CUTOFF_FACTOR, JointLag, LagOptions, joint_lags, lag_records, stop_bands,
-                                 velocity_noise)
+from adaptive_ff.arm.lag import (LAG_CUTOFF_FACTOR, LAG_FLOOR_SAMPLES, JointLag, LagOptions, joint_lags, lag_records,
+                                 stick_speeds, stop_bands, velocity_noise)
 from adaptive_ff.arm.result import ArmIdentification, ArmJoint
 from adaptive_ff.arm.robot import ArmModel
 from adaptive_ff.arm.rows import DEFAULT_ROWS, REST_WINDOW, ROWS
@@ -634,9 +635,9 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
               accepted_shapes(first.table, first.rss, int(first.prob.keep.sum()), first.ratio))
     Fc_all = first.x[r:r + 4 * arm.n:4]
     Fs_all = static_friction(Fc_all, np.where(np.isfinite(first.Vs), first.x[r + 1:r + 4 * arm.n:4], Fc_all))
-    lags = _lags(log, arm, (base, first.x[:r], rigid_body, reps), (J_all, Fs_all), shapes, cutoff,
+    lags = _lags(log, arm, (base, first.x[:r], rigid_body, reps), (J_all, Fs_all, Fc_all), shapes, cutoff,
                  (lag, seed, progress))
-    stage, lagged, lag_alts = _lagged_stage(first, lags, ((log, arm, cutoff), (states, fit_states), vmin, rows,
+    stage, lagged, lag_alts, lag_ends = _lagged_stage(first, lags, ((log, arm, cutoff), (states, fit_states), vmin, rows,
                                                           settings))
     prob, keep_j, Vs, delta, table, x, rss, A, alt, boot, _, half, ratio = stage
     x_alt = None if alt is None else alt[0]
@@ -660,9 +661,11 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     curves = tuple((dq[:, j], tau[:, j] - rigid[:, j]) for j in range(arm.n))
     info = {"cutoff": float(cutoff), "rows": [int(v) for v in keep_j.sum(axis=0)],
             "bootstrap": {"n": int(n_bootstrap), "valid": boot.n_valid, "block": boot.block, "seed": int(seed)},
-            "rms": [float(v) for v in _residual_rms(stage)],
+            "rms": [float(v) for v in _residual_rms(stage.keep_j, stage.resid)],
             "J": "the joint's own diagonal inertia M_jj at the log's mean configuration", "row_selection": rows,
-            "lagged_columns": [float(v) if np.isfinite(v) else None for v in lagged]}
+            "lagged_columns": [float(v) if np.isfinite(v) else None for v in lagged],
+            "lag_ranges": [[float(lo), float(hi)] if lag_ends is not None and np.isfinite(hi) else None
+                           for lo, hi in (zip(*lag_ends) if lag_ends is not None else [(np.nan, np.nan)] * arm.n)]}
     cond = float(np.linalg.cond(scaled))
     return ArmIdentification(joints=tuple(joints), base_names=base.names, base_values=beta, base_interval=ival,
                              cond=cond, rigid_body=rigid_body, info=info, curves=curves,
@@ -691,21 +694,22 @@ class _Stage(NamedTuple):
     ratio: float
 
 
-def _residual_rms(stage: _Stage) -> np.ndarray:
-    """Each joint's residual RMS (N·m) over its kept rows in a :func:`_whole_arm` result."""
-    keep_j, resid = stage.keep_j, stage.resid
+def _residual_rms(keep_j, resid) -> np.ndarray:
+    """Each joint's residual RMS (N·m), shape (N,), over its kept rows: ``keep_j`` (m, N) bool, ``resid`` (m, N) N·m
+    (a :func:`_whole_arm` result's ``keep_j`` and ``resid``)."""
     return np.array([np.sqrt(np.mean(resid[keep_j[:, j], j] ** 2)) for j in range(keep_j.shape[1])])
 
 
 def _lagged_stage(stage, lags, run) -> tuple:
     """The whole-arm fit with each reported lag in its joint's friction columns (module docstring, "Lag"): ``(stage,
-    lagged, lag_alts)``. ``stage`` the lag-free :class:`_Stage`, ``lags`` the joints'
+    lagged, lag_alts, ends)``. ``stage`` the lag-free :class:`_Stage`, ``lags`` the joints'
     :class:`adaptive_ff.arm.lag.JointLag`, ``run`` ``((log, arm, cutoff), states, vmin, rows, settings)``. A joint whose
     residual the lagged columns raise beyond the bound of :func:`_lag_raises_residual` keeps its columns lag-free (the
     lag then models something else than the friction map's delay), and the fit is run again without it. ``lagged`` (N,)
     the lags in the columns (s, NaN: none); ``lag_alts`` None, or the point fits (p,) at the ends of each joint's lag
     range (:func:`adaptive_ff.arm.intervals.lag_ranges`; all lower, all upper; at the fit's Stribeck shapes), whose
-    distance from the estimate the intervals carry (:func:`adaptive_ff.arm.intervals.widen_lag`)."""
+    distance from the estimate the intervals carry (:func:`adaptive_ff.arm.intervals.widen_lag`); ``ends`` None, or
+    those ranges ``(low, high)``, each (N,) s, NaN where a joint has none (:func:`_capped_null_ranges`)."""
     (log, arm, cutoff), states, vmin, rows, settings = run
     lagged = np.array([lg.tau if np.isfinite(lg.tau) and lg.tau > 0.0 else np.nan for lg in lags])
     for _ in range(2):
@@ -713,39 +717,75 @@ def _lagged_stage(stage, lags, run) -> tuple:
             new = stage
             break
         new = _whole_arm((log, arm, cutoff, lagged), states, vmin, rows, settings)
-        worse = np.isfinite(lagged) & _lag_raises_residual(stage, new)
+        worse = np.isfinite(lagged) & _lag_raises_residual(stage, _residual_rms(new.keep_j, new.resid))
         if not worse.any():
             break
         lagged = np.where(worse, np.nan, lagged)
     else:  # the second pass raised another joint's residual: no lag in the columns
         new, lagged = stage, np.full(lagged.shape, np.nan)
-    ends = lag_ranges(lags, lagged)
+    ends = _capped_null_ranges(lag_ranges(lags, lagged), lags, lagged, (stage, new), run)
     if ends is None:
-        return new, lagged, None
+        return new, lagged, None, None
     alts = [_point_fit((log, arm, cutoff, tau), states[1], vmin, rows, (new.prob, new.Vs, new.delta)) for tau in ends]
-    return new, lagged, alts
+    return new, lagged, alts, ends
 
 
-def _lag_raises_residual(stage, new) -> np.ndarray:
-    """(N,) bool: joints whose residual over their kept rows in ``new`` (a :class:`_Stage` with lags in its columns)
-    rises above ``stage``'s (the lag-free fit's) by more than the 95 % likelihood-ratio allowance
+def _capped_null_ranges(ends, lags, lagged, stages, run):
+    """``ends`` (:func:`adaptive_ff.arm.intervals.lag_ranges`' ``(low, high)`` or None) with each null lag's upper
+    end capped where, put in the joint's friction columns (the other joints' as in ``lagged``), it raises the joint's
+    residual beyond the bound of :func:`_lag_raises_residual` over the lag-free fit: such a lag models something else
+    than the friction map's delay, as a reported lag kept out of the columns does (module docstring, "Lag"). The end
+    is halved until the residual accepts it or it reaches the floor (:data:`adaptive_ff.arm.lag.LAG_FLOOR_SAMPLES`
+    samples of the joint's record), which stands unchecked: the log does not tell a lag that short from none. One
+    point fit per joint and halving (one joint's end at a time: a far too long lag in one joint's columns moves the
+    rigid body and so the others' residuals), at the lagged fit's Stribeck shapes and weights; ``lags`` the joints'
+    :class:`adaptive_ff.arm.lag.JointLag`, ``stages`` ``(lag-free, lagged)`` :class:`_Stage`, ``run`` as
+    :func:`_lagged_stage`'s."""
+    if ends is None:
+        return None
+    (log, arm, cutoff), states, vmin, rows, _ = run
+    stage, new = stages
+    high = ends[1].copy()
+    for j in np.flatnonzero(np.isfinite(high) & ~np.isfinite(lagged)):
+        floor = LAG_FLOOR_SAMPLES / float(lags[j].info["rate"])
+        while high[j] > floor:
+            trial = lagged.copy()
+            trial[j] = high[j]
+            upper = _point_problem((log, arm, cutoff, trial), states[1], vmin, rows, new.prob)
+            x = upper.fit(new.Vs, new.delta)[0]
+            resid = upper.tau - (upper.design(new.Vs, new.delta) @ x).reshape(upper.m, upper.n)
+            if not _lag_raises_residual(stage, _residual_rms(new.keep_j, resid))[j]:
+                break
+            high[j] = max(0.5 * high[j], floor)
+    return ends[0], high
+
+
+def _lag_raises_residual(stage, rms) -> np.ndarray:
+    """(N,) bool: joints whose residual RMS ``rms`` (N,) over their kept rows (:func:`_residual_rms` of a fit with lags
+    in its columns) rises above ``stage``'s (the lag-free fit's) by more than the 95 % likelihood-ratio allowance
     (:func:`adaptive_ff.arm.intervals.lr_allowance` over the joint's rows, ``ratio`` the lag-free fit's variance
     ratio; the bound of the Stribeck profile's intervals), both taken as mean squares: a rise within it is the two
     fits' difference on the same rows, not a worse model."""
-    ms0 = _residual_rms(stage) ** 2
-    return _residual_rms(new) ** 2 > ms0 + lr_allowance(ms0, stage.keep_j.sum(axis=0), stage.ratio)
+    ms0 = _residual_rms(stage.keep_j, stage.resid) ** 2
+    return rms ** 2 > ms0 + lr_allowance(ms0, stage.keep_j.sum(axis=0), stage.ratio)
 
 
 def _point_fit(setup, states, vmin, rows: str, at) -> np.ndarray:
     """The whole-arm fit's parameters (p,) with the columns of ``setup`` (:func:`_weighted_fit`'s) at the Stribeck
     shapes and weights of ``at`` ``(prob, Vs, delta)``, the same rows (no profile)."""
+    prob, Vs, delta = at
+    return _point_problem(setup, states, vmin, rows, prob).fit(Vs, delta)[0]
+
+
+def _point_problem(setup, states, vmin, rows: str, prob) -> _Problem:
+    """The :class:`_Problem` with the columns of ``setup`` (:func:`_weighted_fit`'s) on the rows and weights of
+    ``prob``."""
     log, arm, cutoff, lags = setup
     t, dq, Yb, tau, w_fast = states
-    prob, Vs, delta = at
     _, columns = _rows_and_columns(log, cutoff, (t, dq, w_fast), vmin, rows, lags)
     other = _Problem(Yb, dq, tau, prob.keep, columns)
     other.w = prob.w
-    return other.fit(Vs, delta)[0]
+    return other
 
 
 def _whole_arm(setup, states, vmin, rows: str, settings) -> _Stage:
@@ -807,8 +847,8 @@ def _sliding_estimate(setup, states, vmin):
 
 def _lags(log, arm, rb, joints, shapes, cutoff, settings) -> list:
     """Every joint's :class:`adaptive_ff.arm.lag.JointLag` (``settings``: ``(lag, seed, progress)``; ``joints``:
-    ``(J, Fs)``, each joint's identified ``M_jj`` and static friction, behind its record and its stop band,
-    :func:`adaptive_ff.arm.lag.stop_bands`; ``rb``:
+    ``(J, Fs, Fc)``, each joint's identified ``M_jj``, static and Coulomb friction, behind its record, its stop band
+    and its stick speed, :func:`adaptive_ff.arm.lag.stop_bands`, :func:`adaptive_ff.arm.lag.stick_speeds`; ``rb``:
     ``(base, beta, rigid_body, replicates)``, ``replicates`` None or the whole-arm bootstrap's ``(beta_k (k, r),
     J_k (k, N))``, whose removed torques' differences from the fit's each lag bootstrap carries (refit ``i`` the
     ``i``-th; :mod:`adaptive_ff.arm.lag`, "Reported"); ``shapes``: each joint's ``(Vs, delta)`` held in its fit and
@@ -817,7 +857,7 @@ def _lags(log, arm, rb, joints, shapes, cutoff, settings) -> list:
     if on is False:
         return [JointLag(np.nan, (np.nan, np.nan), "not asked for (lag=False; identify-arm --no-lag)")] * arm.n
     base, beta, mode, reps = rb
-    J, Fs = joints
+    J, Fs, Fc = joints
     options = LagOptions() if on is True else on
 
     def rigid_of(b):
@@ -834,9 +874,10 @@ def _lags(log, arm, rb, joints, shapes, cutoff, settings) -> list:
         t, u, w, errors = lag_records(log, arm, rigid, J, cutoff,
                                       replicates=[(rigid_of(reps[0][i]), reps[1][i]) for i in k])
     held, accepted = shapes
+    Ts = float(np.median(np.diff(t)))
     return joint_lags(t, u, w, held, options=options, seed=seed, progress=progress, errors=errors,
                       lowpass=LAG_CUTOFF_FACTOR * cutoff, accepted=accepted,
-                      bands=stop_bands(Fs, J, float(np.median(np.diff(t)))) if options.refine_stops else None)
+                      bands=stop_bands(Fs, J, Ts) if options.refine_stops else None, sticks=stick_speeds(Fc, J, Ts))
 
 
 def _arm_warnings(cond: float, no_sensitivity: bool = False) -> list:

@@ -188,7 +188,8 @@ def lag_ranges(lags, lagged):
         A lag in the columns: its 95 % interval (a lower end at or below zero: none). A null lag whose output-error
         fit ran (``info["interval95"]`` finite): from none up to the larger of that fit's upper end and the floor
         below which no lag is reported (:data:`adaptive_ff.arm.lag.LAG_FLOOR_SAMPLES` samples of its record): the
-        log does not tell such a lag from none, and a lag acts on the friction columns as an inertia term. A lag
+        log does not tell such a lag from none, and a lag acts on the friction columns as an inertia term (the
+        whole-arm fit, :func:`adaptive_ff.arm.fit.identify_arm`, caps that end where its residual rejects it). A lag
         reported but kept out of the columns (:func:`adaptive_ff.arm.fit._lag_raises_residual`): none, it models
         something else.
     """

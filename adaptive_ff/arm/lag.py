@@ -56,7 +56,8 @@ light friction short, where the coarse step reads them right (the one-step predi
 velocity on a model that settles at its stops). It is off by default (``identify-arm --refine-stops`` puts it on):
 it is not right on every joint, it takes two to four times the lag fits' CPU time on a log with long rests, and the
 lag's rules are calibrated on arms stepped once per period (``benchmarks/arm_lag.py``, ``benchmarks/arm_coverage.py``;
-their ``--stops``; ``docs/your_arm.md``, Not yet).
+their ``--stops``; ``docs/your_arm.md``, Not yet). Without it the lags of joints that stick hard are not reported
+(:data:`LAG_STICK_MAX`, "Reported").
 
 The torque is taken at its time stamp (``input_delay=0``): a whole-arm log samples every joint's torque and
 position together, and the output-error fit's profile over a sub-sample input delay, which ``identify`` runs on a
@@ -67,10 +68,17 @@ Reported
 A lag is reported where the log determines it (:func:`lag_reason`): the fit runs; its 95 % interval is finite and
 excludes zero; the bootstrap's refits, whose world is the fitted lagged joint, do not read it longer by more than
 :data:`LAG_SHIFT_MAX` (7.5 %) of it on average; and the interval stays above :data:`LAG_FLOOR_SAMPLES` (2) samples
-of the record. Elsewhere ``tau`` is NaN (null in JSON) and the joint carries a warning that says why. Why more than
-the interval: a joint without a lag still reads a short one. Its friction jumps at each reversal, which the
-zero-phase low-pass of the record smooths over a few ms, and it sticks there, which eqs. 1-3 do not model; the fit
-reads both as a lag of about a sample, with an interval that excludes zero, which the floor sets apart. The
+of the record; and, where the stops are not refined, the joint does not stick hard: its Coulomb friction takes off
+less than :data:`LAG_STICK_MAX` (0.015 rad/s) of its velocity in one sample of the record (``Fc Ts / J``, with ``Fc``
+and ``J`` from the whole-arm fit, :func:`stick_speeds`). A joint that sticks harder stops within a sample or two, the
+fit at the record's step reads the lag that mimics that step's ringing at the stops ("Stops"), and the bootstrap
+does not see it: over the lagged draws of ``benchmarks/arm_coverage.py`` (wrists with up to 2.5 N·m of Coulomb
+friction on 0.057 kg·m²), without the rule, 14 of the 28 lags reported on such joints lay outside their intervals,
+read 1.4-5.4 ms long, and a lag-free wrist read 24 ms. Elsewhere ``tau`` is NaN (null in JSON) and the joint carries
+a warning that says why. Why more than the interval: a joint without a lag still reads a short one. Its friction
+jumps at each reversal, which the zero-phase low-pass of the record smooths over a few ms, and it sticks there,
+which eqs. 1-3 do not model; the fit reads both as a lag of about a sample, with an interval that excludes zero,
+which the floor sets apart. The
 bootstrap's mean shift is a second guard: where the estimate is not a stable point of the fit, its refits read the
 lag markedly longer; on a lagged joint they do not.
 
@@ -112,8 +120,9 @@ import numpy as np
 from plant.errors import ExcitationError, ParameterError, SignalError
 
 __all__ = ["JointLag", "LagOptions", "LagWorld", "LAG_RATE", "LAG_CUTOFF_FACTOR", "LAG_BOOTSTRAP", "LAG_WORKERS",
-           "LAG_FLOOR_SAMPLES", "LAG_SHIFT_MAX", "LAG_SLOPE_MIN", "LAG_INJECTION_GAIN", "LAG_STOP_BAND", "lag_records",
-           "joint_lag", "joint_lags", "lag_reason", "stop_bands", "velocity_noise"]
+           "LAG_FLOOR_SAMPLES", "LAG_SHIFT_MAX", "LAG_SLOPE_MIN", "LAG_INJECTION_GAIN", "LAG_STOP_BAND",
+           "LAG_STICK_MAX", "lag_records", "joint_lag", "joint_lags", "lag_reason", "stick_speeds", "stop_bands",
+           "velocity_noise"]
 
 #: Rate (Hz) at which the output-error record samples the log (every k-th sample; a slower log is taken as is).
 LAG_RATE = 1000.0
@@ -137,6 +146,10 @@ LAG_SLOPE_MIN = 0.5
 #: a tenth of the record's sample time, as a multiple of ``Fs Ts / J`` (the velocity the joint's static friction takes
 #: off in one sample; ``stop_band`` of the output-error fit; module docstring, "Stops").
 LAG_STOP_BAND = 2.0
+#: A joint whose Coulomb friction takes off this much of its velocity (rad/s) or more in one sample of the record
+#: (``Fc Ts / J``, :func:`stick_speeds`) has no lag reported unless its stops are refined (module docstring,
+#: "Reported").
+LAG_STICK_MAX = 0.015
 #: Default worker processes the joints' lag fits run in (the fits are independent; the result does not depend on it).
 LAG_WORKERS = 2
 
@@ -291,12 +304,17 @@ class LagWorld:
     stop_band : float or None
         Half-width (rad/s) of the band around zero velocity in which the output-error simulation takes sub-steps of
         a tenth of the record's sample time (:func:`stop_bands`; module docstring, "Stops"). None: none.
+    stick : float or None
+        The velocity (rad/s) the joint's Coulomb friction takes off in one sample of the record (:func:`stick_speeds`),
+        checked against :data:`LAG_STICK_MAX` where the stops are not refined (:func:`lag_reason`). None: not
+        checked.
     """
 
     input_errors: np.ndarray | None = None
     lowpass: float | None = None
     shapes: np.ndarray | None = None
     stop_band: float | None = None
+    stick: float | None = None
 
 
 def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTSTRAP, seed: int = 0,
@@ -344,7 +362,8 @@ def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTST
     lo, hi = (fit.info.get("interval95") or {}).get("tau", (math.nan, math.nan))
     info = {"samples": int(t.shape[0]), "rate": float(1.0 / np.median(np.diff(t))),
             "n_simulations": int(fit.info.get("n_simulations", 0)), "predictor": fit.info.get("predictor"),
-            "estimate": est, "Vs": float(Vs), "delta": float(delta), "stop_band": world.stop_band, **_fit_stats(fit)}
+            "estimate": est, "Vs": float(Vs), "delta": float(delta), "stop_band": world.stop_band,
+            "stick": world.stick, **_fit_stats(fit)}
     reason = lag_reason(est, (lo, hi), info)
     if reason is not None:
         return JointLag(math.nan, (math.nan, math.nan), reason, info)
@@ -414,6 +433,31 @@ def _h_refine(t) -> float:
     return 0.1 * float(np.median(np.diff(t)))
 
 
+def stick_speeds(Fc, J, Ts: float) -> np.ndarray:
+    """Each joint's :class:`LagWorld` ``stick`` (rad/s, shape (N,)): the velocity its Coulomb friction takes off in
+    one sample of the record, ``|Fc| Ts / J`` (module docstring, "Reported"). The Coulomb level, not the static
+    friction: the whole-arm fit determines it far better than the Stribeck peak ``Fs`` on a light joint.
+
+    Parameters
+    ----------
+    Fc : array_like, shape (N,)
+        Each joint's Coulomb friction (N·m; its magnitude is taken) from the whole-arm fit.
+    J : array_like, shape (N,)
+        Each joint's identified ``M_jj`` (kg·m²).
+    Ts : float
+        The lag record's sample time (s).
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        The speeds (rad/s); NaN where ``J`` or ``Fc`` is not finite or ``J <= 0``.
+    """
+    Fc = np.abs(np.asarray(Fc, dtype=float))
+    J = np.asarray(J, dtype=float)
+    ok = np.isfinite(Fc) & np.isfinite(J) & (J > 0)
+    return np.where(ok, np.where(ok, Fc, 0.0) * float(Ts) / np.where(ok, J, 1.0), np.nan)
+
+
 def stop_bands(Fs, J, Ts: float) -> np.ndarray:
     """Each joint's :class:`LagWorld` ``stop_band`` (rad/s, shape (N,)): :data:`LAG_STOP_BAND` times the velocity
     its static friction takes off in one sample, ``Fs Ts / J``.
@@ -449,14 +493,15 @@ def lag_reason(estimate: float, interval95: tuple, info: dict) -> str | None:
         Its 95 % bootstrap interval ``(lo, hi)`` (s); NaN or None where the fit gives none.
     info : dict
         :attr:`JointLag.info` of the fit: ``rate`` (Hz, the record's), ``bias`` (s, the refits' mean shift of
-        ``tau``).
+        ``tau``), ``stop_band`` (rad/s or None) and ``stick`` (rad/s or None, :class:`LagWorld`).
 
     Returns
     -------
     str or None
         The reason (the numbers named), in the order: no finite interval; the interval reaches zero; the refits
         shift the estimate up by more than :data:`LAG_SHIFT_MAX` of it; the interval reaches below
-        :data:`LAG_FLOOR_SAMPLES` samples of the record.
+        :data:`LAG_FLOOR_SAMPLES` samples of the record; the stops are not refined (``stop_band`` None) and
+        ``stick`` is at least :data:`LAG_STICK_MAX`.
     """
     lo, hi = interval95
     if not (lo is not None and hi is not None and math.isfinite(lo) and math.isfinite(hi)):
@@ -473,6 +518,12 @@ def lag_reason(estimate: float, interval95: tuple, info: dict) -> str | None:
     if lo <= floor:
         return (f"the log does not determine it: {span}, which reaches below {LAG_FLOOR_SAMPLES:g} samples of the "
                 f"record ({1e3 * floor:.3g} ms), what joints without a lag read")
+    stick = info.get("stick")
+    if info.get("stop_band") is None and stick is not None and stick >= LAG_STICK_MAX:
+        return (f"the log does not determine it at the record's step: {span}, but the joint sticks hard (its Coulomb "
+                f"friction takes off {stick:.3g} rad/s of its velocity in one sample, Fc Ts / J, at least "
+                f"{LAG_STICK_MAX:g}), where the fit reads the ringing of its own step at the stops as lag "
+                "(identify-arm --refine-stops fits the stops finely)")
     return None
 
 
@@ -494,7 +545,7 @@ def _worker_init() -> None:
 
 
 def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int = 0, progress=False,
-               errors=None, lowpass=None, accepted=None, bands=None) -> list:
+               errors=None, lowpass=None, accepted=None, bands=None, sticks=None) -> list:
     """Every joint's :func:`joint_lag`, in ``options.workers`` processes (joint ``j`` seeded ``seed + j``).
 
     Parameters
@@ -521,6 +572,8 @@ def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int
         held shape in every refit.
     bands : array_like, shape (N,), or None, keyword-only
         Each joint's :class:`LagWorld` ``stop_band`` (rad/s, :func:`stop_bands`); None (default): none.
+    sticks : array_like, shape (N,), or None, keyword-only
+        Each joint's :class:`LagWorld` ``stick`` (rad/s, :func:`stick_speeds`; NaN: none); None (default): none.
 
     Returns
     -------
@@ -534,7 +587,8 @@ def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int
              {"n_bootstrap": int(options.n_bootstrap), "seed": int(seed) + j,
               "world": LagWorld(None if errors is None else errors[: int(options.n_bootstrap), :, j], lowpass,
                                 None if accepted is None else accepted[j],
-                                None if bands is None else float(bands[j]))})
+                                None if bands is None else float(bands[j]),
+                                None if sticks is None or not np.isfinite(sticks[j]) else float(sticks[j]))})
             for j in range(n)]
     bar = tqdm(total=n, desc="arm friction lag", unit="joint", leave=False,
                disable=(None if progress is None else not progress))

@@ -103,6 +103,7 @@ class ArmIdentification:
     info : dict
         ``cutoff`` (Hz), ``rows`` (per joint, used), ``bootstrap`` (replicates, valid, block), ``rms`` residual per
         joint (N·m), ``lagged_columns`` per joint the lag (s) its friction columns carry in the reported fit, None
+        where none, ``lag_ranges`` per joint the lag range ``[low, high]`` (s) whose ends the intervals carry, None
         where none (:mod:`adaptive_ff.arm.fit`, "Lag").
     curves : tuple
         Per joint ``(dq, friction torque)`` of the log: the torque minus the identified rigid body (for

@@ -119,8 +119,9 @@ def register(sub) -> None:
                    help="simulate each joint's stops finely in its lag fit (sub-steps of a tenth of the record's "
                         "sample time where the joint is near rest or reverses): reads the lag of a joint whose "
                         "friction is large for its inertia (a sticking wrist) as a continuously integrated joint has "
-                        "it, a light-friction joint's short; 2-4 times the lag fits' CPU time (docs/your_arm.md, "
-                        "Not yet)")
+                        "it, a light-friction joint's short, and reports the lags of joints that stick hard (their "
+                        "Coulomb friction takes off 0.015 rad/s or more in one sample), which are null without it; "
+                        "2-4 times the lag fits' CPU time (docs/your_arm.md, Not yet)")
     i.add_argument("--workers", type=positive_int, default=2, metavar="N",
                    help="processes the joints' lag fits run in (default 2; the result does not depend on it)")
     i.add_argument("--json", action="store_true", help="print the result as JSON")

@@ -340,7 +340,7 @@ def test_lag_stays_out_of_the_columns_only_beyond_the_likelihood_bound():
     keep = np.ones((1000, 3), bool)
     stage = fit._Stage(*([None] * len(fit._Stage._fields)))._replace(keep_j=keep, resid=e, ratio=5.0)
     new = stage._replace(resid=e * np.sqrt([1.01, 1.03, 0.9]))
-    assert fit._lag_raises_residual(stage, new).tolist() == [False, True, False]
+    assert fit._lag_raises_residual(stage, fit._residual_rms(keep, new.resid)).tolist() == [False, True, False]
 
 
 def test_lag_workers_do_not_change_the_result(log):
@@ -430,6 +430,23 @@ def test_lag_reason_rules():
     assert "reaches zero" in lag_reason(5e-3, (-1e-3, 9e-3), {"rate": 1000.0, "bias": 0.0})
 
 
+def test_lag_reason_stick_rule():
+    """A joint that sticks hard (its Coulomb friction takes off at least LAG_STICK_MAX = 0.015 rad/s in one sample)
+    has no lag reported from a fit at the record's step: the heavy wrist of benchmarks/arm_coverage.py's seed 22
+    (Fc Ts / J = 0.0410 rad/s; true lag 4.40 ms) read 9.17 [7.16, 12.19] ms, its refits 0.51 ms shorter. Refined stops
+    (a stop band) lift the rule, and so does a joint below the bound."""
+    from adaptive_ff.arm.lag import LAG_STICK_MAX, lag_reason
+
+    assert LAG_STICK_MAX == 0.015
+    info = {"rate": 1000.0, "bias": -0.51e-3, "stop_band": None}
+    heavy = lag_reason(9.17e-3, (7.16e-3, 12.19e-3), {**info, "stick": 0.0410})
+    assert heavy is not None and "Coulomb friction takes off 0.041 rad/s of its velocity in one sample" in heavy
+    assert "--refine-stops" in heavy
+    assert lag_reason(9.17e-3, (7.16e-3, 12.19e-3), {**info, "stick": 0.0149}) is None
+    assert lag_reason(9.17e-3, (7.16e-3, 12.19e-3), {**info, "stick": 0.0410, "stop_band": 0.113}) is None
+    assert lag_reason(9.17e-3, (7.16e-3, 12.19e-3), {**info, "stick": None}) is None
+
+
 def test_uncorrected_lag_carries_a_warning(arm, log, monkeypatch):
     """A reported lag whose low-pass correction could not run (its worlds not simulated or fitted: ``info["lowpass"]``
     None) is the fit's own reading, and the joint's warnings say so; a corrected one carries no such warning."""
@@ -449,6 +466,29 @@ def test_uncorrected_lag_carries_a_warning(arm, log, monkeypatch):
                                "narrow"]
     assert all(not m for m in tau_warnings[1:])
     assert res.joints[0].params["tau"] == 0.01
+
+
+def test_null_lag_ranges_capped_where_the_residual_rejects_them(arm, log, monkeypatch):
+    """A null lag ranges from none to its fit's upper end in the point fits the intervals carry, that end halved while,
+    in the joint's friction columns, it raises the joint's residual beyond the likelihood-ratio bound. On the planar
+    arm with a 10 ms lag on every joint, every lag made null with a fit interval reaching 200 ms on the shoulder and
+    12 ms on the elbow and the wrist: 12 ms, near the true lag, stands; 200 ms is halved (to 200 / 2^k ms, k >= 1) and
+    stays above the floor (2 ms); without a range (the fit's interval not finite) none."""
+    import adaptive_ff.arm.fit as arm_fit
+    from adaptive_ff.arm.lag import JointLag
+
+    def lags(t, u, w, shapes, **kw):
+        his = (0.2, 0.012, np.nan)
+        return [JointLag(np.nan, (np.nan, np.nan), "made null", {"rate": 1000.0, "interval95": [0.001, hi]})
+                for hi in his]
+
+    monkeypatch.setattr(arm_fit, "joint_lags", lags)
+    ranges = identify_arm(log, arm, n_bootstrap=20, seed=1).info["lag_ranges"]
+    assert ranges[2] is None
+    assert ranges[1] == [0.0, 0.012]
+    lo, hi = ranges[0]
+    k = np.log2(0.2 / hi)
+    assert lo == 0.0 and k >= 1 and k == pytest.approx(round(k), abs=1e-12) and hi >= 0.002, ranges
 
 
 def test_low_pass_correction_of_a_fit_that_searches_the_stribeck_shape():
@@ -473,7 +513,8 @@ def test_cli_refine_stops(arm, tmp_path, capsys):
     """``identify-arm --refine-stops`` refines each joint's stops in its lag fit (``LagOptions(refine_stops=True)``):
     its record's band is ``LAG_STOP_BAND max(|Fc|, |Fs|) Ts / J`` of the whole-arm fit (``Fs`` where the joint keeps
     a Stribeck term; the reported entry's values are the second pass's, within 4 % of the first's here), recorded as
-    ``lag.stop_band``; without the flag none (null)."""
+    ``lag.stop_band``; without the flag none (null). Either way ``lag.stick`` records ``Fc Ts / J`` (the lag rule's
+    stick speed, adaptive_ff.arm.lag.stick_speeds)."""
     from adaptive_ff.arm.arm_log import write_arm_log
     from adaptive_ff.arm.lag import LAG_STOP_BAND
 
@@ -490,3 +531,4 @@ def test_cli_refine_stops(arm, tmp_path, capsys):
         band = LAG_STOP_BAND * static / e["lag"]["rate"] / e["J"]
         assert e["lag"]["stop_band"] == pytest.approx(band, rel=0.05), (e["name"], e["lag"]["stop_band"], band)
         assert p["lag"]["stop_band"] is None and p["lag"]["samples"] == e["lag"]["samples"]
+        assert p["lag"]["stick"] == pytest.approx(abs(e["Fc"]) / e["lag"]["rate"] / e["J"], rel=0.05), p["name"]

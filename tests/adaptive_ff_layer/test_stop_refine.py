@@ -118,6 +118,13 @@ def test_the_arm_lag_fits_band_is_twice_what_the_static_friction_takes_off_in_a_
                                [2 * 2.55e-3 / 0.057, 2 * 0.8e-3 / 0.4, 0.0, 0.0], rtol=1e-14)
 
 
+def test_the_stick_speed_is_what_the_coulomb_friction_takes_off_in_a_sample():
+    from adaptive_ff.arm.lag import stick_speeds
+
+    np.testing.assert_allclose(stick_speeds([2.55, -0.8, 1.0, 1.0, np.inf], [0.057, 0.4, np.nan, 0.0, 1.0], 1e-3),
+                               [2.55e-3 / 0.057, 0.8e-3 / 0.4, np.nan, np.nan, np.nan], rtol=1e-14)
+
+
 def test_the_arm_plant_steps_its_stops_as_a_finely_stepped_arm():
     """The planar arm of benchmarks/arm_coverage.py (seed 0: lagged shoulder and wrist, lag-free elbow), its wrist
     from 0.05 rad/s under 1 N·m, the others at rest: with each joint's stop band the periods in which a joint is
