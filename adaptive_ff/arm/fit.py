@@ -637,8 +637,8 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     Fs_all = static_friction(Fc_all, np.where(np.isfinite(first.Vs), first.x[r + 1:r + 4 * arm.n:4], Fc_all))
     lags = _lags(log, arm, (base, first.x[:r], rigid_body, reps), (J_all, Fs_all, Fc_all), shapes, cutoff,
                  (lag, seed, progress))
-    stage, lagged, lag_alts, lag_ends = _lagged_stage(first, lags, ((log, arm, cutoff), (states, fit_states), vmin, rows,
-                                                          settings))
+    stage, lagged, lag_alts, lag_ends = _lagged_stage(first, lags, ((log, arm, cutoff), (states, fit_states), vmin,
+                                                                     rows, settings))
     prob, keep_j, Vs, delta, table, x, rss, A, alt, boot, _, half, ratio = stage
     x_alt = None if alt is None else alt[0]
     noise = velocity_noise(log)
