@@ -71,16 +71,13 @@ excludes zero; the bootstrap's refits, whose world is the fitted lagged joint, d
 of the record; and, where the stops are not refined, the joint does not stick hard: its Coulomb friction takes off
 less than :data:`LAG_STICK_MAX` (0.015 rad/s) of its velocity in one sample of the record (``Fc Ts / J``, with ``Fc``
 and ``J`` from the whole-arm fit, :func:`stick_speeds`). A joint that sticks harder stops within a sample or two, the
-fit at the record's step reads the lag that mimics that step's ringing at the stops ("Stops"), and the bootstrap
-does not see it: over the lagged draws of ``benchmarks/arm_coverage.py`` (wrists with up to 2.5 N·m of Coulomb
-friction on 0.057 kg·m²), without the rule, 14 of the 28 lags reported on such joints lay outside their intervals,
-read 1.4-5.4 ms long, and a lag-free wrist read 24 ms. Elsewhere ``tau`` is NaN (null in JSON) and the joint carries
-a warning that says why. Why more than the interval: a joint without a lag still reads a short one. Its friction
-jumps at each reversal, which the zero-phase low-pass of the record smooths over a few ms, and it sticks there,
-which eqs. 1-3 do not model; the fit reads both as a lag of about a sample, with an interval that excludes zero,
-which the floor sets apart. The
-bootstrap's mean shift is a second guard: where the estimate is not a stable point of the fit, its refits read the
-lag markedly longer; on a lagged joint they do not.
+fit at the record's step reads the lag that mimics that step's ringing at the stops ("Stops"), long, and the bootstrap
+does not see it (the measurements: ``docs/your_arm.md``, How, Lag). Elsewhere ``tau`` is NaN (null in JSON) and the
+joint carries a warning that says why. Why more than the interval: a joint without a lag still reads a short one. Its
+friction jumps at each reversal, which the zero-phase low-pass of the record smooths over a few ms, and it sticks
+there, which eqs. 1-3 do not model; the fit reads both as a lag of about a sample, with an interval that excludes
+zero, which the floor sets apart. The bootstrap's mean shift is a second guard: where the estimate is not a stable
+point of the fit, its refits read the lag markedly longer; on a lagged joint they do not.
 
 The bootstrap's worlds carry the identified rigid body's error: world ``i`` is driven by the record's torque less
 the difference of the ``i``-th whole-arm bootstrap replicate's removed torque from the fit's (:func:`lag_records`'
