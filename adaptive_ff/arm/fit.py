@@ -664,8 +664,8 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
             "rms": [float(v) for v in _residual_rms(stage.keep_j, stage.resid)],
             "J": "the joint's own diagonal inertia M_jj at the log's mean configuration", "row_selection": rows,
             "lagged_columns": [float(v) if np.isfinite(v) else None for v in lagged],
-            "lag_ranges": [[float(lo), float(hi)] if lag_ends is not None and np.isfinite(hi) else None
-                           for lo, hi in (zip(*lag_ends) if lag_ends is not None else [(np.nan, np.nan)] * arm.n)]}
+            "lag_ranges": [[float(lo), float(hi)] if np.isfinite(hi) else None
+                           for lo, hi in zip(*(lag_ends or (np.full(arm.n, np.nan),) * 2))]}
     cond = float(np.linalg.cond(scaled))
     return ArmIdentification(joints=tuple(joints), base_names=base.names, base_values=beta, base_interval=ival,
                              cond=cond, rigid_body=rigid_body, info=info, curves=curves,

@@ -449,10 +449,16 @@ def stick_speeds(Fc, J, Ts: float) -> np.ndarray:
     ndarray, shape (N,)
         The speeds (rad/s); NaN where ``J`` or ``Fc`` is not finite or ``J <= 0``.
     """
-    Fc = np.abs(np.asarray(Fc, dtype=float))
+    return _taken_in_a_sample(Fc, J, Ts)
+
+
+def _taken_in_a_sample(F, J, Ts: float) -> np.ndarray:
+    """``|F| Ts / J`` (rad/s, shape (N,)): the velocity a friction level ``F`` (N·m) takes off a joint of inertia ``J``
+    (kg·m²) in one sample ``Ts`` (s); NaN where ``F`` or ``J`` is not finite or ``J <= 0``."""
+    F = np.abs(np.asarray(F, dtype=float))
     J = np.asarray(J, dtype=float)
-    ok = np.isfinite(Fc) & np.isfinite(J) & (J > 0)
-    return np.where(ok, np.where(ok, Fc, 0.0) * float(Ts) / np.where(ok, J, 1.0), np.nan)
+    ok = np.isfinite(F) & np.isfinite(J) & (J > 0)
+    return np.where(ok, np.where(ok, F, 0.0) * float(Ts) / np.where(ok, J, 1.0), np.nan)
 
 
 def stop_bands(Fs, J, Ts: float) -> np.ndarray:
@@ -473,10 +479,8 @@ def stop_bands(Fs, J, Ts: float) -> np.ndarray:
     ndarray, shape (N,)
         The bands (rad/s); 0 where ``J`` or ``Fs`` is not finite or ``J <= 0`` (the reversals alone refined).
     """
-    Fs = np.abs(np.asarray(Fs, dtype=float))
-    J = np.asarray(J, dtype=float)
-    ok = np.isfinite(Fs) & np.isfinite(J) & (J > 0)
-    return np.where(ok, LAG_STOP_BAND * np.where(ok, Fs, 0.0) * float(Ts) / np.where(ok, J, 1.0), 0.0)
+    speed = _taken_in_a_sample(Fs, J, Ts)
+    return np.where(np.isfinite(speed), LAG_STOP_BAND * speed, 0.0)
 
 
 def lag_reason(estimate: float, interval95: tuple, info: dict) -> str | None:
