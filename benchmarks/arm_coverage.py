@@ -110,9 +110,11 @@ def true_inertia(arm, q) -> np.ndarray:
 
 
 def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, rows: str = "moving",
-             log=None, lag: bool = False, stops: bool = False) -> dict:
+             log=None, lag: bool = False, stops: bool = False, misses: list | None = None) -> dict:
     """``{parameter: [hits, count, unwarned]}`` of one arm (seed ``seed``), the base parameters under ``"base"``
-    (``unwarned``: the misses whose joint has no warning naming the parameter); ``log``: its :func:`arm_log` if
+    (``unwarned``: the misses whose joint has no warning naming the parameter); ``misses``: None, or a list to which
+    a line per friction interval that misses its truth is appended (and per lagged joint whose lag is null);
+    ``log``: its :func:`arm_log` if
     already simulated (default None: simulated here); ``lag``: the joints' friction lagged (:func:`draw_lags`);
     ``stops``: the arm's stops stepped finely (``stop_refine`` :data:`adaptive_ff.arm.simulate.STOP_REFINE`) and the
     lag fits' too (``LagOptions(refine_stops=True)``)."""
@@ -137,8 +139,13 @@ def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, 
             if k == "tau" and f.tau == 0.0 and not (lo is not None and math.isfinite(lo)):
                 continue  # a lag-free joint's lag null: right, and no interval
             if lo is None or hi is None or not (math.isfinite(lo) and math.isfinite(hi)):
+                if k == "tau" and misses is not None:
+                    misses.append(f"seed {seed} {joint.name}: tau {1e3 * f.tau:.2f} ms, null")
                 continue  # Vs where no Stribeck term was kept
             inside = bool(lo <= truth[k] <= hi)
+            if not inside and misses is not None:
+                misses.append(f"seed {seed} {joint.name}: {k} {truth[k]:.5g} outside [{lo:.5g}, {hi:.5g}] (estimate "
+                              f"{joint.params[k]:.5g})")
             out[k][0] += inside
             out[k][1] += 1
             out[k][2] += not inside and not any(re.search(rf"\b{k}\b", str(w)) for w in joint.warnings)
@@ -151,11 +158,12 @@ def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, 
     return out
 
 
-def _arm_hits(seed: int, **kwargs) -> dict:
-    """:func:`arm_hits` of arm ``seed`` on the URDF loaded in the calling process (a worker's)."""
+def _arm_hits(seed: int, **kwargs) -> tuple:
+    """:func:`arm_hits` of arm ``seed`` on the URDF loaded in the calling process (a worker's), and its misses."""
     from adaptive_ff.arm.robot import load_urdf
 
-    return arm_hits(load_urdf(URDF), seed, **kwargs)
+    misses = []
+    return arm_hits(load_urdf(URDF), seed, misses=misses, **kwargs), misses
 
 
 def cpu_seconds() -> float:
@@ -191,6 +199,8 @@ def main(argv=None) -> int:
     ap.add_argument("--stops", action="store_true",
                     help="the arms' stops stepped finely (ArmSimulation.stop_refine) and the lag fits' too "
                          "(LagOptions.refine_stops)")
+    ap.add_argument("--misses", action="store_true",
+                    help="list each friction interval that misses its truth, and each lagged joint whose lag is null")
     args = ap.parse_args(argv)
     total = {k: [0, 0, 0] for k in PARAMETERS + ("base",)}
     c0 = cpu_seconds()
@@ -202,7 +212,7 @@ def main(argv=None) -> int:
             results = list(pool.map(job, seeds))
     else:
         results = [job(seed) for seed in seeds]
-    for hits in results:
+    for hits, _ in results:
         for k, counts in hits.items():
             total[k] = [a + b for a, b in zip(total[k], counts)]
     cpu = cpu_seconds() - c0
@@ -216,6 +226,10 @@ def main(argv=None) -> int:
         lo, hi = wilson(h, c)
         print(f"{k:<10} {h:>8} {c:>6} {h / c:>9.3f}   [{lo:.3f}, {hi:.3f}]   {u:>8}")
     print(f"CPU {cpu:.0f} s")
+    if args.misses:
+        for _, lines in results:
+            for line in lines:
+                print(f"  {line}")
     return 0
 
 

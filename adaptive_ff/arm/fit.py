@@ -105,8 +105,8 @@ from plant.stribeck_map import static_friction, stribeck_shape
 from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states, parallel_filter
 from adaptive_ff.arm.intervals import (accepted_shapes, lag_ranges, lag_shapes, lr_allowance, profile_interval,
                                        widen, widen_lag)
-from adaptive_ff.arm.lag import (LAG_CUTOFF_FACTOR, LAG_FLOOR_SAMPLES, JointLag, LagOptions, joint_lags, lag_records,
-                                 stick_speeds, stop_bands, velocity_noise)
+from adaptive_ff.arm.lag import (LAG_CUTOFF_FACTOR, LAG_FLOOR_SAMPLES, JointLag, LagOptions, LagWorld, joint_lags,
+                                 lag_records, stick_speeds, stop_bands, velocity_noise)
 from adaptive_ff.arm.result import ArmIdentification, ArmJoint
 from adaptive_ff.arm.robot import ArmModel
 from adaptive_ff.arm.rows import DEFAULT_ROWS, REST_WINDOW, ROWS
@@ -629,16 +629,13 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     first = _whole_arm((log, arm, cutoff, None), (states, fit_states), vmin, rows, settings)
     a_J = _inertia_rows(arm, base, log.q.mean(axis=0))  # the log's mean configuration (all its samples)
     r = Yb.shape[2]
-    J_all = a_J @ (first.x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf))
-    reps = (first.boot.replicates[:, :r], first.boot.replicates[:, :r] @ a_J.T) if rigid_body == "fit" else None
-    shapes = (lag_shapes(first.Vs, first.delta, first.table),
-              accepted_shapes(first.table, first.rss, int(first.prob.keep.sum()), first.ratio))
-    Fc_all = first.x[r:r + 4 * arm.n:4]
-    Fs_all = static_friction(Fc_all, np.where(np.isfinite(first.Vs), first.x[r + 1:r + 4 * arm.n:4], Fc_all))
-    lags = _lags(log, arm, (base, first.x[:r], rigid_body, reps), (J_all, Fs_all, Fc_all), shapes, cutoff,
-                 (lag, seed, progress))
-    stage, lagged, lag_alts, lag_ends = _lagged_stage(first, lags, ((log, arm, cutoff), (states, fit_states), vmin,
-                                                                     rows, settings))
+    run = ((log, arm, cutoff), (states, fit_states), vmin, rows, settings)
+    lag_setup = (log, arm, (base, a_J, rigid_body), cutoff, (lag, seed, progress))
+    lags = _lags_of(first, lag_setup)
+    stage, lagged, lag_alts, lag_ends = _lagged_stage(first, lags, run)
+    if np.isfinite(lagged).any():  # those lags again at the lagged fit (module docstring, "Lag")
+        lags = _lags_of(stage, lag_setup, again=(np.isfinite(lagged), lags))
+        stage, lagged, lag_alts, lag_ends = _lagged_stage(first, lags, run)
     prob, keep_j, Vs, delta, table, x, rss, A, alt, boot, _, half, ratio = stage
     x_alt = None if alt is None else alt[0]
     noise = velocity_noise(log)
@@ -845,15 +842,38 @@ def _sliding_estimate(setup, states, vmin):
     return x, np.array([t[-2][0] for t in table])
 
 
+def _lags_of(stage, setup, again=None) -> list:
+    """Every joint's :class:`adaptive_ff.arm.lag.JointLag` (:func:`_lags`) behind the whole-arm fit ``stage``
+    (:class:`_Stage`): its rigid body and bootstrap replicates removed, each joint's ``J`` (``M_jj`` at the log's
+    mean configuration), ``Fc`` and ``Fs`` behind its stop band and stick speed, its Stribeck shapes held
+    (:func:`adaptive_ff.arm.intervals.lag_shapes`, :func:`adaptive_ff.arm.intervals.accepted_shapes`). ``setup``
+    ``(log, arm, (base, a_J, rigid_body), cutoff, (lag, seed, progress))``, ``a_J`` (N, r) the rows of
+    :func:`_inertia_rows`; ``again`` None (every joint fitted) or ``(which (N,) bool, lags)``: only the joints in
+    ``which`` fitted, the others' taken from ``lags``."""
+    log, arm, (base, a_J, rigid_body), cutoff, settings = setup
+    r = stage.prob.r
+    beta = stage.x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf)
+    reps = (stage.boot.replicates[:, :r], stage.boot.replicates[:, :r] @ a_J.T) if rigid_body == "fit" else None
+    shapes = (lag_shapes(stage.Vs, stage.delta, stage.table),
+              accepted_shapes(stage.table, stage.rss, int(stage.prob.keep.sum()), stage.ratio))
+    Fc = stage.x[r:r + 4 * arm.n:4]
+    Fs = static_friction(Fc, np.where(np.isfinite(stage.Vs), stage.x[r + 1:r + 4 * arm.n:4], Fc))
+    which = None if again is None else np.flatnonzero(again[0])
+    new = _lags(log, arm, (base, stage.x[:r], rigid_body, reps), (a_J @ beta, Fs, Fc), shapes, cutoff,
+                (*settings, which))
+    return new if again is None else [new[j] if j in which else again[1][j] for j in range(arm.n)]
+
+
 def _lags(log, arm, rb, joints, shapes, cutoff, settings) -> list:
-    """Every joint's :class:`adaptive_ff.arm.lag.JointLag` (``settings``: ``(lag, seed, progress)``; ``joints``:
+    """Every joint's :class:`adaptive_ff.arm.lag.JointLag` (``settings``: ``(lag, seed, progress, which)``, ``which``
+    None or the joints to fit, the others None in the list (:func:`adaptive_ff.arm.lag.joint_lags`); ``joints``:
     ``(J, Fs, Fc)``, each joint's identified ``M_jj``, static and Coulomb friction, behind its record, its stop band
     and its stick speed, :func:`adaptive_ff.arm.lag.stop_bands`, :func:`adaptive_ff.arm.lag.stick_speeds`; ``rb``:
     ``(base, beta, rigid_body, replicates)``, ``replicates`` None or the whole-arm bootstrap's ``(beta_k (k, r),
     J_k (k, N))``, whose removed torques' differences from the fit's each lag bootstrap carries (refit ``i`` the
     ``i``-th; :mod:`adaptive_ff.arm.lag`, "Reported"); ``shapes``: each joint's ``(Vs, delta)`` held in its fit and
     the shapes its refits hold (:func:`adaptive_ff.arm.intervals.accepted_shapes`))."""
-    on, seed, progress = settings
+    on, seed, progress, which = settings
     if on is False:
         return [JointLag(np.nan, (np.nan, np.nan), "not asked for (lag=False; identify-arm --no-lag)")] * arm.n
     base, beta, mode, reps = rb
@@ -875,9 +895,11 @@ def _lags(log, arm, rb, joints, shapes, cutoff, settings) -> list:
                                       replicates=[(rigid_of(reps[0][i]), reps[1][i]) for i in k])
     held, accepted = shapes
     Ts = float(np.median(np.diff(t)))
-    return joint_lags(t, u, w, held, options=options, seed=seed, progress=progress, errors=errors,
-                      lowpass=LAG_CUTOFF_FACTOR * cutoff, accepted=accepted,
-                      bands=stop_bands(Fs, J, Ts) if options.refine_stops else None, sticks=stick_speeds(Fc, J, Ts))
+    bands, sticks = stop_bands(Fs, J, Ts) if options.refine_stops else None, stick_speeds(Fc, J, Ts)
+    worlds = [LagWorld(None if errors is None else errors[:, :, j], LAG_CUTOFF_FACTOR * cutoff,
+                       None if accepted is None else accepted[j], None if bands is None else float(bands[j]),
+                       float(sticks[j]) if np.isfinite(sticks[j]) else None) for j in range(arm.n)]
+    return joint_lags(t, u, w, held, options=options, seed=seed, progress=progress, worlds=worlds, which=which)
 
 
 def _arm_warnings(cond: float, no_sensitivity: bool = False) -> list:
