@@ -144,8 +144,9 @@ def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, 
                 continue  # Vs where no Stribeck term was kept
             inside = bool(lo <= truth[k] <= hi)
             if not inside and misses is not None:
-                misses.append(f"seed {seed} {joint.name}: {k} {truth[k]:.5g} outside [{lo:.5g}, {hi:.5g}] (estimate "
-                              f"{joint.params[k]:.5g})")
+                s, unit = (1e3, " ms") if k == "tau" else (1.0, "")  # the lag in ms, as the null lags' lines
+                misses.append(f"seed {seed} {joint.name}: {k} {s * truth[k]:.5g}{unit} outside [{s * lo:.5g}, "
+                              f"{s * hi:.5g}] (estimate {s * joint.params[k]:.5g})")
             out[k][0] += inside
             out[k][1] += 1
             out[k][2] += not inside and not any(re.search(rf"\b{k}\b", str(w)) for w in joint.warnings)

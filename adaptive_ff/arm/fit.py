@@ -79,10 +79,13 @@ A lagged friction is not the static map of the columns above: where it changes w
 inertia term, and the fit reads ``J`` low (``docs/your_arm.md``, How, The lags in the whole-arm fit). So the
 whole-arm fit runs again with each reported lag in its joint's friction columns: each map ``g, h, w`` through
 ``1/(tau s + 1)`` at the log's rate, before the torque's filter (:func:`_lagger`), everything after (profile,
-bootstrap, row sensitivity) as before; its results are reported, the lags those of the first pass. A joint whose
+bootstrap, row sensitivity) as before. A joint whose
 residual the lagged columns raise beyond the 95 % likelihood-ratio bound (:func:`_lag_raises_residual`) keeps its
 columns without the lag (the reported lag then models more than a delay of the friction map), and the fit runs
-once more without it (:func:`_lagged_stage`).
+once more without it (:func:`_lagged_stage`). The lags in the columns were fitted holding the static fit's Stribeck
+shapes, which on a lagged joint take up part of its lag, so those joints' lags are fitted again at the lagged fit
+(its shapes and accepted shapes, rigid body and bootstrap replicates, ``J``, ``Fc``; :func:`_lags_of`), the other
+joints' kept, and the lagged fit runs once more with them: its results and those lags are reported.
 The intervals of ``J``, the friction and the base parameters then carry the lags' uncertainty, which the bootstrap
 at the estimated lags does not see: each half-width combined in quadrature, as the row sensitivity is, with the larger
 distance of the estimate from the two point fits with every joint's columns at the lower and the upper end of its lag
@@ -243,6 +246,11 @@ class _Problem:
         for j in range(self.n):
             A[:, j, self.r + 4 * j: self.r + 4 * j + 4] = self.columns(j, Vs[j], delta[j])
         return A.reshape(self.m * self.n, -1)
+
+    def residuals(self, x, A) -> np.ndarray:
+        """The unweighted residuals ``tau - A x`` (m, N), N·m, of the parameters ``x`` (p,) on the rows ``A`` (m*N, p)
+        of :meth:`design`."""
+        return self.tau - (A @ x).reshape(self.m, self.n)
 
     def solve(self, Vs, delta):
         """``(x, weighted RSS, A)`` of the weighted fit at ``Vs, delta`` (:meth:`fit`, and :meth:`design`)."""
@@ -432,7 +440,7 @@ def _bootstrap(prob: _Problem, A, x, n_boot: int, seed: int, progress=False):
 
     sw = np.tile(prob.w, prob.m)
     keep2 = prob.keep.reshape(prob.m, prob.n)
-    resid = prob.tau - (A @ x).reshape(prob.m, prob.n)
+    resid = prob.residuals(x, A)
     block = max(politis_white_block(resid[keep2[:, j], j]) for j in range(prob.n))
     Aw = (A * sw[:, None])[prob.keep]  # the kept rows; a resample counts each as often as its sample is drawn
     yw = (prob.tau.reshape(-1) * sw)[prob.keep]
@@ -750,7 +758,7 @@ def _capped_null_ranges(ends, lags, lagged, stages, run):
             trial[j] = high[j]
             upper = _point_problem((log, arm, cutoff, trial), states[1], vmin, rows, new.prob)
             x = upper.fit(new.Vs, new.delta)[0]
-            resid = upper.tau - (upper.design(new.Vs, new.delta) @ x).reshape(upper.m, upper.n)
+            resid = upper.residuals(x, upper.design(new.Vs, new.delta))
             if not _lag_raises_residual(stage, _residual_rms(new.keep_j, resid))[j]:
                 break
             high[j] = max(0.5 * high[j], floor)
@@ -814,7 +822,7 @@ def _weighted_fit(setup, states, vmin, rows: str, progress=False) -> tuple:
     grids = _grids(dq, keep_j, vmin)
     mid = np.array([g[N_VS // 2] for g in grids])
     x0, _, A0 = prob.solve(mid, np.ones(arm.n))
-    e0 = (tau.reshape(-1) - A0 @ x0).reshape(tau.shape)
+    e0 = prob.residuals(x0, A0)
     prob.w = 1.0 / np.array([max(np.std(e0[keep_j[:, j], j]), 1e-12) for j in range(arm.n)])
     from adaptive_ff.identification.covariance import politis_white_block
 
