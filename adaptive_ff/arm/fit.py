@@ -79,13 +79,11 @@ A lagged friction is not the static map of the columns above: where it changes w
 inertia term, and the fit reads ``J`` low (``docs/your_arm.md``, How, The lags in the whole-arm fit). So the
 whole-arm fit runs again with each reported lag in its joint's friction columns: each map ``g, h, w`` through
 ``1/(tau s + 1)`` at the log's rate, before the torque's filter (:func:`_lagger`), everything after (profile,
-bootstrap, row sensitivity) as before. A joint whose
+bootstrap, row sensitivity) as before; its results are reported, the lags those of the first pass (:func:`_lags_of`).
+A joint whose
 residual the lagged columns raise beyond the 95 % likelihood-ratio bound (:func:`_lag_raises_residual`) keeps its
 columns without the lag (the reported lag then models more than a delay of the friction map), and the fit runs
-once more without it (:func:`_lagged_stage`). The lags in the columns were fitted holding the static fit's Stribeck
-shapes, which on a lagged joint take up part of its lag, so those joints' lags are fitted again at the lagged fit
-(its shapes and accepted shapes, rigid body and bootstrap replicates, ``J``, ``Fc``; :func:`_lags_of`), the other
-joints' kept, and the lagged fit runs once more with them: its results and those lags are reported.
+once more without it (:func:`_lagged_stage`).
 The intervals of ``J``, the friction and the base parameters then carry the lags' uncertainty, which the bootstrap
 at the estimated lags does not see: each half-width combined in quadrature, as the row sensitivity is, with the larger
 distance of the estimate from the two point fits with every joint's columns at the lower and the upper end of its lag
@@ -641,9 +639,6 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     lag_setup = (log, arm, (base, a_J, rigid_body), cutoff, (lag, seed, progress))
     lags = _lags_of(first, lag_setup)
     stage, lagged, lag_alts, lag_ends = _lagged_stage(first, lags, run)
-    if np.isfinite(lagged).any():  # those lags again at the lagged fit (module docstring, "Lag")
-        lags = _lags_of(stage, lag_setup, again=(np.isfinite(lagged), lags))
-        stage, lagged, lag_alts, lag_ends = _lagged_stage(first, lags, run)
     prob, keep_j, Vs, delta, table, x, rss, A, alt, boot, _, half, ratio = stage
     x_alt = None if alt is None else alt[0]
     noise = velocity_noise(log)
@@ -850,14 +845,13 @@ def _sliding_estimate(setup, states, vmin):
     return x, np.array([t[-2][0] for t in table])
 
 
-def _lags_of(stage, setup, again=None) -> list:
+def _lags_of(stage, setup) -> list:
     """Every joint's :class:`adaptive_ff.arm.lag.JointLag` (:func:`_lags`) behind the whole-arm fit ``stage``
     (:class:`_Stage`): its rigid body and bootstrap replicates removed, each joint's ``J`` (``M_jj`` at the log's
     mean configuration), ``Fc`` and ``Fs`` behind its stop band and stick speed, its Stribeck shapes held
     (:func:`adaptive_ff.arm.intervals.lag_shapes`, :func:`adaptive_ff.arm.intervals.accepted_shapes`). ``setup``
     ``(log, arm, (base, a_J, rigid_body), cutoff, (lag, seed, progress))``, ``a_J`` (N, r) the rows of
-    :func:`_inertia_rows`; ``again`` None (every joint fitted) or ``(which (N,) bool, lags)``: only the joints in
-    ``which`` fitted, the others' taken from ``lags``."""
+    :func:`_inertia_rows`."""
     log, arm, (base, a_J, rigid_body), cutoff, settings = setup
     r = stage.prob.r
     beta = stage.x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf)
@@ -866,22 +860,18 @@ def _lags_of(stage, setup, again=None) -> list:
               accepted_shapes(stage.table, stage.rss, int(stage.prob.keep.sum()), stage.ratio))
     Fc = stage.x[r:r + 4 * arm.n:4]
     Fs = static_friction(Fc, np.where(np.isfinite(stage.Vs), stage.x[r + 1:r + 4 * arm.n:4], Fc))
-    which = None if again is None else np.flatnonzero(again[0])
-    new = _lags(log, arm, (base, stage.x[:r], rigid_body, reps), (a_J @ beta, Fs, Fc), shapes, cutoff,
-                (*settings, which))
-    return new if again is None else [new[j] if j in which else again[1][j] for j in range(arm.n)]
+    return _lags(log, arm, (base, stage.x[:r], rigid_body, reps), (a_J @ beta, Fs, Fc), shapes, cutoff, settings)
 
 
 def _lags(log, arm, rb, joints, shapes, cutoff, settings) -> list:
-    """Every joint's :class:`adaptive_ff.arm.lag.JointLag` (``settings``: ``(lag, seed, progress, which)``, ``which``
-    None or the joints to fit, the others None in the list (:func:`adaptive_ff.arm.lag.joint_lags`); ``joints``:
+    """Every joint's :class:`adaptive_ff.arm.lag.JointLag` (``settings``: ``(lag, seed, progress)``; ``joints``:
     ``(J, Fs, Fc)``, each joint's identified ``M_jj``, static and Coulomb friction, behind its record, its stop band
     and its stick speed, :func:`adaptive_ff.arm.lag.stop_bands`, :func:`adaptive_ff.arm.lag.stick_speeds`; ``rb``:
     ``(base, beta, rigid_body, replicates)``, ``replicates`` None or the whole-arm bootstrap's ``(beta_k (k, r),
     J_k (k, N))``, whose removed torques' differences from the fit's each lag bootstrap carries (refit ``i`` the
     ``i``-th; :mod:`adaptive_ff.arm.lag`, "Reported"); ``shapes``: each joint's ``(Vs, delta)`` held in its fit and
     the shapes its refits hold (:func:`adaptive_ff.arm.intervals.accepted_shapes`))."""
-    on, seed, progress, which = settings
+    on, seed, progress = settings
     if on is False:
         return [JointLag(np.nan, (np.nan, np.nan), "not asked for (lag=False; identify-arm --no-lag)")] * arm.n
     base, beta, mode, reps = rb
@@ -907,7 +897,7 @@ def _lags(log, arm, rb, joints, shapes, cutoff, settings) -> list:
     worlds = [LagWorld(None if errors is None else errors[:, :, j], LAG_CUTOFF_FACTOR * cutoff,
                        None if accepted is None else accepted[j], None if bands is None else float(bands[j]),
                        float(sticks[j]) if np.isfinite(sticks[j]) else None) for j in range(arm.n)]
-    return joint_lags(t, u, w, held, options=options, seed=seed, progress=progress, worlds=worlds, which=which)
+    return joint_lags(t, u, w, held, options=options, seed=seed, progress=progress, worlds=worlds)
 
 
 def _arm_warnings(cond: float, no_sensitivity: bool = False) -> list:

@@ -546,9 +546,8 @@ def _worker_init() -> None:
 
 
 def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int = 0, progress=False,
-               worlds=None, which=None) -> list:
-    """Every joint's :func:`joint_lag` (or those of ``which``), in ``options.workers`` processes (joint ``j`` seeded
-    ``seed + j``).
+               worlds=None) -> list:
+    """Every joint's :func:`joint_lag`, in ``options.workers`` processes (joint ``j`` seeded ``seed + j``).
 
     Parameters
     ----------
@@ -567,40 +566,34 @@ def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int
     worlds : sequence of LagWorld, or None, keyword-only
         Each joint's :class:`LagWorld` (its ``input_errors`` at least ``options.n_bootstrap`` rows: the first that
         many are taken); None (default): ``LagWorld()`` for every joint.
-    which : sequence of int or None, keyword-only
-        The joints to fit (indices into the columns of ``u``); None (default): all.
 
     Returns
     -------
-    list of JointLag or None
-        One per joint, in the joints' order, None for a joint not in ``which``; the same whatever
-        ``options.workers``.
+    list of JointLag
+        One per joint, in the joints' order; the same whatever ``options.workers``.
 
     Raises
     ------
     ParameterError
-        ``which`` names a joint outside ``0 .. N-1``; ``worlds`` not one per joint.
+        ``worlds`` not one per joint.
     """
     from tqdm.auto import tqdm
 
     n = u.shape[1]
-    todo = list(range(n)) if which is None else [int(j) for j in which]
-    if any(not 0 <= j < n for j in todo):
-        raise ParameterError(f"which must name joints 0..{n - 1}, got {list(which)!r}")
     if worlds is not None and len(worlds) != n:
         raise ParameterError(f"worlds must hold one LagWorld per joint ({n}), got {len(worlds)}")
-    k = int(options.n_bootstrap)
-    jobs = {j: ((t, u[:, j], w[:, j], float(shapes[j][0]), float(shapes[j][1])),
-                {"n_bootstrap": k, "seed": int(seed) + j,
-                 "world": LagWorld() if worlds is None else replace(
-                     worlds[j], input_errors=None if worlds[j].input_errors is None else worlds[j].input_errors[:k])})
-            for j in todo}
-    bar = tqdm(total=len(jobs), desc="arm friction lag", unit="joint", leave=False,
+    n_boot = int(options.n_bootstrap)
+    jobs = [((t, u[:, j], w[:, j], float(shapes[j][0]), float(shapes[j][1])),
+             {"n_bootstrap": n_boot, "seed": int(seed) + j,
+              "world": LagWorld() if worlds is None else replace(
+                  worlds[j], input_errors=None if worlds[j].input_errors is None else worlds[j].input_errors[:n_boot])})
+            for j in range(n)]
+    bar = tqdm(total=n, desc="arm friction lag", unit="joint", leave=False,
                disable=(None if progress is None else not progress))
     out = [None] * n
     with bar:
-        if options.workers == 1 or len(jobs) <= 1:
-            for j, (a, k) in jobs.items():
+        if options.workers == 1 or n == 1:
+            for j, (a, k) in enumerate(jobs):
                 out[j] = joint_lag(*a, **k)
                 bar.update()
             return out
@@ -610,9 +603,9 @@ def joint_lags(t, u, w, shapes, *, options: LagOptions = LagOptions(), seed: int
         # fork where the platform has it: a spawned worker re-runs the caller's main script (one without a
         # __main__ guard, or a script read from stdin, would break it)
         method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
-        with ProcessPoolExecutor(max_workers=min(int(options.workers), len(jobs)), initializer=_worker_init,
+        with ProcessPoolExecutor(max_workers=min(int(options.workers), n), initializer=_worker_init,
                                  mp_context=multiprocessing.get_context(method)) as pool:
-            futures = {pool.submit(joint_lag, *a, **k): j for j, (a, k) in jobs.items()}
+            futures = {pool.submit(joint_lag, *a, **k): j for j, (a, k) in enumerate(jobs)}
             for f in as_completed(futures):
                 out[futures[f]] = f.result()
                 bar.update()
