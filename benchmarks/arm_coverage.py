@@ -113,7 +113,7 @@ def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, 
              log=None, lag: bool = False, stops: bool = False, misses: list | None = None) -> dict:
     """``{parameter: [hits, count, unwarned]}`` of one arm (seed ``seed``), the base parameters under ``"base"``
     (``unwarned``: the misses whose joint has no warning naming the parameter); ``misses``: None, or a list to which
-    a line per friction interval that misses its truth is appended (and per lagged joint whose lag is null);
+    a line per joint parameter whose interval misses its truth is appended (and per lagged joint whose lag is null);
     ``log``: its :func:`arm_log` if
     already simulated (default None: simulated here); ``lag``: the joints' friction lagged (:func:`draw_lags`);
     ``stops``: the arm's stops stepped finely (``stop_refine`` :data:`adaptive_ff.arm.simulate.STOP_REFINE`) and the
@@ -201,7 +201,8 @@ def main(argv=None) -> int:
                     help="the arms' stops stepped finely (ArmSimulation.stop_refine) and the lag fits' too "
                          "(LagOptions.refine_stops)")
     ap.add_argument("--misses", action="store_true",
-                    help="list each friction interval that misses its truth, and each lagged joint whose lag is null")
+                    help="list each joint parameter whose interval misses its truth, and each lagged joint whose "
+                         "lag is null")
     args = ap.parse_args(argv)
     total = {k: [0, 0, 0] for k in PARAMETERS + ("base",)}
     c0 = cpu_seconds()

@@ -7,6 +7,7 @@ the URDF's inertias reduced to the base parameters.
 
 import importlib.util
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -56,13 +57,20 @@ def planar():
 
 
 def _three_arms(planar, rows: str) -> dict:
+    """Seeds 0-2's counts; each joint parameter's miss is one line of ``misses`` (``--misses``), naming it."""
     arm, log = planar
-    total = {}
+    total, misses = {}, []
     for seed in (0, 1, 2):
-        for k, counts in arm_coverage.arm_hits(arm, seed, n_bootstrap=50, rows=rows, log=log(seed)).items():
+        hits = arm_coverage.arm_hits(arm, seed, n_bootstrap=50, rows=rows, log=log(seed), misses=misses)
+        for k, counts in hits.items():
             total[k] = [a + b for a, b in zip(total.get(k, [0, 0, 0]), counts)]
     assert all(total[k][1] == 9 for k in ("J", "Fc", "Fs", "sigma", "offset")) and total["base"][1] == 33
     assert 6 <= total["Vs"][1] <= 9
+    assert len(misses) == sum(total[k][1] - total[k][0] for k in arm_coverage.PARAMETERS), (misses, total)
+    for line in misses:
+        m = re.fullmatch(r"seed [012] (shoulder|elbow|wrist): (\w+) (\S+) outside \[(\S+), (\S+)\] "
+                         r"\(estimate \S+\)", line)
+        assert m and not float(m[4]) <= float(m[3]) <= float(m[5]), line
     return total
 
 
