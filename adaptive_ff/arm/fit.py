@@ -79,10 +79,9 @@ A lagged friction is not the static map of the columns above: where it changes w
 inertia term, and the fit reads ``J`` low (``docs/your_arm.md``, How, The lags in the whole-arm fit). So the
 whole-arm fit runs again with each reported lag in its joint's friction columns: each map ``g, h, w`` through
 ``1/(tau s + 1)`` at the log's rate, before the torque's filter (:func:`_lagger`), everything after (profile,
-bootstrap, row sensitivity) as before; its results are reported, the lags those of the first pass (:func:`_lags_of`).
-A joint whose
-residual the lagged columns raise beyond the 95 % likelihood-ratio bound (:func:`_lag_raises_residual`) keeps its
-columns without the lag (the reported lag then models more than a delay of the friction map), and the fit runs
+bootstrap, row sensitivity) as before; its results are reported, the lags those of the first pass (:func:`_lags`).
+A joint whose residual the lagged columns raise beyond the 95 % likelihood-ratio bound (:func:`_lag_raises_residual`)
+keeps its columns without the lag (the reported lag then models more than a delay of the friction map), and the fit runs
 once more without it (:func:`_lagged_stage`).
 The intervals of ``J``, the friction and the base parameters then carry the lags' uncertainty, which the bootstrap
 at the estimated lags does not see: each half-width combined in quadrature, as the row sensitivity is, with the larger
@@ -636,8 +635,7 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     a_J = _inertia_rows(arm, base, log.q.mean(axis=0))  # the log's mean configuration (all its samples)
     r = Yb.shape[2]
     run = ((log, arm, cutoff), (states, fit_states), vmin, rows, settings)
-    lag_setup = (log, arm, (base, a_J, rigid_body), cutoff, (lag, seed, progress))
-    lags = _lags_of(first, lag_setup)
+    lags = _lags(first, (log, arm, (base, a_J, rigid_body), cutoff, (lag, seed, progress)))
     stage, lagged, lag_alts, lag_ends = _lagged_stage(first, lags, run)
     prob, keep_j, Vs, delta, table, x, rss, A, alt, boot, _, half, ratio = stage
     x_alt = None if alt is None else alt[0]
@@ -845,53 +843,43 @@ def _sliding_estimate(setup, states, vmin):
     return x, np.array([t[-2][0] for t in table])
 
 
-def _lags_of(stage, setup) -> list:
-    """Every joint's :class:`adaptive_ff.arm.lag.JointLag` (:func:`_lags`) behind the whole-arm fit ``stage``
-    (:class:`_Stage`): its rigid body and bootstrap replicates removed, each joint's ``J`` (``M_jj`` at the log's
-    mean configuration), ``Fc`` and ``Fs`` behind its stop band and stick speed, its Stribeck shapes held
-    (:func:`adaptive_ff.arm.intervals.lag_shapes`, :func:`adaptive_ff.arm.intervals.accepted_shapes`). ``setup``
-    ``(log, arm, (base, a_J, rigid_body), cutoff, (lag, seed, progress))``, ``a_J`` (N, r) the rows of
-    :func:`_inertia_rows`."""
-    log, arm, (base, a_J, rigid_body), cutoff, settings = setup
-    r = stage.prob.r
-    beta = stage.x[:r] if rigid_body == "fit" else base.of(arm.theta_urdf)
-    reps = (stage.boot.replicates[:, :r], stage.boot.replicates[:, :r] @ a_J.T) if rigid_body == "fit" else None
-    shapes = (lag_shapes(stage.Vs, stage.delta, stage.table),
-              accepted_shapes(stage.table, stage.rss, int(stage.prob.keep.sum()), stage.ratio))
-    Fc = stage.x[r:r + 4 * arm.n:4]
-    Fs = static_friction(Fc, np.where(np.isfinite(stage.Vs), stage.x[r + 1:r + 4 * arm.n:4], Fc))
-    return _lags(log, arm, (base, stage.x[:r], rigid_body, reps), (a_J @ beta, Fs, Fc), shapes, cutoff, settings)
-
-
-def _lags(log, arm, rb, joints, shapes, cutoff, settings) -> list:
-    """Every joint's :class:`adaptive_ff.arm.lag.JointLag` (``settings``: ``(lag, seed, progress)``; ``joints``:
-    ``(J, Fs, Fc)``, each joint's identified ``M_jj``, static and Coulomb friction, behind its record, its stop band
-    and its stick speed, :func:`adaptive_ff.arm.lag.stop_bands`, :func:`adaptive_ff.arm.lag.stick_speeds`; ``rb``:
-    ``(base, beta, rigid_body, replicates)``, ``replicates`` None or the whole-arm bootstrap's ``(beta_k (k, r),
-    J_k (k, N))``, whose removed torques' differences from the fit's each lag bootstrap carries (refit ``i`` the
-    ``i``-th; :mod:`adaptive_ff.arm.lag`, "Reported"); ``shapes``: each joint's ``(Vs, delta)`` held in its fit and
-    the shapes its refits hold (:func:`adaptive_ff.arm.intervals.accepted_shapes`))."""
-    on, seed, progress = settings
+def _lags(stage, setup) -> list:
+    """Every joint's :class:`adaptive_ff.arm.lag.JointLag` behind the whole-arm fit ``stage`` (:class:`_Stage`): each
+    joint's record with that fit's rigid body removed (the URDF's with ``rigid_body="urdf"``) and its ``J`` (``M_jj``
+    at the log's mean configuration) added back, each lag bootstrap refit ``i`` carrying the ``i``-th whole-arm
+    bootstrap replicate's difference from it (:func:`adaptive_ff.arm.lag.lag_records`; :mod:`adaptive_ff.arm.lag`,
+    "Reported"); the fit's Stribeck shapes held and its accepted shapes in the refits
+    (:func:`adaptive_ff.arm.intervals.lag_shapes`, :func:`adaptive_ff.arm.intervals.accepted_shapes`); its ``Fs`` and
+    ``Fc`` behind each joint's stop band and stick speed (:func:`adaptive_ff.arm.lag.stop_bands`,
+    :func:`adaptive_ff.arm.lag.stick_speeds`). ``setup`` ``(log, arm, (base, a_J, rigid_body), cutoff, (lag, seed,
+    progress))``, ``a_J`` (N, r) the rows of :func:`_inertia_rows`; ``lag`` False: every lag NaN, nothing fitted."""
+    log, arm, (base, a_J, rigid_body), cutoff, (on, seed, progress) = setup
     if on is False:
         return [JointLag(np.nan, (np.nan, np.nan), "not asked for (lag=False; identify-arm --no-lag)")] * arm.n
-    base, beta, mode, reps = rb
-    J, Fs, Fc = joints
     options = LagOptions() if on is True else on
+    r = stage.prob.r
 
     def rigid_of(b):
         theta = np.zeros(11 * arm.n)
         theta[base.independent] = b  # the dependent columns are spanned by the independent ones
         return lambda Y: Y @ theta
 
-    rigid = rigid_of(beta) if mode == "fit" else (lambda Y: Y @ arm.theta_urdf)
-    if reps is None or reps[0].shape[0] == 0:
+    fitted = rigid_body == "fit"
+    J = a_J @ (stage.x[:r] if fitted else base.of(arm.theta_urdf))
+    rigid = rigid_of(stage.x[:r]) if fitted else (lambda Y: Y @ arm.theta_urdf)
+    reps = stage.boot.replicates[:, :r] if fitted else None
+    if reps is None or reps.shape[0] == 0:
         t, u, w = lag_records(log, arm, rigid, J, cutoff)
         errors = None
     else:
-        k = np.arange(options.n_bootstrap) % reps[0].shape[0]  # fewer whole-arm replicates: taken in turn again
+        J_reps = reps @ a_J.T
+        k = np.arange(options.n_bootstrap) % reps.shape[0]  # fewer whole-arm replicates: taken in turn again
         t, u, w, errors = lag_records(log, arm, rigid, J, cutoff,
-                                      replicates=[(rigid_of(reps[0][i]), reps[1][i]) for i in k])
-    held, accepted = shapes
+                                      replicates=[(rigid_of(reps[i]), J_reps[i]) for i in k])
+    held = lag_shapes(stage.Vs, stage.delta, stage.table)
+    accepted = accepted_shapes(stage.table, stage.rss, int(stage.prob.keep.sum()), stage.ratio)
+    Fc = stage.x[r:r + 4 * arm.n:4]
+    Fs = static_friction(Fc, np.where(np.isfinite(stage.Vs), stage.x[r + 1:r + 4 * arm.n:4], Fc))
     Ts = float(np.median(np.diff(t)))
     bands, sticks = stop_bands(Fs, J, Ts) if options.refine_stops else None, stick_speeds(Fc, J, Ts)
     worlds = [LagWorld(None if errors is None else errors[:, :, j], LAG_CUTOFF_FACTOR * cutoff,
