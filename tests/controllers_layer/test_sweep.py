@@ -56,7 +56,9 @@ def test_dask_local_cluster_equals_local_run(tmp_path):
     spec = load_spec({**SPEC, "grid": {"Fc": [25.0]}})
     local = tmp_path / "local.csv"
     run_sweep(spec, local, workers=1, progress=False)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as lc:
+    # dashboard_address=":0": a free port (None still binds the default 8787, and a second cluster on the machine
+    # makes distributed warn that the port is in use)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as lc:
         remote = tmp_path / "dask.csv"
         run_sweep(spec, remote, scheduler=lc.scheduler_address, progress=False)
     assert _rows(remote) == _rows(local)

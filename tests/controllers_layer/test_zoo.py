@@ -160,7 +160,8 @@ def test_dask_scheduler_gives_the_numbers_of_the_default_path():
     o = ZooOptions.from_flat(n=2, duration=3.0, seed=2, modes=("none", "dob", "frictionless"), workers=1)
     base = run_zoo(o)
     sync = run_zoo(ZooOptions(**{**o.__dict__, "scheduler": "synchronous"}))
-    with Client(processes=False, n_workers=1, threads_per_worker=1, dashboard_address=None) as client:
+    # dashboard_address=":0": a free port (None still binds the default 8787: a port in use makes distributed warn)
+    with Client(processes=False, n_workers=1, threads_per_worker=1, dashboard_address=":0") as client:
         dist = run_zoo(ZooOptions(**{**o.__dict__, "scheduler": client}))
     assert np.all(np.isfinite(base.rms["dob"]))
     for r in (sync, dist):
