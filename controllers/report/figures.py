@@ -292,7 +292,7 @@ def _tracking_inputs(comp, *, half_window: float = 1.0) -> dict:
         d["stops"] = (mm.stop_start.copy(), mm.stop_end.copy())
     if motion and stop is not None:
         i = int(np.flatnonzero(mm.stop_start == stop)[0])
-        d["zoom_stop"] = {"t_end": float(mm.stop_end[i]), "band": float(_deg(mm.stop_band[i])),
+        d["zoom_stop"] = {"t_end": float(mm.stop_end[i]), "band": float(_deg(mm.settling_band[i])),
                           "settle": {m: float(motion[m].settling_time[i]) for m, *_ in zoom if m in motion}}
     return d
 

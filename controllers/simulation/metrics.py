@@ -456,7 +456,7 @@ class MotionMetrics:
         Start of the second half (s), ``(t[0] + t[-1])/2``.
     stop_start, stop_end : ndarray, shape (S,)
         First and last sample time of each stop (s).
-    stop_band : ndarray, shape (S,)
+    settling_band : ndarray, shape (S,)
         Settling band of each stop (rad/s).
     settling_time : ndarray, shape (S,)
         Settling time of each stop (s; inf: not settled, NaN: not complete).
@@ -482,7 +482,7 @@ class MotionMetrics:
     t_mid: float
     stop_start: np.ndarray
     stop_end: np.ndarray
-    stop_band: np.ndarray
+    settling_band: np.ndarray
     settling_time: np.ndarray
     stop_max: np.ndarray
     reversal_times: np.ndarray
@@ -534,7 +534,7 @@ class MotionMetrics:
         """Strict JSON: the aggregates, then one dict per stop and per reversal (SI units; NaN and inf as None,
         with ``settled`` False for a stop that did not settle, None for one not complete)."""
         stops = []
-        for a, b, band, ts, mx in zip(self.stop_start, self.stop_end, self.stop_band, self.settling_time,
+        for a, b, band, ts, mx in zip(self.stop_start, self.stop_end, self.settling_band, self.settling_time,
                                       self.stop_max):
             settled = None if math.isnan(ts) else bool(math.isfinite(ts))
             stops.append({"t_start": float(a), "t_end": float(b), "band": float(band), "settling_time": _nan_or(ts),
@@ -648,7 +648,7 @@ def motion_result(st, stops, events, *, t_mid: float, window: float, share: floa
         rms_m = rms_r = mx_r = math.nan
     a, b, band = (np.array(x, dtype=float) for x in stops)
     return MotionMetrics(rms_motion=float(rms_m), rms_standstill=float(rms_r), max_standstill=mx_r,
-                         t_mid=float(t_mid), stop_start=a, stop_end=b, stop_band=band,
+                         t_mid=float(t_mid), stop_start=a, stop_end=b, settling_band=band,
                          settling_time=np.array(settle, dtype=float), stop_max=np.array(stop_max, dtype=float),
                          reversal_times=np.array(revs, dtype=float), reversal_max=np.array(rev_max, dtype=float),
                          window=float(window), share=float(share), floor=float(floor))
@@ -703,7 +703,7 @@ def engine_motion(run, states, t, revs, *, window: float, diverged) -> tuple:
                                                   run.rev_max):
         res = make(MotionMetrics)
         res.__dict__.update(rms_motion=m, rms_standstill=r, max_standstill=x, t_mid=t_mid, stop_start=a, stop_end=b,
-                            stop_band=band, settling_time=settle, stop_max=stop_max, reversal_times=revs,
+                            settling_band=band, settling_time=settle, stop_max=stop_max, reversal_times=revs,
                             reversal_max=rev_max, window=window, share=share, floor=floor)
         out.append(res)
     return tuple(out)

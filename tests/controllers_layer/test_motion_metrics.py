@@ -55,7 +55,7 @@ def oracle(t, w_ref, w, revs, window, share=SETTLE_SHARE, floor=0.0):
             s = t[k0 + np.flatnonzero(outside)[-1] + 1] - t[k0]
         t0.append(t[k0]), t1.append(t[k1 - 1]), band.append(b), settle.append(s)
         smax.append(float(np.max(np.abs(e[k0:k1]))))
-    out.update(stop_start=np.array(t0), stop_end=np.array(t1), stop_band=np.array(band),
+    out.update(stop_start=np.array(t0), stop_end=np.array(t1), settling_band=np.array(band),
                settling_time=np.array(settle), stop_max=np.array(smax))
     rmax = np.full(revs.size, math.nan)
     if revs.size:
@@ -74,7 +74,7 @@ def assert_matches(m, o, rtol=1e-12):
     for k in ("rms_motion", "rms_standstill"):
         assert getattr(m, k) == pytest.approx(o[k], rel=rtol, nan_ok=True), k
     assert m.max_standstill == o["max_standstill"] or (math.isnan(m.max_standstill) and math.isnan(o["max_standstill"]))
-    for k in ("stop_start", "stop_end", "stop_band", "settling_time", "stop_max", "reversal_max"):
+    for k in ("stop_start", "stop_end", "settling_band", "settling_time", "stop_max", "reversal_max"):
         np.testing.assert_array_equal(getattr(m, k), o[k], err_msg=k)
 
 
@@ -105,7 +105,7 @@ def test_point_to_point_run_equals_the_numpy_definitions(p2p_runs):
     # the error at rest is what the metrics say it is: the stick of the uncompensated joint holds it; the adaptive
     # feedforward's first stop (before it learned) does not settle into 2 % before the next move
     none, ad = runs["none"].motion, runs["adaptive"].motion
-    assert np.all(np.isfinite(none.settling_time)) and np.all(none.stop_band == pytest.approx(0.02 * 0.5, rel=1e-3))
+    assert np.all(np.isfinite(none.settling_time)) and np.all(none.settling_band == pytest.approx(0.02 * 0.5, rel=1e-3))
     assert ad.n_unsettled == int(np.count_nonzero(np.isinf(ad.settling_time[ad.stop_start >= ad.t_mid])))
     late = ad.settling_time[ad.stop_start >= ad.t_mid]
     assert ad.settling_max == np.max(late) and ad.settling_median == np.median(late)
@@ -149,7 +149,7 @@ def test_batch_scenarios_have_their_own_event_arrays_equal_to_single_runs(p2p_ru
         m = b.motion[i]
         for k in ("rms_motion", "rms_standstill", "max_standstill"):
             assert getattr(m, k) == getattr(one.motion, k)
-        for k in ("settling_time", "stop_max", "reversal_max", "stop_band"):
+        for k in ("settling_time", "stop_max", "reversal_max", "settling_band"):
             np.testing.assert_array_equal(getattr(m, k), getattr(one.motion, k))
         assert_matches(m, oracle(one.t, one.w_ref, one.w, revs, 0.2))
     assert not np.array_equal(b.motion[0].stop_max, b.motion[1].stop_max)  # per scenario, not shared
@@ -175,12 +175,12 @@ def test_settling_of_an_exponential_decay_is_T_ln_e0_over_b(e0, T):
     t, w_ref, w, t0 = _decay_case(e0, T)
     m = motion_metrics(t, w_ref, w, reversals=[])
     b = 0.02 * 0.5
-    assert m.n_stops == 1 and m.stop_start[0] == t0 and m.stop_band[0] == pytest.approx(b, rel=1e-12)
+    assert m.n_stops == 1 and m.stop_start[0] == t0 and m.settling_band[0] == pytest.approx(b, rel=1e-12)
     assert abs(m.settling_time[0] - T * math.log(e0 / b)) <= DT
     assert m.stop_max[0] == pytest.approx(e0, rel=1e-12)
     # a floor above 2 % of the peak is the band
     mf = motion_metrics(t, w_ref, w, reversals=[], floor=0.02)
-    assert mf.stop_band[0] == 0.02 and abs(mf.settling_time[0] - max(T * math.log(e0 / 0.02), 0.0)) <= DT
+    assert mf.settling_band[0] == 0.02 and abs(mf.settling_time[0] - max(T * math.log(e0 / 0.02), 0.0)) <= DT
     assert mf.settling_time[0] == 0.0 or e0 > 0.02
     # an error inside the band from the start settles at once
     assert motion_metrics(t, w_ref, w_ref - 1e-3 * (w_ref == 0), reversals=[]).settling_time[0] == 0.0
@@ -191,7 +191,7 @@ def test_a_stop_that_never_settles_is_reported_as_such():
     m = motion_metrics(t, w_ref, w, reversals=[])
     assert m.settling_time[0] == math.inf and m.n_unsettled == 1 and m.settling_max == math.inf
     d = json.loads(json.dumps(m.to_dict(), allow_nan=False))
-    assert d["stops"][0] == {"t_start": m.stop_start[0], "t_end": t[-1], "band": m.stop_band[0],
+    assert d["stops"][0] == {"t_start": m.stop_start[0], "t_end": t[-1], "band": m.settling_band[0],
                              "settling_time": None, "settled": False, "max": d["stops"][0]["max"]}
     assert d["settling_max"] is None and d["n_unsettled"] == 1
 
