@@ -72,6 +72,8 @@ def register(sub) -> None:
     """Add the ``identify-arm`` subcommand to an argparse subparsers object."""
     import argparse
 
+    from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF
+    from adaptive_ff.arm.lag import LAG_BOOTSTRAP, LAG_STICK_MAX, LAG_WORKERS
     from adaptive_ff.arm.rows import DEFAULT_ROWS, REST_WINDOW, ROWS
     from controllers.cli.data import nonnegative_int, positive_int, seed_type
 
@@ -96,8 +98,8 @@ def register(sub) -> None:
                    help="the log is motor-side: convert it to the joint side with the gear ratios, coupling matrix, "
                         "offsets and torque constants of FILE.toml (q = G^-1 q_m + offset, tau = G^T tau_m, "
                         "G = diag(ratio) coupling; the keys below)")
-    i.add_argument("--cutoff", type=float, default=20.0, metavar="HZ",
-                   help="cutoff of the zero-phase low-pass before differentiation (default 20 Hz)")
+    i.add_argument("--cutoff", type=float, default=DEFAULT_CUTOFF, metavar="HZ",
+                   help=f"cutoff of the zero-phase low-pass before differentiation (default {DEFAULT_CUTOFF:g} Hz)")
     i.add_argument("--bootstrap", type=at_least_2, default=200, metavar="N",
                    help="refits of the block bootstrap behind the intervals (default 200, >= 2)")
     i.add_argument("--seed", type=seed_type, default=0, help="seed of the bootstrap (default 0)")
@@ -113,17 +115,18 @@ def register(sub) -> None:
                         "term: docs/your_arm.md)")
     i.add_argument("--no-lag", dest="no_lag", action="store_true",
                    help="skip the friction lag (tau null): its output-error fits are most of the run's CPU time")
-    i.add_argument("--lag-bootstrap", dest="lag_bootstrap", type=at_least_2, default=10, metavar="N",
-                   help="refits of each joint's lag bootstrap (default 10, >= 2)")
+    i.add_argument("--lag-bootstrap", dest="lag_bootstrap", type=at_least_2, default=LAG_BOOTSTRAP, metavar="N",
+                   help=f"refits of each joint's lag bootstrap (default {LAG_BOOTSTRAP}, >= 2)")
     i.add_argument("--refine-stops", dest="refine_stops", action="store_true",
                    help="simulate each joint's stops finely in its lag fit (sub-steps of a tenth of the record's "
                         "sample time where the joint is near rest or reverses): reads the lag of a joint whose "
                         "friction is large for its inertia (a sticking wrist) as a continuously integrated joint has "
                         "it, a light-friction joint's short, and reports the lags of joints that stick hard (their "
-                        "Coulomb friction takes off 0.015 rad/s or more in one sample), which are null without it; "
-                        "2-4 times the lag fits' CPU time (docs/your_arm.md, Not yet)")
-    i.add_argument("--workers", type=positive_int, default=2, metavar="N",
-                   help="processes the joints' lag fits run in (default 2; the result does not depend on it)")
+                        f"Coulomb friction takes off {LAG_STICK_MAX:g} rad/s or more in one sample), which are null "
+                        "without it; 2-4 times the lag fits' CPU time (docs/your_arm.md, Not yet)")
+    i.add_argument("--workers", type=positive_int, default=LAG_WORKERS, metavar="N",
+                   help=f"processes the joints' lag fits run in (default {LAG_WORKERS}; the result does not depend "
+                        "on it)")
     i.add_argument("--json", action="store_true", help="print the result as JSON")
     i.add_argument("--plot", metavar="DIR", default=None, help="write the per-joint friction figure into DIR")
     i.add_argument("--quiet", action="store_true", help="no progress bar")
