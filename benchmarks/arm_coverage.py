@@ -1,7 +1,7 @@
 """Coverage of identify-arm's 95 % intervals over seeded simulated arms, per parameter.
 
 Run:  python -m benchmarks.arm_coverage [--n 50] [--start 0] [--bootstrap 200] [--duration 20] [--rows moving|sliding]
-      [--lag] [--stops]
+      [--lag] [--stops | --arm-stops]
 
 Each arm is ``examples/planar3.urdf`` (three links in the vertical plane) with the armatures 0.2, 0.1, 0.05 kg·m²
 and a friction per joint drawn from its seed (:func:`draw_friction`: ``Fc`` 0.5-2.5 N·m, ``Fs = Fc`` times
@@ -15,7 +15,9 @@ with probability 0.4, else 2-10 ms), and the arms are identified with their lag 
 fit then runs again with each reported lag in its joint's friction columns), whose reported lags' intervals make
 the row ``tau`` (over the lagged joints whose lag is reported; a lag reported on a lag-free joint counts as outside).
 ``--stops`` steps each arm's periods in which a joint stops or reverses ten times as finely
-(``ArmSimulation.stop_refine``) and refines the lag fits' stops too (``LagOptions(refine_stops=True)``).
+(``ArmSimulation.stop_refine``) and refines the lag fits' stops too (``LagOptions(refine_stops=True)``);
+``--arm-stops`` steps the arms' stops so and leaves the lag fits at the record's step (``identify-arm``'s default
+on an arm integrated as a continuous one is).
 ``--workers N`` runs the arms in N processes.
 
 Printed per parameter: the share of the true values inside their 95 % interval, over every joint of every arm
@@ -110,14 +112,16 @@ def true_inertia(arm, q) -> np.ndarray:
 
 
 def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, rows: str = "moving",
-             log=None, lag: bool = False, stops: bool = False, misses: list | None = None) -> dict:
+             log=None, lag: bool = False, stops: bool = False, arm_stops: bool = False,
+             misses: list | None = None) -> dict:
     """``{parameter: [hits, count, unwarned]}`` of one arm (seed ``seed``), the base parameters under ``"base"``
     (``unwarned``: the misses whose joint has no warning naming the parameter); ``misses``: None, or a list to which
     a line per joint parameter whose interval misses its truth is appended (and per lagged joint whose lag is null);
     ``log``: its :func:`arm_log` if
     already simulated (default None: simulated here); ``lag``: the joints' friction lagged (:func:`draw_lags`);
     ``stops``: the arm's stops stepped finely (``stop_refine`` :data:`adaptive_ff.arm.simulate.STOP_REFINE`) and the
-    lag fits' too (``LagOptions(refine_stops=True)``)."""
+    lag fits' too (``LagOptions(refine_stops=True)``); ``arm_stops``: the arm's stops stepped finely, the lag fits
+    not refined."""
     import re
 
     from adaptive_ff.arm.fit import identify_arm
@@ -126,7 +130,7 @@ def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, 
 
     friction = arm_friction(arm.n, seed, lag)
     if log is None:
-        log = arm_log(arm, seed, duration=duration, lag=lag, stop_refine=STOP_REFINE if stops else 1)
+        log = arm_log(arm, seed, duration=duration, lag=lag, stop_refine=STOP_REFINE if stops or arm_stops else 1)
     res = identify_arm(log, arm, seed=seed, n_bootstrap=n_bootstrap, rows=rows,
                        lag=LagOptions(workers=1, refine_stops=stops) if lag else False)
     J = true_inertia(arm, log.q.mean(axis=0))
@@ -197,9 +201,13 @@ def main(argv=None) -> int:
                     help=f"identify_arm's rows (default {DEFAULT_ROWS}, its default)")
     ap.add_argument("--lag", action="store_true", help="each joint's friction lagged (none or 2-10 ms), the lags fitted")
     ap.add_argument("--workers", type=int, default=1, help="processes the arms run in (default 1)")
-    ap.add_argument("--stops", action="store_true",
-                    help="the arms' stops stepped finely (ArmSimulation.stop_refine) and the lag fits' too "
-                         "(LagOptions.refine_stops)")
+    steps = ap.add_mutually_exclusive_group()
+    steps.add_argument("--stops", action="store_true",
+                       help="the arms' stops stepped finely (ArmSimulation.stop_refine) and the lag fits' too "
+                            "(LagOptions.refine_stops)")
+    steps.add_argument("--arm-stops", dest="arm_stops", action="store_true",
+                       help="the arms' stops stepped finely, the lag fits at the record's step (identify-arm's "
+                            "default)")
     ap.add_argument("--misses", action="store_true",
                     help="list each joint parameter whose interval misses its truth, and each lagged joint whose "
                          "lag is null")
@@ -207,7 +215,7 @@ def main(argv=None) -> int:
     total = {k: [0, 0, 0] for k in PARAMETERS + ("base",)}
     c0 = cpu_seconds()
     job = partial(_arm_hits, duration=args.duration, n_bootstrap=args.bootstrap, rows=args.rows, lag=args.lag,
-                  stops=args.stops)
+                  stops=args.stops, arm_stops=args.arm_stops)
     seeds = range(args.start, args.start + args.n)
     if args.workers > 1:
         with ProcessPoolExecutor(max_workers=args.workers) as pool:
@@ -220,7 +228,8 @@ def main(argv=None) -> int:
     cpu = cpu_seconds() - c0
     print(f"identify-arm 95 % intervals over {args.n} simulated arms (planar3, seeds {args.start}-"
           f"{args.start + args.n - 1}, {args.duration:g} s logs, {args.bootstrap} bootstrap refits, rows {args.rows}"
-          f"{', lagged friction' if args.lag else ''}{', stops refined' if args.stops else ''})")
+          f"{', lagged friction' if args.lag else ''}{', stops refined' if args.stops else ''}"
+          f"{', arms with refined stops' if args.arm_stops else ''})")
     print(f"{'parameter':<10} {'inside':>8} {'of':>6} {'coverage':>9}   95 % (Wilson)    outside, no warning")
     for k, (h, c, u) in total.items():
         if c == 0:

@@ -17,7 +17,7 @@ Printed: over the lag-free joints the share reported with a lag (false lags); ov
 reported null and, of the reported ones, the share whose 95 % interval holds the true lag (coverage), each with its
 95 % binomial (Wilson) interval; the reported intervals' median width over the true lag; and the coverage by joint.
 ``--cache FILE`` keeps each arm's joints (JSON lines) and reads back the arms it already holds: it keeps the fits,
-and each joint is decided again by :func:`adaptive_ff.arm.lag.lag_reason` and the low-pass correction's sign (a
+and each joint is decided again by :func:`adaptive_ff.arm.lag.lag_reason` and ``correction_reason`` (a
 cache made before a change of the lag fit itself is stale; a cache holds one ``--stops`` setting).
 ``--stops`` steps each arm finely in the periods in which a joint stops or reverses
 (``ArmSimulation.stop_refine`` :data:`adaptive_ff.arm.simulate.STOP_REFINE`) and refines the lag fits' stops too
@@ -91,16 +91,16 @@ def arm_joints(arm, seed: int, *, duration: float = 20.0, n_lag: int = 10, kind:
 
 
 def reported(row: dict) -> bool:
-    """Whether identify-arm reports the joint's lag: :func:`adaptive_ff.arm.lag.lag_reason` of its fit (a cached
-    joint decided again, so that a cache holds fits, not decisions)."""
-    from adaptive_ff.arm.lag import lag_reason
+    """Whether identify-arm reports the joint's lag: :func:`adaptive_ff.arm.lag.lag_reason` of its fit and
+    :func:`adaptive_ff.arm.lag.correction_reason` of its low-pass correction (a cached joint decided again, so that a
+    cache holds fits, not decisions)."""
+    from adaptive_ff.arm.lag import correction_reason, lag_reason
 
     info = row["info"]
     if "estimate" not in info:  # the fit failed
         return False
     lo, hi = info.get("interval95", (row["lo"], row["hi"]))
-    corrected = info.get("lowpass")  # the low-pass correction leaves no lag
-    return lag_reason(info["estimate"], (lo, hi), info) is None and not (corrected and not corrected["tau"] > 0.0)
+    return lag_reason(info["estimate"], (lo, hi), info) is None and correction_reason(info) is None
 
 
 def summary(rows: list) -> dict:

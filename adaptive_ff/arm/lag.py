@@ -97,10 +97,12 @@ deviation from the estimate (their mean shift included), ``t`` the Student-t qua
 spread to the lag's, held within [:data:`LAG_SLOPE_MIN`, 1] (above 1 it would narrow the interval; far below 1 it is
 the two world fits' own scatter, not the reading's sensitivity, and dividing by it would throw the correction out);
 the correction, not the refits' mean shift (by which the fit's own interval is centred), stands for the bias. Where
-that leaves no positive lag, ``tau`` is NaN. Neither carries an error common to the record and every refit: on a
-heavy joint, whose interval is narrow, the held Stribeck shape and the identified rigid body can move the lag by
-more than its interval. The measurements behind the rule, the correction and their limits: ``docs/your_arm.md``
-(How, Lag; Not yet) and ``benchmarks/arm_lag.py``.
+that leaves no positive lag, or an interval that reaches below the floor (:func:`correction_reason`), ``tau`` is
+NaN: the floor holds for the reported interval as for the fit's, since a lag-free joint that sticks at its stops
+reads a lag of a few samples whose fit interval can stay above the floor where the corrected one does not. Neither
+carries an error common to the record and every refit: on a heavy joint, whose interval is narrow, the held
+Stribeck shape and the identified rigid body can move the lag by more than its interval. The measurements behind the
+rule, the correction and their limits: ``docs/your_arm.md`` (How, Lag; Not yet) and ``benchmarks/arm_lag.py``.
 
 The velocity noise of each joint (``excitation.noise_std`` of ``identify --json``) is
 :func:`adaptive_ff.identification.diagnostics.velocity_noise_std` of the log's velocity as measured (or of the
@@ -118,7 +120,8 @@ from plant.errors import ExcitationError, ParameterError, SignalError
 
 __all__ = ["JointLag", "LagOptions", "LagWorld", "LAG_RATE", "LAG_CUTOFF_FACTOR", "LAG_BOOTSTRAP", "LAG_WORKERS",
            "LAG_FLOOR_SAMPLES", "LAG_SHIFT_MAX", "LAG_SLOPE_MIN", "LAG_INJECTION_GAIN", "LAG_STOP_BAND",
-           "LAG_STICK_MAX", "lag_records", "joint_lag", "joint_lags", "lag_reason", "stick_speeds", "stop_bands",
+           "LAG_STICK_MAX", "lag_records", "joint_lag", "joint_lags", "lag_reason", "correction_reason",
+           "corrected_interval", "stick_speeds", "stop_bands",
            "velocity_noise"]
 
 #: Rate (Hz) at which the output-error record samples the log (every k-th sample; a slower log is taken as is).
@@ -337,11 +340,11 @@ def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTST
     -------
     JointLag
         ``tau`` NaN with ``reason`` where the fit fails or :func:`lag_reason` gives one, or where the low-pass
-        correction leaves no lag (module docstring, "Reported"); where ``world.lowpass`` is given a reported ``tau``
-        is corrected for the low-pass and its interval is ``tau ± t rms / slope`` (``info["lowpass"]``:
+        correction leaves no lag or an interval reaching below :data:`LAG_FLOOR_SAMPLES` samples of the record
+        (module docstring, "Reported"); where ``world.lowpass`` is given a reported ``tau`` is corrected for the
+        low-pass and its interval is ``tau ± t rms / slope`` (``info["lowpass"]``:
         :func:`_lowpass_correction`'s numbers, None where its worlds fail and the fit's own are reported).
     """
-    from adaptive_ff.identification.covariance import bootstrap_t_quantile
     from adaptive_ff.identification.physical_id import fit_physical
 
     stribeck = math.isfinite(Vs) and math.isfinite(delta)
@@ -365,17 +368,13 @@ def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTST
     if reason is not None:
         return JointLag(math.nan, (math.nan, math.nan), reason, info)
     if world.lowpass is not None:
-        corr = _lowpass_correction(t, u, w, fit, min(float(world.lowpass), 0.2 * info["rate"]))
-        info["lowpass"] = corr
-        if corr is not None:
-            tau_ii, slope = corr["tau"], corr["slope"]
-            if not tau_ii > 0.0:
-                return JointLag(math.nan, (math.nan, math.nan), f"the output-error estimate {1e3 * est:.3g} ms is "
-                                f"all the record's low-pass: the fitted joint read through it reads "
-                                f"{1e3 * corr['reads'][0]:.3g} ms", info)
-            half = bootstrap_t_quantile(info["n_valid"], 0.95) * info["rms"] / slope
-            est, lo, hi = tau_ii, tau_ii - half, tau_ii + half
-    return JointLag(est, (float(max(lo, 0.0)), float(hi)), None, info)
+        info["lowpass"] = _lowpass_correction(t, u, w, fit, min(float(world.lowpass), 0.2 * info["rate"]))
+        reason = correction_reason(info)
+        if reason is not None:
+            return JointLag(math.nan, (math.nan, math.nan), reason, info)
+        if info["lowpass"] is not None:
+            est, lo, hi = corrected_interval(info)
+    return JointLag(est, (float(lo), float(hi)), None, info)
 
 
 def _lowpass_correction(t, u, w, fit, lowpass: float) -> dict | None:
@@ -423,6 +422,62 @@ def _lowpass_correction(t, u, w, fit, lowpass: float) -> dict | None:
     slope = (b1 - b2) / (est - tau1) if est != tau1 else math.nan
     slope = min(max(slope, LAG_SLOPE_MIN), 1.0) if math.isfinite(slope) and slope > 0.0 else 1.0
     return {"tau": tau1 + (est - b2) / slope, "slope": slope, "worlds": [est, tau1], "reads": [b1, b2]}
+
+
+def corrected_interval(info: dict) -> tuple:
+    """A lag's low-pass-corrected estimate and 95 % interval ``(tau, lo, hi)`` (s): ``tau ± t rms / slope`` (module
+    docstring, "Reported").
+
+    Parameters
+    ----------
+    info : dict
+        :attr:`JointLag.info` of the fit: ``lowpass`` (:func:`_lowpass_correction`'s ``tau`` and ``slope``, not
+        None), ``n_valid`` and ``rms`` (s) of the bootstrap's refits.
+
+    Returns
+    -------
+    tuple of float
+        The corrected lag and its interval's ends (s), ``t`` the Student-t quantile of the valid refits
+        (:func:`adaptive_ff.identification.covariance.bootstrap_t_quantile`).
+    """
+    from adaptive_ff.identification.covariance import bootstrap_t_quantile
+
+    tau, slope = info["lowpass"]["tau"], info["lowpass"]["slope"]
+    half = bootstrap_t_quantile(info["n_valid"], 0.95) * info["rms"] / slope
+    return tau, tau - half, tau + half
+
+
+def correction_reason(info: dict) -> str | None:
+    """Why a lag that passes :func:`lag_reason` is not reported once corrected for the record's low-pass, or None
+    where it is (module docstring, "Reported"): no positive lag reads as the estimate, or the corrected interval
+    (:func:`corrected_interval`) reaches below :data:`LAG_FLOOR_SAMPLES` samples of the record.
+
+    Parameters
+    ----------
+    info : dict
+        :attr:`JointLag.info` of the fit: ``estimate`` (s), ``rate`` (Hz), ``lowpass`` (None: not corrected, no
+        reason), ``n_valid`` and ``rms``.
+
+    Returns
+    -------
+    str or None
+        The reason, the numbers named.
+    """
+    corr = info.get("lowpass")
+    if corr is None:
+        return None
+    est = float(info["estimate"])
+    if not corr["tau"] > 0.0:
+        return (f"the output-error estimate {1e3 * est:.3g} ms is all the record's low-pass: the fitted joint read "
+                f"through it reads {1e3 * corr['reads'][0]:.3g} ms")
+    tau, lo, hi = corrected_interval(info)
+    floor = LAG_FLOOR_SAMPLES / float(info["rate"])
+    if lo <= floor:
+        return (f"the log does not determine it: the output-error estimate {1e3 * est:.3g} ms reads {1e3 * tau:.3g} "
+                f"ms once corrected for the record's low-pass, with the 95 % interval [{1e3 * lo:.3g}, "
+                f"{1e3 * hi:.3g}] ms, which reaches below {LAG_FLOOR_SAMPLES:g} samples of the record "
+                f"({1e3 * floor:.3g} ms), what joints without a lag read")
+    return None
 
 
 def _h_refine(t) -> float:

@@ -424,6 +424,38 @@ def test_lag_free_joint_null_and_lagged_joint_covered(arm):
     assert reset.params["tau"] > 5e-3 > 5.0 * wrist.info["estimate"]
 
 
+def test_lag_free_sticking_joint_null_by_its_corrected_interval(arm):
+    """The planar arm without any lag, its stops integrated finely (``stop_refine=10``, as a continuous arm's; 10 s,
+    seed 0), the wrist's record with the true rigid body removed and its true Stribeck shape held: at the record's
+    step the output-error fit reads the wrist's sticking at its stops as a lag of about 2.5 ms, with a fit interval
+    above the floor (measured 2.46 [2.14, 3.31] ms), which the low-pass correction's wider interval reaches below
+    (2.48 [1.69, 3.27] ms): null, as the floor holds for the reported interval too (module docstring of
+    adaptive_ff.arm.lag, "Reported")."""
+    from dataclasses import replace
+
+    from adaptive_ff.arm.lag import LAG_FLOOR_SAMPLES, LagWorld, lag_records
+    from adaptive_ff.arm.simulate import ArmPlant
+
+    friction = [replace(f, tau=0.0) for f in FRICTION]
+    log = simulate_arm(arm, friction, run=ArmSimulation(duration=10.0, substeps=1, stop_refine=10), seed=0,
+                       armature=ARMATURE)
+    theta = np.array(arm.theta_urdf, dtype=float)
+    theta[-arm.n:] = ARMATURE
+    J = np.diag(ArmPlant(arm, friction, armature=ARMATURE).mass_matrix(np.mean(log.q, axis=0)))
+    t, u, w = lag_records(log, arm, lambda Y: Y @ theta, J, 20.0)
+    wrist = joint_lag(t, u[:, 2], w[:, 2], friction[2].Vs, friction[2].delta, seed=2, world=LagWorld(lowpass=100.0))
+    floor = LAG_FLOOR_SAMPLES / wrist.info["rate"]
+    lo, hi = wrist.info["interval95"]
+    assert floor < lo < wrist.info["estimate"] < hi < 2.0 * floor, wrist.info  # the fit alone would report it
+    corrected = wrist.info["lowpass"]["tau"]
+    assert floor < corrected < hi, wrist.info  # a positive lag, above the floor itself
+    assert np.isnan(wrist.tau) and np.all(np.isnan(wrist.interval95)), wrist
+    assert "once corrected for the record's low-pass" in wrist.reason and "below 2 samples of the record (2 ms)" \
+        in wrist.reason, wrist.reason
+    m = re.search(r"interval \[([0-9.]+), ([0-9.]+)\] ms, which reaches below", wrist.reason)
+    assert float(m.group(1)) < 1e3 * floor < 1e3 * corrected < float(m.group(2)), wrist.reason
+
+
 def test_lag_reason_rules():
     """lag_reason on the numbers of three joints of benchmarks/arm_lag.py (ms): a lag-free elbow read 4.05 [1.60,
     5.12] whose refits read 0.69 longer on average (17 % of it): null; a lagged shoulder 5.85 [5.67, 5.81], refits
@@ -439,6 +471,31 @@ def test_lag_reason_rules():
     assert lag_reason(0.91e-3, (0.84e-3, 1.17e-3), {"rate": 4000.0, "bias": -0.1e-3}) is None
     assert "no finite interval" in lag_reason(5e-3, (np.nan, np.nan), {"rate": 1000.0, "bias": 0.0})
     assert "reaches zero" in lag_reason(5e-3, (-1e-3, 9e-3), {"rate": 1000.0, "bias": 0.0})
+
+
+def test_correction_reason_rules():
+    """correction_reason and corrected_interval on the numbers of the finely integrated lag-free wrist of
+    test_lag_free_sticking_joint_null_by_its_corrected_interval (ms): the estimate 2.46 corrected to 2.48, 10 valid
+    refits with an RMS deviation of 0.35: interval 2.48 ± t(0.975, 10) 0.35 / slope, [1.70, 3.26] at slope 1, below
+    the floor of 2 ms at 1 kHz: null; at 4 kHz (floor 0.5 ms) reported; a secant of slope 0.5 doubles the half-width;
+    a correction to no positive lag: null; no correction (its worlds failed): no reason."""
+    from scipy import stats
+
+    from adaptive_ff.arm.lag import corrected_interval, correction_reason
+
+    info = {"estimate": 2.46e-3, "rate": 1000.0, "n_valid": 10, "rms": 0.35e-3,
+            "lowpass": {"tau": 2.48e-3, "slope": 1.0, "reads": [2.5e-3, 2.3e-3]}}
+    half = stats.t.ppf(0.975, 10) * 0.35e-3
+    assert corrected_interval(info) == pytest.approx((2.48e-3, 2.48e-3 - half, 2.48e-3 + half), rel=1e-12)
+    assert 1.69e-3 < 2.48e-3 - half < 1.71e-3
+    reason = correction_reason(info)
+    assert reason is not None and "reads 2.48 ms once corrected for the record's low-pass, with the 95 % interval " \
+        "[1.7, 3.26] ms, which reaches below 2 samples of the record (2 ms)" in reason, reason
+    assert correction_reason(dict(info, rate=4000.0)) is None
+    flat = dict(info, lowpass=dict(info["lowpass"], slope=0.5))
+    assert corrected_interval(flat)[1] == pytest.approx(2.48e-3 - 2.0 * half, rel=1e-12)
+    assert "all the record's low-pass" in correction_reason(dict(info, lowpass=dict(info["lowpass"], tau=-0.1e-3)))
+    assert correction_reason(dict(info, lowpass=None)) is None
 
 
 def test_lag_reason_stick_rule():
