@@ -105,7 +105,7 @@ from plant.stribeck_map import static_friction, stribeck_shape
 from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states, parallel_filter
 from adaptive_ff.arm.intervals import (accepted_shapes, lag_ranges, lag_shapes, lr_allowance, profile_interval,
                                        widen, widen_lag)
-from adaptive_ff.arm.lag import (LAG_CUTOFF_FACTOR, LAG_FLOOR_SAMPLES, JointLag, LagOptions, LagWorld, joint_lags,
+from adaptive_ff.arm.lag import (LAG_CUTOFF_FACTOR, JointLag, LagOptions, LagWorld, joint_lags, lag_floor,
                                  lag_records, stick_speeds, stop_bands, velocity_noise)
 from adaptive_ff.arm.result import ArmIdentification, ArmJoint
 from adaptive_ff.arm.robot import ArmModel
@@ -745,7 +745,7 @@ def _capped_null_ranges(ends, lags, lagged, stages, run):
     stage, new = stages
     high = ends[1].copy()
     for j in np.flatnonzero(np.isfinite(high) & ~np.isfinite(lagged)):
-        floor = LAG_FLOOR_SAMPLES / float(lags[j].info["rate"])
+        floor = lag_floor(lags[j].info)
         while high[j] > floor:
             trial = lagged.copy()
             trial[j] = high[j]

@@ -14,7 +14,7 @@ import numpy as np
 
 from plant.errors import ExcitationError
 
-from adaptive_ff.arm.lag import LAG_FLOOR_SAMPLES
+from adaptive_ff.arm.lag import lag_floor
 
 __all__ = ["CHI2_95", "CROSSING_STEPS", "LAG_SHAPE_DRAWS", "accepted_shapes", "crossings", "lag_ranges", "lag_shapes",
            "lr_allowance", "profile_bound", "profile_interval", "widen", "widen_lag"]
@@ -201,5 +201,5 @@ def lag_ranges(lags, lagged):
         elif not np.isfinite(lg.tau) and lg.info and "rate" in lg.info:
             hi = (lg.info.get("interval95") or [np.nan, np.nan])[1]
             if np.isfinite(hi):
-                low[j], high[j] = 0.0, max(float(hi), LAG_FLOOR_SAMPLES / float(lg.info["rate"]))
+                low[j], high[j] = 0.0, max(float(hi), lag_floor(lg.info))
     return None if not np.isfinite(high).any() else (low, high)

@@ -121,7 +121,7 @@ from plant.errors import ExcitationError, ParameterError, SignalError
 __all__ = ["JointLag", "LagOptions", "LagWorld", "LAG_RATE", "LAG_CUTOFF_FACTOR", "LAG_BOOTSTRAP", "LAG_WORKERS",
            "LAG_FLOOR_SAMPLES", "LAG_SHIFT_MAX", "LAG_SLOPE_MIN", "LAG_INJECTION_GAIN", "LAG_STOP_BAND",
            "LAG_STICK_MAX", "lag_records", "joint_lag", "joint_lags", "lag_reason", "correction_reason",
-           "corrected_interval", "stick_speeds", "stop_bands",
+           "corrected_interval", "lag_floor", "stick_speeds", "stop_bands",
            "velocity_noise"]
 
 #: Rate (Hz) at which the output-error record samples the log (every k-th sample; a slower log is taken as is).
@@ -471,13 +471,23 @@ def correction_reason(info: dict) -> str | None:
         return (f"the output-error estimate {1e3 * est:.3g} ms is all the record's low-pass: the fitted joint read "
                 f"through it reads {1e3 * corr['reads'][0]:.3g} ms")
     tau, lo, hi = corrected_interval(info)
-    floor = LAG_FLOOR_SAMPLES / float(info["rate"])
-    if lo <= floor:
-        return (f"the log does not determine it: the output-error estimate {1e3 * est:.3g} ms reads {1e3 * tau:.3g} "
-                f"ms once corrected for the record's low-pass, with the 95 % interval [{1e3 * lo:.3g}, "
-                f"{1e3 * hi:.3g}] ms, which reaches below {LAG_FLOOR_SAMPLES:g} samples of the record "
-                f"({1e3 * floor:.3g} ms), what joints without a lag read")
+    if lo <= lag_floor(info):
+        return _below_floor(f"the output-error estimate {1e3 * est:.3g} ms reads {1e3 * tau:.3g} ms once corrected "
+                            f"for the record's low-pass, with the 95 % interval [{1e3 * lo:.3g}, {1e3 * hi:.3g}] ms",
+                            lag_floor(info))
     return None
+
+
+def lag_floor(info: dict) -> float:
+    """The floor (s) below which no lag is reported: :data:`LAG_FLOOR_SAMPLES` samples of the record, ``info["rate"]``
+    (Hz) its rate (:attr:`JointLag.info`; module docstring, "Reported")."""
+    return LAG_FLOOR_SAMPLES / float(info["rate"])
+
+
+def _below_floor(span: str, floor: float) -> str:
+    """The reason of a lag whose interval (``span``, the words that name it) reaches below the ``floor`` (s)."""
+    return (f"the log does not determine it: {span}, which reaches below {LAG_FLOOR_SAMPLES:g} samples of the record "
+            f"({1e3 * floor:.3g} ms), what joints without a lag read")
 
 
 def _h_refine(t) -> float:
@@ -570,10 +580,8 @@ def lag_reason(estimate: float, interval95: tuple, info: dict) -> str | None:
     if math.isfinite(bias) and bias > LAG_SHIFT_MAX * estimate:
         return (f"the log does not determine it: {span}, but its bootstrap refits read {1e3 * bias:.3g} ms more on "
                 f"average (more than {100 * LAG_SHIFT_MAX:g} % of it), as on joints without a lag")
-    floor = LAG_FLOOR_SAMPLES / float(info["rate"])
-    if lo <= floor:
-        return (f"the log does not determine it: {span}, which reaches below {LAG_FLOOR_SAMPLES:g} samples of the "
-                f"record ({1e3 * floor:.3g} ms), what joints without a lag read")
+    if lo <= lag_floor(info):
+        return _below_floor(span, lag_floor(info))
     stick = info.get("stick")
     if info.get("stop_band") is None and stick is not None and stick >= LAG_STICK_MAX:
         return (f"the log does not determine it at the record's step: {span}, but the joint sticks hard (its Coulomb "

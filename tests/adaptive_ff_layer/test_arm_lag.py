@@ -388,6 +388,20 @@ def test_compare_arm_designs_take_the_noise_and_start_per_joint(arm, result, arm
     assert designs[0].options.feedforward.start is not None and designs[1].options.feedforward.start is None
 
 
+def _true_records(arm, friction, run, seed):
+    """``(t, u, w)`` of lag_records on the planar arm simulated with ``friction`` (``run``, ``seed``, the armatures
+    ARMATURE), with the true rigid body removed (the URDF's inertias with those armatures) and the true ``M_jj`` at the
+    log's mean configuration added back, at the default cutoff of 20 Hz."""
+    from adaptive_ff.arm.lag import lag_records
+    from adaptive_ff.arm.simulate import ArmPlant
+
+    log = simulate_arm(arm, friction, run=run, seed=seed, armature=ARMATURE)
+    theta = np.array(arm.theta_urdf, dtype=float)
+    theta[-arm.n:] = ARMATURE
+    J = np.diag(ArmPlant(arm, friction, armature=ARMATURE).mass_matrix(np.mean(log.q, axis=0)))
+    return lag_records(log, arm, lambda Y: Y @ theta, J, 20.0)
+
+
 def test_lag_free_joint_null_and_lagged_joint_covered(arm):
     """The planar arm with a 10 ms lag on the elbow alone (10 s, seed 2): each joint's lag fit on its record with
     the URDF's rigid body removed and its true Stribeck shape held. The lag-free shoulder and wrist, which the
@@ -398,16 +412,11 @@ def test_lag_free_joint_null_and_lagged_joint_covered(arm):
     (``injection_gain=1``) reads as a lag of about 8 ms (module docstring of adaptive_ff.arm.lag, "Predictor")."""
     from dataclasses import replace
 
-    from adaptive_ff.arm.lag import LAG_INJECTION_GAIN, lag_records
-    from adaptive_ff.arm.simulate import ArmPlant
+    from adaptive_ff.arm.lag import LAG_INJECTION_GAIN
     from adaptive_ff.identification.physical_id import fit_physical
 
     friction = [replace(f, tau=TAU if j == 1 else 0.0) for j, f in enumerate(FRICTION)]
-    log = simulate_arm(arm, friction, run=ArmSimulation(duration=10.0, substeps=1), seed=2, armature=ARMATURE)
-    theta = np.array(arm.theta_urdf, dtype=float)
-    theta[-arm.n:] = ARMATURE  # the true rigid body: the URDF's inertias with the simulated armatures
-    J = np.diag(ArmPlant(arm, friction, armature=ARMATURE).mass_matrix(np.mean(log.q, axis=0)))
-    t, u, w = lag_records(log, arm, lambda Y: Y @ theta, J, 20.0)
+    t, u, w = _true_records(arm, friction, ArmSimulation(duration=10.0, substeps=1), seed=2)
     shoulder = joint_lag(t, u[:, 0], w[:, 0], friction[0].Vs, friction[0].delta, seed=2)
     elbow = joint_lag(t, u[:, 1], w[:, 1], friction[1].Vs, friction[1].delta, seed=4)
     wrist = joint_lag(t, u[:, 2], w[:, 2], friction[2].Vs, friction[2].delta, seed=6)
@@ -433,16 +442,10 @@ def test_lag_free_sticking_joint_null_by_its_corrected_interval(arm):
     adaptive_ff.arm.lag, "Reported")."""
     from dataclasses import replace
 
-    from adaptive_ff.arm.lag import LAG_FLOOR_SAMPLES, LagWorld, lag_records
-    from adaptive_ff.arm.simulate import ArmPlant
+    from adaptive_ff.arm.lag import LAG_FLOOR_SAMPLES, LagWorld
 
     friction = [replace(f, tau=0.0) for f in FRICTION]
-    log = simulate_arm(arm, friction, run=ArmSimulation(duration=10.0, substeps=1, stop_refine=10), seed=0,
-                       armature=ARMATURE)
-    theta = np.array(arm.theta_urdf, dtype=float)
-    theta[-arm.n:] = ARMATURE
-    J = np.diag(ArmPlant(arm, friction, armature=ARMATURE).mass_matrix(np.mean(log.q, axis=0)))
-    t, u, w = lag_records(log, arm, lambda Y: Y @ theta, J, 20.0)
+    t, u, w = _true_records(arm, friction, ArmSimulation(duration=10.0, substeps=1, stop_refine=10), seed=0)
     wrist = joint_lag(t, u[:, 2], w[:, 2], friction[2].Vs, friction[2].delta, seed=2, world=LagWorld(lowpass=100.0))
     floor = LAG_FLOOR_SAMPLES / wrist.info["rate"]
     lo, hi = wrist.info["interval95"]
