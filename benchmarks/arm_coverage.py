@@ -1,7 +1,7 @@
 """Coverage of identify-arm's 95 % intervals over seeded simulated arms, per parameter.
 
 Run:  python -m benchmarks.arm_coverage [--n 50] [--start 0] [--bootstrap 200] [--duration 20] [--rows moving|sliding]
-      [--lag] [--stops | --arm-stops]
+      [--lag] [--coarse-arms] [--refine-stops]
 
 Each arm is ``examples/planar3.urdf`` (three links in the vertical plane) with the armatures 0.2, 0.1, 0.05 kg·m²
 and a friction per joint drawn from its seed (:func:`draw_friction`: ``Fc`` 0.5-2.5 N·m, ``Fs = Fc`` times
@@ -14,10 +14,12 @@ With ``--lag`` each joint's friction lags (eq. 1) as ``benchmarks/arm_lag.py`` d
 with probability 0.4, else 2-10 ms), and the arms are identified with their lag fits (10 refits each; the whole-arm
 fit then runs again with each reported lag in its joint's friction columns), whose reported lags' intervals make
 the row ``tau`` (over the lagged joints whose lag is reported; a lag reported on a lag-free joint counts as outside).
-``--stops`` steps each arm's periods in which a joint stops or reverses ten times as finely
-(``ArmSimulation.stop_refine``) and refines the lag fits' stops too (``LagOptions(refine_stops=True)``);
-``--arm-stops`` steps the arms' stops so and leaves the lag fits at the record's step (``identify-arm``'s default
-on an arm integrated as a continuous one is).
+Each arm is integrated as a continuous arm is: one Runge-Kutta step per 1 ms period, and ten
+(:data:`adaptive_ff.arm.simulate.STOP_REFINE`, ``ArmSimulation.stop_refine``) in each period in which a joint stops
+or reverses, where a lagged joint rings through zero velocity faster than a 1 ms step resolves. ``--coarse-arms``
+steps those periods once too (the step's own ringing then sits in the log at every stop). ``--refine-stops`` refines
+the lag fits' stops (``LagOptions(refine_stops=True)``, ``identify-arm --refine-stops``); without it the lag fits run
+at the record's step, ``identify-arm``'s default.
 ``--workers N`` runs the arms in N processes.
 
 Printed per parameter: the share of the true values inside their 95 % interval, over every joint of every arm
@@ -38,6 +40,8 @@ from functools import partial
 from pathlib import Path
 
 import numpy as np
+
+from adaptive_ff.arm.simulate import STOP_REFINE
 
 ROOT = Path(__file__).resolve().parents[1]
 URDF = ROOT / "examples" / "planar3.urdf"
@@ -82,11 +86,13 @@ def arm_friction(n: int, seed: int, lag: bool = False) -> list:
     return [replace(f, tau=t) for f, t in zip(friction, draw_lags(n, seed))] if lag else friction
 
 
-def arm_log(arm, seed: int, *, duration: float = 20.0, lag: bool = False, substeps: int = 1, stop_refine: int = 1):
+def arm_log(arm, seed: int, *, duration: float = 20.0, lag: bool = False, substeps: int = 1,
+            stop_refine: int = STOP_REFINE):
     """The simulated log (:class:`adaptive_ff.arm.arm_log.ArmLog`) of the arm of seed ``seed``: its friction
     :func:`arm_friction`, ``duration`` seconds (s) of the planar arm with the armatures :data:`ARMATURE`, integrated
     with ``substeps`` Runge-Kutta steps per 1 ms period (the coverage takes 1) and ``stop_refine`` times as many in
-    the periods in which a joint stops or reverses (``ArmSimulation.stop_refine``; 1, the default: none)."""
+    the periods in which a joint stops or reverses (``ArmSimulation.stop_refine``; default :data:`adaptive_ff.arm.
+    simulate.STOP_REFINE`, a continuous arm's stops; 1: none)."""
     from adaptive_ff.arm.simulate import ArmSimulation, simulate_arm
 
     run = ArmSimulation(duration=duration, substeps=substeps, stop_refine=stop_refine)
@@ -112,27 +118,24 @@ def true_inertia(arm, q) -> np.ndarray:
 
 
 def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, rows: str = "moving",
-             log=None, lag: bool = False, stops: bool = False, arm_stops: bool = False,
+             log=None, lag: bool = False, stop_refine: int = STOP_REFINE, refine_stops: bool = False,
              misses: list | None = None) -> dict:
     """``{parameter: [hits, count, unwarned]}`` of one arm (seed ``seed``), the base parameters under ``"base"``
     (``unwarned``: the misses whose joint has no warning naming the parameter); ``misses``: None, or a list to which
     a line per joint parameter whose interval misses its truth is appended (and per lagged joint whose lag is null);
-    ``log``: its :func:`arm_log` if
-    already simulated (default None: simulated here); ``lag``: the joints' friction lagged (:func:`draw_lags`);
-    ``stops``: the arm's stops stepped finely (``stop_refine`` :data:`adaptive_ff.arm.simulate.STOP_REFINE`) and the
-    lag fits' too (``LagOptions(refine_stops=True)``); ``arm_stops``: the arm's stops stepped finely, the lag fits
-    not refined."""
+    ``log``: its :func:`arm_log` if already simulated (default None: simulated here, its stops stepped ``stop_refine``
+    times as finely); ``lag``: the joints' friction lagged (:func:`draw_lags`); ``refine_stops``: the lag fits' stops
+    refined (``LagOptions(refine_stops=True)``)."""
     import re
 
     from adaptive_ff.arm.fit import identify_arm
     from adaptive_ff.arm.lag import LagOptions
-    from adaptive_ff.arm.simulate import STOP_REFINE
 
     friction = arm_friction(arm.n, seed, lag)
     if log is None:
-        log = arm_log(arm, seed, duration=duration, lag=lag, stop_refine=STOP_REFINE if stops or arm_stops else 1)
+        log = arm_log(arm, seed, duration=duration, lag=lag, stop_refine=stop_refine)
     res = identify_arm(log, arm, seed=seed, n_bootstrap=n_bootstrap, rows=rows,
-                       lag=LagOptions(workers=1, refine_stops=stops) if lag else False)
+                       lag=LagOptions(workers=1, refine_stops=refine_stops) if lag else False)
     J = true_inertia(arm, log.q.mean(axis=0))
     out = {k: [0, 0, 0] for k in PARAMETERS + ("base",)}
     for j, (joint, f) in enumerate(zip(res.joints, friction)):
@@ -201,13 +204,11 @@ def main(argv=None) -> int:
                     help=f"identify_arm's rows (default {DEFAULT_ROWS}, its default)")
     ap.add_argument("--lag", action="store_true", help="each joint's friction lagged (none or 2-10 ms), the lags fitted")
     ap.add_argument("--workers", type=int, default=1, help="processes the arms run in (default 1)")
-    steps = ap.add_mutually_exclusive_group()
-    steps.add_argument("--stops", action="store_true",
-                       help="the arms' stops stepped finely (ArmSimulation.stop_refine) and the lag fits' too "
-                            "(LagOptions.refine_stops)")
-    steps.add_argument("--arm-stops", dest="arm_stops", action="store_true",
-                       help="the arms' stops stepped finely, the lag fits at the record's step (identify-arm's "
-                            "default)")
+    ap.add_argument("--coarse-arms", dest="coarse_arms", action="store_true",
+                    help="the arms' stops stepped once per period as the rest (default: ten times, "
+                         "ArmSimulation.stop_refine, as a continuous arm's)")
+    ap.add_argument("--refine-stops", dest="refine_stops", action="store_true",
+                    help="the lag fits' stops refined (LagOptions.refine_stops, identify-arm --refine-stops)")
     ap.add_argument("--misses", action="store_true",
                     help="list each joint parameter whose interval misses its truth, and each lagged joint whose "
                          "lag is null")
@@ -215,7 +216,7 @@ def main(argv=None) -> int:
     total = {k: [0, 0, 0] for k in PARAMETERS + ("base",)}
     c0 = cpu_seconds()
     job = partial(_arm_hits, duration=args.duration, n_bootstrap=args.bootstrap, rows=args.rows, lag=args.lag,
-                  stops=args.stops, arm_stops=args.arm_stops)
+                  stop_refine=1 if args.coarse_arms else STOP_REFINE, refine_stops=args.refine_stops)
     seeds = range(args.start, args.start + args.n)
     if args.workers > 1:
         with ProcessPoolExecutor(max_workers=args.workers) as pool:
@@ -228,8 +229,8 @@ def main(argv=None) -> int:
     cpu = cpu_seconds() - c0
     print(f"identify-arm 95 % intervals over {args.n} simulated arms (planar3, seeds {args.start}-"
           f"{args.start + args.n - 1}, {args.duration:g} s logs, {args.bootstrap} bootstrap refits, rows {args.rows}"
-          f"{', lagged friction' if args.lag else ''}{', stops refined' if args.stops else ''}"
-          f"{', arms with refined stops' if args.arm_stops else ''})")
+          f"{', lagged friction' if args.lag else ''}{', coarse arms' if args.coarse_arms else ''}"
+          f"{', lag fits with refined stops' if args.refine_stops else ''})")
     print(f"{'parameter':<10} {'inside':>8} {'of':>6} {'coverage':>9}   95 % (Wilson)    outside, no warning")
     for k, (h, c, u) in total.items():
         if c == 0:

@@ -1,7 +1,7 @@
 """identify-arm's friction lag over seeded simulated arms: coverage of the true lags, false lags, missed lags.
 
 Run:  python -m benchmarks.arm_lag [--n 20] [--start 0] [--lag-bootstrap 10] [--duration 20] [--cache FILE]
-      [--workers 1] [--stops]
+      [--workers 1] [--coarse-arms] [--refine-stops]
 
 Each arm is ``examples/planar3.urdf`` with the armatures 0.2, 0.1, 0.05 kg·m², the friction of ``docs/your_arm.md``
 (:data:`FRICTION`) with ``Fc, Fs, sigma`` scaled by a factor 0.8-1.25 per joint, or with ``--friction coverage``
@@ -9,19 +9,19 @@ the wider draws of :func:`benchmarks.arm_coverage.draw_friction` (a wrist with u
 which sticks at most reversals), and a lag per joint drawn from its seed (:func:`draw_friction`: none with
 probability :data:`benchmarks.arm_coverage.P_LAG_FREE`, else uniform in 2-10 ms), simulated for
 ``--duration`` s (:func:`adaptive_ff.arm.simulate.simulate_arm`, the default sensor noise, one Runge-Kutta step per
-period) and identified as ``adaptive-ff identify-arm`` identifies it (:func:`adaptive_ff.arm.fit.identify_arm`,
-bootstrap seed = the arm's, ``--lag-bootstrap`` refits of each lag fit, 30 refits of the whole-arm bootstrap: the
-lag fits do not use its intervals).
+period and ten, :data:`adaptive_ff.arm.simulate.STOP_REFINE`, in each period in which a joint stops or reverses, as
+a continuous arm's stops are; ``--coarse-arms``: one there too) and identified as ``adaptive-ff identify-arm``
+identifies it (:func:`adaptive_ff.arm.fit.identify_arm`, bootstrap seed = the arm's, ``--lag-bootstrap`` refits of
+each lag fit, 30 refits of the whole-arm bootstrap: the lag fits do not use its intervals).
 
 Printed: over the lag-free joints the share reported with a lag (false lags); over the lagged joints the share
 reported null and, of the reported ones, the share whose 95 % interval holds the true lag (coverage), each with its
 95 % binomial (Wilson) interval; the reported intervals' median width over the true lag; and the coverage by joint.
-``--cache FILE`` keeps each arm's joints (JSON lines) and reads back the arms it already holds: it keeps the fits,
-and each joint is decided again by :func:`adaptive_ff.arm.lag.lag_reason` and ``correction_reason`` (a
-cache made before a change of the lag fit itself is stale; a cache holds one ``--stops`` setting).
-``--stops`` steps each arm finely in the periods in which a joint stops or reverses
-(``ArmSimulation.stop_refine`` :data:`adaptive_ff.arm.simulate.STOP_REFINE`) and refines the lag fits' stops too
-(``LagOptions(refine_stops=True)``; ``docs/your_arm.md``, Not yet). ``--workers N`` runs the arms in N processes. 50 arms
+``--cache FILE`` keeps each arm's joints (JSON lines, each with the run's settings) and reads back the arms it
+already holds at the same settings (an arm at other settings runs again): it keeps the fits, and each joint is
+decided again by :func:`adaptive_ff.arm.lag.lag_reason` and ``correction_reason`` (a cache made before a change of
+the lag fit itself is stale). ``--refine-stops`` refines the lag fits' stops (``LagOptions(refine_stops=True)``,
+``identify-arm --refine-stops``; ``docs/your_arm.md``, Not yet). ``--workers N`` runs the arms in N processes. 50 arms
 take 25-45 minutes of CPU; the numbers of seeds 0-49 (0-19 set the rule, 20-49 check it) are in
 ``docs/your_arm.md`` (How, Lag; Not yet).
 """
@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from adaptive_ff.arm.simulate import STOP_REFINE
 from benchmarks.arm_coverage import cpu_seconds, lag_draws, wilson
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -67,20 +68,21 @@ def draw_friction(n: int, seed: int, kind: str = "example") -> list:
 
 
 def arm_joints(arm, seed: int, *, duration: float = 20.0, n_lag: int = 10, kind: str = "example",
-               stops: bool = False) -> list:
+               stop_refine: int = STOP_REFINE, refine_stops: bool = False) -> list:
     """One arm's joints: ``{"seed", "joint", "true", "tau", "lo", "hi", "reason", "info"}`` per joint (s);
-    ``stops``: the arm's stops and the lag fits' refined (module docstring)."""
+    ``stop_refine``: the arm's steps per step in its stops (``ArmSimulation.stop_refine``; default a continuous
+    arm's, 1: coarse), ``refine_stops``: the lag fits' stops refined (module docstring)."""
     from adaptive_ff.arm.fit import identify_arm
     from adaptive_ff.arm.lag import LagOptions
-    from adaptive_ff.arm.simulate import STOP_REFINE, ArmSimulation, simulate_arm
+    from adaptive_ff.arm.simulate import ArmSimulation, simulate_arm
     from benchmarks.arm_coverage import ARMATURE
 
     friction = draw_friction(arm.n, seed, kind)
     lags = [f.tau for f in friction]
-    run = ArmSimulation(duration=duration, substeps=1, stop_refine=STOP_REFINE if stops else 1)
+    run = ArmSimulation(duration=duration, substeps=1, stop_refine=stop_refine)
     log = simulate_arm(arm, friction, run=run, seed=seed, armature=ARMATURE)
     res = identify_arm(log, arm, n_bootstrap=30, seed=seed,
-                       lag=LagOptions(n_bootstrap=n_lag, workers=1, refine_stops=stops))
+                       lag=LagOptions(n_bootstrap=n_lag, workers=1, refine_stops=refine_stops))
     out = []
     for j, joint in enumerate(res.joints):
         lo, hi = joint.interval95["tau"]
@@ -116,12 +118,14 @@ def summary(rows: list) -> dict:
             "width": float(np.median(width)) if width else math.nan}
 
 
-def _read_cache(path) -> dict:
+def read_cache(path, settings: dict) -> dict:
+    """``{seed: rows}`` of the cache file ``path`` (None or absent: empty), its arms run at ``settings`` only."""
     rows = {}
     if path is not None and Path(path).exists():
         for line in Path(path).read_text().splitlines():
             r = json.loads(line)
-            rows.setdefault(r["seed"], []).append(r)
+            if r.get("settings") == settings:
+                rows.setdefault(r["seed"], []).append(r)
     return rows
 
 
@@ -136,23 +140,27 @@ def main(argv=None) -> int:
                     help="the joints' friction: the page's scaled (default) or arm_coverage's draws")
     ap.add_argument("--cache", default=None, help="JSON-lines file of the arms' joints, read and appended")
     ap.add_argument("--verbose", action="store_true", help="print every joint")
-    ap.add_argument("--stops", action="store_true",
-                    help="the arms' stops stepped finely (ArmSimulation.stop_refine) and the lag fits' too "
-                         "(LagOptions.refine_stops)")
+    ap.add_argument("--coarse-arms", dest="coarse_arms", action="store_true",
+                    help="the arms' stops stepped once per period as the rest (default: ten times, "
+                         "ArmSimulation.stop_refine, as a continuous arm's)")
+    ap.add_argument("--refine-stops", dest="refine_stops", action="store_true",
+                    help="the lag fits' stops refined (LagOptions.refine_stops, identify-arm --refine-stops)")
     ap.add_argument("--workers", type=int, default=1, help="processes the arms run in (default 1; the result does "
                     "not depend on it)")
     a = ap.parse_args(argv)
-    cache = _read_cache(a.cache)
+    settings = {"duration": a.duration, "n_lag": a.lag_bootstrap, "kind": a.friction,
+                "stop_refine": 1 if a.coarse_arms else STOP_REFINE, "refine_stops": a.refine_stops}
+    cache = read_cache(a.cache, settings)
     seeds = range(a.start, a.start + a.n)
     todo = [seed for seed in seeds if seed not in cache]
     c0 = cpu_seconds()
-    job = partial(_arm_rows, duration=a.duration, n_lag=a.lag_bootstrap, kind=a.friction, stops=a.stops)
+    job = partial(_arm_rows, settings=settings)
     if a.workers > 1 and len(todo) > 1:
         with ProcessPoolExecutor(max_workers=a.workers) as pool:
             done = zip(todo, pool.map(job, todo))
-            _collect(done, cache, a.cache)
+            collect(done, cache, a.cache, settings)
     else:
-        _collect(((seed, job(seed)) for seed in todo), cache, a.cache)
+        collect(((seed, job(seed)) for seed in todo), cache, a.cache, settings)
     rows = []
     for seed in seeds:
         rows += cache[seed]
@@ -165,7 +173,8 @@ def main(argv=None) -> int:
                       f"{1e3 * r['info'].get('estimate', math.nan):6.2f} ms")
     s = summary(rows)
     print(f"{a.n} arms (seeds {a.start}-{a.start + a.n - 1}, friction {a.friction}), {a.duration:g} s logs, "
-          f"{a.lag_bootstrap} refits per lag fit" + (", stops refined" if a.stops else "")
+          f"{a.lag_bootstrap} refits per lag fit" + (", coarse arms" if a.coarse_arms else "")
+          + (", lag fits with refined stops" if a.refine_stops else "")
           + f"; CPU {cpu_seconds() - c0:.0f} s")
     for key, text in (("false", "lag-free joints reported with a lag"), ("missed", "lagged joints reported null"),
                       ("covered", "reported lags whose interval holds the true lag")):
@@ -182,21 +191,23 @@ def main(argv=None) -> int:
     return 0
 
 
-def _arm_rows(seed: int, *, duration: float, n_lag: int, kind: str, stops: bool = False) -> list:
-    """:func:`arm_joints` of arm ``seed`` (the URDF loaded in the calling process: a worker's)."""
+def _arm_rows(seed: int, *, settings: dict) -> list:
+    """:func:`arm_joints` of arm ``seed`` at ``settings`` (:func:`main`'s; the URDF loaded in the calling process: a
+    worker's)."""
     from adaptive_ff.arm.robot import load_urdf
 
-    return arm_joints(load_urdf(URDF), seed, duration=duration, n_lag=n_lag, kind=kind, stops=stops)
+    return arm_joints(load_urdf(URDF), seed, **settings)
 
 
-def _collect(done, cache: dict, path) -> None:
-    """Put each ``(seed, rows)`` of ``done`` into ``cache`` and append it to the cache file ``path`` (None: none)."""
+def collect(done, cache: dict, path, settings: dict) -> None:
+    """Put each ``(seed, rows)`` of ``done`` into ``cache`` and append it, each row with ``settings``, to the cache
+    file ``path`` (None: none)."""
     for seed, rows in done:
         cache[seed] = rows
         if path is not None:
             with open(path, "a", encoding="utf-8") as fh:
                 for r in rows:
-                    fh.write(json.dumps(r, default=float) + "\n")
+                    fh.write(json.dumps({**r, "settings": settings}, default=float) + "\n")
 
 
 if __name__ == "__main__":

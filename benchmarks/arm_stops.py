@@ -7,8 +7,8 @@ Part 1, the fit. Each case ``SEED:JOINT`` is joint ``JOINT`` (1-based, the log's
 ``benchmarks.arm_coverage --lag`` with seed ``SEED`` (:func:`benchmarks.arm_coverage.arm_friction`), simulated for
 20 s (:func:`adaptive_ff.arm.simulate.simulate_arm`) each way of ``--arms``: ``SUBSTEPS:REFINE``, that many
 Runge-Kutta steps per 1 ms period and ``REFINE`` times as many in the periods in which a joint stops or reverses
-(``ArmSimulation.stop_refine``; the coverage benchmarks take 1:1, the default). Its output-error record is built
-as ``identify-arm`` builds it (:func:`adaptive_ff.arm.lag.lag_records`) but with the *true* rigid body removed (the URDF's inertias with the
+(``ArmSimulation.stop_refine``; the coverage benchmarks take 1:10, ``--coarse-arms`` 1:1). Its output-error record
+is built as ``identify-arm`` builds it (:func:`adaptive_ff.arm.lag.lag_records`) but with the *true* rigid body removed (the URDF's inertias with the
 armatures; each joint's ``M_jj`` at the log's mean position), so no identification error enters, and the lag fit's
 output-error fit (:func:`adaptive_ff.identification.physical_id.fit_physical`: its one-step predictor and injection
 gain, no input delay, the true Stribeck shape held, no bootstrap, no low-pass correction) runs with each of

@@ -55,8 +55,9 @@ stepped finely it reads the lags of wrists whose friction is large for their ine
 light friction short, where the coarse step reads them right (the one-step predictor's pull toward the low-passed
 velocity on a model that settles at its stops). It is off by default (``identify-arm --refine-stops`` puts it on):
 it is not right on every joint, it takes two to four times the lag fits' CPU time on a log with long rests, and the
-lag's rules are calibrated on arms stepped once per period (``benchmarks/arm_lag.py``, ``benchmarks/arm_coverage.py``;
-their ``--stops``; ``docs/your_arm.md``, Not yet). Without it the lags of joints that stick hard are not reported
+lag's rules are calibrated on arms stepped once per period in their stops too (``benchmarks/arm_lag.py``,
+``benchmarks/arm_coverage.py``: their ``--coarse-arms``, and ``--refine-stops`` for this option; ``docs/your_arm.md``,
+Not yet). Without it the lags of joints that stick hard are not reported
 (:data:`LAG_STICK_MAX`, "Reported").
 
 The torque is taken at its time stamp (``input_delay=0``): a whole-arm log samples every joint's torque and

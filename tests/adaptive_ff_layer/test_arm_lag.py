@@ -460,10 +460,10 @@ def test_lag_free_sticking_joint_null_by_its_corrected_interval(arm):
 
 
 def test_lag_reason_rules():
-    """lag_reason on the numbers of three joints of benchmarks/arm_lag.py (ms): a lag-free elbow read 4.05 [1.60,
-    5.12] whose refits read 0.69 longer on average (17 % of it): null; a lagged shoulder 5.85 [5.67, 5.81], refits
-    0.11 longer (1.9 %): reported; a lag-free shoulder 0.91 [0.84, 1.17] at 1 kHz: null (below 2 ms), reported from a
-    record at 4 kHz (floor 0.5 ms)."""
+    """lag_reason on the numbers of three joints of benchmarks/arm_lag.py --coarse-arms (ms): a lag-free elbow read
+    4.05 [1.60, 5.12] whose refits read 0.69 longer on average (17 % of it): null; a lagged shoulder 5.85 [5.67,
+    5.81], refits 0.11 longer (1.9 %): reported; a lag-free shoulder 0.91 [0.84, 1.17] at 1 kHz: null (below 2 ms),
+    reported from a record at 4 kHz (floor 0.5 ms)."""
     from adaptive_ff.arm.lag import lag_reason
 
     elbow = lag_reason(4.05e-3, (1.60e-3, 5.12e-3), {"rate": 1000.0, "bias": 0.69e-3})
@@ -504,8 +504,8 @@ def test_correction_reason_rules():
 def test_lag_reason_stick_rule():
     """A joint that sticks hard (its Coulomb friction takes off at least LAG_STICK_MAX = 0.015 rad/s in one sample)
     has no lag reported from a fit at the record's step: the heavy wrist of benchmarks/arm_coverage.py's seed 22
-    (Fc Ts / J = 0.0410 rad/s; true lag 4.40 ms) read 9.17 [7.16, 12.19] ms, its refits 0.51 ms shorter. Refined stops
-    (a stop band) lift the rule, and so does a joint below the bound."""
+    (--coarse-arms; Fc Ts / J = 0.0410 rad/s; true lag 4.40 ms) read 9.17 [7.16, 12.19] ms, its refits 0.51 ms
+    shorter. Refined stops (a stop band) lift the rule, and so does a joint below the bound."""
     from adaptive_ff.arm.lag import LAG_STICK_MAX, lag_reason
 
     assert LAG_STICK_MAX == 0.015
