@@ -149,7 +149,7 @@ def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, 
                 if k == "tau" and misses is not None:
                     misses.append(f"seed {seed} {joint.name}: tau {1e3 * f.tau:.2f} ms, null")
                 continue  # Vs where no Stribeck term was kept
-            inside = bool(lo <= truth[k] <= hi)
+            inside = bool(lo <= truth[k] <= hi) and not (k == "tau" and f.tau == 0.0)  # a false lag: outside
             if not inside and misses is not None:
                 s, unit = (1e3, " ms") if k == "tau" else (1.0, "")  # the lag in ms, as the null lags' lines
                 misses.append(f"seed {seed} {joint.name}: {k} {s * truth[k]:.5g}{unit} outside [{s * lo:.5g}, "

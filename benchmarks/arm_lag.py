@@ -92,29 +92,38 @@ def arm_joints(arm, seed: int, *, duration: float = 20.0, n_lag: int = 10, kind:
     return out
 
 
-def reported(row: dict) -> bool:
-    """Whether identify-arm reports the joint's lag: :func:`adaptive_ff.arm.lag.lag_reason` of its fit and
-    :func:`adaptive_ff.arm.lag.correction_reason` of its low-pass correction (a cached joint decided again, so that a
-    cache holds fits, not decisions)."""
-    from adaptive_ff.arm.lag import correction_reason, lag_reason
+def decided(row: dict) -> tuple:
+    """``(tau, lo, hi)`` (s) that identify-arm reports for the joint, NaN where its lag is null: decided again from its
+    fit (so that a cache holds fits, not decisions) by :func:`adaptive_ff.arm.lag.lag_reason` and
+    :func:`adaptive_ff.arm.lag.correction_reason`, the interval the low-pass-corrected one
+    (:func:`adaptive_ff.arm.lag.corrected_interval`) where the fit was corrected, else the fit's (as
+    :func:`adaptive_ff.arm.lag.joint_lag` reports it)."""
+    from adaptive_ff.arm.lag import correction_reason, corrected_interval, lag_reason
 
     info = row["info"]
     if "estimate" not in info:  # the fit failed
-        return False
+        return math.nan, math.nan, math.nan
     lo, hi = info.get("interval95", (row["lo"], row["hi"]))
-    return lag_reason(info["estimate"], (lo, hi), info) is None and correction_reason(info) is None
+    if lag_reason(info["estimate"], (lo, hi), info) is not None or correction_reason(info) is not None:
+        return math.nan, math.nan, math.nan
+    return corrected_interval(info) if info.get("lowpass") else (info["estimate"], lo, hi)
+
+
+def reported(row: dict) -> bool:
+    """Whether identify-arm reports the joint's lag (:func:`decided`)."""
+    return math.isfinite(decided(row)[0])
 
 
 def summary(rows: list) -> dict:
     """``{"false", "missed", "covered"}``: each ``(k, n)`` over ``rows`` (module docstring); ``"width"``: the
-    reported intervals' median width over the true lag."""
+    reported intervals' median width over the true lag (the lags and intervals :func:`decided`)."""
     free = [r for r in rows if r["true"] == 0.0]
-    lagged = [r for r in rows if r["true"] > 0.0]
-    reported_ = [r for r in lagged if reported(r)]
-    width = [(r["hi"] - r["lo"]) / r["true"] for r in reported_]
+    lagged = [(r, decided(r)) for r in rows if r["true"] > 0.0]
+    reported_ = [(r, d) for r, d in lagged if math.isfinite(d[0])]
+    width = [(hi - lo) / r["true"] for r, (_, lo, hi) in reported_]
     return {"false": (sum(map(reported, free)), len(free)),
             "missed": (len(lagged) - len(reported_), len(lagged)),
-            "covered": (sum(r["lo"] <= r["true"] <= r["hi"] for r in reported_), len(reported_)),
+            "covered": (sum(lo <= r["true"] <= hi for r, (_, lo, hi) in reported_), len(reported_)),
             "width": float(np.median(width)) if width else math.nan}
 
 
@@ -166,10 +175,9 @@ def main(argv=None) -> int:
         rows += cache[seed]
         if a.verbose:
             for r in cache[seed]:
-                print(f"seed {seed:3d} {r['joint']:9s} true {1e3 * r['true']:5.2f} ms  tau "
-                      f"{1e3 * (r['tau'] if r['tau'] is not None else math.nan):6.2f} "
-                      f"[{1e3 * (r['lo'] if r['lo'] is not None else math.nan):6.2f}, "
-                      f"{1e3 * (r['hi'] if r['hi'] is not None else math.nan):6.2f}] ms  estimate "
+                tau, lo, hi = decided(r)
+                print(f"seed {seed:3d} {r['joint']:9s} true {1e3 * r['true']:5.2f} ms  tau {1e3 * tau:6.2f} "
+                      f"[{1e3 * lo:6.2f}, {1e3 * hi:6.2f}] ms  estimate "
                       f"{1e3 * r['info'].get('estimate', math.nan):6.2f} ms")
     s = summary(rows)
     print(f"{a.n} arms (seeds {a.start}-{a.start + a.n - 1}, friction {a.friction}), {a.duration:g} s logs, "

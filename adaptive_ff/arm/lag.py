@@ -99,8 +99,10 @@ spread to the lag's, held within [:data:`LAG_SLOPE_MIN`, 1] (above 1 it would na
 the two world fits' own scatter, not the reading's sensitivity, and dividing by it would throw the correction out);
 the correction, not the refits' mean shift (by which the fit's own interval is centred), stands for the bias. Where
 that leaves no positive lag, or an interval that reaches below the floor (:func:`correction_reason`), ``tau`` is
-NaN: the floor holds for the reported interval as for the fit's, since a lag-free joint that sticks at its stops
-reads a lag of a few samples whose fit interval can stay above the floor where the corrected one does not. Neither
+NaN: a lag-free joint that sticks at its stops reads, from a fit at the record's step, a lag of a few samples whose
+fit interval can stay above the floor where the corrected one does not. A fit with refined stops does not read those
+(no lag-free joint of ``benchmarks/arm_lag.py --refine-stops``), and its refits scatter more, so that its corrected
+intervals reach below the floor on lags read right: there the corrected interval must exclude zero. Neither
 carries an error common to the record and every refit: on a heavy joint, whose interval is narrow, the held
 Stribeck shape and the identified rigid body can move the lag by more than its interval. The measurements behind the
 rule, the correction and their limits: ``docs/your_arm.md`` (How, Lag; Not yet) and ``benchmarks/arm_lag.py``.
@@ -451,13 +453,14 @@ def corrected_interval(info: dict) -> tuple:
 def correction_reason(info: dict) -> str | None:
     """Why a lag that passes :func:`lag_reason` is not reported once corrected for the record's low-pass, or None
     where it is (module docstring, "Reported"): no positive lag reads as the estimate, or the corrected interval
-    (:func:`corrected_interval`) reaches below :data:`LAG_FLOOR_SAMPLES` samples of the record.
+    (:func:`corrected_interval`) reaches below :data:`LAG_FLOOR_SAMPLES` samples of the record (where the fit's stops
+    are refined: reaches zero).
 
     Parameters
     ----------
     info : dict
         :attr:`JointLag.info` of the fit: ``estimate`` (s), ``rate`` (Hz), ``lowpass`` (None: not corrected, no
-        reason), ``n_valid`` and ``rms``.
+        reason), ``n_valid``, ``rms`` and ``stop_band`` (rad/s; None or absent: the stops not refined).
 
     Returns
     -------
@@ -472,6 +475,10 @@ def correction_reason(info: dict) -> str | None:
         return (f"the output-error estimate {1e3 * est:.3g} ms is all the record's low-pass: the fitted joint read "
                 f"through it reads {1e3 * corr['reads'][0]:.3g} ms")
     tau, lo, hi = corrected_interval(info)
+    if info.get("stop_band") is not None:  # refined stops: the corrected interval must exclude zero, as the fit's
+        return None if lo > 0.0 else (f"the output-error estimate {1e3 * est:.3g} ms reads {1e3 * tau:.3g} ms once "
+                                      f"corrected for the record's low-pass, with the 95 % interval [{1e3 * lo:.3g}, "
+                                      f"{1e3 * hi:.3g}] ms, which reaches zero")
     if lo <= lag_floor(info):
         return _below_floor(f"the output-error estimate {1e3 * est:.3g} ms reads {1e3 * tau:.3g} ms once corrected "
                             f"for the record's low-pass, with the 95 % interval [{1e3 * lo:.3g}, {1e3 * hi:.3g}] ms",

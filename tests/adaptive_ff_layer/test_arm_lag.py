@@ -480,8 +480,11 @@ def test_correction_reason_rules():
     """correction_reason and corrected_interval on the numbers of the finely integrated lag-free wrist of
     test_lag_free_sticking_joint_null_by_its_corrected_interval (ms): the estimate 2.46 corrected to 2.48, 10 valid
     refits with an RMS deviation of 0.35: interval 2.48 ± t(0.975, 10) 0.35 / slope, [1.70, 3.26] at slope 1, below
-    the floor of 2 ms at 1 kHz: null; at 4 kHz (floor 0.5 ms) reported; a secant of slope 0.5 doubles the half-width;
-    a correction to no positive lag: null; no correction (its worlds failed): no reason."""
+    the floor of 2 ms at 1 kHz: null; at 4 kHz (floor 0.5 ms) reported; from a fit with refined stops (a stop band)
+    reported (the floor on the corrected interval holds for fits at the record's step), there null where the
+    interval reaches zero (refits scattering by 1.2 ms) and reported where it does not (1.0 ms); a secant of slope 0.5 doubles
+    the half-width; a correction to no positive lag: null, refined or not; no correction (its worlds failed): no
+    reason."""
     from scipy import stats
 
     from adaptive_ff.arm.lag import corrected_interval, correction_reason
@@ -495,9 +498,16 @@ def test_correction_reason_rules():
     assert reason is not None and "reads 2.48 ms once corrected for the record's low-pass, with the 95 % interval " \
         "[1.7, 3.26] ms, which reaches below 2 samples of the record (2 ms)" in reason, reason
     assert correction_reason(dict(info, rate=4000.0)) is None
+    assert correction_reason(dict(info, stop_band=0.11)) is None and correction_reason(dict(info, stop_band=None))
+    wide = dict(info, stop_band=0.11, rms=1.2e-3)  # refined: the corrected interval 2.48 -+ 2.67 ms reaches zero
+    assert corrected_interval(wide)[1] < 0.0 < corrected_interval(dict(info, rms=1.0e-3))[1]
+    assert "which reaches zero" in correction_reason(wide)
+    assert correction_reason(dict(wide, rms=1.0e-3)) is None
     flat = dict(info, lowpass=dict(info["lowpass"], slope=0.5))
     assert corrected_interval(flat)[1] == pytest.approx(2.48e-3 - 2.0 * half, rel=1e-12)
-    assert "all the record's low-pass" in correction_reason(dict(info, lowpass=dict(info["lowpass"], tau=-0.1e-3)))
+    negative = dict(info, lowpass=dict(info["lowpass"], tau=-0.1e-3))
+    assert "all the record's low-pass" in correction_reason(negative)
+    assert "all the record's low-pass" in correction_reason(dict(negative, stop_band=0.11))
     assert correction_reason(dict(info, lowpass=None)) is None
 
 
