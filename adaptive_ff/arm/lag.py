@@ -101,8 +101,8 @@ the correction, not the refits' mean shift (by which the fit's own interval is c
 that leaves no positive lag, or an interval that reaches below the floor (:func:`correction_reason`), ``tau`` is
 NaN: a lag-free joint that sticks at its stops reads, from a fit at the record's step, a lag of a few samples whose
 fit interval can stay above the floor where the corrected one does not. A fit with refined stops does not read those
-(no lag-free joint of ``benchmarks/arm_lag.py --refine-stops``), and its refits scatter more, so that its corrected
-intervals reach below the floor on lags read right: there the corrected interval must exclude zero. Neither
+as a lag, and its refits scatter more, so that its corrected intervals reach below the floor on lags read right:
+there the corrected interval must exclude zero. Neither
 carries an error common to the record and every refit: on a heavy joint, whose interval is narrow, the held
 Stribeck shape and the identified rigid body can move the lag by more than its interval. The measurements behind the
 rule, the correction and their limits: ``docs/your_arm.md`` (How, Lag; Not yet) and ``benchmarks/arm_lag.py``.
