@@ -19,8 +19,8 @@ reported null and, of the reported ones, the share whose 95 % interval holds the
 95 % binomial (Wilson) interval; the reported intervals' median width over the true lag; and the coverage by joint.
 ``--cache FILE`` keeps each arm's joints (JSON lines, each with the run's settings) and reads back the arms it
 already holds at the same settings (an arm at other settings runs again): it keeps the fits, and each joint is
-decided again by :func:`adaptive_ff.arm.lag.lag_reason` and ``correction_reason`` (a cache made before a change of
-the lag fit itself is stale). ``--refine-stops`` refines the lag fits' stops (``LagOptions(refine_stops=True)``,
+decided again by :func:`adaptive_ff.arm.lag.lag_decision` (a cache made before a change of the lag fit itself is
+stale). ``--refine-stops`` refines the lag fits' stops (``LagOptions(refine_stops=True)``,
 ``identify-arm --refine-stops``; ``docs/your_arm.md``, Not yet). ``--workers N`` runs the arms in N processes. 50 arms
 take 25-45 minutes of CPU; the numbers of seeds 0-49 (0-19 set the rule, 20-49 check it) are in
 ``docs/your_arm.md`` (How, Lag; Not yet).
@@ -94,19 +94,12 @@ def arm_joints(arm, seed: int, *, duration: float = 20.0, n_lag: int = 10, kind:
 
 def decided(row: dict) -> tuple:
     """``(tau, lo, hi)`` (s) that identify-arm reports for the joint, NaN where its lag is null: decided again from its
-    fit (so that a cache holds fits, not decisions) by :func:`adaptive_ff.arm.lag.lag_reason` and
-    :func:`adaptive_ff.arm.lag.correction_reason`, the interval the low-pass-corrected one
-    (:func:`adaptive_ff.arm.lag.corrected_interval`) where the fit was corrected, else the fit's (as
-    :func:`adaptive_ff.arm.lag.joint_lag` reports it)."""
-    from adaptive_ff.arm.lag import correction_reason, corrected_interval, lag_reason
+    fit (so that a cache holds fits, not decisions) by :func:`adaptive_ff.arm.lag.lag_decision`, as
+    :func:`adaptive_ff.arm.lag.joint_lag` decides it."""
+    from adaptive_ff.arm.lag import lag_decision
 
-    info = row["info"]
-    if "estimate" not in info:  # the fit failed
-        return math.nan, math.nan, math.nan
-    lo, hi = info.get("interval95", (row["lo"], row["hi"]))
-    if lag_reason(info["estimate"], (lo, hi), info) is not None or correction_reason(info) is not None:
-        return math.nan, math.nan, math.nan
-    return corrected_interval(info) if info.get("lowpass") else (info["estimate"], lo, hi)
+    tau, (lo, hi), _ = lag_decision(row["info"])
+    return tau, lo, hi
 
 
 def reported(row: dict) -> bool:

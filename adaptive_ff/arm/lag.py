@@ -124,7 +124,7 @@ from plant.errors import ExcitationError, ParameterError, SignalError
 __all__ = ["JointLag", "LagOptions", "LagWorld", "LAG_RATE", "LAG_CUTOFF_FACTOR", "LAG_BOOTSTRAP", "LAG_WORKERS",
            "LAG_FLOOR_SAMPLES", "LAG_SHIFT_MAX", "LAG_SLOPE_MIN", "LAG_INJECTION_GAIN", "LAG_STOP_BAND",
            "LAG_STICK_MAX", "lag_records", "joint_lag", "joint_lags", "lag_reason", "correction_reason",
-           "corrected_interval", "lag_floor", "stick_speeds", "stop_bands",
+           "corrected_interval", "lag_decision", "lag_floor", "stick_speeds", "stop_bands",
            "velocity_noise"]
 
 #: Rate (Hz) at which the output-error record samples the log (every k-th sample; a slower log is taken as is).
@@ -367,17 +367,28 @@ def joint_lag(t, u, w, Vs: float, delta: float, *, n_bootstrap: int = LAG_BOOTST
             "n_simulations": int(fit.info.get("n_simulations", 0)), "predictor": fit.info.get("predictor"),
             "estimate": est, "Vs": float(Vs), "delta": float(delta), "stop_band": world.stop_band,
             "stick": world.stick, **_fit_stats(fit)}
-    reason = lag_reason(est, (lo, hi), info)
-    if reason is not None:
-        return JointLag(math.nan, (math.nan, math.nan), reason, info)
-    if world.lowpass is not None:
+    if world.lowpass is not None and lag_reason(est, (lo, hi), info) is None:  # the correction only where it counts
         info["lowpass"] = _lowpass_correction(t, u, w, fit, min(float(world.lowpass), 0.2 * info["rate"]))
-        reason = correction_reason(info)
-        if reason is not None:
-            return JointLag(math.nan, (math.nan, math.nan), reason, info)
-        if info["lowpass"] is not None:
-            est, lo, hi = corrected_interval(info)
-    return JointLag(est, (float(lo), float(hi)), None, info)
+    return JointLag(*lag_decision(info), info)
+
+
+def lag_decision(info: dict) -> tuple:
+    """``(tau, (lo, hi), reason)`` that a lag fit's ``info`` (:attr:`JointLag.info`: ``estimate``, ``interval95``,
+    the numbers :func:`lag_reason` and :func:`correction_reason` read, ``lowpass`` where the fit was corrected)
+    reports (s): NaN with the reason where :func:`lag_reason` or :func:`correction_reason` gives one, else the
+    low-pass-corrected lag and interval (:func:`corrected_interval`) where the fit was corrected, the fit's estimate
+    and interval where not, and reason None (module docstring, "Reported"). A fit without an estimate (it failed):
+    NaN, with no reason of its own."""
+    nan = (math.nan, (math.nan, math.nan))
+    if "estimate" not in info:
+        return (*nan, None)
+    est, (lo, hi) = float(info["estimate"]), info["interval95"]
+    reason = lag_reason(est, (lo, hi), info) or correction_reason(info)
+    if reason is not None:
+        return (*nan, reason)
+    if info.get("lowpass") is not None:
+        est, lo, hi = corrected_interval(info)
+    return est, (float(lo), float(hi)), None
 
 
 def _lowpass_correction(t, u, w, fit, lowpass: float) -> dict | None:

@@ -613,3 +613,26 @@ def test_cli_refine_stops(arm, tmp_path, capsys):
         assert e["lag"]["stop_band"] == pytest.approx(band, rel=0.05), (e["name"], e["lag"]["stop_band"], band)
         assert p["lag"]["stop_band"] is None and p["lag"]["samples"] == e["lag"]["samples"]
         assert p["lag"]["stick"] == pytest.approx(abs(e["Fc"]) / e["lag"]["rate"] / e["J"], rel=0.05), p["name"]
+
+
+def test_lag_decision_reports_the_corrected_lag_or_the_reason():
+    """lag_decision, which joint_lag and benchmarks/arm_lag.py both decide by, on the wrist of
+    test_correction_reason_rules (ms): its fit 2.46 [2.14, 3.31] passes lag_reason, its corrected interval [1.70,
+    3.26] reaches below the 2 ms floor at 1 kHz: null with correction_reason's text; at 4 kHz the corrected lag
+    and interval; without a correction the fit's own; a fit whose interval reaches zero: lag_reason's text; a
+    failed fit (no estimate): null without a reason."""
+    from adaptive_ff.arm.lag import corrected_interval, correction_reason, lag_decision, lag_reason
+
+    info = {"estimate": 2.46e-3, "interval95": [2.14e-3, 3.31e-3], "rate": 1000.0, "bias": 0.0, "n_valid": 10,
+            "rms": 0.35e-3, "lowpass": {"tau": 2.48e-3, "slope": 1.0, "reads": [2.5e-3, 2.3e-3]}}
+    tau, (lo, hi), reason = lag_decision(info)
+    assert np.isnan([tau, lo, hi]).all() and reason == correction_reason(info) and "once corrected" in reason
+    fast = dict(info, rate=4000.0)
+    tau, (lo, hi), reason = lag_decision(fast)
+    assert reason is None and (tau, lo, hi) == corrected_interval(fast) and tau == pytest.approx(2.48e-3)
+    assert lag_decision(dict(info, lowpass=None)) == (2.46e-3, (2.14e-3, 3.31e-3), None)
+    zero = dict(info, interval95=[-1e-3, 5e-3])
+    tau, _, reason = lag_decision(zero)
+    assert np.isnan(tau) and reason == lag_reason(2.46e-3, (-1e-3, 5e-3), zero) and "reaches zero" in reason
+    tau, (lo, hi), reason = lag_decision({"samples": 100})
+    assert np.isnan([tau, lo, hi]).all() and reason is None
