@@ -51,21 +51,25 @@ resampled together in blocks of consecutive samples, the block by the Politis-Wh
 :mod:`adaptive_ff.identification.covariance`; a resampling of cases, so that the model's error near reversals and at low
 speed, which depends on the motion, counts as well as the noise), refitted at the profiled ``V_s, delta``; a parameter's
 interval is its estimate ``± t`` times the bootstrap standard error (Student-t quantile of the number of refits). A
-joint's friction intervals are widened to cover that band around the estimates at every ``(V_s, delta)`` of the grid the
-profile accepts and, where accepted, of the model without the Stribeck term (``Fs = Fc``), whether the joint keeps its
-Stribeck term or not: the grid points whose profiled weighted residual sum of squares is within the 95 %
-likelihood-ratio bound of the best, the residuals' correlation counted by the ratio of the bootstrap variance to the
-white-noise least-squares variance (the largest over the joints' ``Fc, Fs, sigma``; :func:`_variance_ratio`; why:
-``docs/your_arm.md``, "Intervals"). ``V_s``'s interval runs between the profile's crossings of that bound, located
-between the grid's values by bisection (:func:`adaptive_ff.arm.intervals.crossings`), and ``Fs``'s covers its estimates
-there; ``delta``'s holds the accepted grid values (also where the term is dropped and ``V_s`` itself is NaN).
+joint's intervals of ``J`` and the friction are widened to the profile likelihood's over the Stribeck shape: they
+cover the estimates at every ``(V_s, delta)`` of the grid the profile accepts and, where accepted, of the model
+without the Stribeck term (``Fs = Fc``), whether the joint keeps its Stribeck term or not, each with the bootstrap's
+half-width times ``sqrt(1 - (rss - best) / allowance)`` (:func:`adaptive_ff.arm.intervals.band_share`: the whole
+half-width at the best shape, none at the bound); accepted are the grid points whose profiled weighted residual sum
+of squares ``rss`` is within the 95 % likelihood-ratio bound ``best + allowance``, the residuals' correlation counted
+by the ratio of the bootstrap variance to the white-noise least-squares variance (the largest over the joints' ``Fc,
+Fs, sigma``; :func:`_variance_ratio`; why: ``docs/your_arm.md``, "Intervals"). ``V_s``'s interval runs between the
+profile's crossings of that bound, located between the grid's values by bisection
+(:func:`adaptive_ff.arm.intervals.crossings`), and ``Fs``'s covers its estimates there; ``delta``'s holds the
+accepted grid values (also where the term is dropped and ``V_s`` itself is NaN).
 
-With ``rows="moving"`` every interval of ``J``, the friction and the base parameters then carries the model error
-that a bootstrap of one rows choice cannot see (a bias common to all its refits, such as the rigid body's share at
-the samples at rest, which the regressor of the filtered states approximates): its half-width on either side is
-combined in quadrature with the distance of the estimate from the ``rows="sliding"`` fit's (a point fit of the same
-log, without bootstrap; ``Fs`` and ``Vs`` those of its profile's best shape, also where that fit drops the Stribeck
-term), ``sqrt(h^2 + (x_moving - x_sliding)^2)``; ``Vs``'s in ``log Vs``. A joint that keeps the Stribeck term
+With ``rows="moving"`` every interval of ``J``, ``Fc``, ``sigma``, the offset and the base parameters then carries
+the model error that a bootstrap of one rows choice cannot see (a bias common to all its refits, such as the rigid
+body's share at the samples at rest, which the regressor of the filtered states approximates): its half-width on
+either side is combined in quadrature with the distance of the estimate from the ``rows="sliding"`` fit's (a point
+fit of the same log, without bootstrap), ``sqrt(h^2 + (x_moving - x_sliding)^2)``. Not those of ``Fs`` and ``Vs``:
+the sliding rows leave out the slow samples that determine the Stribeck term, and their ``Fs`` and ``Vs`` measure
+what those rows lack rather than an error of the default's. A joint that keeps the Stribeck term
 and is at rest over more than :data:`REST_WARN` of the log carries a warning that its ``Fs`` and ``Vs`` may lie
 outside their intervals (code ``method``: a note on the method, which ``design``, ``compare`` and ``export-c
 --from`` do not refuse).
@@ -110,7 +114,6 @@ from adaptive_ff.arm.lag import (LAG_CUTOFF_FACTOR, JointLag, LagOptions, LagWor
 from adaptive_ff.arm.result import ArmIdentification, ArmJoint
 from adaptive_ff.arm.robot import ArmModel
 from adaptive_ff.arm.rows import DEFAULT_ROWS, REST_WINDOW, ROWS
-from adaptive_ff.identification.log_scale import from_log
 
 __all__ = ["identify_arm", "DELTA_GRID", "N_VS", "FRICTION_VELOCITY_FACTOR", "ROWS", "DEFAULT_ROWS", "REST_WINDOW",
            "REST_WARN"]
@@ -638,7 +641,7 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     lags = _lags(first, (log, arm, (base, a_J, rigid_body), cutoff, (lag, seed, progress)))
     stage, lagged, lag_alts, lag_ends = _lagged_stage(first, lags, run)
     prob, keep_j, Vs, delta, table, x, rss, A, alt, boot, _, half, ratio = stage
-    x_alt = None if alt is None else alt[0]
+    x_alt = alt
     noise = velocity_noise(log)
     rest = np.mean(np.abs(w_fast) < vmin, axis=0) if rows == "moving" else None  # each joint's share at rest
     joints = []
@@ -685,7 +688,7 @@ class _Stage(NamedTuple):
     x: np.ndarray
     rss: float
     A: np.ndarray
-    alt: tuple | None
+    alt: np.ndarray | None
     boot: object
     resid: np.ndarray
     half: np.ndarray
@@ -827,20 +830,14 @@ def _weighted_fit(setup, states, vmin, rows: str, progress=False) -> tuple:
 
 
 def _sliding_estimate(setup, states, vmin):
-    """The ``rows="sliding"`` point estimate of the same log (:func:`_weighted_fit`): ``(x, Vs)`` with ``x`` (p,)
-    and ``Vs`` (n,) rad/s its profile's refined best; where that fit drops a joint's Stribeck term, the joint's
-    ``Fs`` is the one fitted with the term at that best shape (the model the default rows' ``Fs`` and ``Vs`` belong
-    to, not ``Fs = Fc``);
-    or None where a joint has fewer than 10 sliding rows: the other rows choice, whose distance from the default's
-    estimate is the row-sensitivity term of the default's intervals (:func:`adaptive_ff.arm.intervals.widen`)."""
+    """The ``rows="sliding"`` point estimate ``x`` (p,) of the same log (:func:`_weighted_fit`), or None where a
+    joint has fewer than 10 sliding rows: the other rows choice, whose distance from the default's estimate is the
+    row-sensitivity term of the default's intervals (:func:`adaptive_ff.arm.intervals.widen`; not of ``Fs`` and
+    ``Vs``, which the sliding rows, without the slow samples, barely determine: :func:`_joint`)."""
     try:
-        prob, _, (Vs, _, table), (x, _, _) = _weighted_fit(setup, states, vmin, "sliding")
+        return _weighted_fit(setup, states, vmin, "sliding")[3][0]
     except ParameterError:
         return None
-    x = x.copy()
-    for j in np.flatnonzero(~np.isfinite(Vs)):
-        x[prob.r + 4 * j + 1] = table[j][-2][3][prob.r + 4 * j + 1]
-    return x, np.array([t[-2][0] for t in table])
 
 
 def _lags(stage, setup) -> list:
@@ -932,20 +929,19 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> Arm
         p["Fs"], hw["Fs"], std["Fs"], lo["Fs"], hi["Fs"] = p["Fc"], hw["Fc"], std["Fc"], lo["Fc"], hi["Fc"]
     # the friction's intervals cover the bootstrap band around every (Vs, delta) the profile accepts, the model
     # without a Stribeck term among them: a dropped term's Fs interval reaches as far as the profile allows
-    vs_iv, d_iv, (x_lo, x_hi), xs = profile_interval(table[j], rss, n_rows, ratio, slice(c, c + 4),
-                                                      arm.names[j], lambda v, d: shape_fit(j, v, d))
+    vs_iv, d_iv, (x_lo, x_hi), xs, share = profile_interval(table[j], rss, n_rows, ratio, slice(c, c + 4),
+                                                             arm.names[j], lambda v, d: shape_fit(j, v, d),
+                                                             [hw[k] for k in _FRICTION])
     for i, k in enumerate(_FRICTION):
-        lo[k], hi[k] = min(lo[k], x_lo[i] - hw[k]), max(hi[k], x_hi[i] + hw[k])
+        lo[k], hi[k] = min(lo[k], x_lo[i]), max(hi[k], x_hi[i])
     if r:  # J as well: the rigid body's estimate moves with the joint's (Vs, delta)
         Js = xs[:, :r] @ a_J[j]
-        lo["J"], hi["J"] = min(lo["J"], Js.min() - hw["J"]), max(hi["J"], Js.max() + hw["J"])
-    if sliding is not None:  # the row sensitivity (rows="moving"): the sliding rows' estimate at its best shape
-        x_alt, Vs_alt = sliding
-        alt = dict(zip(_FRICTION, x_alt[c: c + 4]), J=float(a_J[j] @ x_alt[:r]) if r else np.nan)
+        lo["J"], hi["J"] = min(lo["J"], (Js - share * hw["J"]).min()), max(hi["J"], (Js + share * hw["J"]).max())
+    if sliding is not None:  # the row sensitivity (rows="moving"): the sliding rows' estimate; not of Fs (nor Vs)
+        alt = dict(zip(_FRICTION, sliding[c: c + 4]), J=float(a_J[j] @ sliding[:r]) if r else np.nan)
         for k, v in (("J", J), *p.items()):
-            lo[k], hi[k] = widen(v, lo[k], hi[k], alt[k])
-        if stribeck and np.all(np.isfinite(vs_iv)):  # Vs as well, in log Vs (its grid's scale; the bounds stay > 0)
-            vs_iv = tuple(from_log(b) for b in widen(np.log(Vs[j]), *np.log(vs_iv), np.log(Vs_alt[j])))
+            if k != "Fs":
+                lo[k], hi[k] = widen(v, lo[k], hi[k], alt[k])
     if lag_alts is not None:  # the lags' uncertainty (the columns at the lags' interval ends)
         for k, v in (("J", J), *p.items()):
             a = [float(a_J[j] @ x_a[:r]) if k == "J" else float(x_a[c + _FRICTION.index(k)]) for x_a in lag_alts]

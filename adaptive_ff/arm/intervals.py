@@ -16,8 +16,8 @@ from plant.errors import ExcitationError
 
 from adaptive_ff.arm.lag import lag_floor
 
-__all__ = ["CHI2_95", "CROSSING_STEPS", "LAG_SHAPE_DRAWS", "accepted_shapes", "crossings", "lag_ranges", "lag_shapes",
-           "lr_allowance", "profile_bound", "profile_interval", "widen", "widen_lag"]
+__all__ = ["CHI2_95", "CROSSING_STEPS", "LAG_SHAPE_DRAWS", "accepted_shapes", "band_share", "crossings", "lag_ranges",
+           "lag_shapes", "lr_allowance", "profile_bound", "profile_interval", "widen", "widen_lag"]
 
 #: The chi-square quantile of one degree of freedom at 95 %: the profile's likelihood-ratio bound
 #: (:func:`profile_bound`).
@@ -50,14 +50,17 @@ def profile_bound(table_j, rss_min: float, n_rows: int, ratio: float) -> tuple:
 
 
 def profile_interval(table_j, rss_min: float, n_rows: int, ratio: float, cols: slice, name: str = "joint",
-                      fit_at=None) -> tuple:
-    """The ``(Vs range, delta range, (low, high) of the estimates[cols], estimates)`` over the profile's rows within the
-    95 % likelihood-ratio bound of the best (the residuals' correlation counted by the variance ratio ``ratio``,
-    :func:`adaptive_ff.arm.fit._variance_ratio`); ``estimates`` the accepted rows' whole estimates (k, p). The ``Vs``
-    range reaches the points where the profile crosses that bound between the grid's values (:func:`crossings`, with
-    ``fit_at``; None: the accepted values alone), and the range of ``Fs`` (``cols``' second) covers its estimates there
-    too: ``Fs`` moves with ``Vs``, the other parameters little. The model without a Stribeck term (``Vs`` NaN) counts
-    with ``Fs = Fc``; the ranges of ``Vs`` and ``delta`` are NaN where no grid point is inside.
+                      fit_at=None, half=None) -> tuple:
+    """The ``(Vs range, delta range, (low, high) of the estimates[cols], estimates, shares)`` over the profile's rows
+    within the 95 % likelihood-ratio bound of the best (the residuals' correlation counted by the variance ratio
+    ``ratio``, :func:`adaptive_ff.arm.fit._variance_ratio`); ``estimates`` the accepted rows' whole estimates (k, p),
+    ``shares`` (k,) each one's :func:`band_share`. The ``Vs`` range reaches the points where the profile crosses that
+    bound between the grid's values (:func:`crossings`, with ``fit_at``; None: the accepted values alone), and the
+    range of ``Fs`` (``cols``' second) covers its estimates there too: ``Fs`` moves with ``Vs``, the other parameters
+    little. The model without a Stribeck term (``Vs`` NaN) counts with ``Fs = Fc``; the ranges of ``Vs`` and
+    ``delta`` are NaN where no grid point is inside. ``half`` (shape (4,), the bootstrap's 95 % half-widths of
+    ``estimates[cols]`` at the fit's shape; None: zeros): the range covers each accepted row's estimate ``± half``
+    times its share, the profile likelihood's interval of each linear parameter (a crossing's share is 0).
 
     The bound is ``max(rss_min, min of table_j) + CHI2_95 ratio rss_min / n_rows`` (:func:`profile_bound`): the final
     fit's weighted RSS ``rss_min`` sets its scale, and it is counted from the profile's own minimum where that lies
@@ -79,12 +82,28 @@ def profile_interval(table_j, rss_min: float, n_rows: int, ratio: float, cols: s
     xs = np.array([r[3][cols] for r in inside])
     off = np.array([not np.isfinite(r[0]) for r in inside])
     xs[off, 1] = xs[off, 0]  # Fs = Fc without the Stribeck term
-    lo, hi = xs.min(axis=0), xs.max(axis=0)
-    for r in edge:  # Fs moves with Vs: its range covers its estimates out to the Vs range's ends
+    share = band_share(np.array([r[2] for r in inside]), best, allowance)
+    band = np.outer(share, np.zeros(xs.shape[1]) if half is None else np.asarray(half, dtype=float))
+    lo, hi = (xs - band).min(axis=0), (xs + band).max(axis=0)
+    for r in edge:  # Fs moves with Vs: its range covers its estimates out to the Vs range's ends (at the bound)
         lo[1], hi[1] = min(lo[1], r[3][cols][1]), max(hi[1], r[3][cols][1])
     nan = (np.nan, np.nan)
     return ((min(vs), max(vs)) if vs else nan), ((min(ds), max(ds)) if ds else nan), (lo, hi), \
-        np.array([r[3] for r in inside])
+        np.array([r[3] for r in inside]), share
+
+
+def band_share(rss, best: float, allowance: float):
+    """The share ``sqrt(max(0, 1 - (rss - best) / allowance))`` of the bootstrap's 95 % half-width that a linear
+    parameter's interval keeps about its estimate at a profile row of weighted RSS ``rss`` (float or array), the
+    profile's bound ``best + allowance`` (:func:`profile_bound`): at fixed ``(Vs, delta)`` the RSS grows
+    quadratically in each linear parameter, by ``allowance`` at the half-width's end, so that a row whose RSS lies
+    ``rss - best`` above the best reaches the bound that much nearer its estimate (the profile likelihood of the
+    parameter over the shape: Venzon & Moolgavkar, Appl. Statist. 37 (1988); Seber & Wild, *Nonlinear Regression*,
+    Sec. 5.9). 1 at the best, 0 at the bound (an ``allowance`` not > 0: 1 at or below ``best``, else 0)."""
+    rss = np.asarray(rss, dtype=float)
+    if not allowance > 0.0:
+        return (rss <= best).astype(float)
+    return np.sqrt(np.clip(1.0 - (rss - best) / allowance, 0.0, 1.0))
 
 
 def crossings(table_j, inside, allowance: float, fit_at, steps: int = CROSSING_STEPS) -> list:

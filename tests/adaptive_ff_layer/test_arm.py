@@ -399,6 +399,34 @@ def _stale_profile(shift: float):
             + [_profile_row(0.1, 1.0, shift), _profile_row(np.nan, np.nan, shift)]), grid
 
 
+def test_profile_interval_band_is_the_profile_likelihood_of_each_linear_parameter():
+    """With the bootstrap's half-widths ``half`` the range is the profile likelihood's interval over the shape: on the
+    quadratic profile of :func:`_stale_profile` (RSS ``100 + 40 l^2``, ``l = log(Vs / 0.1)``, ``Fs = 1.2 + 0.5 l``),
+    whose RSS at fixed shape grows by the allowance ``A = 0.768`` at ``Fs ± h``, the set ``{Fs: min over l of
+    100 + 40 l^2 + A ((Fs - 1.2 - 0.5 l) / h)^2 <= 100 + A}`` is ``1.2 ± sqrt((0.5 L)^2 + h^2)``, ``L^2 = A / 40``
+    (the support function of an ellipse), which a fine grid of ``Vs`` approaches from inside; ``Fc``, the same at
+    every shape, keeps ``1.0 ± h``. The union of the whole half-width at every accepted shape would reach
+    ``1.2 ± (0.5 L + h)``. Each row's share is ``sqrt(1 - 40 l^2 / A)`` (:func:`band_share`)."""
+    from adaptive_ff.arm import intervals
+
+    half = np.array([0.02, 0.1, 0.01, 0.005])
+    fine = np.exp(np.linspace(-0.2, 0.2, 801)) * 0.1
+    table = [_profile_row(v, 1.0) for v in fine] + [_profile_row(0.1, 1.0), _profile_row(np.nan, np.nan)]
+    vs, _, (lo, hi), xs, share = intervals.profile_interval(table, 100.0, 1000, 2.0, slice(4, 8), "wrist", half=half)
+    L = np.sqrt(0.768 / 40.0)
+    np.testing.assert_allclose([lo[1], hi[1]], 1.2 + np.array([-1, 1]) * np.hypot(0.5 * L, half[1]), rtol=0,
+                               atol=1e-6)
+    np.testing.assert_allclose([lo[0], hi[0]], [1.0 - half[0], 1.0 + half[0]], rtol=0, atol=1e-12)
+    assert hi[1] < 1.2 + 0.5 * L + half[1] - 0.02
+    np.testing.assert_allclose(vs, 0.1 * np.exp([-L, L]), rtol=1e-3)
+    l_acc = np.log(np.array([r[0] for r in table if r[2] <= 100.768]) / 0.1)
+    np.testing.assert_allclose(share, np.sqrt(np.clip(1.0 - 40.0 * l_acc ** 2 / 0.768, 0.0, 1.0)), rtol=0,
+                               atol=1e-12)
+    np.testing.assert_allclose(intervals.band_share([100.0, 100.384, 101.0], 100.0, 0.768),
+                               [1.0, np.sqrt(0.5), 0.0], rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(intervals.band_share([99.0, 100.0, 100.1], 100.0, 0.0), [1.0, 1.0, 0.0])
+
+
 def test_profile_interval_of_a_profile_the_later_joints_lowered():
     """The final fit's RSS (100) below every row of a joint's profile (its rows all 5 higher: the later joints' last
     steps lowered the RSS after the joint's profile was taken): the interval is that of the same profile counted

@@ -116,9 +116,10 @@ def test_reported_lag_is_the_low_pass_correction(result):
 def test_whole_arm_fit_with_the_lags_in_its_columns(arm, log, result):
     """Each reported lag goes into its joint's friction columns and the whole-arm fit runs again (adaptive_ff.arm.fit,
     "Lag"): the static map without the lag reads every joint's inertia low (the lag of a friction that rises with
-    speed acts as an inertia term), outside its interval (measured 1.0559 [1.0525, 1.0593], 0.2277 [0.2255, 0.2300],
-    0.05636 [0.05573, 0.05702] kg·m² for the true 1.0602, 0.2318, 0.05737); with the lags, every joint's ``J`` lies
-    inside its interval and within 1.5 % of the truth (measured 1.0607, 0.2317, 0.05795). The truth: Pinocchio's
+    speed acts as an inertia term), outside its interval (measured 1.0559 [1.0525, 1.0593], 0.2277 [0.2255, 0.2299],
+    0.05636 [0.05575, 0.05697] kg·m² for the true 1.0602, 0.2318, 0.05737); with the lags, every joint's ``J`` lies
+    inside its interval and within 1.5 % of the truth (measured 1.0608 [1.0587, 1.0628], 0.2317 [0.2303, 0.2330],
+    0.05795 [0.05714, 0.05879]). The truth: Pinocchio's
     ``M_jj`` at the log's mean position, with the armatures."""
     import pinocchio as pin
 
