@@ -104,7 +104,9 @@ simulations against 2070). The free-run output is not smooth: at standstill the 
 the parameters with a jump wherever a parameter moves a sign change across a stage. The exact Jacobian is that
 of the smooth pieces and misses the jumps, which the 1 % secant averages; on the same record with 1 % noise
 (free run) it stopped at a higher cost (1097.8 against 1018.1, J -2 %) for the same CPU time. The default
-therefore stays the difference Jacobian.
+therefore stays the difference Jacobian. Where a trust-region fit's sensitivities are not finite or exceed
+:data:`SENS_MAX` (a tangent that grows through a stop's ringing until it overflows), that fit is taken again from
+its start with forward differences (``info["sensitivity_fallbacks"]`` counts the point fit's).
 
 Accuracy and cost against the paper's eq. 4 on simulated records are measured
 by ``benchmarks/identification.py``; its tables are on the documentation's
@@ -144,7 +146,7 @@ from plant.errors import (ExcitationError, ParameterError, SignalError, check_fi
                           check_signal, check_time)
 from plant.results import json_safe
 
-__all__ = ["PhysicalFit", "OutputErrorOptions", "fit_physical", "METHODS", "PHYSICAL_NAMES", "MIN_SAMPLES",
+__all__ = ["PhysicalFit", "OutputErrorOptions", "fit_physical", "METHODS", "PHYSICAL_NAMES", "MIN_SAMPLES", "SENS_MAX",
            "BOOTSTRAP_REFITS", "JACOBIANS", "SHAPE_NAMES"]
 
 #: Identification methods of :func:`fit_physical`.
@@ -192,6 +194,15 @@ _MEMO = 8
 # scipy >= 1.16: least_squares evaluates its finite differences through a map-like ``workers`` (the perturbed
 # parameter vectors of one Jacobian, simulated together: _OutputErrorProblem.refine)
 _LSQ_WORKERS = "workers" in inspect.signature(least_squares).parameters
+#: Largest magnitude of a sensitivity (per unit of the fit's scaled coordinates) taken as the Jacobian of a trust-region
+#: step (``jacobian="sensitivity"``): far beyond any velocity's, an overflowing tangent (e.g. a stop's ringing
+#: followed through many sign changes), at which the fit's step is taken with forward differences instead
+#: (:meth:`_OutputErrorProblem.refine`).
+SENS_MAX = 1e50
+
+
+class _SensitivityOverflow(ArithmeticError):
+    """The sensitivities of a trust-region step are not finite or exceed :data:`SENS_MAX`."""
 
 
 @dataclass(frozen=True)
@@ -242,7 +253,9 @@ class PhysicalFit:
         ``lag_profile`` (None, or the profile over tau: ``tau``, ``cost``, ``n_simulations``, ``moved``),
         ``fitted`` (names of the fitted parameters; ``Vs``, ``delta`` among them where they were not given),
         ``fixed`` (``{"Vs", "delta"}`` as given, or empty),
-        ``residual_rms``, ``n_simulations``, ``burn_samples``, ``loss``,
+        ``residual_rms``, ``n_simulations``, ``sensitivity_fallbacks`` (the point fit's trust-region fits whose
+        sensitivities overflowed, :data:`SENS_MAX`, and which took forward differences; 0 with
+        ``jacobian="difference"``), ``burn_samples``, ``loss``,
         ``f_scale``, ``h_max``, ``stop_band`` (rad/s or None) and ``refined_intervals`` (the sample intervals
         simulated at ``h_refine`` inside it), ``input_delay`` (s: the one given, or the one the profile chose),
         ``input_delay_profile`` (None where the delay was given, else ``delay``, ``cost``, ``chosen``,
@@ -425,6 +438,7 @@ class _OutputErrorProblem:
         self.wm = w[self.i0:]
         self.w0, self.f0 = float(w[0]), float(u[0])  # friction balances the input at the start (quasi-steady)
         self.n_sim = 0
+        self.n_sens_fallback = 0  # trust-region fits whose sensitivities overflowed (refine)
         self.memo, self.fd_memo = {}, None  # residual vectors by parameter vector (res, refine)
         self.big = 10.0 * (np.max(np.abs(w)) + 1.0)
         peak = float(np.max(np.abs(w)))
@@ -622,7 +636,10 @@ class _OutputErrorProblem:
             return self.res(full(z))
 
         def jac(z):
-            return self.jac(full(z))[:, cols]
+            G = self.jac(full(z))[:, cols]
+            if not np.isfinite(G).all() or np.max(np.abs(G), initial=0.0) > SENS_MAX:
+                raise _SensitivityOverflow
+            return G
 
         def batch(_, zs):  # the perturbed vectors of a finite-difference Jacobian, simulated together
             Z = np.array([full(z) for z in zs])
@@ -632,10 +649,15 @@ class _OutputErrorProblem:
             return list(self.fd_memo[1])
 
         z0, scale = (x, self.typical(x)) if free is None else (x[free], self.typical(x)[free])
-        extra = {"workers": batch} if _LSQ_WORKERS and not sens else {}
-        sol = least_squares(fun, z0, jac=jac if sens else "2-point", diff_step=ds, x_scale=scale, method="trf",
-                            xtol=1e-8, ftol=1e-10, max_nfev=self.opts.max_nfev, loss=self.opts.loss, f_scale=fsc,
-                            **extra)
+        settings = dict(diff_step=ds, x_scale=scale, method="trf", xtol=1e-8, ftol=1e-10, max_nfev=self.opts.max_nfev,
+                        loss=self.opts.loss, f_scale=fsc)
+        differences = {"workers": batch} if _LSQ_WORKERS else {}
+        try:
+            sol = (least_squares(fun, z0, jac=jac, **settings) if sens
+                   else least_squares(fun, z0, jac="2-point", **settings, **differences))
+        except _SensitivityOverflow:  # this step's fit with forward differences, as jacobian="difference" takes it
+            self.n_sens_fallback += 1
+            sol = least_squares(fun, z0, jac="2-point", **settings, **differences)
         self.remember(full(sol.x), sol.fun)  # the residual at the point returned, which the caller costs next
         return sol
 
@@ -885,7 +907,8 @@ def _fit_output_error(t, u, w, Vs, delta, offset, opts: OutputErrorOptions) -> P
                              "lag_profile": lag_prof, "fitted": list(names),
                              "fixed": {} if pb.free_shape else {"Vs": float(Vs), "delta": float(delta)},
                              "residual_rms": float(math.sqrt(float(r @ r) / r.shape[0])),
-                             "n_simulations": int(pb.n_sim), "burn_samples": pb.i0, "loss": opts.loss,
+                             "n_simulations": int(pb.n_sim), "sensitivity_fallbacks": int(pb.n_sens_fallback),
+                             "burn_samples": pb.i0, "loss": opts.loss,
                              "f_scale": float(pb.f_scale), "f_scale_global": float(pb.f_wide),
                              "h_max": opts.h_max, "stop_band": opts.stop_band,
                              "refined_intervals": 0 if pb.stop_mask is None else int(np.count_nonzero(pb.stop_mask)),

@@ -103,3 +103,29 @@ def test_fit_ls_without_free_run_has_the_same_estimate(record):
     assert np.array_equal(a.theta, b.theta)
     assert math.isnan(b.fit_free_run) and np.all(np.isnan(b.w_free_run))
     assert math.isfinite(a.fit_free_run)
+
+
+@pytest.mark.parametrize("bad", [np.inf, np.nan, 1e60])
+def test_overflowing_sensitivities_fall_back_to_differences(monkeypatch, bad):
+    """Sensitivities that are not finite or exceed SENS_MAX (a tangent grown through a stop's ringing) are not a
+    Jacobian: each trust-region fit is then taken with forward differences from its start, so that the fit is the
+    difference-Jacobian fit to the bit (the same record as above), the fallbacks counted, and no scipy error."""
+    from adaptive_ff.identification import physical_id
+
+    rng = np.random.default_rng(0)
+    _, u = bandlimited_noise(10.0, dt=DT, cutoff=1.0, std=1.2 * (P.Fs + P.sigma * math.radians(20.0)), rng=rng)
+    m = sample(simulate(P, u, dt=DT), Ts=0.01, rng=rng)
+    kw = dict(Vs=P.Vs, delta=P.delta, input_delay=0.5 * DT, n_bootstrap=0)
+    want = fit_physical(m.t, m.u, m.w, **kw)
+    exact = physical_id._OutputErrorProblem.jac
+
+    def overflowing(self, x):
+        G = exact(self, x)
+        G[len(G) // 2, 0] = bad
+        return G
+
+    monkeypatch.setattr(physical_id._OutputErrorProblem, "jac", overflowing)
+    got = fit_physical(m.t, m.u, m.w, jacobian="sensitivity", **kw)
+    assert got.params == want.params and got.info["cost"] == want.info["cost"]
+    assert got.info["sensitivity_fallbacks"] >= 1 and want.info["sensitivity_fallbacks"] == 0
+    assert physical_id.SENS_MAX < 1e60
