@@ -927,8 +927,8 @@ def _joint(arm, j, x, half, boot, a_J, r, base, profile, data, lag_noise) -> Arm
     hi = {k: params_k + hw[k] for k, params_k in (("J", J), *p.items())}
     if not stribeck:  # no Stribeck term: Fs = Fc
         p["Fs"], hw["Fs"], std["Fs"], lo["Fs"], hi["Fs"] = p["Fc"], hw["Fc"], std["Fc"], lo["Fc"], hi["Fc"]
-    # the friction's intervals cover the bootstrap band around every (Vs, delta) the profile accepts, the model
-    # without a Stribeck term among them: a dropped term's Fs interval reaches as far as the profile allows
+    # the friction's intervals are the profile likelihood's over every (Vs, delta) the profile accepts, the model
+    # without a Stribeck term among them (band_share): a dropped term's Fs interval reaches as far as it allows
     vs_iv, d_iv, (x_lo, x_hi), xs, share = profile_interval(table[j], rss, n_rows, ratio, slice(c, c + 4),
                                                              arm.names[j], lambda v, d: shape_fit(j, v, d),
                                                              [hw[k] for k in _FRICTION])
