@@ -640,14 +640,13 @@ def identify_arm(log: ArmLog, arm: ArmModel, *, cutoff: float = DEFAULT_CUTOFF, 
     run = ((log, arm, cutoff), (states, fit_states), vmin, rows, settings)
     lags = _lags(first, (log, arm, (base, a_J, rigid_body), cutoff, (lag, seed, progress)))
     stage, lagged, lag_alts, lag_ends = _lagged_stage(first, lags, run)
-    prob, keep_j, Vs, delta, table, x, rss, A, alt, boot, _, half, ratio = stage
-    x_alt = alt
+    prob, keep_j, Vs, delta, table, x, rss, A, x_alt, boot, _, half, ratio = stage
     noise = velocity_noise(log)
     rest = np.mean(np.abs(w_fast) < vmin, axis=0) if rows == "moving" else None  # each joint's share at rest
     joints = []
     for j in range(arm.n):
         joints.append(_joint(arm, j, x, half, boot, a_J, r, base,
-                             (Vs, delta, table, rss, int(prob.keep.sum()), ratio, alt, _shape_fit(prob, Vs, delta),
+                             (Vs, delta, table, rss, int(prob.keep.sum()), ratio, x_alt, _shape_fit(prob, Vs, delta),
                               lag_alts),
                              (q, dq, keep_j, rest), (lags[j], noise[j])))
     scaled = A[prob.keep] * np.tile(prob.w, prob.m)[prob.keep][:, None]

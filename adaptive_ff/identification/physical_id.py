@@ -651,13 +651,14 @@ class _OutputErrorProblem:
         z0, scale = (x, self.typical(x)) if free is None else (x[free], self.typical(x)[free])
         settings = dict(diff_step=ds, x_scale=scale, method="trf", xtol=1e-8, ftol=1e-10, max_nfev=self.opts.max_nfev,
                         loss=self.opts.loss, f_scale=fsc)
-        differences = {"workers": batch} if _LSQ_WORKERS else {}
-        try:
-            sol = (least_squares(fun, z0, jac=jac, **settings) if sens
-                   else least_squares(fun, z0, jac="2-point", **settings, **differences))
-        except _SensitivityOverflow:  # this step's fit with forward differences, as jacobian="difference" takes it
-            self.n_sens_fallback += 1
-            sol = least_squares(fun, z0, jac="2-point", **settings, **differences)
+        sol = None
+        if sens:
+            try:
+                sol = least_squares(fun, z0, jac=jac, **settings)
+            except _SensitivityOverflow:  # this fit with forward differences, as jacobian="difference" takes it
+                self.n_sens_fallback += 1
+        if sol is None:
+            sol = least_squares(fun, z0, jac="2-point", **settings, **({"workers": batch} if _LSQ_WORKERS else {}))
         self.remember(full(sol.x), sol.fun)  # the residual at the point returned, which the caller costs next
         return sol
 
