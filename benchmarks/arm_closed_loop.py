@@ -12,7 +12,8 @@ simulate_arm`, seed ``--id-seed``) identified by :func:`adaptive_ff.arm.fit.iden
 adaptive-ff, the peers dob and canudas, and frictionless (``--duration`` s, seed ``--seed``, the drives' limits the URDF's effort limits).
 ``--stops``: the arm stepped finely in the periods in which a joint stops or reverses, in the identification log and
 in the loops (``ArmSimulation.stop_refine``, ``CompareArmOptions.stop_refine``: :data:`adaptive_ff.arm.simulate.
-STOP_REFINE`), and the lag fits' stops refined (``LagOptions(refine_stops=True)``; ``docs/your_arm.md``, Not yet).
+STOP_REFINE`), and every lag fit's stops refined (``LagOptions(refine_stops=True)``; without it identify-arm's default, the
+joints that stick; ``docs/your_arm.md``, How, Lag).
 Printed: each joint's identified inertia and PI, the second-half RMS error per joint and mode, eta per joint, the
 adaptive compensator's switch-in time of its residual observer per joint, the CPU time.
 """
@@ -55,7 +56,7 @@ def identify(path, *, seed: int = 1, duration: float = 20.0, n_bootstrap: int = 
     arm = load_urdf(URDF)
     run = ArmSimulation(duration=duration, substeps=1, stop_refine=STOP_REFINE if stops else 1)
     log = simulate_arm(arm, friction(), run=run, seed=seed, armature=ARMATURE)
-    res = identify_arm(log, arm, n_bootstrap=n_bootstrap, lag=LagOptions(refine_stops=stops),
+    res = identify_arm(log, arm, n_bootstrap=n_bootstrap, lag=LagOptions(refine_stops=True) if stops else LagOptions(),
                        **({} if rows is None else {"rows": rows}))
     Path(path).write_text(json.dumps(res.to_dict()))
     return arm

@@ -118,7 +118,7 @@ def true_inertia(arm, q) -> np.ndarray:
 
 
 def arm_hits(arm, seed: int, *, duration: float = 20.0, n_bootstrap: int = 200, rows: str = "moving",
-             log=None, lag: bool = False, stop_refine: int = STOP_REFINE, refine_stops: bool = False,
+             log=None, lag: bool = False, stop_refine: int = STOP_REFINE, refine_stops: bool | str = "auto",
              misses: list | None = None) -> dict:
     """``{parameter: [hits, count, unwarned]}`` of one arm (seed ``seed``), the base parameters under ``"base"``
     (``unwarned``: the misses whose joint has no warning naming the parameter); ``misses``: None, or a list to which
@@ -180,6 +180,12 @@ def cpu_seconds() -> float:
                for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
 
 
+def stops_text(refine_stops) -> str:
+    """The run's title words for its lag fits' ``refine_stops`` (True, False or ``"auto"``: identify-arm's default,
+    none)."""
+    return {True: ", every lag fit's stops refined", False: ", no lag fit's stops refined"}.get(refine_stops, "")
+
+
 def wilson(hits: int, n: int, z: float = 1.959963984540054) -> tuple:
     """The Wilson score interval of a binomial share ``hits/n`` (95 % by default)."""
     if n == 0:
@@ -207,8 +213,12 @@ def main(argv=None) -> int:
     ap.add_argument("--coarse-arms", dest="coarse_arms", action="store_true",
                     help="the arms' stops stepped once per period as the rest (default: ten times, "
                          "ArmSimulation.stop_refine, as a continuous arm's)")
-    ap.add_argument("--refine-stops", dest="refine_stops", action="store_true",
-                    help="the lag fits' stops refined (LagOptions.refine_stops, identify-arm --refine-stops)")
+    stops = ap.add_mutually_exclusive_group()
+    stops.add_argument("--refine-stops", dest="refine_stops", action="store_const", const=True, default="auto",
+                       help="every joint's lag fit with its stops refined (LagOptions(refine_stops=True), "
+                            "identify-arm --refine-stops; default: identify-arm's, the joints that stick)")
+    stops.add_argument("--coarse-stops", dest="refine_stops", action="store_const", const=False,
+                       help="no joint's lag fit with its stops refined (identify-arm --coarse-stops)")
     ap.add_argument("--misses", action="store_true",
                     help="list each joint parameter whose interval misses its truth, and each lagged joint whose "
                          "lag is null")
@@ -230,7 +240,7 @@ def main(argv=None) -> int:
     print(f"identify-arm 95 % intervals over {args.n} simulated arms (planar3, seeds {args.start}-"
           f"{args.start + args.n - 1}, {args.duration:g} s logs, {args.bootstrap} bootstrap refits, rows {args.rows}"
           f"{', lagged friction' if args.lag else ''}{', coarse arms' if args.coarse_arms else ''}"
-          f"{', lag fits with refined stops' if args.refine_stops else ''})")
+          f"{stops_text(args.refine_stops) if args.lag else ''})")
     print(f"{'parameter':<10} {'inside':>8} {'of':>6} {'coverage':>9}   95 % (Wilson)    outside, no warning")
     for k, (h, c, u) in total.items():
         if c == 0:

@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from adaptive_ff.arm.simulate import STOP_REFINE
-from benchmarks.arm_coverage import cpu_seconds, lag_draws, wilson
+from benchmarks.arm_coverage import cpu_seconds, lag_draws, stops_text, wilson
 
 ROOT = Path(__file__).resolve().parents[1]
 URDF = ROOT / "examples" / "planar3.urdf"
@@ -68,7 +68,7 @@ def draw_friction(n: int, seed: int, kind: str = "example") -> list:
 
 
 def arm_joints(arm, seed: int, *, duration: float = 20.0, n_lag: int = 10, kind: str = "example",
-               stop_refine: int = STOP_REFINE, refine_stops: bool = False) -> list:
+               stop_refine: int = STOP_REFINE, refine_stops: bool | str = "auto") -> list:
     """One arm's joints: ``{"seed", "joint", "true", "tau", "lo", "hi", "reason", "info"}`` per joint (s);
     ``stop_refine``: the arm's steps per step in its stops (``ArmSimulation.stop_refine``; default a continuous
     arm's, 1: coarse), ``refine_stops``: the lag fits' stops refined (module docstring)."""
@@ -145,8 +145,12 @@ def main(argv=None) -> int:
     ap.add_argument("--coarse-arms", dest="coarse_arms", action="store_true",
                     help="the arms' stops stepped once per period as the rest (default: ten times, "
                          "ArmSimulation.stop_refine, as a continuous arm's)")
-    ap.add_argument("--refine-stops", dest="refine_stops", action="store_true",
-                    help="the lag fits' stops refined (LagOptions.refine_stops, identify-arm --refine-stops)")
+    stops = ap.add_mutually_exclusive_group()
+    stops.add_argument("--refine-stops", dest="refine_stops", action="store_const", const=True, default="auto",
+                       help="every joint's lag fit with its stops refined (LagOptions(refine_stops=True), "
+                            "identify-arm --refine-stops; default: identify-arm's, the joints that stick)")
+    stops.add_argument("--coarse-stops", dest="refine_stops", action="store_const", const=False,
+                       help="no joint's lag fit with its stops refined (identify-arm --coarse-stops)")
     ap.add_argument("--workers", type=int, default=1, help="processes the arms run in (default 1; the result does "
                     "not depend on it)")
     a = ap.parse_args(argv)
@@ -175,7 +179,7 @@ def main(argv=None) -> int:
     s = summary(rows)
     print(f"{a.n} arms (seeds {a.start}-{a.start + a.n - 1}, friction {a.friction}), {a.duration:g} s logs, "
           f"{a.lag_bootstrap} refits per lag fit" + (", coarse arms" if a.coarse_arms else "")
-          + (", lag fits with refined stops" if a.refine_stops else "")
+          + stops_text(a.refine_stops)
           + f"; CPU {cpu_seconds() - c0:.0f} s")
     for key, text in (("false", "lag-free joints reported with a lag"), ("missed", "lagged joints reported null"),
                       ("covered", "reported lags whose interval holds the true lag")):

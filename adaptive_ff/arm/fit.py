@@ -110,7 +110,7 @@ from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF, ArmLog, filtered_states, par
 from adaptive_ff.arm.intervals import (accepted_shapes, lag_ranges, lag_shapes, lr_allowance, profile_interval,
                                        widen, widen_lag)
 from adaptive_ff.arm.lag import (LAG_CUTOFF_FACTOR, JointLag, LagOptions, LagWorld, joint_lags, lag_floor,
-                                 lag_records, stick_speeds, stop_bands, velocity_noise)
+                                 lag_records, refined_joints, stick_speeds, stop_bands, velocity_noise)
 from adaptive_ff.arm.result import ArmIdentification, ArmJoint
 from adaptive_ff.arm.robot import ArmModel
 from adaptive_ff.arm.rows import DEFAULT_ROWS, REST_WINDOW, ROWS
@@ -877,9 +877,10 @@ def _lags(stage, setup) -> list:
     Fc = stage.x[r:r + 4 * arm.n:4]
     Fs = static_friction(Fc, np.where(np.isfinite(stage.Vs), stage.x[r + 1:r + 4 * arm.n:4], Fc))
     Ts = float(np.median(np.diff(t)))
-    bands, sticks = stop_bands(Fs, J, Ts) if options.refine_stops else None, stick_speeds(Fc, J, Ts)
+    bands, sticks = stop_bands(Fs, J, Ts), stick_speeds(Fc, J, Ts)
+    refined = refined_joints(sticks, options.refine_stops)
     worlds = [LagWorld(None if errors is None else errors[:, :, j], LAG_CUTOFF_FACTOR * cutoff,
-                       None if accepted is None else accepted[j], None if bands is None else float(bands[j]),
+                       None if accepted is None else accepted[j], float(bands[j]) if refined[j] else None,
                        float(sticks[j]) if np.isfinite(sticks[j]) else None) for j in range(arm.n)]
     return joint_lags(t, u, w, held, options=options, seed=seed, progress=progress, worlds=worlds)
 

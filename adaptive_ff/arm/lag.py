@@ -124,8 +124,8 @@ from plant.errors import ExcitationError, ParameterError, SignalError
 __all__ = ["JointLag", "LagOptions", "LagWorld", "LAG_RATE", "LAG_CUTOFF_FACTOR", "LAG_BOOTSTRAP", "LAG_WORKERS",
            "LAG_FLOOR_SAMPLES", "LAG_SHIFT_MAX", "LAG_SLOPE_MIN", "LAG_INJECTION_GAIN", "LAG_STOP_BAND",
            "LAG_STICK_MAX", "lag_records", "joint_lag", "joint_lags", "lag_reason", "correction_reason",
-           "corrected_interval", "lag_decision", "lag_floor", "stick_speeds", "stop_bands",
-           "velocity_noise"]
+           "LAG_REFINE_STICK", "corrected_interval", "lag_decision", "lag_floor", "refined_joints",
+           "stick_speeds", "stop_bands", "velocity_noise"]
 
 #: Rate (Hz) at which the output-error record samples the log (every k-th sample; a slower log is taken as is).
 LAG_RATE = 1000.0
@@ -153,6 +153,10 @@ LAG_STOP_BAND = 2.0
 #: (``Fc Ts / J``, :func:`stick_speeds`) has no lag reported unless its stops are refined (module docstring,
 #: "Reported").
 LAG_STICK_MAX = 0.015
+#: With ``LagOptions(refine_stops="auto")`` (the default) the stops of a joint whose Coulomb friction takes off this
+#: much of its velocity (rad/s) or more in one sample of the record, and less than :data:`LAG_STICK_MAX`, are refined
+#: (:func:`refined_joints`; module docstring, "Stops").
+LAG_REFINE_STICK = 0.007
 #: Default worker processes the joints' lag fits run in (the fits are independent; the result does not depend on it).
 LAG_WORKERS = 2
 
@@ -169,29 +173,32 @@ class LagOptions:
     workers : int
         Processes the joints' fits run in, >= 1; default :data:`LAG_WORKERS` (``identify-arm --workers``). 1: one
         after the other in this process. Each joint's fit has its own seed, so the result does not depend on it.
-    refine_stops : bool
-        Simulate each joint's stops finely in its output-error fit: the sample intervals in which its velocity is
-        inside its band (:func:`stop_bands`) or reverses at a tenth of the sample time (module docstring, "Stops").
-        Default False.
+    refine_stops : bool or "auto"
+        Which joints' stops their output-error fits simulate finely: the sample intervals in which the joint's
+        velocity is inside its band (:func:`stop_bands`) or reverses at a tenth of the sample time (module
+        docstring, "Stops"). ``"auto"`` (default): the joints that stick (their stick speed, :func:`stick_speeds`,
+        in [:data:`LAG_REFINE_STICK`, :data:`LAG_STICK_MAX`)); True: every joint (``identify-arm --refine-stops``);
+        False: none (``identify-arm --coarse-stops``). :func:`refined_joints`.
 
     Raises
     ------
     ParameterError
-        ``n_bootstrap`` not an integer >= 2, ``workers`` not an integer >= 1 or ``refine_stops`` not a bool (the field
-        named).
+        ``n_bootstrap`` not an integer >= 2, ``workers`` not an integer >= 1 or ``refine_stops`` not True, False or
+        ``"auto"`` (the field named).
     """
 
     n_bootstrap: int = LAG_BOOTSTRAP
     workers: int = LAG_WORKERS
-    refine_stops: bool = False
+    refine_stops: bool | str = "auto"
 
     def __post_init__(self):
         for name, least in (("n_bootstrap", 2), ("workers", 1)):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < least:
                 raise ParameterError(f"LagOptions.{name} must be an integer >= {least}, got {v!r}")
-        if not isinstance(self.refine_stops, bool):
-            raise ParameterError(f"LagOptions.refine_stops must be True or False, got {self.refine_stops!r}")
+        if not (isinstance(self.refine_stops, bool) or (isinstance(self.refine_stops, str)
+                                                         and self.refine_stops == "auto")):
+            raise ParameterError(f"LagOptions.refine_stops must be True, False or 'auto', got {self.refine_stops!r}")
 
 
 @dataclass(frozen=True)
@@ -565,6 +572,29 @@ def stop_bands(Fs, J, Ts: float) -> np.ndarray:
     """
     speed = _taken_in_a_sample(Fs, J, Ts)
     return np.where(np.isfinite(speed), LAG_STOP_BAND * speed, 0.0)
+
+
+def refined_joints(sticks, refine_stops) -> np.ndarray:
+    """Which joints' lag fits refine their stops (bool, shape (N,); :class:`LagOptions` ``refine_stops``; module
+    docstring, "Stops").
+
+    Parameters
+    ----------
+    sticks : array_like, shape (N,)
+        Each joint's stick speed (rad/s, :func:`stick_speeds`); NaN where unknown.
+    refine_stops : bool or "auto"
+        True: every joint; False: none; ``"auto"``: the joints whose stick speed lies in
+        [:data:`LAG_REFINE_STICK`, :data:`LAG_STICK_MAX`) (NaN: not refined).
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+    """
+    s = np.asarray(sticks, dtype=float)
+    if refine_stops is True or refine_stops is False:
+        return np.full(s.shape, refine_stops)
+    with np.errstate(invalid="ignore"):
+        return (s >= LAG_REFINE_STICK) & (s < LAG_STICK_MAX)
 
 
 def lag_reason(estimate: float, interval95: tuple, info: dict) -> str | None:

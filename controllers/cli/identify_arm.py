@@ -73,7 +73,7 @@ def register(sub) -> None:
     import argparse
 
     from adaptive_ff.arm.arm_log import DEFAULT_CUTOFF
-    from adaptive_ff.arm.lag import LAG_BOOTSTRAP, LAG_STICK_MAX, LAG_WORKERS
+    from adaptive_ff.arm.lag import LAG_BOOTSTRAP, LAG_REFINE_STICK, LAG_STICK_MAX, LAG_WORKERS
     from adaptive_ff.arm.rows import DEFAULT_ROWS, REST_WINDOW, ROWS
     from controllers.cli.data import nonnegative_int, positive_int, seed_type
 
@@ -117,13 +117,15 @@ def register(sub) -> None:
                    help="skip the friction lag (tau null): its output-error fits are most of the run's CPU time")
     i.add_argument("--lag-bootstrap", dest="lag_bootstrap", type=at_least_2, default=LAG_BOOTSTRAP, metavar="N",
                    help=f"refits of each joint's lag bootstrap (default {LAG_BOOTSTRAP}, >= 2)")
-    i.add_argument("--refine-stops", dest="refine_stops", action="store_true",
-                   help="simulate each joint's stops finely in its lag fit (sub-steps of a tenth of the record's "
-                        "sample time where the joint is near rest or reverses): reads the lag of a joint whose "
-                        "friction is large for its inertia (a sticking wrist) as a continuously integrated joint has "
-                        "it, a light-friction joint's short, and reports the lags of joints that stick hard (their "
-                        f"Coulomb friction takes off {LAG_STICK_MAX:g} rad/s or more in one sample), which are null "
-                        "without it; 2-4 times the lag fits' CPU time (docs/your_arm.md, Not yet)")
+    stops = i.add_mutually_exclusive_group()
+    stops.add_argument("--refine-stops", dest="refine_stops", action="store_const", const=True, default="auto",
+                       help="simulate every joint's stops finely in its lag fit (sub-steps of a tenth of the record's "
+                            "sample time where the joint is near rest or reverses), also on joints that stick hard "
+                            f"(their Coulomb friction takes off {LAG_STICK_MAX:g} rad/s or more in one sample), whose "
+                            "lags are null otherwise; by default only the joints that stick less, from "
+                            f"{LAG_REFINE_STICK:g} rad/s (docs/your_arm.md, How, Lag)")
+    stops.add_argument("--coarse-stops", dest="refine_stops", action="store_const", const=False,
+                       help="simulate no joint's stops finely in its lag fit (each at the record's step)")
     i.add_argument("--workers", type=positive_int, default=LAG_WORKERS, metavar="N",
                    help=f"processes the joints' lag fits run in (default {LAG_WORKERS}; the result does not depend "
                         "on it)")

@@ -595,25 +595,32 @@ def test_cli_refine_stops(arm, tmp_path, capsys):
     """``identify-arm --refine-stops`` refines each joint's stops in its lag fit (``LagOptions(refine_stops=True)``):
     its record's band is ``LAG_STOP_BAND max(|Fc|, |Fs|) Ts / J`` of the whole-arm fit (``Fs`` where the joint keeps
     a Stribeck term; the reported entry's values are the second pass's, within 4 % of the first's here), recorded as
-    ``lag.stop_band``; without the flag none (null). Either way ``lag.stick`` records ``Fc Ts / J`` (the lag rule's
-    stick speed, adaptive_ff.arm.lag.stick_speeds)."""
+    ``lag.stop_band``; ``--coarse-stops`` none (null); by default (``"auto"``) the band where the joint's stick speed
+    lies in [LAG_REFINE_STICK, LAG_STICK_MAX), none elsewhere. Either way ``lag.stick`` records ``Fc Ts / J`` (the lag
+    rule's stick speed, adaptive_ff.arm.lag.stick_speeds)."""
     from adaptive_ff.arm.arm_log import write_arm_log
-    from adaptive_ff.arm.lag import LAG_STOP_BAND
+    from adaptive_ff.arm.lag import LAG_REFINE_STICK, LAG_STICK_MAX, LAG_STOP_BAND
 
     log = simulate_arm(arm, FRICTION, run=ArmSimulation(duration=4.0, substeps=1), seed=4, armature=ARMATURE)
     path = write_arm_log(log, tmp_path / "arm.csv")
     args = ["identify-arm", str(path), "--urdf", str(URDF), "--json", "--quiet", "--bootstrap", "20",
             "--lag-bootstrap", "2", "--workers", "1"]
-    assert main([*args, "--refine-stops"]) == 0
-    refined = json.loads(capsys.readouterr().out)["joints"]
-    assert main(args) == 0
-    plain = json.loads(capsys.readouterr().out)["joints"]
-    for e, p in zip(refined, plain):
+    runs = {}
+    for flag in ("--refine-stops", "--coarse-stops", None):
+        assert main([*args, flag] if flag else args) == 0
+        runs[flag] = json.loads(capsys.readouterr().out)["joints"]
+    for e, p, d in zip(runs["--refine-stops"], runs["--coarse-stops"], runs[None]):
         static = max(abs(e["Fc"]), abs(e["Fs"])) if e["Vs"] is not None else abs(e["Fc"])
         band = LAG_STOP_BAND * static / e["lag"]["rate"] / e["J"]
         assert e["lag"]["stop_band"] == pytest.approx(band, rel=0.05), (e["name"], e["lag"]["stop_band"], band)
         assert p["lag"]["stop_band"] is None and p["lag"]["samples"] == e["lag"]["samples"]
         assert p["lag"]["stick"] == pytest.approx(abs(e["Fc"]) / e["lag"]["rate"] / e["J"], rel=0.05), p["name"]
+        sticks = LAG_REFINE_STICK <= d["lag"]["stick"] < LAG_STICK_MAX
+        assert (d["lag"]["stop_band"] is not None) == sticks, (d["name"], d["lag"]["stick"])
+        if sticks:
+            assert d["lag"]["stop_band"] == e["lag"]["stop_band"], d["name"]
+    # by default the wrist (0.5 N·m of Coulomb friction on about 0.057 kg·m²: Fc Ts / J near 0.009 rad/s) alone
+    assert [d["lag"]["stop_band"] is not None for d in runs[None]] == [False, False, True]
 
 
 def test_lag_decision_reports_the_corrected_lag_or_the_reason():

@@ -166,11 +166,29 @@ def test_the_stop_refinement_settings_are_checked():
     from controllers.experiments.compare_arm import CompareArmOptions
 
     assert ArmSimulation().stop_refine == 1 and CompareArmOptions().stop_refine == 1
-    assert LagOptions().refine_stops is False and LagOptions(refine_stops=True).refine_stops is True
+    assert LagOptions().refine_stops == "auto" and LagOptions(refine_stops=True).refine_stops is True
+    assert LagOptions(refine_stops=False).refine_stops is False
     for bad in (0, 2.5, True):
         with pytest.raises(ParameterError, match="stop_refine"):
             ArmSimulation(stop_refine=bad)
         with pytest.raises(ParameterError, match="stop_refine"):
             CompareArmOptions(stop_refine=bad)
-    with pytest.raises(ParameterError, match="refine_stops"):
-        LagOptions(refine_stops=1)
+    for bad in (1, "all", None):
+        with pytest.raises(ParameterError, match="refine_stops"):
+            LagOptions(refine_stops=bad)
+
+
+def test_refined_joints_are_those_that_stick_below_the_stick_rule():
+    """refine_stops="auto" refines the joints whose stick speed Fc Ts / J lies in [LAG_REFINE_STICK, LAG_STICK_MAX)
+    (those above keep the stick rule, those below the record's step); True every joint, False none; an unknown
+    stick speed (NaN) is not refined."""
+    import numpy as np
+
+    from adaptive_ff.arm.lag import LAG_REFINE_STICK, LAG_STICK_MAX, refined_joints
+
+    assert 0.0 < LAG_REFINE_STICK < LAG_STICK_MAX
+    s = np.array([0.0, np.nextafter(LAG_REFINE_STICK, 0.0), LAG_REFINE_STICK, 0.01,
+                  np.nextafter(LAG_STICK_MAX, 0.0), LAG_STICK_MAX, 0.25, np.nan])
+    assert refined_joints(s, "auto").tolist() == [False, False, True, True, True, False, False, False]
+    assert refined_joints(s, True).tolist() == [True] * 8
+    assert refined_joints(s, False).tolist() == [False] * 8
