@@ -12,8 +12,8 @@ simulate_arm`, seed ``--id-seed``) identified by :func:`adaptive_ff.arm.fit.iden
 adaptive-ff, the peers dob and canudas, and frictionless (``--duration`` s, seed ``--seed``, the drives' limits the URDF's effort limits).
 ``--stops``: the arm stepped finely in the periods in which a joint stops or reverses, in the identification log and
 in the loops (``ArmSimulation.stop_refine``, ``CompareArmOptions.stop_refine``: :data:`adaptive_ff.arm.simulate.
-STOP_REFINE`), and every lag fit's stops refined (``LagOptions(refine_stops=True)``; without it identify-arm's default, the
-joints that stick; ``docs/your_arm.md``, How, Lag).
+STOP_REFINE`), and every lag fit's stops refined (``LagOptions(refine_stops=True)``; without it identify-arm's
+default, the joints that stick; ``docs/your_arm.md``, How, Lag).
 Printed: each joint's identified inertia and PI, the second-half RMS error per joint and mode, eta per joint, the
 adaptive compensator's switch-in time of its residual observer per joint, the CPU time.
 """

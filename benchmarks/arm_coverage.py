@@ -1,7 +1,7 @@
 """Coverage of identify-arm's 95 % intervals over seeded simulated arms, per parameter.
 
 Run:  python -m benchmarks.arm_coverage [--n 50] [--start 0] [--bootstrap 200] [--duration 20] [--rows moving|sliding]
-      [--lag] [--coarse-arms] [--refine-stops]
+      [--lag] [--coarse-arms] [--refine-stops | --coarse-stops]
 
 Each arm is ``examples/planar3.urdf`` (three links in the vertical plane) with the armatures 0.2, 0.1, 0.05 kg·m²
 and a friction per joint drawn from its seed (:func:`draw_friction`: ``Fc`` 0.5-2.5 N·m, ``Fs = Fc`` times
@@ -17,9 +17,10 @@ the row ``tau`` (over the lagged joints whose lag is reported; a lag reported on
 Each arm is integrated as a continuous arm is: one Runge-Kutta step per 1 ms period, and ten
 (:data:`adaptive_ff.arm.simulate.STOP_REFINE`, ``ArmSimulation.stop_refine``) in each period in which a joint stops
 or reverses, where a lagged joint rings through zero velocity faster than a 1 ms step resolves. ``--coarse-arms``
-steps those periods once too (the step's own ringing then sits in the log at every stop). ``--refine-stops`` refines
-the lag fits' stops (``LagOptions(refine_stops=True)``, ``identify-arm --refine-stops``); without it the lag fits run
-at the record's step, ``identify-arm``'s default.
+steps those periods once too (the step's own ringing then sits in the log at every stop). The lag fits refine the
+stops of the joints that stick, ``identify-arm``'s default; ``--refine-stops`` every joint's
+(``LagOptions(refine_stops=True)``, ``identify-arm --refine-stops``), ``--coarse-stops`` none (``identify-arm
+--coarse-stops``).
 ``--workers N`` runs the arms in N processes.
 
 Printed per parameter: the share of the true values inside their 95 % interval, over every joint of every arm
@@ -180,6 +181,17 @@ def cpu_seconds() -> float:
                for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
 
 
+def add_stops_arguments(ap) -> None:
+    """Add ``--refine-stops`` and ``--coarse-stops`` (``args.refine_stops``: True, False or ``"auto"``, identify-arm's
+    default) to the argparse parser ``ap``."""
+    stops = ap.add_mutually_exclusive_group()
+    stops.add_argument("--refine-stops", dest="refine_stops", action="store_const", const=True, default="auto",
+                       help="every joint's lag fit with its stops refined (LagOptions(refine_stops=True), "
+                            "identify-arm --refine-stops; default: identify-arm's, the joints that stick)")
+    stops.add_argument("--coarse-stops", dest="refine_stops", action="store_const", const=False,
+                       help="no joint's lag fit with its stops refined (identify-arm --coarse-stops)")
+
+
 def stops_text(refine_stops) -> str:
     """The run's title words for its lag fits' ``refine_stops`` (True, False or ``"auto"``: identify-arm's default,
     none)."""
@@ -213,12 +225,7 @@ def main(argv=None) -> int:
     ap.add_argument("--coarse-arms", dest="coarse_arms", action="store_true",
                     help="the arms' stops stepped once per period as the rest (default: ten times, "
                          "ArmSimulation.stop_refine, as a continuous arm's)")
-    stops = ap.add_mutually_exclusive_group()
-    stops.add_argument("--refine-stops", dest="refine_stops", action="store_const", const=True, default="auto",
-                       help="every joint's lag fit with its stops refined (LagOptions(refine_stops=True), "
-                            "identify-arm --refine-stops; default: identify-arm's, the joints that stick)")
-    stops.add_argument("--coarse-stops", dest="refine_stops", action="store_const", const=False,
-                       help="no joint's lag fit with its stops refined (identify-arm --coarse-stops)")
+    add_stops_arguments(ap)
     ap.add_argument("--misses", action="store_true",
                     help="list each joint parameter whose interval misses its truth, and each lagged joint whose "
                          "lag is null")

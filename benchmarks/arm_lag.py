@@ -1,7 +1,7 @@
 """identify-arm's friction lag over seeded simulated arms: coverage of the true lags, false lags, missed lags.
 
 Run:  python -m benchmarks.arm_lag [--n 20] [--start 0] [--lag-bootstrap 10] [--duration 20] [--cache FILE]
-      [--workers 1] [--coarse-arms] [--refine-stops]
+      [--workers 1] [--coarse-arms] [--refine-stops | --coarse-stops] [--friction example|coverage]
 
 Each arm is ``examples/planar3.urdf`` with the armatures 0.2, 0.1, 0.05 kg·m², the friction of ``docs/your_arm.md``
 (:data:`FRICTION`) with ``Fc, Fs, sigma`` scaled by a factor 0.8-1.25 per joint, or with ``--friction coverage``
@@ -20,8 +20,9 @@ reported null and, of the reported ones, the share whose 95 % interval holds the
 ``--cache FILE`` keeps each arm's joints (JSON lines, each with the run's settings) and reads back the arms it
 already holds at the same settings (an arm at other settings runs again): it keeps the fits, and each joint is
 decided again by :func:`adaptive_ff.arm.lag.lag_decision` (a cache made before a change of the lag fit itself is
-stale). ``--refine-stops`` refines the lag fits' stops (``LagOptions(refine_stops=True)``,
-``identify-arm --refine-stops``; ``docs/your_arm.md``, Not yet). ``--workers N`` runs the arms in N processes. 50 arms
+stale). The lag fits refine the stops of the joints that stick (``identify-arm``'s
+default); ``--refine-stops`` every joint's (``LagOptions(refine_stops=True)``, ``identify-arm --refine-stops``;
+``docs/your_arm.md``, Not yet), ``--coarse-stops`` none. ``--workers N`` runs the arms in N processes. 50 arms
 take 25-45 minutes of CPU; the numbers of seeds 0-49 (0-19 set the rule, 20-49 check it) are in
 ``docs/your_arm.md`` (How, Lag; Not yet).
 """
@@ -38,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from adaptive_ff.arm.simulate import STOP_REFINE
-from benchmarks.arm_coverage import cpu_seconds, lag_draws, stops_text, wilson
+from benchmarks.arm_coverage import add_stops_arguments, cpu_seconds, lag_draws, stops_text, wilson
 
 ROOT = Path(__file__).resolve().parents[1]
 URDF = ROOT / "examples" / "planar3.urdf"
@@ -145,12 +146,7 @@ def main(argv=None) -> int:
     ap.add_argument("--coarse-arms", dest="coarse_arms", action="store_true",
                     help="the arms' stops stepped once per period as the rest (default: ten times, "
                          "ArmSimulation.stop_refine, as a continuous arm's)")
-    stops = ap.add_mutually_exclusive_group()
-    stops.add_argument("--refine-stops", dest="refine_stops", action="store_const", const=True, default="auto",
-                       help="every joint's lag fit with its stops refined (LagOptions(refine_stops=True), "
-                            "identify-arm --refine-stops; default: identify-arm's, the joints that stick)")
-    stops.add_argument("--coarse-stops", dest="refine_stops", action="store_const", const=False,
-                       help="no joint's lag fit with its stops refined (identify-arm --coarse-stops)")
+    add_stops_arguments(ap)
     ap.add_argument("--workers", type=int, default=1, help="processes the arms run in (default 1; the result does "
                     "not depend on it)")
     a = ap.parse_args(argv)

@@ -51,14 +51,17 @@ with sub-steps of a tenth of the sample time (``stop_band`` of the output-error 
 :func:`adaptive_ff.identification.simulator.stop_intervals`); the band is :data:`LAG_STOP_BAND` times ``Fs Ts / J``,
 the velocity the joint's static friction takes off in one sample, with ``Fs`` and ``J`` from the whole-arm fit
 (:func:`stop_bands`). The low-pass correction's worlds are then simulated at that sub-step throughout. On arms
-stepped finely it reads the lags of wrists whose friction is large for their inertia right and those of wrists with
+stepped finely it reads the lags of joints whose friction is large for their inertia right and those of joints with
 light friction short, where the coarse step reads them right (the one-step predictor's pull toward the low-passed
-velocity on a model that settles at its stops). It is off by default (``identify-arm --refine-stops`` puts it on):
-it is not right on every joint, it takes two to four times the lag fits' CPU time on a log with long rests, and the
-lag's rules are calibrated on arms stepped once per period in their stops too (``benchmarks/arm_lag.py``,
-``benchmarks/arm_coverage.py``: their ``--coarse-arms``, and ``--refine-stops`` for this option; ``docs/your_arm.md``,
-Not yet). Without it the lags of joints that stick hard are not reported
-(:data:`LAG_STICK_MAX`, "Reported").
+velocity on a model that settles at its stops). So by default (``LagOptions(refine_stops="auto")``) the stops are
+refined on the joints that stick: those whose Coulomb friction takes off at least :data:`LAG_REFINE_STICK` of their
+velocity in one sample of the record (``Fc Ts / J``, :func:`stick_speeds`) and less than the stick rule's
+:data:`LAG_STICK_MAX` (:func:`refined_joints`); the others are simulated at the record's step, and the lags of the
+joints that stick harder are not reported ("Reported"): refining their stops reports them, at two to four times
+their fits' CPU time on a log with long rests. ``refine_stops=True`` (``identify-arm --refine-stops``) refines every
+joint's stops, False (``--coarse-stops``) none. The measurements behind the bounds: ``docs/your_arm.md`` (How,
+Lag; Not yet) and ``benchmarks/arm_lag.py``, ``benchmarks/arm_coverage.py`` (their ``--refine-stops`` and
+``--coarse-stops``).
 
 The torque is taken at its time stamp (``input_delay=0``): a whole-arm log samples every joint's torque and
 position together, and the output-error fit's profile over a sub-sample input delay, which ``identify`` runs on a
@@ -70,8 +73,8 @@ A lag is reported where the log determines it (:func:`lag_reason`): the fit runs
 excludes zero; the bootstrap's refits, whose world is the fitted lagged joint, do not read it longer by more than
 :data:`LAG_SHIFT_MAX` (7.5 %) of it on average; and the interval stays above :data:`LAG_FLOOR_SAMPLES` (2) samples
 of the record; and, where the stops are not refined, the joint does not stick hard: its Coulomb friction takes off
-less than :data:`LAG_STICK_MAX` (0.015 rad/s) of its velocity in one sample of the record (``Fc Ts / J``, with ``Fc``
-and ``J`` from the whole-arm fit, :func:`stick_speeds`). A joint that sticks harder stops within a sample or two, the
+less than :data:`LAG_STICK_MAX` of its velocity in one sample of the record (``Fc Ts / J``, with ``Fc`` and ``J``
+from the whole-arm fit, :func:`stick_speeds`). A joint that sticks harder stops within a sample or two, the
 fit at the record's step reads the lag that mimics that step's ringing at the stops ("Stops"), long, and the bootstrap
 does not see it (the measurements: ``docs/your_arm.md``, How, Lag). Elsewhere ``tau`` is NaN (null in JSON) and the
 joint carries a warning that says why. Why more than the interval: a joint without a lag still reads a short one. Its
