@@ -195,7 +195,7 @@ def add_stops_arguments(ap) -> None:
 def stops_text(refine_stops) -> str:
     """The run's title words for its lag fits' ``refine_stops`` (True, False or ``"auto"``: identify-arm's default,
     none)."""
-    return {True: ", every lag fit's stops refined", False: ", no lag fit's stops refined"}.get(refine_stops, "")
+    return {True: ", lag fits with refined stops", False: ", lag fits with coarse stops"}.get(refine_stops, "")
 
 
 def wilson(hits: int, n: int, z: float = 1.959963984540054) -> tuple:
