@@ -70,9 +70,10 @@ def stribeck_shape_scalar(w: float, Vs: float, delta: float) -> float:
     Ruderman, eq. 3 (and the regressors of eqs. 5-6). C
     (``plant/csrc/plant_stribeck.c``, ``plant_stribeck_shape``), the one
     implementation of the exponential: :func:`stribeck_scalar`,
-    :func:`stribeck_shape` and the C eq. 4 regressor call it. ``delta == 1``
-    skips ``pow`` (``x**1 == x`` exactly); otherwise libm's ``pow`` and
-    ``exp``, as a Python evaluation with ``**`` and :func:`math.exp`.
+    :func:`stribeck_shape` and the C eq. 4 regressor call it. The power of
+    ``x = |w|/Vs`` is ``plant_stribeck_power``'s: ``x``, ``x*x`` and
+    ``sqrt(x)`` at ``delta`` 1, 2 and 0.5 (correctly rounded, as NumPy's
+    ``**`` of an array takes them), otherwise libm's ``pow``; then ``exp``.
     """
     return lib.plant_stribeck_shape(w, Vs, delta)
 
@@ -107,14 +108,15 @@ def stribeck_scalar(w: float, Fc: float, dF: float, Vs: float, delta: float, sig
     -----
     Ruderman, eq. 3: C (``plant/csrc/plant_stribeck.c``,
     ``plant_stribeck_eval``), the one implementation, which the plant step,
-    the identification simulator and the closed-loop engine evaluate. Two
-    shortcuts, both exact in float64: ``delta == 1`` skips ``pow``
-    (``x**1 == x``); ``|w| > wcut`` skips ``pow`` and ``exp`` (there
-    ``Fc + dF*exp(...)`` rounds to ``Fc``). Otherwise the operations are those
-    of the plain formula in this order, so the result equals a Python
-    evaluation with ``**`` and :func:`math.exp` bit for bit (both call libm;
-    for ``delta < 0`` and tiny ``|w|`` the power overflows to ``inf`` and the
-    shape factor is its limit 0).
+    the identification simulator and the closed-loop engine evaluate. The
+    power of ``|w|/Vs`` as :func:`stribeck_shape_scalar`'s (``x*x`` at
+    ``delta == 2``, ``sqrt`` at 0.5, none at 1, libm's ``pow`` otherwise);
+    ``|w| > wcut`` skips the power and ``exp`` (there ``Fc + dF*exp(...)``
+    rounds to ``Fc``). Otherwise the operations are those of the plain formula
+    in this order, so the result equals a Python evaluation with that power
+    and :func:`math.exp` bit for bit (both call libm; for ``delta < 0`` and
+    tiny ``|w|`` the power overflows to ``inf`` and the shape factor is its
+    limit 0).
     """
     return lib.plant_stribeck_eval(ffi.new("plant_stribeck *", (Fc, dF, Vs, delta, sigma, wcut)), w)
 

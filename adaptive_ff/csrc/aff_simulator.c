@@ -88,7 +88,7 @@ static double target_derivs(const plant_params *p, double w, double *dw, double 
     }
     if (aw <= m->wcut) {
         x = aw / m->Vs;
-        xd = m->delta != 1.0 ? pow(x, m->delta) : x;
+        xd = plant_stribeck_power(x, m->delta);
         S = exp(-xd);
     }
     dp[AFF_SENS_FC] = sg * (1.0 - S);

@@ -1,12 +1,20 @@
 /* plant_stribeck.c -- Ruderman eq. 3 (see plant_stribeck.h). */
 #include "plant_stribeck.h"
 
+aff_real plant_stribeck_power(aff_real x, aff_real delta)
+{
+    if (delta == (aff_real)1.0)
+        return x;
+    if (delta == (aff_real)2.0)
+        return x * x;
+    if (delta == (aff_real)0.5)
+        return AFF_SQRT(x);
+    return AFF_POW(x, delta);
+}
+
 aff_real plant_stribeck_shape(aff_real w, aff_real Vs, aff_real delta)
 {
-    aff_real x = AFF_FABS(w) / Vs;
-    if (delta != (aff_real)1.0)
-        x = AFF_POW(x, delta);
-    return AFF_EXP(-x);
+    return AFF_EXP(-plant_stribeck_power(AFF_FABS(w) / Vs, delta));
 }
 
 aff_real plant_stribeck_eval(const plant_stribeck *m, aff_real w)
@@ -25,7 +33,7 @@ aff_real plant_stribeck_eval(const plant_stribeck *m, aff_real w)
 
 aff_real plant_stribeck_slope(aff_real x, aff_real dF, aff_real Vs, aff_real delta)
 {
-    aff_real s = AFF_EXP(-AFF_POW(x, delta));
+    aff_real s = AFF_EXP(-plant_stribeck_power(x, delta));
     if (s == (aff_real)0.0)
         return (aff_real)0.0;
     return -dF * delta * AFF_POW(x, delta - (aff_real)1.0) * s / Vs;

@@ -23,9 +23,16 @@ typedef struct plant_stribeck {
     aff_real wcut;   /* cut-off speed of the Stribeck term (rad/s) */
 } plant_stribeck;
 
+/* x^delta for x >= 0 (the normalised speed |w|/Vs of eq. 3): at delta 1, 2
+ * and 0.5 the correctly rounded x, x*x and sqrt(x) (the shapes of the
+ * profile grids; NumPy's power takes the same three for an array), else
+ * pow(x, delta) (within about half a unit in the last place, not always
+ * correctly rounded, and several times the cost). NaN for NaN x. */
+aff_real plant_stribeck_power(aff_real x, aff_real delta);
+
 /* exp(-|w/Vs|^delta): the Stribeck decay at velocity w (rad/s), in [0, 1];
  * the limit at w == 0 (1 for delta > 0, 0 for delta < 0); NaN for NaN w.
- * delta == 1 skips pow (exact). Source: eq. 3. */
+ * The power by plant_stribeck_power. Source: eq. 3. */
 aff_real plant_stribeck_shape(aff_real w, aff_real Vs, aff_real delta);
 
 /* F(w) of eq. 3 (N*m) for the parameters m; F(0) = 0; NaN for NaN w. The
