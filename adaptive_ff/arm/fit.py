@@ -92,8 +92,9 @@ at the estimated lags does not see: each half-width combined in quadrature, as t
 distance of the estimate from the two point fits with every joint's columns at the lower and the upper end of its lag
 range (:func:`adaptive_ff.arm.intervals.widen_lag`, :func:`adaptive_ff.arm.intervals.lag_ranges`): a lag in the columns
 its interval; a null lag none up to the reporting floor or its fit's upper end, whichever is longer, since the log does
-not tell such a lag from none, while it still acts as an inertia term; that end halved toward the floor while it
-raises the joint's residual beyond the bound of :func:`_lag_raises_residual` (:func:`_capped_null_ranges`).
+not tell such a lag from none, while it still acts as an inertia term; that end capped where it
+raises the joint's residual beyond the bound of :func:`_lag_raises_residual`: halved toward the floor until the residual
+accepts it, then the largest accepted end up to the last rejected one located by bisection (:func:`_capped_null_ranges`).
 """
 
 from __future__ import annotations
@@ -128,6 +129,9 @@ N_VS = 8
 FRICTION_VELOCITY_FACTOR = 5.0
 #: Condition number of the column-scaled weighted regressor above which the result carries a conditioning warning.
 COND_WARN = 1e3
+#: Bisections that locate a null lag's capped upper end between the last end its residual accepts and the first it
+#: rejects (:func:`_capped_null_ranges`): the cap then lies within 2**-4 of that bracket below the largest accepted end.
+NULL_CAP_BISECTIONS = 4
 #: Share of the log at rest (the velocity low-passed at FRICTION_VELOCITY_FACTOR times the cutoff slower than the
 #: joint's slowest kept speed) above which a joint that keeps its Stribeck term gets a warning that its ``Fs`` and
 #: ``Vs`` intervals may miss (``rows="moving"``): the misses of those intervals over simulated arms are joints at rest
@@ -736,27 +740,38 @@ def _capped_null_ranges(ends, lags, lagged, stages, run):
     residual beyond the bound of :func:`_lag_raises_residual` over the lag-free fit: such a lag models something else
     than the friction map's delay, as a reported lag kept out of the columns does (module docstring, "Lag"). The end
     is halved until the residual accepts it or it reaches the floor (:data:`adaptive_ff.arm.lag.LAG_FLOOR_SAMPLES`
-    samples of the joint's record), which stands unchecked: the log does not tell a lag that short from none. One
-    point fit per joint and halving (one joint's end at a time: a far too long lag in one joint's columns moves the
-    rigid body and so the others' residuals), at the lagged fit's Stribeck shapes and weights; ``lags`` the joints'
-    :class:`adaptive_ff.arm.lag.JointLag`, ``stages`` ``(lag-free, lagged)`` :class:`_Stage`, ``run`` as
-    :func:`_lagged_stage`'s."""
+    samples of the joint's record), which stands unchecked: the log does not tell a lag that short from none; then
+    the largest accepted end between that and the last rejected one is located by :data:`NULL_CAP_BISECTIONS`
+    bisections (to within 2**-NULL_CAP_BISECTIONS of the bracket), so a cap does not fall up to half below it.
+    One point fit per joint, halving and bisection (one joint's end at a time: a far too long lag in one joint's
+    columns moves the rigid body and so the others' residuals), at the lagged fit's Stribeck shapes and weights;
+    ``lags`` the joints' :class:`adaptive_ff.arm.lag.JointLag`, ``stages`` ``(lag-free, lagged)`` :class:`_Stage`,
+    ``run`` as :func:`_lagged_stage`'s."""
     if ends is None:
         return None
     (log, arm, cutoff), states, vmin, rows, _ = run
     stage, new = stages
+
+    def accepts(j, end):
+        trial = lagged.copy()
+        trial[j] = end
+        upper = _point_problem((log, arm, cutoff, trial), states[1], vmin, rows, new.prob)
+        x = upper.fit(new.Vs, new.delta)[0]
+        resid = upper.residuals(x, upper.design(new.Vs, new.delta))
+        return not _lag_raises_residual(stage, _residual_rms(new.keep_j, resid))[j]
+
     high = ends[1].copy()
     for j in np.flatnonzero(np.isfinite(high) & ~np.isfinite(lagged)):
-        floor = lag_floor(lags[j].info)
-        while high[j] > floor:
-            trial = lagged.copy()
-            trial[j] = high[j]
-            upper = _point_problem((log, arm, cutoff, trial), states[1], vmin, rows, new.prob)
-            x = upper.fit(new.Vs, new.delta)[0]
-            resid = upper.residuals(x, upper.design(new.Vs, new.delta))
-            if not _lag_raises_residual(stage, _residual_rms(new.keep_j, resid))[j]:
-                break
-            high[j] = max(0.5 * high[j], floor)
+        floor, rejected = lag_floor(lags[j].info), None
+        while high[j] > floor and not accepts(j, high[j]):
+            rejected, high[j] = high[j], max(0.5 * high[j], floor)
+        if rejected is not None:
+            for _ in range(NULL_CAP_BISECTIONS):
+                mid = 0.5 * (high[j] + rejected)
+                if accepts(j, mid):
+                    high[j] = mid
+                else:
+                    rejected = mid
     return ends[0], high
 
 
