@@ -562,11 +562,13 @@ def test_uncorrected_lag_carries_a_warning(arm, log, monkeypatch):
 
 
 def test_null_lag_ranges_capped_where_the_residual_rejects_them(arm, log, monkeypatch):
-    """A null lag ranges from none to its fit's upper end in the point fits the intervals carry, that end halved while,
-    in the joint's friction columns, it raises the joint's residual beyond the likelihood-ratio bound. On the planar
-    arm with a 10 ms lag on every joint, every lag made null with a fit interval reaching 200 ms on the shoulder and
-    12 ms on the elbow and the wrist: 12 ms, near the true lag, stands; 200 ms is halved (to 200 / 2^k ms, k >= 1) and
-    stays above the floor (2 ms); without a range (the fit's interval not finite) none."""
+    """A null lag ranges from none to its fit's upper end in the point fits the intervals carry, that end capped
+    where, in the joint's friction columns, it raises the joint's residual beyond the likelihood-ratio bound: halved
+    until accepted, then bisected (NULL_CAP_BISECTIONS times) between that end and the last rejected one. On the
+    planar arm with a 10 ms lag on every joint, every lag made null with a fit interval reaching 200 ms on the
+    shoulder and 12 ms on the elbow and the wrist: 12 ms, near the true lag, stands; 200 ms is rejected and capped at
+    the largest accepted end tried, within a sixteenth of the halving bracket ``[a, 2a]`` below the smallest rejected
+    end tried, above the floor (2 ms); without a range (the fit's interval not finite) none."""
     import adaptive_ff.arm.fit as arm_fit
     from adaptive_ff.arm.lag import JointLag
 
@@ -575,13 +577,36 @@ def test_null_lag_ranges_capped_where_the_residual_rejects_them(arm, log, monkey
         return [JointLag(np.nan, (np.nan, np.nan), "made null", {"rate": 1000.0, "interval95": [0.001, hi]})
                 for hi in his]
 
+    tried = []  # (joint, end, accepted) of each cap's point fit, read from the columns' lags and the residual test
+    point_problem, raises = arm_fit._point_problem, arm_fit._lag_raises_residual
+
+    def spy_problem(setup, *args):
+        spy_problem.lags = setup[3]
+        return point_problem(setup, *args)
+
+    def spy_raises(stage, rms):
+        out = raises(stage, rms)
+        if getattr(spy_problem, "lags", None) is not None:
+            j = int(np.flatnonzero(np.isfinite(spy_problem.lags))[0])
+            tried.append((j, float(spy_problem.lags[j]), not out[j]))
+            spy_problem.lags = None
+        return out
+
     monkeypatch.setattr(arm_fit, "joint_lags", lags)
+    monkeypatch.setattr(arm_fit, "_point_problem", spy_problem)
+    monkeypatch.setattr(arm_fit, "_lag_raises_residual", spy_raises)
     ranges = identify_arm(log, arm, n_bootstrap=20, seed=1).info["lag_ranges"]
     assert ranges[2] is None
     assert ranges[1] == [0.0, 0.012]
+    assert [(j, end, ok) for j, end, ok in tried if j == 1] == [(1, 0.012, True)]
     lo, hi = ranges[0]
-    k = np.log2(0.2 / hi)
-    assert lo == 0.0 and k >= 1 and k == pytest.approx(round(k), abs=1e-12) and hi >= 0.002, ranges
+    shoulder = [(end, ok) for j, end, ok in tried if j == 0]
+    accepted = [end for end, ok in shoulder if ok]
+    rejected = [end for end, ok in shoulder if not ok]
+    assert shoulder[0] == (0.2, False) and len(shoulder) >= 2 + arm_fit.NULL_CAP_BISECTIONS, shoulder
+    assert lo == 0.0 and hi == max(accepted) and 0.002 < hi < min(rejected), (ranges, shoulder)
+    halved = max(end for end, _ in shoulder if np.log2(0.2 / end) == round(np.log2(0.2 / end)) and end < min(rejected))
+    assert min(rejected) - hi <= halved / 2 ** arm_fit.NULL_CAP_BISECTIONS * (1 + 1e-12), (halved, shoulder)
 
 
 def test_low_pass_correction_of_a_fit_that_searches_the_stribeck_shape():
