@@ -159,7 +159,7 @@ LAG_STICK_MAX = 0.015
 #: With ``LagOptions(refine_stops="auto")`` (the default) the stops of a joint whose Coulomb friction takes off this
 #: much of its velocity (rad/s) or more in one sample of the record, and less than :data:`LAG_STICK_MAX`, are refined
 #: (:func:`refined_joints`; module docstring, "Stops").
-LAG_REFINE_STICK = 0.007
+LAG_REFINE_STICK = 0.006
 #: Default worker processes the joints' lag fits run in (the fits are independent; the result does not depend on it).
 LAG_WORKERS = 2
 
