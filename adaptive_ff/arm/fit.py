@@ -117,7 +117,7 @@ from adaptive_ff.arm.robot import ArmModel
 from adaptive_ff.arm.rows import DEFAULT_ROWS, REST_WINDOW, ROWS
 
 __all__ = ["identify_arm", "DELTA_GRID", "N_VS", "FRICTION_VELOCITY_FACTOR", "ROWS", "DEFAULT_ROWS", "REST_WINDOW",
-           "REST_WARN"]
+           "REST_WARN", "NULL_CAP_BISECTIONS"]
 
 #: Stribeck shape factors of the profile grid.
 DELTA_GRID = (0.5, 1.0, 2.0)
