@@ -605,8 +605,9 @@ def test_null_lag_ranges_capped_where_the_residual_rejects_them(arm, log, monkey
     rejected = [end for end, ok in shoulder if not ok]
     assert shoulder[0] == (0.2, False) and len(shoulder) >= 2 + arm_fit.NULL_CAP_BISECTIONS, shoulder
     assert lo == 0.0 and hi == max(accepted) and 0.002 < hi < min(rejected), (ranges, shoulder)
-    halved = max(end for end, _ in shoulder if np.log2(0.2 / end) == round(np.log2(0.2 / end)) and end < min(rejected))
-    assert min(rejected) - hi <= halved / 2 ** arm_fit.NULL_CAP_BISECTIONS * (1 + 1e-12), (halved, shoulder)
+    halved = accepted[0]  # the halving stops at its first accepted end a, the bracket [a, 2a]
+    assert 2 * halved in rejected, shoulder
+    assert min(rejected) - hi <= halved / 16 * (1 + 1e-12), (halved, shoulder)  # halving alone leaves a gap of a
 
 
 def test_low_pass_correction_of_a_fit_that_searches_the_stribeck_shape():
